@@ -1,0 +1,31 @@
+"""ament_python package gpr_kinematics (also installable with pip)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'gpr_kinematics'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
+    ],
+    install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
+    zip_safe=True,
+    maintainer='gpr_kinematics maintainers',
+    maintainer_email='maintainers@gpr-kinematics.org',
+    description='GPR tilting Z axis kinematics with virtual joints, as a ROS 2 node suite.',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    python_requires='>=3.10',
+    entry_points={
+        'console_scripts': [
+            'gpr = gpr_kinematics.cli:main',
+        ],
+    },
+)
