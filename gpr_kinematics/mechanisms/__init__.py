@@ -1,0 +1,76 @@
+"""Parallel mechanisms of the seed papers behind one interface (:class:`~.base.Mechanism`).
+
+``load_mechanism(path)`` reads a YAML file (SI units) and dispatches on its key ``type``:
+
+============== ==================================================== =====================================
+``type``       mechanism                                            module
+============== ==================================================== =====================================
+``gsp``        generalized Stewart platform, six D1-D4/A1 constraints :mod:`.gsp`
+``stewart_6sps`` 6-SPS Gough-Stewart platform (Alwan)               :mod:`.stewart`
+``upu3``       3-UPU translational manipulator                      :mod:`.upu3`
+``tripod_3rps`` 3-RPS tripod with parasitic motions                 :mod:`.tripod`
+``gpr``        the GPR tilting Z axis on the core kinematics        :mod:`.gpr`
+============== ==================================================== =====================================
+
+A top-level ``workspace`` mapping (read by the workspace analysis) is ignored here.
+"""
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import ConfigError
+from .base import Mechanism
+
+__all__ = ['Mechanism', 'MECHANISM_TYPES', 'load_mechanism', 'mechanism_from_dict']
+
+#: ``type`` key -> (module, loader function name).
+MECHANISM_TYPES: dict[str, tuple[str, str]] = {
+    'gsp': ('.gsp', 'load_gsp'),
+    'stewart_6sps': ('.stewart', 'load_stewart'),
+    'upu3': ('.upu3', 'load_upu3'),
+    'tripod_3rps': ('.tripod', 'load_tripod'),
+    'gpr': ('.gpr', 'load_gpr'),
+}
+
+
+def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mechanism:
+    """Build a mechanism from a parsed YAML mapping; ``source`` names it in error messages."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: a mechanism file must be a YAML mapping with a key type; got '
+                          f'{type(data).__name__}')
+    mtype = data.get('type')
+    if mtype not in MECHANISM_TYPES:
+        raise ConfigError(f'{source}: type = {mtype!r} is not a mechanism type; allowed: '
+                          + ', '.join(MECHANISM_TYPES))
+    module, func = MECHANISM_TYPES[mtype]
+    loader = getattr(importlib.import_module(module, __name__), func)
+    return loader(data, source)
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read a mechanism YAML file (see the module docstring) and return the :class:`Mechanism`.
+
+    A relative path that does not exist is also looked up among the packaged files
+    (``config/mechanisms/``), so ``load_mechanism('upu3.yaml')`` works from anywhere.
+    """
+    p = Path(path)
+    if not p.is_file():
+        try:
+            from ..resources import config_path
+            p = config_path(f'mechanisms/{p.name}') if not p.is_absolute() else p
+        except ConfigError:
+            pass
+    if not p.is_file():
+        raise ConfigError(f'mechanism file {str(path)!r} not found (nor among the packaged '
+                          f'config/mechanisms/ files)')
+    try:
+        data = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as exc:
+        msg = str(exc).replace('\n', ' ')
+        raise ConfigError(f'{p}: not valid YAML: {msg}') from None
+    return mechanism_from_dict(data, str(p))

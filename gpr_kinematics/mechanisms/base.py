@@ -1,0 +1,404 @@
+"""The common interface of parallel mechanisms and the helpers every analysis uses.
+
+A :class:`Mechanism` maps platform poses to actuated-joint values (inverse kinematics) and platform
+twists to joint rates (inverse Jacobian). Conventions, shared by every mechanism of the package:
+
+- A *pose* is a 6-vector ``(x, y, z, A, B, C)`` in SI units (m, rad): the position of the platform
+  frame's origin in the base frame and three Euler angles whose convention each mechanism names in
+  :attr:`Mechanism.euler_convention` (scipy notation: lower case = extrinsic, upper case = intrinsic).
+  Batches are ``(N, 6)`` arrays.
+- A *twist* is ``(v_x, v_y, v_z, w_x, w_y, w_z)``: the velocity of the platform origin and the angular
+  velocity of the platform, **both in the base frame**. The inverse Jacobian ``(N, n, 6)`` maps twists to
+  the rates of the ``n`` actuated joints (m/s for prismatic/distance joints, rad/s for angular ones).
+- A mechanism with fewer than six degrees of freedom (3-UPU, 3-RPS tripod, GPR) has
+  ``m = len(pose_variables)`` independent pose coordinates; the other pose components are outcomes
+  (parasitic motions) that the mechanism computes: :meth:`Mechanism.complete_pose` returns the pose it
+  actually reaches for the requested coordinates. :meth:`Mechanism.motion_basis` ``(N, 6, m)`` gives the
+  twist produced by a unit rate of each coordinate, so ``inverse_jacobian @ motion_basis`` is the square
+  Jacobian ``dq/du`` used for conditioning (for six-DOF mechanisms the coordinates' rates are the twist
+  itself and the basis is the identity).
+
+Homogenisation (seed ``gsp-inverse-jacobians-toz-kucuk.txt`` §4.3, characteristic length ``L``): the
+angular columns of an inverse Jacobian are divided by ``L`` (an angular velocity ``w`` becomes the
+velocity ``L w``), and rows of angular joints are multiplied by ``L`` (a joint rate ``theta'`` becomes
+``L theta'``), so every entry is dimensionless and singular values compare lengths with lengths.
+"""
+from __future__ import annotations
+
+import abc
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, LimitError, SingularityError
+
+#: Joint types: ``prismatic`` (a distance, m) or ``revolute`` (an angle, rad).
+LINEAR_JOINTS = frozenset({'prismatic', 'distance'})
+ANGULAR_JOINTS = frozenset({'revolute', 'angle'})
+
+POSE_COMPONENTS = ('x', 'y', 'z', 'A', 'B', 'C')
+
+#: Inverse condition number below which a configuration counts as singular.
+SINGULAR_TOLERANCE = 1e-9
+
+
+def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
+    """Return ``poses`` as a float ``(N, 6)`` array and whether the input was a single ``(6,)`` pose."""
+    arr = np.asarray(poses, dtype=float)
+    single = arr.ndim == 1
+    if single:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise InputError(f'{name} must have shape (6,) or (N, 6) = (x, y, z, A, B, C) in m and rad; '
+                         f'got shape {np.shape(poses)}')
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f'{name} must be finite numbers; got {arr[~np.all(np.isfinite(arr), axis=1)][0]}')
+    return arr, single
+
+
+def _axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
+    """Elementary rotation matrices ``(N, 3, 3)`` about base axis ``x``, ``y`` or ``z`` by ``angle`` (rad)."""
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(angle), np.zeros_like(angle)
+    a = axis.lower()
+    if a == 'x':
+        rows = [[one, zero, zero], [zero, c, -s], [zero, s, c]]
+    elif a == 'y':
+        rows = [[c, zero, s], [zero, one, zero], [-s, zero, c]]
+    elif a == 'z':
+        rows = [[c, -s, zero], [s, c, zero], [zero, zero, one]]
+    else:
+        raise InputError(f'unknown rotation axis {axis!r}; allowed: x, y, z')
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def check_euler_convention(convention: str) -> str:
+    """Validate a scipy-style Euler sequence: three of ``xyz`` all lower case or all upper case."""
+    if (not isinstance(convention, str) or len(convention) != 3
+            or not (convention.islower() or convention.isupper())
+            or any(ch not in 'xyz' for ch in convention.lower())
+            or convention[0].lower() == convention[1].lower()
+            or convention[1].lower() == convention[2].lower()):
+        raise InputError('Euler convention must be three axes from xyz (lower case = extrinsic, upper case '
+                         f'= intrinsic, no axis twice in a row), e.g. xyz or ZXZ; got {convention!r}')
+    return convention
+
+
+def euler_rotation(angles: np.ndarray, convention: str) -> np.ndarray:
+    """Rotation matrices ``(N, 3, 3)`` of Euler angles ``(N, 3)`` (rad), scipy convention ``convention``.
+
+    Upper case (intrinsic) ``'ZXZ'``: ``R = Rz(A) Rx(B) Rz(C)``; lower case (extrinsic) ``'xyz'``:
+    ``R = Rz(C) Ry(B) Rx(A)``. Equal to ``scipy.spatial.transform.Rotation.from_euler(convention, angles)``.
+    """
+    ang = np.asarray(angles, dtype=float)
+    r1, r2, r3 = (_axis_rotation(convention[k], ang[..., k]) for k in range(3))
+    if convention.isupper():
+        return r1 @ r2 @ r3
+    return r3 @ r2 @ r1
+
+
+def euler_rate_matrix(angles: np.ndarray, convention: str) -> np.ndarray:
+    """Matrices ``E (N, 3, 3)`` with ``omega = E @ (A', B', C')``, angular velocity in the base frame.
+
+    Intrinsic ``R = R1(A) R2(B) R3(C)``: ``omega = e1 A' + R1 e2 B' + R1 R2 e3 C'``; extrinsic
+    ``R = R3(C) R2(B) R1(A)``: ``omega = R3 R2 e1 A' + R3 e2 B' + e3 C'``.
+    """
+    ang = np.asarray(angles, dtype=float)
+    unit = {'x': np.array([1.0, 0, 0]), 'y': np.array([0, 1.0, 0]), 'z': np.array([0, 0, 1.0])}
+    ax = [convention[k].lower() for k in range(3)]
+    r1, r2 = (_axis_rotation(ax[k], ang[..., k]) for k in range(2))
+    r3 = _axis_rotation(ax[2], ang[..., 2])
+    e1, e2, e3 = (unit[a] for a in ax)
+    n = ang.shape[:-1]
+    if convention.isupper():
+        cols = [np.broadcast_to(e1, n + (3,)), r1 @ e2, r1 @ r2 @ e3]
+    else:
+        cols = [r3 @ r2 @ e1, r3 @ e2, np.broadcast_to(e3, n + (3,))]
+    return np.stack(cols, axis=-1)
+
+
+def euler_from_rotation(R: np.ndarray, convention: str) -> np.ndarray:
+    """Euler angles ``(N, 3)`` (rad) of rotation matrices in the scipy convention ``convention``."""
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention)
+
+
+def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
+               column_kinds: tuple[str, ...] | None = None) -> np.ndarray:
+    """Dimensionless inverse Jacobian by a characteristic length ``length`` (m) (GSP seed §4.3).
+
+    Columns whose kind is ``'angular'`` (default: the last three, ``w_x w_y w_z``) are divided by
+    ``length``; rows of angular joints are multiplied by ``length``.
+    """
+    jac = np.asarray(jac, dtype=float)
+    if column_kinds is None:
+        column_kinds = ('linear',) * 3 + ('angular',) * 3
+    col = np.array([1.0 / length if k == 'angular' else 1.0 for k in column_kinds])
+    row = np.array([length if t in ANGULAR_JOINTS else 1.0 for t in joint_types])
+    return jac * row[:, None] * col[None, :]
+
+
+def singular_values(jac: np.ndarray) -> np.ndarray:
+    """Singular values ``(N, min(n, m))`` of a batch of matrices, descending."""
+    return np.linalg.svd(np.asarray(jac, dtype=float), compute_uv=False)
+
+
+def condition_number(jac: np.ndarray) -> np.ndarray:
+    """2-norm condition number ``sigma_max / sigma_min`` per matrix (``inf`` when ``sigma_min = 0``)."""
+    sv = singular_values(jac)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return np.where(sv[..., -1] > 0, sv[..., 0] / sv[..., -1], np.inf)
+
+
+def dexterity_index(jac: np.ndarray) -> np.ndarray:
+    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity)."""
+    sv = singular_values(jac)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return np.where(sv[..., 0] > 0, sv[..., -1] / sv[..., 0], 0.0)
+
+
+def is_singular(jac: np.ndarray, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
+    """True where the (homogenised) matrix's inverse condition number is below ``tol``."""
+    return dexterity_index(jac) < tol
+
+
+@dataclass(frozen=True)
+class JacobianReport:
+    """Inverse Jacobian of one pose and its conditioning (the ``gpr mechanism`` output)."""
+
+    pose: np.ndarray                          #: (6,) realised pose, m and rad
+    joints: np.ndarray                        #: (n,) joint values, m or rad
+    inverse_jacobian: np.ndarray              #: (n, 6) SI
+    homogenized_inverse_jacobian: np.ndarray  #: (n, 6) dimensionless
+    task_jacobian: np.ndarray                 #: (n, m) dq/du, homogenised
+    condition_number: float                   #: of the homogenised task Jacobian
+    dexterity: float                          #: inverse condition number
+    singular: bool
+    within_limits: bool
+
+
+class Mechanism(abc.ABC):
+    """A parallel mechanism: inverse kinematics and inverse Jacobian over batches of poses.
+
+    Subclasses set :attr:`name`, :attr:`euler_convention`, :attr:`pose_variables`, :attr:`joint_names`,
+    :attr:`joint_types`, :attr:`joint_limits` and :attr:`characteristic_length`, and implement
+    :meth:`inverse_kinematics` and :meth:`inverse_jacobian`. Lower-mobility mechanisms also override
+    :meth:`complete_pose` and :meth:`motion_basis`.
+    """
+
+    name: str = 'mechanism'
+    kind: str = 'mechanism'
+    euler_convention: str = 'xyz'
+    #: Names of the six pose components (x, y, z and the three Euler angles).
+    pose_names: tuple[str, ...] = POSE_COMPONENTS
+    #: Names of the independent pose coordinates (a subset of :attr:`pose_names`).
+    pose_variables: tuple[str, ...] = POSE_COMPONENTS
+    joint_names: tuple[str, ...] = ()
+    joint_types: tuple[str, ...] = ()
+    joint_limits: np.ndarray = np.zeros((0, 2))
+    characteristic_length: float = 1.0
+
+    # ------------------------------------------------------------------ interface
+    @abc.abstractmethod
+    def inverse_kinematics(self, poses: Any) -> np.ndarray:
+        """Joint values ``(N, n)`` (m or rad) of poses ``(N, 6)``; a single pose ``(6,)`` gives ``(n,)``."""
+
+    @abc.abstractmethod
+    def inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """Inverse Jacobians ``(N, n, 6)``: joint rates per twist ``(v, w)``, ``w`` in the base frame."""
+
+    def complete_pose(self, poses: Any) -> np.ndarray:
+        """The pose the mechanism reaches for the pose variables of ``poses`` (identity for 6 DOF)."""
+        arr, single = as_poses(poses)
+        return arr[0].copy() if single else arr.copy()
+
+    def motion_basis(self, poses: Any) -> np.ndarray:
+        """Twists ``(N, 6, m)`` per unit rate of each independent coordinate (identity for 6 DOF).
+
+        For a six-DOF mechanism the coordinates' rates are taken as the twist itself, so conditioning
+        is that of the inverse Jacobian (not of Euler-angle rates).
+        """
+        arr, _ = as_poses(poses)
+        return np.broadcast_to(np.eye(6), (arr.shape[0], 6, 6)).copy()
+
+    def coordinate_basis(self, poses: Any) -> np.ndarray:
+        """Twists ``(N, 6, m)`` per unit rate of each pose coordinate (Euler-angle rates for 6 DOF)."""
+        arr, _ = as_poses(poses)
+        if len(self.pose_variables) != 6:
+            return self.motion_basis(arr)
+        out = np.zeros((arr.shape[0], 6, 6))
+        out[:, :3, :3] = np.eye(3)
+        out[:, 3:, 3:] = euler_rate_matrix(arr[:, 3:], self.euler_convention)
+        return out
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def variable_indices(self) -> np.ndarray:
+        """Indices of :attr:`pose_variables` in the 6-vector pose."""
+        return np.array([self.pose_names.index(v) for v in self.pose_variables])
+
+    @property
+    def variable_kinds(self) -> tuple[str, ...]:
+        """``'linear'`` or ``'angular'`` per pose variable (for homogenisation)."""
+        return tuple('linear' if self.pose_names.index(v) < 3 else 'angular' for v in self.pose_variables)
+
+    def coordinates(self, poses: Any) -> np.ndarray:
+        """The independent coordinates ``(N, m)`` of poses ``(N, 6)``."""
+        arr, single = as_poses(poses)
+        out = arr[:, self.variable_indices]
+        return out[0] if single else out
+
+    def pose_from_coordinates(self, coords: Any) -> np.ndarray:
+        """Complete poses ``(N, 6)`` from independent coordinates ``(N, m)``."""
+        c = np.atleast_2d(np.asarray(coords, dtype=float))
+        poses = np.zeros((c.shape[0], 6))
+        poses[:, self.variable_indices] = c
+        return self.complete_pose(poses)
+
+    def rotation(self, poses: Any) -> np.ndarray:
+        """Platform rotation matrices ``(N, 3, 3)`` of (completed) poses."""
+        arr, _ = as_poses(poses)
+        return euler_rotation(arr[:, 3:], self.euler_convention)
+
+    def task_jacobian(self, poses: Any) -> np.ndarray:
+        """``dq/du (N, n, m)`` per unit rate of the independent coordinates (twist rates for 6 DOF)."""
+        arr, _ = as_poses(poses)
+        arr = self.complete_pose(arr)
+        return self.inverse_jacobian(arr) @ self.motion_basis(arr)
+
+    def coordinate_jacobian(self, poses: Any) -> np.ndarray:
+        """``dq/du (N, n, m)`` per unit rate of the pose coordinates (Euler angles for 6 DOF)."""
+        arr, _ = as_poses(poses)
+        arr = self.complete_pose(arr)
+        return self.inverse_jacobian(arr) @ self.coordinate_basis(arr)
+
+    def homogenized_inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """:func:`homogenize` applied to :meth:`inverse_jacobian` with :attr:`characteristic_length`."""
+        return homogenize(self.inverse_jacobian(poses), self.joint_types, self.characteristic_length)
+
+    def homogenized_task_jacobian(self, poses: Any) -> np.ndarray:
+        """:func:`homogenize` applied to :meth:`task_jacobian` (angular coordinates scaled by L)."""
+        return homogenize(self.task_jacobian(poses), self.joint_types, self.characteristic_length,
+                          self.variable_kinds)
+
+    def condition_number(self, poses: Any) -> np.ndarray:
+        """Condition number ``(N,)`` of the homogenised task Jacobian."""
+        return condition_number(self.homogenized_task_jacobian(poses))
+
+    def dexterity(self, poses: Any) -> np.ndarray:
+        """Dexterity ``(N,)`` = inverse condition number of the homogenised task Jacobian."""
+        return dexterity_index(self.homogenized_task_jacobian(poses))
+
+    def is_singular(self, poses: Any, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
+        """``(N,)`` True where the homogenised task Jacobian's inverse condition number is below ``tol``."""
+        return self.dexterity(poses) < tol
+
+    def within_limits(self, joints: Any) -> np.ndarray:
+        """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
+        q = np.atleast_2d(np.asarray(joints, dtype=float))
+        lim = np.asarray(self.joint_limits, dtype=float)
+        return np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1)
+
+    def check_limits(self, joints: Any) -> None:
+        """Raise :class:`LimitError` naming the first joint outside its limits."""
+        q = np.atleast_2d(np.asarray(joints, dtype=float))
+        lim = np.asarray(self.joint_limits, dtype=float)
+        bad = ~((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q))
+        if np.any(bad):
+            row, j = np.argwhere(bad)[0]
+            unit = 'rad' if self.joint_types[j] in ANGULAR_JOINTS else 'm'
+            raise LimitError(f'{self.name}: joint {self.joint_names[j]} = {q[row, j]:.6g} {unit} is outside '
+                             f'its limits [{lim[j, 0]:.6g}, {lim[j, 1]:.6g}] {unit}')
+
+    # ------------------------------------------------------------------ geometry parameters
+    def parameters(self) -> dict[str, np.ndarray]:
+        """Geometric parameters whose errors the accuracy analysis can propagate (name -> array, SI)."""
+        return {}
+
+    def with_parameters(self, params: Mapping[str, Any]) -> Mechanism:
+        """A copy of the mechanism with some :meth:`parameters` replaced."""
+        if params:
+            raise InputError(f'{self.name} has no geometric parameters; got {sorted(params)}')
+        return self
+
+    def parameter_jacobian(self, poses: Any, name: str, step: float = 1e-7) -> np.ndarray:
+        """``d q / d parameter (N, n, size)`` by central differences of :meth:`inverse_kinematics`.
+
+        Step ``step`` in the parameter's SI unit; subclasses override with closed forms where they have them.
+        """
+        arr, _ = as_poses(poses)
+        arr = self.complete_pose(arr)
+        base = self.parameters()
+        if name not in base:
+            raise InputError(f'{self.name}: unknown parameter {name!r}; allowed: {sorted(base)}')
+        p0 = np.asarray(base[name], dtype=float)
+        out = np.zeros((arr.shape[0], self.n_joints, p0.size))
+        for k in range(p0.size):
+            d = np.zeros(p0.size)
+            d[k] = step
+            qp = self.with_parameters({name: (p0.ravel() + d).reshape(p0.shape)}).inverse_kinematics(arr)
+            qm = self.with_parameters({name: (p0.ravel() - d).reshape(p0.shape)}).inverse_kinematics(arr)
+            out[:, :, k] = (qp - qm) / (2 * step)
+        return out
+
+    # ------------------------------------------------------------------ forward kinematics
+    def forward_kinematics(self, joints: Any, guess: Any, tol: float = 1e-12, max_iterations: int = 50
+                           ) -> np.ndarray:
+        """Poses ``(N, 6)`` reaching joint values ``(N, n)`` by Newton's method from poses ``guess``.
+
+        Iterates ``u <- u - (dq/du)^+ (q(u) - q)`` on the independent coordinates ``u`` (pseudo-inverse for
+        redundant constraints), vectorised over the batch. Converged when the joint residual is below
+        ``tol`` (m or rad). Raises :class:`ConvergenceError` otherwise and :class:`SingularityError` when a
+        Jacobian is singular on the way.
+        """
+        from ..errors import ConvergenceError
+        q = np.atleast_2d(np.asarray(joints, dtype=float))
+        g, _ = as_poses(guess, 'guess')
+        if g.shape[0] == 1 and q.shape[0] > 1:
+            g = np.repeat(g, q.shape[0], axis=0)
+        u = self.coordinates(g)
+        for _ in range(max_iterations):
+            poses = self.pose_from_coordinates(u)
+            res = self.inverse_kinematics(poses) - q
+            err = np.max(np.abs(res), axis=-1)
+            if np.all(err < tol):
+                return poses
+            J = self.coordinate_jacobian(poses)
+            if J.shape[1] == J.shape[2]:
+                try:
+                    step = np.linalg.solve(J, res[..., None])[..., 0]
+                except np.linalg.LinAlgError as exc:
+                    raise SingularityError(
+                        f'{self.name}: forward kinematics met a singular Jacobian') from exc
+            else:
+                step = (np.linalg.pinv(J) @ res[..., None])[..., 0]
+            u = u - step
+        raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
+                               f'{max_iterations} iterations (max residual {np.max(err):.3g})')
+
+    # ------------------------------------------------------------------ report
+    def report(self, pose: Any) -> JacobianReport:
+        """Joint values, inverse Jacobian (plain and homogenised) and conditioning at one pose."""
+        arr, _ = as_poses(pose, 'pose')
+        if arr.shape[0] != 1:
+            raise InputError(f'report() takes one pose; got {arr.shape[0]}')
+        full = self.complete_pose(arr)
+        q = self.inverse_kinematics(full)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            J = self.inverse_jacobian(full)
+            Jt = self.homogenized_task_jacobian(full)
+        finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(Jt)))
+        dex = float(dexterity_index(Jt)[0]) if finite else 0.0
+        cond = float(condition_number(Jt)[0]) if finite else float('inf')
+        return JacobianReport(pose=full[0], joints=q[0], inverse_jacobian=J[0],
+                              homogenized_inverse_jacobian=homogenize(J, self.joint_types,
+                                                                      self.characteristic_length)[0],
+                              task_jacobian=Jt[0], condition_number=cond, dexterity=dex,
+                              singular=bool((not finite) or dex < SINGULAR_TOLERANCE),
+                              within_limits=bool(self.within_limits(q)[0]))

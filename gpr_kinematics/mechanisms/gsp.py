@@ -1,0 +1,322 @@
+"""Generalized Stewart platforms (GSP): six distance/angle constraints between base and platform.
+
+Seed ``gsp-inverse-jacobians-toz-kucuk.txt`` (Toz and Kucuk 2016). Each constraint joins geometric
+primitives on the base (points ``A_i``, ``A_j`` in the base frame) and on the platform (points ``B_i``,
+``B_j`` in the platform frame); lines are ``K_i`` through ``A_i`` with unit direction
+``s = (A_j - A_i)/|A_j - A_i|`` and ``L_i`` through ``B_i`` with unit direction ``t = (B_j - B_i)/|.|``.
+With ``v = P + R B_i - A_i`` (m) the five constraint types and their inverse kinematics are:
+
+========  ====================  ========================  ========================================
+type      leg                   primitives                joint value (eqs. 2-6)
+========  ====================  ========================  ========================================
+``D1``    SPS                   point A_i - point B_i     ``d = |v|``
+``D2``    SPC                   point A_i - line L_i      ``d = |v x R t|``
+``D3``    CPS                   line K_i - point B_i      ``d = |v x s|``
+``D4``    CCC (prismatic)       line K_i - line L_i       ``d = |v . (R t x s)| / |R t x s|``
+``A1``    CCC (revolute)        line K_i - line L_i       ``cos(theta) = R t . s``
+========  ====================  ========================  ========================================
+
+Inverse-Jacobian rows (joint rate per twist ``(v_p, w)``, ``w`` the angular velocity in the base frame),
+obtained by differentiating the inverse kinematics with ``dP/dt = v_p`` and ``d(R x)/dt = w x R x``;
+with ``w_perp`` the component of ``v`` perpendicular to the line, ``c`` the cross product of the IK:
+
+- D1 (eq. 12): ``[v, R B_i x v] / d``.
+- D2 (eq. 13): ``[w_perp, R B_i x w_perp + (v . R t) c] / d`` with ``c = v x R t``, ``w_perp = R t x c``.
+- D3 (eq. 14): ``[w_perp, R B_i x w_perp] / d`` with ``w_perp = s x (v x s)``. The angular term printed
+  in eq. (14), ``((v x s) x R B_i) / d``, does not match finite differences; this form does.
+- D4 (eq. 15): with ``n = R t x s``, ``f = v . n``, ``g = |n|``:
+  ``sign(f) [n / g, (R B_i x n + R t x (s x v)) / g - f (R t x (s x n)) / g^3]``.
+- A1 (eq. 16): ``[0, -(R t x s) / sin(theta)]``.
+
+The rotation is ``R = Rz(C) Ry(B) Rx(A)`` (roll-pitch-yaw, scipy ``from_euler('xyz', [A, B, C])``), the
+convention under which the paper's numerical examples reproduce; another convention can be named in
+the YAML key ``euler``. All lengths in metres, angles in radians.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, InputError
+from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
+
+CONSTRAINT_TYPES = ('D1', 'D2', 'D3', 'D4', 'A1')
+
+#: Which points each constraint type takes (besides ``A_i`` and ``B_i``, which all take).
+_POINTS = {
+    'D1': ('A_i', 'B_i'),
+    'D2': ('A_i', 'B_i', 'B_j'),
+    'D3': ('A_i', 'A_j', 'B_i'),
+    'D4': ('A_i', 'A_j', 'B_i', 'B_j'),
+    'A1': ('A_i', 'A_j', 'B_i', 'B_j'),
+}
+_LEGS = {'D1': 'SPS', 'D2': 'SPC', 'D3': 'CPS', 'D4': 'CCC', 'A1': 'CCC'}
+_ALL_POINTS = ('A_i', 'A_j', 'B_i', 'B_j')
+_DEGENERATE = 1e-12  # m: shortest line segment accepted
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (faster than ``np.cross`` on small trailing axes)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum('...i,...i->...', a, b)
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One GSP constraint: type, its points (base frame ``A_*``, platform frame ``B_*``, m) and limits."""
+
+    type: str
+    A_i: np.ndarray
+    B_i: np.ndarray
+    A_j: np.ndarray | None = None
+    B_j: np.ndarray | None = None
+    name: str = ''
+    limits: tuple[float, float] | None = None
+
+    @property
+    def joint_type(self) -> str:
+        return 'revolute' if self.type == 'A1' else 'prismatic'
+
+    @property
+    def leg(self) -> str:
+        return _LEGS[self.type]
+
+
+def _point(value: Any, where: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float) if _is_numeric_list(value) else None
+    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ConfigError(f'{where} must be a point [x, y, z] of three finite numbers in m; got {value!r}')
+    return arr
+
+
+def _is_numeric_list(value: Any) -> bool:
+    return isinstance(value, (list, tuple, np.ndarray)) and all(
+        isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) for v in value)
+
+
+def parse_constraint(entry: Any, where: str) -> Constraint:
+    """Validate one YAML constraint mapping (``type``, points, optional ``name`` and ``limits``)."""
+    if not isinstance(entry, Mapping):
+        raise ConfigError(f'{where} must be a mapping with keys type, A_i, B_i (and A_j, B_j for lines); '
+                          f'got {entry!r}')
+    ctype = entry.get('type')
+    if ctype not in CONSTRAINT_TYPES:
+        raise ConfigError(f'{where}.type = {ctype!r} is not a constraint type; allowed: '
+                          + ', '.join(CONSTRAINT_TYPES))
+    needed = _POINTS[ctype]
+    allowed = set(needed) | {'type', 'name', 'limits'}
+    unknown = sorted(set(entry) - allowed)
+    if unknown:
+        extra = [k for k in unknown if k in _ALL_POINTS]
+        if extra:
+            raise ConfigError(f'{where}: a {ctype} constraint takes the points {", ".join(needed)}; '
+                              f'got the extra point(s) {", ".join(extra)}')
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
+                          + ', '.join(sorted(allowed)))
+    missing = [k for k in needed if k not in entry]
+    if missing:
+        raise ConfigError(f'{where}: a {ctype} constraint needs the points {", ".join(needed)}; '
+                          f'missing {", ".join(missing)}')
+    pts = {k: _point(entry[k], f'{where}.{k}') for k in needed}
+    for first, second, label in (('A_i', 'A_j', 'base line K'), ('B_i', 'B_j', 'platform line L')):
+        if second in pts and np.linalg.norm(pts[second] - pts[first]) < _DEGENERATE:
+            raise ConfigError(f'{where}: degenerate {label}: {second} = {pts[second].tolist()} coincides '
+                              f'with {first}, so the line has no direction')
+    limits = entry.get('limits')
+    if limits is not None:
+        if not _is_numeric_list(limits) or len(limits) != 2 or not limits[0] < limits[1]:
+            raise ConfigError(f'{where}.limits must be [min, max] with min < max (m, or rad for A1); '
+                              f'got {limits!r}')
+        limits = (float(limits[0]), float(limits[1]))
+    name = entry.get('name', '')
+    return Constraint(type=ctype, A_i=pts['A_i'], B_i=pts['B_i'], A_j=pts.get('A_j'), B_j=pts.get('B_j'),
+                      name=str(name), limits=limits)
+
+
+class GeneralizedStewartPlatform(Mechanism):
+    """A six-DOF GSP from six constraints (any of the 195 combinations of D1, D2, D3, D4, A1)."""
+
+    kind = 'gsp'
+
+    def __init__(self, constraints: list[Constraint], name: str = 'GSP', characteristic_length: float = 0.1,
+                 euler_convention: str = 'xyz') -> None:
+        if len(constraints) != 6:
+            raise ConfigError(f'a six-DOF GSP needs exactly 6 constraints; got {len(constraints)}')
+        if not (np.isfinite(characteristic_length) and characteristic_length > 0):
+            raise ConfigError('characteristic_length must be a positive length in m; '
+                              f'got {characteristic_length!r}')
+        self.constraints = list(constraints)
+        self.name = name
+        self.characteristic_length = float(characteristic_length)
+        self.euler_convention = check_euler_convention(euler_convention)
+        self.types = np.array([c.type for c in constraints])
+        self.joint_types = tuple(c.joint_type for c in constraints)
+        self.joint_names = tuple(c.name or f'{c.type.lower()}_{k + 1}' for k, c in enumerate(constraints))
+        self.joint_limits = np.array([
+            c.limits if c.limits is not None else ((0.0, np.pi) if c.type == 'A1' else (0.0, np.inf))
+            for c in constraints], dtype=float)
+        nan = np.full(3, np.nan)
+        self.A_i = np.array([c.A_i for c in constraints])
+        self.B_i = np.array([c.B_i for c in constraints])
+        self.A_j = np.array([c.A_j if c.A_j is not None else nan for c in constraints])
+        self.B_j = np.array([c.B_j if c.B_j is not None else nan for c in constraints])
+        self._prepare()
+
+    def _prepare(self) -> None:
+        with np.errstate(invalid='ignore'):
+            s = self.A_j - self.A_i
+            t = self.B_j - self.B_i
+            self.s = s / np.linalg.norm(s, axis=1, keepdims=True)
+            self.t = t / np.linalg.norm(t, axis=1, keepdims=True)
+        self.groups = {ct: np.flatnonzero(self.types == ct) for ct in CONSTRAINT_TYPES}
+        self.groups = {k: v for k, v in self.groups.items() if v.size}
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> GeneralizedStewartPlatform:
+        """Build from YAML (keys ``constraints``, ``characteristic_length``, ``euler``, ``name``)."""
+        allowed = {'type', 'name', 'characteristic_length', 'euler', 'constraints', 'poses', 'workspace',
+                   'reference'}
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
+                              + ', '.join(sorted(allowed)))
+        cons = data.get('constraints')
+        if not isinstance(cons, list):
+            raise ConfigError(f'{source}: key constraints must be a list of 6 constraint mappings; '
+                              f'got {cons!r}')
+        if len(cons) != 6:
+            raise ConfigError(f'{source}: key constraints must list exactly 6 constraints; got {len(cons)}')
+        parsed = [parse_constraint(c, f'{source}: constraints[{k}]') for k, c in enumerate(cons)]
+        L = data.get('characteristic_length', 0.1)
+        if not isinstance(L, (int, float)) or isinstance(L, bool) or not L > 0:
+            raise ConfigError(f'{source}: characteristic_length must be a positive length in m; got {L!r}')
+        euler = data.get('euler', 'xyz')
+        try:
+            check_euler_convention(euler)
+        except InputError as exc:
+            raise ConfigError(f'{source}: euler: {exc}') from None
+        return cls(parsed, name=str(data.get('name', 'GSP')), characteristic_length=float(L),
+                   euler_convention=euler)
+
+    def parameters(self) -> dict[str, np.ndarray]:
+        """The points ``A_i``, ``A_j``, ``B_i``, ``B_j`` ``(6, 3)`` (m; NaN where a constraint has none)."""
+        return {'A_i': self.A_i.copy(), 'A_j': self.A_j.copy(), 'B_i': self.B_i.copy(),
+                'B_j': self.B_j.copy()}
+
+    def with_parameters(self, params: Mapping[str, Any]) -> GeneralizedStewartPlatform:
+        p = {'A_i': self.A_i, 'A_j': self.A_j, 'B_i': self.B_i, 'B_j': self.B_j}
+        allowed = self.parameters()
+        for key, val in params.items():
+            if key not in allowed:
+                raise InputError(f'{self.name}: unknown parameter {key!r}; allowed: {sorted(allowed)}')
+            arr = np.asarray(val, dtype=float)
+            if arr.shape != (6, 3):
+                raise InputError(f'{self.name}: parameter {key} must have shape (6, 3); got {arr.shape}')
+            p[key] = arr
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.A_i, new.A_j, new.B_i, new.B_j = p['A_i'], p['A_j'], p['B_i'], p['B_j']
+        new._prepare()
+        return new
+
+    # ------------------------------------------------------------------ kinematics
+    def _terms(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        R = euler_rotation(poses[:, 3:], self.euler_convention)
+        Rb = np.einsum('nij,kj->nki', R, self.B_i)
+        v = poses[:, None, :3] + Rb - self.A_i
+        Rt = np.einsum('nij,kj->nki', R, np.nan_to_num(self.t))
+        return R, Rb, v, Rt
+
+    def inverse_kinematics(self, poses: Any) -> np.ndarray:
+        """Joint values ``(N, 6)`` (m for D1-D4, rad for A1) of poses ``(N, 6)``, eqs. (2)-(6)."""
+        arr, single = as_poses(poses)
+        _, _, v, Rt = self._terms(arr)
+        q = np.empty(v.shape[:2])
+        s = self.s
+        for ct, idx in self.groups.items():
+            vi = v[:, idx]
+            if ct == 'D1':
+                q[:, idx] = np.linalg.norm(vi, axis=-1)
+            elif ct == 'D2':
+                q[:, idx] = np.linalg.norm(_cross(vi, Rt[:, idx]), axis=-1)
+            elif ct == 'D3':
+                q[:, idx] = np.linalg.norm(_cross(vi, s[idx]), axis=-1)
+            elif ct == 'D4':
+                n = _cross(Rt[:, idx], s[idx])
+                q[:, idx] = np.abs(_dot(vi, n)) / np.linalg.norm(n, axis=-1)
+            else:  # A1
+                q[:, idx] = np.arccos(np.clip(_dot(Rt[:, idx], s[idx]), -1.0, 1.0))
+        return q[0] if single else q
+
+    def inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """Inverse Jacobians ``(N, 6, 6)``, rows eqs. (12)-(16) as corrected in the module docstring.
+
+        Rows are infinite where a row's denominator vanishes (``d = 0``, parallel CCC lines,
+        ``sin(theta) = 0``).
+        """
+        arr, single = as_poses(poses)
+        _, Rb, v, Rt = self._terms(arr)
+        J = np.empty(v.shape[:2] + (6,))
+        s = self.s
+        with np.errstate(divide='ignore', invalid='ignore'):
+            for ct, idx in self.groups.items():
+                vi, Rbi = v[:, idx], Rb[:, idx]
+                if ct == 'D1':
+                    d = np.linalg.norm(vi, axis=-1)[..., None]
+                    J[:, idx, :3] = vi / d
+                    J[:, idx, 3:] = _cross(Rbi, vi) / d
+                elif ct == 'D2':
+                    Rti = Rt[:, idx]
+                    c = _cross(vi, Rti)
+                    d = np.linalg.norm(c, axis=-1)[..., None]
+                    w = _cross(Rti, c)
+                    J[:, idx, :3] = w / d
+                    J[:, idx, 3:] = (_cross(Rbi, w) + _dot(vi, Rti)[..., None] * c) / d
+                elif ct == 'D3':
+                    si = s[idx]
+                    c = _cross(vi, si)
+                    d = np.linalg.norm(c, axis=-1)[..., None]
+                    w = _cross(si, c)
+                    J[:, idx, :3] = w / d
+                    J[:, idx, 3:] = _cross(Rbi, w) / d
+                elif ct == 'D4':
+                    Rti, si = Rt[:, idx], np.broadcast_to(s[idx], vi.shape)
+                    n = _cross(Rti, si)
+                    g = np.linalg.norm(n, axis=-1)[..., None]
+                    f = _dot(vi, n)[..., None]
+                    sg = np.sign(f)
+                    J[:, idx, :3] = sg * n / g
+                    J[:, idx, 3:] = sg * ((_cross(Rbi, n) + _cross(Rti, _cross(si, vi))) / g
+                                          - f * _cross(Rti, _cross(si, n)) / g ** 3)
+                else:  # A1
+                    Rti = Rt[:, idx]
+                    cos = np.clip(_dot(Rti, s[idx]), -1.0, 1.0)
+                    sin = np.sqrt(1.0 - cos ** 2)[..., None]
+                    J[:, idx, :3] = 0.0
+                    J[:, idx, 3:] = -_cross(Rti, np.broadcast_to(s[idx], Rti.shape)) / sin
+        return J[0] if single else J
+
+    def describe(self) -> list[dict[str, Any]]:
+        """The constraints as plain dicts (type, leg, joint name and type, points in m)."""
+        out = []
+        for k, c in enumerate(self.constraints):
+            item: dict[str, Any] = {'name': self.joint_names[k], 'type': c.type, 'leg': c.leg,
+                                    'joint_type': c.joint_type}
+            for key in _POINTS[c.type]:
+                item[key] = getattr(c, key).tolist()
+            out.append(item)
+        return out
+
+
+def load_gsp(data: Mapping[str, Any], source: str) -> GeneralizedStewartPlatform:
+    """YAML loader entry for ``type: gsp``."""
+    return GeneralizedStewartPlatform.from_dict(data, source)
