@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, LimitError, SingularityError
+from ..errors import ConvergenceError, InputError, LimitError, SingularityError
 
 #: Joint types: ``prismatic`` (a distance, m) or ``revolute`` (an angle, rad).
 LINEAR_JOINTS = frozenset({'prismatic', 'distance'})
@@ -123,6 +123,38 @@ def euler_from_rotation(R: np.ndarray, convention: str) -> np.ndarray:
     """Euler angles ``(N, 3)`` (rad) of rotation matrices in the scipy convention ``convention``."""
     from scipy.spatial.transform import Rotation
     return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention)
+
+
+def rotation_from_vector(w: np.ndarray) -> np.ndarray:
+    """Rodrigues: rotation matrices ``(N, 3, 3)`` ``exp([w]x)`` of rotation vectors ``(N, 3)`` (rad)."""
+    w = np.asarray(w, dtype=float)
+    th = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K = K - np.swapaxes(K, -1, -2)
+    small = th < 1e-8
+    safe = np.where(small, 1.0, th)
+    a = np.where(small, 1.0 - th ** 2 / 6, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - th ** 2 / 24, (1 - np.cos(safe)) / safe ** 2)
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(N, 3)`` (rad) of rotation matrices ``(N, 3, 3)`` (scipy ``as_rotvec``)."""
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec()
+
+
+def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
+    """Newton step ``J^-1 res`` per batch item (pseudo-inverse for non-square ``J``)."""
+    if J.shape[-1] != J.shape[-2]:
+        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
+    if not np.all(np.isfinite(J)):
+        raise SingularityError(f'{name}: forward kinematics met a singular configuration (infinite Jacobian)')
+    try:
+        return np.linalg.solve(J, res[..., None])[..., 0]
+    except np.linalg.LinAlgError as exc:
+        raise SingularityError(f'{name}: forward kinematics met a singular Jacobian') from exc
 
 
 def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
@@ -352,33 +384,55 @@ class Mechanism(abc.ABC):
                            ) -> np.ndarray:
         """Poses ``(N, 6)`` reaching joint values ``(N, n)`` by Newton's method from poses ``guess``.
 
-        Iterates ``u <- u - (dq/du)^+ (q(u) - q)`` on the independent coordinates ``u`` (pseudo-inverse for
-        redundant constraints), vectorised over the batch. Converged when the joint residual is below
-        ``tol`` (m or rad). Raises :class:`ConvergenceError` otherwise and :class:`SingularityError` when a
-        Jacobian is singular on the way.
+        Six-DOF mechanisms iterate on the rigid motion itself, free of Euler-angle singularities:
+        ``(v, w) = J^-1 (q(P, R) - q)``, ``P <- P - v``, ``R <- exp(-[w]x) R`` (Rodrigues), then convert ``R``
+        to the mechanism's Euler angles. Lower-mobility mechanisms iterate on their coordinates,
+        ``u <- u - (dq/du)^+ (q(u) - q)``. Vectorised over the batch; converged when every joint residual is
+        below ``tol`` (m or rad). Raises :class:`ConvergenceError` otherwise and :class:`SingularityError`
+        when a Jacobian is singular on the way.
         """
-        from ..errors import ConvergenceError
         q = np.atleast_2d(np.asarray(joints, dtype=float))
+        if q.shape[-1] != self.n_joints or not np.all(np.isfinite(q)):
+            raise InputError(f'{self.name}: joint values must be {self.n_joints} finite numbers per pose; '
+                             f'got shape {np.shape(joints)}')
         g, _ = as_poses(guess, 'guess')
         if g.shape[0] == 1 and q.shape[0] > 1:
             g = np.repeat(g, q.shape[0], axis=0)
+        if len(self.pose_variables) == 6:
+            return self._forward_rigid(q, g, tol, max_iterations)
         u = self.coordinates(g)
+        err = np.full(q.shape[0], np.inf)
         for _ in range(max_iterations):
             poses = self.pose_from_coordinates(u)
             res = self.inverse_kinematics(poses) - q
             err = np.max(np.abs(res), axis=-1)
             if np.all(err < tol):
                 return poses
-            J = self.coordinate_jacobian(poses)
-            if J.shape[1] == J.shape[2]:
-                try:
-                    step = np.linalg.solve(J, res[..., None])[..., 0]
-                except np.linalg.LinAlgError as exc:
-                    raise SingularityError(
-                        f'{self.name}: forward kinematics met a singular Jacobian') from exc
-            else:
-                step = (np.linalg.pinv(J) @ res[..., None])[..., 0]
-            u = u - step
+            u = u - _solve(self.coordinate_jacobian(poses), res, self.name)
+        raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
+                               f'{max_iterations} iterations (max residual {np.max(err):.3g})')
+
+    def joints_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Joint values ``(N, n)`` of positions ``(N, 3)`` and rotations ``(N, 3, 3)`` (via Euler angles)."""
+        angles = euler_from_rotation(R, self.euler_convention)
+        return self.inverse_kinematics(np.concatenate([pos, angles], -1))
+
+    def inverse_jacobian_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Inverse Jacobians ``(N, n, 6)`` of positions and rotation matrices (via Euler angles)."""
+        return self.inverse_jacobian(np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], -1))
+
+    def _forward_rigid(self, q: np.ndarray, g: np.ndarray, tol: float, max_iterations: int) -> np.ndarray:
+        pos = g[:, :3].copy()
+        R = euler_rotation(g[:, 3:], self.euler_convention)
+        err = np.full(q.shape[0], np.inf)
+        for _ in range(max_iterations):
+            res = self.joints_rt(pos, R) - q
+            err = np.max(np.abs(res), axis=-1)
+            if np.all(err < tol):
+                return np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], axis=-1)
+            step = _solve(self.inverse_jacobian_rt(pos, R), res, self.name)
+            pos = pos - step[:, :3]
+            R = rotation_from_vector(-step[:, 3:]) @ R
         raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
                                f'{max_iterations} iterations (max residual {np.max(err):.3g})')
 

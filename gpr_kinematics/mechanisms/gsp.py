@@ -231,15 +231,24 @@ class GeneralizedStewartPlatform(Mechanism):
     # ------------------------------------------------------------------ kinematics
     def _terms(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         R = euler_rotation(poses[:, 3:], self.euler_convention)
+        return self._terms_rt(poses[:, :3], R)
+
+    def _terms_rt(self, pos: np.ndarray, R: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Rb = np.einsum('nij,kj->nki', R, self.B_i)
-        v = poses[:, None, :3] + Rb - self.A_i
+        v = pos[:, None, :] + Rb - self.A_i
         Rt = np.einsum('nij,kj->nki', R, np.nan_to_num(self.t))
         return R, Rb, v, Rt
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:
         """Joint values ``(N, 6)`` (m for D1-D4, rad for A1) of poses ``(N, 6)``, eqs. (2)-(6)."""
         arr, single = as_poses(poses)
-        _, _, v, Rt = self._terms(arr)
+        q = self.joints_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+        return q[0] if single else q
+
+    def joints_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Joint values ``(N, 6)`` of platform positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        _, _, v, Rt = self._terms_rt(pos, R)
         q = np.empty(v.shape[:2])
         s = self.s
         for ct, idx in self.groups.items():
@@ -255,7 +264,7 @@ class GeneralizedStewartPlatform(Mechanism):
                 q[:, idx] = np.abs(_dot(vi, n)) / np.linalg.norm(n, axis=-1)
             else:  # A1
                 q[:, idx] = np.arccos(np.clip(_dot(Rt[:, idx], s[idx]), -1.0, 1.0))
-        return q[0] if single else q
+        return q
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
         """Inverse Jacobians ``(N, 6, 6)``, rows eqs. (12)-(16) as corrected in the module docstring.
@@ -264,7 +273,12 @@ class GeneralizedStewartPlatform(Mechanism):
         ``sin(theta) = 0``).
         """
         arr, single = as_poses(poses)
-        _, Rb, v, Rt = self._terms(arr)
+        J = self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+        return J[0] if single else J
+
+    def inverse_jacobian_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Inverse Jacobians ``(N, 6, 6)`` of positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        _, Rb, v, Rt = self._terms_rt(pos, R)
         J = np.empty(v.shape[:2] + (6,))
         s = self.s
         with np.errstate(divide='ignore', invalid='ignore'):
@@ -303,7 +317,7 @@ class GeneralizedStewartPlatform(Mechanism):
                     sin = np.sqrt(1.0 - cos ** 2)[..., None]
                     J[:, idx, :3] = 0.0
                     J[:, idx, 3:] = -_cross(Rti, np.broadcast_to(s[idx], Rti.shape)) / sin
-        return J[0] if single else J
+        return J
 
     def describe(self) -> list[dict[str, Any]]:
         """The constraints as plain dicts (type, leg, joint name and type, points in m)."""
