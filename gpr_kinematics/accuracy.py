@@ -174,7 +174,10 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
     exact[:, angular] = (exact[:, angular] + np.pi) % (2 * np.pi) - np.pi  # Euler angles wrap
-    lin_twist = (mech.coordinate_basis(arr) @ lin[..., None])[..., 0]
+    if hasattr(mech, 'linearized_twist'):  # mechanisms whose errors also move the outcome components
+        lin_twist = mech.linearized_twist(arr, ds, dp)
+    else:
+        lin_twist = (mech.coordinate_basis(arr) @ lin[..., None])[..., 0]
     dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)
     exact_twist = np.concatenate([exact_poses[:, :3] - arr[:, :3], rotation_vector(dR)], axis=-1)
     return AccuracyResult(mechanism=mech.name, variables=tuple(mech.pose_variables), poses=arr, joints=q,
