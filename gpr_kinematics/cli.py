@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import re
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -19,13 +20,18 @@ import numpy as np
 
 from .errors import GprError
 
-PLUGINS: tuple[str, ...] = ()
+PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace',)
 
 EXIT_USAGE = 2
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage errors in one line (status 2) instead of the usage block."""
+    """argparse that reports usage errors in one line (status 2) instead of the usage block, and takes
+    negative numbers in scientific notation (``-2e-4``) as values, not options."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
 
     def error(self, message: str) -> None:  # noqa: D102
         self.exit(EXIT_USAGE, f'{self.prog}: error: {message}\n')
