@@ -231,6 +231,10 @@ class Mechanism(abc.ABC):
     joint_types: tuple[str, ...] = ()
     joint_limits: np.ndarray = np.zeros((0, 2))
     characteristic_length: float = 1.0
+    #: Base pose of dexterity maps when none is given (m, rad).
+    home_pose: tuple[float, ...] = (0.0,) * 6
+    #: Default dexterity sweep ``(variable, min, max)`` or None (then z over the range within the limits).
+    default_sweep: tuple[str, float, float] | None = None
 
     # ------------------------------------------------------------------ interface
     @abc.abstractmethod

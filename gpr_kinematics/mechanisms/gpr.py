@@ -72,6 +72,9 @@ class GprMechanism(Mechanism):
         self.name = name
         self.joint_limits = np.array([[self.config.stroke_min, self.config.stroke_max]] * 3)
         self.characteristic_length = float(self.config.characteristic_length)
+        c = self.config
+        self.home_pose = (0.0, 0.0, 0.5 * (c.stroke_min + c.stroke_max), 0.0, 0.0, 0.0)
+        self.default_sweep = ('tilt_x', -c.tilt_limit, c.tilt_limit)
         self.imperfections = np.zeros((3, 3)) if imperfections is None else np.asarray(imperfections, float)
         if self.imperfections.shape != (3, 3) or not np.all(np.isfinite(self.imperfections)):
             raise InputError('GPR joint imperfections must be 3 x 3 finite values (m); '

@@ -1,0 +1,218 @@
+"""Generalized Stewart platforms (seed gsp-inverse-jacobians-toz-kucuk.txt): paper numbers, Jacobians, YAML."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+from scipy.spatial.transform import Rotation
+
+from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.mechanisms.base import (
+    euler_rate_matrix,
+    euler_rotation,
+    homogenize,
+    rotation_from_vector,
+)
+from gpr_kinematics.mechanisms.gsp import GeneralizedStewartPlatform, parse_constraint
+from gpr_kinematics.resources import config_path
+
+DEG = math.pi / 180
+
+
+def twist_fd(mech, pose: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central differences of the inverse kinematics along each twist direction (w in the base frame)."""
+    pose = np.asarray(pose, dtype=float).ravel()
+    R0 = mech.rotation(pose)[0]
+    cols = []
+    for k in range(6):
+        vals = []
+        for sgn in (1.0, -1.0):
+            p = pose.copy()
+            if k < 3:
+                p[k] += sgn * h
+            else:
+                w = np.zeros(3)
+                w[k - 3] = sgn * h
+                R = Rotation.from_rotvec(w).as_matrix() @ R0
+                p[3:] = Rotation.from_matrix(R).as_euler(mech.euler_convention)
+            vals.append(mech.inverse_kinematics(p))
+        cols.append((vals[0] - vals[1]) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def test_d3_6_paper_leg_values():
+    mech = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    pose = np.array([10e-3, -10e-3, 138e-3, 5 * DEG, -5 * DEG, -10 * DEG])
+    d = mech.inverse_kinematics(pose) * 1e3
+    np.testing.assert_allclose(d, [143.909, 132.988, 155.211, 123.512, 126.31, 126.963], atol=6e-4)
+    assert mech.joint_types == ('prismatic',) * 6
+    assert mech.characteristic_length == pytest.approx(0.095)
+
+
+def test_asymmetric_paper_values():
+    mech = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    pose = np.array([7e-3, -8e-3, 124e-3, 2 * DEG, 5 * DEG, -5 * DEG])
+    q = mech.inverse_kinematics(pose)
+    assert list(mech.types) == ['D1', 'D2', 'D3', 'D4', 'A1', 'A1']
+    np.testing.assert_allclose(q[:3] * 1e3, [133.007, 87.5579, 130.427], atol=6e-4)
+    np.testing.assert_allclose(np.degrees(q[4:]), [34.0845, 44.0236], atol=6e-5)
+    # The D4 distance of leg 4 is not printed in the paper; it is the common-normal length of its lines.
+    assert q[3] * 1e3 == pytest.approx(122.43089, abs=1e-4)
+    # The file's reference block holds the same printed values.
+    ref = yaml.safe_load(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml').read_text())['reference']
+    np.testing.assert_allclose(ref['pose'], pose, atol=1e-15)
+
+
+def test_euler_helpers_match_scipy_and_rates():
+    rng = np.random.default_rng(3)
+    ang = rng.uniform(-1, 1, (5, 3))
+    for conv in ('xyz', 'ZXZ', 'YXZ', 'zyx'):
+        np.testing.assert_allclose(euler_rotation(ang, conv), Rotation.from_euler(conv, ang).as_matrix(),
+                                   atol=1e-14)
+        E = euler_rate_matrix(ang, conv)
+        h = 1e-6
+        for k in range(3):
+            d = np.zeros(3)
+            d[k] = h
+            dR = (euler_rotation(ang + d, conv) - euler_rotation(ang - d, conv)) / (2 * h)
+            W = dR @ np.swapaxes(euler_rotation(ang, conv), -1, -2)
+            w = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1)
+            np.testing.assert_allclose(E[:, :, k], w, atol=1e-8)
+    w = rng.normal(size=(4, 3))
+    np.testing.assert_allclose(rotation_from_vector(w), Rotation.from_rotvec(w).as_matrix(), atol=1e-14)
+
+
+def _random_mechanism(rng: np.random.Generator) -> GeneralizedStewartPlatform:
+    """All five constraint types, random points on a 0.15 m base and a 0.08 m platform."""
+    cons = []
+    for k, ctype in enumerate(('D1', 'D2', 'D3', 'D4', 'A1', 'D3')):
+        entry = {'type': ctype}
+        pts = {'A_i': rng.uniform(-0.15, 0.15, 3) * [1, 1, 0.2], 'A_j': rng.uniform(-0.15, 0.15, 3),
+               'B_i': rng.uniform(-0.08, 0.08, 3) * [1, 1, 0.2], 'B_j': rng.uniform(-0.08, 0.08, 3)}
+        needed = {'D1': ('A_i', 'B_i'), 'D2': ('A_i', 'B_i', 'B_j'), 'D3': ('A_i', 'A_j', 'B_i'),
+                  'D4': ('A_i', 'A_j', 'B_i', 'B_j'), 'A1': ('A_i', 'A_j', 'B_i', 'B_j')}[ctype]
+        entry.update({key: pts[key].tolist() for key in needed})
+        cons.append(parse_constraint(entry, f'c{k}'))
+    return GeneralizedStewartPlatform(cons, characteristic_length=0.1)
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_every_row_matches_finite_differences(seed):
+    rng = np.random.default_rng(seed)
+    mech = _random_mechanism(rng)
+    for _ in range(4):
+        pose = np.concatenate([rng.uniform(-0.02, 0.02, 2), [rng.uniform(0.1, 0.15)], rng.uniform(-0.3, 0.3, 3)])
+        J = mech.inverse_jacobian(pose)
+        np.testing.assert_allclose(J, twist_fd(mech, pose[None, :].copy()), atol=2e-8)
+
+
+@pytest.mark.parametrize('name', ['gsp_d3_6.yaml', 'gsp_d1d2d3d4a1a1.yaml'])
+def test_paper_mechanism_jacobians_match_finite_differences(name):
+    mech = load_mechanism(config_path(f'mechanisms/{name}'))
+    rng = np.random.default_rng(7)
+    poses = np.column_stack([rng.uniform(-0.01, 0.01, (5, 2)), rng.uniform(0.12, 0.14, 5),
+                             rng.uniform(-0.15, 0.15, (5, 3))])
+    J = mech.inverse_jacobian(poses)
+    for i in range(5):
+        np.testing.assert_allclose(J[i], twist_fd(mech, poses[i:i + 1].copy()), atol=2e-8)
+    # Batch and single agree.
+    np.testing.assert_allclose(mech.inverse_jacobian(poses[2]), J[2], atol=0)
+
+
+def test_d3_angular_term_as_printed_does_not_match():
+    """The paper's eq. (14) angular part ((v x s) x Rb)/d differs from the derivative; ours matches."""
+    mech = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    pose = np.array([10e-3, -10e-3, 138e-3, 5 * DEG, -5 * DEG, -10 * DEG])
+    R = mech.rotation(pose)[0]
+    v = pose[:3] + mech.B_i @ R.T - mech.A_i
+    Rb = mech.B_i @ R.T
+    d = np.linalg.norm(np.cross(v, mech.s), axis=1)[:, None]
+    printed = np.cross(np.cross(v, mech.s), Rb) / d
+    fd = twist_fd(mech, pose[None, :].copy())
+    assert np.max(np.abs(printed - fd[:, 3:])) > 1e-2
+    np.testing.assert_allclose(mech.inverse_jacobian(pose)[:, 3:], fd[:, 3:], atol=2e-8)
+
+
+def test_homogenization_and_conditioning():
+    mech = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    pose = np.array([7e-3, -8e-3, 124e-3, 2 * DEG, 5 * DEG, -5 * DEG])
+    J = mech.inverse_jacobian(pose)
+    H = mech.homogenized_inverse_jacobian(pose)
+    L = 0.16
+    np.testing.assert_allclose(H[:4, :3], J[:4, :3])
+    np.testing.assert_allclose(H[:4, 3:], J[:4, 3:] / L)
+    np.testing.assert_allclose(H[4:, 3:], J[4:, 3:])      # A1 rows: (L theta') per (L w)
+    np.testing.assert_allclose(J[4:, :3], 0.0)
+    sv = np.linalg.svd(H, compute_uv=False)
+    assert mech.condition_number(pose)[0] == pytest.approx(sv[0] / sv[-1])
+    assert mech.dexterity(pose)[0] == pytest.approx(sv[-1] / sv[0])
+    assert not mech.is_singular(pose)[0]
+    # Unit change invariance: the homogenised matrix does not depend on the length unit.
+    Hmm = homogenize(J * np.array([1, 1, 1, 1e3, 1e3, 1e3]) * np.array([1e3] * 4 + [1, 1])[:, None] / 1e3,
+                     mech.joint_types, L * 1e3)
+    np.testing.assert_allclose(Hmm, H, atol=1e-12)
+
+
+def test_a1_singular_when_lines_parallel():
+    """An A1 constraint with theta = 0 has no inverse-Jacobian row (division by sin theta)."""
+    cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a),
+                                                                                            0.5 * math.sin(a), 0]},
+                             f'c{k}') for k, a in enumerate(np.linspace(0, 2 * math.pi, 6, endpoint=False)[:5])]
+    cons.append(parse_constraint({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0],
+                                  'B_j': [0, 0, 1]}, 'a1'))
+    mech = GeneralizedStewartPlatform(cons)
+    pose = np.array([0, 0, 1.0, 0, 0, 0])
+    assert mech.inverse_kinematics(pose)[5] == 0.0
+    assert not np.all(np.isfinite(mech.inverse_jacobian(pose)))
+    assert mech.report(pose).singular
+    tilted = np.array([0, 0, 1.0, 0.2, 0, 0])
+    assert mech.inverse_kinematics(tilted)[5] == pytest.approx(0.2)
+    np.testing.assert_allclose(mech.inverse_jacobian(tilted), twist_fd(mech, tilted[None].copy()), atol=2e-8)
+
+
+def _paper_dict() -> dict:
+    return yaml.safe_load(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml').read_text())
+
+
+def test_yaml_ignores_workspace_section():
+    data = _paper_dict()
+    data['workspace'] = {'box': {'z': [0, 1]}}
+    mech = mechanism_from_dict(data, 'x.yaml')
+    assert mech.n_joints == 6
+
+
+@pytest.mark.parametrize('mutate, match', [
+    (lambda d: d['constraints'][0].update(type='D7'), r"x\.yaml: constraints\[0\]\.type = 'D7'.*allowed: D1"),
+    (lambda d: d['constraints'][2].update(A_j=d['constraints'][2]['A_i']),
+     r'constraints\[2\]: degenerate base line K'),
+    (lambda d: d['constraints'][1].update(B_j=d['constraints'][1]['B_i']),
+     r'constraints\[1\]: degenerate platform line L'),
+    (lambda d: d['constraints'][0].update(A_j=[0, 0, 0]), r'constraints\[0\]: a D1 constraint takes the points '
+                                                          r'A_i, B_i; got the extra point\(s\) A_j'),
+    (lambda d: d['constraints'][3].pop('B_j'), r'constraints\[3\]: a D4 constraint needs .* missing B_j'),
+    (lambda d: d['constraints'][0].update(B_i=[1, 2]), r'constraints\[0\]\.B_i must be a point \[x, y, z\]'),
+    (lambda d: d['constraints'].pop(), r'exactly 6 constraints; got 5'),
+    (lambda d: d.update(characteristic_length=-1), r'characteristic_length must be a positive length'),
+    (lambda d: d.update(euler='xxz'), r'euler: Euler convention must be three axes'),
+    (lambda d: d.update(colour='red'), r"unknown key\(s\) colour"),
+    (lambda d: d.update(type='hexapod'), r"type = 'hexapod' is not a mechanism type"),
+])
+def test_yaml_errors_name_file_key_and_value(mutate, match):
+    data = _paper_dict()
+    mutate(data)
+    with pytest.raises(ConfigError, match=match):
+        mechanism_from_dict(data, 'x.yaml')
+
+
+def test_load_errors(tmp_path):
+    with pytest.raises(ConfigError, match='not found'):
+        load_mechanism(tmp_path / 'missing.yaml')
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('type: gsp\nconstraints: [\n')
+    with pytest.raises(ConfigError, match='bad.yaml: not valid YAML'):
+        load_mechanism(bad)
+    with pytest.raises(InputError, match=r'shape \(6,\) or \(N, 6\)'):
+        load_mechanism(config_path('mechanisms/gsp_d3_6.yaml')).inverse_kinematics([1, 2, 3])
