@@ -48,7 +48,7 @@ class GprConfig:
     stroke_max: float = 0.508
     tilt_limit: float = math.radians(2.0)
     imperfection_budget: float = 0.0005
-    model: str = 'polar'
+    model: str = 'radial'
     characteristic_length: float = field(default=0.0)
     weighting: str = 'characteristic'
     max_iterations: int = 12

@@ -168,7 +168,10 @@ def _as_rows(values: ArrayLike, name: str, width: int) -> Array:
     bad = ~np.isfinite(a)
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise InputError(f'{name}[{i}][{j}] = {a[i, j]} is not a finite number')
+        # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
+        label = f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+        where = f' (sample {i})' if a.shape[0] > 1 else ''
+        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
     return a
 
 

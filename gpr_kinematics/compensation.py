@@ -1,0 +1,121 @@
+"""Compensation for offline programming: from a naively commanded platform pose to what to command.
+
+Design.md §4. The old offline tool (paper Fig. 2) commands the platform as if it rotated about its
+centre ``(0, 0, z)``. The real GPR cannot do that: its platform centre shifts when it tilts (paper §III)
+and its heading and horizontal position are outcomes, not inputs. Given the naive command
+``T_c = (p_c, R_c)`` and a tool point ``x_tool`` of the platform (``gpr_platform`` frame), compensation
+returns
+
+* the rod lengths ``q`` that give the commanded *tilt* (the tilt part of ``R_c``, design.md §2) and put
+  the tool point at the commanded *height* ``(p_c + R_c x_tool)_z``, solved under the virtual-joint model
+  (:func:`gpr_kinematics.kinematics.inverse` with ``tool = x_tool``);
+* the pose ``T_a = (t, R)`` actually reached (forward kinematics of ``q``);
+* the tool point's residual shift ``T_a x_tool - T_c x_tool`` in ``gpr_base`` (horizontal: the centre
+  shift plus any commanded heading the GPR cannot realise);
+* the *arm correction* ``C = T_a^-1 T_c``, a transform in ``gpr_platform``: a target the program gave in
+  the platform frame of the naive model, ``x``, is reached by commanding the arm on the real platform to
+  ``C x`` (so that ``T_a C x = T_c x``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .config import GprConfig
+from .errors import InputError, LimitError
+from .geometry import matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
+from .kinematics import ForwardResult, inverse, resolve_config
+
+Array = NDArray[np.float64]
+
+#: Largest accepted deviation of a commanded quaternion's norm from 1.
+QUATERNION_NORM_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class CompensationResult:
+    """Result of :func:`compensate` (SI units, quaternions x, y, z, w).
+
+    Attributes:
+        q: rod lengths to command [m].
+        achieved: forward kinematics of ``q``: the pose the platform really takes.
+        command_tilt, command_azimuth, command_twist: decomposition of the commanded orientation [rad];
+            the twist (heading) cannot be realised by the GPR and is left to ``arm_correction``.
+        tool_offset: the tool point in ``gpr_platform`` [m].
+        tool_commanded, tool_achieved: the tool point in ``gpr_base`` under the command and in reality [m].
+        tool_shift: ``tool_achieved - tool_commanded`` [m] (its z is zero to 1e-12 m).
+        arm_correction_rotation, arm_correction_quaternion, arm_correction_translation: ``C = T_a^-1 T_c``.
+        iterations: inverse-kinematics Newton steps.
+    """
+
+    q: Array
+    achieved: ForwardResult
+    command_tilt: float
+    command_azimuth: float
+    command_twist: float
+    tool_offset: Array
+    tool_commanded: Array
+    tool_achieved: Array
+    tool_shift: Array
+    arm_correction_rotation: Array
+    arm_correction_quaternion: Array
+    arm_correction_translation: Array
+    iterations: int
+
+    def correct(self, points: ArrayLike) -> Array:
+        """Apply the arm correction to targets ``(..., 3)`` given in the naive platform frame."""
+        p = np.asarray(points, dtype=float)
+        return p @ self.arm_correction_rotation.T + self.arm_correction_translation
+
+
+def _vector(values: ArrayLike, name: str, n: int) -> Array:
+    try:
+        v = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f'{name} must be {n} numbers, got {values!r}') from None
+    if v.shape != (n,):
+        raise InputError(f'{name} must be {n} numbers, got shape {v.shape}')
+    if not np.all(np.isfinite(v)):
+        raise InputError(f'{name} = {v.tolist()} contains NaN or infinity')
+    return v
+
+
+def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
+               config: GprConfig | None = None, model: str | None = None) -> CompensationResult:
+    """Actuator commands and arm correction for a naively commanded platform pose (module docstring).
+
+    Args:
+        position: commanded platform origin in ``gpr_base`` [m] (only the tool point's height is honoured).
+        quaternion: commanded platform orientation (x, y, z, w), unit norm (to 1e-6).
+        tool_offset: tool point in ``gpr_platform`` [m].
+
+    Raises:
+        InputError: NaN, infinity, wrong sizes, a non-unit quaternion.
+        LimitError: a commanded tilt beyond the tilt limit, or rod lengths outside the stroke.
+    """
+    cfg = resolve_config(config)
+    p_c = _vector(position, 'position', 3)
+    quat = _vector(quaternion, 'quaternion', 4)
+    norm = float(np.linalg.norm(quat))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise InputError(f'quaternion (x, y, z, w) = {quat.tolist()} has norm {norm:.9g}; a unit quaternion '
+                         f'(norm 1 +- {QUATERNION_NORM_TOLERANCE:g}) is required')
+    tool = _vector(tool_offset, 'tool_offset', 3)
+    R_c = matrix_from_quaternion(quat)
+    tilt, az, twist = (float(v) for v in tilt_from_matrix(R_c))
+    if tilt > cfg.tilt_limit:
+        raise LimitError(f'commanded tilt {tilt:.9g} rad ({np.degrees(tilt):.6g} deg) is beyond the tilt '
+                         f'limit {cfg.tilt_limit:.9g} rad ({np.degrees(cfg.tilt_limit):.6g} deg)')
+    tool_commanded = p_c + R_c @ tool
+    ik = inverse(float(tool_commanded[2]), tilt, az, config=cfg, model=model, tool=tool)
+    fk = ik.achieved
+    tool_achieved = fk.position + fk.rotation @ tool
+    C = fk.rotation.T @ R_c
+    return CompensationResult(
+        q=ik.q, achieved=fk, command_tilt=tilt, command_azimuth=az, command_twist=twist,
+        tool_offset=tool, tool_commanded=tool_commanded, tool_achieved=tool_achieved,
+        tool_shift=tool_achieved - tool_commanded, arm_correction_rotation=C,
+        arm_correction_quaternion=quaternion_from_matrix(C),
+        arm_correction_translation=fk.rotation.T @ (p_c - fk.position), iterations=ik.iterations)
