@@ -1,0 +1,108 @@
+"""6-SPS Gough-Stewart platform and the accuracy analysis of Alwan (seed stewart-accuracy-alwan.txt)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.accuracy import accuracy_analysis, linearized_deviation
+from gpr_kinematics.errors import ConfigError, InputError, SingularityError
+from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.mechanisms.stewart import StewartPlatform
+from gpr_kinematics.resources import config_path
+
+DEG = math.pi / 180
+
+
+@pytest.fixture(scope='module')
+def alwan() -> StewartPlatform:
+    return load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
+
+
+def test_pose1_leg_lengths_reproduce(alwan):
+    pose1 = np.array([0.66, -0.35, 1.8, -5 * DEG, 2 * DEG, 1.4 * DEG])
+    np.testing.assert_allclose(alwan.trajectory[0], pose1, atol=1e-15)
+    s = alwan.leg_lengths(pose1)
+    printed = np.array([2.003, 2.255, 2.375, 2.153, 1.948, 1.80])
+    half_digit = np.array([5e-4] * 5 + [5e-3])          # the last value is printed with two decimals
+    assert np.all(np.abs(s - printed) <= half_digit)
+
+
+def test_pose6_printed_lengths_do_not_reproduce(alwan):
+    """Documented: the paper's point-6 lengths are not those of its point-6 pose (any Euler order tried)."""
+    printed = np.array([2.318, 2.155, 2.02, 2.281, 2.38, 2.54])
+    s6 = alwan.leg_lengths(alwan.trajectory[5])
+    assert np.max(np.abs(s6 - printed)) > 0.02
+
+
+def test_forward_kinematics_round_trip(alwan):
+    s = alwan.leg_lengths(alwan.trajectory)
+    poses = alwan.forward(s)              # from the default start: untilted, centred
+    np.testing.assert_allclose(poses, alwan.trajectory, atol=1e-9)
+    np.testing.assert_allclose(alwan.leg_lengths(poses), s, atol=1e-12)
+
+
+def test_parameter_jacobian_closed_form_matches_differences(alwan):
+    pose = alwan.trajectory[2]
+    for name in ('A_i', 'B_i'):
+        closed = alwan.parameter_jacobian(pose, name)
+        fd = super(StewartPlatform, alwan).parameter_jacobian(pose, name)
+        np.testing.assert_allclose(closed, fd, atol=1e-7)
+
+
+def test_alwan_accuracy_linear_and_exact(alwan):
+    res = accuracy_analysis(alwan, alwan.trajectory, alwan.leg_deformations)
+    assert res.linearized.shape == (6, 6)
+    # Leg deformations of 0.12-0.45 mm move the centre by ~1.5-2.4 mm along x here (not the paper's 0.2 mm).
+    assert np.all(np.abs(res.linearized[:, 0]) > 1e-3) and np.all(np.abs(res.linearized[:, 0]) < 3e-3)
+    # The exact solution reproduces the perturbed leg lengths.
+    np.testing.assert_allclose(alwan.leg_lengths(res.exact_poses), alwan.leg_lengths(alwan.trajectory)
+                               + alwan.leg_deformations, atol=1e-12)
+    # Position agrees to second order (errors ~0.4 mm, lever ~1 m: differences of a few micrometres).
+    assert np.max(np.abs(res.difference[:, :3])) < 1e-5
+    # Near the Z-X-Z gimbal lock (theta = 2 deg at point 1) psi and phi deviations are large and opposite,
+    # while the rotation itself (rotation vector) moves by about 2 mrad.
+    assert abs(res.linearized[0, 3]) > 0.05 and res.linearized[0, 3] == pytest.approx(-res.linearized[0, 5],
+                                                                                       rel=0.05)
+    assert np.max(np.abs(res.exact_twist[:, 3:])) < 3e-3
+    np.testing.assert_allclose(res.linearized_twist, res.exact_twist, atol=1e-5)
+
+
+def test_exact_minus_linearized_is_second_order(alwan):
+    rng = np.random.default_rng(11)
+    ds, da, db = rng.normal(size=6), rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+    pose = alwan.trajectory[3]
+    diffs, lins = [], []
+    for eps in (1e-3, 1e-4, 1e-5):
+        res = accuracy_analysis(alwan, pose, ds * eps, {'A_i': da * eps, 'B_i': db * eps})
+        diffs.append(np.max(np.abs(res.difference)))
+        lins.append(np.max(np.abs(res.linearized)))
+    assert lins[0] / lins[1] == pytest.approx(10, rel=1e-9)
+    assert 70 < diffs[0] / diffs[1] < 130 and 70 < diffs[1] / diffs[2] < 130
+
+
+def test_singular_pose_is_detected_and_refused(alwan):
+    flat = np.array([0.0, 0.0, 0.0, 0.1, 0.0, 0.0])     # platform in the base plane: every leg horizontal
+    assert alwan.is_singular(flat)[0]
+    assert alwan.report(flat).singular
+    with pytest.raises(SingularityError, match='singular'):
+        linearized_deviation(alwan, flat, np.full(6, 1e-4))
+    assert not alwan.is_singular(alwan.trajectory).any()
+
+
+def test_yaml_validation():
+    base = {'type': 'stewart_6sps', 'base_radius': 1.2, 'base_azimuths': [0, 1, 2, 3, 4, 5],
+            'platform_radius': 0.4, 'platform_azimuths': [0, 1, 2, 3, 4, 5]}
+    mech = mechanism_from_dict(dict(base, workspace={'box': {}}), 's.yaml')
+    assert mech.euler_convention == 'ZXZ'
+    with pytest.raises(ConfigError, match=r's\.yaml: base_azimuths must be a list of 6 finite numbers'):
+        mechanism_from_dict(dict(base, base_azimuths=[0, 1]), 's.yaml')
+    with pytest.raises(ConfigError, match=r's\.yaml: platform_radius must be a positive'):
+        mechanism_from_dict(dict(base, platform_radius=0), 's.yaml')
+    with pytest.raises(ConfigError, match='leg_min = 2.0 must be below leg_max = 1.0'):
+        mechanism_from_dict(dict(base, leg_min=2.0, leg_max=1.0), 's.yaml')
+    with pytest.raises(InputError, match='joint errors must be 6 finite values'):
+        accuracy_analysis(mech, [0, 0, 1, 0, 0.3, 0], [1e-3, 2e-3])
+    with pytest.raises(InputError, match="unknown geometric parameter 'C_i'; allowed: A_i, B_i"):
+        accuracy_analysis(mech, [0, 0, 1, 0, 0.3, 0], None, {'C_i': np.zeros((6, 3))})

@@ -1,0 +1,161 @@
+"""3-UPU (seed 3upu-aboulissane.txt) and 3-RPS tripod (seed workspace-nonuniform-covering-posypkin.txt)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.accuracy import accuracy_analysis
+from gpr_kinematics.dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
+from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.mechanisms.tripod import parasitic_motion
+from gpr_kinematics.mechanisms.upu3 import UPU3
+from gpr_kinematics.resources import config_path
+
+
+@pytest.fixture(scope='module')
+def upu():
+    return load_mechanism(config_path('mechanisms/upu3.yaml'))
+
+
+@pytest.fixture(scope='module')
+def tripod():
+    return load_mechanism(config_path('mechanisms/tripod_3rps.yaml'))
+
+
+# ---------------------------------------------------------------- 3-UPU
+def test_upu_inverse_kinematics_eq6(upu):
+    assert (upu.b, upu.p) == (0.2, 0.17)
+    np.testing.assert_allclose(upu.joint_limits, [[0.17, 0.27]] * 3)
+    h = np.array([0.01, -0.02, 0.2])
+    pose = np.concatenate([h, [0.3, 0.2, 0.1]])          # angles are ignored: the platform only translates
+    u = upu.base_points - upu.platform_points             # eq. (3)
+    expected = np.sqrt(np.sum((h - u) ** 2, axis=1))      # eq. (6)
+    np.testing.assert_allclose(upu.inverse_kinematics(pose), expected, atol=1e-15)
+    np.testing.assert_allclose(upu.complete_pose(pose)[3:], 0.0)
+    # At the centre line every limb has length sqrt((b - p)^2 + z^2).
+    np.testing.assert_allclose(upu.inverse_kinematics([0, 0, 0.2, 0, 0, 0]), np.hypot(0.03, 0.2), atol=1e-15)
+
+
+def test_upu_jacobian_unit_limb_vectors(upu):
+    rng = np.random.default_rng(5)
+    poses = np.column_stack([rng.uniform(-0.03, 0.03, (6, 2)), rng.uniform(0.17, 0.25, 6), np.zeros((6, 3))])
+    J = upu.unit_limb_jacobian(poses)
+    np.testing.assert_allclose(np.linalg.norm(J, axis=-1), 1.0, atol=1e-15)
+    h = 1e-7
+    for k in range(3):
+        d = np.zeros(6)
+        d[k] = h
+        fd = (upu.inverse_kinematics(poses + d) - upu.inverse_kinematics(poses - d)) / (2 * h)
+        np.testing.assert_allclose(J[:, :, k], fd, atol=1e-8)
+    np.testing.assert_allclose(upu.task_jacobian(poses), J, atol=0)
+
+
+def test_upu_singularities(upu):
+    # Coplanar limbs: the platform in the base plane.
+    assert upu.singularity([0.01, 0.02, 0.0, 0, 0, 0])[0] == 'coplanar'
+    assert upu.is_singular([0.01, 0.02, 0.0, 0, 0, 0])[0]
+    # Parallel limbs: identical base and platform, untranslated sideways.
+    twin = UPU3(b=0.2, p=0.2, limb_min=0.1, limb_max=0.3)
+    assert twin.singularity([0, 0, 0.2, 0, 0, 0])[0] == 'parallel'
+    assert twin.singularity([0.05, -0.03, 0.2, 0, 0, 0])[0] == 'parallel'   # b = p: always parallel
+    # Regular inside the workspace.
+    assert upu.singularity([0.01, 0.02, 0.2, 0, 0, 0])[0] == ''
+    assert not upu.is_singular([0.01, 0.02, 0.2, 0, 0, 0])[0]
+
+
+def test_upu_dexterity_against_height_fig6(upu, tmp_path):
+    z = np.linspace(0.17, 0.27, 21)
+    dmap = dexterity_sweep(upu, np.zeros(6), 'z', z)
+    a, c = np.sqrt(1.5) * (upu.b - upu.p), np.sqrt(3) * z
+    np.testing.assert_allclose(dmap.dexterity, np.minimum(a, c) / np.maximum(a, c), atol=1e-14)
+    assert np.all(np.diff(dmap.dexterity) < 0)            # falls with height (the paper's Fig. 6)
+    assert dmap.within_limits[:-2].all()                  # the limbs stay in [170, 270] mm up to z ~ 0.268
+    png = plot_dexterity(dmap, tmp_path / 'fig6.png')
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    grid = dexterity_grid(upu, np.zeros(6), 'x', np.linspace(-0.02, 0.02, 5), 'z', np.linspace(0.18, 0.25, 4))
+    assert grid.dexterity.shape == (5, 4)
+    np.testing.assert_allclose(grid.dexterity[2], dexterity_sweep(upu, np.zeros(6), 'z', grid.values2).dexterity)
+    with pytest.raises(InputError, match="cannot vary 'A'"):
+        dexterity_sweep(upu, np.zeros(6), 'A', [0.1])
+
+
+def test_upu_accuracy_second_order(upu):
+    pose = [0.01, 0.02, 0.21, 0, 0, 0]
+    rng = np.random.default_rng(8)
+    e, db = rng.normal(size=3), rng.normal(size=(3, 3))
+    d = [np.max(np.abs(accuracy_analysis(upu, pose, e * eps, {'base_points': db * eps}).difference))
+         for eps in (1e-4, 1e-5)]
+    assert 70 < d[0] / d[1] < 130
+
+
+def test_upu_yaml_errors():
+    good = {'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.17, 'limb_max': 0.27}
+    assert mechanism_from_dict(dict(good, workspace={'box': {}}), 'u.yaml').n_joints == 3
+    with pytest.raises(ConfigError, match=r'u\.yaml: b must be a positive finite length'):
+        mechanism_from_dict(dict(good, b=-1), 'u.yaml')
+    with pytest.raises(ConfigError, match=r'u\.yaml: limb_min = 0\.3 must be below limb_max = 0\.27'):
+        mechanism_from_dict(dict(good, limb_min=0.3), 'u.yaml')
+    with pytest.raises(ConfigError, match=r'u\.yaml: missing key p'):
+        mechanism_from_dict({k: v for k, v in good.items() if k != 'p'}, 'u.yaml')
+
+
+# ---------------------------------------------------------------- 3-RPS tripod
+def _paper_rotation(theta, psi, phi):
+    """Eq. (3) of the tripod seed, element by element."""
+    ct, st, cp, sp, cf, sf = np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi), np.cos(phi), np.sin(phi)
+    return np.array([[ct * cf + sp * st * sf, -ct * sf + sp * st * cf, st * cp],
+                     [cp * sf, cp * cf, -sp],
+                     [-st * cf + sp * ct * sf, st * sf + sp * ct * cf, ct * cp]])
+
+
+def test_tripod_parasitic_motion_and_rotation(tripod):
+    assert (tripod.base_radius, tripod.platform_radius) == (0.05, 0.05)
+    np.testing.assert_allclose(tripod.joint_limits, [[0.07, 0.13]] * 3)
+    rng = np.random.default_rng(9)
+    for theta, psi in rng.uniform(-0.5, 0.5, (6, 2)):
+        pose = tripod.complete_pose([0, 0, 0.1, theta, psi, 0])
+        phi, x, y = parasitic_motion(theta, psi, 0.05)
+        np.testing.assert_allclose(pose, [x, y, 0.1, theta, psi, phi], atol=1e-15)
+        np.testing.assert_allclose(tripod.rotation(pose)[0], _paper_rotation(theta, psi, phi), atol=1e-15)
+        R = _paper_rotation(theta, psi, phi)
+        # Eq. (5): leg 1 (in the xz plane).
+        L1 = np.hypot(x + 0.05 * R[0, 0] - 0.05, 0.1 + 0.05 * R[2, 0])
+        assert tripod.inverse_kinematics(pose)[0] == pytest.approx(L1, abs=1e-15)
+    assert parasitic_motion(0.0, 0.3, 0.05)[0] == 0.0 and parasitic_motion(0.2, 0.0, 0.05)[0] == 0.0
+
+
+def test_tripod_spherical_joints_lie_in_leg_planes(tripod):
+    rng = np.random.default_rng(10)
+    poses = np.column_stack([np.zeros((200, 2)), rng.uniform(0.05, 0.12, 200), rng.uniform(-1.0, 1.0, (200, 2)),
+                             np.zeros(200)])
+    assert np.max(np.abs(tripod.plane_residuals(poses))) < 1e-15
+    # Without the parasitic motions the joints leave their planes.
+    R = tripod.rotation(np.column_stack([poses[:, :5], np.zeros(200)]))
+    P = np.einsum('nij,kj->nki', R, tripod.platform_points)
+    normal = np.column_stack([-np.sin([0, 2 * np.pi / 3, 4 * np.pi / 3]), np.cos([0, 2 * np.pi / 3, 4 * np.pi / 3]),
+                              np.zeros(3)])
+    assert np.max(np.abs(np.einsum('nki,ki->nk', P, normal))) > 1e-3
+
+
+def test_tripod_task_jacobian_matches_finite_differences(tripod):
+    rng = np.random.default_rng(12)
+    poses = np.column_stack([np.zeros((5, 2)), rng.uniform(0.08, 0.11, 5), rng.uniform(-0.4, 0.4, (5, 2)),
+                             np.zeros(5)])
+    J = tripod.task_jacobian(poses)
+    h = 1e-7
+    for k, idx in enumerate((2, 3, 4)):
+        d = np.zeros(6)
+        d[idx] = h
+        fd = (tripod.inverse_kinematics(poses + d) - tripod.inverse_kinematics(poses - d)) / (2 * h)
+        np.testing.assert_allclose(J[:, :, k], fd, atol=1e-8)
+    assert np.all(tripod.condition_number(poses) < 10)
+
+
+def test_tripod_accuracy_second_order_and_limits(tripod):
+    pose = [0, 0, 0.1, 0.1, -0.15, 0]
+    d = [np.max(np.abs(accuracy_analysis(tripod, pose, np.array([1.0, -0.5, 0.3]) * eps).difference))
+         for eps in (1e-4, 1e-5)]
+    assert 70 < d[0] / d[1] < 130
+    with pytest.raises(InputError, match=r'joint L1 = .* is outside its limits \[0\.07, 0\.13\] m'):
+        tripod.check_limits(tripod.inverse_kinematics([0, 0, 0.2, 0, 0, 0]))
