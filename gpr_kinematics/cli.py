@@ -20,7 +20,7 @@ import numpy as np
 
 from .errors import GprError
 
-PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace',)
+PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace', 'gpr_kinematics.cli_mechanisms')
 
 EXIT_USAGE = 2
 
