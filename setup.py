@@ -14,6 +14,7 @@ setup(
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
         ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
+        ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
     zip_safe=True,
@@ -26,6 +27,8 @@ setup(
     entry_points={
         'console_scripts': [
             'gpr = gpr_kinematics.cli:main',
+            'kinematics_node = gpr_kinematics.nodes.kinematics_node:main',
+            'trajectory_node = gpr_kinematics.nodes.trajectory_node:main',
         ],
     },
 )

@@ -102,6 +102,38 @@ def find_executable(package: str, executable: str, env: Mapping[str, str] | None
     raise FileNotFoundError(f'package {package!r} not found in the ament index (AMENT_PREFIX_PATH)')
 
 
+def activate(install: Path | None = None) -> dict[str, str]:
+    """Put the current process into the ROS environment of :func:`ros_environment`, without a re-exec.
+
+    Sets the variables in ``os.environ`` (the ROS libraries read them at run time), prepends the install's
+    Python folders to ``sys.path`` and preloads the colcon-built interface libraries
+    (``install/<pkg>/lib/lib*.so``) with ``RTLD_GLOBAL``: the generated C extensions name them as
+    ``DT_NEEDED`` entries, which the dynamic loader resolves against already loaded objects, since
+    ``LD_LIBRARY_PATH`` is read only when a process starts. Idempotent; returns the environment.
+    """
+    import ctypes
+
+    env = ros_environment(install=install)
+    os.environ.update(env)
+    for p in reversed(env['PYTHONPATH'].split(os.pathsep)):
+        if p and p not in sys.path:
+            sys.path.insert(0, p)
+    inst = install or install_dir()
+    pending = sorted(p for name in COLCON_PACKAGES for p in (inst / name / 'lib').glob('lib*.so'))
+    # Load in dependency order: retry what fails until no library loads any more.
+    while pending:
+        failed = []
+        for lib in pending:
+            try:
+                ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+            except OSError:
+                failed.append(lib)
+        if len(failed) == len(pending):
+            ctypes.CDLL(str(failed[0]), mode=ctypes.RTLD_GLOBAL)  # raises, naming the missing dependency
+        pending = failed
+    return env
+
+
 def _cmake_replacements() -> list[tuple[str, str]]:
     import numpy  # the venv's numpy, whose headers the generated C extensions compile against
 
@@ -136,6 +168,7 @@ def fix_wheels(prefix: Path | None = None) -> int:
 
 def _check() -> int:
     import rclpy
+
     from gpr_interfaces.msg import PlatformState
     from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 

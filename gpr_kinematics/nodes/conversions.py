@@ -1,0 +1,117 @@
+"""Conversions between ROS messages and the numpy core (SI units: metres, radians; REP 103).
+
+Quaternions are (x, y, z, w) both in geometry_msgs and in the core. Incoming messages are checked here
+(finite numbers, unit quaternions) and a bad field raises :class:`~gpr_kinematics.errors.InputError` naming
+the field, its value and what is allowed; the core checks the machine's limits (stroke, tilt).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import Point, Pose, Quaternion, Transform, Vector3
+
+from ..errors import InputError
+from ..geometry import matrix_from_quaternion, tilt_from_matrix
+
+#: Largest accepted deviation of a request quaternion's norm from 1 (messages carry unit quaternions).
+QUATERNION_NORM_TOLERANCE = 1e-6
+
+
+def finite_vector(values: Sequence[float], name: str, size: int) -> np.ndarray:
+    """``values`` as a float array of length ``size``, all finite; else :class:`InputError`."""
+    a = np.asarray(values, dtype=float).reshape(-1)
+    if a.shape[0] != size:
+        raise InputError(f'{name} must have {size} elements, got {a.shape[0]}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number; allowed: finite values in SI units')
+    return a
+
+
+def point_array(p: Point | Vector3, name: str) -> np.ndarray:
+    """(x, y, z) of a Point or Vector3 [m], checked finite."""
+    return finite_vector((p.x, p.y, p.z), name, 3)
+
+
+def quaternion_array(q: Quaternion, name: str) -> np.ndarray:
+    """(x, y, z, w) of a Quaternion, checked finite and of unit norm (within 1e-6)."""
+    a = finite_vector((q.x, q.y, q.z, q.w), name, 4)
+    norm = float(np.linalg.norm(a))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise InputError(f'{name} = ({a[0]:.9g}, {a[1]:.9g}, {a[2]:.9g}, {a[3]:.9g}) has norm {norm:.9g}; '
+                         f'allowed: a unit quaternion (x, y, z, w), |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
+    return a / norm
+
+
+def pose_arrays(pose: Pose, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Position [m] and unit quaternion (x, y, z, w) of a Pose, checked."""
+    return point_array(pose.position, f'{name}.position'), quaternion_array(pose.orientation,
+                                                                             f'{name}.orientation')
+
+
+def tilt_of_quaternion(quat: np.ndarray) -> tuple[float, float, float]:
+    """(tilt >= 0, tilt azimuth in (-pi, pi], twist) [rad] of a unit quaternion.
+
+    ``R = tilt_rotation(tilt, azimuth) @ Rz(twist)`` (geometry.tilt_from_matrix).
+    """
+    tilt, az, twist = tilt_from_matrix(matrix_from_quaternion(quat))
+    return float(tilt), float(az), float(twist)
+
+
+def _set_vector(msg: Any, values: Sequence[float]) -> Any:
+    msg.x, msg.y, msg.z = (float(v) for v in values)
+    return msg
+
+
+def point_msg(values: Sequence[float]) -> Point:
+    return _set_vector(Point(), values)
+
+
+def vector_msg(values: Sequence[float]) -> Vector3:
+    return _set_vector(Vector3(), values)
+
+
+def quaternion_msg(values: Sequence[float]) -> Quaternion:
+    x, y, z, w = (float(v) for v in values)
+    return Quaternion(x=x, y=y, z=z, w=w)
+
+
+def pose_msg(position: Sequence[float], quaternion: Sequence[float]) -> Pose:
+    """Pose from a position [m] and a quaternion (x, y, z, w)."""
+    return Pose(position=point_msg(position), orientation=quaternion_msg(quaternion))
+
+
+def transform_msg(translation: Sequence[float], quaternion: Sequence[float]) -> Transform:
+    """Transform from a translation [m] and a quaternion (x, y, z, w)."""
+    return Transform(translation=vector_msg(translation), rotation=quaternion_msg(quaternion))
+
+
+def fill_forward(msg: Any, fk: Any) -> Any:
+    """Copy a core ``ForwardResult`` into a message with the ForwardKinematics response / PlatformState
+    fields (pose, nominal_pose, virtual joints, side lengths, centre shift, tilt, residual...)."""
+    msg.model = str(fk.model)
+    msg.pose = pose_msg(fk.position, fk.quaternion)
+    msg.nominal_pose = pose_msg(fk.nominal_position, fk.nominal_quaternion)
+    msg.virtual_joints = [float(v) for v in np.asarray(fk.virtual_joints).reshape(-1)]
+    msg.virtual_joint_names = [str(n) for n in fk.virtual_joint_names]
+    msg.side_lengths = np.asarray(fk.side_lengths, dtype=float).reshape(3)
+    msg.centre_shift = vector_msg(fk.centre_shift)
+    msg.tilt = float(fk.tilt)
+    msg.tilt_azimuth = float(fk.tilt_azimuth)
+    msg.twist = float(fk.twist)
+    msg.joint_displacement = np.asarray(fk.joint_displacement, dtype=float).reshape(3)
+    msg.within_budget = bool(fk.within_budget)
+    msg.iterations = int(fk.iterations)
+    msg.residual = float(fk.residual)
+    return msg
+
+
+def non_negative_finite(value: float, name: str) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise InputError(f'{name} = {value!r} is invalid; allowed: a finite number >= 0')
+    return v

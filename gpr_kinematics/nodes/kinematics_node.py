@@ -1,0 +1,163 @@
+"""``kinematics_node``: GPR forward/inverse kinematics, compensation and mobility analysis as ROS 2 services.
+
+Services (relative names, so ``__ns`` and remapping apply), types from ``gpr_interfaces``:
+
+- ``gpr/forward_kinematics`` (ForwardKinematics): rod lengths -> platform pose (core ``kinematics.forward``);
+- ``gpr/inverse_kinematics`` (InverseKinematics): height and tilt of ``target`` -> rod lengths
+  (core ``kinematics.inverse``; the tilt and tilt azimuth come from ``target.orientation`` through
+  ``R = tilt_rotation(tilt, azimuth) Rz(twist)``, the twist is an outcome);
+- ``gpr/compensate`` (Compensate): naive command pose + tool offset -> rod lengths, reached pose, tool shift
+  and arm correction (core ``compensation.compensate``);
+- ``gpr/analyze_mobility`` (AnalyzeMobility): ranks, singular values and the bounds of paper eq. (4), (5)
+  (core ``mobility.analyze_mobility``).
+
+Parameters: the GprConfig keys (see :mod:`.params`). Units SI (m, rad). A bad request (NaN, infinity, ``q``
+outside the stroke, a tilt beyond ``tilt_limit``, an unknown model, a non-unit quaternion) is answered with
+``success: false`` and a message naming the problem, logged at warning level; the node goes on serving.
+No exception escapes a callback (one would end the spin and leave the client waiting).
+"""
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from rclpy.node import Node
+
+from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
+
+from ..compensation import compensate
+from ..errors import GprError
+from ..kinematics import forward, inverse
+from ..mobility import analyze_mobility, rod_perturbation
+from .conversions import (
+    fill_forward,
+    finite_vector,
+    point_array,
+    pose_arrays,
+    pose_msg,
+    tilt_of_quaternion,
+    transform_msg,
+    vector_msg,
+)
+from .params import ConfigParameters
+from .runtime import run
+
+NODE_NAME = 'kinematics_node'
+
+
+def _model(name: str) -> str | None:
+    """Empty model string: the node's default (``None`` for the core)."""
+    name = name.strip()
+    return name or None
+
+
+def guarded(service: str) -> Callable:
+    """Wrap a service callback: any exception becomes ``success: false`` + message, logged at warning."""
+
+    def wrap(fn: Callable) -> Callable:
+        @functools.wraps(fn)
+        def inner(self: KinematicsNode, request: Any, response: Any) -> Any:
+            try:
+                fn(self, request, response)
+                response.success = True
+                response.message = ''
+            except GprError as exc:
+                response.success = False
+                response.message = str(exc)
+                self.get_logger().warning(f'{service}: rejected request: {exc}')
+            except Exception as exc:  # noqa: BLE001 - nothing may escape a service callback
+                response.success = False
+                response.message = f'internal error: {type(exc).__name__}: {exc}'
+                self.get_logger().warning(f'{service}: internal error on request: {type(exc).__name__}: {exc}')
+            return response
+
+        return inner
+
+    return wrap
+
+
+class KinematicsNode(Node):
+    """Thin adapter: messages -> core calls -> messages."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(NODE_NAME, **kwargs)
+        self.params = ConfigParameters(self)
+        self.create_service(ForwardKinematics, 'gpr/forward_kinematics', self.on_forward)
+        self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse)
+        self.create_service(Compensate, 'gpr/compensate', self.on_compensate)
+        self.create_service(AnalyzeMobility, 'gpr/analyze_mobility', self.on_mobility)
+        cfg = self.params.config
+        self.get_logger().info(f'serving gpr/forward_kinematics, gpr/inverse_kinematics, gpr/compensate, '
+                               f'gpr/analyze_mobility (model {cfg.model}, R = {cfg.radius} m, stroke '
+                               f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad)')
+
+    @property
+    def config(self) -> Any:
+        return self.params.config
+
+    @guarded('forward_kinematics')
+    def on_forward(self, request: ForwardKinematics.Request, response: ForwardKinematics.Response) -> None:
+        q = finite_vector(request.q, 'q', 3)
+        fk = forward(q, self.config, _model(request.model))
+        fill_forward(response, fk)
+
+    @guarded('inverse_kinematics')
+    def on_inverse(self, request: InverseKinematics.Request, response: InverseKinematics.Response) -> None:
+        position, quat = pose_arrays(request.target, 'target')
+        tilt, azimuth, _twist = tilt_of_quaternion(quat)
+        ik = inverse(float(position[2]), tilt, azimuth, self.config, _model(request.model))
+        fk = ik.achieved
+        response.q = np.asarray(ik.q, dtype=float).reshape(3)
+        response.achieved = pose_msg(fk.position, fk.quaternion)
+        response.tilt = float(fk.tilt)
+        response.tilt_azimuth = float(fk.tilt_azimuth)
+        response.twist = float(fk.twist)
+        response.iterations = int(ik.iterations)
+
+    @guarded('compensate')
+    def on_compensate(self, request: Compensate.Request, response: Compensate.Response) -> None:
+        position, quat = pose_arrays(request.command, 'command')
+        tool = point_array(request.tool_offset, 'tool_offset')
+        res = compensate(position, quat, tool_offset=tool, config=self.config, model=_model(request.model))
+        fk = res.achieved
+        response.q = np.asarray(res.q, dtype=float).reshape(3)
+        response.achieved = pose_msg(fk.position, fk.quaternion)
+        response.tool_shift = vector_msg(res.tool_shift)
+        response.arm_correction = transform_msg(res.arm_correction_translation, res.arm_correction_quaternion)
+
+    @guarded('analyze_mobility')
+    def on_mobility(self, request: AnalyzeMobility.Request, response: AnalyzeMobility.Response) -> None:
+        q = finite_vector(request.q, 'q', 3)
+        dq = finite_vector(request.dq, 'dq', 3)
+        res = analyze_mobility(q, self.config, _model(request.model))
+        fill_mobility(response, res, dq)
+
+
+def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
+    """Copy a core ``MobilityResult`` into an AnalyzeMobility response; with a non-zero ``dq`` [m] also
+    ``|dX|`` and the bounds (4), (5) for ``dP = rod_perturbation(dq)``."""
+    response.rank_dphi_dp = int(res.rank_dphi_dp)
+    response.rank_augmented = int(res.rank_augmented)
+    response.mobility = int(res.mobility)
+    response.singular_values = [float(v) for v in np.asarray(res.singular_values).reshape(-1)]
+    response.eigenvalues = [float(v) for v in np.asarray(res.eigenvalues).reshape(-1)]
+    response.eq4_lower, response.eq4_upper = (float(v) for v in res.bounds['eq4'])
+    response.eq5_lower, response.eq5_upper = (float(v) for v in res.bounds['eq5'])
+    if dq is not None and np.any(dq != 0.0):
+        b = res.dx_bounds(rod_perturbation(dq))
+        response.dx_norm = b.norm_dx
+        response.dx_lower_eq4, response.dx_upper_eq4 = b.lower_eq4, b.upper_eq4
+        response.dx_lower_eq5, response.dx_upper_eq5 = b.lower_eq5, b.upper_eq5
+    return response
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    return run(NODE_NAME, KinematicsNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())
+

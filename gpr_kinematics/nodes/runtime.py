@@ -1,0 +1,48 @@
+"""Process life cycle shared by the nodes: init, spin, clean exit on SIGINT/SIGTERM."""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from ..errors import GprError
+
+#: Exit status when the node cannot start (bad parameters, unreadable program).
+EXIT_BAD_CONFIG = 2
+
+
+def run(name: str, factory: Callable[[], Node], args: Sequence[str] | None = None,
+        spin: Callable[[Node], int] | None = None) -> int:
+    """Init rclpy, build the node and spin it until shutdown.
+
+    Returns 0 after SIGINT/SIGTERM (rclpy's signal handlers turn them into ``KeyboardInterrupt`` or
+    ``ExternalShutdownException``; caught here: no traceback) or when ``spin`` returns 0;
+    :data:`EXIT_BAD_CONFIG` when the node cannot start, with one error line naming the problem.
+    """
+    rclpy.init(args=args)
+    node = None
+    status = 0
+    try:
+        node = factory()
+        status = spin(node) if spin is not None else _spin_forever(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        status = 0
+    except (GprError, ParameterException) as exc:
+        rclpy.logging.get_logger(name).error(f'cannot start: {exc}')
+        status = EXIT_BAD_CONFIG
+    finally:
+        if node is not None:
+            try:
+                node.destroy_node()
+            except Exception:  # noqa: BLE001 - leaving anyway; never a traceback on exit
+                pass
+        rclpy.try_shutdown()
+    return status
+
+
+def _spin_forever(node: Node) -> int:
+    rclpy.spin(node)
+    return 0
