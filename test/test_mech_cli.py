@@ -1,0 +1,158 @@
+"""``gpr mechanism``, ``gpr accuracy`` and ``gpr dexterity``: JSON output and one-line errors (exit 2)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from gpr_kinematics.cli import main
+from gpr_kinematics.resources import config_path
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:          # argparse usage errors (already one line, status 2)
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_mechanism_json_asymmetric_gsp(capsys):
+    code, out, err = run(capsys, 'mechanism', str(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml')),
+                         '--pose', '7', '-8', '124', '2', '5', '-5', '--mm', '--deg', '--json')
+    assert code == 0, err
+    data = json.loads(out)
+    assert [j['type'] for j in data['joints']] == ['D1', 'D2', 'D3', 'D4', 'A1', 'A1']
+    vals = [j['value'] for j in data['joints']]
+    np.testing.assert_allclose(np.array(vals[:3]) * 1e3, [133.007, 87.5579, 130.427], atol=6e-4)
+    np.testing.assert_allclose(np.degrees(vals[4:]), [34.0845, 44.0236], atol=6e-5)
+    assert [j['unit'] for j in data['joints']] == ['m'] * 4 + ['rad'] * 2
+    J = np.array(data['inverse_jacobian'])
+    H = np.array(data['homogenized_inverse_jacobian'])
+    assert J.shape == H.shape == (6, 6)
+    np.testing.assert_allclose(H[:4, 3:], J[:4, 3:] / 0.16)
+    assert data['condition_number'] > 1 and data['singular'] is False
+    assert data['pose']['z'] == pytest.approx(0.124)
+
+
+def test_mechanism_text_and_help(capsys):
+    code, out, _ = run(capsys, 'mechanism', 'gsp_d3_6.yaml', '--pose', '0.01', '-0.01', '0.138', '5', '-5', '-10',
+                       '--deg')
+    assert code == 0 and '0.143908863 m' in out and 'condition number' in out
+    with pytest.raises(SystemExit):
+        main(['mechanism', '--help'])
+    helptext = capsys.readouterr().out
+    assert "from_euler('xyz', [A, B, C])" in helptext and 'ZXZ' in helptext
+
+
+def test_tripod_and_upu_json(capsys):
+    code, out, _ = run(capsys, 'mechanism', 'tripod_3rps.yaml', '--pose', '0', '0', '0.1', '0.1', '0.2', '0',
+                       '--json')
+    data = json.loads(out)
+    assert code == 0 and max(abs(r) for r in data['plane_residuals']) < 1e-15
+    assert data['pose']['phi'] == pytest.approx(math.atan(math.sin(0.2) * math.sin(0.1) /
+                                                          (math.cos(0.2) + math.cos(0.1))))
+    code, out, _ = run(capsys, 'mechanism', 'upu3.yaml', '--pose', '0', '0', '200', '0', '0', '0', '--mm', '--json')
+    data = json.loads(out)
+    assert code == 0 and data['singularity'] is None and len(data['joints']) == 3
+
+
+def test_singular_pose_reported(capsys):
+    code, out, _ = run(capsys, 'mechanism', 'stewart_alwan.yaml', '--pose', '0', '0', '0', '0.1', '0', '0', '--json')
+    data = json.loads(out)
+    assert code == 0 and data['singular'] is True and data['condition_number'] is None or data[
+        'condition_number'] > 1e9
+
+
+def test_accuracy_json_trajectory(capsys):
+    code, out, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', '--json')
+    assert code == 0, err
+    data = json.loads(out)
+    assert len(data['results']) == 6
+    first = data['results'][0]
+    assert first['variables'] == ['x', 'y', 'z', 'A', 'B', 'C']
+    assert abs(first['exact']['x'] - first['linearized']['x']) < 1e-5
+    np.testing.assert_allclose(first['joint_errors'], [0.00012, 0.00045, 0.00026, 0.00032, 0.00028, 0.00041])
+
+
+def test_accuracy_gpr_with_imperfections(capsys):
+    code, out, err = run(capsys, 'accuracy', 'gpr.yaml', '--pose', '0', '0', '300', '0.01', '0', '0',
+                         '--errors', '0.1', '0', '-0.1', '--mm', '--parameter-error', 'joint_imperfections',
+                         *(['0.05'] * 9), '--json')
+    assert code == 0, err
+    res = json.loads(out)['results'][0]
+    assert res['variables'] == ['z', 'tilt_x', 'tilt_y']
+    np.testing.assert_allclose(res['joint_errors'], [1e-4, 0, -1e-4])
+    # Second order: errors of ~0.1 mm over a 93 mm joint circle leave ~0.1 um between the two.
+    assert max(abs(v) for v in res['difference'].values()) < 5e-7
+    assert max(abs(v) for v in res['linearized'].values()) > 1e-5
+
+
+def test_dexterity_plot_and_json(capsys, tmp_path):
+    png = tmp_path / 'd.png'
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'z', '170', '260', '10', '--mm', '--plot',
+                         str(png), '--json')
+    assert code == 0, err
+    data = json.loads(out)
+    assert data['variable'] == 'z' and len(data['values']) == 10
+    assert data['values'][0] == pytest.approx(0.17) and all(np.diff(data['dexterity']) < 0)
+    assert png.read_bytes()[:4] == b'\x89PNG'
+    code, out, _ = run(capsys, 'dexterity', 'gpr.yaml')
+    assert code == 0 and 'tilt_x' in out
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['mechanism', 'upu3.yaml', '--pose', '0', '0', '0.3', '0', '0', '0'], 'is outside its limits'),
+    (['mechanism', 'upu3.yaml', '--pose', '0', '0', '0.2', '0.1', '0', '0'], 'only translates'),
+    (['mechanism', 'nosuch.yaml', '--pose', '0', '0', '0.2', '0', '0', '0'], 'not found'),
+    (['mechanism', 'gpr.yaml', '--pose', '0', '0', '0.3', '5', '0', '0', '--deg'], 'tilt limit'),
+    (['mechanism', 'upu3.yaml', '--pose', '0', '0', 'nan', '0', '0', '0'], 'not a finite number'),
+    (['accuracy', 'upu3.yaml', '--pose', '0', '0', '0.2', '0', '0', '0', '--errors', '1', '2'], 'takes 3 values'),
+    (['accuracy', 'upu3.yaml', '--pose', '0', '0', '0.2', '0', '0', '0', '--parameter-error', 'foo', '1'],
+     "unknown parameter 'foo'"),
+    (['accuracy', 'upu3.yaml'], 'give --pose'),
+    (['dexterity', 'upu3.yaml', '--vary', 'A', '0', '1', '5'], "cannot vary 'A'"),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '1', '0', '5'], 'need MIN < MAX'),
+])
+def test_bad_input_exits_2_with_one_line(capsys, argv, message):
+    code, out, err = run(capsys, *argv)
+    assert code == 2
+    assert message in err and err.count('\n') == 1 and 'Traceback' not in err
+
+
+def test_bad_files_exit_2(capsys, tmp_path):
+    data = yaml.safe_load(config_path('mechanisms/gsp_d3_6.yaml').read_text())
+    cases = {
+        'unknown.yaml': lambda d: d['constraints'][0].update(type='D9'),
+        'degenerate.yaml': lambda d: d['constraints'][0].update(A_j=d['constraints'][0]['A_i']),
+        'count.yaml': lambda d: d['constraints'][0].update(B_j=[0, 0, 0]),
+    }
+    expected = {'unknown.yaml': "type = 'D9' is not a constraint type",
+                'degenerate.yaml': 'degenerate base line K',
+                'count.yaml': 'a D3 constraint takes the points A_i, A_j, B_i; got the extra point(s) B_j'}
+    for name, mutate in cases.items():
+        d = yaml.safe_load(yaml.safe_dump(data))
+        mutate(d)
+        path = tmp_path / name
+        path.write_text(yaml.safe_dump(d))
+        code, _, err = run(capsys, 'mechanism', str(path), '--pose', '0', '0', '0.13', '0', '0', '0')
+        assert code == 2 and str(path) in err and expected[name] in err and err.count('\n') == 1
+
+
+def test_singular_pose_asked_for_an_inverse_exits_2(capsys, tmp_path):
+    # An A1 constraint at theta = 0 has no inverse-Jacobian row; accuracy needs the inverse.
+    legs = [{'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a), 0.5 * math.sin(a), 0]}
+            for a in np.linspace(0, 2 * math.pi, 5, endpoint=False)]
+    legs.append({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0], 'B_j': [0, 0, 1]})
+    path = tmp_path / 'a1.yaml'
+    path.write_text(yaml.safe_dump({'type': 'gsp', 'constraints': [
+        {k: (list(map(float, v)) if k != 'type' else v) for k, v in c.items()} for c in legs]}))
+    code, _, err = run(capsys, 'mechanism', str(path), '--pose', '0', '0', '1', '0', '0', '0')
+    assert code == 2 and 'not defined' in err
+    code, _, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '0', '0.1', '0', '0',
+                       '--errors', '0', '0', '0', '0', '0', '1e-4')
+    assert code == 2 and 'singular' in err and err.count('\n') == 1

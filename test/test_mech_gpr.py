@@ -1,0 +1,99 @@
+"""The GPR under the mechanism analyses: Jacobians from the core, accuracy, conditioning at the singularity."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.accuracy import accuracy_analysis
+from gpr_kinematics.dexterity import dexterity_sweep
+from gpr_kinematics.errors import ConfigError, LimitError
+from gpr_kinematics.kinematics import forward, inverse
+from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.resources import config_path
+
+DEG = math.pi / 180
+
+
+@pytest.fixture(scope='module')
+def gpr():
+    return load_mechanism(config_path('mechanisms/gpr.yaml'))
+
+
+POSES = np.array([[0, 0, 0.3, 0.0, 0.0, 0],            # the singular configuration q1 = q2 = q3
+                  [0, 0, 0.3, 1e-7, 0.0, 0],           # next to it
+                  [0, 0, 0.25, 1.0 * DEG, 0.0, 0],
+                  [0, 0, 0.4, 1.2 * DEG, -1.5 * DEG, 0]])
+
+
+def test_inverse_kinematics_is_the_core(gpr):
+    q = gpr.inverse_kinematics(POSES)
+    for i, p in enumerate(POSES):
+        ref = inverse(p[2], math.hypot(p[3], p[4]), math.atan2(p[4], p[3]), gpr.config)
+        np.testing.assert_allclose(q[i], ref.q, atol=1e-14)
+    full = gpr.complete_pose(POSES[3])
+    fk = forward(q[3], gpr.config)
+    np.testing.assert_allclose(full[:3], fk.position, atol=1e-15)
+    np.testing.assert_allclose(full[2:5], POSES[3, 2:5], atol=1e-13)      # height and tilt as requested
+    np.testing.assert_allclose(gpr.rotation(full)[0], fk.rotation, atol=1e-13)
+
+
+def test_task_jacobian_matches_differences_of_the_inverse(gpr):
+    J = gpr.task_jacobian(POSES)
+    h = 1e-6
+    for k, idx in enumerate((2, 3, 4)):
+        d = np.zeros(6)
+        d[idx] = h
+        fd = (gpr.inverse_kinematics(POSES + d) - gpr.inverse_kinematics(POSES - d)) / (2 * h)
+        np.testing.assert_allclose(J[:, :, k], fd, atol=1e-8)
+    # Naive model check: dq_k/dz = 1 for every rod.
+    np.testing.assert_allclose(J[:, :, 0], 1.0, atol=1e-8)
+
+
+def test_inverse_jacobian_exact_on_the_gpr_twists(gpr):
+    J6, T = gpr.inverse_jacobian(POSES), gpr.motion_basis(POSES)
+    np.testing.assert_allclose(J6 @ T, gpr.task_jacobian(POSES), atol=1e-12)
+    assert J6.shape == (4, 3, 6)
+
+
+def test_conditioning_through_the_singular_configuration(gpr):
+    """The virtual joints keep dq/du regular at q1 = q2 = q3: condition ~sqrt(2) (homogenised by R)."""
+    cond = gpr.condition_number(POSES)
+    np.testing.assert_allclose(cond, math.sqrt(2), rtol=2e-3)
+    assert not gpr.is_singular(POSES).any()
+    dmap = dexterity_sweep(gpr, gpr.home_pose, 'tilt_x', np.linspace(-2 * DEG, 2 * DEG, 9))
+    assert np.all(dmap.within_limits) and np.all(np.isfinite(dmap.condition_number))
+    assert np.ptp(dmap.dexterity) < 1e-3
+
+
+def test_accuracy_rod_errors_and_imperfections_second_order(gpr):
+    rng = np.random.default_rng(4)
+    dq, delta = rng.normal(size=3), rng.normal(size=(3, 3))
+    diffs, twist_diffs = [], []
+    for eps in (1e-4, 1e-5, 1e-6):
+        res = accuracy_analysis(gpr, POSES[2], dq * eps, {'joint_imperfections': delta * eps})
+        diffs.append(np.max(np.abs(res.difference)))
+        twist_diffs.append(np.max(np.abs(res.exact_twist - res.linearized_twist)))
+        assert np.max(np.abs(res.linearized)) > eps * 0.1
+    assert 50 < diffs[0] / diffs[1] < 200 and 50 < diffs[1] / diffs[2] < 200
+    assert 50 < twist_diffs[0] / twist_diffs[1] < 200
+
+
+def test_rod_errors_alone_equal_forward_kinematics(gpr):
+    dq = np.array([2e-4, -1e-4, 5e-5])
+    res = accuracy_analysis(gpr, POSES[0], dq)
+    fk = forward(gpr.inverse_kinematics(POSES[0]) + dq, gpr.config)
+    np.testing.assert_allclose(res.exact_poses[0, :3], fk.position, atol=1e-15)
+    # At the singular configuration a pure height error moves the platform straight up.
+    res_z = accuracy_analysis(gpr, POSES[0], np.full(3, 1e-4))
+    np.testing.assert_allclose(res_z.exact[0], [1e-4, 0, 0], atol=1e-15)
+
+
+def test_limits_and_yaml(gpr):
+    with pytest.raises(LimitError, match='tilt'):
+        gpr.inverse_kinematics([0, 0, 0.3, 3 * DEG, 0, 0])
+    mech = mechanism_from_dict({'type': 'gpr', 'overrides': {'model': 'polar'}, 'workspace': {}}, 'g.yaml')
+    assert mech.config.model == 'polar'
+    with pytest.raises(ConfigError, match=r'g\.yaml: overrides:'):
+        mechanism_from_dict({'type': 'gpr', 'overrides': {'radius': -1}}, 'g.yaml')
