@@ -1,0 +1,226 @@
+"""trajectory_node over real DDS: the stream equals the core's precomputation, arrives in order, crosses
+alpha = 0 without a jump, carries consistent poses; program mode; clean exits."""
+from __future__ import annotations
+
+import math
+import signal
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from ros_support import Client, NodeProcess
+from sensor_msgs.msg import JointState
+from visualization_msgs.msg import Marker, MarkerArray
+
+from gpr_interfaces.msg import PlatformState
+from gpr_kinematics.config import load_config
+from gpr_kinematics.kinematics import inverse_batch
+from gpr_kinematics.nodes.program import load_program, sample_program
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.sweep import paper_sweep
+
+CFG = load_config()
+TIGHT = dict(rtol=0.0, atol=1e-12)
+STEP = math.radians(0.5)
+MAX_TILT = math.radians(2.0)
+AZ_STEP = math.radians(60.0)
+HEIGHT = 0.4
+RATE = 200.0
+
+
+class Recorder:
+    """Subscribes to every topic of the trajectory node (reliable, deep queues) and keeps the messages."""
+
+    TOPICS = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
+              'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState, 'gpr/markers': MarkerArray}
+
+    def __init__(self, client: Client, ns: str) -> None:
+        qos = QoSProfile(depth=10000, reliability=ReliabilityPolicy.RELIABLE)
+        self.msgs: dict[str, list] = {t: [] for t in self.TOPICS}
+        self.subs = [client.node.create_subscription(typ, f'{ns}/{topic}', self.msgs[topic].append, qos)
+                     for topic, typ in self.TOPICS.items()]
+
+
+def _run_stream(ns: str, ros_args: list[str], expect: int, timeout: float = 60.0):
+    """Start the node, record until it exits; return (recorder, exit status, output)."""
+    c = Client(f'gpr_test_traj_{ns.strip("/")}')
+    rec = Recorder(c, ns)
+    proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', 'wait_for_subscribers:=1',
+                                           '-p', f'rate:={RATE}', *ros_args])
+    try:
+        done = c.spin_until(lambda: not proc.alive() and len(rec.msgs['gpr/platform_state']) >= expect,
+                            timeout)
+        c.spin_for(0.3)
+        assert done, f'stream incomplete: {len(rec.msgs["gpr/platform_state"])} of {expect}\n{proc.output()}'
+        status = proc.wait(timeout=10)
+        return rec, status, proc.output()
+    finally:
+        proc.stop()
+        c.close()
+
+
+def _pos(p):
+    return np.array([p.position.x, p.position.y, p.position.z])
+
+
+def _quat(p):
+    return np.array([p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w])
+
+
+@pytest.fixture(scope='module')
+def sweep_run():
+    core = paper_sweep(height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, passes=2,
+                       config=CFG)
+    rec, status, out = _run_stream('/traj_sweep', [
+        '-p', 'mode:=sweep', '-p', f'height:={HEIGHT}', '-p', f'max_tilt:={MAX_TILT!r}',
+        '-p', f'tilt_step:={STEP!r}', '-p', f'azimuth_step:={AZ_STEP!r}', '-p', 'passes:=2',
+        '-p', 'markers_every:=3'], expect=len(core))
+    return core, rec, status, out
+
+
+def test_sweep_exits_0_and_logs_start_and_finish(sweep_run):
+    core, rec, status, out = sweep_run
+    assert status == 0, out
+    assert 'started: publishing' in out and 'finished: published' in out and 'Traceback' not in out
+    assert f'published {len(core)} samples' in out
+
+
+def test_sweep_stream_in_order_and_equal_to_core(sweep_run):
+    core, rec, _, _ = sweep_run
+    states = rec.msgs['gpr/platform_state']
+    assert [m.sample for m in states] == list(range(len(core)))
+    fk = core.forward
+    np.testing.assert_allclose([m.q for m in states], core.q, **TIGHT)
+    np.testing.assert_allclose([_pos(m.pose) for m in states], fk.position, **TIGHT)
+    np.testing.assert_allclose([_quat(m.pose) for m in states], fk.quaternion, **TIGHT)
+    np.testing.assert_allclose([_pos(m.nominal_pose) for m in states], fk.nominal_position, **TIGHT)
+    np.testing.assert_allclose([m.virtual_joints for m in states], fk.virtual_joints, **TIGHT)
+    np.testing.assert_allclose([m.commanded_tilt for m in states], core.alpha, **TIGHT)
+    np.testing.assert_allclose([m.commanded_azimuth for m in states], core.gamma, **TIGHT)
+    assert all(m.model == CFG.model and m.header.frame_id == 'gpr_base' for m in states)
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in states]
+    assert np.all(np.diff(stamps) > 0)
+    # Every pass crosses the singular configuration: alpha = 0 appears once per azimuth row.
+    rows = 2 * round(2 * math.pi / AZ_STEP)
+    assert sum(1 for m in states if m.commanded_tilt == 0.0) == rows
+
+
+def test_sweep_crosses_singularity_without_jump(sweep_run):
+    core, rec, _, _ = sweep_run
+    states = rec.msgs['gpr/platform_state']
+    q = np.array([m.q for m in states])
+    pos = np.array([_pos(m.pose) for m in states])
+    tilt = np.array([m.tilt for m in states])
+    alpha = np.array([m.commanded_tilt for m in states])
+    crossings = np.flatnonzero(alpha == 0.0)
+    assert crossings.size > 0
+    # Within an azimuth row the rods move by at most R * sin(step) * sqrt(3) per sample (naive inverse
+    # q_k = z + (Rot r_k)_z); the steps into and out of alpha = 0 are no larger than their neighbours.
+    bound = CFG.radius * math.sin(STEP) * math.sqrt(3) * 1.01
+    for i in crossings:
+        steps = np.abs(q[i - 2:i + 3] - q[i - 3:i + 2]).max(axis=1)
+        assert steps.max() <= bound
+        assert steps[2:4].max() <= 1.05 * max(steps[0], steps[4])     # no jump at the crossing
+        assert tilt[i] < 1e-9                                          # untilted at alpha = 0
+        np.testing.assert_allclose(q[i], q[i].mean(), atol=1e-12)      # q1 = q2 = q3 there
+        dpos = np.linalg.norm(np.diff(pos[i - 2:i + 3], axis=0), axis=1)
+        assert dpos.max() < 1e-4                                       # centre moves by micrometres
+    # The centre shift changes sign smoothly through the crossing (|shift| ~ tilt^2, paper §III).
+    shift = np.array([[m.centre_shift.x, m.centre_shift.y] for m in states])
+    assert np.linalg.norm(shift[crossings], axis=1).max() < 1e-12
+
+
+def test_sweep_poses_consistent(sweep_run):
+    core, rec, _, _ = sweep_run
+    states = rec.msgs['gpr/platform_state']
+    for m in states:
+        shift = _pos(m.pose) - _pos(m.nominal_pose)
+        np.testing.assert_allclose(shift, [m.centre_shift.x, m.centre_shift.y, m.centre_shift.z], atol=1e-15)
+        assert m.tilt == pytest.approx(abs(m.commanded_tilt), abs=1e-9)
+        assert m.pose.position.z == pytest.approx(HEIGHT, abs=1e-9)
+        assert abs(np.linalg.norm(_quat(m.pose)) - 1.0) < 1e-12
+        qa = np.asarray(m.q)
+        np.testing.assert_allclose(m.side_lengths, np.sqrt(3 * CFG.radius ** 2 + (np.roll(qa, -1) - qa) ** 2),
+                                   rtol=1e-12)
+    poses = rec.msgs['gpr/platform_pose']
+    nominal = rec.msgs['gpr/nominal_pose']
+    joints = rec.msgs['gpr/joint_states']
+    assert len(poses) == len(nominal) == len(joints) == len(states)
+    for s, p, n, j in zip(states, poses, nominal, joints, strict=True):
+        assert p.header.stamp == s.header.stamp and p.header.frame_id == 'gpr_base'
+        np.testing.assert_array_equal(_pos(p.pose), _pos(s.pose))
+        np.testing.assert_array_equal(_quat(n.pose), _quat(s.nominal_pose))
+        assert list(j.name) == ['rod_1', 'rod_2', 'rod_3'] + list(s.virtual_joint_names)
+        np.testing.assert_array_equal(j.position, list(s.q) + list(s.virtual_joints))
+    assert list(states[0].virtual_joint_names) == list(core.forward.virtual_joint_names)
+
+
+def test_sweep_markers(sweep_run):
+    core, rec, _, _ = sweep_run
+    markers = rec.msgs['gpr/markers']
+    assert len(markers) == math.ceil(len(core) / 3)
+    last = markers[-1]
+    by_ns = {m.ns: m for m in last.markers}
+    assert set(by_ns) == {'base', 'rods', 'platform', 'nominal_platform'}
+    assert by_ns['rods'].type == Marker.LINE_LIST and len(by_ns['rods'].points) == 6
+    # The platform triangle is the joint centres P_k = (R cos theta_k, R sin theta_k, q_k).
+    i = 3 * (len(markers) - 1)
+    zs = [p.z for p in by_ns['platform'].points]
+    np.testing.assert_allclose(zs, core.q[i], atol=1e-15)
+
+
+def test_program_mode_streams_the_sampled_program():
+    path = config_path('programs/example_stations.yaml')
+    prog = load_program(path)
+    rate = 50.0
+    samples = sample_program(prog, rate, 2.0)
+    rec, status, out = _run_stream('/traj_program', ['-p', 'mode:=program', '-p', f'program_file:={path}',
+                                                     '-p', f'rate:={rate}'], expect=len(samples))
+    assert status == 0, out
+    states = rec.msgs['gpr/platform_state']
+    assert [m.sample for m in states] == list(range(len(samples)))
+    ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, CFG)
+    np.testing.assert_allclose([m.q for m in states], ik.q, **TIGHT)
+    z = np.array([m.pose.position.z for m in states])
+    np.testing.assert_allclose(z, samples.height, atol=1e-9)
+    first, last = prog.stations[0], prog.stations[-1]
+    assert states[0].pose.position.z == pytest.approx(first.height, abs=1e-9)
+    assert states[-1].pose.position.z == pytest.approx(last.height, abs=1e-9)
+    assert states[-1].tilt == pytest.approx(abs(last.tilt), abs=1e-9)
+    # Stations with tilt reach it; the stream between a and b passes the untilted configuration smoothly.
+    tilts = np.array([m.tilt for m in states])
+    assert tilts.max() == pytest.approx(max(abs(s.tilt) for s in prog.stations), abs=1e-9)
+    q = np.array([m.q for m in states])
+    assert np.abs(np.diff(q, axis=0)).max() < 0.01
+
+
+def test_program_mode_bad_file_exits_2(tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('stations:\n  - {height: 0.4, tilt: 0.1, azimuth: 0.0}\n')     # 5.7 deg: beyond the limit
+    proc = NodeProcess('trajectory_node', ['-p', 'mode:=program', '-p', f'program_file:={bad}'])
+    assert proc.wait(timeout=30) == 2
+    out = proc.output()
+    assert 'cannot start' in out and 'station 0' in out and 'tilt' in out and 'Traceback' not in out
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_looping_node_exits_0_on_signal(sig):
+    ns = f'/traj_sig_{int(sig)}'
+    c = Client(f'gpr_test_traj_sig_{int(sig)}')
+    rec = Recorder(c, ns)
+    proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', 'loop:=true', '-p', 'rate:=100.0',
+                                           '-p', 'wait_for_subscribers:=1',
+                                           '-p', f'tilt_step:={STEP!r}', '-p', f'azimuth_step:={AZ_STEP!r}'])
+    try:
+        assert c.spin_until(lambda: len(rec.msgs['gpr/platform_state']) > 60, 30), proc.output()
+        status, took = proc.signal(sig, timeout=2.0)
+        out = proc.output()
+        assert status == 0, out
+        assert took < 2.0 and 'Traceback' not in out
+        # It looped: more samples than one pass, the counter kept counting.
+        n = len(paper_sweep(max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, config=CFG))
+        assert n < 60 and rec.msgs['gpr/platform_state'][60].sample == 60
+    finally:
+        proc.stop()
+        c.close()
