@@ -69,7 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gpr`` console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
         return int(args.handler(args))
     except GprError as exc:

@@ -8,7 +8,6 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -65,12 +64,11 @@ def _vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
     return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'
 
 
-def _print_pose(fk: Any, out: Any = sys.stdout) -> None:
-    print(f'  position      {_vec(fk.position)} m', file=out)
-    print(f'  quaternion    {_vec(fk.quaternion, fmt="{:.12f}")} (x, y, z, w)', file=out)
+def _print_pose(fk: Any) -> None:
+    print(f'  position      {_vec(fk.position)} m')
+    print(f'  quaternion    {_vec(fk.quaternion, fmt="{:.12f}")} (x, y, z, w)')
     print(f'  tilt          {fk.tilt:.12g} rad ({math.degrees(fk.tilt):.9g} deg), azimuth '
-          f'{fk.tilt_azimuth:.9g} rad ({math.degrees(fk.tilt_azimuth):.6g} deg), twist {fk.twist:.3e} rad',
-          file=out)
+          f'{fk.tilt_azimuth:.9g} rad ({math.degrees(fk.tilt_azimuth):.6g} deg), twist {fk.twist:.3e} rad')
 
 
 def _cmd_fk(args: argparse.Namespace) -> int:

@@ -66,12 +66,7 @@ class GprConfig:
 
     def replace(self, **changes: Any) -> GprConfig:
         """Return a validated copy with ``changes`` applied (same keys as the YAML file)."""
-        base = self.to_dict()
-        if 'radius' in changes and 'characteristic_length' not in changes \
-                and self.characteristic_length == self.radius:
-            base['characteristic_length'] = None
-        base.update(changes)
-        return _build(GprConfig(), base, 'replace()')
+        return _build(self, changes, 'replace()')
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict of the values (lists instead of tuples), as written in YAML."""
@@ -113,6 +108,8 @@ def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig
         raise ConfigError(f'{source}: unknown key(s) {", ".join(unknown)}; allowed keys: '
                           + ', '.join(sorted(known)))
     merged: dict[str, Any] = base.to_dict()
+    if base.characteristic_length == base.radius and 'characteristic_length' not in values:
+        merged['characteristic_length'] = None  # it followed the radius: keep following it
     merged.update(values)
     conv: dict[str, Any] = {}
     for key, (lo, hi, allowed) in _FLOAT_RANGES.items():

@@ -1,0 +1,113 @@
+"""The gpr command line (core subcommands): JSON keys, units, and one-line errors with status 2."""
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.cli import main
+from gpr_kinematics.kinematics import forward, inverse
+
+
+def run(capsys, *argv):
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def run_json(capsys, *argv):
+    status, out, err = run(capsys, *argv, '--json')
+    assert status == 0, err
+    assert out.count('\n') == 1
+    return json.loads(out)
+
+
+def test_fk_json_matches_core_and_mm_convenience(capsys):
+    d = run_json(capsys, 'fk', '0.5', '0.503', '0.498')
+    for key in ('q', 'model', 'position', 'quaternion', 'tilt', 'tilt_azimuth', 'virtual_joints', 'side_lengths',
+                'centre_shift', 'iterations', 'residual'):
+        assert key in d
+    fk = forward([0.5, 0.503, 0.498])
+    np.testing.assert_allclose(d['position'], fk.position, atol=0)
+    np.testing.assert_allclose(d['quaternion'], fk.quaternion, atol=0)
+    assert d['model'] == 'radial' and len(d['virtual_joints']) == 3
+    d_mm = run_json(capsys, 'fk', '500', '503', '498', '--mm', '--model', 'polar')
+    assert d_mm['model'] == 'polar' and len(d_mm['virtual_joints']) == 6
+    np.testing.assert_allclose(d_mm['q'], [0.5, 0.503, 0.498], atol=1e-15)
+
+
+def test_ik_and_compensate_json(capsys):
+    d = run_json(capsys, 'ik', '--height', '0.5', '--tilt', '2', '--azimuth', '0', '--deg')
+    assert set(d['achieved']) >= {'position', 'quaternion', 'tilt', 'tilt_azimuth'}
+    np.testing.assert_allclose(d['q'], inverse(0.5, math.radians(2), 0.0).q, atol=0)
+    assert d['achieved']['tilt'] == pytest.approx(math.radians(2), abs=1e-12)
+    c = run_json(capsys, 'compensate', '--height', '0.4', '--tilt', '0.02', '--azimuth', '1.0',
+                 '--tool', '0.05', '0.0', '0.3')
+    assert set(c) >= {'q', 'achieved', 'tool_shift', 'arm_correction'}
+    assert set(c['arm_correction']) == {'translation', 'quaternion'}
+    assert abs(c['tool_shift'][2]) < 1e-12
+
+
+def test_mobility_and_sweep_json(capsys, tmp_path):
+    m = run_json(capsys, 'mobility', '0.5', '0.5', '0.5')
+    assert (m['rank_dphi_dp'], m['rank_augmented']) == (9, 12)
+    assert len(m['singular_values']) == 3 and set(m['bounds']) >= {'eq4', 'eq5'}
+    m = run_json(capsys, 'mobility', '0.5', '0.501', '0.4995', '--dq', '1e-4', '-2e-4', '5e-5')
+    assert m['rank_dphi_dp'] == 11
+    b = m['bounds']['for_dq']
+    assert b['eq4'][0] <= b['norm_dx'] <= b['eq4'][1]
+    csv = tmp_path / 'sweep.csv'
+    s = run_json(capsys, 'sweep', '--csv', str(csv))
+    assert s['samples'] == 756 and s['singular_crossings'] == 36
+    assert s['max_centre_shift'] == pytest.approx(28.41e-6, abs=0.01e-6)
+    rows = csv.read_text().splitlines()
+    assert len(rows) == 757 and rows[0].startswith('sample,pass,gamma,alpha,q1,q2,q3')
+    s = run_json(capsys, 'sweep', '--deg', '--max-tilt', '1', '--tilt-step', '0.5', '--azimuth-step', '90')
+    assert s['samples'] == 4 * 5
+
+
+def test_human_readable_output(capsys):
+    status, out, _ = run(capsys, 'sweep')
+    assert status == 0 and 'max centre shift' in out and '756 samples' in out
+    status, out, _ = run(capsys, 'fk', '0.3', '0.3', '0.3')
+    assert status == 0 and 'tilt          0 rad' in out
+
+
+@pytest.mark.parametrize('argv, pattern', [
+    (['fk', '0.5', 'nan', '0.5'], 'q2 = nan is not a finite number'),
+    (['fk', '0.5', '0.5'], 'required'),
+    (['fk', '0.5', '0.5', '0.5', '0.5'], 'unrecognized arguments'),
+    (['fk', '0.6', '0.5', '0.5'], r'q1 = 0.6 m is outside the stroke'),
+    (['fk', '0.3', '0.3', '0.3', '--model', 'rigid'], "invalid choice: 'rigid'"),
+    (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'], 'beyond the tilt limit'),
+    (['ik', '--height', 'abc', '--tilt', '0', '--azimuth', '0'], "invalid float value: 'abc'"),
+    (['compensate', '--height', '0.6', '--tilt', '0', '--azimuth', '0'], 'outside the stroke'),
+    (['sweep', '--tilt-step', '0.3', '--deg'], 'whole number'),
+    (['fk', '0.3', '0.3', '0.3', '--config', '/nonexistent.yaml'], 'cannot read config file'),
+])
+def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
+    status, out, err = run(capsys, *argv)
+    assert status == 2 and out == ''
+    assert err.count('\n') == 1 and re.search(pattern, err), err
+    assert 'Traceback' not in err
+
+
+def test_malformed_config_file(capsys, tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('radius: -1\n')
+    status, out, err = run(capsys, 'fk', '0.3', '0.3', '0.3', '--config', str(bad))
+    assert status == 2 and 'radius = -1 is invalid' in err and err.count('\n') == 1
+
+
+def test_console_script_runs_without_traceback():
+    """The installed entry point and ``python -m`` behave like main(): status 2, one line, no traceback."""
+    gpr = Path(sys.executable).with_name('gpr')
+    cmd = [str(gpr)] if gpr.exists() else [sys.executable, '-m', 'gpr_kinematics.cli']
+    ok = subprocess.run(cmd + ['fk', '0.3', '0.3', '0.3', '--json'], capture_output=True, text=True, timeout=60)
+    assert ok.returncode == 0 and json.loads(ok.stdout)['tilt'] == 0.0
+    bad = subprocess.run(cmd + ['fk', '0.3', 'inf', '0.3'], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and bad.stderr == 'gpr fk: error: q2 = inf is not a finite number\n'

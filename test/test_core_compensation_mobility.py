@@ -1,0 +1,101 @@
+"""Compensation for offline programming and the mobility/sensitivity analysis (paper §IV-A)."""
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.compensation import compensate
+from gpr_kinematics.config import load_config
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.geometry import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
+from gpr_kinematics.kinematics import forward, naive_inverse
+from gpr_kinematics.mobility import analyze_mobility, rod_perturbation
+
+MODELS = ('radial', 'polar', 'offset')
+CFG = load_config()
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_compensation_realises_tilt_and_tool_height_and_corrects_the_arm(model):
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        tilt, az, heading = rng.uniform(0, 1) * CFG.tilt_limit, rng.uniform(-np.pi, np.pi), rng.uniform(-0.3, 0.3)
+        R_c = tilt_rotation(tilt, az) @ rotation_z(heading)
+        p_c = np.array([0.0, 0.0, rng.uniform(0.1, 0.35)])
+        tool = rng.uniform(-0.2, 0.2, 3)
+        res = compensate(p_c, quaternion_from_matrix(R_c), tool, model=model)
+        fk = forward(res.q, model=model)  # independent check of the commanded rods
+        np.testing.assert_allclose(fk.position, res.achieved.position, atol=1e-15)
+        assert fk.tilt == pytest.approx(tilt, abs=1e-12)
+        tool_real = fk.position + fk.rotation @ tool
+        assert tool_real[2] == pytest.approx((p_c + R_c @ tool)[2], abs=1e-12)
+        assert abs(res.tool_shift[2]) < 1e-12
+        np.testing.assert_allclose(res.tool_shift, tool_real - (p_c + R_c @ tool), atol=1e-15)
+        # T_a C x = T_c x for any target x in the naive platform frame
+        x = rng.uniform(-0.5, 0.5, (10, 3))
+        np.testing.assert_allclose(res.correct(x) @ fk.rotation.T + fk.position, x @ R_c.T + p_c, atol=1e-14)
+        np.testing.assert_allclose(matrix_from_quaternion(res.arm_correction_quaternion),
+                                   res.arm_correction_rotation, atol=1e-14)
+        assert res.command_twist == pytest.approx(heading, abs=1e-12)
+
+
+def test_compensation_of_radial_model_shifts_the_tool_like_the_centre():
+    res = compensate([0, 0, 0.5], quaternion_from_matrix(tilt_rotation(math.radians(2.0), 0.0)), model='radial')
+    assert res.tool_shift[0] == pytest.approx(28.41e-6, abs=0.01e-6)
+    assert res.arm_correction_translation[0] == pytest.approx(-28.41e-6, abs=0.05e-6)
+
+
+@pytest.mark.parametrize('position, quat, tool, exc, pattern', [
+    ([0, 0, 0.3], [0, 0, 0, 2], [0, 0, 0], InputError, r'has norm 2; a unit quaternion'),
+    ([0, 0, float('nan')], [0, 0, 0, 1], [0, 0, 0], InputError, r'position .* NaN or infinity'),
+    ([0, 0, 0.3], [0, 0, 0, 1], [0, 0], InputError, r'tool_offset must be 3 numbers'),
+    ([0, 0, 0.3], list(quaternion_from_matrix(tilt_rotation(0.05, 0.0))), [0, 0, 0], LimitError,
+     r'commanded tilt .* beyond the tilt limit'),
+    ([0, 0, 0.9], [0, 0, 0, 1], [0, 0, 0], LimitError, r'outside the stroke'),
+])
+def test_compensation_rejects_bad_commands(position, quat, tool, exc, pattern):
+    with pytest.raises(exc, match=pattern):
+        compensate(position, quat, tool)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_ranks_9_at_singularity_11_elsewhere_12_augmented(model):
+    rng = np.random.default_rng(9)
+    for z in (0.05, 0.25, 0.5):
+        m = analyze_mobility([z, z, z], model=model)
+        assert (m.rank_dphi_dp, m.rank_augmented, m.mobility) == (9, 12, 3)
+    for _ in range(6):
+        q = naive_inverse(rng.uniform(0.1, 0.4), rng.uniform(1e-5, 1) * CFG.tilt_limit, rng.uniform(-3, 3))
+        m = analyze_mobility(q, model=model)
+        assert (m.rank_dphi_dp, m.rank_augmented, m.mobility) == (11, 12, 1)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_sensitivity_satisfies_linearised_constraints_and_bounds(model):
+    m = analyze_mobility(naive_inverse(0.3, math.radians(1.3), 0.4), model=model)
+    rng = np.random.default_rng(10)
+    # dPhi/dP dP + dPhi/dX dX = 0 (eq. 3) for dP on the rod kinematics
+    for _ in range(5):
+        dP = rod_perturbation(rng.normal(scale=1e-4, size=3))
+        dX = m.dx_dp @ dP
+        assert np.linalg.norm(m.dphi_dp[9:] @ dP + m.dphi_dx[9:] @ dX) < 1e-12 * np.linalg.norm(m.dphi_dp @ dP)
+        b = m.dx_bounds(dP)
+        assert b.lower_eq4 * (1 - 1e-9) <= b.norm_dx <= b.upper_eq4 * (1 + 1e-9)
+        assert b.lower_eq5 * (1 - 1e-9) <= b.norm_dx <= b.upper_eq5 * (1 + 1e-9)
+        assert b.lower_eq4 == pytest.approx(b.lower_eq5, rel=1e-9)  # eigenvalues of A^T A are sigma^2
+    assert np.count_nonzero(m.eigenvalues > 1e-12 * m.eigenvalues[-1]) == 3
+    assert m.singular_values.size == 3
+    with pytest.raises(InputError, match='12 finite numbers'):
+        m.dx_bounds(np.zeros(5))
+
+
+def test_radial_sensitivity_is_the_derivative_of_forward_kinematics():
+    """For the square radial model X(q) is unique, so dX/dP dP(dq) equals finite differences of FK."""
+    q = naive_inverse(0.3, math.radians(1.5), 1.1)
+    m = analyze_mobility(q, model='radial')
+    h = 1e-7
+    for k in range(3):
+        dq = np.zeros(3)
+        dq[k] = h
+        fd = (forward(q + dq, model='radial').virtual_joints - forward(q - dq, model='radial').virtual_joints) / (2 * h)
+        np.testing.assert_allclose(m.dx_dp @ rod_perturbation(dq) / h, fd, rtol=1e-6, atol=1e-9)

@@ -1,0 +1,84 @@
+"""Configuration: embedded default, user overrides, validation messages."""
+import math
+
+import pytest
+
+from gpr_kinematics.config import GprConfig, default_config, load_config
+from gpr_kinematics.errors import ConfigError
+
+
+def test_embedded_default_values():
+    cfg = default_config()
+    assert cfg.radius == 0.093218
+    assert cfg.rod_azimuths == pytest.approx((0.0, 2 * math.pi / 3, 4 * math.pi / 3), abs=1e-15)
+    assert (cfg.stroke_min, cfg.stroke_max) == (0.0, 0.508)
+    assert cfg.tilt_limit == pytest.approx(math.radians(2.0), abs=1e-17)
+    assert cfg.imperfection_budget == 0.0005
+    assert cfg.model == 'radial'
+    assert cfg.characteristic_length == cfg.radius  # null in the file means the radius
+    assert cfg.weighting == 'characteristic'
+
+
+def test_user_file_overrides_subset(tmp_path):
+    f = tmp_path / 'my.yaml'
+    f.write_text('radius: 0.1\nmodel: polar\n')
+    cfg = load_config(f)
+    assert cfg.radius == 0.1 and cfg.model == 'polar'
+    assert cfg.characteristic_length == 0.1  # follows the new radius
+    assert cfg.stroke_max == 0.508  # untouched keys keep the default
+
+
+def test_replace_and_round_trip():
+    cfg = default_config().replace(tilt_limit=0.02, model='offset')
+    assert cfg.tilt_limit == 0.02 and cfg.model == 'offset'
+    assert GprConfig.from_mapping(cfg.to_dict()) == cfg
+
+
+@pytest.mark.parametrize('text, key, allowed', [
+    ('radius: -1', 'radius', '1e-4 < radius'),
+    ('radius: .nan', 'radius', 'radius'),
+    ("radius: '0.1'", 'radius', 'metres'),
+    ('stroke_max: 20', 'stroke_max', '<= 10'),
+    ('tilt_limit: 0', 'tilt_limit', '0 < tilt_limit'),
+    ('imperfection_budget: 1.0', 'imperfection_budget', '<= 0.01'),
+    ('model: elastic', 'model', 'radial or polar or offset'),
+    ('weighting: heavy', 'weighting', 'characteristic or unweighted'),
+    ('max_iterations: 0', 'max_iterations', 'integer from 1 to 100'),
+    ('max_iterations: 2.5', 'max_iterations', 'integer'),
+    ('tolerance: 1.0', 'tolerance', '1e-16 <= tolerance'),
+    ('rod_azimuths: [0, 1]', 'rod_azimuths', 'a list of 3'),
+    ('characteristic_length: -0.1', 'characteristic_length', '> 0'),
+])
+def test_invalid_value_names_key_value_and_range(tmp_path, text, key, allowed):
+    f = tmp_path / 'bad.yaml'
+    f.write_text(text + '\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(f)
+    msg = str(err.value)
+    assert key in msg and allowed in msg and str(f) in msg
+
+
+def test_unknown_key_lists_allowed_keys(tmp_path):
+    f = tmp_path / 'bad.yaml'
+    f.write_text('raduis: 0.1\n')
+    with pytest.raises(ConfigError, match=r'unknown key\(s\) raduis; allowed keys: .*radius'):
+        load_config(f)
+
+
+def test_cross_field_checks(tmp_path):
+    with pytest.raises(ConfigError, match='stroke_min'):
+        load_config(overrides={'stroke_min': 0.4, 'stroke_max': 0.3})
+    with pytest.raises(ConfigError, match='10 deg apart'):
+        load_config(overrides={'rod_azimuths': [0.0, 0.01, 3.0]})
+
+
+def test_malformed_and_missing_files(tmp_path):
+    f = tmp_path / 'broken.yaml'
+    f.write_text('radius: [1\n')
+    with pytest.raises(ConfigError, match='not valid YAML'):
+        load_config(f)
+    f.write_text('- 1\n- 2\n')
+    with pytest.raises(ConfigError, match='expected a mapping'):
+        load_config(f)
+    with pytest.raises(ConfigError, match='cannot read config file'):
+        load_config(tmp_path / 'missing.yaml')

@@ -1,0 +1,220 @@
+"""Forward, naive and inverse kinematics: numbers, round trips, batch = single, conventions, errors."""
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from gpr_kinematics.config import load_config
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.geometry import (
+    matrix_from_quaternion,
+    quaternion_from_matrix,
+    quaternion_multiply,
+    rotation_z,
+    tilt_from_matrix,
+    tilt_normal,
+    tilt_rotation,
+)
+from gpr_kinematics.kinematics import (
+    forward,
+    forward_batch,
+    inverse,
+    inverse_batch,
+    naive_forward,
+    naive_inverse,
+    naive_pose,
+)
+
+MODELS = ('radial', 'polar', 'offset')
+CFG = load_config()
+R = CFG.radius
+
+
+def _random_targets(n, seed=0, limit=1.0):
+    rng = np.random.default_rng(seed)
+    return (rng.uniform(0.05, 0.45, n), rng.uniform(-limit, limit, n) * CFG.tilt_limit,
+            rng.uniform(-np.pi, np.pi, n))
+
+
+# --- geometry conventions ---------------------------------------------------------------------------------
+
+def test_quaternions_match_scipy():
+    rot = Rotation.random(500, random_state=7)
+    q = quaternion_from_matrix(rot.as_matrix())
+    ref = rot.as_quat()
+    ref = np.where(ref[:, 3:] < 0, -ref, ref)
+    np.testing.assert_allclose(q, ref, atol=1e-14)
+    np.testing.assert_allclose(matrix_from_quaternion(q), rot.as_matrix(), atol=1e-14)
+    a, b = Rotation.random(2, random_state=8)
+    np.testing.assert_allclose(matrix_from_quaternion(quaternion_multiply(a.as_quat(), b.as_quat())),
+                               (a * b).as_matrix(), atol=1e-14)
+
+
+def test_tilt_is_rotation_about_horizontal_axis():
+    rng = np.random.default_rng(1)
+    t, g, tw = rng.uniform(-0.1, 0.1, 200), rng.uniform(-4, 4, 200), rng.uniform(-0.2, 0.2, 200)
+    axis = np.stack([np.cos(g), np.sin(g), np.zeros_like(g)], -1)
+    np.testing.assert_allclose(tilt_rotation(t, g), Rotation.from_rotvec(axis * t[:, None]).as_matrix(), atol=1e-15)
+    np.testing.assert_allclose(tilt_normal(t, g), tilt_rotation(t, g)[:, :, 2], atol=1e-16)
+    tilt, az, twist = tilt_from_matrix(tilt_rotation(t, g) @ rotation_z(tw))
+    assert np.all(tilt >= 0) and np.all(az > -np.pi) and np.all(az <= np.pi)
+    np.testing.assert_allclose(tilt, np.abs(t), atol=1e-15)
+    np.testing.assert_allclose(twist, tw, atol=1e-14)
+    # a negative tilt is a positive one about the opposite axis
+    expected = np.angle(np.exp(1j * np.where(t < 0, g + np.pi, g)))
+    np.testing.assert_allclose(np.angle(np.exp(1j * (az - expected))), 0.0, atol=1e-13)
+
+
+# --- forward kinematics -------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('model', MODELS)
+def test_forward_numbers_and_invariants(model):
+    q = np.array([0.5, 0.503, 0.498])
+    fk = forward(q, model=model)
+    L = [math.sqrt(3 * R * R + (q[j] - q[i]) ** 2) for i, j in ((0, 1), (1, 2), (2, 0))]
+    np.testing.assert_allclose(fk.side_lengths, L, rtol=0, atol=1e-16)
+    assert fk.fit_residual < 1e-12 and fk.residual <= CFG.tolerance
+    assert fk.iterations <= 4
+    # The joint centres P_k lie on their rods: the pose maps the virtual joint points onto them.
+    th = np.asarray(CFG.rod_azimuths)
+    P = np.stack([R * np.cos(th), R * np.sin(th), q], -1)
+    assert np.linalg.norm(fk.quaternion) == pytest.approx(1.0, abs=1e-15)
+    np.testing.assert_allclose(matrix_from_quaternion(fk.quaternion), fk.rotation, atol=1e-15)
+    np.testing.assert_allclose(fk.rotation @ fk.rotation.T, np.eye(3), atol=1e-15)
+    # the platform normal is the normal of the plane of the three joint centres (model-independent)
+    n = np.cross(P[1] - P[0], P[2] - P[0])
+    np.testing.assert_allclose(fk.normal, n / np.linalg.norm(n), atol=1e-15)
+    assert fk.tilt == pytest.approx(math.acos(fk.normal[2]), abs=1e-12)
+    np.testing.assert_allclose(fk.centre_shift, fk.position - fk.nominal_position, atol=0)
+    assert fk.within_budget and np.all(fk.joint_displacement < CFG.imperfection_budget)
+
+
+def test_centre_shift_of_radial_model_for_2_deg_about_x():
+    """design.md §3: radial model, tilt 2 deg about the x axis: centre shift about 28 um along x."""
+    ik = inverse(0.5, math.radians(2.0), 0.0, model='radial')
+    shift = ik.achieved.centre_shift
+    assert shift[0] == pytest.approx(28.41e-6, abs=0.01e-6)
+    assert abs(shift[1]) < 1e-15
+
+
+def test_polar_model_weighted_keeps_centre_unweighted_shifts_it():
+    """Finding recorded in docs/core.md: the unit-free weighting moves joints tangentially."""
+    weighted = inverse(0.5, math.radians(2.0), 0.0, model='polar').achieved
+    plain = inverse(0.5, math.radians(2.0), 0.0, model='polar',
+                    config=CFG.replace(weighting='unweighted')).achieved
+    assert np.linalg.norm(weighted.centre_shift[:2]) < 1e-8
+    assert plain.centre_shift[0] == pytest.approx(27.92e-6, abs=0.05e-6)
+    assert np.max(np.abs(plain.virtual_joints[3:])) < 1e-5  # "phi negligibly small" (paper Fig. 7)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_batch_equals_single(model):
+    rng = np.random.default_rng(5)
+    Q = naive_inverse(*_random_targets(64, seed=5))
+    Q[::7] = Q[::7, :1]  # some singular rows
+    fb = forward_batch(Q, model=model)
+    for i in range(0, 64, 3):
+        one = forward(Q[i], model=model)
+        for name in ('virtual_joints', 'side_lengths', 'position', 'rotation', 'quaternion', 'centre_shift',
+                     'nominal_position', 'nominal_quaternion', 'joint_displacement'):
+            np.testing.assert_allclose(getattr(fb[i], name), getattr(one, name), rtol=0, atol=1e-14,
+                                       err_msg=name)
+        for name in ('tilt', 'tilt_azimuth', 'twist', 'residual', 'fit_residual'):
+            assert getattr(fb[i], name) == pytest.approx(getattr(one, name), abs=1e-14), name
+        assert fb[i].iterations == one.iterations and fb[i].within_budget == one.within_budget
+    assert rng is not None
+
+
+def test_naive_model_round_trip():
+    h, t, g = _random_targets(300, seed=6)
+    q = naive_inverse(h, t, g)
+    pos, rot = naive_forward(q)
+    np.testing.assert_allclose(pos[:, 2], h, atol=1e-15)
+    np.testing.assert_allclose(rot, tilt_rotation(t, g), atol=1e-14)
+    p2, r2 = naive_pose(h, t, g)
+    np.testing.assert_allclose(p2, pos, atol=1e-15)
+    # q_k = z + (Rot r_k)_z  (design.md §4)
+    th = np.asarray(CFG.rod_azimuths)
+    r = np.stack([R * np.cos(th), R * np.sin(th), np.zeros(3)], -1)
+    np.testing.assert_allclose(q, h[:, None] + np.einsum('nj,kj->nk', rot[:, 2, :], r), atol=1e-15)
+
+
+# --- inverse kinematics -------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('model', MODELS)
+def test_inverse_round_trip_random_targets(model):
+    h, t, g = _random_targets(400, seed=11)
+    ib = inverse_batch(h, t, g, model=model)
+    fb = forward_batch(ib.q, model=model)  # an independent forward call on the answer
+    n_target = tilt_normal(t, g)
+    assert np.max(np.abs(fb.position[:, 2] - h)) < 1e-12
+    tilt_err = np.arccos(np.clip(np.einsum('ni,ni->n', fb.normal, n_target), -1, 1))
+    assert np.max(np.abs(fb.tilt - np.abs(t))) < 1e-12
+    assert np.max(np.arctan2(np.linalg.norm(np.cross(fb.normal, n_target), axis=-1),
+                             np.einsum('ni,ni->n', fb.normal, n_target))) < 1e-12
+    assert tilt_err.shape == (400,)
+    assert ib.iterations.max() <= 6
+    for i in range(0, 400, 50):
+        one = inverse(h[i], t[i], g[i], model=model)
+        np.testing.assert_allclose(one.q, ib.q[i], rtol=0, atol=1e-14)
+
+
+def test_inverse_with_tool_point_prescribes_its_height():
+    tool = np.array([0.12, -0.05, 0.25])
+    ik = inverse(0.3, math.radians(1.2), 2.0, tool=tool)
+    fk = forward(ik.q)
+    assert (fk.position + fk.rotation @ tool)[2] == pytest.approx(0.3, abs=1e-12)
+    assert fk.tilt == pytest.approx(math.radians(1.2), abs=1e-12)
+    assert fk.tilt_azimuth == pytest.approx(2.0, abs=1e-9)
+
+
+def test_inverse_at_the_singular_configuration():
+    ik = inverse(0.25, 0.0, 1.0)
+    np.testing.assert_allclose(ik.q, 0.25, atol=1e-16)
+    assert ik.achieved.tilt == 0.0 and ik.iterations == 0
+
+
+# --- errors --------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('q, exc, pattern', [
+    ([0.5, float('nan'), 0.5], InputError, r'q2 = nan is not a finite number'),
+    ([0.5, 0.5, float('inf')], InputError, r'q3 = inf is not a finite number'),
+    ([0.5, 0.5], InputError, r'3 values'),
+    (['a', 0.5, 0.5], InputError, r'numbers'),
+    ([0.6, 0.5, 0.5], LimitError, r'q1 = 0.6 m is outside the stroke \[0, 0.508\] m'),
+    ([0.5, 0.5, -0.01], LimitError, r'q3 = -0.01 m is outside the stroke'),
+    ([0.2, 0.3, 0.25], LimitError, r'beyond the tilt limit 2 deg'),
+])
+def test_forward_rejects_bad_input(q, exc, pattern):
+    with pytest.raises(exc, match=pattern):
+        forward(q)
+
+
+def test_forward_batch_names_the_sample():
+    Q = np.full((4, 3), 0.3)
+    Q[2, 1] = 0.9
+    with pytest.raises(LimitError, match=r'q2 = 0.9 m \(sample 2\)'):
+        forward_batch(Q)
+    with pytest.raises(InputError, match=r'shape \(N, 3\)'):
+        forward_batch(np.zeros((4, 2)))
+
+
+def test_unknown_model_and_limits_of_inverse():
+    with pytest.raises(InputError, match="unknown virtual-joint model 'rigid'; allowed: radial, polar, offset"):
+        forward([0.3, 0.3, 0.3], model='rigid')
+    with pytest.raises(LimitError, match=r'tilt = .* \(3 deg\) is beyond the tilt limit .* \(2 deg\)'):
+        inverse(0.3, math.radians(3.0), 0.0)
+    with pytest.raises(LimitError, match='outside the stroke'):
+        inverse(0.507, math.radians(2.0), 0.3)
+    with pytest.raises(InputError, match=r'height\[1\] = nan'):
+        inverse_batch([0.3, float('nan')], 0.0, 0.0)
+    with pytest.raises(InputError, match='same length'):
+        inverse_batch([0.3, 0.2], [0.0, 0.0, 0.0], 0.0)
+
+
+def test_budget_flag():
+    cfg = CFG.replace(imperfection_budget=2e-5)
+    fk = forward(naive_inverse(0.3, math.radians(2.0), 0.3), config=cfg)
+    assert not fk.within_budget and fk.joint_displacement.max() > 2e-5
+    assert forward([0.3, 0.3, 0.3], config=cfg).within_budget
