@@ -45,7 +45,7 @@ test-ros: setup
 	$(ROSENV) $(PY) -m pytest -q test/test_ros_*.py
 
 demo: setup
-	$(ROSENV) $(PY) -m gpr_kinematics.demo
+	$(ROSENV) $(PY) -m gpr_kinematics.nodes.demo
 
 lint: setup
 	$(VENV)/bin/ruff check .
