@@ -63,7 +63,7 @@ class Program:
 @dataclass(frozen=True)
 class ProgramSamples:
     """Time samples of a program: ``time`` [s], ``height`` [m], ``tilt`` >= 0 and ``azimuth`` [rad],
-    and ``station`` (index of the station last reached or being dwelled at, -1 while moving)."""
+    and ``station`` (index of the station the platform is at, -1 while moving between stations)."""
 
     time: np.ndarray
     height: np.ndarray
@@ -182,6 +182,6 @@ def sample_program(program: Program, rate: float, default_move_time: float = 2.0
     x = a + s[:, None] * (b - a)
     tilt = np.hypot(x[:, 1], x[:, 2])
     az = np.where(tilt > 0.0, np.arctan2(x[:, 2], x[:, 1]), 0.0)
-    dwelling = idx[seg] == idx[np.minimum(seg + 1, idx.shape[0] - 1)]
-    station = np.where(dwelling, idx[seg], -1)
+    nxt = idx[np.minimum(seg + 1, idx.shape[0] - 1)]
+    station = np.where((idx[seg] == nxt) | (u <= 0.0), idx[seg], np.where(u >= 1.0, nxt, -1))
     return ProgramSamples(time=t, height=x[:, 0], tilt=tilt, azimuth=az, station=station)
