@@ -241,6 +241,18 @@ def _tilt_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> tuple[Any, Any]:
     return tilt, ops.where(tilt < AZIMUTH_UNDEFINED_BELOW, 0.0, az)
 
 
+def _tilt_matrix_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> list[list[Any]]:
+    """The pure tilt ``exp(t [a]x)`` taking ``e3`` to the unit normal ``n``, without trigonometry:
+    ``sin t = |n_xy|``, ``cos t = n_z``, ``a = (-n_y, n_x) / |n_xy|`` (``a = e1`` when ``n = e3``)."""
+    s = ops.hypot(nx, ny)
+    flat = s < AZIMUTH_UNDEFINED_BELOW
+    inv = 1.0 / ops.where(flat, 1.0, s)
+    ax, ay = ops.where(flat, 1.0, -ny * inv), ops.where(flat, 0.0, nx * inv)
+    v = 1.0 - nz
+    vxy = v * ax * ay
+    return [[nz + v * ax * ax, vxy, s * ay], [vxy, nz + v * ay * ay, -s * ax], [-s * ay, s * ax, nz]]
+
+
 def _naive(ops: Ops, geo: _Geometry, q: Sequence[Any]) -> tuple[Any, ...]:
     """Naive model for rod lengths ``q``: solve ``q_k = z + n' . r_k^nom`` for ``z`` and ``n'_x, n'_y``
     (``n' = Rot^T e3``); the platform normal is ``n = (-n'_x, -n'_y, n'_z)``.
@@ -253,15 +265,6 @@ def _naive(ops: Ops, geo: _Geometry, q: Sequence[Any]) -> tuple[Any, ...]:
     py = m[2][0] * q[0] + m[2][1] * q[1] + m[2][2] * q[2]
     h2 = px * px + py * py
     return z, h2, -px, -py, ops.sqrt(ops.maximum(1.0 - h2, 0.0))
-
-
-def _tilt_matrix(ops: Ops, tilt: Any, az: Any) -> list[list[Any]]:
-    """Rodrigues' ``exp(tilt [a]x)``, ``a = (cos az, sin az, 0)``, as nested lists of components."""
-    s, c = ops.sin(tilt), ops.cos(tilt)
-    ax, ay = ops.cos(az), ops.sin(az)
-    v = 1.0 - c
-    vxy = v * ax * ay
-    return [[c + v * ax * ax, vxy, s * ay], [vxy, c + v * ay * ay, -s * ax], [-s * ay, s * ax, c]]
 
 
 def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array, Array]:
@@ -349,7 +352,7 @@ def _pose(ops: Ops, geo: _Geometry, q: Sequence[Any], comps: tuple[list, ...]) -
         dk = sqrt(dx * dx + dy * dy + dz * dz)
         fit = dk if fit is None else ops.maximum(fit, dk)
     tilt, az = _tilt_of_normal(ops, r02, r12, r22)
-    T = _tilt_matrix(ops, tilt, az)
+    T = _tilt_matrix_of_normal(ops, r02, r12, r22)
     m00 = T[0][0] * r00 + T[1][0] * r10 + T[2][0] * r20
     m10 = T[0][1] * r00 + T[1][1] * r10 + T[2][1] * r20
     twist = ops.atan2(m10, m00)
@@ -358,13 +361,15 @@ def _pose(ops: Ops, geo: _Geometry, q: Sequence[Any], comps: tuple[list, ...]) -
     inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     # Naive model and centre shift.
     z0, _, nnx, nny, nnz = _naive(ops, geo, q)
-    ntilt, naz = _tilt_of_normal(ops, nnx, nny, nnz)
-    sh = ops.sin(0.5 * ntilt)
+    NR = _tilt_matrix_of_normal(ops, nnx, nny, nnz)
+    # quaternion of a pure tilt: (a sin(t/2), 0, cos(t/2)); cos(t/2) = sqrt((1 + n_z) / 2)
+    cw = sqrt(0.5 * (1.0 + nnz))
+    half = 0.5 / cw
+    nquat = [-(NR[1][2]) * half, NR[0][2] * half, 0.0 * cw, cw]
     d0x, d0y, d1x, d1y, d2x, d2y = rx0 - bx0, ry0 - by0, rx1 - bx1, ry1 - by1, rx2 - bx2, ry2 - by2
     return dict(position=[tx, ty, tz], rotation=[[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]],
                 quaternion=[qx * inv, qy * inv, qz * inv, qw * inv], tilt=tilt, tilt_azimuth=az,
-                twist=twist, nominal_z=z0, nominal_rotation=_tilt_matrix(ops, ntilt, naz),
-                nominal_quaternion=[ops.cos(naz) * sh, ops.sin(naz) * sh, 0.0 * sh, ops.cos(0.5 * ntilt)],
+                twist=twist, nominal_z=z0, nominal_rotation=NR, nominal_quaternion=nquat,
                 joint_displacement=[sqrt(d0x * d0x + d0y * d0y), sqrt(d1x * d1x + d1y * d1y),
                                     sqrt(d2x * d2x + d2y * d2y)],
                 fit_residual=fit)

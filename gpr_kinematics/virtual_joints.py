@@ -103,6 +103,11 @@ class VirtualJointModel:
         """:meth:`singular` of one configuration, as floats."""
         return tuple(float(v) for v in self.singular(1)[0])
 
+    @functools.cached_property
+    def singular_components(self) -> tuple[list, ...]:
+        """:func:`joint_components` (float arithmetic) at the singular ``X``: the start of every solve."""
+        return joint_components(SCALAR, self, list(self.singular_floats))
+
     def nominal_points(self) -> Array:
         """Nominal joint centres ``R u(theta_k)`` in the platform plane, ``(3, 2)``."""
         th = np.asarray(self.azimuths)
@@ -203,62 +208,55 @@ def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> tupl
 def side_errors(ops: Ops, comps: tuple[list, ...], L: Sequence[Any]) -> tuple[list, Any]:
     """Side lengths ``d_i(X)`` and the closure error ``max_i |d_i - L_i|`` [m] from
     :func:`joint_components` (no Jacobian)."""
-    rx, ry = comps[:2]
-    sqrt, fabs = ops.sqrt, ops.fabs
-    d = []
-    err = None
-    for i, (a, b) in enumerate(EDGES):
-        ex, ey = rx[b] - rx[a], ry[b] - ry[a]
-        di = sqrt(ex * ex + ey * ey)
-        d.append(di)
-        e_i = fabs(di - L[i])
-        err = e_i if err is None else ops.maximum(err, e_i)
-    return d, err
+    (x0, x1, x2), (y0, y1, y2) = comps[0], comps[1]
+    sqrt, fabs, maximum = ops.sqrt, ops.fabs, ops.maximum
+    e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+    d = [sqrt(e0x * e0x + e0y * e0y), sqrt(e1x * e1x + e1y * e1y), sqrt(e2x * e2x + e2y * e2y)]
+    return d, maximum(maximum(fabs(d[0] - L[0]), fabs(d[1] - L[1])), fabs(d[2] - L[2]))
 
 
 def newton_terms(ops: Ops, comps: tuple[list, ...], L: Sequence[Any], wa: float) -> list:
     """One Newton-Raphson step of the closure (paper eq. 8), component-wise.
 
-    ``J`` is sparse: row ``i`` (edge ``a -> b``) depends only on the coordinates of joints ``a`` and
-    ``b``, so the Gram matrix ``G = J W J^T`` has closed-form entries (joint ``i+1`` is shared by edges
-    ``i`` and ``i+1``) and ``y = G^-1 F`` is solved by the adjugate of the symmetric 3x3 ``G``.
-
-    ``comps`` are the :func:`joint_components` at the current ``X``; returns the step ``dX`` (list of
-    ``M`` components).
+    ``J`` is sparse: row ``i`` (edge ``a -> b``: 1->2, 2->3, 3->1) depends only on the coordinates of
+    joints ``a`` and ``b``: ``dF_i/dX_b = 2 e_i . dr_b/dX_b``, ``dF_i/dX_a = -2 e_i . dr_a/dX_a`` with
+    ``e_i = r_b - r_a``. So the Gram matrix ``G = J W J^T`` has closed-form entries (joint ``i+1`` is
+    shared by edges ``i`` and ``i+1``) and ``y = G^-1 F`` is solved by the adjugate of the symmetric
+    3x3 ``G``; the step is ``dX = -W J^T y``. ``comps`` are the :func:`joint_components` at the current
+    ``X``; returns the step ``dX`` (list of ``M`` components).
     """
-    rx, ry, dlx, dly, dax, day = comps
-    ang = dax is not None
-    F, gb, ga, gbA, gaA = [], [], [], [], []
-    for i, (a, b) in enumerate(EDGES):
-        ex, ey = rx[b] - rx[a], ry[b] - ry[a]
-        F.append(ex * ex + ey * ey - L[i] * L[i])
-        gb.append(2.0 * (ex * dlx[b] + ey * dly[b]))
-        ga.append(-2.0 * (ex * dlx[a] + ey * dly[a]))
-        if ang:
-            gbA.append(2.0 * (ex * dax[b] + ey * day[b]))
-            gaA.append(-2.0 * (ex * dax[a] + ey * day[a]))
-    g00, g11 = gb[0] * gb[0] + ga[0] * ga[0], gb[1] * gb[1] + ga[1] * ga[1]
-    g22 = gb[2] * gb[2] + ga[2] * ga[2]
-    g01, g12, g02 = gb[0] * ga[1], gb[1] * ga[2], gb[2] * ga[0]  # G[i, i+1]: joint i+1 shared
-    if ang:
-        g00 = g00 + wa * (gbA[0] * gbA[0] + gaA[0] * gaA[0])
-        g11 = g11 + wa * (gbA[1] * gbA[1] + gaA[1] * gaA[1])
-        g22 = g22 + wa * (gbA[2] * gbA[2] + gaA[2] * gaA[2])
-        g01 = g01 + wa * gbA[0] * gaA[1]
-        g12 = g12 + wa * gbA[1] * gaA[2]
-        g02 = g02 + wa * gbA[2] * gaA[0]
+    (x0, x1, x2), (y0, y1, y2), (ux0, ux1, ux2), (uy0, uy1, uy2), dax, day = comps
+    e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+    F0 = e0x * e0x + e0y * e0y - L[0] * L[0]
+    F1 = e1x * e1x + e1y * e1y - L[1] * L[1]
+    F2 = e2x * e2x + e2y * e2y - L[2] * L[2]
+    # gb_i: derivative of F_i by the coordinate of its end joint, ga_i: by that of its start joint.
+    gb0, ga0 = 2.0 * (e0x * ux1 + e0y * uy1), -2.0 * (e0x * ux0 + e0y * uy0)
+    gb1, ga1 = 2.0 * (e1x * ux2 + e1y * uy2), -2.0 * (e1x * ux1 + e1y * uy1)
+    gb2, ga2 = 2.0 * (e2x * ux0 + e2y * uy0), -2.0 * (e2x * ux2 + e2y * uy2)
+    g00, g11, g22 = gb0 * gb0 + ga0 * ga0, gb1 * gb1 + ga1 * ga1, gb2 * gb2 + ga2 * ga2
+    g01, g12, g02 = gb0 * ga1, gb1 * ga2, gb2 * ga0
+    if dax is not None:
+        (ax0, ax1, ax2), (ay0, ay1, ay2) = dax, day
+        hb0, ha0 = 2.0 * (e0x * ax1 + e0y * ay1), -2.0 * (e0x * ax0 + e0y * ay0)
+        hb1, ha1 = 2.0 * (e1x * ax2 + e1y * ay2), -2.0 * (e1x * ax1 + e1y * ay1)
+        hb2, ha2 = 2.0 * (e2x * ax0 + e2y * ay0), -2.0 * (e2x * ax2 + e2y * ay2)
+        g00 = g00 + wa * (hb0 * hb0 + ha0 * ha0)
+        g11 = g11 + wa * (hb1 * hb1 + ha1 * ha1)
+        g22 = g22 + wa * (hb2 * hb2 + ha2 * ha2)
+        g01 = g01 + wa * hb0 * ha1
+        g12 = g12 + wa * hb1 * ha2
+        g02 = g02 + wa * hb2 * ha0
     c00, c11, c22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
     c01, c02, c12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
     inv_det = 1.0 / (g00 * c00 + g01 * c01 + g02 * c02)
-    F0, F1, F2 = F
     y0 = (c00 * F0 + c01 * F1 + c02 * F2) * inv_det
     y1 = (c01 * F0 + c11 * F1 + c12 * F2) * inv_det
     y2 = (c02 * F0 + c12 * F1 + c22 * F2) * inv_det
     # Joint k is the end b of edge k-1 and the start a of edge k.
-    dX = [-(gb[2] * y2 + ga[0] * y0), -(gb[0] * y0 + ga[1] * y1), -(gb[1] * y1 + ga[2] * y2)]
-    if ang:
-        dX += [-wa * (gbA[2] * y2 + gaA[0] * y0), -wa * (gbA[0] * y0 + gaA[1] * y1),
-               -wa * (gbA[1] * y1 + gaA[2] * y2)]
+    dX = [-(gb2 * y2 + ga0 * y0), -(gb0 * y0 + ga1 * y1), -(gb1 * y1 + ga2 * y2)]
+    if dax is not None:
+        dX += [-wa * (hb2 * y2 + ha0 * y0), -wa * (hb0 * y0 + ha1 * y1), -wa * (hb1 * y1 + ha2 * y2)]
     return dX
 
 
@@ -326,7 +324,7 @@ def solve_virtual_joints_scalar(L: Sequence[float], vjm: VirtualJointModel,
     """
     X = list(vjm.singular_floats)
     wa = angular_weight(config)
-    comps = joint_components(SCALAR, vjm, X)
+    comps = vjm.singular_components
     d, err = side_errors(SCALAR, comps, L)
     step = 0
     while not err <= config.tolerance:

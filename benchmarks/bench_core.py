@@ -1,0 +1,112 @@
+"""Benchmark of the kinematics core (issue: GPR kinematics core), all in one run.
+
+Measures: a single forward call, batch forward of 100,000 poses, single and batch inverse, the full paper
+sweep, and the generic baseline a user would otherwise write: ``scipy.optimize.least_squares`` on the same
+closure equations (radial model, the square system, so the solution is unique and both must agree),
+followed by a rigid fit of the three joint centres (``scipy.spatial.transform.Rotation.align_vectors``),
+one pose at a time, at equal accuracy (checked: same virtual joints and position to 1e-12).
+
+Prints a Markdown table (medians of repeated runs). Usage: ``python benchmarks/bench_core.py [--quick]``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from gpr_kinematics.config import load_config
+from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_inverse
+from gpr_kinematics.sweep import paper_sweep
+
+
+def timed(fn, repeat: int, number: int = 1) -> list[float]:
+    """Seconds per call of ``fn``, ``repeat`` samples of ``number`` calls each."""
+    out = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        out.append((time.perf_counter() - t0) / number)
+    return out
+
+
+def baseline_forward(q: np.ndarray, cfg) -> tuple[np.ndarray, np.ndarray]:
+    """What a user would write: least_squares on F(l) = |r_j - r_i|^2 - L_ij^2, then a rigid fit."""
+    th = np.asarray(cfg.rod_azimuths)
+    u = np.stack([np.cos(th), np.sin(th), np.zeros(3)], -1)
+    P = np.column_stack([cfg.radius * np.cos(th), cfg.radius * np.sin(th), q])
+    edges = ((0, 1), (1, 2), (2, 0))
+    L2 = np.array([np.sum((P[j] - P[i]) ** 2) for i, j in edges])
+
+    def F(lv: np.ndarray) -> np.ndarray:
+        r = lv[:, None] * u
+        return np.array([np.sum((r[j] - r[i]) ** 2) for i, j in edges]) - L2
+
+    sol = least_squares(F, np.full(3, cfg.radius), xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
+    r = sol.x[:, None] * u
+    rot, _ = Rotation.align_vectors(P - P.mean(0), r - r.mean(0))
+    t = P.mean(0) - rot.apply(r.mean(0))
+    return sol.x, t
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--quick', action='store_true', help='fewer repetitions (smoke run)')
+    args = ap.parse_args()
+    rep = 3 if args.quick else 7
+    cfg = load_config()
+    rng = np.random.default_rng(0)
+    n = 100_000
+    h, t, g = rng.uniform(0.05, 0.45, n), rng.uniform(-1, 1, n) * cfg.tilt_limit, rng.uniform(-np.pi, np.pi, n)
+    Q = naive_inverse(h, t, g, cfg)
+    rows = []
+
+    for model in ('radial', 'polar'):
+        forward(Q[0], model=model)
+        single = timed(lambda m=model: forward(Q[1], model=m), rep, 2000 if not args.quick else 200)
+        batch = timed(lambda m=model: forward_batch(Q, model=m), rep)
+        rows.append((f'forward, single call ({model})', statistics.median(single) * 1e6, 'us/call', '<= 50'))
+        rows.append((f'forward, batch of 100,000 ({model})', statistics.median(batch) / n * 1e6, 'us/pose', '<= 2'))
+    m_inv = 20_000
+    isingle = timed(lambda: inverse(h[0], t[0], g[0]), rep, 300 if not args.quick else 30)
+    ibatch = timed(lambda: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv]), rep)
+    rows.append(('inverse, single call (radial)', statistics.median(isingle) * 1e6, 'us/call', ''))
+    rows.append((f'inverse, batch of {m_inv:,} (radial)', statistics.median(ibatch) / m_inv * 1e6, 'us/pose', '<= 20'))
+    ipolar = timed(lambda: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv], model='polar'), rep)
+    rows.append((f'inverse, batch of {m_inv:,} (polar)', statistics.median(ipolar) / m_inv * 1e6, 'us/pose', '<= 20'))
+    sweep = timed(lambda: paper_sweep(), rep)
+    rows.append(('paper sweep, 756 samples (IK + FK)', statistics.median(sweep) * 1e3, 'ms', ''))
+
+    # Generic baseline at equal accuracy (radial model: unique solution).
+    nb = 300 if not args.quick else 50
+    fb = forward_batch(Q[:nb], model='radial')
+    for i in range(nb):
+        X, pos = baseline_forward(Q[i], cfg)
+        assert np.max(np.abs(X - fb.virtual_joints[i])) < 1e-12, 'baseline disagrees on X'
+        assert np.max(np.abs(pos - fb.position[i])) < 1e-12, 'baseline disagrees on the position'
+    base = timed(lambda: [baseline_forward(Q[i], cfg) for i in range(nb)], max(3, rep // 2))
+    base_per_pose = statistics.median(base) / nb * 1e6
+    ours_batch = [r for r in rows if r[0] == 'forward, batch of 100,000 (radial)'][0][1]
+    ours_single = [r for r in rows if r[0] == 'forward, single call (radial)'][0][1]
+    rows.append(('baseline: least_squares + align_vectors, per pose (radial)', base_per_pose, 'us/pose', ''))
+
+    print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
+          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end')
+    print()
+    print('| measurement | median | unit | target |')
+    print('|---|---:|---|---|')
+    for name, value, unit, target in rows:
+        print(f'| {name} | {value:.3g} | {unit} | {target} |')
+    print()
+    print(f'speed-up over the baseline: batch forward {base_per_pose / ours_batch:.0f}x, '
+          f'single forward call {base_per_pose / ours_single:.1f}x (target >= 100x)')
+
+
+if __name__ == '__main__':
+    main()
