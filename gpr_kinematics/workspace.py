@@ -418,17 +418,50 @@ def _uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceR
 def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Boolean (N,): point i lies in at least one of ``boxes`` (n, d, 2) (closed boxes).
 
-    Vectorised over chunks of points (memory about 2e6 box-point pairs per chunk).
+    A bucket grid over the boxes' hull: every box is registered in the cells it overlaps, every point is
+    tested against the boxes of its own cell only (cell indices from the same monotone floor, so a point of
+    a box always falls in one of the box's cells).
     """
     points = np.atleast_2d(np.asarray(points, dtype=float))
-    out = np.zeros(points.shape[0], dtype=bool)
-    if boxes.shape[0] == 0:
+    npts = points.shape[0]
+    out = np.zeros(npts, dtype=bool)
+    n = boxes.shape[0]
+    if n == 0 or npts == 0:
         return out
-    step = max(1, 2_000_000 // boxes.shape[0])
-    for start in range(0, points.shape[0], step):
-        p = points[start : start + step]
-        inside = np.all(
-            (boxes[None, :, :, 0] <= p[:, None, :]) & (p[:, None, :] <= boxes[None, :, :, 1]), axis=2
-        )
-        out[start : start + step] = inside.any(axis=1)
+    d = boxes.shape[1]
+    lo = boxes[:, :, 0].min(axis=0)
+    hi = boxes[:, :, 1].max(axis=0)
+    cells = int(np.clip(round(2.0 * n ** (1.0 / d)), 1, 256))
+    size = np.where(hi > lo, (hi - lo) / cells, 1.0)
+
+    def cell_of(x: np.ndarray) -> np.ndarray:
+        return np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64)
+
+    i0 = cell_of(boxes[:, :, 0])
+    span = cell_of(boxes[:, :, 1]) - i0 + 1
+    counts = np.prod(span, axis=1)
+    box_id = np.repeat(np.arange(n), counts)
+    k = np.arange(box_id.shape[0]) - np.repeat(np.cumsum(counts) - counts, counts)
+    cell = np.zeros_like(k)
+    for dim in range(d):
+        r = span[box_id, dim]
+        cell = cell * cells + i0[box_id, dim] + k % r
+        k = k // r
+    order = np.argsort(cell, kind='stable')
+    cell_sorted = cell[order]
+    box_sorted = box_id[order]
+    pc = cell_of(points)
+    pcell = np.zeros(npts, dtype=np.int64)
+    for dim in range(d):
+        pcell = pcell * cells + pc[:, dim]
+    start = np.searchsorted(cell_sorted, pcell, side='left')
+    cnt = np.searchsorted(cell_sorted, pcell, side='right') - start
+    for s0 in range(0, npts, 20000):
+        sl = slice(s0, s0 + 20000)
+        c = cnt[sl]
+        pid = np.repeat(np.arange(s0, s0 + c.shape[0]), c)
+        j = np.arange(pid.shape[0]) - np.repeat(np.cumsum(c) - c, c) + np.repeat(start[sl], c)
+        b = box_sorted[j]
+        inside = np.all((boxes[b, :, 0] <= points[pid]) & (points[pid] <= boxes[b, :, 1]), axis=1)
+        out[pid[inside]] = True
     return out

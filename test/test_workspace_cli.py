@@ -1,0 +1,91 @@
+"""``gpr workspace``: JSON summary, npz boxes, PNG projections, one-line errors with exit status 2."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics import cli
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.workspace import contains_points
+from gpr_kinematics.workspace_models import load_workspace_model
+
+
+def _run(capsys, *argv):
+    code = cli.main(['workspace', *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_json_and_npz_for_the_closed_form_mechanism(tmp_path, capsys):
+    path = tmp_path / 'boxes.npz'
+    code, out, err = _run(capsys, str(config_path('mechanisms/shell_arm.yaml')), '--delta', '40', '--mm',
+                          '--json', '--boxes', str(path), '--no-progress')
+    assert code == 0, err
+    data = json.loads(out)
+    for key in ('inner_boxes', 'boundary_boxes', 'inner_volume', 'outer_volume', 'seconds'):
+        assert key in data
+    exact = load_workspace_model(config_path('mechanisms/shell_arm.yaml')).exact_volume()
+    assert data['inner_volume'] <= exact <= data['outer_volume']
+    assert data['delta'] == pytest.approx(0.04) and data['certified'] and not data['interrupted']
+    with np.load(path) as npz:
+        assert npz['inner'].shape == (data['inner_boxes'], 3, 2)
+        assert npz['boundary'].shape == (data['boundary_boxes'], 3, 2)
+        assert list(npz['variables']) == ['x', 'y', 'z']
+        vol = np.sum(np.prod(npz['inner'][..., 1] - npz['inner'][..., 0], axis=1))
+        assert math.isclose(vol, data['inner_volume'], rel_tol=1e-12)
+
+
+def test_tripod_variables_plots_and_text_output(tmp_path, capsys):
+    code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.01', '--plot', str(tmp_path),
+                          '--boxes', str(tmp_path / 't.npz'))
+    assert code == 0, err
+    assert 'inner and' in out and 'outer volume' in out
+    pngs = sorted(p.name for p in tmp_path.glob('*.png'))
+    assert pngs == ['workspace_tripod_3rps_psi_theta.png', 'workspace_tripod_3rps_z_psi.png',
+                    'workspace_tripod_3rps_z_theta.png']
+    assert all((tmp_path / p).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' for p in pngs)
+    with np.load(tmp_path / 't.npz') as npz:
+        assert list(npz['variables']) == ['z', 'psi', 'theta'] and list(npz['units']) == ['m', 'rad', 'rad']
+        model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+        rng = np.random.default_rng(3)
+        pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * rng.random((20000, 3))
+        ok = model.feasible(pts)
+        assert np.all(contains_points(np.concatenate([npz['inner'], npz['boundary']]), pts[ok]))
+
+
+def test_overrides_grid_method_and_time_limit(capsys):
+    code, out, _ = _run(capsys, 'upu3.yaml', '--delta', '0.02', '--json', '--set', 'b=0.25', '--method', 'grid')
+    assert code == 0
+    data = json.loads(out)
+    assert data['overrides'] == {'b': 0.25} and data['method'] == 'grid' and not data['certified']
+    code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.0003', '--json', '--max-seconds', '0.2')
+    assert code == 0
+    assert json.loads(out)['interrupted'] and 'interrupted' in err
+
+
+@pytest.mark.parametrize('argv, match', [
+    (['shell_arm.yaml', '--delta', '0'], '--delta must be a positive'),
+    (['shell_arm.yaml', '--delta', '-1'], '--delta must be a positive'),
+    (['shell_arm.yaml', '--delta', '1e-30'], 'too small'),
+    (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=-2'], 'positive'),
+    (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
+])
+def test_bad_input_exits_2_with_one_line(argv, match, capsys):
+    code, out, err = _run(capsys, *argv)
+    assert code == 2
+    assert match in err and err.count('\n') == 1 and 'Traceback' not in err
+
+
+@pytest.mark.parametrize('text, match', [
+    ('type: hexapod\n', 'unknown mechanism type'),
+    ('type: dextar\nla: 0.2\n', "missing key 'lb'"),
+    ('[1, 2\n', 'not valid YAML'),
+])
+def test_bad_files_exit_2(tmp_path, capsys, text, match):
+    f = tmp_path / 'm.yaml'
+    f.write_text(text)
+    code, out, err = _run(capsys, str(f), '--delta', '0.1')
+    assert code == 2 and match in err and err.count('\n') == 1

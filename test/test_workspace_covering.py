@@ -1,0 +1,174 @@
+"""Nonuniform covering and grid methods: inner boxes are feasible, feasible points lie in the outer
+approximation, volumes converge (closed-form mechanisms), interruption keeps a valid result."""
+import io
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import InputError
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.workspace import approximate, box_volume, contains_points
+from gpr_kinematics.workspace_models import ShellArmModel, load_workspace_model
+
+RNG = np.random.default_rng(2024)
+CASES = [('tripod_3rps', 0.004), ('upu3', 0.01), ('gpr', 0.004), ('rrr3_planar', 0.004), ('dextar', 0.01),
+         ('shell_arm', 0.02)]
+
+
+def _points_in_boxes(boxes, n):
+    idx = RNG.integers(0, boxes.shape[0], n)
+    b = boxes[idx]
+    return b[:, :, 0] + (b[:, :, 1] - b[:, :, 0]) * RNG.random(b.shape[:2])
+
+
+@pytest.fixture(scope='module', params=CASES, ids=[c[0] for c in CASES])
+def covered(request):
+    name, delta = request.param
+    model = load_workspace_model(config_path(f'mechanisms/{name}.yaml'))
+    return model, approximate(model, delta)
+
+
+def test_random_points_of_inner_boxes_satisfy_every_constraint(covered):
+    model, res = covered
+    assert res.inner_boxes > 0 and res.certified and not res.interrupted
+    pts = _points_in_boxes(res.inner, 20000)
+    g = model.evaluate(pts)
+    assert np.all((g >= model.lower) & (g <= model.upper))
+    # also the corners (the extreme points of the boxes)
+    corners = np.stack([res.inner[:, :, 0], res.inner[:, :, 1]], axis=1).reshape(-1, len(model.variables))
+    assert np.all(model.feasible(corners))
+
+
+def test_feasible_sample_points_lie_in_the_outer_approximation(covered):
+    model, res = covered
+    pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((60000, len(model.variables)))
+    ok = model.feasible(pts)
+    assert ok.sum() > 50
+    outer = np.concatenate([res.inner, res.boundary])
+    assert np.all(contains_points(outer, pts[ok]))
+    # and infeasible points are never inside inner boxes
+    assert not np.any(contains_points(res.inner, pts[~ok]))
+
+
+def test_boxes_are_disjoint_in_volume_and_below_delta(covered):
+    model, res = covered
+    total = box_volume(np.concatenate([res.inner, res.boundary]))
+    assert math.isclose(total, res.outer_volume, rel_tol=1e-12)
+    assert res.outer_volume <= np.prod(model.box[:, 1] - model.box[:, 0]) * (1 + 1e-12)
+    diam = np.max((res.boundary[:, :, 1] - res.boundary[:, :, 0]) * model.scale, axis=1)
+    assert np.all(diam < res.delta)
+    # Monte-Carlo volume of the workspace lies between the inner and outer volumes
+    n = 100_000
+    pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((n, len(model.variables)))
+    frac = model.feasible(pts).mean()
+    vol = np.prod(model.box[:, 1] - model.box[:, 0])
+    sigma = vol * math.sqrt(frac * (1 - frac) / n)
+    assert res.inner_volume - 5 * sigma <= frac * vol <= res.outer_volume + 5 * sigma
+
+
+def test_closed_form_shell_volume_is_bracketed_and_converges():
+    model = load_workspace_model(config_path('mechanisms/shell_arm.yaml'))
+    exact = model.exact_volume()
+    gaps = []
+    for delta in (0.08, 0.04, 0.02, 0.01):
+        res = approximate(model, delta)
+        assert res.inner_volume <= exact <= res.outer_volume
+        gaps.append(res.outer_volume - res.inner_volume)
+    # the boundary layer is a surface times delta: halving delta about halves the gap
+    ratios = np.array(gaps[1:]) / np.array(gaps[:-1])
+    assert np.all(ratios < 0.65) and np.all(ratios > 0.35)
+    assert gaps[-1] < 0.1 * exact
+
+
+def test_closed_form_dextar_area_is_bracketed_and_converges():
+    model = load_workspace_model(config_path('mechanisms/dextar.yaml'))
+    exact = model.exact_area()
+    prev = None
+    for delta in (0.02, 0.005, 0.00125):
+        res = approximate(model, delta)
+        assert res.inner_volume <= exact <= res.outer_volume
+        if prev is not None:
+            assert res.inner_volume >= prev.inner_volume and res.outer_volume <= prev.outer_volume
+        prev = res
+    assert (prev.outer_volume - prev.inner_volume) / exact < 0.02
+
+
+def test_tripod_volumes_converge_as_delta_shrinks():
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    results = [approximate(model, d) for d in (0.016, 0.008, 0.004)]
+    inner = [r.inner_volume for r in results]
+    outer = [r.outer_volume for r in results]
+    assert inner[0] <= inner[1] <= inner[2] <= outer[2] <= outer[1] <= outer[0]
+    assert (outer[2] - inner[2]) < 0.7 * (outer[1] - inner[1])
+
+
+@pytest.mark.parametrize('method', ['grid', 'uniform'])
+def test_grid_methods_agree_with_the_certified_covering(method):
+    model = ShellArmModel(0.3, 0.2, floor=-0.1)
+    res = approximate(model, 0.02, method=method)
+    assert not res.certified
+    exact = model.exact_volume()
+    assert abs(res.inner_volume - exact) / exact < 0.2
+    assert res.inner_volume <= exact * 1.01 and res.outer_volume >= exact * 0.99
+    # node-sampled inner boxes are feasible at their sample nodes (corners)
+    corners = np.concatenate([res.inner[:, :, 0], res.inner[:, :, 1]])
+    assert np.all(model.feasible(corners))
+
+
+def test_interruption_keeps_a_valid_partial_result():
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+
+    class Interrupting(type(model)):
+        calls = 0
+
+        def enclose(self, x):
+            Interrupting.calls += 1
+            if Interrupting.calls == 18:
+                raise KeyboardInterrupt
+            return super().enclose(x)
+
+    m = Interrupting(model.R, model.r, model.leg_min, model.leg_max, box=model.box)
+    res = approximate(m, 0.002)
+    assert res.interrupted and res.levels == 18 and res.inner_boxes > 0
+    pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((30000, 3))
+    ok = model.feasible(pts)
+    assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), pts[ok]))
+    assert np.all(model.feasible(_points_in_boxes(res.inner, 5000)))
+    # a time limit acts the same way
+    res2 = approximate(model, 0.0005, max_seconds=0.05)
+    assert res2.interrupted
+    assert np.all(contains_points(np.concatenate([res2.inner, res2.boundary]), pts[ok]))
+
+
+def test_progress_bar_is_written_for_long_runs():
+    model = load_workspace_model(config_path('mechanisms/shell_arm.yaml'))
+    stream = io.StringIO()
+    from gpr_kinematics import workspace
+    old = workspace._Progress.__init__.__defaults__
+    workspace._Progress.__init__.__defaults__ = (None, 0.0)          # show at once
+    try:
+        approximate(model, 0.05, progress=True, progress_stream=stream)
+    finally:
+        workspace._Progress.__init__.__defaults__ = old
+    text = stream.getvalue()
+    assert '% of volume decided' in text and 'inner' in text and text.endswith('\n')
+
+
+@pytest.mark.parametrize('kwargs, match', [
+    ({'delta': 0.0}, 'positive'), ({'delta': -1.0}, 'positive'), ({'delta': float('nan')}, 'positive'),
+    ({'delta': 1e-20}, 'too small'), ({'delta': 0.1, 'method': 'sivia'}, 'unknown workspace method'),
+    ({'delta': 0.1, 'box': [[0, 1]]}, 'shape'), ({'delta': 0.1, 'box': [[0, 1], [0, 1], [2, 1]]}, 'lower < upper'),
+])
+def test_bad_arguments_raise_input_errors(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        approximate(ShellArmModel(), **kwargs)
+
+
+def test_contains_points_matches_brute_force():
+    lo = RNG.random((2000, 3))
+    boxes = np.stack([lo, lo + 0.1 * RNG.random((2000, 3))], axis=2)
+    pts = np.concatenate([RNG.random((5000, 3)) * 1.2 - 0.1, boxes[:, :, 0], boxes[:, :, 1]])
+    brute = np.array([np.any(np.all((boxes[:, :, 0] <= p) & (p <= boxes[:, :, 1]), axis=1)) for p in pts])
+    assert np.array_equal(contains_points(boxes, pts), brute)
+    assert brute[5000:].all() and 0 < brute[:5000].sum() < 5000

@@ -1,0 +1,115 @@
+"""Interval arithmetic of gpr_kinematics.interval: enclosures contain sampled values, known exact ranges,
+outward rounding checked with exact rational arithmetic."""
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.interval import Interval, monotone
+
+RNG = np.random.default_rng(12345)
+
+
+def _random_intervals(n, scale=3.0):
+    a = RNG.normal(0.0, scale, n)
+    b = a + RNG.exponential(scale, n) * (RNG.random(n) < 0.9)   # some degenerate intervals
+    return Interval(a, b)
+
+
+def _samples(x, k=200):
+    t = RNG.random((k, x.lo.shape[0]))
+    t[0], t[1] = 0.0, 1.0                     # the endpoints themselves
+    return np.clip(x.lo + (x.hi - x.lo) * t, x.lo, x.hi)    # rounding must not leave the interval
+
+
+def _assert_encloses(result, values):
+    assert np.all(result.lo <= values), (values - result.lo).min()
+    assert np.all(values <= result.hi), (result.hi - values).min()
+
+
+@pytest.mark.parametrize('name', ['add', 'sub', 'mul', 'div'])
+def test_binary_operations_enclose_samples(name):
+    x, y = _random_intervals(500), _random_intervals(500)
+    if name == 'div':
+        y = Interval(np.abs(y.lo) + 0.1, np.abs(y.lo) + 0.1 + y.width)
+    op = {'add': np.add, 'sub': np.subtract, 'mul': np.multiply, 'div': np.divide}[name]
+    res = op(x, y) if name != 'div' else x / y
+    xs, ys = _samples(x), _samples(y)
+    _assert_encloses(res, op(xs, ys))
+    # the extreme combinations of endpoints are attained: the enclosure is tight to a few ulps
+    corners = np.stack([op(a, b) for a in (x.lo, x.hi) for b in (y.lo, y.hi)])
+    assert np.allclose(res.lo, corners.min(0), rtol=1e-14, atol=1e-300)
+    assert np.allclose(res.hi, corners.max(0), rtol=1e-14, atol=1e-300)
+
+
+@pytest.mark.parametrize('fn', ['sin', 'cos', 'sqr', 'sqrt', 'arctan', 'exp', 'abs'])
+def test_unary_functions_enclose_samples(fn):
+    x = _random_intervals(400, scale=4.0)
+    if fn == 'sqrt':
+        x = Interval(np.abs(x.lo), np.abs(x.lo) + x.width)
+    res = getattr(x, fn)()
+    ref = {'sin': np.sin, 'cos': np.cos, 'sqr': np.square, 'sqrt': np.sqrt, 'arctan': np.arctan,
+           'exp': np.exp, 'abs': np.abs}[fn]
+    xs = _samples(x, 2000)
+    vals = ref(xs)
+    _assert_encloses(res, vals)
+    # not grossly wider than the sampled range (sampling dense enough for these widths)
+    assert np.all(res.hi - res.lo <= vals.max(0) - vals.min(0) + 0.05 * (1 + np.abs(vals).max(0)))
+
+
+def test_tan_and_arcsin_on_their_domains():
+    x = Interval(RNG.uniform(-1.5, 0.0, 300), RNG.uniform(0.0, 1.5, 300))
+    _assert_encloses(x.tan(), np.tan(_samples(x)))
+    y = Interval(RNG.uniform(-1, 0, 300), RNG.uniform(0, 1, 300))
+    _assert_encloses(y.arcsin(), np.arcsin(_samples(y)))
+    # across a pole of tan the enclosure is the whole line
+    assert np.isinf(Interval(1.0, 2.0).tan().hi) and np.isinf(Interval(1.0, 2.0).tan().lo)
+
+
+def test_known_exact_ranges():
+    s = Interval(np.array([0.0]), np.array([np.pi])).sin()
+    assert s.hi[0] == 1.0 and -1e-15 < s.lo[0] <= 0.0
+    c = Interval(np.array([-1.0]), np.array([1.0])).cos()
+    assert c.hi[0] == 1.0 and np.cos(1.0) - 1e-14 < c.lo[0] < np.cos(1.0)
+    c2 = Interval(np.array([3.0]), np.array([3.3])).cos()          # contains the minimum at pi
+    assert c2.lo[0] == -1.0
+    c3 = Interval(np.array([0.5]), np.array([0.5 + 7.0])).cos()     # wider than 2 pi
+    assert c3.lo[0] == -1.0 and c3.hi[0] == 1.0
+    sq = Interval(np.array([-2.0]), np.array([3.0])).sqr()
+    assert sq.lo[0] == 0.0 and 9.0 <= sq.hi[0] < 9.0 + 1e-14
+    prod = Interval(np.array([-2.0]), np.array([3.0])) * Interval(np.array([-5.0]), np.array([4.0]))
+    assert -15.0 - 1e-13 < prod.lo[0] <= -15.0 and 12.0 <= prod.hi[0] < 12.0 + 1e-13
+    # the dependency effect: x - x is not 0 but [lo - hi, hi - lo]
+    x = Interval(np.array([1.0]), np.array([2.0]))
+    d = x - x
+    assert d.lo[0] <= -1.0 and d.hi[0] >= 1.0
+    inv = Interval(np.array([-1.0]), np.array([1.0])).reciprocal()
+    assert np.isinf(inv.lo[0]) and np.isinf(inv.hi[0])
+
+
+def test_outward_rounding_contains_the_exact_rational_result():
+    a = RNG.normal(0, 1, 200)
+    b = RNG.normal(0, 1, 200)
+    for op, exact in ((np.add, lambda p, q: p + q), (np.multiply, lambda p, q: p * q),
+                      (np.subtract, lambda p, q: p - q)):
+        res = op(Interval.point(a), Interval.point(b))
+        for i in range(a.size):
+            e = exact(Fraction(a[i]), Fraction(b[i]))
+            assert Fraction(res.lo[i]) <= e <= Fraction(res.hi[i])
+            assert res.lo[i] < res.hi[i]          # strictly widened: rounding can never be missed
+    r = Interval.point([3.0]).sqrt()
+    assert Fraction(r.lo[0]) ** 2 <= 3 <= Fraction(r.hi[0]) ** 2
+    q = Interval.point([1.0]) / Interval.point([3.0])
+    assert Fraction(q.lo[0]) <= Fraction(1, 3) <= Fraction(q.hi[0])
+
+
+def test_monotone_enclosure_and_scalar_multiplication():
+    x = Interval(np.array([0.1, 0.5]), np.array([0.2, 0.9]))
+    m = monotone(np.exp, x)
+    assert np.all(m.lo <= np.exp(x.lo)) and np.all(m.hi >= np.exp(x.hi))
+    md = monotone(lambda v: -v, x, increasing=False)
+    assert np.all(md.lo <= -x.hi) and np.all(md.hi >= -x.lo)
+    neg = x * -2.0
+    assert np.all(neg.lo <= -2 * x.hi) and np.all(neg.hi >= -2 * x.lo)
+    zero = Interval(np.array([-np.inf]), np.array([np.inf])) * 0.0
+    assert zero.lo[0] == 0.0 and zero.hi[0] == 0.0

@@ -1,0 +1,200 @@
+"""Workspace models: point constraints against independent kinematics, interval enclosures against
+sampling, and the seeds' formulas."""
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.workspace_models import (
+    DextarModel,
+    GprModel,
+    Rrr3PlanarModel,
+    ShellArmModel,
+    TripodModel,
+    Upu3Model,
+    load_workspace_model,
+    model_from_mapping,
+)
+
+RNG = np.random.default_rng(7)
+FILES = ['tripod_3rps', 'upu3', 'gpr', 'rrr3_planar', 'dextar', 'shell_arm']
+
+
+def _uniform(box, n):
+    return box[:, 0] + (box[:, 1] - box[:, 0]) * RNG.random((n, box.shape[0]))
+
+
+@pytest.mark.parametrize('name', FILES)
+def test_enclosures_contain_point_values_on_small_and_large_boxes(name):
+    model = load_workspace_model(config_path(f'mechanisms/{name}.yaml'))
+    d = len(model.variables)
+    for rel in (0.3, 0.02, 0.001):
+        centres = _uniform(model.box, 300)
+        half = rel * (model.box[:, 1] - model.box[:, 0]) * RNG.random((300, d))
+        boxes = np.stack([np.maximum(centres - half, model.box[:, 0]),
+                          np.minimum(centres + half, model.box[:, 1])], axis=2)
+        lo, hi = model.bounds(boxes)
+        t = RNG.random((40, 300, d))
+        pts = boxes[None, :, :, 0] + (boxes[None, :, :, 1] - boxes[None, :, :, 0]) * t
+        pts = np.clip(pts, boxes[None, :, :, 0], boxes[None, :, :, 1])
+        g = model.evaluate(pts.reshape(-1, d)).reshape(40, 300, -1)
+        defined = np.isfinite(g)
+        assert np.all((lo[None] <= g) | ~defined)
+        assert np.all((g <= hi[None]) | ~defined)
+        if rel == 0.001 and name != 'rrr3_planar':
+            # enclosures shrink with the box (convergent interval extension)
+            spread = np.nanmax(g, axis=0) - np.nanmin(g, axis=0)
+            finite = np.isfinite(hi - lo)
+            assert np.median((hi - lo)[finite]) < 50 * np.median(spread[finite]) + 1e-12
+
+
+def test_tripod_leg_lengths_match_the_mechanism_interface():
+    from gpr_kinematics.mechanisms import load_mechanism
+    mech = load_mechanism(config_path('mechanisms/tripod_3rps.yaml'))
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    pts = _uniform(np.array([[0.05, 0.13], [-1.0, 1.0], [-1.0, 1.0]]), 200)
+    poses = np.zeros((200, 6))
+    poses[:, 2], poses[:, 3], poses[:, 4] = pts[:, 0], pts[:, 2], pts[:, 1]      # (x, y, z, theta, psi, phi)
+    legs = mech.inverse_kinematics(mech.complete_pose(poses))
+    assert np.allclose(model.evaluate(pts), legs, atol=1e-14)
+
+
+def test_tripod_spherical_joints_stay_in_their_leg_planes():
+    model = TripodModel()
+    pts = _uniform(np.array([[0.05, 0.13], [-1.4, 1.4], [-1.4, 1.4]]), 500)
+    a, s = model.joints(pts)
+    tangent = np.stack([-np.sin(model.beta), np.cos(model.beta), np.zeros(3)], axis=1)
+    assert np.max(np.abs(np.einsum('nki,ki->nk', s, tangent))) < 1e-15
+    # upright platform at height z: every leg is sqrt((R - r)^2 + z^2) = z for R = r
+    assert np.allclose(model.evaluate(np.array([[0.1, 0.0, 0.0]])), 0.1, atol=1e-16)
+
+
+def test_rrr3_branch_is_the_seeds_arcsin_formula_and_closes_the_legs():
+    model = load_workspace_model(config_path('mechanisms/rrr3_planar.yaml'))
+    assert isinstance(model, Rrr3PlanarModel)
+    pts = _uniform(np.array([[-0.03, 0.03], [-0.03, 0.03], [-0.4, 0.4]]), 400)
+    u = model.crank_directions(pts)
+    ok = np.all(np.isfinite(u[..., 0]), axis=1)
+    assert ok.sum() > 100
+    pts, u = pts[ok], u[ok]
+    x, y, phi = pts.T
+    l1, l2, l3 = model.l1, model.l2, model.r
+    for i in range(3):
+        xi, yi = model.A[i]
+        g = model.platform_angles[i]
+        # seed eqs. (8)-(12)
+        a_sin = 2 * (yi * l1 - y * l1 - l1 * l3 * np.sin(g + phi))
+        a_cos = 2 * (xi * l1 - x * l1 - l1 * l3 * np.cos(g + phi))
+        b_cos = x ** 2 + 2 * x * l3 * np.cos(g + phi) - 2 * x * xi + l3 ** 2 * np.cos(g + phi) ** 2 \
+            - 2 * xi * l3 * np.cos(g + phi) + xi ** 2
+        b_sin = y ** 2 + 2 * y * l3 * np.sin(g + phi) - 2 * y * yi + l3 ** 2 * np.sin(g + phi) ** 2 \
+            - 2 * yi * l3 * np.sin(g + phi) + yi ** 2
+        aux = np.arctan2(a_cos, a_sin)
+        theta = np.arcsin((l2 ** 2 - l1 ** 2 - b_cos - b_sin) / np.hypot(a_sin, a_cos)) - aux
+        assert np.allclose(np.cos(theta), u[:, i, 0], atol=1e-12)
+        assert np.allclose(np.sin(theta), u[:, i, 1], atol=1e-12)
+        # the elbow closes: |C_i - (A_i + l1 u)| = l2
+        c = np.stack([x + l3 * np.cos(g + phi), y + l3 * np.sin(g + phi)], axis=1)
+        assert np.allclose(np.linalg.norm(c - model.A[i] - l1 * u[:, i], axis=1), l2, atol=1e-15)
+    # home pose: every input angle is 0 and inside the +-45 deg range
+    assert np.allclose(model.input_angles(np.zeros((1, 3))), 0.0, atol=1e-15)
+    assert model.feasible(np.zeros((1, 3)))[0]
+
+
+def test_rrr3_angle_constraint_is_the_input_angle_range():
+    model = Rrr3PlanarModel()
+    pts = _uniform(model.box, 20000)
+    g = model.evaluate(pts)
+    ang = model.input_angles(pts)
+    closes = np.all(g[:, :3] >= 0, axis=1)
+    by_angle = np.all(np.abs(ang) <= math.pi / 4, axis=1) & closes
+    assert np.array_equal(model.feasible(pts), by_angle)
+
+
+def test_gpr_rods_tilt_and_displacements_match_the_core_forward_kinematics():
+    from gpr_kinematics.kinematics import forward_batch
+    model = load_workspace_model(config_path('mechanisms/gpr.yaml'))
+    assert isinstance(model, GprModel)
+    pts = _uniform(np.array([[0.05, 0.45], [-0.15, 0.15], [-0.15, 0.15]]), 300)
+    q = model.actuators(pts)
+    fb = forward_batch(q, model='radial', check_limits=False)
+    assert np.allclose(fb.tilt, np.hypot(pts[:, 1], pts[:, 2]), atol=1e-13)
+    az = np.arctan2(pts[:, 2], pts[:, 1])
+    assert np.allclose(np.angle(np.exp(1j * (fb.tilt_azimuth - az))), 0.0, atol=1e-10)
+    assert np.allclose(q.mean(axis=1), pts[:, 0], atol=1e-15)
+    g = model.evaluate(pts)
+    assert np.allclose(np.abs(g[:, 3:]), fb.joint_displacement, atol=1e-15)
+    assert np.allclose(fb.virtual_joints - model.R, g[:, 3:], atol=1e-15)
+    # untilted: no displacement; within_budget agrees with the model's constraint
+    assert np.all(model.evaluate(np.array([[0.2, 0.0, 0.0]]))[0, 3:] == 0.0)
+    inside_budget = np.all(np.abs(g[:, 3:]) <= model.budget, axis=1)
+    assert np.array_equal(inside_budget, fb.within_budget)
+
+
+def test_gpr_remainder_bound_holds_for_exact_displacements():
+    """|dl - dl_lin| <= 1.5 e1^2 / R, the bound behind the certified enclosure (docs/workspace.md)."""
+    model = GprModel()
+    pts = _uniform(np.array([[0.2, 0.3], [-0.3, 0.3], [-0.3, 0.3]]), 2000)
+    q = model.actuators(pts)
+    dl = model.radial_displacements(q)
+    pairs = ((0, 1), (1, 2), (2, 0))
+    D = np.stack([(q[:, j] - q[:, i]) ** 2 for i, j in pairs], axis=1)
+    lin = np.stack([D[:, 0] - D[:, 1] + D[:, 2], D[:, 0] + D[:, 1] - D[:, 2], D[:, 1] + D[:, 2] - D[:, 0]],
+                   axis=1) / (6 * model.R)
+    m = np.abs(lin).max(axis=1)
+    e1 = 2 * m / (1 + np.sqrt(1 - 6 * m / model.R))
+    assert np.all(np.abs(dl).max(axis=1) <= e1 * (1 + 1e-12))
+    err = np.abs(dl - lin).max(axis=1)
+    assert np.all(err <= 1.5 * e1 ** 2 / model.R * (1 + 1e-9))
+    assert err.max() > 0.1 * (1.5 * e1 ** 2 / model.R).max()          # the bound is not vacuous
+
+
+def test_closed_form_areas_and_volumes():
+    # DexTAR with d = 0: two identical coincident annuli -> one annulus
+    assert math.isclose(DextarModel(0.2, 0.1, 0.1, 0.2, 0.0).exact_area(), math.pi * (0.3 ** 2 - 0.1 ** 2))
+    # shell arm with the floor below the shell: whole shell
+    arm = ShellArmModel(0.3, 0.2, floor=-1.0)
+    assert math.isclose(arm.exact_volume(), 4 / 3 * math.pi * (0.5 ** 3 - 0.1 ** 3))
+    # floor through the centre: half the shell
+    assert math.isclose(ShellArmModel(0.3, 0.2, floor=0.0).exact_volume(), arm.exact_volume() / 2)
+    # Monte-Carlo agreement (5 sigma) for the packaged DexTAR and shell arm
+    for name in ('dextar', 'shell_arm'):
+        model = load_workspace_model(config_path(f'mechanisms/{name}.yaml'))
+        exact = model.exact_area() if name == 'dextar' else model.exact_volume()
+        n = 200_000
+        frac = model.feasible(_uniform(model.box, n)).mean()
+        vol = np.prod(model.box[:, 1] - model.box[:, 0])
+        assert abs(frac * vol - exact) < 5 * vol * math.sqrt(frac * (1 - frac) / n)
+
+
+def test_upu3_matches_the_mechanism_limb_lengths():
+    from gpr_kinematics.mechanisms import load_mechanism
+    mech = load_mechanism(config_path('mechanisms/upu3.yaml'))
+    model = load_workspace_model(config_path('mechanisms/upu3.yaml'))
+    assert isinstance(model, Upu3Model)
+    pts = _uniform(model.box, 300)
+    poses = np.zeros((300, 6))
+    poses[:, :3] = pts
+    assert np.allclose(model.evaluate(pts), mech.inverse_kinematics(poses), atol=1e-15)
+
+
+@pytest.mark.parametrize('data, match', [
+    ({'type': 'nope'}, 'unknown mechanism type'),
+    ({'type': 'dextar', 'la': 0.2}, "missing key 'lb'"),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 'x'}, 'must be a number'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'w': [0, 1]}}}, 'unknown variable'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [1, 0]}}}, 'lower < upper'),
+    ({'type': 'gpr', 'workspace': {'virtual_joint_model': 'polar'}}, 'no certified enclosure'),
+    ({'type': 'tripod_3rps', 'base_radius': 0.05}, 'leg_min'),
+    ([1, 2], 'mapping'),
+])
+def test_bad_mechanism_descriptions_raise_config_errors(data, match):
+    with pytest.raises(ConfigError, match=match):
+        model_from_mapping(data, 'test')
+
+
+def test_overrides_replace_parameters():
+    model = model_from_mapping({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2}, 'test', {'l1': 0.4})
+    assert model.l1 == 0.4
