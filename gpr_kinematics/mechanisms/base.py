@@ -40,6 +40,9 @@ ANGULAR_JOINTS = frozenset({'revolute', 'angle'})
 
 POSE_COMPONENTS = ('x', 'y', 'z', 'A', 'B', 'C')
 
+#: Largest Newton step of the rigid-motion forward kinematics (rad, or characteristic lengths).
+MAX_STEP = 0.5
+
 #: Inverse condition number below which a configuration counts as singular.
 SINGULAR_TOLERANCE = 1e-9
 
@@ -153,8 +156,9 @@ def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
         raise SingularityError(f'{name}: forward kinematics met a singular configuration (infinite Jacobian)')
     try:
         return np.linalg.solve(J, res[..., None])[..., 0]
-    except np.linalg.LinAlgError as exc:
-        raise SingularityError(f'{name}: forward kinematics met a singular Jacobian') from exc
+    except np.linalg.LinAlgError:
+        # Some item of the batch is exactly singular: least-squares steps for all (rare).
+        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
 
 
 def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
@@ -172,23 +176,51 @@ def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
     return jac * row[:, None] * col[None, :]
 
 
+#: Above this condition number the fast Gram-matrix estimate is replaced by an SVD (see :func:`dexterity_index`).
+GRAM_CONDITION_LIMIT = 1e4
+
+
 def singular_values(jac: np.ndarray) -> np.ndarray:
     """Singular values ``(N, min(n, m))`` of a batch of matrices, descending."""
     return np.linalg.svd(np.asarray(jac, dtype=float), compute_uv=False)
 
 
-def condition_number(jac: np.ndarray) -> np.ndarray:
-    """2-norm condition number ``sigma_max / sigma_min`` per matrix (``inf`` when ``sigma_min = 0``)."""
-    sv = singular_values(jac)
+def _svd_dexterity(J: np.ndarray) -> np.ndarray:
+    sv = singular_values(J)
     with np.errstate(divide='ignore', invalid='ignore'):
-        return np.where(sv[..., -1] > 0, sv[..., 0] / sv[..., -1], np.inf)
+        return np.where(sv[..., 0] > 0, sv[..., -1] / sv[..., 0], 0.0)
 
 
 def dexterity_index(jac: np.ndarray) -> np.ndarray:
-    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity)."""
-    sv = singular_values(jac)
+    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity).
+
+    For tall or square ``J`` the singular values come from the eigenvalues of the Gram matrix ``J^T J``
+    (``sigma^2``; about twice as fast as an SVD on small matrices). The Gram matrix squares the condition
+    number, so its estimate carries a relative error of about ``eps cond^2``: wherever ``cond`` exceeds
+    :data:`GRAM_CONDITION_LIMIT` (or the Gram estimate is not positive) the value is recomputed by an SVD,
+    so the result is accurate to ~1e-8 relative everywhere and singularities are resolved to ``eps``.
+    """
+    J = np.asarray(jac, dtype=float)
+    if J.shape[-2] < J.shape[-1] or J.ndim < 2:
+        return _svd_dexterity(J)
+    lam = np.linalg.eigvalsh(np.swapaxes(J, -1, -2) @ J)
     with np.errstate(divide='ignore', invalid='ignore'):
-        return np.where(sv[..., 0] > 0, sv[..., -1] / sv[..., 0], 0.0)
+        dex = np.sqrt(np.maximum(lam[..., 0], 0.0) / lam[..., -1])
+    redo = ~(np.isfinite(dex) & (lam[..., 0] > 0) & (dex * GRAM_CONDITION_LIMIT > 1.0))
+    if np.any(redo):
+        dex = np.where(np.isfinite(dex), dex, 0.0)
+        dex[redo] = _svd_dexterity(J[redo])
+    return dex
+
+
+def condition_number(jac: np.ndarray) -> np.ndarray:
+    """2-norm condition number ``sigma_max / sigma_min`` per matrix (``inf`` when ``sigma_min = 0``).
+
+    Computed as ``1 / dexterity_index(jac)`` (Gram eigenvalues, SVD where ill-conditioned).
+    """
+    dex = dexterity_index(jac)
+    with np.errstate(divide='ignore'):
+        return np.where(dex > 0, 1.0 / np.where(dex > 0, dex, 1.0), np.inf)
 
 
 def is_singular(jac: np.ndarray, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
@@ -429,14 +461,22 @@ class Mechanism(abc.ABC):
         pos = g[:, :3].copy()
         R = euler_rotation(g[:, 3:], self.euler_convention)
         err = np.full(q.shape[0], np.inf)
+        active = np.arange(q.shape[0])
         for _ in range(max_iterations):
-            res = self.joints_rt(pos, R) - q
-            err = np.max(np.abs(res), axis=-1)
-            if np.all(err < tol):
+            res = self.joints_rt(pos[active], R[active]) - q[active]
+            err[active] = np.max(np.abs(res), axis=-1)
+            keep = ~(err[active] < tol)
+            active, res = active[keep], res[keep]
+            if active.size == 0:
                 return np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], axis=-1)
-            step = _solve(self.inverse_jacobian_rt(pos, R), res, self.name)
-            pos = pos - step[:, :3]
-            R = rotation_from_vector(-step[:, 3:]) @ R
+            step = _solve(self.inverse_jacobian_rt(pos[active], R[active]), res, self.name)
+            # Damping: no step larger than MAX_STEP (homogenised: rotations times the characteristic length),
+            # so a start far from the solution cannot jump across a singularity.
+            size = np.maximum(np.linalg.norm(step[:, :3], axis=-1) / self.characteristic_length,
+                              np.linalg.norm(step[:, 3:], axis=-1))
+            step *= np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-300))[:, None]
+            pos[active] -= step[:, :3]
+            R[active] = rotation_from_vector(-step[:, 3:]) @ R[active]
         raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
                                f'{max_iterations} iterations (max residual {np.max(err):.3g})')
 

@@ -66,7 +66,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum('...i,...i->...', a, b)
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 @dataclass(frozen=True)
@@ -176,6 +176,7 @@ class GeneralizedStewartPlatform(Mechanism):
             t = self.B_j - self.B_i
             self.s = s / np.linalg.norm(s, axis=1, keepdims=True)
             self.t = t / np.linalg.norm(t, axis=1, keepdims=True)
+        self._t0 = np.nan_to_num(self.t)
         self.groups = {ct: np.flatnonzero(self.types == ct) for ct in CONSTRAINT_TYPES}
         self.groups = {k: v for k, v in self.groups.items() if v.size}
 
@@ -235,9 +236,10 @@ class GeneralizedStewartPlatform(Mechanism):
 
     def _terms_rt(self, pos: np.ndarray, R: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        Rb = np.einsum('nij,kj->nki', R, self.B_i)
+        Rt_ = np.swapaxes(R, -1, -2)
+        Rb = self.B_i @ Rt_                                    # (N, 6, 3): R B_k
         v = pos[:, None, :] + Rb - self.A_i
-        Rt = np.einsum('nij,kj->nki', R, np.nan_to_num(self.t))
+        Rt = self._t0 @ Rt_
         return R, Rb, v, Rt
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:

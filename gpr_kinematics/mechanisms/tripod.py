@@ -153,7 +153,7 @@ class Tripod3RPS(Mechanism):
         """Spherical-joint centres ``p + R_p B_i`` ``(N, 3, 3)`` in the base frame (m) of completed poses."""
         full = np.atleast_2d(self.complete_pose(poses))
         R = self.rotation(full)
-        return full[:, None, :3] + np.einsum('nij,kj->nki', R, self.platform_points)
+        return full[:, None, :3] + self.platform_points @ np.swapaxes(R, -1, -2)
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:
         """Link lengths ``(N, 3)`` (m), eqs. (4)-(7), after completing the parasitic motions."""
@@ -166,7 +166,7 @@ class Tripod3RPS(Mechanism):
         arr, single = as_poses(poses)
         full = np.atleast_2d(self.complete_pose(arr))
         R = self.rotation(full)
-        Rb = np.einsum('nij,kj->nki', R, self.platform_points)
+        Rb = self.platform_points @ np.swapaxes(R, -1, -2)
         v = full[:, None, :3] + Rb - self.base_points
         n = v / np.linalg.norm(v, axis=-1, keepdims=True)
         J = np.concatenate([n, np.cross(Rb, n)], axis=-1)
