@@ -197,8 +197,8 @@ def run() -> tuple[list[str], dict]:
         '## Mechanisms',
         '',
         f'`benchmarks/bench_mechanisms.py`, {time.strftime("%Y-%m-%d")}, {platform.machine()} with '
-        f'{_cores()} cores shared with other jobs, Python {platform.python_version()}, numpy {np.__version__}; '
-        'medians of repeated runs, per pose.',
+        f'{_cores()} cores shared with other jobs (load average {_load()}), Python {platform.python_version()}, '
+        f'numpy {np.__version__}; medians of repeated runs, per pose.',
         '',
         '| what | per pose |',
         '|---|---|',
@@ -225,6 +225,14 @@ def run() -> tuple[list[str], dict]:
         '',
     ]
     return lines, results
+
+
+def _load() -> str:
+    import os
+    try:
+        return f'{os.getloadavg()[0]:.1f}'
+    except OSError:  # pragma: no cover
+        return 'unknown'
 
 
 def _cores() -> int:

@@ -64,17 +64,17 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
 def _axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
     """Elementary rotation matrices ``(N, 3, 3)`` about base axis ``x``, ``y`` or ``z`` by ``angle`` (rad)."""
     c, s = np.cos(angle), np.sin(angle)
-    one, zero = np.ones_like(angle), np.zeros_like(angle)
-    a = axis.lower()
-    if a == 'x':
-        rows = [[one, zero, zero], [zero, c, -s], [zero, s, c]]
-    elif a == 'y':
-        rows = [[c, zero, s], [zero, one, zero], [-s, zero, c]]
-    elif a == 'z':
-        rows = [[c, -s, zero], [s, c, zero], [zero, zero, one]]
-    else:
+    k = 'xyz'.find(axis.lower())
+    if k < 0 or len(axis) != 1:
         raise InputError(f'unknown rotation axis {axis!r}; allowed: x, y, z')
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+    i, j = (k + 1) % 3, (k + 2) % 3
+    R = np.zeros(np.shape(angle) + (3, 3))
+    R[..., k, k] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
 
 
 def check_euler_convention(convention: str) -> str:
