@@ -20,7 +20,7 @@ import numpy as np
 
 from .errors import GprError
 
-PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace', 'gpr_kinematics.cli_mechanisms')
+PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace', 'gpr_kinematics.cli_mechanisms', 'gpr_kinematics.cli_bags')
 
 EXIT_USAGE = 2
 

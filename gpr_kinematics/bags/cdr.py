@@ -1,0 +1,267 @@
+"""Vectorised decoding of many CDR messages of one type into numpy columns.
+
+A stream of messages of one type usually has one *layout*: the same strings (frame id, model, joint names)
+and the same sequence lengths, only the numbers differ. Then every numeric field sits at the same byte
+offset in every message, and a whole column is one strided numpy view over the concatenated messages.
+
+:func:`decode_columns` walks one message (the template) along the type's field definitions (XCDR1, little
+endian: a 4-byte encapsulation header, then every primitive aligned to its size counted from byte 4,
+strings and sequences prefixed by a ``uint32`` count) and records where each numeric field lies and which
+bytes carry the structure (counts, string bytes). Messages of the same length whose structure bytes equal
+the template's are decoded by views; the others start a new template. After :data:`MAX_LAYOUTS` templates
+the rest is deserialised one by one with ``rosbags`` (correct, slower). Strings come back as Python objects.
+"""
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import BagError
+from .typestore import typestore
+
+#: Layouts tried per type before falling back to per-message deserialisation.
+MAX_LAYOUTS = 32
+
+_PRIMITIVES: dict[str, tuple[str, int]] = {
+    'bool': ('u1', 1), 'byte': ('u1', 1), 'char': ('u1', 1), 'octet': ('u1', 1),
+    'int8': ('i1', 1), 'uint8': ('u1', 1), 'int16': ('<i2', 2), 'uint16': ('<u2', 2),
+    'int32': ('<i4', 4), 'uint32': ('<u4', 4), 'int64': ('<i8', 8), 'uint64': ('<u8', 8),
+    'float32': ('<f4', 4), 'float64': ('<f8', 8),
+}
+_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
+
+
+@dataclass
+class _Layout:
+    length: int
+    #: (name, offset, dtype, size, count, scalar)
+    numeric: list[tuple[str, int, str, int, int, bool]] = field(default_factory=list)
+    strings: dict[str, Any] = field(default_factory=dict)  # name -> str or tuple[str, ...]
+    structure: list[tuple[int, int]] = field(default_factory=list)  # byte ranges that must match
+
+
+class _Walker:
+    def __init__(self, buf: bytes) -> None:
+        self.buf = buf
+        self.pos = 4
+        self.layout = _Layout(len(buf))
+
+    def align(self, n: int) -> None:
+        self.pos += (-(self.pos - 4)) % n
+
+    def u32(self) -> int:
+        self.align(4)
+        (v,) = struct.unpack_from('<I', self.buf, self.pos)
+        self.layout.structure.append((self.pos, self.pos + 4))
+        self.pos += 4
+        return int(v)
+
+    def string(self) -> str:
+        n = self.u32()
+        start = self.pos
+        self.pos += n
+        if self.pos > len(self.buf):
+            raise ValueError('string beyond the end of the message')
+        self.layout.structure.append((start, self.pos))
+        return self.buf[start:self.pos].rstrip(b'\0').decode('utf-8', errors='replace')
+
+    def primitive(self, name: str, tname: str, count: int, scalar: bool) -> None:
+        dtype, size = _PRIMITIVES[tname]
+        if count == 0:
+            self.layout.numeric.append((name, self.pos, dtype, size, 0, False))
+            return
+        self.align(size)
+        if self.pos + size * count > len(self.buf):
+            raise ValueError('field beyond the end of the message')
+        self.layout.numeric.append((name, self.pos, dtype, size, count, scalar))
+        self.pos += size * count
+
+    def element(self, name: str, node: tuple, count: int | None) -> None:
+        """``count`` None: a scalar; otherwise ``count`` elements of the node."""
+        kind, detail = node
+        if kind == _BASE:
+            tname = detail[0]
+            if tname in ('string', 'wstring'):
+                if count is None:
+                    self.layout.strings[name] = self.string()
+                else:
+                    self.layout.strings[name] = tuple(self.string() for _ in range(count))
+            elif tname in _PRIMITIVES:
+                self.primitive(name, tname, 1 if count is None else count, count is None)
+            else:
+                raise ValueError(f'unsupported primitive {tname}')
+        elif kind == _NAME:
+            if count is None:
+                self.message(detail, name + '.')
+            else:
+                for i in range(count):
+                    self.message(detail, f'{name}[{i}].')
+        else:
+            raise ValueError(f'unsupported nesting at {name}')
+
+    def message(self, msgtype: str, prefix: str = '') -> None:
+        _, fields = typestore().fielddefs[msgtype]
+        for fname, (kind, detail) in fields:
+            name = prefix + fname
+            if kind in (_BASE, _NAME):
+                self.element(name, (kind, detail), None)
+            elif kind == _ARRAY:
+                sub, n = detail
+                self.element(name, sub, int(n))
+            elif kind == _SEQUENCE:
+                sub, _bound = detail
+                n = self.u32()
+                self.element(name, sub, n)
+            else:
+                raise ValueError(f'unsupported field kind at {name}')
+
+
+def layout_of(msgtype: str, buf: bytes) -> _Layout:
+    """Field offsets of one little-endian CDR message; ValueError when it does not parse."""
+    if len(buf) < 4 or buf[0] != 0 or buf[1] not in (1, 3):
+        raise ValueError('not a little-endian CDR message')
+    w = _Walker(buf)
+    w.message(msgtype)
+    if w.pos > len(buf):
+        raise ValueError('message shorter than its fields')
+    return w.layout
+
+
+@dataclass
+class Columns:
+    """Decoded fields of ``n`` messages: ``numeric[name]`` is ``(n,)`` or ``(n, count)``; ``strings[name]`` an
+    object array ``(n,)`` of ``str`` or tuples of ``str``; ``layouts`` how many templates were used."""
+
+    n: int
+    numeric: dict[str, NDArray[Any]]
+    strings: dict[str, NDArray[np.object_]]
+    layouts: int
+    fallback: int
+
+    def __getitem__(self, name: str) -> NDArray[Any]:
+        if name in self.numeric:
+            return self.numeric[name]
+        return self.strings[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.numeric or name in self.strings
+
+
+def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, Any]) -> None:
+    fields = getattr(obj, '__dataclass_fields__', None)
+    if fields is None:
+        return
+    for fname in fields:
+        if fname == '__msgtype__':
+            continue
+        v = getattr(obj, fname)
+        name = prefix + fname
+        if isinstance(v, str):
+            out_str[name] = v
+        elif isinstance(v, np.ndarray):
+            out_num[name] = v
+        elif isinstance(v, (list, tuple)):
+            if v and isinstance(v[0], str):
+                out_str[name] = tuple(v)
+            elif v and hasattr(v[0], '__dataclass_fields__'):
+                for i, item in enumerate(v):
+                    _flatten(item, f'{name}[{i}].', out_num, out_str)
+            else:
+                out_num[name] = np.asarray(v)
+        elif hasattr(v, '__dataclass_fields__'):
+            _flatten(v, name + '.', out_num, out_str)
+        else:
+            out_num[name] = v
+
+
+def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
+    """Decode every message of ``raw`` (CDR bytes of ``msgtype``) into columns; see the module docstring.
+
+    Scalars give ``(n,)`` columns, arrays and sequences ``(n, count)`` (an object column of 1-D arrays if the
+    length varies). Raises :class:`BagError` when a message cannot be decoded as ``msgtype``.
+    """
+    n = len(raw)
+    numeric: dict[str, NDArray[Any]] = {}
+    strings: dict[str, NDArray[np.object_]] = {}
+    if n == 0:
+        return Columns(0, numeric, strings, 0, 0)
+    lengths = np.fromiter((len(b) for b in raw), dtype=np.int64, count=n)
+    pending = np.arange(n)
+    layouts = 0
+
+    def store_numeric(name: str, idx: NDArray[np.int64], values: NDArray[Any], scalar: bool) -> None:
+        """``values`` is ``(len(idx), count)``."""
+        col = numeric.get(name)
+        if col is None:
+            col = np.zeros((n,) if scalar else (n, values.shape[1]), dtype=values.dtype)
+            numeric[name] = col
+        if col.dtype != object and col.ndim == 2 and col.shape[1] != values.shape[1]:
+            obj = np.empty(n, dtype=object)
+            for i in range(n):
+                obj[i] = col[i]
+            numeric[name] = col = obj
+        if col.dtype == object:
+            for j, i in enumerate(idx):
+                col[i] = values[j]
+        elif scalar:
+            col[idx] = values[:, 0]
+        else:
+            col[idx] = values
+
+    def store_string(name: str, idx: NDArray[np.int64], value: Any) -> None:
+        if name not in strings:
+            strings[name] = np.empty(n, dtype=object)
+        col = strings[name]
+        for i in idx:
+            col[i] = value
+
+    while pending.size and layouts < MAX_LAYOUTS:
+        t = int(pending[0])
+        try:
+            lay = layout_of(msgtype, raw[t])
+        except (ValueError, struct.error, KeyError) as exc:
+            raise BagError(f'message {t} of type {msgtype} cannot be decoded: {exc}') from None
+        layouts += 1
+        same_len = pending[lengths[pending] == lay.length]
+        block = np.frombuffer(b''.join([raw[i] for i in same_len]), dtype=np.uint8)
+        block = block.reshape(same_len.size, lay.length)
+        if lay.structure:
+            cols = np.concatenate([np.arange(a, b) for a, b in lay.structure])
+            ok = np.all(block[:, cols] == block[0, cols], axis=1)
+        else:
+            ok = np.ones(same_len.size, dtype=bool)
+        members = same_len[ok]
+        buf = block if ok.all() else np.ascontiguousarray(block[ok])
+        for name, off, dtype, size, count, scalar in lay.numeric:
+            if count == 0:
+                store_numeric(name, members, np.zeros((members.size, 0), dtype=dtype), scalar)
+                continue
+            view = np.ndarray((members.size, count), dtype=dtype, buffer=buf, offset=off,
+                              strides=(lay.length, size))
+            store_numeric(name, members, view.astype(np.dtype(dtype).newbyteorder('=')), scalar)
+        for name, value in lay.strings.items():
+            store_string(name, members, value)
+        pending = np.setdiff1d(pending, members, assume_unique=True)
+
+    fallback = int(pending.size)
+    if fallback:
+        store = typestore()
+        for i in pending:
+            try:
+                msg = store.deserialize_cdr(raw[int(i)], msgtype)
+            except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad message
+                raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
+            num: dict[str, Any] = {}
+            strs: dict[str, Any] = {}
+            _flatten(msg, '', num, strs)
+            idx = np.array([int(i)])
+            for name, v in num.items():
+                a = np.asarray(v)
+                store_numeric(name, idx, a.reshape(1, -1), a.ndim == 0)
+            for name, v in strs.items():
+                store_string(name, idx, v)
+    return Columns(n, numeric, strings, layouts, fallback)

@@ -1,0 +1,123 @@
+"""The verification report folder: ``verify.json``, ``verify.txt`` and PNG plots of the paper's figures 5-11.
+
+Bratovanov & Sotirov §VI plot, against the sample of the singular-tilt sweep and zoomed in around the
+singular configurations: Fig. 5 the rod lengths ``q``; for the polar model (``l``, ``phi``) Fig. 6 the
+linear and Fig. 7 the angular virtual joints and Fig. 8 the side lengths ``L``; for the offset model
+(``dr``, ``dphi``) Fig. 9, 10 and 11 the same. The bag carries the virtual joints of the model it was
+recorded with (plotted from the messages); the other figures are computed from the bag's ``q`` with the
+core (``forward_batch`` with that model), so every figure 5-11 exists for any bag. Each figure has the whole
+stream on top and a zoom of +-``ZOOM`` samples around the first singular crossings below (dotted lines mark
+the crossings). ``centre_shift_vs_tilt.png`` plots the horizontal centre shift against the tilt.
+Units on the axes: mm and degrees (plots only; the data stay SI).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..kinematics import forward_batch
+from .verify import VerifyResult, format_table
+
+ZOOM = 12
+ZOOM_CROSSINGS = 3
+
+
+def _plt():  # noqa: ANN202 - matplotlib pyplot module
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str],
+            ylabel: str, crossings: NDArray[np.int64]) -> None:
+    plt = _plt()
+    fig, (ax, az) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True)
+    for k, lab in enumerate(labels):
+        ax.plot(sample, curves[:, k], lw=0.8, label=lab)
+    ax.set_title(title)
+    ax.set_xlabel('sample')
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend(loc='upper right', fontsize=8)
+    sel = crossings[:ZOOM_CROSSINGS]
+    if sel.size:
+        lo, hi = max(0, int(sel[0]) - ZOOM), min(len(sample), int(sel[-1]) + ZOOM + 1)
+        for k, lab in enumerate(labels):
+            az.plot(sample[lo:hi], curves[lo:hi, k], '.-', lw=0.8, ms=3, label=lab)
+        for c in sel:
+            az.axvline(sample[c], color='k', ls=':', lw=0.8)
+            ax.axvline(sample[c], color='k', ls=':', lw=0.3)
+        az.set_title(f'zoom: samples {sample[lo]}..{sample[hi - 1]} around singular crossings (dotted)')
+    else:
+        az.text(0.5, 0.5, 'no singular crossing in this bag', ha='center', va='center', transform=az.transAxes)
+    az.set_xlabel('sample')
+    az.set_ylabel(ylabel)
+    az.grid(alpha=0.3)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
+    """Write the report into ``folder`` (created); returns the files written."""
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    (out / 'verify.json').write_text(json.dumps(result.to_dict(), indent=1, default=float) + '\n')
+    (out / 'verify.txt').write_text(format_table(result) + '\n')
+    written += [out / 'verify.json', out / 'verify.txt']
+    s = result.series
+    if s is None or s.q.shape[0] == 0:
+        return written
+    x, cr = s.sample, s.crossings
+    p = out / 'fig05_rod_lengths.png'
+    _figure(p, 'Fig. 5: rod lengths q (generalized coordinates)', x, s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)
+    written.append(p)
+    p = out / 'fig08_side_lengths.png'
+    _figure(p, 'Fig. 8 / Fig. 11: side lengths L = F(X)', x, s.side_lengths * 1e3, ['L12', 'L23', 'L31'],
+            'L [mm]', cr)
+    written.append(p)
+    finite = np.all(np.isfinite(s.q), axis=1)
+    for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
+        if s.model == model and s.virtual_joints.shape[1] == 6:
+            X, source = s.virtual_joints, 'recorded'
+        else:
+            X = np.full((len(x), 6), np.nan)
+            fk = forward_batch(s.q[finite], model=model, check_limits=False)
+            X[finite] = fk.virtual_joints
+            source = f'computed from the recorded q ({s.model} bag)'
+        names = ['l1', 'l2', 'l3'] if model == 'polar' else ['dr1', 'dr2', 'dr3']
+        anames = ['phi1', 'phi2', 'phi3'] if model == 'polar' else ['dphi1', 'dphi2', 'dphi3']
+        p = out / f'fig{figs[0]}_{model}_linear_virtual_joints.png'
+        _figure(p, f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source})', x, X[:, :3] * 1e3,
+                names, 'mm', cr)
+        written.append(p)
+        p = out / f'fig{figs[1]}_{model}_angular_virtual_joints.png'
+        _figure(p, f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source})', x,
+                np.degrees(X[:, 3:]), anames, 'deg', cr)
+        written.append(p)
+    if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
+        p = out / 'radial_virtual_joints.png'
+        _figure(p, 'radial model (authors\' earlier [11]): l1, l2, l3 (recorded)', x, s.virtual_joints * 1e3,
+                ['l1', 'l2', 'l3'], 'mm', cr)
+        written.append(p)
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    shift = np.linalg.norm(s.centre_shift[:, :2], axis=1) * 1e6
+    ax.plot(np.degrees(s.tilt), shift, '.', ms=3, label='|centre shift| in the base plane')
+    ax.plot(np.degrees(s.tilt), np.abs(s.centre_shift[:, 2]) * 1e6, '.', ms=2, alpha=0.5, label='|z shift|')
+    ax.set_xlabel('tilt [deg]')
+    ax.set_ylabel('centre shift vs naive model [um]')
+    ax.set_title(f'centre shift against tilt ({s.model} model)')
+    ax.grid(alpha=0.3)
+    ax.legend()
+    p = out / 'centre_shift_vs_tilt.png'
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    written.append(p)
+    return written

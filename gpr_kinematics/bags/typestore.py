@@ -1,0 +1,83 @@
+"""The ``rosbags`` typestore of the suite: ROS 2 Jazzy's standard types plus ``gpr_interfaces``.
+
+``Stores.ROS2_JAZZY`` carries the standard messages (std_msgs, geometry_msgs, sensor_msgs,
+visualization_msgs, ...); the custom messages are registered from the ``.msg`` texts of ``gpr_interfaces``
+(the repository's ``gpr_interfaces/msg`` or an installed ``share/gpr_interfaces/msg``). The type hashes
+(RIHS01) that ``rosbags`` computes equal the ones rosidl generates, so ``ros2 bag`` accepts the bags.
+"""
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+from .errors import BagError
+
+INTERFACES_PACKAGE = 'gpr_interfaces'
+
+#: Topics the trajectory node publishes and their types: the recorder's default topic list.
+GPR_TOPICS: dict[str, str] = {
+    '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
+    '/gpr/platform_pose': 'geometry_msgs/msg/PoseStamped',
+    '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
+    '/gpr/joint_states': 'sensor_msgs/msg/JointState',
+    '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+}
+
+PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
+
+
+def interface_msg_dirs() -> list[Path]:
+    """Folders that may hold the ``gpr_interfaces`` ``.msg`` files: the source tree, then the ament prefixes."""
+    here = Path(__file__).resolve().parent
+    dirs = [here.parents[1] / INTERFACES_PACKAGE / 'msg']
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix:
+            dirs.append(Path(prefix) / 'share' / INTERFACES_PACKAGE / 'msg')
+    return dirs
+
+
+@functools.lru_cache(maxsize=1)
+def typestore() -> Typestore:
+    """ROS 2 Jazzy standard types + every ``gpr_interfaces/msg/*.msg`` (cached)."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for folder in interface_msg_dirs():
+        files = sorted(folder.glob('*.msg')) if folder.is_dir() else []
+        if files:
+            types = {}
+            for f in files:
+                types.update(get_types_from_msg(f.read_text(), f'{INTERFACES_PACKAGE}/msg/{f.stem}'))
+            store.register(types)
+            return store
+    raise BagError('cannot find the gpr_interfaces message definitions (.msg); looked in '
+                   + ', '.join(str(d) for d in interface_msg_dirs()))
+
+
+def normalize_type(msgtype: str) -> str:
+    """``pkg/Type`` or ``pkg/msg/Type`` -> ``pkg/msg/Type``."""
+    parts = msgtype.strip().split('/')
+    if len(parts) == 2:
+        return f'{parts[0]}/msg/{parts[1]}'
+    return '/'.join(parts)
+
+
+def check_known(msgtype: str, topic: str = '') -> str:
+    """Return the normalised type name or raise :class:`BagError` naming the topic when it is unknown."""
+    name = normalize_type(msgtype)
+    if name not in typestore().fielddefs:
+        where = f'topic {topic!r} has ' if topic else ''
+        raise BagError(f'{where}type {msgtype!r}, which is not in the typestore (ROS 2 Jazzy standard types '
+                       f'and {INTERFACES_PACKAGE}); allowed: a type of those packages, e.g. '
+                       f'geometry_msgs/msg/PoseStamped')
+    return name
+
+
+@functools.cache
+def definition(msgtype: str) -> tuple[str, str]:
+    """(message definition text as rosbag2 stores it, RIHS01 type hash) of a known type."""
+    store = typestore()
+    msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+    return msgdef, store.hash_rihs01(msgtype)
