@@ -95,7 +95,7 @@ def _mechanism(args: argparse.Namespace) -> int:
         'inverse_jacobian': rep.inverse_jacobian,
         'homogenized_inverse_jacobian': rep.homogenized_inverse_jacobian,
         'characteristic_length': mech.characteristic_length,
-        'task_jacobian': rep.task_jacobian,
+        'homogenized_task_jacobian': rep.task_jacobian,
         'condition_number': _finite_or_none(rep.condition_number),
         'dexterity': rep.dexterity,
         'singular': rep.singular,

@@ -36,6 +36,9 @@ def test_mechanism_json_asymmetric_gsp(capsys):
     assert J.shape == H.shape == (6, 6)
     np.testing.assert_allclose(H[:4, 3:], J[:4, 3:] / 0.16)
     assert data['condition_number'] > 1 and data['singular'] is False
+    sv = np.linalg.svd(np.array(data['homogenized_task_jacobian']), compute_uv=False)
+    assert data['condition_number'] == pytest.approx(sv[0] / sv[-1], rel=1e-9)
+    np.testing.assert_allclose(data['homogenized_task_jacobian'], H)     # six DOF: the task is the twist
     assert data['pose']['z'] == pytest.approx(0.124)
 
 
