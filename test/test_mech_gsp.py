@@ -103,10 +103,18 @@ def _random_mechanism(rng: np.random.Generator) -> GeneralizedStewartPlatform:
 def test_every_row_matches_finite_differences(seed):
     rng = np.random.default_rng(seed)
     mech = _random_mechanism(rng)
+    poses = []
     for _ in range(4):
         pose = np.concatenate([rng.uniform(-0.02, 0.02, 2), [rng.uniform(0.1, 0.15)], rng.uniform(-0.3, 0.3, 3)])
-        J = mech.inverse_jacobian(pose)
+        J = mech.inverse_jacobian(pose)              # one pose: the float-arithmetic path
         np.testing.assert_allclose(J, twist_fd(mech, pose[None, :].copy()), atol=2e-8)
+        poses.append(pose)
+    # The batch (numpy) path gives the same rows and joint values to rounding.
+    poses = np.array(poses)
+    np.testing.assert_allclose(mech.inverse_jacobian(poses), [mech.inverse_jacobian(p) for p in poses],
+                               rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(mech.inverse_kinematics(poses), [mech.inverse_kinematics(p) for p in poses],
+                               rtol=1e-14, atol=1e-16)
 
 
 @pytest.mark.parametrize('name', ['gsp_d3_6.yaml', 'gsp_d1d2d3d4a1a1.yaml'])

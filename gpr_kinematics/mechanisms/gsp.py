@@ -34,6 +34,7 @@ the YAML key ``euler``. All lengths in metres, angles in radians.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -181,6 +182,8 @@ class GeneralizedStewartPlatform(Mechanism):
             self.s = s / np.linalg.norm(s, axis=1, keepdims=True)
             self.t = t / np.linalg.norm(t, axis=1, keepdims=True)
         self._t0 = np.nan_to_num(self.t)
+        self._floats = [(str(self.types[k]), tuple(self.A_i[k].tolist()), tuple(self.B_i[k].tolist()),
+                         tuple(np.nan_to_num(self.s[k]).tolist()), tuple(self._t0[k].tolist())) for k in range(6)]
         self.groups = {ct: np.flatnonzero(self.types == ct) for ct in CONSTRAINT_TYPES}
         self.groups = {k: v for k, v in self.groups.items() if v.size}
 
@@ -254,6 +257,8 @@ class GeneralizedStewartPlatform(Mechanism):
 
     def joints_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Joint values ``(N, 6)`` of platform positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        if pos.shape[0] == 1:
+            return np.array([self._scalar(pos[0].tolist(), R[0].tolist(), False)[0]])
         _, _, v, Rt = self._terms_rt(pos, R)
         q = np.empty(v.shape[:2])
         s = self.s
@@ -284,6 +289,8 @@ class GeneralizedStewartPlatform(Mechanism):
 
     def inverse_jacobian_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Inverse Jacobians ``(N, 6, 6)`` of positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        if pos.shape[0] == 1:
+            return np.array([self._scalar(pos[0].tolist(), R[0].tolist(), True)[1]])
         _, Rb, v, Rt = self._terms_rt(pos, R)
         J = np.empty(v.shape[:2] + (6,))
         s = self.s
@@ -324,6 +331,72 @@ class GeneralizedStewartPlatform(Mechanism):
                     J[:, idx, :3] = 0.0
                     J[:, idx, 3:] = -_cross(Rti, np.broadcast_to(s[idx], Rti.shape)) / sin
         return J
+
+    def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool
+                ) -> tuple[list[float], list[list[float]]]:
+        """One pose in float arithmetic (same formulas as the batch path; numpy's per-call overhead
+        dominates a single pose): joint values and, if ``jacobian``, the inverse-Jacobian rows."""
+        def mul(M: list[list[float]], x: tuple[float, ...]) -> tuple[float, float, float]:
+            return (M[0][0] * x[0] + M[0][1] * x[1] + M[0][2] * x[2],
+                    M[1][0] * x[0] + M[1][1] * x[1] + M[1][2] * x[2],
+                    M[2][0] * x[0] + M[2][1] * x[1] + M[2][2] * x[2])
+
+        def cross(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float]:
+            return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+        def dot(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+        def scale(a: tuple[float, ...], f: float) -> tuple[float, float, float]:
+            return (a[0] * f, a[1] * f, a[2] * f)
+
+        inf = math.inf
+        q: list[float] = []
+        rows: list[list[float]] = []
+        for ct, a, b, s, t in self._floats:
+            Rb = mul(R, b)
+            v = (p[0] + Rb[0] - a[0], p[1] + Rb[1] - a[1], p[2] + Rb[2] - a[2])
+            if ct == 'D1':
+                d = math.sqrt(dot(v, v))
+                q.append(d)
+                if jacobian:
+                    f = 1.0 / d if d > 0 else inf
+                    rows.append([*scale(v, f), *scale(cross(Rb, v), f)])
+            elif ct in ('D2', 'D3'):
+                axis = mul(R, t) if ct == 'D2' else s
+                c = cross(v, axis)
+                d = math.sqrt(dot(c, c))
+                q.append(d)
+                if jacobian:
+                    f = 1.0 / d if d > 0 else inf
+                    w = cross(axis, c)
+                    ang = cross(Rb, w)
+                    if ct == 'D2':
+                        k = dot(v, axis)
+                        ang = (ang[0] + k * c[0], ang[1] + k * c[1], ang[2] + k * c[2])
+                    rows.append([*scale(w, f), *scale(ang, f)])
+            elif ct == 'D4':
+                Rt = mul(R, t)
+                n = cross(Rt, s)
+                g = math.sqrt(dot(n, n))
+                fv = dot(v, n)
+                q.append(abs(fv) / g if g > 0 else inf)
+                if jacobian:
+                    sg = math.copysign(1.0, fv) if fv != 0 else 0.0
+                    gi = 1.0 / g if g > 0 else inf
+                    a1, a2 = cross(Rb, n), cross(Rt, cross(s, v))
+                    a3 = cross(Rt, cross(s, n))
+                    rows.append([*scale(n, sg * gi)] + [sg * ((a1[i] + a2[i]) * gi - fv * a3[i] * gi ** 3)
+                                                         for i in range(3)])
+            else:  # A1
+                Rt = mul(R, t)
+                cth = max(-1.0, min(1.0, dot(Rt, s)))
+                q.append(math.acos(cth))
+                if jacobian:
+                    sin = math.sqrt(1.0 - cth * cth)
+                    f = -1.0 / sin if sin > 0 else -inf
+                    rows.append([0.0, 0.0, 0.0, *scale(cross(Rt, s), f)])
+        return q, rows
 
     def describe(self) -> list[dict[str, Any]]:
         """The constraints as plain dicts (type, leg, joint name and type, points in m)."""
