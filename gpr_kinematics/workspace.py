@@ -378,7 +378,8 @@ def _uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceR
         )
     axes = [np.linspace(box[i, 0], box[i, 1], counts[i] + 1) for i in range(d)]
     nodes = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, d)
-    ok = model.feasible(nodes).reshape(tuple(counts + 1))
+    ok = np.concatenate([model.feasible(nodes[i:i + 200_000]) for i in range(0, nodes.shape[0], 200_000)])
+    ok = ok.reshape(tuple(counts + 1))
     # a cell is inner if all its corners are feasible, outside if none is
     corner_slices = []
     for corner in range(2**d):
