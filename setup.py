@@ -29,6 +29,8 @@ setup(
             'gpr = gpr_kinematics.cli:main',
             'kinematics_node = gpr_kinematics.nodes.kinematics_node:main',
             'trajectory_node = gpr_kinematics.nodes.trajectory_node:main',
+            'recorder_node = gpr_kinematics.nodes.recorder_node:main',
+            'replay_node = gpr_kinematics.nodes.replay_node:main',
         ],
     },
 )
