@@ -26,6 +26,7 @@ velocity ``L w``), and rows of angular joints are multiplied by ``L`` (a joint r
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -140,6 +141,18 @@ def rotation_from_vector(w: np.ndarray) -> np.ndarray:
     a = np.where(small, 1.0 - th ** 2 / 6, np.sin(safe) / safe)
     b = np.where(small, 0.5 - th ** 2 / 24, (1 - np.cos(safe)) / safe ** 2)
     return np.eye(3) + a * K + b * (K @ K)
+
+
+def _rodrigues(wx: float, wy: float, wz: float) -> np.ndarray:
+    """``exp([w]x)`` ``(3, 3)`` of one rotation vector in float arithmetic."""
+    th = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if th < 1e-8:
+        a, b = 1.0 - th * th / 6.0, 0.5 - th * th / 24.0
+    else:
+        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / (th * th)
+    return np.array([[1.0 - b * (wy * wy + wz * wz), -a * wz + b * wx * wy, a * wy + b * wx * wz],
+                     [a * wz + b * wx * wy, 1.0 - b * (wx * wx + wz * wz), -a * wx + b * wy * wz],
+                     [-a * wy + b * wx * wz, a * wx + b * wy * wz, 1.0 - b * (wx * wx + wy * wy)]])
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
@@ -458,6 +471,8 @@ class Mechanism(abc.ABC):
         return self.inverse_jacobian(np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], -1))
 
     def _forward_rigid(self, q: np.ndarray, g: np.ndarray, tol: float, max_iterations: int) -> np.ndarray:
+        if q.shape[0] == 1 and hasattr(self, '_scalar'):
+            return self._forward_rigid_one(q[0], g[0], tol, max_iterations)[None, :]
         pos = g[:, :3].copy()
         R = euler_rotation(g[:, 3:], self.euler_convention)
         err = np.full(q.shape[0], np.inf)
@@ -479,6 +494,34 @@ class Mechanism(abc.ABC):
             R[active] = rotation_from_vector(-step[:, 3:]) @ R[active]
         raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
                                f'{max_iterations} iterations (max residual {np.max(err):.3g})')
+
+    def _forward_rigid_one(self, q: np.ndarray, g: np.ndarray, tol: float, max_iterations: int) -> np.ndarray:
+        """:meth:`_forward_rigid` for one pose with the mechanism's float-arithmetic rows (same iteration)."""
+        target = q.tolist()
+        p = g[:3].tolist()
+        R = euler_rotation(g[None, 3:], self.euler_convention)[0]
+        err = math.inf
+        for _ in range(max_iterations):
+            joints, rows = self._scalar(p, R.tolist(), True)
+            res = [joints[k] - target[k] for k in range(len(target))]
+            err = max(abs(r) for r in res)
+            if err < tol:
+                return np.concatenate([p, euler_from_rotation(R, self.euler_convention)])
+            J = np.array(rows)
+            if not np.all(np.isfinite(J)):
+                raise SingularityError(f'{self.name}: forward kinematics met a singular configuration')
+            try:
+                step = np.linalg.solve(J, res)
+            except np.linalg.LinAlgError:
+                step = np.linalg.pinv(J) @ np.array(res)
+            size = max(math.sqrt(step[0] ** 2 + step[1] ** 2 + step[2] ** 2) / self.characteristic_length,
+                       math.sqrt(step[3] ** 2 + step[4] ** 2 + step[5] ** 2))
+            if size > MAX_STEP:
+                step = step * (MAX_STEP / size)
+            p = [p[0] - step[0], p[1] - step[1], p[2] - step[2]]
+            R = _rodrigues(-step[3], -step[4], -step[5]) @ R
+        raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
+                               f'{max_iterations} iterations (max residual {err:.3g})')
 
     # ------------------------------------------------------------------ report
     def report(self, pose: Any) -> JacobianReport:
