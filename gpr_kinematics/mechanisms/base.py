@@ -351,6 +351,8 @@ class Mechanism(abc.ABC):
         """``dq/du (N, n, m)`` per unit rate of the independent coordinates (twist rates for 6 DOF)."""
         arr, _ = as_poses(poses)
         arr = self.complete_pose(arr)
+        if len(self.pose_variables) == 6 and type(self).motion_basis is Mechanism.motion_basis:
+            return self.inverse_jacobian(arr)          # the basis is the identity
         return self.inverse_jacobian(arr) @ self.motion_basis(arr)
 
     def coordinate_jacobian(self, poses: Any) -> np.ndarray:
