@@ -172,3 +172,20 @@ def test_contains_points_matches_brute_force():
     brute = np.array([np.any(np.all((boxes[:, :, 0] <= p) & (p <= boxes[:, :, 1]), axis=1)) for p in pts])
     assert np.array_equal(contains_points(boxes, pts), brute)
     assert brute[5000:].all() and 0 < brute[:5000].sum() < 5000
+
+
+def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
+    """Seed 3upu-aboulissane.txt, Figs. 8-9: a larger base shrinks the workspace, a longer limb limit
+    enlarges the upper dome. Certified: the outer volume of one is below the inner volume of the other."""
+    def run(**over):
+        model = load_workspace_model(config_path('mechanisms/upu3.yaml'), over)
+        model.box = np.array([[-0.4, 0.4], [-0.4, 0.4], [0.0, 0.4]])
+        return approximate(model, 0.01)
+
+    base = run()
+    wide = run(b=0.25)
+    tall = run(limb_max=0.3)
+    assert wide.outer_volume < base.inner_volume
+    assert base.outer_volume < tall.inner_volume
+    top = lambda r: np.concatenate([r.inner, r.boundary])[:, 2, 1].max()  # noqa: E731
+    assert top(tall) > top(base) + 0.02

@@ -1,0 +1,87 @@
+"""Regenerate the figures of docs/workspace.md: ``python docs/img/workspace_figures.py`` (from the repo root)."""
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+
+from gpr_kinematics.workspace import approximate  # noqa: E402
+from gpr_kinematics.workspace_models import load_workspace_model  # noqa: E402
+
+OUT = Path(__file__).resolve().parent
+
+
+def draw(ax, res, i, j, sx=1.0, sy=1.0):
+    for arr, colour in ((res.boundary, '#f4a582'), (res.inner, '#2166ac')):
+        r = np.unique(np.stack([arr[:, i, 0] * sx, arr[:, i, 1] * sx, arr[:, j, 0] * sy, arr[:, j, 1] * sy],
+                               axis=1), axis=0)
+        verts = np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1)
+        ax.add_collection(PolyCollection(verts, facecolors=colour, edgecolors='none'))
+    ax.autoscale()
+
+
+def tripod():
+    model = load_workspace_model('tripod_3rps.yaml')
+    res = approximate(model, 0.002)
+    fig, ax = plt.subplots(figsize=(4.6, 4.0), dpi=100)
+    draw(ax, res, 0, 1, 1e3, np.degrees(1.0))
+    ax.set_xlabel('z [mm]')
+    ax.set_ylabel('psi [deg]')
+    ax.set_title('3-RPS tripod, projection on z-psi, delta = 2 mm\ninner (blue), boundary (orange)', fontsize=9)
+    fig.tight_layout()
+    fig.savefig(OUT / 'workspace_tripod_z_psi.png')
+    plt.close(fig)
+
+
+def gpr():
+    model = load_workspace_model('gpr.yaml')
+    model.box[1:] = [[-0.15, 0.15], [-0.15, 0.15]]
+    res = approximate(model, 0.001)
+    fig, ax = plt.subplots(figsize=(4.6, 4.0), dpi=100)
+    draw(ax, res, 1, 2, np.degrees(1.0), np.degrees(1.0))
+    az = np.linspace(0, 2 * np.pi, 721)
+    lo, hi = np.zeros_like(az), np.full_like(az, 0.3)
+    for _ in range(50):   # exact tilt limit of the budget, by bisection per azimuth
+        mid = 0.5 * (lo + hi)
+        g = model.evaluate(np.stack([np.full_like(az, 0.25), mid * np.cos(az), mid * np.sin(az)], axis=1))
+        bad = np.abs(g[:, 3:]).max(axis=1) > model.budget
+        hi, lo = np.where(bad, mid, hi), np.where(bad, lo, mid)
+    ax.plot(np.degrees(lo * np.cos(az)), np.degrees(lo * np.sin(az)), 'k-', lw=0.8, label='exact, z = 0.25 m')
+    ax.set_aspect('equal')
+    ax.set_xlabel('tilt_x [deg]')
+    ax.set_ylabel('tilt_y [deg]')
+    ax.legend(loc='upper right', fontsize=7)
+    ax.set_title('GPR tilts within the 0.5 mm budget (radial model)\nall heights, delta = 1 mm', fontsize=9)
+    fig.tight_layout()
+    fig.savefig(OUT / 'workspace_gpr_tilt.png')
+    plt.close(fig)
+
+
+def upu3():
+    fig, axes = plt.subplots(2, 4, figsize=(10, 4.6), dpi=90, sharex=True, sharey=True)
+    for row, (key, values) in enumerate((('b', (0.17, 0.2, 0.25, 0.3)), ('limb_max', (0.24, 0.27, 0.3, 0.33)))):
+        for ax, v in zip(axes[row], values, strict=True):
+            model = load_workspace_model('upu3.yaml', {key: v})
+            model.box = np.array([[-0.4, 0.4], [-0.4, 0.4], [0.0, 0.4]])
+            res = approximate(model, 0.005)
+            draw(ax, res, 0, 2, 1e3, 1e3)
+            ax.set_title(f'{key} = {v * 1e3:.0f} mm', fontsize=9)
+            ax.set_aspect('equal')
+    for ax in axes[:, 0]:
+        ax.set_ylabel('z [mm]')
+    for ax in axes[1]:
+        ax.set_xlabel('x [mm]')
+    fig.suptitle('3-UPU workspace, projection on x-z (delta = 5 mm): base size (top), limb limit (bottom)',
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(OUT / 'workspace_upu3_study.png')
+    plt.close(fig)
+
+
+if __name__ == '__main__':
+    tripod()
+    gpr()
+    upu3()
