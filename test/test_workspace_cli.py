@@ -89,3 +89,41 @@ def test_bad_files_exit_2(tmp_path, capsys, text, match):
     f.write_text(text)
     code, out, err = _run(capsys, str(f), '--delta', '0.1')
     assert code == 2 and match in err and err.count('\n') == 1
+
+
+def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
+    """A real SIGINT to a running ``gpr workspace``: exit 0, result marked interrupted, boxes saved."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / 'partial.npz'
+    env = dict(os.environ, PYTHONUNBUFFERED='1')
+    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli', 'workspace', 'tripod_3rps.yaml',
+                             '--delta', '0.0001', '--json', '--boxes', str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    seen = ''
+    deadline = time.monotonic() + 120
+    while 'decided' not in seen and time.monotonic() < deadline:     # the progress bar: the run is going
+        ch = proc.stderr.read(1)
+        if not ch:
+            break
+        seen += ch
+    assert 'decided' in seen, seen
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    stderr = seen + stderr
+    assert proc.returncode == 0, stderr
+    data = json.loads(stdout)
+    assert data['interrupted'] and 'interrupted' in stderr
+    with np.load(out) as npz:
+        assert bool(npz['interrupted'])
+        model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+        rng = np.random.default_rng(5)
+        pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * rng.random((20000, 3))
+        ok = model.feasible(pts)
+        assert np.all(contains_points(np.concatenate([npz['inner'], npz['boundary']]), pts[ok]))
+        if npz['inner'].shape[0]:
+            assert np.all(model.feasible(npz['inner'][:, :, 0])) and np.all(model.feasible(npz['inner'][:, :, 1]))
