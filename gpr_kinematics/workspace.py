@@ -31,7 +31,9 @@ Volumes are in the variables' own units (e.g. m·rad² for ``z, psi, theta``).
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
@@ -197,6 +199,27 @@ class _Progress:
             self.stream.flush()
 
 
+class _StopFlag:
+    """While alive, SIGINT (Ctrl-C) sets :attr:`raised` instead of raising KeyboardInterrupt (main thread)."""
+
+    def __init__(self) -> None:
+        self.raised = False
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self._old = signal.signal(signal.SIGINT, self._handler)
+            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
+                self._old = None
+
+    def _handler(self, signum: int, frame: object) -> None:
+        self.raised = True
+
+    def restore(self) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+            self._old = None
+
+
 def _check(model: WorkspaceModel, delta: float, box: np.ndarray | None) -> np.ndarray:
     box = np.array(model.box if box is None else box, dtype=float)
     if box.ndim != 2 or box.shape != (len(model.variables), 2):
@@ -299,8 +322,11 @@ def approximate(
     level = 0
     decided_volume = 0.0
     interrupted = False
+    # Ctrl-C sets a flag that is checked between chunks, so a chunk is never half recorded; a
+    # KeyboardInterrupt raised inside a model's evaluation (or outside the main thread) is handled too.
+    stop = _StopFlag()
     try:
-        while pending:
+        while pending and not interrupted:
             level += 1
             current = np.concatenate(pending, axis=0)
             pending = []
@@ -314,21 +340,21 @@ def approximate(
                     else:
                         is_in, is_out = _grid_classify(model, chunk, grid_nodes)
                         is_in &= ~is_out
-                    evaluations += chunk.shape[0]
-                    undecided = ~(is_in | is_out)
-                    diam = np.max((chunk[:, :, 1] - chunk[:, :, 0]) * scale, axis=1)
-                    small = undecided & (diam < delta)
-                    split = undecided & ~small
-                    inner.append(chunk[is_in])
-                    boundary.append(chunk[small])
-                    outside += int(np.count_nonzero(is_out))
-                    decided_volume += box_volume(chunk[is_in | is_out]) + box_volume(chunk[small])
-                    if np.any(split):
-                        pending.append(_bisect(chunk[split], scale))
                 except KeyboardInterrupt:
-                    pending.append(chunk)
-                    pending.append(current[start + max_batch :])
-                    raise
+                    interrupted = True
+                    pending.append(current[start:])
+                    break
+                evaluations += chunk.shape[0]
+                undecided = ~(is_in | is_out)
+                diam = np.max((chunk[:, :, 1] - chunk[:, :, 0]) * scale, axis=1)
+                small = undecided & (diam < delta)
+                split = undecided & ~small
+                inner.append(chunk[is_in])
+                boundary.append(chunk[small])
+                outside += int(np.count_nonzero(is_out))
+                decided_volume += box_volume(chunk[is_in | is_out]) + box_volume(chunk[small])
+                if np.any(split):
+                    pending.append(_bisect(chunk[split], scale))
                 bar.update(
                     level,
                     sum(p.shape[0] for p in pending) + current.shape[0] - start - chunk.shape[0],
@@ -336,13 +362,15 @@ def approximate(
                     sum(a.shape[0] for a in boundary),
                     decided_volume / total_volume,
                 )
-                if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
+                late = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+                if stop.raised or late:
+                    interrupted = True
                     pending.append(current[start + max_batch :])
-                    raise KeyboardInterrupt
-    except KeyboardInterrupt:
-        interrupted = True
-        boundary.extend(p for p in pending if p.shape[0])
+                    break
+        if interrupted:
+            boundary.extend(p for p in pending if p.shape[0])
     finally:
+        stop.restore()
         bar.close()
     seconds = time.perf_counter() - t0
     d = box.shape[0]
