@@ -30,7 +30,9 @@ their limits (SI units) and their meaning:
 ``topic.*`` (companion topics of the same sample, matched by header stamp)
     ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and
     the same pose (<= 1e-12); ``joint_states``: names ``rod_1..rod_3`` + the virtual-joint names, positions
-    ``q`` then ``X`` (<= 1e-12).
+    ``q`` then ``X`` (<= 1e-12). A sample before the first or after the last message of a companion topic
+    is not counted as missing: a recording started, or cut by SIGKILL, in the middle of a sample holds only
+    part of that sample's messages. Companion messages without a PlatformState are ``*_extra`` failures.
 ``bag.*``
     ``type_hash``: the stored type hash of every known type equals the current definition's (a changed
     ``PlatformState.msg`` is named); ``message_count``: ``metadata.yaml`` counts equal the messages read.
@@ -465,12 +467,12 @@ class _Verifier:
             err = self._match(pc, stamps, frames)
             ok = err >= 0
             j = err[ok]
-            e = np.full(len(stamps), np.inf)
+            e = self._missing(stamps, _stamp_ns(pc))
             e[ok] = np.maximum(np.max(np.abs(_vec(pc, 'pose.position')[j] - p[ok]), axis=1),
                                np.max(np.abs(_vec(pc, 'pose.orientation', 'xyzw')[j] - qq[ok]), axis=1))
             self.checks.append(_check(check, name, e, tol.consistency, 'm|rad', samples,
                                       'inf = no message with the stamp and frame of this PlatformState'))
-            self._extra(check, name, len(t), int(ok.sum()))
+            self._extra(check, name, _stamp_ns(pc), stamps, ok)
         name = '/gpr/joint_states'
         t = self.bag.topic(name)
         if t is None or t.msgtype != GPR_TOPICS[name]:
@@ -486,7 +488,7 @@ class _Verifier:
             (len(stamps), 0))
         expected = np.concatenate([s.q, vj], axis=1)
         got = _matrix(jc['position'], expected.shape[1])
-        e = np.full(len(stamps), np.inf)
+        e = self._missing(stamps, _stamp_ns(jc))
         rows = np.flatnonzero(ok)
         if rows.size:
             j = idx[rows]
@@ -497,7 +499,7 @@ class _Verifier:
             e[rows] = np.where(good, diff, np.inf)
         self.checks.append(_check('topic.joint_states', name, e, tol.consistency, 'm|rad', samples,
                                   'inf = missing, or names not rod_1..rod_3 + the virtual joints'))
-        self._extra('topic.joint_states', name, len(t), int(ok.sum()))
+        self._extra('topic.joint_states', name, _stamp_ns(jc), stamps, ok)
 
     @staticmethod
     def _match(pc: Columns, stamps: NDArray[np.int64], frames: NDArray[np.object_]) -> NDArray[np.int64]:
@@ -517,9 +519,23 @@ class _Verifier:
         out[hit & same] = cand[hit & same]
         return out
 
-    def _extra(self, check: str, topic: str, total: int, matched: int) -> None:
-        if total > matched:
-            extra = total - matched
+    @staticmethod
+    def _missing(stamps: NDArray[np.int64], companion: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Initial error per PlatformState: inf (missing) inside the companion topic's span of stamps, 0 before
+        its first or after its last message: a recording started or cut (SIGKILL) in the middle of a sample
+        holds part of that sample's messages only."""
+        e = np.full(len(stamps), np.inf)
+        if len(companion):
+            e[(stamps < companion.min()) | (stamps > companion.max())] = 0.0
+        return e
+
+    def _extra(self, check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
+               matched: NDArray[np.bool_]) -> None:
+        """Companion messages without a PlatformState of the same stamp (inside the states' span)."""
+        inside = (companion >= stamps.min()) & (companion <= stamps.max()) if len(stamps) else companion < 0
+        total = int(np.count_nonzero(inside))
+        if total > int(matched.sum()):
+            extra = total - int(matched.sum())
             self.checks.append(Check(f'{check}_extra', topic, total, float(extra), 0.0, 'messages', 1, [
                 Failure(f'{check}_extra', topic, None, float(extra), 0.0,
                         'messages without a PlatformState of the same stamp')]))

@@ -247,19 +247,26 @@ class SegmentedBagWriter:
         dst = self.path / src.name
         if self.fsync:
             _fsync_path(src)
-        os.replace(src, dst)
-        shutil.rmtree(seg.folder, ignore_errors=True)
-        if self.fsync:
-            _fsync_path(self.path, directory=True)
         count = sum(seg.counts.values())
         start = seg.first_stamp if seg.first_stamp is not None else 0
         end = seg.last_stamp if seg.last_stamp is not None else start
         self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count))
-        self._write_metadata()
+        # Prepare the metadata that lists it, then two renames back to back (a kill between them leaves a
+        # complete file that the metadata does not list yet: the window is two system calls).
+        tmp = self._prepare_metadata()
+        os.replace(src, dst)
+        os.replace(tmp, self.path / 'metadata.yaml')
+        if self.fsync:
+            _fsync_path(self.path, directory=True)
+        shutil.rmtree(seg.folder, ignore_errors=True)
         self.max_close_time = max(self.max_close_time, time.monotonic() - t0)
 
     def _write_metadata(self) -> None:
-        files = [f for f in self.files]
+        os.replace(self._prepare_metadata(), self.path / 'metadata.yaml')
+
+    def _prepare_metadata(self) -> Path:
+        """Write ``metadata.yaml.tmp`` (fsynced if ``fsync``) listing the closed files; return its path."""
+        files = list(self.files)
         with_msgs = [f for f in files if f.count]
         start = min((f.start for f in with_msgs), default=0)
         end = max((f.start + f.duration for f in with_msgs), default=0)
@@ -293,7 +300,7 @@ class SegmentedBagWriter:
             f.flush()
             if self.fsync:
                 os.fsync(f.fileno())
-        os.replace(tmp, self.path / 'metadata.yaml')
+        return tmp
 
     @property
     def _closed_counts(self) -> dict[str, int]:
