@@ -220,3 +220,26 @@ def test_replay_topic_filter(tmp_path: Path) -> None:
     assert {k: len(t) for k, t in b.topics.items()} == {**dict.fromkeys(GPR_TOPICS, 0), STATE: 756}
     bad = NodeProcess('replay_node', ['-p', f'bag:={tmp_path / "nothing"}'])
     assert bad.wait(30) == 2 and 'does not exist' in bad.output()
+
+
+def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
+    rec = recorder(tmp_path / 'looped', 'flush_interval:=0.5', 'topics:=[gpr/platform_state]')
+    replay = None
+    try:
+        wait_for_log(rec, r'recording 1 topic')
+        replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', 'rate:=3.0', '-p', 'loop:=true',
+                                             '-p', 'topics:=[gpr/platform_state]', '-p', 'wait_for_subscribers:=1'])
+        wait_for_log(replay, r'replaying 756 messages')
+        time.sleep(2.0)  # one pass takes 2.3 s / 3 = 0.77 s
+        status, _ = replay.signal(signal.SIGINT, timeout=15)
+        assert status == 0, replay.output()
+        time.sleep(0.3)
+        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0
+    finally:
+        rec.stop()
+        if replay is not None:
+            replay.stop()
+    ref = read_bag(REFERENCE).topic(STATE).raw
+    got = read_bag(tmp_path / 'looped').topic(STATE).raw
+    assert len(got) > len(ref)
+    assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
