@@ -117,6 +117,7 @@ class Client:
         self.node = Node(name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self.lost = 0
 
     def service(self, srv_type: Any, name: str, timeout: float = 20.0) -> Any:
         cli = self.node.create_client(srv_type, name)
@@ -124,12 +125,22 @@ class Client:
             raise TimeoutError(f'service {name} not available after {timeout} s')
         return cli
 
-    def call(self, client: Any, request: Any, timeout: float = 10.0) -> Any:
-        future = client.call_async(request)
-        self.executor.spin_until_future_complete(future, timeout_sec=timeout)
-        if not future.done():
-            raise TimeoutError(f'no answer from {client.srv_name} within {timeout} s')
-        return future.result()
+    def call(self, client: Any, request: Any, timeout: float = 5.0, tries: int = 3) -> Any:
+        """Call a service and return its response.
+
+        A response that never arrives is sent again (up to ``tries`` times, ``timeout`` seconds each):
+        Fast DDS can lose the response to a client whose response reader was not matched yet (the first
+        call right after ``wait_for_service``) or when several clients call at full speed
+        (docs/benchmarks.md). A node that stopped answering fails all tries.
+        """
+        for _ in range(tries):
+            future = client.call_async(request)
+            self.executor.spin_until_future_complete(future, timeout_sec=timeout)
+            if future.done():
+                return future.result()
+            client.remove_pending_request(future)
+            self.lost += 1
+        raise TimeoutError(f'no answer from {client.srv_name} in {tries} tries of {timeout} s')
 
     def spin_for(self, seconds: float) -> None:
         end = time.monotonic() + seconds

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 
@@ -46,6 +47,7 @@ from .params import ConfigParameters
 from .runtime import run
 
 NODE_NAME = 'kinematics_node'
+SERVICE_QUEUE_DEPTH = 100
 
 
 def _model(name: str) -> str | None:
@@ -85,10 +87,13 @@ class KinematicsNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self.params = ConfigParameters(self)
-        self.create_service(ForwardKinematics, 'gpr/forward_kinematics', self.on_forward)
-        self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse)
-        self.create_service(Compensate, 'gpr/compensate', self.on_compensate)
-        self.create_service(AnalyzeMobility, 'gpr/analyze_mobility', self.on_mobility)
+        # Deeper than the default (keep last 10): with several clients at full speed a response history of
+        # 10 can be overwritten before it is delivered (docs/benchmarks.md).
+        qos = QoSProfile(depth=SERVICE_QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        self.create_service(ForwardKinematics, 'gpr/forward_kinematics', self.on_forward, qos_profile=qos)
+        self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse, qos_profile=qos)
+        self.create_service(Compensate, 'gpr/compensate', self.on_compensate, qos_profile=qos)
+        self.create_service(AnalyzeMobility, 'gpr/analyze_mobility', self.on_mobility, qos_profile=qos)
         cfg = self.params.config
         self.get_logger().info(f'serving gpr/forward_kinematics, gpr/inverse_kinematics, gpr/compensate, '
                                f'gpr/analyze_mobility (model {cfg.model}, R = {cfg.radius} m, stroke '

@@ -33,6 +33,12 @@ def run(name: str, factory: Callable[[], Node], args: Sequence[str] | None = Non
     except (GprError, ParameterException) as exc:
         rclpy.logging.get_logger(name).error(f'cannot start: {exc}')
         status = EXIT_BAD_CONFIG
+    except Exception as exc:  # noqa: BLE001 - one line, no traceback
+        if rclpy.ok():
+            rclpy.logging.get_logger(name).error(f'stopped: {type(exc).__name__}: {exc}')
+            status = 1
+        else:
+            status = 0  # a signal shut the context down while a callback was answering: a normal exit
     finally:
         if node is not None:
             try:

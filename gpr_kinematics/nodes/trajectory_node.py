@@ -213,6 +213,10 @@ class TrajectoryNode(Node):
         try:
             self.publish_sample(self.index)
         except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback
+            if not self.context.ok():
+                # SIGINT/SIGTERM shut the context down while this callback ran: a normal exit.
+                self._finish(0, quiet=True)
+                return
             self.get_logger().error(f'publishing sample {self.sample} failed: {type(exc).__name__}: {exc}')
             self._finish(1)
             return
@@ -225,12 +229,13 @@ class TrajectoryNode(Node):
             else:
                 self._finish(0)
 
-    def _finish(self, status: int) -> None:
+    def _finish(self, status: int, quiet: bool = False) -> None:
         self.timer.cancel()
         elapsed = time.monotonic() - (self.started_at or time.monotonic())
         achieved = (self.sample - 1) / elapsed if self.sample > 1 and elapsed > 0 else float('nan')
-        self.get_logger().info(f'finished: published {self.sample} samples in {elapsed:.3f} s '
-                               f'(achieved {achieved:.3f} Hz, requested {self.p["rate"]} Hz)')
+        if not quiet:
+            self.get_logger().info(f'finished: published {self.sample} samples in {elapsed:.3f} s '
+                                   f'(achieved {achieved:.3f} Hz, requested {self.p["rate"]} Hz)')
         if not self.done.done():
             self.done.set_result(status)
 

@@ -1,0 +1,326 @@
+"""Benchmark of the ROS 2 node suite over real DDS (Fast DDS, loopback): service round trips, calls per
+second with 1 and 4 concurrent clients, and the trajectory node's achieved versus requested rate.
+
+Peers measured in the same run: the core call alone in this process (``kinematics.forward``), and a null
+rclpy service (``std_srvs/Trigger`` answering at once, in its own process) for the cost of ROS itself.
+
+Run: ``.venv/bin/python benchmarks/bench_ros.py [--calls 2000] [--duration 5] [--rates 50,100,200,500,1000]``
+(``make setup`` first). Prints a Markdown table for docs/benchmarks.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import signal
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from gpr_kinematics import ros_env  # noqa: E402
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(140 + os.getpid() % 60))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+ros_env.activate()
+
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.experimental import EventsExecutor  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from gpr_interfaces.msg import PlatformState  # noqa: E402
+from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics  # noqa: E402
+from gpr_kinematics.kinematics import forward  # noqa: E402
+
+NULL_SERVER = '''
+import rclpy, sys
+from rclpy.executors import ExternalShutdownException
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
+rclpy.init()
+node = rclpy.create_node('null_server')
+def cb(req, res):
+    res.success = True
+    return res
+# The same service QoS as kinematics_node (reliable, keep last 100).
+qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+node.create_service(Trigger, 'null/trigger', cb, qos_profile=qos)
+try:
+    rclpy.spin(node)
+except (KeyboardInterrupt, ExternalShutdownException):
+    pass
+rclpy.try_shutdown()
+'''
+
+Q = [0.5, 0.498, 0.502]
+
+
+def _start(args: list[str]) -> subprocess.Popen:
+    return subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def _request(kind: str):
+    if kind == 'forward':
+        r = ForwardKinematics.Request()
+        r.q = Q
+        return ForwardKinematics, 'gpr/forward_kinematics', r
+    if kind == 'inverse':
+        r = InverseKinematics.Request()
+        r.target.position.z = 0.45
+        r.target.orientation.x = 0.01
+        r.target.orientation.w = float(np.sqrt(1 - 0.01 ** 2))
+        return InverseKinematics, 'gpr/inverse_kinematics', r
+    if kind == 'compensate':
+        r = Compensate.Request()
+        r.command.position.z = 0.45
+        r.command.orientation.y = 0.01
+        r.command.orientation.w = float(np.sqrt(1 - 0.01 ** 2))
+        r.tool_offset.z = 0.1
+        return Compensate, 'gpr/compensate', r
+    if kind == 'mobility':
+        r = AnalyzeMobility.Request()
+        r.q = Q
+        return AnalyzeMobility, 'gpr/analyze_mobility', r
+    if kind == 'null':
+        return Trigger, 'null/trigger', Trigger.Request()
+    raise ValueError(kind)
+
+
+class Caller:
+    def __init__(self, name: str) -> None:
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node(name, context=self.ctx)
+        # Client side: the EventsExecutor (rclpy.experimental). With the classic SingleThreadedExecutor,
+        # spin_until_future_complete alone costs ~6-12 ms per call here, which would hide the server.
+        self.ex = EventsExecutor(context=self.ctx)
+        self.ex.add_node(self.node)
+        self.clients: dict[str, tuple] = {}
+
+    def client(self, kind: str):
+        if kind not in self.clients:
+            srv, name, req = _request(kind)
+            cli = self.node.create_client(srv, name)
+            if not cli.wait_for_service(timeout_sec=30):
+                raise TimeoutError(name)
+            self.clients[kind] = (cli, req)
+        return self.clients[kind]
+
+    lost = 0
+
+    def call(self, kind: str) -> float:
+        """One round trip [s]. A request whose response never comes (seen with Fast DDS under load, see
+        docs/benchmarks.md) is counted in ``Caller.lost`` and sent again; its time is not a round trip."""
+        cli, req = self.client(kind)
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fut = cli.call_async(req)
+            self.ex.spin_until_future_complete(fut, timeout_sec=2.0)
+            dt = time.perf_counter() - t0
+            if fut.done():
+                break
+            cli.remove_pending_request(fut)
+            Caller.lost += 1
+        res = fut.result() if fut.done() else None
+        if res is None or not res.success:
+            raise RuntimeError(f'{kind}: {getattr(res, "message", "no answer after 5 tries")}')
+        return dt
+
+    def close(self) -> None:
+        self.ex.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.ctx)
+
+
+def worker(kind: str, duration: float, start_at: float) -> None:
+    """One client process of the concurrency measurement: prints the calls it completed in ``duration``."""
+    c = Caller(f'bench_worker_{os.getpid()}')
+    c.client(kind)
+    for _ in range(20):
+        c.call(kind)
+    while time.time() < start_at:
+        time.sleep(0.001)
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < duration:
+        c.call(kind)
+        n += 1
+    elapsed = time.perf_counter() - t0
+    c.close()
+    print(json.dumps({'calls': n, 'elapsed': elapsed, 'lost': Caller.lost}))
+
+
+def latency(c: Caller, kind: str, calls: int) -> dict:
+    for _ in range(50):
+        c.call(kind)
+    t = np.array([c.call(kind) for _ in range(calls)])
+    return {'median_ms': 1e3 * float(np.median(t)), 'p99_ms': 1e3 * float(np.percentile(t, 99)),
+            'calls': calls}
+
+
+def throughput(kind: str, clients: int, duration: float) -> float:
+    start_at = time.time() + 4.0 + clients
+    procs = [subprocess.Popen([sys.executable, __file__, '--worker', kind, '--duration', str(duration),
+                               '--start-at', repr(start_at)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for _ in range(clients)]
+    total = 0.0
+    lost = 0
+    for p in procs:
+        out, err = p.communicate(timeout=120 + duration)
+        if p.returncode != 0:
+            raise RuntimeError(f'worker failed: {err[-2000:]}')
+        r = json.loads(out.strip().splitlines()[-1])
+        total += r['calls'] / r['elapsed']
+        lost += r['lost']
+    return {'calls_per_s': total, 'lost': lost}
+
+
+def trajectory_rate(rate: float, duration: float) -> dict:
+    """Run trajectory_node at ``rate`` for about ``duration`` s; achieved rates from the header stamps
+    (publisher side) and from the arrival times (subscriber side)."""
+    import math
+
+    # Tilt step chosen so that the sweep lasts about `duration` seconds at `rate`.
+    n_needed = rate * duration
+    az_step = math.radians(10.0)
+    per_row = max(3, int(n_needed / 36))
+    half = max(1, per_row // 2)
+    max_tilt = math.radians(2.0)
+    step = max_tilt / half
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node(f'bench_traj_{int(rate)}', context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    arrivals: list[float] = []
+    stamps: list[float] = []
+    samples: list[int] = []
+
+    def on_msg(m):
+        arrivals.append(time.perf_counter())
+        stamps.append(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec)
+        samples.append(m.sample)
+
+    ns = f'/bench_traj_{int(rate)}'
+    node.create_subscription(PlatformState, f'{ns}/gpr/platform_state', on_msg,
+                             QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE))
+    exe = ros_env.find_executable('gpr_kinematics', 'trajectory_node')
+    proc = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}', '-p', f'rate:={rate!r}',
+                             '-p', f'max_tilt:={max_tilt!r}', '-p', f'tilt_step:={step!r}',
+                             '-p', f'azimuth_step:={az_step!r}', '-p', 'wait_for_subscribers:=1',
+                             '-p', 'markers_every:=1'],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    t_end = time.monotonic() + duration * 3 + 30
+    while proc.poll() is None and time.monotonic() < t_end:
+        ex.spin_once(timeout_sec=0.01)
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.01)
+    out = proc.communicate(timeout=10)[0] if proc.poll() is not None else ''
+    _stop(proc)
+    ex.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown(context=ctx)
+    n = len(stamps)
+    node_rate = float('nan')
+    for line in out.splitlines():
+        if 'achieved' in line:
+            node_rate = float(line.split('achieved ')[1].split(' Hz')[0])
+    pub = (n - 1) / (stamps[-1] - stamps[0]) if n > 1 else float('nan')
+    sub = (n - 1) / (arrivals[-1] - arrivals[0]) if n > 1 else float('nan')
+    periods = np.diff(stamps) if n > 1 else np.array([float('nan')])
+    return {'requested_hz': rate, 'samples': n, 'in_order': samples == list(range(n)),
+            'node_hz': node_rate, 'stamp_hz': pub, 'arrival_hz': sub,
+            'period_p99_ms': 1e3 * float(np.percentile(periods, 99)),
+            'error_pct': 100.0 * (pub - rate) / rate}
+
+
+def core_peer(calls: int) -> float:
+    for _ in range(50):
+        forward(Q)
+    t = []
+    for _ in range(calls):
+        t0 = time.perf_counter()
+        forward(Q)
+        t.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(t)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument('--calls', type=int, default=2000)
+    ap.add_argument('--duration', type=float, default=5.0)
+    ap.add_argument('--rates', default='50,100,200,500,1000')
+    ap.add_argument('--worker')
+    ap.add_argument('--start-at', type=float, default=0.0)
+    args = ap.parse_args()
+    if args.worker:
+        worker(args.worker, args.duration, args.start_at)
+        return 0
+
+    kin = _start([str(ros_env.find_executable('gpr_kinematics', 'kinematics_node'))])
+    null = _start([sys.executable, '-c', NULL_SERVER])
+    results: dict = {'machine': f'{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}',
+                     'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')}
+    try:
+        c = Caller('bench_client')
+        results['core_forward_ms'] = core_peer(args.calls)
+        results['latency'] = {k: latency(c, k, args.calls if k in ('forward', 'null') else args.calls // 4)
+                              for k in ('null', 'forward', 'inverse', 'compensate', 'mobility')}
+        results['lost_latency'] = Caller.lost
+        c.close()
+        results['throughput'] = {f'{k}_{n}': throughput(k, n, args.duration)
+                                 for k in ('forward', 'null') for n in (1, 4)}
+    finally:
+        _stop(kin)
+        _stop(null)
+    results['trajectory'] = [trajectory_rate(float(r), args.duration) for r in args.rates.split(',')]
+    print(json.dumps(results, indent=1))
+    _markdown(results)
+    return 0
+
+
+def _markdown(r: dict) -> None:
+    lat = r['latency']
+    print('\n| service (round trip, 1 client) | median [ms] | p99 [ms] | median / null service |')
+    print('|---|---|---|---|')
+    for k, name in (('null', 'null rclpy service (std_srvs/Trigger), peer'),
+                    ('forward', 'gpr/forward_kinematics'), ('inverse', 'gpr/inverse_kinematics'),
+                    ('compensate', 'gpr/compensate'), ('mobility', 'gpr/analyze_mobility')):
+        v = lat[k]
+        print(f'| {name} | {v["median_ms"]:.3f} | {v["p99_ms"]:.3f} | '
+              f'{v["median_ms"] / lat["null"]["median_ms"]:.2f} |')
+    print(f'\nCore `kinematics.forward` in-process (peer): median {r["core_forward_ms"]:.3f} ms per call.')
+    t = r['throughput']
+    print('\n| calls/s | 1 client | 4 clients |\n|---|---|---|')
+    for k, name in (('forward', 'gpr/forward_kinematics'), ('null', 'null rclpy service (peer)')):
+        one, four = t[f'{k}_1'], t[f'{k}_4']
+        print(f'| {name} | {one["calls_per_s"]:.0f} (lost {one["lost"]}) | {four["calls_per_s"]:.0f} '
+              f'(lost {four["lost"]}) |')
+    print(f'\nLost responses during the latency runs (re-sent): {r["lost_latency"]}')
+    print('\n| requested [Hz] | samples | in order | node timer [Hz] | header stamps [Hz] | arrivals [Hz] '
+          '| stamp error | p99 period [ms] |')
+    print('|---|---|---|---|---|---|---|---|')
+    for x in r['trajectory']:
+        print(f'| {x["requested_hz"]:.0f} | {x["samples"]} | {x["in_order"]} | {x["node_hz"]:.2f} | '
+              f'{x["stamp_hz"]:.2f} | {x["arrival_hz"]:.2f} | {x["error_pct"]:+.2f} % | {x["period_p99_ms"]:.2f} |')
+
+
+if __name__ == '__main__':
+    sys.exit(main())
