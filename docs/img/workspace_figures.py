@@ -14,8 +14,12 @@ from gpr_kinematics.workspace_models import load_workspace_model  # noqa: E402
 OUT = Path(__file__).resolve().parent
 
 
-def draw(ax, res, i, j, sx=1.0, sy=1.0):
+def draw(ax, res, i, j, sx=1.0, sy=1.0, section=None):
+    """Projection on the (i, j) plane; with ``section=(k, value)`` only the boxes that contain x_k = value."""
     for arr, colour in ((res.boundary, '#f4a582'), (res.inner, '#2166ac')):
+        if section is not None:
+            k, value = section
+            arr = arr[(arr[:, k, 0] <= value) & (value <= arr[:, k, 1])]
         r = np.unique(np.stack([arr[:, i, 0] * sx, arr[:, i, 1] * sx, arr[:, j, 0] * sy, arr[:, j, 1] * sy],
                                axis=1), axis=0)
         verts = np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1)
@@ -67,14 +71,14 @@ def upu3():
             model = load_workspace_model('upu3.yaml', {key: v})
             model.box = np.array([[-0.4, 0.4], [-0.4, 0.4], [0.0, 0.4]])
             res = approximate(model, 0.005)
-            draw(ax, res, 0, 2, 1e3, 1e3)
+            draw(ax, res, 0, 2, 1e3, 1e3, section=(1, 0.0))
             ax.set_title(f'{key} = {v * 1e3:.0f} mm', fontsize=9)
             ax.set_aspect('equal')
     for ax in axes[:, 0]:
         ax.set_ylabel('z [mm]')
     for ax in axes[1]:
         ax.set_xlabel('x [mm]')
-    fig.suptitle('3-UPU workspace, projection on x-z (delta = 5 mm): base size (top), limb limit (bottom)',
+    fig.suptitle('3-UPU workspace, section y = 0 (delta = 5 mm): base size (top), limb limit (bottom)',
                  fontsize=10)
     fig.tight_layout()
     fig.savefig(OUT / 'workspace_upu3_study.png')
