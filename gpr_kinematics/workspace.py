@@ -88,6 +88,9 @@ class WorkspaceModel(ABC):
         hi = np.stack([np.broadcast_to(gi.hi, (n,)) for gi in g], axis=1)
         return lo, hi
 
+    def check_box(self, box: np.ndarray) -> None:  # noqa: B027 - optional hook, valid everywhere by default
+        """Raise :class:`InputError` if the model's enclosures are not valid on ``box``."""
+
     def describe(self) -> dict:
         return {
             'type': self.name,
@@ -228,6 +231,7 @@ def _check(model: WorkspaceModel, delta: float, box: np.ndarray | None) -> np.nd
         raise InputError(f'initial box needs finite bounds with lower < upper, got {box.tolist()}')
     if not np.isfinite(delta) or delta <= 0:
         raise InputError(f'delta must be a positive length in metres, got {delta!r}')
+    model.check_box(box)
     diam = float(np.max((box[:, 1] - box[:, 0]) * model.scale))
     if delta < diam * 2.0**-40:
         raise InputError(

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .errors import ConfigError
+from .errors import ConfigError, InputError
 from .interval import Interval, monotone
 from .workspace import WorkspaceModel
 
@@ -498,13 +498,19 @@ class GprModel(WorkspaceModel):
             if box is not None
             else [[stroke_min, stroke_max], [-max_tilt, max_tilt], [-max_tilt, max_tilt]]
         )
-        if np.max(np.abs(self.box[1:])) >= 1.5:
-            raise ConfigError('gpr workspace box: tilts must stay below 1.5 rad')
+        self.check_box(self.box)
         sc = self.R if angle_scale is None else float(angle_scale)
         self.scale = np.array([1.0, sc, sc])
         self.constraint_names = ('q1', 'q2', 'q3', 'dl1', 'dl2', 'dl3')
         self.lower = np.array([self.stroke_min] * 3 + [-self.budget] * 3)
         self.upper = np.array([self.stroke_max] * 3 + [self.budget] * 3)
+
+    def check_box(self, box: np.ndarray) -> None:
+        """The enclosure of tan(alpha)/alpha needs alpha < pi/2 on the whole box: |tilt| < 1.5 rad."""
+        corner = float(np.hypot(np.max(np.abs(box[1])), np.max(np.abs(box[2]))))
+        if not corner < 1.5:
+            raise InputError(f'gpr workspace box: the tilt magnitude at the box corners is {corner:.4g} rad; '
+                             'allowed: below 1.5 rad (tan(alpha)/alpha must stay monotone)')
 
     # point evaluation ---------------------------------------------------------------------------------------
     def actuators(self, points: np.ndarray) -> np.ndarray:
@@ -708,6 +714,10 @@ def model_from_mapping(
     else:
         model = ShellArmModel(n('l1', positive=True), n('l2', positive=True), n('floor', -_INF))
     model.box = _box_from(ws, model.variables, model.box, src)
+    try:
+        model.check_box(model.box)
+    except InputError as exc:
+        raise ConfigError(f'{src}: {exc}') from None
     return model
 
 

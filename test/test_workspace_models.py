@@ -188,6 +188,7 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [1, 0]}}}, 'lower < upper'),
     ({'type': 'gpr', 'workspace': {'virtual_joint_model': 'polar'}}, 'no certified enclosure'),
     ({'type': 'tripod_3rps', 'base_radius': 0.05}, 'leg_min'),
+    ({'type': 'gpr', 'workspace': {'box': {'tilt_x': [-1.2, 1.2], 'tilt_y': [-1.2, 1.2]}}}, 'below 1.5 rad'),
     ([1, 2], 'mapping'),
 ])
 def test_bad_mechanism_descriptions_raise_config_errors(data, match):
