@@ -42,7 +42,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from gpr_interfaces.msg import PlatformState
 
-from ..errors import ConfigError
+from ..errors import ConfigError, GprError
 from ..kinematics import ForwardBatch, inverse_batch
 from ..sweep import paper_sweep
 from .conversions import pose_msg
@@ -128,9 +128,7 @@ def program_trajectory(cfg: Any, path: str, rate: float, move_time: float) -> Tr
     for i, st in enumerate(prog.stations):
         try:
             inverse_batch(st.height, st.tilt, st.azimuth, cfg, cfg.model)
-        except ConfigError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - re-raised as a configuration error naming the station
+        except GprError as exc:
             raise ConfigError(f'{path}: station {i} ({st.name}): {exc}') from None
     samples = sample_program(prog, rate, move_time)
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
