@@ -21,7 +21,9 @@ from gpr_kinematics.bags.verify import verify_bag
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / 'bags' / 'reference_sweep'
 STATE = '/gpr/platform_state'
-DOMAIN_ID = '63'
+# Own domain per run (101..200, by process id): concurrent runs of this module on one machine stay apart,
+# and it differs from ros_support's range (10..99) used by the other ROS test modules.
+DOMAIN_ID = str(101 + os.getpid() % 100)
 
 
 @pytest.fixture(autouse=True, scope='module')
@@ -230,16 +232,18 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
         replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', 'rate:=3.0', '-p', 'loop:=true',
                                              '-p', 'topics:=[gpr/platform_state]', '-p', 'wait_for_subscribers:=1'])
         wait_for_log(replay, r'replaying 756 messages')
+        wait_for_log(replay, r'started: publishing')  # after the subscription was discovered
         time.sleep(2.0)  # one pass takes 2.3 s / 3 = 0.77 s
         status, _ = replay.signal(signal.SIGINT, timeout=15)
         assert status == 0, replay.output()
         time.sleep(0.3)
         assert rec.signal(signal.SIGINT, timeout=15)[0] == 0
+        logs = rec.output() + replay.output()
     finally:
         rec.stop()
         if replay is not None:
             replay.stop()
     ref = read_bag(REFERENCE).topic(STATE).raw
     got = read_bag(tmp_path / 'looped').topic(STATE).raw
-    assert len(got) > len(ref)
+    assert len(got) > len(ref), logs
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]

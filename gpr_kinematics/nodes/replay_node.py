@@ -107,6 +107,8 @@ class ReplayNode(Node):
     def play(self, stop: list[int]) -> None:
         """Publish the stream (again and again with ``loop``) until it ends or ``stop`` is non-empty."""
         rate = float(self.p['rate'])
+        if not stop:
+            self.get_logger().info('started: publishing')
         while not stop:
             if not self.stream:
                 return
