@@ -183,6 +183,20 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
     assert verify_bag(bag).passed
 
 
+def test_split_by_duration(tmp_path: Path, messages: list) -> None:
+    # The synthetic stream is 1 ms per sample (4 messages): 30 samples split every 5 ms of log time.
+    topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
+    with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
+        for topic, t, data in messages:
+            w.write(topic, t, data)
+    bag = read_bag(tmp_path / 'd')
+    assert len(bag.files) == 6
+    spans = [f['duration']['nanoseconds'] for f in bag.metadata['files']]
+    assert max(spans) < 5_000_000
+    assert [f['message_count'] for f in bag.metadata['files']] == [20] * 6
+    assert verify_bag(bag).passed
+
+
 def test_sqlite3_read_directly_gives_the_same_messages(tmp_path: Path, messages: list) -> None:
     write_messages(tmp_path / 'b', messages, storage='sqlite3')
     db = tmp_path / 'b' / 'b_0.db3'

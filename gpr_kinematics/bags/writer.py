@@ -198,6 +198,11 @@ class SegmentedBagWriter:
         seg = self.segment
         if seg is None:
             raise BagError('the bag writer is not open')
+        if (self.max_bag_duration and seg.first_stamp is not None
+                and timestamp - seg.first_stamp >= self.max_bag_duration * 1e9):
+            self.roll()  # a segment spans less than max_bag_duration of log time
+            seg = self.segment
+            assert seg is not None
         conn = seg.connections.get(topic)
         if conn is None:
             raise BagError(f'topic {topic!r} is not recorded; recorded topics: {", ".join(self.topics)}')
@@ -209,8 +214,7 @@ class SegmentedBagWriter:
             seg.first_message = time.monotonic()
             seg.first_stamp = int(timestamp)
         seg.last_stamp = int(timestamp)
-        if (self.max_bag_size and seg.bytes >= self.max_bag_size) or (
-                self.max_bag_duration and timestamp - (seg.first_stamp or timestamp) >= self.max_bag_duration * 1e9):
+        if self.max_bag_size and seg.bytes >= self.max_bag_size:
             self.roll()
         elif self.flush_interval and time.monotonic() - seg.first_message >= ROLL_FRACTION * self.flush_interval:
             self.roll()
