@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from gpr_kinematics import cli
+from gpr_kinematics.bags import cdr
 from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.reader import read_bag
@@ -136,7 +137,7 @@ def test_vectorised_decoder_equals_rosbags_deserialisation() -> None:
                 assert c['name'][i] == tuple(msg.name) and np.array_equal(c['position'][i], msg.position)
 
 
-def test_decoder_handles_changing_layouts() -> None:
+def test_decoder_handles_changing_layouts(monkeypatch: pytest.MonkeyPatch) -> None:
     store = typestore()
     T = store.types
     js = T['sensor_msgs/msg/JointState']
@@ -150,13 +151,18 @@ def test_decoder_handles_changing_layouts() -> None:
                position=np.arange(k) + 0.5 * i, velocity=np.zeros(0), effort=np.zeros(0))
         msgs.append(bytes(store.serialize_cdr(m, 'sensor_msgs/msg/JointState')))
     c = decode_columns('sensor_msgs/msg/JointState', msgs)
-    assert c.layouts >= 6
-    for i in range(40):
-        k = 1 + i % 3
-        assert c['header.stamp.sec'][i] == i
-        assert c['header.frame_id'][i] == 'f' * (i % 2 + 1)
-        assert np.array_equal(np.asarray(c['position'][i]), np.arange(k) + 0.5 * i)
-        assert len(c['name'][i]) == k
+    assert c.layouts >= 6 and c.fallback == 0
+    # With one template only, the rest goes through rosbags' deserialisation: same columns.
+    monkeypatch.setattr(cdr, 'MAX_LAYOUTS', 1)
+    f = decode_columns('sensor_msgs/msg/JointState', msgs)
+    assert f.layouts == 1 and f.fallback > 30
+    for col in (c, f):
+        for i in range(40):
+            k = 1 + i % 3
+            assert col['header.stamp.sec'][i] == i and col['header.stamp.nanosec'][i] == i
+            assert col['header.frame_id'][i] == 'f' * (i % 2 + 1)
+            assert np.array_equal(np.asarray(col['position'][i]), np.arange(k) + 0.5 * i)
+            assert len(col['name'][i]) == k and (i == 7 or col['name'][i][-1] == f'j{k - 1}')
 
 
 @pytest.mark.parametrize('storage,compression', [('mcap', 'none'), ('mcap', 'zstd'), ('sqlite3', 'none')])
