@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import sqlite3
@@ -388,3 +389,25 @@ def test_sigkill_of_a_writing_process_loses_nothing_older_than_the_flush_interva
                 n += sum(1 for _ in make_reader(fh).iter_messages())
         assert n == len(topic)
     shutil.rmtree(bag)
+
+
+def test_garbage_q_fails_checks_without_crashing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    store = typestore()
+    msgs = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(60.0), topics=(STATE,))
+    out = []
+    for i, (topic, t, raw) in enumerate(msgs):
+        if i in (3, 7):
+            msg = store.deserialize_cdr(raw, 'gpr_interfaces/msg/PlatformState')
+            q = msg.q.copy()
+            q[0] = math.nan if i == 3 else 5.0  # 5 m: far beyond the 0.508 m stroke
+            msg.q = q
+            raw = bytes(store.serialize_cdr(msg, 'gpr_interfaces/msg/PlatformState'))
+        out.append((topic, t, raw))
+    write_messages(tmp_path / 'g', out)
+    status, text, err = run_cli('verify', str(tmp_path / 'g'), capsys=capsys)
+    assert status == 1 and err == ''
+    assert 'FAIL state.forward on /gpr/platform_state at sample 3' in text
+    assert 'FAIL state.limits on /gpr/platform_state at sample 7: value 4.492' in text
+    assert 'FAIL state.pose_position on /gpr/platform_state at sample 7' in text
+    failed_samples = {int(s) for s in re.findall(r'at sample (\d+)', text)}
+    assert failed_samples == {3, 4, 7}  # 4: the step from the NaN sample (stream.jump)

@@ -269,6 +269,7 @@ class _Verifier:
         self.series: Series | None = None
         self.crossings = 0
         self.crossing_ratio = 0.0
+        self.fk_error = ''
 
     def run(self) -> None:
         self.bag_checks()
@@ -344,6 +345,7 @@ class _Verifier:
         flag_ok = np.zeros(n, dtype=bool)
         model_ok = np.ones(n, dtype=bool)
         finite = np.all(np.isfinite(q), axis=1)
+        solved = finite.copy()
         lim = np.full(n, np.nan)
         X_all: NDArray[np.float64] | None = None
         vj_names: tuple[str, ...] = ()
@@ -354,7 +356,12 @@ class _Verifier:
                 continue
             if rows.size == 0:
                 continue
-            fk: ForwardBatch = forward_batch(q[rows], cfg, model, check_limits=False)
+            try:
+                fk: ForwardBatch = forward_batch(q[rows], cfg, model, check_limits=False)
+            except GprError as exc:  # e.g. no convergence far outside the workspace: a failed check
+                solved[rows] = False
+                self.fk_error = f'{type(exc).__name__}: {exc}'
+                continue
             M = fk.virtual_joints.shape[1]
             e_pos[rows] = np.max(np.abs(pos[rows] - fk.position), axis=1)
             e_npos[rows] = np.max(np.abs(npos[rows] - fk.nominal_position), axis=1)
@@ -384,6 +391,9 @@ class _Verifier:
                 vj_names = tuple(fk.virtual_joint_names)
         add = self.checks.append
         add(_bool_check('state.model', topic, model_ok, samples, 'model is not radial, polar or offset'))
+        why = f' ({self.fk_error})' if self.fk_error else ''
+        add(_bool_check('state.forward', topic, solved | ~model_ok, samples,
+                        'q not finite, or forward kinematics failed' + why))
         add(_check('state.pose_position', topic, e_pos, tol.position, 'm', samples))
         add(_check('state.pose_orientation', topic, e_rot, tol.angle, 'rad', samples))
         add(_check('state.nominal_position', topic, e_npos, tol.position, 'm', samples))
