@@ -444,6 +444,8 @@ class _Verifier:
         dL = np.max(np.abs(np.diff(s.side_lengths, axis=0)), axis=1)
         X = s.virtual_joints
         dX = np.max(np.abs(np.diff(X, axis=0)), axis=1) if X.shape[1] else np.zeros(n - 1)
+        models = c['model']
+        dX[models[1:] != models[:-1]] = 0.0  # virtual joints of different models are not comparable
         k_rot = tol.jump_rot_factor * math.sqrt(2.0 / 3.0) / self.cfg.radius
         eps = tol.jump_eps
         # Excess over the bound, as a ratio: value / (K dq + eps), must be <= 1.
