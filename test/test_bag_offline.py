@@ -202,6 +202,17 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     assert max(spans) < 5_000_000
     assert [f['message_count'] for f in bag.metadata['files']] == [20] * 6
     assert verify_bag(bag).passed
+    # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
+    meta = bag.metadata
+    assert meta['version'] == 9 and meta['storage_identifier'] == 'mcap'
+    assert meta['relative_file_paths'] == [f['path'] for f in meta['files']]
+    assert meta['message_count'] == sum(f['message_count'] for f in meta['files']) == len(messages)
+    assert sum(t['message_count'] for t in meta['topics_with_message_count']) == len(messages)
+    assert meta['starting_time']['nanoseconds_since_epoch'] == messages[0][1]
+    assert meta['duration']['nanoseconds'] == messages[-1][1] - messages[0][1]
+    for t in meta['topics_with_message_count']:
+        assert t['topic_metadata']['serialization_format'] == 'cdr'
+        assert t['topic_metadata']['type_description_hash'].startswith('RIHS01_')
 
 
 def test_sqlite3_read_directly_gives_the_same_messages(tmp_path: Path, messages: list) -> None:
