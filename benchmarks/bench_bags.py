@@ -10,6 +10,7 @@ Run in the ROS environment (the recorder part starts ``recorder_node`` over DDS)
    fsync on). After the publisher's acknowledgements the recorder gets SIGINT; the bag must hold every
    published message, byte for byte and in order. The highest rate tried without loss is reported.
    Peer in the same run: a bare rclpy raw subscription that only counts (the executor's ceiling).
+   Then the trajectory node at its highest rate setting (5000 Hz), all five topics, into the recorder.
 2. Verify: a bag of the paper sweep repeated (``passes``), 4 topics (state, two poses, joint states),
    written without ROS; ``verify_bag`` (read + decode + every check), median of 3 runs, messages/s.
    Peer in the same run: decoding the same messages one by one with ``rosbags``' ``deserialize_cdr``.
@@ -122,27 +123,58 @@ def _publisher_run(rate: float, seconds: float, output: Path, counter_only: bool
             'lossless': bool(ok), 'status': proc.returncode}
 
 
+def bench_trajectory(rate: float, passes: int, output: Path) -> dict:
+    """trajectory_node at ``rate`` (its highest allowed: 5000 Hz), all five topics, into recorder_node."""
+    import re
+
+    from gpr_kinematics.bags.verify import verify_bag
+
+    env = dict(os.environ)
+    rec = subprocess.Popen([str(ros_env.find_executable('gpr_kinematics', 'recorder_node', env)), '--ros-args',
+                            '-p', f'output:={output}'], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env,
+                           text=True)
+    time.sleep(2.0)
+    traj = subprocess.run([str(ros_env.find_executable('gpr_kinematics', 'trajectory_node', env)), '--ros-args',
+                           '-p', f'rate:={rate}', '-p', 'wait_for_subscribers:=1', '-p', f'passes:={passes}'],
+                          capture_output=True, text=True, env=env, timeout=600)
+    time.sleep(0.5)
+    rec.send_signal(signal.SIGINT)
+    rec_out, _ = rec.communicate(timeout=60)
+    m = re.search(r'published (\d+) samples in ([\d.]+) s \(achieved ([\d.]+) Hz', traj.stdout + traj.stderr)
+    samples, achieved = int(m.group(1)), float(m.group(3))
+    result = verify_bag(output)
+    return {'samples': samples, 'achieved_hz': achieved, 'recorded': result.counts, 'passed': result.passed,
+            'status': rec.returncode}
+
+
 def counter_main() -> None:
-    """A bare raw subscription that counts messages until SIGINT, then prints the count."""
+    """A bare raw subscription that counts messages until SIGINT, drains like the recorder, prints the count."""
     import rclpy
-    from rclpy.executors import ExternalShutdownException
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
 
     from gpr_interfaces.msg import PlatformState
 
-    rclpy.init()
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    stop: list[int] = []
+    signal.signal(signal.SIGINT, lambda s, _f: stop.append(s))
     node = rclpy.create_node('bench_bags_counter')
     count = [0]
+    last = [time.monotonic()]
 
     def cb(_data: bytes) -> None:
         count[0] += 1
+        last[0] = time.monotonic()
 
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100000, reliability=ReliabilityPolicy.RELIABLE)
     node.create_subscription(PlatformState, 'gpr/platform_state', cb, qos, raw=True)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    ex = SingleThreadedExecutor()
+    ex.add_node(node)
+    while not stop:
+        ex.spin_once(timeout_sec=0.05)
+    while time.monotonic() - last[0] < 0.2:
+        ex.spin_once(timeout_sec=0.02)
     print(count[0], flush=True)
 
 
@@ -176,6 +208,11 @@ def main() -> int:
         if r['lossless'] and r['status'] == 0:
             best = max(best, r['achieved'])
     print(f'highest PlatformState rate recorded without loss: {best:,.0f} messages/s')
+    t = bench_trajectory(5000.0, 1 if args.quick else 4, tmp / 'traj')
+    lossless = all(v == t['samples'] for v in t['recorded'].values())
+    print(f"trajectory_node at rate 5000 (its maximum), 5 topics: achieved {t['achieved_hz']:,.0f} samples/s "
+          f"({5 * t['achieved_hz']:,.0f} messages/s); recorded {t['recorded']} of {t['samples']} each, "
+          f"lossless {lossless}, verify passed {t['passed']}, recorder exit {t['status']}")
     return 0
 
 
