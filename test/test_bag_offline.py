@@ -422,3 +422,18 @@ def test_garbage_q_fails_checks_without_crashing(tmp_path: Path, capsys: pytest.
     assert 'FAIL state.pose_position on /gpr/platform_state at sample 7' in text
     failed_samples = {int(s) for s in re.findall(r'at sample (\d+)', text)}
     assert failed_samples == {3, 4, 7}  # 4: the step from the NaN sample (stream.jump)
+
+
+def test_a_different_machine_geometry_fails_the_reference_bag(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """The check is against the model: 0.1 mm more radius moves the recorded poses beyond 1e-9 m."""
+    cfg = tmp_path / 'gpr.yaml'
+    cfg.write_text('radius: 0.093318\n')
+    status, out, _ = run_cli('verify', str(REFERENCE), '--config', str(cfg), '--json', capsys=capsys)
+    assert status == 1
+    data = json.loads(out)
+    failed = {c['name'] for c in data['checks'] if c['status'] == 'FAIL'}
+    assert {'state.side_lengths', 'state.virtual_joints'} <= failed
+    assert data['config']['radius'] == 0.093318
+    status, _, err = run_cli('verify', str(REFERENCE), '--config', str(tmp_path / 'none.yaml'), capsys=capsys)
+    assert status == 2 and 'none.yaml' in err
