@@ -47,6 +47,7 @@ def _run_stream(ns: str, ros_args: list[str], expect: int, timeout: float = 60.0
     c = Client(f'gpr_test_traj_{ns.strip("/")}')
     rec = Recorder(c, ns)
     proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', 'wait_for_subscribers:=1',
+                                           '-p', 'wait_all_topics:=true',
                                            '-p', f'rate:={RATE}', *ros_args])
     try:
         done = c.spin_until(lambda: not proc.alive() and len(rec.msgs['gpr/platform_state']) >= expect,

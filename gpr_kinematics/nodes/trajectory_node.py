@@ -74,6 +74,8 @@ _PARAMS: tuple[tuple[str, Any, int, str, Any], ...] = (
     ('markers_every', 1, INT, 'publish gpr/markers every n-th sample', (1, 100000)),
     ('wait_for_subscribers', 0, INT,
      'before the first sample, wait until gpr/platform_state has this many subscriptions', (0, 1000)),
+    ('wait_all_topics', False, B, 'wait_for_subscribers counts on every topic, not only gpr/platform_state',
+     None),
     ('wait_timeout', 10.0, D, 'longest wait for subscribers [s]; then start anyway', (0.0, 3600.0)),
     ('queue_depth', 1000, INT, 'publisher history depth (reliable, keep last)', (1, 100000)),
 )
@@ -193,10 +195,12 @@ class TrajectoryNode(Node):
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return True
-        if self.pub_state.get_subscription_count() >= want:
+        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.pub_state,)
+        if min(pub.get_subscription_count() for pub in pubs) >= want:
             return True
         if time.monotonic() - self._wait_start > float(self.p['wait_timeout']):
-            self.get_logger().warning(f'no {want} subscriber(s) on gpr/platform_state after '
+            where = 'every topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
+            self.get_logger().warning(f'no {want} subscriber(s) on {where} after '
                                       f'{self.p["wait_timeout"]} s; starting anyway')
             return True
         return False
