@@ -310,3 +310,21 @@ def test_signal_exits_0_quickly(sig):
     assert status == 0, out
     assert took < 2.0
     assert 'Traceback' not in out
+
+
+def test_executables_found_like_ros2_run():
+    """ros2 run = ament_index_python.get_package_prefix(pkg) + lib/<pkg>/<exe>; ros_env.find_executable agrees
+    and points into the colcon install tree."""
+    from ament_index_python.packages import get_package_prefix
+    from ros_support import executable
+
+    from gpr_kinematics import ros_env
+
+    prefix = get_package_prefix('gpr_kinematics')
+    assert prefix == str(ros_env.install_dir() / 'gpr_kinematics')
+    for exe in ('kinematics_node', 'trajectory_node'):
+        assert str(executable(exe)) == f'{prefix}/lib/gpr_kinematics/{exe}'
+    with pytest.raises(FileNotFoundError, match='no executable'):
+        ros_env.find_executable('gpr_kinematics', 'no_such_node')
+    with pytest.raises(FileNotFoundError, match='not found in the ament index'):
+        ros_env.find_executable('no_such_package', 'x')
