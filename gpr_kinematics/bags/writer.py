@@ -43,7 +43,7 @@ STORAGES: dict[str, tuple[StoragePlugin, str]] = {
 COMPRESSIONS = ('none', 'zstd')
 BAG_VERSION = 9
 #: A segment is closed once its oldest message is this fraction of the flush interval old.
-ROLL_FRACTION = 0.9
+ROLL_FRACTION = 0.8
 
 
 @dataclass
