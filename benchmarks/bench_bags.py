@@ -135,7 +135,8 @@ def bench_trajectory(rate: float, passes: int, output: Path) -> dict:
                            text=True)
     time.sleep(2.0)
     traj = subprocess.run([str(ros_env.find_executable('gpr_kinematics', 'trajectory_node', env)), '--ros-args',
-                           '-p', f'rate:={rate}', '-p', 'wait_for_subscribers:=1', '-p', f'passes:={passes}'],
+                           '-p', f'rate:={rate}', '-p', 'wait_for_subscribers:=1', '-p', 'wait_all_topics:=true',
+                           '-p', f'passes:={passes}'],
                           capture_output=True, text=True, env=env, timeout=600)
     time.sleep(0.5)
     rec.send_signal(signal.SIGINT)
@@ -187,7 +188,7 @@ def main() -> int:
         counter_main()
         return 0
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    os.environ.setdefault('ROS_DOMAIN_ID', '91')
+    os.environ.setdefault('ROS_DOMAIN_ID', '7')  # benchmarks and demo: 0..9, tests: 10..200
     print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
           f'load average {os.getloadavg()[0]:.2f}')
     v = bench_verify(passes=2 if args.quick else 40)

@@ -90,6 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                       '-p', f'flush_interval:={float(args.flush_interval)!r}'], env, logs)
         procs += [kin, rec]
         traj = _Proc('trajectory_node', ['-p', f'rate:={args.rate}', '-p', 'wait_for_subscribers:=1',
+                                         '-p', 'wait_all_topics:=true',
                                          '-p', f'tilt_step:={math.radians(args.tilt_step_deg)!r}',
                                          '-p', f'azimuth_step:={math.radians(args.azimuth_step_deg)!r}'], env, logs)
         procs.append(traj)

@@ -59,6 +59,7 @@ def recorder(output: Path, *params: str) -> NodeProcess:
 
 def trajectory(rate: float, tilt_step_deg: float, azimuth_step_deg: float, subscribers: int = 1) -> NodeProcess:
     return NodeProcess('trajectory_node', ['-p', f'rate:={rate}', '-p', f'wait_for_subscribers:={subscribers}',
+                                           '-p', 'wait_all_topics:=true',
                                            '-p', f'tilt_step:={math.radians(tilt_step_deg)!r}',
                                            '-p', f'azimuth_step:={math.radians(azimuth_step_deg)!r}'])
 
