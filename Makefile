@@ -44,8 +44,11 @@ test: setup
 test-ros: setup
 	$(ROSENV) $(PY) -m pytest -q test/test_ros_*.py
 
+# The offline-programming loop: the services called once from a client (nodes.demo), then the paper's sweep
+# streamed by trajectory_node, recorded by recorder_node and checked by `gpr verify` (offline_loop).
 demo: setup
 	$(ROSENV) $(PY) -m gpr_kinematics.nodes.demo
+	$(ROSENV) $(PY) -m gpr_kinematics.offline_loop
 
 lint: setup
 	$(VENV)/bin/ruff check .
