@@ -23,7 +23,6 @@ behind) when the output exists or is not writable, a topic's type is unknown or 
 from __future__ import annotations
 
 import importlib
-import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -37,13 +36,13 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 
 from ..bags.errors import BagError
 from ..bags.typestore import GPR_TOPICS, check_known, normalize_type
 from ..bags.writer import COMPRESSIONS, STORAGES, SegmentedBagWriter, check_output_path
 from ..errors import GprError
 from .params import descriptor
+from .runtime import init_with_stop_flag
 
 NODE_NAME = 'recorder_node'
 EXIT_BAD_CONFIG = 2
@@ -170,14 +169,7 @@ class RecorderNode(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point: spin until SIGINT/SIGTERM, then drain, close the bag and exit 0."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop: list[int] = []
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        stop.append(signum)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = init_with_stop_flag(args)
     node: RecorderNode | None = None
     status = 0
     executor = SingleThreadedExecutor()

@@ -16,7 +16,6 @@ SIGINT/SIGTERM; 2 with one error line when the bag cannot be read or a parameter
 """
 from __future__ import annotations
 
-import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -29,13 +28,13 @@ from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
 from ..errors import GprError
 from .params import descriptor
 from .recorder_node import message_class
+from .runtime import init_with_stop_flag
 
 NODE_NAME = 'replay_node'
 EXIT_BAD_CONFIG = 2
@@ -135,14 +134,7 @@ class ReplayNode(Node):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop: list[int] = []
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        stop.append(signum)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = init_with_stop_flag(args)
     node: ReplayNode | None = None
     status = 0
     try:

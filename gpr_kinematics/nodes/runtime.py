@@ -1,17 +1,37 @@
 """Process life cycle shared by the nodes: init, spin, clean exit on SIGINT/SIGTERM."""
 from __future__ import annotations
 
+import signal
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import rclpy
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from ..errors import GprError
 
 #: Exit status when the node cannot start (bad parameters, unreadable program).
 EXIT_BAD_CONFIG = 2
+
+
+def init_with_stop_flag(args: Sequence[str] | None = None) -> list[int]:
+    """Init rclpy without its signal handlers; SIGINT and SIGTERM append their number to the returned list.
+
+    For nodes that must finish work after a stop request (the recorder drains and closes its bag, replay
+    waits for acknowledgements) instead of having rclpy tear the context down under them.
+    """
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop: list[int] = []
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        stop.append(signum)
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    return stop
 
 
 def run(name: str, factory: Callable[[], Node], args: Sequence[str] | None = None,
