@@ -298,38 +298,38 @@ class GeneralizedStewartPlatform(Mechanism):
             for ct, idx in self.groups.items():
                 vi, Rbi = v[:, idx], Rb[:, idx]
                 if ct == 'D1':
-                    d = np.linalg.norm(vi, axis=-1)[..., None]
-                    J[:, idx, :3] = vi / d
-                    J[:, idx, 3:] = _cross(Rbi, vi) / d
+                    inv = (1.0 / np.sqrt(_dot(vi, vi)))[..., None]
+                    J[:, idx, :3] = vi * inv
+                    J[:, idx, 3:] = _cross(Rbi, vi) * inv
                 elif ct == 'D2':
                     Rti = Rt[:, idx]
                     c = _cross(vi, Rti)
-                    d = np.linalg.norm(c, axis=-1)[..., None]
+                    inv = (1.0 / np.sqrt(_dot(c, c)))[..., None]
                     w = _cross(Rti, c)
-                    J[:, idx, :3] = w / d
-                    J[:, idx, 3:] = (_cross(Rbi, w) + _dot(vi, Rti)[..., None] * c) / d
+                    J[:, idx, :3] = w * inv
+                    J[:, idx, 3:] = (_cross(Rbi, w) + _dot(vi, Rti)[..., None] * c) * inv
                 elif ct == 'D3':
                     si = s[idx]
                     c = _cross(vi, si)
-                    d = np.linalg.norm(c, axis=-1)[..., None]
+                    inv = (1.0 / np.sqrt(_dot(c, c)))[..., None]
                     w = _cross(si, c)
-                    J[:, idx, :3] = w / d
-                    J[:, idx, 3:] = _cross(Rbi, w) / d
+                    J[:, idx, :3] = w * inv
+                    J[:, idx, 3:] = _cross(Rbi, w) * inv
                 elif ct == 'D4':
                     Rti, si = Rt[:, idx], np.broadcast_to(s[idx], vi.shape)
                     n = _cross(Rti, si)
-                    g = np.linalg.norm(n, axis=-1)[..., None]
+                    gi = (1.0 / np.sqrt(_dot(n, n)))[..., None]
                     f = _dot(vi, n)[..., None]
-                    sg = np.sign(f)
-                    J[:, idx, :3] = sg * n / g
-                    J[:, idx, 3:] = sg * ((_cross(Rbi, n) + _cross(Rti, _cross(si, vi))) / g
-                                          - f * _cross(Rti, _cross(si, n)) / g ** 3)
+                    sgi = np.sign(f) * gi
+                    J[:, idx, :3] = sgi * n
+                    J[:, idx, 3:] = sgi * ((_cross(Rbi, n) + _cross(Rti, _cross(si, vi)))
+                                           - (f * gi * gi) * _cross(Rti, _cross(si, n)))
                 else:  # A1
                     Rti = Rt[:, idx]
                     cos = np.clip(_dot(Rti, s[idx]), -1.0, 1.0)
-                    sin = np.sqrt(1.0 - cos ** 2)[..., None]
                     J[:, idx, :3] = 0.0
-                    J[:, idx, 3:] = -_cross(Rti, np.broadcast_to(s[idx], Rti.shape)) / sin
+                    J[:, idx, 3:] = _cross(Rti, np.broadcast_to(s[idx], Rti.shape)) * (
+                        -1.0 / np.sqrt(1.0 - cos * cos))[..., None]
         return J
 
     def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool
