@@ -151,12 +151,13 @@ def soundness(model, inner: np.ndarray, boundary: np.ndarray, pts: np.ndarray, o
     return f'{missed}/{wrong}'
 
 
-def bench_case(name: str, model, delta: float, builder, repeat: int, rng, codac_timeout: float):
+def bench_case(name: str, model, delta: float, builder, repeat: int, rng, codac_timeout: float,
+               methods: tuple[str, ...] = ('covering', 'codac', 'grid', 'uniform')):
     rows = []
     pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * rng.random((200_000, len(model.variables)))
     ok = model.feasible(pts)
     mc = float(ok.mean() * np.prod(model.box[:, 1] - model.box[:, 0]))
-    for method in ('covering', 'codac', 'grid', 'uniform'):
+    for method in methods:
         times = []
         runs = 1 if method in ('uniform', 'codac') else repeat
         inner = boundary = None
@@ -189,6 +190,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='one run per method, deltas 4 times coarser')
     ap.add_argument('--codac-timeout', type=float, default=1200.0, help='seconds allowed to one codac run')
+    ap.add_argument('--only', help='run only the cases whose name contains this text (e.g. GPR)')
+    ap.add_argument('--delta-mm', type=float, help='override the cases\' delta (mm)')
+    ap.add_argument('--methods', default='covering,codac,grid,uniform', help='comma-separated methods to run')
     args = ap.parse_args()
     import codac
 
@@ -207,8 +211,13 @@ def main() -> None:
           'inner volume | outer volume | missed/wrong |')
     print('|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|')
     notes = []
+    methods = tuple(m.strip() for m in args.methods.split(','))
     for name, model, delta, builder, exact in cases:
-        rows, mc = bench_case(name, model, delta, builder, repeat, rng, args.codac_timeout)
+        if args.only and args.only not in name:
+            continue
+        if args.delta_mm:
+            delta = args.delta_mm * 1e-3
+        rows, mc = bench_case(name, model, delta, builder, repeat, rng, args.codac_timeout, methods)
         for r in rows:
             if r['seconds'] is None:
                 print(f'| {name} | {delta * 1e3:g} mm | {r["method"]} | 0 | > {r["timeout"]:.0f} (stopped) | '
