@@ -393,9 +393,9 @@ class Upu3Model(WorkspaceModel):
     """Translational 3-UPU (seed ``3upu-aboulissane.txt``): base joints ``B_i = b u_i``, platform joints
     ``P + p u_i`` (same azimuths), limb ``l_i = |P + p u_i - b u_i|`` in ``[limb_min, limb_max]``.
 
-    The seed places the base triangle in its yz plane; here it is the xy plane with z up (REP 103), so its
-    x-z projections are our z-x... the shapes (upper dome over a lower one, Figs. 7-9) are the same.
-    Only the half-space above the base is kept (the box starts at z = 0).
+    The seed places the base triangle in its yz plane (its x axis normal to the base); here the base is the
+    xy plane with z up (REP 103), so the seed's x is our z. The shapes (an upper dome over a lower one,
+    Figs. 7-9) are the same. Only the half-space above the base is kept (the box starts at z = 0).
     """
 
     name = 'upu3'
@@ -729,38 +729,18 @@ def _mechanism(data: Mapping[str, Any], source: str) -> Any:
 
 
 def _gpr_model(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> GprModel:
-    """GPR parameters from the core configuration (``gpr_kinematics.config``) with the file's overrides."""
-    core_keys = ('radius', 'rod_azimuths', 'stroke_min', 'stroke_max', 'imperfection_budget')
-    overrides = dict(data.get('overrides') or {})
-    if not isinstance(overrides, Mapping):
-        raise ConfigError(f'{src}: overrides must map GprConfig field names to values')
-    overrides.update({k: data[k] for k in core_keys if k in data})
+    """GPR parameters from the mechanisms interface (``type: gpr``, optional ``overrides`` of GprConfig)."""
     vj = ws.get('virtual_joint_model', 'radial')
     if vj != 'radial':
-        raise ConfigError(
-            f'{src}: workspace.virtual_joint_model {vj!r} has no certified enclosure; allowed: radial'
-        )
-    try:
-        from .config import load_config
-
-        cfg = load_config(overrides=overrides)
-        vals = {k: getattr(cfg, k) for k in core_keys}
-    except ImportError:  # pragma: no cover - the core lands with the package
-        vals = {
-            'radius': 0.093218,
-            'rod_azimuths': (0.0, 2 * math.pi / 3, 4 * math.pi / 3),
-            'stroke_min': 0.0,
-            'stroke_max': 0.508,
-            'imperfection_budget': 0.0005,
-        }
-        vals.update({k: overrides[k] for k in core_keys if k in overrides})
+        raise ConfigError(f'{src}: workspace.virtual_joint_model {vj!r} has no certified enclosure; allowed: radial')
+    cfg = _mechanism(data, src).config
     max_tilt = _num(ws, 'max_tilt', 0.3, True, src)
     return GprModel(
-        float(vals['radius']),
-        tuple(float(a) for a in vals['rod_azimuths']),
-        float(vals['stroke_min']),
-        float(vals['stroke_max']),
-        float(vals['imperfection_budget']),
+        cfg.radius,
+        tuple(float(a) for a in cfg.rod_azimuths),
+        cfg.stroke_min,
+        cfg.stroke_max,
+        cfg.imperfection_budget,
         angle_scale=scale,
         max_tilt=max_tilt,
     )
