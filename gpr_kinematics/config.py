@@ -157,15 +157,22 @@ def default_config() -> GprConfig:
     return load_config()
 
 
-def _read_yaml(path: Path) -> Mapping[str, Any]:
+def read_yaml(path: str | Path, what: str = 'config') -> Any:
+    """Parse a YAML file; an unreadable file or invalid YAML raises :class:`ConfigError` naming the file
+    (``what`` says which kind of file it is in the message: config, program, mechanism)."""
+    path = Path(path)
     try:
         text = path.read_text(encoding='utf-8')
     except OSError as exc:
-        raise ConfigError(f'cannot read config file {str(path)!r}: {exc.strerror or exc}') from None
+        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f'{path}: not valid YAML ({str(exc).splitlines()[0]})') from None
+
+
+def _read_yaml(path: Path) -> Mapping[str, Any]:
+    data = read_yaml(path)
     if data is None:
         return {}
     if not isinstance(data, Mapping):

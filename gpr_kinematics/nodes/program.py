@@ -32,8 +32,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from ..config import read_yaml
 from ..errors import ConfigError
 
 _STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
@@ -124,16 +124,7 @@ def parse_program(data: Any, source: str = 'program') -> Program:
 
 def load_program(path: str | Path) -> Program:
     """Read and validate a program YAML file; :class:`ConfigError` names what is wrong."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding='utf-8')
-    except OSError as exc:
-        raise ConfigError(f'cannot read program file {str(p)!r}: {exc.strerror or exc}') from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'{p}: not valid YAML ({str(exc).splitlines()[0]})') from None
-    return parse_program(data, str(p))
+    return parse_program(read_yaml(path, 'program'), str(path))
 
 
 def program_knots(program: Program, default_move_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
