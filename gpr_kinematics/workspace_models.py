@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from .errors import ConfigError, InputError
 from .interval import Interval, monotone
@@ -748,21 +747,7 @@ def _gpr_model(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: 
 
 def load_workspace_model(path: str | Path, overrides: Mapping[str, Any] | None = None) -> WorkspaceModel:
     """Read a mechanism YAML file (``type`` key, SI parameters, optional ``workspace:`` section)."""
-    p = Path(path)
-    if not p.is_file() and not p.is_absolute():
-        try:
-            from .resources import config_path
+    from .mechanisms import read_mechanism_file
 
-            p = config_path(f'mechanisms/{p.name}')
-        except ConfigError:
-            pass
-    if not p.is_file():
-        raise ConfigError(
-            f'mechanism file {str(path)!r} not found (nor among the packaged config/mechanisms/)'
-        )
-    try:
-        with p.open() as fh:
-            data = yaml.safe_load(fh)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'{p}: not valid YAML ({str(exc).splitlines()[0]})') from None
+    data, p = read_mechanism_file(path)
     return model_from_mapping(data, str(p), overrides)

@@ -21,12 +21,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from ..config import read_yaml
 from ..errors import ConfigError
 from .base import Mechanism
 
-__all__ = ['Mechanism', 'MECHANISM_TYPES', 'load_mechanism', 'mechanism_from_dict']
+__all__ = ['Mechanism', 'MECHANISM_TYPES', 'load_mechanism', 'mechanism_from_dict', 'read_mechanism_file']
 
 #: ``type`` key -> (module, loader function name).
 MECHANISM_TYPES: dict[str, tuple[str, str]] = {
@@ -52,25 +51,26 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
     return loader(data, source)
 
 
-def load_mechanism(path: str | Path) -> Mechanism:
-    """Read a mechanism YAML file (see the module docstring) and return the :class:`Mechanism`.
+def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:
+    """Parse a mechanism YAML file; returns ``(data, resolved path)``.
 
     A relative path that does not exist is also looked up among the packaged files
-    (``config/mechanisms/``), so ``load_mechanism('upu3.yaml')`` works from anywhere.
+    (``config/mechanisms/``), so ``'upu3.yaml'`` works from anywhere.
     """
     p = Path(path)
-    if not p.is_file():
+    if not p.is_file() and not p.is_absolute():
         try:
             from ..resources import config_path
-            p = config_path(f'mechanisms/{p.name}') if not p.is_absolute() else p
+            p = config_path(f'mechanisms/{p.name}')
         except ConfigError:
             pass
     if not p.is_file():
         raise ConfigError(f'mechanism file {str(path)!r} not found (nor among the packaged '
                           f'config/mechanisms/ files)')
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        msg = str(exc).replace('\n', ' ')
-        raise ConfigError(f'{p}: not valid YAML: {msg}') from None
+    return read_yaml(p, 'mechanism'), p
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read a mechanism YAML file (see the module docstring) and return the :class:`Mechanism`."""
+    data, p = read_mechanism_file(path)
     return mechanism_from_dict(data, str(p))
