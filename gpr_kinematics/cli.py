@@ -1,4 +1,5 @@
-"""The ``gpr`` command line: kinematics, compensation, mobility and the paper's sweep.
+"""The ``gpr`` command line: GPR kinematics, compensation, mobility, the paper's sweep; other mechanisms,
+workspaces and the verification of recorded bags.
 
 SI units (metres, radians) by default; ``--mm`` and ``--deg`` convert inputs only, outputs stay SI.
 Subcommands of the other parts of the project are plugins listed in :data:`PLUGINS`: modules with a
