@@ -24,15 +24,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .config import GprConfig
-from .errors import InputError, LimitError
+from .errors import LimitError
 from .geometry import matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
 from .kinematics import ForwardResult, inverse, resolve_config
+from .validation import finite_vector, unit_quaternion
 
 Array = NDArray[np.float64]
-
-#: Largest accepted deviation of a commanded quaternion's norm from 1.
-QUATERNION_NORM_TOLERANCE = 1e-6
-
 
 @dataclass(frozen=True)
 class CompensationResult:
@@ -70,25 +67,13 @@ class CompensationResult:
         return p @ self.arm_correction_rotation.T + self.arm_correction_translation
 
 
-def _vector(values: ArrayLike, name: str, n: int) -> Array:
-    try:
-        v = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be {n} numbers, got {values!r}') from None
-    if v.shape != (n,):
-        raise InputError(f'{name} must be {n} numbers, got shape {v.shape}')
-    if not np.all(np.isfinite(v)):
-        raise InputError(f'{name} = {v.tolist()} contains NaN or infinity')
-    return v
-
-
 def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
                config: GprConfig | None = None, model: str | None = None) -> CompensationResult:
     """Actuator commands and arm correction for a naively commanded platform pose (module docstring).
 
     Args:
         position: commanded platform origin in ``gpr_base`` [m] (only the tool point's height is honoured).
-        quaternion: commanded platform orientation (x, y, z, w), unit norm (to 1e-6).
+        quaternion: commanded platform orientation (x, y, z, w), unit norm (within 1e-6).
         tool_offset: tool point in ``gpr_platform`` [m].
 
     Raises:
@@ -96,13 +81,9 @@ def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLik
         LimitError: a commanded tilt beyond the tilt limit, or rod lengths outside the stroke.
     """
     cfg = resolve_config(config)
-    p_c = _vector(position, 'position', 3)
-    quat = _vector(quaternion, 'quaternion', 4)
-    norm = float(np.linalg.norm(quat))
-    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
-        raise InputError(f'quaternion (x, y, z, w) = {quat.tolist()} has norm {norm:.9g}; a unit quaternion '
-                         f'(norm 1 +- {QUATERNION_NORM_TOLERANCE:g}) is required')
-    tool = _vector(tool_offset, 'tool_offset', 3)
+    p_c = finite_vector(position, 'position', 3)
+    quat = unit_quaternion(quaternion, 'quaternion')
+    tool = finite_vector(tool_offset, 'tool_offset', 3)
     R_c = matrix_from_quaternion(quat)
     tilt, az, twist = (float(v) for v in tilt_from_matrix(R_c))
     if tilt > cfg.tilt_limit:

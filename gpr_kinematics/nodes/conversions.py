@@ -15,21 +15,7 @@ from geometry_msgs.msg import Point, Pose, Quaternion, Transform, Vector3
 
 from ..errors import InputError
 from ..geometry import matrix_from_quaternion, tilt_from_matrix
-
-#: Largest accepted deviation of a request quaternion's norm from 1 (messages carry unit quaternions).
-QUATERNION_NORM_TOLERANCE = 1e-6
-
-
-def finite_vector(values: Sequence[float], name: str, size: int) -> np.ndarray:
-    """``values`` as a float array of length ``size``, all finite; else :class:`InputError`."""
-    a = np.asarray(values, dtype=float).reshape(-1)
-    if a.shape[0] != size:
-        raise InputError(f'{name} must have {size} elements, got {a.shape[0]}')
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number; allowed: finite values in SI units')
-    return a
+from ..validation import finite_vector, unit_quaternion
 
 
 def point_array(p: Point | Vector3, name: str) -> np.ndarray:
@@ -38,13 +24,8 @@ def point_array(p: Point | Vector3, name: str) -> np.ndarray:
 
 
 def quaternion_array(q: Quaternion, name: str) -> np.ndarray:
-    """(x, y, z, w) of a Quaternion, checked finite and of unit norm (within 1e-6)."""
-    a = finite_vector((q.x, q.y, q.z, q.w), name, 4)
-    norm = float(np.linalg.norm(a))
-    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
-        raise InputError(f'{name} = ({a[0]:.9g}, {a[1]:.9g}, {a[2]:.9g}, {a[3]:.9g}) has norm {norm:.9g}; '
-                         f'allowed: a unit quaternion (x, y, z, w), |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
-    return a / norm
+    """(x, y, z, w) of a Quaternion, checked finite and of unit norm (within 1e-6), normalised."""
+    return unit_quaternion((q.x, q.y, q.z, q.w), name)
 
 
 def pose_arrays(pose: Pose, name: str) -> tuple[np.ndarray, np.ndarray]:

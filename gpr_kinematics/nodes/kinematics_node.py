@@ -33,9 +33,9 @@ from ..compensation import compensate
 from ..errors import GprError
 from ..kinematics import forward, inverse
 from ..mobility import analyze_mobility, rod_perturbation
+from ..validation import finite_vector
 from .conversions import (
     fill_forward,
-    finite_vector,
     point_array,
     pose_arrays,
     pose_msg,
