@@ -9,8 +9,13 @@ normal: ``R = tilt_rotation(tilt, azimuth) @ Rz(twist)``.
 """
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from ._ops import ARRAY, Ops
 
 Array = NDArray[np.float64]
 
@@ -102,19 +107,23 @@ def matrix_from_quaternion(quat: ArrayLike) -> Array:
     return R
 
 
-def tilt_from_normal(n: ArrayLike) -> tuple[Array, Array]:
-    """Tilt (>= 0) and tilt azimuth in (-pi, pi] of unit platform normals ``(..., 3)``.
+def tilt_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> tuple[Any, Any]:
+    """Tilt (>= 0) and tilt azimuth in (-pi, pi] of a unit normal given by components (floats with
+    ``ops = SCALAR`` or arrays with ``ops = ARRAY``).
 
     The azimuth is the direction of ``e3 x n = (-n_y, n_x, 0)``; it is 0 where the tilt is below
     :data:`AZIMUTH_UNDEFINED_BELOW`.
     """
+    tilt = ops.atan2(ops.hypot(nx, ny), nz)
+    az = ops.atan2(nx, -ny)
+    az = ops.where(az <= -math.pi, math.pi, az)
+    return tilt, ops.where(tilt < AZIMUTH_UNDEFINED_BELOW, 0.0, az)
+
+
+def tilt_from_normal(n: ArrayLike) -> tuple[Array, Array]:
+    """:func:`tilt_of_normal` of unit platform normals ``(..., 3)``."""
     n = np.asarray(n, dtype=float)
-    h = np.hypot(n[..., 0], n[..., 1])
-    tilt = np.arctan2(h, n[..., 2])
-    az = np.arctan2(n[..., 0], -n[..., 1])
-    az = np.where(az <= -np.pi, np.pi, az)
-    az = np.where(tilt < AZIMUTH_UNDEFINED_BELOW, 0.0, az)
-    return tilt, az
+    return tilt_of_normal(ARRAY, n[..., 0], n[..., 1], n[..., 2])
 
 
 def tilt_from_matrix(R: ArrayLike) -> tuple[Array, Array, Array]:

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._ops import ARRAY, SCALAR, Ops
 from .config import GprConfig, load_config
 from .errors import ConvergenceError, InputError, LimitError
-from .geometry import AZIMUTH_UNDEFINED_BELOW, tilt_normal, tilt_rotation
+from .geometry import AZIMUTH_UNDEFINED_BELOW, tilt_normal, tilt_of_normal, tilt_rotation
 from .virtual_joints import (
     EDGES,
     VirtualJointModel,
@@ -202,7 +202,6 @@ class _Geometry:
     bx: tuple[float, float, float]
     by: tuple[float, float, float]
     naive_inv: tuple[tuple[float, ...], ...]  # inverse of rows (1, R cos th_k, R sin th_k)
-    budget: float
 
     @staticmethod
     def of(config: GprConfig) -> _Geometry:
@@ -211,7 +210,7 @@ class _Geometry:
         by = tuple(config.radius * math.sin(t) for t in th)
         A = np.array([[1.0, bx[k], by[k]] for k in range(3)])
         inv = tuple(tuple(float(v) for v in row) for row in np.linalg.inv(A))
-        return _Geometry(bx, by, inv, config.imperfection_budget)
+        return _Geometry(bx, by, inv)
 
 
 _GEOMETRY_CACHE: dict[GprConfig, _Geometry] = {}
@@ -231,14 +230,6 @@ def _side_lengths(ops: Ops, geo: _Geometry, q: Sequence[Any]) -> list[Any]:
         dx, dy, dz = geo.bx[b] - geo.bx[a], geo.by[b] - geo.by[a], q[b] - q[a]
         out.append(ops.sqrt(dx * dx + dy * dy + dz * dz))
     return out
-
-
-def _tilt_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> tuple[Any, Any]:
-    """Tilt >= 0 and azimuth of ``e3 x n`` in (-pi, pi], 0 below :data:`AZIMUTH_UNDEFINED_BELOW`."""
-    tilt = ops.atan2(ops.hypot(nx, ny), nz)
-    az = ops.atan2(nx, -ny)
-    az = ops.where(az <= -math.pi, math.pi, az)
-    return tilt, ops.where(tilt < AZIMUTH_UNDEFINED_BELOW, 0.0, az)
 
 
 def _tilt_matrix_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> list[list[Any]]:
@@ -279,7 +270,7 @@ def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array,
     if (h2 >= 1.0).any():
         i = int(np.argmax(h2))
         raise LimitError(f'q = {Q[i].tolist()} m implies no platform orientation')
-    tilt, az = _tilt_of_normal(ARRAY, nx, ny, nz)
+    tilt, az = tilt_of_normal(ARRAY, nx, ny, nz)
     pos = np.zeros((Q.shape[0], 3))
     pos[:, 2] = z
     return pos, tilt_rotation(tilt, az)
@@ -351,7 +342,7 @@ def _pose(ops: Ops, geo: _Geometry, q: Sequence[Any], comps: tuple[list, ...]) -
         dz = r20 * rxk + r21 * ryk + tz - qk
         dk = sqrt(dx * dx + dy * dy + dz * dz)
         fit = dk if fit is None else ops.maximum(fit, dk)
-    tilt, az = _tilt_of_normal(ops, r02, r12, r22)
+    tilt, az = tilt_of_normal(ops, r02, r12, r22)
     T = _tilt_matrix_of_normal(ops, r02, r12, r22)
     m00 = T[0][0] * r00 + T[1][0] * r10 + T[2][0] * r20
     m10 = T[0][1] * r00 + T[1][1] * r10 + T[2][1] * r20
