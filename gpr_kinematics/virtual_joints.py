@@ -108,29 +108,21 @@ class VirtualJointModel:
         """:func:`joint_components` (float arithmetic) at the singular ``X``: the start of every solve."""
         return joint_components(SCALAR, self, list(self.singular_floats))
 
-    def nominal_points(self) -> Array:
-        """Nominal joint centres ``R u(theta_k)`` in the platform plane, ``(3, 2)``."""
-        th = np.asarray(self.azimuths)
-        return self.radius * np.stack([np.cos(th), np.sin(th)], axis=-1)
-
     def points_and_partials(self, X: Array) -> tuple[Array, Array, Array]:
-        """Joint centres ``r_k(X)`` ``(N, 3, 2)`` and their partials.
+        """Joint centres ``r_k(X)`` ``(N, 3, 2)`` and their partials, as arrays (from
+        :func:`joint_components`).
 
         Returns ``(r, dr_dlin, dr_dang)``: ``dr_dlin[:, k]`` is ``d r_k / d X_k`` (the linear coordinate
         of joint ``k``), ``dr_dang[:, k]`` is ``d r_k / d X_{k+3}`` (zero for ``radial``).
         """
-        th = np.asarray(self.azimuths)
-        lin = X[:, :3]
-        if self.name == 'radial':
-            u = np.broadcast_to(np.stack([np.cos(th), np.sin(th)], -1), lin.shape + (2,))
-            return lin[..., None] * u, u, np.zeros_like(u)
-        ang = th + X[:, 3:]
-        u = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-        perp = np.stack([-u[..., 1], u[..., 0]], axis=-1)
-        r = lin[..., None] * u
-        if self.name == 'offset':
-            r = r + self.nominal_points()
-        return r, u, lin[..., None] * perp
+        X = np.asarray(X, dtype=float)
+        rx, ry, dlx, dly, dax, day = joint_components(ARRAY, self, list(X.T))
+
+        def stack(cx: list, cy: list) -> Array:
+            return np.broadcast_to(np.stack([np.stack(cx, -1), np.stack(cy, -1)], -1), (X.shape[0], 3, 2))
+
+        r, dlin = stack(rx, ry), stack(dlx, dly)
+        return r, dlin, np.zeros_like(dlin) if dax is None else stack(dax, day)
 
     def closure(self, X: Array, L2: Array) -> tuple[Array, Array, Array]:
         """Residuals ``F (N, 3)``, Jacobian ``dF/dX (N, 3, M)`` and current side lengths ``(N, 3)``.
