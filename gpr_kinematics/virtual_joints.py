@@ -159,18 +159,22 @@ def make_model(config: GprConfig, model: str | None = None) -> VirtualJointModel
 _MODEL_CACHE: dict[tuple, VirtualJointModel] = {}
 
 
+def angle_scale(config: GprConfig) -> float:
+    """Length ``c`` that turns an angular virtual joint into a displacement in the step's metric:
+    the characteristic length, or 1 (SI units) for the paper's ``unweighted`` form."""
+    return config.characteristic_length if config.weighting == 'characteristic' else 1.0
+
+
 def coordinate_scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
-    """Metric scales ``s`` of the coordinates: 1 for lengths, ``c`` (or 1 unweighted) for angles."""
+    """Metric scales ``s`` of the coordinates: 1 for lengths, :func:`angle_scale` for angles."""
     s = np.ones(vjm.size)
-    if config.weighting == 'characteristic':
-        s[vjm.angular] = config.characteristic_length
+    s[vjm.angular] = angle_scale(config)
     return s
 
 
 def angular_weight(config: GprConfig) -> float:
     """Weight ``w = s^-2`` of the angular coordinates in the step ``dX = -W J^T (J W J^T)^-1 F``."""
-    c = config.characteristic_length if config.weighting == 'characteristic' else 1.0
-    return 1.0 / (c * c)
+    return angle_scale(config) ** -2.0
 
 
 def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> tuple[list, ...]:
