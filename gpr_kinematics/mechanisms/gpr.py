@@ -23,7 +23,7 @@ rotation ``R = tilt_rotation(alpha, gamma) @ Rz(twist)`` (:mod:`gpr_kinematics.g
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -221,15 +221,21 @@ class GprMechanism(Mechanism):
         dudp = self._pose_parameter_derivative(q, step)[:, 2:5]
         return -self.task_jacobian(arr) @ dudp
 
-    def _pose_parameter_derivative(self, q: np.ndarray, step: float) -> np.ndarray:
-        """``d pose / d delta`` ``(N, 6, 9)`` at fixed rods: position, tilt vector, twist."""
-        out = np.zeros((q.shape[0], 6, 9))
+    def _imperfection_steps(self, q: np.ndarray, step: float) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+        """For each of the 9 imperfection components ``k``: the poses ``(N, 6)`` at rods ``q`` with that
+        component moved by ``+step`` and ``-step`` (central differences; a loop over parameters, not poses)."""
         for k in range(9):
             d = np.zeros(9)
             d[k] = step
             plus = self.with_parameters({'joint_imperfections': self.imperfections + d.reshape(3, 3)})
             minus = self.with_parameters({'joint_imperfections': self.imperfections - d.reshape(3, 3)})
-            out[:, :, k] = (plus.forward_poses(q) - minus.forward_poses(q)) / (2 * step)
+            yield k, plus.forward_poses(q), minus.forward_poses(q)
+
+    def _pose_parameter_derivative(self, q: np.ndarray, step: float) -> np.ndarray:
+        """``d pose / d delta`` ``(N, 6, 9)`` at fixed rods: position, tilt vector, twist."""
+        out = np.zeros((q.shape[0], 6, 9))
+        for k, Pp, Pm in self._imperfection_steps(q, step):
+            out[:, :, k] = (Pp - Pm) / (2 * step)
         return out
 
     def linearized_twist(self, poses: Any, joint_errors: np.ndarray,
@@ -244,12 +250,7 @@ class GprMechanism(Mechanism):
             step = 1e-7
             R0 = self.rotation(self.forward_poses(q))
             cols = np.zeros((q.shape[0], 6, 9))
-            for k in range(9):
-                d = np.zeros(9)
-                d[k] = step
-                pp = self.with_parameters({'joint_imperfections': self.imperfections + d.reshape(3, 3)})
-                pm = self.with_parameters({'joint_imperfections': self.imperfections - d.reshape(3, 3)})
-                Pp, Pm = pp.forward_poses(q), pm.forward_poses(q)
+            for k, Pp, Pm in self._imperfection_steps(q, step):
                 cols[:, :3, k] = (Pp[:, :3] - Pm[:, :3]) / (2 * step)
                 rp = rotation_vector(self.rotation(Pp) @ np.swapaxes(R0, -1, -2))
                 rm = rotation_vector(self.rotation(Pm) @ np.swapaxes(R0, -1, -2))
