@@ -124,8 +124,12 @@ def _cmd_ik(args: argparse.Namespace) -> int:
 def _cmd_compensate(args: argparse.Namespace) -> int:
     from .compensation import compensate
     from .geometry import quaternion_from_matrix, rotation_z, tilt_rotation
+    from .validation import finite_number
     cfg = _config(args)
-    R = tilt_rotation(_angle(args, args.tilt), _angle(args, args.azimuth)) @ rotation_z(_angle(args, args.heading))
+    # The command is built from the typed angles: check them by name before they become a quaternion.
+    tilt, azimuth, heading = (finite_number(_angle(args, getattr(args, n)), f'--{n}')
+                              for n in ('tilt', 'azimuth', 'heading'))
+    R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
     res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
                      [_length(args, v) for v in args.tool], config=cfg, model=args.model)
     corr = {'translation': res.arm_correction_translation, 'quaternion': res.arm_correction_quaternion}

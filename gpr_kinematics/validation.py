@@ -16,6 +16,17 @@ from .errors import InputError
 QUATERNION_NORM_TOLERANCE = 1e-6
 
 
+def finite_number(value: Any, name: str) -> float:
+    """``value`` as a finite float; else :class:`InputError` naming ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f'{name} must be a number, got {value!r}') from None
+    if not np.isfinite(v):
+        raise InputError(f'{name} = {v} is not a finite number; allowed: finite values in SI units')
+    return v
+
+
 def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
     try:

@@ -86,6 +86,8 @@ def test_human_readable_output(capsys):
     (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'], 'beyond the tilt limit'),
     (['ik', '--height', 'abc', '--tilt', '0', '--azimuth', '0'], "invalid float value: 'abc'"),
     (['compensate', '--height', '0.6', '--tilt', '0', '--azimuth', '0'], 'outside the stroke'),
+    (['compensate', '--height', '0.3', '--tilt', 'nan', '--azimuth', '0'], r'--tilt = nan is not a finite number'),
+    (['compensate', '--height', '0.3', '--tilt', '0', '--azimuth', '0', '--heading', 'inf'], r'--heading = inf'),
     (['sweep', '--tilt-step', '0.3', '--deg'], 'whole number'),
     (['fk', '0.3', '0.3', '0.3', '--config', '/nonexistent.yaml'], 'cannot read config file'),
 ])
