@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -86,6 +86,14 @@ _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
 }
 
 
+def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
+    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
+    allowed = set(allowed)
+    unknown = sorted(str(k) for k in data if k not in allowed)
+    if unknown:
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown)}; allowed keys: ' + ', '.join(sorted(allowed)))
+
+
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
     return ConfigError(f'{source}: {key} = {value!r} is invalid; allowed: {allowed}')
 
@@ -102,11 +110,7 @@ def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
 def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig:
     if not isinstance(values, Mapping):
         raise ConfigError(f'{source}: expected a mapping of keys to values, got {type(values).__name__}')
-    known = {f.name for f in dataclasses.fields(GprConfig)}
-    unknown = sorted(str(k) for k in values if k not in known)
-    if unknown:
-        raise ConfigError(f'{source}: unknown key(s) {", ".join(unknown)}; allowed keys: '
-                          + ', '.join(sorted(known)))
+    check_keys(values, (f.name for f in dataclasses.fields(GprConfig)), source)
     merged: dict[str, Any] = base.to_dict()
     if base.characteristic_length == base.radius and 'characteristic_length' not in values:
         merged['characteristic_length'] = None  # it followed the radius: keep following it

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import check_keys
 from ..errors import ConfigError, InputError
 from .base import Mechanism, as_poses, rotation_vector
 
@@ -85,10 +86,7 @@ class GprMechanism(Mechanism):
         """YAML: ``type: gpr``, optional ``name`` and ``overrides`` (fields of ``GprConfig``)."""
         from ..config import load_config
         allowed = {'type', 'name', 'overrides', 'workspace', 'reference'}
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                              + ', '.join(sorted(allowed)))
+        check_keys(data, allowed, source)
         overrides = data.get('overrides') or {}
         if not isinstance(overrides, Mapping):
             raise ConfigError(f'{source}: overrides must be a mapping of GprConfig fields; got {overrides!r}')

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import check_keys
 from ..errors import ConfigError, InputError
 from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
 
@@ -118,14 +119,11 @@ def parse_constraint(entry: Any, where: str) -> Constraint:
                           + ', '.join(CONSTRAINT_TYPES))
     needed = _POINTS[ctype]
     allowed = set(needed) | {'type', 'name', 'limits'}
-    unknown = sorted(set(entry) - allowed)
-    if unknown:
-        extra = [k for k in unknown if k in _ALL_POINTS]
-        if extra:
-            raise ConfigError(f'{where}: a {ctype} constraint takes the points {", ".join(needed)}; '
-                              f'got the extra point(s) {", ".join(extra)}')
-        raise ConfigError(f'{where}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                          + ', '.join(sorted(allowed)))
+    extra = sorted(k for k in entry if k in _ALL_POINTS and k not in allowed)
+    if extra:
+        raise ConfigError(f'{where}: a {ctype} constraint takes the points {", ".join(needed)}; '
+                          f'got the extra point(s) {", ".join(extra)}')
+    check_keys(entry, allowed, where)
     missing = [k for k in needed if k not in entry]
     if missing:
         raise ConfigError(f'{where}: a {ctype} constraint needs the points {", ".join(needed)}; '
@@ -193,10 +191,7 @@ class GeneralizedStewartPlatform(Mechanism):
         """Build from YAML (keys ``constraints``, ``characteristic_length``, ``euler``, ``name``)."""
         allowed = {'type', 'name', 'characteristic_length', 'euler', 'constraints', 'poses', 'workspace',
                    'reference'}
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                              + ', '.join(sorted(allowed)))
+        check_keys(data, allowed, source)
         cons = data.get('constraints')
         if not isinstance(cons, list):
             raise ConfigError(f'{source}: key constraints must be a list of 6 constraint mappings; '

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import check_keys
 from ..errors import ConfigError, InputError
 from .base import as_poses, check_euler_convention
 from .gsp import Constraint, GeneralizedStewartPlatform
@@ -93,10 +94,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
                    'base_height', 'base_points', 'platform_radius', 'platform_azimuths', 'platform_height',
                    'platform_points', 'leg_min', 'leg_max', 'trajectory', 'leg_deformations', 'reference',
                    'workspace'}
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                              + ', '.join(sorted(allowed)))
+        check_keys(data, allowed, source)
         a = _points(data, 'base', source)
         b = _points(data, 'platform', source)
         L = _float(data, 'characteristic_length', source, default=float(np.mean(np.linalg.norm(b, axis=1))))

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import check_keys
 from ..errors import ConfigError
 from .base import Mechanism, as_poses
 
@@ -98,10 +99,7 @@ class Tripod3RPS(Mechanism):
     def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> Tripod3RPS:
         allowed = {'type', 'name', 'base_radius', 'platform_radius', 'leg_min', 'leg_max',
                    'characteristic_length', 'workspace', 'reference'}
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                              + ', '.join(sorted(allowed)))
+        check_keys(data, allowed, source)
         lo, hi = _num(data, 'leg_min', source), _num(data, 'leg_max', source)
         if not lo < hi:
             raise ConfigError(f'{source}: leg_min = {lo} must be below leg_max = {hi} (m)')

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import check_keys
 from ..errors import ConfigError
 from .base import Mechanism, as_poses, dexterity_index
 
@@ -65,10 +66,7 @@ class UPU3(Mechanism):
     def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> UPU3:
         allowed = {'type', 'name', 'b', 'p', 'limb_min', 'limb_max', 'base_azimuths', 'characteristic_length',
                    'workspace', 'reference'}
-        unknown = sorted(set(data) - allowed)
-        if unknown:
-            raise ConfigError(f'{source}: unknown key(s) {", ".join(map(str, unknown))}; allowed: '
-                              + ', '.join(sorted(allowed)))
+        check_keys(data, allowed, source)
         b, p = _num(data, 'b', source), _num(data, 'p', source)
         lo, hi = _num(data, 'limb_min', source), _num(data, 'limb_max', source)
         if not lo < hi:

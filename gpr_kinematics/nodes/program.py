@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import read_yaml
+from ..config import check_keys, read_yaml
 from ..errors import ConfigError
 
 _STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
@@ -87,9 +87,7 @@ def parse_program(data: Any, source: str = 'program') -> Program:
     """Validate a program mapping (as loaded from YAML) into a :class:`Program`."""
     if not isinstance(data, Mapping):
         raise ConfigError(f'{source}: expected a mapping with a "stations" list, got {type(data).__name__}')
-    unknown = sorted(str(k) for k in data if k not in ('stations', 'move_time'))
-    if unknown:
-        raise ConfigError(f'{source}: unknown key(s) {", ".join(unknown)}; allowed: stations, move_time')
+    check_keys(data, ('stations', 'move_time'), source)
     move_time = data.get('move_time')
     if move_time is not None:
         move_time = _number(source, 'file', 'move_time', move_time, 'seconds > 0', 0.0, lo_open=True)
@@ -101,10 +99,7 @@ def parse_program(data: Any, source: str = 'program') -> Program:
         where = f'station {i}'
         if not isinstance(st, Mapping):
             raise ConfigError(f'{source}: {where} must be a mapping with height, tilt, azimuth, dwell')
-        bad = sorted(str(k) for k in st if k not in _STATION_KEYS)
-        if bad:
-            raise ConfigError(f'{source}: {where}: unknown key(s) {", ".join(bad)}; allowed: '
-                              + ', '.join(sorted(_STATION_KEYS)))
+        check_keys(st, _STATION_KEYS, f'{source}: {where}')
         missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
         if missing:
             raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
