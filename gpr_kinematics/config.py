@@ -94,6 +94,19 @@ def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> N
         raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown)}; allowed keys: ' + ', '.join(sorted(allowed)))
 
 
+def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | None = None,
+               positive: bool = True, unit: str = 'm') -> float:
+    """A finite number (not a bool, not a string) under ``key`` of a YAML mapping, positive unless
+    ``positive=False``; ``default`` when absent; else :class:`ConfigError` naming file, key and value."""
+    val = data.get(key, default)
+    what = f'{"positive " if positive else ""}finite {"length" if unit == "m" else "number"} in {unit}'
+    if val is None:
+        raise ConfigError(f'{source}: missing key {key} (a {what})')
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or (positive and val <= 0):
+        raise ConfigError(f'{source}: {key} must be a {what}; got {val!r}')
+    return float(val)
+
+
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
     return ConfigError(f'{source}: {key} = {value!r} is invalid; allowed: {allowed}')
 

@@ -20,22 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys
+from ..config import check_keys, number_key
 from ..errors import ConfigError, InputError
 from .base import as_poses, check_euler_convention
 from .gsp import Constraint, GeneralizedStewartPlatform
-
-
-def _float(data: Mapping[str, Any], key: str, source: str, default: float | None = None,
-           positive: bool = True) -> float:
-    val = data.get(key, default)
-    if val is None:
-        raise ConfigError(f'{source}: missing key {key} (a length in m)')
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or (
-            positive and val <= 0):
-        raise ConfigError(f'{source}: {key} must be a {"positive " if positive else ""}finite number (SI); '
-                          f'got {val!r}')
-    return float(val)
 
 
 def _vector(data: Mapping[str, Any], key: str, source: str, length: int, unit: str) -> np.ndarray:
@@ -60,9 +48,9 @@ def _points(data: Mapping[str, Any], prefix: str, source: str) -> np.ndarray:
         if arr is None or arr.shape != (6, 3) or not np.all(np.isfinite(arr)):
             raise ConfigError(f'{source}: {prefix}_points must be 6 points [x, y, z] in m; got {val!r}')
         return arr
-    r = _float(data, f'{prefix}_radius', source)
+    r = number_key(data, f'{prefix}_radius', source)
     az = _vector(data, f'{prefix}_azimuths', source, 6, 'rad')
-    h = _float(data, f'{prefix}_height', source, default=0.0, positive=False)
+    h = number_key(data, f'{prefix}_height', source, default=0.0, positive=False)
     return np.column_stack([r * np.cos(az), r * np.sin(az), np.full(6, h)])
 
 
@@ -97,7 +85,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
         check_keys(data, allowed, source)
         a = _points(data, 'base', source)
         b = _points(data, 'platform', source)
-        L = _float(data, 'characteristic_length', source, default=float(np.mean(np.linalg.norm(b, axis=1))))
+        L = number_key(data, 'characteristic_length', source, default=float(np.mean(np.linalg.norm(b, axis=1))))
         euler = data.get('euler', 'ZXZ')
         try:
             check_euler_convention(euler)
@@ -105,8 +93,8 @@ class StewartPlatform(GeneralizedStewartPlatform):
             raise ConfigError(f'{source}: euler: {exc}') from None
         limits = None
         if 'leg_min' in data or 'leg_max' in data:
-            lo = _float(data, 'leg_min', source, positive=False)
-            hi = _float(data, 'leg_max', source)
+            lo = number_key(data, 'leg_min', source, positive=False)
+            hi = number_key(data, 'leg_max', source)
             if not lo < hi:
                 raise ConfigError(f'{source}: leg_min = {lo} must be below leg_max = {hi} (m)')
             limits = (lo, hi)

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys
+from ..config import check_keys, number_key
 from ..errors import ConfigError
 from .base import Mechanism, as_poses
 
@@ -63,15 +63,6 @@ def tripod_rotation(theta: Any, psi: Any, phi: Any) -> np.ndarray:
     return _rot('y', th) @ _rot('x', ps) @ _rot('z', ph)
 
 
-def _num(data: Mapping[str, Any], key: str, source: str) -> float:
-    val = data.get(key)
-    if val is None:
-        raise ConfigError(f'{source}: missing key {key} (a positive length in m)')
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val <= 0:
-        raise ConfigError(f'{source}: {key} must be a positive finite length in m; got {val!r}')
-    return float(val)
-
-
 class Tripod3RPS(Mechanism):
     """3-RPS tripod; pose ``(x, y, z, theta, psi, phi)``, variables ``z, theta, psi``."""
 
@@ -100,13 +91,13 @@ class Tripod3RPS(Mechanism):
         allowed = {'type', 'name', 'base_radius', 'platform_radius', 'leg_min', 'leg_max',
                    'characteristic_length', 'workspace', 'reference'}
         check_keys(data, allowed, source)
-        lo, hi = _num(data, 'leg_min', source), _num(data, 'leg_max', source)
+        lo, hi = number_key(data, 'leg_min', source), number_key(data, 'leg_max', source)
         if not lo < hi:
             raise ConfigError(f'{source}: leg_min = {lo} must be below leg_max = {hi} (m)')
         L = data.get('characteristic_length')
-        return cls(_num(data, 'base_radius', source), _num(data, 'platform_radius', source), lo, hi,
+        return cls(number_key(data, 'base_radius', source), number_key(data, 'platform_radius', source), lo, hi,
                    name=str(data.get('name', '3-RPS tripod')),
-                   characteristic_length=None if L is None else _num(data, 'characteristic_length', source))
+                   characteristic_length=None if L is None else number_key(data, 'characteristic_length', source))
 
     # ------------------------------------------------------------------ pose
     def _complete(self, z: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,20 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys
+from ..config import check_keys, number_key
 from ..errors import ConfigError
 from .base import Mechanism, as_poses, dexterity_index
 
 SINGULARITY_TOLERANCE = 1e-9
-
-
-def _num(data: Mapping[str, Any], key: str, source: str, default: float | None = None) -> float:
-    val = data.get(key, default)
-    if val is None:
-        raise ConfigError(f'{source}: missing key {key} (a positive length in m)')
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val <= 0:
-        raise ConfigError(f'{source}: {key} must be a positive finite length in m; got {val!r}')
-    return float(val)
 
 
 class UPU3(Mechanism):
@@ -67,8 +58,8 @@ class UPU3(Mechanism):
         allowed = {'type', 'name', 'b', 'p', 'limb_min', 'limb_max', 'base_azimuths', 'characteristic_length',
                    'workspace', 'reference'}
         check_keys(data, allowed, source)
-        b, p = _num(data, 'b', source), _num(data, 'p', source)
-        lo, hi = _num(data, 'limb_min', source), _num(data, 'limb_max', source)
+        b, p = number_key(data, 'b', source), number_key(data, 'p', source)
+        lo, hi = number_key(data, 'limb_min', source), number_key(data, 'limb_max', source)
         if not lo < hi:
             raise ConfigError(f'{source}: limb_min = {lo} must be below limb_max = {hi} (m)')
         az = data.get('base_azimuths', [np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6])
@@ -80,7 +71,7 @@ class UPU3(Mechanism):
             raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {az!r}')
         L = data.get('characteristic_length')
         if L is not None:
-            L = _num(data, 'characteristic_length', source)
+            L = number_key(data, 'characteristic_length', source)
         return cls(b, p, lo, hi, az_arr, name=str(data.get('name', '3-UPU')), characteristic_length=L)
 
     def parameters(self) -> dict[str, np.ndarray]:
