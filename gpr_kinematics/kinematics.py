@@ -139,20 +139,23 @@ class ForwardBatch:
         return self.q.shape[0]
 
     def __getitem__(self, i: int) -> ForwardResult:
-        out = {}
-        for f in fields(ForwardResult):
-            v = getattr(self, f.name)
-            if f.name in ('model', 'virtual_joint_names'):
-                out[f.name] = v
-            else:
-                item = v[i]
-                out[f.name] = item.item() if np.ndim(item) == 0 else item
+        out = {name: getattr(self, name) for name in _SHARED_FIELDS}
+        for name in _ROW_FIELDS:
+            out[name] = getattr(self, name)[i]
+        for name in _SCALAR_FIELDS:
+            out[name] = getattr(self, name)[i].item()
         return ForwardResult(**out)
 
     @property
     def normal(self) -> Array:
         """Platform normals ``(N, 3)``."""
         return self.rotation[:, :, 2]
+
+
+#: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
+_SHARED_FIELDS = ('model', 'virtual_joint_names')
+_SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
+_ROW_FIELDS = tuple(f.name for f in fields(ForwardResult) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
 
 
 def _as_rows(values: ArrayLike, name: str, width: int) -> Array:

@@ -11,9 +11,11 @@ import functools
 import os
 from pathlib import Path
 
+import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from ..messages import MessageTypes
 from .errors import BagError
 
 INTERFACES_PACKAGE = 'gpr_interfaces'
@@ -81,3 +83,15 @@ def definition(msgtype: str) -> tuple[str, str]:
     store = typestore()
     msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
     return msgdef, store.hash_rihs01(msgtype)
+
+
+@functools.lru_cache(maxsize=1)
+def message_types() -> MessageTypes:
+    """The typestore's classes of the messages :mod:`gpr_kinematics.messages` builds (bags written without ROS)."""
+    T = typestore().types
+    return MessageTypes(
+        Time=T['builtin_interfaces/msg/Time'], Header=T['std_msgs/msg/Header'], Point=T['geometry_msgs/msg/Point'],
+        Quaternion=T['geometry_msgs/msg/Quaternion'], Vector3=T['geometry_msgs/msg/Vector3'],
+        Pose=T['geometry_msgs/msg/Pose'], PoseStamped=T['geometry_msgs/msg/PoseStamped'],
+        JointState=T['sensor_msgs/msg/JointState'], PlatformState=T[PLATFORM_STATE],
+        float_sequence=lambda values: np.asarray(values, dtype=np.float64))

@@ -6,15 +6,22 @@ the field, its value and what is allowed; the core checks the machine's limits (
 """
 from __future__ import annotations
 
+import array
 import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from geometry_msgs.msg import Point, Pose, Quaternion, Transform, Vector3
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Transform, Vector3
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+
+from gpr_interfaces.msg import PlatformState
 
 from ..errors import InputError
 from ..geometry import matrix_from_quaternion, tilt_from_matrix
+from ..messages import MessageTypes, fill_fields, forward_fields
 from ..validation import finite_vector, unit_quaternion
 
 
@@ -71,24 +78,18 @@ def transform_msg(translation: Sequence[float], quaternion: Sequence[float]) -> 
     return Transform(translation=vector_msg(translation), rotation=quaternion_msg(quaternion))
 
 
+#: rclpy's classes of the messages :mod:`gpr_kinematics.messages` builds.
+ROS_TYPES = MessageTypes(Time=Time, Header=Header, Point=Point, Quaternion=Quaternion, Vector3=Vector3, Pose=Pose,
+                         PoseStamped=PoseStamped, JointState=JointState, PlatformState=PlatformState,
+                         float_sequence=lambda values: array.array('d', values))
+
+
 def fill_forward(msg: Any, fk: Any) -> Any:
-    """Copy a core ``ForwardResult`` into a message with the ForwardKinematics response / PlatformState
-    fields (pose, nominal_pose, virtual joints, side lengths, centre shift, tilt, residual...)."""
-    msg.model = str(fk.model)
-    msg.pose = pose_msg(fk.position, fk.quaternion)
-    msg.nominal_pose = pose_msg(fk.nominal_position, fk.nominal_quaternion)
-    msg.virtual_joints = [float(v) for v in np.asarray(fk.virtual_joints).reshape(-1)]
-    msg.virtual_joint_names = [str(n) for n in fk.virtual_joint_names]
-    msg.side_lengths = np.asarray(fk.side_lengths, dtype=float).reshape(3)
-    msg.centre_shift = vector_msg(fk.centre_shift)
-    msg.tilt = float(fk.tilt)
-    msg.tilt_azimuth = float(fk.tilt_azimuth)
-    msg.twist = float(fk.twist)
-    msg.joint_displacement = np.asarray(fk.joint_displacement, dtype=float).reshape(3)
-    msg.within_budget = bool(fk.within_budget)
-    msg.iterations = int(fk.iterations)
-    msg.residual = float(fk.residual)
-    return msg
+    """Copy a core ``ForwardResult`` into a ForwardKinematics response (the fields of
+    :data:`gpr_kinematics.messages.STATE_FROM_RESULT` but ``q``, which the request carries)."""
+    fields = forward_fields(ROS_TYPES, fk)
+    del fields['q']
+    return fill_fields(msg, fields)
 
 
 def non_negative_finite(value: float, name: str) -> float:

@@ -44,14 +44,14 @@ from gpr_interfaces.msg import PlatformState
 
 from ..errors import ConfigError, GprError
 from ..kinematics import ForwardBatch, inverse_batch
+from ..messages import stream_messages
 from ..sweep import paper_sweep
-from .conversions import pose_msg
+from .conversions import ROS_TYPES
 from .params import ConfigParameters, descriptor
 from .program import load_program, sample_program
 from .runtime import run
 
 NODE_NAME = 'trajectory_node'
-ROD_NAMES = ('rod_1', 'rod_2', 'rod_3')
 MODES = ('sweep', 'program')
 
 D, INT, S, B = (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER,
@@ -86,31 +86,14 @@ class Trajectory:
 
     def __init__(self, commanded_tilt: np.ndarray, commanded_azimuth: np.ndarray, fk: ForwardBatch,
                  description: str) -> None:
-        self.commanded_tilt = np.asarray(commanded_tilt, dtype=float)
-        self.commanded_azimuth = np.asarray(commanded_azimuth, dtype=float)
         self.fk = fk
         self.description = description
-        # Plain Python lists: message fields are filled without per-sample numpy conversions.
-        self.q = fk.q.tolist()
-        self.position = fk.position.tolist()
-        self.quaternion = fk.quaternion.tolist()
-        self.nominal_position = fk.nominal_position.tolist()
-        self.nominal_quaternion = fk.nominal_quaternion.tolist()
-        self.centre_shift = fk.centre_shift.tolist()
-        self.virtual_joints = np.asarray(fk.virtual_joints).reshape(len(fk), -1).tolist()
-        self.side_lengths = fk.side_lengths.tolist()
-        self.tilt = fk.tilt.tolist()
-        self.tilt_azimuth = fk.tilt_azimuth.tolist()
-        self.twist = fk.twist.tolist()
-        self.joint_displacement = fk.joint_displacement.tolist()
-        self.within_budget = [bool(b) for b in fk.within_budget]
-        self.iterations = [int(i) for i in fk.iterations]
-        self.residual = fk.residual.tolist()
-        self.cmd_tilt = self.commanded_tilt.tolist()
-        self.cmd_azimuth = self.commanded_azimuth.tolist()
+        # Plain Python floats: a sample is published without per-sample numpy conversions of these two.
+        self.cmd_tilt = np.asarray(commanded_tilt, dtype=float).tolist()
+        self.cmd_azimuth = np.asarray(commanded_azimuth, dtype=float).tolist()
 
     def __len__(self) -> int:
-        return len(self.q)
+        return len(self.fk)
 
 
 def sweep_trajectory(cfg: Any, height: float, max_tilt: float, tilt_step: float, azimuth_step: float,
@@ -165,19 +148,20 @@ class TrajectoryNode(Node):
         else:
             self.traj = program_trajectory(cfg, p['program_file'], p['rate'], p['move_time'])
         self.precompute_time = time.perf_counter() - t0
-        self.joint_names = list(ROD_NAMES) + [str(n) for n in self.traj.fk.virtual_joint_names]
         theta = np.asarray(cfg.rod_azimuths)
         self._feet = np.stack([cfg.radius * np.cos(theta), cfg.radius * np.sin(theta), np.zeros(3)], -1)
         self._r_nominal = self._feet.copy()
 
         qos = QoSProfile(depth=int(p['queue_depth']), reliability=ReliabilityPolicy.RELIABLE)
         self.pub_state = self.create_publisher(PlatformState, 'gpr/platform_state', qos)
-        self.pub_pose = self.create_publisher(PoseStamped, 'gpr/platform_pose', qos)
-        self.pub_nominal = self.create_publisher(PoseStamped, 'gpr/nominal_pose', qos)
-        self.pub_joints = self.create_publisher(JointState, 'gpr/joint_states', qos)
+        self.stream_publishers = {
+            'gpr/platform_state': self.pub_state,
+            'gpr/platform_pose': self.create_publisher(PoseStamped, 'gpr/platform_pose', qos),
+            'gpr/nominal_pose': self.create_publisher(PoseStamped, 'gpr/nominal_pose', qos),
+            'gpr/joint_states': self.create_publisher(JointState, 'gpr/joint_states', qos),
+        }
         self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
-        self.publishers_all = (self.pub_state, self.pub_pose, self.pub_nominal, self.pub_joints,
-                               self.pub_markers)
+        self.publishers_all = (*self.stream_publishers.values(), self.pub_markers)
 
         self.done: Future = Future()
         self.index = 0
@@ -243,61 +227,21 @@ class TrajectoryNode(Node):
 
     def publish_sample(self, i: int) -> None:
         tr = self.traj
-        stamp = self.get_clock().now().to_msg()
-        base = self.p['base_frame']
-        pose = pose_msg(tr.position[i], tr.quaternion[i])
-        nominal = pose_msg(tr.nominal_position[i], tr.nominal_quaternion[i])
-
-        st = PlatformState()
-        st.header.stamp = stamp
-        st.header.frame_id = base
-        st.sample = self.sample
-        st.q = tr.q[i]
-        st.model = tr.fk.model
-        st.pose = pose
-        st.nominal_pose = nominal
-        cs = tr.centre_shift[i]
-        st.centre_shift.x, st.centre_shift.y, st.centre_shift.z = cs
-        st.virtual_joints = tr.virtual_joints[i]
-        st.virtual_joint_names = self.joint_names[3:]
-        st.side_lengths = tr.side_lengths[i]
-        st.tilt = tr.tilt[i]
-        st.tilt_azimuth = tr.tilt_azimuth[i]
-        st.twist = tr.twist[i]
-        st.commanded_tilt = tr.cmd_tilt[i]
-        st.commanded_azimuth = tr.cmd_azimuth[i]
-        st.joint_displacement = tr.joint_displacement[i]
-        st.within_budget = tr.within_budget[i]
-        st.iterations = tr.iterations[i]
-        st.residual = tr.residual[i]
-        self.pub_state.publish(st)
-
-        ps = PoseStamped()
-        ps.header = st.header
-        ps.pose = pose
-        self.pub_pose.publish(ps)
-        ns = PoseStamped()
-        ns.header = st.header
-        ns.pose = nominal
-        self.pub_nominal.publish(ns)
-
-        js = JointState()
-        js.header = st.header
-        js.name = self.joint_names
-        js.position = tr.q[i] + tr.virtual_joints[i]
-        self.pub_joints.publish(js)
-
+        msgs = stream_messages(ROS_TYPES, tr.fk[i], stamp_ns=self.get_clock().now().nanoseconds,
+                               frame_id=self.p['base_frame'], sample=self.sample,
+                               commanded_tilt=tr.cmd_tilt[i], commanded_azimuth=tr.cmd_azimuth[i])
+        for topic, pub in self.stream_publishers.items():
+            pub.publish(msgs[topic])
         if self.sample % int(self.p['markers_every']) == 0:
-            self.pub_markers.publish(self.markers(i, st.header))
+            self.pub_markers.publish(self.markers(i, msgs['gpr/platform_state'].header))
 
     def markers(self, i: int, header: Any) -> MarkerArray:
         """Base triangle, rods (foot to joint centre), platform triangle (the joint centres ``P_k``) and the
         naive platform's outline, all in the base frame."""
-        q = np.asarray(self.traj.q[i])
+        fk = self.traj.fk
         P = self._feet.copy()
-        P[:, 2] = q
-        R_nom = self.traj.fk.nominal_rotation[i]
-        nominal = np.asarray(self.traj.nominal_position[i]) + self._r_nominal @ R_nom.T
+        P[:, 2] = fk.q[i]
+        nominal = fk.nominal_position[i] + self._r_nominal @ fk.nominal_rotation[i].T
         life = DurationMsg(sec=0, nanosec=0)
 
         def marker(mid: int, ns: str, mtype: int, width: float, color: ColorRGBA, pts: Sequence) -> Marker:
