@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from . import safe_yaml
 from .errors import ConfigError
 from .resources import config_path
 
@@ -175,17 +174,10 @@ def default_config() -> GprConfig:
 
 
 def read_yaml(path: str | Path, what: str = 'config') -> Any:
-    """Parse a YAML file; an unreadable file or invalid YAML raises :class:`ConfigError` naming the file
+    """Parse a YAML file with the package's bounds (:func:`gpr_kinematics.safe_yaml.read_file`: no aliases,
+    bounded nesting and size, UTF-8, regular files only); any problem raises :class:`ConfigError` naming the file
     (``what`` says which kind of file it is in the message: config, program, mechanism)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'{path}: not valid YAML ({str(exc).splitlines()[0]})') from None
+    return safe_yaml.read_file(path, what)
 
 
 def _read_yaml(path: Path) -> Mapping[str, Any]:

@@ -130,7 +130,7 @@ def test_bad_files_exit_2(capsys, tmp_path):
     data = yaml.safe_load(config_path('mechanisms/gsp_d3_6.yaml').read_text())
     cases = {
         'unknown.yaml': lambda d: d['constraints'][0].update(type='D9'),
-        'degenerate.yaml': lambda d: d['constraints'][0].update(A_j=d['constraints'][0]['A_i']),
+        'degenerate.yaml': lambda d: d['constraints'][0].update(A_j=list(d['constraints'][0]['A_i'])),
         'count.yaml': lambda d: d['constraints'][0].update(B_j=[0, 0, 0]),
     }
     expected = {'unknown.yaml': "type = 'D9' is not a constraint type",

@@ -1,0 +1,113 @@
+"""Bounded YAML reading (gpr_kinematics.safe_yaml): aliases, nesting, size, encoding and file kinds refused with a
+message naming the file; ordinary files read as before."""
+from __future__ import annotations
+
+import doctest
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import pytest
+
+from gpr_kinematics import safe_yaml
+from gpr_kinematics.config import load_config, read_yaml
+from gpr_kinematics.errors import ConfigError
+
+BOMB = '\n'.join(['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+                 + [f'{c}: &{c} [{", ".join([f"*{p}"] * 9)}]' for p, c in zip('abcdefgh', 'bcdefghi', strict=True)])
+
+
+def test_doctests() -> None:
+    assert doctest.testmod(safe_yaml).failed == 0
+
+
+def test_plain_yaml_reads(tmp_path) -> None:
+    f = tmp_path / 'c.yaml'
+    f.write_text('radius: 0.1\nrod_azimuths: [0.0, 2.0943951023931957, 4.1887902047863905]\nmodel: polar\n')
+    assert read_yaml(f) == {'radius': 0.1, 'rod_azimuths': [0.0, 2.0943951023931957, 4.1887902047863905],
+                            'model': 'polar'}
+    cfg = load_config(f)
+    assert cfg.radius == 0.1 and cfg.model == 'polar'
+
+
+def test_alias_bomb_refused_at_once(tmp_path) -> None:
+    f = tmp_path / 'bomb.yaml'
+    f.write_text(BOMB)
+    assert len(BOMB) < 600
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match=r'bomb\.yaml: line 2: YAML aliases'):
+        read_yaml(f)
+    assert time.perf_counter() - t0 < 1.0  # refused while composing, before any expansion
+
+
+def test_alias_bomb_in_cli_is_bounded(tmp_path) -> None:
+    """The whole `gpr fk --config bomb.yaml` under a 1 GiB address-space limit: exit 2, one line."""
+    f = tmp_path / 'bomb.yaml'
+    f.write_text(BOMB)
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+
+    out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'fk', '0.5', '0.5', '0.5', '--config', str(f)],
+                         capture_output=True, text=True, timeout=60, preexec_fn=limit)
+    assert out.returncode == 2
+    assert out.stderr.count('\n') == 1 and 'YAML aliases' in out.stderr and 'Traceback' not in out.stderr
+
+
+@pytest.mark.parametrize('text', ['a: ' + '[' * 20000 + ']' * 20000,
+                                  'a:\n' + ''.join('  ' * i + 'k:\n' for i in range(1, 3000)),
+                                  'a: ' + '{b: ' * 5000 + '1' + '}' * 5000])
+def test_deep_nesting_refused(tmp_path, text: str) -> None:
+    f = tmp_path / 'deep.yaml'
+    f.write_text(text)
+    with pytest.raises(ConfigError, match=r'deep\.yaml.*(nested deeper than 64|nested too deeply)'):
+        read_yaml(f)
+
+
+def test_depth_limit_is_exact() -> None:
+    ok = 'a: ' + '[' * (safe_yaml.MAX_DEPTH - 1) + ']' * (safe_yaml.MAX_DEPTH - 1)  # mapping + 63 lists = 64
+    assert safe_yaml.load_text(ok) is not None
+    with pytest.raises(ConfigError, match='nested deeper than 64'):
+        safe_yaml.load_text('a: ' + '[' * safe_yaml.MAX_DEPTH + ']' * safe_yaml.MAX_DEPTH)
+
+
+def test_not_utf8_names_the_byte(tmp_path) -> None:
+    f = tmp_path / 'bad.yaml'
+    f.write_bytes(b'radius: 0.1\nmodel: \xff\n')
+    with pytest.raises(ConfigError, match=r"bad\.yaml' is not UTF-8 text \(byte 19 is 0xff\)"):
+        read_yaml(f)
+
+
+def test_non_regular_files_refused_without_blocking(tmp_path) -> None:
+    fifo = tmp_path / 'fifo.yaml'
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match='not a regular file'):
+        read_yaml(fifo)  # would block forever if opened
+    with pytest.raises(ConfigError, match='not a regular file'):
+        read_yaml(tmp_path)
+
+
+def test_size_limit(tmp_path) -> None:
+    f = tmp_path / 'big.yaml'
+    with open(f, 'wb') as fh:
+        fh.truncate(safe_yaml.MAX_BYTES + 1)
+    n = safe_yaml.MAX_BYTES
+    with pytest.raises(ConfigError, match=f'has {n + 1} bytes; allowed: at most {n}'):
+        read_yaml(f)
+
+
+def test_missing_file_and_invalid_yaml(tmp_path) -> None:
+    with pytest.raises(ConfigError, match="cannot read config file .*nope.yaml'.*No such file"):
+        read_yaml(tmp_path / 'nope.yaml')
+    f = tmp_path / 'x.yaml'
+    f.write_text('a: [1, 2\n')
+    with pytest.raises(ConfigError, match=r'x\.yaml: not valid YAML'):
+        read_yaml(f)
+
+
+def test_brief_cuts_long_values() -> None:
+    s = safe_yaml.brief('y' * 10_000)
+    assert len(s) < 100 and s.endswith('(10002 characters)')
+    assert safe_yaml.brief(0.5) == '0.5'
