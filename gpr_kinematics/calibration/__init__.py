@@ -1,0 +1,16 @@
+"""Calibration of the GPR from measured platform poses, measurement planning and the accuracy budget.
+
+Pure numpy/scipy (no ROS). The engines work on any :class:`~.model.PoseModel` (named parameters, a forward
+model of the platform pose); :mod:`.core_model` binds them to the kinematics core. Modules:
+
+* :mod:`.model`: parameters, the pose-model interface, pose errors, the finite-difference Jacobian;
+* :mod:`.measurements`: measurement files (CSV) and their checks; :mod:`.files`: bounded reading, safe writing;
+* :mod:`.identifiability`: scaled singular values, unidentifiable combinations, parameters held at nominal;
+* :mod:`.identification`: weighted nonlinear least squares, standard errors, residuals before and after;
+* :mod:`.plan`: measurement configurations that make the identification well conditioned;
+* :mod:`.tolerances`, :mod:`.budget`: the tolerance table and the accuracy budget (linearised, Monte Carlo);
+* :mod:`.synthetic`: synthetic measurements of a known machine; :mod:`.core_model`: the core binding and the
+  calibrated geometry file; :mod:`.demo`: the ``make demo`` step.
+
+See docs/calibration.md.
+"""

@@ -1,0 +1,237 @@
+"""Measurement files: commanded rod lengths and the measured pose of ``gpr_platform`` in ``gpr_base``.
+
+A measurement file is CSV text (UTF-8) with one header row naming its columns and one row per measured
+configuration, as exported from a laser tracker's 6-DOF probe (docs/calibration.md)::
+
+    # GPR calibration run 2026-11-30, tracker frame registered to gpr_base
+    # units: mm deg
+    q1,q2,q3,x,y,z,qx,qy,qz,qw,sigma_position,sigma_angle
+    250.0,252.1,248.3,0.0131,-0.0205,250.1,0.00731,0.00285,0.000012,0.99996,0.005,0.001
+
+* Required columns: ``q1 q2 q3`` (commanded rod lengths), ``x y z`` (position of the platform origin) and
+  ``qx qy qz qw`` (its orientation, a unit quaternion x y z w); in any order.
+* Optional columns: ``sigma_position`` (standard deviation of each position coordinate) and ``sigma_angle``
+  (standard deviation of each rotation-vector component); per row, > 0. Without them the caller's defaults
+  weight the residuals.
+* Units: metres and radians unless a ``# units:`` line before the header declares ``mm`` and/or ``deg``
+  (lengths: ``q``, ``x y z``, ``sigma_position``; angles: ``sigma_angle``). The result is always SI.
+* Lines starting with ``#`` are comments; blank lines are skipped.
+
+Refused, with the file, the line and the column named (:class:`~gpr_kinematics.errors.InputError`): a missing,
+unknown or repeated column, a value that is not a finite number, a quaternion whose norm differs from 1 by more
+than :data:`~gpr_kinematics.validation.QUATERNION_NORM_TOLERANCE`, a sigma <= 0, an unknown or misplaced unit
+declaration, a row repeated exactly, a file without data rows, and files beyond the limits
+:data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so memory stays bounded).
+"""
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from ..geometry import matrix_from_quaternion
+from ..validation import QUATERNION_NORM_TOLERANCE
+from .files import read_text, write_text
+
+Array = NDArray[np.float64]
+
+REQUIRED_COLUMNS = ('q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
+SIGMA_COLUMNS = ('sigma_position', 'sigma_angle')
+#: Largest measurement file [bytes]: 16 MiB holds ~100,000 rows of full-precision numbers.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+#: Most data rows accepted (600,000 residuals; identification memory grows with rows x parameters).
+MAX_ROWS = 100_000
+#: Longest line accepted [characters].
+MAX_LINE_CHARS = 2048
+
+_LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
+_ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
+_LENGTH_COLUMNS = frozenset(('q1', 'q2', 'q3', 'x', 'y', 'z', 'sigma_position'))
+_UNITS_LINE = re.compile(r'#\s*units\s*:(.*)$', re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """Measured poses, SI units.
+
+    Attributes:
+        source: file name (or a label) used in messages.
+        q: commanded rod lengths ``(N, 3)`` [m].
+        position: measured platform origin in ``gpr_base`` ``(N, 3)`` [m].
+        quaternion: measured orientation ``(N, 4)`` (x, y, z, w), normalised.
+        sigma_position, sigma_angle: per-row standard deviations ``(N,)`` [m], [rad], or ``None`` when the file
+            has no such column.
+        lines: line number of each row in the file (for messages).
+        units: the units the file declared, ``(length, angle)``.
+    """
+
+    source: str
+    q: Array
+    position: Array
+    quaternion: Array
+    sigma_position: Array | None
+    sigma_angle: Array | None
+    lines: tuple[int, ...]
+    units: tuple[str, str] = ('m', 'rad')
+
+    def __len__(self) -> int:
+        return self.q.shape[0]
+
+    @property
+    def rotation(self) -> Array:
+        """Measured rotation matrices ``(N, 3, 3)``."""
+        return matrix_from_quaternion(self.quaternion)
+
+    def where(self, i: int) -> str:
+        """``'<source> line <n>'`` of row ``i``, for messages."""
+        return f'{self.source} line {self.lines[i]}'
+
+
+def _units(text: str, where: str) -> tuple[str, str]:
+    length, angle = None, None
+    for tok in re.split(r'[\s,]+', text.strip()):
+        if not tok:
+            continue
+        tok_l = tok.lower()
+        if tok_l in _LENGTH_UNITS and length is None:
+            length = tok_l
+        elif tok_l in _ANGLE_UNITS and angle is None:
+            angle = tok_l
+        else:
+            raise InputError(f'{where}: unit {tok[:20]!r} in "# units:" is unknown or repeated; allowed: one of '
+                             'm, mm (lengths) and one of rad, deg (angles), e.g. "# units: mm deg"')
+    return length or 'm', angle or 'rad'
+
+
+def _header(fields: list[str], where: str) -> list[str]:
+    cols = [f.strip().lower() for f in fields]
+    allowed = REQUIRED_COLUMNS + SIGMA_COLUMNS
+    for c in cols:
+        if c not in allowed:
+            raise InputError(f'{where}: unknown column {c[:40]!r}; allowed: {", ".join(allowed)}')
+        if cols.count(c) > 1:
+            raise InputError(f'{where}: column {c!r} appears {cols.count(c)} times; each column once')
+    missing = [c for c in REQUIRED_COLUMNS if c not in cols]
+    if missing:
+        raise InputError(f'{where}: missing column(s) {", ".join(missing)}; required: {", ".join(REQUIRED_COLUMNS)} '
+                         '(a header row naming the columns comes first)')
+    return cols
+
+
+def _number(text: str, where: str, column: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number') from None
+    if not math.isfinite(v):
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]} is not a finite number; allowed: finite '
+                         'values')
+    return v
+
+
+def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
+    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
+    units: tuple[str, str] | None = None
+    cols: list[str] | None = None
+    rows: list[list[float]] = []
+    line_nos: list[int] = []
+    seen: dict[tuple[float, ...], int] = {}
+    for lineno, raw in enumerate(text.split('\n'), 1):
+        where = f'{source} line {lineno}'
+        if len(raw) > MAX_LINE_CHARS:
+            raise InputError(f'{where}: {len(raw)} characters; allowed: at most {MAX_LINE_CHARS} per line')
+        line = raw.strip()
+        if not line:
+            continue
+        if line.startswith('#'):
+            m = _UNITS_LINE.match(line)
+            if m:
+                if cols is not None or units is not None:
+                    raise InputError(f'{where}: "# units:" must come once, before the header row')
+                units = _units(m.group(1), where)
+            continue
+        try:
+            fields = next(csv.reader([line]))
+        except csv.Error as exc:
+            raise InputError(f'{where}: not a CSV row ({exc})') from None
+        if cols is None:
+            cols = _header(fields, where)
+            continue
+        if len(fields) != len(cols):
+            raise InputError(f'{where}: {len(fields)} values, but the header names {len(cols)} columns')
+        if len(rows) == MAX_ROWS:
+            raise InputError(f'{where}: more than {MAX_ROWS} data rows; allowed: at most {MAX_ROWS}')
+        values = [_number(f, where, c) for f, c in zip(fields, cols, strict=True)]
+        key = tuple(values)
+        if key in seen:
+            raise InputError(f'{where} repeats line {seen[key]} exactly (a copied row?); each measurement once')
+        seen[key] = lineno
+        rows.append(values)
+        line_nos.append(lineno)
+    if cols is None:
+        raise InputError(f'{source}: no header row; the first line that is not a comment must name the columns '
+                         f'({",".join(REQUIRED_COLUMNS)})')
+    if not rows:
+        raise InputError(f'{source}: no data rows after the header')
+    length, angle = units or ('m', 'rad')
+    data = np.array(rows)
+    col = {c: data[:, i] for i, c in enumerate(cols)}
+    for c in _LENGTH_COLUMNS & col.keys():
+        col[c] = col[c] * _LENGTH_UNITS[length]
+    if 'sigma_angle' in col:
+        col['sigma_angle'] = col['sigma_angle'] * _ANGLE_UNITS[angle]
+    quat = np.column_stack([col['qx'], col['qy'], col['qz'], col['qw']])
+    norm = np.linalg.norm(quat, axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f'{source} line {line_nos[i]}, columns qx qy qz qw: quaternion norm {norm[i]:.9g}; a unit '
+                         f'quaternion is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
+    sig = {}
+    for c in SIGMA_COLUMNS:
+        if c in col:
+            bad = np.flatnonzero(~(col[c] > 0.0))
+            if bad.size:
+                i = int(bad[0])
+                raise InputError(f'{source} line {line_nos[i]}, column {c}: {rows[i][cols.index(c)]!r} must be > 0')
+        sig[c] = col.get(c)
+    return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
+                        position=np.column_stack([col['x'], col['y'], col['z']]),
+                        quaternion=quat / norm[:, None], sigma_position=sig['sigma_position'],
+                        sigma_angle=sig['sigma_angle'], lines=tuple(line_nos), units=(length, angle))
+
+
+def read_measurements(path: str | Path) -> Measurements:
+    """Read and check a measurement file (format in the module docstring).
+
+    Raises:
+        InputError: the file cannot be read, is not a regular file, is too large, is not UTF-8, or any check of
+            :func:`parse_measurements` fails; the message names the file, the line and the column.
+    """
+    return parse_measurements(read_text(path, 'measurement', MAX_FILE_BYTES), str(path))
+
+
+def format_measurements(m: Measurements, comments: tuple[str, ...] = ()) -> str:
+    """Measurement-file text of ``m`` in SI units, every value at full precision (``repr``), sigma columns when
+    ``m`` has them; ``comments`` become ``#`` lines at the top."""
+    cols = list(REQUIRED_COLUMNS)
+    parts = [m.q, m.position, m.quaternion]
+    for name, val in (('sigma_position', m.sigma_position), ('sigma_angle', m.sigma_angle)):
+        if val is not None:
+            cols.append(name)
+            parts.append(np.asarray(val)[:, None])
+    data = np.hstack(parts)
+    out = [f'# {c}' for c in comments] + ['# units: m rad', ','.join(cols)]
+    out += [','.join(repr(float(v)) for v in row) for row in data]
+    return '\n'.join(out) + '\n'
+
+
+def write_measurements(path: str | Path, m: Measurements, comments: tuple[str, ...] = ()) -> Path:
+    """Write ``m`` as a measurement file (:func:`format_measurements`), atomically."""
+    return write_text(path, format_measurements(m, comments), 'measurement')

@@ -1,0 +1,330 @@
+"""Parameter models: named geometric parameters and a forward model of the measured platform pose.
+
+Calibration, measurement planning and the accuracy budget all work on a *pose model*: a function
+
+    poses(theta, Q, displacement) -> (positions, rotations)
+
+from a parameter vector ``theta`` (``S`` rows of ``P`` named parameters, SI units) and commanded rod lengths
+``Q`` (``S x N`` configurations, metres) to the pose of ``gpr_platform`` in ``gpr_base`` (positions ``(S, N, 3)``
+in metres, rotation matrices ``(S, N, 3, 3)``). ``displacement`` ``(S, N, 3, 3)`` optionally displaces joint
+centre ``k`` of each configuration by a vector in ``gpr_base`` (the play of a spherical joint); a model that
+cannot do that says so with ``supports_displacement = False``. The engines take the model as an argument, so
+any forward kinematics with named parameters (the core's, a test's reference model) plugs in.
+
+The pose error of a pose ``(p, R)`` against a reference ``(p0, R0)`` is the 6-vector
+``e = (p - p0, phi)`` with ``phi`` the rotation vector of ``R R0^T`` (radians, in ``gpr_base``): metres and
+radians, zero exactly when the poses agree.
+"""
+from __future__ import annotations
+
+import copy
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InputError
+from ..geometry import quaternion_from_matrix
+
+Array = NDArray[np.float64]
+
+#: Units a parameter may have: metres, radians or a dimensionless ratio.
+UNITS = ('m', 'rad', '1')
+#: Central finite-difference step as a fraction of a parameter's scale (its a-priori uncertainty): small
+#: enough for a truncation error ~1e-4 relative on a scale-sized effect, large enough that a solver
+#: tolerance of 1e-14 m costs < 1e-8 relative.
+FD_STEP_FRACTION = 1e-2
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One geometric parameter of a pose model.
+
+    Attributes:
+        name: unique name, e.g. ``radius``, ``rod_azimuth2``, ``offset1``.
+        nominal: nominal (design) value, in ``unit``.
+        unit: ``m``, ``rad`` or ``1`` (dimensionless).
+        scale: a-priori standard uncertainty of the value (its tolerance), > 0, in ``unit``. It scales the
+            identification Jacobian (so that singular values compare the information of the measurements with
+            what is known before measuring) and sets the finite-difference step.
+        key: the configuration-file key the value is written to (``rod_azimuths`` for ``rod_azimuth2``).
+        index: the element of a list-valued ``key`` (0-based; a path into nested lists), ``()`` for a scalar key.
+    """
+
+    name: str
+    nominal: float
+    unit: str
+    scale: float
+    key: str
+    index: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.unit not in UNITS:
+            raise InputError(f'parameter {self.name}: unit {self.unit!r}; allowed: {", ".join(UNITS)}')
+        if not (np.isfinite(self.nominal) and np.isfinite(self.scale) and self.scale > 0):
+            raise InputError(f'parameter {self.name}: nominal {self.nominal!r} and scale {self.scale!r} must be '
+                             'finite, the scale > 0')
+
+    @property
+    def step(self) -> float:
+        """Central finite-difference step [unit]."""
+        return FD_STEP_FRACTION * self.scale
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """The ordered parameters of a model; ``theta`` vectors follow this order."""
+
+    parameters: tuple[Parameter, ...]
+
+    def __post_init__(self) -> None:
+        names = [p.name for p in self.parameters]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise InputError(f'parameter names must be unique; repeated: {", ".join(dup)}')
+
+    def __len__(self) -> int:
+        return len(self.parameters)
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return iter(self.parameters)
+
+    def __getitem__(self, i: int) -> Parameter:
+        return self.parameters[i]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def nominal(self) -> Array:
+        return np.array([p.nominal for p in self.parameters])
+
+    @property
+    def scale(self) -> Array:
+        return np.array([p.scale for p in self.parameters])
+
+    @property
+    def step(self) -> Array:
+        return np.array([p.step for p in self.parameters])
+
+    @property
+    def groups(self) -> tuple[str, ...]:
+        """The configuration keys, in order of first appearance (``rod_azimuths`` groups its three angles)."""
+        return tuple(dict.fromkeys(p.key for p in self.parameters))
+
+    def index(self, name: str) -> int:
+        """Position of the parameter ``name``; :class:`InputError` naming the allowed names otherwise."""
+        for i, p in enumerate(self.parameters):
+            if p.name == name:
+                return i
+        raise InputError(f'unknown parameter {name!r}; allowed: {", ".join(self.names)}')
+
+    def select(self, names: Iterable[str] | None) -> NDArray[np.bool_]:
+        """Mask of the parameters named by ``names`` (parameter names or configuration keys, which select every
+        parameter of the key); ``None`` selects all. An unknown name raises :class:`InputError`."""
+        if names is None:
+            return np.ones(len(self), dtype=bool)
+        mask = np.zeros(len(self), dtype=bool)
+        for name in names:
+            hit = np.array([p.name == name or p.key == name for p in self.parameters], dtype=bool)
+            if not hit.any():
+                raise InputError(f'unknown parameter {name!r}; allowed: {", ".join(self.names)} '
+                                 f'(or a whole key: {", ".join(self.groups)})')
+            mask |= hit
+        return mask
+
+
+def config_values(params: ParameterSet, theta: ArrayLike, base: Mapping[str, Any]) -> dict[str, Any]:
+    """The configuration keys of ``params`` with the values ``theta`` written in: a scalar key takes its
+    parameter's value, a list-valued key (from ``base``, a mapping of the current values) has the parameters'
+    elements replaced. Returns only the keys the parameters touch.
+
+    >>> ps = ParameterSet((Parameter('radius', 0.1, 'm', 1e-4, 'radius'),
+    ...                    Parameter('rod_azimuth2', 2.0, 'rad', 1e-3, 'rod_azimuths', (1,))))
+    >>> config_values(ps, [0.2, 2.5], {'radius': 0.1, 'rod_azimuths': [0.0, 2.0, 4.0]})
+    {'radius': 0.2, 'rod_azimuths': [0.0, 2.5, 4.0]}
+    """
+    out: dict[str, Any] = {}
+    for p, v in zip(params, np.asarray(theta, dtype=float).tolist(), strict=True):
+        if not p.index:
+            out[p.key] = v
+            continue
+        if p.key not in out:
+            out[p.key] = copy.deepcopy(list(base[p.key]))
+        node = out[p.key]
+        for i in p.index[:-1]:
+            node[i] = list(node[i])
+            node = node[i]
+        node[p.index[-1]] = v
+    return out
+
+
+@runtime_checkable
+class PoseModel(Protocol):
+    """A forward model of the platform pose with named parameters (see the module docstring)."""
+
+    @property
+    def parameters(self) -> ParameterSet: ...
+
+    @property
+    def supports_displacement(self) -> bool: ...
+
+    def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
+        """``theta (S, P)``, ``Q (S, N, 3)`` [m], ``displacement (S, N, 3, 3)`` [m] or ``None`` ->
+        positions ``(S, N, 3)`` [m] and rotations ``(S, N, 3, 3)``."""
+        ...
+
+
+def as_configurations(Q: ArrayLike, name: str = 'Q') -> Array:
+    """Rod lengths as a finite ``(N, 3)`` array (a single ``(3,)`` becomes one row)."""
+    try:
+        a = np.asarray(Q, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f'{name} must be rod lengths q1 q2 q3 (numbers, metres)') from None
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] == 0:
+        raise InputError(f'{name} must have shape (N, 3) (rod lengths q1 q2 q3 in metres), got {np.shape(Q)}')
+    if not np.all(np.isfinite(a)):
+        i, k = np.argwhere(~np.isfinite(a))[0]
+        raise InputError(f'{name}[{i}]: q{k + 1} = {a[i, k]} is not a finite number')
+    return a
+
+
+def evaluate(model: PoseModel, theta: ArrayLike, Q: ArrayLike,
+             displacement: ArrayLike | None = None) -> tuple[Array, Array]:
+    """Poses of ``model`` for parameter rows ``theta (S, P)`` (or one ``(P,)``) at rod lengths ``Q (N, 3)`` or
+    ``(S, N, 3)``: positions ``(S, N, 3)`` and rotations ``(S, N, 3, 3)`` (``S`` axis dropped for one ``theta``).
+
+    Checks the shapes the model returns and that every value is finite (:class:`InputError` otherwise), so an
+    engine never carries a NaN from a model into a result.
+    """
+    th = np.asarray(theta, dtype=float)
+    single = th.ndim == 1
+    th = np.atleast_2d(th)
+    P = len(model.parameters)
+    if th.ndim != 2 or th.shape[1] != P:
+        raise InputError(f'theta must have {P} values per row (one per parameter), got shape {np.shape(theta)}')
+    S = th.shape[0]
+    Qa = np.asarray(Q, dtype=float)
+    Qa = np.broadcast_to(Qa, (S,) + Qa.shape) if Qa.ndim == 2 else Qa
+    if Qa.ndim != 3 or Qa.shape[0] != S or Qa.shape[2] != 3:
+        raise InputError(f'rod lengths must have shape (N, 3) or ({S}, N, 3), got {np.shape(Q)}')
+    disp = None
+    if displacement is not None:
+        if not model.supports_displacement:
+            raise InputError(f'{type(model).__name__} cannot displace its joint centres (joint clearance); '
+                             'it needs a model with per-joint geometry')
+        disp = np.broadcast_to(np.asarray(displacement, dtype=float), Qa.shape[:2] + (3, 3))
+    pos, rot = model.poses(th, np.ascontiguousarray(Qa), disp)
+    n = Qa.shape[1]
+    if np.shape(pos) != (S, n, 3) or np.shape(rot) != (S, n, 3, 3):
+        raise InputError(f'{type(model).__name__}.poses returned shapes {np.shape(pos)}, {np.shape(rot)}; '
+                         f'expected ({S}, {n}, 3) and ({S}, {n}, 3, 3)')
+    if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(rot))):
+        raise InputError(f'{type(model).__name__}.poses returned a non-finite pose')
+    return (pos[0], rot[0]) if single else (pos, rot)
+
+
+def pose_error(position: Array, rotation: Array, ref_position: Array, ref_rotation: Array) -> Array:
+    """Pose errors ``(..., 6)``: ``position - ref_position`` [m] and the rotation vector of
+    ``rotation ref_rotation^T`` [rad, ``gpr_base``]. Shapes broadcast over the leading axes.
+
+    >>> import numpy as np
+    >>> from gpr_kinematics.geometry import rotation_z
+    >>> pose_error(np.zeros(3), rotation_z(1e-3), np.array([0, 0, 1e-6]), np.eye(3)).round(12).tolist()
+    [0.0, 0.0, -1e-06, 0.0, 0.0, 0.001]
+    """
+    dp = np.asarray(position, dtype=float) - np.asarray(ref_position, dtype=float)
+    phi = rotation_vector(np.asarray(rotation) @ np.swapaxes(np.asarray(ref_rotation), -1, -2))
+    dp, phi = np.broadcast_arrays(dp, phi)
+    return np.concatenate([dp, phi], axis=-1)
+
+
+def rotation_vector(R: ArrayLike) -> Array:
+    """Rotation vectors ``(..., 3)`` [rad] of rotation matrices ``(..., 3, 3)``, through the quaternion
+    (:func:`~gpr_kinematics.geometry.quaternion_from_matrix`, Shepperd's method, ``w >= 0``):
+    ``phi = 2 atan2(|v|, w) v / |v|`` (``2 v / w`` as ``|v| -> 0``), accurate to rounding at every angle below pi.
+
+    >>> from gpr_kinematics.geometry import rotation_z
+    >>> rotation_vector(rotation_z(0.25)).round(15).tolist()
+    [0.0, 0.0, 0.25]
+    """
+    q = quaternion_from_matrix(R)
+    v, w = q[..., :3], q[..., 3]
+    n = np.linalg.norm(v, axis=-1)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        f = np.where(n > 0.0, 2.0 * np.arctan2(n, w) / n, 2.0 / w)
+    return v * f[..., None]
+
+
+def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike,
+                  columns: Sequence[int] | NDArray[np.bool_] | None = None,
+                  reference: tuple[Array, Array] | None = None) -> Array:
+    """Derivatives ``(N, 6, C)`` of the pose error ``e(theta) = pose_error(poses(theta), reference)`` (position
+    [m], rotation vector [rad]) by the parameters ``columns`` (indices or a mask; all by default), by central
+    differences with each parameter's :attr:`Parameter.step`: ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``,
+    error ``O(h^2)``. ``reference`` (positions ``(N, 3)``, rotations ``(N, 3, 3)``; e.g. measured poses) defaults
+    to the poses at ``theta`` itself (then the columns are the pose's sensitivities as small rigid motions).
+
+    All ``2 C`` perturbed parameter rows go to the model in one call (one batch of ``2 C x N`` poses).
+    """
+    th = np.asarray(theta, dtype=float)
+    params = model.parameters
+    cols = np.arange(len(params)) if columns is None else np.asarray(columns)
+    if cols.dtype == bool:
+        cols = np.flatnonzero(cols)
+    Qa = as_configurations(Q)
+    if cols.size == 0:
+        return np.zeros((Qa.shape[0], 6, 0))
+    h = params.step[cols]
+    rows = np.repeat(th[None, :], 2 * cols.size, axis=0)
+    k = np.arange(cols.size)
+    rows[2 * k, cols] += h
+    rows[2 * k + 1, cols] -= h
+    if reference is None:
+        pos, rot = evaluate(model, np.vstack([th[None, :], rows]), Qa)
+        pos, rot, reference = pos[1:], rot[1:], (pos[0], rot[0])
+    else:
+        pos, rot = evaluate(model, rows, Qa)
+    e = pose_error(pos, rot, reference[0], reference[1])      # (2C, N, 6)
+    d = (e[0::2] - e[1::2]) / (2.0 * h[:, None, None])         # (C, N, 6)
+    return np.ascontiguousarray(d.transpose(1, 2, 0))
+
+
+#: Central-difference step for rod lengths and joint displacements [m].
+FD_STEP_LENGTH = 1e-6
+
+
+def rod_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike) -> Array:
+    """Derivatives ``(N, 6, 3)`` of the pose (as a small rigid motion: position [m], rotation vector [rad]) by the
+    rod lengths ``q1 q2 q3``, by central differences of step :data:`FD_STEP_LENGTH`."""
+    Qa = as_configurations(Q)
+    h = FD_STEP_LENGTH
+    Qs = np.repeat(Qa[None], 7, axis=0)
+    for k in range(3):
+        Qs[1 + 2 * k, :, k] += h
+        Qs[2 + 2 * k, :, k] -= h
+    pos, rot = evaluate(model, np.repeat(np.asarray(theta, dtype=float)[None], 7, axis=0), Qs)
+    e = pose_error(pos[1:], rot[1:], pos[0], rot[0])
+    return np.ascontiguousarray(((e[0::2] - e[1::2]) / (2.0 * h)).transpose(1, 2, 0))
+
+
+def displacement_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike) -> Array:
+    """Derivatives ``(N, 6, 3, 3)`` of the pose (position [m], rotation vector [rad]) by a displacement of joint
+    centre ``k`` (axis 2) along the ``gpr_base`` axis ``i`` (axis 3), by central differences of step
+    :data:`FD_STEP_LENGTH`; needs a model that supports displacements."""
+    Qa = as_configurations(Q)
+    h = FD_STEP_LENGTH
+    n = Qa.shape[0]
+    D = np.zeros((19, n, 3, 3))
+    for j in range(9):
+        D[1 + 2 * j, :, j // 3, j % 3] = h
+        D[2 + 2 * j, :, j // 3, j % 3] = -h
+    pos, rot = evaluate(model, np.repeat(np.asarray(theta, dtype=float)[None], 19, axis=0), Qa, D)
+    e = pose_error(pos[1:], rot[1:], pos[0], rot[0])
+    d = (e[0::2] - e[1::2]) / (2.0 * h)                       # (9, N, 6)
+    return np.ascontiguousarray(d.transpose(1, 2, 0).reshape(n, 6, 3, 3))

@@ -1,0 +1,103 @@
+"""Text reports of the calibration's results (the ``gpr calibrate`` output and the demonstration).
+
+Every number printed is a field of the result's ``as_dict()`` (the JSON), converted to micrometres or
+microradians where the unit says so; the tests parse the text back and compare it with the JSON.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .budget import QUANTITIES, Budget
+from .identification import CalibrationResult, ResidualStats
+from .plan import MeasurementPlan
+
+
+def _micro(value: float, unit: str) -> str:
+    """``value`` in micro-units with its unit (``um``, ``urad``), or as is for a dimensionless value."""
+    if unit == 'm':
+        return f'{value * 1e6:+.3f} um'
+    if unit == 'rad':
+        return f'{value * 1e6:+.3f} urad'
+    return f'{value:+.6g}'
+
+
+def _residual_row(label: str, r: ResidualStats) -> str:
+    return (f'  {label:<10}{r.rms_position * 1e6:10.3f} um{r.max_position * 1e6:10.3f} um (line '
+            f'{r.worst_position_line}){r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad (line '
+            f'{r.worst_angle_line})')
+
+
+def format_calibration(res: CalibrationResult) -> str:
+    """Identified parameters, residuals before and after, identifiability and the fit's chi-square."""
+    ident = res.identifiability
+    lines = [f'calibration from {res.source}: {res.rows} rows, {len(ident.names)} free parameter(s), '
+             f'{len(ident.identified)} fitted in {res.iterations} Levenberg-Marquardt iterations',
+             f'  {"parameter":<16}{"nominal":>18}{"estimate":>18}{"change":>16}{"std error":>16}  status']
+    for j, p in enumerate(res.parameters):
+        se = res.standard_error[j]
+        se_txt = _micro(se, p.unit).lstrip('+') if math.isfinite(se) else '-'
+        lines.append(f'  {p.name:<16}{p.nominal:18.12g}{res.estimate[j]:18.12g}'
+                     f'{_micro(res.estimate[j] - p.nominal, p.unit):>16}{se_txt:>16}  {res.status[j]} [{p.unit}]')
+    lines.append(f'  {"residuals":<10}{"RMS position":>13}{"worst position":>24}{"RMS angle":>15}'
+                 f'{"worst angle":>25}')
+    lines.append(_residual_row('before', res.before))
+    lines.append(_residual_row('after', res.after))
+    sv = ' '.join(f'{s:.4g}' for s in ident.singular_values)
+    lines.append(f'identifiability: scaled singular values {sv} (bound {ident.threshold:.3g})')
+    if ident.combinations:
+        lines += [f'  {c.describe()}' for c in ident.combinations]
+    else:
+        lines.append('  every free parameter is identified')
+    if ident.identified:
+        lines.append(f'  condition number of the fitted parameters {ident.condition_number:.4g}')
+    sig = 'sigmas from the file' if res.absolute_sigma else \
+        'default sigmas: standard errors scaled by sqrt(chi-square)'
+    lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({sig})')
+    return '\n'.join(lines)
+
+
+def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float) -> str:
+    """The planned configurations, the observability index against random designs, the predicted errors."""
+    n = plan.q.shape[0]
+    lines = [f'measurement plan: {n} configuration(s) chosen from {plan.candidates} candidates within the stroke '
+             f'and tilt limits ({plan.passes} exchange pass(es), {plan.exchanges} exchange(s))',
+             f'  {"#":>3}{"q1 [m]":>12}{"q2 [m]":>12}{"q3 [m]":>12}{"height [m]":>12}{"tilt [deg]":>12}'
+             f'{"azimuth [deg]":>15}']
+    for i in range(n):
+        lines.append(f'  {i + 1:>3}{plan.q[i, 0]:12.6f}{plan.q[i, 1]:12.6f}{plan.q[i, 2]:12.6f}'
+                     f'{plan.height[i]:12.6f}{math.degrees(plan.tilt[i]):12.4f}{math.degrees(plan.azimuth[i]):15.2f}')
+    lines.append(f'observability index ({plan.index_name}) {plan.index:.6g}; median of random designs of the same '
+                 f'size {plan.random_index:.6g}')
+    ident = plan.identifiability
+    se = np.sqrt(np.diag(plan.covariance)) if plan.covariance.size else np.zeros(0)
+    units = {p.name: p.unit for p in plan.parameters}
+    pred = ', '.join(f'{name} {_micro(s, units.get(name, "1")).lstrip("+")}'
+                     for name, s in zip(ident.identified, se, strict=True))
+    lines.append(f'predicted standard errors (sigma_position {sigma_position * 1e6:g} um, sigma_angle '
+                 f'{sigma_angle * 1e6:g} urad): {pred or "none"}')
+    lines += [f'  {c.describe()}' for c in ident.combinations]
+    return '\n'.join(lines)
+
+
+def format_budget(b: Budget, top: int = 3) -> str:
+    """The budget: per station and quantity the linearised RSS and worst case and the Monte Carlo percentiles,
+    in um (lengths) and urad (angles), and the ``top`` largest shares of each quantity's RSS."""
+    pcols = ''.join(f'{"MC p" + format(p, "g"):>11}' for p in b.percentiles) if b.samples else ''
+    lines = [f'accuracy budget: {len(b.labels)} station(s), tool ({b.tool[0]:g}, {b.tool[1]:g}, {b.tool[2]:g}) m '
+             f'in gpr_platform; ' + (f'{b.samples} Monte Carlo samples (seed {b.seed})' if b.samples else
+                                     'linearised only')]
+    for i, label in enumerate(b.labels):
+        lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m')
+        lines.append(f'  {"quantity":<20}{"unit":>5}{"RSS":>11}{"worst":>11}{pcols}  largest shares')
+        for name, (_, unit) in QUANTITIES.items():
+            u = 'um' if unit == 'm' else 'urad'
+            cells = f'{b.rss[name][i] * 1e6:11.3f}{b.worst[name][i] * 1e6:11.3f}'
+            if b.samples:
+                cells += ''.join(f'{x * 1e6:11.3f}' for x in b.mc[name][i])
+            order = np.argsort(-b.shares[name][i])[:top]
+            share = ', '.join(f'{b.sources[j]} {100 * b.shares[name][i, j]:.1f} %' for j in order
+                              if b.shares[name][i, j] > 0)
+            lines.append(f'  {name.replace("_", " "):<20}{u:>5}{cells}  {share}')
+    return '\n'.join(lines)
