@@ -52,6 +52,8 @@ QUANTITIES: dict[str, tuple[tuple[int, ...], str]] = {
 DIRECTIONS = 512
 MAX_SAMPLES = 1_000_000
 MAX_STATIONS = 10_000
+#: Largest tool coordinate accepted [m] (a tool point on the platform, not across the room).
+MAX_TOOL = 10.0
 #: An RSS below this [m or rad] is rounding: no shares are given for it.
 SHARE_FLOOR = 1e-12
 #: Poses evaluated per Monte Carlo chunk (bounds memory).
@@ -90,18 +92,18 @@ class Budget:
     mc_std: Array
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain data for JSON: per station, per quantity ``rss``, ``worst``, ``shares`` (by source),
-        ``monte_carlo`` (``p<percentile>`` and ``rms``), with the unit."""
+        """Plain data for JSON: per station, per quantity ``rss``, ``worst``, ``shares`` (by source) and, with
+        samples, ``monte_carlo`` (``p<percentile>`` and ``rms``), with the unit."""
         stations = []
         for i, label in enumerate(self.labels):
             quantities = {}
             for name, (_, unit) in QUANTITIES.items():
-                mc = {f'p{p:g}': float(self.mc[name][i, k]) for k, p in enumerate(self.percentiles)}
-                mc['rms'] = float(self.mc_rms[name][i])
                 quantities[name] = {'unit': unit, 'rss': float(self.rss[name][i]),
                                     'worst': float(self.worst[name][i]),
-                                    'shares': dict(zip(self.sources, self.shares[name][i].tolist(), strict=True)),
-                                    'monte_carlo': mc}
+                                    'shares': dict(zip(self.sources, self.shares[name][i].tolist(), strict=True))}
+                if self.samples:
+                    mc = {f'p{p:g}': float(self.mc[name][i, k]) for k, p in enumerate(self.percentiles)}
+                    quantities[name]['monte_carlo'] = mc | {'rms': float(self.mc_rms[name][i])}
             stations.append({'label': label, 'q': self.q[i].tolist(), 'quantities': quantities})
         return {'tool': self.tool.tolist(), 'samples': self.samples, 'seed': self.seed,
                 'percentiles': list(self.percentiles), 'sources': list(self.sources), 'stations': stations}
@@ -227,8 +229,9 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
         raise InputError(f'samples = {samples!r}; allowed: an integer from 0 to {MAX_SAMPLES}')
     tool_v = np.asarray(tool, dtype=float)
-    if tool_v.shape != (3,) or not np.all(np.isfinite(tool_v)) or np.linalg.norm(tool_v) > 10.0:
-        raise InputError(f'tool must be 3 finite coordinates [m] within 10 m of the platform origin, got {tool!r}')
+    if tool_v.shape != (3,) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
+        raise InputError(f'tool must be 3 finite coordinates [m], each within {MAX_TOOL:g} m of the platform '
+                         f'origin; got {np.asarray(tool).ravel()[:3].tolist()}')
     pct = tuple(float(p) for p in percentiles)
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
         raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')

@@ -53,8 +53,8 @@ class CoreModel:
         model: virtual-joint model name (default: ``config.model``).
 
     Each parameter row is a validated :class:`GprConfig` (``config.replace``) and one ``forward_batch`` call
-    over its configurations (no limit checks: a measured pose may sit at the tilt limit). Rows are evaluated one
-    after another: the core's batch kernels take one geometry per call.
+    over its configurations (no limit checks: a measured pose may sit at the tilt limit). Distinct rows are
+    evaluated one after another: the core's batch kernels take one geometry per call.
     """
 
     supports_displacement = False
@@ -77,9 +77,14 @@ class CoreModel:
         S, N = Q.shape[0], Q.shape[1]
         pos = np.empty((S, N, 3))
         rot = np.empty((S, N, 3, 3))
-        for s in range(S):
-            fk = forward_batch(Q[s], self.config_for(theta[s]), self.model, check_limits=False)
-            pos[s], rot[s] = fk.position, fk.rotation
+        # One forward_batch per distinct parameter row, over all its configurations (rod-length errors alone
+        # leave theta equal in every row: then one call does everything).
+        rows, inverse = np.unique(theta, axis=0, return_inverse=True)
+        for r in range(rows.shape[0]):
+            sel = np.flatnonzero(inverse.ravel() == r)
+            fk = forward_batch(Q[sel].reshape(-1, 3), self.config_for(rows[r]), self.model, check_limits=False)
+            pos[sel] = fk.position.reshape(sel.size, N, 3)
+            rot[sel] = fk.rotation.reshape(sel.size, N, 3, 3)
         return pos, rot
 
 

@@ -1,0 +1,140 @@
+"""Measurement files (gpr_kinematics.calibration.measurements, .files): the format, units, exact round trips, and
+every malformed file refused with the line and the column named; bounded reading; safe writing."""
+from __future__ import annotations
+
+import math
+import os
+import threading
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.calibration import files, measurements
+from gpr_kinematics.calibration.measurements import (
+    Measurements,
+    format_measurements,
+    parse_measurements,
+    read_measurements,
+    write_measurements,
+)
+from gpr_kinematics.errors import InputError
+
+HEADER = 'q1,q2,q3,x,y,z,qx,qy,qz,qw'
+ROW = '0.3,0.301,0.299,1e-5,-2e-5,0.3,0.006,0.0001,0.0,0.999981999'   # |quat| = 1 within 1e-6
+
+
+def text(*rows: str, header: str = HEADER, pre: tuple[str, ...] = ()) -> str:
+    return '\n'.join([*pre, header, *rows]) + '\n'
+
+
+def test_parse_si_file_with_comments_and_blank_lines():
+    m = parse_measurements(text(ROW, '', '# a comment', ROW.replace('0.3,', '0.31,', 1), pre=('# run 1', '')), 'f.csv')
+    assert len(m) == 2 and m.lines == (4, 7)   # lines: comment, blank, header, row, blank, comment, row
+    np.testing.assert_array_equal(m.q[1], [0.31, 0.301, 0.299])
+    np.testing.assert_array_equal(m.position[0], [1e-5, -2e-5, 0.3])
+    assert m.sigma_position is None and m.sigma_angle is None and m.units == ('m', 'rad')
+    assert abs(np.linalg.norm(m.quaternion[0]) - 1.0) < 1e-15
+    R = m.rotation[0]
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
+
+
+def test_columns_in_any_order_with_sigmas_and_declared_units():
+    header = 'qw,qx,qy,qz,x,y,z,q3,q2,q1,sigma_angle,sigma_position'
+    row = '0.999981999,0.006,0.0001,0.0,0.01,-0.02,300,299,301,300,0.001,0.005'
+    m = parse_measurements(text(row, header=header, pre=('# units: mm deg',)), 'f.csv')
+    np.testing.assert_allclose(m.q[0], [0.3, 0.301, 0.299], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(m.position[0], [1e-5, -2e-5, 0.3], rtol=0, atol=1e-15)
+    assert m.sigma_position[0] == pytest.approx(5e-6, rel=1e-15)
+    assert m.sigma_angle[0] == pytest.approx(math.radians(0.001), rel=1e-15)
+    np.testing.assert_allclose(m.quaternion[0], np.array([0.006, 0.0001, 0.0, 0.999981999]) /
+                               np.linalg.norm([0.006, 0.0001, 0.0, 0.999981999]), atol=0)
+    assert m.units == ('mm', 'deg')
+    # A length unit alone keeps radians for the angle sigma.
+    assert parse_measurements(text(ROW, pre=('# Units: MM',))).units == ('mm', 'rad')
+
+
+def test_write_read_round_trip_is_exact(tmp_path):
+    rng = np.random.default_rng(0)
+    n = 7
+    quat = rng.normal(size=(n, 4))
+    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
+    m = Measurements('x', rng.uniform(0, 0.5, (n, 3)), rng.normal(0, 1e-3, (n, 3)), quat,
+                     rng.uniform(1e-6, 1e-5, n), rng.uniform(1e-5, 1e-4, n), tuple(range(n)))
+    path = write_measurements(tmp_path / 'm.csv', m, comments=('made by a test',))
+    back = read_measurements(path)
+    for name in ('q', 'position', 'sigma_position', 'sigma_angle'):
+        np.testing.assert_array_equal(getattr(back, name), getattr(m, name))
+    np.testing.assert_allclose(back.quaternion, m.quaternion, rtol=0, atol=2e-16)
+    assert path.read_text().startswith('# made by a test\n# units: m rad\n')
+    assert format_measurements(back).count('\n') == n + 2
+
+
+@pytest.mark.parametrize('content, pattern', [
+    (text(ROW, header='q1,q2,q3,x,y,z,qx,qy,qz'), r'f\.csv line 1: missing column\(s\) qw'),
+    (text(ROW + ',1', header=HEADER + ',temperature'), r"line 1: unknown column 'temperature'; allowed: q1"),
+    (text(ROW + ',1', header=HEADER + ',x'), r"line 1: column 'x' appears 2 times"),
+    (text(ROW.replace('1e-5', 'nan')), r'line 2, column x: nan is not a finite number'),
+    (text(ROW.replace('0.301', 'inf')), r'line 2, column q2: inf is not a finite number'),
+    (text(ROW.replace('0.301', '0.3O1')), r"line 2, column q2: '0\.3O1' is not a number"),
+    (text(ROW.replace('0.999981999', '0.9')), r'line 2, columns qx qy qz qw: quaternion norm 0\.9000'),
+    (text(ROW + ',0', header=HEADER + ',sigma_position'), r"line 2, column sigma_position: 0\.0 must be > 0"),
+    (text(ROW, pre=('# units: inch',)), r"line 1: unit 'inch' in \"# units:\" is unknown or repeated"),
+    (text(ROW, pre=('# units: mm mm',)), r"unit 'mm' in \"# units:\" is unknown or repeated"),
+    (text(ROW, '# units: mm'), r'line 3: "# units:" must come once, before the header row'),
+    (text(ROW, ROW), r'f\.csv line 3 repeats line 2 exactly'),
+    (text(ROW + ',0.1'), r'line 2: 11 values, but the header names 10 columns'),
+    ('# only comments\n\n', r'f\.csv: no header row'),
+    (text(), r'f\.csv: no data rows after the header'),
+    (text(ROW, header='q1,q2,"q3'), r'line 1: (not a CSV row|missing column)'),
+])
+def test_malformed_content_refused_with_line_and_column(content, pattern):
+    with pytest.raises(InputError, match=pattern):
+        parse_measurements(content, 'f.csv')
+
+
+def test_row_and_line_limits(monkeypatch):
+    with pytest.raises(InputError, match=r'line 2: 2049 characters; allowed: at most 2048'):
+        parse_measurements(text('0' * 2049), 'f.csv')
+    monkeypatch.setattr(measurements, 'MAX_ROWS', 2)
+    rows = [ROW.replace('0.3,', f'0.{i}1,', 1) for i in range(3)]
+    with pytest.raises(InputError, match=r'line 4: more than 2 data rows'):
+        parse_measurements(text(*rows), 'f.csv')
+
+
+def test_file_kinds_size_and_encoding(tmp_path, monkeypatch):
+    with pytest.raises(InputError, match=r"cannot read measurement file '.*missing\.csv': No such file"):
+        read_measurements(tmp_path / 'missing.csv')
+    with pytest.raises(InputError, match=r'is not a regular file \(a directory, FIFO or device\)'):
+        read_measurements(tmp_path)
+    fifo = tmp_path / 'fifo'
+    os.mkfifo(fifo)
+    done = []
+    t = threading.Thread(target=lambda: done.append(pytest.raises(InputError, read_measurements, fifo)))
+    t.start()
+    t.join(5.0)
+    assert done and 'not a regular file' in str(done[0].value)   # answered at once: no writer was waited for
+    bad = tmp_path / 'latin1.csv'
+    bad.write_bytes((text(ROW) + '# caf\xe9\n').encode('latin-1'))
+    with pytest.raises(InputError, match=r'latin1\.csv line 3: not UTF-8 text \(byte \d+ is 0xe9\)'):
+        read_measurements(bad)
+    bom = tmp_path / 'bom.csv'
+    bom.write_bytes(b'\xef\xbb\xbf' + text(ROW).encode())
+    assert len(read_measurements(bom)) == 1
+    monkeypatch.setattr(measurements, 'MAX_FILE_BYTES', 50)
+    with pytest.raises(InputError, match=r'has \d+ bytes; allowed: at most 50'):
+        read_measurements(bom)
+
+
+def test_write_text_refuses_non_regular_targets_and_is_atomic(tmp_path):
+    with pytest.raises(InputError, match=r'exists and is not a regular file'):
+        files.write_text(tmp_path, 'x', 'plan')
+    with pytest.raises(InputError, match=r'exists and is not a regular file'):
+        files.write_text('/dev/null', 'x', 'plan')
+    with pytest.raises(InputError, match=r'cannot write plan file .*No such file'):
+        files.write_text(tmp_path / 'no' / 'dir.csv', 'x', 'plan')
+    with pytest.raises(InputError, match=r'output path is empty'):
+        files.write_text('', 'x', 'plan')
+    target = tmp_path / 'out.csv'
+    target.write_text('old')
+    files.write_text(target, 'new\n', 'plan')
+    assert target.read_text() == 'new\n' and sorted(p.name for p in tmp_path.iterdir()) == ['out.csv']

@@ -1,0 +1,100 @@
+"""Tolerance tables (gpr_kinematics.calibration.tolerances): units, distributions and their moments, binding to a
+model's parameters, and every malformed table refused with the key named."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from calibration_reference import ReferenceModel
+
+from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.tolerances import Tolerance, load_tolerances, parse_tolerances
+from gpr_kinematics.config import load_config
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.resources import config_path
+
+
+def test_shipped_example_binds_to_the_core_model():
+    table = load_tolerances(config_path('calibration/tolerances_example.yaml'))
+    tols = table.bind(CoreModel(load_config()).parameters)
+    assert tols[0] == Tolerance(-5e-5, 5e-5, 'uniform', 0.093218)
+    assert [t.distribution for t in tols[1:]] == ['normal'] * 3 and tols[1].std == pytest.approx(5e-4 / 3)
+    assert table.rod_length.high == 2e-6 and table.joint_clearance == (0.0, 0.0, 0.0)
+    assert (table.sigma_position, table.sigma_angle) == (3e-6, 2e-5)
+
+
+def test_units_names_over_keys_and_ranges():
+    table = parse_tolerances({'units': {'length': 'mm', 'angle': 'deg'},
+                              'parameters': {'rod_offsets': {'tolerance': 0.05},
+                                             'offset2': {'tolerance': 0.01, 'distribution': 'normal'},
+                                             'rod_directions': {'tolerance': 0.01},
+                                             'kappa': {'range': [0.5, 2.0], 'distribution': 'log-uniform'}},
+                              'joint_clearance': [0.001, 0.002, 0.003],
+                              'measurement_noise': {'position': 0.003, 'angle': 0.001}}, 't.yaml')
+    tols = table.bind(ReferenceModel().parameters)
+    assert tols[6].high == pytest.approx(5e-5) and tols[7].high == pytest.approx(1e-5)
+    assert tols[7].distribution == 'normal' and tols[8].distribution == 'uniform'
+    assert tols[9].high == pytest.approx(math.radians(0.01))
+    assert (tols[21].low, tols[21].high) == (-0.5, 1.0)           # kappa nominal 1: the range as deviations
+    assert tols[0] is None and tols[15] is None
+    np.testing.assert_allclose(table.joint_clearance, [1e-6, 2e-6, 3e-6])
+    assert table.sigma_position == pytest.approx(3e-6) and table.sigma_angle == pytest.approx(math.radians(0.001))
+
+
+@pytest.mark.parametrize('tol', [Tolerance(-2.0, 2.0), Tolerance(-1.0, 3.0), Tolerance(-3.0, 3.0, 'normal'),
+                                 Tolerance(-0.5, 1.0, 'log-uniform', 1.0)])
+def test_moments_match_samples(tol):
+    x = tol.sample(np.random.default_rng(0), (400_000,))
+    assert x.mean() == pytest.approx(tol.mean, abs=0.01 * tol.std)
+    assert x.std() == pytest.approx(tol.std, rel=0.01)
+    if tol.distribution != 'normal':
+        assert tol.low <= x.min() and x.max() <= tol.high
+
+
+@pytest.mark.parametrize('data, pattern', [
+    ([1, 2], r't\.yaml: expected a mapping'),
+    ({'parameter': {}}, r"t\.yaml: unknown key\(s\) parameter; allowed keys: joint_clearance"),
+    ({'units': {'length': 'inch'}}, r"units: length 'inch', angle 'rad'; allowed: length m or mm"),
+    ({'parameters': {'radius': 1e-5}}, r'parameters: radius: expected a mapping such as \{tolerance'),
+    ({'parameters': {'radius': {'tol': 1e-5}}}, r"parameters: radius: unknown key\(s\) tol"),
+    ({'parameters': {'radius': {}}}, r'give exactly one of tolerance .* or range'),
+    ({'parameters': {'radius': {'tolerance': 1e-5, 'range': [0, 1]}}}, r'give exactly one of tolerance'),
+    ({'parameters': {'radius': {'tolerance': -1e-5}}}, r'radius: tolerance = -1e-05; allowed: a finite number >= 0'),
+    ({'parameters': {'radius': {'tolerance': float('nan')}}}, r'tolerance = nan; allowed: a finite number'),
+    ({'parameters': {'radius': {'tolerance': '5um'}}}, r"tolerance = '5um'; allowed: a finite number"),
+    ({'parameters': {'radius': {'tolerance': 1e-5, 'distribution': 'cauchy'}}},
+     r"distribution 'cauchy'; allowed: uniform, normal, log-uniform"),
+    ({'parameters': {'radius': {'tolerance': 1e-5, 'distribution': 'log-uniform'}}}, r'log-uniform needs a range'),
+    ({'parameters': {'kappa': {'range': [2, 1]}}}, r'range \[2, 1\]; allowed: low < high'),
+    ({'parameters': {'kappa': {'range': [1]}}}, r'range = \[1\]; allowed: \[low, high\]'),
+    ({'parameters': {'kappa': {'range': [1, 2], 'distribution': 'normal'}}}, r'normal needs a tolerance'),
+    ({'rod_length': {'range': [0, 1e-6]}}, r'rod_length: give a tolerance'),
+    ({'rod_length': {'tolerance': 1.0}}, r'rod_length: tolerance 1 m; allowed: at most 0\.01 m'),
+    ({'joint_clearance': [1e-6, 1e-6]}, r'joint_clearance: one value or a list of 3'),
+    ({'joint_clearance': 0.5}, r'joint_clearance: at most 0\.01 m'),
+    ({'measurement_noise': {'position': 0, 'angle': 1e-5}}, r'measurement_noise: position = 0; allowed: a finite '
+                                                             r'number > 0'),
+    ({'measurement_noise': {'position': 1e-6}}, r'measurement_noise: angle = None'),
+])
+def test_malformed_tables_refused(data, pattern):
+    with pytest.raises(ConfigError, match=pattern):
+        parse_tolerances(data, 't.yaml')
+
+
+def test_binding_refusals(tmp_path):
+    ps = CoreModel(load_config()).parameters
+    with pytest.raises(ConfigError, match=r"parameters: unknown parameter 'kappa'; this model has radius, "
+                                          r'rod_azimuth1.*whole keys: radius, rod_azimuths'):
+        parse_tolerances({'parameters': {'kappa': {'range': [0.5, 2]}}}, 't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'parameters: radius: tolerance 0\.5 m; allowed: at most 0\.01 m'):
+        parse_tolerances({'parameters': {'radius': {'tolerance': 0.5}}}, 't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'a log-uniform range must be positive'):
+        parse_tolerances({'parameters': {'rod_azimuth1': {'range': [-1e-3, 1e-3], 'distribution': 'log-uniform'}}},
+                         't.yaml').bind(ps)
+    bomb = tmp_path / 'bomb.yaml'
+    bomb.write_text('a: &a [1, 2]\nb: *a\n')
+    with pytest.raises(ConfigError, match=r'bomb\.yaml: line 2: YAML aliases'):
+        load_tolerances(bomb)
+    with pytest.raises(ConfigError, match=r'is not a regular file'):
+        load_tolerances(tmp_path)
