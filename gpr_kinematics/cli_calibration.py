@@ -33,15 +33,15 @@ def _sigmas(args: argparse.Namespace) -> tuple[float, float]:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from .calibration.core_model import CoreModel, write_calibrated_config
-    from .calibration.identification import check_stroke, identify
+    from .calibration.core_model import CoreModel, check_limits, write_calibrated_config
+    from .calibration.identification import identify
     from .calibration.measurements import read_measurements
     from .calibration.report import format_calibration
     if args.output is None:
         raise InputError('--output FILE is required: the calibrated geometry is written there')
     cfg = _config(args)
     meas = read_measurements(args.measurements)
-    check_stroke(meas, cfg.stroke_min, cfg.stroke_max)
+    check_limits(meas, cfg)
     model = CoreModel(cfg, args.model)
     sp, sa = _sigmas(args)
     res = identify(model, meas, free=args.free, sigma_position=sp, sigma_angle=sa, threshold=args.threshold)
@@ -93,10 +93,13 @@ def _handler(args: argparse.Namespace) -> int:
     if (args.measurements is None) == (args.plan is None):
         raise InputError('give a MEASUREMENTS file to calibrate from, or --plan N for a measurement plan '
                          '(not both)')
-    for name in ('sigma_position', 'sigma_angle', 'threshold'):
-        v = getattr(args, name)
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f'--{name.replace("_", "-")} = {v!r}; allowed: a finite number > 0')
+    if not (math.isfinite(args.threshold) and args.threshold > 0):
+        raise InputError(f'--threshold = {args.threshold!r}; allowed: a finite number > 0')
+    from .calibration.measurements import SIGMA_RANGE
+    lo, hi = SIGMA_RANGE
+    for flag, value in zip(('--sigma-position', '--sigma-angle'), _sigmas(args), strict=True):
+        if not lo <= value <= hi:
+            raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
     return _plan(args) if args.plan is not None else _calibrate(args)
 
 

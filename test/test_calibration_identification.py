@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
 
-from gpr_kinematics.calibration.core_model import CoreModel, write_calibrated_config
-from gpr_kinematics.calibration.identification import check_stroke, identify
+from gpr_kinematics.calibration.core_model import CoreModel, check_limits, write_calibrated_config
+from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.plan import plan_measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
@@ -158,7 +158,14 @@ def test_refusals():
         identify(m, mm)
     with pytest.raises(InputError, match=r'mm\.csv line \d, column q\d: \d+\.?\d* m is outside the stroke '
                                          r'\[0, 0\.508\] m'):
-        check_stroke(Measurements('mm.csv', meas.q * 1000, meas.position, meas.quaternion, None, None,
-                                  tuple(range(4, 9))), cfg.stroke_min, cfg.stroke_max)
-    with pytest.raises(InputError, match=r'sigma_position = -1.0; allowed: a finite standard deviation > 0'):
+        check_limits(Measurements('mm.csv', meas.q * 1000, meas.position, meas.quaternion, None, None,
+                                  tuple(range(4, 9))), cfg)
+    tilted = meas.q.copy()
+    tilted[2] = [0.1, 0.1, 0.11]
+    with pytest.raises(InputError, match=r'mm\.csv line 6, columns q1 q2 q3: the rod lengths tilt the platform by '
+                                         r'4\.\d+ deg, beyond the tilt limit 2 deg'):
+        check_limits(Measurements('mm.csv', tilted, meas.position, meas.quaternion, None, None, tuple(range(4, 9))),
+                     cfg)
+    check_limits(meas, cfg)
+    with pytest.raises(InputError, match=r'sigma_position = -1.0; allowed: a standard deviation from 1e-09 to 0\.1'):
         identify(m, meas, sigma_position=-1.0)

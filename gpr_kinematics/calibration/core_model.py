@@ -18,11 +18,17 @@ import yaml
 from numpy.typing import NDArray
 
 from ..config import GprConfig
-from ..kinematics import forward_batch
+from ..errors import InputError
+from ..kinematics import base_points, forward_batch
 from .files import write_text
+from .measurements import Measurements
 from .model import Parameter, ParameterSet, config_values
 
 Array = NDArray[np.float64]
+
+#: A measured configuration may tilt the platform this factor beyond the tilt limit (a pose measured at the
+#: limit, rounding of the commanded rod lengths).
+TILT_MARGIN = 1.05
 
 #: Configuration keys calibrated, with unit and a-priori uncertainty (the scale of :class:`~.model.Parameter`):
 #: 0.1 mm for lengths, 1 mrad for angles. Per-element names for list-valued keys.
@@ -86,6 +92,27 @@ class CoreModel:
             pos[sel] = fk.position.reshape(sel.size, N, 3)
             rot[sel] = fk.rotation.reshape(sel.size, N, 3, 3)
         return pos, rot
+
+
+def check_limits(meas: Measurements, config: GprConfig) -> None:
+    """Refuse measured configurations outside the machine's limits, naming the line and the column: a rod length
+    outside the stroke, or rod lengths that tilt the platform beyond the tilt limit (the tilt of the plane of the
+    joint centres ``P_k``, which every virtual-joint model shares) by more than :data:`TILT_MARGIN`."""
+    lo, hi = config.stroke_min, config.stroke_max
+    bad = np.argwhere((meas.q < lo) | (meas.q > hi))
+    if bad.size:
+        i, k = bad[0]
+        raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
+                         f'[{lo:g}, {hi:g}] m (millimetres? declare "# units: mm")')
+    P = base_points(meas.q, config)
+    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    tilt = np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2])
+    bad = np.flatnonzero(tilt > TILT_MARGIN * config.tilt_limit)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f'{meas.where(i)}, columns q1 q2 q3: the rod lengths tilt the platform by '
+                         f'{np.degrees(tilt[i]):.4g} deg, beyond the tilt limit '
+                         f'{np.degrees(config.tilt_limit):.4g} deg')
 
 
 def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConvergenceError, InputError
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
-from .measurements import Measurements
+from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian
 
 Array = NDArray[np.float64]
@@ -43,6 +43,8 @@ PLAUSIBLE_POSITION = 0.01
 PLAUSIBLE_ANGLE = 0.05
 #: Levenberg-Marquardt stops when the largest step is below this, in units of the parameters' scales.
 STEP_TOLERANCE = 1e-9
+#: ... or when a step below 1e-5 scales lowers the cost by less than this fraction.
+COST_TOLERANCE = 1e-12
 MAX_ITERATIONS = 40
 
 
@@ -125,10 +127,16 @@ class CalibrationResult:
                 'correlation': self.correlation.tolist()}
 
 
-def _sigmas(meas: Measurements, sigma_position: float, sigma_angle: float) -> tuple[Array, Array, bool]:
+def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
+    """Refuse standard deviations outside :data:`~.measurements.SIGMA_RANGE` (m, rad)."""
+    lo, hi = SIGMA_RANGE
     for name, v in (('sigma_position', sigma_position), ('sigma_angle', sigma_angle)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise InputError(f'{name} = {v!r}; allowed: a finite standard deviation > 0 (m, rad)')
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and lo <= v <= hi):
+            raise InputError(f'{name} = {v!r}; allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
+
+
+def _sigmas(meas: Measurements, sigma_position: float, sigma_angle: float) -> tuple[Array, Array, bool]:
+    check_sigmas(sigma_position, sigma_angle)
     n = len(meas)
     sp = meas.sigma_position if meas.sigma_position is not None else np.full(n, float(sigma_position))
     sa = meas.sigma_angle if meas.sigma_angle is not None else np.full(n, float(sigma_angle))
@@ -144,15 +152,6 @@ def _check_plausible(meas: Measurements, errors: Array) -> None:
         raise InputError(f'{meas.where(i)}: the measured pose is {dp[i]:.4g} m and {da[i]:.4g} rad from the nominal '
                          f'model\'s (allowed: {PLAUSIBLE_POSITION} m, {PLAUSIBLE_ANGLE} rad): not a pose of '
                          'gpr_platform in gpr_base in SI units (millimetres? declare "# units: mm")')
-
-
-def check_stroke(meas: Measurements, lo: float, hi: float) -> None:
-    """Refuse rod lengths outside ``[lo, hi]`` [m], naming the line and the column."""
-    bad = np.argwhere((meas.q < lo) | (meas.q > hi))
-    if bad.size:
-        i, k = bad[0]
-        raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
-                         f'[{lo:g}, {hi:g}] m (millimetres? declare "# units: mm")')
 
 
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
@@ -248,9 +247,13 @@ def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit
             if lam > 1e12:
                 raise ConvergenceError(f'identification stalled after {it} iterations (cost {cost:.6g}); the '
                                        'measurements do not fit this model')
+        gain = cost - cost_t
         theta, e, cost = trial, e_t, cost_t
         lam = max(lam / 10.0, 1e-12)
-        if np.max(np.abs(d)) < STEP_TOLERANCE:
+        step = float(np.max(np.abs(d)))
+        # Converged: a step far below every standard error, or one that no longer lowers the cost (rounding of
+        # the model: its last digits make tiny steps wander without changing the fit).
+        if step < STEP_TOLERANCE or (step < 1e-5 and gain <= COST_TOLERANCE * cost):
             return theta, e, it
     raise ConvergenceError(f'identification did not converge in {MAX_ITERATIONS} iterations (last step '
                            f'{np.max(np.abs(d)):.3g} parameter scales)')

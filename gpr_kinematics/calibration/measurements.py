@@ -19,9 +19,10 @@ configuration, as exported from a laser tracker's 6-DOF probe (docs/calibration.
 
 Refused, with the file, the line and the column named (:class:`~gpr_kinematics.errors.InputError`): a missing,
 unknown or repeated column, a value that is not a finite number, a quaternion whose norm differs from 1 by more
-than :data:`~gpr_kinematics.validation.QUATERNION_NORM_TOLERANCE`, a sigma <= 0, an unknown or misplaced unit
-declaration, a row repeated exactly, a file without data rows, and files beyond the limits
-:data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so memory stays bounded).
+than :data:`~gpr_kinematics.validation.QUATERNION_NORM_TOLERANCE`, a value beyond :data:`MAX_VALUE`, a sigma
+outside :data:`SIGMA_RANGE`, an unknown or misplaced unit declaration, a row repeated exactly, a file without
+data rows, and files beyond the limits :data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so
+memory stays bounded).
 """
 from __future__ import annotations
 
@@ -49,6 +50,11 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 MAX_ROWS = 100_000
 #: Longest line accepted [characters].
 MAX_LINE_CHARS = 2048
+#: Largest magnitude of a value, in the file's units (a GPR is not a kilometre tall; bounded values cannot
+#: overflow later).
+MAX_VALUE = 1e6
+#: Range of a standard deviation, SI: [m] for sigma_position, [rad] for sigma_angle.
+SIGMA_RANGE = (1e-9, 0.1)
 
 _LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
 _ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
@@ -132,6 +138,9 @@ def _number(text: str, where: str, column: str) -> float:
     if not math.isfinite(v):
         raise InputError(f'{where}, column {column}: {text.strip()[:40]} is not a finite number; allowed: finite '
                          'values')
+    if abs(v) > MAX_VALUE:
+        raise InputError(f'{where}, column {column}: {v:g} is implausibly large; allowed: |value| <= {MAX_VALUE:g} '
+                         "in the file's units")
     return v
 
 
@@ -194,12 +203,14 @@ def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
         raise InputError(f'{source} line {line_nos[i]}, columns qx qy qz qw: quaternion norm {norm[i]:.9g}; a unit '
                          f'quaternion is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
     sig = {}
+    lo, hi = SIGMA_RANGE
     for c in SIGMA_COLUMNS:
         if c in col:
-            bad = np.flatnonzero(~(col[c] > 0.0))
+            bad = np.flatnonzero(~((col[c] >= lo) & (col[c] <= hi)))
             if bad.size:
                 i = int(bad[0])
-                raise InputError(f'{source} line {line_nos[i]}, column {c}: {rows[i][cols.index(c)]!r} must be > 0')
+                raise InputError(f'{source} line {line_nos[i]}, column {c}: {rows[i][cols.index(c)]!r} is outside '
+                                 f'[{lo:g}, {hi:g}] ({"m" if c == "sigma_position" else "rad"}, SI)')
         sig[c] = col.get(c)
     return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
                         position=np.column_stack([col['x'], col['y'], col['z']]),

@@ -37,7 +37,7 @@ from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import naive_inverse
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
-from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
+from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
 from .model import ParameterSet, PoseModel, pose_jacobian
 
 Array = NDArray[np.float64]
@@ -173,9 +173,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     """
     if index not in INDICES:
         raise InputError(f'observability index {index!r}; allowed: {", ".join(INDICES)}')
-    for name, v in (('sigma_position', sigma_position), ('sigma_angle', sigma_angle)):
-        if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-            raise InputError(f'{name} = {v!r}; allowed: a finite standard deviation > 0 (m, rad)')
+    check_sigmas(sigma_position, sigma_angle)
     cand = candidates if candidates is not None else candidate_configurations(config)
     C = cand.q.shape[0]
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= min(C, MAX_PLAN):
