@@ -100,30 +100,44 @@ class ReferenceModel:
         return t, rot
 
     def solve_closure(self, s, p, kappa, tol=1e-15, max_iter=30):
-        """``(c, psi)`` minimising the elastic cost for 2-D joint coordinates ``s`` and nominal joints ``p``."""
+        """``(c, psi)`` minimising the elastic cost for 2-D joint coordinates ``s`` and nominal joints ``p``.
+
+        The residual of joint k, ``S_k d_k``, is written in the orthonormal basis ``(e_r, e_t)``: its components are
+        ``e_r . d_k`` and ``sqrt(kappa) e_t . d_k`` (same norm), and Gauss-Newton works on those, component-wise.
+        """
         er = p / np.linalg.norm(p, axis=-1, keepdims=True)
-        et = np.stack([-er[..., 1], er[..., 0]], axis=-1)
-        sq = np.sqrt(kappa)[..., None, None, None]
-        Sk = er[..., :, None] * er[..., None, :] + sq * et[..., :, None] * et[..., None, :]   # (S, N, 3, 2, 2)
-        cross = s[..., 0] * p[..., 1] - s[..., 1] * p[..., 0]
-        dot = np.sum(s * p, axis=-1)
-        psi = np.arctan2(cross.sum(-1), dot.sum(-1))                        # Kabsch (s is centred)
-        c = p.mean(axis=2) - np.einsum('snij,snj->sni', _rot2(psi), s.mean(axis=2))
+        erx, ery = er[..., 0], er[..., 1]
+        etx, ety = -ery, erx
+        sq = np.sqrt(kappa)[..., None]
+        sx, sy = s[..., 0], s[..., 1]
+        px, py = p[..., 0], p[..., 1]
+        psi = np.arctan2((sx * py - sy * px).sum(-1), (sx * px + sy * py).sum(-1))   # Kabsch (s is centred)
+        cs, sn = np.cos(psi)[..., None], np.sin(psi)[..., None]
+        cx = (px - (cs * sx - sn * sy)).mean(-1)
+        cy = (py - (sn * sx + cs * sy)).mean(-1)
+        # Jacobian rows of joint k: radial (erx, ery, er . da), tangential sq (etx, ety, et . da).
         for it in range(1, max_iter + 1):
-            a = np.einsum('snij,snkj->snki', _rot2(psi), s)                  # A s_k
-            res = np.einsum('snkij,snkj->snki', Sk, a + c[:, :, None, :] - p)
-            da = np.stack([-a[..., 1], a[..., 0]], axis=-1)                 # d(A s_k)/dpsi
-            Jk = np.concatenate([Sk, np.einsum('snkij,snkj->snki', Sk, da)[..., None]], axis=-1)  # (.., 3, 2, 3)
-            H = np.einsum('snkri,snkrj->snij', Jk, Jk)
-            g = np.einsum('snkri,snkr->sni', Jk, res)
+            cs, sn = np.cos(psi)[..., None], np.sin(psi)[..., None]
+            ax, ay = cs * sx - sn * sy, sn * sx + cs * sy
+            dx, dy = ax + cx[..., None] - px, ay + cy[..., None] - py
+            rr, rt = erx * dx + ery * dy, sq * (etx * dx + ety * dy)
+            jr3, jt3 = erx * -ay + ery * ax, sq * (etx * -ay + ety * ax)
+            jrx, jry, jtx, jty = erx, ery, sq * etx, sq * ety
+            H = np.empty(psi.shape + (3, 3))
+            H[..., 0, 0] = (jrx * jrx + jtx * jtx).sum(-1)
+            H[..., 1, 1] = (jry * jry + jty * jty).sum(-1)
+            H[..., 2, 2] = (jr3 * jr3 + jt3 * jt3).sum(-1)
+            H[..., 0, 1] = H[..., 1, 0] = (jrx * jry + jtx * jty).sum(-1)
+            H[..., 0, 2] = H[..., 2, 0] = (jrx * jr3 + jtx * jt3).sum(-1)
+            H[..., 1, 2] = H[..., 2, 1] = (jry * jr3 + jty * jt3).sum(-1)
+            g = np.stack([(jrx * rr + jtx * rt).sum(-1), (jry * rr + jty * rt).sum(-1),
+                          (jr3 * rr + jt3 * rt).sum(-1)], axis=-1)
             step = -np.linalg.solve(H, g[..., None])[..., 0]
-            c = c + step[..., :2]
-            psi = psi + step[..., 2]
+            cx, cy, psi = cx + step[..., 0], cy + step[..., 1], psi + step[..., 2]
             if np.max(np.abs(step[..., :2])) < tol and np.max(np.abs(step[..., 2])) < tol * 10:
-                self.last_iterations = it
-                return c, psi
-        self.last_iterations = max_iter
-        return c, psi
+                break
+        self.last_iterations = it
+        return np.stack([cx, cy], axis=-1), psi
 
 
 def _rot2(psi):
