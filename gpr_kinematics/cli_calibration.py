@@ -5,6 +5,7 @@ Examples::
     gpr calibrate config/calibration/synthetic_measurements.csv --output calibrated.yaml
     gpr fk 0.3 0.301 0.299 --config calibrated.yaml        # every command takes the calibrated geometry
     gpr calibrate --plan 12 --output plan.csv --json
+    gpr calibrate MEASUREMENTS --output calibrated.yaml --tolerances config/calibration/tolerances_example.yaml
 
 The measurement file format, the identification, the identifiability report and the plan are described in
 docs/calibration.md. Plugin of :mod:`gpr_kinematics.cli` (``register(subparsers)``).
@@ -24,12 +25,26 @@ def _config(args: argparse.Namespace) -> GprConfig:
     return load_config(args.config) if args.config is not None else load_config()
 
 
-def _sigmas(args: argparse.Namespace) -> tuple[float, float]:
+def _table(args: argparse.Namespace) -> Any:
+    from .calibration.tolerances import load_tolerances
+    return load_tolerances(args.tolerances) if args.tolerances is not None else None
+
+
+def _sigmas(args: argparse.Namespace, table: Any = None) -> tuple[float, float]:
+    """The options' sigmas (SI), else the tolerance table's measurement noise, else the defaults."""
     from .calibration.identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
-    sp = DEFAULT_SIGMA_POSITION if args.sigma_position is None else args.sigma_position * (1e-3 if args.mm else 1.0)
-    sa = DEFAULT_SIGMA_ANGLE if args.sigma_angle is None else \
-        (math.radians(args.sigma_angle) if args.deg else args.sigma_angle)
+    sp = table.sigma_position if table is not None and table.sigma_position is not None else DEFAULT_SIGMA_POSITION
+    sa = table.sigma_angle if table is not None and table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
+    if args.sigma_position is not None:
+        sp = args.sigma_position * (1e-3 if args.mm else 1.0)
+    if args.sigma_angle is not None:
+        sa = math.radians(args.sigma_angle) if args.deg else args.sigma_angle
     return sp, sa
+
+
+def _prior(table: Any, model: Any) -> Any:
+    from .calibration.tolerances import prior_of
+    return prior_of(table, model.parameters) if table is not None else None
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -43,8 +58,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     meas = read_measurements(args.measurements)
     check_limits(meas, cfg)
     model = CoreModel(cfg, args.model)
-    sp, sa = _sigmas(args)
-    res = identify(model, meas, free=args.free, sigma_position=sp, sigma_angle=sa, threshold=args.threshold)
+    table = _table(args)
+    sp, sa = _sigmas(args, table)
+    res = identify(model, meas, free=args.free, sigma_position=sp, sigma_angle=sa, threshold=args.threshold,
+                   prior=_prior(table, model))
     calibrated = model.config_for(res.estimate)
     stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
     comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements} ({res.rows} rows), {stamp}',
@@ -69,9 +86,11 @@ def _plan(args: argparse.Namespace) -> int:
     from .calibration.plan import plan_measurements
     from .calibration.report import format_plan
     cfg = _config(args)
-    sp, sa = _sigmas(args)
-    plan = plan_measurements(CoreModel(cfg, args.model), cfg, args.plan, index=args.index, free=args.free,
-                             sigma_position=sp, sigma_angle=sa, threshold=args.threshold)
+    model = CoreModel(cfg, args.model)
+    table = _table(args)
+    sp, sa = _sigmas(args, table)
+    plan = plan_measurements(model, cfg, args.plan, index=args.index, free=args.free, sigma_position=sp,
+                             sigma_angle=sa, threshold=args.threshold, prior=_prior(table, model))
     path = None
     if args.output is not None:
         text = (f'# measurement plan of `gpr calibrate --plan {args.plan}`: observability index ({plan.index_name}) '
@@ -124,6 +143,9 @@ def register(sub: Any) -> None:
     p.add_argument('--sigma-angle', type=float, metavar='S',
                    help='standard deviation of a measured rotation component [rad, or deg with --deg] '
                         '(default 2e-5 rad)')
+    p.add_argument('--tolerances', metavar='TABLE',
+                   help='tolerance table (YAML, docs/calibration.md): its standard deviations are the a-priori '
+                        'uncertainties the measurements must beat, its measurement_noise the default sigmas')
     p.add_argument('--threshold', type=float, default=1.0,
                    help='scaled singular value a parameter combination must reach to be fitted (default 1: the '
                         'measurements must determine it better than its a-priori uncertainty)')

@@ -134,9 +134,9 @@ class ReferenceModel:
                           (jr3 * rr + jt3 * rt).sum(-1)], axis=-1)
             step = -np.linalg.solve(H, g[..., None])[..., 0]
             cx, cy, psi = cx + step[..., 0], cy + step[..., 1], psi + step[..., 2]
+            self.last_iterations = it
             if np.max(np.abs(step[..., :2])) < tol and np.max(np.abs(step[..., 2])) < tol * 10:
                 break
-        self.last_iterations = it
         return np.stack([cx, cy], axis=-1), psi
 
 

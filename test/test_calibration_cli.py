@@ -64,6 +64,21 @@ def test_calibrate_text_matches_json(capsys, tmp_path):
     assert f'reduced chi-square {d["chi2_reduced"]:.4g}' in text
 
 
+def test_tolerance_table_sets_the_prior_and_the_sigmas(capsys, tmp_path):
+    table = str(config_path('calibration/tolerances_example.yaml'))
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'c.yaml'), '--tolerances', table,
+                           '--json')
+    assert status == 0, err
+    d = json.loads(out)
+    assert [p['status'] for p in d['parameters']] == ['fitted', 'held', 'held', 'held']
+    # the scaled singular values are in units of the table's standard deviations (radius: 50 um / sqrt(3))
+    status, out, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'd.yaml'), '--json')
+    plain = json.loads(out)
+    assert d['identifiability']['singular_values'][0] < plain['identifiability']['singular_values'][0]
+    status, out, _ = run(capsys, 'calibrate', '--plan', '4', '--tolerances', table)
+    assert status == 0 and 'sigma_position 3 um, sigma_angle 20 urad' in out    # the table's measurement noise
+
+
 def test_plan_json_and_csv(capsys, tmp_path):
     csv = tmp_path / 'plan.csv'
     status, out, err = run(capsys, 'calibrate', '--plan', '5', '--output', str(csv), '--json', '--index', 'smallest')
@@ -120,6 +135,8 @@ def bad_inputs(tmp_path):
         (['calibrate', '--plan', '0'], r'plan size 0; allowed: an integer from 1 to 222'),
         (['calibrate', '--plan', '3', '--config', ''], r'config'),
         (['calibrate', '--plan', 'many'], r"argument --plan: invalid int value: 'many'"),
+        (['calibrate', '--plan', '3', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
+        (['calibrate', '--plan', '3', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
     ]
 
 
@@ -150,4 +167,8 @@ def test_demo_prints_before_and_after():
     assert res.returncode == 0, res.stderr
     assert re.search(r'^  before +\d+\.\d+ um', res.stdout, re.M) and re.search(r'^  after +\d+\.\d+ um', res.stdout,
                                                                                 re.M)
-    assert res.stdout.count('standard errors)') == 4 and 'accuracy budget' in res.stdout
+    # With the example table's a-priori uncertainties, these 24 poses determine the radius better than its
+    # tolerance, and the rod azimuths less well: those are held (and said so).
+    assert re.search(r'^  radius +true +\+40\.000 um +identified .*standard errors\)$', res.stdout, re.M)
+    assert res.stdout.count('held at nominal (these poses know it less well than its tolerance)') == 3
+    assert res.stdout.count('accuracy budget: 4 station(s)') == 2

@@ -30,7 +30,7 @@ from .measurements import read_measurements, write_measurements
 from .plan import plan_measurements
 from .report import format_budget, format_calibration
 from .synthetic import synthetic_measurements
-from .tolerances import load_tolerances
+from .tolerances import load_tolerances, prior_of
 
 MEASUREMENTS = 'calibration/synthetic_measurements.csv'
 TOLERANCES = 'calibration/tolerances_example.yaml'
@@ -87,22 +87,27 @@ def run() -> None:
     model = CoreModel(cfg)
     path = config_path(MEASUREMENTS)
     meas = read_measurements(path)
+    table = load_tolerances(config_path(TOLERANCES))
     print(f'== calibration from {path} (synthetic: {ROWS} poses of a perturbed GPR, tracker noise '
-          f'{SIGMA_POSITION * 1e6:g} um, {SIGMA_ANGLE * 1e6:g} urad)')
-    res = identify(model, meas)
+          f'{SIGMA_POSITION * 1e6:g} um, {SIGMA_ANGLE * 1e6:g} urad), a-priori uncertainties from '
+          f'{config_path(TOLERANCES).name}')
+    res = identify(model, meas, prior=prior_of(table, model.parameters))
     print(format_calibration(res))
-    print('identified against the machine that made the file:')
+    print('against the machine that made the file:')
     for j, p in enumerate(model.parameters):
         f, u = (1e6, 'um') if p.unit == 'm' else (1e3, 'mrad')
-        err = (res.estimate[j] - p.nominal - TRUE_DEVIATIONS[j]) / res.standard_error[j]
-        print(f'  {p.name:<14} true {TRUE_DEVIATIONS[j] * f:+9.3f} {u:<5} identified '
-              f'{(res.estimate[j] - p.nominal) * f:+9.3f} +- {res.standard_error[j] * f:.3f} {u:<5} '
-              f'({err:+.2f} standard errors)')
+        text = f'  {p.name:<14} true {TRUE_DEVIATIONS[j] * f:+9.3f} {u:<5}'
+        if res.status[j] == 'fitted':
+            err = (res.estimate[j] - p.nominal - TRUE_DEVIATIONS[j]) / res.standard_error[j]
+            text += (f' identified {(res.estimate[j] - p.nominal) * f:+9.3f} +- {res.standard_error[j] * f:.3f} '
+                     f'{u:<5} ({err:+.2f} standard errors)')
+        else:
+            text += ' held at nominal (these poses know it less well than its tolerance)'
+        print(text)
     with tempfile.TemporaryDirectory() as tmp:
         out = write_calibrated_config(Path(tmp) / 'calibrated.yaml', model.config_for(res.estimate))
         print(f'calibrated geometry: a config file for --config (here {out.name}: radius '
               f'{load_config(out).radius:.9f} m)')
-    table = load_tolerances(config_path(TOLERANCES))
     st = np.array(STATIONS)
     from ..kinematics import inverse_batch
     Q = inverse_batch(st[:, 0], st[:, 1], st[:, 2], cfg).q

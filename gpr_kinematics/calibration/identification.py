@@ -24,12 +24,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
 from .measurements import SIGMA_RANGE, Measurements
-from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian
+from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian, prior_scale
 
 Array = NDArray[np.float64]
 
@@ -156,11 +156,13 @@ def _check_plausible(meas: Measurements, errors: Array) -> None:
 
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
              sigma_position: float = DEFAULT_SIGMA_POSITION, sigma_angle: float = DEFAULT_SIGMA_ANGLE,
-             threshold: float = DEFAULT_THRESHOLD) -> CalibrationResult:
+             threshold: float = DEFAULT_THRESHOLD, prior: ArrayLike | None = None) -> CalibrationResult:
     """Identify the parameters ``free`` (names or configuration keys; all by default) of ``model`` from ``meas``.
 
     ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns; ``threshold`` bounds the
-    scaled singular values of the identifiable directions (:mod:`.identifiability`).
+    scaled singular values of the identifiable directions (:mod:`.identifiability`); ``prior`` gives the
+    a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance table's, or the
+    parameters' scales).
 
     Raises:
         InputError: too few rows for the free parameters, a pose implausibly far from the nominal model, a bad
@@ -178,7 +180,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     w = np.column_stack([np.repeat(1.0 / sp[:, None], 3, 1), np.repeat(1.0 / sa[:, None], 3, 1)])  # (N, 6)
     ref = (meas.position, meas.rotation)
     theta0 = params.nominal
-    scale = params.scale
+    scale = prior_scale(params, prior)
 
     def errors(theta: Array) -> Array:
         pos, rot = evaluate(model, theta, meas.q)

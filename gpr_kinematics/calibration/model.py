@@ -162,6 +162,19 @@ def config_values(params: ParameterSet, theta: ArrayLike, base: Mapping[str, Any
     return out
 
 
+def prior_scale(params: ParameterSet, prior: ArrayLike | None) -> Array:
+    """A-priori standard deviations ``(P,)`` of the parameters: ``prior`` (e.g. from a tolerance table, ``nan`` for
+    "use the parameter's scale") or the parameters' :attr:`Parameter.scale`."""
+    scale = params.scale
+    if prior is None:
+        return scale
+    a = np.asarray(prior, dtype=float)
+    if a.shape != scale.shape or np.any(a <= 0) or np.any(np.isinf(a)):
+        raise InputError(f'prior must be {scale.size} standard deviations > 0 (nan: the parameter\'s scale), '
+                         f'got shape {a.shape}')
+    return np.where(np.isnan(a), scale, a)
+
+
 @runtime_checkable
 class PoseModel(Protocol):
     """A forward model of the platform pose with named parameters (see the module docstring)."""

@@ -31,14 +31,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import naive_inverse
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
-from .model import ParameterSet, PoseModel, pose_jacobian
+from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
 
 Array = NDArray[np.float64]
 
@@ -163,9 +163,11 @@ def _best_addition(M: Array, blocks: Array, infos: Array, allowed: NDArray[np.bo
 def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 'product',
                       free: Iterable[str] | None = None, sigma_position: float = DEFAULT_SIGMA_POSITION,
                       sigma_angle: float = DEFAULT_SIGMA_ANGLE, candidates: Candidates | None = None,
-                      threshold: float = DEFAULT_THRESHOLD, seed: int = 0) -> MeasurementPlan:
+                      threshold: float = DEFAULT_THRESHOLD, seed: int = 0,
+                      prior: ArrayLike | None = None) -> MeasurementPlan:
     """Choose ``n`` of the ``candidates`` (default :func:`candidate_configurations` of ``config``) that maximise
-    the observability ``index`` for the parameters ``free`` of ``model`` (module docstring).
+    the observability ``index`` for the parameters ``free`` of ``model`` (module docstring); ``prior``: the
+    a-priori standard deviations scaling the Jacobian, as in :func:`~.identification.identify`.
 
     Raises:
         InputError: ``n`` outside ``[1, number of candidates]`` or above :data:`MAX_PLAN`; unknown index or
@@ -182,8 +184,9 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     params = model.parameters
     free_idx = np.flatnonzero(params.select(free))
     theta0 = params.nominal
+    scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [1.0 / sigma_angle] * 3)
-    J = pose_jacobian(model, theta0, cand.q, free_idx) * w[None, :, None] * params.scale[free_idx]  # (C, 6, F)
+    J = pose_jacobian(model, theta0, cand.q, free_idx) * w[None, :, None] * scale[free_idx]  # (C, 6, F)
     names = [params[j].name for j in free_idx]
     overall = analyse(J.reshape(-1, free_idx.size), names, threshold)
     keep = [names.index(nm) for nm in overall.identified]
@@ -227,7 +230,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     cov = np.zeros((0, 0))
     if fit_cols:
         _, s, vt = np.linalg.svd(Jp[:, fit_cols], full_matrices=False)
-        cov = (vt.T / s ** 2) @ vt * np.outer(params.scale[fitted], params.scale[fitted])
+        cov = (vt.T / s ** 2) @ vt * np.outer(scale[fitted], scale[fitted])
     value = observability_index(ident.fitted_singular_values, n, index)
     rng = np.random.default_rng(seed)
     rand = []

@@ -99,5 +99,5 @@ def format_budget(b: Budget, top: int = 3) -> str:
             order = np.argsort(-b.shares[name][i])[:top]
             share = ', '.join(f'{b.sources[j]} {100 * b.shares[name][i, j]:.1f} %' for j in order
                               if b.shares[name][i, j] > 0)
-            lines.append(f'  {name.replace("_", " "):<20}{u:>5}{cells}  {share}')
+            lines.append(f'  {name.replace("_", " "):<20}{u:>5}{cells}  {share}'.rstrip())
     return '\n'.join(lines)

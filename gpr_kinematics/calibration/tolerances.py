@@ -144,6 +144,12 @@ class ToleranceTable:
         return out
 
 
+def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """The table's standard deviation of each parameter (``nan`` where the table has none), as the ``prior`` of
+    identification and planning."""
+    return np.array([t.std if t is not None else np.nan for t in table.bind(params)])
+
+
 def _finite(value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number')
