@@ -171,4 +171,4 @@ def test_demo_prints_before_and_after():
     # tolerance, and the rod azimuths less well: those are held (and said so).
     assert re.search(r'^  radius +true +\+40\.000 um +identified .*standard errors\)$', res.stdout, re.M)
     assert res.stdout.count('held at nominal (these poses know it less well than its tolerance)') == 3
-    assert res.stdout.count('accuracy budget: 4 station(s)') == 2
+    assert res.stdout.count('accuracy budget: 2 station(s)') == 2

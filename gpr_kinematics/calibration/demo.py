@@ -42,7 +42,7 @@ SIGMA_POSITION = 3e-6
 SIGMA_ANGLE = 2e-5
 SEED = 12
 #: Stations of the budget: height [m], tilt [rad], azimuth [rad].
-STATIONS = ((0.30, 0.0, 0.0), (0.45, 0.0262, 0.785), (0.40, 0.0175, -2.356), (0.10, 0.0349, 1.571))
+STATIONS = ((0.45, 0.0262, 0.785), (0.10, 0.0349, 1.571))
 BUDGET_SAMPLES = 1000
 
 

@@ -13,10 +13,11 @@ For each deficient direction one parameter is **held at its nominal value** and 
 starting from all free parameters, the right singular vector ``v`` of the smallest singular value names the
 combination the poses cannot see; the parameter with the largest ``|v_j|`` is held (on a tie within 1 %, the
 one listed last: models list frame-like parameters such as a base height after the per-rod ones), and the
-analysis repeats on the remaining columns until every singular value passes. This is backward subset
-selection (Golub, Klema & Stewart, *Rank degeneracy and least squares problems*, Stanford report
-STAN-CS-76-559, 1976; Golub & Van Loan, *Matrix Computations*, §5.5.7): the fitted subset is well conditioned,
-and the held combination keeps its nominal value instead of a value fitted to noise.
+analysis repeats on the remaining columns until every singular value passes. This is a backward-elimination
+form of subset selection (Golub, Klema & Stewart, *Rank degeneracy and least squares problems*, Stanford report
+STAN-CS-76-559, 1976; Golub & Van Loan, *Matrix Computations*, 3rd ed., 1996, §12.2, choose the subset by QR with
+column pivoting of the leading right singular vectors instead): the fitted subset is well conditioned, and the
+held combination keeps its nominal value instead of a value fitted to noise.
 """
 from __future__ import annotations
 
@@ -54,14 +55,15 @@ class Combination:
 
     def describe(self) -> str:
         """The combination in words, e.g. ``base_z, offset1, offset2, offset3 are not separable: the poses
-        cannot see a change of +1 base_z -1 offset1 -1 offset2 -1 offset3 (each in units of its scale)``."""
+        cannot see a change of +1 base_z -1 offset1 -1 offset2 -1 offset3 (each in units of its a-priori
+        uncertainty; ...)``."""
         names = ', '.join(self.coefficients)
         terms = ' '.join(f'{c:+.2g} {n}' for n, c in self.coefficients.items())
         if len(self.coefficients) == 1:
             return (f'{names} is not identifiable from these poses (scaled singular value '
                     f'{self.singular_value:.3g}); held at nominal')
-        return (f'{names} are not separable: the poses cannot see a change of {terms} (each in units of its '
-                f'scale; scaled singular value {self.singular_value:.3g}); {self.held} held at nominal')
+        return (f'{names} are not separable: the poses cannot see a change of {terms} (each in units of its a-priori '
+                f'uncertainty; scaled singular value {self.singular_value:.3g}); {self.held} held at nominal')
 
     def as_dict(self) -> dict[str, Any]:
         return {'singular_value': self.singular_value, 'coefficients': dict(self.coefficients),
