@@ -123,19 +123,19 @@ class ReferenceModel:
             rr, rt = erx * dx + ery * dy, sq * (etx * dx + ety * dy)
             jr3, jt3 = erx * -ay + ery * ax, sq * (etx * -ay + ety * ax)
             jrx, jry, jtx, jty = erx, ery, sq * etx, sq * ety
-            H = np.empty(psi.shape + (3, 3))
-            H[..., 0, 0] = (jrx * jrx + jtx * jtx).sum(-1)
-            H[..., 1, 1] = (jry * jry + jty * jty).sum(-1)
-            H[..., 2, 2] = (jr3 * jr3 + jt3 * jt3).sum(-1)
-            H[..., 0, 1] = H[..., 1, 0] = (jrx * jry + jtx * jty).sum(-1)
-            H[..., 0, 2] = H[..., 2, 0] = (jrx * jr3 + jtx * jt3).sum(-1)
-            H[..., 1, 2] = H[..., 2, 1] = (jry * jr3 + jty * jt3).sum(-1)
-            g = np.stack([(jrx * rr + jtx * rt).sum(-1), (jry * rr + jty * rt).sum(-1),
-                          (jr3 * rr + jt3 * rt).sum(-1)], axis=-1)
-            step = -np.linalg.solve(H, g[..., None])[..., 0]
-            cx, cy, psi = cx + step[..., 0], cy + step[..., 1], psi + step[..., 2]
+            a, b, c = (jrx * jrx + jtx * jtx).sum(-1), (jry * jry + jty * jty).sum(-1), (jr3 * jr3 + jt3 * jt3).sum(-1)
+            d, e, f = (jrx * jry + jtx * jty).sum(-1), (jrx * jr3 + jtx * jt3).sum(-1), (jry * jr3 + jty * jt3).sum(-1)
+            g0, g1, g2 = (jrx * rr + jtx * rt).sum(-1), (jry * rr + jty * rt).sum(-1), (jr3 * rr + jt3 * rt).sum(-1)
+            # Gauss-Newton step -H^-1 g for the symmetric H = [[a, d, e], [d, b, f], [e, f, c]] by its adjugate.
+            A00, A11, A22 = b * c - f * f, a * c - e * e, a * b - d * d
+            A01, A02, A12 = e * f - d * c, d * f - b * e, d * e - a * f
+            det = a * A00 + d * A01 + e * A02
+            s0 = -(A00 * g0 + A01 * g1 + A02 * g2) / det
+            s1 = -(A01 * g0 + A11 * g1 + A12 * g2) / det
+            s2 = -(A02 * g0 + A12 * g1 + A22 * g2) / det
+            cx, cy, psi = cx + s0, cy + s1, psi + s2
             self.last_iterations = it
-            if np.max(np.abs(step[..., :2])) < tol and np.max(np.abs(step[..., 2])) < tol * 10:
+            if max(np.max(np.abs(s0)), np.max(np.abs(s1))) < tol and np.max(np.abs(s2)) < tol * 10:
                 break
         return np.stack([cx, cy], axis=-1), psi
 

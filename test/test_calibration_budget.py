@@ -152,5 +152,5 @@ def test_refusals():
         accuracy_budget(m, Q, table, percentiles=(50, 101))
     with pytest.raises(InputError, match=r'2 labels for 1 stations'):
         accuracy_budget(m, Q, table, labels=['a', 'b'])
-    with pytest.raises(InputError, match=r'stations\[0\]: q2 = nan'):
+    with pytest.raises(InputError, match=r'q2 = nan is not a finite number'):
         accuracy_budget(m, [[0.3, np.nan, 0.3]], table)

@@ -25,13 +25,18 @@ def perturbed(model: ReferenceModel, rng: np.random.Generator, kappa: float) -> 
     return th
 
 
-def test_closure_matches_scipy_pose_by_pose():
+def machine_and_poses(seed: int, kappa: float, n: int):
+    """A perturbed reference machine, ``n`` random configurations within the limits, its poses and joint centres."""
     m = ReferenceModel()
-    rng = np.random.default_rng(1)
-    th = perturbed(m, rng, 3.0)
-    Q = naive_inverse(rng.uniform(0.05, 0.45, 6), rng.uniform(-0.0349, 0.0349, 6), rng.uniform(-3, 3, 6))
+    rng = np.random.default_rng(seed)
+    th = perturbed(m, rng, kappa)
+    Q = naive_inverse(rng.uniform(0.05, 0.45, n), rng.uniform(-0.0349, 0.0349, n), rng.uniform(-3, 3, n))
     pos, rot = evaluate(m, th, Q)
-    P = m.joint_centres(th[None], Q[None])[0]
+    return m, th, Q, pos, rot, m.joint_centres(th[None], Q[None])[0]
+
+
+def test_closure_matches_scipy_pose_by_pose():
+    m, th, Q, pos, rot, P = machine_and_poses(1, 3.0, 6)
     p = th[15:21].reshape(3, 2)
     er = p / np.linalg.norm(p, axis=1, keepdims=True)
     et = np.stack([-er[:, 1], er[:, 0]], axis=1)
@@ -63,12 +68,7 @@ def test_closure_matches_scipy_pose_by_pose():
 
 
 def test_rigid_fit_is_exact_and_displacements_small():
-    m = ReferenceModel()
-    rng = np.random.default_rng(2)
-    th = perturbed(m, rng, 0.4)
-    Q = naive_inverse(rng.uniform(0.05, 0.45, 50), rng.uniform(-0.0349, 0.0349, 50), rng.uniform(-3, 3, 50))
-    pos, rot = evaluate(m, th, Q)
-    P = m.joint_centres(th[None], Q[None])[0]
+    _, th, _, pos, rot, P = machine_and_poses(2, 0.4, 50)
     r = np.einsum('nji,nkj->nki', rot, P - pos[:, None, :])     # joint centres in gpr_platform
     assert np.max(np.abs(r[..., 2])) < 1e-15                    # in the platform plane
     d = r[..., :2] - th[15:21].reshape(3, 2)                    # virtual-joint displacements

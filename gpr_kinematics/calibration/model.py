@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..geometry import quaternion_from_matrix
+from ..kinematics import _as_rows
 
 Array = NDArray[np.float64]
 
@@ -191,19 +192,12 @@ class PoseModel(Protocol):
         ...
 
 
-def as_configurations(Q: ArrayLike, name: str = 'Q') -> Array:
-    """Rod lengths as a finite ``(N, 3)`` array (a single ``(3,)`` becomes one row)."""
-    try:
-        a = np.asarray(Q, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be rod lengths q1 q2 q3 (numbers, metres)') from None
-    if a.ndim == 1:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] == 0:
-        raise InputError(f'{name} must have shape (N, 3) (rod lengths q1 q2 q3 in metres), got {np.shape(Q)}')
-    if not np.all(np.isfinite(a)):
-        i, k = np.argwhere(~np.isfinite(a))[0]
-        raise InputError(f'{name}[{i}]: q{k + 1} = {a[i, k]} is not a finite number')
+def as_configurations(Q: ArrayLike, name: str = 'rod lengths') -> Array:
+    """Rod lengths as a finite ``(N, 3)`` array, ``N >= 1`` (a single ``(3,)`` becomes one row), with the core's
+    checks and messages (``q2 = nan (sample 3) is not a finite number``)."""
+    a = _as_rows(Q, 'q', 3)
+    if a.shape[0] == 0:
+        raise InputError(f'{name}: no configurations given; allowed: rod lengths q1 q2 q3, shape (N, 3), N >= 1')
     return a
 
 
