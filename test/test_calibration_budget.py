@@ -152,5 +152,14 @@ def test_refusals():
         accuracy_budget(m, Q, table, percentiles=(50, 101))
     with pytest.raises(InputError, match=r'2 labels for 1 stations'):
         accuracy_budget(m, Q, table, labels=['a', 'b'])
+    with pytest.raises(InputError, match=r'theta must be 4 finite parameter values'):
+        accuracy_budget(m, Q, table, theta=[0.1, 0.2])
+    with pytest.raises(InputError, match=r'indices must be distinct integers from 0 to 3'):
+        accuracy_budget(m, Q, table, calibrated=([0, 0], np.eye(2)))
+    with pytest.raises(InputError, match=r'not positive semi-definite'):
+        accuracy_budget(m, Q, table, calibrated=([0, 1], np.array([[1e-10, 0], [0, -1e-10]])))
+    singular = np.array([[1e-10, 1e-10], [1e-10, 1e-10]])            # rank 1: sampled without failure
+    b = accuracy_budget(m, [[0.3, 0.31, 0.3]], table, calibrated=([0, 1], singular), samples=100)
+    assert np.all(np.isfinite(b.mc_std))
     with pytest.raises(InputError, match=r'q2 = nan is not a finite number'):
         accuracy_budget(m, [[0.3, np.nan, 0.3]], table)

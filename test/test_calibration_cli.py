@@ -172,3 +172,29 @@ def test_demo_prints_before_and_after():
     assert re.search(r'^  radius +true +\+40\.000 um +identified .*standard errors\)$', res.stdout, re.M)
     assert res.stdout.count('held at nominal (these poses know it less well than its tolerance)') == 3
     assert res.stdout.count('accuracy budget: 2 station(s)') == 2
+
+
+def test_corrupted_measurement_files_never_crash(capsys, tmp_path):
+    """Seeded corruptions of the shipped file (a changed character, a cut, a huge or odd value): every run ends
+    with status 0 or 2 and, for 2, one line without a traceback."""
+    text = open(SHIPPED, encoding='utf-8').read()
+    rng = np.random.default_rng(0)
+    odd = ['nan', '-inf', '1e308', '1e-320', '', '"', ',', '\x00', 'é', '0x1p3', '--1', '1e6', '-0']
+    statuses = set()
+    for k in range(60):
+        i = int(rng.integers(len(text)))
+        kind = k % 3
+        if kind == 0:
+            bad = text[:i] + str(rng.choice(odd)) + text[i + 1:]
+        elif kind == 1:
+            bad = text[:i]
+        else:
+            j = text.find(',', i)
+            bad = text if j < 0 else text[:j + 1] + str(rng.choice(odd)) + text[text.find(',', j + 1):]
+        path = tmp_path / f'c{k}.csv'
+        path.write_text(bad, encoding='utf-8')
+        status, out, err = run(capsys, 'calibrate', str(path), '--output', str(tmp_path / f'c{k}.yaml'))
+        assert status in (0, 2), (k, err)
+        assert 'Traceback' not in err and (status == 0 or err.count('\n') == 1), (k, err)
+        statuses.add(status)
+    assert statuses == {0, 2}

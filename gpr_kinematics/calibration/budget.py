@@ -190,7 +190,8 @@ def _sample(src_tols: list[tuple[int, Tolerance]], cal: tuple[Array, Array] | No
     for j, t in src_tols:
         dtheta[:, j] = t.sample(rng, (S,))
     if cal is not None and len(cal[0]):
-        L = np.linalg.cholesky(cal[1] + 1e-300 * np.eye(len(cal[0])))
+        lam, V = np.linalg.eigh(cal[1])                  # a square root that also takes a singular covariance
+        L = V * np.sqrt(np.maximum(lam, 0.0))
         dtheta[:, cal[0]] = rng.standard_normal((S, len(cal[0]))) @ L.T
     dq = table.rod_length.sample(rng, (S, N, 3)) if table.rod_length is not None else np.zeros((S, N, 3))
     disp = None
@@ -239,15 +240,24 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     if len(labels_t) != N:
         raise InputError(f'{len(labels_t)} labels for {N} stations')
     params = model.parameters
+    P = len(params)
     th = params.nominal if theta is None else np.asarray(theta, dtype=float)
+    if th.shape != (P,) or not np.all(np.isfinite(th)):
+        raise InputError(f'theta must be {P} finite parameter values, got shape {th.shape}')
     tols = table.bind(params)
     cal = None
     if calibrated is not None:
-        idx = np.asarray(calibrated[0], dtype=int).ravel()
+        idx = np.asarray(calibrated[0]).ravel()
         cov = np.asarray(calibrated[1], dtype=float)
-        if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)):
-            raise InputError(f'calibrated covariance must be ({idx.size}, {idx.size}) and finite, got {cov.shape}')
-        cal = (idx, cov)
+        if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
+            raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
+        if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)) or \
+                np.max(np.abs(cov - cov.T), initial=0.0) > 1e-9 * np.max(np.abs(cov), initial=0.0):
+            raise InputError(f'calibrated covariance must be a finite symmetric ({idx.size}, {idx.size}) matrix, '
+                             f'got shape {cov.shape}')
+        if idx.size and np.linalg.eigvalsh(cov)[0] < -1e-9 * max(float(np.max(np.diag(cov))), 1e-300):
+            raise InputError('calibrated covariance is not positive semi-definite')
+        cal = (idx.astype(int), cov)
     if max(table.joint_clearance) > 0 and not model.supports_displacement:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
