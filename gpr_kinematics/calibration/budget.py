@@ -153,11 +153,11 @@ def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, 
                                'interval', np.array([0.5 * (t.high - t.low)])))
     if max(table.joint_clearance) > 0:
         Jd = displacement_jacobian(model, theta, Q)                 # (N, 6, 3, 3)
-        for k, c in enumerate(table.joint_clearance):
-            if c > 0:
+        for k, radius in enumerate(table.joint_clearance):
+            if radius > 0:
                 Gk = _with_tool(np.ascontiguousarray(Jd[:, :, k, :]), rot, tool)
-                out.append(_Source(f'joint_clearance{k + 1}', Gk, np.zeros(3), np.eye(3) * c * c / 5.0, 'ball',
-                                   np.array([c])))
+                out.append(_Source(f'joint_clearance{k + 1}', Gk, np.zeros(3), np.eye(3) * radius ** 2 / 5.0, 'ball',
+                                   np.array([radius])))
     return out
 
 
@@ -169,7 +169,7 @@ def _worst(src: list[_Source], comps: tuple[int, ...]) -> Array:
     else:
         a = 2.0 * np.pi * np.arange(DIRECTIONS) / DIRECTIONS
         U = np.stack([np.cos(a), np.sin(a)], axis=-1)
-    h = 0.0
+    h: Any = 0.0
     for s in src:
         g = s.G[:, list(comps), :]                                   # (N, d, k)
         ug = np.einsum('ud,ndk->nuk', U, g)                          # (N, U, k)

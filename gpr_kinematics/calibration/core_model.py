@@ -99,9 +99,9 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
     outside the stroke, or rod lengths that tilt the platform beyond the tilt limit (the tilt of the plane of the
     joint centres ``P_k``, which every virtual-joint model shares) by more than :data:`TILT_MARGIN`."""
     lo, hi = config.stroke_min, config.stroke_max
-    bad = np.argwhere((meas.q < lo) | (meas.q > hi))
-    if bad.size:
-        i, k = bad[0]
+    outside = np.argwhere((meas.q < lo) | (meas.q > hi))
+    if outside.size:
+        i, k = outside[0]
         raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
                          f'[{lo:g}, {hi:g}] m (millimetres? declare "# units: mm")')
     P = base_points(meas.q, config)

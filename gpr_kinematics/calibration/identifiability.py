@@ -111,7 +111,8 @@ def triangular_factor(J_scaled: Array) -> Array:
     singular vectors, so later analyses cost ``O(C^3)`` however many rows ``J`` has."""
     J = np.asarray(J_scaled, dtype=float)
     if J.shape[0] >= J.shape[1]:
-        return np.linalg.qr(J, mode='r')
+        R: Array = np.linalg.qr(J, mode='r')  # type: ignore[assignment]  # mode 'r' returns R alone
+        return R
     return np.vstack([J, np.zeros((J.shape[1] - J.shape[0], J.shape[1]))])
 
 
@@ -139,7 +140,7 @@ def analyse(J_scaled: Array, names: Sequence[str], threshold: float = DEFAULT_TH
                  if mag[j] >= DESCRIBE_BELOW * mag[top]}
         combos.append(Combination(float(s[-1]), terms, names[keep[top]]))
         del keep[top]
-    return Identifiability(names=names, singular_values=s_all, threshold=bound,
+    return Identifiability(names=names, singular_values=np.asarray(s_all, dtype=float), threshold=bound,
                            identified=tuple(names[k] for k in keep),
                            held=tuple(c.held for c in combos), combinations=tuple(combos),
-                           fitted_singular_values=s if keep else np.zeros(0))
+                           fitted_singular_values=np.asarray(s if keep else np.zeros(0), dtype=float))

@@ -186,14 +186,14 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
         pos, rot = evaluate(model, theta, meas.q)
         return pose_error(pos, rot, ref[0], ref[1])
 
-    def weighted_jacobian(theta: Array, cols: Array) -> Array:
+    def weighted_jacobian(theta: Array, cols: NDArray[np.int64]) -> Array:
         J = pose_jacobian(model, theta, meas.q, cols, reference=ref) * w[:, :, None]
         return J.reshape(6 * n, cols.size) * scale[cols]
 
     e0 = errors(theta0)
     _check_plausible(meas, e0)
-    free_idx = np.flatnonzero(mask)
-    ident = analyse(weighted_jacobian(theta0, free_idx), [params[j].name for j in free_idx], threshold)
+    free_idx = np.flatnonzero(mask).astype(np.int64)
+    ident = analyse(weighted_jacobian(theta0, free_idx), [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
     theta, e, iterations = _levenberg_marquardt(errors, weighted_jacobian, theta0, fit, w, scale)
     F = fit.size
@@ -217,7 +217,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
                              absolute_sigma=absolute, iterations=iterations, rows=n, source=meas.source)
 
 
-def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit: Array, w: Array,
+def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit: NDArray[np.int64], w: Array,
                          scale: Array) -> tuple[Array, Array, int]:
     """Minimise ``|errors(theta) * w|^2`` over ``theta[fit]`` from ``theta0``; returns ``(theta, errors, steps)``.
 

@@ -18,7 +18,7 @@ radians, zero exactly when the poses agree.
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -268,8 +268,7 @@ def rotation_vector(R: ArrayLike) -> Array:
     return v * f[..., None]
 
 
-def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike,
-                  columns: Sequence[int] | NDArray[np.bool_] | None = None,
+def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: ArrayLike | None = None,
                   reference: tuple[Array, Array] | None = None) -> Array:
     """Derivatives ``(N, 6, C)`` of the pose error ``e(theta) = pose_error(poses(theta), reference)`` (position
     [m], rotation vector [rad]) by the parameters ``columns`` (indices or a mask; all by default), by central

@@ -182,12 +182,12 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
         raise InputError(f'plan size {n!r}; allowed: an integer from 1 to {min(C, MAX_PLAN)} (the number of '
                          f'candidate configurations within the stroke and tilt limits is {C})')
     params = model.parameters
-    free_idx = np.flatnonzero(params.select(free))
+    free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
     theta0 = params.nominal
     scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [1.0 / sigma_angle] * 3)
     J = pose_jacobian(model, theta0, cand.q, free_idx) * w[None, :, None] * scale[free_idx]  # (C, 6, F)
-    names = [params[j].name for j in free_idx]
+    names = [params[int(j)].name for j in free_idx]
     overall = analyse(J.reshape(-1, free_idx.size), names, threshold)
     keep = [names.index(nm) for nm in overall.identified]
     blocks = np.ascontiguousarray(J[:, :, keep])
@@ -236,8 +236,9 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     rand = []
     for _ in range(RANDOM_DESIGNS):
         pick = rng.choice(C, size=n, replace=False)
-        s = np.linalg.svd(J[pick][:, :, fit_cols].reshape(-1, len(fit_cols)), compute_uv=False) if fit_cols else []
-        rand.append(observability_index(np.asarray(s), n, index))
+        s = np.linalg.svd(J[pick][:, :, fit_cols].reshape(-1, len(fit_cols)), compute_uv=False) if fit_cols else \
+            np.zeros(0)
+        rand.append(observability_index(s, n, index))
     return MeasurementPlan(q=cand.q[sel], height=cand.height[sel], tilt=cand.tilt[sel], azimuth=cand.azimuth[sel],
                            index_name=index, index=value, random_index=float(np.median(rand)),
                            identifiability=ident, fitted=fitted, covariance=cov, candidates=C, passes=passes,

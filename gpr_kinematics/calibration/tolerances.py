@@ -122,8 +122,11 @@ class ToleranceTable:
                 raise ConfigError(f'{self.source}: parameters: unknown parameter {safe_yaml.brief(key)}; this model '
                                   f'has {", ".join(params.names)} (or whole keys: {", ".join(params.groups)})')
         for j, p in enumerate(params):
-            key = p.name if p.name in self.entries else p.key if p.key in self.entries else None
-            if key is None:
+            if p.name in self.entries:
+                key = p.name
+            elif p.key in self.entries:
+                key = p.key
+            else:
                 continue
             kind, vals, dist = self.entries[key]
             f = {'m': _LENGTH[self.units[0]], 'rad': _ANGLE[self.units[1]], '1': 1.0}[p.unit]
