@@ -82,7 +82,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 def _plan(args: argparse.Namespace) -> int:
     from .calibration.core_model import CoreModel
-    from .calibration.files import write_text
+    from .calibration.files import comment_lines, write_text
     from .calibration.plan import plan_measurements
     from .calibration.report import format_plan
     cfg = _config(args)
@@ -93,10 +93,11 @@ def _plan(args: argparse.Namespace) -> int:
                              sigma_angle=sa, threshold=args.threshold, prior=_prior(table, model))
     path = None
     if args.output is not None:
-        text = (f'# measurement plan of `gpr calibrate --plan {args.plan}`: observability index ({plan.index_name}) '
-                f'{plan.index:.6g}\n# measure the pose of gpr_platform at each row and add the columns '
-                'x,y,z,qx,qy,qz,qw (docs/calibration.md)\n# units: m rad\nq1,q2,q3\n'
-                + ''.join(','.join(repr(float(v)) for v in row) + '\n' for row in plan.q))
+        text = (comment_lines([f'measurement plan of `gpr calibrate --plan {args.plan}`: observability index '
+                               f'({plan.index_name}) {plan.index:.6g}',
+                               'measure the pose of gpr_platform at each row and add the columns x,y,z,qx,qy,qz,qw '
+                               '(docs/calibration.md)', 'units: m rad'])
+                + 'q1,q2,q3\n' + ''.join(','.join(repr(float(v)) for v in row) + '\n' for row in plan.q))
         path = write_text(args.output, text, 'plan')
     if args.json:
         from .cli import emit_json

@@ -114,8 +114,8 @@ def test_core_geometry_identified_and_written_as_a_config_file(tmp_path):
     assert np.all(np.abs(z) < 3.0) and res.status == ('fitted',) * 4
     assert res.after.rms_angle < res.before.rms_angle
     cal = m.config_for(res.estimate)
-    path = write_calibrated_config(tmp_path / 'cal.yaml', cal, ('a test',))
-    back = load_config(path)
+    path = write_calibrated_config(tmp_path / 'cal.yaml', cal, ('a test', 'from x\nradius: 5\r.csv'))
+    back = load_config(path)                                   # (a newline in a comment cannot inject a key)
     assert back == cal and back.radius == res.estimate[0] and list(back.rod_azimuths) == res.estimate[1:].tolist()
     assert path.read_text().startswith('# a test\n') and 'characteristic_length: null' in path.read_text()
     # The calibrated file reproduces the identified model exactly, and inverse -> forward round trips in it.

@@ -2,6 +2,7 @@
 every malformed file refused with the line and the column named; bounded reading; safe writing."""
 from __future__ import annotations
 
+import doctest
 import math
 import os
 import threading
@@ -128,6 +129,10 @@ def test_file_kinds_size_and_encoding(tmp_path, monkeypatch):
     monkeypatch.setattr(measurements, 'MAX_FILE_BYTES', 50)
     with pytest.raises(InputError, match=r'has \d+ bytes; allowed: at most 50'):
         read_measurements(bom)
+
+
+def test_doctests():
+    assert doctest.testmod(files).failed == 0
 
 
 def test_write_text_refuses_non_regular_targets_and_is_atomic(tmp_path):

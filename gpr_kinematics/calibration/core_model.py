@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import base_points, forward_batch
-from .files import write_text
+from .files import comment_lines, write_text
 from .measurements import Measurements
 from .model import Parameter, ParameterSet, config_values
 
@@ -122,7 +122,7 @@ def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) ->
     if config.characteristic_length == config.radius:
         values['characteristic_length'] = None
     body = yaml.safe_dump(values, sort_keys=False, default_flow_style=None)
-    return ''.join(f'# {c}\n' for c in comments) + body
+    return comment_lines(comments) + body
 
 
 def write_calibrated_config(path: str | Path, config: GprConfig, comments: tuple[str, ...] = ()) -> Path:

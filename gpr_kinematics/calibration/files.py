@@ -15,6 +15,16 @@ from pathlib import Path
 from ..errors import InputError
 
 
+def comment_lines(comments: tuple[str, ...] | list[str]) -> str:
+    r"""``comments`` as ``# `` lines, control characters (a newline in a file name) replaced by spaces, so a
+    comment can never end early and inject content into a YAML or CSV file.
+
+    >>> comment_lines(['from a\nradius: 5.csv'])
+    '# from a radius: 5.csv\n'
+    """
+    return ''.join('# ' + ''.join(ch if ch.isprintable() else ' ' for ch in c) + '\n' for c in comments)
+
+
 def read_text(path: str | Path, what: str, max_bytes: int) -> str:
     """The UTF-8 text of the regular file ``path`` of at most ``max_bytes`` bytes (a leading BOM is dropped).
 

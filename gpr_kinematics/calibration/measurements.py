@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..geometry import matrix_from_quaternion
 from ..validation import QUATERNION_NORM_TOLERANCE
-from .files import read_text, write_text
+from .files import comment_lines, read_text, write_text
 
 Array = NDArray[np.float64]
 
@@ -238,9 +238,8 @@ def format_measurements(m: Measurements, comments: tuple[str, ...] = ()) -> str:
             cols.append(name)
             parts.append(np.asarray(val)[:, None])
     data = np.hstack(parts)
-    out = [f'# {c}' for c in comments] + ['# units: m rad', ','.join(cols)]
-    out += [','.join(repr(float(v)) for v in row) for row in data]
-    return '\n'.join(out) + '\n'
+    out = ['# units: m rad', ','.join(cols)] + [','.join(repr(float(v)) for v in row) for row in data]
+    return comment_lines(comments) + '\n'.join(out) + '\n'
 
 
 def write_measurements(path: str | Path, m: Measurements, comments: tuple[str, ...] = ()) -> Path:
