@@ -198,12 +198,12 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
             w.write(topic, t, data)
     bag = read_bag(tmp_path / 'd')
     assert len(bag.files) == 6
-    spans = [f['duration']['nanoseconds'] for f in bag.metadata['files']]
+    spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata['files']] == [20] * 6
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [20] * 6
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
-    meta = bag.metadata
+    meta = bag.metadata.info
     assert meta['version'] == 9 and meta['storage_identifier'] == 'mcap'
     assert meta['relative_file_paths'] == [f['path'] for f in meta['files']]
     assert meta['message_count'] == sum(f['message_count'] for f in meta['files']) == len(messages)
