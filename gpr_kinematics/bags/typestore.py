@@ -20,6 +20,10 @@ from .errors import BagError
 
 INTERFACES_PACKAGE = 'gpr_interfaces'
 
+#: The geometry and model that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
+#: node's ``GprConfig.to_dict()``, published once at start (reliable, transient local, depth 1).
+GEOMETRY_TOPIC = '/gpr/geometry'
+
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
     '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
@@ -27,7 +31,11 @@ GPR_TOPICS: dict[str, str] = {
     '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
     '/gpr/joint_states': 'sensor_msgs/msg/JointState',
     '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+    GEOMETRY_TOPIC: 'std_msgs/msg/String',
 }
+
+#: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC})
 
 PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
 
