@@ -35,7 +35,7 @@ STATE = '/gpr/platform_state'
 
 @pytest.fixture(scope='module')
 def messages() -> list[tuple[str, int, bytes]]:
-    # A short sweep: 1 deg steps, 60 deg azimuth: 6 rows x 5 tilts, 4 topics.
+    # A short sweep: 1 deg steps, 60 deg azimuth: 6 rows x 5 tilts; the geometry once, then 5 topics a sample.
     return sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(60.0))
 
 
@@ -191,7 +191,8 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
 
 
 def test_split_by_duration(tmp_path: Path, messages: list) -> None:
-    # The synthetic stream is 1 ms per sample (4 messages): 30 samples split every 5 ms of log time.
+    # The synthetic stream is 1 ms per sample (5 messages, the geometry before the first): 30 samples split every
+    # 5 ms of log time.
     topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
     with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
         for topic, t, data in messages:
@@ -200,7 +201,7 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     assert len(bag.files) == 6
     spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata.info['files']] == [20] * 6
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [26] + [25] * 5
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
     meta = bag.metadata.info
@@ -282,7 +283,8 @@ def test_tampered_virtual_joint_and_lost_sample(tmp_path: Path, messages: list,
     result = verify_bag(tmp_path / 't')
     assert [(f.check, f.sample) for f in result.failures] == [('state.tilt', 9)]
     # Drop one sample of every topic: the counter check names the sample after the gap.
-    lost = [m for m in messages if m[1] != messages[4 * 12][1]]
+    t12 = [t for topic, t, _ in messages if topic == STATE][12]
+    lost = [m for m in messages if m[1] != t12]
     write_messages(tmp_path / 'gap', lost)
     result = verify_bag(tmp_path / 'gap')
     assert [(f.check, f.sample, f.value) for f in result.failures] == [('stream.counter', 13, 1.0)]

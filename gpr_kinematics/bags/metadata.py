@@ -18,7 +18,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Final, Literal
 
 import yaml
 
@@ -27,7 +27,7 @@ from ..errors import ConfigError
 from .errors import BagError
 from .fileio import read_bounded, require_regular
 
-BAG_VERSION = 9
+BAG_VERSION: Final[Literal[9]] = 9
 STORAGES = ('mcap', 'sqlite3')
 #: ``custom_data`` key prefix of a storage file's SHA-256, and the key of the metadata's own digest.
 FILE_DIGEST_PREFIX = 'gpr_sha256/'

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -64,6 +65,18 @@ def typestore() -> Typestore:
             return store
     raise BagError('cannot find the gpr_interfaces message definitions (.msg); looked in '
                    + ', '.join(str(d) for d in interface_msg_dirs()))
+
+
+#: Kinds of a field definition in :func:`fields_of` (``rosbags``' ``Nodetype``).
+BASE, NAME, ARRAY, SEQUENCE = 1, 2, 3, 4
+
+
+def fields_of(msgtype: str) -> list[tuple[str, tuple[int, Any]]]:
+    """``(name, (kind, detail))`` of each field of a known type: ``kind`` :data:`BASE` (detail
+    ``(primitive, bound)``), :data:`NAME` (detail the type name), :data:`ARRAY` or :data:`SEQUENCE` (detail
+    ``((kind, detail), count or bound)``)."""
+    fields: Any = typestore().fielddefs[msgtype][1]
+    return list(fields)
 
 
 def normalize_type(msgtype: str) -> str:

@@ -15,10 +15,7 @@ bag as a *split recording* (rosbag2's own format for ``ros2 bag record --max-bag
   file + ``os.replace``) listing every closed segment with per-file and per-topic counts (bag format version
   9) and the checksums of :mod:`.metadata` (each file's SHA-256, the metadata's own digest).
 
-MCAP segments are written with the ``mcap`` library: chunk CRCs, the data-section CRC and the summary CRC
-are all computed (the ``rosbags`` MCAP writer leaves them 0); the channels carry ``offered_qos_profiles`` and
-``topic_type_hash`` and the file a ``rosbag2`` metadata record, as rosbag2's own MCAP plugin writes them.
-SQLite3 segments are written with the ``rosbags`` writer (the format has no checksums: the SHA-256 covers it).
+The segment files themselves are written by :mod:`.storage_writers` (MCAP with every CRC, or SQLite3).
 
 So at every instant the bag folder is a complete, readable rosbag2 split bag of everything received up to
 the last roll; a kill loses at most the open segment: messages younger than about ``flush_interval``.
@@ -30,124 +27,32 @@ import os
 import shutil
 import time
 from dataclasses import dataclass, field
-from importlib.metadata import version
 from pathlib import Path
-from typing import Any, Protocol
 
-import yaml
-from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.errors import WriterError
-from rosbags.rosbag2.metadata import dump_qos_v9
 
 from .errors import BagError
 from .fileio import sha256_file
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, render_metadata
 from .reader import OPEN_SEGMENT_DIR
-from .typestore import LATCHED_TOPICS, check_known, definition
+from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
+from .typestore import check_known, definition
 
 #: Storage name -> file suffix.
 STORAGES: dict[str, str] = {'mcap': '.mcap', 'sqlite3': '.db3'}
 COMPRESSIONS = ('none', 'zstd')
 #: A segment is closed once its oldest message is this fraction of the flush interval old.
 ROLL_FRACTION = 0.8
-#: Uncompressed bytes of an MCAP chunk (rosbags and rosbag2 use about the same).
-MCAP_CHUNK_BYTES = 1 << 20
-ROS_DISTRO = 'jazzy'
-_T0 = QosTime(0, 0)
-#: What the trajectory node offers on a latched topic (published once at start): reliable, transient local.
-LATCHED_QOS = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, _T0, _T0,
-                  QosLiveliness.AUTOMATIC, _T0, False)
-
-
-def offered_qos(topic: str) -> list[dict[str, Any]]:
-    """``offered_qos_profiles`` stored for ``topic`` (v9 form): the latched profile, or none (unknown)."""
-    return list(dump_qos_v9([LATCHED_QOS])) if topic in LATCHED_TOPICS else []
-
-
-class _Storage(Protocol):
-    """One segment's storage file being written."""
-
-    file: Path
-
-    def write(self, topic: str, timestamp: int, data: bytes) -> None: ...
-
-    def close(self) -> None: ...
-
-    def abort(self) -> None: ...
-
-
-class _McapStorage:
-    """An MCAP segment written with the ``mcap`` library, every CRC computed (see the module docstring)."""
-
-    def __init__(self, folder: Path, topics: dict[str, str], defs: dict[str, tuple[str, str]],
-                 compression: str) -> None:
-        from mcap.writer import CompressionType
-        from mcap.writer import Writer as McapWriter
-
-        folder.mkdir(parents=True)
-        self.file = folder / f'{folder.name}.mcap'
-        self.stream = self.file.open('xb')
-        self.writer = McapWriter(self.stream, chunk_size=MCAP_CHUNK_BYTES,
-                                 compression=CompressionType.ZSTD if compression == 'zstd' else CompressionType.NONE,
-                                 enable_crcs=True, enable_data_crcs=True)
-        self.writer.start(profile='ros2', library=f'gpr_kinematics, mcap {version("mcap")}')
-        schemas: dict[str, int] = {}
-        self.channels: dict[str, int] = {}
-        for topic, msgtype in topics.items():
-            msgdef, digest = defs[topic]
-            if msgtype not in schemas:
-                schemas[msgtype] = self.writer.register_schema(name=msgtype, encoding='ros2msg', data=msgdef.encode())
-            self.channels[topic] = self.writer.register_channel(
-                topic=topic, message_encoding='cdr', schema_id=schemas[msgtype],
-                metadata={'offered_qos_profiles': yaml.safe_dump(offered_qos(topic)).rstrip('\n'),
-                          'topic_type_hash': digest})
-        self.sequence = 0
-
-    def write(self, topic: str, timestamp: int, data: bytes) -> None:
-        self.sequence += 1
-        self.writer.add_message(self.channels[topic], log_time=timestamp, data=data, publish_time=timestamp,
-                                sequence=self.sequence & 0xFFFFFFFF)
-
-    def close(self) -> None:
-        self.writer.add_metadata('rosbag2', {'ROS_DISTRO': ROS_DISTRO})
-        self.writer.finish()
-        self.stream.close()
-
-    def abort(self) -> None:
-        self.stream.close()
-
-
-class _Sqlite3Storage:
-    """An SQLite3 segment written with the ``rosbags`` writer (bag format version 9)."""
-
-    def __init__(self, folder: Path, topics: dict[str, str], defs: dict[str, tuple[str, str]]) -> None:
-        self.writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.SQLITE3)
-        self.file = folder / f'{folder.name}.db3'
-        self.writer.open()
-        self.connections = {topic: self.writer.add_connection(topic, msgtype, msgdef=defs[topic][0],
-                                                              rihs01=defs[topic][1])
-                            for topic, msgtype in topics.items()}
-
-    def write(self, topic: str, timestamp: int, data: bytes) -> None:
-        self.writer.write(self.connections[topic], timestamp, data)
-
-    def close(self) -> None:
-        self.writer.close()
-
-    def abort(self) -> None:
-        self.writer.abort()
-
-
 @dataclass
 class _Segment:
     index: int
-    storage: _Storage
+    storage: StorageWriter
     folder: Path
     opened: float
     first_message: float | None = None
     first_stamp: int | None = None
-    last_stamp: int | None = None
+    min_stamp: int | None = None
+    max_stamp: int | None = None
     bytes: int = 0
     counts: dict[str, int] = field(default_factory=dict)
 
@@ -272,8 +177,8 @@ class SegmentedBagWriter:
         self.next_index += 1
         folder = self.path / OPEN_SEGMENT_DIR / f'{self.name}_{i}'
         try:
-            storage: _Storage = (_McapStorage(folder, self.topics, self.defs, self.compression)
-                                 if self.storage == 'mcap' else _Sqlite3Storage(folder, self.topics, self.defs))
+            storage: StorageWriter = (McapStorage(folder, self.topics, self.defs, self.compression)
+                                      if self.storage == 'mcap' else Sqlite3Storage(folder, self.topics, self.defs))
         except (WriterError, OSError) as exc:
             raise BagError(f'cannot open segment {folder}: {exc}') from None
         self.segment = _Segment(i, storage, folder, time.monotonic(), counts=dict.fromkeys(self.topics, 0))
@@ -301,7 +206,10 @@ class SegmentedBagWriter:
         if seg.first_message is None:
             seg.first_message = time.monotonic()
             seg.first_stamp = int(timestamp)
-        seg.last_stamp = int(timestamp)
+        # The file's start and duration in metadata.yaml span its earliest to its latest log time (a wall
+        # clock may step back between two messages).
+        seg.min_stamp = int(timestamp) if seg.min_stamp is None else min(seg.min_stamp, int(timestamp))
+        seg.max_stamp = int(timestamp) if seg.max_stamp is None else max(seg.max_stamp, int(timestamp))
         if self.max_bag_size and seg.bytes >= self.max_bag_size:
             self.roll()
         elif self.flush_interval and time.monotonic() - seg.first_message >= ROLL_FRACTION * self.flush_interval:
@@ -341,8 +249,8 @@ class SegmentedBagWriter:
         if self.fsync:
             _fsync_path(src)
         count = sum(seg.counts.values())
-        start = seg.first_stamp if seg.first_stamp is not None else 0
-        end = seg.last_stamp if seg.last_stamp is not None else start
+        start = seg.min_stamp if seg.min_stamp is not None else 0
+        end = seg.max_stamp if seg.max_stamp is not None else start
         self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count, sha256_file(src, 'segment')))
         # Prepare the metadata that lists it, then two renames back to back (a kill between them leaves a
         # complete file that the metadata does not list yet: the window is two system calls).
