@@ -5,7 +5,8 @@
 - ``bag.type_hash``: the stored type hash of every topic equals the current definition's (a changed
   ``PlatformState.msg`` is named);
 - ``bag.message_count``: the per-topic counts of ``metadata.yaml`` equal the messages read;
-- ``bag.metadata``: the rest of ``metadata.yaml`` against the files: the format version, the file list
+- ``bag.metadata``: the rest of ``metadata.yaml`` against the files: the format version (9 for a bag of this
+  suite's recorder, which carries its checksums; 1 to 9 for others), the file list
   (``relative_file_paths`` = ``files``), per file its message count, start and duration, the totals
   (``message_count``, ``starting_time``, ``duration``), each topic's type and type hash as the files store
   them;
@@ -15,7 +16,7 @@
 """
 from __future__ import annotations
 
-from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY
+from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, digest_line
 from .reader import Bag
 from .results import Check, bag_check, skipped
 from .typestore import GPR_TOPICS, definition, typestore
@@ -32,9 +33,10 @@ def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
     meta = bag.metadata
     assert meta is not None  # callers check
     problems: list[Problem] = []
-    if not 1 <= meta.version <= BAG_VERSION:
-        problems.append(('bag', 1.0, 0.0, f'version {meta.version}: not a rosbag2 format version (1 to '
-                                          f'{BAG_VERSION})'))
+    signed = METADATA_DIGEST_KEY in meta.custom_data
+    if (meta.version != BAG_VERSION) if signed else not 1 <= meta.version <= BAG_VERSION:
+        allowed = f'{BAG_VERSION}, the format the recorder writes' if signed else f'1 to {BAG_VERSION}'
+        problems.append(('bag', 1.0, 0.0, f'version {meta.version}; allowed: {allowed}'))
     _differs(problems, 'bag', 'file list (relative_file_paths vs files)', list(meta.relative_file_paths),
              [f.path for f in meta.files])
     read = {f.name: f for f in bag.storage_files}
@@ -89,6 +91,8 @@ def _checksum_check(bag: Bag, allow_missing: bool) -> Check:
                          f'{meta.digest_lines} lines carry {METADATA_DIGEST_KEY}; expected one'))
     elif stored != meta.computed_digest:
         problems.append(('metadata.yaml', 1.0, 0.0, 'SHA-256 differs from the recorded one: metadata.yaml changed'))
+    elif meta.digest_line != digest_line(stored):
+        problems.append(('metadata.yaml', 1.0, 0.0, f'the {METADATA_DIGEST_KEY} line is not in its one form'))
     for f in bag.storage_files:
         want = digests.get(f.name)
         if want is None:

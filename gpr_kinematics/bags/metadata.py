@@ -7,7 +7,8 @@ pairs that rosbag2 carries along). The recorder stores the integrity data there:
 - ``gpr_sha256/<file>``: the SHA-256 of each closed storage file (SQLite3 has no checksums of its own; MCAP
   has CRC-32s, which this covers as well);
 - ``gpr_metadata_sha256``: the SHA-256 of the ``metadata.yaml`` bytes without that one line, so any change
-  to the metadata, down to a bit, is seen (a parsed-and-compared digest would miss changes that parse alike).
+  to the metadata, down to a bit, is seen (a parsed-and-compared digest would miss changes that parse alike);
+  the line itself must read exactly :func:`digest_line` of the value it holds.
 
 These are checksums, not signatures: they catch corruption and edits by anyone who does not recompute them.
 """
@@ -32,10 +33,11 @@ STORAGES = ('mcap', 'sqlite3')
 #: ``custom_data`` key prefix of a storage file's SHA-256, and the key of the metadata's own digest.
 FILE_DIGEST_PREFIX = 'gpr_sha256/'
 METADATA_DIGEST_KEY = 'gpr_metadata_sha256'
-#: Largest ``metadata.yaml`` read (about 150 bytes per file: a day of 1 s segments is 13 MB).
-MAX_METADATA_BYTES = 64 << 20
+#: Largest ``metadata.yaml`` read: about 250 bytes per storage file, so 16 MiB hold 18 hours of 1 s segments.
+MAX_METADATA_BYTES = 16 << 20
 _DIGEST_LINE = re.compile(rb'^[ \t]*' + METADATA_DIGEST_KEY.encode() + rb':[^\n]*(\n|\Z)', re.MULTILINE)
 _PLACEHOLDER = '0' * 64
+_INDENT = ' ' * 4  # rosbag2_bagfile_information > custom_data > key, as PyYAML indents
 
 
 @dataclass(frozen=True)
@@ -75,9 +77,11 @@ class Metadata:
     compression_mode: str
     custom_data: Mapping[str, str]
     info: Mapping[str, Any]
-    #: SHA-256 of the file without the digest line, and how many digest lines it has (1 when written here).
+    #: SHA-256 of the file without the digest line, how many digest lines it has (1 when written here) and the
+    #: line (when there is exactly one).
     computed_digest: str
     digest_lines: int
+    digest_line: bytes
 
 
 class _Schema:
@@ -125,10 +129,15 @@ class _Schema:
         return [_Schema(self.source, v, f'{self.where}{key}[{i}].') for i, v in enumerate(value)]
 
 
-def _digest_without_line(text: bytes) -> tuple[str, int]:
+def _digest_without_line(text: bytes) -> tuple[str, int, bytes]:
     lines = list(_DIGEST_LINE.finditer(text))
     rest = _DIGEST_LINE.sub(b'', text, count=1) if lines else text
-    return hashlib.sha256(rest).hexdigest(), len(lines)
+    return hashlib.sha256(rest).hexdigest(), len(lines), lines[0].group(0) if len(lines) == 1 else b''
+
+
+def digest_line(value: str) -> bytes:
+    """The one form of the digest line: ``custom_data``'s indentation, the key, the value in single quotes."""
+    return f"{_INDENT}{METADATA_DIGEST_KEY}: '{value}'\n".encode()
 
 
 def read_metadata(folder: Path) -> Metadata:
@@ -144,6 +153,11 @@ def read_metadata(folder: Path) -> Metadata:
                        f'segment was never closed)')
     require_regular(path, 'metadata.yaml')
     text = read_bounded(path, 'metadata.yaml', MAX_METADATA_BYTES)
+    try:
+        text.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        raise BagError(f'{path}: not UTF-8 text (byte {exc.start}: {text[exc.start:exc.start + 1]!r}); '
+                       f'allowed: a rosbag2 metadata file, UTF-8 YAML') from None
     try:
         data = read_yaml(path, 'bag metadata')
     except ConfigError as exc:
@@ -171,14 +185,14 @@ def read_metadata(folder: Path) -> Metadata:
     if not isinstance(custom, Mapping) or not all(isinstance(k, str) and isinstance(v, str)
                                                   for k, v in custom.items()):
         raise top._fail('custom_data', custom, 'a mapping of strings to strings')
-    digest, lines = _digest_without_line(text)
+    digest, lines, line = _digest_without_line(text)
     return Metadata(version=version, storage=storage, starting_time=top.integer('starting_time',
                                                                                 'nanoseconds_since_epoch'),
                     duration=top.integer('duration', 'nanoseconds'), message_count=top.integer('message_count'),
                     relative_file_paths=tuple(paths), files=files, topics=tuple(topics),
                     compression_format=top.text('compression_format', ''),
                     compression_mode=top.text('compression_mode', ''), custom_data=dict(custom), info=info,
-                    computed_digest=digest, digest_lines=lines)
+                    computed_digest=digest, digest_lines=lines, digest_line=line)
 
 
 def render_metadata(info: dict[str, Any]) -> bytes:
@@ -188,11 +202,7 @@ def render_metadata(info: dict[str, Any]) -> bytes:
     custom[METADATA_DIGEST_KEY] = _PLACEHOLDER
     text: bytes = yaml.safe_dump({'rosbag2_bagfile_information': {**info, 'custom_data': custom}},
                                  default_flow_style=False, sort_keys=False).encode('utf-8')
-    digest, lines = _digest_without_line(text)
-    if lines != 1:
-        raise BagError(f'metadata: {lines} lines start with {METADATA_DIGEST_KEY}; expected exactly one')
-    match = _DIGEST_LINE.search(text)
-    assert match is not None  # lines == 1
-    indent = match.group(0)[:len(match.group(0)) - len(match.group(0).lstrip())]
-    line = indent + f"{METADATA_DIGEST_KEY}: '{digest}'\n".encode()
-    return text[:match.start()] + line + text[match.end():]
+    digest, lines, line = _digest_without_line(text)
+    if lines != 1 or not line.startswith(_INDENT.encode() + METADATA_DIGEST_KEY.encode()):
+        raise BagError(f'metadata: the {METADATA_DIGEST_KEY} line came out as {line!r} ({lines} such lines)')
+    return text.replace(line, digest_line(digest), 1)
