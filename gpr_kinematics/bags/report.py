@@ -108,7 +108,8 @@ def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
     try:
         return _write(result, out)
     except OSError as exc:
-        raise BagError(f'--report {out}: cannot write {exc.filename or out}: {exc.strerror or exc}') from None
+        raise BagError(f'--report {out}: cannot create or write {exc.filename or out}: {exc.strerror or exc}'
+                       ) from None
 
 
 def _target(out: Path, name: str) -> Path:
