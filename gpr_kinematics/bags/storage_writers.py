@@ -8,15 +8,17 @@ each file covers it).
 """
 from __future__ import annotations
 
+import hashlib
 from importlib.metadata import version
 from pathlib import Path
-from typing import Any, Protocol
+from typing import IO, Any, Protocol, cast
 
 import yaml
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.rosbag2.metadata import dump_qos_v9
 
+from .fileio import sha256_file
 from .metadata import BAG_VERSION
 from .typestore import LATCHED_TOPICS
 
@@ -45,6 +47,31 @@ class StorageWriter(Protocol):
 
     def abort(self) -> None: ...
 
+    def sha256(self) -> str:
+        """Hex SHA-256 of the closed file."""
+        ...
+
+
+class _HashingStream:
+    """A binary file that hashes what is written to it (the SHA-256 of a segment without reading it again)."""
+
+    def __init__(self, path: Path) -> None:
+        self.file = path.open('xb')
+        self.digest = hashlib.sha256()
+
+    def write(self, data: bytes) -> int:
+        self.digest.update(data)
+        return self.file.write(data)
+
+    def tell(self) -> int:
+        return self.file.tell()
+
+    def flush(self) -> None:
+        self.file.flush()
+
+    def close(self) -> None:
+        self.file.close()
+
 
 class McapStorage:
     """An MCAP segment written with the ``mcap`` library, every CRC computed (see the module docstring)."""
@@ -56,8 +83,9 @@ class McapStorage:
 
         folder.mkdir(parents=True)
         self.file = folder / f'{folder.name}.mcap'
-        self.stream = self.file.open('xb')
-        self.writer = McapWriter(self.stream, chunk_size=MCAP_CHUNK_BYTES,
+        self.stream = _HashingStream(self.file)
+        # The writer uses write, tell and flush only, which the hashing stream has.
+        self.writer = McapWriter(cast(IO[bytes], self.stream), chunk_size=MCAP_CHUNK_BYTES,
                                  compression=CompressionType.ZSTD if compression == 'zstd' else CompressionType.NONE,
                                  enable_crcs=True, enable_data_crcs=True)
         self.writer.start(profile='ros2', library=f'gpr_kinematics, mcap {version("mcap")}')
@@ -86,6 +114,9 @@ class McapStorage:
     def abort(self) -> None:
         self.stream.close()
 
+    def sha256(self) -> str:
+        return self.stream.digest.hexdigest()
+
 
 class Sqlite3Storage:
     """An SQLite3 segment written with the ``rosbags`` writer (bag format version 9)."""
@@ -106,3 +137,6 @@ class Sqlite3Storage:
 
     def abort(self) -> None:
         self.writer.abort()
+
+    def sha256(self) -> str:
+        return sha256_file(self.file, 'segment')  # SQLite writes the file itself: read it once more

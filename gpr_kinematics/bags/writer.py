@@ -32,7 +32,6 @@ from pathlib import Path
 from rosbags.rosbag2.errors import WriterError
 
 from .errors import BagError
-from .fileio import sha256_file
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, render_metadata
 from .reader import OPEN_SEGMENT_DIR
 from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
@@ -251,7 +250,7 @@ class SegmentedBagWriter:
         count = sum(seg.counts.values())
         start = seg.min_stamp if seg.min_stamp is not None else 0
         end = seg.max_stamp if seg.max_stamp is not None else start
-        self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count, sha256_file(src, 'segment')))
+        self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count, seg.storage.sha256()))
         # Prepare the metadata that lists it, then two renames back to back (a kill between them leaves a
         # complete file that the metadata does not list yet: the window is two system calls).
         tmp = self._prepare_metadata()
