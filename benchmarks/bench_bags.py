@@ -37,12 +37,12 @@ from gpr_kinematics import ros_env  # noqa: E402
 
 
 def bench_verify(passes: int, runs: int = 3) -> dict:
+    from mcap.stream_reader import StreamReader
+
     from gpr_kinematics.bags.reader import read_bag
     from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
     from gpr_kinematics.bags.typestore import typestore
     from gpr_kinematics.bags.verify import verify_bag
-
-    from mcap.stream_reader import StreamReader
 
     tmp = Path(tempfile.mkdtemp(prefix='bench_bags_'))
     msgs = sweep_messages(passes=passes)
