@@ -229,7 +229,7 @@ def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
         t = int(pending[0])
         try:
             lay = layout_of(msgtype, raw[t])
-        except (ValueError, struct.error, KeyError) as exc:
+        except (ValueError, struct.error) as exc:  # what a message shorter or longer than its fields raises
             raise BagError(f'message {t} of type {msgtype} cannot be decoded: {exc}') from None
         layouts += 1
         same_len = pending[lengths[pending] == lay.length]
@@ -259,7 +259,7 @@ def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
         for i in pending:
             try:
                 msg = store.deserialize_cdr(raw[int(i)], msgtype)
-            except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad message
+            except (ValueError, IndexError, struct.error) as exc:  # what rosbags raises for bytes that do not fit
                 raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
             num: dict[str, Any] = {}
             strs: dict[str, Any] = {}

@@ -66,10 +66,23 @@ def read_bounded(path: Path, what: str, limit: int) -> bytes:
     with f:
         if size > limit:
             raise BagError(f'{path}: {what} has {size} bytes; allowed: at most {limit}')
-        data = f.read(limit + 1)
+        try:
+            data = f.read(limit + 1)
+        except OSError as exc:
+            raise BagError(f'{path}: {what} cannot be read: {exc.strerror or exc}') from None
     if len(data) > limit:
         raise BagError(f'{path}: {what} grew beyond {limit} bytes while being read')
     return data
+
+
+def read_head(path: Path, what: str, n: int) -> tuple[bytes, int]:
+    """The first ``n`` bytes of the regular file ``path`` and its size."""
+    f, size = open_regular(path, what)
+    with f:
+        try:
+            return f.read(n), size
+        except OSError as exc:
+            raise BagError(f'{path}: {what} cannot be read: {exc.strerror or exc}') from None
 
 
 def sha256_file(path: Path, what: str) -> str:
@@ -77,6 +90,9 @@ def sha256_file(path: Path, what: str) -> str:
     f, _ = open_regular(path, what)
     digest = hashlib.sha256()
     with f:
-        while block := f.read(BLOCK):
-            digest.update(block)
+        try:
+            while block := f.read(BLOCK):
+                digest.update(block)
+        except OSError as exc:
+            raise BagError(f'{path}: {what} cannot be read: {exc.strerror or exc}') from None
     return digest.hexdigest()

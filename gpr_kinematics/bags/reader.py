@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from .cdr import Columns, decode_columns
 from .errors import BagError
-from .fileio import require_regular, sha256_file
+from .fileio import read_head, require_regular, sha256_file
 from .mcap_file import read_mcap
 from .metadata import Metadata, read_metadata
 from .typestore import normalize_type
@@ -193,8 +193,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
 def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables)."""
     sha = sha256_file(path, 'SQLite3 file')
-    with path.open('rb') as f:  # a regular file: checked by locate (and by sha256_file just now)
-        head = f.read(16)
+    head, size = read_head(path, 'SQLite3 file', 16)
     if head != b'SQLite format 3\x00':
         raise BagError(f'{path}: not an SQLite3 database')
     uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
@@ -237,7 +236,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             times[name].append(stamp)
             data[name].append(blob)
     stamps = [m[1] for m in messages]
-    info = StorageFile(path.name, path.stat().st_size, sha, counts, types, digests, min(stamps, default=None),
+    info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
                        max(stamps, default=None))
     return _Contents(info, times, data)
 

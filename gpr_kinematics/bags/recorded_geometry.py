@@ -50,10 +50,13 @@ def _parse(text: str) -> GprConfig:
     if len(text.encode('utf-8', errors='replace')) > MAX_GEOMETRY_BYTES:
         raise GprError(f'{len(text)} characters; allowed: at most {MAX_GEOMETRY_BYTES} bytes')
     # Through the package's one YAML reader (its limits on aliases, nesting and size apply to messages too).
-    with tempfile.TemporaryDirectory(prefix='gpr_geometry_') as tmp:
-        path = Path(tmp) / 'geometry.yaml'
-        path.write_text(text, encoding='utf-8', errors='replace')
-        data = read_yaml(path, 'recorded geometry')
+    try:
+        with tempfile.TemporaryDirectory(prefix='gpr_geometry_') as tmp:
+            path = Path(tmp) / 'geometry.yaml'
+            path.write_text(text, encoding='utf-8', errors='replace')
+            data = read_yaml(path, 'recorded geometry')
+    except OSError as exc:  # no writable temporary folder
+        raise GprError(f'cannot be staged for the YAML reader ({exc.strerror or exc})') from None
     if not isinstance(data, dict):
         raise GprError(f'not a mapping of keys to values ({type(data).__name__})')
     return GprConfig.from_mapping(data, source=GEOMETRY_TOPIC)
