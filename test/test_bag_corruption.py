@@ -161,6 +161,19 @@ def test_metadata_edits_fail_with_or_without_a_recomputed_digest(tmp_path: Path,
         assert r['status'] == 1 and f'FAIL {check} ' in r['out'], (path, r['out'][-1500:])
 
 
+#: Corruptions that once escaped as a traceback or printed warnings (found by a wider random search): a
+#: non-UTF-8 byte in the SQLite3 schema (CPython cannot make a str of SQLite's error message), and a q of
+#: 1e290 (numpy overflow warnings on stderr).
+FOUND = [('sqlite3', 'overwrite', 'sqlite3_0.db3', 0.029811071640708287, b'\x06\x81'),
+         ('sqlite3', 'overwrite', 'sqlite3_0.db3', 0.3448606606369695,
+          b'c\x1ai\xc0\xa7\xb6\xc4\x16\xca-P\xfcN\xb4\x9e\\\x14'),
+         ('reference', 'flip', 'metadata.yaml', 0.375, 7)]
+
+
+def test_corruptions_found_before(tmp_path: Path, bags: dict[str, Path]) -> None:
+    _run(tmp_path, bags, FOUND)
+
+
 _KINDS = st.sampled_from(['flip', 'truncate', 'overwrite', 'length'])
 
 

@@ -199,22 +199,30 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
     try:
         con = sqlite3.connect(uri, uri=True)
+        con.text_factory = bytes  # text of a corrupt file need not be UTF-8: decoded and checked below
         try:
             row = con.execute('PRAGMA quick_check').fetchone()
-            if row is None or row[0] != 'ok':
-                raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {row[0] if row else "no answer"})')
+            if row is None or row[0] != b'ok':
+                answer = row[0].decode('utf-8', errors='replace') if row else 'no answer'
+                raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {answer})')
             columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
-            hashes = 'type_description_hash' if 'type_description_hash' in columns else "''"
+            hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
             messages = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id').fetchall()
         finally:
             con.close()
     except sqlite3.Error as exc:
         raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
+    except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
+        raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
     names: dict[int, str] = {}
     types: dict[str, str] = {}
     digests: dict[str, str] = {}
-    for tid, name, msgtype, fmt, digest in rows:
+    for tid, *texts in rows:
+        try:
+            name, msgtype, fmt, digest = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
+        except UnicodeDecodeError:
+            raise BagError(f'{path}: corrupt topics table (row {tid!r}: text that is not UTF-8)') from None
         if not (isinstance(tid, int) and all(isinstance(v, str) for v in (name, msgtype, fmt, digest))):
             raise BagError(f'{path}: corrupt topics table (row {tid!r})')
         if fmt != 'cdr':

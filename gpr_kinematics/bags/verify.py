@@ -63,28 +63,30 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
         bag = read_bag(bag)
     t_read = time.perf_counter() - t0
     tol = tolerances or Tolerances()
-    checks = bag_checks(bag, allow_missing_checksums)
-    known = typestore().fielddefs
-    for topic in bag.topics.values():
-        if topic.msgtype in known:
-            topic.columns()  # every recorded topic must decode (BagError otherwise)
-    st = bag.topic(STATE_TOPIC)
-    has_states = st is not None and len(st) > 0 and st.msgtype == PLATFORM_STATE
-    c = st.columns() if st is not None and has_states else None
-    q = matrix(c['q'], 3) if c is not None else np.zeros((0, 3))
-    geo = choose(bag, config, config_source, q, resolve_config(None))
-    checks.append(geo.check)
-    series, crossings, ratio = None, 0, 0.0
-    if st is None or c is None:
-        checks.append(_no_states())
-    else:
-        samples = np.asarray(c['sample'], dtype=np.int64)
-        cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
-        state = state_checks(c, samples, st.name, geo.config, tol, cross)
-        stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
-        checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
-                                                              tol.consistency)
-        series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
+    # Recorded numbers may be anything (a corrupt q of 1e290): what overflows is a failed check, not a warning.
+    with np.errstate(all='ignore'):
+        checks = bag_checks(bag, allow_missing_checksums)
+        known = typestore().fielddefs
+        for topic in bag.topics.values():
+            if topic.msgtype in known:
+                topic.columns()  # every recorded topic must decode (BagError otherwise)
+        st = bag.topic(STATE_TOPIC)
+        has_states = st is not None and len(st) > 0 and st.msgtype == PLATFORM_STATE
+        c = st.columns() if st is not None and has_states else None
+        q = matrix(c['q'], 3) if c is not None else np.zeros((0, 3))
+        geo = choose(bag, config, config_source, q, resolve_config(None))
+        checks.append(geo.check)
+        series, crossings, ratio = None, 0, 0.0
+        if st is None or c is None:
+            checks.append(_no_states())
+        else:
+            samples = np.asarray(c['sample'], dtype=np.int64)
+            cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
+            state = state_checks(c, samples, st.name, geo.config, tol, cross)
+            stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
+            checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
+                                                                  tol.consistency)
+            series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes)
     if bag.unlisted:
         notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
