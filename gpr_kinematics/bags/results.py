@@ -27,6 +27,17 @@ def json_number(value: float) -> float | str:
     return value if math.isfinite(value) else str(value)
 
 
+def json_safe(value: Any) -> Any:
+    """``value`` with every float inside it (dicts, lists, tuples) through :func:`json_number`."""
+    if isinstance(value, float):
+        return json_number(value)
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
+
+
 @dataclass
 class Failure:
     """One failed check: ``check`` on ``topic`` at ``sample`` (the message's counter, or its index in the
@@ -169,7 +180,7 @@ class VerifyResult:
             'counts': self.counts, 'unfinished_segments': self.unfinished, 'notes': self.notes,
             'singular_crossings': self.crossings, 'max_jump_ratio_at_crossings': json_number(self.crossing_ratio),
             'elapsed_s': self.elapsed, 'read_s': self.read_time, 'checks': [c.to_dict() for c in self.checks],
-            'config': self.config, 'geometry': self.geometry,
+            'config': json_safe(self.config), 'geometry': json_safe(self.geometry),
         }
 
 
