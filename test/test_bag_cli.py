@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 from bag_support import REFERENCE, STATE, rewritten, small_sweep, write_bag
 
 from gpr_kinematics import cli
@@ -85,3 +87,15 @@ def test_json_of_values_that_are_not_finite(tmp_path: Path, capsys: pytest.Captu
         assert 'nan' in values or 'inf' in values
         jump = next(c for c in data['checks'] if c['name'] == 'stream.jump')
         assert jump['worst'] == 'inf' and [f['sample'] for f in jump['failures']] == [3, 4]
+
+
+def test_metadata_fields_of_the_wrong_type(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for field, value, words in (('message_count', 'many', "message_count = 'many' is invalid; allowed: an integer"),
+                                ('relative_file_paths', 'x.mcap', 'allowed: a list of file names'),
+                                ('storage_identifier', 'rosbag1', 'allowed: mcap or sqlite3')):
+        bag = tmp_path / field
+        shutil.copytree(REFERENCE, bag)
+        info = yaml.safe_load((bag / 'metadata.yaml').read_text())
+        info['rosbag2_bagfile_information'][field] = value
+        (bag / 'metadata.yaml').write_text(yaml.safe_dump(info))
+        _one_line_error(*run('verify', str(bag), capsys=capsys), 'unreadable: ', 'metadata.yaml', words)
