@@ -1,7 +1,8 @@
 """``gpr verify BAG``: offline verification of a recorded bag against the current kinematics core.
 
 Exit status 0 when every check holds, 1 when a check fails (each failure named on stdout: check, topic,
-sample, value, limit), 2 when the bag cannot be read (one line on stderr, no traceback).
+sample, value, limit), 2 when the bag cannot be read or an argument is unusable (one line on stderr starting
+``gpr verify: error:``, "unreadable: ..." for the bag; no traceback).
 """
 from __future__ import annotations
 
@@ -10,19 +11,20 @@ import math
 import sys
 from typing import Any
 
-from .bags.report import write_report
+from .bags.errors import BagError
+from .bags.report import check_report_folder, write_report
 from .bags.verify import Tolerances, format_table, verify_bag
 from .config import load_config
 from .errors import InputError
 
 #: ``--tolerance VALUE`` (no name) sets these: the per-message agreement with the core.
-CORE_TOLERANCES = ('position', 'angle', 'virtual_joint', 'length', 'residual')
+CORE_TOLERANCES = ('position', 'angle', 'virtual_joint', 'length', 'residual', 'agreement')
 
 
 def parse_tolerances(items: list[str] | None) -> Tolerances:
     """``['1e-8', 'angle=1e-10', ...]`` -> :class:`Tolerances`; InputError naming a bad item."""
     tol = Tolerances()
-    allowed = ', '.join(Tolerances.__dataclass_fields__)
+    allowed = ', '.join(Tolerances.names())
     for item in items or []:
         name, sep, value = item.partition('=')
         if not sep:
@@ -32,22 +34,30 @@ def parse_tolerances(items: list[str] | None) -> Tolerances:
         except ValueError:
             v = math.nan
         if not (math.isfinite(v) and v >= 0):
-            raise InputError(f'--tolerance {item!r}: the value must be a finite number >= 0 (SI units)')
+            raise InputError(f'--tolerance {item[:60]!r}: the value must be a finite number >= 0 (SI units)')
         if not name:
             tol = tol.replace(**dict.fromkeys(CORE_TOLERANCES, v))
-        elif name in Tolerances.__dataclass_fields__:
+        elif name in Tolerances.names():
             tol = tol.replace(**{name: v})
         else:
-            raise InputError(f'--tolerance {item!r}: unknown name {name!r}; allowed: a number, or NAME=VALUE '
-                             f'with NAME one of {allowed}')
+            raise InputError(f'--tolerance {item[:60]!r}: unknown name {name[:40]!r}; allowed: a number, or '
+                             f'NAME=VALUE with NAME one of {allowed}')
     return tol
 
 
 def _verify(args: argparse.Namespace) -> int:
     tol = parse_tolerances(args.tolerance)
+    if args.config is not None and not args.config:
+        raise InputError('--config is empty; allowed: the path of a GPR configuration YAML file')
     cfg = load_config(args.config) if args.config else None
-    result = verify_bag(args.bag, config=cfg, tolerances=tol)
-    files = write_report(result, args.report) if args.report else []
+    if args.report is not None:
+        check_report_folder(args.report)
+    try:
+        result = verify_bag(args.bag, config=cfg, tolerances=tol, config_source=f'--config {args.config}',
+                            allow_missing_checksums=args.allow_missing_checksums)
+    except BagError as exc:
+        raise BagError(f'unreadable: {exc}') from None
+    files = write_report(result, args.report) if args.report is not None else []
     if args.json:
         from .cli import emit_json
 
@@ -65,17 +75,23 @@ def _verify(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         'verify', help='verify a recorded bag against the current kinematics (exit 0 ok, 1 failed, 2 unreadable)',
-        description='Check every gpr_interfaces/PlatformState of a rosbag2 bag (MCAP or SQLite3, split '
-                    'recordings read as one) against forward kinematics of its q, and the stream: counters, '
-                    'stamps, no jump at singular crossings, companion topics. SI units.')
+        description='Check a rosbag2 bag (MCAP or SQLite3, split recordings read as one): its checksums and '
+                    'metadata, every gpr_interfaces/PlatformState against forward kinematics of its q under the '
+                    'recorded geometry, the stream (counters, stamps, no jump at singular crossings) and the '
+                    'companion topics (poses, joint states, markers). SI units.')
     p.add_argument('bag', help='bag folder (with metadata.yaml), or a single .mcap / .db3 file')
-    p.add_argument('--json', action='store_true', help='print the result as one JSON object')
+    p.add_argument('--json', action='store_true', help='print the result as one JSON object (a value that is not '
+                                                       'a finite number as the string "inf", "-inf" or "nan")')
     p.add_argument('--report', metavar='DIR', help='write verify.json, verify.txt and the PNG plots '
-                                                   '(paper figures 5-11, centre shift vs tilt) into DIR')
+                                                   '(paper figures 5-11, centre shift vs tilt) into the folder DIR')
     p.add_argument('--tolerance', action='append', metavar='[NAME=]VALUE',
                    help='a number sets the agreement with the core for positions [m], angles [rad], virtual '
-                        'joints, lengths and the residual (default 1e-9); NAME=VALUE sets one limit '
-                        '(names: ' + ', '.join(Tolerances.__dataclass_fields__) + '); repeatable')
-    p.add_argument('--config', metavar='YAML', help='GPR configuration to verify against (default: the '
-                                                    "package's config/gpr.yaml)")
+                        'joints, lengths, the residual and other state fields (default 1e-9); NAME=VALUE sets one '
+                        'limit (names: ' + ', '.join(Tolerances.names()) + '); repeatable')
+    p.add_argument('--config', metavar='YAML', help='GPR configuration to verify against instead of the geometry '
+                                                    'recorded in the bag (/gpr/geometry; without it, the '
+                                                    "package's config/gpr.yaml); the difference is reported")
+    p.add_argument('--allow-missing-checksums', action='store_true',
+                   help='verify a bag written by another recorder (no gpr checksums in metadata.yaml): skip '
+                        'bag.checksums instead of failing it')
     p.set_defaults(handler=_verify)

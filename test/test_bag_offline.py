@@ -24,7 +24,7 @@ from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
-from gpr_kinematics.bags.typestore import GPR_TOPICS, definition, typestore
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, definition, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.bags.writer import SegmentedBagWriter
 
@@ -35,7 +35,7 @@ STATE = '/gpr/platform_state'
 
 @pytest.fixture(scope='module')
 def messages() -> list[tuple[str, int, bytes]]:
-    # A short sweep: 1 deg steps, 60 deg azimuth: 6 rows x 5 tilts, 4 topics.
+    # A short sweep: 1 deg steps, 60 deg azimuth: 6 rows x 5 tilts; the geometry once, then 5 topics a sample.
     return sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(60.0))
 
 
@@ -51,8 +51,10 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     assert status == 0, out + err
     assert 'verification PASSED' in out
     bag = read_bag(REFERENCE)
-    # The default sweep: 36 azimuths x 21 tilts, every topic of the trajectory node, one sample each.
-    assert {k: len(t) for k, t in bag.topics.items()} == dict.fromkeys(GPR_TOPICS, 756)
+    # The default sweep: 36 azimuths x 21 tilts, every topic of the trajectory node, one sample each; recorded
+    # before the trajectory node published its geometry (the topic is listed, empty: verify says so).
+    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(GPR_TOPICS, 756), GEOMETRY_TOPIC: 0}
+    assert 'no geometry recorded in the bag' in out
     assert bag.storage == 'mcap' and bag.version == 9
     assert sum(f.stat().st_size for f in REFERENCE.iterdir()) < 2_000_000
     c = bag.topic(STATE).columns()
@@ -115,6 +117,9 @@ def test_vectorised_decoder_equals_rosbags_deserialisation() -> None:
     bag = read_bag(REFERENCE)
     store = typestore()
     for topic in bag.topics.values():
+        if topic.name == GEOMETRY_TOPIC:
+            assert len(topic) == 0
+            continue
         c = topic.columns()
         assert c.fallback == 0 and c.layouts <= 2
         for i in (0, 1, len(topic) // 2, len(topic) - 1):
@@ -191,19 +196,20 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
 
 
 def test_split_by_duration(tmp_path: Path, messages: list) -> None:
-    # The synthetic stream is 1 ms per sample (4 messages): 30 samples split every 5 ms of log time.
+    # The synthetic stream is 1 ms per sample (5 messages, the geometry before the first): 30 samples split every
+    # 5 ms of log time.
     topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
     with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
         for topic, t, data in messages:
             w.write(topic, t, data)
     bag = read_bag(tmp_path / 'd')
     assert len(bag.files) == 6
-    spans = [f['duration']['nanoseconds'] for f in bag.metadata['files']]
+    spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata['files']] == [20] * 6
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [26] + [25] * 5
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
-    meta = bag.metadata
+    meta = bag.metadata.info
     assert meta['version'] == 9 and meta['storage_identifier'] == 'mcap'
     assert meta['relative_file_paths'] == [f['path'] for f in meta['files']]
     assert meta['message_count'] == sum(f['message_count'] for f in meta['files']) == len(messages)
@@ -282,7 +288,8 @@ def test_tampered_virtual_joint_and_lost_sample(tmp_path: Path, messages: list,
     result = verify_bag(tmp_path / 't')
     assert [(f.check, f.sample) for f in result.failures] == [('state.tilt', 9)]
     # Drop one sample of every topic: the counter check names the sample after the gap.
-    lost = [m for m in messages if m[1] != messages[4 * 12][1]]
+    t12 = [t for topic, t, _ in messages if topic == STATE][12]
+    lost = [m for m in messages if m[1] != t12]
     write_messages(tmp_path / 'gap', lost)
     result = verify_bag(tmp_path / 'gap')
     assert [(f.check, f.sample, f.value) for f in result.failures] == [('stream.counter', 13, 1.0)]

@@ -15,12 +15,13 @@ import pytest
 from ros_support import NodeProcess
 
 from gpr_kinematics.bags.reader import read_bag
-from gpr_kinematics.bags.typestore import GPR_TOPICS
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS
 from gpr_kinematics.bags.verify import verify_bag
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / 'bags' / 'reference_sweep'
 STATE = '/gpr/platform_state'
+STREAM = [t for t in GPR_TOPICS if t != GEOMETRY_TOPIC]  # a message per sample
 # Own domain per run (101..200, by process id): concurrent runs of this module on one machine stay apart,
 # and it differs from ros_support's range (10..99) used by the other ROS test modules.
 DOMAIN_ID = str(101 + os.getpid() % 100)
@@ -105,7 +106,7 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     rec = recorder(bag, f'storage:={storage}', 'flush_interval:=0.25')
     traj = None
     try:
-        wait_for_log(rec, r'recording 5 topic')
+        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
         # 2 deg steps of 0.4 deg x azimuth 30 deg: 12 rows of 11 samples, 12 singular crossings, at 400 Hz.
         traj = trajectory(400.0, 0.4, 30.0)
         assert traj.wait(60) == 0, traj.output()
@@ -115,7 +116,8 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
         status, _ = rec.signal(sig, timeout=15)
         assert status == 0, rec.output()
         log = rec.output()
-        assert re.search(rf'stopped: wrote {5 * n} messages', log), log
+        # The stream topics, and the geometry once if the trajectory node publishes it.
+        assert re.search(rf'stopped: wrote ({len(STREAM) * n}|{len(STREAM) * n + 1}) messages', log), log
         assert f'{STATE} {n}/{n}' in log
     finally:
         rec.stop()
@@ -125,8 +127,8 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     b = read_bag(bag)
     assert b.storage == storage and all(f.endswith(suffix) for f in b.files)
     assert not (bag / '.recording').exists()
-    assert {k: len(t) for k, t in b.topics.items()} == dict.fromkeys(GPR_TOPICS, n)
-    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items()}
+    assert {k: len(t) for k, t in b.topics.items() if k != GEOMETRY_TOPIC} == dict.fromkeys(STREAM, n)
+    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items() if len(t)}
     result = verify_bag(b)
     assert result.passed, [f.line() for f in result.failures]
     assert result.crossings == 12
@@ -141,8 +143,8 @@ def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> 
     killed = recorder(tmp_path / 'killed', f'flush_interval:={flush}')
     traj = None
     try:
-        wait_for_log(full, r'recording 5 topic')
-        wait_for_log(killed, r'recording 5 topic')
+        wait_for_log(full, rf'recording {len(GPR_TOPICS)} topic')
+        wait_for_log(killed, rf'recording {len(GPR_TOPICS)} topic')
         traj = trajectory(200.0, 0.2, 20.0, subscribers=2)  # 18 x 21 = 378 samples, ~1.9 s
         wait_for_log(traj, r'started: publishing')
         time.sleep(1.3)
@@ -214,7 +216,7 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     rec = recorder(tmp_path / 'again', 'flush_interval:=0.5')
     replay = None
     try:
-        wait_for_log(rec, r'recording 5 topic')
+        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
         replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', f'rate:={rate}',
                                              '-p', 'wait_for_subscribers:=1'])
         assert replay.wait(60) == 0, replay.output()
@@ -241,7 +243,7 @@ def test_replay_topic_filter(tmp_path: Path) -> None:
     rec = recorder(tmp_path / 'states', 'flush_interval:=0.5')
     replay = None
     try:
-        wait_for_log(rec, r'recording 5 topic')
+        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
         replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', 'rate:=10.0',
                                              '-p', 'topics:=[gpr/platform_state]', '-p', 'wait_for_subscribers:=1'])
         assert replay.wait(60) == 0, replay.output()

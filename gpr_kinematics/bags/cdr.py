@@ -21,10 +21,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import BagError
-from .typestore import typestore
+from .typestore import ARRAY, BASE, NAME, SEQUENCE, fields_of, typestore
 
 #: Layouts tried per type before falling back to per-message deserialisation.
 MAX_LAYOUTS = 32
+#: Suffix of the column holding a sequence's element count (``markers#``, ``markers[1].points#``).
+COUNT = '#'
 
 _PRIMITIVES: dict[str, tuple[str, int]] = {
     'bool': ('u1', 1), 'byte': ('u1', 1), 'char': ('u1', 1), 'octet': ('u1', 1),
@@ -32,7 +34,6 @@ _PRIMITIVES: dict[str, tuple[str, int]] = {
     'int32': ('<i4', 4), 'uint32': ('<u4', 4), 'int64': ('<i8', 8), 'uint64': ('<u8', 8),
     'float32': ('<f4', 4), 'float64': ('<f8', 8),
 }
-_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
 
 
 @dataclass
@@ -80,10 +81,10 @@ class _Walker:
         self.layout.numeric.append((name, self.pos, dtype, size, count, scalar))
         self.pos += size * count
 
-    def element(self, name: str, node: tuple, count: int | None) -> None:
+    def element(self, name: str, node: tuple[int, Any], count: int | None) -> None:
         """``count`` None: a scalar; otherwise ``count`` elements of the node."""
         kind, detail = node
-        if kind == _BASE:
+        if kind == BASE:
             tname = detail[0]
             if tname in ('string', 'wstring'):
                 if count is None:
@@ -94,7 +95,7 @@ class _Walker:
                 self.primitive(name, tname, 1 if count is None else count, count is None)
             else:
                 raise ValueError(f'unsupported primitive {tname}')
-        elif kind == _NAME:
+        elif kind == NAME:
             if count is None:
                 self.message(detail, name + '.')
             else:
@@ -104,17 +105,17 @@ class _Walker:
             raise ValueError(f'unsupported nesting at {name}')
 
     def message(self, msgtype: str, prefix: str = '') -> None:
-        _, fields = typestore().fielddefs[msgtype]
-        for fname, (kind, detail) in fields:
+        for fname, (kind, detail) in fields_of(msgtype):
             name = prefix + fname
-            if kind in (_BASE, _NAME):
+            if kind in (BASE, NAME):
                 self.element(name, (kind, detail), None)
-            elif kind == _ARRAY:
+            elif kind == ARRAY:
                 sub, n = detail
                 self.element(name, sub, int(n))
-            elif kind == _SEQUENCE:
+            elif kind == SEQUENCE:
                 sub, _bound = detail
                 n = self.u32()
+                self.layout.numeric.append((name + COUNT, self.pos - 4, '<u4', 4, 1, True))
                 self.element(name, sub, n)
             else:
                 raise ValueError(f'unsupported field kind at {name}')
@@ -155,6 +156,7 @@ def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, 
     fields = getattr(obj, '__dataclass_fields__', None)
     if fields is None:
         return
+    sequences = {f for f, (kind, _) in fields_of(obj.__msgtype__) if kind == SEQUENCE}
     for fname in fields:
         if fname == '__msgtype__':
             continue
@@ -164,7 +166,11 @@ def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, 
             out_str[name] = v
         elif isinstance(v, np.ndarray):
             out_num[name] = v
+            if fname in sequences:
+                out_num[name + COUNT] = np.uint32(len(v))
         elif isinstance(v, (list, tuple)):
+            if fname in sequences:
+                out_num[name + COUNT] = np.uint32(len(v))
             if v and isinstance(v[0], str):
                 out_str[name] = tuple(v)
             elif v and hasattr(v[0], '__dataclass_fields__'):
@@ -223,7 +229,7 @@ def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
         t = int(pending[0])
         try:
             lay = layout_of(msgtype, raw[t])
-        except (ValueError, struct.error, KeyError) as exc:
+        except (ValueError, struct.error) as exc:  # what a message shorter or longer than its fields raises
             raise BagError(f'message {t} of type {msgtype} cannot be decoded: {exc}') from None
         layouts += 1
         same_len = pending[lengths[pending] == lay.length]
@@ -253,7 +259,7 @@ def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
         for i in pending:
             try:
                 msg = store.deserialize_cdr(raw[int(i)], msgtype)
-            except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad message
+            except (ValueError, IndexError, struct.error) as exc:  # what rosbags raises for bytes that do not fit
                 raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
             num: dict[str, Any] = {}
             strs: dict[str, Any] = {}

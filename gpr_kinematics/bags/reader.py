@@ -1,36 +1,46 @@
 """Read a rosbag2 bag (MCAP or SQLite3, one file or a split recording) into per-topic message lists.
 
-A bag is a folder with ``metadata.yaml`` naming its storage files (``relative_file_paths``), in order; a
-recording split into segments (as the recorder writes it) is read as one. A single ``.mcap`` or ``.db3``
-file is accepted too. Every failure to read becomes a :class:`~gpr_kinematics.bags.errors.BagError` with a
-one-line message naming the path and the reason (missing, not a bag, no metadata, truncated or corrupt
-file), which ``gpr verify`` reports with exit status 2.
+Reading is done in three steps, each with its own errors:
+
+1. **locate** (:func:`locate`): a bag folder with ``metadata.yaml`` naming its storage files
+   (``relative_file_paths``, in order; a recording split into segments is read as one), or a single ``.mcap``
+   / ``.db3`` file; the recorder's unfinished segment (``.recording/``) and storage files the metadata does not
+   list are noted, not read;
+2. **validate**: the metadata's fields and types (:mod:`.metadata`), every storage file a regular file (a FIFO
+   is refused without being opened for reading, so nothing blocks);
+3. **decode**: each file with a bounded reader, :func:`.mcap_file.read_mcap` (every length and CRC checked) or
+   :func:`read_sqlite` (``PRAGMA quick_check`` first), computing each file's SHA-256 on the way.
+
+Every failure is a :class:`~gpr_kinematics.bags.errors.BagError` whose one-line message names the file and
+what is wrong; ``gpr verify`` reports it as "unreadable" with exit status 2. Only what a corrupt file raises is
+caught (``sqlite3.Error`` and the decoders' own errors); anything else is a bug and propagates.
 """
 from __future__ import annotations
 
 import sqlite3
-import struct
+import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
-from rosbags.rosbag2 import Reader
-from rosbags.rosbag2.errors import ReaderError
 
 from .cdr import Columns, decode_columns
 from .errors import BagError
+from .fileio import read_head, require_regular, sha256_file
+from .mcap_file import read_mcap
+from .metadata import Metadata, read_metadata
 from .typestore import normalize_type
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
 OPEN_SEGMENT_DIR = '.recording'
+SUFFIXES = {'.mcap': 'mcap', '.db3': 'sqlite3'}
 
 
 @dataclass
 class TopicData:
-    """Messages of one topic in log-time order: ``log_time`` [ns since the epoch] and the CDR bytes ``raw``."""
+    """Messages of one topic in log-time order: ``log_time`` [ns since the epoch] and the CDR bytes ``raw``;
+    ``metadata_count``/``metadata_type`` as ``metadata.yaml`` lists them (None: not listed, or a single file)."""
 
     name: str
     msgtype: str
@@ -38,6 +48,7 @@ class TopicData:
     log_time: NDArray[np.int64]
     raw: list[bytes]
     metadata_count: int | None = None
+    metadata_type: str | None = None
     _columns: Columns | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
@@ -50,18 +61,44 @@ class TopicData:
         return self._columns
 
 
+@dataclass(frozen=True)
+class StorageFile:
+    """One storage file as read: its SHA-256, messages per topic, log-time span, and the CRCs it carried."""
+
+    name: str
+    size: int
+    sha256: str
+    counts: dict[str, int]
+    types: dict[str, str]
+    digests: dict[str, str]
+    start: int | None
+    end: int | None
+    chunks: int = 0
+    chunks_with_crc: int = 0
+    data_crc: bool = False
+    summary_crc: bool = False
+
+    @property
+    def message_count(self) -> int:
+        return sum(self.counts.values())
+
+
 @dataclass
 class Bag:
     """A bag read into memory."""
 
     path: Path
     storage: str
-    version: int | None
     files: list[str]
-    compression: str
     topics: dict[str, TopicData]
-    metadata: dict[str, Any]
-    unfinished: list[str]
+    metadata: Metadata | None
+    storage_files: list[StorageFile]
+    unfinished: list[str] = field(default_factory=list)
+    unlisted: list[str] = field(default_factory=list)
+
+    @property
+    def version(self) -> int | None:
+        return self.metadata.version if self.metadata else None
 
     @property
     def message_count(self) -> int:
@@ -75,129 +112,170 @@ class Bag:
         return self.topics.get(alt)
 
 
-def _fail(path: Path, reason: str) -> BagError:
-    return BagError(f'{path}: {reason}')
+@dataclass(frozen=True)
+class Layout:
+    """Where a bag's pieces are: its storage files in order, the metadata, what is there but not read."""
+
+    path: Path
+    storage: str
+    files: tuple[Path, ...]
+    metadata: Metadata | None
+    unfinished: tuple[str, ...]
+    unlisted: tuple[str, ...]
 
 
-def read_metadata(path: str | Path) -> dict[str, Any]:
-    """``rosbag2_bagfile_information`` of a bag folder's ``metadata.yaml``; :class:`BagError` if absent/bad."""
+def locate(path: str | Path) -> Layout:
+    """Find and validate the parts of the bag at ``path`` (a folder with ``metadata.yaml``, or one file)."""
     path = Path(path)
-    meta = path / 'metadata.yaml'
     if not path.exists():
-        raise _fail(path, 'does not exist')
+        raise BagError(f'{path}: does not exist')
     if not path.is_dir():
-        raise _fail(path, 'is not a bag folder')
-    if not meta.is_file():
-        raise _fail(path, 'no metadata.yaml: not a rosbag2 bag folder (or a recording whose first segment was '
-                          'never closed)')
+        storage = SUFFIXES.get(path.suffix)
+        if storage is None:
+            raise BagError(f'{path}: not a bag: expected a rosbag2 folder (with metadata.yaml), a .mcap or a .db3 '
+                           f'file')
+        require_regular(path, 'storage file')
+        return Layout(path, storage, (path,), None, (), ())
+    meta = read_metadata(path)
+    suffix = next(s for s, name in SUFFIXES.items() if name == meta.storage)
+    files = []
+    for rel in meta.relative_file_paths:
+        name = Path(rel).name
+        if not name or name != rel.replace('\\', '/').rsplit('/', 1)[-1] or Path(name).suffix != suffix:
+            raise BagError(f'{path}: metadata.yaml lists {rel!r}; allowed: {meta.storage} file names ending in '
+                           f'{suffix}')
+        f = path / name
+        if not f.exists():
+            raise BagError(f'{f}: listed in metadata.yaml but missing')
+        require_regular(f, 'storage file')
+        files.append(f)
+    listed = {f.name for f in files}
+    unlisted = sorted(p.name for p in path.iterdir() if p.suffix in SUFFIXES and p.name not in listed)
+    open_dir = path / OPEN_SEGMENT_DIR
+    unfinished = sorted(str(p.relative_to(path)) for p in open_dir.rglob('*')
+                        if p.suffix in SUFFIXES) if open_dir.is_dir() else []
+    return Layout(path, meta.storage, tuple(files), meta, tuple(unfinished), tuple(unlisted))
+
+
+@dataclass
+class _Contents:
+    """Messages of one storage file by topic (file order), and what the file says about itself."""
+
+    file: StorageFile
+    times: dict[str, list[int]]
+    data: dict[str, list[bytes]]
+
+
+def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
+    m = read_mcap(path, topics)
+    if m.profile != 'ros2':
+        raise BagError(f'{path}: MCAP profile {m.profile!r}; allowed: ros2 (rosbag2)')
+    bad = sorted({c.encoding for c in m.channels.values()} - {'cdr'})
+    if bad:
+        raise BagError(f'{path}: message encoding {", ".join(bad)}; allowed: cdr')
+    counts: dict[str, int] = {}
+    times: dict[str, list[int]] = {}
+    data: dict[str, list[bytes]] = {}
+    types: dict[str, str] = {}
+    digests: dict[str, str] = {}
+    for cid, ch in m.channels.items():
+        counts[ch.topic] = counts.get(ch.topic, 0) + m.counts.get(cid, 0)
+        types[ch.topic] = normalize_type(ch.msgtype)
+        digests[ch.topic] = ch.meta('topic_type_hash')
+        if cid in m.times:
+            times.setdefault(ch.topic, []).extend(m.times[cid])
+            data.setdefault(ch.topic, []).extend(m.data[cid])
+    info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
+                       m.chunks_with_crc, m.data_crc, m.summary_crc)
+    return _Contents(info, times, data)
+
+
+def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
+    """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables)."""
+    sha = sha256_file(path, 'SQLite3 file')
+    head, size = read_head(path, 'SQLite3 file', 16)
+    if head != b'SQLite format 3\x00':
+        raise BagError(f'{path}: not an SQLite3 database')
+    uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
     try:
-        data = yaml.safe_load(meta.read_text())
-        info = data['rosbag2_bagfile_information']
-        if not isinstance(info, dict):
-            raise TypeError('not a mapping')
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-        raise _fail(meta, f'not a rosbag2 metadata file ({type(exc).__name__}: {exc})'.replace('\n', ' ')) from None
-    return info
+        con = sqlite3.connect(uri, uri=True)
+        con.text_factory = bytes  # text of a corrupt file need not be UTF-8: decoded and checked below
+        try:
+            row = con.execute('PRAGMA quick_check').fetchone()
+            if row is None or row[0] != b'ok':
+                answer = row[0].decode('utf-8', errors='replace') if row else 'no answer'
+                raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {answer})')
+            columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
+            hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
+            rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
+            messages = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id').fetchall()
+        finally:
+            con.close()
+    except sqlite3.Error as exc:
+        raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
+    except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
+        raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
+    names: dict[int, str] = {}
+    types: dict[str, str] = {}
+    digests: dict[str, str] = {}
+    for tid, *texts in rows:
+        try:
+            name, msgtype, fmt, digest = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
+        except UnicodeDecodeError:
+            raise BagError(f'{path}: corrupt topics table (row {tid!r}: text that is not UTF-8)') from None
+        if not (isinstance(tid, int) and all(isinstance(v, str) for v in (name, msgtype, fmt, digest))):
+            raise BagError(f'{path}: corrupt topics table (row {tid!r})')
+        if fmt != 'cdr':
+            raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
+        names[tid] = name
+        types[name] = normalize_type(msgtype)
+        digests[name] = digest
+    counts = dict.fromkeys(types, 0)
+    keep = [n for n in types if topics is None or n in topics]
+    times: dict[str, list[int]] = {n: [] for n in keep}
+    data: dict[str, list[bytes]] = {n: [] for n in keep}
+    for tid, stamp, blob in messages:
+        name = names.get(tid) if isinstance(tid, int) else None
+        if name is None or not isinstance(stamp, int) or not isinstance(blob, bytes):
+            raise BagError(f'{path}: corrupt messages table (topic id {tid!r}, timestamp {type(stamp).__name__}, '
+                           f'data {type(blob).__name__})')
+        counts[name] += 1
+        if name in times:
+            times[name].append(stamp)
+            data[name].append(blob)
+    stamps = [m[1] for m in messages]
+    info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
+                       max(stamps, default=None))
+    return _Contents(info, times, data)
 
 
 def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
-    """Read every message (or those of ``topics``) of the bag at ``path``.
+    """Read every message (or those of ``topics``) of the bag at ``path``; see the module docstring.
 
     Raises:
-        BagError: the path is missing, not a bag, its metadata is missing or bad, a storage file is missing,
-            truncated or corrupt, or a message's serialization is not CDR.
+        BagError: the path is missing or not a bag, its metadata is missing or bad, a storage file is missing,
+            not a regular file, truncated or corrupt.
     """
-    path = Path(path)
-    if not path.exists():
-        raise _fail(path, 'does not exist')
-    info: dict[str, Any] = {}
-    unfinished: list[str] = []
-    if path.is_dir():
-        info = read_metadata(path)
-        open_dir = path / OPEN_SEGMENT_DIR
-        if open_dir.is_dir():
-            unfinished = sorted(str(p.relative_to(path)) for p in open_dir.rglob('*') if p.is_file()
-                                and p.suffix in ('.mcap', '.db3'))
-    elif path.suffix not in ('.mcap', '.db3'):
-        raise _fail(path, 'not a bag: expected a rosbag2 folder (with metadata.yaml), a .mcap or a .db3 file')
-    try:
-        if path.is_file():
-            _check_file(path)
-        else:
-            for rel in info.get('relative_file_paths', []) or []:
-                f = path / Path(str(rel)).name
-                if f.is_file():
-                    _check_file(f)
-        wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
-        raw: dict[str, list[bytes]] = {}
-        times: dict[str, list[int]] = {}
-        conns: dict[str, tuple[str, str, int | None]] = {}
-        with Reader(path) as reader:
-            selected = [c for c in reader.connections if wanted is None or c.topic in wanted]
-            for c in selected:
-                raw.setdefault(c.topic, [])
-                times.setdefault(c.topic, [])
-                prev = conns.get(c.topic)
-                count = c.msgcount if path.is_dir() else None
-                if prev is not None and prev[2] is not None and count is not None:
-                    count += prev[2]
-                conns[c.topic] = (normalize_type(c.msgtype), c.digest or '', count)
-            if selected:
-                for conn, t, data in reader.messages(connections=selected):
-                    raw[conn.topic].append(bytes(data))
-                    times[conn.topic].append(t)
-            storage = info.get('storage_identifier') or ('mcap' if path.suffix == '.mcap' else 'sqlite3')
-    except BagError:
-        raise
-    except FileNotFoundError as exc:
-        raise _fail(path, str(exc)) from None
-    except (ReaderError, sqlite3.Error, OSError, struct.error, ValueError, KeyError, IndexError,
-            EOFError, TypeError, AssertionError) as exc:
-        msg = str(exc).replace('\n', ' ') or type(exc).__name__
-        raise _fail(path, f'cannot be read ({type(exc).__name__}: {msg}); truncated or corrupt file?') from None
+    layout = locate(path)
+    wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
+    contents = [(_read_mcap_file if layout.storage == 'mcap' else read_sqlite)(f, wanted) for f in layout.files]
+    meta = layout.metadata
+    listed = {t.name: t for t in meta.topics} if meta else {}
+    names = sorted({n for c in contents for n in c.times} | (set(listed) & wanted if wanted else set(listed)))
     out: dict[str, TopicData] = {}
-    for topic in sorted(raw):
-        t = np.asarray(times[topic], dtype=np.int64)
+    for name in names:
+        t = np.asarray([v for c in contents for v in c.times.get(name, [])], dtype=np.int64)
+        raw = [v for c in contents for v in c.data.get(name, [])]
         order = np.argsort(t, kind='stable')
-        data = raw[topic]
         if np.any(order != np.arange(order.size)):
-            data = [data[i] for i in order]
+            raw = [raw[i] for i in order]
             t = t[order]
-        msgtype, digest, count = conns[topic]
-        out[topic] = TopicData(topic, msgtype, digest, t, data, count)
-    files = [str(f) for f in info.get('relative_file_paths', [])] if info else [path.name]
-    return Bag(path=path, storage=str(storage), version=info.get('version') if info else None, files=files,
-               compression=str(info.get('compression_format') or '') if info else '', topics=out,
-               metadata=info, unfinished=unfinished)
-
-
-_MCAP_MAGIC = b'\x89MCAP0\r\n'
-
-
-def _check_file(path: Path) -> None:
-    """Cheap structural check of one storage file: MCAP magic at both ends, SQLite header and integrity."""
-    size = path.stat().st_size
-    if path.suffix == '.mcap':
-        with path.open('rb') as f:
-            head = f.read(8)
-            if head != _MCAP_MAGIC:
-                raise _fail(path, 'not an MCAP file (bad magic)')
-            f.seek(max(0, size - 8))
-            tail = f.read(8)
-        if size < 16 or tail != _MCAP_MAGIC:
-            raise _fail(path, f'truncated MCAP file ({size} bytes, no footer magic): the writer did not close it')
-    elif path.suffix == '.db3':
-        with path.open('rb') as f:
-            head = f.read(16)
-        if head != b'SQLite format 3\x00':
-            raise _fail(path, 'not an SQLite3 database')
-        try:
-            con = sqlite3.connect(f'file:{path}?mode=ro', uri=True)
-            try:
-                row = con.execute('PRAGMA quick_check').fetchone()
-            finally:
-                con.close()
-        except sqlite3.Error as exc:
-            raise _fail(path, f'corrupt SQLite3 database ({exc})') from None
-        if row is None or row[0] != 'ok':
-            raise _fail(path, f'corrupt SQLite3 database (quick_check: {row[0] if row else "no answer"})')
+        entry = listed.get(name)
+        file_type = next((c.file.types[name] for c in contents if name in c.file.types), '')
+        file_digest = next((c.file.digests[name] for c in contents if c.file.digests.get(name)), '')
+        out[name] = TopicData(name, file_type or (normalize_type(entry.type) if entry else ''),
+                              (entry.type_description_hash if entry else '') or file_digest, t, raw,
+                              entry.message_count if entry else None, normalize_type(entry.type) if entry else None)
+    return Bag(path=layout.path, storage=layout.storage, files=[f.name for f in layout.files], topics=out,
+               metadata=meta, storage_files=[c.file for c in contents], unfinished=list(layout.unfinished),
+               unlisted=list(layout.unlisted))

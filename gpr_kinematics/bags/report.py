@@ -13,25 +13,60 @@ Units on the axes: mm and degrees (plots only; the data stay SI).
 from __future__ import annotations
 
 import json
+import os
+import stat
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..config import GprConfig
+from ..errors import GprError
 from ..kinematics import forward_batch
-from .verify import VerifyResult, format_table
+from .errors import BagError
+from .results import VerifyResult, format_table
 
 ZOOM = 12
 ZOOM_CROSSINGS = 3
 
 
-def _plt():  # noqa: ANN202 - matplotlib pyplot module
-    import matplotlib
-
+def _plt() -> Any:
+    """matplotlib's pyplot with the Agg backend; :class:`BagError` when matplotlib is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise BagError('--report needs matplotlib for its plots, which is not installed') from None
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def check_report_folder(folder: str | Path) -> Path:
+    """Refuse a report folder that cannot be written before any work is done (nothing is created here): an
+    existing path must be a writable folder, a new path must have a writable folder as its nearest existing
+    ancestor. (Each file is checked again when written: see :func:`_target`.)
+
+    Raises:
+        BagError: naming the path, what it is, and what is allowed.
+    """
+    out = Path(folder)
+    allowed = 'allowed: a folder (created if missing) in a writable place'
+    if str(folder) == '':
+        raise BagError(f'--report is empty; {allowed}')
+    if out.exists():
+        if not out.is_dir():
+            raise BagError(f'--report {out}: exists and is not a folder; {allowed}')
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise BagError(f'--report {out}: the folder is not writable; {allowed}')
+        return out
+    parent = out.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise BagError(f'--report {out}: {parent} is not a writable folder; {allowed}')
+    return out
 
 
 def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str],
@@ -64,45 +99,69 @@ def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[n
 
 
 def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
-    """Write the report into ``folder`` (created); returns the files written."""
-    out = Path(folder)
+    """Write the report into ``folder`` (created; see :func:`check_report_folder`); returns the files written.
+
+    Raises:
+        BagError: the folder or a file cannot be written (named, with the reason).
+    """
+    out = check_report_folder(folder)
+    try:
+        return _write(result, out)
+    except OSError as exc:
+        raise BagError(f'--report {out}: cannot create or write {exc.filename or out}: {exc.strerror or exc}'
+                       ) from None
+
+
+def _target(out: Path, name: str) -> Path:
+    """``out/name``, refused if it exists and is not a regular file (a FIFO would block the write, a link
+    would write elsewhere, a device would be overwritten)."""
+    path = out / name
+    if path.is_symlink() or (path.exists() and not stat.S_ISREG(path.stat().st_mode)):
+        raise BagError(f'--report {out}: {name} exists and is not a regular file; it is replaced only if it is one')
+    return path
+
+
+def _write(result: VerifyResult, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    (out / 'verify.json').write_text(json.dumps(result.to_dict(), indent=1, default=float) + '\n')
-    (out / 'verify.txt').write_text(format_table(result) + '\n')
+    _target(out, 'verify.json').write_text(json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n')
+    _target(out, 'verify.txt').write_text(format_table(result) + '\n')
     written += [out / 'verify.json', out / 'verify.txt']
     s = result.series
     if s is None or s.q.shape[0] == 0:
         return written
     x, cr = s.sample, s.crossings
-    p = out / 'fig05_rod_lengths.png'
+    p = _target(out, 'fig05_rod_lengths.png')
     _figure(p, 'Fig. 5: rod lengths q (generalized coordinates)', x, s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)
     written.append(p)
-    p = out / 'fig08_side_lengths.png'
+    p = _target(out, 'fig08_side_lengths.png')
     _figure(p, 'Fig. 8 / Fig. 11: side lengths L = F(X)', x, s.side_lengths * 1e3, ['L12', 'L23', 'L31'],
             'L [mm]', cr)
     written.append(p)
     finite = np.all(np.isfinite(s.q), axis=1)
+    cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
     for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
         if s.model == model and s.virtual_joints.shape[1] == 6:
             X, source = s.virtual_joints, 'recorded'
         else:
             X = np.full((len(x), 6), np.nan)
-            fk = forward_batch(s.q[finite], model=model, check_limits=False)
-            X[finite] = fk.virtual_joints
             source = f'computed from the recorded q ({s.model} bag)'
+            try:
+                X[finite] = forward_batch(s.q[finite], cfg, model, check_limits=False).virtual_joints
+            except GprError as exc:  # q far outside the workspace (a failed check already): an empty figure
+                source = f'not computable from the recorded q: {type(exc).__name__}'
         names = ['l1', 'l2', 'l3'] if model == 'polar' else ['dr1', 'dr2', 'dr3']
         anames = ['phi1', 'phi2', 'phi3'] if model == 'polar' else ['dphi1', 'dphi2', 'dphi3']
-        p = out / f'fig{figs[0]}_{model}_linear_virtual_joints.png'
+        p = _target(out, f'fig{figs[0]}_{model}_linear_virtual_joints.png')
         _figure(p, f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source})', x, X[:, :3] * 1e3,
                 names, 'mm', cr)
         written.append(p)
-        p = out / f'fig{figs[1]}_{model}_angular_virtual_joints.png'
+        p = _target(out, f'fig{figs[1]}_{model}_angular_virtual_joints.png')
         _figure(p, f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source})', x,
                 np.degrees(X[:, 3:]), anames, 'deg', cr)
         written.append(p)
     if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
-        p = out / 'radial_virtual_joints.png'
+        p = _target(out, 'radial_virtual_joints.png')
         _figure(p, 'radial model (authors\' earlier [11]): l1, l2, l3 (recorded)', x, s.virtual_joints * 1e3,
                 ['l1', 'l2', 'l3'], 'mm', cr)
         written.append(p)
@@ -116,7 +175,7 @@ def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
     ax.set_title(f'centre shift against tilt ({s.model} model)')
     ax.grid(alpha=0.3)
     ax.legend()
-    p = out / 'centre_shift_vs_tilt.png'
+    p = _target(out, 'centre_shift_vs_tilt.png')
     fig.savefig(p, dpi=90)
     plt.close(fig)
     written.append(p)

@@ -1,30 +1,71 @@
-"""Write the trajectory node's stream straight into a bag, without ROS (benchmarks, tests of the reader).
+"""Write the trajectory node's stream straight into a bag, without ROS (benchmarks, tests of reader and verify).
 
-The messages are the ones ``trajectory_node`` publishes for a sweep (same fields, same companion topics,
-serialized with the ``rosbags`` typestore instead of rclpy); recorded bags come from the real nodes over DDS.
+The messages are the ones ``trajectory_node`` publishes for a sweep, built by the same functions
+(:func:`gpr_kinematics.messages.stream_messages` for the stream topics, :func:`.markers.marker_array` for the
+markers, the geometry YAML of :data:`.typestore.GEOMETRY_TOPIC`), serialized with the ``rosbags`` typestore
+instead of rclpy; recorded bags come from the real nodes over DDS.
 """
 from __future__ import annotations
 
+import dataclasses
+import functools
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import yaml
 
 from ..config import GprConfig
 from ..kinematics import resolve_config
 from ..messages import stream_messages
 from ..sweep import paper_sweep
-from .typestore import GPR_TOPICS, message_types, typestore
+from .markers import marker_array, marker_points
+from .typestore import ARRAY, BASE, GEOMETRY_TOPIC, GPR_TOPICS, NAME, fields_of, message_types, typestore
 from .writer import SegmentedBagWriter
+
+_DTYPES: dict[str, type[np.generic]] = {
+    'bool': np.bool_, 'byte': np.uint8, 'char': np.uint8, 'octet': np.uint8, 'float32': np.float32,
+    'float64': np.float64, **{f'{s}int{b}': np.dtype(f'{s}int{b}').type for s in ('', 'u') for b in (8, 16, 32, 64)}}
+
+
+@functools.cache
+def _default(msgtype: str) -> Any:
+    """A ``rosbags`` message of ``msgtype`` with every field at its ROS default (0, '', empty, nested defaults)."""
+    fields: dict[str, Any] = {}
+    for name, (kind, detail) in fields_of(msgtype):
+        if kind == BASE:
+            fields[name] = '' if detail[0] in ('string', 'wstring') else _DTYPES[detail[0]](0).item()
+        elif kind == NAME:
+            fields[name] = _default(detail)
+        else:
+            (sub_kind, sub), count = detail
+            n = int(count) if kind == ARRAY else 0
+            if sub_kind == NAME:
+                fields[name] = [_default(sub) for _ in range(n)]
+            elif sub[0] in ('string', 'wstring'):
+                fields[name] = [''] * n
+            else:
+                fields[name] = np.zeros(n, dtype=_DTYPES[sub[0]])
+    return typestore().types[msgtype](**fields)
+
+
+def make_message(msgtype: str, **fields: Any) -> Any:
+    """A ``rosbags`` message of ``msgtype`` with ``fields`` set and every other field at its default."""
+    return dataclasses.replace(_default(msgtype), **fields)
+
+
+def geometry_yaml(cfg: GprConfig) -> str:
+    """``data`` of the geometry topic: the YAML of ``cfg.to_dict()`` (loadable with ``GprConfig.from_mapping``)."""
+    text: str = yaml.safe_dump(cfg.to_dict(), default_flow_style=False, sort_keys=False)
+    return text
 
 
 def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_step: float = np.radians(0.2),
                    azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
-                   topics: tuple[str, ...] = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose',
-                                              '/gpr/joint_states'),
-                   ) -> list[tuple[str, int, bytes]]:
-    """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order, built by
-    :func:`gpr_kinematics.messages.stream_messages` as the trajectory node builds them."""
+                   topics: tuple[str, ...] = tuple(GPR_TOPICS)) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry once
+    (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per ``period_ns``."""
     cfg = resolve_config(config)
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
@@ -32,12 +73,20 @@ def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_
     ts = typestore()
     types = message_types()
     out: list[tuple[str, int, bytes]] = []
+    if GEOMETRY_TOPIC in topics:
+        msg = make_message(GPR_TOPICS[GEOMETRY_TOPIC], data=geometry_yaml(cfg))
+        out.append((GEOMETRY_TOPIC, start_ns, bytes(ts.serialize_cdr(msg, GPR_TOPICS[GEOMETRY_TOPIC]))))
+    points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation) if '/gpr/markers' in topics else {}
     for i in range(len(fk)):
         t = start_ns + i * period_ns
         msgs = stream_messages(types, fk[i], stamp_ns=t, frame_id='gpr_base', sample=i,
                                commanded_tilt=float(sw.alpha[i]), commanded_azimuth=float(sw.gamma[i]))
+        if points:
+            msgs['gpr/markers'] = marker_array(make_message, msgs['gpr/platform_state'].header,
+                                               {ns: p[i] for ns, p in points.items()})
         for topic in topics:
-            out.append((topic, t, bytes(ts.serialize_cdr(msgs[topic.lstrip('/')], GPR_TOPICS[topic]))))
+            if topic != GEOMETRY_TOPIC:
+                out.append((topic, t, bytes(ts.serialize_cdr(msgs[topic.lstrip('/')], GPR_TOPICS[topic]))))
     return out
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -20,6 +21,10 @@ from .errors import BagError
 
 INTERFACES_PACKAGE = 'gpr_interfaces'
 
+#: The geometry and model that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
+#: node's ``GprConfig.to_dict()``, published once at start (reliable, transient local, depth 1).
+GEOMETRY_TOPIC = '/gpr/geometry'
+
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
     '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
@@ -27,7 +32,11 @@ GPR_TOPICS: dict[str, str] = {
     '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
     '/gpr/joint_states': 'sensor_msgs/msg/JointState',
     '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+    GEOMETRY_TOPIC: 'std_msgs/msg/String',
 }
+
+#: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC})
 
 PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
 
@@ -56,6 +65,18 @@ def typestore() -> Typestore:
             return store
     raise BagError('cannot find the gpr_interfaces message definitions (.msg); looked in '
                    + ', '.join(str(d) for d in interface_msg_dirs()))
+
+
+#: Kinds of a field definition in :func:`fields_of` (``rosbags``' ``Nodetype``).
+BASE, NAME, ARRAY, SEQUENCE = 1, 2, 3, 4
+
+
+def fields_of(msgtype: str) -> list[tuple[str, tuple[int, Any]]]:
+    """``(name, (kind, detail))`` of each field of a known type: ``kind`` :data:`BASE` (detail
+    ``(primitive, bound)``), :data:`NAME` (detail the type name), :data:`ARRAY` or :data:`SEQUENCE` (detail
+    ``((kind, detail), count or bound)``)."""
+    fields: Any = typestore().fielddefs[msgtype][1]
+    return list(fields)
 
 
 def normalize_type(msgtype: str) -> str:

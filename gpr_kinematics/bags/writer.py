@@ -9,10 +9,13 @@ bag as a *split recording* (rosbag2's own format for ``ros2 bag record --max-bag
 - a segment is closed when its oldest message is :data:`ROLL_FRACTION` x ``flush_interval`` old (checked on
   every message and by the caller's timer, see :meth:`SegmentedBagWriter.poll`), when it exceeds
   ``max_bag_size`` bytes or ``max_bag_duration`` seconds, and at :meth:`close`;
-- closing a segment: the ``rosbags`` writer finishes the file (MCAP summary and footer, or the SQLite3
-  commit), the file is fsynced, moved atomically into the bag folder as ``<name>_<i>.mcap`` (``.db3``), the
-  folder fsynced, and ``metadata.yaml`` rewritten atomically (temporary file + ``os.replace``) listing
-  every closed segment with per-file and per-topic counts (bag format version 9).
+- closing a segment: the segment's writer finishes the file (MCAP summary and footer, or the SQLite3
+  commit), the file is fsynced and hashed (SHA-256), moved atomically into the bag folder as
+  ``<name>_<i>.mcap`` (``.db3``), the folder fsynced, and ``metadata.yaml`` rewritten atomically (temporary
+  file + ``os.replace``) listing every closed segment with per-file and per-topic counts (bag format version
+  9) and the checksums of :mod:`.metadata` (each file's SHA-256, the metadata's own digest).
+
+The segment files themselves are written by :mod:`.storage_writers` (MCAP with every CRC, or SQLite3).
 
 So at every instant the bag folder is a complete, readable rosbag2 split bag of everything received up to
 the last roll; a kill loses at most the open segment: messages younger than about ``flush_interval``.
@@ -26,36 +29,29 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.rosbag2.errors import WriterError
-from rosbags.rosbag2.metadata import dump_qos_v9
 
 from .errors import BagError
+from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, render_metadata
 from .reader import OPEN_SEGMENT_DIR
+from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
 from .typestore import check_known, definition
 
-STORAGES: dict[str, tuple[StoragePlugin, str]] = {
-    'mcap': (StoragePlugin.MCAP, '.mcap'),
-    'sqlite3': (StoragePlugin.SQLITE3, '.db3'),
-}
+#: Storage name -> file suffix.
+STORAGES: dict[str, str] = {'mcap': '.mcap', 'sqlite3': '.db3'}
 COMPRESSIONS = ('none', 'zstd')
-BAG_VERSION = 9
 #: A segment is closed once its oldest message is this fraction of the flush interval old.
 ROLL_FRACTION = 0.8
-
-
 @dataclass
 class _Segment:
     index: int
-    writer: Writer
+    storage: StorageWriter
     folder: Path
-    connections: dict[str, object]
     opened: float
     first_message: float | None = None
     first_stamp: int | None = None
-    last_stamp: int | None = None
+    min_stamp: int | None = None
+    max_stamp: int | None = None
     bytes: int = 0
     counts: dict[str, int] = field(default_factory=dict)
 
@@ -66,6 +62,7 @@ class _ClosedFile:
     start: int
     duration: int
     count: int
+    sha256: str
 
 
 def check_output_path(path: Path) -> None:
@@ -107,7 +104,7 @@ class SegmentedBagWriter:
         max_bag_duration: seconds per segment, 0 = no limit.
         compression: ``none`` or ``zstd`` (MCAP chunk compression; MCAP only).
         fsync: fsync each closed segment and the folder (survives power loss, not just a killed process).
-        custom_data: string pairs stored in ``metadata.yaml`` (``custom_data``).
+        custom_data: string pairs stored in ``metadata.yaml`` (``custom_data``; the checksums are added).
 
     Raises:
         BagError: bad arguments, unknown type, output exists or is not writable.
@@ -133,7 +130,7 @@ class SegmentedBagWriter:
             raise BagError('no topics to record; allowed: at least one topic name')
         self.topics = {self._topic(t): check_known(ty, t) for t, ty in topics.items()}
         self.storage = storage
-        self.plugin, self.suffix = STORAGES[storage]
+        self.suffix = STORAGES[storage]
         self.flush_interval = float(flush_interval)
         self.max_bag_size = int(max_bag_size)
         self.max_bag_duration = float(max_bag_duration)
@@ -178,20 +175,12 @@ class SegmentedBagWriter:
         i = self.next_index
         self.next_index += 1
         folder = self.path / OPEN_SEGMENT_DIR / f'{self.name}_{i}'
-        writer = Writer(folder, version=BAG_VERSION, storage_plugin=self.plugin)
-        if self.compression == 'zstd':
-            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        for key, value in self.custom_data.items():
-            writer.set_custom_data(key, value)
         try:
-            writer.open()
-            conns = {}
-            for topic, msgtype in self.topics.items():
-                msgdef, digest = self.defs[topic]
-                conns[topic] = writer.add_connection(topic, msgtype, msgdef=msgdef, rihs01=digest)
+            storage: StorageWriter = (McapStorage(folder, self.topics, self.defs, self.compression)
+                                      if self.storage == 'mcap' else Sqlite3Storage(folder, self.topics, self.defs))
         except (WriterError, OSError) as exc:
             raise BagError(f'cannot open segment {folder}: {exc}') from None
-        self.segment = _Segment(i, writer, folder, conns, time.monotonic(), counts=dict.fromkeys(self.topics, 0))
+        self.segment = _Segment(i, storage, folder, time.monotonic(), counts=dict.fromkeys(self.topics, 0))
 
     def write(self, topic: str, timestamp: int, data: bytes) -> None:
         """Append one serialized message (CDR bytes, stored unchanged) with its log time [ns]."""
@@ -202,18 +191,24 @@ class SegmentedBagWriter:
                 and timestamp - seg.first_stamp >= self.max_bag_duration * 1e9):
             self.roll()  # a segment spans less than max_bag_duration of log time
             seg = self.segment
-            assert seg is not None
-        conn = seg.connections.get(topic)
-        if conn is None:
+            if seg is None:
+                raise BagError('the bag writer is not open')
+        if topic not in self.topics:
             raise BagError(f'topic {topic!r} is not recorded; recorded topics: {", ".join(self.topics)}')
-        seg.writer.write(conn, int(timestamp), data)
+        try:
+            seg.storage.write(topic, int(timestamp), data)
+        except OSError as exc:
+            raise BagError(f'cannot write to {seg.storage.file}: {exc.strerror or exc}') from None
         seg.counts[topic] += 1
         self.counts[topic] += 1
         seg.bytes += len(data)
         if seg.first_message is None:
             seg.first_message = time.monotonic()
             seg.first_stamp = int(timestamp)
-        seg.last_stamp = int(timestamp)
+        # The file's start and duration in metadata.yaml span its earliest to its latest log time (a wall
+        # clock may step back between two messages).
+        seg.min_stamp = int(timestamp) if seg.min_stamp is None else min(seg.min_stamp, int(timestamp))
+        seg.max_stamp = int(timestamp) if seg.max_stamp is None else max(seg.max_stamp, int(timestamp))
         if self.max_bag_size and seg.bytes >= self.max_bag_size:
             self.roll()
         elif self.flush_interval and time.monotonic() - seg.first_message >= ROLL_FRACTION * self.flush_interval:
@@ -240,21 +235,22 @@ class SegmentedBagWriter:
 
     def _close_segment(self) -> None:
         seg = self.segment
-        assert seg is not None
+        if seg is None:
+            return
         self.segment = None
         t0 = time.monotonic()
         try:
-            seg.writer.close()
+            seg.storage.close()
         except (WriterError, OSError) as exc:
             raise BagError(f'cannot close segment {seg.folder}: {exc}') from None
-        src = seg.folder / f'{seg.folder.name}{self.suffix}'
+        src = seg.storage.file
         dst = self.path / src.name
         if self.fsync:
             _fsync_path(src)
         count = sum(seg.counts.values())
-        start = seg.first_stamp if seg.first_stamp is not None else 0
-        end = seg.last_stamp if seg.last_stamp is not None else start
-        self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count))
+        start = seg.min_stamp if seg.min_stamp is not None else 0
+        end = seg.max_stamp if seg.max_stamp is not None else start
+        self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count, seg.storage.sha256()))
         # Prepare the metadata that lists it, then two renames back to back (a kill between them leaves a
         # complete file that the metadata does not list yet: the window is two system calls).
         tmp = self._prepare_metadata()
@@ -285,7 +281,7 @@ class SegmentedBagWriter:
             'message_count': sum(f.count for f in files),
             'topics_with_message_count': [
                 {'topic_metadata': {'name': topic, 'type': msgtype, 'serialization_format': 'cdr',
-                                    'offered_qos_profiles': dump_qos_v9([]),
+                                    'offered_qos_profiles': offered_qos(topic),
                                     'type_description_hash': self.defs[topic][1]},
                  'message_count': closed_counts[topic]}
                 for topic, msgtype in self.topics.items()],
@@ -294,12 +290,12 @@ class SegmentedBagWriter:
             'relative_file_paths': [f.path for f in files],
             'files': [{'path': f.path, 'starting_time': {'nanoseconds_since_epoch': f.start},
                        'duration': {'nanoseconds': f.duration}, 'message_count': f.count} for f in files],
-            'custom_data': self.custom_data or None,
-            'ros_distro': 'jazzy',
+            'custom_data': {**self.custom_data, **{FILE_DIGEST_PREFIX + f.path: f.sha256 for f in files}},
+            'ros_distro': ROS_DISTRO,
         }
-        text = yaml.safe_dump({'rosbag2_bagfile_information': info}, default_flow_style=False, sort_keys=False)
+        text = render_metadata(info)
         tmp = self.path / 'metadata.yaml.tmp'
-        with tmp.open('w', encoding='utf-8') as f:
+        with tmp.open('wb') as f:
             f.write(text)
             f.flush()
             if self.fsync:
@@ -327,10 +323,7 @@ class SegmentedBagWriter:
         seg = self.segment
         if seg is not None and seg.first_message is None and self.files:
             self.segment = None
-            try:
-                seg.writer.close()
-            except (WriterError, OSError):
-                pass
+            seg.storage.abort()
             shutil.rmtree(seg.folder, ignore_errors=True)
         elif seg is not None:
             self._close_segment()
@@ -345,8 +338,8 @@ class SegmentedBagWriter:
         seg, self.segment = self.segment, None
         if seg is not None:
             try:
-                seg.writer.abort()
-            except Exception:  # noqa: BLE001 - giving up anyway
+                seg.storage.abort()
+            except (WriterError, OSError):  # giving up anyway: the folder may be gone or the disk full
                 pass
         if remove and self._opened:
             shutil.rmtree(self.path, ignore_errors=True)

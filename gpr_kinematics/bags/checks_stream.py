@@ -1,0 +1,81 @@
+"""``stream.*`` checks: the PlatformState stream as a whole (gaps, order, jumps at singular crossings).
+
+- ``counter``: sample counters step by exactly 1 in log order (lost, repeated, reordered samples are named);
+- ``stamps``: header stamps strictly increasing;
+- ``jump``: between consecutive samples, with ``dq = ||q_i - q_(i-1)||_2`` [m]: rotation angle
+  <= ``K_rot dq + eps``, ``||dp||`` <= ``K_pos dq + eps``, ``max |dX|`` <= ``K_x dq + eps``, ``max |dL|`` <=
+  ``K_L dq + eps``, as a ratio to the bound (<= 1). ``K_rot = 1.01 sqrt(2/3) / R`` [rad/m]: the plane through
+  the three joint centres at ``R u_k`` has slope ``2/(3R) sum q_k u_k`` and ``|sum dq_k u_k| <= sqrt(3/2)
+  ||dq||``; the 1 % covers the virtual joints' displacement of the centres (the paper sweep reaches 0.9901 of
+  the bound). ``K_pos = 1/sqrt(3) + 0.05`` (the height is the mean of ``q``; the centre shift adds a slope of
+  0.014 on the sweep). ``K_L = sqrt(2)`` (from ``L_ij = sqrt(3 R^2 + (q_j - q_i)^2)``). ``K_x = 0.5`` (m or
+  rad per m) is empirical: 3x the largest ratio over the paper sweep for all models and weightings (0.15).
+  ``eps = 1e-12``. A solver that switched branches, or a stream that jumped, at a crossing of the singular
+  configuration breaks these bounds; the result reports the crossings (:func:`singular_crossings`) and the
+  largest ratio at them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .cdr import Columns
+from .columns import quaternion_angle, stamp_ns, vec
+from .results import Check, Series, value_check
+from .tolerances import Tolerances
+
+#: ``q1 = q2 = q3`` within this spread [m] is the singular configuration.
+SINGULAR_SPREAD = 1e-12
+
+
+def singular_crossings(commanded_tilt: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices of samples at or across the singular configuration: commanded tilt exactly 0, a change of sign
+    of the commanded tilt, or ``q1 = q2 = q3`` (spread <= :data:`SINGULAR_SPREAD`)."""
+    t = np.asarray(commanded_tilt, dtype=float)
+    at = t == 0.0
+    sign = np.sign(t)
+    across = np.zeros_like(at)
+    across[1:] = (sign[1:] * sign[:-1]) < 0
+    spread = np.ptp(q, axis=1) <= SINGULAR_SPREAD if len(q) else np.zeros(0, dtype=bool)
+    return np.flatnonzero(at | across | spread)
+
+
+@dataclass
+class StreamOutcome:
+    checks: list[Check]
+    crossings: int
+    crossing_ratio: float
+
+
+def stream_checks(c: Columns, samples: NDArray[np.int64], topic: str, series: Series, radius: float,
+                  tol: Tolerances) -> StreamOutcome:
+    """The ``stream.*`` checks of the PlatformState columns ``c`` (see the module docstring)."""
+    checks = [value_check('stream.counter', topic, np.abs(np.diff(samples) - 1).astype(float), 0.0, 'samples',
+                          samples[1:], '|counter step - 1|: lost, repeated or reordered samples')]
+    stamps = stamp_ns(c)
+    checks.append(value_check('stream.stamps', topic, np.maximum(stamps[:-1] - stamps[1:] + 1, 0).astype(float),
+                              0.0, 'ns', samples[1:],
+                              'header stamp not after the previous one (value = previous - this + 1 ns)'))
+    n = len(samples)
+    if n < 2:
+        return StreamOutcome(checks, int(series.crossings.size), 0.0)
+    dq = np.linalg.norm(np.diff(series.q, axis=0), axis=1)
+    quat = vec(c, 'pose.orientation', 'xyzw')
+    rot = quaternion_angle(quat[:-1], quat[1:])
+    dp = np.linalg.norm(np.diff(vec(c, 'pose.position'), axis=0), axis=1)
+    dL = np.max(np.abs(np.diff(series.side_lengths, axis=0)), axis=1)
+    X = series.virtual_joints
+    dX = np.max(np.abs(np.diff(X, axis=0)), axis=1) if X.shape[1] else np.zeros(n - 1)
+    models = c['model']
+    dX[models[1:] != models[:-1]] = 0.0  # virtual joints of different models are not comparable
+    k_rot = tol.jump_rot_factor * math.sqrt(2.0 / 3.0) / radius
+    eps = tol.jump_eps
+    ratio = np.max(np.stack([rot / (k_rot * dq + eps), dp / (tol.jump_pos * dq + eps),
+                             dX / (tol.jump_x * dq + eps), dL / (tol.jump_length * dq + eps)], axis=1), axis=1)
+    checks.append(value_check('stream.jump', topic, ratio, 1.0, 'x bound', samples[1:],
+                              'change between samples over its bound K*|dq|+eps (rotation, position, X, L)'))
+    cross = series.crossings[series.crossings >= 1]
+    return StreamOutcome(checks, int(series.crossings.size), float(np.max(ratio[cross - 1])) if cross.size else 0.0)

@@ -1,0 +1,384 @@
+"""Read one MCAP file (rosbag2's ``mcap`` storage) record by record, every length bounded, every CRC checked.
+
+MCAP (https://mcap.dev/spec) is a sequence of records ``opcode u8, length u64, body`` between two magic
+strings; messages sit in *chunks* (optionally zstd or lz4 compressed) with the CRC-32 of their uncompressed
+bytes; the *DataEnd* record holds the CRC-32 of the data section (the leading magic and every record before
+DataEnd), the *Footer* the CRC-32 of the summary section. A CRC of 0 means "not computed" (allowed by the
+format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` writer every CRC).
+
+:func:`read_mcap` walks the file once from the first byte to the last, so nothing is skipped unchecked:
+
+- every record length must fit in what is left of the file (a flipped length byte is never used to allocate:
+  reads are bounded by the file size) and a record is at most :data:`MAX_RECORD_BYTES`;
+- a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, decompressed with an output bound
+  of that size, and it must come out exactly that long; its records must tile it exactly; its CRC, the
+  data-section CRC and the summary CRC must match when they are not 0;
+- messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
+  time range; the summary's Statistics must agree with the messages counted.
+
+Every violation raises :class:`~gpr_kinematics.bags.errors.BagError` naming the file, the byte offset and
+what is wrong. The SHA-256 of the whole file is computed on the way (for the bag's checksums).
+"""
+from __future__ import annotations
+
+import hashlib
+import struct
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO
+
+from .errors import BagError
+from .fileio import open_regular
+
+MAGIC = b'\x89MCAP0\r\n'
+#: Largest record accepted (a chunk of a rosbag2 or ``gpr`` recording is about 1 MiB).
+MAX_RECORD_BYTES = 256 << 20
+#: Largest uncompressed chunk accepted.
+MAX_CHUNK_BYTES = 256 << 20
+
+OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
+OP_STATISTICS, OP_METADATA, OP_DATA_END = 0x0B, 0x0C, 0x0F
+_FOOTER_LENGTH = 20  # summary_start u64, summary_offset_start u64, summary_crc u32
+_U16, _U32, _U64 = struct.Struct('<H'), struct.Struct('<I'), struct.Struct('<Q')
+_RECORD = struct.Struct('<BQ')
+_MESSAGE_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time, publish time
+
+
+@dataclass(frozen=True)
+class McapChannel:
+    """A channel: ``topic``, the message type (its schema's name), the message encoding and the metadata."""
+
+    id: int
+    topic: str
+    msgtype: str
+    encoding: str
+    metadata: tuple[tuple[str, str], ...]
+
+    def meta(self, key: str) -> str:
+        return dict(self.metadata).get(key, '')
+
+
+@dataclass
+class McapFile:
+    """What :func:`read_mcap` found: channels, the messages (per channel id, in file order), and the checks."""
+
+    path: Path
+    size: int
+    sha256: str
+    profile: str
+    channels: dict[int, McapChannel]
+    times: dict[int, list[int]] = field(default_factory=dict)
+    data: dict[int, list[bytes]] = field(default_factory=dict)
+    counts: dict[int, int] = field(default_factory=dict)
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    start: int | None = None
+    end: int | None = None
+    chunks: int = 0
+    chunks_with_crc: int = 0
+    data_crc: bool = False
+    summary_crc: bool = False
+
+
+class _FormatError(Exception):
+    """A structural error at a byte offset (turned into BagError with the file name by read_mcap)."""
+
+
+class _Fields:
+    """Little-endian fields of one record body; every read is bounded by the body."""
+
+    def __init__(self, body: memoryview) -> None:
+        self.b = body
+        self.pos = 0
+
+    def take(self, n: int, what: str) -> memoryview:
+        if n > len(self.b) - self.pos:
+            left = len(self.b) - self.pos
+            raise _FormatError(f'{what}: length {n} beyond the end of its record ({left} bytes left)')
+        out = self.b[self.pos:self.pos + n]
+        self.pos += n
+        return out
+
+    def u16(self) -> int:
+        return int(_U16.unpack(self.take(2, 'u16'))[0])
+
+    def u32(self) -> int:
+        return int(_U32.unpack(self.take(4, 'u32'))[0])
+
+    def u64(self) -> int:
+        return int(_U64.unpack(self.take(8, 'u64'))[0])
+
+    def string(self, what: str) -> str:
+        raw = self.take(self.u32(), what)
+        try:
+            return bytes(raw).decode('utf-8')
+        except UnicodeDecodeError:
+            raise _FormatError(f'{what} is not UTF-8') from None
+
+    def string_map(self, what: str) -> tuple[tuple[str, str], ...]:
+        sub = _Fields(self.take(self.u32(), what))
+        out = []
+        while sub.pos < len(sub.b):
+            out.append((sub.string(f'{what} key'), sub.string(f'{what} value')))
+        return tuple(out)
+
+
+class _Walker:
+    def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None) -> None:
+        self.f = f
+        self.size = size
+        self.pos = 0
+        self.sha = hashlib.sha256()
+        self.topics = topics
+        self.schemas: dict[int, str] = {}
+        self.out = McapFile(path, size, '', '', {})
+        self.summary_start = 0
+
+    def read(self, n: int) -> memoryview:
+        data = self.f.read(n)
+        if len(data) != n:
+            raise _FormatError(f'file ended after {self.pos + len(data)} of {self.size} bytes (changed while read?)')
+        self.sha.update(data)
+        self.pos += n
+        return memoryview(data)
+
+    # -- definitions ------------------------------------------------------------------------------------------
+    def schema(self, body: memoryview) -> None:
+        r = _Fields(body)
+        sid = r.u16()
+        name = r.string('schema name')
+        r.string('schema encoding')
+        r.take(r.u32(), 'schema data')
+        if sid == 0:
+            raise _FormatError('schema id 0 (reserved)')
+        if self.schemas.setdefault(sid, name) != name:
+            raise _FormatError(f'schema {sid} redefined as {name!r} (was {self.schemas[sid]!r})')
+
+    def channel(self, body: memoryview) -> None:
+        r = _Fields(body)
+        cid, sid = r.u16(), r.u16()
+        topic = r.string('channel topic')
+        encoding = r.string('channel message encoding')
+        meta = r.string_map('channel metadata')
+        if sid not in self.schemas:
+            raise _FormatError(f'channel {cid} ({topic!r}) refers to schema {sid}, which is not defined before it')
+        ch = McapChannel(cid, topic, self.schemas[sid], encoding, meta)
+        if self.out.channels.setdefault(cid, ch) != ch:
+            raise _FormatError(f'channel {cid} redefined ({topic!r})')
+        self.out.counts.setdefault(cid, 0)
+        if self.topics is None or topic in self.topics:
+            self.out.times.setdefault(cid, [])
+            self.out.data.setdefault(cid, [])
+
+    def message(self, body: memoryview, lo: int = 0, hi: int = 2**64 - 1) -> None:
+        if len(body) < _MESSAGE_HEAD.size:
+            raise _FormatError(f'message record of {len(body)} bytes (at least {_MESSAGE_HEAD.size})')
+        cid, _seq, log_time, _pub = _MESSAGE_HEAD.unpack_from(body)
+        if cid not in self.out.channels:
+            raise _FormatError(f'message on channel {cid}, which is not defined before it')
+        if not lo <= log_time <= hi:
+            raise _FormatError(f'message log time {log_time} outside its chunk [{lo}, {hi}]')
+        self.out.counts[cid] += 1
+        if self.out.start is None or log_time < self.out.start:
+            self.out.start = log_time
+        if self.out.end is None or log_time > self.out.end:
+            self.out.end = log_time
+        times = self.out.times.get(cid)
+        if times is not None:
+            times.append(log_time)
+            self.out.data[cid].append(bytes(body[_MESSAGE_HEAD.size:]))
+
+    # -- chunks -------------------------------------------------------------------------------------------------
+    def chunk(self, body: memoryview) -> None:
+        r = _Fields(body)
+        lo, hi, size, crc = r.u64(), r.u64(), r.u64(), r.u32()
+        compression = r.string('chunk compression')
+        payload = r.take(r.u64(), 'chunk records')
+        if size > MAX_CHUNK_BYTES:
+            raise _FormatError(f'chunk of {size} uncompressed bytes; allowed: at most {MAX_CHUNK_BYTES}')
+        raw = _decompress(payload, compression, size)
+        self.out.chunks += 1
+        if crc:
+            if zlib.crc32(raw) != crc:
+                raise _FormatError(f'chunk CRC mismatch (stored {crc:#010x}, computed {zlib.crc32(raw):#010x})')
+            self.out.chunks_with_crc += 1
+        view, pos = memoryview(raw), 0
+        while pos < len(view):
+            if len(view) - pos < _RECORD.size:
+                raise _FormatError(f'chunk ends inside a record header ({len(view) - pos} bytes left)')
+            op, length = _RECORD.unpack_from(view, pos)
+            pos += _RECORD.size
+            if length > len(view) - pos:
+                raise _FormatError(f'record of {length} bytes inside a chunk with {len(view) - pos} bytes left')
+            rec = view[pos:pos + length]
+            pos += length
+            if op == OP_MESSAGE:
+                self.message(rec, lo, hi)
+            elif op == OP_SCHEMA:
+                self.schema(rec)
+            elif op == OP_CHANNEL:
+                self.channel(rec)
+            else:
+                raise _FormatError(f'record opcode {op:#04x} inside a chunk (allowed: schema, channel, message)')
+
+    # -- the file -------------------------------------------------------------------------------------------
+    def walk(self) -> McapFile:
+        if self.read(8) != MAGIC:
+            raise _FormatError('not an MCAP file (bad magic)')
+        data_crc = zlib.crc32(MAGIC)
+        summary_crc = 0
+        in_summary = False
+        stats: tuple[int, dict[int, int]] | None = None
+        first = True
+        while True:
+            start = self.pos
+            if self.size - start < _RECORD.size + 8:
+                raise _FormatError(f'no footer before the end of the file (record at byte {start})')
+            head = self.read(_RECORD.size)
+            op, length = _RECORD.unpack(head)
+            if length > self.size - self.pos - 8:
+                raise _FormatError(f'record {op:#04x} at byte {start} claims {length} bytes; '
+                               f'{self.size - self.pos - 8} are left before the end magic')
+            if length > MAX_RECORD_BYTES:
+                raise _FormatError(f'record {op:#04x} at byte {start} of {length} bytes; allowed: at most '
+                               f'{MAX_RECORD_BYTES}')
+            if first and op != OP_HEADER:
+                raise _FormatError(f'first record has opcode {op:#04x}, not the header')
+            body = self.read(length)
+            if op == OP_FOOTER:
+                self.footer(body, start, in_summary, zlib.crc32(body[:16], zlib.crc32(head, summary_crc)))
+                break
+            if op == OP_DATA_END:
+                if in_summary:
+                    raise _FormatError(f'second data end record at byte {start}')
+                stored = _Fields(body).u32()
+                if stored:
+                    if stored != data_crc:
+                        raise _FormatError(f'data section CRC mismatch (stored {stored:#010x}, '
+                                           f'computed {data_crc:#010x})')
+                    self.out.data_crc = True
+                in_summary = True
+                self.summary_start = self.pos
+                continue
+            if in_summary:
+                summary_crc = zlib.crc32(body, zlib.crc32(head, summary_crc))
+            else:
+                data_crc = zlib.crc32(body, zlib.crc32(head, data_crc))
+            try:
+                stats = self.record(op, body, first, in_summary) or stats
+            except _FormatError as exc:
+                raise _FormatError(f'record {op:#04x} at byte {start}: {exc}') from None
+            first = False
+        if self.read(8) != MAGIC:
+            raise _FormatError('bad end magic')
+        if stats is not None:
+            count, per_channel = stats
+            if count != sum(self.out.counts.values()) or any(per_channel.get(c, 0) != n
+                                                             for c, n in self.out.counts.items()):
+                raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
+                               f'{sum(self.out.counts.values())}')
+        self.out.sha256 = self.sha.hexdigest()
+        return self.out
+
+    def record(self, op: int, body: memoryview, first: bool, in_summary: bool) -> tuple[int, dict[int, int]] | None:
+        if op == OP_HEADER:
+            if not first:
+                raise _FormatError('a second header record')
+            self.out.profile = _Fields(body).string('profile')
+        elif op == OP_SCHEMA:
+            self.schema(body)
+        elif op == OP_CHANNEL:
+            self.channel(body)
+        elif op in (OP_MESSAGE, OP_CHUNK) and in_summary:
+            raise _FormatError('message data in the summary section')
+        elif op == OP_MESSAGE:
+            self.message(body)
+        elif op == OP_CHUNK:
+            self.chunk(body)
+        elif op == OP_METADATA:
+            r = _Fields(body)
+            name = r.string('metadata name')
+            self.out.metadata[name] = dict(r.string_map('metadata'))
+        elif op == OP_STATISTICS:
+            r = _Fields(body)
+            count = r.u64()
+            r.take(2 + 4 * 4 + 8 + 8, 'statistics counts and times')
+            per = _Fields(r.take(r.u32(), 'channel message counts'))
+            per_channel: dict[int, int] = {}
+            while per.pos < len(per.b):
+                cid = per.u16()
+                per_channel[cid] = per.u64()
+            return count, per_channel
+        return None  # indexes, attachments, summary offsets: covered by the CRCs and the walk itself
+
+    def footer(self, body: memoryview, start: int, in_summary: bool, crc: int) -> None:
+        if len(body) != _FOOTER_LENGTH or self.pos != self.size - 8:
+            raise _FormatError(f'footer at byte {start} of {len(body)} bytes, {self.size - self.pos} bytes before the '
+                           f'end (a footer is {_FOOTER_LENGTH} bytes followed by the end magic)')
+        if not in_summary:
+            raise _FormatError('no data end record before the footer')
+        r = _Fields(body)
+        summary_start, summary_offset, stored = r.u64(), r.u64(), r.u32()
+        has_summary = start > self.summary_start
+        if summary_start != (self.summary_start if has_summary else 0) or not (
+                summary_offset == 0 or self.summary_start <= summary_offset <= start):
+            raise _FormatError(f'footer offsets (summary at {summary_start}, offsets at {summary_offset}) do not '
+                               f'match the file (summary at {self.summary_start})')
+        if stored:
+            if stored != crc:
+                raise _FormatError(f'summary CRC mismatch (stored {stored:#010x}, computed {crc:#010x})')
+            self.out.summary_crc = True
+
+
+def _decompress(payload: memoryview, compression: str, size: int) -> bytes:
+    """Decompress a chunk to exactly ``size`` bytes, never producing more."""
+    if compression == '':
+        if len(payload) != size:
+            raise _FormatError(f'uncompressed chunk of {len(payload)} bytes declares {size}')
+        return bytes(payload)
+    if compression == 'zstd':
+        from backports import zstd  # the zstd of rosbags; compression.zstd from Python 3.14 has the same API
+
+        dec = zstd.ZstdDecompressor()
+        try:
+            raw = dec.decompress(payload, max_length=size)
+        except zstd.ZstdError as exc:
+            raise _FormatError(f'zstd chunk does not decompress ({exc})') from None
+    elif compression == 'lz4':
+        import lz4.frame
+
+        dec = lz4.frame.LZ4FrameDecompressor()
+        try:
+            raw = dec.decompress(bytes(payload), max_length=size)
+        except RuntimeError as exc:  # what lz4 raises for a corrupt frame
+            raise _FormatError(f'lz4 chunk does not decompress ({exc})') from None
+    else:
+        raise _FormatError(f'chunk compression {compression!r}; allowed: none, zstd or lz4')
+    if len(raw) != size or not dec.eof or dec.unused_data:
+        got = f'{len(raw)} bytes' if dec.eof else f'{len(raw)} bytes without reaching the end of its frame'
+        extra = f' and {len(dec.unused_data)} bytes after its frame' if dec.unused_data else ''
+        raise _FormatError(f'{compression} chunk decompresses to {got}{extra}; it declares {size}')
+    return bytes(raw)
+
+
+def read_mcap(path: Path, topics: set[str] | None = None) -> McapFile:
+    """Walk the MCAP file ``path`` (see the module docstring); keep the messages of ``topics`` (all if None).
+
+    Raises:
+        BagError: not a regular file, not MCAP, truncated (no footer: the writer did not close it) or corrupt.
+    """
+    f, size = open_regular(path, 'MCAP file')
+    with f:
+        try:
+            if size < 16 or f.read(8) != MAGIC:
+                raise BagError(f'{path}: not an MCAP file (bad magic)')
+            f.seek(size - 8)
+            if f.read(8) != MAGIC:
+                raise BagError(f'{path}: truncated MCAP file ({size} bytes, no footer magic): the writer did not '
+                               f'close it')
+            f.seek(0)
+            return _Walker(f, size, path, topics).walk()
+        except _FormatError as exc:
+            raise BagError(f'{path}: corrupt MCAP file: {exc}') from None
+        except OSError as exc:
+            raise BagError(f'{path}: cannot be read: {exc.strerror or exc}') from None

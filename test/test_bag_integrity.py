@@ -1,0 +1,210 @@
+"""Tamper evidence beyond the checksums: copies written again through the writer (valid checksums) with one
+change each; the content checks (markers, companion topics, metadata totals, types) name it. And the
+checksums themselves: each kind of change is named, a bag without them fails unless allowed."""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from bag_support import (
+    MARKERS,
+    REFERENCE,
+    STATE,
+    copy_bag,
+    messages_of,
+    resign_metadata,
+    rewritten,
+    small_sweep,
+    write_bag,
+)
+
+from gpr_kinematics import cli
+from gpr_kinematics.bags.metadata import METADATA_DIGEST_KEY, digest_line
+from gpr_kinematics.bags.reader import read_bag
+from gpr_kinematics.bags.typestore import GPR_TOPICS
+from gpr_kinematics.bags.verify import verify_bag
+
+
+@pytest.fixture(scope='module')
+def src(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    msgs = small_sweep()
+    return write_bag(tmp_path_factory.mktemp('src') / 'src', msgs, {t: GPR_TOPICS[t] for t in GPR_TOPICS})
+
+
+def _failed(path: Path, **kw: Any) -> list[tuple[str, int | None, str]]:
+    return [(f.check, f.sample, f.detail) for f in verify_bag(path, **kw).failures]
+
+
+def _marker_edit(sample_stamp: int, change: Any) -> Any:
+    def edit(topic: str, msg: Any) -> Any:
+        if topic == MARKERS and msg.markers[0].header.stamp.sec * 10**9 + msg.markers[0].header.stamp.nanosec \
+                == sample_stamp:
+            return change(msg)
+        return msg
+    return edit
+
+
+def test_markers_are_checked_against_the_state(tmp_path: Path, src: Path) -> None:
+    assert verify_bag(src).passed
+    t7 = int(read_bag(src).topic(STATE).log_time[7])
+
+    def far(m: Any) -> Any:  # what one flipped exponent bit did in the issue: z = -5.3e135 m
+        m.markers[1].points[3].z = -5.3e135
+        return m
+
+    def tiny(m: Any) -> Any:
+        m.markers[2].points[0].x += 1e-9
+        return m
+
+    def renamed(m: Any) -> Any:
+        m.markers[3].ns = 'nominal'
+        return m
+
+    def moved(m: Any) -> Any:
+        m.markers[0].pose.position.z = 0.01
+        return m
+
+    def dropped(m: Any) -> Any:
+        m.markers = m.markers[:3]
+        return m
+
+    for name, change in (('far', far), ('tiny', tiny), ('renamed', renamed), ('moved', moved), ('dropped', dropped)):
+        failed = _failed(rewritten(src, tmp_path / name, _marker_edit(t7, change)))
+        assert [(c, s) for c, s, _ in failed] == [('topic.markers', 7)], (name, failed)
+    result = verify_bag(tmp_path / 'far')
+    worst = next(c for c in result.checks if c.name == 'topic.markers').worst
+    assert worst == pytest.approx(5.3e135)
+    assert next(c for c in verify_bag(tmp_path / 'tiny').checks if c.name == 'topic.markers').worst == \
+        pytest.approx(1e-9, rel=1e-6)
+
+
+def test_markers_without_a_state_and_undecodable_markers(tmp_path: Path, src: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    t7 = int(read_bag(src).topic(STATE).log_time[7])
+
+    def shifted(m: Any) -> Any:  # a marker array whose stamp no state has
+        for mk in m.markers:
+            mk.header.stamp.nanosec += 1
+        return m
+
+    failed = _failed(rewritten(src, tmp_path / 'extra', _marker_edit(t7, shifted)))
+    assert ('topic.markers_extra', None, 'messages without a PlatformState of the same stamp') in failed
+    # A MarkerArray that does not decode at all: the bag is unreadable (exit 2), whatever the checksums say.
+    cut = rewritten(src, tmp_path / 'cut', _marker_edit(t7, lambda m: b'\x00\x01\x00\x00\x07\x00\x00\x00'))
+    assert cli.main(['verify', str(cut)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('gpr verify: error: unreadable: ') and 'MarkerArray cannot be decoded' in err
+
+
+def test_companion_topics_with_a_wrong_type_or_an_unknown_topic(tmp_path: Path, src: Path) -> None:
+    msgs = messages_of(src)
+    types = {t: GPR_TOPICS[t] for t in GPR_TOPICS}
+    geometry = [m for m in msgs if m[0] == '/gpr/geometry']  # a std_msgs/String message
+    # An extra topic of a known type decodes and is counted; it does not make the bag fail.
+    ok = write_bag(tmp_path / 'ok', msgs + [('/chatter', msgs[-1][1], geometry[0][2])],
+                   {**types, '/chatter': 'std_msgs/msg/String'})
+    result = verify_bag(ok)
+    assert result.passed and result.counts['/chatter'] == 1
+    # A topic of the suite recorded with another type: named, and its companion check skipped.
+    joint = '/gpr/joint_states'
+    wrong = write_bag(tmp_path / 'wrong', [m for m in msgs if m[0] != joint] + [(joint, msgs[-1][1], geometry[0][2])],
+                      {**types, joint: 'std_msgs/msg/String'})
+    result = verify_bag(wrong)
+    assert [(f.check, f.topic) for f in result.failures] == [('bag.topic_types', joint)]
+    assert next(c for c in result.checks if c.name == 'topic.joint_states').skipped
+
+
+@pytest.mark.parametrize('field,value,words', [
+    (('message_count',), 1, 'message_count: metadata.yaml says'),
+    (('duration', 'nanoseconds'), 1, 'duration: metadata.yaml says'),
+    (('starting_time', 'nanoseconds_since_epoch'), -1, 'starting_time: metadata.yaml says'),
+    (('files', 0, 'message_count'), 1, 'message_count: metadata.yaml says'),
+    (('version',), -1, 'version 8; allowed: 9'),
+])
+def test_resigned_metadata_edits_are_named(tmp_path: Path, src: Path, field: tuple[Any, ...], value: int,
+                                           words: str) -> None:
+    bag = copy_bag(src, tmp_path / 'b')
+
+    def edit(info: dict[str, Any]) -> None:
+        obj: Any = info
+        for k in field[:-1]:
+            obj = obj[k]
+        obj[field[-1]] += value
+
+    resign_metadata(bag, edit)
+    failed = _failed(bag)
+    assert [c for c, _, _ in failed] == ['bag.metadata'] and words in failed[0][2], failed
+
+
+def test_checksum_failures_name_the_file(tmp_path: Path, src: Path) -> None:
+    # A storage file changed where its own format does not notice (SQLite3 has no checksums): the file named.
+    db = write_bag(tmp_path / 'db', messages_of(src), {t: GPR_TOPICS[t] for t in GPR_TOPICS}, storage='sqlite3')
+    f = db / 'db_0.db3'
+    data = bytearray(f.read_bytes())
+    data[data.rindex(b'weighting: characteristic') + 11] ^= 0x20  # 'Characteristic' in the geometry text
+    f.write_bytes(bytes(data))
+    failures = verify_bag(db).failures
+    assert ('bag.checksums', 'db_0.db3', 'SHA-256 differs from the recorded one: the file changed') in [
+        (x.check, x.topic, x.detail) for x in failures]
+    # metadata.yaml changed where it still parses alike (a comment): the digest sees it.
+    bag = copy_bag(src, tmp_path / 'meta')
+    (bag / 'metadata.yaml').write_text((bag / 'metadata.yaml').read_text() + '# reviewed\n')
+    assert _failed(bag) == [('bag.checksums', None, 'SHA-256 differs from the recorded one: metadata.yaml changed')]
+    # The digest line in another form that YAML reads alike (double quotes).
+    bag = copy_bag(src, tmp_path / 'quotes')
+    text = (bag / 'metadata.yaml').read_bytes()
+    stored = yaml.safe_load(text)['rosbag2_bagfile_information']['custom_data'][METADATA_DIGEST_KEY]
+    (bag / 'metadata.yaml').write_bytes(text.replace(digest_line(stored), digest_line(stored).replace(b"'", b'"')))
+    assert _failed(bag) == [('bag.checksums', None, f'the {METADATA_DIGEST_KEY} line is not in its one form')]
+
+
+def test_a_bag_without_checksums_fails_unless_allowed(tmp_path: Path, src: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    bag = copy_bag(src, tmp_path / 'foreign')
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())
+    info['rosbag2_bagfile_information']['custom_data'] = {'recorder': 'somebody else'}
+    (bag / 'metadata.yaml').write_text(yaml.safe_dump(info, sort_keys=False))
+    failed = _failed(bag)
+    assert {c for c, _, _ in failed} == {'bag.checksums'} and len(failed) == 2
+    assert cli.main(['verify', str(bag), '--allow-missing-checksums', '--json']) == 0
+    data = json.loads(capsys.readouterr().out)
+    check = next(c for c in data['checks'] if c['name'] == 'bag.checksums')
+    assert check['status'] == 'skip' and 'allowed by the caller' in check['skipped']
+    # A single MCAP file of the writer: every CRC present, nothing else needed.
+    single = bag / 'src_0.mcap'
+    result = verify_bag(single)
+    assert result.passed and 'CRCs were all present' in next(c for c in result.checks
+                                                            if c.name == 'bag.checksums').skipped
+
+
+def test_unlisted_and_unfinished_files_are_noted_not_read(tmp_path: Path, src: Path) -> None:
+    bag = copy_bag(src, tmp_path / 'b')
+    shutil.copy(bag / 'src_0.mcap', bag / 'src_9.mcap')
+    (bag / '.recording' / 'src_10').mkdir(parents=True)
+    (bag / '.recording' / 'src_10' / 'src_10.mcap').write_bytes(b'\x89MCAP0\r\n')
+    result = verify_bag(bag)
+    assert result.passed and result.unfinished == ['.recording/src_10/src_10.mcap']
+    assert any('src_9.mcap' in n and 'not read' in n for n in result.notes)
+
+
+def test_reference_bag_checksums_and_metadata() -> None:
+    result = verify_bag(REFERENCE)
+    checks = {c.name: c for c in result.checks}
+    assert checks['bag.checksums'].passed and checks['bag.checksums'].checked == 2
+    assert checks['bag.metadata'].passed and checks['topic.markers'].checked == 756
+    assert checks['topic.markers'].worst < 1e-15
+    # Recorded by the trajectory node: rod k's top (point 2k+1 of the rods' line list) is the joint centre
+    # (R cos theta_k, R sin theta_k, q_k), R = 93.218 mm, theta_k = 0, 120, 240 deg.
+    bag = read_bag(REFERENCE)
+    mc, q = bag.topic(MARKERS).columns(), bag.topic(STATE).columns()['q']
+    for k in range(3):
+        theta = math.radians(120 * k)
+        top = np.stack([mc[f'markers[1].points[{2 * k + 1}].{a}'] for a in 'xyz'], axis=1)
+        assert np.allclose(top[:, :2], [0.093218 * math.cos(theta), 0.093218 * math.sin(theta)], rtol=0, atol=1e-15)
+        assert np.array_equal(top[:, 2], q[:, k])

@@ -1,0 +1,142 @@
+"""The bounded MCAP reader against the ``mcap`` library (CRC validation, messages), its limits, foreign files
+(the ``rosbags`` writer, CRCs left 0; lz4 chunks), and files that are not regular files (a FIFO never blocks)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from bag_support import REFERENCE, small_sweep, write_bag
+
+from gpr_kinematics.bags import mcap_file
+from gpr_kinematics.bags.errors import BagError
+from gpr_kinematics.bags.mcap_file import read_mcap
+from gpr_kinematics.bags.reader import read_bag
+from gpr_kinematics.bags.typestore import GPR_TOPICS, definition
+
+
+@pytest.fixture(scope='module')
+def messages() -> list[tuple[str, int, bytes]]:
+    return small_sweep()
+
+
+def _types(messages: list[tuple[str, int, bytes]]) -> dict[str, str]:
+    return {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
+
+
+@pytest.mark.parametrize('compression', ['none', 'zstd'])
+def test_written_files_carry_every_crc_and_the_mcap_library_agrees(tmp_path: Path, messages: list,
+                                                                   compression: str) -> None:
+    from mcap.reader import make_reader
+    from mcap.stream_reader import StreamReader
+
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), compression=compression, max_bag_size=20000)
+    files = sorted(bag.glob('*.mcap'))
+    assert len(files) == 3
+    ours, theirs = [], []
+    for f in files:
+        m = read_mcap(f)
+        assert m.chunks >= 1 and m.chunks_with_crc == m.chunks and m.data_crc and m.summary_crc
+        names = {c.id: c.topic for c in m.channels.values()}
+        ours += sorted((t, names[cid], d) for cid in m.times for t, d in zip(m.times[cid], m.data[cid], strict=True))
+        with f.open('rb') as fh:  # the library's own validation of chunk and data-section CRCs
+            assert sum(1 for _ in StreamReader(fh, validate_crcs=True).records) > 10
+        with f.open('rb') as fh:
+            theirs += sorted((msg.log_time, ch.topic, msg.data) for _, ch, msg in make_reader(fh).iter_messages())
+        assert {c.topic: c.meta('topic_type_hash') for c in m.channels.values()} == {
+            t: definition(GPR_TOPICS[t])[1] for t in names.values()}
+    assert ours == theirs == sorted((t, topic, d) for topic, t, d in messages)
+
+
+def test_a_file_of_the_rosbags_writer_reads_without_crcs(tmp_path: Path, messages: list) -> None:
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    with Writer(tmp_path / 'r', version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {t: w.add_connection(t, ty, msgdef=definition(ty)[0], rihs01=definition(ty)[1])
+                 for t, ty in _types(messages).items()}
+        for topic, t, data in messages:
+            w.write(conns[topic], t, data)
+    m = read_mcap(tmp_path / 'r' / 'r.mcap')
+    assert m.chunks == 1 and m.chunks_with_crc == 0 and not m.data_crc and not m.summary_crc
+    assert sum(m.counts.values()) == len(messages)
+    assert read_bag(tmp_path / 'r').message_count == len(messages)
+
+
+def test_lz4_chunks(tmp_path: Path, messages: list) -> None:
+    from mcap.writer import CompressionType, Writer
+
+    path = tmp_path / 'lz4.mcap'
+    with path.open('wb') as fh:
+        w = Writer(fh, compression=CompressionType.LZ4, chunk_size=4096)
+        w.start(profile='ros2', library='test')
+        schema = w.register_schema('gpr_interfaces/msg/PlatformState', 'ros2msg',
+                                   definition('gpr_interfaces/msg/PlatformState')[0].encode())
+        ch = w.register_channel('/gpr/platform_state', 'cdr', schema)
+        states = [m for m in messages if m[0] == '/gpr/platform_state']
+        for _, t, data in states:
+            w.add_message(ch, log_time=t, data=data, publish_time=t)
+        w.finish()
+    m = read_mcap(path)
+    assert m.chunks > 3 and m.chunks_with_crc == m.chunks
+    assert m.data[ch] == [d for _, _, d in states]
+    bag = read_bag(path)
+    assert bag.metadata is None and len(bag.topic('/gpr/platform_state')) == len(states)
+
+
+def test_a_flipped_message_byte_fails_the_chunk_crc(tmp_path: Path, messages: list) -> None:
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    f = bag / 'b_0.mcap'
+    data = bytearray(f.read_bytes())
+    i = data.index(b'gpr_base', len(data) // 3)  # a frame id inside a message of the (uncompressed) chunk
+    data[i] ^= 0x20
+    f.write_bytes(bytes(data))
+    with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: record 0x06 at byte \d+: chunk CRC mismatch'):
+        read_mcap(f)
+
+
+def test_a_chunk_beyond_the_size_limit_is_refused(tmp_path: Path, messages: list,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    monkeypatch.setattr(mcap_file, 'MAX_CHUNK_BYTES', 1000)
+    with pytest.raises(BagError, match='uncompressed bytes; allowed: at most 1000'):
+        read_mcap(bag / 'b_0.mcap')
+    monkeypatch.setattr(mcap_file, 'MAX_RECORD_BYTES', 500)
+    with pytest.raises(BagError, match='allowed: at most 500'):
+        read_mcap(bag / 'b_0.mcap')
+
+
+def test_reference_file_holds_what_its_metadata_lists() -> None:
+    bag = read_bag(REFERENCE)
+    (f,) = bag.storage_files
+    assert f.chunks_with_crc == f.chunks and f.data_crc and f.summary_crc
+    assert f.message_count == bag.metadata.message_count == 3780
+
+
+_READ = 'import sys; from gpr_kinematics.bags.reader import read_bag; read_bag(sys.argv[1])'
+
+
+def _fifo_cases(tmp_path: Path, messages: list) -> list[tuple[Path, str]]:
+    cases = []
+    for what in ('storage', 'metadata'):
+        bag = write_bag(tmp_path / what, messages, _types(messages))
+        victim = bag / (f'{what}_0.mcap' if what == 'storage' else 'metadata.yaml')
+        victim.unlink()
+        os.mkfifo(victim)
+        cases.append((bag, victim.name))
+    single = tmp_path / 'single.mcap'
+    os.mkfifo(single)
+    cases.append((single, 'single.mcap'))
+    return cases
+
+
+def test_a_fifo_is_refused_without_blocking(tmp_path: Path, messages: list) -> None:
+    """verify and the reader that replay_node uses: exit 2 / BagError naming the FIFO, within seconds."""
+    for path, name in _fifo_cases(tmp_path, messages):
+        proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'verify', str(path)], text=True,
+                              capture_output=True, timeout=60)
+        assert proc.returncode == 2 and 'is a FIFO; allowed: a regular file' in proc.stderr, proc.stderr
+        assert name in proc.stderr and proc.stderr.count('\n') == 1
+        proc = subprocess.run([sys.executable, '-c', _READ, str(path)], text=True, capture_output=True, timeout=60)
+        assert proc.returncode == 1 and 'BagError' in proc.stderr and 'is a FIFO' in proc.stderr
