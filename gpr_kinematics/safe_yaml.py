@@ -89,15 +89,17 @@ def load_text(text: str, source: str = 'YAML text') -> Any:
     """
     if len(text) > MAX_BYTES:
         raise ConfigError(f'{source}: {len(text)} characters of YAML; allowed: at most {MAX_BYTES}')
-    loader = _BoundedLoader(text, source)
+    loader: _BoundedLoader | None = None
     try:
+        loader = _BoundedLoader(text, source)  # the reader checks the characters here already
         return loader.get_single_data()
     except yaml.YAMLError as exc:
         raise ConfigError(f'{source}: not valid YAML ({str(exc).splitlines()[0]})') from None
     except RecursionError:  # flow collections recurse in the parser, before compose_node can count
         raise ConfigError(f'{source}: nested too deeply; allowed: at most {MAX_DEPTH} levels') from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def read_file(path: str | Path, what: str = 'YAML') -> Any:

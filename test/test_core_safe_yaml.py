@@ -105,6 +105,9 @@ def test_missing_file_and_invalid_yaml(tmp_path) -> None:
     f.write_text('a: [1, 2\n')
     with pytest.raises(ConfigError, match=r'x\.yaml: not valid YAML'):
         read_yaml(f)
+    f.write_bytes(b'a: 1\x00\n')  # UTF-8, but a character YAML does not allow
+    with pytest.raises(ConfigError, match=r'x\.yaml: not valid YAML \(unacceptable character #x0000'):
+        read_yaml(f)
 
 
 def test_brief_cuts_long_values() -> None:
