@@ -15,6 +15,7 @@ setup(
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
         ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
         ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
+        ('share/' + PACKAGE + '/config/robots', glob('config/robots/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
     zip_safe=True,
