@@ -90,8 +90,8 @@ class Stations:
         return tilt_rotation(self.tilt, self.azimuth)[:, :, 2]
 
     def label(self, i: int) -> str:
-        """How messages name station ``i``."""
-        return f'station {self.names[i]}' if self.names[i] == str(i) else f'station {i} ({self.names[i]})'
+        """How messages name station ``i``: by its name, or by its index when the stations are not named."""
+        return f'station {self.names[i]}'
 
     def take(self, index: ArrayLike) -> Stations:
         """The stations at ``index`` (an integer array)."""

@@ -11,16 +11,20 @@
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import ConfigError
 from .description import RobotDescription
 from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
+from .station_files import read_csv_table, read_text
 from .stations import Stations, stations_from_poses
 
 Array = NDArray[np.float64]
@@ -91,3 +95,28 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
         value = old.joints[:, a.redundancy.joint]
     solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
     return Retaught(old=old, intended=intended, solution=solution)
+
+
+def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None = None
+                     ) -> tuple[tuple[str, ...], Array, Array]:
+    """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
+    for rods, ``[rad]``/``[deg]`` for joints; SI when none) and an optional ``name`` column; returns
+    ``(names, rods (N, 3), joints (N, n))``. ConfigError names the line and the field."""
+    a = robot.arm(arm)
+    kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
+    table = read_csv_table(read_text(Path(path), 'joint table'), str(path), kinds,
+                           robot.rods.names + a.joint_names)
+    rods = np.empty((len(table), 3))
+    joints = np.empty((len(table), len(a.joints)))
+    names = []
+    for r in range(len(table)):
+        names.append(table.text(r, 'name') or str(r))
+        for k, rod in enumerate(robot.rods.names):
+            rods[r, k] = table.number(r, rod, math.nan)
+        for k, joint in enumerate(a.joint_names):
+            joints[r, k] = table.number(r, joint, math.nan)
+        if np.isnan(rods[r]).any() or np.isnan(joints[r]).any():
+            raise ConfigError(f'{table.row_where(r)}: every rod and joint needs a value')
+    if len(table) == 0:
+        raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
+    return tuple(names), rods, joints
