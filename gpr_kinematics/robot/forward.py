@@ -18,6 +18,7 @@ believes the wafer is; ``naive_wafer_error = wafer - naive_wafer`` is the error 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -90,12 +91,21 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
 
 
 def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
-    """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the composed chain."""
-    chain = arm_transforms(arm, joints)
-    pose = chain[0][2]
-    for _, _, step in chain[1:-1]:
-        pose = pose.compose(step)
-    return pose, pose.compose(chain[-1][2])
+    """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the chain of :func:`arm_transforms`
+    composed in closed form (every joint turns about the platform normal, so the link directions add up:
+    ``Theta_n = mount_yaw + theta_1 + ... + theta_n``)."""
+    n = joints.shape[0]
+    Theta = arm.mount_yaw + np.cumsum(joints, axis=1)
+    x = np.full(n, arm.mount_position[0])
+    y = np.full(n, arm.mount_position[1])
+    for k, joint in enumerate(arm.joints):
+        c, s = np.cos(Theta[:, k]), np.sin(Theta[:, k])
+        x, y = x + c * joint.length, y + s * joint.length
+    bx, by = arm.blade.position[0], arm.blade.position[1]  # in the last link's frame, from the flange
+    x, y = x + c * bx - s * by, y + s * bx + c * by
+    z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
+    blade = PoseBatch(np.stack([x, y, np.full(n, z)], axis=1), rotation_z(Theta[:, -1] + arm.blade.yaw))
+    return blade, PoseBatch(blade.apply(arm.blade.wafer_centre), blade.rotation)
 
 
 @dataclass(frozen=True)
@@ -106,7 +116,7 @@ class RobotForward:
         arm: name of the arm; rods ``(N, 3)`` [m]; joints ``(N, n)`` [rad].
         gpr: the platform's forward kinematics in ``gpr_base`` (tilt, centre shift, virtual joints, ...).
         platform, blade, wafer: poses in the world through the exact platform pose.
-        naive_platform, naive_wafer: the same through the naive model.
+        naive_platform, naive_wafer: the same through the naive model (computed when first asked for).
     """
 
     arm: str
@@ -116,11 +126,22 @@ class RobotForward:
     platform: PoseBatch
     blade: PoseBatch
     wafer: PoseBatch
-    naive_platform: PoseBatch
-    naive_wafer: PoseBatch
+    robot: RobotDescription
+    wafer_on_platform: PoseBatch
 
     def __len__(self) -> int:
         return int(self.rods.shape[0])
+
+    @cached_property
+    def naive_platform(self) -> PoseBatch:
+        """``gpr_platform`` in the world under the naive model (:func:`~gpr_kinematics.kinematics.naive_forward`)."""
+        position, rotation = naive_forward(self.rods, self.robot.config)
+        return base_pose(self.robot, len(self)).compose(PoseBatch(position, rotation))
+
+    @cached_property
+    def naive_wafer(self) -> PoseBatch:
+        """Where the naive model puts the wafer for these rods and joints (the old offline tool's belief)."""
+        return self.naive_platform.compose(self.wafer_on_platform)
 
     @property
     def naive_wafer_error(self) -> Array:
@@ -164,12 +185,7 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
 
 def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, gpr: ForwardBatch) -> RobotForward:
     """:func:`robot_forward` once the platform's forward kinematics ``gpr`` of ``Q`` is known (no checks)."""
-    n = Q.shape[0]
-    base = base_pose(robot, n)
-    platform = base.compose(PoseBatch(gpr.position, gpr.rotation))
-    naive_pos, naive_rot = naive_forward(Q, robot.config)
-    naive_platform = base.compose(PoseBatch(naive_pos, naive_rot))
+    platform = base_pose(robot, Q.shape[0]).compose(PoseBatch(gpr.position, gpr.rotation))
     blade_p, wafer_p = platform_to_blade(arm, J)
     return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=gpr, platform=platform, blade=platform.compose(blade_p),
-                        wafer=platform.compose(wafer_p), naive_platform=naive_platform,
-                        naive_wafer=naive_platform.compose(wafer_p))
+                        wafer=platform.compose(wafer_p), robot=robot, wafer_on_platform=wafer_p)

@@ -37,10 +37,10 @@ from ..errors import ConvergenceError, InputError, LimitError
 from ..geometry import tilt_from_normal, tilt_rotation
 from ..kinematics import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
 from .description import BRANCHES, Arm, RobotDescription
-from .forward import RobotForward, base_pose, forward_on_platform
+from .forward import RobotForward, base_pose, forward_on_platform, platform_to_blade
 from .planar_arm import ArmSolution, branch_sign, solve_arm
 from .stations import Stations
-from .transforms import rotate_z, rotation_angle
+from .transforms import PoseBatch, rotate_z, rotation_angle
 
 Array = NDArray[np.float64]
 
@@ -61,7 +61,7 @@ class StationSolution:
         rods ``(N, 3)`` [m], joints ``(N, n)`` [rad]: the answer.
         forward: whole-robot forward kinematics of the answer (platform, blade, wafer reached).
         naive_rods, naive_joints: the naive model's answer for the same stations (the old tool's).
-        naive: forward kinematics of the naive answer on the real machine.
+        naive_wafer: where the naive answer really puts the wafer (forward kinematics on the real machine).
         position_error, angle_error ``(N,)``: wafer reached versus station [m, rad] (the angle between the
             normals where the heading is free).
         feasible ``(N,)``: the station is within every limit (all True unless ``check=False``).
@@ -75,7 +75,7 @@ class StationSolution:
     forward: RobotForward
     naive_rods: Array
     naive_joints: Array
-    naive: RobotForward
+    naive_wafer: PoseBatch
     position_error: Array
     angle_error: Array
     feasible: NDArray[np.bool_]
@@ -86,7 +86,7 @@ class StationSolution:
     @property
     def naive_wafer_error(self) -> Array:
         """Where the naive model's joints really put the wafer minus the station ``(N, 3)`` [m, world]."""
-        return self.naive.wafer.position - self.stations.position
+        return self.naive_wafer.position - self.stations.position
 
     @property
     def naive_wafer_error_norm(self) -> Array:
@@ -94,8 +94,20 @@ class StationSolution:
 
     @property
     def naive_wafer_angle_error(self) -> Array:
-        """Angle between the wafer orientation the naive joints give and the one they meant ``(N,)`` [rad]."""
-        return rotation_angle(self.naive.naive_wafer.rotation, self.naive.wafer.rotation)
+        """Angle between the wafer orientation the naive joints give and the station's ``(N,)`` [rad] (between
+        the normals where the heading is free)."""
+        return _angle_to(self.stations, self.naive_wafer.rotation)
+
+
+def _angle_to(stations: Stations, R: Array) -> Array:
+    """Angle between orientations ``R (N, 3, 3)`` and the stations' (between the normals where the heading is
+    free) [rad]."""
+    angle = rotation_angle(stations.rotation, R)
+    free = stations.heading_free
+    if free.any():
+        n, m = R[free, :, 2], stations.normal[free]
+        angle[free] = np.arctan2(np.linalg.norm(np.cross(n, m), axis=1), np.einsum('ni,ni->n', n, m))
+    return angle
 
 
 def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[str, ...], Array]:
@@ -108,7 +120,9 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
     for b in set(names):
         if b not in BRANCHES:
             raise InputError(f'branch = {b!r} is invalid; allowed: left or right')
-    return names, np.array([branch_sign(b) for b in names])
+    right = np.array(names) == 'right' if n and not isinstance(branch, (str, type(None))) else \
+        np.full(n, names[0] == 'right' if n else True)
+    return names, np.where(right, branch_sign('right'), branch_sign('left'))
 
 
 def _platform_height(robot: RobotDescription, tilt: Array, az: Array, p_b: Array, n_b: Array,
@@ -140,7 +154,7 @@ def _arm_target(arm: Arm, w: Array, psi: Array) -> tuple[Array, Array]:
 
 
 def _heading_in(R_platform: Array, R_b: Array) -> Array:
-    M = np.einsum('nji,njk->nik', R_platform, R_b)
+    M = np.swapaxes(R_platform, 1, 2) @ R_b
     return np.arctan2(M[:, 1, 0], M[:, 0, 0])
 
 
@@ -175,7 +189,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
                              'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
         value = np.broadcast_to(np.asarray(redundancy_value, dtype=float), (n,))
     base = base_pose(robot, n)
-    R_b = np.einsum('nji,njk->nik', base.rotation, stations.rotation)
+    R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
     p_b = base.inverse_apply(stations.position)
     n_b = R_b[:, :, 2]
     tilt, az = tilt_from_normal(n_b)
@@ -198,18 +212,17 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     pn_m, phin_m = _arm_target(a, w_n, _heading_in(R_n, R_b))
     naive_sol = solve_arm(a, pn_m, phin_m, sign, value)
     q_n = naive_inverse(h, tilt, az, cfg)
-    naive = forward_on_platform(robot, a, q_n, naive_sol.theta, forward_batch(q_n, cfg, check_limits=False))
+    naive_gpr = forward_batch(q_n, cfg, check_limits=False)
+    _, naive_wafer_p = platform_to_blade(a, naive_sol.theta)
+    naive_wafer = base.compose(PoseBatch(naive_gpr.position, naive_gpr.rotation)).compose(naive_wafer_p)
     free = stations.heading_free
-    angle = np.where(free, np.arctan2(np.linalg.norm(np.cross(fk.wafer.rotation[:, :, 2], stations.normal), axis=1),
-                                      np.einsum('ni,ni->n', fk.wafer.rotation[:, :, 2], stations.normal)),
-                     rotation_angle(stations.rotation, fk.wafer.rotation))
     targets = _Targets(p_m, phi_m, sign, value)
     bad = _fault_mask(robot, a, q, sol, targets, free)
     result = StationSolution(
         stations=stations, arm=a.name, branch=names, rods=q, joints=sol.theta, forward=fk, naive_rods=q_n,
-        naive_joints=naive_sol.theta, naive=naive,
-        position_error=np.linalg.norm(fk.wafer.position - stations.position, axis=1), angle_error=angle,
-        feasible=~bad)
+        naive_joints=naive_sol.theta, naive_wafer=naive_wafer,
+        position_error=np.linalg.norm(fk.wafer.position - stations.position, axis=1),
+        angle_error=_angle_to(stations, fk.wafer.rotation), feasible=~bad)
     if check and bad.any():
         i = int(np.argmax(bad))
         raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{_more(bad)}')

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -79,12 +80,12 @@ class Stations:
         return Stations(P, _column(tilt, 'tilt', n), _column(azimuth, 'azimuth', n), np.where(free, 0.0, head),
                         free, names)
 
-    @property
+    @cached_property
     def rotation(self) -> Array:
         """Orientations ``tilt_rotation(tilt, azimuth) @ Rz(heading)`` ``(N, 3, 3)`` (heading 0 where free)."""
         return tilt_rotation(self.tilt, self.azimuth) @ rotation_z(self.heading)
 
-    @property
+    @cached_property
     def normal(self) -> Array:
         """Station-plane normals in the world ``(N, 3)``."""
         return tilt_rotation(self.tilt, self.azimuth)[:, :, 2]

@@ -38,7 +38,7 @@ def rotate_z(angle: ArrayLike, xy: Array) -> Array:
 def rotation_angle(Ra: Array, Rb: Array) -> Array:
     """Angle [rad] of the rotation ``Ra^T Rb`` for ``(N, 3, 3)`` stacks, accurate for small angles (from the
     norm of the skew part and the trace, ``atan2``)."""
-    M = np.einsum('nji,njk->nik', Ra, Rb)
+    M = np.swapaxes(Ra, -1, -2) @ Rb
     s = 0.5 * np.sqrt((M[:, 2, 1] - M[:, 1, 2]) ** 2 + (M[:, 0, 2] - M[:, 2, 0]) ** 2
                       + (M[:, 1, 0] - M[:, 0, 1]) ** 2)
     c = 0.5 * (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0)
@@ -83,7 +83,7 @@ class PoseBatch:
 
     def compose(self, child: PoseBatch) -> PoseBatch:
         """``self * child``: the pose of ``child``'s frame in ``self``'s parent."""
-        return PoseBatch(self.apply(child.position), np.einsum('nij,njk->nik', self.rotation, child.rotation))
+        return PoseBatch(self.apply(child.position), self.rotation @ child.rotation)
 
     def inverse_apply(self, points: Array) -> Array:
         """Points ``(N, 3)`` given in the parent frame, in the child frame: ``R^T (x - p)``."""
