@@ -217,6 +217,17 @@ def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float,
     return tuple(out)
 
 
+def _xyz(data: Mapping[str, Any], key: str, where: str, bound: float, default: Sequence[float] | None = None
+         ) -> tuple[float, float, float]:
+    x, y, z = _vector(data, key, where, 3, bound, default=default)
+    return x, y, z
+
+
+def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
+    r, p, y = _vector(data, 'rpy', where, 3, 2 * math.pi, 'rad', default=(0.0, 0.0, 0.0))
+    return r, p, y
+
+
 def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
     value = data.get(key, default)
     if not isinstance(value, str) or not _NAME.match(value):
@@ -299,9 +310,9 @@ def _arm(raw: Any, where: str) -> Arm:
     bwhere = f'{where}: blade'
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
     check_keys(blade_data, ('position', 'yaw', 'wafer_centre'), bwhere)
-    blade = Blade(position=_vector(blade_data, 'position', bwhere, 3, _LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
+    blade = Blade(position=_xyz(blade_data, 'position', bwhere, _LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
                   yaw=_angle(blade_data, 'yaw', bwhere, default=0.0),
-                  wafer_centre=_vector(blade_data, 'wafer_centre', bwhere, 3, _LENGTH_BOUND))
+                  wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, _LENGTH_BOUND))
     branch = data.get('branch', 'right')
     if branch not in BRANCHES:
         raise ConfigError(f'{where}: branch = {branch!r} is invalid; allowed: left or right')
@@ -319,8 +330,8 @@ def _arm(raw: Any, where: str) -> Arm:
         redundancy = _redundancy(data['redundancy'], joints, f'{where}: redundancy')
     elif 'redundancy' in data:
         raise ConfigError(f'{where}: redundancy applies to 4-joint arms only; this arm has {len(joints)} joints')
-    arm = Arm(name=name, mount_position=_vector(mount, 'position', f'{where}: mount', 3, _LENGTH_BOUND,
-                                                 default=(0.0, 0.0, 0.0)),
+    arm = Arm(name=name, mount_position=_xyz(mount, 'position', f'{where}: mount', _LENGTH_BOUND,
+                                              default=(0.0, 0.0, 0.0)),
               mount_yaw=_angle(mount, 'yaw', f'{where}: mount', default=0.0), joints=joints, blade=blade,
               branch=branch, home=home, redundancy=redundancy)
     if len(joints) == 2 and joints[1].length + blade.position[0] == 0.0 and blade.position[1] == 0.0 \
@@ -375,8 +386,8 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
                           + ', '.join(duplicates))
     return RobotDescription(
         name=name, config=config, world_frame=_name(base, 'frame', f'{source}: base', default='world'),
-        base_position=_vector(base, 'position', f'{source}: base', 3, _WORLD_BOUND, default=(0.0, 0.0, 0.0)),
-        base_rpy=_vector(base, 'rpy', f'{source}: base', 3, 2 * math.pi, 'rad', default=(0.0, 0.0, 0.0)),
+        base_position=_xyz(base, 'position', f'{source}: base', _WORLD_BOUND, default=(0.0, 0.0, 0.0)),
+        base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source)
 
 

@@ -136,6 +136,8 @@ def _solve_fixed(d: list[Array], beta: float, j: int, v: Array, p: Array, phi: A
     """Four-joint chain with joint ``j`` held at ``v``: fold it into its neighbours, solve three joints, put it
     back. Returns the joint values ``(..., 4)`` and the two-link solution of the reduced chain."""
     zero = np.zeros_like(v)
+    c: list[Array | float]
+    b: Array | float
     if j == 0:
         p = p - rotate_z(v, d[0])
         dd, c, b = d[1:], [v, zero, zero], beta
@@ -239,7 +241,7 @@ def _nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, 
     rows, cols = np.nonzero(local_min)
     cand_rows, cand_x, cand_f = [rows], [grid[cols]], [cost[rows, cols]]
 
-    def f(r: Array, x: Array) -> Array:
+    def f(r: NDArray[np.intp], x: Array) -> Array:
         return _nearest_cost(arm, d, beta, p[r], phi[r], sign[r], x[:, None])[:, 0]
 
     for side in (-1, 1):

@@ -222,7 +222,14 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
     table = program.stations
     index = table.index()
     st = table.stations
-    idx, offset, arms, branches, steps, phases, dwell, times = [], [], [], [], [], [], [], []
+    idx: list[int] = []
+    offset: list[float] = []
+    arms: list[str] = []
+    branches: list[str] = []
+    steps: list[int] = []
+    phases: list[str] = []
+    dwell: list[float] = []
+    times: list[float] = []
     for s, step in enumerate(program.steps):
         where = f'{program.source}: steps[{s}]'
         if step.kind == 'dwell':
@@ -240,8 +247,9 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
         branch = step.branch or table.branch[i] or program.branch or a.branch
         if branch not in ('left', 'right'):
             raise ConfigError(f'{where}: branch = {branch!r} is invalid; allowed: left or right')
-        approach = table.approach_height[i] if table.approach_height[i] is not None else program.approach_height
-        retract = table.retract_height[i] if table.retract_height[i] is not None else program.retract_height
+        own_approach, own_retract = table.approach_height[i], table.retract_height[i]
+        approach = own_approach if own_approach is not None else program.approach_height
+        retract = own_retract if own_retract is not None else program.retract_height
         d = step.dwell if step.dwell is not None else program.dwell
         if step.kind == 'move':
             plan = [(0.0, 'move', d)]

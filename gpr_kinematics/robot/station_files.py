@@ -174,7 +174,8 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         if not isinstance(pos, list) or len(pos) != 3:
             raise ConfigError(f'{w}: position = {pos!r} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
-        rows.position.append(tuple(_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True)))
+        x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
+        rows.position.append((x, y, z))
         rows.tilt.append(_number(st.get('tilt', 0.0), w, 'tilt', aunit) * angle)
         rows.azimuth.append(_number(st.get('azimuth', 0.0), w, 'azimuth', aunit) * angle)
         h = st.get('heading')

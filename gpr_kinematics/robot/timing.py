@@ -118,16 +118,8 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         disc = np.maximum(A * A * T * T - 4.0 * A, 0.0)
         speed = np.where(given & np.isfinite(A), (A * T - np.sqrt(disc)) / 2.0, V)
-    arrive = np.empty(W)
-    depart = np.empty(W)
-    t = 0.0
-    for i in range(W):
-        if i:
-            t += T[i - 1]
-        arrive[i] = t
-        t += dwell[i]
-        depart[i] = t
-    return Timing(positions, arrive, depart, T, speed, A, velocity, acceleration)
+    arrive = np.concatenate([[0.0], np.cumsum(dwell[:-1] + T)])
+    return Timing(positions, arrive, arrive + dwell, T, speed, A, velocity, acceleration)
 
 
 def profile(tau: Array, T: Array, V: Array, A: Array) -> Array:
