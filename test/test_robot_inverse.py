@@ -105,6 +105,10 @@ def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
     assert np.max(np.linalg.norm(fk.wafer.position - st.position[ok], axis=1)) < 1e-9
     with pytest.raises(InputError, match='fixed_joint rule; arm arm1 has 3 joints'):
         solve_stations(ROBOT, st, 'arm1', redundancy_value=0.1)
+    with pytest.raises(InputError, match=r'redundancy value = nan \(station 0\) is not a finite number'):
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=float('nan'))
+    with pytest.raises(InputError, match=r'redundancy value must be one number or 200 numbers'):
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=[0.1, 0.2])
 
 
 def _nearest_robot(joint='arm2_shoulder'):

@@ -39,7 +39,7 @@ from ..kinematics import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_b
 from .description import BRANCHES, Arm, RobotDescription
 from .forward import RobotForward, base_pose, forward_on_platform, platform_to_blade
 from .planar_arm import ArmSolution, branch_sign, solve_arm
-from .stations import Stations
+from .stations import Stations, per_station
 from .transforms import PoseBatch, rotate_z, rotation_angle
 
 Array = NDArray[np.float64]
@@ -120,8 +120,7 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
     for b in set(names):
         if b not in BRANCHES:
             raise InputError(f'branch = {b!r} is invalid; allowed: left or right')
-    right = np.array(names) == 'right' if n and not isinstance(branch, (str, type(None))) else \
-        np.full(n, names[0] == 'right' if n else True)
+    right = np.asarray(names) == 'right' if n else np.zeros(0, dtype=bool)
     return names, np.where(right, branch_sign('right'), branch_sign('left'))
 
 
@@ -187,7 +186,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         if a.redundancy is None or a.redundancy.rule != 'fixed_joint':
             raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
                              'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
-        value = np.broadcast_to(np.asarray(redundancy_value, dtype=float), (n,))
+        value = per_station(redundancy_value, 'redundancy value', n)
     base = base_pose(robot, n)
     R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
     p_b = base.inverse_apply(stations.position)

@@ -26,7 +26,8 @@ from .forward import as_rows
 Array = NDArray[np.float64]
 
 
-def _column(values: ArrayLike, name: str, n: int) -> Array:
+def per_station(values: ArrayLike, name: str, n: int) -> Array:
+    """One finite number [rad] or one per station, as an array ``(n,)``; InputError names the value."""
     try:
         a = np.asarray(values, dtype=float)
     except (TypeError, ValueError):
@@ -71,13 +72,13 @@ class Stations:
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
         if heading_free is not None:
             free = free | np.broadcast_to(np.asarray(heading_free, dtype=bool), (n,))
-        head = np.zeros(n) if heading is None else _column(heading, 'heading', n)
+        head = np.zeros(n) if heading is None else per_station(heading, 'heading', n)
         if names is None:
             names = tuple(str(i) for i in range(n))
         names = tuple(str(v) for v in names)
         if len(names) != n:
             raise InputError(f'names must name the {n} stations, got {len(names)} names')
-        return Stations(P, _column(tilt, 'tilt', n), _column(azimuth, 'azimuth', n), np.where(free, 0.0, head),
+        return Stations(P, per_station(tilt, 'tilt', n), per_station(azimuth, 'azimuth', n), np.where(free, 0.0, head),
                         free, names)
 
     @cached_property
