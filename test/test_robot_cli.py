@@ -1,33 +1,21 @@
 """``gpr robot fk|ik|teach`` and ``gpr program check|export``: JSON keys, units, and one-line errors with status 2."""
 import json
 import math
+import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 from robot_support import ROBOT
+from test_core_cli import run, run_json  # the core CLI tests' helpers: main() in-process, one JSON line
 
-from gpr_kinematics.cli import main
 from gpr_kinematics.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.stations import Stations
 
 PROGRAM = str(config_path('programs/example_robot_program.yaml'))
-
-
-def run(capsys, *argv):
-    status = main(list(argv))
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def run_json(capsys, *argv):
-    status, out, err = run(capsys, *argv, '--json')
-    assert status == 0, err
-    assert out.count('\n') == 1
-    return json.loads(out)
 
 
 def test_ik_json_has_the_documented_keys_and_the_core_numbers(capsys):
@@ -124,7 +112,7 @@ def test_errors_exit_2_with_one_line(capsys, argv, pattern):
     status, out, err = run(capsys, *argv)
     assert status == 2 and out == ''
     assert err.count('\n') == 1 and 'Traceback' not in err
-    assert __import__('re').search(pattern, err), err
+    assert re.search(pattern, err), err
 
 
 def test_console_script_without_traceback(tmp_path):
