@@ -16,6 +16,7 @@ setup(
         ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
         ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
         ('share/' + PACKAGE + '/config/calibration', glob('config/calibration/*')),
+        ('share/' + PACKAGE + '/config/robots', glob('config/robots/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
     zip_safe=True,

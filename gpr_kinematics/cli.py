@@ -22,7 +22,7 @@ import numpy as np
 from .errors import GprError
 
 PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace', 'gpr_kinematics.cli_mechanisms', 'gpr_kinematics.cli_bags',
-                            'gpr_kinematics.cli_calibration')
+                            'gpr_kinematics.cli_calibration', 'gpr_kinematics.cli_robot')
 
 EXIT_USAGE = 2
 

@@ -1,0 +1,196 @@
+"""Benchmark of the whole robot (issue: whole-robot offline programming), all in one run.
+
+Measures, on the shipped example robot: batch station inverse kinematics per station (``solve_stations``: the
+GPR's inverse kinematics, the height for the wafer point, the arm in closed form, and the naive model's joints
+with their wafer error) for the 3-joint arm, the 4-joint arm under ``fixed_joint`` and under ``nearest``; one
+station per call; whole-robot forward kinematics per configuration in batch; a 1,000-station program checked
+(every waypoint solved, every move timed) and its waypoint joint table exported as CSV and JSON; and sampling and
+exporting the program at 100 Hz.
+
+The peer is what a user would otherwise write: ``scipy.optimize.least_squares`` on the whole robot's forward
+kinematics (6 unknowns: 3 rods, 3 arm joints; 6 residuals: wafer position and orientation), one station at a
+time, started from the naive model's joints, at equal accuracy (checked in the run: the same rods and joints to
+1e-9 and the station reproduced to 1e-9 m).
+
+Prints a Markdown table of medians. Usage: ``python benchmarks/bench_robot.py [--quick]``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy.optimize import least_squares
+
+from gpr_kinematics.kinematics import inverse_batch
+from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations, stations_from_poses
+from gpr_kinematics.robot.description import parse_robot
+from gpr_kinematics.robot.export import sample_table, waypoint_table, write_table
+from gpr_kinematics.robot.plan import plan_program, sample_plan
+from gpr_kinematics.robot.planar_arm import branch_of
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot.transforms import rotation_angle
+
+
+def timed(fn, repeat: int) -> list[float]:
+    out = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def random_stations(robot, arm: str, n: int, seed: int = 0):
+    """Reachable stations: the wafer poses of random postures (heights, tilts within 95 % of the limit, joints
+    within their limits, a 4-joint arm's held joint at its rule's value)."""
+    rng = np.random.default_rng(seed)
+    cfg = robot.config
+    Q = inverse_batch(rng.uniform(0.08, 0.42, n), rng.uniform(0, 0.95, n) * cfg.tilt_limit,
+                      rng.uniform(-np.pi, np.pi, n), cfg).q
+    a = robot.arm(arm)
+    J = rng.uniform(a.lower + 1e-6, a.upper - 1e-6, (n, len(a.joints)))
+    if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
+        J[:, a.redundancy.joint] = a.redundancy.value
+    fk = robot_forward(robot, Q, J, arm)
+    return stations_from_poses(fk.wafer.position, fk.wafer.rotation), Q, J, branch_of(a, J)
+
+
+def peer_solve(robot, station: Stations, start: np.ndarray) -> np.ndarray:
+    """least_squares on the whole-robot forward kinematics (rods + 3 joints), one station."""
+    target_p, target_R = station.position[0], station.rotation[0]
+
+    def residual(x):
+        fk = robot_forward(robot, x[None, :3], x[None, 3:], 'arm1', check_limits=False)
+        dR = target_R.T @ fk.wafer.rotation[0]
+        return np.concatenate([fk.wafer.position[0] - target_p, 0.5 * np.array([dR[2, 1] - dR[1, 2],
+                                                                                  dR[0, 2] - dR[2, 0],
+                                                                                  dR[1, 0] - dR[0, 1]])])
+
+    return least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm').x
+
+
+def program_files(robot, n: int, folder: Path) -> tuple[Path, Path]:
+    """Two programs of ``n`` stations around the robot, each station picked or placed (3 waypoints each): the
+    stations inline in the YAML, and the same stations imported from a CSV file."""
+    rng = np.random.default_rng(1)
+    r = rng.uniform(0.4, 0.7, n)
+    ang = rng.uniform(-2.5, 2.5, n)
+    base = np.array(robot.base_position)
+    stations = [{'name': f's{i}', 'position': [float(base[0] + r[i] * np.cos(ang[i])),
+                                               float(base[1] + r[i] * np.sin(ang[i])), float(rng.uniform(0.3, 0.6))],
+                 'tilt': float(rng.uniform(0, 0.03)), 'azimuth': float(rng.uniform(-3, 3)), 'heading': float(ang[i]),
+                 'branch': 'left' if ang[i] < 0 else 'right'} for i in range(n)]
+    steps = [{'pick' if i % 2 else 'place': f's{i}'} for i in range(n)]
+    inline = folder / 'inline.yaml'
+    inline.write_text(yaml.safe_dump({'format': 'gpr_robot_program', 'stations': stations, 'steps': steps}))
+    lines = ['name,x,y,z,tilt,azimuth,heading,branch']
+    lines += [','.join([s['name'], *map(repr, s['position']), repr(s['tilt']), repr(s['azimuth']),
+                        repr(s['heading']), s['branch']]) for s in stations]
+    (folder / 'stations.csv').write_text('\n'.join(lines) + '\n')
+    imported = folder / 'imported.yaml'
+    imported.write_text(yaml.safe_dump({'format': 'gpr_robot_program', 'import': ['stations.csv'], 'steps': steps}))
+    return inline, imported
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--quick', action='store_true', help='fewer repetitions (smoke run)')
+    args = ap.parse_args()
+    rep = 3 if args.quick else 7
+    robot = load_robot()
+    data = yaml.safe_load(Path(robot.source).read_text())
+    data['arms'][1]['redundancy'] = {'rule': 'nearest'}
+    nearest = parse_robot(data, 'nearest', Path(robot.source).parent)
+    rows = []
+    n = 10_000
+    for label, rob, arm, count in (('3-joint arm (arm1)', robot, 'arm1', n),
+                                   ('4-joint arm, fixed_joint (arm2)', robot, 'arm2', n),
+                                   ('4-joint arm, nearest (arm2)', nearest, 'arm2', 1_000)):
+        st, _, _, br = random_stations(rob, arm, count, seed=2)
+        sol = solve_stations(rob, st, arm, branch=br, check=False)
+        assert sol.feasible.mean() > 0.9 and np.max(sol.position_error[sol.feasible]) < 1e-9
+        t = timed(lambda r=rob, s=st, a=arm, b=br: solve_stations(r, s, a, branch=b, check=False), rep)
+        rows.append((f'station IK, batch of {count:,}, {label}', statistics.median(t) / count * 1e6, 'us/station',
+                     '<= 10' if 'nearest' not in label else '', min(t) / count * 1e6))
+        if arm == 'arm1':
+            t = timed(lambda s=st: inverse_batch(0.25, s.tilt, s.azimuth, robot.config), rep)
+            rows.append(('  of which the GPR alone: inverse_batch of the same tilts',
+                         statistics.median(t) / count * 1e6, 'us/station', '', min(t) / count * 1e6))
+    st, Q, J, br = random_stations(robot, 'arm1', 100_000, seed=3)
+    t = timed(lambda: robot_forward(robot, Q, J, 'arm1'), rep)
+    rows.append(('whole-robot FK, batch of 100,000 (arm1)', statistics.median(t) / 1e5 * 1e6, 'us/configuration',
+                 '<= 10', min(t) / 1e5 * 1e6))
+    one = st.take([0])
+    t = timed(lambda: [solve_stations(robot, one, 'arm1', branch=br[0]) for _ in range(50)], rep)
+    rows.append(('station IK, one station per call (arm1)', statistics.median(t) / 50 * 1e6, 'us/call', ''))
+
+    # The peer, at equal accuracy, one station at a time.
+    m = 20 if args.quick else 60
+    sub = st.take(np.arange(m))
+    ours = solve_stations(robot, sub, 'arm1', branch=list(br[:m]))
+    starts = np.column_stack([ours.naive_rods, ours.naive_joints])
+    for i in range(m):
+        x = peer_solve(robot, sub.take([i]), starts[i])
+        fk = robot_forward(robot, x[None, :3], x[None, 3:], 'arm1', check_limits=False)
+        assert np.linalg.norm(fk.wafer.position[0] - sub.position[i]) < 1e-9, 'peer missed the station'
+        assert rotation_angle(fk.wafer.rotation, sub.rotation[i:i + 1])[0] < 1e-9
+        assert np.max(np.abs(x - np.concatenate([ours.rods[i], ours.joints[i]]))) < 1e-9, 'peer found another solution'
+    t = timed(lambda: [peer_solve(robot, sub.take([i]), starts[i]) for i in range(m)], max(3, rep // 2))
+    peer = statistics.median(t) / m * 1e6
+    rows.append(('peer: least_squares on the whole-robot FK, per station (arm1)', peer, 'us/station', ''))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        inline, imported = program_files(robot, 1000, folder)
+
+        def check_and_export(program):
+            plan = plan_program(robot, program)
+            columns, table = waypoint_table(plan)
+            write_table(folder / 'w.csv', columns, table, {})
+            write_table(folder / 'w.json', columns, table, {'robot': robot.name})
+            return plan
+
+        program = load_program(imported)
+        plan = check_and_export(program)
+        assert len(plan.waypoints) == 3000
+        t = timed(lambda: check_and_export(program), rep)
+        rows.append(('1,000-station program (3,000 waypoints): check + export CSV and JSON', statistics.median(t),
+                     's', '< 1'))
+        t = timed(lambda: check_and_export(load_program(imported)), rep)
+        rows.append(('  the same, reading the program first (stations imported from CSV)', statistics.median(t), 's',
+                     '< 1'))
+        t = timed(lambda: load_program(inline), rep)
+        rows.append(('  reading the program with the 1,000 stations inline in its YAML (PyYAML)', statistics.median(t),
+                     's', ''))
+
+        def samples():
+            sampled = sample_plan(plan, 100.0)
+            write_table(folder / 's.csv', *sample_table(plan, sampled), {})
+            return len(sampled)
+
+        count = samples()
+        t = timed(samples, max(3, rep // 2))
+        rows.append((f'the same program sampled at 100 Hz ({count:,} samples, FK each) + CSV',
+                     statistics.median(t) / count * 1e6, 'us/sample', ''))
+
+    print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
+          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end')
+    print()
+    print('| measurement | median | best | unit | target |')
+    print('|---|---:|---:|---|---|')
+    for name, value, unit, target, *best in rows:
+        print(f'| {name} | {value:.3g} | {f"{best[0]:.3g}" if best else ""} | {unit} | {target} |')
+    ik = rows[0][1]
+    print()
+    print(f'speed-up of batch station IK over the peer: {peer / ik:.0f}x (3-joint arm)')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,97 @@
+"""Rigid transforms of the robot's frames, vectorised over a leading batch axis.
+
+A pose is a position ``(N, 3)`` [m] and a rotation matrix ``(N, 3, 3)`` of a child frame in its parent frame
+(``x_parent = R x_child + p``); quaternions are (x, y, z, w) as in geometry_msgs, computed on demand. The robot
+description gives fixed orientations in the URDF ``rpy`` convention (fixed axes x, y, z:
+``R = Rz(yaw) Ry(pitch) Rx(roll)``), so the same numbers can go into the robot model's URDF.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..geometry import quaternion_from_matrix
+
+Array = NDArray[np.float64]
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> Array:
+    """``Rz(yaw) Ry(pitch) Rx(roll)`` (URDF ``rpy``: roll, pitch, yaw about the fixed x, y, z axes).
+
+    >>> np.round(rpy_matrix(0.0, 0.0, np.pi / 2) @ [1.0, 0.0, 0.0], 12).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def rotate_z(angle: ArrayLike, xy: Array) -> Array:
+    """Rotate planar vectors ``xy (..., 2)`` by ``angle`` [rad] (broadcast)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], axis=-1)
+
+
+def rotation_angle(Ra: Array, Rb: Array) -> Array:
+    """Angle [rad] of the rotation ``Ra^T Rb`` for ``(N, 3, 3)`` stacks, accurate for small angles (from the
+    norm of the skew part and the trace, ``atan2``)."""
+    M = np.swapaxes(Ra, -1, -2) @ Rb
+    s = 0.5 * np.sqrt((M[:, 2, 1] - M[:, 1, 2]) ** 2 + (M[:, 0, 2] - M[:, 2, 0]) ** 2
+                      + (M[:, 1, 0] - M[:, 0, 1]) ** 2)
+    c = 0.5 * (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0)
+    return np.arctan2(s, c)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """One frame's pose in its parent: ``position`` (3,) [m], ``rotation`` (3, 3)."""
+
+    position: Array
+    rotation: Array
+
+    @property
+    def quaternion(self) -> Array:
+        """Orientation as a unit quaternion (x, y, z, w), w >= 0."""
+        return quaternion_from_matrix(self.rotation)
+
+
+@dataclass(frozen=True)
+class PoseBatch:
+    """Poses of one frame for ``N`` configurations: ``position (N, 3)`` [m], ``rotation (N, 3, 3)``."""
+
+    position: Array
+    rotation: Array
+
+    def __len__(self) -> int:
+        return int(self.position.shape[0])
+
+    def __getitem__(self, i: int) -> Pose:
+        return Pose(self.position[i], self.rotation[i])
+
+    @property
+    def quaternion(self) -> Array:
+        """Orientations as unit quaternions (x, y, z, w), ``(N, 4)``."""
+        return quaternion_from_matrix(self.rotation)
+
+    def apply(self, points: ArrayLike) -> Array:
+        """Points given in the child frame, ``(N, 3)`` or ``(3,)``, in the parent frame."""
+        p = np.asarray(points, dtype=float)
+        return self.position + np.einsum('nij,...nj->...ni', self.rotation, np.broadcast_to(p, self.position.shape))
+
+    def compose(self, child: PoseBatch) -> PoseBatch:
+        """``self * child``: the pose of ``child``'s frame in ``self``'s parent."""
+        return PoseBatch(self.apply(child.position), self.rotation @ child.rotation)
+
+    def inverse_apply(self, points: Array) -> Array:
+        """Points ``(N, 3)`` given in the parent frame, in the child frame: ``R^T (x - p)``."""
+        return np.einsum('nji,nj->ni', self.rotation, points - self.position)
+
+    @staticmethod
+    def fixed(position: ArrayLike, rotation: ArrayLike, n: int) -> PoseBatch:
+        """One fixed pose repeated ``n`` times (broadcast views, not copies)."""
+        p = np.asarray(position, dtype=float)
+        R = np.asarray(rotation, dtype=float)
+        return PoseBatch(np.broadcast_to(p, (n, 3)), np.broadcast_to(R, (n, 3, 3)))

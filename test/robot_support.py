@@ -1,0 +1,60 @@
+"""Helpers of the robot tests: the shipped example robot as data, variants of it, random reachable postures."""
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+import yaml
+
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.robot.description import RobotDescription, load_robot, parse_robot
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.stations import Stations, stations_from_poses
+
+ROBOT = load_robot()
+EXAMPLE = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
+
+
+def robot_data() -> dict[str, Any]:
+    """A deep copy of the example robot's YAML data, to modify."""
+    return copy.deepcopy(EXAMPLE)
+
+
+def make_robot(data: dict[str, Any]) -> RobotDescription:
+    return parse_robot(data, 'test_robot.yaml', config_path('robots/example_robot.yaml').parent)
+
+
+def random_postures(robot: RobotDescription, arm: str, n: int, seed: int = 0,
+                    tilt_fraction: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Random rods (heights within the stroke, tilts up to ``tilt_fraction`` of the limit) and random arm joints
+    within their limits, keeping the held joint of a fixed_joint arm at its rule's value."""
+    from gpr_kinematics.kinematics import inverse_batch
+    rng = np.random.default_rng(seed)
+    cfg = robot.config
+    ik = inverse_batch(rng.uniform(0.08, 0.42, n), rng.uniform(0.0, tilt_fraction, n) * cfg.tilt_limit,
+                       rng.uniform(-np.pi, np.pi, n), cfg)
+    a = robot.arm(arm)
+    J = rng.uniform(a.lower + 1e-6, a.upper - 1e-6, (n, len(a.joints)))
+    if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
+        J[:, a.redundancy.joint] = a.redundancy.value
+    return ik.q, J
+
+
+def elbow_angle(robot: RobotDescription, arm: str, J: np.ndarray) -> np.ndarray:
+    """Relative angle of the two-link sub-chain of each posture (0: stretched, the reach's edge)."""
+    from gpr_kinematics.robot.planar_arm import chain_forward
+    a = robot.arm(arm)
+    axes, wafer, _ = chain_forward(a, J)
+    keep = [k for k in range(len(a.joints)) if a.redundancy is None or k != a.redundancy.joint][:3]
+    points = [axes[:, k] for k in keep] + [wafer]
+    u, v = points[1] - points[0], points[2] - points[1]
+    return np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], np.sum(u * v, axis=1))
+
+
+def random_stations(robot: RobotDescription, arm: str, n: int, seed: int = 0) -> tuple[Stations, np.ndarray,
+                                                                                         np.ndarray]:
+    """Stations reached by random postures (so they are reachable), with those postures."""
+    Q, J = random_postures(robot, arm, n, seed)
+    fk = robot_forward(robot, Q, J, arm)
+    return stations_from_poses(fk.wafer.position, fk.wafer.rotation), Q, J

@@ -1,0 +1,125 @@
+"""``gpr robot fk|ik|teach`` and ``gpr program check|export``: JSON keys, units, and one-line errors with status 2."""
+import json
+import math
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from robot_support import ROBOT
+from test_core_cli import run, run_json  # the core CLI tests' helpers: main() in-process, one JSON line
+
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.inverse import solve_stations
+from gpr_kinematics.robot.stations import Stations
+
+PROGRAM = str(config_path('programs/example_robot_program.yaml'))
+
+
+def test_ik_json_has_the_documented_keys_and_the_core_numbers(capsys):
+    d = run_json(capsys, 'robot', 'ik', '--position', '1300', '600', '450', '--tilt', '1.2', '--azimuth', '30',
+                 '--heading', '20', '--mm', '--deg')
+    assert set(d) >= {'rods', 'arm', 'wafer', 'platform', 'naive_wafer_error'}
+    assert len(d['rods']) == 3 and list(d['arm']) == ['arm1_shoulder', 'arm1_elbow', 'arm1_wrist']
+    for key in ('wafer', 'platform'):
+        assert set(d[key]) == {'position', 'quaternion'} and len(d[key]['quaternion']) == 4
+    st = Stations.of([[1.3, 0.6, 0.45]], math.radians(1.2), math.radians(30), math.radians(20))
+    sol = solve_stations(ROBOT, st)
+    np.testing.assert_allclose(d['rods'], sol.rods[0], atol=1e-15)
+    np.testing.assert_allclose(list(d['arm'].values()), sol.joints[0], atol=1e-15)
+    np.testing.assert_allclose(d['wafer']['position'], [1.3, 0.6, 0.45], atol=1e-12)
+    assert d['naive_wafer_error'] == pytest.approx(sol.naive_wafer_error_norm[0], abs=1e-18)
+    assert 1e-6 < d['naive_wafer_error'] < 1e-4 and d['branch'] == 'right'
+    left = run_json(capsys, 'robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3', '--branch', 'left')
+    right = run_json(capsys, 'robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3', '--branch', 'right')
+    assert left['arm']['arm1_elbow'] == pytest.approx(-right['arm']['arm1_elbow'], abs=1e-12)
+    d2 = run_json(capsys, 'robot', 'ik', '--position', '1.3', '0.6', '0.6', '--heading', '0.3', '--arm', 'arm2',
+                  '--redundancy', '0.2')
+    assert d2['arm']['arm2_wrist'] == pytest.approx(0.2, abs=1e-15)
+
+
+def test_fk_json_matches_the_core(capsys):
+    d = run_json(capsys, 'robot', 'fk', '--rods', '250', '251', '252', '--joints', '0', '60', '-30', '--mm', '--deg')
+    fk = robot_forward(ROBOT, [[0.25, 0.251, 0.252]], [[0.0, math.radians(60), math.radians(-30)]])
+    np.testing.assert_allclose(d['wafer']['position'], fk.wafer.position[0], atol=1e-15)
+    np.testing.assert_allclose(d['platform']['quaternion'], fk.platform.quaternion[0], atol=1e-15)
+    assert d['naive_wafer_error'] == pytest.approx(fk.naive_wafer_error_norm[0], abs=1e-18)
+    assert set(d['station']) == {'position', 'tilt', 'azimuth', 'heading'}
+    # fk then ik comes back
+    st = d['station']
+    back = run_json(capsys, 'robot', 'ik', '--position', *map(str, st['position']), '--tilt', str(st['tilt']),
+                    '--azimuth', str(st['azimuth']), '--heading', str(st['heading']))
+    np.testing.assert_allclose(back['rods'], [0.25, 0.251, 0.252], atol=1e-12)
+    np.testing.assert_allclose(list(back['arm'].values()), [0.0, math.radians(60), math.radians(-30)], atol=1e-9)
+
+
+def test_teach_and_reteach(capsys, tmp_path):
+    d = run_json(capsys, 'robot', 'teach', '--rods', '0.25', '0.251', '0.252', '--joints', '0', '1', '-0.5')
+    assert d['reteach'] is False and len(d['stations']) == 1 and d['stations'][0]['naive_error'] > 1e-6
+    table = tmp_path / 'old.csv'
+    table.write_text('name,gpr_rod1 [mm],gpr_rod2 [mm],gpr_rod3 [mm],arm1_shoulder [deg],arm1_elbow [deg],'
+                     'arm1_wrist [deg]\na,250,251,252,0,57.29577951308232,-28.64788975654116\n'
+                     'b,300,299,301,20,40,-10\n')
+    r = run_json(capsys, 'robot', 'teach', '--table', str(table), '--naive')
+    assert [s['name'] for s in r['stations']] == ['a', 'b']
+    first = r['stations'][0]
+    assert first['avoided_error'] == pytest.approx(d['stations'][0]['naive_error'], rel=1e-6)
+    status, out, _ = run(capsys, 'robot', 'teach', '--table', str(table))
+    assert status == 0 and out.startswith('a: station (') and '\nb: station (' in out
+
+
+def test_program_check_and_export(capsys, tmp_path):
+    s = run_json(capsys, 'program', 'check', PROGRAM)
+    assert (s['stations'], s['steps'], s['waypoints']) == (5, 10, 21)
+    assert max(s['velocity_usage']) == pytest.approx(1.0) and s['duration'] > 10
+    assert s['max_naive_wafer_error_at'].startswith('steps[')
+    e = run_json(capsys, 'program', 'export', PROGRAM, '--waypoints', str(tmp_path / 'w.csv'), '--samples',
+                 str(tmp_path / 's.json'), '--rate', '20')
+    assert (tmp_path / 'w.csv').read_text().count('\n') == 22
+    doc = json.loads((tmp_path / 's.json').read_text())
+    assert len(doc['rows']) == e['sample_count'] and doc['rate'] == 20.0
+    status, out, _ = run(capsys, 'program', 'check', PROGRAM)
+    assert status == 0 and 'every waypoint reachable, every move within the limits' in out
+
+
+@pytest.mark.parametrize('argv, pattern', [
+    (['robot', 'ik', '--position', '3', '0.5', '0.45', '--heading', '0'],
+     r'^gpr robot: error: station 0: out of reach of arm arm1: the wrist axis would be 2.05 m'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45'],
+     r'^gpr robot: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', 'nan'], r'^gpr robot: error: --heading = nan'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--tilt', '3', '--deg'],
+     r'beyond the tilt limit 2 deg by 1 deg'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--arm', 'arm7'],
+     r"^gpr robot: error: .*no arm 'arm7'; allowed: arm1, arm2"),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--redundancy', '0.1'],
+     r'a redundancy value applies to 4-joint arms under the fixed_joint rule'),
+    (['robot', 'ik', '--position', '1.2', '0.5'], r'^gpr robot ik: error: argument --position: expected 3'),
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
+     r'^gpr robot: error: joints of arm1 must have 3 values per sample'),
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),
+    (['robot', 'teach'], r'give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 \[J3 J4\], or --table FILE'),
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', '/nonexistent.yaml'],
+     r"cannot read robot file '/nonexistent.yaml'"),
+    (['program', 'check', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
+    (['program', 'check', '/'], r"program file '/'"),  # a directory, not a program
+    (['program', 'export', PROGRAM], r'nothing to export: give --waypoints FILE and/or --samples FILE'),
+    (['program', 'export', PROGRAM, '--samples', '/tmp/x.csv', '--rate', '0'], r'rate = 0.0 is invalid'),
+])
+def test_errors_exit_2_with_one_line(capsys, argv, pattern):
+    status, out, err = run(capsys, *argv)
+    assert status == 2 and out == ''
+    assert err.count('\n') == 1 and 'Traceback' not in err
+    assert re.search(pattern, err), err
+
+
+def test_console_script_without_traceback(tmp_path):
+    bad = tmp_path / 'robot.yaml'
+    bad.write_text('rods: {velocity: 0.1, acceleration: 0.5}\narms: [{name: arm1, joints: 5}]\n')
+    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'robot', 'fk', '--rods', '0.3', '0.3', '0.3',
+                          '--joints', '0', '0', '--robot', str(bad)], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2 and res.stdout == ''
+    assert res.stderr.startswith('gpr robot: error: ') and 'joints must be a list of 2 to 4' in res.stderr
+    assert res.stderr.count('\n') == 1

@@ -1,0 +1,136 @@
+"""The robot description: the shipped example, the geometry by reference or inline, and every bad value refused
+with the file, the key, the value and what is allowed."""
+import doctest
+import math
+
+import pytest
+import yaml
+from robot_support import ROBOT, make_robot, robot_data
+
+from gpr_kinematics.config import load_config
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.robot import description, planar_arm, stations, transforms
+from gpr_kinematics.robot.description import load_robot
+
+
+def test_shipped_example():
+    r = ROBOT
+    assert r.name == 'example_dual_arm' and r.arm_names == ('arm1', 'arm2')
+    assert r.config == load_config()
+    assert r.rods.names == ('gpr_rod1', 'gpr_rod2', 'gpr_rod3')
+    a1, a2 = r.arm('arm1'), r.arm('arm2')
+    assert a1.joint_names == ('arm1_shoulder', 'arm1_elbow', 'arm1_wrist') and len(a2.joints) == 4
+    assert a1.wafer_height == pytest.approx(0.08 + 0.035 + 0.035 + 0.02 + 0.01 + 0.004, abs=1e-15)
+    assert a2.redundancy.rule == 'fixed_joint' and a2.redundancy.joint == 2
+    assert r.arm() is a1
+    assert a1.link_frames == ('arm1_link1', 'arm1_link2', 'arm1_link3')
+    assert (a1.blade_frame, a1.wafer_frame) == ('arm1_blade', 'arm1_wafer')
+
+
+def test_geometry_by_reference_inline_and_overridden(tmp_path):
+    (tmp_path / 'geo.yaml').write_text('radius: 0.1\nmodel: polar\n')
+    data = robot_data()
+    data['gpr'] = {'config': 'geo.yaml', 'tilt_limit': 0.03}
+    (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
+    r = load_robot(tmp_path / 'robot.yaml')
+    assert (r.config.radius, r.config.model, r.config.tilt_limit) == (0.1, 'polar', 0.03)
+    r = load_robot(tmp_path / 'robot.yaml', geometry=tmp_path / 'geo.yaml', model='offset')
+    assert (r.config.radius, r.config.model) == (0.1, 'offset')
+    assert r.config.tilt_limit == load_config().tilt_limit  # --config replaces the whole gpr section
+    with pytest.raises(ConfigError, match="--model: .*model = 'wobbly' is invalid; allowed: radial or polar or offset"):
+        load_robot(model='wobbly')
+
+
+def _set(data, path, value):
+    node = data
+    for key in path[:-1]:
+        node = node[key]
+    if value is _DELETE:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+
+
+_DELETE = object()
+
+
+@pytest.mark.parametrize('path, value, pattern', [
+    (('colour',), 'red', r'test_robot.yaml: unknown key\(s\) colour; allowed keys: arms, base, gpr, name, rods'),
+    (('name',), 'my robot', r"name = 'my robot' is invalid; allowed: a name of letters, digits and _"),
+    (('gpr', 'radius'), -1, r'test_robot.yaml: gpr: overrides: radius = -1 is invalid; allowed: metres'),
+    (('gpr', 'config'), 'missing.yaml', r"gpr: cannot read config file .*missing.yaml"),
+    (('base', 'position'), [0, 0], r'base: position = \[0, 0\] is invalid; allowed: a list of 3 finite numbers in m'),
+    (('base', 'position'), [0, 0, 1e3], r'base: position\[2\] = 1000.0 is invalid; allowed: a list of 3 finite'),
+    (('base', 'rpy'), [0, '1', 0], r"base: rpy\[1\] must be a finite number in rad; got '1'"),
+    (('rods', 'velocity'), 0, r'rods: velocity = 0.0 is invalid; allowed: m/s, 0 < velocity <= 10'),
+    (('rods', 'names'), ['a', 'b'], r'rods: names = \[.a., .b.\] is invalid; allowed: a list of 3 names'),
+    (('arms',), [], r'arms must be a list of one or two arms'),
+    (('arms', 0, 'joints'), [], r'arms\[0\] \(arm1\): joints must be a list of 2 to 4 revolute joints'),
+    (('arms', 0, 'joints', 1, 'length'), -0.3,
+     r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): length = -0.3 is invalid; allowed: metres, 0 <= length <= 5'),
+    (('arms', 0, 'joints', 0, 'length'), 0.0, r'arm1_shoulder: length = 0.0 is invalid; allowed: > 0 for every joint'),
+    (('arms', 0, 'joints', 1, 'lower'), 3.0, r'arm1_elbow\): lower = 3.0 must be below upper = 2.9'),
+    (('arms', 0, 'joints', 1, 'upper'), 7.0, r'upper = 7.0 is invalid; allowed: radians within \[-2pi, 2pi\]'),
+    (('arms', 0, 'joints', 1, 'velocity'), float('nan'), r'velocity must be a finite number in rad/s; got nan'),
+    (('arms', 0, 'joints', 1, 'speed'), 1, r'unknown key\(s\) speed; allowed keys: acceleration, height, length'),
+    (('arms', 0, 'blade', 'wafer_centre'), _DELETE, r'blade: wafer_centre = None is invalid'),
+    (('arms', 0, 'branch'), 'up', r"branch = 'up' is invalid; allowed: left or right"),
+    (('arms', 0, 'home'), [0, 3.0, 0], r'home: arm1_elbow = 3.0 is invalid; allowed: within \[-2.9, 2.9\] rad'),
+    (('arms', 0, 'redundancy'), {'rule': 'nearest'}, r'redundancy applies to 4-joint arms only; this arm has 3'),
+    (('arms', 1, 'redundancy'), _DELETE, r'a 4-joint arm needs redundancy: \{rule: fixed_joint'),
+    (('arms', 1, 'redundancy', 'rule'), 'random', r"rule = 'random' is invalid; allowed: fixed_joint or nearest"),
+    (('arms', 1, 'redundancy', 'joint'), 'arm1_elbow', r"joint = 'arm1_elbow' is invalid; allowed: one of arm2_"),
+    (('arms', 1, 'redundancy', 'value'), 2.6, r'value = 2.6 is invalid; allowed: within the limits of arm2_wrist'),
+    (('arms', 1, 'redundancy', 'reference'), [0, 0, 0, 0], r'unknown key\(s\) reference; allowed keys: joint, rule'),
+    (('arms', 1, 'name'), 'arm1', r'names must be unique across rods, arms and joints; repeated: arm1'),
+    (('arms', 1, 'joints', 0, 'name'), 'gpr_rod1', r'repeated: gpr_rod1'),
+])
+def test_bad_values_are_named(path, value, pattern):
+    data = robot_data()
+    _set(data, path, value)
+    with pytest.raises(ConfigError, match=pattern):
+        make_robot(data)
+
+
+def test_nearest_rule_values_checked():
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'weights': [0, 0, 0, 0]}
+    with pytest.raises(ConfigError, match=r'weights = \[0.0, 0.0, 0.0, 0.0\] is invalid; allowed: numbers >= 0, '
+                                          r'not all 0'):
+        make_robot(data)
+    data['arms'][1]['redundancy'] = {'rule': 'nearest'}
+    red = make_robot(data).arm('arm2').redundancy
+    assert red.joint == 0 and red.weights == (1.0,) * 4
+    assert red.reference == pytest.approx((0.0, 0.0, 0.0, 0.0))  # the middle of symmetric ranges
+
+
+def test_two_joint_arm_needs_the_wafer_off_the_last_axis():
+    data = robot_data()
+    arm = data['arms'][0]
+    arm['joints'] = arm['joints'][:2]
+    arm['joints'][1]['length'] = 0.0
+    arm['blade'] = {'position': [0, 0, 0.01], 'wafer_centre': [0, 0, 0.004]}
+    arm['home'] = [0, 0]
+    with pytest.raises(ConfigError, match='the wafer centre lies on the last joint axis'):
+        make_robot(data)
+
+
+@pytest.mark.parametrize('text, pattern', [
+    ('- 1\n- 2\n', r'expected a mapping \(a robot description'),
+    ('name: [unclosed\n', r'not valid YAML'),
+    ('', r'expected a mapping'),
+])
+def test_hostile_files(tmp_path, text, pattern):
+    f = tmp_path / 'r.yaml'
+    f.write_text(text)
+    with pytest.raises(ConfigError, match=pattern):
+        load_robot(f)
+    with pytest.raises(ConfigError, match=r"cannot read robot file"):
+        load_robot(tmp_path / 'absent.yaml')
+
+
+def test_doctests_of_the_robot_modules():
+    for module in (description, planar_arm, stations, transforms):
+        result = doctest.testmod(module)
+        assert result.failed == 0, module.__name__
+    assert math.isclose(transforms.rpy_matrix(0.1, 0.2, 0.3)[2, 0], -math.sin(0.2))

@@ -1,0 +1,116 @@
+"""Whole-robot forward kinematics against an independent chain of homogeneous transforms, the naive model's wafer
+error, the frame chain, and the refusals."""
+import math
+
+import numpy as np
+import pytest
+from robot_support import ROBOT, make_robot, random_postures, robot_data
+from scipy.spatial.transform import Rotation
+
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.kinematics import forward, naive_forward
+from gpr_kinematics.robot.forward import arm_transforms, robot_forward
+
+
+def _T(p, R=None):
+    T = np.eye(4)
+    T[:3, :3] = np.eye(3) if R is None else R
+    T[:3, 3] = p
+    return T
+
+
+def _Rz(a):
+    return Rotation.from_euler('z', a).as_matrix()
+
+
+def _independent_wafer(robot, arm_name, q, theta, naive=False):
+    """The chain written out with 4x4 matrices: world <- gpr_base <- gpr_platform <- mount, joints, blade, wafer."""
+    arm = robot.arm(arm_name)
+    roll, pitch, yaw = robot.base_rpy
+    T = _T(robot.base_position, Rotation.from_euler('xyz', [roll, pitch, yaw]).as_matrix())  # URDF rpy
+    if naive:
+        pos, rot = naive_forward(q)
+        T = T @ _T(pos[0], rot[0])
+    else:
+        fk = forward(q)
+        T = T @ _T(fk.position, fk.rotation)
+    T = T @ _T(arm.mount_position, _Rz(arm.mount_yaw))
+    for k, joint in enumerate(arm.joints):
+        T = T @ _T([0, 0, 0], _Rz(theta[k])) @ _T([joint.length, 0.0, joint.height])
+    T = T @ _T(arm.blade.position, _Rz(arm.blade.yaw)) @ _T(arm.blade.wafer_centre)
+    return T
+
+
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_forward_matches_an_independent_chain(arm):
+    data = robot_data()
+    data['base'] = {'position': [0.3, -0.1, 0.2], 'rpy': [0.01, -0.02, 0.7]}
+    data['arms'][0]['mount'] = {'position': [0.02, -0.01, 0.08], 'yaw': 0.3}
+    data['arms'][0]['blade'] = {'position': [0.01, 0.005, 0.01], 'yaw': -0.2, 'wafer_centre': [0.2, 0.01, 0.004]}
+    robot = make_robot(data)
+    Q, J = random_postures(robot, arm, 200, seed=11)
+    fk = robot_forward(robot, Q, J, arm)
+    for i in range(0, 200, 7):
+        T = _independent_wafer(robot, arm, Q[i], J[i])
+        np.testing.assert_allclose(fk.wafer.position[i], T[:3, 3], atol=1e-14)
+        np.testing.assert_allclose(fk.wafer.rotation[i], T[:3, :3], atol=1e-14)
+        Tn = _independent_wafer(robot, arm, Q[i], J[i], naive=True)
+        np.testing.assert_allclose(fk.naive_wafer.position[i], Tn[:3, 3], atol=1e-14)
+        np.testing.assert_allclose(fk.naive_wafer_error[i], T[:3, 3] - Tn[:3, 3], atol=1e-14)
+        angle = Rotation.from_matrix(Tn[:3, :3].T @ T[:3, :3]).magnitude()
+        assert fk.naive_wafer_angle_error[i] == pytest.approx(angle, abs=1e-12)
+    # the wafer frame is the blade frame moved to the wafer centre
+    np.testing.assert_allclose(fk.blade.rotation, fk.wafer.rotation, atol=0)
+    np.testing.assert_allclose(fk.wafer.quaternion, Rotation.from_matrix(fk.wafer.rotation).as_quat()
+                               * np.sign(Rotation.from_matrix(fk.wafer.rotation).as_quat()[:, 3:]), atol=1e-14)
+
+
+def test_frame_chain_names_and_composition():
+    Q, J = random_postures(ROBOT, 'arm1', 5, seed=12)
+    chain = arm_transforms(ROBOT.arm('arm1'), J)
+    assert [(f, p) for f, p, _ in chain] == [('arm1_link1', 'gpr_platform'), ('arm1_link2', 'arm1_link1'),
+                                             ('arm1_link3', 'arm1_link2'), ('arm1_blade', 'arm1_link3'),
+                                             ('arm1_wafer', 'arm1_blade')]
+    fk = robot_forward(ROBOT, Q, J, 'arm1')
+    pose = fk.platform
+    for _, _, step in chain:
+        pose = pose.compose(step)
+    np.testing.assert_allclose(pose.position, fk.wafer.position, atol=1e-15)
+
+
+def test_untilted_platform_has_no_naive_error():
+    q = np.full((1, 3), 0.3)
+    fk = robot_forward(ROBOT, q, [[0.3, -0.5, 0.2]], 'arm1')
+    assert fk.naive_wafer_error_norm[0] < 1e-15 and fk.naive_wafer_angle_error[0] < 1e-15
+    # at zero tilt the wafer height is rods + the arm's height, in the world frame of the base at z = 0
+    assert fk.wafer.position[0, 2] == pytest.approx(0.3 + ROBOT.arm('arm1').wafer_height, abs=1e-15)
+
+
+def test_naive_error_at_a_tilt_is_micrometres():
+    from gpr_kinematics.kinematics import inverse
+    q = inverse(0.3, math.radians(2.0), 0.0).q
+    fk = robot_forward(ROBOT, q, [[0.0, 0.5, -0.5]], 'arm1')
+    assert 5e-6 < fk.naive_wafer_error_norm[0] < 100e-6
+
+
+@pytest.mark.parametrize('rods, joints, error, pattern', [
+    ([[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], LimitError,
+     r'^arm1_elbow = 3 rad is beyond its upper limit 2.9 rad by 0.1 rad; allowed: \[-2.9, 2.9\] rad$'),
+    ([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, -3.1]], LimitError,
+     r'^arm1_wrist = -3.1 rad \(sample 1\) is beyond its lower limit -3.05 rad by 0.05 rad'),
+    ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'q3 = 0.6 m is outside the stroke'),
+    ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^gpr_rod3 = nan is not a finite number$'),
+    ([[0.3, 0.3, 0.3]], [[0.0, float('inf'), 0.0]], InputError, r'^arm1_elbow = inf is not a finite number$'),
+    ([[0.3, 0.3, 0.3]], [[0.0, 0.0]], InputError, r'joints of arm1 must have 3 values per sample'),
+    ([[0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], InputError,
+     r'rods and joints must have the same number of samples, got 1 and 2'),
+    ([['a', 0.3, 0.3]], [[0.0, 0.0, 0.0]], InputError, r'rods must be numbers'),
+])
+def test_refusals(rods, joints, error, pattern):
+    with pytest.raises(error, match=pattern):
+        robot_forward(ROBOT, rods, joints, 'arm1')
+
+
+def test_limits_can_be_skipped_for_analyses():
+    fk = robot_forward(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1', check_limits=False)
+    assert np.isfinite(fk.wafer.position).all()

@@ -1,0 +1,326 @@
+"""Station inverse kinematics: round trips on thousands of stations, batch = single, branches, redundancy, the
+naive model's wafer error against an independent computation, and every refusal with its message."""
+import math
+
+import numpy as np
+import pytest
+from robot_support import ROBOT, elbow_angle, make_robot, random_stations, robot_data
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.inverse import solve_stations
+from gpr_kinematics.robot.planar_arm import branch_of, link_vectors
+from gpr_kinematics.robot.stations import Stations
+from gpr_kinematics.robot.transforms import rotation_angle
+
+
+def _assert_reproduces(robot, sol, arm, tol=1e-9):
+    """Forward kinematics of the answer, computed afresh, reproduces the stations."""
+    fk = robot_forward(robot, sol.rods, sol.joints, arm)
+    st = sol.stations
+    assert np.max(np.linalg.norm(fk.wafer.position - st.position, axis=1)) < tol
+    assert np.max(rotation_angle(st.rotation, fk.wafer.rotation)) < tol
+    assert np.max(sol.position_error) < tol and np.max(sol.angle_error) < tol
+
+
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_round_trip_thousands_of_stations(arm):
+    st, Q, J = random_stations(ROBOT, arm, 3000, seed=1)
+    sol = solve_stations(ROBOT, st, arm, branch=branch_of(ROBOT.arm(arm), J))
+    _assert_reproduces(ROBOT, sol, arm, tol=1e-9)
+    # the postures come back too (where the elbow is not nearly stretched, which would make them ill-conditioned)
+    np.testing.assert_allclose(sol.rods, Q, atol=1e-12)
+    ok = np.abs(np.sin(elbow_angle(ROBOT, arm, J))) > 0.05
+    assert ok.sum() > 2500
+    np.testing.assert_allclose(sol.joints[ok], J[ok], atol=1e-9)
+
+
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_both_branches_reach_the_same_station(arm):
+    st, _, _ = random_stations(ROBOT, arm, 400, seed=2)
+    for branch in ('left', 'right'):
+        sol = solve_stations(ROBOT, st, arm, branch=branch, check=False)
+        ok = sol.feasible
+        assert ok.sum() > 100
+        assert set(branch_of(ROBOT.arm(arm), sol.joints[ok])) == {branch}
+        fk = robot_forward(ROBOT, sol.rods[ok], sol.joints[ok], arm)
+        assert np.max(np.linalg.norm(fk.wafer.position - st.position[ok], axis=1)) < 1e-9
+    left = solve_stations(ROBOT, st, arm, branch='left', check=False)
+    right = solve_stations(ROBOT, st, arm, branch='right', check=False)
+    np.testing.assert_array_equal(left.rods, right.rods)  # the GPR's answer does not depend on the arm's branch
+    assert np.min(np.abs(left.joints[:, 1] - right.joints[:, 1])) > 0.0
+
+
+def test_batch_equals_single():
+    st, _, J = random_stations(ROBOT, 'arm1', 40, seed=3)
+    branches = branch_of(ROBOT.arm('arm1'), J)
+    batch = solve_stations(ROBOT, st, 'arm1', branch=branches)
+    for i in range(len(st)):
+        one = solve_stations(ROBOT, st.take([i]), 'arm1', branch=branches[i])
+        np.testing.assert_allclose(one.rods[0], batch.rods[i], atol=1e-15, rtol=0)
+        np.testing.assert_allclose(one.joints[0], batch.joints[i], atol=1e-14, rtol=0)
+        np.testing.assert_allclose(one.naive_wafer_error[0], batch.naive_wafer_error[i], atol=5e-16, rtol=0)
+
+
+def test_world_base_pose_is_applied():
+    """A base rolled by 0.5 deg: a level station needs the platform tilted by 0.5 deg in gpr_base."""
+    data = robot_data()
+    data['base'] = {'position': [0.1, -0.2, 0.3], 'rpy': [math.radians(0.5), 0.0, 1.0]}
+    robot = make_robot(data)
+    st = Stations.of([[0.45, 0.25, 0.62]], tilt=0.0, azimuth=0.0, heading=0.4)
+    sol = solve_stations(robot, st, 'arm1')
+    assert sol.forward.gpr.tilt[0] == pytest.approx(math.radians(0.5), abs=1e-14)
+    _assert_reproduces(robot, sol, 'arm1', tol=1e-12)
+    stations, _, J = random_stations(robot, 'arm2', 500, seed=4)
+    _assert_reproduces(robot, solve_stations(robot, stations, 'arm2', branch=branch_of(robot.arm('arm2'), J)), 'arm2')
+
+
+def test_height_is_solved_for_the_wafer_point():
+    """The platform plane passes at the arm's wafer height through the station point, also when tilted."""
+    st = Stations.of([[1.2, 0.9, 0.5]], tilt=math.radians(1.8), azimuth=0.7, heading=-0.3)
+    for arm in ('arm1', 'arm2'):
+        sol = solve_stations(ROBOT, st, arm)
+        fk = sol.forward
+        n = fk.platform.rotation[0][:, 2]
+        assert n @ (st.position[0] - fk.platform.position[0]) == pytest.approx(ROBOT.arm(arm).wafer_height, abs=1e-14)
+    a1 = solve_stations(ROBOT, st, 'arm1')
+    a2 = solve_stations(ROBOT, st, 'arm2')
+    # arm2's wafer rides 0.123 m higher above the platform, so its rods are about that much shorter
+    assert np.mean(a1.rods - a2.rods) == pytest.approx(ROBOT.arm('arm2').wafer_height - ROBOT.arm('arm1').wafer_height,
+                                                      abs=1e-4)
+
+
+def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
+    st, _, _ = random_stations(ROBOT, 'arm2', 200, seed=5)
+    sol = solve_stations(ROBOT, st, 'arm2', check=False)
+    np.testing.assert_array_equal(sol.joints[:, 2], 0.0)
+    values = np.linspace(-0.4, 0.4, 200)
+    sol = solve_stations(ROBOT, st, 'arm2', redundancy_value=values, check=False)
+    np.testing.assert_allclose(sol.joints[:, 2], values, atol=1e-15)
+    ok = sol.feasible
+    assert ok.sum() > 100
+    fk = robot_forward(ROBOT, sol.rods[ok], sol.joints[ok], 'arm2')
+    assert np.max(np.linalg.norm(fk.wafer.position - st.position[ok], axis=1)) < 1e-9
+    with pytest.raises(InputError, match='fixed_joint rule; arm arm1 has 3 joints'):
+        solve_stations(ROBOT, st, 'arm1', redundancy_value=0.1)
+    with pytest.raises(InputError, match=r'redundancy value = nan \(station 0\) is not a finite number'):
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=float('nan'))
+    with pytest.raises(InputError, match=r'redundancy value must be one number or 200 numbers'):
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=[0.1, 0.2])
+
+
+def _nearest_robot(joint='arm2_shoulder'):
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': joint, 'reference': [0.3, -1.0, 0.5, 0.2],
+                                     'weights': [1.0, 1.0, 2.0, 1.0]}
+    return make_robot(data)
+
+
+@pytest.mark.parametrize('joint', ['arm2_shoulder', 'arm2_wrist'])
+def test_nearest_redundancy_is_a_minimum_of_its_cost(joint):
+    """The ``nearest`` rule's posture against the self-motion swept densely here with the fixed_joint solver (not
+    the rule's own search): no posture within 1e-3 rad of it is better (local), and a better posture anywhere in
+    the range lies only in a run of feasible postures that holds no value of the rule's grid (joint limits and the
+    reach cut the self-motion into runs; the rule documents that it can miss a run narrower than its grid step)."""
+    from gpr_kinematics.robot.planar_arm import NEAREST_GRID
+    robot = _nearest_robot(joint)
+    a = robot.arm('arm2')
+    st, _, _ = random_stations(robot, 'arm2', 60, seed=6)
+    sol = solve_stations(robot, st, 'arm2', check=False)
+    ok = sol.feasible
+    assert ok.sum() > 30
+    _assert_reproduces(robot, solve_stations(robot, st.take(np.flatnonzero(ok)), 'arm2'), 'arm2')
+    ref, w = np.array(a.redundancy.reference), np.array(a.redundancy.weights)
+    span = a.upper - a.lower
+
+    def cost(J):
+        return np.sum(w * ((J - ref) / span) ** 2, axis=-1)
+
+    k = a.redundancy.joint
+    lo, hi = a.joints[k].lower, a.joints[k].upper
+    grid = np.linspace(lo, hi, NEAREST_GRID)
+    dense = np.linspace(lo, hi, 6001)
+    held = _fixed_variant(k)
+    missed = 0
+    for i in np.flatnonzero(ok)[:30]:
+        best = cost(sol.joints[i])
+        local = np.clip(sol.joints[i, k] + np.linspace(-1e-3, 1e-3, 101), lo, hi)
+        values = np.concatenate([local, dense])
+        other = solve_stations(held, st.take([i] * values.size), 'arm2', branch=a.branch, redundancy_value=values,
+                               check=False)
+        c = np.where(other.feasible, cost(other.joints), np.inf)
+        assert best <= c[:local.size].min() + 1e-9
+        c_dense = c[local.size:]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], np.isfinite(c_dense).astype(int), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            if c_dense[start:stop].min() < best - 1e-9:
+                run_holds_grid_value = np.any((grid >= dense[max(start - 1, 0)]) & (grid <= dense[stop - 1]))
+                assert not run_holds_grid_value, (i, dense[start], dense[stop - 1])
+                missed += 1
+    assert missed <= 3
+
+
+def _fixed_variant(k):
+    data = robot_data()
+    names = [j['name'] for j in data['arms'][1]['joints']]
+    data['arms'][1]['redundancy'] = {'rule': 'fixed_joint', 'joint': names[k], 'value': 0.0}
+    return make_robot(data)
+
+
+def test_two_joint_arm_heading_is_an_outcome():
+    data = robot_data()
+    arm = data['arms'][0]
+    arm['joints'] = arm['joints'][:2]
+    arm['home'] = [0.0, 2.5]
+    robot = make_robot(data)
+    a = robot.arm('arm1')
+    st, _, J = random_stations(robot, 'arm1', 300, seed=7)
+    free = Stations.of(st.position, st.tilt, st.azimuth, None)
+    sol = solve_stations(robot, free, 'arm1', branch=branch_of(a, J))
+    assert np.max(sol.position_error) < 1e-9 and np.max(sol.angle_error) < 1e-9  # angle between normals
+    # the heading each posture gives is accepted as a requirement, any other is refused
+    sol2 = solve_stations(robot, st, 'arm1', branch=branch_of(a, J))
+    _assert_reproduces(robot, sol2, 'arm1')
+    wrong = Stations.of(st.position[:1], st.tilt[:1], st.azimuth[:1], st.heading[:1] + 0.1)
+    with pytest.raises(LimitError, match=r'arm arm1 has 2 joints and cannot choose the blade heading: at this position '
+                                         r'it is .* rad \(branch (left|right)\) or .* rad \(the other branch\)'):
+        solve_stations(robot, wrong, 'arm1', branch=branch_of(a, J[:1]))
+    with pytest.raises(InputError, match='arm arm2 has 4 joints and needs the blade heading'):
+        solve_stations(robot, free, 'arm2')
+
+
+def _radial_platform(q, R):
+    """Exact platform pose under the radial model, independently: least squares on the closure, then a rigid fit."""
+    th = np.radians([0.0, 120.0, 240.0])
+    u = np.stack([np.cos(th), np.sin(th), np.zeros(3)], -1)
+    P = np.column_stack([R * np.cos(th), R * np.sin(th), q])
+    edges = ((0, 1), (1, 2), (2, 0))
+    L2 = np.array([np.sum((P[j] - P[i]) ** 2) for i, j in edges])
+    sol = least_squares(lambda lv: np.array([np.sum((lv[j] * u[j] - lv[i] * u[i]) ** 2) for i, j in edges]) - L2,
+                        np.full(3, R), xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
+    r = sol.x[:, None] * u
+    rot, _ = Rotation.align_vectors(P - P.mean(0), r - r.mean(0))
+    return rot.as_matrix(), P.mean(0) - rot.apply(r.mean(0))
+
+
+@pytest.mark.parametrize('tilt_deg', [0.25, 1.0, 2.0])
+@pytest.mark.parametrize('reach, direction', [(0.35, 0.0), (0.55, 1.3), (0.75, -2.2)])
+def test_naive_wafer_error_against_an_independent_computation(tilt_deg, reach, direction):
+    """The old tool's wafer error: the naive model puts the wafer at platform point w of a platform rotated about
+    its centre; the real platform for the same rods is elsewhere. Computed here with scipy only."""
+    R = ROBOT.config.radius
+    azimuth, h = 0.4, 0.3
+    arm = ROBOT.arm('arm1')
+    zw = arm.wafer_height
+    w = np.array([reach * math.cos(direction), reach * math.sin(direction), zw])
+    tilt = math.radians(tilt_deg)
+    Rn = Rotation.from_rotvec(tilt * np.array([math.cos(azimuth), math.sin(azimuth), 0.0])).as_matrix()
+    base = np.array(ROBOT.base_position)
+    errors = []
+    for heading in (direction - 0.5, direction, direction + 0.4):  # the blade pointing about outwards
+        station_b = np.array([0.0, 0.0, h]) + Rn @ w          # the station as the naive model places it
+        th = np.radians([0.0, 120.0, 240.0])
+        r_nom = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(3)])
+        q_naive = h + (r_nom @ Rn.T)[:, 2]                    # q_k = z + (Rot r_k)_z
+        Rr, t = _radial_platform(q_naive, R)
+        real_b = t + Rr @ w                                   # the naive joints put the wafer at w on the real platform
+        st = Stations.of([station_b + base], tilt, azimuth, heading)
+        sol = solve_stations(ROBOT, st, 'arm1')
+        np.testing.assert_allclose(sol.naive_rods[0], q_naive, atol=1e-15)
+        np.testing.assert_allclose(sol.naive_wafer_error[0], real_b - station_b, atol=2e-12)
+        angle = Rotation.from_matrix(Rn.T @ Rr).magnitude()
+        assert sol.naive_wafer_angle_error[0] == pytest.approx(angle, abs=1e-11)
+        errors.append(sol.naive_wafer_error[0])
+    # the position error does not depend on the blade heading (only on tilt and reach)
+    np.testing.assert_allclose(errors[0], errors[1], atol=1e-13)
+    np.testing.assert_allclose(errors[0], errors[2], atol=1e-13)
+
+
+def test_naive_wafer_error_grows_with_tilt_and_reach():
+    az = 0.0
+    out = {}
+    for reach in (0.35, 0.75):
+        for tilt in (0.5, 2.0):
+            p = np.array(ROBOT.base_position) + [reach, 0.0, 0.4]
+            sol = solve_stations(ROBOT, Stations.of([p], math.radians(tilt), az + math.pi / 2, 0.0), 'arm1')
+            out[reach, tilt] = sol.naive_wafer_error_norm[0]
+    assert out[0.35, 0.5] < out[0.35, 2.0] and out[0.75, 0.5] < out[0.75, 2.0]
+    assert out[0.35, 2.0] < out[0.75, 2.0]
+    assert 10e-6 < out[0.75, 2.0] < 100e-6  # tens of micrometres at the tilt limit
+
+
+@pytest.mark.parametrize('change, kwargs, pattern', [
+    ({'tilt': math.radians(2.5)}, {},
+     r'station 0: the station plane tilts 2.5 deg in gpr_base, beyond the tilt limit 2 deg by 0.5 deg'),
+    # level station: every rod at z - 0.184 m (the arm's wafer height above the platform)
+    ({'z': 0.95}, {}, r'station 0: gpr_rod1 = 0.766 m is above the stroke \[0, 0.508\] m by 258 mm: the station is '
+                      r'too high for arm arm1'),
+    ({'z': 0.05}, {}, r'station 0: gpr_rod1 = -0.134 m is below the stroke \[0, 0.508\] m by 134 mm: the station is '
+                      r'too low for arm arm1'),
+    ({'x': 2.0}, {}, r'station 0: out of reach of arm arm1: the wrist axis would be 1.\d+ m from the shoulder axis, '
+                     r'the arm spans \[0, 0.6\] m \(\d+(\.\d+)? mm too far\)'),
+])
+def test_refusals_name_what_and_by_how_much(change, kwargs, pattern):
+    p = dict(x=1.1, y=0.5, z=0.45, tilt=0.0, heading=0.0) | change
+    st = Stations.of([[p['x'], p['y'], p['z']]], p['tilt'], 0.3, p['heading'])
+    with pytest.raises(LimitError, match=pattern):
+        solve_stations(ROBOT, st, 'arm1', **kwargs)
+
+
+def test_joint_limit_refusal_with_the_value_computed_independently():
+    """Level station 0.39 m in front of the shoulder, blade pointing back (heading pi + 0.25): the right branch
+    needs the wrist beyond its limit 3.05 rad, the left one does not. The wrist angle from the cosine rule here."""
+    phi = math.pi + 0.25
+    wafer = np.array([0.39, 0.0])
+    wrist = wafer - 0.2 * np.array([math.cos(phi), math.sin(phi)])   # blade: wafer 0.2 m beyond the wrist axis
+    r = np.hypot(*wrist)
+    g = math.acos((r * r - 2 * 0.3 ** 2) / (2 * 0.3 ** 2))            # right branch: the elbow turns counterclockwise
+    forearm = math.atan2(wrist[1], wrist[0]) - math.atan2(0.3 * math.sin(g), 0.3 + 0.3 * math.cos(g)) + g
+    theta3 = phi - forearm
+    st = Stations.of([np.array(ROBOT.base_position) + [0.39, 0.0, 0.45]], 0.0, 0.0, phi)
+    pattern = (rf'^station 0: arm1_wrist = {theta3:.6g} rad is beyond its upper limit 3.05 rad by '
+               rf'{theta3 - 3.05:.4g} rad \(branch right; the other branch stays within the limits\)$')
+    with pytest.raises(LimitError, match=pattern):
+        solve_stations(ROBOT, st, 'arm1', branch='right')
+    assert solve_stations(ROBOT, st, 'arm1', branch='left').feasible.all()
+
+
+def test_refusal_counts_the_other_failing_stations_and_names_them():
+    st = Stations.of([[1.1, 0.5, 0.45], [3.0, 0.5, 0.45], [3.1, 0.5, 0.45]], 0.0, 0.0, 0.0,
+                     names=['ok', 'far1', 'far2'])
+    with pytest.raises(LimitError, match=r'^station far1: out of reach .* \(and 1 more station\)$'):
+        solve_stations(ROBOT, st, 'arm1')
+    sol = solve_stations(ROBOT, st, 'arm1', check=False)
+    assert sol.feasible.tolist() == [True, False, False]
+
+
+@pytest.mark.parametrize('kwargs, pattern', [
+    ({'branch': 'up'}, "branch = 'up' is invalid; allowed: left or right"),
+    ({'branch': ['left']}, r'branch must be one value or one per station \(2\), got 1'),
+    ({'arm': 'arm3'}, "no arm 'arm3'; allowed: arm1, arm2"),
+])
+def test_bad_arguments(kwargs, pattern):
+    st = Stations.of([[1.1, 0.5, 0.45], [1.0, 0.6, 0.4]], 0.0, 0.0, 0.0)
+    with pytest.raises((InputError, LimitError, Exception), match=pattern):
+        solve_stations(ROBOT, st, **kwargs)
+
+
+@pytest.mark.parametrize('kwargs, pattern', [
+    ({'position': [[1.0, float('nan'), 0.4]]}, 'y = nan is not a finite number'),
+    ({'position': [[1.0, 0.4]]}, r'position must have 3 values per sample'),
+    ({'position': [[1.0, 0.5, 0.4]], 'tilt': float('inf')}, r'tilt = inf \(station 0\) is not a finite number'),
+    ({'position': [[1.0, 0.5, 0.4]], 'heading': [0.1, 0.2]}, r'heading must be one number or 1 numbers'),
+    ({'position': [[1.0, 0.5, 0.4]], 'names': ['a', 'b']}, 'names must name the 1 stations, got 2 names'),
+])
+def test_malformed_stations(kwargs, pattern):
+    with pytest.raises(InputError, match=pattern):
+        Stations.of(**kwargs)
+
+
+def test_link_vectors_fold_the_blade():
+    d, beta = link_vectors(ROBOT.arm('arm1'))
+    np.testing.assert_allclose(d[0], [0.3, 0.0])
+    np.testing.assert_allclose(d[2], [0.2, 0.0])
+    assert beta == 0.0

@@ -1,0 +1,97 @@
+"""Checking programs: every waypoint reached by forward kinematics, idle arms holding, the limits met by the
+samples, requested times honoured, and unreachable or too fast programs refused with the step."""
+import numpy as np
+import pytest
+import yaml
+from robot_support import ROBOT
+
+from gpr_kinematics.errors import LimitError
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.plan import joint_limits, plan_program, sample_plan
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot.transforms import rotation_angle
+
+PLAN = plan_program(ROBOT, load_program(config_path('programs/example_robot_program.yaml')))
+
+
+def test_every_waypoint_is_reached():
+    names, _, _, slices = joint_limits(ROBOT)
+    assert PLAN.joint_names == names and len(names) == 3 + 3 + 4
+    w = PLAN.waypoints
+    for a, cols in zip(ROBOT.arms, slices, strict=True):
+        idx = np.flatnonzero(np.array(w.arm) == a.name)
+        fk = robot_forward(ROBOT, PLAN.positions[idx, :3], PLAN.positions[idx, cols], a.name)
+        st = w.stations.take(idx)
+        assert np.max(np.linalg.norm(fk.wafer.position - st.position, axis=1)) < 1e-9
+        assert np.max(rotation_angle(fk.wafer.rotation, st.rotation)) < 1e-9
+        np.testing.assert_allclose(PLAN.wafer.position[idx], fk.wafer.position, atol=1e-15)
+
+
+def test_an_idle_arm_holds_its_joints():
+    _, _, _, slices = joint_limits(ROBOT)
+    first_arm2 = PLAN.waypoints.arm.index('arm2')
+    np.testing.assert_array_equal(PLAN.positions[:first_arm2, slices[1]], np.tile(ROBOT.arm('arm2').home,
+                                                                                  (first_arm2, 1)))
+    last_arm1 = max(i for i, a in enumerate(PLAN.waypoints.arm) if a == 'arm1' and i < first_arm2)
+    np.testing.assert_array_equal(PLAN.positions[first_arm2:first_arm2 + 6, slices[0]],
+                                  np.tile(PLAN.positions[last_arm1, slices[0]], (6, 1)))
+
+
+def test_times_and_samples_meet_the_limits():
+    t = PLAN.timing
+    i = PLAN.labels.index('steps[5] (place chamber_a, approach)')
+    assert t.duration[i - 1] == pytest.approx(4.0)  # the step's requested time
+    v, a = t.usage()
+    assert np.all(v <= 1 + 1e-12) and np.all(a <= 1 + 1e-12) and v.max() == pytest.approx(1.0)
+    rate = 500.0
+    s = sample_plan(PLAN, rate)
+    dt = np.diff(s.samples.time)
+    vel = np.diff(s.samples.positions, axis=0) / dt[:, None]
+    _, vmax, _, _ = joint_limits(ROBOT)
+    assert np.all(np.abs(vel) <= vmax * (1 + 1e-9))
+    held = s.samples.held >= 0
+    k = s.samples.held[held]
+    np.testing.assert_allclose(s.wafer.position[held], PLAN.wafer.position[k], atol=1e-12)
+    assert set(s.arm) == {'arm1', 'arm2'}
+
+
+def _program_file(tmp_path, stations, steps):
+    data = {'format': 'gpr_robot_program', 'stations': stations, 'steps': steps}
+    f = tmp_path / 'p.yaml'
+    f.write_text(yaml.safe_dump(data))
+    return load_program(f)
+
+
+def test_unreachable_waypoint_refused_with_its_step(tmp_path):
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'far', 'position': [2.5, 0.5, 0.45], 'heading': 0.0}],
+                      [{'move': 'a'}, {'pick': 'far'}, {'place': 'far'}])
+    with pytest.raises(LimitError, match=r"p.yaml: steps\[1\] \(pick far, approach\): station far/approach: out of "
+                                         r"reach of arm arm1: .* \(and 5 more waypoints\)$"):
+        plan_program(ROBOT, p)
+
+
+def test_too_fast_a_move_refused_with_its_step(tmp_path):
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [0.75, 1.1, 0.3], 'heading': 1.5}],
+                      [{'move': 'a'}, {'move': 'b', 'time': 0.2}])
+    with pytest.raises(LimitError, match=r"p.yaml: the move into steps\[1\] \(move b, move\) needs at least \d\.\d+ s "
+                                         r"within the limits, time = 0.2 s is too short \(gpr_rod\d alone needs"):
+        plan_program(ROBOT, p)
+
+
+def test_a_thousand_station_program(tmp_path):
+    rng = np.random.default_rng(3)
+    r = rng.uniform(0.4, 0.7, 1000)
+    ang = rng.uniform(-2.5, 2.5, 1000)  # the shoulder cannot turn to face backwards (limits 3.05 rad)
+    base = np.array(ROBOT.base_position)
+    stations = [{'name': f's{i}', 'position': [float(base[0] + r[i] * np.cos(ang[i])),
+                                               float(base[1] + r[i] * np.sin(ang[i])), float(rng.uniform(0.3, 0.6))],
+                 'tilt': float(rng.uniform(0, 0.03)), 'azimuth': float(rng.uniform(-3, 3)), 'heading': float(ang[i]),
+                 'branch': 'left' if ang[i] < 0 else 'right'}  # the elbow on the side that keeps the shoulder in range
+                for i in range(1000)]
+    p = _program_file(tmp_path, stations, [{'pick' if i % 2 else 'place': f's{i}'} for i in range(1000)])
+    plan = plan_program(ROBOT, p)
+    assert len(plan.waypoints) == 3000
+    assert np.max(np.linalg.norm(plan.wafer.position - plan.waypoints.stations.position, axis=1)) < 1e-9

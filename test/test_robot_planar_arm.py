@@ -1,0 +1,75 @@
+"""The planar arm: the two-link problem at the edges of its reach, branches seen from above, limits modulo 2 pi."""
+import math
+
+import numpy as np
+import pytest
+from robot_support import ROBOT, make_robot, robot_data
+
+from gpr_kinematics.robot.planar_arm import branch_of, chain_forward, link_vectors, solve_arm, two_link, wrap_to_limits
+
+
+def test_two_link_reach_edges():
+    D1, D2 = np.array([0.3, 0.0]), np.array([0.2, 0.0])
+    p = np.array([[0.5, 0.0], [0.1, 0.0], [0.5 + 1e-13, 0.0], [0.6, 0.0], [0.05, 0.0], [0.3, 0.2]])
+    tl = two_link(D1, D2, p, 1.0)
+    assert tl.reachable.tolist() == [True, True, True, False, False, True]
+    np.testing.assert_allclose(tl.Theta1[:2], [0.0, 0.0], atol=1e-7)  # stretched, folded
+    np.testing.assert_allclose(tl.Theta2[:2], [0.0, math.pi], atol=1e-7)
+    reached = tl.Theta1[:, None] * 0 + np.stack([0.3 * np.cos(tl.Theta1) + 0.2 * np.cos(tl.Theta2),
+                                                 0.3 * np.sin(tl.Theta1) + 0.2 * np.sin(tl.Theta2)], -1)
+    np.testing.assert_allclose(reached[[0, 1, 2, 5]], p[[0, 1, 2, 5]], atol=1e-12)
+    assert (tl.r_min, tl.r_max) == (pytest.approx(0.1), pytest.approx(0.5))
+
+
+def test_branch_right_puts_the_elbow_right_of_the_shoulder_wrist_line():
+    D1, D2 = np.array([0.3, 0.0]), np.array([0.3, 0.0])
+    target = np.array([[0.4, 0.1]])
+    for sign, side in ((1.0, -1.0), (-1.0, 1.0)):
+        tl = two_link(D1, D2, target, sign)
+        elbow = 0.3 * np.array([np.cos(tl.Theta1[0]), np.sin(tl.Theta1[0])])
+        cross = target[0, 0] * elbow[1] - target[0, 1] * elbow[0]  # > 0: elbow left of the line (seen from above)
+        assert np.sign(cross) == side
+        assert np.sign(np.sin(tl.Theta2[0] - tl.Theta1[0])) == sign  # the forearm turns counterclockwise for right
+
+
+def test_wrap_to_limits():
+    lower, upper = np.array([-3.0, -1.0, -4.0]), np.array([3.0, 1.0, 4.0])
+    t, v = wrap_to_limits(np.array([[3.2, 1.5, -3.5], [-3.2 + 2 * math.pi, 0.5 + 4 * math.pi, 3.9]]), lower, upper)
+    # the representative nearest the middle of the range (within pi of it), and how far beyond the range it is
+    two_pi = 2 * math.pi
+    np.testing.assert_allclose(t, [[3.2 - two_pi, 1.5, -3.5 + two_pi], [-3.2 + two_pi, 0.5, 3.9 - two_pi]], atol=1e-14)
+    np.testing.assert_allclose(v, [[two_pi - 3.2 - 3.0, 0.5, 0.0], [two_pi - 3.2 - 3.0, 0.0, 0.0]], atol=1e-12)
+
+
+def test_blade_offsets_fold_into_the_last_link():
+    data = robot_data()
+    data['arms'][0]['blade'] = {'position': [0.01, 0.02, 0.0], 'yaw': 0.5, 'wafer_centre': [0.2, -0.03, 0.0]}
+    arm = make_robot(data).arm('arm1')
+    d, beta = link_vectors(arm)
+    w = np.array([0.2, -0.03])
+    expected = np.array([0.01, 0.02]) + np.array([[math.cos(0.5), -math.sin(0.5)], [math.sin(0.5), math.cos(0.5)]]) @ w
+    np.testing.assert_allclose(d[2], expected, atol=1e-16)
+    theta = np.array([[0.3, -0.7, 1.1]])
+    _, wafer, heading = chain_forward(arm, theta)
+    sol = solve_arm(arm, wafer, heading, np.array([-1.0]))  # elbow -0.7 < 0: left branch
+    np.testing.assert_allclose(sol.theta, theta, atol=1e-13)
+    assert branch_of(arm, theta) == ('left',)
+
+
+def test_two_joint_heading_is_per_branch():
+    data = robot_data()
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.0]
+    arm = make_robot(data).arm('arm1')
+    p = np.array([[0.45, 0.1], [0.45, 0.1]])
+    sol = solve_arm(arm, p, None, np.array([1.0, -1.0]))
+    _, wafer, heading = chain_forward(arm, sol.theta)
+    np.testing.assert_allclose(wafer, p, atol=1e-14)
+    np.testing.assert_allclose(heading, sol.heading, atol=1e-14)
+    assert abs(heading[0] - heading[1]) > 0.1  # the branches point the blade differently
+    assert branch_of(arm, sol.theta) == ('right', 'left')
+
+
+def test_shipped_arm_reach():
+    d, _ = link_vectors(ROBOT.arm('arm1'))
+    assert np.hypot(*d[0]) + np.hypot(*d[1]) == pytest.approx(0.6)

@@ -1,0 +1,136 @@
+"""Robot programs: the file format, units, imports, steps expanded into waypoints, today's platform programs named
+and refused, every malformed program refused with its place."""
+import math
+
+import numpy as np
+import pytest
+import yaml
+from robot_support import ROBOT
+
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.robot.program import expand, load_program, parse_program
+
+EXAMPLE = config_path('programs/example_robot_program.yaml')
+
+
+def _program(tmp_path, data, name='p.yaml'):
+    f = tmp_path / name
+    f.write_text(yaml.safe_dump(data))
+    return load_program(f)
+
+
+def _minimal(**changes):
+    data = {'format': 'gpr_robot_program', 'version': 1,
+            'stations': [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                         {'name': 'b', 'position': [0.75, 1.1, 0.4], 'tilt': 0.01, 'azimuth': 0.5, 'heading': 1.5}],
+            'steps': [{'move': 'a'}, {'pick': 'b'}]}
+    data.update(changes)
+    return data
+
+
+def test_shipped_example():
+    p = load_program(EXAMPLE)
+    assert p.robot.resolve() == config_path('robots/example_robot.yaml').resolve()
+    assert len(p.stations) == 5 and len(p.steps) == 10
+    assert p.approach_height == pytest.approx(0.008) and p.dwell == 0.5
+    st = p.stations.stations
+    i = p.stations.index()['chamber_a']
+    np.testing.assert_allclose(st.position[i], [1.2, 1.0, 0.455], atol=1e-15)
+    assert st.tilt[i] == pytest.approx(math.radians(1.2), abs=1e-16)
+    assert p.stations.branch[p.stations.index()['chamber_b']] == 'left'
+    assert [s.kind for s in p.steps][:3] == ['move', 'pick', 'move']
+    assert p.steps[3].dwell == 1.0 and p.steps[5].time == 4.0 and p.steps[6].arm == 'arm2'
+
+
+def test_expansion_into_waypoints(tmp_path):
+    p = _program(tmp_path, _minimal(defaults={'approach_height': 0.01, 'retract_height': 0.004, 'dwell': 0.3},
+                                    steps=[{'move': 'a', 'time': 2.0}, {'pick': 'b', 'time': 3.0, 'dwell': 1.0},
+                                           {'dwell': 0.7}, {'place': 'a', 'branch': 'left'}]))
+    w = expand(p, ROBOT)
+    assert w.phase == ('move', 'approach', 'at', 'retract', 'approach', 'at', 'retract')
+    assert w.stations.names == ('a', 'b/approach', 'b', 'b/retract', 'a/approach', 'a', 'a/retract')
+    np.testing.assert_allclose(w.dwell, [0.3, 0.0, 1.0, 0.7, 0.0, 0.3, 0.0])
+    np.testing.assert_array_equal(w.time, [2.0, 3.0, np.nan, np.nan, np.nan, np.nan, np.nan])
+    assert w.branch == ('right',) * 4 + ('left',) * 3
+    b = p.stations.stations.take([1])
+    n = b.normal[0]
+    # pick: below the wafer by the approach height, at it, above by the retract height, along the station normal
+    np.testing.assert_allclose(w.stations.position[1] - b.position[0], -0.01 * n, atol=1e-15)
+    np.testing.assert_allclose(w.stations.position[3] - b.position[0], 0.004 * n, atol=1e-15)
+    np.testing.assert_allclose(w.stations.position[4] - [1.2, 0.5, 0.45], [0, 0, 0.01], atol=1e-15)  # place: above
+    np.testing.assert_array_equal(w.stations.heading[1:4], 1.5)
+
+
+def test_units_and_imports(tmp_path):
+    (tmp_path / 'more.csv').write_text('name,x [mm],y [mm],z [mm],heading [deg]\nc,1200,500,450,90\n')
+    (tmp_path / 'more.yaml').write_text('units: {length: mm}\nstations: [{name: d, position: [750, 1100, 400], '
+                                        'heading: 0.5}]\n')
+    p = _program(tmp_path, _minimal(units={'length': 'mm', 'angle': 'deg'},
+                                    stations=[{'name': 'a', 'position': [1200, 500, 450], 'heading': 90}],
+                                    defaults={'approach_height': 5},
+                                    **{'import': ['more.csv', 'more.yaml']}, steps=[{'move': 'a'}, {'move': 'd'}]))
+    st = p.stations.stations
+    assert st.names == ('a', 'c', 'd')
+    np.testing.assert_allclose(st.position, [[1.2, 0.5, 0.45], [1.2, 0.5, 0.45], [0.75, 1.1, 0.4]], atol=1e-15)
+    np.testing.assert_allclose(st.heading, [math.pi / 2, math.pi / 2, 0.5], atol=1e-15)
+    assert p.approach_height == pytest.approx(0.005)
+
+
+def test_platform_programs_are_named_and_refused():
+    with pytest.raises(ConfigError, match=r'example_stations.yaml: this is a platform program \(stations with height, '
+                                          r'tilt and azimuth of the platform\), the format trajectory_node runs'):
+        load_program(config_path('programs/example_stations.yaml'))
+
+
+@pytest.mark.parametrize('changes, pattern', [
+    ({'format': None}, r"format = None is invalid; allowed: gpr_robot_program"),
+    ({'version': 2}, r'version = 2 is invalid; allowed: 1'),
+    ({'colour': 1}, r'unknown key\(s\) colour'),
+    ({'stations': []}, r'no stations; give "stations" or "import"'),
+    ({'steps': []}, r'steps must be a non-empty list of steps \(move, pick, place, dwell\)'),
+    ({'steps': [{'dwell': 1}]}, r'the steps only dwell; at least one move, pick or place is required'),
+    ({'steps': [{'dwell': 1}, {'move': 'a'}]}, r'steps\[0\]: a dwell before any move has nowhere to hold'),
+    ({'steps': [{'move': 'z'}]}, r"steps\[0\]: move 'z': no such station; allowed: a, b"),
+    ({'steps': [{'move': 'a', 'pick': 'b'}]},
+     r'steps\[0\]: give exactly one of move, pick, place, dwell, got move, pick'),
+    ({'steps': [{'jump': 'a'}]}, r'give exactly one of move, pick, place, dwell, got none'),
+    ({'steps': [{'move': 'a', 'speed': 1}]}, r'steps\[0\]: unknown key\(s\) speed'),
+    ({'steps': [{'move': 'a', 'time': 0}]}, r'steps\[0\]: time = 0 is invalid; allowed: seconds, > 0'),
+    ({'steps': [{'move': 'a', 'dwell': -1}]}, r'dwell = -1 is invalid; allowed: seconds, >= 0'),
+    ({'steps': [{'move': 'a', 'dwell': float('nan')}]}, r'dwell = nan is invalid'),
+    ({'steps': [{'move': 'a', 'arm': 3}]}, r'steps\[0\]: arm = 3 is invalid; allowed: a name'),
+    ({'defaults': {'approach_height': 0.5}}, r'defaults: approach_height = 0.5 is invalid; allowed: 0 to 0.1 m'),
+    ({'defaults': {'speed': 1}}, r'defaults: unknown key\(s\) speed'),
+    ({'defaults': [1]}, r'defaults must be a mapping'),
+    ({'import': ['absent.csv']}, r"cannot read station file .*absent.csv"),
+    ({'import': 7}, r'import must be a list of at most 64 station file paths'),
+    ({'robot': 5}, r'robot = 5 is invalid; allowed: a path to a robot description'),
+    ({'stations': [{'name': 'a', 'position': [1, 2, 3]}, {'name': 'a', 'position': [1, 2, 3]}]},
+     r"station name 'a' is used twice"),
+])
+def test_malformed_programs(tmp_path, changes, pattern):
+    data = _minimal()
+    for k, v in changes.items():
+        if v is None:
+            del data[k]
+        else:
+            data[k] = v
+    with pytest.raises(ConfigError, match=pattern):
+        p = _program(tmp_path, data)
+        expand(p, ROBOT)
+
+
+@pytest.mark.parametrize('step, pattern', [
+    ({'move': 'a', 'arm': 'arm9'}, r"steps\[0\]: arm = 'arm9' is invalid; allowed: arm1, arm2"),
+    ({'move': 'a', 'branch': 'up'}, r"steps\[0\]: branch = 'up' is invalid; allowed: left or right"),
+])
+def test_steps_checked_against_the_robot(tmp_path, step, pattern):
+    p = _program(tmp_path, _minimal(steps=[step]))
+    with pytest.raises(ConfigError, match=pattern):
+        expand(p, ROBOT)
+
+
+def test_not_a_mapping():
+    with pytest.raises(ConfigError, match=r'expected a mapping \(format: gpr_robot_program'):
+        parse_program([1, 2])

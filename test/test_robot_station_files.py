@@ -1,0 +1,106 @@
+"""Station files: CSV with units in the header, YAML with a units mapping, the same stations either way, and every
+malformed or hostile file refused with the line and the field."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.robot.station_files import MAX_BYTES, load_stations
+
+CSV_MM_DEG = """name,x [mm],y [mm],z [mm],tilt [deg],azimuth [deg],heading [deg],branch,approach_height [mm]
+load_port_1,1100,250,420,0,0,90,,
+chamber_a,400,900,455,1.2,30,180,left,5
+"""
+CSV_SI = f"""name, x ,y,z,tilt,azimuth,heading,branch,approach_height
+load_port_1,1.1,0.25,0.42,0,0,{math.pi / 2!r},,
+chamber_a,0.4,0.9,0.455,{math.radians(1.2)!r},{math.radians(30)!r},{math.pi!r},left,0.005
+"""
+YAML_MM_DEG = """units: {length: mm, angle: deg}
+stations:
+  - {name: load_port_1, position: [1100, 250, 420], heading: 90}
+  - {name: chamber_a, position: [400, 900, 455], tilt: 1.2, azimuth: 30, heading: 180, branch: left,
+     approach_height: 5}
+"""
+
+
+def _write(tmp_path, name, text):
+    f = tmp_path / name
+    f.write_text(text)
+    return f
+
+
+def test_the_same_stations_in_every_form(tmp_path):
+    tables = [load_stations(_write(tmp_path, n, t)) for n, t in (('a.csv', CSV_MM_DEG), ('b.csv', CSV_SI),
+                                                                 ('c.yaml', YAML_MM_DEG))]
+    for t in tables:
+        st = t.stations
+        assert st.names == ('load_port_1', 'chamber_a')
+        np.testing.assert_allclose(st.position, [[1.1, 0.25, 0.42], [0.4, 0.9, 0.455]], atol=1e-15)
+        np.testing.assert_allclose(st.tilt, [0.0, math.radians(1.2)], atol=1e-16)
+        np.testing.assert_allclose(st.heading, [math.pi / 2, math.pi], atol=1e-15)
+        assert t.branch == (None, 'left')
+        assert t.approach_height[0] is None and t.approach_height[1] == pytest.approx(0.005, abs=1e-16)
+        assert t.retract_height == (None, None)
+
+
+def test_an_empty_heading_is_free(tmp_path):
+    t = load_stations(_write(tmp_path, 's.csv', 'name,x,y,z,heading\na,1,0,0.4,\nb,1,0,0.4,0.5\n'))
+    assert t.stations.heading_free.tolist() == [True, False]
+
+
+@pytest.mark.parametrize('name, text, pattern', [
+    ('s.csv', '', r's.csv: empty; a header row \(name, x, y, z, ...\)'),
+    ('s.csv', 'name,x,y\na,1,2\n', r'the header lacks the column\(s\) z; required: name, x, y, z'),
+    ('s.csv', 'name,x,y,z,colour\n', r"header column 5 'colour' is invalid; allowed: name, branch, x, y, z"),
+    ('s.csv', 'name,x [cm],y,z\n', r'column x: unit \[cm\] is invalid; allowed: m or mm'),
+    ('s.csv', 'name,x,y,z,tilt [grad]\n', r'column tilt: unit \[grad\] is invalid; allowed: rad or deg'),
+    ('s.csv', 'name [m],x,y,z\n', r'column name takes no unit, got \[m\]'),
+    ('s.csv', 'name,x,x,y,z\n', r'column x appears twice in the header'),
+    ('s.csv', 'name,x,y,z\na,1,2\n', r's.csv: line 2: 3 fields, the header has 4'),
+    ('s.csv', 'name,x,y,z\na,1,nan,0.4\n', r"s.csv: line 2 \(a\): y = 'nan' is invalid; allowed: a finite number in m"),
+    ('s.csv', 'name,x [mm],y,z\na,1e400,0,0.4\n', r"x = '1e400' is invalid; allowed: a finite number in mm"),
+    ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid"),
+    ('s.csv', 'name,x,y,z\n,1,0,0.4\n', r"line 2: name = '' is invalid; allowed: 1 to 64 letters"),
+    ('s.csv', 'name,x,y,z\na,1,0,\n', r'line 2 \(a\): x, y and z are required'),
+    ('s.csv', 'name,x,y,z\na,1,0,0.4\na,1,0,0.5\n', r"station name 'a' is used twice \(stations 0 and 1\)"),
+    ('s.csv', 'name,x,y,z,branch\na,1,0,0.4,up\n', r"branch = 'up' is invalid; allowed: left, right or empty"),
+    ('s.csv', 'name,x,y,z,retract_height\na,1,0,0.4,0.5\n', r"retract_height = '0.5' is invalid; allowed: 0 to 0.1 m"),
+    ('s.csv', 'name,x,y,z\n"a,1,0,0.4\n', r'line 2: 1 fields, the header has 4|not valid CSV'),
+    ('s.yaml', 'units: {length: inch}\nstations: []\n', r"units: length = 'inch' is invalid; allowed: m or mm"),
+    ('s.yaml', 'units: {angle: grad}\n', r"units: angle = 'grad' is invalid; allowed: rad or deg"),
+    ('s.yaml', 'units: {length: m, time: s}\n', r'units: unknown key\(s\) time'),
+    ('s.yaml', 'stations: {a: 1}\n', r'stations must be a list of stations'),
+    ('s.yaml', 'stations: [{name: a}]\n', r'stations\[0\]: name and position are required'),
+    ('s.yaml', 'stations: [{name: a, position: [1, 2]}]\n', r"stations\[0\] \(a\): position = \[1, 2\] is invalid"),
+    ('s.yaml', 'stations: [{name: a, position: [1, 2, .inf]}]\n', r'z = inf is invalid; allowed: a finite number in m'),
+    ('s.yaml', 'stations: [{name: a, position: [1, 2, 3], tilt: "1"}]\n', r"tilt = '1' is invalid"),
+    ('s.yaml', 'stations: [{name: a, position: [1, 2, 3], speed: 1}]\n', r'unknown key\(s\) speed'),
+    ('s.yaml', '- 1\n', r'expected a mapping with "stations"'),
+    ('s.txt', 'x', r"unknown type .txt; allowed: .csv, .yaml, .yml"),
+])
+def test_malformed_files(tmp_path, name, text, pattern):
+    with pytest.raises(ConfigError, match=pattern):
+        load_stations(_write(tmp_path, name, text))
+
+
+def test_hostile_files(tmp_path):
+    with pytest.raises(ConfigError, match=r"cannot read station file .*absent.csv"):
+        load_stations(tmp_path / 'absent.csv')
+    (tmp_path / 'dir.csv').mkdir()
+    with pytest.raises(ConfigError, match=r'is not a regular file'):
+        load_stations(tmp_path / 'dir.csv')
+    fifo = tmp_path / 'fifo.csv'
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match=r'is not a regular file'):  # must not block on the FIFO
+        load_stations(fifo)
+    big = tmp_path / 'big.csv'
+    with open(big, 'wb') as fh:
+        fh.truncate(MAX_BYTES + 1)
+    with pytest.raises(ConfigError, match=rf'has {MAX_BYTES + 1} bytes; allowed: at most {MAX_BYTES}'):
+        load_stations(big)
+    bad = tmp_path / 'latin.csv'
+    bad.write_bytes('name,x,y,z\nstation_\xe9,1,0,0.4\n'.encode('latin-1'))
+    with pytest.raises(ConfigError, match=r'is not UTF-8 text \(byte 19\)'):
+        load_stations(bad)

@@ -1,0 +1,79 @@
+"""Teach (joints -> stations) and re-teach (naive joints -> the joints that put the wafer where the old tool meant)."""
+import numpy as np
+import pytest
+from robot_support import ROBOT, elbow_angle, make_robot, random_postures, robot_data
+
+from gpr_kinematics.errors import LimitError
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.inverse import solve_stations
+from gpr_kinematics.robot.planar_arm import branch_of
+from gpr_kinematics.robot.teach import reteach, teach
+from gpr_kinematics.robot.transforms import rotation_angle
+
+
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_teach_then_solve_gives_the_joints_back(arm):
+    Q, J = random_postures(ROBOT, arm, 500, seed=21)
+    taught = teach(ROBOT, Q, J, arm)
+    assert (taught.stations.tilt >= 0).all()
+    np.testing.assert_allclose(taught.stations.rotation, taught.forward.wafer.rotation, atol=1e-15)
+    np.testing.assert_allclose(taught.naive_stations.position, taught.forward.naive_wafer.position, atol=0)
+    np.testing.assert_allclose(taught.naive_error, taught.stations.position - taught.naive_stations.position,
+                               atol=0)
+    sol = solve_stations(ROBOT, taught.stations, arm, branch=branch_of(ROBOT.arm(arm), J))
+    np.testing.assert_allclose(sol.rods, Q, atol=1e-12)
+    assert np.max(np.linalg.norm(sol.forward.wafer.position - taught.forward.wafer.position, axis=1)) < 1e-12
+
+
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_reteach_puts_the_wafer_where_the_old_tool_meant(arm):
+    """Old joints from the naive model: the old tool believed the wafer at the naive forward kinematics of them."""
+    Q, J = random_postures(ROBOT, arm, 400, seed=22)
+    # away from full stretch: there the corrected station can lie micrometres beyond the reach (refused)
+    keep = np.abs(np.sin(elbow_angle(ROBOT, arm, J))) > 0.01
+    Q, J = Q[keep], J[keep]
+    old_fk = robot_forward(ROBOT, Q, J, arm)
+    rt = reteach(ROBOT, Q, J, arm)
+    ok = rt.solution.feasible
+    assert ok.all()
+    new_fk = robot_forward(ROBOT, rt.solution.rods, rt.solution.joints, arm)
+    # the new joints put the wafer (really) where the old joints were meant to (naively)
+    assert np.max(np.linalg.norm(new_fk.wafer.position - old_fk.naive_wafer.position, axis=1)) < 1e-9
+    assert np.max(rotation_angle(new_fk.wafer.rotation, old_fk.naive_wafer.rotation)) < 1e-9
+    # the avoided error is where the old joints really put the wafer minus where they meant to
+    np.testing.assert_allclose(rt.avoided_error, old_fk.wafer.position - old_fk.naive_wafer.position, atol=1e-15)
+    assert rt.avoided_error_norm.max() > 1e-6
+    # the old joints are the naive model's answer for the intended station, so the two errors agree
+    np.testing.assert_allclose(rt.solution.naive_wafer_error, rt.avoided_error, atol=1e-9)
+    np.testing.assert_allclose(rt.solution.naive_rods, Q, atol=1e-12)
+    assert rt.solution.branch == branch_of(ROBOT.arm(arm), J)
+    if arm == 'arm2':
+        np.testing.assert_allclose(rt.solution.joints[:, 2], J[:, 2], atol=0)
+
+
+def test_reteach_two_joint_arm_leaves_the_heading_to_the_arm():
+    data = robot_data()
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.5]
+    robot = make_robot(data)
+    Q, J = random_postures(robot, 'arm1', 200, seed=23)
+    keep = np.abs(np.sin(elbow_angle(robot, 'arm1', J))) > 0.01
+    Q, J = Q[keep], J[keep]
+    rt = reteach(robot, Q, J, 'arm1', names=[f's{i}' for i in range(len(Q))])
+    assert rt.intended.heading_free.all() and rt.intended.names[3] == 's3'
+    new_fk = robot_forward(robot, rt.solution.rods, rt.solution.joints, 'arm1')
+    assert np.max(np.linalg.norm(new_fk.wafer.position - rt.intended.position, axis=1)) < 1e-9
+
+
+def test_reteach_refuses_a_meant_station_beyond_the_reach():
+    """Old joints at full stretch: the station the old tool meant lies micrometres beyond the real reach."""
+    from gpr_kinematics.kinematics import inverse
+    q = inverse(0.3, 0.025, 0.5).q
+    with pytest.raises(LimitError, match=r'station 0: out of reach of arm arm1: the wrist axis would be 0.6000\d+ m '
+                                         r'from the shoulder axis, the arm spans \[0, 0.6\] m \(0.01\d+ mm too far\)'):
+        reteach(ROBOT, [q], [[np.pi / 2, 0.0, 0.0]], 'arm1')
+
+
+def test_teach_refuses_joints_beyond_limits():
+    with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
+        teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')

@@ -1,0 +1,107 @@
+"""Time parameterisation: the synchronised trapezoid against an independent integration, the limits held by
+finite differences of the samples, requested durations, refusals."""
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.robot.timing import parameterise, profile, sample, shortest
+
+V_LIM = np.array([0.15, 3.0, 4.0])
+A_LIM = np.array([0.6, 12.0, 16.0])
+NAMES = ('rod', 'shoulder', 'elbow')
+
+
+def _brute_force_time(D, v, a, dt=2e-5):
+    """Integrate s'' = +A / 0 / -A with |D_k s'| <= v_k, |D_k s''| <= a_k until s reaches 1 (independent): brake as
+    soon as braking from the speed after one more step would overshoot."""
+    aD = np.abs(D)
+    m = aD > 0
+    V, A = np.min(v[m] / aD[m]), np.min(a[m] / aD[m])
+    s, ds, t = 0.0, 0.0, 0.0
+    while s < 1.0 - 1e-12 and t < 100.0:
+        up = min(ds + A * dt, V)
+        if s + 0.5 * (ds + up) * dt + up * up / (2 * A) <= 1.0:
+            new = up
+        else:  # brake so as to stop at s = 1
+            new = max(np.sqrt(max(2 * A * (1.0 - s), 0.0)) - A * dt, 0.0) if ds > 0 else 0.0
+            new = min(new, ds)
+        s += 0.5 * (ds + new) * dt
+        ds = new
+        t += dt
+        if ds == 0.0 and s < 1.0 - 1e-12 and t > dt:
+            ds = min(A * dt, np.sqrt(2 * A * (1.0 - s)))
+    return t
+
+
+@pytest.mark.parametrize('D', [[0.01, 0.0, 0.0], [0.0, 2.0, -1.0], [0.3, 0.2, 0.1], [0.001, 1e-3, 0.0]])
+def test_shortest_time_matches_an_integration(D):
+    D = np.array([D])
+    V, A, T = shortest(D, V_LIM, A_LIM)
+    assert T[0] == pytest.approx(_brute_force_time(D[0], V_LIM, A_LIM), rel=1e-3)
+
+
+def test_samples_respect_the_limits_and_hit_the_waypoints():
+    P = np.array([[0.2, 0.0, 0.0], [0.3, 1.5, -2.0], [0.3, 1.5, -2.0], [0.29, -1.0, 0.5]])
+    dwell = np.array([0.2, 0.5, 0.0, 0.3])
+    t = parameterise(P, V_LIM, A_LIM, np.array([np.nan, np.nan, np.nan, 5.0]), dwell, NAMES, ('a', 'b', 'c', 'd'))
+    np.testing.assert_allclose(t.depart - t.arrive, dwell, atol=1e-15)
+    np.testing.assert_allclose(t.arrive[1:] - t.depart[:-1], t.duration, atol=1e-15)
+    assert t.duration[1] == 0.0 and t.duration[2] == pytest.approx(5.0)
+    rate = 2000.0
+    s = sample(t, rate)
+    assert s.time[-1] == pytest.approx(t.total)
+    for i in range(4):  # at the arrival instants the joints are at the waypoints
+        k = np.argmin(np.abs(s.time - t.arrive[i]))
+        if abs(s.time[k] - t.arrive[i]) < 1e-12:
+            np.testing.assert_allclose(s.positions[k], P[i], atol=1e-12)
+    dt = np.diff(s.time)
+    v = np.diff(s.positions, axis=0) / dt[:, None]
+    acc = np.diff(v, axis=0) / dt[1:, None]
+    assert np.all(np.abs(v) <= V_LIM * (1 + 1e-9))
+    assert np.all(np.abs(acc[np.abs(dt[1:] - 1 / rate) < 1e-9]) <= A_LIM * (1 + 2e-3) + 1e-6)
+    vu, au = t.usage()
+    assert vu.max() == pytest.approx(1.0) and au.max() == pytest.approx(1.0)
+    assert np.all(vu <= 1 + 1e-12) and np.all(au <= 1 + 1e-12)
+    assert set(s.held[(s.time > t.depart[0] + 1e-9) & (s.time < t.arrive[1] - 1e-9)]) == {-1}
+    np.testing.assert_array_equal(np.unique(s.target), [0, 1, 3])  # waypoint 2 is reached in no time
+
+
+def test_profile_is_a_trapezoid():
+    T, V, A = np.array([3.0]), np.array([0.5]), np.array([0.5])  # ta = 1 s, cruise 1 s: 0.25 + 0.5 + 0.25 = 1
+    tau = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+    np.testing.assert_allclose(profile(tau, T, V, A), [0, 0.0625, 0.25, 0.5, 0.75, 0.9375, 1.0], atol=1e-15)
+
+
+def test_a_requested_time_longer_than_needed_slows_the_move():
+    P = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])
+    _, _, T_min = shortest(np.diff(P, axis=0), V_LIM, A_LIM)
+    t = parameterise(P, V_LIM, A_LIM, np.array([np.nan, 2 * T_min[0]]), np.zeros(2), NAMES, ('a', 'b'))
+    assert t.total == pytest.approx(2 * T_min[0])
+    assert t.speed[0] * 0.1 < V_LIM[0]
+    s = sample(t, 1000.0)
+    assert s.positions[-1, 0] == pytest.approx(0.1, abs=1e-15)
+
+
+def test_too_short_a_time_is_refused_naming_the_joint():
+    P = np.array([[0.0, 0.0, 0.0], [0.1, 0.5, 0.0]])
+    need = 0.1 / 0.15 + 0.15 / 0.6  # the rod: accelerate, cruise, brake
+    with pytest.raises(LimitError, match=rf'^the move into b needs at least {need:.4g} s within the limits, time = '
+                                         rf'0.5 s is too short \(rod alone needs {need:.4g} s at 0.15 /s and 0.6 '
+                                         r'/s\^2\)$'):
+        parameterise(P, V_LIM, A_LIM, np.array([np.nan, 0.5]), np.zeros(2), NAMES, ('a', 'b'))
+
+
+@pytest.mark.parametrize('rate, pattern', [(0.0, r'rate = 0.0 is invalid'), (float('nan'), 'rate = nan is invalid'),
+                                           (1e5, r'rate = 100000.0 is invalid; allowed: 0 < rate <= 10000 Hz')])
+def test_bad_rates(rate, pattern):
+    t = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.ones(2), NAMES, ('a', 'b'))
+    with pytest.raises(InputError, match=pattern):
+        sample(t, rate)
+
+
+def test_too_many_samples_are_refused():
+    t = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.array([0.0, 1e6]), NAMES,
+                     ('a', 'b'))
+    with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 10000 Hz that is 10000000001 samples; '
+                                         r'allowed: at most 5000000; lower the rate'):
+        sample(t, 10000.0)
