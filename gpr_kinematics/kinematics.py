@@ -286,7 +286,7 @@ def naive_pose(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike) -> tuple[
     return pos, tilt_rotation(t, g)
 
 
-def _naive_q(geo: _Geometry, h: Any, n: Sequence[Any], tool: Sequence[float]) -> list[Any]:
+def _naive_q(geo: _Geometry, h: Any, n: Sequence[Any], tool: Sequence[Any]) -> list[Any]:
     """Naive inverse for a platform point ``tool`` at height ``h`` and platform normal ``n``:
     ``q_k = h + n' . (r_k^nom - tool)``, ``n' = Rot^T e3 = (-n_x, -n_y, n_z)`` (design.md §4)."""
     return [h - n[0] * (geo.bx[k] - tool[0]) - n[1] * (geo.by[k] - tool[1]) - n[2] * tool[2]
@@ -525,7 +525,7 @@ def _as_column(values: ArrayLike, name: str) -> Array:
     return a
 
 
-def _ik_state(ops: Ops, p: dict, tool: Sequence[float]) -> tuple[Any, list[Any]]:
+def _ik_state(ops: Ops, p: dict, tool: Sequence[Any]) -> tuple[Any, list[Any]]:
     """Height of the tool point and platform normal of a pose from :func:`_pose`."""
     R = p['rotation']
     h = p['position'][2] + R[2][0] * tool[0] + R[2][1] * tool[1] + R[2][2] * tool[2]
@@ -561,7 +561,8 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
         height: z of the tool point (the platform origin by default) in ``gpr_base`` [m].
         tilt: tilt angle [rad]; a negative tilt is a tilt about ``azimuth + pi``.
         azimuth: direction of the tilt axis [rad]. The three broadcast to ``(N,)``.
-        tool: point of the platform, in ``gpr_platform`` [m], whose height is prescribed.
+        tool: point of the platform, in ``gpr_platform`` [m], whose height is prescribed: shape ``(3,)``
+            (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
 
     The target is the height ``h*`` and the platform normal ``n* = tilt_rotation(tilt, azimuth) e3``.
     With ``N(h, n)`` the naive inverse (:func:`naive_inverse`), the iteration is
@@ -570,19 +571,22 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
     from the exact one only by the virtual-joint corrections (~1e-4), so each step gains ~4 digits.
 
     Raises:
-        InputError: NaN, infinity, shapes that do not broadcast.
+        InputError: NaN, infinity, shapes that do not broadcast (``tool`` rows included).
         LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke.
         ConvergenceError: no convergence within ``max_iterations`` (not seen inside the limits).
     """
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
     cols = [_as_column(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
+    tools = _as_rows(tool, 'tool', 3)
     try:
-        h, t, g = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols))
+        h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
     except ValueError:
-        raise InputError('height, tilt and azimuth must have the same length (or be scalars), got '
-                         + ', '.join(str(c.shape[0]) for c in cols)) from None
-    tool_v = tuple(float(v) for v in _as_rows(tool, 'tool', 3)[0])
+        raise InputError('height, tilt, azimuth and tool must have the same length (one value or tool row per '
+                         'target, or one for all), got ' + ', '.join(str(c.shape[0]) for c in cols + [tools])) from None
+    # One platform point for all targets (floats), or one per target (columns of length N).
+    tool_v: Sequence[Any] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
+                             [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
     _check_tilt_targets(t, cfg)
     geo = _geometry(cfg)
     nt = tilt_normal(t, g)

@@ -169,6 +169,24 @@ def test_inverse_with_tool_point_prescribes_its_height():
     assert fk.tilt_azimuth == pytest.approx(2.0, abs=1e-9)
 
 
+def test_inverse_batch_with_one_tool_point_per_target_equals_single_calls():
+    h, t, g = _random_targets(40, seed=12)
+    rng = np.random.default_rng(13)
+    tools = np.column_stack([rng.uniform(-0.3, 0.3, 40), rng.uniform(-0.3, 0.3, 40), rng.uniform(0.0, 0.2, 40)])
+    h = 0.2 + 0.5 * h  # the rods (about h - tool z) stay inside the stroke
+    ib = inverse_batch(h, t, g, tool=tools)
+    for i in range(40):
+        one = inverse(h[i], t[i], g[i], tool=tools[i])
+        np.testing.assert_allclose(ib.q[i], one.q, rtol=0, atol=1e-14)
+        fk = ib.achieved[i]
+        assert (fk.position + fk.rotation @ tools[i])[2] == pytest.approx(h[i], abs=1e-12)
+    # a scalar height with per-target tools broadcasts; a count that differs is refused by name
+    two = inverse_batch(0.3, 0.01, 0.5, tool=tools[:2])
+    np.testing.assert_allclose(two.q[1], inverse(0.3, 0.01, 0.5, tool=tools[1]).q, rtol=0, atol=1e-14)
+    with pytest.raises(InputError, match='height, tilt, azimuth and tool must have the same length'):
+        inverse_batch(h[:3], t[:3], g[:3], tool=tools[:2])
+
+
 def test_inverse_at_the_singular_configuration():
     ik = inverse(0.25, 0.0, 1.0)
     np.testing.assert_allclose(ik.q, 0.25, atol=1e-16)
