@@ -1,12 +1,12 @@
 """Compensation for offline programming: from a naively commanded platform pose to what to command.
 
-Design.md §4. The old offline tool (paper Fig. 2) commands the platform as if it rotated about its
+The old offline tool (Bratovanov & Sotirov, Fig. 2) commands the platform as if it rotated about its
 centre ``(0, 0, z)``. The real GPR cannot do that: its platform centre shifts when it tilts (paper §III)
 and its heading and horizontal position are outcomes, not inputs. Given the naive command
 ``T_c = (p_c, R_c)`` and a tool point ``x_tool`` of the platform (``gpr_platform`` frame), compensation
 returns
 
-* the rod lengths ``q`` that give the commanded *tilt* (the tilt part of ``R_c``, design.md §2) and put
+* the rod lengths ``q`` that give the commanded *tilt* (the tilt part of ``R_c``, ``docs/core.md``) and put
   the tool point at the commanded *height* ``(p_c + R_c x_tool)_z``, solved under the virtual-joint model
   (:func:`gpr_kinematics.kinematics.inverse` with ``tool = x_tool``);
 * the pose ``T_a = (t, R)`` actually reached (forward kinematics of ``q``);
@@ -23,13 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .config import GprConfig
+from .config import GprConfig, resolve_config
 from .errors import LimitError
-from .geometry import matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
-from .kinematics import ForwardResult, inverse, resolve_config
+from .geometry import RigidTransform, matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
+from .kinematics import ForwardResult, inverse
 from .validation import finite_vector, unit_quaternion
 
 Array = NDArray[np.float64]
+
 
 @dataclass(frozen=True)
 class CompensationResult:
@@ -43,7 +44,7 @@ class CompensationResult:
         tool_offset: the tool point in ``gpr_platform`` [m].
         tool_commanded, tool_achieved: the tool point in ``gpr_base`` under the command and in reality [m].
         tool_shift: ``tool_achieved - tool_commanded`` [m] (its z is zero to 1e-12 m).
-        arm_correction_rotation, arm_correction_quaternion, arm_correction_translation: ``C = T_a^-1 T_c``.
+        arm_correction: ``C = T_a^-1 T_c`` (translation [m] and quaternion, in ``gpr_platform``).
         iterations: inverse-kinematics Newton steps.
     """
 
@@ -56,15 +57,27 @@ class CompensationResult:
     tool_commanded: Array
     tool_achieved: Array
     tool_shift: Array
-    arm_correction_rotation: Array
-    arm_correction_quaternion: Array
-    arm_correction_translation: Array
+    arm_correction: RigidTransform
     iterations: int
+
+    @property
+    def arm_correction_rotation(self) -> Array:
+        """Rotation of :attr:`arm_correction` (3 x 3)."""
+        return self.arm_correction.rotation
+
+    @property
+    def arm_correction_quaternion(self) -> Array:
+        """Quaternion (x, y, z, w) of :attr:`arm_correction`."""
+        return self.arm_correction.quaternion
+
+    @property
+    def arm_correction_translation(self) -> Array:
+        """Translation of :attr:`arm_correction` [m]."""
+        return self.arm_correction.translation
 
     def correct(self, points: ArrayLike) -> Array:
         """Apply the arm correction to targets ``(..., 3)`` given in the naive platform frame."""
-        p = np.asarray(points, dtype=float)
-        return p @ self.arm_correction_rotation.T + self.arm_correction_translation
+        return self.arm_correction.apply(points)
 
 
 def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
@@ -97,6 +110,7 @@ def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLik
     return CompensationResult(
         q=ik.q, achieved=fk, command_tilt=tilt, command_azimuth=az, command_twist=twist,
         tool_offset=tool, tool_commanded=tool_commanded, tool_achieved=tool_achieved,
-        tool_shift=tool_achieved - tool_commanded, arm_correction_rotation=C,
-        arm_correction_quaternion=quaternion_from_matrix(C),
-        arm_correction_translation=fk.rotation.T @ (p_c - fk.position), iterations=ik.iterations)
+        tool_shift=tool_achieved - tool_commanded,
+        arm_correction=RigidTransform(translation=fk.rotation.T @ (p_c - fk.position),
+                                      quaternion=quaternion_from_matrix(C)),
+        iterations=ik.iterations)
