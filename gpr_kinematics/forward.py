@@ -145,10 +145,10 @@ def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q')
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
         return
-    Q = _rows(q)
-    i, k = np.argwhere((Q < lo) | (Q > hi))[0]
-    where = f' (sample {i})' if Q.shape[0] > 1 else ''
-    raise LimitError(f'{what}{k + 1} = {Q[i, k]:.9g} m{where} is outside the stroke '
+    rods = _rows(q)
+    i, k = np.argwhere((rods < lo) | (rods > hi))[0]
+    where = f' (sample {i})' if rods.shape[0] > 1 else ''
+    raise LimitError(f'{what}{k + 1} = {rods[i, k]:.9g} m{where} is outside the stroke '
                      f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
 
 

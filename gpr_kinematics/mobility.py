@@ -177,5 +177,5 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     return MobilityResult(
         q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
-        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=sv, bounds=bounds,
-        rod_directions=u)
+        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
+        bounds=bounds, rod_directions=u)

@@ -182,7 +182,7 @@ def coordinate_scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
 
 def angular_weight(config: GprConfig) -> float:
     """Weight ``w = s^-2`` of the angular coordinates in the step ``dX = -W J^T (J W J^T)^-1 F``."""
-    return angle_scale(config) ** -2.0
+    return float(angle_scale(config) ** -2.0)
 
 
 def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> Components:

@@ -18,7 +18,7 @@ twists to joint rates (inverse Jacobian). Conventions, shared by every mechanism
   Jacobian ``dq/du`` used for conditioning (for six-DOF mechanisms the coordinates' rates are the twist
   itself and the basis is the identity).
 
-Homogenisation (seed ``gsp-inverse-jacobians-toz-kucuk.txt`` §4.3, characteristic length ``L``): the
+Homogenisation (Toz & Kucuk §4.3, ``docs/references.md``, characteristic length ``L``): the
 angular columns of an inverse Jacobian are divided by ``L`` (an angular velocity ``w`` becomes the
 velocity ``L w``), and rows of angular joints are multiplied by ``L`` (a joint rate ``theta'`` becomes
 ``L theta'``), so every entry is dimensionless and singular values compare lengths with lengths.
@@ -99,8 +99,8 @@ def euler_rotation(angles: np.ndarray, convention: str) -> np.ndarray:
     ang = np.asarray(angles, dtype=float)
     r1, r2, r3 = (_axis_rotation(convention[k], ang[..., k]) for k in range(3))
     if convention.isupper():
-        return r1 @ r2 @ r3
-    return r3 @ r2 @ r1
+        return np.asarray(r1 @ r2 @ r3)
+    return np.asarray(r3 @ r2 @ r1)
 
 
 def euler_rate_matrix(angles: np.ndarray, convention: str) -> np.ndarray:
@@ -126,7 +126,7 @@ def euler_rate_matrix(angles: np.ndarray, convention: str) -> np.ndarray:
 def euler_from_rotation(R: np.ndarray, convention: str) -> np.ndarray:
     """Euler angles ``(N, 3)`` (rad) of rotation matrices in the scipy convention ``convention``."""
     from scipy.spatial.transform import Rotation
-    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention)
+    return np.asarray(Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention))
 
 
 def rotation_from_vector(w: np.ndarray) -> np.ndarray:
@@ -140,7 +140,7 @@ def rotation_from_vector(w: np.ndarray) -> np.ndarray:
     safe = np.where(small, 1.0, th)
     a = np.where(small, 1.0 - th ** 2 / 6, np.sin(safe) / safe)
     b = np.where(small, 0.5 - th ** 2 / 24, (1 - np.cos(safe)) / safe ** 2)
-    return np.eye(3) + a * K + b * (K @ K)
+    return np.asarray(np.eye(3) + a * K + b * (K @ K))
 
 
 def _rodrigues(wx: float, wy: float, wz: float) -> np.ndarray:
@@ -158,25 +158,25 @@ def _rodrigues(wx: float, wy: float, wz: float) -> np.ndarray:
 def rotation_vector(R: np.ndarray) -> np.ndarray:
     """Rotation vectors ``(N, 3)`` (rad) of rotation matrices ``(N, 3, 3)`` (scipy ``as_rotvec``)."""
     from scipy.spatial.transform import Rotation
-    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec()
+    return np.asarray(Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec())
 
 
 def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
     """Newton step ``J^-1 res`` per batch item (pseudo-inverse for non-square ``J``)."""
     if J.shape[-1] != J.shape[-2]:
-        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
+        return np.asarray(np.linalg.pinv(J) @ res[..., None])[..., 0]
     if not np.all(np.isfinite(J)):
         raise SingularityError(f'{name}: forward kinematics met a singular configuration (infinite Jacobian)')
     try:
         return np.linalg.solve(J, res[..., None])[..., 0]
     except np.linalg.LinAlgError:
         # Some item of the batch is exactly singular: least-squares steps for all (rare).
-        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
+        return np.asarray(np.linalg.pinv(J) @ res[..., None])[..., 0]
 
 
 def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
                column_kinds: tuple[str, ...] | None = None) -> np.ndarray:
-    """Dimensionless inverse Jacobian by a characteristic length ``length`` (m) (GSP seed §4.3).
+    """Dimensionless inverse Jacobian by a characteristic length ``length`` (m) (Toz & Kucuk §4.3).
 
     Columns whose kind is ``'angular'`` (default: the last three, ``w_x w_y w_z``) are divided by
     ``length``; rows of angular joints are multiplied by ``length``.
@@ -186,7 +186,7 @@ def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
         column_kinds = ('linear',) * 3 + ('angular',) * 3
     col = np.array([1.0 / length if k == 'angular' else 1.0 for k in column_kinds])
     row = np.array([length if t in ANGULAR_JOINTS else 1.0 for t in joint_types])
-    return jac * row[:, None] * col[None, :]
+    return np.asarray(jac * row[:, None] * col[None, :])
 
 
 #: Above this condition number the fast Gram-matrix estimate is replaced by an SVD (see :func:`dexterity_index`).
@@ -353,13 +353,13 @@ class Mechanism(abc.ABC):
         arr = self.complete_pose(arr)
         if len(self.pose_variables) == 6 and type(self).motion_basis is Mechanism.motion_basis:
             return self.inverse_jacobian(arr)          # the basis is the identity
-        return self.inverse_jacobian(arr) @ self.motion_basis(arr)
+        return np.asarray(self.inverse_jacobian(arr) @ self.motion_basis(arr))
 
     def coordinate_jacobian(self, poses: Any) -> np.ndarray:
         """``dq/du (N, n, m)`` per unit rate of the pose coordinates (Euler angles for 6 DOF)."""
         arr, _ = as_poses(poses)
         arr = self.complete_pose(arr)
-        return self.inverse_jacobian(arr) @ self.coordinate_basis(arr)
+        return np.asarray(self.inverse_jacobian(arr) @ self.coordinate_basis(arr))
 
     def homogenized_inverse_jacobian(self, poses: Any) -> np.ndarray:
         """:func:`homogenize` applied to :meth:`inverse_jacobian` with :attr:`characteristic_length`."""
@@ -386,7 +386,7 @@ class Mechanism(abc.ABC):
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
         q = np.atleast_2d(np.asarray(joints, dtype=float))
         lim = np.asarray(self.joint_limits, dtype=float)
-        return np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1)
+        return np.asarray(np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1))
 
     def check_limits(self, joints: Any) -> None:
         """Raise :class:`LimitError` naming the first joint outside its limits."""
@@ -473,7 +473,7 @@ class Mechanism(abc.ABC):
         return self.inverse_jacobian(np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], -1))
 
     def _forward_rigid(self, q: np.ndarray, g: np.ndarray, tol: float, max_iterations: int) -> np.ndarray:
-        if q.shape[0] == 1 and hasattr(self, '_scalar'):
+        if q.shape[0] == 1 and getattr(self, '_scalar', None) is not None:
             return self._forward_rigid_one(q[0], g[0], tol, max_iterations)[None, :]
         pos = g[:, :3].copy()
         R = euler_rotation(g[:, 3:], self.euler_convention)
@@ -504,7 +504,7 @@ class Mechanism(abc.ABC):
         R = euler_rotation(g[None, 3:], self.euler_convention)[0]
         err = math.inf
         for _ in range(max_iterations):
-            joints, rows = self._scalar(p, R.tolist(), True)
+            joints, rows = getattr(self, '_scalar')(p, R.tolist(), True)  # noqa: B009 - defined by some subclasses
             res = [joints[k] - target[k] for k in range(len(target))]
             err = max(abs(r) for r in res)
             if err < tol:
