@@ -23,7 +23,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from .errors import GprError
+from .errors import EXIT_BAD_INPUT, GprError
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -40,7 +40,8 @@ PLUGINS: tuple[str, ...] = ()
 OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ros2': 'bags', 'zstandard': 'bags',
                                      'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros'}
 
-EXIT_USAGE = 2
+#: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
+EXIT_USAGE = EXIT_BAD_INPUT
 
 
 class _Parser(argparse.ArgumentParser):

@@ -57,25 +57,10 @@ class SensitivityBounds:
     eq4: tuple[float, float]
     eq5: tuple[float, float]
 
-    @property
-    def lower_eq4(self) -> float:
-        """Lower bound of eq. (4)."""
-        return self.eq4[0]
-
-    @property
-    def upper_eq4(self) -> float:
-        """Upper bound of eq. (4)."""
-        return self.eq4[1]
-
-    @property
-    def lower_eq5(self) -> float:
-        """Lower bound of eq. (5)."""
-        return self.eq5[0]
-
-    @property
-    def upper_eq5(self) -> float:
-        """Upper bound of eq. (5)."""
-        return self.eq5[1]
+    lower_eq4 = property(lambda self: self.eq4[0], doc='Lower bound of eq. (4).')
+    upper_eq4 = property(lambda self: self.eq4[1], doc='Upper bound of eq. (4).')
+    lower_eq5 = property(lambda self: self.eq5[0], doc='Lower bound of eq. (5).')
+    upper_eq5 = property(lambda self: self.eq5[1], doc='Upper bound of eq. (5).')
 
 
 @dataclass(frozen=True)

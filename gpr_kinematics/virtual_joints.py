@@ -58,6 +58,9 @@ Components = tuple[list[Any], list[Any], list[Any], list[Any], list[Any] | None,
 #: Edges of the joint triangle: (i, i % 3 + 1) in the paper's 1-based numbering.
 EDGES = ((0, 1), (1, 2), (2, 0))
 EDGE_NAMES = ('L12', 'L23', 'L31')
+#: The paper's models, solved by the closure Newton-Raphson (:func:`newton_closure`); ``compliant`` is solved as
+#: a minimum of elastic cost (:mod:`gpr_kinematics.compliance`).
+CLOSURE_MODELS = tuple(m for m in MODELS if m != 'compliant')
 
 _NAMES = {'radial': ('l1', 'l2', 'l3'), 'polar': ('l1', 'l2', 'l3', 'phi1', 'phi2', 'phi3'),
           'offset': ('dr1', 'dr2', 'dr3', 'dphi1', 'dphi2', 'dphi3'),

@@ -5,13 +5,15 @@ import numpy as np
 import pytest
 
 from gpr_kinematics.compensation import compensate
-from gpr_kinematics.config import load_config
+from gpr_kinematics.config import (
+    MODELS,
+    load_config,
+)
 from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.geometry import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
 from gpr_kinematics.kinematics import forward, naive_inverse
 from gpr_kinematics.mobility import analyze_mobility, rod_perturbation
 
-MODELS = ('radial', 'polar', 'offset')
 CFG = load_config()
 
 

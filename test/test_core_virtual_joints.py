@@ -3,10 +3,14 @@ import numpy as np
 import pytest
 
 from gpr_kinematics._ops import ARRAY
-from gpr_kinematics.config import load_config
+from gpr_kinematics.config import (
+    MODELS,
+    load_config,
+)
 from gpr_kinematics.errors import ConvergenceError
 from gpr_kinematics.kinematics import forward, forward_batch, naive_inverse
 from gpr_kinematics.virtual_joints import (
+    CLOSURE_MODELS,
     coordinate_scale,
     joint_components,
     make_model,
@@ -14,7 +18,6 @@ from gpr_kinematics.virtual_joints import (
     solve_virtual_joints,
 )
 
-MODELS = ('radial', 'polar', 'offset')
 CFG = load_config()
 
 
@@ -43,7 +46,7 @@ def test_dF_dX_matches_central_differences(model):
         np.testing.assert_allclose(J[:, :, m], fd, rtol=1e-6, atol=1e-10)
 
 
-@pytest.mark.parametrize('model', MODELS)
+@pytest.mark.parametrize('model', CLOSURE_MODELS)
 @pytest.mark.parametrize('weighting', ['characteristic', 'unweighted'])
 def test_kernel_step_is_weighted_pseudo_inverse_step(model, weighting):
     """The sparse closed-form step equals -W J^T (J W J^T)^-1 F computed densely (paper eq. 8)."""
