@@ -11,6 +11,10 @@ The platform joints are ``p_k = (x, y)`` in the platform plane of ``gpr_platform
 joint centres defines the frame's xy-plane). The nominal machine has ``B_k = p_k = R (cos theta_k,
 sin theta_k)``, ``u_k = e3`` and ``o_k = 0``.
 
+The geometry as a vector of named scalars (for calibration: a config from a parameter vector and back) is
+:data:`PARAMETERS`, :func:`parameter_vector` and :func:`config_with_parameters`; forward kinematics
+(:func:`gpr_kinematics.kinematics.forward_batch`) is a pure function of the rod lengths and that config.
+
 >>> geo = MachineGeometry.of(GprConfig())
 >>> [round(v, 6) for v in geo.bx], geo.uz, geo.offsets
 ([0.093218, -0.046609, -0.046609], (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
@@ -23,9 +27,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .config import GprConfig, Point2, Triple, nominal_points
+from .errors import InputError
 
 Array = NDArray[np.float64]
 Floats3 = tuple[float, float, float]
@@ -60,10 +65,8 @@ class MachineGeometry:
     kappa: Floats3
     naive_inv: tuple[Floats3, Floats3, Floats3]
 
-    @property
-    def upright(self) -> bool:
-        """Every rod parallel to the base z axis and no zero offset (the nominal rods)."""
-        return self.uz == (1.0, 1.0, 1.0) and self.offsets == (0.0, 0.0, 0.0)
+    #: Every rod parallel to the base z axis and no zero offset (the nominal rods): ``P_k = (B_k, q_k)``.
+    upright: bool
 
     @staticmethod
     def of(config: GprConfig) -> MachineGeometry:
@@ -126,5 +129,103 @@ def _build(cfg: GprConfig) -> MachineGeometry:
     inv = np.linalg.inv(A)
     naive_inv = (_floats(inv[0]), _floats(inv[1]), _floats(inv[2]))
     kappa: Triple = cfg.kappa
-    return MachineGeometry(bx=bx, by=by, ux=ux, uy=uy, uz=uz, offsets=_floats(cfg.rod_offsets), px=px, py=py,
-                           rho=rho, cos=cos, sin=sin, kappa=_floats(kappa), naive_inv=naive_inv)
+    offsets = _floats(cfg.rod_offsets)
+    return MachineGeometry(bx=bx, by=by, ux=ux, uy=uy, uz=uz, offsets=offsets, px=px, py=py, rho=rho, cos=cos,
+                           sin=sin, kappa=_floats(kappa), naive_inv=naive_inv,
+                           upright=uz == (1.0, 1.0, 1.0) and offsets == (0.0, 0.0, 0.0))
+
+
+@dataclass(frozen=True)
+class GeometryParameter:
+    """One scalar of the geometry file: its name in the parameter vector, the config key and position in it,
+    the unit (``m``, ``rad`` for the small rod tilts, ``1`` for a ratio) and what it is."""
+
+    name: str
+    key: str
+    rod: int
+    component: int
+    unit: str
+    description: str
+
+
+def _parameters() -> tuple[GeometryParameter, ...]:
+    out = []
+    for k in range(3):
+        n = k + 1
+        out += [GeometryParameter(f'rod{n}_x', 'rod_positions', k, 0, 'm', f'x of the base point B_{n} of rod {n}'),
+                GeometryParameter(f'rod{n}_y', 'rod_positions', k, 1, 'm', f'y of the base point B_{n} of rod {n}'),
+                GeometryParameter(f'rod{n}_offset', 'rod_offsets', k, 0, 'm', f'zero offset o_{n} of rod {n}'),
+                GeometryParameter(f'rod{n}_ux', 'rod_directions', k, 0, 'rad',
+                                  f'x component of the direction u_{n} of rod {n} (its tilt towards +x)'),
+                GeometryParameter(f'rod{n}_uy', 'rod_directions', k, 1, 'rad',
+                                  f'y component of the direction u_{n} of rod {n} (its tilt towards +y)'),
+                GeometryParameter(f'joint{n}_x', 'platform_joints', k, 0, 'm', f'x of the platform joint p_{n}'),
+                GeometryParameter(f'joint{n}_y', 'platform_joints', k, 1, 'm', f'y of the platform joint p_{n}'),
+                GeometryParameter(f'kappa{n}', 'kappa', k, 0, '1',
+                                  f'k_t / k_r of joint {n} (the compliant model only)')]
+    return tuple(out)
+
+
+#: The geometry as a parameter vector (24 scalars): per rod its base point, zero offset and direction, per joint
+#: its platform position and stiffness ratio. Every other config value (stroke, limits, model) is not a parameter.
+PARAMETERS: tuple[GeometryParameter, ...] = _parameters()
+PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in PARAMETERS)
+
+
+def _values(config: GprConfig) -> dict[str, list[list[float]]]:
+    """The per-rod keys of ``config`` as 3 x width lists (nominal points where the file gives none)."""
+    nominal = nominal_points(config)
+    return {'rod_positions': [list(p) for p in (config.rod_positions or nominal)],
+            'platform_joints': [list(p) for p in (config.platform_joints or nominal)],
+            'rod_offsets': [[v] for v in config.rod_offsets],
+            'rod_directions': [list(d) for d in config.rod_directions],
+            'kappa': [[v] for v in config.kappa]}
+
+
+def _indices(names: Sequence[str] | None) -> list[GeometryParameter]:
+    if names is None:
+        return list(PARAMETERS)
+    by_name = {p.name: p for p in PARAMETERS}
+    unknown = [n for n in names if n not in by_name]
+    if unknown:
+        raise InputError(f'unknown geometry parameter(s) {", ".join(map(str, unknown))}; allowed: '
+                         + ', '.join(PARAMETER_NAMES))
+    return [by_name[n] for n in names]
+
+
+def parameter_vector(config: GprConfig, names: Sequence[str] | None = None) -> Array:
+    """The values of the geometry parameters ``names`` (default: all of :data:`PARAMETER_NAMES`) of ``config``
+    [SI]. ``parameter_vector(GprConfig())`` is the nominal machine's.
+
+    >>> v = parameter_vector(GprConfig(), ['rod1_x', 'rod2_offset', 'kappa3'])
+    >>> v.tolist()
+    [0.093218, 0.0, 1000.0]
+    """
+    values = _values(config)
+    return np.array([values[p.key][p.rod][p.component] for p in _indices(names)])
+
+
+def config_with_parameters(config: GprConfig, vector: ArrayLike, names: Sequence[str] | None = None) -> GprConfig:
+    """A copy of ``config`` whose geometry parameters ``names`` (default: all) take the values ``vector``
+    [SI], validated like a geometry file (:class:`~gpr_kinematics.errors.ConfigError` names the key, the value
+    and the allowed range). The inverse of :func:`parameter_vector`:
+
+    >>> cfg = config_with_parameters(GprConfig(), [2e-5, 1e-4], ['rod2_offset', 'rod3_ux'])
+    >>> cfg.rod_offsets, cfg.rod_directions[2]
+    ((0.0, 2e-05, 0.0), (0.0001, 0.0))
+    >>> parameter_vector(cfg, ['rod2_offset', 'rod3_ux']).tolist()
+    [2e-05, 0.0001]
+    """
+    params = _indices(names)
+    v = np.asarray(vector, dtype=float).ravel()
+    if v.shape != (len(params),):
+        raise InputError(f'a parameter vector of {len(params)} values is needed for {len(params)} names; '
+                         f'got shape {np.shape(vector)}')
+    values = _values(config)
+    for p, x in zip(params, v.tolist(), strict=True):
+        values[p.key][p.rod][p.component] = x
+    changes: dict[str, Any] = {key: rows for key, rows in values.items() if key in {p.key for p in params}}
+    for key in ('rod_offsets', 'kappa'):
+        if key in changes:
+            changes[key] = [row[0] for row in changes[key]]
+    return config.replace(**changes)

@@ -10,8 +10,9 @@ where the side lengths ``L(X) = |r_{i%3+1}(X) - r_i(X)|`` are made variable by t
 (eq. (2)). The mobility of the rigid mechanism is ``h = 12 - rank(dPhi/dP)``; ``rank [dPhi/dP  dPhi/dX] = 12``
 everywhere, so the augmented mechanism is never singular.
 
-*Parallel rods* (the nominal machine, or rods tilted all alike): rank 9 at ``q1 = q2 = q3`` (h = 3,
-instantaneous), 11 elsewhere (h = 1: the rigid platform can only move along the rods, the tilt is blocked).
+*Parallel rods* (the nominal machine, or rods tilted all alike): rank 9 where the joint triangle is
+perpendicular to the rods, ``q1 = q2 = q3`` for vertical rods (h = 3, instantaneous), 11 elsewhere (h = 1: the
+rigid platform can only move along the rods, the tilt is blocked).
 *Rods that are not parallel*: equal extensions of the rods change the distances between the joint centres
 (``d |P_b - P_a|^2 / dq (1, 1, 1) = 2 e . (u_b - u_a) != 0``), so even that motion is blocked: rank 12 (h = 0)
 everywhere, with no singular configuration; the virtual joints then take up the vertical motion too, and
@@ -70,8 +71,8 @@ class MobilityResult:
     Attributes:
         q: rod lengths [m]; model: virtual-joint model; virtual_joints: ``X`` at ``q``.
         dphi_dp: ``dPhi/dP`` (12 x 12); dphi_dx: ``dPhi/dX`` (12 x M); dx_dp: ``dX/dP`` (M x 12).
-        rank_dphi_dp: rank of ``dPhi/dP`` (parallel rods: 9 at q1 = q2 = q3, 11 elsewhere; rods not parallel:
-            12); mobility: ``12 - rank``.
+        rank_dphi_dp: rank of ``dPhi/dP`` (parallel rods: 9 where the joint triangle is perpendicular to them,
+            at q1 = q2 = q3 for vertical rods, 11 elsewhere; rods not parallel: 12); mobility: ``12 - rank``.
         rank_augmented: rank of ``[dPhi/dP dPhi/dX]`` (12 everywhere).
         eigenvalues: of ``dX/dP^T dX/dP``, ascending (12); eigenvectors: columns ``v_1..v_12``.
         singular_values: non-zero singular values of ``dX/dP``, descending.

@@ -31,8 +31,9 @@ step is the smallest displacement of the joint centres and does not depend on th
 ``weighting='unweighted'`` uses ``c = 1`` in SI units, the paper's eq. (8) as printed.
 
 The ``offset`` model as printed is degenerate where Newton starts: at ``dr = 0`` its angular coordinates have
-zero derivative (``d r_k / d dphi_k = dr_k u'``), so the minimum-norm step never moves them and the model
-always equals ``radial`` (a test checks it to 1e-15 m). ``compliant`` is the physical model that lets the
+zero derivative (``d r_k / d dphi_k = dr_k u'``), so the minimum-norm step barely moves them and the model
+stays on the radial solution: within the tilt limit the platform pose equals ``radial``'s to 1e-14 m and the
+angular coordinates stay below 1e-9 rad (a test checks it). ``compliant`` is the physical model that lets the
 joints move tangentially: its ``X`` is the one of minimum elastic cost among all that close the mechanism
 (:mod:`gpr_kinematics.compliance`).
 """

@@ -116,3 +116,17 @@ def test_closure_is_solved_to_tolerance():
         vjm = make_model(CFG, model)
         F, _, d = vjm.closure(fb.virtual_joints, fb.side_lengths ** 2)
         assert np.max(np.abs(d - fb.side_lengths)) <= CFG.tolerance
+
+
+def test_offset_model_is_degenerate_at_its_start_and_stays_radial():
+    """At dr = 0 the offset model's angular coordinates have zero derivative (docs/core.md)."""
+    vjm = make_model(CFG, 'offset')
+    _, _, dang = vjm.points_and_partials(vjm.singular(1))
+    assert np.all(dang == 0.0)
+    rng = np.random.default_rng(6)
+    Q = naive_inverse(rng.uniform(0.05, 0.45, 2000), rng.uniform(-1, 1, 2000) * CFG.tilt_limit,
+                      rng.uniform(-np.pi, np.pi, 2000))
+    radial, offset = forward_batch(Q, model='radial'), forward_batch(Q, model='offset')
+    assert np.max(np.abs(offset.position - radial.position)) < 1e-14
+    assert np.max(np.abs(offset.virtual_joints[:, 3:])) < 1e-9
+    np.testing.assert_allclose(offset.virtual_joints[:, :3] + CFG.radius, radial.virtual_joints, rtol=0, atol=1e-14)
