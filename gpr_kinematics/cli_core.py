@@ -121,8 +121,9 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     print('platform pose reached:')
     _print_pose(res.achieved)
     print(f'  tool point    commanded {_vec(res.tool_commanded)} m, reached {_vec(res.tool_achieved)} m')
-    print(f'  tool shift    {_vec(res.tool_shift, 1e6, "{:.3f}")} um (in the platform plane)')
-    print(f'  platform point at the commanded place {_vec(res.platform_point)} m (gpr_platform)')
+    print(f'  tool shift    {_vec(res.tool_shift, 1e6, "{:.3f}")} um')
+    print(f'  height solved for the platform point {_vec(res.platform_point)} m (gpr_platform: the tool turned '
+          f'by the heading)')
     print(f'  arm correction (apply to targets in the platform frame): translation '
           f'{_vec(res.arm_correction_translation, 1e6, "{:.3f}")} um, quaternion '
           f'{_vec(res.arm_correction_quaternion, fmt="{:.12f}")}')
