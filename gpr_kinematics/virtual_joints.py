@@ -186,7 +186,10 @@ def coordinate_scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
 
 def angular_weight(config: GprConfig) -> float:
     """Weight ``w = s^-2`` of the angular coordinates in the step ``dX = -W J^T (J W J^T)^-1 F``."""
-    return float(angle_scale(config) ** -2.0)
+    w: float | None = config.derived.get('angular_weight')
+    if w is None:
+        w = config.derived['angular_weight'] = float(angle_scale(config) ** -2.0)
+    return w
 
 
 def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> Components:
@@ -320,22 +323,25 @@ def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: G
     else:
         X = [x + 0.0 * L[0] for x in vjm.singular_floats]  # arrays (N,)
         comps = joint_components(ops, vjm, X)
-    wa, tol, where = angular_weight(config), config.tolerance, ops.where
+    wa, tol = angular_weight(config), config.tolerance
+    where, not_, any_, all_ = ops.where, ops.not_, ops.any, ops.all
     d, err = side_errors(ops, comps, L)
-    active = ops.not_(err <= tol)
+    active = not_(err <= tol)
     iterations = 0 * active
     for _ in range(config.max_iterations):
-        if not ops.any(active):
+        if not any_(active):
             break
         dX = newton_terms(ops, comps, L, wa)
-        X = ([x + dx for x, dx in zip(X, dX, strict=True)] if ops.all(active) else
-             [where(active, x + dx, x) for x, dx in zip(X, dX, strict=True)])
+        if all_(active):
+            X = [x + dx for x, dx in zip(X, dX, strict=True)]
+        else:
+            X = [where(active, x + dx, x) for x, dx in zip(X, dX, strict=True)]
         iterations = iterations + active
         comps = joint_components(ops, vjm, X)
         d, err = side_errors(ops, comps, L)
-        active = ops.not_(err <= tol)
+        active = not_(err <= tol)
     else:
-        if ops.any(active):
+        if any_(active):
             raise not_converged(f'virtual-joint closure ({vjm.name})', config, err, active)
     return Closure(X, comps, d, iterations, err)
 

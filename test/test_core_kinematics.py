@@ -20,6 +20,7 @@ from gpr_kinematics.geometry import (
     tilt_rotation,
 )
 from gpr_kinematics.kinematics import (
+    ForwardResult,
     forward,
     forward_batch,
     inverse,
@@ -238,3 +239,15 @@ def test_budget_flag():
     fk = forward(naive_inverse(0.3, math.radians(2.0), 0.3), config=cfg)
     assert not fk.within_budget and fk.joint_displacement.max() > 2e-5
     assert forward([0.3, 0.3, 0.3], config=cfg).within_budget
+
+
+def test_results_are_frozen_and_built_from_every_field():
+    import dataclasses
+    fk = forward([0.5, 0.503, 0.498])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fk.tilt = 0.0
+    values = {f.name: getattr(fk, f.name) for f in dataclasses.fields(fk)}
+    assert ForwardResult.from_fields(values) == ForwardResult(**values)
+    del values['tilt']
+    with pytest.raises(TypeError, match='needs exactly the fields'):
+        ForwardResult.from_fields(values)
