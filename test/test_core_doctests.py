@@ -5,7 +5,7 @@ import importlib
 import pytest
 
 #: Core modules whose docstrings hold examples.
-MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance')
+MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep')
 
 
 @pytest.mark.parametrize('name', MODULES)
