@@ -64,8 +64,9 @@ def _cmd_fk(args: argparse.Namespace) -> int:
         return 0
     print(f'forward kinematics, model {fk.model}: q = {_vec(fk.q)} m')
     _print_pose(fk)
+    from .virtual_joints import make_model
     names = ', '.join(f'{n} = {v:.9g}' for n, v in zip(fk.virtual_joint_names, fk.virtual_joints, strict=True))
-    print(f'  virtual joints {names} (m, rad)')
+    print(f'  virtual joints {names} ({"m, rad" if make_model(cfg, fk.model).angular.any() else "m"})')
     print(f'  side lengths  L12, L23, L31 = {_vec(fk.side_lengths)} m')
     print(f'  centre shift  {_vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
     print(f'  joint displacement {_vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import reprlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -151,9 +152,11 @@ def is_number(value: Any) -> bool:
 def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(str(k) for k in data if k not in allowed)
+    unknown = sorted(short_repr(k, 40).strip("'") for k in data if k not in allowed)
     if unknown:
-        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown)}; allowed keys: ' + ', '.join(sorted(allowed)))
+        more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
+                          + ', '.join(sorted(allowed)))
 
 
 def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | None = None,
@@ -172,8 +175,19 @@ def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | 
     return float(val)
 
 
+_SHORT = reprlib.Repr()
+_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = 8
+_SHORT.maxstring = _SHORT.maxother = 80
+
+
+def short_repr(value: Any, limit: int = 80) -> str:
+    """``repr(value)``, cut to ``limit`` characters: a message never carries a whole (possibly huge) user value."""
+    text = _SHORT.repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
-    return ConfigError(f'{source}: {key} = {value!r} is invalid; allowed: {allowed}')
+    return ConfigError(f'{source}: {key} = {short_repr(value)} is invalid; allowed: {allowed}')
 
 
 def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
@@ -185,19 +199,19 @@ def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
 def _triple(source: str, key: str, value: Any) -> Any:
     """Three values (or three pairs) of a per-rod key, checked against :data:`_TRIPLE_RANGES`."""
     width, lo, hi, allowed = _TRIPLE_RANGES[key]
+    given = value
     if key == 'kappa' and is_number(value):
         value = [value] * 3
     if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise _fail(source, key, value, allowed)
+        raise _fail(source, key, given, allowed)
     out: list[Any] = []
     for item in value:
         parts = [item] if width == 1 else item
         if not isinstance(parts, (list, tuple)) or len(parts) != width:
-            raise _fail(source, key, value, allowed)
-        nums = tuple(_as_float(source, key, v, allowed) for v in parts)
-        if not all(lo <= v <= hi for v in nums):
-            raise _fail(source, key, value, allowed)
-        out.append(nums[0] if width == 1 else nums)
+            raise _fail(source, key, given, allowed)
+        if not all(is_number(v) and lo <= v <= hi for v in parts):
+            raise _fail(source, key, given, allowed)
+        out.append(float(parts[0]) if width == 1 else tuple(float(v) for v in parts))
     return tuple(out)
 
 
