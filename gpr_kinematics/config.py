@@ -109,13 +109,6 @@ class GprConfig:
         virtual-joint models): computed once per config object, not part of its value."""
         return {}
 
-    @property
-    def is_nominal(self) -> bool:
-        """True when the geometry keys describe the nominal machine (no imperfection given)."""
-        nominal = GprConfig()
-        return (self.rod_positions is None and self.platform_joints is None
-                and self.rod_offsets == nominal.rod_offsets and self.rod_directions == nominal.rod_directions)
-
 
 _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
     'radius': (1e-4, 10.0, 'metres, 1e-4 < radius <= 10'),
