@@ -374,8 +374,3 @@ def solve_virtual_joints(L: Array, vjm: VirtualJointModel, config: GprConfig) ->
     return VirtualJointSolution(X=np.stack(sol.X, axis=-1), side_lengths=np.stack(sol.side_lengths, axis=-1),
                                 iterations=np.broadcast_to(sol.iterations, (n,)).astype(np.int64),
                                 residual=sol.residual, components=sol.components)
-
-
-def solve_virtual_joints_scalar(L: Sequence[float], vjm: VirtualJointModel, config: GprConfig) -> Closure:
-    """:func:`solve_closure` of one configuration's side lengths, in float arithmetic."""
-    return solve_closure(SCALAR, vjm, L, config)
