@@ -18,7 +18,18 @@ setup(
         ('share/' + PACKAGE + '/config/calibration', glob('config/calibration/*')),
         ('share/' + PACKAGE + '/config/robots', glob('config/robots/*.yaml')),
     ],
+    # The core and its CLI (fk, ik, compensate, mobility, sweep, mechanism, accuracy, workspace) need only these.
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
+    # Optional parts (exact pins in requirements.txt / requirements-ros.txt / requirements-bench.txt):
+    # bags: gpr verify and the recorder/replay nodes' files; plot: PNG figures (dexterity, workspace, verify
+    # reports); ros: the nodes (ROS 2 Jazzy from the PyPI wheels; the interfaces are built with colcon);
+    # bench: the peers of the benchmarks.
+    extras_require={
+        'bags': ['rosbags', 'mcap', 'mcap-ros2-support'],
+        'plot': ['matplotlib'],
+        'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
+        'bench': ['pin', 'codac'],
+    },
     zip_safe=True,
     maintainer='gpr_kinematics maintainers',
     maintainer_email='maintainers@gpr-kinematics.org',

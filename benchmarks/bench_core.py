@@ -1,20 +1,29 @@
-"""Benchmark of the kinematics core (issue: GPR kinematics core), all in one run.
+"""Benchmark of the kinematics core, all in one run.
 
-Measures: a single forward call, batch forward of 100,000 poses, single and batch inverse, the full paper
-sweep, and the generic baseline a user would otherwise write: ``scipy.optimize.least_squares`` on the same
-closure equations (radial model, the square system, so the solution is unique and both must agree),
-followed by a rigid fit of the three joint centres (``scipy.spatial.transform.Rotation.align_vectors``),
-one pose at a time, at equal accuracy (checked: same virtual joints and position to 1e-12).
+Measures: a single forward call, batch forward of 100,000 poses (radial, polar and the compliant model, whose
+target is at most 3 us per pose), single and batch inverse, the full paper sweep, and the generic baseline a
+user would otherwise write: ``scipy.optimize.least_squares`` on the same closure equations (radial model, the
+square system, so the solution is unique and both must agree), followed by a rigid fit of the three joint
+centres (``scipy.spatial.transform.Rotation.align_vectors``), one pose at a time, at equal accuracy (checked:
+same virtual joints and position to 1e-12).
 
-Prints a Markdown table (medians of repeated runs). Usage: ``python benchmarks/bench_core.py [--quick]``.
+Prints a Markdown table (medians of repeated runs). Usage:
+``python benchmarks/bench_core.py [--quick] [--cpu] [--before TREE]``. ``--cpu`` times with the process's CPU time
+instead of the wall clock (on a shared machine other processes then cost less noise); ``--before TREE`` also
+compares one-pose forward and inverse calls of another checkout (``TREE/gpr_kinematics``, e.g. the commit before
+a change) with this one, alternating the two in fresh processes, CPU time, best of each round, median of rounds.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -24,16 +33,47 @@ from gpr_kinematics.config import load_config
 from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_inverse
 from gpr_kinematics.sweep import paper_sweep
 
+CLOCK = time.perf_counter
+
 
 def timed(fn, repeat: int, number: int = 1) -> list[float]:
-    """Seconds per call of ``fn``, ``repeat`` samples of ``number`` calls each."""
+    """Seconds per call of ``fn``, ``repeat`` samples of ``number`` calls each (clock :data:`CLOCK`)."""
     out = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = CLOCK()
         for _ in range(number):
             fn()
-        out.append((time.perf_counter() - t0) / number)
+        out.append((CLOCK() - t0) / number)
     return out
+
+
+#: One-pose calls timed in a fresh process for ``--before`` (CPU time, best of 9 repeats), printed as JSON.
+SINGLE_CALLS = """
+import json, time, timeit
+from gpr_kinematics.kinematics import forward, inverse
+q = [0.5, 0.503, 0.498]
+def best(fn, n):
+    fn()
+    return min(timeit.repeat(fn, number=n, repeat=9, timer=time.process_time)) / n * 1e6
+print(json.dumps({'forward, single call (radial)': best(lambda: forward(q), 2000),
+                  'forward, single call (polar)': best(lambda: forward(q, model='polar'), 2000),
+                  'inverse, single call (radial)': best(lambda: inverse(0.3, 0.02, 1.0), 300)}))
+"""
+
+
+def before_after(before: Path, rounds: int) -> list[tuple[str, float, float]]:
+    """``(call, before, after)`` [us]: :data:`SINGLE_CALLS` in ``before`` and in this tree, alternating."""
+    trees = {'before': before.resolve(), 'after': Path(__file__).resolve().parents[1]}
+    runs: dict[str, list[dict[str, float]]] = {'before': [], 'after': []}
+    for _ in range(rounds):
+        for name, tree in trees.items():
+            env = dict(os.environ, PYTHONPATH=str(tree))
+            out = subprocess.run([sys.executable, '-c', SINGLE_CALLS], env=env, cwd=tree, capture_output=True,
+                                 text=True, check=True)
+            runs[name].append(json.loads(out.stdout))
+    calls = list(runs['after'][0])
+    return [(c, statistics.median(r[c] for r in runs['before']), statistics.median(r[c] for r in runs['after']))
+            for c in calls]
 
 
 def baseline_forward(q: np.ndarray, cfg) -> tuple[np.ndarray, np.ndarray]:
@@ -58,8 +98,15 @@ def baseline_forward(q: np.ndarray, cfg) -> tuple[np.ndarray, np.ndarray]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='fewer repetitions (smoke run)')
+    ap.add_argument('--cpu', action='store_true', help='time with the CPU time of this process, not the wall clock')
+    ap.add_argument('--before', type=Path, metavar='TREE',
+                    help='also compare one-pose calls with the checkout TREE (its gpr_kinematics), alternating')
     args = ap.parse_args()
+    global CLOCK
+    if args.cpu:
+        CLOCK = time.process_time
     rep = 3 if args.quick else 7
+    load_before = os.getloadavg()[0]
     cfg = load_config()
     rng = np.random.default_rng(0)
     n = 100_000
@@ -67,19 +114,22 @@ def main() -> None:
     Q = naive_inverse(h, t, g, cfg)
     rows = []
 
-    for model in ('radial', 'polar'):
+    for model in ('radial', 'polar', 'compliant'):
         forward(Q[0], model=model)
         single = timed(lambda m=model: forward(Q[1], model=m), rep, 2000 if not args.quick else 200)
         batch = timed(lambda m=model: forward_batch(Q, model=m), rep)
         rows.append((f'forward, single call ({model})', statistics.median(single) * 1e6, 'us/call', '<= 50'))
-        rows.append((f'forward, batch of 100,000 ({model})', statistics.median(batch) / n * 1e6, 'us/pose', '<= 2'))
+        rows.append((f'forward, batch of 100,000 ({model})', statistics.median(batch) / n * 1e6, 'us/pose',
+                     '<= 3' if model == 'compliant' else '<= 2'))
     m_inv = 20_000
     isingle = timed(lambda: inverse(h[0], t[0], g[0]), rep, 300 if not args.quick else 30)
     ibatch = timed(lambda: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv]), rep)
     rows.append(('inverse, single call (radial)', statistics.median(isingle) * 1e6, 'us/call', ''))
     rows.append((f'inverse, batch of {m_inv:,} (radial)', statistics.median(ibatch) / m_inv * 1e6, 'us/pose', '<= 20'))
-    ipolar = timed(lambda: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv], model='polar'), rep)
-    rows.append((f'inverse, batch of {m_inv:,} (polar)', statistics.median(ipolar) / m_inv * 1e6, 'us/pose', '<= 20'))
+    for model in ('polar', 'compliant'):
+        other = timed(lambda m=model: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv], model=m), rep)
+        rows.append((f'inverse, batch of {m_inv:,} ({model})', statistics.median(other) / m_inv * 1e6, 'us/pose',
+                     '<= 20'))
     sweep = timed(lambda: paper_sweep(), rep)
     rows.append(('paper sweep, 756 samples (IK + FK)', statistics.median(sweep) * 1e3, 'ms', ''))
 
@@ -97,7 +147,8 @@ def main() -> None:
     rows.append(('baseline: least_squares + align_vectors, per pose (radial)', base_per_pose, 'us/pose', ''))
 
     print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
-          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end')
+          f'numpy {np.__version__}; load average {load_before:.2f} at the start, {os.getloadavg()[0]:.2f} at '
+          f'the end; clock: {"CPU time of the process" if args.cpu else "wall clock"}')
     print()
     print('| measurement | median | unit | target |')
     print('|---|---:|---|---|')
@@ -106,6 +157,16 @@ def main() -> None:
     print()
     print(f'speed-up over the baseline: batch forward {base_per_pose / ours_batch:.0f}x, '
           f'single forward call {base_per_pose / ours_single:.1f}x (target >= 100x)')
+    if args.before is not None:
+        rounds = 3 if args.quick else 7
+        print()
+        print(f'one-pose calls, {args.before} (before) and this tree (after), {rounds} alternating rounds, '
+              'CPU time, best of 9 per round, median of the rounds:')
+        print()
+        print('| call | before [us] | after [us] | after / before |')
+        print('|---|---:|---:|---:|')
+        for call, b, a in before_after(args.before, rounds):
+            print(f'| {call} | {b:.1f} | {a:.1f} | {a / b:.2f} |')
 
 
 if __name__ == '__main__':

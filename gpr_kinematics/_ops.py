@@ -2,21 +2,26 @@
 
 The kinematics kernels are written component by component with these operations only, so the same
 formulas evaluate a batch of ``N`` poses in a few dozen vectorised numpy calls and a single pose in
-plain float arithmetic (no per-call numpy overhead): one implementation, two drivers.
+plain float arithmetic (no per-call numpy overhead): one implementation, two drivers. The drivers
+themselves (the Newton loops, the limit checks, the assembly of results) are written once too, with
+:attr:`Ops.any` for "is any sample still active" and :attr:`Ops.vector` / :attr:`Ops.matrix` to turn
+components into the result's arrays (``(3,)`` for one pose, ``(N, 3)`` for a batch).
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+import operator
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 
 @dataclass(frozen=True)
 class Ops:
-    """A namespace of element-wise functions."""
+    """A namespace of element-wise functions and of the two ways of stacking components."""
 
     sqrt: Callable[[Any], Any]
     sin: Callable[[Any], Any]
@@ -26,11 +31,39 @@ class Ops:
     fabs: Callable[[Any], Any]
     maximum: Callable[[Any, Any], Any]
     where: Callable[[Any, Any, Any], Any]
+    #: Logical not of a bool or of an array of them.
+    not_: Callable[[Any], Any]
+    #: True when any element is true (a float bool, or an array of them).
+    any: Callable[[Any], bool]
+    #: True when every element is true.
+    all: Callable[[Any], bool]
+    #: Components ``[c_0, .., c_k-1]`` -> an array ``(k,)`` (floats) or ``(N, k)`` (arrays of length N).
+    vector: Callable[[Sequence[Any]], NDArray[Any]]
+    #: Rows of components -> ``(k, m)`` or ``(N, k, m)``.
+    matrix: Callable[[Sequence[Sequence[Any]]], NDArray[Any]]
 
 
 def _where(cond: Any, a: Any, b: Any) -> Any:
     return a if cond else b
 
 
-SCALAR = Ops(math.sqrt, math.sin, math.cos, math.atan2, math.hypot, abs, max, _where)
-ARRAY = Ops(np.sqrt, np.sin, np.cos, np.arctan2, np.hypot, np.abs, np.maximum, np.where)
+def _stack(components: Sequence[Any]) -> NDArray[Any]:
+    return np.stack(components, axis=-1)
+
+
+def _stack_rows(rows: Sequence[Sequence[Any]]) -> NDArray[Any]:
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def _any(a: Any) -> bool:
+    return bool(np.any(a))
+
+
+def _all(a: Any) -> bool:
+    return bool(np.all(a))
+
+
+SCALAR = Ops(math.sqrt, math.sin, math.cos, math.atan2, math.hypot, abs, max, _where, operator.not_, bool,
+             bool, np.array, np.array)
+ARRAY = Ops(np.sqrt, np.sin, np.cos, np.arctan2, np.hypot, np.abs, np.maximum, np.where, np.logical_not, _any,
+            _all, _stack, _stack_rows)

@@ -1,6 +1,6 @@
 """Pose accuracy of a parallel mechanism: joint and geometry errors -> platform pose deviation.
 
-Seed ``stewart-accuracy-alwan.txt``, eqs. (5)-(7), generalised to any
+Alwan, eqs. (5)-(7) (``docs/references.md``), generalised to any
 :class:`~gpr_kinematics.mechanisms.base.Mechanism`. With the closure ``G(s, u, p) = q(u, p) - s = 0``
 (joint values ``s``, pose coordinates ``u``, geometric parameters ``p`` such as the joint points ``R_ai``,
 ``R_bi``), errors ``Delta s`` (actuator errors, leg deformations) and ``Delta p`` (joint-position errors)
@@ -57,12 +57,12 @@ class AccuracyResult:
     @property
     def difference(self) -> np.ndarray:
         """``exact - linearized`` (N, m): the linearisation error (second order in the errors)."""
-        return self.exact - self.linearized
+        return np.asarray(self.exact - self.linearized)
 
     @property
     def exact_pose_deviation(self) -> np.ndarray:
         """``(N, 6)`` deviation of the complete pose, parasitic components included."""
-        return self.exact_poses - self.poses
+        return np.asarray(self.exact_poses - self.poses)
 
     def as_dict(self, index: int = 0) -> dict[str, Any]:
         """One pose's result as plain data (for JSON)."""
@@ -131,7 +131,7 @@ def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
     _check_regular(mech, arr)
     if J.shape[1] == J.shape[2]:
         return np.linalg.solve(J, rhs[..., None])[..., 0]
-    return (np.linalg.pinv(J) @ rhs[..., None])[..., 0]
+    return np.asarray(np.linalg.pinv(J) @ rhs[..., None])[..., 0]
 
 
 def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:

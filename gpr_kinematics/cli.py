@@ -2,29 +2,48 @@
 workspaces and the verification of recorded bags.
 
 SI units (metres, radians) by default; ``--mm`` and ``--deg`` convert inputs only, outputs stay SI.
-Subcommands of the other parts of the project are plugins listed in :data:`PLUGINS`: modules with a
-``register(subparsers)`` function whose parsers set ``handler=fn`` with ``fn(args) -> int``.
-Bad input raises a :class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr
-and exits with status 2.
+Subcommands live in modules with a ``register(subparsers)`` function whose parsers set ``handler=fn`` with
+``fn(args) -> int``. They are imported lazily: :data:`COMMANDS` maps each subcommand to its module, and only
+the module of the subcommand being run is imported (all of them for ``gpr --help``), so the core commands
+need only numpy, scipy and PyYAML. A subcommand whose optional dependency (the ``bags``, ``plot`` or ``ros``
+extra) is missing exits with status 2 and one line naming the package to install. Bad input raises a
+:class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr and exits with status 2.
+``--json`` output is the result dataclass itself (:func:`jsonable`): one JSON key per field.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import json
 import re
 import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
-from .errors import GprError
+from .errors import EXIT_BAD_INPUT, GprError
 
-PLUGINS: tuple[str, ...] = ('gpr_kinematics.cli_workspace', 'gpr_kinematics.cli_mechanisms', 'gpr_kinematics.cli_bags',
-                            'gpr_kinematics.cli_calibration', 'gpr_kinematics.cli_robot')
+#: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
+COMMANDS: dict[str, str] = {
+    'fk': 'gpr_kinematics.cli_core', 'ik': 'gpr_kinematics.cli_core', 'compensate': 'gpr_kinematics.cli_core',
+    'mobility': 'gpr_kinematics.cli_core', 'sweep': 'gpr_kinematics.cli_core',
+    'mechanism': 'gpr_kinematics.cli_mechanisms', 'accuracy': 'gpr_kinematics.cli_mechanisms',
+    'dexterity': 'gpr_kinematics.cli_mechanisms',
+    'workspace': 'gpr_kinematics.cli_workspace',
+    'verify': 'gpr_kinematics.cli_bags',
+    'calibrate': 'gpr_kinematics.cli_calibration',
+    'robot': 'gpr_kinematics.cli_robot', 'program': 'gpr_kinematics.cli_robot',
+}
+#: Plugin modules of other parts of the project not listed in :data:`COMMANDS` (imported for every command).
+PLUGINS: tuple[str, ...] = ()
+#: Optional third-party packages -> the extra of ``setup.py`` that installs them.
+OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ros2': 'bags', 'zstandard': 'bags',
+                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros'}
 
-EXIT_USAGE = 2
+#: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
+EXIT_USAGE = EXIT_BAD_INPUT
 
 
 class _Parser(argparse.ArgumentParser):
@@ -35,44 +54,86 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
 
-    def error(self, message: str) -> None:  # noqa: D102
+    def error(self, message: str) -> NoReturn:
+        """Exit with status 2 and the one line ``prog: error: message``."""
         self.exit(EXIT_USAGE, f'{self.prog}: error: {message}\n')
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
+    """``obj`` as JSON data: a dataclass becomes the mapping of its fields (recursively), numpy arrays and
+    scalars become lists and numbers, tuples become lists. This is the one schema of ``--json``."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     return obj
 
 
 def emit_json(obj: Any) -> None:
-    """Print ``obj`` as one JSON object on stdout (numpy arrays and scalars converted)."""
-    json.dump(_jsonable(obj), sys.stdout, allow_nan=False)
+    """Print ``obj`` (:func:`jsonable`) as one JSON object on stdout."""
+    json.dump(jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write('\n')
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog='gpr', description=__doc__.split('\n\n')[0])
+def missing_dependency(exc: ModuleNotFoundError) -> GprError | None:
+    """A one-line error for an optional package that is not installed (``None`` for any other import error)."""
+    root = (exc.name or '').split('.')[0]
+    extra = OPTIONAL_PACKAGES.get(root)
+    if extra is None:
+        return None
+    return GprError(f'this command needs the optional package {root!r}, which is not installed; install it with '
+                    f"pip install 'gpr_kinematics[{extra}]'")
+
+
+def _unavailable(sub: Any, command: str, error: GprError) -> None:
+    def handler(args: argparse.Namespace) -> int:
+        raise error
+
+    # No option prefix: whatever follows the command is taken as is, and the handler gives the one-line error.
+    p = sub.add_parser(command, help=f'(unavailable: {error})', add_help=False, prefix_chars='\0')
+    p.add_argument('rest', nargs=argparse.REMAINDER)
+    p.set_defaults(handler=handler)
+
+
+def _register(sub: Any, module: str) -> None:
+    """Import ``module`` and let it add its subcommands; a missing optional package leaves placeholders."""
+    try:
+        importlib.import_module(module).register(sub)
+    except ModuleNotFoundError as exc:
+        error = missing_dependency(exc)
+        if error is None:
+            raise
+        for command in (c for c, m in COMMANDS.items() if m == module and c not in sub.choices):
+            _unavailable(sub, command, error)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``gpr`` parser with the subcommand ``command`` fully registered (all of them when ``None``)."""
+    parser = _Parser(prog='gpr', description=(__doc__ or '').split('\n\n')[0])
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
     sub.required = True
-    from . import cli_core
-    cli_core.register(sub)
-    for name in PLUGINS:
-        importlib.import_module(name).register(sub)
+    wanted = [COMMANDS[command]] if command in COMMANDS else list(dict.fromkeys(COMMANDS.values()))
+    for module in list(dict.fromkeys(wanted)) + list(PLUGINS):
+        _register(sub, module)
+    for name in COMMANDS:  # listed in the usage, registered when they run
+        if name not in sub.choices:
+            sub.add_parser(name)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gpr`` console script; returns the exit status."""
-    parser = build_parser()
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    first = next((a for a in args_in if not a.startswith('-')), None)
+    parser = build_parser(first if first in COMMANDS else None)
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(args_in)
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
@@ -80,6 +141,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GprError as exc:
         msg = str(exc).replace('\n', ' ')
         sys.stderr.write(f'gpr {args.command}: error: {msg}\n')
+        return EXIT_USAGE
+    except ModuleNotFoundError as exc:  # an optional package imported by the handler itself
+        error = missing_dependency(exc)
+        if error is None:
+            raise
+        sys.stderr.write(f'gpr {args.command}: error: {error}\n')
         return EXIT_USAGE
     except KeyboardInterrupt:
         sys.stderr.write(f'gpr {args.command}: interrupted\n')

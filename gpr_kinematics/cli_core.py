@@ -43,23 +43,6 @@ def _common(p: argparse.ArgumentParser, lengths: bool = True, angles: bool = Fal
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
 
 
-def _fk_dict(fk: Any) -> dict[str, Any]:
-    return {
-        'q': fk.q, 'model': fk.model, 'position': fk.position, 'quaternion': fk.quaternion,
-        'tilt': fk.tilt, 'tilt_azimuth': fk.tilt_azimuth, 'twist': fk.twist,
-        'virtual_joints': fk.virtual_joints, 'virtual_joint_names': list(fk.virtual_joint_names),
-        'side_lengths': fk.side_lengths, 'centre_shift': fk.centre_shift,
-        'nominal_position': fk.nominal_position, 'nominal_quaternion': fk.nominal_quaternion,
-        'joint_displacement': fk.joint_displacement, 'within_budget': fk.within_budget,
-        'iterations': fk.iterations, 'residual': fk.residual, 'fit_residual': fk.fit_residual,
-    }
-
-
-def _pose_dict(fk: Any) -> dict[str, Any]:
-    return {'position': fk.position, 'quaternion': fk.quaternion, 'tilt': fk.tilt,
-            'tilt_azimuth': fk.tilt_azimuth, 'twist': fk.twist}
-
-
 def _vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
     return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'
 
@@ -77,12 +60,13 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     fk = forward([_length(args, v) for v in args.q], config=cfg, model=args.model)
     if args.json:
         from .cli import emit_json
-        emit_json(_fk_dict(fk))
+        emit_json(fk)
         return 0
     print(f'forward kinematics, model {fk.model}: q = {_vec(fk.q)} m')
     _print_pose(fk)
+    from .virtual_joints import make_model
     names = ', '.join(f'{n} = {v:.9g}' for n, v in zip(fk.virtual_joint_names, fk.virtual_joints, strict=True))
-    print(f'  virtual joints {names} (m, rad)')
+    print(f'  virtual joints {names} ({"m, rad" if make_model(cfg, fk.model).angular.any() else "m"})')
     print(f'  side lengths  L12, L23, L31 = {_vec(fk.side_lengths)} m')
     print(f'  centre shift  {_vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
     print(f'  joint displacement {_vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '
@@ -110,9 +94,7 @@ def _cmd_ik(args: argparse.Namespace) -> int:
                  config=cfg, model=args.model, tool=tool)
     if args.json:
         from .cli import emit_json
-        emit_json({'q': ik.q, 'model': ik.achieved.model, 'iterations': ik.iterations,
-                   'achieved': _pose_dict(ik.achieved), 'centre_shift': ik.achieved.centre_shift,
-                   'virtual_joints': ik.achieved.virtual_joints})
+        emit_json(ik)
         return 0
     print(f'inverse kinematics, model {ik.achieved.model}: q = {_vec(ik.q)} m ({ik.iterations} iterations)')
     print('achieved pose:')
@@ -132,19 +114,17 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
     res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
                      [_length(args, v) for v in args.tool], config=cfg, model=args.model)
-    corr = {'translation': res.arm_correction_translation, 'quaternion': res.arm_correction_quaternion}
     if args.json:
         from .cli import emit_json
-        emit_json({'q': res.q, 'model': res.achieved.model, 'achieved': _pose_dict(res.achieved),
-                   'tool_offset': res.tool_offset, 'tool_commanded': res.tool_commanded,
-                   'tool_achieved': res.tool_achieved, 'tool_shift': res.tool_shift,
-                   'arm_correction': corr, 'iterations': res.iterations})
+        emit_json(res)
         return 0
     print(f'compensation, model {res.achieved.model}: command q = {_vec(res.q)} m')
     print('platform pose reached:')
     _print_pose(res.achieved)
     print(f'  tool point    commanded {_vec(res.tool_commanded)} m, reached {_vec(res.tool_achieved)} m')
     print(f'  tool shift    {_vec(res.tool_shift, 1e6, "{:.3f}")} um')
+    print(f'  height solved for the platform point {_vec(res.platform_point)} m (gpr_platform: the tool turned '
+          f'by the heading)')
     print(f'  arm correction (apply to targets in the platform frame): translation '
           f'{_vec(res.arm_correction_translation, 1e6, "{:.3f}")} um, quaternion '
           f'{_vec(res.arm_correction_quaternion, fmt="{:.12f}")}')
@@ -152,21 +132,19 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
 
 
 def _cmd_mobility(args: argparse.Namespace) -> int:
-    from .mobility import analyze_mobility, rod_perturbation
+    from .cli import jsonable
+    from .mobility import analyze_mobility
     cfg = _config(args)
     res = analyze_mobility([_length(args, v) for v in args.q], config=cfg, model=args.model)
-    bounds: dict[str, Any] = {k: {'lower': v[0], 'upper': v[1]} for k, v in res.bounds.items()}
-    dx = None
+    out = jsonable(res)
+    dq = dx = None
     if args.dq is not None:
-        dx = res.dx_bounds(rod_perturbation([_length(args, v) for v in args.dq]))
-        bounds['for_dq'] = {'dq': [_length(args, v) for v in args.dq], 'norm_dx': dx.norm_dx,
-                            'eq4': [dx.lower_eq4, dx.upper_eq4], 'eq5': [dx.lower_eq5, dx.upper_eq5]}
+        dq = [_length(args, v) for v in args.dq]
+        dx = res.dx_bounds(res.rod_perturbation(dq))
+        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq}
     if args.json:
         from .cli import emit_json
-        emit_json({'q': res.q, 'model': res.model, 'rank_dphi_dp': res.rank_dphi_dp,
-                   'rank_augmented': res.rank_augmented, 'mobility': res.mobility,
-                   'singular_values': res.singular_values, 'eigenvalues': res.eigenvalues,
-                   'bounds': bounds})
+        emit_json(out)
         return 0
     print(f'mobility analysis (paper §IV-A), model {res.model}, q = {_vec(res.q)} m')
     print(f'  rank dPhi/dP = {res.rank_dphi_dp} (mobility h = {res.mobility}); '
@@ -175,7 +153,7 @@ def _cmd_mobility(args: argparse.Namespace) -> int:
     print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
           f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
     if dx is not None:
-        print(f'  for dq = {_vec(bounds["for_dq"]["dq"], fmt="{:.3e}")} m: |dX| = {dx.norm_dx:.6e}, '
+        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: |dX| = {dx.norm_dx:.6e}, '
               f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]')
     return 0
 

@@ -86,7 +86,7 @@ def _mechanism(args: argparse.Namespace) -> int:
     if not (np.all(np.isfinite(rep.inverse_jacobian)) and np.all(np.isfinite(rep.task_jacobian))):
         raise SingularityError(f'{mech.name}: the inverse Jacobian is not defined at pose {full.tolist()} '
                                '(a constraint row divides by zero: zero distance, parallel lines, theta = 0)')
-    result = {
+    result: dict[str, Any] = {
         'mechanism': mech.name, 'type': mech.kind, 'file': str(args.file),
         'euler_convention': mech.euler_convention,
         'pose': dict(zip(mech.pose_names, full.tolist(), strict=True)),
@@ -123,30 +123,25 @@ def _mechanism(args: argparse.Namespace) -> int:
     return 0
 
 
-def _accuracy(args: argparse.Namespace) -> int:
-    from .accuracy import accuracy_analysis
-    from .cli import emit_json
-    mech = load_mechanism(args.file)
-    if args.pose is not None:
-        poses = _pose(args, mech)[None, :]
-    elif getattr(mech, 'trajectory', None) is not None:
-        poses = mech.trajectory
-    else:
-        raise InputError(f'{mech.name}: give --pose X Y Z A B C (the file has no trajectory)')
-    if args.errors is not None:
-        errors = np.array(args.errors, dtype=float)
-        if errors.size != mech.n_joints:
-            raise InputError(f'--errors takes {mech.n_joints} values ({", ".join(mech.joint_names)}); '
-                             f'got {errors.size}')
-        ang = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
-        if args.mm:
-            errors[~ang] *= 1e-3
-        if args.deg:
-            errors[ang] = np.radians(errors[ang])
-    elif getattr(mech, 'leg_deformations', None) is not None:
-        errors = mech.leg_deformations
-    else:
-        errors = np.zeros(mech.n_joints)
+def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
+    """``--errors`` in SI (``--mm``/``--deg`` converted), else the file's leg deformations, else zeros."""
+    if args.errors is None:
+        deformations = getattr(mech, 'leg_deformations', None)
+        return np.zeros(mech.n_joints) if deformations is None else np.asarray(deformations, dtype=float)
+    errors = np.array(args.errors, dtype=float)
+    if errors.size != mech.n_joints:
+        raise InputError(f'--errors takes {mech.n_joints} values ({", ".join(mech.joint_names)}); '
+                         f'got {errors.size}')
+    ang = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
+    if args.mm:
+        errors[~ang] *= 1e-3
+    if args.deg:
+        errors[ang] = np.radians(errors[ang])
+    return errors
+
+
+def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np.ndarray]:
+    """``--parameter-error NAME V...`` items as arrays of the parameters' shapes (m, ``--mm`` converted)."""
     params: dict[str, np.ndarray] = {}
     nominal = mech.parameters()
     for item in args.parameter_error or []:
@@ -163,6 +158,22 @@ def _accuracy(args: argparse.Namespace) -> int:
             raise InputError(f'--parameter-error {name} takes {size} values (shape '
                              f'{np.shape(nominal[name])}, m); got {vals.size}')
         params[name] = (vals * (1e-3 if args.mm else 1.0)).reshape(np.shape(nominal[name]))
+    return params
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    from .accuracy import accuracy_analysis
+    from .cli import emit_json
+    mech = load_mechanism(args.file)
+    trajectory = getattr(mech, 'trajectory', None)
+    if args.pose is not None:
+        poses = _pose(args, mech)[None, :]
+    elif trajectory is not None:
+        poses = np.asarray(trajectory, dtype=float)
+    else:
+        raise InputError(f'{mech.name}: give --pose X Y Z A B C (the file has no trajectory)')
+    errors = _joint_errors(args, mech)
+    params = _parameter_errors(args, mech)
     full = mech.complete_pose(poses)
     mech.check_limits(mech.inverse_kinematics(full))
     res = accuracy_analysis(mech, full, errors, params)
@@ -181,6 +192,29 @@ def _accuracy(args: argparse.Namespace) -> int:
     return 0
 
 
+def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: list[str] | None,
+          default_var: str) -> tuple[str, np.ndarray]:
+    """The variable and its values of ``--vary NAME MIN MAX COUNT`` (SI; ``--mm``/``--deg`` converted), or
+    51 values over the default range of ``default_var``."""
+    if values is None:
+        lo, hi = _default_range(mech, base, default_var)
+        return default_var, np.linspace(lo, hi, 51)
+    name = values[0]
+    try:
+        lo, hi, n = float(values[1]), float(values[2]), int(values[3])
+    except ValueError:
+        raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT >= 2); got {values}') from None
+    if n < 2 or not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
+        raise InputError(f'--vary {name}: need MIN < MAX (finite) and COUNT >= 2; got {values[1:]}')
+    idx = mech.pose_names.index(name) if name in mech.pose_names else -1
+    scale = 1.0
+    if 0 <= idx < 3 and args.mm:
+        scale = 1e-3
+    if idx >= 3 and args.deg:
+        scale = np.pi / 180
+    return name, np.linspace(lo, hi, n) * scale
+
+
 def _dexterity(args: argparse.Namespace) -> int:
     from .cli import emit_json
     from .dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
@@ -188,29 +222,9 @@ def _dexterity(args: argparse.Namespace) -> int:
     base = _pose(args, mech) if args.pose is not None else np.asarray(mech.home_pose, dtype=float)
     sweep = getattr(mech, 'default_sweep', None)
     default_var = sweep[0] if sweep is not None else 'z'
-
-    def spec(values: list[str] | None, default_var: str) -> tuple[str, np.ndarray]:
-        if values is None:
-            lo, hi = _default_range(mech, base, default_var)
-            return default_var, np.linspace(lo, hi, 51)
-        name = values[0]
-        try:
-            lo, hi, n = float(values[1]), float(values[2]), int(values[3])
-        except ValueError:
-            raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT >= 2); got {values}') from None
-        if n < 2 or not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
-            raise InputError(f'--vary {name}: need MIN < MAX (finite) and COUNT >= 2; got {values[1:]}')
-        idx = mech.pose_names.index(name) if name in mech.pose_names else -1
-        scale = 1.0
-        if idx >= 0 and idx < 3 and args.mm:
-            scale = 1e-3
-        if idx >= 3 and args.deg:
-            scale = np.pi / 180
-        return name, np.linspace(lo, hi, n) * scale
-
-    var, vals = spec(args.vary, default_var)
+    var, vals = _vary(args, mech, base, args.vary, default_var)
     if args.vary2 is not None:
-        var2, vals2 = spec(args.vary2, default_var)
+        var2, vals2 = _vary(args, mech, base, args.vary2, default_var)
         dmap = dexterity_grid(mech, base, var, vals, var2, vals2)
     else:
         dmap = dexterity_sweep(mech, base, var, vals)

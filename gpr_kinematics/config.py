@@ -3,11 +3,19 @@
 The package's embedded default is ``config/gpr.yaml``; a user's file overrides any subset of its keys.
 All values are SI (metres, radians). Every value is checked on load; a bad one raises
 :class:`~gpr_kinematics.errors.ConfigError` naming the key, the value and what is allowed.
+
+The geometry keys describe either the nominal machine (``radius``, ``rod_azimuths``: three parallel rods on
+a circle and the platform joints above them) or a real, imperfect one (``rod_positions``, ``rod_offsets``,
+``rod_directions``, ``platform_joints``, ``kappa``; see ``docs/core.md``): nominal values are the defaults,
+so a file that gives none of them describes the nominal machine exactly. The geometry the kernels use is
+built from a config by :class:`gpr_kinematics.machine.MachineGeometry`.
 """
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import reprlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,8 +25,12 @@ from . import safe_yaml
 from .errors import ConfigError
 from .resources import config_path
 
-MODELS = ('radial', 'polar', 'offset')
+#: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
+MODELS = ('radial', 'polar', 'offset', 'compliant')
 WEIGHTINGS = ('characteristic', 'unweighted')
+
+Point2 = tuple[float, float]
+Triple = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -26,23 +38,33 @@ class GprConfig:
     """Geometry, limits and solver settings of one GPR (SI units).
 
     Attributes:
-        radius: radius ``R`` of the circle of rod axes [m].
-        rod_azimuths: azimuths ``theta_k`` of rods 1, 2, 3 in the base frame [rad].
+        radius: radius ``R`` of the circle of rod axes [m] (the nominal geometry).
+        rod_azimuths: azimuths ``theta_k`` of rods 1, 2, 3 in the base frame [rad] (the nominal geometry).
         stroke_min, stroke_max: range of the rod lengths ``q_k`` [m].
         tilt_limit: largest platform tilt accepted by inverse kinematics and compensation [rad].
         imperfection_budget: largest virtual-joint displacement of a joint centre the real joints
             can absorb [m]; forward kinematics reports whether a pose stays inside it.
-        model: virtual-joint model, ``radial``, ``polar`` or ``offset`` (design.md §3).
+        model: virtual-joint model, one of :data:`MODELS` (``docs/core.md``).
         characteristic_length: length that weights angular virtual joints in the minimum-norm Newton
             step [m]; ``None`` in a file means ``radius``.
         weighting: ``characteristic`` (unit-free norm: joint-centre displacement) or ``unweighted``
-            (paper eq. 8 as printed, mixing metres and radians).
+            (the paper's eq. (8) as printed, mixing metres and radians).
         max_iterations: bound on Newton iterations per solve.
         tolerance: closure tolerance on the side lengths [m].
+        rod_positions: base points ``B_k = (x, y)`` of the rod axes at ``q = 0`` in ``gpr_base`` [m];
+            ``None``: ``R (cos theta_k, sin theta_k)``.
+        rod_offsets: zero offsets ``o_k`` of the rod lengths [m]: joint centre ``P_k = B_k + (q_k + o_k) u_k``.
+        rod_directions: horizontal components ``(u_x, u_y)`` of the unit rod directions ``u_k``
+            (``u_z = sqrt(1 - u_x^2 - u_y^2)``); ``(0, 0)``: parallel to the base z axis. For a small
+            tilt they are the rod's tilt angles [rad] towards +x and +y.
+        platform_joints: joint centres ``p_k = (x, y)`` in the platform plane of ``gpr_platform`` [m];
+            ``None``: ``R (cos theta_k, sin theta_k)``.
+        kappa: ``k_t / k_r`` of each joint, the ratio of its tangential to its radial stiffness in the
+            platform plane (the ``compliant`` model); one value in a file stands for all three.
     """
 
     radius: float = 0.093218
-    rod_azimuths: tuple[float, float, float] = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
+    rod_azimuths: Triple = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
     stroke_min: float = 0.0
     stroke_max: float = 0.508
     tilt_limit: float = math.radians(2.0)
@@ -52,6 +74,11 @@ class GprConfig:
     weighting: str = 'characteristic'
     max_iterations: int = 12
     tolerance: float = 1e-14
+    rod_positions: tuple[Point2, Point2, Point2] | None = None
+    rod_offsets: Triple = (0.0, 0.0, 0.0)
+    rod_directions: tuple[Point2, Point2, Point2] = ((0.0, 0.0), (0.0, 0.0), (0.0, 0.0))
+    platform_joints: tuple[Point2, Point2, Point2] | None = None
+    kappa: Triple = (1000.0, 1000.0, 1000.0)
 
     def __post_init__(self) -> None:
         if self.characteristic_length in (None, 0.0):
@@ -68,10 +95,18 @@ class GprConfig:
         return _build(self, changes, 'replace()')
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict of the values (lists instead of tuples), as written in YAML."""
+        """Plain dict of the values (lists instead of tuples, ``None`` kept), as written in YAML."""
         out = dataclasses.asdict(self)
-        out['rod_azimuths'] = list(self.rod_azimuths)
+        for key, value in out.items():
+            if isinstance(value, tuple):
+                out[key] = [list(v) if isinstance(v, tuple) else v for v in value]
         return out
+
+    @functools.cached_property
+    def derived(self) -> dict[str, Any]:
+        """Per-config cache of the constants the kernels derive from it (the machine geometry, the
+        virtual-joint models): computed once per config object, not part of its value."""
+        return {}
 
 
 _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
@@ -84,39 +119,92 @@ _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
     'tolerance': (1e-16, 1e-6, 'metres, 1e-16 <= tolerance <= 1e-6'),
 }
 
+#: Per-rod and per-joint keys: (number of values per rod, lowest, highest, what is allowed).
+_TRIPLE_RANGES: dict[str, tuple[int, float, float, str]] = {
+    'rod_positions': (2, -10.0, 10.0, 'null, or 3 points [x, y] in metres, |x|, |y| <= 10'),
+    'platform_joints': (2, -10.0, 10.0, 'null, or 3 points [x, y] in metres, |x|, |y| <= 10'),
+    'rod_offsets': (1, -0.1, 0.1, 'a list of 3 lengths in metres, -0.1 <= o_k <= 0.1'),
+    'rod_directions': (2, -0.05, 0.05, 'a list of 3 pairs [u_x, u_y], |u_x|, |u_y| <= 0.05 (rods within '
+                                       'about 4 deg of the base z axis)'),
+    'kappa': (1, 1e-6, 1e6, 'one number or a list of 3, 1e-6 <= kappa <= 1e6 (k_t / k_r)'),
+}
+
+#: The smallest interior angle of the rod and joint triangles [rad] (a flatter triangle is degenerate).
+MIN_TRIANGLE_ANGLE = math.radians(5.0)
+#: Largest relative difference between a side of the platform-joint triangle and the same side of the rod
+#: triangle: the virtual joints absorb small mismatches, not a different machine.
+MAX_SIDE_MISMATCH = 0.01
+
+
+def is_number(value: Any) -> bool:
+    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite."""
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
 
 def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(str(k) for k in data if k not in allowed)
+    unknown = sorted(short_repr(k, 40).strip("'") for k in data if k not in allowed)
     if unknown:
-        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown)}; allowed keys: ' + ', '.join(sorted(allowed)))
+        more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
+                          + ', '.join(sorted(allowed)))
 
 
 def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | None = None,
                positive: bool = True, unit: str = 'm') -> float:
     """A finite number (not a bool, not a string) under ``key`` of a YAML mapping, positive unless
-    ``positive=False``; ``default`` when absent; else :class:`ConfigError` naming file, key and value."""
+    ``positive=False``; ``default`` when absent; else :class:`ConfigError` naming file, key and value.
+
+    Every YAML loader of the package reads its numbers with this rule (:func:`is_number`).
+    """
     val = data.get(key, default)
     what = f'{"positive " if positive else ""}finite {"length" if unit == "m" else "number"} in {unit}'
     if val is None:
         raise ConfigError(f'{source}: missing key {key} (a {what})')
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or (positive and val <= 0):
+    if not is_number(val) or (positive and val <= 0):
         raise ConfigError(f'{source}: {key} must be a {what}; got {val!r}')
     return float(val)
 
 
+_SHORT = reprlib.Repr()
+_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = 8
+_SHORT.maxstring = _SHORT.maxother = 80
+
+
+def short_repr(value: Any, limit: int = 80) -> str:
+    """``repr(value)``, cut to ``limit`` characters: a message never carries a whole (possibly huge) user value."""
+    text = _SHORT.repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
-    return ConfigError(f'{source}: {key} = {value!r} is invalid; allowed: {allowed}')
+    return ConfigError(f'{source}: {key} = {short_repr(value)} is invalid; allowed: {allowed}')
 
 
 def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_number(value):
         raise _fail(source, key, value, allowed)
-    out = float(value)
-    if not math.isfinite(out):
-        raise _fail(source, key, value, allowed)
-    return out
+    return float(value)
+
+
+def _triple(source: str, key: str, value: Any) -> Any:
+    """Three values (or three pairs) of a per-rod key, checked against :data:`_TRIPLE_RANGES`."""
+    width, lo, hi, allowed = _TRIPLE_RANGES[key]
+    given = value
+    if key == 'kappa' and is_number(value):
+        value = [value] * 3
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise _fail(source, key, given, allowed)
+    out: list[Any] = []
+    for item in value:
+        parts = [item] if width == 1 else item
+        if not isinstance(parts, (list, tuple)) or len(parts) != width:
+            raise _fail(source, key, given, allowed)
+        if not all(is_number(v) and lo <= v <= hi for v in parts):
+            raise _fail(source, key, given, allowed)
+        out.append(float(parts[0]) if width == 1 else tuple(float(v) for v in parts))
+    return tuple(out)
 
 
 def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig:
@@ -129,21 +217,14 @@ def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig
     merged.update(values)
     conv: dict[str, Any] = {}
     for key, (lo, hi, allowed) in _FLOAT_RANGES.items():
-        value = merged[key]
-        if key == 'characteristic_length' and value is None:
+        if key == 'characteristic_length' and merged[key] is None:
             conv[key] = 0.0
             continue
-        val = _as_float(source, key, value, allowed)
+        val = _as_float(source, key, merged[key], allowed)
         if not lo <= val <= hi:
-            raise _fail(source, key, value, allowed)
+            raise _fail(source, key, merged[key], allowed)
         conv[key] = val
-    az = merged['rod_azimuths']
-    allowed_az = 'a list of 3 finite, distinct angles in radians within [-2pi, 2pi]'
-    if not isinstance(az, (list, tuple)) or len(az) != 3:
-        raise _fail(source, 'rod_azimuths', az, allowed_az)
-    conv['rod_azimuths'] = tuple(_as_float(source, 'rod_azimuths', a, allowed_az) for a in az)
-    if any(abs(a) > 2 * math.pi + 1e-12 for a in conv['rod_azimuths']):
-        raise _fail(source, 'rod_azimuths', az, allowed_az)
+    conv['rod_azimuths'] = _azimuths(source, merged['rod_azimuths'])
     for key, choices in (('model', MODELS), ('weighting', WEIGHTINGS)):
         if merged[key] not in choices:
             raise _fail(source, key, merged[key], ' or '.join(choices))
@@ -152,10 +233,43 @@ def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig
     if isinstance(iters, bool) or not isinstance(iters, int) or not 1 <= iters <= 100:
         raise _fail(source, 'max_iterations', iters, 'an integer from 1 to 100')
     conv['max_iterations'] = iters
+    for key in _TRIPLE_RANGES:
+        optional = key in ('rod_positions', 'platform_joints')
+        conv[key] = None if optional and merged[key] is None else _triple(source, key, merged[key])
     try:
         return GprConfig(**conv)
     except ConfigError as exc:
         raise ConfigError(f'{source}: {exc}') from None
+
+
+def _azimuths(source: str, az: Any) -> Triple:
+    allowed = 'a list of 3 finite, distinct angles in radians within [-2pi, 2pi]'
+    if not isinstance(az, (list, tuple)) or len(az) != 3:
+        raise _fail(source, 'rod_azimuths', az, allowed)
+    out = tuple(_as_float(source, 'rod_azimuths', a, allowed) for a in az)
+    if any(abs(a) > 2 * math.pi + 1e-12 for a in out):
+        raise _fail(source, 'rod_azimuths', az, allowed)
+    return (out[0], out[1], out[2])
+
+
+def nominal_points(cfg: GprConfig) -> tuple[Point2, Point2, Point2]:
+    """``R (cos theta_k, sin theta_k)``: the nominal rod base points and platform joints [m]."""
+    p = [(cfg.radius * math.cos(t), cfg.radius * math.sin(t)) for t in cfg.rod_azimuths]
+    return (p[0], p[1], p[2])
+
+
+def _triangle(points: tuple[Point2, ...]) -> tuple[float, list[float], float]:
+    """Signed area, side lengths (1-2, 2-3, 3-1) and smallest interior angle of a triangle."""
+    (ax, ay), (bx, by), (cx, cy) = points
+    area = 0.5 * ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+    sides = [math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by), math.hypot(ax - cx, ay - cy)]
+    if min(sides) == 0.0:
+        return area, sides, 0.0
+    angles = []
+    for i in range(3):
+        a, b, c = sides[(i + 1) % 3], sides[(i + 2) % 3], sides[i]  # angle opposite side c
+        angles.append(math.acos(max(-1.0, min(1.0, (a * a + b * b - c * c) / (2 * a * b)))))
+    return area, sides, min(angles)
 
 
 def _validate(cfg: GprConfig) -> None:
@@ -166,11 +280,42 @@ def _validate(cfg: GprConfig) -> None:
     if min(gaps) < math.radians(10.0):
         raise ConfigError(f'rod_azimuths = {list(cfg.rod_azimuths)!r}: rods must be at least 10 deg apart '
                           'so that the joint triangle is not degenerate')
+    nominal = nominal_points(cfg)
+    base = cfg.rod_positions or nominal
+    joints = cfg.platform_joints or nominal
+    tri = {}
+    for key, pts in (('rod_positions', base), ('platform_joints', joints)):
+        tri[key] = _triangle(pts)
+        if tri[key][2] < MIN_TRIANGLE_ANGLE:
+            raise ConfigError(f'{key} = {[list(p) for p in pts]!r}: the triangle of the three points has an '
+                              f'angle of {math.degrees(tri[key][2]):.3g} deg; allowed: every angle >= '
+                              f'{math.degrees(MIN_TRIANGLE_ANGLE):g} deg (a non-degenerate triangle)')
+    if (tri['rod_positions'][0] > 0) != (tri['platform_joints'][0] > 0):
+        raise ConfigError('rod_positions and platform_joints must list rods 1, 2, 3 in the same order around '
+                          'the triangle (both counter-clockwise or both clockwise seen from +z)')
+    for i, (sb, sp) in enumerate(zip(tri['rod_positions'][1], tri['platform_joints'][1], strict=True)):
+        if abs(sp - sb) > MAX_SIDE_MISMATCH * sb:
+            edge = ('1-2', '2-3', '3-1')[i]
+            raise ConfigError(f'platform_joints: side {edge} of the joint triangle is {sp:.6g} m, the rods are '
+                              f'{sb:.6g} m apart; allowed: within {MAX_SIDE_MISMATCH:.0%} of each other')
 
 
 def default_config() -> GprConfig:
     """The package's embedded configuration (``config/gpr.yaml``)."""
     return load_config()
+
+
+_DEFAULT_CONFIG: GprConfig | None = None
+
+
+def resolve_config(config: GprConfig | None) -> GprConfig:
+    """``config``, or the package default (loaded once)."""
+    global _DEFAULT_CONFIG
+    if config is not None:
+        return config
+    if _DEFAULT_CONFIG is None:
+        _DEFAULT_CONFIG = load_config()
+    return _DEFAULT_CONFIG
 
 
 def read_yaml(path: str | Path, what: str = 'config') -> Any:

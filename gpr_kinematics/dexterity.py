@@ -1,8 +1,8 @@
 """Dexterity (inverse condition number) maps of any :class:`~gpr_kinematics.mechanisms.base.Mechanism`.
 
-Dexterity is ``sigma_min / sigma_max`` of the homogenised square Jacobian ``dq/du`` (seed
-``gsp-inverse-jacobians-toz-kucuk.txt`` §4.3 for the homogenisation by a characteristic length; seed
-``3upu-aboulissane.txt`` §V-A for dexterity against height, its Fig. 6): 1 for an isotropic
+Dexterity is ``sigma_min / sigma_max`` of the homogenised square Jacobian ``dq/du`` (Toz & Kucuk
+§4.3 for the homogenisation by a characteristic length; Aboulissane & El Bakkali §V-A for dexterity against
+height, their Fig. 6; ``docs/references.md``): 1 for an isotropic
 configuration, 0 at a singularity. A map varies one pose component (or two, for a grid) from a base
 pose and records dexterity, condition number, singularity and whether the joints are within limits.
 """
@@ -118,7 +118,7 @@ def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
         ax.legend()
     else:
         data = np.where(dmap.within_limits, dmap.dexterity, np.nan)
-        im = ax.pcolormesh(dmap.values2, dmap.values, data, shading='auto')
+        im = ax.pcolormesh(np.asarray(dmap.values2), dmap.values, data, shading='auto')
         fig.colorbar(im, ax=ax, label='dexterity (within joint limits)')
         ax.set_xlabel(dmap.variable2)
         ax.set_ylabel(dmap.variable)

@@ -1,8 +1,11 @@
-"""Exception classes of gpr_kinematics.
+"""Exception classes of gpr_kinematics, and the exit status for unusable input.
 
 Every error the package raises on purpose derives from :class:`GprError`, so a caller
 (a ROS node, the CLI) can catch the package's errors without catching programming bugs.
 """
+
+#: Exit status of the ``gpr`` command and of the nodes for input they cannot use (one line on stderr).
+EXIT_BAD_INPUT = 2
 
 
 class GprError(Exception):

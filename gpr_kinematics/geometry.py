@@ -1,6 +1,6 @@
 """Rotations, quaternions and tilt angles, vectorised over leading batch axes.
 
-Conventions (design.md §2): quaternions are (x, y, z, w) as in geometry_msgs, normalised, w >= 0;
+Conventions (``docs/core.md``): quaternions are (x, y, z, w) as in geometry_msgs, normalised, w >= 0;
 a *tilt* is the rotation ``exp(alpha [a]x)`` about the horizontal axis ``a = (cos gamma, sin gamma, 0)``
 (no heading change). For a rotation ``R`` with platform normal ``n = R e3``, the tilt is the angle
 between ``n`` and ``e3`` (>= 0), the tilt azimuth is the direction of the tilt axis ``e3 x n`` in
@@ -10,6 +10,7 @@ normal: ``R = tilt_rotation(tilt, azimuth) @ Rz(twist)``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -146,3 +147,21 @@ def quaternion_multiply(a: ArrayLike, b: ArrayLike) -> Array:
                      aw * by - ax * bz + ay * bw + az * bx,
                      aw * bz + ax * by - ay * bx + az * bw,
                      aw * bw - ax * bx - ay * by - az * bz], axis=-1)
+
+
+@dataclass(frozen=True)
+class RigidTransform:
+    """A rigid transform ``x -> Rot x + translation``: ``translation`` [m] and the unit ``quaternion``
+    (x, y, z, w) of ``Rot``."""
+
+    translation: Array
+    quaternion: Array
+
+    @property
+    def rotation(self) -> Array:
+        """The rotation matrix ``Rot`` (3 x 3)."""
+        return matrix_from_quaternion(self.quaternion)
+
+    def apply(self, points: ArrayLike) -> Array:
+        """``Rot x + translation`` for points ``(..., 3)``."""
+        return np.asarray(points, dtype=float) @ self.rotation.T + self.translation

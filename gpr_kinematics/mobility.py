@@ -1,25 +1,38 @@
-"""Mobility and sensitivity analysis of the GPR with virtual joints (paper §IV-A, eqs. 1-5).
+"""Mobility and sensitivity analysis of the GPR with virtual joints (Bratovanov & Sotirov §IV-A, eqs. (1)-(5)).
 
-Seed: Bratovanov & Sotirov, ``gpr-virtual-joints-bratovanov-sotirov.txt`` §IV-A. With
-``P = (q, P1, P2, P3)`` (``N = 12``) the constraints (eq. 1) are
+With ``P = (q, P1, P2, P3)`` (``N = 12``) the constraints (eq. (1); rod ``i`` along its unit direction
+``u_i``, ``e3`` on the nominal machine, from its base point ``B_i`` with zero offset ``o_i``) are
 
-    Phi_{3i..3i+2} = B_i + q_i e3 - P_i = 0,                   i = 1, 2, 3
+    Phi_{3i..3i+2} = B_i + (q_i + o_i) u_i - P_i = 0,                  i = 1, 2, 3
     Phi_{9+i}      = |P_{i%3+1} - P_i|^2 - L_{i,i%3+1}(X)^2 = 0,
 
 where the side lengths ``L(X) = |r_{i%3+1}(X) - r_i(X)|`` are made variable by the virtual joints ``X``
-(eq. 2). The mobility of the rigid mechanism is ``h = 12 - rank(dPhi/dP)``: rank 9 at ``q1 = q2 = q3``
-(h = 3, instantaneous), 11 elsewhere (h = 1: the tilt is blocked); ``rank [dPhi/dP  dPhi/dX] = 12``
-everywhere, so the augmented mechanism is never singular. Sensitivity: from ``dPhi/dP dP + dPhi/dX dX = 0``
-(eq. 3), ``dX = -(dPhi/dX)^+ dPhi/dP dP = dX/dP dP``; with the eigen-decomposition
-``dX/dP^T dX/dP = V D V^T`` (eigenvalues ascending, only ``d10..d12`` non-zero):
+(eq. (2)). The mobility of the rigid mechanism is ``h = 12 - rank(dPhi/dP)``; ``rank [dPhi/dP  dPhi/dX] = 12``
+everywhere, so the augmented mechanism is never singular.
+
+*Parallel rods* (the nominal machine, or rods tilted all alike): rank 9 where the joint triangle is
+perpendicular to the rods, ``q1 = q2 = q3`` for vertical rods (h = 3, instantaneous), 11 elsewhere (h = 1: the
+rigid platform can only move along the rods, the tilt is blocked).
+*Rods that are not parallel*: equal extensions of the rods change the distances between the joint centres
+(``d |P_b - P_a|^2 / dq (1, 1, 1) = 2 e . (u_b - u_a) != 0``), so even that motion is blocked: rank 12 (h = 0)
+everywhere, with no singular configuration; the virtual joints then take up the vertical motion too, and
+the augmented rank stays 12.
+
+Sensitivity: from ``dPhi/dP dP + dPhi/dX dX = 0`` (eq. (3)), ``dX = -(dPhi/dX)^+ dPhi/dP dP = dX/dP dP``; with
+the eigen-decomposition ``dX/dP^T dX/dP = V D V^T`` (eigenvalues ascending, only ``d10..d12`` non-zero):
 
     sqrt(d10 sum_{k=10..12} (v_k^T dP)^2) <= |dX| <= sqrt(d12 sum_{k=10..12} (v_k^T dP)^2)        (4)
     sigma_min(dX/dP) sqrt(sum (v_k^T dP)^2) <= |dX| <= sigma_max(dX/dP) sqrt(sum (v_k^T dP)^2)      (5)
 
 Since the eigenvalues of ``A^T A`` are the squared singular values of ``A``, (4) and (5) give the same
-numbers; both are reported. The pseudo-inverse is taken in the metric of the forward solver (angular
-coordinates weighted by the characteristic length, design.md §3); ``weighting='unweighted'`` gives the
-paper's plain Moore-Penrose form. Units: ``dP`` in metres, ``dX`` in metres and radians.
+numbers; both are reported. The pseudo-inverse is taken in the metric of the forward solver
+(:func:`gpr_kinematics.virtual_joints.coordinate_scale`: angular coordinates weighted by the characteristic
+length; the elastic cost for ``compliant``); ``weighting='unweighted'`` gives the paper's plain Moore-Penrose
+form. Units: ``dP`` in metres, ``dX`` in metres and radians.
+
+>>> m = analyze_mobility([0.5, 0.5, 0.5])
+>>> m.rank_dphi_dp, m.rank_augmented, m.mobility
+(9, 12, 3)
 """
 from __future__ import annotations
 
@@ -28,9 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .config import GprConfig
+from .config import GprConfig, resolve_config
 from .errors import InputError
-from .kinematics import base_points, forward, resolve_config
+from .kinematics import forward
+from .machine import MachineGeometry
 from .virtual_joints import EDGES, coordinate_scale, make_model
 
 Array = NDArray[np.float64]
@@ -38,13 +52,16 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class SensitivityBounds:
-    """Bounds of paper eqs. (4) and (5) on ``|dX|`` for one ``dP``, and the actual ``|dX|``."""
+    """Bounds ``(lower, upper)`` of eqs. (4) and (5) on ``|dX|`` for one ``dP``, and the actual ``|dX|``."""
 
     norm_dx: float
-    lower_eq4: float
-    upper_eq4: float
-    lower_eq5: float
-    upper_eq5: float
+    eq4: tuple[float, float]
+    eq5: tuple[float, float]
+
+    lower_eq4 = property(lambda self: self.eq4[0], doc='Lower bound of eq. (4).')
+    upper_eq4 = property(lambda self: self.eq4[1], doc='Upper bound of eq. (4).')
+    lower_eq5 = property(lambda self: self.eq5[0], doc='Lower bound of eq. (5).')
+    upper_eq5 = property(lambda self: self.eq5[1], doc='Upper bound of eq. (5).')
 
 
 @dataclass(frozen=True)
@@ -54,12 +71,14 @@ class MobilityResult:
     Attributes:
         q: rod lengths [m]; model: virtual-joint model; virtual_joints: ``X`` at ``q``.
         dphi_dp: ``dPhi/dP`` (12 x 12); dphi_dx: ``dPhi/dX`` (12 x M); dx_dp: ``dX/dP`` (M x 12).
-        rank_dphi_dp: rank of ``dPhi/dP`` (9 at q1 = q2 = q3, 11 elsewhere); mobility: ``12 - rank``.
+        rank_dphi_dp: rank of ``dPhi/dP`` (parallel rods: 9 where the joint triangle is perpendicular to them,
+            at q1 = q2 = q3 for vertical rods, 11 elsewhere; rods not parallel: 12); mobility: ``12 - rank``.
         rank_augmented: rank of ``[dPhi/dP dPhi/dX]`` (12 everywhere).
         eigenvalues: of ``dX/dP^T dX/dP``, ascending (12); eigenvectors: columns ``v_1..v_12``.
         singular_values: non-zero singular values of ``dX/dP``, descending.
         bounds: the gains of eqs. (4), (5): ``|dX| / |P_V dP|`` lies in ``[lower, upper]``, where ``P_V dP``
             is the projection of ``dP`` on ``v_10..v_12``.
+        rod_directions: unit directions ``u_k`` of the rods (3 x 3), for :meth:`rod_perturbation`.
     """
 
     q: Array
@@ -75,9 +94,14 @@ class MobilityResult:
     eigenvectors: Array
     singular_values: Array
     bounds: dict[str, tuple[float, float]]
+    rod_directions: Array
+
+    def rod_perturbation(self, dq: ArrayLike) -> Array:
+        """``dP`` of a change ``dq`` of the rod lengths on this machine (:func:`rod_perturbation`)."""
+        return rod_perturbation(dq, self.rod_directions)
 
     def dx_bounds(self, dP: ArrayLike) -> SensitivityBounds:
-        """Paper eqs. (4), (5) for a given ``dP`` (12 values: dq1..3, dP1, dP2, dP3)."""
+        """Eqs. (4), (5) for a given ``dP`` (12 values: dq1..3, dP1, dP2, dP3)."""
         dp = np.asarray(dP, dtype=float)
         if dp.shape != (12,) or not np.all(np.isfinite(dp)):
             raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
@@ -86,18 +110,20 @@ class MobilityResult:
         s = self.singular_values
         return SensitivityBounds(
             norm_dx=float(np.linalg.norm(self.dx_dp @ dp)),
-            lower_eq4=float(np.sqrt(max(d[-3], 0.0)) * proj), upper_eq4=float(np.sqrt(d[-1]) * proj),
-            lower_eq5=float(s[-1] * proj) if s.size else 0.0, upper_eq5=float(s[0] * proj) if s.size else 0.0)
+            eq4=(float(np.sqrt(max(d[-3], 0.0)) * proj), float(np.sqrt(d[-1]) * proj)),
+            eq5=(float(s[-1] * proj) if s.size else 0.0, float(s[0] * proj) if s.size else 0.0))
 
 
-def rod_perturbation(dq: ArrayLike) -> Array:
-    """``dP`` of a change ``dq`` of the rod lengths: ``(dq, dq1 e3, dq2 e3, dq3 e3)`` (eq. 1, first rows)."""
+def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Array:
+    """``dP`` of a change ``dq`` of the rod lengths: ``(dq, dq1 u_1, dq2 u_2, dq3 u_3)`` (eq. (1), first rows);
+    ``directions``: the unit rod directions ``u_k`` (3 x 3), default ``e3`` (parallel rods)."""
     d = np.asarray(dq, dtype=float)
     if d.shape != (3,) or not np.all(np.isfinite(d)):
         raise InputError(f'dq must be 3 finite numbers [m], got {np.asarray(dq).tolist()!r}')
+    u = np.array([[0.0, 0.0, 1.0]] * 3) if directions is None else np.asarray(directions, dtype=float)
     dp = np.zeros(12)
     dp[:3] = d
-    dp[5::3] = d
+    dp[3:] = (d[:, None] * u).ravel()
     return dp
 
 
@@ -110,11 +136,13 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
     fk = forward(q, config=cfg, model=vjm.name)
-    P = base_points(fk.q[None, :], cfg)[0]
+    geo = MachineGeometry.of(cfg)
+    P = geo.base_points(fk.q[None, :])[0]
+    u = np.array([geo.ux, geo.uy, geo.uz]).T
     M = vjm.size
     dphi_dp = np.zeros((12, 12))
     for i in range(3):
-        dphi_dp[3 * i + 2, i] = 1.0
+        dphi_dp[3 * i:3 * i + 3, i] = u[i]
         dphi_dp[3 * i:3 * i + 3, 3 + 3 * i:6 + 3 * i] = -np.eye(3)
     for i, (a, b) in enumerate(EDGES):
         e = P[b] - P[a]
@@ -135,4 +163,5 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     return MobilityResult(
         q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
-        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=sv, bounds=bounds)
+        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
+        bounds=bounds, rod_directions=u)

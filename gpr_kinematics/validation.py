@@ -5,6 +5,7 @@ is allowed, so a caller (CLI: exit 2; node: ``success: false``) can pass it on a
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -52,3 +53,63 @@ def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:
         raise InputError(f'{name} = ({a[0]:.9g}, {a[1]:.9g}, {a[2]:.9g}, {a[3]:.9g}) has norm {norm:.9g}; '
                          f'a unit quaternion (x, y, z, w) is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
     return a / norm
+
+
+def rows_of(values: Any, name: str, width: int) -> NDArray[np.float64]:
+    """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
+    finite; else :class:`InputError` naming the value (``q2`` for rod 2, like the paper's ``q1..q3``) and,
+    in a batch, the sample."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f'{name} must be numbers, got {values!r}') from None
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != width:
+        raise InputError(f'{name} must have {width} values per sample (shape (N, {width})), '
+                         f'got shape {np.shape(values)}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
+        label = f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+        where = f' (sample {i})' if a.shape[0] > 1 else ''
+        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
+    return a
+
+
+def column_of(values: Any, name: str) -> NDArray[np.float64]:
+    """A scalar or a 1-D sequence as a finite float array ``(N,)``; else :class:`InputError` naming ``name``."""
+    try:
+        a = np.atleast_1d(np.asarray(values, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(f'{name} must be a number or an array of numbers, got {values!r}') from None
+    if a.ndim != 1:
+        raise InputError(f'{name} must be a scalar or a 1-D array, got shape {a.shape}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number')
+    return a
+
+
+def three_floats(values: Any, name: str) -> list[float]:
+    """Three finite floats from a sequence (fast for a list or tuple), with the messages of :func:`rows_of`."""
+    if isinstance(values, (list, tuple)) and len(values) == 3:
+        try:
+            out = [float(v) for v in values]
+        except (TypeError, ValueError):
+            out = []
+        if out and all(math.isfinite(v) for v in out):
+            return out
+    Q = rows_of(values, name, 3)
+    if Q.shape[0] != 1:
+        raise InputError(f'{name} must be 3 values, got shape {np.shape(values)}')
+    return [float(v) for v in Q[0]]
+
+
+def single_number(value: Any, name: str) -> float:
+    """One finite number (not an array); else :class:`InputError` naming ``name``."""
+    if np.ndim(value) != 0:
+        raise InputError(f'{name} must be a single number, got shape {np.shape(value)}')
+    return float(column_of(value, name)[0])

@@ -1,41 +1,48 @@
-"""Virtual-joint models of the GPR platform and their Newton-Raphson solution.
+"""Virtual-joint models of the GPR platform and the solution of their closure.
 
-Seed: Bratovanov & Sotirov, *Virtualization for the purposes of modeling and computer simulation of a
-class of overconstrained robots* (``shared/seeds/gpr-virtual-joints-bratovanov-sotirov.txt``), §IV-V.
+Bratovanov & Sotirov, *Virtualization for the purposes of modeling and computer simulation of a class of
+overconstrained robots*, §IV-V (``docs/references.md``). The platform-frame joint centres ``r_k(X)`` (in the
+platform plane, z = 0) become functions of virtual-joint coordinates ``X``, ordered as in the paper: the three
+linear coordinates, then the three others. With the platform joint ``p_k = rho_k u(theta_k)`` of the machine
+(:class:`~gpr_kinematics.machine.MachineGeometry`; ``rho_k = R`` on the nominal machine), ``u(a) = (cos a,
+sin a)``, ``e_r = u(theta_k)`` and ``e_t = u(theta_k + pi/2)``:
 
-The platform-frame joint centres ``r_k(X)`` (planar, z = 0) become functions of virtual-joint
-coordinates ``X`` (design.md §3), ordered as in the paper: the three linear coordinates, then the three
-angular ones.
+==========  =====================  ===========================================  ===============  ==========
+model       X                      r_k(X)                                       X at rest         paper
+==========  =====================  ===========================================  ===============  ==========
+radial      l1 l2 l3               l_k u(theta_k)                               l = rho           [11], §IV
+polar       l1..3 phi1..3          l_k u(theta_k + phi_k)                       l = rho, phi = 0  §V-A
+offset      dr1..3 dphi1..3        p_k + dr_k u(theta_k + dphi_k)               0                 §V-B
+compliant   dr1..3 dt1..3          p_k + dr_k e_r + dt_k e_t                    0                 (this package)
+==========  =====================  ===========================================  ===============  ==========
 
-=========  =====================  =====================================================  ==============
-model      X                      r_k(X)                                                 X at singular
-=========  =====================  =====================================================  ==============
-radial     l1 l2 l3               l_k u(theta_k)                                          l = R
-polar      l1 l2 l3 phi1..3       l_k u(theta_k + phi_k)                                  l = R, phi = 0
-offset     dr1..3 dphi1..3        R u(theta_k) + dr_k u(theta_k + dphi_k)                 0
-=========  =====================  =====================================================  ==============
-
-with ``u(a) = (cos a, sin a)``. (The seed's §V-B formula for ``r_3`` has ``dphi_2`` where ``dphi_3``
-is meant.) The closure equations (paper eq. 6 in the form of §V-B) are
+*At rest* (the start of every solve) the joints sit at their places ``p_k``; on the nominal machine that is
+the singular configuration ``q1 = q2 = q3``. (The paper's §V-B formula for ``r_3`` has ``dphi_2`` where
+``dphi_3`` is meant.) The closure equations (the paper's eq. (6) in the form of §V-B) are
 
     F_i(X) = |r_{i%3+1}(X) - r_i(X)|^2 - L_{i,i%3+1}^2 = 0,   i = 1, 2, 3,
 
-with the side lengths ``L`` fixed by the rod lengths ``q``. ``radial`` is square, ``polar`` and
-``offset`` are underdetermined (3 equations, 6 unknowns). They are solved by Newton-Raphson with the
-Moore-Penrose pseudo-inverse of ``dF/dX`` (paper eq. 8), always starting from the singular ``X`` so
-that the solution is a pure function of ``q``. The pseudo-inverse is taken in the metric
-``|dX|_W^2 = sum dl^2 + c^2 sum dphi^2`` where ``c`` is a characteristic length (seed
-``gsp-inverse-jacobians-toz-kucuk.txt`` §4.3, default ``R``), so the minimum-norm step is the smallest
-displacement of the joint centres and does not depend on the units; ``weighting='unweighted'`` uses
-``c = 1`` in SI units, the paper's eq. (8) as printed.
+with the side lengths ``L`` of the joint centres ``P_k`` fixed by the rod lengths ``q``. ``radial`` is square;
+``polar`` and ``offset`` are underdetermined (3 equations, 6 unknowns) and are solved by Newton-Raphson with
+the Moore-Penrose pseudo-inverse of ``dF/dX`` (eq. (8)), always from the rest ``X``, so that the solution is a
+pure function of ``q``. The pseudo-inverse is taken in the metric ``|dX|_W^2 = sum dl^2 + c^2 sum dphi^2``,
+``c`` a characteristic length (Toz & Kucuk, the homogenisation of §4.3; default ``R``), so the minimum-norm
+step is the smallest displacement of the joint centres and does not depend on the units;
+``weighting='unweighted'`` uses ``c = 1`` in SI units, the paper's eq. (8) as printed.
+
+The ``offset`` model as printed is degenerate where Newton starts: at ``dr = 0`` its angular coordinates have
+zero derivative (``d r_k / d dphi_k = dr_k u'``), so the minimum-norm step barely moves them and the model
+stays on the radial solution: within the tilt limit the platform pose equals ``radial``'s to 1e-14 m and the
+angular coordinates stay below 1e-9 rad (a test checks it). ``compliant`` is the physical model that lets the
+joints move tangentially: its ``X`` is the one of minimum elastic cost among all that close the mechanism
+(:mod:`gpr_kinematics.compliance`).
 """
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,12 +50,22 @@ from numpy.typing import NDArray
 from ._ops import ARRAY, SCALAR, Ops
 from .config import MODELS, GprConfig
 from .errors import ConvergenceError, InputError
+from .machine import MachineGeometry
 
 Array = NDArray[np.float64]
+#: ``(rx, ry, dlx, dly, dax, day)``: lists over the joints ``k``; see :func:`joint_components`.
+Components = tuple[list[Any], list[Any], list[Any], list[Any], list[Any] | None, list[Any] | None]
 
 #: Edges of the joint triangle: (i, i % 3 + 1) in the paper's 1-based numbering.
 EDGES = ((0, 1), (1, 2), (2, 0))
 EDGE_NAMES = ('L12', 'L23', 'L31')
+#: The paper's models, solved by the closure Newton-Raphson (:func:`newton_closure`); ``compliant`` is solved as
+#: a minimum of elastic cost (:mod:`gpr_kinematics.compliance`).
+CLOSURE_MODELS = tuple(m for m in MODELS if m != 'compliant')
+
+_NAMES = {'radial': ('l1', 'l2', 'l3'), 'polar': ('l1', 'l2', 'l3', 'phi1', 'phi2', 'phi3'),
+          'offset': ('dr1', 'dr2', 'dr3', 'dphi1', 'dphi2', 'dphi3'),
+          'compliant': ('dr1', 'dr2', 'dr3', 'dt1', 'dt2', 'dt3')}
 
 
 @dataclass(frozen=True)
@@ -56,14 +73,17 @@ class VirtualJointModel:
     """One virtual-joint parameterisation ``r_k(X)`` of the platform joint centres.
 
     Attributes:
-        name: ``radial``, ``polar`` or ``offset``.
-        radius: nominal radius ``R`` of the joint triangle [m].
-        azimuths: nominal azimuths ``theta_k`` of the joints [rad].
+        name: one of :data:`~gpr_kinematics.config.MODELS`.
+        rho, theta: polar form of the platform joints ``p_k = rho_k u(theta_k)`` [m, rad].
+        cos, sin: ``cos theta_k``, ``sin theta_k``. kappa: ``k_t / k_r`` per joint (``compliant``).
     """
 
     name: str
-    radius: float
-    azimuths: tuple[float, float, float]
+    rho: tuple[float, float, float]
+    theta: tuple[float, float, float]
+    cos: tuple[float, float, float]
+    sin: tuple[float, float, float]
+    kappa: tuple[float, float, float]
 
     @property
     def size(self) -> int:
@@ -73,44 +93,30 @@ class VirtualJointModel:
     @property
     def names(self) -> tuple[str, ...]:
         """Names of the coordinates, in the order of ``X``."""
-        if self.name == 'radial':
-            return ('l1', 'l2', 'l3')
-        if self.name == 'polar':
-            return ('l1', 'l2', 'l3', 'phi1', 'phi2', 'phi3')
-        return ('dr1', 'dr2', 'dr3', 'dphi1', 'dphi2', 'dphi3')
-
-    @functools.cached_property
-    def trig(self) -> tuple[float, ...]:
-        """``cos theta_k`` and ``sin theta_k`` of the nominal joint azimuths."""
-        th = self.azimuths
-        return (math.cos(th[0]), math.cos(th[1]), math.cos(th[2]),
-                math.sin(th[0]), math.sin(th[1]), math.sin(th[2]))
+        return _NAMES[self.name]
 
     @property
     def angular(self) -> NDArray[np.bool_]:
         """Mask of the angular coordinates (radians) in ``X``."""
-        return np.arange(self.size) >= 3
-
-    def singular(self, n: int = 1) -> Array:
-        """``X`` at the singular configuration ``q1 = q2 = q3``, shape ``(n, M)``."""
-        X = np.zeros((n, self.size))
-        if self.name in ('radial', 'polar'):
-            X[:, :3] = self.radius
-        return X
+        return np.arange(self.size) >= (3 if self.name in ('polar', 'offset') else self.size)
 
     @functools.cached_property
     def singular_floats(self) -> tuple[float, ...]:
-        """:meth:`singular` of one configuration, as floats."""
-        return tuple(float(v) for v in self.singular(1)[0])
+        """``X`` at rest (every joint at its place ``p_k``): the start of every solve."""
+        lengths = self.rho if self.name in ('radial', 'polar') else (0.0, 0.0, 0.0)
+        return tuple(lengths) + (0.0, 0.0, 0.0)[:self.size - 3]
 
     @functools.cached_property
-    def singular_components(self) -> tuple[list, ...]:
-        """:func:`joint_components` (float arithmetic) at the singular ``X``: the start of every solve."""
+    def singular_components(self) -> Components:
+        """:func:`joint_components` (float arithmetic) at rest: the start of every single solve."""
         return joint_components(SCALAR, self, list(self.singular_floats))
 
+    def singular(self, n: int = 1) -> Array:
+        """``X`` at rest, shape ``(n, M)`` (on the nominal machine: at the singular configuration)."""
+        return np.tile(np.array(self.singular_floats), (n, 1))
+
     def points_and_partials(self, X: Array) -> tuple[Array, Array, Array]:
-        """Joint centres ``r_k(X)`` ``(N, 3, 2)`` and their partials, as arrays (from
-        :func:`joint_components`).
+        """Joint centres ``r_k(X)`` ``(N, 3, 2)`` and their partials, as arrays (from :func:`joint_components`).
 
         Returns ``(r, dr_dlin, dr_dang)``: ``dr_dlin[:, k]`` is ``d r_k / d X_k`` (the linear coordinate
         of joint ``k``), ``dr_dang[:, k]`` is ``d r_k / d X_{k+3}`` (zero for ``radial``).
@@ -118,11 +124,11 @@ class VirtualJointModel:
         X = np.asarray(X, dtype=float)
         rx, ry, dlx, dly, dax, day = joint_components(ARRAY, self, list(X.T))
 
-        def stack(cx: list, cy: list) -> Array:
+        def stack(cx: list[Any], cy: list[Any]) -> Array:
             return np.broadcast_to(np.stack([np.stack(cx, -1), np.stack(cy, -1)], -1), (X.shape[0], 3, 2))
 
         r, dlin = stack(rx, ry), stack(dlx, dly)
-        return r, dlin, np.zeros_like(dlin) if dax is None else stack(dax, day)
+        return r, dlin, np.zeros_like(dlin) if dax is None or day is None else stack(dax, day)
 
     def closure(self, X: Array, L2: Array) -> tuple[Array, Array, Array]:
         """Residuals ``F (N, 3)``, Jacobian ``dF/dX (N, 3, M)`` and current side lengths ``(N, 3)``.
@@ -147,16 +153,17 @@ class VirtualJointModel:
 def make_model(config: GprConfig, model: str | None = None) -> VirtualJointModel:
     """The virtual-joint model named ``model`` (default: ``config.model``) for ``config``'s geometry."""
     name = config.model if model in (None, '') else model
-    key = (name, config.radius, config.rod_azimuths)
-    vjm = _MODEL_CACHE.get(key)
+    key = f'model:{name}'
+    vjm: VirtualJointModel | None = config.derived.get(key)
     if vjm is None:
         if name not in MODELS:
             raise InputError(f'unknown virtual-joint model {name!r}; allowed: {", ".join(MODELS)}')
-        vjm = _MODEL_CACHE[key] = VirtualJointModel(name, config.radius, tuple(config.rod_azimuths))
+        geo = MachineGeometry.of(config)
+        theta = (config.rod_azimuths if config.platform_joints is None
+                 else tuple(float(np.arctan2(s, c)) for c, s in zip(geo.cos, geo.sin, strict=True)))
+        vjm = config.derived[key] = VirtualJointModel(str(name), geo.rho, (theta[0], theta[1], theta[2]),
+                                                      geo.cos, geo.sin, geo.kappa)
     return vjm
-
-
-_MODEL_CACHE: dict[tuple, VirtualJointModel] = {}
 
 
 def angle_scale(config: GprConfig) -> float:
@@ -166,42 +173,58 @@ def angle_scale(config: GprConfig) -> float:
 
 
 def coordinate_scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
-    """Metric scales ``s`` of the coordinates: 1 for lengths, :func:`angle_scale` for angles."""
+    """Metric scales ``s`` of the coordinates (``|dX|^2 = sum (s_m dX_m)^2``): 1 for lengths,
+    :func:`angle_scale` for angles; for ``compliant`` the square roots of the stiffnesses ``(1, kappa_k)``,
+    so the norm is the elastic cost (``k_r = 1``)."""
     s = np.ones(vjm.size)
-    s[vjm.angular] = angle_scale(config)
+    if vjm.name == 'compliant':
+        s[3:] = np.sqrt(vjm.kappa)
+    else:
+        s[vjm.angular] = angle_scale(config)
     return s
 
 
 def angular_weight(config: GprConfig) -> float:
     """Weight ``w = s^-2`` of the angular coordinates in the step ``dX = -W J^T (J W J^T)^-1 F``."""
-    return angle_scale(config) ** -2.0
+    w: float | None = config.derived.get('angular_weight')
+    if w is None:
+        w = config.derived['angular_weight'] = float(angle_scale(config) ** -2.0)
+    return w
 
 
-def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> tuple[list, ...]:
+def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> Components:
     """Components of ``r_k(X)`` and of its partials, for kernels (arrays of shape ``(N,)`` or floats).
 
     Returns ``(rx, ry, dlx, dly, dax, day)``, lists over ``k``: ``(dlx, dly)[k] = d r_k / d X_k`` and
     ``(dax, day)[k] = d r_k / d X_{k+3}`` (``None`` for ``radial``).
     """
-    c0, c1, c2, s0, s1, s2 = vjm.trig
+    c0, c1, c2 = vjm.cos
+    s0, s1, s2 = vjm.sin
     l0, l1, l2 = X[0], X[1], X[2]
     if vjm.name == 'radial':
         return ([l0 * c0, l1 * c1, l2 * c2], [l0 * s0, l1 * s1, l2 * s2], [c0, c1, c2], [s0, s1, s2],
                 None, None)
-    th0, th1, th2 = vjm.azimuths
+    if vjm.name == 'compliant':
+        px = [r * c for r, c in zip(vjm.rho, vjm.cos, strict=True)]
+        py = [r * s for r, s in zip(vjm.rho, vjm.sin, strict=True)]
+        t0, t1, t2 = X[3], X[4], X[5]
+        return ([px[0] + l0 * c0 - t0 * s0, px[1] + l1 * c1 - t1 * s1, px[2] + l2 * c2 - t2 * s2],
+                [py[0] + l0 * s0 + t0 * c0, py[1] + l1 * s1 + t1 * c1, py[2] + l2 * s2 + t2 * c2],
+                [c0, c1, c2], [s0, s1, s2], [-s0, -s1, -s2], [c0, c1, c2])
+    th0, th1, th2 = vjm.theta
     cos, sin = ops.cos, ops.sin
     a0, a1, a2 = th0 + X[3], th1 + X[4], th2 + X[5]
     u0, u1, u2, v0, v1, v2 = cos(a0), cos(a1), cos(a2), sin(a0), sin(a1), sin(a2)
     rx = [l0 * u0, l1 * u1, l2 * u2]
     ry = [l0 * v0, l1 * v1, l2 * v2]
     if vjm.name == 'offset':
-        R = vjm.radius
-        rx = [rx[0] + R * c0, rx[1] + R * c1, rx[2] + R * c2]
-        ry = [ry[0] + R * s0, ry[1] + R * s1, ry[2] + R * s2]
+        R0, R1, R2 = vjm.rho
+        rx = [rx[0] + R0 * c0, rx[1] + R1 * c1, rx[2] + R2 * c2]
+        ry = [ry[0] + R0 * s0, ry[1] + R1 * s1, ry[2] + R2 * s2]
     return rx, ry, [u0, u1, u2], [v0, v1, v2], [-l0 * v0, -l1 * v1, -l2 * v2], [l0 * u0, l1 * u1, l2 * u2]
 
 
-def side_errors(ops: Ops, comps: tuple[list, ...], L: Sequence[Any]) -> tuple[list, Any]:
+def side_errors(ops: Ops, comps: Components, L: Sequence[Any]) -> tuple[list[Any], Any]:
     """Side lengths ``d_i(X)`` and the closure error ``max_i |d_i - L_i|`` [m] from
     :func:`joint_components` (no Jacobian)."""
     (x0, x1, x2), (y0, y1, y2) = comps[0], comps[1]
@@ -211,8 +234,19 @@ def side_errors(ops: Ops, comps: tuple[list, ...], L: Sequence[Any]) -> tuple[li
     return d, maximum(maximum(fabs(d[0] - L[0]), fabs(d[1] - L[1])), fabs(d[2] - L[2]))
 
 
-def newton_terms(ops: Ops, comps: tuple[list, ...], L: Sequence[Any], wa: float) -> list:
-    """One Newton-Raphson step of the closure (paper eq. 8), component-wise.
+def symmetric_solve3(g00: Any, g01: Any, g02: Any, g11: Any, g12: Any, g22: Any,
+                     b0: Any, b1: Any, b2: Any) -> tuple[Any, Any, Any]:
+    """``G^-1 b`` for the symmetric 3x3 ``G`` of the entries ``g_ij`` (i <= j), by its adjugate
+    (component-wise: floats or arrays)."""
+    c00, c11, c22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
+    c01, c02, c12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
+    inv_det = 1.0 / (g00 * c00 + g01 * c01 + g02 * c02)
+    return ((c00 * b0 + c01 * b1 + c02 * b2) * inv_det, (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
+            (c02 * b0 + c12 * b1 + c22 * b2) * inv_det)
+
+
+def newton_terms(ops: Ops, comps: Components, L: Sequence[Any], wa: float) -> list[Any]:
+    """One Newton-Raphson step of the closure (paper eq. (8)), component-wise.
 
     ``J`` is sparse: row ``i`` (edge ``a -> b``: 1->2, 2->3, 3->1) depends only on the coordinates of
     joints ``a`` and ``b``: ``dF_i/dX_b = 2 e_i . dr_b/dX_b``, ``dF_i/dX_a = -2 e_i . dr_a/dX_a`` with
@@ -232,7 +266,7 @@ def newton_terms(ops: Ops, comps: tuple[list, ...], L: Sequence[Any], wa: float)
     gb2, ga2 = 2.0 * (e2x * ux0 + e2y * uy0), -2.0 * (e2x * ux2 + e2y * uy2)
     g00, g11, g22 = gb0 * gb0 + ga0 * ga0, gb1 * gb1 + ga1 * ga1, gb2 * gb2 + ga2 * ga2
     g01, g12, g02 = gb0 * ga1, gb1 * ga2, gb2 * ga0
-    if dax is not None:
+    if dax is not None and day is not None:
         (ax0, ax1, ax2), (ay0, ay1, ay2) = dax, day
         hb0, ha0 = 2.0 * (e0x * ax1 + e0y * ay1), -2.0 * (e0x * ax0 + e0y * ay0)
         hb1, ha1 = 2.0 * (e1x * ax2 + e1y * ay2), -2.0 * (e1x * ax1 + e1y * ay1)
@@ -243,17 +277,82 @@ def newton_terms(ops: Ops, comps: tuple[list, ...], L: Sequence[Any], wa: float)
         g01 = g01 + wa * hb0 * ha1
         g12 = g12 + wa * hb1 * ha2
         g02 = g02 + wa * hb2 * ha0
-    c00, c11, c22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
-    c01, c02, c12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
-    inv_det = 1.0 / (g00 * c00 + g01 * c01 + g02 * c02)
-    y0 = (c00 * F0 + c01 * F1 + c02 * F2) * inv_det
-    y1 = (c01 * F0 + c11 * F1 + c12 * F2) * inv_det
-    y2 = (c02 * F0 + c12 * F1 + c22 * F2) * inv_det
+    y0, y1, y2 = symmetric_solve3(g00, g01, g02, g11, g12, g22, F0, F1, F2)
     # Joint k is the end b of edge k-1 and the start a of edge k.
     dX = [-(gb2 * y2 + ga0 * y0), -(gb0 * y0 + ga1 * y1), -(gb1 * y1 + ga2 * y2)]
     if dax is not None:
         dX += [-wa * (hb2 * y2 + ha0 * y0), -wa * (hb0 * y0 + ha1 * y1), -wa * (hb1 * y1 + ha2 * y2)]
     return dX
+
+
+class Closure(NamedTuple):
+    """The solved virtual joints of one pose (floats) or of a batch (arrays ``(N,)``): ``X`` (list of ``M``
+    components), their :func:`joint_components`, the side lengths ``d_i(X)`` [m], the iterations taken and
+    the closure error ``max_i |d_i - L_i|`` [m]."""
+
+    X: list[Any]
+    components: Components
+    side_lengths: list[Any]
+    iterations: Any
+    residual: Any
+
+
+def not_converged(what: str, config: GprConfig, err: Any, active: Any) -> ConvergenceError:
+    """The error of a Newton loop that used up ``max_iterations``: the worst sample's error [m]
+    (``err``, ``active``: a float and a bool for one pose, arrays for a batch, which name the sample)."""
+    e = np.where(active, err, -1.0)
+    where = '' if np.ndim(err) == 0 else f' for sample {int(np.argmax(e))}'
+    return ConvergenceError(f'{what} did not converge in {config.max_iterations} iterations{where}: '
+                            f'side-length error {float(np.max(e)):.3e} m > tolerance {config.tolerance:.1e} m')
+
+
+def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+    """Solve ``F(X) = 0`` for side lengths ``L`` (three floats, or three arrays ``(N,)``) by Newton-Raphson
+    from the rest ``X``: the one loop of the single and the batch solve.
+
+    Step (paper eq. (8), in the weighted metric ``W = diag(s)^-2``): ``dX = -W J^T (J W J^T)^-1 F(X)``, the
+    minimum-``|dX|_W`` solution of ``J dX = -F``. Each sample stops as soon as its side-length error
+    ``max_i |d_i(X) - L_i|`` is at most ``config.tolerance`` [m] (so batch and single solves agree); at most
+    ``config.max_iterations`` steps are taken.
+
+    Raises:
+        ConvergenceError: a sample did not reach the tolerance within ``max_iterations``.
+    """
+    if ops is SCALAR:
+        X, comps = list(vjm.singular_floats), vjm.singular_components
+    else:
+        X = [x + 0.0 * L[0] for x in vjm.singular_floats]  # arrays (N,)
+        comps = joint_components(ops, vjm, X)
+    wa, tol = angular_weight(config), config.tolerance
+    where, not_, any_, all_ = ops.where, ops.not_, ops.any, ops.all
+    d, err = side_errors(ops, comps, L)
+    active = not_(err <= tol)
+    iterations = 0 * active
+    for _ in range(config.max_iterations):
+        if not any_(active):
+            break
+        dX = newton_terms(ops, comps, L, wa)
+        if all_(active):
+            X = [x + dx for x, dx in zip(X, dX, strict=True)]
+        else:
+            X = [where(active, x + dx, x) for x, dx in zip(X, dX, strict=True)]
+        iterations = iterations + active
+        comps = joint_components(ops, vjm, X)
+        d, err = side_errors(ops, comps, L)
+        active = not_(err <= tol)
+    else:
+        if any_(active):
+            raise not_converged(f'virtual-joint closure ({vjm.name})', config, err, active)
+    return Closure(X, comps, d, iterations, err)
+
+
+def solve_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+    """The virtual joints of side lengths ``L`` under ``vjm``: the closure Newton loop (radial, polar, offset)
+    or the minimum-cost fit (compliant, :func:`gpr_kinematics.compliance.minimum_cost_closure`)."""
+    if vjm.name == 'compliant':
+        from .compliance import minimum_cost_closure
+        return minimum_cost_closure(ops, vjm, L, config)
+    return newton_closure(ops, vjm, L, config)
 
 
 @dataclass(frozen=True)
@@ -265,70 +364,13 @@ class VirtualJointSolution:
     side_lengths: Array
     iterations: NDArray[np.int64]
     residual: Array
-    components: tuple[list, ...]
-
-
-def _not_converged(vjm: VirtualJointModel, config: GprConfig, err: float,
-                   sample: int | None) -> ConvergenceError:
-    where = '' if sample is None else f' for sample {sample}'
-    return ConvergenceError(
-        f'virtual-joint closure ({vjm.name}) did not converge in {config.max_iterations} iterations'
-        f'{where}: side-length error {err:.3e} m > tolerance {config.tolerance:.1e} m')
+    components: Components
 
 
 def solve_virtual_joints(L: Array, vjm: VirtualJointModel, config: GprConfig) -> VirtualJointSolution:
-    """Solve ``F(X) = 0`` for side lengths ``L (N, 3)`` by Newton-Raphson from the singular ``X``.
-
-    Step (paper eq. 8, in the weighted metric ``W = diag(s)^-2``):
-    ``dX = -W J^T (J W J^T)^-1 F(X)``, the minimum-``|dX|_W`` solution of ``J dX = -F``.
-    Each sample stops as soon as its side-length error ``max_i |d_i(X) - L_i|`` is at most
-    ``config.tolerance`` [m] (so batch and single solves agree); at most ``config.max_iterations``
-    steps are taken.
-
-    Raises:
-        ConvergenceError: a sample did not reach the tolerance within ``max_iterations``.
-    """
+    """:func:`solve_closure` of side lengths ``L (N, 3)`` [m], as arrays."""
     n = L.shape[0]
-    X = list(vjm.singular(n).T.copy())
-    Lc = [np.ascontiguousarray(L[:, i]) for i in range(3)]
-    wa = angular_weight(config)
-    iterations = np.zeros(n, dtype=np.int64)
-    comps = joint_components(ARRAY, vjm, X)
-    d, err = side_errors(ARRAY, comps, Lc)
-    for step in range(config.max_iterations + 1):
-        active = ~(err <= config.tolerance)
-        if not active.any():
-            break
-        if step == config.max_iterations:
-            worst = int(np.argmax(np.where(active, err, -1.0)))
-            raise _not_converged(vjm, config, float(err[worst]), worst)
-        dX = newton_terms(ARRAY, comps, Lc, wa)
-        everyone = bool(active.all())
-        X = [x + dx if everyone else np.where(active, x + dx, x) for x, dx in zip(X, dX, strict=True)]
-        iterations += active
-        comps = joint_components(ARRAY, vjm, X)
-        d, err = side_errors(ARRAY, comps, Lc)
-    return VirtualJointSolution(X=np.stack(X, axis=-1), side_lengths=np.stack(d, axis=-1),
-                                iterations=iterations, residual=err, components=comps)
-
-
-def solve_virtual_joints_scalar(L: Sequence[float], vjm: VirtualJointModel,
-                                config: GprConfig) -> tuple[list[float], list[float], int, float, tuple]:
-    """:func:`solve_virtual_joints` for one configuration, in float arithmetic.
-
-    Returns ``(X, side_lengths, iterations, residual, components)``.
-    """
-    X = list(vjm.singular_floats)
-    wa = angular_weight(config)
-    comps = vjm.singular_components
-    d, err = side_errors(SCALAR, comps, L)
-    step = 0
-    while not err <= config.tolerance:
-        if step == config.max_iterations:
-            raise _not_converged(vjm, config, err, None)
-        dX = newton_terms(SCALAR, comps, L, wa)
-        X = [x + dx for x, dx in zip(X, dX, strict=True)]
-        step += 1
-        comps = joint_components(SCALAR, vjm, X)
-        d, err = side_errors(SCALAR, comps, L)
-    return X, d, step, err, comps
+    sol = solve_closure(ARRAY, vjm, [np.ascontiguousarray(L[:, i]) for i in range(3)], config)
+    return VirtualJointSolution(X=np.stack(sol.X, axis=-1), side_lengths=np.stack(sol.side_lengths, axis=-1),
+                                iterations=np.broadcast_to(sol.iterations, (n,)).astype(np.int64),
+                                residual=sol.residual, components=sol.components)

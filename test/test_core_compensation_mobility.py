@@ -5,13 +5,15 @@ import numpy as np
 import pytest
 
 from gpr_kinematics.compensation import compensate
-from gpr_kinematics.config import load_config
+from gpr_kinematics.config import (
+    MODELS,
+    load_config,
+)
 from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.geometry import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
-from gpr_kinematics.kinematics import forward, naive_inverse
+from gpr_kinematics.kinematics import forward, inverse, naive_inverse
 from gpr_kinematics.mobility import analyze_mobility, rod_perturbation
 
-MODELS = ('radial', 'polar', 'offset')
 CFG = load_config()
 
 
@@ -28,21 +30,54 @@ def test_compensation_realises_tilt_and_tool_height_and_corrects_the_arm(model):
         np.testing.assert_allclose(fk.position, res.achieved.position, atol=1e-15)
         assert fk.tilt == pytest.approx(tilt, abs=1e-12)
         tool_real = fk.position + fk.rotation @ tool
-        assert tool_real[2] == pytest.approx((p_c + R_c @ tool)[2], abs=1e-12)
-        assert abs(res.tool_shift[2]) < 1e-12
+        # The height is solved for the platform point the command puts at the commanded place (issue 11,
+        # item 8): the tool turned by the commanded heading; without a heading, the tool point itself.
+        point = res.platform_point
+        np.testing.assert_allclose(point, rotation_z(heading) @ tool, rtol=0, atol=1e-15)
+        assert (fk.position + fk.rotation @ point)[2] == pytest.approx((p_c + R_c @ tool)[2], abs=1e-12)
         np.testing.assert_allclose(res.tool_shift, tool_real - (p_c + R_c @ tool), atol=1e-15)
+        plain = compensate(p_c, quaternion_from_matrix(tilt_rotation(tilt, az)), tool, model=model)
+        plain_real = plain.achieved.position + plain.achieved.rotation @ tool
+        assert plain_real[2] == pytest.approx((p_c + tilt_rotation(tilt, az) @ tool)[2], abs=1e-12)
+        assert abs(plain.tool_shift[2]) < 1e-12
         # T_a C x = T_c x for any target x in the naive platform frame
         x = rng.uniform(-0.5, 0.5, (10, 3))
         np.testing.assert_allclose(res.correct(x) @ fk.rotation.T + fk.position, x @ R_c.T + p_c, atol=1e-14)
         np.testing.assert_allclose(matrix_from_quaternion(res.arm_correction_quaternion),
                                    res.arm_correction_rotation, atol=1e-14)
         assert res.command_twist == pytest.approx(heading, abs=1e-12)
+        # what the arm must do: a rotation about the platform normal, a move in the platform plane, and along
+        # the normal only the tilt times the centre shift (which the naive command ignores)
+        np.testing.assert_allclose(res.arm_correction_rotation[2], [0.0, 0.0, 1.0], atol=1e-14)
+        shift = fk.centre_shift
+        assert res.arm_correction_translation[2] == pytest.approx(-fk.normal[:2] @ shift[:2], abs=1e-12)
 
 
 def test_compensation_of_radial_model_shifts_the_tool_like_the_centre():
     res = compensate([0, 0, 0.5], quaternion_from_matrix(tilt_rotation(math.radians(2.0), 0.0)), model='radial')
     assert res.tool_shift[0] == pytest.approx(28.41e-6, abs=0.01e-6)
     assert res.arm_correction_translation[0] == pytest.approx(-28.41e-6, abs=0.05e-6)
+
+
+def test_compensation_with_a_heading_solves_the_height_for_the_turned_tool_point():
+    """Issue 11, item 8: 0.4 m, 1.5 deg about the axis at 40 deg, tool (0.3, 0, 0.1) m, heading 1 deg. Solving the
+    height for the unrotated tool point left the arm a -106 um correction along the platform normal."""
+    tilt, az, heading = (math.radians(v) for v in (1.5, 40.0, 1.0))
+    R_c = tilt_rotation(tilt, az) @ rotation_z(heading)
+    tool = np.array([0.3, 0.0, 0.1])
+    res = compensate([0.0, 0.0, 0.4], quaternion_from_matrix(R_c), tool)
+    old = inverse(0.4 + (R_c @ tool)[2], tilt, az, tool=tool).achieved  # the old choice of the platform point
+    old_normal = (old.rotation.T @ (np.array([0.0, 0.0, 0.4]) - old.position))[2]
+    assert old_normal == pytest.approx(-106.085e-6, abs=0.01e-6)
+    # now: only the tilt times the centre shift is left along the normal (0.36 um here, <= 1 um at 2 deg)
+    normal = res.arm_correction_translation[2]
+    assert normal == pytest.approx(-0.362e-6, abs=0.001e-6)
+    assert abs(normal) <= math.sin(tilt) * np.linalg.norm(res.achieved.centre_shift[:2]) + 1e-12
+    c, s = math.cos(heading), math.sin(heading)
+    np.testing.assert_allclose(res.platform_point, [0.3 * c, 0.3 * s, 0.1], rtol=0, atol=1e-16)
+    # without a heading and with the tool at the origin nothing changes: the paper's 28.41 um along x
+    plain = compensate([0, 0, 0.5], quaternion_from_matrix(tilt_rotation(math.radians(2.0), 0.0)))
+    assert plain.tool_shift[0] == pytest.approx(28.41e-6, abs=0.01e-6) and abs(plain.tool_shift[2]) < 1e-15
 
 
 @pytest.mark.parametrize('position, quat, tool, exc, pattern', [

@@ -42,12 +42,23 @@ def test_replace_and_round_trip():
     ('tilt_limit: 0', 'tilt_limit', '0 < tilt_limit'),
     ('imperfection_budget: 1.0', 'imperfection_budget', '<= 0.01'),
     ('model: elastic', 'model', 'radial or polar or offset'),
+    ('model: stiff', 'model', 'radial or polar or offset or compliant'),
     ('weighting: heavy', 'weighting', 'characteristic or unweighted'),
     ('max_iterations: 0', 'max_iterations', 'integer from 1 to 100'),
     ('max_iterations: 2.5', 'max_iterations', 'integer'),
     ('tolerance: 1.0', 'tolerance', '1e-16 <= tolerance'),
     ('rod_azimuths: [0, 1]', 'rod_azimuths', 'a list of 3'),
     ('characteristic_length: -0.1', 'characteristic_length', '> 0'),
+    # the imperfect geometry (test_core_machine)
+    ('rod_offsets: [0, 0]', 'rod_offsets', 'a list of 3 lengths in metres, -0.1 <= o_k <= 0.1'),
+    ('rod_offsets: [0, 0, 0.5]', 'rod_offsets', '-0.1 <= o_k <= 0.1'),
+    ("rod_offsets: [0, '0', 0]", 'rod_offsets', 'a list of 3 lengths'),
+    ('rod_directions: [[0.1, 0], [0, 0], [0, 0]]', 'rod_directions', '|u_x|, |u_y| <= 0.05'),
+    ('rod_directions: [0, 0, 0]', 'rod_directions', 'a list of 3 pairs'),
+    ('rod_positions: [[0.1, 0], [0, 0.1]]', 'rod_positions', 'null, or 3 points [x, y] in metres'),
+    ('rod_positions: [[0.1, 0, 0], [0, 0.1, 0], [-0.1, 0, 0]]', 'rod_positions', '3 points [x, y]'),
+    ('platform_joints: [[.nan, 0], [0, 0.1], [-0.1, 0]]', 'platform_joints', '3 points [x, y]'),
+    ('kappa: 0', 'kappa', '1e-6 <= kappa <= 1e6'),
 ])
 def test_invalid_value_names_key_value_and_range(tmp_path, text, key, allowed):
     f = tmp_path / 'bad.yaml'

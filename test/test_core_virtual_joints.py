@@ -3,10 +3,14 @@ import numpy as np
 import pytest
 
 from gpr_kinematics._ops import ARRAY
-from gpr_kinematics.config import load_config
+from gpr_kinematics.config import (
+    MODELS,
+    load_config,
+)
 from gpr_kinematics.errors import ConvergenceError
 from gpr_kinematics.kinematics import forward, forward_batch, naive_inverse
 from gpr_kinematics.virtual_joints import (
+    CLOSURE_MODELS,
     coordinate_scale,
     joint_components,
     make_model,
@@ -14,7 +18,6 @@ from gpr_kinematics.virtual_joints import (
     solve_virtual_joints,
 )
 
-MODELS = ('radial', 'polar', 'offset')
 CFG = load_config()
 
 
@@ -43,7 +46,7 @@ def test_dF_dX_matches_central_differences(model):
         np.testing.assert_allclose(J[:, :, m], fd, rtol=1e-6, atol=1e-10)
 
 
-@pytest.mark.parametrize('model', MODELS)
+@pytest.mark.parametrize('model', CLOSURE_MODELS)
 @pytest.mark.parametrize('weighting', ['characteristic', 'unweighted'])
 def test_kernel_step_is_weighted_pseudo_inverse_step(model, weighting):
     """The sparse closed-form step equals -W J^T (J W J^T)^-1 F computed densely (paper eq. 8)."""
@@ -113,3 +116,17 @@ def test_closure_is_solved_to_tolerance():
         vjm = make_model(CFG, model)
         F, _, d = vjm.closure(fb.virtual_joints, fb.side_lengths ** 2)
         assert np.max(np.abs(d - fb.side_lengths)) <= CFG.tolerance
+
+
+def test_offset_model_is_degenerate_at_its_start_and_stays_radial():
+    """At dr = 0 the offset model's angular coordinates have zero derivative (docs/core.md)."""
+    vjm = make_model(CFG, 'offset')
+    _, _, dang = vjm.points_and_partials(vjm.singular(1))
+    assert np.all(dang == 0.0)
+    rng = np.random.default_rng(6)
+    Q = naive_inverse(rng.uniform(0.05, 0.45, 2000), rng.uniform(-1, 1, 2000) * CFG.tilt_limit,
+                      rng.uniform(-np.pi, np.pi, 2000))
+    radial, offset = forward_batch(Q, model='radial'), forward_batch(Q, model='offset')
+    assert np.max(np.abs(offset.position - radial.position)) < 1e-14
+    assert np.max(np.abs(offset.virtual_joints[:, 3:])) < 1e-9
+    np.testing.assert_allclose(offset.virtual_joints[:, :3] + CFG.radius, radial.virtual_joints, rtol=0, atol=1e-14)

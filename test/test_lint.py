@@ -1,4 +1,5 @@
-"""The code is lint clean (ruff, configured in ruff.toml)."""
+"""The code is lint clean (ruff, ruff.toml), type checks (mypy, mypy.ini), and the docs stand alone."""
+import re
 import shutil
 import subprocess
 import sys
@@ -7,9 +8,54 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _tool(name):
+    exe = Path(sys.executable).with_name(name)
+    return [str(exe)] if exe.exists() else [shutil.which(name) or name]
+
+
 def test_ruff_clean():
-    ruff = Path(sys.executable).with_name('ruff')
-    cmd = [str(ruff)] if ruff.exists() else [shutil.which('ruff') or 'ruff']
-    paths = [p for p in ('gpr_kinematics', 'test', 'benchmarks', 'setup.py') if (ROOT / p).exists()]
-    res = subprocess.run(cmd + ['check', *paths], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    paths = [p for p in ('gpr_kinematics', 'test', 'benchmarks', 'docs', 'setup.py') if (ROOT / p).exists()]
+    res = subprocess.run(_tool('ruff') + ['check', *paths], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stdout + res.stderr
+
+
+def test_mypy_clean():
+    res = subprocess.run(_tool('mypy') + ['--config-file', 'mypy.ini'], cwd=ROOT, capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+#: Files of other parts of the project that still point at notes outside the repository: owner clears this.
+NOT_YET_SELF_CONTAINED = {
+    'config/mechanisms/dextar.yaml', 'config/mechanisms/rrr3_planar.yaml', 'docs/workspace.md',
+    'gpr_kinematics/interval.py', 'gpr_kinematics/workspace.py', 'gpr_kinematics/workspace_models.py',
+    'test/test_workspace_covering.py',
+}
+#: A design note and the papers' text files that are not part of the repository (a user has neither).
+OUTSIDE = re.compile(r'design\.md|seeds[/]|(gpr-virtual-joints|workspace-nonuniform-covering|stewart-accuracy-alwan'
+                     r'|3upu-aboulissane|gsp-inverse-jacobians)[\w-]*\.txt')
+
+
+def test_docs_cite_papers_not_files_outside_the_repository():
+    files = subprocess.run(['git', 'ls-files', '-co', '--exclude-standard'], cwd=ROOT, capture_output=True,
+                           text=True, timeout=60).stdout.split()
+    found = []
+    for name in files:
+        path = ROOT / name
+        if name in NOT_YET_SELF_CONTAINED or path.suffix not in ('.py', '.md', '.yaml', '.txt', '.cfg', '.ini'):
+            continue
+        if path.is_file() and OUTSIDE.search(path.read_text(encoding='utf-8', errors='replace')):
+            found.append(name)
+    assert found == [], f'cite the paper (docs/references.md), not a file outside the repository: {found}'
+
+
+#: Modules of other parts of the project still over the size limit: owner clears this.
+NOT_YET_SMALL = {'gpr_kinematics/workspace.py', 'gpr_kinematics/workspace_models.py', 'gpr_kinematics/bags/verify.py'}
+MAX_MODULE_LINES = 450
+
+
+def test_modules_stay_small():
+    big = [str(p.relative_to(ROOT)) for p in sorted((ROOT / 'gpr_kinematics').rglob('*.py'))
+           if len(p.read_text(encoding='utf-8').splitlines()) > MAX_MODULE_LINES
+           and str(p.relative_to(ROOT)) not in NOT_YET_SMALL]
+    assert big == [], f'split these modules (at most {MAX_MODULE_LINES} lines each): {big}'

@@ -1,4 +1,4 @@
-"""Generalized Stewart platforms (seed gsp-inverse-jacobians-toz-kucuk.txt): paper numbers, Jacobians, YAML."""
+"""Generalized Stewart platforms (Toz & Kucuk 2016): paper numbers, Jacobians, YAML."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""6-SPS Gough-Stewart platform and the accuracy analysis of Alwan (seed stewart-accuracy-alwan.txt)."""
+"""6-SPS Gough-Stewart platform and the accuracy analysis of Alwan (Alwan 2011)."""
 from __future__ import annotations
 
 import math

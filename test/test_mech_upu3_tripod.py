@@ -1,4 +1,4 @@
-"""3-UPU (seed 3upu-aboulissane.txt) and 3-RPS tripod (seed workspace-nonuniform-covering-posypkin.txt)."""
+"""3-UPU (Aboulissane & El Bakkali 2015) and 3-RPS tripod (Posypkin et al.)."""
 from __future__ import annotations
 
 import numpy as np
@@ -102,7 +102,7 @@ def test_upu_yaml_errors():
 
 # ---------------------------------------------------------------- 3-RPS tripod
 def _paper_rotation(theta, psi, phi):
-    """Eq. (3) of the tripod seed, element by element."""
+    """Eq. (3) of Posypkin et al. for the tripod, element by element."""
     ct, st, cp, sp, cf, sf = np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi), np.cos(phi), np.sin(phi)
     return np.array([[ct * cf + sp * st * sf, -ct * sf + sp * st * cf, st * cp],
                      [cp * sf, cp * cf, -sp],

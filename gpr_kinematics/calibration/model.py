@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..geometry import quaternion_from_matrix
-from ..kinematics import _as_rows
+from ..validation import rows_of
 
 Array = NDArray[np.float64]
 
@@ -195,7 +195,7 @@ class PoseModel(Protocol):
 def as_configurations(Q: ArrayLike, name: str = 'rod lengths') -> Array:
     """Rod lengths as a finite ``(N, 3)`` array, ``N >= 1`` (a single ``(3,)`` becomes one row), with the core's
     checks and messages (``q2 = nan (sample 3) is not a finite number``)."""
-    a = _as_rows(Q, 'q', 3)
+    a = rows_of(Q, 'q', 3)
     if a.shape[0] == 0:
         raise InputError(f'{name}: no configurations given; allowed: rod lengths q1 q2 q3, shape (N, 3), N >= 1')
     return a

@@ -1,4 +1,4 @@
-"""Parallel mechanisms of the seed papers behind one interface (:class:`~.base.Mechanism`).
+"""Parallel mechanisms of the papers (``docs/references.md``) behind one interface (:class:`~.base.Mechanism`).
 
 ``load_mechanism(path)`` reads a YAML file (SI units) and dispatches on its key ``type``:
 
@@ -48,7 +48,8 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
                           + ', '.join(MECHANISM_TYPES))
     module, func = MECHANISM_TYPES[mtype]
     loader = getattr(importlib.import_module(module, __name__), func)
-    return loader(data, source)
+    mechanism: Mechanism = loader(data, source)
+    return mechanism
 
 
 def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:

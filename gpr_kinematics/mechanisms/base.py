@@ -1,4 +1,5 @@
-"""The common interface of parallel mechanisms and the helpers every analysis uses.
+"""The common interface of parallel mechanisms; the helpers every analysis uses are re-exported here
+(:mod:`.rotations`, :mod:`.conditioning`).
 
 A :class:`Mechanism` maps platform poses to actuated-joint values (inverse kinematics) and platform
 twists to joint rates (inverse Jacobian). Conventions, shared by every mechanism of the package:
@@ -18,7 +19,7 @@ twists to joint rates (inverse Jacobian). Conventions, shared by every mechanism
   Jacobian ``dq/du`` used for conditioning (for six-DOF mechanisms the coordinates' rates are the twist
   itself and the basis is the identity).
 
-Homogenisation (seed ``gsp-inverse-jacobians-toz-kucuk.txt`` §4.3, characteristic length ``L``): the
+Homogenisation (Toz & Kucuk §4.3, ``docs/references.md``, characteristic length ``L``): the
 angular columns of an inverse Jacobian are divided by ``L`` (an angular velocity ``w`` becomes the
 velocity ``L w``), and rows of angular joints are multiplied by ``L`` (a joint rate ``theta'`` becomes
 ``L theta'``), so every entry is dimensionless and singular values compare lengths with lengths.
@@ -34,18 +35,36 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConvergenceError, InputError, LimitError, SingularityError
+from .conditioning import (
+    ANGULAR_JOINTS,
+    GRAM_CONDITION_LIMIT,
+    LINEAR_JOINTS,
+    SINGULAR_TOLERANCE,
+    condition_number,
+    dexterity_index,
+    homogenize,
+    is_singular,
+    singular_values,
+)
+from .rotations import (
+    check_euler_convention,
+    euler_from_rotation,
+    euler_rate_matrix,
+    euler_rotation,
+    rodrigues,
+    rotation_from_vector,
+    rotation_vector,
+)
 
-#: Joint types: ``prismatic`` (a distance, m) or ``revolute`` (an angle, rad).
-LINEAR_JOINTS = frozenset({'prismatic', 'distance'})
-ANGULAR_JOINTS = frozenset({'revolute', 'angle'})
+__all__ = ['ANGULAR_JOINTS', 'GRAM_CONDITION_LIMIT', 'LINEAR_JOINTS', 'MAX_STEP', 'POSE_COMPONENTS',
+           'SINGULAR_TOLERANCE', 'JacobianReport', 'Mechanism', 'as_poses', 'check_euler_convention',
+           'condition_number', 'dexterity_index', 'euler_from_rotation', 'euler_rate_matrix', 'euler_rotation',
+           'homogenize', 'is_singular', 'rotation_from_vector', 'rotation_vector', 'singular_values']
 
 POSE_COMPONENTS = ('x', 'y', 'z', 'A', 'B', 'C')
 
 #: Largest Newton step of the rigid-motion forward kinematics (rad, or characteristic lengths).
 MAX_STEP = 0.5
-
-#: Inverse condition number below which a configuration counts as singular.
-SINGULAR_TOLERANCE = 1e-9
 
 
 def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
@@ -62,183 +81,17 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
     return arr, single
 
 
-def _axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
-    """Elementary rotation matrices ``(N, 3, 3)`` about base axis ``x``, ``y`` or ``z`` by ``angle`` (rad)."""
-    c, s = np.cos(angle), np.sin(angle)
-    k = 'xyz'.find(axis.lower())
-    if k < 0 or len(axis) != 1:
-        raise InputError(f'unknown rotation axis {axis!r}; allowed: x, y, z')
-    i, j = (k + 1) % 3, (k + 2) % 3
-    R = np.zeros(np.shape(angle) + (3, 3))
-    R[..., k, k] = 1.0
-    R[..., i, i] = c
-    R[..., j, j] = c
-    R[..., i, j] = -s
-    R[..., j, i] = s
-    return R
-
-
-def check_euler_convention(convention: str) -> str:
-    """Validate a scipy-style Euler sequence: three of ``xyz`` all lower case or all upper case."""
-    if (not isinstance(convention, str) or len(convention) != 3
-            or not (convention.islower() or convention.isupper())
-            or any(ch not in 'xyz' for ch in convention.lower())
-            or convention[0].lower() == convention[1].lower()
-            or convention[1].lower() == convention[2].lower()):
-        raise InputError('Euler convention must be three axes from xyz (lower case = extrinsic, upper case '
-                         f'= intrinsic, no axis twice in a row), e.g. xyz or ZXZ; got {convention!r}')
-    return convention
-
-
-def euler_rotation(angles: np.ndarray, convention: str) -> np.ndarray:
-    """Rotation matrices ``(N, 3, 3)`` of Euler angles ``(N, 3)`` (rad), scipy convention ``convention``.
-
-    Upper case (intrinsic) ``'ZXZ'``: ``R = Rz(A) Rx(B) Rz(C)``; lower case (extrinsic) ``'xyz'``:
-    ``R = Rz(C) Ry(B) Rx(A)``. Equal to ``scipy.spatial.transform.Rotation.from_euler(convention, angles)``.
-    """
-    ang = np.asarray(angles, dtype=float)
-    r1, r2, r3 = (_axis_rotation(convention[k], ang[..., k]) for k in range(3))
-    if convention.isupper():
-        return r1 @ r2 @ r3
-    return r3 @ r2 @ r1
-
-
-def euler_rate_matrix(angles: np.ndarray, convention: str) -> np.ndarray:
-    """Matrices ``E (N, 3, 3)`` with ``omega = E @ (A', B', C')``, angular velocity in the base frame.
-
-    Intrinsic ``R = R1(A) R2(B) R3(C)``: ``omega = e1 A' + R1 e2 B' + R1 R2 e3 C'``; extrinsic
-    ``R = R3(C) R2(B) R1(A)``: ``omega = R3 R2 e1 A' + R3 e2 B' + e3 C'``.
-    """
-    ang = np.asarray(angles, dtype=float)
-    unit = {'x': np.array([1.0, 0, 0]), 'y': np.array([0, 1.0, 0]), 'z': np.array([0, 0, 1.0])}
-    ax = [convention[k].lower() for k in range(3)]
-    r1, r2 = (_axis_rotation(ax[k], ang[..., k]) for k in range(2))
-    r3 = _axis_rotation(ax[2], ang[..., 2])
-    e1, e2, e3 = (unit[a] for a in ax)
-    n = ang.shape[:-1]
-    if convention.isupper():
-        cols = [np.broadcast_to(e1, n + (3,)), r1 @ e2, r1 @ r2 @ e3]
-    else:
-        cols = [r3 @ r2 @ e1, r3 @ e2, np.broadcast_to(e3, n + (3,))]
-    return np.stack(cols, axis=-1)
-
-
-def euler_from_rotation(R: np.ndarray, convention: str) -> np.ndarray:
-    """Euler angles ``(N, 3)`` (rad) of rotation matrices in the scipy convention ``convention``."""
-    from scipy.spatial.transform import Rotation
-    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention)
-
-
-def rotation_from_vector(w: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotation matrices ``(N, 3, 3)`` ``exp([w]x)`` of rotation vectors ``(N, 3)`` (rad)."""
-    w = np.asarray(w, dtype=float)
-    th = np.linalg.norm(w, axis=-1)[..., None, None]
-    K = np.zeros(w.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-    K = K - np.swapaxes(K, -1, -2)
-    small = th < 1e-8
-    safe = np.where(small, 1.0, th)
-    a = np.where(small, 1.0 - th ** 2 / 6, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - th ** 2 / 24, (1 - np.cos(safe)) / safe ** 2)
-    return np.eye(3) + a * K + b * (K @ K)
-
-
-def _rodrigues(wx: float, wy: float, wz: float) -> np.ndarray:
-    """``exp([w]x)`` ``(3, 3)`` of one rotation vector in float arithmetic."""
-    th = math.sqrt(wx * wx + wy * wy + wz * wz)
-    if th < 1e-8:
-        a, b = 1.0 - th * th / 6.0, 0.5 - th * th / 24.0
-    else:
-        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / (th * th)
-    return np.array([[1.0 - b * (wy * wy + wz * wz), -a * wz + b * wx * wy, a * wy + b * wx * wz],
-                     [a * wz + b * wx * wy, 1.0 - b * (wx * wx + wz * wz), -a * wx + b * wy * wz],
-                     [-a * wy + b * wx * wz, a * wx + b * wy * wz, 1.0 - b * (wx * wx + wy * wy)]])
-
-
-def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``(N, 3)`` (rad) of rotation matrices ``(N, 3, 3)`` (scipy ``as_rotvec``)."""
-    from scipy.spatial.transform import Rotation
-    return Rotation.from_matrix(np.asarray(R, dtype=float)).as_rotvec()
-
-
 def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
     """Newton step ``J^-1 res`` per batch item (pseudo-inverse for non-square ``J``)."""
     if J.shape[-1] != J.shape[-2]:
-        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
+        return np.asarray(np.linalg.pinv(J) @ res[..., None])[..., 0]
     if not np.all(np.isfinite(J)):
         raise SingularityError(f'{name}: forward kinematics met a singular configuration (infinite Jacobian)')
     try:
         return np.linalg.solve(J, res[..., None])[..., 0]
     except np.linalg.LinAlgError:
         # Some item of the batch is exactly singular: least-squares steps for all (rare).
-        return (np.linalg.pinv(J) @ res[..., None])[..., 0]
-
-
-def homogenize(jac: np.ndarray, joint_types: tuple[str, ...], length: float,
-               column_kinds: tuple[str, ...] | None = None) -> np.ndarray:
-    """Dimensionless inverse Jacobian by a characteristic length ``length`` (m) (GSP seed §4.3).
-
-    Columns whose kind is ``'angular'`` (default: the last three, ``w_x w_y w_z``) are divided by
-    ``length``; rows of angular joints are multiplied by ``length``.
-    """
-    jac = np.asarray(jac, dtype=float)
-    if column_kinds is None:
-        column_kinds = ('linear',) * 3 + ('angular',) * 3
-    col = np.array([1.0 / length if k == 'angular' else 1.0 for k in column_kinds])
-    row = np.array([length if t in ANGULAR_JOINTS else 1.0 for t in joint_types])
-    return jac * row[:, None] * col[None, :]
-
-
-#: Above this condition number the fast Gram-matrix estimate is replaced by an SVD (see :func:`dexterity_index`).
-GRAM_CONDITION_LIMIT = 1e4
-
-
-def singular_values(jac: np.ndarray) -> np.ndarray:
-    """Singular values ``(N, min(n, m))`` of a batch of matrices, descending."""
-    return np.linalg.svd(np.asarray(jac, dtype=float), compute_uv=False)
-
-
-def _svd_dexterity(J: np.ndarray) -> np.ndarray:
-    sv = singular_values(J)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        return np.where(sv[..., 0] > 0, sv[..., -1] / sv[..., 0], 0.0)
-
-
-def dexterity_index(jac: np.ndarray) -> np.ndarray:
-    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity).
-
-    For tall or square ``J`` the singular values come from the eigenvalues of the Gram matrix ``J^T J``
-    (``sigma^2``; about twice as fast as an SVD on small matrices). The Gram matrix squares the condition
-    number, so its estimate carries a relative error of about ``eps cond^2``: wherever ``cond`` exceeds
-    :data:`GRAM_CONDITION_LIMIT` (or the Gram estimate is not positive) the value is recomputed by an SVD,
-    so the result is accurate to ~1e-8 relative everywhere and singularities are resolved to ``eps``.
-    """
-    J = np.asarray(jac, dtype=float)
-    if J.shape[-2] < J.shape[-1] or J.ndim < 2:
-        return _svd_dexterity(J)
-    lam = np.linalg.eigvalsh(np.swapaxes(J, -1, -2) @ J)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        dex = np.sqrt(np.maximum(lam[..., 0], 0.0) / lam[..., -1])
-    redo = ~(np.isfinite(dex) & (lam[..., 0] > 0) & (dex * GRAM_CONDITION_LIMIT > 1.0))
-    if np.any(redo):
-        dex = np.where(np.isfinite(dex), dex, 0.0)
-        dex[redo] = _svd_dexterity(J[redo])
-    return dex
-
-
-def condition_number(jac: np.ndarray) -> np.ndarray:
-    """2-norm condition number ``sigma_max / sigma_min`` per matrix (``inf`` when ``sigma_min = 0``).
-
-    Computed as ``1 / dexterity_index(jac)`` (Gram eigenvalues, SVD where ill-conditioned).
-    """
-    dex = dexterity_index(jac)
-    with np.errstate(divide='ignore'):
-        return np.where(dex > 0, 1.0 / np.where(dex > 0, dex, 1.0), np.inf)
-
-
-def is_singular(jac: np.ndarray, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
-    """True where the (homogenised) matrix's inverse condition number is below ``tol``."""
-    return dexterity_index(jac) < tol
+        return np.asarray(np.linalg.pinv(J) @ res[..., None])[..., 0]
 
 
 @dataclass(frozen=True)
@@ -353,13 +206,13 @@ class Mechanism(abc.ABC):
         arr = self.complete_pose(arr)
         if len(self.pose_variables) == 6 and type(self).motion_basis is Mechanism.motion_basis:
             return self.inverse_jacobian(arr)          # the basis is the identity
-        return self.inverse_jacobian(arr) @ self.motion_basis(arr)
+        return np.asarray(self.inverse_jacobian(arr) @ self.motion_basis(arr))
 
     def coordinate_jacobian(self, poses: Any) -> np.ndarray:
         """``dq/du (N, n, m)`` per unit rate of the pose coordinates (Euler angles for 6 DOF)."""
         arr, _ = as_poses(poses)
         arr = self.complete_pose(arr)
-        return self.inverse_jacobian(arr) @ self.coordinate_basis(arr)
+        return np.asarray(self.inverse_jacobian(arr) @ self.coordinate_basis(arr))
 
     def homogenized_inverse_jacobian(self, poses: Any) -> np.ndarray:
         """:func:`homogenize` applied to :meth:`inverse_jacobian` with :attr:`characteristic_length`."""
@@ -386,7 +239,7 @@ class Mechanism(abc.ABC):
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
         q = np.atleast_2d(np.asarray(joints, dtype=float))
         lim = np.asarray(self.joint_limits, dtype=float)
-        return np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1)
+        return np.asarray(np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1))
 
     def check_limits(self, joints: Any) -> None:
         """Raise :class:`LimitError` naming the first joint outside its limits."""
@@ -473,7 +326,7 @@ class Mechanism(abc.ABC):
         return self.inverse_jacobian(np.concatenate([pos, euler_from_rotation(R, self.euler_convention)], -1))
 
     def _forward_rigid(self, q: np.ndarray, g: np.ndarray, tol: float, max_iterations: int) -> np.ndarray:
-        if q.shape[0] == 1 and hasattr(self, '_scalar'):
+        if q.shape[0] == 1 and getattr(self, '_scalar', None) is not None:
             return self._forward_rigid_one(q[0], g[0], tol, max_iterations)[None, :]
         pos = g[:, :3].copy()
         R = euler_rotation(g[:, 3:], self.euler_convention)
@@ -504,7 +357,7 @@ class Mechanism(abc.ABC):
         R = euler_rotation(g[None, 3:], self.euler_convention)[0]
         err = math.inf
         for _ in range(max_iterations):
-            joints, rows = self._scalar(p, R.tolist(), True)
+            joints, rows = getattr(self, '_scalar')(p, R.tolist(), True)  # noqa: B009 - defined by some subclasses
             res = [joints[k] - target[k] for k in range(len(target))]
             err = max(abs(r) for r in res)
             if err < tol:
@@ -521,7 +374,7 @@ class Mechanism(abc.ABC):
             if size > MAX_STEP:
                 step = step * (MAX_STEP / size)
             p = [p[0] - step[0], p[1] - step[1], p[2] - step[2]]
-            R = _rodrigues(-step[3], -step[4], -step[5]) @ R
+            R = rodrigues(-step[3], -step[4], -step[5]) @ R
         raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
                                f'{max_iterations} iterations (max residual {err:.3g})')
 

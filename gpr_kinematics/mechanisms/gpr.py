@@ -1,6 +1,6 @@
 """The GPR tilting Z axis as a :class:`~.base.Mechanism`, on top of the core kinematics.
 
-Seed ``gpr-virtual-joints-bratovanov-sotirov.txt``; frames and models in design.md §2-4. The GPR has three
+Bratovanov & Sotirov (``docs/references.md``); frames and models in ``docs/core.md``. The GPR has three
 degrees of freedom: the pose variables are the height ``z`` of the platform origin (m) and the tilt as a
 rotation vector ``(tilt_x, tilt_y) = alpha (cos gamma, sin gamma)`` (rad; tilt ``alpha`` about the
 horizontal axis at azimuth ``gamma``). A complete pose is ``(x, y, z, tilt_x, tilt_y, twist)`` with
@@ -208,7 +208,7 @@ class GprMechanism(Mechanism):
         T = dT @ Jt
         w = np.array([1.0, 1.0, 1.0] + [self.characteristic_length] * 3)
         J = Jt @ np.linalg.pinv(w[:, None] * T) * w
-        return J[0] if single else J
+        return np.asarray(J[0] if single else J)
 
     def parameter_jacobian(self, poses: Any, name: str, step: float = 1e-7) -> np.ndarray:
         """``dq/d delta (N, 3, 9)`` = ``-(dq/du) du/d delta`` (central differences of the imperfect FK)."""
@@ -217,7 +217,7 @@ class GprMechanism(Mechanism):
         arr, _ = as_poses(poses)
         q = self.inverse_kinematics(arr)
         dudp = self._pose_parameter_derivative(q, step)[:, 2:5]
-        return -self.task_jacobian(arr) @ dudp
+        return np.asarray(-self.task_jacobian(arr) @ dudp)
 
     def _imperfection_steps(self, q: np.ndarray, step: float) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
         """For each of the 9 imperfection components ``k``: the poses ``(N, 6)`` at rods ``q`` with that
@@ -254,7 +254,7 @@ class GprMechanism(Mechanism):
                 rm = rotation_vector(self.rotation(Pm) @ np.swapaxes(R0, -1, -2))
                 cols[:, 3:, k] = (rp - rm) / (2 * step)
             out = out + (cols @ np.asarray(delta).ravel()[:, None])[..., 0]
-        return out
+        return np.asarray(out)
 
 
 def load_gpr(data: Mapping[str, Any], source: str) -> GprMechanism:

@@ -1,6 +1,6 @@
 """Generalized Stewart platforms (GSP): six distance/angle constraints between base and platform.
 
-Seed ``gsp-inverse-jacobians-toz-kucuk.txt`` (Toz and Kucuk 2016). Each constraint joins geometric
+Toz & Kucuk 2016 (``docs/references.md``). Each constraint joins geometric
 primitives on the base (points ``A_i``, ``A_j`` in the base frame) and on the platform (points ``B_i``,
 ``B_j`` in the platform frame); lines are ``K_i`` through ``A_i`` with unit direction
 ``s = (A_j - A_i)/|A_j - A_i|`` and ``L_i`` through ``B_i`` with unit direction ``t = (B_j - B_i)/|.|``.
@@ -72,7 +72,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    return np.asarray(a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2])
 
 
 @dataclass(frozen=True)
@@ -331,66 +331,15 @@ class GeneralizedStewartPlatform(Mechanism):
                 ) -> tuple[list[float], list[list[float]]]:
         """One pose in float arithmetic (same formulas as the batch path; numpy's per-call overhead
         dominates a single pose): joint values and, if ``jacobian``, the inverse-Jacobian rows."""
-        def mul(M: list[list[float]], x: tuple[float, ...]) -> tuple[float, float, float]:
-            return (M[0][0] * x[0] + M[0][1] * x[1] + M[0][2] * x[2],
-                    M[1][0] * x[0] + M[1][1] * x[1] + M[1][2] * x[2],
-                    M[2][0] * x[0] + M[2][1] * x[1] + M[2][2] * x[2])
-
-        def cross(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float]:
-            return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-        def dot(a: tuple[float, ...], b: tuple[float, ...]) -> float:
-            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-        def scale(a: tuple[float, ...], f: float) -> tuple[float, float, float]:
-            return (a[0] * f, a[1] * f, a[2] * f)
-
-        inf = math.inf
         q: list[float] = []
         rows: list[list[float]] = []
         for ct, a, b, s, t in self._floats:
-            Rb = mul(R, b)
+            Rb = _mul3(R, b)
             v = (p[0] + Rb[0] - a[0], p[1] + Rb[1] - a[1], p[2] + Rb[2] - a[2])
-            if ct == 'D1':
-                d = math.sqrt(dot(v, v))
-                q.append(d)
-                if jacobian:
-                    f = 1.0 / d if d > 0 else inf
-                    rows.append([*scale(v, f), *scale(cross(Rb, v), f)])
-            elif ct in ('D2', 'D3'):
-                axis = mul(R, t) if ct == 'D2' else s
-                c = cross(v, axis)
-                d = math.sqrt(dot(c, c))
-                q.append(d)
-                if jacobian:
-                    f = 1.0 / d if d > 0 else inf
-                    w = cross(axis, c)
-                    ang = cross(Rb, w)
-                    if ct == 'D2':
-                        k = dot(v, axis)
-                        ang = (ang[0] + k * c[0], ang[1] + k * c[1], ang[2] + k * c[2])
-                    rows.append([*scale(w, f), *scale(ang, f)])
-            elif ct == 'D4':
-                Rt = mul(R, t)
-                n = cross(Rt, s)
-                g = math.sqrt(dot(n, n))
-                fv = dot(v, n)
-                q.append(abs(fv) / g if g > 0 else inf)
-                if jacobian:
-                    sg = math.copysign(1.0, fv) if fv != 0 else 0.0
-                    gi = 1.0 / g if g > 0 else inf
-                    a1, a2 = cross(Rb, n), cross(Rt, cross(s, v))
-                    a3 = cross(Rt, cross(s, n))
-                    rows.append([*scale(n, sg * gi)] + [sg * ((a1[i] + a2[i]) * gi - fv * a3[i] * gi ** 3)
-                                                         for i in range(3)])
-            else:  # A1
-                Rt = mul(R, t)
-                cth = max(-1.0, min(1.0, dot(Rt, s)))
-                q.append(math.acos(cth))
-                if jacobian:
-                    sin = math.sqrt(1.0 - cth * cth)
-                    f = -1.0 / sin if sin > 0 else -inf
-                    rows.append([0.0, 0.0, 0.0, *scale(cross(Rt, s), f)])
+            value, row = _SCALAR_ROWS[ct](R, Rb, v, s, t, ct, jacobian)
+            q.append(value)
+            if row is not None:
+                rows.append(row)
         return q, rows
 
     def describe(self) -> list[dict[str, Any]]:
@@ -403,6 +352,84 @@ class GeneralizedStewartPlatform(Mechanism):
                 item[key] = getattr(c, key).tolist()
             out.append(item)
         return out
+
+
+Vec = tuple[float, ...]
+Row = list[float] | None
+
+
+def _mul3(M: list[list[float]], x: Vec) -> tuple[float, float, float]:
+    return (M[0][0] * x[0] + M[0][1] * x[1] + M[0][2] * x[2],
+            M[1][0] * x[0] + M[1][1] * x[1] + M[1][2] * x[2],
+            M[2][0] * x[0] + M[2][1] * x[1] + M[2][2] * x[2])
+
+
+def _cross3(a: Vec, b: Vec) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot3(a: Vec, b: Vec) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _scale3(a: Vec, f: float) -> tuple[float, float, float]:
+    return (a[0] * f, a[1] * f, a[2] * f)
+
+
+def _row_d1(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D1 (distance of two points): value and inverse-Jacobian row (float arithmetic)."""
+    d = math.sqrt(_dot3(v, v))
+    if not jacobian:
+        return d, None
+    f = 1.0 / d if d > 0 else math.inf
+    return d, [*_scale3(v, f), *_scale3(_cross3(Rb, v), f)]
+
+
+def _row_d23(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D2 (point to a platform line) and D3 (point to a base line)."""
+    axis = _mul3(R, t) if ct == 'D2' else s
+    c = _cross3(v, axis)
+    d = math.sqrt(_dot3(c, c))
+    if not jacobian:
+        return d, None
+    f = 1.0 / d if d > 0 else math.inf
+    w = _cross3(axis, c)
+    ang = _cross3(Rb, w)
+    if ct == 'D2':
+        k = _dot3(v, axis)
+        ang = (ang[0] + k * c[0], ang[1] + k * c[1], ang[2] + k * c[2])
+    return d, [*_scale3(w, f), *_scale3(ang, f)]
+
+
+def _row_d4(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D4 (distance of two lines)."""
+    Rt = _mul3(R, t)
+    n = _cross3(Rt, s)
+    g = math.sqrt(_dot3(n, n))
+    fv = _dot3(v, n)
+    value = abs(fv) / g if g > 0 else math.inf
+    if not jacobian:
+        return value, None
+    sg = math.copysign(1.0, fv) if fv != 0 else 0.0
+    gi = 1.0 / g if g > 0 else math.inf
+    a1, a2 = _cross3(Rb, n), _cross3(Rt, _cross3(s, v))
+    a3 = _cross3(Rt, _cross3(s, n))
+    return value, [*_scale3(n, sg * gi)] + [sg * ((a1[i] + a2[i]) * gi - fv * a3[i] * gi ** 3) for i in range(3)]
+
+
+def _row_a1(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """A1 (angle of two lines)."""
+    Rt = _mul3(R, t)
+    cth = max(-1.0, min(1.0, _dot3(Rt, s)))
+    value = math.acos(cth)
+    if not jacobian:
+        return value, None
+    sin = math.sqrt(1.0 - cth * cth)
+    f = -1.0 / sin if sin > 0 else -math.inf
+    return value, [0.0, 0.0, 0.0, *_scale3(_cross3(Rt, s), f)]
+
+
+_SCALAR_ROWS = {'D1': _row_d1, 'D2': _row_d23, 'D3': _row_d23, 'D4': _row_d4, 'A1': _row_a1}
 
 
 def load_gsp(data: Mapping[str, Any], source: str) -> GeneralizedStewartPlatform:

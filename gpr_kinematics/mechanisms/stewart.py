@@ -1,6 +1,6 @@
 """6-SPS Gough-Stewart platform: inverse and forward kinematics and the accuracy model of Alwan.
 
-Seed ``stewart-accuracy-alwan.txt`` (Alwan 2011). Leg ``i`` joins the base joint ``R_ai`` (base frame) to
+Alwan 2011 (``docs/references.md``). Leg ``i`` joins the base joint ``R_ai`` (base frame) to
 the platform joint ``R_bi`` (platform frame); its length is ``s_i = |R_o + A_ol R_bi - R_ai|`` (eq. 1), and
 the closure is ``G_i(s, u) = |R_o + A_ol R_bi - R_ai|^2 - s_i^2 = 0`` (eqs. 2-4) with the pose
 ``u = (x, y, z, psi, theta, phi)``: metres and **Z-X-Z intrinsic Euler angles** (rad),

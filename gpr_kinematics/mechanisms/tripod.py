@@ -1,4 +1,4 @@
-"""3-RPS tripod with its parasitic motions (seed ``workspace-nonuniform-covering-posypkin.txt``, Fig. 8).
+"""3-RPS tripod with its parasitic motions (Posypkin et al., Fig. 8; ``docs/references.md``).
 
 Leg ``i`` (azimuth ``a_i`` = 0, 120, 240 deg) has a revolute joint on the base at
 ``A_i = R (cos a_i, sin a_i, 0)`` whose axis is tangent to the base circle, so the leg moves in the vertical
@@ -60,7 +60,7 @@ def parasitic_motion(theta: Any, psi: Any, r: float) -> tuple[np.ndarray, np.nda
 def tripod_rotation(theta: Any, psi: Any, phi: Any) -> np.ndarray:
     """``R_p = Ry(theta) Rx(psi) Rz(phi)`` ``(N, 3, 3)``, eq. (2)."""
     th, ps, ph = (np.atleast_1d(np.asarray(v)) for v in (theta, psi, phi))
-    return _rot('y', th) @ _rot('x', ps) @ _rot('z', ph)
+    return np.asarray(_rot('y', th) @ _rot('x', ps) @ _rot('z', ph))
 
 
 class Tripod3RPS(Mechanism):
@@ -142,13 +142,13 @@ class Tripod3RPS(Mechanism):
         """Spherical-joint centres ``p + R_p B_i`` ``(N, 3, 3)`` in the base frame (m) of completed poses."""
         full = np.atleast_2d(self.complete_pose(poses))
         R = self.rotation(full)
-        return full[:, None, :3] + self.platform_points @ np.swapaxes(R, -1, -2)
+        return np.asarray(full[:, None, :3] + self.platform_points @ np.swapaxes(R, -1, -2))
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:
         """Link lengths ``(N, 3)`` (m), eqs. (4)-(7), after completing the parasitic motions."""
         arr, single = as_poses(poses)
         q = np.linalg.norm(self.joint_positions(arr) - self.base_points, axis=-1)
-        return q[0] if single else q
+        return np.asarray(q[0] if single else q)
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
         """``(N, 3, 6)`` rows ``[n_i, (R_p B_i) x n_i]`` (``n_i`` unit leg vector) at the completed pose."""
@@ -165,7 +165,7 @@ class Tripod3RPS(Mechanism):
         """Distance ``(N, 3)`` (m) of each spherical joint from its leg's vertical plane (zero by design)."""
         P = self.joint_positions(poses)
         normal = np.column_stack([-np.sin(LEG_AZIMUTHS), np.cos(LEG_AZIMUTHS), np.zeros(3)])
-        return np.einsum('nki,ki->nk', P, normal)
+        return np.asarray(np.einsum('nki,ki->nk', P, normal))
 
 
 def load_tripod(data: Mapping[str, Any], source: str) -> Tripod3RPS:

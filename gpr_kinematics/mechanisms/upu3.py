@@ -1,4 +1,4 @@
-"""3-UPU translational parallel manipulator (seed ``3upu-aboulissane.txt``, Aboulissane and El Bakkali).
+"""3-UPU translational parallel manipulator (Aboulissane & El Bakkali, ``docs/references.md``).
 
 Base joints ``B_i = b (cos t_i, sin t_i, 0)`` and platform joints ``P_i = p (cos t_i, sin t_i, 0)`` (platform
 frame) on equilateral triangles of circumradius ``b`` and ``p`` (m); the platform only translates, its
@@ -110,7 +110,7 @@ class UPU3(Mechanism):
         """Limb lengths ``(N, 3)`` (m), eq. (6)."""
         arr, single = as_poses(poses)
         q = np.linalg.norm(self.limb_vectors(arr), axis=-1)
-        return q[0] if single else q
+        return np.asarray(q[0] if single else q)
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
         """``(N, 3, 6)``: rows ``[S_3i, P_i x S_3i]``; the first three columns are eq. (10)'s ``J``."""

@@ -1,0 +1,151 @@
+"""Inverse kinematics of the GPR: height of a platform point and platform normal -> rod lengths.
+
+The GPR has three degrees of freedom: the height of a platform point (its origin by default, or ``tool``,
+given in ``gpr_platform``) and the platform normal ``n* = tilt_rotation(tilt, azimuth) e3`` are prescribed;
+x, y and heading are outcomes of the virtual-joint model, reported in ``achieved``. With ``N(h, n)`` the naive
+inverse (:func:`gpr_kinematics.naive.naive_rods`), the iteration
+
+    q <- q + N(h*, n*) - N(h(q), n(q)),   from q = N(h*, n*),
+
+where ``h(q), n(q)`` come from the virtual-joint forward kinematics, is Newton's method with the naive
+model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4), so each
+step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves one target (floats)
+and a batch (arrays); the last forward solve of the loop is the reported ``achieved`` pose.
+
+>>> import math
+>>> ik = inverse(0.5, math.radians(2.0), 0.0)     # 2 deg about the x axis at 0.5 m
+>>> round(float(ik.achieved.centre_shift[0]) * 1e6, 2), ik.iterations   # the centre shift along x [um]
+(28.41, 4)
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._ops import ARRAY, SCALAR, Ops
+from .config import GprConfig, resolve_config
+from .errors import ConvergenceError, InputError, LimitError
+from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, solve_pose
+from .machine import MachineGeometry
+from .naive import naive_rods
+from .validation import column_of, rows_of, single_number, three_floats
+from .virtual_joints import VirtualJointModel, make_model
+
+Array = NDArray[np.float64]
+
+#: Inverse kinematics stops when height [m] and normal errors are both below this.
+IK_TOLERANCE = 1e-14
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Inverse kinematics of one target: rod lengths ``q`` [m], the pose they give, Newton steps."""
+
+    q: Array
+    achieved: ForwardResult
+    iterations: int
+
+
+@dataclass(frozen=True)
+class InverseBatch:
+    """Inverse kinematics of ``N`` targets: ``q (N, 3)``, ``achieved`` and ``iterations (N,)``."""
+
+    q: Array
+    achieved: ForwardBatch
+    iterations: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    def __getitem__(self, i: int) -> InverseResult:
+        return InverseResult(q=self.q[i], achieved=self.achieved[i], iterations=int(self.iterations[i]))
+
+
+def _check_tilt_targets(ops: Ops, t: Any, config: GprConfig) -> None:
+    if not ops.any(ops.fabs(t) > config.tilt_limit + TILT_LIMIT_SLACK):
+        return
+    a = np.atleast_1d(t)
+    i = int(np.argmax(np.abs(a)))
+    raise LimitError(f'tilt = {a[i]:.9g} rad ({math.degrees(a[i]):.6g} deg) is beyond the tilt limit '
+                     f'{config.tilt_limit:.9g} rad ({math.degrees(config.tilt_limit):.6g} deg)')
+
+
+def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t: Any, g: Any,
+           tool: Sequence[Any], config: GprConfig, vjm: VirtualJointModel) -> tuple[Any, Any]:
+    """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
+    _check_tilt_targets(ops, t, config)
+    geo = MachineGeometry.of(config)
+    s = ops.sin(t)
+    n_target = [s * ops.sin(g), -s * ops.cos(g), ops.cos(t)]
+    q_target = naive_rods(geo, h, n_target, tool)
+    q = list(q_target)
+    iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
+    for step in range(config.max_iterations + 1):
+        L, closure, pose = solve_pose(ops, geo, vjm, q, config)
+        R = pose.rotation
+        h_now = pose.position[2] + R[2][0] * tool[0] + R[2][1] * tool[1] + R[2][2] * tool[2]
+        n_now = [R[0][2], R[1][2], R[2][2]]
+        err = ops.fabs(h_now - h)
+        for i in range(3):
+            err = ops.maximum(err, ops.fabs(n_now[i] - n_target[i]))
+        active = ops.not_(err <= IK_TOLERANCE)
+        if not ops.any(active):
+            break
+        if step == config.max_iterations:
+            e = np.where(active, err, -1.0)
+            where = '' if np.ndim(err) == 0 else f' for target {int(np.argmax(e))}'
+            raise ConvergenceError(f'inverse kinematics did not converge in {config.max_iterations} iterations'
+                                   f'{where}: error {float(np.max(e)):.3e}')
+        q_now = naive_rods(geo, h_now, n_now, tool)
+        q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
+        iterations = iterations + active
+    check_stroke(ops, q, config, what='q')
+    return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
+
+
+def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config: GprConfig | None = None,
+                  model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseBatch:
+    """Rod lengths that give platform tilts and heights under the virtual-joint model, vectorised.
+
+    Args:
+        height: z of the tool point (the platform origin by default) in ``gpr_base`` [m].
+        tilt: tilt angle [rad]; a negative tilt is a tilt about ``azimuth + pi``.
+        azimuth: direction of the tilt axis [rad]. The three broadcast to ``(N,)``.
+        tool: point of the platform, in ``gpr_platform`` [m], whose height is prescribed: shape ``(3,)``
+            (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
+
+    Raises:
+        InputError: NaN, infinity, shapes that do not broadcast (``tool`` rows included).
+        LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke.
+        ConvergenceError: no convergence within ``max_iterations`` (not seen inside the limits).
+    """
+    cfg = resolve_config(config)
+    vjm = make_model(cfg, model)
+    cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
+    tools = rows_of(tool, 'tool', 3)
+    try:
+        h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
+    except ValueError:
+        raise InputError('height, tilt, azimuth and tool must have the same length (one value or tool row per '
+                         'target, or one for all), got ' + ', '.join(str(c.shape[0]) for c in cols + [tools])
+                         ) from None
+    # One platform point for all targets (floats), or one per target (columns of length N).
+    tool_v: Sequence[Any] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
+                             [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
+    achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm)
+    return InverseBatch(q=achieved.q, achieved=achieved, iterations=np.asarray(iterations, dtype=np.int64))
+
+
+def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None = None,
+            model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseResult:
+    """Inverse kinematics of one target (float arithmetic, the same driver); see :func:`inverse_batch`."""
+    h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
+    cfg = resolve_config(config)
+    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, three_floats(tool, 'tool'), cfg,
+                                  make_model(cfg, model))
+    return InverseResult(q=achieved.q, achieved=achieved, iterations=int(iterations))

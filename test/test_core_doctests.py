@@ -1,0 +1,16 @@
+"""The worked examples in the core's docstrings run and print what they say (the papers' reproducible numbers)."""
+import doctest
+import importlib
+
+import pytest
+
+#: Core modules whose docstrings hold examples.
+MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep')
+
+
+@pytest.mark.parametrize('name', MODULES)
+def test_docstring_examples(name):
+    module = importlib.import_module(f'gpr_kinematics.{name}')
+    result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0, f'{name} has no examples'
+    assert result.failed == 0

@@ -1,0 +1,160 @@
+"""Imperfect geometry: per-rod base points, zero offsets and directions, per-joint platform positions; the
+validation of every value, the kinematics on an imperfect machine, the naive model, mobility, the parameter
+vector."""
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.config import MODELS, GprConfig, load_config
+from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_forward, naive_inverse
+from gpr_kinematics.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from gpr_kinematics.mobility import analyze_mobility
+from gpr_kinematics.sweep import paper_sweep
+from gpr_kinematics.virtual_joints import make_model
+
+CFG = load_config()
+R = CFG.radius
+TH = np.asarray(CFG.rod_azimuths)
+NOMINAL = np.stack([R * np.cos(TH), R * np.sin(TH)], -1)
+#: A machine as a calibration might find it: tens of micrometres, rods tilted by about 0.1 mrad.
+REAL = dict(rod_positions=(NOMINAL + [[2e-5, -1e-5], [-3e-5, 1.5e-5], [1e-5, 2.5e-5]]).tolist(),
+            rod_offsets=[3e-5, -2e-5, 1e-5], rod_directions=[[1e-4, -5e-5], [-8e-5, 1e-4], [5e-5, 6e-5]],
+            platform_joints=(NOMINAL + [[-1e-5, 2e-5], [2e-5, 1e-5], [-1.5e-5, -2e-5]]).tolist(), kappa=[5.0, 2.0, 8.0])
+
+
+def real(model='radial', **changes):
+    return CFG.replace(model=model, **REAL, **changes)
+
+
+def joint_centres(cfg, q):
+    """P_k = B_k + (q_k + o_k) u_k, written here from the config's values."""
+    B = np.column_stack([np.asarray(cfg.rod_positions), np.zeros(3)])
+    d = np.asarray(cfg.rod_directions)
+    u = np.column_stack([d, np.sqrt(1 - np.sum(d * d, axis=1))])
+    return B + (np.asarray(q) + np.asarray(cfg.rod_offsets))[:, None] * u
+
+
+def test_cross_checks_of_the_triangles():
+    with pytest.raises(ConfigError, match=r'rod_positions = .* has an angle of .* deg; allowed: every angle >= 5'):
+        CFG.replace(rod_positions=[[0.1, 0.0], [0.0, 0.0], [-0.1, 0.001]])
+    with pytest.raises(ConfigError, match='same order around the triangle'):
+        CFG.replace(platform_joints=NOMINAL[::-1].tolist(), rod_positions=NOMINAL.tolist())
+    with pytest.raises(ConfigError, match=r'side 1-2 of the joint triangle is .* allowed: within 1% of each other'):
+        CFG.replace(platform_joints=(NOMINAL + [[0.01, 0.0], [0.0, 0.0], [0.0, 0.0]]).tolist())
+
+
+def test_nominal_values_given_explicitly_change_nothing():
+    explicit = CFG.replace(rod_positions=NOMINAL.tolist(), platform_joints=NOMINAL.tolist())
+    Q = naive_inverse(np.full(20, 0.3), np.linspace(-0.03, 0.03, 20), np.linspace(-3, 3, 20))
+    for model in MODELS:
+        a, b = forward_batch(Q, model=model), forward_batch(Q, config=explicit, model=model)
+        np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(b.virtual_joints, a.virtual_joints, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_forward_on_an_imperfect_machine_puts_the_joints_on_the_rods(model):
+    cfg = real(model)
+    rng = np.random.default_rng(4)
+    Q = naive_inverse(rng.uniform(0.1, 0.4, 30), rng.uniform(-1, 1, 30) * CFG.tilt_limit, rng.uniform(-3, 3, 30), cfg)
+    fb = forward_batch(Q, config=cfg)
+    r2, _, _ = make_model(cfg, model).points_and_partials(fb.virtual_joints)
+    r = np.concatenate([r2, np.zeros(r2.shape[:-1] + (1,))], axis=-1)
+    for i in range(30):
+        P = joint_centres(cfg, Q[i])
+        np.testing.assert_allclose(r[i] @ fb.rotation[i].T + fb.position[i], P, rtol=0, atol=1e-12)
+        n = np.cross(P[1] - P[0], P[2] - P[0])
+        np.testing.assert_allclose(fb.normal[i], n / np.linalg.norm(n), atol=1e-14)
+        np.testing.assert_allclose(fb.side_lengths[i], np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1),
+                                   rtol=0, atol=1e-15)
+        # the joints move from their own places p_k on the platform
+        np.testing.assert_allclose(fb.joint_displacement[i],
+                                   np.linalg.norm(r2[i] - np.asarray(cfg.platform_joints), axis=1), atol=1e-15)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_inverse_round_trip_on_an_imperfect_machine(model):
+    cfg = real(model)
+    rng = np.random.default_rng(5)
+    h, t, g = rng.uniform(0.1, 0.4, 100), rng.uniform(-1, 1, 100) * CFG.tilt_limit, rng.uniform(-3, 3, 100)
+    ib = inverse_batch(h, t, g, config=cfg)
+    fb = forward_batch(ib.q, config=cfg)
+    assert np.max(np.abs(fb.position[:, 2] - h)) < 1e-12
+    assert np.max(np.abs(fb.tilt - np.abs(t))) < 1e-12
+    one = inverse(h[7], t[7], g[7], config=cfg)
+    np.testing.assert_allclose(one.q, ib.q[7], rtol=0, atol=1e-14)
+
+
+def test_the_naive_model_of_an_imperfect_machine():
+    """(q_k + o_k) u_kz = z + n' . p_k: the joint heights are right, horizontal effects ignored (docs/core.md)."""
+    cfg = real()
+    q = naive_inverse(0.35, 0.02, 0.7, cfg)
+    pos, rot = naive_forward(q, cfg)
+    n_prime = rot[0].T @ [0.0, 0.0, 1.0]
+    p = np.column_stack([np.asarray(cfg.platform_joints), np.zeros(3)])
+    uz = np.sqrt(1 - np.sum(np.asarray(cfg.rod_directions) ** 2, axis=1))
+    np.testing.assert_allclose((q + cfg.rod_offsets) * uz, 0.35 + p @ n_prime, rtol=0, atol=1e-15)
+    assert pos[0, 2] == pytest.approx(0.35, abs=1e-15) and pos[0, 0] == pos[0, 1] == 0.0
+
+
+def test_an_offset_is_a_rod_length_and_a_base_shift_moves_the_platform():
+    """Independent checks of B_k and o_k: an offset o adds to q; moving every base point by d moves the pose by d."""
+    q = np.array([0.3, 0.302, 0.299])
+    o = np.array([2e-4, -1e-4, 3e-4])
+    a, b = forward(q, config=CFG.replace(rod_offsets=o.tolist())), forward(q + o)
+    for name in ('position', 'rotation', 'virtual_joints', 'centre_shift'):
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-16, err_msg=name)
+    d = np.array([3e-4, -2e-4])
+    moved = forward(q, config=CFG.replace(rod_positions=(NOMINAL + d).tolist()))
+    np.testing.assert_allclose(moved.position - forward(q).position, [d[0], d[1], 0.0], rtol=0, atol=1e-16)
+    np.testing.assert_allclose(moved.rotation, forward(q).rotation, atol=1e-16)
+
+
+def test_the_sweep_on_an_imperfect_machine():
+    s = paper_sweep(azimuth_step=math.radians(45.0), config=real('compliant'))
+    assert np.max(np.abs(s.forward.position[:, 2] - 0.5)) < 1e-12
+    assert np.max(np.abs(s.forward.tilt - np.abs(s.alpha))) < 1e-12
+    assert s.forward.iterations.max() <= 4
+
+
+def test_mobility_ranks_for_parallel_and_for_non_parallel_rods():
+    q_equal, q_tilted = [0.3, 0.3, 0.3], naive_inverse(0.3, 0.02, 1.0)
+    u = np.array([0.01, -0.02, math.sqrt(1 - 0.01 ** 2 - 0.02 ** 2)])
+    alike = CFG.replace(rod_directions=[u[:2].tolist()] * 3)  # parallel, but not vertical
+    # singular where the joint triangle is perpendicular to the rods: (P_b - P_a) . u = (B_b - B_a) . u + q_b - q_a = 0
+    q_perpendicular = 0.3 - NOMINAL @ u[:2]
+    for model in MODELS:
+        assert analyze_mobility(q_perpendicular, config=alike, model=model).rank_dphi_dp == 9
+        assert analyze_mobility(q_equal, config=alike, model=model).rank_dphi_dp == 11
+        assert analyze_mobility(q_tilted, config=alike, model=model).rank_dphi_dp == 11
+    apart = CFG.replace(rod_directions=REAL['rod_directions'])  # not parallel: the rigid platform cannot move
+    for q in (q_equal, q_tilted):
+        m = analyze_mobility(q, config=apart)
+        assert (m.rank_dphi_dp, m.mobility, m.rank_augmented) == (12, 0, 12)
+    # equal extensions of non-parallel rods change a side length (the reason), parallel ones do not
+    dP = m.rod_perturbation([1e-3, 1e-3, 1e-3])
+    assert np.linalg.norm(m.dphi_dp[9:] @ dP) > 1e-9
+    par = analyze_mobility(q_tilted)
+    assert np.linalg.norm(par.dphi_dp[9:] @ par.rod_perturbation([1e-3, 1e-3, 1e-3])) < 1e-18
+
+
+def test_parameter_vector_round_trip_and_errors():
+    cfg = real('compliant')
+    v = parameter_vector(cfg)
+    assert v.shape == (24,) and len(PARAMETER_NAMES) == 24 and {p.unit for p in PARAMETERS} == {'m', 'rad', '1'}
+    assert config_with_parameters(GprConfig(), v) == GprConfig().replace(**REAL)
+    back = config_with_parameters(CFG, v)
+    np.testing.assert_array_equal(parameter_vector(back), v)
+    Q = naive_inverse(np.full(5, 0.3), np.linspace(-0.03, 0.03, 5), 0.4, cfg)
+    np.testing.assert_array_equal(forward_batch(Q, config=back, model='compliant').position,
+                                  forward_batch(Q, config=cfg).position)
+    nominal = parameter_vector(GprConfig())
+    assert nominal[PARAMETER_NAMES.index('rod2_y')] == pytest.approx(R * math.sin(TH[1]), abs=1e-18)
+    with pytest.raises(InputError, match='unknown geometry parameter'):
+        parameter_vector(cfg, ['rod4_x'])
+    with pytest.raises(InputError, match='a parameter vector of 2 values'):
+        config_with_parameters(cfg, [1.0], ['rod1_x', 'rod1_y'])
+    with pytest.raises(ConfigError, match=r'rod_offsets = .* is invalid; allowed: .* -0.1 <= o_k <= 0.1'):
+        config_with_parameters(cfg, [0.5], ['rod1_offset'])
