@@ -31,17 +31,17 @@ from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import bench_core  # noqa: E402
-from calibration_reference import ReferenceModel  # noqa: E402
+import bench_core
+from calibration_reference import ReferenceModel
 
-from gpr_kinematics.calibration.budget import accuracy_budget  # noqa: E402
-from gpr_kinematics.calibration.core_model import CoreModel  # noqa: E402
-from gpr_kinematics.calibration.identification import identify  # noqa: E402
-from gpr_kinematics.calibration.model import evaluate, pose_error  # noqa: E402
-from gpr_kinematics.calibration.synthetic import synthetic_measurements  # noqa: E402
-from gpr_kinematics.calibration.tolerances import parse_tolerances  # noqa: E402
-from gpr_kinematics.config import load_config  # noqa: E402
-from gpr_kinematics.kinematics import naive_inverse  # noqa: E402
+from gpr_kinematics.calibration.budget import accuracy_budget
+from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.identification import identify
+from gpr_kinematics.calibration.model import evaluate, pose_error
+from gpr_kinematics.calibration.synthetic import synthetic_measurements
+from gpr_kinematics.calibration.tolerances import parse_tolerances
+from gpr_kinematics.config import load_config
+from gpr_kinematics.kinematics import naive_inverse
 
 SP, SA = 3e-6, 2e-5
 

@@ -69,7 +69,7 @@ class _BoundedLoader(yaml.SafeLoader):
             raise ConfigError(f'{self._source}: line {mark.line + 1}: nested deeper than {MAX_DEPTH} levels; '
                               f'allowed: at most {MAX_DEPTH}')
         try:
-            return super().compose_node(parent, index)  # type: ignore[no-any-return]
+            return super().compose_node(parent, index)
         finally:
             self._depth -= 1
 

@@ -6,6 +6,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -107,7 +108,7 @@ def write(tmp_path, name, text):
 
 
 def bad_inputs(tmp_path):
-    lines = open(SHIPPED, encoding='utf-8').read().splitlines()
+    lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
     data = [ln for ln in lines if not ln.startswith('#')]
     header, rows = data[0], data[1:]
     mm_rows = []
@@ -153,7 +154,7 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch):
 def test_one_row_is_enough_for_the_four_core_parameters(capsys, tmp_path):
     """6 residuals for 4 parameters: allowed (too few rows for more parameters: test_calibration_identification);
     whether the row determines them is the identifiability report's to say."""
-    rows = [ln for ln in open(SHIPPED, encoding='utf-8').read().splitlines() if not ln.startswith('#')]
+    rows = [ln for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines() if not ln.startswith('#')]
     status, out, err = run(capsys, 'calibrate', write(tmp_path, 'one.csv', '\n'.join(rows[:2])), '--output',
                            str(tmp_path / 'one.yaml'), '--json')
     assert status == 0, err
@@ -177,7 +178,7 @@ def test_demo_prints_before_and_after():
 def test_corrupted_measurement_files_never_crash(capsys, tmp_path):
     """Seeded corruptions of the shipped file (a changed character, a cut, a huge or odd value): every run ends
     with status 0 or 2 and, for 2, one line without a traceback."""
-    text = open(SHIPPED, encoding='utf-8').read()
+    text = Path(SHIPPED).read_text(encoding='utf-8')
     rng = np.random.default_rng(0)
     odd = ['nan', '-inf', '1e308', '1e-320', '', '"', ',', '\x00', 'é', '0x1p3', '--1', '1e6', '-0']
     statuses = set()

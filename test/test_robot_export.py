@@ -40,7 +40,7 @@ def test_sample_table(tmp_path):
     columns, rows = sample_table(PLAN, sampled)
     assert columns[:3] == ['time', 'waypoint', 'arm'] and len(rows) == len(sampled)
     write_table(tmp_path / 's.csv', columns, rows, {})
-    back = list(csv.reader(open(tmp_path / 's.csv', newline='')))
+    back = list(csv.reader((tmp_path / 's.csv').read_text().splitlines()))
     np.testing.assert_array_equal(np.array([[float(v) for v in r[3:13]] for r in back[1:]]), sampled.samples.positions)
     assert {r[2] for r in back[1:]} == {'arm1', 'arm2'}
 

@@ -9,10 +9,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from gpr_kinematics.robot import Stations, load_robot, solve_stations  # noqa: E402
+from gpr_kinematics.robot import Stations, load_robot, solve_stations
 
 OUT = Path(__file__).resolve().parent
 

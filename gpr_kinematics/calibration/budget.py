@@ -42,6 +42,8 @@ from .model import (
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
+#: Calibrated parameters: their indices and the covariance of their estimates.
+Calibrated = tuple[NDArray[np.int64], Array]
 
 #: The reported quantities: name -> (components of v, unit).
 QUANTITIES: dict[str, tuple[tuple[int, ...], str]] = {
@@ -129,7 +131,7 @@ def _with_tool(J: Array, rot: Array, tool: Array) -> Array:
 
 
 def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, tols: list[Tolerance | None],
-             table: ToleranceTable, calibrated: tuple[Array, Array] | None) -> list[_Source]:
+             table: ToleranceTable, calibrated: Calibrated | None) -> list[_Source]:
     params = model.parameters
     cal_idx = np.asarray(calibrated[0], dtype=int) if calibrated is not None else np.zeros(0, dtype=int)
     cols = [j for j, t in enumerate(tols) if t is not None and j not in set(cal_idx.tolist())]
@@ -180,10 +182,10 @@ def _worst(src: list[_Source], comps: tuple[int, ...]) -> Array:
         else:
             h = h + 3.0 * np.sqrt(np.maximum(np.einsum('nuk,kl,nul->nu', ug, s.cov, ug), 0.0))
     best = np.max(h, axis=1)
-    return best if len(comps) == 1 else best / math.cos(math.pi / DIRECTIONS)
+    return np.asarray(best if len(comps) == 1 else best / math.cos(math.pi / DIRECTIONS), dtype=np.float64)
 
 
-def _sample(src_tols: list[tuple[int, Tolerance]], cal: tuple[Array, Array] | None, table: ToleranceTable,
+def _sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table: ToleranceTable,
             rng: np.random.Generator, S: int, N: int, P: int) -> tuple[Array, Array, Array | None]:
     """Parameter deviations ``(S, P)``, rod-length errors ``(S, N, 3)`` and joint displacements or ``None``."""
     dtheta = np.zeros((S, P))
@@ -201,6 +203,42 @@ def _sample(src_tols: list[tuple[int, Tolerance]], cal: tuple[Array, Array] | No
         r = np.asarray(table.joint_clearance)[None, None, :, None] * rng.uniform(0.0, 1.0, (S, N, 3, 1)) ** (1 / 3)
         disp = d * r
     return dtheta, dq, disp
+
+
+def _check_options(N: int, samples: int, tool: ArrayLike, percentiles: Sequence[float],
+                   labels: Sequence[str] | None) -> tuple[Array, tuple[float, ...], tuple[str, ...]]:
+    """The checked tool point, percentiles and station labels of :func:`accuracy_budget`."""
+    if N > MAX_STATIONS:
+        raise InputError(f'{N} stations; allowed: at most {MAX_STATIONS}')
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
+        raise InputError(f'samples = {samples!r}; allowed: an integer from 0 to {MAX_SAMPLES}')
+    tool_v = np.asarray(tool, dtype=float)
+    if tool_v.shape != (3,) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
+        raise InputError(f'tool must be 3 finite coordinates [m], each within {MAX_TOOL:g} m of the platform '
+                         f'origin; got {np.asarray(tool).ravel()[:3].tolist()}')
+    pct = tuple(float(p) for p in percentiles)
+    if not pct or not all(0.0 <= p <= 100.0 for p in pct):
+        raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
+    labels_t = tuple(str(x) for x in labels) if labels is not None else tuple(str(i + 1) for i in range(N))
+    if len(labels_t) != N:
+        raise InputError(f'{len(labels_t)} labels for {N} stations')
+    return tool_v, pct, labels_t
+
+
+def _check_calibrated(calibrated: tuple[ArrayLike, ArrayLike], P: int) -> Calibrated:
+    """``(indices, covariance)`` of calibrated parameters, checked: distinct indices below ``P``, a finite,
+    symmetric, positive semi-definite covariance of matching size."""
+    idx = np.asarray(calibrated[0]).ravel()
+    cov = np.asarray(calibrated[1], dtype=float)
+    if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
+        raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
+    if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)) or \
+            np.max(np.abs(cov - cov.T), initial=0.0) > 1e-9 * np.max(np.abs(cov), initial=0.0):
+        raise InputError(f'calibrated covariance must be a finite symmetric ({idx.size}, {idx.size}) matrix, '
+                         f'got shape {cov.shape}')
+    if idx.size and np.linalg.eigvalsh(cov)[0] < -1e-9 * max(float(np.max(np.diag(cov))), 1e-300):
+        raise InputError('calibrated covariance is not positive semi-definite')
+    return idx.astype(np.int64), cov
 
 
 def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool: ArrayLike = (0.0, 0.0, 0.0),
@@ -225,39 +263,14 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     """
     Qa = as_configurations(Q, 'stations')
     N = Qa.shape[0]
-    if N > MAX_STATIONS:
-        raise InputError(f'{N} stations; allowed: at most {MAX_STATIONS}')
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
-        raise InputError(f'samples = {samples!r}; allowed: an integer from 0 to {MAX_SAMPLES}')
-    tool_v = np.asarray(tool, dtype=float)
-    if tool_v.shape != (3,) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
-        raise InputError(f'tool must be 3 finite coordinates [m], each within {MAX_TOOL:g} m of the platform '
-                         f'origin; got {np.asarray(tool).ravel()[:3].tolist()}')
-    pct = tuple(float(p) for p in percentiles)
-    if not pct or not all(0.0 <= p <= 100.0 for p in pct):
-        raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
-    labels_t = tuple(str(x) for x in labels) if labels is not None else tuple(str(i + 1) for i in range(N))
-    if len(labels_t) != N:
-        raise InputError(f'{len(labels_t)} labels for {N} stations')
+    tool_v, pct, labels_t = _check_options(N, samples, tool, percentiles, labels)
     params = model.parameters
     P = len(params)
     th = params.nominal if theta is None else np.asarray(theta, dtype=float)
     if th.shape != (P,) or not np.all(np.isfinite(th)):
         raise InputError(f'theta must be {P} finite parameter values, got shape {th.shape}')
     tols = table.bind(params)
-    cal = None
-    if calibrated is not None:
-        idx = np.asarray(calibrated[0]).ravel()
-        cov = np.asarray(calibrated[1], dtype=float)
-        if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
-            raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
-        if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)) or \
-                np.max(np.abs(cov - cov.T), initial=0.0) > 1e-9 * np.max(np.abs(cov), initial=0.0):
-            raise InputError(f'calibrated covariance must be a finite symmetric ({idx.size}, {idx.size}) matrix, '
-                             f'got shape {cov.shape}')
-        if idx.size and np.linalg.eigvalsh(cov)[0] < -1e-9 * max(float(np.max(np.diag(cov))), 1e-300):
-            raise InputError('calibrated covariance is not positive semi-definite')
-        cal = (idx.astype(int), cov)
+    cal = None if calibrated is None else _check_calibrated(calibrated, P)
     if max(table.joint_clearance) > 0 and not model.supports_displacement:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
@@ -291,7 +304,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
 
 
 def _monte_carlo(model: PoseModel, th: Array, Q: Array, pos0: Array, rot0: Array, tool: Array,
-                 tols: list[Tolerance | None], cal: tuple[Array, Array] | None, table: ToleranceTable,
+                 tols: list[Tolerance | None], cal: Calibrated | None, table: ToleranceTable,
                  samples: int, seed: int, pct: tuple[float, ...]) -> tuple[dict, dict, Array, Array]:
     N = Q.shape[0]
     if samples == 0:

@@ -109,7 +109,7 @@ class CalibrationResult:
     def correlation(self) -> Array:
         """Correlation matrix of the fitted parameters."""
         d = np.sqrt(np.diag(self.covariance))
-        return self.covariance / np.outer(d, d)
+        return np.asarray(self.covariance / np.outer(d, d), dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON (standard errors of parameters not fitted are ``None``)."""

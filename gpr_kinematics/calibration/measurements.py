@@ -29,7 +29,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +87,7 @@ class Measurements:
     units: tuple[str, str] = ('m', 'rad')
 
     def __len__(self) -> int:
-        return self.q.shape[0]
+        return int(self.q.shape[0])
 
     @property
     def rotation(self) -> Array:
@@ -144,13 +144,43 @@ def _number(text: str, where: str, column: str) -> float:
     return v
 
 
-def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
-    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
+@dataclass
+class _Table:
+    """The rows of a measurement file as read, before unit conversion and the pose checks."""
+
     units: tuple[str, str] | None = None
     cols: list[str] | None = None
-    rows: list[list[float]] = []
-    line_nos: list[int] = []
-    seen: dict[tuple[float, ...], int] = {}
+    rows: list[list[float]] = field(default_factory=list)
+    lines: list[int] = field(default_factory=list)
+    seen: dict[tuple[float, ...], int] = field(default_factory=dict)
+
+    def comment(self, line: str, where: str) -> None:
+        m = _UNITS_LINE.match(line)
+        if m:
+            if self.cols is not None or self.units is not None:
+                raise InputError(f'{where}: "# units:" must come once, before the header row')
+            self.units = _units(m.group(1), where)
+
+    def row(self, fields: list[str], lineno: int, where: str) -> None:
+        if self.cols is None:
+            self.cols = _header(fields, where)
+            return
+        if len(fields) != len(self.cols):
+            raise InputError(f'{where}: {len(fields)} values, but the header names {len(self.cols)} columns')
+        if len(self.rows) == MAX_ROWS:
+            raise InputError(f'{where}: more than {MAX_ROWS} data rows; allowed: at most {MAX_ROWS}')
+        values = [_number(f, where, c) for f, c in zip(fields, self.cols, strict=True)]
+        key = tuple(values)
+        if key in self.seen:
+            raise InputError(f'{where} repeats line {self.seen[key]} exactly (a copied row?); each measurement once')
+        self.seen[key] = lineno
+        self.rows.append(values)
+        self.lines.append(lineno)
+
+
+def _read_table(text: str, source: str) -> _Table:
+    """The header, the rows and the declared units of a measurement file's text."""
+    table = _Table()
     for lineno, raw in enumerate(text.split('\n'), 1):
         where = f'{source} line {lineno}'
         if len(raw) > MAX_LINE_CHARS:
@@ -159,36 +189,26 @@ def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
         if not line:
             continue
         if line.startswith('#'):
-            m = _UNITS_LINE.match(line)
-            if m:
-                if cols is not None or units is not None:
-                    raise InputError(f'{where}: "# units:" must come once, before the header row')
-                units = _units(m.group(1), where)
+            table.comment(line, where)
             continue
         try:
             fields = next(csv.reader([line]))
         except csv.Error as exc:
             raise InputError(f'{where}: not a CSV row ({exc})') from None
-        if cols is None:
-            cols = _header(fields, where)
-            continue
-        if len(fields) != len(cols):
-            raise InputError(f'{where}: {len(fields)} values, but the header names {len(cols)} columns')
-        if len(rows) == MAX_ROWS:
-            raise InputError(f'{where}: more than {MAX_ROWS} data rows; allowed: at most {MAX_ROWS}')
-        values = [_number(f, where, c) for f, c in zip(fields, cols, strict=True)]
-        key = tuple(values)
-        if key in seen:
-            raise InputError(f'{where} repeats line {seen[key]} exactly (a copied row?); each measurement once')
-        seen[key] = lineno
-        rows.append(values)
-        line_nos.append(lineno)
-    if cols is None:
+        table.row(fields, lineno, where)
+    if table.cols is None:
         raise InputError(f'{source}: no header row; the first line that is not a comment must name the columns '
                          f'({",".join(REQUIRED_COLUMNS)})')
-    if not rows:
+    if not table.rows:
         raise InputError(f'{source}: no data rows after the header')
-    length, angle = units or ('m', 'rad')
+    return table
+
+
+def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
+    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
+    table = _read_table(text, source)
+    cols, rows, line_nos = table.cols or [], table.rows, table.lines
+    length, angle = table.units or ('m', 'rad')
     data = np.array(rows)
     col = {c: data[:, i] for i, c in enumerate(cols)}
     for c in _LENGTH_COLUMNS & col.keys():

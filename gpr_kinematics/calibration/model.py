@@ -18,7 +18,7 @@ radians, zero exactly when the poses agree.
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -89,7 +89,7 @@ class ParameterSet:
     def __len__(self) -> int:
         return len(self.parameters)
 
-    def __iter__(self):  # type: ignore[no-untyped-def]
+    def __iter__(self) -> Iterator[Parameter]:
         return iter(self.parameters)
 
     def __getitem__(self, i: int) -> Parameter:

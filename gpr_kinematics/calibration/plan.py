@@ -80,7 +80,7 @@ def candidate_configurations(config: GprConfig, heights: int = 6, tilts: int = 3
     if H.size > MAX_CANDIDATES:
         raise InputError(f'{H.size} candidate configurations; allowed: at most {MAX_CANDIDATES}')
     Q = naive_inverse(H, T, G, config)
-    ok = np.all((Q >= config.stroke_min) & (Q <= config.stroke_max), axis=1)
+    ok = np.all((config.stroke_min <= Q) & (config.stroke_max >= Q), axis=1)
     return Candidates(Q[ok], H[ok], T[ok], G[ok])
 
 
@@ -143,7 +143,7 @@ def _log_index(M: Array, index: str) -> Array:
     """``log`` of the index (up to constants) of information matrices ``(..., F, F)``."""
     lam = np.linalg.eigvalsh(M)
     lam = np.maximum(lam, 1e-300)
-    return np.mean(np.log(lam), axis=-1) if index == 'product' else np.log(lam[..., 0])
+    return np.asarray(np.mean(np.log(lam), axis=-1) if index == 'product' else np.log(lam[..., 0]), dtype=np.float64)
 
 
 def _best_addition(M: Array, blocks: Array, infos: Array, allowed: NDArray[np.bool_], index: str) -> tuple[int, float]:

@@ -57,7 +57,7 @@ def as_rows(values: ArrayLike, name: str, width: int, names: tuple[str, ...] | N
 def check_joint_limits(arm: Arm, J: Array) -> None:
     """LimitError naming the first joint value outside its range, the sample, and by how much."""
     lower, upper = arm.lower - LIMIT_SLACK, arm.upper + LIMIT_SLACK
-    bad = (J < lower) | (J > upper)
+    bad = (lower > J) | (upper < J)
     if bad.any():
         i, k = np.argwhere(bad)[0]
         j = arm.joints[k]
@@ -150,7 +150,7 @@ class RobotForward:
 
     @property
     def naive_wafer_error_norm(self) -> Array:
-        return np.linalg.norm(self.naive_wafer_error, axis=1)
+        return np.asarray(np.linalg.norm(self.naive_wafer_error, axis=1), dtype=np.float64)
 
     @property
     def naive_wafer_angle_error(self) -> Array:

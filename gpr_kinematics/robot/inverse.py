@@ -90,7 +90,7 @@ class StationSolution:
 
     @property
     def naive_wafer_error_norm(self) -> Array:
-        return np.linalg.norm(self.naive_wafer_error, axis=1)
+        return np.asarray(np.linalg.norm(self.naive_wafer_error, axis=1), dtype=np.float64)
 
     @property
     def naive_wafer_angle_error(self) -> Array:
@@ -263,8 +263,9 @@ def _heading_miss(arm: Arm, sol: ArmSolution, targets: _Targets, free: NDArray[n
 def _fault_mask(robot: RobotDescription, arm: Arm, q: Array, sol: ArmSolution, targets: _Targets,
                 free: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """Stations that violate a limit: stroke, reach, joint limits, a 2-joint heading."""
-    return (_stroke(robot, q).any(axis=1) | ~sol.reachable | (np.max(sol.violation, axis=1) > 0.0)
-            | _heading_miss(arm, sol, targets, free))
+    out: NDArray[np.bool_] = (_stroke(robot, q).any(axis=1) | ~sol.reachable | (np.max(sol.violation, axis=1) > 0.0)
+                              | _heading_miss(arm, sol, targets, free))
+    return out
 
 
 def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol: ArmSolution, targets: _Targets,

@@ -258,6 +258,19 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
     header = numbered[0][1]
     if len(numbered) - 1 > MAX_STATIONS:
         raise ConfigError(f'{where}: {len(numbered) - 1} rows; allowed: at most {MAX_STATIONS}')
+    cols = _header_columns(header, where, kinds)
+    missing = [k for k in required if k not in cols]
+    if missing:
+        raise ConfigError(f'{where}: the header lacks the column(s) {", ".join(missing)}; required: '
+                          + ', '.join(required))
+    for n, row in numbered[1:]:
+        if len(row) != len(header):
+            raise ConfigError(f'{where}: line {n}: {len(row)} fields, the header has {len(header)}')
+    return CsvTable(where, cols, [row for _, row in numbered[1:]], [n for n, _ in numbered[1:]])
+
+
+def _header_columns(header: list[str], where: str, kinds: dict[str, str]) -> dict[str, tuple[int, float, str]]:
+    """Column name -> (index, factor to SI, unit) of a header row (module docstring: units in brackets)."""
     cols: dict[str, tuple[int, float, str]] = {}
     for i, cell in enumerate(header):
         m = _HEADER.match(cell)
@@ -277,14 +290,7 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
         if unit not in units:
             raise ConfigError(f'{where}: column {key}: unit [{unit}] is invalid; allowed: {" or ".join(units)}')
         cols[key] = (i, units[unit], unit)
-    missing = [k for k in required if k not in cols]
-    if missing:
-        raise ConfigError(f'{where}: the header lacks the column(s) {", ".join(missing)}; required: '
-                          + ', '.join(required))
-    for n, row in numbered[1:]:
-        if len(row) != len(header):
-            raise ConfigError(f'{where}: line {n}: {len(row)} fields, the header has {len(header)}')
-    return CsvTable(where, cols, [row for _, row in numbered[1:]], [n for n, _ in numbered[1:]])
+    return cols
 
 
 _CSV_KINDS = {'name': 'text', 'branch': 'text', **{k: 'length' for k in _LENGTH_FIELDS},

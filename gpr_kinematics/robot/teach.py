@@ -74,7 +74,7 @@ class Retaught:
 
     @property
     def avoided_error_norm(self) -> Array:
-        return np.linalg.norm(self.avoided_error, axis=1)
+        return np.asarray(np.linalg.norm(self.avoided_error, axis=1), dtype=np.float64)
 
 
 def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,

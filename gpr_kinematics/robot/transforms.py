@@ -79,7 +79,8 @@ class PoseBatch:
     def apply(self, points: ArrayLike) -> Array:
         """Points given in the child frame, ``(N, 3)`` or ``(3,)``, in the parent frame."""
         p = np.asarray(points, dtype=float)
-        return self.position + np.einsum('nij,...nj->...ni', self.rotation, np.broadcast_to(p, self.position.shape))
+        return np.asarray(self.position + np.einsum('nij,...nj->...ni', self.rotation,
+                                                     np.broadcast_to(p, self.position.shape)), dtype=np.float64)
 
     def compose(self, child: PoseBatch) -> PoseBatch:
         """``self * child``: the pose of ``child``'s frame in ``self``'s parent."""
@@ -87,7 +88,7 @@ class PoseBatch:
 
     def inverse_apply(self, points: Array) -> Array:
         """Points ``(N, 3)`` given in the parent frame, in the child frame: ``R^T (x - p)``."""
-        return np.einsum('nji,nj->ni', self.rotation, points - self.position)
+        return np.asarray(np.einsum('nji,nj->ni', self.rotation, points - self.position), dtype=np.float64)
 
     @staticmethod
     def fixed(position: ArrayLike, rotation: ArrayLike, n: int) -> PoseBatch:
