@@ -29,8 +29,9 @@ their limits (SI units) and their meaning:
     (commanded tilt 0 or changing sign) and the largest ratio there.
 ``topic.*`` (companion topics of the same sample, matched by header stamp)
     ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and
-    the same pose (<= 1e-12); ``joint_states``: names ``rod_1..rod_3`` + the virtual-joint names, positions
-    ``q`` then ``X`` (<= 1e-12). A sample before the first or after the last message of a companion topic
+    the same pose (<= 1e-12); ``joint_states``: names ``rod_1..rod_3``, positions ``q`` (or, in bags recorded
+    before the virtual joints got their own topic, ``rod_1..rod_3`` + the virtual-joint names, ``q`` then ``X``)
+    (<= 1e-12). A sample before the first or after the last message of a companion topic
     is not counted as missing: a recording started, or cut by SIGKILL, in the middle of a sample holds only
     part of that sample's messages. Companion messages without a PlatformState are ``*_extra`` failures.
 ``bag.*``
@@ -498,19 +499,22 @@ class _Verifier:
         assert s is not None
         vj = _matrix(c['virtual_joints'], s.virtual_joints.shape[1]) if s.virtual_joints.shape[1] else np.zeros(
             (len(stamps), 0))
-        expected = np.concatenate([s.q, vj], axis=1)
-        got = _matrix(jc['position'], expected.shape[1])
+        full = np.concatenate([s.q, vj], axis=1)
+        got = _matrix(jc['position'])
         e = self._missing(stamps, _stamp_ns(jc))
-        rows = np.flatnonzero(ok)
-        if rows.size:
-            j = idx[rows]
-            diff = np.max(np.abs(got[j] - expected[rows]), axis=1) if expected.shape[1] else np.zeros(rows.size)
-            names = jc['name']
-            vnames = c['virtual_joint_names']
-            good = np.array([tuple(names[jj]) == ROD_NAMES + tuple(vnames[r]) for jj, r in zip(j, rows, strict=True)])
-            e[rows] = np.where(good, diff, np.inf)
+        names = jc['name']
+        vnames = c['virtual_joint_names']
+        for r in np.flatnonzero(ok):
+            # The physical joints only (rod_1..rod_3, the stream since the virtual joints got their own topic), or
+            # rods + virtual joints (bags recorded before).
+            n, width = tuple(names[idx[r]]), len(ROD_NAMES)
+            if n != ROD_NAMES:
+                width = full.shape[1] if n == ROD_NAMES + tuple(vnames[r]) else -1
+            row = got[idx[r]]
+            e[r] = (np.max(np.abs(row[:width] - full[r, :width]), initial=0.0)
+                    if width >= 0 and np.count_nonzero(~np.isnan(row)) == width else np.inf)
         self.checks.append(_check('topic.joint_states', name, e, tol.consistency, 'm|rad', samples,
-                                  'inf = missing, or names not rod_1..rod_3 + the virtual joints'))
+                                  'inf = missing, or names not rod_1..rod_3 (+ the virtual joints)'))
         self._extra('topic.joint_states', name, _stamp_ns(jc), stamps, ok)
 
     @staticmethod
