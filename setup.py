@@ -15,6 +15,9 @@ setup(
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
         ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
         ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
+        ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py') + glob('launch/*.launch.xml')),
+        ('share/' + PACKAGE + '/rviz', glob('rviz/*.rviz')),
+        ('share/' + PACKAGE + '/urdf', glob('urdf/*.urdf')),
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
     zip_safe=True,
@@ -31,6 +34,7 @@ setup(
             'trajectory_node = gpr_kinematics.nodes.trajectory_node:main',
             'recorder_node = gpr_kinematics.nodes.recorder_node:main',
             'replay_node = gpr_kinematics.nodes.replay_node:main',
+            'state_publisher_node = gpr_kinematics.nodes.state_publisher_node:main',
         ],
     },
 )

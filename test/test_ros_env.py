@@ -41,7 +41,9 @@ def test_environment_like_setup_bash(tmp_path):
     inst = ros_env.install_dir()
     env = ros_env.ros_environment(base={'PATH': '/usr/bin', 'LD_LIBRARY_PATH': '/opt/x'})
     prefixes = env['AMENT_PREFIX_PATH'].split(os.pathsep)
-    assert prefixes[:3] == [str(inst / 'gpr_kinematics'), str(inst / 'gpr_interfaces'), sys.prefix]
+    built = ros_env.built_packages()
+    assert built[-2:] == ('gpr_interfaces', 'gpr_kinematics')
+    assert prefixes[:len(built) + 1] == [str(inst / p) for p in reversed(built)] + [sys.prefix]
     assert env['LD_LIBRARY_PATH'].split(os.pathsep)[0] == str(inst / 'gpr_kinematics' / 'lib')
     assert env['LD_LIBRARY_PATH'].endswith('/opt/x')
     assert str(inst / 'gpr_interfaces' / 'lib') in env['LD_LIBRARY_PATH']
@@ -64,3 +66,21 @@ def test_cli_usage_errors():
         out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros_env', *args], capture_output=True,
                              text=True, timeout=60)
         assert out.returncode == 2 and 'usage' in out.stderr
+
+
+def test_fallback_tf2_msgs_only_where_none_is_installed(tmp_path):
+    """colcon builds fallback/tf2_msgs only when no other ament prefix has tf2_msgs (a full ROS install has)."""
+    root = ros_env.repo_root()
+    bare = {'AMENT_PREFIX_PATH': str(tmp_path / 'empty')}
+    assert ros_env.installed_elsewhere('tf2_msgs', bare) is False       # the PyPI wheels have none
+    assert ros_env.colcon_base_paths(root, bare) == ['.', 'gpr_interfaces', 'fallback/tf2_msgs']
+    ros = tmp_path / 'opt_ros'
+    index = ros / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    index.mkdir(parents=True)
+    (index / 'tf2_msgs').write_text('')
+    full = {'AMENT_PREFIX_PATH': str(ros)}
+    assert ros_env.installed_elsewhere('tf2_msgs', full) is True
+    assert ros_env.colcon_base_paths(root, full) == ['.', 'gpr_interfaces']
+    # The repository's own install tree does not count as an installed tf2_msgs.
+    own = {'AMENT_PREFIX_PATH': str(ros_env.install_dir() / 'tf2_msgs')}
+    assert ros_env.installed_elsewhere('tf2_msgs', own) is False
