@@ -87,12 +87,13 @@ def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
                      [-sp, cp * sr, cp * cr]])
 
 
-def axis_angle_matrix(axis: Sequence[float], angle: float) -> np.ndarray:
+def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
     """Rotation by ``angle`` [rad] about the unit ``axis`` (Rodrigues)."""
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+    out: np.ndarray = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+    return out
 
 
 @dataclass(frozen=True)

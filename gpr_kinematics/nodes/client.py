@@ -32,7 +32,7 @@ from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, I
 
 from ..errors import GprError
 from ..geometry import quaternion_from_matrix, tilt_rotation
-from .conversions import pose_msg
+from .conversions import Vector, pose_msg
 from .qos import latched_qos, stream_qos
 
 
@@ -55,7 +55,7 @@ class GprClient:
     def __init__(self, name: str = 'gpr_client', *, namespace: str = '', executor: str = 'single',
                  args: Sequence[str] | None = None) -> None:
         self.context = rclpy.Context()
-        rclpy.init(args=args, context=self.context)
+        rclpy.init(args=None if args is None else list(args), context=self.context)
         self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
         self.executor: Executor
         if executor == 'events':
@@ -95,7 +95,7 @@ class GprClient:
             self.lost += 1
         raise ServiceTimeoutError(f'no answer from {name} in {tries} tries of {timeout} s')
 
-    def forward_kinematics(self, q: Sequence[float], model: str = '') -> Any:
+    def forward_kinematics(self, q: Vector, model: str = '') -> Any:
         """``gpr/forward_kinematics``: rod lengths ``q`` [m] -> ForwardKinematics.Response."""
         req = ForwardKinematics.Request(q=[float(v) for v in q], model=model)
         return self.call(ForwardKinematics, 'gpr/forward_kinematics', req)
@@ -106,14 +106,14 @@ class GprClient:
         req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=model)
         return self.call(InverseKinematics, 'gpr/inverse_kinematics', req)
 
-    def compensate(self, position: Sequence[float], quaternion: Sequence[float],
-                   tool_offset: Sequence[float] = (0.0, 0.0, 0.0), model: str = '') -> Any:
+    def compensate(self, position: Vector, quaternion: Vector, tool_offset: Vector = (0.0, 0.0, 0.0),
+                   model: str = '') -> Any:
         """``gpr/compensate``: naive command pose and tool offset (platform frame) [m] -> the response."""
         req = Compensate.Request(command=pose_msg(position, quaternion), model=model)
         req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = (float(v) for v in tool_offset)
         return self.call(Compensate, 'gpr/compensate', req)
 
-    def analyze_mobility(self, q: Sequence[float], dq: Sequence[float] = (0.0, 0.0, 0.0), model: str = '') -> Any:
+    def analyze_mobility(self, q: Vector, dq: Vector = (0.0, 0.0, 0.0), model: str = '') -> Any:
         """``gpr/analyze_mobility``: ranks, singular values and bounds at ``q``, ``|dX|`` for ``dq`` [m]."""
         req = AnalyzeMobility.Request(q=[float(v) for v in q], dq=[float(v) for v in dq], model=model)
         return self.call(AnalyzeMobility, 'gpr/analyze_mobility', req)

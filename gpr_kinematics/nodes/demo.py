@@ -69,10 +69,10 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
             failures.append(f'{name}: {res.message}')
         return res
 
-    def fmt(v, scale=1.0, digits=6):
+    def fmt(v: Any, scale: float = 1.0, digits: int = 6) -> str:
         return '(' + ', '.join(f'{scale * x:.{digits}f}' for x in v) + ')'
 
-    def xyz(p):
+    def xyz(p: Any) -> list[float]:
         return [p.x, p.y, p.z]
 
     try:
@@ -102,9 +102,9 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
 
         print('\n== gpr/analyze_mobility: singular q = (0.5, 0.5, 0.5) m and tilted q = (0.5, 0.498, 0.502) m',
               flush=True)
-        for q in ((0.5, 0.5, 0.5), (0.5, 0.498, 0.502)):
-            r = check('gpr/analyze_mobility', client.analyze_mobility(q, (0.0, 1e-4, -1e-4)))
-            print(f'   q {q}: success {r.success}, rank dPhi/dP {r.rank_dphi_dp}, rank [dPhi/dP dPhi/dX] '
+        for q_rods in ((0.5, 0.5, 0.5), (0.5, 0.498, 0.502)):
+            r = check('gpr/analyze_mobility', client.analyze_mobility(q_rods, (0.0, 1e-4, -1e-4)))
+            print(f'   q {q_rods}: success {r.success}, rank dPhi/dP {r.rank_dphi_dp}, rank [dPhi/dP dPhi/dX] '
                   f'{r.rank_augmented}, singular values {fmt(r.singular_values, 1.0, 4)}\n'
                   f'      bounds (4) [{r.eq4_lower:.4f}, {r.eq4_upper:.4f}], (5) [{r.eq5_lower:.4f}, '
                   f'{r.eq5_upper:.4f}]; for dq = (0, 0.1, -0.1) mm: |dX| = {r.dx_norm:.3e} in '

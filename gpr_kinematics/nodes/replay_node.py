@@ -24,7 +24,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from rclpy.duration import Duration
 from rclpy.executors import Executor
 
 from ..bags.errors import BagError
@@ -32,7 +31,7 @@ from ..bags.reader import read_bag
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
 from .recorder_node import message_class
-from .runtime import GprNode, StopFlag, run
+from .runtime import GprNode, StopFlag, run, wait_acknowledged
 from .specs import node_specs
 
 NODE_NAME = 'replay_node'
@@ -110,11 +109,7 @@ class ReplayNode(GprNode):
 
     def on_exit(self, executor: Executor, status: int) -> int:
         """Wait for the reliable subscribers' acknowledgements (at most 5 s per topic) and log the counts."""
-        for pub in self.pubs.values():
-            try:
-                pub.wait_for_all_acked(Duration(seconds=5.0))
-            except Exception:  # noqa: BLE001 - best effort on the way out
-                pass
+        wait_acknowledged(self.pubs.values(), 5.0)
         self.get_logger().info('finished: published ' + ', '.join(f'{t} {n}' for t, n in self.published.items()))
         return status
 

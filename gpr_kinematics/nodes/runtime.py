@@ -21,13 +21,15 @@ import os
 import re
 import signal
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 import rclpy
+from rclpy.duration import Duration
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import GprError
@@ -42,10 +44,8 @@ SPIN_TIMEOUT = 0.05
 #: Longest error text put on the one error line (a user's value is never printed whole).
 MAX_MESSAGE = 600
 
-try:  # rclpy's C extension raises RCLError for malformed --ros-args and params files
-    from rclpy._rclpy_pybind11 import RCLError
-except ImportError:  # pragma: no cover - every Jazzy rclpy has it
-    RCLError = RuntimeError  # type: ignore[misc,assignment]
+# rclpy's C extension raises RCLError for malformed --ros-args and params files.
+from rclpy._rclpy_pybind11 import RCLError  # noqa: E402 - grouped with its explanation
 
 #: What a bad command line, parameter or input file raises while a node is built.
 START_ERRORS: tuple[type[BaseException], ...] = (GprError, ParameterException, NameValidationException, RCLError)
@@ -93,6 +93,14 @@ class GprNode(Node):
         return status
 
 
+def wait_acknowledged(publishers: Iterable[Publisher], seconds: float) -> None:
+    """Wait until every reliable subscription acknowledged what each publisher sent (at most ``seconds`` per
+    publisher; best effort on the way out: an error is ignored)."""
+    for pub in publishers:
+        with contextlib.suppress(Exception):
+            pub.wait_for_all_acked(Duration(seconds=seconds))
+
+
 def one_line(exc: BaseException) -> str:
     """The text of an error on one line, without rcl's source locations, at most :data:`MAX_MESSAGE` characters."""
     text = str(exc) or type(exc).__name__
@@ -128,12 +136,11 @@ def _stderr_held() -> Iterator[None]:
 
 def run(node_class: Callable[[], GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
     """Init rclpy (signals: :class:`StopFlag`), build the node, spin it, leave; return the exit status."""
-    name = name or getattr(node_class, 'NODE_NAME', 'gpr_node')
-    logger = rclpy.logging.get_logger(name)
+    logger = rclpy.logging.get_logger(name or str(getattr(node_class, 'NODE_NAME', 'gpr_node')))
     stop = StopFlag()
     try:
         with _stderr_held():
-            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+            rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
     except RCLError as exc:
         logger.error(f'cannot start: malformed ROS arguments: {one_line(exc)}')
         return EXIT_BAD_CONFIG

@@ -77,7 +77,7 @@ class ParamSpec:
 
 def _num(x: float) -> str:
     """A number as YAML 1.1 and the ``ros2`` CLI read it back as a float (``1.0e-14``, never ``1e-14``)."""
-    if isinstance(x, bool) or isinstance(x, int):
+    if isinstance(x, (bool, int)):
         return str(x)
     text = repr(float(x))
     mantissa, e, exponent = text.partition('e')
@@ -167,10 +167,10 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
             default = [float(v) for v in values[name]] if kind == _DA else values[name]
             out.append(ParamSpec(name, kind, default, text, limits, choices, constraint, ro or read_only))
     for name, value in values.items():
-        kind = _inferred_kind(value)
-        if name not in known and kind is not None:
-            default = [float(v) for v in value] if kind == _DA else value
-            out.append(ParamSpec(name, kind, default, f'geometry configuration key {name} (see config/gpr.yaml)',
+        inferred = _inferred_kind(value)
+        if name not in known and inferred is not None:
+            default = [float(v) for v in value] if inferred == _DA else value
+            out.append(ParamSpec(name, inferred, default, f'geometry configuration key {name} (see config/gpr.yaml)',
                                  read_only=True))
     return tuple(out)
 
@@ -293,9 +293,8 @@ def node_specs(node: str, cfg: GprConfig | None = None) -> tuple[ParamSpec, ...]
     if node not in NODES:
         raise ConfigError(f'unknown node {node!r}; allowed: ' + ', '.join(NODES))
     with_config, table = NODES[node]
-    own = {'': (), 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'replay': REPLAY}.get(table)
-    if own is None:
-        own = _recorder_table()
+    own = _recorder_table() if table == 'recorder' else \
+        {'': (), 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'replay': REPLAY}[table]
     if not with_config:
         return tuple(own)
     return (CONFIG_FILE, *config_specs(cfg, read_only=node != 'kinematics_node'), *own)

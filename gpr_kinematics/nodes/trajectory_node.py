@@ -38,7 +38,6 @@ import yaml
 from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
-from rclpy.duration import Duration
 from rclpy.executors import Executor
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
@@ -58,7 +57,7 @@ from .markers import platform_markers, rod_feet
 from .params import ConfigParameters, declare_parameters
 from .program import Program, load_program, parse_program, sample_program
 from .qos import latched_qos, stream_qos
-from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run
+from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowledged
 from .specs import TRAJECTORY
 
 NODE_NAME = 'trajectory_node'
@@ -320,11 +319,8 @@ class TrajectoryNode(GprNode):
     def on_exit(self, executor: Executor, status: int) -> int:
         """After the last sample, wait until every subscription acknowledged what was published (reliable QoS,
         at most 2 s each); a stop signal leaves at once."""
-        for pub in () if self.signalled else self.publishers_all:
-            try:
-                pub.wait_for_all_acked(Duration(seconds=2.0))
-            except Exception:  # noqa: BLE001 - best effort on the way out
-                pass
+        if not self.signalled:
+            wait_acknowledged(self.publishers_all, 2.0)
         self.action.destroy()
         return status
 
