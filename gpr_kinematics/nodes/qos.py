@@ -9,6 +9,7 @@ so the recorder and the replay pick the durability per topic (:data:`LATCHED`).
 """
 from __future__ import annotations
 
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import NameValidationException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -40,7 +41,7 @@ def valid_topic_name(node: Node, name: str, parameter: str) -> str:
         raise ConfigError(f'{parameter}: an empty topic name is invalid; allowed: {allowed}')
     try:
         return node.resolve_topic_name(name)
-    except NameValidationException as exc:
-        text = ' '.join(str(exc).split())
+    except (NameValidationException, RCLError) as exc:
+        text = ' '.join(str(exc).split()).replace('failed to resolve name: ', '')
         raise ConfigError(f'{parameter}: {name[:200]!r} is not a valid topic name ({text[:200]}); '
                           f'allowed: {allowed}') from None

@@ -29,6 +29,7 @@ type is unknown or a parameter is invalid. An error while recording (a full disk
 from __future__ import annotations
 
 import importlib
+import sqlite3
 import sys
 import time
 from collections.abc import Sequence
@@ -38,16 +39,19 @@ from typing import Any
 
 from rclpy.executors import Executor
 from rclpy.qos import QoSProfile
+from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
 from ..bags.typestore import GPR_TOPICS, check_known, normalize_type
 from ..bags.writer import SegmentedBagWriter, check_output_path
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
-from .runtime import EXIT_OK, GprNode, run
+from .runtime import EXIT_OK, GprNode, one_line, run
 from .specs import node_specs
 
 NODE_NAME = 'recorder_node'
+#: What writing a segment raises when the disk is full or a file size limit is reached.
+WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterError, BagError)
 #: Longest drain after a stop request [s], and the quiet time that ends it earlier [s].
 DRAIN_LIMIT, DRAIN_QUIET = 5.0, 0.2
 
@@ -92,7 +96,7 @@ class RecorderNode(GprNode):
             self.subs = [self.create_subscription(classes[t], t, self._callback(t), self._qos(t), raw=True)
                          for t in order]
             if p['flush_interval'] > 0:
-                self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self.writer.poll)
+                self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self._poll)
         except BaseException:
             self.writer.abort(remove=True)
             raise
@@ -143,17 +147,34 @@ class RecorderNode(GprNode):
 
         def cb(data: bytes) -> None:
             received[topic] += 1
-            writer.write(topic, time.time_ns(), data)
+            try:
+                writer.write(topic, time.time_ns(), data)
+            except WRITE_ERRORS as exc:
+                raise self._write_failed(exc) from None
             self.last_message = time.monotonic()
 
         return cb
+
+    def _poll(self) -> None:
+        try:
+            self.writer.poll()
+        except WRITE_ERRORS as exc:
+            raise self._write_failed(exc) from None
+
+    def _write_failed(self, exc: BaseException) -> BagError:
+        return BagError(f'cannot write the bag {self.writer.path} ({type(exc).__name__}: {one_line(exc)}): is the '
+                        'disk full, or a file size limit reached?')
 
     def on_exit(self, executor: Executor, status: int) -> int:
         """Drain what DDS already delivered (until :data:`DRAIN_QUIET` s without a message, at most
         :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error (status 1) the bag
         keeps the segments closed before it."""
         if status != EXIT_OK:
-            self.writer.abort(remove=self.writer.closed_message_count == 0)
+            kept = self.writer.closed_message_count
+            self.writer.abort(remove=kept == 0)
+            self.get_logger().info(f'{self.writer.path}: kept the {kept} messages of the {len(self.writer.files)} '
+                                   'segment(s) closed before the error' if kept else
+                                   f'{self.writer.path}: no segment was closed before the error; removed')
             return status
         end = time.monotonic() + DRAIN_LIMIT
         while time.monotonic() < end and time.monotonic() - self.last_message < DRAIN_QUIET:
