@@ -76,16 +76,16 @@ class ConfigParameters:
     def __init__(self, node: Node, read_only: bool = False) -> None:
         self._node = node
         config_file = declare_parameters(node, (CONFIG_FILE,))['config_file']
-        base = load_config(config_file or None)
-        self._specs = {s.name: s for s in config_specs(base, read_only)}
+        self._base = load_config(config_file or None)
+        self._specs = {s.name: s for s in config_specs(self._base, read_only)}
         self._values = declare_parameters(node, tuple(self._specs.values()))
         self.config = self._build(self._values)
         node.add_on_set_parameters_callback(self._validate)
         node.add_post_set_parameters_callback(self._apply)
 
-    @staticmethod
-    def _build(values: dict[str, Any]) -> GprConfig:
-        return GprConfig.from_mapping(config_mapping(values), source='ROS parameters')
+    def _build(self, values: dict[str, Any]) -> GprConfig:
+        """The configuration file's values with the parameters' on top (validated as a whole)."""
+        return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
 
     def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:
         return {p.name: p.value for p in params if p.name in self._specs}

@@ -25,10 +25,12 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 import rclpy
+from rcl_interfaces.msg import ParameterType
 from rclpy.duration import Duration
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
@@ -66,9 +68,31 @@ class StopFlag:
         return bool(self.signals)
 
 
+#: A decimal number as text (what ``ros2 param set x 1e-13`` and ``ros2 param load`` of a dump send as a string).
+_NUMBER = re.compile(r'\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*')
+
+
+def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
+    """Pre-set stage: a string that is a decimal number, set on a double parameter, becomes that double.
+
+    YAML 1.1 (PyYAML, which the ``ros2`` CLI and rclpy's params-file loader use) reads ``1e-13`` as a string: so
+    ``ros2 param set /kinematics_node tolerance 1e-13`` sends a string, and ``ros2 param load`` of a node's own
+    ``ros2 param dump`` re-reads ``tolerance: 1.0e-14`` through ``str(1e-14) = '1e-14'`` as a string; rclpy would
+    refuse both (wrong type). Other strings pass unchanged and meet the type check.
+    """
+    out = []
+    for p in params:
+        if (p.type_ == Parameter.Type.STRING and node.has_parameter(p.name) and _NUMBER.fullmatch(p.value)
+                and node.describe_parameter(p.name).type == ParameterType.PARAMETER_DOUBLE):
+            p = Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+        out.append(p)
+    return out
+
+
 class GprNode(Node):
     """A node run by :func:`run`: :meth:`finish` ends the run with a status; :meth:`spin` and :meth:`on_exit`
-    are the hooks a node overrides (the default spins callbacks until finished or stopped)."""
+    are the hooks a node overrides (the default spins callbacks until finished or stopped). Double parameters
+    accept decimal numbers sent as strings (:func:`numbers_from_text`)."""
 
     NODE_NAME = 'gpr_node'
 
@@ -77,6 +101,7 @@ class GprNode(Node):
         self.exit_status: int | None = None
         #: True once SIGINT/SIGTERM stopped the run (set before :meth:`on_exit`).
         self.signalled = False
+        self.add_pre_set_parameters_callback(lambda params: numbers_from_text(self, params))
 
     def finish(self, status: int = EXIT_OK) -> None:
         """End the run loop with ``status`` (the first call wins)."""

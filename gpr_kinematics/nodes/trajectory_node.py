@@ -61,6 +61,8 @@ from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowle
 from .specs import TRAJECTORY
 
 NODE_NAME = 'trajectory_node'
+#: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
+SETTLE = 0.1
 #: The topics of one sample (published together, in this order) and their message types.
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
                                  'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
@@ -165,6 +167,7 @@ class TrajectoryNode(GprNode):
         self.index = 0
         self.started_at: float | None = None
         self._wait_start = time.monotonic()
+        self._ready_since: float | None = None
         self.period = 1.0 / float(p['rate'])
         self.timer = self.create_timer(self.period, self._tick)
         self.timer.cancel()
@@ -192,15 +195,27 @@ class TrajectoryNode(GprNode):
         self.index = 0
         self.started_at = None
         self._wait_start = time.monotonic()
+        self._ready_since = None
         self.timer.reset()
+
+    def subscribed_nodes(self) -> int:
+        """How many nodes subscribe to every stream topic (``wait_all_topics``) or to ``gpr/platform_state``, and
+        are matched: nodes, not subscriptions, so a node that listens to one topic only (a state publisher on
+        ``gpr/platform_state``, RViz on ``gpr/markers``) does not count as a recorder of the stream."""
+        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
+        nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
+                                    self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
+        return min(len(nodes), *(pub.get_subscription_count() for pub in pubs))
 
     def _ready(self) -> bool:
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return True
-        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
-        if min(pub.get_subscription_count() for pub in pubs) >= want:
-            return True
+        if self.subscribed_nodes() >= want:
+            # Discovery announces a subscription a moment before every publisher has matched it: settle briefly.
+            self._ready_since = self._ready_since or time.monotonic()
+            return time.monotonic() - self._ready_since >= SETTLE
+        self._ready_since = None
         if time.monotonic() - self._wait_start > float(self.p['wait_timeout']):
             where = 'every stream topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
             self.get_logger().warning(f'no {want} subscriber(s) on {where} after {self.p["wait_timeout"]} s; '
