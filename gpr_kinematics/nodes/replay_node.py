@@ -32,7 +32,7 @@ from ..bags.reader import read_bag
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
 from .recorder_node import message_class
-from .runtime import GprNode, StopFlag, run, wait_acknowledged
+from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 from .specs import node_specs
 
 NODE_NAME = 'replay_node'
@@ -85,7 +85,16 @@ class ReplayNode(GprNode):
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
 
-    def wait_for_subscribers(self, stop: StopFlag) -> None:
+    @staticmethod
+    def _wait(executor: Executor, stop: StopFlag, due: float) -> None:
+        """Serve callbacks (the parameter services) until ``due`` (monotonic time) or a stop signal."""
+        while not stop:
+            delay = due - time.monotonic()
+            if delay <= 0:
+                return
+            executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT))
+
+    def wait_for_subscribers(self, executor: Executor, stop: StopFlag) -> None:
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return
@@ -93,14 +102,14 @@ class ReplayNode(GprNode):
         while not stop and time.monotonic() < deadline:
             if all(pub.get_subscription_count() >= want for pub in self.pubs.values()):
                 return
-            time.sleep(0.02)
+            self._wait(executor, stop, time.monotonic() + 0.02)
         if not stop:
             self.get_logger().warning(f'not every topic has {want} subscriber(s) after {self.p["wait_timeout"]} s; '
                                       'starting anyway')
 
     def spin(self, executor: Executor, stop: StopFlag) -> None:
         """Publish the stream (again and again with ``loop``) until it ends or a stop signal arrives."""
-        self.wait_for_subscribers(stop)
+        self.wait_for_subscribers(executor, stop)
         rate = float(self.p['rate'])
         if not stop:
             self.get_logger().info('started: publishing')
@@ -108,10 +117,7 @@ class ReplayNode(GprNode):
             t0 = time.monotonic()
             first = int(self.times[0])
             for (pub, raw), t in zip(self.stream, self.times.tolist(), strict=True):
-                due = t0 + (t - first) * 1e-9 / rate
-                delay = due - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
+                self._wait(executor, stop, t0 + (t - first) * 1e-9 / rate)
                 if stop:
                     return
                 pub.publish(raw)
