@@ -108,3 +108,15 @@ def test_invalid_models_refused():
         RobotModel('r', 'a', (Link('a'), Link('b')), ())
     with pytest.raises(InputError, match='invalid'):
         RobotModel('r', 'a', (Link('a'), Link('b')), (Joint('j', 'ball', 'a', 'b'),))
+
+
+def test_robot_figure_draws_the_true_shift(tmp_path):
+    """The picture of docs/ros.md: a PNG; the shift it labels is forward kinematics' centre shift."""
+    from gpr_kinematics.kinematics import forward, inverse
+    from gpr_kinematics.robot_plot import robot_figure
+
+    q = inverse(0.4, math.radians(2.0), math.radians(30.0), CFG).q
+    fig = robot_figure(CFG, q, tmp_path / 'robot.png', exaggeration=1500.0)
+    assert (tmp_path / 'robot.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    np.testing.assert_array_equal(fig.centre_shift, forward(q, CFG).centre_shift)
+    assert 20e-6 < np.linalg.norm(fig.centre_shift) < 40e-6 and fig.exaggeration == 1500.0
