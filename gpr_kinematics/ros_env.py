@@ -17,9 +17,9 @@ tests, ``make demo`` and the benchmarks can start the nodes without a shell ``so
 message package the nodes need that is installed nowhere in the ament prefixes (:data:`FALLBACK_PACKAGES`:
 ``tf2_msgs``, which the PyPI wheels lack); a full ROS 2 install has it, and then its own is used.
 
-``fix-wheels``: the wheels were built under ``/opt/python/cp311-cp311`` and their exported CMake files
-name that interpreter's include directory and numpy include directory; building a custom interface
-package against them fails until these paths point at the local interpreter's (idempotent rewrite).
+``fix-wheels``: the wheels were built under ``/opt/python/cpXY-cpXY`` (the interpreter's version) and their
+exported CMake files name that interpreter's include directory and numpy include directory; building a custom
+interface package against them fails until these paths point at the local interpreter's (idempotent rewrite).
 This module imports no ROS package itself.
 """
 from __future__ import annotations
@@ -35,7 +35,9 @@ COLCON_PACKAGES: tuple[str, ...] = ('gpr_interfaces', 'gpr_kinematics')
 #: Message packages built from ``fallback/<name>`` only where none is installed, before the packages above.
 FALLBACK_PACKAGES: tuple[str, ...] = ('tf2_msgs',)
 
-_BUILD_HOST_PYTHON = '/opt/python/cp311-cp311'
+#: Where the wheels of this interpreter's version were built (named in their exported CMake files).
+_BUILD_HOST_PYTHON = f'/opt/python/cp{sys.version_info.major}{sys.version_info.minor}' \
+    f'-cp{sys.version_info.major}{sys.version_info.minor}'
 
 
 def repo_root() -> Path:

@@ -12,13 +12,17 @@ import pytest
 
 from gpr_kinematics import ros_env
 
+#: The wheels of this interpreter were built under /opt/python/<CP>-<CP> (e.g. cp311-cp311).
+CP = f'cp{sys.version_info.major}{sys.version_info.minor}'
+
 
 def test_fix_wheels_repoints_build_host_paths_idempotently(tmp_path):
     cmake = tmp_path / 'share' / 'std_msgs' / 'cmake'
     cmake.mkdir(parents=True)
     f = cmake / 'export_std_msgs__rosidl_generator_pyExport.cmake'
-    f.write_text('INTERFACE_INCLUDE_DIRECTORIES "/opt/python/cp311-cp311/include/python3.11;'
-                 '/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include"\n')
+    host, py = f'/opt/python/{CP}-{CP}', f'python{sys.version_info.major}.{sys.version_info.minor}'
+    f.write_text(f'INTERFACE_INCLUDE_DIRECTORIES "{host}/include/{py};'
+                 f'{host}/lib/{py}/site-packages/numpy/_core/include"\n')
     untouched = cmake / 'other.cmake'
     untouched.write_text('set(X 1)\n')
     assert ros_env.fix_wheels(tmp_path) == 1
@@ -34,7 +38,7 @@ def test_installed_wheels_are_repaired():
     share = Path(sys.prefix) / 'share'
     files = list(share.glob('*/cmake/*.cmake'))
     assert len(files) > 50
-    assert not [p for p in files if '/opt/python/cp311-cp311' in p.read_text(errors='replace')]
+    assert not [p for p in files if f'/opt/python/{CP}-{CP}' in p.read_text(errors='replace')]
 
 
 def test_environment_like_setup_bash(tmp_path):
