@@ -25,6 +25,7 @@ STOCK_PY := $(STOCK_VENV)/bin/python
 STOCK_STAMP := $(STOCK_VENV)/.setup-stamp
 STOCK_INSTALL := install-stock
 STOCK_COLCON_STAMP := $(STOCK_INSTALL)/.colcon-stamp
+STOCK_DOMAIN := $(if $(GPR_TEST_ROS_DOMAIN_ID),GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(GPR_TEST_ROS_DOMAIN_ID) + 1 \) % 233),)
 # Inputs of the colcon build: a change to any of them rebuilds (colcon itself is incremental).
 COLCON_INPUTS := $(shell find gpr_interfaces fallback config resource launch rviz urdf -type f \
 	-not -path '*/__pycache__/*' -not -name '*.pyc' 2>/dev/null) setup.py setup.cfg package.xml colcon_defaults.yaml
@@ -37,7 +38,7 @@ define COLCON_BUILD
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
-.PHONY: setup setup-stock test test-core test-ros test-stock demo lint clean
+.PHONY: setup setup-stock test test-pinned test-core test-ros test-stock test-stock-run demo lint clean
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
@@ -78,9 +79,13 @@ $(STOCK_COLCON_STAMP): $(STOCK_STAMP) $(COLCON_INPUTS)
 
 setup-stock: $(STOCK_COLCON_STAMP)
 
-test: setup
+# The pinned suite and the stock one run side by side (their nodes mostly wait on DDS and timers), each in its own
+# ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
+test: setup setup-stock
+	$(MAKE) --no-print-directory --output-sync=target -j2 test-pinned test-stock-run
+
+test-pinned:
 	$(PY) -m pytest -q test
-	$(MAKE) test-stock
 
 test-core: $(STAMP)
 	$(PY) -m pytest -q -m 'not ros' test
@@ -90,7 +95,10 @@ test-ros: setup
 
 # Core, CLI, bag and node tests on the stock versions (the lint and type checks ran on the pinned ones).
 test-stock: setup-stock
-	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
+	$(MAKE) --no-print-directory test-stock-run
+
+test-stock-run:
+	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_DOMAIN) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
 		--ignore test/test_lint.py
 
 # The offline-programming loop: the services called once from a client (nodes.demo), then the paper's sweep
