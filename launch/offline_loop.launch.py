@@ -5,13 +5,11 @@ optionally RViz.
     ros2 launch gpr_kinematics offline_loop.launch.py [mode:=program program_file:=...] [bag:=bags/run1]
         [rate:=200.0] [model:=polar] [config_file:=my_gpr.yaml] [namespace:=/robot1] [record:=false] [rviz:=true]
 """
-from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution, PythonExpression
+from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
-from launch_ros.substitutions import FindPackageShare
 
+from gpr_kinematics.nodes.launch_common import arguments, rviz, typed
 from launch import LaunchDescription
 
 ARGUMENTS = (
@@ -29,30 +27,21 @@ ARGUMENTS = (
 
 
 def generate_launch_description() -> LaunchDescription:
-    share = FindPackageShare('gpr_kinematics')
     arg = LaunchConfiguration
-    ns = arg('namespace')
-    params_file = arg('params_file')
-    def text(name: str) -> ParameterValue:
-        return ParameterValue(arg(name), value_type=str)
-
-    geometry = {'config_file': text('config_file'), 'model': text('model')}
+    ns, params_file = arg('namespace'), arg('params_file')
+    geometry = {'config_file': typed('config_file'), 'model': typed('model')}
     return LaunchDescription([
-        DeclareLaunchArgument('params_file', default_value=PathJoinSubstitution([share, 'config', 'gpr_params.yaml']),
-                              description='ROS parameters file (ros__parameters form)'),
-        *(DeclareLaunchArgument(name, default_value=default, description=text) for name, default, text in ARGUMENTS),
+        *arguments(ARGUMENTS),
         Node(package='gpr_kinematics', executable='kinematics_node', namespace=ns, output='screen',
              parameters=[params_file, geometry]),
         Node(package='gpr_kinematics', executable='state_publisher_node', namespace=ns, output='screen',
              parameters=[params_file, geometry]),
         Node(package='gpr_kinematics', executable='recorder_node', namespace=ns, output='screen',
-             condition=IfCondition(arg('record')), parameters=[params_file, {'output': text('bag')}]),
+             condition=IfCondition(arg('record')), parameters=[params_file, {'output': typed('bag')}]),
         Node(package='gpr_kinematics', executable='trajectory_node', namespace=ns, output='screen',
              parameters=[params_file, geometry, {
-                 'mode': text('mode'), 'program_file': text('program_file'),
-                 'rate': ParameterValue(arg('rate'), value_type=float),
+                 'mode': typed('mode'), 'program_file': typed('program_file'), 'rate': typed('rate', float),
                  # With the recorder: wait until it subscribed to every stream topic (at most wait_timeout).
                  'wait_for_subscribers': PythonExpression(["1 if '", arg('record'), "'.lower() == 'true' else 0"])}]),
-        Node(package='rviz2', executable='rviz2', output='screen', condition=IfCondition(arg('rviz')),
-             arguments=['-d', PathJoinSubstitution([share, 'rviz', 'gpr.rviz'])]),
+        rviz(),
     ])

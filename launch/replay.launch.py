@@ -3,13 +3,10 @@ gpr/platform_state into /tf), optionally into RViz.
 
     ros2 launch gpr_kinematics replay.launch.py bag:=bags/run1 [rate:=2.0] [loop:=true] [rviz:=true]
 """
-from launch.actions import DeclareLaunchArgument
-from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
-from launch_ros.substitutions import FindPackageShare
 
+from gpr_kinematics.nodes.launch_common import arguments, rviz, typed
 from launch import LaunchDescription
 
 ARGUMENTS = (
@@ -23,20 +20,13 @@ ARGUMENTS = (
 
 
 def generate_launch_description() -> LaunchDescription:
-    share = FindPackageShare('gpr_kinematics')
-    arg = LaunchConfiguration
-    ns = arg('namespace')
-    params_file = arg('params_file')
+    ns, params_file = LaunchConfiguration('namespace'), LaunchConfiguration('params_file')
     return LaunchDescription([
-        DeclareLaunchArgument('params_file', default_value=PathJoinSubstitution([share, 'config', 'gpr_params.yaml']),
-                              description='ROS parameters file (ros__parameters form)'),
-        *(DeclareLaunchArgument(name, default_value=default, description=text) for name, default, text in ARGUMENTS),
+        *arguments(ARGUMENTS),
         Node(package='gpr_kinematics', executable='state_publisher_node', namespace=ns, output='screen',
-             parameters=[params_file, {'config_file': ParameterValue(arg('config_file'), value_type=str)}]),
+             parameters=[params_file, {'config_file': typed('config_file')}]),
         Node(package='gpr_kinematics', executable='replay_node', namespace=ns, output='screen',
-             parameters=[params_file, {'bag': ParameterValue(arg('bag'), value_type=str),
-                                       'rate': ParameterValue(arg('rate'), value_type=float),
-                                       'loop': ParameterValue(arg('loop'), value_type=bool)}]),
-        Node(package='rviz2', executable='rviz2', output='screen', condition=IfCondition(arg('rviz')),
-             arguments=['-d', PathJoinSubstitution([share, 'rviz', 'gpr.rviz'])]),
+             parameters=[params_file, {'bag': typed('bag'), 'rate': typed('rate', float),
+                                       'loop': typed('loop', bool)}]),
+        rviz(),
     ])

@@ -17,7 +17,8 @@ ROSDEP = {
     'mcap_ros2': 'mcap-ros2-support',
 }
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
-                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python'}
+                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python', 'launch',
+                'launch_ros'}
 
 
 def imported_modules() -> dict[str, set[str]]:
