@@ -63,6 +63,8 @@ from .specs import TRAJECTORY
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
 SETTLE = 0.1
+#: Most samples one timer tick publishes to make up for ticks the process could not serve in time.
+CATCH_UP = 5
 #: The topics of one sample (published together, in this order) and their message types.
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
                                  'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
@@ -165,6 +167,7 @@ class TrajectoryNode(GprNode):
         self._goal_done: Future | None = None
         self._reserved = False
         self.index = 0
+        self.sent = 0
         self.started_at: float | None = None
         self._wait_start = time.monotonic()
         self._ready_since: float | None = None
@@ -224,20 +227,31 @@ class TrajectoryNode(GprNode):
         return False
 
     def _tick(self) -> None:
-        traj = self.stream
-        if traj is None:
+        """Publish every sample due by now: sample k of a stream at ``start + k / rate``. A tick the process could
+        not serve in time (the machine is busy) is made up at the next one, at most :data:`CATCH_UP` samples at
+        once, so the stream keeps its rate on average instead of losing the ticks."""
+        if self.stream is None:
             self.timer.cancel()
             return
+        if self.started_at is None:
+            if self.goal is None or not self.goal.is_cancel_requested:
+                if not self._ready():
+                    return
+                self.started_at = time.monotonic()
+                self.sent = 0
+                self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
+                                       f'({"goal" if self.goal else self.p["mode"]}'
+                                       f'{", looping" if self.p["loop"] and not self.goal else ""})')
+        due = int((time.monotonic() - (self.started_at or time.monotonic())) / self.period) + 1
+        for _ in range(max(1, min(due - self.sent, CATCH_UP))):
+            if self.stream is None or not self._step(self.stream):
+                return
+
+    def _step(self, traj: Trajectory) -> bool:
+        """Publish sample ``index`` of ``traj`` (and its feedback); False once the stream ended."""
         if self.goal is not None and self.goal.is_cancel_requested:
             self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({self._where(traj)})')
-            return
-        if self.started_at is None:
-            if not self._ready():
-                return
-            self.started_at = time.monotonic()
-            self.get_logger().info(f'started: publishing {len(traj)} samples at {self.p["rate"]} Hz '
-                                   f'({"goal" if self.goal else self.p["mode"]}'
-                                   f'{", looping" if self.p["loop"] and not self.goal else ""})')
+            return False
         try:
             self.publish_sample(traj, self.index)
         except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback
@@ -245,18 +259,21 @@ class TrajectoryNode(GprNode):
                 self._end('stopped', 'the node is shutting down')  # SIGINT/SIGTERM while publishing
             else:
                 self._end('failed', f'publishing sample {self.sample} failed: {type(exc).__name__}: {one_line(exc)}')
-            return
+            return False
         if self.goal is not None:
             self.goal.publish_feedback(RunProgram.Feedback(
                 sample_index=self.index, sample=self.sample, station=traj.station[self.index],
                 station_name=self._station_name(traj, self.index)))
         self.index += 1
         self.sample += 1
+        self.sent += 1
         if self.index >= len(traj):
             if self.p['loop'] and self.goal is None:
                 self.index = 0
             else:
                 self._end('succeeded', f'published all {len(traj)} samples')
+                return False
+        return True
 
     @staticmethod
     def _station_name(traj: Trajectory, i: int) -> str:
