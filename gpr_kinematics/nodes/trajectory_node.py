@@ -233,15 +233,15 @@ class TrajectoryNode(GprNode):
         if self.stream is None:
             self.timer.cancel()
             return
-        if self.started_at is None:
-            if self.goal is None or not self.goal.is_cancel_requested:
-                if not self._ready():
-                    return
-                self.started_at = time.monotonic()
-                self.sent = 0
-                self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
-                                       f'({"goal" if self.goal else self.p["mode"]}'
-                                       f'{", looping" if self.p["loop"] and not self.goal else ""})')
+        cancelled = self.goal is not None and self.goal.is_cancel_requested   # then _step ends it at once
+        if self.started_at is None and not cancelled:
+            if not self._ready():
+                return
+            self.started_at = time.monotonic()
+            self.sent = 0
+            self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
+                                   f'({"goal" if self.goal else self.p["mode"]}'
+                                   f'{", looping" if self.p["loop"] and not self.goal else ""})')
         due = int((time.monotonic() - (self.started_at or time.monotonic())) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, CATCH_UP))):
             if self.stream is None or not self._step(self.stream):
