@@ -17,6 +17,9 @@ setup(
         ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
         ('share/' + PACKAGE + '/config/calibration', glob('config/calibration/*')),
         ('share/' + PACKAGE + '/config/robots', glob('config/robots/*.yaml')),
+        ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py') + glob('launch/*.launch.xml')),
+        ('share/' + PACKAGE + '/rviz', glob('rviz/*.rviz')),
+        ('share/' + PACKAGE + '/urdf', glob('urdf/*.urdf')),
     ],
     # The core and its CLI (fk, ik, compensate, mobility, sweep, mechanism, accuracy, workspace) need only these.
     install_requires=['setuptools', 'numpy', 'scipy', 'pyyaml'],
@@ -44,6 +47,7 @@ setup(
             'trajectory_node = gpr_kinematics.nodes.trajectory_node:main',
             'recorder_node = gpr_kinematics.nodes.recorder_node:main',
             'replay_node = gpr_kinematics.nodes.replay_node:main',
+            'state_publisher_node = gpr_kinematics.nodes.state_publisher_node:main',
         ],
     },
 )

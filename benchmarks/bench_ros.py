@@ -23,22 +23,20 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gpr_kinematics import ros_env  # noqa: E402
+from gpr_kinematics import ros_env  # noqa: E402 - after the path
 
 os.environ.setdefault('ROS_DOMAIN_ID', str(5 + os.getpid() % 5))  # tests use 10..99
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 ros_env.activate()
 
-import numpy as np  # noqa: E402
-import rclpy  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.experimental import EventsExecutor  # noqa: E402
-from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+import numpy as np  # noqa: E402 - after the ROS environment
 from std_srvs.srv import Trigger  # noqa: E402
 
 from gpr_interfaces.msg import PlatformState  # noqa: E402
-from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics  # noqa: E402
 from gpr_kinematics.kinematics import forward  # noqa: E402
+from gpr_kinematics.nodes.client import GprClient  # noqa: E402
+from gpr_kinematics.nodes.process import NodeProcess  # noqa: E402
+from gpr_kinematics.nodes.qos import stream_qos  # noqa: E402
 
 NULL_SERVER = '''
 import rclpy, sys
@@ -63,8 +61,9 @@ rclpy.try_shutdown()
 Q = [0.5, 0.498, 0.502]
 
 
-def _start(args: list[str]) -> subprocess.Popen:
-    return subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+def _null_server() -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, '-c', NULL_SERVER], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
 
 
 def _stop(proc: subprocess.Popen) -> None:
@@ -76,83 +75,49 @@ def _stop(proc: subprocess.Popen) -> None:
             proc.kill()
 
 
-def _request(kind: str):
-    if kind == 'forward':
-        r = ForwardKinematics.Request()
-        r.q = Q
-        return ForwardKinematics, 'gpr/forward_kinematics', r
-    if kind == 'inverse':
-        r = InverseKinematics.Request()
-        r.target.position.z = 0.45
-        r.target.orientation.x = 0.01
-        r.target.orientation.w = float(np.sqrt(1 - 0.01 ** 2))
-        return InverseKinematics, 'gpr/inverse_kinematics', r
-    if kind == 'compensate':
-        r = Compensate.Request()
-        r.command.position.z = 0.45
-        r.command.orientation.y = 0.01
-        r.command.orientation.w = float(np.sqrt(1 - 0.01 ** 2))
-        r.tool_offset.z = 0.1
-        return Compensate, 'gpr/compensate', r
-    if kind == 'mobility':
-        r = AnalyzeMobility.Request()
-        r.q = Q
-        return AnalyzeMobility, 'gpr/analyze_mobility', r
-    if kind == 'null':
-        return Trigger, 'null/trigger', Trigger.Request()
-    raise ValueError(kind)
-
-
 class Caller:
+    """Timed round trips through :class:`GprClient` (client side: rclpy.experimental's EventsExecutor; with the
+    classic SingleThreadedExecutor, spin_until_future_complete alone costs ~6-12 ms per call here, which would
+    hide the server). A lost response is re-sent by the client and counted in ``client.lost``; its time is not
+    a round trip (the re-sent call is timed alone)."""
+
     def __init__(self, name: str) -> None:
-        self.ctx = rclpy.Context()
-        rclpy.init(context=self.ctx)
-        self.node = rclpy.create_node(name, context=self.ctx)
-        # Client side: the EventsExecutor (rclpy.experimental). With the classic SingleThreadedExecutor,
-        # spin_until_future_complete alone costs ~6-12 ms per call here, which would hide the server.
-        self.ex = EventsExecutor(context=self.ctx)
-        self.ex.add_node(self.node)
-        self.clients: dict[str, tuple] = {}
-
-    def client(self, kind: str):
-        if kind not in self.clients:
-            srv, name, req = _request(kind)
-            cli = self.node.create_client(srv, name)
-            if not cli.wait_for_service(timeout_sec=30):
-                raise TimeoutError(name)
-            self.clients[kind] = (cli, req)
-        return self.clients[kind]
-
-    lost = 0
+        self.client = GprClient(name, executor='events')
 
     def call(self, kind: str) -> float:
-        """One round trip [s]. A request whose response never comes (seen with Fast DDS under load, see
-        docs/benchmarks.md) is counted in ``Caller.lost`` and sent again; its time is not a round trip."""
-        cli, req = self.client(kind)
-        for _ in range(5):
-            t0 = time.perf_counter()
-            fut = cli.call_async(req)
-            self.ex.spin_until_future_complete(fut, timeout_sec=2.0)
-            dt = time.perf_counter() - t0
-            if fut.done():
-                break
-            cli.remove_pending_request(fut)
-            Caller.lost += 1
-        res = fut.result() if fut.done() else None
-        if res is None or not res.success:
-            raise RuntimeError(f'{kind}: {getattr(res, "message", "no answer after 5 tries")}')
+        c = self.client
+        t0 = time.perf_counter()
+        lost = c.lost
+        if kind == 'forward':
+            res = c.forward_kinematics(Q)
+        elif kind == 'inverse':
+            res = c.inverse_kinematics(0.45, 0.02, 0.0)
+        elif kind == 'compensate':
+            res = c.compensate((0.0, 0.0, 0.45), (0.0, 0.01, 0.0, float(np.sqrt(1 - 0.01 ** 2))), (0.0, 0.0, 0.1))
+        elif kind == 'mobility':
+            res = c.analyze_mobility(Q)
+        elif kind == 'null':
+            res = c.call(Trigger, 'null/trigger', Trigger.Request(), timeout=2.0)
+        else:
+            raise ValueError(kind)
+        dt = time.perf_counter() - t0
+        if not res.success:
+            raise RuntimeError(f'{kind}: {res.message}')
+        if c.lost != lost:  # a response was lost and the request re-sent: time a clean call instead
+            return self.call(kind)
         return dt
 
+    @property
+    def lost(self) -> int:
+        return self.client.lost
+
     def close(self) -> None:
-        self.ex.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.ctx)
+        self.client.close()
 
 
 def worker(kind: str, duration: float, start_at: float) -> None:
     """One client process of the concurrency measurement: prints the calls it completed in ``duration``."""
     c = Caller(f'bench_worker_{os.getpid()}')
-    c.client(kind)
     for _ in range(20):
         c.call(kind)
     while time.time() < start_at:
@@ -162,8 +127,9 @@ def worker(kind: str, duration: float, start_at: float) -> None:
         c.call(kind)
         n += 1
     elapsed = time.perf_counter() - t0
+    lost = c.lost
     c.close()
-    print(json.dumps({'calls': n, 'elapsed': elapsed, 'lost': Caller.lost}))
+    print(json.dumps({'calls': n, 'elapsed': elapsed, 'lost': lost}))
 
 
 def latency(c: Caller, kind: str, calls: int) -> dict:
@@ -203,11 +169,7 @@ def trajectory_rate(rate: float, duration: float) -> dict:
     half = max(1, per_row // 2)
     max_tilt = math.radians(2.0)
     step = max_tilt / half
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    node = rclpy.create_node(f'bench_traj_{int(rate)}', context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
+    client = GprClient(f'bench_traj_{int(rate)}')
     arrivals: list[float] = []
     stamps: list[float] = []
     samples: list[int] = []
@@ -218,25 +180,17 @@ def trajectory_rate(rate: float, duration: float) -> dict:
         samples.append(m.sample)
 
     ns = f'/bench_traj_{int(rate)}'
-    node.create_subscription(PlatformState, f'{ns}/gpr/platform_state', on_msg,
-                             QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE))
-    exe = ros_env.find_executable('gpr_kinematics', 'trajectory_node')
-    proc = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}', '-p', f'rate:={rate!r}',
-                             '-p', f'max_tilt:={max_tilt!r}', '-p', f'tilt_step:={step!r}',
-                             '-p', f'azimuth_step:={az_step!r}', '-p', 'wait_for_subscribers:=1',
-                             '-p', 'markers_every:=1'],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    t_end = time.monotonic() + duration * 3 + 30
-    while proc.poll() is None and time.monotonic() < t_end:
-        ex.spin_once(timeout_sec=0.01)
-    end = time.monotonic() + 0.5
-    while time.monotonic() < end:
-        ex.spin_once(timeout_sec=0.01)
-    out = proc.communicate(timeout=10)[0] if proc.poll() is not None else ''
-    _stop(proc)
-    ex.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown(context=ctx)
+    client.node.create_subscription(PlatformState, f'{ns}/gpr/platform_state', on_msg,
+                                    stream_qos(100000))
+    proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', f'rate:={rate!r}',
+                                           '-p', f'max_tilt:={max_tilt!r}', '-p', f'tilt_step:={step!r}',
+                                           '-p', f'azimuth_step:={az_step!r}', '-p', 'wait_for_subscribers:=1',
+                                           '-p', 'wait_all_topics:=false', '-p', 'markers_every:=1'])
+    client.spin_until(lambda: not proc.alive(), duration * 3 + 30)
+    client.spin_for(0.5)
+    proc.stop()
+    out = proc.output()
+    client.close()
     n = len(stamps)
     node_rate = float('nan')
     for line in out.splitlines():
@@ -274,8 +228,8 @@ def main() -> int:
         worker(args.worker, args.duration, args.start_at)
         return 0
 
-    kin = _start([str(ros_env.find_executable('gpr_kinematics', 'kinematics_node'))])
-    null = _start([sys.executable, '-c', NULL_SERVER])
+    kin = NodeProcess('kinematics_node')
+    null = _null_server()
     results: dict = {'machine': f'{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}',
                      'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')}
     try:
@@ -283,12 +237,12 @@ def main() -> int:
         results['core_forward_ms'] = core_peer(args.calls)
         results['latency'] = {k: latency(c, k, args.calls if k in ('forward', 'null') else args.calls // 4)
                               for k in ('null', 'forward', 'inverse', 'compensate', 'mobility')}
-        results['lost_latency'] = Caller.lost
+        results['lost_latency'] = c.lost
         c.close()
         results['throughput'] = {f'{k}_{n}': throughput(k, n, args.duration)
                                  for k in ('forward', 'null') for n in (1, 4)}
     finally:
-        _stop(kin)
+        kin.stop()
         _stop(null)
     results['trajectory'] = [trajectory_rate(float(r), args.duration) for r in args.rates.split(',')]
     print(json.dumps(results, indent=1))

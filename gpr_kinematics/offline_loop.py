@@ -23,38 +23,10 @@ from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
 
-from . import ros_env
 from .bags.report import write_report
 from .bags.verify import format_table, verify_bag
 from .errors import GprError
-
-PACKAGE = 'gpr_kinematics'
-
-
-class _Proc:
-    def __init__(self, exe: str, ros_args: Sequence[str], env: dict[str, str], logs: Path) -> None:
-        self.exe = exe
-        path = ros_env.find_executable(PACKAGE, exe, env)
-        self.log = logs / f'{exe}.log'
-        self._f = open(self.log, 'wb')  # noqa: SIM115 - closed in stop()
-        self.proc = subprocess.Popen([str(path), '--ros-args', *ros_args], stdout=self._f, stderr=subprocess.STDOUT,
-                                     stdin=subprocess.DEVNULL, env=env)
-
-    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._f.close()
-        return int(self.proc.returncode)
-
-    def tail(self, n: int = 5) -> str:
-        if not self._f.closed:
-            self._f.flush()
-        return '\n'.join(self.log.read_text(errors='replace').splitlines()[-n:])
+from .nodes.process import NodeProcess
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -80,22 +52,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     env['PYTHONUNBUFFERED'] = '1'
     logs = Path(tempfile.mkdtemp(prefix='gpr_offline_loop_'))
-    procs: list[_Proc] = []
+    procs: list[NodeProcess] = []
     print(f'offline loop: kinematics_node, recorder_node -> {bag}, trajectory_node (paper sweep, '
           f'{args.tilt_step_deg} deg x {args.azimuth_step_deg} deg at {args.rate} Hz); logs in {logs}', flush=True)
     try:
-        kin = _Proc('kinematics_node', [], env, logs)
-        rec = _Proc('recorder_node', ['-p', f'output:={bag}', '-p', f'storage:={args.storage}',
-                                      '-p', f'compression:={args.compression}',
-                                      '-p', f'flush_interval:={float(args.flush_interval)!r}'], env, logs)
+        kin = NodeProcess('kinematics_node', env=env, log_dir=logs)
+        rec = NodeProcess('recorder_node', ['-p', f'output:={bag}', '-p', f'storage:={args.storage}',
+                                            '-p', f'compression:={args.compression}',
+                                            '-p', f'flush_interval:={float(args.flush_interval)!r}'],
+                          env=env, log_dir=logs)
         procs += [kin, rec]
-        traj = _Proc('trajectory_node', ['-p', f'rate:={args.rate}', '-p', 'wait_for_subscribers:=1',
-                                         '-p', 'wait_all_topics:=true',
-                                         '-p', f'tilt_step:={math.radians(args.tilt_step_deg)!r}',
-                                         '-p', f'azimuth_step:={math.radians(args.azimuth_step_deg)!r}'], env, logs)
+        traj = NodeProcess('trajectory_node', ['-p', f'rate:={args.rate}', '-p', 'wait_for_subscribers:=1',
+                                               '-p', f'tilt_step:={math.radians(args.tilt_step_deg)!r}',
+                                               '-p', f'azimuth_step:={math.radians(args.azimuth_step_deg)!r}'],
+                           env=env, log_dir=logs)
         procs.append(traj)
         try:
-            status = traj.proc.wait(timeout=args.timeout)
+            status = traj.wait(timeout=args.timeout)
         except subprocess.TimeoutExpired:
             print(f'offline loop: the sweep did not end within {args.timeout} s', file=sys.stderr)
             return 2

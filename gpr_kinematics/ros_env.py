@@ -10,11 +10,16 @@ tests, ``make demo`` and the benchmarks can start the nodes without a shell ``so
 ``python -m gpr_kinematics.ros_env exec -- CMD ARGS...``  run a command in that environment;
 ``python -m gpr_kinematics.ros_env print``                 print it as ``export`` lines (for ``eval``);
 ``python -m gpr_kinematics.ros_env fix-wheels``            repair the wheels' exported CMake files;
+``python -m gpr_kinematics.ros_env base-paths``            the folders ``colcon build`` builds (see below);
 ``python -m gpr_kinematics.ros_env check``                 import rclpy and the custom interfaces.
 
-``fix-wheels``: the wheels were built under ``/opt/python/cp311-cp311`` and their exported CMake files
-name that interpreter's include directory and numpy include directory; building a custom interface
-package against them fails until these paths point at the local interpreter's (idempotent rewrite).
+``base-paths``: the repository's packages (``.`` and ``gpr_interfaces``), plus ``fallback/<pkg>`` for each
+message package the nodes need that is installed nowhere in the ament prefixes (:data:`FALLBACK_PACKAGES`:
+``tf2_msgs``, which the PyPI wheels lack); a full ROS 2 install has it, and then its own is used.
+
+``fix-wheels``: the wheels were built under ``/opt/python/cpXY-cpXY`` (the interpreter's version) and their
+exported CMake files name that interpreter's include directory and numpy include directory; building a custom
+interface package against them fails until these paths point at the local interpreter's (idempotent rewrite).
 This module imports no ROS package itself.
 """
 from __future__ import annotations
@@ -27,8 +32,12 @@ from pathlib import Path
 
 #: Packages built by ``colcon build`` at the repository root, in dependency order.
 COLCON_PACKAGES: tuple[str, ...] = ('gpr_interfaces', 'gpr_kinematics')
+#: Message packages built from ``fallback/<name>`` only where none is installed, before the packages above.
+FALLBACK_PACKAGES: tuple[str, ...] = ('tf2_msgs',)
 
-_BUILD_HOST_PYTHON = '/opt/python/cp311-cp311'
+#: Where the wheels of this interpreter's version were built (named in their exported CMake files).
+_BUILD_HOST_PYTHON = f'/opt/python/cp{sys.version_info.major}{sys.version_info.minor}' \
+    f'-cp{sys.version_info.major}{sys.version_info.minor}'
 
 
 def repo_root() -> Path:
@@ -42,6 +51,38 @@ def install_dir(root: Path | None = None) -> Path:
     if env:
         return Path(env).resolve()
     return (root or repo_root()) / 'install'
+
+
+def built_packages(install: Path | None = None) -> tuple[str, ...]:
+    """The packages of the colcon install tree in dependency order: the fallbacks that were built, then
+    :data:`COLCON_PACKAGES`."""
+    inst = install or install_dir()
+    return tuple(p for p in FALLBACK_PACKAGES if (inst / p).is_dir()) + COLCON_PACKAGES
+
+
+def installed_elsewhere(package: str, env: Mapping[str, str] | None = None, install: Path | None = None) -> bool:
+    """Whether an ament prefix other than the repository's install tree (``AMENT_PREFIX_PATH``, the venv's
+    wheel prefix) has ``package`` in its ament index."""
+    env = os.environ if env is None else env
+    inst = (install or install_dir()).resolve()
+    prefixes = [p for p in env.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p] + [sys.prefix]
+    for prefix in prefixes:
+        path = Path(prefix).resolve()
+        if path == inst or inst in path.parents:
+            continue
+        if (path / 'share' / 'ament_index' / 'resource_index' / 'packages' / package).is_file():
+            return True
+    return False
+
+
+def colcon_base_paths(root: Path | None = None, env: Mapping[str, str] | None = None) -> list[str]:
+    """Folders for ``colcon build --base-paths``: the repository's packages, and the fallback of every
+    :data:`FALLBACK_PACKAGES` entry that no other ament prefix has."""
+    root = root or repo_root()
+    paths = ['.', 'gpr_interfaces']
+    paths += [f'fallback/{p}' for p in FALLBACK_PACKAGES
+              if (root / 'fallback' / p).is_dir() and not installed_elsewhere(p, env)]
+    return paths
 
 
 def _python_dir() -> str:
@@ -72,9 +113,10 @@ def ros_environment(base: Mapping[str, str] | None = None, install: Path | None 
                                 '(run `make setup`)')
     venv = Path(sys.prefix)
     site = venv / 'lib' / _python_dir() / 'site-packages'
-    prefixes = [str(inst / name) for name in reversed(COLCON_PACKAGES)] + [str(venv)]
-    py_paths = [str(inst / name / 'lib' / _python_dir() / 'site-packages') for name in reversed(COLCON_PACKAGES)]
-    lib_paths = [str(inst / name / 'lib') for name in reversed(COLCON_PACKAGES)] + [str(venv / 'lib')]
+    packages = list(reversed(built_packages(inst)))
+    prefixes = [str(inst / name) for name in packages] + [str(venv)]
+    py_paths = [str(inst / name / 'lib' / _python_dir() / 'site-packages') for name in packages]
+    lib_paths = [str(inst / name / 'lib') for name in packages] + [str(venv / 'lib')]
     lib_paths += sorted(str(p) for p in site.glob('ros_*.libs') if p.is_dir())
     env['AMENT_PREFIX_PATH'] = _prepend(env.get('AMENT_PREFIX_PATH'), prefixes)
     env['CMAKE_PREFIX_PATH'] = _prepend(env.get('CMAKE_PREFIX_PATH'), prefixes)
@@ -119,7 +161,7 @@ def activate(install: Path | None = None) -> dict[str, str]:
         if p and p not in sys.path:
             sys.path.insert(0, p)
     inst = install or install_dir()
-    pending = sorted(p for name in COLCON_PACKAGES for p in (inst / name / 'lib').glob('lib*.so'))
+    pending = sorted(p for name in built_packages(inst) for p in (inst / name / 'lib').glob('lib*.so'))
     # Load in dependency order: retry what fails until no library loads any more.
     while pending:
         failed = []
@@ -168,8 +210,10 @@ def fix_wheels(prefix: Path | None = None) -> int:
 
 def _check() -> int:
     import rclpy
+    from tf2_msgs.msg import TFMessage
 
-    from gpr_interfaces.msg import PlatformState
+    from gpr_interfaces.action import RunProgram
+    from gpr_interfaces.msg import PlatformState, ProgramStation
     from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 
     rclpy.init()
@@ -178,21 +222,26 @@ def _check() -> int:
         node.destroy_node()
     finally:
         rclpy.try_shutdown()
-    names = [t.__name__ for t in (PlatformState, ForwardKinematics, InverseKinematics, Compensate,
-                                   AnalyzeMobility)]
-    print(f'rclpy {Path(rclpy.__file__).parent} and gpr_interfaces ({", ".join(names)}) import and run')
+    names = [t.__name__ for t in (PlatformState, ProgramStation, ForwardKinematics, InverseKinematics, Compensate,
+                                   AnalyzeMobility, RunProgram)]
+    print(f'rclpy {Path(rclpy.__file__).parent}, gpr_interfaces ({", ".join(names)}) and tf2_msgs '
+          f'({TFMessage.__name__} from {Path(sys.modules[TFMessage.__module__].__file__ or "").parents[2]}) '
+          'import and run')
     return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
-    usage = 'usage: python -m gpr_kinematics.ros_env {exec -- CMD...|print|fix-wheels|check}'
+    usage = 'usage: python -m gpr_kinematics.ros_env {exec -- CMD...|print|fix-wheels|base-paths|check}'
     if not args:
         print(usage, file=sys.stderr)
         return 2
     cmd, rest = args[0], args[1:]
     if cmd == 'fix-wheels':
         print(f'fix-wheels: {fix_wheels()} CMake file(s) repointed at {sys.prefix}')
+        return 0
+    if cmd == 'base-paths':
+        print(' '.join(colcon_base_paths()))
         return 0
     try:
         env = ros_environment()

@@ -1,10 +1,10 @@
 """recorder_node and replay_node over real DDS (nodes started as ``ros2 run`` would): trajectory -> recorder ->
 stop -> verify, both storage formats and both stop signals; SIGKILL loses nothing beyond the flush interval;
-refusals; replay of the reference bag into a fresh recorder gives the same bytes."""
+refusals; replay of the reference bag into a fresh recorder gives the same bytes; the latched geometry is
+recorded whether the recorder starts before or after the trajectory node."""
 from __future__ import annotations
 
 import math
-import os
 import re
 import signal
 import time
@@ -12,60 +12,41 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ros_support import NodeProcess
+import yaml
+from ros_support import start, wait_for_log
 
 from gpr_kinematics.bags.reader import read_bag
-from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS
 from gpr_kinematics.bags.verify import verify_bag
+from gpr_kinematics.config import load_config
+from gpr_kinematics.nodes.specs import recorded_topics
+
+pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / 'bags' / 'reference_sweep'
 STATE = '/gpr/platform_state'
-STREAM = [t for t in GPR_TOPICS if t != GEOMETRY_TOPIC]  # a message per sample
-# Own domain per run (101..200, by process id): concurrent runs of this module on one machine stay apart,
-# and it differs from ros_support's range (10..99) used by the other ROS test modules.
-DOMAIN_ID = str(101 + os.getpid() % 100)
 
 
-@pytest.fixture(autouse=True, scope='module')
-def own_domain():
-    """This module's own ROS_DOMAIN_ID for every node it starts (restored afterwards)."""
-    old = os.environ.get('ROS_DOMAIN_ID')
-    os.environ['ROS_DOMAIN_ID'] = DOMAIN_ID
-    yield
-    if old is None:
-        os.environ.pop('ROS_DOMAIN_ID', None)
-    else:
-        os.environ['ROS_DOMAIN_ID'] = old
+DEFAULT_TOPICS = recorded_topics()
 
 
-def wait_for_log(proc: NodeProcess, pattern: str, timeout: float = 30.0) -> re.Match[str]:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        m = re.search(pattern, proc.output())
-        if m:
-            return m
-        if not proc.alive():
-            break
-        time.sleep(0.05)
-    raise AssertionError(f'{proc.exe}: no {pattern!r} in its output:\n{proc.output()}')
+def expected_counts(n: int) -> dict[str, int]:
+    """Messages per default topic for a stream of ``n`` samples: one per sample, one for a latched topic."""
+    from gpr_kinematics.nodes.qos import LATCHED
+
+    return {t: 1 if t in LATCHED else n for t in DEFAULT_TOPICS}
 
 
-def recorder(output: Path, *params: str) -> NodeProcess:
-    args = ['-p', f'output:={output}']
-    for p in params:
-        args += ['-p', p]
-    return NodeProcess('recorder_node', args)
+def recorder(output: Path, **values):
+    return start('recorder_node', output=output, **values)
 
 
-def trajectory(rate: float, tilt_step_deg: float, azimuth_step_deg: float, subscribers: int = 1) -> NodeProcess:
-    return NodeProcess('trajectory_node', ['-p', f'rate:={rate}', '-p', f'wait_for_subscribers:={subscribers}',
-                                           '-p', 'wait_all_topics:=true',
-                                           '-p', f'tilt_step:={math.radians(tilt_step_deg)!r}',
-                                           '-p', f'azimuth_step:={math.radians(azimuth_step_deg)!r}'])
+def trajectory(rate: float, tilt_step_deg: float, azimuth_step_deg: float, subscribers: int = 1):
+    return start('trajectory_node', rate=rate, wait_for_subscribers=subscribers,
+                 tilt_step=math.radians(tilt_step_deg), azimuth_step=math.radians(azimuth_step_deg))
 
 
-def published(traj: NodeProcess) -> int:
+def published(traj) -> int:
     return int(wait_for_log(traj, r'finished: published (\d+) samples').group(1))
 
 
@@ -103,10 +84,10 @@ def independent_read(bag: Path, files: list[str]) -> dict[str, list[bytes]]:
 @pytest.mark.parametrize('storage,sig', [('mcap', signal.SIGINT), ('sqlite3', signal.SIGTERM)])
 def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, sig: int) -> None:
     bag = tmp_path / 'bag'
-    rec = recorder(bag, f'storage:={storage}', 'flush_interval:=0.25')
+    rec = recorder(bag, storage=storage, flush_interval=0.25)
     traj = None
     try:
-        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
+        wait_for_log(rec, rf'recording {len(DEFAULT_TOPICS)} topic')
         # 2 deg steps of 0.4 deg x azimuth 30 deg: 12 rows of 11 samples, 12 singular crossings, at 400 Hz.
         traj = trajectory(400.0, 0.4, 30.0)
         assert traj.wait(60) == 0, traj.output()
@@ -116,8 +97,7 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
         status, _ = rec.signal(sig, timeout=15)
         assert status == 0, rec.output()
         log = rec.output()
-        # The stream topics, and the geometry once if the trajectory node publishes it.
-        assert re.search(rf'stopped: wrote ({len(STREAM) * n}|{len(STREAM) * n + 1}) messages', log), log
+        assert re.search(rf'stopped: wrote {sum(expected_counts(n).values())} messages', log), log
         assert f'{STATE} {n}/{n}' in log
     finally:
         rec.stop()
@@ -127,8 +107,8 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     b = read_bag(bag)
     assert b.storage == storage and all(f.endswith(suffix) for f in b.files)
     assert not (bag / '.recording').exists()
-    assert {k: len(t) for k, t in b.topics.items() if k != GEOMETRY_TOPIC} == dict.fromkeys(STREAM, n)
-    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items() if len(t)}
+    assert {k: len(t) for k, t in b.topics.items()} == expected_counts(n)
+    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items()}
     result = verify_bag(b)
     assert result.passed, [f.line() for f in result.failures]
     assert result.crossings == 12
@@ -139,12 +119,12 @@ def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> 
     mid-stream. The killed bag is a valid bag holding a gapless prefix of the stream, byte for byte, that
     contains everything received more than flush_interval (0.5 s) before the kill."""
     flush = 0.5
-    full = recorder(tmp_path / 'full', 'flush_interval:=1.0')
-    killed = recorder(tmp_path / 'killed', f'flush_interval:={flush}')
+    full = recorder(tmp_path / 'full', flush_interval=1.0)
+    killed = recorder(tmp_path / 'killed', flush_interval=flush)
     traj = None
     try:
-        wait_for_log(full, rf'recording {len(GPR_TOPICS)} topic')
-        wait_for_log(killed, rf'recording {len(GPR_TOPICS)} topic')
+        wait_for_log(full, rf'recording {len(DEFAULT_TOPICS)} topic')
+        wait_for_log(killed, rf'recording {len(DEFAULT_TOPICS)} topic')
         traj = trajectory(200.0, 0.2, 20.0, subscribers=2)  # 18 x 21 = 378 samples, ~1.9 s
         wait_for_log(traj, r'started: publishing')
         time.sleep(1.3)
@@ -194,12 +174,7 @@ def test_recorder_refuses_bad_output_and_unknown_types(tmp_path: Path) -> None:
          'unknown: not published'),
         ([f'output:={tmp_path / "new3"}', 'storage:=rosbag1'], 'storage'),
     ]
-    procs = []
-    for params, _ in cases:
-        args = []
-        for p in params:
-            args += ['-p', p]
-        procs.append(NodeProcess('recorder_node', args))
+    procs = [start('recorder_node', *[a for p in params for a in ('-p', p)]) for params, _ in cases]
     for proc, (_params, words) in zip(procs, cases, strict=True):
         assert proc.wait(30) == 2, proc.output()
         out = proc.output()
@@ -213,12 +188,12 @@ def test_recorder_refuses_bad_output_and_unknown_types(tmp_path: Path) -> None:
 def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) -> None:
     ref = read_bag(REFERENCE)
     rate = 4.0
-    rec = recorder(tmp_path / 'again', 'flush_interval:=0.5')
+    topics = [t.lstrip('/') for t in ref.topics]
+    rec = recorder(tmp_path / 'again', flush_interval=0.5, topics='[' + ', '.join(topics) + ']')
     replay = None
     try:
-        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
-        replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', f'rate:={rate}',
-                                             '-p', 'wait_for_subscribers:=1'])
+        wait_for_log(rec, rf'recording {len(topics)} topic')
+        replay = start('replay_node', bag=REFERENCE, rate=rate, wait_for_subscribers=1)
         assert replay.wait(60) == 0, replay.output()
         assert 'finished: published' in replay.output()
         time.sleep(0.3)
@@ -240,12 +215,11 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
 
 
 def test_replay_topic_filter(tmp_path: Path) -> None:
-    rec = recorder(tmp_path / 'states', 'flush_interval:=0.5')
+    rec = recorder(tmp_path / 'states', flush_interval=0.5)
     replay = None
     try:
-        wait_for_log(rec, rf'recording {len(GPR_TOPICS)} topic')
-        replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', 'rate:=10.0',
-                                             '-p', 'topics:=[gpr/platform_state]', '-p', 'wait_for_subscribers:=1'])
+        wait_for_log(rec, rf'recording {len(DEFAULT_TOPICS)} topic')
+        replay = start('replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1)
         assert replay.wait(60) == 0, replay.output()
         time.sleep(0.3)
         assert rec.signal(signal.SIGINT, timeout=15)[0] == 0
@@ -254,18 +228,18 @@ def test_replay_topic_filter(tmp_path: Path) -> None:
         if replay is not None:
             replay.stop()
     b = read_bag(tmp_path / 'states')
-    assert {k: len(t) for k, t in b.topics.items()} == {**dict.fromkeys(GPR_TOPICS, 0), STATE: 756}
-    bad = NodeProcess('replay_node', ['-p', f'bag:={tmp_path / "nothing"}'])
+    assert {k: len(t) for k, t in b.topics.items()} == {**dict.fromkeys(DEFAULT_TOPICS, 0), STATE: 756}
+    bad = start('replay_node', bag=tmp_path / 'nothing')
     assert bad.wait(30) == 2 and 'does not exist' in bad.output()
 
 
 def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
-    rec = recorder(tmp_path / 'looped', 'flush_interval:=0.5', 'topics:=[gpr/platform_state]')
+    rec = recorder(tmp_path / 'looped', flush_interval=0.5, topics='[gpr/platform_state]')
     replay = None
     try:
         wait_for_log(rec, r'recording 1 topic')
-        replay = NodeProcess('replay_node', ['-p', f'bag:={REFERENCE}', '-p', 'rate:=3.0', '-p', 'loop:=true',
-                                             '-p', 'topics:=[gpr/platform_state]', '-p', 'wait_for_subscribers:=1'])
+        replay = start('replay_node', bag=REFERENCE, rate=3.0, loop=True, topics='[gpr/platform_state]',
+                       wait_for_subscribers=1)
         wait_for_log(replay, r'replaying 756 messages')
         wait_for_log(replay, r'started: publishing')  # after the subscription was discovered
         time.sleep(2.0)  # one pass takes 2.3 s / 3 = 0.77 s
@@ -282,3 +256,38 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     got = read_bag(tmp_path / 'looped').topic(STATE).raw
     assert len(got) > len(ref), logs
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
+
+
+@pytest.mark.parametrize('recorder_first', [True, False], ids=['recorder-first', 'recorder-later'])
+def test_latched_geometry_is_recorded(tmp_path: Path, recorder_first: bool) -> None:
+    """gpr/geometry is published once, transient local: a recorder started before the trajectory node and one
+    started after it both record the one sample, the YAML of the node's configuration."""
+    from gpr_kinematics.bags.typestore import typestore
+
+    topics = '[gpr/platform_state, "gpr/geometry:std_msgs/msg/String"]'
+    bag = tmp_path / 'bag'
+    rec = traj = None
+    try:
+        if recorder_first:
+            rec = recorder(bag, topics=topics, flush_interval=0.5)
+            wait_for_log(rec, r'recording 2 topic')
+        traj = start('trajectory_node', mode='idle', radius=0.1)
+        wait_for_log(traj, r'idle: serving')
+        if not recorder_first:
+            rec = recorder(bag, topics=topics, flush_interval=0.5)
+            wait_for_log(rec, r'recording 2 topic')
+        # Discovery takes a second or two: wait until a closed segment holds the latched sample.
+        end = time.monotonic() + 30
+        while time.monotonic() < end and not (
+                (bag / 'metadata.yaml').is_file() and len(read_bag(bag).topic('/gpr/geometry') or ()) == 1):
+            time.sleep(0.2)
+        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
+    finally:
+        for p in (rec, traj):
+            if p is not None:
+                p.stop()
+    b = read_bag(bag)
+    (raw,) = b.topic('/gpr/geometry').raw
+    text = typestore().deserialize_cdr(raw, 'std_msgs/msg/String').data
+    assert yaml.safe_load(text) == load_config(overrides={'radius': 0.1}).to_dict()
+    assert len(b.topic(STATE)) == 0    # idle: no stream

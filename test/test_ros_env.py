@@ -12,13 +12,17 @@ import pytest
 
 from gpr_kinematics import ros_env
 
+#: The wheels of this interpreter were built under /opt/python/<CP>-<CP> (e.g. cp311-cp311).
+CP = f'cp{sys.version_info.major}{sys.version_info.minor}'
+
 
 def test_fix_wheels_repoints_build_host_paths_idempotently(tmp_path):
     cmake = tmp_path / 'share' / 'std_msgs' / 'cmake'
     cmake.mkdir(parents=True)
     f = cmake / 'export_std_msgs__rosidl_generator_pyExport.cmake'
-    f.write_text('INTERFACE_INCLUDE_DIRECTORIES "/opt/python/cp311-cp311/include/python3.11;'
-                 '/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include"\n')
+    host, py = f'/opt/python/{CP}-{CP}', f'python{sys.version_info.major}.{sys.version_info.minor}'
+    f.write_text(f'INTERFACE_INCLUDE_DIRECTORIES "{host}/include/{py};'
+                 f'{host}/lib/{py}/site-packages/numpy/_core/include"\n')
     untouched = cmake / 'other.cmake'
     untouched.write_text('set(X 1)\n')
     assert ros_env.fix_wheels(tmp_path) == 1
@@ -34,14 +38,16 @@ def test_installed_wheels_are_repaired():
     share = Path(sys.prefix) / 'share'
     files = list(share.glob('*/cmake/*.cmake'))
     assert len(files) > 50
-    assert not [p for p in files if '/opt/python/cp311-cp311' in p.read_text(errors='replace')]
+    assert not [p for p in files if f'/opt/python/{CP}-{CP}' in p.read_text(errors='replace')]
 
 
 def test_environment_like_setup_bash(tmp_path):
     inst = ros_env.install_dir()
     env = ros_env.ros_environment(base={'PATH': '/usr/bin', 'LD_LIBRARY_PATH': '/opt/x'})
     prefixes = env['AMENT_PREFIX_PATH'].split(os.pathsep)
-    assert prefixes[:3] == [str(inst / 'gpr_kinematics'), str(inst / 'gpr_interfaces'), sys.prefix]
+    built = ros_env.built_packages()
+    assert built[-2:] == ('gpr_interfaces', 'gpr_kinematics')
+    assert prefixes[:len(built) + 1] == [str(inst / p) for p in reversed(built)] + [sys.prefix]
     assert env['LD_LIBRARY_PATH'].split(os.pathsep)[0] == str(inst / 'gpr_kinematics' / 'lib')
     assert env['LD_LIBRARY_PATH'].endswith('/opt/x')
     assert str(inst / 'gpr_interfaces' / 'lib') in env['LD_LIBRARY_PATH']
@@ -64,3 +70,21 @@ def test_cli_usage_errors():
         out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros_env', *args], capture_output=True,
                              text=True, timeout=60)
         assert out.returncode == 2 and 'usage' in out.stderr
+
+
+def test_fallback_tf2_msgs_only_where_none_is_installed(tmp_path):
+    """colcon builds fallback/tf2_msgs only when no other ament prefix has tf2_msgs (a full ROS install has)."""
+    root = ros_env.repo_root()
+    bare = {'AMENT_PREFIX_PATH': str(tmp_path / 'empty')}
+    assert ros_env.installed_elsewhere('tf2_msgs', bare) is False       # the PyPI wheels have none
+    assert ros_env.colcon_base_paths(root, bare) == ['.', 'gpr_interfaces', 'fallback/tf2_msgs']
+    ros = tmp_path / 'opt_ros'
+    index = ros / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    index.mkdir(parents=True)
+    (index / 'tf2_msgs').write_text('')
+    full = {'AMENT_PREFIX_PATH': str(ros)}
+    assert ros_env.installed_elsewhere('tf2_msgs', full) is True
+    assert ros_env.colcon_base_paths(root, full) == ['.', 'gpr_interfaces']
+    # The repository's own install tree does not count as an installed tf2_msgs.
+    own = {'AMENT_PREFIX_PATH': str(ros_env.install_dir() / 'tf2_msgs')}
+    assert ros_env.installed_elsewhere('tf2_msgs', own) is False

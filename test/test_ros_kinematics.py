@@ -1,5 +1,6 @@
 """kinematics_node over real DDS: the services answer the core's numbers, bad requests get their message,
-parameters (descriptors, --params-file, namespace) work, SIGINT/SIGTERM end the node with status 0."""
+parameters (descriptors, --params-file, namespace, validated then applied changes) work, SIGINT/SIGTERM end the
+node with status 0."""
 from __future__ import annotations
 
 import math
@@ -8,56 +9,62 @@ import textwrap
 
 import numpy as np
 import pytest
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
-from ros_support import Client, NodeProcess
+from ros_support import quat as _quat
+from ros_support import start
+from ros_support import vec as _vec
 
-from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 from gpr_kinematics.compensation import compensate
 from gpr_kinematics.config import load_config
 from gpr_kinematics.geometry import quaternion_from_matrix, tilt_rotation
 from gpr_kinematics.kinematics import forward, inverse
 from gpr_kinematics.mobility import analyze_mobility
-from gpr_kinematics.nodes.conversions import pose_msg
+
+pytestmark = pytest.mark.ros
 
 CFG = load_config()
 TIGHT = dict(rtol=0.0, atol=1e-12)
 
 
 @pytest.fixture(scope='module')
-def node():
-    proc = NodeProcess('kinematics_node')
+def node(ros_environment):
+    proc = start('kinematics_node')
     yield proc
     proc.stop()
 
 
 @pytest.fixture(scope='module')
 def client(node):
-    c = Client('gpr_test_kinematics_client')
-    c.fk = c.service(ForwardKinematics, 'gpr/forward_kinematics')
-    c.ik = c.service(InverseKinematics, 'gpr/inverse_kinematics')
-    c.comp = c.service(Compensate, 'gpr/compensate')
-    c.mob = c.service(AnalyzeMobility, 'gpr/analyze_mobility')
-    yield c
-    c.close()
+    from gpr_kinematics.nodes.client import GprClient
 
-
-def _vec(v):
-    return np.array([v.x, v.y, v.z])
-
-
-def _quat(q):
-    return np.array([q.x, q.y, q.z, q.w])
+    with GprClient('gpr_test_kinematics_client') as c:
+        yield c
 
 
 def _fk(client, q, model=''):
-    req = ForwardKinematics.Request()
-    req.q = [float(x) for x in q]
-    req.model = model
-    return client.call(client.fk, req)
+    return client.forward_kinematics(q, model)
+
+
+SERVICES = {'fk': ('ForwardKinematics', 'gpr/forward_kinematics'),
+            'ik': ('InverseKinematics', 'gpr/inverse_kinematics'),
+            'comp': ('Compensate', 'gpr/compensate'),
+            'mob': ('AnalyzeMobility', 'gpr/analyze_mobility')}
+
+
+def _srv(kind):
+    """(service type, name) of a service by its short name."""
+    from gpr_interfaces import srv
+
+    type_name, name = SERVICES[kind]
+    return getattr(srv, type_name), name
+
+
+def _call(client, kind, req):
+    return client.call(*_srv(kind), req)
 
 
 def _target(height, tilt, azimuth, twist=0.0, xy=(0.0, 0.0)):
+    from gpr_kinematics.nodes.conversions import pose_msg
+
     R = tilt_rotation(tilt, azimuth) @ np.array([[math.cos(twist), -math.sin(twist), 0.0],
                                                    [math.sin(twist), math.cos(twist), 0.0], [0, 0, 1.0]])
     return pose_msg((xy[0], xy[1], height), quaternion_from_matrix(R))
@@ -94,10 +101,10 @@ def test_forward_matches_core(client, q, model):
 
 def test_inverse_matches_core_and_reaches_target(client):
     height, tilt, azimuth = 0.45, math.radians(1.5), math.radians(35.0)
-    req = InverseKinematics.Request()
+    srv, _ = _srv('ik')
     # x, y and the twist of the target are outcomes, not honoured: give odd values to show it.
-    req.target = _target(height, tilt, azimuth, twist=0.3, xy=(0.01, -0.02))
-    res = client.call(client.ik, req)
+    req = srv.Request(target=_target(height, tilt, azimuth, twist=0.3, xy=(0.01, -0.02)))
+    res = _call(client, 'ik', req)
     assert res.success, res.message
     core = inverse(height, tilt, azimuth, CFG)
     np.testing.assert_allclose(res.q, core.q, **TIGHT)
@@ -112,15 +119,15 @@ def test_inverse_matches_core_and_reaches_target(client):
     assert fk.success
     assert fk.tilt == pytest.approx(tilt, abs=1e-10)
     assert fk.pose.position.z == pytest.approx(height, abs=1e-10)
+    # The client's convenience call builds the same request from height, tilt and azimuth.
+    again = client.inverse_kinematics(height, tilt, azimuth)
+    np.testing.assert_allclose(again.q, core.q, **TIGHT)
 
 
 def test_compensate_matches_core(client):
     command = _target(0.4, math.radians(-1.2), math.radians(200.0))
     tool = (0.05, -0.02, 0.12)
-    req = Compensate.Request()
-    req.command = command
-    req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = tool
-    res = client.call(client.comp, req)
+    res = client.compensate(_vec(command.position), _quat(command.orientation), tool)
     assert res.success, res.message
     core = compensate(_vec(command.position), _quat(command.orientation), tool_offset=tool, config=CFG)
     np.testing.assert_allclose(res.q, core.q, **TIGHT)
@@ -135,9 +142,7 @@ def test_compensate_matches_core(client):
 
 @pytest.mark.parametrize('q,rank', [((0.5, 0.5, 0.5), 9), ((0.45, 0.448, 0.452), 11)])
 def test_mobility_matches_core(client, q, rank):
-    req = AnalyzeMobility.Request()
-    req.q = list(q)
-    res = client.call(client.mob, req)
+    res = client.analyze_mobility(q)
     assert res.success, res.message
     core = analyze_mobility(q, CFG)
     assert res.rank_dphi_dp == rank == core.rank_dphi_dp
@@ -148,71 +153,49 @@ def test_mobility_matches_core(client, q, rank):
     assert 0.0 < res.eq5_lower <= res.eq5_upper
 
 
-def _bad_requests():
-    nan, inf = float('nan'), float('inf')
-    fk = ForwardKinematics.Request
-    out = []
+NAN, INF = float('nan'), float('inf')
 
-    def add(label, srv, req, *words):
-        out.append(pytest.param(srv, req, words, id=label))
-
-    r = fk()
-    r.q = [0.5, nan, 0.5]
-    add('fk-nan', 'fk', r, 'q[1]', 'finite')
-    r = fk()
-    r.q = [inf, 0.5, 0.5]
-    add('fk-inf', 'fk', r, 'q[0]', 'finite')
-    r = fk()
-    r.q = [0.5, 0.5, 0.6]
-    add('fk-above-stroke', 'fk', r, 'stroke')
-    r = fk()
-    r.q = [-0.01, 0.0, 0.0]
-    add('fk-below-stroke', 'fk', r, 'stroke')
-    r = fk()
-    r.q = [0.5, 0.5, 0.5]
-    r.model = 'banana'
-    add('fk-unknown-model', 'fk', r, 'banana', 'radial')
-    r = fk()
-    r.q = [0.3, 0.3, 0.3 + 0.2]   # about 50 deg: far beyond the tilt limit
-    add('fk-tilt-beyond-limit', 'fk', r, 'tilt')
-    ik = InverseKinematics.Request()
-    ik.target = _target(0.4, math.radians(3.0), 0.0)
-    add('ik-tilt-beyond-limit', 'ik', ik, 'tilt', 'limit')
-    ik = InverseKinematics.Request()
-    ik.target = _target(0.4, 0.0, 0.0)
-    ik.target.orientation.w = 2.0
-    add('ik-non-unit-quaternion', 'ik', ik, 'target.orientation', 'unit quaternion')
-    ik = InverseKinematics.Request()
-    ik.target = _target(nan, 0.0, 0.0)
-    add('ik-nan-height', 'ik', ik, 'target.position', 'finite')
-    ik = InverseKinematics.Request()
-    ik.target = _target(0.4, 0.01, 0.0)
-    ik.model = 'Polar '
-    add('ik-unknown-model', 'ik', ik, 'Polar', 'radial')
-    ik = InverseKinematics.Request()
-    ik.target = _target(0.9, 0.0, 0.0)
-    add('ik-height-outside-stroke', 'ik', ik, 'stroke')
-    cp = Compensate.Request()
-    cp.command = _target(0.4, 0.0, 0.0)
-    cp.command.orientation.x = 0.5
-    add('comp-non-unit-quaternion', 'comp', cp, 'command.orientation', 'unit quaternion')
-    cp = Compensate.Request()
-    cp.command = _target(0.4, 0.0, 0.0)
-    cp.tool_offset.y = inf
-    add('comp-inf-tool', 'comp', cp, 'tool_offset', 'finite')
-    mb = AnalyzeMobility.Request()
-    mb.q = [0.5, 0.5, nan]
-    add('mob-nan', 'mob', mb, 'q[2]', 'finite')
-    mb = AnalyzeMobility.Request()
-    mb.q = [0.5, 0.5, 0.5]
-    mb.model = 'unknown'
-    add('mob-unknown-model', 'mob', mb, 'unknown')
-    return out
+#: (id, service, request fields (a target/command as (height, tilt, azimuth) plus quaternion edits), words)
+BAD_REQUESTS = [
+    ('fk-nan', 'fk', {'q': [0.5, NAN, 0.5]}, ['q[1]', 'finite']),
+    ('fk-inf', 'fk', {'q': [INF, 0.5, 0.5]}, ['q[0]', 'finite']),
+    ('fk-above-stroke', 'fk', {'q': [0.5, 0.5, 0.6]}, ['stroke']),
+    ('fk-below-stroke', 'fk', {'q': [-0.01, 0.0, 0.0]}, ['stroke']),
+    ('fk-unknown-model', 'fk', {'q': [0.5, 0.5, 0.5], 'model': 'banana'}, ['banana', 'radial']),
+    ('fk-tilt-beyond-limit', 'fk', {'q': [0.3, 0.3, 0.5]}, ['tilt']),    # about 50 deg
+    ('ik-tilt-beyond-limit', 'ik', {'target': (0.4, math.radians(3.0), 0.0)}, ['tilt', 'limit']),
+    ('ik-non-unit-quaternion', 'ik', {'target': (0.4, 0.0, 0.0), 'target.orientation.w': 2.0},
+     ['target.orientation', 'unit quaternion']),
+    ('ik-nan-height', 'ik', {'target': (NAN, 0.0, 0.0)}, ['target.position', 'finite']),
+    ('ik-unknown-model', 'ik', {'target': (0.4, 0.01, 0.0), 'model': 'Polar '}, ['Polar', 'radial']),
+    ('ik-height-outside-stroke', 'ik', {'target': (0.9, 0.0, 0.0)}, ['stroke']),
+    ('comp-non-unit-quaternion', 'comp', {'command': (0.4, 0.0, 0.0), 'command.orientation.x': 0.5},
+     ['command.orientation', 'unit quaternion']),
+    ('comp-inf-tool', 'comp', {'command': (0.4, 0.0, 0.0), 'tool_offset.y': INF}, ['tool_offset', 'finite']),
+    ('mob-nan', 'mob', {'q': [0.5, 0.5, NAN]}, ['q[2]', 'finite']),
+    ('mob-unknown-model', 'mob', {'q': [0.5, 0.5, 0.5], 'model': 'unknown'}, ['unknown']),
+]
 
 
-@pytest.mark.parametrize('srv,req,words', _bad_requests())
-def test_bad_request_answered_and_node_stays_up(client, node, srv, req, words):
-    res = client.call(getattr(client, srv), req)
+def build_request(kind, fields):
+    """A request of service ``kind`` with ``fields``: a pose field given as (height, tilt, azimuth), dotted
+    names for single numbers inside a message."""
+    srv, _ = _srv(kind)
+    req = srv.Request()
+    for name, value in fields.items():
+        if isinstance(value, tuple):
+            value = _target(*value)
+        *path, last = name.split('.')
+        target = req
+        for part in path:
+            target = getattr(target, part)
+        setattr(target, last, value)
+    return req
+
+
+@pytest.mark.parametrize('kind,fields,words', [pytest.param(*b[1:], id=b[0]) for b in BAD_REQUESTS])
+def test_bad_request_answered_and_node_stays_up(client, node, kind, fields, words):
+    res = _call(client, kind, build_request(kind, fields))
     assert res.success is False
     for w in words:
         assert w.lower() in res.message.lower(), res.message
@@ -222,16 +205,16 @@ def test_bad_request_answered_and_node_stays_up(client, node, srv, req, words):
 
 
 def test_bad_requests_logged_at_warning(client, node):
-    req = ForwardKinematics.Request()
-    req.q = [0.5, 0.5, 0.7]
-    res = client.call(client.fk, req)
+    res = _fk(client, [0.5, 0.5, 0.7])
     assert not res.success
     client.spin_for(0.3)
     assert '[WARN]' in node.output() and 'forward_kinematics: rejected request' in node.output()
 
 
 def _set_params(client, node_name, **values):
-    cli = client.service(SetParameters, f'{node_name}/set_parameters')
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
     req = SetParameters.Request()
     for name, value in values.items():
         if isinstance(value, str):
@@ -239,23 +222,32 @@ def _set_params(client, node_name, **values):
         else:
             pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
         req.parameters.append(Parameter(name=name, value=pv))
-    return client.call(cli, req).results
+    return client.call(SetParameters, f'{node_name}/set_parameters', req).results
 
 
 def test_parameters_descriptors_and_runtime_change(client, node):
+    assert CFG.model == 'radial'                 # the node starts with the package default
+    q = (0.4, 0.401, 0.399)
+    before = _fk(client, q)
+    assert before.model == 'radial'
     (ro,) = _set_params(client, 'kinematics_node', radius=0.1)
     assert not ro.successful and 'read-only' in ro.reason.lower()
     (out,) = _set_params(client, 'kinematics_node', tilt_limit=1.0)     # beyond the descriptor's range
     assert not out.successful
     (bad,) = _set_params(client, 'kinematics_node', model='banana')
     assert not bad.successful and 'banana' in bad.reason
+    assert _fk(client, q).model == 'radial'      # a rejected change leaves the node as it was
     try:
-        (good,) = _set_params(client, 'kinematics_node', model='radial')
+        (good,) = _set_params(client, 'kinematics_node', model='polar')
         assert good.successful, good.reason
-        q = (0.4, 0.401, 0.399)
         res = _fk(client, q)
-        assert res.model == 'radial'
-        np.testing.assert_allclose(_vec(res.pose.position), forward(q, CFG, 'radial').position, **TIGHT)
+        assert res.model == 'polar'
+        core = forward(q, CFG, 'polar')
+        np.testing.assert_allclose(_vec(res.pose.position), core.position, **TIGHT)
+        np.testing.assert_allclose(res.virtual_joints, core.virtual_joints, **TIGHT)
+        assert len(res.virtual_joints) == 6 != len(before.virtual_joints)
+        # The two models differ by more than the tolerance here: the change really took effect.
+        assert np.max(np.abs(_vec(res.pose.position) - _vec(before.pose.position))) > 1e-9
     finally:
         (back,) = _set_params(client, 'kinematics_node', model=CFG.model)
         assert back.successful
@@ -270,13 +262,12 @@ def test_params_file_and_namespace(client, tmp_path):
             radius: 0.1
             stroke_max: 0.6
         '''))
-    proc = NodeProcess('kinematics_node', ['-r', '__ns:=/gpr_test', '--params-file', str(params)])
+    proc = start('kinematics_node', '--params-file', str(params), namespace='/gpr_test')
     try:
-        fk = client.service(ForwardKinematics, '/gpr_test/gpr/forward_kinematics')
+        from gpr_interfaces.srv import ForwardKinematics
+
         q = (0.55, 0.5501, 0.5498)         # above the default stroke (0.508), inside the file's
-        req = ForwardKinematics.Request()
-        req.q = list(q)
-        res = client.call(fk, req)
+        res = client.call(ForwardKinematics, '/gpr_test/gpr/forward_kinematics', ForwardKinematics.Request(q=q))
         assert res.success, res.message
         cfg = CFG.replace(model='offset', radius=0.1, stroke_max=0.6)
         core = forward(q, cfg)
@@ -288,7 +279,7 @@ def test_params_file_and_namespace(client, tmp_path):
 
 
 def test_bad_parameter_exits_2_with_message():
-    proc = NodeProcess('kinematics_node', ['-p', 'stroke_min:=0.6'])     # above stroke_max
+    proc = start('kinematics_node', stroke_min=0.6)     # above stroke_max
     status = proc.wait(timeout=30)
     assert status == 2
     out = proc.output()
@@ -297,33 +288,33 @@ def test_bad_parameter_exits_2_with_message():
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_signal_exits_0_quickly(sig):
+    from gpr_interfaces.srv import ForwardKinematics
+    from gpr_kinematics.nodes.client import GprClient
+
     ns = f'/gpr_sig_{int(sig)}'
-    proc = NodeProcess('kinematics_node', ['-r', f'__ns:={ns}'])
-    c = Client(f'gpr_test_sig_{int(sig)}')
-    try:
-        c.service(ForwardKinematics, f'{ns}/gpr/forward_kinematics')     # up and serving
-    finally:
-        c.close()
+    proc = start('kinematics_node', namespace=ns)
+    with GprClient(f'gpr_test_sig_{int(sig)}') as c:
+        c.client(ForwardKinematics, f'{ns}/gpr/forward_kinematics')     # up and serving
     status, took = proc.signal(sig, timeout=2.0)
     out = proc.output()
     proc.stop()
     assert status == 0, out
     assert took < 2.0
-    assert 'Traceback' not in out
+    assert 'Traceback' not in out and 'Exception' not in out
 
 
 def test_executables_found_like_ros2_run():
     """ros2 run = ament_index_python.get_package_prefix(pkg) + lib/<pkg>/<exe>; ros_env.find_executable agrees
     and points into the colcon install tree."""
     from ament_index_python.packages import get_package_prefix
-    from ros_support import executable
 
     from gpr_kinematics import ros_env
+    from gpr_kinematics.nodes.specs import NODES
 
     prefix = get_package_prefix('gpr_kinematics')
     assert prefix == str(ros_env.install_dir() / 'gpr_kinematics')
-    for exe in ('kinematics_node', 'trajectory_node'):
-        assert str(executable(exe)) == f'{prefix}/lib/gpr_kinematics/{exe}'
+    for exe in NODES:
+        assert str(ros_env.find_executable('gpr_kinematics', exe)) == f'{prefix}/lib/gpr_kinematics/{exe}'
     with pytest.raises(FileNotFoundError, match='no executable'):
         ros_env.find_executable('gpr_kinematics', 'no_such_node')
     with pytest.raises(FileNotFoundError, match='not found in the ament index'):

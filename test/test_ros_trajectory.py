@@ -1,5 +1,5 @@
 """trajectory_node over real DDS: the stream equals the core's precomputation, arrives in order, crosses
-alpha = 0 without a jump, carries consistent poses; program mode; clean exits."""
+alpha = 0 without a jump, carries consistent poses; the latched geometry; program mode; clean exits."""
 from __future__ import annotations
 
 import math
@@ -7,18 +7,16 @@ import signal
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from ros_support import Client, NodeProcess
-from sensor_msgs.msg import JointState
-from visualization_msgs.msg import Marker, MarkerArray
+import yaml
+from ros_support import start
 
-from gpr_interfaces.msg import PlatformState
-from gpr_kinematics.config import load_config
+from gpr_kinematics.config import GprConfig, load_config
 from gpr_kinematics.kinematics import inverse_batch
 from gpr_kinematics.nodes.program import load_program, sample_program
 from gpr_kinematics.resources import config_path
 from gpr_kinematics.sweep import paper_sweep
+
+pytestmark = pytest.mark.ros
 
 CFG = load_config()
 TIGHT = dict(rtol=0.0, atol=1e-12)
@@ -29,36 +27,38 @@ HEIGHT = 0.4
 RATE = 200.0
 
 
-class Recorder:
-    """Subscribes to every topic of the trajectory node (reliable, deep queues) and keeps the messages."""
+def subscribe_stream(client, ns: str) -> dict[str, list]:
+    """Keep every message of the trajectory node's topics (reliable, deep queues; gpr/geometry latched)."""
+    from geometry_msgs.msg import PoseStamped
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import String
+    from visualization_msgs.msg import MarkerArray
 
-    TOPICS = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
-              'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState, 'gpr/markers': MarkerArray}
+    from gpr_interfaces.msg import PlatformState
 
-    def __init__(self, client: Client, ns: str) -> None:
-        qos = QoSProfile(depth=10000, reliability=ReliabilityPolicy.RELIABLE)
-        self.msgs: dict[str, list] = {t: [] for t in self.TOPICS}
-        self.subs = [client.node.create_subscription(typ, f'{ns}/{topic}', self.msgs[topic].append, qos)
-                     for topic, typ in self.TOPICS.items()]
+    topics = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
+              'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState, 'gpr/virtual_joints': JointState,
+              'gpr/markers': MarkerArray}
+    out = {t: client.subscribe(ty, f'{ns}/{t}') for t, ty in topics.items()}
+    out['gpr/geometry'] = client.subscribe(String, f'{ns}/gpr/geometry', latched=True)
+    return out
 
 
-def _run_stream(ns: str, ros_args: list[str], expect: int, timeout: float = 60.0):
-    """Start the node, record until it exits; return (recorder, exit status, output)."""
-    c = Client(f'gpr_test_traj_{ns.strip("/")}')
-    rec = Recorder(c, ns)
-    proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', 'wait_for_subscribers:=1',
-                                           '-p', 'wait_all_topics:=true',
-                                           '-p', f'rate:={RATE}', *ros_args])
-    try:
-        done = c.spin_until(lambda: not proc.alive() and len(rec.msgs['gpr/platform_state']) >= expect,
-                            timeout)
-        c.spin_for(0.3)
-        assert done, f'stream incomplete: {len(rec.msgs["gpr/platform_state"])} of {expect}\n{proc.output()}'
-        status = proc.wait(timeout=10)
-        return rec, status, proc.output()
-    finally:
-        proc.stop()
-        c.close()
+def _run_stream(ns: str, expect: int, timeout: float = 60.0, **values):
+    """Start the node, record until it exits; return (messages by topic, exit status, output)."""
+    from gpr_kinematics.nodes.client import GprClient
+
+    with GprClient(f'gpr_test_traj_{ns.strip("/")}') as c:
+        msgs = subscribe_stream(c, ns)
+        proc = start('trajectory_node', namespace=ns, **{'wait_for_subscribers': 1, 'rate': RATE, **values})
+        try:
+            done = c.spin_until(lambda: not proc.alive() and len(msgs['gpr/platform_state']) >= expect, timeout)
+            c.spin_for(0.3)
+            assert done, f'stream incomplete: {len(msgs["gpr/platform_state"])} of {expect}\n{proc.output()}'
+            status = proc.wait(timeout=10)
+            return msgs, status, proc.output()
+        finally:
+            proc.stop()
 
 
 def _pos(p):
@@ -70,13 +70,11 @@ def _quat(p):
 
 
 @pytest.fixture(scope='module')
-def sweep_run():
+def sweep_run(ros_environment):
     core = paper_sweep(height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, passes=2,
                        config=CFG)
-    rec, status, out = _run_stream('/traj_sweep', [
-        '-p', 'mode:=sweep', '-p', f'height:={HEIGHT}', '-p', f'max_tilt:={MAX_TILT!r}',
-        '-p', f'tilt_step:={STEP!r}', '-p', f'azimuth_step:={AZ_STEP!r}', '-p', 'passes:=2',
-        '-p', 'markers_every:=3'], expect=len(core))
+    rec, status, out = _run_stream('/traj_sweep', expect=len(core), mode='sweep', height=HEIGHT, max_tilt=MAX_TILT,
+                                   tilt_step=STEP, azimuth_step=AZ_STEP, passes=2, markers_every=3)
     return core, rec, status, out
 
 
@@ -89,7 +87,7 @@ def test_sweep_exits_0_and_logs_start_and_finish(sweep_run):
 
 def test_sweep_stream_in_order_and_equal_to_core(sweep_run):
     core, rec, _, _ = sweep_run
-    states = rec.msgs['gpr/platform_state']
+    states = rec['gpr/platform_state']
     assert [m.sample for m in states] == list(range(len(core)))
     fk = core.forward
     np.testing.assert_allclose([m.q for m in states], core.q, **TIGHT)
@@ -109,7 +107,7 @@ def test_sweep_stream_in_order_and_equal_to_core(sweep_run):
 
 def test_sweep_crosses_singularity_without_jump(sweep_run):
     core, rec, _, _ = sweep_run
-    states = rec.msgs['gpr/platform_state']
+    states = rec['gpr/platform_state']
     q = np.array([m.q for m in states])
     pos = np.array([_pos(m.pose) for m in states])
     tilt = np.array([m.tilt for m in states])
@@ -134,7 +132,7 @@ def test_sweep_crosses_singularity_without_jump(sweep_run):
 
 def test_sweep_poses_consistent(sweep_run):
     core, rec, _, _ = sweep_run
-    states = rec.msgs['gpr/platform_state']
+    states = rec['gpr/platform_state']
     for m in states:
         shift = _pos(m.pose) - _pos(m.nominal_pose)
         np.testing.assert_allclose(shift, [m.centre_shift.x, m.centre_shift.y, m.centre_shift.z], atol=1e-15)
@@ -144,22 +142,28 @@ def test_sweep_poses_consistent(sweep_run):
         qa = np.asarray(m.q)
         np.testing.assert_allclose(m.side_lengths, np.sqrt(3 * CFG.radius ** 2 + (np.roll(qa, -1) - qa) ** 2),
                                    rtol=1e-12)
-    poses = rec.msgs['gpr/platform_pose']
-    nominal = rec.msgs['gpr/nominal_pose']
-    joints = rec.msgs['gpr/joint_states']
-    assert len(poses) == len(nominal) == len(joints) == len(states)
-    for s, p, n, j in zip(states, poses, nominal, joints, strict=True):
+    poses = rec['gpr/platform_pose']
+    nominal = rec['gpr/nominal_pose']
+    joints = rec['gpr/joint_states']
+    virtual = rec['gpr/virtual_joints']
+    assert len(poses) == len(nominal) == len(joints) == len(virtual) == len(states)
+    for s, p, n, j, v in zip(states, poses, nominal, joints, virtual, strict=True):
         assert p.header.stamp == s.header.stamp and p.header.frame_id == 'gpr_base'
         np.testing.assert_array_equal(_pos(p.pose), _pos(s.pose))
         np.testing.assert_array_equal(_quat(n.pose), _quat(s.nominal_pose))
-        assert list(j.name) == ['rod_1', 'rod_2', 'rod_3'] + list(s.virtual_joint_names)
-        np.testing.assert_array_equal(j.position, list(s.q) + list(s.virtual_joints))
+        # Physical joints only on gpr/joint_states (robot_state_publisher's convention), the virtual ones apart.
+        assert list(j.name) == ['rod_1', 'rod_2', 'rod_3'] and j.header.stamp == s.header.stamp
+        np.testing.assert_array_equal(j.position, list(s.q))
+        assert list(v.name) == list(s.virtual_joint_names) and v.header.stamp == s.header.stamp
+        np.testing.assert_array_equal(v.position, list(s.virtual_joints))
     assert list(states[0].virtual_joint_names) == list(core.forward.virtual_joint_names)
 
 
 def test_sweep_markers(sweep_run):
+    from visualization_msgs.msg import Marker
+
     core, rec, _, _ = sweep_run
-    markers = rec.msgs['gpr/markers']
+    markers = rec['gpr/markers']
     assert len(markers) == math.ceil(len(core) / 3)
     last = markers[-1]
     by_ns = {m.ns: m for m in last.markers}
@@ -171,15 +175,24 @@ def test_sweep_markers(sweep_run):
     np.testing.assert_allclose(zs, core.q[i], atol=1e-15)
 
 
-def test_program_mode_streams_the_sampled_program():
+def test_geometry_latched_and_loadable(sweep_run):
+    """gpr/geometry: one latched message, the YAML of the node's GprConfig.to_dict()."""
+    _, rec, _, _ = sweep_run
+    (msg,) = rec['gpr/geometry']
+    data = yaml.safe_load(msg.data)
+    assert data == CFG.to_dict()
+    assert GprConfig.from_mapping(data) == CFG
+
+
+def test_program_mode_streams_the_sampled_program(ros_environment):
     path = config_path('programs/example_stations.yaml')
     prog = load_program(path)
     rate = 50.0
     samples = sample_program(prog, rate, 2.0)
-    rec, status, out = _run_stream('/traj_program', ['-p', 'mode:=program', '-p', f'program_file:={path}',
-                                                     '-p', f'rate:={rate}'], expect=len(samples))
+    rec, status, out = _run_stream('/traj_program', expect=len(samples), mode='program', program_file=path,
+                                   rate=rate)
     assert status == 0, out
-    states = rec.msgs['gpr/platform_state']
+    states = rec['gpr/platform_state']
     assert [m.sample for m in states] == list(range(len(samples)))
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, CFG)
     np.testing.assert_allclose([m.q for m in states], ik.q, **TIGHT)
@@ -196,32 +209,33 @@ def test_program_mode_streams_the_sampled_program():
     assert np.abs(np.diff(q, axis=0)).max() < 0.01
 
 
-def test_program_mode_bad_file_exits_2(tmp_path):
+def test_program_mode_bad_file_exits_2(ros_environment, tmp_path):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('stations:\n  - {height: 0.4, tilt: 0.1, azimuth: 0.0}\n')     # 5.7 deg: beyond the limit
-    proc = NodeProcess('trajectory_node', ['-p', 'mode:=program', '-p', f'program_file:={bad}'])
+    proc = start('trajectory_node', mode='program', program_file=bad)
     assert proc.wait(timeout=30) == 2
     out = proc.output()
     assert 'cannot start' in out and 'station 0' in out and 'tilt' in out and 'Traceback' not in out
 
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
-def test_looping_node_exits_0_on_signal(sig):
+def test_looping_node_exits_0_on_signal(ros_environment, sig):
+    from gpr_interfaces.msg import PlatformState
+    from gpr_kinematics.nodes.client import GprClient
+
     ns = f'/traj_sig_{int(sig)}'
-    c = Client(f'gpr_test_traj_sig_{int(sig)}')
-    rec = Recorder(c, ns)
-    proc = NodeProcess('trajectory_node', ['-r', f'__ns:={ns}', '-p', 'loop:=true', '-p', 'rate:=100.0',
-                                           '-p', 'wait_for_subscribers:=1',
-                                           '-p', f'tilt_step:={STEP!r}', '-p', f'azimuth_step:={AZ_STEP!r}'])
-    try:
-        assert c.spin_until(lambda: len(rec.msgs['gpr/platform_state']) > 60, 30), proc.output()
-        status, took = proc.signal(sig, timeout=2.0)
-        out = proc.output()
-        assert status == 0, out
-        assert took < 2.0 and 'Traceback' not in out
-        # It looped: more samples than one pass, the counter kept counting.
-        n = len(paper_sweep(max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, config=CFG))
-        assert n < 60 and rec.msgs['gpr/platform_state'][60].sample == 60
-    finally:
-        proc.stop()
-        c.close()
+    with GprClient(f'gpr_test_traj_sig_{int(sig)}') as c:
+        states = c.subscribe(PlatformState, f'{ns}/gpr/platform_state')
+        proc = start('trajectory_node', namespace=ns, loop=True, rate=100.0, wait_for_subscribers=1,
+                     wait_all_topics=False, tilt_step=STEP, azimuth_step=AZ_STEP)
+        try:
+            assert c.spin_until(lambda: len(states) > 60, 30), proc.output()
+            status, took = proc.signal(sig, timeout=2.0)
+            out = proc.output()
+            assert status == 0, out
+            assert took < 2.0 and 'Traceback' not in out
+            # It looped: more samples than one pass, the counter kept counting.
+            n = len(paper_sweep(max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, config=CFG))
+            assert n < 60 and states[60].sample == 60
+        finally:
+            proc.stop()

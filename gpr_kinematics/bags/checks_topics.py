@@ -2,8 +2,10 @@
 
 - ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and the
   same pose (<= ``consistency``, 1e-12);
-- ``joint_states``: names ``rod_1..rod_3`` (:data:`gpr_kinematics.messages.ROD_JOINT_NAMES`) + the virtual
-  joints' names, positions ``q`` then the virtual joints (<= 1e-12);
+- ``joint_states``: names ``rod_1..rod_3`` (:data:`gpr_kinematics.messages.ROD_JOINT_NAMES`), positions ``q``
+  (in bags recorded before the virtual joints got their own topic: the rods then the virtual joints' names,
+  positions ``q`` then the virtual joints) (<= 1e-12); ``virtual_joints``: the state's virtual-joint names and
+  values (<= 1e-12);
 - ``markers``: each MarkerArray has the four markers of :data:`.markers.MARKERS` (ids, namespaces, types,
   ADD), each with the stamp and frame of a PlatformState and the identity pose (so the points are in the
   base frame), and the points of :func:`.markers.marker_points` for that state (rod tops = joint centres
@@ -17,6 +19,7 @@ failures.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,7 +33,7 @@ from .columns import field_matrix, matrix, stamp_ns, vec
 from .markers import ADD, MARKERS, marker_points
 from .reader import Bag, TopicData
 from .results import Check, Failure, Series, skipped, value_check
-from .typestore import GPR_TOPICS
+from .typestore import GPR_TOPICS, VIRTUAL_JOINTS_TOPIC
 
 _UNIT = 'm|rad'
 
@@ -95,28 +98,54 @@ def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -
     return out
 
 
-def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float) -> list[Check]:
-    name = '/gpr/joint_states'
+#: A layout of a JointState topic: for the state ``r``, the joint names and positions it must carry.
+_Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
+
+
+def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
+                  layouts: tuple[_Layout, ...], detail: str) -> list[Check]:
+    """A JointState topic against the states: per matched message, the largest position error of the first
+    layout whose names it carries (inf when it carries none)."""
+    check = f'topic.{name.rsplit("/", 1)[-1]}'
     t = _topic(bag, name)
     if t is None:
-        return [skipped('topic.joint_states', name, _UNIT, 'topic not in the bag', tol)]
+        return [skipped(check, name, _UNIT, 'topic not in the bag', tol)]
     stamps = stamp_ns(c)
     jc = t.columns()
     idx = match(stamp_ns(jc), jc['header.frame_id'], stamps, c['header.frame_id'])
     rows = np.flatnonzero(idx >= 0)
-    expected = np.concatenate([series.q, series.virtual_joints], axis=1)
     e = missing(stamps, stamp_ns(jc))
-    if rows.size:
-        j = idx[rows]
-        got = matrix(jc['position'], expected.shape[1])
-        diff = np.max(np.abs(got[j] - expected[rows]), axis=1) if expected.shape[1] else np.zeros(rows.size)
-        names, vnames = jc['name'], c['virtual_joint_names']
-        good = np.array([tuple(names[jj]) == ROD_JOINT_NAMES + tuple(vnames[r]) and len(jc['position'][jj]) ==
-                         3 + len(vnames[r]) for jj, r in zip(j, rows, strict=True)])
-        e[rows] = np.where(good, diff, np.inf)
-    out = [value_check('topic.joint_states', name, e, tol, _UNIT, samples,
-                       'inf = missing, or names not rod_1..rod_3 + the virtual joints')]
-    return out + [x for x in [extra('topic.joint_states', name, stamp_ns(jc), stamps, rows.size)] if x]
+    names, positions = jc['name'], jc['position']
+    for r in rows:
+        got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
+        e[r] = np.inf
+        for layout in layouts:
+            want_names, want = layout(int(r))
+            if got_names == want_names and got.shape == want.shape:
+                e[r] = float(np.max(np.abs(got - want), initial=0.0))
+                break
+    out = [value_check(check, name, e, tol, _UNIT, samples, f'inf = missing, or {detail}')]
+    return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
+
+
+def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float) -> list[Check]:
+    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``); bags recorded before the virtual joints got
+    their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the virtual joints."""
+    vnames = c['virtual_joint_names']
+
+    def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        return ROD_JOINT_NAMES, series.q[r]
+
+    def rods_and_virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        return ROD_JOINT_NAMES + tuple(vnames[r]), np.concatenate([series.q[r], series.virtual_joints[r]])
+
+    def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        return tuple(vnames[r]), series.virtual_joints[r]
+
+    return (_joint_checks(bag, c, samples, tol, '/gpr/joint_states', (rods, rods_and_virtual),
+                          'names not rod_1..rod_3 (or, recorded before, rod_1..rod_3 + the virtual joints)')
+            + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
+                            "names not the state's virtual_joint_names"))
 
 
 def _column(mc: Columns, name: str) -> NDArray[Any] | None:

@@ -24,6 +24,8 @@ INTERFACES_PACKAGE = 'gpr_interfaces'
 #: The geometry and model that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
 #: node's ``GprConfig.to_dict()``, published once at start (reliable, transient local, depth 1).
 GEOMETRY_TOPIC = '/gpr/geometry'
+#: The virtual joints of each sample (``sensor_msgs/JointState``, names of the model), apart from the physical joints.
+VIRTUAL_JOINTS_TOPIC = '/gpr/virtual_joints'
 
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
@@ -31,6 +33,7 @@ GPR_TOPICS: dict[str, str] = {
     '/gpr/platform_pose': 'geometry_msgs/msg/PoseStamped',
     '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
     '/gpr/joint_states': 'sensor_msgs/msg/JointState',
+    VIRTUAL_JOINTS_TOPIC: 'sensor_msgs/msg/JointState',
     '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
     GEOMETRY_TOPIC: 'std_msgs/msg/String',
 }

@@ -9,7 +9,7 @@ from __future__ import annotations
 import array
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -23,6 +23,9 @@ from ..errors import InputError
 from ..geometry import matrix_from_quaternion, tilt_from_matrix
 from ..messages import MessageTypes, fill_fields, forward_fields
 from ..validation import finite_vector, unit_quaternion
+
+#: A vector of numbers given to a message builder: a sequence or a numpy array (SI units).
+Vector: TypeAlias = Sequence[float] | np.ndarray
 
 
 def point_array(p: Point | Vector3, name: str) -> np.ndarray:
@@ -50,30 +53,30 @@ def tilt_of_quaternion(quat: np.ndarray) -> tuple[float, float, float]:
     return float(tilt), float(az), float(twist)
 
 
-def _set_vector(msg: Any, values: Sequence[float]) -> Any:
+def _set_vector(msg: Any, values: Vector) -> Any:
     msg.x, msg.y, msg.z = (float(v) for v in values)
     return msg
 
 
-def point_msg(values: Sequence[float]) -> Point:
+def point_msg(values: Vector) -> Point:
     return _set_vector(Point(), values)
 
 
-def vector_msg(values: Sequence[float]) -> Vector3:
+def vector_msg(values: Vector) -> Vector3:
     return _set_vector(Vector3(), values)
 
 
-def quaternion_msg(values: Sequence[float]) -> Quaternion:
+def quaternion_msg(values: Vector) -> Quaternion:
     x, y, z, w = (float(v) for v in values)
     return Quaternion(x=x, y=y, z=z, w=w)
 
 
-def pose_msg(position: Sequence[float], quaternion: Sequence[float]) -> Pose:
+def pose_msg(position: Vector, quaternion: Vector) -> Pose:
     """Pose from a position [m] and a quaternion (x, y, z, w)."""
     return Pose(position=point_msg(position), orientation=quaternion_msg(quaternion))
 
 
-def transform_msg(translation: Sequence[float], quaternion: Sequence[float]) -> Transform:
+def transform_msg(translation: Vector, quaternion: Vector) -> Transform:
     """Transform from a translation [m] and a quaternion (x, y, z, w)."""
     return Transform(translation=vector_msg(translation), rotation=quaternion_msg(quaternion))
 

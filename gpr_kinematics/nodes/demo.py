@@ -12,13 +12,12 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import signal
-import subprocess
 import sys
-import time
 from collections.abc import Sequence
+from typing import Any
 
 from .. import ros_env
+from .process import NodeProcess
 
 
 def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -44,58 +43,41 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _demo(args)
 
 
-def _start(exe: str, ros_args: list[str]) -> subprocess.Popen:
-    path = ros_env.find_executable('gpr_kinematics', exe)
-    print(f'$ {path} --ros-args {" ".join(ros_args)}', flush=True)
-    return subprocess.Popen([str(path), '--ros-args', *ros_args], stdin=subprocess.DEVNULL)
+def _start(exe: str, *ros_args: str) -> NodeProcess:
+    proc = NodeProcess(exe, ros_args, echo=True)
+    print(f'$ {proc.command}', flush=True)
+    return proc
 
 
 def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
     import numpy as np
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
 
     from gpr_interfaces.msg import PlatformState
-    from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 
     from ..config import load_config
     from ..geometry import quaternion_from_matrix, tilt_rotation
-    from .conversions import pose_msg
+    from .client import GprClient
 
     cfg = load_config()
     failures: list[str] = []
-    kin = _start('kinematics_node', [])
-    rclpy.init()
-    node = rclpy.create_node('gpr_demo_client')
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
+    kin = _start('kinematics_node')
+    client = GprClient('gpr_demo_client')
     traj = None
 
-    def call(srv_type, name, req):
-        cli = node.create_client(srv_type, name)
-        if not cli.wait_for_service(timeout_sec=30.0):
-            raise TimeoutError(f'service {name} not available')
-        fut = cli.call_async(req)
-        ex.spin_until_future_complete(fut, timeout_sec=10.0)
-        if not fut.done():
-            raise TimeoutError(f'no answer from {name}')
-        res = fut.result()
+    def check(name: str, res: Any) -> Any:
         if not res.success:
             failures.append(f'{name}: {res.message}')
         return res
 
-    def fmt(v, scale=1.0, digits=6):
+    def fmt(v: Any, scale: float = 1.0, digits: int = 6) -> str:
         return '(' + ', '.join(f'{scale * x:.{digits}f}' for x in v) + ')'
 
-    def xyz(p):
+    def xyz(p: Any) -> list[float]:
         return [p.x, p.y, p.z]
 
     try:
         print('\n== gpr/forward_kinematics: q = (0.5, 0.498, 0.502) m', flush=True)
-        req = ForwardKinematics.Request()
-        req.q = [0.5, 0.498, 0.502]
-        r = call(ForwardKinematics, 'gpr/forward_kinematics', req)
+        r = check('gpr/forward_kinematics', client.forward_kinematics([0.5, 0.498, 0.502]))
         vj = dict(zip(r.virtual_joint_names, (round(v, 9) for v in r.virtual_joints), strict=True))
         print(f'   success {r.success} {r.message}\n   model {r.model}, iterations {r.iterations}, '
               f'residual {r.residual:.2e} m\n   position {fmt(xyz(r.pose.position))} m, tilt '
@@ -104,21 +86,15 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
               f'   virtual joints {vj}')
 
         print('\n== gpr/inverse_kinematics: height 0.45 m, tilt 1.5 deg about azimuth 30 deg', flush=True)
-        req = InverseKinematics.Request()
-        req.target = pose_msg((0.0, 0.0, 0.45),
-                              quaternion_from_matrix(tilt_rotation(math.radians(1.5), math.radians(30.0))))
-        r = call(InverseKinematics, 'gpr/inverse_kinematics', req)
+        r = check('gpr/inverse_kinematics', client.inverse_kinematics(0.45, math.radians(1.5), math.radians(30.0)))
         print(f'   success {r.success} {r.message}\n   q {fmt(r.q)} m ({r.iterations} iterations)\n'
               f'   achieved position {fmt(xyz(r.achieved.position))} m, tilt {math.degrees(r.tilt):.6f} deg, '
               f'twist {math.degrees(r.twist):.2e} deg')
 
         print('\n== gpr/compensate: naive command z 0.40 m, tilt 2 deg about azimuth 90 deg, tool (0.1, 0, 0.15) m',
               flush=True)
-        req = Compensate.Request()
-        req.command = pose_msg((0.0, 0.0, 0.40),
-                               quaternion_from_matrix(tilt_rotation(math.radians(2.0), math.radians(90.0))))
-        req.tool_offset.x, req.tool_offset.z = 0.1, 0.15
-        r = call(Compensate, 'gpr/compensate', req)
+        quat = quaternion_from_matrix(tilt_rotation(math.radians(2.0), math.radians(90.0)))
+        r = check('gpr/compensate', client.compensate((0.0, 0.0, 0.40), quat, (0.1, 0.0, 0.15)))
         t = r.arm_correction.translation
         print(f'   success {r.success} {r.message}\n   q {fmt(r.q)} m\n'
               f'   tool shift {fmt(xyz(r.tool_shift), 1e6, 3)} µm\n'
@@ -126,12 +102,9 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
 
         print('\n== gpr/analyze_mobility: singular q = (0.5, 0.5, 0.5) m and tilted q = (0.5, 0.498, 0.502) m',
               flush=True)
-        for q in ((0.5, 0.5, 0.5), (0.5, 0.498, 0.502)):
-            req = AnalyzeMobility.Request()
-            req.q = list(q)
-            req.dq = [0.0, 1e-4, -1e-4]
-            r = call(AnalyzeMobility, 'gpr/analyze_mobility', req)
-            print(f'   q {q}: success {r.success}, rank dPhi/dP {r.rank_dphi_dp}, rank [dPhi/dP dPhi/dX] '
+        for q_rods in ((0.5, 0.5, 0.5), (0.5, 0.498, 0.502)):
+            r = check('gpr/analyze_mobility', client.analyze_mobility(q_rods, (0.0, 1e-4, -1e-4)))
+            print(f'   q {q_rods}: success {r.success}, rank dPhi/dP {r.rank_dphi_dp}, rank [dPhi/dP dPhi/dX] '
                   f'{r.rank_augmented}, singular values {fmt(r.singular_values, 1.0, 4)}\n'
                   f'      bounds (4) [{r.eq4_lower:.4f}, {r.eq4_upper:.4f}], (5) [{r.eq5_lower:.4f}, '
                   f'{r.eq5_upper:.4f}]; for dq = (0, 0.1, -0.1) mm: |dX| = {r.dx_norm:.3e} in '
@@ -142,19 +115,13 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
         print(f'\n== trajectory_node: paper sweep at {args.height} m, ±{args.max_tilt_deg} deg in '
               f'{args.tilt_step_deg} deg steps, azimuth step {args.azimuth_step_deg} deg, {args.rate} Hz',
               flush=True)
-        states: list = []
-        node.create_subscription(PlatformState, 'gpr/platform_state', states.append,
-                                 QoSProfile(depth=100000, reliability=ReliabilityPolicy.RELIABLE))
-        traj = _start('trajectory_node', ['-p', 'mode:=sweep', '-p', f'rate:={args.rate}',
-                                          '-p', f'height:={args.height}', '-p', f'max_tilt:={max_tilt!r}',
-                                          '-p', f'tilt_step:={step!r}', '-p', f'azimuth_step:={az_step!r}',
-                                          '-p', 'wait_for_subscribers:=1'])
-        t0 = time.monotonic()
-        while traj.poll() is None and time.monotonic() - t0 < 300:
-            ex.spin_once(timeout_sec=0.05)
-        end = time.monotonic() + 0.5
-        while time.monotonic() < end:
-            ex.spin_once(timeout_sec=0.05)
+        states = client.subscribe(PlatformState, 'gpr/platform_state')
+        traj = _start('trajectory_node', '-p', 'mode:=sweep', '-p', f'rate:={args.rate}',
+                      '-p', f'height:={args.height}', '-p', f'max_tilt:={max_tilt!r}',
+                      '-p', f'tilt_step:={step!r}', '-p', f'azimuth_step:={az_step!r}',
+                      '-p', 'wait_for_subscribers:=1', '-p', 'wait_all_topics:=false')
+        client.spin_until(lambda: not traj.alive(), 300)
+        client.spin_for(0.5)
         status = traj.wait(timeout=10)
         if status != 0:
             failures.append(f'trajectory_node exited with status {status}')
@@ -184,19 +151,12 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
     except Exception as exc:  # noqa: BLE001 - the demo reports and fails, without a traceback
         failures.append(f'{type(exc).__name__}: {exc}')
     finally:
-        for proc in (kin, traj):
-            if proc is not None and proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        kin_status = None
-        try:
-            kin_status = kin.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            kin.kill()
+        if traj is not None:
+            traj.stop()
+        kin_status = kin.stop(timeout=5)
         if kin_status != 0:
             failures.append(f'kinematics_node exited with status {kin_status} after SIGINT')
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        client.close()
     if failures:
         print('\ndemo FAILED:\n  ' + '\n  '.join(failures), file=sys.stderr)
         return 1

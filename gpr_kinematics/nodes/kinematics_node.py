@@ -18,19 +18,21 @@ No exception escapes a callback (one would end the spin and leave the client wai
 """
 from __future__ import annotations
 
+import array
 import functools
+import math
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 
 from ..compensation import compensate
-from ..errors import GprError
+from ..config import GprConfig
+from ..errors import GprError, InputError
 from ..kinematics import forward, inverse
 from ..mobility import analyze_mobility, rod_perturbation
 from ..validation import finite_vector
@@ -44,7 +46,7 @@ from .conversions import (
     vector_msg,
 )
 from .params import ConfigParameters
-from .runtime import run
+from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'kinematics_node'
 SERVICE_QUEUE_DEPTH = 100
@@ -56,24 +58,51 @@ def _model(name: str) -> str | None:
     return name or None
 
 
-def guarded(service: str) -> Callable:
-    """Wrap a service callback: any exception becomes ``success: false`` + message, logged at warning."""
+def non_finite_field(msg: Any, prefix: str = '') -> str | None:
+    """Path and value of the first non-finite number in a message (nested messages and arrays included), or
+    None: a response never reports success with an infinite or NaN number in it."""
+    for name in msg.get_fields_and_field_types():
+        value = getattr(msg, name)
+        path = f'{prefix}{name}'
+        if hasattr(value, 'get_fields_and_field_types'):
+            found = non_finite_field(value, path + '.')
+            if found:
+                return found
+        elif isinstance(value, float):
+            if not math.isfinite(value):
+                return f'{path} = {value!r}'
+        elif isinstance(value, (list, tuple, np.ndarray, array.array)) and len(value) and \
+                isinstance(value[0], (float, np.floating)):
+            bad = [i for i, v in enumerate(value) if not math.isfinite(float(v))]
+            if bad:
+                return f'{path}[{bad[0]}] = {float(value[bad[0]])!r}'
+    return None
 
-    def wrap(fn: Callable) -> Callable:
+
+def guarded(service: str) -> Callable[..., Any]:
+    """Wrap a service callback: a request the core refuses, a result that is not finite and any other exception
+    become ``success: false`` with a message (logged at warning); nothing escapes (an escaping exception would
+    end the spin and leave the client waiting)."""
+
+    def wrap(fn: Callable[..., None]) -> Callable[..., Any]:
         @functools.wraps(fn)
         def inner(self: KinematicsNode, request: Any, response: Any) -> Any:
             try:
                 fn(self, request, response)
-                response.success = True
-                response.message = ''
+                bad = non_finite_field(response)
+                if bad is not None:
+                    raise InputError(f'the result is not finite ({bad}): the request is beyond what the model '
+                                     'can represent')
             except GprError as exc:
-                response.success = False
-                response.message = str(exc)
-                self.get_logger().warning(f'{service}: rejected request: {exc}')
+                message = one_line(exc)
+                self.get_logger().warning(f'{service}: rejected request: {message}')
+                return _failed(response, message)
             except Exception as exc:  # noqa: BLE001 - nothing may escape a service callback
-                response.success = False
-                response.message = f'internal error: {type(exc).__name__}: {exc}'
-                self.get_logger().warning(f'{service}: internal error on request: {type(exc).__name__}: {exc}')
+                message = f'internal error: {type(exc).__name__}: {one_line(exc)}'
+                self.get_logger().warning(f'{service}: {message}')
+                return _failed(response, message)
+            response.success = True
+            response.message = ''
             return response
 
         return inner
@@ -81,11 +110,21 @@ def guarded(service: str) -> Callable:
     return wrap
 
 
-class KinematicsNode(Node):
+def _failed(response: Any, message: str) -> Any:
+    """A fresh response of the same type (no half-filled numbers) with ``success: false`` and ``message``."""
+    out = type(response)()
+    out.success = False
+    out.message = message
+    return out
+
+
+class KinematicsNode(GprNode):
     """Thin adapter: messages -> core calls -> messages."""
 
+    NODE_NAME = NODE_NAME
+
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(NODE_NAME, **kwargs)
+        super().__init__(**kwargs)
         self.params = ConfigParameters(self)
         # Deeper than the default (keep last 10): with several clients at full speed a response history of
         # 10 can be overwritten before it is delivered (docs/benchmarks.md).
@@ -100,7 +139,7 @@ class KinematicsNode(Node):
                                f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad)')
 
     @property
-    def config(self) -> Any:
+    def config(self) -> GprConfig:
         return self.params.config
 
     @guarded('forward_kinematics')
@@ -160,7 +199,7 @@ def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    return run(NODE_NAME, KinematicsNode, args)
+    return run(KinematicsNode, args)
 
 
 if __name__ == '__main__':

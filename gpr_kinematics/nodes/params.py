@@ -1,118 +1,110 @@
-"""ROS parameters of the GPR geometry and model, declared with descriptors, mapped onto ``GprConfig``.
+"""Declaring the nodes' ROS parameters from their specs (:mod:`.specs`), and the GPR configuration as parameters.
 
-Every field of :class:`~gpr_kinematics.config.GprConfig` is a parameter of the same name (SI units), its
-default taken from the package's embedded ``config/gpr.yaml`` (or from the YAML named by the read-only
-parameter ``config_file``), overridable with ``--ros-args -p name:=value`` or ``--params-file``.
-The machine's geometry (``radius``, ``rod_azimuths``, ``stroke_min``, ``stroke_max``) and ``config_file``
-are read-only: they describe the hardware and cannot change while the node runs. The model and solver
-settings may change at run time; a change is validated through ``GprConfig.replace`` and rejected with the
-reason when invalid.
+:func:`declare_parameters` is the one declaration loop of every node: descriptors carry the type, the
+description, the range (``floating_point_range`` / ``integer_range``), the allowed strings and any further
+constraint as ``additional_constraints`` text, and ``read_only``; the start-up values are checked against the
+spec (rclpy checks ranges, not allowed strings) and a bad one raises :class:`~gpr_kinematics.errors.ConfigError`.
+
+:class:`ConfigParameters` declares ``config_file`` and every ``GprConfig`` key (defaults from the package's
+``config/gpr.yaml`` or from ``config_file``) and keeps ``config`` in step with them. A run-time change follows
+rclpy's two stages: the on-set callback only *validates* (the whole configuration, through
+``GprConfig.from_mapping``, rejected with the reason when invalid); the post-set callback, called once the
+change is accepted, *applies* it.
 """
 from __future__ import annotations
 
-import math
+from collections.abc import Sequence
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..config import MODELS, WEIGHTINGS, GprConfig, load_config
+from ..config import GprConfig, load_config
 from ..errors import GprError
+from .specs import CONFIG_FILE, ParamSpec, config_mapping, config_specs
 
-#: (name, type, description, range or choices, read_only)
-_SPECS: tuple[tuple[str, int, str, Any, bool], ...] = (
-    ('radius', ParameterType.PARAMETER_DOUBLE, 'radius R of the circle of rod axes [m]', (1e-4, 10.0), True),
-    ('rod_azimuths', ParameterType.PARAMETER_DOUBLE_ARRAY,
-     'azimuths of rods 1, 2, 3 in gpr_base [rad]', None, True),
-    ('stroke_min', ParameterType.PARAMETER_DOUBLE, 'lowest rod length q [m]', (-10.0, 10.0), True),
-    ('stroke_max', ParameterType.PARAMETER_DOUBLE, 'highest rod length q [m]', (-10.0, 10.0), True),
-    ('tilt_limit', ParameterType.PARAMETER_DOUBLE, 'largest platform tilt [rad]', (1e-6, math.radians(15.0)),
-     False),
-    ('imperfection_budget', ParameterType.PARAMETER_DOUBLE,
-     'largest virtual-joint displacement of a joint centre [m]', (1e-9, 0.01), False),
-    ('model', ParameterType.PARAMETER_STRING, 'default virtual-joint model', MODELS, False),
-    ('characteristic_length', ParameterType.PARAMETER_DOUBLE,
-     'weight of angular virtual joints in the Newton step [m]; 0 = radius', (0.0, 100.0), False),
-    ('weighting', ParameterType.PARAMETER_STRING, 'Newton step norm', WEIGHTINGS, False),
-    ('max_iterations', ParameterType.PARAMETER_INTEGER, 'bound of Newton iterations per solve', (1, 100),
-     False),
-    ('tolerance', ParameterType.PARAMETER_DOUBLE, 'closure tolerance on the side lengths [m]', (1e-16, 1e-6),
-     False),
-)
-
-CONFIG_KEYS: tuple[str, ...] = tuple(s[0] for s in _SPECS)
+_TYPES = {
+    'double': ParameterType.PARAMETER_DOUBLE,
+    'integer': ParameterType.PARAMETER_INTEGER,
+    'string': ParameterType.PARAMETER_STRING,
+    'bool': ParameterType.PARAMETER_BOOL,
+    'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY,
+    'string_array': ParameterType.PARAMETER_STRING_ARRAY,
+}
 
 
-def descriptor(name: str, ptype: int, description: str, limits: Any = None,
-               read_only: bool = False) -> ParameterDescriptor:
-    """A ParameterDescriptor with a float/int range or a list of allowed strings."""
-    d = ParameterDescriptor(name=name, type=ptype, description=description, read_only=read_only)
-    if ptype == ParameterType.PARAMETER_DOUBLE and limits is not None:
-        d.floating_point_range = [FloatingPointRange(from_value=float(limits[0]), to_value=float(limits[1]),
-                                                     step=0.0)]
-    elif ptype == ParameterType.PARAMETER_INTEGER and limits is not None:
-        d.integer_range = [IntegerRange(from_value=int(limits[0]), to_value=int(limits[1]), step=1)]
-    elif ptype == ParameterType.PARAMETER_STRING and limits is not None:
-        d.additional_constraints = 'one of: ' + ', '.join(limits)
+def descriptor(spec: ParamSpec, read_only: bool = False) -> ParameterDescriptor:
+    """The ParameterDescriptor of ``spec`` (``read_only`` forces read-only)."""
+    d = ParameterDescriptor(name=spec.name, type=_TYPES[spec.kind], description=spec.description,
+                            additional_constraints=spec.constraint_text(), read_only=spec.read_only or read_only)
+    if spec.limits is not None and spec.kind == 'double':
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.limits[0]),
+                                                     to_value=float(spec.limits[1]), step=0.0)]
+    elif spec.limits is not None and spec.kind == 'integer':
+        d.integer_range = [IntegerRange(from_value=int(spec.limits[0]), to_value=int(spec.limits[1]), step=1)]
     return d
 
 
-def _config_values(cfg: GprConfig) -> dict[str, Any]:
-    values = cfg.to_dict()
-    values['rod_azimuths'] = [float(a) for a in cfg.rod_azimuths]
-    if cfg.characteristic_length == cfg.radius:
-        values['characteristic_length'] = 0.0
+def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool = False) -> dict[str, Any]:
+    """Declare every spec on ``node``; return the start-up values by name, each checked against its spec.
+
+    An empty array given on the command line (``-p topics:=[]``) has no type in ROS and arrives as ``None``; it
+    is returned as an empty list. Raises :class:`~gpr_kinematics.errors.ConfigError` naming the parameter, its
+    value and what is allowed; rclpy's own ``ParameterException`` for a value of the wrong type or range.
+    """
+    values: dict[str, Any] = {}
+    for spec in specs:
+        value = node.declare_parameter(spec.name, spec.default, descriptor(spec, read_only)).value
+        if value is None and spec.kind.endswith('_array'):
+            value = []
+        if isinstance(value, (list, tuple)) or type(value).__name__ == 'array':
+            value = list(value)
+        spec.check(value)
+        values[spec.name] = value
     return values
 
 
-def _to_config_mapping(values: dict[str, Any]) -> dict[str, Any]:
-    out = dict(values)
-    out['rod_azimuths'] = list(out['rod_azimuths'])
-    if out.get('characteristic_length') == 0.0:
-        out['characteristic_length'] = None
-    return out
-
-
 class ConfigParameters:
-    """Declares the GprConfig parameters on ``node`` and keeps ``self.config`` in step with them.
+    """Declares ``config_file`` and the ``GprConfig`` parameters on ``node``; ``config`` follows them.
 
     ``read_only=True`` declares them all read-only (a node that precomputes with the configuration).
-
-    Raises :class:`~gpr_kinematics.errors.ConfigError` at construction when the initial values (defaults
+    Raises :class:`~gpr_kinematics.errors.ConfigError` at construction when the start-up values (defaults
     plus overrides) do not form a valid configuration.
     """
 
     def __init__(self, node: Node, read_only: bool = False) -> None:
         self._node = node
-        config_file = node.declare_parameter(
-            'config_file', '', descriptor('config_file', ParameterType.PARAMETER_STRING,
-                                          'YAML with GprConfig keys loaded over the package default; '
-                                          'empty: the package default (config/gpr.yaml)', read_only=True)
-        ).value
-        base = load_config(config_file or None)
-        defaults = _config_values(base)
-        values: dict[str, Any] = {}
-        for name, ptype, text, limits, ro in _SPECS:
-            param = node.declare_parameter(name, defaults[name],
-                                           descriptor(name, ptype, text, limits, ro or read_only))
-            values[name] = param.value
-        self._values = values
-        self.config = GprConfig.from_mapping(_to_config_mapping(values), source='ROS parameters')
-        node.add_on_set_parameters_callback(self._on_set)
+        config_file = declare_parameters(node, (CONFIG_FILE,))['config_file']
+        self._base = load_config(config_file or None)
+        self._specs = {s.name: s for s in config_specs(self._base, read_only)}
+        self._values = declare_parameters(node, tuple(self._specs.values()))
+        self.config = self._build(self._values)
+        node.add_on_set_parameters_callback(self._validate)
+        node.add_post_set_parameters_callback(self._apply)
 
-    def _on_set(self, params: list[Parameter]) -> SetParametersResult:
-        changes = {p.name: p.value for p in params if p.name in CONFIG_KEYS}
-        if not changes:
-            return SetParametersResult(successful=True)
-        values = dict(self._values)
-        values.update(changes)
-        try:
-            cfg = GprConfig.from_mapping(_to_config_mapping(values), source='ROS parameters')
-        except GprError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        self._values = values
-        self.config = cfg
-        self._node.get_logger().info('configuration changed: ' + ', '.join(f'{k}={v!r}' for k, v in
-                                                                           changes.items()))
+    def _build(self, values: dict[str, Any]) -> GprConfig:
+        """The configuration file's values with the parameters' on top (validated as a whole)."""
+        return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
+
+    def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:
+        return {p.name: p.value for p in params if p.name in self._specs}
+
+    def _validate(self, params: list[Parameter]) -> SetParametersResult:
+        """On-set stage: accept the change only if the whole configuration stays valid (no state change)."""
+        changes = self._changes(params)
+        if changes:
+            try:
+                self._build({**self._values, **changes})
+            except GprError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
+
+    def _apply(self, params: list[Parameter]) -> None:
+        """Post-set stage: the change was accepted; apply it."""
+        changes = self._changes(params)
+        if not changes:
+            return
+        self._values = {**self._values, **changes}
+        self.config = self._build(self._values)
+        self._node.get_logger().info('configuration changed: ' + ', '.join(f'{k}={v!r}' for k, v in changes.items()))

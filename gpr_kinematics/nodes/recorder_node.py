@@ -15,14 +15,21 @@ ROS 2 Jazzy standard types and of ``gpr_interfaces``). Parameters (all read-only
   ``compression``: ``none`` or ``zstd`` (MCAP chunk compression); ``fsync`` (default true);
 - ``queue_depth``: subscription history depth (default 10000).
 
+Latched topics (``gpr/geometry``, ``robot_description``, ``/tf_static``, and any topic whose publishers all offer
+transient-local durability when the recorder starts) are subscribed with a transient-local, reliable QoS, so
+the sample a publisher sent before the recorder started is recorded too.
+
 SIGINT and SIGTERM: the node stops taking new work, drains what DDS already delivered, closes the bag, logs
 the counts per topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more
-than ``flush_interval`` before the kill). It refuses to start (one error line, exit status 2, no folder left
-behind) when the output exists or is not writable, a topic's type is unknown or a parameter is invalid.
+than ``flush_interval`` before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
+folder left behind) when the output exists or is not writable, a topic name is empty or invalid, a topic's
+type is unknown or a parameter is invalid. An error while recording (a full disk) ends it with one
+``stopped:`` line and exit status 1; the segments closed before the error stay a valid bag.
 """
 from __future__ import annotations
 
 import importlib
+import sqlite3
 import sys
 import time
 from collections.abc import Sequence
@@ -30,40 +37,23 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-import rclpy
-from rcl_interfaces.msg import ParameterType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.executors import Executor
+from rclpy.qos import QoSProfile
+from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
 from ..bags.typestore import GPR_TOPICS, check_known, normalize_type
-from ..bags.writer import COMPRESSIONS, STORAGES, SegmentedBagWriter, check_output_path
-from ..errors import GprError
-from .params import descriptor
-from .runtime import init_with_stop_flag
+from ..bags.writer import SegmentedBagWriter, check_output_path
+from .params import declare_parameters
+from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
+from .runtime import EXIT_OK, GprNode, one_line, run
+from .specs import node_specs
 
 NODE_NAME = 'recorder_node'
-EXIT_BAD_CONFIG = 2
-D, INT, S, B, SA = (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER,
-                    ParameterType.PARAMETER_STRING, ParameterType.PARAMETER_BOOL,
-                    ParameterType.PARAMETER_STRING_ARRAY)
-DEFAULT_TOPICS = [t.lstrip('/') for t in GPR_TOPICS]
-
-_PARAMS: tuple[tuple[str, Any, int, str, Any], ...] = (
-    ('output', '', S, 'bag folder to create (default bags/gpr_<date>-<time>)', None),
-    ('storage', 'mcap', S, 'storage format', tuple(STORAGES)),
-    ('topics', DEFAULT_TOPICS, SA, 'topics to record: name or name:pkg/msg/Type', None),
-    ('flush_interval', 1.0, D, 'longest time [s] a received message stays outside a closed segment (0 = off)',
-     (0.0, 3600.0)),
-    ('max_bag_size', 0, INT, 'split when a segment holds this many bytes (0 = off)', (0, 2**62)),
-    ('max_bag_duration', 0.0, D, 'split when a segment spans this many seconds (0 = off)', (0.0, 1e9)),
-    ('compression', 'none', S, 'MCAP chunk compression', COMPRESSIONS),
-    ('fsync', True, B, 'fsync every closed segment and the bag folder', None),
-    ('queue_depth', 10000, INT, 'subscription history depth (reliable, keep last)', (1, 10_000_000)),
-    ('discovery_timeout', 5.0, D, 'wait this long [s] for the type of a topic given without one', (0.0, 3600.0)),
-)
+#: What writing a segment raises when the disk is full or a file size limit is reached.
+WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterError, BagError)
+#: Longest drain after a stop request [s], and the quiet time that ends it earlier [s].
+DRAIN_LIMIT, DRAIN_QUIET = 5.0, 0.2
 
 
 def default_output() -> Path:
@@ -79,18 +69,14 @@ def message_class(msgtype: str) -> Any:
         raise BagError(f'type {msgtype!r} cannot be imported in this ROS environment ({exc})') from None
 
 
-class RecorderNode(Node):
+class RecorderNode(GprNode):
     """Subscribes to the topics and writes every message into the bag; see the module docstring."""
 
+    NODE_NAME = NODE_NAME
+
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(NODE_NAME, **kwargs)
-        p: dict[str, Any] = {}
-        for name, default, ptype, text, limits in _PARAMS:
-            p[name] = self.declare_parameter(name, default, descriptor(
-                name, ptype, text, limits if ptype != S or limits is None else limits, read_only=True)).value
-        for name, allowed in (('storage', STORAGES), ('compression', COMPRESSIONS)):
-            if p[name] not in allowed:
-                raise BagError(f'{name} = {p[name]!r} is invalid; allowed: {" or ".join(allowed)}')
+        super().__init__(**kwargs)
+        p = declare_parameters(self, node_specs(NODE_NAME))
         self.p = p
         output = Path(p['output']) if p['output'] else default_output()
         check_output_path(output)
@@ -104,19 +90,27 @@ class RecorderNode(Node):
         self.last_message = time.monotonic()
         self.writer.open()
         try:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['queue_depth']),
-                             reliability=ReliabilityPolicy.RELIABLE)
             # The state topic last: a publisher that waits for a subscription on it (trajectory_node's
             # wait_for_subscribers) then finds the other subscriptions announced already.
             order = sorted(topics, key=lambda t: t == '/gpr/platform_state')
-            self.subs = [self.create_subscription(classes[t], t, self._callback(t), qos, raw=True) for t in order]
+            self.subs = [self.create_subscription(classes[t], t, self._callback(t), self._qos(t), raw=True)
+                         for t in order]
             if p['flush_interval'] > 0:
-                self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self.writer.poll)
+                self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self._poll)
         except BaseException:
             self.writer.abort(remove=True)
             raise
         self.get_logger().info(f'recording {len(topics)} topic(s) into {output} ({p["storage"]}, flush interval '
                                f'{p["flush_interval"]} s): ' + ', '.join(f'{t} [{ty}]' for t, ty in topics.items()))
+
+    def _qos(self, topic: str) -> QoSProfile:
+        """Transient local for a latched topic (a known one, or one whose publishers all offer it), so the
+        sample published before this subscription is delivered too; else the stream QoS."""
+        infos = self.get_publishers_info_by_topic(topic)
+        offered = [i.qos_profile.durability for i in infos]
+        if latched_qos().durability in offered and len(set(offered)) == 1:
+            return latched_qos()
+        return latched_qos() if topic in LATCHED else stream_qos(int(self.p['queue_depth']))
 
     def _resolve_topics(self, entries: list[str]) -> dict[str, str]:
         if not entries:
@@ -124,7 +118,7 @@ class RecorderNode(Node):
         topics: dict[str, str | None] = {}
         for entry in entries:
             name, sep, msgtype = entry.partition(':')
-            full = self.resolve_topic_name(name.strip())
+            full = valid_topic_name(self, name.strip(), 'topics')
             if sep:
                 topics[full] = check_known(msgtype, full)
             elif full in GPR_TOPICS:
@@ -153,56 +147,49 @@ class RecorderNode(Node):
 
         def cb(data: bytes) -> None:
             received[topic] += 1
-            writer.write(topic, time.time_ns(), data)
+            try:
+                writer.write(topic, time.time_ns(), data)
+            except WRITE_ERRORS as exc:
+                raise self._write_failed(exc) from None
             self.last_message = time.monotonic()
 
         return cb
 
-    def finish(self) -> None:
-        """Close the bag and log the counts per topic."""
+    def _poll(self) -> None:
+        try:
+            self.writer.poll()
+        except WRITE_ERRORS as exc:
+            raise self._write_failed(exc) from None
+
+    def _write_failed(self, exc: BaseException) -> BagError:
+        return BagError(f'cannot write the bag {self.writer.path} ({type(exc).__name__}: {one_line(exc)}): is the '
+                        'disk full, or a file size limit reached?')
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """Drain what DDS already delivered (until :data:`DRAIN_QUIET` s without a message, at most
+        :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error (status 1) the bag
+        keeps the segments closed before it."""
+        if status != EXIT_OK:
+            kept = self.writer.closed_message_count
+            self.writer.abort(remove=kept == 0)
+            self.get_logger().info(f'{self.writer.path}: kept the {kept} messages of the {len(self.writer.files)} '
+                                   'segment(s) closed before the error' if kept else
+                                   f'{self.writer.path}: no segment was closed before the error; removed')
+            return status
+        end = time.monotonic() + DRAIN_LIMIT
+        while time.monotonic() < end and time.monotonic() - self.last_message < DRAIN_QUIET:
+            executor.spin_once(timeout_sec=0.02)
         self.writer.close()
         counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
         self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '
                                f'in {len(self.writer.files)} file(s) (written/received per topic: {counts}; '
                                f'longest segment close {self.writer.max_close_time * 1e3:.1f} ms)')
+        return status
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Entry point: spin until SIGINT/SIGTERM, then drain, close the bag and exit 0."""
-    stop = init_with_stop_flag(args)
-    node: RecorderNode | None = None
-    status = 0
-    executor = SingleThreadedExecutor()
-    try:
-        node = RecorderNode()
-        executor.add_node(node)
-        while not stop:
-            executor.spin_once(timeout_sec=0.05)
-        # Drain what DDS has already delivered: spin until 0.2 s pass without a message (at most 5 s).
-        end = time.monotonic() + 5.0
-        while time.monotonic() < end and time.monotonic() - node.last_message < 0.2:
-            executor.spin_once(timeout_sec=0.02)
-        node.finish()
-    except (GprError, ParameterException) as exc:
-        rclpy.logging.get_logger(NODE_NAME).error(f'cannot start: {exc}'.replace('\n', ' '))
-        status = EXIT_BAD_CONFIG
-        if node is not None:
-            node.writer.abort(remove=node.writer.closed_message_count == 0)
-    except OSError as exc:
-        rclpy.logging.get_logger(NODE_NAME).error(f'recording failed: {exc}')
-        status = 1
-    finally:
-        try:
-            executor.shutdown()
-        except Exception:  # noqa: BLE001 - leaving anyway
-            pass
-        if node is not None:
-            try:
-                node.destroy_node()
-            except Exception:  # noqa: BLE001
-                pass
-        rclpy.try_shutdown()
-    return status
+    """Entry point: record until SIGINT/SIGTERM, then drain, close the bag and exit 0."""
+    return run(RecorderNode, args)
 
 
 if __name__ == '__main__':

@@ -11,71 +11,66 @@ with the original spacing divided by ``rate``. Parameters (read-only):
   (default 0), at most ``wait_timeout`` seconds;
 - ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
 
-Exits 0 at the end of the bag (after the reliable publishers' acknowledgements, at most 5 s) or on
-SIGINT/SIGTERM; 2 with one error line when the bag cannot be read or a parameter is invalid.
+Latched topics (:data:`~gpr_kinematics.nodes.qos.LATCHED`, e.g. ``gpr/geometry``) are published transient
+local, so a subscriber that starts during the replay still gets them. Exits 0 at the end of the bag (after the
+reliable publishers' acknowledgements, at most 5 s) or on SIGINT/SIGTERM; 2 with one ``cannot start:`` line when
+the bag cannot be read (missing, corrupt, not a regular file), a topic name is invalid or a parameter is invalid.
 """
 from __future__ import annotations
 
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rclpy
-from rcl_interfaces.msg import ParameterType
-from rclpy.duration import Duration
-from rclpy.exceptions import ParameterException
-from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
-from ..errors import GprError
-from .params import descriptor
+from .params import declare_parameters
+from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
 from .recorder_node import message_class
-from .runtime import init_with_stop_flag
+from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
+from .specs import node_specs
 
 NODE_NAME = 'replay_node'
-EXIT_BAD_CONFIG = 2
-D, INT, S, B, SA = (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER,
-                    ParameterType.PARAMETER_STRING, ParameterType.PARAMETER_BOOL,
-                    ParameterType.PARAMETER_STRING_ARRAY)
-
-_PARAMS: tuple[tuple[str, Any, int, str, Any], ...] = (
-    ('bag', '', S, 'bag folder or .mcap/.db3 file to replay', None),
-    ('rate', 1.0, D, 'replay speed factor', (1e-3, 1e6)),
-    ('loop', False, B, 'start over after the last message', None),
-    ('topics', [''], SA, 'topics to replay (empty: all)', None),
-    ('wait_for_subscribers', 0, INT, 'wait for this many subscriptions on every topic first', (0, 1000)),
-    ('wait_timeout', 10.0, D, 'longest wait for subscribers [s]', (0.0, 3600.0)),
-    ('queue_depth', 10000, INT, 'publisher history depth (reliable, keep last)', (1, 10_000_000)),
-)
 
 
-class ReplayNode(Node):
-    """Reads the bag at start and publishes it on :meth:`play`."""
+def refuse_non_regular(path: Path) -> None:
+    """:class:`BagError` when the bag, or a storage or metadata file in its folder, exists but is not a regular file
+    (a FIFO or a device would block the reader forever)."""
+    files = [path] if not path.is_dir() else [p for p in path.iterdir()
+                                              if p.suffix in ('.mcap', '.db3') or p.name == 'metadata.yaml']
+    for f in files:
+        if f.exists() and not f.is_file():
+            raise BagError(f'{f} is not a regular file (a FIFO, socket or device); allowed: a bag folder, .mcap or '
+                           '.db3 file')
+
+
+class ReplayNode(GprNode):
+    """Reads the bag at start and publishes it when spun (:meth:`spin`)."""
+
+    NODE_NAME = NODE_NAME
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(NODE_NAME, **kwargs)
-        p: dict[str, Any] = {}
-        for name, default, ptype, text, limits in _PARAMS:
-            p[name] = self.declare_parameter(name, default, descriptor(name, ptype, text, limits,
-                                                                       read_only=True)).value
+        super().__init__(**kwargs)
+        p = declare_parameters(self, node_specs(NODE_NAME))
         if not p['bag']:
             raise BagError('parameter bag is empty; allowed: the path of a bag folder, .mcap or .db3 file')
         self.p = p
-        wanted = [t for t in p['topics'] if t]
-        bag = read_bag(p['bag'], topics=[self.resolve_topic_name(t) for t in wanted] or None)
-        if wanted:
-            missing = [t for t in wanted if bag.topic(self.resolve_topic_name(t)) is None]
-            if missing:
-                raise BagError(f'topic(s) {", ".join(missing)} not in the bag {p["bag"]}; it has: '
-                               + ', '.join(read_bag(p['bag']).topics))
+        wanted = [valid_topic_name(self, t, 'topics') for t in p['topics'] if t]
+        refuse_non_regular(Path(p['bag']))
+        bag = read_bag(p['bag'], topics=wanted or None)
+        missing = [t for t in wanted if bag.topic(t) is None]
+        if missing:
+            raise BagError(f'topic(s) {", ".join(missing)} not in the bag {p["bag"]}; it has: '
+                           + ', '.join(read_bag(p['bag']).topics))
         self.bag = bag
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['queue_depth']),
-                         reliability=ReliabilityPolicy.RELIABLE)
-        self.pubs = {name: self.create_publisher(message_class(t.msgtype), name, qos)
+        depth = int(p['queue_depth'])
+        self.pubs = {name: self.create_publisher(message_class(t.msgtype), name,
+                                                 latched_qos() if name in LATCHED else stream_qos(depth))
                      for name, t in bag.topics.items()}
         # One stream in log-time order (stable: the bag's order for equal times).
         names = list(bag.topics)
@@ -90,7 +85,16 @@ class ReplayNode(Node):
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
 
-    def wait_for_subscribers(self, stop: list[int]) -> None:
+    @staticmethod
+    def _wait(executor: Executor, stop: StopFlag, due: float) -> None:
+        """Serve callbacks (the parameter services) until ``due`` (monotonic time) or a stop signal."""
+        while not stop:
+            delay = due - time.monotonic()
+            if delay <= 0:
+                return
+            executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT))
+
+    def wait_for_subscribers(self, executor: Executor, stop: StopFlag) -> None:
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return
@@ -98,62 +102,39 @@ class ReplayNode(Node):
         while not stop and time.monotonic() < deadline:
             if all(pub.get_subscription_count() >= want for pub in self.pubs.values()):
                 return
-            time.sleep(0.02)
+            self._wait(executor, stop, time.monotonic() + 0.02)
         if not stop:
             self.get_logger().warning(f'not every topic has {want} subscriber(s) after {self.p["wait_timeout"]} s; '
                                       'starting anyway')
 
-    def play(self, stop: list[int]) -> None:
-        """Publish the stream (again and again with ``loop``) until it ends or ``stop`` is non-empty."""
+    def spin(self, executor: Executor, stop: StopFlag) -> None:
+        """Publish the stream (again and again with ``loop``) until it ends or a stop signal arrives."""
+        self.wait_for_subscribers(executor, stop)
         rate = float(self.p['rate'])
         if not stop:
             self.get_logger().info('started: publishing')
-        while not stop:
-            if not self.stream:
-                return
+        while not stop and self.stream:
             t0 = time.monotonic()
             first = int(self.times[0])
             for (pub, raw), t in zip(self.stream, self.times.tolist(), strict=True):
-                due = t0 + (t - first) * 1e-9 / rate
-                delay = due - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
+                self._wait(executor, stop, t0 + (t - first) * 1e-9 / rate)
                 if stop:
                     return
                 pub.publish(raw)
                 self.published[self._names[id(pub)]] += 1
             if not self.p['loop']:
-                return
+                break
+        self.finish()
 
-    def flush(self, timeout: float = 5.0) -> None:
-        for pub in self.pubs.values():
-            try:
-                pub.wait_for_all_acked(Duration(seconds=timeout))
-            except Exception:  # noqa: BLE001 - best effort on the way out
-                pass
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """Wait for the reliable subscribers' acknowledgements (at most 5 s per topic) and log the counts."""
+        wait_acknowledged(self.pubs.values(), 5.0)
+        self.get_logger().info('finished: published ' + ', '.join(f'{t} {n}' for t, n in self.published.items()))
+        return status
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    stop = init_with_stop_flag(args)
-    node: ReplayNode | None = None
-    status = 0
-    try:
-        node = ReplayNode()
-        node.wait_for_subscribers(stop)
-        node.play(stop)
-        node.flush()
-        node.get_logger().info('finished: published ' + ', '.join(f'{t} {n}' for t, n in node.published.items()))
-    except (GprError, ParameterException) as exc:
-        rclpy.logging.get_logger(NODE_NAME).error(f'cannot start: {exc}'.replace('\n', ' '))
-        status = EXIT_BAD_CONFIG
-    finally:
-        if node is not None:
-            try:
-                node.destroy_node()
-            except Exception:  # noqa: BLE001 - leaving anyway
-                pass
-        rclpy.try_shutdown()
-    return status
+    return run(ReplayNode, args)
 
 
 if __name__ == '__main__':

@@ -1,74 +1,207 @@
-"""Process life cycle shared by the nodes: init, spin, clean exit on SIGINT/SIGTERM."""
+"""The one life cycle of every node process: init, build the node, spin, leave cleanly.
+
+:func:`run` is the ``main`` of each executable. Exit statuses (documented in docs/ros.md):
+
+- 0: the node finished its work or was stopped by SIGINT/SIGTERM;
+- 1 (:data:`EXIT_FAILED`): it stopped while running (e.g. the recorder's disk is full): one line
+  ``stopped: ...``;
+- 2 (:data:`EXIT_BAD_CONFIG`): it cannot start (malformed ``--ros-args`` or params file, a bad parameter value,
+  an unreadable program or bag, an invalid topic name): one line ``cannot start: ...``, never a traceback.
+
+Signals: rclpy's own SIGINT/SIGTERM handlers are not installed (``SignalHandlerOptions.NO``); SIGINT and SIGTERM
+only set a flag (:class:`StopFlag`) that the spin loop checks, so a signal never interrupts the construction of
+an rclpy object half way (with rclpy's handlers a signal arriving while an executor was being built left it
+without its guard condition, and its ``__del__`` printed an ``AttributeError``) and every node leaves through
+the same path: :meth:`GprNode.on_exit` (drain, flush, close files), destroy the node, shut rclpy down.
+"""
 from __future__ import annotations
 
+import contextlib
+import os
+import re
 import signal
-from collections.abc import Callable, Sequence
+import tempfile
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 import rclpy
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rcl_interfaces.msg import ParameterType
+from rclpy.duration import Duration
+from rclpy.exceptions import NameValidationException, ParameterException
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import GprError
 
-#: Exit status when the node cannot start (bad parameters, unreadable program).
+EXIT_OK = 0
+#: Exit status of a node that stopped on an error while running.
+EXIT_FAILED = 1
+#: Exit status of a node that cannot start (bad arguments, parameters, files).
 EXIT_BAD_CONFIG = 2
+#: Longest time [s] the spin loop waits before it looks at the stop flag again (the delay of a clean exit).
+SPIN_TIMEOUT = 0.05
+#: Longest error text put on the one error line (a user's value is never printed whole).
+MAX_MESSAGE = 600
+
+# rclpy's C extension raises RCLError for malformed --ros-args and params files.
+from rclpy._rclpy_pybind11 import RCLError  # noqa: E402 - grouped with its explanation
+
+#: What a bad command line, parameter or input file raises while a node is built.
+START_ERRORS: tuple[type[BaseException], ...] = (GprError, ParameterException, NameValidationException, RCLError)
 
 
-def init_with_stop_flag(args: Sequence[str] | None = None) -> list[int]:
-    """Init rclpy without its signal handlers; SIGINT and SIGTERM append their number to the returned list.
+class StopFlag:
+    """SIGINT/SIGTERM handlers that only record the signal; ``bool(flag)`` is true once one arrived."""
 
-    For nodes that must finish work after a stop request (the recorder drains and closes its bag, replay
-    waits for acknowledgements) instead of having rclpy tear the context down under them.
+    def __init__(self) -> None:
+        self.signals: list[int] = []
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._on_signal)
+
+    def _on_signal(self, signum: int, _frame: Any) -> None:
+        self.signals.append(signum)
+
+    def __bool__(self) -> bool:
+        return bool(self.signals)
+
+
+#: A decimal number as text (what ``ros2 param set x 1e-13`` and ``ros2 param load`` of a dump send as a string).
+_NUMBER = re.compile(r'\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*')
+
+
+def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
+    """Pre-set stage: a string that is a decimal number, set on a double parameter, becomes that double.
+
+    YAML 1.1 (PyYAML, which the ``ros2`` CLI and rclpy's params-file loader use) reads ``1e-13`` as a string: so
+    ``ros2 param set /kinematics_node tolerance 1e-13`` sends a string, and ``ros2 param load`` of a node's own
+    ``ros2 param dump`` re-reads ``tolerance: 1.0e-14`` through ``str(1e-14) = '1e-14'`` as a string; rclpy would
+    refuse both (wrong type). Other strings pass unchanged and meet the type check.
     """
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop: list[int] = []
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        stop.append(signum)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    return stop
+    out = []
+    for p in params:
+        if (p.type_ == Parameter.Type.STRING and node.has_parameter(p.name) and _NUMBER.fullmatch(p.value)
+                and node.describe_parameter(p.name).type == ParameterType.PARAMETER_DOUBLE):
+            p = Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+        out.append(p)
+    return out
 
 
-def run(name: str, factory: Callable[[], Node], args: Sequence[str] | None = None,
-        spin: Callable[[Node], int] | None = None) -> int:
-    """Init rclpy, build the node and spin it until shutdown.
+class GprNode(Node):
+    """A node run by :func:`run`: :meth:`finish` ends the run with a status; :meth:`spin` and :meth:`on_exit`
+    are the hooks a node overrides (the default spins callbacks until finished or stopped). Double parameters
+    accept decimal numbers sent as strings (:func:`numbers_from_text`)."""
 
-    Returns 0 after SIGINT/SIGTERM (rclpy's signal handlers turn them into ``KeyboardInterrupt`` or
-    ``ExternalShutdownException``; caught here: no traceback) or when ``spin`` returns 0;
-    :data:`EXIT_BAD_CONFIG` when the node cannot start, with one error line naming the problem.
-    """
-    rclpy.init(args=args)
-    node = None
-    status = 0
+    NODE_NAME = 'gpr_node'
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(self.NODE_NAME, **kwargs)
+        self.exit_status: int | None = None
+        #: True once SIGINT/SIGTERM stopped the run (set before :meth:`on_exit`).
+        self.signalled = False
+        self.add_pre_set_parameters_callback(lambda params: numbers_from_text(self, params))
+
+    def finish(self, status: int = EXIT_OK) -> None:
+        """End the run loop with ``status`` (the first call wins)."""
+        if self.exit_status is None:
+            self.exit_status = status
+
+    def spin(self, executor: Executor, stop: StopFlag) -> None:
+        """Run callbacks until :meth:`finish` was called or a stop signal arrived."""
+        while not stop and self.exit_status is None:
+            executor.spin_once(timeout_sec=SPIN_TIMEOUT)
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """Called once after :meth:`spin`, also after an error (``status`` 1); returns the exit status."""
+        return status
+
+
+def wait_acknowledged(publishers: Iterable[Publisher], seconds: float) -> None:
+    """Wait until every reliable subscription acknowledged what each publisher sent (at most ``seconds`` per
+    publisher; best effort on the way out: an error is ignored)."""
+    for pub in publishers:
+        with contextlib.suppress(Exception):
+            pub.wait_for_all_acked(Duration(seconds=seconds))
+
+
+def one_line(exc: BaseException) -> str:
+    """The text of an error on one line, without rcl's source locations, at most :data:`MAX_MESSAGE` characters."""
+    text = str(exc) or type(exc).__name__
+    text = re.sub(r',? at [^,\s]*\.c(pp)?:\d+', '', text)
+    text = text.replace('failed to initialize rcl: ', '')
+    text = ' '.join(text.split())
+    if isinstance(exc, RCLError) and 'params file' in text.lower():
+        text += (' (a params file maps node names to {ros__parameters: {name: value}}, e.g. '
+                 'share/gpr_kinematics/config/gpr_params.yaml)')
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE] + ' ...'
+
+
+@contextlib.contextmanager
+def _stderr_held() -> Iterator[None]:
+    """Hold back what C code writes to stderr (rcl's own log line before an RCLError) until the block ends; it
+    is written out only when the block succeeds, so a failed init leaves one ``cannot start`` line."""
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        ok = False
+        try:
+            yield
+            ok = True
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            if ok:
+                held.seek(0)
+                data = held.read()
+                if data:
+                    os.write(2, data)
+
+
+def run(node_class: Callable[[], GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
+    """Init rclpy (signals: :class:`StopFlag`), build the node, spin it, leave; return the exit status."""
+    logger = rclpy.logging.get_logger(name or str(getattr(node_class, 'NODE_NAME', 'gpr_node')))
+    stop = StopFlag()
     try:
-        node = factory()
-        status = spin(node) if spin is not None else _spin_forever(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        status = 0
-    except (GprError, ParameterException) as exc:
-        rclpy.logging.get_logger(name).error(f'cannot start: {exc}')
-        status = EXIT_BAD_CONFIG
-    except Exception as exc:  # noqa: BLE001 - one line, no traceback
-        if rclpy.ok():
-            rclpy.logging.get_logger(name).error(f'stopped: {type(exc).__name__}: {exc}')
-            status = 1
-        else:
-            status = 0  # a signal shut the context down while a callback was answering: a normal exit
+        with _stderr_held():
+            rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as exc:
+        logger.error(f'cannot start: malformed ROS arguments: {one_line(exc)}')
+        return EXIT_BAD_CONFIG
+    node: GprNode | None = None
+    executor: Executor | None = None
+    try:
+        try:
+            node = node_class()
+        except START_ERRORS as exc:
+            logger.error(f'cannot start: {one_line(exc)}')
+            return EXIT_BAD_CONFIG
+        except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
+            logger.error(f'cannot start: internal error: {type(exc).__name__}: {one_line(exc)}')
+            return EXIT_FAILED
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        status = EXIT_OK
+        try:
+            node.spin(executor, stop)
+            status = node.exit_status or EXIT_OK
+        except ExternalShutdownException:
+            status = EXIT_OK
+        except Exception as exc:  # noqa: BLE001 - an error while running: one line
+            logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
+            status = EXIT_FAILED
+        node.signalled = bool(stop)
+        try:
+            return node.on_exit(executor, status)
+        except Exception as exc:  # noqa: BLE001 - leaving anyway, with one line
+            logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
+            return EXIT_FAILED
     finally:
+        if executor is not None:
+            with contextlib.suppress(Exception):
+                executor.shutdown()
         if node is not None:
-            try:
+            with contextlib.suppress(Exception):
                 node.destroy_node()
-            except Exception:  # noqa: BLE001 - leaving anyway; never a traceback on exit
-                pass
         rclpy.try_shutdown()
-    return status
-
-
-def _spin_forever(node: Node) -> int:
-    rclpy.spin(node)
-    return 0

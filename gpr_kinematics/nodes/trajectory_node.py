@@ -1,26 +1,32 @@
 """``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts.
 
-Topics (relative names), frames ``gpr_base`` (parent) / ``gpr_platform`` (child), SI units (m, rad):
+Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
 
 - ``gpr/platform_state`` (gpr_interfaces/PlatformState): the full state of each sample;
-- ``gpr/platform_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint model;
-- ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the naive model;
-- ``gpr/joint_states`` (sensor_msgs/JointState): ``rod_1..rod_3`` (the rod lengths q [m]) followed by the
-  virtual joints named as in the core (lengths [m], angles [rad]);
-- ``gpr/markers`` (visualization_msgs/MarkerArray): base triangle, rods, platform and naive platform outline
-  for RViz, every ``markers_every``-th sample.
+- ``gpr/platform_pose`` / ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint
+  model / the naive model;
+- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints, ``rod_1..rod_3`` (rod lengths q [m]), as
+  ``robot_state_publisher`` expects; ``gpr/virtual_joints`` (sensor_msgs/JointState): the virtual joints,
+  named as in the core (lengths [m], angles [rad]);
+- ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample (:mod:`.markers`);
+- ``gpr/geometry`` (std_msgs/String, reliable, transient local, depth 1): published once at start, the YAML of
+  the node's ``GprConfig.to_dict()`` (loadable with ``GprConfig.from_mapping``), so a recording names the
+  geometry and model that produced it.
 
 Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
 azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
 ``tilt_step`` at height ``height``, serpentine, ``passes`` times, so every pass crosses the singular
 configuration ``alpha = 0``; ``program`` -- an offline program (``program_file``, see :mod:`.program`),
-interpolated between stations and sampled at ``rate``. The whole stream is precomputed with the batch API
-(``paper_sweep`` / ``inverse_batch``) before the first sample; a wall timer at ``rate`` [Hz] then publishes
-one sample per tick. The node logs when it starts and finishes and exits with status 0 after the last
-sample, unless ``loop`` is true (then it starts over; the sample counter keeps counting).
+interpolated between stations and sampled at ``rate``; ``idle`` -- nothing at start. In every mode the node serves
+the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file or inline stations; feedback per
+sample; cancel stops before the next sample) whenever no stream is running. A stream is precomputed with the
+batch API (``paper_sweep`` / ``inverse_batch``) before its first sample; a wall timer at ``rate`` [Hz] then
+publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
+``loop`` is true (then it starts over; the sample counter keeps counting); ``idle`` runs until SIGINT/SIGTERM.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
@@ -28,267 +34,331 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import rclpy
-from builtin_interfaces.msg import Duration as DurationMsg
-from geometry_msgs.msg import Point, PoseStamped
-from rcl_interfaces.msg import ParameterType
-from rclpy.duration import Duration
-from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+import yaml
+from geometry_msgs.msg import PoseStamped
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action.server import ServerGoalHandle
+from rclpy.executors import Executor
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
-from std_msgs.msg import ColorRGBA
-from visualization_msgs.msg import Marker, MarkerArray
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
+from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import PlatformState
 
+from ..config import GprConfig
 from ..errors import ConfigError, GprError
 from ..kinematics import ForwardBatch, inverse_batch
 from ..messages import stream_messages
 from ..sweep import paper_sweep
 from .conversions import ROS_TYPES
-from .params import ConfigParameters, descriptor
-from .program import load_program, sample_program
-from .runtime import run
+from .markers import platform_markers, rod_feet
+from .params import ConfigParameters, declare_parameters
+from .program import Program, load_program, parse_program, sample_program
+from .qos import latched_qos, stream_qos
+from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowledged
+from .specs import TRAJECTORY
 
 NODE_NAME = 'trajectory_node'
-MODES = ('sweep', 'program')
-
-D, INT, S, B = (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER,
-              ParameterType.PARAMETER_STRING, ParameterType.PARAMETER_BOOL)
-
-#: (name, default, type, description, limits) -- all read-only: the stream is precomputed at start.
-_PARAMS: tuple[tuple[str, Any, int, str, Any], ...] = (
-    ('mode', 'sweep', S, 'sweep (the paper grid) or program (an offline program file)', MODES),
-    ('rate', 100.0, D, 'publishing rate [Hz]', (0.1, 5000.0)),
-    ('height', 0.5, D, 'sweep: height of the platform centre [m]', (-10.0, 10.0)),
-    ('max_tilt', math.radians(2.0), D, 'sweep: largest |alpha| [rad]', (1e-6, math.radians(15.0))),
-    ('tilt_step', math.radians(0.2), D, 'sweep: step of alpha [rad]', (1e-7, math.radians(15.0))),
-    ('azimuth_step', math.radians(10.0), D, 'sweep: step of the azimuth gamma [rad]', (1e-4, 2 * math.pi)),
-    ('passes', 1, INT, 'sweep: number of passes over the grid', (1, 1000)),
-    ('program_file', '', S, 'program: path of the offline program YAML', None),
-    ('move_time', 2.0, D, 'program: default duration of a move between stations [s]', (1e-3, 3600.0)),
-    ('loop', False, B, 'start over after the last sample instead of exiting', None),
-    ('base_frame', 'gpr_base', S, 'frame of the base (header.frame_id)', None),
-    ('platform_frame', 'gpr_platform', S, 'frame of the platform (child frame)', None),
-    ('markers_every', 1, INT, 'publish gpr/markers every n-th sample', (1, 100000)),
-    ('wait_for_subscribers', 0, INT,
-     'before the first sample, wait until gpr/platform_state has this many subscriptions', (0, 1000)),
-    ('wait_all_topics', False, B, 'wait_for_subscribers counts on every topic, not only gpr/platform_state',
-     None),
-    ('wait_timeout', 10.0, D, 'longest wait for subscribers [s]; then start anyway', (0.0, 3600.0)),
-    ('queue_depth', 1000, INT, 'publisher history depth (reliable, keep last)', (1, 100000)),
-)
+#: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
+SETTLE = 0.1
+#: Most samples one timer tick publishes to make up for ticks the process could not serve in time.
+CATCH_UP = 5
+#: The topics of one sample (published together, in this order) and their message types.
+STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
+                                 'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
+                                 'gpr/virtual_joints': JointState}
 
 
+@dataclasses.dataclass(frozen=True)
 class Trajectory:
-    """A precomputed stream: commanded tilt/azimuth ``(N,)`` and the forward kinematics ``ForwardBatch``."""
+    """A precomputed stream: commanded tilt/azimuth per sample [rad], the forward kinematics, and the station
+    each sample is at (-1 while moving or in a sweep) with the stations' names."""
 
-    def __init__(self, commanded_tilt: np.ndarray, commanded_azimuth: np.ndarray, fk: ForwardBatch,
-                 description: str) -> None:
-        self.fk = fk
-        self.description = description
-        # Plain Python floats: a sample is published without per-sample numpy conversions of these two.
-        self.cmd_tilt = np.asarray(commanded_tilt, dtype=float).tolist()
-        self.cmd_azimuth = np.asarray(commanded_azimuth, dtype=float).tolist()
+    fk: ForwardBatch
+    cmd_tilt: list[float]
+    cmd_azimuth: list[float]
+    station: list[int]
+    station_names: tuple[str, ...]
+    description: str
 
     def __len__(self) -> int:
         return len(self.fk)
 
 
-def sweep_trajectory(cfg: Any, height: float, max_tilt: float, tilt_step: float, azimuth_step: float,
+def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: float, azimuth_step: float,
                      passes: int) -> Trajectory:
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
     desc = (f'sweep at height {height} m, |alpha| <= {max_tilt:.6g} rad in steps of {tilt_step:.6g} rad, '
             f'azimuth step {azimuth_step:.6g} rad, {passes} pass(es)')
-    return Trajectory(sw.alpha, sw.gamma, sw.forward, desc)
+    n = len(sw.forward)
+    return Trajectory(sw.forward, np.asarray(sw.alpha, float).tolist(), np.asarray(sw.gamma, float).tolist(),
+                      [-1] * n, (), desc)
 
 
-def program_trajectory(cfg: Any, path: str, rate: float, move_time: float) -> Trajectory:
-    if not path:
-        raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
-    prog = load_program(path)
-    # Stations first, for a message that names the station at fault.
-    for i, st in enumerate(prog.stations):
+def program_trajectory(cfg: GprConfig, prog: Program, rate: float, move_time: float) -> Trajectory:
+    """The stream of an offline program; :class:`ConfigError` names the first station out of reach."""
+    for i, st in enumerate(prog.stations):  # stations first, for a message that names the station at fault
         try:
             inverse_batch(st.height, st.tilt, st.azimuth, cfg, cfg.model)
         except GprError as exc:
-            raise ConfigError(f'{path}: station {i} ({st.name}): {exc}') from None
+            raise ConfigError(f'{prog.source}: station {i} ({st.name}): {exc}') from None
     samples = sample_program(prog, rate, move_time)
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
-    desc = (f'program {path}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
+    desc = (f'program {prog.source}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
             f'{len(samples)} samples')
-    return Trajectory(samples.tilt, samples.azimuth, ik.achieved, desc)
+    return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
+                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc)
 
 
-def _color(r: float, g: float, b: float, a: float = 1.0) -> ColorRGBA:
-    return ColorRGBA(r=r, g=g, b=b, a=a)
+def goal_program(goal: Any) -> Program:
+    """The program of a ``RunProgram`` goal: its file, or its inline stations validated as a program file's."""
+    has_file, has_stations = bool(goal.program_file), len(goal.stations) > 0
+    if has_file == has_stations:
+        raise ConfigError('goal: give either program_file or stations; allowed: exactly one of the two')
+    if has_file:
+        prog = load_program(goal.program_file)
+    else:
+        stations = []
+        for st in goal.stations:
+            entry = {'height': st.height, 'tilt': st.tilt, 'azimuth': st.azimuth, 'dwell': st.dwell}
+            if st.name:
+                entry['name'] = st.name
+            if st.move_time != 0.0:
+                entry['move_time'] = st.move_time
+            stations.append(entry)
+        prog = parse_program({'stations': stations}, 'goal stations')
+    move_time = float(goal.move_time)
+    if move_time != 0.0:
+        if not (math.isfinite(move_time) and move_time > 0.0):
+            raise ConfigError(f'goal: move_time = {move_time!r} is invalid; allowed: seconds > 0, or 0 for the '
+                              'program\'s default')
+        prog = dataclasses.replace(prog, move_time=move_time)
+    return prog
 
 
-class TrajectoryNode(Node):
-    """Precomputes the stream at start, then publishes one sample per timer tick."""
+def geometry_yaml(cfg: GprConfig) -> str:
+    """The ``gpr/geometry`` text: YAML of ``cfg.to_dict()`` (a geometry file ``load_config`` accepts)."""
+    return yaml.safe_dump(cfg.to_dict(), sort_keys=False)
+
+
+class TrajectoryNode(GprNode):
+    """Publishes precomputed streams, one sample per timer tick; serves ``gpr/run_program``."""
+
+    NODE_NAME = NODE_NAME
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(NODE_NAME, **kwargs)
-        self.params = ConfigParameters(self, read_only=True)
-        p: dict[str, Any] = {}
-        for name, default, ptype, text, limits in _PARAMS:
-            p[name] = self.declare_parameter(name, default,
-                                             descriptor(name, ptype, text, limits, read_only=True)).value
-        if p['mode'] not in MODES:
-            raise ConfigError(f"mode = {p['mode']!r} is invalid; allowed: {' or '.join(MODES)}")
-        self.p = p
-        cfg = self.params.config
-        self.cfg = cfg
-        t0 = time.perf_counter()
-        if p['mode'] == 'sweep':
-            self.traj = sweep_trajectory(cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
-                                         p['passes'])
-        else:
-            self.traj = program_trajectory(cfg, p['program_file'], p['rate'], p['move_time'])
-        self.precompute_time = time.perf_counter() - t0
-        theta = np.asarray(cfg.rod_azimuths)
-        self._feet = np.stack([cfg.radius * np.cos(theta), cfg.radius * np.sin(theta), np.zeros(3)], -1)
-        self._r_nominal = self._feet.copy()
-
-        qos = QoSProfile(depth=int(p['queue_depth']), reliability=ReliabilityPolicy.RELIABLE)
-        self.pub_state = self.create_publisher(PlatformState, 'gpr/platform_state', qos)
-        self.stream_publishers = {
-            'gpr/platform_state': self.pub_state,
-            'gpr/platform_pose': self.create_publisher(PoseStamped, 'gpr/platform_pose', qos),
-            'gpr/nominal_pose': self.create_publisher(PoseStamped, 'gpr/nominal_pose', qos),
-            'gpr/joint_states': self.create_publisher(JointState, 'gpr/joint_states', qos),
-        }
+        super().__init__(**kwargs)
+        self.cfg = ConfigParameters(self, read_only=True).config
+        p = self.p = declare_parameters(self, TRAJECTORY)
+        self._feet = rod_feet(self.cfg)
+        qos = stream_qos(int(p['queue_depth']))
+        self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in STREAM_TOPICS.items()}
         self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
         self.publishers_all = (*self.stream_publishers.values(), self.pub_markers)
+        self.pub_geometry = self.create_publisher(String, 'gpr/geometry', latched_qos())
+        self.pub_geometry.publish(String(data=geometry_yaml(self.cfg)))
 
-        self.done: Future = Future()
-        self.index = 0
         self.sample = 0
-        self.loops = 0
+        self.stream: Trajectory | None = None
+        self.goal: ServerGoalHandle | None = None
+        self._goal_done: Future | None = None
+        self._reserved = False
+        self.index = 0
+        self.sent = 0
         self.started_at: float | None = None
-        self.period = 1.0 / float(p['rate'])
         self._wait_start = time.monotonic()
-        self.get_logger().info(f'precomputed {len(self.traj)} samples in {self.precompute_time:.3f} s '
-                               f'({self.traj.description}, model {cfg.model})')
+        self._ready_since: float | None = None
+        self.period = 1.0 / float(p['rate'])
         self.timer = self.create_timer(self.period, self._tick)
+        self.timer.cancel()
+        self.action = ActionServer(self, RunProgram, 'gpr/run_program', execute_callback=self._execute,
+                                   goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT)
+        t0 = time.perf_counter()
+        if p['mode'] == 'sweep':
+            traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
+                                    p['passes'])
+        elif p['mode'] == 'program':
+            if not p['program_file']:
+                raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
+            traj = program_trajectory(self.cfg, load_program(p['program_file']), p['rate'], p['move_time'])
+        else:
+            self.get_logger().info(f'idle: serving gpr/run_program at {p["rate"]} Hz (model {self.cfg.model})')
+            return
+        self.get_logger().info(f'precomputed {len(traj)} samples in {time.perf_counter() - t0:.3f} s '
+                               f'({traj.description}, model {self.cfg.model})')
+        self.start(traj)
 
-    # -- publishing ---------------------------------------------------------------------------------------
+    # -- streams -------------------------------------------------------------------------------------------------
+    def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: Future | None = None) -> None:
+        """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end)."""
+        self.stream, self.goal, self._goal_done = traj, goal, done
+        self.index = 0
+        self.started_at = None
+        self._wait_start = time.monotonic()
+        self._ready_since = None
+        self.timer.reset()
+
+    def subscribed_nodes(self) -> int:
+        """How many nodes subscribe to every stream topic (``wait_all_topics``) or to ``gpr/platform_state``, and
+        are matched: nodes, not subscriptions, so a node that listens to one topic only (a state publisher on
+        ``gpr/platform_state``, RViz on ``gpr/markers``) does not count as a recorder of the stream."""
+        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
+        nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
+                                    self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
+        return min(len(nodes), *(pub.get_subscription_count() for pub in pubs))
+
     def _ready(self) -> bool:
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return True
-        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.pub_state,)
-        if min(pub.get_subscription_count() for pub in pubs) >= want:
-            return True
+        if self.subscribed_nodes() >= want:
+            # Discovery announces a subscription a moment before every publisher has matched it: settle briefly.
+            self._ready_since = self._ready_since or time.monotonic()
+            return time.monotonic() - self._ready_since >= SETTLE
+        self._ready_since = None
         if time.monotonic() - self._wait_start > float(self.p['wait_timeout']):
-            where = 'every topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
-            self.get_logger().warning(f'no {want} subscriber(s) on {where} after '
-                                      f'{self.p["wait_timeout"]} s; starting anyway')
+            where = 'every stream topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
+            self.get_logger().warning(f'no {want} subscriber(s) on {where} after {self.p["wait_timeout"]} s; '
+                                      'starting anyway')
             return True
         return False
 
     def _tick(self) -> None:
-        if self.started_at is None:
+        """Publish every sample due by now: sample k of a stream at ``start + k / rate``. A tick the process could
+        not serve in time (the machine is busy) is made up at the next one, at most :data:`CATCH_UP` samples at
+        once, so the stream keeps its rate on average instead of losing the ticks."""
+        if self.stream is None:
+            self.timer.cancel()
+            return
+        cancelled = self.goal is not None and self.goal.is_cancel_requested   # then _step ends it at once
+        if self.started_at is None and not cancelled:
             if not self._ready():
                 return
             self.started_at = time.monotonic()
-            self.get_logger().info(f'started: publishing {len(self.traj)} samples at {self.p["rate"]} Hz '
-                                   f'({self.p["mode"]} mode{", looping" if self.p["loop"] else ""})')
+            self.sent = 0
+            self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
+                                   f'({"goal" if self.goal else self.p["mode"]}'
+                                   f'{", looping" if self.p["loop"] and not self.goal else ""})')
+        due = int((time.monotonic() - (self.started_at or time.monotonic())) / self.period) + 1
+        for _ in range(max(1, min(due - self.sent, CATCH_UP))):
+            if self.stream is None or not self._step(self.stream):
+                return
+
+    def _step(self, traj: Trajectory) -> bool:
+        """Publish sample ``index`` of ``traj`` (and its feedback); False once the stream ended."""
+        if self.goal is not None and self.goal.is_cancel_requested:
+            self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({self._where(traj)})')
+            return False
         try:
-            self.publish_sample(self.index)
+            self.publish_sample(traj, self.index)
         except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback
             if not self.context.ok():
-                # SIGINT/SIGTERM shut the context down while this callback ran: a normal exit.
-                self._finish(0, quiet=True)
-                return
-            self.get_logger().error(f'publishing sample {self.sample} failed: {type(exc).__name__}: {exc}')
-            self._finish(1)
-            return
+                self._end('stopped', 'the node is shutting down')  # SIGINT/SIGTERM while publishing
+            else:
+                self._end('failed', f'publishing sample {self.sample} failed: {type(exc).__name__}: {one_line(exc)}')
+            return False
+        if self.goal is not None:
+            self.goal.publish_feedback(RunProgram.Feedback(
+                sample_index=self.index, sample=self.sample, station=traj.station[self.index],
+                station_name=self._station_name(traj, self.index)))
         self.index += 1
         self.sample += 1
-        if self.index >= len(self.traj):
-            if self.p['loop']:
+        self.sent += 1
+        if self.index >= len(traj):
+            if self.p['loop'] and self.goal is None:
                 self.index = 0
-                self.loops += 1
             else:
-                self._finish(0)
+                self._end('succeeded', f'published all {len(traj)} samples')
+                return False
+        return True
 
-    def _finish(self, status: int, quiet: bool = False) -> None:
+    @staticmethod
+    def _station_name(traj: Trajectory, i: int) -> str:
+        k = traj.station[i] if i < len(traj) else -1
+        return traj.station_names[k] if k >= 0 else ''
+
+    def _where(self, traj: Trajectory) -> str:
+        i = self.index
+        if not traj.station_names:
+            return 'sweep'
+        if i < len(traj) and traj.station[i] >= 0:
+            return f'at station {traj.station[i]} ({self._station_name(traj, i)})'
+        before = max((traj.station[j] for j in range(min(i, len(traj)))), default=-1)
+        return f'moving from station {before} to station {before + 1}'
+
+    def _end(self, outcome: str, message: str) -> None:
         self.timer.cancel()
         elapsed = time.monotonic() - (self.started_at or time.monotonic())
-        achieved = (self.sample - 1) / elapsed if self.sample > 1 and elapsed > 0 else float('nan')
-        if not quiet:
-            self.get_logger().info(f'finished: published {self.sample} samples in {elapsed:.3f} s '
-                                   f'(achieved {achieved:.3f} Hz, requested {self.p["rate"]} Hz)')
-        if not self.done.done():
-            self.done.set_result(status)
+        published = self.index
+        achieved = (published - 1) / elapsed if published > 1 and elapsed > 0 else float('nan')
+        if outcome != 'stopped':
+            self.get_logger().info(f'finished: published {published} samples in {elapsed:.3f} s (achieved '
+                                   f'{achieved:.3f} Hz, requested {self.p["rate"]} Hz)'
+                                   + ('' if outcome == 'succeeded' else f': {message}'))
+        traj, self.stream = self.stream, None
+        if self._goal_done is not None:
+            self._goal_done.set_result((outcome, message, published, len(traj) if traj else 0))
+            self._goal_done = None
+        elif outcome in ('succeeded', 'stopped'):
+            self.finish(EXIT_OK)
+        else:
+            self.get_logger().error(f'stopped: {message}')
+            self.finish(EXIT_FAILED)
 
-    def publish_sample(self, i: int) -> None:
-        tr = self.traj
-        msgs = stream_messages(ROS_TYPES, tr.fk[i], stamp_ns=self.get_clock().now().nanoseconds,
+    def publish_sample(self, traj: Trajectory, i: int) -> None:
+        msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=self.get_clock().now().nanoseconds,
                                frame_id=self.p['base_frame'], sample=self.sample,
-                               commanded_tilt=tr.cmd_tilt[i], commanded_azimuth=tr.cmd_azimuth[i])
+                               commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
         for topic, pub in self.stream_publishers.items():
             pub.publish(msgs[topic])
         if self.sample % int(self.p['markers_every']) == 0:
-            self.pub_markers.publish(self.markers(i, msgs['gpr/platform_state'].header))
+            fk = traj.fk
+            self.pub_markers.publish(platform_markers(self._feet, fk.q[i], fk.nominal_position[i],
+                                                      fk.nominal_rotation[i], msgs['gpr/platform_state'].header))
 
-    def markers(self, i: int, header: Any) -> MarkerArray:
-        """Base triangle, rods (foot to joint centre), platform triangle (the joint centres ``P_k``) and the
-        naive platform's outline, all in the base frame."""
-        fk = self.traj.fk
-        P = self._feet.copy()
-        P[:, 2] = fk.q[i]
-        nominal = fk.nominal_position[i] + self._r_nominal @ fk.nominal_rotation[i].T
-        life = DurationMsg(sec=0, nanosec=0)
+    # -- the gpr/run_program action ----------------------------------------------------------------------------
+    def _on_goal(self, _goal: Any) -> GoalResponse:
+        """Accept a goal only while no stream runs (one program at a time)."""
+        if self.stream is not None or self._reserved:
+            self.get_logger().warning('gpr/run_program: goal rejected: a stream is running')
+            return GoalResponse.REJECT
+        self._reserved = True
+        return GoalResponse.ACCEPT
 
-        def marker(mid: int, ns: str, mtype: int, width: float, color: ColorRGBA, pts: Sequence) -> Marker:
-            m = Marker()
-            m.header = header
-            m.ns = ns
-            m.id = mid
-            m.type = mtype
-            m.action = Marker.ADD
-            m.pose.orientation.w = 1.0
-            m.scale.x = width
-            if mtype == Marker.TRIANGLE_LIST:
-                m.scale.x = m.scale.y = m.scale.z = 1.0
-            m.color = color
-            m.lifetime = life
-            m.points = [Point(x=float(a), y=float(b), z=float(c)) for a, b, c in pts]
-            return m
+    async def _execute(self, goal: ServerGoalHandle) -> Any:
+        result = RunProgram.Result()
+        try:
+            traj = program_trajectory(self.cfg, goal_program(goal.request), self.p['rate'], self.p['move_time'])
+        except GprError as exc:
+            self._reserved = False
+            result.message = f'cannot run the program: {one_line(exc)}'
+            self.get_logger().warning(f'gpr/run_program: {result.message}')
+            goal.abort()
+            return result
+        self.get_logger().info(f'gpr/run_program: {traj.description}')
+        done = Future()
+        self.start(traj, goal, done)
+        self._reserved = False
+        outcome, message, published, total = await done
+        result.success, result.message = outcome == 'succeeded', message
+        result.samples_published, result.samples_total = published, total
+        {'succeeded': goal.succeed, 'cancelled': goal.canceled}.get(outcome, goal.abort)()
+        return result
 
-        feet, plat = self._feet.tolist(), P.tolist()
-        rods = [p for k in range(3) for p in (feet[k], plat[k])]
-        return MarkerArray(markers=[
-            marker(0, 'base', Marker.LINE_STRIP, 0.004, _color(0.5, 0.5, 0.5), feet + feet[:1]),
-            marker(1, 'rods', Marker.LINE_LIST, 0.008, _color(0.2, 0.4, 0.9), rods),
-            marker(2, 'platform', Marker.TRIANGLE_LIST, 1.0, _color(0.95, 0.55, 0.1, 0.8), plat),
-            marker(3, 'nominal_platform', Marker.LINE_STRIP, 0.002, _color(0.1, 0.8, 0.2),
-                   nominal.tolist() + nominal.tolist()[:1]),
-        ])
-
-    def flush(self, timeout: float = 2.0) -> None:
-        """Wait until every subscription has acknowledged what was published (reliable QoS)."""
-        for pub in self.publishers_all:
-            try:
-                pub.wait_for_all_acked(Duration(seconds=timeout))
-            except Exception:  # noqa: BLE001 - best effort on the way out
-                pass
-
-
-def _spin_until_done(node: Node) -> int:
-    assert isinstance(node, TrajectoryNode)
-    rclpy.spin_until_future_complete(node, node.done)
-    status = int(node.done.result()) if node.done.done() else 0
-    node.flush()
-    return status
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """After the last sample, wait until every subscription acknowledged what was published (reliable QoS,
+        at most 2 s each); a stop signal leaves at once."""
+        if not self.signalled:
+            wait_acknowledged(self.publishers_all, 2.0)
+        self.action.destroy()
+        return status
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    return run(NODE_NAME, TrajectoryNode, args, spin=_spin_until_done)
+    return run(TrajectoryNode, args)
 
 
 if __name__ == '__main__':

@@ -1,0 +1,235 @@
+"""The robot model of the GPR for ROS tools (URDF, tf), generated from the geometry configuration (no ROS import).
+
+One source of truth: :func:`gpr_model` builds the model from a :class:`~gpr_kinematics.config.GprConfig`, so the
+URDF, the transforms and the plots always show the geometry the kinematics uses. Frames (REP 103/105 style, SI):
+
+- ``gpr_base``: origin at the centre of the rod axes on the plane ``q = 0``, z up along the rods;
+- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot
+  ``(R cos theta_k, R sin theta_k, 0)`` (a fixed joint: ``/tf_static``);
+- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = (R cos theta_k, R sin theta_k, q_k)``;
+  joint ``rod_k`` (prismatic along z, ``q_k`` in the stroke): the joint names of ``gpr/joint_states``;
+- ``gpr_platform``: the platform (origin at the centre of the nominal joint triangle, z normal to it); joint
+  ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
+  chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
+- ``gpr_platform_nominal``: the platform under the naive model (floating joint ``gpr_platform_nominal_pose``),
+  drawn as a translucent ghost, so the centre shift shows as the offset between the two.
+
+A whole robot adds its links and joints with :meth:`RobotModel.extended` (an arm's first axis fixed on
+``gpr_platform``, revolute joints, a blade and a wafer frame): the URDF writer and :func:`joint_transform` already
+handle fixed, prismatic, revolute and floating joints.
+
+>>> from gpr_kinematics.config import GprConfig
+>>> model = gpr_model(GprConfig())
+>>> [j.name for j in model.joints if j.kind == 'prismatic']
+['rod_1', 'rod_2', 'rod_3']
+>>> xyz, quat = model.transform('rod_1', 0.5)       # gpr_rod_guide_1 -> gpr_rod_1 at q1 = 0.5 m
+>>> [round(v, 12) for v in xyz], [round(v, 12) for v in quat]
+([0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0])
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .config import GprConfig
+from .errors import InputError
+from .geometry import quaternion_from_matrix
+
+JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
+
+
+@dataclass(frozen=True)
+class Visual:
+    """A primitive shape of a link: ``box`` (size x y z), ``cylinder`` (radius, length along z), ``sphere``
+    (radius) [m], placed at ``xyz`` [m] / ``rpy`` [rad] in the link frame, colour RGBA in [0, 1]."""
+
+    shape: str
+    size: tuple[float, ...]
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    material: str = 'grey'
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    visuals: tuple[Visual, ...] = ()
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint from ``parent`` to ``child``: the fixed ``origin`` (``xyz`` [m], ``rpy`` [rad], URDF's fixed-axis
+    roll-pitch-yaw), then the motion along/about ``axis`` (prismatic [m], revolute [rad]) within
+    [``lower``, ``upper``]; a floating joint's pose is given whole (its origin is the identity)."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    lower: float = 0.0
+    upper: float = 0.0
+
+
+def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
+    """URDF's ``rpy``: ``Rz(yaw) Ry(pitch) Rx(roll)`` (fixed axes x, y, z)."""
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
+    """Rotation by ``angle`` [rad] about the unit ``axis`` (Rodrigues)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    out: np.ndarray = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+    return out
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """Links and joints of a robot (a tree rooted at ``root``)."""
+
+    name: str
+    root: str
+    links: tuple[Link, ...] = field(default_factory=tuple)
+    joints: tuple[Joint, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        names = [link.name for link in self.links]
+        if len(set(names)) != len(names) or self.root not in names:
+            raise InputError(f'robot model {self.name}: link names must be unique and include the root {self.root}')
+        children = [j.child for j in self.joints]
+        for j in self.joints:
+            if j.kind not in JOINT_KINDS or j.parent not in names or j.child not in names or j.child == self.root:
+                raise InputError(f'robot model {self.name}: joint {j.name} ({j.kind}, {j.parent} -> {j.child}) is '
+                                 f'invalid; allowed: kinds {", ".join(JOINT_KINDS)} between links of the model')
+        if len(set(children)) != len(children) or len(children) != len(names) - 1:
+            raise InputError(f'robot model {self.name}: every link but the root needs exactly one parent joint')
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise InputError(f'robot model {self.name} has no joint {name!r}; it has: '
+                         + ', '.join(j.name for j in self.joints))
+
+    def extended(self, links: Iterable[Link], joints: Iterable[Joint]) -> RobotModel:
+        """This model with more links and joints (e.g. an arm on ``gpr_platform``)."""
+        return replace(self, links=(*self.links, *links), joints=(*self.joints, *joints))
+
+    def transform(self, joint: str, value: float = 0.0) -> tuple[list[float], list[float]]:
+        """Translation [m] and quaternion (x, y, z, w) from the joint's parent to its child at ``value``."""
+        return joint_transform(self.joint(joint), value)
+
+    def to_urdf(self) -> str:
+        """The URDF (XML text) of the model."""
+        return urdf_text(self)
+
+
+def joint_transform(joint: Joint, value: float = 0.0) -> tuple[list[float], list[float]]:
+    """Parent -> child transform of a fixed, prismatic or revolute joint at ``value`` [m or rad]:
+    ``T = T_origin * T_motion`` (URDF); translation [m] and quaternion (x, y, z, w)."""
+    if joint.kind == 'floating':
+        raise InputError(f'joint {joint.name} is floating: its pose comes from the kinematics, not from a value')
+    R = rpy_matrix(joint.rpy)
+    t = np.asarray(joint.xyz, dtype=float)
+    axis = np.asarray(joint.axis, dtype=float)
+    if joint.kind == 'prismatic':
+        t = t + R @ (float(value) * axis / np.linalg.norm(axis))
+    elif joint.kind == 'revolute':
+        R = R @ axis_angle_matrix(axis, float(value))
+    return t.tolist(), [float(v) for v in quaternion_from_matrix(R)]
+
+
+def gpr_model(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
+              nominal_frame: str = 'gpr_platform_nominal') -> RobotModel:
+    """The GPR (base, three rods, exact and nominal platform) with the geometry of ``cfg``."""
+    R = cfg.radius
+    stroke = cfg.stroke_max - cfg.stroke_min
+    rod_r, ball_r, plate = 0.06 * R, 0.1 * R, 0.1 * R
+    links = [Link(base_frame, (Visual('cylinder', (1.3 * R, 0.2 * plate), (0.0, 0.0, -0.1 * plate), material='base',
+                                      rgba=(0.45, 0.45, 0.45, 1.0)),))]
+    joints = []
+    for k, theta in enumerate(cfg.rod_azimuths, start=1):
+        foot = (R * math.cos(theta), R * math.sin(theta), 0.0)
+        guide, rod = f'gpr_rod_guide_{k}', f'gpr_rod_{k}'
+        links.append(Link(guide, (Visual('cylinder', (1.8 * rod_r, 2 * plate), (0.0, 0.0, -plate), material='guide',
+                                         rgba=(0.3, 0.3, 0.3, 1.0)),)))
+        links.append(Link(rod, (Visual('cylinder', (rod_r, stroke), (0.0, 0.0, -0.5 * stroke), material='rod',
+                                       rgba=(0.2, 0.4, 0.9, 1.0)),
+                                Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
+        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=foot))
+        joints.append(Joint(f'rod_{k}', 'prismatic', guide, rod, lower=cfg.stroke_min, upper=cfg.stroke_max))
+    disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
+    links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
+    links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
+    joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame))
+    joints.append(Joint(f'{nominal_frame}_pose', 'floating', base_frame, nominal_frame))
+    return RobotModel('gpr', base_frame, tuple(links), tuple(joints))
+
+
+def _f(x: float, exact: bool = True) -> str:
+    """A number for the URDF: exact (``repr``) for joints, 6 significant digits for the visuals' sizes."""
+    return repr(float(x)) if exact else format(float(x), '.6g')
+
+
+def _v(values: Iterable[float], exact: bool = True) -> str:
+    return ' '.join(_f(v, exact) for v in values)
+
+
+def urdf_text(model: RobotModel) -> str:
+    """URDF 1.0 XML of ``model``: one ``<material>`` per colour, visuals, joints with origin, axis, limits."""
+    out = ['<?xml version="1.0"?>',
+           '<!-- Generated by gpr_kinematics.robot_model from the geometry configuration: do not edit. '
+           'SI units (m, rad). -->',
+           f'<robot name={quoteattr(model.name)}>']
+    materials: dict[str, tuple[float, ...]] = {}
+    for link in model.links:
+        for v in link.visuals:
+            materials.setdefault(v.material, v.rgba)
+    for name, rgba in materials.items():
+        out.append(f'  <material name={quoteattr(name)}><color rgba="{_v(rgba, False)}"/></material>')
+    for link in model.links:
+        if not link.visuals:
+            out.append(f'  <link name={quoteattr(link.name)}/>')
+            continue
+        out.append(f'  <link name={quoteattr(link.name)}>')
+        for v in link.visuals:
+            if v.shape == 'box':
+                geometry = f'<box size="{_v(v.size, False)}"/>'
+            elif v.shape == 'cylinder':
+                geometry = f'<cylinder radius="{_f(v.size[0], False)}" length="{_f(v.size[1], False)}"/>'
+            else:
+                geometry = f'<sphere radius="{_f(v.size[0], False)}"/>'
+            out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>{geometry}'
+                       f'</geometry><material name={quoteattr(v.material)}/></visual>')
+        out.append('  </link>')
+    for j in model.joints:
+        out.append(f'  <joint name={quoteattr(j.name)} type="{j.kind}">')
+        out.append(f'    <parent link={quoteattr(j.parent)}/><child link={quoteattr(j.child)}/>')
+        if j.kind != 'floating':
+            out.append(f'    <origin xyz="{_v(j.xyz)}" rpy="{_v(j.rpy)}"/>')
+        if j.kind in ('prismatic', 'revolute'):
+            # Effort and velocity are required by URDF but not part of this kinematic model: 0 = not modelled.
+            out.append(f'    <axis xyz="{_v(j.axis)}"/><limit lower="{_f(j.lower)}" upper="{_f(j.upper)}" '
+                       f'effort="0.0" velocity="0.0"/>')
+        out.append('  </joint>')
+    out.append('</robot>')
+    return '\n'.join(out) + '\n'
+
+
+if __name__ == '__main__':
+    from .config import load_config
+
+    print(gpr_model(load_config()).to_urdf(), end='')

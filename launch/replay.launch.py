@@ -1,0 +1,32 @@
+"""Replay a recorded bag (replay_node) with its robot model and transforms (state_publisher_node turns the replayed
+gpr/platform_state into /tf), optionally into RViz.
+
+    ros2 launch gpr_kinematics replay.launch.py bag:=bags/run1 [rate:=2.0] [loop:=true] [rviz:=true]
+"""
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+from gpr_kinematics.nodes.launch_common import arguments, rviz, typed
+from launch import LaunchDescription
+
+ARGUMENTS = (
+    ('bag', '', 'bag folder, .mcap or .db3 file to replay (required)'),
+    ('rate', '1.0', 'replay speed factor (2.0: twice as fast)'),
+    ('loop', 'false', 'start over at the end of the bag (true/false)'),
+    ('namespace', '', 'namespace of the nodes and the replayed topics, e.g. /robot1'),
+    ('config_file', '', "geometry YAML for the robot model; empty: the package's config/gpr.yaml"),
+    ('rviz', 'false', 'start RViz with rviz/gpr.rviz (true/false)'),
+)
+
+
+def generate_launch_description() -> LaunchDescription:
+    ns, params_file = LaunchConfiguration('namespace'), LaunchConfiguration('params_file')
+    return LaunchDescription([
+        *arguments(ARGUMENTS),
+        Node(package='gpr_kinematics', executable='state_publisher_node', namespace=ns, output='screen',
+             parameters=[params_file, {'config_file': typed('config_file')}]),
+        Node(package='gpr_kinematics', executable='replay_node', namespace=ns, output='screen',
+             parameters=[params_file, {'bag': typed('bag'), 'rate': typed('rate', float),
+                                       'loop': typed('loop', bool)}]),
+        rviz(),
+    ])

@@ -1,0 +1,65 @@
+"""Test configuration: the ``ros`` marker and the ROS environment of the tests that need it.
+
+``pytest -m ros`` runs the tests over real DDS (nodes as separate processes, the colcon build of ``make setup``);
+``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. A test module opts in with
+``pytestmark = pytest.mark.ros``: its fixtures and tests then run in the environment of
+:func:`ros_environment` (no import side effect: ROS packages are imported inside the tests, after it).
+
+Every ROS test of a run shares one ``ROS_DOMAIN_ID``: ``GPR_TEST_ROS_DOMAIN_ID`` when set (give parallel runs on
+one host different values), else ``10 + pid % 90``; discovery stays on localhost.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # ros_support, for the test modules
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line('markers', 'ros: needs the colcon build (make setup) and runs nodes over real DDS')
+
+
+def test_domain_id() -> int:
+    """The ``ROS_DOMAIN_ID`` of this run's ROS tests."""
+    value = os.environ.get('GPR_TEST_ROS_DOMAIN_ID')
+    if value is None:
+        return 10 + os.getpid() % 90
+    if not value.isdigit() or not 0 <= int(value) <= 232:
+        raise pytest.UsageError(f'GPR_TEST_ROS_DOMAIN_ID = {value!r}; allowed: an integer from 0 to 232')
+    return int(value)
+
+
+test_domain_id.__test__ = False  # type: ignore[attr-defined]  # a helper, not a test
+
+
+@pytest.fixture(scope='session')
+def ros_environment() -> Iterator[dict[str, str]]:
+    """Put this process, and every node it starts, into the repository's ROS environment
+    (:func:`gpr_kinematics.ros_env.activate`: what ``source install/setup.bash`` gives), with this run's
+    ``ROS_DOMAIN_ID``, ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and ``ROS_PYTHON_CHECK_FIELDS=1`` (message
+    field checks, off by default in Jazzy). If ROS cannot be imported the tests fail, they never skip."""
+    from gpr_kinematics import ros_env
+
+    saved = dict(os.environ)
+    os.environ['ROS_DOMAIN_ID'] = str(test_domain_id())
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    os.environ['ROS_PYTHON_CHECK_FIELDS'] = '1'
+    os.environ['PYTHONUNBUFFERED'] = '1'
+    ros_env.activate()
+    import rclpy  # noqa: F401 - fail here, once, if ROS is not importable
+
+    yield dict(os.environ)
+    os.environ.clear()
+    os.environ.update(saved)
+
+
+@pytest.fixture(autouse=True, scope='module')
+def _ros_marked_module(request: pytest.FixtureRequest) -> None:
+    """Modules marked ``ros`` get :func:`ros_environment` before any of their fixtures."""
+    if request.node.get_closest_marker('ros') is not None:
+        request.getfixturevalue('ros_environment')

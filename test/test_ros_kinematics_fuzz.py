@@ -1,0 +1,135 @@
+"""Hostile numbers to every service of kinematics_node (issue 10): a seeded, bounded hypothesis run sends NaN,
+infinities, 1e308, the smallest subnormal, zeros, negative and huge values and odd model names. Every answer is
+either ``success: false`` with a message that names the problem (a refusal of the package, not an internal
+error), or ``success: true`` with finite numbers equal to the core's; the node keeps serving. Fixed-size arrays
+of the wrong length never leave the client with ``ROS_PYTHON_CHECK_FIELDS=1`` (set by conftest.py)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from ros_support import quat, start, vec
+
+from gpr_kinematics.config import load_config
+from gpr_kinematics.errors import GprError
+from gpr_kinematics.geometry import quaternion_from_matrix, tilt_rotation
+from gpr_kinematics.kinematics import forward
+
+pytestmark = pytest.mark.ros
+
+CFG = load_config()
+NS = '/gpr_fuzz'
+SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
+HOSTILE = st.one_of(
+    st.sampled_from([math.nan, math.inf, -math.inf, 1e308, -1e308, 5e-324, -5e-324, 0.0, -0.0, 1e-300, 1e300]),
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.floats(min_value=-1.0, max_value=1.0),            # around the machine's range, to hit valid requests too
+)
+MODELS = st.one_of(st.sampled_from(['', 'radial', 'polar', 'offset', 'Radial', 'banana', ' ', 'x' * 2000]),
+                   st.text(max_size=40))
+#: Near the machine's working range (0.4 m rods, tilts within the limit), so that valid requests are drawn too.
+NEAR = st.floats(min_value=0.398, max_value=0.402)
+VEC3 = st.one_of(st.lists(HOSTILE, min_size=3, max_size=3), st.lists(NEAR, min_size=3, max_size=3))
+TILT = st.builds(lambda a, g: [float(v) for v in quaternion_from_matrix(tilt_rotation(a, g))],
+                 st.floats(min_value=-0.03, max_value=0.03), st.floats(min_value=-4.0, max_value=4.0))
+QUAT = st.one_of(st.lists(HOSTILE, min_size=4, max_size=4), TILT)
+#: Answers per service: (successes, refusals); each must be non-zero at the end (the fuzzing reached both).
+SEEN: dict[str, list[int]] = {}
+
+
+@pytest.fixture(scope='module')
+def client(ros_environment):
+    from gpr_kinematics.nodes.client import GprClient
+
+    node = start('kinematics_node', namespace=NS)
+    with GprClient('gpr_test_fuzz', namespace=NS) as c:
+        c.node_process = node
+        yield c
+    node.stop()
+
+
+def _numbers(msg, prefix=''):
+    """Every float of a message (nested messages and arrays included)."""
+    out = []
+    for name in msg.get_fields_and_field_types():
+        value = getattr(msg, name)
+        if hasattr(value, 'get_fields_and_field_types'):
+            out += _numbers(value, f'{prefix}{name}.')
+        elif isinstance(value, float):
+            out.append(value)
+        elif hasattr(value, '__len__') and len(value) and isinstance(value[0], (float, np.floating)):
+            out += [float(v) for v in value]
+    return out
+
+
+def _check(client, res):
+    SEEN.setdefault(type(res).__name__, [0, 0])[0 if res.success else 1] += 1
+    if res.success:
+        assert all(math.isfinite(v) for v in _numbers(res)), res
+    else:
+        assert res.message and not res.message.startswith('internal error'), res.message
+        assert len(res.message) < 1000 and 'Traceback' not in res.message
+    assert client.node_process.alive()
+    return res
+
+
+@SETTINGS
+@given(q=VEC3, model=MODELS)
+def test_forward_kinematics(client, q, model):
+    res = _check(client, client.forward_kinematics(q, model))
+    if res.success:
+        core = forward(q, CFG, model.strip() or None)
+        np.testing.assert_allclose(vec(res.pose.position), core.position, rtol=0, atol=1e-12)
+    else:
+        with pytest.raises(GprError):       # the core refuses it too: the node did not invent a refusal
+            forward(np.asarray(q), CFG, model.strip() or None)
+
+
+@SETTINGS
+@given(position=VEC3, quaternion=QUAT, model=MODELS)
+def test_inverse_kinematics(client, position, quaternion, model):
+    from gpr_interfaces.srv import InverseKinematics
+    from gpr_kinematics.nodes.conversions import pose_msg
+
+    req = InverseKinematics.Request(target=pose_msg(position, quaternion), model=model)
+    res = _check(client, client.call(InverseKinematics, 'gpr/inverse_kinematics', req))
+    if res.success:
+        assert abs(res.achieved.position.z - position[2]) < 1e-9
+
+
+@SETTINGS
+@given(position=VEC3, quaternion=QUAT, tool=VEC3, model=MODELS)
+def test_compensate(client, position, quaternion, tool, model):
+    res = _check(client, client.compensate(position, quaternion, tool, model))
+    if res.success:
+        assert abs(np.linalg.norm(quat(res.achieved.orientation)) - 1.0) < 1e-12
+
+
+@SETTINGS
+@given(q=VEC3, dq=VEC3, model=MODELS)
+def test_analyze_mobility(client, q, dq, model):
+    res = _check(client, client.analyze_mobility(q, dq, model))
+    if res.success:
+        assert res.rank_augmented == 12
+
+
+def test_fuzzing_reached_valid_and_refused_requests():
+    names = {'ForwardKinematics_Response', 'InverseKinematics_Response', 'Compensate_Response',
+             'AnalyzeMobility_Response'}
+    assert set(SEEN) == names, SEEN
+    assert all(ok > 0 and refused > 0 for ok, refused in SEEN.values()), SEEN
+
+
+def test_wrong_array_lengths_never_leave_the_client(client):
+    from gpr_interfaces.srv import AnalyzeMobility, ForwardKinematics
+
+    for req, field in ((ForwardKinematics.Request(), 'q'), (AnalyzeMobility.Request(), 'dq')):
+        for bad in ([0.5, 0.5], [0.5] * 4, []):
+            with pytest.raises(AssertionError):
+                setattr(req, field, bad)
+    res = client.forward_kinematics([0.5, 0.5, 0.5])
+    assert res.success, res.message

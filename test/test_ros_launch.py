@@ -1,0 +1,181 @@
+"""The launch files, the RViz configuration and the parameters file, checked without ROS's launch packages (they
+are not on the package registries): every Python launch file runs against a recording stand-in of ``launch`` and
+``launch_ros``, every XML one is parsed; each names only executables of the package (or rviz2) and parameters the
+node declares, each argument has a default and a description, the Python and XML variants agree, and the shipped
+config/gpr_params.yaml is the one the parameter specs generate."""
+from __future__ import annotations
+
+import importlib.util
+import re
+import sys
+import types
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+import yaml
+
+from gpr_kinematics.nodes.specs import KINDS, NODES, node_specs, params_file_text
+
+ROOT = Path(__file__).resolve().parents[1]
+LAUNCH = ROOT / 'launch'
+NAMES = ('kinematics', 'offline_loop', 'replay')
+
+
+class Recorded:
+    """Stand-in of a launch class: keeps its constructor arguments."""
+
+    def __init__(self, *args, **kwargs):
+        self.args, self.kwargs = args, kwargs
+
+
+def _stub_modules() -> dict[str, types.ModuleType]:
+    classes = {
+        'launch': ['LaunchDescription'], 'launch.actions': ['DeclareLaunchArgument'],
+        'launch.conditions': ['IfCondition', 'UnlessCondition'],
+        'launch.substitutions': ['LaunchConfiguration', 'PathJoinSubstitution', 'PythonExpression'],
+        'launch_ros': [], 'launch_ros.actions': ['Node'], 'launch_ros.substitutions': ['FindPackageShare'],
+        'launch_ros.parameter_descriptions': ['ParameterValue'],
+    }
+    out = {}
+    for module, names in classes.items():
+        mod = types.ModuleType(module)
+        for name in names:
+            setattr(mod, name, type(name, (Recorded,), {}))
+        out[module] = mod
+    return out
+
+
+def python_launch(name: str, monkeypatch) -> dict:
+    """Run ``launch/<name>.launch.py`` against the stand-ins; its arguments and nodes."""
+    for module, stub in _stub_modules().items():
+        monkeypatch.setitem(sys.modules, module, stub)
+    spec = importlib.util.spec_from_file_location(f'launch_file_{name}', LAUNCH / f'{name}.launch.py')
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    description = mod.generate_launch_description()
+    entities = description.args[0]
+    args = {e.args[0]: e.kwargs for e in entities if type(e).__name__ == 'DeclareLaunchArgument'}
+    nodes = []
+    for e in entities:
+        if type(e).__name__ != 'Node':
+            continue
+        names = set()
+        for item in e.kwargs.get('parameters', []):
+            if isinstance(item, dict):
+                names |= set(item)
+            else:
+                assert type(item).__name__ == 'LaunchConfiguration' and item.args == ('params_file',)
+        nodes.append((e.kwargs['package'], e.kwargs['executable'], names))
+    return {'args': {k: (_text(v['default_value']), v['description']) for k, v in args.items()}, 'nodes': nodes,
+            'used': _used_configurations(entities)}
+
+
+def _text(value) -> str:
+    """A default value as text: a string, or the file a PathJoinSubstitution names (share/<...>)."""
+    if isinstance(value, str):
+        return value
+    parts = value.args[0]
+    return '/'.join(p if isinstance(p, str) else f'share/{p.args[0]}' for p in parts)
+
+
+def _used_configurations(obj, seen=None) -> set[str]:
+    """Every LaunchConfiguration name used anywhere in the entities."""
+    out: set[str] = set()
+    if type(obj).__name__ == 'LaunchConfiguration':
+        return {obj.args[0]}
+    if isinstance(obj, Recorded):
+        return _used_configurations(list(obj.args) + list(obj.kwargs.values()))
+    if isinstance(obj, dict):
+        return _used_configurations(list(obj.values()))
+    if isinstance(obj, (list, tuple)):
+        for item in obj:
+            out |= _used_configurations(item)
+    return out
+
+
+def xml_launch(name: str) -> dict:
+    root = ET.parse(LAUNCH / f'{name}.launch.xml').getroot()
+    assert root.tag == 'launch'
+    args = {a.get('name'): (a.get('default'), a.get('description')) for a in root.iter('arg')}
+    nodes = [(n.get('pkg'), n.get('exec'), {p.get('name') for p in n.iter('param') if p.get('name')})
+             for n in root.iter('node')]
+    text = (LAUNCH / f'{name}.launch.xml').read_text()
+    return {'args': {k: (v[0].replace('$(find-pkg-share gpr_kinematics)', 'share/gpr_kinematics'), v[1])
+                     for k, v in args.items()},
+            'nodes': nodes, 'used': set(re.findall(r'\$\(var (\w+)\)', text))}
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_python_launch_file(name, monkeypatch):
+    _check(python_launch(name, monkeypatch))
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_xml_launch_file(name):
+    _check(xml_launch(name))
+
+
+def _check(launch: dict) -> None:
+    for arg, (default, description) in launch['args'].items():
+        assert default is not None and description, arg
+    assert launch['used'] == set(launch['args']), 'every argument is used and every used one is declared'
+    assert launch['nodes']
+    for package, exe, params in launch['nodes']:
+        if package == 'rviz2':
+            assert exe == 'rviz2' and not params
+            continue
+        assert package == 'gpr_kinematics' and exe in NODES, exe
+        declared = {s.name for s in node_specs(exe)}
+        assert params <= declared, (exe, params - declared)
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_python_and_xml_variants_agree(name, monkeypatch):
+    py, xml = python_launch(name, monkeypatch), xml_launch(name)
+    assert py['args'] == xml['args']
+    assert sorted(py['nodes']) == sorted(xml['nodes'])
+
+
+def test_launch_files_use_the_shipped_files():
+    for path in [*LAUNCH.glob('*.launch.xml'), ROOT / 'gpr_kinematics' / 'nodes' / 'launch_common.py']:
+        text = path.read_text()
+        refs = re.findall(r"'(config|rviz)', '(\w+\.(?:yaml|rviz))'|/(config|rviz)/(\w+\.(?:yaml|rviz))", text)
+        assert refs, path.name
+        for ref in refs:
+            folder, name = (ref[0], ref[1]) if ref[0] else (ref[2], ref[3])
+            assert (ROOT / folder / name).is_file(), (path.name, folder, name)
+
+
+def test_rviz_configuration():
+    cfg = yaml.safe_load((ROOT / 'rviz' / 'gpr.rviz').read_text())
+    manager = cfg['Visualization Manager']
+    assert manager['Global Options']['Fixed Frame'] == 'gpr_base'
+    displays = {d['Class']: d for d in manager['Displays']}
+    model = displays['rviz_default_plugins/RobotModel']
+    assert model['Description Topic']['Value'] == '/robot_description'
+    assert model['Description Topic']['Durability Policy'] == 'Transient Local'     # latched, as published
+    assert 'rviz_default_plugins/TF' in displays
+    topics = {d['Topic']['Value'] for d in manager['Displays'] if 'Topic' in d}
+    assert topics == {'/gpr/markers', '/gpr/platform_pose', '/gpr/nominal_pose'}
+
+
+def test_params_file_is_generated_from_the_specs():
+    assert (ROOT / 'config' / 'gpr_params.yaml').read_text() == params_file_text()
+
+
+def test_params_file_values_have_the_declared_types():
+    """Every value reads back (YAML 1.1, as ros2 param load and launch read it) with the kind of its parameter;
+    every key is a parameter the node declares; every node is in the file."""
+    data = yaml.safe_load((ROOT / 'config' / 'gpr_params.yaml').read_text())
+    assert set(data) == {f'/**/{n}' for n in NODES}
+    for key, section in data.items():
+        node = key.removeprefix('/**/')
+        specs = {s.name: s for s in node_specs(node)}
+        values = section['ros__parameters']
+        assert set(values) <= set(specs)
+        for name, value in values.items():
+            assert isinstance(value, KINDS[specs[name].kind]) and isinstance(value, bool) == (specs[name].kind ==
+                                                                                              'bool'), (name, value)
+            specs[name].check(value)
+            assert value == specs[name].default

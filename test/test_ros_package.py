@@ -1,0 +1,59 @@
+"""package.xml (the stock ROS install's view of the package) declares every runtime dependency: each module the
+package imports maps to a rosdep key listed as an exec_depend, and the executables, launch files, RViz
+configuration and robot model are installed where ``ros2 run``/``ros2 launch`` look for them (setup.py)."""
+from __future__ import annotations
+
+import ast
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Imported top-level module -> rosdep key (ROS packages are their own key).
+ROSDEP = {
+    'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
+    'mpl_toolkits': 'python3-matplotlib', 'rosbags': 'python3-rosbags-pip', 'mcap': 'mcap-ros2-support',
+    'mcap_ros2': 'mcap-ros2-support',
+}
+ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
+                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python', 'launch',
+                'launch_ros'}
+
+
+def imported_modules() -> dict[str, set[str]]:
+    """Top-level modules imported anywhere in the package (lazy imports included) -> the files importing them."""
+    out: dict[str, set[str]] = {}
+    for path in (ROOT / 'gpr_kinematics').rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split('.')[0]
+                if top not in sys.stdlib_module_names and top != 'gpr_kinematics':
+                    out.setdefault(top, set()).add(str(path.relative_to(ROOT)))
+    return out
+
+
+def exec_depends() -> set[str]:
+    return set(re.findall(r'<exec_depend>([\w-]+)</exec_depend>', (ROOT / 'package.xml').read_text()))
+
+
+def test_every_import_is_declared():
+    declared = exec_depends()
+    missing = {m: files for m, files in imported_modules().items()
+               if (m if m in ROS_PACKAGES else ROSDEP.get(m)) not in declared}
+    assert not missing, f'imports without an exec_depend in package.xml (add the rosdep key): {missing}'
+
+
+def test_launch_rviz_and_robot_model_installed():
+    text = (ROOT / 'setup.py').read_text()
+    for folder, pattern in (('launch', "glob('launch/*.launch.py')"), ('launch', "glob('launch/*.launch.xml')"),
+                            ('rviz', "glob('rviz/*.rviz')"), ('urdf', "glob('urdf/*.urdf')"),
+                            ('config', "glob('config/*.yaml')")):
+        assert f"'share/' + PACKAGE + '/{folder}', " in text and pattern in text, (folder, pattern)
+    assert {'launch', 'launch_ros', 'launch_xml', 'rviz2'} <= exec_depends()

@@ -1,0 +1,152 @@
+"""Parameters over real DDS: the shipped params file works with --params-file for every node; descriptors carry
+the specs' ranges, allowed values and constraints; a node's own dump (as ``ros2 param dump`` writes it) loads back
+(as ``ros2 param load`` reads it, through rclpy's params-file reader) and starts a fresh node with the same values;
+numbers sent as strings (``ros2 param set x 1e-13``) are accepted on double parameters."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+from ros_support import start, wait_for_log
+
+from gpr_kinematics.nodes.specs import NODES, node_specs
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+PARAMS = ROOT / 'config' / 'gpr_params.yaml'
+#: Parameters each executable needs to stay up for the test (replay_node replays the reference bag in a loop).
+KEEP_UP = {'trajectory_node': ['-p', 'mode:=idle'],
+           'replay_node': ['-p', f'bag:={ROOT / "bags" / "reference_sweep"}', '-p', 'loop:=true',
+                           '-p', 'rate:=0.01']}
+RCL_OWN = {'use_sim_time', 'start_type_description_service'}
+
+
+def _value(v):
+    """A ParameterValue as ros2param's dump turns it into Python (ros2param.api.get_value)."""
+    from rcl_interfaces.msg import ParameterType as T
+
+    return {T.PARAMETER_BOOL: lambda: v.bool_value, T.PARAMETER_INTEGER: lambda: v.integer_value,
+            T.PARAMETER_DOUBLE: lambda: v.double_value, T.PARAMETER_STRING: lambda: v.string_value,
+            T.PARAMETER_DOUBLE_ARRAY: lambda: list(v.double_array_value),
+            T.PARAMETER_STRING_ARRAY: lambda: list(v.string_array_value),
+            T.PARAMETER_INTEGER_ARRAY: lambda: list(v.integer_array_value),
+            T.PARAMETER_BOOL_ARRAY: lambda: list(v.bool_array_value)}[v.type]()
+
+
+def _dump(client, node: str) -> dict:
+    """{name: value} of every parameter of ``node`` (ListParameters + GetParameters, like ros2 param dump)."""
+    from rcl_interfaces.srv import GetParameters, ListParameters
+
+    names = client.call(ListParameters, f'{node}/list_parameters', ListParameters.Request()).result.names
+    values = client.call(GetParameters, f'{node}/get_parameters', GetParameters.Request(names=names)).values
+    return {n: _value(v) for n, v in zip(names, values, strict=True)}
+
+
+@pytest.fixture(scope='module')
+def client(ros_environment):
+    from gpr_kinematics.nodes.client import GprClient
+
+    with GprClient('gpr_test_params') as c:
+        yield c
+
+
+@pytest.mark.parametrize('exe', list(NODES))
+def test_params_file_dump_load_round_trip(client, exe, tmp_path):
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import parameter_dict_from_yaml_file
+
+    ns = f'/params_{exe}'
+    args = ['--params-file', str(PARAMS), *KEEP_UP.get(exe, [])]
+    if exe == 'recorder_node':
+        args += ['-p', f'output:={tmp_path / "bag"}']
+    node = start(exe, *args, namespace=ns)
+    fresh = None
+    try:
+        wait_for_log(node, r'serving|publishing|recording|replaying|idle')
+        full = f'{ns}/{exe}'
+        dumped = _dump(client, full)
+        specs = {s.name: s for s in node_specs(exe)}
+        assert set(dumped) - RCL_OWN == set(specs)
+        shipped = yaml.safe_load(PARAMS.read_text())[f'/**/{exe}']['ros__parameters']
+        overridden = {a.split(':=')[0] for a in args if ':=' in a}
+        for name, value in shipped.items():
+            assert dumped[name] == value or name in overridden, name
+        # ros2 param dump writes yaml.dump({node: {ros__parameters: ...}}); ros2 param load reads it back with
+        # rclpy's parameter_dict_from_yaml_file and sets every parameter.
+        dump = tmp_path / 'dump.yaml'
+        dump.write_text(yaml.dump({full: {'ros__parameters': dumped}}, default_flow_style=False))
+        loaded = list(parameter_dict_from_yaml_file(str(dump)).values())
+        results = client.call(SetParameters, f'{full}/set_parameters', SetParameters.Request(parameters=loaded)).results
+        for param, result in zip(loaded, results, strict=True):
+            read_only = param.name in RCL_OWN - {'use_sim_time'} or specs.get(param.name, None) is not None and \
+                specs[param.name].read_only
+            assert result.successful or (read_only and 'read-only' in result.reason), (param.name, result.reason)
+            assert result.successful or read_only, (param.name, result.reason)
+        assert _dump(client, full) == dumped
+        # The dump as a params file starts a fresh node with the same values.
+        if exe == 'recorder_node':
+            dumped['output'] = str(tmp_path / 'bag2')      # a recorder never overwrites a bag
+        dump.write_text(yaml.dump({f'{ns}_fresh/{exe}': {'ros__parameters': dumped}}))
+        fresh = start(exe, '--params-file', str(dump), *KEEP_UP.get(exe, []), namespace=f'{ns}_fresh')
+        wait_for_log(fresh, r'serving|publishing|recording|replaying|idle')
+        assert _dump(client, f'{ns}_fresh/{exe}') == dumped
+    finally:
+        for p in (node, fresh):
+            if p is not None:
+                p.stop()
+
+
+@pytest.mark.parametrize('exe', ['kinematics_node', 'trajectory_node'])
+def test_descriptors_carry_the_specs(client, exe):
+    from rcl_interfaces.srv import DescribeParameters
+
+    node = start(exe, '-p', 'mode:=idle', namespace='/describe')
+    try:
+        wait_for_log(node, r'serving|idle')
+        specs = node_specs(exe)
+        req = DescribeParameters.Request(names=[s.name for s in specs])
+        descriptors = client.call(DescribeParameters, f'/describe/{exe}/describe_parameters', req).descriptors
+        for spec, d in zip(specs, descriptors, strict=True):
+            assert d.name == spec.name and d.description == spec.description
+            assert d.additional_constraints == spec.constraint_text()
+            assert d.read_only == spec.read_only
+            if spec.limits is not None and spec.kind == 'double':
+                r = d.floating_point_range[0]
+                assert (r.from_value, r.to_value) == spec.limits
+            if spec.limits is not None and spec.kind == 'integer':
+                r = d.integer_range[0]
+                assert (r.from_value, r.to_value) == spec.limits
+        by_name = {d.name: d for d in descriptors}
+        assert 'at least 10 deg' in by_name['rod_azimuths'].additional_constraints
+        assert by_name['model'].additional_constraints.startswith('one of: radial, polar, offset')
+    finally:
+        node.stop()
+
+
+def test_numbers_sent_as_strings(client):
+    """ros2 param set /kinematics_node tolerance 1e-13 sends the string '1e-13' (YAML 1.1): accepted as 1e-13;
+    a string that is no number is refused as before."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    node = start('kinematics_node', namespace='/strings')
+    try:
+        wait_for_log(node, 'serving')
+
+        def set_text(name, text):
+            value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=text)
+            req = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+            return client.call(SetParameters, '/strings/kinematics_node/set_parameters', req).results[0]
+
+        assert set_text('tolerance', '1e-13').successful
+        assert _dump(client, '/strings/kinematics_node')['tolerance'] == 1e-13
+        assert set_text('tilt_limit', ' 3.0e-2 ').successful
+        assert math.isclose(_dump(client, '/strings/kinematics_node')['tilt_limit'], 0.03)
+        assert not set_text('tolerance', 'small').successful
+        assert not set_text('tolerance', '1e-3').successful          # a number, but outside the range
+        assert not set_text('model', '1e-3').successful              # a string parameter keeps its check
+    finally:
+        node.stop()

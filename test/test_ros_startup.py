@@ -1,0 +1,182 @@
+"""Start-up and run-time errors of every executable (issue 10 and 14): a malformed ``--ros-args``, params file or
+parameter value, bad recorder/replay topics, a corrupt bag or a FIFO given to replay_node, and a full disk under
+the recorder each end the process with the documented status and exactly one ``cannot start:`` / ``stopped:``
+line, never a traceback."""
+from __future__ import annotations
+
+import math
+import os
+import resource
+import shutil
+import signal
+import time
+from pathlib import Path
+
+import pytest
+from ros_support import assert_one_error_line, start, wait_for_log
+
+from gpr_kinematics.nodes.specs import NODES, node_specs
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / 'bags' / 'reference_sweep'
+#: Parameters every executable needs to start at all (replay_node needs a bag).
+NEEDS = {'replay_node': ['-p', f'bag:={REFERENCE}'], 'recorder_node': []}
+
+
+def _run(exe: str, *args: str, timeout: float = 60.0):
+    proc = start(exe, *NEEDS.get(exe, []), *args)
+    try:
+        status = proc.wait(timeout=timeout)
+    finally:
+        proc.stop()
+    return status, proc.output()
+
+
+def _files(tmp_path: Path) -> dict[str, Path]:
+    nonros = tmp_path / 'geometry_style.yaml'
+    nonros.write_text('radius: 0.1\nstroke_max: 0.6\n')            # a geometry file, not a ROS params file
+    broken = tmp_path / 'broken.yaml'
+    broken.write_text('kinematics_node: {ros__parameters: [\n')
+    return {'nonros': nonros, 'broken': broken, 'missing': tmp_path / 'missing.yaml'}
+
+
+MALFORMED = {
+    'param-without-value': (['-p', 'rate'], r'cannot start: malformed ROS arguments: .*-p rate'),
+    'bad-remap': (['-r', 'no rule'], r'cannot start: malformed ROS arguments: .*remap'),
+    'non-ros-params-file': (['--params-file', '{nonros}'], r'cannot start: .*ros__parameters.*gpr_params\.yaml'),
+    'broken-params-file': (['--params-file', '{broken}'], r'cannot start: .*params file'),
+    'missing-params-file': (['--params-file', '{missing}'], r'cannot start: .*params file'),
+}
+
+
+# Every executable with two of the cases, one executable with all of them: the start-up path (runtime.run) is one.
+MALFORMED_CASES = [(exe, case) for exe in NODES for case in ('param-without-value', 'non-ros-params-file')] + \
+    [('kinematics_node', case) for case in MALFORMED if case not in ('param-without-value', 'non-ros-params-file')]
+
+
+@pytest.mark.parametrize('exe,case', MALFORMED_CASES)
+def test_malformed_ros_args_exit_2_one_line(exe, case, tmp_path):
+    args, words = MALFORMED[case]
+    files = _files(tmp_path)
+    status, out = _run(exe, '--ros-args', *[a.format(**files) for a in args])
+    assert_one_error_line(out, status, 2, words)
+    assert '[rcl]' not in out          # rcl's own "Failed to parse global arguments" line is not shown
+
+
+@pytest.mark.parametrize('exe', list(NODES))
+def test_parameter_of_the_wrong_type_exit_2_one_line(exe):
+    spec = next(s for s in node_specs(exe) if s.kind in ('double', 'integer') and s.name != 'rate')
+    status, out = _run(exe, '--ros-args', '-p', f'{spec.name}:=not_a_number')
+    assert_one_error_line(out, status, 2, 'cannot start', spec.name)
+
+
+@pytest.mark.parametrize('exe', list(NODES))
+def test_parameter_out_of_range_exit_2_one_line(exe):
+    spec = next(s for s in node_specs(exe) if s.limits is not None and s.kind == 'double')
+    status, out = _run(exe, '--ros-args', '-p', f'{spec.name}:={spec.limits[1] * 2 + 1.0!r}')
+    assert_one_error_line(out, status, 2, 'cannot start', spec.name)
+
+
+BAD_NAMES = [("['gpr/bad name']", r"'gpr/bad name' is not a valid topic name"),
+             ("['gpr//double']", 'not a valid topic name'),
+             ("['2gpr/starts_with_digit']", 'not a valid topic name')]
+# replay_node documents topics:=[''] as "all topics" (its default): an empty name is refused by the recorder only.
+TOPIC_CASES = [(exe, value, words) for exe in ('recorder_node', 'replay_node') for value, words in BAD_NAMES] + \
+    [('recorder_node', "['']", 'empty topic name')]
+
+
+@pytest.mark.parametrize('exe,value,words', TOPIC_CASES)
+def test_bad_topic_names_exit_2_one_line(exe, value, words, tmp_path):
+    args = ['-p', f'output:={tmp_path / "bag"}'] if exe == 'recorder_node' else []
+    status, out = _run(exe, '--ros-args', *args, '-p', f'topics:={value}')
+    assert_one_error_line(out, status, 2, 'cannot start', 'topics', words)
+    assert not (tmp_path / 'bag').exists()
+
+
+def test_recorder_empty_topic_list_exit_2(tmp_path):
+    status, out = _run('recorder_node', '--ros-args', '-p', f'output:={tmp_path / "bag"}', '-p', 'topics:=[]')
+    assert_one_error_line(out, status, 2, 'cannot start: topics is empty')
+    assert not (tmp_path / 'bag').exists()
+
+
+@pytest.mark.parametrize('value', ['[]', "['']"])
+def test_replay_empty_topic_list_means_all_topics(value):
+    from gpr_kinematics.bags.reader import read_bag
+
+    ref = read_bag(REFERENCE)
+    status, out = _run('replay_node', '--ros-args', '-p', 'rate:=100.0', '-p', f'topics:={value}')
+    assert status == 0 and 'Traceback' not in out, out
+    assert f'replaying {ref.message_count} messages of {len(ref.topics)} topic(s)' in out
+
+
+def _corrupt_copy(tmp_path: Path, how: str) -> Path:
+    bag = tmp_path / 'bag'
+    shutil.copytree(REFERENCE, bag)
+    mcap = next(bag.glob('*.mcap'))
+    data = bytearray(mcap.read_bytes())
+    if how == 'truncated':
+        mcap.write_bytes(bytes(data[:len(data) // 2]))
+    elif how == 'garbage':
+        mcap.write_bytes(b'\x00' * len(data))
+    elif how == 'fifo-file':
+        mcap.unlink()
+        os.mkfifo(mcap)
+    elif how == 'metadata-not-yaml':
+        (bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: [\n')
+    return bag
+
+
+@pytest.mark.parametrize('how', ['truncated', 'garbage', 'fifo-file', 'metadata-not-yaml'])
+def test_replay_corrupt_bag_exit_2_one_line(how, tmp_path):
+    bag = _corrupt_copy(tmp_path, how)
+    status, out = _run('replay_node', '--ros-args', '-p', f'bag:={bag}', timeout=60)
+    assert_one_error_line(out, status, 2, 'cannot start', str(bag))
+
+
+def test_replay_fifo_as_the_bag_exit_2(tmp_path):
+    fifo = tmp_path / 'stream.mcap'
+    os.mkfifo(fifo)
+    t0 = time.monotonic()
+    status, out = _run('replay_node', '--ros-args', '-p', f'bag:={fifo}', timeout=60)
+    assert_one_error_line(out, status, 2, 'cannot start', 'not a regular file')
+    assert time.monotonic() - t0 < 30
+
+
+def _file_size_limit(limit: int):
+    def apply() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    return apply
+
+
+def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tmp_path):
+    """A file size limit (RLIMIT_FSIZE, as a full disk: writes fail with EFBIG) under an SQLite3 recording: small
+    segments close fine while a slow stream runs; a fast stream then overfills a segment. The recorder ends with
+    status 1 and one ``stopped:`` line; the segments closed before stay a readable bag."""
+    from gpr_kinematics.bags.reader import read_bag
+    from gpr_kinematics.nodes.process import NodeProcess
+
+    bag = tmp_path / 'bag'
+    env = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}    # no shared-memory files under the limit
+    rec = NodeProcess('recorder_node', ['-p', f'output:={bag}', '-p', 'storage:=sqlite3', '-p', 'flush_interval:=0.2',
+                                        '-p', 'topics:=[gpr/platform_state, gpr/markers]'],
+                      env=env, preexec=_file_size_limit(100_000))
+    slow = fast = None
+    try:
+        wait_for_log(rec, 'recording 2 topic')
+        slow = start('trajectory_node', rate=40.0, wait_for_subscribers=1, wait_all_topics=False,
+                     azimuth_step=math.radians(120.0), tilt_step=math.radians(0.5))
+        assert slow.wait(timeout=60) == 0, slow.output()
+        fast = start('trajectory_node', rate=2000.0, wait_for_subscribers=1, wait_all_topics=False, passes=20)
+        status = rec.wait(timeout=60)
+    finally:
+        for p in (rec, slow, fast):
+            if p is not None:
+                p.stop(signal.SIGINT)
+    out = rec.output()
+    assert_one_error_line(out, status, 1, r'stopped: BagError: cannot write the bag .*disk full')
+    assert 'segment(s) closed before the error' in out
+    b = read_bag(bag)
+    states = b.topic('/gpr/platform_state')
+    assert states is not None and len(states) >= 3 * 9     # at least the slow stream (3 rows of 9 samples)
