@@ -2,11 +2,11 @@
 
     ros2 launch gpr_kinematics kinematics.launch.py [namespace:=/robot1] [model:=polar] [config_file:=my_gpr.yaml]
 """
+from launch import LaunchDescription
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from gpr_kinematics.nodes.launch_common import arguments, typed
-from launch import LaunchDescription
 
 ARGUMENTS = (
     ('namespace', '', 'namespace of the node and its services, e.g. /robot1'),

@@ -5,12 +5,12 @@ optionally RViz.
     ros2 launch gpr_kinematics offline_loop.launch.py [mode:=program program_file:=...] [bag:=bags/run1]
         [rate:=200.0] [model:=polar] [config_file:=my_gpr.yaml] [namespace:=/robot1] [record:=false] [rviz:=true]
 """
+from launch import LaunchDescription
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
 
 from gpr_kinematics.nodes.launch_common import arguments, rviz, typed
-from launch import LaunchDescription
 
 ARGUMENTS = (
     ('namespace', '', 'namespace of the nodes, their services and topics, e.g. /robot1'),

@@ -3,11 +3,11 @@ gpr/platform_state into /tf), optionally into RViz.
 
     ros2 launch gpr_kinematics replay.launch.py bag:=bags/run1 [rate:=2.0] [loop:=true] [rviz:=true]
 """
+from launch import LaunchDescription
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from gpr_kinematics.nodes.launch_common import arguments, rviz, typed
-from launch import LaunchDescription
 
 ARGUMENTS = (
     ('bag', '', 'bag folder, .mcap or .db3 file to replay (required)'),

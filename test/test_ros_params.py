@@ -81,7 +81,7 @@ def test_params_file_dump_load_round_trip(client, exe, tmp_path):
         loaded = list(parameter_dict_from_yaml_file(str(dump)).values())
         results = client.call(SetParameters, f'{full}/set_parameters', SetParameters.Request(parameters=loaded)).results
         for param, result in zip(loaded, results, strict=True):
-            read_only = param.name in RCL_OWN - {'use_sim_time'} or specs.get(param.name, None) is not None and \
+            read_only = param.name in RCL_OWN - {'use_sim_time'} or specs.get(param.name) is not None and \
                 specs[param.name].read_only
             assert result.successful or (read_only and 'read-only' in result.reason), (param.name, result.reason)
             assert result.successful or read_only, (param.name, result.reason)

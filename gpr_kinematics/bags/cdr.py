@@ -151,6 +151,12 @@ class Columns:
     def __contains__(self, name: str) -> bool:
         return name in self.numeric or name in self.strings
 
+    def get(self, name: str) -> NDArray[Any] | None:
+        """The column ``name``, or None when the messages have no such field."""
+        if name in self.numeric:
+            return self.numeric[name]
+        return self.strings.get(name)
+
 
 def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, Any]) -> None:
     fields = getattr(obj, '__dataclass_fields__', None)

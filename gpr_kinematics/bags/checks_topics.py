@@ -149,7 +149,7 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
 
 
 def _column(mc: Columns, name: str) -> NDArray[Any] | None:
-    return mc[name] if name in mc else None
+    return mc.get(name)
 
 
 def _marker_errors(mc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,

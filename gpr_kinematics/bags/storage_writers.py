@@ -108,7 +108,7 @@ class McapStorage:
 
     def close(self) -> None:
         self.writer.add_metadata('rosbag2', {'ROS_DISTRO': ROS_DISTRO})
-        self.writer.finish()  # type: ignore[no-untyped-call]  # the mcap library has no annotation here
+        self.writer.finish()
         self.stream.close()
 
     def abort(self) -> None:

@@ -23,6 +23,7 @@ Tools read the segments as one recording (``ros2 bag info/play``, :func:`~gpr_ki
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import time
@@ -209,9 +210,9 @@ class SegmentedBagWriter:
         # clock may step back between two messages).
         seg.min_stamp = int(timestamp) if seg.min_stamp is None else min(seg.min_stamp, int(timestamp))
         seg.max_stamp = int(timestamp) if seg.max_stamp is None else max(seg.max_stamp, int(timestamp))
-        if self.max_bag_size and seg.bytes >= self.max_bag_size:
-            self.roll()
-        elif self.flush_interval and time.monotonic() - seg.first_message >= ROLL_FRACTION * self.flush_interval:
+        full = bool(self.max_bag_size) and seg.bytes >= self.max_bag_size
+        due = bool(self.flush_interval) and time.monotonic() - seg.first_message >= ROLL_FRACTION * self.flush_interval
+        if full or due:
             self.roll()
 
     def poll(self) -> bool:
@@ -337,10 +338,9 @@ class SegmentedBagWriter:
         """Give up: drop the open segment; with ``remove`` delete the whole bag folder."""
         seg, self.segment = self.segment, None
         if seg is not None:
-            try:
+            # Giving up anyway: the folder may be gone or the disk full.
+            with contextlib.suppress(WriterError, OSError):
                 seg.storage.abort()
-            except (WriterError, OSError):  # giving up anyway: the folder may be gone or the disk full
-                pass
         if remove and self._opened:
             shutil.rmtree(self.path, ignore_errors=True)
         self._closed = True

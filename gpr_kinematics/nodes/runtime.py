@@ -34,13 +34,13 @@ from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 
-from ..errors import GprError
+from ..errors import EXIT_BAD_INPUT, GprError
 
 EXIT_OK = 0
 #: Exit status of a node that stopped on an error while running.
 EXIT_FAILED = 1
 #: Exit status of a node that cannot start (bad arguments, parameters, files).
-EXIT_BAD_CONFIG = 2
+EXIT_BAD_CONFIG = EXIT_BAD_INPUT
 #: Longest time [s] the spin loop waits before it looks at the stop flag again (the delay of a clean exit).
 SPIN_TIMEOUT = 0.05
 #: Longest error text put on the one error line (a user's value is never printed whole).
