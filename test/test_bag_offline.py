@@ -24,7 +24,7 @@ from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
-from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, definition, typestore
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, VIRTUAL_JOINTS_TOPIC, definition, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.bags.writer import SegmentedBagWriter
 
@@ -52,8 +52,10 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     assert 'verification PASSED' in out
     bag = read_bag(REFERENCE)
     # The default sweep: 36 azimuths x 21 tilts, every topic of the trajectory node, one sample each; recorded
-    # before the trajectory node published its geometry (the topic is listed, empty: verify says so).
-    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(GPR_TOPICS, 756), GEOMETRY_TOPIC: 0}
+    # before the trajectory node published its geometry (the topic is listed, empty: verify says so) and before
+    # the virtual joints left /gpr/joint_states for their own topic.
+    stream = set(GPR_TOPICS) - {GEOMETRY_TOPIC, VIRTUAL_JOINTS_TOPIC}
+    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(stream, 756), GEOMETRY_TOPIC: 0}
     assert 'no geometry recorded in the bag' in out
     assert bag.storage == 'mcap' and bag.version == 9
     assert sum(f.stat().st_size for f in REFERENCE.iterdir()) < 2_000_000
@@ -196,8 +198,8 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
 
 
 def test_split_by_duration(tmp_path: Path, messages: list) -> None:
-    # The synthetic stream is 1 ms per sample (5 messages, the geometry before the first): 30 samples split every
-    # 5 ms of log time.
+    # The synthetic stream is 1 ms per sample (6 messages: state, two poses, joint states, virtual joints, markers;
+    # the geometry before the first): 30 samples split every 5 ms of log time.
     topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
     with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
         for topic, t, data in messages:
@@ -206,7 +208,7 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     assert len(bag.files) == 6
     spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata.info['files']] == [26] + [25] * 5
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [31] + [30] * 5
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
     meta = bag.metadata.info
