@@ -15,6 +15,12 @@ The geometry as a vector of named scalars (for calibration: a config from a para
 :data:`PARAMETERS`, :func:`parameter_vector` and :func:`config_with_parameters`; forward kinematics
 (:func:`gpr_kinematics.kinematics.forward_batch`) is a pure function of the rod lengths and that config.
 
+**One machine per row.** :meth:`MachineGeometry.per_row` builds the geometry of ``N`` machines at once (``N``
+parameter vectors, checked like a geometry file, row by row): every constant is then an array ``(N,)`` instead
+of a float, and the same kernels evaluate sample ``i`` of a batch on machine ``i``
+(``forward_batch(Q, config, parameters=...)``): one call for the perturbed machines of a Jacobian or the
+samples of a Monte Carlo budget.
+
 >>> geo = MachineGeometry.of(GprConfig())
 >>> [round(v, 6) for v in geo.bx], geo.uz, geo.offsets
 ([0.093218, -0.046609, -0.046609], (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
@@ -23,17 +29,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .config import GprConfig, Point2, Triple, nominal_points
+from .config import _TRIPLE_RANGES, MAX_SIDE_MISMATCH, MIN_TRIANGLE_ANGLE, GprConfig, Point2, Triple, nominal_points
 from .errors import InputError
 
 Array = NDArray[np.float64]
 Floats3 = tuple[float, float, float]
+#: One value per rod or joint: floats (one machine) or arrays ``(N,)`` (one machine per row).
+Values3 = tuple[Any, Any, Any]
 
 
 def _floats(values: Sequence[float]) -> Floats3:
@@ -42,7 +50,8 @@ def _floats(values: Sequence[float]) -> Floats3:
 
 @dataclass(frozen=True)
 class MachineGeometry:
-    """Constants of one machine, as float triples (one value per rod or joint, index ``k = 0, 1, 2``).
+    """Constants of one machine, as float triples (one value per rod or joint, index ``k = 0, 1, 2``), or of
+    ``rows`` machines, as triples of arrays ``(rows,)`` (:meth:`per_row`).
 
     Attributes:
         bx, by: base points ``B_k`` [m]. ux, uy, uz: unit rod directions ``u_k``. offsets: ``o_k`` [m].
@@ -51,22 +60,24 @@ class MachineGeometry:
         kappa: ``k_t / k_r`` per joint. naive_inv: inverse of the rows ``(1, p_kx, p_ky)`` (the naive model).
     """
 
-    bx: Floats3
-    by: Floats3
-    ux: Floats3
-    uy: Floats3
-    uz: Floats3
-    offsets: Floats3
-    px: Floats3
-    py: Floats3
-    rho: Floats3
-    cos: Floats3
-    sin: Floats3
-    kappa: Floats3
-    naive_inv: tuple[Floats3, Floats3, Floats3]
+    bx: Values3
+    by: Values3
+    ux: Values3
+    uy: Values3
+    uz: Values3
+    offsets: Values3
+    px: Values3
+    py: Values3
+    rho: Values3
+    cos: Values3
+    sin: Values3
+    kappa: Values3
+    naive_inv: tuple[Values3, Values3, Values3]
 
     #: Every rod parallel to the base z axis and no zero offset (the nominal rods): ``P_k = (B_k, q_k)``.
     upright: bool
+    #: 0: one machine (floats); ``N``: one machine per row (arrays ``(N,)``).
+    rows: int = 0
 
     @staticmethod
     def of(config: GprConfig) -> MachineGeometry:
@@ -75,6 +86,31 @@ class MachineGeometry:
         if geo is None:
             geo = config.derived['machine'] = _build(config)
         return geo
+
+    @staticmethod
+    def per_row(config: GprConfig, values: ArrayLike, names: Sequence[str] | None = None) -> MachineGeometry:
+        """``N`` machines: ``config``'s geometry with the parameters ``names`` (default all of
+        :data:`PARAMETER_NAMES`) set to the rows of ``values (N, len(names))`` [SI].
+
+        Each row is checked like a geometry file (the ranges of the keys, the triangles' cross checks);
+        :class:`~gpr_kinematics.errors.InputError` names the row, the parameter and what is allowed.
+
+        >>> geo = MachineGeometry.per_row(GprConfig(), [[1e-5], [2e-5]], ['rod2_offset'])
+        >>> geo.rows, geo.offsets[1].tolist(), geo.offsets[0].tolist()
+        (2, [1e-05, 2e-05], [0.0, 0.0])
+        """
+        return _build_rows(config, values, names)
+
+    def repeat(self, k: int) -> MachineGeometry:
+        """The machines of :meth:`per_row`, each repeated for ``k`` consecutive samples (``rows * k`` rows):
+        ``M`` machines at the same ``k`` configurations are built and checked once per machine."""
+        def rep(v: Any) -> Any:
+            return tuple(rep(x) for x in v) if isinstance(v, tuple) else np.repeat(v, k)
+
+        if not self.rows:
+            raise InputError('repeat() needs a per-row geometry (MachineGeometry.per_row)')
+        values = {f.name: rep(getattr(self, f.name)) for f in fields(self) if f.name not in ('upright', 'rows')}
+        return MachineGeometry(**values, upright=self.upright, rows=self.rows * k)
 
     def joint_centres(self, q: Sequence[Any]) -> tuple[list[Any], list[Any], list[Any]]:
         """``P_k = B_k + (q_k + o_k) u_k`` as component lists ``(x, y, z)`` over ``k`` (floats or arrays)."""
@@ -125,14 +161,100 @@ def _build(cfg: GprConfig) -> MachineGeometry:
         bx, by = _floats([p[0] for p in base]), _floats([p[1] for p in base])
     ux, uy = _floats([d[0] for d in cfg.rod_directions]), _floats([d[1] for d in cfg.rod_directions])
     uz = _floats([math.sqrt(1.0 - a * a - b * b) for a, b in cfg.rod_directions])
-    A = np.array([[1.0, px[k], py[k]] for k in range(3)])
-    inv = np.linalg.inv(A)
+    inv = _naive_inverse(np.array(px), np.array(py))
     naive_inv = (_floats(inv[0]), _floats(inv[1]), _floats(inv[2]))
     kappa: Triple = cfg.kappa
     offsets = _floats(cfg.rod_offsets)
     return MachineGeometry(bx=bx, by=by, ux=ux, uy=uy, uz=uz, offsets=offsets, px=px, py=py, rho=rho, cos=cos,
                            sin=sin, kappa=_floats(kappa), naive_inv=naive_inv,
                            upright=uz == (1.0, 1.0, 1.0) and offsets == (0.0, 0.0, 0.0))
+
+
+def _naive_inverse(px: Array, py: Array) -> Array:
+    """Inverse ``(..., 3, 3)`` of the rows ``r_k = (1, p_kx, p_ky)`` (the naive model's matrix) of joints
+    ``(..., 3)``: its columns are ``r_1 x r_2``, ``r_2 x r_0``, ``r_0 x r_1`` over ``det = r_0 . (r_1 x r_2)``."""
+    r = np.stack([np.ones_like(px), px, py], axis=-1)
+    c = [np.cross(r[..., (k + 1) % 3, :], r[..., (k + 2) % 3, :]) for k in range(3)]
+    det = np.sum(r[..., 0, :] * c[0], axis=-1)
+    return np.asarray(np.stack(c, axis=-1) / det[..., None, None], dtype=np.float64)
+
+
+def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) -> MachineGeometry:
+    """:meth:`MachineGeometry.per_row`: the fields of :func:`_build` as arrays over the rows."""
+    params = _indices(names)
+    V = np.asarray(values, dtype=float)
+    if V.ndim != 2 or V.shape[1] != len(params) or V.shape[0] == 0:
+        raise InputError(f'per-row geometry needs values of shape (N, {len(params)}), N >= 1, one column per '
+                         f'parameter ({", ".join(p.name for p in params[:4])}{", ..." if len(params) > 4 else ""}); '
+                         f'got shape {np.shape(values)}')
+    full = np.repeat(parameter_vector(cfg)[None, :], V.shape[0], axis=0)
+    full[:, [PARAMETER_NAMES.index(p.name) for p in params]] = V
+    _check_rows(full)
+    col = dict(zip(PARAMETER_NAMES, np.ascontiguousarray(full.T), strict=True))
+
+    def per_rod(pattern: str) -> Values3:
+        return col[pattern.format(1)], col[pattern.format(2)], col[pattern.format(3)]
+
+    ux, uy, px, py = per_rod('rod{}_ux'), per_rod('rod{}_uy'), per_rod('joint{}_x'), per_rod('joint{}_y')
+    uz = tuple(np.sqrt(1.0 - a * a - b * b) for a, b in zip(ux, uy, strict=True))
+    rho = tuple(np.hypot(x, y) for x, y in zip(px, py, strict=True))
+    inv = _naive_inverse(np.stack(px, axis=-1), np.stack(py, axis=-1))
+    offsets = per_rod('rod{}_offset')
+    return MachineGeometry(
+        bx=per_rod('rod{}_x'), by=per_rod('rod{}_y'), ux=ux, uy=uy, uz=(uz[0], uz[1], uz[2]), offsets=offsets,
+        px=px, py=py, rho=(rho[0], rho[1], rho[2]), cos=(px[0] / rho[0], px[1] / rho[1], px[2] / rho[2]),
+        sin=(py[0] / rho[0], py[1] / rho[1], py[2] / rho[2]), kappa=per_rod('kappa{}'),
+        naive_inv=tuple((inv[:, i, 0], inv[:, i, 1], inv[:, i, 2]) for i in range(3)),  # type: ignore[arg-type]
+        upright=bool(all(np.all(u == 1.0) for u in uz) and all(np.all(o == 0.0) for o in offsets)),
+        rows=V.shape[0])
+
+
+def _triangles(x: Array, y: Array) -> tuple[Array, Array, Array]:
+    """Signed areas ``(N,)``, side lengths ``(N, 3)`` (1-2, 2-3, 3-1) and smallest angles ``(N,)`` of triangles
+    with corners ``x, y (N, 3)``."""
+    ex, ey = np.roll(x, -1, axis=1) - x, np.roll(y, -1, axis=1) - y
+    sides = np.hypot(ex, ey)
+    area = 0.5 * (ex[:, 0] * -ey[:, 2] + ey[:, 0] * ex[:, 2])
+    with np.errstate(divide='ignore', invalid='ignore'):
+        # angle at corner k between the sides k-1 and k: |sin| from the area, cos from the dot product
+        dot = -(ex * np.roll(ex, 1, axis=1) + ey * np.roll(ey, 1, axis=1))
+        angles = np.arctan2(2.0 * np.abs(area)[:, None], dot)
+    return area, sides, np.nan_to_num(np.min(angles, axis=1), nan=0.0)
+
+
+def _check_rows(full: Array) -> None:
+    """The checks of a geometry file (:mod:`gpr_kinematics.config`), row by row, on parameter rows ``(N, 24)``."""
+    def fail(i: int, what: str) -> InputError:
+        return InputError(f'per-row geometry, row {i}: {what}')
+
+    lo, hi = _RANGES
+    out = ~((full >= lo) & (full <= hi))  # NaN too
+    if out.any():
+        i, j = np.argwhere(out)[0]
+        p = PARAMETERS[j]
+        what = ('is not a finite number' if not math.isfinite(full[i, j]) else
+                f'is outside [{lo[j]:g}, {hi[j]:g}] ({p.key}: {_TRIPLE_RANGES[p.key][3]})')
+        raise fail(int(i), f'{p.name} = {float(full[i, j])!r} {what}')
+    index = {p.name: j for j, p in enumerate(PARAMETERS)}
+    tri = {}
+    for key, stem in (('rod_positions', 'rod{}'), ('platform_joints', 'joint{}')):
+        x = full[:, [index[stem.format(k) + '_x'] for k in (1, 2, 3)]]
+        y = full[:, [index[stem.format(k) + '_y'] for k in (1, 2, 3)]]
+        tri[key] = _triangles(x, y)
+        flat = np.flatnonzero(tri[key][2] < MIN_TRIANGLE_ANGLE)
+        if flat.size:
+            raise fail(int(flat[0]), f'the triangle of {key} has an angle of '
+                                     f'{math.degrees(tri[key][2][flat[0]]):.3g} deg; allowed: every angle >= '
+                                     f'{math.degrees(MIN_TRIANGLE_ANGLE):g} deg')
+    flipped = np.flatnonzero((tri['rod_positions'][0] > 0) != (tri['platform_joints'][0] > 0))
+    if flipped.size:
+        raise fail(int(flipped[0]), 'rod_positions and platform_joints list the rods in opposite orders')
+    sb, sp = tri['rod_positions'][1], tri['platform_joints'][1]
+    off = np.argwhere(np.abs(sp - sb) > MAX_SIDE_MISMATCH * sb)
+    if off.size:
+        i, e = off[0]
+        raise fail(int(i), f'side {("1-2", "2-3", "3-1")[e]} of the joint triangle is {sp[i, e]:.6g} m, the rods '
+                           f'are {sb[i, e]:.6g} m apart; allowed: within {MAX_SIDE_MISMATCH:.0%} of each other')
 
 
 @dataclass(frozen=True)
@@ -170,6 +292,9 @@ def _parameters() -> tuple[GeometryParameter, ...]:
 #: its platform position and stiffness ratio. Every other config value (stroke, limits, model) is not a parameter.
 PARAMETERS: tuple[GeometryParameter, ...] = _parameters()
 PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in PARAMETERS)
+#: Lowest and highest value of each parameter (the ranges of its key in a geometry file).
+_RANGES = (np.array([_TRIPLE_RANGES[p.key][1] for p in PARAMETERS]),
+           np.array([_TRIPLE_RANGES[p.key][2] for p in PARAMETERS]))
 
 
 def _values(config: GprConfig) -> dict[str, list[list[float]]]:
