@@ -121,8 +121,17 @@ class MeasurementPlan:
                 'index_name': self.index_name, 'index': self.index, 'random_index': self.random_index,
                 'identifiability': self.identifiability.as_dict(), 'candidates': self.candidates,
                 'passes': self.passes, 'exchanges': self.exchanges,
-                'standard_errors': dict(zip(self.identifiability.identified,
-                                            np.sqrt(np.diag(self.covariance)).tolist(), strict=True))}
+                'standard_errors': dict(zip(self.identifiability.identified, self.standard_errors.tolist(),
+                                            strict=True))}
+
+    @property
+    def standard_errors(self) -> Array:
+        """Predicted standard errors of the identified parameters' values (``fitted`` order; a transformed
+        parameter's by the delta method at its nominal), SI."""
+        if not self.fitted.size:
+            return np.zeros(0)
+        slope = self.parameters.value_slopes(self.parameters.nominal)[self.fitted]
+        return np.asarray(np.abs(slope) * np.sqrt(np.diag(self.covariance)), dtype=np.float64)
 
 
 #: Random designs drawn for :attr:`MeasurementPlan.random_index`.
