@@ -341,11 +341,14 @@ def _monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Arra
     chunk = max(1, CHUNK_POSES // N)
     v = np.empty((samples, N, 9))
     pos0, rot0 = pose0
+    lower, upper = model.parameters.bounds
     a0 = np.einsum('nij,nj->ni', rot0, tool)
     for start in range(0, samples, chunk):
         S = min(chunk, samples - start)
         dtheta, dq, disp = _sample(src_tols, cal, table, rng, S, N, th.size)
-        pos, rot = evaluate(model, th[None, :] + dtheta, Q[None] + dq, disp)
+        # A coordinate with a range (a stiffness ratio's anisotropy) stays in it: a normal draw of a calibrated
+        # covariance beyond kappa = 1e6 is taken at the bound (a tangentially rigid joint).
+        pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
         e = pose_error(pos, rot, pos0[None], rot0[None])
         e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]
         blocks = np.stack([e[..., :3], e[..., 3:], e_tool], axis=2)          # (S, N, 3 vectors, 3)

@@ -119,7 +119,7 @@ class Parameter:
         a = np.asarray(u, dtype=float)
         if self.transform != 'anisotropy':
             return a
-        v = (1.0 + a) / (1.0 - a)
+        v = np.clip((1.0 + a) / (1.0 - a), *KAPPA_RANGE)      # (at the bounds: not a rounding beyond them)
         return v if self.nominal_value is None else np.where(a == self.nominal, self.nominal_value, v)
 
     def coordinate(self, value: ArrayLike) -> Array:
