@@ -226,7 +226,7 @@ def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
 
 def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
                   check_limits: bool = True, parameters: ArrayLike | None = None,
-                  names: Sequence[str] | None = None) -> ForwardBatch:
+                  names: Sequence[str] | None = None, displacement: ArrayLike | None = None) -> ForwardBatch:
     """Forward kinematics of rod lengths ``Q (N, 3)`` [m], vectorised over ``N``.
 
     ``parameters (N, P)``: one machine per sample, the geometry parameters ``names`` (default all of
@@ -236,6 +236,9 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     what ``forward_batch(Q[i:i+1], config_with_parameters(config, parameters[i], names))`` gives (to rounding).
     ``parameters (M, P)`` with ``N = M k``: row ``j`` for the ``k`` consecutive samples ``j k .. j k + k - 1``
     (``M`` machines at the same ``k`` configurations each).
+
+    ``displacement (N, 3, 3)``: the joint centre ``P_k`` of sample ``i`` moved by ``displacement[i, k]`` in
+    ``gpr_base`` [m] (the play of a spherical joint; :meth:`~gpr_kinematics.machine.MachineGeometry.displaced`).
 
     Raises:
         InputError: wrong shape, NaN or infinity; unknown model; a parameter row outside the geometry's ranges.
@@ -253,7 +256,13 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
                              'sample, or per block of samples (a number of rows that divides the samples)')
         if geo.rows != A.shape[0]:
             geo = geo.repeat(A.shape[0] // geo.rows)
-    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, make_model(cfg, model, geo), check_limits, geo)
+    vjm = make_model(cfg, model, geo)
+    if displacement is not None:
+        if np.shape(displacement)[:1] != (A.shape[0],):
+            raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
+                             f'shape {np.shape(displacement)}')
+        geo = (geo or MachineGeometry.of(cfg)).displaced(np.asarray(displacement, dtype=float))
+    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo)
     return out
 
 

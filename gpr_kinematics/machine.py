@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -74,10 +74,13 @@ class MachineGeometry:
     kappa: Values3
     naive_inv: tuple[Values3, Values3, Values3]
 
-    #: Every rod parallel to the base z axis and no zero offset (the nominal rods): ``P_k = (B_k, q_k)``.
+    #: Every rod parallel to the base z axis, no zero offset, no play (the nominal rods): ``P_k = (B_k, q_k)``.
     upright: bool
     #: 0: one machine (floats); ``N``: one machine per row (arrays ``(N,)``).
     rows: int = 0
+    #: Displacements ``(d_x, d_y, d_z)`` of the joint centres ``P_k`` in ``gpr_base`` [m] (a joint's play; arrays
+    #: ``(N,)`` per joint and axis), or ``None`` (:meth:`displaced`).
+    play: tuple[Values3, Values3, Values3] | None = None
 
     @staticmethod
     def of(config: GprConfig) -> MachineGeometry:
@@ -107,10 +110,24 @@ class MachineGeometry:
         def rep(v: Any) -> Any:
             return tuple(rep(x) for x in v) if isinstance(v, tuple) else np.repeat(v, k)
 
-        if not self.rows:
-            raise InputError('repeat() needs a per-row geometry (MachineGeometry.per_row)')
-        values = {f.name: rep(getattr(self, f.name)) for f in fields(self) if f.name not in ('upright', 'rows')}
+        if not self.rows or self.play is not None:
+            raise InputError('repeat() needs a per-row geometry (MachineGeometry.per_row) without play')
+        values = {f.name: rep(getattr(self, f.name)) for f in fields(self)
+                  if f.name not in ('upright', 'rows', 'play')}
         return MachineGeometry(**values, upright=self.upright, rows=self.rows * k)
+
+    def displaced(self, d: Array) -> MachineGeometry:
+        """This geometry with the joint centre ``P_k`` of sample ``i`` displaced by ``d[i, k] (N, 3, 3)`` in
+        ``gpr_base`` [m]: the play of a spherical joint (the platform joints stay at their places ``p_k``; the naive
+        model, which knows only the rods' heights, ignores it). ``N`` must match a per-row geometry's rows."""
+        D = np.asarray(d, dtype=float)
+        if D.ndim != 3 or D.shape[1:] != (3, 3) or (self.rows and D.shape[0] != self.rows):
+            raise InputError(f'joint displacements must have shape (N, 3, 3) (sample, joint, x y z) with N = '
+                             f'{self.rows or "the samples"}; got shape {np.shape(d)}')
+        if not np.all(np.isfinite(D)):
+            raise InputError('joint displacements must be finite numbers [m]')
+        play = tuple((D[:, 0, a], D[:, 1, a], D[:, 2, a]) for a in range(3))
+        return replace(self, upright=False, play=play)  # type: ignore[arg-type]
 
     def joint_centres(self, q: Sequence[Any]) -> tuple[list[Any], list[Any], list[Any]]:
         """``P_k = B_k + (q_k + o_k) u_k`` as component lists ``(x, y, z)`` over ``k`` (floats or arrays)."""
@@ -118,9 +135,14 @@ class MachineGeometry:
             return list(self.bx), list(self.by), list(q)
         (o0, o1, o2), (ux0, ux1, ux2), (uy0, uy1, uy2), (uz0, uz1, uz2) = self.offsets, self.ux, self.uy, self.uz
         s0, s1, s2 = q[0] + o0, q[1] + o1, q[2] + o2
-        return ([self.bx[0] + s0 * ux0, self.bx[1] + s1 * ux1, self.bx[2] + s2 * ux2],
-                [self.by[0] + s0 * uy0, self.by[1] + s1 * uy1, self.by[2] + s2 * uy2],
-                [s0 * uz0, s1 * uz1, s2 * uz2])
+        x = [self.bx[0] + s0 * ux0, self.bx[1] + s1 * ux1, self.bx[2] + s2 * ux2]
+        y = [self.by[0] + s0 * uy0, self.by[1] + s1 * uy1, self.by[2] + s2 * uy2]
+        z = [s0 * uz0, s1 * uz1, s2 * uz2]
+        if self.play is not None:
+            (dx, dy, dz) = self.play
+            x, y, z = [x[k] + dx[k] for k in range(3)], [y[k] + dy[k] for k in range(3)], [z[k] + dz[k] for k in
+                                                                                           range(3)]
+        return x, y, z
 
     def base_points(self, Q: Array) -> Array:
         """Joint centres ``P_k`` in ``gpr_base`` for rod lengths ``Q (N, 3)``, shape ``(N, 3, 3)`` [m]."""
@@ -161,8 +183,7 @@ def _build(cfg: GprConfig) -> MachineGeometry:
         bx, by = _floats([p[0] for p in base]), _floats([p[1] for p in base])
     ux, uy = _floats([d[0] for d in cfg.rod_directions]), _floats([d[1] for d in cfg.rod_directions])
     uz = _floats([math.sqrt(1.0 - a * a - b * b) for a, b in cfg.rod_directions])
-    inv = _naive_inverse(np.array(px), np.array(py))
-    naive_inv = (_floats(inv[0]), _floats(inv[1]), _floats(inv[2]))
+    naive_inv = _naive_inverse(px, py)
     kappa: Triple = cfg.kappa
     offsets = _floats(cfg.rod_offsets)
     return MachineGeometry(bx=bx, by=by, ux=ux, uy=uy, uz=uz, offsets=offsets, px=px, py=py, rho=rho, cos=cos,
@@ -170,13 +191,15 @@ def _build(cfg: GprConfig) -> MachineGeometry:
                            upright=uz == (1.0, 1.0, 1.0) and offsets == (0.0, 0.0, 0.0))
 
 
-def _naive_inverse(px: Array, py: Array) -> Array:
-    """Inverse ``(..., 3, 3)`` of the rows ``r_k = (1, p_kx, p_ky)`` (the naive model's matrix) of joints
-    ``(..., 3)``: its columns are ``r_1 x r_2``, ``r_2 x r_0``, ``r_0 x r_1`` over ``det = r_0 . (r_1 x r_2)``."""
-    r = np.stack([np.ones_like(px), px, py], axis=-1)
-    c = [np.cross(r[..., (k + 1) % 3, :], r[..., (k + 2) % 3, :]) for k in range(3)]
-    det = np.sum(r[..., 0, :] * c[0], axis=-1)
-    return np.asarray(np.stack(c, axis=-1) / det[..., None, None], dtype=np.float64)
+def _naive_inverse(px: Sequence[Any], py: Sequence[Any]) -> tuple[Values3, Values3, Values3]:
+    """Inverse of the matrix of rows ``r_k = (1, p_kx, p_ky)`` (the naive model's), as rows of entries (floats, or
+    arrays for one machine per row): its columns are ``c_k = r_{k+1} x r_{k+2}`` over ``det = r_0 . c_0``."""
+    c = [(px[(k + 1) % 3] * py[(k + 2) % 3] - px[(k + 2) % 3] * py[(k + 1) % 3], py[(k + 1) % 3] - py[(k + 2) % 3],
+          px[(k + 2) % 3] - px[(k + 1) % 3]) for k in range(3)]
+    inv_det = 1.0 / (c[0][0] + px[0] * c[0][1] + py[0] * c[0][2])
+    rows = [tuple(c[k][i] * inv_det for k in range(3)) for i in range(3)]
+    return (rows[0][0], rows[0][1], rows[0][2]), (rows[1][0], rows[1][1], rows[1][2]), (rows[2][0], rows[2][1],
+                                                                                           rows[2][2])
 
 
 def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) -> MachineGeometry:
@@ -198,28 +221,28 @@ def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) 
     ux, uy, px, py = per_rod('rod{}_ux'), per_rod('rod{}_uy'), per_rod('joint{}_x'), per_rod('joint{}_y')
     uz = tuple(np.sqrt(1.0 - a * a - b * b) for a, b in zip(ux, uy, strict=True))
     rho = tuple(np.hypot(x, y) for x, y in zip(px, py, strict=True))
-    inv = _naive_inverse(np.stack(px, axis=-1), np.stack(py, axis=-1))
     offsets = per_rod('rod{}_offset')
     return MachineGeometry(
         bx=per_rod('rod{}_x'), by=per_rod('rod{}_y'), ux=ux, uy=uy, uz=(uz[0], uz[1], uz[2]), offsets=offsets,
         px=px, py=py, rho=(rho[0], rho[1], rho[2]), cos=(px[0] / rho[0], px[1] / rho[1], px[2] / rho[2]),
         sin=(py[0] / rho[0], py[1] / rho[1], py[2] / rho[2]), kappa=per_rod('kappa{}'),
-        naive_inv=tuple((inv[:, i, 0], inv[:, i, 1], inv[:, i, 2]) for i in range(3)),  # type: ignore[arg-type]
+        naive_inv=_naive_inverse(px, py),
         upright=bool(all(np.all(u == 1.0) for u in uz) and all(np.all(o == 0.0) for o in offsets)),
         rows=V.shape[0])
 
 
-def _triangles(x: Array, y: Array) -> tuple[Array, Array, Array]:
+def _triangles(x: Sequence[Array], y: Sequence[Array]) -> tuple[Array, Array, Array]:
     """Signed areas ``(N,)``, side lengths ``(N, 3)`` (1-2, 2-3, 3-1) and smallest angles ``(N,)`` of triangles
-    with corners ``x, y (N, 3)``."""
-    ex, ey = np.roll(x, -1, axis=1) - x, np.roll(y, -1, axis=1) - y
-    sides = np.hypot(ex, ey)
-    area = 0.5 * (ex[:, 0] * -ey[:, 2] + ey[:, 0] * ex[:, 2])
-    with np.errstate(divide='ignore', invalid='ignore'):
-        # angle at corner k between the sides k-1 and k: |sin| from the area, cos from the dot product
-        dot = -(ex * np.roll(ex, 1, axis=1) + ey * np.roll(ey, 1, axis=1))
-        angles = np.arctan2(2.0 * np.abs(area)[:, None], dot)
-    return area, sides, np.nan_to_num(np.min(angles, axis=1), nan=0.0)
+    with corners ``(x[k], y[k])`` (arrays ``(N,)``)."""
+    ex = [x[1] - x[0], x[2] - x[1], x[0] - x[2]]
+    ey = [y[1] - y[0], y[2] - y[1], y[0] - y[2]]
+    area = 0.5 * (ey[0] * ex[2] - ex[0] * ey[2])
+    twice = 2.0 * np.abs(area)
+    # the angle at corner k, between the sides k-1 and k: |sin| from the area, cos from the dot product
+    angle = np.minimum(np.minimum(np.arctan2(twice, -(ex[0] * ex[2] + ey[0] * ey[2])),
+                                  np.arctan2(twice, -(ex[1] * ex[0] + ey[1] * ey[0]))),
+                       np.arctan2(twice, -(ex[2] * ex[1] + ey[2] * ey[1])))
+    return area, np.stack([np.hypot(a, b) for a, b in zip(ex, ey, strict=True)], axis=-1), angle
 
 
 def _check_rows(full: Array) -> None:
@@ -238,9 +261,8 @@ def _check_rows(full: Array) -> None:
     index = {p.name: j for j, p in enumerate(PARAMETERS)}
     tri = {}
     for key, stem in (('rod_positions', 'rod{}'), ('platform_joints', 'joint{}')):
-        x = full[:, [index[stem.format(k) + '_x'] for k in (1, 2, 3)]]
-        y = full[:, [index[stem.format(k) + '_y'] for k in (1, 2, 3)]]
-        tri[key] = _triangles(x, y)
+        tri[key] = _triangles([full[:, index[stem.format(k) + '_x']] for k in (1, 2, 3)],
+                              [full[:, index[stem.format(k) + '_y']] for k in (1, 2, 3)])
         flat = np.flatnonzero(tri[key][2] < MIN_TRIANGLE_ANGLE)
         if flat.size:
             raise fail(int(flat[0]), f'the triangle of {key} has an angle of '

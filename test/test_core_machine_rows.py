@@ -90,3 +90,33 @@ def test_rows_are_checked_like_a_geometry_file():
         forward_batch(np.full((4, 3), 0.3), CFG, parameters=P)
     with pytest.raises(InputError, match=r'unknown geometry parameter\(s\) rod4_x'):
         forward_batch(np.full((1, 3), 0.3), CFG, parameters=[[0.0]], names=['rod4_x'])
+
+
+def test_joint_play_moves_the_joint_centres():
+    """A displacement d of joint centre P_k (the play of its joint) is the machine whose rod k stands at
+    B_k + (d_x, d_y) - d_z / u_kz (u_kx, u_ky) with the zero offset o_k + d_z / u_kz: the same poses, whether the
+    geometry is the config's or one per row."""
+    P, Q = machines(8, 5)
+    rng = np.random.default_rng(6)
+    d = rng.normal(0.0, 2e-5, (8, 3, 3))
+    cfg = CFG.replace(model='compliant')
+    for rows in (None, P):
+        fb = forward_batch(Q, cfg, parameters=rows, displacement=d)
+        for i in range(8):
+            v = dict(zip(PARAMETER_NAMES, (parameter_vector(cfg) if rows is None else rows[i]).tolist(), strict=True))
+            for k in (1, 2, 3):
+                uz = math.sqrt(1 - v[f'rod{k}_ux'] ** 2 - v[f'rod{k}_uy'] ** 2)
+                along = d[i, k - 1, 2] / uz
+                v[f'rod{k}_offset'] += along
+                v[f'rod{k}_x'] += d[i, k - 1, 0] - along * v[f'rod{k}_ux']
+                v[f'rod{k}_y'] += d[i, k - 1, 1] - along * v[f'rod{k}_uy']
+            one = forward_batch(Q[i:i + 1], config_with_parameters(cfg, list(v.values())))
+            np.testing.assert_allclose(fb.position[i], one.position[0], rtol=0, atol=1e-15)
+            np.testing.assert_allclose(fb.rotation[i], one.rotation[0], rtol=0, atol=1e-15)
+    moved = forward_batch(Q, cfg, displacement=np.broadcast_to([1e-5, -2e-5, 3e-5], (8, 3, 3)))
+    np.testing.assert_allclose(moved.position - forward_batch(Q, cfg).position, np.broadcast_to([1e-5, -2e-5, 3e-5],
+                                                                                                 (8, 3)), atol=1e-15)
+    with pytest.raises(InputError, match=r'joint displacements must have shape \(8, 3, 3\), one \(3, 3\) per sample'):
+        forward_batch(Q, cfg, displacement=np.zeros((2, 3, 3)))
+    with pytest.raises(InputError, match=r'joint displacements must be finite numbers'):
+        forward_batch(Q, cfg, displacement=np.full((8, 3, 3), np.nan))

@@ -8,8 +8,7 @@ per joint its place on the platform ``jointK_x``, ``jointK_y`` [m] and stiffness
 its anisotropy ``(kappa - 1) / (kappa + 1)`` (:class:`~.model.Parameter`). Every parameter row of a call is one
 machine of the core's per-row batch (``forward_batch(..., parameters=...)``): the ``2 P`` perturbed machines of a
 Jacobian and the samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d`` of its centre
-``P_k`` in ``gpr_base``) is that machine's geometry too: ``P_k + d = B'_k + (q_k + o'_k) u_k`` with
-``o'_k = o_k + d_z / u_kz`` and ``B'_k = B_k + (d_x, d_y) - d_z / u_kz (u_kx, u_ky)``, exactly.
+``P_k`` in ``gpr_base``) goes to the core as well (``forward_batch(..., displacement=...)``).
 """
 from __future__ import annotations
 
@@ -43,9 +42,6 @@ SCALES: dict[str, float] = {'rod_positions': 1e-4, 'rod_offsets': 1e-4, 'rod_dir
 
 #: The virtual-joint model of calibration and budgets unless one is named.
 MODEL = 'compliant'
-
-_COLUMN = {name: j for j, name in enumerate(PARAMETER_NAMES)}
-
 
 def geometry_parameters(config: GprConfig, scales: Mapping[str, float] | None = None) -> ParameterSet:
     """The parameters of :data:`~gpr_kinematics.machine.PARAMETERS` at ``config``'s values; ``scales`` overrides
@@ -99,24 +95,10 @@ class CoreModel:
     def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
         S, N = Q.shape[0], Q.shape[1]
         values = self._parameters.values(theta)                      # (S, 24), one machine per row
-        if displacement is not None:
-            values = _displaced(np.repeat(values[:, None, :], N, axis=1), displacement).reshape(S * N, -1)
-        fk = forward_batch(Q.reshape(-1, 3), self.config, self.model, check_limits=False, parameters=values)
+        d = None if displacement is None else displacement.reshape(S * N, 3, 3)
+        fk = forward_batch(Q.reshape(-1, 3), self.config, self.model, check_limits=False, parameters=values,
+                           displacement=d)
         return fk.position.reshape(S, N, 3), fk.rotation.reshape(S, N, 3, 3)
-
-
-def _displaced(values: Array, d: Array) -> Array:
-    """Parameter rows ``(S, N, 24)`` whose joint centres are displaced by ``d (S, N, 3, 3)`` (joint ``k``, axis
-    ``gpr_base`` x y z) through the base points and the zero offsets (module docstring)."""
-    out = values.copy()
-    for k in range(3):
-        n = k + 1
-        ux, uy = values[..., _COLUMN[f'rod{n}_ux']], values[..., _COLUMN[f'rod{n}_uy']]
-        along = d[..., k, 2] / np.sqrt(1.0 - ux * ux - uy * uy)        # d_z / u_kz: along the rod
-        out[..., _COLUMN[f'rod{n}_offset']] += along
-        out[..., _COLUMN[f'rod{n}_x']] += d[..., k, 0] - along * ux
-        out[..., _COLUMN[f'rod{n}_y']] += d[..., k, 1] - along * uy
-    return out
 
 
 def check_limits(meas: Measurements, config: GprConfig) -> None:

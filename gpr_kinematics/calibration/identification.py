@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError
-from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
+from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian, prior_scale
 
@@ -239,7 +239,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     se = np.full(len(params), np.nan)
     if F:
         Js = weighted_jacobian(theta, fit)
-        _, s, vt = np.linalg.svd(Js, full_matrices=False)
+        _, s, vt = np.linalg.svd(triangular_factor(Js))
         cov_scaled = (vt.T / s ** 2) @ vt
         cov = cov_scaled * np.outer(scale[fit], scale[fit]) * (1.0 if absolute else chi2_red)
         se[fit] = np.sqrt(np.diag(cov))

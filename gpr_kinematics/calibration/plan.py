@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import naive_inverse
-from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
+from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
 from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
 
@@ -238,16 +238,17 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     fitted = free_idx[fit_cols]
     cov = np.zeros((0, 0))
     if fit_cols:
-        _, s, vt = np.linalg.svd(Jp[:, fit_cols], full_matrices=False)
+        _, s, vt = np.linalg.svd(triangular_factor(Jp[:, fit_cols]))
         cov = (vt.T / s ** 2) @ vt * np.outer(scale[fitted], scale[fitted])
     value = observability_index(ident.fitted_singular_values, n, index)
     rng = np.random.default_rng(seed)
     rand = []
     for _ in range(RANDOM_DESIGNS):
         pick = rng.choice(C, size=n, replace=False)
-        s = np.linalg.svd(J[pick][:, :, fit_cols].reshape(-1, len(fit_cols)), compute_uv=False) if fit_cols else \
-            np.zeros(0)
-        rand.append(observability_index(s, n, index))
+        design = J[pick][:, :, fit_cols].reshape(-1, len(fit_cols))
+        sv = np.asarray(np.linalg.svd(triangular_factor(design), compute_uv=False), dtype=np.float64) if fit_cols \
+            else np.zeros(0)
+        rand.append(observability_index(sv, n, index))
     return MeasurementPlan(q=cand.q[sel], height=cand.height[sel], tilt=cand.tilt[sel], azimuth=cand.azimuth[sel],
                            index_name=index, index=value, random_index=float(np.median(rand)),
                            identifiability=ident, fitted=fitted, covariance=cov, candidates=C, passes=passes,
