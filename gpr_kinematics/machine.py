@@ -96,19 +96,20 @@ class MachineGeometry:
         :data:`PARAMETER_NAMES`) set to the rows of ``values (N, len(names))`` [SI].
 
         Each row is checked like a geometry file (the ranges of the keys, the triangles' cross checks);
-        :class:`~gpr_kinematics.errors.InputError` names the row, the parameter and what is allowed.
+        :class:`~gpr_kinematics.errors.InputError` names the row, the parameter and what is allowed. A parameter
+        not in ``names`` keeps ``config``'s value, a float the kernels broadcast over the rows.
 
         >>> geo = MachineGeometry.per_row(GprConfig(), [[1e-5], [2e-5]], ['rod2_offset'])
-        >>> geo.rows, geo.offsets[1].tolist(), geo.offsets[0].tolist()
-        (2, [1e-05, 2e-05], [0.0, 0.0])
+        >>> geo.rows, geo.offsets[1].tolist(), geo.offsets[0]
+        (2, [1e-05, 2e-05], 0.0)
         """
         return _build_rows(config, values, names)
 
     def repeat(self, k: int) -> MachineGeometry:
         """The machines of :meth:`per_row`, each repeated for ``k`` consecutive samples (``rows * k`` rows):
         ``M`` machines at the same ``k`` configurations are built and checked once per machine."""
-        def rep(v: Any) -> Any:
-            return tuple(rep(x) for x in v) if isinstance(v, tuple) else np.repeat(v, k)
+        def rep(v: Any) -> Any:  # (a float shared by every row stays a float)
+            return tuple(rep(x) for x in v) if isinstance(v, tuple) else np.repeat(v, k) if np.ndim(v) else v
 
         if not self.rows or self.play is not None:
             raise InputError('repeat() needs a per-row geometry (MachineGeometry.per_row) without play')
@@ -203,17 +204,17 @@ def _naive_inverse(px: Sequence[Any], py: Sequence[Any]) -> tuple[Values3, Value
 
 
 def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) -> MachineGeometry:
-    """:meth:`MachineGeometry.per_row`: the fields of :func:`_build` as arrays over the rows."""
+    """:meth:`MachineGeometry.per_row`: the fields of :func:`_build` as arrays over the rows (a parameter that is
+    not given keeps ``cfg``'s value, a float, which the kernels broadcast)."""
     params = _indices(names)
     V = np.asarray(values, dtype=float)
     if V.ndim != 2 or V.shape[1] != len(params) or V.shape[0] == 0:
         raise InputError(f'per-row geometry needs values of shape (N, {len(params)}), N >= 1, one column per '
                          f'parameter ({", ".join(p.name for p in params[:4])}{", ..." if len(params) > 4 else ""}); '
                          f'got shape {np.shape(values)}')
-    full = np.repeat(parameter_vector(cfg)[None, :], V.shape[0], axis=0)
-    full[:, [PARAMETER_NAMES.index(p.name) for p in params]] = V
-    _check_rows(full)
-    col = dict(zip(PARAMETER_NAMES, np.ascontiguousarray(full.T), strict=True))
+    col: dict[str, Any] = dict(zip(PARAMETER_NAMES, parameter_vector(cfg).tolist(), strict=True))
+    col.update(zip((p.name for p in params), np.ascontiguousarray(V.T), strict=True))
+    _check_rows(V, params, col)
 
     def per_rod(pattern: str) -> Values3:
         return col[pattern.format(1)], col[pattern.format(2)], col[pattern.format(3)]
@@ -245,24 +246,28 @@ def _triangles(x: Sequence[Array], y: Sequence[Array]) -> tuple[Array, Array, Ar
     return area, np.stack([np.hypot(a, b) for a, b in zip(ex, ey, strict=True)], axis=-1), angle
 
 
-def _check_rows(full: Array) -> None:
-    """The checks of a geometry file (:mod:`gpr_kinematics.config`), row by row, on parameter rows ``(N, 24)``."""
+def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Any]) -> None:
+    """The checks of a geometry file (:mod:`gpr_kinematics.config`), row by row: the values ``V (N, len(params))``
+    of ``params`` in their keys' ranges, then both triangles (``col``: every parameter's column or float)."""
     def fail(i: int, what: str) -> InputError:
         return InputError(f'per-row geometry, row {i}: {what}')
 
-    lo, hi = _RANGES
-    out = ~((full >= lo) & (full <= hi))  # NaN too
+    j_all = [PARAMETER_NAMES.index(p.name) for p in params]
+    lo, hi = _RANGES[0][j_all], _RANGES[1][j_all]
+    out = ~((lo <= V) & (hi >= V))  # NaN too
     if out.any():
         i, j = np.argwhere(out)[0]
-        p = PARAMETERS[j]
-        what = ('is not a finite number' if not math.isfinite(full[i, j]) else
+        p = params[j]
+        what = ('is not a finite number' if not math.isfinite(V[i, j]) else
                 f'is outside [{lo[j]:g}, {hi[j]:g}] ({p.key}: {_TRIPLE_RANGES[p.key][3]})')
-        raise fail(int(i), f'{p.name} = {float(full[i, j])!r} {what}')
-    index = {p.name: j for j, p in enumerate(PARAMETERS)}
+        raise fail(int(i), f'{p.name} = {float(V[i, j])!r} {what}')
+    if not {p.key for p in params} & {'rod_positions', 'platform_joints'}:
+        return                                    # the triangles are the config's, already checked
+    n = V.shape[0]
     tri = {}
     for key, stem in (('rod_positions', 'rod{}'), ('platform_joints', 'joint{}')):
-        tri[key] = _triangles([full[:, index[stem.format(k) + '_x']] for k in (1, 2, 3)],
-                              [full[:, index[stem.format(k) + '_y']] for k in (1, 2, 3)])
+        tri[key] = _triangles([np.broadcast_to(col[stem.format(k) + '_x'], (n,)) for k in (1, 2, 3)],
+                              [np.broadcast_to(col[stem.format(k) + '_y'], (n,)) for k in (1, 2, 3)])
         flat = np.flatnonzero(tri[key][2] < MIN_TRIANGLE_ANGLE)
         if flat.size:
             raise fail(int(flat[0]), f'the triangle of {key} has an angle of '

@@ -161,8 +161,9 @@ def make_model(config: GprConfig, model: str | None = None,
     if name not in MODELS:
         raise InputError(f'unknown virtual-joint model {name!r}; allowed: {", ".join(MODELS)}')
     if geometry is not None:
-        return VirtualJointModel(str(name), geometry.rho, tuple(np.arctan2(geometry.sin, geometry.cos)),
-                                 geometry.cos, geometry.sin, geometry.kappa)
+        angles = [np.arctan2(s, c) for s, c in zip(geometry.sin, geometry.cos, strict=True)]
+        return VirtualJointModel(str(name), geometry.rho, (angles[0], angles[1], angles[2]), geometry.cos,
+                                 geometry.sin, geometry.kappa)
     key = f'model:{name}'
     vjm: VirtualJointModel | None = config.derived.get(key)
     if vjm is None:
