@@ -62,13 +62,13 @@ class Parameter:
     budget in ``u`` is well behaved from ``kappa = 1000`` as from ``kappa = 1``. Reports show the value.
 
     Attributes:
-        name: unique name, e.g. ``radius``, ``rod2_offset``, ``kappa1``.
+        name: unique name, e.g. ``rod1_x``, ``rod2_offset``, ``kappa1``.
         nominal: nominal (design) coordinate (the value, unless transformed).
         unit: ``m``, ``rad`` or ``1`` (dimensionless), of the coordinate and of the value.
         scale: a-priori standard uncertainty of the coordinate (its tolerance), > 0. It scales the identification
             Jacobian (so that singular values compare the information of the measurements with what is known
             before measuring) and sets the finite-difference step.
-        key: the configuration-file key the value is written to (``rod_azimuths`` for ``rod_azimuth2``).
+        key: the configuration-file key the value is written to (``rod_offsets`` for ``rod2_offset``).
         index: the element of a list-valued ``key`` (0-based; a path into nested lists), ``()`` for a scalar key.
         transform: ``''`` or ``'anisotropy'`` (:data:`TRANSFORMS`).
         nominal_value: the value at the nominal coordinate, exactly (a transform's round trip loses the last
@@ -184,19 +184,18 @@ class ParameterSet:
 
     def values(self, theta: ArrayLike) -> Array:
         """Values ``(..., P)`` of coordinate rows ``theta (..., P)`` (:meth:`Parameter.value` per column)."""
-        th = np.array(theta, dtype=float)
-        for j, p in enumerate(self.parameters):
-            if p.transform:
-                th[..., j] = p.value(th[..., j])
-        return th
+        return self._transformed(theta, to_value=True)
 
     def coordinates(self, values: ArrayLike) -> Array:
         """Coordinates ``(..., P)`` of value rows (the inverse of :meth:`values`)."""
-        v = np.array(values, dtype=float)
+        return self._transformed(values, to_value=False)
+
+    def _transformed(self, rows: ArrayLike, to_value: bool) -> Array:
+        out = np.array(rows, dtype=float)
         for j, p in enumerate(self.parameters):
             if p.transform:
-                v[..., j] = p.coordinate(v[..., j])
-        return v
+                out[..., j] = p.value(out[..., j]) if to_value else p.coordinate(out[..., j])
+        return out
 
     def value_slopes(self, theta: ArrayLike) -> Array:
         """``d value / d coordinate`` ``(P,)`` at ``theta``."""
@@ -205,7 +204,7 @@ class ParameterSet:
 
     @property
     def groups(self) -> tuple[str, ...]:
-        """The configuration keys, in order of first appearance (``rod_azimuths`` groups its three angles)."""
+        """The configuration keys, in order of first appearance (``rod_offsets`` groups the three offsets)."""
         return tuple(dict.fromkeys(p.key for p in self.parameters))
 
     def index(self, name: str) -> int:

@@ -4,8 +4,9 @@ A tolerance table is a YAML file (docs/calibration.md; example ``config/calibrat
 
     units: {length: mm, angle: deg}        # optional; SI (m, rad) by default
     parameters:                            # the model's parameters, by name or by configuration key
-      radius: {tolerance: 0.05}            # deviation uniform in [-0.05, 0.05] mm about the nominal
-      rod_azimuths: {tolerance: 0.01, distribution: normal}   # normal, tolerance = 3 sigma
+      rod_positions: {tolerance: 0.03}     # deviation uniform in [-0.03, 0.03] mm about the nominal
+      rod_directions: {tolerance: 0.01, distribution: normal} # normal, tolerance = 3 sigma (deg here)
+      rod2_offset: {tolerance: 0.01}       # one parameter's own entry wins over its key's
       kappa: {range: [0.5, 2.0], distribution: log-uniform}   # the value itself lies in the range
     rod_length: {tolerance: 0.002}         # actuator positioning error, each rod at each pose
     joint_clearance: 0.003                 # play of each spherical joint (radius of a ball), or [c1, c2, c3]
@@ -13,8 +14,10 @@ A tolerance table is a YAML file (docs/calibration.md; example ``config/calibrat
 
 Distributions: ``uniform`` (default) on ``[-t, t]`` or on the range; ``normal`` with ``sigma = t / 3`` (the
 tolerance is the 3-sigma bound, and the worst case of the linearised budget); ``log-uniform`` on a range of
-positive values (a stiffness ratio known within a factor). A joint's play displaces its centre uniformly within
-a ball of radius ``c`` (each component: ``sigma = c / sqrt(5)``), anew at every pose.
+positive values (a stiffness ratio known within a factor). A stiffness ratio takes uniform or log-uniform within
+``1e-6 .. 1e6`` and is varied as its anisotropy ``(kappa - 1) / (kappa + 1)`` (the coordinate of
+:class:`~.model.Parameter`). A joint's play displaces its centre uniformly within a ball of radius ``c`` (each
+component: ``sigma = c / sqrt(5)``), anew at every pose.
 
 Every value is checked (:class:`~gpr_kinematics.errors.ConfigError` naming the file, key and what is allowed),
 and tolerances are bounded (:data:`MAX_TOLERANCE`): beyond them the budget's linearisation is meaningless and
