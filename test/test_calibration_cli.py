@@ -232,3 +232,28 @@ def test_corrupted_measurement_files_never_crash(capsys, tmp_path):
         assert 'Traceback' not in err and (status == 0 or err.count('\n') == 1), (k, err)
         statuses.add(status)
     assert statuses == {0, 2}
+
+
+def test_every_command_takes_the_calibrated_file(capsys, tmp_path):
+    """The calibrated geometry file (model compliant, its kappa, the imperfect geometry) as --config of the core's
+    commands, the robot's, the accuracy budget and calibrate itself: each answers with the calibrated machine."""
+    cal = tmp_path / 'cal.yaml'
+    status, _, err = run(capsys, 'calibrate', SHIPPED, '--output', str(cal))
+    assert status == 0, err
+    cfg = load_config(cal)
+    for argv in (['ik', '--height', '0.3', '--tilt', '0.02', '--azimuth', '1.0'],
+                 ['compensate', '--height', '0.3', '--tilt', '0.02', '--azimuth', '1.0', '--tool', '0.3', '0', '0.1'],
+                 ['mobility', '0.3', '0.301', '0.299'],
+                 ['sweep', '--azimuth-step', '90', '--deg'],
+                 ['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3'],
+                 ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0.02', '0', '0', '--tolerances',
+                  str(config_path('calibration/tolerances_example.yaml')), '--samples', '0'],
+                 ['calibrate', '--plan', '3']):
+        status, out, err = run(capsys, *argv, '--config', str(cal), '--json')
+        assert status == 0, (argv, err)
+        d = json.loads(out)
+        if argv[0] == 'ik':
+            np.testing.assert_allclose(forward(d['q'], cfg).tilt, 0.02, rtol=0, atol=1e-12)
+            assert d['achieved']['model'] == 'compliant'
+        if argv[0] == 'robot':
+            np.testing.assert_allclose(d['wafer']['position'], [1.3, 0.6, 0.45], rtol=0, atol=1e-12)
