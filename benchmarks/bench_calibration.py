@@ -2,17 +2,16 @@
 
 Measures, with medians of repeated runs:
 
-* **identification from 200 poses** (target < 1 s): ``identify`` (Levenberg-Marquardt with the batched central
-  difference Jacobian, identifiability analysis, covariance) against the peer a user would write,
-  ``scipy.optimize.least_squares`` (trf, its own finite-difference Jacobian, ``x_scale`` = the parameters' scales)
-  on the same weighted residuals, at equal accuracy (estimates checked to agree within 1 % of a standard error).
-  Two models: the core's geometry (``CoreModel``: radius and rod azimuths through ``forward_batch``, 4 parameters)
-  and all 23 parameters of the imperfect GPR (the tests' reference model ``test/calibration_reference.py``,
-  vectorised, with the compliance closure), until the core has the imperfect geometry;
-* **Monte Carlo budget, 10,000 samples for a 20-station program** (target < 2 s): ``accuracy_budget`` with the
-  reference model (every parameter of the imperfect geometry, rod-length errors, joint play), and the model's own
-  share of that time; the peer: the same samples evaluated one model call per sample; and the core binding, whose
-  batch kernel takes one geometry per call (a loop over the samples).
+* **identification of all parameters from 200 poses** (target < 1 s): ``identify`` (Levenberg-Marquardt with the
+  batched central-difference Jacobian, identifiability analysis, covariance) on the core's 24 geometry parameters
+  (``CoreModel``, the compliant model, every Jacobian one call of the per-row batch ``forward_batch(...,
+  parameters=...)``), against the peer a user would write, ``scipy.optimize.least_squares`` (trf, its own
+  finite-difference Jacobian, ``x_scale`` = the parameters' scales) on the same weighted residuals, at equal
+  accuracy (estimates checked to agree within 1 % of a standard error);
+* **Monte Carlo budget, 10,000 samples for a 20-station program** (target < 2 s): ``accuracy_budget`` with the core
+  model, every parameter toleranced (a kappa range included), rod-length errors and joint play (one machine per
+  pose), and without joint play (one machine per sample, at its 20 stations); the model's own share of that time;
+  the peer: the same samples one model call per sample (what the core binding did before the per-row batch).
 
 Usage: ``.venv/bin/python benchmarks/bench_calibration.py [--quick]``.
 """
@@ -29,10 +28,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'test'))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_core
-from calibration_reference import ReferenceModel
 
 from gpr_kinematics.calibration.budget import accuracy_budget
 from gpr_kinematics.calibration.core_model import CoreModel
@@ -93,62 +90,57 @@ def main() -> None:
     ap.add_argument('--quick', action='store_true', help='fewer repetitions (smoke run)')
     args = ap.parse_args()
     rep = 2 if args.quick else 5
+    load_before = os.getloadavg()[0]
     cfg = load_config()
     rows = []
 
-    # Identification from 200 poses.
+    # Identification of all 24 parameters from 200 poses.
     Q = poses(cfg, 200, 1)
     core = CoreModel(cfg)
-    ref = ReferenceModel(base_z=False)
+    ps = core.parameters
     rng = np.random.default_rng(2)
-    for label, model, truth in (
-            ('core geometry, 4 parameters', core, core.parameters.nominal + [60e-6, 4e-4, -3e-4, 2e-4]),
-            ('imperfect GPR (reference model), 22 parameters', ref,
-             ref.parameters.nominal + np.concatenate([rng.normal(0, 30e-6, 9), rng.normal(0, 1e-4, 6),
-                                                      rng.normal(0, 30e-6, 6), [2.0]]))):
-        meas = synthetic_measurements(model, truth, Q, SP, SA, seed=3)
-        times, res = timed(lambda m=model, me=meas: identify(m, me), rep)
-        fitted = res.fitted
-        ptimes, peer = timed(lambda m=model, me=meas, f=fitted: scipy_peer(m, me, f), max(2, rep // 2))
-        diff = np.max(np.abs(peer.x - res.estimate[fitted]) / res.standard_error[fitted])
-        assert diff < 0.01, f'peer and ours disagree by {diff:.3g} standard errors'
-        rows.append((f'identify, 200 poses, {label}', statistics.median(times), 's', '< 1',
-                     f'{res.iterations} iterations, {len(fitted)} fitted'))
-        rows.append((f'peer: scipy least_squares (trf, 2-point Jacobian), {label}', statistics.median(ptimes), 's',
-                     '', f'{peer.nfev} evaluations; agrees within {diff:.1e} standard errors'))
+    values = ps.values(ps.nominal) + rng.normal(size=len(ps)) * np.tile([3e-5, 3e-5, 3e-5, 1e-4, 1e-4, 3e-5, 3e-5,
+                                                                           0.0], 3)
+    values[7::8] = 3.0
+    meas = synthetic_measurements(core, ps.coordinates(values), Q, SP, SA, seed=3)
+    times, res = timed(lambda: identify(core, meas), rep)
+    fitted = res.fitted
+    ptimes, peer = timed(lambda: scipy_peer(core, meas, fitted), max(2, rep // 2))
+    diff = np.max(np.abs(peer.x - res.estimate[fitted]) / res.standard_error[fitted])
+    assert diff < 0.01, f'peer and ours disagree by {diff:.3g} standard errors'
+    rows.append(('identify, 200 poses, all 24 parameters of the core (compliant)', statistics.median(times), 's',
+                 '< 1', f'{res.iterations} iterations, {len(fitted)} fitted, {len(ps) - len(fitted)} held'))
+    rows.append(('peer: scipy least_squares (trf, 2-point Jacobian), same residuals', statistics.median(ptimes), 's',
+                 '', f'{peer.nfev} evaluations; agrees within {diff:.1e} standard errors'))
 
     # Monte Carlo budget, 10,000 samples x 20 stations.
     S, N = 10_000, 20
     Qs = poses(cfg, N, 4)
-    table = parse_tolerances({'parameters': {'rod_bases': {'tolerance': 3e-5}, 'rod_offsets': {'tolerance': 5e-5},
-                                             'rod_directions': {'tolerance': 2e-4}, 'platform_joints':
-                                             {'tolerance': 3e-5}, 'kappa': {'range': [0.5, 2.0],
-                                                                             'distribution': 'log-uniform'}},
-                              'rod_length': {'tolerance': 2e-6}, 'joint_clearance': 3e-6})
-    times, b = timed(lambda: accuracy_budget(ref, Qs, table, samples=S, seed=0), rep)
-    rows.append(('budget, 10,000 samples x 20 stations, reference model (22 parameters, rod lengths, joint play)',
-                 statistics.median(times), 's', '< 2', f'{len(b.sources)} sources'))
-    spent = []
-    for _ in range(rep):
-        proxy = TimedModel(ref)
-        accuracy_budget(proxy, Qs, table, samples=S, seed=0)
-        spent.append(proxy.seconds)
-    rows.append(('  of which in the model (its poses calls)', statistics.median(spent), 's', '', ''))
-    th = np.repeat(ref.parameters.nominal[None], S, axis=0) + rng.normal(0, 3e-5, (S, len(ref.parameters)))
-    th[:, 21] = np.exp(rng.uniform(np.log(0.5), np.log(2.0), S))       # kappa as in the table
+    entries = {'rod_positions': {'tolerance': 3e-5}, 'rod_offsets': {'tolerance': 5e-5},
+               'rod_directions': {'tolerance': 2e-4}, 'platform_joints': {'tolerance': 3e-5},
+               'kappa': {'range': [0.5, 2.0], 'distribution': 'log-uniform'}}
+    table = parse_tolerances({'parameters': entries, 'rod_length': {'tolerance': 2e-6}, 'joint_clearance': 3e-6})
+    no_play = parse_tolerances({'parameters': entries, 'rod_length': {'tolerance': 2e-6}})
+    for label, tab in (('joint play: one machine per pose', table), ('no joint play: one machine per sample', no_play)):
+        times, b = timed(lambda t=tab: accuracy_budget(core, Qs, t, samples=S, seed=0), rep)
+        rows.append((f'budget, 10,000 samples x 20 stations, core (24 parameters, rod lengths; {label})',
+                     statistics.median(times), 's', '< 2', f'{len(b.sources)} sources'))
+        spent = []
+        for _ in range(rep):
+            proxy = TimedModel(core)
+            accuracy_budget(proxy, Qs, tab, samples=S, seed=0)
+            spent.append(proxy.seconds)
+        rows.append(('  of which in the model (its poses calls)', statistics.median(spent), 's', '', ''))
+    th = np.repeat(ps.nominal[None], S, axis=0)
+    th[:, :] += rng.normal(0, 1, (S, len(ps))) * np.where(ps.select(['kappa']), 0.0, 2e-5)
+    th[:, ps.select(['kappa'])] = rng.uniform(-1 / 3, 1 / 3, (S, 3))    # kappa 0.5 .. 2 as anisotropy
     n_peer = 1000 if not args.quick else 200
-    ptimes, _ = timed(lambda: [evaluate(ref, th[s], Qs) for s in range(n_peer)], max(2, rep // 2))
-    rows.append((f'peer: one model call per sample ({n_peer} samples, scaled to 10,000)',
+    ptimes, _ = timed(lambda: [evaluate(core, th[s], Qs) for s in range(n_peer)], max(2, rep // 2))
+    rows.append((f'peer: one model call per sample ({n_peer} samples, scaled to 10,000; no joint play)',
                  statistics.median(ptimes) * S / n_peer, 's', '', ''))
-    core_table = parse_tolerances({'parameters': {'radius': {'tolerance': 5e-5}, 'rod_azimuths': {'tolerance': 5e-4}},
-                                   'rod_length': {'tolerance': 2e-6}})
-    n_core = S if not args.quick else 500
-    ctimes, _ = timed(lambda: accuracy_budget(core, Qs, core_table, samples=n_core, seed=0), max(2, rep // 2))
-    rows.append((f'budget, core binding (4 parameters): {n_core:,} samples x 20 stations, scaled to 10,000',
-                 statistics.median(ctimes) * S / n_core, 's', '< 2', 'one forward_batch per sample'))
 
     print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
-          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end')
+          f'numpy {np.__version__}; load average {load_before:.2f} at the start, {os.getloadavg()[0]:.2f} at the end')
     print()
     print('| measurement | median | unit | target | note |')
     print('|---|---:|---|---|---|')

@@ -1,7 +1,8 @@
 """Benchmark of the kinematics core, all in one run.
 
 Measures: a single forward call, batch forward of 100,000 poses (radial, polar and the compliant model, whose
-target is at most 3 us per pose), single and batch inverse, the full paper sweep, and the generic baseline a
+target is at most 3 us per pose; the compliant model also with one machine per pose, and per block of 100 poses:
+the per-row geometry of the calibration), single and batch inverse, the full paper sweep, and the generic baseline a
 user would otherwise write: ``scipy.optimize.least_squares`` on the same closure equations (radial model, the
 square system, so the solution is unique and both must agree), followed by a rigid fit of the three joint
 centres (``scipy.spatial.transform.Rotation.align_vectors``), one pose at a time, at equal accuracy (checked:
@@ -31,6 +32,7 @@ from scipy.spatial.transform import Rotation
 
 from gpr_kinematics.config import load_config
 from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_inverse
+from gpr_kinematics.machine import parameter_vector
 from gpr_kinematics.sweep import paper_sweep
 
 CLOCK = time.perf_counter
@@ -121,6 +123,18 @@ def main() -> None:
         rows.append((f'forward, single call ({model})', statistics.median(single) * 1e6, 'us/call', '<= 50'))
         rows.append((f'forward, batch of 100,000 ({model})', statistics.median(batch) / n * 1e6, 'us/pose',
                      '<= 3' if model == 'compliant' else '<= 2'))
+    # One machine per row (the calibration's Jacobians and Monte Carlo budgets): every sample its own geometry (24
+    # parameters perturbed by tens of um, 0.1 mrad, kappa 0.1 .. 10), and 1,000 machines at 100 poses each; no limit
+    # checks (a perturbed machine may tilt a pose at the limit a little beyond it, as in the calibration).
+    machines = parameter_vector(cfg) + rng.normal(size=(n, 24)) * np.tile([3e-5, 3e-5, 4e-5, 1e-4, 1e-4, 3e-5, 3e-5,
+                                                                           0.0], 3)
+    machines[:, 7::8] = np.exp(rng.uniform(-2.3, 2.3, (n, 3)))
+    per_row = timed(lambda: forward_batch(Q, cfg, 'compliant', False, parameters=machines), rep)
+    blocks = timed(lambda: forward_batch(Q, cfg, 'compliant', False, parameters=machines[:n // 100]), rep)
+    rows.append(('forward, batch of 100,000 (compliant), one machine per pose', statistics.median(per_row) / n * 1e6,
+                 'us/pose', '<= 3'))
+    rows.append(('forward, batch of 100,000 (compliant), 1,000 machines x 100 poses',
+                 statistics.median(blocks) / n * 1e6, 'us/pose', '<= 3'))
     m_inv = 20_000
     isingle = timed(lambda: inverse(h[0], t[0], g[0]), rep, 300 if not args.quick else 30)
     ibatch = timed(lambda: inverse_batch(h[:m_inv], t[:m_inv], g[:m_inv]), rep)

@@ -3,6 +3,7 @@
 Examples::
 
     gpr calibrate config/calibration/synthetic_measurements.csv --output calibrated.yaml
+    gpr calibrate MEASUREMENTS --output calibrated.yaml --free rod_offsets rod_directions kappa
     gpr fk 0.3 0.301 0.299 --config calibrated.yaml        # every command takes the calibrated geometry
     gpr calibrate --plan 12 --output plan.csv --json
     gpr calibrate MEASUREMENTS --output calibrated.yaml --tolerances config/calibration/tolerances_example.yaml
@@ -136,8 +137,8 @@ def register(sub: Any) -> None:
     p.add_argument('--output', metavar='FILE',
                    help='calibrated geometry YAML (required when calibrating); with --plan: the configurations as CSV')
     p.add_argument('--free', nargs='+', metavar='NAME',
-                   help='parameters to identify (names such as radius, rod_azimuth2, or keys such as rod_azimuths; '
-                        'default: all)')
+                   help='parameters to identify: names (rod2_offset, rod1_ux, joint3_y, kappa1, ...) or whole keys '
+                        '(rod_positions, rod_offsets, rod_directions, platform_joints, kappa); default: all 24')
     p.add_argument('--sigma-position', type=float, metavar='S',
                    help='standard deviation of a measured coordinate for rows without sigma columns '
                         '[m, or mm with --mm] (default 5e-6 m)')
@@ -152,7 +153,9 @@ def register(sub: Any) -> None:
                         'measurements must determine it better than its a-priori uncertainty)')
     p.add_argument('--index', choices=('product', 'smallest'), default='product',
                    help='observability index the plan maximises (default product: D-optimal)')
-    p.add_argument('--model', choices=MODELS, help='virtual-joint model (default: from the config)')
+    p.add_argument('--model', choices=MODELS,
+                   help='virtual-joint model of the identification (default compliant: kappa acts only there); the '
+                        'calibrated file selects it')
     p.add_argument('--config', metavar='FILE', help='nominal geometry (YAML overriding config/gpr.yaml)')
     p.add_argument('--mm', action='store_true', help='--sigma-position is in millimetres')
     p.add_argument('--deg', action='store_true', help='--sigma-angle is in degrees')

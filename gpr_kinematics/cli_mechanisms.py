@@ -162,8 +162,13 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
 
 
 def _accuracy(args: argparse.Namespace) -> int:
+    if args.tolerances is not None:
+        from .cli_accuracy import budget_command
+        return budget_command(args)
     from .accuracy import accuracy_analysis
     from .cli import emit_json
+    from .cli_accuracy import check_budget_options
+    check_budget_options(args, budget=False)
     mech = load_mechanism(args.file)
     trajectory = getattr(mech, 'trajectory', None)
     if args.pose is not None:
@@ -177,18 +182,26 @@ def _accuracy(args: argparse.Namespace) -> int:
     full = mech.complete_pose(poses)
     mech.check_limits(mech.inverse_kinematics(full))
     res = accuracy_analysis(mech, full, errors, params)
+    # The text and the JSON print the same numbers: both from these dicts.
+    results = [res.as_dict(i) for i in range(res.poses.shape[0])]
     if args.json:
-        emit_json({'mechanism': mech.name, 'type': mech.kind, 'variables': list(res.variables),
-                   'results': [res.as_dict(i) for i in range(res.poses.shape[0])]})
+        emit_json({'mechanism': mech.name, 'type': mech.kind, 'variables': list(res.variables), 'results': results})
         return 0
     print(f'{mech.name}: pose deviation for joint errors {np.asarray(errors).tolist()} (SI)'
           + (f' and parameter errors {sorted(params)}' if params else ''))
     head = ' '.join(f'{v:>12}' for v in res.variables)
     print(f'{"":>6} {"":>11} {head}')
-    for i in range(res.poses.shape[0]):
-        print(f'{i + 1:>6} {"linearized":>11} ' + ' '.join(f'{v:12.4e}' for v in res.linearized[i]))
-        print(f'{"":>6} {"exact":>11} ' + ' '.join(f'{v:12.4e}' for v in res.exact[i]))
-        print(f'{"":>6} {"difference":>11} ' + ' '.join(f'{v:12.4e}' for v in res.difference[i]))
+    for i, r in enumerate(results):
+        for label in ('linearized', 'exact', 'difference'):
+            print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
+                  + ' '.join(f'{r[label][v]:12.4e}' for v in res.variables))
+    print('rigid motion of the platform, parasitic components included (x y z [m], rotation vector rx ry rz [rad], '
+          'base frame):')
+    print(f'{"":>6} {"":>11} ' + ' '.join(f'{v:>12}' for v in ('x', 'y', 'z', 'rx', 'ry', 'rz')))
+    for i, r in enumerate(results):
+        for label in ('linearized', 'exact'):
+            print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
+                  + ' '.join(f'{v:12.4e}' for v in np.asarray(r[f'{label}_twist']).tolist()))
     return 0
 
 
@@ -292,11 +305,15 @@ def register(subparsers: Any) -> None:
     common(p, True)
     p.set_defaults(handler=_mechanism)
 
-    p = subparsers.add_parser('accuracy', help='platform pose deviation from joint and geometry errors',
+    p = subparsers.add_parser('accuracy', help='platform pose deviation from joint and geometry errors; the accuracy '
+                              'budget of the GPR and the whole robot from a tolerance table',
                               description='Pose deviation caused by joint errors (leg deformations, '
                               'actuator errors) and geometric errors: linearised (Alwan eq. 7) and exact '
                               '(perturbed closure solved by Newton). Without --pose/--errors the file\'s '
-                              'trajectory and leg_deformations are used (stewart_alwan.yaml).',
+                              'trajectory and leg_deformations are used (stewart_alwan.yaml). With --tolerances: '
+                              'the accuracy budget (docs/calibration.md) of the GPR (FILE of type gpr with --pose, '
+                              'or a platform program) or of the whole robot at the wafer (FILE a robot program): '
+                              'linearised RSS, worst case and shares, and Monte Carlo percentiles.',
                               epilog=CONVENTIONS, formatter_class=fmt)
     common(p, False)
     p.add_argument('--errors', nargs='+', type=_finite, metavar='E',
@@ -304,6 +321,8 @@ def register(subparsers: Any) -> None:
     p.add_argument('--parameter-error', nargs='+', action='append', metavar='NAME V',
                    help='geometric error: parameter name and its values, e.g. A_i (18 values, m) for a '
                    'Stewart platform, joint_imperfections (9 values, m) for the GPR; repeatable')
+    from .cli_accuracy import add_budget_options
+    add_budget_options(p, _finite)
     p.set_defaults(handler=_accuracy)
 
     p = subparsers.add_parser('dexterity', help='dexterity (inverse condition number) maps',

@@ -44,6 +44,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from ._ops import Ops
 from .config import GprConfig
 from .virtual_joints import (
@@ -56,7 +58,7 @@ from .virtual_joints import (
 )
 
 
-def _triangle(ops: Ops, L: Sequence[Any], sign: float) -> tuple[list[Any], list[Any]]:
+def _triangle(ops: Ops, L: Sequence[Any], sign: Any) -> tuple[list[Any], list[Any]]:
     """In-plane points ``Q_k`` with side lengths ``L = (L12, L23, L31)``: ``Q_1`` at the origin, ``Q_2`` on the
     x axis, ``Q_3`` on the side ``sign`` (+1: counter-clockwise, like the platform joints)."""
     L0, L1, L2 = L[0], L[1], L[2]
@@ -79,7 +81,8 @@ def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], con
     cs, sn, kap = vjm.cos, vjm.sin, vjm.kappa
     px = [r * c for r, c in zip(vjm.rho, cs, strict=True)]
     py = [r * s for r, s in zip(vjm.rho, sn, strict=True)]
-    sign = 1.0 if (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0]) > 0 else -1.0
+    turn = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+    sign = np.where(turn > 0, 1.0, -1.0) if np.ndim(turn) else (1.0 if turn > 0 else -1.0)  # per row, or one
     rest = [0.0 * L[0]] * 6
     rest_comps = joint_components(ops, vjm, rest)
     _, err = side_errors(ops, rest_comps, L)

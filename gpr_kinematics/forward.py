@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._ops import ARRAY, SCALAR, Ops
 from .config import GprConfig, resolve_config
-from .errors import LimitError
+from .errors import InputError, LimitError
 from .machine import MachineGeometry
 from .naive import naive_state
 from .platform_pose import PlatformPose, platform_pose
@@ -213,8 +213,8 @@ def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
 
 
 def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], config: GprConfig,
-             vjm: VirtualJointModel, check_limits: bool) -> Any:
-    geo = MachineGeometry.of(config)
+             vjm: VirtualJointModel, check_limits: bool, geometry: MachineGeometry | None = None) -> Any:
+    geo = MachineGeometry.of(config) if geometry is None else geometry
     if check_limits:
         check_stroke(ops, q, config)
         _check_naive_tilt(ops, geo, q, config)
@@ -225,18 +225,44 @@ def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
 
 
 def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
-                  check_limits: bool = True) -> ForwardBatch:
+                  check_limits: bool = True, parameters: ArrayLike | None = None,
+                  names: Sequence[str] | None = None, displacement: ArrayLike | None = None) -> ForwardBatch:
     """Forward kinematics of rod lengths ``Q (N, 3)`` [m], vectorised over ``N``.
 
+    ``parameters (N, P)``: one machine per sample, the geometry parameters ``names`` (default all of
+    :data:`~gpr_kinematics.machine.PARAMETER_NAMES`, ``P = 24``) of sample ``i`` in row ``i`` [SI], the rest of
+    ``config`` shared (:meth:`~gpr_kinematics.machine.MachineGeometry.per_row`): the same kernels, one call for
+    many machines (the perturbed machines of a Jacobian, the samples of a Monte Carlo budget). Row ``i`` gives
+    what ``forward_batch(Q[i:i+1], config_with_parameters(config, parameters[i], names))`` gives (to rounding).
+    ``parameters (M, P)`` with ``N = M k``: row ``j`` for the ``k`` consecutive samples ``j k .. j k + k - 1``
+    (``M`` machines at the same ``k`` configurations each).
+
+    ``displacement (N, 3, 3)``: the joint centre ``P_k`` of sample ``i`` moved by ``displacement[i, k]`` in
+    ``gpr_base`` [m] (the play of a spherical joint; :meth:`~gpr_kinematics.machine.MachineGeometry.displaced`).
+
     Raises:
-        InputError: wrong shape, NaN or infinity; unknown model.
+        InputError: wrong shape, NaN or infinity; unknown model; a parameter row outside the geometry's ranges.
         LimitError: a rod outside the stroke, or a tilt beyond ``tilt_limit`` (if ``check_limits``).
         ConvergenceError: the closure did not converge (cannot happen inside the limits).
     """
     cfg = resolve_config(config)
     A = rows_of(Q, 'q', 3)
     cols = [np.ascontiguousarray(A[:, k]) for k in range(3)]
-    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, make_model(cfg, model), check_limits)
+    geo = None
+    if parameters is not None:
+        geo = MachineGeometry.per_row(cfg, parameters, names)
+        if A.shape[0] % geo.rows:
+            raise InputError(f'{geo.rows} parameter rows for {A.shape[0]} rod-length rows; allowed: one machine per '
+                             'sample, or per block of samples (a number of rows that divides the samples)')
+        if geo.rows != A.shape[0]:
+            geo = geo.repeat(A.shape[0] // geo.rows)
+    vjm = make_model(cfg, model, geo)
+    if displacement is not None:
+        if np.shape(displacement)[:1] != (A.shape[0],):
+            raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
+                             f'shape {np.shape(displacement)}')
+        geo = (geo or MachineGeometry.of(cfg)).displaced(np.asarray(displacement, dtype=float))
+    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo)
     return out
 
 

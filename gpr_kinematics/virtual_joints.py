@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 from ._ops import ARRAY, SCALAR, Ops
 from .config import MODELS, GprConfig
 from .errors import ConvergenceError, InputError
-from .machine import MachineGeometry
+from .machine import MachineGeometry, Values3
 
 Array = NDArray[np.float64]
 #: ``(rx, ry, dlx, dly, dax, day)``: lists over the joints ``k``; see :func:`joint_components`.
@@ -76,14 +76,17 @@ class VirtualJointModel:
         name: one of :data:`~gpr_kinematics.config.MODELS`.
         rho, theta: polar form of the platform joints ``p_k = rho_k u(theta_k)`` [m, rad].
         cos, sin: ``cos theta_k``, ``sin theta_k``. kappa: ``k_t / k_r`` per joint (``compliant``).
+
+    Each is a float per joint, or an array ``(N,)`` per joint for one machine per sample
+    (:meth:`MachineGeometry.per_row <gpr_kinematics.machine.MachineGeometry.per_row>`; batch kernels only).
     """
 
     name: str
-    rho: tuple[float, float, float]
-    theta: tuple[float, float, float]
-    cos: tuple[float, float, float]
-    sin: tuple[float, float, float]
-    kappa: tuple[float, float, float]
+    rho: Values3
+    theta: Values3
+    cos: Values3
+    sin: Values3
+    kappa: Values3
 
     @property
     def size(self) -> int:
@@ -150,14 +153,20 @@ class VirtualJointModel:
         return d2 - L2, J, np.sqrt(d2)
 
 
-def make_model(config: GprConfig, model: str | None = None) -> VirtualJointModel:
-    """The virtual-joint model named ``model`` (default: ``config.model``) for ``config``'s geometry."""
+def make_model(config: GprConfig, model: str | None = None,
+               geometry: MachineGeometry | None = None) -> VirtualJointModel:
+    """The virtual-joint model named ``model`` (default: ``config.model``) for ``config``'s geometry, or for
+    ``geometry`` (one machine per row, :meth:`MachineGeometry.per_row`) when it is given."""
     name = config.model if model in (None, '') else model
+    if name not in MODELS:
+        raise InputError(f'unknown virtual-joint model {name!r}; allowed: {", ".join(MODELS)}')
+    if geometry is not None:
+        angles = [np.arctan2(s, c) for s, c in zip(geometry.sin, geometry.cos, strict=True)]
+        return VirtualJointModel(str(name), geometry.rho, (angles[0], angles[1], angles[2]), geometry.cos,
+                                 geometry.sin, geometry.kappa)
     key = f'model:{name}'
     vjm: VirtualJointModel | None = config.derived.get(key)
     if vjm is None:
-        if name not in MODELS:
-            raise InputError(f'unknown virtual-joint model {name!r}; allowed: {", ".join(MODELS)}')
         geo = MachineGeometry.of(config)
         theta = (config.rod_azimuths if config.platform_joints is None
                  else tuple(float(np.arctan2(s, c)) for c, s in zip(geo.cos, geo.sin, strict=True)))

@@ -90,6 +90,7 @@ def _geometry(text: str) -> Any:
 
 @pytest.mark.parametrize('text,words', [
     ('radius: [0.1\n', 'not valid YAML'),
+    ('radius: &r 0.1\nstroke_max: *r\n', 'YAML aliases (*name) are not accepted'),
     ('- 1\n- 2\n', 'not a mapping'),
     ('radius: 0.093218\nradious: 1\n', 'unknown key(s) radious'),
     ('radius: -1\n', 'radius = -1 is invalid'),
@@ -109,3 +110,41 @@ def test_two_different_geometries_in_one_bag_fail(tmp_path: Path) -> None:
     bag = write_bag(tmp_path / 'b', msgs + [(GEOMETRY_TOPIC, msgs[-1][1], other[0][2])], dict(GPR_TOPICS))
     failed = [(f.check, f.detail) for f in verify_bag(bag).failures]
     assert failed == [('topic.geometry', 'the geometry messages differ')]
+
+
+#: An imperfect machine as a calibration writes it: rods off their circle, zero offsets, tilted rods, the platform
+#: joints moved, the compliant model with its kappa.
+IMPERFECT = {'rod_offsets': [3e-5, -2e-5, 1e-5], 'rod_directions': [[1e-4, -5e-5], [-8e-5, 1e-4], [5e-5, 6e-5]],
+             'rod_positions': [[0.09324, -1e-5], [-0.04664, 0.080745], [-0.046599, -0.080704]],
+             'platform_joints': [[0.093208, 2e-5], [-0.046589, 0.080739], [-0.046624, -0.080749]],
+             'kappa': [3.0, 2.5, 4.0], 'model': 'compliant'}
+
+
+def test_an_imperfect_machines_bag_verifies_and_draws_its_own_geometry(tmp_path: Path) -> None:
+    """A bag of an imperfect machine (the synthetic writer, its geometry recorded) verifies, the markers included;
+    they draw the machine's rods (feet P_k(0) = B_k + o_k u_k, tops the joint centres) and the naive model's
+    outline of its platform joints p_k (computed here from the config's values)."""
+    cfg = load_config(overrides=IMPERFECT)
+    bag = write_bag(tmp_path / 'imperfect', small_sweep(config=cfg), dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    assert any(c.name == 'topic.markers' and not c.skipped for c in result.checks)
+    from gpr_kinematics.bags.typestore import typestore
+    topics = read_bag(bag).topics
+    ts = typestore()
+    state = ts.deserialize_cdr(topics[STATE].raw[7], GPR_TOPICS[STATE])
+    markers = ts.deserialize_cdr(topics['/gpr/markers'].raw[7], GPR_TOPICS['/gpr/markers'])
+    pts = {m.ns: np.array([[p.x, p.y, p.z] for p in m.points]) for m in markers.markers}
+    d = np.asarray(cfg.rod_directions)
+    u = np.column_stack([d, np.sqrt(1 - np.sum(d * d, axis=1))])
+    B = np.column_stack([np.asarray(cfg.rod_positions), np.zeros(3)])
+    feet = B + np.asarray(cfg.rod_offsets)[:, None] * u
+    np.testing.assert_allclose(pts['base'], feet[[0, 1, 2, 0]], rtol=0, atol=1e-15)
+    q = np.asarray(state.q)
+    np.testing.assert_allclose(pts['platform'], B + (q + np.asarray(cfg.rod_offsets))[:, None] * u, rtol=0, atol=1e-15)
+    p = state.nominal_pose
+    from scipy.spatial.transform import Rotation
+    Rn = Rotation.from_quat([p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w]).as_matrix()
+    joints = np.column_stack([np.asarray(cfg.platform_joints), np.zeros(3)])
+    outline = np.array([p.position.x, p.position.y, p.position.z]) + joints @ Rn.T
+    np.testing.assert_allclose(pts['nominal_platform'], outline[[0, 1, 2, 0]], rtol=0, atol=1e-12)

@@ -79,16 +79,19 @@ def test_horizontal_worst_case_against_the_exact_zonotope():
     cfg = load_config()
     m = CoreModel(cfg)
     Q = naive_inverse([0.2, 0.45], [0.03, 0.02], [0.4, -2.0], cfg)
-    table = parse_tolerances({'parameters': {'radius': {'tolerance': 5e-5}, 'rod_azimuths': {'tolerance': 5e-4}},
+    table = parse_tolerances({'parameters': {'rod_positions': {'tolerance': 5e-5}, 'rod_offsets': {'tolerance': 2e-5},
+                                             'rod1_ux': {'tolerance': 5e-4}},
                               'rod_length': {'tolerance': 2e-6}})
     b = accuracy_budget(m, Q, table, tool=TOOL, samples=0)
-    J = pose_jacobian(m, m.parameters.nominal, Q)                     # (N, 6, 4): independent of the engine's rows
+    cols = np.flatnonzero(m.parameters.select(['rod_positions', 'rod_offsets', 'rod1_ux']))
+    J = pose_jacobian(m, m.parameters.nominal, Q, cols)               # (N, 6, 10): independent of the engine's rows
     from gpr_kinematics.calibration.model import evaluate, rod_jacobian
     _, rot = evaluate(m, m.parameters.nominal, Q)
     Jq = rod_jacobian(m, m.parameters.nominal, Q)
-    half = np.array([5e-5, 5e-4, 5e-4, 5e-4, 2e-6, 2e-6, 2e-6])
+    half = np.array([5e-5 if m.parameters[j].key == 'rod_positions' else 2e-5 if m.parameters[j].key == 'rod_offsets'
+                     else 5e-4 for j in cols] + [2e-6] * 3)
     for i in range(2):
-        G = np.concatenate([J[i], Jq[i]], axis=1)                       # (6, 7)
+        G = np.concatenate([J[i], Jq[i]], axis=1)                       # (6, 13)
         a = rot[i] @ np.array(TOOL)
         tool = G[:3] + np.cross(G[3:].T, a).T
         for name, rows in (('platform_horizontal', G[:2]), ('tool_horizontal', tool[:2])):
@@ -99,17 +102,22 @@ def test_horizontal_worst_case_against_the_exact_zonotope():
 
 
 def test_calibrated_covariance_replaces_the_tolerances():
-    cfg = load_config()
+    cfg = load_config(overrides={'kappa': 2.0})
     m = CoreModel(cfg)
     Q = naive_inverse([0.3], [0.03], [1.0], cfg)
     rng = np.random.default_rng(0)
-    A = rng.normal(size=(4, 4)) * np.array([1e-6, 1e-5, 1e-5, 1e-5])
+    idx = np.array([m.parameters.index(n) for n in ('rod1_offset', 'rod2_ux', 'joint3_y', 'kappa1')])
+    A = np.array([1e-6, 1e-5, 1e-6, 1e-2])[:, None] * rng.normal(size=(4, 4)) / 2     # rows: each parameter's scale
     cov = A @ A.T
-    table = parse_tolerances({'parameters': {'radius': {'tolerance': 5e-5}}})
-    b = accuracy_budget(m, Q, table, samples=2000, seed=1, calibrated=(np.arange(4), cov))
+    table = parse_tolerances({'parameters': {'rod_offsets': {'tolerance': 5e-5}}})
+    b = accuracy_budget(m, Q, table, samples=2000, seed=1, calibrated=(idx, cov))
+    assert b.sources == ('rod2_offset', 'rod3_offset', 'calibration')
+    J = pose_jacobian(m, m.parameters.nominal, Q, idx)[0]
+    J_off = pose_jacobian(m, m.parameters.nominal, Q, [10, 18])[0]
+    var = np.diag(J @ cov @ J.T) + np.diag(J_off @ J_off.T) * (1e-4 ** 2 / 12)
+    np.testing.assert_allclose(b.std[0, :6], np.sqrt(var), rtol=1e-9)
+    b = accuracy_budget(m, Q, parse_tolerances({}), samples=2000, seed=1, calibrated=(idx, cov))
     assert b.sources == ('calibration',)
-    J = pose_jacobian(m, m.parameters.nominal, Q)[0]
-    np.testing.assert_allclose(b.std[0, :6], np.sqrt(np.diag(J @ cov @ J.T)), rtol=1e-9)
     np.testing.assert_allclose(b.mc_std[0, :6], b.std[0, :6], rtol=0.08)   # 2000 samples: ~1.6 % scatter
     g = J[2]
     assert b.worst['platform_vertical'][0] == pytest.approx(3 * math.sqrt(g @ cov @ g), rel=1e-9)
@@ -135,15 +143,34 @@ def test_printed_numbers_are_the_json_numbers(reference_budget):
         assert min(float(v) for _, v in printed_shares) >= sorted(q['shares'].values())[-3] * 100 - 0.051
 
 
+class NoPlay:
+    """A pose model that cannot displace its joints (the budget must refuse joint play for it)."""
+
+    supports_displacement = False
+
+    def __init__(self, model):
+        self.model, self.parameters = model, model.parameters
+
+    def poses(self, theta, Q, displacement=None):
+        return self.model.poses(theta, Q)
+
+
 def test_refusals():
     cfg = load_config()
     m = CoreModel(cfg)
     Q = [[0.3, 0.3, 0.3]]
     table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
-    with pytest.raises(InputError, match=r'joint_clearance needs a model with per-joint geometry; CoreModel'):
-        accuracy_budget(m, Q, parse_tolerances({'joint_clearance': 1e-6}, 't.yaml'))
+    with pytest.raises(InputError, match=r'joint_clearance needs a model with per-joint geometry; NoPlay'):
+        accuracy_budget(NoPlay(m), Q, parse_tolerances({'joint_clearance': 1e-6}, 't.yaml'))
     with pytest.raises(ConfigError, match=r"unknown parameter 'offset1'"):
         accuracy_budget(m, Q, parse_tolerances({'parameters': {'offset1': {'tolerance': 1e-6}}}))
+    with pytest.raises(InputError, match=r'10000 samples x 1000 stations = 10000000 poses; allowed: at most 5000000'):
+        accuracy_budget(m, np.full((1000, 3), 0.3), table)
+    with pytest.raises(InputError, match=r'tool must be 3 finite coordinates \[m\] \(one point, or one per station: '
+                                         r'shape \(1, 3\)\)'):
+        accuracy_budget(m, Q, table, tool=np.zeros((2, 3)))
+    with pytest.raises(InputError, match=r'frame_rotation must be a rotation matrix'):
+        accuracy_budget(m, Q, table, frame_rotation=2 * np.eye(3))
     with pytest.raises(InputError, match=r'samples = 2000000; allowed: an integer from 0 to 1000000'):
         accuracy_budget(m, Q, table, samples=2_000_000)
     with pytest.raises(InputError, match=r'tool must be 3 finite coordinates'):
@@ -152,9 +179,9 @@ def test_refusals():
         accuracy_budget(m, Q, table, percentiles=(50, 101))
     with pytest.raises(InputError, match=r'2 labels for 1 stations'):
         accuracy_budget(m, Q, table, labels=['a', 'b'])
-    with pytest.raises(InputError, match=r'theta must be 4 finite parameter values'):
+    with pytest.raises(InputError, match=r'theta must be 24 finite parameter values'):
         accuracy_budget(m, Q, table, theta=[0.1, 0.2])
-    with pytest.raises(InputError, match=r'indices must be distinct integers from 0 to 3'):
+    with pytest.raises(InputError, match=r'indices must be distinct integers from 0 to 23'):
         accuracy_budget(m, Q, table, calibrated=([0, 0], np.eye(2)))
     with pytest.raises(InputError, match=r'not positive semi-definite'):
         accuracy_budget(m, Q, table, calibrated=([0, 1], np.array([[1e-10, 0], [0, -1e-10]])))
@@ -163,3 +190,73 @@ def test_refusals():
     assert np.all(np.isfinite(b.mc_std))
     with pytest.raises(InputError, match=r'q2 = nan is not a finite number'):
         accuracy_budget(m, [[0.3, np.nan, 0.3]], table)
+
+
+@pytest.fixture(scope='module')
+def core_budget():
+    """The core's whole geometry: every parameter toleranced, a kappa range, rod-length errors and joint play."""
+    cfg = load_config(overrides={'kappa': 1.0})
+    rng = np.random.default_rng(6)
+    Q = naive_inverse(rng.uniform(0.1, 0.4, 3), rng.uniform(-0.0349, 0.0349, 3), rng.uniform(-3, 3, 3), cfg)
+    table = parse_tolerances({'parameters': {'rod_positions': {'tolerance': 3e-5}, 'rod_offsets': {'tolerance': 5e-5},
+                                             'rod_directions': {'tolerance': 2e-4, 'distribution': 'normal'},
+                                             'platform_joints': {'tolerance': 3e-5},
+                                             'kappa': {'range': [0.5, 2.0], 'distribution': 'log-uniform'}},
+                              'rod_length': {'tolerance': 2e-6}, 'joint_clearance': 3e-6})
+    m = CoreModel(cfg)
+    return m, Q, table, accuracy_budget(m, Q, table, tool=TOOL, samples=6000, seed=4)
+
+
+def test_core_linearised_matches_monte_carlo(core_budget):
+    """With the joints' play through per-row geometry and kappa varied as its anisotropy (in which the centre shift is
+    linear), the linearised budget and the exact Monte Carlo agree."""
+    m, _, _, b = core_budget
+    assert len(b.sources) == 24 + 3 + 3 and b.sources[-3:] == ('joint_clearance1', 'joint_clearance2',
+                                                               'joint_clearance3')
+    np.testing.assert_allclose(b.mc_std, b.std, rtol=0.05)
+    assert np.all(np.abs(b.mc_mean - b.mean) < 0.06 * b.std)
+    for name in QUANTITIES:
+        np.testing.assert_allclose(b.mc_rms[name], b.rss[name], rtol=0.05)
+        assert np.all(b.mc[name][:, -1] <= b.worst[name] * 1.001)
+    kappa = [b.sources.index(f'kappa{k}') for k in (1, 2, 3)]
+    assert np.max(b.shares['platform_horizontal'][:, kappa].sum(axis=1)) > 0.01   # the range matters when tilted
+
+
+def test_kappa_range_as_anisotropy():
+    """kappa log-uniform in [0.5, 2] about a nominal 1: its anisotropy (kappa - 1) / (kappa + 1) is symmetric about 0
+    (mean 0), in [-1/3, 1/3]: the linearised centre shift has no spurious mean, and its worst case is the interval's
+    end, R alpha^2 / 4 / 3 at the tilt alpha (docs/core.md), within the law's accuracy."""
+    cfg = load_config(overrides={'kappa': 1.0})
+    m = CoreModel(cfg)
+    table = parse_tolerances({'parameters': {'kappa': {'range': [0.5, 2.0], 'distribution': 'log-uniform'}}})
+    tol = table.bind(m.parameters)[7]
+    assert tol.bounds == pytest.approx((-1 / 3, 1 / 3), rel=1e-12) and abs(tol.mean) < 1e-15
+    alpha = 0.0349
+    q = naive_inverse(0.3, alpha, 0.0, cfg)
+    b = accuracy_budget(m, [q], table, samples=4000, seed=3)
+    shift = cfg.radius * alpha ** 2 / 4
+    assert b.worst['platform_horizontal'][0] == pytest.approx(shift / 3, rel=0.02)   # every joint at its end
+    assert np.all(np.abs(b.mean[0, :3]) < 1e-12)
+    np.testing.assert_allclose(b.mc_rms['platform_horizontal'], b.rss['platform_horizontal'], rtol=0.05)
+
+
+def test_tool_per_station_and_the_frame_of_the_errors(core_budget):
+    """One tool point per station gives each station's own budget; a frame rotation turns every error vector."""
+    m, Q, table, _ = core_budget
+    tools = np.array([[0.3, 0.0, 0.1], [0.0, 0.5, 0.05], [-0.2, -0.2, 0.0]])
+    b = accuracy_budget(m, Q, table, tool=tools, samples=0)
+    for i in range(3):
+        one = accuracy_budget(m, Q[i:i + 1], table, tool=tools[i], samples=0)
+        np.testing.assert_allclose(b.std[i], one.std[0], rtol=1e-12)
+        assert b.worst['tool_horizontal'][i] == pytest.approx(one.worst['tool_horizontal'][0], rel=1e-12)
+    Rz = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])   # gpr_base turned 90 deg in the world
+    w = accuracy_budget(m, Q, table, tool=tools, samples=500, seed=2, frame='world', frame_rotation=Rz)
+    perm = [1, 0, 2, 4, 3, 5, 7, 6, 8]                                     # world x = -base y, world y = base x
+    np.testing.assert_allclose(w.std, b.std[:, perm], rtol=1e-12)
+    for name in QUANTITIES:                                              # norms of horizontal and vertical parts
+        np.testing.assert_allclose(w.rss[name], b.rss[name], rtol=1e-12)
+    assert w.frame == 'world' and w.as_dict()['frame'] == 'world'
+    assert w.as_dict()['stations'][1]['tool'] == [0.0, 0.5, 0.05]
+    tilted = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # 90 deg about x: base y is world z
+    t = accuracy_budget(m, Q, table, tool=tools, samples=0, frame_rotation=tilted)
+    np.testing.assert_allclose(t.std[:, 2], b.std[:, 1], rtol=1e-12)

@@ -12,9 +12,11 @@ import numpy as np
 import pytest
 
 from gpr_kinematics.calibration import demo
+from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.measurements import format_measurements
 from gpr_kinematics.cli import main
 from gpr_kinematics.config import load_config
+from gpr_kinematics.kinematics import forward
 from gpr_kinematics.resources import config_path
 
 SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
@@ -31,28 +33,44 @@ def test_calibrate_shipped_file_json_and_config(capsys, tmp_path):
     status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(out_yaml), '--json')
     assert status == 0, err
     d = json.loads(out)
-    assert d['rows'] == demo.ROWS and d['output'] == str(out_yaml) and d['absolute_sigma']
+    assert d['rows'] == demo.ROWS and d['output'] == str(out_yaml) and d['absolute_sigma'] and d['model'] == 'compliant'
     params = {p['name']: p for p in d['parameters']}
-    for p, dev in zip(params.values(), demo.TRUE_DEVIATIONS, strict=True):
-        assert p['status'] == 'fitted' and abs(p['change'] - dev) < 3 * p['standard_error']
-    assert d['residuals']['after']['rms_angle'] < d['residuals']['before']['rms_angle']
+    assert {n for n, p in params.items() if p['status'] == 'held'} == {'joint1_x', 'joint2_y', 'joint3_y'}
+    truth = dict(zip(params, demo.true_values(CoreModel(load_config())).tolist(), strict=True))
+    for name, p in params.items():
+        if p['status'] == 'fitted' and not name.startswith('joint'):    # (the joints: up to the held combinations)
+            assert abs(p['estimate'] - truth[name]) < 3 * p['standard_error'], name
+    assert params['kappa2']['nominal'] == 1000.0 and abs(params['kappa2']['estimate'] - 3.0) < 0.6
+    assert d['residuals']['after']['rms_position'] < d['residuals']['before']['rms_position'] / 5
     cal = load_config(out_yaml)
-    assert cal.radius == params['radius']['estimate']
+    assert cal.model == 'compliant' and cal.kappa[1] == params['kappa2']['estimate']
+    assert cal.rod_offsets[0] == params['rod1_offset']['estimate'] and cal.rod_positions[1][0] == \
+        params['rod2_x']['estimate']
     status, out, _ = run(capsys, 'fk', '0.3', '0.301', '0.299', '--config', str(out_yaml), '--json')
-    assert status == 0 and json.loads(out)['q'] == [0.3, 0.301, 0.299]
+    fk = json.loads(out)
+    assert status == 0 and fk['q'] == [0.3, 0.301, 0.299] and fk['model'] == 'compliant'
+    np.testing.assert_allclose(fk['position'], forward([0.3, 0.301, 0.299], cal).position, rtol=0, atol=1e-15)
 
 
 def test_calibrate_text_matches_json(capsys, tmp_path):
-    status, text, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'a.yaml'), '--free', 'radius')
+    free = ['--free', 'rod_offsets', 'kappa']
+    status, text, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'a.yaml'), *free)
     assert status == 0
-    status, out, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'b.yaml'), '--free', 'radius',
-                         '--json')
+    status, out, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'b.yaml'), *free, '--json')
     d = json.loads(out)
-    row = re.search(r'^  radius +(\S+) +(\S+) +([-+]\d+\.\d{3}) um +(\d+\.\d{3}) um  fitted', text, re.M)
-    p = d['parameters'][0]
-    assert float(row.group(2)) == pytest.approx(p['estimate'], rel=1e-11)        # 12 significant digits
-    assert float(row.group(3)) == pytest.approx(p['change'] * 1e6, abs=5e-4)
-    assert float(row.group(4)) == pytest.approx(p['standard_error'] * 1e6, abs=5e-4)
+    for p in d['parameters']:
+        row = re.search(rf'^  {p["name"]} +(\S+) +(\S+) +(\S+)(?: u\w+)? +(\S+)(?: u\w+)?  (\w+) \[', text, re.M)
+        assert row, p['name']
+        assert row.group(5) == p['status']
+        assert float(row.group(1)) == pytest.approx(p['nominal'], rel=1e-11, abs=1e-300)     # 12 significant digits
+        assert float(row.group(2)) == pytest.approx(p['estimate'], rel=1e-11, abs=1e-300)
+        if p['unit'] == 'm':
+            assert float(row.group(3)) == pytest.approx(p['change'] * 1e6, abs=5e-4)
+        if p['status'] == 'fitted':
+            scale = 1e6 if p['unit'] == 'm' else 1.0
+            assert float(row.group(4)) == pytest.approx(p['standard_error'] * scale, rel=1e-5, abs=5e-4)
+        else:
+            assert row.group(4) == '-'
     for when in ('before', 'after'):
         r = d['residuals'][when]
         m = re.search(rf'^  {when} +(\d+\.\d+) um +(\d+\.\d+) um \(line (\d+)\) +(\d+\.\d+) urad +(\d+\.\d+) urad '
@@ -61,7 +79,9 @@ def test_calibrate_text_matches_json(capsys, tmp_path):
                                    np.array([r['rms_position'], r['max_position'], r['rms_angle'], r['max_angle']])
                                    * 1e6, atol=5e-4)
         assert (int(m.group(3)), int(m.group(6))) == (r['worst_position_line'], r['worst_angle_line'])
-    assert [p['status'] for p in d['parameters']] == ['fitted', 'fixed', 'fixed', 'fixed']
+    statuses = {p['name']: p['status'] for p in d['parameters']}
+    assert [n for n, st in statuses.items() if st == 'fitted'] == ['rod1_offset', 'kappa1', 'rod2_offset', 'kappa2',
+                                                                    'rod3_offset', 'kappa3']
     assert f'reduced chi-square {d["chi2_reduced"]:.4g}' in text
 
 
@@ -71,11 +91,12 @@ def test_tolerance_table_sets_the_prior_and_the_sigmas(capsys, tmp_path):
                            '--json')
     assert status == 0, err
     d = json.loads(out)
-    assert [p['status'] for p in d['parameters']] == ['fitted', 'held', 'held', 'held']
-    # the scaled singular values are in units of the table's standard deviations (radius: 50 um / sqrt(3))
     status, out, _ = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'd.yaml'), '--json')
     plain = json.loads(out)
+    # the scaled singular values are in units of the table's standard deviations (rod positions: 30 um / sqrt(3)
+    # against the model's 0.1 mm): the poses beat fewer of them, so more combinations are held
     assert d['identifiability']['singular_values'][0] < plain['identifiability']['singular_values'][0]
+    assert len(d['identifiability']['held']) > len(plain['identifiability']['held'])
     status, out, _ = run(capsys, 'calibrate', '--plan', '4', '--tolerances', table)
     assert status == 0 and 'sigma_position 3 um, sigma_angle 20 urad' in out    # the table's measurement noise
 
@@ -130,7 +151,14 @@ def bad_inputs(tmp_path):
         (['calibrate', SHIPPED, '--output', str(tmp_path)], r'exists and is not a regular file'),
         (['calibrate', SHIPPED, '--plan', '3'], r'give a MEASUREMENTS file to calibrate from, or --plan N'),
         (['calibrate'], r'give a MEASUREMENTS file'),
-        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'kappa'], r"unknown parameter 'kappa'"),
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'radius'], r"unknown parameter 'radius'; allowed: "
+                                                                            r'rod1_x'),
+        (['calibrate', write(tmp_path, 'one.csv', '\n'.join([header, rows[0]])), '--output', 'x.yaml'],
+         r'one\.csv: 1 row\(s\) give 6 residuals, too few to identify 24 parameters; at least 5 rows'),
+        (['calibrate', write(tmp_path, 'mm_declared.csv', '# units: mm rad\n' + header + '\n' + '\n'.join(rows)),
+          '--output', 'x.yaml'], r'mm_declared\.csv: the (fit moved the geometry out of its allowed ranges|best fit '
+                                 r'leaves residuals [\d.e+]+ times the standard deviations).*lengths in other '
+                                 r'units than the file\'s "# units:" line says'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--sigma-angle', 'nan'], r'--sigma-angle = nan'),
         (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'cannot read measurement file'),
         (['calibrate', '--plan', '0'], r'plan size 0; allowed: an integer from 1 to 222'),
@@ -151,15 +179,15 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch):
     assert not (tmp_path / 'x.yaml').exists()
 
 
-def test_one_row_is_enough_for_the_four_core_parameters(capsys, tmp_path):
-    """6 residuals for 4 parameters: allowed (too few rows for more parameters: test_calibration_identification);
-    whether the row determines them is the identifiability report's to say."""
+def test_one_row_is_enough_for_three_offsets(capsys, tmp_path):
+    """6 residuals for 3 parameters: allowed (too few rows for all 24: the refusals above); whether the row determines
+    them is the identifiability report's to say."""
     rows = [ln for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines() if not ln.startswith('#')]
     status, out, err = run(capsys, 'calibrate', write(tmp_path, 'one.csv', '\n'.join(rows[:2])), '--output',
-                           str(tmp_path / 'one.yaml'), '--json')
+                           str(tmp_path / 'one.yaml'), '--free', 'rod_offsets', '--json')
     assert status == 0, err
     d = json.loads(out)
-    assert d['rows'] == 1 and len(d['identifiability']['held']) >= 1
+    assert d['rows'] == 1 and d['identifiability']['parameters'] == ['rod1_offset', 'rod2_offset', 'rod3_offset']
 
 
 def test_demo_prints_before_and_after():
@@ -168,10 +196,15 @@ def test_demo_prints_before_and_after():
     assert res.returncode == 0, res.stderr
     assert re.search(r'^  before +\d+\.\d+ um', res.stdout, re.M) and re.search(r'^  after +\d+\.\d+ um', res.stdout,
                                                                                 re.M)
-    # With the example table's a-priori uncertainties, these 24 poses determine the radius better than its
-    # tolerance, and the rod azimuths less well: those are held (and said so).
-    assert re.search(r'^  radius +true +\+40\.000 um +identified .*standard errors\)$', res.stdout, re.M)
-    assert res.stdout.count('held at nominal (these poses know it less well than its tolerance)') == 3
+    # The zero offsets within a fraction of a micrometre, kappa 3 found from the file's 1000, the joints' radial places
+    # held (and said so), and the calibrated model predicting the true machine far better than the nominal one.
+    m = re.search(r'^  rod1_offset +true +\+40\.000 um +identified +\+(\d+\.\d+) \+- (\d\.\d+) um +\(([-+]\d\.\d+) '
+                  r'standard errors\)$', res.stdout, re.M)
+    assert m and abs(float(m.group(1)) - 40.0) < 3 * float(m.group(2)) and float(m.group(2)) < 1.0
+    assert re.search(r'^  kappa2 +true +\+3\.000 +identified +\+[23]\.\d+ ', res.stdout, re.M)
+    assert res.stdout.count('held at nominal (these poses cannot tell it from the other parameters)') == 3
+    m = re.search(r'nominal model (\d+\.\d+) um RMS, .*; calibrated model (\d+\.\d+) um RMS', res.stdout)
+    assert float(m.group(1)) > 20 * float(m.group(2))
     assert res.stdout.count('accuracy budget: 2 station(s)') == 2
 
 
@@ -199,3 +232,28 @@ def test_corrupted_measurement_files_never_crash(capsys, tmp_path):
         assert 'Traceback' not in err and (status == 0 or err.count('\n') == 1), (k, err)
         statuses.add(status)
     assert statuses == {0, 2}
+
+
+def test_every_command_takes_the_calibrated_file(capsys, tmp_path):
+    """The calibrated geometry file (model compliant, its kappa, the imperfect geometry) as --config of the core's
+    commands, the robot's, the accuracy budget and calibrate itself: each answers with the calibrated machine."""
+    cal = tmp_path / 'cal.yaml'
+    status, _, err = run(capsys, 'calibrate', SHIPPED, '--output', str(cal))
+    assert status == 0, err
+    cfg = load_config(cal)
+    for argv in (['ik', '--height', '0.3', '--tilt', '0.02', '--azimuth', '1.0'],
+                 ['compensate', '--height', '0.3', '--tilt', '0.02', '--azimuth', '1.0', '--tool', '0.3', '0', '0.1'],
+                 ['mobility', '0.3', '0.301', '0.299'],
+                 ['sweep', '--azimuth-step', '90', '--deg'],
+                 ['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3'],
+                 ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0.02', '0', '0', '--tolerances',
+                  str(config_path('calibration/tolerances_example.yaml')), '--samples', '0'],
+                 ['calibrate', '--plan', '3']):
+        status, out, err = run(capsys, *argv, '--config', str(cal), '--json')
+        assert status == 0, (argv, err)
+        d = json.loads(out)
+        if argv[0] == 'ik':
+            np.testing.assert_allclose(forward(d['q'], cfg).tilt, 0.02, rtol=0, atol=1e-12)
+            assert d['achieved']['model'] == 'compliant'
+        if argv[0] == 'robot':
+            np.testing.assert_allclose(d['wafer']['position'], [1.3, 0.6, 0.45], rtol=0, atol=1e-12)

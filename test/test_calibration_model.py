@@ -25,6 +25,7 @@ from gpr_kinematics.calibration.model import (
 from gpr_kinematics.config import load_config
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.kinematics import naive_inverse
+from gpr_kinematics.machine import PARAMETER_NAMES
 
 
 def test_doctests():
@@ -33,40 +34,56 @@ def test_doctests():
 
 def test_parameters_and_selection():
     ps = CoreModel(load_config()).parameters
-    assert ps.names == ('radius', 'rod_azimuth1', 'rod_azimuth2', 'rod_azimuth3')
-    assert ps.groups == ('radius', 'rod_azimuths')
-    assert ps.select(['rod_azimuths']).tolist() == [False, True, True, True]
-    assert ps.select(['radius', 'rod_azimuth3']).tolist() == [True, False, False, True]
+    assert ps.names == PARAMETER_NAMES and len(ps) == 24
+    assert ps.groups == ('rod_positions', 'rod_offsets', 'rod_directions', 'platform_joints', 'kappa')
+    assert ps.select(['rod_offsets']).nonzero()[0].tolist() == [2, 10, 18]
+    assert ps.select(['rod1_x', 'kappa3']).nonzero()[0].tolist() == [0, 23]
     assert ps.select(None).all() and not ps.select([]).any()
-    with pytest.raises(InputError, match=r"unknown parameter 'kappa'; allowed: radius, rod_azimuth1.*whole key: "
-                                         r'radius, rod_azimuths'):
-        ps.select(['kappa'])
+    with pytest.raises(InputError, match=r"unknown parameter 'radius'; allowed: rod1_x, rod1_y.*whole key: "
+                                         r'rod_positions, rod_offsets, rod_directions, platform_joints, kappa'):
+        ps.select(['radius'])
     with pytest.raises(InputError, match=r'unit .inch.; allowed: m, rad, 1'):
         Parameter('a', 0.0, 'inch', 1.0, 'a')
-    with pytest.raises(InputError, match=r'scale .* must be finite, the scale > 0'):
+    with pytest.raises(InputError, match=r'scale .* must be finite, the nominal within \[-inf, inf\], the scale > 0'):
         Parameter('a', 0.0, 'm', 0.0, 'a')
+    with pytest.raises(InputError, match=r"transform 'log'; allowed: '', 'anisotropy'"):
+        Parameter('a', 0.0, '1', 1.0, 'a', (), 'log')
     with pytest.raises(InputError, match=r'repeated: a'):
         ParameterSet((Parameter('a', 0.0, 'm', 1.0, 'a'), Parameter('a', 1.0, 'm', 1.0, 'b')))
-    assert ps.index('rod_azimuth2') == 2 and ps[0].step == pytest.approx(1e-6)
+    assert ps.index('rod2_offset') == 10 and ps[2].step == pytest.approx(1e-6)
 
 
-def test_nested_config_values():
-    ps = ReferenceModel().parameters
-    th = ps.nominal + 1e-6
-    vals = model_mod.config_values(ps, th, {'rod_bases': [[0, 0]] * 3, 'rod_offsets': [0, 0, 0],
-                                            'rod_directions': [[0, 0]] * 3, 'platform_joints': [[0, 0]] * 3})
-    assert vals['rod_bases'][2] == [th[4], th[5]] and vals['rod_offsets'] == th[6:9].tolist()
-    assert vals['kappa'] == th[21] and vals['platform_joints'][0] == [th[15], th[16]]
+def test_stiffness_ratios_are_identified_as_anisotropies():
+    """kappa <-> u = (kappa - 1) / (kappa + 1): the nominal kappa 1000 of the default file is u = 0.998; the value,
+    its slope (against a central difference) and the steps that stay inside the coordinate's range."""
+    ps = CoreModel(load_config()).parameters
+    j = ps.index('kappa2')
+    p = ps[j]
+    assert p.transform == 'anisotropy' and p.unit == '1' and p.nominal == pytest.approx(999 / 1001, rel=1e-15)
+    u = np.array([-0.9, -0.2, 0.0, 0.5, 0.99])
+    np.testing.assert_allclose(p.value(u), (1 + u) / (1 - u), rtol=1e-15)
+    np.testing.assert_allclose(p.coordinate(p.value(u)), u, rtol=0, atol=1e-15)
+    h = 1e-6
+    np.testing.assert_allclose(p.value_slope(u), (p.value(u + h) - p.value(u - h)) / (2 * h), rtol=1e-7)
+    assert p.bounds == pytest.approx(((1e-6 - 1) / (1e-6 + 1), (1e6 - 1) / (1e6 + 1)), rel=1e-15)
+    theta = ps.nominal.copy()
+    theta[j] = p.coordinate(9e5)                           # near the top of the range: the step shrinks inside it
+    steps = ps.steps(theta)
+    assert steps[j] == pytest.approx(0.5 * (p.bounds[1] - theta[j]), rel=1e-12) and steps[j] < p.step
+    assert theta[j] + steps[j] < p.bounds[1] and steps[0] == ps.step[0]
+    values = ps.values(theta)
+    assert values[j] == pytest.approx(9e5, rel=1e-9) and values[0] == theta[0]
+    np.testing.assert_allclose(ps.coordinates(values), theta, rtol=0, atol=1e-15)
+    with pytest.raises(InputError, match=r'the nominal within \[-0\.999998, 0\.999998\]'):
+        Parameter('kappa1', 1.0, '1', 0.5, 'kappa', (0,), 'anisotropy')
 
 
 def test_evaluate_checks_shapes_and_values():
     m = CoreModel(load_config())
-    with pytest.raises(InputError, match=r'theta must have 4 values per row'):
+    with pytest.raises(InputError, match=r'theta must have 24 values per row'):
         evaluate(m, [0.1, 0.2], [[0.3, 0.3, 0.3]])
     with pytest.raises(InputError, match=r'rod lengths must have shape'):
         evaluate(m, m.parameters.nominal, [[0.3, 0.3]])
-    with pytest.raises(InputError, match=r'CoreModel cannot displace its joint centres'):
-        evaluate(m, m.parameters.nominal, [[0.3, 0.3, 0.3]], np.zeros((1, 3, 3)))
 
     class Broken:
         parameters = m.parameters
@@ -75,10 +92,52 @@ def test_evaluate_checks_shapes_and_values():
         def poses(self, theta, Q, displacement=None):
             return np.full(Q.shape, np.nan), np.zeros(Q.shape + (3,))
 
+    with pytest.raises(InputError, match=r'Broken cannot displace its joint centres'):
+        evaluate(Broken(), m.parameters.nominal, [[0.3, 0.3, 0.3]], np.zeros((1, 3, 3)))
     with pytest.raises(InputError, match=r'Broken\.poses returned a non-finite pose'):
         evaluate(Broken(), m.parameters.nominal, [[0.3, 0.3, 0.3]])
     with pytest.raises(InputError, match=r'q2 = nan is not a finite number'):
         pose_jacobian(m, m.parameters.nominal, [[0.3, np.nan, 0.3]])
+    bad = m.parameters.nominal.copy()
+    bad[m.parameters.index('rod3_offset')] = 0.5
+    with pytest.raises(InputError, match=r'per-row geometry, row 0: rod3_offset = 0\.5 is outside \[-0\.1, 0\.1\]'):
+        evaluate(m, bad, [[0.3, 0.3, 0.3]])
+
+
+def core_to_reference(values):
+    """The reference model's parameters (test/calibration_reference.py) of a core machine (values in the order of
+    PARAMETER_NAMES, equal kappas): its rod directions are (t_x, t_y, 1) normalised, the core's (u_x, u_y, u_z)."""
+    v = dict(zip(PARAMETER_NAMES, values, strict=True))
+    out = []
+    for k in (1, 2, 3):
+        out += [v[f'rod{k}_x'], v[f'rod{k}_y']]
+    out += [v[f'rod{k}_offset'] for k in (1, 2, 3)]
+    for k in (1, 2, 3):
+        uz = np.sqrt(1 - v[f'rod{k}_ux'] ** 2 - v[f'rod{k}_uy'] ** 2)
+        out += [v[f'rod{k}_ux'] / uz, v[f'rod{k}_uy'] / uz]
+    for k in (1, 2, 3):
+        out += [v[f'joint{k}_x'], v[f'joint{k}_y']]
+    assert v['kappa1'] == v['kappa2'] == v['kappa3']
+    return np.array(out + [v['kappa1']])
+
+
+def test_core_model_agrees_with_the_independent_reference_model():
+    """A perturbed machine through the core (per-row batch, the compliant closure) and through the tests' reference
+    model (its own geometry and Gauss-Newton closure): the same platform poses."""
+    cfg = load_config()
+    core, ref = CoreModel(cfg), ReferenceModel(base_z=False)
+    rng = np.random.default_rng(8)
+    Q = naive_inverse(rng.uniform(0.05, 0.45, 30), rng.uniform(-1, 1, 30) * cfg.tilt_limit, rng.uniform(-3, 3, 30),
+                      cfg)
+    values = np.repeat(core.parameters.values(core.parameters.nominal)[None], 4, axis=0)
+    values += rng.normal(size=values.shape) * np.tile([3e-5, 3e-5, 4e-5, 1e-4, 1e-4, 3e-5, 3e-5, 0.0], 3)
+    for s, kappa in enumerate((0.3, 1.0, 3.0, 50.0)):
+        values[s, 7::8] = kappa
+    theta = core.parameters.coordinates(values)
+    pos, rot = evaluate(core, theta, Q)
+    rpos, rrot = evaluate(ref, np.array([core_to_reference(v) for v in values]), Q)
+    np.testing.assert_allclose(pos, rpos, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(rot, rrot, rtol=0, atol=1e-13)
 
 
 def test_rotation_vector_and_pose_error_conventions():
@@ -115,6 +174,8 @@ def test_parameter_jacobian_against_five_point_differences(which):
     th = m.parameters.nominal + m.parameters.scale * rng.normal(0, 0.3, len(m.parameters))
     if which == 'reference':
         th[21] = 2.5
+    else:
+        th[7::8] = [0.4, 0.6, -0.2]                                # anisotropies: kappa 2.3, 4, 0.67
     ref = evaluate(m, th, Q)
     meas = (ref[0] + 1e-5, Rotation.from_rotvec(rng.normal(0, 1e-4, (8, 3))).as_matrix() @ ref[1])
     J = pose_jacobian(m, th, Q, reference=meas)
@@ -140,5 +201,29 @@ def test_exact_columns_of_the_reference_model():
                                                               (5, 6, 3)), atol=1e-9)
     Jq = rod_jacobian(m, th, Q)                                  # equal rod changes lift (parallel nominal rods)
     np.testing.assert_allclose(Jq.sum(axis=2), np.broadcast_to([0, 0, 1, 0, 0, 0], (5, 6)), atol=1e-9)
-    Jq_core = rod_jacobian(CoreModel(load_config()), CoreModel(load_config()).parameters.nominal, Q)
-    np.testing.assert_allclose(Jq_core.sum(axis=2), np.broadcast_to([0, 0, 1, 0, 0, 0], (5, 6)), atol=1e-9)
+
+
+
+def test_exact_columns_of_the_core_model():
+    """Columns known in closed form: a zero offset is a rod length; moving every base point by v moves the platform
+    by v; moving every joint centre by v (joint play) moves the pose by v; equal rod changes lift the platform."""
+    core = CoreModel(load_config())
+    rng = np.random.default_rng(5)
+    Q = naive_inverse(rng.uniform(0.05, 0.45, 6), rng.uniform(-0.0349, 0.0349, 6), rng.uniform(-3, 3, 6))
+    th = core.parameters.nominal.copy()
+    th[core.parameters.select(['kappa'])] = 0.5
+    ps = core.parameters
+    J = pose_jacobian(core, th, Q)
+    Jq = rod_jacobian(core, th, Q)
+    for k in (1, 2, 3):
+        np.testing.assert_allclose(J[:, :, ps.index(f'rod{k}_offset')], Jq[:, :, k - 1], rtol=0, atol=1e-9)
+    for axis, unit in (('x', [1, 0, 0, 0, 0, 0]), ('y', [0, 1, 0, 0, 0, 0])):
+        cols = [ps.index(f'rod{k}_{axis}') for k in (1, 2, 3)]
+        np.testing.assert_allclose(J[:, :, cols].sum(axis=2), np.broadcast_to(unit, (6, 6)), atol=1e-9)
+    np.testing.assert_allclose(Jq.sum(axis=2), np.broadcast_to([0, 0, 1, 0, 0, 0], (6, 6)), atol=1e-9)
+    D = displacement_jacobian(core, th, Q)
+    np.testing.assert_allclose(D.sum(axis=2), np.broadcast_to(np.vstack([np.eye(3), np.zeros((3, 3))]), (6, 6, 3)),
+                               atol=1e-9)
+    # the play of joint 2 along its rod (d = s u_2) is a zero offset s of rod 2
+    u = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(D[:, :, 1, :] @ u, J[:, :, ps.index('rod2_offset')], atol=1e-9)

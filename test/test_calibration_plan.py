@@ -40,23 +40,28 @@ def test_candidates_lie_within_stroke_and_tilt_limits():
 
 @pytest.mark.parametrize('index', ['product', 'smallest'])
 def test_plan_beats_random_designs_and_reports_its_index(index):
+    """All 24 parameters of the core's geometry, 12 configurations: the index of the identified ones (the plan holds
+    what no design can see, the joints' radial places) against a direct SVD, random designs and single exchanges."""
     cfg = load_config()
     m = CoreModel(cfg)
-    plan = plan_measurements(m, cfg, 8, index=index, sigma_position=SP, sigma_angle=SA)
-    assert plan.q.shape == (8, 3) and len({tuple(q) for q in plan.q.tolist()}) == 8
-    forward_batch(plan.q, cfg)                   # within the limits
-    s = scaled_singular_values(m, plan.q)
-    expected = np.exp(np.mean(np.log(s))) / np.sqrt(8) if index == 'product' else s.min()
+    plan = plan_measurements(m, cfg, 12, index=index, sigma_position=SP, sigma_angle=SA)
+    assert plan.q.shape == (12, 3) and len({tuple(q) for q in plan.q.tolist()}) == 12
+    forward_batch(plan.q, cfg)                   # within the stroke and the tilt limit: raises otherwise
+    held = set(plan.identifiability.held)       # the joints' radial places; with 12 poses a joint or a kappa more
+    assert 3 <= len(held) <= 6 and all(n.startswith(('joint', 'kappa')) for n in held)
+    s = scaled_singular_values(m, plan.q, plan.fitted)
+    expected = np.exp(np.mean(np.log(s))) / np.sqrt(12) if index == 'product' else s.min()
     assert plan.index == pytest.approx(expected, rel=1e-9)
-    assert plan.index == pytest.approx(observability_index(s, 8, index), rel=1e-12)
+    assert plan.index == pytest.approx(observability_index(s, 12, index), rel=1e-12)
     assert plan.index > 1.2 * plan.random_index
     # No single exchange with a candidate improves the plan (it is a local optimum of the exchange algorithm).
     cand = candidate_configurations(cfg)
     rng = np.random.default_rng(0)
     for _ in range(30):
         trial = plan.q.copy()
-        trial[rng.integers(8)] = cand.q[rng.integers(cand.q.shape[0])]
-        assert observability_index(scaled_singular_values(m, trial), 8, index) <= plan.index * (1 + 1e-9)
+        trial[rng.integers(12)] = cand.q[rng.integers(cand.q.shape[0])]
+        trial_s = scaled_singular_values(m, trial, plan.fitted)
+        assert observability_index(trial_s, 12, index) <= plan.index * (1 + 1e-9)
 
 
 def test_index_scales_with_the_noise():
@@ -71,15 +76,25 @@ def test_index_scales_with_the_noise():
 
 
 def test_predicted_standard_errors_match_repeated_identifications():
-    cfg = load_config()
+    """On a machine near its nominal geometry (here kappa = 3: a nominal at the radial end, kappa 1000, puts the
+    anisotropy's estimates against its bound 1, which no covariance describes)."""
+    cfg = load_config(overrides={'kappa': 3.0})
     m = CoreModel(cfg)
-    plan = plan_measurements(m, cfg, 12, sigma_position=SP, sigma_angle=SA)
-    truth = m.parameters.nominal + np.array([30e-6, 1e-4, -1e-4, 0.0])
-    est = np.array([identify(m, synthetic_measurements(m, truth, plan.q, SP, SA, seed=s)).estimate
-                    for s in range(40)])
-    predicted = np.sqrt(np.diag(plan.covariance))
+    free = ['rod_offsets', 'rod_directions', 'kappa']
+    plan = plan_measurements(m, cfg, 12, sigma_position=SP, sigma_angle=SA, free=free)
+    assert plan.fitted.tolist() == np.flatnonzero(m.parameters.select(free)).tolist()
+    values = m.parameters.values(m.parameters.nominal)
+    values[m.parameters.select(['rod_offsets'])] += [30e-6, -10e-6, 20e-6]
+    values[m.parameters.select(['rod_directions'])] += [1e-4, -1e-4, 5e-5, 0.0, -5e-5, 1e-4]
+    values[m.parameters.select(['kappa'])] = [2.8, 3.0, 3.3]
+    truth = m.parameters.coordinates(values)
+    est = np.array([identify(m, synthetic_measurements(m, truth, plan.q, SP, SA, seed=s), free=free).estimate
+                    for s in range(40)])[:, plan.fitted]
+    predicted = np.sqrt(np.diag(plan.covariance))            # of the coordinates (an anisotropy for kappa)
     np.testing.assert_allclose(est.std(axis=0, ddof=1), predicted, rtol=0.3)
-    np.testing.assert_allclose(est.mean(axis=0), truth, atol=(3 * predicted / np.sqrt(40)).max())
+    np.testing.assert_allclose(est.mean(axis=0), truth[plan.fitted], atol=(3 * predicted / np.sqrt(40)).max())
+    slope = m.parameters.value_slopes(m.parameters.nominal)[plan.fitted]
+    np.testing.assert_allclose(plan.standard_errors, slope * predicted, rtol=1e-12)   # the values' (kappa: 8 x)
 
 
 def test_reference_plan_holds_what_no_candidate_identifies():

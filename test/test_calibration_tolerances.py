@@ -17,10 +17,15 @@ from gpr_kinematics.resources import config_path
 
 def test_shipped_example_binds_to_the_core_model():
     table = load_tolerances(config_path('calibration/tolerances_example.yaml'))
-    tols = table.bind(CoreModel(load_config()).parameters)
-    assert tols[0] == Tolerance(-5e-5, 5e-5, 'uniform', 0.093218)
-    assert [t.distribution for t in tols[1:]] == ['normal'] * 3 and tols[1].std == pytest.approx(5e-4 / 3)
-    assert table.rod_length.high == 2e-6 and table.joint_clearance == (0.0, 0.0, 0.0)
+    ps = CoreModel(load_config()).parameters
+    tols = dict(zip(ps.names, table.bind(ps), strict=True))
+    assert tols['rod2_y'] == Tolerance(-3e-5, 3e-5, 'uniform', ps.values(ps.nominal)[ps.index('rod2_y')])
+    assert tols['rod3_offset'].high == 5e-5 and tols['joint1_x'].high == 3e-5
+    assert tols['rod1_ux'].distribution == 'normal' and tols['rod1_ux'].std == pytest.approx(2e-4 / 3)
+    k = tols['kappa2']                                  # the file's kappa 1000; the machine's in [0.5, 2]
+    assert (k.nominal, k.transform, k.distribution) == (1000.0, 'anisotropy', 'log-uniform')
+    assert k.bounds == pytest.approx((-1 / 3 - 999 / 1001, 1 / 3 - 999 / 1001), rel=1e-12)
+    assert table.rod_length.high == 2e-6 and table.joint_clearance == (2e-6, 2e-6, 2e-6)
     assert (table.sigma_position, table.sigma_angle) == (3e-6, 2e-5)
 
 
@@ -43,13 +48,23 @@ def test_units_names_over_keys_and_ranges():
 
 
 @pytest.mark.parametrize('tol', [Tolerance(-2.0, 2.0), Tolerance(-1.0, 3.0), Tolerance(-3.0, 3.0, 'normal'),
-                                 Tolerance(-0.5, 1.0, 'log-uniform', 1.0)])
+                                 Tolerance(-0.5, 1.0, 'log-uniform', 1.0),
+                                 Tolerance(-0.5, 1.0, 'log-uniform', 1.0, 'anisotropy'),
+                                 Tolerance(-999.5, -998.0, 'uniform', 1000.0, 'anisotropy'),
+                                 Tolerance(-2.0, 7.0, 'log-uniform', 3.0, 'anisotropy')])
 def test_moments_match_samples(tol):
+    """The moments (closed forms; Gauss-Legendre for a transformed deviation) against 400,000 samples, which stay
+    within the bounds (of the anisotropy, for a stiffness ratio)."""
     x = tol.sample(np.random.default_rng(0), (400_000,))
     assert x.mean() == pytest.approx(tol.mean, abs=0.01 * tol.std)
     assert x.std() == pytest.approx(tol.std, rel=0.01)
     if tol.distribution != 'normal':
-        assert tol.low <= x.min() and x.max() <= tol.high
+        lo, hi = tol.bounds
+        assert lo <= x.min() and x.max() <= hi and tol.centre == pytest.approx(0.5 * (lo + hi))
+    if tol.transform:                                   # an anisotropy: deviations of (kappa - 1) / (kappa + 1)
+        kappa = tol.nominal + np.array([tol.low, tol.high])
+        u0 = (tol.nominal - 1) / (tol.nominal + 1)
+        assert tol.bounds == pytest.approx(tuple((kappa - 1) / (kappa + 1) - u0), rel=1e-12)
 
 
 @pytest.mark.parametrize('data, pattern', [
@@ -84,14 +99,20 @@ def test_malformed_tables_refused(data, pattern):
 
 def test_binding_refusals(tmp_path):
     ps = CoreModel(load_config()).parameters
-    with pytest.raises(ConfigError, match=r"parameters: unknown parameter 'kappa'; this model has radius, "
-                                          r'rod_azimuth1.*whole keys: radius, rod_azimuths'):
-        parse_tolerances({'parameters': {'kappa': {'range': [0.5, 2]}}}, 't.yaml').bind(ps)
-    with pytest.raises(ConfigError, match=r'parameters: radius: tolerance 0\.5 m; allowed: at most 0\.01 m'):
-        parse_tolerances({'parameters': {'radius': {'tolerance': 0.5}}}, 't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r"parameters: unknown parameter 'radius'; this model has rod1_x, "
+                                          r'rod1_y.*whole keys: rod_positions, rod_offsets, rod_directions, '
+                                          r'platform_joints, kappa'):
+        parse_tolerances({'parameters': {'radius': {'tolerance': 1e-5}}}, 't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'parameters: rod_offsets: tolerance 0\.5 m; allowed: at most 0\.01 m'):
+        parse_tolerances({'parameters': {'rod_offsets': {'tolerance': 0.5}}}, 't.yaml').bind(ps)
     with pytest.raises(ConfigError, match=r'a log-uniform range must be positive'):
-        parse_tolerances({'parameters': {'rod_azimuth1': {'range': [-1e-3, 1e-3], 'distribution': 'log-uniform'}}},
+        parse_tolerances({'parameters': {'rod1_ux': {'range': [-1e-3, 1e-3], 'distribution': 'log-uniform'}}},
                          't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'kappa: a stiffness ratio takes uniform or log-uniform'):
+        parse_tolerances({'parameters': {'kappa': {'tolerance': 10, 'distribution': 'normal'}}}, 't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'kappa1: \[-1000, 3000\] leaves the range of a stiffness ratio; allowed: '
+                                          r'1e-06 to 1e\+06'):
+        parse_tolerances({'parameters': {'kappa1': {'tolerance': 2000}}}, 't.yaml').bind(ps)
     bomb = tmp_path / 'bomb.yaml'
     bomb.write_text('a: &a [1, 2]\nb: *a\n')
     with pytest.raises(ConfigError, match=r'bomb\.yaml: line 2: YAML aliases'):

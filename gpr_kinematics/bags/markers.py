@@ -11,9 +11,12 @@ Four markers in the base frame (``header`` of the sample's PlatformState, identi
  3    ``nominal_platform``  LINE_STRIP      the naive model's outline ``p_n + R_n r_k``, k = 1, 2, 3, 1
 ====  ====================  ==============  ========================================================
 
-``P_k(q)`` are the joint centres of :func:`gpr_kinematics.kinematics.base_points` (rod ``k`` at azimuth
-``theta_k`` on the circle of radius ``R``, height ``q_k``); ``r_k = R (cos theta_k, sin theta_k, 0)`` are the
-nominal joints on the platform, ``p_n`` and ``R_n`` the naive pose. :func:`marker_points` computes them for a
+``P_k(q) = B_k + (q_k + o_k) u_k`` are the joint centres of :func:`gpr_kinematics.kinematics.base_points` on the
+machine of the configuration (:class:`~gpr_kinematics.machine.MachineGeometry`: base points, zero offsets, rod
+directions; ``P_k(0)`` is where rod ``k`` stands); ``r_k = p_k`` are the platform joints at their places on the
+platform (``MachineGeometry.platform_points``: the nominal ``R (cos theta_k, sin theta_k, 0)``, or the
+configuration's ``platform_joints``), ``p_n`` and ``R_n`` the naive pose: the outline is where the naive model puts
+the platform's joints. :func:`marker_points` computes them for a
 batch; :func:`marker_array` builds the message with any message classes (rclpy's or the ``rosbags``
 typestore's, through a ``make(type, **fields)`` factory), and ``gpr verify`` checks recorded markers against
 :func:`marker_points` of the PlatformState with the same stamp.
@@ -29,6 +32,7 @@ from numpy.typing import NDArray
 
 from ..config import GprConfig
 from ..kinematics import base_points
+from ..machine import MachineGeometry
 
 LINE_STRIP, LINE_LIST, TRIANGLE_LIST, ADD = 4, 5, 11, 0
 
@@ -59,7 +63,8 @@ def marker_points(cfg: GprConfig, q: NDArray[np.float64], nominal_position: NDAr
     q = np.asarray(q, dtype=float).reshape(-1, 3)
     tops = base_points(q, cfg)
     feet = base_points(np.zeros_like(q), cfg)
-    corners = np.asarray(nominal_position, dtype=float)[:, None, :] + np.einsum('kj,nij->nki', feet[0],
+    joints = MachineGeometry.of(cfg).platform_points()
+    corners = np.asarray(nominal_position, dtype=float)[:, None, :] + np.einsum('kj,nij->nki', joints,
                                                                                  nominal_rotation)
     loop = [0, 1, 2, 0]
     return {

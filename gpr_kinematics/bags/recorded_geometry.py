@@ -9,21 +9,20 @@ checks come with their cause. A bag without the topic (recorded before it existe
 package's configuration, and the result says so.
 
 The check ``topic.geometry``: every message on the topic is the same text, at most
-:data:`MAX_GEOMETRY_BYTES`, YAML (read by :func:`gpr_kinematics.config.read_yaml`, with its limits) of a mapping
+:data:`MAX_GEOMETRY_BYTES`, YAML (parsed by :func:`gpr_kinematics.safe_yaml.load_text`, with its limits) of a mapping
 that :meth:`GprConfig.from_mapping` accepts. The keys are never listed here: whatever ``GprConfig`` holds is
 compared.
 """
 from __future__ import annotations
 
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..config import GprConfig, read_yaml
+from .. import safe_yaml
+from ..config import GprConfig
 from ..errors import GprError
 from ..kinematics import forward_batch
 from .columns import quaternion_angle
@@ -49,14 +48,8 @@ class Geometry:
 def _parse(text: str) -> GprConfig:
     if len(text.encode('utf-8', errors='replace')) > MAX_GEOMETRY_BYTES:
         raise GprError(f'{len(text)} characters; allowed: at most {MAX_GEOMETRY_BYTES} bytes')
-    # Through the package's one YAML reader (its limits on aliases, nesting and size apply to messages too).
-    try:
-        with tempfile.TemporaryDirectory(prefix='gpr_geometry_') as tmp:
-            path = Path(tmp) / 'geometry.yaml'
-            path.write_text(text, encoding='utf-8', errors='replace')
-            data = read_yaml(path, 'recorded geometry')
-    except OSError as exc:  # no writable temporary folder
-        raise GprError(f'cannot be staged for the YAML reader ({exc.strerror or exc})') from None
+    # Through the package's one YAML parser (its limits on aliases, nesting and size apply to messages too).
+    data = safe_yaml.load_text(text, f'{GEOMETRY_TOPIC} (recorded geometry)')
     if not isinstance(data, dict):
         raise GprError(f'not a mapping of keys to values ({type(data).__name__})')
     return GprConfig.from_mapping(data, source=GEOMETRY_TOPIC)

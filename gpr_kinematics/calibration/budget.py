@@ -58,8 +58,10 @@ MAX_STATIONS = 10_000
 MAX_TOOL = 10.0
 #: An RSS below this [m or rad] is rounding: no shares are given for it.
 SHARE_FLOOR = 1e-12
-#: Poses evaluated per Monte Carlo chunk (bounds memory).
+#: Poses evaluated per Monte Carlo chunk (bounds memory), and the most poses of a budget (samples x stations:
+#: each keeps its 9 error components for the percentiles, 72 bytes).
 CHUNK_POSES = 200_000
+MAX_POSES = 5_000_000
 
 
 @dataclass(frozen=True)
@@ -67,7 +69,8 @@ class Budget:
     """Accuracy budget of ``N`` stations (SI units; module docstring).
 
     Attributes:
-        q: rod lengths of the stations ``(N, 3)``; labels: their names; tool: the tool point in ``gpr_platform``.
+        q: rod lengths of the stations ``(N, 3)``; labels: their names; tool: the tool point of each station in
+            ``gpr_platform`` ``(N, 3)``; frame: the frame whose axes the errors are given in.
         sources: names of the error sources, in the order of the share arrays.
         rss, worst: per quantity ``(N,)``, linearised; shares: per quantity ``(N, len(sources))``.
         samples, seed, percentiles: the Monte Carlo settings; mc: per quantity ``(N, len(percentiles))`` percentiles
@@ -79,6 +82,7 @@ class Budget:
     q: Array
     labels: tuple[str, ...]
     tool: Array
+    frame: str
     sources: tuple[str, ...]
     rss: dict[str, Array]
     worst: dict[str, Array]
@@ -106,9 +110,10 @@ class Budget:
                 if self.samples:
                     mc = {f'p{p:g}': float(self.mc[name][i, k]) for k, p in enumerate(self.percentiles)}
                     quantities[name]['monte_carlo'] = mc | {'rms': float(self.mc_rms[name][i])}
-            stations.append({'label': label, 'q': self.q[i].tolist(), 'quantities': quantities})
-        return {'tool': self.tool.tolist(), 'samples': self.samples, 'seed': self.seed,
-                'percentiles': list(self.percentiles), 'sources': list(self.sources), 'stations': stations}
+            stations.append({'label': label, 'q': self.q[i].tolist(), 'tool': self.tool[i].tolist(),
+                             'quantities': quantities})
+        return {'frame': self.frame, 'samples': self.samples, 'seed': self.seed, 'percentiles': list(self.percentiles),
+                'sources': list(self.sources), 'stations': stations}
 
 
 @dataclass(frozen=True)
@@ -121,45 +126,52 @@ class _Source:
     cov: Array                     # (k, k)
     kind: str                      # 'interval', 'ellipsoid' (3 sigma) or 'ball'
     half: Array                    # interval half-widths (k,) or the ball radius (1,)
+    centre: Array                  # interval centres (k,) (zeros for the other kinds)
 
 
-def _with_tool(J: Array, rot: Array, tool: Array) -> Array:
-    """Rows ``(N, 9, k)``: pose sensitivities ``(N, 6, k)`` and the tool point's ``dp + phi x (R t)``."""
-    a = rot @ tool                                                   # (N, 3)
+def _with_tool(J: Array, rot: Array, tool: Array, frame: Array) -> Array:
+    """Rows ``(N, 9, k)``: pose sensitivities ``(N, 6, k)`` and the tool point's ``dp + phi x (R t)`` (tool points
+    ``(N, 3)``), each 3-vector turned into the report's frame (``frame``, a rotation ``(3, 3)``)."""
+    a = np.einsum('nij,nj->ni', rot, tool)                            # (N, 3)
     cross = np.cross(J[:, 3:, :].transpose(0, 2, 1), a[:, None, :]).transpose(0, 2, 1)  # phi x a
-    return np.concatenate([J, J[:, :3, :] + cross], axis=1)
+    G = np.concatenate([J, J[:, :3, :] + cross], axis=1).reshape(J.shape[0], 3, 3, -1)
+    return np.asarray(np.einsum('ij,nbjk->nbik', frame, G).reshape(J.shape[0], 9, -1), dtype=np.float64)
 
 
-def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, tols: list[Tolerance | None],
-             table: ToleranceTable, calibrated: Calibrated | None) -> list[_Source]:
+def _interval(name: str, G: Array, t: Tolerance) -> _Source:
+    """The source of a :class:`Tolerance` (one scalar deviation) with sensitivities ``G (N, 9, 1)``."""
+    lo, hi = t.bounds
+    return _Source(name, G, np.array([t.mean]), np.array([[t.std ** 2]]), 'interval', np.array([0.5 * (hi - lo)]),
+                   np.array([0.5 * (lo + hi)]))
+
+
+def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, frame: Array,
+             tols: list[Tolerance | None], table: ToleranceTable, calibrated: Calibrated | None) -> list[_Source]:
     params = model.parameters
     cal_idx = np.asarray(calibrated[0], dtype=int) if calibrated is not None else np.zeros(0, dtype=int)
     cols = [j for j, t in enumerate(tols) if t is not None and j not in set(cal_idx.tolist())]
     out: list[_Source] = []
     if cols or cal_idx.size:
-        J = _with_tool(pose_jacobian(model, theta, Q, np.array(cols + cal_idx.tolist(), dtype=int)), rot, tool)
+        J = _with_tool(pose_jacobian(model, theta, Q, np.array(cols + cal_idx.tolist(), dtype=int)), rot, tool,
+                       frame)
         for c, j in enumerate(cols):
             t = tols[j]
             assert t is not None
-            out.append(_Source(params[j].name, J[:, :, c:c + 1], np.array([t.mean]), np.array([[t.std ** 2]]),
-                               'interval', np.array([0.5 * (t.high - t.low)])))
+            out.append(_interval(params[j].name, J[:, :, c:c + 1], t))
         if cal_idx.size:
             cov = np.asarray(calibrated[1], dtype=float)  # type: ignore[index]
             out.append(_Source('calibration', J[:, :, len(cols):], np.zeros(cal_idx.size), cov, 'ellipsoid',
-                               np.zeros(0)))
+                               np.zeros(0), np.zeros(cal_idx.size)))
     if table.rod_length is not None:
-        t = table.rod_length
-        Jq = _with_tool(rod_jacobian(model, theta, Q), rot, tool)
-        for k in range(3):
-            out.append(_Source(f'rod_length{k + 1}', Jq[:, :, k:k + 1], np.array([t.mean]), np.array([[t.std ** 2]]),
-                               'interval', np.array([0.5 * (t.high - t.low)])))
+        Jq = _with_tool(rod_jacobian(model, theta, Q), rot, tool, frame)
+        out += [_interval(f'rod_length{k + 1}', Jq[:, :, k:k + 1], table.rod_length) for k in range(3)]
     if max(table.joint_clearance) > 0:
         Jd = displacement_jacobian(model, theta, Q)                 # (N, 6, 3, 3)
         for k, radius in enumerate(table.joint_clearance):
             if radius > 0:
-                Gk = _with_tool(np.ascontiguousarray(Jd[:, :, k, :]), rot, tool)
+                Gk = _with_tool(np.ascontiguousarray(Jd[:, :, k, :]), rot, tool, frame)
                 out.append(_Source(f'joint_clearance{k + 1}', Gk, np.zeros(3), np.eye(3) * radius ** 2 / 5.0, 'ball',
-                                   np.array([radius])))
+                                   np.array([radius]), np.zeros(3)))
     return out
 
 
@@ -176,7 +188,7 @@ def _worst(src: list[_Source], comps: tuple[int, ...]) -> Array:
         g = s.G[:, list(comps), :]                                   # (N, d, k)
         ug = np.einsum('ud,ndk->nuk', U, g)                          # (N, U, k)
         if s.kind == 'interval':
-            h = h + ug @ s.mean + np.abs(ug) @ s.half
+            h = h + ug @ s.centre + np.abs(ug) @ s.half
         elif s.kind == 'ball':
             h = h + s.half[0] * np.linalg.norm(ug, axis=-1)
         else:
@@ -205,24 +217,33 @@ def _sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table
     return dtheta, dq, disp
 
 
-def _check_options(N: int, samples: int, tool: ArrayLike, percentiles: Sequence[float],
-                   labels: Sequence[str] | None) -> tuple[Array, tuple[float, ...], tuple[str, ...]]:
-    """The checked tool point, percentiles and station labels of :func:`accuracy_budget`."""
+def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayLike | None,
+                   percentiles: Sequence[float], labels: Sequence[str] | None
+                   ) -> tuple[Array, Array, tuple[float, ...], tuple[str, ...]]:
+    """The checked tool points ``(N, 3)``, frame rotation, percentiles and station labels of
+    :func:`accuracy_budget`."""
     if N > MAX_STATIONS:
         raise InputError(f'{N} stations; allowed: at most {MAX_STATIONS}')
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
         raise InputError(f'samples = {samples!r}; allowed: an integer from 0 to {MAX_SAMPLES}')
+    if samples * N > MAX_POSES:
+        raise InputError(f'{samples} samples x {N} stations = {samples * N} poses; allowed: at most {MAX_POSES} '
+                         '(fewer samples)')
     tool_v = np.asarray(tool, dtype=float)
-    if tool_v.shape != (3,) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
-        raise InputError(f'tool must be 3 finite coordinates [m], each within {MAX_TOOL:g} m of the platform '
-                         f'origin; got {np.asarray(tool).ravel()[:3].tolist()}')
+    if tool_v.shape not in ((3,), (N, 3)) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
+        raise InputError(f'tool must be 3 finite coordinates [m] (one point, or one per station: shape ({N}, 3)), '
+                         f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
+                         f'{tool_v.ravel()[:3].tolist()}')
+    R = np.eye(3) if frame_rotation is None else np.asarray(frame_rotation, dtype=float)
+    if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.max(np.abs(R @ R.T - np.eye(3))) > 1e-9:
+        raise InputError(f'frame_rotation must be a rotation matrix (3, 3); got shape {R.shape}')
     pct = tuple(float(p) for p in percentiles)
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
         raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
     labels_t = tuple(str(x) for x in labels) if labels is not None else tuple(str(i + 1) for i in range(N))
     if len(labels_t) != N:
         raise InputError(f'{len(labels_t)} labels for {N} stations')
-    return tool_v, pct, labels_t
+    return np.array(np.broadcast_to(tool_v, (N, 3))), R, pct, labels_t
 
 
 def _check_calibrated(calibrated: tuple[ArrayLike, ArrayLike], P: int) -> Calibrated:
@@ -244,12 +265,15 @@ def _check_calibrated(calibrated: tuple[ArrayLike, ArrayLike], P: int) -> Calibr
 def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool: ArrayLike = (0.0, 0.0, 0.0),
                     samples: int = 10_000, seed: int = 0, theta: ArrayLike | None = None,
                     calibrated: tuple[ArrayLike, ArrayLike] | None = None, labels: Sequence[str] | None = None,
-                    percentiles: Sequence[float] = (50.0, 95.0, 99.0)) -> Budget:
+                    percentiles: Sequence[float] = (50.0, 95.0, 99.0), frame: str = 'gpr_base',
+                    frame_rotation: ArrayLike | None = None) -> Budget:
     """The accuracy budget of ``model`` at the stations ``Q (N, 3)`` [m] (module docstring).
 
     Args:
         table: the tolerance table (:func:`~.tolerances.load_tolerances`).
-        tool: tool point in ``gpr_platform`` [m].
+        tool: tool point in ``gpr_platform`` [m]: one ``(3,)``, or one per station ``(N, 3)`` (a wafer centre).
+        frame, frame_rotation: the errors' 3-vectors are given in the axes of ``frame``, ``v = R v_base`` with
+            ``R = frame_rotation`` (``gpr_base`` in that frame, e.g. the world's; default: ``gpr_base`` itself).
         samples: Monte Carlo samples (0: linearised only); seed: of ``numpy.random.default_rng``.
         theta: the model's parameter values the machine is predicted with (default nominal; after a
             calibration, its estimate).
@@ -263,7 +287,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     """
     Qa = as_configurations(Q, 'stations')
     N = Qa.shape[0]
-    tool_v, pct, labels_t = _check_options(N, samples, tool, percentiles, labels)
+    tool_v, R, pct, labels_t = _check_options(N, samples, tool, frame_rotation, percentiles, labels)
     params = model.parameters
     P = len(params)
     th = params.nominal if theta is None else np.asarray(theta, dtype=float)
@@ -275,7 +299,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
     pos0, rot0 = evaluate(model, th, Qa)
-    src = _sources(model, th, Qa, rot0, tool_v, tols, table, cal)
+    src = _sources(model, th, Qa, rot0, tool_v, R, tols, table, cal)
     names = tuple(s.name for s in src)
     mean = np.zeros((N, 9))
     var = np.zeros((N, 9))
@@ -296,14 +320,14 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         with np.errstate(invalid='ignore', divide='ignore'):  # no shares of an error that is rounding only
             shares[name] = np.where(total[:, None] > SHARE_FLOOR ** 2,
                                     contrib[:, comps, :].sum(1) / total[:, None], 0.0)
-    mc, mc_rms, mc_mean, mc_std = _monte_carlo(model, th, Qa, pos0, rot0, tool_v, tols, cal, table, samples,
+    mc, mc_rms, mc_mean, mc_std = _monte_carlo(model, th, Qa, (pos0, rot0), tool_v, R, tols, cal, table, samples,
                                                seed, pct)
-    return Budget(q=Qa, labels=labels_t, tool=tool_v, sources=names, rss=rss, worst=worst, shares=shares,
-                  samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms, mean=mean,
+    return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
+                  shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms, mean=mean,
                   std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std)
 
 
-def _monte_carlo(model: PoseModel, th: Array, Q: Array, pos0: Array, rot0: Array, tool: Array,
+def _monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array], tool: Array, frame: Array,
                  tols: list[Tolerance | None], cal: Calibrated | None, table: ToleranceTable,
                  samples: int, seed: int, pct: tuple[float, ...]) -> tuple[dict, dict, Array, Array]:
     N = Q.shape[0]
@@ -316,14 +340,19 @@ def _monte_carlo(model: PoseModel, th: Array, Q: Array, pos0: Array, rot0: Array
     src_tols = [(j, t) for j, t in enumerate(tols) if t is not None and j not in cal_set]
     chunk = max(1, CHUNK_POSES // N)
     v = np.empty((samples, N, 9))
-    a0 = rot0 @ tool
+    pos0, rot0 = pose0
+    lower, upper = model.parameters.bounds
+    a0 = np.einsum('nij,nj->ni', rot0, tool)
     for start in range(0, samples, chunk):
         S = min(chunk, samples - start)
         dtheta, dq, disp = _sample(src_tols, cal, table, rng, S, N, th.size)
-        pos, rot = evaluate(model, th[None, :] + dtheta, Q[None] + dq, disp)
+        # A coordinate with a range (a stiffness ratio's anisotropy) stays in it: a normal draw of a calibrated
+        # covariance beyond kappa = 1e6 is taken at the bound (a tangentially rigid joint).
+        pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
         e = pose_error(pos, rot, pos0[None], rot0[None])
-        v[start:start + S, :, :6] = e
-        v[start:start + S, :, 6:] = pos + np.einsum('snij,j->sni', rot, tool) - (pos0 + a0)[None]
+        e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]
+        blocks = np.stack([e[..., :3], e[..., 3:], e_tool], axis=2)          # (S, N, 3 vectors, 3)
+        v[start:start + S] = np.einsum('ij,snbj->snbi', frame, blocks).reshape(S, N, 9)
     mc, rms = {}, {}
     for name, (comps, _) in QUANTITIES.items():
         mag = np.linalg.norm(v[:, :, comps], axis=-1)                # (S, N)

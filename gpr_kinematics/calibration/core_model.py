@@ -1,11 +1,14 @@
 """The binding of the calibration engines to the kinematics core: a :class:`~.model.PoseModel` whose poses are
-:func:`gpr_kinematics.kinematics.forward_batch` of a :class:`~gpr_kinematics.config.GprConfig` with the
-parameters written in, and the calibrated geometry file.
+:func:`gpr_kinematics.kinematics.forward_batch` with the geometry parameters of each row, and the calibrated
+geometry file.
 
-The parameters are the geometric keys of the configuration file: today ``radius`` and the three
-``rod_azimuths`` (``rod_azimuth1..3``); the platform's joints share them (the core's geometry is one circle).
-Each key the core gains (per-rod base positions, zero offsets, rod directions, platform joints, ``kappa``)
-becomes parameters here by a line in :data:`GEOMETRY_KEYS`, and the engines need nothing else.
+The parameters are the 24 scalars of the geometry file, :data:`gpr_kinematics.machine.PARAMETERS`: per rod its base
+point ``rodK_x``, ``rodK_y`` [m], zero offset ``rodK_offset`` [m] and direction ``rodK_ux``, ``rodK_uy`` [rad],
+per joint its place on the platform ``jointK_x``, ``jointK_y`` [m] and stiffness ratio ``kappaK``, identified as
+its anisotropy ``(kappa - 1) / (kappa + 1)`` (:class:`~.model.Parameter`). Every parameter row of a call is one
+machine of the core's per-row batch (``forward_batch(..., parameters=...)``): the ``2 P`` perturbed machines of a
+Jacobian and the samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d`` of its centre
+``P_k`` in ``gpr_base``) goes to the core as well (``forward_batch(..., displacement=...)``).
 """
 from __future__ import annotations
 
@@ -20,9 +23,10 @@ from numpy.typing import NDArray
 from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import base_points, forward_batch
+from ..machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
 from .files import comment_lines, write_text
 from .measurements import Measurements
-from .model import Parameter, ParameterSet, config_values
+from .model import Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
 
@@ -30,24 +34,30 @@ Array = NDArray[np.float64]
 #: limit, rounding of the commanded rod lengths).
 TILT_MARGIN = 1.05
 
-#: Configuration keys calibrated, with unit and a-priori uncertainty (the scale of :class:`~.model.Parameter`):
-#: 0.1 mm for lengths, 1 mrad for angles. Per-element names for list-valued keys.
-GEOMETRY_KEYS: dict[str, tuple[str, float, tuple[str, ...]]] = {
-    'radius': ('m', 1e-4, ()),
-    'rod_azimuths': ('rad', 1e-3, ('rod_azimuth1', 'rod_azimuth2', 'rod_azimuth3')),
-}
+#: A-priori standard uncertainty of the parameters of each configuration key (the scale of
+#: :class:`~.model.Parameter`): 0.1 mm for lengths, 1 mrad for the rod directions, 0.5 for a joint's anisotropy
+#: (of its range -1 .. 1: the stiffness ratio is not known before measuring).
+SCALES: dict[str, float] = {'rod_positions': 1e-4, 'rod_offsets': 1e-4, 'rod_directions': 1e-3,
+                            'platform_joints': 1e-4, 'kappa': 0.5}
 
+#: The virtual-joint model of calibration and budgets unless one is named.
+MODEL = 'compliant'
 
 def geometry_parameters(config: GprConfig, scales: Mapping[str, float] | None = None) -> ParameterSet:
-    """The parameters of :data:`GEOMETRY_KEYS` at ``config``'s values (``scales`` overrides a key's scale)."""
-    values = config.to_dict()
+    """The parameters of :data:`~gpr_kinematics.machine.PARAMETERS` at ``config``'s values; ``scales`` overrides
+    the scale of a configuration key (:data:`SCALES`) or of one parameter by its name."""
+    scales = dict(scales or {})
+    unknown = sorted(set(scales) - set(SCALES) - set(PARAMETER_NAMES))
+    if unknown:
+        raise InputError(f'scales: unknown key(s) {", ".join(unknown)}; allowed: {", ".join(SCALES)} or a '
+                         'parameter name')
     out = []
-    for key, (unit, scale, names) in GEOMETRY_KEYS.items():
-        scale = float((scales or {}).get(key, scale))
-        if not names:
-            out.append(Parameter(key, float(values[key]), unit, scale, key))
-        for i, name in enumerate(names):
-            out.append(Parameter(name, float(values[key][i]), unit, scale, key, (i,)))
+    for gp, value in zip(PARAMETERS, parameter_vector(config).tolist(), strict=True):
+        scale = float(scales.get(gp.name, scales.get(gp.key, SCALES[gp.key])))
+        index = (gp.rod,) if gp.key in ('rod_offsets', 'kappa') else (gp.rod, gp.component)
+        transform = 'anisotropy' if gp.key == 'kappa' else ''
+        out.append(Parameter(gp.name, float(coordinate_of(transform, value)), gp.unit, scale, gp.key, index,
+                             transform, value if transform else None))
     return ParameterSet(tuple(out))
 
 
@@ -55,20 +65,21 @@ class CoreModel:
     """Poses of the core's forward kinematics with the geometry parameters of :func:`geometry_parameters`.
 
     Args:
-        config: the nominal geometry and every other setting (virtual-joint model, solver).
-        model: virtual-joint model name (default: ``config.model``).
+        config: the nominal geometry and every other setting (stroke, solver).
+        model: virtual-joint model (default :data:`MODEL`, ``compliant``: the physical model, in which ``kappa``
+            acts; with the default ``kappa`` 1000 it is the ``radial`` model within 0.2 %).
+        scales: a-priori uncertainties (:func:`geometry_parameters`).
 
-    Each parameter row is a validated :class:`GprConfig` (``config.replace``) and one ``forward_batch`` call
-    over its configurations (no limit checks: a measured pose may sit at the tilt limit). Distinct rows are
-    evaluated one after another: the core's batch kernels take one geometry per call.
+    No limit checks (a measured pose may sit at the tilt limit); a parameter row outside the geometry's ranges
+    raises :class:`InputError` (:meth:`~gpr_kinematics.machine.MachineGeometry.per_row`).
     """
 
-    supports_displacement = False
+    supports_displacement = True
 
     def __init__(self, config: GprConfig, model: str | None = None,
                  scales: Mapping[str, float] | None = None) -> None:
         self.config = config
-        self.model = model
+        self.model = MODEL if model in (None, '') else str(model)
         self._parameters = geometry_parameters(config, scales)
 
     @property
@@ -76,22 +87,18 @@ class CoreModel:
         return self._parameters
 
     def config_for(self, theta: Any) -> GprConfig:
-        """The configuration with the parameter values ``theta`` (P,) written in (validated)."""
-        return self.config.replace(**config_values(self._parameters, theta, self.config.to_dict()))
+        """The configuration of the parameter coordinates ``theta (P,)``, with this model (validated): the
+        calibrated geometry file's content."""
+        values = self._parameters.values(np.asarray(theta, dtype=float))
+        return config_with_parameters(self.config.replace(model=self.model), values)
 
     def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
         S, N = Q.shape[0], Q.shape[1]
-        pos = np.empty((S, N, 3))
-        rot = np.empty((S, N, 3, 3))
-        # One forward_batch per distinct parameter row, over all its configurations (rod-length errors alone
-        # leave theta equal in every row: then one call does everything).
-        rows, inverse = np.unique(theta, axis=0, return_inverse=True)
-        for r in range(rows.shape[0]):
-            sel = np.flatnonzero(inverse.ravel() == r)
-            fk = forward_batch(Q[sel].reshape(-1, 3), self.config_for(rows[r]), self.model, check_limits=False)
-            pos[sel] = fk.position.reshape(sel.size, N, 3)
-            rot[sel] = fk.rotation.reshape(sel.size, N, 3, 3)
-        return pos, rot
+        values = self._parameters.values(theta)                      # (S, 24), one machine per row
+        d = None if displacement is None else displacement.reshape(S * N, 3, 3)
+        fk = forward_batch(Q.reshape(-1, 3), self.config, self.model, check_limits=False, parameters=values,
+                           displacement=d)
+        return fk.position.reshape(S, N, 3), fk.rotation.reshape(S, N, 3, 3)
 
 
 def check_limits(meas: Measurements, config: GprConfig) -> None:

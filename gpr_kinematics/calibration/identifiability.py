@@ -106,14 +106,37 @@ class Identifiability:
                 'condition_number': self.condition_number if self.fitted_singular_values.size else None}
 
 
+#: Rows of the blocks of :func:`triangular_factor` (small factorisations: LAPACK runs them in one thread).
+QR_BLOCK = 96
+
+
 def triangular_factor(J_scaled: Array) -> Array:
     """The ``R`` of a QR factorisation of ``J_scaled (m, C)``: ``C x C`` with the same singular values and right
-    singular vectors, so later analyses cost ``O(C^3)`` however many rows ``J`` has."""
+    singular vectors, so later analyses cost ``O(C^3)`` however many rows ``J`` has.
+
+    A tall ``J`` is factorised as a tree of small QR factorisations (TSQR: the ``R`` of blocks of rows, stacked and
+    factorised again; Demmel, Grigori, Hoemmen & Langou, *Communication-optimal parallel and sequential QR and LU
+    factorizations*, SIAM J. Sci. Comput. 34(1), 2012): orthogonal transformations only, as stable as one QR, and
+    each block small enough that the multithreaded LAPACK does not spin threads for it (on a loaded two-core
+    machine one QR of a 1200 x 24 matrix took 140 ms that way, its blocks 3 ms).
+
+    >>> J = np.random.default_rng(0).normal(size=(1000, 5))
+    >>> bool(np.allclose(np.abs(triangular_factor(J)), np.abs(np.linalg.qr(J, mode='r'))))
+    True
+    """
     J = np.asarray(J_scaled, dtype=float)
-    if J.shape[0] >= J.shape[1]:
-        R: Array = np.linalg.qr(J, mode='r')  # type: ignore[assignment]  # mode 'r' returns R alone
-        return R
-    return np.vstack([J, np.zeros((J.shape[1] - J.shape[0], J.shape[1]))])
+    m, C = J.shape
+    if m < C:
+        return np.vstack([J, np.zeros((C - m, C))])
+    rows = max(QR_BLOCK, 2 * C)
+    while J.shape[0] > rows:
+        k = -(-J.shape[0] // rows)                        # blocks of at most `rows` rows, padded with zeros
+        padded = np.zeros((k * rows, C))
+        padded[:J.shape[0]] = J
+        blocks: Array = np.linalg.qr(padded.reshape(k, rows, C), mode='r')  # type: ignore[assignment]
+        J = blocks.reshape(k * C, C)
+    R: Array = np.linalg.qr(J, mode='r')  # type: ignore[assignment]  # mode 'r' returns R alone
+    return R
 
 
 def analyse(J_scaled: Array, names: Sequence[str], threshold: float = DEFAULT_THRESHOLD,

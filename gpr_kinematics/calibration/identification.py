@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError
-from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
+from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian, prior_scale
 
@@ -43,9 +43,17 @@ PLAUSIBLE_POSITION = 0.01
 PLAUSIBLE_ANGLE = 0.05
 #: Levenberg-Marquardt stops when the largest step is below this, in units of the parameters' scales.
 STEP_TOLERANCE = 1e-9
+#: ... or when a step is below this fraction of every parameter's standard error (statistically nothing: the
+#: model's rounding, ~1e-15 m, moves a fit of micrometre-noise data by ~1e-9 standard errors) ...
+SE_TOLERANCE = 1e-4
 #: ... or when a step below 1e-5 scales lowers the cost by less than this fraction.
 COST_TOLERANCE = 1e-12
 MAX_ITERATIONS = 40
+#: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
+#: are 100 times the stated noise, and no geometry of this machine explains the poses.
+MAX_CHI2 = 1e4
+NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
+                    '"# units:" line says, m by default? a measured frame other than gpr_platform in gpr_base?)')
 
 
 @dataclass(frozen=True)
@@ -78,8 +86,11 @@ class CalibrationResult:
 
     Attributes:
         parameters: the model's parameters (order of every array here).
-        estimate: identified values (nominal for held and fixed parameters), SI.
-        standard_error: standard errors of the fitted parameters (``nan`` for held and fixed ones).
+        estimate: identified coordinates (nominal for held and fixed parameters), SI: the values, except a
+            transformed parameter's coordinate (a stiffness ratio's anisotropy, :class:`~.model.Parameter`);
+            :attr:`values` has the values.
+        standard_error: standard errors of the fitted coordinates (``nan`` for held and fixed ones);
+            :attr:`value_standard_error` those of the values.
         status: per parameter ``fitted``, ``held`` (free, but the poses cannot identify it) or ``fixed``
             (not asked for).
         fitted: indices of the fitted parameters; covariance: their covariance ``(F, F)``, SI.
@@ -106,19 +117,35 @@ class CalibrationResult:
     source: str
 
     @property
+    def values(self) -> Array:
+        """Identified values (the estimate's coordinates turned into values: ``kappa`` from its anisotropy)."""
+        return self.parameters.values(self.estimate)
+
+    @property
+    def value_standard_error(self) -> Array:
+        """Standard errors of the values (the delta method, ``|d value / d coordinate|`` times the coordinate's)."""
+        return np.abs(self.parameters.value_slopes(self.estimate)) * self.standard_error
+
+    @property
     def correlation(self) -> Array:
         """Correlation matrix of the fitted parameters."""
         d = np.sqrt(np.diag(self.covariance))
         return np.asarray(self.covariance / np.outer(d, d), dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain data for JSON (standard errors of parameters not fitted are ``None``)."""
+        """Plain data for JSON: per parameter its value (``nominal``, ``estimate``, ``change``, ``standard_error``;
+        ``None`` where not fitted) and, for a transformed one, the same of its ``coordinate``."""
         params = []
+        nominal, values, se_v = self.parameters.values(self.parameters.nominal), self.values, self.value_standard_error
         for j, p in enumerate(self.parameters):
             se = self.standard_error[j]
-            params.append({'name': p.name, 'unit': p.unit, 'nominal': p.nominal, 'estimate': float(self.estimate[j]),
-                           'change': float(self.estimate[j] - p.nominal),
-                           'standard_error': float(se) if math.isfinite(se) else None, 'status': self.status[j]})
+            entry = {'name': p.name, 'unit': p.unit, 'nominal': float(nominal[j]), 'estimate': float(values[j]),
+                     'change': float(values[j] - nominal[j]),
+                     'standard_error': float(se_v[j]) if math.isfinite(se) else None, 'status': self.status[j]}
+            if p.transform:
+                entry['coordinate'] = {'name': p.transform, 'nominal': p.nominal, 'estimate': float(self.estimate[j]),
+                                       'standard_error': float(se) if math.isfinite(se) else None}
+            params.append(entry)
         return {'source': self.source, 'rows': self.rows, 'parameters': params,
                 'residuals': {'before': self.before.as_dict(), 'after': self.after.as_dict()},
                 'identifiability': self.identifiability.as_dict(), 'chi2_reduced': self.chi2_reduced,
@@ -195,16 +222,24 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     free_idx = np.flatnonzero(mask).astype(np.int64)
     ident = analyse(weighted_jacobian(theta0, free_idx), [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
-    theta, e, iterations = _levenberg_marquardt(errors, weighted_jacobian, theta0, fit, w, scale)
+    try:
+        theta, e, iterations = _levenberg_marquardt(errors, weighted_jacobian, theta0, fit, w, scale, params.bounds)
+    except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
+        raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
+                         f'{NOT_THIS_MACHINE}') from None
     F = fit.size
     chi2 = float(np.sum((e * w) ** 2))
     dof = 6 * n - F
     chi2_red = chi2 / dof
+    if absolute and chi2_red > MAX_CHI2:
+        raise InputError(f'{meas.source}: the best fit leaves residuals {math.sqrt(chi2_red):.3g} times the standard '
+                         f'deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most {MAX_CHI2:g}): '
+                         f'{NOT_THIS_MACHINE}, or sigma columns far too small')
     cov = np.zeros((0, 0))
     se = np.full(len(params), np.nan)
     if F:
         Js = weighted_jacobian(theta, fit)
-        _, s, vt = np.linalg.svd(Js, full_matrices=False)
+        _, s, vt = np.linalg.svd(triangular_factor(Js))
         cov_scaled = (vt.T / s ** 2) @ vt
         cov = cov_scaled * np.outer(scale[fit], scale[fit]) * (1.0 if absolute else chi2_red)
         se[fit] = np.sqrt(np.diag(cov))
@@ -218,12 +253,12 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
 
 
 def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit: NDArray[np.int64], w: Array,
-                         scale: Array) -> tuple[Array, Array, int]:
+                         scale: Array, bounds: tuple[Array, Array]) -> tuple[Array, Array, int]:
     """Minimise ``|errors(theta) * w|^2`` over ``theta[fit]`` from ``theta0``; returns ``(theta, errors, steps)``.
 
     Steps solve ``(J_s^T J_s + lam D) d = -J_s^T r`` in scaled coordinates (``D`` the diagonal of ``J_s^T J_s``,
     Marquardt's scaling); ``lam`` shrinks tenfold after a step that lowers the cost and grows tenfold after one
-    that does not.
+    that does not, or that leaves the coordinates' open ``bounds`` (``(P,)`` lowest, highest).
     """
     theta = theta0.copy()
     e = errors(theta)
@@ -231,6 +266,7 @@ def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit
         return theta, e, 0
     cost = float(np.sum((e * w) ** 2))
     lam = 1e-6
+    lower, upper = bounds[0][fit], bounds[1][fit]
     for it in range(1, MAX_ITERATIONS + 1):
         Js = weighted_jacobian(theta, fit)
         r = (e * w).ravel()
@@ -241,9 +277,14 @@ def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit
             d = np.linalg.solve(A + lam * D, -g)
             trial = theta.copy()
             trial[fit] += d * scale[fit]
-            e_t = errors(trial)
-            cost_t = float(np.sum((e_t * w) ** 2))
-            if cost_t <= cost or np.max(np.abs(d)) < STEP_TOLERANCE:
+            cost_t = math.inf   # outside a coordinate's range or the model's domain (a degenerate geometry): failed
+            if not (np.any(trial[fit] <= lower) or np.any(trial[fit] >= upper)):
+                try:
+                    e_t = errors(trial)
+                    cost_t = float(np.sum((e_t * w) ** 2))
+                except InputError:          # the model refuses the trial's parameters (they changed, not the data)
+                    pass
+            if cost_t <= cost or (np.max(np.abs(d)) < STEP_TOLERANCE and math.isfinite(cost_t)):
                 break
             lam *= 10.0
             if lam > 1e12:
@@ -253,9 +294,12 @@ def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit
         theta, e, cost = trial, e_t, cost_t
         lam = max(lam / 10.0, 1e-12)
         step = float(np.max(np.abs(d)))
-        # Converged: a step far below every standard error, or one that no longer lowers the cost (rounding of
-        # the model: its last digits make tiny steps wander without changing the fit).
-        if step < STEP_TOLERANCE or (step < 1e-5 and gain <= COST_TOLERANCE * cost):
+        # Converged: a step far below the parameters' standard errors (sqrt of the diagonal of (J^T J)^-1 in these
+        # scaled units), or one that no longer lowers the cost (rounding of the model: its last digits make tiny
+        # steps wander without changing the fit).
+        se = np.sqrt(np.maximum(np.diag(np.linalg.pinv(A)), 0.0))
+        if step < STEP_TOLERANCE or float(np.max(np.abs(d) / np.maximum(se, 1e-300))) < SE_TOLERANCE \
+                or (step < 1e-5 and gain <= COST_TOLERANCE * cost):
             return theta, e, it
     raise ConvergenceError(f'identification did not converge in {MAX_ITERATIONS} iterations (last step '
                            f'{np.max(np.abs(d)):.3g} parameter scales)')

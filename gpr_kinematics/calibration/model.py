@@ -17,10 +17,10 @@ radians, zero exactly when the poses agree.
 """
 from __future__ import annotations
 
-import copy
-from collections.abc import Iterable, Iterator, Mapping
+import math
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,25 +33,46 @@ Array = NDArray[np.float64]
 
 #: Units a parameter may have: metres, radians or a dimensionless ratio.
 UNITS = ('m', 'rad', '1')
+#: Coordinates a parameter may be identified in (:attr:`Parameter.transform`): the value itself, or for a stiffness
+#: ratio ``kappa`` its anisotropy ``a = (kappa - 1) / (kappa + 1)``.
+TRANSFORMS = ('', 'anisotropy')
+#: Range of a stiffness ratio (the geometry file's ``kappa``), and of its anisotropy.
+KAPPA_RANGE = (1e-6, 1e6)
 #: Central finite-difference step as a fraction of a parameter's scale (its a-priori uncertainty): small
 #: enough for a truncation error ~1e-4 relative on a scale-sized effect, large enough that a solver
 #: tolerance of 1e-14 m costs < 1e-8 relative.
 FD_STEP_FRACTION = 1e-2
 
 
+def coordinate_of(transform: str, value: ArrayLike) -> Array:
+    """The coordinate of values under ``transform`` (:data:`TRANSFORMS`): the value, or the anisotropy
+    ``(kappa - 1) / (kappa + 1)`` of a stiffness ratio."""
+    v = np.asarray(value, dtype=float)
+    return (v - 1.0) / (v + 1.0) if transform == 'anisotropy' else v
+
+
 @dataclass(frozen=True)
 class Parameter:
     """One geometric parameter of a pose model.
 
+    The engines work on its *coordinate* ``u``: the value itself, or, with ``transform = 'anisotropy'`` (a
+    stiffness ratio ``kappa = k_t / k_r``), ``u = (kappa - 1) / (kappa + 1)`` in ``(-1, 1)``: ``-1`` tangentially
+    free, ``0`` isotropic, ``+1`` tangentially rigid (the radial model). The compliant model's centre shift is about
+    ``R alpha^2 / 4 * u`` (docs/core.md), linear in ``u`` where it saturates in ``kappa``, so a fit or a linearised
+    budget in ``u`` is well behaved from ``kappa = 1000`` as from ``kappa = 1``. Reports show the value.
+
     Attributes:
-        name: unique name, e.g. ``radius``, ``rod_azimuth2``, ``offset1``.
-        nominal: nominal (design) value, in ``unit``.
-        unit: ``m``, ``rad`` or ``1`` (dimensionless).
-        scale: a-priori standard uncertainty of the value (its tolerance), > 0, in ``unit``. It scales the
-            identification Jacobian (so that singular values compare the information of the measurements with
-            what is known before measuring) and sets the finite-difference step.
-        key: the configuration-file key the value is written to (``rod_azimuths`` for ``rod_azimuth2``).
+        name: unique name, e.g. ``rod1_x``, ``rod2_offset``, ``kappa1``.
+        nominal: nominal (design) coordinate (the value, unless transformed).
+        unit: ``m``, ``rad`` or ``1`` (dimensionless), of the coordinate and of the value.
+        scale: a-priori standard uncertainty of the coordinate (its tolerance), > 0. It scales the identification
+            Jacobian (so that singular values compare the information of the measurements with what is known
+            before measuring) and sets the finite-difference step.
+        key: the configuration-file key the value is written to (``rod_offsets`` for ``rod2_offset``).
         index: the element of a list-valued ``key`` (0-based; a path into nested lists), ``()`` for a scalar key.
+        transform: ``''`` or ``'anisotropy'`` (:data:`TRANSFORMS`).
+        nominal_value: the value at the nominal coordinate, exactly (a transform's round trip loses the last
+            digits: kappa 1000 would come back as 999.99999999998); ``None``: the transform of the nominal.
     """
 
     name: str
@@ -60,18 +81,55 @@ class Parameter:
     scale: float
     key: str
     index: tuple[int, ...] = ()
+    transform: str = ''
+    nominal_value: float | None = None
 
     def __post_init__(self) -> None:
         if self.unit not in UNITS:
             raise InputError(f'parameter {self.name}: unit {self.unit!r}; allowed: {", ".join(UNITS)}')
-        if not (np.isfinite(self.nominal) and np.isfinite(self.scale) and self.scale > 0):
+        if self.transform not in TRANSFORMS:
+            raise InputError(f'parameter {self.name}: transform {self.transform!r}; allowed: '
+                             f'{", ".join(map(repr, TRANSFORMS))}')
+        lo, hi = self.bounds
+        if not (np.isfinite(self.nominal) and lo <= self.nominal <= hi and np.isfinite(self.scale)
+                and self.scale > 0):
             raise InputError(f'parameter {self.name}: nominal {self.nominal!r} and scale {self.scale!r} must be '
-                             'finite, the scale > 0')
+                             f'finite, the nominal within [{lo:g}, {hi:g}], the scale > 0')
 
     @property
     def step(self) -> float:
-        """Central finite-difference step [unit]."""
+        """Central finite-difference step of the coordinate [unit] (:meth:`ParameterSet.steps` keeps it inside
+        :attr:`bounds`)."""
         return FD_STEP_FRACTION * self.scale
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """Range of the coordinate: ``(-inf, inf)``, or for an anisotropy the image of :data:`KAPPA_RANGE`."""
+        if self.transform == 'anisotropy':
+            lo, hi = KAPPA_RANGE
+            return (lo - 1.0) / (lo + 1.0), (hi - 1.0) / (hi + 1.0)
+        return -math.inf, math.inf
+
+    def value(self, u: ArrayLike) -> Array:
+        """The value of coordinates ``u``: ``kappa = (1 + u) / (1 - u)`` for an anisotropy.
+
+        >>> Parameter('kappa1', 0.5, '1', 0.5, 'kappa', (0,), 'anisotropy').value([0.0, 0.5, -0.5]).tolist()
+        [1.0, 3.0, 0.3333333333333333]
+        """
+        a = np.asarray(u, dtype=float)
+        if self.transform != 'anisotropy':
+            return a
+        v = np.clip((1.0 + a) / (1.0 - a), *KAPPA_RANGE)      # (at the bounds: not a rounding beyond them)
+        return v if self.nominal_value is None else np.where(a == self.nominal, self.nominal_value, v)
+
+    def coordinate(self, value: ArrayLike) -> Array:
+        """The coordinate of values (the inverse of :meth:`value`)."""
+        return coordinate_of(self.transform, value)
+
+    def value_slope(self, u: ArrayLike) -> Array:
+        """``d value / d u`` at ``u`` (for standard errors of the value: the delta method)."""
+        a = np.asarray(u, dtype=float)
+        return 2.0 / (1.0 - a) ** 2 if self.transform == 'anisotropy' else np.ones_like(a)
 
 
 @dataclass(frozen=True)
@@ -112,8 +170,41 @@ class ParameterSet:
         return np.array([p.step for p in self.parameters])
 
     @property
+    def bounds(self) -> tuple[Array, Array]:
+        """Lowest and highest coordinates ``(P,)`` (:attr:`Parameter.bounds`)."""
+        b = np.array([p.bounds for p in self.parameters]).reshape(-1, 2)
+        return b[:, 0], b[:, 1]
+
+    def steps(self, theta: ArrayLike) -> Array:
+        """Finite-difference steps at coordinates ``theta``: :attr:`step`, shortened to half the distance to a
+        bound, so that ``theta +- step`` stays inside (an anisotropy near 1: a stiff joint)."""
+        th = np.asarray(theta, dtype=float)
+        lo, hi = self.bounds
+        return np.asarray(np.minimum(self.step, 0.5 * np.minimum(hi - th, th - lo)), dtype=np.float64)
+
+    def values(self, theta: ArrayLike) -> Array:
+        """Values ``(..., P)`` of coordinate rows ``theta (..., P)`` (:meth:`Parameter.value` per column)."""
+        return self._transformed(theta, to_value=True)
+
+    def coordinates(self, values: ArrayLike) -> Array:
+        """Coordinates ``(..., P)`` of value rows (the inverse of :meth:`values`)."""
+        return self._transformed(values, to_value=False)
+
+    def _transformed(self, rows: ArrayLike, to_value: bool) -> Array:
+        out = np.array(rows, dtype=float)
+        for j, p in enumerate(self.parameters):
+            if p.transform:
+                out[..., j] = p.value(out[..., j]) if to_value else p.coordinate(out[..., j])
+        return out
+
+    def value_slopes(self, theta: ArrayLike) -> Array:
+        """``d value / d coordinate`` ``(P,)`` at ``theta``."""
+        th = np.asarray(theta, dtype=float)
+        return np.array([p.value_slope(th[j]) for j, p in enumerate(self.parameters)], dtype=float)
+
+    @property
     def groups(self) -> tuple[str, ...]:
-        """The configuration keys, in order of first appearance (``rod_azimuths`` groups its three angles)."""
+        """The configuration keys, in order of first appearance (``rod_offsets`` groups the three offsets)."""
         return tuple(dict.fromkeys(p.key for p in self.parameters))
 
     def index(self, name: str) -> int:
@@ -136,31 +227,6 @@ class ParameterSet:
                                  f'(or a whole key: {", ".join(self.groups)})')
             mask |= hit
         return mask
-
-
-def config_values(params: ParameterSet, theta: ArrayLike, base: Mapping[str, Any]) -> dict[str, Any]:
-    """The configuration keys of ``params`` with the values ``theta`` written in: a scalar key takes its
-    parameter's value, a list-valued key (from ``base``, a mapping of the current values) has the parameters'
-    elements replaced. Returns only the keys the parameters touch.
-
-    >>> ps = ParameterSet((Parameter('radius', 0.1, 'm', 1e-4, 'radius'),
-    ...                    Parameter('rod_azimuth2', 2.0, 'rad', 1e-3, 'rod_azimuths', (1,))))
-    >>> config_values(ps, [0.2, 2.5], {'radius': 0.1, 'rod_azimuths': [0.0, 2.0, 4.0]})
-    {'radius': 0.2, 'rod_azimuths': [0.0, 2.5, 4.0]}
-    """
-    out: dict[str, Any] = {}
-    for p, v in zip(params, np.asarray(theta, dtype=float).tolist(), strict=True):
-        if not p.index:
-            out[p.key] = v
-            continue
-        if p.key not in out:
-            out[p.key] = copy.deepcopy(list(base[p.key]))
-        node = out[p.key]
-        for i in p.index[:-1]:
-            node[i] = list(node[i])
-            node = node[i]
-        node[p.index[-1]] = v
-    return out
 
 
 def prior_scale(params: ParameterSet, prior: ArrayLike | None) -> Array:
@@ -272,9 +338,10 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
                   reference: tuple[Array, Array] | None = None) -> Array:
     """Derivatives ``(N, 6, C)`` of the pose error ``e(theta) = pose_error(poses(theta), reference)`` (position
     [m], rotation vector [rad]) by the parameters ``columns`` (indices or a mask; all by default), by central
-    differences with each parameter's :attr:`Parameter.step`: ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``,
-    error ``O(h^2)``. ``reference`` (positions ``(N, 3)``, rotations ``(N, 3, 3)``; e.g. measured poses) defaults
-    to the poses at ``theta`` itself (then the columns are the pose's sensitivities as small rigid motions).
+    differences with each parameter's step (:meth:`ParameterSet.steps`):
+    ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``, error ``O(h^2)``. ``reference`` (positions ``(N, 3)``,
+    rotations ``(N, 3, 3)``; e.g. measured poses) defaults to the poses at ``theta`` itself (then the columns are
+    the pose's sensitivities as small rigid motions).
 
     All ``2 C`` perturbed parameter rows go to the model in one call (one batch of ``2 C x N`` poses).
     """
@@ -286,7 +353,7 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
     Qa = as_configurations(Q)
     if cols.size == 0:
         return np.zeros((Qa.shape[0], 6, 0))
-    h = params.step[cols]
+    h = params.steps(th)[cols]
     rows = np.repeat(th[None, :], 2 * cols.size, axis=0)
     k = np.arange(cols.size)
     rows[2 * k, cols] += h

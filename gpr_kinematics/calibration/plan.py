@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..config import GprConfig
 from ..errors import InputError
 from ..kinematics import naive_inverse
-from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse
+from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
 from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
 
@@ -121,8 +121,17 @@ class MeasurementPlan:
                 'index_name': self.index_name, 'index': self.index, 'random_index': self.random_index,
                 'identifiability': self.identifiability.as_dict(), 'candidates': self.candidates,
                 'passes': self.passes, 'exchanges': self.exchanges,
-                'standard_errors': dict(zip(self.identifiability.identified,
-                                            np.sqrt(np.diag(self.covariance)).tolist(), strict=True))}
+                'standard_errors': dict(zip(self.identifiability.identified, self.standard_errors.tolist(),
+                                            strict=True))}
+
+    @property
+    def standard_errors(self) -> Array:
+        """Predicted standard errors of the identified parameters' values (``fitted`` order; a transformed
+        parameter's by the delta method at its nominal), SI."""
+        if not self.fitted.size:
+            return np.zeros(0)
+        slope = self.parameters.value_slopes(self.parameters.nominal)[self.fitted]
+        return np.asarray(np.abs(slope) * np.sqrt(np.diag(self.covariance)), dtype=np.float64)
 
 
 #: Random designs drawn for :attr:`MeasurementPlan.random_index`.
@@ -229,16 +238,17 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     fitted = free_idx[fit_cols]
     cov = np.zeros((0, 0))
     if fit_cols:
-        _, s, vt = np.linalg.svd(Jp[:, fit_cols], full_matrices=False)
+        _, s, vt = np.linalg.svd(triangular_factor(Jp[:, fit_cols]))
         cov = (vt.T / s ** 2) @ vt * np.outer(scale[fitted], scale[fitted])
     value = observability_index(ident.fitted_singular_values, n, index)
     rng = np.random.default_rng(seed)
     rand = []
     for _ in range(RANDOM_DESIGNS):
         pick = rng.choice(C, size=n, replace=False)
-        s = np.linalg.svd(J[pick][:, :, fit_cols].reshape(-1, len(fit_cols)), compute_uv=False) if fit_cols else \
-            np.zeros(0)
-        rand.append(observability_index(s, n, index))
+        design = J[pick][:, :, fit_cols].reshape(-1, len(fit_cols))
+        sv = np.asarray(np.linalg.svd(triangular_factor(design), compute_uv=False), dtype=np.float64) if fit_cols \
+            else np.zeros(0)
+        rand.append(observability_index(sv, n, index))
     return MeasurementPlan(q=cand.q[sel], height=cand.height[sel], tilt=cand.tilt[sel], azimuth=cand.azimuth[sel],
                            index_name=index, index=value, random_index=float(np.median(rand)),
                            identifiability=ident, fitted=fitted, covariance=cov, candidates=C, passes=passes,

@@ -34,12 +34,13 @@ def format_calibration(res: CalibrationResult) -> str:
     ident = res.identifiability
     lines = [f'calibration from {res.source}: {res.rows} rows, {len(ident.names)} free parameter(s), '
              f'{len(ident.identified)} fitted in {res.iterations} Levenberg-Marquardt iterations',
-             f'  {"parameter":<16}{"nominal":>18}{"estimate":>18}{"change":>16}{"std error":>16}  status']
+             f'  {"parameter":<14}{"nominal":>19}{"estimate":>20}{"change":>17}{"std error":>16}  status']
+    nominal, values, se_v = res.parameters.values(res.parameters.nominal), res.values, res.value_standard_error
     for j, p in enumerate(res.parameters):
-        se = res.standard_error[j]
+        se = se_v[j]
         se_txt = _micro(se, p.unit).lstrip('+') if math.isfinite(se) else '-'
-        lines.append(f'  {p.name:<16}{p.nominal:18.12g}{res.estimate[j]:18.12g}'
-                     f'{_micro(res.estimate[j] - p.nominal, p.unit):>16}{se_txt:>16}  {res.status[j]} [{p.unit}]')
+        lines.append(f'  {p.name:<14} {nominal[j]:>18.12g} {values[j]:>19.12g} '
+                     f'{_micro(values[j] - nominal[j], p.unit):>16} {se_txt:>15}  {res.status[j]} [{p.unit}]')
     lines.append(f'  {"residuals":<10}{"RMS position":>13}{"worst position":>24}{"RMS angle":>15}'
                  f'{"worst angle":>25}')
     lines.append(_residual_row('before', res.before))
@@ -71,7 +72,7 @@ def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float
     lines.append(f'observability index ({plan.index_name}) {plan.index:.6g}; median of random designs of the same '
                  f'size {plan.random_index:.6g}')
     ident = plan.identifiability
-    se = np.sqrt(np.diag(plan.covariance)) if plan.covariance.size else np.zeros(0)
+    se = plan.standard_errors
     units = {p.name: p.unit for p in plan.parameters}
     pred = ', '.join(f'{name} {_micro(s, units.get(name, "1")).lstrip("+")}'
                      for name, s in zip(ident.identified, se, strict=True))
@@ -85,11 +86,11 @@ def format_budget(b: Budget, top: int = 3) -> str:
     """The budget: per station and quantity the linearised RSS and worst case and the Monte Carlo percentiles,
     in um (lengths) and urad (angles), and the ``top`` largest shares of each quantity's RSS."""
     pcols = ''.join(f'{"MC p" + format(p, "g"):>11}' for p in b.percentiles) if b.samples else ''
-    lines = [f'accuracy budget: {len(b.labels)} station(s), tool ({b.tool[0]:g}, {b.tool[1]:g}, {b.tool[2]:g}) m '
-             f'in gpr_platform; ' + (f'{b.samples} Monte Carlo samples (seed {b.seed})' if b.samples else
-                                     'linearised only')]
+    lines = [f'accuracy budget: {len(b.labels)} station(s), errors in the axes of {b.frame}; '
+             + (f'{b.samples} Monte Carlo samples (seed {b.seed})' if b.samples else 'linearised only')]
     for i, label in enumerate(b.labels):
-        lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m')
+        lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m, tool '
+                     f'({b.tool[i, 0]:.6g}, {b.tool[i, 1]:.6g}, {b.tool[i, 2]:.6g}) m in gpr_platform')
         lines.append(f'  {"quantity":<20}{"unit":>5}{"RSS":>11}{"worst":>11}{pcols}  largest shares')
         for name, (_, unit) in QUANTITIES.items():
             u = 'um' if unit == 'm' else 'urad'

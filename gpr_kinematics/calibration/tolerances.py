@@ -4,8 +4,9 @@ A tolerance table is a YAML file (docs/calibration.md; example ``config/calibrat
 
     units: {length: mm, angle: deg}        # optional; SI (m, rad) by default
     parameters:                            # the model's parameters, by name or by configuration key
-      radius: {tolerance: 0.05}            # deviation uniform in [-0.05, 0.05] mm about the nominal
-      rod_azimuths: {tolerance: 0.01, distribution: normal}   # normal, tolerance = 3 sigma
+      rod_positions: {tolerance: 0.03}     # deviation uniform in [-0.03, 0.03] mm about the nominal
+      rod_directions: {tolerance: 0.01, distribution: normal} # normal, tolerance = 3 sigma (deg here)
+      rod2_offset: {tolerance: 0.01}       # one parameter's own entry wins over its key's
       kappa: {range: [0.5, 2.0], distribution: log-uniform}   # the value itself lies in the range
     rod_length: {tolerance: 0.002}         # actuator positioning error, each rod at each pose
     joint_clearance: 0.003                 # play of each spherical joint (radius of a ball), or [c1, c2, c3]
@@ -13,8 +14,10 @@ A tolerance table is a YAML file (docs/calibration.md; example ``config/calibrat
 
 Distributions: ``uniform`` (default) on ``[-t, t]`` or on the range; ``normal`` with ``sigma = t / 3`` (the
 tolerance is the 3-sigma bound, and the worst case of the linearised budget); ``log-uniform`` on a range of
-positive values (a stiffness ratio known within a factor). A joint's play displaces its centre uniformly within
-a ball of radius ``c`` (each component: ``sigma = c / sqrt(5)``), anew at every pose.
+positive values (a stiffness ratio known within a factor). A stiffness ratio takes uniform or log-uniform within
+``1e-6 .. 1e6`` and is varied as its anisotropy ``(kappa - 1) / (kappa + 1)`` (the coordinate of
+:class:`~.model.Parameter`). A joint's play displaces its centre uniformly within a ball of radius ``c`` (each
+component: ``sigma = c / sqrt(5)``), anew at every pose.
 
 Every value is checked (:class:`~gpr_kinematics.errors.ConfigError` naming the file, key and what is allowed),
 and tolerances are bounded (:data:`MAX_TOLERANCE`): beyond them the budget's linearisation is meaningless and
@@ -34,7 +37,7 @@ from numpy.typing import NDArray
 from .. import safe_yaml
 from ..config import check_keys
 from ..errors import ConfigError
-from .model import ParameterSet
+from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
 
@@ -45,22 +48,61 @@ _LENGTH = {'m': 1.0, 'mm': 1e-3}
 _ANGLE = {'rad': 1.0, 'deg': math.pi / 180.0}
 
 
+#: Gauss-Legendre nodes and weights on [0, 1] for the moments of a transformed deviation (the integrand is
+#: analytic in the distribution's quantile: 48 nodes give them to rounding).
+_X, _W = np.polynomial.legendre.leggauss(48)
+_NODES, _WEIGHTS = 0.5 * (_X + 1.0), 0.5 * _W
+
+
 @dataclass(frozen=True)
 class Tolerance:
     """The deviation ``x`` of a value from its nominal: ``x`` in ``[low, high]`` (SI) with a distribution.
 
     For ``normal``, ``[low, high] = [-t, t]`` and ``sigma = t / 3``; ``log-uniform`` is on the *value*
     ``nominal + x``, which must stay > 0 (set by :meth:`ToleranceTable.bind`).
+
+    With a ``transform`` (:data:`~.model.TRANSFORMS`: a stiffness ratio identified by its anisotropy), the
+    statistics below are those of the *coordinate's* deviation ``c(nominal + x) - c(nominal)``, which is what the
+    budget varies: :attr:`bounds` map the interval's ends, :attr:`mean` and :attr:`std` are integrated over the
+    distribution (Gauss-Legendre on its quantile function), :meth:`sample` maps the drawn values.
     """
 
     low: float
     high: float
     distribution: str = 'uniform'
     nominal: float = 0.0
+    transform: str = ''
+
+    def _coordinate(self, x: Any) -> Any:
+        """The coordinate's deviation of value deviations ``x``."""
+        if not self.transform:
+            return x
+        return coordinate_of(self.transform, self.nominal + np.asarray(x)) - coordinate_of(self.transform,
+                                                                                           self.nominal)
+
+    def _quantile(self, t: Array) -> Array:
+        """Value deviations at probabilities ``t`` (uniform and log-uniform: what a transform takes)."""
+        if self.distribution == 'log-uniform':
+            a, b = self.nominal + self.low, self.nominal + self.high
+            return np.asarray(a * (b / a) ** t - self.nominal, dtype=np.float64)
+        return self.low + (self.high - self.low) * t
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """The ends of the deviation's interval (of the coordinate's, with a transform)."""
+        return float(self._coordinate(self.low)), float(self._coordinate(self.high))
+
+    @property
+    def centre(self) -> float:
+        """Middle of :attr:`bounds` (the centre of the interval a worst case spans)."""
+        lo, hi = self.bounds
+        return 0.5 * (lo + hi)
 
     @property
     def mean(self) -> float:
         """Mean deviation."""
+        if self.transform:
+            return float(_WEIGHTS @ self._coordinate(self._quantile(_NODES)))
         if self.distribution == 'log-uniform':
             a, b = self.nominal + self.low, self.nominal + self.high
             return (b - a) / math.log(b / a) - self.nominal
@@ -69,6 +111,9 @@ class Tolerance:
     @property
     def std(self) -> float:
         """Standard deviation."""
+        if self.transform:
+            u = self._coordinate(self._quantile(_NODES))
+            return math.sqrt(max(float(_WEIGHTS @ u ** 2) - self.mean ** 2, 0.0))
         if self.distribution == 'normal':
             return 0.5 * (self.high - self.low) / 3.0
         if self.distribution == 'log-uniform':
@@ -79,13 +124,10 @@ class Tolerance:
         return (self.high - self.low) / math.sqrt(12.0)
 
     def sample(self, rng: np.random.Generator, shape: tuple[int, ...]) -> Array:
-        """Deviations drawn from the distribution."""
+        """Deviations drawn from the distribution (the coordinate's, with a transform)."""
         if self.distribution == 'normal':
-            return rng.normal(self.mean, self.std, shape)
-        if self.distribution == 'log-uniform':
-            a, b = self.nominal + self.low, self.nominal + self.high
-            return np.exp(rng.uniform(math.log(a), math.log(b), shape)) - self.nominal
-        return rng.uniform(self.low, self.high, shape)
+            return rng.normal(0.5 * (self.low + self.high), 0.5 * (self.high - self.low) / 3.0, shape)
+        return np.asarray(self._coordinate(self._quantile(rng.uniform(0.0, 1.0, shape))), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -128,23 +170,38 @@ class ToleranceTable:
                 key = p.key
             else:
                 continue
-            kind, vals, dist = self.entries[key]
-            f = {'m': _LENGTH[self.units[0]], 'rad': _ANGLE[self.units[1]], '1': 1.0}[p.unit]
-            where = f'{self.source}: parameters: {key}'
-            limit = MAX_TOLERANCE[p.unit]
-            if kind == 'tolerance':
-                t = vals[0] * f
-                if t > limit:
-                    raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: at most {limit:g} {p.unit}')
-                out[j] = Tolerance(-t, t, dist, p.nominal) if t > 0 else None
-                continue
+            out[j] = self._tolerance(p, key)
+        return out
+
+    def _tolerance(self, p: Parameter, key: str) -> Tolerance | None:
+        """The entry ``key`` as the :class:`Tolerance` of parameter ``p`` (SI), checked."""
+        kind, vals, dist = self.entries[key]
+        f = {'m': _LENGTH[self.units[0]], 'rad': _ANGLE[self.units[1]], '1': 1.0}[p.unit]
+        where = f'{self.source}: parameters: {key}'
+        limit = MAX_TOLERANCE[p.unit]
+        nominal = float(p.value(p.nominal))
+        if kind == 'tolerance':
+            t = vals[0] * f
+            if t > limit:
+                raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: at most {limit:g} {p.unit}')
+            if t == 0:
+                return None
+            lo, hi, low, high = nominal - t, nominal + t, -t, t
+        else:
             lo, hi = vals[0] * f, vals[1] * f
             if hi - lo > 2 * limit:
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is wider than {2 * limit:g}')
-            if dist == 'log-uniform' and lo <= 0:
-                raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
-            out[j] = Tolerance(lo - p.nominal, hi - p.nominal, dist, p.nominal)
-        return out
+            low, high = lo - nominal, hi - nominal
+        if dist == 'log-uniform' and lo <= 0:
+            raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
+        if p.transform:
+            if dist == 'normal':
+                raise ConfigError(f'{where}: a stiffness ratio takes uniform or log-uniform (it must stay positive); '
+                                  'normal has no bound')
+            if not KAPPA_RANGE[0] <= lo < hi <= KAPPA_RANGE[1]:
+                raise ConfigError(f'{where}: [{lo:.6g}, {hi:.6g}] leaves the range of a stiffness ratio; allowed: '
+                                  f'{KAPPA_RANGE[0]:g} to {KAPPA_RANGE[1]:g}')
+        return Tolerance(low, high, dist, nominal, p.transform)
 
 
 def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
