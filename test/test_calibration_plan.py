@@ -47,8 +47,12 @@ def test_plan_beats_random_designs_and_reports_its_index(index):
     plan = plan_measurements(m, cfg, 12, index=index, sigma_position=SP, sigma_angle=SA)
     assert plan.q.shape == (12, 3) and len({tuple(q) for q in plan.q.tolist()}) == 12
     forward_batch(plan.q, cfg)                   # within the stroke and the tilt limit: raises otherwise
-    held = set(plan.identifiability.held)       # the joints' radial places; with 12 poses a joint or a kappa more
-    assert 3 <= len(held) <= 6 and all(n.startswith(('joint', 'kappa')) for n in held)
+    # Held: the joints' radial places; with 12 poses a joint or a kappa more. A rod's horizontal base position and
+    # its platform joint move the pose almost alike (parallel rods), so which of the two is held depends on the
+    # LAPACK's pivoting; never a zero offset or a rod direction, which the plan makes visible.
+    held = set(plan.identifiability.held)
+    allowed = ('joint', 'kappa') + tuple(f'rod{k}_{c}' for k in (1, 2, 3) for c in 'xy')
+    assert 3 <= len(held) <= 6 and all(n.startswith(allowed) for n in held), held
     s = scaled_singular_values(m, plan.q, plan.fitted)
     expected = np.exp(np.mean(np.log(s))) / np.sqrt(12) if index == 'product' else s.min()
     assert plan.index == pytest.approx(expected, rel=1e-9)
@@ -57,9 +61,10 @@ def test_plan_beats_random_designs_and_reports_its_index(index):
     # No single exchange with a candidate improves the plan (it is a local optimum of the exchange algorithm).
     cand = candidate_configurations(cfg)
     rng = np.random.default_rng(0)
+    unused = [c for c in cand.q if not any(np.array_equal(c, q) for q in plan.q)]  # a design uses each once
     for _ in range(30):
         trial = plan.q.copy()
-        trial[rng.integers(12)] = cand.q[rng.integers(cand.q.shape[0])]
+        trial[rng.integers(12)] = unused[rng.integers(len(unused))]
         trial_s = scaled_singular_values(m, trial, plan.fitted)
         assert observability_index(trial_s, 12, index) <= plan.index * (1 + 1e-9)
 

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from ros_support import quat, start, vec
 
@@ -79,6 +79,7 @@ def _check(client, res):
 
 @SETTINGS
 @given(q=VEC3, model=MODELS)
+@example(q=[0.4, 0.401, 0.399], model='')      # one valid request whatever hypothesis draws
 def test_forward_kinematics(client, q, model):
     res = _check(client, client.forward_kinematics(q, model))
     if res.success:
@@ -91,6 +92,7 @@ def test_forward_kinematics(client, q, model):
 
 @SETTINGS
 @given(position=VEC3, quaternion=QUAT, model=MODELS)
+@example(position=[0.0, 0.0, 0.4], quaternion=[0.01, 0.0, 0.0, math.sqrt(1 - 1e-4)], model='polar')
 def test_inverse_kinematics(client, position, quaternion, model):
     from gpr_interfaces.srv import InverseKinematics
     from gpr_kinematics.nodes.conversions import pose_msg
@@ -103,6 +105,7 @@ def test_inverse_kinematics(client, position, quaternion, model):
 
 @SETTINGS
 @given(position=VEC3, quaternion=QUAT, tool=VEC3, model=MODELS)
+@example(position=[0.0, 0.0, 0.4], quaternion=[0.0, 0.01, 0.0, math.sqrt(1 - 1e-4)], tool=[0.05, 0.0, 0.1], model='')
 def test_compensate(client, position, quaternion, tool, model):
     res = _check(client, client.compensate(position, quaternion, tool, model))
     if res.success:
@@ -111,6 +114,7 @@ def test_compensate(client, position, quaternion, tool, model):
 
 @SETTINGS
 @given(q=VEC3, dq=VEC3, model=MODELS)
+@example(q=[0.4, 0.4, 0.4], dq=[1e-4, 0.0, -1e-4], model='radial')
 def test_analyze_mobility(client, q, dq, model):
     res = _check(client, client.analyze_mobility(q, dq, model))
     if res.success:

@@ -16,7 +16,8 @@ The design is built greedily and then improved by exchanges (Fedorov's exchange 
 Experiments*, 1972, in its sequential form): greedy: from ``M = eps I`` add, ``N`` times, the unused candidate
 that increases the index most; exchange: for each chosen configuration in turn, remove it and add the unused
 candidate that gives the largest index, if that beats keeping it; passes repeat until a pass changes nothing
-(at most :data:`MAX_PASSES`). For ``product``, candidates are ranked by the matrix determinant lemma,
+(at most :data:`MAX_PASSES`); a parameter the chosen design cannot separate is held as well and the design
+optimised again for the rest. For ``product``, candidates are ranked by the matrix determinant lemma,
 ``det(M + B^T B) = det(M) det(I_6 + B M^-1 B^T)``; for ``smallest`` by the eigenvalues of each ``M + B_c^T B_c``.
 Parameters that no candidate can identify are held (reported) and left out of the index.
 
@@ -27,7 +28,7 @@ limit, which keeps the virtual-joint model's tilt (within 0.1 % of the naive one
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -169,6 +170,46 @@ def _best_addition(M: Array, blocks: Array, infos: Array, allowed: NDArray[np.bo
     return int(idx[k]), float(score[k])
 
 
+def _design(J: Array, n: int, index: str, start: list[int]) -> tuple[list[int], int, int]:
+    """``n`` rows of the weighted Jacobians ``J (C, 6, F)`` chosen greedily (or from ``start``), then improved by
+    exchanges until none raises the ``index``; returns the rows, the exchange passes and the swaps made."""
+    C, F = J.shape[0], J.shape[2]
+    if not F:
+        return list(range(n)), 0, 0
+    blocks = np.ascontiguousarray(J)
+    infos = np.einsum('cif,cig->cfg', blocks, blocks)
+    eps = 1e-9 * float(np.trace(infos.sum(0))) / F / C
+    M = eps * np.eye(F)
+    used = np.zeros(C, dtype=bool)
+    chosen = list(start)
+    for c in chosen:
+        used[c] = True
+        M = M + infos[c]
+    while len(chosen) < n:
+        c, _ = _best_addition(M, blocks, infos, ~used, index)
+        chosen.append(c)
+        used[c] = True
+        M = M + infos[c]
+    passes = exchanges = 0
+    while passes < MAX_PASSES:
+        passes += 1
+        changed = False
+        for pos in range(n):
+            c_old = chosen[pos]
+            current = float(_log_index(M, index))
+            M_minus = M - infos[c_old]
+            c_new, score = _best_addition(M_minus, blocks, infos, ~used, index) if (~used).any() else (c_old, -np.inf)
+            if score > current + 1e-12 * abs(current) + 1e-12:
+                chosen[pos] = c_new
+                used[c_old], used[c_new] = False, True
+                M = M_minus + infos[c_new]
+                exchanges += 1
+                changed = True
+        if not changed:
+            break
+    return chosen, passes, exchanges
+
+
 def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 'product',
                       free: Iterable[str] | None = None, sigma_position: float = DEFAULT_SIGMA_POSITION,
                       sigma_angle: float = DEFAULT_SIGMA_ANGLE, candidates: Candidates | None = None,
@@ -197,44 +238,29 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     w = np.array([1.0 / sigma_position] * 3 + [1.0 / sigma_angle] * 3)
     J = pose_jacobian(model, theta0, cand.q, free_idx) * w[None, :, None] * scale[free_idx]  # (C, 6, F)
     names = [params[int(j)].name for j in free_idx]
-    overall = analyse(J.reshape(-1, free_idx.size), names, threshold)
-    keep = [names.index(nm) for nm in overall.identified]
-    blocks = np.ascontiguousarray(J[:, :, keep])
-    infos = np.einsum('cif,cig->cfg', blocks, blocks)
-    F = len(keep)
-    eps = 1e-9 * float(np.trace(infos.sum(0))) / max(F, 1) / C if F else 1.0
-    M = eps * np.eye(F)
+    # Optimise the design for the parameters the candidates can identify. If the design cannot separate one of
+    # them (it falls below the threshold), hold it too and optimise again for the rest: the set only shrinks, so
+    # this ends, and the plan is a local optimum of the exchange for exactly the parameters it reports as fitted.
+    ident = analyse(J.reshape(-1, free_idx.size), names, threshold)
+    combos = list(ident.combinations)
+    fit = list(ident.identified)
     chosen: list[int] = []
-    used = np.zeros(C, dtype=bool)
-    if F:
-        for _ in range(n):
-            c, _ = _best_addition(M, blocks, infos, ~used, index)
-            chosen.append(c)
-            used[c] = True
-            M = M + infos[c]
-    else:
-        chosen = list(range(n))
     passes = exchanges = 0
-    while F and passes < MAX_PASSES:
-        passes += 1
-        changed = False
-        for pos in range(n):
-            c_old = chosen[pos]
-            current = float(_log_index(M, index))
-            M_minus = M - infos[c_old]
-            c_new, score = _best_addition(M_minus, blocks, infos, ~used, index) if (~used).any() else (c_old, -np.inf)
-            if score > current + 1e-12 * abs(current) + 1e-12:
-                chosen[pos] = c_new
-                used[c_old], used[c_new] = False, True
-                M = M_minus + infos[c_new]
-                exchanges += 1
-                changed = True
-        if not changed:
+    while True:
+        keep = [names.index(nm) for nm in fit]
+        chosen, p, e = _design(J[:, :, keep], n, index, chosen)
+        passes, exchanges = passes + p, exchanges + e
+        ident = analyse(J[np.array(chosen)][:, :, keep].reshape(-1, len(keep)), fit, threshold)
+        combos += ident.combinations
+        if list(ident.identified) == fit:
             break
+        fit = list(ident.identified)
     sel = np.array(chosen)
     Jp = J[sel].reshape(-1, free_idx.size)
-    ident = analyse(Jp, names, threshold)
-    fit_cols = [names.index(nm) for nm in ident.identified]
+    s_all = np.asarray(np.linalg.svd(triangular_factor(Jp), compute_uv=False), dtype=np.float64)
+    ident = replace(ident, names=tuple(names), singular_values=s_all,
+                    held=tuple(c.held for c in combos), combinations=tuple(combos))
+    fit_cols = [names.index(nm) for nm in fit]
     fitted = free_idx[fit_cols]
     cov = np.zeros((0, 0))
     if fit_cols:
