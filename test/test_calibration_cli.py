@@ -63,7 +63,10 @@ def test_calibrate_text_matches_json(capsys, tmp_path):
         assert row, p['name']
         assert row.group(5) == p['status']
         assert float(row.group(1)) == pytest.approx(p['nominal'], rel=1e-11, abs=1e-300)     # 12 significant digits
-        assert float(row.group(2)) == pytest.approx(p['estimate'], rel=1e-11, abs=1e-300)
+        # Two runs agree to the fit's own resolution: Levenberg-Marquardt stops once a step is below 1e-4 of every
+        # standard error, and a multithreaded BLAS may sum in another order from run to run (seen on numpy 1.26).
+        resolution = 1e-4 * p['standard_error'] if p['status'] == 'fitted' else 0.0
+        assert float(row.group(2)) == pytest.approx(p['estimate'], rel=1e-11, abs=max(resolution, 1e-300))
         if p['unit'] == 'm':
             assert float(row.group(3)) == pytest.approx(p['change'] * 1e6, abs=5e-4)
         if p['status'] == 'fitted':
