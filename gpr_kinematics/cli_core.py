@@ -14,13 +14,12 @@ from typing import Any
 import numpy as np
 
 from .config import MODELS, GprConfig, load_config
-from .errors import InputError
 
 _MM = 1e-3
 
 
 def _config(args: argparse.Namespace) -> GprConfig:
-    return load_config(args.config) if getattr(args, 'config', None) else load_config()
+    return load_config(args.config)
 
 
 def _length(args: argparse.Namespace, value: float) -> float:
@@ -158,7 +157,9 @@ def _cmd_mobility(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_csv(path: str, s: Any) -> None:
+def _write_csv(path: str, s: Any) -> Path:
+    """Every sample of the sweep ``s`` as CSV (SI units, floats to round-trip), atomically; the path written."""
+    from .files import atomic_output
     fk = s.forward
     names = list(fk.virtual_joint_names)
     header = (['sample', 'pass', 'gamma', 'alpha', 'q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw',
@@ -167,23 +168,20 @@ def _write_csv(path: str, s: Any) -> None:
     cols = np.column_stack([np.arange(len(s)), s.pass_index, s.gamma, s.alpha, s.q, fk.position, fk.quaternion,
                             fk.tilt, fk.tilt_azimuth, fk.twist, fk.centre_shift, fk.virtual_joints,
                             fk.side_lengths, fk.iterations, fk.residual])
-    target = Path(path)
-    tmp = target.with_name(target.name + '.tmp')
-    try:
-        with open(tmp, 'w', newline='', encoding='utf-8') as fh:
-            w = csv.writer(fh)
-            w.writerow(header)
-            for row in cols:
-                w.writerow([int(row[0]), int(row[1])] + [repr(float(v)) for v in row[2:-2]]
-                           + [int(row[-2]), repr(float(row[-1]))])
-        tmp.replace(target)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f'cannot write CSV file {path!r}: {exc.strerror or exc}') from None
+    with atomic_output(path, 'CSV') as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in cols:
+            w.writerow([int(row[0]), int(row[1])] + [repr(float(v)) for v in row[2:-2]]
+                       + [int(row[-2]), repr(float(row[-1]))])
+    return Path(path)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from . import sweep
+    from .files import check_output
+    if args.csv is not None:
+        check_output(args.csv, 'CSV')  # before the work, not after it
     cfg = _config(args)
 
     def given(value: float | None, convert: Any, default: float) -> float:
@@ -195,12 +193,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                           tilt_step=given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP),
                           azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
                           passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
-    if args.csv:
-        _write_csv(args.csv, s)
+    written = None if args.csv is None else str(_write_csv(args.csv, s))
     summary = s.summary
     if args.json:
         from .cli import emit_json
-        emit_json(summary | ({'csv': args.csv} if args.csv else {}))
+        emit_json(summary | ({'csv': written} if written else {}))
         return 0
     print(f'paper sweep (§VI), model {summary["model"]}, height {summary["height"]:.6g} m: '
           f'{summary["samples"]} samples, {summary["singular_crossings"]} crossings of the singular configuration')
@@ -211,8 +208,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     print(f'  max closure residual    {summary["max_residual"]:10.2e} m, rigid fit {summary["max_fit_residual"]:.2e} m')
     print(f'  Newton iterations       forward <= {summary["max_fk_iterations"]}, '
           f'inverse <= {summary["max_ik_iterations"]}')
-    if args.csv:
-        print(f'  samples written to {args.csv}')
+    if written:
+        print(f'  samples written to {written}')
     return 0
 
 

@@ -217,7 +217,9 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
 
 def _dexterity(args: argparse.Namespace) -> int:
     from .cli import emit_json
-    from .dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
+    from .dexterity import check_plot_path, dexterity_grid, dexterity_sweep, plot_dexterity
+    if args.plot is not None:
+        check_plot_path(args.plot)  # before the work, not after it
     mech = load_mechanism(args.file)
     base = _pose(args, mech) if args.pose is not None else np.asarray(mech.home_pose, dtype=float)
     sweep = getattr(mech, 'default_sweep', None)
@@ -228,10 +230,9 @@ def _dexterity(args: argparse.Namespace) -> int:
         dmap = dexterity_grid(mech, base, var, vals, var2, vals2)
     else:
         dmap = dexterity_sweep(mech, base, var, vals)
-    if args.plot:
-        plot_dexterity(dmap, args.plot)
+    plot = None if args.plot is None else str(plot_dexterity(dmap, args.plot))
     if args.json:
-        emit_json(dmap.as_dict() | {'type': mech.kind, 'plot': args.plot})
+        emit_json(dmap.as_dict() | {'type': mech.kind, 'plot': plot})
         return 0
     if dmap.variable2 is None:
         print(f'{mech.name}: dexterity (inverse condition number) against {var}')
@@ -242,8 +243,8 @@ def _dexterity(args: argparse.Namespace) -> int:
         print(f'{mech.name}: dexterity on a {vals.size} x {vals2.size} grid of {var} x {var2}; within joint '
               f'limits: {inside.size} points' + (f', dexterity {inside.min():.4f} .. {inside.max():.4f}'
                                                   if inside.size else ''))
-    if args.plot:
-        print(f'plot written to {args.plot}')
+    if plot is not None:
+        print(f'plot written to {plot}')
     return 0
 
 
@@ -316,5 +317,5 @@ def register(subparsers: Any) -> None:
                    help='pose variable to vary (units as --pose, with --mm/--deg)')
     p.add_argument('--vary2', nargs=4, metavar=('NAME', 'MIN', 'MAX', 'COUNT'),
                    help='second variable: a grid map')
-    p.add_argument('--plot', metavar='PNG', help='write a plot')
+    p.add_argument('--plot', metavar='FILE', help='write a plot (.png, .pdf or .svg)')
     p.set_defaults(handler=_dexterity)

@@ -21,7 +21,7 @@ _MM = 1e-3
 
 def _robot(args: argparse.Namespace, default: Path | None = None) -> Any:
     from .robot.description import load_robot
-    path = args.robot if args.robot else default
+    path = default if args.robot is None else args.robot
     return load_robot(path, geometry=args.config, model=args.model)
 
 
@@ -218,28 +218,30 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from .errors import InputError
-    from .robot.export import sample_table, waypoint_table, write_table
+    from .robot.export import check_table_path, sample_table, waypoint_table, write_table
     from .robot.plan import sample_plan
-    if not args.waypoints and not args.samples:
+    if args.waypoints is None and args.samples is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json)')
+    for path in (args.waypoints, args.samples):
+        if path is not None:  # refused before the program is planned
+            check_table_path(path)
     _, plan = _program(args)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
-    written = {}
-    if args.waypoints:
-        write_table(args.waypoints, *waypoint_table(plan), meta)
-        written['waypoints'] = args.waypoints
-    if args.samples:
+    written: dict[str, Any] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
+    if args.waypoints is not None:
+        written['waypoints_file'] = str(write_table(args.waypoints, *waypoint_table(plan), meta))
+    if args.samples is not None:
         sampled = sample_plan(plan, args.rate)
-        write_table(args.samples, *sample_table(plan, sampled), meta | {'rate': args.rate})
-        written['samples'] = args.samples
+        written['samples_file'] = str(write_table(args.samples, *sample_table(plan, sampled),
+                                                  meta | {'rate': args.rate}))
         written['sample_count'] = len(sampled)
     if args.json:
         _emit(_summary(plan) | written)
     else:
         _print_summary(_summary(plan))
         for key in ('waypoints', 'samples'):
-            if key in written:
-                print(f'  {key} written to {written[key]}')
+            if f'{key}_file' in written:
+                print(f'  {key} written to {written[f"{key}_file"]}')
     return 0
 
 

@@ -15,14 +15,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import reprlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from . import safe_yaml
-from .errors import ConfigError
+from .errors import ConfigError, brief
 from .resources import config_path
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
@@ -144,7 +143,7 @@ def is_number(value: Any) -> bool:
 def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(short_repr(k, 40).strip("'") for k in data if k not in allowed)
+    unknown = sorted(brief(k, 40).strip("'") for k in data if k not in allowed)
     if unknown:
         more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
         raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
@@ -167,19 +166,8 @@ def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | 
     return float(val)
 
 
-_SHORT = reprlib.Repr()
-_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = 8
-_SHORT.maxstring = _SHORT.maxother = 80
-
-
-def short_repr(value: Any, limit: int = 80) -> str:
-    """``repr(value)``, cut to ``limit`` characters: a message never carries a whole (possibly huge) user value."""
-    text = _SHORT.repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + '...'
-
-
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
-    return ConfigError(f'{source}: {key} = {short_repr(value)} is invalid; allowed: {allowed}')
+    return ConfigError(f'{source}: {key} = {brief(value)} is invalid; allowed: {allowed}')
 
 
 def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
@@ -325,7 +313,7 @@ def read_yaml(path: str | Path, what: str = 'config') -> Any:
     return safe_yaml.read_file(path, what)
 
 
-def _read_yaml(path: Path) -> Mapping[str, Any]:
+def _read_yaml(path: str | Path) -> Mapping[str, Any]:
     data = read_yaml(path)
     if data is None:
         return {}
@@ -343,9 +331,8 @@ def load_config(path: str | Path | None = None,
     """
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
-    if path is not None:
-        user = Path(path)
-        cfg = _build(cfg, _read_yaml(user), str(user))
+    if path is not None:  # the name as given: an empty one is refused, not read as '.'
+        cfg = _build(cfg, _read_yaml(path), str(path))
     if overrides:
         cfg = _build(cfg, overrides, 'overrides')
     return cfg

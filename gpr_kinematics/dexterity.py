@@ -99,14 +99,30 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
                         cond.reshape(shape), sing.reshape(shape), within.reshape(shape), variable2, v2)
 
 
+#: Plot file types (by extension) :func:`plot_dexterity` writes.
+PLOT_FORMATS = ('png', 'pdf', 'svg')
+
+
+def check_plot_path(path: str | Path) -> Path:
+    """The output ``path`` of a plot, checked before any work: a type of :data:`PLOT_FORMATS` by its extension,
+    and writable (:func:`gpr_kinematics.files.check_output`)."""
+    from .files import check_output
+    target = check_output(path, 'plot')
+    if target.suffix.lower().lstrip('.') not in PLOT_FORMATS:
+        raise InputError(f'plot {str(path)!r}: unknown type {target.suffix or "(no extension)"}; allowed: '
+                         + ', '.join(f'.{f}' for f in PLOT_FORMATS))
+    return target
+
+
 def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
-    """Write a PNG of the map: dexterity against the variable (dashed where joints leave their limits),
-    or a colour map for a grid. Returns the path."""
+    """Write a plot of the map (PNG, PDF or SVG by the extension): dexterity against the variable (dashed where
+    joints leave their limits), or a colour map for a grid. Returns the path written."""
+    from .files import atomic_output
+    target = check_plot_path(path)
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    path = Path(path)
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
     if dmap.variable2 is None:
         ax.plot(dmap.values, dmap.dexterity, '--', color='0.6', label='joints outside limits')
@@ -125,9 +141,8 @@ def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
     ax.set_title(dmap.mechanism)
     fig.tight_layout()
     try:
-        fig.savefig(path)
-    except OSError as exc:
-        raise InputError(f'cannot write the plot {str(path)!r}: {exc.strerror or exc}') from None
+        with atomic_output(target, 'plot', binary=True) as fh:
+            fig.savefig(fh, format=target.suffix.lower().lstrip('.'))
     finally:
         plt.close(fig)
-    return path
+    return Path(path)

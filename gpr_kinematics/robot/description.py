@@ -402,9 +402,9 @@ def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig 
     Raises:
         ConfigError: unreadable file, invalid YAML, unknown key, a value outside its range.
     """
-    file = config_path(DEFAULT_ROBOT) if path is None else Path(path)
+    file = config_path(DEFAULT_ROBOT) if path is None else path
     cfg = load_config(geometry) if isinstance(geometry, (str, Path)) else geometry
-    robot = parse_robot(read_yaml(file, 'robot'), str(file), file.parent, cfg)
+    robot = parse_robot(read_yaml(file, 'robot'), str(file), Path(file).parent, cfg)
     if model is not None:
         try:
             robot = dataclasses.replace(robot, config=robot.config.replace(model=model))

@@ -191,8 +191,8 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
 
 def load_program(path: str | Path) -> RobotProgram:
     """Read and validate a robot program file; :class:`ConfigError` names what is wrong."""
-    path = Path(path)
-    return parse_program(read_yaml(path, 'program'), str(path), path.parent)
+    data = read_yaml(path, 'program')  # the name as given: an empty one is refused, not read as '.'
+    return parse_program(data, str(path), Path(path).parent)
 
 
 @dataclass(frozen=True)

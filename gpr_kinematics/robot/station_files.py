@@ -25,9 +25,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
-import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +35,7 @@ import numpy as np
 
 from ..config import check_keys
 from ..errors import ConfigError
+from ..files import read_text
 from .description import BRANCHES
 from .stations import Stations
 
@@ -186,29 +185,6 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
     return rows
 
 
-def read_text(path: Path, what: str) -> str:
-    """A bounded UTF-8 text file: a regular file of at most :data:`MAX_BYTES` (a FIFO or device is refused)."""
-    try:
-        info = os.stat(path)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if not stat.S_ISREG(info.st_mode):
-        raise ConfigError(f'{what} file {str(path)!r} is not a regular file; allowed: a regular text file')
-    if info.st_size > MAX_BYTES:
-        raise ConfigError(f'{what} file {str(path)!r} has {info.st_size} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        with open(path, 'rb') as fh:
-            data = fh.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if len(data) > MAX_BYTES:
-        raise ConfigError(f'{what} file {str(path)!r} has more than {MAX_BYTES} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        return data.decode('utf-8-sig')
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f'{what} file {str(path)!r} is not UTF-8 text (byte {exc.start}); allowed: UTF-8') from None
-
-
 @dataclass(frozen=True)
 class CsvTable:
     """A CSV table whose header names its columns with units in brackets (``x [mm]``, ``tilt [deg]``)."""
@@ -330,7 +306,7 @@ def load_stations(path: str | Path) -> StationTable:
 def read_station_rows(path: Path) -> StationRows:
     suffix = path.suffix.lower()
     if suffix == '.csv':
-        return stations_from_csv(read_text(path, 'station'), str(path))
+        return stations_from_csv(read_text(path, 'station', MAX_BYTES), str(path))
     if suffix in ('.yaml', '.yml'):
         from ..config import read_yaml
         return stations_from_yaml(read_yaml(path, 'station'), str(path))

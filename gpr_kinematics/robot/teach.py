@@ -20,11 +20,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
+from ..files import read_text
 from .description import RobotDescription
 from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
-from .station_files import read_csv_table, read_text
+from .station_files import MAX_BYTES, read_csv_table
 from .stations import Stations, stations_from_poses
 
 Array = NDArray[np.float64]
@@ -104,7 +105,7 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     ``(names, rods (N, 3), joints (N, n))``. ConfigError names the line and the field."""
     a = robot.arm(arm)
     kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
-    table = read_csv_table(read_text(Path(path), 'joint table'), str(path), kinds,
+    table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
                            robot.rods.names + a.joint_names)
     rods = np.empty((len(table), 3))
     joints = np.empty((len(table), len(a.joints)))
