@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .config import MODELS, GprConfig, load_config
+from .errors import LimitError
 
 _MM = 1e-3
 
@@ -132,28 +133,38 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
 
 def _cmd_mobility(args: argparse.Namespace) -> int:
     from .cli import jsonable
-    from .mobility import analyze_mobility
+    from .mobility import analyze_mobility, exact_dx
     cfg = _config(args)
     res = analyze_mobility([_length(args, v) for v in args.q], config=cfg, model=args.model)
     out = jsonable(res)
     dq = dx = None
+    full: float | None = None
+    why = ''
     if args.dq is not None:
         dq = [_length(args, v) for v in args.dq]
         dx = res.dx_bounds(res.rod_perturbation(dq))
-        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq}
+        try:
+            full = float(np.linalg.norm(exact_dx(res.q, dq, cfg, res.model)))
+        except LimitError as exc:  # q + dq tilts beyond the limit: the first order stands alone
+            why = str(exc)
+        # norm_dx is the first order (eq. 3); norm_dx_full the full solve |X(q + dq) - X(q)| (null: not solvable).
+        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq, 'norm_dx_full': full}
     if args.json:
         from .cli import emit_json
         emit_json(out)
         return 0
     print(f'mobility analysis (paper §IV-A), model {res.model}, q = {_vec(res.q)} m')
     print(f'  rank dPhi/dP = {res.rank_dphi_dp} (mobility h = {res.mobility}); '
-          f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}')
+          f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}; singular configuration: '
+          + ('yes (h > 1: the rigid mechanism gains instantaneous freedoms)' if res.singular else 'no'))
     print(f'  non-zero singular values of dX/dP: {_vec(res.singular_values, fmt="{:.6g}")}')
     print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
           f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
     if dx is not None:
-        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: |dX| = {dx.norm_dx:.6e}, '
-              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]')
+        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {dx.norm_dx:.6e} (eq. 3), '
+              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]; '
+              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None else f'no full solve ({why})')
+              + (' (at the singular configuration the first order of a rod change vanishes)' if res.singular else ''))
     return 0
 
 

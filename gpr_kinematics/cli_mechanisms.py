@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError, SingularityError
+from .errors import InputError, SingularityError, brief
 from .mechanisms import load_mechanism
-from .mechanisms.base import ANGULAR_JOINTS, Mechanism
+from .mechanisms.base import ANGULAR_JOINTS, Mechanism, as_poses
 
 CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
   gsp           R = Rz(C) Ry(B) Rx(A) = scipy from_euler('xyz', [A, B, C]) (or the file's 'euler')
@@ -53,6 +53,7 @@ def _pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
         pose[:3] *= 1e-3
     if args.deg:
         pose[3:] = np.radians(pose[3:])
+    as_poses(pose, '--pose')  # the position's bound, named as the option
     if mech.kind == 'upu3' and np.any(pose[3:] != 0):
         raise InputError(f'{mech.name} only translates: the angles A B C must be 0; got {pose[3:].tolist()}')
     return pose
@@ -99,12 +100,11 @@ def _mechanism(args: argparse.Namespace) -> int:
         'condition_number': _finite_or_none(rep.condition_number),
         'dexterity': rep.dexterity,
         'singular': rep.singular,
+        'singularity': rep.singularity or None,
         'within_limits': rep.within_limits,
     }
     if hasattr(mech, 'plane_residuals'):
         result['plane_residuals'] = mech.plane_residuals(full)[0]
-    if hasattr(mech, 'singularity'):
-        result['singularity'] = str(mech.singularity(full)[0]) or None
     if args.json:
         emit_json(result)
         return 0
@@ -119,7 +119,7 @@ def _mechanism(args: argparse.Namespace) -> int:
     for row in rep.homogenized_inverse_jacobian:
         print('  ' + ' '.join(f'{v:11.6f}' for v in row))
     print(f'condition number {rep.condition_number:.6g}, dexterity {rep.dexterity:.6g}, '
-          f'singular: {"yes" if rep.singular else "no"}')
+          f'singular: {"yes" if rep.singular else "no"}' + (f' ({rep.singularity})' if rep.singularity else ''))
     return 0
 
 
@@ -199,13 +199,18 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
     if values is None:
         lo, hi = _default_range(mech, base, default_var)
         return default_var, np.linspace(lo, hi, 51)
+    from .dexterity import MAX_POINTS
     name = values[0]
     try:
         lo, hi, n = float(values[1]), float(values[2]), int(values[3])
     except ValueError:
-        raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT >= 2); got {values}') from None
-    if n < 2 or not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
-        raise InputError(f'--vary {name}: need MIN < MAX (finite) and COUNT >= 2; got {values[1:]}')
+        raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT an integer from 2 to {MAX_POINTS}); '
+                         f'got {brief(values)}') from None
+    if not 2 <= n <= MAX_POINTS:
+        raise InputError(f'--vary {brief(name)}: COUNT = {n}; allowed: an integer from 2 to {MAX_POINTS} (poses per '
+                         'map)')
+    if not (np.isfinite(lo) and np.isfinite(hi) and np.isfinite(hi - lo)) or not lo < hi:
+        raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite; got {brief(values[1:])}')
     idx = mech.pose_names.index(name) if name in mech.pose_names else -1
     scale = 1.0
     if 0 <= idx < 3 and args.mm:

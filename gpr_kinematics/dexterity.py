@@ -14,8 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, brief
 from .mechanisms.base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
+
+#: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
+#: (the costliest mechanism: its Jacobians are finite differences of the core), 0.3 GB and 10 s at the limit.
+MAX_POINTS = 50_000
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,12 @@ class DexterityMap:
         return out
 
 
+def check_points(count: int, what: str) -> None:
+    """Refuse a map of more than :data:`MAX_POINTS` poses before anything is allocated."""
+    if count > MAX_POINTS:
+        raise InputError(f'{what}: {count} poses; allowed: at most {MAX_POINTS} per map')
+
+
 def _index(mech: Mechanism, variable: str) -> int:
     if variable not in mech.pose_variables:
         raise InputError(f'{mech.name}: cannot vary {variable!r}; its pose variables are '
@@ -63,7 +73,8 @@ def evaluate(mech: Mechanism, poses: Any
     dex = np.where(finite, dexterity_index(Jh), 0.0)
     cond = np.where(finite, condition_number(Jh), np.inf)
     within = mech.within_limits(mech.inverse_kinematics(full))
-    return full, dex, cond, dex < SINGULAR_TOLERANCE, within
+    named = mech.singularity(full) != ''  # a singular configuration of the mechanism itself (the GPR's rigid one)
+    return full, dex, cond, (dex < SINGULAR_TOLERANCE) | named, within
 
 
 def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any) -> DexterityMap:
@@ -73,8 +84,9 @@ def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any)
     """
     base, _ = as_poses(base_pose, 'base pose')
     vals = np.asarray(values, dtype=float).ravel()
+    check_points(vals.size, f'dexterity along {variable}')
     if vals.size == 0 or not np.all(np.isfinite(vals)):
-        raise InputError(f'values of {variable} must be finite numbers; got {values!r}')
+        raise InputError(f'values of {variable} must be finite numbers; got {brief(vals.tolist())}')
     poses = np.repeat(base, vals.size, axis=0)
     poses[:, _index(mech, variable)] = vals
     full, dex, cond, sing, within = evaluate(mech, poses)
@@ -87,6 +99,7 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
     base, _ = as_poses(base_pose, 'base pose')
     v1 = np.asarray(values, dtype=float).ravel()
     v2 = np.asarray(values2, dtype=float).ravel()
+    check_points(v1.size * v2.size, f'dexterity on a {v1.size} x {v2.size} grid')
     i1, i2 = _index(mech, variable), _index(mech, variable2)
     if i1 == i2:
         raise InputError(f'the two varied pose variables must differ; got {variable} twice')

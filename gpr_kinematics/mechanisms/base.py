@@ -56,7 +56,7 @@ from .rotations import (
     rotation_vector,
 )
 
-__all__ = ['ANGULAR_JOINTS', 'GRAM_CONDITION_LIMIT', 'LINEAR_JOINTS', 'MAX_STEP', 'POSE_COMPONENTS',
+__all__ = ['ANGULAR_JOINTS', 'GRAM_CONDITION_LIMIT', 'LINEAR_JOINTS', 'MAX_POSITION', 'MAX_STEP', 'POSE_COMPONENTS',
            'SINGULAR_TOLERANCE', 'JacobianReport', 'Mechanism', 'as_poses', 'check_euler_convention',
            'condition_number', 'dexterity_index', 'euler_from_rotation', 'euler_rate_matrix', 'euler_rotation',
            'homogenize', 'is_singular', 'rotation_from_vector', 'rotation_vector', 'singular_values']
@@ -65,6 +65,9 @@ POSE_COMPONENTS = ('x', 'y', 'z', 'A', 'B', 'C')
 
 #: Largest Newton step of the rigid-motion forward kinematics (rad, or characteristic lengths).
 MAX_STEP = 0.5
+#: Largest magnitude of a pose's position coordinates [m]: far beyond any mechanism of the package, and small
+#: enough that no product of coordinates overflows.
+MAX_POSITION = 1e6
 
 
 def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
@@ -78,6 +81,10 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
                          f'got shape {np.shape(poses)}')
     if not np.all(np.isfinite(arr)):
         raise InputError(f'{name} must be finite numbers; got {arr[~np.all(np.isfinite(arr), axis=1)][0]}')
+    if arr.size and np.max(np.abs(arr[:, :3])) > MAX_POSITION:
+        i, j = np.argwhere(np.abs(arr[:, :3]) > MAX_POSITION)[0]
+        raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} m; allowed: |x|, |y|, |z| <= '
+                         f'{MAX_POSITION:g} m')
     return arr, single
 
 
@@ -105,8 +112,9 @@ class JacobianReport:
     task_jacobian: np.ndarray                 #: (n, m) dq/du, homogenised
     condition_number: float                   #: of the homogenised task Jacobian
     dexterity: float                          #: inverse condition number
-    singular: bool
+    singular: bool                            #: a singular Jacobian or a named singular configuration
     within_limits: bool
+    singularity: str = ''                     #: the named singular configuration (:meth:`Mechanism.singularity`)
 
 
 class Mechanism(abc.ABC):
@@ -234,6 +242,13 @@ class Mechanism(abc.ABC):
     def is_singular(self, poses: Any, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
         """``(N,)`` True where the homogenised task Jacobian's inverse condition number is below ``tol``."""
         return self.dexterity(poses) < tol
+
+    def singularity(self, poses: Any) -> np.ndarray:
+        """``(N,)`` strings naming a singular configuration of the mechanism itself at each pose (``''``: none),
+        beyond the conditioning of its Jacobian; mechanisms that know their singular configurations override
+        it (the 3-UPU's limb directions, the GPR's rigid constraints)."""
+        arr, _ = as_poses(poses)
+        return np.full(arr.shape[0], '', dtype=object)
 
     def within_limits(self, joints: Any) -> np.ndarray:
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
@@ -392,9 +407,10 @@ class Mechanism(abc.ABC):
         finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(Jt)))
         dex = float(dexterity_index(Jt)[0]) if finite else 0.0
         cond = float(condition_number(Jt)[0]) if finite else float('inf')
+        named = str(self.singularity(full)[0])
         return JacobianReport(pose=full[0], joints=q[0], inverse_jacobian=J[0],
                               homogenized_inverse_jacobian=homogenize(J, self.joint_types,
                                                                       self.characteristic_length)[0],
                               task_jacobian=Jt[0], condition_number=cond, dexterity=dex,
-                              singular=bool((not finite) or dex < SINGULAR_TOLERANCE),
-                              within_limits=bool(self.within_limits(q)[0]))
+                              singular=bool((not finite) or dex < SINGULAR_TOLERANCE or named),
+                              within_limits=bool(self.within_limits(q)[0]), singularity=named)

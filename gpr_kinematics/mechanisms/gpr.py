@@ -194,6 +194,20 @@ class GprMechanism(Mechanism):
     def coordinate_jacobian(self, poses: Any) -> np.ndarray:
         return self.task_jacobian(poses)
 
+    def singularity(self, poses: Any) -> np.ndarray:
+        """``(N,)``: where the *rigid* mechanism is singular (:func:`gpr_kinematics.mobility.rigid_rank`, as
+        ``gpr mobility`` reports it: q1 = q2 = q3 on the nominal machine), its rank and mobility; ``''`` elsewhere.
+        The virtual joints keep the Jacobians regular there (:meth:`is_singular` is False): the singularity is of
+        the rigid platform, which the paper's sweep crosses."""
+        from ..mobility import rigid_rank
+        arr, _ = as_poses(poses)
+        rank = rigid_rank(self.inverse_kinematics(arr), self.config)
+        out = np.full(arr.shape[0], '', dtype=object)
+        for i in np.flatnonzero(12 - rank > 1):
+            out[i] = (f'rigid mechanism: rank dPhi/dP = {rank[i]}, mobility {12 - rank[i]} (paper section IV-A); the '
+                      'virtual joints keep the Jacobian regular')
+        return out
+
     def motion_basis(self, poses: Any) -> np.ndarray:
         """Twists ``(N, 6, 3)`` per unit rate of ``(z, tilt_x, tilt_y)``: ``dT/dq dq/du``."""
         arr, _ = as_poses(poses)
