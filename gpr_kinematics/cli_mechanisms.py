@@ -41,9 +41,9 @@ def _finite(text: str) -> float:
     try:
         val = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a number') from None
     if not np.isfinite(val):
-        raise argparse.ArgumentTypeError(f'{text!r} is not a finite number')
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
     return val
 
 
@@ -147,7 +147,7 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
     for item in args.parameter_error or []:
         name, values = item[0], item[1:]
         if name not in nominal:
-            raise InputError(f'{mech.name}: unknown parameter {name!r} for --parameter-error; allowed: '
+            raise InputError(f'{mech.name}: unknown parameter {brief(name)} for --parameter-error; allowed: '
                              + (', '.join(sorted(nominal)) or 'none'))
         try:
             vals = np.array([float(v) for v in values])
@@ -256,7 +256,7 @@ def _dexterity(args: argparse.Namespace) -> int:
 def _default_range(mech: Mechanism, base: np.ndarray, var: str) -> tuple[float, float]:
     """The range of ``var`` (default z) over which ``base`` stays within the joint limits, by a scan."""
     if var not in mech.pose_variables:
-        raise InputError(f'{mech.name}: cannot vary {var!r}; its pose variables are '
+        raise InputError(f'{mech.name}: cannot vary {brief(var)}; its pose variables are '
                          + ', '.join(mech.pose_variables) + ' (use --vary NAME MIN MAX COUNT)')
     sweep = getattr(mech, 'default_sweep', None)
     if sweep is not None and sweep[0] == var:

@@ -20,9 +20,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from . import safe_yaml
 from .errors import ConfigError, brief
 from .resources import config_path
+from .validation import MAX_COORDINATE
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
 MODELS = ('radial', 'polar', 'offset', 'compliant')
@@ -136,8 +140,25 @@ MAX_SIDE_MISMATCH = 0.01
 
 
 def is_number(value: Any) -> bool:
-    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite."""
-    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite and within
+    +-:data:`~gpr_kinematics.validation.MAX_COORDINATE` (1e6: no value of the package's files is larger, and
+    products of a few of them cannot overflow)."""
+    # abs() before isfinite(): an integer of 400 digits has no float (isfinite would raise OverflowError).
+    return (not isinstance(value, bool) and isinstance(value, (int, float)) and abs(value) <= MAX_COORDINATE
+            and math.isfinite(value))
+
+
+def number_array(value: Any, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+    """``value``, nested lists of numbers of ``shape`` each passing :func:`is_number`, as a float array; ``None``
+    when it is anything else (the caller names the key and what is allowed)."""
+    if len(shape) == 0:
+        return np.asarray(float(value)) if is_number(value) else None
+    if not isinstance(value, (list, tuple)) or len(value) != shape[0]:
+        return None
+    rows = [number_array(v, shape[1:]) for v in value]
+    if any(r is None for r in rows):
+        return None
+    return np.array(rows, dtype=float).reshape(shape)
 
 
 def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
@@ -162,7 +183,10 @@ def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | 
     if val is None:
         raise ConfigError(f'{source}: missing key {key} (a {what})')
     if not is_number(val) or (positive and val <= 0):
-        raise ConfigError(f'{source}: {key} must be a {what}; got {val!r}')
+        if isinstance(val, (int, float)) and not isinstance(val, bool) and abs(val) > MAX_COORDINATE and (
+                isinstance(val, int) or math.isfinite(val)):   # finite, but beyond the bound of every number
+            what += f' of magnitude at most {MAX_COORDINATE:g}'
+        raise ConfigError(f'{source}: {key} must be a {what}; got {brief(val)}')
     return float(val)
 
 

@@ -56,7 +56,7 @@ def check_points(count: int, what: str) -> None:
 
 def _index(mech: Mechanism, variable: str) -> int:
     if variable not in mech.pose_variables:
-        raise InputError(f'{mech.name}: cannot vary {variable!r}; its pose variables are '
+        raise InputError(f'{mech.name}: cannot vary {brief(variable)}; its pose variables are '
                          + ', '.join(mech.pose_variables))
     return mech.pose_names.index(variable)
 

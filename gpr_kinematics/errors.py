@@ -39,8 +39,9 @@ class SingularityError(GprError, ArithmeticError):
 
 class FileError(ConfigError, InputError):
     """A file cannot be read or written: missing, not a regular file, too large, not UTF-8, an output in a
-    missing or read-only folder (:mod:`gpr_kinematics.files`). It is a :class:`ConfigError` and an
-    :class:`InputError`: configuration files and the files of a command both raise it."""
+    missing or read-only folder (:mod:`gpr_kinematics.files`), a unit of a column that is unknown
+    (:mod:`gpr_kinematics.units`). It is a :class:`ConfigError` and an :class:`InputError`: configuration files
+    and the files of a command both raise it."""
 
 
 #: Longest text of a value quoted in an error message [characters].

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .config import GprConfig
-from .errors import InputError, LimitError
+from .errors import InputError, LimitError, brief
 from .forward import TILT_LIMIT_SLACK
 from .kinematics import ForwardBatch, inverse_batch, resolve_config
 
@@ -96,7 +96,7 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
     if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= 1000:
-        raise InputError(f'passes = {passes!r} must be an integer from 1 to 1000')
+        raise InputError(f'passes = {brief(passes)} must be an integer from 1 to 1000')
     half = max_tilt / tilt_step
     if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
         raise InputError(f'max_tilt / tilt_step = {half:.6g} tilt steps; allowed: a sweep of at most {MAX_SAMPLES} '

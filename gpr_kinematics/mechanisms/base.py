@@ -34,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError, LimitError, SingularityError
+from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
+from ..validation import MAX_COORDINATE, bounded
 from .conditioning import (
     ANGULAR_JOINTS,
     GRAM_CONDITION_LIMIT,
@@ -56,7 +57,7 @@ from .rotations import (
     rotation_vector,
 )
 
-__all__ = ['ANGULAR_JOINTS', 'GRAM_CONDITION_LIMIT', 'LINEAR_JOINTS', 'MAX_POSITION', 'MAX_STEP', 'POSE_COMPONENTS',
+__all__ = ['ANGULAR_JOINTS', 'GRAM_CONDITION_LIMIT', 'LINEAR_JOINTS', 'MAX_STEP', 'POSE_COMPONENTS',
            'SINGULAR_TOLERANCE', 'JacobianReport', 'Mechanism', 'as_poses', 'check_euler_convention',
            'condition_number', 'dexterity_index', 'euler_from_rotation', 'euler_rate_matrix', 'euler_rotation',
            'homogenize', 'is_singular', 'rotation_from_vector', 'rotation_vector', 'singular_values']
@@ -65,9 +66,6 @@ POSE_COMPONENTS = ('x', 'y', 'z', 'A', 'B', 'C')
 
 #: Largest Newton step of the rigid-motion forward kinematics (rad, or characteristic lengths).
 MAX_STEP = 0.5
-#: Largest magnitude of a pose's position coordinates [m]: far beyond any mechanism of the package, and small
-#: enough that no product of coordinates overflows.
-MAX_POSITION = 1e6
 
 
 def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
@@ -81,10 +79,10 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
                          f'got shape {np.shape(poses)}')
     if not np.all(np.isfinite(arr)):
         raise InputError(f'{name} must be finite numbers; got {arr[~np.all(np.isfinite(arr), axis=1)][0]}')
-    if arr.size and np.max(np.abs(arr[:, :3])) > MAX_POSITION:
-        i, j = np.argwhere(np.abs(arr[:, :3]) > MAX_POSITION)[0]
+    if arr.size and np.max(np.abs(arr[:, :3])) > MAX_COORDINATE:
+        i, j = np.argwhere(np.abs(arr[:, :3]) > MAX_COORDINATE)[0]
         raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} m; allowed: |x|, |y|, |z| <= '
-                         f'{MAX_POSITION:g} m')
+                         f'{MAX_COORDINATE:g} m')
     return arr, single
 
 
@@ -287,7 +285,7 @@ class Mechanism(abc.ABC):
         arr = self.complete_pose(arr)
         base = self.parameters()
         if name not in base:
-            raise InputError(f'{self.name}: unknown parameter {name!r}; allowed: {sorted(base)}')
+            raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: {sorted(base)}')
         p0 = np.asarray(base[name], dtype=float)
         out = np.zeros((arr.shape[0], self.n_joints, p0.size))
         for k in range(p0.size):
@@ -314,6 +312,7 @@ class Mechanism(abc.ABC):
         if q.shape[-1] != self.n_joints or not np.all(np.isfinite(q)):
             raise InputError(f'{self.name}: joint values must be {self.n_joints} finite numbers per pose; '
                              f'got shape {np.shape(joints)}')
+        bounded(q, f'{self.name}: joint values')
         g, _ = as_poses(guess, 'guess')
         if g.shape[0] == 1 and q.shape[0] > 1:
             g = np.repeat(g, q.shape[0], axis=0)

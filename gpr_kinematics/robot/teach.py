@@ -19,10 +19,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._ops import ARRAY
 from ..errors import ConfigError
 from ..files import read_text
+from ..forward import check_stroke
 from .description import RobotDescription
-from .forward import RobotForward, robot_forward
+from .forward import RobotForward, as_rows, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
 from .station_files import MAX_BYTES, read_csv_table
@@ -83,10 +85,13 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     """New joints for old joints ``(N, 3)``, ``(N, n)`` that the naive model computed (module docstring).
 
     Raises:
-        LimitError: an old joint beyond its limits, or an intended station the real robot cannot reach.
+        LimitError: an old rod outside the stroke (the old tool's rods were executed: they lie within it; a tilt
+            or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
     """
     a = robot.arm(arm)
-    old = robot_forward(robot, rods, joints, a.name, check_limits=False)
+    Q = as_rows(rods, 'rods', 3, robot.rods.names)
+    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
+    old = robot_forward(robot, Q, joints, a.name, check_limits=False)
     intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
     if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
         intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
