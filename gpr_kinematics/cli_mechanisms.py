@@ -25,6 +25,7 @@ import numpy as np
 from .errors import InputError, SingularityError, brief
 from .mechanisms import load_mechanism
 from .mechanisms.base import ANGULAR_JOINTS, Mechanism, as_poses
+from .validation import MAX_COORDINATE
 
 CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
   gsp           R = Rz(C) Ry(B) Rx(A) = scipy from_euler('xyz', [A, B, C]) (or the file's 'euler')
@@ -209,8 +210,9 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
     if not 2 <= n <= MAX_POINTS:
         raise InputError(f'--vary {brief(name)}: COUNT = {n}; allowed: an integer from 2 to {MAX_POINTS} (poses per '
                          'map)')
-    if not (np.isfinite(lo) and np.isfinite(hi) and np.isfinite(hi - lo)) or not lo < hi:
-        raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite; got {brief(values[1:])}')
+    if not (abs(lo) <= MAX_COORDINATE and abs(hi) <= MAX_COORDINATE) or not lo < hi:  # NaN fails both
+        raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite and of magnitude at most '
+                         f'{MAX_COORDINATE:g}; got {brief(values[1:])}')
     idx = mech.pose_names.index(name) if name in mech.pose_names else -1
     scale = 1.0
     if 0 <= idx < 3 and args.mm:

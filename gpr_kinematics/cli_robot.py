@@ -150,19 +150,23 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     else:
         from .errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
+    # The error arrays are properties computed anew at each access: take each once (a row holding a view of its
+    # own copy of the whole array made 100,000 rows cost 240 GB).
     if args.naive:
         rt = reteach(robot, rods, joints, args.arm, names)
         a = robot.arm(rt.solution.arm)
+        avoided, avoided_norm = rt.avoided_error, rt.avoided_error_norm
         rows = [{'name': n, 'intended': _station_dict(rt.intended, i), 'rods': rt.solution.rods[i],
                  'arm': dict(zip(a.joint_names, rt.solution.joints[i].tolist(), strict=True)),
-                 'avoided_error': rt.avoided_error_norm[i], 'avoided_error_vector': rt.avoided_error[i]}
+                 'avoided_error': avoided_norm[i], 'avoided_error_vector': avoided[i]}
                 for i, n in enumerate(names)]
     else:
         taught = teach(robot, rods, joints, args.arm, names)
+        error = taught.naive_error
+        norm = np.linalg.norm(error, axis=1)
         rows = [{'name': n, 'station': _station_dict(taught.stations, i),
                  'naive_station': _station_dict(taught.naive_stations, i),
-                 'naive_error': float(np.linalg.norm(taught.naive_error[i])),
-                 'naive_error_vector': taught.naive_error[i]}
+                 'naive_error': float(norm[i]), 'naive_error_vector': error[i]}
                 for i, n in enumerate(names)]
     if args.json:
         _emit({'robot': robot.name, 'reteach': args.naive, 'stations': rows})

@@ -8,6 +8,8 @@ file and the limit:
 
 * aliases (``*name``) are refused: configuration, mechanism, program and robot files never need them;
 * nesting deeper than :data:`MAX_DEPTH` levels is refused;
+* more than :data:`MAX_NODES` values (scalars, lists and mappings) are refused as they are composed: each costs
+  about 0.7 kB and 35 us in PyYAML, so 2 MiB of ``[1,1,1,...]`` took 0.7 GB and 34 s, and 10 MiB would take 3.6 GB;
 * a file larger than :data:`MAX_BYTES` or not a regular file is refused before it is read;
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
 
@@ -25,26 +27,38 @@ from yaml.nodes import Node
 from .errors import BRIEF_LENGTH, ConfigError, brief
 from .files import read_text
 
-__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'brief', 'load_text', 'read_file']
+__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'brief', 'load_text', 'read_file']
 
-#: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB, a 10,000-station
-#: program about 2 MB; PyYAML parses ~1-2 MB/s, so the bound also bounds the time).
+#: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB; a program of 10,000
+#: stations is about 1 MB; the node count below bounds memory and time, this bound the text).
 MAX_BYTES = 10 * 1024 * 1024
 #: Deepest nesting of mappings and sequences accepted (the package's files use fewer than 8 levels).
 MAX_DEPTH = 64
+#: Most values (nodes) in one YAML document: about 0.15 GB and 7 s at the limit; a program of 10,000 stations and
+#: steps has about 150,000 (larger station lists go in CSV station files).
+MAX_NODES = 200_000
+
+
 class _BoundedLoader(yaml.SafeLoader):
-    """SafeLoader that refuses aliases and bounds the nesting depth while composing the node graph."""
+    """SafeLoader that refuses aliases and bounds the nesting depth and the number of nodes while composing the
+    node graph."""
 
     def __init__(self, stream: str, source: str) -> None:
         super().__init__(stream)
         self._source = source
         self._depth = 0
+        self._nodes = 0
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         if self.check_event(AliasEvent):
             mark = self.peek_event().start_mark
             raise ConfigError(f'{self._source}: line {mark.line + 1}: YAML aliases (*name) are not accepted '
                               '(they can expand without bound); write the values out')
+        self._nodes += 1
+        if self._nodes > MAX_NODES:
+            mark = self.peek_event().start_mark
+            raise ConfigError(f'{self._source}: line {mark.line + 1}: more than {MAX_NODES} YAML values; allowed: at '
+                              f'most {MAX_NODES} (large station lists belong in CSV station files)')
         self._depth += 1
         if self._depth > MAX_DEPTH:
             mark = self.peek_event().start_mark

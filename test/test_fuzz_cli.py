@@ -381,7 +381,8 @@ REGRESSIONS = [
     ('sweep --height -1e308', 2, 'height = -1e+308 m (target 0) puts a rod outside the stroke'),
     ('sweep --csv {place}/device_link', 2, 'device_link exists and is not a regular file (it is a symbolic link)'),
     ('dexterity upu3.yaml --vary z 0.1 0.2 1000000000', 2, 'COUNT = 1000000000; allowed: an integer from 2 to'),
-    ('dexterity upu3.yaml --vary z 0.1 1e308 3', 2, 'allowed: |x|, |y|, |z| <= 1e+06 m'),
+    ('dexterity upu3.yaml --vary z 0.1 1e308 3', 2, 'both finite and of magnitude at most 1e+06'),
+    ('dexterity gpr.yaml --vary z 0.17 1.7976931348623157e308 7', 2, 'both finite and of magnitude at most 1e+06'),
     ('dexterity upu3.yaml --plot out.unknownext', 2, 'unknown type .unknownext; allowed: .png, .pdf, .svg'),
     ('mechanism {place}/type_list.yaml --pose 0 0 0.5 0 0 0', 2, "type = ['gpr'] is not a mechanism type"),
     ('mechanism typo_dir/upu3.yaml --pose 0 0 0.2 0 0 0', 2, "'typo_dir/upu3.yaml' not found"),
@@ -418,9 +419,10 @@ def test_an_empty_config_name_is_refused_not_ignored(worker: Worker, tmp_path: P
 
 def test_the_largest_runs_the_limits_allow_fit_the_address_space(worker: Worker, tmp_path: Path) -> None:
     """The documented limits and the harness's bound agree: a sweep of 199,995 samples (199 tilts x 1005
-    azimuths; sweep.MAX_SAMPLES is 200,000) and a dexterity map of 50,000 poses (dexterity.MAX_POINTS) of the
-    GPR, the costliest mechanism, run within 1 GiB of address space (each takes about 10 s, longer on a loaded
-    machine: a timeout of its own)."""
+    azimuths; sweep.MAX_SAMPLES is 200,000), a dexterity map of 50,000 poses (dexterity.MAX_POINTS) of the GPR,
+    the costliest mechanism, and a program sampled into 199,507 samples (robot.timing.MAX_SAMPLES) run within
+    1 GiB of address space (each takes about 10 s, longer on a loaded machine: a timeout of its own); so does a
+    joint table of 10,000 rows (each row kept a copy of the whole error array: 2.4 GB)."""
     o = worker.run(['sweep', '--max-tilt', '2', '--tilt-step', repr(2 / 99), '--azimuth-step', repr(360 / 1005),
                     '--deg', '--json', '--csv', 'big.csv'], tmp_path, timeout=120)
     check(o)
@@ -429,3 +431,16 @@ def test_the_largest_runs_the_limits_allow_fit_the_address_space(worker: Worker,
                     '-0.024', '0.024', '200', '--json'], tmp_path, timeout=120)
     check(o)
     assert o.status == 0 and o.out.endswith('"type": "gpr", "plot": null}\n'), o.describe()
+    program = tmp_path / 'long.yaml'   # the example program with a dwell: 498.8 s, at 400 Hz
+    program.write_text(Path(PROGRAM).read_text().replace('{dwell: 0.5}', '{dwell: 480}').replace(
+        '../robots/example_robot.yaml', str(config_path('robots/example_robot.yaml'))))
+    o = worker.run(['program', 'export', str(program), '--samples', 's.csv', '--rate', '400', '--json'], tmp_path,
+                   timeout=120)
+    check(o)
+    assert o.status == 0 and '"sample_count": 199507' in o.out, o.describe()
+    table = tmp_path / 'joints.csv'
+    table.write_text(JOINT_TABLE.split('\n')[0] + '\n' + ''.join(f'p{i},300,301,299,{i * 1e-4},1,-1\n'
+                                                                for i in range(10_000)))
+    o = worker.run(['robot', 'teach', '--table', str(table), '--json'], tmp_path, timeout=120)
+    check(o)
+    assert o.status == 0 and o.out.count('"naive_error_vector"') > 0, o.describe()

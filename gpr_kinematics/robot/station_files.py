@@ -112,9 +112,9 @@ def units_of(data: Mapping[str, Any], where: str) -> tuple[float, float]:
         raise ConfigError(f'{where}: units must be a mapping {{length: m|mm, angle: rad|deg}}, got {brief(units)}')
     check_keys(units, ('length', 'angle'), f'{where}: units')
     length, angle = units.get('length', 'm'), units.get('angle', 'rad')
-    if length not in LENGTH_UNITS:
+    if not isinstance(length, str) or length not in LENGTH_UNITS:   # a list from YAML is not even hashable
         raise ConfigError(f'{where}: units: length = {brief(length)} is invalid; allowed: m or mm')
-    if angle not in ANGLE_UNITS:
+    if not isinstance(angle, str) or angle not in ANGLE_UNITS:
         raise ConfigError(f'{where}: units: angle = {brief(angle)} is invalid; allowed: rad or deg')
     return LENGTH_UNITS[length], ANGLE_UNITS[angle]
 
