@@ -47,11 +47,14 @@ EXIT_USAGE = EXIT_BAD_INPUT
 #: Longest run of characters without a space an error line carries whole (a long path, or a value a message
 #: quoted whole by mistake, is cut: the line stays readable).
 LONG_WORD = 300
+#: Longest error line [characters]: its middle is cut beyond (a list a message quoted whole by mistake).
+LONG_LINE = 900
 
 
 def one_line(message: str) -> str:
     """An error message as one bounded line: newlines become spaces, words longer than :data:`LONG_WORD` are cut
-    with their length named.
+    with their length named, and a line longer than :data:`LONG_LINE` loses its middle (its start names the
+    problem, its end what is allowed).
 
     >>> one_line('bad value ' + '9' * 1000 + '\\nallowed: 1 to 3')
     'bad value 999999999999999999999999999999999999999999999999999999999999... (1000 characters) allowed: 1 to 3'
@@ -59,7 +62,10 @@ def one_line(message: str) -> str:
     def cut(m: re.Match[str]) -> str:
         return f'{m.group(0)[:BRIEF_LENGTH]}... ({len(m.group(0))} characters)'
 
-    return re.sub(rf'\S{{{LONG_WORD + 1},}}', cut, message.replace('\n', ' '))
+    line = re.sub(rf'\S{{{LONG_WORD + 1},}}', cut, message.replace('\n', ' '))
+    if len(line) > LONG_LINE:
+        line = f'{line[:LONG_LINE // 2]} ... ({len(line)} characters) ... {line[-LONG_LINE // 4:]}'
+    return line
 
 
 class _Parser(argparse.ArgumentParser):

@@ -25,7 +25,7 @@ def finite_number(value: Any, name: str) -> float:
     """``value`` as a finite float; else :class:`InputError` naming ``name``."""
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be a number, got {brief(value)}') from None
     if not np.isfinite(v):
         raise InputError(f'{name} = {v} is not a finite number; allowed: finite values in SI units')
@@ -36,7 +36,7 @@ def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be {size} numbers, got {brief(values)}') from None
     if a.shape != (size,):
         raise InputError(f'{name} must be {size} numbers, got shape {a.shape}')
@@ -65,7 +65,7 @@ def rows_of(values: Any, name: str, width: int) -> NDArray[np.float64]:
     in a batch, the sample."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim == 1:
         a = a[None, :]
@@ -86,7 +86,7 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
     """A scalar or a 1-D sequence as a finite float array ``(N,)``; else :class:`InputError` naming ``name``."""
     try:
         a = np.atleast_1d(np.asarray(values, dtype=float))
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be a number or an array of numbers, got {brief(values)}') from None
     if a.ndim != 1:
         raise InputError(f'{name} must be a scalar or a 1-D array, got shape {a.shape}')
@@ -102,7 +102,7 @@ def three_floats(values: Any, name: str) -> list[float]:
     if isinstance(values, (list, tuple)) and len(values) == 3:
         try:
             out = [float(v) for v in values]
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
             out = []
         if out and all(math.isfinite(v) for v in out):
             return out
@@ -124,7 +124,7 @@ def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDA
     :class:`InputError` naming ``name``."""
     try:
         arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be numbers; got {brief(values)}') from None
     if shape is not None and arr.shape != shape:
         raise InputError(f'{name} must have shape {shape}; got {arr.shape}')

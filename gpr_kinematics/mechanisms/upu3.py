@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys, number_key
+from ..config import check_keys, number_array, number_key
 from ..errors import ConfigError, brief
 from ..validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
@@ -64,11 +64,8 @@ class UPU3(Mechanism):
         if not lo < hi:
             raise ConfigError(f'{source}: limb_min = {lo} must be below limb_max = {hi} (m)')
         az = data.get('base_azimuths', [np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6])
-        try:
-            az_arr = np.asarray(az, dtype=float)
-        except (TypeError, ValueError):
-            az_arr = None
-        if az_arr is None or az_arr.shape != (3,) or not np.all(np.isfinite(az_arr)):
+        az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
+        if az_arr is None:
             raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
         L = data.get('characteristic_length')
         if L is not None:

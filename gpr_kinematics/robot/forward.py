@@ -38,7 +38,7 @@ def as_rows(values: ArrayLike, name: str, width: int, names: tuple[str, ...] | N
     value (by ``names`` when given) and the sample."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim == 1:
         a = a[None, :]

@@ -123,7 +123,7 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     heights = []
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value * length <= 0.1:
+        if not is_number(value) or not 0 <= value * length <= 0.1:
             raise ConfigError(f'{dw}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in the file\'s length '
                               'unit)')
         heights.append(float(value) * length)

@@ -31,7 +31,7 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
     """One finite number [rad] or one per station, as an array ``(n,)``; InputError names the value."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != n):
         raise InputError(f'{name} must be one number or {n} numbers (one per station), got shape {a.shape}')
