@@ -117,7 +117,7 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[An
     lo, hi = _height_range(ops, geo, n, tool, config)
     if not ops.any(ops.not_((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN))):
         return
-    bad = np.atleast_1d(~((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
+    bad = np.atleast_1d(np.logical_not((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
     i = int(np.argmax(bad))
     hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
     hv = float(np.atleast_1d(hi)[i])
