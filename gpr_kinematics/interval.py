@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Protocol, Self, TypeVar
 
 import numpy as np
 
@@ -36,6 +37,29 @@ _REL_TRANSCENDENTAL = 2.0**-48
 _TWO_PI = 2.0 * np.pi
 
 Number = float | int | np.ndarray
+
+
+class Arithmetic(Protocol):
+    """What the workspace models' formulas use: :class:`Interval` and the symbolic expressions of
+    :mod:`gpr_kinematics.workspace.expressions` both provide it, so one formula serves both."""
+
+    def __add__(self, other: Any) -> Self: ...
+    def __radd__(self, other: Any) -> Self: ...
+    def __sub__(self, other: Any) -> Self: ...
+    def __rsub__(self, other: Any) -> Self: ...
+    def __mul__(self, other: Any) -> Self: ...
+    def __rmul__(self, other: Any) -> Self: ...
+    def __truediv__(self, other: Any) -> Self: ...
+    def __neg__(self) -> Self: ...
+    def sqr(self) -> Self: ...
+    def sqrt(self) -> Self: ...
+    def sin(self) -> Self: ...
+    def cos(self) -> Self: ...
+    def arctan(self) -> Self: ...
+
+
+#: A value of the models' formulas: an Interval array or a symbolic expression.
+T = TypeVar('T', bound=Arithmetic)
 
 
 def down(x: np.ndarray) -> np.ndarray:
@@ -115,20 +139,29 @@ class Interval:
     def __neg__(self) -> Interval:
         return Interval(-self.hi, -self.lo)
 
-    def __add__(self, other: Interval | Number) -> Interval:
+    # An operand that is neither an Interval nor a number (e.g. a symbolic expression of
+    # gpr_kinematics.workspace.expressions) gets NotImplemented, so Python asks the operand instead.
+    def __add__(self, other: Any) -> Interval:
         o = _as_interval(other)
+        if o is None:
+            return NotImplemented
         return Interval(down(self.lo + o.lo), up(self.hi + o.hi))
 
     __radd__ = __add__
 
-    def __sub__(self, other: Interval | Number) -> Interval:
+    def __sub__(self, other: Any) -> Interval:
         o = _as_interval(other)
+        if o is None:
+            return NotImplemented
         return Interval(down(self.lo - o.hi), up(self.hi - o.lo))
 
-    def __rsub__(self, other: Number) -> Interval:
-        return _as_interval(other) - self
+    def __rsub__(self, other: Any) -> Interval:
+        o = _as_interval(other)
+        if o is None:
+            return NotImplemented
+        return o - self
 
-    def __mul__(self, other: Interval | Number) -> Interval:
+    def __mul__(self, other: Any) -> Interval:
         if isinstance(other, (float, int)) and not isinstance(other, bool):
             a = float(other)
             if a == 0.0:
@@ -138,6 +171,8 @@ class Interval:
                 return Interval(down(self.lo * a), up(self.hi * a))
             return Interval(down(self.hi * a), up(self.lo * a))
         o = _as_interval(other)
+        if o is None:
+            return NotImplemented
         p = (self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi)
         lo = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3]))
         hi = np.maximum(np.maximum(p[0], p[1]), np.maximum(p[2], p[3]))
@@ -148,11 +183,17 @@ class Interval:
 
     __rmul__ = __mul__
 
-    def __truediv__(self, other: Interval | Number) -> Interval:
-        return self * _as_interval(other).reciprocal()
+    def __truediv__(self, other: Any) -> Interval:
+        o = _as_interval(other)
+        if o is None:
+            return NotImplemented
+        return self * o.reciprocal()
 
-    def __rtruediv__(self, other: Number) -> Interval:
-        return _as_interval(other) * self.reciprocal()
+    def __rtruediv__(self, other: Any) -> Interval:
+        o = _as_interval(other)
+        if o is None:
+            return NotImplemented
+        return o * self.reciprocal()
 
     def reciprocal(self) -> Interval:
         """``1/x``; an interval containing 0 gives ``[-inf, inf]``."""
@@ -227,10 +268,21 @@ class Interval:
         return Interval(np.minimum(self.lo, other.lo), np.maximum(self.hi, other.hi))
 
 
-def _as_interval(x: Interval | Number) -> Interval:
+def _as_interval(x: object) -> Interval | None:
+    """An Interval as is, a number or array as a point interval, anything else None."""
     if isinstance(x, Interval):
         return x
-    return Interval.point(x)
+    if isinstance(x, (int, float, np.ndarray, np.number)) and not isinstance(x, bool):
+        return Interval.point(x)
+    return None
+
+
+def norm(*components: T) -> T:
+    """Euclidean norm of a vector of intervals: ``sqrt(sum of squares)``, outward rounded."""
+    total = components[0].sqr()
+    for c in components[1:]:
+        total = total + c.sqr()
+    return total.sqrt()
 
 
 def _monotone_inc(

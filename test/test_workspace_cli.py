@@ -81,7 +81,8 @@ def test_bad_input_exits_2_with_one_line(argv, match, capsys):
 
 @pytest.mark.parametrize('text, match', [
     ('type: hexapod\n', 'unknown mechanism type'),
-    ('type: dextar\nla: 0.2\n', "missing key 'lb'"),
+    ('type: dextar\nla: 0.2\n', 'missing key lb'),
+    ('type: dextar\nla: 0.2\nlb: 0.2\nlc: 0.2\nld: 0.2\nd: 0.2\nbrnch: -1\n', 'unknown key(s) brnch'),
     ('[1, 2\n', 'not valid YAML'),
 ])
 def test_bad_files_exit_2(tmp_path, capsys, text, match):
