@@ -2,23 +2,25 @@
 
 An :class:`Interval` holds two float64 numpy arrays ``lo`` and ``hi`` of the same shape: one interval per
 element, so one call bounds a function over thousands of boxes at once (the nonuniform covering method of
-seed ``workspace-nonuniform-covering-posypkin.txt`` evaluates "interval estimates" of the constraint
-functions over boxes; the seed used the C++ library Snowgoose, this is the numpy equivalent).
+Posypkin, Rybak, Malyshev and Gaponenko, "Approximation of the parallel robot working area using the method
+of nonuniform covering" (2019), evaluates "interval estimates" of the constraint functions over boxes; the
+authors used the C++ library Snowgoose, this is the numpy equivalent).
 
 Certification (outward rounding). Every operation returns an enclosure of the exact real range:
 
 * ``+``, ``-``, ``*``, ``/`` and ``sqrt`` are correctly rounded in IEEE 754 (error <= 1/2 ulp), so moving the
   lower bound one float down and the upper bound one float up with ``np.nextafter`` encloses the exact
   result.
-* ``sin``, ``cos``, ``tan``, ``arcsin``, ``arctan`` and ``exp`` come from libm / numpy SIMD kernels, which are
-  not correctly rounded; their documented errors are a few ulp at most (glibc <= 2 ulp, numpy's SIMD
-  kernels <= 4 ulp). These results are widened by a relative ``2**-48`` (16 ulp) plus one ``nextafter``,
-  a deliberate margin over the documented bounds.
+* ``sin``, ``cos``, ``tan``, ``arcsin``, ``arccos``, ``arctan``, ``exp`` and ``log`` come from libm / numpy
+  SIMD kernels, which are not correctly rounded; their documented errors are a few ulp at most (glibc <= 2
+  ulp, numpy's SIMD kernels <= 4 ulp). These results are widened by a relative ``2**-48`` (16 ulp) plus one
+  ``nextafter``, a deliberate margin over the documented bounds; the tests check the enclosures against
+  values correctly rounded by ``mpmath`` at 200 bits.
 * Extrema inside an argument interval (``sin``, ``cos``, ``sqr`` across 0) are detected conservatively: when
   the test is uncertain by rounding, the extremum is assumed inside, which only widens the result.
 
 The arithmetic is the natural interval extension, so an expression in which a variable occurs once gives
-its exact range (up to rounding); repeated occurrences overestimate (the dependency effect the seed mentions),
+its exact range (up to rounding); repeated occurrences overestimate (the dependency effect the paper mentions),
 which bisection reduces.
 """
 
@@ -257,8 +259,22 @@ class Interval:
         hi = np.clip(self.hi, -1.0, 1.0)
         return _monotone_inc(np.arcsin, lo, hi, -0.5 * np.pi, 0.5 * np.pi)
 
+    def arccos(self) -> Interval:
+        """``arccos`` (decreasing) over the part inside ``[-1, 1]``."""
+        lo = np.clip(self.lo, -1.0, 1.0)
+        hi = np.clip(self.hi, -1.0, 1.0)
+        top = up(np.asarray(np.pi))  # the float pi is below the real pi: one ulp up encloses it
+        return Interval(np.maximum(_down_t(np.arccos(hi)), 0.0), np.minimum(_up_t(np.arccos(lo)), top))
+
     def arctan(self) -> Interval:
         return _monotone_inc(np.arctan, self.lo, self.hi, -0.5 * np.pi, 0.5 * np.pi)
+
+    def log(self) -> Interval:
+        """Natural logarithm over the part that is > 0 (``-inf`` as the lower bound when 0 is reached)."""
+        with np.errstate(divide='ignore', invalid='ignore'):
+            lo = np.where(self.lo > 0.0, _down_t(np.log(np.maximum(self.lo, 0.0))), -_INF)
+            hi = np.where(self.hi > 0.0, _up_t(np.log(np.maximum(self.hi, 0.0))), -_INF)
+        return Interval(lo, hi)
 
     def exp(self) -> Interval:
         with np.errstate(over='ignore'):
