@@ -65,13 +65,34 @@ T = TypeVar('T', bound=Arithmetic)
 
 
 def down(x: np.ndarray) -> np.ndarray:
-    """Next float towards -inf (one ulp down): outward rounding of a correctly rounded lower bound."""
-    return np.nextafter(x, -_INF)
+    """Next float towards -inf (one ulp down): outward rounding of a correctly rounded lower bound.
+
+    Bit for bit ``np.nextafter(x, -inf)``, computed on the integer view of the floats (several times faster
+    than ``nextafter``, which dominates the cost of interval arithmetic): a positive float's predecessor is
+    its bit pattern minus one, a negative float's is its bit pattern plus one; 0 and -inf are special.
+    """
+    return _step(x, -1)
 
 
 def up(x: np.ndarray) -> np.ndarray:
     """Next float towards +inf (one ulp up): outward rounding of a correctly rounded upper bound."""
-    return np.nextafter(x, _INF)
+    return _step(x, 1)
+
+
+def _step(x: np.ndarray, direction: int) -> np.ndarray:
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.ndim == 0:
+        return np.asarray(np.nextafter(arr, direction * _INF))
+    bits = np.ascontiguousarray(arr).view(np.int64)
+    # sign bit set -> (bits >> 63) | 1 == -1, else 1: moves the magnitude down (direction -1) or up (+1)
+    out = (bits + direction * ((bits >> 63) | 1)).view(np.float64)
+    zero = arr == 0.0
+    if zero.any():
+        np.copyto(out, direction * 5e-324, where=zero)
+    stuck = arr == direction * _INF
+    if stuck.any():
+        np.copyto(out, arr, where=stuck)
+    return out
 
 
 def _down_t(x: np.ndarray) -> np.ndarray:
@@ -172,6 +193,18 @@ class Interval:
             if a > 0.0:
                 return Interval(down(self.lo * a), up(self.hi * a))
             return Interval(down(self.hi * a), up(self.lo * a))
+        if isinstance(other, (np.ndarray, np.number)) and not isinstance(other, np.bool_):
+            # exact points (e.g. a preconditioning matrix): two products chosen by sign instead of four
+            c = np.asarray(other, dtype=float)
+            pos = c >= 0.0
+            with np.errstate(invalid='ignore'):
+                a_lo, a_hi = self.lo * c, self.hi * c
+            lo = np.where(pos, a_lo, a_hi)
+            hi = np.where(pos, a_hi, a_lo)
+            zero = c == 0.0                       # 0 times any real is exactly 0 (no 0 * inf)
+            lo = np.where(zero, 0.0, np.where(np.isnan(lo), -_INF, down(lo)))
+            hi = np.where(zero, 0.0, np.where(np.isnan(hi), _INF, up(hi)))
+            return Interval(lo, hi)
         o = _as_interval(other)
         if o is None:
             return NotImplemented

@@ -198,3 +198,22 @@ def test_monotone_enclosures_of_wide_intervals_contain_the_true_range(fn):
     for lo_x, hi_x, lo, hi in zip(a, b, res.lo, res.hi, strict=True):
         ends = [f(MP.mpf(float(lo_x))), f(MP.mpf(float(hi_x)))]
         assert MP.mpf(float(lo)) <= min(ends) and max(ends) <= MP.mpf(float(hi)), (fn, lo_x, hi_x)
+
+
+def test_outward_rounding_steps_are_nextafter_bit_for_bit():
+    """down/up step on the integer view of the floats; they must equal np.nextafter everywhere, the special
+    values (signed zeros, infinities, NaN, subnormals, the largest float) and any array layout included."""
+    from gpr_kinematics.interval import down, up
+    rng = np.random.default_rng(17)
+    x = rng.normal(size=50000) * 10.0 ** rng.integers(-320, 308, 50000)
+    special = [0.0, -0.0, np.inf, -np.inf, np.nan, 5e-324, -5e-324, 1.0, -1.0, np.finfo(float).max,
+               -np.finfo(float).max, np.finfo(float).tiny, -np.finfo(float).tiny]
+    x[:len(special)] = special
+    with np.errstate(all='ignore'):
+        for step, towards in ((down, -np.inf), (up, np.inf)):
+            ref = np.nextafter(x, towards)
+            assert np.array_equal(step(x), ref, equal_nan=True)
+            assert np.array_equal(step(x.reshape(250, 200).T), ref.reshape(250, 200).T, equal_nan=True)
+            assert np.array_equal(step(x[::7]), ref[::7], equal_nan=True)
+            for v in special:
+                assert np.array_equal(step(np.float64(v)), np.nextafter(v, towards), equal_nan=True)
