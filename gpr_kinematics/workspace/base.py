@@ -105,6 +105,7 @@ class WorkspaceResult:
     touches_initial_box: bool = False
     stopped: str = ''
     extra: dict[str, Any] = field(default_factory=dict)
+    outside: np.ndarray | None = None
 
     @property
     def inner_boxes(self) -> int:

@@ -37,6 +37,7 @@ from ..errors import InputError
 from .base import WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
+from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
 from .progress import Progress, StopFlag
 from .scheduler import Executor
 
@@ -54,7 +55,7 @@ class Step:
 
     inner: np.ndarray
     boundary: np.ndarray
-    outside: int
+    outside: np.ndarray
     children: Any
     evaluations: int
 
@@ -72,10 +73,13 @@ class BoxFrontier:
     def split(self, chunk: int) -> list[BoxFrontier]:
         return [BoxFrontier(self.boxes[s : s + chunk]) for s in range(0, self.size, chunk)]
 
-    @staticmethod
-    def concat(parts: list[BoxFrontier], d: int) -> BoxFrontier:
+    def parts(self, n: int) -> list[BoxFrontier]:
+        """``n`` contiguous parts of about equal size (fewer when there are fewer boxes)."""
+        return [BoxFrontier(b) for b in np.array_split(self.boxes, min(n, self.size)) if b.shape[0]]
+
+    def join(self, parts: list[BoxFrontier]) -> BoxFrontier:
         arrays = [p.boxes for p in parts if p.size]
-        return BoxFrontier(np.concatenate(arrays) if arrays else np.empty((0, d, 2)))
+        return BoxFrontier(np.concatenate(arrays) if arrays else self.boxes[:0])
 
     def output_boxes(self) -> np.ndarray:
         return self.boxes
@@ -97,19 +101,20 @@ def constraint_step(model: WorkspaceModel, frontier: BoxFrontier, delta: float, 
     undecided = ~(is_in | is_out)
     small = undecided & (scaled_diameter(chunk, model.scale) < delta)
     split = undecided & ~small
-    return Step(chunk[is_in], chunk[small], int(np.count_nonzero(is_out)),
-                BoxFrontier(bisect(chunk[split], model.scale)), chunk.shape[0])
+    return Step(chunk[is_in], chunk[small], chunk[is_out], BoxFrontier(bisect(chunk[split], model.scale)),
+                chunk.shape[0])
 
 
 @dataclass(frozen=True)
 class CoveringTask:
-    """How to cover one model: the first frontier, the chunk step ``step(model, chunk, delta, *args)``,
-    how frontiers are joined, and the initial box and scale of the output variables."""
+    """How to cover one model: the first frontier (with ``size``, ``split(chunk)``, ``parts(n)``,
+    ``join(frontiers)``, ``output_boxes()``, ``diameter(scale)``), the chunk step ``step(model, chunk, delta,
+    *args)`` (a module-level function: it is sent to cluster workers), the initial box and scale of the
+    output variables, and the chunk size."""
 
     frontier: Any
     step: Callable[..., Step]
     args: tuple[Any, ...]
-    concat: Callable[[list[Any]], Any]
     box: np.ndarray
     scale: np.ndarray
     chunk: int
@@ -118,10 +123,8 @@ class CoveringTask:
 def _constraint_task(model: WorkspaceModel, box: np.ndarray, method: str, nodes: int) -> CoveringTask:
     if method == 'grid':
         check_grid_nodes(nodes, box.shape[0])
-    d = box.shape[0]
-    return CoveringTask(BoxFrontier(box[None].copy()), constraint_step, (method, nodes),
-                        lambda parts: BoxFrontier.concat(parts, d), box, np.asarray(model.scale, dtype=float),
-                        CHUNK_BOXES)
+    return CoveringTask(BoxFrontier(box[None].copy()), constraint_step, (method, nodes), box,
+                        np.asarray(model.scale, dtype=float), CHUNK_BOXES)
 
 
 def approximate(
@@ -138,6 +141,8 @@ def approximate(
     chunk_size: int | None = None,
     scheduler: str | Executor = 'none',
     workers: int | None = None,
+    keep_outside: bool = False,
+    parts: int = PARTS,
 ) -> WorkspaceResult:
     """Approximate the working area of ``model`` to accuracy ``delta`` (metres, scaled diameter).
 
@@ -157,6 +162,10 @@ def approximate(
         scheduler: ``'none'`` (this process), ``'local'`` (a Dask local cluster, ``workers`` processes,
             default one per core), a Dask scheduler address ``'tcp://HOST:PORT'``, or an :class:`Executor`
             to reuse (the caller closes it).
+        parts: once a level holds enough work, the pending boxes are cut into this many parts, each covered
+            to the end on its own (the unit of work of a cluster: see :mod:`.levels`).
+        keep_outside: also return the boxes proved outside (``result.outside``; with inner and boundary boxes
+            they tile the initial box).
 
     Returns:
         :class:`WorkspaceResult`. Ctrl-C (SIGINT) during the run stops it cleanly between chunks: the
@@ -168,11 +177,26 @@ def approximate(
         raise InputError(f'max_boxes must be a positive integer, got {max_boxes!r}')
     if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
         raise InputError(f'chunk_size must be a positive integer, got {chunk_size!r}')
+    if not (isinstance(parts, int) and 1 <= parts <= 100_000):
+        raise InputError(f'parts must be an integer from 1 to 100000, got {parts!r}')
+    own = not isinstance(scheduler, Executor)
+    executor = Executor(scheduler, workers) if isinstance(scheduler, str) else scheduler
     if hasattr(model, 'covering_task'):
         if method != 'covering' or box is not None:
-            raise InputError(f'{model.name}: a model given by equations is covered with method covering on '
-                             'its own variable box only')
-        task = model.covering_task()
+            raise InputError(f'{model.name}: this model is covered with method covering on its own box only')
+        check_delta(delta, model.box[model.output_index], model.scale[model.output_index])
+
+        def part(sub_model: Any, sub_delta: float, keep: bool = False) -> WorkspaceResult:
+            # a mechanism the model builds on, covered by the same scheduler (its own progress off)
+            return approximate(sub_model, sub_delta, progress=False, max_seconds=max_seconds, max_boxes=max_boxes,
+                               scheduler=executor, keep_outside=keep)
+
+        try:
+            task = model.covering_task(delta, part)
+        except KeyboardInterrupt:
+            if own:
+                executor.close()
+            return _nothing_proved(model, delta)
     else:
         box = check_initial_box(model.box if box is None else box, model.variables)
         model.check_box(box)
@@ -180,19 +204,27 @@ def approximate(
     check_delta(delta, task.box, task.scale)
     if method == 'uniform':
         return uniform(model, delta, task.box)
-    own = not isinstance(scheduler, Executor)
-    executor = Executor(scheduler, workers) if isinstance(scheduler, str) else scheduler
     stream = progress_stream
     if progress is None:
         progress = bool(getattr(stream or sys.stderr, 'isatty', lambda: False)())
     bar = Progress(progress, stream, progress_after, '*'.join(model.units[i] for i in _output_index(model)))
     try:
         return _run(model, task, float(delta), method, executor, bar, max_seconds, max_boxes,
-                    chunk_size or task.chunk)
+                    chunk_size or task.chunk, keep_outside, parts)
     finally:
         bar.close()
         if own:
             executor.close()
+
+
+def _nothing_proved(model: Any, delta: float) -> WorkspaceResult:
+    """The result of a run stopped before its covering started: the whole box is a boundary box."""
+    outputs = _output_index(model)
+    box = model.box[outputs]
+    return WorkspaceResult('covering', tuple(model.variables[i] for i in outputs),
+                           tuple(model.units[i] for i in outputs), float(delta), np.empty((0, box.shape[0], 2)),
+                           box[None].copy(), 0, 0.0, 0, 0, interrupted=True, touches_initial_box=True,
+                           stopped='interrupted')
 
 
 def _output_index(model: Any) -> list[int]:
@@ -210,69 +242,69 @@ def _run(
     max_seconds: float | None,
     max_boxes: int,
     chunk: int,
+    keep_outside: bool,
+    parts: int,
 ) -> WorkspaceResult:
     t0 = time.perf_counter()
-    box, scale = task.box, task.scale
+    box = task.box
     total_volume = float(np.prod(box[:, 1] - box[:, 0]))
-    frontier = task.frontier
-    inner: list[np.ndarray] = []
-    boundary: list[np.ndarray] = []
-    tally = {'outside': 0, 'evaluations': 0, 'kept': 0, 'inner_volume': 0.0, 'boundary_volume': 0.0,
-             'outside_volume': 0.0}
-    level = 0
-    stopped = ''
+    tally = {'evaluations': 0, 'inner': 0.0, 'boundary': 0.0, 'outside': 0.0, 'kept': 0}
     flag = StopFlag()
 
-    def late() -> bool:
-        return max_seconds is not None and time.perf_counter() - t0 > max_seconds
+    def stop() -> str:
+        if flag.raised:
+            return 'interrupted'
+        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
+            return f'time limit ({max_seconds:g} s)'
+        return f'box limit ({max_boxes} boxes)' if tally['kept'] > max_boxes else ''
 
-    def should_stop() -> bool:
-        return flag.raised or late()
+    def count(level: int, diameter: float, evaluations: int, inner: float, boundary: float, outside: float,
+              kept: int) -> None:
+        tally['evaluations'] += evaluations
+        tally['inner'] += inner
+        tally['boundary'] += boundary
+        tally['outside'] += outside
+        tally['kept'] += kept
+        decided = tally['inner'] + tally['boundary'] + tally['outside']
+        bar.update(level, diameter, delta, tally['evaluations'], tally['inner'], tally['boundary'],
+                   decided / total_volume)
+
+    def report(level: int, diameter: float, r: Step) -> None:       # one chunk, in this process
+        count(level, diameter, r.evaluations, box_volume(r.inner), box_volume(r.boundary), box_volume(r.outside),
+              r.inner.shape[0] + r.boundary.shape[0])
+
+    def done(i: int, o: Outcome) -> None:                           # one part, from a cluster worker
+        if not o.reported:
+            inner, boundary = decided_volume(o)
+            count(o.levels, o.diameter, o.evaluations, inner, boundary, o.outside_volume,
+                  sum(a.shape[0] for a in o.inner) + sum(a.shape[0] for a in o.boundary))
 
     try:
-        while frontier.size and not stopped:
-            level += 1
-            if tally['kept'] + 2 * frontier.size > max_boxes:
-                stopped = f'box limit ({max_boxes} boxes)'
-                break
-            chunks = frontier.split(chunk)
-            diameter = frontier.diameter(scale)
-
-            def done(i: int, r: Step, level: int = level, diameter: float = diameter,
-                     chunks: list[Any] = chunks) -> None:
-                tally['evaluations'] += r.evaluations
-                tally['outside'] += r.outside
-                tally['kept'] += r.inner.shape[0] + r.boundary.shape[0]
-                tally['inner_volume'] += box_volume(r.inner)
-                tally['boundary_volume'] += box_volume(r.boundary)
-                tally['outside_volume'] += box_volume(chunks[i].output_boxes()) - box_volume(
-                    r.children.output_boxes()) - box_volume(r.inner) - box_volume(r.boundary)
-                decided = tally['inner_volume'] + tally['boundary_volume'] + tally['outside_volume']
-                bar.update(level, diameter, delta, tally['evaluations'], tally['inner_volume'],
-                           tally['boundary_volume'], decided / total_volume)
-
-            results: list[Step | None] = [None] * len(chunks)
-            try:
-                executor.run(task.step, model, chunks, (delta, *task.args), results, should_stop, done)
-            except KeyboardInterrupt:
-                # raised inside a model's evaluation (or outside the main thread): keep what is recorded
-                flag.raised = True
-            frontier = task.concat([c if r is None else r.children for c, r in zip(chunks, results, strict=True)])
-            for r in results:
-                if r is not None:
-                    inner.append(r.inner)
-                    boundary.append(r.boundary)
-            if flag.raised:
-                stopped = 'interrupted'
-            elif late():
-                stopped = f'time limit ({max_seconds:g} s)'
-        if stopped and frontier.size:
-            boundary.append(frontier.output_boxes())
+        with LocalContext(stop, report):
+            out = run_levels(model, task.step, task.args, task.frontier, delta, chunk, keep_outside, max_boxes, stop,
+                             report, until=distribute_at(chunk, parts))
+            if out.frontier.size and not out.stopped:
+                pieces = out.frontier.parts(parts)
+                results: list[Outcome | None] = [None] * len(pieces)
+                deadline = None if max_seconds is None else time.time() + max_seconds - (time.perf_counter() - t0)
+                args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels)
+                try:
+                    executor.run(cover_part, model, pieces, args, results, lambda: bool(stop()), done)
+                except KeyboardInterrupt:
+                    flag.raised = True
+                for piece, o in zip(pieces, results, strict=True):
+                    if o is None:                    # not run (stopped): its boxes count as boundary
+                        out.boundary.append(piece.output_boxes())
+                        out.stopped = out.stopped or stop() or 'interrupted'
+                    else:
+                        out.merge(o, keep_outside)
+            elif out.frontier.size:
+                out.boundary.append(out.frontier.output_boxes())
     finally:
         flag.restore()
     k = box.shape[0]
-    inner_arr = np.concatenate(inner) if inner else np.empty((0, k, 2))
-    bnd_arr = np.concatenate(boundary) if boundary else np.empty((0, k, 2))
+    inner_arr = np.concatenate(out.inner) if out.inner else np.empty((0, k, 2))
+    bnd_arr = np.concatenate(out.boundary) if out.boundary else np.empty((0, k, 2))
     outputs = _output_index(model)
     return WorkspaceResult(
         method=method,
@@ -281,13 +313,14 @@ def _run(
         delta=delta,
         inner=inner_arr,
         boundary=bnd_arr,
-        outside_boxes=tally['outside'],
+        outside_boxes=out.outside_count,
         seconds=time.perf_counter() - t0,
-        evaluations=tally['evaluations'],
-        levels=level,
-        interrupted=bool(stopped),
+        evaluations=out.evaluations,
+        levels=out.levels,
+        interrupted=bool(out.stopped),
         certified=(method == 'covering'),
-        touches_initial_box=touches(box, inner_arr, bnd_arr),
-        stopped=stopped,
+        touches_initial_box=touches(box, inner_arr, bnd_arr) and not getattr(model, 'box_contains_workspace', False),
+        stopped=out.stopped,
         extra=executor.describe(),
+        outside=(np.concatenate(out.outside) if out.outside else np.empty((0, k, 2))) if keep_outside else None,
     )

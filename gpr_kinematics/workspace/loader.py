@@ -126,6 +126,18 @@ def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float 
     )
 
 
+def _equations(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> Any:
+    from .equations import from_mapping
+
+    return from_mapping(data, ws, src, scale)
+
+
+def _joint_area(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> Any:
+    from .joint_area import from_mapping
+
+    return from_mapping(data, ws, src, scale)
+
+
 Builder = Callable[[Mapping[str, Any], Mapping[str, Any], str, 'float | None'], Any]
 #: ``type`` -> (builder, extra keys of its ``workspace:`` section).
 BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
@@ -135,6 +147,8 @@ BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
     'upu3': (_upu3, ()),
     'gpr': (_gpr, ('virtual_joint_model', 'max_tilt')),
     'shell_arm': (_shell_arm, ()),
+    'equations': (_equations, ()),
+    'joint_working_area': (_joint_area, ()),
 }
 MODEL_TYPES = tuple(BUILDERS)
 
