@@ -260,7 +260,7 @@ class _Parser:
     def take(self, value: str | None = None) -> tuple[str, str, int]:
         tok = self.peek()
         if tok is None:
-            self.fail(f'unexpected end of the text (expected {value or "a number, a name or ("})')
+            self.fail(f'unexpected end of the text (expected {repr(value) if value else "a number, a name or ("})')
             raise AssertionError  # unreachable: fail raises
         if value is not None and tok[1] != value:
             self.fail(f'expected {value!r} at column {tok[2]}, found {tok[1]!r}')
