@@ -289,7 +289,7 @@ def _run(
                 deadline = None if max_seconds is None else time.time() + max_seconds - (time.perf_counter() - t0)
                 args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels)
                 try:
-                    executor.run(cover_part, model, pieces, args, results, lambda: bool(stop()), done)
+                    executor.run(cover_part, model, pieces, args, results, lambda: bool(stop()), done, bar.refresh)
                 except KeyboardInterrupt:
                     flag.raised = True
                 for piece, o in zip(pieces, results, strict=True):

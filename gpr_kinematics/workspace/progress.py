@@ -25,6 +25,7 @@ class Progress:
         self.units = units
         self.start = time.perf_counter()
         self.shown = False
+        self._last: tuple[int, float, float, int, float, float, float] | None = None
 
     def update(
         self,
@@ -38,6 +39,7 @@ class Progress:
     ) -> None:
         if not self.enabled:
             return
+        self._last = (level, diameter, delta, processed, inner_volume, boundary_volume, done_frac)
         elapsed = time.perf_counter() - self.start
         if elapsed < self.after:
             return
@@ -51,6 +53,11 @@ class Progress:
         )
         self.stream.flush()
         self.shown = True
+
+    def refresh(self) -> None:
+        """Show the last numbers again with the time elapsed (while waiting for a cluster's results)."""
+        if self._last is not None:
+            self.update(*self._last)
 
     def close(self) -> None:
         if self.shown:

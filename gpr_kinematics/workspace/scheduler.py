@@ -73,6 +73,7 @@ class Executor:
         results: list[Any],
         stop: Callable[[], bool],
         done: Callable[[int, Any], None],
+        tick: Callable[[], None] | None = None,
     ) -> None:
         """``results[i] = step(model, chunks[i], *args)`` for every chunk, except those not run because
         ``stop()`` became true (checked between chunks; they stay as they were, ``None``). ``done(i, result)``
@@ -81,7 +82,7 @@ class Executor:
         if self.scheduler == 'none' or len(chunks) <= 1:
             self._run_here(step, model, chunks, args, results, stop, done)
         else:
-            self._run_cluster(step, model, chunks, args, results, stop, done)
+            self._run_cluster(step, model, chunks, args, results, stop, done, tick)
 
     @staticmethod
     def _run_here(
@@ -108,6 +109,7 @@ class Executor:
         results: list[Any],
         stop: Callable[[], bool],
         done: Callable[[int, Any], None],
+        tick: Callable[[], None] | None,
     ) -> None:
         client = self._connect()
         if self._model_key is not model:
@@ -115,11 +117,15 @@ class Executor:
             self._model_key = model
         futures = [client.submit(step, self._model_future, c, *args, pure=False) for c in chunks]
         waiting = dict(enumerate(futures))
+        last = time.monotonic()
         try:
             while waiting and not stop():
                 ready = [i for i, f in waiting.items() if f.done()]
                 if not ready:
                     time.sleep(0.01)
+                    if tick is not None and time.monotonic() - last > 0.5:
+                        tick()
+                        last = time.monotonic()
                     continue
                 for i in ready:
                     results[i] = waiting.pop(i).result()
