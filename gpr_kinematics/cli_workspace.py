@@ -230,7 +230,7 @@ def plot_projections(
         fig, ax = plt.subplots(figsize=(5.5, 5.0), dpi=110)
         for arr, colour in ((result.boundary, '#f4a582'), (result.inner, '#2166ac')):
             r = _unique_rects(arr, i, j)
-            verts = np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1)
+            verts = list(np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1))
             ax.add_collection(PolyCollection(verts, facecolors=colour, edgecolors='none', linewidths=0))
         if box is not None:
             ax.set_xlim(box[i])

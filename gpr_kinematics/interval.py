@@ -97,11 +97,11 @@ def _step(x: np.ndarray, direction: int) -> np.ndarray:
 
 def _down_t(x: np.ndarray) -> np.ndarray:
     """Lower bound of a libm (not correctly rounded) result: 16 ulp relative margin plus one ulp."""
-    return np.nextafter(x - np.abs(x) * _REL_TRANSCENDENTAL, -_INF)
+    return np.asarray(np.nextafter(x - np.abs(x) * _REL_TRANSCENDENTAL, -_INF))
 
 
 def _up_t(x: np.ndarray) -> np.ndarray:
-    return np.nextafter(x + np.abs(x) * _REL_TRANSCENDENTAL, _INF)
+    return np.asarray(np.nextafter(x + np.abs(x) * _REL_TRANSCENDENTAL, _INF))
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,23 +126,23 @@ class Interval:
     @classmethod
     def point(cls, x: Number) -> Interval:
         """Degenerate interval(s) ``[x, x]`` of exactly representable floats."""
-        x = np.asarray(x, dtype=float)
-        return cls(x, x)
+        arr = np.asarray(x, dtype=float)
+        return cls(arr, arr)
 
     @classmethod
     def const(cls, x: float) -> Interval:
         """Enclosure of a real constant given as a float that may be rounded (e.g. pi, sqrt(3)/2, 0.1)."""
-        x = np.asarray(x, dtype=float)
-        return cls(down(x), up(x))
+        arr = np.asarray(x, dtype=float)
+        return cls(down(arr), up(arr))
 
     # -- properties ----------------------------------------------------------------------------------------
     @property
     def width(self) -> np.ndarray:
-        return self.hi - self.lo
+        return np.asarray(self.hi - self.lo)
 
     @property
     def mid(self) -> np.ndarray:
-        return 0.5 * (self.lo + self.hi)
+        return np.asarray(0.5 * (self.lo + self.hi))
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -150,9 +150,9 @@ class Interval:
 
     def contains(self, x: Number) -> np.ndarray:
         """Elementwise ``lo <= x <= hi``."""
-        return (self.lo <= x) & (x <= self.hi)
+        return np.asarray((self.lo <= x) & (x <= self.hi))
 
-    def __getitem__(self, idx) -> Interval:
+    def __getitem__(self, idx: Any) -> Interval:
         return Interval(np.broadcast_to(self.lo, self.shape)[idx], np.broadcast_to(self.hi, self.shape)[idx])
 
     def __repr__(self) -> str:
@@ -322,7 +322,7 @@ def _as_interval(x: object) -> Interval | None:
     if isinstance(x, Interval):
         return x
     if isinstance(x, (int, float, np.ndarray, np.number)) and not isinstance(x, bool):
-        return Interval.point(x)
+        return Interval.point(np.asarray(x, dtype=float))
     return None
 
 

@@ -58,7 +58,7 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     size = np.where(hi > lo, (hi - lo) / cells, 1.0)
 
     def cell_of(x: np.ndarray) -> np.ndarray:
-        return np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64)
+        return np.asarray(np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64))
 
     i0 = cell_of(boxes[:, :, 0])
     span = cell_of(boxes[:, :, 1]) - i0 + 1

@@ -248,7 +248,7 @@ def _run(
     t0 = time.perf_counter()
     box = task.box
     total_volume = float(np.prod(box[:, 1] - box[:, 0]))
-    tally = {'evaluations': 0, 'inner': 0.0, 'boundary': 0.0, 'outside': 0.0, 'kept': 0}
+    tally: dict[str, Any] = {'evaluations': 0, 'inner': 0.0, 'boundary': 0.0, 'outside': 0.0, 'kept': 0}
     flag = StopFlag()
 
     def stop() -> str:

@@ -217,8 +217,8 @@ class EquationModel:
         else:
             blo, bhi = blo[rows], bhi[rows]
         vary = [*self.output_index, *self.solved_index]
-        g, maybe = self.tape.root_boxes_tight(blo, bhi, vary)
-        holds = (g.lo >= self.inner_lower) & (g.hi <= self.inner_upper)
+        enc, maybe = self.tape.root_boxes_tight(blo, bhi, vary)
+        holds = (enc.lo >= self.inner_lower) & (enc.hi <= self.inner_upper)
         out[rows] = np.all(holds | self.is_equality, axis=1) & ~maybe
         return out
 

@@ -92,8 +92,8 @@ class Graph:
 
     def _fold(self, op: str, ids: tuple[int, ...]) -> Expr:
         """Constant operands: the operation on their enclosures (outward rounded), refused off its domain."""
-        a = Interval(*self.consts[ids[0]])
-        b = Interval(*self.consts[ids[1]]) if len(ids) > 1 else a
+        a = Interval(*(np.asarray(v) for v in self.consts[ids[0]]))
+        b = Interval(*(np.asarray(v) for v in self.consts[ids[1]])) if len(ids) > 1 else a
         domain = {'sqrt': a.hi >= 0, 'log': a.hi > 0, 'arcsin': (a.lo <= 1) & (a.hi >= -1),
                   'arccos': (a.lo <= 1) & (a.hi >= -1), 'div': (b.lo != 0) | (b.hi != 0)}
         if not bool(domain.get(op, True)):
@@ -245,6 +245,7 @@ class _Parser:
                     break
                 col = pos + len(text[pos:]) - len(text[pos:].lstrip()) + 1
                 self.fail(f'unexpected character {text[col - 1]!r} at column {col}')
+                raise AssertionError  # unreachable: fail raises
             kind = m.lastgroup or 'op'
             self.tokens.append((kind, m.group(kind), m.start(kind) + 1))
             pos = m.end()

@@ -110,7 +110,7 @@ class GprModel(WorkspaceModel):
         hx = self.R * np.cos(self.az)
         hy = self.R * np.sin(self.az)
         # plane through (0, 0, z) with normal n: n . (P - (0,0,z)) = 0
-        return z[:, None] - (n[:, 0, None] * hx[None] + n[:, 1, None] * hy[None]) / n[:, 2, None]
+        return np.asarray(z[:, None] - (n[:, 0, None] * hx[None] + n[:, 1, None] * hy[None]) / n[:, 2, None])
 
     def radial_displacements(self, q: np.ndarray) -> np.ndarray:
         """Radial virtual-joint displacements dl (N, 3) [m] for rod lengths q (N, 3): Newton on

@@ -69,7 +69,7 @@ def newton(
     the coordinates' size).
     """
     p = point.copy()
-    idx = np.array(solved)
+    idx = list(solved)
     ok = np.ones(p.shape[0], dtype=bool)
     done = np.zeros(p.shape[0], dtype=bool)
     for _ in range(NEWTON_STEPS):
@@ -79,7 +79,7 @@ def newton(
         F, J = tape.jacobian_points(p[rows], idx)
         step, regular = _solve(J, F - target)
         ok[rows] &= regular
-        p[rows[:, None], idx] -= step
+        p[rows[:, None], np.array(idx)] -= step
         done[rows] = np.all(np.abs(step) <= 1e-12 * (1.0 + np.abs(p[rows][:, idx])), axis=1)
     return p, ok & done & np.all(np.isfinite(p), axis=1)
 

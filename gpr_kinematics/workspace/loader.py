@@ -59,11 +59,11 @@ def bounds_pair(bounds: Any, where: str, source: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _angles(data: Mapping[str, Any], key: str, default: Sequence[float], source: str) -> np.ndarray:
+def _angles(data: Mapping[str, Any], key: str, default: Sequence[float], source: str) -> list[float]:
     value = data.get(key, default)
     if not isinstance(value, (list, tuple)) or len(value) != 3:
         raise ConfigError(f'{source}: {key} must be a list of 3 angles in rad, got {str(value)[:80]}')
-    return np.array([number(v, f'{key}[{i}]', source, unit='rad') for i, v in enumerate(value)])
+    return [number(v, f'{key}[{i}]', source, unit='rad') for i, v in enumerate(value)]
 
 
 def _tripod(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
@@ -76,7 +76,7 @@ def _tripod(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: flo
 def _upu3(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
     mech = _mechanism(data, src)
     lo, hi = (float(v) for v in mech.joint_limits[0])
-    return Upu3Model(mech.b, mech.p, lo, hi, np.asarray(mech.azimuths, dtype=float))
+    return Upu3Model(mech.b, mech.p, lo, hi, [float(a) for a in mech.azimuths])
 
 
 def _planar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
@@ -86,7 +86,10 @@ def _planar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: flo
     if isinstance(branch, bool) or branch not in (1, -1) or not isinstance(branch, int):
         raise ConfigError(f'{src}: branch must be 1 or -1 (the working mode), got {str(branch)[:40]}')
     return Rrr3PlanarModel(
-        *(number_key(data, k, src) for k in ('base_radius', 'platform_radius', 'crank', 'coupler')),
+        number_key(data, 'base_radius', src),
+        number_key(data, 'platform_radius', src),
+        number_key(data, 'crank', src),
+        number_key(data, 'coupler', src),
         number_key(data, 'theta_min', src, -math.pi / 4, positive=False, unit='rad'),
         number_key(data, 'theta_max', src, math.pi / 4, positive=False, unit='rad'),
         _angles(data, 'base_angles', (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6), src),
@@ -98,8 +101,8 @@ def _planar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: flo
 
 def _dextar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
     check_keys(data, (*_COMMON, 'la', 'lb', 'lc', 'ld', 'd'), src)
-    links = (number_key(data, k, src) for k in ('la', 'lb', 'lc', 'ld'))
-    return DextarModel(*links, number_key(data, 'd', src, positive=False))
+    la, lb, lc, ld = (number_key(data, k, src) for k in ('la', 'lb', 'lc', 'ld'))
+    return DextarModel(la, lb, lc, ld, number_key(data, 'd', src, positive=False))
 
 
 def _shell_arm(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:

@@ -98,7 +98,7 @@ class Rrr3PlanarModel(WorkspaceModel):
         with np.errstate(invalid='ignore'):
             s = self.branch * np.sqrt(vv - k * k)
         jv = np.stack([-v[..., 1], v[..., 0]], axis=2)
-        return (k[..., None] * v + s[..., None] * jv) / vv[..., None]
+        return np.asarray((k[..., None] * v + s[..., None] * jv) / vv[..., None])
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         v = self._v(points)
@@ -133,6 +133,6 @@ class Rrr3PlanarModel(WorkspaceModel):
         """Input angles theta_i - theta_i(home) (N, 3) in (-pi, pi] [rad]."""
         u = self.crank_directions(points)
         home = self.crank_directions(np.zeros((1, 3)))[0]
-        return np.arctan2(
-            home[None, :, 0] * u[..., 1] - home[None, :, 1] * u[..., 0], np.sum(home[None] * u, axis=2)
+        return np.asarray(np.arctan2(
+            home[None, :, 0] * u[..., 1] - home[None, :, 1] * u[..., 0], np.sum(home[None] * u, axis=2))
         )

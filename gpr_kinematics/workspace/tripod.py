@@ -118,4 +118,4 @@ class TripodModel(WorkspaceModel):
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         a, s = self.joints(points)
-        return np.linalg.norm(s - a[None], axis=2)
+        return np.asarray(np.linalg.norm(s - a[None], axis=2))

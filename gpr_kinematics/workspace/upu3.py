@@ -59,4 +59,4 @@ class Upu3Model(WorkspaceModel):
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
         p = np.asarray(points, dtype=float)
-        return np.linalg.norm(p[:, None, :] - self.centres[None], axis=2)
+        return np.asarray(np.linalg.norm(p[:, None, :] - self.centres[None], axis=2))
