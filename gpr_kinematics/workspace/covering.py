@@ -204,6 +204,7 @@ def approximate(
     check_delta(delta, task.box, task.scale)
     if method == 'uniform':
         return uniform(model, delta, task.box)
+    executor.forget_model()
     stream = progress_stream
     if progress is None:
         progress = bool(getattr(stream or sys.stderr, 'isatty', lambda: False)())

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,6 +107,25 @@ class Graph:
         return self.constant(float(r.lo), float(r.hi))
 
 
+def _binary(op: str, reflected: bool = False) -> Callable[[Expr, object], Expr]:
+    """The method ``self op other`` (or ``other op self``) of :class:`Expr`: a new node of its graph."""
+
+    def method(self: Expr, other: object) -> Expr:
+        o = self._other(other)
+        return self.graph.apply(op, o, self) if reflected else self.graph.apply(op, self, o)
+
+    return method
+
+
+def _unary(op: str) -> Callable[[Expr], Expr]:
+    """The method ``op(self)`` of :class:`Expr` (the name of the Interval method that does the same)."""
+
+    def method(self: Expr) -> Expr:
+        return self.graph.apply(op, self)
+
+    return method
+
+
 class Expr:
     """A node of a :class:`Graph`, with the arithmetic of :class:`~gpr_kinematics.interval.Interval`."""
 
@@ -129,32 +148,15 @@ class Expr:
             return self.graph.constant(float(x))
         raise ExpressionError(f'cannot combine an expression with {type(x).__name__}')
 
-    def __add__(self, other: object) -> Expr:
-        return self.graph.apply('add', self, self._other(other))
-
-    def __radd__(self, other: object) -> Expr:
-        return self.graph.apply('add', self._other(other), self)
-
-    def __sub__(self, other: object) -> Expr:
-        return self.graph.apply('sub', self, self._other(other))
-
-    def __rsub__(self, other: object) -> Expr:
-        return self.graph.apply('sub', self._other(other), self)
-
-    def __mul__(self, other: object) -> Expr:
-        return self.graph.apply('mul', self, self._other(other))
-
-    def __rmul__(self, other: object) -> Expr:
-        return self.graph.apply('mul', self._other(other), self)
-
-    def __truediv__(self, other: object) -> Expr:
-        return self.graph.apply('div', self, self._other(other))
-
-    def __rtruediv__(self, other: object) -> Expr:
-        return self.graph.apply('div', self._other(other), self)
-
-    def __neg__(self) -> Expr:
-        return self.graph.apply('neg', self)
+    __add__ = _binary('add')
+    __radd__ = _binary('add', reflected=True)
+    __sub__ = _binary('sub')
+    __rsub__ = _binary('sub', reflected=True)
+    __mul__ = _binary('mul')
+    __rmul__ = _binary('mul', reflected=True)
+    __truediv__ = _binary('div')
+    __rtruediv__ = _binary('div', reflected=True)
+    __neg__ = _unary('neg')
 
     def __pow__(self, n: int) -> Expr:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or abs(n) > MAX_POWER:
@@ -172,38 +174,10 @@ class Expr:
     def __repr__(self) -> str:
         return f'Expr(node {self.id}: {self.graph.ops[self.id]})'
 
-    def sqr(self) -> Expr:
-        return self.graph.apply('sqr', self)
-
-    def sqrt(self) -> Expr:
-        return self.graph.apply('sqrt', self)
-
-    def sin(self) -> Expr:
-        return self.graph.apply('sin', self)
-
-    def cos(self) -> Expr:
-        return self.graph.apply('cos', self)
-
-    def tan(self) -> Expr:
-        return self.graph.apply('tan', self)
-
-    def arcsin(self) -> Expr:
-        return self.graph.apply('arcsin', self)
-
-    def arccos(self) -> Expr:
-        return self.graph.apply('arccos', self)
-
-    def arctan(self) -> Expr:
-        return self.graph.apply('arctan', self)
-
-    def exp(self) -> Expr:
-        return self.graph.apply('exp', self)
-
-    def log(self) -> Expr:
-        return self.graph.apply('log', self)
-
-    def abs(self) -> Expr:
-        return self.graph.apply('abs', self)
+    sqr, sqrt, abs = _unary('sqr'), _unary('sqrt'), _unary('abs')
+    sin, cos, tan = _unary('sin'), _unary('cos'), _unary('tan')
+    arcsin, arccos, arctan = _unary('arcsin'), _unary('arccos'), _unary('arctan')
+    exp, log = _unary('exp'), _unary('log')
 
     @property
     def constant(self) -> tuple[float, float] | None:

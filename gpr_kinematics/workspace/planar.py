@@ -35,20 +35,11 @@ class Rrr3PlanarModel(WorkspaceModel):
     variables = ('x', 'y', 'phi')
     units = ('m', 'm', 'rad')
 
-    def __init__(
-        self,
-        base_radius: float = 0.1,
-        platform_radius: float = 0.05,
-        crank: float = 0.05,
-        coupler: float = 0.05,
-        theta_min: float = -math.pi / 4,
-        theta_max: float = math.pi / 4,
-        base_angles: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
-        platform_angles: Sequence[float] | None = None,
-        branch: int = 1,
-        box: np.ndarray | None = None,
-        angle_scale: float | None = None,
-    ) -> None:
+    def __init__(self, base_radius: float = 0.1, platform_radius: float = 0.05, crank: float = 0.05,
+                 coupler: float = 0.05, theta_min: float = -math.pi / 4, theta_max: float = math.pi / 4,
+                 base_angles: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
+                 platform_angles: Sequence[float] | None = None, branch: int = 1, box: np.ndarray | None = None,
+                 angle_scale: float | None = None) -> None:
         if min(base_radius, platform_radius, crank, coupler) <= 0:
             raise ConfigError('rrr3_planar needs positive base_radius, platform_radius, crank, coupler')
         if not theta_min < theta_max < theta_min + 2 * math.pi:

@@ -77,46 +77,20 @@ class Executor:
     ) -> None:
         """``results[i] = step(model, chunks[i], *args)`` for every chunk, except those not run because
         ``stop()`` became true (checked between chunks; they stay as they were, ``None``). ``done(i, result)``
-        is called as each result arrives. An exception (KeyboardInterrupt included) leaves the results
-        recorded so far in ``results``."""
+        is called as each result arrives, ``tick()`` about twice a second while waiting for a cluster. An
+        exception (KeyboardInterrupt included) leaves the results recorded so far in ``results``."""
         if self.scheduler == 'none' or len(chunks) <= 1:
-            self._run_here(step, model, chunks, args, results, stop, done)
-        else:
-            self._run_cluster(step, model, chunks, args, results, stop, done, tick)
-
-    @staticmethod
-    def _run_here(
-        step: StepFunction,
-        model: Any,
-        chunks: Sequence[Any],
-        args: tuple[Any, ...],
-        results: list[Any],
-        stop: Callable[[], bool],
-        done: Callable[[int, Any], None],
-    ) -> None:
-        for i, chunk in enumerate(chunks):
-            if stop():
-                break
-            results[i] = step(model, chunk, *args)
-            done(i, results[i])
-
-    def _run_cluster(
-        self,
-        step: StepFunction,
-        model: Any,
-        chunks: Sequence[Any],
-        args: tuple[Any, ...],
-        results: list[Any],
-        stop: Callable[[], bool],
-        done: Callable[[int, Any], None],
-        tick: Callable[[], None] | None,
-    ) -> None:
+            for i, chunk in enumerate(chunks):
+                if stop():
+                    break
+                results[i] = step(model, chunk, *args)
+                done(i, results[i])
+            return
         client = self._connect()
         if self._model_key is not model:
             self._model_future = client.scatter(model, broadcast=True, hash=False)
             self._model_key = model
-        futures = [client.submit(step, self._model_future, c, *args, pure=False) for c in chunks]
-        waiting = dict(enumerate(futures))
+        waiting = {i: client.submit(step, self._model_future, c, *args, pure=False) for i, c in enumerate(chunks)}
         last = time.monotonic()
         try:
             while waiting and not stop():
@@ -133,6 +107,10 @@ class Executor:
         finally:
             if waiting:
                 client.cancel(list(waiting.values()))
+
+    def forget_model(self) -> None:
+        """Send the model again at the next run (a run may have changed it, e.g. the joint area's tables)."""
+        self._model_key = self._model_future = None
 
     # --------------------------------------------------------------------------------------- the cluster
     def _connect(self) -> Any:

@@ -31,15 +31,8 @@ class TripodModel(WorkspaceModel):
     variables = ('z', 'psi', 'theta')
     units = ('m', 'rad', 'rad')
 
-    def __init__(
-        self,
-        base_radius: float = 0.05,
-        platform_radius: float = 0.05,
-        leg_min: float = 0.07,
-        leg_max: float = 0.13,
-        box: np.ndarray | None = None,
-        angle_scale: float | None = None,
-    ) -> None:
+    def __init__(self, base_radius: float = 0.05, platform_radius: float = 0.05, leg_min: float = 0.07,
+                 leg_max: float = 0.13, box: np.ndarray | None = None, angle_scale: float | None = None) -> None:
         if not (0 < leg_min < leg_max) or base_radius <= 0 or platform_radius <= 0:
             raise ConfigError('tripod_3rps needs base_radius, platform_radius > 0 and 0 < leg_min < leg_max')
         self.R = float(base_radius)

@@ -28,15 +28,9 @@ class Upu3Model(WorkspaceModel):
     variables = ('x', 'y', 'z')
     units = ('m', 'm', 'm')
 
-    def __init__(
-        self,
-        b: float = 0.2,
-        p: float = 0.17,
-        limb_min: float = 0.17,
-        limb_max: float = 0.27,
-        azimuths: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
-        box: np.ndarray | None = None,
-    ) -> None:
+    def __init__(self, b: float = 0.2, p: float = 0.17, limb_min: float = 0.17, limb_max: float = 0.27,
+                 azimuths: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
+                 box: np.ndarray | None = None) -> None:
         if b <= 0 or p <= 0 or not 0 < limb_min < limb_max:
             raise ConfigError('upu3 needs b > 0, p > 0 and 0 < limb_min < limb_max (m)')
         self.b, self.p, self.limb_min, self.limb_max = float(b), float(p), float(limb_min), float(limb_max)
