@@ -69,16 +69,31 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=run)
 
 
+class _PlainLoader(yaml.SafeLoader):
+    """YAML without aliases: a value on the command line cannot expand (alias bombs)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            raise yaml.YAMLError('aliases (*name) are not allowed')
+        return super().compose_node(parent, index)
+
+
+#: Longest --set value (characters).
+MAX_SET = 2000
+
+
 def _overrides(items: list[str]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition('=')
         if not sep or not key.strip():
             raise InputError(f'--set expects KEY=VALUE, got {item[:60]!r}')
+        if len(value) > MAX_SET:
+            raise InputError(f'--set {key[:40]}: the value has {len(value)} characters; allowed: at most {MAX_SET}')
         try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML') from None
+            out[key.strip()] = yaml.load(value, Loader=_PlainLoader)  # noqa: S506 - a SafeLoader subclass
+        except (yaml.YAMLError, RecursionError):
+            raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML (no aliases)') from None
     return out
 
 

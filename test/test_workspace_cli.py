@@ -73,6 +73,8 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=-2'], 'positive'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=[&a [1, 1], &b [*a, *a], [*b, *b]]'], 'no aliases'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=' + '[' * 5000], 'at most 2000'),
     (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
 ])
 def test_bad_input_exits_2_with_one_line(argv, match, capsys):

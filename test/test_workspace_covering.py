@@ -174,8 +174,9 @@ def test_contains_points_matches_brute_force():
 
 
 def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
-    """Seed 3upu-aboulissane.txt, Figs. 8-9: a larger base shrinks the workspace, a longer limb limit
-    enlarges the upper dome. Certified: the outer volume of one is below the inner volume of the other."""
+    """Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism", Figs. 8-9: a larger base
+    shrinks the workspace, a longer limb limit enlarges the upper dome. Certified: the outer volume of one is
+    below the inner volume of the other."""
     def run(**over):
         model = load_workspace_model(config_path('mechanisms/upu3.yaml'), over)
         model.box = np.array([[-0.4, 0.4], [-0.4, 0.4], [0.0, 0.4]])
