@@ -124,7 +124,18 @@ def _check_args(args: argparse.Namespace) -> float:
         output_file(args.boxes, '--boxes')
     if args.plot:
         output_directory(args.plot)
+        _matplotlib()
     return delta
+
+
+def _matplotlib() -> Any:
+    """matplotlib (Agg), or a one-line error when it is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise InputError('--plot needs matplotlib (pip install matplotlib)') from None
+    matplotlib.use('Agg')
+    return matplotlib
 
 
 def run(args: argparse.Namespace) -> int:
@@ -227,9 +238,7 @@ def plot_projections(
     result: WorkspaceResult, directory: str | Path, name: str, box: np.ndarray | None = None
 ) -> list[Path]:
     """PNG projections of the inner (dark) and outer (light) approximations on every coordinate plane."""
-    import matplotlib
-
-    matplotlib.use('Agg')
+    _matplotlib()
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
 

@@ -28,11 +28,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol, Self, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numpy as np
 
 from .errors import InputError
+
+if TYPE_CHECKING:
+    from typing import Self  # Python 3.11; annotations only (postponed), so 3.10 imports this module too
 
 _INF = np.inf
 _REL_TRANSCENDENTAL = 2.0**-48
