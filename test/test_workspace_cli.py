@@ -123,6 +123,9 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
     assert proc.returncode == 0, stderr
     data = json.loads(stdout)
     assert data['interrupted'] and 'interrupted' in stderr
+    # the default scheduler: the run was cut into parts on a Dask local cluster when it was stopped
+    import importlib.util
+    assert data['cluster_used'] == (importlib.util.find_spec('distributed') is not None)
     with np.load(out) as npz:
         assert bool(npz['interrupted'])
         model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
