@@ -131,9 +131,15 @@ def run_codac(builder, model, delta: float, timeout: float):
 
     Returns (seconds, inner, boundary) with boxes in the model's own units, or None on timeout.
     """
+    return in_child(_codac_worker, (builder, model, delta), timeout)
+
+
+def in_child(target, args: tuple, timeout: float):
+    """``target(*args, queue)`` in a forked child process (codac never runs in this one: importing it sets
+    upward rounding); what it puts on the queue, or None after ``timeout`` seconds."""
     ctx = mp.get_context('fork')
     queue = ctx.Queue()
-    proc = ctx.Process(target=_codac_worker, args=(builder, model, delta, queue))
+    proc = ctx.Process(target=target, args=(*args, queue))
     proc.start()
     try:
         result = queue.get(timeout=timeout)

@@ -24,7 +24,6 @@ import math
 import multiprocessing as mp
 import os
 import platform
-import queue as queue_mod
 import statistics
 import sys
 import time
@@ -34,6 +33,9 @@ import numpy as np
 from gpr_kinematics.resources import config_path
 from gpr_kinematics.workspace import approximate, load_workspace_model
 from gpr_kinematics.workspace.scheduler import Executor
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_workspace import in_child  # noqa: E402  (the sibling benchmark's child-process runner)
 
 
 def _codac_worker(delta: float, queue: mp.Queue) -> None:
@@ -58,18 +60,7 @@ def _codac_worker(delta: float, queue: mp.Queue) -> None:
 
 
 def run_codac(delta: float, timeout: float) -> tuple[float, int, np.ndarray] | None:
-    ctx = mp.get_context('fork')
-    queue = ctx.Queue()
-    proc = ctx.Process(target=_codac_worker, args=(delta, queue))
-    proc.start()
-    try:
-        out = queue.get(timeout=timeout)
-    except queue_mod.Empty:
-        out = None
-    if proc.is_alive():
-        proc.terminate()
-    proc.join()
-    return out
+    return in_child(_codac_worker, (delta,), timeout)
 
 
 def union_area(rects: np.ndarray, pixel: float = 5e-4) -> float:
