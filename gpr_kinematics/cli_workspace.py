@@ -101,7 +101,7 @@ def _scheduler(args: argparse.Namespace) -> str:
     """The scheduler to use: ``local`` falls back to ``none`` (with a note) when dask.distributed is absent."""
     if args.scheduler == 'local' and importlib.util.find_spec('distributed') is None:
         if args.workers is not None:
-            raise InputError('--workers needs dask.distributed (pip install dask distributed)')
+            raise InputError("--workers needs dask.distributed (pip install '.[cluster]': dask and distributed)")
         sys.stderr.write('gpr workspace: dask.distributed is not installed; running in this process '
                          '(--scheduler none)\n')
         return 'none'

@@ -120,7 +120,7 @@ class Executor:
             from distributed import Client, LocalCluster
         except ImportError:
             raise InputError(
-                f'--scheduler {self.scheduler} needs dask.distributed (pip install dask distributed); '
+                f"--scheduler {self.scheduler} needs dask.distributed (pip install '.[cluster]': dask, distributed); "
                 'use --scheduler none for one process'
             ) from None
         self.used_cluster = True
