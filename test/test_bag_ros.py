@@ -46,6 +46,24 @@ def trajectory(rate: float, tilt_step_deg: float, azimuth_step_deg: float, subsc
                  tilt_step=math.radians(tilt_step_deg), azimuth_step=math.radians(azimuth_step_deg))
 
 
+def closed_samples(bag: Path, at_least: int, timeout: float) -> int:
+    """Poll a bag being recorded until its closed segments hold ``at_least`` platform states."""
+    from gpr_kinematics.bags.errors import BagError
+
+    deadline = time.monotonic() + timeout
+    n = 0
+    while time.monotonic() < deadline:
+        try:
+            topic = read_bag(bag, topics=[STATE]).topic(STATE)
+        except BagError:  # no segment closed yet
+            topic = None
+        n = 0 if topic is None else len(topic)
+        if n >= at_least:
+            return n
+        time.sleep(0.05)
+    raise AssertionError(f'{bag}: {n} samples in closed segments after {timeout} s, expected {at_least}')
+
+
 def published(traj) -> int:
     return int(wait_for_log(traj, r'finished: published (\d+) samples').group(1))
 
@@ -127,7 +145,8 @@ def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> 
         wait_for_log(killed, rf'recording {len(DEFAULT_TOPICS)} topic')
         traj = trajectory(200.0, 0.2, 20.0, subscribers=2)  # 18 x 21 = 378 samples, ~1.9 s
         wait_for_log(traj, r'started: publishing')
-        time.sleep(1.3)
+        # Kill once closed segments hold 60 samples (polled: a loaded machine streams slower than 200 Hz).
+        closed_samples(tmp_path / 'killed', at_least=60, timeout=30.0)
         kill_ns = time.time_ns()
         killed.proc.send_signal(signal.SIGKILL)
         assert killed.wait(10) == -signal.SIGKILL
