@@ -21,8 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, brief
 from ..geometry import rotation_z, tilt_from_matrix, tilt_rotation
-from ..validation import bounded
-from .forward import as_rows
+from ..validation import bounded, rows_of
 
 Array = NDArray[np.float64]
 
@@ -68,7 +67,7 @@ class Stations:
         >>> len(s), s.names
         (1, ('0',))
         """
-        P = as_rows(position, 'position', 3, ('x', 'y', 'z'))
+        P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
         bounded(P, 'station position [m]')
         n = P.shape[0]
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
