@@ -2,7 +2,7 @@
 
 A working area is ``W = {x in Q : lower_j <= g_j(x) <= upper_j for all j}`` (Posypkin, Rybak, Malyshev,
 Gaponenko, "Approximation of the parallel robot working area using the method of nonuniform covering",
-2019), approximated by two unions of boxes: the **inner** boxes (every constraint certainly holds on
+docs/references.md), approximated by two unions of boxes: the **inner** boxes (every constraint certainly holds on
 them) and the **boundary** boxes (undecided, diameter below ``delta``); inner plus boundary is the
 **outer** approximation, which contains ``W``.
 """

@@ -1,7 +1,7 @@
 """Workspace approximation by nonuniform covering (certified) and by the grid methods.
 
 The covering method of Posypkin, Rybak, Malyshev and Gaponenko ("Approximation of the parallel robot
-working area using the method of nonuniform covering", 2019) keeps a list of boxes, starting from one box
+working area using the method of nonuniform covering", docs/references.md) keeps a list of boxes, starting from one box
 ``Q`` that contains the working area ``W = {x in Q : lower_j <= g_j(x) <= upper_j}``; for each box it
 bounds every constraint by interval arithmetic (:mod:`gpr_kinematics.interval`, outward rounding): a box
 with some ``[g_j]`` outside ``[lower_j, upper_j]`` is dropped (outside), a box with every ``[g_j]`` inside

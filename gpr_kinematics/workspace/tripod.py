@@ -1,4 +1,5 @@
-"""The 3-RPS tripod of Posypkin, Rybak, Malyshev and Gaponenko (2019, Fig. 8, eqs. 2-7) as a workspace model.
+"""The 3-RPS tripod of Posypkin, Rybak, Malyshev and Gaponenko (Fig. 8, eqs. 2-7; docs/references.md) as a
+workspace model.
 
 Its pose formulas are written once, for intervals and symbolic expressions alike (:meth:`TripodModel.rotation`,
 :meth:`TripodModel.centre`, :meth:`TripodModel.legs`); the joint working area builds on them."""
@@ -16,7 +17,7 @@ from .base import WorkspaceModel
 
 
 class TripodModel(WorkspaceModel):
-    """3-RPS tripod (Posypkin et al. 2019, Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
+    """3-RPS tripod (Posypkin et al., Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
 
     Pose variables ``z`` [m], ``psi`` (about x) and ``theta`` (about y) [rad]. The parasitic motions are
     Rao and Rao's formulas as the paper gives them: ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
