@@ -25,9 +25,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from .errors import InputError
+from .errors import ConfigError, InputError
+from .safe_yaml import load_text
 from .workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from .workspace.levels import PARTS
 from .workspace.scheduler import MAX_WORKERS
@@ -69,15 +69,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=run)
 
 
-class _PlainLoader(yaml.SafeLoader):
-    """YAML without aliases: a value on the command line cannot expand (alias bombs)."""
-
-    def compose_node(self, parent: Any, index: Any) -> Any:
-        if self.check_event(yaml.AliasEvent):
-            raise yaml.YAMLError('aliases (*name) are not allowed')
-        return super().compose_node(parent, index)
-
-
 #: Longest --set value (characters).
 MAX_SET = 2000
 
@@ -90,9 +81,9 @@ def _overrides(items: list[str]) -> dict[str, Any]:
             raise InputError(f'--set expects KEY=VALUE, got {item[:60]!r}')
         if len(value) > MAX_SET:
             raise InputError(f'--set {key[:40]}: the value has {len(value)} characters; allowed: at most {MAX_SET}')
-        try:
-            out[key.strip()] = yaml.load(value, Loader=_PlainLoader)
-        except (yaml.YAMLError, RecursionError):
+        try:  # the package's one YAML reader: no aliases (a value cannot expand), bounded depth and size
+            out[key.strip()] = load_text(value, f'--set {key[:40]}')
+        except ConfigError:
             raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML (no aliases)') from None
     return out
 

@@ -399,6 +399,17 @@ REGRESSIONS = [
     ('robot teach --rods 250 251 1e308 --joints 0 50 -30 --mm --deg --naive', 2, 'gpr_rod3 = 1e+305 m is outside'),
     ('accuracy gsp_d3_6.yaml --pose 0 0 0.13 0 0 0 --errors 1e308 0 0 0 0 0', 2, 'allowed: finite values within'),
     ('accuracy gpr.yaml --pose 0 0 0.5 0.0349 0 0 --errors 1e308 0 0', 2, 'q1 = 1e+308 m is farther than'),
+    # found later, by the deep search (GPR_FUZZ_EXAMPLES=150) and by hand: angles beyond 1e6 rad, whose float
+    # value modulo 2 pi has no digits left, passed as valid stations and joints
+    ('robot ik --position 1.3 0.6 0.6 --heading 1e308', 2, 'heading = 1e+308 rad (station 0); allowed: finite values'),
+    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --azimuth -1e308 --deg', 2, 'azimuth = -1.74533e+306 rad'),
+    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --arm arm2 --redundancy 1e308 --deg', 2,
+     'redundancy value = 1.74533e+306 rad (station 0); allowed: finite values within +-1e+06 rad'),
+    ('robot teach --rods 0.25 0.251 0.252 --joints 0 1e308 -0.5 --naive', 2,
+     'joints of arm1 [rad] = [[0.0, 1e+308, -0.5]]; allowed: finite values within +-1e+06'),
+    # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'
+    ('workspace tripod_3rps.yaml --delta 0.05 --set leg_max=13e-2 --scheduler none --no-progress', 0,
+     'tripod_3rps: 0 inner and 62 boundary boxes'),
 ]
 
 

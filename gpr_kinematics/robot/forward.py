@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InputError, LimitError
 from ..geometry import rotation_z
 from ..kinematics import ForwardBatch, forward_batch, naive_forward
-from ..validation import rows_of
+from ..validation import bounded, rows_of
 from .description import Arm, RobotDescription
 from .planar_arm import LIMIT_SLACK
 from .transforms import PoseBatch, rotation_angle
@@ -150,7 +150,8 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
 
     Raises:
         InputError: wrong shapes, NaN or infinity (naming the rod or joint and the sample).
-        LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``).
+        LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``;
+            without, InputError for a joint beyond +-:data:`~gpr_kinematics.validation.MAX_COORDINATE` rad).
     """
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
@@ -159,6 +160,8 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         raise InputError(f'rods and joints must have the same number of samples, got {Q.shape[0]} and {J.shape[0]}')
     if check_limits:
         check_joint_limits(a, J)
+    else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
+        bounded(J, f'joints of {a.name} [rad]')
     gpr = forward_batch(Q, robot.config, check_limits=check_limits)
     return forward_on_platform(robot, a, Q, J, gpr)
 
