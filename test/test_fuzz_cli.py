@@ -407,6 +407,9 @@ REGRESSIONS = [
      'redundancy value = 1.74533e+306 rad (station 0); allowed: finite values within +-1e+06 rad'),
     ('robot teach --rods 0.25 0.251 0.252 --joints 0 1e308 -0.5 --naive', 2,
      'joints of arm1 [rad] = [[0.0, 1e+308, -0.5]]; allowed: finite values within +-1e+06'),
+    ('calibrate --plan 5 --output p.csv --threshold 1e308', 2,
+     'no parameter can be determined to the threshold 1e+308 even from all 222 candidate configurations'),
+    ('calibrate --plan 5 --output p.csv --threshold 1000', 2, 'from the 5 configurations chosen; allowed: a lower'),
     # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'
     ('workspace tripod_3rps.yaml --delta 0.05 --set leg_max=13e-2 --scheduler none --no-progress', 0,
      'tripod_3rps: 0 inner and 62 boundary boxes'),
