@@ -410,6 +410,8 @@ REGRESSIONS = [
     ('calibrate --plan 5 --output p.csv --threshold 1e308', 2,
      'no parameter can be determined to the threshold 1e+308 even from all 222 candidate configurations'),
     ('calibrate --plan 5 --output p.csv --threshold 1000', 2, 'from the 5 configurations chosen; allowed: a lower'),
+    # an empty --table was ignored
+    ('robot teach --table  --rods 0.25 0.25 0.25 --joints 0 0 0', 2, 'give either --table FILE or --rods'),
     # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'
     ('workspace tripod_3rps.yaml --delta 0.05 --set leg_max=13e-2 --scheduler none --no-progress', 0,
      'tripod_3rps: 0 inner and 62 boundary boxes'),
