@@ -20,7 +20,8 @@ class TripodModel(WorkspaceModel):
     """3-RPS tripod (Posypkin et al., Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
 
     Pose variables ``z`` [m], ``psi`` (about x) and ``theta`` (about y) [rad]. The parasitic motions are
-    Rao and Rao's formulas as the paper gives them: ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
+    Rao and Rao's formulas (2013, docs/references.md) as the paper gives them:
+    ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
     ``y = -r cos psi sin phi``, ``x = r/2 (Rp11 - Rp22)``, with ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2).
     Leg i joins ``a_i = R u_i`` to ``s_i = p + Rp r u_i``, ``u_i = (cos b_i, sin b_i, 0)``; the constraint is
     ``leg_min <= |s_i - a_i| <= leg_max`` (eq. 4; eqs. 5-7 are its components, eq. 6-7 as printed carry
