@@ -134,7 +134,12 @@ CASES: dict[str, list[tuple[Any, ...]]] = {
                    C('3'), '--json'),
                   ('dexterity', 'upu3.yaml', '--vary', 'z', '0.17', '0.27', '5', '--plot', Out('.png')),
                   ('dexterity', In('mechanism'))],
-    'workspace': [('workspace', In('workspace'), '--delta', '0.05', '--no-progress', '--max-seconds', '5')],
+    'workspace': [('workspace', In('workspace'), '--delta', '0.05', '--no-progress', '--max-seconds', '5'),
+                  ('workspace', 'tripod_3rps.yaml', '--delta', *N('0.05'), '--method', 'grid', '--grid-nodes', C('3'),
+                   '--max-boxes', C('100000'), '--parts', C('2'), '--no-progress', '--max-seconds', '2',
+                   '--scheduler', 'none'),
+                  ('workspace', 'shell_arm.yaml', '--delta', *N('20'), '--mm', '--method', 'uniform', '--json',
+                   '--no-progress', '--scheduler', 'none', '--boxes', Out('.npz'))],
     'verify': [('verify', In('bag')), ('verify', str(REFERENCE_BAG), '--report', OUT_DIR),
                ('verify', str(REFERENCE_BAG), '--config', In('config')),
                ('verify', str(REFERENCE_BAG), '--tolerance', *N('1e-9'), '--json')],
@@ -412,6 +417,11 @@ REGRESSIONS = [
     ('calibrate --plan 5 --output p.csv --threshold 1000', 2, 'from the 5 configurations chosen; allowed: a lower'),
     # an empty --table was ignored
     ('robot teach --table  --rods 0.25 0.25 0.25 --joints 0 0 0', 2, 'give either --table FILE or --rods'),
+    # the uniform grid made every node at once (3 GB for 1.3e8 nodes) and its limit (5e8 nodes) allowed 36 GB of boxes
+    ('workspace shell_arm.yaml --delta 2 --mm --method uniform --scheduler none --no-progress', 2,
+     'allowed: at most 1e+07 cells (use a larger delta or the covering method)'),
+    ('workspace tripod_3rps.yaml --delta 0.05 --method grid --grid-nodes ' + '9' * 500, 2,   # was an OverflowError
+     'nodes per edge in 3 dimensions gives 10^1500 nodes per box; allowed: at least 2 per edge and at most 4096'),
     # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'
     ('workspace tripod_3rps.yaml --delta 0.05 --set leg_max=13e-2 --scheduler none --no-progress', 0,
      'tripod_3rps: 0 inner and 62 boundary boxes'),

@@ -20,6 +20,11 @@ from ..errors import InputError
 from ..interval import Interval
 from .boxes import box_volume
 
+#: Most boxes a run keeps (the covering: inner + boundary + pending, counted before a level doubles them, beyond
+#: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
+#: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
+MAX_BOXES = 10_000_000
+
 
 class WorkspaceModel(ABC):
     """Constraint model of a mechanism's working area: ``lower_j <= g_j(x) <= upper_j``.

@@ -34,7 +34,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from ..errors import InputError
-from .base import WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
 from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
@@ -42,9 +42,6 @@ from .progress import Progress, StopFlag
 from .scheduler import Executor
 
 METHODS = ('covering', 'grid', 'uniform')
-#: Most boxes a run keeps (inner + boundary + pending, counted before a level doubles them); beyond it
-#: the run stops like an interruption (``stopped = 'box limit'``) instead of exhausting memory.
-MAX_BOXES = 10_000_000
 #: Pending boxes per chunk (the unit of work of one process or Dask task) for constraint models.
 CHUNK_BOXES = 32768
 
