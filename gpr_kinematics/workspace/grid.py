@@ -1,6 +1,6 @@
-"""The two grid methods, neither certified: the grid classification of a box (Posypkin et al.
-2019: the constraints at the nodes of a small grid inside the box) and the plain uniform grid of cells
-(Aboulissane and El Bakkali's discretisation of the 3-UPU workspace)."""
+"""The two grid methods, neither certified: the grid classification of a box (Posypkin et al., docs/references.md:
+the constraints at the nodes of a small grid inside the box) and the plain uniform grid of cells (Aboulissane and
+El Bakkali's discretisation of the 3-UPU workspace, CPI 2015)."""
 
 from __future__ import annotations
 
@@ -72,8 +72,8 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceRe
     # every cell may come back as a box (48 bytes in 3-D): the covering's bound on the boxes kept
     if float(np.prod(counts)) > MAX_BOXES:
         raise InputError(
-            f'uniform grid with {counts.tolist()} cells ({float(np.prod(counts)):.3g}) is too large for delta '
-            f'{delta:g}; allowed: at most {MAX_BOXES:.0e} cells (use a larger delta or the covering method)'
+            f'uniform grid with {counts.astype(int).tolist()} cells ({float(np.prod(counts)):.3g}) is too large for '
+            f'delta {delta:g}; allowed: at most {MAX_BOXES:.0e} cells (use a larger delta or the covering method)'
         )
     cells = counts.astype(int)
     axes = [np.linspace(box[i, 0], box[i, 1], cells[i] + 1) for i in range(d)]
