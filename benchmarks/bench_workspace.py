@@ -8,7 +8,8 @@ accuracy check). For each, in the same process:
   inversion, on the same constraints and the same scaled variables: angles are multiplied by the angle
   scale (tripod: platform radius r = 0.05 m, GPR: R = 0.093218 m) so that both pavers stop bisecting at
   the same scaled max-diameter ``eps = delta``;
-* ``grid``: the grid method of Posypkin et al. (2019) (node sampling per box, 3 nodes per edge, not certified);
+* ``grid``: the grid method of Posypkin et al. (docs/references.md; node sampling per box, 3 nodes per edge, not
+  certified);
 * ``uniform``: the plain grid (cells of edge < delta classified by their corner nodes, not certified).
 
 Reported: median wall time of the runs, inner/boundary box counts, inner/outer volumes, and a soundness

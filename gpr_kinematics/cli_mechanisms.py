@@ -150,10 +150,12 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
         if name not in nominal:
             raise InputError(f'{mech.name}: unknown parameter {brief(name)} for --parameter-error; allowed: '
                              + (', '.join(sorted(nominal)) or 'none'))
+        if name in params:  # the second would silently replace the first
+            raise InputError(f'--parameter-error {name} is given twice; allowed: each parameter once')
         try:
             vals = np.array([float(v) for v in values])
         except ValueError:
-            raise InputError(f'--parameter-error {name}: values must be numbers; got {values}') from None
+            raise InputError(f'--parameter-error {name}: values must be numbers; got {brief(values)}') from None
         size = np.asarray(nominal[name]).size
         if vals.size != size:
             raise InputError(f'--parameter-error {name} takes {size} values (shape '

@@ -140,7 +140,7 @@ def _cmd_ik(args: argparse.Namespace) -> int:
 def _cmd_teach(args: argparse.Namespace) -> int:
     from .robot.teach import read_joint_table, reteach, teach
     robot = _robot(args)
-    if args.table:
+    if args.table is not None:  # an empty name is refused, not ignored
         if args.rods or args.joints:
             from .errors import InputError
             raise InputError('give either --table FILE or --rods and --joints, not both')

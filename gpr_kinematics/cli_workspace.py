@@ -17,17 +17,15 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import math
-import os
-import stat
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from .errors import InputError
+from .errors import ConfigError, InputError
+from .files import atomic_output, check_output
+from .safe_yaml import load_text
 from .workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from .workspace.levels import PARTS
 from .workspace.scheduler import MAX_WORKERS
@@ -69,15 +67,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=run)
 
 
-class _PlainLoader(yaml.SafeLoader):
-    """YAML without aliases: a value on the command line cannot expand (alias bombs)."""
-
-    def compose_node(self, parent: Any, index: Any) -> Any:
-        if self.check_event(yaml.AliasEvent):
-            raise yaml.YAMLError('aliases (*name) are not allowed')
-        return super().compose_node(parent, index)
-
-
 #: Longest --set value (characters).
 MAX_SET = 2000
 
@@ -90,9 +79,9 @@ def _overrides(items: list[str]) -> dict[str, Any]:
             raise InputError(f'--set expects KEY=VALUE, got {item[:60]!r}')
         if len(value) > MAX_SET:
             raise InputError(f'--set {key[:40]}: the value has {len(value)} characters; allowed: at most {MAX_SET}')
-        try:
-            out[key.strip()] = yaml.load(value, Loader=_PlainLoader)
-        except (yaml.YAMLError, RecursionError):
+        try:  # the package's one YAML reader: no aliases (a value cannot expand), bounded depth and size
+            out[key.strip()] = load_text(value, f'--set {key[:40]}')
+        except ConfigError:
             raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML (no aliases)') from None
     return out
 
@@ -120,9 +109,9 @@ def _check_args(args: argparse.Namespace) -> float:
         raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
     if not 1 <= args.parts <= 100_000:
         raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
-    if args.boxes:
-        output_file(args.boxes, '--boxes')
-    if args.plot:
+    if args.boxes is not None:  # an empty name is refused, not ignored
+        check_output(args.boxes, '--boxes')
+    if args.plot is not None:
         output_directory(args.plot)
         _matplotlib()
     return delta
@@ -153,10 +142,10 @@ def run(args: argparse.Namespace) -> int:
     if getattr(model, 'tables', None):
         summary['sub_coverings'] = model.tables.get('sub_coverings')
     notes = []
-    if args.boxes:
+    if args.boxes is not None:
         summary['boxes_file'] = str(save_boxes(args.boxes, result, box, scale))
         notes.append(f'boxes written to {summary["boxes_file"]}')
-    if args.plot:
+    if args.plot is not None:
         stem = Path(args.file).stem
         summary['plots'] = [str(p) for p in plot_projections(result, args.plot, stem, box)]
         notes.append(f'{len(summary["plots"])} projections written to {args.plot}')
@@ -182,29 +171,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def output_file(path: str | Path, option: str) -> Path:
-    """An output file path: not a directory nor an existing special file (FIFO, device), in an existing
-    directory; the name is used as given (no suffix added)."""
-    p = Path(path)
-    if str(path) == '' or p.name in ('', '.', '..'):
-        raise InputError(f'{option} needs a file name, got {str(path)!r}')
-    try:
-        st = p.stat()
-    except FileNotFoundError:
-        st = None
-    except OSError as exc:
-        raise InputError(f'{option} {str(p)!r}: {exc.strerror}') from None
-    if st is not None and stat.S_ISDIR(st.st_mode):
-        raise InputError(f'{option} {str(p)!r} is a directory; allowed: a file name such as out.npz')
-    if st is not None and not stat.S_ISREG(st.st_mode):
-        raise InputError(f'{option} {str(p)!r} exists and is not a regular file; allowed: a new or regular file')
-    if not p.parent.is_dir():
-        raise InputError(f'{option} {str(p)!r}: directory {str(p.parent)!r} does not exist')
-    return p
-
-
 def output_directory(path: str | Path) -> Path:
     """An output directory: an existing directory or a path that can be created (not a file)."""
+    if str(path) == '':
+        raise InputError('--plot: the folder path is empty; allowed: a folder to write the projections into')
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise InputError(f'--plot {str(p)!r} exists and is not a directory; allowed: a directory')
@@ -213,18 +183,12 @@ def output_directory(path: str | Path) -> Path:
 
 def save_boxes(path: str | Path, result: WorkspaceResult, box: np.ndarray, scale: np.ndarray) -> Path:
     """Write ``inner``, ``boundary`` (n, d, 2), ``variables``, ``units``, ``box``, ``scale``, ``delta``,
-    ``method``, ``interrupted`` to exactly ``path`` (written to a temporary file, then renamed)."""
-    p = output_file(path, '--boxes')
-    try:
-        fd, tmp = tempfile.mkstemp(prefix='.boxes-', suffix='.npz', dir=p.parent)
-        with os.fdopen(fd, 'wb') as f:
-            np.savez_compressed(f, inner=result.inner, boundary=result.boundary, variables=np.array(result.variables),
-                                units=np.array(result.units), box=box, scale=scale, delta=result.delta,
-                                method=result.method, interrupted=result.interrupted)
-        os.replace(tmp, p)
-    except OSError as exc:
-        raise InputError(f'cannot write --boxes file {str(p)!r}: {exc.strerror}') from None
-    return p
+    ``method``, ``interrupted`` to exactly ``path`` (no suffix added), atomically (:func:`~.files.atomic_output`)."""
+    with atomic_output(path, '--boxes', binary=True) as f:
+        np.savez_compressed(f, inner=result.inner, boundary=result.boundary, variables=np.array(result.variables),
+                            units=np.array(result.units), box=box, scale=scale, delta=result.delta,
+                            method=result.method, interrupted=result.interrupted)
+    return Path(path)
 
 
 def _unique_rects(boxes: np.ndarray, i: int, j: int) -> np.ndarray:

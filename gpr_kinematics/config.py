@@ -51,7 +51,7 @@ class GprConfig:
         characteristic_length: length that weights angular virtual joints in the minimum-norm Newton
             step [m]; ``None`` in a file means ``radius``.
         weighting: ``characteristic`` (unit-free norm: joint-centre displacement) or ``unweighted``
-            (the paper's eq. (8) as printed, mixing metres and radians).
+            (Bratovanov & Sotirov's eq. (8) as printed, mixing metres and radians).
         max_iterations: bound on Newton iterations per solve.
         tolerance: closure tolerance on the side lengths [m].
         rod_positions: base points ``B_k = (x, y)`` of the rod axes at ``q = 0`` in ``gpr_base`` [m];

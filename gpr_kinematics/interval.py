@@ -3,7 +3,7 @@
 An :class:`Interval` holds two float64 numpy arrays ``lo`` and ``hi`` of the same shape: one interval per
 element, so one call bounds a function over thousands of boxes at once (the nonuniform covering method of
 Posypkin, Rybak, Malyshev and Gaponenko, "Approximation of the parallel robot working area using the method
-of nonuniform covering" (2019), evaluates "interval estimates" of the constraint functions over boxes; the
+of nonuniform covering" (docs/references.md), evaluates "interval estimates" of the constraint functions over boxes; the
 authors used the C++ library Snowgoose, this is the numpy equivalent).
 
 Certification (outward rounding). Every operation returns an enclosure of the exact real range:

@@ -13,10 +13,15 @@ file and the limit:
 * a file larger than :data:`MAX_BYTES` or not a regular file is refused before it is read;
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
 
+Numbers in exponent form are floats as in YAML 1.2 (``1e-3``, ``1.5e3``, ``-2E+6``): PyYAML follows YAML 1.1,
+which needs a decimal point and a signed exponent (``1.5e+3``) and reads the others as text, so ``leg_max: 13e-2``
+was refused as "not a number, got '13e-2'". The ROS nodes read ``ros2 param set ... 1e-13`` the same way.
+
 Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -70,14 +75,20 @@ class _BoundedLoader(yaml.SafeLoader):
             self._depth -= 1
 
 
+# YAML 1.2's exponent floats (PyYAML's YAML 1.1 resolver, tried first, keeps every form it knows).
+_BoundedLoader.add_implicit_resolver('tag:yaml.org,2002:float',
+                                     re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$'),
+                                     list('-+.0123456789'))
+
+
 def load_text(text: str, source: str = 'YAML text') -> Any:
     """Parse YAML ``text`` into plain data (dicts, lists, str, int, float, bool, None) under the bounds above.
 
     Raises:
         ConfigError: an alias, nesting beyond :data:`MAX_DEPTH`, or invalid YAML (first line of PyYAML's message).
 
-    >>> load_text('a: [1, 2.5, x]')
-    {'a': [1, 2.5, 'x']}
+    >>> load_text('a: [1, 2.5, x, 13e-2, 1.5e3]')
+    {'a': [1, 2.5, 'x', 0.13, 1500.0]}
     >>> load_text('a: &x [1]\\nb: *x', 'demo.yaml')  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...

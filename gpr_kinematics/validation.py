@@ -6,6 +6,7 @@ is allowed, so a caller (CLI: exit 2; node: ``success: false``) can pass it on a
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -59,10 +60,10 @@ def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:
     return a / norm
 
 
-def rows_of(values: Any, name: str, width: int) -> NDArray[np.float64]:
+def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = None) -> NDArray[np.float64]:
     """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
-    finite; else :class:`InputError` naming the value (``q2`` for rod 2, like the paper's ``q1..q3``) and,
-    in a batch, the sample."""
+    finite; else :class:`InputError` naming the value (by ``names`` when given, e.g. a robot's joint names;
+    ``q2`` for rod 2, like the paper's ``q1..q3``) and, in a batch, the sample."""
     try:
         a = np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
@@ -76,7 +77,7 @@ def rows_of(values: Any, name: str, width: int) -> NDArray[np.float64]:
     if bad.any():
         i, j = np.argwhere(bad)[0]
         # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
-        label = f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+        label = names[j] if names else f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
         where = f' (sample {i})' if a.shape[0] > 1 else ''
         raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
     return a

@@ -123,3 +123,17 @@ def test_refusals():
         plan_measurements(m, cfg, 3, index='volume')
     with pytest.raises(InputError, match=r'sigma_angle = 0; allowed'):
         plan_measurements(m, cfg, 3, sigma_angle=0)
+
+
+def test_a_threshold_no_parameter_reaches_is_refused():
+    """A threshold above what any parameter reaches left nothing to design for (a ValueError from numpy): refused,
+    saying whether a larger plan could help (5 configurations, threshold 300) or not (every candidate, 1e308)."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    with pytest.raises(InputError, match=r'threshold 1e\+308 even from all 222 candidate configurations; allowed: '
+                                         r'a lower threshold$'):
+        plan_measurements(m, cfg, 5, threshold=1e308)
+    with pytest.raises(InputError, match=r'threshold 300 from the 5 configurations chosen; allowed: a lower '
+                                         r'threshold or a larger plan$'):
+        plan_measurements(m, cfg, 5, threshold=300)
+    assert plan_measurements(m, cfg, 5, threshold=100).q.shape == (5, 3)      # still possible below

@@ -8,6 +8,7 @@ import resource
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -125,3 +126,17 @@ def test_the_number_of_values_is_bounded(monkeypatch) -> None:
     with pytest.raises(ConfigError, match=r'x\.yaml: line 1: more than 1000 YAML values; allowed: at most 1000'):
         safe_yaml.load_text(ok, 'x.yaml')
     assert len(safe_yaml.load_text('a: [' + '1, ' * 996 + '1]')['a']) == 997   # exactly 1000 values
+
+
+def test_exponent_numbers_without_a_point_are_floats(tmp_path) -> None:
+    # YAML 1.2 reads 13e-2 as a number; PyYAML (YAML 1.1) as text, which the number rule refused with a puzzling
+    # "got '13e-2'". The bound on every number still holds, and quoted text stays text.
+    assert safe_yaml.load_text('a: [13e-2, -2E+6, +5e-1, 1.5e3, .5e1, "1e3", 1e, 12, 1.5]') == {
+        'a': [0.13, -2e6, 0.5, 1500.0, 5.0, '1e3', '1e', 12, 1.5]}
+    base = (Path(__file__).resolve().parents[1] / 'config' / 'gpr.yaml').read_text(encoding='utf-8')
+    f = tmp_path / 'g.yaml'
+    f.write_text(base.replace('radius: 0.093218', 'radius: 93218e-6'), encoding='utf-8')
+    assert load_config(f).radius == pytest.approx(0.093218, abs=1e-15)
+    f.write_text(base.replace('radius: 0.093218', 'radius: 1e300'), encoding='utf-8')
+    with pytest.raises(ConfigError, match=r'radius = 1e\+300 is invalid; allowed: metres'):
+        load_config(f)

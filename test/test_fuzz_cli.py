@@ -134,7 +134,12 @@ CASES: dict[str, list[tuple[Any, ...]]] = {
                    C('3'), '--json'),
                   ('dexterity', 'upu3.yaml', '--vary', 'z', '0.17', '0.27', '5', '--plot', Out('.png')),
                   ('dexterity', In('mechanism'))],
-    'workspace': [('workspace', In('workspace'), '--delta', '0.05', '--no-progress', '--max-seconds', '5')],
+    'workspace': [('workspace', In('workspace'), '--delta', '0.05', '--no-progress', '--max-seconds', '5'),
+                  ('workspace', 'tripod_3rps.yaml', '--delta', *N('0.05'), '--method', 'grid', '--grid-nodes', C('3'),
+                   '--max-boxes', C('100000'), '--parts', C('2'), '--no-progress', '--max-seconds', '2',
+                   '--scheduler', 'none'),
+                  ('workspace', 'shell_arm.yaml', '--delta', *N('20'), '--mm', '--method', 'uniform', '--json',
+                   '--no-progress', '--scheduler', 'none', '--boxes', Out('.npz'))],
     'verify': [('verify', In('bag')), ('verify', str(REFERENCE_BAG), '--report', OUT_DIR),
                ('verify', str(REFERENCE_BAG), '--config', In('config')),
                ('verify', str(REFERENCE_BAG), '--tolerance', *N('1e-9'), '--json')],
@@ -399,6 +404,27 @@ REGRESSIONS = [
     ('robot teach --rods 250 251 1e308 --joints 0 50 -30 --mm --deg --naive', 2, 'gpr_rod3 = 1e+305 m is outside'),
     ('accuracy gsp_d3_6.yaml --pose 0 0 0.13 0 0 0 --errors 1e308 0 0 0 0 0', 2, 'allowed: finite values within'),
     ('accuracy gpr.yaml --pose 0 0 0.5 0.0349 0 0 --errors 1e308 0 0', 2, 'q1 = 1e+308 m is farther than'),
+    # found later, by the deep search (GPR_FUZZ_EXAMPLES=150) and by hand: angles beyond 1e6 rad, whose float
+    # value modulo 2 pi has no digits left, passed as valid stations and joints
+    ('robot ik --position 1.3 0.6 0.6 --heading 1e308', 2, 'heading = 1e+308 rad (station 0); allowed: finite values'),
+    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --azimuth -1e308 --deg', 2, 'azimuth = -1.74533e+306 rad'),
+    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --arm arm2 --redundancy 1e308 --deg', 2,
+     'redundancy value = 1.74533e+306 rad (station 0); allowed: finite values within +-1e+06 rad'),
+    ('robot teach --rods 0.25 0.251 0.252 --joints 0 1e308 -0.5 --naive', 2,
+     'joints of arm1 [rad] = [[0.0, 1e+308, -0.5]]; allowed: finite values within +-1e+06'),
+    ('calibrate --plan 5 --output p.csv --threshold 1e308', 2,
+     'no parameter can be determined to the threshold 1e+308 even from all 222 candidate configurations'),
+    ('calibrate --plan 5 --output p.csv --threshold 1000', 2, 'from the 5 configurations chosen; allowed: a lower'),
+    # an empty --table was ignored
+    ('robot teach --table  --rods 0.25 0.25 0.25 --joints 0 0 0', 2, 'give either --table FILE or --rods'),
+    # the uniform grid made every node at once (3 GB for 1.3e8 nodes) and its limit (5e8 nodes) allowed 36 GB of boxes
+    ('workspace shell_arm.yaml --delta 2 --mm --method uniform --scheduler none --no-progress', 2,
+     'allowed: at most 1e+07 cells (use a larger delta or the covering method)'),
+    ('workspace tripod_3rps.yaml --delta 0.05 --method grid --grid-nodes ' + '9' * 500, 2,   # was an OverflowError
+     'nodes per edge in 3 dimensions gives 10^1500 nodes per box; allowed: at least 2 per edge and at most 4096'),
+    # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'
+    ('workspace tripod_3rps.yaml --delta 0.05 --set leg_max=13e-2 --scheduler none --no-progress', 0,
+     'tripod_3rps: 0 inner and 62 boundary boxes'),
 ]
 
 

@@ -130,6 +130,14 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['mechanism', 'typo_dir/upu3.yaml', '--pose', '0', '0', '0.2', '0', '0', '0'],
      "'typo_dir/upu3.yaml' not found (a path with a folder is read as given"),
     (['mechanism', '', '--pose', '0', '0', '0.2', '0', '0', '0'], 'mechanism file path is empty'),
+    # an angle beyond 1e6 rad keeps no digits modulo 2 pi; it passed as valid
+    (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '0.5', '1e308', '0', '0'],
+     '--pose: A = 1e+308 rad; allowed: |x|, |y|, |z| <= 1e+06 m and |A|, |B|, |C| <= 1e+06 rad'),
+    (['mechanism', 'gpr.yaml', '--pose', '0', '0', '0.3', '0', '1e300', '0', '--deg'], '--pose: B = 1.74533e+298 rad'),
+    # the second silently replaced the first
+    (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0', '0', '0', '--parameter-error', 'joint_imperfections',
+      *['1e-4'] * 9, '--parameter-error', 'joint_imperfections', *['0'] * 9],
+     '--parameter-error joint_imperfections is given twice; allowed: each parameter once'),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, message):
     code, out, err = run(capsys, *argv)

@@ -188,9 +188,13 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     fifo = tmp_path / 'fifo'
     os.mkfifo(fifo)
     (tmp_path / 'a_file').write_text('x')
+    (tmp_path / 'link.npz').symlink_to(tmp_path / 'a_file')
     for argv, match in ((['--boxes', str(tmp_path)], 'is a directory'),
                         (['--boxes', str(fifo)], 'exists and is not a regular file'),
                         (['--boxes', str(tmp_path / 'no' / 'b.npz')], 'does not exist'),
+                        (['--boxes', str(tmp_path / 'link.npz')], 'it is a symbolic link'),   # the package's rule
+                        (['--boxes', ''], '--boxes output path is empty'),                  # was ignored
+                        (['--plot', ''], '--plot: the folder path is empty'),               # wrote into .
                         (['--plot', str(tmp_path / 'a_file')], 'exists and is not a directory')):
         code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', *argv)
         assert code == 2 and match in err and err.count('\n') == 1, err

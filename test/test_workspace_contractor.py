@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from gpr_kinematics.workspace.contractor import contract
-from gpr_kinematics.workspace.expressions import Graph, parse_constraint
+from gpr_kinematics.workspace.contractor import _BACKWARD_RULES, contract
+from gpr_kinematics.workspace.expressions import BINARY, UNARY, Graph, parse_constraint
 from gpr_kinematics.workspace.tape import Tape
 
 RNG = np.random.default_rng(77)
@@ -79,3 +79,8 @@ def test_periodic_preimages_are_the_exact_arcs():
     _, _, empty = contract(tape, np.array([[-1.0]]), np.array([[1.0]]), np.array([2.0, -1.0]),
                            np.array([2.0, 1.0]))
     assert empty[0]
+
+
+def test_every_operation_of_the_graphs_has_a_backward_rule():
+    # a graph can hold any of these operations; the backward pass must narrow through each of them
+    assert set(_BACKWARD_RULES) == set(UNARY) | set(BINARY)

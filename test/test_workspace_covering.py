@@ -174,7 +174,7 @@ def test_contains_points_matches_brute_force():
 
 
 def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
-    """Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism", Figs. 8-9: a larger base
+    """Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism" (2015), Figs. 8-9: a larger base
     shrinks the workspace, a longer limb limit enlarges the upper dome. Certified: the outer volume of one is
     below the inner volume of the other."""
     def run(**over):

@@ -1,5 +1,5 @@
 """Workspace models: point constraints against independent kinematics, interval enclosures against
-sampling, and the papers' formulas (Posypkin et al. 2019; Aboulissane and El Bakkali)."""
+sampling, and the papers' formulas (Posypkin et al.; Aboulissane and El Bakkali; docs/references.md)."""
 import math
 
 import numpy as np
@@ -84,7 +84,7 @@ def test_rrr3_branch_is_the_papers_arcsin_formula_and_closes_the_legs():
     for i in range(3):
         xi, yi = model.A[i]
         g = model.platform_angles[i]
-        # Posypkin et al. (2019), eqs. (8)-(12)
+        # Posypkin et al., eqs. (8)-(12)
         a_sin = 2 * (yi * l1 - y * l1 - l1 * l3 * np.sin(g + phi))
         a_cos = 2 * (xi * l1 - x * l1 - l1 * l3 * np.cos(g + phi))
         b_cos = x ** 2 + 2 * x * l3 * np.cos(g + phi) - 2 * x * xi + l3 ** 2 * np.cos(g + phi) ** 2 \

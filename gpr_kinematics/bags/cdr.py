@@ -159,6 +159,7 @@ class Columns:
 
 
 def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, Any]) -> None:
+    """The fields of a deserialised message ``obj`` into flat columns named like :class:`_Walker` names them."""
     fields = getattr(obj, '__dataclass_fields__', None)
     if fields is None:
         return
@@ -177,17 +178,112 @@ def _flatten(obj: Any, prefix: str, out_num: dict[str, Any], out_str: dict[str, 
         elif isinstance(v, (list, tuple)):
             if fname in sequences:
                 out_num[name + COUNT] = np.uint32(len(v))
-            if v and isinstance(v[0], str):
-                out_str[name] = tuple(v)
-            elif v and hasattr(v[0], '__dataclass_fields__'):
-                for i, item in enumerate(v):
-                    _flatten(item, f'{name}[{i}].', out_num, out_str)
-            else:
-                out_num[name] = np.asarray(v)
+            _flatten_items(v, name, out_num, out_str)
         elif hasattr(v, '__dataclass_fields__'):
             _flatten(v, name + '.', out_num, out_str)
         else:
             out_num[name] = v
+
+
+def _flatten_items(v: list[Any] | tuple[Any, ...], name: str, out_num: dict[str, Any], out_str: dict[str, Any]) -> None:
+    """A list field: strings as one tuple, messages one by one, numbers as one column."""
+    if v and isinstance(v[0], str):
+        out_str[name] = tuple(v)
+    elif v and hasattr(v[0], '__dataclass_fields__'):
+        for i, item in enumerate(v):
+            _flatten(item, f'{name}[{i}].', out_num, out_str)
+    else:
+        out_num[name] = np.asarray(v)
+
+
+class _ColumnStore:
+    """The columns of ``n`` messages being filled, template by template (see :class:`Columns`)."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.numeric: dict[str, NDArray[Any]] = {}
+        self.strings: dict[str, NDArray[np.object_]] = {}
+
+    def _column(self, name: str, values: NDArray[Any], scalar: bool) -> NDArray[Any]:
+        """The column ``name`` able to take ``values``: created on first use; an object column of 1-D arrays
+        once a sequence's length differs between templates."""
+        col = self.numeric.get(name)
+        if col is None:
+            col = np.zeros((self.n,) if scalar else (self.n, values.shape[1]), dtype=values.dtype)
+            self.numeric[name] = col
+        if col.dtype != object and col.ndim == 2 and col.shape[1] != values.shape[1]:
+            obj = np.empty(self.n, dtype=object)
+            for i in range(self.n):
+                obj[i] = col[i]
+            self.numeric[name] = col = obj
+        return col
+
+    def store_numeric(self, name: str, idx: NDArray[np.int64], values: NDArray[Any], scalar: bool) -> None:
+        """``values`` is ``(len(idx), count)``."""
+        col = self._column(name, values, scalar)
+        if col.dtype == object:
+            for j, i in enumerate(idx):
+                col[i] = values[j]
+        elif scalar:
+            col[idx] = values[:, 0]
+        else:
+            col[idx] = values
+
+    def store_string(self, name: str, idx: NDArray[np.int64], value: Any) -> None:
+        if name not in self.strings:
+            self.strings[name] = np.empty(self.n, dtype=object)
+        col = self.strings[name]
+        for i in idx:
+            col[i] = value
+
+
+def _decode_template(msgtype: str, raw: list[bytes], lengths: NDArray[np.int64], pending: NDArray[np.int64],
+                     out: _ColumnStore) -> NDArray[np.int64]:
+    """Decode, by strided views, the pending messages that share the layout of the first pending one (same
+    length, same structure bytes); returns their indices."""
+    t = int(pending[0])
+    try:
+        lay = layout_of(msgtype, raw[t])
+    except (ValueError, struct.error) as exc:  # what a message shorter or longer than its fields raises
+        raise BagError(f'message {t} of type {msgtype} cannot be decoded: {exc}') from None
+    same_len = pending[lengths[pending] == lay.length]
+    block = np.frombuffer(b''.join([raw[i] for i in same_len]), dtype=np.uint8)
+    block = block.reshape(same_len.size, lay.length)
+    if lay.structure:
+        cols = np.concatenate([np.arange(a, b) for a, b in lay.structure])
+        ok = np.all(block[:, cols] == block[0, cols], axis=1)
+    else:
+        ok = np.ones(same_len.size, dtype=bool)
+    members: NDArray[np.int64] = same_len[ok]
+    buf = block if ok.all() else np.ascontiguousarray(block[ok])
+    for name, off, dtype, size, count, scalar in lay.numeric:
+        if count == 0:
+            out.store_numeric(name, members, np.zeros((members.size, 0), dtype=dtype), scalar)
+            continue
+        view = np.ndarray((members.size, count), dtype=dtype, buffer=buf, offset=off, strides=(lay.length, size))
+        out.store_numeric(name, members, view.astype(np.dtype(dtype).newbyteorder('=')), scalar)
+    for name, value in lay.strings.items():
+        out.store_string(name, members, value)
+    return members
+
+
+def _decode_one_by_one(msgtype: str, raw: list[bytes], pending: NDArray[np.int64], out: _ColumnStore) -> None:
+    """Deserialise the messages left after :data:`MAX_LAYOUTS` templates with ``rosbags``, one at a time."""
+    store = typestore()
+    for i in pending:
+        try:
+            msg = store.deserialize_cdr(raw[int(i)], msgtype)
+        except (ValueError, IndexError, struct.error) as exc:  # what rosbags raises for bytes that do not fit
+            raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
+        num: dict[str, Any] = {}
+        strs: dict[str, Any] = {}
+        _flatten(msg, '', num, strs)
+        idx = np.array([int(i)])
+        for name, v in num.items():
+            a = np.asarray(v)
+            out.store_numeric(name, idx, a.reshape(1, -1), a.ndim == 0)
+        for name, v in strs.items():
+            out.store_string(name, idx, v)
 
 
 def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
@@ -197,83 +293,16 @@ def decode_columns(msgtype: str, raw: list[bytes]) -> Columns:
     length varies). Raises :class:`BagError` when a message cannot be decoded as ``msgtype``.
     """
     n = len(raw)
-    numeric: dict[str, NDArray[Any]] = {}
-    strings: dict[str, NDArray[np.object_]] = {}
+    out = _ColumnStore(n)
     if n == 0:
-        return Columns(0, numeric, strings, 0, 0)
+        return Columns(0, out.numeric, out.strings, 0, 0)
     lengths = np.fromiter((len(b) for b in raw), dtype=np.int64, count=n)
     pending = np.arange(n)
     layouts = 0
-
-    def store_numeric(name: str, idx: NDArray[np.int64], values: NDArray[Any], scalar: bool) -> None:
-        """``values`` is ``(len(idx), count)``."""
-        col = numeric.get(name)
-        if col is None:
-            col = np.zeros((n,) if scalar else (n, values.shape[1]), dtype=values.dtype)
-            numeric[name] = col
-        if col.dtype != object and col.ndim == 2 and col.shape[1] != values.shape[1]:
-            obj = np.empty(n, dtype=object)
-            for i in range(n):
-                obj[i] = col[i]
-            numeric[name] = col = obj
-        if col.dtype == object:
-            for j, i in enumerate(idx):
-                col[i] = values[j]
-        elif scalar:
-            col[idx] = values[:, 0]
-        else:
-            col[idx] = values
-
-    def store_string(name: str, idx: NDArray[np.int64], value: Any) -> None:
-        if name not in strings:
-            strings[name] = np.empty(n, dtype=object)
-        col = strings[name]
-        for i in idx:
-            col[i] = value
-
     while pending.size and layouts < MAX_LAYOUTS:
-        t = int(pending[0])
-        try:
-            lay = layout_of(msgtype, raw[t])
-        except (ValueError, struct.error) as exc:  # what a message shorter or longer than its fields raises
-            raise BagError(f'message {t} of type {msgtype} cannot be decoded: {exc}') from None
+        members = _decode_template(msgtype, raw, lengths, pending, out)
         layouts += 1
-        same_len = pending[lengths[pending] == lay.length]
-        block = np.frombuffer(b''.join([raw[i] for i in same_len]), dtype=np.uint8)
-        block = block.reshape(same_len.size, lay.length)
-        if lay.structure:
-            cols = np.concatenate([np.arange(a, b) for a, b in lay.structure])
-            ok = np.all(block[:, cols] == block[0, cols], axis=1)
-        else:
-            ok = np.ones(same_len.size, dtype=bool)
-        members = same_len[ok]
-        buf = block if ok.all() else np.ascontiguousarray(block[ok])
-        for name, off, dtype, size, count, scalar in lay.numeric:
-            if count == 0:
-                store_numeric(name, members, np.zeros((members.size, 0), dtype=dtype), scalar)
-                continue
-            view = np.ndarray((members.size, count), dtype=dtype, buffer=buf, offset=off,
-                              strides=(lay.length, size))
-            store_numeric(name, members, view.astype(np.dtype(dtype).newbyteorder('=')), scalar)
-        for name, value in lay.strings.items():
-            store_string(name, members, value)
         pending = np.setdiff1d(pending, members, assume_unique=True)
-
-    fallback = int(pending.size)
-    if fallback:
-        store = typestore()
-        for i in pending:
-            try:
-                msg = store.deserialize_cdr(raw[int(i)], msgtype)
-            except (ValueError, IndexError, struct.error) as exc:  # what rosbags raises for bytes that do not fit
-                raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
-            num: dict[str, Any] = {}
-            strs: dict[str, Any] = {}
-            _flatten(msg, '', num, strs)
-            idx = np.array([int(i)])
-            for name, v in num.items():
-                a = np.asarray(v)
-                store_numeric(name, idx, a.reshape(1, -1), a.ndim == 0)
-            for name, v in strs.items():
-                store_string(name, idx, v)
-    return Columns(n, numeric, strings, layouts, fallback)
+    if pending.size:
+        _decode_one_by_one(msgtype, raw, pending, out)
+    return Columns(n, out.numeric, out.strings, layouts, int(pending.size))

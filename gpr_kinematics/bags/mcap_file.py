@@ -232,33 +232,13 @@ class _Walker:
         first = True
         while True:
             start = self.pos
-            if self.size - start < _RECORD.size + 8:
-                raise _FormatError(f'no footer before the end of the file (record at byte {start})')
-            head = self.read(_RECORD.size)
-            op, length = _RECORD.unpack(head)
-            if length > self.size - self.pos - 8:
-                raise _FormatError(f'record {op:#04x} at byte {start} claims {length} bytes; '
-                               f'{self.size - self.pos - 8} are left before the end magic')
-            if length > MAX_RECORD_BYTES:
-                raise _FormatError(f'record {op:#04x} at byte {start} of {length} bytes; allowed: at most '
-                               f'{MAX_RECORD_BYTES}')
-            if first and op != OP_HEADER:
-                raise _FormatError(f'first record has opcode {op:#04x}, not the header')
-            body = self.read(length)
+            head, op, body = self.next_record(first)
             if op == OP_FOOTER:
                 self.footer(body, start, in_summary, zlib.crc32(body[:16], zlib.crc32(head, summary_crc)))
                 break
             if op == OP_DATA_END:
-                if in_summary:
-                    raise _FormatError(f'second data end record at byte {start}')
-                stored = _Fields(body).u32()
-                if stored:
-                    if stored != data_crc:
-                        raise _FormatError(f'data section CRC mismatch (stored {stored:#010x}, '
-                                           f'computed {data_crc:#010x})')
-                    self.out.data_crc = True
+                self.data_end(body, start, in_summary, data_crc)
                 in_summary = True
-                self.summary_start = self.pos
                 continue
             if in_summary:
                 summary_crc = zlib.crc32(body, zlib.crc32(head, summary_crc))
@@ -272,13 +252,44 @@ class _Walker:
         if self.read(8) != MAGIC:
             raise _FormatError('bad end magic')
         if stats is not None:
-            count, per_channel = stats
-            if count != sum(self.out.counts.values()) or any(per_channel.get(c, 0) != n
-                                                             for c, n in self.out.counts.items()):
-                raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
-                               f'{sum(self.out.counts.values())}')
+            self.check_statistics(*stats)
         self.out.sha256 = self.sha.hexdigest()
         return self.out
+
+    def next_record(self, first: bool) -> tuple[memoryview, int, memoryview]:
+        """The next record's header bytes, opcode and body; its length bounded by what is left of the file."""
+        start = self.pos
+        if self.size - start < _RECORD.size + 8:
+            raise _FormatError(f'no footer before the end of the file (record at byte {start})')
+        head = self.read(_RECORD.size)
+        op, length = _RECORD.unpack(head)
+        if length > self.size - self.pos - 8:
+            raise _FormatError(f'record {op:#04x} at byte {start} claims {length} bytes; '
+                               f'{self.size - self.pos - 8} are left before the end magic')
+        if length > MAX_RECORD_BYTES:
+            raise _FormatError(f'record {op:#04x} at byte {start} of {length} bytes; allowed: at most '
+                               f'{MAX_RECORD_BYTES}')
+        if first and op != OP_HEADER:
+            raise _FormatError(f'first record has opcode {op:#04x}, not the header')
+        return head, op, self.read(length)
+
+    def data_end(self, body: memoryview, start: int, in_summary: bool, data_crc: int) -> None:
+        """The DataEnd record: the data section's CRC (checked when not 0); the summary section starts."""
+        if in_summary:
+            raise _FormatError(f'second data end record at byte {start}')
+        stored = _Fields(body).u32()
+        if stored:
+            if stored != data_crc:
+                raise _FormatError(f'data section CRC mismatch (stored {stored:#010x}, computed {data_crc:#010x})')
+            self.out.data_crc = True
+        self.summary_start = self.pos
+
+    def check_statistics(self, count: int, per_channel: dict[int, int]) -> None:
+        """The Statistics record's message counts (total and per channel) against the messages walked."""
+        if count != sum(self.out.counts.values()) or any(per_channel.get(c, 0) != n
+                                                         for c, n in self.out.counts.items()):
+            raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
+                               f'{sum(self.out.counts.values())}')
 
     def record(self, op: int, body: memoryview, first: bool, in_summary: bool) -> tuple[int, dict[int, int]] | None:
         if op == OP_HEADER:

@@ -210,6 +210,12 @@ def _design(J: Array, n: int, index: str, start: list[int]) -> tuple[list[int], 
     return chosen, passes, exchanges
 
 
+def _check_something_to_fit(fit: list[str], threshold: float, source: str, allowed: str) -> None:
+    """InputError when no parameter reaches ``threshold``: there is nothing to design a plan for."""
+    if not fit:
+        raise InputError(f'no parameter can be determined to the threshold {threshold:g} {source}; allowed: {allowed}')
+
+
 def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 'product',
                       free: Iterable[str] | None = None, sigma_position: float = DEFAULT_SIGMA_POSITION,
                       sigma_angle: float = DEFAULT_SIGMA_ANGLE, candidates: Candidates | None = None,
@@ -221,7 +227,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
 
     Raises:
         InputError: ``n`` outside ``[1, number of candidates]`` or above :data:`MAX_PLAN`; unknown index or
-            parameter; bad sigmas.
+            parameter; bad sigmas; a ``threshold`` no parameter reaches even with every candidate.
     """
     if index not in INDICES:
         raise InputError(f'observability index {index!r}; allowed: {", ".join(INDICES)}')
@@ -244,6 +250,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     ident = analyse(J.reshape(-1, free_idx.size), names, threshold)
     combos = list(ident.combinations)
     fit = list(ident.identified)
+    _check_something_to_fit(fit, threshold, f'even from all {C} candidate configurations', 'a lower threshold')
     chosen: list[int] = []
     passes = exchanges = 0
     while True:
@@ -255,6 +262,8 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
         if list(ident.identified) == fit:
             break
         fit = list(ident.identified)
+        _check_something_to_fit(fit, threshold, f'from the {n} configurations chosen',
+                                'a lower threshold or a larger plan')
     sel = np.array(chosen)
     Jp = J[sel].reshape(-1, free_idx.size)
     s_all = np.asarray(np.linalg.svd(triangular_factor(Jp), compute_uv=False), dtype=np.float64)

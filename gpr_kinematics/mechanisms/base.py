@@ -79,10 +79,12 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
                          f'got shape {np.shape(poses)}')
     if not np.all(np.isfinite(arr)):
         raise InputError(f'{name} must be finite numbers; got {arr[~np.all(np.isfinite(arr), axis=1)][0]}')
-    if arr.size and np.max(np.abs(arr[:, :3])) > MAX_COORDINATE:
-        i, j = np.argwhere(np.abs(arr[:, :3]) > MAX_COORDINATE)[0]
-        raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} m; allowed: |x|, |y|, |z| <= '
-                         f'{MAX_COORDINATE:g} m')
+    # angles too: beyond the bound a float angle keeps no digits modulo 2 pi
+    big = np.abs(arr) > MAX_COORDINATE
+    if big.any():
+        i, j = np.argwhere(big)[0]
+        raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} {"m" if j < 3 else "rad"}; allowed: |x|, '
+                         f'|y|, |z| <= {MAX_COORDINATE:g} m and |A|, |B|, |C| <= {MAX_COORDINATE:g} rad')
     return arr, single
 
 

@@ -23,35 +23,15 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError, LimitError, brief
+from ..errors import InputError, LimitError
 from ..geometry import rotation_z
 from ..kinematics import ForwardBatch, forward_batch, naive_forward
+from ..validation import bounded, rows_of
 from .description import Arm, RobotDescription
 from .planar_arm import LIMIT_SLACK
 from .transforms import PoseBatch, rotation_angle
 
 Array = NDArray[np.float64]
-
-
-def as_rows(values: ArrayLike, name: str, width: int, names: tuple[str, ...] | None = None) -> Array:
-    """``values`` as finite floats of shape ``(N, width)`` (one row accepted as ``(width,)``); InputError names the
-    value (by ``names`` when given) and the sample."""
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
-    if a.ndim == 1:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != width:
-        raise InputError(f'{name} must have {width} values per sample (shape (N, {width})), got shape '
-                         f'{np.shape(values)}')
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        label = names[j] if names else f'{name}[{j}]'
-        where = f' (sample {i})' if a.shape[0] > 1 else ''
-        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
-    return a
 
 
 def check_joint_limits(arm: Arm, J: Array) -> None:
@@ -170,15 +150,18 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
 
     Raises:
         InputError: wrong shapes, NaN or infinity (naming the rod or joint and the sample).
-        LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``).
+        LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``;
+            without, InputError for a joint beyond +-:data:`~gpr_kinematics.validation.MAX_COORDINATE` rad).
     """
     a = robot.arm(arm)
-    Q = as_rows(rods, 'rods', 3, robot.rods.names)
-    J = as_rows(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
+    Q = rows_of(rods, 'rods', 3, robot.rods.names)
+    J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
     if Q.shape[0] != J.shape[0]:
         raise InputError(f'rods and joints must have the same number of samples, got {Q.shape[0]} and {J.shape[0]}')
     if check_limits:
         check_joint_limits(a, J)
+    else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
+        bounded(J, f'joints of {a.name} [rad]')
     gpr = forward_batch(Q, robot.config, check_limits=check_limits)
     return forward_on_platform(robot, a, Q, J, gpr)
 

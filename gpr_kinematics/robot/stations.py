@@ -21,14 +21,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, brief
 from ..geometry import rotation_z, tilt_from_matrix, tilt_rotation
-from ..validation import bounded
-from .forward import as_rows
+from ..validation import MAX_COORDINATE, bounded, rows_of
 
 Array = NDArray[np.float64]
 
 
 def per_station(values: ArrayLike, name: str, n: int) -> Array:
-    """One finite number [rad] or one per station, as an array ``(n,)``; InputError names the value."""
+    """One finite number [rad] or one per station, as an array ``(n,)``, within +-:data:`MAX_COORDINATE` (angles are
+    periodic, but beyond that bound a float angle modulo 2 pi has no digits left); InputError names the value."""
     try:
         a = np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
@@ -40,6 +40,10 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
     if bad.any():
         i = int(np.argmax(bad))
         raise InputError(f'{name} = {a[i]} (station {i}) is not a finite number; allowed: finite values in radians')
+    big = np.abs(a) > MAX_COORDINATE
+    if big.any():
+        i = int(np.argmax(big))
+        raise InputError(f'{name} = {a[i]:g} rad (station {i}); allowed: finite values within +-{MAX_COORDINATE:g} rad')
     return a
 
 
@@ -68,7 +72,7 @@ class Stations:
         >>> len(s), s.names
         (1, ('0',))
         """
-        P = as_rows(position, 'position', 3, ('x', 'y', 'z'))
+        P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
         bounded(P, 'station position [m]')
         n = P.shape[0]
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)

@@ -23,8 +23,9 @@ from .._ops import ARRAY
 from ..errors import ConfigError
 from ..files import read_text
 from ..forward import check_stroke
+from ..validation import rows_of
 from .description import RobotDescription
-from .forward import RobotForward, as_rows, robot_forward
+from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
 from .station_files import MAX_BYTES, read_csv_table
@@ -89,7 +90,7 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
             or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
     """
     a = robot.arm(arm)
-    Q = as_rows(rods, 'rods', 3, robot.rods.names)
+    Q = rows_of(rods, 'rods', 3, robot.rods.names)
     check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
     old = robot_forward(robot, Q, joints, a.name, check_limits=False)
     intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)

@@ -2,7 +2,7 @@
 
 A working area is ``W = {x in Q : lower_j <= g_j(x) <= upper_j for all j}`` (Posypkin, Rybak, Malyshev,
 Gaponenko, "Approximation of the parallel robot working area using the method of nonuniform covering",
-2019), approximated by two unions of boxes: the **inner** boxes (every constraint certainly holds on
+docs/references.md), approximated by two unions of boxes: the **inner** boxes (every constraint certainly holds on
 them) and the **boundary** boxes (undecided, diameter below ``delta``); inner plus boundary is the
 **outer** approximation, which contains ``W``.
 """
@@ -19,6 +19,11 @@ import numpy as np
 from ..errors import InputError
 from ..interval import Interval
 from .boxes import box_volume
+
+#: Most boxes a run keeps (the covering: inner + boundary + pending, counted before a level doubles them, beyond
+#: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
+#: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
+MAX_BOXES = 10_000_000
 
 
 class WorkspaceModel(ABC):

@@ -14,6 +14,8 @@ result depends on that box only.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..interval import Interval
@@ -72,54 +74,101 @@ def contract(
 
 def _backward(op: str, y: Interval, a: list[Interval]) -> list[Interval | None]:
     """The narrowed arguments of ``y = op(a)`` (None: no narrowing)."""
-    u = a[0]
-    if op == 'add':
-        nu = y - a[1]
-        return [nu, y - _cap(u, nu)]
-    if op == 'sub':
-        nu = y + a[1]
-        return [nu, _cap(u, nu) - y]
-    if op == 'mul':
-        nu = y / a[1]
-        return [nu, y / _cap(u, nu)]
-    if op == 'div':
-        nu = y * a[1]
-        return [nu, _cap(u, nu) / y]
-    if op == 'neg':
-        return [-y]
-    if op == 'sqr':
-        root = Interval(np.maximum(y.lo, 0.0), np.maximum(y.hi, 0.0)).sqrt()
-        bad = y.hi < 0
-        return [_hull_of_pieces(u, [(root.lo, root.hi), (-root.hi, -root.lo)], bad)]
-    if op == 'sqrt':
-        sq = Interval(np.maximum(y.lo, 0.0), np.maximum(y.hi, 0.0)).sqr()
-        return [Interval(np.where(y.hi < 0, np.inf, np.maximum(sq.lo, 0.0)), sq.hi)]
-    if op == 'exp':
-        ln = Interval(np.maximum(y.lo, 0.0), y.hi).log()
-        return [Interval(np.where(y.hi <= 0, np.inf, ln.lo), ln.hi)]
-    if op == 'log':
-        ex = y.exp()
-        return [Interval(np.maximum(ex.lo, 0.0), ex.hi)]
-    if op == 'abs':
-        ylo = np.maximum(y.lo, 0.0)
-        return [_hull_of_pieces(u, [(ylo, y.hi), (-y.hi, -ylo)], y.hi < 0)]
-    if op == 'arctan':
-        t = Interval(np.maximum(y.lo, -_HALF_PI_BELOW), np.minimum(y.hi, _HALF_PI_BELOW)).tan()
-        return [Interval(np.where(y.lo <= -_HALF_PI_BELOW, -np.inf, t.lo),
-                         np.where(y.hi >= _HALF_PI_BELOW, np.inf, t.hi))]
-    if op == 'arcsin':
-        s = Interval(np.maximum(y.lo, -0.5 * np.pi), np.minimum(y.hi, 0.5 * np.pi)).sin()
-        return [Interval(np.maximum(s.lo, -1.0), np.minimum(s.hi, 1.0))]
-    if op == 'arccos':
-        c = Interval(np.maximum(y.lo, 0.0), np.minimum(y.hi, np.pi)).cos()
-        return [Interval(np.maximum(c.lo, -1.0), np.minimum(c.hi, 1.0))]
-    if op == 'cos':
-        return [_cos_preimage(u, y, 0.0)]
-    if op == 'sin':                                     # sin u = cos(u - pi/2)
-        return [_cos_preimage(u, y, 0.5 * np.pi)]
-    if op == 'tan':
-        return [_tan_preimage(u, y)]
-    raise ValueError(f'no backward rule for {op}')  # pragma: no cover - every operation has one
+    rule = _BACKWARD_RULES.get(op)
+    if rule is None:  # pragma: no cover - every operation has one
+        raise ValueError(f'no backward rule for {op}')
+    return rule(y, a)
+
+
+# -- arithmetic: solve y = u op v for u, then for v within the narrowed u ------------------------------------------
+def _add_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    nu = y - a[1]
+    return [nu, y - _cap(a[0], nu)]
+
+
+def _sub_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    nu = y + a[1]
+    return [nu, _cap(a[0], nu) - y]
+
+
+def _mul_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    nu = y / a[1]
+    return [nu, y / _cap(a[0], nu)]
+
+
+def _div_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    nu = y * a[1]
+    return [nu, _cap(a[0], nu) / y]
+
+
+def _neg_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    return [-y]
+
+
+# -- algebraic and exponential: the preimage over the function's domain ------------------------------------------
+def _sqr_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    """``u^2 in y``: ``u in +-sqrt(y)``, the two branches hulled within ``u``."""
+    root = Interval(np.maximum(y.lo, 0.0), np.maximum(y.hi, 0.0)).sqrt()
+    return [_hull_of_pieces(a[0], [(root.lo, root.hi), (-root.hi, -root.lo)], y.hi < 0)]
+
+
+def _sqrt_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    sq = Interval(np.maximum(y.lo, 0.0), np.maximum(y.hi, 0.0)).sqr()
+    return [Interval(np.where(y.hi < 0, np.inf, np.maximum(sq.lo, 0.0)), sq.hi)]
+
+
+def _exp_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    ln = Interval(np.maximum(y.lo, 0.0), y.hi).log()
+    return [Interval(np.where(y.hi <= 0, np.inf, ln.lo), ln.hi)]
+
+
+def _log_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    ex = y.exp()
+    return [Interval(np.maximum(ex.lo, 0.0), ex.hi)]
+
+
+def _abs_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    """``|u| in y``: ``u in +-y`` (its non-negative part), the two branches hulled within ``u``."""
+    ylo = np.maximum(y.lo, 0.0)
+    return [_hull_of_pieces(a[0], [(ylo, y.hi), (-y.hi, -ylo)], y.hi < 0)]
+
+
+# -- inverse trigonometric: the range of the function bounds y, then the direct function --------------------------
+def _arctan_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    t = Interval(np.maximum(y.lo, -_HALF_PI_BELOW), np.minimum(y.hi, _HALF_PI_BELOW)).tan()
+    return [Interval(np.where(y.lo <= -_HALF_PI_BELOW, -np.inf, t.lo),
+                     np.where(y.hi >= _HALF_PI_BELOW, np.inf, t.hi))]
+
+
+def _arcsin_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    s = Interval(np.maximum(y.lo, -0.5 * np.pi), np.minimum(y.hi, 0.5 * np.pi)).sin()
+    return [Interval(np.maximum(s.lo, -1.0), np.minimum(s.hi, 1.0))]
+
+
+def _arccos_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    c = Interval(np.maximum(y.lo, 0.0), np.minimum(y.hi, np.pi)).cos()
+    return [Interval(np.maximum(c.lo, -1.0), np.minimum(c.hi, 1.0))]
+
+
+# -- trigonometric: periodic preimages within u ------------------------------------------------------------------
+def _cos_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    return [_cos_preimage(a[0], y, 0.0)]
+
+
+def _sin_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    return [_cos_preimage(a[0], y, 0.5 * np.pi)]                # sin u = cos(u - pi/2)
+
+
+def _tan_inverse(y: Interval, a: list[Interval]) -> list[Interval | None]:
+    return [_tan_preimage(a[0], y)]
+
+
+_BACKWARD_RULES: dict[str, Callable[[Interval, list[Interval]], list[Interval | None]]] = {
+    'add': _add_inverse, 'sub': _sub_inverse, 'mul': _mul_inverse, 'div': _div_inverse, 'neg': _neg_inverse,
+    'sqr': _sqr_inverse, 'sqrt': _sqrt_inverse, 'exp': _exp_inverse, 'log': _log_inverse, 'abs': _abs_inverse,
+    'arctan': _arctan_inverse, 'arcsin': _arcsin_inverse, 'arccos': _arccos_inverse,
+    'cos': _cos_inverse, 'sin': _sin_inverse, 'tan': _tan_inverse,
+}
 
 
 def _cap(x: Interval, new: Interval) -> Interval:

@@ -1,7 +1,7 @@
 """Workspace approximation by nonuniform covering (certified) and by the grid methods.
 
 The covering method of Posypkin, Rybak, Malyshev and Gaponenko ("Approximation of the parallel robot
-working area using the method of nonuniform covering", 2019) keeps a list of boxes, starting from one box
+working area using the method of nonuniform covering", docs/references.md) keeps a list of boxes, starting from one box
 ``Q`` that contains the working area ``W = {x in Q : lower_j <= g_j(x) <= upper_j}``; for each box it
 bounds every constraint by interval arithmetic (:mod:`gpr_kinematics.interval`, outward rounding): a box
 with some ``[g_j]`` outside ``[lower_j, upper_j]`` is dropped (outside), a box with every ``[g_j]`` inside
@@ -34,7 +34,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from ..errors import InputError
-from .base import WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
 from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
@@ -42,9 +42,6 @@ from .progress import Progress, StopFlag
 from .scheduler import Executor
 
 METHODS = ('covering', 'grid', 'uniform')
-#: Most boxes a run keeps (inner + boundary + pending, counted before a level doubles them); beyond it
-#: the run stops like an interruption (``stopped = 'box limit'``) instead of exhausting memory.
-MAX_BOXES = 10_000_000
 #: Pending boxes per chunk (the unit of work of one process or Dask task) for constraint models.
 CHUNK_BOXES = 32768
 
@@ -171,14 +168,7 @@ def approximate(
         :class:`WorkspaceResult`. Ctrl-C (SIGINT) during the run stops it cleanly between chunks: the
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
-    if method not in METHODS:
-        raise InputError(f'unknown workspace method {method!r}; allowed: {", ".join(METHODS)}')
-    if not (isinstance(max_boxes, int) and max_boxes >= 1):
-        raise InputError(f'max_boxes must be a positive integer, got {max_boxes!r}')
-    if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
-        raise InputError(f'chunk_size must be a positive integer, got {chunk_size!r}')
-    if not (isinstance(parts, int) and 1 <= parts <= 100_000):
-        raise InputError(f'parts must be an integer from 1 to 100000, got {parts!r}')
+    _check_run_options(method, max_boxes, chunk_size, parts)
     own = not isinstance(scheduler, Executor)
     executor = Executor(scheduler, workers) if isinstance(scheduler, str) else scheduler
     if hasattr(model, 'covering_task'):
@@ -218,6 +208,18 @@ def approximate(
             executor.close()
 
 
+def _check_run_options(method: str, max_boxes: int, chunk_size: int | None, parts: int) -> None:
+    """InputError naming the first option of :func:`approximate` out of its range, and the range."""
+    if method not in METHODS:
+        raise InputError(f'unknown workspace method {method!r}; allowed: {", ".join(METHODS)}')
+    if not (isinstance(max_boxes, int) and max_boxes >= 1):
+        raise InputError(f'max_boxes must be a positive integer, got {max_boxes!r}')
+    if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
+        raise InputError(f'chunk_size must be a positive integer, got {chunk_size!r}')
+    if not (isinstance(parts, int) and 1 <= parts <= 100_000):
+        raise InputError(f'parts must be an integer from 1 to 100000, got {parts!r}')
+
+
 def _nothing_proved(model: Any, delta: float) -> WorkspaceResult:
     """The result of a run stopped before its covering started: the whole box is a boundary box."""
     outputs = _output_index(model)
@@ -231,6 +233,50 @@ def _nothing_proved(model: Any, delta: float) -> WorkspaceResult:
 def _output_index(model: Any) -> list[int]:
     outputs = getattr(model, 'outputs', model.variables)
     return [list(model.variables).index(v) for v in outputs]
+
+
+class _Monitor:
+    """A run's tally (evaluations, decided volumes, boxes kept) shown on the progress bar, and its stop rule:
+    Ctrl-C (``flag``), the wall-time limit, the box limit."""
+
+    def __init__(self, bar: Progress, delta: float, total_volume: float, flag: StopFlag, t0: float,
+                 max_seconds: float | None, max_boxes: int) -> None:
+        self.bar, self.delta, self.total_volume, self.flag = bar, delta, total_volume, flag
+        self.t0, self.max_seconds, self.max_boxes = t0, max_seconds, max_boxes
+        self.evaluations = 0
+        self.inner = self.boundary = self.outside = 0.0
+        self.kept = 0
+
+    def stop(self) -> str:
+        """Why the run must stop now ('' to go on)."""
+        if self.flag.raised:
+            return 'interrupted'
+        if self.max_seconds is not None and time.perf_counter() - self.t0 > self.max_seconds:
+            return f'time limit ({self.max_seconds:g} s)'
+        return f'box limit ({self.max_boxes} boxes)' if self.kept > self.max_boxes else ''
+
+    def count(self, level: int, diameter: float, evaluations: int, inner: float, boundary: float, outside: float,
+              kept: int) -> None:
+        self.evaluations += evaluations
+        self.inner += inner
+        self.boundary += boundary
+        self.outside += outside
+        self.kept += kept
+        decided = self.inner + self.boundary + self.outside
+        self.bar.update(level, diameter, self.delta, self.evaluations, self.inner, self.boundary,
+                        decided / self.total_volume)
+
+    def report(self, level: int, diameter: float, r: Step) -> None:
+        """One chunk, classified in this process."""
+        self.count(level, diameter, r.evaluations, box_volume(r.inner), box_volume(r.boundary),
+                   box_volume(r.outside), r.inner.shape[0] + r.boundary.shape[0])
+
+    def done(self, i: int, o: Outcome) -> None:
+        """One part, covered by a cluster worker (counted here unless its chunks were reported already)."""
+        if not o.reported:
+            inner, boundary = decided_volume(o)
+            self.count(o.levels, o.diameter, o.evaluations, inner, boundary, o.outside_volume,
+                       sum(a.shape[0] for a in o.inner) + sum(a.shape[0] for a in o.boundary))
 
 
 def _run(
@@ -248,61 +294,38 @@ def _run(
 ) -> WorkspaceResult:
     t0 = time.perf_counter()
     box = task.box
-    total_volume = float(np.prod(box[:, 1] - box[:, 0]))
-    tally: dict[str, Any] = {'evaluations': 0, 'inner': 0.0, 'boundary': 0.0, 'outside': 0.0, 'kept': 0}
     flag = StopFlag()
-
-    def stop() -> str:
-        if flag.raised:
-            return 'interrupted'
-        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
-            return f'time limit ({max_seconds:g} s)'
-        return f'box limit ({max_boxes} boxes)' if tally['kept'] > max_boxes else ''
-
-    def count(level: int, diameter: float, evaluations: int, inner: float, boundary: float, outside: float,
-              kept: int) -> None:
-        tally['evaluations'] += evaluations
-        tally['inner'] += inner
-        tally['boundary'] += boundary
-        tally['outside'] += outside
-        tally['kept'] += kept
-        decided = tally['inner'] + tally['boundary'] + tally['outside']
-        bar.update(level, diameter, delta, tally['evaluations'], tally['inner'], tally['boundary'],
-                   decided / total_volume)
-
-    def report(level: int, diameter: float, r: Step) -> None:       # one chunk, in this process
-        count(level, diameter, r.evaluations, box_volume(r.inner), box_volume(r.boundary), box_volume(r.outside),
-              r.inner.shape[0] + r.boundary.shape[0])
-
-    def done(i: int, o: Outcome) -> None:                           # one part, from a cluster worker
-        if not o.reported:
-            inner, boundary = decided_volume(o)
-            count(o.levels, o.diameter, o.evaluations, inner, boundary, o.outside_volume,
-                  sum(a.shape[0] for a in o.inner) + sum(a.shape[0] for a in o.boundary))
-
+    mon = _Monitor(bar, delta, float(np.prod(box[:, 1] - box[:, 0])), flag, t0, max_seconds, max_boxes)
     try:
-        with LocalContext(stop, report):
-            out = run_levels(model, task.step, task.args, task.frontier, delta, chunk, keep_outside, max_boxes, stop,
-                             report, until=distribute_at(chunk, parts))
+        with LocalContext(mon.stop, mon.report):
+            out = run_levels(model, task.step, task.args, task.frontier, delta, chunk, keep_outside, max_boxes,
+                             mon.stop, mon.report, until=distribute_at(chunk, parts))
             if out.frontier.size and not out.stopped:
                 pieces = out.frontier.parts(parts)
                 results: list[Outcome | None] = [None] * len(pieces)
                 deadline = None if max_seconds is None else time.time() + max_seconds - (time.perf_counter() - t0)
                 args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels)
                 try:
-                    executor.run(cover_part, model, pieces, args, results, lambda: bool(stop()), done, bar.refresh)
+                    executor.run(cover_part, model, pieces, args, results, lambda: bool(mon.stop()), mon.done,
+                                 bar.refresh)
                 except KeyboardInterrupt:
                     flag.raised = True
                 for piece, o in zip(pieces, results, strict=True):
                     if o is None:                    # not run (stopped): its boxes count as boundary
                         out.boundary.append(piece.output_boxes())
-                        out.stopped = out.stopped or stop() or 'interrupted'
+                        out.stopped = out.stopped or mon.stop() or 'interrupted'
                     else:
                         out.merge(o, keep_outside)
             elif out.frontier.size:
                 out.boundary.append(out.frontier.output_boxes())
     finally:
         flag.restore()
+    return _result(model, method, delta, box, out, time.perf_counter() - t0, executor.describe(), keep_outside)
+
+
+def _result(model: Any, method: str, delta: float, box: np.ndarray, out: Outcome, seconds: float, extra: Any,
+            keep_outside: bool) -> WorkspaceResult:
+    """The run's :class:`WorkspaceResult` from what its levels and parts decided (``out``)."""
     k = box.shape[0]
     inner_arr = np.concatenate(out.inner) if out.inner else np.empty((0, k, 2))
     bnd_arr = np.concatenate(out.boundary) if out.boundary else np.empty((0, k, 2))
@@ -315,13 +338,13 @@ def _run(
         inner=inner_arr,
         boundary=bnd_arr,
         outside_boxes=out.outside_count,
-        seconds=time.perf_counter() - t0,
+        seconds=seconds,
         evaluations=out.evaluations,
         levels=out.levels,
         interrupted=bool(out.stopped),
         certified=(method == 'covering'),
         touches_initial_box=touches(box, inner_arr, bnd_arr) and not getattr(model, 'box_contains_workspace', False),
         stopped=out.stopped,
-        extra=executor.describe(),
+        extra=extra,
         outside=(np.concatenate(out.outside) if out.outside else np.empty((0, k, 2))) if keep_outside else None,
     )

@@ -1,4 +1,4 @@
-"""DexTAR, the five-bar of Posypkin et al. (2019, eqs. 1), in its closed-form two-dimensional form."""
+"""DexTAR, the five-bar of Posypkin et al. (eqs. (1); docs/references.md), in its closed-form two-dimensional form."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ _INF = np.inf
 
 
 class DextarModel(WorkspaceModel):
-    """DexTAR five-bar, eqs. (1) of Posypkin et al. (2019): ``x = la cos q1 + lb cos q3 + d/2``,
+    """DexTAR five-bar, eqs. (1) of Posypkin et al.: ``x = la cos q1 + lb cos q3 + d/2``,
     ``y = la sin q1 + lb sin q3`` and ``x = -d/2 + ld cos q2 + lc cos q4``, ``y = ld sin q2 + lc sin q4``.
 
     DexTAR's joints turn without limits (its arms pass each other), so eliminating the passive angles q3,

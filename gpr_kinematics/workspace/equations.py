@@ -49,6 +49,45 @@ EQUALITY_TOLERANCE = 1e-9
 MAX_PASSIVE_BOXES = 512
 
 
+def _check_box(name: str, n: int, box: np.ndarray, units: tuple[str, ...], scale: np.ndarray) -> None:
+    """ConfigError unless every one of the ``n`` variables has a finite range lower < upper, a unit and a
+    positive finite scale."""
+    if box.shape != (n, 2) or len(units) != n or scale.shape != (n,):
+        raise ConfigError(f'{name}: box, units and scale need one entry per variable ({n})')
+    if not (np.all(np.isfinite(box)) and np.all(box[:, 0] < box[:, 1])):
+        raise ConfigError(f'{name}: every variable range needs finite lower < upper')
+    if not (np.all(np.isfinite(scale)) and np.all(scale > 0)):
+        raise ConfigError(f'{name}: every scale must be a positive length (m per unit)')
+
+
+def _solve_for(name: str, equalities: int, passive: list[str], solve_for: Sequence[str] | None) -> tuple[str, ...]:
+    """The passive variables the existence proof solves for: as many as equalities, distinct (default: all the
+    passive ones, when their count matches)."""
+    if solve_for is None:
+        if equalities != len(passive):
+            raise ConfigError(f'{name}: {equalities} equations and {len(passive)} passive variables '
+                              f'{passive}: name the {equalities} the proof solves for in solve_for')
+        solve_for = passive
+    if sorted(set(solve_for)) != sorted(solve_for) or not set(solve_for) <= set(passive) or len(
+            solve_for) != equalities:
+        raise ConfigError(f'{name}: solve_for must name {equalities} distinct passive variables among '
+                          f'{passive}; got {list(solve_for)}')
+    return tuple(solve_for)
+
+
+def _check_periodic(name: str, graph: Graph, units: tuple[str, ...], periodic: Sequence[str],
+                    constraints: Sequence[Constraint]) -> None:
+    """ConfigError unless every periodic variable is an angle that the constraints use through sin/cos only."""
+    variables = graph.variables
+    for v in periodic:
+        i = variables.index(v) if v in variables else -1
+        bad = _non_periodic_use(graph, i, {c.root.id for c in constraints}) if i >= 0 else 'nothing'
+        if i < 0 or units[i] != 'rad' or bad:
+            raise ConfigError(f'{name}: periodic variable {v!r} must be an angle (rad) that every constraint uses '
+                              f'through sin or cos of an integer multiple of it plus other terms; it is used by '
+                              f'{bad or "a non-angle unit"}')
+
+
 class EquationModel:
     """Equalities and inequalities over named variables, with the outputs to project onto.
 
@@ -96,12 +135,7 @@ class EquationModel:
         self.box = np.array(box, dtype=float)
         self.units = tuple(units)
         self.scale = np.asarray(scale, dtype=float)
-        if self.box.shape != (n, 2) or len(self.units) != n or self.scale.shape != (n,):
-            raise ConfigError(f'{name}: box, units and scale need one entry per variable ({n})')
-        if not (np.all(np.isfinite(self.box)) and np.all(self.box[:, 0] < self.box[:, 1])):
-            raise ConfigError(f'{name}: every variable range needs finite lower < upper')
-        if not (np.all(np.isfinite(self.scale)) and np.all(self.scale > 0)):
-            raise ConfigError(f'{name}: every scale must be a positive length (m per unit)')
+        _check_box(name, n, self.box, self.units, self.scale)
         unknown = [o for o in outputs if o not in self.variables]
         if not outputs or unknown or len(set(outputs)) != len(outputs):
             raise ConfigError(f'{name}: outputs must be distinct variables among {list(self.variables)}; got '
@@ -112,25 +146,10 @@ class EquationModel:
         equalities = [c for c in constraints if c.equality]
         self.constraints = tuple(constraints)
         passive = [self.variables[i] for i in self.passive_index]
-        if solve_for is None:
-            if len(equalities) != len(passive):
-                raise ConfigError(f'{name}: {len(equalities)} equations and {len(passive)} passive variables '
-                                  f'{passive}: name the {len(equalities)} the proof solves for in solve_for')
-            solve_for = passive
-        if sorted(set(solve_for)) != sorted(solve_for) or not set(solve_for) <= set(passive) or len(
-                solve_for) != len(equalities):
-            raise ConfigError(f'{name}: solve_for must name {len(equalities)} distinct passive variables among '
-                              f'{passive}; got {list(solve_for)}')
-        self.solve_for = tuple(solve_for)
+        self.solve_for = _solve_for(name, len(equalities), passive, solve_for)
         self.solved_index = [self.variables.index(v) for v in self.solve_for]
         self.periodic = np.array([v in periodic for v in self.variables])
-        for v in periodic:
-            i = self.variables.index(v) if v in self.variables else -1
-            bad = _non_periodic_use(graph, i, {c.root.id for c in constraints}) if i >= 0 else 'nothing'
-            if i < 0 or self.units[i] != 'rad' or bad:
-                raise ConfigError(f'{name}: periodic variable {v!r} must be an angle (rad) that every constraint uses '
-                                  f'through sin or cos of an integer multiple of it plus other terms; it is used by '
-                                  f'{bad or "a non-angle unit"}')
+        _check_periodic(name, graph, self.units, periodic, constraints)
         turn = self.periodic & (self.box[:, 1] - self.box[:, 0] >= 2 * math.pi * (1 - 1e-12))
         self.full_turn = turn
         self.box[turn] += np.array([-1e-15, 1e-15])
@@ -294,6 +313,27 @@ def _texts(data: Mapping[str, Any], key: str, source: str) -> list[str]:
 
 def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, angle_scale: float | None) -> Any:
     """``type: equations`` (see the module docstring); top-level keys named like a parameter override it."""
+    params = _parameters(data, source)
+    names, box, units, scale = _variables(data, ws, params, source, angle_scale)
+    outputs = data.get('outputs')
+    if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
+        raise ConfigError(f'{source}: outputs must be a list of variable names among {names}')
+    graph = Graph(names)
+    symbols = {v: graph.var(v) for v in names}
+    symbols.update({k: graph.constant(x) for k, x in params.items()})
+    symbols['pi'] = graph.constant(math.nextafter(math.pi, 0.0), math.nextafter(math.pi, 4.0))
+    constraints = _constraints(data, graph, symbols, source)
+    solve_for, periodic = (_variable_list(data, key, source) for key in ('solve_for', 'periodic'))
+    try:
+        return EquationModel(str(data.get('name', 'equations'))[:80], graph, constraints, box, units, scale,
+                             outputs, solve_for, periodic or ())
+    except InputError as exc:
+        raise ConfigError(f'{source}: {exc}') from None
+
+
+def _parameters(data: Mapping[str, Any], source: str) -> dict[str, float]:
+    """The ``parameters`` (names to numbers), each overridden by a top-level key of its name; the file's keys
+    checked (the known ones and the parameters' names)."""
     params_in = data.get('parameters') or {}
     if not isinstance(params_in, Mapping) or len(params_in) > 64:
         raise ConfigError(f'{source}: parameters must be a mapping of at most 64 names to numbers')
@@ -303,6 +343,13 @@ def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, an
     for k in params:
         if k in data:
             params[k] = number_key(data, k, source, positive=False, unit='SI units')
+    return params
+
+
+def _variables(data: Mapping[str, Any], ws: Mapping[str, Any], params: Mapping[str, float], source: str,
+               angle_scale: float | None) -> tuple[list[str], np.ndarray, list[str], list[float]]:
+    """The variables' names, box (n, 2) (the workspace section may narrow it), units (m or rad) and scales
+    (angles: ``angle_scale`` metres per radian, default 1)."""
     variables = data.get('variables')
     if not isinstance(variables, Mapping) or not 1 <= len(variables) <= MAX_VARIABLES:
         raise ConfigError(f'{source}: variables must map 1 to {MAX_VARIABLES} names to [lower, upper]')
@@ -319,13 +366,11 @@ def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, an
     if any(u not in ('m', 'rad') for u in units):
         raise ConfigError(f'{source}: a unit must be m or rad; got {units}')
     scale = [1.0 if u == 'm' else (1.0 if angle_scale is None else angle_scale) for u in units]
-    outputs = data.get('outputs')
-    if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
-        raise ConfigError(f'{source}: outputs must be a list of variable names among {names}')
-    graph = Graph(names)
-    symbols = {v: graph.var(v) for v in names}
-    symbols.update({k: graph.constant(x) for k, x in params.items()})
-    symbols['pi'] = graph.constant(math.nextafter(math.pi, 0.0), math.nextafter(math.pi, 4.0))
+    return names, box, units, scale
+
+
+def _constraints(data: Mapping[str, Any], graph: Graph, symbols: Mapping[str, Any], source: str) -> list[Constraint]:
+    """The texts under ``equations`` (equalities only) and ``inequalities`` (no equality), parsed."""
     constraints = []
     for key in ('equations', 'inequalities'):
         for i, text in enumerate(_texts(data, key, source)):
@@ -335,14 +380,12 @@ def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, an
                                       f'{"not " if key == "equations" else ""}an equation; put it under '
                                       f'{"inequalities" if key == "equations" else "equations"}')
             constraints.append(c)
-    lists = {}
-    for key in ('solve_for', 'periodic'):
-        value = data.get(key)
-        if value is not None and not (isinstance(value, list) and all(isinstance(s, str) for s in value)):
-            raise ConfigError(f'{source}: {key} must be a list of variable names')
-        lists[key] = value
-    try:
-        return EquationModel(str(data.get('name', 'equations'))[:80], graph, constraints, box, units, scale,
-                             outputs, lists['solve_for'], lists['periodic'] or ())
-    except InputError as exc:
-        raise ConfigError(f'{source}: {exc}') from None
+    return constraints
+
+
+def _variable_list(data: Mapping[str, Any], key: str, source: str) -> list[str] | None:
+    """``solve_for`` or ``periodic``: a list of variable names, or None when absent."""
+    value = data.get(key)
+    if value is not None and not (isinstance(value, list) and all(isinstance(s, str) for s in value)):
+        raise ConfigError(f'{source}: {key} must be a list of variable names')
+    return value

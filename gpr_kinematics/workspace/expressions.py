@@ -331,6 +331,17 @@ def parse_constraint(text: Any, graph: Graph, names: Mapping[str, Expr], where: 
     if len(text) > MAX_TEXT:
         raise ExpressionError(f'{where}: the text has {len(text)} characters; allowed: at most {MAX_TEXT}')
     p = _Parser(text, graph, names, f'{where} ({text[:60]!r})')
+    parts, rels = _relation_chain(p)
+    if len(rels) == 2:
+        lo, f, hi = parts if rels[0] == '<=' else parts[::-1]
+        if lo.constant is None or hi.constant is None:
+            p.fail('the outer terms of a <= f <= b must be constants')
+        return Constraint(f, lo.constant or (0.0, 0.0), hi.constant or (0.0, 0.0), text)
+    return _one_relation(parts[0], rels[0], parts[1], text)
+
+
+def _relation_chain(p: _Parser) -> tuple[list[Expr], list[str]]:
+    """The terms and relations of ``f rel g`` or ``a rel f rel b`` (the same ``<=`` or ``>=`` twice)."""
     parts = [p.expr()]
     rels: list[str] = []
     while (rel := p.relation()) is not None:
@@ -340,21 +351,20 @@ def parse_constraint(text: Any, graph: Graph, names: Mapping[str, Expr], where: 
         p.fail('a constraint needs =, <= or >=')
     if len(rels) > 2 or (len(rels) == 2 and (rels[0] != rels[1] or rels[0] in ('=', '=='))):
         p.fail('a chain must read a <= f <= b or a >= f >= b')
-    if len(rels) == 2:
-        lo, f, hi = parts if rels[0] == '<=' else parts[::-1]
-        if lo.constant is None or hi.constant is None:
-            p.fail('the outer terms of a <= f <= b must be constants')
-        return Constraint(f, lo.constant or (0.0, 0.0), hi.constant or (0.0, 0.0), text)
-    lhs, rhs = parts
+    return parts, rels
+
+
+def _one_relation(lhs: Expr, rel: str, rhs: Expr, text: str) -> Constraint:
+    """``lhs rel rhs`` as bounds on one expression: a constant side becomes the bound, else ``lhs - rhs``."""
     inf = (math.inf, math.inf)
     ninf = (-math.inf, -math.inf)
-    if rels[0] in ('=', '=='):
+    if rel in ('=', '=='):
         if rhs.constant is not None:
             return Constraint(lhs, rhs.constant, rhs.constant, text)
         if lhs.constant is not None:
             return Constraint(rhs, lhs.constant, lhs.constant, text)
         return Constraint(lhs - rhs, (0.0, 0.0), (0.0, 0.0), text)
-    if rels[0] == '>=':
+    if rel == '>=':
         lhs, rhs = rhs, lhs                                # now lhs <= rhs
     if rhs.constant is not None:
         return Constraint(lhs, ninf, rhs.constant, text)

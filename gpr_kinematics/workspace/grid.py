@@ -1,31 +1,35 @@
-"""The two grid methods, neither certified: the grid classification of a box (Posypkin et al.
-2019: the constraints at the nodes of a small grid inside the box) and the plain uniform grid of cells
-(Aboulissane and El Bakkali's discretisation of the 3-UPU workspace)."""
+"""The two grid methods, neither certified: the grid classification of a box (Posypkin et al., docs/references.md:
+the constraints at the nodes of a small grid inside the box) and the plain uniform grid of cells (Aboulissane and
+El Bakkali's discretisation of the 3-UPU workspace, CPI 2015)."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from ..errors import InputError
-from .base import WorkspaceModel, WorkspaceResult
+from ..errors import InputError, brief
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult
 from .boxes import touches
 
 #: Most grid nodes inside one box for the grid method (``grid_nodes ** d``).
 MAX_NODES_PER_BOX = 4096
-#: Most nodes of the uniform grid (its boolean node array and one chunk of points stay below ~4 GB).
-MAX_UNIFORM_NODES = 5e8
 _POINT_CHUNK = 200_000
 
 
 def check_grid_nodes(nodes: int, d: int) -> None:
-    """``nodes`` per edge (>= 2) with ``nodes ** d`` at most :data:`MAX_NODES_PER_BOX`."""
-    if nodes < 2 or float(nodes) ** d > MAX_NODES_PER_BOX:
-        raise InputError(
-            f'grid method: {nodes} nodes per edge in {d} dimensions gives {float(nodes) ** d:.3g} nodes per box; '
-            f'allowed: at least 2 per edge and at most {MAX_NODES_PER_BOX} per box'
-        )
+    """``nodes`` per edge (>= 2) with ``nodes ** d`` at most :data:`MAX_NODES_PER_BOX` (integer arithmetic: an
+    integer of 500 digits has no float)."""
+    if 2 <= nodes <= MAX_NODES_PER_BOX and nodes ** d <= MAX_NODES_PER_BOX:
+        return
+    allowed = f'allowed: at least 2 per edge and at most {MAX_NODES_PER_BOX} per box'
+    if nodes < 2:
+        raise InputError(f'grid method: {brief(nodes)} nodes per edge; {allowed}')
+    exponent = d * math.log10(nodes)
+    per_box = f'{10.0 ** exponent:.3g}' if exponent < 300 else f'10^{exponent:.0f}'
+    raise InputError(f'grid method: {brief(nodes)} nodes per edge in {d} dimensions gives {per_box} nodes per box; '
+                     f'{allowed}')
 
 
 def grid_classify(model: WorkspaceModel, boxes: np.ndarray, nodes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -47,24 +51,33 @@ def grid_classify(model: WorkspaceModel, boxes: np.ndarray, nodes: int) -> tuple
     return all_ok, none_ok
 
 
+def _feasible_nodes(model: WorkspaceModel, axes: list[np.ndarray]) -> np.ndarray:
+    """Feasibility at every node of the grid ``axes`` (shape ``len(axes[i])`` per axis), the nodes made chunk by
+    chunk from their flat index (C order, as ``meshgrid(indexing='ij')``): memory of one chunk, not of the grid."""
+    shape = tuple(a.size for a in axes)
+    total = int(np.prod(shape))
+    ok = np.empty(total, dtype=bool)
+    for s in range(0, total, _POINT_CHUNK):
+        idx = np.unravel_index(np.arange(s, min(s + _POINT_CHUNK, total)), shape)
+        ok[s : s + _POINT_CHUNK] = model.feasible(np.stack([a[i] for a, i in zip(axes, idx, strict=True)], axis=1))
+    return ok.reshape(shape)
+
+
 def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceResult:
     """Plain grid: cells of scaled edge < delta, classified by their 2**d corner nodes (not certified)."""
     t0 = time.perf_counter()
     scale = np.asarray(model.scale, dtype=float)
     d = box.shape[0]
     counts = np.maximum(np.ceil((box[:, 1] - box[:, 0]) * scale / delta * (1 + 1e-12)), 1)
-    if float(np.prod(counts + 1)) > MAX_UNIFORM_NODES:
+    # every cell may come back as a box (48 bytes in 3-D): the covering's bound on the boxes kept
+    if float(np.prod(counts)) > MAX_BOXES:
         raise InputError(
-            f'uniform grid with {counts.astype(int).tolist()} cells ({float(np.prod(counts + 1)):.3g} nodes) is too '
-            f'large for delta {delta:g}; allowed: at most {MAX_UNIFORM_NODES:.0e} nodes (use a larger delta or the '
-            'covering method)'
+            f'uniform grid with {counts.astype(int).tolist()} cells ({float(np.prod(counts)):.3g}) is too large for '
+            f'delta {delta:g}; allowed: at most {MAX_BOXES:.0e} cells (use a larger delta or the covering method)'
         )
     cells = counts.astype(int)
     axes = [np.linspace(box[i, 0], box[i, 1], cells[i] + 1) for i in range(d)]
-    nodes = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, d)
-    ok = np.concatenate(
-        [model.feasible(nodes[i : i + _POINT_CHUNK]) for i in range(0, nodes.shape[0], _POINT_CHUNK)]
-    ).reshape(tuple(cells + 1))
+    ok = _feasible_nodes(model, axes)
     # a cell is inner if all its corners are feasible, outside if none is
     corner_slices = []
     for corner in range(2**d):
@@ -93,7 +106,7 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceRe
         boundary=bnd,
         outside_boxes=int(all_ok.size - idx_in.shape[0] - idx_bd.shape[0]),
         seconds=time.perf_counter() - t0,
-        evaluations=int(nodes.shape[0]),
+        evaluations=int(ok.size),
         levels=1,
         certified=False,
         touches_initial_box=touches(box, inner, bnd),

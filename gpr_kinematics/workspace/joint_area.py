@@ -1,5 +1,6 @@
 """The joint working area of the 6-DOF relative-manipulation robot: a 3-RPS tripod (holding the tool) over a
-planar 3-RRR (holding the part), after the last section of Posypkin, Rybak, Malyshev and Gaponenko (2019).
+planar 3-RRR (holding the part), after the last section of Posypkin, Rybak, Malyshev and Gaponenko
+("Approximation of the parallel robot working area using the method of nonuniform covering", docs/references.md).
 
 Frames (right-handed, SI units):
 

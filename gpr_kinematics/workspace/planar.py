@@ -1,4 +1,5 @@
-"""The planar 3-RRR of Posypkin, Rybak, Malyshev and Gaponenko (2019, Fig. 12, eqs. 8-12) as a workspace model.
+"""The planar 3-RRR of Posypkin, Rybak, Malyshev and Gaponenko (Fig. 12, eqs. 8-12; docs/references.md) as a
+workspace model.
 
 Its constraint functions are written once, for intervals and symbolic expressions alike
 (:meth:`Rrr3PlanarModel.constraints`); the joint working area builds on them."""
@@ -18,7 +19,7 @@ _INF = np.inf
 
 
 class Rrr3PlanarModel(WorkspaceModel):
-    """Planar 3-RRR (Posypkin et al. 2019, Fig. 12, eqs. 8-12): reachable ``(x, y, phi)`` of the output link.
+    """Planar 3-RRR (Posypkin et al., Fig. 12, eqs. 8-12): reachable ``(x, y, phi)`` of the output link.
 
     Leg i: base pivot ``A_i = R (cos b_i, sin b_i)``, crank ``l1`` at input angle ``theta_i``, coupler ``l2``
     to ``C_i = (x, y) + l3 (cos(g_i + phi), sin(g_i + phi))``. With ``v = C_i - A_i`` the closure

@@ -1,4 +1,5 @@
-"""The 3-RPS tripod of Posypkin, Rybak, Malyshev and Gaponenko (2019, Fig. 8, eqs. 2-7) as a workspace model.
+"""The 3-RPS tripod of Posypkin, Rybak, Malyshev and Gaponenko (Fig. 8, eqs. 2-7; docs/references.md) as a
+workspace model.
 
 Its pose formulas are written once, for intervals and symbolic expressions alike (:meth:`TripodModel.rotation`,
 :meth:`TripodModel.centre`, :meth:`TripodModel.legs`); the joint working area builds on them."""
@@ -16,10 +17,11 @@ from .base import WorkspaceModel
 
 
 class TripodModel(WorkspaceModel):
-    """3-RPS tripod (Posypkin et al. 2019, Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
+    """3-RPS tripod (Posypkin et al., Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
 
     Pose variables ``z`` [m], ``psi`` (about x) and ``theta`` (about y) [rad]. The parasitic motions are
-    Rao and Rao's formulas as the paper gives them: ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
+    Rao and Rao's formulas (2013, docs/references.md) as the paper gives them:
+    ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
     ``y = -r cos psi sin phi``, ``x = r/2 (Rp11 - Rp22)``, with ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2).
     Leg i joins ``a_i = R u_i`` to ``s_i = p + Rp r u_i``, ``u_i = (cos b_i, sin b_i, 0)``; the constraint is
     ``leg_min <= |s_i - a_i| <= leg_max`` (eq. 4; eqs. 5-7 are its components, eq. 6-7 as printed carry

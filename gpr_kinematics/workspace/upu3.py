@@ -1,4 +1,5 @@
-"""The translational 3-UPU of Aboulissane and El Bakkali as a workspace model."""
+"""The translational 3-UPU of Aboulissane and El Bakkali ("Modeling and Simulation of Spatial Mechanism", CPI 2015;
+docs/references.md) as a workspace model."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ _INF = np.inf
 
 
 class Upu3Model(WorkspaceModel):
-    """Translational 3-UPU (Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism"):
+    """Translational 3-UPU (Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism", 2015):
     base joints ``B_i = b u_i``, platform joints ``P + p u_i`` (same azimuths), limb
     ``l_i = |P + p u_i - b u_i|`` in ``[limb_min, limb_max]``.
 
