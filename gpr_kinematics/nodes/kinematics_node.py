@@ -34,7 +34,7 @@ from ..compensation import compensate
 from ..config import GprConfig
 from ..errors import GprError, InputError
 from ..kinematics import forward, inverse
-from ..mobility import analyze_mobility, rod_perturbation
+from ..mobility import analyze_mobility
 from ..validation import finite_vector
 from .conversions import (
     fill_forward,
@@ -182,7 +182,8 @@ class KinematicsNode(GprNode):
 
 def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
     """Copy a core ``MobilityResult`` into an AnalyzeMobility response; with a non-zero ``dq`` [m] also
-    ``|dX|`` and the bounds (4), (5) for ``dP = rod_perturbation(dq)``."""
+    ``|dX|`` and the bounds (4), (5) for ``dP = res.rod_perturbation(dq)`` (along the machine's own rod directions
+    ``u_k``: rods that are not parallel move their joint centres off the base z axis)."""
     response.rank_dphi_dp = int(res.rank_dphi_dp)
     response.rank_augmented = int(res.rank_augmented)
     response.mobility = int(res.mobility)
@@ -191,7 +192,7 @@ def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
     response.eq4_lower, response.eq4_upper = (float(v) for v in res.bounds['eq4'])
     response.eq5_lower, response.eq5_upper = (float(v) for v in res.bounds['eq5'])
     if dq is not None and np.any(dq != 0.0):
-        b = res.dx_bounds(rod_perturbation(dq))
+        b = res.dx_bounds(res.rod_perturbation(dq))
         response.dx_norm = b.norm_dx
         response.dx_lower_eq4, response.dx_upper_eq4 = b.lower_eq4, b.upper_eq4
         response.dx_lower_eq5, response.dx_upper_eq5 = b.lower_eq5, b.upper_eq5
