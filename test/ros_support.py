@@ -62,3 +62,27 @@ def assert_one_error_line(output: str, status: int, expected: int, *words: str) 
     for w in words:
         assert re.search(w, errors[0]), (w, errors[0])
     return errors[0]
+
+
+#: A real, imperfect machine as a calibration writes it (docs/core.md): rods off their circle, zero offsets, rods not
+#: parallel, platform joints moved, the compliant model with a kappa per joint; keys that no ROS parameter holds
+#: (rod_positions, rod_directions, platform_joints) reach a node only through its config_file.
+IMPERFECT_MACHINE = {
+    'rod_positions': [[0.09326, 2e-5], [-0.04659, 0.08075], [-0.04664, -0.08071]],
+    'rod_offsets': [4e-5, -1e-5, 2e-5],
+    'rod_directions': [[2e-4, -1e-4], [-1e-4, 1.5e-4], [5e-5, 1e-4]],
+    'platform_joints': [[0.09320, -1e-5], [-0.04663, 0.08073], [-0.04660, -0.08074]],
+    'kappa': [5.0, 3.0, 8.0],
+    'model': 'compliant',
+}
+
+
+def imperfect_config_file(folder: Any) -> tuple[Any, Any]:
+    """Write :data:`IMPERFECT_MACHINE` as a geometry file in ``folder``; its path and the loaded configuration."""
+    import yaml
+
+    from gpr_kinematics.config import load_config
+
+    path = folder / 'imperfect_gpr.yaml'
+    path.write_text(yaml.safe_dump(IMPERFECT_MACHINE))
+    return path, load_config(path)

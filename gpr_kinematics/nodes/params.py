@@ -84,7 +84,9 @@ class ConfigParameters:
         node.add_post_set_parameters_callback(self._apply)
 
     def _build(self, values: dict[str, Any]) -> GprConfig:
-        """The configuration file's values with the parameters' on top (validated as a whole)."""
+        """Every key of the loaded configuration file with the parameters' values on top (validated as a whole):
+        keys that no ROS parameter holds (an imperfect machine's ``rod_positions``, ``rod_directions``,
+        ``platform_joints``) keep the file's values."""
         return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
 
     def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:
