@@ -29,9 +29,9 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
+from .conversions import message_class
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
-from .recorder_node import message_class
 from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 from .specs import node_specs
 

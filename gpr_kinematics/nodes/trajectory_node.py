@@ -47,13 +47,13 @@ from visualization_msgs.msg import MarkerArray
 from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import PlatformState
 
+from ..bags.markers import marker_array, marker_points
 from ..config import GprConfig
 from ..errors import ConfigError, GprError
 from ..kinematics import ForwardBatch, inverse_batch
 from ..messages import stream_messages
 from ..sweep import paper_sweep
-from .conversions import ROS_TYPES
-from .markers import platform_markers, rod_feet
+from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters
 from .program import Program, load_program, parse_program, sample_program
 from .qos import latched_qos, stream_qos
@@ -82,9 +82,17 @@ class Trajectory:
     station: list[int]
     station_names: tuple[str, ...]
     description: str
+    #: Points of every marker of every sample, by namespace: the machine's own rods and joints
+    #: (:func:`gpr_kinematics.bags.markers.marker_points`, from ``MachineGeometry``), for the whole stream at once.
+    markers: dict[str, np.ndarray]
 
     def __len__(self) -> int:
         return len(self.fk)
+
+
+def stream_markers(cfg: GprConfig, fk: ForwardBatch) -> dict[str, np.ndarray]:
+    """The ``gpr/markers`` points of every sample of a stream (what ``gpr verify`` checks them against)."""
+    return marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation)
 
 
 def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: float, azimuth_step: float,
@@ -95,7 +103,7 @@ def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: 
             f'azimuth step {azimuth_step:.6g} rad, {passes} pass(es)')
     n = len(sw.forward)
     return Trajectory(sw.forward, np.asarray(sw.alpha, float).tolist(), np.asarray(sw.gamma, float).tolist(),
-                      [-1] * n, (), desc)
+                      [-1] * n, (), desc, stream_markers(cfg, sw.forward))
 
 
 def program_trajectory(cfg: GprConfig, prog: Program, rate: float, move_time: float) -> Trajectory:
@@ -110,7 +118,8 @@ def program_trajectory(cfg: GprConfig, prog: Program, rate: float, move_time: fl
     desc = (f'program {prog.source}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
             f'{len(samples)} samples')
     return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
-                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc)
+                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc,
+                      stream_markers(cfg, ik.achieved))
 
 
 def goal_program(goal: Any) -> Program:
@@ -153,7 +162,6 @@ class TrajectoryNode(GprNode):
         super().__init__(**kwargs)
         self.cfg = ConfigParameters(self, read_only=True).config
         p = self.p = declare_parameters(self, TRAJECTORY)
-        self._feet = rod_feet(self.cfg)
         qos = stream_qos(int(p['queue_depth']))
         self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in STREAM_TOPICS.items()}
         self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
@@ -315,9 +323,8 @@ class TrajectoryNode(GprNode):
         for topic, pub in self.stream_publishers.items():
             pub.publish(msgs[topic])
         if self.sample % int(self.p['markers_every']) == 0:
-            fk = traj.fk
-            self.pub_markers.publish(platform_markers(self._feet, fk.q[i], fk.nominal_position[i],
-                                                      fk.nominal_rotation[i], msgs['gpr/platform_state'].header))
+            self.pub_markers.publish(marker_array(make_message, msgs['gpr/platform_state'].header,
+                                                  {ns: p[i] for ns, p in traj.markers.items()}))
 
     # -- the gpr/run_program action ----------------------------------------------------------------------------
     def _on_goal(self, _goal: Any) -> GoalResponse:
