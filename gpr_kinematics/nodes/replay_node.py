@@ -21,7 +21,6 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,17 +37,6 @@ from .specs import node_specs
 NODE_NAME = 'replay_node'
 
 
-def refuse_non_regular(path: Path) -> None:
-    """:class:`BagError` when the bag, or a storage or metadata file in its folder, exists but is not a regular file
-    (a FIFO or a device would block the reader forever)."""
-    files = [path] if not path.is_dir() else [p for p in path.iterdir()
-                                              if p.suffix in ('.mcap', '.db3') or p.name == 'metadata.yaml']
-    for f in files:
-        if f.exists() and not f.is_file():
-            raise BagError(f'{f} is not a regular file (a FIFO, socket or device); allowed: a bag folder, .mcap or '
-                           '.db3 file')
-
-
 class ReplayNode(GprNode):
     """Reads the bag at start and publishes it when spun (:meth:`spin`)."""
 
@@ -61,7 +49,6 @@ class ReplayNode(GprNode):
             raise BagError('parameter bag is empty; allowed: the path of a bag folder, .mcap or .db3 file')
         self.p = p
         wanted = [valid_topic_name(self, t, 'topics') for t in p['topics'] if t]
-        refuse_non_regular(Path(p['bag']))
         bag = read_bag(p['bag'], topics=wanted or None)
         missing = [t for t in wanted if bag.topic(t) is None]
         if missing:
