@@ -4,10 +4,12 @@ One source of truth: :func:`gpr_model` builds the model from a :class:`~gpr_kine
 URDF, the transforms and the plots always show the geometry the kinematics uses. Frames (REP 103/105 style, SI):
 
 - ``gpr_base``: origin at the centre of the rod axes on the plane ``q = 0``, z up along the rods;
-- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot
-  ``(R cos theta_k, R sin theta_k, 0)`` (a fixed joint: ``/tf_static``);
-- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = (R cos theta_k, R sin theta_k, q_k)``;
-  joint ``rod_k`` (prismatic along z, ``q_k`` in the stroke): the joint names of ``gpr/joint_states``;
+- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot ``P_k(0)``
+  (a fixed joint: ``/tf_static``);
+- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = B_k + (q_k + o_k) u_k``
+  (:class:`~gpr_kinematics.machine.MachineGeometry`: base point, zero offset and direction of the rod; the nominal
+  machine's ``(R cos theta_k, R sin theta_k, q_k)``); joint ``rod_k`` (prismatic along ``u_k``, ``q_k`` in the
+  stroke): the joint names of ``gpr/joint_states``;
 - ``gpr_platform``: the platform (origin at the centre of the nominal joint triangle, z normal to it); joint
   ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
   chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
@@ -38,6 +40,8 @@ import numpy as np
 from .config import GprConfig
 from .errors import InputError
 from .geometry import quaternion_from_matrix
+from .machine import MachineGeometry
+from .messages import ROD_JOINT_NAMES
 
 JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
 
@@ -161,16 +165,19 @@ def gpr_model(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str 
     links = [Link(base_frame, (Visual('cylinder', (1.3 * R, 0.2 * plate), (0.0, 0.0, -0.1 * plate), material='base',
                                       rgba=(0.45, 0.45, 0.45, 1.0)),))]
     joints = []
-    for k, theta in enumerate(cfg.rod_azimuths, start=1):
-        foot = (R * math.cos(theta), R * math.sin(theta), 0.0)
-        guide, rod = f'gpr_rod_guide_{k}', f'gpr_rod_{k}'
+    geo = MachineGeometry.of(cfg)
+    feet = geo.base_points(np.zeros((1, 3)))[0]        # P_k(0) = B_k + o_k u_k: where rod k stands
+    for k in range(3):
+        guide, rod = f'gpr_rod_guide_{k + 1}', f'gpr_rod_{k + 1}'
+        axis = (float(geo.ux[k]), float(geo.uy[k]), float(geo.uz[k]))   # the rod's direction u_k
         links.append(Link(guide, (Visual('cylinder', (1.8 * rod_r, 2 * plate), (0.0, 0.0, -plate), material='guide',
                                          rgba=(0.3, 0.3, 0.3, 1.0)),)))
         links.append(Link(rod, (Visual('cylinder', (rod_r, stroke), (0.0, 0.0, -0.5 * stroke), material='rod',
                                        rgba=(0.2, 0.4, 0.9, 1.0)),
                                 Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
-        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=foot))
-        joints.append(Joint(f'rod_{k}', 'prismatic', guide, rod, lower=cfg.stroke_min, upper=cfg.stroke_max))
+        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=tuple(float(v) for v in feet[k])))
+        joints.append(Joint(ROD_JOINT_NAMES[k], 'prismatic', guide, rod, axis=axis, lower=cfg.stroke_min,
+                            upper=cfg.stroke_max))
     disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
     links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
     links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
