@@ -19,7 +19,7 @@ from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Transform, V
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-from gpr_interfaces.msg import PlatformState
+from gpr_interfaces.msg import PlatformState, RobotState
 
 from ..bags.errors import BagError
 from ..errors import InputError
@@ -87,7 +87,7 @@ def transform_msg(translation: Vector, quaternion: Vector) -> Transform:
 #: rclpy's classes of the messages :mod:`gpr_kinematics.messages` builds.
 ROS_TYPES = MessageTypes(Time=Time, Header=Header, Point=Point, Quaternion=Quaternion, Vector3=Vector3, Pose=Pose,
                          PoseStamped=PoseStamped, JointState=JointState, PlatformState=PlatformState,
-                         float_sequence=lambda values: array.array('d', values))
+                         float_sequence=lambda values: array.array('d', values), RobotState=RobotState)
 
 
 def fill_forward(msg: Any, fk: Any) -> Any:
