@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -193,7 +193,7 @@ def gpr_model(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str 
         links.append(Link(rod, (Visual('cylinder', (rod_r, stroke), (0.0, 0.0, -0.5 * stroke), material='rod',
                                        rgba=(0.2, 0.4, 0.9, 1.0)),
                                 Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
-        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=tuple(float(v) for v in feet[k])))
+        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=_xyz(feet[k])))
         joints.append(Joint(ROD_JOINT_NAMES[k], 'prismatic', guide, rod, axis=axis, lower=cfg.stroke_min,
                             upper=cfg.stroke_max))
     disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
@@ -225,6 +225,10 @@ def _yaw(R: np.ndarray) -> float:
     return math.atan2(float(R[1, 0]), float(R[0, 0]))
 
 
+def _xyz(v: Any) -> tuple[float, float, float]:
+    return float(v[0]), float(v[1]), float(v[2])
+
+
 def _arm_parts(arm: Arm, platform_frame: str) -> tuple[list[Link], list[Joint]]:
     """Links and joints of one arm: its frames at zero joint values (``arm_transforms``), revolute about z for the
     links, fixed for the blade and the wafer; boxes along the links, a thin blade, a 300 mm wafer."""
@@ -234,7 +238,7 @@ def _arm_parts(arm: Arm, platform_frame: str) -> tuple[list[Link], list[Joint]]:
     links, joints = [], []
     grey, blade_rgba, wafer_rgba = (0.75, 0.75, 0.78, 1.0), (0.35, 0.35, 0.4, 1.0), (0.55, 0.6, 0.9, 0.9)
     for k, (frame, parent, pose) in enumerate(frames):
-        xyz = tuple(float(v) for v in pose.position[0])
+        xyz = _xyz(pose.position[0])
         rpy = (0.0, 0.0, _yaw(pose.rotation[0]))
         parent = platform_frame if parent == 'gpr_platform' else parent
         if k < len(arm.joints):

@@ -38,7 +38,7 @@ class RobotFigure:
     path: Path
 
 
-def _homogeneous(position: Sequence[float], rotation: np.ndarray) -> np.ndarray:
+def _homogeneous(position: Sequence[float] | np.ndarray, rotation: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3] = rotation
     T[:3, 3] = position

@@ -157,7 +157,7 @@ class TrajectoryNode(GprNode):
         pubs = self.stream_topics() if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
         nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
                                     self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
-        return min(len(nodes), *(pub.get_subscription_count() for pub in pubs))
+        return int(min(len(nodes), *(pub.get_subscription_count() for pub in pubs)))
 
     def _ready(self) -> bool:
         want = int(self.p['wait_for_subscribers'])
