@@ -31,6 +31,7 @@ setup(
         'bags': ['rosbags', 'mcap', 'mcap-ros2-support'],
         'plot': ['matplotlib'],
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
+        'cluster': ['dask', 'distributed'],
         'bench': ['pin', 'codac'],
     },
     zip_safe=True,

@@ -8,7 +8,7 @@ accuracy check). For each, in the same process:
   inversion, on the same constraints and the same scaled variables: angles are multiplied by the angle
   scale (tripod: platform radius r = 0.05 m, GPR: R = 0.093218 m) so that both pavers stop bisecting at
   the same scaled max-diameter ``eps = delta``;
-* ``grid``: the seed's grid method (node sampling per box, 3 nodes per edge, not certified);
+* ``grid``: the grid method of Posypkin et al. (2019) (node sampling per box, 3 nodes per edge, not certified);
 * ``uniform``: the plain grid (cells of edge < delta classified by their corner nodes, not certified).
 
 Reported: median wall time of the runs, inner/boundary box counts, inner/outer volumes, and a soundness
@@ -19,6 +19,7 @@ infeasible points inside the inner one). Usage: ``python benchmarks/bench_worksp
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import math
 import multiprocessing as mp
 import os
@@ -130,9 +131,15 @@ def run_codac(builder, model, delta: float, timeout: float):
 
     Returns (seconds, inner, boundary) with boxes in the model's own units, or None on timeout.
     """
+    return in_child(_codac_worker, (builder, model, delta), timeout)
+
+
+def in_child(target, args: tuple, timeout: float):
+    """``target(*args, queue)`` in a forked child process (codac never runs in this one: importing it sets
+    upward rounding); what it puts on the queue, or None after ``timeout`` seconds."""
     ctx = mp.get_context('fork')
     queue = ctx.Queue()
-    proc = ctx.Process(target=_codac_worker, args=(builder, model, delta, queue))
+    proc = ctx.Process(target=target, args=(*args, queue))
     proc.start()
     try:
         result = queue.get(timeout=timeout)
@@ -194,7 +201,9 @@ def main() -> None:
     ap.add_argument('--delta-mm', type=float, help='override the cases\' delta (mm)')
     ap.add_argument('--methods', default='covering,codac,grid,uniform', help='comma-separated methods to run')
     args = ap.parse_args()
-    import codac
+    # not `import codac` here: importing it switches this process's FPU to upward rounding (float('1.2') then
+    # reads 1.2000000000000002); codac runs in child processes only, our covering in round-to-nearest
+    codac_version = importlib.metadata.version('codac')
 
     rng = np.random.default_rng(0)
     repeat = 1 if args.quick else 3
@@ -206,7 +215,7 @@ def main() -> None:
              ('GPR', gpr, 0.001 * scale, codac_gpr, None),
              ('shell arm', shell, 0.005 * scale, codac_shell, shell.exact_volume())]
     print(f'Machine: {platform.machine()}, {os.cpu_count()} cores (shared), Python {platform.python_version()}, '
-          f'numpy {np.__version__}, codac {codac.__version__}\n')
+          f'numpy {np.__version__}, codac {codac_version}\n')
     print('| case | delta | method | runs | median s | ratio to codac | inner boxes | boundary boxes | '
           'inner volume | outer volume | missed/wrong |')
     print('|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|')

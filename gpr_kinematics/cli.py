@@ -23,7 +23,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from .errors import EXIT_BAD_INPUT, GprError
+from .errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -44,6 +44,28 @@ OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ro
 
 #: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
 EXIT_USAGE = EXIT_BAD_INPUT
+#: Longest run of characters without a space an error line carries whole (a long path, or a value a message
+#: quoted whole by mistake, is cut: the line stays readable).
+LONG_WORD = 300
+#: Longest error line [characters]: its middle is cut beyond (a list a message quoted whole by mistake).
+LONG_LINE = 900
+
+
+def one_line(message: str) -> str:
+    """An error message as one bounded line: newlines become spaces, words longer than :data:`LONG_WORD` are cut
+    with their length named, and a line longer than :data:`LONG_LINE` loses its middle (its start names the
+    problem, its end what is allowed).
+
+    >>> one_line('bad value ' + '9' * 1000 + '\\nallowed: 1 to 3')
+    'bad value 999999999999999999999999999999999999999999999999999999999999... (1000 characters) allowed: 1 to 3'
+    """
+    def cut(m: re.Match[str]) -> str:
+        return f'{m.group(0)[:BRIEF_LENGTH]}... ({len(m.group(0))} characters)'
+
+    line = re.sub(rf'\S{{{LONG_WORD + 1},}}', cut, message.replace('\n', ' '))
+    if len(line) > LONG_LINE:
+        line = f'{line[:LONG_LINE // 2]} ... ({len(line)} characters) ... {line[-LONG_LINE // 4:]}'
+    return line
 
 
 class _Parser(argparse.ArgumentParser):
@@ -55,7 +77,9 @@ class _Parser(argparse.ArgumentParser):
         self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
 
     def error(self, message: str) -> NoReturn:
-        """Exit with status 2 and the one line ``prog: error: message``."""
+        """Exit with status 2 and the one line ``prog: error: message`` (a long value argparse quotes in it, such as
+        a number of 5000 digits, cut by :func:`~gpr_kinematics.errors.brief`)."""
+        message = re.sub(rf"'([^'\n]{{{BRIEF_LENGTH + 1},}})'", lambda m: brief(m.group(1)), message)
         self.exit(EXIT_USAGE, f'{self.prog}: error: {message}\n')
 
 
@@ -139,8 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.handler(args))
     except GprError as exc:
-        msg = str(exc).replace('\n', ' ')
-        sys.stderr.write(f'gpr {args.command}: error: {msg}\n')
+        sys.stderr.write(f'gpr {args.command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE
     except ModuleNotFoundError as exc:  # an optional package imported by the handler itself
         error = missing_dependency(exc)

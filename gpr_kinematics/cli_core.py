@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 
 from .config import MODELS, GprConfig, load_config
-from .errors import InputError
+from .errors import LimitError
 
 _MM = 1e-3
 
 
 def _config(args: argparse.Namespace) -> GprConfig:
-    return load_config(args.config) if getattr(args, 'config', None) else load_config()
+    return load_config(args.config)
 
 
 def _length(args: argparse.Namespace, value: float) -> float:
@@ -133,32 +133,44 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
 
 def _cmd_mobility(args: argparse.Namespace) -> int:
     from .cli import jsonable
-    from .mobility import analyze_mobility
+    from .mobility import analyze_mobility, exact_dx
     cfg = _config(args)
     res = analyze_mobility([_length(args, v) for v in args.q], config=cfg, model=args.model)
     out = jsonable(res)
     dq = dx = None
+    full: float | None = None
+    why = ''
     if args.dq is not None:
         dq = [_length(args, v) for v in args.dq]
         dx = res.dx_bounds(res.rod_perturbation(dq))
-        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq}
+        try:
+            full = float(np.linalg.norm(exact_dx(res.q, dq, cfg, res.model)))
+        except LimitError as exc:  # q + dq tilts beyond the limit: the first order stands alone
+            why = str(exc)
+        # norm_dx is the first order (eq. 3); norm_dx_full the full solve |X(q + dq) - X(q)| (null: not solvable).
+        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq, 'norm_dx_full': full}
     if args.json:
         from .cli import emit_json
         emit_json(out)
         return 0
     print(f'mobility analysis (paper §IV-A), model {res.model}, q = {_vec(res.q)} m')
     print(f'  rank dPhi/dP = {res.rank_dphi_dp} (mobility h = {res.mobility}); '
-          f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}')
+          f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}; singular configuration: '
+          + ('yes (h > 1: the rigid mechanism gains instantaneous freedoms)' if res.singular else 'no'))
     print(f'  non-zero singular values of dX/dP: {_vec(res.singular_values, fmt="{:.6g}")}')
     print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
           f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
     if dx is not None:
-        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: |dX| = {dx.norm_dx:.6e}, '
-              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]')
+        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {dx.norm_dx:.6e} (eq. 3), '
+              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]; '
+              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None else f'no full solve ({why})')
+              + (' (at the singular configuration the first order of a rod change vanishes)' if res.singular else ''))
     return 0
 
 
-def _write_csv(path: str, s: Any) -> None:
+def _write_csv(path: str, s: Any) -> Path:
+    """Every sample of the sweep ``s`` as CSV (SI units, floats to round-trip), atomically; the path written."""
+    from .files import atomic_output
     fk = s.forward
     names = list(fk.virtual_joint_names)
     header = (['sample', 'pass', 'gamma', 'alpha', 'q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw',
@@ -167,23 +179,20 @@ def _write_csv(path: str, s: Any) -> None:
     cols = np.column_stack([np.arange(len(s)), s.pass_index, s.gamma, s.alpha, s.q, fk.position, fk.quaternion,
                             fk.tilt, fk.tilt_azimuth, fk.twist, fk.centre_shift, fk.virtual_joints,
                             fk.side_lengths, fk.iterations, fk.residual])
-    target = Path(path)
-    tmp = target.with_name(target.name + '.tmp')
-    try:
-        with open(tmp, 'w', newline='', encoding='utf-8') as fh:
-            w = csv.writer(fh)
-            w.writerow(header)
-            for row in cols:
-                w.writerow([int(row[0]), int(row[1])] + [repr(float(v)) for v in row[2:-2]]
-                           + [int(row[-2]), repr(float(row[-1]))])
-        tmp.replace(target)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f'cannot write CSV file {path!r}: {exc.strerror or exc}') from None
+    with atomic_output(path, 'CSV') as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in cols:
+            w.writerow([int(row[0]), int(row[1])] + [repr(float(v)) for v in row[2:-2]]
+                       + [int(row[-2]), repr(float(row[-1]))])
+    return Path(path)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from . import sweep
+    from .files import check_output
+    if args.csv is not None:
+        check_output(args.csv, 'CSV')  # before the work, not after it
     cfg = _config(args)
 
     def given(value: float | None, convert: Any, default: float) -> float:
@@ -195,12 +204,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                           tilt_step=given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP),
                           azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
                           passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
-    if args.csv:
-        _write_csv(args.csv, s)
+    written = None if args.csv is None else str(_write_csv(args.csv, s))
     summary = s.summary
     if args.json:
         from .cli import emit_json
-        emit_json(summary | ({'csv': args.csv} if args.csv else {}))
+        emit_json(summary | ({'csv': written} if written else {}))
         return 0
     print(f'paper sweep (§VI), model {summary["model"]}, height {summary["height"]:.6g} m: '
           f'{summary["samples"]} samples, {summary["singular_crossings"]} crossings of the singular configuration')
@@ -211,8 +219,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     print(f'  max closure residual    {summary["max_residual"]:10.2e} m, rigid fit {summary["max_fit_residual"]:.2e} m')
     print(f'  Newton iterations       forward <= {summary["max_fk_iterations"]}, '
           f'inverse <= {summary["max_ik_iterations"]}')
-    if args.csv:
-        print(f'  samples written to {args.csv}')
+    if written:
+        print(f'  samples written to {written}')
     return 0
 
 

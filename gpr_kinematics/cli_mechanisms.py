@@ -22,9 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError, SingularityError
+from .errors import InputError, SingularityError, brief
 from .mechanisms import load_mechanism
-from .mechanisms.base import ANGULAR_JOINTS, Mechanism
+from .mechanisms.base import ANGULAR_JOINTS, Mechanism, as_poses
+from .validation import MAX_COORDINATE
 
 CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
   gsp           R = Rz(C) Ry(B) Rx(A) = scipy from_euler('xyz', [A, B, C]) (or the file's 'euler')
@@ -41,9 +42,9 @@ def _finite(text: str) -> float:
     try:
         val = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a number') from None
     if not np.isfinite(val):
-        raise argparse.ArgumentTypeError(f'{text!r} is not a finite number')
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
     return val
 
 
@@ -53,6 +54,7 @@ def _pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
         pose[:3] *= 1e-3
     if args.deg:
         pose[3:] = np.radians(pose[3:])
+    as_poses(pose, '--pose')  # the position's bound, named as the option
     if mech.kind == 'upu3' and np.any(pose[3:] != 0):
         raise InputError(f'{mech.name} only translates: the angles A B C must be 0; got {pose[3:].tolist()}')
     return pose
@@ -99,12 +101,11 @@ def _mechanism(args: argparse.Namespace) -> int:
         'condition_number': _finite_or_none(rep.condition_number),
         'dexterity': rep.dexterity,
         'singular': rep.singular,
+        'singularity': rep.singularity or None,
         'within_limits': rep.within_limits,
     }
     if hasattr(mech, 'plane_residuals'):
         result['plane_residuals'] = mech.plane_residuals(full)[0]
-    if hasattr(mech, 'singularity'):
-        result['singularity'] = str(mech.singularity(full)[0]) or None
     if args.json:
         emit_json(result)
         return 0
@@ -119,7 +120,7 @@ def _mechanism(args: argparse.Namespace) -> int:
     for row in rep.homogenized_inverse_jacobian:
         print('  ' + ' '.join(f'{v:11.6f}' for v in row))
     print(f'condition number {rep.condition_number:.6g}, dexterity {rep.dexterity:.6g}, '
-          f'singular: {"yes" if rep.singular else "no"}')
+          f'singular: {"yes" if rep.singular else "no"}' + (f' ({rep.singularity})' if rep.singularity else ''))
     return 0
 
 
@@ -147,7 +148,7 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
     for item in args.parameter_error or []:
         name, values = item[0], item[1:]
         if name not in nominal:
-            raise InputError(f'{mech.name}: unknown parameter {name!r} for --parameter-error; allowed: '
+            raise InputError(f'{mech.name}: unknown parameter {brief(name)} for --parameter-error; allowed: '
                              + (', '.join(sorted(nominal)) or 'none'))
         try:
             vals = np.array([float(v) for v in values])
@@ -212,13 +213,19 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
     if values is None:
         lo, hi = _default_range(mech, base, default_var)
         return default_var, np.linspace(lo, hi, 51)
+    from .dexterity import MAX_POINTS
     name = values[0]
     try:
         lo, hi, n = float(values[1]), float(values[2]), int(values[3])
     except ValueError:
-        raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT >= 2); got {values}') from None
-    if n < 2 or not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
-        raise InputError(f'--vary {name}: need MIN < MAX (finite) and COUNT >= 2; got {values[1:]}')
+        raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT an integer from 2 to {MAX_POINTS}); '
+                         f'got {brief(values)}') from None
+    if not 2 <= n <= MAX_POINTS:
+        raise InputError(f'--vary {brief(name)}: COUNT = {n}; allowed: an integer from 2 to {MAX_POINTS} (poses per '
+                         'map)')
+    if not (abs(lo) <= MAX_COORDINATE and abs(hi) <= MAX_COORDINATE) or not lo < hi:  # NaN fails both
+        raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite and of magnitude at most '
+                         f'{MAX_COORDINATE:g}; got {brief(values[1:])}')
     idx = mech.pose_names.index(name) if name in mech.pose_names else -1
     scale = 1.0
     if 0 <= idx < 3 and args.mm:
@@ -230,7 +237,9 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
 
 def _dexterity(args: argparse.Namespace) -> int:
     from .cli import emit_json
-    from .dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
+    from .dexterity import check_plot_path, dexterity_grid, dexterity_sweep, plot_dexterity
+    if args.plot is not None:
+        check_plot_path(args.plot)  # before the work, not after it
     mech = load_mechanism(args.file)
     base = _pose(args, mech) if args.pose is not None else np.asarray(mech.home_pose, dtype=float)
     sweep = getattr(mech, 'default_sweep', None)
@@ -241,10 +250,9 @@ def _dexterity(args: argparse.Namespace) -> int:
         dmap = dexterity_grid(mech, base, var, vals, var2, vals2)
     else:
         dmap = dexterity_sweep(mech, base, var, vals)
-    if args.plot:
-        plot_dexterity(dmap, args.plot)
+    plot = None if args.plot is None else str(plot_dexterity(dmap, args.plot))
     if args.json:
-        emit_json(dmap.as_dict() | {'type': mech.kind, 'plot': args.plot})
+        emit_json(dmap.as_dict() | {'type': mech.kind, 'plot': plot})
         return 0
     if dmap.variable2 is None:
         print(f'{mech.name}: dexterity (inverse condition number) against {var}')
@@ -255,15 +263,15 @@ def _dexterity(args: argparse.Namespace) -> int:
         print(f'{mech.name}: dexterity on a {vals.size} x {vals2.size} grid of {var} x {var2}; within joint '
               f'limits: {inside.size} points' + (f', dexterity {inside.min():.4f} .. {inside.max():.4f}'
                                                   if inside.size else ''))
-    if args.plot:
-        print(f'plot written to {args.plot}')
+    if plot is not None:
+        print(f'plot written to {plot}')
     return 0
 
 
 def _default_range(mech: Mechanism, base: np.ndarray, var: str) -> tuple[float, float]:
     """The range of ``var`` (default z) over which ``base`` stays within the joint limits, by a scan."""
     if var not in mech.pose_variables:
-        raise InputError(f'{mech.name}: cannot vary {var!r}; its pose variables are '
+        raise InputError(f'{mech.name}: cannot vary {brief(var)}; its pose variables are '
                          + ', '.join(mech.pose_variables) + ' (use --vary NAME MIN MAX COUNT)')
     sweep = getattr(mech, 'default_sweep', None)
     if sweep is not None and sweep[0] == var:
@@ -335,5 +343,5 @@ def register(subparsers: Any) -> None:
                    help='pose variable to vary (units as --pose, with --mm/--deg)')
     p.add_argument('--vary2', nargs=4, metavar=('NAME', 'MIN', 'MAX', 'COUNT'),
                    help='second variable: a grid map')
-    p.add_argument('--plot', metavar='PNG', help='write a plot')
+    p.add_argument('--plot', metavar='FILE', help='write a plot (.png, .pdf or .svg)')
     p.set_defaults(handler=_dexterity)

@@ -21,7 +21,7 @@ _MM = 1e-3
 
 def _robot(args: argparse.Namespace, default: Path | None = None) -> Any:
     from .robot.description import load_robot
-    path = args.robot if args.robot else default
+    path = default if args.robot is None else args.robot
     return load_robot(path, geometry=args.config, model=args.model)
 
 
@@ -150,19 +150,23 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     else:
         from .errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
+    # The error arrays are properties computed anew at each access: take each once (a row holding a view of its
+    # own copy of the whole array made 100,000 rows cost 240 GB).
     if args.naive:
         rt = reteach(robot, rods, joints, args.arm, names)
         a = robot.arm(rt.solution.arm)
+        avoided, avoided_norm = rt.avoided_error, rt.avoided_error_norm
         rows = [{'name': n, 'intended': _station_dict(rt.intended, i), 'rods': rt.solution.rods[i],
                  'arm': dict(zip(a.joint_names, rt.solution.joints[i].tolist(), strict=True)),
-                 'avoided_error': rt.avoided_error_norm[i], 'avoided_error_vector': rt.avoided_error[i]}
+                 'avoided_error': avoided_norm[i], 'avoided_error_vector': avoided[i]}
                 for i, n in enumerate(names)]
     else:
         taught = teach(robot, rods, joints, args.arm, names)
+        error = taught.naive_error
+        norm = np.linalg.norm(error, axis=1)
         rows = [{'name': n, 'station': _station_dict(taught.stations, i),
                  'naive_station': _station_dict(taught.naive_stations, i),
-                 'naive_error': float(np.linalg.norm(taught.naive_error[i])),
-                 'naive_error_vector': taught.naive_error[i]}
+                 'naive_error': float(norm[i]), 'naive_error_vector': error[i]}
                 for i, n in enumerate(names)]
     if args.json:
         _emit({'robot': robot.name, 'reteach': args.naive, 'stations': rows})
@@ -218,28 +222,30 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from .errors import InputError
-    from .robot.export import sample_table, waypoint_table, write_table
+    from .robot.export import check_table_path, sample_table, waypoint_table, write_table
     from .robot.plan import sample_plan
-    if not args.waypoints and not args.samples:
+    if args.waypoints is None and args.samples is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json)')
+    for path in (args.waypoints, args.samples):
+        if path is not None:  # refused before the program is planned
+            check_table_path(path)
     _, plan = _program(args)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
-    written = {}
-    if args.waypoints:
-        write_table(args.waypoints, *waypoint_table(plan), meta)
-        written['waypoints'] = args.waypoints
-    if args.samples:
+    written: dict[str, Any] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
+    if args.waypoints is not None:
+        written['waypoints_file'] = str(write_table(args.waypoints, *waypoint_table(plan), meta))
+    if args.samples is not None:
         sampled = sample_plan(plan, args.rate)
-        write_table(args.samples, *sample_table(plan, sampled), meta | {'rate': args.rate})
-        written['samples'] = args.samples
+        written['samples_file'] = str(write_table(args.samples, *sample_table(plan, sampled),
+                                                  meta | {'rate': args.rate}))
         written['sample_count'] = len(sampled)
     if args.json:
         _emit(_summary(plan) | written)
     else:
         _print_summary(_summary(plan))
         for key in ('waypoints', 'samples'):
-            if key in written:
-                print(f'  {key} written to {written[key]}')
+            if f'{key}_file' in written:
+                print(f'  {key} written to {written[f"{key}_file"]}')
     return 0
 
 

@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from .config import GprConfig, resolve_config
 from .errors import LimitError
 from .geometry import RigidTransform, matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
+from .inverse import check_tool
 from .kinematics import ForwardResult, inverse
 from .validation import finite_vector, unit_quaternion
 
@@ -105,12 +106,14 @@ def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLik
 
     Raises:
         InputError: NaN, infinity, wrong sizes, a non-unit quaternion.
-        LimitError: a commanded tilt beyond the tilt limit, or rod lengths outside the stroke.
+        LimitError: a commanded tilt beyond the tilt limit, a tool point beyond
+            :data:`~gpr_kinematics.inverse.TOOL_REACH`, or rod lengths outside the stroke.
     """
     cfg = resolve_config(config)
     p_c = finite_vector(position, 'position', 3)
     quat = unit_quaternion(quaternion, 'quaternion')
     tool = finite_vector(tool_offset, 'tool_offset', 3)
+    check_tool(tool, 'tool_offset')
     R_c = matrix_from_quaternion(quat)
     tilt, az, twist = (float(v) for v in tilt_from_matrix(R_c))
     if tilt > cfg.tilt_limit:

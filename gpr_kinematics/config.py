@@ -15,15 +15,18 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import reprlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from . import safe_yaml
-from .errors import ConfigError
+from .errors import ConfigError, brief
 from .resources import config_path
+from .validation import MAX_COORDINATE
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
 MODELS = ('radial', 'polar', 'offset', 'compliant')
@@ -137,14 +140,31 @@ MAX_SIDE_MISMATCH = 0.01
 
 
 def is_number(value: Any) -> bool:
-    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite."""
-    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite and within
+    +-:data:`~gpr_kinematics.validation.MAX_COORDINATE` (1e6: no value of the package's files is larger, and
+    products of a few of them cannot overflow)."""
+    # abs() before isfinite(): an integer of 400 digits has no float (isfinite would raise OverflowError).
+    return (not isinstance(value, bool) and isinstance(value, (int, float)) and abs(value) <= MAX_COORDINATE
+            and math.isfinite(value))
+
+
+def number_array(value: Any, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+    """``value``, nested lists of numbers of ``shape`` each passing :func:`is_number`, as a float array; ``None``
+    when it is anything else (the caller names the key and what is allowed)."""
+    if len(shape) == 0:
+        return np.asarray(float(value)) if is_number(value) else None
+    if not isinstance(value, (list, tuple)) or len(value) != shape[0]:
+        return None
+    rows = [number_array(v, shape[1:]) for v in value]
+    if any(r is None for r in rows):
+        return None
+    return np.array(rows, dtype=float).reshape(shape)
 
 
 def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(short_repr(k, 40).strip("'") for k in data if k not in allowed)
+    unknown = sorted(brief(k, 40).strip("'") for k in data if k not in allowed)
     if unknown:
         more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
         raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
@@ -163,23 +183,15 @@ def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | 
     if val is None:
         raise ConfigError(f'{source}: missing key {key} (a {what})')
     if not is_number(val) or (positive and val <= 0):
-        raise ConfigError(f'{source}: {key} must be a {what}; got {val!r}')
+        if isinstance(val, (int, float)) and not isinstance(val, bool) and abs(val) > MAX_COORDINATE and (
+                isinstance(val, int) or math.isfinite(val)):   # finite, but beyond the bound of every number
+            what += f' of magnitude at most {MAX_COORDINATE:g}'
+        raise ConfigError(f'{source}: {key} must be a {what}; got {brief(val)}')
     return float(val)
 
 
-_SHORT = reprlib.Repr()
-_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = 8
-_SHORT.maxstring = _SHORT.maxother = 80
-
-
-def short_repr(value: Any, limit: int = 80) -> str:
-    """``repr(value)``, cut to ``limit`` characters: a message never carries a whole (possibly huge) user value."""
-    text = _SHORT.repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + '...'
-
-
 def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
-    return ConfigError(f'{source}: {key} = {short_repr(value)} is invalid; allowed: {allowed}')
+    return ConfigError(f'{source}: {key} = {brief(value)} is invalid; allowed: {allowed}')
 
 
 def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
@@ -325,7 +337,7 @@ def read_yaml(path: str | Path, what: str = 'config') -> Any:
     return safe_yaml.read_file(path, what)
 
 
-def _read_yaml(path: Path) -> Mapping[str, Any]:
+def _read_yaml(path: str | Path) -> Mapping[str, Any]:
     data = read_yaml(path)
     if data is None:
         return {}
@@ -343,9 +355,8 @@ def load_config(path: str | Path | None = None,
     """
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
-    if path is not None:
-        user = Path(path)
-        cfg = _build(cfg, _read_yaml(user), str(user))
+    if path is not None:  # the name as given: an empty one is refused, not read as '.'
+        cfg = _build(cfg, _read_yaml(path), str(path))
     if overrides:
         cfg = _build(cfg, overrides, 'overrides')
     return cfg

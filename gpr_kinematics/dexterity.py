@@ -14,8 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, brief
 from .mechanisms.base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
+
+#: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
+#: (the costliest mechanism: its Jacobians are finite differences of the core), 0.3 GB and 10 s at the limit.
+MAX_POINTS = 50_000
 
 
 @dataclass(frozen=True)
@@ -44,9 +48,15 @@ class DexterityMap:
         return out
 
 
+def check_points(count: int, what: str) -> None:
+    """Refuse a map of more than :data:`MAX_POINTS` poses before anything is allocated."""
+    if count > MAX_POINTS:
+        raise InputError(f'{what}: {count} poses; allowed: at most {MAX_POINTS} per map')
+
+
 def _index(mech: Mechanism, variable: str) -> int:
     if variable not in mech.pose_variables:
-        raise InputError(f'{mech.name}: cannot vary {variable!r}; its pose variables are '
+        raise InputError(f'{mech.name}: cannot vary {brief(variable)}; its pose variables are '
                          + ', '.join(mech.pose_variables))
     return mech.pose_names.index(variable)
 
@@ -63,7 +73,8 @@ def evaluate(mech: Mechanism, poses: Any
     dex = np.where(finite, dexterity_index(Jh), 0.0)
     cond = np.where(finite, condition_number(Jh), np.inf)
     within = mech.within_limits(mech.inverse_kinematics(full))
-    return full, dex, cond, dex < SINGULAR_TOLERANCE, within
+    named = mech.singularity(full) != ''  # a singular configuration of the mechanism itself (the GPR's rigid one)
+    return full, dex, cond, (dex < SINGULAR_TOLERANCE) | named, within
 
 
 def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any) -> DexterityMap:
@@ -73,8 +84,9 @@ def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any)
     """
     base, _ = as_poses(base_pose, 'base pose')
     vals = np.asarray(values, dtype=float).ravel()
+    check_points(vals.size, f'dexterity along {variable}')
     if vals.size == 0 or not np.all(np.isfinite(vals)):
-        raise InputError(f'values of {variable} must be finite numbers; got {values!r}')
+        raise InputError(f'values of {variable} must be finite numbers; got {brief(vals.tolist())}')
     poses = np.repeat(base, vals.size, axis=0)
     poses[:, _index(mech, variable)] = vals
     full, dex, cond, sing, within = evaluate(mech, poses)
@@ -87,6 +99,7 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
     base, _ = as_poses(base_pose, 'base pose')
     v1 = np.asarray(values, dtype=float).ravel()
     v2 = np.asarray(values2, dtype=float).ravel()
+    check_points(v1.size * v2.size, f'dexterity on a {v1.size} x {v2.size} grid')
     i1, i2 = _index(mech, variable), _index(mech, variable2)
     if i1 == i2:
         raise InputError(f'the two varied pose variables must differ; got {variable} twice')
@@ -99,14 +112,30 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
                         cond.reshape(shape), sing.reshape(shape), within.reshape(shape), variable2, v2)
 
 
+#: Plot file types (by extension) :func:`plot_dexterity` writes.
+PLOT_FORMATS = ('png', 'pdf', 'svg')
+
+
+def check_plot_path(path: str | Path) -> Path:
+    """The output ``path`` of a plot, checked before any work: a type of :data:`PLOT_FORMATS` by its extension,
+    and writable (:func:`gpr_kinematics.files.check_output`)."""
+    from .files import check_output
+    target = check_output(path, 'plot')
+    if target.suffix.lower().lstrip('.') not in PLOT_FORMATS:
+        raise InputError(f'plot {str(path)!r}: unknown type {target.suffix or "(no extension)"}; allowed: '
+                         + ', '.join(f'.{f}' for f in PLOT_FORMATS))
+    return target
+
+
 def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
-    """Write a PNG of the map: dexterity against the variable (dashed where joints leave their limits),
-    or a colour map for a grid. Returns the path."""
+    """Write a plot of the map (PNG, PDF or SVG by the extension): dexterity against the variable (dashed where
+    joints leave their limits), or a colour map for a grid. Returns the path written."""
+    from .files import atomic_output
+    target = check_plot_path(path)
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    path = Path(path)
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
     if dmap.variable2 is None:
         ax.plot(dmap.values, dmap.dexterity, '--', color='0.6', label='joints outside limits')
@@ -125,9 +154,8 @@ def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
     ax.set_title(dmap.mechanism)
     fig.tight_layout()
     try:
-        fig.savefig(path)
-    except OSError as exc:
-        raise InputError(f'cannot write the plot {str(path)!r}: {exc.strerror or exc}') from None
+        with atomic_output(target, 'plot', binary=True) as fh:
+            fig.savefig(fh, format=target.suffix.lower().lstrip('.'))
     finally:
         plt.close(fig)
-    return path
+    return Path(path)

@@ -40,6 +40,14 @@ Array = NDArray[np.float64]
 
 #: Inverse kinematics stops when height [m] and normal errors are both below this.
 IK_TOLERANCE = 1e-14
+#: Largest distance of the tool point from the platform origin [m]. No tool of a GPR is that long, and the
+#: height of a point much farther away carries rounding errors of the order of :data:`IK_TOLERANCE` (at 300 m
+#: Newton's method can no longer meet it).
+TOOL_REACH = 10.0
+#: How far beyond the heights that keep the naive model's rods within the stroke a target may lie and still be
+#: solved [m]: the virtual joints move the rods by at most ~1.3 mm against the naive model (at a tilt of 15 deg,
+#: the largest tilt limit); the stroke itself is checked exactly after the solve.
+HEIGHT_MARGIN = 0.01
 
 
 @dataclass(frozen=True)
@@ -75,6 +83,54 @@ def _check_tilt_targets(ops: Ops, t: Any, config: GprConfig) -> None:
                      f'{config.tilt_limit:.9g} rad ({math.degrees(config.tilt_limit):.6g} deg)')
 
 
+def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
+    """Refuse tool points ``(3,)`` or ``(N, 3)`` [m] farther than :data:`TOOL_REACH` from the platform origin."""
+    T = np.atleast_2d(np.asarray(tools, dtype=float))
+    far = np.max(np.abs(T), axis=-1) > TOOL_REACH  # before the norm, which could overflow
+    far |= np.sqrt(np.sum(np.where(far[:, None], 0.0, T) ** 2, axis=-1)) > TOOL_REACH
+    if far.any():
+        i = int(np.argmax(far))
+        where = f' (target {i})' if T.shape[0] > 1 else ''
+        raise LimitError(f'{name} = ({T[i, 0]:.6g}, {T[i, 1]:.6g}, {T[i, 2]:.6g}) m{where} is beyond the reach of a '
+                         f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
+
+
+def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Any], tool: Sequence[Any], config: GprConfig
+                  ) -> tuple[Any, Any]:
+    """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
+    normals ``n``: rod ``k`` of :func:`~gpr_kinematics.naive.naive_rods` is within ``[stroke_min, stroke_max]``
+    for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
+    lo = hi = None
+    for k in range(3):
+        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
+        hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
+        lo = lo_k if lo is None else ops.maximum(lo, lo_k)
+        hi = hi_k if hi is None else -ops.maximum(-hi, -hi_k)
+    return lo, hi
+
+
+def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[Any], tool: Sequence[Any],
+                  config: GprConfig) -> None:
+    """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
+    the solve, naming the heights allowed at that tilt; a height of 1e308 m never reaches the arithmetic."""
+    lo, hi = _height_range(ops, geo, n, tool, config)
+    if not ops.any(ops.not_((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN))):
+        return
+    bad = np.atleast_1d(np.logical_not((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
+    i = int(np.argmax(bad))
+    hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
+    hv = float(np.atleast_1d(hi)[i])
+    where = f' (target {i})' if bad.size > 1 else ''
+    at = f'at the tilt {ti:.6g} rad' + (' with this tool point' if any(np.any(np.asarray(v) != 0) for v in tool)
+                                         else '')
+    stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
+    if lo_ > hv:
+        raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
+    raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
+                     f'{lo_:.6g} .. {hv:.6g} m')
+
+
 def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t: Any, g: Any,
            tool: Sequence[Any], config: GprConfig, vjm: VirtualJointModel) -> tuple[Any, Any]:
     """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
@@ -82,6 +138,7 @@ def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t
     geo = MachineGeometry.of(config)
     s = ops.sin(t)
     n_target = [s * ops.sin(g), -s * ops.cos(g), ops.cos(t)]
+    _check_height(ops, geo, h, t, n_target, tool, config)
     q_target = naive_rods(geo, h, n_target, tool)
     q = list(q_target)
     iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
@@ -128,6 +185,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
     vjm = make_model(cfg, model)
     cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
     tools = rows_of(tool, 'tool', 3)
+    check_tool(tools)
     try:
         h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
     except ValueError:
@@ -146,6 +204,8 @@ def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None
     """Inverse kinematics of one target (float arithmetic, the same driver); see :func:`inverse_batch`."""
     h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
     cfg = resolve_config(config)
-    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, three_floats(tool, 'tool'), cfg,
-                                  make_model(cfg, model))
+    tool3 = three_floats(tool, 'tool')
+    if max(abs(tool3[0]), abs(tool3[1]), abs(tool3[2])) > TOOL_REACH / 1.8:  # the exact check only when close
+        check_tool(tool3)
+    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, tool3, cfg, make_model(cfg, model))
     return InverseResult(q=achieved.q, achieved=achieved, iterations=int(iterations))

@@ -18,6 +18,9 @@ rigid platform can only move along the rods, the tilt is blocked).
 everywhere, with no singular configuration; the virtual joints then take up the vertical motion too, and
 the augmented rank stays 12.
 
+The configuration is *singular* where the rigid mechanism gains instantaneous freedoms, ``h > 1``
+(:func:`rigid_rank`: the one test, shared by ``gpr mobility`` and ``gpr mechanism``).
+
 Sensitivity: from ``dPhi/dP dP + dPhi/dX dX = 0`` (eq. (3)), ``dX = -(dPhi/dX)^+ dPhi/dP dP = dX/dP dP``; with
 the eigen-decomposition ``dX/dP^T dX/dP = V D V^T`` (eigenvalues ascending, only ``d10..d12`` non-zero):
 
@@ -28,7 +31,11 @@ Since the eigenvalues of ``A^T A`` are the squared singular values of ``A``, (4)
 numbers; both are reported. The pseudo-inverse is taken in the metric of the forward solver
 (:func:`gpr_kinematics.virtual_joints.coordinate_scale`: angular coordinates weighted by the characteristic
 length; the elastic cost for ``compliant``); ``weighting='unweighted'`` gives the paper's plain Moore-Penrose
-form. Units: ``dP`` in metres, ``dX`` in metres and radians.
+form. Units: ``dP`` in metres, ``dX`` in metres and radians. ``dX/dP dP`` is the *first-order* change: at the
+singular configuration it vanishes for every change of the rod lengths (the tilt enters the side lengths
+quadratically there), while the full solve :func:`exact_dx` gives ``X(q + dq) - X(q)`` (0.107 um for
+``dq = (1e-4, -1e-4, 0)`` m at ``q = 0.5`` m, radial model). A ``dP`` must keep the rods within the stroke: a change
+of the configuration of this machine, not a number that overflows.
 
 >>> m = analyze_mobility([0.5, 0.5, 0.5])
 >>> m.rank_dphi_dp, m.rank_augmented, m.mobility
@@ -42,7 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .config import GprConfig, resolve_config
-from .errors import InputError
+from .errors import InputError, LimitError, brief
 from .kinematics import forward
 from .machine import MachineGeometry
 from .virtual_joints import EDGES, coordinate_scale, make_model
@@ -79,6 +86,8 @@ class MobilityResult:
         bounds: the gains of eqs. (4), (5): ``|dX| / |P_V dP|`` lies in ``[lower, upper]``, where ``P_V dP``
             is the projection of ``dP`` on ``v_10..v_12``.
         rod_directions: unit directions ``u_k`` of the rods (3 x 3), for :meth:`rod_perturbation`.
+        singular: the rigid mechanism is at a singular configuration, ``mobility > 1`` (:func:`rigid_rank`).
+        stroke: ``(stroke_min, stroke_max)`` of the rods [m]: :meth:`dx_bounds` keeps ``q + dq`` within it.
     """
 
     q: Array
@@ -95,16 +104,33 @@ class MobilityResult:
     singular_values: Array
     bounds: dict[str, tuple[float, float]]
     rod_directions: Array
+    singular: bool
+    stroke: tuple[float, float]
 
     def rod_perturbation(self, dq: ArrayLike) -> Array:
         """``dP`` of a change ``dq`` of the rod lengths on this machine (:func:`rod_perturbation`)."""
         return rod_perturbation(dq, self.rod_directions)
 
     def dx_bounds(self, dP: ArrayLike) -> SensitivityBounds:
-        """Eqs. (4), (5) for a given ``dP`` (12 values: dq1..3, dP1, dP2, dP3)."""
+        """Eqs. (4), (5) for a given ``dP`` (12 values: dq1..3, dP1, dP2, dP3), and the first-order ``|dX|``.
+
+        Raises:
+            InputError: not 12 finite numbers, or a component larger than the stroke range (so nothing overflows).
+            LimitError: ``q + dq`` outside the stroke.
+        """
         dp = np.asarray(dP, dtype=float)
         if dp.shape != (12,) or not np.all(np.isfinite(dp)):
             raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
+        lo, hi = self.stroke
+        if np.max(np.abs(dp)) > hi - lo:
+            raise InputError(f'dP = {brief(dp.tolist())}: a change larger than the stroke range {hi - lo:g} m; '
+                             'allowed: a change of the configuration of this machine')
+        moved = self.q + dp[:3]
+        out = (moved < lo) | (moved > hi)
+        if out.any():
+            k = int(np.argmax(out))
+            raise LimitError(f'q{k + 1} + dq{k + 1} = {moved[k]:.9g} m is outside the stroke [{lo:g}, {hi:g}] m; '
+                             'allowed: a change that keeps the rods within it')
         proj = float(np.sqrt(np.sum((self.eigenvectors[:, -3:].T @ dp) ** 2)))
         d = self.eigenvalues
         s = self.singular_values
@@ -119,7 +145,7 @@ def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Arra
     ``directions``: the unit rod directions ``u_k`` (3 x 3), default ``e3`` (parallel rods)."""
     d = np.asarray(dq, dtype=float)
     if d.shape != (3,) or not np.all(np.isfinite(d)):
-        raise InputError(f'dq must be 3 finite numbers [m], got {np.asarray(dq).tolist()!r}')
+        raise InputError(f'dq must be 3 finite numbers [m], got {brief(np.asarray(dq).tolist())}')
     u = np.array([[0.0, 0.0, 1.0]] * 3) if directions is None else np.asarray(directions, dtype=float)
     dp = np.zeros(12)
     dp[:3] = d
@@ -131,23 +157,59 @@ def _rank(A: Array) -> int:
     return int(np.linalg.matrix_rank(A))
 
 
+def constraint_jacobian(P: ArrayLike, u: ArrayLike) -> Array:
+    """``dPhi/dP`` ``(N, 12, 12)`` of eq. (1) at joint centres ``P (N, 3, 3)`` for unit rod directions ``u (3, 3)``."""
+    P = np.asarray(P, dtype=float)
+    u = np.asarray(u, dtype=float)
+    J = np.zeros((P.shape[0], 12, 12))
+    for i in range(3):
+        J[:, 3 * i:3 * i + 3, i] = u[i]
+        J[:, 3 * i:3 * i + 3, 3 + 3 * i:6 + 3 * i] = -np.eye(3)
+    for i, (a, b) in enumerate(EDGES):
+        e = P[:, b] - P[:, a]
+        J[:, 9 + i, 3 + 3 * b:6 + 3 * b] = 2.0 * e
+        J[:, 9 + i, 3 + 3 * a:6 + 3 * a] = -2.0 * e
+    return J
+
+
+def rigid_rank(q: ArrayLike, config: GprConfig | None = None) -> NDArray[np.int64]:
+    """``rank dPhi/dP`` ``(N,)`` of the rigid mechanism at rod lengths ``q (N, 3)`` [m] (module docstring): 9 at the
+    singular configuration of parallel rods, 11 elsewhere, 12 for rods that are not parallel. The configuration is
+    singular where ``12 - rank > 1``.
+
+    >>> rigid_rank([[0.5, 0.5, 0.5], [0.5, 0.501, 0.5]]).tolist()
+    [9, 11]
+    """
+    geo = MachineGeometry.of(resolve_config(config))
+    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    u = np.array([geo.ux, geo.uy, geo.uz]).T
+    return np.asarray(np.linalg.matrix_rank(constraint_jacobian(geo.base_points(Q), u)), dtype=np.int64)
+
+
+def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> Array:
+    """``X(q + dq) - X(q)``: the change of the virtual joints by the full forward solve [m, rad], whose first order
+    is ``dX/dP dP`` (eq. (3)); rods outside the stroke raise :class:`~gpr_kinematics.errors.LimitError`.
+
+    >>> m = analyze_mobility([0.5, 0.5, 0.5])       # the singular configuration: the first order vanishes
+    >>> m.dx_bounds(m.rod_perturbation([1e-4, -1e-4, 0.0])).norm_dx
+    0.0
+    >>> round(float(np.linalg.norm(exact_dx([0.5, 0.5, 0.5], [1e-4, -1e-4, 0.0]))) * 1e6, 3)   # [um]
+    0.107
+    """
+    cfg = resolve_config(config)
+    q0 = np.asarray(q, dtype=float)
+    return forward(q0 + np.asarray(dq, dtype=float), cfg, model).virtual_joints - forward(q0, cfg, model).virtual_joints
+
+
 def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> MobilityResult:
     """Mobility and sensitivity analysis at rod lengths ``q`` [m] (module docstring)."""
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
     fk = forward(q, config=cfg, model=vjm.name)
     geo = MachineGeometry.of(cfg)
-    P = geo.base_points(fk.q[None, :])[0]
     u = np.array([geo.ux, geo.uy, geo.uz]).T
     M = vjm.size
-    dphi_dp = np.zeros((12, 12))
-    for i in range(3):
-        dphi_dp[3 * i:3 * i + 3, i] = u[i]
-        dphi_dp[3 * i:3 * i + 3, 3 + 3 * i:6 + 3 * i] = -np.eye(3)
-    for i, (a, b) in enumerate(EDGES):
-        e = P[b] - P[a]
-        dphi_dp[9 + i, 3 + 3 * b:6 + 3 * b] = 2.0 * e
-        dphi_dp[9 + i, 3 + 3 * a:6 + 3 * a] = -2.0 * e
+    dphi_dp = constraint_jacobian(geo.base_points(fk.q[None, :]), u)[0]
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     _, J, _ = vjm.closure(fk.virtual_joints[None, :], np.zeros((1, 3)))
     dphi_dx = np.zeros((12, M))
@@ -157,11 +219,11 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     evals, evecs = np.linalg.eigh(dx_dp.T @ dx_dp)
     sv = np.linalg.svd(dx_dp, compute_uv=False)
     sv = sv[sv > sv[0] * max(dx_dp.shape) * np.finfo(float).eps] if sv.size and sv[0] > 0 else sv[:0]
-    rank_p = _rank(dphi_dp)
+    rank_p = int(rigid_rank(fk.q, cfg)[0])
     bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
               'eq5': (float(sv[-1]), float(sv[0]))}
     return MobilityResult(
         q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
         mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
-        bounds=bounds, rod_directions=u)
+        bounds=bounds, rod_directions=u, singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))

@@ -8,15 +8,15 @@ file and the limit:
 
 * aliases (``*name``) are refused: configuration, mechanism, program and robot files never need them;
 * nesting deeper than :data:`MAX_DEPTH` levels is refused;
+* more than :data:`MAX_NODES` values (scalars, lists and mappings) are refused as they are composed: each costs
+  about 0.7 kB and 35 us in PyYAML, so 2 MiB of ``[1,1,1,...]`` took 0.7 GB and 34 s, and 10 MiB would take 3.6 GB;
 * a file larger than :data:`MAX_BYTES` or not a regular file is refused before it is read;
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
 
-Values are never formatted whole into a message: :func:`brief` shortens them.
+Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them.
 """
 from __future__ import annotations
 
-import os
-import stat
 from pathlib import Path
 from typing import Any
 
@@ -24,45 +24,41 @@ import yaml
 from yaml.events import AliasEvent
 from yaml.nodes import Node
 
-from .errors import ConfigError
+from .errors import BRIEF_LENGTH, ConfigError, brief
+from .files import read_text
 
-#: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB, a 10,000-station
-#: program about 2 MB; PyYAML parses ~1-2 MB/s, so the bound also bounds the time).
+__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'brief', 'load_text', 'read_file']
+
+#: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB; a program of 10,000
+#: stations is about 1 MB; the node count below bounds memory and time, this bound the text).
 MAX_BYTES = 10 * 1024 * 1024
 #: Deepest nesting of mappings and sequences accepted (the package's files use fewer than 8 levels).
 MAX_DEPTH = 64
-#: Longest text of a value quoted in an error message [characters].
-BRIEF_LENGTH = 60
-
-
-def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
-    """``repr(value)``, cut to ``limit`` characters with the total length named: for messages about values a
-    user supplied, which may be arbitrarily large.
-
-    >>> brief('x' * 1000)
-    "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx... (1002 characters)"
-    >>> brief([1, 2])
-    '[1, 2]'
-    """
-    text = repr(value)
-    if len(text) <= limit:
-        return text
-    return f'{text[:limit]}... ({len(text)} characters)'
+#: Most values (nodes) in one YAML document: about 0.15 GB and 7 s at the limit; a program of 10,000 stations and
+#: steps has about 150,000 (larger station lists go in CSV station files).
+MAX_NODES = 200_000
 
 
 class _BoundedLoader(yaml.SafeLoader):
-    """SafeLoader that refuses aliases and bounds the nesting depth while composing the node graph."""
+    """SafeLoader that refuses aliases and bounds the nesting depth and the number of nodes while composing the
+    node graph."""
 
     def __init__(self, stream: str, source: str) -> None:
         super().__init__(stream)
         self._source = source
         self._depth = 0
+        self._nodes = 0
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         if self.check_event(AliasEvent):
             mark = self.peek_event().start_mark
             raise ConfigError(f'{self._source}: line {mark.line + 1}: YAML aliases (*name) are not accepted '
                               '(they can expand without bound); write the values out')
+        self._nodes += 1
+        if self._nodes > MAX_NODES:
+            mark = self.peek_event().start_mark
+            raise ConfigError(f'{self._source}: line {mark.line + 1}: more than {MAX_NODES} YAML values; allowed: at '
+                              f'most {MAX_NODES} (large station lists belong in CSV station files)')
         self._depth += 1
         if self._depth > MAX_DEPTH:
             mark = self.peek_event().start_mark
@@ -97,38 +93,21 @@ def load_text(text: str, source: str = 'YAML text') -> Any:
         raise ConfigError(f'{source}: not valid YAML ({str(exc).splitlines()[0]})') from None
     except RecursionError:  # flow collections recurse in the parser, before compose_node can count
         raise ConfigError(f'{source}: nested too deeply; allowed: at most {MAX_DEPTH} levels') from None
+    except ConfigError:  # the loader's own refusals (an alias, the depth) are ValueErrors too: as they are
+        raise
+    except ValueError as exc:  # a constructor refused a scalar: an integer of > 4300 digits, a date 2026-13-45
+        raise ConfigError(f'{source}: a value cannot be read: {str(exc).split(";")[0][:100]}') from None
     finally:
         if loader is not None:
             loader.dispose()
 
 
 def read_file(path: str | Path, what: str = 'YAML') -> Any:
-    """Parse the YAML file ``path``: a regular file of at most :data:`MAX_BYTES`, UTF-8, within the bounds of
-    :func:`load_text`. ``what`` names the kind of file in messages (config, program, mechanism, ...).
+    """Parse the YAML file ``path``: a regular file of at most :data:`MAX_BYTES`, UTF-8
+    (:func:`gpr_kinematics.files.read_text`), within the bounds of :func:`load_text`. ``what`` names the kind of
+    file in messages (config, program, mechanism, ...).
 
     Raises:
         ConfigError: the file is missing, unreadable, not a regular file, too large, not UTF-8 or not valid YAML.
     """
-    path = Path(path)
-    try:
-        info = os.stat(path)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if not stat.S_ISREG(info.st_mode):
-        raise ConfigError(f'{what} file {str(path)!r} is not a regular file (a directory, FIFO or device); '
-                          'allowed: a regular YAML file')
-    if info.st_size > MAX_BYTES:
-        raise ConfigError(f'{what} file {str(path)!r} has {info.st_size} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        with open(path, 'rb') as fh:
-            data = fh.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if len(data) > MAX_BYTES:  # grew since stat
-        raise ConfigError(f'{what} file {str(path)!r} has more than {MAX_BYTES} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        text = data.decode('utf-8')
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f'{what} file {str(path)!r} is not UTF-8 text (byte {exc.start} is {data[exc.start]:#04x});'
-                          ' allowed: a UTF-8 YAML file') from None
-    return load_text(text, str(path))
+    return load_text(read_text(path, what, MAX_BYTES), str(path))

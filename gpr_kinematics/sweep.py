@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .config import GprConfig
-from .errors import InputError
+from .errors import InputError, LimitError, brief
+from .forward import TILT_LIMIT_SLACK
 from .kinematics import ForwardBatch, inverse_batch, resolve_config
 
 Array = NDArray[np.float64]
@@ -32,6 +33,8 @@ DEFAULT_HEIGHT = 0.5
 DEFAULT_MAX_TILT = math.radians(2.0)
 DEFAULT_TILT_STEP = math.radians(0.2)
 DEFAULT_AZIMUTH_STEP = math.radians(10.0)
+#: Most samples of one sweep (about 1.4 kB of memory each: 0.3 GB at the limit; the paper's sweep has 756).
+MAX_SAMPLES = 200_000
 
 
 @dataclass(frozen=True)
@@ -86,22 +89,34 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     """The ``(gamma, alpha, pass_index)`` samples of the sweep [rad].
 
     ``alpha`` runs over ``-max_tilt .. max_tilt`` in ``tilt_step`` (``max_tilt`` must be a whole number
-    of steps so that ``alpha = 0`` is a sample); ``gamma`` over ``[0, 2 pi)`` in ``azimuth_step``.
+    of steps so that ``alpha = 0`` is a sample); ``gamma`` over ``[0, 2 pi)`` in ``azimuth_step``; at most
+    :data:`MAX_SAMPLES` samples in all, counted before any array is made.
     """
     for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
     if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= 1000:
-        raise InputError(f'passes = {passes!r} must be an integer from 1 to 1000')
+        raise InputError(f'passes = {brief(passes)} must be an integer from 1 to 1000')
     half = max_tilt / tilt_step
+    if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
+        raise InputError(f'max_tilt / tilt_step = {half:.6g} tilt steps; allowed: a sweep of at most {MAX_SAMPLES} '
+                         'samples (a larger tilt_step)')
     n_half = round(half)
     if abs(half - n_half) > 1e-9 * max(1.0, half) or n_half < 1:
         raise InputError(f'max_tilt = {max_tilt!r} rad must be a whole number (>= 1) of tilt steps '
                          f'({tilt_step!r} rad) so that every pass crosses alpha = 0')
     if azimuth_step > 2 * math.pi:
         raise InputError(f'azimuth_step = {azimuth_step!r} rad must be at most 2 pi')
+    turns = 2 * math.pi / azimuth_step
+    if not turns <= MAX_SAMPLES:
+        raise InputError(f'azimuth_step = {azimuth_step!r} rad gives {turns:.6g} azimuths; allowed: a sweep of at '
+                         f'most {MAX_SAMPLES} samples (a larger azimuth_step)')
+    n_gamma = max(1, math.ceil(turns - 1e-9))
+    samples = (2 * n_half + 1) * n_gamma * passes
+    if samples > MAX_SAMPLES:
+        raise InputError(f'the sweep would have {samples} samples ({2 * n_half + 1} tilts x {n_gamma} azimuths x '
+                         f'{passes} passes); allowed: at most {MAX_SAMPLES}')
     alpha = np.arange(-n_half, n_half + 1) * tilt_step
-    n_gamma = max(1, math.ceil(2 * math.pi / azimuth_step - 1e-9))
     gammas = np.arange(n_gamma) * azimuth_step
     rows = np.arange(n_gamma * passes)
     flip = (rows % 2 == 1) if serpentine else np.zeros(rows.size, dtype=bool)
@@ -118,12 +133,15 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
     """Inverse and forward kinematics of every sample of the paper's sweep, in one batch call.
 
     Raises:
-        InputError: non-positive steps, ``max_tilt`` not a whole number of steps.
+        InputError: non-positive steps, ``max_tilt`` not a whole number of steps, more than :data:`MAX_SAMPLES`.
         LimitError: ``max_tilt`` beyond the tilt limit, or a height that leaves the stroke.
     """
     cfg = resolve_config(config)
     if not (isinstance(height, (int, float)) and math.isfinite(height)):
         raise InputError(f'height = {height!r} must be a finite number of metres')
+    if isinstance(max_tilt, (int, float)) and max_tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:  # before counting
+        raise LimitError(f'max_tilt = {max_tilt:.9g} rad ({math.degrees(max_tilt):.6g} deg) is beyond the tilt limit '
+                         f'{cfg.tilt_limit:.9g} rad ({math.degrees(cfg.tilt_limit):.6g} deg)')
     gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
     ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)
     return SweepResult(gamma=gamma, alpha=alpha, pass_index=pass_index, height=float(height), q=ik.q,

@@ -11,18 +11,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
+from .errors import InputError, brief
 
 #: Largest accepted deviation of a quaternion's norm from 1 (messages and commands carry unit quaternions).
 QUATERNION_NORM_TOLERANCE = 1e-6
+#: Largest magnitude of a position coordinate [m], a joint value [m, rad] or a geometric parameter [m] of the
+#: mechanisms and stations the package accepts: far beyond any of them, and small enough that no product of a few
+#: of them overflows.
+MAX_COORDINATE = 1e6
 
 
 def finite_number(value: Any, name: str) -> float:
     """``value`` as a finite float; else :class:`InputError` naming ``name``."""
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be a number, got {value!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be a number, got {brief(value)}') from None
     if not np.isfinite(v):
         raise InputError(f'{name} = {v} is not a finite number; allowed: finite values in SI units')
     return v
@@ -32,8 +36,8 @@ def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be {size} numbers, got {values!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be {size} numbers, got {brief(values)}') from None
     if a.shape != (size,):
         raise InputError(f'{name} must be {size} numbers, got shape {a.shape}')
     bad = ~np.isfinite(a)
@@ -61,8 +65,8 @@ def rows_of(values: Any, name: str, width: int) -> NDArray[np.float64]:
     in a batch, the sample."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be numbers, got {values!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim == 1:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != width:
@@ -82,8 +86,8 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
     """A scalar or a 1-D sequence as a finite float array ``(N,)``; else :class:`InputError` naming ``name``."""
     try:
         a = np.atleast_1d(np.asarray(values, dtype=float))
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be a number or an array of numbers, got {values!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be a number or an array of numbers, got {brief(values)}') from None
     if a.ndim != 1:
         raise InputError(f'{name} must be a scalar or a 1-D array, got shape {a.shape}')
     bad = ~np.isfinite(a)
@@ -98,7 +102,7 @@ def three_floats(values: Any, name: str) -> list[float]:
     if isinstance(values, (list, tuple)) and len(values) == 3:
         try:
             out = [float(v) for v in values]
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
             out = []
         if out and all(math.isfinite(v) for v in out):
             return out
@@ -113,3 +117,17 @@ def single_number(value: Any, name: str) -> float:
     if np.ndim(value) != 0:
         raise InputError(f'{name} must be a single number, got shape {np.shape(value)}')
     return float(column_of(value, name)[0])
+
+
+def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """``values`` as a float array (of ``shape``), finite and within +-:data:`MAX_COORDINATE`; else
+    :class:`InputError` naming ``name``."""
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers; got {brief(values)}') from None
+    if shape is not None and arr.shape != shape:
+        raise InputError(f'{name} must have shape {shape}; got {arr.shape}')
+    if not np.all(np.isfinite(arr)) or (arr.size and np.max(np.abs(arr)) > MAX_COORDINATE):
+        raise InputError(f'{name} = {brief(arr.tolist())}; allowed: finite values within +-{MAX_COORDINATE:g} (SI)')
+    return arr

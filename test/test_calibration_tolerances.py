@@ -71,6 +71,7 @@ def test_moments_match_samples(tol):
     ([1, 2], r't\.yaml: expected a mapping'),
     ({'parameter': {}}, r"t\.yaml: unknown key\(s\) parameter; allowed keys: joint_clearance"),
     ({'units': {'length': 'inch'}}, r"units: length 'inch', angle 'rad'; allowed: length m or mm"),
+    ({'units': {'length': ['mm']}}, r"units: length \['mm'\], angle 'rad'; allowed: length m or mm"),
     ({'parameters': {'radius': 1e-5}}, r'parameters: radius: expected a mapping such as \{tolerance'),
     ({'parameters': {'radius': {'tol': 1e-5}}}, r"parameters: radius: unknown key\(s\) tol"),
     ({'parameters': {'radius': {}}}, r'give exactly one of tolerance .* or range'),

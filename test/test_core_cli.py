@@ -1,7 +1,9 @@
 """The gpr command line (core subcommands): JSON keys, units, and one-line errors with status 2."""
 import json
 import math
+import os
 import re
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -90,6 +92,14 @@ def test_human_readable_output(capsys):
     (['compensate', '--height', '0.3', '--tilt', '0', '--azimuth', '0', '--heading', 'inf'], r'--heading = inf'),
     (['sweep', '--tilt-step', '0.3', '--deg'], 'whole number'),
     (['fk', '0.3', '0.3', '0.3', '--config', '/nonexistent.yaml'], 'cannot read config file'),
+    (['fk', '0.3', '0.3', '0.3', '--config', ''], 'config file path is empty'),   # was silently ignored
+    (['ik', '--height', '500', '--tilt', '0', '--azimuth', '0'], r'height = 500 m puts a rod outside the stroke'),
+    (['compensate', '--height', '0.4', '--tilt', '0.01', '--azimuth', '0', '--tool', '300', '0', '100'],
+     r'tool_offset = \(300, 0, 100\) m is beyond the reach of a tool point'),
+    (['mobility', '0.5', '0.5', '0.5', '--dq', '1e308', '0', '0', '--json'], 'a change larger than the stroke'),
+    (['sweep', '--height', '-1e308'], r'height = -1e\+308 m \(target 0\) puts a rod outside the stroke'),
+    (['sweep', '--tilt-step', '1e-12'], r'allowed: a sweep of at most 200000 samples'),
+    (['sweep', '--csv', ''], 'CSV output path is empty'),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
     status, out, err = run(capsys, *argv)
@@ -113,3 +123,29 @@ def test_console_script_runs_without_traceback():
     assert ok.returncode == 0 and json.loads(ok.stdout)['tilt'] == 0.0
     bad = subprocess.run(cmd + ['fk', '0.3', 'inf', '0.3'], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and bad.stderr == 'gpr fk: error: q2 = inf is not a finite number\n'
+
+
+def test_outputs_that_are_not_regular_files_are_refused_before_the_work(capsys, tmp_path):
+    """``--csv PATH`` replaced whatever was at PATH through a rename, device nodes included (as root)."""
+    link = tmp_path / 'null.csv'
+    link.symlink_to('/dev/null')
+    os.mkfifo(tmp_path / 'fifo.csv')
+    (tmp_path / 'dir.csv').mkdir()
+    for name, kind in (('null.csv', 'a symbolic link'), ('fifo.csv', 'a FIFO'), ('dir.csv', 'a directory')):
+        status, out, err = run(capsys, 'sweep', '--csv', str(tmp_path / name))
+        assert status == 2 and out == '' and f'{name} exists and is not a regular file (it is {kind})' in err
+    assert link.is_symlink() and stat.S_ISCHR(os.stat('/dev/null').st_mode)
+    status, out, err = run(capsys, 'sweep', '--csv', str(tmp_path / 'no' / 'x.csv'))
+    assert status == 2 and "the folder" in err and 'does not exist' in err
+    status, out, _ = run(capsys, 'sweep', '--csv', str(tmp_path / 'ok.csv'))
+    assert status == 0 and f'samples written to {tmp_path / "ok.csv"}' in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['dir.csv', 'fifo.csv', 'null.csv', 'ok.csv']
+
+
+def test_mobility_names_the_first_order_and_gives_the_full_solve(capsys):
+    status, out, err = run(capsys, 'mobility', '0.5', '0.5', '0.5', '--dq', '1e-4', '-1e-4', '0')
+    assert status == 0 and err == ''
+    assert 'singular configuration: yes' in out
+    assert 'first order |dX/dP dP| = 0.000000e+00 (eq. 3)' in out and 'full solve |X(q + dq) - X(q)| = 1.0727' in out
+    b = run_json(capsys, 'mobility', '0.5', '0.5', '0.5', '--dq', '1e-4', '-1e-4', '0')['bounds']['for_dq']
+    assert b['norm_dx'] == 0.0 and b['norm_dx_full'] == pytest.approx(1.0727e-7, rel=1e-4)

@@ -12,7 +12,7 @@ from gpr_kinematics.config import (
 from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.geometry import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
 from gpr_kinematics.kinematics import forward, inverse, naive_inverse
-from gpr_kinematics.mobility import analyze_mobility, rod_perturbation
+from gpr_kinematics.mobility import analyze_mobility, exact_dx, rigid_rank, rod_perturbation
 
 CFG = load_config()
 
@@ -87,6 +87,8 @@ def test_compensation_with_a_heading_solves_the_height_for_the_turned_tool_point
     ([0, 0, 0.3], list(quaternion_from_matrix(tilt_rotation(0.05, 0.0))), [0, 0, 0], LimitError,
      r'commanded tilt .* beyond the tilt limit'),
     ([0, 0, 0.9], [0, 0, 0, 1], [0, 0, 0], LimitError, r'outside the stroke'),
+    ([0, 0, 0.3], [0, 0, 0, 1], [1e300, 0, 0], LimitError, r'tool_offset = \(1e\+300, 0, 0\) m is beyond the reach'),
+    ([0, 0, 0.4], [0, 0, 0, 1], [300, 0, 100], LimitError, r'tool_offset = \(300, 0, 100\) m is beyond the reach'),
 ])
 def test_compensation_rejects_bad_commands(position, quat, tool, exc, pattern):
     with pytest.raises(exc, match=pattern):
@@ -134,3 +136,28 @@ def test_radial_sensitivity_is_the_derivative_of_forward_kinematics():
         dq[k] = h
         fd = (forward(q + dq, model='radial').virtual_joints - forward(q - dq, model='radial').virtual_joints) / (2 * h)
         np.testing.assert_allclose(m.dx_dp @ rod_perturbation(dq) / h, fd, rtol=1e-6, atol=1e-9)
+
+
+def test_changes_must_stay_within_the_stroke_and_the_first_order_is_named_as_such():
+    m = analyze_mobility([0.5, 0.5, 0.5])
+    assert m.singular and m.stroke == (0.0, 0.508)
+    with pytest.raises(InputError, match=r'a change larger than the stroke range 0\.508 m'):
+        m.dx_bounds(m.rod_perturbation([1e308, 0, 0]))   # was |dX| = 0 and bounds inf, exit 0
+    with pytest.raises(LimitError, match=r'q1 \+ dq1 = 0\.51 m is outside the stroke \[0, 0\.508\] m'):
+        m.dx_bounds(m.rod_perturbation([0.01, 0, 0]))
+    # At the singular configuration the first order vanishes; the full solve does not: second order in dq.
+    dq = np.array([1e-4, -1e-4, 0.0])
+    assert m.dx_bounds(m.rod_perturbation(dq)).norm_dx == 0.0
+    full = [np.linalg.norm(exact_dx([0.5] * 3, s * dq)) for s in (1.0, 0.5)]
+    assert full[0] == pytest.approx(0.1073e-6, abs=0.0001e-6) and full[0] / full[1] == pytest.approx(4.0, rel=1e-3)
+    # Off the singular configuration the full solve agrees with the first order to second order.
+    q = naive_inverse(0.3, math.radians(1.0), 0.4)
+    m = analyze_mobility(q)
+    assert not m.singular and m.mobility == 1
+    np.testing.assert_allclose(exact_dx(q, 1e-6 * dq), m.dx_dp @ rod_perturbation(1e-6 * dq), rtol=1e-4)
+
+
+def test_rigid_rank_is_the_rank_of_the_constraint_jacobian():
+    q = np.array([[0.5, 0.5, 0.5], [0.2, 0.2, 0.2], [0.5, 0.501, 0.5]])
+    assert rigid_rank(q).tolist() == [9, 9, 11]
+    assert [analyze_mobility(row).rank_dphi_dp for row in q] == [9, 9, 11]

@@ -5,7 +5,8 @@ import importlib
 import pytest
 
 #: Core modules whose docstrings hold examples.
-MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep')
+MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep', 'units', 'cli', 'files',
+           'errors')
 
 
 @pytest.mark.parametrize('name', MODULES)

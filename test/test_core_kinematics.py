@@ -251,3 +251,37 @@ def test_results_are_frozen_and_built_from_every_field():
     del values['tilt']
     with pytest.raises(TypeError, match='needs exactly the fields'):
         ForwardResult.from_fields(values)
+
+
+def test_heights_the_stroke_cannot_reach_are_named_with_the_heights_it_can():
+    """A target whose rods would leave the stroke is refused before Newton's method, whatever the number (the
+    issue's "did not converge" and "side-length error nan"), with the heights that the tilt allows."""
+    import re
+    import warnings
+
+    for h in (500.0, -1e308, 1e308):
+        with warnings.catch_warnings():
+            warnings.simplefilter('error')   # and without an overflow warning on the way
+            expected = f'height = {h:.9g} m puts a rod outside the stroke [0, 0.508] m at the tilt 0 rad; allowed '
+            with pytest.raises(LimitError, match=re.escape(expected + 'heights: 0 .. 0.508 m')):
+                inverse(h, 0.0, 0.0)
+    # The allowed heights come from the naive rods; a height 1 mm inside them is solved.
+    q = naive_inverse(0.0, math.radians(1.5), 0.7)
+    lo, hi = CFG.stroke_min - q.min(), CFG.stroke_max - q.max()
+    with pytest.raises(LimitError, match=rf'allowed heights: {lo:.6g} \.\. {hi:.6g} m'):
+        inverse(hi + 0.05, math.radians(1.5), 0.7)
+    assert inverse(hi - 0.001, math.radians(1.5), 0.7).q.max() <= CFG.stroke_max
+    with pytest.raises(LimitError, match=r'\(target 1\) puts a rod outside the stroke'):
+        inverse_batch([0.3, 2.0], 0.0, 0.0)
+
+
+def test_tool_points_beyond_the_reach_are_refused():
+    for tool in ([300.0, 0.0, 100.0], [1e308, 0.0, 0.0], [0.0, 0.0, -1e300], [6.0, 6.0, 6.0]):
+        with pytest.raises(LimitError, match=r'tool = .* is beyond the reach of a tool point; allowed: at most 10 m'):
+            inverse(0.3, 0.01, 0.0, tool=tool)
+    with pytest.raises(LimitError, match=r'\(target 1\) is beyond the reach'):
+        inverse_batch([0.3, 0.3], 0.01, 0.0, tool=[[0.1, 0, 0], [0, 11.0, 0]])
+    # Within the reach Newton's method still meets its tolerance: the height of the tool point is exact.
+    tool = np.array([5.7, 5.7, 0.5])   # 8.1 m from the origin
+    ik = inverse(0.3, math.radians(1.9), 2.1, tool=tool)
+    assert abs((ik.achieved.position + ik.achieved.rotation @ tool)[2] - 0.3) < 1e-13

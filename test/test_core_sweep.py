@@ -7,7 +7,7 @@ import pytest
 
 from gpr_kinematics.config import MODELS
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.sweep import paper_sweep, sweep_grid
+from gpr_kinematics.sweep import MAX_SAMPLES, paper_sweep, sweep_grid
 
 
 @pytest.mark.parametrize('model', MODELS)
@@ -59,3 +59,32 @@ def test_serpentine_order_is_continuous_and_paper_order_is_not():
 def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
     with pytest.raises(exc, match=pattern):
         paper_sweep(**kwargs)
+
+
+@pytest.mark.parametrize('kwargs, pattern', [
+    ({'tilt_step': 1e-12}, r'max_tilt / tilt_step = 3\.49066e\+10 tilt steps; allowed: a sweep of at most 200000'),
+    ({'tilt_step': 5e-324}, r'max_tilt / tilt_step = inf tilt steps'),
+    ({'azimuth_step': 1e-9}, r'azimuth_step = 1e-09 rad gives 6\.28319e\+09 azimuths'),
+    ({'passes': 1000}, r'the sweep would have 756000 samples \(21 tilts x 36 azimuths x 1000 passes\); allowed: at '
+                       r'most 200000'),
+])
+def test_sample_counts_are_refused_before_anything_is_allocated(kwargs, pattern):
+    with pytest.raises(InputError, match=pattern):
+        sweep_grid(**kwargs)
+    g, _, _ = sweep_grid(max_tilt=math.radians(2), tilt_step=math.radians(2) / 99, azimuth_step=2 * math.pi / 1000)
+    assert g.size == 199 * 1000 <= MAX_SAMPLES   # just below the limit: made
+
+
+def test_hostile_heights_and_tilts_are_named_before_the_solve():
+    with pytest.raises(LimitError, match=r'max_tilt = 1e\+300 rad .* is beyond the tilt limit 0\.034906585 rad'):
+        paper_sweep(max_tilt=1e300)
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')   # no overflow on the way to the message
+        with pytest.raises(LimitError, match=r'height = -1e\+308 m \(target 0\) puts a rod outside the stroke '
+                                             r'\[0, 0\.508\] m at the tilt -0\.0349066 rad; allowed heights: '
+                                             r'0\.00281741 \.\. 0\.505183 m'):
+            paper_sweep(height=-1e308)
+    # Those heights, independently: 2 deg about the x axis lifts rods 2 and 3 (at 120 and 240 deg) by
+    # -+R sin(120 deg) sin(2 deg) against the platform origin, rod 1 (on the axis) not at all.
+    lift = 0.093218 * math.sin(math.radians(120)) * math.sin(math.radians(2.0))
+    assert (round(lift, 8), round(0.508 - lift, 6)) == (0.00281741, 0.505183)

@@ -119,6 +119,17 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['accuracy', 'upu3.yaml'], 'give --pose'),
     (['dexterity', 'upu3.yaml', '--vary', 'A', '0', '1', '5'], "cannot vary 'A'"),
     (['dexterity', 'upu3.yaml', '--vary', 'z', '1', '0', '5'], 'need MIN < MAX'),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '0.2', '1000000000'],
+     "COUNT = 1000000000; allowed: an integer from 2 to 50000"),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '0.2', '3', '--vary2', 'x', '-0.1', '0.1', '20000'],
+     'dexterity on a 3 x 20000 grid: 60000 poses; allowed: at most 50000 per map'),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '-1e308', '1e308', '3'], 'need MIN < MAX, both finite'),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '1e308', '3'], 'both finite and of magnitude at most 1e+06'),
+    (['dexterity', 'upu3.yaml', '--plot', 'out.unknownext'], "unknown type .unknownext; allowed: .png, .pdf, .svg"),
+    (['mechanism', 'upu3.yaml', '--pose', '1e200', '0', '0.2', '0', '0', '0'], '--pose: x = 1e+200 m; allowed'),
+    (['mechanism', 'typo_dir/upu3.yaml', '--pose', '0', '0', '0.2', '0', '0', '0'],
+     "'typo_dir/upu3.yaml' not found (a path with a folder is read as given"),
+    (['mechanism', '', '--pose', '0', '0', '0.2', '0', '0', '0'], 'mechanism file path is empty'),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, message):
     code, out, err = run(capsys, *argv)
@@ -158,3 +169,31 @@ def test_singular_pose_asked_for_an_inverse_exits_2(capsys, tmp_path):
     code, _, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '0', '0.1', '0', '0',
                        '--errors', '0', '0', '0', '0', '0', '1e-4')
     assert code == 2 and 'singular' in err and err.count('\n') == 1
+
+
+def test_hostile_mechanism_files_and_plot_paths(capsys, tmp_path):
+    path = tmp_path / 'list.yaml'
+    path.write_text('type: [gpr]\n')   # was a TypeError (an unhashable type) and a traceback
+    code, _, err = run(capsys, 'mechanism', str(path), '--pose', '0', '0', '0.2', '0', '0', '0')
+    assert code == 2 and "type = ['gpr'] is not a mechanism type" in err and err.count('\n') == 1
+    (tmp_path / 'out.png').mkdir()
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--plot', str(tmp_path / 'out.png'))
+    assert code == 2 and out == '' and 'out.png exists and is not a regular file (it is a directory)' in err
+    assert not (tmp_path / 'out.png.png').exists()
+    code, out, _ = run(capsys, 'dexterity', 'upu3.yaml', '--plot', str(tmp_path / 'map.svg'))
+    assert code == 0 and f'plot written to {tmp_path / "map.svg"}' in out
+    assert (tmp_path / 'map.svg').read_text().lstrip().startswith('<?xml')
+
+
+def test_mechanism_and_mobility_agree_on_the_singular_configuration(capsys):
+    """gpr mechanism said "singular: no" where gpr mobility reports rank 9: one test now (mobility.rigid_rank)."""
+    for pose, singular in ((['0', '0', '0.3', '0', '0', '0'], True), (['0', '0', '0.3', '0.01', '0', '0'], False)):
+        code, out, _ = run(capsys, 'mechanism', 'gpr.yaml', '--pose', *pose, '--json')
+        data = json.loads(out)
+        q = [j['value'] for j in data['joints']]
+        code2, out2, _ = run(capsys, 'mobility', *map(repr, q), '--json')
+        mob = json.loads(out2)
+        assert code == code2 == 0 and data['singular'] is mob['singular'] is singular
+        assert (data['singularity'] is not None) is singular and mob['rank_dphi_dp'] == (9 if singular else 11)
+    code, out, _ = run(capsys, 'mechanism', 'gpr.yaml', '--pose', '0', '0', '0.3', '0', '0', '0')
+    assert 'singular: yes (rigid mechanism: rank dPhi/dP = 9, mobility 3' in out

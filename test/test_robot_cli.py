@@ -80,6 +80,9 @@ def test_program_check_and_export(capsys, tmp_path):
     assert (tmp_path / 'w.csv').read_text().count('\n') == 22
     doc = json.loads((tmp_path / 's.json').read_text())
     assert len(doc['rows']) == e['sample_count'] and doc['rate'] == 20.0
+    # The paths written have keys of their own: 'waypoints' stays the count of check.
+    assert (e['waypoints'], e['waypoints_file'], e['samples_file']) == (21, str(tmp_path / 'w.csv'),
+                                                                        str(tmp_path / 's.json'))
     status, out, _ = run(capsys, 'program', 'check', PROGRAM)
     assert status == 0 and 'every waypoint reachable, every move within the limits' in out
 
@@ -107,6 +110,11 @@ def test_program_check_and_export(capsys, tmp_path):
     (['program', 'check', '/'], r"program file '/'"),  # a directory, not a program
     (['program', 'export', PROGRAM], r'nothing to export: give --waypoints FILE and/or --samples FILE'),
     (['program', 'export', PROGRAM, '--samples', '/tmp/x.csv', '--rate', '0'], r'rate = 0.0 is invalid'),
+    (['program', 'export', PROGRAM, '--waypoints', '/proc'], r'/proc exists and is not a regular file'),
+    (['program', 'export', PROGRAM, '--waypoints', ''], r'joint table output path is empty'),
+    (['program', 'check', ''], r'program file path is empty'),
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', ''],
+     r'robot file path is empty'),
 ])
 def test_errors_exit_2_with_one_line(capsys, argv, pattern):
     status, out, err = run(capsys, *argv)

@@ -102,5 +102,5 @@ def test_hostile_files(tmp_path):
         load_stations(big)
     bad = tmp_path / 'latin.csv'
     bad.write_bytes('name,x,y,z\nstation_\xe9,1,0,0.4\n'.encode('latin-1'))
-    with pytest.raises(ConfigError, match=r'is not UTF-8 text \(byte 19\)'):
+    with pytest.raises(ConfigError, match=r'is not UTF-8 text \(byte 19 is 0xe9\) on line 2'):
         load_stations(bad)

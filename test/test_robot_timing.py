@@ -103,5 +103,5 @@ def test_too_many_samples_are_refused():
     t = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.array([0.0, 1e6]), NAMES,
                      ('a', 'b'))
     with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 10000 Hz that is 10000000001 samples; '
-                                         r'allowed: at most 5000000; lower the rate'):
+                                         r'allowed: at most 200000; lower the rate'):
         sample(t, 10000.0)

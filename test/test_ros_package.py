@@ -15,6 +15,7 @@ ROSDEP = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
     'mpl_toolkits': 'python3-matplotlib', 'rosbags': 'python3-rosbags-pip', 'mcap': 'mcap-ros2-support',
     'mcap_ros2': 'mcap-ros2-support', 'lz4': 'python3-lz4',
+    'distributed': 'python3-distributed', 'dask': 'python3-dask',
     'backports': 'python3-rosbags-pip',  # backports.zstd, the zstd of rosbags, installed with it
 }
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',

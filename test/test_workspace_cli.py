@@ -1,6 +1,8 @@
 """``gpr workspace``: JSON summary, npz boxes, PNG projections, one-line errors with exit status 2."""
 import json
 import math
+import os
+import re
 
 import numpy as np
 import pytest
@@ -71,6 +73,8 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=-2'], 'positive'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=[&a [1, 1], &b [*a, *a], [*b, *b]]'], 'no aliases'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=' + '[' * 5000], 'at most 2000'),
     (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
 ])
 def test_bad_input_exits_2_with_one_line(argv, match, capsys):
@@ -81,7 +85,8 @@ def test_bad_input_exits_2_with_one_line(argv, match, capsys):
 
 @pytest.mark.parametrize('text, match', [
     ('type: hexapod\n', 'unknown mechanism type'),
-    ('type: dextar\nla: 0.2\n', "missing key 'lb'"),
+    ('type: dextar\nla: 0.2\n', 'missing key lb'),
+    ('type: dextar\nla: 0.2\nlb: 0.2\nlc: 0.2\nld: 0.2\nd: 0.2\nbrnch: -1\n', 'unknown key(s) brnch'),
     ('[1, 2\n', 'not valid YAML'),
 ])
 def test_bad_files_exit_2(tmp_path, capsys, text, match):
@@ -118,6 +123,9 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
     assert proc.returncode == 0, stderr
     data = json.loads(stdout)
     assert data['interrupted'] and 'interrupted' in stderr
+    # the default scheduler: the run was cut into parts on a Dask local cluster when it was stopped
+    import importlib.util
+    assert data['cluster_used'] == (importlib.util.find_spec('distributed') is not None)
     with np.load(out) as npz:
         assert bool(npz['interrupted'])
         model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
@@ -127,3 +135,84 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
         assert np.all(contains_points(np.concatenate([npz['inner'], npz['boundary']]), pts[ok]))
         if npz['inner'].shape[0]:
             assert np.all(model.feasible(npz['inner'][:, :, 0])) and np.all(model.feasible(npz['inner'][:, :, 1]))
+
+
+def test_equation_models_through_the_cli(tmp_path, capsys):
+    """DexTAR in its 6-D form: JSON over its outputs, the boxes file exactly where asked, its plot."""
+    path = tmp_path / 'dextar boxes'                                     # no .npz suffix: written as given
+    code, out, err = _run(capsys, 'dextar_6d.yaml', '--delta', '30', '--mm', '--json', '--boxes', str(path),
+                          '--plot', str(tmp_path / 'plots'), '--scheduler', 'none')
+    assert code == 0, err
+    data = json.loads(out)
+    assert data['type'] == 'equations' and data['variables'] == ['x', 'y'] and data['certified']
+    assert data['box'] == [[-0.52, 0.52], [-0.52, 0.52]] and data['boxes_file'] == str(path)
+    exact = load_workspace_model(config_path('mechanisms/dextar.yaml')).exact_area()
+    assert data['inner_volume'] <= exact <= data['outer_volume']
+    with np.load(path) as npz:
+        assert npz['inner'].shape == (data['inner_boxes'], 2, 2) and list(npz['variables']) == ['x', 'y']
+    assert [p.name for p in (tmp_path / 'plots').iterdir()] == ['workspace_dextar_6d_x_y.png']
+    assert not list(tmp_path.glob('*.npz')) and not list(tmp_path.glob('.boxes-*'))
+
+
+def test_the_joint_working_area_through_the_cli(tmp_path, capsys):
+    code, out, err = _run(capsys, 'joint_working_area.yaml', '--delta', '16', '--mm', '--plot', str(tmp_path),
+                          '--scheduler', 'none')
+    assert code == 0, err
+    assert 'joint_working_area:' in out and 'outer volume' in out and '3 projections written to' in out
+    assert sorted(p.name for p in tmp_path.glob('*.png')) == [
+        'workspace_joint_working_area_px_py.png', 'workspace_joint_working_area_px_pz.png',
+        'workspace_joint_working_area_py_pz.png']
+    assert 'may extend beyond' not in out                 # its box holds a bound proved from both mechanisms
+
+
+@pytest.mark.parametrize('text, match', [
+    ('type: equations\nvariables: {q: [-1, 1], x: [-2, 2]}\noutputs: [x]\nequations: ["x = sin(q"]\n',
+     "expected '\\)'"),
+    ('type: equations\nvariables: {q: [-1, 1], x: [-2, 2]}\noutputs: [x]\nequations: ["x = sin(w)"]\n',
+     "unknown name 'w' at column 9"),
+    ('type: equations\nvariables: {q: [1, 1], x: [-2, 2]}\noutputs: [x]\nequations: ["x = sin(q)"]\n',
+     'needs lower < upper'),
+    ('type: equations\nvariables: {q: [-1, 1], x: [-2, 2]}\noutputs: [y]\nequations: ["x = sin(q)"]\n',
+     'outputs must be distinct variables'),
+    ('type: equations\nvariables: {q: [-1, 1], x: [-2, 2]}\noutputs: [x]\nequations: ["import os"]\n',
+     "unknown name 'import'"),
+])
+def test_bad_equation_files_exit_2_with_one_line(tmp_path, capsys, text, match):
+    f = tmp_path / 'eq.yaml'
+    f.write_text(text)
+    code, out, err = _run(capsys, str(f), '--delta', '0.1', '--scheduler', 'none')
+    assert code == 2 and re.search(match, err) and err.count('\n') == 1 and 'Traceback' not in err
+
+
+def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
+    fifo = tmp_path / 'fifo'
+    os.mkfifo(fifo)
+    (tmp_path / 'a_file').write_text('x')
+    for argv, match in ((['--boxes', str(tmp_path)], 'is a directory'),
+                        (['--boxes', str(fifo)], 'exists and is not a regular file'),
+                        (['--boxes', str(tmp_path / 'no' / 'b.npz')], 'does not exist'),
+                        (['--plot', str(tmp_path / 'a_file')], 'exists and is not a directory')):
+        code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', *argv)
+        assert code == 2 and match in err and err.count('\n') == 1, err
+    assert fifo.exists() and (tmp_path / 'a_file').read_text() == 'x'
+
+
+@pytest.mark.parametrize('argv, match', [
+    (['--scheduler', 'cluster'], 'allowed: none, local or a Dask scheduler address'),
+    (['--scheduler', 'none', '--workers', '2'], 'workers applies to --scheduler local only'),
+    (['--workers', '0'], 'workers must be an integer from 1 to 256'),
+    (['--max-boxes', '0'], '--max-boxes must be from 1'),
+    (['--parts', '0'], '--parts must be from 1'),
+    (['--delta', '1e-300'], 'too small'),
+])
+def test_bad_run_options_exit_2(argv, match, capsys):
+    code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', *argv)
+    assert code == 2 and match in err and err.count('\n') == 1, err
+
+
+def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
+    code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.001', '--json', '--max-boxes', '20000',
+                          '--scheduler', 'none')
+    data = json.loads(out)
+    assert code == 0 and data['interrupted'] and data['stopped'] == 'box limit (20000 boxes)'
+    assert data['inner_boxes'] + data['boundary_boxes'] <= 40000 and 'box limit' in err

@@ -130,7 +130,7 @@ def test_interruption_keeps_a_valid_partial_result():
 
     m = Interrupting(model.R, model.r, model.leg_min, model.leg_max, box=model.box)
     res = approximate(m, 0.002)
-    assert res.interrupted and res.levels == 18 and res.inner_boxes > 0
+    assert res.interrupted and res.stopped == 'interrupted' and res.levels <= 18 and res.inner_boxes > 0
     pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((30000, 3))
     ok = model.feasible(pts)
     assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), pts[ok]))
@@ -144,15 +144,14 @@ def test_interruption_keeps_a_valid_partial_result():
 def test_progress_bar_is_written_for_long_runs():
     model = load_workspace_model(config_path('mechanisms/shell_arm.yaml'))
     stream = io.StringIO()
-    from gpr_kinematics import workspace
-    old = workspace._Progress.__init__.__defaults__
-    workspace._Progress.__init__.__defaults__ = (None, 0.0)          # show at once
-    try:
-        approximate(model, 0.05, progress=True, progress_stream=stream)
-    finally:
-        workspace._Progress.__init__.__defaults__ = old
+    res = approximate(model, 0.05, progress=True, progress_stream=stream, progress_after=0.0)   # show at once
     text = stream.getvalue()
-    assert '% of volume decided' in text and 'inner' in text and text.endswith('\n')
+    assert '% of volume decided' in text and text.endswith('\n')
+    last = text.rstrip('\n').split('\r')[-1]
+    # the last update: everything decided, the last level, all boxes processed, the final volumes
+    assert last.startswith('[########################] 100.0% of volume decided')
+    assert f'level {res.levels},' in last and f'{res.evaluations:,} boxes processed' in last
+    assert f'inner {res.inner_volume:.4g}, boundary {res.outer_volume - res.inner_volume:.4g} m*m*m' in last
 
 
 @pytest.mark.parametrize('kwargs, match', [
@@ -175,8 +174,9 @@ def test_contains_points_matches_brute_force():
 
 
 def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
-    """Seed 3upu-aboulissane.txt, Figs. 8-9: a larger base shrinks the workspace, a longer limb limit
-    enlarges the upper dome. Certified: the outer volume of one is below the inner volume of the other."""
+    """Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism", Figs. 8-9: a larger base
+    shrinks the workspace, a longer limb limit enlarges the upper dome. Certified: the outer volume of one is
+    below the inner volume of the other."""
     def run(**over):
         model = load_workspace_model(config_path('mechanisms/upu3.yaml'), over)
         model.box = np.array([[-0.4, 0.4], [-0.4, 0.4], [0.0, 0.4]])

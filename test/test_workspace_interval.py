@@ -113,3 +113,107 @@ def test_monotone_enclosure_and_scalar_multiplication():
     assert np.all(neg.lo <= -2 * x.hi) and np.all(neg.hi >= -2 * x.lo)
     zero = Interval(np.array([-np.inf]), np.array([np.inf])) * 0.0
     assert zero.lo[0] == 0.0 and zero.hi[0] == 0.0
+
+
+# --- the transcendental enclosures against a correctly rounded reference (mpmath at 200 bits), not libm ---
+mpmath = pytest.importorskip('mpmath')
+MP = mpmath.mp.clone() if hasattr(mpmath.mp, 'clone') else mpmath.mp
+MP.prec = 200
+REFERENCE = {'sin': MP.sin, 'cos': MP.cos, 'tan': MP.tan, 'arcsin': MP.asin, 'arccos': MP.acos, 'arctan': MP.atan,
+             'exp': MP.exp, 'log': MP.log, 'sqrt': MP.sqrt}
+
+
+def _hard_points(fn):
+    """Arguments where libm is most likely to be off: near the multiples of pi/2 (tan's poles and the zeros
+    of sin and cos), huge arguments (argument reduction), tiny ones, and the ends of each domain."""
+    rng = np.random.default_rng(99)
+    k = np.concatenate([np.arange(1, 40), rng.integers(1, 10 ** 6, 60)])
+    m = k * (np.pi / 2)
+    near_half_pi = np.concatenate([m, np.nextafter(m, 0), np.nextafter(m, 9e9)])
+    if fn in ('sin', 'cos'):
+        return np.concatenate([near_half_pi, -near_half_pi, [1e-300, 5e-324, 1e5, 1e10, 1e15, 1e22, 2.0 ** 60],
+                               rng.uniform(-50, 50, 200)])
+    if fn == 'tan':
+        return np.concatenate([np.nextafter(np.pi / 2, 0) - np.arange(5) * 1e-15, [1e-300, 0.7853981633974483, 1.5],
+                               rng.uniform(-1.57, 1.57, 200), near_half_pi[:60] % np.pi - np.pi / 2])
+    if fn in ('arcsin', 'arccos'):
+        return np.concatenate([[-1.0, 1.0, np.nextafter(1.0, 0), np.nextafter(-1.0, 0), 0.5, -0.5, 1e-300, 0.0],
+                               1 - 10.0 ** -rng.uniform(1, 16, 50), rng.uniform(-1, 1, 200)])
+    if fn == 'arctan':
+        return np.concatenate([[0.0, 1e-300, 1.0, -1.0, 1e300, -1e300, 1e16], rng.normal(0, 10, 200)])
+    if fn == 'exp':
+        return np.concatenate([[0.0, 1e-300, -745.0, 709.0, 709.78, -708.0, 1e-16], rng.uniform(-700, 700, 200)])
+    if fn == 'log':
+        return np.concatenate([[1.0, np.nextafter(1.0, 2), np.nextafter(1.0, 0), 5e-324, 1e-300, 1e300, 2.0],
+                               1 + rng.uniform(-1e-12, 1e-12, 50), 10.0 ** rng.uniform(-300, 300, 200)])
+    return np.concatenate([[0.0, 5e-324, 1e-300, 1e300, 2.0, 3.0], 10.0 ** rng.uniform(-300, 300, 200)])
+
+
+@pytest.mark.parametrize('fn', sorted(REFERENCE))
+def test_point_enclosures_contain_the_correctly_rounded_value(fn):
+    x = _hard_points(fn)
+    res = getattr(Interval.point(x), fn)()
+    for xi, lo, hi in zip(x, res.lo, res.hi, strict=True):
+        exact = REFERENCE[fn](MP.mpf(float(xi)))            # the float argument converts exactly
+        assert MP.mpf(float(lo)) <= exact <= MP.mpf(float(hi)), (fn, float(xi), float(lo), float(hi), exact)
+        # and the enclosure is tight: a few ulp (the 2^-48 relative margin), not a vacuous bound
+        if fn not in ('sin', 'cos') or abs(xi) < 1e8:
+            assert float(hi) - float(lo) <= 2.0 ** -46 * abs(float(exact)) + 1e-320, (fn, float(xi))
+
+
+@pytest.mark.parametrize('fn', ['sin', 'cos'])
+def test_periodic_enclosures_contain_the_true_extrema(fn):
+    """Wide intervals: the true range, computed with mpmath's pi (the float pi is 1.2e-16 below it), is inside
+    the enclosure; intervals that end just short of an extremum are not widened to +-1."""
+    rng = np.random.default_rng(5)
+    a = rng.uniform(-20, 20, 300)
+    b = a + rng.exponential(1.5, 300)
+    res = getattr(Interval(a, b), fn)()
+    f = REFERENCE[fn]
+    shift = MP.pi / 2 if fn == 'sin' else MP.mpf(0)
+    for lo_x, hi_x, lo, hi in zip(a, b, res.lo, res.hi, strict=True):
+        A, B = MP.mpf(float(lo_x)), MP.mpf(float(hi_x))
+        vals = [f(A), f(B)]
+        k0 = int(MP.floor((A - shift) / MP.pi))
+        for k in range(k0, k0 + 20):                         # extrema at shift + k pi inside [A, B]
+            t = shift + k * MP.pi
+            if A <= t <= B:
+                vals.append(f(t))
+        assert MP.mpf(float(lo)) <= min(vals) and max(vals) <= MP.mpf(float(hi))
+    # an interval ending 1e-6 before the maximum of cos at 2 pi is not widened to the maximum
+    two_pi = float(2 * MP.pi)
+    near = Interval(np.array([two_pi - 0.5]), np.array([two_pi - 1e-6])).cos()
+    assert near.hi[0] < 1.0 and near.hi[0] >= float(MP.cos(MP.mpf(two_pi - 1e-6)))
+
+
+@pytest.mark.parametrize('fn', ['tan', 'arcsin', 'arccos', 'arctan', 'exp', 'log', 'sqrt'])
+def test_monotone_enclosures_of_wide_intervals_contain_the_true_range(fn):
+    pts = np.sort(_hard_points(fn))
+    pts = pts[np.isfinite(pts)]
+    if fn == 'tan':
+        pts = pts[np.abs(pts) < 1.57]
+    a, b = pts[:-1], pts[1:]
+    res = getattr(Interval(a, b), fn)()
+    f = REFERENCE[fn]
+    for lo_x, hi_x, lo, hi in zip(a, b, res.lo, res.hi, strict=True):
+        ends = [f(MP.mpf(float(lo_x))), f(MP.mpf(float(hi_x)))]
+        assert MP.mpf(float(lo)) <= min(ends) and max(ends) <= MP.mpf(float(hi)), (fn, lo_x, hi_x)
+
+
+def test_outward_rounding_steps_are_nextafter_bit_for_bit():
+    """down/up step on the integer view of the floats; they must equal np.nextafter everywhere, the special
+    values (signed zeros, infinities, NaN, subnormals, the largest float) and any array layout included."""
+    from gpr_kinematics.interval import down, up
+    rng = np.random.default_rng(17)
+    x = rng.normal(size=50000) * 10.0 ** rng.integers(-320, 308, 50000)
+    special = [0.0, -0.0, np.inf, -np.inf, np.nan, 5e-324, -5e-324, 1.0, -1.0, np.finfo(float).max,
+               -np.finfo(float).max, np.finfo(float).tiny, -np.finfo(float).tiny]
+    x[:len(special)] = special
+    with np.errstate(all='ignore'):
+        for step, towards in ((down, -np.inf), (up, np.inf)):
+            ref = np.nextafter(x, towards)
+            assert np.array_equal(step(x), ref, equal_nan=True)
+            assert np.array_equal(step(x.reshape(250, 200).T), ref.reshape(250, 200).T, equal_nan=True)
+            assert np.array_equal(step(x[::7]), ref[::7], equal_nan=True)
+            for v in special:
+                assert np.array_equal(step(np.float64(v)), np.nextafter(v, towards), equal_nan=True)

@@ -1,5 +1,5 @@
 """Workspace models: point constraints against independent kinematics, interval enclosures against
-sampling, and the seeds' formulas."""
+sampling, and the papers' formulas (Posypkin et al. 2019; Aboulissane and El Bakkali)."""
 import math
 
 import numpy as np
@@ -71,7 +71,7 @@ def test_tripod_spherical_joints_stay_in_their_leg_planes():
     assert np.allclose(model.evaluate(np.array([[0.1, 0.0, 0.0]])), 0.1, atol=1e-16)
 
 
-def test_rrr3_branch_is_the_seeds_arcsin_formula_and_closes_the_legs():
+def test_rrr3_branch_is_the_papers_arcsin_formula_and_closes_the_legs():
     model = load_workspace_model(config_path('mechanisms/rrr3_planar.yaml'))
     assert isinstance(model, Rrr3PlanarModel)
     pts = _uniform(np.array([[-0.03, 0.03], [-0.03, 0.03], [-0.4, 0.4]]), 400)
@@ -84,7 +84,7 @@ def test_rrr3_branch_is_the_seeds_arcsin_formula_and_closes_the_legs():
     for i in range(3):
         xi, yi = model.A[i]
         g = model.platform_angles[i]
-        # seed eqs. (8)-(12)
+        # Posypkin et al. (2019), eqs. (8)-(12)
         a_sin = 2 * (yi * l1 - y * l1 - l1 * l3 * np.sin(g + phi))
         a_cos = 2 * (xi * l1 - x * l1 - l1 * l3 * np.cos(g + phi))
         b_cos = x ** 2 + 2 * x * l3 * np.cos(g + phi) - 2 * x * xi + l3 ** 2 * np.cos(g + phi) ** 2 \
@@ -182,8 +182,28 @@ def test_upu3_matches_the_mechanism_limb_lengths():
 
 @pytest.mark.parametrize('data, match', [
     ({'type': 'nope'}, 'unknown mechanism type'),
-    ({'type': 'dextar', 'la': 0.2}, "missing key 'lb'"),
-    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 'x'}, 'must be a number'),
+    ({'type': 'dextar', 'la': 0.2}, 'missing key lb'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 'x'}, 'l2 must be a positive finite length'),
+    # one number rule for every YAML loader (config.number_key): no bool, no string, however float() reads it
+    ({'type': 'shell_arm', 'l1': True, 'l2': 0.2}, 'l1 must be a positive finite length'),
+    ({'type': 'shell_arm', 'l1': '0.5', 'l2': 0.2}, 'l1 must be a positive finite length'),
+    ({'type': 'dextar', 'la': 0.2, 'lb': 0.2, 'lc': 0.2, 'ld': 0.2, 'd': '0.1'}, 'd must be a finite length'),
+    ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
+      'theta_min': '-0.5'}, 'theta_min must be a finite number in rad'),
+    ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
+      'branch': 1.0}, 'branch must be 1 or -1'),
+    ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
+      'base_angles': [0, 1, True]}, r'base_angles\[2\] must be a finite number in rad'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [False, 1]}}}, 'workspace.box.x'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': '0 1'}}}, r'must be \[lower, upper\]'),
+    ({'type': 'gpr', 'workspace': {'max_tilt': '0.3'}}, 'max_tilt must be a positive finite number in rad'),
+    # unknown keys are refused with their names, in every workspace file and in its workspace section
+    ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
+      'brnch': -1}, 'unknown key.*brnch'),
+    ({'type': 'dextar', 'la': 0.2, 'lb': 0.2, 'lc': 0.2, 'ld': 0.2, 'd': 0.2, 'links': 2}, 'unknown key.*links'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'flor': 0.0}, 'unknown key.*flor'),
+    ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'bx': {}}}, 'workspace: unknown key.*bx'),
+    ({'type': ['gpr']}, 'unknown mechanism type'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'w': [0, 1]}}}, 'unknown variable'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [1, 0]}}}, 'lower < upper'),
     ({'type': 'gpr', 'workspace': {'virtual_joint_model': 'polar'}}, 'no certified enclosure'),

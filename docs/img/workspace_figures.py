@@ -4,12 +4,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import PolyCollection
 
-from gpr_kinematics.workspace import approximate  # noqa: E402
-from gpr_kinematics.workspace_models import load_workspace_model  # noqa: E402
+from gpr_kinematics.workspace import approximate
+from gpr_kinematics.workspace_models import load_workspace_model
 
 OUT = Path(__file__).resolve().parent
 
@@ -85,7 +85,43 @@ def upu3():
     plt.close(fig)
 
 
+def dextar_6d():
+    """DexTAR in its 6-D form at delta = 6 mm, with the closed-form boundary (the circles of both annuli)."""
+    res = approximate(load_workspace_model('dextar_6d.yaml'), 0.006)
+    fig, ax = plt.subplots(figsize=(5.0, 4.4), dpi=100)
+    draw(ax, res, 0, 1, 1e3, 1e3)
+    t = np.linspace(0, 2 * np.pi, 400)
+    for cx in (100.0, -100.0):
+        ax.plot(cx + 400 * np.cos(t), 400 * np.sin(t), 'k-', lw=0.6)
+    ax.plot([100, -100], [0, 0], 'k+', ms=8, label='pivots (arms fold: singular)')
+    ax.set(xlim=(-520, 520), ylim=(-520, 520), xlabel='x [mm]', ylabel='y [mm]', aspect='equal')
+    ax.legend(loc='lower center', fontsize=7)
+    ax.set_title('DexTAR from its 6-D closure equations, delta = 6 mm\ninner (blue), boundary (orange), '
+                 'exact boundary (black)', fontsize=9)
+    fig.tight_layout()
+    fig.savefig(OUT / 'workspace_dextar_6d.png')
+    plt.close(fig)
+
+
+def joint():
+    """The joint working area's three projections (the paper's Fig. 17: xz, yz, xy) at delta = 6 mm."""
+    res = approximate(load_workspace_model('joint_working_area.yaml'), 0.006)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4.2), dpi=90)
+    for ax, (i, j) in zip(axes, ((0, 2), (1, 2), (0, 1)), strict=True):
+        draw(ax, res, i, j, 1e3, 1e3)
+        ax.set_aspect('equal')
+        ax.set_xlabel(f'{res.variables[i]} [mm]')
+        ax.set_ylabel(f'{res.variables[j]} [mm]')
+    fig.suptitle('Joint working area of the tripod over the planar 3-RRR: tool point in the planar platform frame, '
+                 'delta = 6 mm; inner (blue), boundary (orange)', fontsize=10)
+    fig.tight_layout()
+    fig.savefig(OUT / 'workspace_joint_projections.png')
+    plt.close(fig)
+
+
 if __name__ == '__main__':
     tripod()
     gpr()
     upu3()
+    dextar_6d()
+    joint()

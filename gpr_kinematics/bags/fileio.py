@@ -13,18 +13,11 @@ import stat
 from pathlib import Path
 from typing import BinaryIO
 
+from ..files import kind_of
 from .errors import BagError
 
 #: Bytes read at a time when hashing a file.
 BLOCK = 1 << 20
-
-
-def _kind(mode: int) -> str:
-    for test, name in ((stat.S_ISDIR, 'a folder'), (stat.S_ISFIFO, 'a FIFO'), (stat.S_ISCHR, 'a character device'),
-                       (stat.S_ISBLK, 'a block device'), (stat.S_ISSOCK, 'a socket')):
-        if test(mode):
-            return name
-    return 'not a regular file'
 
 
 def require_regular(path: Path, what: str) -> int:
@@ -35,7 +28,7 @@ def require_regular(path: Path, what: str) -> int:
     except OSError as exc:
         raise BagError(f'{path}: {what} cannot be read: {exc.strerror or exc}') from None
     if not stat.S_ISREG(st.st_mode):
-        raise BagError(f'{path}: {what} is {_kind(st.st_mode)}; allowed: a regular file')
+        raise BagError(f'{path}: {what} is {kind_of(st.st_mode)}; allowed: a regular file')
     return st.st_size
 
 
@@ -52,7 +45,7 @@ def open_regular(path: Path, what: str) -> tuple[BinaryIO, int]:
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            raise BagError(f'{path}: {what} is {_kind(st.st_mode)}; allowed: a regular file')
+            raise BagError(f'{path}: {what} is {kind_of(st.st_mode)}; allowed: a regular file')
         os.set_blocking(fd, True)
         return os.fdopen(fd, 'rb'), st.st_size
     except BaseException:

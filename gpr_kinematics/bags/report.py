@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import stat
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..config import GprConfig
-from ..errors import GprError
+from ..errors import FileError, GprError
+from ..files import atomic_output, writable_folder, write_text
 from ..kinematics import forward_batch
 from .errors import BagError
 from .results import VerifyResult, format_table
@@ -46,7 +46,7 @@ def _plt() -> Any:
 def check_report_folder(folder: str | Path) -> Path:
     """Refuse a report folder that cannot be written before any work is done (nothing is created here): an
     existing path must be a writable folder, a new path must have a writable folder as its nearest existing
-    ancestor. (Each file is checked again when written: see :func:`_target`.)
+    ancestor. (Each file is checked again when written: :func:`gpr_kinematics.files.atomic_output`.)
 
     Raises:
         BagError: naming the path, what it is, and what is allowed.
@@ -61,11 +61,10 @@ def check_report_folder(folder: str | Path) -> Path:
         if not os.access(out, os.W_OK | os.X_OK):
             raise BagError(f'--report {out}: the folder is not writable; {allowed}')
         return out
-    parent = out.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise BagError(f'--report {out}: {parent} is not a writable folder; {allowed}')
+    try:
+        writable_folder(out, '--report')
+    except FileError as exc:
+        raise BagError(f'{exc}; {allowed}') from None
     return out
 
 
@@ -94,8 +93,7 @@ def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[n
     az.set_xlabel('sample')
     az.set_ylabel(ylabel)
     az.grid(alpha=0.3)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
@@ -112,29 +110,30 @@ def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
                        ) from None
 
 
-def _target(out: Path, name: str) -> Path:
-    """``out/name``, refused if it exists and is not a regular file (a FIFO would block the write, a link
-    would write elsewhere, a device would be overwritten)."""
-    path = out / name
-    if path.is_symlink() or (path.exists() and not stat.S_ISREG(path.stat().st_mode)):
-        raise BagError(f'--report {out}: {name} exists and is not a regular file; it is replaced only if it is one')
+def _save(fig: Any, path: Path) -> Path:
+    """Write the figure as PNG through the package's checked, atomic writer (an existing FIFO, device or link at
+    ``path`` is refused: it would block the write, be overwritten or write elsewhere)."""
+    try:
+        with atomic_output(path, 'report', binary=True) as fh:
+            fig.savefig(fh, format='png', dpi=90)
+    finally:
+        _plt().close(fig)
     return path
 
 
 def _write(result: VerifyResult, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    _target(out, 'verify.json').write_text(json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n')
-    _target(out, 'verify.txt').write_text(format_table(result) + '\n')
-    written += [out / 'verify.json', out / 'verify.txt']
+    written = [write_text(out / 'verify.json', json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n',
+                          'report'),
+               write_text(out / 'verify.txt', format_table(result) + '\n', 'report')]
     s = result.series
     if s is None or s.q.shape[0] == 0:
         return written
     x, cr = s.sample, s.crossings
-    p = _target(out, 'fig05_rod_lengths.png')
+    p = out / 'fig05_rod_lengths.png'
     _figure(p, 'Fig. 5: rod lengths q (generalized coordinates)', x, s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)
     written.append(p)
-    p = _target(out, 'fig08_side_lengths.png')
+    p = out / 'fig08_side_lengths.png'
     _figure(p, 'Fig. 8 / Fig. 11: side lengths L = F(X)', x, s.side_lengths * 1e3, ['L12', 'L23', 'L31'],
             'L [mm]', cr)
     written.append(p)
@@ -152,16 +151,16 @@ def _write(result: VerifyResult, out: Path) -> list[Path]:
                 source = f'not computable from the recorded q: {type(exc).__name__}'
         names = ['l1', 'l2', 'l3'] if model == 'polar' else ['dr1', 'dr2', 'dr3']
         anames = ['phi1', 'phi2', 'phi3'] if model == 'polar' else ['dphi1', 'dphi2', 'dphi3']
-        p = _target(out, f'fig{figs[0]}_{model}_linear_virtual_joints.png')
+        p = out / f'fig{figs[0]}_{model}_linear_virtual_joints.png'
         _figure(p, f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source})', x, X[:, :3] * 1e3,
                 names, 'mm', cr)
         written.append(p)
-        p = _target(out, f'fig{figs[1]}_{model}_angular_virtual_joints.png')
+        p = out / f'fig{figs[1]}_{model}_angular_virtual_joints.png'
         _figure(p, f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source})', x,
                 np.degrees(X[:, 3:]), anames, 'deg', cr)
         written.append(p)
     if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
-        p = _target(out, 'radial_virtual_joints.png')
+        p = out / 'radial_virtual_joints.png'
         _figure(p, 'radial model (authors\' earlier [11]): l1, l2, l3 (recorded)', x, s.virtual_joints * 1e3,
                 ['l1', 'l2', 'l3'], 'mm', cr)
         written.append(p)
@@ -175,8 +174,5 @@ def _write(result: VerifyResult, out: Path) -> list[Path]:
     ax.set_title(f'centre shift against tilt ({s.model} model)')
     ax.grid(alpha=0.3)
     ax.legend()
-    p = _target(out, 'centre_shift_vs_tilt.png')
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    written.append(p)
+    written.append(_save(fig, out / 'centre_shift_vs_tilt.png'))
     return written

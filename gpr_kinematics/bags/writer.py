@@ -32,6 +32,8 @@ from pathlib import Path
 
 from rosbags.rosbag2.errors import WriterError
 
+from ..errors import FileError
+from ..files import writable_folder
 from .errors import BagError
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, render_metadata
 from .reader import OPEN_SEGMENT_DIR
@@ -72,15 +74,10 @@ def check_output_path(path: Path) -> None:
     if path.exists() or path.is_symlink():
         raise BagError(f'output {path} exists already; allowed: a path that does not exist yet (the recorder '
                        f'never overwrites a bag)')
-    parent = path.parent
-    while not parent.exists():
-        if parent == parent.parent:
-            break
-        parent = parent.parent
-    if not parent.is_dir():
-        raise BagError(f'output {path}: {parent} is not a folder')
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise BagError(f'output {path}: folder {parent} is not writable')
+    try:
+        writable_folder(path, 'output')
+    except FileError as exc:
+        raise BagError(str(exc)) from None
 
 
 def _fsync_path(path: Path, directory: bool = False) -> None:

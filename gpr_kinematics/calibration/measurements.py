@@ -28,14 +28,14 @@ from __future__ import annotations
 
 import csv
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError
+from .. import units
+from ..errors import InputError, brief
 from ..geometry import matrix_from_quaternion
 from ..validation import QUATERNION_NORM_TOLERANCE
 from .files import comment_lines, read_text, write_text
@@ -56,10 +56,7 @@ MAX_VALUE = 1e6
 #: Range of a standard deviation, SI: [m] for sigma_position, [rad] for sigma_angle.
 SIGMA_RANGE = (1e-9, 0.1)
 
-_LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
-_ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 _LENGTH_COLUMNS = frozenset(('q1', 'q2', 'q3', 'x', 'y', 'z', 'sigma_position'))
-_UNITS_LINE = re.compile(r'#\s*units\s*:(.*)$', re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -99,35 +96,23 @@ class Measurements:
         return f'{self.source} line {self.lines[i]}'
 
 
-def _units(text: str, where: str) -> tuple[str, str]:
-    length, angle = None, None
-    for tok in re.split(r'[\s,]+', text.strip()):
-        if not tok:
-            continue
-        tok_l = tok.lower()
-        if tok_l in _LENGTH_UNITS and length is None:
-            length = tok_l
-        elif tok_l in _ANGLE_UNITS and angle is None:
-            angle = tok_l
-        else:
-            raise InputError(f'{where}: unit {tok[:20]!r} in "# units:" is unknown or repeated; allowed: one of '
-                             'm, mm (lengths) and one of rad, deg (angles), e.g. "# units: mm deg"')
-    return length or 'm', angle or 'rad'
-
-
-def _header(fields: list[str], where: str) -> list[str]:
-    cols = [f.strip().lower() for f in fields]
+def _header(fields: list[str], where: str, defaults: units.FileUnits) -> tuple[list[str], list[float]]:
+    """The column names of the header row and each column's factor to SI (:mod:`gpr_kinematics.units`)."""
+    named = [units.column(f, where) for f in fields]
+    cols = [name.lower() for name, _ in named]
     allowed = REQUIRED_COLUMNS + SIGMA_COLUMNS
     for c in cols:
         if c not in allowed:
             raise InputError(f'{where}: unknown column {c[:40]!r}; allowed: {", ".join(allowed)}')
         if cols.count(c) > 1:
-            raise InputError(f'{where}: column {c!r} appears {cols.count(c)} times; each column once')
+            raise InputError(f'{where}: column {brief(c)} appears {cols.count(c)} times; each column once')
     missing = [c for c in REQUIRED_COLUMNS if c not in cols]
     if missing:
         raise InputError(f'{where}: missing column(s) {", ".join(missing)}; required: {", ".join(REQUIRED_COLUMNS)} '
                          '(a header row naming the columns comes first)')
-    return cols
+    kinds = {c: 'length' for c in _LENGTH_COLUMNS} | {'sigma_angle': 'angle'}
+    return cols, [units.scale(kinds.get(c, 'number'), unit, defaults, where, c)[0]
+                  for c, (_, unit) in zip(cols, named, strict=True)]
 
 
 def _number(text: str, where: str, column: str) -> float:
@@ -148,22 +133,22 @@ def _number(text: str, where: str, column: str) -> float:
 class _Table:
     """The rows of a measurement file as read, before unit conversion and the pose checks."""
 
-    units: tuple[str, str] | None = None
+    units: units.FileUnits | None = None
     cols: list[str] | None = None
+    scales: list[float] = field(default_factory=list)
     rows: list[list[float]] = field(default_factory=list)
     lines: list[int] = field(default_factory=list)
     seen: dict[tuple[float, ...], int] = field(default_factory=dict)
 
     def comment(self, line: str, where: str) -> None:
-        m = _UNITS_LINE.match(line)
-        if m:
+        if units.is_units_line(line):
             if self.cols is not None or self.units is not None:
                 raise InputError(f'{where}: "# units:" must come once, before the header row')
-            self.units = _units(m.group(1), where)
+            self.units = units.file_units(line, where)
 
     def row(self, fields: list[str], lineno: int, where: str) -> None:
         if self.cols is None:
-            self.cols = _header(fields, where)
+            self.cols, self.scales = _header(fields, where, self.units or (None, None))
             return
         if len(fields) != len(self.cols):
             raise InputError(f'{where}: {len(fields)} values, but the header names {len(self.cols)} columns')
@@ -208,13 +193,9 @@ def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
     """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
     table = _read_table(text, source)
     cols, rows, line_nos = table.cols or [], table.rows, table.lines
-    length, angle = table.units or ('m', 'rad')
+    length, angle = table.units or (None, None)
     data = np.array(rows)
-    col = {c: data[:, i] for i, c in enumerate(cols)}
-    for c in _LENGTH_COLUMNS & col.keys():
-        col[c] = col[c] * _LENGTH_UNITS[length]
-    if 'sigma_angle' in col:
-        col['sigma_angle'] = col['sigma_angle'] * _ANGLE_UNITS[angle]
+    col = {c: data[:, i] * table.scales[i] for i, c in enumerate(cols)}
     quat = np.column_stack([col['qx'], col['qy'], col['qz'], col['qw']])
     norm = np.linalg.norm(quat, axis=1)
     bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
@@ -235,7 +216,7 @@ def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
     return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
                         position=np.column_stack([col['x'], col['y'], col['z']]),
                         quaternion=quat / norm[:, None], sigma_position=sig['sigma_position'],
-                        sigma_angle=sig['sigma_angle'], lines=tuple(line_nos), units=(length, angle))
+                        sigma_angle=sig['sigma_angle'], lines=tuple(line_nos), units=(length or 'm', angle or 'rad'))
 
 
 def read_measurements(path: str | Path) -> Measurements:

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from .. import safe_yaml
 from ..config import check_keys
 from ..errors import ConfigError
+from ..units import ANGLE_UNITS, LENGTH_UNITS
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
@@ -44,8 +45,8 @@ Array = NDArray[np.float64]
 DISTRIBUTIONS = ('uniform', 'normal', 'log-uniform')
 #: Largest tolerance (half-width or range) accepted per unit, SI.
 MAX_TOLERANCE = {'m': 0.01, 'rad': 0.1, '1': 1e6}
-_LENGTH = {'m': 1.0, 'mm': 1e-3}
-_ANGLE = {'rad': 1.0, 'deg': math.pi / 180.0}
+_LENGTH = LENGTH_UNITS
+_ANGLE = ANGLE_UNITS
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] for the moments of a transformed deviation (the integrand is
@@ -259,7 +260,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         raise ConfigError(f'{source}: units: expected {{length: m|mm, angle: rad|deg}}')
     check_keys(units, ('length', 'angle'), f'{source}: units')
     length, angle = units.get('length', 'm'), units.get('angle', 'rad')
-    if length not in _LENGTH or angle not in _ANGLE:
+    if not isinstance(length, str) or not isinstance(angle, str) or length not in _LENGTH or angle not in _ANGLE:
         raise ConfigError(f'{source}: units: length {safe_yaml.brief(length)}, angle {safe_yaml.brief(angle)}; '
                           'allowed: length m or mm, angle rad or deg')
     lf = _LENGTH[length]

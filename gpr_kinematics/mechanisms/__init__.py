@@ -17,12 +17,13 @@ A top-level ``workspace`` mapping (read by the workspace analysis) is ignored he
 from __future__ import annotations
 
 import importlib
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from ..config import read_yaml
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from .base import Mechanism
 
 __all__ = ['Mechanism', 'MECHANISM_TYPES', 'load_mechanism', 'mechanism_from_dict', 'read_mechanism_file']
@@ -43,8 +44,8 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
         raise ConfigError(f'{source}: a mechanism file must be a YAML mapping with a key type; got '
                           f'{type(data).__name__}')
     mtype = data.get('type')
-    if mtype not in MECHANISM_TYPES:
-        raise ConfigError(f'{source}: type = {mtype!r} is not a mechanism type; allowed: '
+    if not isinstance(mtype, str) or mtype not in MECHANISM_TYPES:
+        raise ConfigError(f'{source}: type = {brief(mtype)} is not a mechanism type; allowed: '
                           + ', '.join(MECHANISM_TYPES))
     module, func = MECHANISM_TYPES[mtype]
     loader = getattr(importlib.import_module(module, __name__), func)
@@ -55,19 +56,26 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
 def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:
     """Parse a mechanism YAML file; returns ``(data, resolved path)``.
 
-    A relative path that does not exist is also looked up among the packaged files
-    (``config/mechanisms/``), so ``'upu3.yaml'`` works from anywhere.
+    A path is read as given. Only a *bare name* (no folder in it) that does not exist here is also looked up
+    among the packaged files (``config/mechanisms/``), so ``'upu3.yaml'`` works from anywhere while a mistyped
+    ``'typo_dir/upu3.yaml'`` is an error, never silently the packaged file.
     """
-    p = Path(path)
-    if not p.is_file() and not p.is_absolute():
+    from ..resources import config_dir, config_path
+    name = os.fspath(path)
+    if name == '':
+        raise ConfigError('mechanism file path is empty; allowed: a mechanism YAML file, or the name of a packaged '
+                          'one such as upu3.yaml')
+    p = Path(name)
+    if not os.path.lexists(name):
+        if os.sep in name or (os.altsep is not None and os.altsep in name):
+            raise ConfigError(f'mechanism file {name!r} not found (a path with a folder is read as given; only a '
+                              'bare name such as upu3.yaml is also looked up among the packaged files)')
         try:
-            from ..resources import config_path
-            p = config_path(f'mechanisms/{p.name}')
+            p = config_path(f'mechanisms/{name}')
         except ConfigError:
-            pass
-    if not p.is_file():
-        raise ConfigError(f'mechanism file {str(path)!r} not found (nor among the packaged '
-                          f'config/mechanisms/ files)')
+            packaged = sorted(f.name for f in (config_dir() / 'mechanisms').glob('*.yaml'))
+            raise ConfigError(f'mechanism file {name!r} not found, here nor among the packaged files: '
+                              + ', '.join(packaged)) from None
     return read_yaml(p, 'mechanism'), p
 
 

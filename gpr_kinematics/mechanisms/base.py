@@ -34,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError, LimitError, SingularityError
+from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
+from ..validation import MAX_COORDINATE, bounded
 from .conditioning import (
     ANGULAR_JOINTS,
     GRAM_CONDITION_LIMIT,
@@ -78,6 +79,10 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
                          f'got shape {np.shape(poses)}')
     if not np.all(np.isfinite(arr)):
         raise InputError(f'{name} must be finite numbers; got {arr[~np.all(np.isfinite(arr), axis=1)][0]}')
+    if arr.size and np.max(np.abs(arr[:, :3])) > MAX_COORDINATE:
+        i, j = np.argwhere(np.abs(arr[:, :3]) > MAX_COORDINATE)[0]
+        raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} m; allowed: |x|, |y|, |z| <= '
+                         f'{MAX_COORDINATE:g} m')
     return arr, single
 
 
@@ -105,8 +110,9 @@ class JacobianReport:
     task_jacobian: np.ndarray                 #: (n, m) dq/du, homogenised
     condition_number: float                   #: of the homogenised task Jacobian
     dexterity: float                          #: inverse condition number
-    singular: bool
+    singular: bool                            #: a singular Jacobian or a named singular configuration
     within_limits: bool
+    singularity: str = ''                     #: the named singular configuration (:meth:`Mechanism.singularity`)
 
 
 class Mechanism(abc.ABC):
@@ -235,6 +241,13 @@ class Mechanism(abc.ABC):
         """``(N,)`` True where the homogenised task Jacobian's inverse condition number is below ``tol``."""
         return self.dexterity(poses) < tol
 
+    def singularity(self, poses: Any) -> np.ndarray:
+        """``(N,)`` strings naming a singular configuration of the mechanism itself at each pose (``''``: none),
+        beyond the conditioning of its Jacobian; mechanisms that know their singular configurations override
+        it (the 3-UPU's limb directions, the GPR's rigid constraints)."""
+        arr, _ = as_poses(poses)
+        return np.full(arr.shape[0], '', dtype=object)
+
     def within_limits(self, joints: Any) -> np.ndarray:
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
         q = np.atleast_2d(np.asarray(joints, dtype=float))
@@ -272,7 +285,7 @@ class Mechanism(abc.ABC):
         arr = self.complete_pose(arr)
         base = self.parameters()
         if name not in base:
-            raise InputError(f'{self.name}: unknown parameter {name!r}; allowed: {sorted(base)}')
+            raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: {sorted(base)}')
         p0 = np.asarray(base[name], dtype=float)
         out = np.zeros((arr.shape[0], self.n_joints, p0.size))
         for k in range(p0.size):
@@ -299,6 +312,7 @@ class Mechanism(abc.ABC):
         if q.shape[-1] != self.n_joints or not np.all(np.isfinite(q)):
             raise InputError(f'{self.name}: joint values must be {self.n_joints} finite numbers per pose; '
                              f'got shape {np.shape(joints)}')
+        bounded(q, f'{self.name}: joint values')
         g, _ = as_poses(guess, 'guess')
         if g.shape[0] == 1 and q.shape[0] > 1:
             g = np.repeat(g, q.shape[0], axis=0)
@@ -392,9 +406,10 @@ class Mechanism(abc.ABC):
         finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(Jt)))
         dex = float(dexterity_index(Jt)[0]) if finite else 0.0
         cond = float(condition_number(Jt)[0]) if finite else float('inf')
+        named = str(self.singularity(full)[0])
         return JacobianReport(pose=full[0], joints=q[0], inverse_jacobian=J[0],
                               homogenized_inverse_jacobian=homogenize(J, self.joint_types,
                                                                       self.characteristic_length)[0],
                               task_jacobian=Jt[0], condition_number=cond, dexterity=dex,
-                              singular=bool((not finite) or dex < SINGULAR_TOLERANCE),
-                              within_limits=bool(self.within_limits(q)[0]))
+                              singular=bool((not finite) or dex < SINGULAR_TOLERANCE or named),
+                              within_limits=bool(self.within_limits(q)[0]), singularity=named)

@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 
 from ..config import check_keys
-from ..errors import ConfigError, InputError
+from ..errors import ConfigError, InputError, LimitError, brief
+from ..validation import bounded
 from .base import Mechanism, as_poses, rotation_vector
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
@@ -76,10 +77,8 @@ class GprMechanism(Mechanism):
         c = self.config
         self.home_pose = (0.0, 0.0, 0.5 * (c.stroke_min + c.stroke_max), 0.0, 0.0, 0.0)
         self.default_sweep = ('tilt_x', -c.tilt_limit, c.tilt_limit)
-        self.imperfections = np.zeros((3, 3)) if imperfections is None else np.asarray(imperfections, float)
-        if self.imperfections.shape != (3, 3) or not np.all(np.isfinite(self.imperfections)):
-            raise InputError('GPR joint imperfections must be 3 x 3 finite values (m); '
-                             f'got {imperfections!r}')
+        self.imperfections = (np.zeros((3, 3)) if imperfections is None else
+                              bounded(imperfections, 'GPR joint imperfections (m)', (3, 3)))
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> GprMechanism:
@@ -89,7 +88,7 @@ class GprMechanism(Mechanism):
         check_keys(data, allowed, source)
         overrides = data.get('overrides') or {}
         if not isinstance(overrides, Mapping):
-            raise ConfigError(f'{source}: overrides must be a mapping of GprConfig fields; got {overrides!r}')
+            raise ConfigError(f'{source}: overrides must be a mapping of GprConfig fields; got {brief(overrides)}')
         try:
             cfg = load_config(overrides=dict(overrides))
         except ConfigError as exc:
@@ -104,7 +103,7 @@ class GprMechanism(Mechanism):
     def with_parameters(self, params: Mapping[str, Any]) -> GprMechanism:
         for key in params:
             if key != 'joint_imperfections':
-                raise InputError(f'{self.name}: unknown parameter {key!r}; allowed: joint_imperfections')
+                raise InputError(f'{self.name}: unknown parameter {brief(key)}; allowed: joint_imperfections')
         return GprMechanism(self.config, self.name, params.get('joint_imperfections', self.imperfections))
 
     # ------------------------------------------------------------------ pose <-> rods
@@ -120,6 +119,11 @@ class GprMechanism(Mechanism):
         from ..kinematics import base_points, forward_batch
         from ..virtual_joints import make_model
         Q = np.atleast_2d(np.asarray(joints, dtype=float))
+        span = self.config.stroke_max - self.config.stroke_min
+        if not np.all(np.abs(Q - 0.5 * (self.config.stroke_min + self.config.stroke_max)) <= span):  # NaN too
+            i, k = np.argwhere(~(np.abs(Q - 0.5 * (self.config.stroke_min + self.config.stroke_max)) <= span))[0]
+            raise LimitError(f'{self.name}: q{k + 1} = {Q[i, k]:.6g} m is farther than the stroke range {span:g} m '
+                             'from the middle of the stroke; allowed: rod lengths a GPR can approach')
         fb = forward_batch(Q, self.config, check_limits=False)
         if np.any(self.imperfections):
             r2, _, _ = make_model(self.config).points_and_partials(fb.virtual_joints)
@@ -194,6 +198,20 @@ class GprMechanism(Mechanism):
     def coordinate_jacobian(self, poses: Any) -> np.ndarray:
         return self.task_jacobian(poses)
 
+    def singularity(self, poses: Any) -> np.ndarray:
+        """``(N,)``: where the *rigid* mechanism is singular (:func:`gpr_kinematics.mobility.rigid_rank`, as
+        ``gpr mobility`` reports it: q1 = q2 = q3 on the nominal machine), its rank and mobility; ``''`` elsewhere.
+        The virtual joints keep the Jacobians regular there (:meth:`is_singular` is False): the singularity is of
+        the rigid platform, which the paper's sweep crosses."""
+        from ..mobility import rigid_rank
+        arr, _ = as_poses(poses)
+        rank = rigid_rank(self.inverse_kinematics(arr), self.config)
+        out = np.full(arr.shape[0], '', dtype=object)
+        for i in np.flatnonzero(12 - rank > 1):
+            out[i] = (f'rigid mechanism: rank dPhi/dP = {rank[i]}, mobility {12 - rank[i]} (paper section IV-A); the '
+                      'virtual joints keep the Jacobian regular')
+        return out
+
     def motion_basis(self, poses: Any) -> np.ndarray:
         """Twists ``(N, 6, 3)`` per unit rate of ``(z, tilt_x, tilt_y)``: ``dT/dq dq/du``."""
         arr, _ = as_poses(poses)
@@ -213,7 +231,7 @@ class GprMechanism(Mechanism):
     def parameter_jacobian(self, poses: Any, name: str, step: float = 1e-7) -> np.ndarray:
         """``dq/d delta (N, 3, 9)`` = ``-(dq/du) du/d delta`` (central differences of the imperfect FK)."""
         if name != 'joint_imperfections':
-            raise InputError(f'{self.name}: unknown parameter {name!r}; allowed: joint_imperfections')
+            raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: joint_imperfections')
         arr, _ = as_poses(poses)
         q = self.inverse_kinematics(arr)
         dudp = self._pose_parameter_derivative(q, step)[:, 2:5]

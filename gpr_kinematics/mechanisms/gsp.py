@@ -41,8 +41,9 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys
-from ..errors import ConfigError, InputError
+from ..config import check_keys, number_array
+from ..errors import ConfigError, InputError, brief
+from ..validation import MAX_COORDINATE, bounded
 from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
 
 CONSTRAINT_TYPES = ('D1', 'D2', 'D3', 'D4', 'A1')
@@ -97,25 +98,21 @@ class Constraint:
 
 
 def _point(value: Any, where: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float) if _is_numeric_list(value) else None
-    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ConfigError(f'{where} must be a point [x, y, z] of three finite numbers in m; got {value!r}')
+    arr = number_array(list(value) if isinstance(value, np.ndarray) else value, (3,))
+    if arr is None:
+        raise ConfigError(f'{where} must be a point [x, y, z] of three finite numbers in m (|x| <= '
+                          f'{MAX_COORDINATE:g}); got {brief(value)}')
     return arr
-
-
-def _is_numeric_list(value: Any) -> bool:
-    return isinstance(value, (list, tuple, np.ndarray)) and all(
-        isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) for v in value)
 
 
 def parse_constraint(entry: Any, where: str) -> Constraint:
     """Validate one YAML constraint mapping (``type``, points, optional ``name`` and ``limits``)."""
     if not isinstance(entry, Mapping):
         raise ConfigError(f'{where} must be a mapping with keys type, A_i, B_i (and A_j, B_j for lines); '
-                          f'got {entry!r}')
+                          f'got {brief(entry)}')
     ctype = entry.get('type')
     if ctype not in CONSTRAINT_TYPES:
-        raise ConfigError(f'{where}.type = {ctype!r} is not a constraint type; allowed: '
+        raise ConfigError(f'{where}.type = {brief(ctype)} is not a constraint type; allowed: '
                           + ', '.join(CONSTRAINT_TYPES))
     needed = _POINTS[ctype]
     allowed = set(needed) | {'type', 'name', 'limits'}
@@ -135,9 +132,11 @@ def parse_constraint(entry: Any, where: str) -> Constraint:
                               f'with {first}, so the line has no direction')
     limits = entry.get('limits')
     if limits is not None:
-        if not _is_numeric_list(limits) or len(limits) != 2 or not limits[0] < limits[1]:
+        ends = isinstance(limits, (list, tuple)) and len(limits) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in limits)   # +-inf: no limit
+        if not ends or not limits[0] < limits[1]:
             raise ConfigError(f'{where}.limits must be [min, max] with min < max (m, or rad for A1); '
-                              f'got {limits!r}')
+                              f'got {brief(limits)}')
         limits = (float(limits[0]), float(limits[1]))
     name = entry.get('name', '')
     return Constraint(type=ctype, A_i=pts['A_i'], B_i=pts['B_i'], A_j=pts.get('A_j'), B_j=pts.get('B_j'),
@@ -155,7 +154,7 @@ class GeneralizedStewartPlatform(Mechanism):
             raise ConfigError(f'a six-DOF GSP needs exactly 6 constraints; got {len(constraints)}')
         if not (np.isfinite(characteristic_length) and characteristic_length > 0):
             raise ConfigError('characteristic_length must be a positive length in m; '
-                              f'got {characteristic_length!r}')
+                              f'got {brief(characteristic_length)}')
         self.constraints = list(constraints)
         self.name = name
         self.characteristic_length = float(characteristic_length)
@@ -195,13 +194,13 @@ class GeneralizedStewartPlatform(Mechanism):
         cons = data.get('constraints')
         if not isinstance(cons, list):
             raise ConfigError(f'{source}: key constraints must be a list of 6 constraint mappings; '
-                              f'got {cons!r}')
+                              f'got {brief(cons)}')
         if len(cons) != 6:
             raise ConfigError(f'{source}: key constraints must list exactly 6 constraints; got {len(cons)}')
         parsed = [parse_constraint(c, f'{source}: constraints[{k}]') for k, c in enumerate(cons)]
         L = data.get('characteristic_length', 0.1)
         if not isinstance(L, (int, float)) or isinstance(L, bool) or not L > 0:
-            raise ConfigError(f'{source}: characteristic_length must be a positive length in m; got {L!r}')
+            raise ConfigError(f'{source}: characteristic_length must be a positive length in m; got {brief(L)}')
         euler = data.get('euler', 'xyz')
         try:
             check_euler_convention(euler)
@@ -220,11 +219,8 @@ class GeneralizedStewartPlatform(Mechanism):
         allowed = self.parameters()
         for key, val in params.items():
             if key not in allowed:
-                raise InputError(f'{self.name}: unknown parameter {key!r}; allowed: {sorted(allowed)}')
-            arr = np.asarray(val, dtype=float)
-            if arr.shape != (6, 3):
-                raise InputError(f'{self.name}: parameter {key} must have shape (6, 3); got {arr.shape}')
-            p[key] = arr
+                raise InputError(f'{self.name}: unknown parameter {brief(key)}; allowed: {sorted(allowed)}')
+            p[key] = bounded(val, f'{self.name}: parameter {key}', (6, 3))
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new.A_i, new.A_j, new.B_i, new.B_j = p['A_i'], p['A_j'], p['B_i'], p['B_j']

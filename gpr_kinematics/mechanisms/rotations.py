@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, brief
 
 
 def _axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
@@ -18,7 +18,7 @@ def _axis_rotation(axis: str, angle: np.ndarray) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     k = 'xyz'.find(axis.lower())
     if k < 0 or len(axis) != 1:
-        raise InputError(f'unknown rotation axis {axis!r}; allowed: x, y, z')
+        raise InputError(f'unknown rotation axis {brief(axis)}; allowed: x, y, z')
     i, j = (k + 1) % 3, (k + 2) % 3
     R = np.zeros(np.shape(angle) + (3, 3))
     R[..., k, k] = 1.0
@@ -37,7 +37,7 @@ def check_euler_convention(convention: str) -> str:
             or convention[0].lower() == convention[1].lower()
             or convention[1].lower() == convention[2].lower()):
         raise InputError('Euler convention must be three axes from xyz (lower case = extrinsic, upper case '
-                         f'= intrinsic, no axis twice in a row), e.g. xyz or ZXZ; got {convention!r}')
+                         f'= intrinsic, no axis twice in a row), e.g. xyz or ZXZ; got {brief(convention)}')
     return convention
 
 

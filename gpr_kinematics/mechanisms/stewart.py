@@ -20,20 +20,19 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys, number_key
-from ..errors import ConfigError, InputError
+from ..config import check_keys, number_array, number_key
+from ..errors import ConfigError, InputError, brief
+from ..validation import MAX_COORDINATE
 from .base import as_poses, check_euler_convention
 from .gsp import Constraint, GeneralizedStewartPlatform
 
 
 def _vector(data: Mapping[str, Any], key: str, source: str, length: int, unit: str) -> np.ndarray:
     val = data.get(key)
-    try:
-        arr = np.asarray(val, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.shape != (length,) or not np.all(np.isfinite(arr)):
-        raise ConfigError(f'{source}: {key} must be a list of {length} finite numbers ({unit}); got {val!r}')
+    arr = number_array(val, (length,))
+    if arr is None:
+        raise ConfigError(f'{source}: {key} must be a list of {length} finite numbers ({unit}, |value| <= '
+                          f'{MAX_COORDINATE:g}); got {brief(val)}')
     return arr
 
 
@@ -41,12 +40,10 @@ def _points(data: Mapping[str, Any], prefix: str, source: str) -> np.ndarray:
     """Six joint points ``(6, 3)`` from ``<prefix>_points`` or ``<prefix>_radius`` + ``<prefix>_azimuths``."""
     if f'{prefix}_points' in data:
         val = data[f'{prefix}_points']
-        try:
-            arr = np.asarray(val, dtype=float)
-        except (TypeError, ValueError):
-            arr = None
-        if arr is None or arr.shape != (6, 3) or not np.all(np.isfinite(arr)):
-            raise ConfigError(f'{source}: {prefix}_points must be 6 points [x, y, z] in m; got {val!r}')
+        arr = number_array(val, (6, 3))
+        if arr is None:
+            raise ConfigError(f'{source}: {prefix}_points must be 6 points [x, y, z] in m (|x| <= '
+                              f'{MAX_COORDINATE:g}); got {brief(val)}')
         return arr
     r = number_key(data, f'{prefix}_radius', source)
     az = _vector(data, f'{prefix}_azimuths', source, 6, 'rad')
@@ -100,13 +97,11 @@ class StewartPlatform(GeneralizedStewartPlatform):
             limits = (lo, hi)
         traj = None
         if 'trajectory' in data:
-            try:
-                traj = np.asarray(data['trajectory'], dtype=float)
-            except (TypeError, ValueError):
-                traj = None
-            if traj is None or traj.ndim != 2 or traj.shape[1] != 6 or not np.all(np.isfinite(traj)):
+            raw = data['trajectory']
+            traj = number_array(raw, (len(raw), 6)) if isinstance(raw, list) and raw else None
+            if traj is None:
                 raise ConfigError(f'{source}: trajectory must be a list of poses [x, y, z, psi, theta, phi] '
-                                  f'(m, rad); got {data["trajectory"]!r}')
+                                  f'(m, rad); got {brief(data["trajectory"])}')
         dq = _vector(data, 'leg_deformations', source, 6, 'm') if 'leg_deformations' in data else None
         return cls(a, b, name=str(data.get('name', 'Gough-Stewart platform')), characteristic_length=L,
                    euler_convention=euler, leg_limits=limits, trajectory=traj, leg_deformations=dq)
@@ -120,7 +115,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
         """Closed form ``d s / d A_i``, ``d s / d B_i`` ``(N, 6, 18)`` (block-diagonal, row-major points)."""
         arr, _ = as_poses(poses)
         if name not in ('A_i', 'B_i'):
-            raise InputError(f'{self.name}: unknown parameter {name!r}; allowed: A_i, B_i')
+            raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: A_i, B_i')
         R, _, v, _ = self._terms(arr)
         n = v / np.linalg.norm(v, axis=-1, keepdims=True)
         blocks = -n if name == 'A_i' else np.einsum('nji,nkj->nki', R, n)  # R^T n
@@ -140,7 +135,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
         """
         s = np.atleast_2d(np.asarray(lengths, dtype=float))
         if s.shape[-1] != 6 or not np.all(np.isfinite(s)) or np.any(s <= 0):
-            raise InputError(f'leg lengths must be 6 positive finite numbers (m) per pose; got {lengths!r}')
+            raise InputError(f'leg lengths must be 6 positive finite numbers (m) per pose; got {brief(lengths)}')
         if guess is None:
             dz = np.mean(self.B_i[:, 2] - self.A_i[:, 2])
             guess = np.zeros((s.shape[0], 6))

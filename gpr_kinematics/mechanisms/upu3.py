@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys, number_key
-from ..errors import ConfigError
+from ..config import check_keys, number_array, number_key
+from ..errors import ConfigError, brief
+from ..validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
 
 SINGULARITY_TOLERANCE = 1e-9
@@ -43,7 +44,7 @@ class UPU3(Mechanism):
             raise ConfigError(f'limb_min = {limb_min} must be below limb_max = {limb_max} (m)')
         az = np.asarray(azimuths, dtype=float)
         if az.shape != (3,) or not np.all(np.isfinite(az)):
-            raise ConfigError(f'base_azimuths must be 3 finite angles in rad; got {azimuths!r}')
+            raise ConfigError(f'base_azimuths must be 3 finite angles in rad; got {brief(azimuths)}')
         self.b, self.p = float(b), float(p)
         self.azimuths = az
         self.name = name
@@ -63,12 +64,9 @@ class UPU3(Mechanism):
         if not lo < hi:
             raise ConfigError(f'{source}: limb_min = {lo} must be below limb_max = {hi} (m)')
         az = data.get('base_azimuths', [np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6])
-        try:
-            az_arr = np.asarray(az, dtype=float)
-        except (TypeError, ValueError):
-            az_arr = None
-        if az_arr is None or az_arr.shape != (3,) or not np.all(np.isfinite(az_arr)):
-            raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {az!r}')
+        az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
+        if az_arr is None:
+            raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
         L = data.get('characteristic_length')
         if L is not None:
             L = number_key(data, 'characteristic_length', source)
@@ -83,9 +81,9 @@ class UPU3(Mechanism):
         new.__dict__.update(self.__dict__)
         for key, val in params.items():
             if key not in ('base_points', 'platform_points'):
-                raise ConfigError(f'{self.name}: unknown parameter {key!r}; '
+                raise ConfigError(f'{self.name}: unknown parameter {brief(key)}; '
                                   'allowed: base_points, platform_points')
-            setattr(new, key, np.asarray(val, dtype=float).reshape(3, 3))
+            setattr(new, key, bounded(val, f'{self.name}: parameter {key}').reshape(3, 3))
         return new
 
     def complete_pose(self, poses: Any) -> np.ndarray:

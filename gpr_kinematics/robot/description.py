@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..config import GprConfig, check_keys, load_config, number_key, read_yaml
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from ..resources import config_path
 from .transforms import rpy_matrix
 
@@ -204,7 +204,7 @@ class RobotDescription:
         for a in self.arms:
             if a.name == name:
                 return a
-        raise ConfigError(f'{self.source}: no arm {name!r}; allowed: {", ".join(self.arm_names)}')
+        raise ConfigError(f'{self.source}: no arm {brief(name)}; allowed: {", ".join(self.arm_names)}')
 
 
 def _arm_dict(arm: Arm) -> dict[str, Any]:
@@ -232,7 +232,7 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
             default: float | None = None, unit: str = 'm') -> float:
     value = number_key(data, key, where, default=default, positive=False, unit=unit)
     if not lo <= value <= hi:
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: {allowed}')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {allowed}')
     return value
 
 
@@ -241,7 +241,7 @@ def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float,
     raw = data.get(key, default)
     allowed = f'a list of {n} finite numbers in {unit}, each within [-{bound:g}, {bound:g}]'
     if not isinstance(raw, (list, tuple)) or len(raw) != n:
-        raise ConfigError(f'{where}: {key} = {raw!r} is invalid; allowed: {allowed}')
+        raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
     out = []
     for i, v in enumerate(raw):
         out.append(_number({f'{key}[{i}]': v}, f'{key}[{i}]', where, -bound, bound, allowed, unit=unit))
@@ -262,7 +262,7 @@ def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
 def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
     value = data.get(key, default)
     if not isinstance(value, str) or not _NAME.match(value):
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: {_NAME_RULE}')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {_NAME_RULE}')
     return value
 
 
@@ -300,11 +300,11 @@ def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundanc
     check_keys(data, ('rule', 'joint', 'value', 'reference', 'weights'), where)
     rule = data.get('rule')
     if rule not in REDUNDANCY_RULES:
-        raise ConfigError(f'{where}: rule = {rule!r} is invalid; allowed: {" or ".join(REDUNDANCY_RULES)}')
+        raise ConfigError(f'{where}: rule = {brief(rule)} is invalid; allowed: {" or ".join(REDUNDANCY_RULES)}')
     names = [j.name for j in joints]
     joint = data.get('joint', names[0] if rule == 'nearest' else None)
     if joint not in names:
-        raise ConfigError(f'{where}: joint = {joint!r} is invalid; allowed: one of {", ".join(names)}')
+        raise ConfigError(f'{where}: joint = {brief(joint)} is invalid; allowed: one of {", ".join(names)}')
     k = names.index(joint)
     if rule == 'fixed_joint':
         check_keys(data, ('rule', 'joint', 'value'), f'{where} (rule fixed_joint)')
@@ -318,7 +318,7 @@ def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundanc
     reference = _vector(data, 'reference', where, len(joints), 2 * math.pi, 'rad', default=mid)
     weights = _vector(data, 'weights', where, len(joints), 1e6, '(no unit)', default=[1.0] * len(joints))
     if min(weights) < 0.0 or max(weights) <= 0.0:
-        raise ConfigError(f'{where}: weights = {list(weights)!r} is invalid; allowed: numbers >= 0, not all 0')
+        raise ConfigError(f'{where}: weights = {brief(list(weights))} is invalid; allowed: numbers >= 0, not all 0')
     return Redundancy(rule, k, reference=reference, weights=weights)
 
 
@@ -346,7 +346,7 @@ def _arm(raw: Any, where: str) -> Arm:
                   wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, _LENGTH_BOUND))
     branch = data.get('branch', 'right')
     if branch not in BRANCHES:
-        raise ConfigError(f'{where}: branch = {branch!r} is invalid; allowed: left or right')
+        raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left or right')
     home_default = [min(max(0.0, j.lower), j.upper) for j in joints]
     home = _vector(data, 'home', where, len(joints), 2 * math.pi, 'rad', default=home_default)
     for j, v in zip(joints, home, strict=True):
@@ -377,7 +377,8 @@ def _gpr(raw: Any, source: str, base_dir: Path) -> GprConfig:
     data = _mapping(raw if raw is not None else {}, where, 'config (a geometry file) and geometry keys')
     path = data.get('config')
     if path is not None and not isinstance(path, str):
-        raise ConfigError(f'{where}: config = {path!r} is invalid; allowed: a path to a geometry YAML file or null')
+        raise ConfigError(f'{where}: config = {brief(path)} is invalid; allowed: a path to a geometry YAML file or '
+                          'null')
     overrides = {k: v for k, v in data.items() if k != 'config'}
     file = None if path is None else (base_dir / path if not Path(path).is_absolute() else Path(path))
     try:
@@ -400,7 +401,7 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
     rwhere = f'{source}: rods'
     raw_names = rods_data.get('names', ['rod1', 'rod2', 'rod3'])
     if not isinstance(raw_names, list) or len(raw_names) != 3:
-        raise ConfigError(f'{rwhere}: names = {raw_names!r} is invalid; allowed: a list of 3 names ({_NAME_RULE})')
+        raise ConfigError(f'{rwhere}: names = {brief(raw_names)} is invalid; allowed: a list of 3 names ({_NAME_RULE})')
     rod_names = tuple(_name({'names': n}, 'names', rwhere) for n in raw_names)
     rods = Rods(names=(rod_names[0], rod_names[1], rod_names[2]),
                 velocity=_number(rods_data, 'velocity', rwhere, 1e-6, 10.0, 'm/s, 0 < velocity <= 10', unit='m/s'),
@@ -433,9 +434,9 @@ def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig 
     Raises:
         ConfigError: unreadable file, invalid YAML, unknown key, a value outside its range.
     """
-    file = config_path(DEFAULT_ROBOT) if path is None else Path(path)
+    file = config_path(DEFAULT_ROBOT) if path is None else path
     cfg = load_config(geometry) if isinstance(geometry, (str, Path)) else geometry
-    robot = parse_robot(read_yaml(file, 'robot'), str(file), file.parent, cfg)
+    robot = parse_robot(read_yaml(file, 'robot'), str(file), Path(file).parent, cfg)
     if model is not None:
         try:
             robot = dataclasses.replace(robot, config=robot.config.replace(model=model))

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..files import atomic_output, check_output
 from .plan import PlanSamples, ProgramPlan
 
 TABLE_FORMAT = 'gpr_joint_table'
@@ -53,22 +54,31 @@ def sample_table(plan: ProgramPlan, sampled: PlanSamples) -> tuple[list[str], li
     return columns, rows
 
 
-def write_table(path: str | Path, columns: list[str], rows: list[list[Any]], meta: dict[str, Any]) -> None:
-    """Write a table to ``path`` (``.csv`` or ``.json``, module docstring); ConfigError if it cannot."""
-    path = Path(path)
-    suffix = path.suffix.lower()
+def check_table_path(path: str | Path) -> Path:
+    """The output ``path`` of a table, checked before any work: ``.csv`` or ``.json``, and writable
+    (:func:`gpr_kinematics.files.check_output`)."""
+    target = check_output(path, 'joint table')
+    suffix = target.suffix.lower()
     if suffix not in ('.csv', '.json'):
         raise ConfigError(f'output file {str(path)!r}: unknown type {suffix or "(none)"}; allowed: .csv or .json')
-    try:
-        with open(path, 'w', encoding='utf-8', newline='') as fh:
-            if suffix == '.csv':
-                writer = csv.writer(fh, lineterminator='\n')
-                writer.writerow(columns)
-                writer.writerows(rows)
-            else:
-                json.dump({'format': TABLE_FORMAT, 'version': 1, **meta,
-                           'units': {'length': 'm', 'angle': 'rad', 'time': 's'}, 'columns': columns, 'rows': rows},
-                          fh, allow_nan=False)
-                fh.write('\n')
-    except OSError as exc:
-        raise ConfigError(f'cannot write {str(path)!r}: {exc.strerror or exc}') from None
+    return target
+
+
+def write_table(path: str | Path, columns: list[str], rows: list[list[Any]], meta: dict[str, Any]) -> Path:
+    """Write a table to ``path`` (``.csv`` or ``.json``, module docstring) atomically; returns the path written.
+
+    Raises:
+        ConfigError: an unknown file type; FileError (a ConfigError): the file cannot be written.
+    """
+    check_table_path(path)
+    with atomic_output(path, 'joint table') as fh:
+        if Path(path).suffix.lower() == '.csv':
+            writer = csv.writer(fh, lineterminator='\n')
+            writer.writerow(columns)
+            writer.writerows(rows)
+        else:
+            json.dump({'format': TABLE_FORMAT, 'version': 1, **meta,
+                       'units': {'length': 'm', 'angle': 'rad', 'time': 's'}, 'columns': columns, 'rows': rows},
+                      fh, allow_nan=False)
+            fh.write('\n')
+    return Path(path)

@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError, LimitError
+from ..errors import InputError, LimitError, brief
 from ..geometry import rotation_z
 from ..kinematics import ForwardBatch, forward_batch, naive_forward
 from .description import Arm, RobotDescription
@@ -38,8 +38,8 @@ def as_rows(values: ArrayLike, name: str, width: int, names: tuple[str, ...] | N
     value (by ``names`` when given) and the sample."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be numbers, got {values!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim == 1:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != width:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, InputError, LimitError
+from ..errors import ConvergenceError, InputError, LimitError, brief
 from ..geometry import tilt_from_normal, tilt_rotation
 from ..kinematics import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
 from .description import BRANCHES, Arm, RobotDescription
@@ -119,7 +119,7 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
             raise InputError(f'branch must be one value or one per station ({n}), got {len(names)}')
     for b in set(names):
         if b not in BRANCHES:
-            raise InputError(f'branch = {b!r} is invalid; allowed: left or right')
+            raise InputError(f'branch = {brief(b)} is invalid; allowed: left or right')
     right = np.asarray(names) == 'right' if n else np.zeros(0, dtype=bool)
     return names, np.where(right, branch_sign('right'), branch_sign('left'))
 

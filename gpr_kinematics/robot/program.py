@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys, read_yaml
-from ..errors import ConfigError
+from ..config import check_keys, is_number, read_yaml
+from ..errors import ConfigError, brief
 from .description import RobotDescription
 from .station_files import StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
 from .stations import Stations
@@ -81,10 +81,9 @@ class RobotProgram:
 
 
 def _seconds(value: Any, where: str, key: str, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0 \
-            or (positive and value == 0) or value > 1e6:
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: seconds, {"> 0" if positive else ">= 0"} '
-                          'and at most 1e6')
+    if not is_number(value) or value < 0 or (positive and value == 0) or value > 1e6:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: seconds, '
+                          f'{"> 0" if positive else ">= 0"} and at most 1e6')
     return float(value)
 
 
@@ -105,10 +104,10 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
                           f'"format: {FORMAT}" with stations (position, tilt, azimuth, heading) and steps '
                           '(docs/robot.md#programs)')
     if data.get('format') != FORMAT:
-        raise ConfigError(f'{source}: format = {data.get("format")!r} is invalid; allowed: {FORMAT}')
+        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
     check_keys(data, _KEYS, source)
     if data.get('version', 1) not in VERSIONS:
-        raise ConfigError(f'{source}: version = {data.get("version")!r} is invalid; allowed: 1')
+        raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')
     length, _ = units_of(data, source)
     base = Path(base_dir)
     rows = stations_from_yaml({'units': data.get('units', {}), 'stations': data.get('stations', [])}, source)
@@ -124,12 +123,13 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     heights = []
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value * length <= 0.1:
-            raise ConfigError(f'{dw}: {key} = {value!r} is invalid; allowed: 0 to 0.1 m (in the file\'s length unit)')
+        if not is_number(value) or not 0 <= value * length <= 0.1:
+            raise ConfigError(f'{dw}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in the file\'s length '
+                              'unit)')
         heights.append(float(value) * length)
     robot = data.get('robot')
     if robot is not None and not isinstance(robot, str):
-        raise ConfigError(f'{source}: robot = {robot!r} is invalid; allowed: a path to a robot description')
+        raise ConfigError(f'{source}: robot = {brief(robot)} is invalid; allowed: a path to a robot description')
     return RobotProgram(
         stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),
         branch=_optional_text(defaults, 'branch', dw), approach_height=heights[0], retract_height=heights[1],
@@ -152,7 +152,7 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
 def _optional_text(data: Mapping[str, Any], key: str, where: str) -> str | None:
     value = data.get(key)
     if value is not None and not isinstance(value, str):
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: a name')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a name')
     return value
 
 
@@ -179,7 +179,7 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         station = st[kind]
         if not isinstance(station, (str, int)) or str(station) not in names:
             known = ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
-            raise ConfigError(f'{where}: {kind} {station!r}: no such station; allowed: {known}')
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station; allowed: {known}')
         time = st.get('time')
         out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
                         _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None,
@@ -191,8 +191,8 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
 
 def load_program(path: str | Path) -> RobotProgram:
     """Read and validate a robot program file; :class:`ConfigError` names what is wrong."""
-    path = Path(path)
-    return parse_program(read_yaml(path, 'program'), str(path), path.parent)
+    data = read_yaml(path, 'program')  # the name as given: an empty one is refused, not read as '.'
+    return parse_program(data, str(path), Path(path).parent)
 
 
 @dataclass(frozen=True)
@@ -243,10 +243,11 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
         try:
             a = robot.arm(arm)
         except ConfigError:
-            raise ConfigError(f'{where}: arm = {arm!r} is invalid; allowed: {", ".join(robot.arm_names)}') from None
+            raise ConfigError(f'{where}: arm = {brief(arm)} is invalid; allowed: {", ".join(robot.arm_names)}'
+                              ) from None
         branch = step.branch or table.branch[i] or program.branch or a.branch
         if branch not in ('left', 'right'):
-            raise ConfigError(f'{where}: branch = {branch!r} is invalid; allowed: left or right')
+            raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left or right')
         own_approach, own_retract = table.approach_height[i], table.retract_height[i]
         approach = own_approach if own_approach is not None else program.approach_height
         retract = own_retract if own_retract is not None else program.retract_height

@@ -25,9 +25,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
-import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,21 +33,22 @@ from typing import Any
 
 import numpy as np
 
-from ..config import check_keys
-from ..errors import ConfigError
+from .. import units
+from ..config import check_keys, is_number
+from ..errors import ConfigError, brief
+from ..files import read_text
+from ..units import ANGLE_UNITS, LENGTH_UNITS
+from ..validation import MAX_COORDINATE
 from .description import BRANCHES
 from .stations import Stations
 
 #: Largest station file read [bytes] and most stations in a program.
 MAX_BYTES = 10 * 1024 * 1024
 MAX_STATIONS = 100_000
-LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
-ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 _LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height')
 _NAME = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
-_HEADER = re.compile(r'^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[\s*([A-Za-z]+)\s*\])?\s*$')
 
 
 @dataclass(frozen=True)
@@ -93,8 +92,8 @@ class StationRows:
         seen: dict[str, int] = {}
         for i, name in enumerate(self.names):
             if name in seen:
-                raise ConfigError(f'{source}: station name {name!r} is used twice (stations {seen[name]} and {i}); '
-                                  'names must be unique')
+                raise ConfigError(f'{source}: station name {brief(name)} is used twice (stations {seen[name]} and '
+                                  f'{i}); names must be unique')
             seen[name] = i
         if len(self.names) > MAX_STATIONS:
             raise ConfigError(f'{source}: {len(self.names)} stations; allowed: at most {MAX_STATIONS}')
@@ -110,25 +109,26 @@ def units_of(data: Mapping[str, Any], where: str) -> tuple[float, float]:
     """Scale factors (length, angle) to SI from a ``units`` mapping (absent: SI)."""
     units = data.get('units', {})
     if not isinstance(units, Mapping):
-        raise ConfigError(f'{where}: units must be a mapping {{length: m|mm, angle: rad|deg}}, got {units!r}')
+        raise ConfigError(f'{where}: units must be a mapping {{length: m|mm, angle: rad|deg}}, got {brief(units)}')
     check_keys(units, ('length', 'angle'), f'{where}: units')
     length, angle = units.get('length', 'm'), units.get('angle', 'rad')
-    if length not in LENGTH_UNITS:
-        raise ConfigError(f'{where}: units: length = {length!r} is invalid; allowed: m or mm')
-    if angle not in ANGLE_UNITS:
-        raise ConfigError(f'{where}: units: angle = {angle!r} is invalid; allowed: rad or deg')
+    if not isinstance(length, str) or length not in LENGTH_UNITS:   # a list from YAML is not even hashable
+        raise ConfigError(f'{where}: units: length = {brief(length)} is invalid; allowed: m or mm')
+    if not isinstance(angle, str) or angle not in ANGLE_UNITS:
+        raise ConfigError(f'{where}: units: angle = {brief(angle)} is invalid; allowed: rad or deg')
     return LENGTH_UNITS[length], ANGLE_UNITS[angle]
 
 
 def _number(value: Any, where: str, key: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: a finite number in {unit}')
+    if not is_number(value):
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit} (of '
+                          f'magnitude at most {MAX_COORDINATE:g})')
     return float(value)
 
 
 def _name(value: Any, where: str) -> str:
     if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.match(str(value)):
-        raise ConfigError(f'{where}: name = {value!r} is invalid; allowed: 1 to 64 letters, digits, _ . -')
+        raise ConfigError(f'{where}: name = {brief(value)} is invalid; allowed: 1 to 64 letters, digits, _ . -')
     return str(value)
 
 
@@ -136,7 +136,7 @@ def _branch(value: Any, where: str) -> str | None:
     if value is None or value == '':
         return None
     if value not in BRANCHES:
-        raise ConfigError(f'{where}: branch = {value!r} is invalid; allowed: left, right or empty (the arm\'s)')
+        raise ConfigError(f'{where}: branch = {brief(value)} is invalid; allowed: left, right or empty (the arm\'s)')
     return str(value)
 
 
@@ -145,7 +145,7 @@ def _height(value: Any, where: str, key: str, scale: float, unit: str) -> float 
         return None
     h = _number(value, where, key, unit) * scale
     if not 0.0 <= h <= 0.1:
-        raise ConfigError(f'{where}: {key} = {value!r} is invalid; allowed: 0 to 0.1 m (in {unit})')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in {unit})')
     return h
 
 
@@ -172,7 +172,7 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         w = f'{w} ({name})'
         pos = st['position']
         if not isinstance(pos, list) or len(pos) != 3:
-            raise ConfigError(f'{w}: position = {pos!r} is invalid; allowed: [x, y, z] in {lunit}')
+            raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
         x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
         rows.position.append((x, y, z))
@@ -184,29 +184,6 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         rows.approach.append(_height(st.get('approach_height'), w, 'approach_height', length, lunit))
         rows.retract.append(_height(st.get('retract_height'), w, 'retract_height', length, lunit))
     return rows
-
-
-def read_text(path: Path, what: str) -> str:
-    """A bounded UTF-8 text file: a regular file of at most :data:`MAX_BYTES` (a FIFO or device is refused)."""
-    try:
-        info = os.stat(path)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if not stat.S_ISREG(info.st_mode):
-        raise ConfigError(f'{what} file {str(path)!r} is not a regular file; allowed: a regular text file')
-    if info.st_size > MAX_BYTES:
-        raise ConfigError(f'{what} file {str(path)!r} has {info.st_size} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        with open(path, 'rb') as fh:
-            data = fh.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f'cannot read {what} file {str(path)!r}: {exc.strerror or exc}') from None
-    if len(data) > MAX_BYTES:
-        raise ConfigError(f'{what} file {str(path)!r} has more than {MAX_BYTES} bytes; allowed: at most {MAX_BYTES}')
-    try:
-        return data.decode('utf-8-sig')
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f'{what} file {str(path)!r} is not UTF-8 text (byte {exc.start}); allowed: UTF-8') from None
 
 
 @dataclass(frozen=True)
@@ -238,27 +215,41 @@ class CsvTable:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            raise ConfigError(f'{where or self.row_where(r)}: {key} = {text!r} is invalid; allowed: a finite number '
-                              f'in {self.columns[key][2]}')
+            raise ConfigError(f'{where or self.row_where(r)}: {key} = {brief(text)} is invalid; allowed: a finite '
+                              f'number in {self.columns[key][2]}')
         return value * self.columns[key][1]
 
 
 def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple[str, ...]) -> CsvTable:
     """Parse a CSV text with a header row; ``kinds`` maps each allowed column to ``length``, ``angle`` or
-    ``text`` (lengths in m or mm, angles in rad or deg, SI when no unit is given); ``required`` columns must be
-    there. Bounded by :data:`MAX_STATIONS` rows; ConfigError names the line and the field."""
+    ``text``; ``required`` columns must be there. Units (:mod:`gpr_kinematics.units`): a column's own in brackets
+    (``x [mm]``), else the file's from a ``# units: mm deg`` line before the header, else SI. Lines whose first
+    field starts with ``#`` are comments. Bounded by :data:`MAX_STATIONS` rows; ConfigError names the line and
+    the field."""
     try:
         lines = list(csv.reader(io.StringIO(text, newline='')))
     except csv.Error as exc:
         raise ConfigError(f'{where}: not valid CSV ({exc})') from None
-    numbered = [(n, row) for n, row in enumerate(lines, start=1) if row and not (len(row) == 1 and not row[0].strip())]
+    numbered: list[tuple[int, list[str]]] = []
+    defaults: units.FileUnits = (None, None)
+    for n, row in enumerate(lines, start=1):
+        if not row or (len(row) == 1 and not row[0].strip()):
+            continue
+        if row[0].lstrip().startswith('#'):
+            line = ','.join(row).strip()
+            if units.is_units_line(line):
+                if numbered or defaults != (None, None):
+                    raise ConfigError(f'{where}: line {n}: "# units:" must come once, before the header row')
+                defaults = units.file_units(line, f'{where}: line {n}')
+            continue
+        numbered.append((n, row))
     if not numbered:
         raise ConfigError(f'{where}: empty; a header row ({", ".join(required)}, ...) and one row per entry are '
                           'required')
     header = numbered[0][1]
     if len(numbered) - 1 > MAX_STATIONS:
         raise ConfigError(f'{where}: {len(numbered) - 1} rows; allowed: at most {MAX_STATIONS}')
-    cols = _header_columns(header, where, kinds)
+    cols = _header_columns(header, where, kinds, defaults)
     missing = [k for k in required if k not in cols]
     if missing:
         raise ConfigError(f'{where}: the header lacks the column(s) {", ".join(missing)}; required: '
@@ -269,27 +260,22 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
     return CsvTable(where, cols, [row for _, row in numbered[1:]], [n for n, _ in numbered[1:]])
 
 
-def _header_columns(header: list[str], where: str, kinds: dict[str, str]) -> dict[str, tuple[int, float, str]]:
-    """Column name -> (index, factor to SI, unit) of a header row (module docstring: units in brackets)."""
+def _header_columns(header: list[str], where: str, kinds: dict[str, str], defaults: units.FileUnits
+                    ) -> dict[str, tuple[int, float, str]]:
+    """Column name -> (index, factor to SI, unit) of a header row (:mod:`gpr_kinematics.units`)."""
     cols: dict[str, tuple[int, float, str]] = {}
     for i, cell in enumerate(header):
-        m = _HEADER.match(cell)
-        if not m or m.group(1) not in kinds:
-            raise ConfigError(f'{where}: header column {i + 1} {cell!r} is invalid; allowed: {", ".join(kinds)}, '
+        try:
+            key, unit = units.column(cell, where)
+        except ConfigError:
+            key, unit = '', None
+        if key not in kinds:
+            raise ConfigError(f'{where}: header column {i + 1} {brief(cell)} is invalid; allowed: {", ".join(kinds)}, '
                               'each with an optional unit in brackets, e.g. "x [mm]"')
-        key, unit = m.group(1), m.group(2)
         if key in cols:
             raise ConfigError(f'{where}: column {key} appears twice in the header')
-        units = {'length': LENGTH_UNITS, 'angle': ANGLE_UNITS}.get(kinds[key])
-        if units is None:
-            if unit:
-                raise ConfigError(f'{where}: column {key} takes no unit, got [{unit}]')
-            cols[key] = (i, 1.0, '')
-            continue
-        unit = unit or ('m' if kinds[key] == 'length' else 'rad')
-        if unit not in units:
-            raise ConfigError(f'{where}: column {key}: unit [{unit}] is invalid; allowed: {" or ".join(units)}')
-        cols[key] = (i, units[unit], unit)
+        factor, name = units.scale(kinds[key], unit, defaults, where, key)
+        cols[key] = (i, factor, name)
     return cols
 
 
@@ -316,7 +302,7 @@ def stations_from_csv(text: str, where: str) -> StationRows:
         for key, target in (('approach_height', rows.approach), ('retract_height', rows.retract)):
             value = table.number(r, key, None, w)
             if value is not None and not 0.0 <= value <= 0.1:
-                raise ConfigError(f'{w}: {key} = {table.text(r, key)!r} is invalid; allowed: 0 to 0.1 m (in '
+                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} is invalid; allowed: 0 to 0.1 m (in '
                                   f'{table.columns[key][2]})')
             target.append(value)
     return rows
@@ -330,7 +316,7 @@ def load_stations(path: str | Path) -> StationTable:
 def read_station_rows(path: Path) -> StationRows:
     suffix = path.suffix.lower()
     if suffix == '.csv':
-        return stations_from_csv(read_text(path, 'station'), str(path))
+        return stations_from_csv(read_text(path, 'station', MAX_BYTES), str(path))
     if suffix in ('.yaml', '.yml'):
         from ..config import read_yaml
         return stations_from_yaml(read_yaml(path, 'station'), str(path))

@@ -19,8 +19,9 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..geometry import rotation_z, tilt_from_matrix, tilt_rotation
+from ..validation import bounded
 from .forward import as_rows
 
 Array = NDArray[np.float64]
@@ -30,8 +31,8 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
     """One finite number [rad] or one per station, as an array ``(n,)``; InputError names the value."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f'{name} must be numbers, got {values!r}') from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != n):
         raise InputError(f'{name} must be one number or {n} numbers (one per station), got shape {a.shape}')
     a = np.broadcast_to(a, (n,)).astype(float)
@@ -68,6 +69,7 @@ class Stations:
         (1, ('0',))
         """
         P = as_rows(position, 'position', 3, ('x', 'y', 'z'))
+        bounded(P, 'station position [m]')
         n = P.shape[0]
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
         if heading_free is not None:

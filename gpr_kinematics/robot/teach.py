@@ -19,12 +19,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._ops import ARRAY
 from ..errors import ConfigError
+from ..files import read_text
+from ..forward import check_stroke
 from .description import RobotDescription
-from .forward import RobotForward, robot_forward
+from .forward import RobotForward, as_rows, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
-from .station_files import read_csv_table, read_text
+from .station_files import MAX_BYTES, read_csv_table
 from .stations import Stations, stations_from_poses
 
 Array = NDArray[np.float64]
@@ -82,10 +85,13 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     """New joints for old joints ``(N, 3)``, ``(N, n)`` that the naive model computed (module docstring).
 
     Raises:
-        LimitError: an old joint beyond its limits, or an intended station the real robot cannot reach.
+        LimitError: an old rod outside the stroke (the old tool's rods were executed: they lie within it; a tilt
+            or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
     """
     a = robot.arm(arm)
-    old = robot_forward(robot, rods, joints, a.name, check_limits=False)
+    Q = as_rows(rods, 'rods', 3, robot.rods.names)
+    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
+    old = robot_forward(robot, Q, joints, a.name, check_limits=False)
     intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
     if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
         intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
@@ -104,7 +110,7 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     ``(names, rods (N, 3), joints (N, n))``. ConfigError names the line and the field."""
     a = robot.arm(arm)
     kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
-    table = read_csv_table(read_text(Path(path), 'joint table'), str(path), kinds,
+    table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
                            robot.rods.names + a.joint_names)
     rods = np.empty((len(table), 3))
     joints = np.empty((len(table), len(a.joints)))

@@ -27,8 +27,9 @@ Array = NDArray[np.float64]
 
 #: Joint changes below this [m or rad] do not move (and do not limit) a joint.
 STILL = 1e-15
-#: Most samples a program may be sampled into (memory bound).
-MAX_SAMPLES = 5_000_000
+#: Most samples a program may be sampled into: a sample costs about 1.8 kB until its table is written (its forward
+#: kinematics and a row of Python numbers), 0.36 GB at the limit (5,000,000 asked for 9 GB).
+MAX_SAMPLES = 200_000
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,89 @@
+"""Progress display and clean interruption (Ctrl-C) of a covering run."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+import time
+from types import FrameType
+from typing import Any, TextIO
+
+
+class Progress:
+    """One-line progress display on stderr, shown only once a run has lasted ``after`` seconds.
+
+    It shows the share of the initial box's volume already decided (inner, outside or boundary), the
+    bisection level and the largest pending box diameter against ``delta`` (the "delta level"), the boxes
+    processed so far, and the inner and boundary volumes (in the output variables' units).
+    """
+
+    def __init__(self, enabled: bool, stream: TextIO | None = None, after: float = 2.0, units: str = '') -> None:
+        self.enabled = enabled
+        self.stream = stream or sys.stderr
+        self.after = after
+        self.units = units
+        self.start = time.perf_counter()
+        self.shown = False
+        self._last: tuple[int, float, float, int, float, float, float] | None = None
+
+    def update(
+        self,
+        level: int,
+        diameter: float,
+        delta: float,
+        processed: int,
+        inner_volume: float,
+        boundary_volume: float,
+        done_frac: float,
+    ) -> None:
+        if not self.enabled:
+            return
+        self._last = (level, diameter, delta, processed, inner_volume, boundary_volume, done_frac)
+        elapsed = time.perf_counter() - self.start
+        if elapsed < self.after:
+            return
+        width = 24
+        frac = min(max(done_frac, 0.0), 1.0)
+        fill = int(round(width * frac))
+        self.stream.write(
+            f'\r[{"#" * fill}{"." * (width - fill)}] {100 * frac:5.1f}% of volume decided | level {level}, '
+            f'diameter {diameter * 1e3:.3g} mm (delta {delta * 1e3:.3g} mm) | {processed:,} boxes processed | '
+            f'inner {inner_volume:.4g}, boundary {boundary_volume:.4g} {self.units} | {elapsed:.1f} s '
+        )
+        self.stream.flush()
+        self.shown = True
+
+    def refresh(self) -> None:
+        """Show the last numbers again with the time elapsed (while waiting for a cluster's results)."""
+        if self._last is not None:
+            self.update(*self._last)
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write('\n')
+            self.stream.flush()
+
+
+class StopFlag:
+    """While alive, SIGINT (Ctrl-C) sets :attr:`raised` instead of raising KeyboardInterrupt (main thread).
+
+    The covering checks the flag between chunks, so a chunk is never half recorded.
+    """
+
+    def __init__(self) -> None:
+        self.raised = False
+        self._old: Any = None
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self._old = signal.signal(signal.SIGINT, self._handler)
+            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
+                self._old = None
+
+    def _handler(self, signum: int, frame: FrameType | None) -> None:
+        self.raised = True
+
+    def restore(self) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+            self._old = None

@@ -1,0 +1,170 @@
+"""Where the chunks of a covering level run: in this process, or on a ``dask.distributed`` cluster.
+
+The covering processes its pending boxes level by level; each level is cut into chunks of a fixed size
+(the same cut whatever runs them), each chunk is classified by a pure function of the model and the
+chunk, and the results are put back together in chunk order. So one process and any cluster give
+exactly the same boxes in the same order (on workers with the same numpy and libm).
+
+``scheduler``:
+
+* ``'none'``: every chunk in this process, one after the other;
+* ``'local'``: a ``distributed.LocalCluster`` with one single-threaded worker process per core (or
+  ``workers``), started the first time a level has more than one chunk (small runs never start it);
+* ``'tcp://HOST:PORT'`` (or ``tls://``): an existing Dask scheduler; its workers need this package
+  installed (same version).
+
+``dask`` and ``distributed`` are imported only here, only when a cluster is asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from ..errors import InputError
+
+SCHEDULERS = ('local', 'none')
+_ADDRESS = re.compile(r'^(tcp|tls)://[A-Za-z0-9_.\-\[\]:]+:\d{1,5}$')
+#: Seconds to wait for an existing scheduler before giving up.
+CONNECT_TIMEOUT = 10.0
+#: Most worker processes of a local cluster.
+MAX_WORKERS = 256
+
+StepFunction = Callable[..., Any]
+
+
+def check_scheduler(scheduler: str, workers: int | None = None) -> None:
+    """Refuse a scheduler that is neither ``none``, ``local`` nor a ``tcp://HOST:PORT`` address."""
+    if not isinstance(scheduler, str) or not (scheduler in SCHEDULERS or _ADDRESS.match(scheduler)):
+        raise InputError(
+            f'scheduler {str(scheduler)[:80]!r} is not allowed; allowed: none, local or a Dask scheduler '
+            'address tcp://HOST:PORT'
+        )
+    if workers is not None and not (isinstance(workers, int) and 1 <= workers <= MAX_WORKERS):
+        raise InputError(f'workers must be an integer from 1 to {MAX_WORKERS}, got {workers!r}')
+    if workers is not None and scheduler != 'local':
+        raise InputError('workers applies to --scheduler local only (an existing cluster has its own workers)')
+
+
+class Executor:
+    """Runs the chunks of one level and returns their results in chunk order."""
+
+    def __init__(self, scheduler: str = 'none', workers: int | None = None) -> None:
+        check_scheduler(scheduler, workers)
+        self.scheduler = scheduler
+        self.workers = workers
+        self._client: Any = None
+        self._cluster: Any = None
+        self._model_key: Any = None
+        self._model_future: Any = None
+        self.used_cluster = False
+
+    # ----------------------------------------------------------------------------------------- running
+    def run(
+        self,
+        step: StepFunction,
+        model: Any,
+        chunks: Sequence[Any],
+        args: tuple[Any, ...],
+        results: list[Any],
+        stop: Callable[[], bool],
+        done: Callable[[int, Any], None],
+        tick: Callable[[], None] | None = None,
+    ) -> None:
+        """``results[i] = step(model, chunks[i], *args)`` for every chunk, except those not run because
+        ``stop()`` became true (checked between chunks; they stay as they were, ``None``). ``done(i, result)``
+        is called as each result arrives, ``tick()`` about twice a second while waiting for a cluster. An
+        exception (KeyboardInterrupt included) leaves the results recorded so far in ``results``."""
+        if self.scheduler == 'none' or len(chunks) <= 1:
+            for i, chunk in enumerate(chunks):
+                if stop():
+                    break
+                results[i] = step(model, chunk, *args)
+                done(i, results[i])
+            return
+        client = self._connect()
+        if self._model_key is not model:
+            self._model_future = client.scatter(model, broadcast=True, hash=False)
+            self._model_key = model
+        waiting = {i: client.submit(step, self._model_future, c, *args, pure=False) for i, c in enumerate(chunks)}
+        last = time.monotonic()
+        try:
+            while waiting and not stop():
+                ready = [i for i, f in waiting.items() if f.done()]
+                if not ready:
+                    time.sleep(0.01)
+                    if tick is not None and time.monotonic() - last > 0.5:
+                        tick()
+                        last = time.monotonic()
+                    continue
+                for i in ready:
+                    results[i] = waiting.pop(i).result()
+                    done(i, results[i])
+        finally:
+            if waiting:
+                client.cancel(list(waiting.values()))
+
+    def forget_model(self) -> None:
+        """Send the model again at the next run (a run may have changed it, e.g. the joint area's tables)."""
+        self._model_key = self._model_future = None
+
+    # --------------------------------------------------------------------------------------- the cluster
+    def _connect(self) -> Any:
+        if self._client is not None:
+            return self._client
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise InputError(
+                f"--scheduler {self.scheduler} needs dask.distributed (pip install '.[cluster]': dask, distributed); "
+                'use --scheduler none for one process'
+            ) from None
+        self.used_cluster = True
+        if self.scheduler == 'local':
+            n = self.workers or os.cpu_count() or 1
+            self._cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+            self._client = Client(self._cluster)
+        else:
+            try:
+                self._client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
+            except (OSError, TimeoutError) as exc:
+                raise InputError(
+                    f'cannot connect to the Dask scheduler at {self.scheduler} within {CONNECT_TIMEOUT:g} s: '
+                    f'{str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__}'
+                ) from None
+        return self._client
+
+    def describe(self) -> dict[str, Any]:
+        """What ran the chunks: ``scheduler`` as asked, and the workers when a cluster was used."""
+        out: dict[str, Any] = {'scheduler': self.scheduler, 'cluster_used': self.used_cluster}
+        if self._client is not None:
+            try:
+                out['workers'] = len(self._client.scheduler_info().get('workers', {}))
+            except Exception:  # noqa: BLE001 - a vanished cluster only loses this report line
+                out['workers'] = None
+        return out
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+        self._model_key = self._model_future = None
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,125 @@
+"""The one bounded reader and the one checked, atomic writer of the package's files (gpr_kinematics.files), and
+the one way a message quotes a user's value (errors.brief)."""
+import doctest
+import os
+import stat
+import threading
+from pathlib import Path
+
+import pytest
+
+from gpr_kinematics import errors, files
+from gpr_kinematics.errors import ConfigError, FileError, InputError, brief
+
+
+def test_doctests():
+    assert doctest.testmod(files).failed == 0 and doctest.testmod(errors).failed == 0
+
+
+def test_file_error_is_both_a_config_and_an_input_error():
+    assert issubclass(FileError, ConfigError) and issubclass(FileError, InputError)
+
+
+def test_read_text_refuses_what_is_not_a_regular_file(tmp_path):
+    with pytest.raises(FileError, match=r"cannot read config file '.*missing\.yaml': No such file"):
+        files.read_text(tmp_path / 'missing.yaml', 'config')
+    with pytest.raises(FileError, match=r'is not a regular file \(a directory\)'):
+        files.read_text(tmp_path, 'config')
+    with pytest.raises(FileError, match=r"'/dev/zero' is not a regular file \(a character device\)"):
+        files.read_text('/dev/zero', 'config')
+    with pytest.raises(FileError, match=r'config file path is empty'):
+        files.read_text('', 'config')
+    with pytest.raises(FileError, match=r'contains a NUL character'):
+        files.read_text('a\0b', 'config')
+    fifo = tmp_path / 'fifo'
+    os.mkfifo(fifo)
+    done: list[str] = []
+
+    def read() -> None:
+        try:
+            files.read_text(fifo, 'config')
+        except FileError as exc:
+            done.append(str(exc))
+
+    t = threading.Thread(target=read, daemon=True)
+    t.start()
+    t.join(5.0)   # no writer ever opens the FIFO: a blocking open would never return
+    assert done and 'is not a regular file (a FIFO)' in done[0]
+
+
+def test_read_text_size_limit_is_exact(tmp_path):
+    f = tmp_path / 'f.txt'
+    f.write_bytes(b'x' * 100)
+    assert files.read_text(f, 'table', 100) == 'x' * 100
+    with pytest.raises(FileError, match=r"table file '.*f\.txt' has 100 bytes; allowed: at most 99"):
+        files.read_text(f, 'table', 99)
+
+
+def test_read_text_utf8_names_the_first_bad_byte_and_its_line(tmp_path):
+    f = tmp_path / 'latin.csv'
+    f.write_bytes('a,b\n1,2\ncaf\xe9\n'.encode('latin-1'))
+    with pytest.raises(FileError, match=r"latin\.csv' is not UTF-8 text \(byte 11 is 0xe9\) on line 3"):
+        files.read_text(f, 'table')
+    f.write_bytes(b'\xef\xbb\xbfa,b\n')  # a byte-order mark is dropped
+    assert files.read_text(f, 'table') == 'a,b\n'
+
+
+@pytest.mark.parametrize('kind', ['directory', 'FIFO', 'symbolic link'])
+def test_outputs_that_exist_and_are_not_regular_files_are_refused(tmp_path, kind):
+    target = tmp_path / 'out.csv'
+    if kind == 'directory':
+        target.mkdir()
+    elif kind == 'FIFO':
+        os.mkfifo(target)
+    else:
+        target.symlink_to('/dev/null')  # a rename would replace the link; a write would go to the device
+    with pytest.raises(FileError, match=rf'out\.csv exists and is not a regular file \(it is a {kind}\)'):
+        files.write_text(target, 'x', 'CSV')
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['out.csv']   # no temporary file left
+    assert stat.S_ISCHR(os.stat('/dev/null').st_mode)
+
+
+def test_outputs_in_missing_folders_and_empty_paths_are_refused(tmp_path):
+    with pytest.raises(FileError, match=r"cannot write CSV file '.*nodir/x\.csv': No such file or directory \(the "
+                                        r"folder '.*nodir' does not exist\)"):
+        files.check_output(tmp_path / 'nodir' / 'x.csv', 'CSV')
+    with pytest.raises(FileError, match=r'CSV output path is empty'):
+        files.write_text('', 'x', 'CSV')
+    assert files.writable_folder(tmp_path / 'a' / 'b' / 'bag', 'output') == tmp_path
+    (tmp_path / 'file').write_text('x')
+    with pytest.raises(FileError, match=r"'.*file' is not a folder"):
+        files.writable_folder(tmp_path / 'file' / 'bag', 'output')
+
+
+def test_atomic_output_replaces_a_regular_file_or_leaves_it(tmp_path):
+    target = tmp_path / 'out.csv'
+    target.write_text('old')
+    assert files.write_text(target, 'new\n', 'CSV') == target
+    assert target.read_text() == 'new\n' and sorted(p.name for p in tmp_path.iterdir()) == ['out.csv']
+    with pytest.raises(RuntimeError), files.atomic_output(target, 'CSV') as fh:
+        fh.write('half a file')
+        raise RuntimeError('interrupted')
+    assert target.read_text() == 'new\n' and sorted(p.name for p in tmp_path.iterdir()) == ['out.csv']
+    with files.atomic_output(tmp_path / 'b.png', 'plot', binary=True) as fh:
+        fh.write(b'\x89PNG')
+    assert (tmp_path / 'b.png').read_bytes() == b'\x89PNG'
+
+
+def test_a_full_disk_is_a_file_error_and_leaves_nothing(tmp_path, monkeypatch):
+    def full(*args: object) -> None:
+        raise OSError(28, 'No space left on device')
+
+    monkeypatch.setattr(os, 'replace', full)
+    with pytest.raises(FileError, match=r"cannot write CSV file '.*out\.csv': No space left on device"):
+        files.write_text(tmp_path / 'out.csv', 'x', 'CSV')
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_brief_bounds_every_value():
+    assert brief('y' * 10_000).endswith('(10002 characters)') and len(brief('y' * 10_000)) < 100
+    assert brief(0.5) == '0.5' and brief(float('nan')) == 'nan'
+    assert brief(list(range(10 ** 6))) == '[0, 1, 2, 3, 4, 5, 6, 7, ...]'
+    assert brief(10 ** 5000) == '<an integer of about 5001 digits>'   # repr itself refuses > 4300 digits
+    assert brief([[[[[1]]]]]) == '[[[[...]]]]'
+    assert len(brief({str(i): [i] * 100 for i in range(100)})) < 100
+    assert brief(Path('a')) == "PosixPath('a')"

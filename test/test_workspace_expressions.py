@@ -1,0 +1,173 @@
+"""Expressions of closure equations: the parser (no eval; bad text refused with its column), the DAG, point and
+interval evaluation, derivatives against finite differences, and the mean-value enclosure."""
+import math
+
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.interval import Interval
+from gpr_kinematics.workspace.expressions import MAX_DEPTH, Expr, ExpressionError, Graph, parse_constraint
+from gpr_kinematics.workspace.tape import Tape
+
+RNG = np.random.default_rng(31)
+
+
+def _symbols(graph, **params):
+    names = {v: graph.var(v) for v in graph.variables}
+    names.update({k: graph.constant(x) for k, x in params.items()})
+    names['pi'] = graph.constant(math.nextafter(math.pi, 0.0), math.nextafter(math.pi, 4.0))
+    return names
+
+
+def _parse(text, variables=('x', 'y', 'q'), **params):
+    g = Graph(variables)
+    return g, parse_constraint(text, g, _symbols(g, **params), 'test')
+
+
+@pytest.mark.parametrize('text, lower, upper', [
+    ('x = la*cos(q) + 0.5', (0.0, 0.0), (0.0, 0.0)),
+    ('x^2 + y**2 <= 1', (-math.inf, -math.inf), (1.0, 1.0)),
+    ('0.1 <= sqrt(x^2 + y^2) <= 0.4', (0.1, 0.1), (0.4, 0.4)),
+    ('0.4 >= abs(x) >= 0.1', (0.1, 0.1), (0.4, 0.4)),
+    ('x >= y', (-math.inf, -math.inf), (0.0, 0.0)),               # as y - x <= 0
+    ('2 == x', (2.0, 2.0), (2.0, 2.0)),
+])
+def test_constraint_forms_and_bounds(text, lower, upper):
+    _, c = _parse(text, la=0.2)
+    assert c.lower == lower and c.upper == upper
+    assert c.equality == (lower == upper)
+
+
+def test_points_match_numpy_and_equal_subexpressions_are_shared():
+    g = Graph(('x', 'y', 'q'))
+    names = _symbols(g, la=0.2, lb=0.3)
+    texts = ['la*cos(q) + lb*sin(q)^3 - x = 0', 'atan(x/(1 + y^2)) + exp(-x) - log(2 + y) <= 0.5',
+             'asin(x/2) + acos(y/2) - tan(q/3) + sqrt(x^2 + y^2) + abs(x - y) >= -3', 'la*cos(q) <= 1']
+    cons = [parse_constraint(t, g, names, f'c{i}') for i, t in enumerate(texts)]
+    assert cons[3].root.id == g.apply('mul', names['la'], g.apply('cos', names['q'])).id   # la*cos(q) shared
+    tape = Tape.compile(g, [c.root for c in cons])
+    p = RNG.uniform(-1, 1, (500, 3))
+    x, y, q = p.T
+    ref = np.stack([0.2 * np.cos(q) + 0.3 * np.sin(q) ** 3 - x,
+                    np.arctan(x / (1 + y ** 2)) + np.exp(-x) - np.log(2 + y),
+                    np.arcsin(x / 2) + np.arccos(y / 2) - np.tan(q / 3) + np.hypot(x, y) + np.abs(x - y),
+                    0.2 * np.cos(q)], axis=1)
+    assert np.allclose(tape.points(p), ref, rtol=1e-14, atol=1e-15)
+    # undefined points are NaN (they satisfy no constraint): log of a negative, sqrt of a negative, 1/0
+    g2 = Graph(('x',))
+    t2 = Tape.compile(g2, [parse_constraint(s, g2, {'x': g2.var('x')}, 't').root
+                           for s in ('log(x) <= 1', 'sqrt(x) <= 1', '1/x <= 1')])
+    assert np.all(np.isnan(t2.points(np.array([[-1.0]]))[0, :2])) and np.isnan(t2.points(np.zeros((1, 1)))[0, 2])
+
+
+def test_interval_enclosures_contain_sampled_values_and_flag_undefined_boxes():
+    g = Graph(('x', 'y', 'q'))
+    names = _symbols(g, la=0.2)
+    texts = ['la*cos(q) - x*sin(q)^2 + atan(x*y) = 0', 'sqrt(x + 2) - exp(y)/(3 + q) + asin(x/3) <= 0']
+    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    lo = RNG.uniform(-1, 0.5, (300, 3))
+    hi = lo + RNG.uniform(0, 0.5, (300, 3))
+    enc, maybe, surely = tape.root_boxes(lo, hi)
+    assert not maybe.any() and not surely.any()
+    pts = lo[None] + (hi - lo)[None] * RNG.random((200, 300, 3))
+    vals = tape.points(pts.reshape(-1, 3)).reshape(200, 300, 2)
+    assert np.all(enc.lo[None] <= vals) and np.all(vals <= enc.hi[None])
+    # sqrt of a box reaching below 0: maybe undefined; entirely below 0: undefined everywhere
+    g2 = Graph(('x',))
+    t2 = Tape.compile(g2, [parse_constraint('sqrt(x) <= 1', g2, {'x': g2.var('x')}, 't').root])
+    _, maybe, surely = t2.root_boxes(np.array([[-1.0], [-3.0], [1.0]]), np.array([[1.0], [-2.0], [2.0]]))
+    assert maybe.tolist() == [True, True, False] and surely.tolist() == [False, True, False]
+
+
+def test_derivatives_match_finite_differences_and_interval_slopes_contain_them():
+    g = Graph(('x', 'y', 'q'))
+    names = _symbols(g, la=0.2)
+    texts = ['la*cos(q)*x - y^3/(2 + x^2) + atan(x*y)*sin(q) = 0', 'exp(x*y) - sqrt(3 + q^2) + asin(x/3) = 0']
+    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    p = RNG.uniform(-1, 1, (200, 3))
+    val, jac = tape.jacobian_points(p, [0, 1, 2])
+    assert np.allclose(val, tape.points(p))
+    h = 1e-6
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        fd = (tape.points(p + e) - tape.points(p - e)) / (2 * h)
+        assert np.allclose(jac[:, :, j], fd, atol=1e-7)
+    lo, hi = p - 0.05, p + 0.05
+    J, maybe = tape.jacobian_boxes(lo, hi, [0, 2])
+    assert not maybe.any()
+    for t in RNG.random((50, 3)):
+        _, jp = tape.jacobian_points(lo + (hi - lo) * t, [0, 2])
+        assert np.all(J.lo <= jp) and np.all(jp <= J.hi)
+
+
+def test_mean_value_enclosure_is_certified_and_tighter_on_small_boxes():
+    g = Graph(('x', 'y'))
+    names = _symbols(g)
+    # (x - y)^2 expanded: the variables occur several times, the natural extension overestimates a lot
+    c = parse_constraint('x*x - 2*x*y + y*y + x*sin(y) <= 1', g, names, 't')
+    tape = Tape.compile(g, [c.root])
+    lo = RNG.uniform(-1, 1, (400, 2))
+    hi = lo + 1e-3
+    natural, _, _ = tape.root_boxes(lo, hi)
+    tight, maybe = tape.root_boxes_tight(lo, hi, [0, 1])
+    assert not maybe.any()
+    pts = lo[None] + (hi - lo)[None] * RNG.random((100, 400, 2))
+    vals = tape.points(pts.reshape(-1, 2)).reshape(100, 400)
+    assert np.all(tight.lo[:, 0] <= vals) and np.all(vals <= tight.hi[:, 0])
+    assert np.all(tight.lo >= natural.lo) and np.all(tight.hi <= natural.hi)
+    spread = vals.max(axis=0) - vals.min(axis=0)
+    assert np.median((natural.hi - natural.lo)[:, 0] / spread) > 1.6          # about 2: the dependency effect
+    assert np.median((tight.hi - tight.lo)[:, 0] / spread) < 1.3              # about 1.13: second order only
+
+
+@pytest.mark.parametrize('text, match', [
+    ('x + ', 'unexpected end'),
+    ('x + * y', "unexpected '\\*' at column 5"),
+    ('x $ y', "unexpected character '\\$' at column 3"),
+    ('foo(x) = 1', "unknown function 'foo' at column 1"),
+    ('x + z = 1', "unknown name 'z' at column 5"),
+    ('x < 1', 'use <= or >='),
+    ('x + 1', 'needs =, <= or >='),
+    ('x <= y <= 1', 'outer terms of a <= f <= b must be constants'),
+    ('0 <= x >= 1', 'a chain must read'),
+    ('x^0.5 = 1', 'integer constant'),
+    ('x^y = 1', 'integer constant'),
+    ('x^999 = 1', 'integer constant'),
+    ('sqrt(-1) + x = 0', 'sqrt of the constant'),
+    ('x = 1e999', 'not finite'),
+    ('x.real = 1', "unexpected character '\\.'"),
+    ('__import__("os") = 1', 'unexpected character'),
+    ('(' * (MAX_DEPTH + 2) + 'x' + ')' * (MAX_DEPTH + 2) + ' = 1', 'nested deeper than'),
+    ('-' * (MAX_DEPTH + 2) + 'x = 1', 'nested deeper than'),
+    ('x' + ' + x' * 800 + ' = 1', 'characters; allowed: at most'),
+    ('', 'non-empty text'),
+    (3, 'non-empty text'),
+])
+def test_malformed_constraints_are_refused_with_what_is_wrong(text, match):
+    with pytest.raises(ExpressionError, match=match):
+        _parse(text)
+    assert issubclass(ExpressionError, ConfigError)
+
+
+def test_python_formulas_build_the_same_graph_and_mix_with_interval_constants():
+    """A formula written for intervals gives expressions when handed Expr variables (the models' formulas)."""
+    def formula(u, v):
+        return (u * Interval.const(0.1) + v.sin() * 2.0).sqr() - u / (v.cos() + 3.0)
+
+    g = Graph(('u', 'v'))
+    e = formula(g.var('u'), g.var('v'))
+    assert isinstance(e, Expr)
+    tape = Tape.compile(g, [e])
+    lo = RNG.uniform(-1, 1, (100, 2))
+    hi = lo + 0.1
+    enc, _, _ = tape.root_boxes(lo, hi)
+    direct = formula(Interval(lo[:, 0], hi[:, 0]), Interval(lo[:, 1], hi[:, 1]))
+    # the same operations on enclosures: the expression's enclosure equals the interval formula's, up to the
+    # outward rounding of the constant 0.1 (one ulp either side in both)
+    assert np.allclose(enc.lo[:, 0], direct.lo, rtol=1e-14) and np.allclose(enc.hi[:, 0], direct.hi, rtol=1e-14)
+    with pytest.raises(ExpressionError, match='different models'):
+        Graph(('u',)).var('u') + g.var('u')
+    with pytest.raises(ExpressionError, match='integer exponent'):
+        g.var('u') ** 1.5

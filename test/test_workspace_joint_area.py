@@ -1,0 +1,128 @@
+"""The joint working area of the tripod over the planar 3-RRR: points of its inner boxes are realised by explicit
+poses of the two mechanisms found here, random pose pairs land in its outer boxes, the placement is an
+explicit and effective assumption, and bad descriptions are refused."""
+import numpy as np
+import pytest
+
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.workspace import approximate, contains_points, load_workspace_model, model_from_mapping
+from gpr_kinematics.workspace.joint_area import JointWorkingArea
+from gpr_kinematics.workspace.voxels import MAX_VOXELS, VoxelSet
+
+RNG = np.random.default_rng(23)
+DELTA = 0.008
+
+
+@pytest.fixture(scope='module')
+def joint():
+    model = load_workspace_model(config_path('mechanisms/joint_working_area.yaml'))
+    return model, approximate(model, DELTA)
+
+
+def _feasible_poses(model, n):
+    """Random feasible tripod poses (z, psi, theta) and planar poses (x, y, phi), by rejection."""
+    out = []
+    for mech, m in ((model.tripod, 20 * n), (model.planar, 60 * n)):
+        pts = mech.box[:, 0] + (mech.box[:, 1] - mech.box[:, 0]) * RNG.random((m, 3))
+        pts = pts[mech.feasible(pts)]
+        out.append(pts[RNG.integers(0, pts.shape[0], n)])
+    return out
+
+
+def _realise(model, p, tries=20000):
+    """Search poses of both mechanisms whose tool point is ``p`` (3,): for random tilts and turns, the tripod's
+    z follows from the height (the tool point is affine in z: two evaluations) and the planar pose from the
+    horizontal closure; returns (tripod pose, planar pose) of a feasible pair, or None."""
+    tilt = RNG.uniform(-1.45, 1.45, (tries, 2))
+    phi = RNG.uniform(-np.pi, np.pi, tries)
+    zero = np.zeros((tries, 3))
+    at0 = model.tool_points(np.column_stack([np.zeros(tries), tilt]), zero)       # planar pose 0: p = P0
+    at1 = model.tool_points(np.column_stack([np.full(tries, 0.1), tilt]), zero)
+    z = (p[2] - at0[:, 2]) / ((at1[:, 2] - at0[:, 2]) / 0.1)
+    P0 = at0 + (at1 - at0) * (z / 0.1)[:, None]
+    c, s = np.cos(phi), np.sin(phi)
+    planar = np.column_stack([P0[:, 0] - (c * p[0] - s * p[1]), P0[:, 1] - (s * p[0] + c * p[1]), phi])
+    tripod = np.column_stack([z, tilt])
+    ok = model.tripod.feasible(tripod) & model.planar.feasible(planar)
+    inside = np.all((tripod >= model.tripod.box[:, 0]) & (tripod <= model.tripod.box[:, 1]), axis=1)
+    ok &= inside & np.all((planar >= model.planar.box[:, 0]) & (planar <= model.planar.box[:, 1]), axis=1)
+    if not ok.any():
+        return None
+    i = int(np.argmax(ok))
+    return tripod[i], planar[i]
+
+
+def test_inner_points_are_realised_by_explicit_poses(joint):
+    model, res = joint
+    assert res.certified and not res.interrupted and res.inner_boxes > 20
+    idx = RNG.integers(0, res.inner_boxes, 60)
+    b = res.inner[idx]
+    pts = b[:, :, 0] + (b[:, :, 1] - b[:, :, 0]) * RNG.random((60, 3))
+    for p in pts:
+        found = _realise(model, p)
+        assert found is not None, p
+        tripod, planar = found
+        assert np.allclose(model.tool_points(tripod[None], planar[None])[0], p, atol=1e-12)
+
+
+def test_random_pose_pairs_land_in_the_outer_approximation(joint):
+    model, res = joint
+    tripod, planar = _feasible_poses(model, 50000)
+    p = model.tool_points(tripod, planar)
+    assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), p))
+    # the outer boxes all lie in the covering's box, itself inside the bound proved from the two mechanisms
+    assert not res.touches_initial_box and np.all(model.box[:, 0] <= p.min(axis=0))
+    # certified but not tight at this delta: the inner volume is below the sampled volume, the outer above it
+    hits = np.unique(np.floor(p / 0.004).astype(int), axis=0).shape[0] * 0.004 ** 3
+    assert res.inner_volume < hits < res.outer_volume
+
+
+def test_the_placement_is_an_explicit_assumption():
+    base = load_workspace_model(config_path('mechanisms/joint_working_area.yaml'))
+    up = JointWorkingArea(base.tripod, base.planar, translation=[0.0, 0.0, 0.25])
+    a, b = approximate(base, 0.016), approximate(up, 0.016)
+    za = np.concatenate([a.inner, a.boundary])[:, 2]
+    zb = np.concatenate([b.inner, b.boundary])[:, 2]
+    # raising the tripod by 5 cm raises every tool point by 5 cm (pz = P0_z): the outer hull follows
+    assert abs((zb[:, 0].min() - za[:, 0].min()) - 0.05) <= 0.016
+    assert abs((zb[:, 1].max() - za[:, 1].max()) - 0.05) <= 0.016
+    tripod, planar = _feasible_poses(base, 2000)
+    assert np.allclose(up.tool_points(tripod, planar)[:, 2] - base.tool_points(tripod, planar)[:, 2], 0.05, atol=1e-15)
+    with pytest.raises(ConfigError, match='tilts the tripod axis'):
+        JointWorkingArea(base.tripod, base.planar, rpy=[np.pi / 2, 0.0, 0.0])
+
+
+@pytest.mark.parametrize('change, match', [
+    ({'tripod': 'upu3.yaml'}, 'tripod must be a tripod_3rps mechanism, got type upu3'),
+    ({'tripod': 'joint_working_area.yaml'}, 'must be a tripod_3rps mechanism, got type joint_working_area'),
+    ({'planar': {'type': 'rrr3_planar', 'base_radius': 0.1}}, 'missing key platform_radius'),
+    ({'planar': 7}, 'must be a mechanism file name or mapping'),
+    ({'placement': {'translation': [0, 0]}}, 'placement.translation must be a list of 3 numbers'),
+    ({'placement': {'shift': [0, 0, 0]}}, 'unknown key.*shift'),
+    ({'placement': {'rpy': [0, 0, '1']}}, r'placement.rpy\[2\] must be a finite number'),
+    ({'tool': [0, 0, True]}, r'tool\[2\] must be a finite length'),
+    ({'sub_delta': 2.0}, 'sub_delta in \\(0, 1\\]'),
+    ({'tool_lenght': 0.1}, 'unknown key.*tool_lenght'),
+])
+def test_bad_joint_descriptions_are_refused(change, match):
+    data = {'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml', 'planar': 'rrr3_planar.yaml', **change}
+    with pytest.raises(ConfigError, match=match):
+        model_from_mapping(data, 'joint')
+
+
+def test_voxel_sets_never_miss_a_box_they_hold():
+    lo = RNG.random((300, 3))
+    boxes = np.stack([lo, lo + 0.1 * RNG.random((300, 3))], axis=2)
+    vox = VoxelSet.from_boxes(boxes, np.array([0.01, 0.02, 0.005]))
+    assert np.all(vox.spacing == [2 ** -7, 2 ** -6, 2 ** -8])                   # dyadic, rounded down
+    q = RNG.random((20000, 3)) * 1.4 - 0.2
+    qb = np.stack([q, q + 0.03 * RNG.random((20000, 3))], axis=2)
+    meets = np.array([np.any(np.all((b[:, 0] <= boxes[:, :, 1]) & (b[:, 1] >= boxes[:, :, 0]), axis=1)) for b in qb])
+    hit = vox.any(qb[:, :, 0], qb[:, :, 1])
+    assert np.all(hit[meets]) and 0 < np.count_nonzero(hit & ~meets) < np.count_nonzero(~meets)
+    # degenerate query boxes (points) and boxes beyond the grid
+    assert vox.any(boxes[:, :, 0], boxes[:, :, 0]).all()
+    assert not vox.any(np.full((1, 3), 5.0), np.full((1, 3), 6.0))[0]
+    with pytest.raises(Exception, match=f'limit of {MAX_VOXELS} voxels'):
+        VoxelSet.from_boxes(boxes, np.full(3, 1e-4))
