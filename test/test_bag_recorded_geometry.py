@@ -78,7 +78,8 @@ def test_a_bag_without_geometry_falls_back_and_says_so(tmp_path: Path) -> None:
     result = verify_bag(bag)
     assert result.passed and result.geometry == {'source': 'package'}
     assert result.notes == ['no geometry recorded in the bag: verified against the package configuration',
-                            'no robot topics (a platform recording): no robot checks']
+                            'robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
+                            'no wafer poses to verify']
     assert next(c for c in result.checks if c.name == 'topic.geometry').skipped == 'no geometry recorded in the bag'
 
 

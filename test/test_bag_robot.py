@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from bag_support import rewritten, write_bag
+from robot_support import SHORT_PROGRAM
 
 from gpr_kinematics import cli
 from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
@@ -22,15 +24,7 @@ from gpr_kinematics.robot.program import parse_program
 from gpr_kinematics.robot_stream import robot_stream
 
 ROBOT = load_robot()
-#: A short program: arm1 places at a tilted station, arm2 picks at another (both arms in use).
-PROGRAM = parse_program({
-    'format': 'gpr_robot_program', 'units': {'length': 'mm', 'angle': 'deg'},
-    'defaults': {'approach_height': 8, 'retract_height': 8, 'dwell': 0.1},
-    'stations': [{'name': 'home', 'position': [750, 850, 420], 'heading': 90},
-                 {'name': 'a', 'position': [1200, 1000, 455], 'tilt': 1.5, 'azimuth': 30, 'heading': 45},
-                 {'name': 'b', 'position': [300, 1050, 480], 'tilt': 0.8, 'azimuth': -60, 'heading': 130,
-                  'branch': 'left'}],
-    'steps': [{'move': 'home'}, {'place': 'a'}, {'pick': 'b', 'arm': 'arm2'}]}, 'test_program')
+PROGRAM = parse_program(yaml.safe_load(SHORT_PROGRAM), 'test_program')
 RATE = 10.0
 
 
@@ -212,6 +206,8 @@ def test_a_sweep_with_its_robot_recorded_skips_the_robot_checks(tmp_path: Path) 
     assert result.passed, [f.line() for f in result.failures]
     checks = {c.name: c for c in result.checks}
     assert not checks['topic.robot'].skipped and checks['robot.wafer_position'].skipped == 'no robot states in the bag'
+    assert result.notes[-1] == ('robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
+                                'no wafer poses to verify')
 
 
 def test_a_recording_without_robot_topics_says_it_has_no_robot_checks(tmp_path: Path) -> None:

@@ -106,8 +106,10 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
     except GprError as exc:
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, 1.0, 0.0, f'not a usable robot description: {exc}')], len(t), ''))
-    return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''),
-                       [f'verified the wafer poses against the robot {robot.name} recorded on {ROBOT_TOPIC}'])
+    note = (f'verified the wafer poses against the robot {robot.name} recorded on {ROBOT_TOPIC}' if states else
+            f'robot {robot.name} recorded on {ROBOT_TOPIC}; no robot states (a platform stream): no wafer poses to '
+            'verify')
+    return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''), [note])
 
 
 @dataclass(frozen=True)
