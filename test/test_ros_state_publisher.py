@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from robot_support import SHORT_PROGRAM
 from ros_support import quat, start, vec, wait_for_log
 
 from gpr_kinematics.config import load_config
@@ -24,6 +25,14 @@ pytestmark = pytest.mark.ros
 CFG = load_config()
 ROBOT = load_robot()
 STEP, AZ_STEP, MAX_TILT, HEIGHT = math.radians(0.5), math.radians(60.0), math.radians(2.0), 0.45
+
+
+def _wait_matched(client, topic: str, sp) -> None:
+    """Wait until the client's subscriptions to ``topic`` are matched with a publisher (the state publisher's):
+    the stream starts once the state publisher subscribed to it, and a /tf message it sends before its publisher
+    matched this client's subscription would be lost to the test (seen on a loaded machine)."""
+    subs = [s for s in client.node.subscriptions if s.topic_name == topic]
+    assert subs and client.spin_until(lambda: all(s.get_publisher_count() >= 1 for s in subs), 30), sp.output()
 
 
 @pytest.fixture(scope='module')
@@ -44,6 +53,7 @@ def run(ros_environment):
             tf = c.subscribe(TFMessage, '/tf')
             static = c.subscribe(TFMessage, '/tf_static', latched=True)
             states = c.subscribe(PlatformState, 'gpr/platform_state')
+            _wait_matched(c, '/tf', sp)
             # Subscribers: this client and the state publisher.
             traj = start('trajectory_node', rate=200.0, height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP,
                          azimuth_step=AZ_STEP, wait_for_subscribers=2, wait_all_topics=False)
@@ -141,20 +151,6 @@ def test_robot_description_latched_urdf_naming_the_tf_frames(run, tmp_path):
     assert {'arm1_wafer', 'arm2_wafer', 'arm1_blade', 'arm2_blade'} <= frames
 
 
-#: A short whole-robot program: arm1 places a wafer at a tilted station, arm2 picks one from another.
-ROBOT_PROGRAM = """\
-format: gpr_robot_program
-units: {length: mm, angle: deg}
-defaults: {approach_height: 8, retract_height: 8, dwell: 0.1}
-stations:
-  - {name: home, position: [750, 850, 420], heading: 90}
-  - {name: chamber_a, position: [1200, 1000, 455], tilt: 1.2, azimuth: 30, heading: 45}
-  - {name: chamber_b, position: [300, 1050, 480], tilt: 0.8, azimuth: -60, heading: 130, branch: left}
-steps:
-  - {move: home}
-  - {place: chamber_a}
-  - {pick: chamber_b, arm: arm2}
-"""
 ROBOT_RATE = 40.0
 
 
@@ -175,7 +171,7 @@ def robot_run(ros_environment, tmp_path_factory):
     from gpr_kinematics.nodes.client import GprClient
 
     path = tmp_path_factory.mktemp('robot') / 'program.yaml'
-    path.write_text(ROBOT_PROGRAM)
+    path.write_text(SHORT_PROGRAM)
     expected = robot_stream(ROBOT, load_program(path), ROBOT_RATE)
     ns = '/gpr_tf_robot'
     sp = start('state_publisher_node', namespace=ns)
@@ -187,6 +183,7 @@ def robot_run(ros_environment, tmp_path_factory):
             static = c.subscribe(TFMessage, '/tf_static', latched=True)
             states = c.subscribe(PlatformState, 'gpr/platform_state')
             robot_states = c.subscribe(RobotState, 'gpr/robot_state')
+            _wait_matched(c, '/tf', sp)
             traj = start('trajectory_node', namespace=ns, mode='program', program_file=str(path), rate=ROBOT_RATE,
                          wait_for_subscribers=2, wait_all_topics=False)
             done = c.spin_until(lambda: not traj.alive() and len(tf) >= 2 * len(expected), 120)
