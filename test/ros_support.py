@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -24,6 +25,25 @@ def start(exe: str, *ros_args: str, namespace: str = '', **values: Any) -> NodeP
     """Start ``exe`` as ``ros2 run`` would, with ``-r __ns:=namespace`` and ``-p`` parameters."""
     args = (['-r', f'__ns:={namespace}'] if namespace else []) + params(**values) + list(ros_args)
     return NodeProcess(exe, args)
+
+
+def running(proc: NodeProcess, ready: str | None = None) -> Iterator[NodeProcess]:
+    """A module fixture's body: ``proc`` (once its output shows ``ready``, if given), stopped after the module."""
+    try:
+        if ready is not None:
+            wait_for_log(proc, ready)
+        yield proc
+    finally:
+        proc.stop()
+
+
+def client_session(name: str, namespace: str = '') -> Iterator[Any]:
+    """A module fixture's body: a ``GprClient`` named ``name`` in ``namespace`` (imported here, once the ROS
+    environment is active), closed after the module."""
+    from gpr_kinematics.nodes.client import GprClient
+
+    with GprClient(name, namespace=namespace) as c:
+        yield c
 
 
 def wait_for_log(proc: NodeProcess, pattern: str, timeout: float = 30.0) -> re.Match[str]:

@@ -9,7 +9,9 @@ import math
 import re
 import signal
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -48,6 +50,24 @@ def recorder(output: Path, **values):
 def trajectory(rate: float, tilt_step_deg: float, azimuth_step_deg: float, subscribers: int = 1):
     return start('trajectory_node', rate=rate, wait_for_subscribers=subscribers,
                  tilt_step=math.radians(tilt_step_deg), azimuth_step=math.radians(azimuth_step_deg))
+
+
+def record_to_the_end(rec, topics: int, producer: Callable[[], Any], timeout: float = 120.0) -> Any:
+    """Once ``rec`` records ``topics`` topics, start ``producer()`` (a node process), wait until it ends with status 0,
+    let DDS deliver for 0.3 s and stop the recorder with SIGINT (status 0); both are stopped in any case. Returns the
+    producer's process (its output kept)."""
+    proc = None
+    try:
+        wait_for_log(rec, rf'recording {topics} topic')
+        proc = producer()
+        assert proc.wait(timeout) == 0, proc.output()
+        time.sleep(0.3)
+        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
+        return proc
+    finally:
+        rec.stop()
+        if proc is not None:
+            proc.stop()
 
 
 def published(traj) -> int:
@@ -134,20 +154,10 @@ def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> Non
     rate = 100.0
     expected = robot_stream(load_robot(), load_program(program), rate)
     bag = tmp_path / 'bag'
-    rec = recorder(bag, flush_interval=0.5)
-    traj = None
-    try:
-        wait_for_log(rec, rf'recording {len(DEFAULT_TOPICS)} topic')
-        traj = start('trajectory_node', mode='program', program_file=str(program), rate=rate,
-                     wait_for_subscribers=1, wait_all_topics=True)
-        assert traj.wait(120) == 0, traj.output()
-        n = published(traj)
-        time.sleep(0.3)
-        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
-    finally:
-        rec.stop()
-        if traj is not None:
-            traj.stop()
+    traj = record_to_the_end(recorder(bag, flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(
+        'trajectory_node', mode='program', program_file=str(program), rate=rate, wait_for_subscribers=1,
+        wait_all_topics=True))
+    n = published(traj)
     assert n == len(expected)
     b = read_bag(bag)
     counts = {k: len(t) for k, t in b.topics.items()}
@@ -238,18 +248,9 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     rate = 4.0
     topics = [t.lstrip('/') for t in ref.topics]
     rec = recorder(tmp_path / 'again', flush_interval=0.5, topics='[' + ', '.join(topics) + ']')
-    replay = None
-    try:
-        wait_for_log(rec, rf'recording {len(topics)} topic')
-        replay = start('replay_node', bag=REFERENCE, rate=rate, wait_for_subscribers=1)
-        assert replay.wait(60) == 0, replay.output()
-        assert 'finished: published' in replay.output()
-        time.sleep(0.3)
-        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
-    finally:
-        rec.stop()
-        if replay is not None:
-            replay.stop()
+    replay = record_to_the_end(rec, len(topics), lambda: start('replay_node', bag=REFERENCE, rate=rate,
+                                                               wait_for_subscribers=1), timeout=60)
+    assert 'finished: published' in replay.output()
     again = read_bag(tmp_path / 'again')
     assert set(again.topics) == set(ref.topics)
     for name, topic in ref.topics.items():
@@ -263,18 +264,8 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
 
 
 def test_replay_topic_filter(tmp_path: Path) -> None:
-    rec = recorder(tmp_path / 'states', flush_interval=0.5)
-    replay = None
-    try:
-        wait_for_log(rec, rf'recording {len(DEFAULT_TOPICS)} topic')
-        replay = start('replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1)
-        assert replay.wait(60) == 0, replay.output()
-        time.sleep(0.3)
-        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0
-    finally:
-        rec.stop()
-        if replay is not None:
-            replay.stop()
+    record_to_the_end(recorder(tmp_path / 'states', flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(
+        'replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1), timeout=60)
     b = read_bag(tmp_path / 'states')
     assert {k: len(t) for k, t in b.topics.items()} == {**dict.fromkeys(DEFAULT_TOPICS, 0), STATE: 756}
     bad = start('replay_node', bag=tmp_path / 'nothing')

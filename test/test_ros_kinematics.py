@@ -9,7 +9,7 @@ import textwrap
 
 import numpy as np
 import pytest
-from ros_support import imperfect_config_file, start
+from ros_support import client_session, imperfect_config_file, running, start
 from ros_support import quat as _quat
 from ros_support import vec as _vec
 
@@ -27,17 +27,12 @@ TIGHT = dict(rtol=0.0, atol=1e-12)
 
 @pytest.fixture(scope='module')
 def node(ros_environment):
-    proc = start('kinematics_node')
-    yield proc
-    proc.stop()
+    yield from running(start('kinematics_node'))
 
 
 @pytest.fixture(scope='module')
 def client(node):
-    from gpr_kinematics.nodes.client import GprClient
-
-    with GprClient('gpr_test_kinematics_client') as c:
-        yield c
+    yield from client_session('gpr_test_kinematics_client')
 
 
 def _fk(client, q, model=''):

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 import yaml
-from ros_support import imperfect_config_file, quat, start, vec
+from ros_support import client_session, imperfect_config_file, quat, running, start, vec
 
 from gpr_kinematics.geometry import matrix_from_quaternion, rotation_z, tilt_rotation
 from gpr_kinematics.resources import config_path
@@ -24,17 +24,12 @@ NS = '/gpr_robot_srv'
 
 @pytest.fixture(scope='module')
 def node(ros_environment):
-    proc = start('kinematics_node', namespace=NS)
-    yield proc
-    proc.stop()
+    yield from running(start('kinematics_node', namespace=NS))
 
 
 @pytest.fixture(scope='module')
 def client(node):
-    from gpr_kinematics.nodes.client import GprClient
-
-    with GprClient('gpr_test_robot_services', namespace=NS) as c:
-        yield c
+    yield from client_session('gpr_test_robot_services', NS)
 
 
 @pytest.mark.parametrize('arm,rods,joints', [
