@@ -229,6 +229,26 @@ def test_the_json_result_names_the_robot(robot_bag: Path, capsys: pytest.Capture
     assert data['robot'] == {'name': ROBOT.name, 'arms': list(ROBOT.arm_names), 'source': 'recorded'}
 
 
+def test_the_reference_bag_records_its_geometry_and_robot_latched() -> None:
+    """The committed reference sweep was recorded with the package geometry and the shipped example robot, both on
+    latched topics whose recorded QoS is transient local (``ros2 bag play`` latches them again)."""
+    from bag_support import REFERENCE
+
+    from gpr_kinematics.bags.reader import read_bag
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
+    from gpr_kinematics.config import load_config
+
+    bag = read_bag(REFERENCE)
+    texts = {t: typestore().deserialize_cdr(bag.topic(t).raw[0], 'std_msgs/msg/String').data
+             for t in (GEOMETRY_TOPIC, ROBOT_TOPIC)}
+    assert yaml.safe_load(texts[GEOMETRY_TOPIC]) == load_config().to_dict()
+    assert texts[ROBOT_TOPIC] == robot_text(ROBOT)
+    meta = yaml.safe_load((REFERENCE / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    qos = {t['topic_metadata']['name']: t['topic_metadata']['offered_qos_profiles']
+           for t in meta['topics_with_message_count']}
+    assert all(p['durability'] == 'transient_local' for t in (GEOMETRY_TOPIC, ROBOT_TOPIC) for p in qos[t])
+
+
 def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from gpr_kinematics.resources import config_path
 
