@@ -129,7 +129,9 @@ def robot_figure(robot: RobotDescription, rods: Sequence[float], joints: Mapping
         ax.plot(*chain.T, color=colour, lw=4, solid_capstyle='round', label=f'{name} {np.round(J, 3).tolist()} rad')
         ax.add_collection3d(Poly3DCollection([_disk(frames[-1], 0.5 * WAFER_VISUAL[0])], color=colour, alpha=0.45))
         ghost = _arm_frames(model, robot, naive, name, J)[-1]
-        ax.add_collection3d(Poly3DCollection([_disk(ghost, 0.5 * WAFER_VISUAL[0])], facecolor='none',
+        # A transparent face, not 'none': matplotlib 3.6/3.7 (a stock Jazzy install) fail to depth-sort a 3-D
+        # polygon collection that has no face colours.
+        ax.add_collection3d(Poly3DCollection([_disk(ghost, 0.5 * WAFER_VISUAL[0])], facecolor=(0.0, 0.0, 0.0, 0.0),
                                              edgecolor=colour, linestyle='--', lw=1))
         points += [T[:3, 3] for T in frames]
         errors[name] = fks[name].naive_wafer_error[0]
