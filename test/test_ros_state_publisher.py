@@ -27,12 +27,20 @@ ROBOT = load_robot()
 STEP, AZ_STEP, MAX_TILT, HEIGHT = math.radians(0.5), math.radians(60.0), math.radians(2.0), 0.45
 
 
-def _wait_matched(client, topic: str, sp) -> None:
-    """Wait until the client's subscriptions to ``topic`` are matched with a publisher (the state publisher's):
-    the stream starts once the state publisher subscribed to it, and a /tf message it sends before its publisher
-    matched this client's subscription would be lost to the test (seen on a loaded machine)."""
+def _wait_matched(client, topic: str, sp, namespace: str = '/') -> None:
+    """Wait until the graph shows the state publisher of ``namespace`` publishing ``topic`` and the client's
+    subscriptions to it are matched with every publisher the graph shows: the stream starts once the state
+    publisher subscribed to it, and a /tf message it sends before its publisher matched this client's subscription
+    would be lost to the test (seen on a loaded machine; another module fixture's state publisher may publish /tf
+    too, so one matched publisher is not enough)."""
     subs = [s for s in client.node.subscriptions if s.topic_name == topic]
-    assert subs and client.spin_until(lambda: all(s.get_publisher_count() >= 1 for s in subs), 30), sp.output()
+
+    def matched() -> bool:
+        infos = client.node.get_publishers_info_by_topic(topic)
+        ours = any(i.node_name == 'state_publisher_node' and i.node_namespace == namespace for i in infos)
+        return ours and all(s.get_publisher_count() >= len(infos) for s in subs)
+
+    assert subs and client.spin_until(matched, 30), sp.output()
 
 
 @pytest.fixture(scope='module')
@@ -183,7 +191,7 @@ def robot_run(ros_environment, tmp_path_factory):
             static = c.subscribe(TFMessage, '/tf_static', latched=True)
             states = c.subscribe(PlatformState, 'gpr/platform_state')
             robot_states = c.subscribe(RobotState, 'gpr/robot_state')
-            _wait_matched(c, '/tf', sp)
+            _wait_matched(c, '/tf', sp, ns)
             traj = start('trajectory_node', namespace=ns, mode='program', program_file=str(path), rate=ROBOT_RATE,
                          wait_for_subscribers=2, wait_all_topics=False)
             done = c.spin_until(lambda: not traj.alive() and len(tf) >= 2 * len(expected), 120)
