@@ -101,9 +101,13 @@ test-stock-run:
 	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_DOMAIN) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
 		--ignore test/test_lint.py
 
-# The offline-programming loop: the services called once from a client (nodes.demo), then the paper's sweep
-# streamed by trajectory_node, recorded by recorder_node and checked by `gpr verify` (offline_loop).
+# The demo: the example robot programmed through tilted stations with the naive model's wafer error
+# (robot.demo), a calibration from the shipped synthetic measurements (calibration.demo), then the
+# offline-programming loop: the services called once from a client (nodes.demo), then the paper's sweep streamed
+# by trajectory_node, recorded by recorder_node and checked by `gpr verify` (offline_loop).
 demo: setup
+	$(PY) -m gpr_kinematics.robot.demo
+	$(PY) -m gpr_kinematics.calibration.demo
 	$(ROSENV) $(PY) -m gpr_kinematics.nodes.demo
 	$(ROSENV) $(PY) -m gpr_kinematics.offline_loop
 

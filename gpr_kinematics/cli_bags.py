@@ -50,11 +50,19 @@ def _verify(args: argparse.Namespace) -> int:
     if args.config is not None and not args.config:
         raise InputError('--config is empty; allowed: the path of a GPR configuration YAML file')
     cfg = load_config(args.config) if args.config else None
+    if args.robot is not None and not args.robot:
+        raise InputError('--robot is empty; allowed: the path of a robot description YAML file')
+    robot = None
+    if args.robot:
+        from .robot.description import load_robot
+
+        robot = load_robot(args.robot)
     if args.report is not None:
         check_report_folder(args.report)
     try:
         result = verify_bag(args.bag, config=cfg, tolerances=tol, config_source=f'--config {args.config}',
-                            allow_missing_checksums=args.allow_missing_checksums)
+                            allow_missing_checksums=args.allow_missing_checksums, robot=robot,
+                            robot_source=f'--robot {args.robot}')
     except BagError as exc:
         raise BagError(f'unreadable: {exc}') from None
     files = write_report(result, args.report) if args.report is not None else []
@@ -77,8 +85,9 @@ def register(subparsers: Any) -> None:
         'verify', help='verify a recorded bag against the current kinematics (exit 0 ok, 1 failed, 2 unreadable)',
         description='Check a rosbag2 bag (MCAP or SQLite3, split recordings read as one): its checksums and '
                     'metadata, every gpr_interfaces/PlatformState against forward kinematics of its q under the '
-                    'recorded geometry, the stream (counters, stamps, no jump at singular crossings) and the '
-                    'companion topics (poses, joint states, markers). SI units.')
+                    'recorded geometry, the stream (counters, stamps, no jump at singular crossings), the '
+                    'companion topics (poses, joint states, markers) and, for a whole-robot program, every wafer '
+                    'pose against the recorded robot description. SI units.')
     p.add_argument('bag', help='bag folder (with metadata.yaml), or a single .mcap / .db3 file')
     p.add_argument('--json', action='store_true', help='print the result as one JSON object (a value that is not '
                                                        'a finite number as the string "inf", "-inf" or "nan")')
@@ -91,6 +100,9 @@ def register(subparsers: Any) -> None:
     p.add_argument('--config', metavar='YAML', help='GPR configuration to verify against instead of the geometry '
                                                     'recorded in the bag (/gpr/geometry; without it, the '
                                                     "package's config/gpr.yaml); the difference is reported")
+    p.add_argument('--robot', metavar='YAML', help='robot description to verify the wafer poses of a whole-robot '
+                                                   'recording against instead of the one recorded (/gpr/robot); it '
+                                                   'computes with the geometry verified against')
     p.add_argument('--allow-missing-checksums', action='store_true',
                    help='verify a bag written by another recorder (no gpr checksums in metadata.yaml): skip '
                         'bag.checksums instead of failing it')

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import yaml
 
 #: ``(message field, ForwardResult attribute)`` of every PlatformState / ForwardKinematics response field that is
 #: a copy of the forward solution. ``pose`` and ``nominal_pose`` combine two attributes each (position and
@@ -64,6 +65,8 @@ class MessageTypes:
     JointState: Any
     PlatformState: Any
     float_sequence: Callable[[Any], Any]
+    #: ``gpr_interfaces/RobotState`` (the robot streams of :mod:`gpr_kinematics.robot_stream`).
+    RobotState: Any = None
 
 
 def header(types: MessageTypes, stamp_ns: int, frame_id: str) -> Any:
@@ -145,3 +148,17 @@ def stream_messages(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: st
                                                position=types.float_sequence(_floats(fk.virtual_joints)),
                                                velocity=empty, effort=empty),
     }
+
+
+def geometry_text(config: Any) -> str:
+    """``data`` of ``gpr/geometry`` (std_msgs/String, latched): the YAML of a ``GprConfig.to_dict()``, which
+    ``GprConfig.from_mapping`` reads back equal; a recording names the geometry and model that produced it."""
+    text: str = yaml.safe_dump(config.to_dict(), default_flow_style=False, sort_keys=False)
+    return text
+
+
+def robot_text(robot: Any) -> str:
+    """``data`` of ``gpr/robot`` (std_msgs/String, latched): the YAML of a ``RobotDescription.to_dict()`` (the
+    robot description file format, its geometry inline), which ``parse_robot`` reads back equal."""
+    text: str = yaml.safe_dump(robot.to_dict(), default_flow_style=False, sort_keys=False)
+    return text

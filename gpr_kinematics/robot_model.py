@@ -4,19 +4,28 @@ One source of truth: :func:`gpr_model` builds the model from a :class:`~gpr_kine
 URDF, the transforms and the plots always show the geometry the kinematics uses. Frames (REP 103/105 style, SI):
 
 - ``gpr_base``: origin at the centre of the rod axes on the plane ``q = 0``, z up along the rods;
-- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot
-  ``(R cos theta_k, R sin theta_k, 0)`` (a fixed joint: ``/tf_static``);
-- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = (R cos theta_k, R sin theta_k, q_k)``;
-  joint ``rod_k`` (prismatic along z, ``q_k`` in the stroke): the joint names of ``gpr/joint_states``;
+- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot ``P_k(0)``
+  (a fixed joint: ``/tf_static``);
+- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = B_k + (q_k + o_k) u_k``
+  (:class:`~gpr_kinematics.machine.MachineGeometry`: base point, zero offset and direction of the rod; the nominal
+  machine's ``(R cos theta_k, R sin theta_k, q_k)``); joint ``rod_k`` (prismatic along ``u_k``, ``q_k`` in the
+  stroke): the joint names of ``gpr/joint_states``;
 - ``gpr_platform``: the platform (origin at the centre of the nominal joint triangle, z normal to it); joint
   ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
   chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
 - ``gpr_platform_nominal``: the platform under the naive model (floating joint ``gpr_platform_nominal_pose``),
   drawn as a translucent ghost, so the centre shift shows as the offset between the two.
 
-A whole robot adds its links and joints with :meth:`RobotModel.extended` (an arm's first axis fixed on
-``gpr_platform``, revolute joints, a blade and a wafer frame): the URDF writer and :func:`joint_transform` already
-handle fixed, prismatic, revolute and floating joints.
+The whole robot (:func:`robot_model`, from a robot description, docs/robot.md) adds the world and the arms:
+
+- ``world`` (the description's ``base.frame``): the root; ``gpr_base`` fixed in it at ``base.position`` /
+  ``base.rpy`` (joint ``gpr_base_mount``, ``/tf_static``);
+- ``<arm>_link<k>``: one frame per revolute joint (joint names: the description's, e.g. ``arm1_elbow``, the names of
+  ``gpr/joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
+- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``).
+
+The arm's joint origins are its frames at zero joint values as the robot core chains them
+(:func:`gpr_kinematics.robot.forward.arm_transforms`): the URDF, the transforms and the kinematics have one source.
 
 >>> from gpr_kinematics.config import GprConfig
 >>> model = gpr_model(GprConfig())
@@ -25,12 +34,17 @@ handle fixed, prismatic, revolute and floating joints.
 >>> xyz, quat = model.transform('rod_1', 0.5)       # gpr_rod_guide_1 -> gpr_rod_1 at q1 = 0.5 m
 >>> [round(v, 12) for v in xyz], [round(v, 12) for v in quat]
 ([0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0])
+>>> from gpr_kinematics.robot import load_robot
+>>> arm = robot_model(load_robot()).joint('arm1_elbow')    # the example robot: elbow 0.30 m out, 35 mm up
+>>> arm.kind, arm.parent, arm.child, arm.xyz
+('revolute', 'arm1_link1', 'arm1_link2', (0.3, 0.0, 0.035))
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -38,6 +52,14 @@ import numpy as np
 from .config import GprConfig
 from .errors import InputError
 from .geometry import quaternion_from_matrix
+from .machine import MachineGeometry
+from .messages import ROD_JOINT_NAMES
+
+if TYPE_CHECKING:
+    from .robot.description import Arm, RobotDescription
+
+#: A 300 mm wafer (diameter, thickness [m]): how the wafer frame is drawn (a visual; the kinematics use its centre).
+WAFER_VISUAL = (0.300, 0.000775)
 
 JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
 
@@ -161,22 +183,84 @@ def gpr_model(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str 
     links = [Link(base_frame, (Visual('cylinder', (1.3 * R, 0.2 * plate), (0.0, 0.0, -0.1 * plate), material='base',
                                       rgba=(0.45, 0.45, 0.45, 1.0)),))]
     joints = []
-    for k, theta in enumerate(cfg.rod_azimuths, start=1):
-        foot = (R * math.cos(theta), R * math.sin(theta), 0.0)
-        guide, rod = f'gpr_rod_guide_{k}', f'gpr_rod_{k}'
+    geo = MachineGeometry.of(cfg)
+    feet = geo.base_points(np.zeros((1, 3)))[0]        # P_k(0) = B_k + o_k u_k: where rod k stands
+    for k in range(3):
+        guide, rod = f'gpr_rod_guide_{k + 1}', f'gpr_rod_{k + 1}'
+        axis = (float(geo.ux[k]), float(geo.uy[k]), float(geo.uz[k]))   # the rod's direction u_k
         links.append(Link(guide, (Visual('cylinder', (1.8 * rod_r, 2 * plate), (0.0, 0.0, -plate), material='guide',
                                          rgba=(0.3, 0.3, 0.3, 1.0)),)))
         links.append(Link(rod, (Visual('cylinder', (rod_r, stroke), (0.0, 0.0, -0.5 * stroke), material='rod',
                                        rgba=(0.2, 0.4, 0.9, 1.0)),
                                 Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
-        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=foot))
-        joints.append(Joint(f'rod_{k}', 'prismatic', guide, rod, lower=cfg.stroke_min, upper=cfg.stroke_max))
+        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=_xyz(feet[k])))
+        joints.append(Joint(ROD_JOINT_NAMES[k], 'prismatic', guide, rod, axis=axis, lower=cfg.stroke_min,
+                            upper=cfg.stroke_max))
     disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
     links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
     links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
     joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame))
     joints.append(Joint(f'{nominal_frame}_pose', 'floating', base_frame, nominal_frame))
     return RobotModel('gpr', base_frame, tuple(links), tuple(joints))
+
+
+def robot_model(robot: RobotDescription, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
+                nominal_frame: str = 'gpr_platform_nominal') -> RobotModel:
+    """The whole robot: the world, the GPR of the description's geometry (:func:`gpr_model`) and every arm with
+    its blade and wafer (module docstring)."""
+    gpr = gpr_model(robot.config, base_frame, platform_frame, nominal_frame)
+    world = Link(robot.world_frame)
+    mount = Joint(f'{base_frame}_mount', 'fixed', robot.world_frame, base_frame, xyz=robot.base_position,
+                  rpy=robot.base_rpy)
+    links, joints = [world, *gpr.links], [mount, *gpr.joints]
+    for arm in robot.arms:
+        arm_links, arm_joints = _arm_parts(arm, platform_frame)
+        links += arm_links
+        joints += arm_joints
+    return RobotModel(robot.name, robot.world_frame, tuple(links), tuple(joints))
+
+
+def _yaw(R: np.ndarray) -> float:
+    """The angle of a rotation about z (the arms turn about the platform normal only)."""
+    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+
+
+def _xyz(v: Any) -> tuple[float, float, float]:
+    return float(v[0]), float(v[1]), float(v[2])
+
+
+def _arm_parts(arm: Arm, platform_frame: str) -> tuple[list[Link], list[Joint]]:
+    """Links and joints of one arm: its frames at zero joint values (``arm_transforms``), revolute about z for the
+    links, fixed for the blade and the wafer; boxes along the links, a thin blade, a 300 mm wafer."""
+    from .robot.forward import arm_transforms
+
+    frames = arm_transforms(arm, np.zeros((1, len(arm.joints))))
+    links, joints = [], []
+    grey, blade_rgba, wafer_rgba = (0.75, 0.75, 0.78, 1.0), (0.35, 0.35, 0.4, 1.0), (0.55, 0.6, 0.9, 0.9)
+    for k, (frame, parent, pose) in enumerate(frames):
+        xyz = _xyz(pose.position[0])
+        rpy = (0.0, 0.0, _yaw(pose.rotation[0]))
+        parent = platform_frame if parent == 'gpr_platform' else parent
+        if k < len(arm.joints):
+            j = arm.joints[k]
+            visuals = [Visual('cylinder', (0.03, 0.03), material='arm_axis', rgba=(0.5, 0.5, 0.55, 1.0))]
+            if j.length > 0.0:
+                visuals.append(Visual('box', (j.length, 0.05, 0.02), (0.5 * j.length, 0.0, 0.0), material='arm',
+                                      rgba=grey))
+            links.append(Link(frame, tuple(visuals)))
+            joints.append(Joint(j.name, 'revolute', parent, frame, xyz=xyz, rpy=rpy, lower=j.lower, upper=j.upper))
+        elif frame == arm.blade_frame:
+            c = arm.blade.wafer_centre
+            reach = math.hypot(c[0], c[1])
+            links.append(Link(frame, (Visual('box', (reach + 0.05, 0.06, 0.003), (0.5 * c[0], 0.5 * c[1], 0.0),
+                                             rpy=(0.0, 0.0, math.atan2(c[1], c[0])), material='blade',
+                                             rgba=blade_rgba),)))
+            joints.append(Joint(f'{arm.name}_blade_mount', 'fixed', parent, frame, xyz=xyz, rpy=rpy))
+        else:
+            links.append(Link(frame, (Visual('cylinder', (0.5 * WAFER_VISUAL[0], WAFER_VISUAL[1]), material='wafer',
+                                             rgba=wafer_rgba),)))
+            joints.append(Joint(f'{arm.name}_wafer_mount', 'fixed', parent, frame, xyz=xyz, rpy=rpy))
+    return links, joints
 
 
 def _f(x: float, exact: bool = True) -> str:
@@ -229,7 +313,22 @@ def urdf_text(model: RobotModel) -> str:
     return '\n'.join(out) + '\n'
 
 
-if __name__ == '__main__':
-    from .config import load_config
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m gpr_kinematics.robot_model [ROBOT_FILE]``: the URDF of the package's GPR, or with a robot
+    description (``example`` for the shipped one) of that whole robot, on stdout."""
+    import sys
 
-    print(gpr_model(load_config()).to_urdf(), end='')
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args:
+        from .config import load_config
+
+        print(gpr_model(load_config()).to_urdf(), end='')
+        return 0
+    from .robot.description import load_robot
+
+    print(robot_model(load_robot(None if args[0] == 'example' else args[0])).to_urdf(), end='')
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

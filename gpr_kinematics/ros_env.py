@@ -212,9 +212,8 @@ def _check() -> int:
     import rclpy
     from tf2_msgs.msg import TFMessage
 
+    from gpr_interfaces import msg, srv
     from gpr_interfaces.action import RunProgram
-    from gpr_interfaces.msg import PlatformState, ProgramStation
-    from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
 
     rclpy.init()
     try:
@@ -222,8 +221,9 @@ def _check() -> int:
         node.destroy_node()
     finally:
         rclpy.try_shutdown()
-    names = [t.__name__ for t in (PlatformState, ProgramStation, ForwardKinematics, InverseKinematics, Compensate,
-                                   AnalyzeMobility, RunProgram)]
+    names = [t.__name__ for t in (msg.PlatformState, msg.ProgramStation, msg.RobotState, srv.ForwardKinematics,
+                                   srv.InverseKinematics, srv.Compensate, srv.AnalyzeMobility,
+                                   srv.RobotForwardKinematics, srv.StationInverseKinematics, RunProgram)]
     print(f'rclpy {Path(rclpy.__file__).parent}, gpr_interfaces ({", ".join(names)}) and tf2_msgs '
           f'({TFMessage.__name__} from {Path(sys.modules[TFMessage.__module__].__file__ or "").parents[2]}) '
           'import and run')

@@ -1,6 +1,8 @@
-"""kinematics_node: the GPR's forward/inverse kinematics, compensation and mobility services.
+"""kinematics_node: the GPR's forward/inverse kinematics, compensation and mobility services, and the whole robot's
+(gpr/robot_forward_kinematics, gpr/station_inverse_kinematics).
 
     ros2 launch gpr_kinematics kinematics.launch.py [namespace:=/robot1] [model:=polar] [config_file:=my_gpr.yaml]
+        [robot:=my_robot.yaml]
 """
 from launch import LaunchDescription
 from launch.substitutions import LaunchConfiguration
@@ -10,9 +12,11 @@ from gpr_kinematics.nodes.launch_common import arguments, typed
 
 ARGUMENTS = (
     ('namespace', '', 'namespace of the node and its services, e.g. /robot1'),
-    ('config_file', '', "geometry YAML (GprConfig keys) over the package's config/gpr.yaml; empty: the package "
-                        'geometry'),
+    ('config_file', '', "geometry YAML (GprConfig keys) over the package's config/gpr.yaml, replacing the robot's "
+                        'gpr section; empty: that section (the package geometry for the shipped robot)'),
     ('model', '', "virtual-joint model: radial, polar or offset; empty: config_file's"),
+    ('robot', '', 'robot description YAML (the GPR, the arms, blades and wafers) for the robot services; its gpr '
+                  'section is the geometry unless config_file is given; empty: config/robots/example_robot.yaml'),
 )
 
 
@@ -21,5 +25,6 @@ def generate_launch_description() -> LaunchDescription:
         *arguments(ARGUMENTS),
         Node(package='gpr_kinematics', executable='kinematics_node', namespace=LaunchConfiguration('namespace'),
              output='screen', parameters=[LaunchConfiguration('params_file'),
-                                          {'config_file': typed('config_file'), 'model': typed('model')}]),
+                                          {'robot_file': typed('robot'), 'config_file': typed('config_file'),
+                                           'model': typed('model')}]),
     ])

@@ -15,6 +15,22 @@ from gpr_kinematics.robot.stations import Stations, stations_from_poses
 ROBOT = load_robot()
 EXAMPLE = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
 
+#: A short whole-robot program for the stream, tf and bag tests: arm1 places a wafer at a tilted station, arm2
+#: picks one from another (both arms in use, both branches).
+SHORT_PROGRAM = """\
+format: gpr_robot_program
+units: {length: mm, angle: deg}
+defaults: {approach_height: 8, retract_height: 8, dwell: 0.1}
+stations:
+  - {name: home, position: [750, 850, 420], heading: 90}
+  - {name: chamber_a, position: [1200, 1000, 455], tilt: 1.2, azimuth: 30, heading: 45}
+  - {name: chamber_b, position: [300, 1050, 480], tilt: 0.8, azimuth: -60, heading: 130, branch: left}
+steps:
+  - {move: home}
+  - {place: chamber_a}
+  - {pick: chamber_b, arm: arm2}
+"""
+
 
 def robot_data() -> dict[str, Any]:
     """A deep copy of the example robot's YAML data, to modify."""

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -24,6 +25,25 @@ def start(exe: str, *ros_args: str, namespace: str = '', **values: Any) -> NodeP
     """Start ``exe`` as ``ros2 run`` would, with ``-r __ns:=namespace`` and ``-p`` parameters."""
     args = (['-r', f'__ns:={namespace}'] if namespace else []) + params(**values) + list(ros_args)
     return NodeProcess(exe, args)
+
+
+def running(proc: NodeProcess, ready: str | None = None) -> Iterator[NodeProcess]:
+    """A module fixture's body: ``proc`` (once its output shows ``ready``, if given), stopped after the module."""
+    try:
+        if ready is not None:
+            wait_for_log(proc, ready)
+        yield proc
+    finally:
+        proc.stop()
+
+
+def client_session(name: str, namespace: str = '') -> Iterator[Any]:
+    """A module fixture's body: a ``GprClient`` named ``name`` in ``namespace`` (imported here, once the ROS
+    environment is active), closed after the module."""
+    from gpr_kinematics.nodes.client import GprClient
+
+    with GprClient(name, namespace=namespace) as c:
+        yield c
 
 
 def wait_for_log(proc: NodeProcess, pattern: str, timeout: float = 30.0) -> re.Match[str]:
@@ -62,3 +82,27 @@ def assert_one_error_line(output: str, status: int, expected: int, *words: str) 
     for w in words:
         assert re.search(w, errors[0]), (w, errors[0])
     return errors[0]
+
+
+#: A real, imperfect machine as a calibration writes it (docs/core.md): rods off their circle, zero offsets, rods not
+#: parallel, platform joints moved, the compliant model with a kappa per joint; keys that no ROS parameter holds
+#: (rod_positions, rod_directions, platform_joints) reach a node only through its config_file.
+IMPERFECT_MACHINE = {
+    'rod_positions': [[0.09326, 2e-5], [-0.04659, 0.08075], [-0.04664, -0.08071]],
+    'rod_offsets': [4e-5, -1e-5, 2e-5],
+    'rod_directions': [[2e-4, -1e-4], [-1e-4, 1.5e-4], [5e-5, 1e-4]],
+    'platform_joints': [[0.09320, -1e-5], [-0.04663, 0.08073], [-0.04660, -0.08074]],
+    'kappa': [5.0, 3.0, 8.0],
+    'model': 'compliant',
+}
+
+
+def imperfect_config_file(folder: Any) -> tuple[Any, Any]:
+    """Write :data:`IMPERFECT_MACHINE` as a geometry file in ``folder``; its path and the loaded configuration."""
+    import yaml
+
+    from gpr_kinematics.config import load_config
+
+    path = folder / 'imperfect_gpr.yaml'
+    path.write_text(yaml.safe_dump(IMPERFECT_MACHINE))
+    return path, load_config(path)

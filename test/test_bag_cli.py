@@ -58,7 +58,10 @@ def test_a_config_the_solver_cannot_use_is_a_failed_check(tmp_path: Path, capsys
     assert 'FAIL state.forward on /gpr/platform_state at sample 0' in out and 'ConvergenceError' in out
     forward = next(line for line in out.splitlines() if line.startswith('state.forward '))
     assert forward.split()[3] == '756' and forward.endswith('756 failed')  # each sample failed once, here
-    assert 'max_iterations (12 recorded' not in out  # the reference bag recorded no geometry to compare with
+    # The reference bag's recorded geometry is compared with the given one: the difference named, the pose
+    # difference not computable.
+    assert ('differs from the recorded geometry in max_iterations (12 recorded, 1 given); pose difference not '
+            'computable: ConvergenceError') in out
     _one_line_error(*run('verify', str(REFERENCE), '--config', '', capsys=capsys), '--config is empty')
     _one_line_error(*run('verify', str(REFERENCE), '--config', str(tmp_path / 'none.yaml'), capsys=capsys),
                     'none.yaml')

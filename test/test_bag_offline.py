@@ -24,7 +24,7 @@ from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
-from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, VIRTUAL_JOINTS_TOPIC, definition, typestore
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PLATFORM_STREAM_TOPICS, definition, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.bags.writer import SegmentedBagWriter
 
@@ -50,13 +50,17 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     status, out, err = run_cli('verify', str(REFERENCE), capsys=capsys)
     assert status == 0, out + err
     assert 'verification PASSED' in out
+    from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+
     bag = read_bag(REFERENCE)
-    # The default sweep: 36 azimuths x 21 tilts, every topic of the trajectory node, one sample each; recorded
-    # before the trajectory node published its geometry (the topic is listed, empty: verify says so) and before
-    # the virtual joints left /gpr/joint_states for their own topic.
-    stream = set(GPR_TOPICS) - {GEOMETRY_TOPIC, VIRTUAL_JOINTS_TOPIC}
-    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(stream, 756), GEOMETRY_TOPIC: 0}
-    assert 'no geometry recorded in the bag' in out
+    # The default sweep: 36 azimuths x 21 tilts; every topic of a platform stream one message per sample, the
+    # latched geometry and robot description once, the robot program's own topics listed and empty (a sweep).
+    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(PLATFORM_STREAM_TOPICS, 756),
+                                                          GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1, ROBOT_STATE_TOPIC: 0,
+                                                          WAFER_POSE_TOPIC: 0}
+    assert set(bag.topics) == set(GPR_TOPICS)
+    assert 'note: verified against the geometry recorded on /gpr/geometry' in out
+    assert 'robot example_dual_arm recorded on /gpr/robot; no robot states' in out
     assert bag.storage == 'mcap' and bag.version == 9
     assert sum(f.stat().st_size for f in REFERENCE.iterdir()) < 2_000_000
     c = bag.topic(STATE).columns()
@@ -119,10 +123,13 @@ def test_vectorised_decoder_equals_rosbags_deserialisation() -> None:
     bag = read_bag(REFERENCE)
     store = typestore()
     for topic in bag.topics.values():
-        if topic.name == GEOMETRY_TOPIC:
-            assert len(topic) == 0
+        if len(topic) == 0:      # the robot program's topics in a sweep
+            assert topic.name in ('/gpr/robot_state', '/gpr/wafer_pose')
             continue
         c = topic.columns()
+        if topic.msgtype == 'std_msgs/msg/String':     # the geometry and the robot: one latched text each
+            assert c['data'][0] == store.deserialize_cdr(topic.raw[0], topic.msgtype).data
+            continue
         assert c.fallback == 0 and c.layouts <= 2
         for i in (0, 1, len(topic) // 2, len(topic) - 1):
             msg = store.deserialize_cdr(topic.raw[i], topic.msgtype)

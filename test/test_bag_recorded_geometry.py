@@ -73,10 +73,13 @@ def test_a_given_config_equal_to_the_recorded_one(tmp_path: Path, other: Path) -
     assert result.passed and f'{same} equals the recorded geometry' in result.notes
 
 
-def test_a_bag_without_geometry_falls_back_and_says_so() -> None:
-    result = verify_bag(REFERENCE)
+def test_a_bag_without_geometry_falls_back_and_says_so(tmp_path: Path) -> None:
+    bag = rewritten(REFERENCE, tmp_path / 'no_geometry', lambda topic, msg: None if topic == GEOMETRY_TOPIC else msg)
+    result = verify_bag(bag)
     assert result.passed and result.geometry == {'source': 'package'}
-    assert result.notes == ['no geometry recorded in the bag: verified against the package configuration']
+    assert result.notes == ['no geometry recorded in the bag: verified against the package configuration',
+                            'robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
+                            'no wafer poses to verify']
     assert next(c for c in result.checks if c.name == 'topic.geometry').skipped == 'no geometry recorded in the bag'
 
 

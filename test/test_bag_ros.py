@@ -1,14 +1,17 @@
 """recorder_node and replay_node over real DDS (nodes started as ``ros2 run`` would): trajectory -> recorder ->
 stop -> verify, both storage formats and both stop signals; SIGKILL loses nothing beyond the flush interval;
 refusals; replay of the reference bag into a fresh recorder gives the same bytes; the latched geometry is
-recorded whether the recorder starts before or after the trajectory node."""
+recorded whether the recorder starts before or after the trajectory node; a whole-robot program recorded with the
+default topics verifies every wafer pose."""
 from __future__ import annotations
 
 import math
 import re
 import signal
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -31,10 +34,13 @@ DEFAULT_TOPICS = recorded_topics()
 
 
 def expected_counts(n: int) -> dict[str, int]:
-    """Messages per default topic for a stream of ``n`` samples: one per sample, one for a latched topic."""
+    """Messages per default topic for a platform stream (a sweep) of ``n`` samples: one per sample on the platform
+    stream's topics, one on a latched topic (the geometry, the robot description), none on the robot program's
+    own topics (robot states, wafer poses)."""
+    from gpr_kinematics.bags.typestore import PLATFORM_STREAM_TOPICS
     from gpr_kinematics.nodes.qos import LATCHED
 
-    return {t: 1 if t in LATCHED else n for t in DEFAULT_TOPICS}
+    return {t: 1 if t in LATCHED else n if t in PLATFORM_STREAM_TOPICS else 0 for t in DEFAULT_TOPICS}
 
 
 def recorder(output: Path, **values):
@@ -62,6 +68,24 @@ def closed_samples(bag: Path, at_least: int, timeout: float) -> int:
             return n
         time.sleep(0.05)
     raise AssertionError(f'{bag}: {n} samples in closed segments after {timeout} s, expected {at_least}')
+
+
+def record_to_the_end(rec, topics: int, producer: Callable[[], Any], timeout: float = 120.0) -> Any:
+    """Once ``rec`` records ``topics`` topics, start ``producer()`` (a node process), wait until it ends with status 0,
+    let DDS deliver for 0.3 s and stop the recorder with SIGINT (status 0); both are stopped in any case. Returns the
+    producer's process (its output kept)."""
+    proc = None
+    try:
+        wait_for_log(rec, rf'recording {topics} topic')
+        proc = producer()
+        assert proc.wait(timeout) == 0, proc.output()
+        time.sleep(0.3)
+        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
+        return proc
+    finally:
+        rec.stop()
+        if proc is not None:
+            proc.stop()
 
 
 def published(traj) -> int:
@@ -126,10 +150,44 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     assert b.storage == storage and all(f.endswith(suffix) for f in b.files)
     assert not (bag / '.recording').exists()
     assert {k: len(t) for k, t in b.topics.items()} == expected_counts(n)
-    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items()}
+    assert independent_read(bag, b.files) == {k: t.raw for k, t in b.topics.items() if len(t)}   # (no empty ones)
     result = verify_bag(b)
     assert result.passed, [f.line() for f in result.failures]
     assert result.crossings == 12
+
+
+def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> None:
+    """A whole-robot program streamed by trajectory_node into a recorder with its default topics: the bag holds
+    the robot description once and a RobotState and a wafer pose per sample; gpr verify checks every wafer against
+    the robot core with the recorded description; the recorded wafers equal robot_stream's (computed here)."""
+    from robot_support import SHORT_PROGRAM
+
+    from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.robot_stream import robot_stream
+
+    program = tmp_path / 'program.yaml'
+    program.write_text(SHORT_PROGRAM)
+    rate = 100.0
+    expected = robot_stream(load_robot(), load_program(program), rate)
+    bag = tmp_path / 'bag'
+    traj = record_to_the_end(recorder(bag, flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(
+        'trajectory_node', mode='program', program_file=str(program), rate=rate, wait_for_subscribers=1,
+        wait_all_topics=True))
+    n = published(traj)
+    assert n == len(expected)
+    b = read_bag(bag)
+    counts = {k: len(t) for k, t in b.topics.items()}
+    assert counts[ROBOT_TOPIC] == 1 and counts[ROBOT_STATE_TOPIC] == counts[WAFER_POSE_TOPIC] == counts[STATE] == n
+    result = verify_bag(b)
+    assert result.passed, [f.line() for f in result.failures]
+    checks = {c.name: c for c in result.checks}
+    assert checks['robot.wafer_position'].checked == checks['topic.wafer_pose'].checked == n
+    assert result.robot['source'] == 'recorded'
+    rc = b.topic(ROBOT_STATE_TOPIC).columns()
+    wafer = np.stack([rc[f'wafer.position.{a}'] for a in 'xyz'], axis=1)
+    assert np.abs(wafer - expected.wafer.position).max() <= 1e-12
 
 
 def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> None:
@@ -209,18 +267,9 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     rate = 4.0
     topics = [t.lstrip('/') for t in ref.topics]
     rec = recorder(tmp_path / 'again', flush_interval=0.5, topics='[' + ', '.join(topics) + ']')
-    replay = None
-    try:
-        wait_for_log(rec, rf'recording {len(topics)} topic')
-        replay = start('replay_node', bag=REFERENCE, rate=rate, wait_for_subscribers=1)
-        assert replay.wait(60) == 0, replay.output()
-        assert 'finished: published' in replay.output()
-        time.sleep(0.3)
-        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
-    finally:
-        rec.stop()
-        if replay is not None:
-            replay.stop()
+    replay = record_to_the_end(rec, len(topics), lambda: start('replay_node', bag=REFERENCE, rate=rate,
+                                                               wait_for_subscribers=1), timeout=60)
+    assert 'finished: published' in replay.output()
     again = read_bag(tmp_path / 'again')
     assert set(again.topics) == set(ref.topics)
     for name, topic in ref.topics.items():
@@ -234,18 +283,8 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
 
 
 def test_replay_topic_filter(tmp_path: Path) -> None:
-    rec = recorder(tmp_path / 'states', flush_interval=0.5)
-    replay = None
-    try:
-        wait_for_log(rec, rf'recording {len(DEFAULT_TOPICS)} topic')
-        replay = start('replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1)
-        assert replay.wait(60) == 0, replay.output()
-        time.sleep(0.3)
-        assert rec.signal(signal.SIGINT, timeout=15)[0] == 0
-    finally:
-        rec.stop()
-        if replay is not None:
-            replay.stop()
+    record_to_the_end(recorder(tmp_path / 'states', flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(
+        'replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1), timeout=60)
     b = read_bag(tmp_path / 'states')
     assert {k: len(t) for k, t in b.topics.items()} == {**dict.fromkeys(DEFAULT_TOPICS, 0), STATE: 756}
     bad = start('replay_node', bag=tmp_path / 'nothing')

@@ -134,3 +134,24 @@ def test_doctests_of_the_robot_modules():
         result = doctest.testmod(module)
         assert result.failed == 0, module.__name__
     assert math.isclose(transforms.rpy_matrix(0.1, 0.2, 0.3)[2, 0], -math.sin(0.2))
+
+
+@pytest.mark.parametrize('rule', ['fixed_joint', 'nearest'])
+def test_to_dict_reads_back_through_yaml_into_an_equal_description(rule, tmp_path):
+    """What a recording stores (gpr/robot): the description as YAML, read back equal, a calibrated-looking
+    geometry and a 2-joint arm included."""
+    data = robot_data()
+    data['gpr'] = {'config': None, 'model': 'compliant', 'kappa': [4.0, 5.0, 6.0], 'rod_offsets': [1e-5, 0.0, -2e-5],
+                   'rod_directions': [[1e-4, 0.0], [0.0, 0.0], [0.0, -1e-4]]}
+    data['base']['rpy'] = [0.001, -0.002, 0.3]
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.5]
+    if rule == 'nearest':
+        data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_elbow', 'reference': [0.1, -1.0, 0.2, 1.0],
+                                         'weights': [1.0, 2.0, 0.5, 1.0]}
+    robot = make_robot(data)
+    text = yaml.safe_dump(robot.to_dict(), sort_keys=False)
+    again = description.parse_robot(yaml.safe_load(text), robot.source)
+    assert again == robot
+    assert again.config.rod_directions == ((1e-4, 0.0), (0.0, 0.0), (0.0, -1e-4))
+    assert again.arms[1].redundancy is not None and again.arms[1].redundancy.rule == rule

@@ -9,8 +9,8 @@ import textwrap
 
 import numpy as np
 import pytest
+from ros_support import client_session, imperfect_config_file, running, start
 from ros_support import quat as _quat
-from ros_support import start
 from ros_support import vec as _vec
 
 from gpr_kinematics.compensation import compensate
@@ -27,17 +27,12 @@ TIGHT = dict(rtol=0.0, atol=1e-12)
 
 @pytest.fixture(scope='module')
 def node(ros_environment):
-    proc = start('kinematics_node')
-    yield proc
-    proc.stop()
+    yield from running(start('kinematics_node'))
 
 
 @pytest.fixture(scope='module')
 def client(node):
-    from gpr_kinematics.nodes.client import GprClient
-
-    with GprClient('gpr_test_kinematics_client') as c:
-        yield c
+    yield from client_session('gpr_test_kinematics_client')
 
 
 def _fk(client, q, model=''):
@@ -274,6 +269,40 @@ def test_params_file_and_namespace(client, tmp_path):
         assert res.model == 'offset'
         np.testing.assert_allclose(_vec(res.pose.position), core.position, **TIGHT)
         np.testing.assert_allclose(res.side_lengths, core.side_lengths, **TIGHT)
+    finally:
+        proc.stop()
+
+
+def test_an_imperfect_machine_from_config_file(client, tmp_path):
+    """A config_file with the keys no ROS parameter holds (rod positions, directions, platform joints): the node
+    computes on that machine, its answers equal the core's on it and differ from the nominal machine's."""
+    from gpr_interfaces.srv import AnalyzeMobility, ForwardKinematics
+
+    path, cfg = imperfect_config_file(tmp_path)
+    proc = start('kinematics_node', namespace='/gpr_imperfect', config_file=str(path))
+    try:
+        q = (0.41, 0.4125, 0.4093)
+        res = client.call(ForwardKinematics, '/gpr_imperfect/gpr/forward_kinematics', ForwardKinematics.Request(q=q))
+        assert res.success, res.message
+        core = forward(q, cfg)
+        assert res.model == 'compliant'
+        np.testing.assert_allclose(_vec(res.pose.position), core.position, **TIGHT)
+        np.testing.assert_allclose(_quat(res.pose.orientation), core.quaternion, **TIGHT)
+        np.testing.assert_allclose(res.virtual_joints, core.virtual_joints, **TIGHT)
+        np.testing.assert_allclose(res.side_lengths, core.side_lengths, **TIGHT)
+        nominal = forward(q, CFG.replace(model='compliant', kappa=cfg.kappa))
+        assert np.max(np.abs(_vec(res.pose.position) - nominal.position)) > 1e-6     # really another machine
+        # Mobility with a rod-length change: dP along the machine's own rod directions u_k.
+        dq = (1e-4, -2e-4, 5e-5)
+        mob = client.call(AnalyzeMobility, '/gpr_imperfect/gpr/analyze_mobility',
+                          AnalyzeMobility.Request(q=q, dq=dq))
+        assert mob.success, mob.message
+        m = analyze_mobility(q, cfg)
+        b = m.dx_bounds(m.rod_perturbation(dq))
+        u = np.array(cfg.rod_directions)
+        assert np.allclose(m.rod_perturbation(dq)[3:5], np.asarray(dq)[0] * u[0])   # not e3: the tilted rod
+        assert mob.dx_norm == pytest.approx(b.norm_dx, rel=1e-12)
+        assert (mob.dx_lower_eq5, mob.dx_upper_eq5) == pytest.approx(b.eq5, rel=1e-12)
     finally:
         proc.stop()
 

@@ -1,5 +1,6 @@
 """Hostile numbers to every service of kinematics_node (issue 10): a seeded, bounded hypothesis run sends NaN,
-infinities, 1e308, the smallest subnormal, zeros, negative and huge values and odd model names. Every answer is
+infinities, 1e308, the smallest subnormal, zeros, negative and huge values and odd model names (and to the robot
+services odd arm names, branches, numbers of joints and redundancy values). Every answer is
 either ``success: false`` with a message that names the problem (a refusal of the package, not an internal
 error), or ``success: true`` with finite numbers equal to the core's; the node keeps serving. Fixed-size arrays
 of the wrong length never leave the client with ``ROS_PYTHON_CHECK_FIELDS=1`` (set by conftest.py)."""
@@ -17,10 +18,12 @@ from gpr_kinematics.config import load_config
 from gpr_kinematics.errors import GprError
 from gpr_kinematics.geometry import quaternion_from_matrix, tilt_rotation
 from gpr_kinematics.kinematics import forward
+from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 
 pytestmark = pytest.mark.ros
 
 CFG = load_config()
+ROBOT = load_robot()       # the node's default robot description (robot_file empty: the shipped example)
 NS = '/gpr_fuzz'
 SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -121,19 +124,73 @@ def test_analyze_mobility(client, q, dq, model):
         assert res.rank_augmented == 12
 
 
+ARMS = st.one_of(st.sampled_from(['', 'arm1', 'arm2', 'arm3', ' arm1', 'x' * 2000]), st.text(max_size=20))
+#: Joint values: hostile, or within the example arms' limits; 0 to 6 of them (the arms have 3 and 4).
+JOINTS = st.one_of(st.lists(HOSTILE, max_size=6), st.lists(st.floats(min_value=-2.4, max_value=2.4), min_size=3,
+                                                             max_size=4))
+#: Station positions in the world: hostile, or near a reachable station of the example robot.
+STATION = st.one_of(st.lists(HOSTILE, min_size=3, max_size=3),
+                    st.tuples(st.floats(1.2, 1.4), st.floats(0.5, 0.7), st.floats(0.40, 0.50)).map(list))
+ANGLE = st.one_of(HOSTILE, st.floats(min_value=-0.03, max_value=0.03))
+BRANCHES = st.one_of(st.sampled_from(['', 'left', 'right', 'Left', 'up']), st.text(max_size=10))
+
+
+@SETTINGS
+@given(rods=VEC3, joints=JOINTS, arm=ARMS, model=MODELS)
+@example(rods=[0.3, 0.301, 0.299], joints=[0.1, 1.2, -0.4], arm='', model='')
+@example(rods=[0.3, 0.301, 0.299], joints=[0.1, -1.2, 0.3, 0.2], arm='arm2', model='compliant')
+def test_robot_forward_kinematics(client, rods, joints, arm, model):
+    res = _check(client, client.robot_forward_kinematics(rods, joints, arm, model))
+    robot = ROBOT if not model.strip() or model.strip() == CFG.model else None
+    if res.success:
+        assert res.arm == (arm.strip() or 'arm1') and len(res.joint_names) == len(joints)
+        if robot is not None:
+            core = robot_forward(robot, [rods], [joints], res.arm)
+            np.testing.assert_allclose(vec(res.wafer.position), core.wafer.position[0], rtol=0, atol=1e-12)
+            np.testing.assert_allclose(quat(res.wafer.orientation), core.wafer.quaternion[0], rtol=0, atol=1e-12)
+    elif robot is not None and arm.strip() in ROBOT.arm_names and len(joints) == len(ROBOT.arm(arm.strip()).joints):
+        with pytest.raises(GprError):       # the core refuses it too
+            robot_forward(robot, [rods], [joints], arm.strip())
+
+
+@SETTINGS
+@given(position=STATION, tilt=ANGLE, azimuth=ANGLE, heading=ANGLE, free=st.booleans(), arm=ARMS, branch=BRANCHES,
+       redundancy=st.one_of(st.none(), HOSTILE), model=MODELS)
+@example(position=[1.3, 0.6, 0.45], tilt=0.02, azimuth=0.5, heading=0.35, free=False, arm='', branch='',
+         redundancy=None, model='')
+@example(position=[1.3, 0.6, 0.6], tilt=0.0, azimuth=0.0, heading=0.3, free=False, arm='arm2', branch='left',
+         redundancy=0.2, model='')
+def test_station_inverse_kinematics(client, position, tilt, azimuth, heading, free, arm, branch, redundancy, model):
+    res = _check(client, client.station_inverse_kinematics(position, tilt, azimuth, None if free else heading, arm,
+                                                           branch, redundancy, model))
+    if not res.success:
+        return
+    assert res.position_error < 1e-9 and res.angle_error < 1e-9
+    assert res.naive_wafer_error >= 0.0 and len(res.joints) == len(res.joint_names) == len(res.naive_joints)
+    if not model.strip() or model.strip() == CFG.model:
+        core = solve_stations(ROBOT, Stations.of([position], tilt, azimuth, None if free else heading), res.arm,
+                              branch.strip() or None, redundancy)
+        np.testing.assert_allclose(res.rods, core.rods[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(res.joints, core.joints[0], rtol=0, atol=1e-12)
+        assert res.naive_wafer_error == pytest.approx(core.naive_wafer_error_norm[0], rel=1e-9, abs=1e-15)
+
+
 def test_fuzzing_reached_valid_and_refused_requests():
     names = {'ForwardKinematics_Response', 'InverseKinematics_Response', 'Compensate_Response',
-             'AnalyzeMobility_Response'}
+             'AnalyzeMobility_Response', 'RobotForwardKinematics_Response', 'StationInverseKinematics_Response'}
     assert set(SEEN) == names, SEEN
     assert all(ok > 0 and refused > 0 for ok, refused in SEEN.values()), SEEN
 
 
 def test_wrong_array_lengths_never_leave_the_client(client):
-    from gpr_interfaces.srv import AnalyzeMobility, ForwardKinematics
+    from gpr_interfaces.srv import AnalyzeMobility, ForwardKinematics, RobotForwardKinematics, StationInverseKinematics
 
-    for req, field in ((ForwardKinematics.Request(), 'q'), (AnalyzeMobility.Request(), 'dq')):
+    for req, field in ((ForwardKinematics.Request(), 'q'), (AnalyzeMobility.Request(), 'dq'),
+                       (RobotForwardKinematics.Request(), 'rods')):
         for bad in ([0.5, 0.5], [0.5] * 4, []):
             with pytest.raises(AssertionError):
                 setattr(req, field, bad)
+    with pytest.raises(AssertionError):            # a string where a number goes
+        StationInverseKinematics.Request(tilt='0.1')
     res = client.forward_kinematics([0.5, 0.5, 0.5])
     assert res.success, res.message

@@ -137,6 +137,43 @@ def test_python_and_xml_variants_agree(name, monkeypatch):
     assert sorted(py['nodes']) == sorted(xml['nodes'])
 
 
+def _sources_py(name: str, monkeypatch) -> list[tuple[str, dict[str, str]]]:
+    """Per node of the Python variant: its executable and, per parameter set from a launch argument, that
+    argument's name."""
+    python_launch(name, monkeypatch)      # installs the stand-ins
+    spec = importlib.util.spec_from_file_location(f'launch_sources_{name}', LAUNCH / f'{name}.launch.py')
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = []
+    for e in mod.generate_launch_description().args[0]:
+        if type(e).__name__ == 'Node' and e.kwargs['package'] == 'gpr_kinematics':
+            params = {k: _used_configurations(v) for item in e.kwargs['parameters'] if isinstance(item, dict)
+                      for k, v in item.items()}
+            out.append((e.kwargs['executable'], {k: next(iter(v)) for k, v in params.items() if len(v) == 1}))
+    return out
+
+
+def _sources_xml(name: str) -> list[tuple[str, dict[str, str]]]:
+    out = []
+    for n in ET.parse(LAUNCH / f'{name}.launch.xml').getroot().iter('node'):
+        if n.get('pkg') == 'gpr_kinematics':
+            out.append((n.get('exec'), {p.get('name'): m.group(1) for p in n.iter('param') if p.get('name')
+                                        for m in [re.fullmatch(r'\$\(var (\w+)\)', p.get('value', ''))] if m}))
+    return out
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_the_robot_argument_reaches_every_node_with_a_robot(name, monkeypatch):
+    """``robot:=FILE`` sets ``robot_file`` of every node that declares it (kinematics, trajectory and state
+    publisher: one robot for the services, the stream and the model), in both variants; ``config_file`` likewise."""
+    for sources in (_sources_py(name, monkeypatch), _sources_xml(name)):
+        with_robot = [(exe, params) for exe, params in sources if 'robot_file' in {s.name for s in node_specs(exe)}]
+        assert with_robot, name
+        for exe, params in with_robot:
+            assert params.get('robot_file') == 'robot' and params.get('config_file') == 'config_file', (exe, params)
+    assert 'robot' in python_launch(name, monkeypatch)['args']
+
+
 def test_launch_files_use_the_shipped_files():
     for path in [*LAUNCH.glob('*.launch.xml'), ROOT / 'gpr_kinematics' / 'nodes' / 'launch_common.py']:
         text = path.read_text()
@@ -157,7 +194,12 @@ def test_rviz_configuration():
     assert model['Description Topic']['Durability Policy'] == 'Transient Local'     # latched, as published
     assert 'rviz_default_plugins/TF' in displays
     topics = {d['Topic']['Value'] for d in manager['Displays'] if 'Topic' in d}
-    assert topics == {'/gpr/markers', '/gpr/platform_pose', '/gpr/nominal_pose'}
+    assert topics == {'/gpr/markers', '/gpr/platform_pose', '/gpr/nominal_pose', '/gpr/wafer_pose'}
+    # What the trajectory node publishes on those topics (the stream's types).
+    from gpr_kinematics.bags.typestore import GPR_TOPICS
+
+    shown = {d['Topic']['Value']: d['Class'].rsplit('/', 1)[1] for d in manager['Displays'] if 'Topic' in d}
+    assert all(GPR_TOPICS[t].endswith('/' + {'Pose': 'PoseStamped'}.get(c, c)) for t, c in shown.items()), shown
 
 
 def test_params_file_is_generated_from_the_specs():

@@ -1,5 +1,6 @@
-"""gpr_kinematics.robot_model (no ROS): the URDF and the joint transforms follow the geometry configuration; an
-independent URDF parser (yourdfpy) reads the same kinematics; the shipped urdf/gpr.urdf is the generated one."""
+"""gpr_kinematics.robot_model (no ROS): the URDF and the joint transforms follow the geometry configuration and the
+robot description (the arms, blades, wafers); an independent URDF parser (yourdfpy) reads the same kinematics as
+the robot core; the shipped urdf/gpr.urdf and urdf/example_robot.urdf are the generated ones; the figure."""
 from __future__ import annotations
 
 import math
@@ -11,10 +12,13 @@ import pytest
 from gpr_kinematics.config import load_config
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.geometry import matrix_from_quaternion
-from gpr_kinematics.robot_model import Joint, Link, RobotModel, gpr_model, joint_transform, rpy_matrix
+from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
+from gpr_kinematics.robot.forward import platform_to_blade
+from gpr_kinematics.robot_model import Joint, Link, RobotModel, gpr_model, joint_transform, robot_model, rpy_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = load_config()
+ROBOT = load_robot()
 
 
 def _urdf(tmp_path, model):
@@ -110,13 +114,85 @@ def test_invalid_models_refused():
         RobotModel('r', 'a', (Link('a'), Link('b')), (Joint('j', 'ball', 'a', 'b'),))
 
 
-def test_robot_figure_draws_the_true_shift(tmp_path):
-    """The picture of docs/ros.md: a PNG; the shift it labels is forward kinematics' centre shift."""
-    from gpr_kinematics.kinematics import forward, inverse
-    from gpr_kinematics.robot_plot import robot_figure
+def test_robot_figure_draws_the_true_errors(tmp_path):
+    """The picture of docs/ros.md: a PNG of the whole robot; the centre shift and wafer errors it labels are the
+    kinematics' own; the exaggeration scales the exact platform's difference from the naive one."""
+    from gpr_kinematics.robot_plot import exaggerated, robot_figure
 
-    q = inverse(0.4, math.radians(2.0), math.radians(30.0), CFG).q
-    fig = robot_figure(CFG, q, tmp_path / 'robot.png', exaggeration=1500.0)
+    sol = solve_stations(ROBOT, Stations.of([[1.2, 0.95, 0.45]], math.radians(2.0), math.radians(30.0), 0.8), 'arm1')
+    fig = robot_figure(ROBOT, sol.rods[0], {'arm1': sol.joints[0]}, tmp_path / 'robot.png', exaggeration=1500.0)
     assert (tmp_path / 'robot.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
-    np.testing.assert_array_equal(fig.centre_shift, forward(q, CFG).centre_shift)
+    fk = robot_forward(ROBOT, sol.rods, sol.joints, 'arm1')
+    np.testing.assert_array_equal(fig.centre_shift, fk.gpr.centre_shift[0])
+    np.testing.assert_array_equal(fig.wafer_error['arm1'], fk.naive_wafer_error[0])
+    np.testing.assert_array_equal(fig.joints['arm2'], ROBOT.arm('arm2').home)     # not given: at home
     assert 20e-6 < np.linalg.norm(fig.centre_shift) < 40e-6 and fig.exaggeration == 1500.0
+    # exaggerated(): k times the relative transform, translation and rotation (a small rotation about z here).
+    a = np.eye(4)
+    b = np.eye(4)
+    b[:3, :3] = rpy_matrix((0.0, 0.0, 1e-5))
+    b[:3, 3] = (1e-6, -2e-6, 0.0)
+    d = exaggerated(a, b, 1000.0)
+    np.testing.assert_allclose(d[:3, 3], [1e-3, -2e-3, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(d[:3, :3], rpy_matrix((0.0, 0.0, 1e-2)), atol=1e-15)
+
+
+def test_shipped_example_robot_urdf_is_the_generated_one():
+    assert (ROOT / 'urdf' / 'example_robot.urdf').read_text() == robot_model(ROBOT).to_urdf()
+
+
+def test_whole_robot_frames_and_the_arm_chain_equal_the_robot_core(tmp_path):
+    """robot_model of the example robot: world -> gpr_base fixed at the description's base; every arm's revolute
+    joints by the description's names; yourdfpy's forward kinematics of gpr_platform -> wafer equals the robot
+    core's (platform_to_blade) for random postures."""
+    model = robot_model(ROBOT)
+    assert model.root == 'world'
+    assert model.joint('gpr_base_mount').xyz == ROBOT.base_position
+    kinds = {j.name: j.kind for j in model.joints}
+    for arm in ROBOT.arms:
+        assert [kinds[n] for n in arm.joint_names] == ['revolute'] * len(arm.joints)
+        assert kinds[f'{arm.name}_blade_mount'] == kinds[f'{arm.name}_wafer_mount'] == 'fixed'
+        assert model.joint(arm.joint_names[0]).parent == 'gpr_platform'
+    urdf = _urdf(tmp_path, model)
+    assert urdf.base_link == 'world'
+    rng = np.random.default_rng(4)
+    for arm in ROBOT.arms:
+        J = rng.uniform(arm.lower, arm.upper)
+        urdf.update_cfg(dict(zip(arm.joint_names, J, strict=True)))
+        T = urdf.get_transform(arm.wafer_frame, 'gpr_platform')
+        blade, wafer = platform_to_blade(arm, J[None, :])
+        np.testing.assert_allclose(T[:3, 3], wafer.position[0], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(T[:3, :3], wafer.rotation[0], rtol=0, atol=1e-14)
+        B = urdf.get_transform(arm.blade_frame, 'gpr_platform')
+        np.testing.assert_allclose(B[:3, 3], blade.position[0], rtol=0, atol=1e-14)
+        assert model.joint(arm.joint_names[1]).lower == arm.joints[1].lower
+
+
+def test_an_imperfect_machines_rods_in_the_model(tmp_path):
+    """Rod guides at the feet P_k(0) = B_k + o_k u_k, prismatic axes along u_k: guide + rod at q is the joint centre
+    of the kinematics (base_points) on that machine."""
+    from ros_support import imperfect_config_file
+
+    from gpr_kinematics.kinematics import base_points
+
+    _, cfg = imperfect_config_file(tmp_path)
+    model = gpr_model(cfg)
+    q = np.array([0.21, 0.33, 0.27])
+    centres = base_points(q[None, :], cfg)[0]
+    for k in range(3):
+        t1, r1 = model.transform(f'gpr_rod_guide_{k + 1}_mount')
+        t2, _ = model.transform(f'rod_{k + 1}', q[k])
+        np.testing.assert_allclose(np.asarray(t1) + matrix_from_quaternion(r1) @ np.asarray(t2), centres[k],
+                                   rtol=0, atol=1e-15)
+    assert model.joint('rod_1').axis != (0.0, 0.0, 1.0)
+
+
+def test_docstring_examples_of_the_model_and_the_figure():
+    import doctest
+
+    from gpr_kinematics import robot_model as model_module
+    from gpr_kinematics import robot_plot
+
+    for module in (model_module, robot_plot):
+        result = doctest.testmod(module)
+        assert result.attempted > 0 and result.failed == 0, module.__name__

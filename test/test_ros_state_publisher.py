@@ -1,22 +1,46 @@
-"""state_publisher_node over real DDS: robot_description latched and parseable as URDF, /tf_static with the fixed
-joints, and for every streamed sample a /tf message whose gpr_base -> gpr_platform equals forward kinematics
-(1e-12), plus the naive platform and the rods."""
+"""state_publisher_node over real DDS: robot_description latched and parseable as URDF (the whole robot: world,
+GPR, arms, blades, wafers), /tf_static with the fixed joints, and for every streamed sample a /tf message whose
+gpr_base -> gpr_platform equals forward kinematics (1e-12), plus the naive platform and the rods, and one with the
+arms (at home in a platform sweep); for a whole-robot program the tf chain world -> wafer of every sample equals
+the robot core's forward kinematics (1e-12)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
+from robot_support import SHORT_PROGRAM
 from ros_support import quat, start, vec, wait_for_log
 
 from gpr_kinematics.config import load_config
 from gpr_kinematics.geometry import matrix_from_quaternion
+from gpr_kinematics.robot import load_robot, robot_forward
+from gpr_kinematics.robot.forward import arm_transforms
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot_stream import robot_stream
 from gpr_kinematics.sweep import paper_sweep
 
 pytestmark = pytest.mark.ros
 
 CFG = load_config()
+ROBOT = load_robot()
 STEP, AZ_STEP, MAX_TILT, HEIGHT = math.radians(0.5), math.radians(60.0), math.radians(2.0), 0.45
+
+
+def _wait_matched(client, topic: str, sp, namespace: str = '/') -> None:
+    """Wait until the graph shows the state publisher of ``namespace`` publishing ``topic`` and the client's
+    subscriptions to it are matched with every publisher the graph shows: the stream starts once the state
+    publisher subscribed to it, and a /tf message it sends before its publisher matched this client's subscription
+    would be lost to the test (seen on a loaded machine; another module fixture's state publisher may publish /tf
+    too, so one matched publisher is not enough)."""
+    subs = [s for s in client.node.subscriptions if s.topic_name == topic]
+
+    def matched() -> bool:
+        infos = client.node.get_publishers_info_by_topic(topic)
+        ours = any(i.node_name == 'state_publisher_node' and i.node_namespace == namespace for i in infos)
+        return ours and all(s.get_publisher_count() >= len(infos) for s in subs)
+
+    assert subs and client.spin_until(matched, 30), sp.output()
 
 
 @pytest.fixture(scope='module')
@@ -37,6 +61,7 @@ def run(ros_environment):
             tf = c.subscribe(TFMessage, '/tf')
             static = c.subscribe(TFMessage, '/tf_static', latched=True)
             states = c.subscribe(PlatformState, 'gpr/platform_state')
+            _wait_matched(c, '/tf', sp)
             # Subscribers: this client and the state publisher.
             traj = start('trajectory_node', rate=200.0, height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP,
                          azimuth_step=AZ_STEP, wait_for_subscribers=2, wait_all_topics=False)
@@ -52,11 +77,18 @@ def run(ros_environment):
             sp.stop()
 
 
+def _platform_messages(tf):
+    """The /tf messages of the platform states (those with gpr_base -> gpr_platform), and the arms' ones."""
+    platform = [m for m in tf if any(t.child_frame_id == 'gpr_platform' for t in m.transforms)]
+    return platform, [m for m in tf if m not in platform]
+
+
 def test_one_tf_message_per_sample_equal_to_forward_kinematics(run):
     core, tf, _, states, _, _ = run
-    assert len(states) == len(core) == len(tf)
+    platform, arms = _platform_messages(tf)
+    assert len(states) == len(core) == len(platform) == len(arms)
     fk = core.forward
-    for i, (msg, st) in enumerate(zip(tf, states, strict=True)):
+    for i, (msg, st) in enumerate(zip(platform, states, strict=True)):
         by_child = {t.child_frame_id: t for t in msg.transforms}
         assert set(by_child) == {'gpr_platform', 'gpr_platform_nominal', 'gpr_rod_1', 'gpr_rod_2', 'gpr_rod_3'}
         exact, nominal = by_child['gpr_platform'], by_child['gpr_platform_nominal']
@@ -71,13 +103,35 @@ def test_one_tf_message_per_sample_equal_to_forward_kinematics(run):
             np.testing.assert_allclose(vec(rod.transform.translation), [0.0, 0.0, core.q[i, k - 1]], atol=1e-15)
 
 
+def test_arms_at_home_in_a_platform_sweep(run):
+    """A sweep's joint states carry the rods only: the arms' links are drawn at their home postures."""
+    _, tf, _, states, _, _ = run
+    _, arms = _platform_messages(tf)
+    for msg, st in zip(arms, states, strict=True):
+        assert {t.header.stamp.nanosec for t in msg.transforms} == {st.header.stamp.nanosec}
+        by_child = {t.child_frame_id: t for t in msg.transforms}
+        assert set(by_child) == {f'{a.name}_link{k + 1}' for a in ROBOT.arms for k in range(len(a.joints))}
+        for arm in ROBOT.arms:
+            for k, (frame, parent, pose) in enumerate(arm_transforms(arm, np.array([arm.home]))):
+                if k < len(arm.joints):
+                    assert by_child[frame].header.frame_id == parent
+                    np.testing.assert_allclose(quat(by_child[frame].transform.rotation), pose.quaternion[0],
+                                               rtol=0, atol=1e-15)
+
+
 def test_static_transforms_and_rod_tops(run):
-    """/tf_static: the guides at the rod feet; guide + rod = the joint centres P_k."""
+    """/tf_static: the robot's base in the world, the guides at the rod feet, the blades and wafers; guide + rod =
+    the joint centres P_k."""
     core, tf, static, _, _, _ = run
     (msg,) = static
-    guides = {t.child_frame_id: t for t in msg.transforms}
-    assert set(guides) == {'gpr_rod_guide_1', 'gpr_rod_guide_2', 'gpr_rod_guide_3'}
-    last = {t.child_frame_id: t for t in tf[-1].transforms}
+    fixed = {t.child_frame_id: t for t in msg.transforms}
+    assert set(fixed) == {'gpr_base', 'gpr_rod_guide_1', 'gpr_rod_guide_2', 'gpr_rod_guide_3', 'arm1_blade',
+                          'arm1_wafer', 'arm2_blade', 'arm2_wafer'}
+    base = fixed['gpr_base']
+    assert base.header.frame_id == 'world'
+    np.testing.assert_allclose(vec(base.transform.translation), ROBOT.base_position, rtol=0, atol=0)
+    guides = {k: v for k, v in fixed.items() if k.startswith('gpr_rod_guide')}
+    last = {t.child_frame_id: t for t in _platform_messages(tf)[0][-1].transforms}
     for k, theta in enumerate(CFG.rod_azimuths, start=1):
         g = guides[f'gpr_rod_guide_{k}'].transform
         assert guides[f'gpr_rod_guide_{k}'].header.frame_id == 'gpr_base'
@@ -98,5 +152,83 @@ def test_robot_description_latched_urdf_naming_the_tf_frames(run, tmp_path):
     frames = {t.header.frame_id for m in (*tf, *static) for t in m.transforms} | \
         {t.child_frame_id for m in (*tf, *static) for t in m.transforms}
     assert frames <= set(urdf.link_map)
-    assert urdf.base_link == 'gpr_base'
+    assert urdf.base_link == 'world'
     assert sorted(j.name for j in urdf.robot.joints if j.type == 'prismatic') == ['rod_1', 'rod_2', 'rod_3']
+    revolute = [j.name for j in urdf.robot.joints if j.type == 'revolute']
+    assert revolute == [n for a in ROBOT.arms for n in a.joint_names]
+    assert {'arm1_wafer', 'arm2_wafer', 'arm1_blade', 'arm2_blade'} <= frames
+
+
+ROBOT_RATE = 40.0
+
+
+def _matrix(t):
+    """4 x 4 of a TransformStamped."""
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_quaternion(quat(t.transform.rotation))
+    T[:3, 3] = vec(t.transform.translation)
+    return T
+
+
+@pytest.fixture(scope='module')
+def robot_run(ros_environment, tmp_path_factory):
+    """state_publisher_node, then the short robot program from trajectory_node; /tf, /tf_static, the states."""
+    from tf2_msgs.msg import TFMessage
+
+    from gpr_interfaces.msg import PlatformState, RobotState
+    from gpr_kinematics.nodes.client import GprClient
+
+    path = tmp_path_factory.mktemp('robot') / 'program.yaml'
+    path.write_text(SHORT_PROGRAM)
+    expected = robot_stream(ROBOT, load_program(path), ROBOT_RATE)
+    ns = '/gpr_tf_robot'
+    sp = start('state_publisher_node', namespace=ns)
+    traj = None
+    with GprClient('gpr_test_tf_robot', namespace=ns) as c:
+        try:
+            wait_for_log(sp, r'publishing robot_description')
+            tf = c.subscribe(TFMessage, '/tf')
+            static = c.subscribe(TFMessage, '/tf_static', latched=True)
+            states = c.subscribe(PlatformState, 'gpr/platform_state')
+            robot_states = c.subscribe(RobotState, 'gpr/robot_state')
+            _wait_matched(c, '/tf', sp, ns)
+            traj = start('trajectory_node', namespace=ns, mode='program', program_file=str(path), rate=ROBOT_RATE,
+                         wait_for_subscribers=2, wait_all_topics=False)
+            done = c.spin_until(lambda: not traj.alive() and len(tf) >= 2 * len(expected), 120)
+            c.spin_for(0.3)
+            assert done, (f'{len(tf)} /tf messages for {len(expected)} samples, {len(states)} states\n'
+                          + traj.output() + sp.output())
+            yield expected, tf, static, states, robot_states
+        finally:
+            if traj is not None:
+                traj.stop()
+            sp.stop()
+
+
+def test_tf_chain_world_to_wafer_equals_the_robot_core_for_every_sample(robot_run):
+    """world -> gpr_base (static) -> gpr_platform (per state) -> the arm's links (per joint state) -> blade ->
+    wafer (static), composed here from the transforms, equals robot_forward of the sample's rods and joints."""
+    expected, tf, static, states, robot_states = robot_run
+    assert len(states) == len(robot_states) == len(expected)
+    fixed = {t.child_frame_id: t for m in static for t in m.transforms}
+    by_stamp: dict = {}
+    for m in tf:
+        for t in m.transforms:
+            by_stamp.setdefault((t.header.stamp.sec, t.header.stamp.nanosec), {})[t.child_frame_id] = t
+    for st, rs in zip(states, robot_states, strict=True):
+        assert rs.header.stamp == st.header.stamp and rs.sample == st.sample
+        frames = {**fixed, **by_stamp[(st.header.stamp.sec, st.header.stamp.nanosec)]}
+        arm = ROBOT.arm(rs.arm)
+        chain = ['gpr_base', 'gpr_platform', *arm.link_frames, arm.blade_frame, arm.wafer_frame]
+        T = np.eye(4)
+        for frame in chain:
+            T = T @ _matrix(frames[frame])
+        assert frames['gpr_base'].header.frame_id == 'world'
+        joints = dict(zip(rs.joint_names, rs.joints, strict=True))
+        core = robot_forward(ROBOT, [st.q], [[joints[n] for n in arm.joint_names]], arm.name)
+        np.testing.assert_allclose(T[:3, 3], core.wafer.position[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(T[:3, :3], core.wafer.rotation[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(T[:3, 3], vec(rs.wafer.position), rtol=0, atol=1e-12)
+    # Both arms moved and both were in use.
+    assert {rs.arm for rs in robot_states} == {'arm1', 'arm2'}
+    np.testing.assert_allclose([list(rs.joints) for rs in robot_states], expected.joints, rtol=0, atol=1e-12)

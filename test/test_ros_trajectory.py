@@ -8,7 +8,7 @@ import signal
 import numpy as np
 import pytest
 import yaml
-from ros_support import start
+from ros_support import imperfect_config_file, start
 
 from gpr_kinematics.config import GprConfig, load_config
 from gpr_kinematics.kinematics import inverse_batch
@@ -182,6 +182,36 @@ def test_geometry_latched_and_loadable(sweep_run):
     data = yaml.safe_load(msg.data)
     assert data == CFG.to_dict()
     assert GprConfig.from_mapping(data) == CFG
+
+
+def test_an_imperfect_machine_streams_its_own_kinematics_and_markers(ros_environment, tmp_path):
+    """A config_file with the keys no ROS parameter holds: the stream is forward kinematics on that machine, the
+    markers draw its rods and platform joints (MachineGeometry), gpr/geometry records it whole."""
+    from gpr_kinematics.bags.markers import marker_points
+
+    path, cfg = imperfect_config_file(tmp_path)
+    core = paper_sweep(height=HEIGHT, max_tilt=MAX_TILT, tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0),
+                       config=cfg, model=cfg.model)
+    rec, status, out = _run_stream('/traj_imperfect', expect=len(core), config_file=str(path), height=HEIGHT,
+                                   max_tilt=MAX_TILT, tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0))
+    assert status == 0, out
+    states = rec['gpr/platform_state']
+    fk = core.forward
+    assert all(m.model == 'compliant' for m in states)
+    np.testing.assert_allclose([m.q for m in states], fk.q, **TIGHT)
+    np.testing.assert_allclose([_pos(m.pose) for m in states], fk.position, **TIGHT)
+    np.testing.assert_allclose([_quat(m.pose) for m in states], fk.quaternion, **TIGHT)
+    points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation)
+    for i, arr in enumerate(rec['gpr/markers']):
+        for m in arr.markers:
+            np.testing.assert_allclose([[p.x, p.y, p.z] for p in m.points], points[m.ns][i], **TIGHT)
+    # The rods stand where the file puts them: foot P_k(0) = B_k + o_k u_k, not on the nominal circle.
+    feet = np.array([[p.x, p.y] for p in rec['gpr/markers'][0].markers[0].points[:3]])
+    u = np.array(cfg.rod_directions)
+    np.testing.assert_allclose(feet, np.array(cfg.rod_positions) + np.array(cfg.rod_offsets)[:, None] * u,
+                               rtol=0, atol=1e-15)
+    (geometry,) = rec['gpr/geometry']
+    assert GprConfig.from_mapping(yaml.safe_load(geometry.data)) == cfg
 
 
 def test_program_mode_streams_the_sampled_program(ros_environment):

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 import pytest
-from ros_support import start, wait_for_log
+from ros_support import client_session, running, start
 
 from gpr_kinematics.config import load_config
 from gpr_kinematics.kinematics import inverse_batch
@@ -27,18 +27,12 @@ STATIONS = [{'name': 'load', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell'
 
 @pytest.fixture(scope='module')
 def node(ros_environment):
-    proc = start('trajectory_node', namespace=NS, mode='idle', rate=RATE, move_time=0.4)
-    wait_for_log(proc, 'idle: serving')
-    yield proc
-    proc.stop()
+    yield from running(start('trajectory_node', namespace=NS, mode='idle', rate=RATE, move_time=0.4), 'idle: serving')
 
 
 @pytest.fixture(scope='module')
 def client(node):
-    from gpr_kinematics.nodes.client import GprClient
-
-    with GprClient('gpr_test_action', namespace=NS) as c:
-        yield c
+    yield from client_session('gpr_test_action', NS)
 
 
 def test_program_runs_to_the_end_with_ordered_feedback(client, node):

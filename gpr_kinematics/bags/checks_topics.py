@@ -3,7 +3,8 @@
 - ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and the
   same pose (<= ``consistency``, 1e-12);
 - ``joint_states``: names ``rod_1..rod_3`` (:data:`gpr_kinematics.messages.ROD_JOINT_NAMES`), positions ``q``
-  (in bags recorded before the virtual joints got their own topic: the rods then the virtual joints' names,
+  (in a whole-robot recording followed by every arm's joints, the names and values of the RobotState of the
+  stamp; in bags recorded before the virtual joints got their own topic: the rods then the virtual joints' names,
   positions ``q`` then the virtual joints) (<= 1e-12); ``virtual_joints``: the state's virtual-joint names and
   values (<= 1e-12);
 - ``markers``: each MarkerArray has the four markers of :data:`.markers.MARKERS` (ids, namespaces, types,
@@ -128,12 +129,18 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
 
 
-def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float) -> list[Check]:
-    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``); bags recorded before the virtual joints got
-    their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the virtual joints."""
+def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
+                        arms: Any = None) -> list[Check]:
+    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``), and in a whole-robot recording then every
+    arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the robot states); bags recorded before the
+    virtual joints got their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the
+    virtual joints."""
     vnames = c['virtual_joint_names']
 
     def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        robot = arms.joints(r) if arms is not None else None
+        if robot is not None:
+            return ROD_JOINT_NAMES + robot[0], np.concatenate([series.q[r], robot[1]])
         return ROD_JOINT_NAMES, series.q[r]
 
     def rods_and_virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
@@ -143,7 +150,8 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
         return tuple(vnames[r]), series.virtual_joints[r]
 
     return (_joint_checks(bag, c, samples, tol, '/gpr/joint_states', (rods, rods_and_virtual),
-                          'names not rod_1..rod_3 (or, recorded before, rod_1..rod_3 + the virtual joints)')
+                          'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
+                          'recording; or, recorded before, rod_1..rod_3 + the virtual joints)')
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
@@ -199,7 +207,8 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
 
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
-                 tol: float) -> list[Check]:
-    """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c``."""
-    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol)
+                 tol: float, arms: Any = None) -> list[Check]:
+    """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
+    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`)."""
+    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms)
             + _marker_checks(bag, c, samples, cfg, tol))

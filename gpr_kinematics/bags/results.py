@@ -144,7 +144,7 @@ class Series:
 
 @dataclass
 class VerifyResult:
-    """All checks of one bag, the topic counts, the stream series, the geometry used and timing."""
+    """All checks of one bag, the topic counts, the stream series, the geometry and robot used and timing."""
 
     path: str
     storage: str
@@ -160,6 +160,7 @@ class VerifyResult:
     config: dict[str, Any]
     notes: list[str] = field(default_factory=list)
     geometry: dict[str, Any] = field(default_factory=dict)
+    robot: dict[str, Any] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -180,7 +181,7 @@ class VerifyResult:
             'counts': self.counts, 'unfinished_segments': self.unfinished, 'notes': self.notes,
             'singular_crossings': self.crossings, 'max_jump_ratio_at_crossings': json_number(self.crossing_ratio),
             'elapsed_s': self.elapsed, 'read_s': self.read_time, 'checks': [c.to_dict() for c in self.checks],
-            'config': json_safe(self.config), 'geometry': json_safe(self.geometry),
+            'config': json_safe(self.config), 'geometry': json_safe(self.geometry), 'robot': self.robot,
         }
 
 

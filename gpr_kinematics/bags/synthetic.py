@@ -1,8 +1,10 @@
 """Write the trajectory node's stream straight into a bag, without ROS (benchmarks, tests of reader and verify).
 
-The messages are the ones ``trajectory_node`` publishes for a sweep, built by the same functions
-(:func:`gpr_kinematics.messages.stream_messages` for the stream topics, :func:`.markers.marker_array` for the
-markers, the geometry YAML of :data:`.typestore.GEOMETRY_TOPIC`), serialized with the ``rosbags`` typestore
+The messages are the ones ``trajectory_node`` publishes for a sweep or a whole-robot program, built by the same
+functions (:func:`gpr_kinematics.messages.stream_messages` for the platform's topics,
+:meth:`gpr_kinematics.robot_stream.RobotStream.messages` for the robot's, :func:`.markers.marker_array` for the
+markers, :func:`gpr_kinematics.messages.geometry_text` and ``robot_text`` for the latched
+:data:`.typestore.GEOMETRY_TOPIC` and :data:`.typestore.ROBOT_TOPIC`), serialized with the ``rosbags`` typestore
 instead of rclpy; recorded bags come from the real nodes over DDS.
 """
 from __future__ import annotations
@@ -13,14 +15,28 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
+from numpy.typing import NDArray
 
 from ..config import GprConfig
-from ..kinematics import resolve_config
-from ..messages import stream_messages
+from ..kinematics import ForwardBatch, resolve_config
+from ..messages import geometry_text, robot_text, stream_messages
+from ..robot.description import RobotDescription
+from ..robot.program import RobotProgram
+from ..robot_stream import RobotStream, robot_stream
 from ..sweep import paper_sweep
 from .markers import marker_array, marker_points
-from .typestore import ARRAY, BASE, GEOMETRY_TOPIC, GPR_TOPICS, NAME, fields_of, message_types, typestore
+from .typestore import (
+    ARRAY,
+    BASE,
+    GEOMETRY_TOPIC,
+    GPR_TOPICS,
+    NAME,
+    PLATFORM_STREAM_TOPICS,
+    ROBOT_TOPIC,
+    fields_of,
+    message_types,
+    typestore,
+)
 from .writer import SegmentedBagWriter
 
 _DTYPES: dict[str, type[np.generic]] = {
@@ -54,39 +70,57 @@ def make_message(msgtype: str, **fields: Any) -> Any:
     return dataclasses.replace(_default(msgtype), **fields)
 
 
-def geometry_yaml(cfg: GprConfig) -> str:
-    """``data`` of the geometry topic: the YAML of ``cfg.to_dict()`` (loadable with ``GprConfig.from_mapping``)."""
-    text: str = yaml.safe_dump(cfg.to_dict(), default_flow_style=False, sort_keys=False)
-    return text
-
-
 def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_step: float = np.radians(0.2),
                    azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
-                   topics: tuple[str, ...] = tuple(GPR_TOPICS)) -> list[tuple[str, int, bytes]]:
+                   topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC)) -> list[tuple[str, int, bytes]]:
     """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry once
     (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per ``period_ns``."""
     cfg = resolve_config(config)
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
-    fk = sw.forward
+    latched = {GEOMETRY_TOPIC: geometry_text(cfg)}
+    return _stream(cfg, sw.forward, np.asarray(sw.alpha, float), np.asarray(sw.gamma, float), latched, None,
+                   start_ns, period_ns, topics)
+
+
+def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate: float = 100.0,
+                           start_ns: int = 1_700_000_000_000_000_000,
+                           topics: tuple[str, ...] = tuple(GPR_TOPICS)) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], CDR bytes) of every message ``trajectory_node`` publishes for a whole-robot program
+    (:func:`gpr_kinematics.robot_stream.robot_stream` at ``rate``): the geometry and the robot description once,
+    then every sample's platform and robot messages, one sample per ``1 / rate``."""
+    rs = robot_stream(robot, program, rate)
+    latched = {GEOMETRY_TOPIC: geometry_text(robot.config), ROBOT_TOPIC: robot_text(robot)}
+    return _stream(robot.config, rs.gpr, rs.gpr.tilt, rs.gpr.tilt_azimuth, latched, rs, start_ns,
+                   int(round(1e9 / rate)), topics)
+
+
+def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd_azimuth: NDArray[np.float64],
+            latched: dict[str, str], robot: RobotStream | None, start_ns: int, period_ns: int,
+            topics: tuple[str, ...]) -> list[tuple[str, int, bytes]]:
+    """The messages of a stream, as the trajectory node publishes them (the module docstring)."""
     ts = typestore()
     types = message_types()
     out: list[tuple[str, int, bytes]] = []
-    if GEOMETRY_TOPIC in topics:
-        msg = make_message(GPR_TOPICS[GEOMETRY_TOPIC], data=geometry_yaml(cfg))
-        out.append((GEOMETRY_TOPIC, start_ns, bytes(ts.serialize_cdr(msg, GPR_TOPICS[GEOMETRY_TOPIC]))))
+    for topic, text in latched.items():
+        if topic in topics:
+            out.append((topic, start_ns, bytes(ts.serialize_cdr(make_message(GPR_TOPICS[topic], data=text),
+                                                                GPR_TOPICS[topic]))))
     points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation) if '/gpr/markers' in topics else {}
     for i in range(len(fk)):
         t = start_ns + i * period_ns
         msgs = stream_messages(types, fk[i], stamp_ns=t, frame_id='gpr_base', sample=i,
-                               commanded_tilt=float(sw.alpha[i]), commanded_azimuth=float(sw.gamma[i]))
+                               commanded_tilt=float(cmd_tilt[i]), commanded_azimuth=float(cmd_azimuth[i]))
+        if robot is not None:
+            msgs.update(robot.messages(types, i, stamp_ns=t, sample=i, base_frame='gpr_base'))
         if points:
             msgs['gpr/markers'] = marker_array(make_message, msgs['gpr/platform_state'].header,
                                                {ns: p[i] for ns, p in points.items()})
         for topic in topics:
-            if topic != GEOMETRY_TOPIC:
-                out.append((topic, t, bytes(ts.serialize_cdr(msgs[topic.lstrip('/')], GPR_TOPICS[topic]))))
+            key = topic.lstrip('/')
+            if key in msgs:
+                out.append((topic, t, bytes(ts.serialize_cdr(msgs[key], GPR_TOPICS[topic]))))
     return out
 
 

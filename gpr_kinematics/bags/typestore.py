@@ -27,6 +27,14 @@ GEOMETRY_TOPIC = '/gpr/geometry'
 #: The virtual joints of each sample (``sensor_msgs/JointState``, names of the model), apart from the physical joints.
 VIRTUAL_JOINTS_TOPIC = '/gpr/virtual_joints'
 
+#: The robot description that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
+#: node's ``RobotDescription.to_dict()`` (the description file format), published once at start, latched.
+ROBOT_TOPIC = '/gpr/robot'
+#: The whole robot at each sample of a robot program (``gpr_interfaces/RobotState``: arm joints, the arm in use,
+#: its wafer) and the wafer pose alone (``geometry_msgs/PoseStamped``), in the robot's world frame.
+ROBOT_STATE_TOPIC = '/gpr/robot_state'
+WAFER_POSE_TOPIC = '/gpr/wafer_pose'
+
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
     '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
@@ -35,13 +43,21 @@ GPR_TOPICS: dict[str, str] = {
     '/gpr/joint_states': 'sensor_msgs/msg/JointState',
     VIRTUAL_JOINTS_TOPIC: 'sensor_msgs/msg/JointState',
     '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+    ROBOT_STATE_TOPIC: 'gpr_interfaces/msg/RobotState',
+    WAFER_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
     GEOMETRY_TOPIC: 'std_msgs/msg/String',
+    ROBOT_TOPIC: 'std_msgs/msg/String',
 }
 
+#: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.
+PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', '/gpr/joint_states',
+                          VIRTUAL_JOINTS_TOPIC, '/gpr/markers')
+
 #: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
-LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC})
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC})
 
 PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
+ROBOT_STATE = 'gpr_interfaces/msg/RobotState'
 
 
 def interface_msg_dirs() -> list[Path]:
@@ -118,4 +134,4 @@ def message_types() -> MessageTypes:
         Quaternion=T['geometry_msgs/msg/Quaternion'], Vector3=T['geometry_msgs/msg/Vector3'],
         Pose=T['geometry_msgs/msg/Pose'], PoseStamped=T['geometry_msgs/msg/PoseStamped'],
         JointState=T['sensor_msgs/msg/JointState'], PlatformState=T[PLATFORM_STATE],
-        float_sequence=lambda values: np.asarray(values, dtype=np.float64))
+        float_sequence=lambda values: np.asarray(values, dtype=np.float64), RobotState=T[ROBOT_STATE])

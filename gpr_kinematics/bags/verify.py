@@ -8,7 +8,9 @@ read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic,
 - ``topic.geometry`` (:mod:`.recorded_geometry`): the recorded geometry is one usable configuration;
 - ``state.*`` (:mod:`.checks_state`): every PlatformState against forward kinematics of its ``q``;
 - ``stream.*`` (:mod:`.checks_stream`): counters, stamps, jumps at singular crossings;
-- ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp.
+- ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp;
+- ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
+  against the robot's forward kinematics, with the recorded robot description (or a given one).
 
 Limits are SI units, in :class:`~.tolerances.Tolerances`. Together with the checksums this makes a bag that differs from
 what was recorded fail: a changed byte of a storage file changes its SHA-256 (and, in MCAP, a CRC), a changed
@@ -17,6 +19,7 @@ every content check.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -24,7 +27,9 @@ import numpy as np
 
 from ..config import GprConfig
 from ..kinematics import resolve_config
+from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
+from .checks_robot import choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
 from .checks_topics import topic_checks
@@ -47,12 +52,15 @@ def _no_states() -> Check:
 
 
 def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerances: Tolerances | None = None,
-               config_source: str = 'the given configuration', allow_missing_checksums: bool = False
+               config_source: str = 'the given configuration', allow_missing_checksums: bool = False,
+               robot: RobotDescription | None = None, robot_source: str = 'the given robot description'
                ) -> VerifyResult:
     """Verify a bag (a path or an already read :class:`Bag`); see the module docstring.
 
     Args:
         config: the geometry to verify against instead of the recorded one (``config_source`` names it).
+        robot: the robot description to verify the wafer poses against instead of the recorded one (it computes
+            with the geometry verified against); ``robot_source`` names it.
         allow_missing_checksums: a bag without checksums (another recorder) skips ``bag.checksums``.
 
     Raises:
@@ -76,6 +84,9 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
         q = matrix(c['q'], 3) if c is not None else np.zeros((0, 3))
         geo = choose(bag, config, config_source, q, resolve_config(None))
         checks.append(geo.check)
+        given_robot = dataclasses.replace(robot, config=geo.config) if robot is not None else None
+        arms = choose_robot(bag, given_robot, robot_source, geo.config, config_given=config is not None)
+        checks.append(arms.check)
         series, crossings, ratio = None, 0, 0.0
         if st is None or c is None:
             checks.append(_no_states())
@@ -84,14 +95,16 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
+            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol)
             checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
-                                                                  tol.consistency)
+                                                                  tol.consistency, robot_rows) + robot_part
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
-    notes = list(geo.notes)
+    notes = list(geo.notes) + arms.notes
     if bag.unlisted:
         notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
                      f'{", ".join(bag.unlisted)}')
     return VerifyResult(path=str(bag.path), storage=bag.storage, files=bag.files,
                         counts={k: len(t) for k, t in bag.topics.items()}, checks=checks, series=series,
                         crossings=crossings, crossing_ratio=ratio, elapsed=time.perf_counter() - t0, read_time=t_read,
-                        unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report)
+                        unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
+                        robot=robot_summary(arms))

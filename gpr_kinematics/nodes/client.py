@@ -28,7 +28,14 @@ from rclpy.task import Future
 
 from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import ProgramStation
-from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
+from gpr_interfaces.srv import (
+    AnalyzeMobility,
+    Compensate,
+    ForwardKinematics,
+    InverseKinematics,
+    RobotForwardKinematics,
+    StationInverseKinematics,
+)
 
 from ..errors import GprError
 from ..geometry import quaternion_from_matrix, tilt_rotation
@@ -117,6 +124,27 @@ class GprClient:
         """``gpr/analyze_mobility``: ranks, singular values and bounds at ``q``, ``|dX|`` for ``dq`` [m]."""
         req = AnalyzeMobility.Request(q=[float(v) for v in q], dq=[float(v) for v in dq], model=model)
         return self.call(AnalyzeMobility, 'gpr/analyze_mobility', req)
+
+    def robot_forward_kinematics(self, rods: Vector, joints: Vector, arm: str = '', model: str = '') -> Any:
+        """``gpr/robot_forward_kinematics``: rod lengths [m] and the arm's joints [rad] -> the response (wafer,
+        blade, platform in the world, exact and naive)."""
+        req = RobotForwardKinematics.Request(rods=[float(v) for v in rods], joints=[float(v) for v in joints],
+                                             arm=arm, model=model)
+        return self.call(RobotForwardKinematics, 'gpr/robot_forward_kinematics', req)
+
+    def station_inverse_kinematics(self, position: Vector, tilt: float = 0.0, azimuth: float = 0.0,
+                                   heading: float | None = 0.0, arm: str = '', branch: str = '',
+                                   redundancy_value: float | None = None, model: str = '') -> Any:
+        """``gpr/station_inverse_kinematics``: a station (wafer position in the world [m], the station plane's
+        tilt and azimuth, the blade heading [rad]; ``heading=None`` leaves it free for a 2-joint arm) -> the
+        response (rods, the arm's joints, the wafer reached, the naive model's wafer error)."""
+        req = StationInverseKinematics.Request(tilt=float(tilt), azimuth=float(azimuth),
+                                               heading=0.0 if heading is None else float(heading),
+                                               heading_free=heading is None, arm=arm, branch=branch, model=model,
+                                               use_redundancy_value=redundancy_value is not None,
+                                               redundancy_value=float(redundancy_value or 0.0))
+        req.position.x, req.position.y, req.position.z = (float(v) for v in position)
+        return self.call(StationInverseKinematics, 'gpr/station_inverse_kinematics', req)
 
     # -- topics --------------------------------------------------------------------------------------------------
     def subscribe(self, msg_type: Any, topic: str, depth: int = 100_000, latched: bool = False) -> list[Any]:

@@ -7,6 +7,8 @@ the field, its value and what is allowed; the core checks the machine's limits (
 from __future__ import annotations
 
 import array
+import functools
+import importlib
 import math
 from collections.abc import Sequence
 from typing import Any, TypeAlias
@@ -17,8 +19,9 @@ from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Transform, V
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-from gpr_interfaces.msg import PlatformState
+from gpr_interfaces.msg import PlatformState, RobotState
 
+from ..bags.errors import BagError
 from ..errors import InputError
 from ..geometry import matrix_from_quaternion, tilt_from_matrix
 from ..messages import MessageTypes, fill_fields, forward_fields
@@ -84,7 +87,7 @@ def transform_msg(translation: Vector, quaternion: Vector) -> Transform:
 #: rclpy's classes of the messages :mod:`gpr_kinematics.messages` builds.
 ROS_TYPES = MessageTypes(Time=Time, Header=Header, Point=Point, Quaternion=Quaternion, Vector3=Vector3, Pose=Pose,
                          PoseStamped=PoseStamped, JointState=JointState, PlatformState=PlatformState,
-                         float_sequence=lambda values: array.array('d', values))
+                         float_sequence=lambda values: array.array('d', values), RobotState=RobotState)
 
 
 def fill_forward(msg: Any, fk: Any) -> Any:
@@ -100,3 +103,21 @@ def non_negative_finite(value: float, name: str) -> float:
     if not math.isfinite(v) or v < 0.0:
         raise InputError(f'{name} = {value!r} is invalid; allowed: a finite number >= 0')
     return v
+
+
+@functools.cache
+def message_class(msgtype: str) -> Any:
+    """The rclpy message class of ``pkg/msg/Type`` (or ``pkg/Type``); :class:`BagError` when it cannot be imported."""
+    from ..bags.typestore import normalize_type  # (rosbags: imported by the nodes that handle bags only)
+
+    pkg, kind, name = normalize_type(msgtype).split('/')
+    try:
+        return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
+    except (ImportError, AttributeError) as exc:
+        raise BagError(f'type {msgtype!r} cannot be imported in this ROS environment ({exc})') from None
+
+
+def make_message(msgtype: str, **fields: Any) -> Any:
+    """An rclpy message of ``pkg/msg/Type`` with ``fields`` (the others at their defaults): the ``make`` factory
+    of the ROS-free message builders (:func:`gpr_kinematics.bags.markers.marker_array`)."""
+    return message_class(msgtype)(**fields)

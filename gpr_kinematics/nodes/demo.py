@@ -2,7 +2,8 @@
 
 Starts ``kinematics_node`` and ``trajectory_node`` as separate processes (found the way ``ros2 run`` finds
 them: ament index prefix, then ``lib/gpr_kinematics/<exe>``), calls each service once from this client
-process and prints the answers, records one paper sweep from the trajectory node and prints a summary.
+process (the platform's and the whole robot's) and prints the answers, records one paper sweep from the
+trajectory node and prints a summary.
 Exits 0 when every step worked, 1 otherwise. SI units; mm/µm/deg only in the printed text.
 
 Run: ``python -m gpr_kinematics.nodes.demo [--rate HZ] [--azimuth-step-deg D] [--tilt-step-deg D]``.
@@ -109,6 +110,19 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
                   f'      bounds (4) [{r.eq4_lower:.4f}, {r.eq4_upper:.4f}], (5) [{r.eq5_lower:.4f}, '
                   f'{r.eq5_upper:.4f}]; for dq = (0, 0.1, -0.1) mm: |dX| = {r.dx_norm:.3e} in '
                   f'[{r.dx_lower_eq4:.3e}, {r.dx_upper_eq4:.3e}]')
+
+        print('\n== gpr/station_inverse_kinematics, then gpr/robot_forward_kinematics of its answer: the example '
+              'robot, arm1, wafer at (1.2, 1.0, 0.455) m in the world, station plane tilted 1.2 deg about azimuth '
+              '30 deg, blade heading 45 deg', flush=True)
+        r = check('gpr/station_inverse_kinematics', client.station_inverse_kinematics(
+            (1.2, 1.0, 0.455), math.radians(1.2), math.radians(30.0), math.radians(45.0), arm='arm1'))
+        print(f'   success {r.success} {r.message}\n   rods {fmt(r.rods)} m; {r.arm} ({r.branch}) '
+              + ', '.join(f'{n} {math.degrees(v):.4f} deg' for n, v in zip(r.joint_names, r.joints, strict=True))
+              + f'\n   wafer reached to {r.position_error:.1e} m; the naive model\'s joints would miss it by '
+              f'{1e6 * r.naive_wafer_error:.3f} µm')
+        f = check('gpr/robot_forward_kinematics', client.robot_forward_kinematics(r.rods, r.joints, arm=r.arm))
+        print(f'   forward kinematics of that answer: wafer at {fmt(xyz(f.wafer.position))} m; for the same rods and '
+              f'joints the naive model would place it {1e6 * f.naive_wafer_error_norm:.3f} µm away')
 
         step, az_step = math.radians(args.tilt_step_deg), math.radians(args.azimuth_step_deg)
         max_tilt = math.radians(args.max_tilt_deg)

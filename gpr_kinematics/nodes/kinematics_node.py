@@ -9,10 +9,14 @@ Services (relative names, so ``__ns`` and remapping apply), types from ``gpr_int
 - ``gpr/compensate`` (Compensate): naive command pose + tool offset -> rod lengths, reached pose, tool shift
   and arm correction (core ``compensation.compensate``);
 - ``gpr/analyze_mobility`` (AnalyzeMobility): ranks, singular values and the bounds of paper eq. (4), (5)
-  (core ``mobility.analyze_mobility``).
+  (core ``mobility.analyze_mobility``);
+- ``gpr/robot_forward_kinematics`` (RobotForwardKinematics) and ``gpr/station_inverse_kinematics``
+  (StationInverseKinematics): the whole robot, its arms and wafers in the world (:mod:`.robot_services`).
 
-Parameters: the GprConfig keys (see :mod:`.params`). Units SI (m, rad). A bad request (NaN, infinity, ``q``
-outside the stroke, a tilt beyond ``tilt_limit``, an unknown model, a non-unit quaternion) is answered with
+Parameters: ``robot_file`` (the robot description, default the shipped example; its ``gpr`` section is the geometry
+unless ``config_file`` is given) and the GprConfig keys (see :mod:`.params`). Units SI (m, rad). A bad request
+(NaN, infinity, ``q`` outside the stroke, a tilt beyond ``tilt_limit``, an unknown model, a non-unit quaternion, an
+unknown arm, a station out of reach) is answered with
 ``success: false`` and a message naming the problem, logged at warning level; the node goes on serving.
 No exception escapes a callback (one would end the spin and leave the client waiting).
 """
@@ -28,13 +32,20 @@ from typing import Any
 import numpy as np
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from gpr_interfaces.srv import AnalyzeMobility, Compensate, ForwardKinematics, InverseKinematics
+from gpr_interfaces.srv import (
+    AnalyzeMobility,
+    Compensate,
+    ForwardKinematics,
+    InverseKinematics,
+    RobotForwardKinematics,
+    StationInverseKinematics,
+)
 
 from ..compensation import compensate
 from ..config import GprConfig
 from ..errors import GprError, InputError
 from ..kinematics import forward, inverse
-from ..mobility import analyze_mobility, rod_perturbation
+from ..mobility import analyze_mobility
 from ..validation import finite_vector
 from .conversions import (
     fill_forward,
@@ -45,7 +56,8 @@ from .conversions import (
     transform_msg,
     vector_msg,
 )
-from .params import ConfigParameters
+from .params import ConfigParameters, declare_robot
+from .robot_services import RobotModels, fill_robot_forward, fill_station_inverse
 from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'kinematics_node'
@@ -88,7 +100,9 @@ def guarded(service: str) -> Callable[..., Any]:
         @functools.wraps(fn)
         def inner(self: KinematicsNode, request: Any, response: Any) -> Any:
             try:
-                fn(self, request, response)
+                # Hostile numbers (1e308) overflow on the way: the result is then refused as not finite, below.
+                with np.errstate(all='ignore'):
+                    fn(self, request, response)
                 bad = non_finite_field(response)
                 if bad is not None:
                     raise InputError(f'the result is not finite ({bad}): the request is beyond what the model '
@@ -125,7 +139,8 @@ class KinematicsNode(GprNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.params = ConfigParameters(self)
+        self.params = ConfigParameters(self, robot=declare_robot(self))
+        self.robot_models = RobotModels()
         # Deeper than the default (keep last 10): with several clients at full speed a response history of
         # 10 can be overwritten before it is delivered (docs/benchmarks.md).
         qos = QoSProfile(depth=SERVICE_QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
@@ -133,10 +148,16 @@ class KinematicsNode(GprNode):
         self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse, qos_profile=qos)
         self.create_service(Compensate, 'gpr/compensate', self.on_compensate, qos_profile=qos)
         self.create_service(AnalyzeMobility, 'gpr/analyze_mobility', self.on_mobility, qos_profile=qos)
-        cfg = self.params.config
+        self.create_service(RobotForwardKinematics, 'gpr/robot_forward_kinematics', self.on_robot_forward,
+                            qos_profile=qos)
+        self.create_service(StationInverseKinematics, 'gpr/station_inverse_kinematics', self.on_station_inverse,
+                            qos_profile=qos)
+        cfg, robot = self.params.config, self.params.robot
         self.get_logger().info(f'serving gpr/forward_kinematics, gpr/inverse_kinematics, gpr/compensate, '
                                f'gpr/analyze_mobility (model {cfg.model}, R = {cfg.radius} m, stroke '
-                               f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad)')
+                               f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad), '
+                               f'gpr/robot_forward_kinematics, gpr/station_inverse_kinematics (robot {robot.name} '
+                               f'from {robot.source}: arms {", ".join(robot.arm_names)})')
 
     @property
     def config(self) -> GprConfig:
@@ -179,10 +200,21 @@ class KinematicsNode(GprNode):
         res = analyze_mobility(q, self.config, _model(request.model))
         fill_mobility(response, res, dq)
 
+    @guarded('robot_forward_kinematics')
+    def on_robot_forward(self, request: RobotForwardKinematics.Request,
+                         response: RobotForwardKinematics.Response) -> None:
+        fill_robot_forward(self.robot_models.get(self.params.robot, request.model), request, response)
+
+    @guarded('station_inverse_kinematics')
+    def on_station_inverse(self, request: StationInverseKinematics.Request,
+                           response: StationInverseKinematics.Response) -> None:
+        fill_station_inverse(self.robot_models.get(self.params.robot, request.model), request, response)
+
 
 def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
     """Copy a core ``MobilityResult`` into an AnalyzeMobility response; with a non-zero ``dq`` [m] also
-    ``|dX|`` and the bounds (4), (5) for ``dP = rod_perturbation(dq)``."""
+    ``|dX|`` and the bounds (4), (5) for ``dP = res.rod_perturbation(dq)`` (along the machine's own rod directions
+    ``u_k``: rods that are not parallel move their joint centres off the base z axis)."""
     response.rank_dphi_dp = int(res.rank_dphi_dp)
     response.rank_augmented = int(res.rank_augmented)
     response.mobility = int(res.mobility)
@@ -191,7 +223,7 @@ def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
     response.eq4_lower, response.eq4_upper = (float(v) for v in res.bounds['eq4'])
     response.eq5_lower, response.eq5_upper = (float(v) for v in res.bounds['eq5'])
     if dq is not None and np.any(dq != 0.0):
-        b = res.dx_bounds(rod_perturbation(dq))
+        b = res.dx_bounds(res.rod_perturbation(dq))
         response.dx_norm = b.norm_dx
         response.dx_lower_eq4, response.dx_upper_eq4 = b.lower_eq4, b.upper_eq4
         response.dx_lower_eq5, response.dx_upper_eq5 = b.lower_eq5, b.upper_eq5

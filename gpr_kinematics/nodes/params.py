@@ -13,7 +13,9 @@ change is accepted, *applies* it.
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
@@ -21,8 +23,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..config import GprConfig, load_config
-from ..errors import GprError
-from .specs import CONFIG_FILE, ParamSpec, config_mapping, config_specs
+from ..errors import ConfigError, GprError
+from ..robot.description import RobotDescription, load_robot
+from .specs import CONFIG_FILE, ROBOT_FILE, ParamSpec, config_mapping, config_specs
 
 _TYPES = {
     'double': ParameterType.PARAMETER_DOUBLE,
@@ -65,26 +68,50 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool =
     return values
 
 
+def declare_robot(node: Node, default: str | Path | None = None) -> RobotDescription:
+    """Declare ``robot_file`` on ``node`` and load that robot description (empty: ``default``, else the shipped
+    example); :class:`~gpr_kinematics.errors.ConfigError` names the file and what is wrong."""
+    robot_file = declare_parameters(node, (ROBOT_FILE,))['robot_file']
+    try:
+        return load_robot(robot_file or default)
+    except ConfigError as exc:
+        raise ConfigError(f'robot_file: {exc}') from None
+
+
 class ConfigParameters:
     """Declares ``config_file`` and the ``GprConfig`` parameters on ``node``; ``config`` follows them.
 
-    ``read_only=True`` declares them all read-only (a node that precomputes with the configuration).
-    Raises :class:`~gpr_kinematics.errors.ConfigError` at construction when the start-up values (defaults
-    plus overrides) do not form a valid configuration.
+    The base configuration is ``config_file`` when given, else the geometry of ``robot`` (its description's
+    ``gpr`` section), else the package's ``config/gpr.yaml``; the parameters override it. ``robot`` then always
+    computes with ``config`` (:attr:`robot`): one geometry per node. ``read_only=True`` declares them all read-only
+    (a node that precomputes with the configuration). Raises :class:`~gpr_kinematics.errors.ConfigError` at
+    construction when the start-up values (defaults plus overrides) do not form a valid configuration.
     """
 
-    def __init__(self, node: Node, read_only: bool = False) -> None:
+    def __init__(self, node: Node, read_only: bool = False, robot: RobotDescription | None = None) -> None:
         self._node = node
         config_file = declare_parameters(node, (CONFIG_FILE,))['config_file']
-        self._base = load_config(config_file or None)
+        self._base = load_config(config_file or None) if config_file or robot is None else robot.config
+        self._robot = robot
         self._specs = {s.name: s for s in config_specs(self._base, read_only)}
         self._values = declare_parameters(node, tuple(self._specs.values()))
         self.config = self._build(self._values)
         node.add_on_set_parameters_callback(self._validate)
         node.add_post_set_parameters_callback(self._apply)
 
+    @property
+    def robot(self) -> RobotDescription:
+        """The node's robot description computing with the node's current configuration."""
+        if self._robot is None:
+            raise ConfigError('this node has no robot description')
+        if self._robot.config is not self.config:
+            self._robot = dataclasses.replace(self._robot, config=self.config)
+        return self._robot
+
     def _build(self, values: dict[str, Any]) -> GprConfig:
-        """The configuration file's values with the parameters' on top (validated as a whole)."""
+        """Every key of the loaded configuration file with the parameters' values on top (validated as a whole):
+        keys that no ROS parameter holds (an imperfect machine's ``rod_positions``, ``rod_directions``,
+        ``platform_joints``) keep the file's values."""
         return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
 
     def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:

@@ -29,12 +29,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..config import check_keys, read_yaml
 from ..errors import ConfigError
+
+if TYPE_CHECKING:
+    from ..robot.program import RobotProgram
 
 _STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
 
@@ -120,6 +123,17 @@ def parse_program(data: Any, source: str = 'program') -> Program:
 def load_program(path: str | Path) -> Program:
     """Read and validate a program YAML file; :class:`ConfigError` names what is wrong."""
     return parse_program(read_yaml(path, 'program'), str(path))
+
+
+def load_any_program(path: str | Path) -> Program | RobotProgram:
+    """A platform program (this module's format) or a whole-robot program (``format: gpr_robot_program``,
+    :mod:`gpr_kinematics.robot.program`: a file with a ``format`` key is one), read and validated."""
+    from ..robot.program import parse_program as parse_robot_program
+
+    data = read_yaml(path, 'program')
+    if isinstance(data, Mapping) and 'format' in data:
+        return parse_robot_program(data, str(path), Path(path).parent)
+    return parse_program(data, str(path))
 
 
 def program_knots(program: Program, default_move_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

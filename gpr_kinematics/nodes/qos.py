@@ -1,7 +1,7 @@
 """Quality of service of the package's topics, the latched topics, and topic-name checks.
 
 Streams (``gpr/platform_state`` and its companions, ``/tf``) are reliable, keep last ``depth``, volatile: a
-subscriber gets every sample published after it matched. Latched topics (``gpr/geometry``,
+subscriber gets every sample published after it matched. Latched topics (``gpr/geometry``, ``gpr/robot``,
 ``robot_description``, ``/tf_static``) are reliable, keep last 1, transient local, as ``robot_state_publisher``
 publishes ``robot_description``: a subscriber that joins later still gets the one sample. A subscription must
 ask for transient local to receive it, and a transient-local subscription does not match a volatile publisher,
@@ -17,7 +17,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from ..errors import ConfigError
 
 #: Topics published once and latched (fully qualified names as in the root namespace).
-LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/robot_description', '/tf_static'})
+LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/gpr/robot', '/robot_description', '/tf_static'})
 
 
 def stream_qos(depth: int) -> QoSProfile:

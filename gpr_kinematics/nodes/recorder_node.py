@@ -28,7 +28,6 @@ type is unknown or a parameter is invalid. An error while recording (a full disk
 """
 from __future__ import annotations
 
-import importlib
 import sqlite3
 import sys
 import time
@@ -42,8 +41,9 @@ from rclpy.qos import QoSProfile
 from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
-from ..bags.typestore import GPR_TOPICS, check_known, normalize_type
+from ..bags.typestore import GPR_TOPICS, check_known
 from ..bags.writer import SegmentedBagWriter, check_output_path
+from .conversions import message_class
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
 from .runtime import EXIT_OK, GprNode, one_line, run
@@ -58,15 +58,6 @@ DRAIN_LIMIT, DRAIN_QUIET = 5.0, 0.2
 
 def default_output() -> Path:
     return Path('bags') / datetime.now().strftime('gpr_%Y_%m_%d-%H_%M_%S')
-
-
-def message_class(msgtype: str) -> Any:
-    """The rclpy message class of ``pkg/msg/Type``; :class:`BagError` when it cannot be imported."""
-    pkg, kind, name = normalize_type(msgtype).split('/')
-    try:
-        return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
-    except (ImportError, AttributeError) as exc:
-        raise BagError(f'type {msgtype!r} cannot be imported in this ROS environment ({exc})') from None
 
 
 class RecorderNode(GprNode):

@@ -21,7 +21,6 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,24 +28,13 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
+from .conversions import message_class
 from .params import declare_parameters
 from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
-from .recorder_node import message_class
 from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 from .specs import node_specs
 
 NODE_NAME = 'replay_node'
-
-
-def refuse_non_regular(path: Path) -> None:
-    """:class:`BagError` when the bag, or a storage or metadata file in its folder, exists but is not a regular file
-    (a FIFO or a device would block the reader forever)."""
-    files = [path] if not path.is_dir() else [p for p in path.iterdir()
-                                              if p.suffix in ('.mcap', '.db3') or p.name == 'metadata.yaml']
-    for f in files:
-        if f.exists() and not f.is_file():
-            raise BagError(f'{f} is not a regular file (a FIFO, socket or device); allowed: a bag folder, .mcap or '
-                           '.db3 file')
 
 
 class ReplayNode(GprNode):
@@ -61,7 +49,6 @@ class ReplayNode(GprNode):
             raise BagError('parameter bag is empty; allowed: the path of a bag folder, .mcap or .db3 file')
         self.p = p
         wanted = [valid_topic_name(self, t, 'topics') for t in p['topics'] if t]
-        refuse_non_regular(Path(p['bag']))
         bag = read_bag(p['bag'], topics=wanted or None)
         missing = [t for t in wanted if bag.topic(t) is None]
         if missing:

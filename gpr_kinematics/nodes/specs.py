@@ -111,9 +111,16 @@ _CONFIG_TABLE: tuple[tuple[str, str, str, tuple[float, float] | None, tuple[str,
     ('tolerance', _D, 'closure tolerance on the side lengths [m]', (1e-16, 1e-6), None, '', False),
 )
 
-CONFIG_FILE = ParamSpec('config_file', _S, '', 'YAML with GprConfig keys loaded over the package default '
-                        '(config/gpr.yaml); empty: the package default', constraint='a readable geometry YAML file '
-                        'or empty', read_only=True)
+CONFIG_FILE = ParamSpec('config_file', _S, '', 'geometry YAML (GprConfig keys over the package\'s config/gpr.yaml), '
+                        'replacing the robot description\'s gpr section; empty: that section', constraint='a readable '
+                        'geometry YAML file or empty', read_only=True)
+
+#: The robot description (docs/robot.md) of the nodes that know the whole robot; its ``gpr`` section is their
+#: geometry unless ``config_file`` is given (as ``gpr robot --robot FILE --config FILE`` on the command line).
+ROBOT_FILE = ParamSpec('robot_file', _S, '', 'robot description YAML: the GPR, its base in the world, the arms, '
+                       'blades and wafers; empty: the shipped example config/robots/example_robot.yaml (for '
+                       'trajectory_node: the start-up robot program\'s robot, if it names one)',
+                       constraint='a readable robot description file or empty', read_only=True)
 
 
 def config_values(cfg: GprConfig) -> dict[str, Any]:
@@ -279,8 +286,8 @@ STATE_PUBLISHER: tuple[ParamSpec, ...] = (
               (1, 100000), read_only=True),
 )
 
-#: Executables and the parameters they declare, besides ``config_file`` and the ``GprConfig`` keys for those
-#: marked True (these are read-only in every node but ``kinematics_node``).
+#: Executables and the parameters they declare, besides ``robot_file``, ``config_file`` and the ``GprConfig`` keys
+#: for those marked True (these are read-only in every node but ``kinematics_node``).
 NODES: dict[str, tuple[bool, str]] = {
     'kinematics_node': (True, ''),
     'trajectory_node': (True, 'trajectory'),
@@ -291,8 +298,8 @@ NODES: dict[str, tuple[bool, str]] = {
 
 
 def node_specs(node: str, cfg: GprConfig | None = None) -> tuple[ParamSpec, ...]:
-    """Every parameter ``node`` declares (``config_file``, the ``GprConfig`` keys where it computes kinematics,
-    then its own), with the defaults of ``cfg`` (default: the package configuration)."""
+    """Every parameter ``node`` declares (``robot_file``, ``config_file`` and the ``GprConfig`` keys where it computes
+    kinematics, then its own), with the defaults of ``cfg`` (default: the package configuration)."""
     if node not in NODES:
         raise ConfigError(f'unknown node {node!r}; allowed: ' + ', '.join(NODES))
     with_config, table = NODES[node]
@@ -300,7 +307,7 @@ def node_specs(node: str, cfg: GprConfig | None = None) -> tuple[ParamSpec, ...]
         {'': (), 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'replay': REPLAY}[table]
     if not with_config:
         return tuple(own)
-    return (CONFIG_FILE, *config_specs(cfg, read_only=node != 'kinematics_node'), *own)
+    return (ROBOT_FILE, CONFIG_FILE, *config_specs(cfg, read_only=node != 'kinematics_node'), *own)
 
 
 def _yaml_value(spec: ParamSpec, value: Any) -> str:

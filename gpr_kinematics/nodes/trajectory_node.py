@@ -1,40 +1,44 @@
-"""``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts.
+"""``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts, and whole-robot
+programs (the arm joints and the wafer too).
 
 Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
 
 - ``gpr/platform_state`` (gpr_interfaces/PlatformState): the full state of each sample;
 - ``gpr/platform_pose`` / ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint
   model / the naive model;
-- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints, ``rod_1..rod_3`` (rod lengths q [m]), as
-  ``robot_state_publisher`` expects; ``gpr/virtual_joints`` (sensor_msgs/JointState): the virtual joints,
-  named as in the core (lengths [m], angles [rad]);
-- ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample (:mod:`.markers`);
-- ``gpr/geometry`` (std_msgs/String, reliable, transient local, depth 1): published once at start, the YAML of
-  the node's ``GprConfig.to_dict()`` (loadable with ``GprConfig.from_mapping``), so a recording names the
-  geometry and model that produced it.
+- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
+  and, in a robot program, every arm's joints [rad], as ``robot_state_publisher`` expects; ``gpr/virtual_joints``
+  (sensor_msgs/JointState): the virtual joints, named as in the core (lengths [m], angles [rad]);
+- ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample
+  (:mod:`gpr_kinematics.bags.markers`);
+- robot programs only: ``gpr/robot_state`` (gpr_interfaces/RobotState) and ``gpr/wafer_pose``
+  (geometry_msgs/PoseStamped), both in the robot's world frame (:mod:`gpr_kinematics.robot_stream`);
+- ``gpr/geometry`` and ``gpr/robot`` (std_msgs/String, reliable, transient local, depth 1): published once at
+  start, the YAML of the node's ``GprConfig.to_dict()`` and of its robot description (``RobotDescription.to_dict``),
+  so a recording names the geometry, model and robot that produced it.
 
 Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
 azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
 ``tilt_step`` at height ``height``, serpentine, ``passes`` times, so every pass crosses the singular
-configuration ``alpha = 0``; ``program`` -- an offline program (``program_file``, see :mod:`.program`),
-interpolated between stations and sampled at ``rate``; ``idle`` -- nothing at start. In every mode the node serves
-the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file or inline stations; feedback per
-sample; cancel stops before the next sample) whenever no stream is running. A stream is precomputed with the
-batch API (``paper_sweep`` / ``inverse_batch``) before its first sample; a wall timer at ``rate`` [Hz] then
+configuration ``alpha = 0``; ``program`` -- an offline program (``program_file``): a platform program (see
+:mod:`.program`), interpolated between stations, or a whole-robot program (``format: gpr_robot_program``),
+planned and sampled by the robot core, sampled at ``rate``; ``idle`` -- nothing at start. In every mode the node
+serves the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file of either kind or inline
+stations; feedback per sample; cancel stops before the next sample) whenever no stream is running. A stream is
+precomputed with the batch API (:mod:`.streams`) before its first sample; a wall timer at ``rate`` [Hz] then
 publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
 ``loop`` is true (then it starts over; the sample counter keeps counting); ``idle`` runs until SIGINT/SIGTERM.
+
+The node's robot (parameter ``robot_file``; empty: the start-up robot program's robot, else the shipped example)
+runs every robot program; its ``gpr`` section is the node's geometry unless ``config_file`` is given.
 """
 from __future__ import annotations
 
-import dataclasses
-import math
 import sys
 import time
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-import yaml
 from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -45,20 +49,19 @@ from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 from gpr_interfaces.action import RunProgram
-from gpr_interfaces.msg import PlatformState
+from gpr_interfaces.msg import PlatformState, RobotState
 
-from ..config import GprConfig
+from ..bags.markers import marker_array
 from ..errors import ConfigError, GprError
-from ..kinematics import ForwardBatch, inverse_batch
-from ..messages import stream_messages
-from ..sweep import paper_sweep
-from .conversions import ROS_TYPES
-from .markers import platform_markers, rod_feet
-from .params import ConfigParameters, declare_parameters
-from .program import Program, load_program, parse_program, sample_program
+from ..messages import geometry_text, robot_text, stream_messages
+from ..robot.program import RobotProgram
+from .conversions import ROS_TYPES, make_message
+from .params import ConfigParameters, declare_parameters, declare_robot
+from .program import load_any_program
 from .qos import latched_qos, stream_qos
 from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowledged
 from .specs import TRAJECTORY
+from .streams import Trajectory, goal_program, program_robot, sweep_trajectory, trajectory_of
 
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
@@ -69,79 +72,8 @@ CATCH_UP = 5
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
                                  'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
                                  'gpr/virtual_joints': JointState}
-
-
-@dataclasses.dataclass(frozen=True)
-class Trajectory:
-    """A precomputed stream: commanded tilt/azimuth per sample [rad], the forward kinematics, and the station
-    each sample is at (-1 while moving or in a sweep) with the stations' names."""
-
-    fk: ForwardBatch
-    cmd_tilt: list[float]
-    cmd_azimuth: list[float]
-    station: list[int]
-    station_names: tuple[str, ...]
-    description: str
-
-    def __len__(self) -> int:
-        return len(self.fk)
-
-
-def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: float, azimuth_step: float,
-                     passes: int) -> Trajectory:
-    sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
-                     passes=passes, config=cfg, model=cfg.model)
-    desc = (f'sweep at height {height} m, |alpha| <= {max_tilt:.6g} rad in steps of {tilt_step:.6g} rad, '
-            f'azimuth step {azimuth_step:.6g} rad, {passes} pass(es)')
-    n = len(sw.forward)
-    return Trajectory(sw.forward, np.asarray(sw.alpha, float).tolist(), np.asarray(sw.gamma, float).tolist(),
-                      [-1] * n, (), desc)
-
-
-def program_trajectory(cfg: GprConfig, prog: Program, rate: float, move_time: float) -> Trajectory:
-    """The stream of an offline program; :class:`ConfigError` names the first station out of reach."""
-    for i, st in enumerate(prog.stations):  # stations first, for a message that names the station at fault
-        try:
-            inverse_batch(st.height, st.tilt, st.azimuth, cfg, cfg.model)
-        except GprError as exc:
-            raise ConfigError(f'{prog.source}: station {i} ({st.name}): {exc}') from None
-    samples = sample_program(prog, rate, move_time)
-    ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
-    desc = (f'program {prog.source}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
-            f'{len(samples)} samples')
-    return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
-                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc)
-
-
-def goal_program(goal: Any) -> Program:
-    """The program of a ``RunProgram`` goal: its file, or its inline stations validated as a program file's."""
-    has_file, has_stations = bool(goal.program_file), len(goal.stations) > 0
-    if has_file == has_stations:
-        raise ConfigError('goal: give either program_file or stations; allowed: exactly one of the two')
-    if has_file:
-        prog = load_program(goal.program_file)
-    else:
-        stations = []
-        for st in goal.stations:
-            entry = {'height': st.height, 'tilt': st.tilt, 'azimuth': st.azimuth, 'dwell': st.dwell}
-            if st.name:
-                entry['name'] = st.name
-            if st.move_time != 0.0:
-                entry['move_time'] = st.move_time
-            stations.append(entry)
-        prog = parse_program({'stations': stations}, 'goal stations')
-    move_time = float(goal.move_time)
-    if move_time != 0.0:
-        if not (math.isfinite(move_time) and move_time > 0.0):
-            raise ConfigError(f'goal: move_time = {move_time!r} is invalid; allowed: seconds > 0, or 0 for the '
-                              'program\'s default')
-        prog = dataclasses.replace(prog, move_time=move_time)
-    return prog
-
-
-def geometry_yaml(cfg: GprConfig) -> str:
-    """The ``gpr/geometry`` text: YAML of ``cfg.to_dict()`` (a geometry file ``load_config`` accepts)."""
-    return yaml.safe_dump(cfg.to_dict(), sort_keys=False)
+#: The topics a robot program adds to each sample (:data:`gpr_kinematics.robot_stream.ROBOT_TOPICS`).
+ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
 
 
 class TrajectoryNode(GprNode):
@@ -151,15 +83,27 @@ class TrajectoryNode(GprNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.cfg = ConfigParameters(self, read_only=True).config
         p = self.p = declare_parameters(self, TRAJECTORY)
-        self._feet = rod_feet(self.cfg)
+        program = None
+        if p['mode'] == 'program':
+            if not p['program_file']:
+                raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
+            program = load_any_program(p['program_file'])
+        robot_program = program if isinstance(program, RobotProgram) else None
+        params = ConfigParameters(self, read_only=True,
+                                  robot=declare_robot(self, robot_program.robot if robot_program else None))
+        self.cfg, self.robot = params.config, params.robot
+        if robot_program is not None:
+            program_robot(robot_program, self.robot)
         qos = stream_qos(int(p['queue_depth']))
-        self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in STREAM_TOPICS.items()}
+        topics = {**STREAM_TOPICS, **ROBOT_STREAM_TOPICS}
+        self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in topics.items()}
         self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
         self.publishers_all = (*self.stream_publishers.values(), self.pub_markers)
         self.pub_geometry = self.create_publisher(String, 'gpr/geometry', latched_qos())
-        self.pub_geometry.publish(String(data=geometry_yaml(self.cfg)))
+        self.pub_geometry.publish(String(data=geometry_text(self.cfg)))
+        self.pub_robot = self.create_publisher(String, 'gpr/robot', latched_qos())
+        self.pub_robot.publish(String(data=robot_text(self.robot)))
 
         self.sample = 0
         self.stream: Trajectory | None = None
@@ -180,10 +124,8 @@ class TrajectoryNode(GprNode):
         if p['mode'] == 'sweep':
             traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
                                     p['passes'])
-        elif p['mode'] == 'program':
-            if not p['program_file']:
-                raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
-            traj = program_trajectory(self.cfg, load_program(p['program_file']), p['rate'], p['move_time'])
+        elif program is not None:
+            traj = trajectory_of(program, self.robot, p['rate'], p['move_time'])
         else:
             self.get_logger().info(f'idle: serving gpr/run_program at {p["rate"]} Hz (model {self.cfg.model})')
             return
@@ -201,14 +143,21 @@ class TrajectoryNode(GprNode):
         self._ready_since = None
         self.timer.reset()
 
+    def stream_topics(self) -> tuple[Any, ...]:
+        """The publishers of the running stream's topics: the platform's and the markers, and the robot's for a robot
+        program (a recorder of a platform stream need not subscribe to the robot topics)."""
+        robot = self.stream is not None and self.stream.robot is not None
+        return tuple(pub for topic, pub in self.stream_publishers.items()
+                     if robot or topic not in ROBOT_STREAM_TOPICS) + (self.pub_markers,)
+
     def subscribed_nodes(self) -> int:
         """How many nodes subscribe to every stream topic (``wait_all_topics``) or to ``gpr/platform_state``, and
         are matched: nodes, not subscriptions, so a node that listens to one topic only (a state publisher on
         ``gpr/platform_state``, RViz on ``gpr/markers``) does not count as a recorder of the stream."""
-        pubs = self.publishers_all if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
+        pubs = self.stream_topics() if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
         nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
                                     self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
-        return min(len(nodes), *(pub.get_subscription_count() for pub in pubs))
+        return int(min(len(nodes), *(pub.get_subscription_count() for pub in pubs)))
 
     def _ready(self) -> bool:
         want = int(self.p['wait_for_subscribers'])
@@ -284,10 +233,11 @@ class TrajectoryNode(GprNode):
         i = self.index
         if not traj.station_names:
             return 'sweep'
+        unit = traj.unit
         if i < len(traj) and traj.station[i] >= 0:
-            return f'at station {traj.station[i]} ({self._station_name(traj, i)})'
+            return f'at {unit} {traj.station[i]} ({self._station_name(traj, i)})'
         before = max((traj.station[j] for j in range(min(i, len(traj)))), default=-1)
-        return f'moving from station {before} to station {before + 1}'
+        return f'moving from {unit} {before} to {unit} {before + 1}'
 
     def _end(self, outcome: str, message: str) -> None:
         self.timer.cancel()
@@ -309,15 +259,18 @@ class TrajectoryNode(GprNode):
             self.finish(EXIT_FAILED)
 
     def publish_sample(self, traj: Trajectory, i: int) -> None:
-        msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=self.get_clock().now().nanoseconds,
+        stamp_ns = self.get_clock().now().nanoseconds
+        msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
                                frame_id=self.p['base_frame'], sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
-        for topic, pub in self.stream_publishers.items():
-            pub.publish(msgs[topic])
+        if traj.robot is not None:  # the arm joints join the rods on gpr/joint_states; the wafer on its topics
+            msgs.update(traj.robot.messages(ROS_TYPES, i, stamp_ns=stamp_ns, sample=self.sample,
+                                            base_frame=self.p['base_frame']))
+        for topic, msg in msgs.items():
+            self.stream_publishers[topic].publish(msg)
         if self.sample % int(self.p['markers_every']) == 0:
-            fk = traj.fk
-            self.pub_markers.publish(platform_markers(self._feet, fk.q[i], fk.nominal_position[i],
-                                                      fk.nominal_rotation[i], msgs['gpr/platform_state'].header))
+            self.pub_markers.publish(marker_array(make_message, msgs['gpr/platform_state'].header,
+                                                  {ns: p[i] for ns, p in traj.markers.items()}))
 
     # -- the gpr/run_program action ----------------------------------------------------------------------------
     def _on_goal(self, _goal: Any) -> GoalResponse:
@@ -331,7 +284,8 @@ class TrajectoryNode(GprNode):
     async def _execute(self, goal: ServerGoalHandle) -> Any:
         result = RunProgram.Result()
         try:
-            traj = program_trajectory(self.cfg, goal_program(goal.request), self.p['rate'], self.p['move_time'])
+            traj = trajectory_of(goal_program(goal.request, self.robot), self.robot, self.p['rate'],
+                                 self.p['move_time'])
         except GprError as exc:
             self._reserved = False
             result.message = f'cannot run the program: {one_line(exc)}'

@@ -183,6 +183,20 @@ class RobotDescription:
     def arm_names(self) -> tuple[str, ...]:
         return tuple(a.name for a in self.arms)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The description as a mapping in the file format (SI units, the GPR geometry inline under ``gpr``) that
+        :func:`parse_robot` reads back into an equal description: what a recording stores to name its robot.
+
+        >>> robot = load_robot()
+        >>> parse_robot(robot.to_dict(), robot.source) == robot
+        True
+        """
+        return {'name': self.name, 'gpr': {'config': None, **self.config.to_dict()},
+                'base': {'frame': self.world_frame, 'position': list(self.base_position), 'rpy': list(self.base_rpy)},
+                'rods': {'names': list(self.rods.names), 'velocity': self.rods.velocity,
+                         'acceleration': self.rods.acceleration},
+                'arms': [_arm_dict(a) for a in self.arms]}
+
     def arm(self, name: str | None = None) -> Arm:
         """The arm called ``name`` (the first arm when ``None``); ConfigError names the arms there are."""
         if name is None:
@@ -191,6 +205,23 @@ class RobotDescription:
             if a.name == name:
                 return a
         raise ConfigError(f'{self.source}: no arm {brief(name)}; allowed: {", ".join(self.arm_names)}')
+
+
+def _arm_dict(arm: Arm) -> dict[str, Any]:
+    """An arm in the file format (:meth:`RobotDescription.to_dict`)."""
+    out: dict[str, Any] = {
+        'name': arm.name, 'mount': {'position': list(arm.mount_position), 'yaw': arm.mount_yaw},
+        'joints': [dataclasses.asdict(j) for j in arm.joints],
+        'blade': {'position': list(arm.blade.position), 'yaw': arm.blade.yaw,
+                  'wafer_centre': list(arm.blade.wafer_centre)},
+        'branch': arm.branch, 'home': list(arm.home)}
+    r = arm.redundancy
+    if r is not None:
+        joint = arm.joints[r.joint].name
+        out['redundancy'] = ({'rule': r.rule, 'joint': joint, 'value': r.value} if r.rule == 'fixed_joint' else
+                             {'rule': r.rule, 'joint': joint, 'reference': list(r.reference),
+                              'weights': list(r.weights)})
+    return out
 
 
 def _where(source: str, path: str) -> str:

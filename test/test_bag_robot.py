@@ -1,0 +1,261 @@
+"""Whole-robot recordings without DDS (the synthetic writer builds the trajectory node's messages): ``gpr verify``
+checks every wafer pose against the robot's forward kinematics with the recorded robot description (or a given
+one); a changed wafer, blade, naive error, joint, arm, joint state or wafer pose fails the named check; robot
+states without a robot description fail; a hostile description text is a failed check, not a crash."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from bag_support import rewritten, write_bag
+from robot_support import SHORT_PROGRAM
+
+from gpr_kinematics import cli
+from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
+from gpr_kinematics.bags.typestore import GPR_TOPICS, ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+from gpr_kinematics.bags.verify import verify_bag
+from gpr_kinematics.messages import robot_text
+from gpr_kinematics.robot import load_robot, robot_forward
+from gpr_kinematics.robot.program import parse_program
+from gpr_kinematics.robot_stream import robot_stream
+
+ROBOT = load_robot()
+PROGRAM = parse_program(yaml.safe_load(SHORT_PROGRAM), 'test_program')
+RATE = 10.0
+
+
+@pytest.fixture(scope='module')
+def robot_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_bag(tmp_path_factory.mktemp('robot') / 'bag', robot_program_messages(ROBOT, PROGRAM, RATE),
+                     dict(GPR_TOPICS))
+
+
+def _failed(result) -> dict[str, set[int | None]]:
+    out: dict[str, set[int | None]] = {}
+    for f in result.failures:
+        out.setdefault(f.check, set()).add(f.sample)
+    return out
+
+
+def test_a_robot_recording_verifies_every_wafer_pose(robot_bag: Path) -> None:
+    result = verify_bag(robot_bag)
+    assert result.passed, [f.line() for f in result.failures]
+    checks = {c.name: c for c in result.checks}
+    n = len(robot_stream(ROBOT, PROGRAM, RATE))
+    for name in ('robot.structure', 'robot.wafer_position', 'robot.wafer_orientation', 'robot.blade',
+                 'robot.naive_wafer_error', 'robot.joint_limits', 'topic.wafer_pose', 'topic.robot'):
+        assert not checks[name].skipped, name
+    assert checks['robot.wafer_position'].checked == checks['topic.wafer_pose'].checked == n
+    assert any('robot example_dual_arm recorded on /gpr/robot' in note for note in result.notes)
+
+
+def _shift_wafer(sample: int, dx: float):
+    def edit(topic, msg):
+        if topic == ROBOT_STATE_TOPIC and msg.sample == sample:
+            p = dataclasses.replace(msg.wafer.position, x=msg.wafer.position.x + dx)
+            return dataclasses.replace(msg, wafer=dataclasses.replace(msg.wafer, position=p))
+        return msg
+    return edit
+
+
+def test_a_moved_wafer_fails_at_its_sample_and_its_wafer_pose_no_longer_matches(robot_bag: Path,
+                                                                                 tmp_path: Path) -> None:
+    bag = rewritten(robot_bag, tmp_path / 'moved', _shift_wafer(17, 2e-9))
+    failed = _failed(verify_bag(bag))
+    assert failed == {'robot.wafer_position': {17}, 'topic.wafer_pose': {17}}
+
+
+@pytest.mark.parametrize('what,check', [
+    ('blade', 'robot.blade'), ('naive', 'robot.naive_wafer_error'), ('arm', 'robot.structure'),
+    ('names', 'robot.structure'), ('frame', 'robot.structure'), ('sample', 'robot.structure'),
+])
+def test_each_field_of_a_robot_state_is_checked(robot_bag: Path, tmp_path: Path, what: str, check: str) -> None:
+    def edit(topic, msg):
+        if topic != ROBOT_STATE_TOPIC or msg.sample != 9:
+            return msg
+        if what == 'blade':
+            return dataclasses.replace(msg, blade=dataclasses.replace(msg.blade, position=dataclasses.replace(
+                msg.blade.position, z=msg.blade.position.z + 1e-6)))
+        if what == 'naive':
+            return dataclasses.replace(msg, naive_wafer_error=dataclasses.replace(msg.naive_wafer_error, y=1e-3))
+        if what == 'arm':
+            return dataclasses.replace(msg, arm='arm3')
+        if what == 'names':
+            return dataclasses.replace(msg, joint_names=list(reversed(msg.joint_names)))
+        if what == 'frame':
+            return dataclasses.replace(msg, header=dataclasses.replace(msg.header, frame_id='gpr_base'))
+        return dataclasses.replace(msg, sample=msg.sample + 1)
+
+    failed = _failed(verify_bag(rewritten(robot_bag, tmp_path / what, edit)))
+    assert 9 in failed.pop(check) and set(failed) <= {'robot.wafer_position', 'robot.wafer_orientation',
+                                                      'robot.blade', 'robot.naive_wafer_error', 'topic.joint_states',
+                                                      'topic.wafer_pose', 'topic.wafer_pose_extra'}
+
+
+def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_path: Path) -> None:
+    """The elbow of arm1 set beyond its upper limit, with the wafer, blade and naive error it then gives (computed
+    here by the robot core) and the joint state: only robot.joint_limits fails."""
+    limit = ROBOT.arm('arm1').joints[1].upper
+
+    def edit(topic, msg):
+        if getattr(msg, 'sample', None) == 5 and topic == ROBOT_STATE_TOPIC:
+            joints = np.array(msg.joints)
+            joints[1] = limit + 0.01
+            rods = edit.rods
+            fk = robot_forward(ROBOT, [rods], [joints[:3]], 'arm1', check_limits=False)
+            wafer = dataclasses.replace(msg.wafer, position=dataclasses.replace(
+                msg.wafer.position, **dict(zip('xyz', fk.wafer.position[0].tolist(), strict=True))),
+                orientation=dataclasses.replace(msg.wafer.orientation, **dict(zip(
+                    'xyzw', fk.wafer.quaternion[0].tolist(), strict=True))))
+            blade = dataclasses.replace(msg.blade, position=dataclasses.replace(
+                msg.blade.position, **dict(zip('xyz', fk.blade.position[0].tolist(), strict=True))),
+                orientation=dataclasses.replace(msg.blade.orientation, **dict(zip(
+                    'xyzw', fk.blade.quaternion[0].tolist(), strict=True))))
+            naive = dataclasses.replace(msg.naive_wafer_error, **dict(zip(
+                'xyz', fk.naive_wafer_error[0].tolist(), strict=True)))
+            edit.wafer = wafer
+            return dataclasses.replace(msg, joints=joints, wafer=wafer, blade=blade, naive_wafer_error=naive)
+        if topic == '/gpr/platform_state' and msg.sample == 5:
+            edit.rods = np.array(msg.q)
+        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+            position = np.array(msg.position)
+            position[4] = limit + 0.01
+            return dataclasses.replace(msg, position=position)
+        if topic == WAFER_POSE_TOPIC and msg.header.stamp == edit.stamp:
+            return dataclasses.replace(msg, pose=edit.wafer)
+        return msg
+
+    messages = robot_program_messages(ROBOT, PROGRAM, RATE)
+    edit.stamp = None
+    from gpr_kinematics.bags.typestore import typestore
+
+    state = typestore().deserialize_cdr([m for m in messages if m[0] == '/gpr/platform_state'][5][2],
+                                        GPR_TOPICS['/gpr/platform_state'])
+    edit.stamp = state.header.stamp
+    edit.rods = np.array(state.q)
+    bag = rewritten(write_bag(tmp_path / 'src', messages, dict(GPR_TOPICS)), tmp_path / 'limit', edit)
+    failed = _failed(verify_bag(bag))
+    assert failed == {'robot.joint_limits': {5}}
+    worst = next(c for c in verify_bag(bag).checks if c.name == 'robot.joint_limits').worst
+    assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
+
+
+def test_joint_states_carry_the_arm_joints(robot_bag: Path, tmp_path: Path) -> None:
+    def edit(topic, msg):
+        stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/gpr/joint_states' else None
+        if stamp == (1_700_000_000, 300_000_000):                  # sample 3 at 10 Hz
+            return dataclasses.replace(msg, name=msg.name[:3], position=msg.position[:3])
+        return msg
+
+    failed = _failed(verify_bag(rewritten(robot_bag, tmp_path / 'js', edit)))
+    assert failed == {'topic.joint_states': {3}}
+
+
+def test_without_a_robot_description_robot_states_fail_and_robot_gives_it(robot_bag: Path, tmp_path: Path) -> None:
+    bag = rewritten(robot_bag, tmp_path / 'no_robot', lambda topic, msg: None if topic == ROBOT_TOPIC else msg)
+    result = verify_bag(bag)
+    assert not result.passed
+    (failure,) = result.failures
+    assert failure.check == 'topic.robot' and 'give the robot with --robot FILE' in failure.detail
+    assert verify_bag(bag, robot=ROBOT, robot_source='example').passed
+
+
+def test_another_robot_given_fails_the_wafer_poses(robot_bag: Path) -> None:
+    """A robot whose first arm has a 1 mm longer upper link: every sample of arm1 misses by up to that."""
+    arm = ROBOT.arm('arm1')
+    longer = dataclasses.replace(arm, joints=(dataclasses.replace(arm.joints[0], length=arm.joints[0].length + 1e-3),
+                                              *arm.joints[1:]))
+    other = dataclasses.replace(ROBOT, arms=(longer, ROBOT.arms[1]))
+    result = verify_bag(robot_bag, robot=other, robot_source='--robot longer.yaml')
+    check = next(c for c in result.checks if c.name == 'robot.wafer_position')
+    assert check.failed > 0 and 1e-4 < check.worst <= 1e-3 + 1e-12
+    assert 'robot description: --robot longer.yaml (given)' in result.notes
+
+
+@pytest.mark.parametrize('text,detail', [
+    ('- not\n- a mapping', 'not a usable robot description'),
+    ('name: [unclosed', 'not a usable robot description'),
+    ('a: &x 1\nb: *x\n', 'not a usable robot description'),
+    (None, 'differs from the geometry'),
+])
+def test_a_bad_robot_description_is_a_failed_check(robot_bag: Path, tmp_path: Path, text, detail) -> None:
+    from gpr_kinematics.bags.typestore import typestore
+
+    if text is None:  # the description of the same robot on another machine (its gpr section)
+        text = robot_text(dataclasses.replace(ROBOT, config=ROBOT.config.replace(radius=0.1)))
+    raw = bytes(typestore().serialize_cdr(typestore().types['std_msgs/msg/String'](data=text), 'std_msgs/msg/String'))
+    bag = rewritten(robot_bag, tmp_path / 'bad', lambda topic, msg: raw if topic == ROBOT_TOPIC else msg)
+    result = verify_bag(bag)
+    check = next(c for c in result.checks if c.name == 'topic.robot')
+    assert check.failed == 1 and detail in check.failures[0].detail
+    assert next(c for c in result.checks if c.name == 'robot.wafer_position').skipped
+
+
+def test_a_sweep_with_its_robot_recorded_skips_the_robot_checks(tmp_path: Path) -> None:
+    from gpr_kinematics.bags.typestore import typestore
+
+    msgs = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0))
+    raw = bytes(typestore().serialize_cdr(typestore().types['std_msgs/msg/String'](data=robot_text(ROBOT)),
+                                          'std_msgs/msg/String'))
+    bag = write_bag(tmp_path / 'sweep', [(ROBOT_TOPIC, msgs[0][1], raw), *msgs], dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    checks = {c.name: c for c in result.checks}
+    assert not checks['topic.robot'].skipped and checks['robot.wafer_position'].skipped == 'no robot states in the bag'
+    assert result.notes[-1] == ('robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
+                                'no wafer poses to verify')
+
+
+def test_a_recording_without_robot_topics_says_it_has_no_robot_checks(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / 'sweep', sweep_messages(tilt_step=math.radians(1.0),
+                                                       azimuth_step=math.radians(120.0)), dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    assert result.passed and 'no robot topics (a platform recording): no robot checks' in result.notes
+    checks = {c.name: c for c in result.checks}
+    assert checks['topic.robot'].skipped == 'no robot description recorded'
+    assert checks['robot.wafer_position'].skipped == 'no robot states in the bag'
+    assert result.robot == {} and result.to_dict()['robot'] == {}
+
+
+def test_the_json_result_names_the_robot(robot_bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert cli.main(['verify', str(robot_bag), '--json']) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data['robot'] == {'name': ROBOT.name, 'arms': list(ROBOT.arm_names), 'source': 'recorded'}
+
+
+def test_the_reference_bag_records_its_geometry_and_robot_latched() -> None:
+    """The committed reference sweep was recorded with the package geometry and the shipped example robot, both on
+    latched topics whose recorded QoS is transient local (``ros2 bag play`` latches them again)."""
+    from bag_support import REFERENCE
+
+    from gpr_kinematics.bags.reader import read_bag
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
+    from gpr_kinematics.config import load_config
+
+    bag = read_bag(REFERENCE)
+    texts = {t: typestore().deserialize_cdr(bag.topic(t).raw[0], 'std_msgs/msg/String').data
+             for t in (GEOMETRY_TOPIC, ROBOT_TOPIC)}
+    assert yaml.safe_load(texts[GEOMETRY_TOPIC]) == load_config().to_dict()
+    assert texts[ROBOT_TOPIC] == robot_text(ROBOT)
+    meta = yaml.safe_load((REFERENCE / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    qos = {t['topic_metadata']['name']: t['topic_metadata']['offered_qos_profiles']
+           for t in meta['topics_with_message_count']}
+    assert all(p['durability'] == 'transient_local' for t in (GEOMETRY_TOPIC, ROBOT_TOPIC) for p in qos[t])
+
+
+def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gpr_kinematics.resources import config_path
+
+    assert cli.main(['verify', str(robot_bag), '--robot', str(config_path('robots/example_robot.yaml'))]) == 0
+    assert 'robot description: --robot' in capsys.readouterr().out
+    assert cli.main(['verify', str(robot_bag), '--robot', '']) == 2
+    assert '--robot is empty' in capsys.readouterr().err
+    assert cli.main(['verify', str(robot_bag), '--robot', str(tmp_path / 'absent.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert 'absent.yaml' in err and len(err.strip().splitlines()) == 1

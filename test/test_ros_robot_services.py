@@ -1,0 +1,175 @@
+"""kinematics_node's whole-robot services over real DDS: gpr/robot_forward_kinematics and
+gpr/station_inverse_kinematics answer the robot core's numbers (1e-12), round trip a station through both, refuse
+bad requests with their message and keep serving; the robot_file and config_file parameters choose the robot and
+its geometry."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+from ros_support import client_session, imperfect_config_file, quat, running, start, vec
+
+from gpr_kinematics.geometry import matrix_from_quaternion, rotation_z, tilt_rotation
+from gpr_kinematics.resources import config_path
+from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
+
+pytestmark = pytest.mark.ros
+
+ROBOT = load_robot()
+TIGHT = dict(rtol=0.0, atol=1e-12)
+NS = '/gpr_robot_srv'
+
+
+@pytest.fixture(scope='module')
+def node(ros_environment):
+    yield from running(start('kinematics_node', namespace=NS))
+
+
+@pytest.fixture(scope='module')
+def client(node):
+    yield from client_session('gpr_test_robot_services', NS)
+
+
+@pytest.mark.parametrize('arm,rods,joints', [
+    ('arm1', (0.25, 0.251, 0.252), (0.0, 1.0, -0.5)),
+    ('arm2', (0.30, 0.2985, 0.3012), (0.4, -1.1, 0.3, 0.9)),
+    ('', (0.2, 0.2, 0.2), (-2.0, 2.2, 1.0)),          # the first arm, at the singular configuration q1 = q2 = q3
+])
+def test_robot_forward_equals_the_core(client, arm, rods, joints):
+    res = client.robot_forward_kinematics(rods, joints, arm)
+    assert res.success, res.message
+    core = robot_forward(ROBOT, [rods], [joints], arm or None)
+    assert res.arm == core.arm and res.world_frame == 'world'
+    assert list(res.joint_names) == list(ROBOT.arm(core.arm).joint_names)
+    for name in ('wafer', 'blade', 'platform', 'naive_wafer', 'naive_platform'):
+        pose = getattr(core, name)
+        np.testing.assert_allclose(vec(getattr(res, name).position), pose.position[0], **TIGHT)
+        np.testing.assert_allclose(quat(getattr(res, name).orientation), pose.quaternion[0], **TIGHT)
+    np.testing.assert_allclose(vec(res.naive_wafer_error), core.naive_wafer_error[0], **TIGHT)
+    assert res.naive_wafer_error_norm == pytest.approx(np.linalg.norm(vec(res.naive_wafer_error)), rel=1e-12)
+    assert res.naive_wafer_angle_error == pytest.approx(core.naive_wafer_angle_error[0], abs=1e-15)
+    np.testing.assert_allclose([res.tilt, res.tilt_azimuth, res.twist],
+                               [core.gpr.tilt[0], core.gpr.tilt_azimuth[0], core.gpr.twist[0]], **TIGHT)
+    np.testing.assert_allclose(vec(res.centre_shift), core.gpr.centre_shift[0], **TIGHT)
+    # Independent of the core's chain: the wafer sits at the arm's wafer height above the platform plane.
+    platform_R = matrix_from_quaternion(quat(res.platform.orientation))
+    height = platform_R[:, 2] @ (vec(res.wafer.position) - vec(res.platform.position))
+    assert height == pytest.approx(ROBOT.arm(core.arm).wafer_height, abs=1e-12)
+
+
+@pytest.mark.parametrize('arm,branch,position,tilt,azimuth,heading,value', [
+    ('arm1', 'right', (1.3, 0.6, 0.45), math.radians(1.2), math.radians(30.0), math.radians(20.0), None),
+    ('arm1', 'left', (1.1, 0.9, 0.40), math.radians(1.9), math.radians(-120.0), 0.85, None),
+    ('arm2', 'left', (1.3, 0.6, 0.60), 0.0, 0.0, 0.3, 0.2),
+    ('arm2', '', (0.3, 0.4, 0.55), math.radians(0.5), math.radians(200.0), 2.9, None),
+])
+def test_station_inverse_equals_the_core_and_reaches_the_station(client, arm, branch, position, tilt, azimuth,
+                                                                    heading, value):
+    res = client.station_inverse_kinematics(position, tilt, azimuth, heading, arm, branch, value)
+    assert res.success, res.message
+    core = solve_stations(ROBOT, Stations.of([position], tilt, azimuth, heading), arm, branch or None, value)
+    assert res.branch == core.branch[0] == (branch or ROBOT.arm(arm).branch)
+    np.testing.assert_allclose(res.rods, core.rods[0], **TIGHT)
+    np.testing.assert_allclose(res.joints, core.joints[0], **TIGHT)
+    np.testing.assert_allclose(res.naive_rods, core.naive_rods[0], **TIGHT)
+    np.testing.assert_allclose(res.naive_joints, core.naive_joints[0], **TIGHT)
+    np.testing.assert_allclose(vec(res.naive_wafer_error_vector), core.naive_wafer_error[0], **TIGHT)
+    assert res.naive_wafer_error == pytest.approx(core.naive_wafer_error_norm[0], rel=1e-12)
+    # The station is reached (wafer pose computed here from the station's definition, not by the core).
+    R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
+    np.testing.assert_allclose(vec(res.wafer.position), position, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(matrix_from_quaternion(quat(res.wafer.orientation)), R, rtol=0, atol=1e-9)
+    assert res.position_error < 1e-12 and res.angle_error < 1e-12
+    if value is not None:
+        assert res.joints[2] == pytest.approx(value, abs=1e-12)      # arm2 holds its wrist at the value asked
+    # The old tool's joints miss the station on the real machine (micrometres at these tilts, none untilted).
+    assert (res.naive_wafer_error > 1e-7) == (tilt > 0.0)
+    # Round trip through the forward service.
+    fk = client.robot_forward_kinematics(res.rods, res.joints, res.arm)
+    assert fk.success, fk.message
+    np.testing.assert_allclose(vec(fk.wafer.position), position, rtol=0, atol=1e-9)
+
+
+def test_model_of_a_request(client):
+    position, tilt, azimuth, heading = (1.3, 0.6, 0.45), 0.03, 0.4, 0.2
+    res = client.station_inverse_kinematics(position, tilt, azimuth, heading, model='compliant')
+    assert res.success, res.message
+    robot = load_robot(model='compliant')
+    core = solve_stations(robot, Stations.of([position], tilt, azimuth, heading))
+    np.testing.assert_allclose(res.rods, core.rods[0], **TIGHT)
+    radial = client.station_inverse_kinematics(position, tilt, azimuth, heading)
+    assert np.max(np.abs(np.subtract(res.joints, radial.joints))) > 1e-7     # another model, other joints
+
+
+BAD = [
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0)), ['joints', '2 values given', 'arm1 has 3 joints']),
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0, 0.0), arm='arm9'), ["arm = 'arm9'", 'arm1, arm2']),
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, math.nan, 0.0)), ['arm1_elbow', 'not a finite number']),
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 3.0, 0.0)), ['arm1_elbow', 'upper limit']),
+    ('fk', dict(rods=(0.3, 0.3, 0.6), joints=(0.0, 1.0, 0.0)), ['stroke']),
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0, 0.0), model='banana'), ["model = 'banana'", 'radial']),
+    ('ik', dict(position=(3.0, 0.6, 0.45)), ['station request', 'out of reach of arm arm1', 'too far']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), tilt=math.radians(3.0)), ['station request', 'beyond the tilt limit']),
+    ('ik', dict(position=(1.3, 0.6, 1.2)), ['station request', 'above the stroke', 'too high']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), heading=None), ['heading_free', '3 joints']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), branch='up'), ["branch = 'up'", 'left or right']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), redundancy_value=0.1), ['redundancy value', 'arm arm1 has 3 joints']),
+    ('ik', dict(position=(1.3, math.inf, 0.45)), ['position', 'finite']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), azimuth=math.nan), ['azimuth', 'finite']),
+]
+
+
+@pytest.mark.parametrize('kind,fields,words', BAD, ids=[f'{b[0]}-{i}' for i, b in enumerate(BAD)])
+def test_bad_requests_refused_with_their_message(client, node, kind, fields, words):
+    call = client.robot_forward_kinematics if kind == 'fk' else client.station_inverse_kinematics
+    res = call(**fields)
+    assert res.success is False
+    for w in words:
+        assert w in res.message, res.message
+    assert node.alive()
+    ok = client.robot_forward_kinematics((0.3, 0.3, 0.3), (0.0, 1.0, 0.0))
+    assert ok.success, ok.message
+
+
+def test_robot_file_and_config_file_choose_the_robot_and_its_geometry(ros_environment, tmp_path):
+    """Another robot (base elsewhere, arm1 longer), its geometry replaced by an imperfect machine's config_file: the
+    services compute with that robot on that machine."""
+    from gpr_kinematics.nodes.client import GprClient
+
+    data = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
+    data['name'] = 'shifted'
+    data['base'] = {'frame': 'tool', 'position': [1.0, -0.5, 0.1], 'rpy': [0.0, 0.0, 0.5]}
+    data['arms'][0]['joints'][0]['length'] = 0.35
+    robot_file = tmp_path / 'shifted_robot.yaml'
+    robot_file.write_text(yaml.safe_dump(data))
+    config_file, cfg = imperfect_config_file(tmp_path)
+    robot = load_robot(robot_file, geometry=cfg)
+    proc = start('kinematics_node', namespace='/gpr_shifted', robot_file=str(robot_file), config_file=str(config_file))
+    try:
+        with GprClient('gpr_test_robot_file', namespace='/gpr_shifted') as c:
+            position = (1.6, -0.2, 0.55)
+            res = c.station_inverse_kinematics(position, 0.01, 1.0, 0.7)
+            assert res.success, res.message
+            assert res.world_frame == 'tool'
+            core = solve_stations(robot, Stations.of([position], 0.01, 1.0, 0.7))
+            np.testing.assert_allclose(res.rods, core.rods[0], **TIGHT)
+            np.testing.assert_allclose(res.joints, core.joints[0], **TIGHT)
+            fk = c.robot_forward_kinematics(res.rods, res.joints)
+            np.testing.assert_allclose(vec(fk.wafer.position), position, rtol=0, atol=1e-9)
+            # The platform service of the same node is on the same machine (one geometry per node).
+            gpr = c.forward_kinematics(res.rods)
+            np.testing.assert_allclose(vec(gpr.pose.position), core.forward.gpr.position[0], **TIGHT)
+    finally:
+        proc.stop()
+
+
+def test_unreadable_robot_file_cannot_start(ros_environment, tmp_path):
+    from ros_support import assert_one_error_line
+
+    bad = tmp_path / 'robot.yaml'
+    bad.write_text('name: r\narms: []\n')
+    proc = start('kinematics_node', robot_file=str(bad))
+    status = proc.wait(timeout=30)
+    assert_one_error_line(proc.output(), status, 2, 'cannot start: robot_file: ', 'rods: missing key velocity')
