@@ -49,7 +49,9 @@ def test_both_branches_reach_the_same_station(arm):
         assert np.max(np.linalg.norm(fk.wafer.position - st.position[ok], axis=1)) < 1e-9
     left = solve_stations(ROBOT, st, arm, branch='left', check=False)
     right = solve_stations(ROBOT, st, arm, branch='right', check=False)
-    np.testing.assert_array_equal(left.rods, right.rods)  # the GPR's answer does not depend on the arm's branch
+    # The GPR's answer does not depend on the arm's branch (to rounding: the batch Newton's last step may differ
+    # when the rows it iterates differ, as in test_batch_equals_single).
+    np.testing.assert_allclose(left.rods, right.rods, atol=1e-15, rtol=0)
     assert np.min(np.abs(left.joints[:, 1] - right.joints[:, 1])) > 0.0
 
 

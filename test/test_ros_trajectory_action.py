@@ -87,9 +87,15 @@ def test_cancel_stops_within_one_sample_period_and_says_where(client):
     assert f'cancelled before sample {k} of {result.samples_total}' in result.message
     assert 'at station 0 (hold)' in result.message
     assert feedback[-1].sample_index == k - 1
-    # At most one sample was published after the cancel request left this process (the one in flight).
-    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in states]
-    assert sum(s > t_cancel for s in stamps) <= 1
+    # The stream stops within one sample period of the cancel request leaving this process: the samples stamped
+    # after it are the tick in flight, one sample or, on a loaded machine, that tick's catch-up burst (at most
+    # CATCH_UP samples, published back to back), never samples one period later.
+    from gpr_kinematics.nodes.trajectory_node import CATCH_UP
+
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in states])
+    late = np.sort(stamps[stamps > t_cancel])
+    assert len(late) <= CATCH_UP
+    assert len(late) <= 1 or late[-1] - late[0] < 1e9 / RATE, late
     assert k < result.samples_total
 
 
