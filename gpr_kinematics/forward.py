@@ -30,7 +30,7 @@ from ._ops import ARRAY, SCALAR, Ops
 from .config import GprConfig, resolve_config
 from .errors import InputError, LimitError
 from .machine import MachineGeometry
-from .naive import naive_state
+from .naive import NaiveState, naive_state
 from .platform_pose import PlatformPose, platform_pose
 from .validation import rows_of, three_floats
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model, solve_closure
@@ -164,10 +164,11 @@ def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q')
                      f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
 
 
-def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: GprConfig) -> None:
+def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: GprConfig) -> NaiveState:
     """Refuse ``q`` whose naive tilt exceeds the limit by 5 % (the real tilt differs by < 0.1 %; the margin
-    keeps Newton inside its basin; the exact check follows the solve)."""
-    _, h2, _, _, nz = naive_state(ops, geo, q)
+    keeps Newton inside its basin; the exact check follows the solve). Returns the naive state it computed."""
+    naive = naive_state(ops, geo, q)
+    _, h2, _, _, nz = naive
     n_tilt = ops.atan2(ops.sqrt(1.0 - ops.maximum(1.0 - h2, 0.0)), nz)
     too = (h2 >= 1.0) | (n_tilt > 1.05 * config.tilt_limit)
     if ops.any(too):
@@ -175,6 +176,7 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: 
         raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about '
                          f'{math.degrees(float(np.atleast_1d(n_tilt)[i])):.4g} deg, beyond the tilt limit '
                          f'{math.degrees(config.tilt_limit):.4g} deg')
+    return naive
 
 
 def _check_tilt(q: Sequence[Any], tilt: Any, config: GprConfig) -> None:
@@ -185,13 +187,13 @@ def _check_tilt(q: Sequence[Any], tilt: Any, config: GprConfig) -> None:
 
 
 def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Any],
-               config: GprConfig) -> tuple[list[Any], Closure, PlatformPose]:
+               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Any], Closure, PlatformPose]:
     """Side lengths, solved virtual joints and platform pose of rods ``q`` (floats or columns): the kernel
-    chain of forward kinematics, without limit checks."""
+    chain of forward kinematics, without limit checks (``naive``: the naive state of ``q`` if known)."""
     P = geo.joint_centres(q)
     L = side_lengths(ops, P)
     closure = solve_closure(ops, vjm, L, config)
-    return L, closure, platform_pose(ops, geo, q, P, closure.components)
+    return L, closure, platform_pose(ops, geo, q, P, closure.components, naive)
 
 
 def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], vjm: VirtualJointModel,
@@ -215,10 +217,11 @@ def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
 def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], config: GprConfig,
              vjm: VirtualJointModel, check_limits: bool, geometry: MachineGeometry | None = None) -> Any:
     geo = MachineGeometry.of(config) if geometry is None else geometry
+    naive = None
     if check_limits:
         check_stroke(ops, q, config)
-        _check_naive_tilt(ops, geo, q, config)
-    L, closure, pose = solve_pose(ops, geo, vjm, q, config)
+        naive = _check_naive_tilt(ops, geo, q, config)
+    L, closure, pose = solve_pose(ops, geo, vjm, q, config, naive)
     if check_limits and ops.any(pose.tilt > config.tilt_limit + TILT_LIMIT_SLACK):
         _check_tilt(q, pose.tilt, config)
     return assemble(ops, result, q, vjm, config, L, closure, pose)

@@ -36,7 +36,11 @@ from .validation import rows_of
 Array = NDArray[np.float64]
 
 
-def naive_state(ops: Ops, geo: MachineGeometry, q: Sequence[Any]) -> tuple[Any, Any, Any, Any, Any]:
+#: What :func:`naive_state` returns: ``(z, h2, nx, ny, nz)``, floats for one pose or columns for a batch.
+NaiveState = tuple[Any, Any, Any, Any, Any]
+
+
+def naive_state(ops: Ops, geo: MachineGeometry, q: Sequence[Any]) -> NaiveState:
     """Naive model for rod lengths ``q``: solve ``(q_k + o_k) u_kz = z + n' . p_k`` for ``z`` and ``n'_x, n'_y``.
 
     Returns ``(z, h2, nx, ny, nz)`` with the platform normal ``n = (-n'_x, -n'_y, n'_z)`` and

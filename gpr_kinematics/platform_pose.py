@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 from ._ops import Ops
 from .geometry import tilt_of_normal
 from .machine import MachineGeometry
-from .naive import naive_state, tilt_matrix_of_normal
+from .naive import NaiveState, naive_state, tilt_matrix_of_normal
 from .virtual_joints import Components
 
 
@@ -42,11 +42,13 @@ class PlatformPose(NamedTuple):
 
 
 def platform_pose(ops: Ops, geo: MachineGeometry, q: Sequence[Any],
-                  P: tuple[list[Any], list[Any], list[Any]], comps: Components) -> PlatformPose:
+                  P: tuple[list[Any], list[Any], list[Any]], comps: Components,
+                  naive: NaiveState | None = None) -> PlatformPose:
     """The pose of the platform whose joints ``r_k`` (the :func:`~gpr_kinematics.virtual_joints.joint_components`
     of the solved ``X``) sit on the joint centres ``P = (x, y, z)`` of the rods set to ``q`` (module docstring).
 
     The quaternion uses the trace formula (rotations of the platform are far below 90 deg, so ``w >= 0.7``).
+    ``naive``: :func:`~gpr_kinematics.naive.naive_state` of ``q`` when the caller has it already.
     """
     sqrt = ops.sqrt
     (rx0, rx1, rx2), (ry0, ry1, ry2) = comps[0], comps[1]
@@ -90,7 +92,7 @@ def platform_pose(ops: Ops, geo: MachineGeometry, q: Sequence[Any],
     qx, qy, qz, qw = (r21 - r12) / w4, (r02 - r20) / w4, (r10 - r01) / w4, 0.25 * w4
     inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     # Naive model and centre shift.
-    z0, _, nnx, nny, nnz = naive_state(ops, geo, q)
+    z0, _, nnx, nny, nnz = naive_state(ops, geo, q) if naive is None else naive
     NR = tilt_matrix_of_normal(ops, nnx, nny, nnz)
     # quaternion of a pure tilt: (a sin(t/2), 0, cos(t/2)); cos(t/2) = sqrt((1 + n_z) / 2)
     cw = sqrt(0.5 * (1.0 + nnz))

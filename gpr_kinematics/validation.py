@@ -99,7 +99,10 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
 
 
 def three_floats(values: Any, name: str) -> list[float]:
-    """Three finite floats from a sequence (fast for a list or tuple), with the messages of :func:`rows_of`."""
+    """Three finite floats from a sequence (fast for a list, tuple or array of 3), with the messages of
+    :func:`rows_of`."""
+    if isinstance(values, np.ndarray) and values.shape == (3,) and values.dtype.kind in 'fiu':
+        values = values.tolist()
     if isinstance(values, (list, tuple)) and len(values) == 3:
         try:
             out = [float(v) for v in values]
