@@ -6,7 +6,7 @@ import pytest
 
 #: Core modules whose docstrings hold examples.
 MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep', 'units', 'cli', 'files',
-           'errors')
+           'errors', 'stacked')
 
 
 @pytest.mark.parametrize('name', MODULES)

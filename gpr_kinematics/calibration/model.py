@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..geometry import quaternion_from_matrix
+from ..stacked import Stacked
 from ..validation import rows_of
 
 Array = NDArray[np.float64]
@@ -157,17 +158,10 @@ class ParameterSet:
     def names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.parameters)
 
-    @property
-    def nominal(self) -> Array:
-        return np.array([p.nominal for p in self.parameters])
-
-    @property
-    def scale(self) -> Array:
-        return np.array([p.scale for p in self.parameters])
-
-    @property
-    def step(self) -> Array:
-        return np.array([p.step for p in self.parameters])
+    #: Per parameter, in order ``(P,)`` (:class:`Parameter`).
+    nominal = Stacked('parameters')
+    scale = Stacked('parameters')
+    step = Stacked('parameters')
 
     @property
     def bounds(self) -> tuple[Array, Array]:

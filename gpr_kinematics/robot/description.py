@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 from ..config import GprConfig, check_keys, load_config, number_key, read_yaml
 from ..errors import ConfigError, brief
 from ..resources import config_path
+from ..stacked import Stacked
 from .transforms import rpy_matrix
 
 Array = NDArray[np.float64]
@@ -116,21 +117,11 @@ class Arm:
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints)
 
-    @property
-    def lower(self) -> Array:
-        return np.array([j.lower for j in self.joints])
-
-    @property
-    def upper(self) -> Array:
-        return np.array([j.upper for j in self.joints])
-
-    @property
-    def velocity(self) -> Array:
-        return np.array([j.velocity for j in self.joints])
-
-    @property
-    def acceleration(self) -> Array:
-        return np.array([j.acceleration for j in self.joints])
+    #: The joints' limits, shoulder first ``(n,)`` [rad, rad/s, rad/s^2].
+    lower = Stacked('joints')
+    upper = Stacked('joints')
+    velocity = Stacked('joints')
+    acceleration = Stacked('joints')
 
     @property
     def wafer_height(self) -> float:
