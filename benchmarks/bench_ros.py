@@ -1,8 +1,10 @@
-"""Benchmark of the ROS 2 node suite over real DDS (Fast DDS, loopback): service round trips, calls per
-second with 1 and 4 concurrent clients, and the trajectory node's achieved versus requested rate.
+"""Benchmark of the ROS 2 node suite over real DDS (Fast DDS, loopback): service round trips (the platform and
+the whole-robot services), calls per second with 1 and 4 concurrent clients, and the trajectory node's achieved
+versus requested rate.
 
-Peers measured in the same run: the core call alone in this process (``kinematics.forward``), and a null
-rclpy service (``std_srvs/Trigger`` answering at once, in its own process) for the cost of ROS itself.
+Peers measured in the same run: the core calls alone in this process (``kinematics.forward``, and the robot
+core's ``solve_stations`` for one station), and a null rclpy service (``std_srvs/Trigger`` answering at once, in
+its own process) for the cost of ROS itself.
 
 Run: ``.venv/bin/python benchmarks/bench_ros.py [--calls 2000] [--duration 5] [--rates 50,100,200,500,1000]``
 (``make setup`` first). Prints a Markdown table for docs/benchmarks.md.
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import signal
@@ -18,6 +21,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,6 +41,8 @@ from gpr_kinematics.kinematics import forward  # noqa: E402
 from gpr_kinematics.nodes.client import GprClient  # noqa: E402
 from gpr_kinematics.nodes.process import NodeProcess  # noqa: E402
 from gpr_kinematics.nodes.qos import stream_qos  # noqa: E402
+from gpr_kinematics.robot import load_robot, solve_stations  # noqa: E402
+from gpr_kinematics.robot.stations import Stations  # noqa: E402
 
 NULL_SERVER = '''
 import rclpy, sys
@@ -59,6 +65,14 @@ rclpy.try_shutdown()
 '''
 
 Q = [0.5, 0.498, 0.502]
+#: The station of the robot services: the example robot's arm1, wafer at (1.2, 1.0, 0.455) m in the world, the
+#: station plane tilted 1.2 deg about azimuth 30 deg, blade heading 45 deg (the nodes' demo's station).
+ROBOT = load_robot()
+STATION_POSITION = (1.2, 1.0, 0.455)
+STATION_TILT, STATION_AZIMUTH, STATION_HEADING = math.radians(1.2), math.radians(30.0), math.radians(45.0)
+STATION = Stations.of([STATION_POSITION], STATION_TILT, STATION_AZIMUTH, STATION_HEADING)
+_SOLVED = solve_stations(ROBOT, STATION, 'arm1')
+ROBOT_RODS, ROBOT_JOINTS = _SOLVED.rods[0].tolist(), _SOLVED.joints[0].tolist()
 
 
 def _null_server() -> subprocess.Popen:
@@ -96,6 +110,11 @@ class Caller:
             res = c.compensate((0.0, 0.0, 0.45), (0.0, 0.01, 0.0, float(np.sqrt(1 - 0.01 ** 2))), (0.0, 0.0, 0.1))
         elif kind == 'mobility':
             res = c.analyze_mobility(Q)
+        elif kind == 'station_ik':
+            res = c.station_inverse_kinematics(STATION_POSITION, STATION_TILT, STATION_AZIMUTH, STATION_HEADING,
+                                               arm='arm1')
+        elif kind == 'robot_fk':
+            res = c.robot_forward_kinematics(ROBOT_RODS, ROBOT_JOINTS, arm='arm1')
         elif kind == 'null':
             res = c.call(Trigger, 'null/trigger', Trigger.Request(), timeout=2.0)
         else:
@@ -205,15 +224,21 @@ def trajectory_rate(rate: float, duration: float) -> dict:
             'error_pct': 100.0 * (pub - rate) / rate}
 
 
-def core_peer(calls: int) -> float:
-    for _ in range(50):
-        forward(Q)
+def core_peer(call: Callable[[], object], calls: int) -> float:
+    """Median time of ``call()`` in this process [ms] (after 20 warm-up calls)."""
+    for _ in range(20):
+        call()
     t = []
     for _ in range(calls):
         t0 = time.perf_counter()
-        forward(Q)
+        call()
         t.append(time.perf_counter() - t0)
     return 1e3 * statistics.median(t)
+
+
+def one_station() -> object:
+    """The robot core's station IK of the benchmark's station (what gpr/station_inverse_kinematics computes)."""
+    return solve_stations(ROBOT, STATION, 'arm1')
 
 
 def main() -> int:
@@ -234,9 +259,11 @@ def main() -> int:
                      'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')}
     try:
         c = Caller('bench_client')
-        results['core_forward_ms'] = core_peer(args.calls)
+        results['core_forward_ms'] = core_peer(lambda: forward(Q), args.calls)
+        results['core_station_ik_ms'] = core_peer(one_station, args.calls // 10)
         results['latency'] = {k: latency(c, k, args.calls if k in ('forward', 'null') else args.calls // 4)
                               for k in ('null', 'forward', 'inverse', 'compensate', 'mobility')}
+        results['latency'].update({k: latency(c, k, args.calls // 10) for k in ('robot_fk', 'station_ik')})
         results['lost_latency'] = c.lost
         c.close()
         results['throughput'] = {f'{k}_{n}': throughput(k, n, args.duration)
@@ -256,11 +283,14 @@ def _markdown(r: dict) -> None:
     print('|---|---|---|---|')
     for k, name in (('null', 'null rclpy service (std_srvs/Trigger), peer'),
                     ('forward', 'gpr/forward_kinematics'), ('inverse', 'gpr/inverse_kinematics'),
-                    ('compensate', 'gpr/compensate'), ('mobility', 'gpr/analyze_mobility')):
+                    ('compensate', 'gpr/compensate'), ('mobility', 'gpr/analyze_mobility'),
+                    ('robot_fk', 'gpr/robot_forward_kinematics (arm1)'),
+                    ('station_ik', 'gpr/station_inverse_kinematics (arm1)')):
         v = lat[k]
         print(f'| {name} | {v["median_ms"]:.3f} | {v["p99_ms"]:.3f} | '
               f'{v["median_ms"] / lat["null"]["median_ms"]:.2f} |')
-    print(f'\nCore `kinematics.forward` in-process (peer): median {r["core_forward_ms"]:.3f} ms per call.')
+    print(f'\nCore calls in-process (peers): `kinematics.forward` median {r["core_forward_ms"]:.3f} ms, the robot '
+          f'core\'s `solve_stations` for one station {r["core_station_ik_ms"]:.3f} ms per call.')
     t = r['throughput']
     print('\n| calls/s | 1 client | 4 clients |\n|---|---|---|')
     for k, name in (('forward', 'gpr/forward_kinematics'), ('null', 'null rclpy service (peer)')):
