@@ -52,7 +52,7 @@ class ParamSpec:
             lo, hi = self.limits
             parts.append(f'{_num(lo)} <= {self.name} <= {_num(hi)}')
         if self.choices is not None:
-            parts.append('one of: ' + ', '.join(self.choices))
+            parts.append('one of: ' + ', '.join(c or "''" for c in self.choices))
         if self.constraint:
             parts.append(self.constraint)
         return '; '.join(parts)
