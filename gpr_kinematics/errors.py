@@ -47,6 +47,7 @@ class FileError(ConfigError, InputError):
 #: Longest text of a value quoted in an error message [characters].
 BRIEF_LENGTH = 60
 
+
 class _Repr(reprlib.Repr):
     """reprlib with a bounded text of every element, huge integers included (their repr is refused beyond 4300
     digits)."""
