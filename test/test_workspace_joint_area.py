@@ -111,6 +111,14 @@ def test_bad_joint_descriptions_are_refused(change, match):
         model_from_mapping(data, 'joint')
 
 
+def test_a_box_that_misses_the_reachable_range_is_refused():
+    data = {'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml', 'planar': 'rrr3_planar.yaml',
+            'workspace': {'box': {'pz': [5.0, 6.0]}}}
+    model = model_from_mapping(data, 'joint')
+    with pytest.raises(ConfigError, match=r'workspace.box pz = \[5, 6\] misses the reachable range'):
+        approximate(model, DELTA)
+
+
 def test_voxel_sets_never_miss_a_box_they_hold():
     lo = RNG.random((300, 3))
     boxes = np.stack([lo, lo + 0.1 * RNG.random((300, 3))], axis=2)

@@ -209,6 +209,10 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'gpr', 'workspace': {'virtual_joint_model': 'polar'}}, 'no certified enclosure'),
     ({'type': 'tripod_3rps', 'base_radius': 0.05}, 'leg_min'),
     ({'type': 'gpr', 'workspace': {'box': {'tilt_x': [-1.2, 1.2], 'tilt_y': [-1.2, 1.2]}}}, 'below 1.5 rad'),
+    ({'type': 'gpr', 'overrides': {'rod_azimuths': [0.0, 2.0, 4.0]}}, 'three azimuths 120 deg apart'),
+    ({'type': 'gpr', 'overrides': {'rod_offsets': [1e-4, 0.0, 0.0]}}, 'rod_offsets in overrides.*nominal machine'),
+    ({'type': 'tripod_3rps', 'base_radius': 0.05, 'platform_radius': 0.05, 'leg_min': 0.07, 'leg_max': 0.13,
+      'workspace': {'box': {'psi': [-2.0, 2.0]}}}, r'reaches 2 rad; allowed: at most pi/2'),
     ([1, 2], 'mapping'),
 ])
 def test_bad_mechanism_descriptions_raise_config_errors(data, match):

@@ -200,6 +200,12 @@ class JointWorkingArea:
         bound = np.array([[-reach, reach], [-reach, reach], [images[:, 2, 0].min(), images[:, 2, 1].max()]])
         given = self.given_box
         box = np.stack([np.maximum(given[:, 0], bound[:, 0]), np.minimum(given[:, 1], bound[:, 1])], axis=1)
+        empty = np.flatnonzero(~(box[:, 0] < box[:, 1]))
+        if empty.size:
+            k = int(empty[0])
+            raise ConfigError(f'{self.name}: workspace.box {self.variables[k]} = [{given[k, 0]:g}, {given[k, 1]:g}] '
+                             f'misses the reachable range [{bound[k, 0]:.6g}, {bound[k, 1]:.6g}]; allowed: a box that '
+                             'meets it')
         # widened to delta (a hair less) times a power of two per axis, about its centre: the halvings then end on
         # boxes just below delta, the fewest boxes for the accuracy
         edge = delta * (1 - 1e-9) * 2.0 ** np.ceil(np.log2((box[:, 1] - box[:, 0]) / (delta * (1 - 1e-9))))

@@ -118,6 +118,12 @@ def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float 
         raise ConfigError(f'{src}: workspace.virtual_joint_model {str(vj)[:40]!r} has no certified enclosure; '
                           'allowed: radial')
     cfg = _mechanism(data, src).config
+    imperfect = [k for k, v in (('rod_positions', cfg.rod_positions), ('platform_joints', cfg.platform_joints))
+                 if v is not None]
+    imperfect += [k for k in ('rod_offsets', 'rod_directions') if any(np.ravel(getattr(cfg, k)))]
+    if imperfect:
+        raise ConfigError(f'{src}: {", ".join(imperfect)} in overrides: the GPR workspace model is of the nominal '
+                          'machine (radius, rod azimuths, stroke, budget); allowed: those keys only')
     return GprModel(
         cfg.radius,
         tuple(float(a) for a in cfg.rod_azimuths),

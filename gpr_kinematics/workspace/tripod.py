@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, InputError
 from ..interval import Interval, T, norm
 from .base import WorkspaceModel
 
@@ -48,6 +48,14 @@ class TripodModel(WorkspaceModel):
         self.constraint_names = ('L1', 'L2', 'L3')
         self.lower = np.full(3, self.leg_min)
         self.upper = np.full(3, self.leg_max)
+
+    def check_box(self, box: np.ndarray) -> None:
+        """The parasitic ``phi = atan(...)`` of the enclosure equals the points' ``arctan2`` only where
+        ``cos psi + cos theta >= 0``: ``|psi|, |theta| <= pi/2`` on the whole box."""
+        widest = float(np.max(np.abs(np.asarray(box, dtype=float)[1:3])))
+        if not widest <= 0.5 * np.pi:
+            raise InputError(f'{self.name} workspace box: |psi| or |theta| reaches {widest:.4g} rad; allowed: at most '
+                             'pi/2 (the parasitic rotation of Rao & Rao is defined there)')
 
     def rotation(self, psi: T, th: T) -> list[list[T]]:
         """Rows of ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 3) with the parasitic ``phi``; intervals or symbolic
