@@ -102,3 +102,7 @@ def test_bad_file_and_rate(tmp_path):
         load_program(f)
     with pytest.raises(ConfigError, match='rate'):
         sample_program(_prog((0.3, 0.0, 0.0, 1.0)), 0.0)
+    # counted before any array is made (a dwell of 1e12 s was a MemoryError, 1e300 s a ValueError of numpy)
+    for dwell in (1e12, 1e300):
+        with pytest.raises(ConfigError, match=r'samples at 100 Hz; allowed: at most 200000 samples'):
+            sample_program(_prog((0.3, 0.0, 0.0, dwell)), 100.0)

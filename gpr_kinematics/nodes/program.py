@@ -35,6 +35,7 @@ import numpy as np
 
 from ..config import check_keys, read_yaml
 from ..errors import ConfigError
+from ..robot.timing import MAX_SAMPLES
 
 if TYPE_CHECKING:
     from ..robot.program import RobotProgram
@@ -163,6 +164,9 @@ def sample_program(program: Program, rate: float, default_move_time: float = 2.0
         raise ConfigError(f'move_time = {default_move_time!r} is invalid; allowed: seconds > 0')
     T, S, idx = program_knots(program, default_move_time)
     total = float(T[-1])
+    if not total * rate <= MAX_SAMPLES:  # counted before any array is made (a dwell of 1e12 s included)
+        raise ConfigError(f'the program lasts {total:.6g} s: {total * rate:.6g} samples at {rate:g} Hz; allowed: at '
+                          f'most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
     n = int(math.floor(total * rate + 1e-9))
     t = np.arange(n + 1, dtype=float) / rate
     if total - t[-1] > 1e-9:

@@ -286,9 +286,11 @@ class TrajectoryNode(GprNode):
         try:
             traj = trajectory_of(goal_program(goal.request, self.robot), self.robot, self.p['rate'],
                                  self.p['move_time'])
-        except GprError as exc:
+        except Exception as exc:  # noqa: BLE001 - a goal must end with a result, and later goals be served
             self._reserved = False
-            result.message = f'cannot run the program: {one_line(exc)}'
+            reason = one_line(exc) if isinstance(exc, GprError) else f'internal error: {type(exc).__name__}: ' \
+                f'{one_line(exc)}'
+            result.message = f'cannot run the program: {reason}'
             self.get_logger().warning(f'gpr/run_program: {result.message}')
             goal.abort()
             return result
