@@ -68,13 +68,13 @@ def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:
     p = Path(name)
     if not os.path.lexists(name):
         if os.sep in name or (os.altsep is not None and os.altsep in name):
-            raise ConfigError(f'mechanism file {name!r} not found (a path with a folder is read as given; only a '
+            raise ConfigError(f'mechanism file {brief(name)} not found (a path with a folder is read as given; only a '
                               'bare name such as upu3.yaml is also looked up among the packaged files)')
         try:
             p = config_path(f'mechanisms/{name}')
-        except ConfigError:
+        except (ConfigError, OSError):  # OSError: a name too long for the file system
             packaged = sorted(f.name for f in (config_dir() / 'mechanisms').glob('*.yaml'))
-            raise ConfigError(f'mechanism file {name!r} not found, here nor among the packaged files: '
+            raise ConfigError(f'mechanism file {brief(name)} not found, here nor among the packaged files: '
                               + ', '.join(packaged)) from None
     return read_yaml(p, 'mechanism'), p
 
