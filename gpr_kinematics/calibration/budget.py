@@ -235,8 +235,10 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
                          f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
                          f'{tool_v.ravel()[:3].tolist()}')
     R = np.eye(3) if frame_rotation is None else np.asarray(frame_rotation, dtype=float)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.max(np.abs(R @ R.T - np.eye(3))) > 1e-9:
-        raise InputError(f'frame_rotation must be a rotation matrix (3, 3); got shape {R.shape}')
+    if (R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.max(np.abs(R @ R.T - np.eye(3))) > 1e-9
+            or np.linalg.det(R) <= 0.0):
+        raise InputError(f'frame_rotation must be a rotation matrix (3, 3: orthonormal, determinant +1, not a '
+                         f'mirror image); got shape {R.shape}')
     pct = tuple(float(p) for p in percentiles)
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
         raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
