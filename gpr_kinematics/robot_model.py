@@ -318,15 +318,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     description (``example`` for the shipped one) of that whole robot, on stdout."""
     import sys
 
+    from .cli import one_line
+    from .errors import EXIT_BAD_INPUT, GprError
+
     args = list(sys.argv[1:] if argv is None else argv)
-    if not args:
-        from .config import load_config
+    try:
+        if not args:
+            from .config import load_config
 
-        print(gpr_model(load_config()).to_urdf(), end='')
-        return 0
-    from .robot.description import load_robot
+            print(gpr_model(load_config()).to_urdf(), end='')
+            return 0
+        from .robot.description import load_robot
 
-    print(robot_model(load_robot(None if args[0] == 'example' else args[0])).to_urdf(), end='')
+        print(robot_model(load_robot(None if args[0] == 'example' else args[0])).to_urdf(), end='')
+    except GprError as exc:
+        sys.stderr.write(f'robot_model: error: {one_line(str(exc))}\n')
+        return EXIT_BAD_INPUT
     return 0
 
 

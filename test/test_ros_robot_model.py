@@ -14,7 +14,16 @@ from gpr_kinematics.errors import InputError
 from gpr_kinematics.geometry import matrix_from_quaternion
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 from gpr_kinematics.robot.forward import platform_to_blade
-from gpr_kinematics.robot_model import Joint, Link, RobotModel, gpr_model, joint_transform, robot_model, rpy_matrix
+from gpr_kinematics.robot_model import (
+    Joint,
+    Link,
+    RobotModel,
+    gpr_model,
+    joint_transform,
+    main,
+    robot_model,
+    rpy_matrix,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = load_config()
@@ -196,3 +205,10 @@ def test_docstring_examples_of_the_model_and_the_figure():
     for module in (model_module, robot_plot):
         result = doctest.testmod(module)
         assert result.attempted > 0 and result.failed == 0, module.__name__
+
+
+def test_main_refuses_an_unreadable_robot_file_in_one_line(capsys, tmp_path):
+    assert main([str(tmp_path / 'missing.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('robot_model: error: cannot read robot file') and err.count('\n') == 1
+    assert 'Traceback' not in err
