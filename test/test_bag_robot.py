@@ -144,6 +144,53 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
     assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
 
 
+def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp_path: Path) -> None:
+    """arm2 rests while arm1 works: its shoulder set 0.01 rad beyond the upper limit in the robot state and the
+    joint state of sample 5 fails robot.joint_limits there (every arm's joints are checked, not the working one's)."""
+    arm2 = ROBOT.arm('arm2')
+    limit = arm2.joints[0].upper
+    at = 3 + len(ROBOT.arm('arm1').joints)  # arm2's shoulder in the joint state: after the rods and arm1
+
+    def edit(topic, msg):
+        if topic == ROBOT_STATE_TOPIC and msg.sample == 5:
+            assert msg.arm == 'arm1'
+            joints = np.array(msg.joints)
+            joints[len(ROBOT.arm('arm1').joints)] = limit + 0.01
+            edit.stamp = msg.header.stamp
+            return dataclasses.replace(msg, joints=joints)
+        return msg
+
+    edit.stamp = None
+    bag = rewritten(robot_bag, tmp_path / 'rest', edit)
+
+    def joint_state(topic, msg):
+        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+            position = np.array(msg.position)
+            assert msg.name[at] == arm2.joints[0].name
+            position[at] = limit + 0.01
+            return dataclasses.replace(msg, position=position)
+        return msg
+
+    result = verify_bag(rewritten(bag, tmp_path / 'rest2', joint_state))
+    assert _failed(result) == {'robot.joint_limits': {5}}
+    worst = next(c for c in result.checks if c.name == 'robot.joint_limits').worst
+    assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
+
+
+def test_a_recorded_description_naming_a_geometry_file_is_refused(robot_bag: Path, tmp_path: Path) -> None:
+    """A recording carries its geometry inline; a gpr.config path in it (a file verify would open) fails."""
+    from gpr_kinematics.bags.typestore import typestore
+
+    text = robot_text(ROBOT)
+    assert 'config: null' in text
+    text = text.replace('config: null', 'config: /etc/hostname', 1)
+    raw = bytes(typestore().serialize_cdr(typestore().types['std_msgs/msg/String'](data=text), 'std_msgs/msg/String'))
+    bag = rewritten(robot_bag, tmp_path / 'file', lambda topic, msg: raw if topic == ROBOT_TOPIC else msg)
+    result = verify_bag(bag)
+    check = next(c for c in result.checks if c.name == 'topic.robot')
+    assert check.failed == 1 and 'names a geometry file' in check.failures[0].detail
+
+
 def test_joint_states_carry_the_arm_joints(robot_bag: Path, tmp_path: Path) -> None:
     def edit(topic, msg):
         stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/gpr/joint_states' else None

@@ -8,7 +8,8 @@ use, its wafer and blade in the world, the naive model's wafer error) and the wa
 overrides it), with the geometry the platform is verified against (:mod:`.recorded_geometry`), and checks:
 
 - ``topic.robot``: the recorded descriptions are one text, YAML (with the package's parser and its limits) that
-  :func:`gpr_kinematics.robot.description.parse_robot` accepts, whose ``gpr`` section equals the recorded geometry;
+  :func:`gpr_kinematics.robot.description.parse_robot` accepts, its geometry inline (never a file name), whose
+  ``gpr`` section equals the recorded geometry (under ``--config`` it is replaced by the given one instead);
 - ``robot.structure``: every RobotState has a PlatformState of its stamp with the same sample counter, the robot's
   world frame, an arm of the robot and every arm's joints by the robot's names (and every PlatformState inside
   the robot states' span has its RobotState);
@@ -31,7 +32,7 @@ from numpy.typing import NDArray
 
 from .. import safe_yaml
 from ..config import GprConfig
-from ..errors import GprError
+from ..errors import GprError, brief
 from ..robot import robot_forward
 from ..robot.description import RobotDescription, parse_robot
 from ..robot.transforms import PoseBatch
@@ -60,15 +61,22 @@ class RobotChoice:
     notes: list[str] = field(default_factory=list)
 
 
-def _parse(text: str, config: GprConfig) -> RobotDescription:
+def _parse(text: str, config: GprConfig, compare: bool) -> RobotDescription:
+    """The recorded description (bounded, its geometry inline: a recording never names a file to read), with
+    ``config`` as its geometry; ``compare``: its own ``gpr`` section must equal ``config``."""
     if len(text.encode('utf-8', errors='replace')) > MAX_ROBOT_BYTES:
         raise GprError(f'{len(text)} characters; allowed: at most {MAX_ROBOT_BYTES} bytes')
     data = safe_yaml.load_text(text, f'{ROBOT_TOPIC} (recorded robot description)')
+    gpr = data.get('gpr') if isinstance(data, dict) else None
+    if isinstance(gpr, dict) and gpr.get('config') is not None:
+        raise GprError(f'its gpr section names a geometry file ({brief(gpr["config"], 40)}); allowed: the geometry '
+                       'inline (config: null), as the recorder writes it')
+    if not compare:
+        return parse_robot(data, ROBOT_TOPIC, geometry=config)
     recorded = parse_robot(data, ROBOT_TOPIC)
-    robot = parse_robot(data, ROBOT_TOPIC, geometry=config)
     if recorded.config != config:
         raise GprError('its gpr section differs from the geometry verified against')
-    return robot
+    return recorded
 
 
 def _topic(bag: Bag, name: str) -> TopicData | None:
@@ -101,8 +109,7 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, float(len(texts)), 1.0, 'the robot description messages differ')], len(t), '', 1.0))
     try:
-        robot = _parse(texts[0], config) if not config_given else parse_robot(
-            safe_yaml.load_text(texts[0], ROBOT_TOPIC), ROBOT_TOPIC, geometry=config)
+        robot = _parse(texts[0], config, compare=not config_given)
     except GprError as exc:
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, 1.0, 0.0, f'not a usable robot description: {exc}')], len(t), ''))
@@ -184,6 +191,12 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     structure[rows] = ok
     structure[(missing(stamps, rstamps) > 0) & (idx < 0)] = False
     arms = rc['arm'][j]
+    # every arm's joints against their limits, the arms at rest included
+    lower = np.concatenate([a.lower for a in robot.arms])
+    upper = np.concatenate([a.upper for a in robot.arms])
+    checked = rows[ok]
+    e_limit[checked] = np.max(np.maximum(lower - LIMIT_SLACK - joints[checked], joints[checked] - upper - LIMIT_SLACK)
+                              .clip(0.0), axis=1, initial=0.0)
     start = 0
     for a in robot.arms:
         cols = slice(start, start + len(a.joints))
@@ -191,8 +204,6 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
         sel = rows[ok & (arms == a.name)]
         Q, Ja = q[sel], joints[sel, cols]
         good = np.all(np.isfinite(Q), axis=1) & np.all(np.isfinite(Ja), axis=1)
-        e_limit[sel] = np.max(np.maximum(a.lower - LIMIT_SLACK - Ja, Ja - a.upper - LIMIT_SLACK).clip(0.0), axis=1,
-                              initial=0.0)
         r = sel[good]
         e_pos[sel[~good]] = e_ang[sel[~good]] = e_blade[sel[~good]] = e_naive[sel[~good]] = np.inf
         if r.size == 0:
