@@ -349,3 +349,14 @@ def test_latched_geometry_is_recorded(tmp_path: Path, recorder_first: bool) -> N
     text = typestore().deserialize_cdr(raw, 'std_msgs/msg/String').data
     assert yaml.safe_load(text) == load_config(overrides={'radius': 0.1}).to_dict()
     assert len(b.topic(STATE)) == 0    # idle: no stream
+
+
+@pytest.mark.parametrize('msgtype', ['foo', 'a/b/c/d', 'http/server/HTTPServer', 'os/msg/system'])
+def test_a_bag_type_that_is_no_message_type_is_never_imported(msgtype: str) -> None:
+    """replay_node makes its publishers from the bag's type strings: only ``package/msg/Type`` is imported."""
+    from gpr_kinematics.bags.errors import BagError
+    from gpr_kinematics.nodes.conversions import message_class
+
+    with pytest.raises(BagError, match='is not a ROS message type; allowed: package/msg/Type'):
+        message_class(msgtype)
+    assert message_class('std_msgs/msg/String').__name__ == 'String'

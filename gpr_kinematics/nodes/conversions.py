@@ -10,6 +10,7 @@ import array
 import functools
 import importlib
 import math
+import re
 from collections.abc import Sequence
 from typing import Any, TypeAlias
 
@@ -22,7 +23,7 @@ from std_msgs.msg import Header
 from gpr_interfaces.msg import PlatformState, RobotState
 
 from ..bags.errors import BagError
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..geometry import matrix_from_quaternion, tilt_from_matrix
 from ..messages import MessageTypes, fill_fields, forward_fields
 from ..validation import finite_vector, unit_quaternion
@@ -105,12 +106,20 @@ def non_negative_finite(value: float, name: str) -> float:
     return v
 
 
+#: The form of a ROS 2 message type name (``package/msg/Type``).
+_MESSAGE_TYPE = re.compile(r'[a-z][a-z0-9_]*/msg/[A-Z][A-Za-z0-9]*')
+
+
 @functools.cache
 def message_class(msgtype: str) -> Any:
     """The rclpy message class of ``pkg/msg/Type`` (or ``pkg/Type``); :class:`BagError` when it cannot be imported."""
     from ..bags.typestore import normalize_type  # (rosbags: imported by the nodes that handle bags only)
 
-    pkg, kind, name = normalize_type(msgtype).split('/')
+    full = normalize_type(msgtype)
+    # a bag's type string is data: only the form of a ROS message type is ever imported
+    if _MESSAGE_TYPE.fullmatch(full) is None:
+        raise BagError(f'type {brief(msgtype)} is not a ROS message type; allowed: package/msg/Type')
+    pkg, kind, name = full.split('/')
     try:
         return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
     except (ImportError, AttributeError) as exc:
