@@ -131,6 +131,11 @@ class RobotModel:
         names = [link.name for link in self.links]
         if len(set(names)) != len(names) or self.root not in names:
             raise InputError(f'robot model {self.name}: link names must be unique and include the root {self.root}')
+        joints = [j.name for j in self.joints]
+        twice = sorted({n for n in joints if joints.count(n) > 1})
+        if twice:
+            raise InputError(f'robot model {self.name}: joint name(s) {", ".join(twice)} used twice; allowed: unique '
+                             'joint names (an arm joint may not take a rod joint\'s name, rod_1 .. rod_3)')
         children = [j.child for j in self.joints]
         for j in self.joints:
             if j.kind not in JOINT_KINDS or j.parent not in names or j.child not in names or j.child == self.root:

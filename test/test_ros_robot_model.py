@@ -3,6 +3,7 @@ robot description (the arms, blades, wafers); an independent URDF parser (yourdf
 the robot core; the shipped urdf/gpr.urdf and urdf/example_robot.urdf are the generated ones; the figure."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -121,6 +122,12 @@ def test_invalid_models_refused():
         RobotModel('r', 'a', (Link('a'), Link('b')), ())
     with pytest.raises(InputError, match='invalid'):
         RobotModel('r', 'a', (Link('a'), Link('b')), (Joint('j', 'ball', 'a', 'b'),))
+    # an arm joint named like a rod joint gave a URDF with two joints rod_1 (and the wrong tf for the arm)
+    robot = load_robot()
+    arm = robot.arms[0]
+    renamed = dataclasses.replace(arm, joints=(dataclasses.replace(arm.joints[0], name='rod_1'), *arm.joints[1:]))
+    with pytest.raises(InputError, match=r'joint name\(s\) rod_1 used twice'):
+        robot_model(dataclasses.replace(robot, arms=(renamed, *robot.arms[1:])))
 
 
 def test_robot_figure_draws_the_true_errors(tmp_path):
