@@ -68,9 +68,13 @@ def test_stiffness_ratios_are_identified_as_anisotropies():
     assert p.bounds == pytest.approx(((1e-6 - 1) / (1e-6 + 1), (1e6 - 1) / (1e6 + 1)), rel=1e-15)
     theta = ps.nominal.copy()
     theta[j] = p.coordinate(9e5)                           # near the top of the range: the step shrinks inside it
-    steps = ps.steps(theta)
-    assert steps[j] == pytest.approx(0.5 * (p.bounds[1] - theta[j]), rel=1e-12) and steps[j] < p.step
-    assert theta[j] + steps[j] < p.bounds[1] and steps[0] == ps.step[0]
+    up, down = ps.steps(theta)
+    assert up[j] == pytest.approx(0.5 * (p.bounds[1] - theta[j]), rel=1e-12) and up[j] < p.step
+    assert theta[j] + up[j] < p.bounds[1] and up[0] == down[0] == ps.step[0] and down[j] == p.step
+    theta[j] = p.bounds[1]                                 # at the bound (kappa 1e6, allowed): one-sided
+    up, down = ps.steps(theta)
+    assert up[j] == 0.0 and down[j] == p.step
+    theta[j] = p.coordinate(9e5)
     values = ps.values(theta)
     assert values[j] == pytest.approx(9e5, rel=1e-9) and values[0] == theta[0]
     np.testing.assert_allclose(ps.coordinates(values), theta, rtol=0, atol=1e-15)
@@ -187,6 +191,27 @@ def test_parameter_jacobian_against_five_point_differences(which):
     J0 = pose_jacobian(m, th, Q, columns=[1, 3])
     K0 = five_point(lambda t: pose_error(*evaluate(m, t, Q), *ref), th, 4 * m.parameters.step)[:, :, [1, 3]]
     np.testing.assert_allclose(J0 / scale[[1, 3]], K0 / scale[[1, 3]], rtol=0, atol=2e-5)
+
+
+def test_a_parameter_at_its_bound_has_a_one_sided_finite_column():
+    """kappa2 at the top of its range (1e6, which a geometry file allows): its column is the one-sided difference
+    down from the bound (it was 0 / 0 = NaN)."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    ps = m.parameters
+    j = ps.index('kappa2')
+    Q = naive_inverse(np.array([0.2, 0.4]), np.array([0.02, 0.03]), np.array([0.5, -2.0]), cfg)
+    th = ps.nominal.copy()
+    th[j] = ps[j].bounds[1]
+    J = pose_jacobian(m, th, Q)
+    assert np.all(np.isfinite(J))
+    h = ps.step[j]
+    down = th.copy()
+    down[j] -= h
+    ref = evaluate(m, th, Q)
+    one_sided = (pose_error(*ref, *ref) - pose_error(*evaluate(m, down, Q), *ref)) / h
+    np.testing.assert_allclose(J[:, :, j], one_sided, rtol=0, atol=1e-12)
+    assert np.max(np.abs(one_sided)) > 0
 
 
 def test_exact_columns_of_the_reference_model():

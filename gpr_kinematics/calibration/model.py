@@ -169,12 +169,14 @@ class ParameterSet:
         b = np.array([p.bounds for p in self.parameters]).reshape(-1, 2)
         return b[:, 0], b[:, 1]
 
-    def steps(self, theta: ArrayLike) -> Array:
-        """Finite-difference steps at coordinates ``theta``: :attr:`step`, shortened to half the distance to a
-        bound, so that ``theta +- step`` stays inside (an anisotropy near 1: a stiff joint)."""
+    def steps(self, theta: ArrayLike) -> tuple[Array, Array]:
+        """Finite-difference steps up and down at coordinates ``theta``: :attr:`step`, each shortened to half the
+        distance to its bound, so that ``theta + up`` and ``theta - down`` stay inside (an anisotropy near 1: a
+        stiff joint); at a bound that side's step is 0 and the difference one-sided."""
         th = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
-        return np.asarray(np.minimum(self.step, 0.5 * np.minimum(hi - th, th - lo)), dtype=np.float64)
+        return (np.asarray(np.minimum(self.step, 0.5 * (hi - th)), dtype=np.float64),
+                np.asarray(np.minimum(self.step, 0.5 * (th - lo)), dtype=np.float64))
 
     def values(self, theta: ArrayLike) -> Array:
         """Values ``(..., P)`` of coordinate rows ``theta (..., P)`` (:meth:`Parameter.value` per column)."""
@@ -333,9 +335,10 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
     """Derivatives ``(N, 6, C)`` of the pose error ``e(theta) = pose_error(poses(theta), reference)`` (position
     [m], rotation vector [rad]) by the parameters ``columns`` (indices or a mask; all by default), by central
     differences with each parameter's step (:meth:`ParameterSet.steps`):
-    ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``, error ``O(h^2)``. ``reference`` (positions ``(N, 3)``,
-    rotations ``(N, 3, 3)``; e.g. measured poses) defaults to the poses at ``theta`` itself (then the columns are
-    the pose's sensitivities as small rigid motions).
+    ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``, error ``O(h^2)`` (a parameter at or near a bound of its
+    range: ``(e(theta + u_j) - e(theta - d_j)) / (u_j + d_j)`` with the shortened steps, one-sided at the bound).
+    ``reference`` (positions ``(N, 3)``, rotations ``(N, 3, 3)``; e.g. measured poses) defaults to the poses at
+    ``theta`` itself (then the columns are the pose's sensitivities as small rigid motions).
 
     All ``2 C`` perturbed parameter rows go to the model in one call (one batch of ``2 C x N`` poses).
     """
@@ -347,18 +350,18 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
     Qa = as_configurations(Q)
     if cols.size == 0:
         return np.zeros((Qa.shape[0], 6, 0))
-    h = params.steps(th)[cols]
+    up, down = (s[cols] for s in params.steps(th))
     rows = np.repeat(th[None, :], 2 * cols.size, axis=0)
     k = np.arange(cols.size)
-    rows[2 * k, cols] += h
-    rows[2 * k + 1, cols] -= h
+    rows[2 * k, cols] += up
+    rows[2 * k + 1, cols] -= down
     if reference is None:
         pos, rot = evaluate(model, np.vstack([th[None, :], rows]), Qa)
         pos, rot, reference = pos[1:], rot[1:], (pos[0], rot[0])
     else:
         pos, rot = evaluate(model, rows, Qa)
     e = pose_error(pos, rot, reference[0], reference[1])      # (2C, N, 6)
-    d = (e[0::2] - e[1::2]) / (2.0 * h[:, None, None])         # (C, N, 6)
+    d = (e[0::2] - e[1::2]) / (up + down)[:, None, None]      # (C, N, 6)
     return np.ascontiguousarray(d.transpose(1, 2, 0))
 
 
