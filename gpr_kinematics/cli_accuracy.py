@@ -29,6 +29,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from .calibration.core_model import MODEL
 from .errors import InputError
 
 #: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).
@@ -117,7 +118,8 @@ def _budget(args: argparse.Namespace, data: Any, path: Path) -> tuple[Any, str]:
         if args.tool is not None:
             raise InputError('--tool: a robot program\'s tool point is the wafer centre of each station\'s arm')
         program = parse_program(data, str(path), path.parent)
-        robot = load_robot(args.robot or program.robot, geometry=args.config)
+        # the stations solved under the budget's own model, as for a platform program
+        robot = load_robot(args.robot or program.robot, geometry=args.config, model=options.model or MODEL)
         return robot_budget(robot, program, table, options), (f'robot {robot.name}: tool point = the wafer centre of '
                                                               f'each station\'s arm, errors in the axes of '
                                                               f'{robot.world_frame}')
@@ -154,7 +156,7 @@ def budget_command(args: argparse.Namespace) -> int:
     check_budget_options(args, budget=True)
     data, path = read_mechanism_file(args.file)
     budget, what = _budget(args, data, path)
-    model = args.model or 'compliant'
+    model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
         else ''
     if args.json:
