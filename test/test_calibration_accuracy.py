@@ -119,7 +119,8 @@ def test_robot_program_budget_at_the_wafer(capsys):
     """Each station the example program visits, with its arm; the tool point is the wafer centre on the platform
     and the errors are in the world's axes: a zero offset's effect checked against central differences of the whole
     robot's forward kinematics on perturbed machines."""
-    robot, program = load_robot(), load_program(ROBOT_PROGRAM)
+    # the stations solved under the budget's model (compliant by default), as for a platform program
+    robot, program = load_robot(model='compliant'), load_program(ROBOT_PROGRAM)
     st = robot_stations(robot, program)
     assert st.labels == ('home (arm1)', 'load_port_1 (arm1)', 'aligner (arm1)', 'chamber_a (arm1)',
                          'chamber_b (arm2)', 'load_port_1 (arm2)')
