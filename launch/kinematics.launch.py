@@ -14,7 +14,7 @@ ARGUMENTS = (
     ('namespace', '', 'namespace of the node and its services, e.g. /robot1'),
     ('config_file', '', "geometry YAML (GprConfig keys) over the package's config/gpr.yaml, replacing the robot's "
                         'gpr section; empty: that section (the package geometry for the shipped robot)'),
-    ('model', '', "virtual-joint model: radial, polar, offset or compliant; empty: config_file's"),
+    ('model', '', "virtual-joint model: radial, polar, offset or compliant; empty: the geometry's"),
     ('robot', '', 'robot description YAML (the GPR, the arms, blades and wafers) for the robot services; its gpr '
                   'section is the geometry unless config_file is given; empty: config/robots/example_robot.yaml'),
 )

@@ -5,11 +5,11 @@ description, the range (``floating_point_range`` / ``integer_range``), the allow
 constraint as ``additional_constraints`` text, and ``read_only``; the start-up values are checked against the
 spec (rclpy checks ranges, not allowed strings) and a bad one raises :class:`~gpr_kinematics.errors.ConfigError`.
 
-:class:`ConfigParameters` declares ``config_file`` and every ``GprConfig`` key (defaults from the package's
-``config/gpr.yaml`` or from ``config_file``) and keeps ``config`` in step with them. A run-time change follows
-rclpy's two stages: the on-set callback only *validates* (the whole configuration, through
-``GprConfig.from_mapping``, rejected with the reason when invalid); the post-set callback, called once the
-change is accepted, *applies* it.
+:class:`ConfigParameters` declares ``config_file`` and every ``GprConfig`` key (defaults from ``config_file``,
+else the node's robot description's ``gpr`` section, else the package's ``config/gpr.yaml``) and keeps ``config``
+in step with them. A run-time change follows rclpy's two stages: the on-set callback only *validates* (the whole
+configuration, through ``GprConfig.from_mapping``, rejected with the reason when invalid); the post-set callback,
+called once the change is accepted, *applies* it.
 """
 from __future__ import annotations
 
