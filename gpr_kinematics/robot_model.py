@@ -54,6 +54,7 @@ from .errors import InputError
 from .geometry import quaternion_from_matrix
 from .machine import MachineGeometry
 from .messages import ROD_JOINT_NAMES
+from .robot.transforms import rpy_matrix
 
 if TYPE_CHECKING:
     from .robot.description import Arm, RobotDescription
@@ -98,15 +99,6 @@ class Joint:
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     lower: float = 0.0
     upper: float = 0.0
-
-
-def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
-    """URDF's ``rpy``: ``Rz(yaw) Ry(pitch) Rx(roll)`` (fixed axes x, y, z)."""
-    r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
 
 
 def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
@@ -169,7 +161,7 @@ def joint_transform(joint: Joint, value: float = 0.0) -> tuple[list[float], list
     ``T = T_origin * T_motion`` (URDF); translation [m] and quaternion (x, y, z, w)."""
     if joint.kind == 'floating':
         raise InputError(f'joint {joint.name} is floating: its pose comes from the kinematics, not from a value')
-    R = rpy_matrix(joint.rpy)
+    R = rpy_matrix(*joint.rpy)  # URDF's rpy: Rz(yaw) Ry(pitch) Rx(roll)
     t = np.asarray(joint.xyz, dtype=float)
     axis = np.asarray(joint.axis, dtype=float)
     if joint.kind == 'prismatic':

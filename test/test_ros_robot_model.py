@@ -15,6 +15,7 @@ from gpr_kinematics.errors import InputError
 from gpr_kinematics.geometry import matrix_from_quaternion
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 from gpr_kinematics.robot.forward import platform_to_blade
+from gpr_kinematics.robot.transforms import rpy_matrix
 from gpr_kinematics.robot_model import (
     Joint,
     Link,
@@ -23,7 +24,6 @@ from gpr_kinematics.robot_model import (
     joint_transform,
     main,
     robot_model,
-    rpy_matrix,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,7 +110,7 @@ def test_extended_model_revolute_joint_and_rpy(tmp_path):
     np.testing.assert_allclose(expect[:3, 3], t, atol=1e-15)
     np.testing.assert_allclose(expect[:3, :3], matrix_from_quaternion(r), atol=1e-15)
     mount = urdf.get_transform('arm_link_1', 'gpr_platform')
-    np.testing.assert_allclose(mount[:3, :3], rpy_matrix((0.1, -0.2, 0.3)), atol=1e-15)
+    np.testing.assert_allclose(mount[:3, :3], rpy_matrix(0.1, -0.2, 0.3), atol=1e-15)
 
 
 def test_invalid_models_refused():
@@ -146,11 +146,11 @@ def test_robot_figure_draws_the_true_errors(tmp_path):
     # exaggerated(): k times the relative transform, translation and rotation (a small rotation about z here).
     a = np.eye(4)
     b = np.eye(4)
-    b[:3, :3] = rpy_matrix((0.0, 0.0, 1e-5))
+    b[:3, :3] = rpy_matrix(0.0, 0.0, 1e-5)
     b[:3, 3] = (1e-6, -2e-6, 0.0)
     d = exaggerated(a, b, 1000.0)
     np.testing.assert_allclose(d[:3, 3], [1e-3, -2e-3, 0.0], rtol=1e-12)
-    np.testing.assert_allclose(d[:3, :3], rpy_matrix((0.0, 0.0, 1e-2)), atol=1e-15)
+    np.testing.assert_allclose(d[:3, :3], rpy_matrix(0.0, 0.0, 1e-2), atol=1e-15)
 
 
 def test_shipped_example_robot_urdf_is_the_generated_one():
