@@ -39,11 +39,6 @@ from .robot.transforms import PoseBatch
 
 Array = NDArray[np.float64]
 
-#: The topics of a robot stream besides the platform's, and their types.
-ROBOT_TOPICS: dict[str, str] = {'gpr/robot_state': 'gpr_interfaces/msg/RobotState',
-                                'gpr/wafer_pose': 'geometry_msgs/msg/PoseStamped'}
-
-
 @dataclass(frozen=True)
 class RobotStream:
     """A robot program sampled at a rate (``S`` samples; SI units, world frame unless named).

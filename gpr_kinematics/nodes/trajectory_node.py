@@ -72,7 +72,7 @@ CATCH_UP = 5
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
                                  'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
                                  'gpr/virtual_joints': JointState}
-#: The topics a robot program adds to each sample (:data:`gpr_kinematics.robot_stream.ROBOT_TOPICS`).
+#: The topics a robot program adds to each sample (their types: :data:`gpr_kinematics.bags.typestore.GPR_TOPICS`).
 ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
 
 

@@ -162,11 +162,6 @@ BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
 MODEL_TYPES = tuple(BUILDERS)
 
 
-def register(kind: str, builder: Builder, workspace_keys: tuple[str, ...] = ()) -> None:
-    """Add a ``type`` (the equation models and the joint working area register themselves)."""
-    BUILDERS[kind] = (builder, workspace_keys)
-
-
 def model_from_mapping(
     data: Any, source: str = 'mechanism', overrides: Mapping[str, Any] | None = None
 ) -> Any:
