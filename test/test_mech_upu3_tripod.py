@@ -159,3 +159,11 @@ def test_tripod_accuracy_second_order_and_limits(tripod):
     assert 70 < d[0] / d[1] < 130
     with pytest.raises(InputError, match=r'joint L1 = .* is outside its limits \[0\.07, 0\.13\] m'):
         tripod.check_limits(tripod.inverse_kinematics([0, 0, 0.2, 0, 0, 0]))
+
+
+def test_upu3_parameters_of_the_wrong_size_are_refused():
+    m = load_mechanism('upu3.yaml')
+    with pytest.raises(InputError, match=r'parameter base_points must be 9 numbers \(3 points x, y, z\) \[m\]; got 8'):
+        m.with_parameters({'base_points': [0.1] * 8})
+    moved = m.with_parameters({'base_points': (m.base_points + 1e-3).ravel().tolist()})
+    np.testing.assert_allclose(moved.base_points, m.base_points + 1e-3, rtol=0, atol=0)

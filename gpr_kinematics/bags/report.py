@@ -63,8 +63,8 @@ def check_report_folder(folder: str | Path) -> Path:
         return out
     try:
         writable_folder(out, '--report')
-    except FileError as exc:
-        raise BagError(f'{exc}; {allowed}') from None
+    except FileError as exc:  # its message names what is allowed
+        raise BagError(str(exc)) from None
     return out
 
 

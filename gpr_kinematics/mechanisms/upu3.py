@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..config import check_keys, number_array, number_key
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, InputError, brief
 from ..validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
 
@@ -83,7 +83,11 @@ class UPU3(Mechanism):
             if key not in ('base_points', 'platform_points'):
                 raise ConfigError(f'{self.name}: unknown parameter {brief(key)}; '
                                   'allowed: base_points, platform_points')
-            setattr(new, key, bounded(val, f'{self.name}: parameter {key}').reshape(3, 3))
+            points = bounded(val, f'{self.name}: parameter {key}')
+            if points.size != 9:
+                raise InputError(f'{self.name}: parameter {key} must be 9 numbers (3 points x, y, z) [m]; got '
+                                 f'{points.size}')
+            setattr(new, key, points.reshape(3, 3))
         return new
 
     def complete_pose(self, poses: Any) -> np.ndarray:
