@@ -169,6 +169,7 @@ def approximate(
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
     _check_run_options(method, max_boxes, chunk_size, parts)
+    t0 = time.perf_counter()  # the run's time and time limit include the coverings a model builds on
     own = not isinstance(scheduler, Executor)
     executor = Executor(scheduler, workers) if isinstance(scheduler, str) else scheduler
     if hasattr(model, 'covering_task'):
@@ -177,8 +178,10 @@ def approximate(
         check_delta(delta, model.box[model.output_index], model.scale[model.output_index])
 
         def part(sub_model: Any, sub_delta: float, keep: bool = False) -> WorkspaceResult:
-            # a mechanism the model builds on, covered by the same scheduler (its own progress off)
-            return approximate(sub_model, sub_delta, progress=False, max_seconds=max_seconds, max_boxes=max_boxes,
+            # a mechanism the model builds on, covered by the same scheduler (its own progress off), in the time
+            # left of this run
+            left = None if max_seconds is None else max(max_seconds - (time.perf_counter() - t0), 1e-6)
+            return approximate(sub_model, sub_delta, progress=False, max_seconds=left, max_boxes=max_boxes,
                                scheduler=executor, keep_outside=keep)
 
         try:
@@ -201,7 +204,7 @@ def approximate(
     bar = Progress(progress, stream, progress_after, '*'.join(model.units[i] for i in _output_index(model)))
     try:
         return _run(model, task, float(delta), method, executor, bar, max_seconds, max_boxes,
-                    chunk_size or task.chunk, keep_outside, parts)
+                    chunk_size or task.chunk, keep_outside, parts, t0)
     finally:
         bar.close()
         if own:
@@ -291,8 +294,8 @@ def _run(
     chunk: int,
     keep_outside: bool,
     parts: int,
+    t0: float,
 ) -> WorkspaceResult:
-    t0 = time.perf_counter()
     box = task.box
     flag = StopFlag()
     mon = _Monitor(bar, delta, float(np.prod(box[:, 1] - box[:, 0])), flag, t0, max_seconds, max_boxes)
