@@ -190,6 +190,10 @@ def approximate(
             if own:
                 executor.close()
             return _nothing_proved(model, delta)
+        except BaseException:  # a cluster the sub-coverings started is not left running
+            if own:
+                executor.close()
+            raise
     else:
         box = check_initial_box(model.box if box is None else box, model.variables)
         model.check_box(box)
