@@ -70,7 +70,7 @@ def test_stiffness_ratios_are_identified_as_anisotropies():
     theta[j] = p.coordinate(9e5)                           # near the top of the range: the step shrinks inside it
     up, down = ps.steps(theta)
     assert up[j] == pytest.approx(0.5 * (p.bounds[1] - theta[j]), rel=1e-12) and up[j] < p.step
-    assert theta[j] + up[j] < p.bounds[1] and up[0] == down[0] == ps.step[0] and down[j] == p.step
+    assert theta[j] + up[j] < p.bounds[1] and up[0] == down[0] == ps.step[0] and down[j] == up[j]
     theta[j] = p.bounds[1]                                 # at the bound (kappa 1e6, allowed): one-sided
     up, down = ps.steps(theta)
     assert up[j] == 0.0 and down[j] == p.step

@@ -170,13 +170,17 @@ class ParameterSet:
         return b[:, 0], b[:, 1]
 
     def steps(self, theta: ArrayLike) -> tuple[Array, Array]:
-        """Finite-difference steps up and down at coordinates ``theta``: :attr:`step`, each shortened to half the
-        distance to its bound, so that ``theta + up`` and ``theta - down`` stay inside (an anisotropy near 1: a
-        stiff joint); at a bound that side's step is 0 and the difference one-sided."""
+        """Finite-difference steps up and down at coordinates ``theta``: :attr:`step`, shortened to half the
+        distance to the nearer bound, so that ``theta +- step`` stays inside (an anisotropy near 1: a stiff joint)
+        and the difference stays central; at a bound, where no central step fits, the step away from it alone
+        (a one-sided difference)."""
         th = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
-        return (np.asarray(np.minimum(self.step, 0.5 * (hi - th)), dtype=np.float64),
-                np.asarray(np.minimum(self.step, 0.5 * (th - lo)), dtype=np.float64))
+        room_up, room_down = 0.5 * (hi - th), 0.5 * (th - lo)
+        h = np.minimum(self.step, np.minimum(room_up, room_down))
+        at = h <= 0.0
+        return (np.asarray(np.where(at, np.minimum(self.step, room_up).clip(0.0), h), dtype=np.float64),
+                np.asarray(np.where(at, np.minimum(self.step, room_down).clip(0.0), h), dtype=np.float64))
 
     def values(self, theta: ArrayLike) -> Array:
         """Values ``(..., P)`` of coordinate rows ``theta (..., P)`` (:meth:`Parameter.value` per column)."""
@@ -335,8 +339,8 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
     """Derivatives ``(N, 6, C)`` of the pose error ``e(theta) = pose_error(poses(theta), reference)`` (position
     [m], rotation vector [rad]) by the parameters ``columns`` (indices or a mask; all by default), by central
     differences with each parameter's step (:meth:`ParameterSet.steps`):
-    ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``, error ``O(h^2)`` (a parameter at or near a bound of its
-    range: ``(e(theta + u_j) - e(theta - d_j)) / (u_j + d_j)`` with the shortened steps, one-sided at the bound).
+    ``(e(theta + h_j) - e(theta - h_j)) / (2 h_j)``, error ``O(h^2)``; a parameter at a bound of its range gets
+    the one-sided difference away from it (``(e(theta + u_j) - e(theta - d_j)) / (u_j + d_j)``, one step 0).
     ``reference`` (positions ``(N, 3)``, rotations ``(N, 3, 3)``; e.g. measured poses) defaults to the poses at
     ``theta`` itself (then the columns are the pose's sensitivities as small rigid motions).
 
