@@ -4,7 +4,7 @@
 # ROS 2 Jazzy wheels (requirements-ros.txt), repairs the wheels' exported CMake files (ros_env fix-wheels)
 # and runs `colcon build` at the root (colcon_defaults.yaml: gpr_kinematics and gpr_interfaces, symlink install,
 # so the nodes run the working tree's code; plus fallback/tf2_msgs where no tf2_msgs is installed) into
-# install/. Commands that need ROS run through `python -m gpr_kinematics.ros_env exec --`, which sets the
+# install/. Commands that need ROS run through `python -m gpr_kinematics.ros.env exec --`, which sets the
 # environment `source install/setup.bash` would (no system ROS needed); the tests activate it themselves
 # (test/conftest.py).
 #
@@ -17,7 +17,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.setup-stamp
 COLCON_STAMP := install/.colcon-stamp
-ROSENV := $(PY) -m gpr_kinematics.ros_env exec --
+ROSENV := $(PY) -m gpr_kinematics.ros.env exec --
 # The stock-install check: Python 3.12 from pyenv, its own venv, build and install trees.
 STOCK_PYTHON ?= env PYENV_VERSION=3.12.1 python
 STOCK_VENV := .venv-stock
@@ -27,40 +27,41 @@ STOCK_INSTALL := install-stock
 STOCK_COLCON_STAMP := $(STOCK_INSTALL)/.colcon-stamp
 STOCK_DOMAIN := $(if $(GPR_TEST_ROS_DOMAIN_ID),GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(GPR_TEST_ROS_DOMAIN_ID) + 1 \) % 233),)
 # Inputs of the colcon build: a change to any of them rebuilds (colcon itself is incremental).
-COLCON_INPUTS := $(shell find gpr_interfaces fallback config resource launch rviz urdf -type f \
-	-not -path '*/__pycache__/*' -not -name '*.pyc' 2>/dev/null) setup.py setup.cfg package.xml colcon_defaults.yaml
+COLCON_INPUTS := $(shell find gpr_interfaces fallback $(addprefix gpr_kinematics/,config resource launch rviz urdf) -type f \
+	-not -path '*/__pycache__/*' -not -name '*.pyc' 2>/dev/null) $(addprefix gpr_kinematics/,setup.py setup.cfg package.xml) \
+	colcon_defaults.yaml
 # colcon build, with the interpreter and prefix of the venv given as $(1) (python) and $(2) (venv folder),
 # into build $(3) and install $(4).
 define COLCON_BUILD
 	PATH="$(CURDIR)/$(2)/bin:$$PATH" AMENT_PREFIX_PATH="$(CURDIR)/$(2)" CMAKE_PREFIX_PATH="$(CURDIR)/$(2)" \
 	$(2)/bin/colcon build --build-base $(3) --install-base $(4) \
-		--base-paths $$($(1) -m gpr_kinematics.ros_env base-paths) \
+		--base-paths $$($(1) -m gpr_kinematics.ros.env base-paths) \
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
 .PHONY: setup setup-stock test test-pinned test-core test-ros test-stock test-stock-run demo lint clean
 
-$(STAMP): requirements.txt requirements-ros.txt requirements-test.txt setup.py
+$(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
 	@command -v cc >/dev/null || { echo 'make setup: no C compiler (apt-get install gcc)' >&2; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -r requirements-ros.txt
 	$(PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
-	$(PY) -m gpr_kinematics.ros_env fix-wheels
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STAMP)
 
 $(COLCON_STAMP): $(STAMP) $(COLCON_INPUTS)
 	$(call COLCON_BUILD,$(PY),$(VENV),build,install)
-	$(PY) -m gpr_kinematics.ros_env check
+	$(PY) -m gpr_kinematics.ros.env check
 	touch $(COLCON_STAMP)
 
 setup: $(COLCON_STAMP)
 
 # The stock ROS 2 Jazzy versions (Ubuntu 24.04): Python 3.12 and the pins of requirements-stock.txt, the same ROS
 # wheels (built for 3.12), the package installed from the working tree.
-$(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt requirements-test.txt setup.py
+$(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	test -x $(STOCK_PY) || $(STOCK_PYTHON) -m venv $(STOCK_VENV)
 	$(STOCK_PY) -m pip install --quiet --upgrade pip
 	awk -F'==' 'NR == FNR { if (NF == 2 && $$0 !~ /^#/) pin[tolower($$1)] = $$0; next } \
@@ -68,13 +69,13 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
 	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation -e .
-	$(STOCK_PY) -m gpr_kinematics.ros_env fix-wheels
+	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(STOCK_PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STOCK_STAMP)
 
 $(STOCK_COLCON_STAMP): $(STOCK_STAMP) $(COLCON_INPUTS)
 	$(call COLCON_BUILD,$(STOCK_PY),$(STOCK_VENV),build-stock,$(STOCK_INSTALL))
-	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_PY) -m gpr_kinematics.ros_env check
+	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_PY) -m gpr_kinematics.ros.env check
 	touch $(STOCK_COLCON_STAMP)
 
 setup-stock: $(STOCK_COLCON_STAMP)
@@ -109,7 +110,7 @@ demo: setup
 	$(PY) -m gpr_kinematics.robot.demo
 	$(PY) -m gpr_kinematics.calibration.demo
 	$(ROSENV) $(PY) -m gpr_kinematics.nodes.demo
-	$(ROSENV) $(PY) -m gpr_kinematics.offline_loop
+	$(ROSENV) $(PY) -m gpr_kinematics.ros.offline_loop
 
 # Lint needs the venv only (no colcon build, no ROS).
 lint: $(STAMP)

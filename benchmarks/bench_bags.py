@@ -2,7 +2,7 @@
 
 Run in the ROS environment (the recorder part starts ``recorder_node`` over DDS):
 
-    .venv/bin/python -m gpr_kinematics.ros_env exec -- .venv/bin/python benchmarks/bench_bags.py [--quick]
+    .venv/bin/python -m gpr_kinematics.ros.env exec -- .venv/bin/python benchmarks/bench_bags.py [--quick]
 
 1. Recorder: this process publishes serialized ``PlatformState`` messages (the paper sweep's, cycled) on
    ``gpr/platform_state`` at a fixed rate for a fixed time (reliable, keep-last depth = all messages, so the
@@ -33,7 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gpr_kinematics import ros_env  # noqa: E402
+from gpr_kinematics.ros import env as ros_env  # noqa: E402
 
 
 def bench_verify(passes: int, runs: int = 3) -> dict:

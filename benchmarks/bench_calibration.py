@@ -37,8 +37,8 @@ from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.model import evaluate, pose_error
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.calibration.tolerances import parse_tolerances
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import naive_inverse
+from gpr_kinematics.core import naive_inverse
+from gpr_kinematics.core.config import load_config
 
 SP, SA = 3e-6, 2e-5
 

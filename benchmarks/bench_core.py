@@ -30,10 +30,10 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_inverse
-from gpr_kinematics.machine import parameter_vector
-from gpr_kinematics.sweep import paper_sweep
+from gpr_kinematics.core import forward, forward_batch, inverse, inverse_batch, naive_inverse
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.machine import parameter_vector
+from gpr_kinematics.core.sweep import paper_sweep
 
 CLOCK = time.perf_counter
 
@@ -52,7 +52,7 @@ def timed(fn, repeat: int, number: int = 1) -> list[float]:
 #: One-pose calls timed in a fresh process for ``--before`` (CPU time, best of 9 repeats), printed as JSON.
 SINGLE_CALLS = """
 import json, time, timeit
-from gpr_kinematics.kinematics import forward, inverse
+from gpr_kinematics.core import forward, inverse
 q = [0.5, 0.503, 0.498]
 def best(fn, n):
     fn()

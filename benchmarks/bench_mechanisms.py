@@ -150,7 +150,7 @@ def angle_diff(a: np.ndarray, b: np.ndarray, convention: str = 'ZXZ') -> np.ndar
 # ------------------------------------------------------------------ main
 def run() -> tuple[list[str], dict]:
     rng = np.random.default_rng(2026)
-    gsp = load_mechanism(ROOT / 'config/mechanisms/gsp_d1d2d3d4a1a1.yaml')
+    gsp = load_mechanism(ROOT / 'gpr_kinematics/config/mechanisms/gsp_d1d2d3d4a1a1.yaml')
     n_batch = 20000
     P = gsp_poses(n_batch, rng)
 
@@ -170,7 +170,7 @@ def run() -> tuple[list[str], dict]:
 
     t_single = median_time(single_jc, 5, 'gsp_single', singles.shape[0])
 
-    stew = load_mechanism(ROOT / 'config/mechanisms/stewart_alwan.yaml')
+    stew = load_mechanism(ROOT / 'gpr_kinematics/config/mechanisms/stewart_alwan.yaml')
     targets = stewart_poses(stew, 400, rng)
     lengths = stew.leg_lengths(targets)
     home = np.zeros(6)

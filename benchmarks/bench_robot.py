@@ -26,16 +26,15 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy.optimize import least_squares
-
-from gpr_kinematics.kinematics import inverse_batch
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations, stations_from_poses
 from gpr_kinematics.robot.description import parse_robot
 from gpr_kinematics.robot.export import sample_table, waypoint_table, write_table
 from gpr_kinematics.robot.plan import plan_program, sample_plan
 from gpr_kinematics.robot.planar_arm import branch_of
 from gpr_kinematics.robot.program import load_program
-from gpr_kinematics.robot.transforms import rotation_angle
+from scipy.optimize import least_squares
 
 
 def timed(fn, repeat: int) -> list[float]:

@@ -27,7 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gpr_kinematics import ros_env  # noqa: E402 - after the path
+from gpr_kinematics.ros import env as ros_env  # noqa: E402 - after the path
 
 os.environ.setdefault('ROS_DOMAIN_ID', str(5 + os.getpid() % 5))  # tests use 10..99
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
@@ -37,12 +37,12 @@ import numpy as np  # noqa: E402 - after the ROS environment
 from std_srvs.srv import Trigger  # noqa: E402
 
 from gpr_interfaces.msg import PlatformState  # noqa: E402
-from gpr_kinematics.kinematics import forward  # noqa: E402
+from gpr_kinematics.core import forward  # noqa: E402
 from gpr_kinematics.nodes.client import GprClient  # noqa: E402
-from gpr_kinematics.nodes.process import NodeProcess  # noqa: E402
 from gpr_kinematics.nodes.qos import stream_qos  # noqa: E402
 from gpr_kinematics.robot import load_robot, solve_stations  # noqa: E402
 from gpr_kinematics.robot.stations import Stations  # noqa: E402
+from gpr_kinematics.ros.process import NodeProcess  # noqa: E402
 
 NULL_SERVER = '''
 import rclpy, sys

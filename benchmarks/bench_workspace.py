@@ -32,9 +32,11 @@ import time
 
 import numpy as np
 
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, box_volume, contains_points
-from gpr_kinematics.workspace_models import GprModel, TripodModel, load_workspace_model
+from gpr_kinematics.workspace.gpr import GprModel
+from gpr_kinematics.workspace.loader import load_workspace_model
+from gpr_kinematics.workspace.tripod import TripodModel
 
 # Remainder of the series tan(a)/a = 1 + u/3 + 2u^2/15 + 17u^3/315 + sum_{k>=4} c_k u^k (u = a^2, all c_k > 0,
 # c_4 = 62/2835, c_{k+1}/c_k < 0.41): for u <= 0.2 the tail lies in [0, 0.0240 u^4].

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-
 from gpr_kinematics.bags.metadata import FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages
@@ -92,7 +91,7 @@ def _limit_address_space() -> None:
 
 _WORKER = r'''
 import contextlib, io, json, sys, traceback
-from gpr_kinematics import cli
+from gpr_kinematics.cli import main as cli
 for line in sys.stdin:
     path = line.rstrip('\n')
     out, err = io.StringIO(), io.StringIO()
@@ -119,5 +118,5 @@ def verify_many(paths: list[Path], timeout: float) -> list[dict[str, Any]]:
 
 def verify_process(path: Path, *args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
     """``gpr verify PATH ARGS`` as its own process (the installed entry point's code path), limited as above."""
-    return subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'verify', str(path), *args], text=True,
+    return subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'verify', str(path), *args], text=True,
                           capture_output=True, timeout=timeout, preexec_fn=_limit_address_space)

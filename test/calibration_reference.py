@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from gpr_kinematics.calibration.model import Parameter, ParameterSet
 
 R_NOMINAL = 0.093218

@@ -40,10 +40,10 @@ test_domain_id.__test__ = False  # type: ignore[attr-defined]  # a helper, not a
 @pytest.fixture(scope='session')
 def ros_environment() -> Iterator[dict[str, str]]:
     """Put this process, and every node it starts, into the repository's ROS environment
-    (:func:`gpr_kinematics.ros_env.activate`: what ``source install/setup.bash`` gives), with this run's
+    (:func:`gpr_kinematics.ros.env.activate`: what ``source install/setup.bash`` gives), with this run's
     ``ROS_DOMAIN_ID``, ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and ``ROS_PYTHON_CHECK_FIELDS=1`` (message
     field checks, off by default in Jazzy). If ROS cannot be imported the tests fail, they never skip."""
-    from gpr_kinematics import ros_env
+    from gpr_kinematics.ros import env as ros_env
 
     saved = dict(os.environ)
     os.environ['ROS_DOMAIN_ID'] = str(test_domain_id())

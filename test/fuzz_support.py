@@ -8,7 +8,7 @@ line on stdout, ``{"status": N | null, "signal": NAME | null, "out": TEXT, "err"
   ``MemoryError``, which nothing in the package catches, so it shows as a traceback), files of at most
   :data:`FILE_SIZE` bytes (``RLIMIT_FSIZE``) and :data:`TIMEOUT` seconds (``alarm``: a hang, even in a blocking
   ``open``, ends in ``SIGALRM``);
-* runs ``gpr_kinematics.cli.main(argv)`` with its stdout and stderr in files, so a warning printed by numpy or a
+* runs ``gpr_kinematics.cli.main.main(argv)`` with its stdout and stderr in files, so a warning printed by numpy or a
   traceback is seen exactly as a user would see it; an exception escaping ``main`` is printed as a traceback and
   exits with status :data:`ESCAPED`.
 
@@ -71,7 +71,7 @@ def _child(argv: list[str], cwd: str, out_path: str, err_path: str, timeout: int
             os.close(target)
         sys.stdout = open(1, 'w', encoding='utf-8', closefd=False)  # noqa: SIM115 - lives until _exit
         sys.stderr = open(2, 'w', encoding='utf-8', closefd=False)  # noqa: SIM115
-        from gpr_kinematics import cli
+        from gpr_kinematics.cli import main as cli
         status = cli.main(argv)
     except BaseException:  # noqa: BLE001 - the test fails on whatever escapes main: print it, as Python would
         traceback.print_exc()
@@ -106,7 +106,7 @@ def serve() -> None:
     """The worker's loop (module docstring)."""
     import importlib
 
-    from gpr_kinematics import cli
+    from gpr_kinematics.cli import main as cli
     for module in dict.fromkeys(cli.COMMANDS.values()):
         with contextlib.suppress(ModuleNotFoundError):  # an optional extra is missing: the CLI says so per case
             importlib.import_module(module)

@@ -6,8 +6,7 @@ from typing import Any
 
 import numpy as np
 import yaml
-
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.description import RobotDescription, load_robot, parse_robot
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.stations import Stations, stations_from_poses
@@ -45,7 +44,7 @@ def random_postures(robot: RobotDescription, arm: str, n: int, seed: int = 0,
                     tilt_fraction: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
     """Random rods (heights within the stroke, tilts up to ``tilt_fraction`` of the limit) and random arm joints
     within their limits, keeping the held joint of a fixed_joint arm at its rule's value."""
-    from gpr_kinematics.kinematics import inverse_batch
+    from gpr_kinematics.core import inverse_batch
     rng = np.random.default_rng(seed)
     cfg = robot.config
     ik = inverse_batch(rng.uniform(0.08, 0.42, n), rng.uniform(0.0, tilt_fraction, n) * cfg.tilt_limit,

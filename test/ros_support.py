@@ -7,8 +7,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
-
-from gpr_kinematics.nodes.process import NodeProcess
+from gpr_kinematics.ros.process import NodeProcess
 
 
 def params(**values: Any) -> list[str]:
@@ -100,8 +99,7 @@ IMPERFECT_MACHINE = {
 def imperfect_config_file(folder: Any) -> tuple[Any, Any]:
     """Write :data:`IMPERFECT_MACHINE` as a geometry file in ``folder``; its path and the loaded configuration."""
     import yaml
-
-    from gpr_kinematics.config import load_config
+    from gpr_kinematics.core.config import load_config
 
     path = folder / 'imperfect_gpr.yaml'
     path.write_text(yaml.safe_dump(IMPERFECT_MACHINE))

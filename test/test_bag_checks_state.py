@@ -10,14 +10,13 @@ from typing import Any
 import numpy as np
 import pytest
 from bag_support import STATE, rewritten, small_sweep, write_bag
-
 from gpr_kinematics.bags import checks_state
 from gpr_kinematics.bags.checks_state import INPUTS, RULES, rule_for
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.typestore import GPR_TOPICS
 from gpr_kinematics.bags.verify import verify_bag
-from gpr_kinematics.kinematics import forward_batch
-from gpr_kinematics.messages import STATE_FROM_RESULT
+from gpr_kinematics.core import forward_batch
+from gpr_kinematics.core.messages import STATE_FROM_RESULT
 
 
 @pytest.fixture(scope='module')

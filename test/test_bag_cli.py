@@ -14,9 +14,8 @@ from typing import Any
 import pytest
 import yaml
 from bag_support import REFERENCE, STATE, rewritten, small_sweep, write_bag
-
-from gpr_kinematics import cli
 from gpr_kinematics.bags.typestore import GPR_TOPICS
+from gpr_kinematics.cli import main as cli
 
 
 def run(*argv: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -41,7 +40,8 @@ def test_report_paths_that_cannot_be_written(tmp_path: Path, capsys: pytest.Capt
     rep = tmp_path / 'rep'
     rep.mkdir()
     os.mkfifo(rep / 'verify.json')
-    proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'verify', str(REFERENCE), '--report', str(rep)],
+    proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'verify', str(REFERENCE), '--report',
+                           str(rep)],
                           capture_output=True, text=True, timeout=120)
     _one_line_error(proc.returncode, proc.stdout, proc.stderr, 'verify.json exists and is not a regular file')
     (rep / 'verify.json').unlink()

@@ -17,11 +17,10 @@ from typing import Any
 import pytest
 import yaml
 from bag_support import REFERENCE, copy_bag, resign_metadata, small_sweep, verify_many, verify_process, write_bag
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-
 from gpr_kinematics.bags.mcap_file import MAGIC
 from gpr_kinematics.bags.typestore import GPR_TOPICS
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 #: Positions per file in the fixed sweep, and the seconds a batch of verifications may take.
 SWEEP_POSITIONS = 40

@@ -23,12 +23,11 @@ from bag_support import (
     small_sweep,
     write_bag,
 )
-
-from gpr_kinematics import cli
 from gpr_kinematics.bags.metadata import METADATA_DIGEST_KEY, digest_line
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.typestore import GPR_TOPICS
 from gpr_kinematics.bags.verify import verify_bag
+from gpr_kinematics.cli import main as cli
 
 
 @pytest.fixture(scope='module')

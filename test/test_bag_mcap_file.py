@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 from bag_support import REFERENCE, small_sweep, write_bag
-
 from gpr_kinematics.bags import mcap_file
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.mcap_file import read_mcap
@@ -135,7 +134,7 @@ def _fifo_cases(tmp_path: Path, messages: list) -> list[tuple[Path, str]]:
 def test_a_fifo_is_refused_without_blocking(tmp_path: Path, messages: list) -> None:
     """verify and the reader that replay_node uses: exit 2 / BagError naming the FIFO, within seconds."""
     for path, name in _fifo_cases(tmp_path, messages):
-        proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'verify', str(path)], text=True,
+        proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'verify', str(path)], text=True,
                               capture_output=True, timeout=60)
         assert proc.returncode == 2 and 'is a FIFO; allowed: a regular file' in proc.stderr, proc.stderr
         assert name in proc.stderr and proc.stderr.count('\n') == 1

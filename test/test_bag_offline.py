@@ -17,8 +17,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from gpr_kinematics import cli
 from gpr_kinematics.bags import cdr
 from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
@@ -27,6 +25,7 @@ from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
 from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PLATFORM_STREAM_TOPICS, definition, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.bags.writer import SegmentedBagWriter
+from gpr_kinematics.cli import main as cli
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / 'bags' / 'reference_sweep'

@@ -11,13 +11,12 @@ import numpy as np
 import pytest
 import yaml
 from bag_support import REFERENCE, STATE, rewritten, small_sweep, write_bag
-
-from gpr_kinematics import cli
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS
 from gpr_kinematics.bags.verify import verify_bag
-from gpr_kinematics.config import GprConfig, load_config
-from gpr_kinematics.kinematics import forward
+from gpr_kinematics.cli import main as cli
+from gpr_kinematics.core import forward
+from gpr_kinematics.core.config import GprConfig, load_config
 
 #: A different machine: 0.1 mm more radius, rods not at 120 deg, the polar model.
 OTHER = {'radius': 0.093318, 'rod_azimuths': [0.0, 2.1, 4.19], 'model': 'polar'}

@@ -12,16 +12,15 @@ import numpy as np
 import pytest
 import yaml
 from bag_support import rewritten, write_bag
-from robot_support import SHORT_PROGRAM
-
-from gpr_kinematics import cli
 from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
 from gpr_kinematics.bags.typestore import GPR_TOPICS, ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
 from gpr_kinematics.bags.verify import verify_bag
-from gpr_kinematics.messages import robot_text
+from gpr_kinematics.cli import main as cli
+from gpr_kinematics.core.messages import robot_text
 from gpr_kinematics.robot import load_robot, robot_forward
 from gpr_kinematics.robot.program import parse_program
-from gpr_kinematics.robot_stream import robot_stream
+from gpr_kinematics.robot.stream import robot_stream
+from robot_support import SHORT_PROGRAM
 
 ROBOT = load_robot()
 PROGRAM = parse_program(yaml.safe_load(SHORT_PROGRAM), 'test_program')
@@ -280,10 +279,9 @@ def test_the_reference_bag_records_its_geometry_and_robot_latched() -> None:
     """The committed reference sweep was recorded with the package geometry and the shipped example robot, both on
     latched topics whose recorded QoS is transient local (``ros2 bag play`` latches them again)."""
     from bag_support import REFERENCE
-
     from gpr_kinematics.bags.reader import read_bag
     from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
-    from gpr_kinematics.config import load_config
+    from gpr_kinematics.core.config import load_config
 
     bag = read_bag(REFERENCE)
     texts = {t: typestore().deserialize_cdr(bag.topic(t).raw[0], 'std_msgs/msg/String').data
@@ -297,7 +295,7 @@ def test_the_reference_bag_records_its_geometry_and_robot_latched() -> None:
 
 
 def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from gpr_kinematics.resources import config_path
+    from gpr_kinematics.inputs.resources import config_path
 
     assert cli.main(['verify', str(robot_bag), '--robot', str(config_path('robots/example_robot.yaml'))]) == 0
     assert 'robot description: --robot' in capsys.readouterr().out

@@ -16,12 +16,11 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from ros_support import start, wait_for_log
-
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.verify import verify_bag
-from gpr_kinematics.config import load_config
-from gpr_kinematics.nodes.specs import recorded_topics
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.ros.specs import recorded_topics
+from ros_support import start, wait_for_log
 
 pytestmark = pytest.mark.ros
 
@@ -160,12 +159,11 @@ def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> Non
     """A whole-robot program streamed by trajectory_node into a recorder with its default topics: the bag holds
     the robot description once and a RobotState and a wafer pose per sample; gpr verify checks every wafer against
     the robot core with the recorded description; the recorded wafers equal robot_stream's (computed here)."""
-    from robot_support import SHORT_PROGRAM
-
     from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
     from gpr_kinematics.robot import load_robot
     from gpr_kinematics.robot.program import load_program
-    from gpr_kinematics.robot_stream import robot_stream
+    from gpr_kinematics.robot.stream import robot_stream
+    from robot_support import SHORT_PROGRAM
 
     program = tmp_path / 'program.yaml'
     program.write_text(SHORT_PROGRAM)

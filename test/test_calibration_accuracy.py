@@ -10,14 +10,13 @@ import re
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.calibration.stations import BudgetOptions, platform_budget, robot_stations
 from gpr_kinematics.calibration.tolerances import load_tolerances, parse_tolerances
-from gpr_kinematics.cli import main
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import inverse_batch
-from gpr_kinematics.machine import config_with_parameters, parameter_vector
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.machine import config_with_parameters, parameter_vector
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.description import load_robot
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.program import load_program

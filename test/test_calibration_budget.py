@@ -9,15 +9,14 @@ import re
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-
 from gpr_kinematics.calibration.budget import QUANTITIES, accuracy_budget
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.model import pose_jacobian
 from gpr_kinematics.calibration.report import format_budget
 from gpr_kinematics.calibration.tolerances import parse_tolerances
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core import naive_inverse
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError, InputError
-from gpr_kinematics.kinematics import naive_inverse
 
 TOOL = (0.3, 0.0, 0.1)
 

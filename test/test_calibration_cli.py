@@ -10,14 +10,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.calibration import demo
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.measurements import read_measurements
-from gpr_kinematics.cli import main
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import forward
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core import forward
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.inputs.resources import config_path
 
 SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
 

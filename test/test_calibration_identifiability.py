@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.calibration.identifiability import analyse, triangular_factor
 
 

@@ -10,16 +10,15 @@ import math
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-
 from gpr_kinematics.calibration.core_model import CoreModel, check_limits, write_calibrated_config
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.model import evaluate
 from gpr_kinematics.calibration.plan import plan_measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core import forward_batch, inverse_batch
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.kinematics import forward_batch, inverse_batch
 
 SP, SA = 3e-6, 2e-5
 #: Standard deviations of the true machine's deviations per kind of parameter (rod base points, zero offsets, rod

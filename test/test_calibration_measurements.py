@@ -9,7 +9,6 @@ import threading
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.calibration import files, measurements
 from gpr_kinematics.calibration.measurements import (
     Measurements,

@@ -8,8 +8,6 @@ import doctest
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-from scipy.spatial.transform import Rotation
-
 from gpr_kinematics.calibration import model as model_mod
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.model import (
@@ -20,12 +18,13 @@ from gpr_kinematics.calibration.model import (
     pose_error,
     pose_jacobian,
     rod_jacobian,
-    rotation_vector,
 )
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core import naive_inverse
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.machine import PARAMETER_NAMES
+from gpr_kinematics.core.rotations import rotation_vector
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.kinematics import naive_inverse
-from gpr_kinematics.machine import PARAMETER_NAMES
+from scipy.spatial.transform import Rotation
 
 
 def test_doctests():

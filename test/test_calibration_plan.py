@@ -6,15 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.model import pose_jacobian
 from gpr_kinematics.calibration.plan import candidate_configurations, observability_index, plan_measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core import forward_batch
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.kinematics import forward_batch
 
 SP, SA = 5e-6, 2e-5
 

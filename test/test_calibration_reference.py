@@ -8,10 +8,9 @@ import math
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-from scipy.optimize import least_squares
-
 from gpr_kinematics.calibration.model import evaluate
-from gpr_kinematics.kinematics import forward_batch, naive_inverse
+from gpr_kinematics.core import forward_batch, naive_inverse
+from scipy.optimize import least_squares
 
 
 def perturbed(model: ReferenceModel, rng: np.random.Generator, kappa: float) -> np.ndarray:

@@ -7,12 +7,11 @@ import math
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.tolerances import Tolerance, load_tolerances, parse_tolerances
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 
 
 def test_shipped_example_binds_to_the_core_model():

@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.cli import main
-from gpr_kinematics.kinematics import forward, inverse
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core import forward, inverse
 
 
 def run(capsys, *argv):
@@ -118,7 +117,7 @@ def test_malformed_config_file(capsys, tmp_path):
 def test_console_script_runs_without_traceback():
     """The installed entry point and ``python -m`` behave like main(): status 2, one line, no traceback."""
     gpr = Path(sys.executable).with_name('gpr')
-    cmd = [str(gpr)] if gpr.exists() else [sys.executable, '-m', 'gpr_kinematics.cli']
+    cmd = [str(gpr)] if gpr.exists() else [sys.executable, '-m', 'gpr_kinematics.cli.main']
     ok = subprocess.run(cmd + ['fk', '0.3', '0.3', '0.3', '--json'], capture_output=True, text=True, timeout=60)
     assert ok.returncode == 0 and json.loads(ok.stdout)['tilt'] == 0.0
     bad = subprocess.run(cmd + ['fk', '0.3', 'inf', '0.3'], capture_output=True, text=True, timeout=60)

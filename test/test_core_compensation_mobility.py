@@ -3,16 +3,12 @@ import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.compensation import compensate
-from gpr_kinematics.config import (
-    MODELS,
-    load_config,
-)
+from gpr_kinematics.core import forward, inverse, naive_inverse
+from gpr_kinematics.core.compensation import compensate
+from gpr_kinematics.core.config import MODELS, load_config
+from gpr_kinematics.core.mobility import analyze_mobility, exact_dx, rigid_rank, rod_perturbation
+from gpr_kinematics.core.rotations import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.geometry import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
-from gpr_kinematics.kinematics import forward, inverse, naive_inverse
-from gpr_kinematics.mobility import analyze_mobility, exact_dx, rigid_rank, rod_perturbation
 
 CFG = load_config()
 

@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import forward, forward_batch, inverse, inverse_batch, naive_inverse
+from gpr_kinematics.core.config import GprConfig, load_config
+from gpr_kinematics.errors import ConvergenceError
 from scipy.optimize import root
 from scipy.spatial.transform import Rotation
-
-from gpr_kinematics.config import GprConfig, load_config
-from gpr_kinematics.errors import ConvergenceError
-from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_inverse
 
 CFG = load_config()
 R = CFG.radius

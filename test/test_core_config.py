@@ -2,8 +2,7 @@
 import math
 
 import pytest
-
-from gpr_kinematics.config import GprConfig, default_config, load_config
+from gpr_kinematics.core.config import GprConfig, default_config, load_config
 from gpr_kinematics.errors import ConfigError
 
 

@@ -5,8 +5,8 @@ import importlib
 import pytest
 
 #: Core modules whose docstrings hold examples.
-MODULES = ('machine', 'naive', 'forward', 'inverse', 'compliance', 'mobility', 'sweep', 'units', 'cli', 'files',
-           'errors', 'stacked')
+MODULES = ('core.machine', 'core.naive', 'core.forward', 'core.inverse', 'core.compliance', 'core.mobility',
+           'core.sweep', 'inputs.units', 'inputs.files', 'errors', 'inputs.stacked')
 
 
 @pytest.mark.parametrize('name', MODULES)

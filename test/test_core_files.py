@@ -1,4 +1,4 @@
-"""The one bounded reader and the one checked, atomic writer of the package's files (gpr_kinematics.files), and
+"""The one bounded reader and the one checked, atomic writer of the package's files (gpr_kinematics.inputs.files), and
 the one way a message quotes a user's value (errors.brief)."""
 import doctest
 import os
@@ -7,9 +7,10 @@ import threading
 from pathlib import Path
 
 import pytest
-
-from gpr_kinematics import errors, files
 from gpr_kinematics.errors import ConfigError, FileError, InputError, brief
+from gpr_kinematics.inputs import files
+
+from gpr_kinematics import errors
 
 
 def test_doctests():

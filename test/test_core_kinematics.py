@@ -3,23 +3,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
-
-from gpr_kinematics.config import (
-    MODELS,
-    load_config,
-)
-from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.geometry import (
-    matrix_from_quaternion,
-    quaternion_from_matrix,
-    quaternion_multiply,
-    rotation_z,
-    tilt_from_matrix,
-    tilt_normal,
-    tilt_rotation,
-)
-from gpr_kinematics.kinematics import (
+from gpr_kinematics.core import (
     ForwardResult,
     forward,
     forward_batch,
@@ -29,6 +13,18 @@ from gpr_kinematics.kinematics import (
     naive_inverse,
     naive_pose,
 )
+from gpr_kinematics.core.config import MODELS, load_config
+from gpr_kinematics.core.rotations import (
+    matrix_from_quaternion,
+    quaternion_from_matrix,
+    quaternion_multiply,
+    rotation_z,
+    tilt_from_matrix,
+    tilt_normal,
+    tilt_rotation,
+)
+from gpr_kinematics.errors import InputError, LimitError
+from scipy.spatial.transform import Rotation
 
 CFG = load_config()
 R = CFG.radius

@@ -5,14 +5,13 @@ import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.config import MODELS, GprConfig, load_config
+from gpr_kinematics.core import forward, forward_batch, inverse, inverse_batch, naive_forward, naive_inverse
+from gpr_kinematics.core.config import MODELS, GprConfig, load_config
+from gpr_kinematics.core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from gpr_kinematics.core.mobility import analyze_mobility
+from gpr_kinematics.core.sweep import paper_sweep
+from gpr_kinematics.core.virtual_joints import make_model
 from gpr_kinematics.errors import ConfigError, InputError
-from gpr_kinematics.kinematics import forward, forward_batch, inverse, inverse_batch, naive_forward, naive_inverse
-from gpr_kinematics.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
-from gpr_kinematics.mobility import analyze_mobility
-from gpr_kinematics.sweep import paper_sweep
-from gpr_kinematics.virtual_joints import make_model
 
 CFG = load_config()
 R = CFG.radius

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.config import MODELS, load_config
+from gpr_kinematics.core import forward_batch, naive_inverse
+from gpr_kinematics.core.config import MODELS, load_config
+from gpr_kinematics.core.machine import PARAMETER_NAMES, MachineGeometry, config_with_parameters, parameter_vector
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.kinematics import forward_batch, naive_inverse
-from gpr_kinematics.machine import PARAMETER_NAMES, MachineGeometry, config_with_parameters, parameter_vector
 
 CFG = load_config()
 #: Per parameter kind: deviations of the size calibration finds (tens of um, 0.1 mrad), kappa from 0.1 to 10.

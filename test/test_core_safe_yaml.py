@@ -1,5 +1,5 @@
-"""Bounded YAML reading (gpr_kinematics.safe_yaml): aliases, nesting, size, encoding and file kinds refused with a
-message naming the file; ordinary files read as before."""
+"""Bounded YAML reading (gpr_kinematics.inputs.safe_yaml): aliases, nesting, size, encoding and file kinds refused
+with a message naming the file; ordinary files read as before."""
 from __future__ import annotations
 
 import doctest
@@ -11,10 +11,10 @@ import time
 from pathlib import Path
 
 import pytest
-
-from gpr_kinematics import safe_yaml
-from gpr_kinematics.config import load_config, read_yaml
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.inputs import safe_yaml
+from gpr_kinematics.inputs.schema import read_yaml
 
 BOMB = '\n'.join(['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
                  + [f'{c}: &{c} [{", ".join([f"*{p}"] * 9)}]' for p, c in zip('abcdefgh', 'bcdefghi', strict=True)])
@@ -51,7 +51,8 @@ def test_alias_bomb_in_cli_is_bounded(tmp_path) -> None:
     def limit() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
 
-    out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'fk', '0.5', '0.5', '0.5', '--config', str(f)],
+    out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'fk', '0.5', '0.5', '0.5', '--config',
+                          str(f)],
                          capture_output=True, text=True, timeout=60, preexec_fn=limit)
     assert out.returncode == 2
     assert out.stderr.count('\n') == 1 and 'YAML aliases' in out.stderr and 'Traceback' not in out.stderr
@@ -133,7 +134,7 @@ def test_exponent_numbers_without_a_point_are_floats(tmp_path) -> None:
     # "got '13e-2'". The bound on every number still holds, and quoted text stays text.
     assert safe_yaml.load_text('a: [13e-2, -2E+6, +5e-1, 1.5e3, .5e1, "1e3", 1e, 12, 1.5]') == {
         'a': [0.13, -2e6, 0.5, 1500.0, 5.0, '1e3', '1e', 12, 1.5]}
-    base = (Path(__file__).resolve().parents[1] / 'config' / 'gpr.yaml').read_text(encoding='utf-8')
+    base = (Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'config' / 'gpr.yaml').read_text(encoding='utf-8')
     f = tmp_path / 'g.yaml'
     f.write_text(base.replace('radius: 0.093218', 'radius: 93218e-6'), encoding='utf-8')
     assert load_config(f).radius == pytest.approx(0.093218, abs=1e-15)

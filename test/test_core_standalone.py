@@ -13,7 +13,7 @@ import yaml
 
 import gpr_kinematics
 
-RUN = 'import sys; sys.path[:0] = [sys.argv.pop(1)]; from gpr_kinematics.cli import main; sys.exit(main())'
+RUN = 'import sys; sys.path[:0] = [sys.argv.pop(1)]; from gpr_kinematics.cli.main import main; sys.exit(main())'
 
 
 @pytest.fixture(scope='module')

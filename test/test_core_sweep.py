@@ -4,10 +4,9 @@ import warnings
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.config import MODELS
+from gpr_kinematics.core.config import MODELS
+from gpr_kinematics.core.sweep import MAX_SAMPLES, paper_sweep, sweep_grid
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.sweep import MAX_SAMPLES, paper_sweep, sweep_grid
 
 
 @pytest.mark.parametrize('model', MODELS)

@@ -1,13 +1,12 @@
-"""Units of CSV columns (gpr_kinematics.units): one rule for measurement files, station files and joint tables --
+"""Units of CSV columns (gpr_kinematics.inputs.units): one rule for measurement files, station files and joint tables --
 a column's own unit in brackets, else the file's ``# units:`` line, else SI -- the same values read either way."""
 import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics import units
 from gpr_kinematics.calibration.measurements import parse_measurements
 from gpr_kinematics.errors import ConfigError, FileError, InputError
+from gpr_kinematics.inputs import units
 from gpr_kinematics.robot.station_files import read_csv_table, stations_from_csv
 
 ROW_MM = '300,301,299,0.01,-0.02,300,0.006,0.0001,0.0,0.999981999'

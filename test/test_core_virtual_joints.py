@@ -1,22 +1,12 @@
 """Virtual-joint models: analytic Jacobians, the kernel step, convergence from the singular X."""
 import numpy as np
 import pytest
-
-from gpr_kinematics._ops import ARRAY
-from gpr_kinematics.config import (
-    MODELS,
-    load_config,
-)
+from gpr_kinematics.core import forward, forward_batch, naive_inverse
+from gpr_kinematics.core.closure import newton_terms, solve_virtual_joints
+from gpr_kinematics.core.config import MODELS, load_config
+from gpr_kinematics.core.ops import ARRAY
+from gpr_kinematics.core.virtual_joints import CLOSURE_MODELS, coordinate_scale, joint_components, make_model
 from gpr_kinematics.errors import ConvergenceError
-from gpr_kinematics.kinematics import forward, forward_batch, naive_inverse
-from gpr_kinematics.virtual_joints import (
-    CLOSURE_MODELS,
-    coordinate_scale,
-    joint_components,
-    make_model,
-    newton_terms,
-    solve_virtual_joints,
-)
 
 CFG = load_config()
 

@@ -33,11 +33,10 @@ from typing import Any
 import pytest
 import yaml
 from fuzz_support import ESCAPED, Outcome, Worker
+from gpr_kinematics.cli import main as cli
+from gpr_kinematics.inputs.resources import config_path
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
-
-from gpr_kinematics import cli
-from gpr_kinematics.resources import config_path
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE_BAG = ROOT / 'bags' / 'reference_sweep'

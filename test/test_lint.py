@@ -51,7 +51,7 @@ MAX_MODULE_LINES = 450
 
 
 def test_modules_stay_small():
-    big = [str(p.relative_to(ROOT)) for p in sorted((ROOT / 'gpr_kinematics').rglob('*.py'))
+    big = [str(p.relative_to(ROOT)) for p in sorted((ROOT / 'gpr_kinematics' / 'gpr_kinematics').rglob('*.py'))
            if len(p.read_text(encoding='utf-8').splitlines()) > MAX_MODULE_LINES
            and str(p.relative_to(ROOT)) not in NOT_YET_SMALL]
     assert big == [], f'split these modules (at most {MAX_MODULE_LINES} lines each): {big}'

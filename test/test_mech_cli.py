@@ -7,9 +7,8 @@ import math
 import numpy as np
 import pytest
 import yaml
-
-from gpr_kinematics.cli import main
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.inputs.resources import config_path
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:

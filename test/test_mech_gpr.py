@@ -5,13 +5,12 @@ import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.accuracy import accuracy_analysis
-from gpr_kinematics.dexterity import dexterity_sweep
+from gpr_kinematics.core import forward, inverse
 from gpr_kinematics.errors import ConfigError, LimitError
-from gpr_kinematics.kinematics import forward, inverse
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+from gpr_kinematics.mechanisms.dexterity import dexterity_sweep
 
 DEG = math.pi / 180
 

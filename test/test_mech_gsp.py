@@ -6,18 +6,12 @@ import math
 import numpy as np
 import pytest
 import yaml
-from scipy.spatial.transform import Rotation
-
 from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
-from gpr_kinematics.mechanisms.base import (
-    euler_rate_matrix,
-    euler_rotation,
-    homogenize,
-    rotation_from_vector,
-)
+from gpr_kinematics.mechanisms.base import euler_rate_matrix, euler_rotation, homogenize, rotation_from_vector
 from gpr_kinematics.mechanisms.gsp import GeneralizedStewartPlatform, parse_constraint
-from gpr_kinematics.resources import config_path
+from scipy.spatial.transform import Rotation
 
 DEG = math.pi / 180
 

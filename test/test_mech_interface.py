@@ -5,9 +5,8 @@ import zlib
 
 import numpy as np
 import pytest
-
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import MECHANISM_TYPES, load_mechanism
-from gpr_kinematics.resources import config_path
 
 FILES = {
     'gsp_d3_6.yaml': [0.01, -0.01, 0.138, 0.0873, -0.0873, -0.1745],

@@ -5,12 +5,11 @@ import math
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.accuracy import accuracy_analysis, linearized_deviation
 from gpr_kinematics.errors import ConfigError, InputError, SingularityError
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.mechanisms.accuracy import accuracy_analysis, linearized_deviation
 from gpr_kinematics.mechanisms.stewart import StewartPlatform
-from gpr_kinematics.resources import config_path
 
 DEG = math.pi / 180
 

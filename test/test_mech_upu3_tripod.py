@@ -3,14 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.accuracy import accuracy_analysis
-from gpr_kinematics.dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
 from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
+from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+from gpr_kinematics.mechanisms.dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
 from gpr_kinematics.mechanisms.tripod import parasitic_motion
 from gpr_kinematics.mechanisms.upu3 import UPU3
-from gpr_kinematics.resources import config_path
 
 
 @pytest.fixture(scope='module')

@@ -7,13 +7,12 @@ import sys
 
 import numpy as np
 import pytest
-from robot_support import ROBOT
-from test_core_cli import run, run_json  # the core CLI tests' helpers: main() in-process, one JSON line
-
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.stations import Stations
+from robot_support import ROBOT
+from test_core_cli import run, run_json  # the core CLI tests' helpers: main() in-process, one JSON line
 
 PROGRAM = str(config_path('programs/example_robot_program.yaml'))
 
@@ -126,7 +125,7 @@ def test_errors_exit_2_with_one_line(capsys, argv, pattern):
 def test_console_script_without_traceback(tmp_path):
     bad = tmp_path / 'robot.yaml'
     bad.write_text('rods: {velocity: 0.1, acceleration: 0.5}\narms: [{name: arm1, joints: 5}]\n')
-    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli', 'robot', 'fk', '--rods', '0.3', '0.3', '0.3',
+    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'robot', 'fk', '--rods', '0.3', '0.3', '0.3',
                           '--joints', '0', '0', '--robot', str(bad)], capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and res.stdout == ''
     assert res.stderr.startswith('gpr robot: error: ') and 'joints must be a list of 2 to 4' in res.stderr

@@ -3,11 +3,10 @@ import math
 import re
 
 import numpy as np
-from robot_support import ROBOT
-
 from gpr_kinematics.robot import demo
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.stations import Stations
+from robot_support import ROBOT
 
 
 def test_demo_prints_every_station(capsys):

@@ -5,12 +5,12 @@ import math
 
 import pytest
 import yaml
-from robot_support import ROBOT, make_robot, robot_data
-
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core import rotations
+from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.robot import description, planar_arm, stations, transforms
 from gpr_kinematics.robot.description import load_robot
+from robot_support import ROBOT, make_robot, robot_data
 
 
 def test_shipped_example():
@@ -130,10 +130,10 @@ def test_hostile_files(tmp_path, text, pattern):
 
 
 def test_doctests_of_the_robot_modules():
-    for module in (description, planar_arm, stations, transforms):
+    for module in (description, planar_arm, stations, transforms, rotations):
         result = doctest.testmod(module)
         assert result.failed == 0, module.__name__
-    assert math.isclose(transforms.rpy_matrix(0.1, 0.2, 0.3)[2, 0], -math.sin(0.2))
+    assert math.isclose(rotations.rpy_matrix(0.1, 0.2, 0.3)[2, 0], -math.sin(0.2))
 
 
 @pytest.mark.parametrize('rule', ['fixed_joint', 'nearest'])

@@ -4,13 +4,12 @@ import json
 
 import numpy as np
 import pytest
-from robot_support import ROBOT
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.export import sample_table, waypoint_table, write_table
 from gpr_kinematics.robot.plan import plan_program, sample_plan
 from gpr_kinematics.robot.program import load_program
+from robot_support import ROBOT
 
 PLAN = plan_program(ROBOT, load_program(config_path('programs/example_robot_program.yaml')))
 

@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import forward, naive_forward
+from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.robot.forward import arm_transforms, robot_forward
 from robot_support import ROBOT, make_robot, random_postures, robot_data
 from scipy.spatial.transform import Rotation
-
-from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.kinematics import forward, naive_forward
-from gpr_kinematics.robot.forward import arm_transforms, robot_forward
 
 
 def _T(p, R=None):
@@ -87,7 +86,7 @@ def test_untilted_platform_has_no_naive_error():
 
 
 def test_naive_error_at_a_tilt_is_micrometres():
-    from gpr_kinematics.kinematics import inverse
+    from gpr_kinematics.core import inverse
     q = inverse(0.3, math.radians(2.0), 0.0).q
     fk = robot_forward(ROBOT, q, [[0.0, 0.5, -0.5]], 'arm1')
     assert 5e-6 < fk.naive_wafer_error_norm[0] < 100e-6

@@ -4,16 +4,15 @@ import math
 
 import numpy as np
 import pytest
-from robot_support import ROBOT, elbow_angle, make_robot, random_stations, robot_data
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
-
+from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.planar_arm import branch_of, link_vectors
 from gpr_kinematics.robot.stations import Stations
-from gpr_kinematics.robot.transforms import rotation_angle
+from robot_support import ROBOT, elbow_angle, make_robot, random_stations, robot_data
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 
 def _assert_reproduces(robot, sol, arm, tol=1e-9):

@@ -3,14 +3,13 @@ samples, requested times honoured, and unreachable or too fast programs refused 
 import numpy as np
 import pytest
 import yaml
-from robot_support import ROBOT
-
+from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.errors import LimitError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.plan import joint_limits, plan_program, sample_plan
 from gpr_kinematics.robot.program import load_program
-from gpr_kinematics.robot.transforms import rotation_angle
+from robot_support import ROBOT
 
 PLAN = plan_program(ROBOT, load_program(config_path('programs/example_robot_program.yaml')))
 

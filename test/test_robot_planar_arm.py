@@ -3,9 +3,8 @@ import math
 
 import numpy as np
 import pytest
-from robot_support import ROBOT, make_robot, robot_data
-
 from gpr_kinematics.robot.planar_arm import branch_of, chain_forward, link_vectors, solve_arm, two_link, wrap_to_limits
+from robot_support import ROBOT, make_robot, robot_data
 
 
 def test_two_link_reach_edges():

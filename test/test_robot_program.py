@@ -5,11 +5,10 @@ import math
 import numpy as np
 import pytest
 import yaml
-from robot_support import ROBOT
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.program import expand, load_program, parse_program
+from robot_support import ROBOT
 
 EXAMPLE = config_path('programs/example_robot_program.yaml')
 

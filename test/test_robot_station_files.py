@@ -5,7 +5,6 @@ import os
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.robot.station_files import MAX_BYTES, load_stations
 

@@ -1,14 +1,13 @@
 """Teach (joints -> stations) and re-teach (naive joints -> the joints that put the wafer where the old tool meant)."""
 import numpy as np
 import pytest
-from robot_support import ROBOT, elbow_angle, make_robot, random_postures, robot_data
-
+from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.errors import LimitError
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.planar_arm import branch_of
 from gpr_kinematics.robot.teach import reteach, teach
-from gpr_kinematics.robot.transforms import rotation_angle
+from robot_support import ROBOT, elbow_angle, make_robot, random_postures, robot_data
 
 
 @pytest.mark.parametrize('arm', ['arm1', 'arm2'])
@@ -67,7 +66,7 @@ def test_reteach_two_joint_arm_leaves_the_heading_to_the_arm():
 
 def test_reteach_refuses_a_meant_station_beyond_the_reach():
     """Old joints at full stretch: the station the old tool meant lies micrometres beyond the real reach."""
-    from gpr_kinematics.kinematics import inverse
+    from gpr_kinematics.core import inverse
     q = inverse(0.3, 0.025, 0.5).q
     with pytest.raises(LimitError, match=r'station 0: out of reach of arm arm1: the wrist axis would be 0.6000\d+ m '
                                          r'from the shoulder axis, the arm spans \[0, 0.6\] m \(0.01\d+ mm too far\)'):

@@ -2,7 +2,6 @@
 finite differences of the samples, requested durations, refusals."""
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.robot.timing import parameterise, profile, sample, shortest
 

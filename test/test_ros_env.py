@@ -1,4 +1,4 @@
-"""gpr_kinematics.ros_env: the wheel CMake repair, the environment that replaces `source install/setup.bash`."""
+"""gpr_kinematics.ros.env: the wheel CMake repair, the environment that replaces `source install/setup.bash`."""
 from __future__ import annotations
 
 import os
@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy
 import pytest
-
-from gpr_kinematics import ros_env
+from gpr_kinematics.ros import env as ros_env
 
 #: The wheels of this interpreter were built under /opt/python/<CP>-<CP> (e.g. cp311-cp311).
 CP = f'cp{sys.version_info.major}{sys.version_info.minor}'
@@ -58,7 +57,7 @@ def test_environment_like_setup_bash(tmp_path):
 
 def test_exec_runs_a_command_with_the_interfaces_importable():
     code = 'from gpr_interfaces.msg import PlatformState; print(PlatformState().header.frame_id == "")'
-    out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros_env', 'exec', '--', sys.executable, '-c', code],
+    out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros.env', 'exec', '--', sys.executable, '-c', code],
                          capture_output=True, text=True, timeout=60, env={k: v for k, v in os.environ.items()
                                                                           if k != 'LD_LIBRARY_PATH'})
     assert out.returncode == 0, out.stderr
@@ -67,7 +66,7 @@ def test_exec_runs_a_command_with_the_interfaces_importable():
 
 def test_cli_usage_errors():
     for args in ([], ['frobnicate'], ['exec', '--']):
-        out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros_env', *args], capture_output=True,
+        out = subprocess.run([sys.executable, '-m', 'gpr_kinematics.ros.env', *args], capture_output=True,
                              text=True, timeout=60)
         assert out.returncode == 2 and 'usage' in out.stderr
 
@@ -77,14 +76,14 @@ def test_fallback_tf2_msgs_only_where_none_is_installed(tmp_path):
     root = ros_env.repo_root()
     bare = {'AMENT_PREFIX_PATH': str(tmp_path / 'empty')}
     assert ros_env.installed_elsewhere('tf2_msgs', bare) is False       # the PyPI wheels have none
-    assert ros_env.colcon_base_paths(root, bare) == ['.', 'gpr_interfaces', 'fallback/tf2_msgs']
+    assert ros_env.colcon_base_paths(root, bare) == ['gpr_interfaces', 'gpr_kinematics', 'fallback/tf2_msgs']
     ros = tmp_path / 'opt_ros'
     index = ros / 'share' / 'ament_index' / 'resource_index' / 'packages'
     index.mkdir(parents=True)
     (index / 'tf2_msgs').write_text('')
     full = {'AMENT_PREFIX_PATH': str(ros)}
     assert ros_env.installed_elsewhere('tf2_msgs', full) is True
-    assert ros_env.colcon_base_paths(root, full) == ['.', 'gpr_interfaces']
+    assert ros_env.colcon_base_paths(root, full) == ['gpr_interfaces', 'gpr_kinematics']
     # The repository's own install tree does not count as an installed tf2_msgs.
     own = {'AMENT_PREFIX_PATH': str(ros_env.install_dir() / 'tf2_msgs')}
     assert ros_env.installed_elsewhere('tf2_msgs', own) is False

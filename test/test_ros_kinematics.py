@@ -9,15 +9,14 @@ import textwrap
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import forward, inverse
+from gpr_kinematics.core.compensation import compensate
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.mobility import analyze_mobility
+from gpr_kinematics.core.rotations import quaternion_from_matrix, tilt_rotation
 from ros_support import client_session, imperfect_config_file, running, start
 from ros_support import quat as _quat
 from ros_support import vec as _vec
-
-from gpr_kinematics.compensation import compensate
-from gpr_kinematics.config import load_config
-from gpr_kinematics.geometry import quaternion_from_matrix, tilt_rotation
-from gpr_kinematics.kinematics import forward, inverse
-from gpr_kinematics.mobility import analyze_mobility
 
 pytestmark = pytest.mark.ros
 
@@ -317,8 +316,9 @@ def test_bad_parameter_exits_2_with_message():
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_signal_exits_0_quickly(sig):
-    from gpr_interfaces.srv import ForwardKinematics
     from gpr_kinematics.nodes.client import GprClient
+
+    from gpr_interfaces.srv import ForwardKinematics
 
     ns = f'/gpr_sig_{int(sig)}'
     proc = start('kinematics_node', namespace=ns)
@@ -336,9 +336,8 @@ def test_executables_found_like_ros2_run():
     """ros2 run = ament_index_python.get_package_prefix(pkg) + lib/<pkg>/<exe>; ros_env.find_executable agrees
     and points into the colcon install tree."""
     from ament_index_python.packages import get_package_prefix
-
-    from gpr_kinematics import ros_env
-    from gpr_kinematics.nodes.specs import NODES
+    from gpr_kinematics.ros import env as ros_env
+    from gpr_kinematics.ros.specs import NODES
 
     prefix = get_package_prefix('gpr_kinematics')
     assert prefix == str(ros_env.install_dir() / 'gpr_kinematics')

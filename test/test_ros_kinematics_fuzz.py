@@ -10,15 +10,14 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import forward
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.rotations import quaternion_from_matrix, tilt_rotation
+from gpr_kinematics.errors import GprError
+from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from ros_support import quat, start, vec
-
-from gpr_kinematics.config import load_config
-from gpr_kinematics.errors import GprError
-from gpr_kinematics.geometry import quaternion_from_matrix, tilt_rotation
-from gpr_kinematics.kinematics import forward
-from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 
 pytestmark = pytest.mark.ros
 
@@ -97,8 +96,9 @@ def test_forward_kinematics(client, q, model):
 @given(position=VEC3, quaternion=QUAT, model=MODELS)
 @example(position=[0.0, 0.0, 0.4], quaternion=[0.01, 0.0, 0.0, math.sqrt(1 - 1e-4)], model='polar')
 def test_inverse_kinematics(client, position, quaternion, model):
-    from gpr_interfaces.srv import InverseKinematics
     from gpr_kinematics.nodes.conversions import pose_msg
+
+    from gpr_interfaces.srv import InverseKinematics
 
     req = InverseKinematics.Request(target=pose_msg(position, quaternion), model=model)
     res = _check(client, client.call(InverseKinematics, 'gpr/inverse_kinematics', req))

@@ -14,11 +14,10 @@ from pathlib import Path
 
 import pytest
 import yaml
-
-from gpr_kinematics.nodes.specs import KINDS, NODES, node_specs, params_file_text
+from gpr_kinematics.ros.specs import KINDS, NODES, node_specs, params_file_text
 
 ROOT = Path(__file__).resolve().parents[1]
-LAUNCH = ROOT / 'launch'
+LAUNCH = ROOT / 'gpr_kinematics' / 'launch'
 NAMES = ('kinematics', 'offline_loop', 'replay')
 
 
@@ -175,17 +174,18 @@ def test_the_robot_argument_reaches_every_node_with_a_robot(name, monkeypatch):
 
 
 def test_launch_files_use_the_shipped_files():
-    for path in [*LAUNCH.glob('*.launch.xml'), ROOT / 'gpr_kinematics' / 'nodes' / 'launch_common.py']:
+    common = ROOT / 'gpr_kinematics' / 'gpr_kinematics' / 'nodes' / 'launch_common.py'
+    for path in [*LAUNCH.glob('*.launch.xml'), common]:
         text = path.read_text()
         refs = re.findall(r"'(config|rviz)', '(\w+\.(?:yaml|rviz))'|/(config|rviz)/(\w+\.(?:yaml|rviz))", text)
         assert refs, path.name
         for ref in refs:
             folder, name = (ref[0], ref[1]) if ref[0] else (ref[2], ref[3])
-            assert (ROOT / folder / name).is_file(), (path.name, folder, name)
+            assert (ROOT / 'gpr_kinematics' / folder / name).is_file(), (path.name, folder, name)
 
 
 def test_rviz_configuration():
-    cfg = yaml.safe_load((ROOT / 'rviz' / 'gpr.rviz').read_text())
+    cfg = yaml.safe_load((ROOT / 'gpr_kinematics' / 'rviz' / 'gpr.rviz').read_text())
     manager = cfg['Visualization Manager']
     assert manager['Global Options']['Fixed Frame'] == 'gpr_base'
     displays = {d['Class']: d for d in manager['Displays']}
@@ -203,13 +203,13 @@ def test_rviz_configuration():
 
 
 def test_params_file_is_generated_from_the_specs():
-    assert (ROOT / 'config' / 'gpr_params.yaml').read_text() == params_file_text()
+    assert (ROOT / 'gpr_kinematics' / 'config' / 'gpr_params.yaml').read_text() == params_file_text()
 
 
 def test_params_file_values_have_the_declared_types():
     """Every value reads back (YAML 1.1, as ros2 param load and launch read it) with the kind of its parameter;
     every key is a parameter the node declares; every node is in the file."""
-    data = yaml.safe_load((ROOT / 'config' / 'gpr_params.yaml').read_text())
+    data = yaml.safe_load((ROOT / 'gpr_kinematics' / 'config' / 'gpr_params.yaml').read_text())
     assert set(data) == {f'/**/{n}' for n in NODES}
     for key, section in data.items():
         node = key.removeprefix('/**/')

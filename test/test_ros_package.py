@@ -14,10 +14,14 @@ ROOT = Path(__file__).resolve().parents[1]
 ROSDEP = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml', 'matplotlib': 'python3-matplotlib',
     'mpl_toolkits': 'python3-matplotlib', 'rosbags': 'python3-rosbags-pip', 'mcap': 'mcap-ros2-support',
-    'mcap_ros2': 'mcap-ros2-support', 'lz4': 'python3-lz4',
-    'distributed': 'python3-distributed', 'dask': 'python3-dask',
+    'mcap_ros2': 'mcap-ros2-support',
     'backports': 'python3-rosbags-pip',  # backports.zstd, the zstd of rosbags, installed with it
 }
+#: Imported modules that have no rosdep key (rosdistro's rosdep/python.yaml, checked 2026-12-01): installed with pip
+#: (requirements.txt, requirements-ros.txt, setup.py's extras), and named in a comment of package.xml.
+PIP_ONLY = {'lz4', 'dask', 'distributed'}
+#: The rosdep keys package.xml may use besides ROS packages: each checked to exist in rosdistro's rosdep files.
+ROSDEP_KEYS = set(ROSDEP.values()) | {'python3-pytest', 'python3-hypothesis', 'python3-yourdfpy-pip'}
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
                 'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python', 'launch',
                 'launch_ros'}
@@ -26,7 +30,7 @@ ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 
 def imported_modules() -> dict[str, set[str]]:
     """Top-level modules imported anywhere in the package (lazy imports included) -> the files importing them."""
     out: dict[str, set[str]] = {}
-    for path in (ROOT / 'gpr_kinematics').rglob('*.py'):
+    for path in (ROOT / 'gpr_kinematics' / 'gpr_kinematics').rglob('*.py'):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
@@ -42,18 +46,30 @@ def imported_modules() -> dict[str, set[str]]:
 
 
 def exec_depends() -> set[str]:
-    return set(re.findall(r'<exec_depend>([\w-]+)</exec_depend>', (ROOT / 'package.xml').read_text()))
+    manifest = (ROOT / 'gpr_kinematics' / 'package.xml').read_text()
+    return set(re.findall(r'<exec_depend>([\w-]+)</exec_depend>', manifest))
 
 
 def test_every_import_is_declared():
     declared = exec_depends()
     missing = {m: files for m, files in imported_modules().items()
-               if (m if m in ROS_PACKAGES else ROSDEP.get(m)) not in declared}
+               if m not in PIP_ONLY and (m if m in ROS_PACKAGES else ROSDEP.get(m)) not in declared}
     assert not missing, f'imports without an exec_depend in package.xml (add the rosdep key): {missing}'
 
 
+def test_dependencies_are_rosdep_keys_or_named_pip_packages():
+    manifest = (ROOT / 'gpr_kinematics' / 'package.xml').read_text()
+    keys = set(re.findall(r'<(?:exec|test|build)_depend>([\w-]+)</', manifest))
+    unknown = keys - ROSDEP_KEYS - ROS_PACKAGES - {'launch_xml', 'rviz2'}
+    assert not unknown, f'not rosdep keys: {unknown}'
+    comment = ' '.join(re.findall(r'<!--(.*?)-->', manifest, re.S))
+    requirements = ''.join((ROOT / f).read_text().lower() for f in ('requirements.txt', 'requirements-ros.txt'))
+    for name in PIP_ONLY:
+        assert name in comment and f'\n{name}==' in '\n' + requirements, name
+
+
 def test_launch_rviz_and_robot_model_installed():
-    text = (ROOT / 'setup.py').read_text()
+    text = (ROOT / 'gpr_kinematics' / 'setup.py').read_text()
     for folder, pattern in (('launch', "glob('launch/*.launch.py')"), ('launch', "glob('launch/*.launch.xml')"),
                             ('rviz', "glob('rviz/*.rviz')"), ('urdf', "glob('urdf/*.urdf')"),
                             ('config', "glob('config/*.yaml')")):

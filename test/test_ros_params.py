@@ -9,14 +9,13 @@ from pathlib import Path
 
 import pytest
 import yaml
+from gpr_kinematics.ros.specs import NODES, node_specs
 from ros_support import start, wait_for_log
-
-from gpr_kinematics.nodes.specs import NODES, node_specs
 
 pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parents[1]
-PARAMS = ROOT / 'config' / 'gpr_params.yaml'
+PARAMS = ROOT / 'gpr_kinematics' / 'config' / 'gpr_params.yaml'
 #: Parameters each executable needs to stay up for the test (replay_node replays the reference bag in a loop).
 KEEP_UP = {'trajectory_node': ['-p', 'mode:=idle'],
            'replay_node': ['-p', f'bag:={ROOT / "bags" / "reference_sweep"}', '-p', 'loop:=true',

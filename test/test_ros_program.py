@@ -1,21 +1,20 @@
-"""Offline programs of trajectory_node (gpr_kinematics.nodes.program): parsing, validation, interpolation."""
+"""Offline programs of trajectory_node (gpr_kinematics.robot.platform_program): parsing, validation, interpolation."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.nodes.program import load_program, parse_program, sample_program
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot.platform_program import load_platform_program, parse_platform_program, sample_program
 
 
 def _prog(*stations, move_time=None):
     data = {'stations': [dict(zip(('height', 'tilt', 'azimuth', 'dwell'), s, strict=True)) for s in stations]}
     if move_time is not None:
         data['move_time'] = move_time
-    return parse_program(data)
+    return parse_platform_program(data)
 
 
 def test_timeline_dwell_and_move():
@@ -70,7 +69,7 @@ def test_single_station_and_final_instant():
 
 
 def test_example_program_loads():
-    p = load_program(config_path('programs/example_stations.yaml'))
+    p = load_platform_program(config_path('programs/example_stations.yaml'))
     assert [st.name for st in p.stations] == ['load', 'station_a', 'station_b', 'unload']
     assert p.stations[2].move_time == 1.5 and p.move_time == 1.0
 
@@ -88,18 +87,18 @@ def test_example_program_loads():
 ])
 def test_bad_programs_named(data, words):
     with pytest.raises(ConfigError) as err:
-        parse_program(data, 'prog.yaml')
+        parse_platform_program(data, 'prog.yaml')
     for w in words:
         assert w in str(err.value)
 
 
 def test_bad_file_and_rate(tmp_path):
     with pytest.raises(ConfigError, match='cannot read program file'):
-        load_program(tmp_path / 'missing.yaml')
+        load_platform_program(tmp_path / 'missing.yaml')
     f = tmp_path / 'broken.yaml'
     f.write_text('stations: [\n')
     with pytest.raises(ConfigError, match='not valid YAML'):
-        load_program(f)
+        load_platform_program(f)
     with pytest.raises(ConfigError, match='rate'):
         sample_program(_prog((0.3, 0.0, 0.0, 1.0)), 0.0)
     # counted before any array is made (a dwell of 1e12 s was a MemoryError, 1e300 s a ValueError of numpy)

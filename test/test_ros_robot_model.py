@@ -1,4 +1,4 @@
-"""gpr_kinematics.robot_model (no ROS): the URDF and the joint transforms follow the geometry configuration and the
+"""gpr_kinematics.robot.urdf (no ROS): the URDF and the joint transforms follow the geometry configuration and the
 robot description (the arms, blades, wafers); an independent URDF parser (yourdfpy) reads the same kinematics as
 the robot core; the shipped urdf/gpr.urdf and urdf/example_robot.urdf are the generated ones; the figure."""
 from __future__ import annotations
@@ -9,22 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.config import load_config
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.rotations import matrix_from_quaternion, rpy_matrix
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.geometry import matrix_from_quaternion
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 from gpr_kinematics.robot.forward import platform_to_blade
-from gpr_kinematics.robot.transforms import rpy_matrix
-from gpr_kinematics.robot_model import (
-    Joint,
-    Link,
-    RobotModel,
-    gpr_model,
-    joint_transform,
-    main,
-    robot_model,
-)
+from gpr_kinematics.robot.urdf import Joint, Link, RobotUrdf, gpr_urdf, joint_transform, main, robot_urdf
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = load_config()
@@ -40,11 +30,11 @@ def _urdf(tmp_path, model):
 
 
 def test_shipped_urdf_is_the_generated_one():
-    assert (ROOT / 'urdf' / 'gpr.urdf').read_text() == gpr_model(CFG).to_urdf()
+    assert (ROOT / 'gpr_kinematics' / 'urdf' / 'gpr.urdf').read_text() == gpr_urdf(CFG).to_urdf()
 
 
 def test_frames_and_joints():
-    model = gpr_model(CFG)
+    model = gpr_urdf(CFG)
     assert model.root == 'gpr_base'
     names = {link.name for link in model.links}
     assert {'gpr_base', 'gpr_platform', 'gpr_platform_nominal'} <= names
@@ -59,7 +49,7 @@ def test_frames_and_joints():
 @pytest.mark.parametrize('q', [(0.5, 0.5, 0.5), (0.1, 0.3, 0.45)])
 def test_rod_tops_are_the_joint_centres(q):
     """guide (fixed, at the foot) then the prismatic joint: the rod top is P_k = (R cos t_k, R sin t_k, q_k)."""
-    model = gpr_model(CFG)
+    model = gpr_urdf(CFG)
     for k, (theta, qk) in enumerate(zip(CFG.rod_azimuths, q, strict=True), start=1):
         t1, r1 = model.transform(f'gpr_rod_guide_{k}_mount')
         t2, r2 = model.transform(f'rod_{k}', qk)
@@ -72,17 +62,17 @@ def test_rod_tops_are_the_joint_centres(q):
 def test_geometry_is_the_configuration():
     """One source of truth: another radius and stroke change the URDF."""
     other = CFG.replace(radius=0.12, stroke_max=0.3)
-    model = gpr_model(other)
+    model = gpr_urdf(other)
     t, _ = model.transform('gpr_rod_guide_1_mount')
     assert t == pytest.approx([0.12, 0.0, 0.0], abs=1e-15)
     assert model.joint('rod_1').upper == 0.3
-    assert gpr_model(other).to_urdf() != gpr_model(CFG).to_urdf()
+    assert gpr_urdf(other).to_urdf() != gpr_urdf(CFG).to_urdf()
 
 
 def test_independent_urdf_parser_agrees(tmp_path):
     """yourdfpy (a URDF library from the registry) reads the generated file: same links and joints, and its
     forward kinematics of the rods equals robot_model's."""
-    model = gpr_model(CFG)
+    model = gpr_urdf(CFG)
     urdf = _urdf(tmp_path, model)
     assert set(urdf.link_map) == {link.name for link in model.links}
     assert {j.name: j.type for j in urdf.robot.joints} == {j.name: j.kind for j in model.joints}
@@ -102,7 +92,7 @@ def test_extended_model_revolute_joint_and_rpy(tmp_path):
     joints = (Joint('arm_mount', 'fixed', 'gpr_platform', 'arm_link_1', xyz=(0.05, 0.0, 0.02), rpy=(0.1, -0.2, 0.3)),
               Joint('arm_joint_1', 'revolute', 'arm_link_1', 'arm_link_2', xyz=(0.3, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
                     lower=-3.0, upper=3.0))
-    model = gpr_model(CFG).extended(arm, joints)
+    model = gpr_urdf(CFG).extended(arm, joints)
     urdf = _urdf(tmp_path, model)
     urdf.update_cfg({'arm_joint_1': 0.7, 'rod_1': 0.1, 'rod_2': 0.1, 'rod_3': 0.1})
     expect = urdf.get_transform('arm_link_2', 'arm_link_1')
@@ -115,25 +105,25 @@ def test_extended_model_revolute_joint_and_rpy(tmp_path):
 
 def test_invalid_models_refused():
     with pytest.raises(InputError, match='floating'):
-        gpr_model(CFG).transform('gpr_platform_pose')
+        gpr_urdf(CFG).transform('gpr_platform_pose')
     with pytest.raises(InputError, match='no joint'):
-        gpr_model(CFG).joint('nope')
+        gpr_urdf(CFG).joint('nope')
     with pytest.raises(InputError, match='exactly one parent'):
-        RobotModel('r', 'a', (Link('a'), Link('b')), ())
+        RobotUrdf('r', 'a', (Link('a'), Link('b')), ())
     with pytest.raises(InputError, match='invalid'):
-        RobotModel('r', 'a', (Link('a'), Link('b')), (Joint('j', 'ball', 'a', 'b'),))
+        RobotUrdf('r', 'a', (Link('a'), Link('b')), (Joint('j', 'ball', 'a', 'b'),))
     # an arm joint named like a rod joint gave a URDF with two joints rod_1 (and the wrong tf for the arm)
     robot = load_robot()
     arm = robot.arms[0]
     renamed = dataclasses.replace(arm, joints=(dataclasses.replace(arm.joints[0], name='rod_1'), *arm.joints[1:]))
     with pytest.raises(InputError, match=r'joint name\(s\) rod_1 used twice'):
-        robot_model(dataclasses.replace(robot, arms=(renamed, *robot.arms[1:])))
+        robot_urdf(dataclasses.replace(robot, arms=(renamed, *robot.arms[1:])))
 
 
 def test_robot_figure_draws_the_true_errors(tmp_path):
     """The picture of docs/ros.md: a PNG of the whole robot; the centre shift and wafer errors it labels are the
     kinematics' own; the exaggeration scales the exact platform's difference from the naive one."""
-    from gpr_kinematics.robot_plot import exaggerated, robot_figure
+    from gpr_kinematics.robot.plot import exaggerated, robot_figure
 
     sol = solve_stations(ROBOT, Stations.of([[1.2, 0.95, 0.45]], math.radians(2.0), math.radians(30.0), 0.8), 'arm1')
     fig = robot_figure(ROBOT, sol.rods[0], {'arm1': sol.joints[0]}, tmp_path / 'robot.png', exaggeration=1500.0)
@@ -154,14 +144,14 @@ def test_robot_figure_draws_the_true_errors(tmp_path):
 
 
 def test_shipped_example_robot_urdf_is_the_generated_one():
-    assert (ROOT / 'urdf' / 'example_robot.urdf').read_text() == robot_model(ROBOT).to_urdf()
+    assert (ROOT / 'gpr_kinematics' / 'urdf' / 'example_robot.urdf').read_text() == robot_urdf(ROBOT).to_urdf()
 
 
 def test_whole_robot_frames_and_the_arm_chain_equal_the_robot_core(tmp_path):
-    """robot_model of the example robot: world -> gpr_base fixed at the description's base; every arm's revolute
+    """robot_urdf of the example robot: world -> gpr_base fixed at the description's base; every arm's revolute
     joints by the description's names; yourdfpy's forward kinematics of gpr_platform -> wafer equals the robot
     core's (platform_to_blade) for random postures."""
-    model = robot_model(ROBOT)
+    model = robot_urdf(ROBOT)
     assert model.root == 'world'
     assert model.joint('gpr_base_mount').xyz == ROBOT.base_position
     kinds = {j.name: j.kind for j in model.joints}
@@ -187,12 +177,11 @@ def test_whole_robot_frames_and_the_arm_chain_equal_the_robot_core(tmp_path):
 def test_an_imperfect_machines_rods_in_the_model(tmp_path):
     """Rod guides at the feet P_k(0) = B_k + o_k u_k, prismatic axes along u_k: guide + rod at q is the joint centre
     of the kinematics (base_points) on that machine."""
+    from gpr_kinematics.core import base_points
     from ros_support import imperfect_config_file
 
-    from gpr_kinematics.kinematics import base_points
-
     _, cfg = imperfect_config_file(tmp_path)
-    model = gpr_model(cfg)
+    model = gpr_urdf(cfg)
     q = np.array([0.21, 0.33, 0.27])
     centres = base_points(q[None, :], cfg)[0]
     for k in range(3):
@@ -206,8 +195,8 @@ def test_an_imperfect_machines_rods_in_the_model(tmp_path):
 def test_docstring_examples_of_the_model_and_the_figure():
     import doctest
 
-    from gpr_kinematics import robot_model as model_module
-    from gpr_kinematics import robot_plot
+    from gpr_kinematics.robot import plot as robot_plot
+    from gpr_kinematics.robot import urdf as model_module
 
     for module in (model_module, robot_plot):
         result = doctest.testmod(module)
@@ -217,5 +206,5 @@ def test_docstring_examples_of_the_model_and_the_figure():
 def test_main_refuses_an_unreadable_robot_file_in_one_line(capsys, tmp_path):
     assert main([str(tmp_path / 'missing.yaml')]) == 2
     err = capsys.readouterr().err
-    assert err.startswith('robot_model: error: cannot read robot file') and err.count('\n') == 1
+    assert err.startswith('robot_urdf: error: cannot read robot file') and err.count('\n') == 1
     assert 'Traceback' not in err

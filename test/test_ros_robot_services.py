@@ -9,11 +9,10 @@ import math
 import numpy as np
 import pytest
 import yaml
-from ros_support import client_session, imperfect_config_file, quat, running, start, vec
-
-from gpr_kinematics.geometry import matrix_from_quaternion, rotation_z, tilt_rotation
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.core.rotations import matrix_from_quaternion, rotation_z, tilt_rotation
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
+from ros_support import client_session, imperfect_config_file, quat, running, start, vec
 
 pytestmark = pytest.mark.ros
 

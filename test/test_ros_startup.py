@@ -13,9 +13,8 @@ import time
 from pathlib import Path
 
 import pytest
+from gpr_kinematics.ros.specs import NODES, node_specs
 from ros_support import assert_one_error_line, start, wait_for_log
-
-from gpr_kinematics.nodes.specs import NODES, node_specs
 
 pytestmark = pytest.mark.ros
 
@@ -156,7 +155,7 @@ def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tm
     segments close fine while a slow stream runs; a fast stream then overfills a segment. The recorder ends with
     status 1 and one ``stopped:`` line; the segments closed before stay a readable bag."""
     from gpr_kinematics.bags.reader import read_bag
-    from gpr_kinematics.nodes.process import NodeProcess
+    from gpr_kinematics.ros.process import NodeProcess
 
     bag = tmp_path / 'bag'
     env = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}    # no shared-memory files under the limit

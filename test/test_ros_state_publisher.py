@@ -9,16 +9,15 @@ import math
 
 import numpy as np
 import pytest
-from robot_support import SHORT_PROGRAM
-from ros_support import quat, start, vec, wait_for_log
-
-from gpr_kinematics.config import load_config
-from gpr_kinematics.geometry import matrix_from_quaternion
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.rotations import matrix_from_quaternion
+from gpr_kinematics.core.sweep import paper_sweep
 from gpr_kinematics.robot import load_robot, robot_forward
 from gpr_kinematics.robot.forward import arm_transforms
 from gpr_kinematics.robot.program import load_program
-from gpr_kinematics.robot_stream import robot_stream
-from gpr_kinematics.sweep import paper_sweep
+from gpr_kinematics.robot.stream import robot_stream
+from robot_support import SHORT_PROGRAM
+from ros_support import quat, start, vec, wait_for_log
 
 pytestmark = pytest.mark.ros
 
@@ -46,11 +45,11 @@ def _wait_matched(client, topic: str, sp, namespace: str = '/') -> None:
 @pytest.fixture(scope='module')
 def run(ros_environment):
     """state_publisher_node, then a sweep from trajectory_node; every message of /tf, /tf_static, the state."""
+    from gpr_kinematics.nodes.client import GprClient
     from std_msgs.msg import String
     from tf2_msgs.msg import TFMessage
 
     from gpr_interfaces.msg import PlatformState
-    from gpr_kinematics.nodes.client import GprClient
 
     core = paper_sweep(height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP, azimuth_step=AZ_STEP, config=CFG)
     sp = start('state_publisher_node')
@@ -173,10 +172,10 @@ def _matrix(t):
 @pytest.fixture(scope='module')
 def robot_run(ros_environment, tmp_path_factory):
     """state_publisher_node, then the short robot program from trajectory_node; /tf, /tf_static, the states."""
+    from gpr_kinematics.nodes.client import GprClient
     from tf2_msgs.msg import TFMessage
 
     from gpr_interfaces.msg import PlatformState, RobotState
-    from gpr_kinematics.nodes.client import GprClient
 
     path = tmp_path_factory.mktemp('robot') / 'program.yaml'
     path.write_text(SHORT_PROGRAM)

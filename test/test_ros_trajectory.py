@@ -8,13 +8,12 @@ import signal
 import numpy as np
 import pytest
 import yaml
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.config import GprConfig, load_config
+from gpr_kinematics.core.sweep import paper_sweep
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot.platform_program import load_platform_program, sample_program
 from ros_support import imperfect_config_file, start
-
-from gpr_kinematics.config import GprConfig, load_config
-from gpr_kinematics.kinematics import inverse_batch
-from gpr_kinematics.nodes.program import load_program, sample_program
-from gpr_kinematics.resources import config_path
-from gpr_kinematics.sweep import paper_sweep
 
 pytestmark = pytest.mark.ros
 
@@ -187,7 +186,7 @@ def test_geometry_latched_and_loadable(sweep_run):
 def test_an_imperfect_machine_streams_its_own_kinematics_and_markers(ros_environment, tmp_path):
     """A config_file with the keys no ROS parameter holds: the stream is forward kinematics on that machine, the
     markers draw its rods and platform joints (MachineGeometry), gpr/geometry records it whole."""
-    from gpr_kinematics.bags.markers import marker_points
+    from gpr_kinematics.robot.markers import marker_points
 
     path, cfg = imperfect_config_file(tmp_path)
     core = paper_sweep(height=HEIGHT, max_tilt=MAX_TILT, tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0),
@@ -216,7 +215,7 @@ def test_an_imperfect_machine_streams_its_own_kinematics_and_markers(ros_environ
 
 def test_program_mode_streams_the_sampled_program(ros_environment):
     path = config_path('programs/example_stations.yaml')
-    prog = load_program(path)
+    prog = load_platform_program(path)
     rate = 50.0
     samples = sample_program(prog, rate, 2.0)
     rec, status, out = _run_stream('/traj_program', expect=len(samples), mode='program', program_file=path,
@@ -250,8 +249,9 @@ def test_program_mode_bad_file_exits_2(ros_environment, tmp_path):
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_looping_node_exits_0_on_signal(ros_environment, sig):
-    from gpr_interfaces.msg import PlatformState
     from gpr_kinematics.nodes.client import GprClient
+
+    from gpr_interfaces.msg import PlatformState
 
     ns = f'/traj_sig_{int(sig)}'
     with GprClient(f'gpr_test_traj_sig_{int(sig)}') as c:

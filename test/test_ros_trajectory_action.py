@@ -8,12 +8,11 @@ import time
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot.platform_program import load_platform_program, parse_platform_program, sample_program
 from ros_support import client_session, running, start
-
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import inverse_batch
-from gpr_kinematics.nodes.program import load_program, parse_program, sample_program
-from gpr_kinematics.resources import config_path
 
 pytestmark = pytest.mark.ros
 
@@ -42,7 +41,7 @@ def test_program_runs_to_the_end_with_ordered_feedback(client, node):
     feedback: list = []
     result = client.run_program(stations=STATIONS, feedback=feedback.append, timeout=60)
     client.spin_for(0.3)
-    samples = sample_program(parse_program({'stations': STATIONS}), RATE, 0.4)
+    samples = sample_program(parse_platform_program({'stations': STATIONS}), RATE, 0.4)
     n = len(samples)
     assert result.success, result.message
     assert result.samples_published == result.samples_total == n
@@ -62,7 +61,7 @@ def test_program_file_goal(client):
     path = config_path('programs/example_stations.yaml')
     result = client.run_program(program_file=str(path), timeout=60)
     assert result.success, result.message
-    assert result.samples_total == len(sample_program(load_program(path), RATE, 0.4))
+    assert result.samples_total == len(sample_program(load_platform_program(path), RATE, 0.4))
 
 
 def test_cancel_stops_within_one_sample_period_and_says_where(client):

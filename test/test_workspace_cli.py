@@ -6,11 +6,10 @@ import re
 
 import numpy as np
 import pytest
-
-from gpr_kinematics import cli
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.cli import main as cli
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import contains_points
-from gpr_kinematics.workspace_models import load_workspace_model
+from gpr_kinematics.workspace.loader import load_workspace_model
 
 
 def _run(capsys, *argv):
@@ -106,7 +105,7 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
 
     out = tmp_path / 'partial.npz'
     env = dict(os.environ, PYTHONUNBUFFERED='1')
-    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli', 'workspace', 'tripod_3rps.yaml',
+    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'workspace', 'tripod_3rps.yaml',
                              '--delta', '0.0001', '--json', '--boxes', str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     seen = ''

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.workspace.contractor import _BACKWARD_RULES, contract
 from gpr_kinematics.workspace.expressions import BINARY, UNARY, Graph, parse_constraint
 from gpr_kinematics.workspace.tape import Tape

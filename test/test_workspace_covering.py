@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, box_volume, contains_points
-from gpr_kinematics.workspace_models import ShellArmModel, load_workspace_model
+from gpr_kinematics.workspace.loader import load_workspace_model
+from gpr_kinematics.workspace.shell_arm import ShellArmModel
 
 RNG = np.random.default_rng(2024)
 CASES = [('tripod_3rps', 0.004), ('upu3', 0.01), ('gpr', 0.004), ('rrr3_planar', 0.004), ('dextar', 0.01),

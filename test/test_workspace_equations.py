@@ -5,9 +5,8 @@ import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, contains_points, load_workspace_model, model_from_mapping
 from gpr_kinematics.workspace.equations import EquationModel
 

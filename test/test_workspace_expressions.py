@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.interval import Interval
 from gpr_kinematics.workspace.expressions import MAX_DEPTH, Expr, ExpressionError, Graph, parse_constraint
+from gpr_kinematics.workspace.interval import Interval
 from gpr_kinematics.workspace.tape import Tape
 
 RNG = np.random.default_rng(31)

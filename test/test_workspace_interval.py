@@ -1,11 +1,10 @@
-"""Interval arithmetic of gpr_kinematics.interval: enclosures contain sampled values, known exact ranges,
+"""Interval arithmetic of gpr_kinematics.workspace.interval: enclosures contain sampled values, known exact ranges,
 outward rounding checked with exact rational arithmetic."""
 from fractions import Fraction
 
 import numpy as np
 import pytest
-
-from gpr_kinematics.interval import Interval, monotone
+from gpr_kinematics.workspace.interval import Interval, monotone
 
 RNG = np.random.default_rng(12345)
 
@@ -203,7 +202,7 @@ def test_monotone_enclosures_of_wide_intervals_contain_the_true_range(fn):
 def test_outward_rounding_steps_are_nextafter_bit_for_bit():
     """down/up step on the integer view of the floats; they must equal np.nextafter everywhere, the special
     values (signed zeros, infinities, NaN, subnormals, the largest float) and any array layout included."""
-    from gpr_kinematics.interval import down, up
+    from gpr_kinematics.workspace.interval import down, up
     rng = np.random.default_rng(17)
     x = rng.normal(size=50000) * 10.0 ** rng.integers(-320, 308, 50000)
     special = [0.0, -0.0, np.inf, -np.inf, np.nan, 5e-324, -5e-324, 1.0, -1.0, np.finfo(float).max,

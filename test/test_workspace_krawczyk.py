@@ -2,9 +2,8 @@
 has its solution inside K, found independently in closed form), and it proves nothing where solutions are
 missing for part of the box."""
 import numpy as np
-
-from gpr_kinematics.interval import Interval
 from gpr_kinematics.workspace.expressions import Graph, parse_constraint
+from gpr_kinematics.workspace.interval import Interval
 from gpr_kinematics.workspace.krawczyk import krawczyk, newton
 from gpr_kinematics.workspace.tape import Tape
 

@@ -4,19 +4,15 @@ import math
 
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.resources import config_path
-from gpr_kinematics.workspace_models import (
-    DextarModel,
-    GprModel,
-    Rrr3PlanarModel,
-    ShellArmModel,
-    TripodModel,
-    Upu3Model,
-    load_workspace_model,
-    model_from_mapping,
-)
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.workspace.dextar import DextarModel
+from gpr_kinematics.workspace.gpr import GprModel
+from gpr_kinematics.workspace.loader import load_workspace_model, model_from_mapping
+from gpr_kinematics.workspace.planar import Rrr3PlanarModel
+from gpr_kinematics.workspace.shell_arm import ShellArmModel
+from gpr_kinematics.workspace.tripod import TripodModel
+from gpr_kinematics.workspace.upu3 import Upu3Model
 
 RNG = np.random.default_rng(7)
 FILES = ['tripod_3rps', 'upu3', 'gpr', 'rrr3_planar', 'dextar', 'shell_arm']
@@ -114,7 +110,7 @@ def test_rrr3_angle_constraint_is_the_input_angle_range():
 
 
 def test_gpr_rods_tilt_and_displacements_match_the_core_forward_kinematics():
-    from gpr_kinematics.kinematics import forward_batch
+    from gpr_kinematics.core import forward_batch
     model = load_workspace_model(config_path('mechanisms/gpr.yaml'))
     assert isinstance(model, GprModel)
     pts = _uniform(np.array([[0.05, 0.45], [-0.15, 0.15], [-0.15, 0.15]]), 300)
@@ -184,7 +180,7 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'nope'}, 'unknown mechanism type'),
     ({'type': 'dextar', 'la': 0.2}, 'missing key lb'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 'x'}, 'l2 must be a positive finite length'),
-    # one number rule for every YAML loader (config.number_key): no bool, no string, however float() reads it
+    # one number rule for every YAML loader (schema.number_key): no bool, no string, however float() reads it
     ({'type': 'shell_arm', 'l1': True, 'l2': 0.2}, 'l1 must be a positive finite length'),
     ({'type': 'shell_arm', 'l1': '0.5', 'l2': 0.2}, 'l1 must be a positive finite length'),
     ({'type': 'dextar', 'la': 0.2, 'lb': 0.2, 'lc': 0.2, 'ld': 0.2, 'd': '0.1'}, 'd must be a finite length'),

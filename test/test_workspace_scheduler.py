@@ -2,9 +2,8 @@
 parts of a run only change the order; bad schedulers are refused with what is allowed."""
 import numpy as np
 import pytest
-
 from gpr_kinematics.errors import InputError
-from gpr_kinematics.resources import config_path
+from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, load_workspace_model
 from gpr_kinematics.workspace import scheduler as sched
 from gpr_kinematics.workspace.scheduler import Executor

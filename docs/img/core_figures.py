@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gpr_kinematics.config import load_config
-from gpr_kinematics.kinematics import inverse_batch
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.config import load_config
 
 OUT = Path(__file__).resolve().parent
 

@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from gpr_kinematics.robot import Stations, load_robot, solve_stations
-from gpr_kinematics.robot_plot import robot_figure
+from gpr_kinematics.robot.plot import robot_figure
 
 OUT = Path(__file__).resolve().parent / 'ros_robot_tilted.png'
 

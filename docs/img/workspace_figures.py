@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.collections import PolyCollection
 
 from gpr_kinematics.workspace import approximate
-from gpr_kinematics.workspace_models import load_workspace_model
+from gpr_kinematics.workspace.loader import load_workspace_model
 
 OUT = Path(__file__).resolve().parent
 

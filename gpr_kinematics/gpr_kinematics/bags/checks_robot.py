@@ -1,0 +1,264 @@
+"""The whole robot in a recording: which robot description, and the ``robot.*`` checks of its wafer poses.
+
+``trajectory_node`` publishes its robot description once at start on :data:`.typestore.ROBOT_TOPIC`
+(``std_msgs/String``, latched: the YAML of ``RobotDescription.to_dict()``) and, for every sample of a whole-robot
+program, a ``gpr_interfaces/RobotState`` on :data:`.typestore.ROBOT_STATE_TOPIC` (every arm's joints, the arm in
+use, its wafer and blade in the world, the naive model's wafer error) and the wafer alone on
+:data:`.typestore.WAFER_POSE_TOPIC`. ``gpr verify`` uses the recorded description by default (``--robot FILE``
+overrides it), with the geometry the platform is verified against (:mod:`.recorded_geometry`), and checks:
+
+- ``topic.robot``: the recorded descriptions are one text, YAML (with the package's parser and its limits) that
+  :func:`gpr_kinematics.robot.description.parse_robot` accepts, its geometry inline (never a file name), whose
+  ``gpr`` section equals the recorded geometry (under ``--config`` it is replaced by the given one instead);
+- ``robot.structure``: every RobotState has a PlatformState of its stamp with the same sample counter, the robot's
+  world frame, an arm of the robot and every arm's joints by the robot's names (and every PlatformState inside
+  the robot states' span has its RobotState);
+- ``robot.wafer_position``, ``robot.wafer_orientation``, ``robot.blade``, ``robot.naive_wafer_error``: the stored
+  poses and error against :func:`gpr_kinematics.robot.robot_forward` of the PlatformState's rods and the RobotState's
+  joints of its arm (one batch per arm) [m, rad];
+- ``robot.joint_limits``: every arm joint within its range (by how much it is beyond, 1e-9 rad of slack);
+- ``topic.wafer_pose``: a PoseStamped with the stamp and frame of every RobotState and the same pose (1e-12).
+
+Robot states without a robot description (none recorded, none given) fail ``topic.robot``: the wafer cannot be
+verified without knowing the arm. A recording without robot states (a sweep, a platform program) skips the rest.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.config import GprConfig
+from ..errors import GprError, brief
+from ..inputs import safe_yaml
+from ..robot import robot_forward
+from ..robot.description import RobotDescription, parse_robot
+from ..robot.transforms import PoseBatch
+from .cdr import Columns
+from .checks_topics import extra, match, missing
+from .columns import matrix, quaternion_angle, stamp_ns, vec
+from .reader import Bag, TopicData
+from .results import Check, bag_check, bool_check, skipped, value_check
+from .tolerances import Tolerances
+from .typestore import GPR_TOPICS, ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+
+#: Largest robot description message read.
+MAX_ROBOT_BYTES = 1 << 20
+#: Slack of ``robot.joint_limits`` [rad].
+LIMIT_SLACK = 1e-9
+
+
+@dataclass
+class RobotChoice:
+    """The robot description verified against (None: none known), where it came from, the ``topic.robot`` check
+    and notes for the result."""
+
+    robot: RobotDescription | None
+    source: str
+    check: Check
+    notes: list[str] = field(default_factory=list)
+
+
+def _parse(text: str, config: GprConfig, compare: bool) -> RobotDescription:
+    """The recorded description (bounded, its geometry inline: a recording never names a file to read), with
+    ``config`` as its geometry; ``compare``: its own ``gpr`` section must equal ``config``."""
+    if len(text.encode('utf-8', errors='replace')) > MAX_ROBOT_BYTES:
+        raise GprError(f'{len(text)} characters; allowed: at most {MAX_ROBOT_BYTES} bytes')
+    data = safe_yaml.load_text(text, f'{ROBOT_TOPIC} (recorded robot description)')
+    gpr = data.get('gpr') if isinstance(data, dict) else None
+    if isinstance(gpr, dict) and gpr.get('config') is not None:
+        raise GprError(f'its gpr section names a geometry file ({brief(gpr["config"], 40)}); allowed: the geometry '
+                       'inline (config: null), as the recorder writes it')
+    if not compare:
+        return parse_robot(data, ROBOT_TOPIC, geometry=config)
+    recorded = parse_robot(data, ROBOT_TOPIC)
+    if recorded.config != config:
+        raise GprError('its gpr section differs from the geometry verified against')
+    return recorded
+
+
+def _topic(bag: Bag, name: str) -> TopicData | None:
+    t = bag.topic(name)
+    return t if t is not None and len(t) > 0 else None
+
+
+def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, config: GprConfig,
+                 config_given: bool) -> RobotChoice:
+    """The robot to verify the wafer poses against: ``given`` (computing with ``config``), else the recorded one.
+
+    ``config_given``: the geometry came from ``--config``, not from the bag; the recorded description's own ``gpr``
+    section is then not compared with it (the description is read with ``config`` instead)."""
+    t = _topic(bag, ROBOT_TOPIC)
+    states = _topic(bag, ROBOT_STATE_TOPIC) is not None
+    if given is not None:
+        return RobotChoice(given, 'given', skipped('topic.robot', ROBOT_TOPIC, '', f'{given_source} given'),
+                           [f'robot description: {given_source} (given)'])
+    if t is None:
+        if states:
+            return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [(ROBOT_TOPIC, 1.0, 0.0, (
+                'robot states recorded but no robot description: give the robot with --robot FILE'))], 0, ''))
+        return RobotChoice(None, '', skipped('topic.robot', ROBOT_TOPIC, '', 'no robot description recorded'),
+                           ['no robot topics (a platform recording): no robot checks'])
+    if t.msgtype != GPR_TOPICS[ROBOT_TOPIC]:
+        return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
+            (ROBOT_TOPIC, 1.0, 0.0, f'type {t.msgtype}, not a std_msgs/msg/String')], len(t), ''))
+    texts = list(dict.fromkeys(str(v) for v in t.columns()['data']))
+    if len(texts) > 1:
+        return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
+            (ROBOT_TOPIC, float(len(texts)), 1.0, 'the robot description messages differ')], len(t), '', 1.0))
+    try:
+        robot = _parse(texts[0], config, compare=not config_given)
+    except GprError as exc:
+        return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
+            (ROBOT_TOPIC, 1.0, 0.0, f'not a usable robot description: {exc}')], len(t), ''))
+    note = (f'verified the wafer poses against the robot {robot.name} recorded on {ROBOT_TOPIC}' if states else
+            f'robot {robot.name} recorded on {ROBOT_TOPIC}; no robot states (a platform stream): no wafer poses to '
+            'verify')
+    return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''), [note])
+
+
+@dataclass(frozen=True)
+class RobotRows:
+    """Per PlatformState row, the arm joints of the RobotState of its stamp (its names and values; none where the
+    state has no RobotState): what ``gpr/joint_states`` must carry after the rods. Taken from the recorded robot
+    states alone, so the joint states are checked against them whether or not a robot description is known."""
+
+    rows: dict[int, tuple[tuple[str, ...], NDArray[np.float64]]]
+
+    def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
+        return self.rows.get(r)
+
+
+def _names(robot: RobotDescription) -> tuple[str, ...]:
+    return tuple(n for a in robot.arms for n in a.joint_names)
+
+
+def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,
+               robot: RobotDescription) -> NDArray[np.bool_]:
+    """Per matched RobotState ``j`` (of the state ``rows``): frame, sample counter, arm and joint names right."""
+    names = _names(robot)
+    frame_ok = rc['header.frame_id'][j] == robot.world_frame
+    sample_ok = np.asarray(rc['sample'])[j] == np.asarray(c['sample'])[rows]
+    arm_ok = np.isin(rc['arm'][j], robot.arm_names)
+    names_ok = np.array([tuple(n) == names for n in rc['joint_names'][j]], dtype=bool)
+    count = np.asarray(rc['joints#'])[j] == len(names) if 'joints#' in rc else np.zeros(len(j), dtype=bool)
+    out: NDArray[np.bool_] = frame_ok & sample_ok & arm_ok & names_ok & count
+    return out
+
+
+def _pose(rc: Columns, name: str, j: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    return vec(rc, f'{name}.position')[j], vec(rc, f'{name}.orientation', 'xyzw')[j]
+
+
+def _pose_error(stored: tuple[NDArray[np.float64], NDArray[np.float64]], pose: PoseBatch
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Position error [m] and rotation angle + quaternion norm defect [rad] of stored against computed poses."""
+    p, q = stored
+    angle = quaternion_angle(pose.quaternion, q) + np.abs(np.linalg.norm(q, axis=1) - 1.0)
+    return np.max(np.abs(p - pose.position), axis=1), angle
+
+
+def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice,
+                 tol: Tolerances) -> tuple[list[Check], RobotRows | None]:
+    """The ``robot.*`` and ``topic.wafer_pose`` checks (module docstring) against the PlatformState columns ``c``,
+    and the robot joints per state row for the ``gpr/joint_states`` check (None without robot states)."""
+    t = _topic(bag, ROBOT_STATE_TOPIC)
+    if t is None or t.msgtype != GPR_TOPICS[ROBOT_STATE_TOPIC]:
+        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot states in the bag')], None
+    rc = t.columns()
+    stamps, rstamps = stamp_ns(c), stamp_ns(rc)
+    idx = match(rstamps, np.zeros(len(rstamps), dtype=object), stamps, np.zeros(len(stamps), dtype=object))
+    rows = np.flatnonzero(idx >= 0)
+    j = idx[rows]
+    recorded = RobotRows({int(r): (tuple(rc['joint_names'][k]), np.asarray(rc['joints'][k], dtype=float))
+                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
+    robot = choice.robot
+    if robot is None:
+        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \
+            recorded
+    ok = _structure(rc, j, rows, c, robot)
+    names = _names(robot)
+    joints = np.full((len(stamps), len(names)), np.nan)
+    J = matrix(rc['joints'], len(names))[j]
+    if J.shape[1] == len(names):   # (else no message has the robot's joints: ok is all False)
+        joints[rows[ok]] = J[ok]
+    q = matrix(c['q'], 3)
+    e_pos, e_ang, e_blade, e_naive = (missing(stamps, rstamps) for _ in range(4))
+    e_limit = np.zeros(len(stamps))
+    structure = np.ones(len(stamps), dtype=bool)
+    structure[rows] = ok
+    structure[(missing(stamps, rstamps) > 0) & (idx < 0)] = False
+    arms = rc['arm'][j]
+    # every arm's joints against their limits, the arms at rest included
+    lower = np.concatenate([a.lower for a in robot.arms])
+    upper = np.concatenate([a.upper for a in robot.arms])
+    checked = rows[ok]
+    e_limit[checked] = np.max(np.maximum(lower - LIMIT_SLACK - joints[checked], joints[checked] - upper - LIMIT_SLACK)
+                              .clip(0.0), axis=1, initial=0.0)
+    start = 0
+    for a in robot.arms:
+        cols = slice(start, start + len(a.joints))
+        start += len(a.joints)
+        sel = rows[ok & (arms == a.name)]
+        Q, Ja = q[sel], joints[sel, cols]
+        good = np.all(np.isfinite(Q), axis=1) & np.all(np.isfinite(Ja), axis=1)
+        r = sel[good]
+        e_pos[sel[~good]] = e_ang[sel[~good]] = e_blade[sel[~good]] = e_naive[sel[~good]] = np.inf
+        if r.size == 0:
+            continue
+        try:
+            fk = robot_forward(robot, q[r], joints[r, cols], a.name, check_limits=False)
+        except GprError:
+            e_pos[r] = e_ang[r] = e_blade[r] = e_naive[r] = np.inf
+            continue
+        k = idx[r]
+        e_pos[r], e_ang[r] = _pose_error(_pose(rc, 'wafer', k), fk.wafer)
+        bp, ba = _pose_error(_pose(rc, 'blade', k), fk.blade)
+        e_blade[r] = np.maximum(bp, ba)
+        e_naive[r] = np.max(np.abs(vec(rc, 'naive_wafer_error')[k] - fk.naive_wafer_error), axis=1)
+    for e in (e_pos, e_ang, e_blade, e_naive):
+        e[~structure] = np.inf
+    inf_detail = 'inf = no RobotState of this stamp, or its frame, sample, arm or joints are wrong'
+    checks = [
+        bool_check('robot.structure', ROBOT_STATE_TOPIC, structure, samples,
+                   f'RobotState missing, or not in {robot.world_frame}, of another sample, an arm not of robot '
+                   f'{robot.name} or joints other than {", ".join(names)}'),
+        value_check('robot.wafer_position', ROBOT_STATE_TOPIC, e_pos, tol.position, 'm', samples, inf_detail),
+        value_check('robot.wafer_orientation', ROBOT_STATE_TOPIC, e_ang, tol.angle, 'rad', samples, inf_detail),
+        value_check('robot.blade', ROBOT_STATE_TOPIC, e_blade, max(tol.position, tol.angle), 'm|rad', samples,
+                    inf_detail),
+        value_check('robot.naive_wafer_error', ROBOT_STATE_TOPIC, e_naive, tol.position, 'm', samples, inf_detail),
+        value_check('robot.joint_limits', ROBOT_STATE_TOPIC, e_limit, 0.0, 'rad', samples,
+                    'beyond the joint range by this much'),
+    ]
+    checks += [x for x in [extra('robot.structure', ROBOT_STATE_TOPIC, rstamps, stamps, rows.size)] if x]
+    checks += _wafer_pose_checks(bag, rc, np.asarray(rc['sample'], dtype=np.int64), tol.consistency)
+    return checks, recorded
+
+
+def _wafer_pose_checks(bag: Bag, rc: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
+    """``gpr/wafer_pose``: a PoseStamped with the stamp and frame of every RobotState, the same pose."""
+    name = WAFER_POSE_TOPIC
+    t = bag.topic(name)
+    if t is None or t.msgtype != GPR_TOPICS[name]:
+        return [skipped('topic.wafer_pose', name, 'm|rad', 'topic not in the bag', tol)]
+    pc = t.columns()
+    stamps, pstamps = stamp_ns(rc), stamp_ns(pc)
+    idx = match(pstamps, pc['header.frame_id'], stamps, rc['header.frame_id'])
+    ok = idx >= 0
+    e = missing(stamps, pstamps)
+    stored = np.concatenate([vec(pc, 'pose.position'), vec(pc, 'pose.orientation', 'xyzw')], axis=1)
+    wafer = np.concatenate(_pose(rc, 'wafer', np.arange(len(stamps))), axis=1)
+    e[ok] = np.max(np.abs(stored[idx[ok]] - wafer[ok]), axis=1)
+    out = [value_check('topic.wafer_pose', name, e, tol, 'm|rad', samples,
+                       'inf = no message with the stamp and frame of this RobotState')]
+    return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum()))] if x]
+
+
+def robot_summary(choice: RobotChoice) -> dict[str, Any]:
+    """What the result says about the robot (JSON): its name, arms and where it came from."""
+    if choice.robot is None:
+        return {}
+    return {'name': choice.robot.name, 'arms': list(choice.robot.arm_names), 'source': choice.source}

@@ -1,0 +1,214 @@
+"""``topic.*`` checks: every companion topic against the PlatformState of the same sample (matched by stamp).
+
+- ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and the
+  same pose (<= ``consistency``, 1e-12);
+- ``joint_states``: names ``rod_1..rod_3`` (:data:`gpr_kinematics.core.messages.ROD_JOINT_NAMES`), positions ``q``
+  (in a whole-robot recording followed by every arm's joints, the names and values of the RobotState of the
+  stamp; in bags recorded before the virtual joints got their own topic: the rods then the virtual joints' names,
+  positions ``q`` then the virtual joints) (<= 1e-12); ``virtual_joints``: the state's virtual-joint names and
+  values (<= 1e-12);
+- ``markers``: each MarkerArray has the four markers of :data:`.markers.MARKERS` (ids, namespaces, types,
+  ADD), each with the stamp and frame of a PlatformState and the identity pose (so the points are in the
+  base frame), and the points of :func:`.markers.marker_points` for that state (rod tops = joint centres
+  ``P_k``, the platform triangle, the naive outline) within 1e-12 m. Markers may be published for every n-th
+  sample only, so a state without markers is not a failure; markers without a state are.
+
+A sample before the first or after the last message of a companion topic is not counted as missing: a
+recording started, or cut by SIGKILL, in the middle of a sample holds only part of that sample's messages.
+Companion messages without a PlatformState of the same stamp (inside the states' span) are ``*_extra``
+failures.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.config import GprConfig
+from ..core.messages import ROD_JOINT_NAMES
+from ..core.rotations import matrix_from_quaternion
+from ..robot.markers import ADD, MARKERS, marker_points
+from .cdr import COUNT, Columns
+from .columns import field_matrix, matrix, stamp_ns, vec
+from .reader import Bag, TopicData
+from .results import Check, Failure, Series, skipped, value_check
+from .typestore import GPR_TOPICS, VIRTUAL_JOINTS_TOPIC
+
+_UNIT = 'm|rad'
+
+
+def match(companion_stamps: NDArray[np.int64], companion_frames: NDArray[np.object_], stamps: NDArray[np.int64],
+          frames: NDArray[np.object_]) -> NDArray[np.int64]:
+    """Index of the companion message with each PlatformState's stamp and frame, -1 if none."""
+    out = np.full(len(stamps), -1, dtype=np.int64)
+    if len(companion_stamps) == 0:
+        return out
+    order = np.argsort(companion_stamps, kind='stable')
+    sorted_stamps = companion_stamps[order]
+    pos = np.clip(np.searchsorted(sorted_stamps, stamps), 0, len(companion_stamps) - 1)
+    cand = order[pos]
+    hit = (sorted_stamps[pos] == stamps) & np.array([companion_frames[j] == frames[i] for i, j in enumerate(cand)],
+                                                    dtype=bool)
+    out[hit] = cand[hit]
+    return out
+
+
+def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Initial error per PlatformState: inf (missing) inside the companion topic's span of stamps, 0 outside."""
+    e = np.full(len(stamps), np.inf)
+    if len(companion):
+        e[(stamps < companion.min()) | (stamps > companion.max())] = 0.0
+    return e
+
+
+def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
+          matched: int) -> Check | None:
+    """A failed ``<check>_extra`` if the companion topic has messages without a PlatformState of their stamp."""
+    inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max()))) if len(stamps) else 0
+    if inside <= matched:
+        return None
+    n = float(inside - matched)
+    return Check(f'{check}_extra', topic, inside, n, 0.0, 'messages', 1, [
+        Failure(f'{check}_extra', topic, None, n, 0.0, 'messages without a PlatformState of the same stamp')])
+
+
+def _topic(bag: Bag, name: str) -> TopicData | None:
+    t = bag.topic(name)
+    return t if t is not None and t.msgtype == GPR_TOPICS[name] else None
+
+
+def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
+    stamps, frames = stamp_ns(c), c['header.frame_id']
+    out: list[Check] = []
+    for name, field in (('/gpr/platform_pose', 'pose'), ('/gpr/nominal_pose', 'nominal_pose')):
+        check = f'topic.{name.rsplit("/", 1)[-1]}'
+        t = _topic(bag, name)
+        if t is None:
+            out.append(skipped(check, name, _UNIT, 'topic not in the bag', tol))
+            continue
+        pc = t.columns()
+        idx = match(stamp_ns(pc), pc['header.frame_id'], stamps, frames)
+        ok = idx >= 0
+        e = missing(stamps, stamp_ns(pc))
+        e[ok] = np.max(np.abs(field_matrix(pc, 'pose')[idx[ok]] - field_matrix(c, field)[ok]), axis=1)
+        out.append(value_check(check, name, e, tol, _UNIT, samples,
+                               'inf = no message with the stamp and frame of this PlatformState'))
+        out += [x for x in [extra(check, name, stamp_ns(pc), stamps, int(ok.sum()))] if x]
+    return out
+
+
+#: A layout of a JointState topic: for the state ``r``, the joint names and positions it must carry.
+_Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
+
+
+def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
+                  layouts: tuple[_Layout, ...], detail: str) -> list[Check]:
+    """A JointState topic against the states: per matched message, the largest position error of the first
+    layout whose names it carries (inf when it carries none)."""
+    check = f'topic.{name.rsplit("/", 1)[-1]}'
+    t = _topic(bag, name)
+    if t is None:
+        return [skipped(check, name, _UNIT, 'topic not in the bag', tol)]
+    stamps = stamp_ns(c)
+    jc = t.columns()
+    idx = match(stamp_ns(jc), jc['header.frame_id'], stamps, c['header.frame_id'])
+    rows = np.flatnonzero(idx >= 0)
+    e = missing(stamps, stamp_ns(jc))
+    names, positions = jc['name'], jc['position']
+    for r in rows:
+        got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
+        e[r] = np.inf
+        for layout in layouts:
+            want_names, want = layout(int(r))
+            if got_names == want_names and got.shape == want.shape:
+                e[r] = float(np.max(np.abs(got - want), initial=0.0))
+                break
+    out = [value_check(check, name, e, tol, _UNIT, samples, f'inf = missing, or {detail}')]
+    return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
+
+
+def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
+                        arms: Any = None) -> list[Check]:
+    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``), and in a whole-robot recording then every
+    arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the robot states); bags recorded before the
+    virtual joints got their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the
+    virtual joints."""
+    vnames = c['virtual_joint_names']
+
+    def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        robot = arms.joints(r) if arms is not None else None
+        if robot is not None:
+            return ROD_JOINT_NAMES + robot[0], np.concatenate([series.q[r], robot[1]])
+        return ROD_JOINT_NAMES, series.q[r]
+
+    def rods_and_virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        return ROD_JOINT_NAMES + tuple(vnames[r]), np.concatenate([series.q[r], series.virtual_joints[r]])
+
+    def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+        return tuple(vnames[r]), series.virtual_joints[r]
+
+    return (_joint_checks(bag, c, samples, tol, '/gpr/joint_states', (rods, rods_and_virtual),
+                          'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
+                          'recording; or, recorded before, rod_1..rod_3 + the virtual joints)')
+            + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
+                            "names not the state's virtual_joint_names"))
+
+
+def _column(mc: Columns, name: str) -> NDArray[Any] | None:
+    return mc.get(name)
+
+
+def _marker_errors(mc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,
+                   expected: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """Per matched MarkerArray ``j`` (of the state ``rows``): largest point error [m], inf if its structure,
+    stamp, frame or pose differ from the description."""
+    n = len(mc['markers' + COUNT])
+    err = np.where(np.asarray(mc['markers' + COUNT])[j] == len(MARKERS), 0.0, np.inf)
+    stamps, frames = stamp_ns(c)[rows], c['header.frame_id'][rows]
+    for spec in MARKERS:
+        p = f'markers[{spec.id}].'
+        ns, count = _column(mc, p + 'ns'), _column(mc, p + 'points' + COUNT)
+        pts = expected[spec.ns]
+        if ns is None or count is None:
+            return np.full(len(j), np.inf)
+        same = ((ns[j] == spec.ns) & (np.asarray(mc[p + 'id'])[j] == spec.id)
+                & (np.asarray(mc[p + 'type'])[j] == spec.type) & (np.asarray(mc[p + 'action'])[j] == ADD)
+                & (stamp_ns(mc, p + 'header.stamp')[j] == stamps) & (mc[p + 'header.frame_id'][j] == frames)
+                & (np.asarray(count)[j] == pts.shape[1]))
+        pose = np.concatenate([vec(mc, p + 'pose.position'), vec(mc, p + 'pose.orientation', 'xyzw')], axis=1)[j]
+        err = np.maximum(err, np.where(same, np.max(np.abs(pose - [0, 0, 0, 0, 0, 0, 1.0]), axis=1), np.inf))
+        for k in range(pts.shape[1]):
+            got = vec(mc, f'{p}points[{k}]') if f'{p}points[{k}].x' in mc else np.full((n, 3), np.nan)
+            err = np.maximum(err, np.max(np.abs(got[j] - pts[:, k]), axis=1))
+    return err
+
+
+def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float) -> list[Check]:
+    name = '/gpr/markers'
+    t = _topic(bag, name)
+    if t is None or len(t) == 0:
+        return [skipped('topic.markers', name, 'm', 'no markers in the bag', tol)]
+    mc = t.columns()
+    first = 'markers[0].header.'
+    if first + 'frame_id' not in mc:
+        return [Check('topic.markers', name, len(t), np.inf, tol, 'm', len(t),
+                      [Failure('topic.markers', name, None, np.inf, tol, 'no marker in the arrays')])]
+    stamps = stamp_ns(c)
+    idx = match(stamp_ns(mc, first + 'stamp'), mc[first + 'frame_id'], stamps, c['header.frame_id'])
+    rows = np.flatnonzero(idx >= 0)
+    expected = marker_points(cfg, matrix(c['q'], 3)[rows], vec(c, 'nominal_pose.position')[rows],
+                             matrix_from_quaternion(vec(c, 'nominal_pose.orientation', 'xyzw')[rows]))
+    err = _marker_errors(mc, idx[rows], rows, c, expected)
+    out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
+                       'inf = structure, stamp, frame or pose differ; else the largest point error')]
+    return out + [x for x in [extra('topic.markers', name, stamp_ns(mc, first + 'stamp'), stamps, rows.size)] if x]
+
+
+def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
+                 tol: float, arms: Any = None) -> list[Check]:
+    """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
+    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`)."""
+    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms)
+            + _marker_checks(bag, c, samples, cfg, tol))

@@ -1,0 +1,208 @@
+"""``metadata.yaml`` of a rosbag2 bag (format version 9): read and validated, or written with its checksums.
+
+rosbag2 keeps ``rosbag2_bagfile_information``: the storage, the file list with per-file start, duration and
+message count, the topics with their types, type hashes and counts, the totals, and ``custom_data`` (string
+pairs that rosbag2 carries along). The recorder stores the integrity data there:
+
+- ``gpr_sha256/<file>``: the SHA-256 of each closed storage file (SQLite3 has no checksums of its own; MCAP
+  has CRC-32s, which this covers as well);
+- ``gpr_metadata_sha256``: the SHA-256 of the ``metadata.yaml`` bytes without that one line, so any change
+  to the metadata, down to a bit, is seen (a parsed-and-compared digest would miss changes that parse alike);
+  the line itself must read exactly :func:`digest_line` of the value it holds.
+
+These are checksums, not signatures: they catch corruption and edits by anyone who does not recompute them.
+"""
+from __future__ import annotations
+
+import hashlib
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Final, Literal
+
+import yaml
+
+from ..errors import ConfigError
+from ..inputs.schema import read_yaml
+from .errors import BagError
+from .fileio import read_bounded, require_regular
+
+BAG_VERSION: Final[Literal[9]] = 9
+STORAGES = ('mcap', 'sqlite3')
+#: ``custom_data`` key prefix of a storage file's SHA-256, and the key of the metadata's own digest.
+FILE_DIGEST_PREFIX = 'gpr_sha256/'
+METADATA_DIGEST_KEY = 'gpr_metadata_sha256'
+#: Largest ``metadata.yaml`` read: about 250 bytes per storage file, so 16 MiB hold 18 hours of 1 s segments.
+MAX_METADATA_BYTES = 16 << 20
+_DIGEST_LINE = re.compile(rb'^[ \t]*' + METADATA_DIGEST_KEY.encode() + rb':[^\n]*(\n|\Z)', re.MULTILINE)
+_PLACEHOLDER = '0' * 64
+_INDENT = ' ' * 4  # rosbag2_bagfile_information > custom_data > key, as PyYAML indents
+
+
+@dataclass(frozen=True)
+class FileEntry:
+    """One storage file as ``metadata.yaml`` lists it (times in ns since the epoch / ns)."""
+
+    path: str
+    starting_time: int
+    duration: int
+    message_count: int
+
+
+@dataclass(frozen=True)
+class TopicEntry:
+    """One topic as ``metadata.yaml`` lists it."""
+
+    name: str
+    type: str
+    serialization_format: str
+    type_description_hash: str
+    message_count: int
+
+
+@dataclass(frozen=True)
+class Metadata:
+    """The validated ``rosbag2_bagfile_information`` and the digest of the file it came from."""
+
+    version: int
+    storage: str
+    starting_time: int
+    duration: int
+    message_count: int
+    relative_file_paths: tuple[str, ...]
+    files: tuple[FileEntry, ...]
+    topics: tuple[TopicEntry, ...]
+    compression_format: str
+    compression_mode: str
+    custom_data: Mapping[str, str]
+    info: Mapping[str, Any]
+    #: SHA-256 of the file without the digest line, how many digest lines it has (1 when written here) and the
+    #: line (when there is exactly one).
+    computed_digest: str
+    digest_lines: int
+    digest_line: bytes
+
+
+class _Schema:
+    """Typed access to one mapping of the metadata; a wrong type names the field and what is allowed."""
+
+    def __init__(self, source: str, data: Any, where: str) -> None:
+        if not isinstance(data, Mapping):
+            raise BagError(f'{source}: {where or "rosbag2_bagfile_information"} is {type(data).__name__}; allowed: a '
+                           f'mapping')
+        self.source, self.data, self.where = source, data, where
+
+    def _fail(self, key: str, value: Any, allowed: str) -> BagError:
+        text = repr(value)
+        text = text if len(text) <= 60 else text[:57] + '...'
+        return BagError(f'{self.source}: {self.where}{key} = {text} is invalid; allowed: {allowed}')
+
+    def get(self, key: str, default: Any = None) -> Any:
+        if key not in self.data:
+            if default is None:
+                raise BagError(f'{self.source}: missing {self.where}{key}')
+            return default
+        return self.data[key]
+
+    def integer(self, key: str, *path: str) -> int:
+        value = self.get(key)
+        for p in path:
+            value = _Schema(self.source, value, f'{self.where}{key}.').get(p)
+            key = f'{key}.{p}'
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**63:
+            raise self._fail(key, value, 'an integer from 0 to 2^63 - 1')
+        return value
+
+    def text(self, key: str, default: str | None = None) -> str:
+        value = self.get(key, default)
+        if value is None:
+            value = ''
+        if not isinstance(value, str):
+            raise self._fail(key, value, 'a string')
+        return value
+
+    def items(self, key: str) -> list[_Schema]:
+        value = self.get(key, [])
+        if not isinstance(value, list):
+            raise self._fail(key, value, 'a list')
+        return [_Schema(self.source, v, f'{self.where}{key}[{i}].') for i, v in enumerate(value)]
+
+
+def _digest_without_line(text: bytes) -> tuple[str, int, bytes]:
+    lines = list(_DIGEST_LINE.finditer(text))
+    rest = _DIGEST_LINE.sub(b'', text, count=1) if lines else text
+    return hashlib.sha256(rest).hexdigest(), len(lines), lines[0].group(0) if len(lines) == 1 else b''
+
+
+def digest_line(value: str) -> bytes:
+    """The one form of the digest line: ``custom_data``'s indentation, the key, the value in single quotes."""
+    return f"{_INDENT}{METADATA_DIGEST_KEY}: '{value}'\n".encode()
+
+
+def read_metadata(folder: Path) -> Metadata:
+    """Read and validate ``folder/metadata.yaml``.
+
+    Raises:
+        BagError: missing, not a regular file, larger than :data:`MAX_METADATA_BYTES`, not YAML, or a field of
+            the wrong type (named, with what is allowed).
+    """
+    path = folder / 'metadata.yaml'
+    if not path.exists():
+        raise BagError(f'{folder}: no metadata.yaml: not a rosbag2 bag folder (or a recording whose first '
+                       f'segment was never closed)')
+    require_regular(path, 'metadata.yaml')
+    text = read_bounded(path, 'metadata.yaml', MAX_METADATA_BYTES)
+    try:
+        text.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        raise BagError(f'{path}: not UTF-8 text (byte {exc.start}: {text[exc.start:exc.start + 1]!r}); '
+                       f'allowed: a rosbag2 metadata file, UTF-8 YAML') from None
+    try:
+        data = read_yaml(path, 'bag metadata')
+    except ConfigError as exc:
+        raise BagError(f'not a rosbag2 metadata file: {exc}') from None
+    if not isinstance(data, Mapping) or 'rosbag2_bagfile_information' not in data:
+        raise BagError(f'{path}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)')
+    info = data['rosbag2_bagfile_information']
+    top = _Schema(str(path), info, '')
+    version = top.integer('version')
+    storage = top.text('storage_identifier')
+    if storage not in STORAGES:
+        raise top._fail('storage_identifier', storage, ' or '.join(STORAGES))
+    paths = top.get('relative_file_paths', [])
+    if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
+        raise top._fail('relative_file_paths', paths, 'a list of file names')
+    files = tuple(FileEntry(f.text('path'), f.integer('starting_time', 'nanoseconds_since_epoch'),
+                            f.integer('duration', 'nanoseconds'), f.integer('message_count'))
+                  for f in top.items('files'))
+    topics = []
+    for t in top.items('topics_with_message_count'):
+        meta = _Schema(str(path), t.get('topic_metadata'), f'{t.where}topic_metadata.')
+        topics.append(TopicEntry(meta.text('name'), meta.text('type'), meta.text('serialization_format'),
+                                 meta.text('type_description_hash', ''), t.integer('message_count')))
+    custom = top.get('custom_data', {}) or {}
+    if not isinstance(custom, Mapping) or not all(isinstance(k, str) and isinstance(v, str)
+                                                  for k, v in custom.items()):
+        raise top._fail('custom_data', custom, 'a mapping of strings to strings')
+    digest, lines, line = _digest_without_line(text)
+    return Metadata(version=version, storage=storage, starting_time=top.integer('starting_time',
+                                                                                'nanoseconds_since_epoch'),
+                    duration=top.integer('duration', 'nanoseconds'), message_count=top.integer('message_count'),
+                    relative_file_paths=tuple(paths), files=files, topics=tuple(topics),
+                    compression_format=top.text('compression_format', ''),
+                    compression_mode=top.text('compression_mode', ''), custom_data=dict(custom), info=info,
+                    computed_digest=digest, digest_lines=lines, digest_line=line)
+
+
+def render_metadata(info: dict[str, Any]) -> bytes:
+    """``metadata.yaml`` bytes of ``info`` (a ``rosbag2_bagfile_information`` mapping) with the metadata digest
+    :data:`METADATA_DIGEST_KEY` added to its ``custom_data`` (see the module docstring)."""
+    custom = dict(info.get('custom_data') or {})
+    custom[METADATA_DIGEST_KEY] = _PLACEHOLDER
+    text: bytes = yaml.safe_dump({'rosbag2_bagfile_information': {**info, 'custom_data': custom}},
+                                 default_flow_style=False, sort_keys=False).encode('utf-8')
+    digest, lines, line = _digest_without_line(text)
+    if lines != 1 or not line.startswith(_INDENT.encode() + METADATA_DIGEST_KEY.encode()):
+        raise BagError(f'metadata: the {METADATA_DIGEST_KEY} line came out as {line!r} ({lines} such lines)')
+    return text.replace(line, digest_line(digest), 1)

@@ -1,0 +1,178 @@
+"""The verification report folder: ``verify.json``, ``verify.txt`` and PNG plots of the paper's figures 5-11.
+
+Bratovanov & Sotirov §VI plot, against the sample of the singular-tilt sweep and zoomed in around the
+singular configurations: Fig. 5 the rod lengths ``q``; for the polar model (``l``, ``phi``) Fig. 6 the
+linear and Fig. 7 the angular virtual joints and Fig. 8 the side lengths ``L``; for the offset model
+(``dr``, ``dphi``) Fig. 9, 10 and 11 the same. The bag carries the virtual joints of the model it was
+recorded with (plotted from the messages); the other figures are computed from the bag's ``q`` with the
+core (``forward_batch`` with that model), so every figure 5-11 exists for any bag. Each figure has the whole
+stream on top and a zoom of +-``ZOOM`` samples around the first singular crossings below (dotted lines mark
+the crossings). ``centre_shift_vs_tilt.png`` plots the horizontal centre shift against the tilt.
+Units on the axes: mm and degrees (plots only; the data stay SI).
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core import forward_batch
+from ..core.config import GprConfig
+from ..errors import FileError, GprError
+from ..inputs.files import atomic_output, writable_folder, write_text
+from .errors import BagError
+from .results import VerifyResult, format_table
+
+ZOOM = 12
+ZOOM_CROSSINGS = 3
+
+
+def _plt() -> Any:
+    """matplotlib's pyplot with the Agg backend; :class:`BagError` when matplotlib is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise BagError('--report needs matplotlib for its plots, which is not installed') from None
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def check_report_folder(folder: str | Path) -> Path:
+    """Refuse a report folder that cannot be written before any work is done (nothing is created here): an
+    existing path must be a writable folder, a new path must have a writable folder as its nearest existing
+    ancestor. (Each file is checked again when written: :func:`gpr_kinematics.inputs.files.atomic_output`.)
+
+    Raises:
+        BagError: naming the path, what it is, and what is allowed.
+    """
+    out = Path(folder)
+    allowed = 'allowed: a folder (created if missing) in a writable place'
+    if str(folder) == '':
+        raise BagError(f'--report is empty; {allowed}')
+    if out.exists():
+        if not out.is_dir():
+            raise BagError(f'--report {out}: exists and is not a folder; {allowed}')
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise BagError(f'--report {out}: the folder is not writable; {allowed}')
+        return out
+    try:
+        writable_folder(out, '--report')
+    except FileError as exc:  # its message names what is allowed
+        raise BagError(str(exc)) from None
+    return out
+
+
+def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str],
+            ylabel: str, crossings: NDArray[np.int64]) -> None:
+    plt = _plt()
+    fig, (ax, az) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True)
+    for k, lab in enumerate(labels):
+        ax.plot(sample, curves[:, k], lw=0.8, label=lab)
+    ax.set_title(title)
+    ax.set_xlabel('sample')
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend(loc='upper right', fontsize=8)
+    sel = crossings[:ZOOM_CROSSINGS]
+    if sel.size:
+        lo, hi = max(0, int(sel[0]) - ZOOM), min(len(sample), int(sel[-1]) + ZOOM + 1)
+        for k, lab in enumerate(labels):
+            az.plot(sample[lo:hi], curves[lo:hi, k], '.-', lw=0.8, ms=3, label=lab)
+        for c in sel:
+            az.axvline(sample[c], color='k', ls=':', lw=0.8)
+            ax.axvline(sample[c], color='k', ls=':', lw=0.3)
+        az.set_title(f'zoom: samples {sample[lo]}..{sample[hi - 1]} around singular crossings (dotted)')
+    else:
+        az.text(0.5, 0.5, 'no singular crossing in this bag', ha='center', va='center', transform=az.transAxes)
+    az.set_xlabel('sample')
+    az.set_ylabel(ylabel)
+    az.grid(alpha=0.3)
+    _save(fig, path)
+
+
+def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
+    """Write the report into ``folder`` (created; see :func:`check_report_folder`); returns the files written.
+
+    Raises:
+        BagError: the folder or a file cannot be written (named, with the reason).
+    """
+    out = check_report_folder(folder)
+    try:
+        return _write(result, out)
+    except OSError as exc:
+        raise BagError(f'--report {out}: cannot create or write {exc.filename or out}: {exc.strerror or exc}'
+                       ) from None
+
+
+def _save(fig: Any, path: Path) -> Path:
+    """Write the figure as PNG through the package's checked, atomic writer (an existing FIFO, device or link at
+    ``path`` is refused: it would block the write, be overwritten or write elsewhere)."""
+    try:
+        with atomic_output(path, 'report', binary=True) as fh:
+            fig.savefig(fh, format='png', dpi=90)
+    finally:
+        _plt().close(fig)
+    return path
+
+
+def _write(result: VerifyResult, out: Path) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_text(out / 'verify.json', json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n',
+                          'report'),
+               write_text(out / 'verify.txt', format_table(result) + '\n', 'report')]
+    s = result.series
+    if s is None or s.q.shape[0] == 0:
+        return written
+    x, cr = s.sample, s.crossings
+    p = out / 'fig05_rod_lengths.png'
+    _figure(p, 'Fig. 5: rod lengths q (generalized coordinates)', x, s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)
+    written.append(p)
+    p = out / 'fig08_side_lengths.png'
+    _figure(p, 'Fig. 8 / Fig. 11: side lengths L = F(X)', x, s.side_lengths * 1e3, ['L12', 'L23', 'L31'],
+            'L [mm]', cr)
+    written.append(p)
+    finite = np.all(np.isfinite(s.q), axis=1)
+    cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
+    for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
+        if s.model == model and s.virtual_joints.shape[1] == 6:
+            X, source = s.virtual_joints, 'recorded'
+        else:
+            X = np.full((len(x), 6), np.nan)
+            source = f'computed from the recorded q ({s.model} bag)'
+            try:
+                X[finite] = forward_batch(s.q[finite], cfg, model, check_limits=False).virtual_joints
+            except GprError as exc:  # q far outside the workspace (a failed check already): an empty figure
+                source = f'not computable from the recorded q: {type(exc).__name__}'
+        names = ['l1', 'l2', 'l3'] if model == 'polar' else ['dr1', 'dr2', 'dr3']
+        anames = ['phi1', 'phi2', 'phi3'] if model == 'polar' else ['dphi1', 'dphi2', 'dphi3']
+        p = out / f'fig{figs[0]}_{model}_linear_virtual_joints.png'
+        _figure(p, f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source})', x, X[:, :3] * 1e3,
+                names, 'mm', cr)
+        written.append(p)
+        p = out / f'fig{figs[1]}_{model}_angular_virtual_joints.png'
+        _figure(p, f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source})', x,
+                np.degrees(X[:, 3:]), anames, 'deg', cr)
+        written.append(p)
+    if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
+        p = out / 'radial_virtual_joints.png'
+        _figure(p, 'radial model (authors\' earlier [11]): l1, l2, l3 (recorded)', x, s.virtual_joints * 1e3,
+                ['l1', 'l2', 'l3'], 'mm', cr)
+        written.append(p)
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    shift = np.linalg.norm(s.centre_shift[:, :2], axis=1) * 1e6
+    ax.plot(np.degrees(s.tilt), shift, '.', ms=3, label='|centre shift| in the base plane')
+    ax.plot(np.degrees(s.tilt), np.abs(s.centre_shift[:, 2]) * 1e6, '.', ms=2, alpha=0.5, label='|z shift|')
+    ax.set_xlabel('tilt [deg]')
+    ax.set_ylabel('centre shift vs naive model [um]')
+    ax.set_title(f'centre shift against tilt ({s.model} model)')
+    ax.grid(alpha=0.3)
+    ax.legend()
+    written.append(_save(fig, out / 'centre_shift_vs_tilt.png'))
+    return written

@@ -1,0 +1,137 @@
+"""The ``rosbags`` typestore of the suite: ROS 2 Jazzy's standard types plus ``gpr_interfaces``.
+
+``Stores.ROS2_JAZZY`` carries the standard messages (std_msgs, geometry_msgs, sensor_msgs,
+visualization_msgs, ...); the custom messages are registered from the ``.msg`` texts of ``gpr_interfaces``
+(the repository's ``gpr_interfaces/msg`` or an installed ``share/gpr_interfaces/msg``). The type hashes
+(RIHS01) that ``rosbags`` computes equal the ones rosidl generates, so ``ros2 bag`` accepts the bags.
+"""
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+from ..core.messages import MessageTypes
+from .errors import BagError
+
+INTERFACES_PACKAGE = 'gpr_interfaces'
+
+#: The geometry and model that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
+#: node's ``GprConfig.to_dict()``, published once at start (reliable, transient local, depth 1).
+GEOMETRY_TOPIC = '/gpr/geometry'
+#: The virtual joints of each sample (``sensor_msgs/JointState``, names of the model), apart from the physical joints.
+VIRTUAL_JOINTS_TOPIC = '/gpr/virtual_joints'
+
+#: The robot description that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
+#: node's ``RobotDescription.to_dict()`` (the description file format), published once at start, latched.
+ROBOT_TOPIC = '/gpr/robot'
+#: The whole robot at each sample of a robot program (``gpr_interfaces/RobotState``: arm joints, the arm in use,
+#: its wafer) and the wafer pose alone (``geometry_msgs/PoseStamped``), in the robot's world frame.
+ROBOT_STATE_TOPIC = '/gpr/robot_state'
+WAFER_POSE_TOPIC = '/gpr/wafer_pose'
+
+#: Topics the trajectory node publishes and their types: the recorder's default topic list.
+GPR_TOPICS: dict[str, str] = {
+    '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
+    '/gpr/platform_pose': 'geometry_msgs/msg/PoseStamped',
+    '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
+    '/gpr/joint_states': 'sensor_msgs/msg/JointState',
+    VIRTUAL_JOINTS_TOPIC: 'sensor_msgs/msg/JointState',
+    '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+    ROBOT_STATE_TOPIC: 'gpr_interfaces/msg/RobotState',
+    WAFER_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
+    GEOMETRY_TOPIC: 'std_msgs/msg/String',
+    ROBOT_TOPIC: 'std_msgs/msg/String',
+}
+
+#: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.
+PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', '/gpr/joint_states',
+                          VIRTUAL_JOINTS_TOPIC, '/gpr/markers')
+
+#: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC})
+
+PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
+ROBOT_STATE = 'gpr_interfaces/msg/RobotState'
+
+
+def interface_msg_dirs() -> list[Path]:
+    """Folders that may hold the ``gpr_interfaces`` ``.msg`` files: the source tree, then the ament prefixes."""
+    here = Path(__file__).resolve().parent
+    dirs = [here.parents[2] / INTERFACES_PACKAGE / 'msg']  # <repository>/gpr_interfaces in a source checkout
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix:
+            dirs.append(Path(prefix) / 'share' / INTERFACES_PACKAGE / 'msg')
+    return dirs
+
+
+@functools.lru_cache(maxsize=1)
+def typestore() -> Typestore:
+    """ROS 2 Jazzy standard types + every ``gpr_interfaces/msg/*.msg`` (cached)."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for folder in interface_msg_dirs():
+        files = sorted(folder.glob('*.msg')) if folder.is_dir() else []
+        if files:
+            types = {}
+            for f in files:
+                types.update(get_types_from_msg(f.read_text(), f'{INTERFACES_PACKAGE}/msg/{f.stem}'))
+            store.register(types)
+            return store
+    raise BagError('cannot find the gpr_interfaces message definitions (.msg); looked in '
+                   + ', '.join(str(d) for d in interface_msg_dirs()))
+
+
+#: Kinds of a field definition in :func:`fields_of` (``rosbags``' ``Nodetype``).
+BASE, NAME, ARRAY, SEQUENCE = 1, 2, 3, 4
+
+
+def fields_of(msgtype: str) -> list[tuple[str, tuple[int, Any]]]:
+    """``(name, (kind, detail))`` of each field of a known type: ``kind`` :data:`BASE` (detail
+    ``(primitive, bound)``), :data:`NAME` (detail the type name), :data:`ARRAY` or :data:`SEQUENCE` (detail
+    ``((kind, detail), count or bound)``)."""
+    fields: Any = typestore().fielddefs[msgtype][1]
+    return list(fields)
+
+
+def normalize_type(msgtype: str) -> str:
+    """``pkg/Type`` or ``pkg/msg/Type`` -> ``pkg/msg/Type``."""
+    parts = msgtype.strip().split('/')
+    if len(parts) == 2:
+        return f'{parts[0]}/msg/{parts[1]}'
+    return '/'.join(parts)
+
+
+def check_known(msgtype: str, topic: str = '') -> str:
+    """Return the normalised type name or raise :class:`BagError` naming the topic when it is unknown."""
+    name = normalize_type(msgtype)
+    if name not in typestore().fielddefs:
+        where = f'topic {topic!r} has ' if topic else ''
+        raise BagError(f'{where}type {msgtype!r}, which is not in the typestore (ROS 2 Jazzy standard types '
+                       f'and {INTERFACES_PACKAGE}); allowed: a type of those packages, e.g. '
+                       f'geometry_msgs/msg/PoseStamped')
+    return name
+
+
+@functools.cache
+def definition(msgtype: str) -> tuple[str, str]:
+    """(message definition text as rosbag2 stores it, RIHS01 type hash) of a known type."""
+    store = typestore()
+    msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+    return msgdef, store.hash_rihs01(msgtype)
+
+
+@functools.lru_cache(maxsize=1)
+def message_types() -> MessageTypes:
+    """The typestore's classes of the messages :mod:`gpr_kinematics.core.messages` builds (bags written without ROS)."""
+    T = typestore().types
+    return MessageTypes(
+        Time=T['builtin_interfaces/msg/Time'], Header=T['std_msgs/msg/Header'], Point=T['geometry_msgs/msg/Point'],
+        Quaternion=T['geometry_msgs/msg/Quaternion'], Vector3=T['geometry_msgs/msg/Vector3'],
+        Pose=T['geometry_msgs/msg/Pose'], PoseStamped=T['geometry_msgs/msg/PoseStamped'],
+        JointState=T['sensor_msgs/msg/JointState'], PlatformState=T[PLATFORM_STATE],
+        float_sequence=lambda values: np.asarray(values, dtype=np.float64), RobotState=T[ROBOT_STATE])

@@ -1,0 +1,110 @@
+"""Offline verification of a recorded GPR stream against the current kinematics core (``gpr verify``).
+
+:func:`verify_bag` reads the bag (:mod:`.reader`: every MCAP CRC checked, files hashed; a bag that cannot be
+read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic, chooses the geometry
+(:mod:`.recorded_geometry`: the recorded one by default) and runs the families of checks, each in its module:
+
+- ``bag.*`` (:mod:`.checks_bag`): types, type hashes, ``metadata.yaml`` against the files, the checksums;
+- ``topic.geometry`` (:mod:`.recorded_geometry`): the recorded geometry is one usable configuration;
+- ``state.*`` (:mod:`.checks_state`): every PlatformState against forward kinematics of its ``q``;
+- ``stream.*`` (:mod:`.checks_stream`): counters, stamps, jumps at singular crossings;
+- ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp;
+- ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
+  against the robot's forward kinematics, with the recorded robot description (or a given one).
+
+Limits are SI units, in :class:`~.tolerances.Tolerances`. Together with the checksums this makes a bag that differs from
+what was recorded fail: a changed byte of a storage file changes its SHA-256 (and, in MCAP, a CRC), a changed
+byte of ``metadata.yaml`` its digest; a bag whose checksums were recomputed after an edit still has to pass
+every content check.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..core import resolve_config
+from ..core.config import GprConfig
+from ..robot.description import RobotDescription
+from .checks_bag import bag_checks
+from .checks_robot import choose_robot, robot_checks, robot_summary
+from .checks_state import state_checks
+from .checks_stream import singular_crossings, stream_checks
+from .checks_topics import topic_checks
+from .columns import matrix
+from .reader import Bag, read_bag
+from .recorded_geometry import choose
+from .results import Check, Failure, VerifyResult, format_table
+from .tolerances import Tolerances
+from .typestore import PLATFORM_STATE, typestore
+
+__all__ = ['Tolerances', 'VerifyResult', 'format_table', 'verify_bag']
+
+STATE_TOPIC = '/gpr/platform_state'
+
+
+def _no_states() -> Check:
+    why = 'no gpr_interfaces/msg/PlatformState messages on /gpr/platform_state: nothing to verify'
+    return Check('state.present', STATE_TOPIC, 1, 1.0, 0.0, 'messages', 1,
+                 [Failure('state.present', STATE_TOPIC, None, 0.0, 1.0, why)])
+
+
+def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerances: Tolerances | None = None,
+               config_source: str = 'the given configuration', allow_missing_checksums: bool = False,
+               robot: RobotDescription | None = None, robot_source: str = 'the given robot description'
+               ) -> VerifyResult:
+    """Verify a bag (a path or an already read :class:`Bag`); see the module docstring.
+
+    Args:
+        config: the geometry to verify against instead of the recorded one (``config_source`` names it).
+        robot: the robot description to verify the wafer poses against instead of the recorded one (it computes
+            with the geometry verified against); ``robot_source`` names it.
+        allow_missing_checksums: a bag without checksums (another recorder) skips ``bag.checksums``.
+
+    Raises:
+        BagError: the bag cannot be read, or a message does not decode.
+    """
+    t0 = time.perf_counter()
+    if not isinstance(bag, Bag):
+        bag = read_bag(bag)
+    t_read = time.perf_counter() - t0
+    tol = tolerances or Tolerances()
+    # Recorded numbers may be anything (a corrupt q of 1e290): what overflows is a failed check, not a warning.
+    with np.errstate(all='ignore'):
+        checks = bag_checks(bag, allow_missing_checksums)
+        known = typestore().fielddefs
+        for topic in bag.topics.values():
+            if topic.msgtype in known:
+                topic.columns()  # every recorded topic must decode (BagError otherwise)
+        st = bag.topic(STATE_TOPIC)
+        has_states = st is not None and len(st) > 0 and st.msgtype == PLATFORM_STATE
+        c = st.columns() if st is not None and has_states else None
+        q = matrix(c['q'], 3) if c is not None else np.zeros((0, 3))
+        geo = choose(bag, config, config_source, q, resolve_config(None))
+        checks.append(geo.check)
+        given_robot = dataclasses.replace(robot, config=geo.config) if robot is not None else None
+        arms = choose_robot(bag, given_robot, robot_source, geo.config, config_given=config is not None)
+        checks.append(arms.check)
+        series, crossings, ratio = None, 0, 0.0
+        if st is None or c is None:
+            checks.append(_no_states())
+        else:
+            samples = np.asarray(c['sample'], dtype=np.int64)
+            cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
+            state = state_checks(c, samples, st.name, geo.config, tol, cross)
+            stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
+            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol)
+            checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
+                                                                  tol.consistency, robot_rows) + robot_part
+            series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
+    notes = list(geo.notes) + arms.notes
+    if bag.unlisted:
+        notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
+                     f'{", ".join(bag.unlisted)}')
+    return VerifyResult(path=str(bag.path), storage=bag.storage, files=bag.files,
+                        counts={k: len(t) for k, t in bag.topics.items()}, checks=checks, series=series,
+                        crossings=crossings, crossing_ratio=ratio, elapsed=time.perf_counter() - t0, read_time=t_read,
+                        unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
+                        robot=robot_summary(arms))

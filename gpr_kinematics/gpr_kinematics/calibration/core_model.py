@@ -1,0 +1,137 @@
+"""The binding of the calibration engines to the kinematics core: a :class:`~.model.PoseModel` whose poses are
+:func:`gpr_kinematics.core.forward_batch` with the geometry parameters of each row, and the calibrated
+geometry file.
+
+The parameters are the 24 scalars of the geometry file, :data:`gpr_kinematics.core.machine.PARAMETERS`: per rod its base
+point ``rodK_x``, ``rodK_y`` [m], zero offset ``rodK_offset`` [m] and direction ``rodK_ux``, ``rodK_uy`` [rad],
+per joint its place on the platform ``jointK_x``, ``jointK_y`` [m] and stiffness ratio ``kappaK``, identified as
+its anisotropy ``(kappa - 1) / (kappa + 1)`` (:class:`~.model.Parameter`). Every parameter row of a call is one
+machine of the core's per-row batch (``forward_batch(..., parameters=...)``): the ``2 P`` perturbed machines of a
+Jacobian and the samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d`` of its centre
+``P_k`` in ``gpr_base``) goes to the core as well (``forward_batch(..., displacement=...)``).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from ..core import base_points, forward_batch
+from ..core.config import GprConfig
+from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from ..errors import InputError
+from .files import comment_lines, write_text
+from .measurements import Measurements
+from .model import Parameter, ParameterSet, coordinate_of
+
+Array = NDArray[np.float64]
+
+#: A measured configuration may tilt the platform this factor beyond the tilt limit (a pose measured at the
+#: limit, rounding of the commanded rod lengths).
+TILT_MARGIN = 1.05
+
+#: A-priori standard uncertainty of the parameters of each configuration key (the scale of
+#: :class:`~.model.Parameter`): 0.1 mm for lengths, 1 mrad for the rod directions, 0.5 for a joint's anisotropy
+#: (of its range -1 .. 1: the stiffness ratio is not known before measuring).
+SCALES: dict[str, float] = {'rod_positions': 1e-4, 'rod_offsets': 1e-4, 'rod_directions': 1e-3,
+                            'platform_joints': 1e-4, 'kappa': 0.5}
+
+#: The virtual-joint model of calibration and budgets unless one is named.
+MODEL = 'compliant'
+
+def geometry_parameters(config: GprConfig, scales: Mapping[str, float] | None = None) -> ParameterSet:
+    """The parameters of :data:`~gpr_kinematics.core.machine.PARAMETERS` at ``config``'s values; ``scales`` overrides
+    the scale of a configuration key (:data:`SCALES`) or of one parameter by its name."""
+    scales = dict(scales or {})
+    unknown = sorted(set(scales) - set(SCALES) - set(PARAMETER_NAMES))
+    if unknown:
+        raise InputError(f'scales: unknown key(s) {", ".join(unknown)}; allowed: {", ".join(SCALES)} or a '
+                         'parameter name')
+    out = []
+    for gp, value in zip(PARAMETERS, parameter_vector(config).tolist(), strict=True):
+        scale = float(scales.get(gp.name, scales.get(gp.key, SCALES[gp.key])))
+        index = (gp.rod,) if gp.key in ('rod_offsets', 'kappa') else (gp.rod, gp.component)
+        transform = 'anisotropy' if gp.key == 'kappa' else ''
+        out.append(Parameter(gp.name, float(coordinate_of(transform, value)), gp.unit, scale, gp.key, index,
+                             transform, value if transform else None))
+    return ParameterSet(tuple(out))
+
+
+class CoreModel:
+    """Poses of the core's forward kinematics with the geometry parameters of :func:`geometry_parameters`.
+
+    Args:
+        config: the nominal geometry and every other setting (stroke, solver).
+        model: virtual-joint model (default :data:`MODEL`, ``compliant``: the physical model, in which ``kappa``
+            acts; with the default ``kappa`` 1000 it is the ``radial`` model within 0.2 %).
+        scales: a-priori uncertainties (:func:`geometry_parameters`).
+
+    No limit checks (a measured pose may sit at the tilt limit); a parameter row outside the geometry's ranges
+    raises :class:`InputError` (:meth:`~gpr_kinematics.core.machine.MachineGeometry.per_row`).
+    """
+
+    supports_displacement = True
+
+    def __init__(self, config: GprConfig, model: str | None = None,
+                 scales: Mapping[str, float] | None = None) -> None:
+        self.config = config
+        self.model = MODEL if model in (None, '') else str(model)
+        self._parameters = geometry_parameters(config, scales)
+
+    @property
+    def parameters(self) -> ParameterSet:
+        return self._parameters
+
+    def config_for(self, theta: Any) -> GprConfig:
+        """The configuration of the parameter coordinates ``theta (P,)``, with this model (validated): the
+        calibrated geometry file's content."""
+        values = self._parameters.values(np.asarray(theta, dtype=float))
+        return config_with_parameters(self.config.replace(model=self.model), values)
+
+    def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
+        S, N = Q.shape[0], Q.shape[1]
+        values = self._parameters.values(theta)                      # (S, 24), one machine per row
+        d = None if displacement is None else displacement.reshape(S * N, 3, 3)
+        fk = forward_batch(Q.reshape(-1, 3), self.config, self.model, check_limits=False, parameters=values,
+                           displacement=d)
+        return fk.position.reshape(S, N, 3), fk.rotation.reshape(S, N, 3, 3)
+
+
+def check_limits(meas: Measurements, config: GprConfig) -> None:
+    """Refuse measured configurations outside the machine's limits, naming the line and the column: a rod length
+    outside the stroke, or rod lengths that tilt the platform beyond the tilt limit (the tilt of the plane of the
+    joint centres ``P_k``, which every virtual-joint model shares) by more than :data:`TILT_MARGIN`."""
+    lo, hi = config.stroke_min, config.stroke_max
+    outside = np.argwhere((meas.q < lo) | (meas.q > hi))
+    if outside.size:
+        i, k = outside[0]
+        raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
+                         f'[{lo:g}, {hi:g}] m (millimetres? declare "# units: mm")')
+    P = base_points(meas.q, config)
+    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    tilt = np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2])
+    bad = np.flatnonzero(tilt > TILT_MARGIN * config.tilt_limit)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f'{meas.where(i)}, columns q1 q2 q3: the rod lengths tilt the platform by '
+                         f'{np.degrees(tilt[i]):.4g} deg, beyond the tilt limit '
+                         f'{np.degrees(config.tilt_limit):.4g} deg')
+
+
+def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:
+    """YAML text of every key of ``config`` (the schema of ``config/gpr.yaml``), floats at full precision;
+    ``characteristic_length`` is written ``null`` when it follows the radius. ``comments`` head the file."""
+    values = config.to_dict()
+    if config.characteristic_length == config.radius:
+        values['characteristic_length'] = None
+    body = yaml.safe_dump(values, sort_keys=False, default_flow_style=None)
+    return comment_lines(comments) + body
+
+
+def write_calibrated_config(path: str | Path, config: GprConfig, comments: tuple[str, ...] = ()) -> Path:
+    """Write :func:`calibrated_config_text` to ``path`` atomically (a file every command takes with ``--config``)."""
+    return write_text(path, calibrated_config_text(config, comments), 'calibrated geometry')

@@ -1,0 +1,248 @@
+"""Measurement files: commanded rod lengths and the measured pose of ``gpr_platform`` in ``gpr_base``.
+
+A measurement file is CSV text (UTF-8) with one header row naming its columns and one row per measured
+configuration, as exported from a laser tracker's 6-DOF probe (docs/calibration.md)::
+
+    # GPR calibration run 2026-11-30, tracker frame registered to gpr_base
+    # units: mm deg
+    q1,q2,q3,x,y,z,qx,qy,qz,qw,sigma_position,sigma_angle
+    250.0,252.1,248.3,0.0131,-0.0205,250.1,0.00731,0.00285,0.000012,0.99996,0.005,0.001
+
+* Required columns: ``q1 q2 q3`` (commanded rod lengths), ``x y z`` (position of the platform origin) and
+  ``qx qy qz qw`` (its orientation, a unit quaternion x y z w); in any order.
+* Optional columns: ``sigma_position`` (standard deviation of each position coordinate) and ``sigma_angle``
+  (standard deviation of each rotation-vector component); per row, > 0. Without them the caller's defaults
+  weight the residuals.
+* Units: metres and radians unless a ``# units:`` line before the header declares ``mm`` and/or ``deg``
+  (lengths: ``q``, ``x y z``, ``sigma_position``; angles: ``sigma_angle``). The result is always SI.
+* Lines starting with ``#`` are comments; blank lines are skipped.
+
+Refused, with the file, the line and the column named (:class:`~gpr_kinematics.errors.InputError`): a missing,
+unknown or repeated column, a value that is not a finite number, a quaternion whose norm differs from 1 by more
+than :data:`~gpr_kinematics.inputs.validation.QUATERNION_NORM_TOLERANCE`, a value beyond :data:`MAX_VALUE`, a sigma
+outside :data:`SIGMA_RANGE`, an unknown or misplaced unit declaration, a row repeated exactly, a file without
+data rows, and files beyond the limits :data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so
+memory stays bounded).
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.rotations import matrix_from_quaternion
+from ..errors import InputError, brief
+from ..inputs import units
+from ..inputs.validation import QUATERNION_NORM_TOLERANCE
+from .files import comment_lines, read_text, write_text
+
+Array = NDArray[np.float64]
+
+REQUIRED_COLUMNS = ('q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
+SIGMA_COLUMNS = ('sigma_position', 'sigma_angle')
+#: Largest measurement file [bytes]: 16 MiB holds ~100,000 rows of full-precision numbers.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+#: Most data rows accepted (600,000 residuals; identification memory grows with rows x parameters).
+MAX_ROWS = 100_000
+#: Longest line accepted [characters].
+MAX_LINE_CHARS = 2048
+#: Largest magnitude of a value, in the file's units (a GPR is not a kilometre tall; bounded values cannot
+#: overflow later).
+MAX_VALUE = 1e6
+#: Range of a standard deviation, SI: [m] for sigma_position, [rad] for sigma_angle.
+SIGMA_RANGE = (1e-9, 0.1)
+
+_LENGTH_COLUMNS = frozenset(('q1', 'q2', 'q3', 'x', 'y', 'z', 'sigma_position'))
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """Measured poses, SI units.
+
+    Attributes:
+        source: file name (or a label) used in messages.
+        q: commanded rod lengths ``(N, 3)`` [m].
+        position: measured platform origin in ``gpr_base`` ``(N, 3)`` [m].
+        quaternion: measured orientation ``(N, 4)`` (x, y, z, w), normalised.
+        sigma_position, sigma_angle: per-row standard deviations ``(N,)`` [m], [rad], or ``None`` when the file
+            has no such column.
+        lines: line number of each row in the file (for messages).
+        units: the units the file declared, ``(length, angle)``.
+    """
+
+    source: str
+    q: Array
+    position: Array
+    quaternion: Array
+    sigma_position: Array | None
+    sigma_angle: Array | None
+    lines: tuple[int, ...]
+    units: tuple[str, str] = ('m', 'rad')
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    @property
+    def rotation(self) -> Array:
+        """Measured rotation matrices ``(N, 3, 3)``."""
+        return matrix_from_quaternion(self.quaternion)
+
+    def where(self, i: int) -> str:
+        """``'<source> line <n>'`` of row ``i``, for messages."""
+        return f'{self.source} line {self.lines[i]}'
+
+
+def _header(fields: list[str], where: str, defaults: units.FileUnits) -> tuple[list[str], list[float]]:
+    """The column names of the header row and each column's factor to SI (:mod:`gpr_kinematics.inputs.units`)."""
+    named = [units.column(f, where) for f in fields]
+    cols = [name.lower() for name, _ in named]
+    allowed = REQUIRED_COLUMNS + SIGMA_COLUMNS
+    for c in cols:
+        if c not in allowed:
+            raise InputError(f'{where}: unknown column {c[:40]!r}; allowed: {", ".join(allowed)}')
+        if cols.count(c) > 1:
+            raise InputError(f'{where}: column {brief(c)} appears {cols.count(c)} times; each column once')
+    missing = [c for c in REQUIRED_COLUMNS if c not in cols]
+    if missing:
+        raise InputError(f'{where}: missing column(s) {", ".join(missing)}; required: {", ".join(REQUIRED_COLUMNS)} '
+                         '(a header row naming the columns comes first)')
+    kinds = {c: 'length' for c in _LENGTH_COLUMNS} | {'sigma_angle': 'angle'}
+    return cols, [units.scale(kinds.get(c, 'number'), unit, defaults, where, c)[0]
+                  for c, (_, unit) in zip(cols, named, strict=True)]
+
+
+def _number(text: str, where: str, column: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number') from None
+    if not math.isfinite(v):
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]} is not a finite number; allowed: finite '
+                         'values')
+    if abs(v) > MAX_VALUE:
+        raise InputError(f'{where}, column {column}: {v:g} is implausibly large; allowed: |value| <= {MAX_VALUE:g} '
+                         "in the file's units")
+    return v
+
+
+@dataclass
+class _Table:
+    """The rows of a measurement file as read, before unit conversion and the pose checks."""
+
+    units: units.FileUnits | None = None
+    cols: list[str] | None = None
+    scales: list[float] = field(default_factory=list)
+    rows: list[list[float]] = field(default_factory=list)
+    lines: list[int] = field(default_factory=list)
+    seen: dict[tuple[float, ...], int] = field(default_factory=dict)
+
+    def comment(self, line: str, where: str) -> None:
+        if units.is_units_line(line):
+            if self.cols is not None or self.units is not None:
+                raise InputError(f'{where}: "# units:" must come once, before the header row')
+            self.units = units.file_units(line, where)
+
+    def row(self, fields: list[str], lineno: int, where: str) -> None:
+        if self.cols is None:
+            self.cols, self.scales = _header(fields, where, self.units or (None, None))
+            return
+        if len(fields) != len(self.cols):
+            raise InputError(f'{where}: {len(fields)} values, but the header names {len(self.cols)} columns')
+        if len(self.rows) == MAX_ROWS:
+            raise InputError(f'{where}: more than {MAX_ROWS} data rows; allowed: at most {MAX_ROWS}')
+        values = [_number(f, where, c) for f, c in zip(fields, self.cols, strict=True)]
+        key = tuple(values)
+        if key in self.seen:
+            raise InputError(f'{where} repeats line {self.seen[key]} exactly (a copied row?); each measurement once')
+        self.seen[key] = lineno
+        self.rows.append(values)
+        self.lines.append(lineno)
+
+
+def _read_table(text: str, source: str) -> _Table:
+    """The header, the rows and the declared units of a measurement file's text."""
+    table = _Table()
+    for lineno, raw in enumerate(text.split('\n'), 1):
+        where = f'{source} line {lineno}'
+        if len(raw) > MAX_LINE_CHARS:
+            raise InputError(f'{where}: {len(raw)} characters; allowed: at most {MAX_LINE_CHARS} per line')
+        line = raw.strip()
+        if not line:
+            continue
+        if line.startswith('#'):
+            table.comment(line, where)
+            continue
+        try:
+            fields = next(csv.reader([line]))
+        except csv.Error as exc:
+            raise InputError(f'{where}: not a CSV row ({exc})') from None
+        table.row(fields, lineno, where)
+    if table.cols is None:
+        raise InputError(f'{source}: no header row; the first line that is not a comment must name the columns '
+                         f'({",".join(REQUIRED_COLUMNS)})')
+    if not table.rows:
+        raise InputError(f'{source}: no data rows after the header')
+    return table
+
+
+def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
+    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
+    table = _read_table(text, source)
+    cols, rows, line_nos = table.cols or [], table.rows, table.lines
+    length, angle = table.units or (None, None)
+    data = np.array(rows)
+    col = {c: data[:, i] * table.scales[i] for i, c in enumerate(cols)}
+    quat = np.column_stack([col['qx'], col['qy'], col['qz'], col['qw']])
+    norm = np.linalg.norm(quat, axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f'{source} line {line_nos[i]}, columns qx qy qz qw: quaternion norm {norm[i]:.9g}; a unit '
+                         f'quaternion is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
+    sig = {}
+    lo, hi = SIGMA_RANGE
+    for c in SIGMA_COLUMNS:
+        if c in col:
+            bad = np.flatnonzero(~((col[c] >= lo) & (col[c] <= hi)))
+            if bad.size:
+                i = int(bad[0])
+                raise InputError(f'{source} line {line_nos[i]}, column {c}: {rows[i][cols.index(c)]!r} is outside '
+                                 f'[{lo:g}, {hi:g}] ({"m" if c == "sigma_position" else "rad"}, SI)')
+        sig[c] = col.get(c)
+    return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
+                        position=np.column_stack([col['x'], col['y'], col['z']]),
+                        quaternion=quat / norm[:, None], sigma_position=sig['sigma_position'],
+                        sigma_angle=sig['sigma_angle'], lines=tuple(line_nos), units=(length or 'm', angle or 'rad'))
+
+
+def read_measurements(path: str | Path) -> Measurements:
+    """Read and check a measurement file (format in the module docstring).
+
+    Raises:
+        InputError: the file cannot be read, is not a regular file, is too large, is not UTF-8, or any check of
+            :func:`parse_measurements` fails; the message names the file, the line and the column.
+    """
+    return parse_measurements(read_text(path, 'measurement', MAX_FILE_BYTES), str(path))
+
+
+def format_measurements(m: Measurements, comments: tuple[str, ...] = ()) -> str:
+    """Measurement-file text of ``m`` in SI units, every value at full precision (``repr``), sigma columns when
+    ``m`` has them; ``comments`` become ``#`` lines at the top."""
+    cols = list(REQUIRED_COLUMNS)
+    parts = [m.q, m.position, m.quaternion]
+    for name, val in (('sigma_position', m.sigma_position), ('sigma_angle', m.sigma_angle)):
+        if val is not None:
+            cols.append(name)
+            parts.append(np.asarray(val)[:, None])
+    data = np.hstack(parts)
+    out = ['# units: m rad', ','.join(cols)] + [','.join(repr(float(v)) for v in row) for row in data]
+    return comment_lines(comments) + '\n'.join(out) + '\n'
+
+
+def write_measurements(path: str | Path, m: Measurements, comments: tuple[str, ...] = ()) -> Path:
+    """Write ``m`` as a measurement file (:func:`format_measurements`), atomically."""
+    return write_text(path, format_measurements(m, comments), 'measurement')

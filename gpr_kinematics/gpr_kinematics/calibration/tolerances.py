@@ -1,0 +1,301 @@
+"""Tolerance tables: what is known about a machine before (or after) calibration, for the accuracy budget.
+
+A tolerance table is a YAML file (docs/calibration.md; example ``config/calibration/tolerances_example.yaml``)::
+
+    units: {length: mm, angle: deg}        # optional; SI (m, rad) by default
+    parameters:                            # the model's parameters, by name or by configuration key
+      rod_positions: {tolerance: 0.03}     # deviation uniform in [-0.03, 0.03] mm about the nominal
+      rod_directions: {tolerance: 0.01, distribution: normal} # normal, tolerance = 3 sigma (deg here)
+      rod2_offset: {tolerance: 0.01}       # one parameter's own entry wins over its key's
+      kappa: {range: [0.5, 2.0], distribution: log-uniform}   # the value itself lies in the range
+    rod_length: {tolerance: 0.002}         # actuator positioning error, each rod at each pose
+    joint_clearance: 0.003                 # play of each spherical joint (radius of a ball), or [c1, c2, c3]
+    measurement_noise: {position: 0.005, angle: 0.001}        # tracker sigmas, for a planned calibration
+
+Distributions: ``uniform`` (default) on ``[-t, t]`` or on the range; ``normal`` with ``sigma = t / 3`` (the
+tolerance is the 3-sigma bound, and the worst case of the linearised budget); ``log-uniform`` on a range of
+positive values (a stiffness ratio known within a factor). A stiffness ratio takes uniform or log-uniform within
+``1e-6 .. 1e6`` and is varied as its anisotropy ``(kappa - 1) / (kappa + 1)`` (the coordinate of
+:class:`~.model.Parameter`). A joint's play displaces its centre uniformly within a ball of radius ``c`` (each
+component: ``sigma = c / sqrt(5)``), anew at every pose.
+
+Every value is checked (:class:`~gpr_kinematics.errors.ConfigError` naming the file, key and what is allowed),
+and tolerances are bounded (:data:`MAX_TOLERANCE`): beyond them the budget's linearisation is meaningless and
+the kinematics leaves its domain.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError
+from ..inputs import safe_yaml
+from ..inputs.schema import check_keys
+from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
+
+Array = NDArray[np.float64]
+
+DISTRIBUTIONS = ('uniform', 'normal', 'log-uniform')
+#: Largest tolerance (half-width or range) accepted per unit, SI.
+MAX_TOLERANCE = {'m': 0.01, 'rad': 0.1, '1': 1e6}
+_LENGTH = LENGTH_UNITS
+_ANGLE = ANGLE_UNITS
+
+
+#: Gauss-Legendre nodes and weights on [0, 1] for the moments of a transformed deviation (the integrand is
+#: analytic in the distribution's quantile: 48 nodes give them to rounding).
+_X, _W = np.polynomial.legendre.leggauss(48)
+_NODES, _WEIGHTS = 0.5 * (_X + 1.0), 0.5 * _W
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """The deviation ``x`` of a value from its nominal: ``x`` in ``[low, high]`` (SI) with a distribution.
+
+    For ``normal``, ``[low, high] = [-t, t]`` and ``sigma = t / 3``; ``log-uniform`` is on the *value*
+    ``nominal + x``, which must stay > 0 (set by :meth:`ToleranceTable.bind`).
+
+    With a ``transform`` (:data:`~.model.TRANSFORMS`: a stiffness ratio identified by its anisotropy), the
+    statistics below are those of the *coordinate's* deviation ``c(nominal + x) - c(nominal)``, which is what the
+    budget varies: :attr:`bounds` map the interval's ends, :attr:`mean` and :attr:`std` are integrated over the
+    distribution (Gauss-Legendre on its quantile function), :meth:`sample` maps the drawn values.
+    """
+
+    low: float
+    high: float
+    distribution: str = 'uniform'
+    nominal: float = 0.0
+    transform: str = ''
+
+    def _coordinate(self, x: Any) -> Any:
+        """The coordinate's deviation of value deviations ``x``."""
+        if not self.transform:
+            return x
+        return coordinate_of(self.transform, self.nominal + np.asarray(x)) - coordinate_of(self.transform,
+                                                                                           self.nominal)
+
+    def _quantile(self, t: Array) -> Array:
+        """Value deviations at probabilities ``t`` (uniform and log-uniform: what a transform takes)."""
+        if self.distribution == 'log-uniform':
+            a, b = self.nominal + self.low, self.nominal + self.high
+            return np.asarray(a * (b / a) ** t - self.nominal, dtype=np.float64)
+        return self.low + (self.high - self.low) * t
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        """The ends of the deviation's interval (of the coordinate's, with a transform)."""
+        return float(self._coordinate(self.low)), float(self._coordinate(self.high))
+
+    @property
+    def centre(self) -> float:
+        """Middle of :attr:`bounds` (the centre of the interval a worst case spans)."""
+        lo, hi = self.bounds
+        return 0.5 * (lo + hi)
+
+    @property
+    def mean(self) -> float:
+        """Mean deviation."""
+        if self.transform:
+            return float(_WEIGHTS @ self._coordinate(self._quantile(_NODES)))
+        if self.distribution == 'log-uniform':
+            a, b = self.nominal + self.low, self.nominal + self.high
+            return (b - a) / math.log(b / a) - self.nominal
+        return 0.5 * (self.low + self.high)
+
+    @property
+    def std(self) -> float:
+        """Standard deviation."""
+        if self.transform:
+            u = self._coordinate(self._quantile(_NODES))
+            return math.sqrt(max(float(_WEIGHTS @ u ** 2) - self.mean ** 2, 0.0))
+        if self.distribution == 'normal':
+            return 0.5 * (self.high - self.low) / 3.0
+        if self.distribution == 'log-uniform':
+            a, b = self.nominal + self.low, self.nominal + self.high
+            m2 = (b * b - a * a) / (2.0 * math.log(b / a))
+            m1 = self.mean + self.nominal
+            return math.sqrt(max(m2 - m1 * m1, 0.0))
+        return (self.high - self.low) / math.sqrt(12.0)
+
+    def sample(self, rng: np.random.Generator, shape: tuple[int, ...]) -> Array:
+        """Deviations drawn from the distribution (the coordinate's, with a transform)."""
+        if self.distribution == 'normal':
+            return rng.normal(0.5 * (self.low + self.high), 0.5 * (self.high - self.low) / 3.0, shape)
+        return np.asarray(self._coordinate(self._quantile(rng.uniform(0.0, 1.0, shape))), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class ToleranceTable:
+    """A parsed tolerance table (module docstring); values in the file's units until :meth:`bind` (SI after).
+
+    Attributes:
+        entries: parameter name or key -> ``(kind, values, distribution)`` as written (kind ``tolerance`` or
+            ``range``), converted to SI per the parameter's unit at :meth:`bind`.
+        rod_length: actuator error of each rod at each pose (SI), or ``None``.
+        joint_clearance: radius of each joint's play [m] (zeros: none).
+        sigma_position, sigma_angle: tracker standard deviations [m], [rad], or ``None``.
+        units: the declared ``(length, angle)`` units; source: file name for messages.
+    """
+
+    entries: dict[str, tuple[str, tuple[float, ...], str]]
+    rod_length: Tolerance | None
+    joint_clearance: tuple[float, float, float]
+    sigma_position: float | None
+    sigma_angle: float | None
+    units: tuple[str, str] = ('m', 'rad')
+    source: str = 'tolerances'
+
+    def bind(self, params: ParameterSet) -> list[Tolerance | None]:
+        """Per parameter of ``params`` its :class:`Tolerance` in SI (``None``: exact). A parameter's own name
+        wins over its configuration key.
+
+        Raises:
+            ConfigError: an entry names no parameter, or is out of range for the parameter's unit and nominal.
+        """
+        out: list[Tolerance | None] = [None] * len(params)
+        for key in self.entries:
+            if key not in params.names and key not in params.groups:
+                raise ConfigError(f'{self.source}: parameters: unknown parameter {safe_yaml.brief(key)}; this model '
+                                  f'has {", ".join(params.names)} (or whole keys: {", ".join(params.groups)})')
+        for j, p in enumerate(params):
+            if p.name in self.entries:
+                key = p.name
+            elif p.key in self.entries:
+                key = p.key
+            else:
+                continue
+            out[j] = self._tolerance(p, key)
+        return out
+
+    def _tolerance(self, p: Parameter, key: str) -> Tolerance | None:
+        """The entry ``key`` as the :class:`Tolerance` of parameter ``p`` (SI), checked."""
+        kind, vals, dist = self.entries[key]
+        f = {'m': _LENGTH[self.units[0]], 'rad': _ANGLE[self.units[1]], '1': 1.0}[p.unit]
+        where = f'{self.source}: parameters: {key}'
+        limit = MAX_TOLERANCE[p.unit]
+        nominal = float(p.value(p.nominal))
+        if kind == 'tolerance':
+            t = vals[0] * f
+            if t > limit:
+                raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: at most {limit:g} {p.unit}')
+            if t == 0:
+                return None
+            lo, hi, low, high = nominal - t, nominal + t, -t, t
+        else:
+            lo, hi = vals[0] * f, vals[1] * f
+            if hi - lo > 2 * limit:
+                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is wider than {2 * limit:g}')
+            low, high = lo - nominal, hi - nominal
+        if dist == 'log-uniform' and lo <= 0:
+            raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
+        if p.transform:
+            if dist == 'normal':
+                raise ConfigError(f'{where}: a stiffness ratio takes uniform or log-uniform (it must stay positive); '
+                                  'normal has no bound')
+            if not KAPPA_RANGE[0] <= lo < hi <= KAPPA_RANGE[1]:
+                raise ConfigError(f'{where}: [{lo:.6g}, {hi:.6g}] leaves the range of a stiffness ratio; allowed: '
+                                  f'{KAPPA_RANGE[0]:g} to {KAPPA_RANGE[1]:g}')
+        return Tolerance(low, high, dist, nominal, p.transform)
+
+
+def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """The table's standard deviation of each parameter (``nan`` where the table has none), as the ``prior`` of
+    identification and planning."""
+    return np.array([t.std if t is not None else np.nan for t in table.bind(params)])
+
+
+def _finite(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number')
+    return float(value)
+
+
+def _number(value: Any, where: str, positive: bool = False) -> float:
+    v = _finite(value, where)
+    if v < 0 or (positive and v == 0):
+        bound = '> 0' if positive else '>= 0'
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number {bound}')
+    return v
+
+
+def _entry(where: str, spec: Any) -> tuple[str, tuple[float, ...], str]:
+    if not isinstance(spec, Mapping):
+        raise ConfigError(f'{where}: expected a mapping such as {{tolerance: 2.0e-5}} or {{range: [0.5, 2.0]}}')
+    check_keys(spec, ('tolerance', 'range', 'distribution'), where)
+    dist = spec.get('distribution', 'uniform')
+    if dist not in DISTRIBUTIONS:
+        raise ConfigError(f'{where}: distribution {safe_yaml.brief(dist)}; allowed: {", ".join(DISTRIBUTIONS)}')
+    if ('tolerance' in spec) == ('range' in spec):
+        raise ConfigError(f'{where}: give exactly one of tolerance (a half-width) or range ([low, high])')
+    if 'tolerance' in spec:
+        if dist == 'log-uniform':
+            raise ConfigError(f'{where}: log-uniform needs a range; allowed with a tolerance: uniform, normal')
+        return 'tolerance', (_number(spec['tolerance'], f'{where}: tolerance'),), dist
+    rng = spec['range']
+    if not isinstance(rng, list) or len(rng) != 2:
+        raise ConfigError(f'{where}: range = {safe_yaml.brief(rng)}; allowed: [low, high]')
+    lo, hi = (_finite(v, f'{where}: range') for v in rng)
+    if not lo < hi:
+        raise ConfigError(f'{where}: range [{lo:g}, {hi:g}]; allowed: low < high')
+    if dist == 'normal':
+        raise ConfigError(f'{where}: a range takes uniform or log-uniform; normal needs a tolerance')
+    return 'range', (lo, hi), dist
+
+
+def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
+    """Check and convert a parsed tolerance table (module docstring)."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: expected a mapping with keys parameters, rod_length, joint_clearance, '
+                          'measurement_noise, units')
+    check_keys(data, ('units', 'parameters', 'rod_length', 'joint_clearance', 'measurement_noise'), source)
+    units = data.get('units', {}) or {}
+    if not isinstance(units, Mapping):
+        raise ConfigError(f'{source}: units: expected {{length: m|mm, angle: rad|deg}}')
+    check_keys(units, ('length', 'angle'), f'{source}: units')
+    length, angle = units.get('length', 'm'), units.get('angle', 'rad')
+    if not isinstance(length, str) or not isinstance(angle, str) or length not in _LENGTH or angle not in _ANGLE:
+        raise ConfigError(f'{source}: units: length {safe_yaml.brief(length)}, angle {safe_yaml.brief(angle)}; '
+                          'allowed: length m or mm, angle rad or deg')
+    lf = _LENGTH[length]
+    params = data.get('parameters', {}) or {}
+    if not isinstance(params, Mapping):
+        raise ConfigError(f'{source}: parameters: expected a mapping of parameter names to tolerances')
+    entries = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v) for k, v in params.items()}
+    rod = None
+    if data.get('rod_length') is not None:
+        kind, vals, dist = _entry(f'{source}: rod_length', data['rod_length'])
+        if kind != 'tolerance':
+            raise ConfigError(f'{source}: rod_length: give a tolerance (a half-width), not a range')
+        t = vals[0] * lf
+        if t > MAX_TOLERANCE['m']:
+            raise ConfigError(f'{source}: rod_length: tolerance {t:g} m; allowed: at most {MAX_TOLERANCE["m"]:g} m')
+        rod = Tolerance(-t, t, dist) if t > 0 else None
+    clear = data.get('joint_clearance', 0.0)
+    clear_list = clear if isinstance(clear, list) else [clear] * 3
+    if len(clear_list) != 3:
+        raise ConfigError(f'{source}: joint_clearance: one value or a list of 3 (one per joint), in {length}')
+    clearance = tuple(_number(c, f'{source}: joint_clearance') * lf for c in clear_list)
+    if max(clearance) > MAX_TOLERANCE['m']:
+        raise ConfigError(f'{source}: joint_clearance: at most {MAX_TOLERANCE["m"]:g} m')
+    noise = data.get('measurement_noise')
+    sp = sa = None
+    if noise is not None:
+        if not isinstance(noise, Mapping):
+            raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
+        check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
+        sp = _number(noise.get('position'), f'{source}: measurement_noise: position', positive=True) * lf
+        sa = _number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True) * _ANGLE[angle]
+    return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
+                          sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
+
+
+def load_tolerances(path: str | Path) -> ToleranceTable:
+    """Read a tolerance table (bounded YAML reader: no aliases, regular UTF-8 files of limited size)."""
+    return parse_tolerances(safe_yaml.read_file(path, 'tolerance table'), str(path))

@@ -1,0 +1,278 @@
+"""``gpr accuracy FILE``: the pose accuracy of a mechanism, and the accuracy budget of the GPR and the whole robot.
+
+Without ``--tolerances``: the pose deviation of a mechanism from joint and geometry errors (Alwan, eq. (7),
+linearised and exact; poses as ``gpr mechanism``). With ``--tolerances TABLE`` the accuracy budget, where FILE is
+
+* a mechanism file of ``type: gpr`` (e.g. the packaged ``gpr.yaml``) with ``--pose X Y Z A B C`` (the GPR's
+  convention: Z the height, A B the tilt vector; X, Y, C are outcomes and ignored): the budget of that platform
+  pose, with ``--tool`` a point of the platform;
+* a platform program of ``trajectory_node`` (stations with height, tilt and azimuth): the budget of each station;
+* a whole-robot program (``format: gpr_robot_program``, docs/robot.md): the budget of each station it visits, at
+  the wafer, in the world's axes (``--robot`` names the description, else the program's or the shipped example).
+
+Examples::
+
+    gpr accuracy gpr.yaml --tolerances config/calibration/tolerances_example.yaml --pose 0 0 0.5 0.0349 0 0
+    gpr accuracy config/programs/example_robot_program.yaml --tolerances config/calibration/tolerances_example.yaml
+    gpr accuracy gpr.yaml --tolerances TABLE --pose 0 0 0.3 1.5 0 0 --deg --tool 0.3 0 0.1 --calibration-plan 40
+
+``--config FILE`` replaces the GPR geometry (e.g. a calibrated file; for a robot, the description's ``gpr``
+section), ``--model`` the virtual-joint model (default ``compliant``), ``--samples``/``--seed`` the Monte Carlo
+draws (0: linearised only), ``--calibration-plan N`` makes the budget after a calibration from the ``N``
+configurations of ``gpr calibrate --plan N`` measured with the table's ``measurement_noise``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration.core_model import MODEL
+from ..errors import InputError, brief
+from ..mechanisms import load_mechanism
+from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
+from .mechanism import mechanism_options
+from .options import CONVENTIONS, finite, mechanism_pose
+from .output import emit_json
+
+#: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).
+BUDGET_OPTIONS = ('tool', 'samples', 'seed', 'config', 'robot', 'model', 'calibration_plan')
+DEFAULT_SAMPLES = 10_000
+
+
+def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float]) -> None:
+    """The budget's options of ``gpr accuracy`` (module docstring)."""
+    from ..calibration.budget import MAX_SAMPLES
+    from ..core.config import MODELS
+    g = p.add_argument_group('accuracy budget (docs/calibration.md)')
+    g.add_argument('--tolerances', metavar='TABLE', help='tolerance table (YAML): make the accuracy budget')
+    g.add_argument('--tool', nargs=3, type=finite, metavar=('X', 'Y', 'Z'),
+                   help='tool point in gpr_platform [m, or mm with --mm] (default the origin; a robot program: the '
+                        'wafer centre)')
+    g.add_argument('--samples', type=int, metavar='N',
+                   help=f'Monte Carlo samples (default {DEFAULT_SAMPLES}; 0: linearised only; at most {MAX_SAMPLES})')
+    g.add_argument('--seed', type=int, metavar='S', help='seed of the Monte Carlo draws (default 0)')
+    g.add_argument('--config', metavar='FILE', help='GPR geometry (e.g. a calibrated file) instead of the default')
+    g.add_argument('--robot', metavar='FILE', help='robot description for a robot program (default: the program\'s '
+                                                    'robot, else config/robots/example_robot.yaml)')
+    g.add_argument('--model', choices=MODELS, help='virtual-joint model of the budget (default compliant)')
+    g.add_argument('--calibration-plan', type=int, metavar='N',
+                   help='the budget after calibrating from N planned configurations (gpr calibrate --plan N) '
+                        'measured with the table\'s measurement_noise')
+
+
+def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
+    """Refuse options of the other mode: budget options without ``--tolerances``, the mechanism analysis's errors
+    with it."""
+    if not budget:
+        used = [name for name in BUDGET_OPTIONS if getattr(args, name, None) is not None]
+        if used:
+            flags = ', '.join('--' + name.replace('_', '-') for name in used)
+            raise InputError(f'{flags} {"belongs" if len(used) == 1 else "belong"} to the accuracy budget: give '
+                             '--tolerances TABLE as well (without it gpr accuracy analyses --errors and '
+                             '--parameter-error, Alwan eq. 7)')
+        return
+    if args.errors is not None or args.parameter_error:
+        raise InputError('--errors and --parameter-error belong to the mechanism analysis; with --tolerances the '
+                         'table gives the errors (rod_length, parameters, joint_clearance)')
+    if args.samples is not None and args.samples < 0:
+        raise InputError(f'--samples = {args.samples}; allowed: an integer >= 0')
+    if args.seed is not None and args.seed < 0:
+        raise InputError(f'--seed = {args.seed}; allowed: an integer >= 0')
+    if args.calibration_plan is not None and args.calibration_plan < 1:
+        raise InputError(f'--calibration-plan = {args.calibration_plan}; allowed: an integer >= 1 (configurations)')
+
+
+def _kind(data: Any) -> str:
+    """``robot`` (a whole-robot program), ``platform`` (a platform program) or ``mechanism``."""
+    if isinstance(data, Mapping):
+        if data.get('format') == 'gpr_robot_program':
+            return 'robot'
+        if 'type' not in data and isinstance(data.get('stations'), list):
+            return 'platform'
+    return 'mechanism'
+
+
+def _tool(args: argparse.Namespace) -> tuple[float, float, float]:
+    if args.tool is None:
+        return (0.0, 0.0, 0.0)
+    f = 1e-3 if args.mm else 1.0
+    return (args.tool[0] * f, args.tool[1] * f, args.tool[2] * f)
+
+
+def _gpr_config(args: argparse.Namespace, overrides: Any = None) -> Any:
+    from ..core.config import load_config
+    return load_config(args.config, overrides=overrides or None)
+
+
+def _budget(args: argparse.Namespace, data: Any, path: Path) -> tuple[Any, str]:
+    """The budget of FILE (module docstring) and a line saying what was computed."""
+    from ..calibration.stations import BudgetOptions, platform_budget, robot_budget
+    from ..calibration.tolerances import load_tolerances
+    table = load_tolerances(args.tolerances)
+    options = BudgetOptions(samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
+                            seed=args.seed or 0, model=args.model, plan=args.calibration_plan or 0)
+    kind = _kind(data)
+    if kind != 'mechanism' and args.pose is not None:
+        raise InputError(f'{path}: a program gives its stations; --pose goes with a mechanism file of type gpr')
+    if kind == 'robot':
+        from ..robot.description import load_robot
+        from ..robot.program import parse_program
+        if args.tool is not None:
+            raise InputError('--tool: a robot program\'s tool point is the wafer centre of each station\'s arm')
+        program = parse_program(data, str(path), path.parent)
+        # the stations solved under the budget's own model, as for a platform program
+        robot = load_robot(args.robot or program.robot, geometry=args.config, model=options.model or MODEL)
+        return robot_budget(robot, program, table, options), (f'robot {robot.name}: tool point = the wafer centre of '
+                                                              f'each station\'s arm, errors in the axes of '
+                                                              f'{robot.world_frame}')
+    if args.robot is not None:
+        raise InputError('--robot goes with a robot program (format: gpr_robot_program)')
+    if kind == 'platform':
+        from ..robot.platform_program import parse_platform_program
+        st = parse_platform_program(data, str(path)).stations
+        return (platform_budget(_gpr_config(args), table, [s.height for s in st], [s.tilt for s in st],
+                                [s.azimuth for s in st], _tool(args), [s.name for s in st], options),
+                f'platform program {path.name}: {len(st)} station(s)')
+    from ..mechanisms import mechanism_from_dict
+    from ..mechanisms.gpr import GprMechanism
+    mech = mechanism_from_dict(data, str(path))
+    if not isinstance(mech, GprMechanism):
+        raise InputError(f'{mech.name} ({mech.kind}): the accuracy budget is made for the GPR (a file of type gpr), '
+                         'a platform program or a robot program; for this mechanism use --errors and '
+                         '--parameter-error')
+    if args.pose is None:
+        raise InputError(f'{mech.name}: give --pose X Y Z A B C (Z the height, A B the tilt vector) or a program')
+    pose = [v * (1e-3 if args.mm and i < 3 else 1.0) for i, v in enumerate(args.pose)]
+    if args.deg:
+        pose[3:] = [math.radians(v) for v in pose[3:]]
+    config = _gpr_config(args, data.get('overrides')) if args.config is not None else mech.config
+    tilt, azimuth = math.hypot(pose[3], pose[4]), math.atan2(pose[4], pose[3])
+    return (platform_budget(config, table, pose[2], tilt, azimuth, _tool(args), None, options),
+            f'{mech.name}: height {pose[2]:g} m, tilt {tilt:.6g} rad about the axis at azimuth {azimuth:.6g} rad')
+
+
+def budget_command(args: argparse.Namespace) -> int:
+    """``gpr accuracy FILE --tolerances TABLE ...`` (module docstring)."""
+    from ..mechanisms import read_mechanism_file
+    check_budget_options(args, budget=True)
+    data, path = read_mechanism_file(args.file)
+    budget, what = _budget(args, data, path)
+    model = args.model or MODEL
+    plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
+        else ''
+    if args.json:
+        emit_json({'file': str(path), 'tolerances': str(args.tolerances), 'model': model,
+                   'calibration_plan': args.calibration_plan, 'description': what} | budget.as_dict())
+        return 0
+    from ..calibration.report import format_budget
+    print(f'{what}; tolerances {args.tolerances}, model {model}{plan}')
+    print(format_budget(budget))
+    return 0
+
+
+def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
+    """``--errors`` in SI (``--mm``/``--deg`` converted), else the file's leg deformations, else zeros."""
+    if args.errors is None:
+        deformations = getattr(mech, 'leg_deformations', None)
+        return np.zeros(mech.n_joints) if deformations is None else np.asarray(deformations, dtype=float)
+    errors = np.array(args.errors, dtype=float)
+    if errors.size != mech.n_joints:
+        raise InputError(f'--errors takes {mech.n_joints} values ({", ".join(mech.joint_names)}); '
+                         f'got {errors.size}')
+    ang = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
+    if args.mm:
+        errors[~ang] *= 1e-3
+    if args.deg:
+        errors[ang] = np.radians(errors[ang])
+    return errors
+
+
+def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np.ndarray]:
+    """``--parameter-error NAME V...`` items as arrays of the parameters' shapes (m, ``--mm`` converted)."""
+    params: dict[str, np.ndarray] = {}
+    nominal = mech.parameters()
+    for item in args.parameter_error or []:
+        name, values = item[0], item[1:]
+        if name not in nominal:
+            raise InputError(f'{mech.name}: unknown parameter {brief(name)} for --parameter-error; allowed: '
+                             + (', '.join(sorted(nominal)) or 'none'))
+        if name in params:  # the second would silently replace the first
+            raise InputError(f'--parameter-error {name} is given twice; allowed: each parameter once')
+        try:
+            vals = np.array([float(v) for v in values])
+        except ValueError:
+            raise InputError(f'--parameter-error {name}: values must be numbers; got {brief(values)}') from None
+        size = np.asarray(nominal[name]).size
+        if vals.size != size:
+            raise InputError(f'--parameter-error {name} takes {size} values (shape '
+                             f'{np.shape(nominal[name])}, m); got {vals.size}')
+        params[name] = (vals * (1e-3 if args.mm else 1.0)).reshape(np.shape(nominal[name]))
+    return params
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    if args.tolerances is not None:
+        return budget_command(args)
+    from ..mechanisms.accuracy import accuracy_analysis
+    check_budget_options(args, budget=False)
+    mech = load_mechanism(args.file)
+    trajectory = getattr(mech, 'trajectory', None)
+    if args.pose is not None:
+        poses = mechanism_pose(args, mech)[None, :]
+    elif trajectory is not None:
+        poses = np.asarray(trajectory, dtype=float)
+    else:
+        raise InputError(f'{mech.name}: give --pose X Y Z A B C (the file has no trajectory)')
+    errors = _joint_errors(args, mech)
+    params = _parameter_errors(args, mech)
+    full = mech.complete_pose(poses)
+    mech.check_limits(mech.inverse_kinematics(full))
+    res = accuracy_analysis(mech, full, errors, params)
+    # The text and the JSON print the same numbers: both from these dicts.
+    results = [res.as_dict(i) for i in range(res.poses.shape[0])]
+    if args.json:
+        emit_json({'mechanism': mech.name, 'type': mech.kind, 'variables': list(res.variables), 'results': results})
+        return 0
+    print(f'{mech.name}: pose deviation for joint errors {np.asarray(errors).tolist()} (SI)'
+          + (f' and parameter errors {sorted(params)}' if params else ''))
+    head = ' '.join(f'{v:>12}' for v in res.variables)
+    print(f'{"":>6} {"":>11} {head}')
+    for i, r in enumerate(results):
+        for label in ('linearized', 'exact', 'difference'):
+            print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
+                  + ' '.join(f'{r[label][v]:12.4e}' for v in res.variables))
+    print('rigid motion of the platform, parasitic components included (x y z [m], rotation vector rx ry rz [rad], '
+          'base frame):')
+    print(f'{"":>6} {"":>11} ' + ' '.join(f'{v:>12}' for v in ('x', 'y', 'z', 'rx', 'ry', 'rz')))
+    for i, r in enumerate(results):
+        for label in ('linearized', 'exact'):
+            print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
+                  + ' '.join(f'{v:12.4e}' for v in np.asarray(r[f'{label}_twist']).tolist()))
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``accuracy`` to the ``gpr`` command."""
+    p = subparsers.add_parser('accuracy', help='platform pose deviation from joint and geometry errors; the accuracy '
+                              'budget of the GPR and the whole robot from a tolerance table',
+                              description='Pose deviation caused by joint errors (leg deformations, '
+                              'actuator errors) and geometric errors: linearised (Alwan eq. 7) and exact '
+                              '(perturbed closure solved by Newton). Without --pose/--errors the file\'s '
+                              'trajectory and leg_deformations are used (stewart_alwan.yaml). With --tolerances: '
+                              'the accuracy budget (docs/calibration.md) of the GPR (FILE of type gpr with --pose, '
+                              'or a platform program) or of the whole robot at the wafer (FILE a robot program): '
+                              'linearised RSS, worst case and shares, and Monte Carlo percentiles.',
+                              epilog=CONVENTIONS, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mechanism_options(p, False)
+    p.add_argument('--errors', nargs='+', type=finite, metavar='E',
+                   help='one error per joint in file order (m, rad for angular joints)')
+    p.add_argument('--parameter-error', nargs='+', action='append', metavar='NAME V',
+                   help='geometric error: parameter name and its values, e.g. A_i (18 values, m) for a '
+                   'Stewart platform, joint_imperfections (9 values, m) for the GPR; repeatable')
+    add_budget_options(p, finite)
+    p.set_defaults(handler=_accuracy)

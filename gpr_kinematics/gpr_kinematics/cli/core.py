@@ -1,0 +1,268 @@
+"""Core subcommands of ``gpr``: fk, ik, compensate, mobility, sweep.
+
+Inputs are SI (metres, radians) unless ``--mm`` (lengths in millimetres) or ``--deg`` (angles in
+degrees) is given; outputs are always SI. ``--json`` prints one JSON object on stdout.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.config import MODELS, GprConfig, load_config
+from ..errors import LimitError
+from .output import emit_json, jsonable
+
+_MM = 1e-3
+
+
+def _config(args: argparse.Namespace) -> GprConfig:
+    return load_config(args.config)
+
+
+def _length(args: argparse.Namespace, value: float) -> float:
+    return value * _MM if getattr(args, 'mm', False) else value
+
+
+def _angle(args: argparse.Namespace, value: float) -> float:
+    return math.radians(value) if getattr(args, 'deg', False) else value
+
+
+def _common(p: argparse.ArgumentParser, lengths: bool = True, angles: bool = False,
+            model: bool = True) -> None:
+    if model:
+        p.add_argument('--model', choices=MODELS, help='virtual-joint model (default: from the config)')
+    p.add_argument('--config', metavar='FILE', help='YAML file overriding the package config (config/gpr.yaml)')
+    if lengths:
+        p.add_argument('--mm', action='store_true', help='input lengths are in millimetres (output stays SI)')
+    if angles:
+        p.add_argument('--deg', action='store_true', help='input angles are in degrees (output stays SI)')
+    p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
+
+
+def _vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
+    return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'
+
+
+def _print_pose(fk: Any) -> None:
+    print(f'  position      {_vec(fk.position)} m')
+    print(f'  quaternion    {_vec(fk.quaternion, fmt="{:.12f}")} (x, y, z, w)')
+    print(f'  tilt          {fk.tilt:.12g} rad ({math.degrees(fk.tilt):.9g} deg), azimuth '
+          f'{fk.tilt_azimuth:.9g} rad ({math.degrees(fk.tilt_azimuth):.6g} deg), twist {fk.twist:.3e} rad')
+
+
+def _cmd_fk(args: argparse.Namespace) -> int:
+    from ..core import forward
+    cfg = _config(args)
+    fk = forward([_length(args, v) for v in args.q], config=cfg, model=args.model)
+    if args.json:
+        emit_json(fk)
+        return 0
+    print(f'forward kinematics, model {fk.model}: q = {_vec(fk.q)} m')
+    _print_pose(fk)
+    from ..core.virtual_joints import make_model
+    names = ', '.join(f'{n} = {v:.9g}' for n, v in zip(fk.virtual_joint_names, fk.virtual_joints, strict=True))
+    print(f'  virtual joints {names} ({"m, rad" if make_model(cfg, fk.model).angular.any() else "m"})')
+    print(f'  side lengths  L12, L23, L31 = {_vec(fk.side_lengths)} m')
+    print(f'  centre shift  {_vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
+    print(f'  joint displacement {_vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '
+          f'{"within" if fk.within_budget else "BEYOND"} the imperfection budget '
+          f'{cfg.imperfection_budget * 1e6:.1f} um')
+    print(f'  Newton: {fk.iterations} iterations, closure residual {fk.residual:.2e} m, '
+          f'rigid fit {fk.fit_residual:.2e} m')
+    return 0
+
+
+def _add_target(p: argparse.ArgumentParser) -> None:
+    p.add_argument('--height', type=float, required=True, help='height of the platform point [m, or mm with --mm]')
+    p.add_argument('--tilt', type=float, required=True, help='tilt angle [rad, or deg with --deg]; signed')
+    p.add_argument('--azimuth', type=float, required=True,
+                   help='azimuth of the tilt axis in gpr_base [rad, or deg with --deg]')
+    p.add_argument('--tool', type=float, nargs=3, metavar=('X', 'Y', 'Z'), default=(0.0, 0.0, 0.0),
+                   help='platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
+
+
+def _cmd_ik(args: argparse.Namespace) -> int:
+    from ..core import inverse
+    cfg = _config(args)
+    tool = [_length(args, v) for v in args.tool]
+    ik = inverse(_length(args, args.height), _angle(args, args.tilt), _angle(args, args.azimuth),
+                 config=cfg, model=args.model, tool=tool)
+    if args.json:
+        emit_json(ik)
+        return 0
+    print(f'inverse kinematics, model {ik.achieved.model}: q = {_vec(ik.q)} m ({ik.iterations} iterations)')
+    print('achieved pose:')
+    _print_pose(ik.achieved)
+    print(f'  centre shift  {_vec(ik.achieved.centre_shift, 1e6, "{:.3f}")} um')
+    return 0
+
+
+def _cmd_compensate(args: argparse.Namespace) -> int:
+    from ..core.compensation import compensate
+    from ..core.rotations import quaternion_from_matrix, rotation_z, tilt_rotation
+    from ..inputs.validation import finite_number
+    cfg = _config(args)
+    # The command is built from the typed angles: check them by name before they become a quaternion.
+    tilt, azimuth, heading = (finite_number(_angle(args, getattr(args, n)), f'--{n}')
+                              for n in ('tilt', 'azimuth', 'heading'))
+    R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
+    res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
+                     [_length(args, v) for v in args.tool], config=cfg, model=args.model)
+    if args.json:
+        emit_json(res)
+        return 0
+    print(f'compensation, model {res.achieved.model}: command q = {_vec(res.q)} m')
+    print('platform pose reached:')
+    _print_pose(res.achieved)
+    print(f'  tool point    commanded {_vec(res.tool_commanded)} m, reached {_vec(res.tool_achieved)} m')
+    print(f'  tool shift    {_vec(res.tool_shift, 1e6, "{:.3f}")} um')
+    print(f'  height solved for the platform point {_vec(res.platform_point)} m (gpr_platform: the tool turned '
+          f'by the heading)')
+    print(f'  arm correction (apply to targets in the platform frame): translation '
+          f'{_vec(res.arm_correction_translation, 1e6, "{:.3f}")} um, quaternion '
+          f'{_vec(res.arm_correction_quaternion, fmt="{:.12f}")}')
+    return 0
+
+
+def _cmd_mobility(args: argparse.Namespace) -> int:
+    from ..core.mobility import analyze_mobility, exact_dx
+    cfg = _config(args)
+    res = analyze_mobility([_length(args, v) for v in args.q], config=cfg, model=args.model)
+    out = jsonable(res)
+    dq = dx = None
+    full: float | None = None
+    why = ''
+    if args.dq is not None:
+        dq = [_length(args, v) for v in args.dq]
+        dx = res.dx_bounds(res.rod_perturbation(dq))
+        try:
+            full = float(np.linalg.norm(exact_dx(res.q, dq, cfg, res.model)))
+        except LimitError as exc:  # q + dq tilts beyond the limit: the first order stands alone
+            why = str(exc)
+        # norm_dx is the first order (eq. 3); norm_dx_full the full solve |X(q + dq) - X(q)| (null: not solvable).
+        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq, 'norm_dx_full': full}
+    if args.json:
+        emit_json(out)
+        return 0
+    print(f'mobility analysis (paper §IV-A), model {res.model}, q = {_vec(res.q)} m')
+    print(f'  rank dPhi/dP = {res.rank_dphi_dp} (mobility h = {res.mobility}); '
+          f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}; singular configuration: '
+          + ('yes (h > 1: the rigid mechanism gains instantaneous freedoms)' if res.singular else 'no'))
+    print(f'  non-zero singular values of dX/dP: {_vec(res.singular_values, fmt="{:.6g}")}')
+    print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
+          f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
+    if dx is not None:
+        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {dx.norm_dx:.6e} (eq. 3), '
+              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]; '
+              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None else f'no full solve ({why})')
+              + (' (at the singular configuration the first order of a rod change vanishes)' if res.singular else ''))
+    return 0
+
+
+def _write_csv(path: str, s: Any) -> Path:
+    """Every sample of the sweep ``s`` as CSV (SI units, floats to round-trip), atomically; the path written."""
+    from ..inputs.files import atomic_output
+    fk = s.forward
+    names = list(fk.virtual_joint_names)
+    header = (['sample', 'pass', 'gamma', 'alpha', 'q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw',
+               'tilt', 'tilt_azimuth', 'twist', 'centre_shift_x', 'centre_shift_y', 'centre_shift_z']
+              + names + ['L12', 'L23', 'L31', 'iterations', 'residual'])
+    cols = np.column_stack([np.arange(len(s)), s.pass_index, s.gamma, s.alpha, s.q, fk.position, fk.quaternion,
+                            fk.tilt, fk.tilt_azimuth, fk.twist, fk.centre_shift, fk.virtual_joints,
+                            fk.side_lengths, fk.iterations, fk.residual])
+    with atomic_output(path, 'CSV') as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in cols:
+            w.writerow([int(row[0]), int(row[1])] + [repr(float(v)) for v in row[2:-2]]
+                       + [int(row[-2]), repr(float(row[-1]))])
+    return Path(path)
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from ..core import sweep
+    from ..inputs.files import check_output
+    if args.csv is not None:
+        check_output(args.csv, 'CSV')  # before the work, not after it
+    cfg = _config(args)
+
+    def given(value: float | None, convert: Any, default: float) -> float:
+        # Defaults are SI already: --mm/--deg convert only what the user typed.
+        return default if value is None else convert(args, value)
+
+    s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
+                          max_tilt=given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
+                          tilt_step=given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP),
+                          azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
+                          passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
+    written = None if args.csv is None else str(_write_csv(args.csv, s))
+    summary = s.summary
+    if args.json:
+        emit_json(summary | ({'csv': written} if written else {}))
+        return 0
+    print(f'paper sweep (§VI), model {summary["model"]}, height {summary["height"]:.6g} m: '
+          f'{summary["samples"]} samples, {summary["singular_crossings"]} crossings of the singular configuration')
+    print(f'  max centre shift        {summary["max_centre_shift"] * 1e6:10.3f} um (versus the naive model)')
+    print(f'  max joint displacement  {summary["max_joint_displacement"] * 1e6:10.3f} um '
+          f'({"within" if summary["within_budget"] else "BEYOND"} the budget '
+          f'{cfg.imperfection_budget * 1e6:.0f} um)')
+    print(f'  max closure residual    {summary["max_residual"]:10.2e} m, rigid fit {summary["max_fit_residual"]:.2e} m')
+    print(f'  Newton iterations       forward <= {summary["max_fk_iterations"]}, '
+          f'inverse <= {summary["max_ik_iterations"]}')
+    if written:
+        print(f'  samples written to {written}')
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add the core subcommands to the ``gpr`` parser."""
+    p = sub.add_parser('fk', help='forward kinematics: rod lengths -> platform pose',
+                       description='Forward kinematics under the virtual-joint model (paper §IV-V).')
+    p.add_argument('q', type=float, nargs=3, metavar='Q', help='rod lengths q1 q2 q3 [m, or mm with --mm]')
+    _common(p)
+    p.set_defaults(handler=_cmd_fk)
+
+    p = sub.add_parser('ik', help='inverse kinematics: height and tilt -> rod lengths',
+                       description='Inverse kinematics: the rod lengths whose forward kinematics gives the tilt '
+                                   '(angle about the horizontal axis at the azimuth) and the height.')
+    _add_target(p)
+    _common(p, angles=True)
+    p.set_defaults(handler=_cmd_ik)
+
+    p = sub.add_parser('compensate', help='compensation of a naively commanded pose for offline programming',
+                       description='Rod commands, pose reached, tool shift and arm correction for a platform '
+                                   'pose commanded with the naive model (rotation about the centre).')
+    _add_target(p)
+    p.add_argument('--heading', type=float, default=0.0,
+                   help='commanded rotation about the platform normal [rad, or deg]; the GPR cannot realise '
+                        'it, the arm correction takes it up')
+    _common(p, angles=True)
+    p.set_defaults(handler=_cmd_compensate)
+
+    p = sub.add_parser('mobility', help='mobility and sensitivity analysis (ranks, eqs. 4, 5)',
+                       description='Ranks of dPhi/dP and [dPhi/dP dPhi/dX], singular values and bounds of dX '
+                                   '(paper §IV-A).')
+    p.add_argument('q', type=float, nargs=3, metavar='Q', help='rod lengths q1 q2 q3 [m, or mm with --mm]')
+    p.add_argument('--dq', type=float, nargs=3, metavar=('D1', 'D2', 'D3'),
+                   help='a change of the rod lengths: also print |dX| and its bounds for it [m, or mm]')
+    _common(p)
+    p.set_defaults(handler=_cmd_mobility)
+
+    p = sub.add_parser('sweep', help="the paper's singular-tilt sweep with a summary",
+                       description='For each azimuth over 0..360 deg, the tilt from -max to +max in steps, at a '
+                                   'height (paper §VI): inverse and forward kinematics of every sample.')
+    p.add_argument('--height', type=float, help='platform height [m, or mm] (default 0.5 m)')
+    p.add_argument('--max-tilt', type=float, help='largest tilt [rad, or deg] (default 2 deg)')
+    p.add_argument('--tilt-step', type=float, help='tilt step [rad, or deg] (default 0.2 deg)')
+    p.add_argument('--azimuth-step', type=float, help='azimuth step [rad, or deg] (default 10 deg)')
+    p.add_argument('--passes', type=int, default=1, help='repeat the azimuth sweep this many times (default 1)')
+    p.add_argument('--paper-order', action='store_true',
+                   help='every pass from -max to +max (default alternates direction so the stream is continuous)')
+    p.add_argument('--csv', metavar='FILE', help='write every sample to a CSV file (SI units)')
+    _common(p, angles=True)
+    p.set_defaults(handler=_cmd_sweep)

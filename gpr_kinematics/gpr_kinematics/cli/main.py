@@ -1,0 +1,132 @@
+"""The ``gpr`` command line: GPR kinematics, compensation, mobility, the paper's sweep; other mechanisms,
+workspaces and the verification of recorded bags.
+
+SI units (metres, radians) by default; ``--mm`` and ``--deg`` convert inputs only, outputs stay SI.
+Subcommands live in modules with a ``register(subparsers)`` function whose parsers set ``handler=fn`` with
+``fn(args) -> int``. They are imported lazily: :data:`COMMANDS` maps each subcommand to its module, and only
+the module of the subcommand being run is imported (all of them for ``gpr --help``), so the core commands
+need only numpy, scipy and PyYAML. A subcommand whose optional dependency (the ``bags``, ``plot`` or ``ros``
+extra) is missing exits with status 2 and one line naming the package to install. Bad input raises a
+:class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr and exits with status 2.
+``--json`` output is the result dataclass itself (:func:`gpr_kinematics.cli.output.jsonable`): one JSON key per field.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import re
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
+
+#: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
+COMMANDS: dict[str, str] = {
+    'fk': 'gpr_kinematics.cli.core', 'ik': 'gpr_kinematics.cli.core', 'compensate': 'gpr_kinematics.cli.core',
+    'mobility': 'gpr_kinematics.cli.core', 'sweep': 'gpr_kinematics.cli.core',
+    'mechanism': 'gpr_kinematics.cli.mechanism', 'accuracy': 'gpr_kinematics.cli.accuracy',
+    'dexterity': 'gpr_kinematics.cli.dexterity',
+    'workspace': 'gpr_kinematics.cli.workspace',
+    'verify': 'gpr_kinematics.cli.verify',
+    'calibrate': 'gpr_kinematics.cli.calibrate',
+    'robot': 'gpr_kinematics.cli.robot', 'program': 'gpr_kinematics.cli.program',
+}
+#: Plugin modules of other parts of the project not listed in :data:`COMMANDS` (imported for every command).
+PLUGINS: tuple[str, ...] = ()
+#: Optional third-party packages -> the extra of ``setup.py`` that installs them.
+OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ros2': 'bags', 'zstandard': 'bags',
+                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros'}
+
+#: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
+EXIT_USAGE = EXIT_BAD_INPUT
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors in one line (status 2) instead of the usage block, and takes
+    negative numbers in scientific notation (``-2e-4``) as values, not options."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
+
+    def error(self, message: str) -> NoReturn:
+        """Exit with status 2 and the one line ``prog: error: message`` (a long value argparse quotes in it, such as
+        a number of 5000 digits, cut by :func:`~gpr_kinematics.errors.brief`)."""
+        message = re.sub(rf"'([^'\n]{{{BRIEF_LENGTH + 1},}})'", lambda m: brief(m.group(1)), message)
+        self.exit(EXIT_USAGE, f'{self.prog}: error: {message}\n')
+
+
+def missing_dependency(exc: ModuleNotFoundError) -> GprError | None:
+    """A one-line error for an optional package that is not installed (``None`` for any other import error)."""
+    root = (exc.name or '').split('.')[0]
+    extra = OPTIONAL_PACKAGES.get(root)
+    if extra is None:
+        return None
+    return GprError(f'this command needs the optional package {root!r}, which is not installed; install it with '
+                    f"pip install 'gpr_kinematics[{extra}]'")
+
+
+def _unavailable(sub: Any, command: str, error: GprError) -> None:
+    def handler(args: argparse.Namespace) -> int:
+        raise error
+
+    # No option prefix: whatever follows the command is taken as is, and the handler gives the one-line error.
+    p = sub.add_parser(command, help=f'(unavailable: {error})', add_help=False, prefix_chars='\0')
+    p.add_argument('rest', nargs=argparse.REMAINDER)
+    p.set_defaults(handler=handler)
+
+
+def _register(sub: Any, module: str) -> None:
+    """Import ``module`` and let it add its subcommands; a missing optional package leaves placeholders."""
+    try:
+        importlib.import_module(module).register(sub)
+    except ModuleNotFoundError as exc:
+        error = missing_dependency(exc)
+        if error is None:
+            raise
+        for command in (c for c, m in COMMANDS.items() if m == module and c not in sub.choices):
+            _unavailable(sub, command, error)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``gpr`` parser with the subcommand ``command`` fully registered (all of them when ``None``)."""
+    parser = _Parser(prog='gpr', description=(__doc__ or '').split('\n\n')[0])
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
+    sub.required = True
+    wanted = [COMMANDS[command]] if command in COMMANDS else list(dict.fromkeys(COMMANDS.values()))
+    for module in list(dict.fromkeys(wanted)) + list(PLUGINS):
+        _register(sub, module)
+    for name in COMMANDS:  # listed in the usage, registered when they run
+        if name not in sub.choices:
+            sub.add_parser(name)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``gpr`` console script; returns the exit status."""
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    first = next((a for a in args_in if not a.startswith('-')), None)
+    parser = build_parser(first if first in COMMANDS else None)
+    try:
+        args = parser.parse_args(args_in)
+    except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+    try:
+        return int(args.handler(args))
+    except GprError as exc:
+        sys.stderr.write(f'gpr {args.command}: error: {one_line(str(exc))}\n')
+        return EXIT_USAGE
+    except ModuleNotFoundError as exc:  # an optional package imported by the handler itself
+        error = missing_dependency(exc)
+        if error is None:
+            raise
+        sys.stderr.write(f'gpr {args.command}: error: {error}\n')
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        sys.stderr.write(f'gpr {args.command}: interrupted\n')
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,114 @@
+"""``gpr mechanism``: joint values, inverse Jacobians and conditioning of a mechanism at one pose.
+
+``gpr accuracy`` (:mod:`.accuracy`) and ``gpr dexterity`` (:mod:`.dexterity`) take the same FILE and poses.
+
+Plugin of :mod:`gpr_kinematics.cli.main` (``register(subparsers)``). A FILE is a mechanism YAML
+(``config/mechanisms/*.yaml``; a bare packaged name such as ``upu3.yaml`` also works). Poses are
+``X Y Z A B C`` in metres and radians (``--mm`` and ``--deg`` convert the input), with the Euler
+convention of the mechanism:
+
+- ``gsp``: R = Rz(C) Ry(B) Rx(A), scipy ``from_euler('xyz', [A, B, C])`` (or the file's ``euler``);
+- ``stewart_6sps`` (Alwan): Z-X-Z intrinsic, A, B, C = psi, theta, phi, scipy ``from_euler('ZXZ', ...)``;
+- ``upu3``: translation only, A B C must be 0 (ignored);
+- ``tripod_3rps``: A, B = theta (about y), psi (about x), R = Ry(theta) Rx(psi) Rz(phi); X, Y and C = phi
+  are the parasitic motions (outcomes, ignored on input);
+- ``gpr``: A, B = tilt rotation vector (tilt_x, tilt_y); X, Y and C = twist are outcomes.
+
+Outputs are SI. Bad input (unknown constraint type, degenerate line, pose outside the joint limits,
+singular pose where an inverse is needed) exits with status 2 and a one-line message.
+"""
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from ..errors import SingularityError
+from ..mechanisms import load_mechanism
+from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
+from .options import CONVENTIONS, finite, mechanism_pose
+from .output import emit_json
+
+
+def _joints(mech: Mechanism, q: np.ndarray) -> list[dict[str, Any]]:
+    labels = getattr(mech, 'types', None)
+    out = []
+    for k, name in enumerate(mech.joint_names):
+        jt = mech.joint_types[k]
+        out.append({'name': name,
+                     'type': str(labels[k]) if labels is not None else jt,
+                     'joint_type': jt,
+                     'value': float(q[k]),
+                     'unit': 'rad' if jt in ANGULAR_JOINTS else 'm'})
+    return out
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _mechanism(args: argparse.Namespace) -> int:
+    mech = load_mechanism(args.file)
+    pose = mechanism_pose(args, mech)
+    full = mech.complete_pose(pose)
+    q = mech.inverse_kinematics(full)
+    mech.check_limits(q)
+    rep = mech.report(full)
+    if not (np.all(np.isfinite(rep.inverse_jacobian)) and np.all(np.isfinite(rep.task_jacobian))):
+        raise SingularityError(f'{mech.name}: the inverse Jacobian is not defined at pose {full.tolist()} '
+                               '(a constraint row divides by zero: zero distance, parallel lines, theta = 0)')
+    result: dict[str, Any] = {
+        'mechanism': mech.name, 'type': mech.kind, 'file': str(args.file),
+        'euler_convention': mech.euler_convention,
+        'pose': dict(zip(mech.pose_names, full.tolist(), strict=True)),
+        'pose_variables': list(mech.pose_variables),
+        'joints': _joints(mech, q),
+        'inverse_jacobian': rep.inverse_jacobian,
+        'homogenized_inverse_jacobian': rep.homogenized_inverse_jacobian,
+        'characteristic_length': mech.characteristic_length,
+        'homogenized_task_jacobian': rep.task_jacobian,
+        'condition_number': _finite_or_none(rep.condition_number),
+        'dexterity': rep.dexterity,
+        'singular': rep.singular,
+        'singularity': rep.singularity or None,
+        'within_limits': rep.within_limits,
+    }
+    if hasattr(mech, 'plane_residuals'):
+        result['plane_residuals'] = mech.plane_residuals(full)[0]
+    if args.json:
+        emit_json(result)
+        return 0
+    print(f'{mech.name} ({mech.kind}), pose ' + ', '.join(
+        f'{k} = {v:.9g}' for k, v in result['pose'].items()))
+    for j in result['joints']:
+        print(f'  {j["name"]:>8} [{j["type"]}] = {j["value"]:.9g} {j["unit"]}')
+    print('inverse Jacobian (columns v_x v_y v_z w_x w_y w_z, w in the base frame):')
+    for row in rep.inverse_jacobian:
+        print('  ' + ' '.join(f'{v:11.6f}' for v in row))
+    print(f'homogenized inverse Jacobian (characteristic length {mech.characteristic_length:g} m):')
+    for row in rep.homogenized_inverse_jacobian:
+        print('  ' + ' '.join(f'{v:11.6f}' for v in row))
+    print(f'condition number {rep.condition_number:.6g}, dexterity {rep.dexterity:.6g}, '
+          f'singular: {"yes" if rep.singular else "no"}' + (f' ({rep.singularity})' if rep.singularity else ''))
+    return 0
+
+
+def mechanism_options(p: argparse.ArgumentParser, pose_required: bool) -> None:
+    """FILE, ``--pose``, ``--mm``, ``--deg`` and ``--json``: the options of every mechanism subcommand."""
+    p.add_argument('file', metavar='FILE', help='mechanism YAML (config/mechanisms/*.yaml)')
+    p.add_argument('--pose', nargs=6, type=finite, metavar=('X', 'Y', 'Z', 'A', 'B', 'C'),
+                   required=pose_required, help='platform pose (m, rad; see the convention below)')
+    p.add_argument('--mm', action='store_true', help='lengths given in mm (outputs stay SI)')
+    p.add_argument('--deg', action='store_true', help='angles given in degrees (outputs stay SI)')
+    p.add_argument('--json', action='store_true', help='print one JSON object')
+
+
+def register(subparsers: Any) -> None:
+    """Add ``mechanism`` to the ``gpr`` command."""
+    p = subparsers.add_parser('mechanism', help='joint values, inverse Jacobian and conditioning at a pose',
+                              description='Inverse kinematics, inverse Jacobian (plain and homogenised), '
+                              'condition number and singularity of a mechanism at one pose.',
+                              epilog=CONVENTIONS, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mechanism_options(p, True)
+    p.set_defaults(handler=_mechanism)

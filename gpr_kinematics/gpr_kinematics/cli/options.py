@@ -1,0 +1,88 @@
+"""Options shared by the ``gpr`` subcommands: finite numbers, the robot and its model, input units."""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.config import MODELS
+from ..errors import InputError, brief
+from ..mechanisms.base import Mechanism, as_poses
+
+#: The pose convention of ``gpr mechanism``, ``accuracy`` and ``dexterity`` (their help epilog).
+CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
+  gsp           R = Rz(C) Ry(B) Rx(A) = scipy from_euler('xyz', [A, B, C]) (or the file's 'euler')
+  stewart_6sps  Z-X-Z intrinsic Euler angles (psi, theta, phi) = scipy from_euler('ZXZ', [A, B, C])
+  upu3          translation only: A B C must be 0
+  tripod_3rps   A = theta (about y), B = psi (about x); R = Ry(theta) Rx(psi) Rz(phi); X, Y, C = phi are
+                parasitic motions computed by the mechanism (ignored on input)
+  gpr           A, B = tilt rotation vector (tilt_x, tilt_y) = tilt (cos azimuth, sin azimuth); X, Y and
+                C = twist are outcomes of the virtual-joint model (ignored on input)
+angular velocities and inverse-Jacobian columns: v_x v_y v_z w_x w_y w_z, w in the base frame"""
+
+
+def finite(text: str) -> float:
+    """An argparse type: a finite float (the option's error names the text otherwise)."""
+    try:
+        val = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a number') from None
+    if not np.isfinite(val):
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
+    return val
+
+
+def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
+    """``--pose X Y Z A B C`` in SI units (``--mm``, ``--deg`` converted), checked for ``mech``."""
+    pose = np.array(args.pose, dtype=float)
+    if args.mm:
+        pose[:3] *= 1e-3
+    if args.deg:
+        pose[3:] = np.radians(pose[3:])
+    as_poses(pose, '--pose')  # the position's bound, named as the option
+    if mech.kind == 'upu3' and np.any(pose[3:] != 0):
+        raise InputError(f'{mech.name} only translates: the angles A B C must be 0; got {pose[3:].tolist()}')
+    return pose
+
+
+#: Metres per millimetre (``--mm``).
+MM = 1e-3
+
+
+def robot_of(args: argparse.Namespace, default: Path | None = None) -> Any:
+    """The robot of ``--robot`` (else ``default``, else the shipped example) with ``--config`` and ``--model``."""
+    from ..robot.description import load_robot
+    path = default if args.robot is None else args.robot
+    return load_robot(path, geometry=args.config, model=args.model)
+
+
+def lengths(args: argparse.Namespace, values: Any) -> list[float]:
+    """Input lengths in metres (``--mm`` converted)."""
+    return [v * MM if args.mm else v for v in values]
+
+
+def angles(args: argparse.Namespace, values: Any) -> list[float]:
+    """Input angles in radians (``--deg`` converted)."""
+    return [math.radians(v) if args.deg else v for v in values]
+
+
+def robot_options(p: argparse.ArgumentParser) -> None:
+    """``--robot``, ``--config``, ``--model`` and ``--json``."""
+    p.add_argument('--robot', metavar='FILE', help='robot description (default: config/robots/example_robot.yaml)')
+    p.add_argument('--config', metavar='FILE', help="GPR geometry file replacing the description's gpr section")
+    p.add_argument('--model', choices=MODELS, help='virtual-joint model (default: from the geometry)')
+    p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
+
+
+def unit_options(p: argparse.ArgumentParser) -> None:
+    """``--mm`` and ``--deg``."""
+    p.add_argument('--mm', action='store_true', help='input lengths are in millimetres (output stays SI)')
+    p.add_argument('--deg', action='store_true', help='input angles are in degrees (output stays SI)')
+
+
+def vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
+    """A vector as ``(x, y, z)`` for the text output."""
+    return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'

@@ -1,0 +1,188 @@
+"""``gpr robot fk|ik|teach``: the whole robot on the GPR (docs/robot.md); programs are ``gpr program``.
+
+Inputs are SI (metres, radians) unless ``--mm`` (lengths: positions, rods, heights) or ``--deg`` (angles: tilt,
+azimuth, heading, arm joints); outputs are always SI. ``--robot FILE`` names the robot description (default: the
+shipped example ``config/robots/example_robot.yaml``), ``--config FILE`` a GPR geometry replacing the description's,
+``--json`` prints one JSON object on stdout. Bad input exits with status 2 and one line on stderr.
+"""
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from .options import angles, lengths, robot_of, robot_options, unit_options, vec
+from .output import emit_json
+
+
+def _pose(pose: Any, i: int = 0) -> dict[str, Any]:
+    return {'position': pose.position[i], 'quaternion': pose.quaternion[i]}
+
+
+def _station_dict(st: Any, i: int = 0) -> dict[str, Any]:
+    return {'position': st.position[i], 'tilt': st.tilt[i], 'azimuth': st.azimuth[i],
+            'heading': None if st.heading_free[i] else st.heading[i]}
+
+
+def _forward_dict(robot: Any, fk: Any, i: int = 0) -> dict[str, Any]:
+    a = robot.arm(fk.arm)
+    return {'robot': robot.name, 'arm_name': a.name, 'rods': fk.rods[i],
+            'arm': dict(zip(a.joint_names, fk.joints[i].tolist(), strict=True)),
+            'wafer': _pose(fk.wafer, i), 'blade': _pose(fk.blade, i), 'platform': _pose(fk.platform, i),
+            'naive_wafer': _pose(fk.naive_wafer, i), 'naive_platform': _pose(fk.naive_platform, i),
+            'naive_wafer_error': fk.naive_wafer_error_norm[i], 'naive_wafer_error_vector': fk.naive_wafer_error[i],
+            'naive_wafer_angle_error': fk.naive_wafer_angle_error[i],
+            'gpr': {'tilt': fk.gpr.tilt[i], 'tilt_azimuth': fk.gpr.tilt_azimuth[i], 'twist': fk.gpr.twist[i],
+                    'centre_shift': fk.gpr.centre_shift[i], 'model': fk.gpr.model}}
+
+
+def _print_poses(fk: Any, i: int = 0) -> None:
+    for name, pose in (('wafer', fk.wafer), ('blade', fk.blade), ('platform', fk.platform)):
+        print(f'  {name:<9} position {vec(pose.position[i])} m, quaternion {vec(pose.quaternion[i], fmt="{:.12f}")}')
+    print(f'  naive model: the wafer {fk.naive_wafer_error_norm[i] * 1e6:.3f} um '
+          f'{vec(fk.naive_wafer_error[i], 1e6, "{:.3f}")} and {fk.naive_wafer_angle_error[i]:.3e} rad away from '
+          'where the old tool places it')
+
+
+def _cmd_fk(args: argparse.Namespace) -> int:
+    from ..robot.forward import robot_forward
+    from ..robot.stations import stations_from_poses
+    robot = robot_of(args)
+    fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], args.arm)
+    station = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    if args.json:
+        emit_json(_forward_dict(robot, fk) | {'station': _station_dict(station)})
+        return 0
+    print(f'robot {robot.name}, arm {fk.arm}, model {fk.gpr.model}: rods {vec(fk.rods[0])} m, joints '
+          f'{vec(fk.joints[0])} rad')
+    _print_poses(fk)
+    print(f'  station   tilt {station.tilt[0]:.12g} rad, azimuth {station.azimuth[0]:.9g} rad, heading '
+          f'{station.heading[0]:.9g} rad')
+    return 0
+
+
+def _station_args(args: argparse.Namespace) -> Any:
+    from ..inputs.validation import finite_number
+    from ..robot.stations import Stations
+    heading = None if args.heading is None else angles(args, [finite_number(args.heading, '--heading')])
+    tilt, azimuth = (angles(args, [finite_number(getattr(args, n), f'--{n}')])[0] for n in ('tilt', 'azimuth'))
+    return Stations.of([lengths(args, args.position)], tilt, azimuth, heading)
+
+
+def _cmd_ik(args: argparse.Namespace) -> int:
+    from ..robot.inverse import solve_stations
+    robot = robot_of(args)
+    value = None if args.redundancy is None else angles(args, [args.redundancy])[0]
+    sol = solve_stations(robot, _station_args(args), args.arm, args.branch, redundancy_value=value)
+    a = robot.arm(sol.arm)
+    if args.json:
+        out = _forward_dict(robot, sol.forward)
+        out |= {'branch': sol.branch[0], 'station': _station_dict(sol.stations),
+                'naive_wafer_error': sol.naive_wafer_error_norm[0],
+                'naive_wafer_error_vector': sol.naive_wafer_error[0],
+                'naive_wafer_angle_error': sol.naive_wafer_angle_error[0],
+                'naive': {'rods': sol.naive_rods[0], 'arm': dict(zip(a.joint_names, sol.naive_joints[0].tolist(),
+                                                                      strict=True))},
+                'position_error': sol.position_error[0], 'angle_error': sol.angle_error[0]}
+        emit_json(out)
+        return 0
+    print(f'station inverse kinematics, robot {robot.name}, arm {a.name} (branch {sol.branch[0]}), model '
+          f'{sol.forward.gpr.model}:')
+    print(f'  rods      {vec(sol.rods[0])} m')
+    print('  joints    ' + ', '.join(f'{n} = {v:.9f}' for n, v in zip(a.joint_names, sol.joints[0], strict=True))
+          + ' rad')
+    _print_poses(sol.forward)
+    print(f'  reached to {sol.position_error[0]:.1e} m and {sol.angle_error[0]:.1e} rad; the naive model\'s joints '
+          f'would miss the station by {sol.naive_wafer_error_norm[0] * 1e6:.3f} um '
+          f'{vec(sol.naive_wafer_error[0], 1e6, "{:.3f}")} and {sol.naive_wafer_angle_error[0]:.3e} rad')
+    return 0
+
+
+def _cmd_teach(args: argparse.Namespace) -> int:
+    from ..robot.teach import read_joint_table, reteach, teach
+    robot = robot_of(args)
+    if args.table is not None:  # an empty name is refused, not ignored
+        if args.rods or args.joints:
+            from ..errors import InputError
+            raise InputError('give either --table FILE or --rods and --joints, not both')
+        names, rods, joints = read_joint_table(args.table, robot, args.arm)
+    elif args.rods and args.joints:
+        names, rods, joints = ('0',), np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
+    else:
+        from ..errors import InputError
+        raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
+    # The error arrays are properties computed anew at each access: take each once (a row holding a view of its
+    # own copy of the whole array made 100,000 rows cost 240 GB).
+    if args.naive:
+        rt = reteach(robot, rods, joints, args.arm, names)
+        a = robot.arm(rt.solution.arm)
+        avoided, avoided_norm = rt.avoided_error, rt.avoided_error_norm
+        rows = [{'name': n, 'intended': _station_dict(rt.intended, i), 'rods': rt.solution.rods[i],
+                 'arm': dict(zip(a.joint_names, rt.solution.joints[i].tolist(), strict=True)),
+                 'avoided_error': avoided_norm[i], 'avoided_error_vector': avoided[i]}
+                for i, n in enumerate(names)]
+    else:
+        taught = teach(robot, rods, joints, args.arm, names)
+        error = taught.naive_error
+        norm = np.linalg.norm(error, axis=1)
+        rows = [{'name': n, 'station': _station_dict(taught.stations, i),
+                 'naive_station': _station_dict(taught.naive_stations, i),
+                 'naive_error': float(norm[i]), 'naive_error_vector': error[i]}
+                for i, n in enumerate(names)]
+    if args.json:
+        emit_json({'robot': robot.name, 'reteach': args.naive, 'stations': rows})
+        return 0
+    for row in rows:
+        if args.naive:
+            print(f'{row["name"]}: meant {vec(row["intended"]["position"])} m; new rods {vec(row["rods"])} m, joints '
+                  + ', '.join(f'{k} = {v:.9f}' for k, v in row['arm'].items())
+                  + f' rad; the old joints missed by {row["avoided_error"] * 1e6:.3f} um')
+        else:
+            st = row['station']
+            print(f'{row["name"]}: station {vec(st["position"])} m, tilt {st["tilt"]:.9g}, azimuth '
+                  f'{st["azimuth"]:.9g}, heading {st["heading"]:.9g} rad; the naive model would record it '
+                  f'{row["naive_error"] * 1e6:.3f} um away')
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add ``gpr robot`` to the ``gpr`` parser."""
+    robot = sub.add_parser('robot', help='the whole robot: forward and station inverse kinematics, teach',
+                           description='The arm and the wafer on the GPR (docs/robot.md).')
+    rsub = robot.add_subparsers(dest='robot_command', metavar='SUBCOMMAND', parser_class=type(robot))
+    rsub.required = True
+    p = rsub.add_parser('fk', help='rods and arm joints -> wafer, blade and platform in the world')
+    p.add_argument('--rods', type=float, nargs=3, required=True, metavar='Q', help='rod lengths [m, or mm]')
+    p.add_argument('--joints', type=float, nargs='+', required=True, metavar='J', help='arm joints [rad, or deg]')
+    p.add_argument('--arm', help='arm name (default: the first arm)')
+    unit_options(p)
+    robot_options(p)
+    p.set_defaults(handler=_cmd_fk)
+
+    p = rsub.add_parser('ik', help='a station (wafer pose in the world) -> rods and arm joints')
+    p.add_argument('--position', type=float, nargs=3, required=True, metavar=('X', 'Y', 'Z'),
+                   help='wafer centre in the world [m, or mm]')
+    p.add_argument('--tilt', type=float, default=0.0, help='station plane tilt [rad, or deg] (default 0)')
+    p.add_argument('--azimuth', type=float, default=0.0, help='azimuth of the tilt axis [rad, or deg] (default 0)')
+    p.add_argument('--heading', type=float, help='blade heading in the station plane [rad, or deg]; required for '
+                                                   'arms of 3 or 4 joints, free when omitted for a 2-joint arm')
+    p.add_argument('--arm', help='arm name (default: the first arm)')
+    p.add_argument('--branch', choices=('left', 'right'), help="elbow branch (default: the arm's)")
+    p.add_argument('--redundancy', type=float, metavar='VALUE',
+                   help='4-joint arm under fixed_joint: the held joint value [rad, or deg]')
+    unit_options(p)
+    robot_options(p)
+    p.set_defaults(handler=_cmd_ik)
+
+    p = rsub.add_parser('teach', help='joints -> stations; with --naive: re-teach joints of the old naive model')
+    p.add_argument('--rods', type=float, nargs=3, metavar='Q', help='rod lengths [m, or mm]')
+    p.add_argument('--joints', type=float, nargs='+', metavar='J', help='arm joints [rad, or deg]')
+    p.add_argument('--table', metavar='CSV', help='many: a CSV with a header naming the rods and joints (units in '
+                                                  'brackets, e.g. "gpr_rod1 [mm]") and an optional name column')
+    p.add_argument('--naive', action='store_true', help='the joints came from the naive model (the old tool): '
+                                                        'print the joints that put the wafer where it meant')
+    p.add_argument('--arm', help='arm name (default: the first arm)')
+    unit_options(p)
+    robot_options(p)
+    p.set_defaults(handler=_cmd_teach)

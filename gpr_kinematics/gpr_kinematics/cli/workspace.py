@@ -1,0 +1,244 @@
+"""``gpr workspace``: workspace approximation of a mechanism file by nonuniform covering or grid.
+
+Examples::
+
+    gpr workspace config/mechanisms/tripod_3rps.yaml --delta 0.001 --json
+    gpr workspace tripod_3rps.yaml --delta 1 --mm --boxes tripod.npz --plot out/
+    gpr workspace dextar_6d.yaml --delta 6 --mm --scheduler local --workers 2
+    gpr workspace joint_working_area.yaml --delta 6 --mm --plot out/ --scheduler tcp://10.0.0.5:8786
+
+``--delta`` is the accuracy in metres (``--mm``: millimetres); angle edges count as ``angle_scale`` times the
+angle (the mechanism's characteristic length), see docs/workspace.md. A progress bar appears on stderr after
+2 s; Ctrl-C stops the run and keeps (and saves) what was proved, marked ``interrupted``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, InputError
+from ..inputs.files import atomic_output, check_output
+from ..inputs.safe_yaml import load_text
+from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
+from ..workspace.levels import PARTS
+from ..workspace.scheduler import MAX_WORKERS
+from .output import emit_json
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``workspace`` subcommand (plugin interface of :mod:`gpr_kinematics.cli.main`)."""
+    p = subparsers.add_parser(
+        'workspace',
+        help='workspace approximation (nonuniform covering / grid)',
+        description=(__doc__ or '').split('\n\n')[0],
+    )
+    p.add_argument('file', help='mechanism YAML file with a type key (e.g. config/mechanisms/tripod_3rps.yaml)')
+    p.add_argument('--delta', type=float, required=True,
+                   help='accuracy: largest scaled edge of a boundary box, m (mm with --mm)')
+    p.add_argument('--mm', action='store_true', help='--delta is in millimetres')
+    p.add_argument('--method', choices=METHODS, default='covering',
+                   help="covering (certified interval bounds), grid (node sampling per box, the paper's grid "
+                   'method) or uniform (plain grid); default covering')
+    p.add_argument('--grid-nodes', type=int, default=3, help='grid method: nodes per box edge (default 3)')
+    p.add_argument('--boxes', metavar='OUT.npz', help='save the boxes: arrays inner, boundary (n, d, 2), variables')
+    p.add_argument('--plot', metavar='DIR', help='write PNG projections on the coordinate planes into DIR')
+    p.add_argument('--json', action='store_true', help='print the summary as one JSON object')
+    p.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
+                   help='override a top-level mechanism parameter (SI, YAML syntax), e.g. --set b=0.25')
+    p.add_argument('--scheduler', default='local', metavar='none|local|tcp://HOST:PORT',
+                   help='where the covering runs: local (default; a Dask local cluster, one worker per core, '
+                   'started only when a run is large enough), none (this process) or the address of a Dask '
+                   'scheduler; the boxes are the same')
+    p.add_argument('--workers', type=int, default=None,
+                   help=f'worker processes of --scheduler local (1 to {MAX_WORKERS}; default: the cores)')
+    p.add_argument('--parts', type=int, default=PARTS,
+                   help=f'parts a large run is cut into for the workers (default {PARTS}); changes the order '
+                   'of the boxes, not the boxes')
+    p.add_argument('--max-boxes', type=int, default=MAX_BOXES,
+                   help=f'stop (like Ctrl-C) before keeping more boxes than this (default {MAX_BOXES})')
+    p.add_argument('--max-seconds', type=float, default=None, help='stop (like Ctrl-C) after this many seconds')
+    p.add_argument('--no-progress', action='store_true', help='no progress bar on stderr')
+    p.set_defaults(handler=run)
+
+
+#: Longest --set value (characters).
+MAX_SET = 2000
+
+
+def _overrides(items: list[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition('=')
+        if not sep or not key.strip():
+            raise InputError(f'--set expects KEY=VALUE, got {item[:60]!r}')
+        if len(value) > MAX_SET:
+            raise InputError(f'--set {key[:40]}: the value has {len(value)} characters; allowed: at most {MAX_SET}')
+        try:  # the package's one YAML reader: no aliases (a value cannot expand), bounded depth and size
+            out[key.strip()] = load_text(value, f'--set {key[:40]}')
+        except ConfigError:
+            raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML (no aliases)') from None
+    return out
+
+
+def _scheduler(args: argparse.Namespace) -> str:
+    """The scheduler to use: ``local`` falls back to ``none`` (with a note) when dask.distributed is absent."""
+    if args.scheduler == 'local' and importlib.util.find_spec('distributed') is None:
+        if args.workers is not None:
+            raise InputError("--workers needs dask.distributed (pip install '.[cluster]': dask and distributed)")
+        sys.stderr.write('gpr workspace: dask.distributed is not installed; running in this process '
+                         '(--scheduler none)\n')
+        return 'none'
+    return str(args.scheduler)
+
+
+def _check_args(args: argparse.Namespace) -> float:
+    delta = float(args.delta) * (1e-3 if args.mm else 1.0)
+    if not math.isfinite(delta) or delta <= 0:
+        raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
+    if args.grid_nodes < 2:
+        raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
+    if args.max_seconds is not None and not args.max_seconds > 0:
+        raise InputError(f'--max-seconds must be positive, got {args.max_seconds}')
+    if not 1 <= args.max_boxes <= 10**9:
+        raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
+    if not 1 <= args.parts <= 100_000:
+        raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
+    if args.boxes is not None:  # an empty name is refused, not ignored
+        check_output(args.boxes, '--boxes')
+    if args.plot is not None:
+        output_directory(args.plot)
+        _matplotlib()
+    return delta
+
+
+def _matplotlib() -> Any:
+    """matplotlib (Agg), or a one-line error when it is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise InputError('--plot needs matplotlib (pip install matplotlib)') from None
+    matplotlib.use('Agg')
+    return matplotlib
+
+
+def run(args: argparse.Namespace) -> int:
+    delta = _check_args(args)
+    model = load_workspace_model(args.file, _overrides(args.set))
+    result = approximate(model, delta, method=args.method, grid_nodes=args.grid_nodes,
+                         progress=not args.no_progress, max_seconds=args.max_seconds,
+                         max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,
+                         parts=args.parts)
+    out = [list(model.variables).index(v) for v in result.variables]
+    box, scale = np.asarray(model.box)[out], np.asarray(model.scale)[out]
+    summary = result.summary()
+    summary.update({'file': str(args.file), 'type': model.name, 'box': box.tolist(), 'scale': scale.tolist(),
+                    'volume_units': '*'.join(result.units), 'overrides': _overrides(args.set)})
+    if getattr(model, 'tables', None):
+        summary['sub_coverings'] = model.tables.get('sub_coverings')
+    notes = []
+    if args.boxes is not None:
+        summary['boxes_file'] = str(save_boxes(args.boxes, result, box, scale))
+        notes.append(f'boxes written to {summary["boxes_file"]}')
+    if args.plot is not None:
+        stem = Path(args.file).stem
+        summary['plots'] = [str(p) for p in plot_projections(result, args.plot, stem, box)]
+        notes.append(f'{len(summary["plots"])} projections written to {args.plot}')
+    if result.interrupted:
+        why = '' if result.stopped == 'interrupted' else f' ({result.stopped})'
+        sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '
+                         'count as boundary boxes\n')
+    if args.json:
+
+        emit_json(summary)
+        return 0
+    print(f'{model.name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
+          f'({result.outside_boxes} outside), method {result.method}, delta {delta:g} m')
+    print(f'inner volume {result.inner_volume:.6g} {summary["volume_units"]}, outer volume '
+          f'{result.outer_volume:.6g} {summary["volume_units"]}, {result.seconds:.2f} s'
+          + (' (interrupted)' if result.interrupted else ''))
+    if result.touches_initial_box:
+        print('note: the approximation reaches the faces of the initial box (workspace.box); the workspace may '
+              'extend beyond it')
+    for note in notes:
+        print(note)
+    return 0
+
+
+def output_directory(path: str | Path) -> Path:
+    """An output directory: an existing directory or a path that can be created (not a file)."""
+    if str(path) == '':
+        raise InputError('--plot: the folder path is empty; allowed: a folder to write the projections into')
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise InputError(f'--plot {str(p)!r} exists and is not a directory; allowed: a directory')
+    return p
+
+
+def save_boxes(path: str | Path, result: WorkspaceResult, box: np.ndarray, scale: np.ndarray) -> Path:
+    """Write ``inner``, ``boundary`` (n, d, 2), ``variables``, ``units``, ``box``, ``scale``, ``delta``,
+    ``method``, ``interrupted`` to exactly ``path`` (no suffix added), atomically (:func:`~.files.atomic_output`)."""
+    with atomic_output(path, '--boxes', binary=True) as f:
+        np.savez_compressed(f, inner=result.inner, boundary=result.boundary, variables=np.array(result.variables),
+                            units=np.array(result.units), box=box, scale=scale, delta=result.delta,
+                            method=result.method, interrupted=result.interrupted)
+    return Path(path)
+
+
+def _unique_rects(boxes: np.ndarray, i: int, j: int) -> np.ndarray:
+    if boxes.shape[0] == 0:
+        return np.empty((0, 4))
+    rects = np.stack([boxes[:, i, 0], boxes[:, i, 1], boxes[:, j, 0], boxes[:, j, 1]], axis=1)
+    return np.unique(rects, axis=0)
+
+
+def plot_projections(
+    result: WorkspaceResult, directory: str | Path, name: str, box: np.ndarray | None = None
+) -> list[Path]:
+    """PNG projections of the inner (dark) and outer (light) approximations on every coordinate plane."""
+    _matplotlib()
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    out_dir = output_directory(directory)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f'cannot create --plot directory {str(out_dir)!r}: {exc.strerror}') from None
+    d = len(result.variables)
+    pairs = [(0, 1)] if d == 2 else [(i, j) for i in range(d) for j in range(i + 1, d)]
+    files = []
+    for i, j in pairs:
+        fig, ax = plt.subplots(figsize=(5.5, 5.0), dpi=110)
+        for arr, colour in ((result.boundary, '#f4a582'), (result.inner, '#2166ac')):
+            r = _unique_rects(arr, i, j)
+            verts = list(np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1))
+            ax.add_collection(PolyCollection(verts, facecolors=colour, edgecolors='none', linewidths=0))
+        if box is not None:
+            ax.set_xlim(box[i])
+            ax.set_ylim(box[j])
+        else:
+            ax.autoscale()
+        ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
+        ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
+        ax.set_title(f'{name}: projection on {result.variables[i]}-{result.variables[j]}\n'
+                     f'inner (blue) and boundary (orange), delta = {result.delta:g} m', fontsize=9)
+        fig.tight_layout()
+        path = out_dir / f'workspace_{name}_{result.variables[i]}_{result.variables[j]}.png'
+        try:
+            fig.savefig(path)
+        except OSError as exc:
+            raise InputError(f'cannot write {str(path)!r}: {exc.strerror}') from None
+        finally:
+            plt.close(fig)
+        files.append(path)
+    return files
+
+
+__all__ = ['register', 'run', 'save_boxes', 'plot_projections']

@@ -1,0 +1,287 @@
+"""Forward kinematics of the GPR under a virtual-joint model: rod lengths ``q`` -> platform pose.
+
+Bratovanov & Sotirov §IV-V (``docs/references.md``); frames and conventions in ``docs/core.md``.
+
+1. joint centres ``P_k = B_k + (q_k + o_k) u_k`` (:class:`~gpr_kinematics.core.machine.MachineGeometry`, the
+   paper's eq. (1) on the nominal machine) and side lengths ``L_ij = |P_j - P_i|``;
+2. virtual joints ``X`` from the closure (:func:`gpr_kinematics.core.virtual_joints.solve_closure`);
+3. the rigid transform with ``P_k = Rot r_k(X) + t`` and the naive pose of the same rods
+   (:func:`gpr_kinematics.core.platform_pose.platform_pose`); the *centre shift* is ``t - (0, 0, z_naive)``.
+
+One driver, :func:`_forward`, serves one pose (float arithmetic, no per-call numpy overhead) and a batch
+(vectorised over ``N``), with one limit check; the two agree to rounding (~1e-16).
+
+>>> import math
+>>> fk = forward([0.5, 0.503, 0.498])
+>>> fk.iterations, round(math.degrees(fk.tilt), 4), [round(v * 1e6, 3) for v in fk.centre_shift.tolist()]
+(2, 1.7855, [22.045, -5.156, -0.239])
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InputError, LimitError
+from ..inputs.validation import rows_of, three_floats
+from .closure import solve_closure
+from .config import GprConfig, resolve_config
+from .machine import MachineGeometry
+from .naive import NaiveState, naive_state
+from .ops import ARRAY, SCALAR, Ops
+from .platform_pose import PlatformPose, platform_pose
+from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
+
+Array = NDArray[np.float64]
+S = TypeVar('S')
+I = TypeVar('I')  # noqa: E741 - the iteration counts' type, next to S and B
+B = TypeVar('B')
+_F = TypeVar('_F', bound='_Forward[Any, Any, Any]')
+
+#: Margin [rad] by which a solved tilt may exceed ``tilt_limit`` (rounding of targets at the limit).
+TILT_LIMIT_SLACK = 1e-9
+#: Margin [m] by which a rod length may leave the stroke (rounding).
+STROKE_SLACK = 1e-12
+
+
+@dataclass(frozen=True)
+class _Forward(Generic[S, I, B]):
+    """The fields of a forward solution (SI units; quaternions x, y, z, w).
+
+    Attributes:
+        q: rod lengths [m]. model: virtual-joint model name.
+        virtual_joints: ``X`` [m and rad], named by ``virtual_joint_names``.
+        side_lengths: ``L12, L23, L31`` [m].
+        position: platform origin in ``gpr_base`` [m]; rotation, quaternion: platform orientation.
+        tilt: angle between platform normal and base z [rad], >= 0; tilt_azimuth: direction of the tilt
+            axis ``e3 x n`` in (-pi, pi] [rad]; twist: remaining rotation about the normal [rad].
+        nominal_position, nominal_rotation, nominal_quaternion: naive model for the same ``q``.
+        centre_shift: ``position - nominal_position`` [m].
+        joint_displacement: distance of each joint centre from its place ``p_k`` on the platform [m].
+        within_budget: every ``joint_displacement`` <= the imperfection budget.
+        iterations: Newton steps; residual: closure side-length error [m]; fit_residual: rigid fit [m].
+    """
+
+    q: Array
+    model: str
+    virtual_joints: Array
+    virtual_joint_names: tuple[str, ...]
+    side_lengths: Array
+    position: Array
+    rotation: Array
+    quaternion: Array
+    tilt: S
+    tilt_azimuth: S
+    twist: S
+    nominal_position: Array
+    nominal_rotation: Array
+    nominal_quaternion: Array
+    centre_shift: Array
+    joint_displacement: Array
+    within_budget: B
+    iterations: I
+    residual: S
+    fit_residual: S
+
+    @classmethod
+    def from_fields(cls: type[_F], values: dict[str, Any]) -> _F:
+        """The result with every field given in ``values`` (checked), without the frozen ``__init__``'s
+        per-field ``object.__setattr__`` (4 us of a 40 us single forward call); the instance stays frozen."""
+        if values.keys() != _FIELD_NAMES:
+            raise TypeError(f'{cls.__name__} needs exactly the fields {sorted(_FIELD_NAMES)}')
+        out = cls.__new__(cls)
+        out.__dict__.update(values)
+        return out
+
+
+@dataclass(frozen=True)
+class ForwardResult(_Forward[float, int, bool]):
+    """Forward kinematics of one configuration: the fields of :class:`_Forward` with floats for the angles,
+    residuals and ``iterations``, arrays ``(3,)``, ``(3, 3)``, ``(4,)`` for the vectors."""
+
+    @property
+    def normal(self) -> Array:
+        """Platform normal ``Rot e3`` in ``gpr_base``."""
+        return self.rotation[:, 2]
+
+
+@dataclass(frozen=True)
+class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
+    """Forward kinematics of ``N`` configurations: the fields of :class:`ForwardResult` with a leading
+    axis of length ``N`` (``model`` and ``virtual_joint_names`` are shared)."""
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    def __getitem__(self, i: int) -> ForwardResult:
+        out: dict[str, Any] = {name: getattr(self, name) for name in _SHARED_FIELDS}
+        for name in _ROW_FIELDS:
+            out[name] = getattr(self, name)[i]
+        for name in _SCALAR_FIELDS:
+            out[name] = getattr(self, name)[i].item()
+        return ForwardResult(**out)
+
+    @property
+    def normal(self) -> Array:
+        """Platform normals ``(N, 3)``."""
+        return self.rotation[:, :, 2]
+
+
+#: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
+_SHARED_FIELDS = ('model', 'virtual_joint_names')
+_SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
+_ROW_FIELDS = tuple(f.name for f in fields(_Forward) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
+_FIELD_NAMES = {f.name for f in fields(_Forward)}
+
+
+def side_lengths(ops: Ops, P: tuple[list[Any], list[Any], list[Any]]) -> list[Any]:
+    """``L_ij = |P_j - P_i|`` of the joint centres ``P = (x, y, z)`` (component lists), edges 1-2, 2-3, 3-1."""
+    x, y, z = P
+    out = []
+    for a, b in EDGES:
+        dx, dy, dz = x[b] - x[a], y[b] - y[a], z[b] - z[a]
+        out.append(ops.sqrt(dx * dx + dy * dy + dz * dz))
+    return out
+
+
+def _rows(q: Sequence[Any]) -> NDArray[Any]:
+    """Rod lengths as an array ``(N, 3)`` for messages (from floats or columns)."""
+    return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
+
+
+def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q') -> None:
+    """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample."""
+    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
+    if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
+        return
+    rods = _rows(q)
+    i, k = np.argwhere((rods < lo) | (rods > hi))[0]
+    where = f' (sample {i})' if rods.shape[0] > 1 else ''
+    raise LimitError(f'{what}{k + 1} = {rods[i, k]:.9g} m{where} is outside the stroke '
+                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
+
+
+def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: GprConfig) -> NaiveState:
+    """Refuse ``q`` whose naive tilt exceeds the limit by 5 % (the real tilt differs by < 0.1 %; the margin
+    keeps Newton inside its basin; the exact check follows the solve). Returns the naive state it computed."""
+    naive = naive_state(ops, geo, q)
+    _, h2, _, _, nz = naive
+    n_tilt = ops.atan2(ops.sqrt(1.0 - ops.maximum(1.0 - h2, 0.0)), nz)
+    too = (h2 >= 1.0) | (n_tilt > 1.05 * config.tilt_limit)
+    if ops.any(too):
+        i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
+        raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about '
+                         f'{math.degrees(float(np.atleast_1d(n_tilt)[i])):.4g} deg, beyond the tilt limit '
+                         f'{math.degrees(config.tilt_limit):.4g} deg')
+    return naive
+
+
+def _check_tilt(q: Sequence[Any], tilt: Any, config: GprConfig) -> None:
+    t = np.atleast_1d(tilt)
+    i = int(np.argmax(t))
+    raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {math.degrees(float(t[i])):.6g} deg, '
+                     f'beyond the tilt limit {math.degrees(config.tilt_limit):.6g} deg')
+
+
+def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Any],
+               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Any], Closure, PlatformPose]:
+    """Side lengths, solved virtual joints and platform pose of rods ``q`` (floats or columns): the kernel
+    chain of forward kinematics, without limit checks (``naive``: the naive state of ``q`` if known)."""
+    P = geo.joint_centres(q)
+    L = side_lengths(ops, P)
+    closure = solve_closure(ops, vjm, L, config)
+    return L, closure, platform_pose(ops, geo, q, P, closure.components, naive)
+
+
+def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], vjm: VirtualJointModel,
+             config: GprConfig, L: list[Any], closure: Closure, pose: PlatformPose) -> Any:
+    """The result dataclass (``ForwardResult`` for floats, ``ForwardBatch`` for columns) of a solved pose."""
+    position = ops.vector(pose.position)
+    z = pose.nominal_z
+    nominal_position = ops.vector([0.0 * z, 0.0 * z, z])
+    jd = pose.joint_displacement
+    return result.from_fields(dict(
+        q=ops.vector(q), model=vjm.name, virtual_joints=ops.vector(closure.X), virtual_joint_names=vjm.names,
+        side_lengths=ops.vector(L), position=position, rotation=ops.matrix(pose.rotation),
+        quaternion=ops.vector(pose.quaternion), tilt=pose.tilt, tilt_azimuth=pose.tilt_azimuth, twist=pose.twist,
+        nominal_position=nominal_position, nominal_rotation=ops.matrix(pose.nominal_rotation),
+        nominal_quaternion=ops.vector(pose.nominal_quaternion), centre_shift=position - nominal_position,
+        joint_displacement=ops.vector(jd),
+        within_budget=ops.maximum(ops.maximum(jd[0], jd[1]), jd[2]) <= config.imperfection_budget,
+        iterations=closure.iterations, residual=closure.residual, fit_residual=pose.fit_residual))
+
+
+def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], config: GprConfig,
+             vjm: VirtualJointModel, check_limits: bool, geometry: MachineGeometry | None = None) -> Any:
+    geo = MachineGeometry.of(config) if geometry is None else geometry
+    naive = None
+    if check_limits:
+        check_stroke(ops, q, config)
+        naive = _check_naive_tilt(ops, geo, q, config)
+    L, closure, pose = solve_pose(ops, geo, vjm, q, config, naive)
+    if check_limits and ops.any(pose.tilt > config.tilt_limit + TILT_LIMIT_SLACK):
+        _check_tilt(q, pose.tilt, config)
+    return assemble(ops, result, q, vjm, config, L, closure, pose)
+
+
+def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
+                  check_limits: bool = True, parameters: ArrayLike | None = None,
+                  names: Sequence[str] | None = None, displacement: ArrayLike | None = None) -> ForwardBatch:
+    """Forward kinematics of rod lengths ``Q (N, 3)`` [m], vectorised over ``N``.
+
+    ``parameters (N, P)``: one machine per sample, the geometry parameters ``names`` (default all of
+    :data:`~gpr_kinematics.core.machine.PARAMETER_NAMES`, ``P = 24``) of sample ``i`` in row ``i`` [SI], the rest of
+    ``config`` shared (:meth:`~gpr_kinematics.core.machine.MachineGeometry.per_row`): the same kernels, one call for
+    many machines (the perturbed machines of a Jacobian, the samples of a Monte Carlo budget). Row ``i`` gives
+    what ``forward_batch(Q[i:i+1], config_with_parameters(config, parameters[i], names))`` gives (to rounding).
+    ``parameters (M, P)`` with ``N = M k``: row ``j`` for the ``k`` consecutive samples ``j k .. j k + k - 1``
+    (``M`` machines at the same ``k`` configurations each).
+
+    ``displacement (N, 3, 3)``: the joint centre ``P_k`` of sample ``i`` moved by ``displacement[i, k]`` in
+    ``gpr_base`` [m] (the play of a spherical joint; :meth:`~gpr_kinematics.core.machine.MachineGeometry.displaced`).
+
+    Raises:
+        InputError: wrong shape, NaN or infinity; unknown model; a parameter row outside the geometry's ranges.
+        LimitError: a rod outside the stroke, or a tilt beyond ``tilt_limit`` (if ``check_limits``).
+        ConvergenceError: the closure did not converge (cannot happen inside the limits).
+    """
+    cfg = resolve_config(config)
+    A = rows_of(Q, 'q', 3)
+    cols = [np.ascontiguousarray(A[:, k]) for k in range(3)]
+    geo = None
+    if parameters is not None:
+        geo = MachineGeometry.per_row(cfg, parameters, names)
+        if A.shape[0] % geo.rows:
+            raise InputError(f'{geo.rows} parameter rows for {A.shape[0]} rod-length rows; allowed: one machine per '
+                             'sample, or per block of samples (a number of rows that divides the samples)')
+        if geo.rows != A.shape[0]:
+            geo = geo.repeat(A.shape[0] // geo.rows)
+    vjm = make_model(cfg, model, geo)
+    if displacement is not None:
+        if np.shape(displacement)[:1] != (A.shape[0],):
+            raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
+                             f'shape {np.shape(displacement)}')
+        geo = (geo or MachineGeometry.of(cfg)).displaced(np.asarray(displacement, dtype=float))
+    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo)
+    return out
+
+
+def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
+            check_limits: bool = True) -> ForwardResult:
+    """Forward kinematics of one configuration ``q = (q1, q2, q3)`` [m]; see :func:`forward_batch`.
+
+    Evaluated in float arithmetic by the same kernels and driver as the batch (no numpy overhead per step).
+    """
+    cfg = resolve_config(config)
+    out: ForwardResult = _forward(SCALAR, ForwardResult, three_floats(q, 'q'), cfg, make_model(cfg, model),
+                                  check_limits)
+    return out
+
+
+def base_points(Q: Array, config: GprConfig) -> Array:
+    """Joint centres ``P_k = B_k + (q_k + o_k) u_k`` in ``gpr_base``, ``(N, 3, 3)`` (paper eq. (1))."""
+    return MachineGeometry.of(config).base_points(Q)

@@ -1,0 +1,211 @@
+"""Inverse kinematics of the GPR: height of a platform point and platform normal -> rod lengths.
+
+The GPR has three degrees of freedom: the height of a platform point (its origin by default, or ``tool``,
+given in ``gpr_platform``) and the platform normal ``n* = tilt_rotation(tilt, azimuth) e3`` are prescribed;
+x, y and heading are outcomes of the virtual-joint model, reported in ``achieved``. With ``N(h, n)`` the naive
+inverse (:func:`gpr_kinematics.core.naive.naive_rods`), the iteration
+
+    q <- q + N(h*, n*) - N(h(q), n(q)),   from q = N(h*, n*),
+
+where ``h(q), n(q)`` come from the virtual-joint forward kinematics, is Newton's method with the naive
+model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4), so each
+step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves one target (floats)
+and a batch (arrays); the last forward solve of the loop is the reported ``achieved`` pose.
+
+>>> import math
+>>> ik = inverse(0.5, math.radians(2.0), 0.0)     # 2 deg about the x axis at 0.5 m
+>>> round(float(ik.achieved.centre_shift[0]) * 1e6, 2), ik.iterations   # the centre shift along x [um]
+(28.41, 4)
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import ConvergenceError, InputError, LimitError
+from ..inputs.validation import column_of, rows_of, single_number, three_floats
+from .config import GprConfig, resolve_config
+from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, solve_pose
+from .machine import MachineGeometry
+from .naive import naive_rods
+from .ops import ARRAY, SCALAR, Ops
+from .virtual_joints import VirtualJointModel, make_model
+
+Array = NDArray[np.float64]
+
+#: Inverse kinematics stops when height [m] and normal errors are both below this.
+IK_TOLERANCE = 1e-14
+#: Largest distance of the tool point from the platform origin [m]. No tool of a GPR is that long, and the
+#: height of a point much farther away carries rounding errors of the order of :data:`IK_TOLERANCE` (at 300 m
+#: Newton's method can no longer meet it).
+TOOL_REACH = 10.0
+#: How far beyond the heights that keep the naive model's rods within the stroke a target may lie and still be
+#: solved [m]: the virtual joints move the rods by at most ~1.3 mm against the naive model (at a tilt of 15 deg,
+#: the largest tilt limit); the stroke itself is checked exactly after the solve.
+HEIGHT_MARGIN = 0.01
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Inverse kinematics of one target: rod lengths ``q`` [m], the pose they give, Newton steps."""
+
+    q: Array
+    achieved: ForwardResult
+    iterations: int
+
+
+@dataclass(frozen=True)
+class InverseBatch:
+    """Inverse kinematics of ``N`` targets: ``q (N, 3)``, ``achieved`` and ``iterations (N,)``."""
+
+    q: Array
+    achieved: ForwardBatch
+    iterations: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    def __getitem__(self, i: int) -> InverseResult:
+        return InverseResult(q=self.q[i], achieved=self.achieved[i], iterations=int(self.iterations[i]))
+
+
+def _check_tilt_targets(ops: Ops, t: Any, config: GprConfig) -> None:
+    if not ops.any(ops.fabs(t) > config.tilt_limit + TILT_LIMIT_SLACK):
+        return
+    a = np.atleast_1d(t)
+    i = int(np.argmax(np.abs(a)))
+    raise LimitError(f'tilt = {a[i]:.9g} rad ({math.degrees(a[i]):.6g} deg) is beyond the tilt limit '
+                     f'{config.tilt_limit:.9g} rad ({math.degrees(config.tilt_limit):.6g} deg)')
+
+
+def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
+    """Refuse tool points ``(3,)`` or ``(N, 3)`` [m] farther than :data:`TOOL_REACH` from the platform origin."""
+    T = np.atleast_2d(np.asarray(tools, dtype=float))
+    far = np.max(np.abs(T), axis=-1) > TOOL_REACH  # before the norm, which could overflow
+    far |= np.sqrt(np.sum(np.where(far[:, None], 0.0, T) ** 2, axis=-1)) > TOOL_REACH
+    if far.any():
+        i = int(np.argmax(far))
+        where = f' (target {i})' if T.shape[0] > 1 else ''
+        raise LimitError(f'{name} = ({T[i, 0]:.6g}, {T[i, 1]:.6g}, {T[i, 2]:.6g}) m{where} is beyond the reach of a '
+                         f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
+
+
+def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Any], tool: Sequence[Any], config: GprConfig
+                  ) -> tuple[Any, Any]:
+    """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
+    normals ``n``: rod ``k`` of :func:`~gpr_kinematics.core.naive.naive_rods` is within ``[stroke_min, stroke_max]``
+    for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
+    lo = hi = None
+    for k in range(3):
+        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
+        hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
+        lo = lo_k if lo is None else ops.maximum(lo, lo_k)
+        hi = hi_k if hi is None else -ops.maximum(-hi, -hi_k)
+    return lo, hi
+
+
+def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[Any], tool: Sequence[Any],
+                  config: GprConfig) -> None:
+    """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
+    the solve, naming the heights allowed at that tilt; a height of 1e308 m never reaches the arithmetic."""
+    lo, hi = _height_range(ops, geo, n, tool, config)
+    if not ops.any(ops.not_((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN))):
+        return
+    bad = np.atleast_1d(np.logical_not((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
+    i = int(np.argmax(bad))
+    hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
+    hv = float(np.atleast_1d(hi)[i])
+    where = f' (target {i})' if bad.size > 1 else ''
+    at = f'at the tilt {ti:.6g} rad' + (' with this tool point' if any(np.any(np.asarray(v) != 0) for v in tool)
+                                         else '')
+    stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
+    if lo_ > hv:
+        raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
+    raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
+                     f'{lo_:.6g} .. {hv:.6g} m')
+
+
+def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t: Any, g: Any,
+           tool: Sequence[Any], config: GprConfig, vjm: VirtualJointModel) -> tuple[Any, Any]:
+    """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
+    _check_tilt_targets(ops, t, config)
+    geo = MachineGeometry.of(config)
+    s = ops.sin(t)
+    n_target = [s * ops.sin(g), -s * ops.cos(g), ops.cos(t)]
+    _check_height(ops, geo, h, t, n_target, tool, config)
+    q_target = naive_rods(geo, h, n_target, tool)
+    q = list(q_target)
+    iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
+    for step in range(config.max_iterations + 1):
+        L, closure, pose = solve_pose(ops, geo, vjm, q, config)
+        R = pose.rotation
+        h_now = pose.position[2] + R[2][0] * tool[0] + R[2][1] * tool[1] + R[2][2] * tool[2]
+        n_now = [R[0][2], R[1][2], R[2][2]]
+        err = ops.fabs(h_now - h)
+        for i in range(3):
+            err = ops.maximum(err, ops.fabs(n_now[i] - n_target[i]))
+        active = ops.not_(err <= IK_TOLERANCE)
+        if not ops.any(active):
+            break
+        if step == config.max_iterations:
+            e = np.where(active, err, -1.0)
+            where = '' if np.ndim(err) == 0 else f' for target {int(np.argmax(e))}'
+            raise ConvergenceError(f'inverse kinematics did not converge in {config.max_iterations} iterations'
+                                   f'{where}: error {float(np.max(e)):.3e}')
+        q_now = naive_rods(geo, h_now, n_now, tool)
+        q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
+        iterations = iterations + active
+    check_stroke(ops, q, config, what='q')
+    return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
+
+
+def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config: GprConfig | None = None,
+                  model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseBatch:
+    """Rod lengths that give platform tilts and heights under the virtual-joint model, vectorised.
+
+    Args:
+        height: z of the tool point (the platform origin by default) in ``gpr_base`` [m].
+        tilt: tilt angle [rad]; a negative tilt is a tilt about ``azimuth + pi``.
+        azimuth: direction of the tilt axis [rad]. The three broadcast to ``(N,)``.
+        tool: point of the platform, in ``gpr_platform`` [m], whose height is prescribed: shape ``(3,)``
+            (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
+
+    Raises:
+        InputError: NaN, infinity, shapes that do not broadcast (``tool`` rows included).
+        LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke.
+        ConvergenceError: no convergence within ``max_iterations`` (not seen inside the limits).
+    """
+    cfg = resolve_config(config)
+    vjm = make_model(cfg, model)
+    cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
+    tools = rows_of(tool, 'tool', 3)
+    check_tool(tools)
+    try:
+        h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
+    except ValueError:
+        raise InputError('height, tilt, azimuth and tool must have the same length (one value or tool row per '
+                         'target, or one for all), got ' + ', '.join(str(c.shape[0]) for c in cols + [tools])
+                         ) from None
+    # One platform point for all targets (floats), or one per target (columns of length N).
+    tool_v: Sequence[Any] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
+                             [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
+    achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm)
+    return InverseBatch(q=achieved.q, achieved=achieved, iterations=np.asarray(iterations, dtype=np.int64))
+
+
+def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None = None,
+            model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseResult:
+    """Inverse kinematics of one target (float arithmetic, the same driver); see :func:`inverse_batch`."""
+    h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
+    cfg = resolve_config(config)
+    tool3 = three_floats(tool, 'tool')
+    if max(abs(tool3[0]), abs(tool3[1]), abs(tool3[2])) > TOOL_REACH / 1.8:  # the exact check only when close
+        check_tool(tool3)
+    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, tool3, cfg, make_model(cfg, model))
+    return InverseResult(q=achieved.q, achieved=achieved, iterations=int(iterations))

@@ -1,0 +1,164 @@
+"""The one mapping from the core's forward-kinematics result to the package's ROS messages, without ROS.
+
+``gpr_interfaces/msg/PlatformState`` and the ``gpr/forward_kinematics`` response carry the fields of a
+:class:`~gpr_kinematics.core.ForwardResult`; :data:`STATE_FROM_RESULT` names which message field holds
+which result attribute, and :func:`forward_fields` builds those fields. The trajectory node (rclpy message
+classes), the kinematics node (the service response) and the synthetic bag writer (``rosbags`` classes) all
+build their messages here, and ``gpr verify`` compares recorded messages with a fresh forward solution through
+the same table, so a field added to the result reaches every message and every check in one place.
+
+The message classes come in a :class:`MessageTypes` namespace: rclpy's generated classes and the ``rosbags``
+typestore's dataclasses both take their fields as keyword arguments, which is all this module uses; they differ
+only in the container of an unbounded ``float64[]`` (rclpy: ``array.array('d')``, rosbags: a numpy array), which
+the namespace's ``float_sequence`` makes.
+Units are SI (metres, radians), quaternions (x, y, z, w), as in the core.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import yaml
+
+#: ``(message field, ForwardResult attribute)`` of every PlatformState / ForwardKinematics response field that is
+#: a copy of the forward solution. ``pose`` and ``nominal_pose`` combine two attributes each (position and
+#: quaternion); the rest are one to one.
+STATE_FROM_RESULT: tuple[tuple[str, str], ...] = (
+    ('q', 'q'),
+    ('model', 'model'),
+    ('pose.position', 'position'),
+    ('pose.orientation', 'quaternion'),
+    ('nominal_pose.position', 'nominal_position'),
+    ('nominal_pose.orientation', 'nominal_quaternion'),
+    ('centre_shift', 'centre_shift'),
+    ('virtual_joints', 'virtual_joints'),
+    ('virtual_joint_names', 'virtual_joint_names'),
+    ('side_lengths', 'side_lengths'),
+    ('tilt', 'tilt'),
+    ('tilt_azimuth', 'tilt_azimuth'),
+    ('twist', 'twist'),
+    ('joint_displacement', 'joint_displacement'),
+    ('within_budget', 'within_budget'),
+    ('iterations', 'iterations'),
+    ('residual', 'residual'),
+)
+
+#: The names of the three actuated joints (rods) in ``sensor_msgs/JointState`` and the robot model.
+ROD_JOINT_NAMES: tuple[str, str, str] = ('rod_1', 'rod_2', 'rod_3')
+
+_NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class MessageTypes:
+    """Constructors of the messages this module builds (rclpy classes or ``rosbags`` typestore classes)."""
+
+    Time: Any
+    Header: Any
+    Point: Any
+    Quaternion: Any
+    Vector3: Any
+    Pose: Any
+    PoseStamped: Any
+    JointState: Any
+    PlatformState: Any
+    float_sequence: Callable[[Any], Any]
+    #: ``gpr_interfaces/RobotState`` (the robot streams of :mod:`gpr_kinematics.robot.stream`).
+    RobotState: Any = None
+
+
+def header(types: MessageTypes, stamp_ns: int, frame_id: str) -> Any:
+    """``std_msgs/Header`` with a stamp given in integer nanoseconds."""
+    stamp_ns = int(stamp_ns)
+    return types.Header(stamp=types.Time(sec=stamp_ns // _NS_PER_S, nanosec=stamp_ns % _NS_PER_S),
+                        frame_id=str(frame_id))
+
+
+def pose(types: MessageTypes, position: Sequence[float], quaternion: Sequence[float]) -> Any:
+    """``geometry_msgs/Pose`` from a position [m] and a quaternion (x, y, z, w)."""
+    x, y, z = (float(v) for v in position)
+    qx, qy, qz, qw = (float(v) for v in quaternion)
+    return types.Pose(position=types.Point(x=x, y=y, z=z),
+                      orientation=types.Quaternion(x=qx, y=qy, z=qz, w=qw))
+
+
+def _floats(values: Any) -> np.ndarray:
+    return np.array(values, dtype=np.float64).reshape(-1)
+
+
+def forward_fields(types: MessageTypes, fk: Any) -> dict[str, Any]:
+    """The message fields of :data:`STATE_FROM_RESULT` built from one forward result ``fk``
+    (a :class:`~gpr_kinematics.core.ForwardResult`, or a row of a ``ForwardBatch``), as keyword
+    arguments of ``PlatformState`` (or attributes of a ``ForwardKinematics`` response)."""
+    cs = [float(v) for v in fk.centre_shift]
+    return {
+        'q': _floats(fk.q),
+        'model': str(fk.model),
+        'pose': pose(types, fk.position, fk.quaternion),
+        'nominal_pose': pose(types, fk.nominal_position, fk.nominal_quaternion),
+        'centre_shift': types.Vector3(x=cs[0], y=cs[1], z=cs[2]),
+        'virtual_joints': types.float_sequence(_floats(fk.virtual_joints)),
+        'virtual_joint_names': [str(n) for n in fk.virtual_joint_names],
+        'side_lengths': _floats(fk.side_lengths),
+        'tilt': float(fk.tilt),
+        'tilt_azimuth': float(fk.tilt_azimuth),
+        'twist': float(fk.twist),
+        'joint_displacement': _floats(fk.joint_displacement),
+        'within_budget': bool(fk.within_budget),
+        'iterations': int(fk.iterations),
+        'residual': float(fk.residual),
+    }
+
+
+def platform_state(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: str, sample: int,
+                   commanded_tilt: float, commanded_azimuth: float) -> Any:
+    """``gpr_interfaces/PlatformState`` of one sample of a stream: the forward result ``fk`` (its pose in
+    ``frame_id``), the running sample counter and the commanded (program) tilt and azimuth [rad]."""
+    return types.PlatformState(header=header(types, stamp_ns, frame_id), sample=int(sample),
+                               commanded_tilt=float(commanded_tilt), commanded_azimuth=float(commanded_azimuth),
+                               **forward_fields(types, fk))
+
+
+def fill_fields(msg: Any, fields: dict[str, Any]) -> Any:
+    """Set ``fields`` as attributes of an existing message (a service response); returns ``msg``."""
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
+
+
+def stream_messages(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: str, sample: int,
+                    commanded_tilt: float, commanded_azimuth: float) -> dict[str, Any]:
+    """Every message the trajectory node publishes for one sample, by topic (relative names):
+    ``gpr/platform_state``, ``gpr/platform_pose`` and ``gpr/nominal_pose`` (PoseStamped),
+    ``gpr/joint_states`` (the physical joints only: the rods ``rod_1..3`` [m], as ``robot_state_publisher``
+    expects) and ``gpr/virtual_joints`` (the virtual joints by their core names [m, rad])."""
+    st = platform_state(types, fk, stamp_ns=stamp_ns, frame_id=frame_id, sample=sample,
+                        commanded_tilt=commanded_tilt, commanded_azimuth=commanded_azimuth)
+    empty = types.float_sequence(np.zeros(0))
+    return {
+        'gpr/platform_state': st,
+        'gpr/platform_pose': types.PoseStamped(header=st.header, pose=st.pose),
+        'gpr/nominal_pose': types.PoseStamped(header=st.header, pose=st.nominal_pose),
+        'gpr/joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
+                                             position=types.float_sequence(_floats(fk.q)), velocity=empty,
+                                             effort=empty),
+        'gpr/virtual_joints': types.JointState(header=st.header, name=list(st.virtual_joint_names),
+                                               position=types.float_sequence(_floats(fk.virtual_joints)),
+                                               velocity=empty, effort=empty),
+    }
+
+
+def geometry_text(config: Any) -> str:
+    """``data`` of ``gpr/geometry`` (std_msgs/String, latched): the YAML of a ``GprConfig.to_dict()``, which
+    ``GprConfig.from_mapping`` reads back equal; a recording names the geometry and model that produced it."""
+    text: str = yaml.safe_dump(config.to_dict(), default_flow_style=False, sort_keys=False)
+    return text
+
+
+def robot_text(robot: Any) -> str:
+    """``data`` of ``gpr/robot`` (std_msgs/String, latched): the YAML of a ``RobotDescription.to_dict()`` (the
+    robot description file format, its geometry inline), which ``parse_robot`` reads back equal."""
+    text: str = yaml.safe_dump(robot.to_dict(), default_flow_style=False, sort_keys=False)
+    return text

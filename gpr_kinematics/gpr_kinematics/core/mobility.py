@@ -1,0 +1,229 @@
+"""Mobility and sensitivity analysis of the GPR with virtual joints (Bratovanov & Sotirov §IV-A, eqs. (1)-(5)).
+
+With ``P = (q, P1, P2, P3)`` (``N = 12``) the constraints (eq. (1); rod ``i`` along its unit direction
+``u_i``, ``e3`` on the nominal machine, from its base point ``B_i`` with zero offset ``o_i``) are
+
+    Phi_{3i..3i+2} = B_i + (q_i + o_i) u_i - P_i = 0,                  i = 1, 2, 3
+    Phi_{9+i}      = |P_{i%3+1} - P_i|^2 - L_{i,i%3+1}(X)^2 = 0,
+
+where the side lengths ``L(X) = |r_{i%3+1}(X) - r_i(X)|`` are made variable by the virtual joints ``X``
+(eq. (2)). The mobility of the rigid mechanism is ``h = 12 - rank(dPhi/dP)``; ``rank [dPhi/dP  dPhi/dX] = 12``
+everywhere, so the augmented mechanism is never singular.
+
+*Parallel rods* (the nominal machine, or rods tilted all alike): rank 9 where the joint triangle is
+perpendicular to the rods, ``q1 = q2 = q3`` for vertical rods (h = 3, instantaneous), 11 elsewhere (h = 1: the
+rigid platform can only move along the rods, the tilt is blocked).
+*Rods that are not parallel*: equal extensions of the rods change the distances between the joint centres
+(``d |P_b - P_a|^2 / dq (1, 1, 1) = 2 e . (u_b - u_a) != 0``), so even that motion is blocked: rank 12 (h = 0)
+everywhere, with no singular configuration; the virtual joints then take up the vertical motion too, and
+the augmented rank stays 12.
+
+The configuration is *singular* where the rigid mechanism gains instantaneous freedoms, ``h > 1``
+(:func:`rigid_rank`: the one test, shared by ``gpr mobility`` and ``gpr mechanism``).
+
+Sensitivity: from ``dPhi/dP dP + dPhi/dX dX = 0`` (eq. (3)), ``dX = -(dPhi/dX)^+ dPhi/dP dP = dX/dP dP``; with
+the eigen-decomposition ``dX/dP^T dX/dP = V D V^T`` (eigenvalues ascending, only ``d10..d12`` non-zero):
+
+    sqrt(d10 sum_{k=10..12} (v_k^T dP)^2) <= |dX| <= sqrt(d12 sum_{k=10..12} (v_k^T dP)^2)        (4)
+    sigma_min(dX/dP) sqrt(sum (v_k^T dP)^2) <= |dX| <= sigma_max(dX/dP) sqrt(sum (v_k^T dP)^2)      (5)
+
+Since the eigenvalues of ``A^T A`` are the squared singular values of ``A``, (4) and (5) give the same
+numbers; both are reported. The pseudo-inverse is taken in the metric of the forward solver
+(:func:`gpr_kinematics.core.virtual_joints.coordinate_scale`: angular coordinates weighted by the characteristic
+length; the elastic cost for ``compliant``); ``weighting='unweighted'`` gives the paper's plain Moore-Penrose
+form. Units: ``dP`` in metres, ``dX`` in metres and radians. ``dX/dP dP`` is the *first-order* change: at the
+singular configuration it vanishes for every change of the rod lengths (the tilt enters the side lengths
+quadratically there), while the full solve :func:`exact_dx` gives ``X(q + dq) - X(q)`` (0.107 um for
+``dq = (1e-4, -1e-4, 0)`` m at ``q = 0.5`` m, radial model). A ``dP`` must keep the rods within the stroke: a change
+of the configuration of this machine, not a number that overflows.
+
+>>> m = analyze_mobility([0.5, 0.5, 0.5])
+>>> m.rank_dphi_dp, m.rank_augmented, m.mobility
+(9, 12, 3)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InputError, LimitError, brief
+from . import forward
+from .config import GprConfig, resolve_config
+from .machine import MachineGeometry
+from .virtual_joints import EDGES, coordinate_scale, make_model
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SensitivityBounds:
+    """Bounds ``(lower, upper)`` of eqs. (4) and (5) on ``|dX|`` for one ``dP``, and the actual ``|dX|``."""
+
+    norm_dx: float
+    eq4: tuple[float, float]
+    eq5: tuple[float, float]
+
+    lower_eq4 = property(lambda self: self.eq4[0], doc='Lower bound of eq. (4).')
+    upper_eq4 = property(lambda self: self.eq4[1], doc='Upper bound of eq. (4).')
+    lower_eq5 = property(lambda self: self.eq5[0], doc='Lower bound of eq. (5).')
+    upper_eq5 = property(lambda self: self.eq5[1], doc='Upper bound of eq. (5).')
+
+
+@dataclass(frozen=True)
+class MobilityResult:
+    """Mobility and sensitivity of the GPR at one configuration.
+
+    Attributes:
+        q: rod lengths [m]; model: virtual-joint model; virtual_joints: ``X`` at ``q``.
+        dphi_dp: ``dPhi/dP`` (12 x 12); dphi_dx: ``dPhi/dX`` (12 x M); dx_dp: ``dX/dP`` (M x 12).
+        rank_dphi_dp: rank of ``dPhi/dP`` (parallel rods: 9 where the joint triangle is perpendicular to them,
+            at q1 = q2 = q3 for vertical rods, 11 elsewhere; rods not parallel: 12); mobility: ``12 - rank``.
+        rank_augmented: rank of ``[dPhi/dP dPhi/dX]`` (12 everywhere).
+        eigenvalues: of ``dX/dP^T dX/dP``, ascending (12); eigenvectors: columns ``v_1..v_12``.
+        singular_values: non-zero singular values of ``dX/dP``, descending.
+        bounds: the gains of eqs. (4), (5): ``|dX| / |P_V dP|`` lies in ``[lower, upper]``, where ``P_V dP``
+            is the projection of ``dP`` on ``v_10..v_12``.
+        rod_directions: unit directions ``u_k`` of the rods (3 x 3), for :meth:`rod_perturbation`.
+        singular: the rigid mechanism is at a singular configuration, ``mobility > 1`` (:func:`rigid_rank`).
+        stroke: ``(stroke_min, stroke_max)`` of the rods [m]: :meth:`dx_bounds` keeps ``q + dq`` within it.
+    """
+
+    q: Array
+    model: str
+    virtual_joints: Array
+    dphi_dp: Array
+    dphi_dx: Array
+    dx_dp: Array
+    rank_dphi_dp: int
+    rank_augmented: int
+    mobility: int
+    eigenvalues: Array
+    eigenvectors: Array
+    singular_values: Array
+    bounds: dict[str, tuple[float, float]]
+    rod_directions: Array
+    singular: bool
+    stroke: tuple[float, float]
+
+    def rod_perturbation(self, dq: ArrayLike) -> Array:
+        """``dP`` of a change ``dq`` of the rod lengths on this machine (:func:`rod_perturbation`)."""
+        return rod_perturbation(dq, self.rod_directions)
+
+    def dx_bounds(self, dP: ArrayLike) -> SensitivityBounds:
+        """Eqs. (4), (5) for a given ``dP`` (12 values: dq1..3, dP1, dP2, dP3), and the first-order ``|dX|``.
+
+        Raises:
+            InputError: not 12 finite numbers, or a component larger than the stroke range (so nothing overflows).
+            LimitError: ``q + dq`` outside the stroke.
+        """
+        dp = np.asarray(dP, dtype=float)
+        if dp.shape != (12,) or not np.all(np.isfinite(dp)):
+            raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
+        lo, hi = self.stroke
+        if np.max(np.abs(dp)) > hi - lo:
+            raise InputError(f'dP = {brief(dp.tolist())}: a change larger than the stroke range {hi - lo:g} m; '
+                             'allowed: a change of the configuration of this machine')
+        moved = self.q + dp[:3]
+        out = (moved < lo) | (moved > hi)
+        if out.any():
+            k = int(np.argmax(out))
+            raise LimitError(f'q{k + 1} + dq{k + 1} = {moved[k]:.9g} m is outside the stroke [{lo:g}, {hi:g}] m; '
+                             'allowed: a change that keeps the rods within it')
+        proj = float(np.sqrt(np.sum((self.eigenvectors[:, -3:].T @ dp) ** 2)))
+        d = self.eigenvalues
+        s = self.singular_values
+        return SensitivityBounds(
+            norm_dx=float(np.linalg.norm(self.dx_dp @ dp)),
+            eq4=(float(np.sqrt(max(d[-3], 0.0)) * proj), float(np.sqrt(d[-1]) * proj)),
+            eq5=(float(s[-1] * proj) if s.size else 0.0, float(s[0] * proj) if s.size else 0.0))
+
+
+def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Array:
+    """``dP`` of a change ``dq`` of the rod lengths: ``(dq, dq1 u_1, dq2 u_2, dq3 u_3)`` (eq. (1), first rows);
+    ``directions``: the unit rod directions ``u_k`` (3 x 3), default ``e3`` (parallel rods)."""
+    d = np.asarray(dq, dtype=float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)):
+        raise InputError(f'dq must be 3 finite numbers [m], got {brief(np.asarray(dq).tolist())}')
+    u = np.array([[0.0, 0.0, 1.0]] * 3) if directions is None else np.asarray(directions, dtype=float)
+    dp = np.zeros(12)
+    dp[:3] = d
+    dp[3:] = (d[:, None] * u).ravel()
+    return dp
+
+
+def _rank(A: Array) -> int:
+    return int(np.linalg.matrix_rank(A))
+
+
+def constraint_jacobian(P: ArrayLike, u: ArrayLike) -> Array:
+    """``dPhi/dP`` ``(N, 12, 12)`` of eq. (1) at joint centres ``P (N, 3, 3)`` for unit rod directions ``u (3, 3)``."""
+    P = np.asarray(P, dtype=float)
+    u = np.asarray(u, dtype=float)
+    J = np.zeros((P.shape[0], 12, 12))
+    for i in range(3):
+        J[:, 3 * i:3 * i + 3, i] = u[i]
+        J[:, 3 * i:3 * i + 3, 3 + 3 * i:6 + 3 * i] = -np.eye(3)
+    for i, (a, b) in enumerate(EDGES):
+        e = P[:, b] - P[:, a]
+        J[:, 9 + i, 3 + 3 * b:6 + 3 * b] = 2.0 * e
+        J[:, 9 + i, 3 + 3 * a:6 + 3 * a] = -2.0 * e
+    return J
+
+
+def rigid_rank(q: ArrayLike, config: GprConfig | None = None) -> NDArray[np.int64]:
+    """``rank dPhi/dP`` ``(N,)`` of the rigid mechanism at rod lengths ``q (N, 3)`` [m] (module docstring): 9 at the
+    singular configuration of parallel rods, 11 elsewhere, 12 for rods that are not parallel. The configuration is
+    singular where ``12 - rank > 1``.
+
+    >>> rigid_rank([[0.5, 0.5, 0.5], [0.5, 0.501, 0.5]]).tolist()
+    [9, 11]
+    """
+    geo = MachineGeometry.of(resolve_config(config))
+    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    u = np.array([geo.ux, geo.uy, geo.uz]).T
+    return np.asarray(np.linalg.matrix_rank(constraint_jacobian(geo.base_points(Q), u)), dtype=np.int64)
+
+
+def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> Array:
+    """``X(q + dq) - X(q)``: the change of the virtual joints by the full forward solve [m, rad], whose first order
+    is ``dX/dP dP`` (eq. (3)); rods outside the stroke raise :class:`~gpr_kinematics.errors.LimitError`.
+
+    >>> m = analyze_mobility([0.5, 0.5, 0.5])       # the singular configuration: the first order vanishes
+    >>> m.dx_bounds(m.rod_perturbation([1e-4, -1e-4, 0.0])).norm_dx
+    0.0
+    >>> round(float(np.linalg.norm(exact_dx([0.5, 0.5, 0.5], [1e-4, -1e-4, 0.0]))) * 1e6, 3)   # [um]
+    0.107
+    """
+    cfg = resolve_config(config)
+    q0 = np.asarray(q, dtype=float)
+    return forward(q0 + np.asarray(dq, dtype=float), cfg, model).virtual_joints - forward(q0, cfg, model).virtual_joints
+
+
+def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> MobilityResult:
+    """Mobility and sensitivity analysis at rod lengths ``q`` [m] (module docstring)."""
+    cfg = resolve_config(config)
+    vjm = make_model(cfg, model)
+    fk = forward(q, config=cfg, model=vjm.name)
+    geo = MachineGeometry.of(cfg)
+    u = np.array([geo.ux, geo.uy, geo.uz]).T
+    M = vjm.size
+    dphi_dp = constraint_jacobian(geo.base_points(fk.q[None, :]), u)[0]
+    # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
+    _, J, _ = vjm.closure(fk.virtual_joints[None, :], np.zeros((1, 3)))
+    dphi_dx = np.zeros((12, M))
+    dphi_dx[9:, :] = -J[0]
+    s = coordinate_scale(vjm, cfg)
+    dx_dp = -(np.linalg.pinv(dphi_dx / s) / s[:, None]) @ dphi_dp
+    evals, evecs = np.linalg.eigh(dx_dp.T @ dx_dp)
+    sv = np.linalg.svd(dx_dp, compute_uv=False)
+    sv = sv[sv > sv[0] * max(dx_dp.shape) * np.finfo(float).eps] if sv.size and sv[0] > 0 else sv[:0]
+    rank_p = int(rigid_rank(fk.q, cfg)[0])
+    bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
+              'eq5': (float(sv[-1]), float(sv[0]))}
+    return MobilityResult(
+        q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
+        dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
+        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
+        bounds=bounds, rod_directions=u, singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))

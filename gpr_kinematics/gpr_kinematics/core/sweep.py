@@ -1,0 +1,148 @@
+"""The paper's singular-tilt sweep (Bratovanov & Sotirov §VI, ``docs/references.md``).
+
+"For each gamma [0 .. 360 deg] the alpha changes in the interval [-2 .. 2 deg] by a step of 0.2 deg"
+at ``q1 = q2 = q3 = 500 mm``: every pass crosses the singular configuration ``alpha = 0``. Here a sample
+is the tilt ``alpha`` (signed) about the horizontal axis at azimuth ``gamma`` (``docs/core.md``), at the
+platform height ``height``; all samples are solved by one batch inverse kinematics (which includes the
+forward kinematics of the answer). Passes alternate direction (serpentine: -2..2 deg, then 2..-2 deg
+at the next azimuth) so that the stream of samples is continuous, as the trajectory node needs;
+``serpentine=False`` gives the paper's plain order.
+
+>>> s = paper_sweep()  # radial model, 0.5 m
+>>> s.summary['samples'], s.summary['singular_crossings'], round(s.summary['max_centre_shift'] * 1e6, 2)
+(756, 36, 28.41)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError, LimitError, brief
+from . import ForwardBatch, inverse_batch, resolve_config
+from .config import GprConfig
+from .forward import TILT_LIMIT_SLACK
+
+Array = NDArray[np.float64]
+
+#: Defaults from the paper: 500 mm, +-2 deg in 0.2 deg steps; azimuth step 10 deg (not given there).
+DEFAULT_HEIGHT = 0.5
+DEFAULT_MAX_TILT = math.radians(2.0)
+DEFAULT_TILT_STEP = math.radians(0.2)
+DEFAULT_AZIMUTH_STEP = math.radians(10.0)
+#: Most samples of one sweep (about 1.4 kB of memory each: 0.3 GB at the limit; the paper's sweep has 756).
+MAX_SAMPLES = 200_000
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Samples of the sweep: ``gamma`` (azimuth), ``alpha`` (signed tilt) [rad], ``pass_index``, ``q (N, 3)``
+    [m], the forward kinematics ``forward`` of every ``q``, the inverse-kinematics steps and a summary."""
+
+    gamma: Array
+    alpha: Array
+    pass_index: NDArray[np.int64]
+    height: float
+    q: Array
+    forward: ForwardBatch
+    inverse_iterations: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    @property
+    def singular(self) -> NDArray[np.bool_]:
+        """Samples at the singular configuration (``alpha = 0``, ``q1 = q2 = q3``)."""
+        return np.asarray(self.alpha == 0.0)
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """Samples, crossings and the largest centre shift, joint displacement, residual, iterations."""
+        fk = self.forward
+        shift = np.linalg.norm(fk.centre_shift[:, :2], axis=-1)
+        i = int(np.argmax(shift))
+        return {
+            'samples': len(self),
+            'passes': int(self.pass_index.max()) + 1 if len(self) else 0,
+            'singular_crossings': int(np.count_nonzero(self.singular)),
+            'model': fk.model,
+            'height': self.height,
+            'max_tilt': float(np.max(fk.tilt)),
+            'max_centre_shift': float(shift[i]),
+            'max_centre_shift_at': {'alpha': float(self.alpha[i]), 'gamma': float(self.gamma[i])},
+            'max_joint_displacement': float(np.max(fk.joint_displacement)),
+            'within_budget': bool(np.all(fk.within_budget)),
+            'max_residual': float(np.max(fk.residual)),
+            'max_fit_residual': float(np.max(fk.fit_residual)),
+            'max_fk_iterations': int(np.max(fk.iterations)),
+            'max_ik_iterations': int(np.max(self.inverse_iterations)),
+            'max_height_error': float(np.max(np.abs(fk.position[:, 2] - self.height))),
+        }
+
+
+def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TILT_STEP,
+               azimuth_step: float = DEFAULT_AZIMUTH_STEP, passes: int = 1,
+               serpentine: bool = True) -> tuple[Array, Array, NDArray[np.int64]]:
+    """The ``(gamma, alpha, pass_index)`` samples of the sweep [rad].
+
+    ``alpha`` runs over ``-max_tilt .. max_tilt`` in ``tilt_step`` (``max_tilt`` must be a whole number
+    of steps so that ``alpha = 0`` is a sample); ``gamma`` over ``[0, 2 pi)`` in ``azimuth_step``; at most
+    :data:`MAX_SAMPLES` samples in all, counted before any array is made.
+    """
+    for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
+    if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= 1000:
+        raise InputError(f'passes = {brief(passes)} must be an integer from 1 to 1000')
+    half = max_tilt / tilt_step
+    if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
+        raise InputError(f'max_tilt / tilt_step = {half:.6g} tilt steps; allowed: a sweep of at most {MAX_SAMPLES} '
+                         'samples (a larger tilt_step)')
+    n_half = round(half)
+    if abs(half - n_half) > 1e-9 * max(1.0, half) or n_half < 1:
+        raise InputError(f'max_tilt = {max_tilt!r} rad must be a whole number (>= 1) of tilt steps '
+                         f'({tilt_step!r} rad) so that every pass crosses alpha = 0')
+    if azimuth_step > 2 * math.pi:
+        raise InputError(f'azimuth_step = {azimuth_step!r} rad must be at most 2 pi')
+    turns = 2 * math.pi / azimuth_step
+    if not turns <= MAX_SAMPLES:
+        raise InputError(f'azimuth_step = {azimuth_step!r} rad gives {turns:.6g} azimuths; allowed: a sweep of at '
+                         f'most {MAX_SAMPLES} samples (a larger azimuth_step)')
+    n_gamma = max(1, math.ceil(turns - 1e-9))
+    samples = (2 * n_half + 1) * n_gamma * passes
+    if samples > MAX_SAMPLES:
+        raise InputError(f'the sweep would have {samples} samples ({2 * n_half + 1} tilts x {n_gamma} azimuths x '
+                         f'{passes} passes); allowed: at most {MAX_SAMPLES}')
+    alpha = np.arange(-n_half, n_half + 1) * tilt_step
+    gammas = np.arange(n_gamma) * azimuth_step
+    rows = np.arange(n_gamma * passes)
+    flip = (rows % 2 == 1) if serpentine else np.zeros(rows.size, dtype=bool)
+    A = np.where(flip[:, None], alpha[::-1], alpha)
+    G = np.repeat(np.tile(gammas, passes), alpha.size)
+    P = np.repeat(rows // n_gamma, alpha.size)
+    return G, A.ravel(), P
+
+
+def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TILT,
+                tilt_step: float = DEFAULT_TILT_STEP, azimuth_step: float = DEFAULT_AZIMUTH_STEP,
+                passes: int = 1, config: GprConfig | None = None, model: str | None = None,
+                serpentine: bool = True) -> SweepResult:
+    """Inverse and forward kinematics of every sample of the paper's sweep, in one batch call.
+
+    Raises:
+        InputError: non-positive steps, ``max_tilt`` not a whole number of steps, more than :data:`MAX_SAMPLES`.
+        LimitError: ``max_tilt`` beyond the tilt limit, or a height that leaves the stroke.
+    """
+    cfg = resolve_config(config)
+    if not (isinstance(height, (int, float)) and math.isfinite(height)):
+        raise InputError(f'height = {height!r} must be a finite number of metres')
+    if isinstance(max_tilt, (int, float)) and max_tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:  # before counting
+        raise LimitError(f'max_tilt = {max_tilt:.9g} rad ({math.degrees(max_tilt):.6g} deg) is beyond the tilt limit '
+                         f'{cfg.tilt_limit:.9g} rad ({math.degrees(cfg.tilt_limit):.6g} deg)')
+    gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
+    ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)
+    return SweepResult(gamma=gamma, alpha=alpha, pass_index=pass_index, height=float(height), q=ik.q,
+                       forward=ik.achieved, inverse_iterations=ik.iterations)

@@ -1,0 +1,111 @@
+"""Exception classes of gpr_kinematics, the exit status for unusable input, and the one way a message quotes a
+value a user supplied (:func:`brief`).
+
+Every error the package raises on purpose derives from :class:`GprError`, so a caller
+(a ROS node, the CLI) can catch the package's errors without catching programming bugs.
+"""
+from __future__ import annotations
+
+import re
+import reprlib
+from typing import Any
+
+#: Exit status of the ``gpr`` command and of the nodes for input they cannot use (one line on stderr).
+EXIT_BAD_INPUT = 2
+
+
+class GprError(Exception):
+    """Base class of the package's errors."""
+
+
+class ConfigError(GprError, ValueError):
+    """A configuration value is missing, malformed or out of its allowed range."""
+
+
+class InputError(GprError, ValueError):
+    """An argument is malformed: wrong shape, NaN or infinity, unknown name."""
+
+
+class LimitError(InputError):
+    """A request lies outside the machine's limits (stroke, tilt, joint ranges)."""
+
+
+class ConvergenceError(GprError, ArithmeticError):
+    """An iterative solver did not reach its tolerance within its iteration bound."""
+
+
+class SingularityError(GprError, ArithmeticError):
+    """A quantity was asked for at a configuration where it is not defined."""
+
+
+class FileError(ConfigError, InputError):
+    """A file cannot be read or written: missing, not a regular file, too large, not UTF-8, an output in a
+    missing or read-only folder (:mod:`gpr_kinematics.inputs.files`), a unit of a column that is unknown
+    (:mod:`gpr_kinematics.inputs.units`). It is a :class:`ConfigError` and an :class:`InputError`: configuration files
+    and the files of a command both raise it."""
+
+
+#: Longest text of a value quoted in an error message [characters].
+BRIEF_LENGTH = 60
+
+
+class _Repr(reprlib.Repr):
+    """reprlib with a bounded text of every element, huge integers included (their repr is refused beyond 4300
+    digits)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.maxlist = self.maxtuple = self.maxdict = self.maxset = 8
+        self.maxlevel = 3
+        self.maxstring = self.maxother = self.maxlong = 2 * BRIEF_LENGTH
+
+    def repr_int(self, x: int, level: int) -> str:
+        if x.bit_length() > 4 * BRIEF_LENGTH:
+            return f'<an integer of about {int(x.bit_length() * 0.30103) + 1} digits>'
+        return super().repr_int(x, level)
+
+
+_REPR = _Repr()
+
+
+def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
+    """``repr(value)`` cut to about ``limit`` characters, for messages about values a user supplied, which may be
+    arbitrarily large: a string is quoted up to ``limit`` characters with its whole length named; a container is
+    abbreviated without ever building its whole text (a list of a million items costs no more than one of eight).
+
+    >>> brief('x' * 1000)
+    "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx... (1002 characters)"
+    >>> brief([1, 2]), brief(list(range(10 ** 6))), brief(10 ** 5000)
+    ('[1, 2]', '[0, 1, 2, 3, 4, 5, 6, 7, ...]', '<an integer of about 5001 digits>')
+    """
+    # A string is in memory already: its repr costs as much as it does, and gives the whole length.
+    text = repr(value) if isinstance(value, (str, bytes)) else _REPR.repr(value)
+    if len(text) <= limit:
+        return text
+    return f'{text[:limit]}... ({len(text)} characters)'
+
+
+#: Longest run of characters without a space an error line carries whole (a long path, or a value a message
+#: quoted whole by mistake, is cut: the line stays readable).
+LONG_WORD = 300
+
+
+#: Longest error line [characters]: its middle is cut beyond (a list a message quoted whole by mistake).
+LONG_LINE = 900
+
+
+def one_line(message: str) -> str:
+    """An error message as one bounded line: newlines become spaces, words longer than :data:`LONG_WORD` are cut
+    with their length named, and a line longer than :data:`LONG_LINE` loses its middle (its start names the
+    problem, its end what is allowed).
+
+    >>> one_line('bad value ' + '9' * 1000 + '\\nallowed: 1 to 3')
+    'bad value 999999999999999999999999999999999999999999999999999999999999... (1000 characters) allowed: 1 to 3'
+    """
+    def cut(m: re.Match[str]) -> str:
+        return f'{m.group(0)[:BRIEF_LENGTH]}... ({len(m.group(0))} characters)'
+
+    line = re.sub(rf'\S{{{LONG_WORD + 1},}}', cut, message.replace('\n', ' '))
+    if len(line) > LONG_LINE:
+        line = f'{line[:LONG_LINE // 2]} ... ({len(line)} characters) ... {line[-LONG_LINE // 4:]}'
+    return line

@@ -1,0 +1,178 @@
+"""The files a user hands the package: one bounded reader of text files and one checked, atomic writer.
+
+Reading (:func:`read_text`) opens the path with ``O_NONBLOCK`` and judges what was opened with ``fstat``: a
+directory, a FIFO (whose open would otherwise wait for a writer forever), a device (``/dev/zero`` never ends) or
+a socket is refused before a byte is read, and so is a file larger than the caller's limit; the text must be
+UTF-8 (a leading byte-order mark is dropped), and an error names the line and the byte offset of the first bad
+byte.
+
+Writing (:func:`atomic_output`, :func:`write_text`) refuses, before any work and again just before the file is
+replaced, an empty path, an existing directory, FIFO, device or socket (a rename would replace a device node
+when run as root, and a write into a FIFO blocks), and an output whose folder is missing or not writable. The
+text goes to a temporary file in the same folder, which then replaces the target in one rename, so an
+interrupted run never leaves half a file. An existing symbolic link is refused too (the output would land
+elsewhere than named). The functions return the path written so that a command can say what it wrote where.
+
+Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
+what is allowed.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from ..errors import FileError, brief
+
+#: Largest text file read when a caller names no limit [bytes] (configuration and mechanism files are a few kB).
+MAX_TEXT_BYTES = 16 * 1024 * 1024
+
+
+def kind_of(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, for messages (``'a directory'``, ``'a FIFO'``, ...)."""
+    for test, name in ((stat.S_ISDIR, 'a directory'), (stat.S_ISFIFO, 'a FIFO'),
+                       (stat.S_ISCHR, 'a character device'), (stat.S_ISBLK, 'a block device'),
+                       (stat.S_ISSOCK, 'a socket'), (stat.S_ISLNK, 'a symbolic link'),
+                       (stat.S_ISREG, 'a regular file')):
+        if test(mode):
+            return name
+    return 'not a regular file'
+
+
+def _name(path: str | os.PathLike[str], what: str, role: str = 'file') -> str:
+    name = os.fspath(path)
+    if name == '':
+        raise FileError(f'{what} {role} path is empty; allowed: the path of a file')
+    if '\0' in name:
+        raise FileError(f'{what} {role} path {brief(name)} contains a NUL character; allowed: the path of a file')
+    return name
+
+
+def read_text(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The UTF-8 text of the regular file ``path`` of at most ``max_bytes`` bytes (module docstring).
+
+    >>> read_text('/dev/zero', 'config')  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    gpr_kinematics.errors.FileError: config file '/dev/zero' is not a regular file (a character device); allowed: ...
+
+    Raises:
+        FileError: missing or unreadable, not a regular file, larger than ``max_bytes``, not UTF-8.
+    """
+    name = _name(path, what)
+    try:
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError as exc:
+        raise FileError(f'cannot read {what} file {name!r}: {exc.strerror or exc}') from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise FileError(f'{what} file {name!r} is not a regular file ({kind_of(info.st_mode)}); allowed: a '
+                            'regular text file')
+        if info.st_size > max_bytes:
+            raise FileError(f'{what} file {name!r} has {info.st_size} bytes; allowed: at most {max_bytes}')
+        chunks, size = [], 0
+        while size <= max_bytes:  # read(n) of a regular file may return less than n
+            chunk = os.read(fd, max_bytes + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise FileError(f'cannot read {what} file {name!r}: {exc.strerror or exc}') from None
+    finally:
+        os.close(fd)
+    data = b''.join(chunks)
+    if len(data) > max_bytes:  # it grew since fstat
+        raise FileError(f'{what} file {name!r} has more than {max_bytes} bytes; allowed: at most {max_bytes}')
+    try:
+        text = data.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        line = data.count(b'\n', 0, exc.start) + 1
+        raise FileError(f'{what} file {name!r} is not UTF-8 text (byte {exc.start} is {data[exc.start]:#04x}) on '
+                        f'line {line}; allowed: a UTF-8 {what} file') from None
+    return text[1:] if text.startswith('\ufeff') else text
+
+
+def check_output(path: str | os.PathLike[str], what: str) -> Path:
+    """The path an output will be written to, checked before any work (module docstring): not empty, not an
+    existing non-regular file or symbolic link, in an existing, writable folder.
+
+    Raises:
+        FileError: naming the path, what is wrong and what is allowed.
+    """
+    name = _name(path, what, 'output')
+    target = Path(name)
+    allowed = 'allowed: a new file or a regular file to replace, in an existing, writable folder'
+    try:
+        info = os.lstat(target)
+    except FileNotFoundError:
+        info = None
+    except OSError as exc:
+        raise FileError(f'cannot write {what} file {name!r}: {exc.strerror or exc}; {allowed}') from None
+    if info is not None and not stat.S_ISREG(info.st_mode):
+        raise FileError(f'{what} output {name} exists and is not a regular file (it is {kind_of(info.st_mode)}); '
+                        f'{allowed}')
+    folder = target.parent
+    if not folder.is_dir():
+        raise FileError(f'cannot write {what} file {name!r}: No such file or directory (the folder {str(folder)!r} '
+                        f'does not exist); {allowed}')
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise FileError(f'{what} output {name!r}: the folder {str(folder)!r} is not writable; {allowed}')
+    return target
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False) -> Iterator[IO[Any]]:
+    """Write ``path`` atomically (module docstring): yields a file open on a temporary file in the target's
+    folder (text mode: UTF-8, newlines as written; ``binary``: bytes), which replaces the target when the block
+    ends without an exception; on an exception the temporary file is removed and the target is left as it was.
+
+    Raises:
+        FileError: the checks of :func:`check_output`, or the file cannot be written (full disk, ...).
+    """
+    target = check_output(path, what)
+    tmp = target.with_name(f'.{target.name}.{os.getpid()}.tmp')
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+    except OSError as exc:
+        raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
+    try:
+        with (os.fdopen(fd, 'wb') if binary else os.fdopen(fd, 'w', encoding='utf-8', newline='')) as fh:
+            yield fh
+        check_output(target, what)  # the target may have been replaced by something else meanwhile
+        os.replace(tmp, target)
+    except OSError as exc:
+        raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def write_text(path: str | os.PathLike[str], text: str, what: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` through :func:`atomic_output`; returns the path written.
+
+    Raises:
+        FileError: see :func:`check_output`; the file cannot be written.
+    """
+    with atomic_output(path, what) as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def writable_folder(path: str | os.PathLike[str], what: str) -> Path:
+    """The nearest existing ancestor of a path to be created (a bag or report folder), which must be a writable
+    folder; :class:`FileError` otherwise."""
+    out = Path(_name(path, what))
+    parent = out.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise FileError(f'{what} {str(out)!r}: {str(parent)!r} is not a folder; allowed: a path in a writable folder')
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise FileError(f'{what} {str(out)!r}: the folder {str(parent)!r} is not writable; allowed: a path in a '
+                        'writable folder')
+    return parent

@@ -1,0 +1,79 @@
+"""The rules every file format of the package reads its YAML with: known keys only, numbers by one rule.
+
+Each format (the GPR geometry, robots, programs, stations, mechanisms, tolerances, workspaces, cells) checks its
+mapping with :func:`check_keys` and reads its numbers with :func:`number_key` / :func:`is_number` /
+:func:`number_array`; a file is parsed by :func:`read_yaml` (:mod:`gpr_kinematics.inputs.safe_yaml`'s bounds).
+Every failure is a :class:`~gpr_kinematics.errors.ConfigError` naming the file, the key, the value and what is
+allowed.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError, brief
+from . import safe_yaml
+from .validation import MAX_COORDINATE
+
+
+def is_number(value: Any) -> bool:
+    """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite and within
+    +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (1e6: no value of the package's files is larger, and
+    products of a few of them cannot overflow)."""
+    # abs() before isfinite(): an integer of 400 digits has no float (isfinite would raise OverflowError).
+    return (not isinstance(value, bool) and isinstance(value, (int, float)) and abs(value) <= MAX_COORDINATE
+            and math.isfinite(value))
+
+
+def number_array(value: Any, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+    """``value``, nested lists of numbers of ``shape`` each passing :func:`is_number`, as a float array; ``None``
+    when it is anything else (the caller names the key and what is allowed)."""
+    if len(shape) == 0:
+        return np.asarray(float(value)) if is_number(value) else None
+    if not isinstance(value, (list, tuple)) or len(value) != shape[0]:
+        return None
+    rows = [number_array(v, shape[1:]) for v in value]
+    if any(r is None for r in rows):
+        return None
+    return np.array(rows, dtype=float).reshape(shape)
+
+
+def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
+    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
+    allowed = set(allowed)
+    unknown = sorted(brief(k, 40).strip("'") for k in data if k not in allowed)
+    if unknown:
+        more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
+                          + ', '.join(sorted(allowed)))
+
+
+def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | None = None,
+               positive: bool = True, unit: str = 'm') -> float:
+    """A finite number (not a bool, not a string) under ``key`` of a YAML mapping, positive unless
+    ``positive=False``; ``default`` when absent; else :class:`ConfigError` naming file, key and value.
+
+    Every YAML loader of the package reads its numbers with this rule (:func:`is_number`).
+    """
+    val = data.get(key, default)
+    what = f'{"positive " if positive else ""}finite {"length" if unit == "m" else "number"} in {unit}'
+    if val is None:
+        raise ConfigError(f'{source}: missing key {key} (a {what})')
+    if not is_number(val) or (positive and val <= 0):
+        if isinstance(val, (int, float)) and not isinstance(val, bool) and abs(val) > MAX_COORDINATE and (
+                isinstance(val, int) or math.isfinite(val)):   # finite, but beyond the bound of every number
+            what += f' of magnitude at most {MAX_COORDINATE:g}'
+        raise ConfigError(f'{source}: {key} must be a {what}; got {brief(val)}')
+    return float(val)
+
+
+def read_yaml(path: str | Path, what: str = 'config') -> Any:
+    """Parse a YAML file with the package's bounds (:func:`gpr_kinematics.inputs.safe_yaml.read_file`: no aliases,
+    bounded nesting and size, UTF-8, regular files only); any problem raises :class:`ConfigError` naming the file
+    (``what`` says which kind of file it is in the message: config, program, mechanism)."""
+    return safe_yaml.read_file(path, what)

@@ -1,0 +1,89 @@
+"""Units of the columns of the package's CSV files: one rule for measurement files, station files and joint tables.
+
+A column's unit is, in this order (docs/core.md, "Units in CSV files"):
+
+1. its own, in brackets in the header: ``x [mm]``, ``tilt [deg]``;
+2. else the file's, from a comment line before the header: ``# units: mm deg`` (one length unit and/or one
+   angle unit, in any order);
+3. else SI: metres and radians.
+
+Length columns take ``m`` or ``mm``, angle columns ``rad`` or ``deg``; a column of another kind (a name, a
+quaternion component) takes none. Every value is converted to SI when read. A unit that is unknown or does not
+fit its column is a :class:`~gpr_kinematics.errors.FileError` (a ConfigError and an InputError, as the file's
+readers raise) naming the line and the column.
+
+>>> column('x [mm]', 'line 1'), column(' tilt ', 'line 1')
+(('x', 'mm'), ('tilt', None))
+>>> file_units('# units: deg mm', 'line 1')
+('mm', 'deg')
+>>> scale('length', None, ('mm', None), 'line 2', 'x')
+(0.001, 'mm')
+"""
+from __future__ import annotations
+
+import math
+import re
+
+from ..errors import FileError, brief
+
+LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
+ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
+#: Kinds of columns and the units each takes.
+KINDS = {'length': LENGTH_UNITS, 'angle': ANGLE_UNITS, 'text': {}, 'number': {}}
+
+_UNITS_LINE = re.compile(r'#\s*units\s*:(.*)$', re.IGNORECASE)
+_CELL = re.compile(r'^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[\s*([A-Za-z]*)\s*\])?\s*$')
+
+#: The file's units, ``(length, angle)``; ``None`` where it declares none.
+FileUnits = tuple[str | None, str | None]
+
+
+def is_units_line(line: str) -> bool:
+    """``line`` (stripped) is a ``# units:`` declaration."""
+    return _UNITS_LINE.match(line) is not None
+
+
+def file_units(line: str, where: str) -> FileUnits:
+    """The ``(length, angle)`` units of a ``# units:`` line; :class:`InputError` for an unknown or repeated unit."""
+    m = _UNITS_LINE.match(line.strip())
+    if m is None:
+        raise FileError(f'{where}: {brief(line)} is not a "# units:" line')
+    length = angle = None
+    for tok in re.split(r'[\s,]+', m.group(1).strip()):
+        if not tok:
+            continue
+        unit = tok.lower()
+        if unit in LENGTH_UNITS and length is None:
+            length = unit
+        elif unit in ANGLE_UNITS and angle is None:
+            angle = unit
+        else:
+            raise FileError(f'{where}: unit {brief(tok, 20)} in "# units:" is unknown or repeated; allowed: one of '
+                             'm, mm (lengths) and one of rad, deg (angles), e.g. "# units: mm deg"')
+    return length, angle
+
+
+def column(cell: str, where: str) -> tuple[str, str | None]:
+    """A header cell's column name and its unit in brackets (``None`` without one)."""
+    m = _CELL.match(cell)
+    if m is None:
+        raise FileError(f'{where}: header column {brief(cell, 40)} is not a name with an optional unit in brackets, '
+                         'e.g. "x [mm]"')
+    return m.group(1), (m.group(2).lower() if m.group(2) is not None else None)
+
+
+def scale(kind: str, unit: str | None, defaults: FileUnits, where: str, name: str) -> tuple[float, str]:
+    """The factor to SI and the unit of a column of ``kind`` (a key of :data:`KINDS`) with its own ``unit`` (or
+    ``None``) in a file whose ``# units:`` line gave ``defaults``."""
+    units = KINDS[kind]
+    if not units:
+        if unit is not None:
+            raise FileError(f'{where}: column {name} takes no unit, got [{unit[:20]}]')
+        return 1.0, ''
+    if unit is None:
+        unit = defaults[0] if kind == 'length' else defaults[1]
+    unit = unit or ('m' if kind == 'length' else 'rad')
+    if unit not in units:
+        raise FileError(f'{where}: column {name}: unit [{unit[:20]}] is invalid; allowed: '
+                         + ' or '.join(units) + f' (a {kind})')
+    return units[unit], unit

@@ -1,0 +1,137 @@
+"""Checks of user input shared by the core, the CLI and the ROS nodes.
+
+Each raises :class:`~gpr_kinematics.errors.InputError` with a message naming the field, its value and what
+is allowed, so a caller (CLI: exit 2; node: ``success: false``) can pass it on as is.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError, brief
+
+#: Largest accepted deviation of a quaternion's norm from 1 (messages and commands carry unit quaternions).
+QUATERNION_NORM_TOLERANCE = 1e-6
+#: Largest magnitude of a position coordinate [m], a joint value [m, rad] or a geometric parameter [m] of the
+#: mechanisms and stations the package accepts: far beyond any of them, and small enough that no product of a few
+#: of them overflows.
+MAX_COORDINATE = 1e6
+
+
+def finite_number(value: Any, name: str) -> float:
+    """``value`` as a finite float; else :class:`InputError` naming ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be a number, got {brief(value)}') from None
+    if not np.isfinite(v):
+        raise InputError(f'{name} = {v} is not a finite number; allowed: finite values in SI units')
+    return v
+
+
+def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
+    """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be {size} numbers, got {brief(values)}') from None
+    if a.shape != (size,):
+        raise InputError(f'{name} must be {size} numbers, got shape {a.shape}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f'{name} = {a.tolist()} contains NaN or infinity: {name}[{i}] = {a[i]} is not a finite '
+                         'number; allowed: finite values in SI units')
+    return a
+
+
+def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:
+    """A quaternion (x, y, z, w), finite and of unit norm within :data:`QUATERNION_NORM_TOLERANCE`;
+    returned normalised."""
+    a = finite_vector(values, name, 4)
+    norm = float(np.linalg.norm(a))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise InputError(f'{name} = ({a[0]:.9g}, {a[1]:.9g}, {a[2]:.9g}, {a[3]:.9g}) has norm {norm:.9g}; '
+                         f'a unit quaternion (x, y, z, w) is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
+    return a / norm
+
+
+def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = None) -> NDArray[np.float64]:
+    """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
+    finite; else :class:`InputError` naming the value (by ``names`` when given, e.g. a robot's joint names;
+    ``q2`` for rod 2, like the paper's ``q1..q3``) and, in a batch, the sample."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != width:
+        raise InputError(f'{name} must have {width} values per sample (shape (N, {width})), '
+                         f'got shape {np.shape(values)}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
+        label = names[j] if names else f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+        where = f' (sample {i})' if a.shape[0] > 1 else ''
+        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
+    return a
+
+
+def column_of(values: Any, name: str) -> NDArray[np.float64]:
+    """A scalar or a 1-D sequence as a finite float array ``(N,)``; else :class:`InputError` naming ``name``."""
+    try:
+        a = np.atleast_1d(np.asarray(values, dtype=float))
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be a number or an array of numbers, got {brief(values)}') from None
+    if a.ndim != 1:
+        raise InputError(f'{name} must be a scalar or a 1-D array, got shape {a.shape}')
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number')
+    return a
+
+
+def three_floats(values: Any, name: str) -> list[float]:
+    """Three finite floats from a sequence (fast for a list, tuple or array of 3), with the messages of
+    :func:`rows_of`."""
+    if isinstance(values, np.ndarray) and values.shape == (3,) and values.dtype.kind in 'fiu':
+        values = values.tolist()
+    if isinstance(values, (list, tuple)) and len(values) == 3:
+        try:
+            out = [float(v) for v in values]
+        except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+            out = []
+        if out and all(math.isfinite(v) for v in out):
+            return out
+    Q = rows_of(values, name, 3)
+    if Q.shape[0] != 1:
+        raise InputError(f'{name} must be 3 values, got shape {np.shape(values)}')
+    return [float(v) for v in Q[0]]
+
+
+def single_number(value: Any, name: str) -> float:
+    """One finite number (not an array); else :class:`InputError` naming ``name``."""
+    if np.ndim(value) != 0:
+        raise InputError(f'{name} must be a single number, got shape {np.shape(value)}')
+    return float(column_of(value, name)[0])
+
+
+def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """``values`` as a float array (of ``shape``), finite and within +-:data:`MAX_COORDINATE`; else
+    :class:`InputError` naming ``name``."""
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers; got {brief(values)}') from None
+    if shape is not None and arr.shape != shape:
+        raise InputError(f'{name} must have shape {shape}; got {arr.shape}')
+    if not np.all(np.isfinite(arr)) or (arr.size and np.max(np.abs(arr)) > MAX_COORDINATE):
+        raise InputError(f'{name} = {brief(arr.tolist())}; allowed: finite values within +-{MAX_COORDINATE:g} (SI)')
+    return arr

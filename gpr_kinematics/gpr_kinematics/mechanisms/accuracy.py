@@ -1,0 +1,186 @@
+"""Pose accuracy of a parallel mechanism: joint and geometry errors -> platform pose deviation.
+
+Alwan, eqs. (5)-(7) (``docs/references.md``), generalised to any
+:class:`~gpr_kinematics.mechanisms.base.Mechanism`. With the closure ``G(s, u, p) = q(u, p) - s = 0``
+(joint values ``s``, pose coordinates ``u``, geometric parameters ``p`` such as the joint points ``R_ai``,
+``R_bi``), errors ``Delta s`` (actuator errors, leg deformations) and ``Delta p`` (joint-position errors)
+move the platform by ``du``:
+
+- **linearised** (eq. 7, first-order Taylor expansion of eq. 5):
+  ``du = -(dG/du)^-1 (dG/ds Delta s + dG/dp Delta p) = (dq/du)^-1 (Delta s - dq/dp Delta p)``
+  (Alwan's squared closure ``|.|^2 - s^2`` gives the same ``du``: its derivatives are those of ``q - s``
+  multiplied by ``2 s``). For a mechanism with more constraints than coordinates the inverse is the
+  Moore-Penrose pseudo-inverse (least-squares deviation).
+- **exact**: the perturbed closure ``q(u + du, p + Delta p) = s + Delta s`` solved by Newton's method from
+  the nominal pose (the mechanism's forward kinematics).
+
+``du`` is in the mechanism's pose coordinates (m, and rad of its Euler angles: Z-X-Z for Alwan's
+platform); the difference exact - linearised is second order in the errors. The deviation is also given
+as a small rigid motion (position and rotation vector in the base frame), which stays meaningful where
+the Euler angles are near their own singularity (Z-X-Z at ``theta -> 0``: there ``dpsi`` and ``dphi`` grow
+large and opposite while the rotation itself barely changes).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, SingularityError
+from .base import Mechanism, as_poses, rotation_vector
+
+#: Inverse condition number of dq/du below which the linearisation is refused.
+SINGULAR_TOLERANCE = 1e-10
+
+
+@dataclass(frozen=True)
+class AccuracyResult:
+    """Pose deviations for a batch of ``N`` nominal poses (``m`` pose coordinates)."""
+
+    mechanism: str
+    variables: tuple[str, ...]          #: names of the ``m`` pose coordinates
+    poses: np.ndarray                   #: (N, 6) nominal poses, m and rad
+    joints: np.ndarray                  #: (N, n) nominal joint values
+    joint_errors: np.ndarray            #: (N, n) Delta s
+    parameter_errors: dict[str, np.ndarray] = field(default_factory=dict)  #: Delta p by name
+    linearized: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  #: (N, m) eq. (7)
+    exact: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))       #: (N, m) perturbed closure
+    exact_poses: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))  #: (N, 6) perturbed poses
+    condition_number: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (N,) homogenised dq/du
+    #: (N, 6) linearised deviation as a small rigid motion: position (m) and rotation vector (rad, base frame)
+    linearized_twist: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    #: (N, 6) exact deviation: position (m) and rotation vector of ``R_exact R_nominal^T`` (rad, base frame)
+    exact_twist: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+
+    @property
+    def difference(self) -> np.ndarray:
+        """``exact - linearized`` (N, m): the linearisation error (second order in the errors)."""
+        return np.asarray(self.exact - self.linearized)
+
+    @property
+    def exact_pose_deviation(self) -> np.ndarray:
+        """``(N, 6)`` deviation of the complete pose, parasitic components included."""
+        return np.asarray(self.exact_poses - self.poses)
+
+    def as_dict(self, index: int = 0) -> dict[str, Any]:
+        """One pose's result as plain data (for JSON)."""
+        return {
+            'mechanism': self.mechanism,
+            'pose': self.poses[index],
+            'joints': self.joints[index],
+            'joint_errors': self.joint_errors[index],
+            'parameter_errors': {k: np.asarray(v) for k, v in self.parameter_errors.items()},
+            'variables': list(self.variables),
+            'linearized': dict(zip(self.variables, self.linearized[index].tolist(), strict=True)),
+            'exact': dict(zip(self.variables, self.exact[index].tolist(), strict=True)),
+            'difference': dict(zip(self.variables, self.difference[index].tolist(), strict=True)),
+            'exact_pose': self.exact_poses[index],
+            'linearized_twist': self.linearized_twist[index],
+            'exact_twist': self.exact_twist[index],
+            'condition_number': float(self.condition_number[index]),
+        }
+
+
+def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
+    if errors is None:
+        return np.zeros((n_poses, mech.n_joints))
+    arr = np.asarray(errors, dtype=float)
+    if arr.ndim == 1:
+        arr = np.broadcast_to(arr, (n_poses, arr.shape[0]))
+    if arr.shape != (n_poses, mech.n_joints) or not np.all(np.isfinite(arr)):
+        raise InputError(f'{mech.name}: joint errors must be {mech.n_joints} finite values (m, or rad for '
+                         f'angular joints) for {", ".join(mech.joint_names)} per pose; '
+                         f'got shape {np.shape(errors)}')
+    return np.array(arr)
+
+
+def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
+    if not errors:
+        return {}
+    nominal = mech.parameters()
+    out: dict[str, np.ndarray] = {}
+    for key, val in errors.items():
+        if key not in nominal:
+            raise InputError(f'{mech.name}: unknown geometric parameter {key!r}; allowed: '
+                             + (', '.join(sorted(nominal)) or 'none'))
+        arr = np.asarray(val, dtype=float)
+        if arr.size != np.asarray(nominal[key]).size or not np.all(np.isfinite(arr)):
+            size = np.asarray(nominal[key]).size
+            raise InputError(f'{mech.name}: error of parameter {key} must have {size} '
+                             f'finite values (shape {np.shape(nominal[key])}, SI); got shape {arr.shape}')
+        out[key] = arr.reshape(np.shape(nominal[key]))
+    return out
+
+
+def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
+                         parameter_errors: Mapping[str, Any] | None = None) -> np.ndarray:
+    """Eq. (7): ``du (N, m) = (dq/du)^-1 (Delta s - dq/dp Delta p)`` at nominal poses ``(N, 6)``.
+
+    Raises :class:`SingularityError` at a pose where ``dq/du`` is singular (the deviation is unbounded).
+    """
+    arr, _ = as_poses(poses)
+    arr = mech.complete_pose(arr)
+    ds = _joint_errors(mech, joint_errors, arr.shape[0])
+    dp = _parameter_errors(mech, parameter_errors)
+    rhs = ds.copy()
+    for key, val in dp.items():
+        rhs -= mech.parameter_jacobian(arr, key) @ np.nan_to_num(val.ravel())
+    J = mech.coordinate_jacobian(arr)
+    _check_regular(mech, arr)
+    if J.shape[1] == J.shape[2]:
+        return np.linalg.solve(J, rhs[..., None])[..., 0]
+    return np.asarray(np.linalg.pinv(J) @ rhs[..., None])[..., 0]
+
+
+def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
+    with np.errstate(divide='ignore', invalid='ignore'):
+        Jh = mech.homogenized_task_jacobian(poses)
+    if not np.all(np.isfinite(Jh)):
+        raise SingularityError(f'{mech.name}: the inverse Jacobian is not finite at the pose '
+                               f'{poses[~np.all(np.isfinite(Jh), axis=(1, 2))][0].tolist()} (singular '
+                               'configuration); the pose deviation is not defined there')
+    sv = np.linalg.svd(Jh, compute_uv=False)
+    dex = sv[:, -1] / sv[:, 0]
+    if np.any(dex < SINGULAR_TOLERANCE):
+        k = int(np.argmin(dex))
+        raise SingularityError(f'{mech.name}: pose {poses[k].tolist()} is singular (inverse condition '
+                               f'number {dex[k]:.3g}); the pose deviation is unbounded there')
+    return 1.0 / dex
+
+
+def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
+                      parameter_errors: Mapping[str, Any] | None = None, tol: float = 1e-13
+                      ) -> AccuracyResult:
+    """Linearised (eq. 7) and exact pose deviations at nominal poses ``(N, 6)`` or ``(6,)``.
+
+    ``joint_errors``: ``(n,)`` or ``(N, n)`` actuator errors / leg deformations (m or rad).
+    ``parameter_errors``: mapping parameter name -> error array (see ``mech.parameters()``), SI.
+    """
+    arr, _ = as_poses(poses)
+    arr = mech.complete_pose(arr)
+    ds = _joint_errors(mech, joint_errors, arr.shape[0])
+    dp = _parameter_errors(mech, parameter_errors)
+    cond = _check_regular(mech, arr)
+    q = mech.inverse_kinematics(arr)
+    lin = linearized_deviation(mech, arr, ds, dp)
+    if dp:
+        nominal = mech.parameters()
+        perturbed = mech.with_parameters({k: nominal[k] + v for k, v in dp.items()})
+    else:
+        perturbed = mech
+    exact_poses = perturbed.forward_kinematics(q + ds, arr, tol=tol)
+    exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
+    angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
+    exact[:, angular] = (exact[:, angular] + np.pi) % (2 * np.pi) - np.pi  # Euler angles wrap
+    if hasattr(mech, 'linearized_twist'):  # mechanisms whose errors also move the outcome components
+        lin_twist = mech.linearized_twist(arr, ds, dp)
+    else:
+        lin_twist = (mech.coordinate_basis(arr) @ lin[..., None])[..., 0]
+    dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)
+    exact_twist = np.concatenate([exact_poses[:, :3] - arr[:, :3], rotation_vector(dR)], axis=-1)
+    return AccuracyResult(mechanism=mech.name, variables=tuple(mech.pose_variables), poses=arr, joints=q,
+                          joint_errors=ds, parameter_errors=dp, linearized=lin, exact=exact,
+                          exact_poses=exact_poses, condition_number=cond, linearized_twist=lin_twist,
+                          exact_twist=exact_twist)

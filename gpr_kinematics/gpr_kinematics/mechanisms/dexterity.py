@@ -1,0 +1,161 @@
+"""Dexterity (inverse condition number) maps of any :class:`~gpr_kinematics.mechanisms.base.Mechanism`.
+
+Dexterity is ``sigma_min / sigma_max`` of the homogenised square Jacobian ``dq/du`` (Toz & Kucuk
+§4.3 for the homogenisation by a characteristic length; Aboulissane & El Bakkali §V-A for dexterity against
+height, their Fig. 6; ``docs/references.md``): 1 for an isotropic
+configuration, 0 at a singularity. A map varies one pose component (or two, for a grid) from a base
+pose and records dexterity, condition number, singularity and whether the joints are within limits.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, brief
+from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
+
+#: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
+#: (the costliest mechanism: its Jacobians are finite differences of the core), 0.3 GB and 10 s at the limit.
+MAX_POINTS = 50_000
+
+
+@dataclass(frozen=True)
+class DexterityMap:
+    """Dexterity along one pose component (``values`` (K,)) or on a grid of two (``values2`` (K2,))."""
+
+    mechanism: str
+    variable: str
+    values: np.ndarray              #: (K,) values of ``variable`` (m or rad)
+    poses: np.ndarray               #: (K, 6) or (K, K2, 6) realised poses
+    dexterity: np.ndarray           #: (K,) or (K, K2)
+    condition_number: np.ndarray    #: (K,) or (K, K2)
+    singular: np.ndarray            #: bool, same shape
+    within_limits: np.ndarray       #: bool, same shape
+    variable2: str | None = None
+    values2: np.ndarray | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            'mechanism': self.mechanism, 'variable': self.variable, 'values': self.values,
+            'dexterity': self.dexterity, 'within_limits': self.within_limits, 'singular': self.singular,
+            'condition_number': np.where(np.isfinite(self.condition_number), self.condition_number, -1.0),
+        }
+        if self.variable2 is not None:
+            out['variable2'], out['values2'] = self.variable2, self.values2
+        return out
+
+
+def check_points(count: int, what: str) -> None:
+    """Refuse a map of more than :data:`MAX_POINTS` poses before anything is allocated."""
+    if count > MAX_POINTS:
+        raise InputError(f'{what}: {count} poses; allowed: at most {MAX_POINTS} per map')
+
+
+def _index(mech: Mechanism, variable: str) -> int:
+    if variable not in mech.pose_variables:
+        raise InputError(f'{mech.name}: cannot vary {brief(variable)}; its pose variables are '
+                         + ', '.join(mech.pose_variables))
+    return mech.pose_names.index(variable)
+
+
+def evaluate(mech: Mechanism, poses: Any
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(poses, dexterity, condition, singular, within_limits)`` for a batch of poses ``(N, 6)``."""
+    arr, _ = as_poses(poses)
+    full = mech.complete_pose(arr)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        Jh = mech.homogenized_task_jacobian(full)
+    finite = np.all(np.isfinite(Jh), axis=(1, 2))
+    Jh = np.where(finite[:, None, None], Jh, 0.0)
+    dex = np.where(finite, dexterity_index(Jh), 0.0)
+    cond = np.where(finite, condition_number(Jh), np.inf)
+    within = mech.within_limits(mech.inverse_kinematics(full))
+    named = mech.singularity(full) != ''  # a singular configuration of the mechanism itself (the GPR's rigid one)
+    return full, dex, cond, (dex < SINGULAR_TOLERANCE) | named, within
+
+
+def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any) -> DexterityMap:
+    """Dexterity along ``variable`` (a pose variable) taking ``values``; the rest from ``base_pose``.
+
+    Example (3-UPU, the paper's Fig. 6): ``dexterity_sweep(upu, [0]*6, 'z', np.linspace(0.17, 0.27, 51))``.
+    """
+    base, _ = as_poses(base_pose, 'base pose')
+    vals = np.asarray(values, dtype=float).ravel()
+    check_points(vals.size, f'dexterity along {variable}')
+    if vals.size == 0 or not np.all(np.isfinite(vals)):
+        raise InputError(f'values of {variable} must be finite numbers; got {brief(vals.tolist())}')
+    poses = np.repeat(base, vals.size, axis=0)
+    poses[:, _index(mech, variable)] = vals
+    full, dex, cond, sing, within = evaluate(mech, poses)
+    return DexterityMap(mech.name, variable, vals, full, dex, cond, sing, within)
+
+
+def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, variable2: str,
+                   values2: Any) -> DexterityMap:
+    """Dexterity on the grid ``values x values2`` of two pose variables (shape ``(K, K2)``)."""
+    base, _ = as_poses(base_pose, 'base pose')
+    v1 = np.asarray(values, dtype=float).ravel()
+    v2 = np.asarray(values2, dtype=float).ravel()
+    check_points(v1.size * v2.size, f'dexterity on a {v1.size} x {v2.size} grid')
+    i1, i2 = _index(mech, variable), _index(mech, variable2)
+    if i1 == i2:
+        raise InputError(f'the two varied pose variables must differ; got {variable} twice')
+    poses = np.repeat(base, v1.size * v2.size, axis=0)
+    g1, g2 = np.meshgrid(v1, v2, indexing='ij')
+    poses[:, i1], poses[:, i2] = g1.ravel(), g2.ravel()
+    full, dex, cond, sing, within = evaluate(mech, poses)
+    shape = (v1.size, v2.size)
+    return DexterityMap(mech.name, variable, v1, full.reshape(shape + (6,)), dex.reshape(shape),
+                        cond.reshape(shape), sing.reshape(shape), within.reshape(shape), variable2, v2)
+
+
+#: Plot file types (by extension) :func:`plot_dexterity` writes.
+PLOT_FORMATS = ('png', 'pdf', 'svg')
+
+
+def check_plot_path(path: str | Path) -> Path:
+    """The output ``path`` of a plot, checked before any work: a type of :data:`PLOT_FORMATS` by its extension,
+    and writable (:func:`gpr_kinematics.inputs.files.check_output`)."""
+    from ..inputs.files import check_output
+    target = check_output(path, 'plot')
+    if target.suffix.lower().lstrip('.') not in PLOT_FORMATS:
+        raise InputError(f'plot {str(path)!r}: unknown type {target.suffix or "(no extension)"}; allowed: '
+                         + ', '.join(f'.{f}' for f in PLOT_FORMATS))
+    return target
+
+
+def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
+    """Write a plot of the map (PNG, PDF or SVG by the extension): dexterity against the variable (dashed where
+    joints leave their limits), or a colour map for a grid. Returns the path written."""
+    from ..inputs.files import atomic_output
+    target = check_plot_path(path)
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    if dmap.variable2 is None:
+        ax.plot(dmap.values, dmap.dexterity, '--', color='0.6', label='joints outside limits')
+        inside = np.where(dmap.within_limits, dmap.dexterity, np.nan)
+        ax.plot(dmap.values, inside, '-', color='C0', lw=2, label='within joint limits')
+        ax.set_xlabel(dmap.variable)
+        ax.set_ylabel('dexterity (inverse condition number)')
+        ax.set_ylim(bottom=0)
+        ax.legend()
+    else:
+        data = np.where(dmap.within_limits, dmap.dexterity, np.nan)
+        im = ax.pcolormesh(np.asarray(dmap.values2), dmap.values, data, shading='auto')
+        fig.colorbar(im, ax=ax, label='dexterity (within joint limits)')
+        ax.set_xlabel(dmap.variable2)
+        ax.set_ylabel(dmap.variable)
+    ax.set_title(dmap.mechanism)
+    fig.tight_layout()
+    try:
+        with atomic_output(target, 'plot', binary=True) as fh:
+            fig.savefig(fh, format=target.suffix.lower().lstrip('.'))
+    finally:
+        plt.close(fig)
+    return Path(path)

@@ -1,0 +1,433 @@
+"""Generalized Stewart platforms (GSP): six distance/angle constraints between base and platform.
+
+Toz & Kucuk 2016 (``docs/references.md``). Each constraint joins geometric
+primitives on the base (points ``A_i``, ``A_j`` in the base frame) and on the platform (points ``B_i``,
+``B_j`` in the platform frame); lines are ``K_i`` through ``A_i`` with unit direction
+``s = (A_j - A_i)/|A_j - A_i|`` and ``L_i`` through ``B_i`` with unit direction ``t = (B_j - B_i)/|.|``.
+With ``v = P + R B_i - A_i`` (m) the five constraint types and their inverse kinematics are:
+
+========  ====================  ========================  ========================================
+type      leg                   primitives                joint value (eqs. 2-6)
+========  ====================  ========================  ========================================
+``D1``    SPS                   point A_i - point B_i     ``d = |v|``
+``D2``    SPC                   point A_i - line L_i      ``d = |v x R t|``
+``D3``    CPS                   line K_i - point B_i      ``d = |v x s|``
+``D4``    CCC (prismatic)       line K_i - line L_i       ``d = |v . (R t x s)| / |R t x s|``
+``A1``    CCC (revolute)        line K_i - line L_i       ``cos(theta) = R t . s``
+========  ====================  ========================  ========================================
+
+Inverse-Jacobian rows (joint rate per twist ``(v_p, w)``, ``w`` the angular velocity in the base frame),
+obtained by differentiating the inverse kinematics with ``dP/dt = v_p`` and ``d(R x)/dt = w x R x``;
+with ``w_perp`` the component of ``v`` perpendicular to the line, ``c`` the cross product of the IK:
+
+- D1 (eq. 12): ``[v, R B_i x v] / d``.
+- D2 (eq. 13): ``[w_perp, R B_i x w_perp + (v . R t) c] / d`` with ``c = v x R t``, ``w_perp = R t x c``.
+- D3 (eq. 14): ``[w_perp, R B_i x w_perp] / d`` with ``w_perp = s x (v x s)``. The angular term printed
+  in eq. (14), ``((v x s) x R B_i) / d``, does not match finite differences; this form does.
+- D4 (eq. 15): with ``n = R t x s``, ``f = v . n``, ``g = |n|``:
+  ``sign(f) [n / g, (R B_i x n + R t x (s x v)) / g - f (R t x (s x n)) / g^3]``.
+- A1 (eq. 16): ``[0, -(R t x s) / sin(theta)]``.
+
+The rotation is ``R = Rz(C) Ry(B) Rx(A)`` (roll-pitch-yaw, scipy ``from_euler('xyz', [A, B, C])``), the
+convention under which the paper's numerical examples reproduce; another convention can be named in
+the YAML key ``euler``. All lengths in metres, angles in radians.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, InputError, brief
+from ..inputs.schema import check_keys, number_array
+from ..inputs.validation import MAX_COORDINATE, bounded
+from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
+
+CONSTRAINT_TYPES = ('D1', 'D2', 'D3', 'D4', 'A1')
+
+#: Which points each constraint type takes (besides ``A_i`` and ``B_i``, which all take).
+_POINTS = {
+    'D1': ('A_i', 'B_i'),
+    'D2': ('A_i', 'B_i', 'B_j'),
+    'D3': ('A_i', 'A_j', 'B_i'),
+    'D4': ('A_i', 'A_j', 'B_i', 'B_j'),
+    'A1': ('A_i', 'A_j', 'B_i', 'B_j'),
+}
+_LEGS = {'D1': 'SPS', 'D2': 'SPC', 'D3': 'CPS', 'D4': 'CCC', 'A1': 'CCC'}
+_ALL_POINTS = ('A_i', 'A_j', 'B_i', 'B_j')
+_DEGENERATE = 1e-12  # m: shortest line segment accepted
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (faster than ``np.cross`` on small trailing axes)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.asarray(a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2])
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One GSP constraint: type, its points (base frame ``A_*``, platform frame ``B_*``, m) and limits."""
+
+    type: str
+    A_i: np.ndarray
+    B_i: np.ndarray
+    A_j: np.ndarray | None = None
+    B_j: np.ndarray | None = None
+    name: str = ''
+    limits: tuple[float, float] | None = None
+
+    @property
+    def joint_type(self) -> str:
+        return 'revolute' if self.type == 'A1' else 'prismatic'
+
+    @property
+    def leg(self) -> str:
+        return _LEGS[self.type]
+
+
+def _point(value: Any, where: str) -> np.ndarray:
+    arr = number_array(list(value) if isinstance(value, np.ndarray) else value, (3,))
+    if arr is None:
+        raise ConfigError(f'{where} must be a point [x, y, z] of three finite numbers in m (|x| <= '
+                          f'{MAX_COORDINATE:g}); got {brief(value)}')
+    return arr
+
+
+def parse_constraint(entry: Any, where: str) -> Constraint:
+    """Validate one YAML constraint mapping (``type``, points, optional ``name`` and ``limits``)."""
+    if not isinstance(entry, Mapping):
+        raise ConfigError(f'{where} must be a mapping with keys type, A_i, B_i (and A_j, B_j for lines); '
+                          f'got {brief(entry)}')
+    ctype = entry.get('type')
+    if ctype not in CONSTRAINT_TYPES:
+        raise ConfigError(f'{where}.type = {brief(ctype)} is not a constraint type; allowed: '
+                          + ', '.join(CONSTRAINT_TYPES))
+    needed = _POINTS[ctype]
+    allowed = set(needed) | {'type', 'name', 'limits'}
+    extra = sorted(k for k in entry if k in _ALL_POINTS and k not in allowed)
+    if extra:
+        raise ConfigError(f'{where}: a {ctype} constraint takes the points {", ".join(needed)}; '
+                          f'got the extra point(s) {", ".join(extra)}')
+    check_keys(entry, allowed, where)
+    missing = [k for k in needed if k not in entry]
+    if missing:
+        raise ConfigError(f'{where}: a {ctype} constraint needs the points {", ".join(needed)}; '
+                          f'missing {", ".join(missing)}')
+    pts = {k: _point(entry[k], f'{where}.{k}') for k in needed}
+    for first, second, label in (('A_i', 'A_j', 'base line K'), ('B_i', 'B_j', 'platform line L')):
+        if second in pts and np.linalg.norm(pts[second] - pts[first]) < _DEGENERATE:
+            raise ConfigError(f'{where}: degenerate {label}: {second} = {pts[second].tolist()} coincides '
+                              f'with {first}, so the line has no direction')
+    limits = entry.get('limits')
+    if limits is not None:
+        ends = isinstance(limits, (list, tuple)) and len(limits) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in limits)   # +-inf: no limit
+        if not ends or not limits[0] < limits[1]:
+            raise ConfigError(f'{where}.limits must be [min, max] with min < max (m, or rad for A1); '
+                              f'got {brief(limits)}')
+        limits = (float(limits[0]), float(limits[1]))
+    name = entry.get('name', '')
+    return Constraint(type=ctype, A_i=pts['A_i'], B_i=pts['B_i'], A_j=pts.get('A_j'), B_j=pts.get('B_j'),
+                      name=str(name), limits=limits)
+
+
+class GeneralizedStewartPlatform(Mechanism):
+    """A six-DOF GSP from six constraints (any of the 195 combinations of D1, D2, D3, D4, A1)."""
+
+    kind = 'gsp'
+
+    def __init__(self, constraints: list[Constraint], name: str = 'GSP', characteristic_length: float = 0.1,
+                 euler_convention: str = 'xyz') -> None:
+        if len(constraints) != 6:
+            raise ConfigError(f'a six-DOF GSP needs exactly 6 constraints; got {len(constraints)}')
+        if not (np.isfinite(characteristic_length) and characteristic_length > 0):
+            raise ConfigError('characteristic_length must be a positive length in m; '
+                              f'got {brief(characteristic_length)}')
+        self.constraints = list(constraints)
+        self.name = name
+        self.characteristic_length = float(characteristic_length)
+        self.euler_convention = check_euler_convention(euler_convention)
+        self.types = np.array([c.type for c in constraints])
+        self.joint_types = tuple(c.joint_type for c in constraints)
+        self.joint_names = tuple(c.name or f'{c.type.lower()}_{k + 1}' for k, c in enumerate(constraints))
+        self.joint_limits = np.array([
+            c.limits if c.limits is not None else ((0.0, np.pi) if c.type == 'A1' else (0.0, np.inf))
+            for c in constraints], dtype=float)
+        nan = np.full(3, np.nan)
+        self.A_i = np.array([c.A_i for c in constraints])
+        self.B_i = np.array([c.B_i for c in constraints])
+        self.A_j = np.array([c.A_j if c.A_j is not None else nan for c in constraints])
+        self.B_j = np.array([c.B_j if c.B_j is not None else nan for c in constraints])
+        self._prepare()
+
+    def _prepare(self) -> None:
+        with np.errstate(invalid='ignore'):
+            s = self.A_j - self.A_i
+            t = self.B_j - self.B_i
+            self.s = s / np.linalg.norm(s, axis=1, keepdims=True)
+            self.t = t / np.linalg.norm(t, axis=1, keepdims=True)
+        self._t0 = np.nan_to_num(self.t)
+        self._floats = [(str(self.types[k]), tuple(self.A_i[k].tolist()), tuple(self.B_i[k].tolist()),
+                         tuple(np.nan_to_num(self.s[k]).tolist()), tuple(self._t0[k].tolist())) for k in range(6)]
+        self.groups = {ct: np.flatnonzero(self.types == ct) for ct in CONSTRAINT_TYPES}
+        self.groups = {k: v for k, v in self.groups.items() if v.size}
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> GeneralizedStewartPlatform:
+        """Build from YAML (keys ``constraints``, ``characteristic_length``, ``euler``, ``name``)."""
+        allowed = {'type', 'name', 'characteristic_length', 'euler', 'constraints', 'poses', 'workspace',
+                   'reference'}
+        check_keys(data, allowed, source)
+        cons = data.get('constraints')
+        if not isinstance(cons, list):
+            raise ConfigError(f'{source}: key constraints must be a list of 6 constraint mappings; '
+                              f'got {brief(cons)}')
+        if len(cons) != 6:
+            raise ConfigError(f'{source}: key constraints must list exactly 6 constraints; got {len(cons)}')
+        parsed = [parse_constraint(c, f'{source}: constraints[{k}]') for k, c in enumerate(cons)]
+        L = data.get('characteristic_length', 0.1)
+        if not isinstance(L, (int, float)) or isinstance(L, bool) or not L > 0:
+            raise ConfigError(f'{source}: characteristic_length must be a positive length in m; got {brief(L)}')
+        euler = data.get('euler', 'xyz')
+        try:
+            check_euler_convention(euler)
+        except InputError as exc:
+            raise ConfigError(f'{source}: euler: {exc}') from None
+        return cls(parsed, name=str(data.get('name', 'GSP')), characteristic_length=float(L),
+                   euler_convention=euler)
+
+    def parameters(self) -> dict[str, np.ndarray]:
+        """The points ``A_i``, ``A_j``, ``B_i``, ``B_j`` ``(6, 3)`` (m; NaN where a constraint has none)."""
+        return {'A_i': self.A_i.copy(), 'A_j': self.A_j.copy(), 'B_i': self.B_i.copy(),
+                'B_j': self.B_j.copy()}
+
+    def with_parameters(self, params: Mapping[str, Any]) -> GeneralizedStewartPlatform:
+        p = {'A_i': self.A_i, 'A_j': self.A_j, 'B_i': self.B_i, 'B_j': self.B_j}
+        allowed = self.parameters()
+        for key, val in params.items():
+            if key not in allowed:
+                raise InputError(f'{self.name}: unknown parameter {brief(key)}; allowed: {sorted(allowed)}')
+            p[key] = bounded(val, f'{self.name}: parameter {key}', (6, 3))
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.A_i, new.A_j, new.B_i, new.B_j = p['A_i'], p['A_j'], p['B_i'], p['B_j']
+        new._prepare()
+        return new
+
+    # ------------------------------------------------------------------ kinematics
+    def _terms(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        R = euler_rotation(poses[:, 3:], self.euler_convention)
+        return self._terms_rt(poses[:, :3], R)
+
+    def _terms_rt(self, pos: np.ndarray, R: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        Rt_ = np.swapaxes(R, -1, -2)
+        Rb = self.B_i @ Rt_                                    # (N, 6, 3): R B_k
+        v = pos[:, None, :] + Rb - self.A_i
+        Rt = self._t0 @ Rt_
+        return R, Rb, v, Rt
+
+    def inverse_kinematics(self, poses: Any) -> np.ndarray:
+        """Joint values ``(N, 6)`` (m for D1-D4, rad for A1) of poses ``(N, 6)``, eqs. (2)-(6)."""
+        arr, single = as_poses(poses)
+        q = self.joints_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+        return q[0] if single else q
+
+    def joints_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Joint values ``(N, 6)`` of platform positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        if pos.shape[0] == 1:
+            return np.array([self._scalar(pos[0].tolist(), R[0].tolist(), False)[0]])
+        _, _, v, Rt = self._terms_rt(pos, R)
+        q = np.empty(v.shape[:2])
+        s = self.s
+        for ct, idx in self.groups.items():
+            vi = v[:, idx]
+            if ct == 'D1':
+                q[:, idx] = np.linalg.norm(vi, axis=-1)
+            elif ct == 'D2':
+                q[:, idx] = np.linalg.norm(_cross(vi, Rt[:, idx]), axis=-1)
+            elif ct == 'D3':
+                q[:, idx] = np.linalg.norm(_cross(vi, s[idx]), axis=-1)
+            elif ct == 'D4':
+                n = _cross(Rt[:, idx], s[idx])
+                q[:, idx] = np.abs(_dot(vi, n)) / np.linalg.norm(n, axis=-1)
+            else:  # A1
+                q[:, idx] = np.arccos(np.clip(_dot(Rt[:, idx], s[idx]), -1.0, 1.0))
+        return q
+
+    def inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """Inverse Jacobians ``(N, 6, 6)``, rows eqs. (12)-(16) as corrected in the module docstring.
+
+        Rows are infinite where a row's denominator vanishes (``d = 0``, parallel CCC lines,
+        ``sin(theta) = 0``).
+        """
+        arr, single = as_poses(poses)
+        J = self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+        return J[0] if single else J
+
+    def inverse_jacobian_rt(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Inverse Jacobians ``(N, 6, 6)`` of positions ``(N, 3)`` and rotation matrices ``(N, 3, 3)``."""
+        if pos.shape[0] == 1:
+            return np.array([self._scalar(pos[0].tolist(), R[0].tolist(), True)[1]])
+        _, Rb, v, Rt = self._terms_rt(pos, R)
+        J = np.empty(v.shape[:2] + (6,))
+        s = self.s
+        with np.errstate(divide='ignore', invalid='ignore'):
+            for ct, idx in self.groups.items():
+                vi, Rbi = v[:, idx], Rb[:, idx]
+                if ct == 'D1':
+                    inv = (1.0 / np.sqrt(_dot(vi, vi)))[..., None]
+                    J[:, idx, :3] = vi * inv
+                    J[:, idx, 3:] = _cross(Rbi, vi) * inv
+                elif ct == 'D2':
+                    Rti = Rt[:, idx]
+                    c = _cross(vi, Rti)
+                    inv = (1.0 / np.sqrt(_dot(c, c)))[..., None]
+                    w = _cross(Rti, c)
+                    J[:, idx, :3] = w * inv
+                    J[:, idx, 3:] = (_cross(Rbi, w) + _dot(vi, Rti)[..., None] * c) * inv
+                elif ct == 'D3':
+                    si = s[idx]
+                    c = _cross(vi, si)
+                    inv = (1.0 / np.sqrt(_dot(c, c)))[..., None]
+                    w = _cross(si, c)
+                    J[:, idx, :3] = w * inv
+                    J[:, idx, 3:] = _cross(Rbi, w) * inv
+                elif ct == 'D4':
+                    Rti, si = Rt[:, idx], np.broadcast_to(s[idx], vi.shape)
+                    n = _cross(Rti, si)
+                    gi = (1.0 / np.sqrt(_dot(n, n)))[..., None]
+                    f = _dot(vi, n)[..., None]
+                    sgi = np.sign(f) * gi
+                    J[:, idx, :3] = sgi * n
+                    J[:, idx, 3:] = sgi * ((_cross(Rbi, n) + _cross(Rti, _cross(si, vi)))
+                                           - (f * gi * gi) * _cross(Rti, _cross(si, n)))
+                else:  # A1
+                    Rti = Rt[:, idx]
+                    cos = np.clip(_dot(Rti, s[idx]), -1.0, 1.0)
+                    J[:, idx, :3] = 0.0
+                    J[:, idx, 3:] = _cross(Rti, np.broadcast_to(s[idx], Rti.shape)) * (
+                        -1.0 / np.sqrt(1.0 - cos * cos))[..., None]
+        return J
+
+    def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool
+                ) -> tuple[list[float], list[list[float]]]:
+        """One pose in float arithmetic (same formulas as the batch path; numpy's per-call overhead
+        dominates a single pose): joint values and, if ``jacobian``, the inverse-Jacobian rows."""
+        q: list[float] = []
+        rows: list[list[float]] = []
+        for ct, a, b, s, t in self._floats:
+            Rb = _mul3(R, b)
+            v = (p[0] + Rb[0] - a[0], p[1] + Rb[1] - a[1], p[2] + Rb[2] - a[2])
+            value, row = _SCALAR_ROWS[ct](R, Rb, v, s, t, ct, jacobian)
+            q.append(value)
+            if row is not None:
+                rows.append(row)
+        return q, rows
+
+    def describe(self) -> list[dict[str, Any]]:
+        """The constraints as plain dicts (type, leg, joint name and type, points in m)."""
+        out = []
+        for k, c in enumerate(self.constraints):
+            item: dict[str, Any] = {'name': self.joint_names[k], 'type': c.type, 'leg': c.leg,
+                                    'joint_type': c.joint_type}
+            for key in _POINTS[c.type]:
+                item[key] = getattr(c, key).tolist()
+            out.append(item)
+        return out
+
+
+Vec = tuple[float, ...]
+Row = list[float] | None
+
+
+def _mul3(M: list[list[float]], x: Vec) -> tuple[float, float, float]:
+    return (M[0][0] * x[0] + M[0][1] * x[1] + M[0][2] * x[2],
+            M[1][0] * x[0] + M[1][1] * x[1] + M[1][2] * x[2],
+            M[2][0] * x[0] + M[2][1] * x[1] + M[2][2] * x[2])
+
+
+def _cross3(a: Vec, b: Vec) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot3(a: Vec, b: Vec) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _scale3(a: Vec, f: float) -> tuple[float, float, float]:
+    return (a[0] * f, a[1] * f, a[2] * f)
+
+
+def _row_d1(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D1 (distance of two points): value and inverse-Jacobian row (float arithmetic)."""
+    d = math.sqrt(_dot3(v, v))
+    if not jacobian:
+        return d, None
+    f = 1.0 / d if d > 0 else math.inf
+    return d, [*_scale3(v, f), *_scale3(_cross3(Rb, v), f)]
+
+
+def _row_d23(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D2 (point to a platform line) and D3 (point to a base line)."""
+    axis = _mul3(R, t) if ct == 'D2' else s
+    c = _cross3(v, axis)
+    d = math.sqrt(_dot3(c, c))
+    if not jacobian:
+        return d, None
+    f = 1.0 / d if d > 0 else math.inf
+    w = _cross3(axis, c)
+    ang = _cross3(Rb, w)
+    if ct == 'D2':
+        k = _dot3(v, axis)
+        ang = (ang[0] + k * c[0], ang[1] + k * c[1], ang[2] + k * c[2])
+    return d, [*_scale3(w, f), *_scale3(ang, f)]
+
+
+def _row_d4(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """D4 (distance of two lines)."""
+    Rt = _mul3(R, t)
+    n = _cross3(Rt, s)
+    g = math.sqrt(_dot3(n, n))
+    fv = _dot3(v, n)
+    value = abs(fv) / g if g > 0 else math.inf
+    if not jacobian:
+        return value, None
+    sg = math.copysign(1.0, fv) if fv != 0 else 0.0
+    gi = 1.0 / g if g > 0 else math.inf
+    a1, a2 = _cross3(Rb, n), _cross3(Rt, _cross3(s, v))
+    a3 = _cross3(Rt, _cross3(s, n))
+    return value, [*_scale3(n, sg * gi)] + [sg * ((a1[i] + a2[i]) * gi - fv * a3[i] * gi ** 3) for i in range(3)]
+
+
+def _row_a1(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jacobian: bool) -> tuple[float, Row]:
+    """A1 (angle of two lines)."""
+    Rt = _mul3(R, t)
+    cth = max(-1.0, min(1.0, _dot3(Rt, s)))
+    value = math.acos(cth)
+    if not jacobian:
+        return value, None
+    sin = math.sqrt(1.0 - cth * cth)
+    f = -1.0 / sin if sin > 0 else -math.inf
+    return value, [0.0, 0.0, 0.0, *_scale3(_cross3(Rt, s), f)]
+
+
+_SCALAR_ROWS = {'D1': _row_d1, 'D2': _row_d23, 'D3': _row_d23, 'D4': _row_d4, 'A1': _row_a1}
+
+
+def load_gsp(data: Mapping[str, Any], source: str) -> GeneralizedStewartPlatform:
+    """YAML loader entry for ``type: gsp``."""
+    return GeneralizedStewartPlatform.from_dict(data, source)

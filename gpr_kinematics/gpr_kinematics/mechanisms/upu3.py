@@ -1,0 +1,156 @@
+"""3-UPU translational parallel manipulator (Aboulissane & El Bakkali, ``docs/references.md``).
+
+Base joints ``B_i = b (cos t_i, sin t_i, 0)`` and platform joints ``P_i = p (cos t_i, sin t_i, 0)`` (platform
+frame) on equilateral triangles of circumradius ``b`` and ``p`` (m); the platform only translates, its
+centre at ``h = (x, y, z)`` in the base frame (z up; the paper puts the base in its yz plane, which is the
+same mechanism in rotated axes). Limb ``i`` is the vector ``l_i = h + P_i - B_i`` (eqs. 2-4) and its
+length ``l_i = |h - u_i|`` with ``u_i = B_i - P_i`` (eq. 6, positive root).
+
+Jacobian (eqs. 7-10): ``J v_h = l'`` with rows the unit limb vectors ``S_3i = l_i / l_i``. It is singular when
+the three unit vectors are linearly dependent: all limbs parallel (possible only when ``b = p``, at
+``h = (0, 0, z)``) or coplanar (e.g. the platform in the base plane, ``z = 0``). Dexterity is the inverse
+condition number of ``J`` (dimensionless: the 3-UPU has only linear coordinates); at the centre line
+``h = (0, 0, z)`` it is ``min(a, c) / max(a, c)`` with ``a = sqrt(3/2) |b - p|`` and ``c = sqrt(3) z``, so
+it falls with height once ``c > a``, as the paper's Fig. 6 shows.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, InputError, brief
+from ..inputs.schema import check_keys, number_array, number_key
+from ..inputs.validation import bounded
+from .base import Mechanism, as_poses, dexterity_index
+
+SINGULARITY_TOLERANCE = 1e-9
+
+
+class UPU3(Mechanism):
+    """3-UPU translational manipulator; pose variables ``x, y, z`` (m), the rotation is always zero."""
+
+    kind = 'upu3'
+    pose_variables = ('x', 'y', 'z')
+    euler_convention = 'xyz'
+    joint_types = ('prismatic',) * 3
+    joint_names = ('l1', 'l2', 'l3')
+
+    def __init__(self, b: float = 0.2, p: float = 0.17, limb_min: float = 0.17, limb_max: float = 0.27,
+                 azimuths: Any = (np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6), name: str = '3-UPU',
+                 characteristic_length: float | None = None) -> None:
+        if not limb_min < limb_max:
+            raise ConfigError(f'limb_min = {limb_min} must be below limb_max = {limb_max} (m)')
+        az = np.asarray(azimuths, dtype=float)
+        if az.shape != (3,) or not np.all(np.isfinite(az)):
+            raise ConfigError(f'base_azimuths must be 3 finite angles in rad; got {brief(azimuths)}')
+        self.b, self.p = float(b), float(p)
+        self.azimuths = az
+        self.name = name
+        self.joint_limits = np.array([[limb_min, limb_max]] * 3, dtype=float)
+        self.characteristic_length = float(characteristic_length or p)
+        circle = np.column_stack([np.cos(az), np.sin(az), np.zeros(3)])
+        self.base_points = self.b * circle
+        self.platform_points = self.p * circle
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> UPU3:
+        allowed = {'type', 'name', 'b', 'p', 'limb_min', 'limb_max', 'base_azimuths', 'characteristic_length',
+                   'workspace', 'reference'}
+        check_keys(data, allowed, source)
+        b, p = number_key(data, 'b', source), number_key(data, 'p', source)
+        lo, hi = number_key(data, 'limb_min', source), number_key(data, 'limb_max', source)
+        if not lo < hi:
+            raise ConfigError(f'{source}: limb_min = {lo} must be below limb_max = {hi} (m)')
+        az = data.get('base_azimuths', [np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6])
+        az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
+        if az_arr is None:
+            raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
+        L = data.get('characteristic_length')
+        if L is not None:
+            L = number_key(data, 'characteristic_length', source)
+        return cls(b, p, lo, hi, az_arr, name=str(data.get('name', '3-UPU')), characteristic_length=L)
+
+    def parameters(self) -> dict[str, np.ndarray]:
+        """``base_points`` and ``platform_points`` ``(3, 3)`` (m)."""
+        return {'base_points': self.base_points.copy(), 'platform_points': self.platform_points.copy()}
+
+    def with_parameters(self, params: Mapping[str, Any]) -> UPU3:
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        for key, val in params.items():
+            if key not in ('base_points', 'platform_points'):
+                raise ConfigError(f'{self.name}: unknown parameter {brief(key)}; '
+                                  'allowed: base_points, platform_points')
+            points = bounded(val, f'{self.name}: parameter {key}')
+            if points.size != 9:
+                raise InputError(f'{self.name}: parameter {key} must be 9 numbers (3 points x, y, z) [m]; got '
+                                 f'{points.size}')
+            setattr(new, key, points.reshape(3, 3))
+        return new
+
+    def complete_pose(self, poses: Any) -> np.ndarray:
+        """The 3-UPU only translates: the Euler angles of the reached pose are zero."""
+        arr, single = as_poses(poses)
+        out = arr.copy()
+        out[:, 3:] = 0.0
+        return out[0] if single else out
+
+    def motion_basis(self, poses: Any) -> np.ndarray:
+        arr, _ = as_poses(poses)
+        basis = np.zeros((arr.shape[0], 6, 3))
+        basis[:, :3, :3] = np.eye(3)
+        return basis
+
+    def limb_vectors(self, poses: Any) -> np.ndarray:
+        """Limb vectors ``l_i = h + P_i - B_i`` ``(N, 3, 3)`` (m), eq. (4)."""
+        arr, _ = as_poses(poses)
+        return arr[:, None, :3] + self.platform_points - self.base_points
+
+    def inverse_kinematics(self, poses: Any) -> np.ndarray:
+        """Limb lengths ``(N, 3)`` (m), eq. (6)."""
+        arr, single = as_poses(poses)
+        q = np.linalg.norm(self.limb_vectors(arr), axis=-1)
+        return np.asarray(q[0] if single else q)
+
+    def inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """``(N, 3, 6)``: rows ``[S_3i, P_i x S_3i]``; the first three columns are eq. (10)'s ``J``."""
+        arr, single = as_poses(poses)
+        lv = self.limb_vectors(arr)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            S = lv / np.linalg.norm(lv, axis=-1, keepdims=True)
+        J = np.concatenate([S, np.cross(np.broadcast_to(self.platform_points, S.shape), S)], axis=-1)
+        return J[0] if single else J
+
+    def unit_limb_jacobian(self, poses: Any) -> np.ndarray:
+        """The paper's Jacobian ``J (N, 3, 3)`` of eq. (10): rows the unit limb vectors ``S_3i``."""
+        arr, single = as_poses(poses)
+        J = self.inverse_jacobian(arr)[:, :, :3]
+        return J[0] if single else J
+
+    def singularity(self, poses: Any, tol: float = SINGULARITY_TOLERANCE) -> np.ndarray:
+        """Classify poses ``(N,)``: ``'parallel'`` (all limbs parallel), ``'coplanar'`` (limbs in one plane
+        or otherwise linearly dependent) or ``''`` (regular), by the inverse condition number of ``J``."""
+        arr, _ = as_poses(poses)
+        S = self.unit_limb_jacobian(arr).reshape(-1, 3, 3)
+        dex = dexterity_index(S)
+        sv = np.linalg.svd(S, compute_uv=False)
+        out = np.full(arr.shape[0], '', dtype=object)
+        singular = dex < tol
+        parallel = singular & (sv[:, 1] < tol * sv[:, 0])  # rank 1: all three directions equal (up to sign)
+        out[singular] = 'coplanar'
+        out[parallel] = 'parallel'
+        return out
+
+    def dexterity_vs_height(self, heights: Any, x: float = 0.0, y: float = 0.0) -> np.ndarray:
+        """Dexterity (inverse condition number of eq. (10)'s ``J``) at ``(x, y, z)`` for each height ``z``."""
+        z = np.asarray(heights, dtype=float).ravel()
+        poses = np.zeros((z.size, 6))
+        poses[:, 0], poses[:, 1], poses[:, 2] = x, y, z
+        return self.dexterity(poses)
+
+
+def load_upu3(data: Mapping[str, Any], source: str) -> UPU3:
+    """YAML loader entry for ``type: upu3``."""
+    return UPU3.from_dict(data, source)

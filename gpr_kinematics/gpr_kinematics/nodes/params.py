@@ -1,0 +1,137 @@
+"""Declaring the nodes' ROS parameters from their specs (:mod:`.specs`), and the GPR configuration as parameters.
+
+:func:`declare_parameters` is the one declaration loop of every node: descriptors carry the type, the
+description, the range (``floating_point_range`` / ``integer_range``), the allowed strings and any further
+constraint as ``additional_constraints`` text, and ``read_only``; the start-up values are checked against the
+spec (rclpy checks ranges, not allowed strings) and a bad one raises :class:`~gpr_kinematics.errors.ConfigError`.
+
+:class:`ConfigParameters` declares ``config_file`` and every ``GprConfig`` key (defaults from ``config_file``,
+else the node's robot description's ``gpr`` section, else the package's ``config/gpr.yaml``) and keeps ``config``
+in step with them. A run-time change follows rclpy's two stages: the on-set callback only *validates* (the whole
+configuration, through ``GprConfig.from_mapping``, rejected with the reason when invalid); the post-set callback,
+called once the change is accepted, *applies* it.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from ..core.config import GprConfig, load_config
+from ..errors import ConfigError, GprError
+from ..robot.description import RobotDescription, load_robot
+from ..ros.specs import CONFIG_FILE, ROBOT_FILE, ParamSpec, config_mapping, config_specs
+
+_TYPES = {
+    'double': ParameterType.PARAMETER_DOUBLE,
+    'integer': ParameterType.PARAMETER_INTEGER,
+    'string': ParameterType.PARAMETER_STRING,
+    'bool': ParameterType.PARAMETER_BOOL,
+    'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY,
+    'string_array': ParameterType.PARAMETER_STRING_ARRAY,
+}
+
+
+def descriptor(spec: ParamSpec, read_only: bool = False) -> ParameterDescriptor:
+    """The ParameterDescriptor of ``spec`` (``read_only`` forces read-only)."""
+    d = ParameterDescriptor(name=spec.name, type=_TYPES[spec.kind], description=spec.description,
+                            additional_constraints=spec.constraint_text(), read_only=spec.read_only or read_only)
+    if spec.limits is not None and spec.kind == 'double':
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.limits[0]),
+                                                     to_value=float(spec.limits[1]), step=0.0)]
+    elif spec.limits is not None and spec.kind == 'integer':
+        d.integer_range = [IntegerRange(from_value=int(spec.limits[0]), to_value=int(spec.limits[1]), step=1)]
+    return d
+
+
+def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool = False) -> dict[str, Any]:
+    """Declare every spec on ``node``; return the start-up values by name, each checked against its spec.
+
+    An empty array given on the command line (``-p topics:=[]``) has no type in ROS and arrives as ``None``; it
+    is returned as an empty list. Raises :class:`~gpr_kinematics.errors.ConfigError` naming the parameter, its
+    value and what is allowed; rclpy's own ``ParameterException`` for a value of the wrong type or range.
+    """
+    values: dict[str, Any] = {}
+    for spec in specs:
+        value = node.declare_parameter(spec.name, spec.default, descriptor(spec, read_only)).value
+        if value is None and spec.kind.endswith('_array'):
+            value = []
+        if isinstance(value, (list, tuple)) or type(value).__name__ == 'array':
+            value = list(value)
+        spec.check(value)
+        values[spec.name] = value
+    return values
+
+
+def declare_robot(node: Node, default: str | Path | None = None) -> RobotDescription:
+    """Declare ``robot_file`` on ``node`` and load that robot description (empty: ``default``, else the shipped
+    example); :class:`~gpr_kinematics.errors.ConfigError` names the file and what is wrong."""
+    robot_file = declare_parameters(node, (ROBOT_FILE,))['robot_file']
+    try:
+        return load_robot(robot_file or default)
+    except ConfigError as exc:
+        raise ConfigError(f'robot_file: {exc}') from None
+
+
+class ConfigParameters:
+    """Declares ``config_file`` and the ``GprConfig`` parameters on ``node``; ``config`` follows them.
+
+    The base configuration is ``config_file`` when given, else the geometry of ``robot`` (its description's
+    ``gpr`` section), else the package's ``config/gpr.yaml``; the parameters override it. ``robot`` then always
+    computes with ``config`` (:attr:`robot`): one geometry per node. ``read_only=True`` declares them all read-only
+    (a node that precomputes with the configuration). Raises :class:`~gpr_kinematics.errors.ConfigError` at
+    construction when the start-up values (defaults plus overrides) do not form a valid configuration.
+    """
+
+    def __init__(self, node: Node, read_only: bool = False, robot: RobotDescription | None = None) -> None:
+        self._node = node
+        config_file = declare_parameters(node, (CONFIG_FILE,))['config_file']
+        self._base = load_config(config_file or None) if config_file or robot is None else robot.config
+        self._robot = robot
+        self._specs = {s.name: s for s in config_specs(self._base, read_only)}
+        self._values = declare_parameters(node, tuple(self._specs.values()))
+        self.config = self._build(self._values)
+        node.add_on_set_parameters_callback(self._validate)
+        node.add_post_set_parameters_callback(self._apply)
+
+    @property
+    def robot(self) -> RobotDescription:
+        """The node's robot description computing with the node's current configuration."""
+        if self._robot is None:
+            raise ConfigError('this node has no robot description')
+        if self._robot.config is not self.config:
+            self._robot = dataclasses.replace(self._robot, config=self.config)
+        return self._robot
+
+    def _build(self, values: dict[str, Any]) -> GprConfig:
+        """Every key of the loaded configuration file with the parameters' values on top (validated as a whole):
+        keys that no ROS parameter holds (an imperfect machine's ``rod_positions``, ``rod_directions``,
+        ``platform_joints``) keep the file's values."""
+        return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
+
+    def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:
+        return {p.name: p.value for p in params if p.name in self._specs}
+
+    def _validate(self, params: list[Parameter]) -> SetParametersResult:
+        """On-set stage: accept the change only if the whole configuration stays valid (no state change)."""
+        changes = self._changes(params)
+        if changes:
+            try:
+                self._build({**self._values, **changes})
+            except GprError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply(self, params: list[Parameter]) -> None:
+        """Post-set stage: the change was accepted; apply it."""
+        changes = self._changes(params)
+        if not changes:
+            return
+        self._values = {**self._values, **changes}
+        self.config = self._build(self._values)
+        self._node.get_logger().info('configuration changed: ' + ', '.join(f'{k}={v!r}' for k, v in changes.items()))

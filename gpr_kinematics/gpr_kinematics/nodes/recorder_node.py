@@ -1,0 +1,187 @@
+"""``recorder_node``: records topics into a crash-safe rosbag2 bag (MCAP by default, SQLite3 on request).
+
+Messages arrive serialized (``raw=True`` subscriptions, reliable QoS, keep-last ``queue_depth``) and are
+written unchanged, with their receive time [ns since the epoch] as log time, by
+:class:`~gpr_kinematics.bags.writer.SegmentedBagWriter` (bag format version 9, type definitions of the
+ROS 2 Jazzy standard types and of ``gpr_interfaces``). Parameters (all read-only):
+
+- ``output``: bag folder (default ``bags/gpr_YYYY_MM_DD-HH_MM_SS`` under the working directory); it must not
+  exist and its parent must be writable;
+- ``storage``: ``mcap`` (default) or ``sqlite3``;
+- ``topics``: topic names, optionally ``name:pkg/msg/Type`` (default: the trajectory node's ``gpr/*`` topics,
+  whose types are known); a name without a type gets it from the ROS graph within ``discovery_timeout``;
+- ``flush_interval`` [s] (default 1): a message is in a closed, readable segment at most this long after it
+  was received (see the writer); ``max_bag_size`` [bytes] and ``max_bag_duration`` [s]: extra splits (0 = off);
+  ``compression``: ``none`` or ``zstd`` (MCAP chunk compression); ``fsync`` (default true);
+- ``queue_depth``: subscription history depth (default 10000).
+
+Latched topics (``gpr/geometry``, ``robot_description``, ``/tf_static``, and any topic whose publishers all offer
+transient-local durability when the recorder starts) are subscribed with a transient-local, reliable QoS, so
+the sample a publisher sent before the recorder started is recorded too.
+
+SIGINT and SIGTERM: the node stops taking new work, drains what DDS already delivered, closes the bag, logs
+the counts per topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more
+than ``flush_interval`` before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
+folder left behind) when the output exists or is not writable, a topic name is empty or invalid, a topic's
+type is unknown or a parameter is invalid. An error while recording (a full disk) ends it with one
+``stopped:`` line and exit status 1; the segments closed before the error stay a valid bag.
+"""
+from __future__ import annotations
+
+import sqlite3
+import sys
+import time
+from collections.abc import Sequence
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from rclpy.executors import Executor
+from rclpy.qos import QoSProfile
+from rosbags.rosbag2.errors import WriterError
+
+from ..bags.errors import BagError
+from ..bags.typestore import GPR_TOPICS, check_known
+from ..bags.writer import SegmentedBagWriter, check_output_path
+from ..ros.specs import node_specs
+from .conversions import message_class
+from .params import declare_parameters
+from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
+from .runtime import EXIT_OK, GprNode, one_line, run
+
+NODE_NAME = 'recorder_node'
+#: What writing a segment raises when the disk is full or a file size limit is reached.
+WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterError, BagError)
+#: Longest drain after a stop request [s], and the quiet time that ends it earlier [s].
+DRAIN_LIMIT, DRAIN_QUIET = 5.0, 0.2
+
+
+def default_output() -> Path:
+    return Path('bags') / datetime.now().strftime('gpr_%Y_%m_%d-%H_%M_%S')
+
+
+class RecorderNode(GprNode):
+    """Subscribes to the topics and writes every message into the bag; see the module docstring."""
+
+    NODE_NAME = NODE_NAME
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        p = declare_parameters(self, node_specs(NODE_NAME))
+        self.p = p
+        output = Path(p['output']) if p['output'] else default_output()
+        check_output_path(output)
+        topics = self._resolve_topics(list(p['topics']))
+        self.writer = SegmentedBagWriter(output, topics, storage=p['storage'], flush_interval=p['flush_interval'],
+                                         max_bag_size=p['max_bag_size'], max_bag_duration=p['max_bag_duration'],
+                                         compression=p['compression'], fsync=p['fsync'],
+                                         custom_data={'recorder': NODE_NAME})
+        classes = {t: message_class(ty) for t, ty in topics.items()}
+        self.received: dict[str, int] = dict.fromkeys(topics, 0)
+        self.last_message = time.monotonic()
+        self.writer.open()
+        try:
+            # The state topic last: a publisher that waits for a subscription on it (trajectory_node's
+            # wait_for_subscribers) then finds the other subscriptions announced already.
+            order = sorted(topics, key=lambda t: t == '/gpr/platform_state')
+            self.subs = [self.create_subscription(classes[t], t, self._callback(t), self._qos(t), raw=True)
+                         for t in order]
+            if p['flush_interval'] > 0:
+                self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self._poll)
+        except BaseException:
+            self.writer.abort(remove=True)
+            raise
+        self.get_logger().info(f'recording {len(topics)} topic(s) into {output} ({p["storage"]}, flush interval '
+                               f'{p["flush_interval"]} s): ' + ', '.join(f'{t} [{ty}]' for t, ty in topics.items()))
+
+    def _qos(self, topic: str) -> QoSProfile:
+        """Transient local for a latched topic (a known one, or one whose publishers all offer it), so the
+        sample published before this subscription is delivered too; else the stream QoS."""
+        infos = self.get_publishers_info_by_topic(topic)
+        offered = [i.qos_profile.durability for i in infos]
+        if latched_qos().durability in offered and len(set(offered)) == 1:
+            return latched_qos()
+        return latched_qos() if topic in LATCHED else stream_qos(int(self.p['queue_depth']))
+
+    def _resolve_topics(self, entries: list[str]) -> dict[str, str]:
+        if not entries:
+            raise BagError('topics is empty; allowed: one or more topic names (name or name:pkg/msg/Type)')
+        topics: dict[str, str | None] = {}
+        for entry in entries:
+            name, sep, msgtype = entry.partition(':')
+            full = valid_topic_name(self, name.strip(), 'topics')
+            if sep:
+                topics[full] = check_known(msgtype, full)
+            elif full in GPR_TOPICS:
+                topics[full] = GPR_TOPICS[full]
+            else:
+                topics[full] = None
+        missing = [t for t, ty in topics.items() if ty is None]
+        if missing:
+            deadline = time.monotonic() + float(self.p['discovery_timeout'])
+            while True:
+                graph = dict(self.get_topic_names_and_types())
+                for t in missing:
+                    if t in graph and graph[t]:
+                        topics[t] = check_known(graph[t][0], t)
+                missing = [t for t, ty in topics.items() if ty is None]
+                if not missing or time.monotonic() >= deadline:
+                    break
+                time.sleep(0.1)
+            if missing:
+                raise BagError(f'type of topic(s) {", ".join(missing)} unknown: not published within '
+                               f'{self.p["discovery_timeout"]} s; allowed: give it as name:pkg/msg/Type')
+        return {t: str(ty) for t, ty in topics.items()}
+
+    def _callback(self, topic: str) -> Any:
+        writer, received = self.writer, self.received
+
+        def cb(data: bytes) -> None:
+            received[topic] += 1
+            try:
+                writer.write(topic, time.time_ns(), data)
+            except WRITE_ERRORS as exc:
+                raise self._write_failed(exc) from None
+            self.last_message = time.monotonic()
+
+        return cb
+
+    def _poll(self) -> None:
+        try:
+            self.writer.poll()
+        except WRITE_ERRORS as exc:
+            raise self._write_failed(exc) from None
+
+    def _write_failed(self, exc: BaseException) -> BagError:
+        return BagError(f'cannot write the bag {self.writer.path} ({type(exc).__name__}: {one_line(exc)}): is the '
+                        'disk full, or a file size limit reached?')
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """Drain what DDS already delivered (until :data:`DRAIN_QUIET` s without a message, at most
+        :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error (status 1) the bag
+        keeps the segments closed before it."""
+        if status != EXIT_OK:
+            kept = self.writer.closed_message_count
+            self.writer.abort(remove=kept == 0)
+            self.get_logger().info(f'{self.writer.path}: kept the {kept} messages of the {len(self.writer.files)} '
+                                   'segment(s) closed before the error' if kept else
+                                   f'{self.writer.path}: no segment was closed before the error; removed')
+            return status
+        end = time.monotonic() + DRAIN_LIMIT
+        while time.monotonic() < end and time.monotonic() - self.last_message < DRAIN_QUIET:
+            executor.spin_once(timeout_sec=0.02)
+        self.writer.close()
+        counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
+        self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '
+                               f'in {len(self.writer.files)} file(s) (written/received per topic: {counts}; '
+                               f'longest segment close {self.writer.max_close_time * 1e3:.1f} ms)')
+        return status
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point: record until SIGINT/SIGTERM, then drain, close the bag and exit 0."""
+    return run(RecorderNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

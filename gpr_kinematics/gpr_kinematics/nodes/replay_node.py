@@ -1,0 +1,128 @@
+"""``replay_node``: publishes a bag's messages back on their topics, like ``ros2 bag play``.
+
+The stored serialized bytes are published as they are (no decode/encode round trip), in log-time order,
+with the original spacing divided by ``rate``. Parameters (read-only):
+
+- ``bag``: the bag folder (or a single ``.mcap``/``.db3`` file); required;
+- ``rate``: speed factor (default 1; 2 = twice as fast);
+- ``loop``: start over after the last message (until SIGINT/SIGTERM);
+- ``topics``: replay only these topics (default: all);
+- ``wait_for_subscribers``: before the first message wait until every topic has this many subscriptions
+  (default 0), at most ``wait_timeout`` seconds;
+- ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
+
+Latched topics (:data:`~gpr_kinematics.nodes.qos.LATCHED`, e.g. ``gpr/geometry``) are published transient
+local, so a subscriber that starts during the replay still gets them. Exits 0 at the end of the bag (after the
+reliable publishers' acknowledgements, at most 5 s) or on SIGINT/SIGTERM; 2 with one ``cannot start:`` line when
+the bag cannot be read (missing, corrupt, not a regular file), a topic name is invalid or a parameter is invalid.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from rclpy.executors import Executor
+
+from ..bags.errors import BagError
+from ..bags.reader import read_bag
+from ..ros.specs import node_specs
+from .conversions import message_class
+from .params import declare_parameters
+from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
+from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
+
+NODE_NAME = 'replay_node'
+
+
+class ReplayNode(GprNode):
+    """Reads the bag at start and publishes it when spun (:meth:`spin`)."""
+
+    NODE_NAME = NODE_NAME
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        p = declare_parameters(self, node_specs(NODE_NAME))
+        if not p['bag']:
+            raise BagError('parameter bag is empty; allowed: the path of a bag folder, .mcap or .db3 file')
+        self.p = p
+        wanted = [valid_topic_name(self, t, 'topics') for t in p['topics'] if t]
+        bag = read_bag(p['bag'], topics=wanted or None)
+        missing = [t for t in wanted if bag.topic(t) is None]
+        if missing:
+            raise BagError(f'topic(s) {", ".join(missing)} not in the bag {p["bag"]}; it has: '
+                           + ', '.join(read_bag(p['bag']).topics))
+        self.bag = bag
+        depth = int(p['queue_depth'])
+        self.pubs = {name: self.create_publisher(message_class(t.msgtype), name,
+                                                 latched_qos() if name in LATCHED else stream_qos(depth))
+                     for name, t in bag.topics.items()}
+        # One stream in log-time order (stable: the bag's order for equal times).
+        names = list(bag.topics)
+        times = np.concatenate([bag.topics[n].log_time for n in names]) if names else np.zeros(0, np.int64)
+        which = np.concatenate([np.full(len(bag.topics[n]), k) for k, n in enumerate(names)]) if names else times
+        order = np.argsort(times, kind='stable')
+        self.times = times[order]
+        raws = [r for n in names for r in bag.topics[n].raw]
+        self.stream = [(self.pubs[names[int(which[i])]], raws[i]) for i in order]
+        self.published: dict[str, int] = dict.fromkeys(names, 0)
+        self._names = {id(pub): n for n, pub in self.pubs.items()}
+        self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
+                               f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
+
+    @staticmethod
+    def _wait(executor: Executor, stop: StopFlag, due: float) -> None:
+        """Serve callbacks (the parameter services) until ``due`` (monotonic time) or a stop signal."""
+        while not stop:
+            delay = due - time.monotonic()
+            if delay <= 0:
+                return
+            executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT))
+
+    def wait_for_subscribers(self, executor: Executor, stop: StopFlag) -> None:
+        want = int(self.p['wait_for_subscribers'])
+        if want <= 0:
+            return
+        deadline = time.monotonic() + float(self.p['wait_timeout'])
+        while not stop and time.monotonic() < deadline:
+            if all(pub.get_subscription_count() >= want for pub in self.pubs.values()):
+                return
+            self._wait(executor, stop, time.monotonic() + 0.02)
+        if not stop:
+            self.get_logger().warning(f'not every topic has {want} subscriber(s) after {self.p["wait_timeout"]} s; '
+                                      'starting anyway')
+
+    def spin(self, executor: Executor, stop: StopFlag) -> None:
+        """Publish the stream (again and again with ``loop``) until it ends or a stop signal arrives."""
+        self.wait_for_subscribers(executor, stop)
+        rate = float(self.p['rate'])
+        if not stop:
+            self.get_logger().info('started: publishing')
+        while not stop and self.stream:
+            t0 = time.monotonic()
+            first = int(self.times[0])
+            for (pub, raw), t in zip(self.stream, self.times.tolist(), strict=True):
+                self._wait(executor, stop, t0 + (t - first) * 1e-9 / rate)
+                if stop:
+                    return
+                pub.publish(raw)
+                self.published[self._names[id(pub)]] += 1
+            if not self.p['loop']:
+                break
+        self.finish()
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """Wait for the reliable subscribers' acknowledgements (at most 5 s per topic) and log the counts."""
+        wait_acknowledged(self.pubs.values(), 5.0)
+        self.get_logger().info('finished: published ' + ', '.join(f'{t} {n}' for t, n in self.published.items()))
+        return status
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    return run(ReplayNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,320 @@
+"""``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts, and whole-robot
+programs (the arm joints and the wafer too).
+
+Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
+
+- ``gpr/platform_state`` (gpr_interfaces/PlatformState): the full state of each sample;
+- ``gpr/platform_pose`` / ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint
+  model / the naive model;
+- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
+  and, in a robot program, every arm's joints [rad], as ``robot_state_publisher`` expects; ``gpr/virtual_joints``
+  (sensor_msgs/JointState): the virtual joints, named as in the core (lengths [m], angles [rad]);
+- ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample
+  (:mod:`gpr_kinematics.robot.markers`);
+- robot programs only: ``gpr/robot_state`` (gpr_interfaces/RobotState) and ``gpr/wafer_pose``
+  (geometry_msgs/PoseStamped), both in the robot's world frame (:mod:`gpr_kinematics.robot.stream`);
+- ``gpr/geometry`` and ``gpr/robot`` (std_msgs/String, reliable, transient local, depth 1): published once at
+  start, the YAML of the node's ``GprConfig.to_dict()`` and of its robot description (``RobotDescription.to_dict``),
+  so a recording names the geometry, model and robot that produced it.
+
+Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
+azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
+``tilt_step`` at height ``height``, serpentine, ``passes`` times, so every pass crosses the singular
+configuration ``alpha = 0``; ``program`` -- an offline program (``program_file``): a platform program (see
+:mod:`.program`), interpolated between stations, or a whole-robot program (``format: gpr_robot_program``),
+planned and sampled by the robot core, sampled at ``rate``; ``idle`` -- nothing at start. In every mode the node
+serves the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file of either kind or inline
+stations; feedback per sample; cancel stops before the next sample) whenever no stream is running. A stream is
+precomputed with the batch API (:mod:`.streams`) before its first sample; a wall timer at ``rate`` [Hz] then
+publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
+``loop`` is true (then it starts over; the sample counter keeps counting); ``idle`` runs until SIGINT/SIGTERM.
+
+The node's robot (parameter ``robot_file``; empty: the start-up robot program's robot, else the shipped example)
+runs every robot program; its ``gpr`` section is the node's geometry unless ``config_file`` is given.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from geometry_msgs.msg import PoseStamped
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action.server import ServerGoalHandle
+from rclpy.executors import Executor
+from rclpy.task import Future
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
+
+from gpr_interfaces.action import RunProgram
+from gpr_interfaces.msg import PlatformState, RobotState
+
+from ..core.messages import geometry_text, robot_text, stream_messages
+from ..errors import ConfigError, GprError
+from ..robot.markers import marker_array
+from ..robot.program import RobotProgram, load_any_program
+from ..ros.specs import TRAJECTORY
+from ..ros.streams import Trajectory, goal_program, program_robot, sweep_trajectory, trajectory_of
+from .conversions import ROS_TYPES, make_message
+from .params import ConfigParameters, declare_parameters, declare_robot
+from .qos import latched_qos, stream_qos
+from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowledged
+
+NODE_NAME = 'trajectory_node'
+#: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
+SETTLE = 0.1
+#: Most samples one timer tick publishes to make up for ticks the process could not serve in time.
+CATCH_UP = 5
+#: The topics of one sample (published together, in this order) and their message types.
+STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
+                                 'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
+                                 'gpr/virtual_joints': JointState}
+#: The topics a robot program adds to each sample (their types: :data:`gpr_kinematics.bags.typestore.GPR_TOPICS`).
+ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
+
+
+class TrajectoryNode(GprNode):
+    """Publishes precomputed streams, one sample per timer tick; serves ``gpr/run_program``."""
+
+    NODE_NAME = NODE_NAME
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        p = self.p = declare_parameters(self, TRAJECTORY)
+        program = None
+        if p['mode'] == 'program':
+            if not p['program_file']:
+                raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
+            program = load_any_program(p['program_file'])
+        robot_program = program if isinstance(program, RobotProgram) else None
+        params = ConfigParameters(self, read_only=True,
+                                  robot=declare_robot(self, robot_program.robot if robot_program else None))
+        self.cfg, self.robot = params.config, params.robot
+        if robot_program is not None:
+            program_robot(robot_program, self.robot)
+        qos = stream_qos(int(p['queue_depth']))
+        topics = {**STREAM_TOPICS, **ROBOT_STREAM_TOPICS}
+        self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in topics.items()}
+        self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
+        self.publishers_all = (*self.stream_publishers.values(), self.pub_markers)
+        self.pub_geometry = self.create_publisher(String, 'gpr/geometry', latched_qos())
+        self.pub_geometry.publish(String(data=geometry_text(self.cfg)))
+        self.pub_robot = self.create_publisher(String, 'gpr/robot', latched_qos())
+        self.pub_robot.publish(String(data=robot_text(self.robot)))
+
+        self.sample = 0
+        self.stream: Trajectory | None = None
+        self.goal: ServerGoalHandle | None = None
+        self._goal_done: Future | None = None
+        self._reserved = False
+        self.index = 0
+        self.sent = 0
+        self.started_at: float | None = None
+        self._wait_start = time.monotonic()
+        self._ready_since: float | None = None
+        self.period = 1.0 / float(p['rate'])
+        self.timer = self.create_timer(self.period, self._tick)
+        self.timer.cancel()
+        self.action = ActionServer(self, RunProgram, 'gpr/run_program', execute_callback=self._execute,
+                                   goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT)
+        t0 = time.perf_counter()
+        if p['mode'] == 'sweep':
+            traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
+                                    p['passes'])
+        elif program is not None:
+            traj = trajectory_of(program, self.robot, p['rate'], p['move_time'])
+        else:
+            self.get_logger().info(f'idle: serving gpr/run_program at {p["rate"]} Hz (model {self.cfg.model})')
+            return
+        self.get_logger().info(f'precomputed {len(traj)} samples in {time.perf_counter() - t0:.3f} s '
+                               f'({traj.description}, model {self.cfg.model})')
+        self.start(traj)
+
+    # -- streams -------------------------------------------------------------------------------------------------
+    def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: Future | None = None) -> None:
+        """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end)."""
+        self.stream, self.goal, self._goal_done = traj, goal, done
+        self.index = 0
+        self.started_at = None
+        self._wait_start = time.monotonic()
+        self._ready_since = None
+        self.timer.reset()
+
+    def stream_topics(self) -> tuple[Any, ...]:
+        """The publishers of the running stream's topics: the platform's and the markers, and the robot's for a robot
+        program (a recorder of a platform stream need not subscribe to the robot topics)."""
+        robot = self.stream is not None and self.stream.robot is not None
+        return tuple(pub for topic, pub in self.stream_publishers.items()
+                     if robot or topic not in ROBOT_STREAM_TOPICS) + (self.pub_markers,)
+
+    def subscribed_nodes(self) -> int:
+        """How many nodes subscribe to every stream topic (``wait_all_topics``) or to ``gpr/platform_state``, and
+        are matched: nodes, not subscriptions, so a node that listens to one topic only (a state publisher on
+        ``gpr/platform_state``, RViz on ``gpr/markers``) does not count as a recorder of the stream."""
+        pubs = self.stream_topics() if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
+        nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
+                                    self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
+        return int(min(len(nodes), *(pub.get_subscription_count() for pub in pubs)))
+
+    def _ready(self) -> bool:
+        want = int(self.p['wait_for_subscribers'])
+        if want <= 0:
+            return True
+        if self.subscribed_nodes() >= want:
+            # Discovery announces a subscription a moment before every publisher has matched it: settle briefly.
+            self._ready_since = self._ready_since or time.monotonic()
+            return time.monotonic() - self._ready_since >= SETTLE
+        self._ready_since = None
+        if time.monotonic() - self._wait_start > float(self.p['wait_timeout']):
+            where = 'every stream topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
+            self.get_logger().warning(f'no {want} subscriber(s) on {where} after {self.p["wait_timeout"]} s; '
+                                      'starting anyway')
+            return True
+        return False
+
+    def _tick(self) -> None:
+        """Publish every sample due by now: sample k of a stream at ``start + k / rate``. A tick the process could
+        not serve in time (the machine is busy) is made up at the next one, at most :data:`CATCH_UP` samples at
+        once, so the stream keeps its rate on average instead of losing the ticks."""
+        if self.stream is None:
+            self.timer.cancel()
+            return
+        cancelled = self.goal is not None and self.goal.is_cancel_requested   # then _step ends it at once
+        if self.started_at is None and not cancelled:
+            if not self._ready():
+                return
+            self.started_at = time.monotonic()
+            self.sent = 0
+            self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
+                                   f'({"goal" if self.goal else self.p["mode"]}'
+                                   f'{", looping" if self.p["loop"] and not self.goal else ""})')
+        due = int((time.monotonic() - (self.started_at or time.monotonic())) / self.period) + 1
+        for _ in range(max(1, min(due - self.sent, CATCH_UP))):
+            if self.stream is None or not self._step(self.stream):
+                return
+
+    def _step(self, traj: Trajectory) -> bool:
+        """Publish sample ``index`` of ``traj`` (and its feedback); False once the stream ended."""
+        if self.goal is not None and self.goal.is_cancel_requested:
+            self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({self._where(traj)})')
+            return False
+        try:
+            self.publish_sample(traj, self.index)
+        except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback
+            if not self.context.ok():
+                self._end('stopped', 'the node is shutting down')  # SIGINT/SIGTERM while publishing
+            else:
+                self._end('failed', f'publishing sample {self.sample} failed: {type(exc).__name__}: {one_line(exc)}')
+            return False
+        if self.goal is not None:
+            self.goal.publish_feedback(RunProgram.Feedback(
+                sample_index=self.index, sample=self.sample, station=traj.station[self.index],
+                station_name=self._station_name(traj, self.index)))
+        self.index += 1
+        self.sample += 1
+        self.sent += 1
+        if self.index >= len(traj):
+            if self.p['loop'] and self.goal is None:
+                self.index = 0
+            else:
+                self._end('succeeded', f'published all {len(traj)} samples')
+                return False
+        return True
+
+    @staticmethod
+    def _station_name(traj: Trajectory, i: int) -> str:
+        k = traj.station[i] if i < len(traj) else -1
+        return traj.station_names[k] if k >= 0 else ''
+
+    def _where(self, traj: Trajectory) -> str:
+        i = self.index
+        if not traj.station_names:
+            return 'sweep'
+        unit = traj.unit
+        if i < len(traj) and traj.station[i] >= 0:
+            return f'at {unit} {traj.station[i]} ({self._station_name(traj, i)})'
+        before = max((traj.station[j] for j in range(min(i, len(traj)))), default=-1)
+        return f'moving from {unit} {before} to {unit} {before + 1}'
+
+    def _end(self, outcome: str, message: str) -> None:
+        self.timer.cancel()
+        elapsed = time.monotonic() - (self.started_at or time.monotonic())
+        published = self.index
+        achieved = (published - 1) / elapsed if published > 1 and elapsed > 0 else float('nan')
+        if outcome != 'stopped':
+            self.get_logger().info(f'finished: published {published} samples in {elapsed:.3f} s (achieved '
+                                   f'{achieved:.3f} Hz, requested {self.p["rate"]} Hz)'
+                                   + ('' if outcome == 'succeeded' else f': {message}'))
+        traj, self.stream = self.stream, None
+        if self._goal_done is not None:
+            self._goal_done.set_result((outcome, message, published, len(traj) if traj else 0))
+            self._goal_done = None
+        elif outcome in ('succeeded', 'stopped'):
+            self.finish(EXIT_OK)
+        else:
+            self.get_logger().error(f'stopped: {message}')
+            self.finish(EXIT_FAILED)
+
+    def publish_sample(self, traj: Trajectory, i: int) -> None:
+        stamp_ns = self.get_clock().now().nanoseconds
+        msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
+                               frame_id=self.p['base_frame'], sample=self.sample,
+                               commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
+        if traj.robot is not None:  # the arm joints join the rods on gpr/joint_states; the wafer on its topics
+            msgs.update(traj.robot.messages(ROS_TYPES, i, stamp_ns=stamp_ns, sample=self.sample,
+                                            base_frame=self.p['base_frame']))
+        for topic, msg in msgs.items():
+            self.stream_publishers[topic].publish(msg)
+        if self.sample % int(self.p['markers_every']) == 0:
+            self.pub_markers.publish(marker_array(make_message, msgs['gpr/platform_state'].header,
+                                                  {ns: p[i] for ns, p in traj.markers.items()}))
+
+    # -- the gpr/run_program action ----------------------------------------------------------------------------
+    def _on_goal(self, _goal: Any) -> GoalResponse:
+        """Accept a goal only while no stream runs (one program at a time)."""
+        if self.stream is not None or self._reserved:
+            self.get_logger().warning('gpr/run_program: goal rejected: a stream is running')
+            return GoalResponse.REJECT
+        self._reserved = True
+        return GoalResponse.ACCEPT
+
+    async def _execute(self, goal: ServerGoalHandle) -> Any:
+        result = RunProgram.Result()
+        try:
+            traj = trajectory_of(goal_program(goal.request, self.robot), self.robot, self.p['rate'],
+                                 self.p['move_time'])
+        except Exception as exc:  # noqa: BLE001 - a goal must end with a result, and later goals be served
+            self._reserved = False
+            reason = one_line(exc) if isinstance(exc, GprError) else f'internal error: {type(exc).__name__}: ' \
+                f'{one_line(exc)}'
+            result.message = f'cannot run the program: {reason}'
+            self.get_logger().warning(f'gpr/run_program: {result.message}')
+            goal.abort()
+            return result
+        self.get_logger().info(f'gpr/run_program: {traj.description}')
+        done = Future()
+        self.start(traj, goal, done)
+        self._reserved = False
+        outcome, message, published, total = await done
+        result.success, result.message = outcome == 'succeeded', message
+        result.samples_published, result.samples_total = published, total
+        {'succeeded': goal.succeed, 'cancelled': goal.canceled}.get(outcome, goal.abort)()
+        return result
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        """After the last sample, wait until every subscription acknowledged what was published (reliable QoS,
+        at most 2 s each); a stop signal leaves at once."""
+        if not self.signalled:
+            wait_acknowledged(self.publishers_all, 2.0)
+        self.action.destroy()
+        return status
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    return run(TrajectoryNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

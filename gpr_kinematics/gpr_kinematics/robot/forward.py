@@ -1,0 +1,174 @@
+"""Forward kinematics of the whole robot: rod lengths and arm joints -> platform, blade and wafer in the world.
+
+The frame chain (docs/robot.md) is ``world -> gpr_base`` (fixed, the description's ``base``) ``-> gpr_platform``
+(the GPR's exact pose under the virtual-joint model, :func:`gpr_kinematics.core.forward_batch`; Bratovanov
+& Sotirov, *Virtualization for the purposes of modeling and computer simulation of a class of overconstrained
+robots*, §IV-V) ``-> <arm>_link1 -> ... -> <arm>_link<n> -> <arm>_blade -> <arm>_wafer``, each link frame turned
+by its joint about the platform normal:
+
+* ``<arm>_link1`` in ``gpr_platform``: ``(mount position, Rz(mount_yaw + theta_1))``;
+* ``<arm>_link<k>`` in ``<arm>_link<k-1>``: ``((length_{k-1}, 0, height_{k-1}), Rz(theta_k))``;
+* ``<arm>_blade`` in ``<arm>_link<n>``: ``((length_n, 0, height_n) + blade position, Rz(blade yaw))``;
+* ``<arm>_wafer`` in ``<arm>_blade``: ``(wafer centre, I)``.
+
+The same chain on the *naive* platform pose (:func:`gpr_kinematics.core.naive_forward`: the platform
+rotated about its centre, the paper's Fig. 2, what the old offline tool computed) gives where the old tool
+believes the wafer is; ``naive_wafer_error = wafer - naive_wafer`` is the error it makes there.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..core import ForwardBatch, forward_batch, naive_forward
+from ..core.rotations import rotation_angle, rotation_z
+from ..errors import InputError, LimitError
+from ..inputs.validation import bounded, rows_of
+from .description import Arm, RobotDescription
+from .planar_arm import LIMIT_SLACK
+from .transforms import PoseBatch
+
+Array = NDArray[np.float64]
+
+
+def check_joint_limits(arm: Arm, J: Array) -> None:
+    """LimitError naming the first joint value outside its range, the sample, and by how much."""
+    lower, upper = arm.lower - LIMIT_SLACK, arm.upper + LIMIT_SLACK
+    bad = (lower > J) | (upper < J)
+    if bad.any():
+        i, k = np.argwhere(bad)[0]
+        j = arm.joints[k]
+        side, limit = ('lower', j.lower) if J[i, k] < lower[k] else ('upper', j.upper)
+        where = f' (sample {i})' if J.shape[0] > 1 else ''
+        raise LimitError(f'{j.name} = {J[i, k]:.9g} rad{where} is beyond its {side} limit {limit:.9g} rad by '
+                         f'{abs(J[i, k] - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad')
+
+
+def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
+    """Parent-relative transforms ``(frame, parent, pose)`` of the arm's frames for joint values ``(N, n)``,
+    from ``<arm>_link1`` (parent ``gpr_platform``) to ``<arm>_wafer`` (module docstring): what a tf tree needs."""
+    n = joints.shape[0]
+    out = []
+    parent = 'gpr_platform'
+    for k, frame in enumerate(arm.link_frames):
+        if k == 0:
+            pos = np.broadcast_to(np.asarray(arm.mount_position), (n, 3))
+            rot = rotation_z(arm.mount_yaw + joints[:, 0])
+        else:
+            prev = arm.joints[k - 1]
+            pos = np.broadcast_to(np.array([prev.length, 0.0, prev.height]), (n, 3))
+            rot = rotation_z(joints[:, k])
+        out.append((frame, parent, PoseBatch(pos, rot)))
+        parent = frame
+    last, blade = arm.joints[-1], arm.blade
+    pos = np.array([last.length + blade.position[0], blade.position[1], last.height + blade.position[2]])
+    out.append((arm.blade_frame, parent, PoseBatch.fixed(pos, rotation_z(blade.yaw), n)))
+    out.append((arm.wafer_frame, arm.blade_frame, PoseBatch.fixed(blade.wafer_centre, np.eye(3), n)))
+    return out
+
+
+def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
+    """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the chain of :func:`arm_transforms`
+    composed in closed form (every joint turns about the platform normal, so the link directions add up:
+    ``Theta_n = mount_yaw + theta_1 + ... + theta_n``)."""
+    n = joints.shape[0]
+    Theta = arm.mount_yaw + np.cumsum(joints, axis=1)
+    x = np.full(n, arm.mount_position[0])
+    y = np.full(n, arm.mount_position[1])
+    for k, joint in enumerate(arm.joints):
+        c, s = np.cos(Theta[:, k]), np.sin(Theta[:, k])
+        x, y = x + c * joint.length, y + s * joint.length
+    bx, by = arm.blade.position[0], arm.blade.position[1]  # in the last link's frame, from the flange
+    x, y = x + c * bx - s * by, y + s * bx + c * by
+    z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
+    blade = PoseBatch(np.stack([x, y, np.full(n, z)], axis=1), rotation_z(Theta[:, -1] + arm.blade.yaw))
+    return blade, PoseBatch(blade.apply(arm.blade.wafer_centre), blade.rotation)
+
+
+@dataclass(frozen=True)
+class RobotForward:
+    """Whole-robot forward kinematics of ``N`` configurations (SI units, world frame unless named).
+
+    Attributes:
+        arm: name of the arm; rods ``(N, 3)`` [m]; joints ``(N, n)`` [rad].
+        gpr: the platform's forward kinematics in ``gpr_base`` (tilt, centre shift, virtual joints, ...).
+        platform, blade, wafer: poses in the world through the exact platform pose.
+        naive_platform, naive_wafer: the same through the naive model (computed when first asked for).
+    """
+
+    arm: str
+    rods: Array
+    joints: Array
+    gpr: ForwardBatch
+    platform: PoseBatch
+    blade: PoseBatch
+    wafer: PoseBatch
+    robot: RobotDescription
+    wafer_on_platform: PoseBatch
+
+    def __len__(self) -> int:
+        return int(self.rods.shape[0])
+
+    @cached_property
+    def naive_platform(self) -> PoseBatch:
+        """``gpr_platform`` in the world under the naive model (:func:`~gpr_kinematics.core.naive_forward`)."""
+        position, rotation = naive_forward(self.rods, self.robot.config)
+        return base_pose(self.robot, len(self)).compose(PoseBatch(position, rotation))
+
+    @cached_property
+    def naive_wafer(self) -> PoseBatch:
+        """Where the naive model puts the wafer for these rods and joints (the old offline tool's belief)."""
+        return self.naive_platform.compose(self.wafer_on_platform)
+
+    @property
+    def naive_wafer_error(self) -> Array:
+        """Where the wafer really is minus where the naive model puts it ``(N, 3)`` [m, world]."""
+        return self.wafer.position - self.naive_wafer.position
+
+    @property
+    def naive_wafer_error_norm(self) -> Array:
+        return np.asarray(np.linalg.norm(self.naive_wafer_error, axis=1), dtype=np.float64)
+
+    @property
+    def naive_wafer_angle_error(self) -> Array:
+        """Angle between the real and the naive wafer orientation ``(N,)`` [rad]."""
+        return rotation_angle(self.naive_wafer.rotation, self.wafer.rotation)
+
+
+def base_pose(robot: RobotDescription, n: int) -> PoseBatch:
+    """``gpr_base`` in the world, repeated ``n`` times."""
+    return PoseBatch.fixed(robot.base_position, robot.base_rotation, n)
+
+
+def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
+                  check_limits: bool = True) -> RobotForward:
+    """Forward kinematics of rod lengths ``(N, 3)`` [m] and the joints ``(N, n)`` [rad] of ``arm`` (default: the
+    first arm), vectorised over ``N``.
+
+    Raises:
+        InputError: wrong shapes, NaN or infinity (naming the rod or joint and the sample).
+        LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``;
+            without, InputError for a joint beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` rad).
+    """
+    a = robot.arm(arm)
+    Q = rows_of(rods, 'rods', 3, robot.rods.names)
+    J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
+    if Q.shape[0] != J.shape[0]:
+        raise InputError(f'rods and joints must have the same number of samples, got {Q.shape[0]} and {J.shape[0]}')
+    if check_limits:
+        check_joint_limits(a, J)
+    else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
+        bounded(J, f'joints of {a.name} [rad]')
+    gpr = forward_batch(Q, robot.config, check_limits=check_limits)
+    return forward_on_platform(robot, a, Q, J, gpr)
+
+
+def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, gpr: ForwardBatch) -> RobotForward:
+    """:func:`robot_forward` once the platform's forward kinematics ``gpr`` of ``Q`` is known (no checks)."""
+    platform = base_pose(robot, Q.shape[0]).compose(PoseBatch(gpr.position, gpr.rotation))
+    blade_p, wafer_p = platform_to_blade(arm, J)
+    return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=gpr, platform=platform, blade=platform.compose(blade_p),
+                        wafer=platform.compose(wafer_p), robot=robot, wafer_on_platform=wafer_p)

@@ -1,0 +1,185 @@
+"""Platform programs: the platform's stations (height, tilt, azimuth), sampled in time, for ``trajectory_node``.
+
+One of the two program formats; :func:`gpr_kinematics.robot.program.load_any_program` reads either, by the
+``format:`` key. File format (SI units: metres, radians, seconds)::
+
+    format: gpr_platform_program   # optional (a file without format is a platform program)
+    version: 1                # optional
+    move_time: 2.0            # optional default duration of each move [s]
+    stations:
+      - name: load            # optional
+        height: 0.30          # z of the platform centre in gpr_base [m]
+        tilt: 0.0             # tilt angle [rad]; negative = about azimuth + pi
+        azimuth: 0.0          # direction of the tilt axis [rad]
+        dwell: 0.5            # time held at the station [s], >= 0
+      - {name: a, height: 0.45, tilt: 0.0262, azimuth: 0.7854, dwell: 1.0, move_time: 3.0}
+
+The program starts at the first station (dwell), then moves to each next station in ``move_time`` (the
+station's own, else the file's, else the node's default) and dwells there.
+
+Interpolation between stations (documented in docs/ros.md): the height ``h`` and the *tilt vector*
+``v = tilt (cos azimuth, sin azimuth)`` -- the rotation vector of ``exp(tilt [a]x)``, which lies in the
+horizontal plane -- are interpolated with the smooth step ``s(u) = 3u^2 - 2u^3`` (zero velocity at both
+stations) over the move's normalised time ``u``. A move through the untilted, singular configuration is
+therefore continuous (no azimuth jump), the interpolated rotations stay pure tilts (no twist) and
+``|v| <= max(|v_from|, |v_to|)``, so no sample tilts beyond its stations. Commanded tilt and azimuth of a
+sample are ``|v|`` and ``atan2(v_y, v_x)`` (0 when untilted). Samples are ``t_k = k / rate`` for
+``k = 0 .. floor(T rate)``, plus the final instant ``T`` when it falls between samples.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, brief
+from ..inputs.schema import check_keys, read_yaml
+from .timing import MAX_SAMPLES
+
+#: The ``format:`` of a platform program (optional: a file without ``format`` is a platform program).
+FORMAT = 'gpr_platform_program'
+_STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
+
+
+@dataclass(frozen=True)
+class PlatformStation:
+    """One station of an offline program (SI units)."""
+
+    name: str
+    height: float
+    tilt: float
+    azimuth: float
+    dwell: float
+    move_time: float | None = None
+
+
+@dataclass(frozen=True)
+class PlatformProgram:
+    """An offline program: stations visited in order; ``move_time`` is the file's default [s] or None."""
+
+    stations: tuple[PlatformStation, ...]
+    move_time: float | None = None
+    source: str = 'program'
+
+
+@dataclass(frozen=True)
+class ProgramSamples:
+    """Time samples of a program: ``time`` [s], ``height`` [m], ``tilt`` >= 0 and ``azimuth`` [rad],
+    and ``station`` (index of the station the platform is at, -1 while moving between stations)."""
+
+    time: np.ndarray
+    height: np.ndarray
+    tilt: np.ndarray
+    azimuth: np.ndarray
+    station: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+
+def _number(source: str, where: str, key: str, value: Any, allowed: str, lo: float = -math.inf,
+            lo_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)) \
+            or float(value) < lo or (lo_open and float(value) == lo):
+        raise ConfigError(f'{source}: {where}: {key} = {value!r} is invalid; allowed: {allowed}')
+    return float(value)
+
+
+def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgram:
+    """Validate a program mapping (as loaded from YAML) into a :class:`PlatformProgram`."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: expected a mapping with a "stations" list, got {type(data).__name__}')
+    check_keys(data, ('format', 'version', 'stations', 'move_time'), source)
+    if data.get('format', FORMAT) != FORMAT or data.get('version', 1) != 1:
+        raise ConfigError(f'{source}: format = {brief(data.get("format"))}, version = {brief(data.get("version"))} '
+                          f'is invalid; allowed: format {FORMAT} (or none), version 1')
+    move_time = data.get('move_time')
+    if move_time is not None:
+        move_time = _number(source, 'file', 'move_time', move_time, 'seconds > 0', 0.0, lo_open=True)
+    raw = data.get('stations')
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(f'{source}: "stations" must be a non-empty list of stations')
+    stations = []
+    for i, st in enumerate(raw):
+        where = f'station {i}'
+        if not isinstance(st, Mapping):
+            raise ConfigError(f'{source}: {where} must be a mapping with height, tilt, azimuth, dwell')
+        check_keys(st, _STATION_KEYS, f'{source}: {where}')
+        missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
+        if missing:
+            raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
+        name = str(st.get('name', f'station_{i}'))
+        where = f'station {i} ({name})'
+        mt = st.get('move_time')
+        stations.append(PlatformStation(
+            name=name,
+            height=_number(source, where, 'height', st['height'], 'a finite height in metres'),
+            tilt=_number(source, where, 'tilt', st['tilt'], 'a finite angle in radians'),
+            azimuth=_number(source, where, 'azimuth', st['azimuth'], 'a finite angle in radians'),
+            dwell=_number(source, where, 'dwell', st.get('dwell', 0.0), 'seconds >= 0', 0.0),
+            move_time=None if mt is None else _number(source, where, 'move_time', mt, 'seconds > 0', 0.0,
+                                                       lo_open=True)))
+    return PlatformProgram(stations=tuple(stations), move_time=move_time, source=source)
+
+
+def load_platform_program(path: str | Path) -> PlatformProgram:
+    """Read and validate a program YAML file; :class:`ConfigError` names what is wrong."""
+    return parse_platform_program(read_yaml(path, 'program'), str(path))
+
+
+def program_knots(program: PlatformProgram, default_move_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Knot times ``(K,)`` [s], knot states ``(K, 3)`` = (height, v_x, v_y) and the station index of each
+    knot. Consecutive knots alternate dwell (equal states) and move segments."""
+    times, states, index = [], [], []
+    t = 0.0
+    for i, st in enumerate(program.stations):
+        state = (st.height, st.tilt * math.cos(st.azimuth), st.tilt * math.sin(st.azimuth))
+        if i > 0:
+            t += st.move_time or program.move_time or default_move_time
+        times.append(t)
+        states.append(state)
+        index.append(i)
+        t += st.dwell
+        times.append(t)
+        states.append(state)
+        index.append(i)
+    return np.asarray(times), np.asarray(states, dtype=float), np.asarray(index)
+
+
+def sample_program(program: PlatformProgram, rate: float, default_move_time: float = 2.0) -> ProgramSamples:
+    """Sample ``program`` at ``rate`` [Hz] with the smooth-step interpolation of the module docstring."""
+    if not (math.isfinite(rate) and rate > 0):
+        raise ConfigError(f'rate = {rate!r} is invalid; allowed: a finite rate in Hz > 0')
+    if not (math.isfinite(default_move_time) and default_move_time > 0):
+        raise ConfigError(f'move_time = {default_move_time!r} is invalid; allowed: seconds > 0')
+    T, S, idx = program_knots(program, default_move_time)
+    total = float(T[-1])
+    if not total * rate <= MAX_SAMPLES:  # counted before any array is made (a dwell of 1e12 s included)
+        raise ConfigError(f'the program lasts {total:.6g} s: {total * rate:.6g} samples at {rate:g} Hz; allowed: at '
+                          f'most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
+    n = int(math.floor(total * rate + 1e-9))
+    t = np.arange(n + 1, dtype=float) / rate
+    if total - t[-1] > 1e-9:
+        t = np.append(t, total)
+    if T.shape[0] == 1:
+        seg = np.zeros(t.shape, dtype=int)
+    else:
+        seg = np.clip(np.searchsorted(T, t, side='right') - 1, 0, T.shape[0] - 2)
+    t0, t1 = T[seg], T[np.minimum(seg + 1, T.shape[0] - 1)]
+    dt = t1 - t0
+    with np.errstate(divide='ignore', invalid='ignore'):
+        u = np.where(dt > 0, (t - t0) / np.where(dt > 0, dt, 1.0), 1.0)
+    u = np.clip(u, 0.0, 1.0)
+    s = u * u * (3.0 - 2.0 * u)
+    a = S[seg]
+    b = S[np.minimum(seg + 1, S.shape[0] - 1)]
+    x = a + s[:, None] * (b - a)
+    tilt = np.hypot(x[:, 1], x[:, 2])
+    az = np.where(tilt > 0.0, np.arctan2(x[:, 2], x[:, 1]), 0.0)
+    nxt = idx[np.minimum(seg + 1, idx.shape[0] - 1)]
+    station = np.where((idx[seg] == nxt) | (u <= 0.0), idx[seg], np.where(u >= 1.0, nxt, -1))
+    return ProgramSamples(time=t, height=x[:, 0], tilt=tilt, azimuth=az, station=station)

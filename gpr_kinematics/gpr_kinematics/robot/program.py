@@ -1,0 +1,296 @@
+"""Offline programs: the one entry for both program formats (:func:`load_any_program`, by the ``format:`` key), and
+the whole robot's format: named stations and steps (moves, picks, places, dwells), from YAML.
+
+File format (``config/programs/example_robot_program.yaml`` is a commented example; times in seconds)::
+
+    format: gpr_robot_program          # required: tells a robot program from a platform program
+    version: 1
+    robot: ../robots/example_robot.yaml   # optional: relative to this file (the CLI's --robot overrides it)
+    units: {length: mm, angle: deg}    # for the stations and heights in this file; m and rad by default
+    defaults: {arm: arm1, approach_height: 10, retract_height: 10, dwell: 0.5}
+    stations:                          # inline stations (robot.station_files), and/or
+      - {name: load_port, position: [1500, 700, 480], tilt: 0, azimuth: 0, heading: 0}
+    import: [more_stations.csv]        # station files, relative to this file, each with its own units
+    steps:
+      - {move: load_port}              # go to the station (a via pose, e.g. in front of a tool)
+      - {pick: load_port, time: 2.0}   # below the wafer, up to the station (dwell), above it
+      - {place: chamber_a, arm: arm1, branch: left, dwell: 1.0}
+      - {dwell: 0.5}                   # hold where the robot is
+
+Each step becomes waypoints (wafer poses): ``move S`` -> ``S``; ``pick S`` -> ``S`` lowered by the approach
+height along the station normal (the blade under the wafer), ``S`` (dwell: the wafer is taken), ``S`` raised by
+the retract height; ``place S`` -> raised, at (dwell), lowered. ``time`` is the duration of the move into the
+step's first waypoint (default: as fast as the limits allow); the moves between a step's own waypoints are as fast
+as the limits allow. A step's arm and branch default to the station's, then the program's, then the arm's own.
+
+The platform programs of ``trajectory_node`` (``format: gpr_platform_program``, or no ``format`` key: stations with
+``height``, ``tilt``, ``azimuth`` of the platform, :mod:`gpr_kinematics.robot.platform_program`) are the other
+format: :func:`load_any_program` reads either; :func:`load_program` wants a robot program, names a platform program
+and refuses it.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, brief
+from ..inputs.schema import check_keys, is_number, read_yaml
+from .description import RobotDescription
+from .platform_program import FORMAT as PLATFORM_FORMAT
+from .platform_program import PlatformProgram, parse_platform_program
+from .station_files import StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
+from .stations import Stations
+
+FORMAT = 'gpr_robot_program'
+VERSIONS = (1,)
+STEP_KINDS = ('move', 'pick', 'place', 'dwell')
+#: Most steps in a program, most imported files.
+MAX_STEPS = 100_000
+MAX_IMPORTS = 64
+_KEYS = ('format', 'version', 'robot', 'units', 'defaults', 'stations', 'import', 'steps')
+_DEFAULT_KEYS = ('arm', 'branch', 'approach_height', 'retract_height', 'dwell')
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step: ``kind`` (move, pick, place, dwell), the ``station`` name (None for dwell), the ``arm`` (None: the
+    default), ``branch`` (None: the station's or the arm's), ``dwell`` [s] (None: the default) and the move's
+    ``time`` [s] (None: as fast as the limits allow)."""
+
+    kind: str
+    station: str | None
+    arm: str | None
+    branch: str | None
+    dwell: float | None
+    time: float | None
+
+
+@dataclass(frozen=True)
+class RobotProgram:
+    """A validated program: its stations (SI), steps, defaults, the robot file it names, its source."""
+
+    stations: StationTable
+    steps: tuple[Step, ...]
+    arm: str | None
+    branch: str | None
+    approach_height: float
+    retract_height: float
+    dwell: float
+    robot: Path | None
+    source: str
+
+
+def _seconds(value: Any, where: str, key: str, positive: bool = False) -> float:
+    if not is_number(value) or value < 0 or (positive and value == 0) or value > 1e6:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: seconds, '
+                          f'{"> 0" if positive else ">= 0"} and at most 1e6')
+    return float(value)
+
+
+def _platform_program(data: Mapping[str, Any]) -> bool:
+    raw = data.get('stations')
+    return data.get('format') == PLATFORM_FORMAT or ('format' not in data and isinstance(raw, list) and any(
+        isinstance(s, Mapping) and 'height' in s for s in raw))
+
+
+def parse_any_program(data: Any, source: str = 'program', base_dir: str | Path = '.') -> RobotProgram | PlatformProgram:
+    """A program of either format, by its ``format:`` key: ``gpr_robot_program`` (:func:`parse_program`), else a
+    platform program (``gpr_platform_program`` or no ``format``:
+    :func:`~gpr_kinematics.robot.platform_program.parse_platform_program`)."""
+    if isinstance(data, Mapping) and data.get('format') == FORMAT:
+        return parse_program(data, source, base_dir)
+    if isinstance(data, Mapping) and data.get('format', PLATFORM_FORMAT) != PLATFORM_FORMAT:
+        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT} (a robot '
+                          f'program) or {PLATFORM_FORMAT} (a platform program; also a file without format)')
+    return parse_platform_program(data, source)
+
+
+def load_any_program(path: str | Path) -> RobotProgram | PlatformProgram:
+    """Read and validate a program file of either format (:func:`parse_any_program`)."""
+    return parse_any_program(read_yaml(path, 'program'), str(path), Path(path).parent)
+
+
+def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.') -> RobotProgram:
+    """Validate a program mapping (as loaded from YAML); imported station files are read from ``base_dir``."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: expected a mapping (format: {FORMAT}, stations, steps), got '
+                          f'{type(data).__name__}')
+    if _platform_program(data):
+        raise ConfigError(f'{source}: this is a platform program (stations with height, tilt and azimuth of the '
+                          f'platform), the format trajectory_node runs; a robot program places the wafer: '
+                          f'"format: {FORMAT}" with stations (position, tilt, azimuth, heading) and steps '
+                          '(docs/robot.md#programs)')
+    if data.get('format') != FORMAT:
+        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
+    check_keys(data, _KEYS, source)
+    if data.get('version', 1) not in VERSIONS:
+        raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')
+    length, _ = units_of(data, source)
+    base = Path(base_dir)
+    rows = stations_from_yaml({'units': data.get('units', {}), 'stations': data.get('stations', [])}, source)
+    rows = _imports(data.get('import', []), rows, base, source)
+    table = rows.table(source)
+    if len(table) == 0:
+        raise ConfigError(f'{source}: no stations; give "stations" or "import"')
+    defaults = data.get('defaults', {})
+    if not isinstance(defaults, Mapping):
+        raise ConfigError(f'{source}: defaults must be a mapping ({", ".join(_DEFAULT_KEYS)})')
+    check_keys(defaults, _DEFAULT_KEYS, f'{source}: defaults')
+    dw = f'{source}: defaults'
+    heights = []
+    for key in ('approach_height', 'retract_height'):
+        value = defaults.get(key, 0.01 / length)
+        if not is_number(value) or not 0 <= value * length <= 0.1:
+            raise ConfigError(f'{dw}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in the file\'s length '
+                              'unit)')
+        heights.append(float(value) * length)
+    robot = data.get('robot')
+    if robot is not None and not isinstance(robot, str):
+        raise ConfigError(f'{source}: robot = {brief(robot)} is invalid; allowed: a path to a robot description')
+    return RobotProgram(
+        stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),
+        branch=_optional_text(defaults, 'branch', dw), approach_height=heights[0], retract_height=heights[1],
+        dwell=_seconds(defaults.get('dwell', 0.0), dw, 'dwell'),
+        robot=None if robot is None else (base / robot if not Path(robot).is_absolute() else Path(robot)),
+        source=source)
+
+
+def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRows:
+    if isinstance(raw, str):
+        raw = [raw]
+    if not isinstance(raw, list) or len(raw) > MAX_IMPORTS or not all(isinstance(p, str) for p in raw):
+        raise ConfigError(f'{source}: import must be a list of at most {MAX_IMPORTS} station file paths (.csv, .yaml)')
+    for p in raw:
+        path = Path(p) if Path(p).is_absolute() else base / p
+        rows.extend(read_station_rows(path))
+    return rows
+
+
+def _optional_text(data: Mapping[str, Any], key: str, where: str) -> str | None:
+    value = data.get(key)
+    if value is not None and not isinstance(value, str):
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a name')
+    return value
+
+
+def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(f'{source}: steps must be a non-empty list of steps ({", ".join(STEP_KINDS)})')
+    if len(raw) > MAX_STEPS:
+        raise ConfigError(f'{source}: {len(raw)} steps; allowed: at most {MAX_STEPS}')
+    names = table.index()
+    out = []
+    for i, st in enumerate(raw):
+        where = f'{source}: steps[{i}]'
+        if not isinstance(st, Mapping):
+            raise ConfigError(f'{where}: expected a mapping such as {{pick: STATION}}')
+        kinds = [k for k in STEP_KINDS[:3] if k in st] or [k for k in STEP_KINDS[3:] if k in st]
+        if len(kinds) != 1:  # 'dwell' is a step of its own, or the hold of a move, pick or place
+            raise ConfigError(f'{where}: give exactly one of {", ".join(STEP_KINDS)}, got {", ".join(kinds) or "none"}')
+        kind = kinds[0]
+        if kind == 'dwell':
+            check_keys(st, ('dwell',), where)
+            out.append(Step('dwell', None, None, None, _seconds(st['dwell'], where, 'dwell'), None))
+            continue
+        check_keys(st, (kind, 'arm', 'branch', 'dwell', 'time'), where)
+        station = st[kind]
+        if not isinstance(station, (str, int)) or str(station) not in names:
+            known = ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station; allowed: {known}')
+        time = st.get('time')
+        out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
+                        _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None,
+                        None if time is None else _seconds(time, where, 'time', positive=True)))
+    if all(s.kind == 'dwell' for s in out):
+        raise ConfigError(f'{source}: the steps only dwell; at least one move, pick or place is required')
+    return tuple(out)
+
+
+def load_program(path: str | Path) -> RobotProgram:
+    """Read and validate a robot program file; :class:`ConfigError` names what is wrong."""
+    data = read_yaml(path, 'program')  # the name as given: an empty one is refused, not read as '.'
+    return parse_program(data, str(path), Path(path).parent)
+
+
+@dataclass(frozen=True)
+class Waypoints:
+    """The program's steps expanded into wafer poses, in order.
+
+    Attributes:
+        stations: the wafer pose of each waypoint (named ``STATION``, ``STATION/approach``, ``STATION/retract``).
+        arm, branch: per waypoint. step: index of the step. phase: ``move``, ``approach``, ``at``, ``retract``.
+        dwell: time held at the waypoint [s]. time: requested duration of the move into it [s] (NaN: minimum).
+    """
+
+    stations: Stations
+    arm: tuple[str, ...]
+    branch: tuple[str, ...]
+    step: np.ndarray
+    phase: tuple[str, ...]
+    dwell: np.ndarray
+    time: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.stations)
+
+
+def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
+    """Waypoints of ``program`` for ``robot`` (module docstring); unknown arms and branches are refused."""
+    table = program.stations
+    index = table.index()
+    st = table.stations
+    idx: list[int] = []
+    offset: list[float] = []
+    arms: list[str] = []
+    branches: list[str] = []
+    steps: list[int] = []
+    phases: list[str] = []
+    dwell: list[float] = []
+    times: list[float] = []
+    for s, step in enumerate(program.steps):
+        where = f'{program.source}: steps[{s}]'
+        if step.kind == 'dwell':
+            if not dwell:
+                raise ConfigError(f'{where}: a dwell before any move has nowhere to hold; move to a station first')
+            dwell[-1] += step.dwell or 0.0
+            continue
+        assert step.station is not None
+        i = index[step.station]
+        arm = step.arm or program.arm or robot.arm_names[0]
+        try:
+            a = robot.arm(arm)
+        except ConfigError:
+            raise ConfigError(f'{where}: arm = {brief(arm)} is invalid; allowed: {", ".join(robot.arm_names)}'
+                              ) from None
+        branch = step.branch or table.branch[i] or program.branch or a.branch
+        if branch not in ('left', 'right'):
+            raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left or right')
+        own_approach, own_retract = table.approach_height[i], table.retract_height[i]
+        approach = own_approach if own_approach is not None else program.approach_height
+        retract = own_retract if own_retract is not None else program.retract_height
+        d = step.dwell if step.dwell is not None else program.dwell
+        if step.kind == 'move':
+            plan = [(0.0, 'move', d)]
+        elif step.kind == 'pick':
+            plan = [(-approach, 'approach', 0.0), (0.0, 'at', d), (retract, 'retract', 0.0)]
+        else:
+            plan = [(approach, 'approach', 0.0), (0.0, 'at', d), (-retract, 'retract', 0.0)]
+        for k, (off, phase, hold) in enumerate(plan):
+            idx.append(i)
+            offset.append(off)
+            arms.append(a.name)
+            branches.append(branch)
+            steps.append(s)
+            phases.append(phase)
+            dwell.append(hold)
+            times.append(step.time if (k == 0 and step.time is not None) else math.nan)
+    way = st.take(idx).offset(np.array(offset))
+    names = tuple(n if ph in ('move', 'at') else f'{n}/{ph}' for n, ph in zip(way.names, phases, strict=True))
+    way = Stations(way.position, way.tilt, way.azimuth, way.heading, way.heading_free, names)
+    return Waypoints(way, tuple(arms), tuple(branches), np.array(steps), tuple(phases), np.array(dwell),
+                     np.array(times))

@@ -1,0 +1,323 @@
+"""Station lists from YAML and CSV, with their units declared in the file (SI by default).
+
+YAML (inline in a program, or a file of its own)::
+
+    units: {length: mm, angle: deg}      # optional: m and rad by default
+    stations:
+      - {name: load_port_1, position: [1100, 250, 420], tilt: 0, azimuth: 0, heading: 90}
+      - {name: chamber_a, position: [400, 900, 455], tilt: 1.2, azimuth: 30, heading: 180, branch: left,
+         approach_height: 8, retract_height: 5}
+
+CSV: a header row names the columns, each with its unit in brackets (none: SI)::
+
+    name,x [mm],y [mm],z [mm],tilt [deg],azimuth [deg],heading [deg],branch
+    load_port_1,1100,250,420,0,0,90,
+    chamber_a,400,900,455,1.2,30,180,left
+
+Columns: ``name``, ``x``, ``y``, ``z`` (required), ``tilt``, ``azimuth`` (default 0), ``heading`` (empty: free, for
+a 2-joint arm), ``branch`` (empty: the arm's), ``approach_height``, ``retract_height`` (empty: the program's).
+Length units ``m`` or ``mm``, angle units ``rad`` or ``deg``. Names are unique. Every problem is a
+:class:`~gpr_kinematics.errors.ConfigError` naming the file, the line or station, the field and what is allowed;
+files are bounded (:data:`MAX_BYTES`, :data:`MAX_STATIONS`).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, brief
+from ..inputs import units
+from ..inputs.files import read_text
+from ..inputs.schema import check_keys, is_number
+from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from ..inputs.validation import MAX_COORDINATE
+from .description import BRANCHES
+from .stations import Stations
+
+#: Largest station file read [bytes] and most stations in a program.
+MAX_BYTES = 10 * 1024 * 1024
+MAX_STATIONS = 100_000
+_LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height')
+_ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
+_STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height')
+_NAME = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
+
+
+@dataclass(frozen=True)
+class StationTable:
+    """Named stations in SI units with their optional per-station settings (``None``: the program's default)."""
+
+    stations: Stations
+    branch: tuple[str | None, ...]
+    approach_height: tuple[float | None, ...]
+    retract_height: tuple[float | None, ...]
+
+    def __len__(self) -> int:
+        return len(self.stations)
+
+    def index(self) -> dict[str, int]:
+        return {name: i for i, name in enumerate(self.stations.names)}
+
+
+@dataclass
+class StationRows:
+    """Stations as they are read, before they become a :class:`StationTable`."""
+
+    names: list[str]
+    position: list[tuple[float, float, float]]
+    tilt: list[float]
+    azimuth: list[float]
+    heading: list[float | None]
+    branch: list[str | None]
+    approach: list[float | None]
+    retract: list[float | None]
+
+    @staticmethod
+    def empty() -> StationRows:
+        return StationRows([], [], [], [], [], [], [], [])
+
+    def extend(self, other: StationRows) -> None:
+        for field in ('names', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach', 'retract'):
+            getattr(self, field).extend(getattr(other, field))
+
+    def table(self, source: str) -> StationTable:
+        seen: dict[str, int] = {}
+        for i, name in enumerate(self.names):
+            if name in seen:
+                raise ConfigError(f'{source}: station name {brief(name)} is used twice (stations {seen[name]} and '
+                                  f'{i}); names must be unique')
+            seen[name] = i
+        if len(self.names) > MAX_STATIONS:
+            raise ConfigError(f'{source}: {len(self.names)} stations; allowed: at most {MAX_STATIONS}')
+        n = len(self.names)
+        heading = np.array([0.0 if h is None else h for h in self.heading])
+        free = np.array([h is None for h in self.heading], dtype=bool)
+        st = Stations(np.array(self.position, dtype=float).reshape(n, 3), np.array(self.tilt, dtype=float),
+                      np.array(self.azimuth, dtype=float), heading, free, tuple(self.names))
+        return StationTable(st, tuple(self.branch), tuple(self.approach), tuple(self.retract))
+
+
+def units_of(data: Mapping[str, Any], where: str) -> tuple[float, float]:
+    """Scale factors (length, angle) to SI from a ``units`` mapping (absent: SI)."""
+    units = data.get('units', {})
+    if not isinstance(units, Mapping):
+        raise ConfigError(f'{where}: units must be a mapping {{length: m|mm, angle: rad|deg}}, got {brief(units)}')
+    check_keys(units, ('length', 'angle'), f'{where}: units')
+    length, angle = units.get('length', 'm'), units.get('angle', 'rad')
+    if not isinstance(length, str) or length not in LENGTH_UNITS:   # a list from YAML is not even hashable
+        raise ConfigError(f'{where}: units: length = {brief(length)} is invalid; allowed: m or mm')
+    if not isinstance(angle, str) or angle not in ANGLE_UNITS:
+        raise ConfigError(f'{where}: units: angle = {brief(angle)} is invalid; allowed: rad or deg')
+    return LENGTH_UNITS[length], ANGLE_UNITS[angle]
+
+
+def _number(value: Any, where: str, key: str, unit: str) -> float:
+    if not is_number(value):
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit} (of '
+                          f'magnitude at most {MAX_COORDINATE:g})')
+    return float(value)
+
+
+def _name(value: Any, where: str) -> str:
+    if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.match(str(value)):
+        raise ConfigError(f'{where}: name = {brief(value)} is invalid; allowed: 1 to 64 letters, digits, _ . -')
+    return str(value)
+
+
+def _branch(value: Any, where: str) -> str | None:
+    if value is None or value == '':
+        return None
+    if value not in BRANCHES:
+        raise ConfigError(f'{where}: branch = {brief(value)} is invalid; allowed: left, right or empty (the arm\'s)')
+    return str(value)
+
+
+def _height(value: Any, where: str, key: str, scale: float, unit: str) -> float | None:
+    if value is None or value == '':
+        return None
+    h = _number(value, where, key, unit) * scale
+    if not 0.0 <= h <= 0.1:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in {unit})')
+    return h
+
+
+def stations_from_yaml(data: Any, where: str) -> StationRows:
+    """Stations of a mapping with ``stations`` (and optional ``units``), validated."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{where}: expected a mapping with "stations" (and "units"), got {type(data).__name__}')
+    length, angle = units_of(data, where)
+    lunit, aunit = ('mm' if length != 1.0 else 'm'), ('deg' if angle != 1.0 else 'rad')
+    raw = data.get('stations', [])
+    if not isinstance(raw, list):
+        raise ConfigError(f'{where}: stations must be a list of stations')
+    if len(raw) > MAX_STATIONS:
+        raise ConfigError(f'{where}: {len(raw)} stations; allowed: at most {MAX_STATIONS}')
+    rows = StationRows.empty()
+    for i, st in enumerate(raw):
+        w = f'{where}: stations[{i}]'
+        if not isinstance(st, Mapping):
+            raise ConfigError(f'{w}: expected a mapping with name, position, tilt, azimuth, heading')
+        check_keys(st, _STATION_KEYS, w)
+        if 'name' not in st or 'position' not in st:
+            raise ConfigError(f'{w}: name and position are required')
+        name = _name(st['name'], w)
+        w = f'{w} ({name})'
+        pos = st['position']
+        if not isinstance(pos, list) or len(pos) != 3:
+            raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
+        rows.names.append(name)
+        x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
+        rows.position.append((x, y, z))
+        rows.tilt.append(_number(st.get('tilt', 0.0), w, 'tilt', aunit) * angle)
+        rows.azimuth.append(_number(st.get('azimuth', 0.0), w, 'azimuth', aunit) * angle)
+        h = st.get('heading')
+        rows.heading.append(None if h is None else _number(h, w, 'heading', aunit) * angle)
+        rows.branch.append(_branch(st.get('branch'), w))
+        rows.approach.append(_height(st.get('approach_height'), w, 'approach_height', length, lunit))
+        rows.retract.append(_height(st.get('retract_height'), w, 'retract_height', length, lunit))
+    return rows
+
+
+@dataclass(frozen=True)
+class CsvTable:
+    """A CSV table whose header names its columns with units in brackets (``x [mm]``, ``tilt [deg]``)."""
+
+    where: str
+    columns: dict[str, tuple[int, float, str]]  # name -> (index, scale to SI, unit)
+    rows: list[list[str]]
+    lines: list[int]
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def row_where(self, r: int) -> str:
+        return f'{self.where}: line {self.lines[r]}'
+
+    def text(self, r: int, key: str) -> str | None:
+        """The cell (stripped), or None when the column is absent."""
+        return self.rows[r][self.columns[key][0]].strip() if key in self.columns else None
+
+    def number(self, r: int, key: str, default: float | None, where: str | None = None) -> float | None:
+        """The cell in SI units (``default`` when the column is absent or the cell empty)."""
+        text = self.text(r, key)
+        if text is None or text == '':
+            return default
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise ConfigError(f'{where or self.row_where(r)}: {key} = {brief(text)} is invalid; allowed: a finite '
+                              f'number in {self.columns[key][2]}')
+        return value * self.columns[key][1]
+
+
+def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple[str, ...]) -> CsvTable:
+    """Parse a CSV text with a header row; ``kinds`` maps each allowed column to ``length``, ``angle`` or
+    ``text``; ``required`` columns must be there. Units (:mod:`gpr_kinematics.inputs.units`): a column's own in brackets
+    (``x [mm]``), else the file's from a ``# units: mm deg`` line before the header, else SI. Lines whose first
+    field starts with ``#`` are comments. Bounded by :data:`MAX_STATIONS` rows; ConfigError names the line and
+    the field."""
+    try:
+        lines = list(csv.reader(io.StringIO(text, newline='')))
+    except csv.Error as exc:
+        raise ConfigError(f'{where}: not valid CSV ({exc})') from None
+    numbered: list[tuple[int, list[str]]] = []
+    defaults: units.FileUnits = (None, None)
+    for n, row in enumerate(lines, start=1):
+        if not row or (len(row) == 1 and not row[0].strip()):
+            continue
+        if row[0].lstrip().startswith('#'):
+            line = ','.join(row).strip()
+            if units.is_units_line(line):
+                if numbered or defaults != (None, None):
+                    raise ConfigError(f'{where}: line {n}: "# units:" must come once, before the header row')
+                defaults = units.file_units(line, f'{where}: line {n}')
+            continue
+        numbered.append((n, row))
+    if not numbered:
+        raise ConfigError(f'{where}: empty; a header row ({", ".join(required)}, ...) and one row per entry are '
+                          'required')
+    header = numbered[0][1]
+    if len(numbered) - 1 > MAX_STATIONS:
+        raise ConfigError(f'{where}: {len(numbered) - 1} rows; allowed: at most {MAX_STATIONS}')
+    cols = _header_columns(header, where, kinds, defaults)
+    missing = [k for k in required if k not in cols]
+    if missing:
+        raise ConfigError(f'{where}: the header lacks the column(s) {", ".join(missing)}; required: '
+                          + ', '.join(required))
+    for n, row in numbered[1:]:
+        if len(row) != len(header):
+            raise ConfigError(f'{where}: line {n}: {len(row)} fields, the header has {len(header)}')
+    return CsvTable(where, cols, [row for _, row in numbered[1:]], [n for n, _ in numbered[1:]])
+
+
+def _header_columns(header: list[str], where: str, kinds: dict[str, str], defaults: units.FileUnits
+                    ) -> dict[str, tuple[int, float, str]]:
+    """Column name -> (index, factor to SI, unit) of a header row (:mod:`gpr_kinematics.inputs.units`)."""
+    cols: dict[str, tuple[int, float, str]] = {}
+    for i, cell in enumerate(header):
+        try:
+            key, unit = units.column(cell, where)
+        except ConfigError:
+            key, unit = '', None
+        if key not in kinds:
+            raise ConfigError(f'{where}: header column {i + 1} {brief(cell)} is invalid; allowed: {", ".join(kinds)}, '
+                              'each with an optional unit in brackets, e.g. "x [mm]"')
+        if key in cols:
+            raise ConfigError(f'{where}: column {key} appears twice in the header')
+        factor, name = units.scale(kinds[key], unit, defaults, where, key)
+        cols[key] = (i, factor, name)
+    return cols
+
+
+_CSV_KINDS = {'name': 'text', 'branch': 'text', **{k: 'length' for k in _LENGTH_FIELDS},
+              **{k: 'angle' for k in _ANGLE_FIELDS}}
+
+
+def stations_from_csv(text: str, where: str) -> StationRows:
+    """Stations of a CSV text (module docstring), validated."""
+    table = read_csv_table(text, where, _CSV_KINDS, ('name', 'x', 'y', 'z'))
+    rows = StationRows.empty()
+    for r in range(len(table)):
+        name = _name(table.text(r, 'name'), table.row_where(r))
+        w = f'{table.row_where(r)} ({name})'
+        x, y, z = (table.number(r, k, None, w) for k in 'xyz')
+        if x is None or y is None or z is None:
+            raise ConfigError(f'{w}: x, y and z are required')
+        rows.names.append(name)
+        rows.position.append((x, y, z))
+        rows.tilt.append(table.number(r, 'tilt', 0.0, w) or 0.0)
+        rows.azimuth.append(table.number(r, 'azimuth', 0.0, w) or 0.0)
+        rows.heading.append(table.number(r, 'heading', None, w))
+        rows.branch.append(_branch(table.text(r, 'branch'), w))
+        for key, target in (('approach_height', rows.approach), ('retract_height', rows.retract)):
+            value = table.number(r, key, None, w)
+            if value is not None and not 0.0 <= value <= 0.1:
+                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} is invalid; allowed: 0 to 0.1 m (in '
+                                  f'{table.columns[key][2]})')
+            target.append(value)
+    return rows
+
+
+def load_stations(path: str | Path) -> StationTable:
+    """Read a station file: ``.csv`` (header with units) or ``.yaml``/``.yml`` (``units`` and ``stations``)."""
+    return read_station_rows(Path(path)).table(str(path))
+
+
+def read_station_rows(path: Path) -> StationRows:
+    suffix = path.suffix.lower()
+    if suffix == '.csv':
+        return stations_from_csv(read_text(path, 'station', MAX_BYTES), str(path))
+    if suffix in ('.yaml', '.yml'):
+        from ..inputs.schema import read_yaml
+        return stations_from_yaml(read_yaml(path, 'station'), str(path))
+    raise ConfigError(f'station file {str(path)!r}: unknown type {suffix or "(none)"}; allowed: .csv, .yaml, .yml')

@@ -1,0 +1,123 @@
+"""Stations: wafer poses in the world, the offline programmer's targets.
+
+A station is the pose of the wafer frame (origin at the wafer centre) in the world frame, given as its position
+and three angles [rad]: the station plane's ``tilt`` about the horizontal axis at ``azimuth`` (as ``gpr ik``
+gives a platform tilt: the rotation ``exp(tilt [a]x)``, ``a = (cos azimuth, sin azimuth, 0)``, a negative tilt
+is a tilt about ``azimuth + pi``) and the blade's ``heading`` in that plane:
+
+    ``R_station = tilt_rotation(tilt, azimuth) @ Rz(heading)``
+
+(the decomposition of :func:`gpr_kinematics.core.rotations.tilt_from_matrix`; no Euler angles). A 2-joint arm cannot
+choose the heading: its stations may leave it *free* (``heading_free``).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..core.rotations import rotation_z, tilt_from_matrix, tilt_rotation
+from ..errors import InputError, brief
+from ..inputs.validation import MAX_COORDINATE, bounded, rows_of
+
+Array = NDArray[np.float64]
+
+
+def per_station(values: ArrayLike, name: str, n: int) -> Array:
+    """One finite number [rad] or one per station, as an array ``(n,)``, within +-:data:`MAX_COORDINATE` (angles are
+    periodic, but beyond that bound a float angle modulo 2 pi has no digits left); InputError names the value."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
+    if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != n):
+        raise InputError(f'{name} must be one number or {n} numbers (one per station), got shape {a.shape}')
+    a = np.broadcast_to(a, (n,)).astype(float)
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f'{name} = {a[i]} (station {i}) is not a finite number; allowed: finite values in radians')
+    big = np.abs(a) > MAX_COORDINATE
+    if big.any():
+        i = int(np.argmax(big))
+        raise InputError(f'{name} = {a[i]:g} rad (station {i}); allowed: finite values within +-{MAX_COORDINATE:g} rad')
+    return a
+
+
+@dataclass(frozen=True)
+class Stations:
+    """``N`` stations (module docstring): ``position (N, 3)`` [m, world], ``tilt``, ``azimuth``, ``heading``
+    ``(N,)`` [rad], ``heading_free (N,)`` (the heading is left to a 2-joint arm; ``heading`` is then 0 and
+    unused) and ``names``."""
+
+    position: Array
+    tilt: Array
+    azimuth: Array
+    heading: Array
+    heading_free: NDArray[np.bool_]
+    names: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return int(self.position.shape[0])
+
+    @staticmethod
+    def of(position: ArrayLike, tilt: ArrayLike = 0.0, azimuth: ArrayLike = 0.0, heading: ArrayLike | None = None,
+           names: Sequence[str] | None = None, heading_free: ArrayLike | None = None) -> Stations:
+        """Validated stations; ``heading=None`` leaves every heading free, ``heading_free`` marks some free.
+
+        >>> s = Stations.of([[0.4, 0.1, 0.5]], tilt=0.01, azimuth=0.3, heading=1.2)
+        >>> len(s), s.names
+        (1, ('0',))
+        """
+        P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
+        bounded(P, 'station position [m]')
+        n = P.shape[0]
+        free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
+        if heading_free is not None:
+            free = free | np.broadcast_to(np.asarray(heading_free, dtype=bool), (n,))
+        head = np.zeros(n) if heading is None else per_station(heading, 'heading', n)
+        if names is None:
+            names = tuple(str(i) for i in range(n))
+        names = tuple(str(v) for v in names)
+        if len(names) != n:
+            raise InputError(f'names must name the {n} stations, got {len(names)} names')
+        return Stations(P, per_station(tilt, 'tilt', n), per_station(azimuth, 'azimuth', n), np.where(free, 0.0, head),
+                        free, names)
+
+    @cached_property
+    def rotation(self) -> Array:
+        """Orientations ``tilt_rotation(tilt, azimuth) @ Rz(heading)`` ``(N, 3, 3)`` (heading 0 where free)."""
+        return tilt_rotation(self.tilt, self.azimuth) @ rotation_z(self.heading)
+
+    @cached_property
+    def normal(self) -> Array:
+        """Station-plane normals in the world ``(N, 3)``."""
+        return tilt_rotation(self.tilt, self.azimuth)[:, :, 2]
+
+    def label(self, i: int) -> str:
+        """How messages name station ``i``: by its name, or by its index when the stations are not named."""
+        return f'station {self.names[i]}'
+
+    def take(self, index: ArrayLike) -> Stations:
+        """The stations at ``index`` (an integer array)."""
+        idx = np.asarray(index, dtype=int)
+        return Stations(self.position[idx], self.tilt[idx], self.azimuth[idx], self.heading[idx],
+                        self.heading_free[idx], tuple(self.names[i] for i in idx))
+
+    def offset(self, distance: ArrayLike) -> Stations:
+        """The same stations moved by ``distance (N,)`` [m] along their plane's normal (approach heights)."""
+        d = np.asarray(distance, dtype=float)
+        return Stations(self.position + d[:, None] * self.normal, self.tilt, self.azimuth, self.heading,
+                        self.heading_free, self.names)
+
+
+def stations_from_poses(position: Array, rotation: Array, names: Sequence[str] | None = None) -> Stations:
+    """Stations of wafer poses: ``tilt >= 0``, ``azimuth`` in (-pi, pi], ``heading`` = the twist about the
+    station normal (:func:`gpr_kinematics.core.rotations.tilt_from_matrix`)."""
+    tilt, azimuth, heading = tilt_from_matrix(rotation)
+    n = position.shape[0]
+    return Stations(np.asarray(position, dtype=float), tilt, azimuth, heading, np.zeros(n, dtype=bool),
+                    tuple(names) if names is not None else tuple(str(i) for i in range(n)))

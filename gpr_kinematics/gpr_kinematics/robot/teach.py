@@ -1,0 +1,129 @@
+"""Teach and re-teach: from joints to stations, and migrating what the old offline tool computed.
+
+* :func:`teach`: joints measured on the real robot (rods and arm joints, e.g. after jogging the wafer to a
+  station) -> the station, through the exact platform pose; also the station the naive model would have recorded
+  for the same joints (what the old tool stored) and the difference.
+* :func:`reteach`: joints that the old tool computed or stored with the naive model (the platform rotated about
+  its centre, Bratovanov & Sotirov Fig. 2) -> the station the old tool *intended* (the naive forward kinematics
+  of those joints), the joints that really put the wafer there (:func:`solve_stations`, keeping each station's
+  branch and, for a 4-joint arm under ``fixed_joint``, its held joint value), and the wafer error the old joints
+  make, which the new ones avoid.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..core.forward import check_stroke
+from ..core.ops import ARRAY
+from ..errors import ConfigError
+from ..inputs.files import read_text
+from ..inputs.validation import rows_of
+from .description import RobotDescription
+from .forward import RobotForward, robot_forward
+from .inverse import StationSolution, solve_stations
+from .planar_arm import branch_of
+from .station_files import MAX_BYTES, read_csv_table
+from .stations import Stations, stations_from_poses
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Taught:
+    """Stations of measured joints: ``stations`` (exact), ``naive_stations`` (what the naive model records for the
+    same joints) and ``forward`` (the whole-robot forward kinematics)."""
+
+    forward: RobotForward
+    stations: Stations
+    naive_stations: Stations
+
+    @property
+    def naive_error(self) -> Array:
+        """Real minus naive wafer position ``(N, 3)`` [m, world]."""
+        return self.forward.naive_wafer_error
+
+
+def teach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
+          names: Sequence[str] | None = None) -> Taught:
+    """Stations of the wafer for measured rods ``(N, 3)`` and joints ``(N, n)`` (limits checked)."""
+    fk = robot_forward(robot, rods, joints, arm)
+    return Taught(forward=fk, stations=stations_from_poses(fk.wafer.position, fk.wafer.rotation, names),
+                  naive_stations=stations_from_poses(fk.naive_wafer.position, fk.naive_wafer.rotation, names))
+
+
+@dataclass(frozen=True)
+class Retaught:
+    """Re-teach of joints computed with the naive model.
+
+    Attributes:
+        old: forward kinematics of the old joints (``old.wafer``: where they really put the wafer).
+        intended: the stations the old tool intended (naive forward kinematics of the old joints).
+        solution: the new joints for those stations (:class:`StationSolution`).
+    """
+
+    old: RobotForward
+    intended: Stations
+    solution: StationSolution
+
+    @property
+    def avoided_error(self) -> Array:
+        """Where the old joints really put the wafer minus where they were meant to ``(N, 3)`` [m, world]."""
+        return self.old.wafer.position - self.intended.position
+
+    @property
+    def avoided_error_norm(self) -> Array:
+        return np.asarray(np.linalg.norm(self.avoided_error, axis=1), dtype=np.float64)
+
+
+def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
+            names: Sequence[str] | None = None) -> Retaught:
+    """New joints for old joints ``(N, 3)``, ``(N, n)`` that the naive model computed (module docstring).
+
+    Raises:
+        LimitError: an old rod outside the stroke (the old tool's rods were executed: they lie within it; a tilt
+            or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
+    """
+    a = robot.arm(arm)
+    Q = rows_of(rods, 'rods', 3, robot.rods.names)
+    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
+    old = robot_forward(robot, Q, joints, a.name, check_limits=False)
+    intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
+    if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
+        intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
+                            np.ones(len(intended), dtype=bool), intended.names)
+    value = None
+    if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
+        value = old.joints[:, a.redundancy.joint]
+    solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
+    return Retaught(old=old, intended=intended, solution=solution)
+
+
+def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None = None
+                     ) -> tuple[tuple[str, ...], Array, Array]:
+    """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
+    for rods, ``[rad]``/``[deg]`` for joints; SI when none) and an optional ``name`` column; returns
+    ``(names, rods (N, 3), joints (N, n))``. ConfigError names the line and the field."""
+    a = robot.arm(arm)
+    kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
+    table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
+                           robot.rods.names + a.joint_names)
+    rods = np.empty((len(table), 3))
+    joints = np.empty((len(table), len(a.joints)))
+    names = []
+    for r in range(len(table)):
+        names.append(table.text(r, 'name') or str(r))
+        for k, rod in enumerate(robot.rods.names):
+            rods[r, k] = table.number(r, rod, math.nan)
+        for k, joint in enumerate(a.joint_names):
+            joints[r, k] = table.number(r, joint, math.nan)
+        if np.isnan(rods[r]).any() or np.isnan(joints[r]).any():
+            raise ConfigError(f'{table.row_where(r)}: every rod and joint needs a value')
+    if len(table) == 0:
+        raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
+    return tuple(names), rods, joints

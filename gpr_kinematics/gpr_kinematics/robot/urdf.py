@@ -1,0 +1,336 @@
+"""The robot model of the GPR for ROS tools (URDF, tf), generated from the geometry configuration (no ROS import).
+
+One source of truth: :func:`gpr_urdf` builds the model from a :class:`~gpr_kinematics.core.config.GprConfig`, so the
+URDF, the transforms and the plots always show the geometry the kinematics uses. Frames (REP 103/105 style, SI):
+
+- ``gpr_base``: origin at the centre of the rod axes on the plane ``q = 0``, z up along the rods;
+- ``gpr_rod_guide_k`` (k = 1, 2, 3): the rod's prismatic guide, fixed on the base at its foot ``P_k(0)``
+  (a fixed joint: ``/tf_static``);
+- ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = B_k + (q_k + o_k) u_k``
+  (:class:`~gpr_kinematics.core.machine.MachineGeometry`: base point, zero offset and direction of the rod; the nominal
+  machine's ``(R cos theta_k, R sin theta_k, q_k)``); joint ``rod_k`` (prismatic along ``u_k``, ``q_k`` in the
+  stroke): the joint names of ``gpr/joint_states``;
+- ``gpr_platform``: the platform (origin at the centre of the nominal joint triangle, z normal to it); joint
+  ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
+  chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
+- ``gpr_platform_nominal``: the platform under the naive model (floating joint ``gpr_platform_nominal_pose``),
+  drawn as a translucent ghost, so the centre shift shows as the offset between the two.
+
+The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) adds the world and the arms:
+
+- ``world`` (the description's ``base.frame``): the root; ``gpr_base`` fixed in it at ``base.position`` /
+  ``base.rpy`` (joint ``gpr_base_mount``, ``/tf_static``);
+- ``<arm>_link<k>``: one frame per revolute joint (joint names: the description's, e.g. ``arm1_elbow``, the names of
+  ``gpr/joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
+- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``).
+
+The arm's joint origins are its frames at zero joint values as the robot core chains them
+(:func:`gpr_kinematics.robot.forward.arm_transforms`): the URDF, the transforms and the kinematics have one source.
+
+>>> from gpr_kinematics.core.config import GprConfig
+>>> model = gpr_urdf(GprConfig())
+>>> [j.name for j in model.joints if j.kind == 'prismatic']
+['rod_1', 'rod_2', 'rod_3']
+>>> xyz, quat = model.transform('rod_1', 0.5)       # gpr_rod_guide_1 -> gpr_rod_1 at q1 = 0.5 m
+>>> [round(v, 12) for v in xyz], [round(v, 12) for v in quat]
+([0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 1.0])
+>>> from gpr_kinematics.robot import load_robot
+>>> arm = robot_urdf(load_robot()).joint('arm1_elbow')    # the example robot: elbow 0.30 m out, 35 mm up
+>>> arm.kind, arm.parent, arm.child, arm.xyz
+('revolute', 'arm1_link1', 'arm1_link2', (0.3, 0.0, 0.035))
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from ..core.config import GprConfig
+from ..core.machine import MachineGeometry
+from ..core.messages import ROD_JOINT_NAMES
+from ..core.rotations import quaternion_from_matrix, rpy_matrix
+from ..errors import InputError
+
+if TYPE_CHECKING:
+    from .description import Arm, RobotDescription
+
+#: A 300 mm wafer (diameter, thickness [m]): how the wafer frame is drawn (a visual; the kinematics use its centre).
+WAFER_VISUAL = (0.300, 0.000775)
+
+JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
+
+
+@dataclass(frozen=True)
+class Visual:
+    """A primitive shape of a link: ``box`` (size x y z), ``cylinder`` (radius, length along z), ``sphere``
+    (radius) [m], placed at ``xyz`` [m] / ``rpy`` [rad] in the link frame, colour RGBA in [0, 1]."""
+
+    shape: str
+    size: tuple[float, ...]
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    material: str = 'grey'
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    visuals: tuple[Visual, ...] = ()
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint from ``parent`` to ``child``: the fixed ``origin`` (``xyz`` [m], ``rpy`` [rad], URDF's fixed-axis
+    roll-pitch-yaw), then the motion along/about ``axis`` (prismatic [m], revolute [rad]) within
+    [``lower``, ``upper``]; a floating joint's pose is given whole (its origin is the identity)."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    lower: float = 0.0
+    upper: float = 0.0
+
+
+def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
+    """Rotation by ``angle`` [rad] about the unit ``axis`` (Rodrigues)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    out: np.ndarray = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+    return out
+
+
+@dataclass(frozen=True)
+class RobotUrdf:
+    """Links and joints of a robot (a tree rooted at ``root``)."""
+
+    name: str
+    root: str
+    links: tuple[Link, ...] = field(default_factory=tuple)
+    joints: tuple[Joint, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        names = [link.name for link in self.links]
+        if len(set(names)) != len(names) or self.root not in names:
+            raise InputError(f'robot model {self.name}: link names must be unique and include the root {self.root}')
+        joints = [j.name for j in self.joints]
+        twice = sorted({n for n in joints if joints.count(n) > 1})
+        if twice:
+            raise InputError(f'robot model {self.name}: joint name(s) {", ".join(twice)} used twice; allowed: unique '
+                             'joint names (an arm joint may not take a rod joint\'s name, rod_1 .. rod_3)')
+        children = [j.child for j in self.joints]
+        for j in self.joints:
+            if j.kind not in JOINT_KINDS or j.parent not in names or j.child not in names or j.child == self.root:
+                raise InputError(f'robot model {self.name}: joint {j.name} ({j.kind}, {j.parent} -> {j.child}) is '
+                                 f'invalid; allowed: kinds {", ".join(JOINT_KINDS)} between links of the model')
+        if len(set(children)) != len(children) or len(children) != len(names) - 1:
+            raise InputError(f'robot model {self.name}: every link but the root needs exactly one parent joint')
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise InputError(f'robot model {self.name} has no joint {name!r}; it has: '
+                         + ', '.join(j.name for j in self.joints))
+
+    def extended(self, links: Iterable[Link], joints: Iterable[Joint]) -> RobotUrdf:
+        """This model with more links and joints (e.g. an arm on ``gpr_platform``)."""
+        return replace(self, links=(*self.links, *links), joints=(*self.joints, *joints))
+
+    def transform(self, joint: str, value: float = 0.0) -> tuple[list[float], list[float]]:
+        """Translation [m] and quaternion (x, y, z, w) from the joint's parent to its child at ``value``."""
+        return joint_transform(self.joint(joint), value)
+
+    def to_urdf(self) -> str:
+        """The URDF (XML text) of the model."""
+        return urdf_text(self)
+
+
+def joint_transform(joint: Joint, value: float = 0.0) -> tuple[list[float], list[float]]:
+    """Parent -> child transform of a fixed, prismatic or revolute joint at ``value`` [m or rad]:
+    ``T = T_origin * T_motion`` (URDF); translation [m] and quaternion (x, y, z, w)."""
+    if joint.kind == 'floating':
+        raise InputError(f'joint {joint.name} is floating: its pose comes from the kinematics, not from a value')
+    R = rpy_matrix(*joint.rpy)  # URDF's rpy: Rz(yaw) Ry(pitch) Rx(roll)
+    t = np.asarray(joint.xyz, dtype=float)
+    axis = np.asarray(joint.axis, dtype=float)
+    if joint.kind == 'prismatic':
+        t = t + R @ (float(value) * axis / np.linalg.norm(axis))
+    elif joint.kind == 'revolute':
+        R = R @ axis_angle_matrix(axis, float(value))
+    return t.tolist(), [float(v) for v in quaternion_from_matrix(R)]
+
+
+def gpr_urdf(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
+              nominal_frame: str = 'gpr_platform_nominal') -> RobotUrdf:
+    """The GPR (base, three rods, exact and nominal platform) with the geometry of ``cfg``."""
+    R = cfg.radius
+    stroke = cfg.stroke_max - cfg.stroke_min
+    rod_r, ball_r, plate = 0.06 * R, 0.1 * R, 0.1 * R
+    links = [Link(base_frame, (Visual('cylinder', (1.3 * R, 0.2 * plate), (0.0, 0.0, -0.1 * plate), material='base',
+                                      rgba=(0.45, 0.45, 0.45, 1.0)),))]
+    joints = []
+    geo = MachineGeometry.of(cfg)
+    feet = geo.base_points(np.zeros((1, 3)))[0]        # P_k(0) = B_k + o_k u_k: where rod k stands
+    for k in range(3):
+        guide, rod = f'gpr_rod_guide_{k + 1}', f'gpr_rod_{k + 1}'
+        axis = (float(geo.ux[k]), float(geo.uy[k]), float(geo.uz[k]))   # the rod's direction u_k
+        links.append(Link(guide, (Visual('cylinder', (1.8 * rod_r, 2 * plate), (0.0, 0.0, -plate), material='guide',
+                                         rgba=(0.3, 0.3, 0.3, 1.0)),)))
+        links.append(Link(rod, (Visual('cylinder', (rod_r, stroke), (0.0, 0.0, -0.5 * stroke), material='rod',
+                                       rgba=(0.2, 0.4, 0.9, 1.0)),
+                                Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
+        joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=_xyz(feet[k])))
+        joints.append(Joint(ROD_JOINT_NAMES[k], 'prismatic', guide, rod, axis=axis, lower=cfg.stroke_min,
+                            upper=cfg.stroke_max))
+    disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
+    links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
+    links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
+    joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame))
+    joints.append(Joint(f'{nominal_frame}_pose', 'floating', base_frame, nominal_frame))
+    return RobotUrdf('gpr', base_frame, tuple(links), tuple(joints))
+
+
+def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
+                nominal_frame: str = 'gpr_platform_nominal') -> RobotUrdf:
+    """The whole robot: the world, the GPR of the description's geometry (:func:`gpr_urdf`) and every arm with
+    its blade and wafer (module docstring)."""
+    gpr = gpr_urdf(robot.config, base_frame, platform_frame, nominal_frame)
+    world = Link(robot.world_frame)
+    mount = Joint(f'{base_frame}_mount', 'fixed', robot.world_frame, base_frame, xyz=robot.base_position,
+                  rpy=robot.base_rpy)
+    links, joints = [world, *gpr.links], [mount, *gpr.joints]
+    for arm in robot.arms:
+        arm_links, arm_joints = _arm_parts(arm, platform_frame)
+        links += arm_links
+        joints += arm_joints
+    return RobotUrdf(robot.name, robot.world_frame, tuple(links), tuple(joints))
+
+
+def _yaw(R: np.ndarray) -> float:
+    """The angle of a rotation about z (the arms turn about the platform normal only)."""
+    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+
+
+def _xyz(v: Any) -> tuple[float, float, float]:
+    return float(v[0]), float(v[1]), float(v[2])
+
+
+def _arm_parts(arm: Arm, platform_frame: str) -> tuple[list[Link], list[Joint]]:
+    """Links and joints of one arm: its frames at zero joint values (``arm_transforms``), revolute about z for the
+    links, fixed for the blade and the wafer; boxes along the links, a thin blade, a 300 mm wafer."""
+    from .forward import arm_transforms
+
+    frames = arm_transforms(arm, np.zeros((1, len(arm.joints))))
+    links, joints = [], []
+    grey, blade_rgba, wafer_rgba = (0.75, 0.75, 0.78, 1.0), (0.35, 0.35, 0.4, 1.0), (0.55, 0.6, 0.9, 0.9)
+    for k, (frame, parent, pose) in enumerate(frames):
+        xyz = _xyz(pose.position[0])
+        rpy = (0.0, 0.0, _yaw(pose.rotation[0]))
+        parent = platform_frame if parent == 'gpr_platform' else parent
+        if k < len(arm.joints):
+            j = arm.joints[k]
+            visuals = [Visual('cylinder', (0.03, 0.03), material='arm_axis', rgba=(0.5, 0.5, 0.55, 1.0))]
+            if j.length > 0.0:
+                visuals.append(Visual('box', (j.length, 0.05, 0.02), (0.5 * j.length, 0.0, 0.0), material='arm',
+                                      rgba=grey))
+            links.append(Link(frame, tuple(visuals)))
+            joints.append(Joint(j.name, 'revolute', parent, frame, xyz=xyz, rpy=rpy, lower=j.lower, upper=j.upper))
+        elif frame == arm.blade_frame:
+            c = arm.blade.wafer_centre
+            reach = math.hypot(c[0], c[1])
+            links.append(Link(frame, (Visual('box', (reach + 0.05, 0.06, 0.003), (0.5 * c[0], 0.5 * c[1], 0.0),
+                                             rpy=(0.0, 0.0, math.atan2(c[1], c[0])), material='blade',
+                                             rgba=blade_rgba),)))
+            joints.append(Joint(f'{arm.name}_blade_mount', 'fixed', parent, frame, xyz=xyz, rpy=rpy))
+        else:
+            links.append(Link(frame, (Visual('cylinder', (0.5 * WAFER_VISUAL[0], WAFER_VISUAL[1]), material='wafer',
+                                             rgba=wafer_rgba),)))
+            joints.append(Joint(f'{arm.name}_wafer_mount', 'fixed', parent, frame, xyz=xyz, rpy=rpy))
+    return links, joints
+
+
+def _f(x: float, exact: bool = True) -> str:
+    """A number for the URDF: exact (``repr``) for joints, 6 significant digits for the visuals' sizes."""
+    return repr(float(x)) if exact else format(float(x), '.6g')
+
+
+def _v(values: Iterable[float], exact: bool = True) -> str:
+    return ' '.join(_f(v, exact) for v in values)
+
+
+def urdf_text(model: RobotUrdf) -> str:
+    """URDF 1.0 XML of ``model``: one ``<material>`` per colour, visuals, joints with origin, axis, limits."""
+    out = ['<?xml version="1.0"?>',
+           '<!-- Generated by gpr_kinematics.robot.urdf from the geometry configuration: do not edit. '
+           'SI units (m, rad). -->',
+           f'<robot name={quoteattr(model.name)}>']
+    materials: dict[str, tuple[float, ...]] = {}
+    for link in model.links:
+        for v in link.visuals:
+            materials.setdefault(v.material, v.rgba)
+    for name, rgba in materials.items():
+        out.append(f'  <material name={quoteattr(name)}><color rgba="{_v(rgba, False)}"/></material>')
+    for link in model.links:
+        if not link.visuals:
+            out.append(f'  <link name={quoteattr(link.name)}/>')
+            continue
+        out.append(f'  <link name={quoteattr(link.name)}>')
+        for v in link.visuals:
+            if v.shape == 'box':
+                geometry = f'<box size="{_v(v.size, False)}"/>'
+            elif v.shape == 'cylinder':
+                geometry = f'<cylinder radius="{_f(v.size[0], False)}" length="{_f(v.size[1], False)}"/>'
+            else:
+                geometry = f'<sphere radius="{_f(v.size[0], False)}"/>'
+            out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>{geometry}'
+                       f'</geometry><material name={quoteattr(v.material)}/></visual>')
+        out.append('  </link>')
+    for j in model.joints:
+        out.append(f'  <joint name={quoteattr(j.name)} type="{j.kind}">')
+        out.append(f'    <parent link={quoteattr(j.parent)}/><child link={quoteattr(j.child)}/>')
+        if j.kind != 'floating':
+            out.append(f'    <origin xyz="{_v(j.xyz)}" rpy="{_v(j.rpy)}"/>')
+        if j.kind in ('prismatic', 'revolute'):
+            # Effort and velocity are required by URDF but not part of this kinematic model: 0 = not modelled.
+            out.append(f'    <axis xyz="{_v(j.axis)}"/><limit lower="{_f(j.lower)}" upper="{_f(j.upper)}" '
+                       f'effort="0.0" velocity="0.0"/>')
+        out.append('  </joint>')
+    out.append('</robot>')
+    return '\n'.join(out) + '\n'
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m gpr_kinematics.robot.urdf [ROBOT_FILE]``: the URDF of the package's GPR, or with a robot
+    description (``example`` for the shipped one) of that whole robot, on stdout."""
+    import sys
+
+    from ..errors import EXIT_BAD_INPUT, GprError, one_line
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        if not args:
+            from ..core.config import load_config
+
+            print(gpr_urdf(load_config()).to_urdf(), end='')
+            return 0
+        from .description import load_robot
+
+        print(robot_urdf(load_robot(None if args[0] == 'example' else args[0])).to_urdf(), end='')
+    except GprError as exc:
+        sys.stderr.write(f'robot_urdf: error: {one_line(str(exc))}\n')
+        return EXIT_BAD_INPUT
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,175 @@
+"""The two things every workspace computation shares: the constraint model and the result.
+
+A working area is ``W = {x in Q : lower_j <= g_j(x) <= upper_j for all j}`` (Posypkin, Rybak, Malyshev,
+Gaponenko, "Approximation of the parallel robot working area using the method of nonuniform covering",
+docs/references.md), approximated by two unions of boxes: the **inner** boxes (every constraint certainly holds on
+them) and the **boundary** boxes (undecided, diameter below ``delta``); inner plus boundary is the
+**outer** approximation, which contains ``W``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .boxes import box_volume
+from .interval import Interval
+
+#: Most boxes a run keeps (the covering: inner + boundary + pending, counted before a level doubles them, beyond
+#: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
+#: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
+MAX_BOXES = 10_000_000
+
+
+class WorkspaceModel(ABC):
+    """Constraint model of a mechanism's working area: ``lower_j <= g_j(x) <= upper_j``.
+
+    Subclasses set :attr:`variables`, :attr:`units`, :attr:`scale` (metres per unit of each variable),
+    :attr:`box` ((d, 2) initial box that contains the workspace), :attr:`constraint_names`, :attr:`lower`,
+    :attr:`upper` (bounds, may be +-inf) and implement :meth:`enclose` (certified interval bounds over boxes)
+    and :meth:`evaluate` (exact point values, used by tests and by the grid methods).
+    """
+
+    name: str = 'model'
+    variables: tuple[str, ...] = ()
+    units: tuple[str, ...] = ()
+    scale: np.ndarray
+    box: np.ndarray
+    constraint_names: tuple[str, ...] = ()
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @abstractmethod
+    def enclose(self, x: Sequence[Interval]) -> list[Interval]:
+        """Interval enclosures of every ``g_j`` over boxes; ``x[i]`` holds variable i over n boxes."""
+
+    @abstractmethod
+    def evaluate(self, points: np.ndarray) -> np.ndarray:
+        """Point values ``g(x)`` for ``points`` (N, d) -> (N, m) (NaN where undefined = infeasible)."""
+
+    def feasible(self, points: np.ndarray) -> np.ndarray:
+        """Boolean (N,): every constraint satisfied at the point (NaN counts as violated)."""
+        g = self.evaluate(np.atleast_2d(np.asarray(points, dtype=float)))
+        return np.asarray(np.all((g >= self.lower) & (g <= self.upper), axis=1))
+
+    def bounds(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interval bounds of all constraints over ``boxes`` (n, d, 2) -> (lo, hi), each (n, m)."""
+        xs = [Interval(boxes[:, i, 0], boxes[:, i, 1]) for i in range(boxes.shape[1])]
+        g = self.enclose(xs)
+        n = boxes.shape[0]
+        lo = np.stack([np.broadcast_to(gi.lo, (n,)) for gi in g], axis=1)
+        hi = np.stack([np.broadcast_to(gi.hi, (n,)) for gi in g], axis=1)
+        return lo, hi
+
+    def check_box(self, box: np.ndarray) -> None:  # noqa: B027 - optional hook, valid everywhere by default
+        """Raise :class:`InputError` if the model's enclosures are not valid on ``box``."""
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The variables the result's boxes are over (all of them here; a subset for projections)."""
+        return self.variables
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            'type': self.name,
+            'variables': list(self.variables),
+            'units': list(self.units),
+            'scale': self.scale.tolist(),
+            'box': self.box.tolist(),
+            'constraints': list(self.constraint_names),
+        }
+
+
+@dataclass
+class WorkspaceResult:
+    """Inner and boundary boxes of a workspace approximation.
+
+    ``inner`` and ``boundary`` are (n, d, 2) arrays of lower/upper bounds over ``variables``; the outer
+    approximation is their union. After an interruption (Ctrl-C, ``max_seconds``, ``max_boxes``) the boxes
+    not yet examined are appended to ``boundary``, so the outer approximation still contains the workspace
+    and ``inner`` is still inside it; ``stopped`` says why the run ended early ('' when it did not).
+    """
+
+    method: str
+    variables: tuple[str, ...]
+    units: tuple[str, ...]
+    delta: float
+    inner: np.ndarray
+    boundary: np.ndarray
+    outside_boxes: int
+    seconds: float
+    evaluations: int
+    levels: int
+    interrupted: bool = False
+    certified: bool = True
+    touches_initial_box: bool = False
+    stopped: str = ''
+    extra: dict[str, Any] = field(default_factory=dict)
+    outside: np.ndarray | None = None
+
+    @property
+    def inner_boxes(self) -> int:
+        return int(self.inner.shape[0])
+
+    @property
+    def boundary_boxes(self) -> int:
+        return int(self.boundary.shape[0])
+
+    @property
+    def inner_volume(self) -> float:
+        return box_volume(self.inner)
+
+    @property
+    def outer_volume(self) -> float:
+        return self.inner_volume + box_volume(self.boundary)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            'method': self.method,
+            'variables': list(self.variables),
+            'units': list(self.units),
+            'delta': self.delta,
+            'inner_boxes': self.inner_boxes,
+            'boundary_boxes': self.boundary_boxes,
+            'outside_boxes': self.outside_boxes,
+            'inner_volume': self.inner_volume,
+            'outer_volume': self.outer_volume,
+            'seconds': self.seconds,
+            'evaluations': self.evaluations,
+            'levels': self.levels,
+            'interrupted': self.interrupted,
+            'stopped': self.stopped,
+            'certified': self.certified,
+            'touches_initial_box': self.touches_initial_box,
+            **self.extra,
+        }
+
+
+def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:
+    """``delta`` must be a positive length no smaller than 2^-40 of the box's scaled diameter."""
+    if not np.isfinite(delta) or delta <= 0:
+        raise InputError(f'delta must be a positive length in metres, got {delta!r}')
+    diam = float(np.max((box[:, 1] - box[:, 0]) * scale))
+    if delta < diam * 2.0**-40:
+        raise InputError(
+            f'delta {delta:g} m is too small for the initial box (diameter {diam:g} m): '
+            f'allowed delta >= {diam * 2.0**-40:.3g} m'
+        )
+
+
+def check_initial_box(box: Any, names: Sequence[str]) -> np.ndarray:
+    """The initial box as a finite (d, 2) float array with lower < upper, else :class:`InputError`."""
+    try:
+        arr = np.array(box, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f'initial box must be numbers of shape ({len(names)}, 2)') from None
+    if arr.ndim != 2 or arr.shape != (len(names), 2):
+        raise InputError(f'initial box must have shape ({len(names)}, 2), got {arr.shape}')
+    if not np.all(np.isfinite(arr)) or np.any(arr[:, 1] <= arr[:, 0]):
+        raise InputError(f'initial box needs finite bounds with lower < upper, got {arr.tolist()}')
+    return arr

@@ -1,0 +1,125 @@
+"""Operations on arrays of boxes: (n, d, 2) float arrays of lower and upper bounds; boxes read from YAML."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..inputs.schema import number_key
+
+
+def box_volume(boxes: np.ndarray) -> float:
+    """Sum of the volumes of (n, d, 2) boxes (in the variables' units)."""
+    if boxes.shape[0] == 0:
+        return 0.0
+    return float(np.sum(np.prod(boxes[..., 1] - boxes[..., 0], axis=1)))
+
+
+def scaled_diameter(boxes: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Infinity-norm diameter of (n, d, 2) boxes in metres: the longest edge times its variable's scale."""
+    return np.asarray(np.max((boxes[:, :, 1] - boxes[:, :, 0]) * scale, axis=1))
+
+
+def bisect(boxes: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Split each (d, 2) box in two halves across its longest scaled edge -> (2n, d, 2), halves
+    ``[left_0, right_0, left_1, right_1, ...]`` (each box's two halves side by side)."""
+    n = boxes.shape[0]
+    axis = np.argmax((boxes[:, :, 1] - boxes[:, :, 0]) * scale, axis=1)
+    rows = np.arange(n)
+    mid = 0.5 * (boxes[rows, axis, 0] + boxes[rows, axis, 1])
+    out = np.repeat(boxes, 2, axis=0)
+    out[2 * rows, axis, 1] = mid
+    out[2 * rows + 1, axis, 0] = mid
+    return out
+
+
+def touches(box: np.ndarray, *arrays: np.ndarray) -> bool:
+    """True when some of the (n, d, 2) boxes reach a face of the initial ``box`` (d, 2)."""
+    return any(bool(a.shape[0]) and bool(np.any(a[:, :, 0] <= box[:, 0]) or np.any(a[:, :, 1] >= box[:, 1]))
+               for a in arrays)
+
+
+def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Boolean (N,): point i lies in at least one of ``boxes`` (n, d, 2) (closed boxes).
+
+    A bucket grid over the boxes' hull: every box is registered in the cells it overlaps, every point is
+    tested against the boxes of its own cell only (cell indices from the same monotone floor, so a point of
+    a box always falls in one of the box's cells).
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    npts = points.shape[0]
+    out = np.zeros(npts, dtype=bool)
+    n = boxes.shape[0]
+    if n == 0 or npts == 0:
+        return out
+    d = boxes.shape[1]
+    lo = boxes[:, :, 0].min(axis=0)
+    hi = boxes[:, :, 1].max(axis=0)
+    cells = int(np.clip(round(2.0 * n ** (1.0 / d)), 1, 256))
+    size = np.where(hi > lo, (hi - lo) / cells, 1.0)
+
+    def cell_of(x: np.ndarray) -> np.ndarray:
+        return np.asarray(np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64))
+
+    i0 = cell_of(boxes[:, :, 0])
+    span = cell_of(boxes[:, :, 1]) - i0 + 1
+    counts = np.prod(span, axis=1)
+    box_id = np.repeat(np.arange(n), counts)
+    k = np.arange(box_id.shape[0]) - np.repeat(np.cumsum(counts) - counts, counts)
+    cell = np.zeros_like(k)
+    for dim in range(d):
+        r = span[box_id, dim]
+        cell = cell * cells + i0[box_id, dim] + k % r
+        k = k // r
+    order = np.argsort(cell, kind='stable')
+    cell_sorted = cell[order]
+    box_sorted = box_id[order]
+    pc = cell_of(points)
+    pcell = np.zeros(npts, dtype=np.int64)
+    for dim in range(d):
+        pcell = pcell * cells + pc[:, dim]
+    start = np.searchsorted(cell_sorted, pcell, side='left')
+    cnt = np.searchsorted(cell_sorted, pcell, side='right') - start
+    for s0 in range(0, npts, 20000):
+        sl = slice(s0, s0 + 20000)
+        c = cnt[sl]
+        pid = np.repeat(np.arange(s0, s0 + c.shape[0]), c)
+        j = np.arange(pid.shape[0]) - np.repeat(np.cumsum(c) - c, c) + np.repeat(start[sl], c)
+        b = box_sorted[j]
+        inside = np.all((boxes[b, :, 0] <= points[pid]) & (points[pid] <= boxes[b, :, 1]), axis=1)
+        out[pid[inside]] = True
+    return out
+
+
+def number(value: Any, key: str, source: str, positive: bool = False, unit: str = 'm') -> float:
+    """One YAML value as a number by the package's rule (:func:`~gpr_kinematics.inputs.schema.number_key`)."""
+    return number_key({key: value}, key, source, positive=positive, unit=unit)
+
+
+def box_from(ws: Mapping[str, Any], variables: Sequence[str], default: np.ndarray, source: str) -> np.ndarray:
+    """``workspace.box``: variable name -> ``[lower, upper]`` over the model's ``default`` box."""
+    spec = ws.get('box')
+    box = np.array(default, dtype=float)
+    if spec is None:
+        return box
+    if not isinstance(spec, Mapping):
+        raise ConfigError(f'{source}: workspace.box must map variable names {list(variables)} to [lower, upper]')
+    for name, bounds in spec.items():
+        if name not in variables:
+            raise ConfigError(f'{source}: workspace.box has unknown variable {str(name)[:40]!r}; '
+                              f'allowed: {list(variables)}')
+        box[list(variables).index(name)] = bounds_pair(bounds, f'workspace.box.{name}', source)
+    return box
+
+
+def bounds_pair(bounds: Any, where: str, source: str) -> tuple[float, float]:
+    """``[lower, upper]``: two numbers with lower < upper."""
+    if not isinstance(bounds, (list, tuple)) or len(bounds) != 2:
+        raise ConfigError(f'{source}: {where} must be [lower, upper], got {str(bounds)[:80]}')
+    lo, hi = (number(b, where, source, unit='SI units') for b in bounds)
+    if not lo < hi:
+        raise ConfigError(f'{source}: {where} needs lower < upper, got [{lo:g}, {hi:g}]')
+    return lo, hi

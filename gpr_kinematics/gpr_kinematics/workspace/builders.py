@@ -1,0 +1,169 @@
+"""Workspace models of the mechanisms' YAML mappings (``type`` key, SI parameters, optional ``workspace:`` section).
+
+:data:`BUILDERS` builds the constraint models of the papers' mechanisms (tripod, planar 3-RRR, DexTAR, 3-UPU, GPR,
+the shell arm); :func:`model_from_mapping` checks the ``workspace:`` section and builds any model of a table of
+builders (:mod:`gpr_kinematics.workspace.loader` adds the equation-defined models and the joint working area).
+Every number goes through :func:`gpr_kinematics.inputs.schema.number_key` (a finite int or float: no bool, no string)
+and every mapping through :func:`gpr_kinematics.inputs.schema.check_keys` (unknown keys are refused with their
+names), the rules of every YAML loader of the package.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, TypeVar
+
+import numpy as np
+
+from ..errors import ConfigError, InputError, brief
+from ..inputs.schema import check_keys, number_key
+from ..mechanisms import mechanism_from_dict
+from ..mechanisms.base import Mechanism
+from ..mechanisms.gpr import GprMechanism
+from ..mechanisms.tripod import Tripod3RPS
+from ..mechanisms.upu3 import UPU3
+from .base import WorkspaceModel
+from .boxes import box_from, number
+from .dextar import DextarModel
+from .gpr import GprModel
+from .planar import Rrr3PlanarModel
+from .shell_arm import ShellArmModel
+from .tripod import TripodModel
+from .upu3 import Upu3Model
+
+M = TypeVar('M', bound=Mechanism)
+_COMMON = ('type', 'name', 'reference', 'workspace')
+_WORKSPACE_KEYS = ('box', 'angle_scale')
+
+
+def _mechanism(data: Mapping[str, Any], source: str, kind: type[M]) -> M:
+    """The validated mechanism of ``data`` (its loader checks the keys), of the class ``kind`` its type names."""
+    mech = mechanism_from_dict(data, source)
+    if not isinstance(mech, kind):  # the mechanism types and their classes are one table
+        raise ConfigError(f'{source}: type {brief(data.get("type"))} is not a {kind.__name__}')
+    return mech
+
+
+def _angles(data: Mapping[str, Any], key: str, default: Sequence[float], source: str) -> list[float]:
+    value = data.get(key, default)
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise ConfigError(f'{source}: {key} must be a list of 3 angles in rad, got {str(value)[:80]}')
+    return [number(v, f'{key}[{i}]', source, unit='rad') for i, v in enumerate(value)]
+
+
+def _tripod(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    mech = _mechanism(data, src, Tripod3RPS)
+    lo, hi = (float(v) for v in mech.joint_limits[0])
+    return TripodModel(mech.base_radius, mech.platform_radius, lo, hi,
+                       angle_scale=scale if scale is not None else mech.characteristic_length)
+
+
+def _upu3(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    mech = _mechanism(data, src, UPU3)
+    lo, hi = (float(v) for v in mech.joint_limits[0])
+    return Upu3Model(mech.b, mech.p, lo, hi, [float(a) for a in mech.azimuths])
+
+
+def _planar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    check_keys(data, (*_COMMON, 'base_radius', 'platform_radius', 'crank', 'coupler', 'theta_min', 'theta_max',
+                      'base_angles', 'platform_angles', 'branch'), src)
+    branch = data.get('branch', 1)
+    if isinstance(branch, bool) or branch not in (1, -1) or not isinstance(branch, int):
+        raise ConfigError(f'{src}: branch must be 1 or -1 (the working mode), got {str(branch)[:40]}')
+    return Rrr3PlanarModel(
+        number_key(data, 'base_radius', src),
+        number_key(data, 'platform_radius', src),
+        number_key(data, 'crank', src),
+        number_key(data, 'coupler', src),
+        number_key(data, 'theta_min', src, -math.pi / 4, positive=False, unit='rad'),
+        number_key(data, 'theta_max', src, math.pi / 4, positive=False, unit='rad'),
+        _angles(data, 'base_angles', (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6), src),
+        None if 'platform_angles' not in data else _angles(data, 'platform_angles', (), src),
+        branch,
+        angle_scale=scale,
+    )
+
+
+def _dextar(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    check_keys(data, (*_COMMON, 'la', 'lb', 'lc', 'ld', 'd'), src)
+    la, lb, lc, ld = (number_key(data, k, src) for k in ('la', 'lb', 'lc', 'ld'))
+    return DextarModel(la, lb, lc, ld, number_key(data, 'd', src, positive=False))
+
+
+def _shell_arm(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    check_keys(data, (*_COMMON, 'l1', 'l2', 'floor'), src)
+    floor = number_key(data, 'floor', src, positive=False) if 'floor' in data else -math.inf
+    return ShellArmModel(number_key(data, 'l1', src), number_key(data, 'l2', src), floor)
+
+
+def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
+    """GPR parameters from the mechanisms interface (``type: gpr``, optional ``overrides`` of GprConfig)."""
+    vj = ws.get('virtual_joint_model', 'radial')
+    if vj != 'radial':
+        raise ConfigError(f'{src}: workspace.virtual_joint_model {str(vj)[:40]!r} has no certified enclosure; '
+                          'allowed: radial')
+    cfg = _mechanism(data, src, GprMechanism).config
+    imperfect = [k for k, v in (('rod_positions', cfg.rod_positions), ('platform_joints', cfg.platform_joints))
+                 if v is not None]
+    imperfect += [k for k in ('rod_offsets', 'rod_directions') if any(np.ravel(getattr(cfg, k)))]
+    if imperfect:
+        raise ConfigError(f'{src}: {", ".join(imperfect)} in overrides: the GPR workspace model is of the nominal '
+                          'machine (radius, rod azimuths, stroke, budget); allowed: those keys only')
+    return GprModel(
+        cfg.radius,
+        tuple(float(a) for a in cfg.rod_azimuths),
+        cfg.stroke_min,
+        cfg.stroke_max,
+        cfg.imperfection_budget,
+        angle_scale=scale,
+        max_tilt=number_key(ws, 'max_tilt', src, 0.3, unit='rad'),
+    )
+
+
+Builder = Callable[[Mapping[str, Any], Mapping[str, Any], str, 'float | None'], Any]
+#: ``type`` -> (builder, extra keys of its ``workspace:`` section).
+BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
+    'tripod_3rps': (_tripod, ()),
+    'rrr3_planar': (_planar, ()),
+    'dextar': (_dextar, ()),
+    'upu3': (_upu3, ()),
+    'gpr': (_gpr, ('virtual_joint_model', 'max_tilt')),
+    'shell_arm': (_shell_arm, ()),
+}
+
+
+def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[str, Any] | None = None,
+                       builders: Mapping[str, tuple[Builder, tuple[str, ...]]] = BUILDERS) -> Any:
+    """Build the workspace model of a mechanism description (the YAML's mapping; SI units).
+
+    ``type`` selects the model; the mechanism keys are read at the top level; the ``workspace:`` section may
+    give ``box`` (variable -> [lower, upper]) and ``angle_scale`` (m per rad for the diameter).
+    ``overrides`` replace top-level keys (e.g. ``{'b': 0.25}`` for the 3-UPU studies); ``builders`` maps each
+    ``type`` to its builder and the extra keys of its ``workspace:`` section.
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: a mechanism file must be a YAML mapping with a "type" key')
+    data = dict(data)
+    if overrides:
+        data.update(overrides)
+    kind = data.get('type')
+    if not isinstance(kind, str) or kind not in builders:
+        raise ConfigError(f'{source}: unknown mechanism type {str(kind)[:40]!r}; workspace models exist for '
+                          f'{", ".join(builders)}')
+    builder, extra = builders[kind]
+    ws = data.get('workspace') or {}
+    if not isinstance(ws, Mapping):
+        raise ConfigError(f'{source}: the workspace section must be a mapping')
+    src = f'{source} ({kind})'
+    check_keys(ws, (*_WORKSPACE_KEYS, *extra), f'{src}: workspace')
+    scale = None if ws.get('angle_scale') is None else number_key(ws, 'angle_scale', src)
+    model = builder(data, ws, src, scale)
+    if isinstance(model, WorkspaceModel):
+        model.box = box_from(ws, model.variables, model.box, src)
+        try:
+            model.check_box(model.box)
+        except InputError as exc:
+            raise ConfigError(f'{src}: {exc}') from None
+    return model
+
+

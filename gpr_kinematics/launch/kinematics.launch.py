@@ -1,0 +1,29 @@
+"""kinematics_node: the GPR's forward/inverse kinematics, compensation and mobility services, and the whole robot's
+(gpr/robot_forward_kinematics, gpr/station_inverse_kinematics).
+
+    ros2 launch gpr_kinematics kinematics.launch.py [namespace:=/robot1] [model:=polar] [config_file:=my_gpr.yaml]
+        [robot:=my_robot.yaml]
+"""
+from gpr_kinematics.nodes.launch_common import arguments, typed
+from launch import LaunchDescription
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+ARGUMENTS = (
+    ('namespace', '', 'namespace of the node and its services, e.g. /robot1'),
+    ('config_file', '', "geometry YAML (GprConfig keys) over the package's config/gpr.yaml, replacing the robot's "
+                        'gpr section; empty: that section (the package geometry for the shipped robot)'),
+    ('model', '', "virtual-joint model: radial, polar, offset or compliant; empty: the geometry's"),
+    ('robot', '', 'robot description YAML (the GPR, the arms, blades and wafers) for the robot services; its gpr '
+                  'section is the geometry unless config_file is given; empty: config/robots/example_robot.yaml'),
+)
+
+
+def generate_launch_description() -> LaunchDescription:
+    return LaunchDescription([
+        *arguments(ARGUMENTS),
+        Node(package='gpr_kinematics', executable='kinematics_node', namespace=LaunchConfiguration('namespace'),
+             output='screen', parameters=[LaunchConfiguration('params_file'),
+                                          {'robot_file': typed('robot'), 'config_file': typed('config_file'),
+                                           'model': typed('model')}]),
+    ])
