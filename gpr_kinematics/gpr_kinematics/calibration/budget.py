@@ -331,7 +331,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
 
 def _monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array], tool: Array, frame: Array,
                  tols: list[Tolerance | None], cal: Calibrated | None, table: ToleranceTable,
-                 samples: int, seed: int, pct: tuple[float, ...]) -> tuple[dict, dict, Array, Array]:
+                 samples: int, seed: int,
+                 pct: tuple[float, ...]) -> tuple[dict[str, Any], dict[str, Any], Array, Array]:
     N = Q.shape[0]
     if samples == 0:
         nan = np.full((N, len(pct)), np.nan)

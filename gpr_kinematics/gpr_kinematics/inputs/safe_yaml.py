@@ -54,20 +54,22 @@ class _BoundedLoader(yaml.SafeLoader):
         self._depth = 0
         self._nodes = 0
 
+    def _line(self) -> int:
+        """The line (from 1) of the next event."""
+        event: Any = yaml.SafeLoader.peek_event(self)
+        return int(event.start_mark.line) + 1
+
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         if self.check_event(AliasEvent):
-            mark = self.peek_event().start_mark
-            raise ConfigError(f'{self._source}: line {mark.line + 1}: YAML aliases (*name) are not accepted '
+            raise ConfigError(f'{self._source}: line {self._line()}: YAML aliases (*name) are not accepted '
                               '(they can expand without bound); write the values out')
         self._nodes += 1
         if self._nodes > MAX_NODES:
-            mark = self.peek_event().start_mark
-            raise ConfigError(f'{self._source}: line {mark.line + 1}: more than {MAX_NODES} YAML values; allowed: at '
+            raise ConfigError(f'{self._source}: line {self._line()}: more than {MAX_NODES} YAML values; allowed: at '
                               f'most {MAX_NODES} (large station lists belong in CSV station files)')
         self._depth += 1
         if self._depth > MAX_DEPTH:
-            mark = self.peek_event().start_mark
-            raise ConfigError(f'{self._source}: line {mark.line + 1}: nested deeper than {MAX_DEPTH} levels; '
+            raise ConfigError(f'{self._source}: line {self._line()}: nested deeper than {MAX_DEPTH} levels; '
                               f'allowed: at most {MAX_DEPTH}')
         try:
             return super().compose_node(parent, index)

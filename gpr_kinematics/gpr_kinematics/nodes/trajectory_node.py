@@ -300,7 +300,12 @@ class TrajectoryNode(GprNode):
         outcome, message, published, total = await done
         result.success, result.message = outcome == 'succeeded', message
         result.samples_published, result.samples_total = published, total
-        {'succeeded': goal.succeed, 'cancelled': goal.canceled}.get(outcome, goal.abort)()
+        if outcome == 'succeeded':
+            goal.succeed()
+        elif outcome == 'cancelled':
+            goal.canceled()
+        else:
+            goal.abort()
         return result
 
     def on_exit(self, executor: Executor, status: int) -> int:

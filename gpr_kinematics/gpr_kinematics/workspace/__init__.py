@@ -8,9 +8,9 @@ level-by-level covering and its driver), :mod:`.scheduler` (one process or a Das
 See docs/workspace.md.
 """
 
-from .base import WorkspaceModel, WorkspaceResult
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult
 from .boxes import box_volume, contains_points
-from .covering import MAX_BOXES, METHODS, approximate
+from .covering import METHODS, approximate
 from .loader import MODEL_TYPES, load_workspace_model, model_from_mapping
 
 __all__ = [

@@ -81,6 +81,12 @@ def rotation_rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return R
 
 
+
+def _column(v: Interval) -> Interval:
+    """An interval vector ``(n,)`` as a column ``(n, 1)``."""
+    return Interval(np.asarray(v.lo)[:, None], np.asarray(v.hi)[:, None])
+
+
 class JointWorkingArea:
     """Tool-point positions in the planar platform's frame reachable by a tripod over a planar 3-RRR.
 
@@ -274,10 +280,9 @@ class JointWorkingArea:
         # P0_h over z, then minus Rz(phi*) p_h for every turn: (pairs, L)
         P0x = terms['x'][k2] + z * float(self.R01[0, 2]) if self.R01[0, 2] else terms['x'][k2]
         P0y = terms['y'][k2] + z * float(self.R01[1, 2]) if self.R01[1, 2] else terms['y'][k2]
-        col = lambda v: Interval(np.asarray(v.lo)[:, None], np.asarray(v.hi)[:, None])  # noqa: E731
-        px, py = col(Interval(X[g2, 0, 0], X[g2, 0, 1])), col(Interval(X[g2, 1, 0], X[g2, 1, 1]))
-        dx = col(P0x) - (px * turn_cos - py * turn_sin)
-        dy = col(P0y) - (px * turn_sin + py * turn_cos)
+        px, py = _column(Interval(X[g2, 0, 0], X[g2, 0, 1])), _column(Interval(X[g2, 1, 0], X[g2, 1, 1]))
+        dx = _column(P0x) - (px * turn_cos - py * turn_sin)
+        dy = _column(P0y) - (px * turn_sin + py * turn_cos)
         phi = np.broadcast_to(turns, dx.lo.shape)
         lo = np.stack([dx.lo, dy.lo, phi], axis=-1).reshape(-1, 3)
         hi = np.stack([dx.hi, dy.hi, phi], axis=-1).reshape(-1, 3)

@@ -11,7 +11,7 @@ once (numpy), with forward-mode derivatives for points and for boxes.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -276,7 +276,7 @@ def _derivative(op: str, a: list[Any], y: Any, da: list[Any], K: Any) -> Any:
         num = d0 if d1 is None else (-(K.col(y) * d1) if d0 is None else d0 - K.col(y) * d1)
         return num / K.col(a[1])
     u = a[0]
-    factor = {
+    factors: dict[str, Callable[[], Any]] = {
         'neg': lambda: -1.0,
         'sqr': lambda: u * 2.0,
         'sqrt': lambda: 0.5 / y,
@@ -289,7 +289,8 @@ def _derivative(op: str, a: list[Any], y: Any, da: list[Any], K: Any) -> Any:
         'exp': lambda: y,
         'log': lambda: 1.0 / u,
         'abs': lambda: K.sign(u),
-    }[op]()
+    }
+    factor = factors[op]()
     if isinstance(factor, float):
         return d0 * factor
     return d0 * K.col(factor)
