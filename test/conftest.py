@@ -17,6 +17,10 @@ from pathlib import Path
 
 import pytest
 
+ROOT = Path(__file__).resolve().parents[1]
+# `python -m pytest` at the repository's root puts the root first on sys.path, where the folder of the ROS package
+# gpr_kinematics/ (no __init__.py) would shadow the installed Python package as an empty namespace package.
+sys.path[:] = [p for p in sys.path if Path(p or os.curdir).resolve() != ROOT]
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # ros_support, for the test modules
 
 
