@@ -32,7 +32,11 @@ from yaml.nodes import Node
 from ..errors import BRIEF_LENGTH, ConfigError, brief
 from .files import read_text
 
-__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'brief', 'load_text', 'read_file']
+__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'YamlValue', 'brief', 'load_text', 'read_file']
+
+#: A value read from YAML before its file format has checked it: a dict, list, str, int, float, bool or None, nested
+#: in any way a user wrote. Honestly ``Any``: each format's checks (:mod:`gpr_kinematics.inputs.schema`) narrow it.
+YamlValue = Any
 
 #: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB; a program of 10,000
 #: stations is about 1 MB; the node count below bounds memory and time, this bound the text).
@@ -83,7 +87,7 @@ _BoundedLoader.add_implicit_resolver('tag:yaml.org,2002:float',
                                      list('-+.0123456789'))
 
 
-def load_text(text: str, source: str = 'YAML text') -> Any:
+def load_text(text: str, source: str = 'YAML text') -> YamlValue:
     """Parse YAML ``text`` into plain data (dicts, lists, str, int, float, bool, None) under the bounds above.
 
     Raises:
@@ -115,7 +119,7 @@ def load_text(text: str, source: str = 'YAML text') -> Any:
             loader.dispose()
 
 
-def read_file(path: str | Path, what: str = 'YAML') -> Any:
+def read_file(path: str | Path, what: str = 'YAML') -> YamlValue:
     """Parse the YAML file ``path``: a regular file of at most :data:`MAX_BYTES`, UTF-8
     (:func:`gpr_kinematics.inputs.files.read_text`), within the bounds of :func:`load_text`. ``what`` names the kind of
     file in messages (config, program, mechanism, ...).

@@ -29,7 +29,8 @@ from ..errors import InputError, LimitError
 from ..inputs.validation import bounded, rows_of
 from .description import Arm, RobotDescription
 from .planar_arm import LIMIT_SLACK
-from .transforms import PoseBatch
+from .stations import StationRecord, stations_from_poses
+from .transforms import PoseBatch, PoseRecord
 
 Array = NDArray[np.float64]
 
@@ -89,6 +90,42 @@ def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
 
 
 @dataclass(frozen=True)
+class PlatformRecord:
+    """The GPR's part of one configuration: ``tilt``, ``tilt_azimuth``, ``twist`` [rad], ``centre_shift`` [m, in
+    ``gpr_base``] and the virtual-joint ``model``."""
+
+    tilt: float
+    tilt_azimuth: float
+    twist: float
+    centre_shift: Array
+    model: str
+
+
+@dataclass(frozen=True)
+class RobotForwardRecord:
+    """One configuration of :class:`RobotForward` (``gpr robot fk --json``; SI units, world frame): the ``robot``, the
+    arm (``arm_name``), the ``rods`` [m] and the arm's joints by name [rad]; the ``wafer``, ``blade`` and ``platform``
+    poses, and where the naive model puts the wafer and the platform; the wafer's error under the naive model
+    (``naive_wafer_error`` [m], its vector and ``naive_wafer_angle_error`` [rad]); the platform's ``gpr`` values and
+    the wafer's ``station``."""
+
+    robot: str
+    arm_name: str
+    rods: Array
+    arm: dict[str, float]
+    wafer: PoseRecord
+    blade: PoseRecord
+    platform: PoseRecord
+    naive_wafer: PoseRecord
+    naive_platform: PoseRecord
+    naive_wafer_error: float
+    naive_wafer_error_vector: Array
+    naive_wafer_angle_error: float
+    gpr: PlatformRecord
+    station: StationRecord
+
+
+@dataclass(frozen=True)
 class RobotForward:
     """Whole-robot forward kinematics of ``N`` configurations (SI units, world frame unless named).
 
@@ -136,6 +173,24 @@ class RobotForward:
     def naive_wafer_angle_error(self) -> Array:
         """Angle between the real and the naive wafer orientation ``(N,)`` [rad]."""
         return rotation_angle(self.naive_wafer.rotation, self.wafer.rotation)
+
+    def record(self, i: int, station: StationRecord | None = None) -> RobotForwardRecord:
+        """Configuration ``i`` as a :class:`RobotForwardRecord`; ``station`` defaults to the wafer's pose as a station
+        (:func:`~gpr_kinematics.robot.stations.stations_from_poses`)."""
+        arm = self.robot.arm(self.arm)
+        wafer = self.wafer.position[i:i + 1], self.wafer.rotation[i:i + 1]
+        g = self.gpr
+        return RobotForwardRecord(
+            robot=self.robot.name, arm_name=arm.name, rods=np.array(self.rods[i]),
+            arm=dict(zip(arm.joint_names, self.joints[i].tolist(), strict=True)),
+            wafer=self.wafer.record(i), blade=self.blade.record(i), platform=self.platform.record(i),
+            naive_wafer=self.naive_wafer.record(i), naive_platform=self.naive_platform.record(i),
+            naive_wafer_error=float(self.naive_wafer_error_norm[i]),
+            naive_wafer_error_vector=np.array(self.naive_wafer_error[i]),
+            naive_wafer_angle_error=float(self.naive_wafer_angle_error[i]),
+            gpr=PlatformRecord(float(g.tilt[i]), float(g.tilt_azimuth[i]), float(g.twist[i]),
+                               np.array(g.centre_shift[i]), g.model),
+            station=stations_from_poses(*wafer).record(0) if station is None else station)
 
 
 def base_pose(robot: RobotDescription, n: int) -> PoseBatch:

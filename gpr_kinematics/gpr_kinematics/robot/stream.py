@@ -24,13 +24,12 @@ azimuth. SI units (m, rad, s); quaternions (x, y, z, w).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core import ForwardBatch, forward_batch
-from ..core.messages import ROD_JOINT_NAMES, MessageTypes, header, pose
+from ..core.messages import ROD_JOINT_NAMES, MessageTypes, RosMessage, header, pose
 from . import robot_forward
 from .description import RobotDescription
 from .plan import ProgramPlan, joint_limits, plan_program, sample_plan
@@ -78,7 +77,8 @@ class RobotStream:
         k = int(self.waypoint[i])
         return self.waypoint_names[k] if k >= 0 else ''
 
-    def messages(self, types: MessageTypes, i: int, *, stamp_ns: int, sample: int, base_frame: str) -> dict[str, Any]:
+    def messages(self, types: MessageTypes, i: int, *, stamp_ns: int, sample: int,
+                 base_frame: str) -> dict[str, RosMessage]:
         """The robot's messages of sample ``i`` by topic (module docstring), stamped ``stamp_ns`` [ns]; the
         ``sample`` counter is the stream's and ``gpr/joint_states`` is in ``base_frame``, as the sample's
         PlatformState (``gpr verify`` matches them by stamp and frame)."""
