@@ -80,6 +80,7 @@ def test_too_fast_a_move_refused_with_its_step(tmp_path):
         plan_program(ROBOT, p)
 
 
+@pytest.mark.slow
 def test_a_thousand_station_program(tmp_path):
     rng = np.random.default_rng(3)
     r = rng.uniform(0.4, 0.7, 1000)
