@@ -48,7 +48,7 @@ $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinema
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -r requirements-ros.txt
 	$(PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STAMP)
 
@@ -69,7 +69,7 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
 	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(STOCK_PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STOCK_STAMP)
 
