@@ -24,6 +24,7 @@ from gpr_kinematics.calibration.quality import chi2_limit
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core.config import load_config
+from gpr_kinematics.errors import ConvergenceError
 from gpr_kinematics.inputs.resources import config_path
 from scipy.optimize import least_squares
 
@@ -218,3 +219,24 @@ def test_the_bias_of_a_held_parameter_is_what_a_refit_shows():
     assert 'rod3_x' in {moved.bias.source[int(j)] for j in fit[big]}
     rod1 = ps.index('rod1_x')
     assert math.isfinite(moved.bias.std[rod1]) and moved.bias.std[rod1] <= moved.bias.worst[rod1]
+
+
+class _Walled(_Quadratic):
+    """The quadratic model, but the core cannot close a machine with ``x`` beyond 2 um (a ConvergenceError)."""
+
+    def poses(self, theta, Q, displacement=None):
+        if np.any(np.abs(theta[:, 1]) > 2e-6):
+            raise ConvergenceError('no closure for that machine')
+        return super().poses(theta, Q, displacement)
+
+
+def test_a_model_that_cannot_be_evaluated_fails_the_gate_with_its_report():
+    """The data pull x to 5 um, the model cannot go past 2 um: the fit ends where it can (not at a minimum), the
+    statistics it cannot compute are absent (no NaN in the JSON), the gate says why."""
+    model = _Walled(0.0)
+    Q = np.column_stack([np.linspace(0.1, 0.5, 12), np.zeros(12), np.zeros(12)])
+    meas = synthetic_measurements(_Quadratic(0.0), np.array([0.0, 5e-6]), Q, 1e-7, 1e-6, seed=1)
+    res = identify(model, meas, free=['x'])
+    assert res.convergence.status in ('stalled', 'iterations', 'undefined') and not res.gate.passed
+    assert 'The fit did not reach a minimum' in res.gate.message()
+    json.dumps(res.as_dict(), allow_nan=False)

@@ -162,7 +162,7 @@ class CalibrationResult:
         return {'source': self.source, 'rows': self.rows, 'parameters': params,
                 'residuals': {'before': self.before.as_dict(), 'after': self.after.as_dict(),
                               'cross_validated': self.cross_validated.as_dict() | {
-                                  'ratio': cv.ratio, 'alone': list(cv.alone)}},
+                                  'ratio': _finite(cv.ratio), 'alone': list(cv.alone)}},
                 'identifiability': self.identifiability.as_dict(), 'chi2_reduced': self.chi2_reduced,
                 'absolute_sigma': self.absolute_sigma, 'iterations': self.iterations,
                 'convergence': self.convergence.as_dict(), 'gate': self.gate.as_dict(),
