@@ -39,7 +39,7 @@ CHECKED = ('core', 'cli')
 #: Modules of other parts of the project (latency, cells, calibration work): not yet checked, added when it lands.
 NOT_YET_CHECKED = {
     'core/forward.py', 'core/inverse.py', 'core/closure.py', 'core/compliance.py', 'core/virtual_joints.py',
-    'core/platform_pose.py', 'core/naive.py', 'core/ops.py', 'core/machine.py', 'cli/program.py', 'cli/calibrate.py',
+    'core/platform_pose.py', 'core/naive.py', 'core/ops.py', 'core/machine.py', 'cli/program.py',
 }
 
 

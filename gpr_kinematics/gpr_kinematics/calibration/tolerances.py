@@ -205,6 +205,25 @@ class ToleranceTable:
         return Tolerance(low, high, dist, nominal, p.transform)
 
 
+def centre_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """Where the table's tolerances are: each parameter's coordinate at its nominal plus its tolerance's mean
+    deviation (a ``kappa`` range's centre, not the geometry file's ``kappa``), within its range. Budgets and
+    plans are linearised there."""
+    shift = np.array([t.mean if t is not None else 0.0 for t in table.bind(params)])
+    lo, hi = params.bounds
+    return np.asarray(np.clip(params.nominal + shift, lo, hi), dtype=np.float64)
+
+
+def bound_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """The table's worst-case deviation of each parameter's coordinate from its nominal (the farther end of its
+    interval; ``nan`` where the table has none): the a-priori bound of a held parameter's bias."""
+    out = np.full(len(params), np.nan)
+    for j, t in enumerate(table.bind(params)):
+        if t is not None:
+            out[j] = max(abs(v) for v in t.bounds)
+    return out
+
+
 def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
     """The table's standard deviation of each parameter (``nan`` where the table has none), as the ``prior`` of
     identification and planning."""

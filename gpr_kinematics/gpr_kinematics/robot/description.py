@@ -18,6 +18,7 @@ File format (``config/robots/example_robot.yaml`` is a commented example)::
         mount: {position: [0, 0, 0.05], yaw: 0}   # first joint axis on gpr_platform [m, rad]
         joints:                                    # 2 to 4 revolute joints, shoulder first
           - {name: arm1_shoulder, length: 0.3, height: 0.03, lower: -3, upper: 3, velocity: 2, acceleration: 8}
+          # optional zero_offset [rad]: the joint turns by its value plus this (a calibration's; default 0)
           - ...
         blade: {position: [0, 0, 0.01], yaw: 0, wafer_centre: [0.18, 0, 0.005]}
         branch: right                              # default elbow branch: left or right
@@ -63,7 +64,8 @@ _WORLD_BOUND = 100.0  # m: base position in the world
 
 @dataclass(frozen=True)
 class ArmJoint:
-    """One revolute joint of a planar arm and the link after it (SI units)."""
+    """One revolute joint of a planar arm and the link after it (SI units). ``zero_offset`` [rad]: the joint's
+    angle is its value (commanded, limited, published) plus this (a calibration's, ``gpr calibrate --robot``)."""
 
     name: str
     length: float
@@ -72,6 +74,7 @@ class ArmJoint:
     upper: float
     velocity: float
     acceleration: float
+    zero_offset: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -123,6 +126,7 @@ class Arm:
     upper = Stacked('joints')
     velocity = Stacked('joints')
     acceleration = Stacked('joints')
+    zero_offset = Stacked('joints')
 
     @property
     def wafer_height(self) -> float:
@@ -203,7 +207,7 @@ def _arm_dict(arm: Arm) -> dict[str, Any]:
     """An arm in the file format (:meth:`RobotDescription.to_dict`)."""
     out: dict[str, Any] = {
         'name': arm.name, 'mount': {'position': list(arm.mount_position), 'yaw': arm.mount_yaw},
-        'joints': [dataclasses.asdict(j) for j in arm.joints],
+        'joints': [{k: v for k, v in dataclasses.asdict(j).items() if k != 'zero_offset' or v} for j in arm.joints],
         'blade': {'position': list(arm.blade.position), 'yaw': arm.blade.yaw,
                   'wafer_centre': list(arm.blade.wafer_centre)},
         'branch': arm.branch, 'home': list(arm.home)}
@@ -270,7 +274,8 @@ def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None 
 
 def _joint(raw: Any, where: str) -> ArmJoint:
     data = _mapping(raw, where, 'a joint: name, length, height, lower, upper, velocity, acceleration')
-    check_keys(data, ('name', 'length', 'height', 'lower', 'upper', 'velocity', 'acceleration'), where)
+    check_keys(data, ('name', 'length', 'height', 'lower', 'upper', 'velocity', 'acceleration', 'zero_offset'),
+               where)
     name = _name(data, 'name', where)
     where = f'{where} ({name})'
     lower = _angle(data, 'lower', where)
@@ -284,7 +289,8 @@ def _joint(raw: Any, where: str) -> ArmJoint:
         lower=lower, upper=upper,
         velocity=_number(data, 'velocity', where, 1e-6, 100.0, 'rad/s, 0 < velocity <= 100', unit='rad/s'),
         acceleration=_number(data, 'acceleration', where, 1e-6, 1000.0, 'rad/s^2, 0 < acceleration <= 1000',
-                             unit='rad/s^2'))
+                             unit='rad/s^2'),
+        zero_offset=_number(data, 'zero_offset', where, -0.1, 0.1, 'radians within [-0.1, 0.1]', 0.0, 'rad'))
 
 
 def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundancy:

@@ -6,8 +6,9 @@ The frame chain (docs/robot.md) is ``world -> gpr_base`` (fixed, the description
 robots*, §IV-V) ``-> <arm>_link1 -> ... -> <arm>_link<n> -> <arm>_blade -> <arm>_wafer``, each link frame turned
 by its joint about the platform normal:
 
-* ``<arm>_link1`` in ``gpr_platform``: ``(mount position, Rz(mount_yaw + theta_1))``;
-* ``<arm>_link<k>`` in ``<arm>_link<k-1>``: ``((length_{k-1}, 0, height_{k-1}), Rz(theta_k))``;
+* ``<arm>_link1`` in ``gpr_platform``: ``(mount position, Rz(mount_yaw + theta_1 + o_1))``;
+* ``<arm>_link<k>`` in ``<arm>_link<k-1>``: ``((length_{k-1}, 0, height_{k-1}), Rz(theta_k + o_k))`` (``o_k``
+  the joint's ``zero_offset``, 0 unless calibrated);
 * ``<arm>_blade`` in ``<arm>_link<n>``: ``((length_n, 0, height_n) + blade position, Rz(blade yaw))``;
 * ``<arm>_wafer`` in ``<arm>_blade``: ``(wafer centre, I)``.
 
@@ -57,11 +58,11 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
     for k, frame in enumerate(arm.link_frames):
         if k == 0:
             pos = np.broadcast_to(np.asarray(arm.mount_position), (n, 3))
-            rot = rotation_z(arm.mount_yaw + joints[:, 0])
+            rot = rotation_z(arm.mount_yaw + joints[:, 0] + arm.joints[0].zero_offset)
         else:
             prev = arm.joints[k - 1]
             pos = np.broadcast_to(np.array([prev.length, 0.0, prev.height]), (n, 3))
-            rot = rotation_z(joints[:, k])
+            rot = rotation_z(joints[:, k] + arm.joints[k].zero_offset)
         out.append((frame, parent, PoseBatch(pos, rot)))
         parent = frame
     last, blade = arm.joints[-1], arm.blade
@@ -74,9 +75,9 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
 def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
     """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the chain of :func:`arm_transforms`
     composed in closed form (every joint turns about the platform normal, so the link directions add up:
-    ``Theta_n = mount_yaw + theta_1 + ... + theta_n``)."""
+    ``Theta_n = mount_yaw + (theta_1 + o_1) + ... + (theta_n + o_n)``)."""
     n = joints.shape[0]
-    Theta = arm.mount_yaw + np.cumsum(joints, axis=1)
+    Theta = arm.mount_yaw + np.cumsum(joints + arm.zero_offset, axis=1)
     x = np.full(n, arm.mount_position[0])
     y = np.full(n, arm.mount_position[1])
     for k, joint in enumerate(arm.joints):

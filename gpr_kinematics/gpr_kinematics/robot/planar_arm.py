@@ -7,7 +7,9 @@ mount yaw) the arm is a planar chain. With ``Theta_k = theta_1 + ... + theta_k``
     ``p = sum_k Rz(Theta_k) d_k``,  ``d_n = (length_n, 0) + b_xy + Rz(beta) w_xy``,  ``phi = Theta_n + beta``
 
 (``b``, ``beta``: blade position and yaw in the flange frame; ``w``: wafer centre in the blade frame; ``p``,
-``phi``: wafer centre and blade heading in the mount frame). Inverse kinematics in closed form:
+``phi``: wafer centre and blade heading in the mount frame). A joint's ``zero_offset`` ``o_k`` (a calibration's) turns
+it by ``theta_k + o_k``: the chain works on those angles, the joint values in and out are the ``theta_k``.
+Inverse kinematics in closed form:
 
 * **2 joints**: the wafer position alone; the heading ``phi`` is an *outcome* (one per branch).
 * **3 joints**: ``Theta_3 = phi - beta``, the wrist axis ``p_3 = p - Rz(Theta_3) d_3``, then the two-link
@@ -68,7 +70,7 @@ def chain_forward(arm: Arm, theta: Array) -> tuple[Array, Array, Array]:
     Returns ``(axes (N, n, 2), wafer (N, 2), heading (N,))``: every joint axis, the wafer centre, the blade heading.
     """
     d, beta = link_vectors(arm)
-    Theta = np.cumsum(theta, axis=1)
+    Theta = np.cumsum(theta + arm.zero_offset, axis=1)
     n = theta.shape[1]
     axes = np.zeros(theta.shape + (2,))
     for k in range(1, n):
@@ -186,7 +188,7 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
     """
     d, beta = link_vectors(arm)
     n = len(arm.joints)
-    lower, upper = arm.lower, arm.upper
+    lower, upper, offset = arm.lower, arm.upper, arm.zero_offset
     if n == 2:
         tl = two_link(d[0], d[1], p, sign)
         theta = np.stack([tl.Theta1, tl.Theta2 - tl.Theta1], axis=-1)
@@ -200,9 +202,9 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
             v = np.full(p.shape[0], red.value) if value is None else np.asarray(value, dtype=float)
         else:
             v = _nearest_value(arm, d, beta, p, phi, sign)
-        theta, tl = _solve_fixed(d, beta, red.joint, v, p, phi, sign)
-    theta, violation = wrap_to_limits(theta, lower, upper)
+        theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
     heading = np.sum(theta, axis=1) + beta
+    theta, violation = wrap_to_limits(theta - offset, lower, upper)
     return ArmSolution(theta=theta, heading=heading, reachable=tl.reachable, reach=tl.r, reach_min=tl.r_min,
                        reach_max=tl.r_max, violation=violation)
 
@@ -211,9 +213,10 @@ def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     """Cost of the ``nearest`` rule for held values ``v (N, G)``; ``inf`` where unreachable or beyond limits."""
     red = arm.redundancy
     assert red is not None
-    theta, tl = _solve_fixed(d, beta, red.joint, v, p[:, None, :], phi[:, None], sign[:, None])
+    offset = arm.zero_offset
+    theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p[:, None, :], phi[:, None], sign[:, None])
     lower, upper = arm.lower, arm.upper
-    theta, violation = wrap_to_limits(theta, lower, upper)
+    theta, violation = wrap_to_limits(theta - offset, lower, upper)
     scaled = (theta - np.asarray(red.reference)) / (upper - lower)
     cost = np.sum(np.asarray(red.weights) * scaled * scaled, axis=-1)
     bad = ~tl.reachable | (np.max(violation, axis=-1) > 0.0)
