@@ -30,7 +30,6 @@ from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_core
-
 from gpr_kinematics.calibration.budget import accuracy_budget
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.identification import identify

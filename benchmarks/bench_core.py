@@ -27,13 +27,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
-
 from gpr_kinematics.core import forward, forward_batch, inverse, inverse_batch, naive_inverse
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.core.machine import parameter_vector
 from gpr_kinematics.core.sweep import paper_sweep
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 CLOCK = time.perf_counter
 
