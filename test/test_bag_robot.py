@@ -304,3 +304,22 @@ def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.Captur
     assert cli.main(['verify', str(robot_bag), '--robot', str(tmp_path / 'absent.yaml')]) == 2
     err = capsys.readouterr().err
     assert 'absent.yaml' in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Path) -> None:
+    """Every header of the recording prefixed r1/ (a trajectory_node with frame_prefix:=r1/): the world frame of the
+    robot states is r1/world, and the recording verifies as the unprefixed one does."""
+    def prefixed(header):
+        return dataclasses.replace(header, frame_id='r1/' + header.frame_id)
+
+    def edit(topic, msg):
+        if hasattr(msg, 'markers'):
+            return dataclasses.replace(msg, markers=[dataclasses.replace(m, header=prefixed(m.header))
+                                                     for m in msg.markers])
+        if hasattr(msg, 'header'):
+            return dataclasses.replace(msg, header=prefixed(msg.header))
+        return msg
+
+    result = verify_bag(rewritten(robot_bag, tmp_path / 'r1', edit))
+    assert result.passed, [f.line() for f in result.failures]
+    assert next(c for c in result.checks if c.name == 'robot.structure').checked > 0
