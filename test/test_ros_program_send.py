@@ -4,6 +4,7 @@ samples at every point of the trajectory (1e-9); without a server it exits 1 wit
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -62,8 +63,9 @@ def test_the_example_program_runs_on_the_simulator(sent):
     assert (result['status'], result['error_code'], result['error_name']) == ('succeeded', 0, 'SUCCESSFUL')
     assert result['lead_in'] > 0 and result['action'] == 'joint_trajectory_controller/follow_joint_trajectory'
     assert result['joint_names'] == list(ControllerJoints.of(ROBOT).names)
-    # Feedback, one per sample (the first ones may pass before the client's feedback subscription matched).
-    assert 0.5 * result['duration'] * SIM_RATE < result['feedback'] <= result['duration'] * SIM_RATE + 2
+    # Feedback, one per sample (the client waits for the feedback topic's match before it sends the goal).
+    assert result['feedback'] == math.floor(result['duration'] * SIM_RATE + 1e-9) + 1 + \
+        (result['duration'] * SIM_RATE % 1 > 1e-6)
 
 
 def test_recorded_joint_states_equal_the_export_samples_at_every_point(sent):

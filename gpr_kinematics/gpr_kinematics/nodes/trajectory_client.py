@@ -31,6 +31,8 @@ from .qos import stream_qos
 #: The action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``.
 DEFAULT_ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
 _NS = 1_000_000_000
+#: Time [s] for a subscription to match a publisher the graph already shows.
+SETTLE = 0.3
 _STATUS = {GoalStatus.STATUS_SUCCEEDED: 'succeeded', GoalStatus.STATUS_ABORTED: 'aborted',
            GoalStatus.STATUS_CANCELED: 'canceled'}
 
@@ -93,6 +95,11 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
     try:
         if not cli.wait_for_server(timeout_sec=timeout):
             raise ServiceTimeoutError(f'no FollowJointTrajectory server on {action} within {timeout:g} s')
+        # The server's services answer before its feedback topic may be matched: wait until the graph shows the
+        # feedback publisher, and a moment for the match, so the first samples' feedback is not lost.
+        feedback_topic = client.node.resolve_topic_name(action) + '/_action/feedback'
+        if client.spin_until(lambda: bool(client.node.get_publishers_info_by_topic(feedback_topic)), timeout):
+            client.spin_for(SETTLE)
         count = [0]
 
         def on_feedback(msg: Any) -> None:
