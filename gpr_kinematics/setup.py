@@ -49,6 +49,7 @@ setup(
             'recorder_node = gpr_kinematics.nodes.recorder_node:main',
             'replay_node = gpr_kinematics.nodes.replay_node:main',
             'state_publisher_node = gpr_kinematics.nodes.state_publisher_node:main',
+            'robot_simulator_node = gpr_kinematics.nodes.robot_simulator_node:main',
         ],
     },
 )

@@ -49,15 +49,24 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     status, out, err = run_cli('verify', str(REFERENCE), capsys=capsys)
     assert status == 0, out + err
     assert 'verification PASSED' in out
-    from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+    from gpr_kinematics.bags.typestore import (
+        JOINT_STATES_TOPIC,
+        LEGACY_JOINT_STATES_TOPIC,
+        ROBOT_STATE_TOPIC,
+        ROBOT_TOPIC,
+        WAFER_POSE_TOPIC,
+    )
 
     bag = read_bag(REFERENCE)
     # The default sweep: 36 azimuths x 21 tilts; every topic of a platform stream one message per sample, the
-    # latched geometry and robot description once, the robot program's own topics listed and empty (a sweep).
-    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(PLATFORM_STREAM_TOPICS, 756),
-                                                          GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1, ROBOT_STATE_TOPIC: 0,
-                                                          WAFER_POSE_TOPIC: 0}
-    assert set(bag.topics) == set(GPR_TOPICS)
+    # latched geometry and robot description once, the robot program's own topics listed and empty (a sweep). It was
+    # recorded when the joint states were on /gpr/joint_states: verify still reads them there.
+    old = {t: LEGACY_JOINT_STATES_TOPIC if t == JOINT_STATES_TOPIC else t for t in GPR_TOPICS}
+    stream = dict.fromkeys((old[t] for t in PLATFORM_STREAM_TOPICS), 756)
+    assert {k: len(t) for k, t in bag.topics.items()} == {**stream, GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1,
+                                                          ROBOT_STATE_TOPIC: 0, WAFER_POSE_TOPIC: 0}
+    assert set(bag.topics) == set(old.values())
+    assert 'topic.joint_states' in {c.name for c in verify_bag(REFERENCE).checks if not c.skipped}
     assert 'note: verified against the geometry recorded on /gpr/geometry' in out
     assert 'robot example_dual_arm recorded on /gpr/robot; no robot states' in out
     assert bag.storage == 'mcap' and bag.version == 9

@@ -120,7 +120,7 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
             return dataclasses.replace(msg, joints=joints, wafer=wafer, blade=blade, naive_wafer_error=naive)
         if topic == '/gpr/platform_state' and msg.sample == 5:
             edit.rods = np.array(msg.q)
-        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+        if topic == '/joint_states' and msg.header.stamp == edit.stamp:
             position = np.array(msg.position)
             position[4] = limit + 0.01
             return dataclasses.replace(msg, position=position)
@@ -163,7 +163,7 @@ def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp
     bag = rewritten(robot_bag, tmp_path / 'rest', edit)
 
     def joint_state(topic, msg):
-        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+        if topic == '/joint_states' and msg.header.stamp == edit.stamp:
             position = np.array(msg.position)
             assert msg.name[at] == arm2.joints[0].name
             position[at] = limit + 0.01
@@ -192,7 +192,7 @@ def test_a_recorded_description_naming_a_geometry_file_is_refused(robot_bag: Pat
 
 def test_joint_states_carry_the_arm_joints(robot_bag: Path, tmp_path: Path) -> None:
     def edit(topic, msg):
-        stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/gpr/joint_states' else None
+        stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/joint_states' else None
         if stamp == (1_700_000_000, 300_000_000):                  # sample 3 at 10 Hz
             return dataclasses.replace(msg, name=msg.name[:3], position=msg.position[:3])
         return msg
@@ -304,3 +304,22 @@ def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.Captur
     assert cli.main(['verify', str(robot_bag), '--robot', str(tmp_path / 'absent.yaml')]) == 2
     err = capsys.readouterr().err
     assert 'absent.yaml' in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Path) -> None:
+    """Every header of the recording prefixed r1/ (a trajectory_node with frame_prefix:=r1/): the world frame of the
+    robot states is r1/world, and the recording verifies as the unprefixed one does."""
+    def prefixed(header):
+        return dataclasses.replace(header, frame_id='r1/' + header.frame_id)
+
+    def edit(topic, msg):
+        if hasattr(msg, 'markers'):
+            return dataclasses.replace(msg, markers=[dataclasses.replace(m, header=prefixed(m.header))
+                                                     for m in msg.markers])
+        if hasattr(msg, 'header'):
+            return dataclasses.replace(msg, header=prefixed(msg.header))
+        return msg
+
+    result = verify_bag(rewritten(robot_bag, tmp_path / 'r1', edit))
+    assert result.passed, [f.line() for f in result.failures]
+    assert next(c for c in result.checks if c.name == 'robot.structure').checked > 0

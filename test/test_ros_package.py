@@ -23,8 +23,8 @@ PIP_ONLY = {'lz4', 'dask', 'distributed'}
 #: The rosdep keys package.xml may use besides ROS packages: each checked to exist in rosdistro's rosdep files.
 ROSDEP_KEYS = set(ROSDEP.values()) | {'python3-pytest', 'python3-hypothesis', 'python3-yourdfpy-pip'}
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
-                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python', 'launch',
-                'launch_ros'}
+                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'trajectory_msgs', 'control_msgs', 'gpr_interfaces',
+                'ament_index_python', 'launch', 'launch_ros'}
 
 
 def imported_modules() -> dict[str, set[str]]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, digest_line
 from .reader import Bag
 from .results import Check, bag_check, skipped
-from .typestore import GPR_TOPICS, definition, typestore
+from .typestore import KNOWN_TOPICS, definition, typestore
 
 Problem = tuple[str, float, float, str]
 
@@ -108,8 +108,8 @@ def bag_checks(bag: Bag, allow_missing_checksums: bool = False) -> list[Check]:
     topics = list(bag.topics.values())
     types: list[Problem] = [(t.name, 1.0, 0.0, f'type {t.msgtype!r} is not in the typestore') for t in topics
                             if t.msgtype not in store.fielddefs]
-    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {GPR_TOPICS[t.name]}')
-              for t in topics if t.name in GPR_TOPICS and t.msgtype != GPR_TOPICS[t.name]]
+    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {KNOWN_TOPICS[t.name]}')
+              for t in topics if t.name in KNOWN_TOPICS and t.msgtype != KNOWN_TOPICS[t.name]]
     hashes: list[Problem] = [(t.name, 1.0, 0.0, 'stored type hash differs from the current message definition')
                              for t in topics if t.msgtype in store.fielddefs and t.digest
                              and t.digest != definition(t.msgtype)[1]]

@@ -34,7 +34,7 @@ from .cdr import COUNT, Columns
 from .columns import field_matrix, matrix, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, Failure, Series, skipped, value_check
-from .typestore import GPR_TOPICS, VIRTUAL_JOINTS_TOPIC
+from .typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC, VIRTUAL_JOINTS_TOPIC
 
 _UNIT = 'm|rad'
 
@@ -76,7 +76,7 @@ def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[
 
 def _topic(bag: Bag, name: str) -> TopicData | None:
     t = bag.topic(name)
-    return t if t is not None and t.msgtype == GPR_TOPICS[name] else None
+    return t if t is not None and t.msgtype == KNOWN_TOPICS[name] else None
 
 
 def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
@@ -131,10 +131,10 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
                         arms: Any = None) -> list[Check]:
-    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``), and in a whole-robot recording then every
-    arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the robot states); bags recorded before the
-    virtual joints got their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the
-    virtual joints."""
+    """``/joint_states`` (``/gpr/joint_states`` in bags recorded before) carries the rods (``rod_1..rod_3``, ``q``),
+    and in a whole-robot recording then every arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the
+    robot states); bags recorded before the virtual joints got their own topic carry the rods then the virtual
+    joints. ``/gpr/virtual_joints`` carries the virtual joints."""
     vnames = c['virtual_joint_names']
 
     def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
@@ -149,7 +149,9 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
     def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
         return tuple(vnames[r]), series.virtual_joints[r]
 
-    return (_joint_checks(bag, c, samples, tol, '/gpr/joint_states', (rods, rods_and_virtual),
+    topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
+        bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
+    return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording; or, recorded before, rod_1..rod_3 + the virtual joints)')
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),

@@ -154,7 +154,7 @@ def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, fr
                     commanded_tilt: float, commanded_azimuth: float) -> dict[str, RosMessage]:
     """Every message the trajectory node publishes for one sample, by topic (relative names):
     ``gpr/platform_state``, ``gpr/platform_pose`` and ``gpr/nominal_pose`` (PoseStamped),
-    ``gpr/joint_states`` (the physical joints only: the rods ``rod_1..3`` [m], as ``robot_state_publisher``
+    ``joint_states`` (the physical joints only: the rods ``rod_1..3`` [m], as ``robot_state_publisher``
     expects) and ``gpr/virtual_joints`` (the virtual joints by their core names [m, rad])."""
     st = platform_state(types, fk, stamp_ns=stamp_ns, frame_id=frame_id, sample=sample,
                         commanded_tilt=commanded_tilt, commanded_azimuth=commanded_azimuth)
@@ -163,9 +163,8 @@ def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, fr
         'gpr/platform_state': st,
         'gpr/platform_pose': types.PoseStamped(header=st.header, pose=st.pose),
         'gpr/nominal_pose': types.PoseStamped(header=st.header, pose=st.nominal_pose),
-        'gpr/joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
-                                             position=types.float_sequence(_floats(fk.q)), velocity=empty,
-                                             effort=empty),
+        'joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
+                                         position=types.float_sequence(_floats(fk.q)), velocity=empty, effort=empty),
         'gpr/virtual_joints': types.JointState(header=st.header, name=list(st.virtual_joint_names),
                                                position=types.float_sequence(_floats(fk.virtual_joints)),
                                                velocity=empty, effort=empty),

@@ -1,12 +1,12 @@
 """``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts, and whole-robot
 programs (the arm joints and the wafer too).
 
-Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
+Topics (relative names), frame ``gpr_base`` (``base_frame``; every frame with ``frame_prefix``), SI units (m, rad):
 
 - ``gpr/platform_state`` (gpr_interfaces/PlatformState): the full state of each sample;
 - ``gpr/platform_pose`` / ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint
   model / the naive model;
-- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
+- ``joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
   and, in a robot program, every arm's joints [rad], as ``robot_state_publisher`` expects; ``gpr/virtual_joints``
   (sensor_msgs/JointState): the virtual joints, named as in the core (lengths [m], angles [rad]);
 - ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample
@@ -55,7 +55,7 @@ from ..core.messages import geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marker_array
 from ..robot.program import RobotProgram, load_any_program
-from ..ros.specs import TRAJECTORY
+from ..ros.specs import TRAJECTORY, check_frame_prefix
 from ..ros.streams import Trajectory, goal_program, program_robot, sweep_trajectory, trajectory_of
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
@@ -69,7 +69,7 @@ SETTLE = 0.1
 CATCH_UP = 5
 #: The topics of one sample (published together, in this order) and their message types.
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
-                                 'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
+                                 'gpr/nominal_pose': PoseStamped, 'joint_states': JointState,
                                  'gpr/virtual_joints': JointState}
 #: The topics a robot program adds to each sample (their types: :data:`gpr_kinematics.bags.typestore.GPR_TOPICS`).
 ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
@@ -83,6 +83,8 @@ class TrajectoryNode(GprNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         p = self.p = declare_parameters(self, TRAJECTORY)
+        self.prefix = check_frame_prefix(p['frame_prefix'])
+        self.base_frame = self.prefix + p['base_frame']
         program = None
         if p['mode'] == 'program':
             if not p['program_file']:
@@ -260,11 +262,11 @@ class TrajectoryNode(GprNode):
     def publish_sample(self, traj: Trajectory, i: int) -> None:
         stamp_ns = self.get_clock().now().nanoseconds
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
-                               frame_id=self.p['base_frame'], sample=self.sample,
+                               frame_id=self.base_frame, sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
-        if traj.robot is not None:  # the arm joints join the rods on gpr/joint_states; the wafer on its topics
+        if traj.robot is not None:  # the arm joints join the rods on joint_states; the wafer on its topics
             msgs.update(traj.robot.messages(ROS_TYPES, i, stamp_ns=stamp_ns, sample=self.sample,
-                                            base_frame=self.p['base_frame']))
+                                            base_frame=self.base_frame, frame_prefix=self.prefix))
         for topic, msg in msgs.items():
             self.stream_publishers[topic].publish(msg)
         if self.sample % int(self.p['markers_every']) == 0:

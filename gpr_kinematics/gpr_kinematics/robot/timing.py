@@ -134,6 +134,16 @@ def profile(tau: Array, T: Array, V: Array, A: Array) -> Array:
     return np.clip(np.where(np.isfinite(A) & (T > 0), s, 1.0), 0.0, 1.0)
 
 
+def profile_rate(tau: Array, T: Array, V: Array, A: Array) -> Array:
+    """``ds/dtau`` of :func:`profile` [1/s]: ``A tau`` while accelerating, ``V`` cruising, ``A (T - tau)`` braking;
+    0 outside the move and for a move that moves nothing."""
+    with np.errstate(invalid='ignore', divide='ignore'):
+        ta = np.where(np.isfinite(A), np.minimum(V / A, T / 2.0), 0.0)
+        rate = np.where(tau < ta, A * tau, np.where(tau <= T - ta, V, A * (T - tau)))
+        inside = np.isfinite(A) & (T > 0) & (tau >= 0.0) & (tau <= T)
+    return np.where(inside, np.maximum(rate, 0.0), 0.0)
+
+
 @dataclass(frozen=True)
 class Samples:
     """A program sampled in time: ``time (S,)`` [s], joint values ``positions (S, J)``, the waypoint held
@@ -148,8 +158,16 @@ class Samples:
         return int(self.time.shape[0])
 
 
-def sample(timing: Timing, rate: float) -> Samples:
-    """Samples at ``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant."""
+def _locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.int64]]:
+    """For times ``t``: the waypoint reached last ``i``, whether it is held, and the move under way ``m``."""
+    i = np.clip(np.searchsorted(timing.arrive, t, side='right') - 1, 0, len(timing.arrive) - 1)
+    held = t <= timing.depart[i] + 1e-12
+    return i, held, np.minimum(i, max(len(timing.arrive) - 2, 0))
+
+
+def sample_times(timing: Timing, rate: float) -> Array:
+    """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant [s]; the count is bounded by
+    :data:`MAX_SAMPLES` before any array is made."""
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0 < rate <= 10_000):
         raise InputError(f'rate = {rate!r} is invalid; allowed: 0 < rate <= 10000 Hz')
     total = timing.total
@@ -158,16 +176,29 @@ def sample(timing: Timing, rate: float) -> Samples:
         raise InputError(f'the program lasts {total:.6g} s: at {rate:g} Hz that is {count} samples; allowed: at most '
                          f'{MAX_SAMPLES}; lower the rate')
     t = np.arange(count, dtype=float) / rate
-    if total - t[-1] > 1e-9:
-        t = np.append(t, total)
-    i = np.clip(np.searchsorted(timing.arrive, t, side='right') - 1, 0, len(timing.arrive) - 1)
-    held = t <= timing.depart[i] + 1e-12
-    last = len(timing.arrive) - 1
-    m = np.minimum(i, max(last - 1, 0))
-    if last == 0:
+    return np.append(t, total) if total - t[-1] > 1e-9 else t
+
+
+def sample(timing: Timing, rate: float) -> Samples:
+    """Samples at ``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant."""
+    t = sample_times(timing, rate)
+    i, held, m = _locate(timing, t)
+    if len(timing.arrive) == 1:
         return Samples(t, np.repeat(timing.positions, t.shape[0], axis=0), np.zeros(t.shape, dtype=np.int64),
                        np.zeros(t.shape, dtype=np.int64))
     s = profile(t - timing.depart[m], timing.duration[m], timing.speed[m], timing.accel[m])
     D = np.diff(timing.positions, axis=0)
     pos = np.where(held[:, None], timing.positions[i], timing.positions[m] + s[:, None] * D[m])
     return Samples(t, pos, np.where(held, i, -1), np.where(held, i, m + 1))
+
+
+def velocities(timing: Timing, t: Array) -> Array:
+    """The joints' velocities ``(S, J)`` at times ``t (S,)`` [m/s, rad/s]: ``s'(tau) D`` of the move under way, 0
+    while a waypoint is held (the derivative of what :func:`sample` samples)."""
+    t = np.asarray(t, dtype=float)
+    if len(timing.arrive) == 1:
+        return np.zeros((t.shape[0], timing.positions.shape[1]))
+    i, held, m = _locate(timing, t)
+    rate = profile_rate(t - timing.depart[m], timing.duration[m], timing.speed[m], timing.accel[m])
+    out: Array = np.where(held[:, None], 0.0, rate[:, None] * np.diff(timing.positions, axis=0)[m])
+    return out
