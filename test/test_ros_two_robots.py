@@ -39,9 +39,15 @@ def graph(ros_environment):
             descriptions = {ns: c.subscribe(String, f'{ns}/robot_description', latched=True) for ns, _ in ROBOTS}
             wanted = {f'{ns}/{a}' for ns, _ in ROBOTS for a in ACTIONS}
 
+            def mirrored(names: set[str]) -> bool:   # discovery of both robots' names is complete
+                r1, r2, _ = _split(names)
+                return bool(r1) and {n.replace('/r1/', '/r2/', 1) for n in r1} == r2
+
             def complete() -> bool:
                 actions = {name for name, _ in get_action_names_and_types(c.node)}
-                return wanted <= actions and len(static) >= 2 and all(descriptions.values())
+                return (wanted <= actions and len(static) >= 2 and all(descriptions.values())
+                        and mirrored({n for n, _ in c.node.get_topic_names_and_types()})
+                        and mirrored({n for n, _ in c.node.get_service_names_and_types()}))
 
             assert c.spin_until(complete, 60), '\n'.join(p.output() for p in procs)
             c.spin_for(1.0)      # the held states on /tf, at idle_rate
