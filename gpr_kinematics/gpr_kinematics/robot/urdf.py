@@ -22,7 +22,10 @@ The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) ad
   ``base.rpy`` (joint ``gpr_base_mount``, ``/tf_static``);
 - ``<arm>_link<k>``: one frame per revolute joint (joint names: the description's, e.g. ``arm1_elbow``, the names of
   ``gpr/joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
-- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``).
+- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``);
+- ``<collision>``: the description's collision bodies (:mod:`gpr_kinematics.robot.collision`: the column on
+  ``gpr_base``, the platform disc, the links, the paddles, the wafers as discs), exactly the shapes the clearance
+  check (:mod:`gpr_kinematics.safety.clearance`) measures.
 
 The arm's joint origins are its frames at zero joint values as the robot core chains them
 (:func:`gpr_kinematics.robot.forward.arm_transforms`): the URDF, the transforms and the kinematics have one source.
@@ -79,8 +82,11 @@ class Visual:
 
 @dataclass(frozen=True)
 class Link:
+    """A link: its visuals and its collision shapes (the robot description's bodies, :mod:`.collision`)."""
+
     name: str
     visuals: tuple[Visual, ...] = ()
+    collisions: tuple[Visual, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -213,6 +219,13 @@ def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_f
         arm_links, arm_joints = _arm_parts(arm, platform_frame)
         links += arm_links
         joints += arm_joints
+    from .collision import robot_shapes
+
+    names = {'gpr_base': base_frame, 'gpr_platform': platform_frame}
+    shapes: dict[str, list[Visual]] = {}
+    for sh in robot_shapes(robot):
+        shapes.setdefault(names.get(sh.frame, sh.frame), []).append(Visual(sh.kind, sh.size, sh.xyz, sh.rpy))
+    links = [replace(link, collisions=tuple(shapes.get(link.name, ()))) for link in links]
     return RobotUrdf(robot.name, robot.world_frame, tuple(links), tuple(joints))
 
 
@@ -268,6 +281,14 @@ def _v(values: Iterable[float], exact: bool = True) -> str:
     return ' '.join(_f(v, exact) for v in values)
 
 
+def _geometry(v: Visual, exact: bool = False) -> str:
+    if v.shape == 'box':
+        return f'<box size="{_v(v.size, exact)}"/>'
+    if v.shape == 'cylinder':
+        return f'<cylinder radius="{_f(v.size[0], exact)}" length="{_f(v.size[1], exact)}"/>'
+    return f'<sphere radius="{_f(v.size[0], exact)}"/>'
+
+
 def urdf_text(model: RobotUrdf) -> str:
     """URDF 1.0 XML of ``model``: one ``<material>`` per colour, visuals, joints with origin, axis, limits."""
     out = ['<?xml version="1.0"?>',
@@ -281,19 +302,16 @@ def urdf_text(model: RobotUrdf) -> str:
     for name, rgba in materials.items():
         out.append(f'  <material name={quoteattr(name)}><color rgba="{_v(rgba, False)}"/></material>')
     for link in model.links:
-        if not link.visuals:
+        if not link.visuals and not link.collisions:
             out.append(f'  <link name={quoteattr(link.name)}/>')
             continue
         out.append(f'  <link name={quoteattr(link.name)}>')
         for v in link.visuals:
-            if v.shape == 'box':
-                geometry = f'<box size="{_v(v.size, False)}"/>'
-            elif v.shape == 'cylinder':
-                geometry = f'<cylinder radius="{_f(v.size[0], False)}" length="{_f(v.size[1], False)}"/>'
-            else:
-                geometry = f'<sphere radius="{_f(v.size[0], False)}"/>'
-            out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>{geometry}'
-                       f'</geometry><material name={quoteattr(v.material)}/></visual>')
+            out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>'
+                       f'{_geometry(v)}</geometry><material name={quoteattr(v.material)}/></visual>')
+        for v in link.collisions:  # exact numbers: the clearance check uses these very shapes
+            out.append(f'    <collision><origin xyz="{_v(v.xyz)}" rpy="{_v(v.rpy)}"/><geometry>{_geometry(v, True)}'
+                       '</geometry></collision>')
         out.append('  </link>')
     for j in model.joints:
         out.append(f'  <joint name={quoteattr(j.name)} type="{j.kind}">')

@@ -1,0 +1,77 @@
+"""Straight entries: the joints that move the wafer on a straight line with its orientation fixed.
+
+A move into an ``exit`` waypoint, or out of an ``entry`` one (:func:`gpr_kinematics.robot.program.expand`), keeps
+the wafer on the segment from the pose ``p_0`` of its first waypoint to ``p_1`` of its second, with their common
+orientation: ``p(s) = p_0 + s (p_1 - p_0)``, ``s`` in [0, 1] (the profile of :mod:`gpr_kinematics.robot.timing`).
+Every point is solved exactly (:func:`~gpr_kinematics.robot.inverse.solve_stations`: the rods, and the arm's joints
+in closed form on the waypoints' branch; a 4-joint arm holds its redundant joint), so the wafer lies on the line to
+rounding (~1e-15 m) at every instant, not only at samples. The segment is parallel to the station plane (both ends
+are the same station pose moved along its heading), so the platform's normal and height, hence the rods, do not
+change along it: only the arm moves. The other arm holds its joints.
+
+For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's derivatives ``d^kP/ds^k``
+(``k = 1, 2, 3``) are taken by finite differences on :data:`GRID` points and their maxima enlarged by
+:data:`GAIN_MARGIN`; the joints then stay within their limits wherever the derivatives vary by less than that
+between grid points (docs/cell.md, "Straight entries").
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import LimitError
+from .description import RobotDescription
+from .inverse import solve_stations
+from .stations import Stations
+
+Array = NDArray[np.float64]
+
+#: Points on which a line's joint derivatives are taken, and the margin on their maxima.
+GRID = 257
+GAIN_MARGIN = 1.1
+#: Largest joint change between grid points [rad or m] before a line is taken to jump (a branch change).
+MAX_STEP = 0.25
+
+
+def line_stations(way: Stations, m: int, s: Array) -> Stations:
+    """The wafer poses at ``s`` on the line of the move from waypoint ``m`` to ``m + 1`` (orientation of ``m + 1``)."""
+    p0, p1 = way.position[m], way.position[m + 1]
+    n = s.shape[0]
+    rep = np.full(n, m + 1)
+    return Stations(p0 + s[:, None] * (p1 - p0), way.tilt[rep], way.azimuth[rep], way.heading[rep],
+                    way.heading_free[rep], tuple(way.names[m + 1] for _ in range(n)))
+
+
+def line_positions(robot: RobotDescription, way: Stations, arm: str, branch: str, start: Array, cols: slice,
+                   m: int, s: Array, label: str = '') -> Array:
+    """Joint rows ``(len(s), J)`` on the line of move ``m``: ``start`` (the joints at waypoint ``m``) with the rods
+    and ``arm``'s columns ``cols`` solved at each point (module docstring).
+
+    Raises:
+        LimitError: a point of the line out of reach or beyond a limit (the move and where on it).
+    """
+    sol = solve_stations(robot, line_stations(way, m, s), arm, branch=branch, check=False)
+    if not sol.feasible.all():
+        k = int(np.argmax(~sol.feasible))
+        try:
+            solve_stations(robot, line_stations(way, m, s[k:k + 1]), arm, branch=branch)
+        except LimitError as exc:
+            raise LimitError(f'{label}: the straight line into it, at {s[k]:.3g} of its length: {exc}') from None
+    out = np.repeat(start[None, :], s.shape[0], axis=0)
+    out[:, :3] = sol.rods
+    out[:, cols] = sol.joints
+    return out
+
+
+def line_gains(rows: Array, label: str) -> tuple[Array, Array, Array]:
+    """``(G1, G2, G3)`` ``(J,)``: the largest ``|d^kP/ds^k|`` of joint rows ``(GRID, J)`` taken at ``s`` evenly
+    spaced in [0, 1], by finite differences, times :data:`GAIN_MARGIN` (module docstring)."""
+    h = 1.0 / (rows.shape[0] - 1)
+    jump = np.max(np.abs(np.diff(rows, axis=0)))
+    if jump > MAX_STEP:
+        raise LimitError(f'{label}: the straight line into it changes a joint by {jump:.3g} between neighbouring '
+                         'points: the arm would change its branch or wrap a joint on the way; move the entry')
+    d1 = np.gradient(rows, h, axis=0, edge_order=2)
+    d2 = np.gradient(d1, h, axis=0, edge_order=2)
+    d3 = np.gradient(d2, h, axis=0, edge_order=2)
+    return tuple(GAIN_MARGIN * np.max(np.abs(d), axis=0) for d in (d1, d2, d3))  # type: ignore[return-value]
