@@ -320,8 +320,9 @@ class _Search:
             self._measure(i, j, np.unique(np.concatenate([lo, hi])), exact, sphere)
             best = min(exact.values()) if exact else np.inf
             bound = self._bound(i, j, lo, hi, exact, sphere)
-            # a pair found below the margin needs its first instant there, not its depth to the tolerance
-            open_ = bound < best - (self.tol if best >= self.margin else max(self.tol, 1e-3))
+            if best < self.margin:   # a collision found: its instant is known, its depth is not refined further
+                break
+            open_ = bound < best - self.tol
             if not open_.any():
                 break
             # an end known only by its bounding spheres is measured first; else the interval is split
