@@ -9,10 +9,12 @@ rounding (~1e-15 m) at every instant, not only at samples. The segment is parall
 are the same station pose moved along its heading), so the platform's normal and height, hence the rods, do not
 change along it: only the arm moves. The other arm holds its joints.
 
-For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's derivatives ``d^kP/ds^k``
-(``k = 1, 2, 3``) are taken by finite differences on :data:`GRID` points and their maxima enlarged by
-:data:`GAIN_MARGIN`; the joints then stay within their limits wherever the derivatives vary by less than that
-between grid points (docs/cell.md, "Straight entries").
+For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's first derivative is **bounded**,
+not sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed-form bounds of
+:func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds` on the :data:`GRID` - 1 pieces of the line, so a
+profile with ``G1 s' <= v`` keeps every joint within its velocity limit at every instant (what the clearance
+certificate relies on; docs/cell.md, "Straight entries"). The second and third derivatives (for the acceleration
+and jerk limits) are taken by finite differences on the grid, their maxima enlarged by :data:`GAIN_MARGIN`.
 """
 from __future__ import annotations
 
@@ -20,8 +22,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import LimitError
-from .description import RobotDescription
+from .description import Arm, RobotDescription
 from .inverse import solve_stations
+from .planar_arm import line_rate_bounds
 from .stations import Stations
 
 Array = NDArray[np.float64]
@@ -63,15 +66,26 @@ def line_positions(robot: RobotDescription, way: Stations, arm: str, branch: str
     return out
 
 
-def line_gains(rows: Array, label: str) -> tuple[Array, Array, Array]:
-    """``(G1, G2, G3)`` ``(J,)``: the largest ``|d^kP/ds^k|`` of joint rows ``(GRID, J)`` taken at ``s`` evenly
-    spaced in [0, 1], by finite differences, times :data:`GAIN_MARGIN` (module docstring)."""
+def line_gains(arm: Arm, cols: slice, rows: Array, label: str) -> tuple[Array, Array, Array]:
+    """``(G1, G2, G3)`` ``(J,)`` of the line whose joint rows ``(GRID, J)`` are taken at ``s`` evenly spaced in
+    [0, 1] (``arm``'s joints in the columns ``cols``): ``G1`` the bound of ``max |dP/ds|``, ``G2``, ``G3`` the
+    largest second and third derivatives by finite differences, times :data:`GAIN_MARGIN` (module docstring).
+
+    Raises:
+        LimitError: the line passes through a stretched or folded posture (no finite rate bound) or jumps.
+    """
     h = 1.0 / (rows.shape[0] - 1)
     jump = np.max(np.abs(np.diff(rows, axis=0)))
     if jump > MAX_STEP:
         raise LimitError(f'{label}: the straight line into it changes a joint by {jump:.3g} between neighbouring '
                          'points: the arm would change its branch or wrap a joint on the way; move the entry')
+    s = np.linspace(0.0, 1.0, rows.shape[0])
+    G1 = np.zeros(rows.shape[1])
+    G1[cols] = np.max(line_rate_bounds(arm, rows[0, cols], rows[-1, cols], s[:-1], s[1:]), axis=0)
+    if not np.all(np.isfinite(G1)):
+        raise LimitError(f'{label}: the straight line into it passes through a stretched or folded arm posture; '
+                         'move the entry or the station')
     d1 = np.gradient(rows, h, axis=0, edge_order=2)
     d2 = np.gradient(d1, h, axis=0, edge_order=2)
     d3 = np.gradient(d2, h, axis=0, edge_order=2)
-    return tuple(GAIN_MARGIN * np.max(np.abs(d), axis=0) for d in (d1, d2, d3))  # type: ignore[return-value]
+    return G1, GAIN_MARGIN * np.max(np.abs(d2), axis=0), GAIN_MARGIN * np.max(np.abs(d3), axis=0)

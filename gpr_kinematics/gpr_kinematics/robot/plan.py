@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import LimitError
+from ..errors import InputError, LimitError
 from .description import RobotDescription
 from .forward import robot_forward
 from .inverse import solve_stations
@@ -138,7 +138,8 @@ def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
     try:
         for m in line_moves(way):
             label = f'{program.source}: {plan_labels[m + 1]}'
-            g = line_gains(move_rows(robot, way, positions, m, grid, label), label)
+            cols = slices[robot.arm_names.index(way.arm[m + 1])]
+            g = line_gains(robot.arm(way.arm[m + 1]), cols, move_rows(robot, way, positions, m, grid, label), label)
             for k in range(3):
                 gains[k][m] = g[k]
         timing = parameterise(positions, velocity, acceleration, way.time, way.dwell, names, plan_labels,
@@ -182,7 +183,12 @@ def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | Non
     """Sample ``plan`` at ``rate`` [Hz] (or at ``times`` [s]); forward kinematics of every sample (limits
     checked)."""
     robot = plan.robot
-    s = plan_samples(plan, sample(plan.timing, rate) if times is None else sample_at(plan.timing, times))
+    if times is None:
+        if rate is None:
+            raise InputError('sample_plan needs a rate or times')
+        s = plan_samples(plan, sample(plan.timing, rate))
+    else:
+        s = plan_samples(plan, sample_at(plan.timing, times))
     _, _, _, slices = joint_limits(robot)
     arm_of = np.array(plan.waypoints.arm)[s.target]
     S = len(s)

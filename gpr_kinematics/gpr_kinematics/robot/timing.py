@@ -79,7 +79,7 @@ def unit_profiles(V: Array, A: Array, J: Array) -> Profiles:
     return _with_speed(v, As, J, still)
 
 
-def _with_speed(v: Array, A: Array, J: Array, still: Array) -> Profiles:
+def _with_speed(v: Array, A: Array, J: Array, still: NDArray[np.bool_]) -> Profiles:
     tj, tc, peak = _accel_time(v, A, J)
     ta = 2 * tj + tc
     with np.errstate(invalid='ignore', divide='ignore'):

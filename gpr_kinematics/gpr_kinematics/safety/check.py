@@ -17,8 +17,9 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..robot.plan import ProgramPlan
+from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import MARGIN, TOLERANCE, Body, ClearanceReport, cell_bodies, clearance, default_pairs, robot_body_set
+from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
 from .motion import PlanMotion
 from .slip import slip_series
 
@@ -140,7 +141,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     slip ratio against time (for the plot)."""
     wafers = wafer_plan(plan)
     robot = plan.robot
-    bodies, _ = robot_body_set(robot, wafers.carried)
+    bodies = robot_body_set(robot, wafers.carried)
     bodies += cell_bodies(cell)
     index = plan.program.stations.index()
     st = plan.program.stations.stations
@@ -150,13 +151,13 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
         wafer = next(b for b in bodies if b.frame and b.frame.endswith('_wafer'))
         bodies.append(Body(f'wafer@{name}', 'cylinder', wafer.size, None, R, st.position[k], windows))
     pairs = []
-    for i, j, _ in default_pairs(bodies):
+    for i, j in default_pairs(bodies):
         skip: Windows = ()
         for a, b in ((bodies[i], bodies[j]), (bodies[j], bodies[i])):
             if a.frame and a.arm and a.frame == f'{a.arm}_blade' and b.name.startswith('wafer@'):
                 skip = wafers.contact.get((a.arm, b.name[len('wafer@'):]), ())
         pairs.append((i, j, skip))
-    report = clearance(robot, cell, PlanMotion(plan), margin, tolerance, bodies, pairs)
+    report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance)
     times = _slip_times(plan)
     carrying = np.full(times.shape, '', dtype=object)
     for arm, windows in wafers.carried.items():
@@ -183,7 +184,7 @@ def _slip_times(plan: ProgramPlan) -> Array:
 
 def _waypoint_at(plan: ProgramPlan, t: float) -> int:
     """The waypoint held at ``t`` or moved to."""
-    return int(min(np.searchsorted(plan.timing.depart, t - 1e-12), len(plan.timing.arrive) - 1))
+    return min(int(np.searchsorted(plan.timing.depart, t - 1e-12)), len(plan.timing.arrive) - 1)
 
 
 def _label_at(plan: ProgramPlan, t: float) -> str:
