@@ -55,7 +55,8 @@ _DELETE = object()
 
 
 @pytest.mark.parametrize('path, value, pattern', [
-    (('colour',), 'red', r'test_robot.yaml: unknown key\(s\) colour; allowed keys: arms, base, collision, gpr, name, rods, wafer'),
+    (('colour',), 'red',
+     r'test_robot.yaml: unknown key\(s\) colour; allowed keys: arms, base, collision, gpr, name, rods, wafer'),
     (('name',), 'my robot', r"name = 'my robot' is invalid; allowed: a name of letters, digits and _"),
     (('gpr', 'radius'), -1, r'test_robot.yaml: gpr: overrides: radius = -1 is invalid; allowed: metres'),
     (('gpr', 'config'), 'missing.yaml', r"gpr: cannot read config file .*missing.yaml"),

@@ -14,11 +14,14 @@ Publishes, from the robot description (``robot_file``, default the shipped examp
   (rod k at its length ``q_k``); and for every ``gpr/joint_states`` received, stamped with its stamp, each arm's
   links (``platform_frame -> <arm>_link1 -> ... -> <arm>_link<n>``) at the joint values it carries. An arm whose
   joints a message does not carry (the rods-only joint states of a platform stream) is drawn at its ``home``
-  posture, as ``joint_state_publisher`` would draw a joint nobody publishes.
+  posture, as ``joint_state_publisher`` would draw a joint nobody publishes;
+- ``gpr/cell`` (visualization_msgs/MarkerArray, transient local), when ``cell_file`` names a process cell: its
+  obstacles in the cell's frame (:func:`gpr_kinematics.safety.markers.cell_marker_array`).
 
 A robot_state_publisher cannot do this: the platform closes an overconstrained loop, so its pose is not a
 function of a joint tree; here it is the kinematics' answer carried by the state message. Parameters:
-``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``queue_depth`` (see :mod:`.specs`).
+``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``queue_depth``, ``cell_file`` (see
+:mod:`.specs`).
 """
 from __future__ import annotations
 
@@ -36,7 +39,9 @@ from gpr_interfaces.msg import PlatformState
 
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER
-from .conversions import transform_msg
+from ..safety.cell import load_cell
+from ..safety.markers import cell_marker_array
+from .conversions import make_message, message_class, transform_msg
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import latched_qos, stream_qos
 from .runtime import GprNode, run
@@ -74,6 +79,12 @@ class StatePublisherNode(GprNode):
         static = [_stamped(now, j.parent, j.child, *self.model.transform(j.name))
                   for j in self.model.joints if j.kind == 'fixed']
         self.pub_static.publish(TFMessage(transforms=static))
+        self.cell = load_cell(p['cell_file']) if p['cell_file'] else None
+        if self.cell is not None:
+            self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), 'gpr/cell',
+                                                  latched_qos())
+            header = make_message('std_msgs/msg/Header', frame_id=self.cell.frame, stamp=now)
+            self.pub_cell.publish(cell_marker_array(make_message, header, self.cell))
         depth = int(p['queue_depth'])
         self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth))
         # gpr/platform_state last: a trajectory node waiting for its subscribers finds the other one matched by then.
@@ -83,7 +94,9 @@ class StatePublisherNode(GprNode):
         self.get_logger().info(f'publishing robot_description (robot {robot.name}, {len(self.model.links)} links), '
                                f'/tf_static ({len(static)} fixed joints) and /tf per gpr/platform_state '
                                f'({self.base} -> {self.platform}, {self.nominal}, rods) and per gpr/joint_states '
-                               f'(arms {", ".join(robot.arm_names)})')
+                               f'(arms {", ".join(robot.arm_names)})'
+                               + (f'; gpr/cell: {len(self.cell.obstacles)} obstacles of {self.cell.source}'
+                                  if self.cell is not None else ''))
 
     def transforms(self, state: PlatformState) -> TFMessage:
         """The transforms of one platform state (see the module docstring)."""

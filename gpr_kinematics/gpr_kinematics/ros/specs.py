@@ -284,6 +284,9 @@ STATE_PUBLISHER: tuple[ParamSpec, ...] = (
               constraint='a tf frame name', read_only=True),
     ParamSpec('queue_depth', _I, 1000, 'gpr/platform_state subscription and /tf publisher depth (reliable)',
               (1, 100000), read_only=True),
+    ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): its obstacles published latched on gpr/cell '
+              '(visualization_msgs/MarkerArray); empty: none', constraint='a readable cell file or empty',
+              read_only=True),
 )
 
 #: Executables and the parameters they declare, besides ``robot_file``, ``config_file`` and the ``GprConfig`` keys
