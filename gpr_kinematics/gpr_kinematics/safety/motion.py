@@ -35,7 +35,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import forward_batch
+from ..core import ForwardBatch, forward_batch
+from ..core.config import GprConfig
 from ..core.machine import MachineGeometry
 from ..core.virtual_joints import coordinate_scale, make_model
 from ..robot.description import RobotDescription
@@ -172,6 +173,21 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
     return A, omega_t + omega_n, rv
 
 
+def platform_state(cfg: GprConfig, gpr: ForwardBatch) -> tuple[Array, Array, Array]:
+    """At forward solutions ``gpr``: ``sigma`` the smallest singular value of ``dF/dX`` in the solver's metric,
+    ``gamma`` the largest ``|dr_k/dX|`` in that metric and the largest joint displacement [m] ``(N,)`` each."""
+    vjm = make_model(cfg)
+    scale = coordinate_scale(vjm, cfg)
+    _, J, _ = vjm.closure(gpr.virtual_joints, gpr.side_lengths ** 2)
+    sigma = np.linalg.svd(J / scale, compute_uv=False)[:, -1]
+    _, dlin, dang = vjm.points_and_partials(gpr.virtual_joints)
+    g2 = np.sum(dlin ** 2, axis=2) / scale[None, :3] ** 2
+    if vjm.size == 6:
+        g2 = g2 + np.sum(dang ** 2, axis=2) / scale[None, 3:] ** 2
+    return (np.asarray(sigma, dtype=np.float64), np.sqrt(np.max(g2, axis=1)),
+            np.max(gpr.joint_displacement, axis=1))
+
+
 @dataclass(frozen=True)
 class PlanMotion:
     """A checked program as a motion (module docstring)."""
@@ -198,16 +214,8 @@ class PlanMotion:
         for arm, cols in zip(robot.arms, slices, strict=True):
             for frame, parent, pose in arm_transforms(arm, rows[:, cols]):
                 poses[frame] = poses[parent].compose(pose)
-        vjm = make_model(cfg)
-        scale = coordinate_scale(vjm, cfg)
-        _, J, _ = vjm.closure(gpr.virtual_joints, gpr.side_lengths ** 2)
-        sigma = np.linalg.svd(J / scale, compute_uv=False)[:, -1]
-        _, dlin, dang = vjm.points_and_partials(gpr.virtual_joints)
-        g2 = np.sum(dlin ** 2, axis=2) / scale[None, :3] ** 2
-        if vjm.size == 6:
-            g2 = g2 + np.sum(dang ** 2, axis=2) / scale[None, 3:] ** 2
-        return Snapshot(rows, {k: (p.position, p.rotation) for k, p in poses.items()}, np.asarray(sigma, np.float64),
-                        np.sqrt(np.max(g2, axis=1)), np.max(gpr.joint_displacement, axis=1))
+        sigma, gamma, displacement = platform_state(cfg, gpr)
+        return Snapshot(rows, {k: (p.position, p.rotation) for k, p in poses.items()}, sigma, gamma, displacement)
 
     def bounds(self, t0: Array, t1: Array, lev: Levers, sigma: Array, gamma: Array, displacement: Array
                ) -> IntervalBounds:
