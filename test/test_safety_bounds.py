@@ -171,3 +171,25 @@ def test_wafer_windows_follow_the_program():
     np.testing.assert_allclose(np.ravel(w.carried['arm2']), np.ravel(list(zip(arrive[::2], arrive[1::2],
                                                                               strict=True))))
     assert w.carried['arm1'] == () and [s for s, _ in w.stations] == ['load_port_1', 'pm1', 'pm2', 'load_port_1']
+
+
+def test_trapezoids_and_s_curves_of_the_cell_program():
+    """Without jerk limits the moves are trapezoids: straight entries take time too (not zero), each move is no
+    longer than its S-curve, and the joints stay within their velocity limits on the lines."""
+    import dataclasses
+
+    trap = dataclasses.replace(ROBOT, rods=dataclasses.replace(ROBOT.rods, jerk=None), arms=tuple(
+        dataclasses.replace(a, joints=tuple(dataclasses.replace(j, jerk=None) for j in a.joints)) for a in ROBOT.arms))
+    s_curve = PLANS['example_cell_program']
+    plan = plan_program(trap, load_program(config_path('programs/example_cell_program.yaml')))
+    assert np.all(np.isinf(plan.timing.jerk)) and np.all(np.isfinite(s_curve.timing.jerk))
+    moving = np.any(np.abs(np.diff(plan.positions, axis=0)) > 1e-12, axis=1)
+    assert np.all(plan.timing.duration[moving] > 0.0)
+    assert np.all(plan.timing.duration <= s_curve.timing.duration + 1e-12)
+    _, velocity, _, _ = joint_limits(ROBOT)
+    s = np.linspace(0.0, 1.0, 2001)
+    for m in line_moves(plan.waypoints):
+        rows = move_rows(trap, plan.waypoints, plan.positions, m, s)
+        speed = np.max(np.abs(np.diff(rows, axis=0)) / np.diff(s)[:, None], axis=0) * plan.timing.profiles.v[m]
+        assert np.all(speed <= velocity * (1 + 1e-9))
+    assert 1.0 < s_curve.timing.total / plan.timing.total < 1.2

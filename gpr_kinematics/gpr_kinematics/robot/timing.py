@@ -225,8 +225,9 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     V, A, J = _limits(G1, velocity), _limits(G1, acceleration), _limits(G1, jerk_lim)
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         fa = np.min(np.where(G2 > 0, acceleration / (G1 * A[:, None] + G2 * V[:, None] ** 2), np.inf), axis=1)
-        fj = np.min(np.where((G2 > 0) | (G3 > 0), jerk_lim / (G1 * J[:, None] + 3 * G2 * (V * A)[:, None]
-                                                              + G3 * V[:, None] ** 3), np.inf), axis=1)
+        curved = ((G2 > 0) | (G3 > 0)) & np.isfinite(jerk_lim)   # without a jerk limit, only the acceleration
+        fj = np.min(np.where(curved, jerk_lim / (G1 * J[:, None] + 3 * G2 * (V * A)[:, None] + G3 * V[:, None] ** 3),
+                             np.inf), axis=1)
     c = np.minimum(1.0, np.minimum(np.sqrt(fa), np.cbrt(fj)))
     V, A, J = V * c, A * c * c, J * c ** 3
     p = unit_profiles(V, A, J)
