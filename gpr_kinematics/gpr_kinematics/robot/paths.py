@@ -3,11 +3,10 @@
 A move into an ``exit`` waypoint, or out of an ``entry`` one (:func:`gpr_kinematics.robot.program.expand`), keeps
 the wafer on the segment from the pose ``p_0`` of its first waypoint to ``p_1`` of its second, with their common
 orientation: ``p(s) = p_0 + s (p_1 - p_0)``, ``s`` in [0, 1] (the profile of :mod:`gpr_kinematics.robot.timing`).
-Every point is solved exactly (:func:`~gpr_kinematics.robot.inverse.solve_stations`: the rods, and the arm's joints
-in closed form on the waypoints' branch; a 4-joint arm holds its redundant joint), so the wafer lies on the line to
-rounding (~1e-15 m) at every instant, not only at samples. The segment is parallel to the station plane (both ends
-are the same station pose moved along its heading), so the platform's normal and height, hence the rods, do not
-change along it: only the arm moves. The other arm holds its joints.
+The segment is parallel to the station plane (both ends are the same station pose moved along its heading), so the
+platform's normal and height, hence the rods, do not change along it: only the arm moves, solved in closed form at
+every point on the waypoints' branch (a 4-joint arm holds its redundant joint), so the wafer lies on the line to
+rounding (~1e-15 m) at every instant, not only at samples. The other arm holds its joints.
 
 For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's first derivative is **bounded**,
 not sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed-form bounds of
@@ -21,10 +20,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core import forward_batch
 from ..errors import LimitError
 from .description import Arm, RobotDescription
-from .inverse import solve_stations
-from .planar_arm import line_rate_bounds
+from .forward import base_pose
+from .inverse import _arm_target, _heading_in, solve_stations
+from .planar_arm import branch_sign, line_rate_bounds, solve_arm
 from .stations import Stations
 
 Array = NDArray[np.float64]
@@ -47,22 +48,32 @@ def line_stations(way: Stations, m: int, s: Array) -> Stations:
 
 def line_positions(robot: RobotDescription, way: Stations, arm: str, branch: str, start: Array, cols: slice,
                    m: int, s: Array, label: str = '') -> Array:
-    """Joint rows ``(len(s), J)`` on the line of move ``m``: ``start`` (the joints at waypoint ``m``) with the rods
-    and ``arm``'s columns ``cols`` solved at each point (module docstring).
+    """Joint rows ``(len(s), J)`` on the line of move ``m``: ``start`` (the joints at waypoint ``m``) with ``arm``'s
+    columns ``cols`` solved at each point (module docstring). The line lies in the station plane, so the rods stay
+    those of ``start`` and the platform pose with them; the arm is solved in closed form for the wafer targets in the
+    platform (the steps of :func:`~gpr_kinematics.robot.inverse.solve_stations` after the platform).
 
     Raises:
         LimitError: a point of the line out of reach or beyond a limit (the move and where on it).
     """
-    sol = solve_stations(robot, line_stations(way, m, s), arm, branch=branch, check=False)
-    if not sol.feasible.all():
-        k = int(np.argmax(~sol.feasible))
+    a = robot.arm(arm)
+    stations = line_stations(way, m, s)
+    n = s.shape[0]
+    base = base_pose(robot, n)
+    gpr = forward_batch(np.repeat(start[None, :3], n, axis=0), robot.config, check_limits=False)
+    R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
+    w = np.einsum('nji,nj->ni', gpr.rotation, base.inverse_apply(stations.position) - gpr.position)
+    p_m, phi_m = _arm_target(a, w, _heading_in(gpr.rotation, R_b))
+    sol = solve_arm(a, p_m, phi_m, np.full(n, branch_sign(branch)))
+    bad = ~sol.reachable | np.any(sol.violation > 0.0, axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
         try:
             solve_stations(robot, line_stations(way, m, s[k:k + 1]), arm, branch=branch)
         except LimitError as exc:
             raise LimitError(f'{label}: the straight line into it, at {s[k]:.3g} of its length: {exc}') from None
-    out = np.repeat(start[None, :], s.shape[0], axis=0)
-    out[:, :3] = sol.rods
-    out[:, cols] = sol.joints
+    out = np.repeat(start[None, :], n, axis=0)
+    out[:, cols] = sol.theta
     return out
 
 
