@@ -47,9 +47,13 @@ TOLERANCE = 5e-5
 RELATIVE = 0.05
 NEAR = 0.02
 #: Base sampling of the motion [Hz]; the shortest interval split [s]; most refinement rounds.
-BASE_RATE = 5.0
+BASE_RATE = 1.0
 MIN_INTERVAL = 1e-7
 MAX_ROUNDS = 60
+#: Most (pair, interval) items refined at once (pairs are taken in chunks), most instants computed: beyond, the
+#: bounds reached are reported (lower bounds still, less tight than the tolerance).
+CHUNK_ITEMS = 400_000
+MAX_INSTANTS = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -167,6 +171,13 @@ class _Search:
         self.pb = np.array([p[1] for p in pairs], dtype=np.int64)
         self.skip = [p[2] for p in pairs]
         self.lev: Levers = levers(motion.plan.robot, bodies)
+        # the motion bounds are computed for the robot's bodies only; a fixed body reads the zero column after them
+        sub = np.array([k for k, b in enumerate(bodies) if b.frame is not None], dtype=np.int64)
+        self.col = np.full(len(bodies), sub.size, dtype=np.int64)
+        self.col[sub] = np.arange(sub.size)
+        lv = self.lev
+        self.robot_lev = Levers(lv.lever[:, sub], lv.reach[sub], lv.platform[sub], tuple(lv.arm[k] for k in sub),
+                                lv.rides[sub])
         self.store = Store(motion, bodies)
         knots = np.asarray(motion.knots, dtype=float)
         self.base = self.store.add(np.unique(np.concatenate([knots, np.arange(0.0, knots[-1], 1.0 / rate)])))
@@ -184,11 +195,7 @@ class _Search:
     def sphere(self, p: Ints, i: Ints) -> Array:
         """Bounding-sphere lower bounds of pairs ``p`` at instants ``i``."""
         a, b = self.pa[p], self.pb[p]
-        ca, cb = np.empty((p.size, 3)), np.empty((p.size, 3))
-        for k in np.unique(np.concatenate([a, b])):
-            for sel, c in ((a == k, ca), (b == k, cb)):
-                if sel.any():
-                    c[sel] = self.store.pose(int(k), i[sel])[1]
+        ca, cb = self.store.poses(a, i, False)[1], self.store.poses(b, i, False)[1]
         return np.asarray(np.linalg.norm(ca - cb, axis=1) - self.radius[a] - self.radius[b], dtype=np.float64)
 
     def boxes(self, p: Ints, i: Ints) -> None:
@@ -199,12 +206,7 @@ class _Search:
         if not p.size:
             return
         a, b = self.pa[p], self.pb[p]
-        Ra, Rb = np.empty((p.size, 3, 3)), np.empty((p.size, 3, 3))
-        ca, cb = np.empty((p.size, 3)), np.empty((p.size, 3))
-        for k in np.unique(np.concatenate([a, b])):
-            for sel, R, c in ((a == k, Ra, ca), (b == k, Rb, cb)):
-                if sel.any():
-                    R[sel], c[sel] = self.store.pose(int(k), i[sel])
+        (Ra, ca), (Rb, cb) = self.store.poses(a, i), self.store.poses(b, i)
         self.sat.put(keys, box_lower_bound(Ra, ca, self.half[a], Rb, cb, self.half[b])[:, None])
 
     def lower(self, p: Ints, i: Ints) -> tuple[Array, Ints]:
@@ -218,38 +220,57 @@ class _Search:
         return out, np.where(exact, 2, np.where(boxed, 1, 0)).astype(np.int64)
 
     def run(self) -> ClearanceReport:
-        P = self.pa.shape[0]
+        """Every pair, in chunks of at most :data:`CHUNK_ITEMS` base intervals (the instants are shared)."""
+        P, K = self.pa.shape[0], self.base.shape[0] - 1
+        upper, floor, series = np.full(P, np.inf), np.full(P, np.inf), np.full(K, np.inf)
+        present = np.zeros(P, dtype=bool)
+        static_p, static_k = [], []
+        step = max(1, CHUNK_ITEMS // max(K, 1))
+        for start in range(0, P, step):
+            items, sp, sk = self._items(np.arange(start, min(P, start + step)))
+            present[items.p] = True
+            static_p.append(sp)
+            static_k.append(sk)
+            self._refine(items, upper, floor, series)
+        certified = np.minimum(floor, upper)
+        if static_p:
+            sp, sk = np.concatenate(static_p), np.concatenate(static_k)
+            np.minimum.at(series, sk, certified[sp])
+        return self._report(certified, present, self.store.t(self.base), series)
+
+    def _items(self, pairs: Ints) -> tuple[_Items, Ints, Ints]:
+        """The base intervals of ``pairs`` on which both bodies exist and no contact is intended; a pair of bodies
+        that never move keeps one (one instant stands for all); also those pairs' other intervals."""
         b0, b1 = self.base[:-1], self.base[1:]
         t0, t1 = self.store.t(b0), self.store.t(b1)
-        ip, ik = [], []
-        for p in range(P):
+        ip, ik = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
+        for p in pairs.tolist():
             A, B = self.bodies[int(self.pa[p])], self.bodies[int(self.pb[p])]
             ok = _windows_mask(A.windows, t0, t1, True) & _windows_mask(B.windows, t0, t1, True) & \
                 _windows_mask(self.skip[p], t0, t1, False)
             sel = np.flatnonzero(ok)
-            ip.append(np.full(sel.size, p))
-            ik.append(sel)
-        item_p, item_k = np.concatenate(ip).astype(np.int64), np.concatenate(ik).astype(np.int64)
-        static = self.static[item_p]   # a pair of bodies that never move: one instant stands for all
-        self.static_base = (item_p[static], item_k[static])
-        first = np.r_[True, item_p[1:] != item_p[:-1]]
-        keep = ~static | first
+            ip.append(np.full(sel.size, p, dtype=np.int64))
+            ik.append(sel.astype(np.int64))
+        item_p, item_k = np.concatenate(ip), np.concatenate(ik)
+        static = self.static[item_p]
+        keep = ~static | np.r_[True, item_p[1:] != item_p[:-1]]
+        sp, sk = item_p[static], item_k[static]
         item_p, item_k = item_p[keep], item_k[keep]
-        items = _Items(item_p, b0[item_k], np.where(self.static[item_p], b0[item_k], b1[item_k]), item_k)
-        upper, floor, series = np.full(P, np.inf), np.full(P, np.inf), np.full(b0.shape[0], np.inf)
-        present = np.zeros(P, dtype=bool)
-        present[items.p] = True
-        if items.p.size:   # a first exact distance per pair, where its spheres come closest
-            lb0, lb1 = self.sphere(items.p, items.i0), self.sphere(items.p, items.i1)
-            lb = np.minimum(lb0, lb1)
-            order = np.lexsort((lb, items.p))
-            sel = order[np.flatnonzero(np.r_[True, items.p[order][1:] != items.p[order][:-1]])]
-            self.exact.measure(items.p[sel], np.where(lb0[sel] <= lb1[sel], items.i0[sel], items.i1[sel]),
-                               self.pa, self.pb)
-            self._motion(items)
+        return _Items(item_p, b0[item_k], np.where(self.static[item_p], b0[item_k], b1[item_k]), item_k), sp, sk
+
+    def _refine(self, items: _Items, upper: Array, floor: Array, series: Array) -> None:
+        """The branch and bound of the module docstring on ``items``, lowering ``upper`` (the smallest distance
+        measured per pair), ``floor`` (the smallest bound settled per pair) and ``series`` (per base interval)."""
+        if not items.p.size:
+            return
+        # a first exact distance per pair, where its spheres come closest
+        lb0, lb1 = self.sphere(items.p, items.i0), self.sphere(items.p, items.i1)
+        order = np.lexsort((np.minimum(lb0, lb1), items.p))
+        sel = order[np.flatnonzero(np.r_[True, items.p[order][1:] != items.p[order][:-1]])]
+        self.exact.measure(items.p[sel], np.where(lb0[sel] <= lb1[sel], items.i0[sel], items.i1[sel]),
+                           self.pa, self.pb)
+        self._motion(items)
         for _ in range(MAX_ROUNDS):
-            if not items.p.size:
-                break
             (d0, l0), (d1, l1) = self.lower(items.p, items.i0), self.lower(items.p, items.i1)
             for d, lv in ((d0, l0), (d1, l1)):
                 np.minimum.at(upper, items.p[lv == 2], d[lv == 2])
@@ -260,7 +281,7 @@ class _Search:
             np.minimum.at(floor, items.p[done], bound[done])
             np.minimum.at(series, items.base[done], bound[done])
             items, l0, l1 = items.take(~done), l0[~done], l1[~done]
-            if not items.p.size:
+            if not items.p.size or self.store.n > MAX_INSTANTS:
                 break
             # ends known by their spheres get the separating-axis bound; the intervals it does not settle get
             # exact distances at both ends; intervals with exact ends are split
@@ -269,9 +290,10 @@ class _Search:
                 r = items.take(rough)
                 self.boxes(np.concatenate([r.p, r.p]), np.concatenate([r.i0, r.i1]))
                 (e0, m0), (e1, m1) = self.lower(r.p, r.i0), self.lower(r.p, r.i1)
-                settled = self._bound(r, e0, e1, (m0 == 2) & (m1 == 2)) >= (upper - tol)[r.p]
-                np.minimum.at(floor, r.p[settled], self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))[settled])
-                np.minimum.at(series, r.base[settled], self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))[settled])
+                rb = self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))
+                settled = rb >= (upper - tol)[r.p]
+                np.minimum.at(floor, r.p[settled], rb[settled])
+                np.minimum.at(series, r.base[settled], rb[settled])
                 keep = np.ones(items.p.shape, dtype=bool)
                 keep[np.flatnonzero(rough)[settled]] = False
                 items, l0, l1 = items.take(keep), l0[keep], l1[keep]
@@ -279,17 +301,13 @@ class _Search:
             if measure.any():
                 m = items.take(measure)
                 self.exact.measure(np.concatenate([m.p, m.p]), np.concatenate([m.i0, m.i1]), self.pa, self.pb)
-            split = ~measure
-            if split.any():
-                items = self._split(items, split)
-        if items.p.size:   # out of rounds: what is left keeps its bound
+            if (~measure).any():
+                items = self._split(items, ~measure)
+        if items.p.size:   # out of rounds or instants: what is left keeps its bound (a lower bound still)
             (d0, l0), (d1, l1) = self.lower(items.p, items.i0), self.lower(items.p, items.i1)
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
             np.minimum.at(floor, items.p, bound)
             np.minimum.at(series, items.base, bound)
-        certified = np.minimum(floor, upper)
-        np.minimum.at(series, self.static_base[1], certified[self.static_base[0]])
-        return self._report(certified, present, self.store.t(self.base), series)
 
     def _split(self, items: _Items, split: NDArray[np.bool_]) -> _Items:
         """Split the intervals ``split`` at their midpoints (one new instant per distinct interval)."""
@@ -307,14 +325,16 @@ class _Search:
         inv = inv.ravel()
         data = self.store.data
         ends = (items.i0[first], items.i1[first])
-        mb = self.motion.bounds(self.store.t(ends[0]), self.store.t(ends[1]), self.lev,
+        mb = self.motion.bounds(self.store.t(ends[0]), self.store.t(ends[1]), self.robot_lev,
                                 np.stack([data['sigma'][e] for e in ends], axis=1),
                                 np.stack([data['gamma'][e] for e in ends], axis=1),
                                 np.stack([data['disp'][e] for e in ends], axis=1))
-        a, b = self.pa[items.p], self.pb[items.p]
-        items.eps = np.where(self.rigid[items.p], 0.0, mb.platform[inv, a] + mb.platform[inv, b])
-        items.mu = mb.arm[inv, a] + mb.arm[inv, b] + items.eps
-        items.delta = mb.shift[inv, a] - mb.shift[inv, b]
+        a, b = self.col[self.pa[items.p]], self.col[self.pb[items.p]]
+        arm, plat = (np.pad(x, ((0, 0), (0, 1))) for x in (mb.arm, mb.platform))
+        shift = np.pad(mb.shift, ((0, 0), (0, 1), (0, 0)))
+        items.eps = np.where(self.rigid[items.p], 0.0, plat[inv, a] + plat[inv, b])
+        items.mu = arm[inv, a] + arm[inv, b] + items.eps
+        items.delta = shift[inv, a] - shift[inv, b]
 
     def _bound(self, items: _Items, d0: Array, d1: Array, exact: NDArray[np.bool_]) -> Array:
         """The certificate of every interval (module docstring)."""

@@ -33,6 +33,9 @@ class Store:
     def __init__(self, motion: PlanMotion, bodies: Sequence[Body]) -> None:
         self.motion, self.bodies, self.n = motion, bodies, 0
         self.data: dict[str, Array] = {}
+        self.moving = [k for k, b in enumerate(bodies) if b.frame is not None]
+        self.fixed_R = np.stack([b.rotation for b in bodies]) if bodies else np.zeros((0, 3, 3))
+        self.fixed_c = np.stack([b.position for b in bodies]) if bodies else np.zeros((0, 3))
 
     def add(self, t: Array) -> Ints:
         snap = self.motion.snapshot(t)
@@ -61,6 +64,19 @@ class Store:
         if b.frame is None:
             return np.broadcast_to(b.rotation, (idx.shape[0], 3, 3)), np.broadcast_to(b.position, (idx.shape[0], 3))
         return self.data[f'R{k}'][idx], self.data[f'c{k}'][idx]
+
+    def poses(self, body: Ints, idx: Ints, rotations: bool = True) -> tuple[Array, Array]:
+        """World rotations ``(n, 3, 3)`` (if asked; else empty) and centres ``(n, 3)`` of bodies ``body`` at instants
+        ``idx``: fixed bodies by indexing, each moving body by one mask."""
+        R = self.fixed_R[body] if rotations else np.zeros((0, 3, 3))
+        c = self.fixed_c[body]
+        for k in self.moving:
+            sel = body == k
+            if sel.any():
+                c[sel] = self.data[f'c{k}'][idx[sel]]
+                if rotations:
+                    R[sel] = self.data[f'R{k}'][idx[sel]]
+        return R, c
 
 
 class Table:
