@@ -78,6 +78,12 @@ def _print_safety(r: Any) -> None:
     print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, certified '
           f'between samples; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} at '
           f'{r.max_slip_at:.3f} s ({r.slip_label})')
+    carried = [m for m in r.moves if m.max_slip_ratio > 0.0]
+    if carried:
+        head = 'waypoint (the move into it and its hold)'
+        print(f'    {head:<48} {"from [s]":>9} {"to [s]":>9} {"max slip ratio":>15}')
+        for m in carried:
+            print(f'    {m.label:<48} {m.start:>9.3f} {m.end:>9.3f} {m.max_slip_ratio:>15.3f}')
     if r.collisions:
         c = r.collisions[0]
         print(f'  UNSAFE: {len(r.collisions)} pair(s) below the margin; the first:')
