@@ -19,7 +19,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ('inputs',),
     ('core',),
     ('robot', 'mechanisms'),
-    ('workspace', 'calibration'),
+    ('workspace', 'calibration', 'safety'),
     ('bags',),
     ('ros',),
     ('nodes',),

@@ -217,11 +217,16 @@ def test_rviz_configuration():
     assert model['TF Prefix'] == ''            # the URDF's links carry the frame prefix themselves
     assert 'rviz_default_plugins/TF' in displays
     topics = {d['Topic']['Value'] for d in manager['Displays'] if 'Topic' in d}
-    assert topics == {'gpr/markers', 'gpr/platform_pose', 'gpr/nominal_pose', 'gpr/wafer_pose'}
-    # What the trajectory node publishes on those topics (the stream's types).
+    assert topics == {'gpr/markers', 'gpr/platform_pose', 'gpr/nominal_pose', 'gpr/wafer_pose', 'gpr/cell'}
+    # the process cell of state_publisher_node: a MarkerArray published once, latched
+    cell = next(d for d in manager['Displays'] if d.get('Topic', {}).get('Value') == 'gpr/cell')
+    assert cell['Class'] == 'rviz_default_plugins/MarkerArray'
+    assert cell['Topic']['Durability Policy'] == 'Transient Local'
+    # What the trajectory node publishes on the others (the stream's types).
     from gpr_kinematics.bags.typestore import GPR_TOPICS
 
-    shown = {d['Topic']['Value']: d['Class'].rsplit('/', 1)[1] for d in manager['Displays'] if 'Topic' in d}
+    shown = {d['Topic']['Value']: d['Class'].rsplit('/', 1)[1] for d in manager['Displays']
+             if 'Topic' in d and d['Topic']['Value'] != 'gpr/cell'}
     assert all(GPR_TOPICS['/' + t].endswith('/' + {'Pose': 'PoseStamped'}.get(c, c)) for t, c in shown.items()), shown
     for line in (LAUNCH / 'offline_loop.launch.xml').read_text().splitlines():
         if '/rviz/gpr.rviz' in line:

@@ -267,3 +267,39 @@ def test_tf_chain_world_to_wafer_equals_the_robot_core_for_every_sample(robot_ru
     # Both arms moved and both were in use.
     assert {rs.arm for rs in robot_states} == {'arm1', 'arm2'}
     np.testing.assert_allclose([list(rs.joints) for rs in robot_states], expected.joints, rtol=0, atol=1e-12)
+
+
+def test_process_cell_published_latched_as_markers(ros_environment, tmp_path):
+    """With ``cell_file``, gpr/cell is latched: a late subscriber gets one MarkerArray, a marker per obstacle at its
+    pose and size in the cell's frame; a bad cell file stops the node with one line and status 2."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.safety.cell import load_cell
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    path = config_path('cells/example_cell.yaml')
+    cell = load_cell(path)
+    ns = '/gpr_cell_markers'
+    sp = start('state_publisher_node', namespace=ns, cell_file=str(path))
+    try:
+        wait_for_log(sp, r'gpr/cell: \d+ obstacles')
+        with GprClient('gpr_test_cell', namespace=ns) as c:
+            got = c.subscribe(MarkerArray, 'gpr/cell', latched=True)
+            assert c.spin_until(lambda: got, 30), sp.output()
+            c.spin_for(0.3)
+    finally:
+        sp.stop()
+    assert len(got) == 1
+    markers = got[0].markers
+    assert len(markers) == len(cell.obstacles) and {m.header.frame_id for m in markers} == {'world'}
+    for m, ob in zip(markers, cell.obstacles, strict=True):
+        assert m.type == (Marker.CUBE if ob.kind == 'box' else Marker.CYLINDER)
+        np.testing.assert_allclose(vec(m.pose.position), ob.position, atol=1e-12)
+        np.testing.assert_allclose(matrix_from_quaternion(quat(m.pose.orientation)), ob.rotation, atol=1e-12)
+        size = ob.size if ob.kind == 'box' else (2 * ob.size[0], 2 * ob.size[0], ob.size[1])
+        np.testing.assert_allclose([m.scale.x, m.scale.y, m.scale.z], size, atol=1e-15)
+    bad = tmp_path / 'bad_cell.yaml'
+    bad.write_text('format: gpr_cell\nobstacles:\n  - {name: a, box: [-1, 1, 1], position: [0, 0, 0]}\n')
+    proc = start('state_publisher_node', namespace=ns + '_bad', cell_file=str(bad))
+    assert proc.wait(30) == 2
+    assert 'box[0] = -1 is invalid' in proc.output() and 'Traceback' not in proc.output()

@@ -36,7 +36,8 @@ COMMANDS: dict[str, str] = {
 PLUGINS: tuple[str, ...] = ()
 #: Optional third-party packages -> the extra of ``setup.py`` that installs them.
 OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ros2': 'bags', 'zstandard': 'bags',
-                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros'}
+                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros',
+                                     'fcl': 'safety'}
 
 #: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
 EXIT_USAGE = EXIT_BAD_INPUT

@@ -14,7 +14,9 @@ Publishes, from the robot description (``robot_file``, default the shipped examp
   its stamp, the robot at the joint values it carries and those it holds for the joints it does not carry:
   ``base_frame -> platform_frame`` (the exact pose: forward kinematics of the rods under the node's virtual-joint
   model), ``base_frame -> nominal_frame`` (the naive model's pose), ``gpr_rod_guide_k -> gpr_rod_k`` (rod k at its
-  length ``q_k``) and each arm's links (``platform_frame -> <arm>_link1 -> ... -> <arm>_link<n>``).
+  length ``q_k``) and each arm's links (``platform_frame -> <arm>_link1 -> ... -> <arm>_link<n>``);
+- ``gpr/cell`` (visualization_msgs/MarkerArray, transient local), when ``cell_file`` names a process cell: its
+  obstacles in the cell's frame (with ``frame_prefix``; :func:`gpr_kinematics.safety.markers.cell_marker_array`).
 
 The state is held: the joints start at the robot's rest (equal rods at mid-stroke, each arm at its ``home``; the
 robot simulator's state before its first goal) and keep the last value received, and while no ``joint_states``
@@ -25,7 +27,7 @@ after the last. ``frame_prefix`` (``r1/``) prefixes every frame, as robot_state_
 A robot_state_publisher cannot do this from the URDF alone: the platform closes an overconstrained loop (three rods,
 one platform), so its pose is not a function of a joint tree; here it is the kinematics' answer for the rods.
 Parameters: ``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``frame_prefix``, ``idle_rate``,
-``queue_depth`` (see :mod:`.specs`).
+``queue_depth``, ``cell_file`` (see :mod:`.specs`).
 """
 from __future__ import annotations
 
@@ -46,7 +48,9 @@ from ..errors import GprError
 from ..robot.controller import ControllerJoints
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER, check_frame_prefix
-from .conversions import transform_msg
+from ..safety.cell import load_cell
+from ..safety.markers import cell_marker_array
+from .conversions import make_message, message_class, transform_msg
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import latched_qos, stream_qos
 from .runtime import GprNode, one_line, run
@@ -88,6 +92,12 @@ class StatePublisherNode(GprNode):
         static = [_stamped(now, j.parent, j.child, *self.model.transform(j.name))
                   for j in self.model.joints if j.kind == 'fixed']
         self.pub_static.publish(TFMessage(transforms=static))
+        self.cell = load_cell(p['cell_file']) if p['cell_file'] else None
+        if self.cell is not None:
+            self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), 'gpr/cell',
+                                                  latched_qos())
+            header = make_message('std_msgs/msg/Header', frame_id=prefix + self.cell.frame, stamp=now)
+            self.pub_cell.publish(cell_marker_array(make_message, header, self.cell))
         depth = int(p['queue_depth'])
         self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth))
         self.create_subscription(JointState, 'joint_states', self.on_joints, stream_qos(depth))
@@ -101,7 +111,9 @@ class StatePublisherNode(GprNode):
         self.get_logger().info(f'publishing robot_description (robot {robot.name}, {len(self.model.links)} links), '
                                f'/tf_static ({len(static)} fixed joints) and /tf per joint_states ({self.base} -> '
                                f'{self.platform}, {self.nominal}, rods, arms {", ".join(robot.arm_names)}), held at '
-                               f'{p["idle_rate"]} Hz while none arrive')
+                               f'{p["idle_rate"]} Hz while none arrive'
+                               + (f'; gpr/cell: {len(self.cell.obstacles)} obstacles of {self.cell.source}'
+                                  if self.cell is not None else ''))
 
     def _pose_of(self, rods: Any) -> None:
         """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none)."""

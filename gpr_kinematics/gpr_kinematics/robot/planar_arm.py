@@ -298,3 +298,45 @@ def branch_of(arm: Arm, theta: Array) -> tuple[str, ...]:
     u, v = points[1] - points[0], points[2] - points[1]
     cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return tuple('right' if c >= 0.0 else 'left' for c in cross)
+
+
+def line_rate_bounds(arm: Arm, theta0: Array, theta1: Array, s0: Array, s1: Array) -> Array:
+    """Upper bounds ``(K, n)`` of ``|d theta_k / ds|`` over ``[s0_i, s1_i]`` on the straight line that translates the
+    wafer, its heading fixed, from the posture ``theta0 (n,)`` (``s = 0``) to ``theta1 (n,)`` (``s = 1``).
+
+    The heading is fixed, so the reduced chain's wrist axis (:func:`branch_of`'s three axes: shoulder, elbow, wrist
+    after folding a held joint) moves on a line too, ``w(s) = w_0 + s (w_1 - w_0)`` from the shoulder axis, and only
+    the two-link problem changes along it. With ``a_1``, ``a_2`` the two links (lengths ``L1``, ``L2``, relative
+    angle ``g``), ``w' = A1' a_1^perp + A2' a_2^perp`` for the links' directions ``A1``, ``A2``; crossing with
+    ``a_2``, ``a_1`` and ``a_1 + a_2 = w``:
+
+        ``|A1'| <= |w'| / (L1 |sin g|)``, ``|A2' - A1'| <= |w'| r / (L1 L2 |sin g|)``, ``|A2'| <= |w'| / (L2 |sin g|)``
+
+    for the shoulder, the elbow and the wrist (which turns by ``-A2'``: the heading is fixed); a held joint does not
+    move. On ``[s0, s1]``: ``r^2(s)`` is a convex quadratic, so its range is exact, ``r <= r_max``, and
+    ``sin^2 g = ((L1 + L2)^2 - r^2)(r^2 - (L1 - L2)^2) / (2 L1 L2)^2`` is concave in ``r^2``: its minimum is at an
+    end of that range. A line through a stretched or folded posture (``sin g = 0``) has an infinite bound.
+    """
+    axes, _, _ = chain_forward(arm, np.stack([theta0, theta1]))
+    n = len(arm.joints)
+    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
+    sh, el, wr = (axes[:, k] for k in keep)
+    L1, L2 = float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
+    w0, dw = wr[0] - sh[0], (wr[1] - sh[1]) - (wr[0] - sh[0])
+    s0, s1 = np.minimum(s0, s1), np.maximum(s0, s1)
+    speed = float(np.hypot(*dw))
+    sq = float(dw @ dw)
+    star = np.clip(-float(w0 @ dw) / sq, s0, s1) if sq > 0.0 else s0
+
+    def r2(s: Array) -> Array:
+        return np.asarray((w0[0] + s * dw[0]) ** 2 + (w0[1] + s * dw[1]) ** 2, dtype=np.float64)
+
+    lo, hi = r2(star), np.maximum(r2(s0), r2(s1))
+    sin2 = np.minimum(*(((L1 + L2) ** 2 - x) * (x - (L1 - L2) ** 2) for x in (lo, hi))) / (2.0 * L1 * L2) ** 2
+    with np.errstate(divide='ignore', invalid='ignore'):
+        sg = np.sqrt(np.maximum(sin2, 0.0))
+        rates = [speed / (L1 * sg), speed * np.sqrt(hi) / (L1 * L2 * sg), speed / (L2 * sg)]
+    out = np.zeros((s0.shape[0], n))
+    for k, rate in zip(keep, rates, strict=True):
+        out[:, k] = np.where(speed > 0.0, rate, 0.0)
+    return out

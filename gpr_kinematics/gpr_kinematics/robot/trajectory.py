@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import InputError
 from ..inputs.files import write_text
-from .plan import ProgramPlan, joint_limits
+from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
 from .timing import MAX_SAMPLES, parameterise, sample, sample_times, velocities
 
 Array = NDArray[np.float64]
@@ -131,8 +131,8 @@ def program_trajectory(plan: ProgramPlan, rate: float) -> JointTrajectory:
     """The trajectory that executes ``plan``: one point per sample at ``rate`` [Hz] (``t_k = k / rate`` and the final
     instant, as ``gpr program export --samples`` samples it), positions and velocities of the time parameterisation,
     over the rods and every arm's joints (module docstring)."""
-    s = sample(plan.timing, rate)
-    return JointTrajectory(trajectory_joint_names(plan), s.time, s.positions, velocities(plan.timing, s.time))
+    s = plan_samples(plan, sample(plan.timing, rate))
+    return JointTrajectory(trajectory_joint_names(plan), s.time, s.positions, plan_velocities(plan, s))
 
 
 def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: float) -> tuple[JointTrajectory, float]:

@@ -22,7 +22,10 @@ The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) ad
   ``base.rpy`` (joint ``gpr_base_mount``, ``/tf_static``);
 - ``<arm>_link<k>``: one frame per revolute joint (joint names: the description's, e.g. ``arm1_elbow``, the names of
   ``joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
-- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``).
+- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``);
+- ``<collision>``: the description's collision bodies (:mod:`gpr_kinematics.robot.collision`: the column on
+  ``gpr_base``, the platform disc, the links, the paddles, the wafers as discs), exactly the shapes the clearance
+  check (:mod:`gpr_kinematics.safety.clearance`) measures.
 
 For a motion stack: the joints' limits carry the description's velocities (rods: ``rods.velocity``; arm joints: their
 ``velocity``) and effort 0 (the description gives none: not modelled); every link with a shape has an ``<inertial>``,
@@ -61,6 +64,7 @@ from ..core.machine import MachineGeometry
 from ..core.messages import ROD_JOINT_NAMES
 from ..core.rotations import quaternion_from_matrix, rpy_matrix
 from ..errors import InputError
+from .collision import robot_shapes
 from .shapes import DENSITY, Inertial, Visual, default_inertial
 
 if TYPE_CHECKING:
@@ -81,8 +85,8 @@ JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
 
 @dataclass(frozen=True)
 class Link:
-    """A frame with its drawn shapes, its collision shapes (the same primitives; none: no ``<collision>``) and its
-    inertia (None: :func:`default_inertial` of the shapes)."""
+    """A frame with its drawn shapes, its collision shapes (the robot description's bodies, :mod:`.collision`; none:
+    no ``<collision>``) and its inertia (None: :func:`default_inertial` of the shapes)."""
 
     name: str
     visuals: tuple[Visual, ...] = ()
@@ -232,6 +236,11 @@ def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_f
         arm_links, arm_joints = _arm_parts(arm, platform_frame)
         links += arm_links
         joints += arm_joints
+    names = {'gpr_base': base_frame, 'gpr_platform': platform_frame}
+    shapes: dict[str, list[Visual]] = {}
+    for sh in robot_shapes(robot):
+        shapes.setdefault(names.get(sh.frame, sh.frame), []).append(Visual(sh.kind, sh.size, sh.xyz, sh.rpy))
+    links = [replace(link, collisions=tuple(shapes.get(link.name, ()))) for link in links]
     return RobotUrdf(robot.name, robot.world_frame, tuple(links), tuple(joints)).prefixed(frame_prefix)
 
 
@@ -288,12 +297,12 @@ def _v(values: Iterable[float], exact: bool = True) -> str:
     return ' '.join(_f(v, exact) for v in values)
 
 
-def _geometry(v: Visual) -> str:
+def _geometry(v: Visual, exact: bool = False) -> str:
     if v.shape == 'box':
-        return f'<box size="{_v(v.size, False)}"/>'
+        return f'<box size="{_v(v.size, exact)}"/>'
     if v.shape == 'cylinder':
-        return f'<cylinder radius="{_f(v.size[0], False)}" length="{_f(v.size[1], False)}"/>'
-    return f'<sphere radius="{_f(v.size[0], False)}"/>'
+        return f'<cylinder radius="{_f(v.size[0], exact)}" length="{_f(v.size[1], exact)}"/>'
+    return f'<sphere radius="{_f(v.size[0], exact)}"/>'
 
 
 def _inertial_xml(i: Inertial) -> str:
@@ -313,9 +322,9 @@ def _link_xml(link: Link) -> list[str]:
     for v in link.visuals:
         out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>'
                    f'{_geometry(v)}</geometry><material name={quoteattr(v.material)}/></visual>')
-    for c in link.collisions:
-        out.append(f'    <collision><origin xyz="{_v(c.xyz, False)}" rpy="{_v(c.rpy, False)}"/><geometry>'
-                   f'{_geometry(c)}</geometry></collision>')
+    for c in link.collisions:  # exact numbers: the clearance check uses these very shapes
+        out.append(f'    <collision><origin xyz="{_v(c.xyz)}" rpy="{_v(c.rpy)}"/><geometry>{_geometry(c, True)}'
+                   '</geometry></collision>')
     return [*out, '  </link>']
 
 

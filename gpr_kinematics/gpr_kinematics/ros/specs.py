@@ -305,6 +305,9 @@ STATE_PUBLISHER: tuple[ParamSpec, ...] = (
               'always there', (0.1, 1000.0), read_only=True),
     ParamSpec('queue_depth', _I, 1000, 'joint_states subscription and /tf publisher depth (reliable)',
               (1, 100000), read_only=True),
+    ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): its obstacles published latched on gpr/cell '
+              '(visualization_msgs/MarkerArray); empty: none', constraint='a readable cell file or empty',
+              read_only=True),
 )
 
 #: The robot simulator: a FollowJointTrajectory server on the robot's joints (docs/ros.md).
