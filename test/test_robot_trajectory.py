@@ -118,13 +118,13 @@ def _plan():
 
 def _position_at(plan, t):
     """The program's joints at time ``t`` (one sample), computed as the sampler does."""
-    from gpr_kinematics.robot.timing import _locate, profile
+    from gpr_kinematics.robot.timing import evaluate, locate
 
     tm = plan.timing
-    i, held, m = _locate(tm, np.array([t]))
+    i, held, m, tau = locate(tm, np.array([t]))
     if held[0]:
         return tm.positions[i[0]]
-    s = profile(np.array([t]) - tm.depart[m], tm.duration[m], tm.speed[m], tm.accel[m])
+    s = evaluate(tm.profiles, m, tau)[0]
     return tm.positions[m[0]] + s[0] * (tm.positions[m[0] + 1] - tm.positions[m[0]])
 
 
@@ -194,3 +194,28 @@ def test_trajectory_yaml_reads_back_exactly_and_embeds_in_a_goal(tmp_path):
     assert (tmp_path / 't.yaml').read_text() == text and path.endswith('t.yaml')
     with pytest.raises(InputError, match='.yaml'):
         write_trajectory(str(tmp_path / 't.csv'), traj)
+
+
+def test_a_trajectory_through_straight_entries_follows_the_line():
+    """The cell program enters chambers on straight lines: the trajectory's points are the plan's samples on the line
+    (as `gpr program export --samples`) and their velocities the time derivative of those positions."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.robot.plan import line_moves, plan_samples
+    from gpr_kinematics.robot.timing import sample_at
+
+    program = load_program(config_path('programs/example_cell_program.yaml'))
+    plan = plan_program(load_robot(program.robot), program)
+    assert line_moves(plan.waypoints), 'the cell program has straight entries'
+    traj = program_trajectory(plan, 50.0)
+    sampled = sample_plan(plan, 50.0)
+    np.testing.assert_array_equal(traj.positions, sampled.samples.positions)
+    on_line = np.isin(sampled.samples.target - 1, line_moves(plan.waypoints)) & (sampled.samples.held < 0)
+    idx = np.flatnonzero(on_line)[::7]
+    assert idx.size > 10
+    h = 1e-5
+    t = traj.time[idx]
+    ahead, back = (plan_samples(plan, sample_at(plan.timing, t + d)).positions for d in (h, -h))
+    np.testing.assert_allclose(traj.velocities[idx], (ahead - back) / (2 * h), rtol=0, atol=1e-6)
+    # and the joints' velocity limits hold along the lines
+    assert np.all(np.abs(traj.velocities) <= plan.timing.velocity * (1 + 1e-9))
