@@ -55,11 +55,14 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..robot.export import check_table_path, sample_table, waypoint_table, write_table
     from ..robot.plan import sample_plan
+    from ..robot.timing import check_rate
     if args.waypoints is None and args.samples is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json)')
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
+    if args.samples is not None:
+        check_rate(args.rate)
     _, plan = _program(args)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, Any] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
@@ -94,6 +97,6 @@ def register(sub: Any) -> None:
     p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
     p.add_argument('--waypoints', metavar='FILE', help='write the waypoint table (.csv or .json)')
     p.add_argument('--samples', metavar='FILE', help='write the sample table (.csv or .json)')
-    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100)')
+    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     robot_options(p)
     p.set_defaults(handler=_cmd_export)
