@@ -161,6 +161,8 @@ class VerifyResult:
     notes: list[str] = field(default_factory=list)
     geometry: dict[str, Any] = field(default_factory=dict)
     robot: dict[str, Any] = field(default_factory=dict)
+    #: Per topic, the numeric fields no check covers, with why (:mod:`.coverage`).
+    unchecked: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -182,6 +184,7 @@ class VerifyResult:
             'singular_crossings': self.crossings, 'max_jump_ratio_at_crossings': json_number(self.crossing_ratio),
             'elapsed_s': self.elapsed, 'read_s': self.read_time, 'checks': [c.to_dict() for c in self.checks],
             'config': json_safe(self.config), 'geometry': json_safe(self.geometry), 'robot': self.robot,
+            'unchecked_fields': self.unchecked,
         }
 
 
@@ -192,6 +195,7 @@ def format_table(result: VerifyResult) -> str:
     if result.unfinished:
         lines.append(f'note: unfinished segment(s) of a killed recorder, not read: {", ".join(result.unfinished)}')
     lines += [f'note: {n}' for n in result.notes]
+    lines += [f'note: not checked on {topic}: {"; ".join(fields)}' for topic, fields in result.unchecked.items()]
     lines.append(f'{"check":28s} {"topic":22s} {"status":6s} {"checked":>8s} {"worst":>12s} {"limit":>12s} unit')
     for c in result.checks:
         worst = '-' if c.skipped else f'{c.worst:.3e}'
