@@ -15,10 +15,13 @@ from .options import robot_of, robot_options
 from .output import emit_json
 
 
-def _program(args: argparse.Namespace) -> tuple[Any, Any]:
-    from ..robot.plan import plan_program
+def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, Any]:
+    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned."""
+    from ..robot.plan import check_sample_count, plan_program
     from ..robot.program import load_program
     program = load_program(args.program)
+    if rate is not None:
+        check_sample_count(program, rate)
     return program, plan_program(robot_of(args, program.robot), program)
 
 
@@ -63,7 +66,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
             check_table_path(path)
     if args.samples is not None:
         check_rate(args.rate)
-    _, plan = _program(args)
+    _, plan = _program(args, args.rate if args.samples is not None else None)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, Any] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:

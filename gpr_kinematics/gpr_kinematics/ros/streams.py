@@ -30,11 +30,12 @@ from ..bags.program_record import record_text
 from ..core import ForwardBatch, inverse_batch
 from ..core.config import GprConfig
 from ..core.sweep import paper_sweep
-from ..errors import ConfigError, GprError, InputError
+from ..errors import ConfigError, GprError
 from ..inputs.files import confined_reads
 from ..inputs.resources import config_dir
 from ..robot.description import RobotDescription, load_robot
 from ..robot.markers import marker_points
+from ..robot.plan import check_sample_count
 from ..robot.platform_program import (
     MAX_STATIONS,
     PlatformProgram,
@@ -44,7 +45,6 @@ from ..robot.platform_program import (
 )
 from ..robot.program import RobotProgram, load_any_program
 from ..robot.stream import RobotStream, robot_stream
-from ..robot.timing import MAX_SAMPLES, check_rate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -140,27 +140,11 @@ def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_
                       stream_markers(cfg, ik.achieved), kind='platform_program', spec=prog)
 
 
-def shortest_duration(prog: RobotProgram) -> float:
-    """A lower bound of a robot program's duration [s] without solving it: its dwells and the move times it asks
-    for (the moves as fast as the limits allow take more than 0; the first move's time is unused)."""
-    total, first = 0.0, True
-    for step in prog.steps:
-        if step.kind == 'dwell':
-            total += step.dwell or 0.0
-            continue
-        total += (step.dwell if step.dwell is not None else prog.dwell) + (0.0 if first else step.time or 0.0)
-        first = False
-    return total
-
-
 def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -> Trajectory:
     """The stream of a whole-robot program on ``robot`` (:func:`gpr_kinematics.robot.stream.robot_stream`); the
     platform's commanded tilt and azimuth are its own tilt and tilt azimuth (the program commands joints). A program
     whose dwells and move times alone exceed the samples allowed is refused before it is planned."""
-    least = shortest_duration(prog)
-    if not least * check_rate(rate) < MAX_SAMPLES:
-        raise InputError(f'{prog.source}: the program lasts at least {least:.6g} s (its dwells and move times): at '
-                         f'{rate:g} Hz more than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
+    check_sample_count(prog, rate)   # before the program is planned
     rs = robot_stream(robot, prog, rate)
     gpr = rs.gpr
     desc = (f'robot program {prog.source} on robot {robot.name}: {len(prog.steps)} steps, {len(rs.waypoint_names)} '
