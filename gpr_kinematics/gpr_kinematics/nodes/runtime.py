@@ -94,8 +94,10 @@ def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
 class QueueTimedExecutor(SingleThreadedExecutor):
     """rclpy's single-threaded executor that also notes when the request a service callback answers arrived at the
     node (``rmw_service_info_t.received_timestamp``, which rclpy takes but does not pass to the callback):
-    :meth:`request_age` in the callback is how long the request waited in the node's queue. Everything else is
-    rclpy's ``_take_service`` (7.1, Jazzy), unchanged."""
+    :meth:`request_age` in the callback is how long the request waited in the node's queue. A response that cannot
+    be sent (its client went away, or stopped reading while its queue is full) is dropped with a warning instead of
+    ending the node (rclpy's action server does the same for goal responses). Otherwise rclpy's ``_take_service``
+    (7.1, Jazzy), unchanged."""
 
     received_ns = 0
 
@@ -117,7 +119,11 @@ class QueueTimedExecutor(SingleThreadedExecutor):
         async def execute() -> None:
             self.received_ns = received
             response = await await_or_execute(srv.callback, request, srv_type.Response())
-            srv.send_response(response, header)
+            try:
+                srv.send_response(response, header)
+            except (RCLError, InvalidHandle) as exc:
+                rclpy.logging.get_logger('gpr_services').warning(
+                    f'{srv.srv_name}: the response could not be sent (the client went away?): {one_line(exc)}')
 
         return execute
 
