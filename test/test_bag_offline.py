@@ -52,6 +52,7 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     from gpr_kinematics.bags.typestore import (
         JOINT_STATES_TOPIC,
         LEGACY_JOINT_STATES_TOPIC,
+        PROGRAM_TOPIC,
         ROBOT_STATE_TOPIC,
         ROBOT_TOPIC,
         WAFER_POSE_TOPIC,
@@ -65,7 +66,7 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     stream = dict.fromkeys((old[t] for t in PLATFORM_STREAM_TOPICS), 756)
     assert {k: len(t) for k, t in bag.topics.items()} == {**stream, GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1,
                                                           ROBOT_STATE_TOPIC: 0, WAFER_POSE_TOPIC: 0}
-    assert set(bag.topics) == set(old.values())
+    assert set(bag.topics) == set(old.values()) - {PROGRAM_TOPIC}   # recorded before the node published gpr/program
     assert 'topic.joint_states' in {c.name for c in verify_bag(REFERENCE).checks if not c.skipped}
     assert 'note: verified against the geometry recorded on /gpr/geometry' in out
     assert 'robot example_dual_arm recorded on /gpr/robot; no robot states' in out
@@ -214,7 +215,7 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
 
 def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     # The synthetic stream is 1 ms per sample (6 messages: state, two poses, joint states, virtual joints, markers;
-    # the geometry before the first): 30 samples split every 5 ms of log time.
+    # the geometry and the record of the sweep before the first): 30 samples split every 5 ms of log time.
     topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
     with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
         for topic, t, data in messages:
@@ -223,7 +224,7 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     assert len(bag.files) == 6
     spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata.info['files']] == [31] + [30] * 5
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [32] + [30] * 5
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
     meta = bag.metadata.info

@@ -92,7 +92,7 @@ def test_each_field_of_a_robot_state_is_checked(robot_bag: Path, tmp_path: Path,
     failed = _failed(verify_bag(rewritten(robot_bag, tmp_path / what, edit)))
     assert 9 in failed.pop(check) and set(failed) <= {'robot.wafer_position', 'robot.wafer_orientation',
                                                       'robot.blade', 'robot.naive_wafer_error', 'topic.joint_states',
-                                                      'topic.wafer_pose', 'topic.wafer_pose_extra'}
+                                                      'topic.wafer_pose', 'topic.wafer_pose_extra', 'stream.program'}
 
 
 def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_path: Path) -> None:
@@ -138,7 +138,8 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
     edit.rods = np.array(state.q)
     bag = rewritten(write_bag(tmp_path / 'src', messages, dict(GPR_TOPICS)), tmp_path / 'limit', edit)
     failed = _failed(verify_bag(bag))
-    assert failed == {'robot.joint_limits': {5}}
+    # ... and the stream recomputed from the recorded program has another elbow there (stream.program)
+    assert failed == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in verify_bag(bag).checks if c.name == 'robot.joint_limits').worst
     assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
 
@@ -171,7 +172,7 @@ def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp
         return msg
 
     result = verify_bag(rewritten(bag, tmp_path / 'rest2', joint_state))
-    assert _failed(result) == {'robot.joint_limits': {5}}
+    assert _failed(result) == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in result.checks if c.name == 'robot.joint_limits').worst
     assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
 
@@ -205,8 +206,10 @@ def test_without_a_robot_description_robot_states_fail_and_robot_gives_it(robot_
     bag = rewritten(robot_bag, tmp_path / 'no_robot', lambda topic, msg: None if topic == ROBOT_TOPIC else msg)
     result = verify_bag(bag)
     assert not result.passed
-    (failure,) = result.failures
-    assert failure.check == 'topic.robot' and 'give the robot with --robot FILE' in failure.detail
+    failures = {f.check: f for f in result.failures}
+    assert set(failures) == {'topic.robot', 'topic.program', 'stream.program'}   # the program needs its robot too
+    assert 'give the robot with --robot FILE' in failures['topic.robot'].detail
+    assert 'needs the robot description it ran on' in failures['topic.program'].detail
     assert verify_bag(bag, robot=ROBOT, robot_source='example').passed
 
 

@@ -95,3 +95,23 @@ def test_a_thousand_station_program(tmp_path):
     plan = plan_program(ROBOT, p)
     assert len(plan.waypoints) == 3000
     assert np.max(np.linalg.norm(plan.wafer.position - plan.waypoints.stations.position, axis=1)) < 1e-9
+
+
+def test_a_program_too_long_to_sample_is_refused_before_it_is_planned(monkeypatch):
+    """Issue 18: the sample count was known only after the plan (91 s for a goal of 100,000 stations). The dwells
+    and requested move times bound the duration from below, before any station is solved."""
+    import dataclasses
+
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.robot import plan as plan_module
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    least = plan_module.shortest_duration(program)
+    total = plan_program(ROBOT, program).timing.total
+    assert 0 < least <= total      # a lower bound: 5 dwells of 0.5 s, one of 1 s, the dwell step, a 4 s move
+    assert least == pytest.approx(0.5 * 8 + 1.0 + 0.5 + 4.0)
+    plan_module.check_sample_count(program, 100.0)
+    long = dataclasses.replace(program, dwell=1e4)
+    monkeypatch.setattr(plan_module, 'solve_stations', lambda *a, **k: pytest.fail('planned'))
+    with pytest.raises(InputError, match=r'lasts at least 80005\.5 s \(its dwells and move times\): at 100 Hz '
+                                         r'more than 200000 samples; allowed: at most 200000'):
+        plan_module.check_sample_count(long, 100.0)

@@ -126,6 +126,8 @@ class RobotRows:
     states alone, so the joint states are checked against them whether or not a robot description is known."""
 
     rows: dict[int, tuple[tuple[str, ...], NDArray[np.float64]]]
+    #: Per state row, the waypoint its RobotState says it holds (-1: moving).
+    waypoints: dict[int, int] = field(default_factory=dict)
 
     def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
         return self.rows.get(r)
@@ -175,7 +177,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     rows = np.flatnonzero(idx >= 0)
     j = idx[rows]
     recorded = RobotRows({int(r): (tuple(rc['joint_names'][k]), np.asarray(rc['joints'][k], dtype=float))
-                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
+                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)},
+                         {int(r): int(rc['waypoint'][k]) for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
     robot = choice.robot
     if robot is None:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \

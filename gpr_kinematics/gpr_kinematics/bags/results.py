@@ -197,6 +197,8 @@ class VerifyResult:
     notes: list[str] = field(default_factory=list)
     geometry: dict[str, Any] = field(default_factory=dict)
     robot: dict[str, Any] = field(default_factory=dict)
+    #: Per topic, the numeric fields no check covers, with why (:mod:`.coverage`).
+    unchecked: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -217,7 +219,8 @@ class VerifyResult:
             unfinished_segments=list(self.unfinished), notes=list(self.notes), singular_crossings=self.crossings,
             max_jump_ratio_at_crossings=json_number(self.crossing_ratio), elapsed_s=self.elapsed,
             read_s=self.read_time, checks=[c.record() for c in self.checks], config=json_safe(self.config),
-            geometry=json_safe(self.geometry), robot=self.robot)
+            geometry=json_safe(self.geometry), robot=self.robot,
+            unchecked_fields={k: list(v) for k, v in self.unchecked.items()})
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (:meth:`record` as plain data): ``verify.json`` of the report."""
@@ -228,8 +231,9 @@ class VerifyResult:
 class VerifyRecord:
     """``gpr verify --json`` and the report's ``verify.json``: the ``bag`` read (its ``storage``, ``files``, message
     ``counts`` by topic and ``unfinished_segments``), whether it ``passed``, the ``notes``, the singular crossings and
-    the largest jump ratio at one, the time taken (``elapsed_s``, ``read_s``), every check, and the geometry
-    (``config``, ``geometry``) and ``robot`` verified against."""
+    the largest jump ratio at one, the time taken (``elapsed_s``, ``read_s``), every check, the geometry
+    (``config``, ``geometry``) and ``robot`` verified against, and the recorded fields no check covers
+    (``unchecked_fields``, by topic, with the reason)."""
 
     bag: str
     storage: str
@@ -246,6 +250,7 @@ class VerifyRecord:
     config: dict[str, Any]
     geometry: dict[str, Any]
     robot: dict[str, Any]
+    unchecked_fields: dict[str, list[str]]
 
 
 def format_table(result: VerifyResult) -> str:
@@ -255,6 +260,7 @@ def format_table(result: VerifyResult) -> str:
     if result.unfinished:
         lines.append(f'note: unfinished segment(s) of a killed recorder, not read: {", ".join(result.unfinished)}')
     lines += [f'note: {n}' for n in result.notes]
+    lines += [f'note: not checked on {topic}: {"; ".join(fields)}' for topic, fields in result.unchecked.items()]
     lines.append(f'{"check":28s} {"topic":22s} {"status":6s} {"checked":>8s} {"worst":>12s} {"limit":>12s} unit')
     for c in result.checks:
         worst = '-' if c.skipped else f'{c.worst:.3e}'

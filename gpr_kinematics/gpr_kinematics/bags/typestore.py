@@ -34,6 +34,9 @@ ROBOT_TOPIC = '/gpr/robot'
 #: its wafer) and the wafer pose alone (``geometry_msgs/PoseStamped``), in the robot's world frame.
 ROBOT_STATE_TOPIC = '/gpr/robot_state'
 WAFER_POSE_TOPIC = '/gpr/wafer_pose'
+#: What each stream was asked to do (``std_msgs/String``: the YAML of a :class:`~.program_record.Record`), latched,
+#: published at the start of every stream.
+PROGRAM_TOPIC = '/gpr/program'
 
 #: The robot's joint states (``sensor_msgs/JointState``: the rods, and the arm joints in a robot program), on the
 #: topic ``robot_state_publisher`` reads; bags recorded before carry them on ``/gpr/joint_states`` (still verified).
@@ -52,6 +55,7 @@ GPR_TOPICS: dict[str, str] = {
     WAFER_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
     GEOMETRY_TOPIC: 'std_msgs/msg/String',
     ROBOT_TOPIC: 'std_msgs/msg/String',
+    PROGRAM_TOPIC: 'std_msgs/msg/String',
 }
 
 #: Every topic ``gpr verify`` knows the type of: the suite's and those of earlier recordings.
@@ -62,7 +66,7 @@ PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nom
                           VIRTUAL_JOINTS_TOPIC, '/gpr/markers')
 
 #: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
-LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC})
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC, PROGRAM_TOPIC})
 
 PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
 ROBOT_STATE = 'gpr_interfaces/msg/RobotState'

@@ -36,8 +36,9 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..inputs import safe_yaml
-from ..inputs.schema import check_keys
+from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from ..inputs.validation import MAX_COORDINATE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
@@ -231,8 +232,9 @@ def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
 
 
 def _finite(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number')
+    if not is_number(value):  # the package's one rule: no bool or text, finite, |x| <= 1e6 (a 401-digit integer too)
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number of magnitude at most '
+                          f'{MAX_COORDINATE:g}')
     return float(value)
 
 

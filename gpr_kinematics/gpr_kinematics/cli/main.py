@@ -20,6 +20,8 @@ from collections.abc import Sequence
 from typing import Any, NoReturn, TypeAlias
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
+from ..inputs.files import command_reads
+from .output import distinct_outputs
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -121,7 +123,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
-        return int(args.handler(args))
+        distinct_outputs(args)
+        with command_reads():  # no output may be a file the command read
+            return int(args.handler(args))
     except GprError as exc:
         sys.stderr.write(f'gpr {args.command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE

@@ -1,4 +1,5 @@
-"""What the ``gpr`` subcommands print: ``--json`` is the result dataclass itself (:func:`jsonable`), one object.
+"""What the ``gpr`` subcommands print and write: ``--json`` is the result dataclass itself (:func:`jsonable`), one
+object; an output file is never one of the command's inputs (:func:`distinct_outputs`).
 
 Each subcommand's ``--json`` is one result dataclass of the layer that computed it (``ForwardResult``,
 ``RobotForwardRecord``, ``PoseAnalysis``, ``WorkspaceSummary``, ``VerifyRecord``, ...): its fields are the keys.
@@ -6,16 +7,22 @@ Each subcommand's ``--json`` is one result dataclass of the layer that computed 
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
+import os
 import sys
 from typing import TypeAlias
 
 import numpy as np
 
+from ..errors import InputError
+
 #: JSON data: what :func:`jsonable` returns and :func:`json.dump` writes.
 JsonValue: TypeAlias = 'None | bool | int | float | str | list[JsonValue] | dict[str, JsonValue]'
 JsonObject: TypeAlias = 'dict[str, JsonValue]'
+#: The options (argparse ``dest``) that name a file or folder a subcommand writes.
+OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'report', 'trajectory')
 
 
 def jsonable(obj: object) -> JsonValue:
@@ -72,3 +79,28 @@ def emit_json(result: object, **context: JsonValue) -> None:
     _merge(data, context, type(result).__name__)
     json.dump(data, sys.stdout, allow_nan=False)
     sys.stdout.write('\n')
+
+
+def _existing(value: object) -> list[str]:
+    values = value if isinstance(value, list) else [value]
+    return [v for v in values if isinstance(v, str) and v and os.path.exists(v)]
+
+
+def distinct_outputs(args: argparse.Namespace) -> None:
+    """Refuse, before any work, an output (:data:`OUTPUT_OPTIONS`) that names an existing file or folder the command
+    also takes as an input, or another output (``gpr calibrate M.csv --output M.csv`` overwrote the measurements
+    with the calibrated geometry). Files the command reads without naming them (a robot's geometry file) are
+    refused when written (:func:`gpr_kinematics.inputs.files.check_output`)."""
+    values = vars(args)
+    outputs = [(k, v) for k in OUTPUT_OPTIONS for v in _existing(values.get(k))]
+    others = [(k, v) for k, value in values.items() if k not in OUTPUT_OPTIONS for v in _existing(value)]
+    for i, (key, out) in enumerate(outputs):
+        for other, path in others + outputs[i + 1:]:
+            try:
+                same = os.path.samefile(out, path)
+            except OSError:
+                continue
+            if same:
+                what = 'an input of this command' if other not in OUTPUT_OPTIONS else 'another output'
+                raise InputError(f'--{key} {out!r} is the same file as {other.upper()} {path!r} ({what}); allowed: '
+                                 'an output that is none of the files the command reads or writes')

@@ -26,10 +26,13 @@ if TYPE_CHECKING:
     from ..safety.check import SafetyReport
 
 
-def _program(args: argparse.Namespace) -> tuple[Any, Any]:
-    from ..robot.plan import plan_program
+def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, Any]:
+    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned."""
+    from ..robot.plan import check_sample_count, plan_program
     from ..robot.program import load_program
     program = load_program(args.program)
+    if rate is not None:
+        check_sample_count(program, rate)
     return program, plan_program(robot_of(args, program.robot), program)
 
 
@@ -106,14 +109,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..robot.export import check_table_path, sample_table, waypoint_table, write_table
     from ..robot.plan import sample_plan
+    from ..robot.timing import check_rate
     if args.waypoints is None and args.samples is None and args.trajectory is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json), or '
                          '--trajectory FILE.yaml')
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
+    at_rate = args.samples is not None or args.trajectory is not None
+    if at_rate:
+        check_rate(args.rate)
     _check_trajectory_output(args)
-    _, plan = _program(args)
+    _, plan = _program(args, args.rate if at_rate else None)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, JsonValue] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:
@@ -204,7 +211,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
     from ..robot.trajectory import lead_in, program_trajectory
     if not 0.0 < args.timeout <= 3600.0:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
-    _, plan = _program(args)
+    _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
     tc = _ros_modules()
     with tc.GprClient('gpr_program_send', namespace=args.namespace) as client:
@@ -280,7 +287,7 @@ def register(sub: Any) -> None:
                    'ros2 action send_goal reads: "{trajectory: $(cat FILE)}"')
     p.add_argument('--lead-in', type=float, default=0.0, metavar='SECONDS', help='--trajectory: the first point this '
                    'much after the start (a controller moves there from where the robot is); default 0')
-    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100)')
+    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     robot_options(p)
     p.set_defaults(handler=_cmd_export)
     _send_parser(psub)

@@ -9,7 +9,8 @@ Examples::
 
 ``--delta`` is the accuracy in metres (``--mm``: millimetres); angle edges count as ``angle_scale`` times the
 angle (the mechanism's characteristic length), see docs/workspace.md. A progress bar appears on stderr after
-2 s; Ctrl-C stops the run and keeps (and saves) what was proved, marked ``interrupted``.
+2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted``, as does the
+time limit (``--max-seconds``, default 600 s).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from ..errors import ConfigError, InputError
 from ..inputs.files import atomic_output, check_output
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
-from ..workspace.base import workspace_report
+from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
 from ..workspace.scheduler import MAX_WORKERS
 from .output import JsonValue, emit_json, json_object
@@ -68,7 +69,9 @@ def register(subparsers: Subparsers) -> None:
                    'of the boxes, not the boxes')
     p.add_argument('--max-boxes', type=int, default=MAX_BOXES,
                    help=f'stop (like Ctrl-C) before keeping more boxes than this (default {MAX_BOXES})')
-    p.add_argument('--max-seconds', type=float, default=None, help='stop (like Ctrl-C) after this many seconds')
+    p.add_argument('--max-seconds', type=float, default=None,
+                   help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
+                   'has a limit)')
     p.add_argument('--no-progress', action='store_true', help='no progress bar on stderr')
     p.set_defaults(handler=run)
 
@@ -109,8 +112,7 @@ def _check_args(args: argparse.Namespace) -> float:
         raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
-    if args.max_seconds is not None and not args.max_seconds > 0:
-        raise InputError(f'--max-seconds must be positive, got {args.max_seconds}')
+    check_max_seconds(args.max_seconds)
     if not 1 <= args.max_boxes <= 10**9:
         raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
     if not 1 <= args.parts <= 100_000:

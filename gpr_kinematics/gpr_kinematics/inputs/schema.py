@@ -44,13 +44,20 @@ def number_array(value: YamlValue, shape: tuple[int, ...]) -> NDArray[np.float64
 
 
 def check_keys(data: Mapping[YamlValue, YamlValue], allowed: Iterable[str], where: str) -> None:
-    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
+    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them (those that are names:
+    :func:`~gpr_kinematics.inputs.safe_yaml.quoted_key`; the others are only counted, so a file that is not of the
+    package's formats is not repeated in the message) and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(brief(k, 40).strip("'") for k in data if k not in allowed)
+    unknown = [k for k in data if k not in allowed]
     if unknown:
-        more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
-        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
-                          + ', '.join(sorted(allowed)))
+        names = sorted(brief(k, 40).strip("'") for k in unknown if safe_yaml.is_name(k))
+        parts = names[:8]
+        if len(names) > 8:
+            parts[-1] += f' and {len(names) - 8} more'
+        others = len(unknown) - len(names)
+        if others:
+            parts.append(f'{others} that {"is" if others == 1 else "are"} not a name (not quoted)')
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(parts)}; allowed keys: ' + ', '.join(sorted(allowed)))
 
 
 def number_key(data: Mapping[YamlValue, YamlValue], key: str, source: str, default: float | None = None,

@@ -22,7 +22,18 @@ from .forward import robot_forward
 from .inverse import solve_stations
 from .paths import GRID, line_gains, line_positions
 from .program import RobotProgram, Waypoints, expand
-from .timing import Samples, Timing, evaluate, locate, parameterise, sample, sample_at, velocities
+from .timing import (
+    MAX_SAMPLES,
+    Samples,
+    Timing,
+    check_rate,
+    evaluate,
+    locate,
+    parameterise,
+    sample,
+    sample_at,
+    velocities,
+)
 from .transforms import PoseBatch
 
 Array = NDArray[np.float64]
@@ -50,6 +61,28 @@ class ProgramPlan:
     naive_wafer_error: Array
     timing: Timing
     labels: tuple[str, ...]
+
+
+def shortest_duration(program: RobotProgram) -> float:
+    """A lower bound of the program's duration [s], known before it is planned: its dwells and the move times it
+    asks for (a move as fast as the limits allow takes more than 0; the first move's time is unused)."""
+    total, first = 0.0, True
+    for step in program.steps:
+        if step.kind == 'dwell':
+            total += step.dwell or 0.0
+            continue
+        total += (step.dwell if step.dwell is not None else program.dwell) + (0.0 if first else step.time or 0.0)
+        first = False
+    return total
+
+
+def check_sample_count(program: RobotProgram, rate: float) -> None:
+    """Refuse, before the program is planned, a sampling at ``rate`` [Hz] that its dwells and move times alone take
+    beyond :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` (:class:`InputError`)."""
+    least = shortest_duration(program)
+    if not least * check_rate(rate) < MAX_SAMPLES:
+        raise InputError(f'{program.source}: the program lasts at least {least:.6g} s (its dwells and move times): at '
+                         f'{rate:g} Hz more than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
 
 
 def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array, list[slice]]:

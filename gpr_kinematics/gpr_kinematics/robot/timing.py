@@ -37,6 +37,17 @@ STILL = 1e-15
 #: Most samples a program may be sampled into: a sample costs about 1.8 kB until its table is written (its forward
 #: kinematics and a row of Python numbers), 0.36 GB at the limit (5,000,000 asked for 9 GB).
 MAX_SAMPLES = 200_000
+#: The sample rates [Hz] a program is sampled at (a sample every 0.2 ms to every 10 s): the rates trajectory_node
+#: publishes at, too (its parameter ``rate``).
+RATES = (0.1, 5000.0)
+
+
+def check_rate(rate: object) -> float:
+    """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not RATES[0] <= rate <= RATES[1]:
+        raise InputError(f'rate = {rate!r} is invalid; allowed: {RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample '
+                         'every 0.2 ms to every 10 s)')
+    return float(rate)
 
 
 @dataclass(frozen=True)
@@ -288,8 +299,7 @@ def locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool
 
 def sample_times(timing: Timing, rate: float) -> Array:
     """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant (bounded by MAX_SAMPLES)."""
-    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0 < rate <= 10_000):
-        raise InputError(f'rate = {rate!r} is invalid; allowed: 0 < rate <= 10000 Hz')
+    rate = check_rate(rate)
     total = timing.total
     count = int(math.floor(total * rate + 1e-9)) + 1
     if count > MAX_SAMPLES:

@@ -19,6 +19,7 @@ from typing import Any
 
 from ..core.config import MODELS, WEIGHTINGS, GprConfig, load_config
 from ..errors import ConfigError
+from ..robot.timing import RATES
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
 KINDS: dict[str, tuple[type, ...]] = {
@@ -212,7 +213,7 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('mode', _S, 'sweep', 'sweep (the paper grid), program (an offline program file) or idle (no stream '
               'at start: programs come through the gpr/run_program action)', choices=TRAJECTORY_MODES,
               read_only=True),
-    ParamSpec('rate', _D, 100.0, 'publishing rate [Hz]', (0.1, 5000.0), read_only=True),
+    ParamSpec('rate', _D, 100.0, 'publishing rate [Hz]', RATES, read_only=True),
     ParamSpec('height', _D, 0.5, 'sweep: height of the platform centre [m]', (-10.0, 10.0),
               constraint='within the stroke', read_only=True),
     ParamSpec('max_tilt', _D, math.radians(2.0), 'sweep: largest |alpha| [rad]', (1e-6, math.radians(15.0)),
@@ -224,6 +225,9 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
+    ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config/programs, whose files a '
+              'gpr/run_program goal may read (its program_file and the files it names: robot, geometry, stations); '
+              'any other path is refused', constraint='existing folders, or [\'\'] for none', read_only=True),
     ParamSpec('move_time', _D, 2.0, 'program: default duration of a move between stations [s]', (1e-3, 3600.0),
               read_only=True),
     ParamSpec('loop', _B, False, 'start over after the last sample instead of exiting', read_only=True),
@@ -240,6 +244,12 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('queue_depth', _I, 1000, 'publisher history depth (reliable, keep last)', (1, 100000), read_only=True),
 )
 
+
+KINEMATICS: tuple[ParamSpec, ...] = (
+    ParamSpec('max_queue_time', _D, 5.0, 'a request that waited longer than this [s] in the node\'s queue is answered '
+              'at once with success: false, "saturated" (not computed; the queues keep every request)',
+              (0.001, 3600.0), read_only=True),
+)
 
 #: Topics of trajectory_node besides the bag library's default list (typestore.GPR_TOPICS), with their types.
 STREAM_EXTRA_TOPICS: dict[str, str] = {'/gpr/virtual_joints': 'sensor_msgs/msg/JointState',
@@ -333,7 +343,7 @@ SIMULATOR: tuple[ParamSpec, ...] = (
 #: Executables and the parameters they declare, besides ``robot_file``, ``config_file`` and the ``GprConfig`` keys
 #: for those marked True (these are read-only in every node but ``kinematics_node``).
 NODES: dict[str, tuple[bool, str]] = {
-    'kinematics_node': (True, ''),
+    'kinematics_node': (True, 'kinematics'),
     'trajectory_node': (True, 'trajectory'),
     'state_publisher_node': (True, 'state'),
     'robot_simulator_node': (True, 'simulator'),
@@ -349,7 +359,8 @@ def node_specs(node: str, cfg: GprConfig | None = None) -> tuple[ParamSpec, ...]
         raise ConfigError(f'unknown node {node!r}; allowed: ' + ', '.join(NODES))
     with_config, table = NODES[node]
     own = _recorder_table() if table == 'recorder' else \
-        {'': (), 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'simulator': SIMULATOR, 'replay': REPLAY}[table]
+        {'kinematics': KINEMATICS, 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'simulator': SIMULATOR,
+         'replay': REPLAY}[table]
     if not with_config:
         return tuple(own)
     return (ROBOT_FILE, CONFIG_FILE, *config_specs(cfg, read_only=node != 'kinematics_node'), *own)

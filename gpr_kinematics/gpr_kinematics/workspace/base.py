@@ -24,6 +24,21 @@ from .interval import Interval
 #: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
 #: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
 MAX_BOXES = 10_000_000
+#: Wall time [s] after which every method stops like an interruption when the caller gives no limit of its own
+#: (``stopped = 'time limit (600 s)'``): a run never goes on without end (a grid run at a tenth of a millimetre did).
+DEFAULT_MAX_SECONDS = 600.0
+#: Longest time limit a caller may give [s] (a week).
+MAX_SECONDS = 7 * 24 * 3600.0
+
+
+def check_max_seconds(max_seconds: float | None) -> float:
+    """The time limit of a run [s]: :data:`DEFAULT_MAX_SECONDS` for ``None``, else a number in (0, MAX_SECONDS]."""
+    if max_seconds is None:
+        return DEFAULT_MAX_SECONDS
+    if isinstance(max_seconds, bool) or not isinstance(max_seconds, (int, float)) or not 0 < max_seconds <= MAX_SECONDS:
+        raise InputError(f'max_seconds = {max_seconds!r}; allowed: a time limit in seconds, > 0 and at most '
+                         f'{MAX_SECONDS:g} (a week)')
+    return float(max_seconds)
 
 
 class WorkspaceModel(ABC):
