@@ -46,11 +46,20 @@ def sim(ros_environment):
             states = c.subscribe(JointState, 'joint_states')
             cli = ActionClient(c.node, FollowJointTrajectory, ACTION, feedback_sub_qos_profile=stream_qos(1000))
             assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            _feedback_matched(c, NS)
             assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
             yield c, cli, states, proc
     finally:
         proc.stop()
         print(proc.output())
+
+
+def _feedback_matched(c, namespace):
+    """The action's services answer before its feedback topic is matched: wait until the graph shows the server's
+    feedback publisher, and a moment for the match (as ``gpr program send`` does), so no feedback is lost."""
+    topic = f'{namespace}/{ACTION}/_action/feedback'
+    assert c.spin_until(lambda: bool(c.node.get_publishers_info_by_topic(topic)), 20), topic
+    c.spin_for(1.0)
 
 
 def _goal(names, times, positions, velocities=None, **extra):
@@ -211,6 +220,7 @@ def lagging(ros_environment):
         with GprClient('gpr_test_simulator_lag', namespace='/gpr_sim_lag') as c:
             cli = ActionClient(c.node, FollowJointTrajectory, ACTION)
             assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            _feedback_matched(c, '/gpr_sim_lag')
             yield c, cli
     finally:
         proc.stop()

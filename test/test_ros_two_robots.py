@@ -51,9 +51,7 @@ def graph(ros_environment):
 
             assert c.spin_until(complete, 60), '\n'.join(p.output() for p in procs)
             c.spin_for(1.0)      # the held states on /tf, at idle_rate
-            yield {'topics': {n for n, _ in c.node.get_topic_names_and_types()},
-                   'services': {n for n, _ in c.node.get_service_names_and_types()},
-                   'actions': {n for n, _ in get_action_names_and_types(c.node)},
+            yield {'names': {ns: _names_of(c.node, ns) for ns, _ in ROBOTS},
                    'tf': list(tf), 'static': list(static),
                    'descriptions': {ns: d[0].data for ns, d in descriptions.items()}}
     finally:
@@ -67,16 +65,35 @@ def _split(names: set[str]) -> tuple[set[str], set[str], set[str]]:
     return r1, r2, names - r1 - r2
 
 
+def _names_of(node, namespace: str) -> dict[str, set[str]]:
+    """The topics (published or subscribed), services and action servers of every node in ``namespace``, by the
+    graph's per-node queries (what other nodes of the domain use does not enter)."""
+    from rclpy.action import get_action_server_names_and_types_by_node
+
+    out: dict[str, set[str]] = {'topics': set(), 'services': set(), 'actions': set()}
+    for name, ns in node.get_node_names_and_namespaces():
+        if ns != namespace:
+            continue
+        out['topics'] |= {t for t, _ in node.get_publisher_names_and_types_by_node(name, ns)}
+        out['topics'] |= {t for t, _ in node.get_subscriber_names_and_types_by_node(name, ns)}
+        out['services'] |= {t for t, _ in node.get_service_names_and_types_by_node(name, ns)}
+        out['actions'] |= {t for t, _ in get_action_server_names_and_types_by_node(node, name, ns)}
+    return out
+
+
 @pytest.mark.parametrize('kind', ['topics', 'services', 'actions'])
 def test_no_topic_service_or_action_is_shared(graph, kind):
-    r1, r2, other = _split(graph[kind])
-    assert r1 and {n.replace('/r1/', '/r2/', 1) for n in r1} == r2            # the same robot twice, apart
-    other = {n for n in other if not n.startswith('/gpr_test_two_robots/')}   # this test's own node
-    assert other <= SHARED, other
+    names = graph['names']
+    r1, r2 = names['/r1'][kind], names['/r2'][kind]
+    own1, _, other1 = _split(r1)
+    _, own2, other2 = _split(r2)
+    assert own1 and {n.replace('/r1/', '/r2/', 1) for n in own1} == own2     # the same robot twice, apart
+    assert other1 <= SHARED and other2 <= SHARED, (other1, other2)           # nothing of one in the other's
+    assert r1 & r2 <= SHARED
     if kind == 'actions':
-        assert r1 == {f'/r1/{a}' for a in ACTIONS}
+        assert own1 == {f'/r1/{a}' for a in ACTIONS}
     if kind == 'topics':
-        assert {'/r1/joint_states', '/r1/robot_description', '/r1/gpr/platform_state'} <= r1
+        assert {'/r1/joint_states', '/r1/robot_description', '/r1/gpr/platform_state'} <= own1
 
 
 def test_every_frame_carries_its_robots_prefix(graph):
