@@ -286,7 +286,7 @@ def euler_rate_matrix(angles: np.ndarray, convention: str) -> np.ndarray:
 def euler_from_rotation(R: np.ndarray, convention: str) -> np.ndarray:
     """Euler angles ``(N, 3)`` (rad) of rotation matrices in the scipy convention ``convention``."""
     from scipy.spatial.transform import Rotation  # imported here: scipy.spatial is slow to import
-    return np.asarray(Rotation.from_matrix(np.asarray(R, dtype=float)).as_euler(convention))
+    return np.asarray(Rotation.from_matrix(np.array(R, dtype=float)).as_euler(convention))
 
 
 def rotation_from_vector(w: np.ndarray) -> np.ndarray:
