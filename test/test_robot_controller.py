@@ -145,18 +145,27 @@ def test_a_platform_tilt_beyond_the_limit_is_refused_at_its_sample():
     assert info.value.code == INVALID_GOAL
 
 
-def test_the_clearance_hook_sees_every_sample_and_refuses():
+def test_the_clearance_hook_sees_the_checked_motion_and_refuses():
+    """The hook gets the motion the controller would run (its trajectory, the goal's joints, every joint at the
+    start and at the samples) after every other check, and its refusal is an INVALID_GOAL with its words."""
     seen = {}
 
-    def clearance(t, positions):
-        seen['shape'] = positions.shape
-        return 'arm1_blade would hit chamber_a at t = 1.2 s' if positions[:, 4].max() > 1.2 else None
+    def clearance(motion):
+        seen['motion'] = motion
+        return 'arm1_blade would hit chamber_a at t = 1.2 s' if motion.positions[:, 4].max() > 1.2 else None
 
     traj = _two_points(['arm1_elbow'], [2.0], [1.0])
     with pytest.raises(GoalError, match='arm1_blade would hit chamber_a') as info:
         _plan(traj, clearance=clearance)
-    assert info.value.code == INVALID_GOAL and seen['shape'] == (201, len(JOINTS.names))
-    assert len(_plan(traj, clearance=lambda t, p: None)) == 201
+    m = seen['motion']
+    assert info.value.code == INVALID_GOAL and m.positions.shape == (201, len(JOINTS.names))
+    assert m.trajectory is traj and list(m.goal) == [JOINTS.names.index('arm1_elbow')]
+    np.testing.assert_array_equal(m.positions[0], JOINTS.rest)
+    assert len(_plan(traj, clearance=lambda motion: None)) == 201
+    seen.clear()
+    with pytest.raises(GoalError, match='beyond its limits'):      # refused before the hook is asked
+        _plan(_two_points(['arm1_elbow'], [99.0]), clearance=clearance)
+    assert not seen
 
 
 def test_tolerances_follow_control_msgs_rules():

@@ -192,6 +192,16 @@ def test_the_robot_argument_reaches_every_node_with_a_robot(name, monkeypatch):
     assert 'robot' in python_launch(name, monkeypatch)['args']
 
 
+def test_the_cell_argument_reaches_the_simulator_and_the_state_publisher(monkeypatch):
+    """``cell:=FILE`` of the offline loop sets ``cell_file`` of robot_simulator_node (goals checked against the cell)
+    and state_publisher_node (the cell's markers), in both variants; the two-robot example passes it to both loops."""
+    for sources in (_sources_py('offline_loop', monkeypatch), _sources_xml('offline_loop')):
+        with_cell = {exe: params.get('cell_file') for exe, params in sources
+                     if 'cell_file' in {s.name for s in node_specs(exe)}}
+        assert with_cell == {'robot_simulator_node': 'cell', 'state_publisher_node': 'cell'}
+    assert python_launch('offline_loop', monkeypatch)['args']['cell'][0] == ''
+
+
 def test_launch_files_use_the_shipped_files():
     common = ROOT / 'gpr_kinematics' / 'gpr_kinematics' / 'nodes' / 'launch_common.py'
     for path in [*LAUNCH.glob('*.launch.xml'), *LAUNCH.glob('two_robots.launch.py'), common]:
@@ -323,7 +333,7 @@ def test_two_robots_example(monkeypatch):
     assert {a.get('name'): (a.get('default'), a.get('description')) for a in root.findall('arg')} == declared
     assert {k: v for k, v in xml[0].items() if v.startswith('$(var')} == {k: f'$(var {k})' for k in
                                                                           ('mode', 'program_file', 'robot', 'rviz',
-                                                                           'use_sim_time', 'respawn')}
+                                                                           'cell', 'use_sim_time', 'respawn')}
 
 
 @pytest.mark.parametrize('prefix, ok', [('', True), ('r1/', True), ('cell_2/r1/', True), ('r1', True),

@@ -228,8 +228,9 @@ def test_urdf_for_a_motion_stack(tmp_path):
     assert {n: lim.velocity for n, lim in limits.items()} == want and all(v > 0 for v in want.values())
     assert all(lim.effort == 0.0 for lim in limits.values())
     for link in urdf.robot.links:
-        if not link.visuals:
-            assert link.inertial is None and link.name == 'world'
+        if not link.visuals or link.name == 'gpr_platform_nominal':
+            # the world, and the naive model's ghost of the platform: not bodies (the platform counted once)
+            assert link.inertial is None and not link.collisions and link.name in ('world', 'gpr_platform_nominal')
             continue
         eig = np.linalg.eigvalsh(link.inertial.inertia)
         assert link.inertial.mass > 0 and eig.min() > 0, link.name
@@ -291,3 +292,29 @@ def test_collision_shapes_are_written(tmp_path):
     (col,) = urdf.link_map['b'].collisions
     np.testing.assert_allclose(col.geometry.box.size, [0.3, 0.05, 0.02])
     assert urdf.robot.joints[0].limit.velocity == 2.0
+
+
+def test_the_naive_platform_is_a_ghost_not_a_body(tmp_path):
+    """gpr_platform_nominal (the old tool's pose of the platform) is drawn only: no <inertial>, no <collision>, in the
+    GPR's URDF and the whole robot's (the shipped files too), so the platform's mass and shape count once, on
+    gpr_platform; a ghost keeps no inertia or collision even when given them."""
+    from gpr_kinematics.robot.shapes import Visual, default_inertial
+
+    share = Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'urdf'
+    for model, shipped in ((gpr_urdf(ROBOT.config, rod_velocity=ROBOT.rods.velocity), 'gpr.urdf'),
+                           (robot_urdf(ROBOT), 'example_robot.urdf')):
+        urdf = _urdf(tmp_path, model)
+        ghost, platform = urdf.link_map['gpr_platform_nominal'], urdf.link_map['gpr_platform']
+        assert ghost.visuals and ghost.inertial is None and not ghost.collisions
+        assert platform.inertial.mass > 0.0 and ghost.visuals[0].geometry.cylinder.radius == \
+            platform.visuals[0].geometry.cylinder.radius
+        text = (share / shipped).read_text()
+        start = text.index('<link name="gpr_platform_nominal">')
+        block = text[start:text.index('</link>', start)]
+        assert '<inertial>' not in block and '<collision>' not in block and '<visual>' in block
+        assert text.count('<inertial>') == sum(1 for link in urdf.robot.links if link.inertial is not None)
+    shape = Visual('box', (0.3, 0.05, 0.02))
+    forced = RobotUrdf('m', 'a', (Link('a'), Link('g', (shape,), (shape,), default_inertial([shape]), ghost=True)),
+                       (Joint('j', 'fixed', 'a', 'g'),))
+    g = _urdf(tmp_path, forced).link_map['g']
+    assert g.inertial is None and not g.collisions and g.visuals

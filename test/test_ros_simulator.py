@@ -30,23 +30,22 @@ def _stamp(msg) -> int:
     return msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
 
 
-@pytest.fixture(scope='module')
-def sim(ros_environment):
-    """A simulator and a client in NS; the client's joint_states subscription and its action client."""
+def session(proc, ready: str, name: str, namespace: str):
+    """A module fixture's body: once ``proc`` (a simulator) logged ``ready``, a client ``name`` in ``namespace``, its
+    joint_states subscription and its action client; the simulator stopped after the module."""
     from control_msgs.action import FollowJointTrajectory
     from gpr_kinematics.nodes.client import GprClient
     from gpr_kinematics.nodes.qos import stream_qos
     from rclpy.action import ActionClient
     from sensor_msgs.msg import JointState
 
-    proc = start('robot_simulator_node', namespace=NS, rate=RATE, idle_rate=20.0)
     try:
-        wait_for_log(proc, r'serving /gpr_sim/joint_trajectory_controller/follow_joint_trajectory')
-        with GprClient('gpr_test_simulator', namespace=NS) as c:
+        wait_for_log(proc, ready)
+        with GprClient(name, namespace=namespace) as c:
             states = c.subscribe(JointState, 'joint_states')
             cli = ActionClient(c.node, FollowJointTrajectory, ACTION, feedback_sub_qos_profile=stream_qos(1000))
             assert cli.wait_for_server(timeout_sec=20.0), proc.output()
-            _feedback_matched(c, NS)
+            _feedback_matched(c, namespace)
             assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
             yield c, cli, states, proc
     finally:
@@ -60,6 +59,14 @@ def _feedback_matched(c, namespace):
     topic = f'{namespace}/{ACTION}/_action/feedback'
     assert c.spin_until(lambda: bool(c.node.get_publishers_info_by_topic(topic)), 20), topic
     c.spin_for(1.0)
+
+
+@pytest.fixture(scope='module')
+def sim(ros_environment):
+    """A simulator and a client in NS; the client's joint_states subscription and its action client."""
+    proc = start('robot_simulator_node', namespace=NS, rate=RATE, idle_rate=20.0)
+    yield from session(proc, r'serving /gpr_sim/joint_trajectory_controller/follow_joint_trajectory',
+                       'gpr_test_simulator', NS)
 
 
 def _goal(names, times, positions, velocities=None, **extra):

@@ -303,3 +303,29 @@ def test_process_cell_published_latched_as_markers(ros_environment, tmp_path):
     proc = start('state_publisher_node', namespace=ns + '_bad', cell_file=str(bad))
     assert proc.wait(30) == 2
     assert 'box[0] = -1 is invalid' in proc.output() and 'Traceback' not in proc.output()
+
+
+def test_a_new_tf_subscription_gets_the_held_state_when_it_matches(ros_environment):
+    """While no joint_states arrive, a /tf subscription that matches gets the held state then, not at the next idle
+    publication: with idle_rate 0.1 Hz (one every 10 s), a second subscription made right after the first message
+    receives gpr_base -> gpr_platform stamped less than 5 s after it (the idle timer's next is 10 s after it)."""
+    from gpr_kinematics.nodes.client import GprClient
+    from tf2_msgs.msg import TFMessage
+
+    sp = start('state_publisher_node', namespace='/tf_at_match', frame_prefix='m/', idle_rate=0.1)
+
+    def platform(msgs):
+        return [t.header.stamp for m in msgs for t in m.transforms if t.child_frame_id == 'm/gpr_platform']
+
+    try:
+        wait_for_log(sp, r'publishing robot_description')
+        with GprClient('gpr_test_tf_at_match') as c:
+            first = c.subscribe(TFMessage, '/tf')
+            assert c.spin_until(lambda: platform(first), 30), sp.output()
+            late = c.subscribe(TFMessage, '/tf')
+            assert c.spin_until(lambda: platform(late), 9), sp.output()
+            t0, t1 = platform(first)[0], platform(late)[0]
+            dt = (t1.sec - t0.sec) + (t1.nanosec - t0.nanosec) * 1e-9
+            assert 0.0 <= dt < 5.0
+    finally:
+        sp.stop()

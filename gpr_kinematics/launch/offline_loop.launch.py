@@ -5,7 +5,7 @@ a bag), optionally RViz.
 
     ros2 launch gpr_kinematics offline_loop.launch.py [mode:=program program_file:=...] [bag:=bags/run1]
         [rate:=200.0] [model:=polar] [config_file:=my_gpr.yaml] [robot:=my_robot.yaml] [namespace:=/r1]
-        [frame_prefix:=r1/] [record:=false] [rviz:=true] [use_sim_time:=true] [respawn:=true]
+        [frame_prefix:=r1/] [record:=false] [rviz:=true] [cell:=my_cell.yaml] [use_sim_time:=true] [respawn:=true]
 """
 from gpr_kinematics.nodes.launch_common import arguments, node, rviz, typed
 from launch import LaunchDescription
@@ -29,6 +29,8 @@ ARGUMENTS = (
     ('record', 'true', 'record the stream with recorder_node (true/false)'),
     ('bag', '', 'bag folder the recorder creates; empty: bags/gpr_<date>-<time>'),
     ('rviz', 'false', 'start RViz with rviz/gpr.rviz (true/false)'),
+    ('cell', '', 'process cell YAML (format gpr_cell) of state_publisher_node (its obstacles on gpr/cell) and '
+                 'robot_simulator_node (every goal checked against it); empty: none'),
 )
 
 
@@ -36,11 +38,12 @@ def generate_launch_description() -> LaunchDescription:
     arg = LaunchConfiguration
     geometry = {'robot_file': typed('robot'), 'config_file': typed('config_file'), 'model': typed('model')}
     frames = {'frame_prefix': typed('frame_prefix')}
+    cell = {'cell_file': typed('cell')}
     return LaunchDescription([
         *arguments(ARGUMENTS),
         node('kinematics_node', [geometry]),
-        node('robot_simulator_node', [geometry]),
-        node('state_publisher_node', [geometry, frames]),
+        node('robot_simulator_node', [geometry, cell]),
+        node('state_publisher_node', [geometry, frames, cell]),
         node('recorder_node', [{'output': typed('bag')}], condition=IfCondition(arg('record'))),
         node('trajectory_node', [geometry, frames, {
             'mode': typed('mode'), 'program_file': typed('program_file'), 'rate': typed('rate', float),

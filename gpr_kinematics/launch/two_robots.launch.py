@@ -18,10 +18,11 @@ ARGUMENTS = (
     ('program_file', '', 'offline program YAML of both robots for mode program'),
     ('robot', '', 'robot description YAML of both robots; empty: config/robots/example_robot.yaml'),
     ('rviz', 'false', 'start an RViz per robot, in its namespace, fixed frame <prefix>gpr_base (true/false)'),
+    ('cell', '', 'process cell YAML of both robots (shown on gpr/cell, goals checked against it); empty: none'),
     *COMMON,
 )
 #: The arguments each robot's offline_loop.launch.py gets from this file's arguments.
-PASSED = ('mode', 'program_file', 'robot', 'rviz', 'use_sim_time', 'respawn')
+PASSED = ('mode', 'program_file', 'robot', 'rviz', 'cell', 'use_sim_time', 'respawn')
 
 
 def generate_launch_description() -> LaunchDescription:

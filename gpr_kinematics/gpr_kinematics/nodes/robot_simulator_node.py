@@ -5,11 +5,15 @@ ros2_control's ``joint_trajectory_controller`` named ``joint_trajectory_controll
 send`` or ``ros2 action send_goal`` drive it as they would drive the real robot's controller. A goal names any of the
 robot's joints (the rods ``rod_1 .. rod_3``, the arms' joints; the others hold where they are) and is checked before
 anything moves (:func:`gpr_kinematics.robot.controller.plan_motion`: names, the robot description's limits, times,
-the platform's tilt under the virtual-joint model); a goal it refuses is aborted with the standard ``error_code`` and
-an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate`` and published on ``joint_states``
-(sensor_msgs/JointState, every joint, position and velocity; the header stamp of sample ``k`` is the start plus the
-sample's time ``t_k = k / rate``), with one feedback per sample (desired, actual, error of the goal's joints); the
-joints follow the samples exactly, or with the first-order lag ``servo_time_constant``. Path tolerances are checked at
+the platform's tilt under the virtual-joint model; with ``cell_file``, the clearance of the whole interpolated motion
+against the process cell and between the robot's bodies, certified between samples as ``gpr program check``
+certifies a program: :class:`gpr_kinematics.safety.goal.GoalClearance`, ``clearance_margin``, ``wafer_arms``, a pair
+closer than the margin refused naming the two bodies, the time and the distance); a goal it refuses is aborted with
+the standard ``error_code`` and an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate``
+and published on ``joint_states`` (sensor_msgs/JointState, every joint, position and velocity; the header stamp of
+sample ``k`` is the start plus the sample's time ``t_k = k / rate``), with one feedback per sample (desired, actual,
+error of the goal's joints); the joints follow the samples exactly, or with the first-order lag
+``servo_time_constant`` (the clearance check is of the commanded motion). Path tolerances are checked at
 every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
 preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does) and starts from where the
@@ -49,7 +53,6 @@ from ..robot.controller import (
     OLD_HEADER_TIMESTAMP,
     PATH_TOLERANCE_VIOLATED,
     SUCCESSFUL,
-    Clearance,
     ControllerJoints,
     GoalError,
     Motion,
@@ -62,6 +65,8 @@ from ..robot.controller import (
 )
 from ..robot.trajectory import MAX_DURATION, MAX_POINTS
 from ..ros.specs import SIMULATOR
+from ..safety.cell import load_cell
+from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import stream_qos
 from .runtime import GprNode, one_line, run
@@ -107,8 +112,11 @@ class RobotSimulatorNode(GprNode):
         self.joints = ControllerJoints.of(self.robot)
         n = len(self.joints.names)
         self.defaults = Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'], p['goal_time'])
-        #: The cell's clearance check of every sample (None: no cell loaded); set when a cell is.
-        self.clearance: Clearance | None = None
+        #: The cell's clearance check of a goal's whole motion (None: no cell_file).
+        self.clearance: GoalClearance | None = None
+        if p['cell_file']:
+            self.clearance = GoalClearance(self.robot, load_cell(p['cell_file']), float(p['clearance_margin']),
+                                           wafer_arms=tuple(a for a in p['wafer_arms'] if a))
         self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
         self.period = 1.0 / float(p['rate'])
         self.run: _Run | None = None
@@ -124,9 +132,14 @@ class RobotSimulatorNode(GprNode):
         self.action = ActionServer(self, FollowJointTrajectory, ACTION, execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos)
+        cell = self.clearance
         self.get_logger().info(f'serving {self.action_name()} (control_msgs/action/FollowJointTrajectory) for '
                                f'{n} joints ({", ".join(self.joints.names)}) of robot {self.robot.name} at '
-                               f'{p["rate"]} Hz; joint_states held at {p["idle_rate"]} Hz while idle')
+                               f'{p["rate"]} Hz; joint_states held at {p["idle_rate"]} Hz while idle; '
+                               + (f'goals checked against cell {cell.cell.source} ({len(cell.cell.obstacles)} '
+                                  f'obstacles, {len(cell.pairs)} pairs, margin {cell.margin:g} m, wafers on '
+                                  f'{", ".join(cell.wafer_arms) or "no arm"})' if cell is not None
+                                  else 'no cell_file: no clearance check'))
 
     def action_name(self) -> str:
         ns = self.get_namespace().rstrip('/')

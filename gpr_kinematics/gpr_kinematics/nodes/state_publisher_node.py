@@ -21,8 +21,10 @@ Publishes, from the robot description (``robot_file``, default the shipped examp
 The state is held: the joints start at the robot's rest (equal rods at mid-stroke, each arm at its ``home``; the
 robot simulator's state before its first goal) and keep the last value received, and while no ``joint_states``
 arrive the held state is published again at ``idle_rate``, stamped with the current time, as ``joint_state_publisher``
-keeps ``robot_state_publisher`` fed: so ``/tf`` has the whole robot before the first motion, between motions and
-after the last. ``frame_prefix`` (``r1/``) prefixes every frame, as robot_state_publisher's does.
+keeps ``robot_state_publisher`` fed, and at once to a /tf subscription that matches meanwhile (a publisher-matched
+event): so ``/tf`` has the whole robot before the first motion, between motions and after the last, a listener
+getting it as soon as DDS discovery connects them (docs/ros.md, "tf at start-up"). ``frame_prefix`` (``r1/``)
+prefixes every frame, as robot_state_publisher's does.
 
 A robot_state_publisher cannot do this from the URDF alone: the platform closes an overconstrained loop (three rods,
 one platform), so its pose is not a function of a joint tree; here it is the kinematics' answer for the rods.
@@ -39,6 +41,7 @@ from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import TransformStamped
+from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
@@ -99,7 +102,9 @@ class StatePublisherNode(GprNode):
             header = make_message('std_msgs/msg/Header', frame_id=prefix + self.cell.frame, stamp=now)
             self.pub_cell.publish(cell_marker_array(make_message, header, self.cell))
         depth = int(p['queue_depth'])
-        self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth))
+        # a subscription that matches gets the held state at once (not up to an idle period later)
+        self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth),
+                                            event_callbacks=PublisherEventCallbacks(matched=self._on_matched))
         self.create_subscription(JointState, 'joint_states', self.on_joints, stream_qos(depth))
         self.received = 0
         self.last_received = -math.inf
@@ -114,6 +119,11 @@ class StatePublisherNode(GprNode):
                                f'{p["idle_rate"]} Hz while none arrive'
                                + (f'; gpr/cell: {len(self.cell.obstacles)} obstacles of {self.cell.source}'
                                   if self.cell is not None else ''))
+
+    def _on_matched(self, info: QoSPublisherMatchedInfo) -> None:
+        """A new subscription of /tf matched: publish the held state now (between joint_states, as the idle timer)."""
+        if info.current_count_change > 0 and time.monotonic() - self.last_received > 1.5 * self.idle_period:
+            self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
     def _pose_of(self, rods: Any) -> None:
         """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none)."""

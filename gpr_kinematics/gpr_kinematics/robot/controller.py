@@ -16,7 +16,8 @@
   velocity limit (the move from the current state to a first point after ``t = 0`` included), a first point at
   ``t = 0`` away from the current state, an interpolated sample beyond a limit, the platform tilted beyond
   ``tilt_limit`` at any sample (forward kinematics of the virtual-joint model), or what a ``clearance`` check refuses
-  (``INVALID_GOAL``);
+  (``INVALID_GOAL``: the robot simulator's is :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance
+  of the whole interpolated motion, certified between samples);
 - :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
   control_msgs' rules (0: the controller's default; -1: not checked) over the defaults; :func:`servo`, the actuators'
   response (first order with time constant ``tau``; ``tau = 0``: the joints follow exactly), and
@@ -51,8 +52,6 @@ ERROR_NAMES = {SUCCESSFUL: 'SUCCESSFUL', INVALID_GOAL: 'INVALID_GOAL', INVALID_J
                GOAL_TOLERANCE_VIOLATED: 'GOAL_TOLERANCE_VIOLATED'}
 #: Relative slack of the velocity limits (rounding of a trajectory timed exactly at a limit).
 VELOCITY_SLACK = 1e-9
-#: A check of the cell's clearance: sample times (K,) and every joint's positions (K, N) -> a refusal or None.
-Clearance = Callable[[Array, Array], str | None]
 
 
 class GoalError(InputError):
@@ -232,6 +231,11 @@ class Motion:
         return float(self.time[-1])
 
 
+#: A check of the cell's clearance: a checked goal's :class:`Motion` (its trajectory, the goal's joints, every joint at
+#: the start) -> a refusal (the message of an ``INVALID_GOAL``) or None.
+Clearance = Callable[[Motion], str | None]
+
+
 def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Array, time: Array, what: str) -> None:
     lo, hi = joints.lower[cols], joints.upper[cols]
     bad = (values < lo) | (values > hi)
@@ -310,11 +314,12 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {fk.tilt[i]:.6g} rad '
                         f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit '
                         f'{config.tilt_limit:g} rad')
+    motion = Motion(t, positions, velocities, cols, tolerances, traj)
     if clearance is not None:
-        refusal = clearance(t, positions)
+        refusal = clearance(motion)
         if refusal:
             raise GoalError(INVALID_GOAL, refusal)
-    return Motion(t, positions, velocities, cols, tolerances, traj)
+    return motion
 
 
 def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:

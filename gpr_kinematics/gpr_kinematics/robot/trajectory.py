@@ -15,7 +15,8 @@ that meets both points' positions (degree 1, *linear*, when the points give posi
 
 At ``tau = 0`` the value is ``p_i`` exactly, so every point is met to the last bit at its own time. When the first point
 lies after ``t = 0`` the motion starts from the given start positions at rest (zero velocity and acceleration) and
-reaches the first point by the same rule; after the last point the joints hold it.
+reaches the first point by the same rule; after the last point the joints hold it. The polynomials themselves, and
+every joint's exact travel between two instants, are :func:`spline`'s (:mod:`.spline`).
 
 :func:`program_trajectory` turns a checked robot program (:mod:`.plan`) into the trajectory that executes it as
 ``gpr program export`` times it: one point per sample at a rate (:func:`~gpr_kinematics.robot.timing.sample`), with
@@ -36,6 +37,7 @@ from ..core.messages import ROD_JOINT_NAMES
 from ..errors import InputError
 from ..inputs.files import write_text
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
+from .spline import Spline
 from .timing import MAX_SAMPLES, parameterise, sample, sample_times, velocities
 
 Array = NDArray[np.float64]
@@ -77,25 +79,9 @@ class JointTrajectory:
         return replace(self, time=self.time + dt)
 
 
-def _coefficients(p0: Array, v0: Array, a0: Array, p1: Array, v1: Array, a1: Array, h: Array,
-                  degree: int) -> list[Array]:
-    """``c0 .. c5`` of the segments (module docstring); ``h`` broadcasts against the joints."""
-    D = p1 - p0
-    zero = np.zeros_like(D)
-    if degree == 1:
-        return [p0, D / h, zero, zero, zero, zero]
-    if degree == 3:
-        return [p0, v0, (3.0 * D / h - 2.0 * v0 - v1) / h, (-2.0 * D / h + v0 + v1) / h ** 2, zero, zero]
-    h2 = h * h
-    return [p0, v0, 0.5 * a0,
-            (20.0 * D - (8.0 * v1 + 12.0 * v0) * h - (3.0 * a0 - a1) * h2) / (2.0 * h2 * h),
-            (-30.0 * D + (14.0 * v1 + 16.0 * v0) * h + (3.0 * a0 - 2.0 * a1) * h2) / (2.0 * h2 * h2),
-            (12.0 * D - 6.0 * (v1 + v0) * h + (a1 - a0) * h2) / (2.0 * h2 * h2 * h)]
-
-
-def evaluate(traj: JointTrajectory, start: Array, t: Array) -> tuple[Array, Array, Array]:
-    """Positions, velocities and accelerations ``(K, J)`` of ``traj`` at times ``t (K,)`` [s], starting at rest from
-    ``start (J,)`` when the first point lies after ``t = 0`` (module docstring)."""
+def spline(traj: JointTrajectory, start: Array) -> Spline:
+    """The polynomials :func:`evaluate` follows (:class:`~gpr_kinematics.robot.spline.Spline`), from ``start (J,)`` at
+    rest when the first point lies after ``t = 0`` (module docstring)."""
     P = traj.positions
     V = traj.velocities if traj.velocities is not None else np.zeros_like(P)
     A = traj.accelerations if traj.accelerations is not None else np.zeros_like(P)
@@ -104,22 +90,13 @@ def evaluate(traj: JointTrajectory, start: Array, t: Array) -> tuple[Array, Arra
         rest = np.zeros((1, P.shape[1]))
         times = np.concatenate([[0.0], times])
         P, V, A = np.vstack([np.asarray(start, dtype=float)[None, :], P]), np.vstack([rest, V]), np.vstack([rest, A])
-    t = np.asarray(t, dtype=float)
-    n = times.shape[0]
-    i = np.clip(np.searchsorted(times, t, side='right') - 1, 0, n - 1)
-    j = np.minimum(i + 1, n - 1)
-    h = np.where(j > i, times[j] - times[i], 1.0)[:, None]
-    c = _coefficients(P[i], V[i], A[i], P[j], V[j], A[j], h, traj.degree)
-    tau = np.maximum(t - times[i], 0.0)[:, None]
-    pos = c[0] + tau * (c[1] + tau * (c[2] + tau * (c[3] + tau * (c[4] + tau * c[5]))))
-    vel = c[1] + tau * (2.0 * c[2] + tau * (3.0 * c[3] + tau * (4.0 * c[4] + tau * 5.0 * c[5])))
-    acc = 2.0 * c[2] + tau * (6.0 * c[3] + tau * (12.0 * c[4] + tau * 20.0 * c[5]))
-    after = (i == n - 1)[:, None]       # at or after the last point: hold it (its own velocity at its instant)
-    exact = (t == times[-1])[:, None]
-    pos = np.where(after, P[-1], pos)
-    vel = np.where(after, np.where(exact, V[-1], 0.0), vel)
-    acc = np.where(after, np.where(exact, A[-1], 0.0), acc)
-    return pos, vel, acc
+    return Spline.of(times, P, V, A, traj.degree)
+
+
+def evaluate(traj: JointTrajectory, start: Array, t: Array) -> tuple[Array, Array, Array]:
+    """Positions, velocities and accelerations ``(K, J)`` of ``traj`` at times ``t (K,)`` [s], starting at rest from
+    ``start (J,)`` when the first point lies after ``t = 0`` (module docstring)."""
+    return spline(traj, start).evaluate(np.asarray(t, dtype=float))
 
 
 def trajectory_joint_names(plan: ProgramPlan) -> tuple[str, ...]:

@@ -14,7 +14,9 @@ URDF, the transforms and the plots always show the geometry the kinematics uses.
   ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
   chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
 - ``gpr_platform_nominal``: the platform under the naive model (floating joint ``gpr_platform_nominal_pose``),
-  drawn as a translucent ghost, so the centre shift shows as the offset between the two.
+  drawn as a translucent ghost, so the centre shift shows as the offset between the two; a ghost only (the old tool's
+  pose of the platform, not a body): no ``<inertial>`` and no ``<collision>``, so a dynamics or collision stack does
+  not count the platform twice.
 
 The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) adds the world and the arms:
 
@@ -28,11 +30,12 @@ The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) ad
   check (:mod:`gpr_kinematics.safety.clearance`) measures.
 
 For a motion stack: the joints' limits carry the description's velocities (rods: ``rods.velocity``; arm joints: their
-``velocity``) and effort 0 (the description gives none: not modelled); every link with a shape has an ``<inertial>``,
-by default (the description gives no masses) that of its drawn shapes filled with aluminium (:data:`DENSITY`, the
-wafer silicon), about its centre of mass; a link's collision shapes (``Link.collisions``) are written as
-``<collision>`` elements. ``frame_prefix`` prefixes every link (frame) name, not the joint names, as
-``robot_state_publisher``'s ``frame_prefix`` prefixes the tf frames: the URDF and ``/tf`` name the same frames.
+``velocity``) and effort 0 (the description gives none: not modelled); every link with a shape but the ghost
+``gpr_platform_nominal`` has an ``<inertial>``, by default (the description gives no masses) that of its drawn shapes
+filled with aluminium (:data:`DENSITY`, the wafer silicon), about its centre of mass; a link's collision shapes
+(``Link.collisions``) are written as ``<collision>`` elements. ``frame_prefix`` prefixes every link (frame) name, not
+the joint names, as ``robot_state_publisher``'s ``frame_prefix`` prefixes the tf frames: the URDF and ``/tf`` name the
+same frames.
 
 The arm's joint origins are its frames at zero joint values as the robot core chains them
 (:func:`gpr_kinematics.robot.forward.arm_transforms`): the URDF, the transforms and the kinematics have one source.
@@ -55,7 +58,6 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -86,12 +88,14 @@ JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
 @dataclass(frozen=True)
 class Link:
     """A frame with its drawn shapes, its collision shapes (the robot description's bodies, :mod:`.collision`; none:
-    no ``<collision>``) and its inertia (None: :func:`default_inertial` of the shapes)."""
+    no ``<collision>``) and its inertia (None: :func:`default_inertial` of the shapes); a ``ghost`` is drawn only (no
+    ``<inertial>``, no ``<collision>``: not a body, as the naive model's platform)."""
 
     name: str
     visuals: tuple[Visual, ...] = ()
     collisions: tuple[Visual, ...] = ()
     inertial: Inertial | None = None
+    ghost: bool = False
 
 
 @dataclass(frozen=True)
@@ -217,7 +221,7 @@ def gpr_urdf(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str =
                             upper=cfg.stroke_max, velocity=rod_velocity))
     disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
     links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
-    links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
+    links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),), ghost=True))
     joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame, note=CLOSED_CHAIN_NOTE))
     joints.append(Joint(f'{nominal_frame}_pose', 'floating', base_frame, nominal_frame))
     return RobotUrdf('gpr', base_frame, tuple(links), tuple(joints))
@@ -297,6 +301,17 @@ def _v(values: Iterable[float], exact: bool = True) -> str:
     return ' '.join(_f(v, exact) for v in values)
 
 
+def quoteattr(text: str) -> str:
+    """``text`` as an XML attribute value with its quotes, as :func:`xml.sax.saxutils.quoteattr` writes it (that
+    module imports urllib and http: about 65 ms at the start of every node that builds a URDF)."""
+    for char, entity in (('&', '&amp;'), ('<', '&lt;'), ('>', '&gt;'), ('\n', '&#10;'), ('\r', '&#13;'),
+                         ('\t', '&#9;')):
+        text = text.replace(char, entity)
+    if '"' not in text:
+        return f'"{text}"'
+    return f"'{text}'" if "'" not in text else '"' + text.replace('"', '&quot;') + '"'
+
+
 def _geometry(v: Visual, exact: bool = False) -> str:
     if v.shape == 'box':
         return f'<box size="{_v(v.size, exact)}"/>'
@@ -313,7 +328,7 @@ def _inertial_xml(i: Inertial) -> str:
 
 
 def _link_xml(link: Link) -> list[str]:
-    inertial = link.inertial or default_inertial(link.visuals)
+    inertial = None if link.ghost else link.inertial or default_inertial(link.visuals)
     if not link.visuals and not link.collisions and inertial is None:
         return [f'  <link name={quoteattr(link.name)}/>']
     out = [f'  <link name={quoteattr(link.name)}>']
@@ -322,7 +337,7 @@ def _link_xml(link: Link) -> list[str]:
     for v in link.visuals:
         out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>'
                    f'{_geometry(v)}</geometry><material name={quoteattr(v.material)}/></visual>')
-    for c in link.collisions:  # exact numbers: the clearance check uses these very shapes
+    for c in () if link.ghost else link.collisions:  # exact numbers: the clearance check uses these very shapes
         out.append(f'    <collision><origin xyz="{_v(c.xyz)}" rpy="{_v(c.rpy)}"/><geometry>{_geometry(c, True)}'
                    '</geometry></collision>')
     return [*out, '  </link>']

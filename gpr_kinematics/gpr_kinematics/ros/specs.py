@@ -338,6 +338,13 @@ SIMULATOR: tuple[ParamSpec, ...] = (
               'trajectory; 0: they follow it exactly', (0.0, 10.0), read_only=True),
     ParamSpec('queue_depth', _I, 1000, 'joint_states publisher and subscription depth (reliable)', (1, 100000),
               read_only=True),
+    ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): every goal\'s motion is checked against it '
+              'before anything moves (certified clearance between samples; python-fcl); empty: no clearance check',
+              constraint='a readable cell file or empty', read_only=True),
+    ParamSpec('clearance_margin', _D, 0.002, 'smallest distance [m] every pair of bodies must keep over a goal\'s '
+              'motion when cell_file is given', (0.0, 1.0), read_only=True),
+    ParamSpec('wafer_arms', _SA, [''], 'arms that carry a wafer during every goal (their wafer discs are checked '
+              'against the cell); [\'\']: none', constraint='names of the robot\'s arms', read_only=True),
 )
 
 #: Executables and the parameters they declare, besides ``robot_file``, ``config_file`` and the ``GprConfig`` keys

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from .bodies import Body, box_lower_bound
 from .distances import LIBRARY_SLACK, Exact, Store, Table, key
-from .motion import Levers, PlanMotion, levers
+from .motion import BodyMotion, Levers, levers
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
@@ -59,12 +59,14 @@ MAX_INSTANTS = 2_000_000
 @dataclass(frozen=True)
 class PairClearance:
     """The certified smallest distance of a pair over the motion [m] (negative: penetration), the instant of the
-    smallest distance measured [s], and ``first_below`` the first instant found below the margin (NaN: none)."""
+    smallest distance measured [s], ``first_below`` the first instant found below the margin (NaN: none) and
+    ``measured`` the smallest distance the library measured (at ``time``; the true minimum lies between)."""
 
     bodies: tuple[str, str]
     distance: float
     time: float
     first_below: float = float('nan')
+    measured: float = float('nan')
 
 
 @dataclass(frozen=True)
@@ -98,7 +100,7 @@ def _windows_mask(windows: Sequence[tuple[float, float]], t0: Array, t1: Array, 
     return ok
 
 
-def _check_numbers(margin: float, tolerance: float, rate: float) -> None:
+def check_numbers(margin: float, tolerance: float, rate: float) -> None:
     for name, value in (('margin', margin), ('tolerance', tolerance)):
         if not (isinstance(value, (int, float)) and np.isfinite(value) and 0.0 <= value <= 1.0) or \
                 (name == 'tolerance' and value <= 0.0):
@@ -108,24 +110,28 @@ def _check_numbers(margin: float, tolerance: float, rate: float) -> None:
         raise InputError(f'rate = {rate!r} is invalid; allowed: 0 < rate <= 1000 Hz')
 
 
-def clearance(motion: PlanMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float = MARGIN,
-              tolerance: float = TOLERANCE, rate: float = BASE_RATE) -> ClearanceReport:
+def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float = MARGIN,
+              tolerance: float = TOLERANCE, rate: float = BASE_RATE, decide: bool = False) -> ClearanceReport:
     """The certified smallest distance of every pair of ``bodies`` over ``motion`` (module docstring).
 
     Args:
         pairs: ``(i, j, skip)``: body indices and the time windows to leave out (intended contact).
         margin: below it a pair counts as a collision [m]; tolerance: accuracy of each pair's minimum [m].
         rate: base sampling [Hz] before refinement.
+        decide: False (the default): every pair's minimum to the tolerance. True: only whether each pair keeps the
+            margin: a pair is settled once every interval's bound reaches the margin (its ``distance`` then a lower
+            bound of at least the margin), or as soon as the library measures it closer (``measured``, at ``time``;
+            its ``distance`` the bounds reached, a lower bound still).
 
     Raises:
         InputError: a margin or tolerance that is not a number of metres in [0, 1] (tolerance > 0), a rate outside
             (0, 1000] Hz.
     """
-    _check_numbers(margin, tolerance, rate)
-    return _Search(motion, bodies, pairs, margin, tolerance, rate).run()
+    check_numbers(margin, tolerance, rate)
+    return _Search(motion, bodies, pairs, margin, tolerance, rate, decide).run()
 
 
-def _heights(motion: PlanMotion, bodies: Sequence[Body], platform: NDArray[np.bool_]) -> tuple[Array, Array]:
+def _heights(motion: BodyMotion, bodies: Sequence[Body], platform: NDArray[np.bool_]) -> tuple[Array, Array]:
     """The range of heights along the platform normal ``(lo, hi)`` of every platform-carried body, in
     ``gpr_platform`` [m] (the same at every instant: every arm joint turns about the normal), less the rounding."""
     snap = motion.snapshot(np.zeros(1))
@@ -164,13 +170,13 @@ class _Items:
 class _Search:
     """The branch and bound of :func:`clearance` over all pairs at once."""
 
-    def __init__(self, motion: PlanMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float,
-                 tolerance: float, rate: float) -> None:
-        self.motion, self.bodies, self.margin, self.tol = motion, bodies, margin, tolerance
+    def __init__(self, motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float,
+                 tolerance: float, rate: float, decide: bool) -> None:
+        self.motion, self.bodies, self.margin, self.tol, self.decide = motion, bodies, margin, tolerance, decide
         self.pa = np.array([p[0] for p in pairs], dtype=np.int64)
         self.pb = np.array([p[1] for p in pairs], dtype=np.int64)
         self.skip = [p[2] for p in pairs]
-        self.lev: Levers = levers(motion.plan.robot, bodies)
+        self.lev: Levers = levers(motion.robot, bodies)
         # the motion bounds are computed for the robot's bodies only; a fixed body reads the zero column after them
         sub = np.array([k for k, b in enumerate(bodies) if b.frame is not None], dtype=np.int64)
         self.col = np.full(len(bodies), sub.size, dtype=np.int64)
@@ -277,7 +283,9 @@ class _Search:
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
             tol = np.maximum(self.tol, RELATIVE * (np.minimum(np.abs(upper), 1e3) - NEAR))
             short = self.store.t(items.i1) - self.store.t(items.i0) <= MIN_INTERVAL
-            done = (bound >= (upper - tol)[items.p]) | (short & (l0 == 2) & (l1 == 2))
+            target = np.full(upper.shape, self.margin) if self.decide else upper - tol
+            decided = (upper < self.margin) if self.decide else np.zeros(upper.shape, dtype=bool)
+            done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p]
             np.minimum.at(floor, items.p[done], bound[done])
             np.minimum.at(series, items.base[done], bound[done])
             items, l0, l1 = items.take(~done), l0[~done], l1[~done]
@@ -291,7 +299,7 @@ class _Search:
                 self.boxes(np.concatenate([r.p, r.p]), np.concatenate([r.i0, r.i1]))
                 (e0, m0), (e1, m1) = self.lower(r.p, r.i0), self.lower(r.p, r.i1)
                 rb = self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))
-                settled = rb >= (upper - tol)[r.p]
+                settled = rb >= target[r.p]
                 np.minimum.at(floor, r.p[settled], rb[settled])
                 np.minimum.at(series, r.base[settled], rb[settled])
                 keep = np.ones(items.p.shape, dtype=bool)
@@ -320,7 +328,7 @@ class _Search:
         return items.take(~split).join(left).join(right)
 
     def _motion(self, items: _Items) -> None:
-        """The pair's motion bounds on each interval (:meth:`PlanMotion.bounds`): ``mu``, ``eps``, ``delta``."""
+        """The pair's motion bounds on each interval (the motion's ``bounds``): ``mu``, ``eps``, ``delta``."""
         _, first, inv = np.unique(key(items.i0, items.i1), return_index=True, return_inverse=True)
         inv = inv.ravel()
         data = self.store.data
@@ -373,7 +381,7 @@ class _Search:
             A, B = self.bodies[int(self.pa[p])], self.bodies[int(self.pb[p])]
             d, i = best[int(p)]
             results.append(PairClearance((A.name, B.name), float(certified[p]), float(t[i]),
-                                         below.get(int(p), float('nan'))))
+                                         below.get(int(p), float('nan')), float(d)))
         results.sort(key=lambda r: r.distance)
         lowest = results[0].distance if results else float('inf')
         return ClearanceReport(tuple(results), float(lowest), float(self.margin), float(self.tol), self.exact.calls,

@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import ConfigError
 from .bodies import Body
-from .motion import PlanMotion
+from .motion import BodyMotion
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
@@ -27,10 +28,19 @@ def _fcl() -> Any:
     return fcl
 
 
+def require_library(what: str) -> None:
+    """Raise :class:`~gpr_kinematics.errors.ConfigError` naming ``what`` needs python-fcl when it is missing."""
+    try:
+        _fcl()
+    except ImportError:
+        raise ConfigError(f"{what} needs python-fcl, the collision library: pip install 'gpr_kinematics[safety]'") \
+            from None
+
+
 class Store:
     """Poses and platform data at a growing set of instants (arrays grown by doubling)."""
 
-    def __init__(self, motion: PlanMotion, bodies: Sequence[Body]) -> None:
+    def __init__(self, motion: BodyMotion, bodies: Sequence[Body]) -> None:
         self.motion, self.bodies, self.n = motion, bodies, 0
         self.data: dict[str, Array] = {}
         self.moving = [k for k, b in enumerate(bodies) if b.frame is not None]

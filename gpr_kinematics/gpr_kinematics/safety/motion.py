@@ -31,6 +31,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -130,13 +131,36 @@ def levers(robot: RobotDescription, bodies: Sequence[Body]) -> Levers:
     return Levers(L, reach, platform, tuple(arms), rides)
 
 
+def drift_bound(flux: Array, sigma: Array, gamma: Array, lip: float) -> Array:
+    """``int |rdot_k|`` ``(K,)`` [m]: how far the joint centres drift in the body while the rods' squared side lengths
+    change by ``flux = int |d(L^2)/dt|`` (eq. (4) of docs/cell.md, from either end; ``sigma``, ``gamma`` ``(K, 2)``
+    at the ends; ``inf`` where ``sigma^2 <= 2 lip flux``)."""
+    with np.errstate(invalid='ignore', divide='ignore'):
+        roots = (sigma - np.sqrt(np.maximum(sigma ** 2 - 2.0 * lip * flux[:, None], 0.0))) / lip
+        x = np.min(np.where(sigma ** 2 > 2.0 * lip * flux[:, None], roots, np.inf), axis=1)
+    return np.asarray(np.max(gamma, axis=1) * np.where(flux > 0.0, x, 0.0), dtype=np.float64)
+
+
+def rod_angles(u: Array, normals: Sequence[Array], norms: Sequence[Array]) -> Array:
+    """The largest ``sin`` of a rod's angle (directions ``u (3, 3)``) from the joint-centre triangle's normal
+    (``N (K, 3)`` of length ``n (K,)``, at each end) ``(K,)``."""
+    return np.asarray(np.max(np.stack([np.linalg.norm(np.cross(u[None], (N / n[:, None])[:, None, :]), axis=2)
+                                       .max(axis=1) for N, n in zip(normals, norms, strict=True)]), axis=0),
+                      dtype=np.float64)
+
+
+def rod_directions(geo: MachineGeometry) -> Array:
+    """The rods' unit directions ``u_k`` as rows ``(3 rods, 3)``."""
+    return np.stack([np.array(geo.ux), np.array(geo.uy), np.array(geo.uz)], axis=1)
+
+
 def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Array, sigma: Array, gamma: Array,
                     lip: float) -> tuple[Array, Array, Array]:
     """``(A, Omega, drift)`` ``(K,)``: the path length of the platform's reference point (the joint centres'
     centroid) [m], the angle its rotation sweeps [rad] and how far the joint centres drift in the body [m] while the
     rods go from ``Q0 + s0 D`` to ``Q0 + s1 D`` (module docstring); ``sigma``, ``gamma`` ``(K, 2)`` at the two ends.
     A body point at distance ``rho`` from the reference moves by at most ``A + Omega rho``."""
-    u = np.stack([np.array(geo.ux), np.array(geo.uy), np.array(geo.uz)], axis=1)      # (3 rods, 3)
+    u = rod_directions(geo)
     P0, P1 = geo.base_points(Q0 + s0[:, None] * D), geo.base_points(Q0 + s1[:, None] * D)
     ds = np.abs(s1 - s0)
     vel = D[:, :, None] * u[None]                                                     # u_k D_k (K, 3, 3)
@@ -146,10 +170,7 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
         Ep = vel[:, b] - vel[:, a]
         flux += 2.0 * ds * np.maximum(np.abs(np.einsum('ki,ki->k', P0[:, b] - P0[:, a], Ep)),
                                    np.abs(np.einsum('ki,ki->k', P1[:, b] - P1[:, a], Ep)))
-    with np.errstate(invalid='ignore', divide='ignore'):
-        roots = (sigma - np.sqrt(np.maximum(sigma ** 2 - 2.0 * lip * flux[:, None], 0.0))) / lip
-        x = np.min(np.where(sigma ** 2 > 2.0 * lip * flux[:, None], roots, np.inf), axis=1)
-    rv = np.max(gamma, axis=1) * np.where(flux > 0.0, x, 0.0)                             # int |rdot_k|
+    rv = drift_bound(flux, sigma, gamma, lip)                                             # int |rdot_k|
     e12p, e13p = vel[:, 1] - vel[:, 0], vel[:, 2] - vel[:, 0]
     N0, N1 = (np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) for P in (P0, P1))
     dN = [np.linalg.norm(np.cross(e12p, P[:, 2] - P[:, 0]) + np.cross(P[:, 1] - P[:, 0], e13p), axis=1)
@@ -159,8 +180,7 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
     nmin = 0.5 * (n0 + n1 - ds * G)
     with np.errstate(invalid='ignore', divide='ignore'):
         omega_t = np.where(ds * G > 0.0, np.where(nmin > 0.0, ds * G / nmin, np.inf), 0.0)
-    sin_a = np.max(np.stack([np.linalg.norm(np.cross(u[None], (N / n[:, None])[:, None, :]), axis=2).max(axis=1)
-                             for N, n in ((N0, n0), (N1, n1))]), axis=0) + omega_t
+    sin_a = rod_angles(u, (N0, N1), (n0, n1)) + omega_t
     omega_n = np.full(ds.shape, np.inf)
     for a, b in edges:
         E0, Ep = P0[:, b] - P0[:, a], (vel[:, b] - vel[:, a]) * np.sign(s1 - s0)[:, None]
@@ -188,6 +208,49 @@ def platform_state(cfg: GprConfig, gpr: ForwardBatch) -> tuple[Array, Array, Arr
             np.max(gpr.joint_displacement, axis=1))
 
 
+def robot_snapshot(robot: RobotDescription, rows: Array) -> Snapshot:
+    """The robot at joint ``rows (N, J)`` (rods, then every arm's joints: :func:`joint_limits`' order): every frame's
+    world pose (forward kinematics of the rods under the virtual-joint model, then the arms) and the platform data."""
+    base = base_pose(robot, rows.shape[0])
+    cfg = robot.config
+    gpr = forward_batch(rows[:, :3], cfg, check_limits=False)
+    poses = {'gpr_base': base, 'gpr_platform': base.compose(PoseBatch(gpr.position, gpr.rotation))}
+    _, _, _, slices = joint_limits(robot)
+    for arm, cols in zip(robot.arms, slices, strict=True):
+        for frame, parent, pose in arm_transforms(arm, rows[:, cols]):
+            poses[frame] = poses[parent].compose(pose)
+    sigma, gamma, displacement = platform_state(cfg, gpr)
+    return Snapshot(rows, {k: (p.position, p.rotation) for k, p in poses.items()}, sigma, gamma, displacement)
+
+
+def platform_bound(geo: MachineGeometry, lev: Levers, A: Array, omega: Array, drift: Array, displacement: Array
+                   ) -> Array:
+    """``platform_b = A + Omega (rho_b + |rbar|)`` ``(K, B)`` [m] (docs/cell.md, eq. (3) integrated): the reference
+    point's path ``A``, the swept angle ``Omega``, the drift of the joint centres and their displacement ``(K, 2)`` at
+    the ends; zero for bodies the platform does not carry."""
+    rbar = float(np.linalg.norm(geo.platform_points().mean(axis=0))) + np.max(displacement, axis=1) + drift
+    return np.asarray(np.where(lev.platform[None, :], A[:, None] + omega[:, None] * (lev.reach[None, :]
+                                                                                      + rbar[:, None]), 0.0),
+                      dtype=np.float64)
+
+
+class BodyMotion(Protocol):
+    """What the clearance search needs of a motion (:class:`PlanMotion`, a controller's joint trajectory
+    :class:`~gpr_kinematics.safety.joint_motion.TrajectoryMotion`): the robot, the instants where its law changes,
+    the robot at instants, and the bounds of :meth:`PlanMotion.bounds` on intervals between knots."""
+
+    @property
+    def robot(self) -> RobotDescription: ...
+
+    @property
+    def knots(self) -> Array: ...
+
+    def snapshot(self, t: Array) -> Snapshot: ...
+
+    def bounds(self, t0: Array, t1: Array, lev: Levers, sigma: Array, gamma: Array, displacement: Array
+               ) -> IntervalBounds: ...
+
+
 @dataclass(frozen=True)
 class PlanMotion:
     """A checked program as a motion (module docstring)."""
@@ -200,22 +263,14 @@ class PlanMotion:
         t = self.plan.timing
         return np.unique(np.concatenate([t.arrive, t.depart]))
 
+    @property
+    def robot(self) -> RobotDescription:
+        return self.plan.robot
+
     def snapshot(self, t: Array) -> Snapshot:
         """The robot at times ``t`` [s] (exact joint values: S-curves on joint-space lines and straight entries)."""
-        robot = self.plan.robot
         rows = plan_samples(self.plan, sample_at(self.plan.timing, np.asarray(t, dtype=float))).positions
-        n = rows.shape[0]
-        base = base_pose(robot, n)
-        cfg = robot.config
-        gpr = forward_batch(rows[:, :3], cfg, check_limits=False)
-        platform = base.compose(PoseBatch(gpr.position, gpr.rotation))
-        poses = {'gpr_base': base, 'gpr_platform': platform}
-        _, _, _, slices = joint_limits(robot)
-        for arm, cols in zip(robot.arms, slices, strict=True):
-            for frame, parent, pose in arm_transforms(arm, rows[:, cols]):
-                poses[frame] = poses[parent].compose(pose)
-        sigma, gamma, displacement = platform_state(cfg, gpr)
-        return Snapshot(rows, {k: (p.position, p.rotation) for k, p in poses.items()}, sigma, gamma, displacement)
+        return robot_snapshot(self.plan.robot, rows)
 
     def bounds(self, t0: Array, t1: Array, lev: Levers, sigma: Array, gamma: Array, displacement: Array
                ) -> IntervalBounds:
@@ -259,8 +314,7 @@ class PlanMotion:
         arm_mu = np.where(lev.rides[None, :], np.minimum(arm_mu, travel), arm_mu)
         geo = MachineGeometry.of(plan.robot.config)
         A, omega, drift = platform_motion(geo, P[m, :3], D[:, :3], s0, s1, sigma, gamma, LIPSCHITZ)
-        rbar = float(np.linalg.norm(geo.platform_points().mean(axis=0))) + np.max(displacement, axis=1) + drift
-        plat = np.where(lev.platform[None, :], A[:, None] + omega[:, None] * (lev.reach[None, :] + rbar[:, None]), 0.0)
+        plat = platform_bound(geo, lev, A, omega, drift, displacement)
         plat[held] = 0.0
         arm_mu[held] = 0.0
         return IntervalBounds(arm_mu, plat, shift)

@@ -1,0 +1,87 @@
+"""The robot simulator's clearance check of a trajectory goal: the motion the controller will execute (its spline
+interpolation, :class:`~gpr_kinematics.safety.joint_motion.TrajectoryMotion`) against the process cell and the robot
+itself, certified between samples as ``gpr program check`` certifies a program (docs/cell.md, "Goals of the robot
+simulator").
+
+Bodies and pairs are ``gpr program check``'s (:func:`~gpr_kinematics.safety.bodies.default_pairs`): every robot body
+against every obstacle, each arm's bodies against the other arm's, each wafer against the column and the platform.
+A controller does not know which blade holds a wafer: ``wafer_arms`` names the arms that carry one throughout every
+goal (their wafer discs are bodies; default none: the robot's links, blades, column and platform only), and wafers
+lying in stations are not known to it either (not checked). :class:`GoalClearance` is the ``clearance`` hook of
+:func:`~gpr_kinematics.robot.controller.plan_motion`: it answers a refusal naming the two bodies, the time and the
+distance, or None.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..errors import ConfigError
+from ..robot.controller import Motion
+from ..robot.description import RobotDescription
+from .bodies import Body, cell_bodies, default_pairs, robot_body_set
+from .cell import Cell
+from .clearance import MARGIN, TOLERANCE, ClearanceReport, check_numbers, clearance
+from .distances import require_library
+from .joint_motion import TrajectoryMotion
+
+
+@dataclass(frozen=True)
+class GoalClearance:
+    """The clearance check of goals for ``robot`` in ``cell`` (module docstring): ``margin`` and ``tolerance`` [m] as
+    ``gpr program check``'s, ``wafer_arms`` the arms carrying a wafer."""
+
+    robot: RobotDescription
+    cell: Cell
+    margin: float = MARGIN
+    tolerance: float = TOLERANCE
+    wafer_arms: tuple[str, ...] = ()
+    bodies: tuple[Body, ...] = field(init=False, repr=False, compare=False)
+    pairs: tuple[tuple[int, int, tuple[tuple[float, float], ...]], ...] = field(init=False, repr=False,
+                                                                                 compare=False)
+
+    def __post_init__(self) -> None:
+        check_numbers(self.margin, self.tolerance, 1.0)
+        require_library('the clearance check of goals (cell_file)')
+        for arm in self.wafer_arms:
+            if arm not in self.robot.arm_names:
+                raise ConfigError(f'wafer_arms: unknown arm {arm!r}; allowed: some of '
+                                  f'{", ".join(self.robot.arm_names)}, or none')
+        bodies = robot_body_set(self.robot, {a: ((0.0, math.inf),) for a in self.wafer_arms})
+        bodies += cell_bodies(self.cell)
+        object.__setattr__(self, 'bodies', tuple(bodies))
+        object.__setattr__(self, 'pairs', tuple((i, j, ()) for i, j in default_pairs(bodies)))
+
+    def report(self, motion: Motion) -> ClearanceReport:
+        """The certified clearance of every pair over a checked goal's ``motion`` (times from the goal's start)."""
+        moving = TrajectoryMotion.of(self.robot, motion.trajectory, motion.goal, motion.positions[0])
+        return clearance(moving, self.bodies, self.pairs, self.margin, self.tolerance, decide=True)
+
+    def __call__(self, motion: Motion) -> str | None:
+        """None when every pair stays at least the margin apart over the whole motion; else the refusal: the pair
+        below the margin first, when, and how close it comes."""
+        return refusal(self.report(motion), self.cell.source)
+
+
+def refusal(report: ClearanceReport, cell: str) -> str | None:
+    """The refusal of a goal whose ``report`` (:func:`~gpr_kinematics.safety.clearance.clearance` deciding the margin)
+    has pairs below its margin, or None. It names the pair the library measured below the margin first, the instant
+    of the smallest distance measured for it and that distance (where the search stopped: the pair's minimum is at
+    most that); a pair whose bounds could not prove the margin within the search's budget, without a measurement
+    below it, is named with its certified lower bound."""
+    below = report.below_margin
+    if not below:
+        return None
+    found = [p for p in below if p.measured < report.margin]
+    others = f'; {len(below) - 1} more pair(s) below the margin' if len(below) > 1 else ''
+    allowed = (f'; allowed: every pair at least clearance_margin {report.margin * 1e3:g} mm apart over the whole '
+               'motion')
+    if found:
+        p = min(found, key=lambda q: q.first_below)
+        return (f'{p.bodies[0]} and {p.bodies[1]} would come within the margin: {p.measured * 1e3:.3f} mm apart at '
+                f't = {p.time:.6g} s (time_from_start; negative: penetration; found by the check certified between '
+                f'samples, cell {cell}){others}{allowed}')
+    p = min(below, key=lambda q: q.distance)
+    return (f'{p.bodies[0]} and {p.bodies[1]} could not be proven the margin apart: certified at least '
+            f'{p.distance * 1e3:.3f} mm, {p.measured * 1e3:.3f} mm measured at t = {p.time:.6g} s (time_from_start; '
+            f'cell {cell}){others}{allowed}')

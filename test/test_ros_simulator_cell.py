@@ -1,0 +1,93 @@
+"""robot_simulator_node with a process cell (``cell_file``) over real DDS: a FollowJointTrajectory goal whose motion
+would drive arm1's blade into a box of the cell (between the goal's two points, both clear of it) is refused with
+INVALID_GOAL and a message naming the blade, the box, the time and the distance, nothing moves, and the node then
+runs a goal that keeps clear of the box to SUCCESSFUL."""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from gpr_kinematics.robot.controller import ControllerJoints
+from gpr_kinematics.robot.trajectory import JointTrajectory
+from robot_support import ROBOT
+from ros_support import start
+from test_ros_simulator import _goal, _run, session
+
+pytestmark = pytest.mark.ros
+
+JOINTS = ControllerJoints.of(ROBOT)
+NS = '/gpr_sim_cell'
+
+
+def _box_in_the_sweep() -> tuple[list[float], float]:
+    """A box's centre and yaw 20 mm inside the circle arm1's blade sweeps when its shoulder turns from 0 to 1.2 rad,
+    where the blade passes at 0.6 rad (at rest otherwise)."""
+    from gpr_kinematics.safety.bodies import robot_body_set
+    from gpr_kinematics.safety.joint_motion import TrajectoryMotion
+
+    turn = JointTrajectory(('arm1_shoulder',), np.array([0.0, 2.0]), np.array([[0.0], [1.2]]))
+    motion = TrajectoryMotion.of(ROBOT, turn, JOINTS.indices(['arm1_shoulder']), JOINTS.rest)
+    snap = motion.snapshot(np.array([1.0]))
+    axis = snap.frames['arm1_link1'][0][0]
+    blade = next(b for b in robot_body_set(ROBOT) if b.name == 'arm1_blade')
+    p, R = snap.frames['arm1_blade']
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    corners = p[0] + (R[0] @ (blade.position + (signs * blade.half) @ blade.rotation.T).T).T
+    k = int(np.argmax(np.hypot(*(corners[:, :2] - axis[:2]).T)))
+    radial = corners[k, :2] - axis[:2]
+    yaw = math.atan2(radial[1], radial[0])
+    centre = axis + (np.linalg.norm(radial) - 0.02 + 0.025) * np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    centre[2] = corners[k, 2]
+    return [float(v) for v in centre], yaw
+
+
+@pytest.fixture(scope='module')
+def sim_cell(ros_environment, tmp_path_factory):
+    """A simulator in NS with a cell of one box in arm1's blade's sweep, and a client."""
+    centre, yaw = _box_in_the_sweep()
+    cell = tmp_path_factory.mktemp('cell') / 'cell.yaml'
+    cell.write_text('format: gpr_cell\nversion: 1\nframe: world\nobstacles:\n'
+                    f'  - {{name: box, box: [0.05, 0.1, 0.1], position: {centre!r}, rpy: [0.0, 0.0, {yaw!r}]}}\n')
+    proc = start('robot_simulator_node', namespace=NS, cell_file=str(cell), idle_rate=20.0)
+    yield from session(proc, r'goals checked against cell .*cell\.yaml \(1 obstacles, \d+ pairs, margin 0\.002 m, '
+                             r'wafers on no arm\)', 'gpr_test_simulator_cell', NS)
+
+
+def test_a_goal_into_the_box_is_refused_then_a_clear_one_runs(sim_cell):
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, proc = sim_cell
+    shoulder = JOINTS.names.index('arm1_shoulder')
+    feedback: list = []
+    result, status = _run(c, cli, _goal(['arm1_shoulder'], [0.0, 2.0], [[0.0], [1.2]]), feedback)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == -1 and not feedback
+    m = re.fullmatch(r'arm1_blade and box would come within the margin: (-?[\d.]+) mm apart at t = ([\d.]+) s '
+                     r'\(time_from_start; negative: penetration; found by the check certified between samples, cell '
+                     r'.*cell\.yaml\); allowed: every pair at least clearance_margin 2 mm apart over the whole motion',
+                     result.error_string)
+    assert m, result.error_string
+    assert -20.0 - 1e-3 <= float(m.group(1)) < 2.0 and 0.0 < float(m.group(2)) < 2.0
+    assert 'goal refused (-1): arm1_blade and box' in proc.output()
+    n = len(states)
+    assert c.spin_until(lambda: len(states) > n + 2, 5)
+    assert all(msg.position[shoulder] == 0.0 for msg in states[n:])          # nothing moved
+    result, status = _run(c, cli, _goal(['arm1_shoulder'], [0.0, 1.0], [[0.0], [-0.5]]), feedback)
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
+    assert len(feedback) == 101 and feedback[-1].actual.positions[0] == -0.5
+
+
+@pytest.mark.parametrize('values, words', [
+    ({'cell_file': 'no_such_cell.yaml'}, r'cannot start: .*no_such_cell\.yaml'),
+    ({'cell_file': 'CELL', 'wafer_arms': ['arm3']}, r"cannot start: wafer_arms: unknown arm 'arm3'; allowed: some of "
+                                                     r'arm1, arm2, or none'),
+])
+def test_a_bad_cell_or_wafer_arm_stops_the_node_with_one_line(ros_environment, values, words):
+    from gpr_kinematics.inputs.resources import config_path
+    from ros_support import assert_one_error_line
+
+    values = {k: str(config_path('cells/example_cell.yaml')) if v == 'CELL' else v for k, v in values.items()}
+    proc = start('robot_simulator_node', namespace=NS, **values)
+    status = proc.wait(timeout=60)
+    assert_one_error_line(proc.output(), status, 2, words)
