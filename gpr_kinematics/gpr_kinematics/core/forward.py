@@ -34,6 +34,7 @@ from .machine import MachineGeometry
 from .naive import NaiveState, naive_state
 from .ops import ARRAY, SCALAR, Ops
 from .platform_pose import PlatformPose, platform_pose
+from .single import OnePose, one_pose
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -129,6 +130,16 @@ class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
     def normal(self) -> Array:
         """Platform normals ``(N, 3)``."""
         return self.rotation[:, :, 2]
+
+    @classmethod
+    def of_one(cls, one: ForwardResult) -> ForwardBatch:
+        """The batch of one row ``one`` (its arrays as views with a leading axis of length 1)."""
+        out: dict[str, Any] = {name: getattr(one, name) for name in _SHARED_FIELDS}
+        for name in _ROW_FIELDS:
+            out[name] = getattr(one, name)[None]
+        for name in _SCALAR_FIELDS:
+            out[name] = np.array([getattr(one, name)])
+        return cls.from_fields(out)
 
 
 #: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
@@ -274,11 +285,53 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
             check_limits: bool = True) -> ForwardResult:
     """Forward kinematics of one configuration ``q = (q1, q2, q3)`` [m]; see :func:`forward_batch`.
 
-    Evaluated in float arithmetic by the same kernels and driver as the batch (no numpy overhead per step).
+    The one-pose path (:mod:`gpr_kinematics.core.single`): float arithmetic with the constants of the geometry and
+    model computed once, the limits checked in float comparisons (the batch's messages when one fails), the result
+    built from one array. Equal to the batch row to rounding (~1e-16).
     """
     cfg = resolve_config(config)
-    out: ForwardResult = _forward(SCALAR, ForwardResult, three_floats(q, 'q'), cfg, make_model(cfg, model),
-                                  check_limits)
+    kernel = one_pose(cfg, model)
+    q3 = three_floats(q, 'q')
+    q0, q1, q2 = q3
+    naive = None
+    if check_limits:
+        lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+        if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
+            check_stroke(SCALAR, q3, cfg)
+        naive = kernel.naive(q0, q1, q2)
+        h2, rest = naive[1], 1.0 - naive[1]
+        if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > 1.05 * cfg.tilt_limit:
+            _check_naive_tilt(SCALAR, kernel.geometry, q3, cfg)
+    P = kernel.centres(q0, q1, q2)
+    L = kernel.lengths(P)
+    closure = kernel.closure(*L)
+    pose = platform_pose(SCALAR, kernel.geometry, q3, P, closure.components, naive)
+    if check_limits and pose.tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:
+        _check_tilt(q3, pose.tilt, cfg)
+    return one_result(kernel, q3, L, closure, pose)
+
+
+def one_result(kernel: OnePose, q: Sequence[float], L: Sequence[float], closure: Closure, pose: PlatformPose
+               ) -> ForwardResult:
+    """The :class:`ForwardResult` of a solved pose (floats), as :func:`assemble` builds it, from one array: every
+    vector field is a view of it (no array and no ``__init__`` per field)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = pose.rotation
+    (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = pose.nominal_rotation
+    tx, ty, tz = pose.position
+    z = pose.nominal_z
+    zero = 0.0 * z
+    jd0, jd1, jd2 = jd = pose.joint_displacement
+    a = np.array([*q, *L, tx, ty, tz, r00, r01, r02, r10, r11, r12, r20, r21, r22, *pose.quaternion, zero, zero, z,
+                  n00, n01, n02, n10, n11, n12, n20, n21, n22, *pose.nominal_quaternion, tx - zero, ty - zero, tz - z,
+                  *jd, *closure.X])
+    out = ForwardResult.__new__(ForwardResult)
+    out.__dict__.update(
+        q=a[0:3], model=kernel.model.name, virtual_joints=a[44:], virtual_joint_names=kernel.names,
+        side_lengths=a[3:6], position=a[6:9], rotation=a[9:18].reshape(3, 3), quaternion=a[18:22], tilt=pose.tilt,
+        tilt_azimuth=pose.tilt_azimuth, twist=pose.twist, nominal_position=a[22:25],
+        nominal_rotation=a[25:34].reshape(3, 3), nominal_quaternion=a[34:38], centre_shift=a[38:41],
+        joint_displacement=a[41:44], within_budget=max(max(jd0, jd1), jd2) <= kernel.config.imperfection_budget,
+        iterations=closure.iterations, residual=closure.residual, fit_residual=pose.fit_residual)
     return out
 
 

@@ -30,10 +30,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
-from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, solve_pose
+from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, one_result, solve_pose
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops
+from .platform_pose import platform_pose, rigid_fit
+from .single import OnePose, one_pose
 from .virtual_joints import VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -201,11 +203,45 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
 
 def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None = None,
             model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseResult:
-    """Inverse kinematics of one target (float arithmetic, the same driver); see :func:`inverse_batch`."""
+    """Inverse kinematics of one target (the one-pose path of :mod:`gpr_kinematics.core.single`, the same steps as
+    the batch in float arithmetic); see :func:`inverse_batch`."""
     h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
     cfg = resolve_config(config)
+    kernel = one_pose(cfg, model)
     tool3 = three_floats(tool, 'tool')
     if max(abs(tool3[0]), abs(tool3[1]), abs(tool3[2])) > TOOL_REACH / 1.8:  # the exact check only when close
         check_tool(tool3)
-    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, tool3, cfg, make_model(cfg, model))
-    return InverseResult(q=achieved.q, achieved=achieved, iterations=int(iterations))
+    return inverse_one(kernel, h, t, g, tool3)
+
+
+def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float]) -> InverseResult:
+    """:func:`_solve` of one target ``(h, t, g)`` with the tool point ``tool`` (floats, checked) on the one-pose
+    kernels: each step solves the closure and the rigid fit only; the pose of the last one is completed."""
+    cfg, geo = kernel.config, kernel.geometry
+    if abs(t) > cfg.tilt_limit + TILT_LIMIT_SLACK:
+        _check_tilt_targets(SCALAR, t, cfg)
+    s = math.sin(t)
+    n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
+    _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
+    q_target = naive_rods(geo, h, n_target, tool)
+    q = list(q_target)
+    t0, t1, t2 = tool
+    n0, n1, n2 = n_target
+    most = cfg.max_iterations
+    for iterations in range(most + 1):
+        P = kernel.centres(q[0], q[1], q[2])
+        L = kernel.lengths(P)
+        closure = kernel.closure(*L)
+        frame = rigid_fit(SCALAR, P, closure.components)
+        r02, r12, r20, r21, r22, tz = frame[2], frame[5], frame[6], frame[7], frame[8], frame[11]
+        h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
+        err = max(max(max(abs(h_now - h), abs(r02 - n0)), abs(r12 - n1)), abs(r22 - n2))
+        if err <= IK_TOLERANCE:
+            break
+        if iterations == most:
+            raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
+        q_now = naive_rods(geo, h_now, [r02, r12, r22], tool)
+        q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
+    check_stroke(SCALAR, q, cfg, what='q')
+    achieved = one_result(kernel, q, L, closure, platform_pose(SCALAR, geo, q, P, closure.components, frame=frame))
+    return InverseResult(q=achieved.q, achieved=achieved, iterations=iterations)

@@ -41,15 +41,14 @@ class PlatformPose(NamedTuple):
     fit_residual: Any
 
 
-def platform_pose(ops: Ops, geo: MachineGeometry, q: Sequence[Any],
-                  P: tuple[list[Any], list[Any], list[Any]], comps: Components,
-                  naive: NaiveState | None = None) -> PlatformPose:
-    """The pose of the platform whose joints ``r_k`` (the :func:`~gpr_kinematics.core.virtual_joints.joint_components`
-    of the solved ``X``) sit on the joint centres ``P = (x, y, z)`` of the rods set to ``q`` (module docstring).
+#: The rigid transform of :func:`rigid_fit`: the rows of ``Rot`` (9 entries, row by row) and ``t`` (3) [m].
+RigidFit = tuple[Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any, Any]
 
-    The quaternion uses the trace formula (rotations of the platform are far below 90 deg, so ``w >= 0.7``).
-    ``naive``: :func:`~gpr_kinematics.core.naive.naive_state` of ``q`` when the caller has it already.
-    """
+
+def rigid_fit(ops: Ops, P: tuple[list[Any], list[Any], list[Any]], comps: Components) -> RigidFit:
+    """The rigid transform ``(Rot, t)`` with ``P_k = Rot r_k + t`` (module docstring): ``Rot = F_P F_r^T`` from the
+    frames of the two triangles, ``t`` maps the centroid of the ``r_k`` onto that of the ``P_k``. Returns
+    ``(r00, r01, r02, r10, .., r22, tx, ty, tz)``: what inverse kinematics needs of each of its forward solves."""
     sqrt = ops.sqrt
     (rx0, rx1, rx2), (ry0, ry1, ry2) = comps[0], comps[1]
     (bx0, bx1, bx2), (by0, by1, by2), (bz0, bz1, bz2) = P
@@ -75,6 +74,23 @@ def platform_pose(ops: Ops, geo: MachineGeometry, q: Sequence[Any],
     tx = (bx0 + bx1 + bx2) / 3.0 - (r00 * rcx + r01 * rcy)
     ty = (by0 + by1 + by2) / 3.0 - (r10 * rcx + r11 * rcy)
     tz = (bz0 + bz1 + bz2) / 3.0 - (r20 * rcx + r21 * rcy)
+    return r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz
+
+
+def platform_pose(ops: Ops, geo: MachineGeometry, q: Sequence[Any],
+                  P: tuple[list[Any], list[Any], list[Any]], comps: Components,
+                  naive: NaiveState | None = None, frame: RigidFit | None = None) -> PlatformPose:
+    """The pose of the platform whose joints ``r_k`` (the :func:`~gpr_kinematics.core.virtual_joints.joint_components`
+    of the solved ``X``) sit on the joint centres ``P = (x, y, z)`` of the rods set to ``q`` (module docstring).
+
+    The quaternion uses the trace formula (rotations of the platform are far below 90 deg, so ``w >= 0.7``).
+    ``naive``: :func:`~gpr_kinematics.core.naive.naive_state` of ``q`` when the caller has it already; ``frame``: the
+    :func:`rigid_fit` of ``P`` and ``comps`` when the caller has it already.
+    """
+    sqrt = ops.sqrt
+    (rx0, rx1, rx2), (ry0, ry1, ry2) = comps[0], comps[1]
+    (bx0, bx1, bx2), (by0, by1, by2), (bz0, bz1, bz2) = P
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = rigid_fit(ops, P, comps) if frame is None else frame
     fit = None
     for rxk, ryk, bxk, byk, bzk in ((rx0, ry0, bx0, by0, bz0), (rx1, ry1, bx1, by1, bz1),
                                     (rx2, ry2, bx2, by2, bz2)):

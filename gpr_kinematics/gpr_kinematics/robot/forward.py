@@ -17,19 +17,21 @@ believes the wafer is; ``naive_wafer_error = wafer - naive_wafer`` is the error 
 """
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core import ForwardBatch, forward_batch, naive_forward
-from ..core.rotations import rotation_angle, rotation_z
+from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
+from ..core.rotations import rotation_angle, rotation_z, rpy_matrix
 from ..errors import InputError, LimitError
 from ..inputs.validation import bounded, rows_of
 from .description import Arm, RobotDescription
 from .planar_arm import LIMIT_SLACK
-from .transforms import PoseBatch
+from .transforms import Mat3, PoseBatch, Vec3, compose_one, mat_vec, pose_batch, rot_z
 
 Array = NDArray[np.float64]
 
@@ -162,6 +164,8 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         check_joint_limits(a, J)
     else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
         bounded(J, f'joints of {a.name} [rad]')
+    if Q.shape[0] == 1:
+        return _robot_forward_one(robot, a, Q, J, forward(Q[0].tolist(), robot.config, check_limits=check_limits))
     gpr = forward_batch(Q, robot.config, check_limits=check_limits)
     return forward_on_platform(robot, a, Q, J, gpr)
 
@@ -172,3 +176,53 @@ def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, g
     blade_p, wafer_p = platform_to_blade(arm, J)
     return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=gpr, platform=platform, blade=platform.compose(blade_p),
                         wafer=platform.compose(wafer_p), robot=robot, wafer_on_platform=wafer_p)
+
+
+def base_floats(robot: RobotDescription) -> tuple[Vec3, Mat3]:
+    """``gpr_base`` in the world as floats (:func:`base_pose` of one row)."""
+    return _base(robot.base_position, robot.base_rpy)
+
+
+@functools.lru_cache(maxsize=64)
+def _base(position: Vec3, rpy: Vec3) -> tuple[Vec3, Mat3]:
+    (a, b, c), (d, e, f), (g, h, i) = rpy_matrix(*rpy).tolist()
+    return position, ((a, b, c), (d, e, f), (g, h, i))
+
+
+def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Vec3]:
+    """:func:`platform_to_blade` of one posture in floats: the blade's position and rotation and the wafer's
+    position in ``gpr_platform`` (the wafer's rotation is the blade's)."""
+    x, y = arm.mount_position[0], arm.mount_position[1]
+    turned, c, s, last = 0.0, 1.0, 0.0, 0.0
+    for k, joint in enumerate(arm.joints):
+        turned = joints[0] if k == 0 else turned + joints[k]  # the cumulative sum first, then the mount yaw
+        last = arm.mount_yaw + turned
+        c, s = math.cos(last), math.sin(last)
+        x, y = x + c * joint.length, y + s * joint.length
+    bx, by = arm.blade.position[0], arm.blade.position[1]
+    x, y = x + c * bx - s * by, y + s * bx + c * by
+    z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
+    R = rot_z(last + arm.blade.yaw)
+    w = mat_vec(R, arm.blade.wafer_centre)
+    return (x, y, z), R, (x + w[0], y + w[1], z + w[2])
+
+
+def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], position: Vec3, rotation: Mat3
+                    ) -> tuple[tuple[Vec3, Mat3], tuple[Vec3, Mat3], tuple[Vec3, Mat3], tuple[Vec3, Mat3]]:
+    """The platform, blade and wafer in the world and the wafer on the platform for one posture on the platform pose
+    ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`)."""
+    p_wb, R_wb = base_floats(robot)
+    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints)
+    platform = compose_one(p_wb, R_wb, position, rotation)
+    return (platform, compose_one(*platform, blade_p, blade_R), compose_one(*platform, wafer_p, blade_R),
+            (wafer_p, blade_R))
+
+
+def _robot_forward_one(robot: RobotDescription, arm: Arm, Q: Array, J: Array, gpr: ForwardResult) -> RobotForward:
+    """:func:`robot_forward` of one configuration: the GPR's one-pose path, the chain in floats."""
+    R = gpr.rotation.tolist()
+    platform, blade, wafer, on_platform = one_on_platform(robot, arm, J[0].tolist(), tuple(gpr.position.tolist()),
+                                                          (tuple(R[0]), tuple(R[1]), tuple(R[2])))
+    return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=ForwardBatch.of_one(gpr), platform=pose_batch(*platform),
+                        blade=pose_batch(*blade), wafer=pose_batch(*wafer), robot=robot,
+                        wafer_on_platform=pose_batch(*on_platform))
