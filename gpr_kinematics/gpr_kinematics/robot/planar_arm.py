@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,7 +41,7 @@ Array = NDArray[np.float64]
 REACH_SLACK = 1e-12
 #: Slack [rad] on the joint limits (rounding of targets at a limit).
 LIMIT_SLACK = 1e-12
-#: The ``nearest`` rule's sweep of the held joint's range and its refinement steps (:func:`_nearest_value`).
+#: The ``nearest`` rule's sweep of the held joint's range and its refinement steps (:func:`nearest_value`).
 NEAREST_GRID = 121
 NEAREST_REFINE = 32
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -200,97 +199,12 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
         if red.rule == 'fixed_joint':
             v = np.full(p.shape[0], red.value) if value is None else np.asarray(value, dtype=float)
         else:
-            v = _nearest_value(arm, d, beta, p, phi, sign)
+            v = nearest_value(arm, d, beta, p, phi, sign)
         theta, tl = _solve_fixed(d, beta, red.joint, v, p, phi, sign)
     theta, violation = wrap_to_limits(theta, lower, upper)
     heading = np.sum(theta, axis=1) + beta
     return ArmSolution(theta=theta, heading=heading, reachable=tl.reachable, reach=tl.r, reach_min=tl.r_min,
                        reach_max=tl.r_max, violation=violation)
-
-
-class OneArm(NamedTuple):
-    """:class:`ArmSolution` of one target in floats: joint values (wrapped) [rad], heading [rad], reachable, the reach
-    and its interval [m], each joint's violation of its limits [rad]."""
-
-    theta: list[float]
-    heading: float
-    reachable: bool
-    reach: float
-    reach_min: float
-    reach_max: float
-    violation: list[float]
-
-    def arrays(self) -> ArmSolution:
-        """The :class:`ArmSolution` of one row."""
-        return ArmSolution(theta=np.array([self.theta]), heading=np.array([self.heading]),
-                           reachable=np.array([self.reachable]), reach=np.array([self.reach]),
-                           reach_min=np.array([self.reach_min]), reach_max=np.array([self.reach_max]),
-                           violation=np.array([self.violation]))
-
-
-def _turn(angle: float, x: float, y: float) -> tuple[float, float]:
-    c, s = math.cos(angle), math.sin(angle)
-    return c * x - s * y, s * x + c * y
-
-
-def _two_link_one(D1: tuple[float, float], D2: tuple[float, float], px: float, py: float, sign: float
-                  ) -> tuple[float, float, float, float, float]:
-    """:func:`two_link` of one target in floats: ``(Theta1, Theta2, r, r_min, r_max)``."""
-    L1, L2, r = math.hypot(D1[0], D1[1]), math.hypot(D2[0], D2[1]), math.hypot(px, py)
-    lo, hi = abs(L1 - L2), L1 + L2
-    inv = 1.0 / (2.0 * L1 * L2)
-    cos_g = min(max((r * r - L1 * L1 - L2 * L2) * inv, -1.0), 1.0)
-    prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
-    g = math.atan2(sign * math.sqrt(prod if prod >= 0.0 else 0.0) * inv, cos_g)
-    A1 = math.atan2(py, px) - math.atan2(L2 * math.sin(g), L1 + L2 * math.cos(g))
-    return A1 - math.atan2(D1[1], D1[0]), A1 + g - math.atan2(D2[1], D2[0]), r, lo, hi
-
-
-def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
-    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps; the
-    ``nearest`` rule's search runs on arrays)."""
-    d_arrays, beta = link_vectors(arm)
-    d = [(float(v[0]), float(v[1])) for v in d_arrays]
-    n = len(arm.joints)
-    c = [0.0, 0.0, 0.0]
-    if n == 2:
-        T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px, py, sign)
-        theta = [T1, T2 - T1]
-    else:
-        j, v, b = -1, 0.0, beta
-        if n == 4:
-            red = arm.redundancy
-            assert red is not None
-            j = red.joint
-            if red.rule == 'fixed_joint':
-                v = red.value if value is None else value
-            else:
-                v = float(_nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
-                                         np.array([sign]))[0])
-            if j == 0:
-                mx, my = _turn(v, d[0][0], d[0][1])
-                px, py, d, c[0] = px - mx, py - my, d[1:], v
-            else:
-                mx, my = _turn(v, d[j][0], d[j][1])
-                d = d[:j - 1] + [(d[j - 1][0] + mx, d[j - 1][1] + my)] + d[j + 1:]
-                if j == 3:
-                    b = beta + v
-                else:
-                    c[j] = v
-        Theta3 = phi - b
-        wx, wy = _turn(Theta3, d[2][0], d[2][1])
-        T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px - wx, py - wy, sign)
-        theta = [T1 - c[0], T2 - T1 - c[1], Theta3 - T2 - c[2]]
-        if j >= 0:
-            theta.insert(j, v)
-    wrapped, violation = [], []
-    for t, joint in zip(theta, arm.joints, strict=True):
-        mid = 0.5 * (joint.lower + joint.upper)
-        t = mid + (t - mid + math.pi) % (2.0 * math.pi) - math.pi
-        beyond = max(joint.lower - t, t - joint.upper) - LIMIT_SLACK
-        wrapped.append(t)
-        violation.append(beyond if beyond >= 0.0 else 0.0)
-    return OneArm(wrapped, sum(wrapped) + beta, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
 def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, v: Array) -> Array:
@@ -306,7 +220,7 @@ def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     return np.where(bad, np.inf, cost)
 
 
-def _nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array) -> Array:
+def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array) -> Array:
     """The held joint's value of the posture nearest the reference.
 
     Joint limits and the reach cut the self-motion into *runs* of feasible postures; within a run the cost is
