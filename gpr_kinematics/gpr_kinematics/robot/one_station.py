@@ -28,7 +28,7 @@ from ..core.single import OnePose, one_pose
 from ..errors import ConvergenceError, LimitError
 from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
-from .planar_arm import LIMIT_SLACK, REACH_SLACK, link_vectors, nearest_value
+from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
 from .transforms import Mat3, PoseBatch, Vec3, compose_one, mat_mul, mat_tmul, mat_tvec, pose_batch, rot_z
 
@@ -52,84 +52,6 @@ class OneStation(NamedTuple):
     naive_wafer: PoseBatch
     position_error: NDArray[np.float64]
     angle_error: NDArray[np.float64]
-
-
-class OneArm(NamedTuple):
-    """:class:`ArmSolution` of one target in floats: joint values (wrapped) [rad], heading [rad], reachable, the reach
-    and its interval [m], each joint's violation of its limits [rad]."""
-
-    theta: list[float]
-    heading: float
-    reachable: bool
-    reach: float
-    reach_min: float
-    reach_max: float
-    violation: list[float]
-
-
-def _turn(angle: float, x: float, y: float) -> tuple[float, float]:
-    c, s = math.cos(angle), math.sin(angle)
-    return c * x - s * y, s * x + c * y
-
-
-def _two_link_one(D1: tuple[float, float], D2: tuple[float, float], px: float, py: float, sign: float
-                  ) -> tuple[float, float, float, float, float]:
-    """:func:`two_link` of one target in floats: ``(Theta1, Theta2, r, r_min, r_max)``."""
-    L1, L2, r = math.hypot(D1[0], D1[1]), math.hypot(D2[0], D2[1]), math.hypot(px, py)
-    lo, hi = abs(L1 - L2), L1 + L2
-    inv = 1.0 / (2.0 * L1 * L2)
-    cos_g = min(max((r * r - L1 * L1 - L2 * L2) * inv, -1.0), 1.0)
-    prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
-    g = math.atan2(sign * math.sqrt(prod if prod >= 0.0 else 0.0) * inv, cos_g)
-    A1 = math.atan2(py, px) - math.atan2(L2 * math.sin(g), L1 + L2 * math.cos(g))
-    return A1 - math.atan2(D1[1], D1[0]), A1 + g - math.atan2(D2[1], D2[0]), r, lo, hi
-
-
-def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
-    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps; the
-    ``nearest`` rule's search runs on arrays)."""
-    d_arrays, beta = link_vectors(arm)
-    d = [(float(v[0]), float(v[1])) for v in d_arrays]
-    n = len(arm.joints)
-    c = [0.0, 0.0, 0.0]
-    if n == 2:
-        T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px, py, sign)
-        theta = [T1, T2 - T1]
-    else:
-        j, v, b = -1, 0.0, beta
-        if n == 4:
-            red = arm.redundancy
-            assert red is not None
-            j = red.joint
-            if red.rule == 'fixed_joint':
-                v = red.value if value is None else value
-            else:
-                v = float(nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
-                                         np.array([sign]))[0])
-            if j == 0:
-                mx, my = _turn(v, d[0][0], d[0][1])
-                px, py, d, c[0] = px - mx, py - my, d[1:], v
-            else:
-                mx, my = _turn(v, d[j][0], d[j][1])
-                d = d[:j - 1] + [(d[j - 1][0] + mx, d[j - 1][1] + my)] + d[j + 1:]
-                if j == 3:
-                    b = beta + v
-                else:
-                    c[j] = v
-        Theta3 = phi - b
-        wx, wy = _turn(Theta3, d[2][0], d[2][1])
-        T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px - wx, py - wy, sign)
-        theta = [T1 - c[0], T2 - T1 - c[1], Theta3 - T2 - c[2]]
-        if j >= 0:
-            theta.insert(j, v)
-    wrapped, violation = [], []
-    for t, joint in zip(theta, arm.joints, strict=True):
-        mid = 0.5 * (joint.lower + joint.upper)
-        t = mid + (t - mid + math.pi) % (2.0 * math.pi) - math.pi
-        beyond = max(joint.lower - t, t - joint.upper) - LIMIT_SLACK
-        wrapped.append(t)
-        violation.append(beyond if beyond >= 0.0 else 0.0)
-    return OneArm(wrapped, sum(wrapped) + beta, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
 def tilt_matrix(tilt: float, azimuth: float) -> Mat3:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -207,6 +208,114 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
                        reach_max=tl.r_max, violation=violation)
 
 
+class OneArm(NamedTuple):
+    """:class:`ArmSolution` of one target in floats: joint values (wrapped) [rad], heading [rad], reachable, the reach
+    and its interval [m], each joint's violation of its limits [rad]."""
+
+    theta: list[float]
+    heading: float
+    reachable: bool
+    reach: float
+    reach_min: float
+    reach_max: float
+    violation: list[float]
+
+
+def _turn(angle: float, x: float, y: float) -> tuple[float, float]:
+    c, s = math.cos(angle), math.sin(angle)
+    return c * x - s * y, s * x + c * y
+
+
+def _two_link_one(D1: tuple[float, float], D2: tuple[float, float], px: float, py: float, sign: float
+                  ) -> tuple[float, float, float, float, float]:
+    """:func:`two_link` of one target in floats: ``(Theta1, Theta2, r, r_min, r_max)``."""
+    L1, L2, r = math.hypot(D1[0], D1[1]), math.hypot(D2[0], D2[1]), math.hypot(px, py)
+    lo, hi = abs(L1 - L2), L1 + L2
+    inv = 1.0 / (2.0 * L1 * L2)
+    cos_g = min(max((r * r - L1 * L1 - L2 * L2) * inv, -1.0), 1.0)
+    prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
+    g = math.atan2(sign * math.sqrt(prod if prod >= 0.0 else 0.0) * inv, cos_g)
+    A1 = math.atan2(py, px) - math.atan2(L2 * math.sin(g), L1 + L2 * math.cos(g))
+    return A1 - math.atan2(D1[1], D1[0]), A1 + g - math.atan2(D2[1], D2[0]), r, lo, hi
+
+
+def _fixed_one(d: list[tuple[float, float]], beta: float, j: int, v: float, px: float, py: float, phi: float,
+               sign: float) -> tuple[list[float], float, float, float]:
+    """:func:`_solve_fixed` (``j >= 0``) or :func:`_solve3` (``j = -1``) of one target in floats: the joint values
+    (not wrapped) and the two-link sub-chain's reach and interval ``(r, r_min, r_max)``."""
+    c, b = [0.0, 0.0, 0.0], beta
+    if j == 0:
+        mx, my = _turn(v, d[0][0], d[0][1])
+        px, py, d, c[0] = px - mx, py - my, d[1:], v
+    elif j > 0:
+        mx, my = _turn(v, d[j][0], d[j][1])
+        d = d[:j - 1] + [(d[j - 1][0] + mx, d[j - 1][1] + my)] + d[j + 1:]
+        if j == 3:
+            b = beta + v
+        else:
+            c[j] = v
+    Theta3 = phi - b
+    wx, wy = _turn(Theta3, d[2][0], d[2][1])
+    T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px - wx, py - wy, sign)
+    theta = [T1 - c[0], T2 - T1 - c[1], Theta3 - T2 - c[2]]
+    if j >= 0:
+        theta.insert(j, v)
+    return theta, r, lo, hi
+
+
+def _wrap_one(arm: Arm, theta: list[float]) -> tuple[list[float], list[float]]:
+    """:func:`wrap_to_limits` of one posture in floats."""
+    wrapped, violation = [], []
+    for t, joint in zip(theta, arm.joints, strict=True):
+        mid = 0.5 * (joint.lower + joint.upper)
+        t = mid + (t - mid + math.pi) % (2.0 * math.pi) - math.pi
+        beyond = max(joint.lower - t, t - joint.upper) - LIMIT_SLACK
+        wrapped.append(t)
+        violation.append(beyond if beyond >= 0.0 else 0.0)
+    return wrapped, violation
+
+
+def _floats2(d: list[Array]) -> list[tuple[float, float]]:
+    return [(float(v[0]), float(v[1])) for v in d]
+
+
+def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
+    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps)."""
+    d_arrays, beta = link_vectors(arm)
+    d = _floats2(d_arrays)
+    if len(arm.joints) == 2:
+        T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px, py, sign)
+        theta = [T1, T2 - T1]
+    else:
+        j, v, red = -1, 0.0, arm.redundancy
+        if red is not None:
+            j = red.joint
+            if red.rule == 'fixed_joint':
+                v = red.value if value is None else value
+            else:
+                v = float(nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
+                                        np.array([sign]))[0])
+        theta, r, lo, hi = _fixed_one(d, beta, j, v, px, py, phi, sign)
+    wrapped, violation = _wrap_one(arm, theta)
+    return OneArm(wrapped, sum(wrapped) + beta, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
+
+
+def _nearest_cost_one(arm: Arm, d: list[tuple[float, float]], beta: float, px: float, py: float, phi: float,
+                      sign: float, v: float) -> float:
+    """:func:`_nearest_cost` of one target and one held value in floats."""
+    red = arm.redundancy
+    assert red is not None
+    theta, r, lo, hi = _fixed_one(d, beta, red.joint, v, px, py, phi, sign)
+    wrapped, violation = _wrap_one(arm, theta)
+    if not hi + REACH_SLACK >= r >= lo - REACH_SLACK or max(violation) > 0.0:
+        return math.inf
+    cost = 0.0
+    for t, joint, ref, w in zip(wrapped, arm.joints, red.reference, red.weights, strict=True):
+        s = (t - ref) / (joint.upper - joint.lower)
+        cost = cost + w * s * s
+    return cost
+
+
 def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, v: Array) -> Array:
     """Cost of the ``nearest`` rule for held values ``v (N, G)``; ``inf`` where unreachable or beyond limits."""
     red = arm.redundancy
@@ -242,7 +351,12 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     cand_rows, cand_x, cand_f = [rows], [grid[cols]], [cost[rows, cols]]
 
     def f(r: NDArray[np.intp], x: Array) -> Array:
+        if n == 1:  # one target: its few candidates in floats, without numpy's overhead per operation
+            return np.array([_nearest_cost_one(arm, one, beta, px, py, phi0, sign0, v) for v in x.tolist()])
         return _nearest_cost(arm, d, beta, p[r], phi[r], sign[r], x[:, None])[:, 0]
+
+    if n == 1:
+        one, (px, py), phi0, sign0 = _floats2(d), p[0].tolist(), float(phi[0]), float(sign[0])
 
     for side in (-1, 1):
         nb = cols + side
