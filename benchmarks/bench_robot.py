@@ -40,7 +40,6 @@ from gpr_kinematics.robot.planar_arm import branch_of
 from gpr_kinematics.robot.program import load_program
 from scipy.optimize import least_squares
 
-
 CLOCK = time.perf_counter
 
 
