@@ -43,12 +43,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 
 from .config import GprConfig
-from .ops import SCALAR, Ops
+from .ops import SCALAR, Ops, Value
 from .virtual_joints import (
     Closure,
     VirtualJointModel,
@@ -59,7 +59,7 @@ from .virtual_joints import (
 )
 
 
-def _triangle(ops: Ops, L: Sequence[Any], sign: Any) -> tuple[list[Any], list[Any]]:
+def _triangle(ops: Ops, L: Sequence[Value], sign: Value) -> tuple[list[Value], list[Value]]:
     """In-plane points ``Q_k`` with side lengths ``L = (L12, L23, L31)``: ``Q_1`` at the origin, ``Q_2`` on the
     x axis, ``Q_3`` on the side ``sign`` (+1: counter-clockwise, like the platform joints)."""
     L0, L1, L2 = L[0], L[1], L[2]
@@ -75,18 +75,18 @@ class Stiffness(NamedTuple):
     terms ``W_k = e_r e_r^T + kappa_k e_t e_t^T`` (``wxx, wxy, wyy`` per joint), their constant sum
     ``H_tau,tau = (hxx, hxy, hyy)`` and the mean joint radius ``scale`` [m] that turns an angle into a length."""
 
-    px: list[Any]
-    py: list[Any]
-    pcx: Any
-    pcy: Any
-    sign: Any
-    wxx: list[Any]
-    wxy: list[Any]
-    wyy: list[Any]
-    hxx: Any
-    hxy: Any
-    hyy: Any
-    scale: Any
+    px: list[Value]
+    py: list[Value]
+    pcx: Value
+    pcy: Value
+    sign: Value
+    wxx: list[Value]
+    wxy: list[Value]
+    wyy: list[Value]
+    hxx: Value
+    hxy: Value
+    hyy: Value
+    scale: Value
 
 
 def stiffness(vjm: VirtualJointModel) -> Stiffness:
@@ -103,7 +103,7 @@ def stiffness(vjm: VirtualJointModel) -> Stiffness:
                      sum(vjm.rho) / 3.0)
 
 
-def _start(ops: Ops, w: Stiffness, qx: list[Any], qy: list[Any], zero: Any) -> tuple[Any, Any, Any]:
+def _start(ops: Ops, w: Stiffness, qx: list[Value], qy: list[Value], zero: Value) -> tuple[Value, Value, Value]:
     """The isotropic optimum (2-D Kabsch): the centroids on each other, the rotation ``psi`` of best fit;
     returns ``(tx, ty, psi)``."""
     qcx, qcy = (qx[0] + qx[1] + qx[2]) / 3.0, (qy[0] + qy[1] + qy[2]) / 3.0
@@ -116,8 +116,8 @@ def _start(ops: Ops, w: Stiffness, qx: list[Any], qy: list[Any], zero: Any) -> t
     return w.pcx - (c * qcx - s * qcy), w.pcy - (s * qcx + c * qcy), psi
 
 
-def _newton_step(w: Stiffness, c: Any, s: Any, qx: list[Any], qy: list[Any], tx: Any, ty: Any, zero: Any
-                 ) -> tuple[Any, Any, Any]:
+def _newton_step(w: Stiffness, c: Value, s: Value, qx: list[Value], qy: list[Value], tx: Value, ty: Value,
+                 zero: Value) -> tuple[Value, Value, Value]:
     """The Newton step ``H^-1 g`` on ``(tau, psi)`` at ``(tx, ty, psi)`` (``c, s``: ``cos psi, sin psi``), from
     the gradient and Hessian of the module docstring (plain arithmetic: floats or arrays)."""
     gx = gy = gp = hxp = hyp = hpp = zero
@@ -133,11 +133,11 @@ def _newton_step(w: Stiffness, c: Any, s: Any, qx: list[Any], qy: list[Any], tx:
     return symmetric_solve3(w.hxx, w.hxy, hxp, w.hyy, hyp, hpp, gx, gy, gp)
 
 
-def _displacements(vjm: VirtualJointModel, w: Stiffness, c: Any, s: Any, qx: list[Any], qy: list[Any], tx: Any,
-                   ty: Any) -> list[Any]:
+def _displacements(vjm: VirtualJointModel, w: Stiffness, c: Value, s: Value, qx: list[Value], qy: list[Value],
+                   tx: Value, ty: Value) -> list[Value]:
     """``X = (dr_1..3, dt_1..3)``: the radial and tangential components of ``d_k = R(psi) Q_k + tau - p_k``."""
     cs, sn = vjm.cos, vjm.sin
-    X: list[Any] = [0.0] * 6
+    X: list[Value] = [0.0] * 6
     for k in range(3):
         dx = c * qx[k] - s * qy[k] + tx - w.px[k]
         dy = s * qx[k] + c * qy[k] + ty - w.py[k]
@@ -145,7 +145,7 @@ def _displacements(vjm: VirtualJointModel, w: Stiffness, c: Any, s: Any, qx: lis
     return X
 
 
-def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Value], config: GprConfig) -> Closure:
     """Virtual joints ``X = (dr_1..3, dt_1..3)`` [m] of minimum elastic cost for side lengths ``L`` (three
     floats, or three arrays ``(N,)``), by Newton's method on ``(tau, psi)`` (module docstring).
 
@@ -196,10 +196,10 @@ def minimum_cost_floats(vjm: VirtualJointModel, w: Stiffness, rest: Closure, L0:
         return Closure(rest.X, rest.components, rest.side_lengths, 0, err)
     cos, sin, tol = math.cos, math.sin, config.tolerance
     qx, qy = _triangle(SCALAR, L, w.sign)
-    tx, ty, psi = _start(SCALAR, w, qx, qy, 0.0)
+    tx, ty, psi = cast('tuple[float, float, float]', _start(SCALAR, w, qx, qy, 0.0))
     iterations = 0
     while True:
-        ex, ey, ep = _newton_step(w, cos(psi), sin(psi), qx, qy, tx, ty, 0.0)
+        ex, ey, ep = cast('tuple[float, float, float]', _newton_step(w, cos(psi), sin(psi), qx, qy, tx, ty, 0.0))
         tx, ty, psi = tx - ex, ty - ey, psi - ep
         iterations += 1
         step = max(max(abs(ex), abs(ey)), w.scale * abs(ep))

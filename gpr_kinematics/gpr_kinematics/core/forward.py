@@ -19,7 +19,7 @@ One driver, :func:`_forward`, serves one pose (float arithmetic, no per-call num
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any, Generic, TypeVar
 
@@ -32,7 +32,7 @@ from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .naive import NaiveState, naive_state
-from .ops import ARRAY, SCALAR, Ops
+from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import PlatformPose, platform_pose
 from .single import OnePose, one_pose
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
@@ -89,7 +89,7 @@ class _Forward(Generic[S, I, B]):
     fit_residual: S
 
     @classmethod
-    def from_fields(cls: type[_F], values: dict[str, Any]) -> _F:
+    def from_fields(cls: type[_F], values: Mapping[str, object]) -> _F:
         """The result with every field given in ``values`` (checked), without the frozen ``__init__``'s
         per-field ``object.__setattr__`` (4 us of a 40 us single forward call); the instance stays frozen."""
         if values.keys() != _FIELD_NAMES:
@@ -147,9 +147,11 @@ _SHARED_FIELDS = ('model', 'virtual_joint_names')
 _SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
 _ROW_FIELDS = tuple(f.name for f in fields(_Forward) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
 _FIELD_NAMES = {f.name for f in fields(_Forward)}
+#: The result of a driver: one pose's, or a batch's.
+Result = TypeVar('Result', ForwardResult, ForwardBatch)
 
 
-def side_lengths(ops: Ops, P: tuple[list[Any], list[Any], list[Any]]) -> list[Any]:
+def side_lengths(ops: Ops, P: tuple[list[Value], list[Value], list[Value]]) -> list[Value]:
     """``L_ij = |P_j - P_i|`` of the joint centres ``P = (x, y, z)`` (component lists), edges 1-2, 2-3, 3-1."""
     x, y, z = P
     out = []
@@ -159,12 +161,12 @@ def side_lengths(ops: Ops, P: tuple[list[Any], list[Any], list[Any]]) -> list[An
     return out
 
 
-def _rows(q: Sequence[Any]) -> NDArray[Any]:
+def _rows(q: Sequence[Value]) -> Array:
     """Rod lengths as an array ``(N, 3)`` for messages (from floats or columns)."""
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
 
 
-def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q') -> None:
+def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q') -> None:
     """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample."""
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
@@ -176,7 +178,7 @@ def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q')
                      f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
 
 
-def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: GprConfig) -> NaiveState:
+def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
     """Refuse ``q`` whose naive tilt exceeds the limit by 5 % (the real tilt differs by < 0.1 %; the margin
     keeps Newton inside its basin; the exact check follows the solve). Returns the naive state it computed."""
     naive = naive_state(ops, geo, q)
@@ -191,15 +193,15 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: 
     return naive
 
 
-def _check_tilt(q: Sequence[Any], tilt: Any, config: GprConfig) -> None:
+def _check_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
     raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {math.degrees(float(t[i])):.6g} deg, '
                      f'beyond the tilt limit {math.degrees(config.tilt_limit):.6g} deg')
 
 
-def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Any],
-               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Any], Closure, PlatformPose]:
+def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Value],
+               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Value], Closure, PlatformPose]:
     """Side lengths, solved virtual joints and platform pose of rods ``q`` (floats or columns): the kernel
     chain of forward kinematics, without limit checks (``naive``: the naive state of ``q`` if known)."""
     P = geo.joint_centres(q)
@@ -208,8 +210,8 @@ def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequen
     return L, closure, platform_pose(ops, geo, q, P, closure.components, naive)
 
 
-def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], vjm: VirtualJointModel,
-             config: GprConfig, L: list[Any], closure: Closure, pose: PlatformPose) -> Any:
+def assemble(ops: Ops, result: type[Result], q: Sequence[Value], vjm: VirtualJointModel, config: GprConfig,
+             L: list[Value], closure: Closure, pose: PlatformPose) -> Result:
     """The result dataclass (``ForwardResult`` for floats, ``ForwardBatch`` for columns) of a solved pose."""
     position = ops.vector(pose.position)
     z = pose.nominal_z
@@ -226,8 +228,8 @@ def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
         iterations=closure.iterations, residual=closure.residual, fit_residual=pose.fit_residual))
 
 
-def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], config: GprConfig,
-             vjm: VirtualJointModel, check_limits: bool, geometry: MachineGeometry | None = None) -> Any:
+def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConfig, vjm: VirtualJointModel,
+             check_limits: bool, geometry: MachineGeometry | None = None) -> Result:
     geo = MachineGeometry.of(config) if geometry is None else geometry
     naive = None
     if check_limits:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,10 +30,19 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
-from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, one_result, solve_pose
+from .forward import (
+    TILT_LIMIT_SLACK,
+    ForwardBatch,
+    ForwardResult,
+    Result,
+    assemble,
+    check_stroke,
+    one_result,
+    solve_pose,
+)
 from .machine import MachineGeometry
 from .naive import naive_rods
-from .ops import ARRAY, SCALAR, Ops
+from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import platform_pose, rigid_fit
 from .single import OnePose, one_pose
 from .virtual_joints import VirtualJointModel, make_model
@@ -76,7 +85,7 @@ class InverseBatch:
         return InverseResult(q=self.q[i], achieved=self.achieved[i], iterations=int(self.iterations[i]))
 
 
-def _check_tilt_targets(ops: Ops, t: Any, config: GprConfig) -> None:
+def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
     if not ops.any(ops.fabs(t) > config.tilt_limit + TILT_LIMIT_SLACK):
         return
     a = np.atleast_1d(t)
@@ -97,22 +106,23 @@ def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
                          f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
 
 
-def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Any], tool: Sequence[Any], config: GprConfig
-                  ) -> tuple[Any, Any]:
+def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
+                  ) -> tuple[Value, Value]:
     """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
     normals ``n``: rod ``k`` of :func:`~gpr_kinematics.core.naive.naive_rods` is within ``[stroke_min, stroke_max]``
     for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
-    lo = hi = None
+    lo: Value = 0.0
+    hi: Value = 0.0
     for k in range(3):
         c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
         lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
         hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
-        lo = lo_k if lo is None else ops.maximum(lo, lo_k)
-        hi = hi_k if hi is None else -ops.maximum(-hi, -hi_k)
+        lo = lo_k if k == 0 else ops.maximum(lo, lo_k)
+        hi = hi_k if k == 0 else -ops.maximum(-hi, -hi_k)
     return lo, hi
 
 
-def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[Any], tool: Sequence[Any],
+def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence[Value], tool: Sequence[Value],
                   config: GprConfig) -> None:
     """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
     the solve, naming the heights allowed at that tilt; a height of 1e308 m never reaches the arithmetic."""
@@ -133,8 +143,8 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[An
                      f'{lo_:.6g} .. {hv:.6g} m')
 
 
-def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t: Any, g: Any,
-           tool: Sequence[Any], config: GprConfig, vjm: VirtualJointModel) -> tuple[Any, Any]:
+def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,
+           vjm: VirtualJointModel) -> tuple[Result, Value]:
     """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
     _check_tilt_targets(ops, t, config)
     geo = MachineGeometry.of(config)
@@ -195,7 +205,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
                          'target, or one for all), got ' + ', '.join(str(c.shape[0]) for c in cols + [tools])
                          ) from None
     # One platform point for all targets (floats), or one per target (columns of length N).
-    tool_v: Sequence[Any] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
+    tool_v: Sequence[Value] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
                              [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
     achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm)
     return InverseBatch(q=achieved.q, achieved=achieved, iterations=np.asarray(iterations, dtype=np.int64))
@@ -223,7 +233,7 @@ def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[fl
     s = math.sin(t)
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
     _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
-    q_target = naive_rods(geo, h, n_target, tool)
+    q_target = cast('list[float]', naive_rods(geo, h, n_target, tool))
     q = list(q_target)
     t0, t1, t2 = tool
     n0, n1, n2 = n_target
@@ -233,14 +243,15 @@ def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[fl
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
         frame = rigid_fit(SCALAR, P, closure.components)
-        r02, r12, r20, r21, r22, tz = frame[2], frame[5], frame[6], frame[7], frame[8], frame[11]
+        fr = cast('tuple[float, ...]', frame)
+        r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
         h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
         err = max(max(max(abs(h_now - h), abs(r02 - n0)), abs(r12 - n1)), abs(r22 - n2))
         if err <= IK_TOLERANCE:
             break
         if iterations == most:
             raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
-        q_now = naive_rods(geo, h_now, [r02, r12, r22], tool)
+        q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     check_stroke(SCALAR, q, cfg, what='q')
     achieved = one_result(kernel, q, L, closure, platform_pose(SCALAR, geo, q, P, closure.components, frame=frame))

@@ -18,6 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+#: A value of the kernels: a float (one pose) or an array ``(N,)`` of one value per sample (a batch) [SI units].
+Value = float | NDArray[np.float64]
+
 
 @dataclass(frozen=True)
 class Ops:

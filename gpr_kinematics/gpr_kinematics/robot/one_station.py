@@ -14,7 +14,7 @@ most; the tests compare them to 1e-12 over random stations). SI units.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -150,7 +150,8 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     R_n = tilt_matrix(tilt, az)
     naive_sol, _ = _arm(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b, sign, value)
     s = math.sin(tilt)
-    q_n = naive_rods(kernel.geometry, h, [s * math.sin(az), -s * math.cos(az), math.cos(tilt)], (0.0, 0.0, 0.0))
+    normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
+    q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))
     naive_gpr = forward(q_n, cfg, check_limits=False)
     naive_platform = compose_one(p_wb, R_wb, tuple(naive_gpr.position.tolist()), _rows(naive_gpr.rotation))
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
