@@ -106,35 +106,24 @@ def program_files(robot, n: int, folder: Path) -> tuple[Path, Path]:
 
 #: One-station calls and batches timed in a fresh process for ``--before``, printed as JSON [us per call or station].
 ROBOT_CALLS = """
-import json, time, timeit
+import json, sys, time, timeit
 from pathlib import Path
-import numpy as np, yaml
-from gpr_kinematics.core import inverse_batch
-from gpr_kinematics.robot import load_robot, robot_forward, solve_stations, stations_from_poses
+import yaml
+sys.path.insert(0, BENCHMARKS)
+from bench_robot import random_stations  # the stations of this script, made by the tree under test
+from gpr_kinematics.robot import load_robot, robot_forward, solve_stations
 from gpr_kinematics.robot.description import parse_robot
-from gpr_kinematics.robot.planar_arm import branch_of
 robot = load_robot()
 data = yaml.safe_load(Path(robot.source).read_text())
 data['arms'][1]['redundancy'] = {'rule': 'nearest'}
 nearest = parse_robot(data, 'nearest', Path(robot.source).parent)
-def stations(rob, arm, n, seed):
-    rng = np.random.default_rng(seed)
-    cfg = rob.config
-    Q = inverse_batch(rng.uniform(0.08, 0.42, n), rng.uniform(0, 0.95, n) * cfg.tilt_limit,
-                      rng.uniform(-np.pi, np.pi, n), cfg).q
-    a = rob.arm(arm)
-    J = rng.uniform(a.lower + 1e-6, a.upper - 1e-6, (n, len(a.joints)))
-    if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
-        J[:, a.redundancy.joint] = a.redundancy.value
-    fk = robot_forward(rob, Q, J, arm)
-    return stations_from_poses(fk.wafer.position, fk.wafer.rotation), Q, J, branch_of(a, J)
 def best(fn, number, repeat):
     fn()
     return min(timeit.repeat(fn, number=number, repeat=repeat, timer=time.process_time)) / number * 1e6
 out = {}
 for label, rob, arm, n in (('arm1', robot, 'arm1', 10_000), ('arm2, fixed_joint', robot, 'arm2', 10_000),
                            ('arm2, nearest', nearest, 'arm2', 1_000)):
-    st, Q, J, br = stations(rob, arm, n, 2)
+    st, Q, J, br = random_stations(rob, arm, n, 2)
     out[f'station IK, batch ({label}), per station'] = best(
         lambda: solve_stations(rob, st, arm, branch=br, check=False), 1, 3) / n
     one, b0 = st.take([0]), br[0]
@@ -147,7 +136,7 @@ for label, rob, arm, n in (('arm1', robot, 'arm1', 10_000), ('arm2, fixed_joint'
         out['whole-robot FK, batch of 10,000 (arm1), per configuration'] = best(
             lambda: robot_forward(rob, Q, J, arm), 1, 3) / n
 print(json.dumps(out))
-"""
+""".replace('BENCHMARKS', repr(str(Path(__file__).resolve().parent)))
 
 
 def main() -> None:

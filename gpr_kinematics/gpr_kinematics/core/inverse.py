@@ -43,7 +43,7 @@ from .forward import (
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import platform_pose, rigid_fit
+from .platform_pose import rigid_fit
 from .single import OnePose, one_pose
 from .virtual_joints import VirtualJointModel, make_model
 
@@ -254,5 +254,5 @@ def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[fl
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     check_stroke(SCALAR, q, cfg, what='q')
-    achieved = one_result(kernel, q, L, closure, platform_pose(SCALAR, geo, q, P, closure.components, frame=frame))
+    achieved = one_result(kernel, q, P, L, closure, frame)
     return InverseResult(q=achieved.q, achieved=achieved, iterations=iterations)

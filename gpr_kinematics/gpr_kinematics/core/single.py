@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import math
 
-from .closure import newton_closure, newton_terms
+from .closure import newton_closure
 from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
 from .machine import MachineGeometry
 from .ops import SCALAR
-from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors
+from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors, symmetric_solve3
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
 Centres = tuple[list[float], list[float], list[float]]
@@ -103,7 +103,6 @@ class OnePose:
         """:func:`~gpr_kinematics.core.closure.newton_closure` of the ``radial`` model: ``X = (l1, l2, l3)``, the
         joints ``r_k = l_k (cos theta_k, sin theta_k)``, from ``l = rho``; stops at a side error <= tolerance."""
         cfg, sqrt = self.config, math.sqrt
-        L = (L0, L1, L2)
         C, S = self._directions
         c0, c1, c2 = C
         s0, s1, s2 = S
@@ -113,15 +112,22 @@ class OnePose:
         iterations = 0
         while True:
             e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
-            d0, d1, d2 = sqrt(e0x * e0x + e0y * e0y), sqrt(e1x * e1x + e1y * e1y), sqrt(e2x * e2x + e2y * e2y)
+            f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
+            d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
             err = max(max(abs(d0 - L0), abs(d1 - L1)), abs(d2 - L2))
-            rx, ry = [x0, x1, x2], [y0, y1, y2]
             if err <= tol:
-                return Closure([l0, l1, l2], (rx, ry, C, S, None, None), [d0, d1, d2], iterations, err)
+                return Closure([l0, l1, l2], ([x0, x1, x2], [y0, y1, y2], C, S, None, None), [d0, d1, d2], iterations,
+                               err)
             if iterations == most:
                 raise not_converged('virtual-joint closure (radial)', cfg, err, True)
-            dl0, dl1, dl2 = newton_terms(SCALAR, (rx, ry, C, S, None, None), L, 0.0)
-            l0, l1, l2 = l0 + dl0, l1 + dl1, l2 + dl2
+            # newton_terms with the radial partials d r_k / d l_k = (cos theta_k, sin theta_k), inline:
+            # b (a): the derivative of edge i's residual by the coordinate of its end (start) joint
+            b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
+            b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
+            b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
+            w0, w1, w2 = symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2,
+                                          b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2)
+            l0, l1, l2 = l0 - (b2 * w2 + a0 * w0), l1 - (b0 * w0 + a1 * w1), l2 - (b1 * w1 + a2 * w2)
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
 

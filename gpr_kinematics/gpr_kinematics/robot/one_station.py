@@ -23,6 +23,7 @@ from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, 
 from ..core.inverse import inverse_one
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
+from ..core.platform_pose import rigid_fit
 from ..core.rotations import tilt_of_normal
 from ..core.single import OnePose, one_pose
 from ..errors import ConvergenceError, LimitError
@@ -152,8 +153,10 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     s = math.sin(tilt)
     normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
     q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))
-    naive_gpr = forward(q_n, cfg, check_limits=False)
-    naive_platform = compose_one(p_wb, R_wb, tuple(naive_gpr.position.tolist()), _rows(naive_gpr.rotation))
+    P_n = kernel.centres(q_n[0], q_n[1], q_n[2])  # the real platform under the naive rods: its pose only
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', rigid_fit(
+        SCALAR, P_n, kernel.closure(*kernel.lengths(P_n)).components))
+    naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)))
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
     naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
