@@ -8,8 +8,10 @@ Bratovanov & Sotirov §IV-V (``docs/references.md``); frames and conventions in 
 3. the rigid transform with ``P_k = Rot r_k(X) + t`` and the naive pose of the same rods
    (:func:`gpr_kinematics.core.platform_pose.platform_pose`); the *centre shift* is ``t - (0, 0, z_naive)``.
 
-One driver, :func:`_forward`, serves one pose (float arithmetic, no per-call numpy overhead) and a batch
-(vectorised over ``N``), with one limit check; the two agree to rounding (~1e-16).
+One driver, :func:`_forward`, serves a batch (vectorised over ``N``) and runs the same kernels on floats;
+:func:`forward` takes the one-pose path (:mod:`gpr_kinematics.core.single`, :func:`one_result`), which performs the
+driver's floating-point operations in the same order: the results are equal to the last bit, and equal to a batch
+row to rounding (~1e-16).
 
 >>> import math
 >>> fk = forward([0.5, 0.503, 0.498])

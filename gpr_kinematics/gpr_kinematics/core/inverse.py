@@ -9,8 +9,9 @@ inverse (:func:`gpr_kinematics.core.naive.naive_rods`), the iteration
 
 where ``h(q), n(q)`` come from the virtual-joint forward kinematics, is Newton's method with the naive
 model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4), so each
-step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves one target (floats)
-and a batch (arrays); the last forward solve of the loop is the reported ``achieved`` pose.
+step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves a batch (arrays) and
+runs on floats; :func:`inverse` takes the one-pose path (:func:`inverse_one`: each step solves the closure and the
+rigid fit only) with the same operations. The last forward solve of the loop is the reported ``achieved`` pose.
 
 >>> import math
 >>> ik = inverse(0.5, math.radians(2.0), 0.0)     # 2 deg about the x axis at 0.5 m
