@@ -39,7 +39,7 @@ define COLCON_BUILD
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
-.PHONY: setup setup-stock test test-pinned test-core test-ros test-stock test-stock-run demo lint clean
+.PHONY: setup setup-stock test test-pinned test-quick test-core test-ros test-stock test-stock-run demo lint clean
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
@@ -48,7 +48,7 @@ $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinema
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -r requirements-ros.txt
 	$(PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STAMP)
 
@@ -69,7 +69,7 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
 	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
-	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation -e gpr_kinematics
+	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(STOCK_PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STOCK_STAMP)
 
@@ -87,6 +87,15 @@ test: setup setup-stock
 
 test-pinned:
 	$(PY) -m pytest -q test
+
+# The quick loop while working on the core (docs/ros.md#tests): the kinematics core, its command line, the robot and
+# the mechanisms, the layout and the types, without the tests marked slow and the two hardening suites that start
+# isolated interpreters or parse hostile inputs (test_core_standalone, test_core_safe_yaml); the venv only, no ROS.
+QUICK_TESTS = $(filter-out test/test_core_standalone.py test/test_core_safe_yaml.py,$(wildcard test/test_core_*.py)) \
+	$(wildcard test/test_robot_*.py test/test_mech_*.py) test/test_layout.py test/test_types.py
+
+test-quick: $(STAMP)
+	$(PY) -m pytest -q -m 'not ros and not slow' $(QUICK_TESTS)
 
 test-core: $(STAMP)
 	$(PY) -m pytest -q -m 'not ros' test

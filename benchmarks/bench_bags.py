@@ -37,12 +37,11 @@ from gpr_kinematics.ros import env as ros_env  # noqa: E402
 
 
 def bench_verify(passes: int, runs: int = 3) -> dict:
-    from mcap.stream_reader import StreamReader
-
     from gpr_kinematics.bags.reader import read_bag
     from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
     from gpr_kinematics.bags.typestore import typestore
     from gpr_kinematics.bags.verify import verify_bag
+    from mcap.stream_reader import StreamReader
 
     tmp = Path(tempfile.mkdtemp(prefix='bench_bags_'))
     msgs = sweep_messages(passes=passes)
@@ -77,11 +76,11 @@ def bench_verify(passes: int, runs: int = 3) -> dict:
 def _publisher_run(rate: float, seconds: float, output: Path, counter_only: bool) -> dict:
     """Publish at ``rate`` for ``seconds`` into a recorder (or a counting subscriber process)."""
     import rclpy
+    from gpr_kinematics.bags.synthetic import sweep_messages
     from rclpy.duration import Duration
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     from gpr_interfaces.msg import PlatformState
-    from gpr_kinematics.bags.synthetic import sweep_messages
 
     base = [m[2] for m in sweep_messages(topics=('/gpr/platform_state',))]
     n = int(rate * seconds)

@@ -34,15 +34,15 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 ros_env.activate()
 
 import numpy as np  # noqa: E402 - after the ROS environment
-from std_srvs.srv import Trigger  # noqa: E402
-
-from gpr_interfaces.msg import PlatformState  # noqa: E402
 from gpr_kinematics.core import forward  # noqa: E402
 from gpr_kinematics.nodes.client import GprClient  # noqa: E402
 from gpr_kinematics.nodes.qos import stream_qos  # noqa: E402
 from gpr_kinematics.robot import load_robot, solve_stations  # noqa: E402
 from gpr_kinematics.robot.stations import Stations  # noqa: E402
 from gpr_kinematics.ros.process import NodeProcess  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from gpr_interfaces.msg import PlatformState  # noqa: E402
 
 NULL_SERVER = '''
 import rclpy, sys

@@ -31,7 +31,6 @@ import sys
 import time
 
 import numpy as np
-
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, box_volume, contains_points
 from gpr_kinematics.workspace.gpr import GprModel

@@ -29,7 +29,6 @@ import sys
 import time
 
 import numpy as np
-
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, load_workspace_model
 from gpr_kinematics.workspace.scheduler import Executor

@@ -26,12 +26,13 @@ setup(
     # Optional parts (exact pins in requirements.txt / requirements-ros.txt / requirements-bench.txt):
     # bags: gpr verify and the recorder/replay nodes' files; plot: PNG figures (dexterity, workspace, verify
     # reports); ros: the nodes (ROS 2 Jazzy from the PyPI wheels; the interfaces are built with colcon);
-    # bench: the peers of the benchmarks.
+    # bench: the peers of the benchmarks; safety: collision distances of gpr program check (python-fcl).
     extras_require={
         'bags': ['rosbags', 'mcap', 'mcap-ros2-support'],
         'plot': ['matplotlib'],
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
         'cluster': ['dask', 'distributed'],
+        'safety': ['python-fcl'],
         'bench': ['pin', 'codac'],
     },
     zip_safe=True,
@@ -49,6 +50,7 @@ setup(
             'recorder_node = gpr_kinematics.nodes.recorder_node:main',
             'replay_node = gpr_kinematics.nodes.replay_node:main',
             'state_publisher_node = gpr_kinematics.nodes.state_publisher_node:main',
+            'robot_simulator_node = gpr_kinematics.nodes.robot_simulator_node:main',
         ],
     },
 )

@@ -1,7 +1,8 @@
 """Test configuration: the ``ros`` marker and the ROS environment of the tests that need it.
 
 ``pytest -m ros`` runs the tests over real DDS (nodes as separate processes, the colcon build of ``make setup``);
-``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. A test module opts in with
+``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. ``slow`` marks the few tests of the
+quick loop's files (``make test-quick``) that take seconds each. A test module opts in with
 ``pytestmark = pytest.mark.ros``: its fixtures and tests then run in the environment of
 :func:`ros_environment` (no import side effect: ROS packages are imported inside the tests, after it).
 
@@ -17,11 +18,16 @@ from pathlib import Path
 
 import pytest
 
+ROOT = Path(__file__).resolve().parents[1]
+# `python -m pytest` at the repository's root puts the root first on sys.path, where the folder of the ROS package
+# gpr_kinematics/ (no __init__.py) would shadow the installed Python package as an empty namespace package.
+sys.path[:] = [p for p in sys.path if Path(p or os.curdir).resolve() != ROOT]
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # ros_support, for the test modules
 
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line('markers', 'ros: needs the colcon build (make setup) and runs nodes over real DDS')
+    config.addinivalue_line('markers', 'slow: takes seconds; left out of make test-quick (make test runs it)')
 
 
 def test_domain_id() -> int:

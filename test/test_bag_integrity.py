@@ -111,7 +111,7 @@ def test_companion_topics_with_a_wrong_type_or_an_unknown_topic(tmp_path: Path, 
     result = verify_bag(ok)
     assert result.passed and result.counts['/chatter'] == 1
     # A topic of the suite recorded with another type: named, and its companion check skipped.
-    joint = '/gpr/joint_states'
+    joint = '/joint_states'
     wrong = write_bag(tmp_path / 'wrong', [m for m in msgs if m[0] != joint] + [(joint, msgs[-1][1], geometry[0][2])],
                       {**types, joint: 'std_msgs/msg/String'})
     result = verify_bag(wrong)

@@ -49,15 +49,25 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     status, out, err = run_cli('verify', str(REFERENCE), capsys=capsys)
     assert status == 0, out + err
     assert 'verification PASSED' in out
-    from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
+    from gpr_kinematics.bags.typestore import (
+        JOINT_STATES_TOPIC,
+        LEGACY_JOINT_STATES_TOPIC,
+        PROGRAM_TOPIC,
+        ROBOT_STATE_TOPIC,
+        ROBOT_TOPIC,
+        WAFER_POSE_TOPIC,
+    )
 
     bag = read_bag(REFERENCE)
     # The default sweep: 36 azimuths x 21 tilts; every topic of a platform stream one message per sample, the
-    # latched geometry and robot description once, the robot program's own topics listed and empty (a sweep).
-    assert {k: len(t) for k, t in bag.topics.items()} == {**dict.fromkeys(PLATFORM_STREAM_TOPICS, 756),
-                                                          GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1, ROBOT_STATE_TOPIC: 0,
-                                                          WAFER_POSE_TOPIC: 0}
-    assert set(bag.topics) == set(GPR_TOPICS)
+    # latched geometry and robot description once, the robot program's own topics listed and empty (a sweep). It was
+    # recorded when the joint states were on /gpr/joint_states: verify still reads them there.
+    old = {t: LEGACY_JOINT_STATES_TOPIC if t == JOINT_STATES_TOPIC else t for t in GPR_TOPICS}
+    stream = dict.fromkeys((old[t] for t in PLATFORM_STREAM_TOPICS), 756)
+    assert {k: len(t) for k, t in bag.topics.items()} == {**stream, GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1,
+                                                          ROBOT_STATE_TOPIC: 0, WAFER_POSE_TOPIC: 0}
+    assert set(bag.topics) == set(old.values()) - {PROGRAM_TOPIC}   # recorded before the node published gpr/program
+    assert 'topic.joint_states' in {c.name for c in verify_bag(REFERENCE).checks if not c.skipped}
     assert 'note: verified against the geometry recorded on /gpr/geometry' in out
     assert 'robot example_dual_arm recorded on /gpr/robot; no robot states' in out
     assert bag.storage == 'mcap' and bag.version == 9
@@ -205,7 +215,7 @@ def test_round_trip_split_recording(tmp_path: Path, messages: list, storage: str
 
 def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     # The synthetic stream is 1 ms per sample (6 messages: state, two poses, joint states, virtual joints, markers;
-    # the geometry before the first): 30 samples split every 5 ms of log time.
+    # the geometry and the record of the sweep before the first): 30 samples split every 5 ms of log time.
     topics = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
     with SegmentedBagWriter(tmp_path / 'd', topics, flush_interval=0, max_bag_duration=0.005, fsync=False) as w:
         for topic, t, data in messages:
@@ -214,7 +224,7 @@ def test_split_by_duration(tmp_path: Path, messages: list) -> None:
     assert len(bag.files) == 6
     spans = [f['duration']['nanoseconds'] for f in bag.metadata.info['files']]
     assert max(spans) < 5_000_000
-    assert [f['message_count'] for f in bag.metadata.info['files']] == [31] + [30] * 5
+    assert [f['message_count'] for f in bag.metadata.info['files']] == [32] + [30] * 5
     assert verify_bag(bag).passed
     # metadata.yaml as rosbag2 (version 9) writes it: totals agree with the per-file and per-topic entries.
     meta = bag.metadata.info

@@ -92,7 +92,7 @@ def test_each_field_of_a_robot_state_is_checked(robot_bag: Path, tmp_path: Path,
     failed = _failed(verify_bag(rewritten(robot_bag, tmp_path / what, edit)))
     assert 9 in failed.pop(check) and set(failed) <= {'robot.wafer_position', 'robot.wafer_orientation',
                                                       'robot.blade', 'robot.naive_wafer_error', 'topic.joint_states',
-                                                      'topic.wafer_pose', 'topic.wafer_pose_extra'}
+                                                      'topic.wafer_pose', 'topic.wafer_pose_extra', 'stream.program'}
 
 
 def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_path: Path) -> None:
@@ -120,7 +120,7 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
             return dataclasses.replace(msg, joints=joints, wafer=wafer, blade=blade, naive_wafer_error=naive)
         if topic == '/gpr/platform_state' and msg.sample == 5:
             edit.rods = np.array(msg.q)
-        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+        if topic == '/joint_states' and msg.header.stamp == edit.stamp:
             position = np.array(msg.position)
             position[4] = limit + 0.01
             return dataclasses.replace(msg, position=position)
@@ -138,7 +138,8 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
     edit.rods = np.array(state.q)
     bag = rewritten(write_bag(tmp_path / 'src', messages, dict(GPR_TOPICS)), tmp_path / 'limit', edit)
     failed = _failed(verify_bag(bag))
-    assert failed == {'robot.joint_limits': {5}}
+    # ... and the stream recomputed from the recorded program has another elbow there (stream.program)
+    assert failed == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in verify_bag(bag).checks if c.name == 'robot.joint_limits').worst
     assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
 
@@ -163,7 +164,7 @@ def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp
     bag = rewritten(robot_bag, tmp_path / 'rest', edit)
 
     def joint_state(topic, msg):
-        if topic == '/gpr/joint_states' and msg.header.stamp == edit.stamp:
+        if topic == '/joint_states' and msg.header.stamp == edit.stamp:
             position = np.array(msg.position)
             assert msg.name[at] == arm2.joints[0].name
             position[at] = limit + 0.01
@@ -171,7 +172,7 @@ def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp
         return msg
 
     result = verify_bag(rewritten(bag, tmp_path / 'rest2', joint_state))
-    assert _failed(result) == {'robot.joint_limits': {5}}
+    assert _failed(result) == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in result.checks if c.name == 'robot.joint_limits').worst
     assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
 
@@ -192,7 +193,7 @@ def test_a_recorded_description_naming_a_geometry_file_is_refused(robot_bag: Pat
 
 def test_joint_states_carry_the_arm_joints(robot_bag: Path, tmp_path: Path) -> None:
     def edit(topic, msg):
-        stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/gpr/joint_states' else None
+        stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec) if topic == '/joint_states' else None
         if stamp == (1_700_000_000, 300_000_000):                  # sample 3 at 10 Hz
             return dataclasses.replace(msg, name=msg.name[:3], position=msg.position[:3])
         return msg
@@ -205,8 +206,10 @@ def test_without_a_robot_description_robot_states_fail_and_robot_gives_it(robot_
     bag = rewritten(robot_bag, tmp_path / 'no_robot', lambda topic, msg: None if topic == ROBOT_TOPIC else msg)
     result = verify_bag(bag)
     assert not result.passed
-    (failure,) = result.failures
-    assert failure.check == 'topic.robot' and 'give the robot with --robot FILE' in failure.detail
+    failures = {f.check: f for f in result.failures}
+    assert set(failures) == {'topic.robot', 'topic.program', 'stream.program'}   # the program needs its robot too
+    assert 'give the robot with --robot FILE' in failures['topic.robot'].detail
+    assert 'needs the robot description it ran on' in failures['topic.program'].detail
     assert verify_bag(bag, robot=ROBOT, robot_source='example').passed
 
 
@@ -304,3 +307,22 @@ def test_cli_robot_option(robot_bag: Path, tmp_path: Path, capsys: pytest.Captur
     assert cli.main(['verify', str(robot_bag), '--robot', str(tmp_path / 'absent.yaml')]) == 2
     err = capsys.readouterr().err
     assert 'absent.yaml' in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Path) -> None:
+    """Every header of the recording prefixed r1/ (a trajectory_node with frame_prefix:=r1/): the world frame of the
+    robot states is r1/world, and the recording verifies as the unprefixed one does."""
+    def prefixed(header):
+        return dataclasses.replace(header, frame_id='r1/' + header.frame_id)
+
+    def edit(topic, msg):
+        if hasattr(msg, 'markers'):
+            return dataclasses.replace(msg, markers=[dataclasses.replace(m, header=prefixed(m.header))
+                                                     for m in msg.markers])
+        if hasattr(msg, 'header'):
+            return dataclasses.replace(msg, header=prefixed(msg.header))
+        return msg
+
+    result = verify_bag(rewritten(robot_bag, tmp_path / 'r1', edit))
+    assert result.passed, [f.line() for f in result.failures]
+    assert next(c for c in result.checks if c.name == 'robot.structure').checked > 0

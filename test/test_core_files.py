@@ -124,3 +124,41 @@ def test_brief_bounds_every_value():
     assert brief([[[[[1]]]]]) == '[[[[...]]]]'
     assert len(brief({str(i): [i] * 100 for i in range(100)})) < 100
     assert brief(Path('a')) == "PosixPath('a')"
+
+
+def test_confined_reads_open_only_under_the_allowed_folders(tmp_path):
+    """The rule of files a remote client names (issue 18): real paths only, links and .. resolved, refused before
+    the file is opened, the path and the rule named, never the content."""
+    from gpr_kinematics.inputs.files import confined_reads, read_text
+
+    allowed, outside = tmp_path / 'allowed', tmp_path / 'outside'
+    allowed.mkdir()
+    outside.mkdir()
+    (outside / 'secret.yaml').write_text('token: s3cr3t\n')
+    (allowed / 'ok.yaml').write_text('a: 1\n')
+    (allowed / 'link.yaml').symlink_to(outside / 'secret.yaml')
+    with confined_reads([allowed], 'the folders of a test') as rule:
+        assert read_text(allowed / 'ok.yaml', 'program') == 'a: 1\n'
+        for name in (outside / 'secret.yaml', allowed / 'link.yaml', allowed / '..' / 'outside' / 'secret.yaml',
+                     '/etc/passwd', tmp_path / 'missing.yaml'):
+            with pytest.raises(FileError) as info:
+                read_text(name, 'program')
+            text = str(info.value)
+            assert f"program file '{name}' is outside the folders this node reads files from; allowed: a file " \
+                   f'under {rule.folders[0]} (the folders of a test)' == text and 's3cr3t' not in text
+    assert read_text(outside / 'secret.yaml', 'program') == 'token: s3cr3t\n'   # the rule ends with the block
+
+
+def test_an_output_may_not_be_a_file_the_command_read(tmp_path):
+    from gpr_kinematics.inputs.files import command_reads, read_text, write_text
+
+    src = tmp_path / 'in.yaml'
+    src.write_text('a: 1\n')
+    with command_reads():
+        read_text(src, 'config')
+        with pytest.raises(FileError, match="output '.*in.yaml' is a file this command reads; allowed: a file the "
+                                            'command does not read'):
+            write_text(src, 'b: 2\n', 'calibrated geometry')
+        assert write_text(tmp_path / 'out.yaml', 'b: 2\n', 'calibrated geometry').read_text() == 'b: 2\n'
+    assert src.read_text() == 'a: 1\n'
+    write_text(src, 'c: 3\n', 'config')                     # outside a command: no reads are noted

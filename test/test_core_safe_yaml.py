@@ -65,7 +65,7 @@ def test_deep_nesting_refused(tmp_path, text: str) -> None:
     f = tmp_path / 'deep.yaml'
     f.write_text(text)
     with pytest.raises(ConfigError, match=r'deep\.yaml.*(nested deeper than 64|nested too deeply)'):
-        read_yaml(f)
+        read_yaml(f, 'program')
 
 
 def test_depth_limit_is_exact() -> None:
@@ -97,7 +97,7 @@ def test_size_limit(tmp_path) -> None:
         fh.truncate(safe_yaml.MAX_BYTES + 1)
     n = safe_yaml.MAX_BYTES
     with pytest.raises(ConfigError, match=f'has {n + 1} bytes; allowed: at most {n}'):
-        read_yaml(f)
+        read_yaml(f, 'program')
 
 
 def test_missing_file_and_invalid_yaml(tmp_path) -> None:
@@ -141,3 +141,64 @@ def test_exponent_numbers_without_a_point_are_floats(tmp_path) -> None:
     f.write_text(base.replace('radius: 0.093218', 'radius: 1e300'), encoding='utf-8')
     with pytest.raises(ConfigError, match=r'radius = 1e\+300 is invalid; allowed: metres'):
         load_config(f)
+
+
+@pytest.mark.parametrize('libyaml', [True, False], ids=['libyaml', 'python'])
+def test_duplicate_keys_are_refused_naming_the_key_and_both_lines(monkeypatch, libyaml: bool) -> None:
+    """Issue 18: a key given twice was taken silently, the last one winning (robot, equation, tolerance files)."""
+    if not libyaml:
+        monkeypatch.setattr(safe_yaml, '_CLoader', None)
+    with pytest.raises(ConfigError, match=r"g\.yaml: line 4: duplicate key 'radius' \(first on line 1\); allowed: "
+                                          'each key once in a mapping'):
+        safe_yaml.load_text('radius: 0.1\nmodel: polar\n# a comment\nradius: 0.2\n', 'g.yaml')
+    with pytest.raises(ConfigError, match=r"line 2: duplicate key 'b' \(first on line 1\)"):   # nested, flow style
+        safe_yaml.load_text('a: {b: 1,\n  b: 2}', 'x')
+    with pytest.raises(ConfigError, match=r'line 2: duplicate key 1 \(first on line 1\)'):   # 1 and 0x1 are one key
+        safe_yaml.load_text('1: a\n0x1: b', 'x')
+    assert safe_yaml.load_text('a: {b: 1}\nc: {b: 2}\nd: [{b: 1}, {b: 2}]') == {
+        'a': {'b': 1}, 'c': {'b': 2}, 'd': [{'b': 1}, {'b': 2}]}     # the same key in two mappings is no duplicate
+
+
+@pytest.mark.parametrize('libyaml', [True, False], ids=['libyaml', 'python'])
+def test_both_parsers_give_the_same_data_and_refusals(monkeypatch, libyaml: bool) -> None:
+    if not libyaml:
+        monkeypatch.setattr(safe_yaml, '_CLoader', None)
+    text = (Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'config' / 'robots' /
+            'example_robot.yaml').read_text(encoding='utf-8')
+    import yaml
+    assert safe_yaml.load_text(text) == yaml.safe_load(text)
+    monkeypatch.setattr(safe_yaml, 'MAX_NODES', 1000)
+    with pytest.raises(ConfigError, match=r'x: line 3: more than 1000 YAML values'):
+        safe_yaml.load_text('a: 1\nb: 2\nc: [' + '1, ' * 2000 + '1]', 'x')
+    with pytest.raises(ConfigError, match='x: line 2: YAML aliases'):
+        safe_yaml.load_text('a: &q 1\nb: *q', 'x')
+
+
+def test_keys_that_are_not_names_are_never_quoted() -> None:
+    """A file that is not of the package's formats (a password file read as YAML) is not repeated in messages."""
+    assert safe_yaml.quoted_key('rod_positions') == "'rod_positions'"
+    secret = 'root:$6$Xy.Zz9/abcdefgh:19000:0:99999:7::'
+    assert secret not in safe_yaml.quoted_key(secret) and 'not quoted' in safe_yaml.quoted_key(secret)
+    from gpr_kinematics.inputs.schema import check_keys
+    with pytest.raises(ConfigError) as info:
+        check_keys({secret: None, 'radiuss': 1}, ('radius',), 'f.yaml')
+    text = str(info.value)
+    assert secret not in text and 'root' not in text and 'unknown key(s) radiuss, 1 that is not a name' in text
+
+
+def test_a_large_file_is_refused_by_its_size_before_it_is_read(tmp_path) -> None:
+    """Issue 18: an 8 MB robot file of 2 million values was refused only after 7.6 s and 185 MB of parsing."""
+    from gpr_kinematics.robot.description import load_robot
+    f = tmp_path / 'robot.yaml'
+    f.write_text('name: big\nx: [' + '1,' * 2_000_000 + '1]\n')
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match=r"robot file '.*robot\.yaml' has 4000017 bytes; allowed: at most 1048576"):
+        load_robot(f)
+    assert time.perf_counter() - t0 < 0.5
+    # Within its kind's size, the values are counted on libyaml's events before any is composed.
+    g = tmp_path / 'program.yaml'
+    g.write_text('stations: [' + '1,' * 1_000_000 + '1]\n')
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match=r'program\.yaml: line 1: more than 200000 YAML values'):
+        read_yaml(g, 'program')
+    assert time.perf_counter() - t0 < 10.0

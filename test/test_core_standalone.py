@@ -61,6 +61,8 @@ def test_core_subcommands_run_without_optional_packages(core_path, argv, key):
 @pytest.mark.parametrize('argv, package, extra', [
     (['verify', 'some_bag'], 'rosbags', 'bags'),
     (['dexterity', 'upu3.yaml', '--plot', 'out.png'], 'matplotlib', 'plot'),
+    (['program', 'check', str(Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'config' / 'programs'
+                              / 'example_cell_program.yaml')], 'fcl', 'safety'),
 ])
 def test_missing_optional_package_is_one_line_and_status_2(core_path, tmp_path, argv, package, extra):
     res = gpr(core_path, *argv)

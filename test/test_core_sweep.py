@@ -34,9 +34,9 @@ def test_default_sweep_crosses_singularity_without_nan_jump_or_warning(model):
         inner = step[same_pass & (np.abs(s.alpha[1:]) + np.abs(s.alpha[:-1]) > 0)]
         assert step[around].max() <= 1.5 * inner.max() + 1e-15, name
     summary = s.summary
-    assert summary['samples'] == 756 and summary['max_fk_iterations'] <= 4 and summary['within_budget']
+    assert summary.samples == 756 and summary.max_fk_iterations <= 4 and summary.within_budget
     if model in ('radial', 'offset'):  # polar: docs/core.md; compliant: test_core_compliance
-        assert summary['max_centre_shift'] == pytest.approx(28.41e-6, abs=0.01e-6)
+        assert summary.max_centre_shift == pytest.approx(28.41e-6, abs=0.01e-6)
 
 
 def test_serpentine_order_is_continuous_and_paper_order_is_not():

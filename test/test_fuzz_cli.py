@@ -181,7 +181,7 @@ VALID_INPUTS: dict[str, tuple[str, str]] = {
 }
 #: Hostile inputs that can never be used; truncated and mutated copies of a valid file may still be valid.
 BAD_INPUTS = ('missing', 'directory', 'fifo', '/dev/zero', '/proc/version', 'in_missing_directory', 'empty_name',
-              'alias_bomb', 'not_utf8', 'deep', 'huge')
+              'alias_bomb', 'not_utf8', 'deep', 'huge', 'duplicate_key')
 BAD_OUTPUTS = ('directory', 'fifo', 'device_link', 'in_missing_directory', 'empty_name')
 WRONG_VALUES = (None, True, 'x', '', [], {}, [1, 2, 3], {'a': 1}, 1e308, -1e308, -1, 0, float('nan'), float('inf'),
                 '1e308', 10 ** 30, 10 ** 400, [[[[1]]]], 'a' * 300, [0.1] * 1000)
@@ -220,6 +220,7 @@ def place(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / 'deep').write_text('a: ' + '[' * 20000 + ']' * 20000 + '\n')
     with open(d / 'huge', 'wb') as fh:
         fh.truncate(17 << 20)   # sparse: beyond every reader's limit without using the disk
+    (d / 'duplicate_key').write_text('radius: 0.1\nname: a\nradius: 0.2\n')   # issue 18: taken silently before
     (d / 'type_list.yaml').write_text('type: [gpr]\n')
     (d / 'big_integer.yaml').write_text('radius: ' + '1' * 5000 + '\n')
     return d
@@ -469,3 +470,53 @@ def test_the_largest_runs_the_limits_allow_fit_the_address_space(worker: Worker,
     o = worker.run(['robot', 'teach', '--table', str(table), '--json'], tmp_path, timeout=120)
     check(o)
     assert o.status == 0 and o.out.count('"naive_error_vector"') > 0, o.describe()
+
+
+def _copy(name: str, where: Path) -> Path:
+    path = where / Path(name).name
+    shutil.copy(config_path(name), path)
+    return path
+
+
+def test_the_defects_of_issue_18(worker: Worker, tmp_path: Path) -> None:
+    """Bounds before work and inputs not taken silently: each case exits 2 with one line naming what is wrong (no
+    output written over an input, no traceback), quickly."""
+    measurements = _copy('calibration/synthetic_measurements.csv', tmp_path)
+    before = measurements.read_bytes()
+    os.link(measurements, tmp_path / 'hard_link.csv')
+    robot = tmp_path / 'r.json'                 # a robot description with a table's extension
+    shutil.copy(config_path('robots/example_robot.yaml'), robot)
+    program = tmp_path / 'p.yaml'
+    program.write_text(Path(PROGRAM).read_text().replace('../robots/example_robot.yaml', 'r.json'))
+    tolerances = tmp_path / 'tol.yaml'
+    tolerances.write_text('rod_length: {tolerance: 1' + '0' * 400 + '}\n')
+    duplicate = tmp_path / 'dup.yaml'
+    duplicate.write_text(config_path('robots/example_robot.yaml').read_text() + 'name: again\n')
+    big = tmp_path / 'big.yaml'
+    big.write_text('name: x\nv: [' + '1,' * 2_000_000 + '1]\n')
+    bag = tmp_path / 'bag'
+    shutil.copytree(REFERENCE_BAG, bag)
+    cases = [
+        (['calibrate', str(measurements), '--output', str(measurements)],
+         f"--output '{measurements}' is the same file as MEASUREMENTS"),
+        (['calibrate', str(measurements), '--output', str(tmp_path / 'hard_link.csv')], 'is the same file as'),
+        (['program', 'export', str(program), '--waypoints', str(robot)], 'is a file this command reads'),
+        (['verify', str(bag), '--report', str(bag)], f"--report '{bag}' is the same file as BAG"),
+        (['accuracy', 'gpr.yaml', '--tolerances', str(tolerances), '--pose', '0', '0', '0.5', '0', '0', '0'],
+         'rod_length: tolerance = <an integer of about 401 digits>; allowed: a finite number of magnitude at most'),
+        (['program', 'export', PROGRAM, '--samples', 's.csv', '--rate', '1e-300'], 'rate = 1e-300 is invalid'),
+        (['program', 'export', PROGRAM, '--samples', 's.csv', '--rate', '5001'],
+         'rate = 5001.0 is invalid; allowed: 0.1 <= rate <= 5000 Hz'),
+        (['workspace', 'tripod_3rps.yaml', '--delta', '0.05', '--scheduler', 'tcp://127.0.0.1:1', '--json'],
+         'cannot reach the Dask scheduler at tcp://127.0.0.1:1'),
+        (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', str(duplicate)],
+         "duplicate key 'name' (first on line"),
+        (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', str(big)],
+         'has 4000015 bytes; allowed: at most 1048576'),
+    ]
+    for argv, words in cases:
+        outcome = worker.run(argv, tmp_path, timeout=60)
+        check(outcome)
+        assert outcome.status == 2 and words in outcome.err, outcome.describe()
+    assert measurements.read_bytes() == before and robot.read_text().startswith('# Example robot')
+    assert not (bag / 'verify.json').exists() and not (tmp_path / 's.csv').exists()

@@ -6,6 +6,7 @@ included; only those under ``if TYPE_CHECKING:`` are left out, as they never run
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ('inputs',),
     ('core',),
     ('robot', 'mechanisms'),
-    ('workspace', 'calibration'),
+    ('workspace', 'calibration', 'safety'),
     ('bags',),
     ('ros',),
     ('nodes',),
@@ -43,9 +44,10 @@ def _type_checking_nodes(tree: ast.AST) -> set[int]:
     return skip
 
 
+@functools.cache
 def import_graph() -> dict[str, set[str]]:
     """Module -> the package's modules it imports (a name imported from a package that is one of its submodules
-    counts as that submodule)."""
+    counts as that submodule); read once per test run."""
     files = {_module_name(p): p for p in PACKAGE_DIR.rglob('*.py')}
     graph: dict[str, set[str]] = {}
     for module, path in files.items():

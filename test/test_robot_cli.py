@@ -1,4 +1,5 @@
-"""``gpr robot fk|ik|teach`` and ``gpr program check|export``: JSON keys, units, and one-line errors with status 2."""
+"""``gpr robot fk|ik|teach`` and ``gpr program check|export|send``: JSON keys, units, the trajectory file, and one-line
+errors with status 2 (``send`` over ROS: test_ros_program_send.py)."""
 import json
 import math
 import re
@@ -108,6 +109,11 @@ def test_program_check_and_export(capsys, tmp_path):
     (['program', 'check', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
     (['program', 'check', '/'], r"program file '/'"),  # a directory, not a program
     (['program', 'export', PROGRAM], r'nothing to export: give --waypoints FILE and/or --samples FILE'),
+    (['program', 'export', PROGRAM, '--trajectory', '/tmp/t.csv'], r"--trajectory '/tmp/t.csv': allowed: a .yaml"),
+    (['program', 'export', PROGRAM, '--trajectory', '/proc/t.yaml'], r'trajectory'),
+    (['program', 'export', PROGRAM, '--trajectory', '/tmp/t.yaml', '--lead-in', '-1'], r'--lead-in = -1.0 s'),
+    (['program', 'send', PROGRAM, '--timeout', '0'], r'--timeout = 0.0 s; allowed: 0 < timeout'),
+    (['program', 'send', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
     (['program', 'export', PROGRAM, '--samples', '/tmp/x.csv', '--rate', '0'], r'rate = 0.0 is invalid'),
     (['program', 'export', PROGRAM, '--waypoints', '/proc'], r'/proc exists and is not a regular file'),
     (['program', 'export', PROGRAM, '--waypoints', ''], r'joint table output path is empty'),
@@ -130,3 +136,28 @@ def test_console_script_without_traceback(tmp_path):
     assert res.returncode == 2 and res.stdout == ''
     assert res.stderr.startswith('gpr robot: error: ') and 'joints must be a list of 2 to 4' in res.stderr
     assert res.stderr.count('\n') == 1
+
+
+def test_program_export_trajectory(capsys, tmp_path):
+    """--trajectory: the program's samples at the rate as trajectory_msgs/JointTrajectory YAML (the rods as the
+    robot model names them), the same times and joint values as --samples; --lead-in shifts every point."""
+    import yaml
+
+    e = run_json(capsys, 'program', 'export', PROGRAM, '--samples', str(tmp_path / 's.json'), '--trajectory',
+                 str(tmp_path / 't.yaml'), '--rate', '5')
+    doc = json.loads((tmp_path / 's.json').read_text())
+    traj = yaml.safe_load((tmp_path / 't.yaml').read_text())
+    assert e['trajectory_file'] == str(tmp_path / 't.yaml') and e['trajectory_points'] == len(doc['rows'])
+    names = doc['columns'][3:3 + 10]
+    assert traj['joint_names'] == ['rod_1', 'rod_2', 'rod_3', *names[3:]]
+    rows = np.array([r[3:13] for r in doc['rows']])
+    assert np.array_equal(np.array([p['positions'] for p in traj['points']]), rows)
+    t = np.array([p['time_from_start']['sec'] + p['time_from_start']['nanosec'] / 1e9 for p in traj['points']])
+    np.testing.assert_allclose(t, [r[0] for r in doc['rows']], rtol=0, atol=5e-10)
+    assert e['trajectory_duration'] == pytest.approx(doc['rows'][-1][0])
+    later = run_json(capsys, 'program', 'export', PROGRAM, '--trajectory', str(tmp_path / 'l.yaml'), '--rate', '5',
+                     '--lead-in', '2.5')
+    shifted = yaml.safe_load((tmp_path / 'l.yaml').read_text())['points']
+    assert later['trajectory_duration'] == pytest.approx(e['trajectory_duration'] + 2.5)
+    assert shifted[0]['time_from_start'] == {'sec': 2, 'nanosec': 500_000_000}
+    assert [p['positions'] for p in shifted] == [p['positions'] for p in traj['points']]

@@ -119,6 +119,7 @@ def _nearest_robot(joint='arm2_shoulder'):
     return make_robot(data)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('joint', ['arm2_shoulder', 'arm2_wrist'])
 def test_nearest_redundancy_is_a_minimum_of_its_cost(joint):
     """The ``nearest`` rule's posture against the self-motion swept densely here with the fixed_joint solver (not

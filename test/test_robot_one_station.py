@@ -1,7 +1,7 @@
 """One station per call (robot/one_station.py) and the robot's forward kinematics of one configuration: the float
 path equals the batch to 1e-12 on random stations of every arm kind (3 joints, 4 joints under fixed_joint and
-nearest, 2 joints with the heading given or free), on a moved and rolled base, and refuses what the batch refuses
-with the batch's messages."""
+nearest, 2 joints with the heading given or free), on a moved and rolled base, with calibrated joint zero offsets,
+and refuses what the batch refuses with the batch's messages."""
 import math
 
 import numpy as np
@@ -30,10 +30,22 @@ def _moved_base_robot():
     return make_robot(data)
 
 
-def _nearest_robot():
-    data = robot_data()
+def _nearest_robot(offsets=False):
+    data = _with_offsets(robot_data()) if offsets else robot_data()
     data['arms'][1]['redundancy'] = {'rule': 'nearest'}
     return make_robot(data)
+
+
+def _with_offsets(data):
+    """Every arm joint turned by a calibration's zero_offset (distinct, both signs, within the allowed 0.1 rad)."""
+    for a, arm in enumerate(data['arms']):
+        for k, joint in enumerate(arm['joints']):
+            joint['zero_offset'] = 0.013 * (k + 1) * (-1) ** (a + k)
+    return data
+
+
+def _offset_robot():
+    return make_robot(_with_offsets(robot_data()))
 
 
 CASES = {
@@ -42,6 +54,9 @@ CASES = {
     '4 joints, nearest': (_nearest_robot(), 'arm2', 8),
     '2 joints': (_two_joint_robot(), 'arm1', 40),
     'moved base': (_moved_base_robot(), 'arm2', 30),
+    'offsets, 3 joints': (_offset_robot(), 'arm1', 30),
+    'offsets, 4 joints, fixed_joint': (_offset_robot(), 'arm2', 30),
+    'offsets, 4 joints, nearest': (_nearest_robot(offsets=True), 'arm2', 8),
 }
 
 
@@ -111,7 +126,8 @@ def test_refused_stations_take_the_batch_path_and_its_message(change, pattern):
     np.testing.assert_allclose(one.joints[0], both.joints[0], rtol=0, atol=ATOL)
 
 
-@pytest.mark.parametrize('case', ['3 joints', '4 joints, fixed_joint', '2 joints', 'moved base'])
+@pytest.mark.parametrize('case', ['3 joints', '4 joints, fixed_joint', '2 joints', 'moved base', 'offsets, 3 joints',
+                                  'offsets, 4 joints, fixed_joint'])
 def test_robot_forward_of_one_configuration_equals_the_batch(case):
     robot, arm, _ = CASES[case]
     Q, J = random_postures(robot, arm, 30, seed=13)

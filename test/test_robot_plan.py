@@ -76,10 +76,11 @@ def test_too_fast_a_move_refused_with_its_step(tmp_path):
                                  {'name': 'b', 'position': [0.75, 1.1, 0.3], 'heading': 1.5}],
                       [{'move': 'a'}, {'move': 'b', 'time': 0.2}])
     with pytest.raises(LimitError, match=r"p.yaml: the move into steps\[1\] \(move b, move\) needs at least \d\.\d+ s "
-                                         r"within the limits, time = 0.2 s is too short \(gpr_rod\d alone needs"):
+                                         r"within the limits, time = 0.2 s is too short \(\w+ alone needs"):
         plan_program(ROBOT, p)
 
 
+@pytest.mark.slow
 def test_a_thousand_station_program(tmp_path):
     rng = np.random.default_rng(3)
     r = rng.uniform(0.4, 0.7, 1000)
@@ -94,3 +95,23 @@ def test_a_thousand_station_program(tmp_path):
     plan = plan_program(ROBOT, p)
     assert len(plan.waypoints) == 3000
     assert np.max(np.linalg.norm(plan.wafer.position - plan.waypoints.stations.position, axis=1)) < 1e-9
+
+
+def test_a_program_too_long_to_sample_is_refused_before_it_is_planned(monkeypatch):
+    """Issue 18: the sample count was known only after the plan (91 s for a goal of 100,000 stations). The dwells
+    and requested move times bound the duration from below, before any station is solved."""
+    import dataclasses
+
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.robot import plan as plan_module
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    least = plan_module.shortest_duration(program)
+    total = plan_program(ROBOT, program).timing.total
+    assert 0 < least <= total      # a lower bound: 5 dwells of 0.5 s, one of 1 s, the dwell step, a 4 s move
+    assert least == pytest.approx(0.5 * 8 + 1.0 + 0.5 + 4.0)
+    plan_module.check_sample_count(program, 100.0)
+    long = dataclasses.replace(program, dwell=1e4)
+    monkeypatch.setattr(plan_module, 'solve_stations', lambda *a, **k: pytest.fail('planned'))
+    with pytest.raises(InputError, match=r'lasts at least 80005\.5 s \(its dwells and move times\): at 100 Hz '
+                                         r'more than 200000 samples; allowed: at most 200000'):
+        plan_module.check_sample_count(long, 100.0)

@@ -91,7 +91,8 @@ def test_too_short_a_time_is_refused_naming_the_joint():
 
 
 @pytest.mark.parametrize('rate, pattern', [(0.0, r'rate = 0.0 is invalid'), (float('nan'), 'rate = nan is invalid'),
-                                           (1e5, r'rate = 100000.0 is invalid; allowed: 0 < rate <= 10000 Hz')])
+                                           (1e5, r'rate = 100000.0 is invalid; allowed: 0.1 <= rate <= 5000 Hz'),
+                                           (1e-300, r'rate = 1e-300 is invalid'), (5001, 'rate = 5001 is invalid')])
 def test_bad_rates(rate, pattern):
     t = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.ones(2), NAMES, ('a', 'b'))
     with pytest.raises(InputError, match=pattern):
@@ -101,6 +102,6 @@ def test_bad_rates(rate, pattern):
 def test_too_many_samples_are_refused():
     t = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.array([0.0, 1e6]), NAMES,
                      ('a', 'b'))
-    with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 10000 Hz that is 10000000001 samples; '
+    with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 5000 Hz that is 5000000001 samples; '
                                          r'allowed: at most 200000; lower the rate'):
-        sample(t, 10000.0)
+        sample(t, 5000.0)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -71,19 +72,54 @@ def test_cli_usage_errors():
         assert out.returncode == 2 and 'usage' in out.stderr
 
 
-def test_fallback_tf2_msgs_only_where_none_is_installed(tmp_path):
-    """colcon builds fallback/tf2_msgs only when no other ament prefix has tf2_msgs (a full ROS install has)."""
+@pytest.mark.parametrize('package', ros_env.FALLBACK_PACKAGES)
+def test_fallback_only_where_none_is_installed(tmp_path, package):
+    """colcon builds fallback/<package> (tf2_msgs, control_msgs) only when no other ament prefix has it (a full ROS
+    install has both)."""
+    assert set(ros_env.FALLBACK_PACKAGES) == {'tf2_msgs', 'control_msgs'}
     root = ros_env.repo_root()
     bare = {'AMENT_PREFIX_PATH': str(tmp_path / 'empty')}
-    assert ros_env.installed_elsewhere('tf2_msgs', bare) is False       # the PyPI wheels have none
-    assert ros_env.colcon_base_paths(root, bare) == ['gpr_interfaces', 'gpr_kinematics', 'fallback/tf2_msgs']
+    assert ros_env.installed_elsewhere(package, bare) is False       # the PyPI wheels have none
+    assert ros_env.colcon_base_paths(root, bare) == ['gpr_interfaces', 'gpr_kinematics', 'fallback/tf2_msgs',
+                                                     'fallback/control_msgs']
     ros = tmp_path / 'opt_ros'
     index = ros / 'share' / 'ament_index' / 'resource_index' / 'packages'
     index.mkdir(parents=True)
-    (index / 'tf2_msgs').write_text('')
+    (index / package).write_text('')
     full = {'AMENT_PREFIX_PATH': str(ros)}
-    assert ros_env.installed_elsewhere('tf2_msgs', full) is True
-    assert ros_env.colcon_base_paths(root, full) == ['gpr_interfaces', 'gpr_kinematics']
-    # The repository's own install tree does not count as an installed tf2_msgs.
-    own = {'AMENT_PREFIX_PATH': str(ros_env.install_dir() / 'tf2_msgs')}
-    assert ros_env.installed_elsewhere('tf2_msgs', own) is False
+    assert ros_env.installed_elsewhere(package, full) is True
+    assert f'fallback/{package}' not in ros_env.colcon_base_paths(root, full)
+    assert len(ros_env.colcon_base_paths(root, full)) == 3
+    # The repository's own install tree does not count as an installed package.
+    own = {'AMENT_PREFIX_PATH': str(ros_env.install_dir() / package)}
+    assert ros_env.installed_elsewhere(package, own) is False
+
+
+#: The standard definitions the fallback control_msgs copies (ros-controls/control_msgs, branch jazzy, 5.8.0): the
+#: fields, in order, of each part (comments and constants left out). The type hash derives from exactly these.
+CONTROL_MSGS_FIELDS = {
+    'msg/JointTolerance.msg': ['string name', 'float64 position', 'float64 velocity', 'float64 acceleration'],
+    'msg/JointComponentTolerance.msg': ['string joint_name', 'uint16 component', 'float64 position',
+                                        'float64 velocity', 'float64 acceleration'],
+    'action/FollowJointTrajectory.action': [
+        'trajectory_msgs/JointTrajectory trajectory', 'trajectory_msgs/MultiDOFJointTrajectory multi_dof_trajectory',
+        'JointTolerance[] path_tolerance', 'JointComponentTolerance[] component_path_tolerance',
+        'JointTolerance[] goal_tolerance', 'JointComponentTolerance[] component_goal_tolerance',
+        'builtin_interfaces/Duration goal_time_tolerance', '---', 'int32 error_code', 'string error_string', '---',
+        'std_msgs/Header header', 'string[] joint_names', 'trajectory_msgs/JointTrajectoryPoint desired',
+        'trajectory_msgs/JointTrajectoryPoint actual', 'trajectory_msgs/JointTrajectoryPoint error',
+        'string[] multi_dof_joint_names', 'trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_desired',
+        'trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_actual',
+        'trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_error'],
+}
+
+
+def test_fallback_control_msgs_has_the_standard_fields():
+    folder = ros_env.repo_root() / 'fallback' / 'control_msgs'
+    for name, fields in CONTROL_MSGS_FIELDS.items():
+        lines = [line.split('#')[0].strip() for line in (folder / name).read_text().splitlines()]
+        assert [line for line in lines if line and '=' not in line] == fields, name
+    text = (folder / 'action' / 'FollowJointTrajectory.action').read_text()
+    codes = dict(re.findall(r'^int32 (\w+) = (-?\d+)$', text, re.M))
+    assert codes == {'SUCCESSFUL': '0', 'INVALID_GOAL': '-1', 'INVALID_JOINTS': '-2', 'OLD_HEADER_TIMESTAMP': '-3',
+                     'PATH_TOLERANCE_VIOLATED': '-4', 'GOAL_TOLERANCE_VIOLATED': '-5'}

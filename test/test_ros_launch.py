@@ -1,8 +1,9 @@
-"""The launch files, the RViz configuration and the parameters file, checked without ROS's launch packages (they
+"""The launch files, the RViz configurations and the parameters file, checked without ROS's launch packages (they
 are not on the package registries): every Python launch file runs against a recording stand-in of ``launch`` and
 ``launch_ros``, every XML one is parsed; each names only executables of the package (or rviz2) and parameters the
-node declares, each argument has a default and a description, the Python and XML variants agree, and the shipped
-config/gpr_params.yaml is the one the parameter specs generate."""
+node declares (and use_sim_time), each argument has a default and a description, the Python and XML variants agree,
+the required nodes are respawned or end the launch, the two-robot example gives each robot its namespace and frame
+prefix, and the shipped config/gpr_params.yaml is the one the parameter specs generate."""
 from __future__ import annotations
 
 import importlib.util
@@ -19,6 +20,8 @@ from gpr_kinematics.ros.specs import KINDS, NODES, node_specs, params_file_text
 ROOT = Path(__file__).resolve().parents[1]
 LAUNCH = ROOT / 'gpr_kinematics' / 'launch'
 NAMES = ('kinematics', 'offline_loop', 'replay')
+#: Parameters every node gets besides its own (rclpy and rclcpp declare them).
+BUILT_IN = {'use_sim_time'}
 
 
 class Recorded:
@@ -27,11 +30,17 @@ class Recorded:
     def __init__(self, *args, **kwargs):
         self.args, self.kwargs = args, kwargs
 
+    def perform(self, context):
+        """A LaunchConfiguration's value in a stand-in context."""
+        return context.launch_configurations[self.args[0]]
+
 
 def _stub_modules() -> dict[str, types.ModuleType]:
     classes = {
-        'launch': ['LaunchDescription'], 'launch.actions': ['DeclareLaunchArgument'],
-        'launch.conditions': ['IfCondition', 'UnlessCondition'],
+        'launch': ['LaunchDescription'],
+        'launch.actions': ['DeclareLaunchArgument', 'OpaqueFunction', 'IncludeLaunchDescription'],
+        'launch.conditions': ['IfCondition', 'UnlessCondition'], 'launch.launch_context': ['LaunchContext'],
+        'launch.launch_description_sources': ['PythonLaunchDescriptionSource'],
         'launch.substitutions': ['LaunchConfiguration', 'PathJoinSubstitution', 'PythonExpression'],
         'launch_ros': [], 'launch_ros.actions': ['Node'], 'launch_ros.substitutions': ['FindPackageShare'],
         'launch_ros.parameter_descriptions': ['ParameterValue'],
@@ -45,15 +54,21 @@ def _stub_modules() -> dict[str, types.ModuleType]:
     return out
 
 
-def python_launch(name: str, monkeypatch) -> dict:
-    """Run ``launch/<name>.launch.py`` against the stand-ins; its arguments and nodes."""
+def _load(name: str, monkeypatch):
+    """``launch/<name>.launch.py`` run against the stand-ins (launch_common imported afresh with them): its
+    entities."""
     for module, stub in _stub_modules().items():
         monkeypatch.setitem(sys.modules, module, stub)
+    monkeypatch.delitem(sys.modules, 'gpr_kinematics.nodes.launch_common', raising=False)
     spec = importlib.util.spec_from_file_location(f'launch_file_{name}', LAUNCH / f'{name}.launch.py')
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    description = mod.generate_launch_description()
-    entities = description.args[0]
+    return mod.generate_launch_description().args[0]
+
+
+def python_launch(name: str, monkeypatch) -> dict:
+    """Run ``launch/<name>.launch.py`` against the stand-ins; its arguments and nodes."""
+    entities = _load(name, monkeypatch)
     args = {e.args[0]: e.kwargs for e in entities if type(e).__name__ == 'DeclareLaunchArgument'}
     nodes = []
     for e in entities:
@@ -94,11 +109,16 @@ def _used_configurations(obj, seen=None) -> set[str]:
 
 
 def xml_launch(name: str) -> dict:
+    """The arguments and nodes of ``launch/<name>.launch.xml`` (a required node, written twice with if/unless on
+    respawn, once)."""
     root = ET.parse(LAUNCH / f'{name}.launch.xml').getroot()
     assert root.tag == 'launch'
-    args = {a.get('name'): (a.get('default'), a.get('description')) for a in root.iter('arg')}
-    nodes = [(n.get('pkg'), n.get('exec'), {p.get('name') for p in n.iter('param') if p.get('name')})
-             for n in root.iter('node')]
+    args = {a.get('name'): (a.get('default'), a.get('description')) for a in root.findall('arg')}
+    nodes = []
+    for n in root.iter('node'):
+        entry = (n.get('pkg'), n.get('exec'), {p.get('name') for p in n.iter('param') if p.get('name')})
+        if entry not in nodes:
+            nodes.append(entry)
     text = (LAUNCH / f'{name}.launch.xml').read_text()
     return {'args': {k: (v[0].replace('$(find-pkg-share gpr_kinematics)', 'share/gpr_kinematics'), v[1])
                      for k, v in args.items()},
@@ -121,11 +141,12 @@ def _check(launch: dict) -> None:
     assert launch['used'] == set(launch['args']), 'every argument is used and every used one is declared'
     assert launch['nodes']
     for package, exe, params in launch['nodes']:
+        assert 'use_sim_time' in params, (exe, params)
         if package == 'rviz2':
-            assert exe == 'rviz2' and not params
+            assert exe == 'rviz2' and params == BUILT_IN
             continue
         assert package == 'gpr_kinematics' and exe in NODES, exe
-        declared = {s.name for s in node_specs(exe)}
+        declared = {s.name for s in node_specs(exe)} | BUILT_IN
         assert params <= declared, (exe, params - declared)
 
 
@@ -139,12 +160,8 @@ def test_python_and_xml_variants_agree(name, monkeypatch):
 def _sources_py(name: str, monkeypatch) -> list[tuple[str, dict[str, str]]]:
     """Per node of the Python variant: its executable and, per parameter set from a launch argument, that
     argument's name."""
-    python_launch(name, monkeypatch)      # installs the stand-ins
-    spec = importlib.util.spec_from_file_location(f'launch_sources_{name}', LAUNCH / f'{name}.launch.py')
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
     out = []
-    for e in mod.generate_launch_description().args[0]:
+    for e in _load(name, monkeypatch):
         if type(e).__name__ == 'Node' and e.kwargs['package'] == 'gpr_kinematics':
             params = {k: _used_configurations(v) for item in e.kwargs['parameters'] if isinstance(item, dict)
                       for k, v in item.items()}
@@ -156,8 +173,10 @@ def _sources_xml(name: str) -> list[tuple[str, dict[str, str]]]:
     out = []
     for n in ET.parse(LAUNCH / f'{name}.launch.xml').getroot().iter('node'):
         if n.get('pkg') == 'gpr_kinematics':
-            out.append((n.get('exec'), {p.get('name'): m.group(1) for p in n.iter('param') if p.get('name')
-                                        for m in [re.fullmatch(r'\$\(var (\w+)\)', p.get('value', ''))] if m}))
+            entry = (n.get('exec'), {p.get('name'): m.group(1) for p in n.iter('param') if p.get('name')
+                                     for m in [re.fullmatch(r'\$\(var (\w+)\)', p.get('value', ''))] if m})
+            if entry not in out:
+                out.append(entry)
     return out
 
 
@@ -175,9 +194,10 @@ def test_the_robot_argument_reaches_every_node_with_a_robot(name, monkeypatch):
 
 def test_launch_files_use_the_shipped_files():
     common = ROOT / 'gpr_kinematics' / 'gpr_kinematics' / 'nodes' / 'launch_common.py'
-    for path in [*LAUNCH.glob('*.launch.xml'), common]:
+    for path in [*LAUNCH.glob('*.launch.xml'), *LAUNCH.glob('two_robots.launch.py'), common]:
         text = path.read_text()
-        refs = re.findall(r"'(config|rviz)', '(\w+\.(?:yaml|rviz))'|/(config|rviz)/(\w+\.(?:yaml|rviz))", text)
+        refs = re.findall(r"'(config|rviz|launch)', '(\w+\.(?:yaml|rviz|launch\.py))'|/(config|rviz|launch)/"
+                          r"(\w+\.(?:yaml|rviz|launch\.xml))", text)
         assert refs, path.name
         for ref in refs:
             folder, name = (ref[0], ref[1]) if ref[0] else (ref[2], ref[3])
@@ -185,21 +205,33 @@ def test_launch_files_use_the_shipped_files():
 
 
 def test_rviz_configuration():
+    """Relative topics (they follow RViz's namespace); the fixed frame gpr_base, which the launch files give with
+    the frame prefix on the command line."""
     cfg = yaml.safe_load((ROOT / 'gpr_kinematics' / 'rviz' / 'gpr.rviz').read_text())
     manager = cfg['Visualization Manager']
     assert manager['Global Options']['Fixed Frame'] == 'gpr_base'
     displays = {d['Class']: d for d in manager['Displays']}
     model = displays['rviz_default_plugins/RobotModel']
-    assert model['Description Topic']['Value'] == '/robot_description'
+    assert model['Description Topic']['Value'] == 'robot_description'
     assert model['Description Topic']['Durability Policy'] == 'Transient Local'     # latched, as published
+    assert model['TF Prefix'] == ''            # the URDF's links carry the frame prefix themselves
     assert 'rviz_default_plugins/TF' in displays
     topics = {d['Topic']['Value'] for d in manager['Displays'] if 'Topic' in d}
-    assert topics == {'/gpr/markers', '/gpr/platform_pose', '/gpr/nominal_pose', '/gpr/wafer_pose'}
-    # What the trajectory node publishes on those topics (the stream's types).
+    assert topics == {'gpr/markers', 'gpr/platform_pose', 'gpr/nominal_pose', 'gpr/wafer_pose', 'gpr/cell'}
+    # the process cell of state_publisher_node: a MarkerArray published once, latched
+    cell = next(d for d in manager['Displays'] if d.get('Topic', {}).get('Value') == 'gpr/cell')
+    assert cell['Class'] == 'rviz_default_plugins/MarkerArray'
+    assert cell['Topic']['Durability Policy'] == 'Transient Local'
+    # What the trajectory node publishes on the others (the stream's types).
     from gpr_kinematics.bags.typestore import GPR_TOPICS
 
-    shown = {d['Topic']['Value']: d['Class'].rsplit('/', 1)[1] for d in manager['Displays'] if 'Topic' in d}
-    assert all(GPR_TOPICS[t].endswith('/' + {'Pose': 'PoseStamped'}.get(c, c)) for t, c in shown.items()), shown
+    shown = {d['Topic']['Value']: d['Class'].rsplit('/', 1)[1] for d in manager['Displays']
+             if 'Topic' in d and d['Topic']['Value'] != 'gpr/cell'}
+    assert all(GPR_TOPICS['/' + t].endswith('/' + {'Pose': 'PoseStamped'}.get(c, c)) for t, c in shown.items()), shown
+    for line in (LAUNCH / 'offline_loop.launch.xml').read_text().splitlines():
+        if '/rviz/gpr.rviz' in line:
+            assert '-f $(var frame_prefix)gpr_base' in line
+
 
 
 def test_params_file_is_generated_from_the_specs():
@@ -221,3 +253,88 @@ def test_params_file_values_have_the_declared_types():
                                                                                               'bool'), (name, value)
             specs[name].check(value)
             assert value == specs[name].default
+
+
+REQUIRED = {'kinematics_node', 'robot_simulator_node', 'state_publisher_node'}
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_required_nodes_respawn_or_end_the_launch(name, monkeypatch):
+    """Python: a required node respawns with the argument; every node's exit goes to launch_common's rule. XML: a
+    required node twice, respawned if respawn, else on_exit shutdown."""
+    for e in _load(name, monkeypatch):
+        if type(e).__name__ != 'Node' or e.kwargs['package'] != 'gpr_kinematics':
+            continue
+        exe = e.kwargs['executable']
+        respawn = e.kwargs['respawn']
+        assert (type(respawn).__name__ == 'LaunchConfiguration' and respawn.args == ('respawn',)) == (exe in REQUIRED)
+        (watch,) = e.kwargs['on_exit']
+        assert type(watch).__name__ == 'OpaqueFunction' and watch.kwargs['args'] == [exe, exe in REQUIRED]
+    root = ET.parse(LAUNCH / f'{name}.launch.xml').getroot()
+    for n in root.iter('node'):
+        if n.get('exec') in REQUIRED:
+            twins = [m for m in root.iter('node') if m.get('exec') == n.get('exec')]
+            assert [(m.get('if'), m.get('respawn'), m.get('unless'), m.get('on_exit')) for m in twins] == [
+                ('$(var respawn)', 'true', None, None), (None, None, '$(var respawn)', 'shutdown')]
+
+
+class _Context:
+    def __init__(self, code, shutdown=False, respawn='false'):
+        self.locals = types.SimpleNamespace(event=types.SimpleNamespace(returncode=code))
+        self.is_shutdown = shutdown
+        self.launch_configurations = {'respawn': respawn}
+
+
+def test_exit_rule_ends_the_launch_with_the_reason(monkeypatch):
+    """A required node's end or any node's failure raises (ros2 launch then ends with status 1, the message as the
+    reason); a node that finished its work, a stop of the launch, or a respawned node do not."""
+    _load('offline_loop', monkeypatch)
+    from gpr_kinematics.nodes.launch_common import _exited
+
+    with pytest.raises(RuntimeError, match=r'kinematics_node is required and ended \(exit status 0\)'):
+        _exited(_Context(0), 'kinematics_node', True)
+    with pytest.raises(RuntimeError, match=r'trajectory_node died \(exit status 2\): ending the launch'):
+        _exited(_Context(2), 'trajectory_node', False)
+    assert _exited(_Context(0), 'trajectory_node', False) is None              # a sweep that finished
+    assert _exited(_Context(-2, shutdown=True), 'kinematics_node', True) is None  # Ctrl-C
+    assert _exited(_Context(1, respawn='true'), 'robot_simulator_node', True) is None
+    with pytest.raises(RuntimeError, match='recorder_node died'):
+        _exited(_Context(1, respawn='true'), 'recorder_node', False)          # not respawned: not required
+
+
+def test_two_robots_example(monkeypatch):
+    """offline_loop twice, namespaces /r1 and /r2 with frame prefixes r1/ and r2/, without recorders (two default bag
+    folders could meet); the arguments passed exist in offline_loop; the XML variant the same."""
+    entities = _load('two_robots', monkeypatch)
+    loop = python_launch('offline_loop', monkeypatch)['args']
+    includes = [e for e in entities if type(e).__name__ == 'IncludeLaunchDescription']
+    passed = [dict(e.kwargs['launch_arguments']) for e in includes]
+    assert [(p['namespace'], p['frame_prefix'], p['record']) for p in passed] == [('/r1', 'r1/', 'false'),
+                                                                               ('/r2', 'r2/', 'false')]
+    assert all(set(p) <= set(loop) for p in passed)
+    assert _text(includes[0].args[0].args[0]) == 'share/gpr_kinematics/launch/offline_loop.launch.py'
+    root = ET.parse(LAUNCH / 'two_robots.launch.xml').getroot()
+    xml = [{a.get('name'): a.get('value') for a in inc.findall('arg')} for inc in root.iter('include')]
+    assert [(p['namespace'], p['frame_prefix'], p['record']) for p in xml] == [('/r1', 'r1/', 'false'),
+                                                                            ('/r2', 'r2/', 'false')]
+    assert all(set(p) <= set(loop) for p in xml)
+    declared = {e.args[0]: (e.kwargs['default_value'], e.kwargs['description']) for e in entities
+                if type(e).__name__ == 'DeclareLaunchArgument'}
+    assert {a.get('name'): (a.get('default'), a.get('description')) for a in root.findall('arg')} == declared
+    assert {k: v for k, v in xml[0].items() if v.startswith('$(var')} == {k: f'$(var {k})' for k in
+                                                                          ('mode', 'program_file', 'robot', 'rviz',
+                                                                           'use_sim_time', 'respawn')}
+
+
+@pytest.mark.parametrize('prefix, ok', [('', True), ('r1/', True), ('cell_2/r1/', True), ('r1', True),
+                                        ('/r1/', False), ('r 1/', False), ('r1/' * 40, False)])
+def test_frame_prefix_rule(prefix, ok):
+    """What frame_prefix accepts (state_publisher_node and trajectory_node refuse to start otherwise)."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.ros.specs import check_frame_prefix
+
+    if ok:
+        assert check_frame_prefix(prefix) == prefix
+    else:
+        with pytest.raises(ConfigError, match='parameter frame_prefix = .* is invalid; allowed: empty, or letters'):
+            check_frame_prefix(prefix)

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = Path(__file__).resolve().parent / 'data' / 'rep149' / 'package_format3.xsd'
 #: Every manifest of the repository and the build type colcon must see.
 MANIFESTS = {'gpr_kinematics/package.xml': 'ament_python', 'gpr_interfaces/package.xml': 'ament_cmake',
-             'fallback/tf2_msgs/package.xml': 'ament_cmake'}
+             'fallback/tf2_msgs/package.xml': 'ament_cmake', 'fallback/control_msgs/package.xml': 'ament_cmake'}
 
 
 def tracked_files() -> list[str]:

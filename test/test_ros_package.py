@@ -18,13 +18,14 @@ ROSDEP = {
     'backports': 'python3-rosbags-pip',  # backports.zstd, the zstd of rosbags, installed with it
 }
 #: Imported modules that have no rosdep key (rosdistro's rosdep/python.yaml, checked 2026-12-01): installed with pip
-#: (requirements.txt, requirements-ros.txt, setup.py's extras), and named in a comment of package.xml.
-PIP_ONLY = {'lz4', 'dask', 'distributed'}
+#: (requirements.txt, requirements-ros.txt, setup.py's extras, by their distribution's name), and named in a comment of
+#: package.xml.
+PIP_ONLY = {'lz4': 'lz4', 'dask': 'dask', 'distributed': 'distributed', 'fcl': 'python-fcl'}
 #: The rosdep keys package.xml may use besides ROS packages: each checked to exist in rosdistro's rosdep files.
 ROSDEP_KEYS = set(ROSDEP.values()) | {'python3-pytest', 'python3-hypothesis', 'python3-yourdfpy-pip'}
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
-                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'gpr_interfaces', 'ament_index_python', 'launch',
-                'launch_ros'}
+                'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'trajectory_msgs', 'control_msgs', 'gpr_interfaces',
+                'ament_index_python', 'launch', 'launch_ros'}
 
 
 def imported_modules() -> dict[str, set[str]]:
@@ -64,8 +65,8 @@ def test_dependencies_are_rosdep_keys_or_named_pip_packages():
     assert not unknown, f'not rosdep keys: {unknown}'
     comment = ' '.join(re.findall(r'<!--(.*?)-->', manifest, re.S))
     requirements = ''.join((ROOT / f).read_text().lower() for f in ('requirements.txt', 'requirements-ros.txt'))
-    for name in PIP_ONLY:
-        assert name in comment and f'\n{name}==' in '\n' + requirements, name
+    for name, dist in PIP_ONLY.items():
+        assert name in comment and f'\n{dist}==' in '\n' + requirements, name
 
 
 def test_launch_rviz_and_robot_model_installed():

@@ -101,7 +101,11 @@ def test_bad_file_and_rate(tmp_path):
         load_platform_program(f)
     with pytest.raises(ConfigError, match='rate'):
         sample_program(_prog((0.3, 0.0, 0.0, 1.0)), 0.0)
-    # counted before any array is made (a dwell of 1e12 s was a MemoryError, 1e300 s a ValueError of numpy)
-    for dwell in (1e12, 1e300):
+    # counted before any array is made (a dwell of 1e12 s was a MemoryError, 1e300 s a ValueError of numpy); a
+    # dwell beyond 1e6 s is refused as a number already (the one number rule)
+    for dwell in (1e5, 1e6):
         with pytest.raises(ConfigError, match=r'samples at 100 Hz; allowed: at most 200000 samples'):
             sample_program(_prog((0.3, 0.0, 0.0, dwell)), 100.0)
+    for dwell in (1e12, 1e300):
+        with pytest.raises(ConfigError, match=r'dwell = .* is invalid; allowed: seconds >= 0 \(of magnitude at most'):
+            _prog((0.3, 0.0, 0.0, dwell))

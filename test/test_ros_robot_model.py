@@ -30,7 +30,8 @@ def _urdf(tmp_path, model):
 
 
 def test_shipped_urdf_is_the_generated_one():
-    assert (ROOT / 'gpr_kinematics' / 'urdf' / 'gpr.urdf').read_text() == gpr_urdf(CFG).to_urdf()
+    assert (ROOT / 'gpr_kinematics' / 'urdf' / 'gpr.urdf').read_text() == \
+        gpr_urdf(CFG, rod_velocity=ROBOT.rods.velocity).to_urdf()
 
 
 def test_frames_and_joints():
@@ -208,3 +209,85 @@ def test_main_refuses_an_unreadable_robot_file_in_one_line(capsys, tmp_path):
     err = capsys.readouterr().err
     assert err.startswith('robot_urdf: error: cannot read robot file') and err.count('\n') == 1
     assert 'Traceback' not in err
+
+
+def test_urdf_for_a_motion_stack(tmp_path):
+    """The example robot's URDF as a motion stack reads it (yourdfpy): every moving joint's velocity limit is the
+    description's (rods: rods.velocity), effort 0 (not given); every link with a shape has a positive mass and a
+    positive definite inertia (the triangle inequality holds); the wafer's is the silicon disc's; the closed chain is
+    explained next to the floating platform joint."""
+    import yourdfpy
+
+    model = robot_urdf(ROBOT)
+    path = tmp_path / 'robot.urdf'
+    path.write_text(model.to_urdf())
+    urdf = yourdfpy.URDF.load(str(path), build_collision_scene_graph=False, load_meshes=False)
+    limits = {j.name: j.limit for j in urdf.robot.joints if j.type in ('revolute', 'prismatic')}
+    want = {**{f'rod_{k}': ROBOT.rods.velocity for k in (1, 2, 3)},
+            **{j.name: j.velocity for a in ROBOT.arms for j in a.joints}}
+    assert {n: lim.velocity for n, lim in limits.items()} == want and all(v > 0 for v in want.values())
+    assert all(lim.effort == 0.0 for lim in limits.values())
+    for link in urdf.robot.links:
+        if not link.visuals:
+            assert link.inertial is None and link.name == 'world'
+            continue
+        eig = np.linalg.eigvalsh(link.inertial.inertia)
+        assert link.inertial.mass > 0 and eig.min() > 0, link.name
+        assert eig.max() <= eig.sum() - eig.max() + 1e-15, link.name
+    wafer = next(link for link in urdf.robot.links if link.name == 'arm1_wafer').inertial
+    from gpr_kinematics.robot.shapes import WAFER_DENSITY
+    from gpr_kinematics.robot.urdf import WAFER_VISUAL
+
+    r, h = WAFER_VISUAL[0] / 2, WAFER_VISUAL[1]
+    m = WAFER_DENSITY * math.pi * r * r * h
+    assert wafer.mass == pytest.approx(m, rel=1e-5)           # the URDF prints 6 digits
+    np.testing.assert_allclose(np.diag(wafer.inertia), [m * (3 * r * r + h * h) / 12] * 2 + [m * r * r / 2],
+                               rtol=1e-5)
+    text = model.to_urdf()
+    note = text.index('<!-- The platform closes an overconstrained loop')
+    assert note < text.index('<joint name="gpr_platform_pose" type="floating">') and 'robot_state_publisher' in \
+        text[note:text.index('-->', note)]
+
+
+def test_composite_inertia_by_the_parallel_axis_theorem():
+    """Two spheres at x = +-d, and a box turned by 90 deg about z: the inertia about the common centre of mass."""
+    from gpr_kinematics.robot.shapes import DENSITY, Visual, default_inertial
+
+    r, d = 0.01, 0.05
+    two = default_inertial([Visual('sphere', (r,), (d, 0.0, 0.0)), Visual('sphere', (r,), (-d, 0.0, 0.0))])
+    m = DENSITY * 4 / 3 * math.pi * r ** 3
+    assert two.mass == pytest.approx(2 * m, rel=1e-15) and two.xyz == pytest.approx((0, 0, 0), abs=1e-18)
+    np.testing.assert_allclose(two.inertia, [0.8 * m * r * r, 0, 0, 0.8 * m * r * r + 2 * m * d * d, 0,
+                                             0.8 * m * r * r + 2 * m * d * d], rtol=1e-12, atol=1e-20)
+    box = default_inertial([Visual('box', (0.3, 0.1, 0.02), (0.1, 0.0, 0.0), (0.0, 0.0, math.pi / 2))])
+    mb = DENSITY * 0.3 * 0.1 * 0.02
+    np.testing.assert_allclose(box.inertia, [mb * (0.3 ** 2 + 0.02 ** 2) / 12, 0, 0, mb * (0.1 ** 2 + 0.02 ** 2) / 12,
+                                             0, mb * (0.3 ** 2 + 0.1 ** 2) / 12], rtol=1e-12, atol=1e-18)
+    assert default_inertial([]) is None
+
+
+def test_frame_prefix_names_every_link_and_keeps_the_joints(tmp_path):
+    """robot_urdf(frame_prefix='r1/'): every link (tf frame) r1/..., joints as before, the same kinematics."""
+    plain, prefixed = robot_urdf(ROBOT), robot_urdf(ROBOT, frame_prefix='r1/')
+    assert prefixed.root == 'r1/world'
+    assert [link.name for link in prefixed.links] == ['r1/' + link.name for link in plain.links]
+    assert [j.name for j in prefixed.joints] == [j.name for j in plain.joints]
+    assert all(j.parent.startswith('r1/') and j.child.startswith('r1/') for j in prefixed.joints)
+    urdf = _urdf(tmp_path, prefixed)
+    urdf.update_cfg({'arm1_elbow': 0.7, 'rod_2': 0.3})
+    T = urdf.get_transform('r1/arm1_wafer', 'r1/gpr_platform')
+    blade, wafer = platform_to_blade(ROBOT.arm('arm1'), np.array([[0.0, 0.7, 0.0]]))
+    np.testing.assert_allclose(T[:3, 3], wafer.position[0], rtol=0, atol=1e-14)
+
+
+def test_collision_shapes_are_written(tmp_path):
+    """A link's collision shapes (the hook the robot description's collision shapes fill) become <collision>."""
+    from gpr_kinematics.robot.shapes import Visual
+
+    shape = Visual('box', (0.3, 0.05, 0.02), (0.15, 0.0, 0.0))
+    model = RobotUrdf('m', 'a', (Link('a'), Link('b', (shape,), collisions=(shape,))),
+                      (Joint('j', 'revolute', 'a', 'b', lower=-1.0, upper=1.0, velocity=2.0),))
+    urdf = _urdf(tmp_path, model)
+    (col,) = urdf.link_map['b'].collisions
+    np.testing.assert_allclose(col.geometry.box.size, [0.3, 0.05, 0.02])
+    assert urdf.robot.joints[0].limit.velocity == 2.0

@@ -1,8 +1,9 @@
 """state_publisher_node over real DDS: robot_description latched and parseable as URDF (the whole robot: world,
-GPR, arms, blades, wafers), /tf_static with the fixed joints, and for every streamed sample a /tf message whose
-gpr_base -> gpr_platform equals forward kinematics (1e-12), plus the naive platform and the rods, and one with the
-arms (at home in a platform sweep); for a whole-robot program the tf chain world -> wafer of every sample equals
-the robot core's forward kinematics (1e-12)."""
+GPR, arms, blades, wafers), /tf_static with the fixed joints, and for every streamed joint_states message one /tf
+message whose gpr_base -> gpr_platform equals forward kinematics (1e-12), with the naive platform, the rods and the
+arms (held at home in a platform sweep); tf is always there: the rest state before the first sample, the last
+sample after the stream; for a whole-robot program the tf chain world -> wafer of every sample equals the robot
+core's forward kinematics (1e-12)."""
 from __future__ import annotations
 
 import math
@@ -24,6 +25,8 @@ pytestmark = pytest.mark.ros
 CFG = load_config()
 ROBOT = load_robot()
 STEP, AZ_STEP, MAX_TILT, HEIGHT = math.radians(0.5), math.radians(60.0), math.radians(2.0), 0.45
+#: How long a stream waits before its first sample, so that the state publisher listens to it [s].
+WAIT = 4.0
 
 
 def _wait_matched(client, topic: str, sp, namespace: str = '/') -> None:
@@ -61,11 +64,14 @@ def run(ros_environment):
             static = c.subscribe(TFMessage, '/tf_static', latched=True)
             states = c.subscribe(PlatformState, 'gpr/platform_state')
             _wait_matched(c, '/tf', sp)
-            # Subscribers: this client and the state publisher.
+            c.spin_for(0.5)      # the held rest state before the first sample
+            # The stream waits for two nodes on gpr/platform_state, this client's and none other (the state publisher
+            # listens to joint_states): WAIT s, by which the state publisher's subscription has matched as well.
             traj = start('trajectory_node', rate=200.0, height=HEIGHT, max_tilt=MAX_TILT, tilt_step=STEP,
-                         azimuth_step=AZ_STEP, wait_for_subscribers=2, wait_all_topics=False)
-            assert c.spin_until(lambda: not traj.alive() and len(tf) >= len(core), 60), traj.output() + sp.output()
-            c.spin_for(0.3)
+                         azimuth_step=AZ_STEP, wait_for_subscribers=2, wait_all_topics=False, wait_timeout=WAIT)
+            assert c.spin_until(lambda: not traj.alive() and len(_by_stamp(tf, states)[0]) >= len(core), 60), \
+                traj.output() + sp.output()
+            c.spin_for(0.6)      # the held state after the last sample, at idle_rate
             # A subscriber that comes late still gets the latched robot_description (transient local).
             description = c.subscribe(String, 'robot_description', latched=True)
             assert c.spin_until(lambda: description, 20), sp.output()
@@ -76,20 +82,30 @@ def run(ros_environment):
             sp.stop()
 
 
-def _platform_messages(tf):
-    """The /tf messages of the platform states (those with gpr_base -> gpr_platform), and the arms' ones."""
-    platform = [m for m in tf if any(t.child_frame_id == 'gpr_platform' for t in m.transforms)]
-    return platform, [m for m in tf if m not in platform]
+def _stamp(msg):
+    t = msg.transforms[0].header.stamp
+    return t.sec, t.nanosec
+
+
+def _by_stamp(tf, states):
+    """The /tf messages stamped as the states (one per joint_states message), and the others (the held state, at
+    idle_rate, before the first and after the last sample)."""
+    stamps = {(st.header.stamp.sec, st.header.stamp.nanosec) for st in states}
+    return [m for m in tf if _stamp(m) in stamps], [m for m in tf if _stamp(m) not in stamps]
+
+
+ARM_LINKS = {f'{a.name}_link{k + 1}' for a in ROBOT.arms for k in range(len(a.joints))}
+MOVING = {'gpr_platform', 'gpr_platform_nominal', 'gpr_rod_1', 'gpr_rod_2', 'gpr_rod_3'} | ARM_LINKS
 
 
 def test_one_tf_message_per_sample_equal_to_forward_kinematics(run):
     core, tf, _, states, _, _ = run
-    platform, arms = _platform_messages(tf)
-    assert len(states) == len(core) == len(platform) == len(arms)
+    samples, _ = _by_stamp(tf, states)
+    assert len(states) == len(core) == len(samples)
     fk = core.forward
-    for i, (msg, st) in enumerate(zip(platform, states, strict=True)):
+    for i, (msg, st) in enumerate(zip(samples, states, strict=True)):
         by_child = {t.child_frame_id: t for t in msg.transforms}
-        assert set(by_child) == {'gpr_platform', 'gpr_platform_nominal', 'gpr_rod_1', 'gpr_rod_2', 'gpr_rod_3'}
+        assert set(by_child) == MOVING
         exact, nominal = by_child['gpr_platform'], by_child['gpr_platform_nominal']
         assert exact.header.stamp == st.header.stamp and exact.header.frame_id == 'gpr_base'
         np.testing.assert_allclose(vec(exact.transform.translation), fk.position[i], rtol=0, atol=1e-12)
@@ -102,14 +118,34 @@ def test_one_tf_message_per_sample_equal_to_forward_kinematics(run):
             np.testing.assert_allclose(vec(rod.transform.translation), [0.0, 0.0, core.q[i, k - 1]], atol=1e-15)
 
 
+def test_tf_is_always_there_held_before_and_after_the_stream(run):
+    """Before the first sample /tf carries the rest state (equal rods at mid-stroke: a level platform, the arms at
+    home), after the last one the last sample, at idle_rate, stamped with the time of publishing."""
+    core, tf, _, states, _, _ = run
+    samples, held = _by_stamp(tf, states)
+    first, last = tf.index(samples[0]), tf.index(samples[-1])
+    before, after = [m for m in held if tf.index(m) < first], [m for m in held if tf.index(m) > last]
+    assert before and after
+    mid = 0.5 * (CFG.stroke_min + CFG.stroke_max)
+    for msgs, q in ((before, [mid] * 3), (after, core.q[-1])):
+        for msg in msgs:
+            by_child = {t.child_frame_id: t for t in msg.transforms}
+            assert set(by_child) == MOVING
+            np.testing.assert_allclose([by_child[f'gpr_rod_{k}'].transform.translation.z for k in (1, 2, 3)], q,
+                                       rtol=0, atol=1e-15)
+    assert all(_stamp(a) > _stamp(samples[-1]) for a in after)
+    level = {t.child_frame_id: t for t in before[0].transforms}['gpr_platform'].transform.rotation
+    assert abs(level.w) == pytest.approx(1.0, abs=1e-12)
+
+
 def test_arms_at_home_in_a_platform_sweep(run):
-    """A sweep's joint states carry the rods only: the arms' links are drawn at their home postures."""
+    """A sweep's joint states carry the rods only: the arms' links are drawn at the postures held, home."""
     _, tf, _, states, _, _ = run
-    _, arms = _platform_messages(tf)
-    for msg, st in zip(arms, states, strict=True):
+    samples, _ = _by_stamp(tf, states)
+    for msg, st in zip(samples, states, strict=True):
         assert {t.header.stamp.nanosec for t in msg.transforms} == {st.header.stamp.nanosec}
-        by_child = {t.child_frame_id: t for t in msg.transforms}
-        assert set(by_child) == {f'{a.name}_link{k + 1}' for a in ROBOT.arms for k in range(len(a.joints))}
+        by_child = {t.child_frame_id: t for t in msg.transforms if t.child_frame_id in ARM_LINKS}
+        assert set(by_child) == ARM_LINKS
         for arm in ROBOT.arms:
             for k, (frame, parent, pose) in enumerate(arm_transforms(arm, np.array([arm.home]))):
                 if k < len(arm.joints):
@@ -130,7 +166,7 @@ def test_static_transforms_and_rod_tops(run):
     assert base.header.frame_id == 'world'
     np.testing.assert_allclose(vec(base.transform.translation), ROBOT.base_position, rtol=0, atol=0)
     guides = {k: v for k, v in fixed.items() if k.startswith('gpr_rod_guide')}
-    last = {t.child_frame_id: t for t in _platform_messages(tf)[0][-1].transforms}
+    last = {t.child_frame_id: t for t in _by_stamp(tf, run[3])[0][-1].transforms}
     for k, theta in enumerate(CFG.rod_azimuths, start=1):
         g = guides[f'gpr_rod_guide_{k}'].transform
         assert guides[f'gpr_rod_guide_{k}'].header.frame_id == 'gpr_base'
@@ -192,8 +228,8 @@ def robot_run(ros_environment, tmp_path_factory):
             robot_states = c.subscribe(RobotState, 'gpr/robot_state')
             _wait_matched(c, '/tf', sp, ns)
             traj = start('trajectory_node', namespace=ns, mode='program', program_file=str(path), rate=ROBOT_RATE,
-                         wait_for_subscribers=2, wait_all_topics=False)
-            done = c.spin_until(lambda: not traj.alive() and len(tf) >= 2 * len(expected), 120)
+                         wait_for_subscribers=2, wait_all_topics=False, wait_timeout=WAIT)
+            done = c.spin_until(lambda: not traj.alive() and len(_by_stamp(tf, states)[0]) >= len(expected), 120)
             c.spin_for(0.3)
             assert done, (f'{len(tf)} /tf messages for {len(expected)} samples, {len(states)} states\n'
                           + traj.output() + sp.output())
@@ -231,3 +267,39 @@ def test_tf_chain_world_to_wafer_equals_the_robot_core_for_every_sample(robot_ru
     # Both arms moved and both were in use.
     assert {rs.arm for rs in robot_states} == {'arm1', 'arm2'}
     np.testing.assert_allclose([list(rs.joints) for rs in robot_states], expected.joints, rtol=0, atol=1e-12)
+
+
+def test_process_cell_published_latched_as_markers(ros_environment, tmp_path):
+    """With ``cell_file``, gpr/cell is latched: a late subscriber gets one MarkerArray, a marker per obstacle at its
+    pose and size in the cell's frame; a bad cell file stops the node with one line and status 2."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.safety.cell import load_cell
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    path = config_path('cells/example_cell.yaml')
+    cell = load_cell(path)
+    ns = '/gpr_cell_markers'
+    sp = start('state_publisher_node', namespace=ns, cell_file=str(path))
+    try:
+        wait_for_log(sp, r'gpr/cell: \d+ obstacles')
+        with GprClient('gpr_test_cell', namespace=ns) as c:
+            got = c.subscribe(MarkerArray, 'gpr/cell', latched=True)
+            assert c.spin_until(lambda: got, 30), sp.output()
+            c.spin_for(0.3)
+    finally:
+        sp.stop()
+    assert len(got) == 1
+    markers = got[0].markers
+    assert len(markers) == len(cell.obstacles) and {m.header.frame_id for m in markers} == {'world'}
+    for m, ob in zip(markers, cell.obstacles, strict=True):
+        assert m.type == (Marker.CUBE if ob.kind == 'box' else Marker.CYLINDER)
+        np.testing.assert_allclose(vec(m.pose.position), ob.position, atol=1e-12)
+        np.testing.assert_allclose(matrix_from_quaternion(quat(m.pose.orientation)), ob.rotation, atol=1e-12)
+        size = ob.size if ob.kind == 'box' else (2 * ob.size[0], 2 * ob.size[0], ob.size[1])
+        np.testing.assert_allclose([m.scale.x, m.scale.y, m.scale.z], size, atol=1e-15)
+    bad = tmp_path / 'bad_cell.yaml'
+    bad.write_text('format: gpr_cell\nobstacles:\n  - {name: a, box: [-1, 1, 1], position: [0, 0, 0]}\n')
+    proc = start('state_publisher_node', namespace=ns + '_bad', cell_file=str(bad))
+    assert proc.wait(30) == 2
+    assert 'box[0] = -1 is invalid' in proc.output() and 'Traceback' not in proc.output()

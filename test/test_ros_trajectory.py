@@ -36,7 +36,7 @@ def subscribe_stream(client, ns: str) -> dict[str, list]:
     from gpr_interfaces.msg import PlatformState
 
     topics = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
-              'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState, 'gpr/virtual_joints': JointState,
+              'gpr/nominal_pose': PoseStamped, 'joint_states': JointState, 'gpr/virtual_joints': JointState,
               'gpr/markers': MarkerArray}
     out = {t: client.subscribe(ty, f'{ns}/{t}') for t, ty in topics.items()}
     out['gpr/geometry'] = client.subscribe(String, f'{ns}/gpr/geometry', latched=True)
@@ -143,14 +143,14 @@ def test_sweep_poses_consistent(sweep_run):
                                    rtol=1e-12)
     poses = rec['gpr/platform_pose']
     nominal = rec['gpr/nominal_pose']
-    joints = rec['gpr/joint_states']
+    joints = rec['joint_states']
     virtual = rec['gpr/virtual_joints']
     assert len(poses) == len(nominal) == len(joints) == len(virtual) == len(states)
     for s, p, n, j, v in zip(states, poses, nominal, joints, virtual, strict=True):
         assert p.header.stamp == s.header.stamp and p.header.frame_id == 'gpr_base'
         np.testing.assert_array_equal(_pos(p.pose), _pos(s.pose))
         np.testing.assert_array_equal(_quat(n.pose), _quat(s.nominal_pose))
-        # Physical joints only on gpr/joint_states (robot_state_publisher's convention), the virtual ones apart.
+        # Physical joints only on joint_states (robot_state_publisher's convention), the virtual ones apart.
         assert list(j.name) == ['rod_1', 'rod_2', 'rod_3'] and j.header.stamp == s.header.stamp
         np.testing.assert_array_equal(j.position, list(s.q))
         assert list(v.name) == list(s.virtual_joint_names) and v.header.stamp == s.header.stamp

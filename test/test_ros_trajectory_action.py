@@ -1,9 +1,15 @@
 """The gpr/run_program action of trajectory_node over real DDS: a program runs to its end with ordered feedback
 and the stream the core computes; cancel stops within one sample period and says where; bad goals are aborted
-with a message and the node goes on serving; a second goal while one runs is rejected."""
+with a message and the node goes on serving; a second goal while one runs is rejected.
+
+Issue 18: a goal's files are read only under the package's config/programs and the node's program_folders (a
+goal naming /etc/shadow got the file's lines back); any other path is refused within a second, naming the path
+and the rule, never the content; oversized goals are refused within a second, before any planning (100,000
+stations were planned for 91 s); goals and cancels are answered while a goal is planned."""
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import numpy as np
@@ -24,9 +30,32 @@ STATIONS = [{'name': 'load', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell'
             {'name': 'b', 'height': 0.38, 'tilt': math.radians(0.8), 'azimuth': -2.5, 'dwell': 0.05}]
 
 
+#: What the files outside the allowed folder hold: no message may repeat it.
+SECRET = 'token: s3cr3t-value'
+
+
 @pytest.fixture(scope='module')
-def node(ros_environment):
-    yield from running(start('trajectory_node', namespace=NS, mode='idle', rate=RATE, move_time=0.4), 'idle: serving')
+def allowed(tmp_path_factory):
+    """An operator's program folder (program_folders), with its hostile neighbours: a secret beside it, a link out
+    of it, a program naming a robot outside it."""
+    root = tmp_path_factory.mktemp('programs_root')
+    (root / 'secret.yaml').write_text(SECRET + '\n')
+    folder = root / 'allowed'
+    folder.mkdir()
+    (folder / 'link_out.yaml').symlink_to(root / 'secret.yaml')
+    (folder / 'names_outside.yaml').write_text(
+        'format: gpr_robot_program\nrobot: ../secret.yaml\nstations: [{name: a, position: [1.3, 0.6, 0.45]}]\n'
+        'steps: [{move: a}]\n')
+    (folder / 'imports_outside.yaml').write_text(
+        'format: gpr_robot_program\nimport: [../secret.yaml]\nsteps: [{move: a}]\n')
+    (folder / 'short.yaml').write_text('stations: [{name: s, height: 0.3, tilt: 0.0, azimuth: 0.0, dwell: 0.05}]\n')
+    return folder
+
+
+@pytest.fixture(scope='module')
+def node(ros_environment, allowed):
+    yield from running(start('trajectory_node', namespace=NS, mode='idle', rate=RATE, move_time=0.4,
+                             program_folders=f"['{allowed}']"), 'idle: serving')
 
 
 @pytest.fixture(scope='module')
@@ -40,7 +69,8 @@ def test_program_runs_to_the_end_with_ordered_feedback(client, node):
     states = client.subscribe(PlatformState, 'gpr/platform_state')
     feedback: list = []
     result = client.run_program(stations=STATIONS, feedback=feedback.append, timeout=60)
-    client.spin_for(0.3)
+    # The result and the last samples' feedback and states travel apart: wait for them (none is lost).
+    client.spin_until(lambda: len(feedback) >= result.samples_total and len(states) >= result.samples_total, 10)
     samples = sample_program(parse_platform_program({'stations': STATIONS}), RATE, 0.4)
     n = len(samples)
     assert result.success, result.message
@@ -78,8 +108,10 @@ def test_cancel_stops_within_one_sample_period_and_says_where(client):
     t_cancel = time.time_ns()
     client.wait(handle.cancel_goal_async(), 10, 'cancel')
     response = client.wait(handle.get_result_async(), 10, 'result')
-    client.spin_for(0.3)
     result = response.result
+    # The result and the feedback of the last samples travel apart: wait for the feedback (none is lost).
+    client.spin_until(lambda: bool(feedback) and feedback[-1].sample_index >= result.samples_published - 1, 10)
+    client.spin_for(0.3)
     assert response.status == GoalStatus.STATUS_CANCELED
     assert not result.success
     k = result.samples_published
@@ -101,7 +133,7 @@ def test_cancel_stops_within_one_sample_period_and_says_where(client):
 @pytest.mark.parametrize('goal,words', [
     ({}, 'exactly one'),
     ({'program_file': 'x.yaml', 'stations': STATIONS[:1]}, 'exactly one'),
-    ({'program_file': '/nonexistent/program.yaml'}, 'cannot read program file'),
+    ({'program_file': 'no_such_program.yaml'}, "cannot read program file .*config/programs/no_such_program.yaml'"),
     ({'stations': [{'height': 0.3, 'tilt': float('nan'), 'azimuth': 0.0}]}, 'tilt'),
     ({'stations': [{'height': 0.3, 'tilt': 0.1, 'azimuth': 0.0}]}, r'station 0 .* tilt'),
     ({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': -1.0}]}, 'dwell'),
@@ -131,3 +163,84 @@ def test_second_goal_rejected_while_one_runs(client):
     assert not second.accepted
     client.wait(first.cancel_goal_async(), 10, 'cancel')
     client.wait(first.get_result_async(), 10, 'result')
+
+
+def _refused(client, seconds=1.0, **goal):
+    """Send ``goal``; it must be accepted, then aborted within ``seconds``; the result."""
+    from action_msgs.msg import GoalStatus
+
+    handle = client.send_program(**goal)
+    t0 = time.monotonic()
+    assert handle.accepted
+    response = client.wait(handle.get_result_async(), 20, 'result')
+    elapsed = time.monotonic() - t0
+    assert response.status == GoalStatus.STATUS_ABORTED and not response.result.success, response.result.message
+    assert response.result.samples_published == 0
+    assert elapsed < seconds, (elapsed, response.result.message)
+    return response.result
+
+
+@pytest.mark.parametrize('name, shown', [
+    ('/etc/shadow', '/etc/shadow'),
+    ('/etc/passwd', '/etc/passwd'),
+    ('../gpr.yaml', '../gpr.yaml'),                       # out of config/programs by ..
+    ('{allowed}/../secret.yaml', '../secret.yaml'),
+    ('{allowed}/link_out.yaml', 'link_out.yaml'),        # a link in the folder that points out of it
+    ('{allowed}/names_outside.yaml', 'secret.yaml'),     # a program in the folder naming a robot outside it
+    ('{allowed}/imports_outside.yaml', 'secret.yaml'),   # ... or station files outside it
+    ('/proc/self/environ', '/proc/self/environ'),
+    ('/dev/zero', '/dev/zero'),
+], ids=['shadow', 'passwd', 'dotdot-package', 'dotdot-allowed', 'link', 'robot-outside', 'import-outside', 'proc',
+        'device'])
+def test_files_outside_the_allowed_folders_are_refused_naming_the_path_and_the_rule(client, node, allowed, name,
+                                                                                     shown):
+    result = _refused(client, program_file=name.format(allowed=allowed))
+    message = result.message
+    assert 'is outside the folders this node reads files from' in message and shown in message, message
+    assert "config/programs and trajectory_node's parameter program_folders" in message and str(allowed) in message
+    for content in ('root:', 's3cr3t', 'token', 'PATH='):
+        assert content not in message, message
+    assert 's3cr3t' not in node.output() and 'root:x' not in node.output()
+
+
+def test_a_relative_program_file_is_found_in_the_allowed_folders(client, allowed):
+    assert client.run_program(program_file='short.yaml', timeout=30).success
+    result = client.run_program(program_file='example_stations.yaml', timeout=60)   # the package's folder
+    assert result.success, result.message
+
+
+@pytest.mark.parametrize('goal, words', [
+    ({'stations': [STATIONS[0]] * 10_001}, 'goal: 10001 stations; allowed: at most 10000'),
+    ({'stations': [dict(STATIONS[0], dwell=1e4), dict(STATIONS[1], dwell=1e4)]},
+     r'samples at 100 Hz; allowed: at most 200000 samples'),
+    ({'stations': [dict(STATIONS[0], dwell=1e300)]}, r'dwell = 1e\+300 is invalid'),
+], ids=['stations', 'samples', 'dwell'])
+def test_oversized_goals_are_refused_within_a_second(client, node, goal, words):
+    import re
+
+    result = _refused(client, **goal)
+    assert re.search(words, result.message), result.message
+    assert client.run_program(stations=STATIONS[:1], timeout=30).success and node.alive()
+
+
+def test_goals_and_cancels_are_answered_while_a_goal_is_planned(client, node):
+    """A goal of 199,851 samples is planned for a while (its inverse kinematics, its markers): meanwhile a second
+    goal is rejected and a cancel accepted, each within a second; the first goal ends cancelled without a sample
+    (or, if its planning was over already, within a sample of the cancel)."""
+    from action_msgs.msg import GoalStatus
+
+    heavy = [dict(STATIONS[0], dwell=999.0), dict(STATIONS[1], dwell=999.0)]
+    first = client.send_program(stations=heavy)
+    assert first.accepted
+    t0 = time.monotonic()
+    second = client.send_program(stations=STATIONS)
+    assert not second.accepted and time.monotonic() - t0 < 1.0
+    t0 = time.monotonic()
+    cancel = client.wait(first.cancel_goal_async(), 10, 'cancel')
+    assert cancel.goals_canceling and time.monotonic() - t0 < 1.0
+    response = client.wait(first.get_result_async(), 60, 'result')
+    assert response.status == GoalStatus.STATUS_CANCELED, response.result.message
+    message = response.result.message
+    assert ('cancelled before sample 0 of 199851 (while it was planned)' in message
+            or re.search(r'cancelled before sample \d+ of 199851', message)), message
+    assert client.run_program(stations=STATIONS[:1], timeout=30).success and node.alive()

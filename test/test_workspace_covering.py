@@ -189,3 +189,30 @@ def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
     assert base.outer_volume < tall.inner_volume
     top = lambda r: np.concatenate([r.inner, r.boundary])[:, 2, 1].max()  # noqa: E731
     assert top(tall) > top(base) + 0.02
+
+
+@pytest.mark.parametrize('method', ['covering', 'grid', 'uniform'])
+def test_every_method_has_a_default_time_limit(monkeypatch, method):
+    """Issue 18: the grid method at 0.072 mm on the planar 3-RRR ran without end; without a limit of the caller's,
+    every method stops at base.DEFAULT_MAX_SECONDS (600 s; here made 0.05 s) with a valid, interrupted result: the
+    unexamined boxes (the uniform grid's cells with a corner not evaluated) are boundary boxes."""
+    from gpr_kinematics.workspace import base
+    from gpr_kinematics.workspace import grid as grid_module
+    monkeypatch.setattr(base, 'DEFAULT_MAX_SECONDS', 0.05)
+    monkeypatch.setattr(grid_module, '_POINT_CHUNK', 2000)   # the uniform grid looks at the clock per chunk
+    model = load_workspace_model(config_path('mechanisms/rrr3_planar.yaml'))
+    delta = 0.002 if method == 'uniform' else 0.000072
+    res = approximate(model, delta, method=method)
+    assert res.interrupted and res.stopped == 'time limit (0.05 s)' and res.seconds < 30, (res.stopped, res.seconds)
+    pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((20000, 3))
+    ok = model.feasible(pts)
+    assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), pts[ok]))
+    if res.inner_boxes:
+        assert np.all(model.feasible(_points_in_boxes(res.inner, 2000)))
+
+
+@pytest.mark.parametrize('value', [0, -1, float('nan'), float('inf'), 1e9, True])
+def test_time_limits_are_bounded(value):
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    with pytest.raises(InputError, match='max_seconds = .*; allowed: a time limit in seconds, > 0 and at most 604800'):
+        approximate(model, 0.05, max_seconds=value)

@@ -73,13 +73,56 @@ def test_bad_schedulers_are_refused(scheduler, workers, match):
         Executor(scheduler, workers)
 
 
-def test_an_unreachable_scheduler_is_reported(monkeypatch):
+def test_an_unreachable_scheduler_is_refused_before_any_work(monkeypatch):
+    """Issue 18: ``--scheduler tcp://127.0.0.1:1`` (nothing listens) ran a small covering in this process, exited 0
+    and reported that scheduler in its JSON; the address is now connected to before any work, at once."""
     import socket
+    import time
     s = socket.socket()
     s.bind(('127.0.0.1', 0))
     port = s.getsockname()[1]
     s.close()                                                   # a port nobody listens on
-    monkeypatch.setattr(sched, 'CONNECT_TIMEOUT', 2.0)
     model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
-    with pytest.raises(InputError, match=f'cannot connect to the Dask scheduler at tcp://127.0.0.1:{port}'):
-        approximate(model, 0.004, chunk_size=1024, scheduler=f'tcp://127.0.0.1:{port}')
+    calls = []
+    monkeypatch.setattr(type(model), 'bounds', lambda self, boxes: calls.append(1))  # no work may start
+    for address in (f'tcp://127.0.0.1:{port}', 'tcp://127.0.0.1:1'):
+        t0 = time.perf_counter()
+        with pytest.raises(InputError, match=f'cannot reach the Dask scheduler at {address}: Connection refused; '
+                                             'allowed: the address of a running scheduler'):
+            approximate(model, 0.05, scheduler=address)   # one chunk: it never needed the cluster before
+        assert time.perf_counter() - t0 < 5.0 and not calls
+
+
+def test_a_port_that_is_no_dask_scheduler_is_reported(monkeypatch):
+    import socket
+    s = socket.socket()
+    s.bind(('127.0.0.1', 0))
+    s.listen()                                                  # accepts TCP, never speaks Dask
+    port = s.getsockname()[1]
+    monkeypatch.setattr(sched, 'CONNECT_TIMEOUT', 2.0)
+    try:
+        with pytest.raises(InputError, match=f'cannot connect to the Dask scheduler at tcp://127.0.0.1:{port}'):
+            Executor(f'tcp://127.0.0.1:{port}')
+    finally:
+        s.close()
+
+
+def test_sigterm_stops_a_run_on_a_local_cluster_and_closes_it(tmp_path):
+    """Issue 18: a grid run killed with SIGTERM left its local cluster's 12 semaphores behind (the resource
+    tracker's warning); SIGTERM now stops it like Ctrl-C: the proved boxes are kept and the cluster closed."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+    cmd = [sys.executable, '-m', 'gpr_kinematics.cli.main', 'workspace', 'rrr3_planar.yaml', '--delta', '0.072',
+           '--mm', '--method', 'grid', '--scheduler', 'local', '--workers', '2', '--parts', '2', '--no-progress',
+           '--json']
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    time.sleep(12)                        # the cluster starts once a level holds 4096 boxes (about 5 s in)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    result = json.loads(out)
+    assert result['cluster_used'] and result['workers'] == 2 and result['stopped'] == 'interrupted', result
+    assert 'leaked' not in err and 'Traceback' not in err and 'interrupted after' in err, err

@@ -4,7 +4,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-
 from gpr_kinematics.core import inverse_batch
 from gpr_kinematics.core.config import load_config
 

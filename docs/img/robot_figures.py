@@ -11,7 +11,6 @@ import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt
 import numpy as np
-
 from gpr_kinematics.robot import Stations, load_robot, solve_stations
 
 OUT = Path(__file__).resolve().parent

@@ -6,10 +6,9 @@ import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.collections import PolyCollection
-
 from gpr_kinematics.workspace import approximate
 from gpr_kinematics.workspace.loader import load_workspace_model
+from matplotlib.collections import PolyCollection
 
 OUT = Path(__file__).resolve().parent
 

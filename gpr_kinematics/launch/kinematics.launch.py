@@ -2,12 +2,10 @@
 (gpr/robot_forward_kinematics, gpr/station_inverse_kinematics).
 
     ros2 launch gpr_kinematics kinematics.launch.py [namespace:=/robot1] [model:=polar] [config_file:=my_gpr.yaml]
-        [robot:=my_robot.yaml]
+        [robot:=my_robot.yaml] [use_sim_time:=true] [respawn:=true]
 """
-from gpr_kinematics.nodes.launch_common import arguments, typed
+from gpr_kinematics.nodes.launch_common import arguments, node, typed
 from launch import LaunchDescription
-from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
 
 ARGUMENTS = (
     ('namespace', '', 'namespace of the node and its services, e.g. /robot1'),
@@ -22,8 +20,6 @@ ARGUMENTS = (
 def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
         *arguments(ARGUMENTS),
-        Node(package='gpr_kinematics', executable='kinematics_node', namespace=LaunchConfiguration('namespace'),
-             output='screen', parameters=[LaunchConfiguration('params_file'),
-                                          {'robot_file': typed('robot'), 'config_file': typed('config_file'),
-                                           'model': typed('model')}]),
+        node('kinematics_node', [{'robot_file': typed('robot'), 'config_file': typed('config_file'),
+                                  'model': typed('model')}]),
     ])

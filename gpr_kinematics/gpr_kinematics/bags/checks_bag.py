@@ -8,18 +8,24 @@
 - ``bag.metadata``: the rest of ``metadata.yaml`` against the files: the format version (9 for a bag of this
   suite's recorder, which carries its checksums; 1 to 9 for others), the file list
   (``relative_file_paths`` = ``files``), per file its message count, start and duration, the totals
-  (``message_count``, ``starting_time``, ``duration``), each topic's type and type hash as the files store
-  them;
+  (``message_count``, ``starting_time``, ``duration``), each topic's type, type hash and serialization format as
+  the files store them, and the storage description: no file-level compression claimed (``compression_format``
+  and ``compression_mode`` empty: each file was read as it is, so a claim of ``zstd`` is false);
+- ``bag.schemas``: the message definition each file embeds (MCAP schemas; SQLite3's ``message_definitions``) is the
+  package's definition of its type (:func:`.typestore.definition`), by text (comments and blank lines aside: an
+  edited ``float64 residual`` -> ``float32 residual`` would make an independent decoder misread every message,
+  while this reader, which decodes with the package's definitions, would not notice) and by type hash (RIHS01);
 - ``bag.checksums``: the metadata's own digest and each storage file's SHA-256 (:mod:`.metadata`) as recorded.
   A bag without them (written by another recorder) fails unless ``allow_missing_checksums``; a single MCAP
   file passes when every one of its CRCs was present (they were checked while reading).
 """
 from __future__ import annotations
 
+from ..errors import brief
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, digest_line
 from .reader import Bag
 from .results import Check, bag_check, skipped
-from .typestore import GPR_TOPICS, definition, typestore
+from .typestore import KNOWN_TOPICS, definition, typestore
 
 Problem = tuple[str, float, float, str]
 
@@ -27,6 +33,20 @@ Problem = tuple[str, float, float, str]
 def _differs(problems: list[Problem], where: str, what: str, listed: object, read: object) -> None:
     if listed != read:
         problems.append((where, 1.0, 0.0, f'{what}: metadata.yaml says {listed!r}, the files hold {read!r}'))
+
+
+def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
+    """Each topic of ``metadata.yaml`` against the files: type, type hash, serialization format."""
+    assert bag.metadata is not None  # callers check
+    for t in bag.metadata.topics:
+        for f in bag.storage_files:
+            if t.name in f.types:
+                _differs(problems, t.name, f'type in {f.name}', t.type, f.types[t.name])
+                if t.type_description_hash and f.digests.get(t.name):
+                    _differs(problems, t.name, f'type hash in {f.name}', t.type_description_hash, f.digests[t.name])
+                if t.name in f.formats:
+                    _differs(problems, t.name, f'serialization_format in {f.name}', t.serialization_format,
+                             f.formats[t.name])
 
 
 def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
@@ -55,17 +75,54 @@ def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
     if starts and ends:
         _differs(problems, 'bag', 'starting_time', meta.starting_time, min(starts))
         _differs(problems, 'bag', 'duration', meta.duration, max(ends) - min(starts))
-    for t in meta.topics:
-        for f in bag.storage_files:
-            if t.name in f.types:
-                _differs(problems, t.name, f'type in {f.name}', t.type, f.types[t.name])
-                if t.type_description_hash and f.digests.get(t.name):
-                    _differs(problems, t.name, f'type hash in {f.name}', t.type_description_hash, f.digests[t.name])
+    _topic_problems(bag, problems)
+    if meta.compression_format.lower() not in ('', 'none') or meta.compression_mode.lower() not in ('', 'none'):
+        problems.append(('bag', 1.0, 0.0, f'compression_format {meta.compression_format!r:.40}, compression_mode '
+                         f'{meta.compression_mode!r:.40}: the files are not compressed (each was read as a '
+                         f'{meta.storage} file as it is); allowed: empty (no file-level compression)'))
     listed = {t.name for t in meta.topics}
     for f in bag.storage_files:
         for name in sorted(set(f.types) - listed):
             problems.append((name, 1.0, 0.0, f'in {f.name} but not in metadata.yaml'))
-    return problems, 4 + 3 * len(meta.files) + 2 * len(meta.topics)
+    return problems, 5 + 3 * len(meta.files) + 3 * len(meta.topics)
+
+
+def _normal(text: str) -> list[str]:
+    """A message definition's lines without comments, trailing blanks and empty lines."""
+    lines = (line.split('#', 1)[0].rstrip() for line in text.splitlines())
+    return [line for line in lines if line]
+
+
+def _first_difference(got: list[str], want: list[str]) -> str:
+    """Where two definitions' lines first differ, both lines quoted briefly."""
+    k = next((i for i, (a, b) in enumerate(zip(got, want, strict=False)) if a != b), min(len(got), len(want)))
+    mine, theirs = (brief(lines[k] if k < len(lines) else '(no line)', 50) for lines in (got, want))
+    return f'line {k + 1} is {mine}, the package\'s {theirs}'
+
+
+def _schema_problems(bag: Bag) -> tuple[list[Problem], int]:
+    """``bag.schemas`` (module docstring): each embedded definition against the package's."""
+    known = typestore().fielddefs
+    problems: list[Problem] = []
+    checked = 0
+    for f in bag.storage_files:
+        for topic in sorted(set(f.schemas) | set(f.digests)):
+            msgtype = f.types.get(topic, '')
+            if msgtype not in known:
+                continue  # bag.topic_types names it
+            checked += 1
+            text, digest = definition(msgtype)
+            encoding, embedded = f.schemas.get(topic, ('ros2msg', text))
+            if encoding != 'ros2msg':
+                problems.append((topic, 1.0, 0.0, f'the definition of {msgtype} in {f.name} is encoded '
+                                 f'{encoding!r:.40}; allowed: ros2msg'))
+            elif _normal(embedded) != _normal(text):
+                problems.append((topic, 1.0, 0.0, f'the definition of {msgtype} embedded in {f.name} differs from the '
+                                 f"package's: {_first_difference(_normal(embedded), _normal(text))}"))
+            if f.digests.get(topic) and f.digests[topic] != digest:
+                problems.append((topic, 1.0, 0.0, f'type hash of {msgtype} in {f.name} is not the package\'s '
+                                 f'({digest})'))
+    return problems, checked
 
 
 def _checksum_check(bag: Bag, allow_missing: bool) -> Check:
@@ -108,16 +165,18 @@ def bag_checks(bag: Bag, allow_missing_checksums: bool = False) -> list[Check]:
     topics = list(bag.topics.values())
     types: list[Problem] = [(t.name, 1.0, 0.0, f'type {t.msgtype!r} is not in the typestore') for t in topics
                             if t.msgtype not in store.fielddefs]
-    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {GPR_TOPICS[t.name]}')
-              for t in topics if t.name in GPR_TOPICS and t.msgtype != GPR_TOPICS[t.name]]
+    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {KNOWN_TOPICS[t.name]}')
+              for t in topics if t.name in KNOWN_TOPICS and t.msgtype != KNOWN_TOPICS[t.name]]
     hashes: list[Problem] = [(t.name, 1.0, 0.0, 'stored type hash differs from the current message definition')
                              for t in topics if t.msgtype in store.fielddefs and t.digest
                              and t.digest != definition(t.msgtype)[1]]
     counts: list[Problem] = [(t.name, float(abs(t.metadata_count - len(t))), 0.0,
                               f'metadata.yaml counts {t.metadata_count}, the files hold {len(t)}')
                              for t in topics if t.metadata_count is not None and t.metadata_count != len(t)]
+    schemas, schemas_checked = _schema_problems(bag)
     out = [bag_check('bag.topic_types', 'bag', types, len(topics), ''),
            bag_check('bag.type_hash', 'bag', hashes, len(topics), ''),
+           bag_check('bag.schemas', 'bag', schemas, schemas_checked, ''),
            bag_check('bag.message_count', 'bag', counts, len(topics), 'messages')]
     if bag.metadata is None:
         out.append(skipped('bag.metadata', 'bag', '', 'a single storage file: no metadata.yaml'))

@@ -122,10 +122,12 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
 @dataclass(frozen=True)
 class RobotRows:
     """Per PlatformState row, the arm joints of the RobotState of its stamp (its names and values; none where the
-    state has no RobotState): what ``gpr/joint_states`` must carry after the rods. Taken from the recorded robot
+    state has no RobotState): what ``joint_states`` must carry after the rods. Taken from the recorded robot
     states alone, so the joint states are checked against them whether or not a robot description is known."""
 
     rows: dict[int, tuple[tuple[str, ...], NDArray[np.float64]]]
+    #: Per state row, the waypoint its RobotState says it holds (-1: moving).
+    waypoints: dict[int, int] = field(default_factory=dict)
 
     def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
         return self.rows.get(r)
@@ -137,9 +139,11 @@ def _names(robot: RobotDescription) -> tuple[str, ...]:
 
 def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,
                robot: RobotDescription) -> NDArray[np.bool_]:
-    """Per matched RobotState ``j`` (of the state ``rows``): frame, sample counter, arm and joint names right."""
+    """Per matched RobotState ``j`` (of the state ``rows``): frame (the world frame, with a node's frame prefix
+    ``r1/`` or without), sample counter, arm and joint names right."""
     names = _names(robot)
-    frame_ok = rc['header.frame_id'][j] == robot.world_frame
+    world = robot.world_frame
+    frame_ok = np.array([f == world or str(f).endswith('/' + world) for f in rc['header.frame_id'][j]], dtype=bool)
     sample_ok = np.asarray(rc['sample'])[j] == np.asarray(c['sample'])[rows]
     arm_ok = np.isin(rc['arm'][j], robot.arm_names)
     names_ok = np.array([tuple(n) == names for n in rc['joint_names'][j]], dtype=bool)
@@ -163,7 +167,7 @@ def _pose_error(stored: tuple[NDArray[np.float64], NDArray[np.float64]], pose: P
 def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice,
                  tol: Tolerances) -> tuple[list[Check], RobotRows | None]:
     """The ``robot.*`` and ``topic.wafer_pose`` checks (module docstring) against the PlatformState columns ``c``,
-    and the robot joints per state row for the ``gpr/joint_states`` check (None without robot states)."""
+    and the robot joints per state row for the ``joint_states`` check (None without robot states)."""
     t = _topic(bag, ROBOT_STATE_TOPIC)
     if t is None or t.msgtype != GPR_TOPICS[ROBOT_STATE_TOPIC]:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot states in the bag')], None
@@ -173,7 +177,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     rows = np.flatnonzero(idx >= 0)
     j = idx[rows]
     recorded = RobotRows({int(r): (tuple(rc['joint_names'][k]), np.asarray(rc['joints'][k], dtype=float))
-                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
+                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)},
+                         {int(r): int(rc['waypoint'][k]) for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
     robot = choice.robot
     if robot is None:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \

@@ -17,9 +17,14 @@ Kinds of comparison, per sample, of the stored value ``s`` with the recomputed `
 
 Besides the table: ``state.model`` (a model of :data:`gpr_kinematics.core.config.MODELS`), ``state.forward`` (``q``
 finite and the core solves it: a solver error is a failed check, not a crash), ``state.imperfection_budget``
-(every stored joint displacement <= ``imperfection_budget``) and ``state.limits`` (``q`` inside the stroke and
-the tilt <= ``tilt_limit``, 1e-9 of slack). A sample that cannot be recomputed (unknown model, ``q`` not
-finite, the solver fails) fails ``state.model`` or ``state.forward`` and is left out of the comparisons.
+(every stored joint displacement <= ``imperfection_budget``), ``state.limits`` (``q`` inside the stroke and
+the tilt <= ``tilt_limit``, 1e-9 of slack) and ``state.commanded``: the commanded tilt and azimuth (inputs of the
+stream, never recomputed from ``q``) are what the platform achieves, ``|commanded_tilt|`` = the tilt and the
+commanded azimuth (plus pi for a negative commanded tilt) = the tilt azimuth where the tilt > 1e-12 rad, within
+``Tolerances.angle`` (every stream of the node commands its platform exactly: the inverse kinematics of a sweep and
+a platform program, the platform's own tilt in a robot program; a changed, NaN or infinite commanded value fails).
+A sample that cannot be recomputed (unknown model, ``q`` not finite, the solver fails) fails ``state.model`` or
+``state.forward`` and is left out of the comparisons.
 """
 from __future__ import annotations
 
@@ -137,6 +142,17 @@ def _error(kind: str, stored: NDArray[Any], value: Any, fk: ForwardBatch) -> NDA
     return out
 
 
+def commanded_error(tilt: NDArray[np.float64], azimuth: NDArray[np.float64], fk: ForwardBatch) -> NDArray[np.float64]:
+    """Per sample: how far the commanded tilt and azimuth [rad] are from the achieved ones (the module docstring);
+    NaN for a commanded value that is not finite."""
+    with np.errstate(invalid='ignore'):
+        e_tilt = np.abs(np.abs(tilt) - fk.tilt)
+        e_az = wrapped(np.where(tilt < 0.0, azimuth + np.pi, azimuth) - fk.tilt_azimuth)
+        e_az = np.where(fk.tilt > AZIMUTH_MIN_TILT, e_az, np.where(np.isfinite(azimuth), 0.0, np.nan))
+    out: NDArray[np.float64] = np.maximum(e_tilt, e_az)
+    return out
+
+
 @dataclass
 class StateOutcome:
     checks: list[Check]
@@ -155,6 +171,7 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
     rules = [(field, attr, rule_for(field, c)) for field, attr in STATE_FROM_RESULT if field not in INPUTS]
     errors = {rule.check: np.full(n, np.nan) for _, _, rule in rules}
     limits = np.full(n, np.inf)
+    commanded = np.full(n, np.inf)
     fk_error = ''
     for model in sorted({str(m) for m in models[model_ok]}):
         rows = np.flatnonzero((models == model) & solved)
@@ -177,6 +194,8 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
             touched.add(rule.check)
         stroke = np.maximum(cfg.stroke_min - q[rows], q[rows] - cfg.stroke_max).max(axis=1)
         limits[rows] = np.maximum(np.maximum(stroke, fk.tilt - cfg.tilt_limit), 0.0)
+        commanded[rows] = commanded_error(np.asarray(c['commanded_tilt'], float)[rows],
+                                          np.asarray(c['commanded_azimuth'], float)[rows], fk)
     disp = field_matrix(c, 'joint_displacement')
     checks = [bool_check('state.model', topic, model_ok, samples, 'model is not ' + ', '.join(MODELS)),
               bool_check('state.forward', topic, solved | ~model_ok, samples,
@@ -194,6 +213,8 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
                               'm', samples))
     checks.append(value_check('state.limits', topic, limits[solved], LIMIT_SLACK, 'm|rad', ok,
                               'q outside the stroke or tilt beyond tilt_limit'))
+    checks.append(value_check('state.commanded', topic, commanded[solved], tol.angle, 'rad', ok,
+                              'commanded tilt or azimuth is not what the platform achieves (NaN: not a number)'))
     series = Series(sample=samples, q=q, model=min((str(m) for m in models), default=''),
                     virtual_joints=matrix(c['virtual_joints']),
                     side_lengths=field_matrix(c, 'side_lengths'), centre_shift=field_matrix(c, 'centre_shift'),

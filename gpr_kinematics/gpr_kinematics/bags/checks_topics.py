@@ -2,7 +2,8 @@
 
 - ``platform_pose`` / ``nominal_pose``: a PoseStamped with the stamp and frame of every PlatformState and the
   same pose (<= ``consistency``, 1e-12);
-- ``joint_states``: names ``rod_1..rod_3`` (:data:`gpr_kinematics.core.messages.ROD_JOINT_NAMES`), positions ``q``
+- ``joint_states``: no velocity or effort (the node publishes positions only), names ``rod_1..rod_3``
+  (:data:`gpr_kinematics.core.messages.ROD_JOINT_NAMES`), positions ``q``
   (in a whole-robot recording followed by every arm's joints, the names and values of the RobotState of the
   stamp; in bags recorded before the virtual joints got their own topic: the rods then the virtual joints' names,
   positions ``q`` then the virtual joints) (<= 1e-12); ``virtual_joints``: the state's virtual-joint names and
@@ -11,7 +12,12 @@
   ADD), each with the stamp and frame of a PlatformState and the identity pose (so the points are in the
   base frame), and the points of :func:`.markers.marker_points` for that state (rod tops = joint centres
   ``P_k``, the platform triangle, the naive outline) within 1e-12 m. Markers may be published for every n-th
-  sample only, so a state without markers is not a failure; markers without a state are.
+  sample only (``markers_every``), so a state without markers is not a failure by itself; markers without a state
+  are, and so is a gap: ``markers_sequence`` takes ``n`` as the smallest step between the counters of the samples
+  that have markers, and every sample from the first to the last of them whose counter is a multiple of ``n`` steps
+  from the first must have its markers, and no other (a MarkerArray removed mid-stream passed before: 1927 markers
+  for 1928 states). Removing every other one of a stream with markers at every sample is not seen: it is what
+  ``markers_every: 2`` records.
 
 A sample before the first or after the last message of a companion topic is not counted as missing: a
 recording started, or cut by SIGKILL, in the middle of a sample holds only part of that sample's messages.
@@ -33,8 +39,8 @@ from ..robot.markers import ADD, MARKERS, marker_points
 from .cdr import COUNT, Columns
 from .columns import field_matrix, matrix, stamp_ns, vec
 from .reader import Bag, TopicData
-from .results import Check, Failure, Series, skipped, value_check
-from .typestore import GPR_TOPICS, VIRTUAL_JOINTS_TOPIC
+from .results import Check, Failure, Series, bool_check, skipped, value_check
+from .typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC, VIRTUAL_JOINTS_TOPIC
 
 _UNIT = 'm|rad'
 
@@ -76,7 +82,7 @@ def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[
 
 def _topic(bag: Bag, name: str) -> TopicData | None:
     t = bag.topic(name)
-    return t if t is not None and t.msgtype == GPR_TOPICS[name] else None
+    return t if t is not None and t.msgtype == KNOWN_TOPICS[name] else None
 
 
 def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
@@ -120,21 +126,23 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     for r in rows:
         got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
         e[r] = np.inf
+        if np.size(jc['velocity'][idx[r]]) or np.size(jc['effort'][idx[r]]):
+            continue   # the node publishes positions only
         for layout in layouts:
             want_names, want = layout(int(r))
             if got_names == want_names and got.shape == want.shape:
                 e[r] = float(np.max(np.abs(got - want), initial=0.0))
                 break
-    out = [value_check(check, name, e, tol, _UNIT, samples, f'inf = missing, or {detail}')]
+    out = [value_check(check, name, e, tol, _UNIT, samples, f'inf = missing, velocity or effort given, or {detail}')]
     return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
                         arms: Any = None) -> list[Check]:
-    """``/gpr/joint_states`` carries the rods (``rod_1..rod_3``, ``q``), and in a whole-robot recording then every
-    arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the robot states); bags recorded before the
-    virtual joints got their own topic carry the rods then the virtual joints. ``/gpr/virtual_joints`` carries the
-    virtual joints."""
+    """``/joint_states`` (``/gpr/joint_states`` in bags recorded before) carries the rods (``rod_1..rod_3``, ``q``),
+    and in a whole-robot recording then every arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the
+    robot states); bags recorded before the virtual joints got their own topic carry the rods then the virtual
+    joints. ``/gpr/virtual_joints`` carries the virtual joints."""
     vnames = c['virtual_joint_names']
 
     def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
@@ -149,7 +157,9 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
     def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
         return tuple(vnames[r]), series.virtual_joints[r]
 
-    return (_joint_checks(bag, c, samples, tol, '/gpr/joint_states', (rods, rods_and_virtual),
+    topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
+        bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
+    return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording; or, recorded before, rod_1..rod_3 + the virtual joints)')
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
@@ -185,6 +195,21 @@ def _marker_errors(mc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c
     return err
 
 
+def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per state: a gap or an irregular sample of the markers' sequence (module docstring, ``markers_sequence``)."""
+    has = np.zeros(len(samples), dtype=bool)
+    has[rows] = True
+    marked = samples[rows]
+    steps = np.diff(marked)
+    if marked.size < 2 or not np.any(steps > 0):
+        return np.zeros(len(samples), dtype=bool)
+    n, first, last = int(np.min(steps[steps > 0])), int(marked.min()), int(marked.max())
+    on = (samples - first) % n == 0
+    inside = (samples >= first) & (samples <= last)
+    out: NDArray[np.bool_] = (inside & on & ~has) | (has & ~on)
+    return out
+
+
 def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float) -> list[Check]:
     name = '/gpr/markers'
     t = _topic(bag, name)
@@ -202,7 +227,9 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
                              matrix_from_quaternion(vec(c, 'nominal_pose.orientation', 'xyzw')[rows]))
     err = _marker_errors(mc, idx[rows], rows, c, expected)
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
-                       'inf = structure, stamp, frame or pose differ; else the largest point error')]
+                       'inf = structure, stamp, frame or pose differ; else the largest point error'),
+           bool_check('topic.markers_sequence', name, ~_marker_gaps(samples, rows), samples,
+                      'a sample of the markers\' sequence (every n-th) without its MarkerArray, or one out of it')]
     return out + [x for x in [extra('topic.markers', name, stamp_ns(mc, first + 'stamp'), stamps, rows.size)] if x]
 
 

@@ -13,7 +13,7 @@ import stat
 from pathlib import Path
 from typing import BinaryIO
 
-from ..inputs.files import kind_of
+from ..inputs.files import kind_of, note_read
 from .errors import BagError
 
 #: Bytes read at a time when hashing a file.
@@ -46,6 +46,7 @@ def open_regular(path: Path, what: str) -> tuple[BinaryIO, int]:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
             raise BagError(f'{path}: {what} is {kind_of(st.st_mode)}; allowed: a regular file')
+        note_read(st)  # a command's outputs may not overwrite it (gpr_kinematics.inputs.files)
         os.set_blocking(fd, True)
         return os.fdopen(fd, 'rb'), st.st_size
     except BaseException:

@@ -47,13 +47,16 @@ _MESSAGE_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time, publis
 
 @dataclass(frozen=True)
 class McapChannel:
-    """A channel: ``topic``, the message type (its schema's name), the message encoding and the metadata."""
+    """A channel: ``topic``, the message type (its schema's name), the message encoding and the metadata, and its
+    schema's encoding and text (the message definition embedded in the file)."""
 
     id: int
     topic: str
     msgtype: str
     encoding: str
     metadata: tuple[tuple[str, str], ...]
+    schema_encoding: str = ''
+    schema_text: str = ''
 
     def meta(self, key: str) -> str:
         return dict(self.metadata).get(key, '')
@@ -130,7 +133,7 @@ class _Walker:
         self.pos = 0
         self.sha = hashlib.sha256()
         self.topics = topics
-        self.schemas: dict[int, str] = {}
+        self.schemas: dict[int, tuple[str, str, str]] = {}   # id -> (name, encoding, text)
         self.out = McapFile(path, size, '', '', {})
         self.summary_start = 0
 
@@ -147,12 +150,12 @@ class _Walker:
         r = _Fields(body)
         sid = r.u16()
         name = r.string('schema name')
-        r.string('schema encoding')
-        r.take(r.u32(), 'schema data')
+        encoding = r.string('schema encoding')
+        text = bytes(r.take(r.u32(), 'schema data')).decode('utf-8', errors='replace')
         if sid == 0:
             raise _FormatError('schema id 0 (reserved)')
-        if self.schemas.setdefault(sid, name) != name:
-            raise _FormatError(f'schema {sid} redefined as {name!r} (was {self.schemas[sid]!r})')
+        if self.schemas.setdefault(sid, (name, encoding, text)) != (name, encoding, text):
+            raise _FormatError(f'schema {sid} redefined as {name!r} (was {self.schemas[sid][0]!r})')
 
     def channel(self, body: memoryview) -> None:
         r = _Fields(body)
@@ -162,7 +165,8 @@ class _Walker:
         meta = r.string_map('channel metadata')
         if sid not in self.schemas:
             raise _FormatError(f'channel {cid} ({topic!r}) refers to schema {sid}, which is not defined before it')
-        ch = McapChannel(cid, topic, self.schemas[sid], encoding, meta)
+        name, schema_encoding, text = self.schemas[sid]
+        ch = McapChannel(cid, topic, name, encoding, meta, schema_encoding, text)
         if self.out.channels.setdefault(cid, ch) != ch:
             raise _FormatError(f'channel {cid} redefined ({topic!r})')
         self.out.counts.setdefault(cid, 0)

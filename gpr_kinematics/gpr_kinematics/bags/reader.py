@@ -77,6 +77,11 @@ class StorageFile:
     chunks_with_crc: int = 0
     data_crc: bool = False
     summary_crc: bool = False
+    #: Per topic, the message definition the file embeds: (encoding, text) (MCAP schemas; SQLite3's
+    #: ``message_definitions`` table where it has one).
+    schemas: dict[str, tuple[str, str]] = field(default_factory=dict)
+    #: Per topic, the serialization format of its messages as the file says (MCAP: the channel's message encoding).
+    formats: dict[str, str] = field(default_factory=dict)
 
     @property
     def message_count(self) -> int:
@@ -173,6 +178,8 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
     bad = sorted({c.encoding for c in m.channels.values()} - {'cdr'})
     if bad:
         raise BagError(f'{path}: message encoding {", ".join(bad)}; allowed: cdr')
+    schemas = {ch.topic: (ch.schema_encoding, ch.schema_text) for ch in m.channels.values()}
+    formats = {ch.topic: ch.encoding for ch in m.channels.values()}
     counts: dict[str, int] = {}
     times: dict[str, list[int]] = {}
     data: dict[str, list[bytes]] = {}
@@ -186,7 +193,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
             times.setdefault(ch.topic, []).extend(m.times[cid])
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
-                       m.chunks_with_crc, m.data_crc, m.summary_crc)
+                       m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats)
     return _Contents(info, times, data)
 
 
@@ -209,6 +216,9 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
             messages = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id').fetchall()
+            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            definitions = con.execute('SELECT topic_type, encoding, encoded_message_definition FROM '
+                                      'message_definitions').fetchall() if b'message_definitions' in tables else []
         finally:
             con.close()
     except sqlite3.Error as exc:
@@ -218,6 +228,8 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     names: dict[int, str] = {}
     types: dict[str, str] = {}
     digests: dict[str, str] = {}
+    formats: dict[str, str] = {}
+    defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
     for tid, *texts in rows:
         try:
             name, msgtype, fmt, digest = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
@@ -227,6 +239,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             raise BagError(f'{path}: corrupt topics table (row {tid!r})')
         if fmt != 'cdr':
             raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
+        formats[name] = fmt
         names[tid] = name
         types[name] = normalize_type(msgtype)
         digests[name] = digest
@@ -244,9 +257,15 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             times[name].append(stamp)
             data[name].append(blob)
     stamps = [m[1] for m in messages]
+    schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
     info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
-                       max(stamps, default=None))
+                       max(stamps, default=None), schemas=schemas, formats=formats)
     return _Contents(info, times, data)
+
+
+def _text(value: object) -> str:
+    """A text cell of a corrupt-proof SQLite3 read (bytes that are not UTF-8 kept as replacement characters)."""
+    return value.decode('utf-8', errors='replace') if isinstance(value, bytes) else str(value)
 
 
 def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:

@@ -8,7 +8,7 @@ string ``"inf"``, ``"-inf"`` or ``"nan"``, since JSON has no such numbers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -55,9 +55,25 @@ class Failure:
         extra = f' ({self.detail})' if self.detail else ''
         return f'FAIL {self.check} on {self.topic} at {where}: value {self.value:.6g} > limit {self.limit:.6g}{extra}'
 
+    def record(self) -> FailureRecord:
+        """This failure for JSON (:class:`FailureRecord`)."""
+        return FailureRecord(self.check, self.topic, self.sample, json_number(self.value), json_number(self.limit),
+                             self.detail)
+
     def to_dict(self) -> dict[str, Any]:
-        return {'check': self.check, 'topic': self.topic, 'sample': self.sample, 'value': json_number(self.value),
-                'limit': json_number(self.limit), 'detail': self.detail}
+        return asdict(self.record())
+
+
+@dataclass(frozen=True)
+class FailureRecord:
+    """A :class:`Failure` for JSON: ``value`` and ``limit`` as :func:`json_number` gives them."""
+
+    check: str
+    topic: str
+    sample: int | None
+    value: float | str
+    limit: float | str
+    detail: str
 
 
 @dataclass
@@ -84,10 +100,30 @@ class Check:
             return 'skip'
         return 'ok' if self.passed else 'FAIL'
 
+    def record(self) -> CheckRecord:
+        """This check for JSON (:class:`CheckRecord`)."""
+        return CheckRecord(self.name, self.topic, self.status, self.checked, json_number(self.worst),
+                           json_number(self.limit), self.unit, self.failed, self.skipped,
+                           [f.record() for f in self.failures])
+
     def to_dict(self) -> dict[str, Any]:
-        return {'name': self.name, 'topic': self.topic, 'status': self.status, 'checked': self.checked,
-                'worst': json_number(self.worst), 'limit': json_number(self.limit), 'unit': self.unit,
-                'failed': self.failed, 'skipped': self.skipped, 'failures': [f.to_dict() for f in self.failures]}
+        return asdict(self.record())
+
+
+@dataclass(frozen=True)
+class CheckRecord:
+    """A :class:`Check` for JSON: its ``status`` (ok, FAIL, skip) and the non-finite numbers as strings."""
+
+    name: str
+    topic: str
+    status: str
+    checked: int
+    worst: float | str
+    limit: float | str
+    unit: str
+    failed: int
+    skipped: str
+    failures: list[FailureRecord]
 
 
 def finite_max(a: NDArray[np.float64]) -> float:
@@ -161,6 +197,8 @@ class VerifyResult:
     notes: list[str] = field(default_factory=list)
     geometry: dict[str, Any] = field(default_factory=dict)
     robot: dict[str, Any] = field(default_factory=dict)
+    #: Per topic, the numeric fields no check covers, with why (:mod:`.coverage`).
+    unchecked: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -174,15 +212,45 @@ class VerifyResult:
     def states(self) -> int:
         return self.counts.get('/gpr/platform_state', 0)
 
+    def record(self) -> VerifyRecord:
+        """The result for JSON (:class:`VerifyRecord`; non-finite numbers as strings, see the module docstring)."""
+        return VerifyRecord(
+            bag=self.path, storage=self.storage, files=list(self.files), passed=self.passed, counts=dict(self.counts),
+            unfinished_segments=list(self.unfinished), notes=list(self.notes), singular_crossings=self.crossings,
+            max_jump_ratio_at_crossings=json_number(self.crossing_ratio), elapsed_s=self.elapsed,
+            read_s=self.read_time, checks=[c.record() for c in self.checks], config=json_safe(self.config),
+            geometry=json_safe(self.geometry), robot=self.robot,
+            unchecked_fields={k: list(v) for k, v in self.unchecked.items()})
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (non-finite numbers as strings, see the module docstring)."""
-        return {
-            'bag': self.path, 'storage': self.storage, 'files': self.files, 'passed': self.passed,
-            'counts': self.counts, 'unfinished_segments': self.unfinished, 'notes': self.notes,
-            'singular_crossings': self.crossings, 'max_jump_ratio_at_crossings': json_number(self.crossing_ratio),
-            'elapsed_s': self.elapsed, 'read_s': self.read_time, 'checks': [c.to_dict() for c in self.checks],
-            'config': json_safe(self.config), 'geometry': json_safe(self.geometry), 'robot': self.robot,
-        }
+        """JSON-ready (:meth:`record` as plain data): ``verify.json`` of the report."""
+        return asdict(self.record())
+
+
+@dataclass(frozen=True)
+class VerifyRecord:
+    """``gpr verify --json`` and the report's ``verify.json``: the ``bag`` read (its ``storage``, ``files``, message
+    ``counts`` by topic and ``unfinished_segments``), whether it ``passed``, the ``notes``, the singular crossings and
+    the largest jump ratio at one, the time taken (``elapsed_s``, ``read_s``), every check, the geometry
+    (``config``, ``geometry``) and ``robot`` verified against, and the recorded fields no check covers
+    (``unchecked_fields``, by topic, with the reason)."""
+
+    bag: str
+    storage: str
+    files: list[str]
+    passed: bool
+    counts: dict[str, int]
+    unfinished_segments: list[str]
+    notes: list[str]
+    singular_crossings: int
+    max_jump_ratio_at_crossings: float | str
+    elapsed_s: float
+    read_s: float
+    checks: list[CheckRecord]
+    config: dict[str, Any]
+    geometry: dict[str, Any]
+    robot: dict[str, Any]
+    unchecked_fields: dict[str, list[str]]
 
 
 def format_table(result: VerifyResult) -> str:
@@ -192,6 +260,7 @@ def format_table(result: VerifyResult) -> str:
     if result.unfinished:
         lines.append(f'note: unfinished segment(s) of a killed recorder, not read: {", ".join(result.unfinished)}')
     lines += [f'note: {n}' for n in result.notes]
+    lines += [f'note: not checked on {topic}: {"; ".join(fields)}' for topic, fields in result.unchecked.items()]
     lines.append(f'{"check":28s} {"topic":22s} {"status":6s} {"checked":>8s} {"worst":>12s} {"limit":>12s} unit')
     for c in result.checks:
         worst = '-' if c.skipped else f'{c.worst:.3e}'

@@ -3,8 +3,9 @@
 The messages are the ones ``trajectory_node`` publishes for a sweep or a whole-robot program, built by the same
 functions (:func:`gpr_kinematics.core.messages.stream_messages` for the platform's topics,
 :meth:`gpr_kinematics.robot.stream.RobotStream.messages` for the robot's, :func:`.markers.marker_array` for the
-markers, :func:`gpr_kinematics.core.messages.geometry_text` and ``robot_text`` for the latched
-:data:`.typestore.GEOMETRY_TOPIC` and :data:`.typestore.ROBOT_TOPIC`), serialized with the ``rosbags`` typestore
+markers, :func:`gpr_kinematics.core.messages.geometry_text`, ``robot_text`` and
+:func:`.program_record.record_text` for the latched :data:`.typestore.GEOMETRY_TOPIC`, :data:`.typestore.ROBOT_TOPIC`
+and :data:`.typestore.PROGRAM_TOPIC`), serialized with the ``rosbags`` typestore
 instead of rclpy; recorded bags come from the real nodes over DDS.
 """
 from __future__ import annotations
@@ -25,6 +26,7 @@ from ..robot.description import RobotDescription
 from ..robot.markers import marker_array, marker_points
 from ..robot.program import RobotProgram
 from ..robot.stream import RobotStream, robot_stream
+from .program_record import record_text
 from .typestore import (
     ARRAY,
     BASE,
@@ -32,6 +34,7 @@ from .typestore import (
     GPR_TOPICS,
     NAME,
     PLATFORM_STREAM_TOPICS,
+    PROGRAM_TOPIC,
     ROBOT_TOPIC,
     fields_of,
     message_types,
@@ -73,13 +76,18 @@ def make_message(msgtype: str, **fields: Any) -> Any:
 def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_step: float = np.radians(0.2),
                    azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
-                   topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC)) -> list[tuple[str, int, bytes]]:
-    """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry once
-    (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per ``period_ns``."""
+                   topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC)
+                   ) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry and the
+    record of the sweep once (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per
+    ``period_ns``."""
     cfg = resolve_config(config)
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
-    latched = {GEOMETRY_TOPIC: geometry_text(cfg)}
+    spec = {'height': height, 'max_tilt': max_tilt, 'tilt_step': tilt_step, 'azimuth_step': azimuth_step,
+            'passes': passes}
+    latched = {GEOMETRY_TOPIC: geometry_text(cfg),
+               PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, False, 2.0, sweep=spec)}
     return _stream(cfg, sw.forward, np.asarray(sw.alpha, float), np.asarray(sw.gamma, float), latched, None,
                    start_ns, period_ns, topics)
 
@@ -88,10 +96,11 @@ def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate:
                            start_ns: int = 1_700_000_000_000_000_000,
                            topics: tuple[str, ...] = tuple(GPR_TOPICS)) -> list[tuple[str, int, bytes]]:
     """(topic, log time [ns], CDR bytes) of every message ``trajectory_node`` publishes for a whole-robot program
-    (:func:`gpr_kinematics.robot.stream.robot_stream` at ``rate``): the geometry and the robot description once,
-    then every sample's platform and robot messages, one sample per ``1 / rate``."""
+    (:func:`gpr_kinematics.robot.stream.robot_stream` at ``rate``): the geometry, the robot description and the
+    record of the program once, then every sample's platform and robot messages, one sample per ``1 / rate``."""
     rs = robot_stream(robot, program, rate)
-    latched = {GEOMETRY_TOPIC: geometry_text(robot.config), ROBOT_TOPIC: robot_text(robot)}
+    latched = {GEOMETRY_TOPIC: geometry_text(robot.config), ROBOT_TOPIC: robot_text(robot),
+               PROGRAM_TOPIC: record_text('robot_program', 0, len(rs), rate, False, 2.0, program=program)}
     return _stream(robot.config, rs.gpr, rs.gpr.tilt, rs.gpr.tilt_azimuth, latched, rs, start_ns,
                    int(round(1e9 / rate)), topics)
 

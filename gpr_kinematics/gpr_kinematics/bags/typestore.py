@@ -34,27 +34,39 @@ ROBOT_TOPIC = '/gpr/robot'
 #: its wafer) and the wafer pose alone (``geometry_msgs/PoseStamped``), in the robot's world frame.
 ROBOT_STATE_TOPIC = '/gpr/robot_state'
 WAFER_POSE_TOPIC = '/gpr/wafer_pose'
+#: What each stream was asked to do (``std_msgs/String``: the YAML of a :class:`~.program_record.Record`), latched,
+#: published at the start of every stream.
+PROGRAM_TOPIC = '/gpr/program'
+
+#: The robot's joint states (``sensor_msgs/JointState``: the rods, and the arm joints in a robot program), on the
+#: topic ``robot_state_publisher`` reads; bags recorded before carry them on ``/gpr/joint_states`` (still verified).
+JOINT_STATES_TOPIC = '/joint_states'
+LEGACY_JOINT_STATES_TOPIC = '/gpr/joint_states'
 
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
     '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
     '/gpr/platform_pose': 'geometry_msgs/msg/PoseStamped',
     '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
-    '/gpr/joint_states': 'sensor_msgs/msg/JointState',
+    JOINT_STATES_TOPIC: 'sensor_msgs/msg/JointState',
     VIRTUAL_JOINTS_TOPIC: 'sensor_msgs/msg/JointState',
     '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
     ROBOT_STATE_TOPIC: 'gpr_interfaces/msg/RobotState',
     WAFER_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
     GEOMETRY_TOPIC: 'std_msgs/msg/String',
     ROBOT_TOPIC: 'std_msgs/msg/String',
+    PROGRAM_TOPIC: 'std_msgs/msg/String',
 }
 
+#: Every topic ``gpr verify`` knows the type of: the suite's and those of earlier recordings.
+KNOWN_TOPICS: dict[str, str] = {**GPR_TOPICS, LEGACY_JOINT_STATES_TOPIC: 'sensor_msgs/msg/JointState'}
+
 #: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.
-PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', '/gpr/joint_states',
+PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', JOINT_STATES_TOPIC,
                           VIRTUAL_JOINTS_TOPIC, '/gpr/markers')
 
 #: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
-LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC})
+LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC, PROGRAM_TOPIC})
 
 PLATFORM_STATE = 'gpr_interfaces/msg/PlatformState'
 ROBOT_STATE = 'gpr_interfaces/msg/RobotState'

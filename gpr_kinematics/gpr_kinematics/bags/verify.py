@@ -10,12 +10,15 @@ read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic,
 - ``stream.*`` (:mod:`.checks_stream`): counters, stamps, jumps at singular crossings;
 - ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp;
 - ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
-  against the robot's forward kinematics, with the recorded robot description (or a given one).
+  against the robot's forward kinematics, with the recorded robot description (or a given one);
+- ``topic.program``, ``stream.program`` (:mod:`.checks_program`): every sample against its stream recomputed from the
+  recorded record of what it was asked to do (``gpr/program``).
 
-Limits are SI units, in :class:`~.tolerances.Tolerances`. Together with the checksums this makes a bag that differs from
-what was recorded fail: a changed byte of a storage file changes its SHA-256 (and, in MCAP, a CRC), a changed
-byte of ``metadata.yaml`` its digest; a bag whose checksums were recomputed after an edit still has to pass
-every content check.
+Every numeric field of the suite's messages is covered by one of these checks or named in the result as not checked,
+with why (:mod:`.coverage`). Limits are SI units, in :class:`~.tolerances.Tolerances`. Together with the checksums
+this makes a bag that differs from what was recorded fail: a changed byte of a storage file changes its SHA-256
+(and, in MCAP, a CRC), a changed byte of ``metadata.yaml`` its digest; a bag whose checksums were recomputed after
+an edit still has to pass every content check.
 """
 from __future__ import annotations
 
@@ -29,11 +32,13 @@ from ..core import resolve_config
 from ..core.config import GprConfig
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
+from .checks_program import program_checks
 from .checks_robot import choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
 from .checks_topics import topic_checks
 from .columns import matrix
+from .coverage import unchecked_fields
 from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
@@ -98,6 +103,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol)
             checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
                                                                   tol.consistency, robot_rows) + robot_part
+            checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
     if bag.unlisted:
@@ -107,4 +113,5 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
                         counts={k: len(t) for k, t in bag.topics.items()}, checks=checks, series=series,
                         crossings=crossings, crossing_ratio=ratio, elapsed=time.perf_counter() - t0, read_time=t_read,
                         unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
-                        robot=robot_summary(arms))
+                        robot=robot_summary(arms),
+                        unchecked=unchecked_fields({k: t.msgtype for k, t in bag.topics.items() if len(t)}))

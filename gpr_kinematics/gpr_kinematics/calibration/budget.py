@@ -58,6 +58,9 @@ MAX_STATIONS = 10_000
 MAX_TOOL = 10.0
 #: An RSS below this [m or rad] is rounding: no shares are given for it.
 SHARE_FLOOR = 1e-12
+#: The linearised RSS and the Monte Carlo RMS of a quantity should agree within this fraction (a warning names
+#: every station and quantity where they do not).
+AGREEMENT = 0.10
 #: Poses evaluated per Monte Carlo chunk (bounds memory), and the most poses of a budget (samples x stations:
 #: each keeps its 9 error components for the percentiles, 72 bytes).
 CHUNK_POSES = 200_000
@@ -77,6 +80,7 @@ class Budget:
             of ``|v|``; mc_rms: per quantity ``(N,)``.
         mean, std: linearised mean and standard deviation of each component of ``v`` ``(N, 9)``;
             mc_mean, mc_std: the same from the samples.
+        warnings: where the linearised RSS and the Monte Carlo RMS differ by more than :data:`AGREEMENT`.
     """
 
     q: Array
@@ -96,6 +100,7 @@ class Budget:
     std: Array
     mc_mean: Array
     mc_std: Array
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON: per station, per quantity ``rss``, ``worst``, ``shares`` (by source) and, with
@@ -113,7 +118,7 @@ class Budget:
             stations.append({'label': label, 'q': self.q[i].tolist(), 'tool': self.tool[i].tolist(),
                              'quantities': quantities})
         return {'frame': self.frame, 'samples': self.samples, 'seed': self.seed, 'percentiles': list(self.percentiles),
-                'sources': list(self.sources), 'stations': stations}
+                'sources': list(self.sources), 'stations': stations, 'warnings': list(self.warnings)}
 
 
 @dataclass(frozen=True)
@@ -138,15 +143,27 @@ def _with_tool(J: Array, rot: Array, tool: Array, frame: Array) -> Array:
     return np.asarray(np.einsum('ij,nbjk->nbik', frame, G).reshape(J.shape[0], 9, -1), dtype=np.float64)
 
 
-def _interval(name: str, G: Array, t: Tolerance) -> _Source:
-    """The source of a :class:`Tolerance` (one scalar deviation) with sensitivities ``G (N, 9, 1)``."""
+def _interval(name: str, G: Array, t: Tolerance, about: float = 0.0) -> _Source:
+    """The source of a :class:`Tolerance` (one scalar deviation) with sensitivities ``G (N, 9, 1)`` taken at the
+    deviation ``about`` (its mean: the point the budget is linearised at)."""
     lo, hi = t.bounds
-    return _Source(name, G, np.array([t.mean]), np.array([[t.std ** 2]]), 'interval', np.array([0.5 * (hi - lo)]),
-                   np.array([0.5 * (lo + hi)]))
+    return _Source(name, G, np.array([t.mean - about]), np.array([[t.std ** 2]]), 'interval',
+                   np.array([0.5 * (hi - lo)]), np.array([0.5 * (lo + hi) - about]))
+
+
+def _systematic(pose0: tuple[Array, Array], pose_c: tuple[Array, Array], tool: Array, frame: Array) -> _Source:
+    """The exact difference ``(N, 9)`` of the poses (and tool points) at the linearisation point and at the
+    prediction's parameters: a fixed deviation (an interval of zero width about it)."""
+    e = pose_error(pose_c[0], pose_c[1], pose0[0], pose0[1])
+    e_tool = pose_c[0] + np.einsum('nij,nj->ni', pose_c[1], tool) - pose0[0] - np.einsum('nij,nj->ni', pose0[1], tool)
+    v = np.einsum('ij,nbj->nbi', frame, np.stack([e[:, :3], e[:, 3:], e_tool], axis=1)).reshape(-1, 9, 1)
+    return _Source('systematic', v, np.ones(1), np.zeros((1, 1)), 'interval', np.zeros(1), np.ones(1))
 
 
 def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, frame: Array,
              tols: list[Tolerance | None], table: ToleranceTable, calibrated: Calibrated | None) -> list[_Source]:
+    """The sources, their sensitivities taken at ``theta`` (the linearisation point: each tolerated parameter at
+    its mean)."""
     params = model.parameters
     cal_idx = np.asarray(calibrated[0], dtype=int) if calibrated is not None else np.zeros(0, dtype=int)
     cols = [j for j, t in enumerate(tols) if t is not None and j not in set(cal_idx.tolist())]
@@ -157,7 +174,7 @@ def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, 
         for c, j in enumerate(cols):
             t = tols[j]
             assert t is not None
-            out.append(_interval(params[j].name, J[:, :, c:c + 1], t))
+            out.append(_interval(params[j].name, J[:, :, c:c + 1], t, t.mean if abs(t.mean) > 1e-9 * t.std else 0.0))
         if cal_idx.size:
             cov = np.asarray(calibrated[1], dtype=float)  # type: ignore[index]
             out.append(_Source('calibration', J[:, :, len(cols):], np.zeros(cal_idx.size), cov, 'ellipsoid',
@@ -301,7 +318,17 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
     pos0, rot0 = evaluate(model, th, Qa)
-    src = _sources(model, th, Qa, rot0, tool_v, R, tols, table, cal)
+    # Linearised where the tolerances are: each tolerated parameter at its mean (a kappa range's centre, not the
+    # file's kappa), the difference to the prediction's parameters taken exactly ('systematic').
+    cal_set = set(cal[0].tolist()) if cal is not None else set()
+    shift = np.array([t.mean if t is not None and j not in cal_set and abs(t.mean) > 1e-9 * t.std else 0.0
+                      for j, t in enumerate(tols)])     # (a symmetric range's mean is its rounding: none)
+    lower, upper = params.bounds
+    th_c = np.clip(th + shift, lower, upper)
+    pos_c, rot_c = (pos0, rot0) if not np.any(shift) else evaluate(model, th_c, Qa)
+    src = _sources(model, th_c, Qa, rot_c, tool_v, R, tols, table, cal)
+    if np.any(shift):
+        src.append(_systematic((pos0, rot0), (pos_c, rot_c), tool_v, R))
     names = tuple(s.name for s in src)
     mean = np.zeros((N, 9))
     var = np.zeros((N, 9))
@@ -326,7 +353,23 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                                                seed, pct)
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms, mean=mean,
-                  std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std)
+                  std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
+                  warnings=_disagreements(labels_t, rss, mc_rms) if samples else ())
+
+
+def _disagreements(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array]) -> tuple[str, ...]:
+    """A warning for each station and quantity whose linearised RSS and Monte Carlo RMS differ by more than
+    :data:`AGREEMENT` of the Monte Carlo's (where either is above :data:`SHARE_FLOOR` times 1000)."""
+    out = []
+    for name, (_, unit) in QUANTITIES.items():
+        a, b = rss[name], mc_rms[name]
+        off = (np.abs(a - b) > AGREEMENT * b) & (np.maximum(a, b) > 1e3 * SHARE_FLOOR)
+        u, f = ('um', 1e6) if unit == 'm' else ('urad', 1e6)
+        out += [f'station {labels[i]}, {name.replace("_", " ")}: the linearised RSS {a[i] * f:.4g} {u} and the Monte '
+                f'Carlo RMS {b[i] * f:.4g} {u} differ by {100 * abs(a[i] - b[i]) / b[i]:.0f} % (more than '
+                f'{100 * AGREEMENT:g} %): the model is not linear over these tolerances; the Monte Carlo is exact'
+                for i in np.flatnonzero(off)]
+    return tuple(out)
 
 
 def _monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array], tool: Array, frame: Array,

@@ -86,6 +86,62 @@ class CoreModel:
     def parameters(self) -> ParameterSet:
         return self._parameters
 
+    def datum(self, base: bool, target: str | None, free: NDArray[np.bool_] | None = None
+              ) -> tuple[Array, tuple[str, ...], str]:
+        """The conditions that define ``gpr_base`` and ``gpr_platform`` when a registration identifies those frames
+        too (:mod:`.frames`): a common shift, turn or tilt of the rods is a motion of ``gpr_base``, a common shift
+        or turn of the joints one of the target on the platform, so the frames are fixed by the machine itself.
+        ``gpr_base`` (``base``): its origin at the rods' mean base point, its height at their mean zero offset,
+        its z axis along their mean direction, its heading at their mean angular place; ``gpr_platform``: its origin
+        at the joints' centroid (an identified ``target``: ``pose``, ``position`` or ``points``) and its heading at
+        their mean angular place (a common turn of the joints turns the platform: it trades with the heading of an
+        identified base or target pose; a target of known orientation measured in a known ``gpr_base`` sees it).
+
+        Only conditions on parameters that are all ``free`` (a mask; default all) apply: fixed rods or joints fix
+        the frame themselves. Returns ``(C, dependent, text)``: the linear conditions ``C (theta - nominal) = 0``
+        on the coordinates ``(m, P)``, the ``m`` parameters that follow from the others, and the conditions in
+        words."""
+        ps = self._parameters
+        is_free = np.ones(len(ps), dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        values = ps.values(ps.nominal)
+        rows: list[Array] = []
+        dependent: list[str] = []
+        words: list[str] = []
+
+        def condition(coef: dict[str, float], follows: str) -> None:
+            if not all(is_free[ps.index(name)] for name in coef):
+                return
+            row = np.zeros(len(ps))
+            for name, c in coef.items():
+                row[ps.index(name)] = c
+            rows.append(row)
+            dependent.append(follows)
+
+        def groups(stem: str, what: str, turn: bool, shift: bool = True) -> None:
+            for c in 'xy' if shift else '':
+                condition({f'{stem}{k}_{c}': 1.0 for k in (1, 2, 3)}, f'{stem}3_{c}')
+            if turn:   # sum of x dy - y dx: no common turn about the centre
+                xy = {k: (values[ps.index(f'{stem}{k}_x')], values[ps.index(f'{stem}{k}_y')]) for k in (1, 2, 3)}
+                d = np.subtract(xy[2], xy[3])
+                condition({f'{stem}{k}_{c}': (-xy[k][1] if c == 'x' else xy[k][0]) for k in (1, 2, 3) for c in 'xy'},
+                          f'{stem}2_x' if abs(d[1]) >= abs(d[0]) else f'{stem}2_y')
+            if dependent and dependent[-1].startswith(stem):
+                words.append(what)
+
+        if base:
+            groups('rod', 'gpr_base at the rods\' mean base point and mean angular place', True)
+            condition({f'rod{k}_offset': 1.0 for k in (1, 2, 3)}, 'rod3_offset')
+            for c in ('ux', 'uy'):
+                condition({f'rod{k}_{c}': 1.0 for k in (1, 2, 3)}, f'rod3_{c}')
+            if any(d.startswith('rod3_o') or d.startswith('rod3_u') for d in dependent):
+                words.append('its height at the rods\' mean zero offset, its z axis along their mean direction')
+        turn = base or target in ('pose', 'points')
+        if target is not None or turn:
+            groups('joint', 'gpr_platform' + (' at the joints\' centroid' if target is not None else '')
+                   + (' and' if target is not None and turn else '') + (' at their mean angular place' if turn else ''),
+                   turn, target is not None)
+        return np.array(rows).reshape(-1, len(ps)), tuple(dependent), '; '.join(words)
+
     def config_for(self, theta: Any) -> GprConfig:
         """The configuration of the parameter coordinates ``theta (P,)``, with this model (validated): the
         calibrated geometry file's content."""

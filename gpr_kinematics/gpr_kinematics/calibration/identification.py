@@ -1,35 +1,45 @@
-"""Identification of geometric parameters from measured platform poses: weighted nonlinear least squares.
+"""Identification of geometric parameters from measured poses or points: weighted nonlinear least squares.
 
 For measurements ``i = 1..N`` (rod lengths ``q_i``, measured pose ``(p_i, R_i)``) and a pose model with
 parameters ``theta``, the residual of row ``i`` is the 6-vector
 
     r_i(theta) = ( (p(theta, q_i) - p_i) / sigma_p,i ,  phi(R(theta, q_i) R_i^T) / sigma_a,i )
 
-(metres and radians divided by the row's standard deviations: unit variance), ``phi`` the rotation vector.
-``theta`` minimises ``sum_i |r_i|^2`` over the free, identifiable parameters (:mod:`.identifiability`); the
-others stay at their nominal values. The minimiser is Levenberg-Marquardt in the scaled coordinates
-``theta_j / s_j`` (Nocedal & Wright, *Numerical Optimization*, 2nd ed., §10.3), with the Jacobian of the
-residuals by central differences (:func:`~.model.pose_jacobian`, exact for Gauss-Newton to ``O(h^2)``).
+(metres and radians divided by the row's standard deviations: unit variance), ``phi`` the rotation vector; for a
+measured point (no orientation) its first three components. ``theta`` minimises ``sum_i |r_i|^2`` over the free,
+identifiable parameters (:mod:`.identifiability`, analysed at the nominal parameters); the others stay at their
+nominal values. The minimiser (:mod:`.fitting`) is a bounded Levenberg-Marquardt from two starts (the nominal
+stiffness ratios and isotropic joints); the lower minimum wins.
 
 Standard errors come from the covariance ``C = (J^T J)^-1`` at the solution (Gauss-Newton approximation of the
-inverse Hessian). With standard deviations from the file (both sigma columns) ``C`` is absolute; otherwise the
-defaults only weight position against angle, and ``C`` is multiplied by the reduced chi-square
-``chi2 / (6N - F)`` (the usual estimate of the unknown noise scale).
+inverse Hessian). With standard deviations from the file (both sigma columns, or the one of a file of points)
+``C`` is absolute; otherwise the defaults only weight position against angle, and ``C`` is multiplied by the
+reduced chi-square ``chi2 / (k N - F)``. Beside them: the leave-one-out cross-validation, the worst-case bias the
+held parameters can cause, and the gate (:mod:`.quality`).
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError
+from .fitting import Minimum, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
-from .model import ParameterSet, PoseModel, evaluate, pose_error, pose_jacobian, prior_scale
+from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
+from .quality import (
+    CV_GATE,
+    Gate,
+    GateCheck,
+    chi2_limit,
+    cross_validation,
+    held_bias,
+    worst_rows,
+)
+from .results import CalibrationResult, Convergence, ResidualStats
 
 Array = NDArray[np.float64]
 
@@ -38,120 +48,14 @@ DEFAULT_SIGMA_POSITION = 5e-6
 #: Default standard deviation of a measured rotation-vector component [rad].
 DEFAULT_SIGMA_ANGLE = 2e-5
 #: A measured pose farther than this from the nominal model's is not a measurement of this machine in
-#: ``gpr_base`` (wrong units, wrong frame, wrong row): [m] and [rad].
+#: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
 PLAUSIBLE_POSITION = 0.01
 PLAUSIBLE_ANGLE = 0.05
-#: Levenberg-Marquardt stops when the largest step is below this, in units of the parameters' scales.
-STEP_TOLERANCE = 1e-9
-#: ... or when a step is below this fraction of every parameter's standard error (statistically nothing: the
-#: model's rounding, ~1e-15 m, moves a fit of micrometre-noise data by ~1e-9 standard errors) ...
-SE_TOLERANCE = 1e-4
-#: ... or when a step below 1e-5 scales lowers the cost by less than this fraction.
-COST_TOLERANCE = 1e-12
-MAX_ITERATIONS = 40
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
-#: are 100 times the stated noise, and no geometry of this machine explains the poses.
+#: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
 MAX_CHI2 = 1e4
 NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
-                    '"# units:" line says, m by default? a measured frame other than gpr_platform in gpr_base?)')
-
-
-@dataclass(frozen=True)
-class ResidualStats:
-    """Pose residuals of a set of measurements: RMS and worst of ``|p - p_meas|`` [m] and of the rotation
-    angle between predicted and measured orientation [rad], with the file lines of the worst."""
-
-    rms_position: float
-    max_position: float
-    rms_angle: float
-    max_angle: float
-    worst_position_line: int
-    worst_angle_line: int
-
-    @staticmethod
-    def of(errors: Array, lines: tuple[int, ...]) -> ResidualStats:
-        """From pose errors ``(N, 6)`` (:func:`~.model.pose_error`)."""
-        dp = np.linalg.norm(errors[:, :3], axis=1)
-        da = np.linalg.norm(errors[:, 3:], axis=1)
-        return ResidualStats(float(np.sqrt(np.mean(dp ** 2))), float(dp.max()), float(np.sqrt(np.mean(da ** 2))),
-                             float(da.max()), lines[int(np.argmax(dp))], lines[int(np.argmax(da))])
-
-    def as_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
-
-
-@dataclass(frozen=True)
-class CalibrationResult:
-    """Identified parameters with standard errors, residuals before and after, identifiability.
-
-    Attributes:
-        parameters: the model's parameters (order of every array here).
-        estimate: identified coordinates (nominal for held and fixed parameters), SI: the values, except a
-            transformed parameter's coordinate (a stiffness ratio's anisotropy, :class:`~.model.Parameter`);
-            :attr:`values` has the values.
-        standard_error: standard errors of the fitted coordinates (``nan`` for held and fixed ones);
-            :attr:`value_standard_error` those of the values.
-        status: per parameter ``fitted``, ``held`` (free, but the poses cannot identify it) or ``fixed``
-            (not asked for).
-        fitted: indices of the fitted parameters; covariance: their covariance ``(F, F)``, SI.
-        before, after: residuals with the nominal and with the identified parameters.
-        identifiability: the analysis that chose what to fit.
-        chi2_reduced: ``sum |r|^2 / (6N - F)`` at the solution (about 1 when the sigmas are right).
-        absolute_sigma: the file gave the standard deviations (the covariance is not rescaled).
-        iterations: Levenberg-Marquardt iterations; rows: number of measurements; source: their file.
-    """
-
-    parameters: ParameterSet
-    estimate: Array
-    standard_error: Array
-    status: tuple[str, ...]
-    fitted: NDArray[np.int64]
-    covariance: Array
-    before: ResidualStats
-    after: ResidualStats
-    identifiability: Identifiability
-    chi2_reduced: float
-    absolute_sigma: bool
-    iterations: int
-    rows: int
-    source: str
-
-    @property
-    def values(self) -> Array:
-        """Identified values (the estimate's coordinates turned into values: ``kappa`` from its anisotropy)."""
-        return self.parameters.values(self.estimate)
-
-    @property
-    def value_standard_error(self) -> Array:
-        """Standard errors of the values (the delta method, ``|d value / d coordinate|`` times the coordinate's)."""
-        return np.abs(self.parameters.value_slopes(self.estimate)) * self.standard_error
-
-    @property
-    def correlation(self) -> Array:
-        """Correlation matrix of the fitted parameters."""
-        d = np.sqrt(np.diag(self.covariance))
-        return np.asarray(self.covariance / np.outer(d, d), dtype=np.float64)
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain data for JSON: per parameter its value (``nominal``, ``estimate``, ``change``, ``standard_error``;
-        ``None`` where not fitted) and, for a transformed one, the same of its ``coordinate``."""
-        params = []
-        nominal, values, se_v = self.parameters.values(self.parameters.nominal), self.values, self.value_standard_error
-        for j, p in enumerate(self.parameters):
-            se = self.standard_error[j]
-            entry = {'name': p.name, 'unit': p.unit, 'nominal': float(nominal[j]), 'estimate': float(values[j]),
-                     'change': float(values[j] - nominal[j]),
-                     'standard_error': float(se_v[j]) if math.isfinite(se) else None, 'status': self.status[j]}
-            if p.transform:
-                entry['coordinate'] = {'name': p.transform, 'nominal': p.nominal, 'estimate': float(self.estimate[j]),
-                                       'standard_error': float(se) if math.isfinite(se) else None}
-            params.append(entry)
-        return {'source': self.source, 'rows': self.rows, 'parameters': params,
-                'residuals': {'before': self.before.as_dict(), 'after': self.after.as_dict()},
-                'identifiability': self.identifiability.as_dict(), 'chi2_reduced': self.chi2_reduced,
-                'absolute_sigma': self.absolute_sigma, 'iterations': self.iterations,
-                'fitted': [self.parameters[j].name for j in self.fitted],
-                'correlation': self.correlation.tolist()}
+                    '"# units:" line says, m by default? a measured frame other than the one declared?)')
 
 
 def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
@@ -162,144 +66,158 @@ def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
             raise InputError(f'{name} = {v!r}; allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
 
 
-def _sigmas(meas: Measurements, sigma_position: float, sigma_angle: float) -> tuple[Array, Array, bool]:
+def weights(meas: Measurements, sigma_position: float, sigma_angle: float) -> tuple[Array, bool]:
+    """``1 / sigma`` of every residual ``(N, k)`` and whether the file gave the sigmas (absolute)."""
     check_sigmas(sigma_position, sigma_angle)
     n = len(meas)
     sp = meas.sigma_position if meas.sigma_position is not None else np.full(n, float(sigma_position))
+    if meas.quaternion is None:
+        return np.repeat(1.0 / sp[:, None], 3, 1), meas.sigma_position is not None
     sa = meas.sigma_angle if meas.sigma_angle is not None else np.full(n, float(sigma_angle))
-    return sp, sa, meas.sigma_position is not None and meas.sigma_angle is not None
+    w = np.column_stack([np.repeat(1.0 / sp[:, None], 3, 1), np.repeat(1.0 / sa[:, None], 3, 1)])
+    return w, meas.sigma_position is not None and meas.sigma_angle is not None
 
 
-def _check_plausible(meas: Measurements, errors: Array) -> None:
+def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
+    """Errors of the model's poses at ``theta`` (rows ``(S, P)`` or one ``(P,)``) against the measurements: pose
+    errors ``(..., N, 6)``, or position errors ``(..., N, 3)`` for measured points."""
+    pos, rot = evaluate(model, theta, meas.q)
+    if meas.quaternion is None:
+        return np.asarray(pos - meas.position, dtype=np.float64)
+    return pose_error(pos, rot, meas.position, meas.rotation)
+
+
+def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
     dp = np.linalg.norm(errors[:, :3], axis=1)
-    da = np.linalg.norm(errors[:, 3:], axis=1)
+    da = np.linalg.norm(errors[:, 3:], axis=1) if errors.shape[1] == 6 else np.zeros(len(dp))
     bad = np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE))
     if bad.size:
         i = int(bad[0])
         raise InputError(f'{meas.where(i)}: the measured pose is {dp[i]:.4g} m and {da[i]:.4g} rad from the nominal '
-                         f'model\'s (allowed: {PLAUSIBLE_POSITION} m, {PLAUSIBLE_ANGLE} rad): not a pose of '
-                         'gpr_platform in gpr_base in SI units (millimetres? declare "# units: mm")')
+                         f'model\'s (allowed: {PLAUSIBLE_POSITION} m, {PLAUSIBLE_ANGLE} rad): not a measurement in '
+                         f'{frame} in SI units (millimetres? declare "# units: mm")')
+
+
+def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64]) -> list[tuple[str, Array]]:
+    """The nominal start, and one with isotropic joints (anisotropy 0) when a fitted anisotropy starts elsewhere."""
+    starts = [('nominal', theta0)]
+    transformed = np.array([params[int(j)].transform != '' for j in fit], dtype=bool)
+    if transformed.any() and np.any(np.abs(theta0[fit[transformed]]) > 1e-6):
+        iso = theta0.copy()
+        iso[fit[transformed]] = 0.0
+        starts.append(('isotropic joints', iso))
+    return starts
+
+
+def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> Array:
+    """Each parameter's a-priori worst-case deviation (coordinates): ``bound`` where given (a tolerance table's;
+    ``nan``: none), else 3 a-priori standard deviations; within the coordinate's range."""
+    b = 3.0 * scale if bound is None else np.where(np.isnan(np.asarray(bound, dtype=float)), 3.0 * scale, bound)
+    lo, hi = params.bounds
+    return np.asarray(np.minimum(b, np.maximum(params.nominal - lo, hi - params.nominal)), dtype=np.float64)
+
+
+def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int, absolute: bool,
+          cv_ratio: float, lines: tuple[int, ...]) -> Gate:
+    at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
+    bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
+    checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
+                        f'The fit did not reach a minimum ({best.status} after {best.iterations} iterations, the '
+                        f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).')]
+    worst = worst_rows(best.residual, lines)
+    if absolute:
+        limit = chi2_limit(dof)
+        checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
+                                f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
+                                f'above the gate {limit:.4g} (the {100 * 0.999:g} % point for {dof} degrees of '
+                                f'freedom); largest residuals {worst}{bounds}.'))
+    checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
+                            f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
+                            f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
+                            f'residuals {worst}{bounds}.'))
+    return Gate(tuple(checks))
 
 
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
              sigma_position: float = DEFAULT_SIGMA_POSITION, sigma_angle: float = DEFAULT_SIGMA_ANGLE,
-             threshold: float = DEFAULT_THRESHOLD, prior: ArrayLike | None = None) -> CalibrationResult:
+             threshold: float = DEFAULT_THRESHOLD, prior: ArrayLike | None = None,
+             bound: ArrayLike | None = None, frame: str = 'gpr_base') -> CalibrationResult:
     """Identify the parameters ``free`` (names or configuration keys; all by default) of ``model`` from ``meas``.
 
     ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns; ``threshold`` bounds the
     scaled singular values of the identifiable directions (:mod:`.identifiability`); ``prior`` gives the
     a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance table's, or the
-    parameters' scales).
+    parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias of the held
+    ones; ``frame`` names the frame the measurements are in (for messages).
+
+    A fit that does not converge is returned with its diagnostics (``convergence``, ``gate``), not raised.
 
     Raises:
         InputError: too few rows for the free parameters, a pose implausibly far from the nominal model, a bad
-            sigma, an unknown parameter name.
-        ConvergenceError: Levenberg-Marquardt did not converge in :data:`MAX_ITERATIONS` iterations.
+            sigma, an unknown parameter name, a fit that leaves the model's domain or explains nothing.
     """
     params = model.parameters
     mask = params.select(free)
     n_free = int(mask.sum())
     n = len(meas)
-    if 6 * n <= n_free:
-        raise InputError(f'{meas.source}: {n} row(s) give {6 * n} residuals, too few to identify {n_free} '
-                         f'parameters; at least {n_free // 6 + 1} rows are needed (more for a useful fit)')
-    sp, sa, absolute = _sigmas(meas, sigma_position, sigma_angle)
-    w = np.column_stack([np.repeat(1.0 / sp[:, None], 3, 1), np.repeat(1.0 / sa[:, None], 3, 1)])  # (N, 6)
-    ref = (meas.position, meas.rotation)
+    k = 3 if meas.quaternion is None else 6
+    if k * n <= n_free:
+        raise InputError(f'{meas.source}: {n} row(s) give {k * n} residuals, too few to identify {n_free} '
+                         f'parameters; at least {n_free // k + 1} rows are needed (more for a useful fit)')
+    w, absolute = weights(meas, sigma_position, sigma_angle)
     theta0 = params.nominal
     scale = prior_scale(params, prior)
 
-    def errors(theta: Array) -> Array:
-        pos, rot = evaluate(model, theta, meas.q)
-        return pose_error(pos, rot, ref[0], ref[1])
+    def residuals(theta: Array) -> Array:
+        return measured_errors(model, meas, theta) * w
 
-    def weighted_jacobian(theta: Array, cols: NDArray[np.int64]) -> Array:
-        J = pose_jacobian(model, theta, meas.q, cols, reference=ref) * w[:, :, None]
-        return J.reshape(6 * n, cols.size) * scale[cols]
-
-    e0 = errors(theta0)
-    _check_plausible(meas, e0)
+    e0 = measured_errors(model, meas, theta0)
+    _check_plausible(meas, e0, frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
-    ident = analyse(weighted_jacobian(theta0, free_idx), [params[int(j)].name for j in free_idx], threshold)
+    ident = analyse(residual_jacobian(residuals, params, theta0, free_idx, scale),
+                    [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
+    dof = k * n - fit.size
     try:
-        theta, e, iterations = _levenberg_marquardt(errors, weighted_jacobian, theta0, fit, w, scale, params.bounds)
+        best, outcomes = minimise(residuals, params, _starts(params, theta0, fit), fit, scale, dof)
     except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
         raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
                          f'{NOT_THIS_MACHINE}') from None
-    F = fit.size
-    chi2 = float(np.sum((e * w) ** 2))
-    dof = 6 * n - F
-    chi2_red = chi2 / dof
+    theta = best.theta
+    chi2_red = best.cost / dof
     if absolute and chi2_red > MAX_CHI2:
         raise InputError(f'{meas.source}: the best fit leaves residuals {math.sqrt(chi2_red):.3g} times the standard '
                          f'deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most {MAX_CHI2:g}): '
                          f'{NOT_THIS_MACHINE}, or sigma columns far too small')
     cov = np.zeros((0, 0))
     se = np.full(len(params), np.nan)
-    if F:
-        Js = weighted_jacobian(theta, fit)
-        _, s, vt = np.linalg.svd(triangular_factor(Js))
-        cov_scaled = (vt.T / s ** 2) @ vt
-        cov = cov_scaled * np.outer(scale[fit], scale[fit]) * (1.0 if absolute else chi2_red)
+    rescale = 1.0 if absolute else chi2_red
+    other = np.flatnonzero(~np.isin(np.arange(len(params)), fit)).astype(np.int64)
+    try:
+        J = residual_jacobian(residuals, params, theta, np.concatenate([fit, other]), scale)
+    except (InputError, ConvergenceError):   # the model cannot be evaluated about the point reached: no statistics
+        J = np.full((best.residual.size, len(params)), np.nan)
+    Jf, Jh = J[:, :fit.size], J[:, fit.size:]
+    if fit.size and np.all(np.isfinite(Jf)):
+        _, s, vt = np.linalg.svd(triangular_factor(Jf))
+        cov = (vt.T / s ** 2) @ vt * np.outer(scale[fit], scale[fit]) * rescale
         se[fit] = np.sqrt(np.diag(cov))
+    cv = cross_validation(Jf, best.residual, w, meas.lines, chi2_red)
+    hb = prior_bound(params, scale, bound)
+    bias = held_bias(Jf, Jh, fit, other, scale, hb[other],
+                     scale[other], params.names)
     held = set(ident.held)
-    status = tuple('fitted' if j in set(fit.tolist()) else 'held' if p.name in held else 'fixed'
-                   for j, p in enumerate(params))
+    fitted = set(fit.tolist())
+    status = tuple('fitted' if j in fitted else 'held' if p.name in held else 'fixed' for j, p in enumerate(params))
+    at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
+    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines),
-                             after=ResidualStats.of(e, meas.lines), identifiability=ident, chi2_reduced=chi2_red,
-                             absolute_sigma=absolute, iterations=iterations, rows=n, source=meas.source)
+                             after=ResidualStats.of(best.residual / w, meas.lines), identifiability=ident,
+                             chi2_reduced=chi2_red, absolute_sigma=absolute, iterations=best.iterations, rows=n,
+                             source=meas.source, convergence=Convergence(best.status, best.step_se, at, outcomes),
+                             cross_validation=cv, bias=bias, gate=gate, lines=meas.lines)
 
 
-def _levenberg_marquardt(errors: Any, weighted_jacobian: Any, theta0: Array, fit: NDArray[np.int64], w: Array,
-                         scale: Array, bounds: tuple[Array, Array]) -> tuple[Array, Array, int]:
-    """Minimise ``|errors(theta) * w|^2`` over ``theta[fit]`` from ``theta0``; returns ``(theta, errors, steps)``.
-
-    Steps solve ``(J_s^T J_s + lam D) d = -J_s^T r`` in scaled coordinates (``D`` the diagonal of ``J_s^T J_s``,
-    Marquardt's scaling); ``lam`` shrinks tenfold after a step that lowers the cost and grows tenfold after one
-    that does not, or that leaves the coordinates' open ``bounds`` (``(P,)`` lowest, highest).
-    """
-    theta = theta0.copy()
-    e = errors(theta)
-    if fit.size == 0:
-        return theta, e, 0
-    cost = float(np.sum((e * w) ** 2))
-    lam = 1e-6
-    lower, upper = bounds[0][fit], bounds[1][fit]
-    for it in range(1, MAX_ITERATIONS + 1):
-        Js = weighted_jacobian(theta, fit)
-        r = (e * w).ravel()
-        A = Js.T @ Js
-        g = Js.T @ r
-        D = np.diag(np.diag(A))
-        while True:
-            d = np.linalg.solve(A + lam * D, -g)
-            trial = theta.copy()
-            trial[fit] += d * scale[fit]
-            cost_t = math.inf   # outside a coordinate's range or the model's domain (a degenerate geometry): failed
-            if not (np.any(trial[fit] <= lower) or np.any(trial[fit] >= upper)):
-                try:
-                    e_t = errors(trial)
-                    cost_t = float(np.sum((e_t * w) ** 2))
-                except InputError:          # the model refuses the trial's parameters (they changed, not the data)
-                    pass
-            if cost_t <= cost or (np.max(np.abs(d)) < STEP_TOLERANCE and math.isfinite(cost_t)):
-                break
-            lam *= 10.0
-            if lam > 1e12:
-                raise ConvergenceError(f'identification stalled after {it} iterations (cost {cost:.6g}); the '
-                                       'measurements do not fit this model')
-        gain = cost - cost_t
-        theta, e, cost = trial, e_t, cost_t
-        lam = max(lam / 10.0, 1e-12)
-        step = float(np.max(np.abs(d)))
-        # Converged: a step far below the parameters' standard errors (sqrt of the diagonal of (J^T J)^-1 in these
-        # scaled units), or one that no longer lowers the cost (rounding of the model: its last digits make tiny
-        # steps wander without changing the fit).
-        se = np.sqrt(np.maximum(np.diag(np.linalg.pinv(A)), 0.0))
-        if step < STEP_TOLERANCE or float(np.max(np.abs(d) / np.maximum(se, 1e-300))) < SE_TOLERANCE \
-                or (step < 1e-5 and gain <= COST_TOLERANCE * cost):
-            return theta, e, it
-    raise ConvergenceError(f'identification did not converge in {MAX_ITERATIONS} iterations (last step '
-                           f'{np.max(np.abs(d)):.3g} parameter scales)')
+__all__ = ['DEFAULT_SIGMA_ANGLE', 'DEFAULT_SIGMA_POSITION', 'CalibrationResult', 'Identifiability', 'ResidualStats',
+           'check_sigmas', 'identify']

@@ -1,18 +1,20 @@
-"""Measurement files: commanded rod lengths and the measured pose of ``gpr_platform`` in ``gpr_base``.
+"""Measurement files: commanded rod lengths and the measured pose (or point) of a target on the platform.
 
 A measurement file is CSV text (UTF-8) with one header row naming its columns and one row per measured
-configuration, as exported from a laser tracker's 6-DOF probe (docs/calibration.md)::
+configuration, as exported from a laser tracker's 6-DOF probe or reflector (docs/calibration.md): the pose of
+``gpr_platform`` in ``gpr_base``, or of a target on the platform in the tracker's frame (the calibration
+identifies the frames, :mod:`.frames`)::
 
     # GPR calibration run 2026-11-30, tracker frame registered to gpr_base
     # units: mm deg
     q1,q2,q3,x,y,z,qx,qy,qz,qw,sigma_position,sigma_angle
     250.0,252.1,248.3,0.0131,-0.0205,250.1,0.00731,0.00285,0.000012,0.99996,0.005,0.001
 
-* Required columns: ``q1 q2 q3`` (commanded rod lengths), ``x y z`` (position of the platform origin) and
-  ``qx qy qz qw`` (its orientation, a unit quaternion x y z w); in any order.
+* Required columns: ``q1 q2 q3`` (commanded rod lengths) and ``x y z`` (the measured position); in any order.
+* ``qx qy qz qw``: the measured orientation, a unit quaternion x y z w (all four, or none: measured points).
 * Optional columns: ``sigma_position`` (standard deviation of each position coordinate) and ``sigma_angle``
-  (standard deviation of each rotation-vector component); per row, > 0. Without them the caller's defaults
-  weight the residuals.
+  (standard deviation of each rotation-vector component, with an orientation); per row, > 0. Without them the
+  caller's defaults weight the residuals.
 * Units: metres and radians unless a ``# units:`` line before the header declares ``mm`` and/or ``deg``
   (lengths: ``q``, ``x y z``, ``sigma_position``; angles: ``sigma_angle``). The result is always SI.
 * Lines starting with ``#`` are comments; blank lines are skipped.
@@ -42,7 +44,9 @@ from .files import comment_lines, read_text, write_text
 
 Array = NDArray[np.float64]
 
-REQUIRED_COLUMNS = ('q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
+REQUIRED_COLUMNS = ('q1', 'q2', 'q3', 'x', 'y', 'z')
+#: The orientation of a measured pose: all four, or none (a measured point: a reflector, not a 6-DOF probe).
+ORIENTATION_COLUMNS = ('qx', 'qy', 'qz', 'qw')
 SIGMA_COLUMNS = ('sigma_position', 'sigma_angle')
 #: Largest measurement file [bytes]: 16 MiB holds ~100,000 rows of full-precision numbers.
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -67,7 +71,7 @@ class Measurements:
         source: file name (or a label) used in messages.
         q: commanded rod lengths ``(N, 3)`` [m].
         position: measured platform origin in ``gpr_base`` ``(N, 3)`` [m].
-        quaternion: measured orientation ``(N, 4)`` (x, y, z, w), normalised.
+        quaternion: measured orientation ``(N, 4)`` (x, y, z, w), normalised; ``None`` for measured points.
         sigma_position, sigma_angle: per-row standard deviations ``(N,)`` [m], [rad], or ``None`` when the file
             has no such column.
         lines: line number of each row in the file (for messages).
@@ -77,7 +81,7 @@ class Measurements:
     source: str
     q: Array
     position: Array
-    quaternion: Array
+    quaternion: Array | None
     sigma_position: Array | None
     sigma_angle: Array | None
     lines: tuple[int, ...]
@@ -88,7 +92,9 @@ class Measurements:
 
     @property
     def rotation(self) -> Array:
-        """Measured rotation matrices ``(N, 3, 3)``."""
+        """Measured rotation matrices ``(N, 3, 3)`` (identities for measured points, which have none)."""
+        if self.quaternion is None:
+            return np.broadcast_to(np.eye(3), (len(self), 3, 3))
         return matrix_from_quaternion(self.quaternion)
 
     def where(self, i: int) -> str:
@@ -96,21 +102,54 @@ class Measurements:
         return f'{self.source} line {self.lines[i]}'
 
 
-def _header(fields: list[str], where: str, defaults: units.FileUnits) -> tuple[list[str], list[float]]:
+@dataclass(frozen=True)
+class Columns:
+    """The columns a CSV file of measurements may have: ``required`` ones, ``groups`` of which each comes whole or
+    not at all, ``optional`` single ones, which of them are lengths and angles (for the units), and ``needs``: a
+    column that comes only with a group."""
+
+    required: tuple[str, ...]
+    groups: tuple[tuple[str, ...], ...] = ()
+    optional: tuple[str, ...] = ()
+    lengths: frozenset[str] = frozenset()
+    angles: frozenset[str] = frozenset()
+    needs: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    @property
+    def allowed(self) -> tuple[str, ...]:
+        return self.required + tuple(c for g in self.groups for c in g) + self.optional
+
+
+#: The columns of a measurement file of the GPR (module docstring).
+POSE_COLUMNS = Columns(REQUIRED_COLUMNS, (ORIENTATION_COLUMNS,), SIGMA_COLUMNS, _LENGTH_COLUMNS,
+                       frozenset({'sigma_angle'}), (('sigma_angle', ORIENTATION_COLUMNS),))
+
+
+def _header(fields: list[str], where: str, defaults: units.FileUnits, spec: Columns
+            ) -> tuple[list[str], list[float]]:
     """The column names of the header row and each column's factor to SI (:mod:`gpr_kinematics.inputs.units`)."""
     named = [units.column(f, where) for f in fields]
     cols = [name.lower() for name, _ in named]
-    allowed = REQUIRED_COLUMNS + SIGMA_COLUMNS
+    allowed = spec.allowed
     for c in cols:
         if c not in allowed:
             raise InputError(f'{where}: unknown column {c[:40]!r}; allowed: {", ".join(allowed)}')
         if cols.count(c) > 1:
             raise InputError(f'{where}: column {brief(c)} appears {cols.count(c)} times; each column once')
-    missing = [c for c in REQUIRED_COLUMNS if c not in cols]
+    missing = [c for c in spec.required if c not in cols]
     if missing:
-        raise InputError(f'{where}: missing column(s) {", ".join(missing)}; required: {", ".join(REQUIRED_COLUMNS)} '
+        raise InputError(f'{where}: missing column(s) {", ".join(missing)}; required: {", ".join(spec.required)} '
                          '(a header row naming the columns comes first)')
-    kinds = {c: 'length' for c in _LENGTH_COLUMNS} | {'sigma_angle': 'angle'}
+    for group in spec.groups:
+        present = [c for c in group if c in cols]
+        if present and len(present) < len(group):
+            raise InputError(f'{where}: missing column(s) {", ".join(c for c in group if c not in cols)}; '
+                             f'{" ".join(group)} come all together or not at all')
+    for column, group in spec.needs:
+        if column in cols and not all(c in cols for c in group):
+            raise InputError(f'{where}: column {column} without {", ".join(group)}; a file without them has no '
+                             f'{column}')
+    kinds = {c: 'length' for c in spec.lengths} | {c: 'angle' for c in spec.angles}
     return cols, [units.scale(kinds.get(c, 'number'), unit, defaults, where, c)[0]
                   for c, (_, unit) in zip(cols, named, strict=True)]
 
@@ -133,6 +172,7 @@ def _number(text: str, where: str, column: str) -> float:
 class _Table:
     """The rows of a measurement file as read, before unit conversion and the pose checks."""
 
+    spec: Columns = POSE_COLUMNS
     units: units.FileUnits | None = None
     cols: list[str] | None = None
     scales: list[float] = field(default_factory=list)
@@ -148,7 +188,7 @@ class _Table:
 
     def row(self, fields: list[str], lineno: int, where: str) -> None:
         if self.cols is None:
-            self.cols, self.scales = _header(fields, where, self.units or (None, None))
+            self.cols, self.scales = _header(fields, where, self.units or (None, None), self.spec)
             return
         if len(fields) != len(self.cols):
             raise InputError(f'{where}: {len(fields)} values, but the header names {len(self.cols)} columns')
@@ -163,9 +203,45 @@ class _Table:
         self.lines.append(lineno)
 
 
-def _read_table(text: str, source: str) -> _Table:
+@dataclass(frozen=True)
+class Table:
+    """A CSV file of measurements as read (:func:`read_table`): its columns in SI by name, each column's factor
+    to SI, the line of each row and the declared units ``(length, angle)``."""
+
+    columns: dict[str, Array]
+    scales: dict[str, float]
+    lines: list[int]
+    units: tuple[str, str]
+
+    def sigma(self, name: str, source: str) -> Array | None:
+        """Column ``name`` checked against :data:`SIGMA_RANGE` (``None`` when the file has none)."""
+        if name not in self.columns:
+            return None
+        lo, hi = SIGMA_RANGE
+        v = self.columns[name]
+        bad = np.flatnonzero(~((v >= lo) & (v <= hi)))
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f'{source} line {self.lines[i]}, column {name}: {float(v[i] / self.scales[name])!r} is '
+                             f'outside [{lo:g}, {hi:g}] ({"m" if name == "sigma_position" else "rad"}, SI)')
+        return v
+
+
+def read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> Table:
+    """The :class:`Table` of the text of a CSV file of measurements with the columns ``spec`` (the checks of the
+    module docstring)."""
+    table = _read_table(text, source, spec)
+    data = np.array(table.rows)
+    names = table.cols or []
+    length, angle = table.units or (None, None)
+    return Table({c: data[:, i] * table.scales[i] for i, c in enumerate(names)}, dict(zip(names, table.scales,
+                                                                                          strict=True)),
+                 table.lines, (length or 'm', angle or 'rad'))
+
+
+def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> _Table:
     """The header, the rows and the declared units of a measurement file's text."""
-    table = _Table()
+    table = _Table(spec)
     for lineno, raw in enumerate(text.split('\n'), 1):
         where = f'{source} line {lineno}'
         if len(raw) > MAX_LINE_CHARS:
@@ -183,7 +259,7 @@ def _read_table(text: str, source: str) -> _Table:
         table.row(fields, lineno, where)
     if table.cols is None:
         raise InputError(f'{source}: no header row; the first line that is not a comment must name the columns '
-                         f'({",".join(REQUIRED_COLUMNS)})')
+                         f'({",".join(spec.required)})')
     if not table.rows:
         raise InputError(f'{source}: no data rows after the header')
     return table
@@ -191,32 +267,22 @@ def _read_table(text: str, source: str) -> _Table:
 
 def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
     """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
-    table = _read_table(text, source)
-    cols, rows, line_nos = table.cols or [], table.rows, table.lines
-    length, angle = table.units or (None, None)
-    data = np.array(rows)
-    col = {c: data[:, i] * table.scales[i] for i, c in enumerate(cols)}
-    quat = np.column_stack([col['qx'], col['qy'], col['qz'], col['qw']])
-    norm = np.linalg.norm(quat, axis=1)
-    bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
-    if bad.size:
-        i = int(bad[0])
-        raise InputError(f'{source} line {line_nos[i]}, columns qx qy qz qw: quaternion norm {norm[i]:.9g}; a unit '
-                         f'quaternion is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
-    sig = {}
-    lo, hi = SIGMA_RANGE
-    for c in SIGMA_COLUMNS:
-        if c in col:
-            bad = np.flatnonzero(~((col[c] >= lo) & (col[c] <= hi)))
-            if bad.size:
-                i = int(bad[0])
-                raise InputError(f'{source} line {line_nos[i]}, column {c}: {rows[i][cols.index(c)]!r} is outside '
-                                 f'[{lo:g}, {hi:g}] ({"m" if c == "sigma_position" else "rad"}, SI)')
-        sig[c] = col.get(c)
+    table = read_table(text, source)
+    col, line_nos = table.columns, table.lines
+    quat = None
+    if 'qw' in col:
+        q = np.column_stack([col['qx'], col['qy'], col['qz'], col['qw']])
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f'{source} line {line_nos[i]}, columns qx qy qz qw: quaternion norm {norm[i]:.9g}; a unit '
+                             f'quaternion is required, |norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}')
+        quat = q / norm[:, None]
     return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
-                        position=np.column_stack([col['x'], col['y'], col['z']]),
-                        quaternion=quat / norm[:, None], sigma_position=sig['sigma_position'],
-                        sigma_angle=sig['sigma_angle'], lines=tuple(line_nos), units=(length or 'm', angle or 'rad'))
+                        position=np.column_stack([col['x'], col['y'], col['z']]), quaternion=quat,
+                        sigma_position=table.sigma('sigma_position', source),
+                        sigma_angle=table.sigma('sigma_angle', source), lines=tuple(line_nos), units=table.units)
 
 
 def read_measurements(path: str | Path) -> Measurements:
@@ -232,8 +298,8 @@ def read_measurements(path: str | Path) -> Measurements:
 def format_measurements(m: Measurements, comments: tuple[str, ...] = ()) -> str:
     """Measurement-file text of ``m`` in SI units, every value at full precision (``repr``), sigma columns when
     ``m`` has them; ``comments`` become ``#`` lines at the top."""
-    cols = list(REQUIRED_COLUMNS)
-    parts = [m.q, m.position, m.quaternion]
+    cols = list(REQUIRED_COLUMNS) + (list(ORIENTATION_COLUMNS) if m.quaternion is not None else [])
+    parts = [m.q, m.position] + ([m.quaternion] if m.quaternion is not None else [])
     for name, val in (('sigma_position', m.sigma_position), ('sigma_angle', m.sigma_angle)):
         if val is not None:
             cols.append(name)

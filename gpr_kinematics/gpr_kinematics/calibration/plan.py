@@ -27,6 +27,7 @@ limit, which keeps the virtual-joint model's tilt (within 0.1 % of the naive one
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -98,6 +99,7 @@ class MeasurementPlan:
             the noise the plan was made for.
         candidates: number of candidates; passes: exchange passes run; exchanges: swaps made.
         parameters: the model's parameters (names and units of ``fitted``).
+        theta: the parameter coordinates the plan was made at (the Jacobians' linearisation point).
     """
 
     q: Array
@@ -114,25 +116,52 @@ class MeasurementPlan:
     passes: int
     exchanges: int
     parameters: ParameterSet
+    theta: Array | None = None
 
     def as_dict(self) -> dict[str, Any]:
+        """Plain data for JSON: the configurations, the indices, the identifiability, and the predicted standard
+        errors of the values (SI), for a stiffness ratio of its anisotropy, with its 1-sigma interval of values in
+        ``intervals`` (:meth:`readable`)."""
+        names = [self.parameters[int(j)].name for j in self.fitted]
+        coord = np.sqrt(np.diag(self.covariance)) if self.fitted.size else np.zeros(0)
+        se = [float(c) if self.parameters[int(j)].transform else float(v)
+              for j, c, v in zip(self.fitted, coord, self.standard_errors, strict=True)]
         return {'configurations': [{'q': self.q[i].tolist(), 'height': float(self.height[i]),
                                     'tilt': float(self.tilt[i]), 'azimuth': float(self.azimuth[i])}
                                    for i in range(self.q.shape[0])],
                 'index_name': self.index_name, 'index': self.index, 'random_index': self.random_index,
                 'identifiability': self.identifiability.as_dict(), 'candidates': self.candidates,
                 'passes': self.passes, 'exchanges': self.exchanges,
-                'standard_errors': dict(zip(self.identifiability.identified, self.standard_errors.tolist(),
-                                            strict=True))}
+                'standard_errors': dict(zip(names, se, strict=True)),
+                'intervals': {n: list(iv) for n, iv in self.intervals().items()}}
+
+    @property
+    def at(self) -> Array:
+        """The coordinates the plan was made at (:attr:`theta`, else the nominal)."""
+        return self.parameters.nominal if self.theta is None else self.theta
 
     @property
     def standard_errors(self) -> Array:
         """Predicted standard errors of the identified parameters' values (``fitted`` order; a transformed
-        parameter's by the delta method at its nominal), SI."""
+        parameter's by the delta method at :attr:`at`: meaningless where the transform saturates, use
+        :meth:`intervals`), SI."""
         if not self.fitted.size:
             return np.zeros(0)
-        slope = self.parameters.value_slopes(self.parameters.nominal)[self.fitted]
+        slope = self.parameters.value_slopes(self.at)[self.fitted]
         return np.asarray(np.abs(slope) * np.sqrt(np.diag(self.covariance)), dtype=np.float64)
+
+    def intervals(self) -> dict[str, tuple[float, float]]:
+        """For each identified transformed parameter (a stiffness ratio), the values at its coordinate plus and minus
+        one predicted standard error, within its range: ``kappa`` 0.9 .. 1.1, where the delta method at ``kappa``
+        1000 would say 31479."""
+        out = {}
+        for i, j in enumerate(self.fitted):
+            p = self.parameters[int(j)]
+            if p.transform:
+                u, s = float(self.at[j]), math.sqrt(float(self.covariance[i, i]))
+                lo, hi = p.bounds
+                out[p.name] = (float(p.value(max(u - s, lo))), float(p.value(min(u + s, hi))))
+        return out
 
 
 #: Random designs drawn for :attr:`MeasurementPlan.random_index`.
@@ -220,10 +249,14 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
                       free: Iterable[str] | None = None, sigma_position: float = DEFAULT_SIGMA_POSITION,
                       sigma_angle: float = DEFAULT_SIGMA_ANGLE, candidates: Candidates | None = None,
                       threshold: float = DEFAULT_THRESHOLD, seed: int = 0,
-                      prior: ArrayLike | None = None) -> MeasurementPlan:
+                      prior: ArrayLike | None = None, theta: ArrayLike | None = None,
+                      points: bool = False) -> MeasurementPlan:
     """Choose ``n`` of the ``candidates`` (default :func:`candidate_configurations` of ``config``) that maximise
     the observability ``index`` for the parameters ``free`` of ``model`` (module docstring); ``prior``: the
-    a-priori standard deviations scaling the Jacobian, as in :func:`~.identification.identify`.
+    a-priori standard deviations scaling the Jacobian, as in :func:`~.identification.identify`; ``theta``: the
+    coordinates the Jacobians are taken at (default nominal; with a tolerance table, where its tolerances are:
+    :func:`~.tolerances.centre_of`); ``points``: the configurations will be measured as points (positions only:
+    a reflector), so orientations give no information.
 
     Raises:
         InputError: ``n`` outside ``[1, number of candidates]`` or above :data:`MAX_PLAN`; unknown index or
@@ -239,9 +272,9 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
                          f'candidate configurations within the stroke and tilt limits is {C})')
     params = model.parameters
     free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
-    theta0 = params.nominal
+    theta0 = params.nominal if theta is None else np.asarray(theta, dtype=float)
     scale = prior_scale(params, prior)
-    w = np.array([1.0 / sigma_position] * 3 + [1.0 / sigma_angle] * 3)
+    w = np.array([1.0 / sigma_position] * 3 + [0.0 if points else 1.0 / sigma_angle] * 3)
     J = pose_jacobian(model, theta0, cand.q, free_idx) * w[None, :, None] * scale[free_idx]  # (C, 6, F)
     names = [params[int(j)].name for j in free_idx]
     # Optimise the design for the parameters the candidates can identify. If the design cannot separate one of
@@ -287,4 +320,4 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     return MeasurementPlan(q=cand.q[sel], height=cand.height[sel], tilt=cand.tilt[sel], azimuth=cand.azimuth[sel],
                            index_name=index, index=value, random_index=float(np.median(rand)),
                            identifiability=ident, fitted=fitted, covariance=cov, candidates=C, passes=passes,
-                           exchanges=exchanges, parameters=params)
+                           exchanges=exchanges, parameters=params, theta=theta0)

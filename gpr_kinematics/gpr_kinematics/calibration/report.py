@@ -10,8 +10,9 @@ import math
 import numpy as np
 
 from .budget import QUANTITIES, Budget
-from .identification import CalibrationResult, ResidualStats
 from .plan import MeasurementPlan
+from .quality import CV_GATE
+from .results import CalibrationResult, ResidualStats
 
 
 def _micro(value: float, unit: str) -> str:
@@ -24,13 +25,44 @@ def _micro(value: float, unit: str) -> str:
 
 
 def _residual_row(label: str, r: ResidualStats) -> str:
+    angle = (f'{r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad (line {r.worst_angle_line})'
+             if math.isfinite(r.rms_angle) else f'{"-":>15}{"-":>25}')
     return (f'  {label:<10}{r.rms_position * 1e6:10.3f} um{r.max_position * 1e6:10.3f} um (line '
-            f'{r.worst_position_line}){r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad (line '
-            f'{r.worst_angle_line})')
+            f'{r.worst_position_line}){angle}')
+
+
+def _bias(res: CalibrationResult, j: int, unit: str) -> str:
+    """``  bias <= 1.234 um (rod3_x)`` for a fitted parameter the held ones can bias (empty otherwise)."""
+    b = res.value_bias[j]
+    if res.status[j] != 'fitted' or not math.isfinite(b) or not res.bias.source[j]:
+        return ''
+    return f'  bias <= {_micro(b, unit).lstrip("+")} ({res.bias.source[j]})'
+
+
+def _checks(res: CalibrationResult) -> list[str]:
+    """The fit's convergence, its starts, the cross-validation and the gate."""
+    c, cv = res.convergence, res.cross_validation
+    starts = ', '.join(f'{s.label} {s.chi2_reduced:.4g} ({s.status})' for s in c.starts)
+    bound = f'; at a bound of their range: {", ".join(c.at_bound)}' if c.at_bound else ''
+    lines = [f'fit: {c.status} (Gauss-Newton step left {c.step_se:.2g} standard errors){bound}; reduced chi-square '
+             f'from each start: {starts}',
+             f'cross-validation (each row predicted by the fit of the others): ratio {cv.ratio:.3g} to what the '
+             f'fit\'s residuals predict (gate {CV_GATE:g})']
+    if cv.alone:
+        lines.append(f'  line(s) {", ".join(map(str, cv.alone))} alone determine a fitted combination: no other row '
+                     'checks them')
+    if res.gate.passed:
+        lines.append('gate: passed (' + ', '.join(f'{g.name.replace("_", " ")} {g.value:.3g} <= {g.limit:.3g}'
+                                                   for g in res.gate.checks if g.name != 'minimum')
+                     + ', minimum reached)')
+    else:
+        lines.append(f'gate: FAILED: {res.gate.message()}')
+    return lines
 
 
 def format_calibration(res: CalibrationResult) -> str:
-    """Identified parameters, residuals before and after, identifiability and the fit's chi-square."""
+    """Identified parameters with standard errors and the bias the held ones can cause, residuals before, after and
+    cross-validated, identifiability, the fit's chi-square, convergence and gate."""
     ident = res.identifiability
     lines = [f'calibration from {res.source}: {res.rows} rows, {len(ident.names)} free parameter(s), '
              f'{len(ident.identified)} fitted in {res.iterations} Levenberg-Marquardt iterations',
@@ -40,11 +72,13 @@ def format_calibration(res: CalibrationResult) -> str:
         se = se_v[j]
         se_txt = _micro(se, p.unit).lstrip('+') if math.isfinite(se) else '-'
         lines.append(f'  {p.name:<14} {nominal[j]:>18.12g} {values[j]:>19.12g} '
-                     f'{_micro(values[j] - nominal[j], p.unit):>16} {se_txt:>15}  {res.status[j]} [{p.unit}]')
+                     f'{_micro(values[j] - nominal[j], p.unit):>16} {se_txt:>15}  {res.status[j]} [{p.unit}]'
+                     f'{_bias(res, j, p.unit)}')
     lines.append(f'  {"residuals":<10}{"RMS position":>13}{"worst position":>24}{"RMS angle":>15}'
                  f'{"worst angle":>25}')
     lines.append(_residual_row('before', res.before))
     lines.append(_residual_row('after', res.after))
+    lines.append(_residual_row('left out', res.cross_validated))
     sv = ' '.join(f'{s:.4g}' for s in ident.singular_values)
     lines.append(f'identifiability: scaled singular values {sv} (bound {ident.threshold:.3g})')
     if ident.combinations:
@@ -56,7 +90,7 @@ def format_calibration(res: CalibrationResult) -> str:
     sig = 'sigmas from the file' if res.absolute_sigma else \
         'default sigmas: standard errors scaled by sqrt(chi-square)'
     lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({sig})')
-    return '\n'.join(lines)
+    return '\n'.join(lines + _checks(res))
 
 
 def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float) -> str:
@@ -72,12 +106,19 @@ def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float
     lines.append(f'observability index ({plan.index_name}) {plan.index:.6g}; median of random designs of the same '
                  f'size {plan.random_index:.6g}')
     ident = plan.identifiability
-    se = plan.standard_errors
-    units = {p.name: p.unit for p in plan.parameters}
-    pred = ', '.join(f'{name} {_micro(s, units.get(name, "1")).lstrip("+")}'
-                     for name, s in zip(ident.identified, se, strict=True))
+    intervals = plan.intervals()
+    coord = np.sqrt(np.diag(plan.covariance)) if plan.fitted.size else np.zeros(0)
+    pred = []
+    for j, s, c in zip(plan.fitted, plan.standard_errors, coord, strict=True):
+        p = plan.parameters[int(j)]
+        if p.name in intervals:   # a stiffness ratio: its anisotropy's error and the values it spans
+            lo, hi = intervals[p.name]
+            pred.append(f'{p.name} {c:.3g} in anisotropy ({p.name[:5]} {lo:.3g} .. {hi:.3g} about '
+                        f'{float(p.value(plan.at[j])):.4g})')
+        else:
+            pred.append(f'{p.name} {_micro(s, p.unit).lstrip("+")}')
     lines.append(f'predicted standard errors (sigma_position {sigma_position * 1e6:g} um, sigma_angle '
-                 f'{sigma_angle * 1e6:g} urad): {pred or "none"}')
+                 f'{sigma_angle * 1e6:g} urad): {", ".join(pred) or "none"}')
     lines += [f'  {c.describe()}' for c in ident.combinations]
     return '\n'.join(lines)
 
@@ -101,4 +142,5 @@ def format_budget(b: Budget, top: int = 3) -> str:
             share = ', '.join(f'{b.sources[j]} {100 * b.shares[name][i, j]:.1f} %' for j in order
                               if b.shares[name][i, j] > 0)
             lines.append(f'  {name.replace("_", " "):<20}{u:>5}{cells}  {share}'.rstrip())
+    lines += [f'warning: {w}' for w in b.warnings]
     return '\n'.join(lines)

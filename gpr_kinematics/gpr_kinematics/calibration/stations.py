@@ -30,7 +30,7 @@ from ..errors import InputError
 from .budget import Budget, accuracy_budget
 from .core_model import CoreModel
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
-from .tolerances import ToleranceTable, prior_of
+from .tolerances import ToleranceTable, centre_of, prior_of
 
 Array = NDArray[np.float64]
 
@@ -49,12 +49,13 @@ class BudgetOptions:
 def planned_calibration(model: CoreModel, table: ToleranceTable, n: int) -> tuple[NDArray[np.int64], Array]:
     """``(indices, covariance)`` of the parameters a calibration from the ``n`` configurations of
     :func:`~.plan.plan_measurements` determines, measured with the table's ``measurement_noise`` (the default
-    tracker sigmas where it gives none), its standard deviations as the prior."""
+    tracker sigmas where it gives none), its standard deviations as the prior, made where its tolerances are
+    (:func:`~.tolerances.centre_of`: a ``kappa`` range's centre)."""
     from .plan import plan_measurements
     sp = table.sigma_position if table.sigma_position is not None else DEFAULT_SIGMA_POSITION
     sa = table.sigma_angle if table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
     plan = plan_measurements(model, model.config, n, sigma_position=sp, sigma_angle=sa,
-                             prior=prior_of(table, model.parameters))
+                             prior=prior_of(table, model.parameters), theta=centre_of(table, model.parameters))
     return plan.fitted, plan.covariance
 
 
@@ -62,8 +63,11 @@ def _budget(config: GprConfig, Q: Array, table: ToleranceTable, tool: ArrayLike,
             options: BudgetOptions, frame: str = 'gpr_base', rotation: Array | None = None) -> Budget:
     model = CoreModel(config, options.model)
     calibrated = planned_calibration(model, table, options.plan) if options.plan else None
+    theta = model.parameters.nominal.copy()
+    if calibrated is not None:   # the calibration finds the machine: its parameters where the tolerances are
+        theta[calibrated[0]] = centre_of(table, model.parameters)[calibrated[0]]
     return accuracy_budget(model, Q, table, tool=tool, samples=options.samples, seed=options.seed, labels=labels,
-                           calibrated=calibrated, frame=frame, frame_rotation=rotation)
+                           theta=theta, calibrated=calibrated, frame=frame, frame_rotation=rotation)
 
 
 def platform_budget(config: GprConfig, table: ToleranceTable, height: ArrayLike, tilt: ArrayLike,

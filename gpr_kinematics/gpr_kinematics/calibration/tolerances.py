@@ -36,8 +36,9 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..inputs import safe_yaml
-from ..inputs.schema import check_keys
+from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from ..inputs.validation import MAX_COORDINATE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
@@ -205,6 +206,25 @@ class ToleranceTable:
         return Tolerance(low, high, dist, nominal, p.transform)
 
 
+def centre_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """Where the table's tolerances are: each parameter's coordinate at its nominal plus its tolerance's mean
+    deviation (a ``kappa`` range's centre, not the geometry file's ``kappa``), within its range. Budgets and
+    plans are linearised there."""
+    shift = np.array([t.mean if t is not None else 0.0 for t in table.bind(params)])
+    lo, hi = params.bounds
+    return np.asarray(np.clip(params.nominal + shift, lo, hi), dtype=np.float64)
+
+
+def bound_of(table: ToleranceTable, params: ParameterSet) -> Array:
+    """The table's worst-case deviation of each parameter's coordinate from its nominal (the farther end of its
+    interval; ``nan`` where the table has none): the a-priori bound of a held parameter's bias."""
+    out = np.full(len(params), np.nan)
+    for j, t in enumerate(table.bind(params)):
+        if t is not None:
+            out[j] = max(abs(v) for v in t.bounds)
+    return out
+
+
 def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
     """The table's standard deviation of each parameter (``nan`` where the table has none), as the ``prior`` of
     identification and planning."""
@@ -212,8 +232,9 @@ def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
 
 
 def _finite(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number')
+    if not is_number(value):  # the package's one rule: no bool or text, finite, |x| <= 1e6 (a 401-digit integer too)
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number of magnitude at most '
+                          f'{MAX_COORDINATE:g}')
     return float(value)
 
 

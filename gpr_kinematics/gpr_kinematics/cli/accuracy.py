@@ -27,17 +27,23 @@ import argparse
 import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..calibration.core_model import MODEL
 from ..errors import InputError, brief
+from ..inputs.safe_yaml import YamlValue
 from ..mechanisms import load_mechanism
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
 from .options import CONVENTIONS, finite, mechanism_pose
 from .output import emit_json
+
+if TYPE_CHECKING:
+    from ..calibration.budget import Budget
+    from ..core.config import GprConfig
+    from .main import Subparsers
 
 #: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).
 BUDGET_OPTIONS = ('tool', 'samples', 'seed', 'config', 'robot', 'model', 'calibration_plan')
@@ -87,7 +93,7 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
         raise InputError(f'--calibration-plan = {args.calibration_plan}; allowed: an integer >= 1 (configurations)')
 
 
-def _kind(data: Any) -> str:
+def _kind(data: YamlValue) -> str:
     """``robot`` (a whole-robot program), ``platform`` (a platform program) or ``mechanism``."""
     if isinstance(data, Mapping):
         if data.get('format') == 'gpr_robot_program':
@@ -104,12 +110,12 @@ def _tool(args: argparse.Namespace) -> tuple[float, float, float]:
     return (args.tool[0] * f, args.tool[1] * f, args.tool[2] * f)
 
 
-def _gpr_config(args: argparse.Namespace, overrides: Any = None) -> Any:
+def _gpr_config(args: argparse.Namespace, overrides: Mapping[str, YamlValue] | None = None) -> GprConfig:
     from ..core.config import load_config
     return load_config(args.config, overrides=overrides or None)
 
 
-def _budget(args: argparse.Namespace, data: Any, path: Path) -> tuple[Any, str]:
+def _budget(args: argparse.Namespace, data: YamlValue, path: Path) -> tuple[Budget, str]:
     """The budget of FILE (module docstring) and a line saying what was computed."""
     from ..calibration.stations import BudgetOptions, platform_budget, robot_budget
     from ..calibration.tolerances import load_tolerances
@@ -232,31 +238,30 @@ def _accuracy(args: argparse.Namespace) -> int:
     params = _parameter_errors(args, mech)
     full = mech.complete_pose(poses)
     mech.check_limits(mech.inverse_kinematics(full))
-    res = accuracy_analysis(mech, full, errors, params)
-    # The text and the JSON print the same numbers: both from these dicts.
-    results = [res.as_dict(i) for i in range(res.poses.shape[0])]
+    # The text and the JSON print the same numbers: both from this report.
+    report = accuracy_analysis(mech, full, errors, params).report(mech.kind)
     if args.json:
-        emit_json({'mechanism': mech.name, 'type': mech.kind, 'variables': list(res.variables), 'results': results})
+        emit_json(report)
         return 0
     print(f'{mech.name}: pose deviation for joint errors {np.asarray(errors).tolist()} (SI)'
           + (f' and parameter errors {sorted(params)}' if params else ''))
-    head = ' '.join(f'{v:>12}' for v in res.variables)
+    head = ' '.join(f'{v:>12}' for v in report.variables)
     print(f'{"":>6} {"":>11} {head}')
-    for i, r in enumerate(results):
-        for label in ('linearized', 'exact', 'difference'):
+    for i, r in enumerate(report.results):
+        for label, values in (('linearized', r.linearized), ('exact', r.exact), ('difference', r.difference)):
             print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
-                  + ' '.join(f'{r[label][v]:12.4e}' for v in res.variables))
+                  + ' '.join(f'{values[v]:12.4e}' for v in report.variables))
     print('rigid motion of the platform, parasitic components included (x y z [m], rotation vector rx ry rz [rad], '
           'base frame):')
     print(f'{"":>6} {"":>11} ' + ' '.join(f'{v:>12}' for v in ('x', 'y', 'z', 'rx', 'ry', 'rz')))
-    for i, r in enumerate(results):
-        for label in ('linearized', 'exact'):
+    for i, r in enumerate(report.results):
+        for label, twist in (('linearized', r.linearized_twist), ('exact', r.exact_twist)):
             print(f'{i + 1 if label == "linearized" else "":>6} {label:>11} '
-                  + ' '.join(f'{v:12.4e}' for v in np.asarray(r[f'{label}_twist']).tolist()))
+                  + ' '.join(f'{v:12.4e}' for v in np.asarray(twist).tolist()))
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     """Add ``accuracy`` to the ``gpr`` command."""
     p = subparsers.add_parser('accuracy', help='platform pose deviation from joint and geometry errors; the accuracy '
                               'budget of the GPR and the whole robot from a tolerance table',

@@ -1,102 +1,122 @@
-"""``gpr calibrate``: identify the geometry from measured platform poses, or plan the measurements.
+"""``gpr calibrate``: identify the geometry from measured poses or points, or plan the measurements; with ``--robot``,
+the arms.
 
 Examples::
 
     gpr calibrate config/calibration/synthetic_measurements.csv --output calibrated.yaml
     gpr calibrate MEASUREMENTS --output calibrated.yaml --free rod_offsets rod_directions kappa
-    gpr fk 0.3 0.301 0.299 --config calibrated.yaml        # every command takes the calibrated geometry
+    gpr calibrate TRACKER.csv --frame tracker --output calibrated.yaml      # the tracker where it stands
+    gpr calibrate POINTS.csv --frame tracker --target 0.1 0 0.05 --fit-target --output calibrated.yaml
     gpr calibrate --plan 12 --output plan.csv --json
-    gpr calibrate MEASUREMENTS --output calibrated.yaml --tolerances config/calibration/tolerances_example.yaml
+    gpr calibrate --plan 40 --points --frame tracker --target 0.1 0 0.05 --fit-target
+    gpr calibrate --robot robot.yaml ARM1.csv --output robot_calibrated.yaml
 
-The measurement file format, the identification, the identifiability report and the plan are described in
-docs/calibration.md. Plugin of :mod:`gpr_kinematics.cli.main` (``register(subparsers)``).
+A fit that fails its gate (not at a minimum, chi-square or cross-validation: docs/calibration.md) exits with status 1,
+the report on stdout and the reason on stderr, and writes no file unless ``--force`` (then the file, still status 1).
+The measurement file formats, the identification, registration, the gate and the plan: docs/calibration.md.
+Plugin of :mod:`gpr_kinematics.cli.main` (``register(subparsers)``).
 """
 from __future__ import annotations
 
 import argparse
 import math
 from datetime import datetime, timezone
-from typing import Any
+from typing import TYPE_CHECKING
 
-from ..core.config import MODELS, GprConfig, load_config
+from ..core.config import MODELS
 from ..errors import InputError
+from .calibrate_options import EXIT_GATE, config, free_names, gate_outcome, pose, priors, sigmas, table_of
 from .output import emit_json
 
-
-def _config(args: argparse.Namespace) -> GprConfig:
-    return load_config(args.config) if args.config is not None else load_config()
-
-
-def _table(args: argparse.Namespace) -> Any:
-    from ..calibration.tolerances import load_tolerances
-    return load_tolerances(args.tolerances) if args.tolerances is not None else None
-
-
-def _sigmas(args: argparse.Namespace, table: Any = None) -> tuple[float, float]:
-    """The options' sigmas (SI), else the tolerance table's measurement noise, else the defaults."""
-    from ..calibration.identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
-    sp = table.sigma_position if table is not None and table.sigma_position is not None else DEFAULT_SIGMA_POSITION
-    sa = table.sigma_angle if table is not None and table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
-    if args.sigma_position is not None:
-        sp = args.sigma_position * (1e-3 if args.mm else 1.0)
-    if args.sigma_angle is not None:
-        sa = math.radians(args.sigma_angle) if args.deg else args.sigma_angle
-    return sp, sa
-
-
-def _prior(table: Any, model: Any) -> Any:
-    from ..calibration.tolerances import prior_of
-    return prior_of(table, model.parameters) if table is not None else None
+if TYPE_CHECKING:
+    from ..calibration.model import PoseModel
+    from .main import Subparsers
 
 
 def _calibrate(args: argparse.Namespace) -> int:
     from ..calibration.core_model import CoreModel, check_limits, write_calibrated_config
+    from ..calibration.frames import FramedModel, measuring_model, registration
     from ..calibration.identification import identify
     from ..calibration.measurements import read_measurements
     from ..calibration.report import format_calibration
     if args.output is None:
         raise InputError('--output FILE is required: the calibrated geometry is written there')
-    cfg = _config(args)
-    meas = read_measurements(args.measurements)
+    if len(args.measurements) != 1:
+        raise InputError(f'give one MEASUREMENTS file of the GPR (got {len(args.measurements)}); several files are '
+                         'for the arms, with --robot')
+    cfg = config(args)
+    meas = read_measurements(args.measurements[0])
     check_limits(meas, cfg)
-    model = CoreModel(cfg, args.model)
-    table = _table(args)
-    sp, sa = _sigmas(args, table)
-    res = identify(model, meas, free=args.free, sigma_position=sp, sigma_angle=sa, threshold=args.threshold,
-                   prior=_prior(table, model))
-    calibrated = model.config_for(res.estimate)
-    stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
-    comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements} ({res.rows} rows), {stamp}',
-                f'fitted: {", ".join(res.parameters[j].name for j in res.fitted) or "none"}; held at nominal: '
-                f'{", ".join(res.identifiability.held) or "none"}',
-                f'pose residuals RMS before {res.before.rms_position:.3e} m, {res.before.rms_angle:.3e} rad; after '
-                f'{res.after.rms_position:.3e} m, {res.after.rms_angle:.3e} rad',
-                'SI units; use with any command: --config THIS_FILE')
-    path = write_calibrated_config(args.output, calibrated, comments)
+    core = CoreModel(cfg, args.model)
+    model = measuring_model(core, meas, args.frame, pose(args.base, args, '--base', (6,)),
+                            pose(args.target, args, '--target', (3, 6)), args.fit_target, args.free)
+    table = table_of(args)
+    sp, sa = sigmas(args, table)
+    prior, bound = priors(table, model)
+    res = identify(model, meas, free=free_names(args, model), sigma_position=sp, sigma_angle=sa,
+                   threshold=args.threshold, prior=prior, bound=bound, frame=args.frame)
+    reg = None
+    if isinstance(model, FramedModel):
+        reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)
+        calibrated = core.config_for(model.inner_theta(res.estimate[None])[0])
+    else:
+        calibrated = core.config_for(res.estimate)
+    write = gate_outcome(res.gate.passed, res.gate.message(), args)
+    path = None
+    if write:
+        stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
+        comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements[0]} ({res.rows} rows, '
+                    f'measured in {args.frame}), {stamp}',
+                    f'fitted: {", ".join(res.parameters[j].name for j in res.fitted) or "none"}; held at nominal: '
+                    f'{", ".join(res.identifiability.held) or "none"}',
+                    f'pose residuals RMS before {res.before.rms_position:.3e} m, {res.before.rms_angle:.3e} rad; after '
+                    f'{res.after.rms_position:.3e} m, {res.after.rms_angle:.3e} rad; gate '
+                    f'{"passed" if res.gate.passed else "FAILED (written with --force)"}',
+                    *(f'registration: {line}' for line in (reg.lines() if reg else [])),
+                    'SI units; use with any command: --config THIS_FILE')
+        path = write_calibrated_config(args.output, calibrated, comments)
     if args.json:
-        emit_json(res.as_dict() | {'model': calibrated.model, 'output': str(path)})
-        return 0
-    print(format_calibration(res))
-    print(f'calibrated geometry written to {path} (use it with --config {path})')
-    return 0
+        emit_json(res.as_dict() | {'model': calibrated.model, 'output': str(path) if path else None,
+                                   'registration': reg.as_dict() if reg else None})
+    else:
+        print(format_calibration(res))
+        if reg:
+            print('\n'.join(f'registration: {line}' for line in reg.lines()))
+        if path:
+            print(f'calibrated geometry written to {path} (use it with --config {path})')
+    return 0 if res.gate.passed else EXIT_GATE
 
 
 def _plan(args: argparse.Namespace) -> int:
     from ..calibration.core_model import CoreModel
     from ..calibration.files import comment_lines, write_text
+    from ..calibration.frames import FramedModel, Transform
     from ..calibration.plan import plan_measurements
     from ..calibration.report import format_plan
-    cfg = _config(args)
-    model = CoreModel(cfg, args.model)
-    table = _table(args)
-    sp, sa = _sigmas(args, table)
-    plan = plan_measurements(model, cfg, args.plan, index=args.index, free=args.free, sigma_position=sp,
-                             sigma_angle=sa, threshold=args.threshold, prior=_prior(table, model))
+    from ..calibration.tolerances import centre_of
+    cfg = config(args)
+    core = CoreModel(cfg, args.model)
+    model: PoseModel = core
+    target = pose(args.target, args, '--target', (3, 6))
+    fit_target = args.fit_target or (None if target is not None or (args.frame == 'gpr_base' and not args.points)
+                                     else 'position' if args.points else 'pose')
+    if args.frame != 'gpr_base' or fit_target or args.points or target is not None:
+        base = pose(args.base, args, '--base', (6,))
+        model = FramedModel(core, base or Transform.identity(), target or Transform.identity(),
+                            args.frame != 'gpr_base' and base is None, fit_target, args.points, args.free)
+    table = table_of(args)
+    sp, sa = sigmas(args, table)
+    prior, _ = priors(table, model)
+    plan = plan_measurements(model, cfg, args.plan, index=args.index, free=free_names(args, model), sigma_position=sp,
+                             sigma_angle=sa, threshold=args.threshold, prior=prior,
+                             theta=centre_of(table, model.parameters) if table is not None else None,
+                             points=args.points)
     path = None
     if args.output is not None:
+        measure = 'x,y,z' if args.points else 'x,y,z,qx,qy,qz,qw'
         text = (comment_lines([f'measurement plan of `gpr calibrate --plan {args.plan}`: observability index '
                                f'({plan.index_name}) {plan.index:.6g}',
-                               'measure the pose of gpr_platform at each row and add the columns x,y,z,qx,qy,qz,qw '
+                               f'measure the target at each row in {args.frame} and add the columns {measure} '
                                '(docs/calibration.md)', 'units: m rad'])
                 + 'q1,q2,q3\n' + ''.join(','.join(repr(float(v)) for v in row) + '\n' for row in plan.q))
         path = write_text(args.output, text, 'plan')
@@ -110,34 +130,63 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _handler(args: argparse.Namespace) -> int:
-    if (args.measurements is None) == (args.plan is None):
+    if bool(args.measurements) == (args.plan is not None):
         raise InputError('give a MEASUREMENTS file to calibrate from, or --plan N for a measurement plan '
                          '(not both)')
     if not (math.isfinite(args.threshold) and args.threshold > 0):
         raise InputError(f'--threshold = {args.threshold!r}; allowed: a finite number > 0')
     from ..calibration.measurements import SIGMA_RANGE
     lo, hi = SIGMA_RANGE
-    for flag, value in zip(('--sigma-position', '--sigma-angle'), _sigmas(args), strict=True):
+    for flag, value in zip(('--sigma-position', '--sigma-angle'), sigmas(args), strict=True):
         if not lo <= value <= hi:
             raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
+    if not args.frame.replace('_', 'a').isalnum() or len(args.frame) > 64:
+        raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of letters, digits and _')
+    if args.robot is not None:
+        if args.plan is not None:
+            raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
+        from .calibrate_robot import calibrate_robot
+        return calibrate_robot(args)
+    if args.points and args.plan is None:
+        raise InputError('--points goes with --plan (a measurement file says itself whether it has orientations)')
     return _plan(args) if args.plan is not None else _calibrate(args)
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add ``gpr calibrate`` to the ``gpr`` parser."""
-    p = sub.add_parser('calibrate', help='identify the geometry from measured poses, or plan the measurements',
-                       description='Identify the geometric parameters from measured platform poses (weighted '
-                                   'least squares, standard errors, identifiability) and write the calibrated '
-                                   'geometry; or, with --plan N, propose N measurement configurations.')
-    p.add_argument('measurements', nargs='?', metavar='MEASUREMENTS',
-                   help='measurement CSV: q1,q2,q3,x,y,z,qx,qy,qz,qw[,sigma_position,sigma_angle] '
-                        '(docs/calibration.md)')
+    p = sub.add_parser('calibrate', help='identify the geometry (or the arms) from measured poses or points, or plan '
+                                         'the measurements',
+                       description='Identify the geometric parameters from measured platform poses or points '
+                                   '(weighted least squares, standard errors, the bias of what is held, '
+                                   'cross-validation, identifiability, the frames of the tracker and the target) and '
+                                   'write the calibrated geometry; or, with --plan N, propose N measurement '
+                                   'configurations; or, with --robot, calibrate the arms.')
+    p.add_argument('measurements', nargs='*', metavar='MEASUREMENTS',
+                   help='measurement CSV: q1,q2,q3,x,y,z[,qx,qy,qz,qw][,sigma_position[,sigma_angle]] '
+                        '(docs/calibration.md); with --robot: one or more files of an arm\'s measured points')
     p.add_argument('--plan', type=int, metavar='N', help='propose N measurement configurations instead')
     p.add_argument('--output', metavar='FILE',
-                   help='calibrated geometry YAML (required when calibrating); with --plan: the configurations as CSV')
+                   help='calibrated geometry YAML (a robot description with --robot; required when calibrating); '
+                        'with --plan: the configurations as CSV')
+    p.add_argument('--force', action='store_true', help='write the calibrated file even when the fit fails its gate '
+                                                        '(the status is still 1)')
     p.add_argument('--free', nargs='+', metavar='NAME',
-                   help='parameters to identify: names (rod2_offset, rod1_ux, joint3_y, kappa1, ...) or whole keys '
-                        '(rod_positions, rod_offsets, rod_directions, platform_joints, kappa); default: all 24')
+                   help='parameters to identify: names (rod2_offset, rod1_ux, joint3_y, kappa1, arm1_elbow_length, '
+                        '...) or whole keys (rod_positions, rod_offsets, rod_directions, platform_joints, kappa; '
+                        'length, zero_offset, wafer_centre); default: all')
+    p.add_argument('--frame', default='gpr_base', metavar='NAME',
+                   help='the frame the measurements are in (default gpr_base); another (tracker): the pose of '
+                        'gpr_base in it is identified with the geometry, unless --base gives it')
+    p.add_argument('--base', nargs=6, type=float, metavar=('X', 'Y', 'Z', 'ROLL', 'PITCH', 'YAW'),
+                   help='the known pose of gpr_base in --frame [m, rad; --mm, --deg]')
+    p.add_argument('--target', nargs='+', type=float, metavar='V',
+                   help='the target\'s pose in gpr_platform, X Y Z [ROLL PITCH YAW] [m, rad; --mm, --deg]: known, or '
+                        'the start of --fit-target; default: gpr_platform itself (poses in gpr_base), else identified')
+    p.add_argument('--fit-target', nargs='?', const='pose', choices=('pose', 'position'),
+                   help='identify the target on the platform (position: its orientation is --target\'s)')
+    p.add_argument('--points', action='store_true',
+                   help='with --plan: the configurations will be measured as points (a reflector, no orientation)')
+    p.add_argument('--robot', metavar='FILE', help='calibrate the arms of this robot description from the files')
     p.add_argument('--sigma-position', type=float, metavar='S',
                    help='standard deviation of a measured coordinate for rows without sigma columns '
                         '[m, or mm with --mm] (default 5e-6 m)')
@@ -146,7 +195,8 @@ def register(sub: Any) -> None:
                         '(default 2e-5 rad)')
     p.add_argument('--tolerances', metavar='TABLE',
                    help='tolerance table (YAML, docs/calibration.md): its standard deviations are the a-priori '
-                        'uncertainties the measurements must beat, its measurement_noise the default sigmas')
+                        'uncertainties the measurements must beat and its bounds those of the held parameters\' bias, '
+                        'its measurement_noise the default sigmas; a plan is made where its tolerances are')
     p.add_argument('--threshold', type=float, default=1.0,
                    help='scaled singular value a parameter combination must reach to be fitted (default 1: the '
                         'measurements must determine it better than its a-priori uncertainty)')
@@ -156,7 +206,7 @@ def register(sub: Any) -> None:
                    help='virtual-joint model of the identification (default compliant: kappa acts only there); the '
                         'calibrated file selects it')
     p.add_argument('--config', metavar='FILE', help='nominal geometry (YAML overriding config/gpr.yaml)')
-    p.add_argument('--mm', action='store_true', help='--sigma-position is in millimetres')
-    p.add_argument('--deg', action='store_true', help='--sigma-angle is in degrees')
+    p.add_argument('--mm', action='store_true', help='--sigma-position, --base and --target are in millimetres')
+    p.add_argument('--deg', action='store_true', help='--sigma-angle and the angles of --base and --target in degrees')
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
     p.set_defaults(handler=_handler)

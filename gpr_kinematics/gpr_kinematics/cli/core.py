@@ -8,16 +8,20 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
-from ..errors import LimitError
-from .output import emit_json, jsonable
+from .options import MM, vec
+from .output import emit_json, json_object
 
-_MM = 1e-3
+if TYPE_CHECKING:
+    from ..core import ForwardResult
+    from ..core.sweep import SweepResult
+    from .main import Subparsers
 
 
 def _config(args: argparse.Namespace) -> GprConfig:
@@ -25,7 +29,7 @@ def _config(args: argparse.Namespace) -> GprConfig:
 
 
 def _length(args: argparse.Namespace, value: float) -> float:
-    return value * _MM if getattr(args, 'mm', False) else value
+    return value * MM if getattr(args, 'mm', False) else value
 
 
 def _angle(args: argparse.Namespace, value: float) -> float:
@@ -44,13 +48,9 @@ def _common(p: argparse.ArgumentParser, lengths: bool = True, angles: bool = Fal
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
 
 
-def _vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
-    return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'
-
-
-def _print_pose(fk: Any) -> None:
-    print(f'  position      {_vec(fk.position)} m')
-    print(f'  quaternion    {_vec(fk.quaternion, fmt="{:.12f}")} (x, y, z, w)')
+def _print_pose(fk: ForwardResult) -> None:
+    print(f'  position      {vec(fk.position)} m')
+    print(f'  quaternion    {vec(fk.quaternion, fmt="{:.12f}")} (x, y, z, w)')
     print(f'  tilt          {fk.tilt:.12g} rad ({math.degrees(fk.tilt):.9g} deg), azimuth '
           f'{fk.tilt_azimuth:.9g} rad ({math.degrees(fk.tilt_azimuth):.6g} deg), twist {fk.twist:.3e} rad')
 
@@ -62,14 +62,14 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(fk)
         return 0
-    print(f'forward kinematics, model {fk.model}: q = {_vec(fk.q)} m')
+    print(f'forward kinematics, model {fk.model}: q = {vec(fk.q)} m')
     _print_pose(fk)
     from ..core.virtual_joints import make_model
     names = ', '.join(f'{n} = {v:.9g}' for n, v in zip(fk.virtual_joint_names, fk.virtual_joints, strict=True))
     print(f'  virtual joints {names} ({"m, rad" if make_model(cfg, fk.model).angular.any() else "m"})')
-    print(f'  side lengths  L12, L23, L31 = {_vec(fk.side_lengths)} m')
-    print(f'  centre shift  {_vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
-    print(f'  joint displacement {_vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '
+    print(f'  side lengths  L12, L23, L31 = {vec(fk.side_lengths)} m')
+    print(f'  centre shift  {vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
+    print(f'  joint displacement {vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '
           f'{"within" if fk.within_budget else "BEYOND"} the imperfection budget '
           f'{cfg.imperfection_budget * 1e6:.1f} um')
     print(f'  Newton: {fk.iterations} iterations, closure residual {fk.residual:.2e} m, '
@@ -95,10 +95,10 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(ik)
         return 0
-    print(f'inverse kinematics, model {ik.achieved.model}: q = {_vec(ik.q)} m ({ik.iterations} iterations)')
+    print(f'inverse kinematics, model {ik.achieved.model}: q = {vec(ik.q)} m ({ik.iterations} iterations)')
     print('achieved pose:')
     _print_pose(ik.achieved)
-    print(f'  centre shift  {_vec(ik.achieved.centre_shift, 1e6, "{:.3f}")} um')
+    print(f'  centre shift  {vec(ik.achieved.centre_shift, 1e6, "{:.3f}")} um')
     return 0
 
 
@@ -116,55 +116,50 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res)
         return 0
-    print(f'compensation, model {res.achieved.model}: command q = {_vec(res.q)} m')
+    print(f'compensation, model {res.achieved.model}: command q = {vec(res.q)} m')
     print('platform pose reached:')
     _print_pose(res.achieved)
-    print(f'  tool point    commanded {_vec(res.tool_commanded)} m, reached {_vec(res.tool_achieved)} m')
-    print(f'  tool shift    {_vec(res.tool_shift, 1e6, "{:.3f}")} um')
-    print(f'  height solved for the platform point {_vec(res.platform_point)} m (gpr_platform: the tool turned '
+    print(f'  tool point    commanded {vec(res.tool_commanded)} m, reached {vec(res.tool_achieved)} m')
+    print(f'  tool shift    {vec(res.tool_shift, 1e6, "{:.3f}")} um')
+    print(f'  height solved for the platform point {vec(res.platform_point)} m (gpr_platform: the tool turned '
           f'by the heading)')
     print(f'  arm correction (apply to targets in the platform frame): translation '
-          f'{_vec(res.arm_correction_translation, 1e6, "{:.3f}")} um, quaternion '
-          f'{_vec(res.arm_correction_quaternion, fmt="{:.12f}")}')
+          f'{vec(res.arm_correction_translation, 1e6, "{:.3f}")} um, quaternion '
+          f'{vec(res.arm_correction_quaternion, fmt="{:.12f}")}')
     return 0
 
 
 def _cmd_mobility(args: argparse.Namespace) -> int:
-    from ..core.mobility import analyze_mobility, exact_dx
+    from ..core.mobility import analyze_mobility, rod_change
     cfg = _config(args)
     res = analyze_mobility([_length(args, v) for v in args.q], config=cfg, model=args.model)
-    out = jsonable(res)
-    dq = dx = None
-    full: float | None = None
-    why = ''
-    if args.dq is not None:
-        dq = [_length(args, v) for v in args.dq]
-        dx = res.dx_bounds(res.rod_perturbation(dq))
-        try:
-            full = float(np.linalg.norm(exact_dx(res.q, dq, cfg, res.model)))
-        except LimitError as exc:  # q + dq tilts beyond the limit: the first order stands alone
-            why = str(exc)
-        # norm_dx is the first order (eq. 3); norm_dx_full the full solve |X(q + dq) - X(q)| (null: not solvable).
-        out['bounds']['for_dq'] = jsonable(dx) | {'dq': dq, 'norm_dx_full': full}
+    change = None if args.dq is None else rod_change(res, [_length(args, v) for v in args.dq], cfg)
     if args.json:
+        out = json_object(res)
+        bounds = out['bounds']
+        if change is not None and isinstance(bounds, dict):  # the bounds of eqs. (4), (5), and those for dq
+            bounds['for_dq'] = json_object(change)
         emit_json(out)
         return 0
-    print(f'mobility analysis (paper §IV-A), model {res.model}, q = {_vec(res.q)} m')
+    print(f'mobility analysis (paper §IV-A), model {res.model}, q = {vec(res.q)} m')
     print(f'  rank dPhi/dP = {res.rank_dphi_dp} (mobility h = {res.mobility}); '
           f'rank [dPhi/dP dPhi/dX] = {res.rank_augmented}; singular configuration: '
           + ('yes (h > 1: the rigid mechanism gains instantaneous freedoms)' if res.singular else 'no'))
-    print(f'  non-zero singular values of dX/dP: {_vec(res.singular_values, fmt="{:.6g}")}')
+    print(f'  non-zero singular values of dX/dP: {vec(res.singular_values, fmt="{:.6g}")}')
     print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
           f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
-    if dx is not None:
-        print(f'  for dq = {_vec(dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {dx.norm_dx:.6e} (eq. 3), '
-              f'eq. 4 [{dx.lower_eq4:.6e}, {dx.upper_eq4:.6e}], eq. 5 [{dx.lower_eq5:.6e}, {dx.upper_eq5:.6e}]; '
-              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None else f'no full solve ({why})')
+    if change is not None:
+        full = change.norm_dx_full
+        print(f'  for dq = {vec(change.dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {change.norm_dx:.6e} (eq. 3), '
+              f'eq. 4 [{change.lower_eq4:.6e}, {change.upper_eq4:.6e}], eq. 5 [{change.lower_eq5:.6e}, '
+              f'{change.upper_eq5:.6e}]; '
+              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None
+                 else f'no full solve ({change.full_solve_refused})')
               + (' (at the singular configuration the first order of a rod change vanishes)' if res.singular else ''))
     return 0
 
 
-def _write_csv(path: str, s: Any) -> Path:
+def _write_csv(path: str, s: SweepResult) -> Path:
     """Every sample of the sweep ``s`` as CSV (SI units, floats to round-trip), atomically; the path written."""
     from ..inputs.files import atomic_output
     fk = s.forward
@@ -191,7 +186,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         check_output(args.csv, 'CSV')  # before the work, not after it
     cfg = _config(args)
 
-    def given(value: float | None, convert: Any, default: float) -> float:
+    def given(value: float | None, convert: Callable[[argparse.Namespace, float], float], default: float) -> float:
         # Defaults are SI already: --mm/--deg convert only what the user typed.
         return default if value is None else convert(args, value)
 
@@ -203,23 +198,23 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     written = None if args.csv is None else str(_write_csv(args.csv, s))
     summary = s.summary
     if args.json:
-        emit_json(summary | ({'csv': written} if written else {}))
+        emit_json(summary, **({'csv': written} if written else {}))
         return 0
-    print(f'paper sweep (§VI), model {summary["model"]}, height {summary["height"]:.6g} m: '
-          f'{summary["samples"]} samples, {summary["singular_crossings"]} crossings of the singular configuration')
-    print(f'  max centre shift        {summary["max_centre_shift"] * 1e6:10.3f} um (versus the naive model)')
-    print(f'  max joint displacement  {summary["max_joint_displacement"] * 1e6:10.3f} um '
-          f'({"within" if summary["within_budget"] else "BEYOND"} the budget '
+    print(f'paper sweep (§VI), model {summary.model}, height {summary.height:.6g} m: '
+          f'{summary.samples} samples, {summary.singular_crossings} crossings of the singular configuration')
+    print(f'  max centre shift        {summary.max_centre_shift * 1e6:10.3f} um (versus the naive model)')
+    print(f'  max joint displacement  {summary.max_joint_displacement * 1e6:10.3f} um '
+          f'({"within" if summary.within_budget else "BEYOND"} the budget '
           f'{cfg.imperfection_budget * 1e6:.0f} um)')
-    print(f'  max closure residual    {summary["max_residual"]:10.2e} m, rigid fit {summary["max_fit_residual"]:.2e} m')
-    print(f'  Newton iterations       forward <= {summary["max_fk_iterations"]}, '
-          f'inverse <= {summary["max_ik_iterations"]}')
+    print(f'  max closure residual    {summary.max_residual:10.2e} m, rigid fit {summary.max_fit_residual:.2e} m')
+    print(f'  Newton iterations       forward <= {summary.max_fk_iterations}, '
+          f'inverse <= {summary.max_ik_iterations}')
     if written:
         print(f'  samples written to {written}')
     return 0
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add the core subcommands to the ``gpr`` parser."""
     p = sub.add_parser('fk', help='forward kinematics: rod lengths -> platform pose',
                        description='Forward kinematics under the virtual-joint model (paper §IV-V).')

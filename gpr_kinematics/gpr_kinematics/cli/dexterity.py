@@ -3,7 +3,7 @@ al., Fig. 6). Poses as ``gpr mechanism`` (:data:`gpr_kinematics.cli.options.CONV
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +14,9 @@ from ..mechanisms.base import Mechanism
 from .mechanism import mechanism_options
 from .options import CONVENTIONS, mechanism_pose
 from .output import emit_json
+
+if TYPE_CHECKING:
+    from .main import Subparsers
 
 
 def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: list[str] | None,
@@ -61,7 +64,7 @@ def _dexterity(args: argparse.Namespace) -> int:
         dmap = dexterity_sweep(mech, base, var, vals)
     plot = None if args.plot is None else str(plot_dexterity(dmap, args.plot))
     if args.json:
-        emit_json(dmap.as_dict() | {'type': mech.kind, 'plot': plot})
+        emit_json(dmap.record(mech.kind), plot=plot)
         return 0
     if dmap.variable2 is None:
         print(f'{mech.name}: dexterity (inverse condition number) against {var}')
@@ -103,7 +106,7 @@ def _default_range(mech: Mechanism, base: np.ndarray, var: str) -> tuple[float, 
     return float(grid[ok][0]), float(grid[ok][-1])
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     """Add ``dexterity`` to the ``gpr`` command."""
     p = subparsers.add_parser('dexterity', help='dexterity (inverse condition number) maps',
                               description='Dexterity = inverse condition number of the homogenised '

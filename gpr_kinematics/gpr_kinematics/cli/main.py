@@ -17,9 +17,11 @@ import importlib
 import re
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeAlias
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
+from ..inputs.files import command_reads
+from .output import distinct_outputs
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -36,15 +38,21 @@ COMMANDS: dict[str, str] = {
 PLUGINS: tuple[str, ...] = ()
 #: Optional third-party packages -> the extra of ``setup.py`` that installs them.
 OPTIONAL_PACKAGES: dict[str, str] = {'rosbags': 'bags', 'mcap': 'bags', 'mcap_ros2': 'bags', 'zstandard': 'bags',
-                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros'}
+                                     'lz4': 'bags', 'matplotlib': 'plot', 'rclpy': 'ros',
+                                     'fcl': 'safety'}
 
 #: Exit status for bad input (:data:`gpr_kinematics.errors.EXIT_BAD_INPUT`).
 EXIT_USAGE = EXIT_BAD_INPUT
+#: An argument of ``argparse.ArgumentParser``'s constructor that a subclass passes on unchanged: its type is the
+#: base class's parameter it lands in, which forwarding ``*args, **kwargs`` cannot name.
+Forwarded = Any
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse that reports usage errors in one line (status 2) instead of the usage block, and takes
     negative numbers in scientific notation (``-2e-4``) as values, not options."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: Forwarded, **kwargs: Forwarded) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
 
@@ -53,6 +61,10 @@ class _Parser(argparse.ArgumentParser):
         a number of 5000 digits, cut by :func:`~gpr_kinematics.errors.brief`)."""
         message = re.sub(rf"'([^'\n]{{{BRIEF_LENGTH + 1},}})'", lambda m: brief(m.group(1)), message)
         self.exit(EXIT_USAGE, f'{self.prog}: error: {message}\n')
+
+
+#: What a subcommand module's ``register(sub)`` adds its parsers to (``ArgumentParser.add_subparsers()``).
+Subparsers: TypeAlias = 'argparse._SubParsersAction[_Parser]'
 
 
 def missing_dependency(exc: ModuleNotFoundError) -> GprError | None:
@@ -65,7 +77,7 @@ def missing_dependency(exc: ModuleNotFoundError) -> GprError | None:
                     f"pip install 'gpr_kinematics[{extra}]'")
 
 
-def _unavailable(sub: Any, command: str, error: GprError) -> None:
+def _unavailable(sub: Subparsers, command: str, error: GprError) -> None:
     def handler(args: argparse.Namespace) -> int:
         raise error
 
@@ -75,7 +87,7 @@ def _unavailable(sub: Any, command: str, error: GprError) -> None:
     p.set_defaults(handler=handler)
 
 
-def _register(sub: Any, module: str) -> None:
+def _register(sub: Subparsers, module: str) -> None:
     """Import ``module`` and let it add its subcommands; a missing optional package leaves placeholders."""
     try:
         importlib.import_module(module).register(sub)
@@ -111,7 +123,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
-        return int(args.handler(args))
+        distinct_outputs(args)
+        with command_reads():  # no output may be a file the command read
+            return int(args.handler(args))
     except GprError as exc:
         sys.stderr.write(f'gpr {args.command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE

@@ -20,77 +20,35 @@ singular pose where an inverse is needed) exits with status 2 and a one-line mes
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from ..errors import SingularityError
 from ..mechanisms import load_mechanism
-from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
+from ..mechanisms.pose_analysis import analyse_pose
 from .options import CONVENTIONS, finite, mechanism_pose
 from .output import emit_json
 
-
-def _joints(mech: Mechanism, q: np.ndarray) -> list[dict[str, Any]]:
-    labels = getattr(mech, 'types', None)
-    out = []
-    for k, name in enumerate(mech.joint_names):
-        jt = mech.joint_types[k]
-        out.append({'name': name,
-                     'type': str(labels[k]) if labels is not None else jt,
-                     'joint_type': jt,
-                     'value': float(q[k]),
-                     'unit': 'rad' if jt in ANGULAR_JOINTS else 'm'})
-    return out
-
-
-def _finite_or_none(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
+if TYPE_CHECKING:
+    from .main import Subparsers
 
 
 def _mechanism(args: argparse.Namespace) -> int:
     mech = load_mechanism(args.file)
-    pose = mechanism_pose(args, mech)
-    full = mech.complete_pose(pose)
-    q = mech.inverse_kinematics(full)
-    mech.check_limits(q)
-    rep = mech.report(full)
-    if not (np.all(np.isfinite(rep.inverse_jacobian)) and np.all(np.isfinite(rep.task_jacobian))):
-        raise SingularityError(f'{mech.name}: the inverse Jacobian is not defined at pose {full.tolist()} '
-                               '(a constraint row divides by zero: zero distance, parallel lines, theta = 0)')
-    result: dict[str, Any] = {
-        'mechanism': mech.name, 'type': mech.kind, 'file': str(args.file),
-        'euler_convention': mech.euler_convention,
-        'pose': dict(zip(mech.pose_names, full.tolist(), strict=True)),
-        'pose_variables': list(mech.pose_variables),
-        'joints': _joints(mech, q),
-        'inverse_jacobian': rep.inverse_jacobian,
-        'homogenized_inverse_jacobian': rep.homogenized_inverse_jacobian,
-        'characteristic_length': mech.characteristic_length,
-        'homogenized_task_jacobian': rep.task_jacobian,
-        'condition_number': _finite_or_none(rep.condition_number),
-        'dexterity': rep.dexterity,
-        'singular': rep.singular,
-        'singularity': rep.singularity or None,
-        'within_limits': rep.within_limits,
-    }
-    if hasattr(mech, 'plane_residuals'):
-        result['plane_residuals'] = mech.plane_residuals(full)[0]
+    res = analyse_pose(mech, mechanism_pose(args, mech))
     if args.json:
-        emit_json(result)
+        emit_json(res, file=str(args.file))
         return 0
-    print(f'{mech.name} ({mech.kind}), pose ' + ', '.join(
-        f'{k} = {v:.9g}' for k, v in result['pose'].items()))
-    for j in result['joints']:
-        print(f'  {j["name"]:>8} [{j["type"]}] = {j["value"]:.9g} {j["unit"]}')
+    print(f'{mech.name} ({mech.kind}), pose ' + ', '.join(f'{k} = {v:.9g}' for k, v in res.pose.items()))
+    for j in res.joints:
+        print(f'  {j.name:>8} [{j.type}] = {j.value:.9g} {j.unit}')
     print('inverse Jacobian (columns v_x v_y v_z w_x w_y w_z, w in the base frame):')
-    for row in rep.inverse_jacobian:
+    for row in res.inverse_jacobian:
         print('  ' + ' '.join(f'{v:11.6f}' for v in row))
     print(f'homogenized inverse Jacobian (characteristic length {mech.characteristic_length:g} m):')
-    for row in rep.homogenized_inverse_jacobian:
+    for row in res.homogenized_inverse_jacobian:
         print('  ' + ' '.join(f'{v:11.6f}' for v in row))
-    print(f'condition number {rep.condition_number:.6g}, dexterity {rep.dexterity:.6g}, '
-          f'singular: {"yes" if rep.singular else "no"}' + (f' ({rep.singularity})' if rep.singularity else ''))
+    cond = float('inf') if res.condition_number is None else res.condition_number
+    print(f'condition number {cond:.6g}, dexterity {res.dexterity:.6g}, '
+          f'singular: {"yes" if res.singular else "no"}' + (f' ({res.singularity})' if res.singularity else ''))
     return 0
 
 
@@ -104,7 +62,7 @@ def mechanism_options(p: argparse.ArgumentParser, pose_required: bool) -> None:
     p.add_argument('--json', action='store_true', help='print one JSON object')
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     """Add ``mechanism`` to the ``gpr`` command."""
     p = subparsers.add_parser('mechanism', help='joint values, inverse Jacobian and conditioning at a pose',
                               description='Inverse kinematics, inverse Jacobian (plain and homogenised), '

@@ -3,14 +3,19 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
 from ..errors import InputError, brief
 from ..mechanisms.base import Mechanism, as_poses
+
+if TYPE_CHECKING:
+    from ..robot.description import RobotDescription
 
 #: The pose convention of ``gpr mechanism``, ``accuracy`` and ``dexterity`` (their help epilog).
 CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
@@ -52,19 +57,19 @@ def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
 MM = 1e-3
 
 
-def robot_of(args: argparse.Namespace, default: Path | None = None) -> Any:
+def robot_of(args: argparse.Namespace, default: Path | None = None) -> RobotDescription:
     """The robot of ``--robot`` (else ``default``, else the shipped example) with ``--config`` and ``--model``."""
     from ..robot.description import load_robot
     path = default if args.robot is None else args.robot
     return load_robot(path, geometry=args.config, model=args.model)
 
 
-def lengths(args: argparse.Namespace, values: Any) -> list[float]:
+def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input lengths in metres (``--mm`` converted)."""
     return [v * MM if args.mm else v for v in values]
 
 
-def angles(args: argparse.Namespace, values: Any) -> list[float]:
+def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input angles in radians (``--deg`` converted)."""
     return [math.radians(v) if args.deg else v for v in values]
 
@@ -83,6 +88,6 @@ def unit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument('--deg', action='store_true', help='input angles are in degrees (output stays SI)')
 
 
-def vec(v: Any, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
+def vec(v: ArrayLike, scale: float = 1.0, fmt: str = '{:.9f}') -> str:
     """A vector as ``(x, y, z)`` for the text output."""
     return '(' + ', '.join(fmt.format(x * scale) for x in np.ravel(v)) + ')'

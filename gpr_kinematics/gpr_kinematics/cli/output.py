@@ -1,31 +1,106 @@
-"""What the ``gpr`` subcommands print: ``--json`` is the result dataclass itself (:func:`jsonable`), one object."""
+"""What the ``gpr`` subcommands print and write: ``--json`` is the result dataclass itself (:func:`jsonable`), one
+object; an output file is never one of the command's inputs (:func:`distinct_outputs`).
+
+Each subcommand's ``--json`` is one result dataclass of the layer that computed it (``ForwardResult``,
+``RobotForwardRecord``, ``PoseAnalysis``, ``WorkspaceSummary``, ``VerifyRecord``, ...): its fields are the keys.
+:func:`emit_json` adds only what the command itself knows and the result cannot: the files it read or wrote.
+"""
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
+import os
 import sys
-from typing import Any
+from typing import TypeAlias
 
 import numpy as np
 
+from ..errors import InputError
 
-def jsonable(obj: Any) -> Any:
-    """``obj`` as JSON data: a dataclass becomes the mapping of its fields (recursively), numpy arrays and
-    scalars become lists and numbers, tuples become lists. This is the one schema of ``--json``."""
+#: JSON data: what :func:`jsonable` returns and :func:`json.dump` writes.
+JsonValue: TypeAlias = 'None | bool | int | float | str | list[JsonValue] | dict[str, JsonValue]'
+JsonObject: TypeAlias = 'dict[str, JsonValue]'
+#: The options (argparse ``dest``) that name a file or folder a subcommand writes.
+OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'report', 'trajectory')
+
+
+def jsonable(obj: object) -> JsonValue:
+    """``obj`` as JSON data: a dataclass becomes the mapping of its fields (recursively; a field whose metadata
+    says ``json: inline``, a mapping, gives its keys instead of a key of its own), numpy arrays and scalars become
+    lists and numbers, tuples become lists. This is the one schema of ``--json``.
+
+    Raises:
+        TypeError: a value that has no JSON form (``json.dump`` refused it the same way), or a key twice.
+    """
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        out: JsonObject = {}
+        for f in dataclasses.fields(obj):
+            value = jsonable(getattr(obj, f.name))
+            if f.metadata.get('json') == 'inline' and isinstance(value, dict):
+                _merge(out, value, type(obj).__name__)
+            else:
+                _merge(out, {f.name: value}, type(obj).__name__)
+        return out
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return jsonable(obj.tolist())
     if isinstance(obj, np.generic):
-        return obj.item()
+        return jsonable(obj.item())
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
-    return obj
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        return obj
+    raise TypeError(f'{type(obj).__name__} has no JSON form; allowed: dataclasses, numbers, strings, lists, '
+                    'mappings and numpy arrays')
 
 
-def emit_json(obj: Any) -> None:
-    """Print ``obj`` (:func:`jsonable`) as one JSON object on stdout."""
-    json.dump(jsonable(obj), sys.stdout, allow_nan=False)
+def _merge(out: JsonObject, more: JsonObject, what: str) -> None:
+    twice = sorted(set(out) & set(more))
+    if twice:
+        raise TypeError(f'{what} gives the keys {twice} twice')
+    out.update(more)
+
+
+def json_object(obj: object) -> JsonObject:
+    """:func:`jsonable` of a dataclass (or a mapping): a JSON object."""
+    data = jsonable(obj)
+    if not isinstance(data, dict):
+        raise TypeError(f'{type(obj).__name__} is not a JSON object; allowed: a dataclass or a mapping')
+    return data
+
+
+def emit_json(result: object, **context: JsonValue) -> None:
+    """Print the result dataclass ``result`` (:func:`jsonable`) as one JSON object on stdout, then the ``context``
+    keys: what the command itself knows and the result cannot (the files it read or wrote), never a result's
+    field again."""
+    data = json_object(result)
+    _merge(data, context, type(result).__name__)
+    json.dump(data, sys.stdout, allow_nan=False)
     sys.stdout.write('\n')
+
+
+def _existing(value: object) -> list[str]:
+    values = value if isinstance(value, list) else [value]
+    return [v for v in values if isinstance(v, str) and v and os.path.exists(v)]
+
+
+def distinct_outputs(args: argparse.Namespace) -> None:
+    """Refuse, before any work, an output (:data:`OUTPUT_OPTIONS`) that names an existing file or folder the command
+    also takes as an input, or another output (``gpr calibrate M.csv --output M.csv`` overwrote the measurements
+    with the calibrated geometry). Files the command reads without naming them (a robot's geometry file) are
+    refused when written (:func:`gpr_kinematics.inputs.files.check_output`)."""
+    values = vars(args)
+    outputs = [(k, v) for k in OUTPUT_OPTIONS for v in _existing(values.get(k))]
+    others = [(k, v) for k, value in values.items() if k not in OUTPUT_OPTIONS for v in _existing(value)]
+    for i, (key, out) in enumerate(outputs):
+        for other, path in others + outputs[i + 1:]:
+            try:
+                same = os.path.samefile(out, path)
+            except OSError:
+                continue
+            if same:
+                what = 'an input of this command' if other not in OUTPUT_OPTIONS else 'another output'
+                raise InputError(f'--{key} {out!r} is the same file as {other.upper()} {path!r} ({what}); allowed: '
+                                 'an output that is none of the files the command reads or writes')

@@ -1,68 +1,128 @@
-"""``gpr program check|export``: offline programs of the whole robot (docs/robot.md#programs).
+"""``gpr program check|export|send``: offline programs of the whole robot (docs/robot.md#programs).
 
-``--robot FILE`` names the robot description (default: the program's ``robot``, else the shipped example),
+``gpr program check`` exits 0 when the program is safe (clearance at least ``--margin`` for every pair of bodies,
+certified between samples, and no wafer slip), 1 when it is not (a table names the first collision), 2 on bad
+input. ``--robot FILE`` names the robot description (default: the program's ``robot``, else the shipped example),
 ``--config FILE`` a GPR geometry replacing the description's, ``--json`` prints one JSON object on stdout. Bad input
 exits with status 2 and one line on stderr.
+
+``export --trajectory FILE.yaml`` writes the program as a ``trajectory_msgs/JointTrajectory`` (one point per sample at
+``--rate``, timed as ``--samples``); ``send`` (the ``ros`` extra, in a ROS environment) sends that trajectory, from
+where the robot is (``joint_states``), to a ``control_msgs/action/FollowJointTrajectory`` server and reports its
+progress and result: exit 0 when it succeeded, 1 when the server refused, aborted or never answered, 2 on bad input.
 """
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import sys
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from ..robot.plan import ProgramSummary, program_summary
 from .options import robot_of, robot_options
-from .output import emit_json
+from .output import JsonValue, emit_json
+
+if TYPE_CHECKING:
+    from ..safety.check import SafetyReport
 
 
-def _program(args: argparse.Namespace) -> tuple[Any, Any]:
-    from ..robot.plan import plan_program
+def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, Any]:
+    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned."""
+    from ..robot.plan import check_sample_count, plan_program
     from ..robot.program import load_program
     program = load_program(args.program)
+    if rate is not None:
+        check_sample_count(program, rate)
     return program, plan_program(robot_of(args, program.robot), program)
 
 
-def _summary(plan: Any) -> dict[str, Any]:
-    v, a = plan.timing.usage()
-    err = np.linalg.norm(plan.naive_wafer_error, axis=1)
-    i = int(np.argmax(err))
-    return {'program': plan.program.source, 'robot': plan.robot.name, 'stations': len(plan.program.stations),
-            'steps': len(plan.program.steps), 'waypoints': len(plan.waypoints), 'duration': plan.timing.total,
-            'joint_names': list(plan.joint_names), 'velocity_usage': v, 'acceleration_usage': a,
-            'max_naive_wafer_error': err[i], 'max_naive_wafer_error_at': plan.labels[i]}
-
-
-def _print_summary(s: dict[str, Any]) -> None:
-    print(f'program {s["program"]} on robot {s["robot"]}: {s["stations"]} stations, {s["steps"]} steps, '
-          f'{s["waypoints"]} waypoints, {s["duration"]:.3f} s; every waypoint reachable, every move within the limits')
-    for what in ('velocity', 'acceleration'):
-        usage = zip(s['joint_names'], s[f'{what}_usage'], strict=True)
+def _print_summary(s: ProgramSummary) -> None:
+    print(f'program {s.program} on robot {s.robot}: {s.stations} stations, {s.steps} steps, {s.waypoints} waypoints, '
+          f'{s.duration:.3f} s; every waypoint reachable, every move within the limits')
+    for what, values in (('velocity', s.velocity_usage), ('acceleration', s.acceleration_usage)):
+        usage = zip(s.joint_names, values, strict=True)
         print(f'  peak {what} / limit: ' + ', '.join(f'{n} {u:.2f}' for n, u in usage))
-    print(f'  the naive model would miss the wafer by up to {s["max_naive_wafer_error"] * 1e6:.3f} um '
-          f'(at {s["max_naive_wafer_error_at"]})')
+    print(f'  the naive model would miss the wafer by up to {s.max_naive_wafer_error * 1e6:.3f} um '
+          f'(at {s.max_naive_wafer_error_at})')
+
+
+@dataclass(frozen=True)
+class ProgramCheck:
+    """``gpr program check --json``: the program's summary and its safety report, their keys side by side."""
+
+    summary: ProgramSummary = field(metadata={'json': 'inline'})
+    safety: SafetyReport = field(metadata={'json': 'inline'})
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    _, plan = _program(args)
+    from ..errors import InputError
+    from ..safety.cell import load_cell
+    from ..safety.check import check_program
+    from ..safety.clearance import MARGIN
+    if args.plot is not None:
+        from ..inputs.files import check_output
+        if not str(args.plot).lower().endswith('.png'):
+            raise InputError(f'--plot {args.plot!r}: allowed: a .png file')
+        check_output(args.plot, 'plot')
+    margin = MARGIN if args.margin is None else args.margin
+    program, plan = _program(args)
+    path = args.cell if args.cell is not None else program.cell
+    cell = None if path is None else load_cell(path)
+    report, clear, slip = check_program(plan, cell, margin)
+    written: dict[str, str] = {}
+    if args.plot is not None:
+        from ..safety.plot import plot_check
+        written['plot_file'] = str(plot_check(args.plot, clear, slip, report))
     if args.json:
-        emit_json(_summary(plan))
+        emit_json(ProgramCheck(program_summary(plan), report), **written)
     else:
-        _print_summary(_summary(plan))
-    return 0
+        _print_summary(program_summary(plan))
+        _print_safety(report)
+        if written:
+            print(f'  plot written to {written["plot_file"]}')
+    return 0 if report.safe else 1
+
+
+def _print_safety(r: Any) -> None:
+    where = f'in cell {r.cell}' if r.cell else 'against itself (no cell)'
+    print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, certified '
+          f'between samples; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} at '
+          f'{r.max_slip_at:.3f} s ({r.slip_label})')
+    carried = [m for m in r.moves if m.max_slip_ratio > 0.0]
+    if carried:
+        head = 'waypoint (the move into it and its hold)'
+        print(f'    {head:<48} {"from [s]":>9} {"to [s]":>9} {"max slip ratio":>15}')
+        for m in carried:
+            print(f'    {m.label:<48} {m.start:>9.3f} {m.end:>9.3f} {m.max_slip_ratio:>15.3f}')
+    if r.collisions:
+        c = r.collisions[0]
+        print(f'  UNSAFE: {len(r.collisions)} pair(s) below the margin; the first:')
+        print(f'    {"step":>5}  {"station":<16} {"time [s]":>9}  {"bodies":<40} {"distance [mm]":>13}')
+        print(f'    {c.step:>5}  {c.station:<16} {c.time:>9.3f}  {" / ".join(c.bodies):<40} {c.distance * 1e3:>13.3f}')
+    if r.max_slip_ratio >= 1.0:
+        print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_ratio:.3f} >= 1) at {r.max_slip_at:.3f} s, '
+              f'{r.slip_label}')
+    print(f'  {"safe" if r.safe else "NOT safe"}')
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..robot.export import check_table_path, sample_table, waypoint_table, write_table
     from ..robot.plan import sample_plan
-    if args.waypoints is None and args.samples is None:
-        raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json)')
+    from ..robot.timing import check_rate
+    if args.waypoints is None and args.samples is None and args.trajectory is None:
+        raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json), or '
+                         '--trajectory FILE.yaml')
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
-    _, plan = _program(args)
+    at_rate = args.samples is not None or args.trajectory is not None
+    if at_rate:
+        check_rate(args.rate)
+    _check_trajectory_output(args)
+    _, plan = _program(args, args.rate if at_rate else None)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
-    written: dict[str, Any] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
+    written: dict[str, JsonValue] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:
         written['waypoints_file'] = str(write_table(args.waypoints, *waypoint_table(plan), meta))
     if args.samples is not None:
@@ -70,14 +130,139 @@ def _cmd_export(args: argparse.Namespace) -> int:
         written['samples_file'] = str(write_table(args.samples, *sample_table(plan, sampled),
                                                   meta | {'rate': args.rate}))
         written['sample_count'] = len(sampled)
+    written |= _export_trajectory(args, plan)
     if args.json:
-        emit_json(_summary(plan) | written)
+        emit_json(program_summary(plan), **written)
     else:
-        _print_summary(_summary(plan))
-        for key in ('waypoints', 'samples'):
+        _print_summary(program_summary(plan))
+        for key in ('waypoints', 'samples', 'trajectory'):
             if f'{key}_file' in written:
                 print(f'  {key} written to {written[f"{key}_file"]}')
     return 0
+
+
+# -- the program as a joint trajectory: export --trajectory, send ------------------------------------------------
+def _check_trajectory_output(args: argparse.Namespace) -> None:
+    """Refuse a bad ``--trajectory`` path or ``--lead-in`` before any work."""
+    from ..errors import InputError
+    from ..inputs.files import check_output
+    if args.trajectory is not None:
+        if not str(args.trajectory).lower().endswith(('.yaml', '.yml')):
+            raise InputError(f'--trajectory {args.trajectory!r}: allowed: a .yaml or .yml file')
+        check_output(args.trajectory, 'trajectory')
+    if not 0.0 <= args.lead_in <= 3600.0:
+        raise InputError(f'--lead-in = {args.lead_in!r} s; allowed: 0 to 3600 s')
+
+
+def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
+    """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later."""
+    if args.trajectory is None:
+        return {}
+    from ..robot.trajectory import program_trajectory, write_trajectory
+    traj = program_trajectory(plan, args.rate).shifted(args.lead_in)
+    return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
+            'trajectory_duration': traj.duration}
+
+
+@dataclass(frozen=True)
+class SendResult:
+    """What ``gpr program send`` did: the program, robot and action; the trajectory sent (points, duration [s], the
+    lead-in from where the robot was [s]); how it ended (``status``; the result's ``error_code``, its name and
+    ``error_string``) and the feedback received."""
+
+    program: str
+    robot: str
+    action: str
+    joint_names: list[str]
+    points: int
+    duration: float
+    lead_in: float
+    status: str
+    error_code: int
+    error_name: str
+    error_string: str
+    feedback: int
+
+    @property
+    def succeeded(self) -> bool:
+        return self.status == 'succeeded' and self.error_code == 0
+
+
+def _ros_modules() -> Any:
+    """The ROS side of ``send`` (the ``ros`` extra), in this repository's ROS environment when none is sourced."""
+    from ..errors import GprError
+    try:
+        from ..nodes import trajectory_client
+    except ModuleNotFoundError as exc:
+        if (exc.name or '').split('.')[0] == 'rclpy':
+            raise
+        from ..ros import env as ros_env
+        try:
+            ros_env.activate()
+            from ..nodes import trajectory_client
+        except (FileNotFoundError, OSError, ImportError):
+            raise GprError(f'gpr program send needs a ROS 2 environment: {exc.name} cannot be imported; source '
+                           'install/setup.bash (or run make setup in a checkout)') from None
+    return trajectory_client
+
+
+def _cmd_send(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+    from ..robot.trajectory import lead_in, program_trajectory
+    if not 0.0 < args.timeout <= 3600.0:
+        raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
+    _, plan = _program(args, args.rate)
+    traj = program_trajectory(plan, args.rate)
+    tc = _ros_modules()
+    with tc.GprClient('gpr_program_send', namespace=args.namespace) as client:
+        current = tc.current_positions(client, traj.joint_names, args.joint_states, args.timeout)
+        if current is None:
+            print(f'gpr program send: no {args.joint_states} with the joints {", ".join(traj.joint_names)} within '
+                  f'{args.timeout:g} s: cannot tell where the robot is', file=sys.stderr)
+            return 1
+        goal, start = lead_in(plan, traj, current, args.rate)
+        if not args.json:
+            print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '
+                  f'({start:.3f} s from where the robot is to the program\'s start) to {args.action}', flush=True)
+        clock = {'next': 0.0}
+
+        def progress(fb: Any) -> None:
+            t = fb.desired.time_from_start.sec + fb.desired.time_from_start.nanosec * 1e-9
+            if not args.json and (t >= clock['next'] or t >= goal.duration):
+                error = max((abs(e) for e in fb.error.positions), default=0.0)
+                print(f'  t = {t:8.3f} s of {goal.duration:.3f} s, largest error {error:.3g}', flush=True)
+                clock['next'] = t + args.progress
+        try:
+            outcome = tc.follow_trajectory(client, goal, args.action, args.timeout, progress)
+        except tc.ServiceTimeoutError as exc:
+            print(f'gpr program send: {exc}', file=sys.stderr)
+            return 1
+    result = SendResult(plan.program.source, plan.robot.name, args.action, list(goal.joint_names), len(goal),
+                        goal.duration, start, outcome.status, outcome.error_code, outcome.error_name,
+                        outcome.error_string, outcome.feedback)
+    if args.json:
+        emit_json(result)
+    else:
+        code = f'error_code {result.error_code}' + (f' {result.error_name}' if result.error_name else '')
+        print(f'{result.status} ({code}){": " + result.error_string if result.error_string else ""}')
+    return 0 if result.succeeded else 1
+
+
+def _send_parser(psub: Any) -> None:
+    p = psub.add_parser('send', help='run the program on a robot: a FollowJointTrajectory goal (ROS)')
+    p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
+    p.add_argument('--action', default='joint_trajectory_controller/follow_joint_trajectory', metavar='NAME',
+                   help='the FollowJointTrajectory action (relative names resolve in --namespace; default '
+                        'joint_trajectory_controller/follow_joint_trajectory)')
+    p.add_argument('--namespace', default='', metavar='NS', help="the robot's namespace, e.g. /r1 (default: none)")
+    p.add_argument('--joint-states', default='joint_states', metavar='TOPIC',
+                   help='where the robot publishes its joint states (default joint_states)')
+    p.add_argument('--rate', type=float, default=100.0, help='points per second [Hz] (default 100)')
+    p.add_argument('--timeout', type=float, default=10.0,
+                   help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
+    p.add_argument('--progress', type=float, default=1.0, help='seconds between progress lines (default 1)')
+    robot_options(p)
+    p.set_defaults(handler=_cmd_send)
 
 
 def register(sub: Any) -> None:
@@ -86,14 +271,23 @@ def register(sub: Any) -> None:
                              description='Robot programs (docs/robot.md#programs).')
     psub = program.add_subparsers(dest='program_command', metavar='SUBCOMMAND', parser_class=type(program))
     psub.required = True
-    p = psub.add_parser('check', help='solve every waypoint and time every move within the limits')
+    p = psub.add_parser('check', help='solve every waypoint, time every move, check clearance and wafer slip')
     p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
+    p.add_argument('--cell', metavar='FILE', help='the process cell (default: the program\'s cell, else none)')
+    p.add_argument('--margin', type=float, default=None, metavar='M',
+                   help='clearance below which a pair collides [m] (default 0.002)')
+    p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
     robot_options(p)
     p.set_defaults(handler=_cmd_check)
     p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON')
     p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
     p.add_argument('--waypoints', metavar='FILE', help='write the waypoint table (.csv or .json)')
     p.add_argument('--samples', metavar='FILE', help='write the sample table (.csv or .json)')
-    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100)')
+    p.add_argument('--trajectory', metavar='FILE', help='write the trajectory_msgs/JointTrajectory YAML (.yaml) that '
+                   'ros2 action send_goal reads: "{trajectory: $(cat FILE)}"')
+    p.add_argument('--lead-in', type=float, default=0.0, metavar='SECONDS', help='--trajectory: the first point this '
+                   'much after the start (a controller moves there from where the robot is); default 0')
+    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     robot_options(p)
     p.set_defaults(handler=_cmd_export)
+    _send_parser(psub)

@@ -8,36 +8,20 @@ shipped example ``config/robots/example_robot.yaml``), ``--config FILE`` a GPR g
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .options import angles, lengths, robot_of, robot_options, unit_options, vec
 from .output import emit_json
 
-
-def _pose(pose: Any, i: int = 0) -> dict[str, Any]:
-    return {'position': pose.position[i], 'quaternion': pose.quaternion[i]}
-
-
-def _station_dict(st: Any, i: int = 0) -> dict[str, Any]:
-    return {'position': st.position[i], 'tilt': st.tilt[i], 'azimuth': st.azimuth[i],
-            'heading': None if st.heading_free[i] else st.heading[i]}
+if TYPE_CHECKING:
+    from ..robot.forward import RobotForward
+    from ..robot.stations import Stations
+    from .main import Subparsers
 
 
-def _forward_dict(robot: Any, fk: Any, i: int = 0) -> dict[str, Any]:
-    a = robot.arm(fk.arm)
-    return {'robot': robot.name, 'arm_name': a.name, 'rods': fk.rods[i],
-            'arm': dict(zip(a.joint_names, fk.joints[i].tolist(), strict=True)),
-            'wafer': _pose(fk.wafer, i), 'blade': _pose(fk.blade, i), 'platform': _pose(fk.platform, i),
-            'naive_wafer': _pose(fk.naive_wafer, i), 'naive_platform': _pose(fk.naive_platform, i),
-            'naive_wafer_error': fk.naive_wafer_error_norm[i], 'naive_wafer_error_vector': fk.naive_wafer_error[i],
-            'naive_wafer_angle_error': fk.naive_wafer_angle_error[i],
-            'gpr': {'tilt': fk.gpr.tilt[i], 'tilt_azimuth': fk.gpr.tilt_azimuth[i], 'twist': fk.gpr.twist[i],
-                    'centre_shift': fk.gpr.centre_shift[i], 'model': fk.gpr.model}}
-
-
-def _print_poses(fk: Any, i: int = 0) -> None:
+def _print_poses(fk: RobotForward, i: int = 0) -> None:
     for name, pose in (('wafer', fk.wafer), ('blade', fk.blade), ('platform', fk.platform)):
         print(f'  {name:<9} position {vec(pose.position[i])} m, quaternion {vec(pose.quaternion[i], fmt="{:.12f}")}')
     print(f'  naive model: the wafer {fk.naive_wafer_error_norm[i] * 1e6:.3f} um '
@@ -50,10 +34,10 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     from ..robot.stations import stations_from_poses
     robot = robot_of(args)
     fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], args.arm)
-    station = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
     if args.json:
-        emit_json(_forward_dict(robot, fk) | {'station': _station_dict(station)})
+        emit_json(fk.record(0))
         return 0
+    station = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
     print(f'robot {robot.name}, arm {fk.arm}, model {fk.gpr.model}: rods {vec(fk.rods[0])} m, joints '
           f'{vec(fk.joints[0])} rad')
     _print_poses(fk)
@@ -62,7 +46,7 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     return 0
 
 
-def _station_args(args: argparse.Namespace) -> Any:
+def _station_args(args: argparse.Namespace) -> Stations:
     from ..inputs.validation import finite_number
     from ..robot.stations import Stations
     heading = None if args.heading is None else angles(args, [finite_number(args.heading, '--heading')])
@@ -75,18 +59,10 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     robot = robot_of(args)
     value = None if args.redundancy is None else angles(args, [args.redundancy])[0]
     sol = solve_stations(robot, _station_args(args), args.arm, args.branch, redundancy_value=value)
-    a = robot.arm(sol.arm)
     if args.json:
-        out = _forward_dict(robot, sol.forward)
-        out |= {'branch': sol.branch[0], 'station': _station_dict(sol.stations),
-                'naive_wafer_error': sol.naive_wafer_error_norm[0],
-                'naive_wafer_error_vector': sol.naive_wafer_error[0],
-                'naive_wafer_angle_error': sol.naive_wafer_angle_error[0],
-                'naive': {'rods': sol.naive_rods[0], 'arm': dict(zip(a.joint_names, sol.naive_joints[0].tolist(),
-                                                                      strict=True))},
-                'position_error': sol.position_error[0], 'angle_error': sol.angle_error[0]}
-        emit_json(out)
+        emit_json(sol.record(0))
         return 0
+    a = robot.arm(sol.arm)
     print(f'station inverse kinematics, robot {robot.name}, arm {a.name} (branch {sol.branch[0]}), model '
           f'{sol.forward.gpr.model}:')
     print(f'  rods      {vec(sol.rods[0])} m')
@@ -100,7 +76,7 @@ def _cmd_ik(args: argparse.Namespace) -> int:
 
 
 def _cmd_teach(args: argparse.Namespace) -> int:
-    from ..robot.teach import read_joint_table, reteach, teach
+    from ..robot.teach import RetaughtRecord, TeachReport, read_joint_table, reteach, teach
     robot = robot_of(args)
     if args.table is not None:  # an empty name is refused, not ignored
         if args.rods or args.joints:
@@ -112,41 +88,26 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     else:
         from ..errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
-    # The error arrays are properties computed anew at each access: take each once (a row holding a view of its
-    # own copy of the whole array made 100,000 rows cost 240 GB).
     if args.naive:
-        rt = reteach(robot, rods, joints, args.arm, names)
-        a = robot.arm(rt.solution.arm)
-        avoided, avoided_norm = rt.avoided_error, rt.avoided_error_norm
-        rows = [{'name': n, 'intended': _station_dict(rt.intended, i), 'rods': rt.solution.rods[i],
-                 'arm': dict(zip(a.joint_names, rt.solution.joints[i].tolist(), strict=True)),
-                 'avoided_error': avoided_norm[i], 'avoided_error_vector': avoided[i]}
-                for i, n in enumerate(names)]
+        report = TeachReport(robot.name, True, reteach(robot, rods, joints, args.arm, names).records())
     else:
-        taught = teach(robot, rods, joints, args.arm, names)
-        error = taught.naive_error
-        norm = np.linalg.norm(error, axis=1)
-        rows = [{'name': n, 'station': _station_dict(taught.stations, i),
-                 'naive_station': _station_dict(taught.naive_stations, i),
-                 'naive_error': float(norm[i]), 'naive_error_vector': error[i]}
-                for i, n in enumerate(names)]
+        report = TeachReport(robot.name, False, teach(robot, rods, joints, args.arm, names).records())
     if args.json:
-        emit_json({'robot': robot.name, 'reteach': args.naive, 'stations': rows})
+        emit_json(report)
         return 0
-    for row in rows:
-        if args.naive:
-            print(f'{row["name"]}: meant {vec(row["intended"]["position"])} m; new rods {vec(row["rods"])} m, joints '
-                  + ', '.join(f'{k} = {v:.9f}' for k, v in row['arm'].items())
-                  + f' rad; the old joints missed by {row["avoided_error"] * 1e6:.3f} um')
+    for row in report.stations:
+        if isinstance(row, RetaughtRecord):
+            print(f'{row.name}: meant {vec(row.intended.position)} m; new rods {vec(row.rods)} m, joints '
+                  + ', '.join(f'{k} = {v:.9f}' for k, v in row.arm.items())
+                  + f' rad; the old joints missed by {row.avoided_error * 1e6:.3f} um')
         else:
-            st = row['station']
-            print(f'{row["name"]}: station {vec(st["position"])} m, tilt {st["tilt"]:.9g}, azimuth '
-                  f'{st["azimuth"]:.9g}, heading {st["heading"]:.9g} rad; the naive model would record it '
-                  f'{row["naive_error"] * 1e6:.3f} um away')
+            st = row.station
+            print(f'{row.name}: station {vec(st.position)} m, tilt {st.tilt:.9g}, azimuth {st.azimuth:.9g}, heading '
+                  f'{st.heading:.9g} rad; the naive model would record it {row.naive_error * 1e6:.3f} um away')
     return 0
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     """Add ``gpr robot`` to the ``gpr`` parser."""
     robot = sub.add_parser('robot', help='the whole robot: forward and station inverse kinematics, teach',
                            description='The arm and the wafer on the GPR (docs/robot.md).')

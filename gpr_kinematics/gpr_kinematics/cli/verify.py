@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..bags.errors import BagError
 from ..bags.report import check_report_folder, write_report
@@ -17,6 +17,9 @@ from ..bags.verify import Tolerances, format_table, verify_bag
 from ..core.config import load_config
 from ..errors import InputError
 from .output import emit_json
+
+if TYPE_CHECKING:
+    from .main import Subparsers
 
 #: ``--tolerance VALUE`` (no name) sets these: the per-message agreement with the core.
 CORE_TOLERANCES = ('position', 'angle', 'virtual_joint', 'length', 'residual', 'agreement')
@@ -68,10 +71,7 @@ def _verify(args: argparse.Namespace) -> int:
         raise BagError(f'unreadable: {exc}') from None
     files = write_report(result, args.report) if args.report is not None else []
     if args.json:
-
-        out: dict[str, Any] = result.to_dict()
-        out['report'] = [str(f) for f in files]
-        emit_json(out)
+        emit_json(result.record(), report=[str(f) for f in files])
     else:
         sys.stdout.write(format_table(result) + '\n')
         if files:
@@ -80,7 +80,7 @@ def _verify(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         'verify', help='verify a recorded bag against the current kinematics (exit 0 ok, 1 failed, 2 unreadable)',
         description='Check a rosbag2 bag (MCAP or SQLite3, split recordings read as one): its checksums and '

@@ -9,7 +9,8 @@ Examples::
 
 ``--delta`` is the accuracy in metres (``--mm``: millimetres); angle edges count as ``angle_scale`` times the
 angle (the mechanism's characteristic length), see docs/workspace.md. A progress bar appears on stderr after
-2 s; Ctrl-C stops the run and keeps (and saves) what was proved, marked ``interrupted``.
+2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted``, as does the
+time limit (``--max-seconds``, default 600 s).
 """
 
 from __future__ import annotations
@@ -19,20 +20,25 @@ import importlib.util
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ConfigError, InputError
 from ..inputs.files import atomic_output, check_output
-from ..inputs.safe_yaml import load_text
+from ..inputs.safe_yaml import YamlValue, load_text
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
+from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
 from ..workspace.scheduler import MAX_WORKERS
-from .output import emit_json
+from .output import JsonValue, emit_json, json_object
+
+if TYPE_CHECKING:
+    from .main import Subparsers
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     """Add the ``workspace`` subcommand (plugin interface of :mod:`gpr_kinematics.cli.main`)."""
     p = subparsers.add_parser(
         'workspace',
@@ -63,7 +69,9 @@ def register(subparsers: Any) -> None:
                    'of the boxes, not the boxes')
     p.add_argument('--max-boxes', type=int, default=MAX_BOXES,
                    help=f'stop (like Ctrl-C) before keeping more boxes than this (default {MAX_BOXES})')
-    p.add_argument('--max-seconds', type=float, default=None, help='stop (like Ctrl-C) after this many seconds')
+    p.add_argument('--max-seconds', type=float, default=None,
+                   help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
+                   'has a limit)')
     p.add_argument('--no-progress', action='store_true', help='no progress bar on stderr')
     p.set_defaults(handler=run)
 
@@ -72,8 +80,8 @@ def register(subparsers: Any) -> None:
 MAX_SET = 2000
 
 
-def _overrides(items: list[str]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+def _overrides(items: list[str]) -> dict[str, YamlValue]:
+    out: dict[str, YamlValue] = {}
     for item in items:
         key, sep, value = item.partition('=')
         if not sep or not key.strip():
@@ -104,8 +112,7 @@ def _check_args(args: argparse.Namespace) -> float:
         raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
-    if args.max_seconds is not None and not args.max_seconds > 0:
-        raise InputError(f'--max-seconds must be positive, got {args.max_seconds}')
+    check_max_seconds(args.max_seconds)
     if not 1 <= args.max_boxes <= 10**9:
         raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
     if not 1 <= args.parts <= 100_000:
@@ -118,7 +125,7 @@ def _check_args(args: argparse.Namespace) -> float:
     return delta
 
 
-def _matplotlib() -> Any:
+def _matplotlib() -> ModuleType:
     """matplotlib (Agg), or a one-line error when it is not installed."""
     try:
         import matplotlib
@@ -130,38 +137,33 @@ def _matplotlib() -> Any:
 
 def run(args: argparse.Namespace) -> int:
     delta = _check_args(args)
-    model = load_workspace_model(args.file, _overrides(args.set))
+    overrides = _overrides(args.set)
+    model = load_workspace_model(args.file, overrides)
     result = approximate(model, delta, method=args.method, grid_nodes=args.grid_nodes,
                          progress=not args.no_progress, max_seconds=args.max_seconds,
                          max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,
                          parts=args.parts)
-    out = [list(model.variables).index(v) for v in result.variables]
-    box, scale = np.asarray(model.box)[out], np.asarray(model.scale)[out]
-    summary = result.summary()
-    summary.update({'file': str(args.file), 'type': model.name, 'box': box.tolist(), 'scale': scale.tolist(),
-                    'volume_units': '*'.join(result.units), 'overrides': _overrides(args.set)})
-    if getattr(model, 'tables', None):
-        summary['sub_coverings'] = model.tables.get('sub_coverings')
+    report = workspace_report(model, result)
+    written: dict[str, JsonValue] = {}
     notes = []
     if args.boxes is not None:
-        summary['boxes_file'] = str(save_boxes(args.boxes, result, box, scale))
-        notes.append(f'boxes written to {summary["boxes_file"]}')
+        written['boxes_file'] = path = str(save_boxes(args.boxes, result, report.box, report.scale))
+        notes.append(f'boxes written to {path}')
     if args.plot is not None:
-        stem = Path(args.file).stem
-        summary['plots'] = [str(p) for p in plot_projections(result, args.plot, stem, box)]
-        notes.append(f'{len(summary["plots"])} projections written to {args.plot}')
+        plots = plot_projections(result, args.plot, Path(args.file).stem, report.box)
+        written['plots'] = [str(p) for p in plots]
+        notes.append(f'{len(plots)} projections written to {args.plot}')
     if result.interrupted:
         why = '' if result.stopped == 'interrupted' else f' ({result.stopped})'
         sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
     if args.json:
-
-        emit_json(summary)
+        emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
         return 0
     print(f'{model.name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
           f'({result.outside_boxes} outside), method {result.method}, delta {delta:g} m')
-    print(f'inner volume {result.inner_volume:.6g} {summary["volume_units"]}, outer volume '
-          f'{result.outer_volume:.6g} {summary["volume_units"]}, {result.seconds:.2f} s'
+    print(f'inner volume {result.inner_volume:.6g} {report.volume_units}, outer volume '
+          f'{result.outer_volume:.6g} {report.volume_units}, {result.seconds:.2f} s'
           + (' (interrupted)' if result.interrupted else ''))
     if result.touches_initial_box:
         print('note: the approximation reaches the faces of the initial box (workspace.box); the workspace may '

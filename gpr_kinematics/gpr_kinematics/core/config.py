@@ -22,6 +22,7 @@ from typing import Any
 
 from ..errors import ConfigError, brief
 from ..inputs.resources import config_path
+from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
@@ -30,6 +31,10 @@ WEIGHTINGS = ('characteristic', 'unweighted')
 
 Point2 = tuple[float, float]
 Triple = tuple[float, float, float]
+#: A constant the kernels derive from a config (:attr:`GprConfig.derived`), typed where it is made and read: a
+#: ``MachineGeometry`` (:mod:`.machine`), a ``VirtualJointModel`` or a float (:mod:`.virtual_joints`), modules above
+#: this one that this one cannot name.
+Derived = Any
 
 
 @dataclass(frozen=True)
@@ -85,15 +90,15 @@ class GprConfig:
         _validate(self)
 
     @classmethod
-    def from_mapping(cls, values: Mapping[str, Any], source: str = 'config') -> GprConfig:
+    def from_mapping(cls, values: Mapping[str, YamlValue], source: str = 'config') -> GprConfig:
         """Build a config from a mapping, starting from the dataclass defaults."""
         return _build(cls(), values, source)
 
-    def replace(self, **changes: Any) -> GprConfig:
+    def replace(self, **changes: YamlValue) -> GprConfig:
         """Return a validated copy with ``changes`` applied (same keys as the YAML file)."""
         return _build(self, changes, 'replace()')
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, YamlValue]:
         """Plain dict of the values (lists instead of tuples, ``None`` kept), as written in YAML."""
         out = dataclasses.asdict(self)
         for key, value in out.items():
@@ -102,7 +107,7 @@ class GprConfig:
         return out
 
     @functools.cached_property
-    def derived(self) -> dict[str, Any]:
+    def derived(self) -> dict[str, Derived]:
         """Per-config cache of the constants the kernels derive from it (the machine geometry, the
         virtual-joint models): computed once per config object, not part of its value."""
         return {}
@@ -135,17 +140,17 @@ MIN_TRIANGLE_ANGLE = math.radians(5.0)
 MAX_SIDE_MISMATCH = 0.01
 
 
-def _fail(source: str, key: str, value: Any, allowed: str) -> ConfigError:
+def _fail(source: str, key: str, value: YamlValue, allowed: str) -> ConfigError:
     return ConfigError(f'{source}: {key} = {brief(value)} is invalid; allowed: {allowed}')
 
 
-def _as_float(source: str, key: str, value: Any, allowed: str) -> float:
+def _as_float(source: str, key: str, value: YamlValue, allowed: str) -> float:
     if not is_number(value):
         raise _fail(source, key, value, allowed)
     return float(value)
 
 
-def _triple(source: str, key: str, value: Any) -> Any:
+def _triple(source: str, key: str, value: YamlValue) -> tuple[float | tuple[float, ...], ...]:
     """Three values (or three pairs) of a per-rod key, checked against :data:`_TRIPLE_RANGES`."""
     width, lo, hi, allowed = _TRIPLE_RANGES[key]
     given = value
@@ -153,7 +158,7 @@ def _triple(source: str, key: str, value: Any) -> Any:
         value = [value] * 3
     if not isinstance(value, (list, tuple)) or len(value) != 3:
         raise _fail(source, key, given, allowed)
-    out: list[Any] = []
+    out: list[float | tuple[float, ...]] = []
     for item in value:
         parts = [item] if width == 1 else item
         if not isinstance(parts, (list, tuple)) or len(parts) != width:
@@ -164,15 +169,15 @@ def _triple(source: str, key: str, value: Any) -> Any:
     return tuple(out)
 
 
-def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig:
+def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> GprConfig:
     if not isinstance(values, Mapping):
         raise ConfigError(f'{source}: expected a mapping of keys to values, got {type(values).__name__}')
     check_keys(values, (f.name for f in dataclasses.fields(GprConfig)), source)
-    merged: dict[str, Any] = base.to_dict()
+    merged: dict[str, YamlValue] = base.to_dict()
     if base.characteristic_length == base.radius and 'characteristic_length' not in values:
         merged['characteristic_length'] = None  # it followed the radius: keep following it
     merged.update(values)
-    conv: dict[str, Any] = {}
+    conv: dict[str, YamlValue] = {}
     for key, (lo, hi, allowed) in _FLOAT_RANGES.items():
         if key == 'characteristic_length' and merged[key] is None:
             conv[key] = 0.0
@@ -199,7 +204,7 @@ def _build(base: GprConfig, values: Mapping[str, Any], source: str) -> GprConfig
         raise ConfigError(f'{source}: {exc}') from None
 
 
-def _azimuths(source: str, az: Any) -> Triple:
+def _azimuths(source: str, az: YamlValue) -> Triple:
     allowed = 'a list of 3 finite, distinct angles in radians within [-2pi, 2pi]'
     if not isinstance(az, (list, tuple)) or len(az) != 3:
         raise _fail(source, 'rod_azimuths', az, allowed)
@@ -275,7 +280,7 @@ def resolve_config(config: GprConfig | None) -> GprConfig:
     return _DEFAULT_CONFIG
 
 
-def _read_yaml(path: str | Path) -> Mapping[str, Any]:
+def _read_yaml(path: str | Path) -> Mapping[str, YamlValue]:
     data = read_yaml(path)
     if data is None:
         return {}
@@ -285,7 +290,7 @@ def _read_yaml(path: str | Path) -> Mapping[str, Any]:
 
 
 def load_config(path: str | Path | None = None,
-                overrides: Mapping[str, Any] | None = None) -> GprConfig:
+                overrides: Mapping[str, YamlValue] | None = None) -> GprConfig:
     """Load the embedded default, then a user's file ``path`` and ``overrides`` on top of it.
 
     Raises:

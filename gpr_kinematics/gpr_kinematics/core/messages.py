@@ -15,12 +15,27 @@ Units are SI (metres, radians), quaternions (x, y, z, w), as in the core.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import yaml
+from numpy.typing import ArrayLike, NDArray
+
+from ..inputs.safe_yaml import YamlValue
+
+if TYPE_CHECKING:
+    from .config import GprConfig
+    from .forward import ForwardResult
+
+#: A ROS message or one of its field values, of a class generated from a ``.msg`` file (rclpy's, or the ``rosbags``
+#: typestore's): its type is made at run time, so this module, which takes either, cannot name it.
+RosMessage = Any
+#: A position or a quaternion as the core gives it (an array) or a caller writes it.
+Vector = Sequence[float] | NDArray[np.float64]
+#: A generated message class: its fields as keyword arguments -> the message.
+MessageClass = Callable[..., RosMessage]
 
 #: ``(message field, ForwardResult attribute)`` of every PlatformState / ForwardKinematics response field that is
 #: a copy of the forward solution. ``pose`` and ``nominal_pose`` combine two attributes each (position and
@@ -55,28 +70,35 @@ _NS_PER_S = 1_000_000_000
 class MessageTypes:
     """Constructors of the messages this module builds (rclpy classes or ``rosbags`` typestore classes)."""
 
-    Time: Any
-    Header: Any
-    Point: Any
-    Quaternion: Any
-    Vector3: Any
-    Pose: Any
-    PoseStamped: Any
-    JointState: Any
-    PlatformState: Any
-    float_sequence: Callable[[Any], Any]
+    Time: MessageClass
+    Header: MessageClass
+    Point: MessageClass
+    Quaternion: MessageClass
+    Vector3: MessageClass
+    Pose: MessageClass
+    PoseStamped: MessageClass
+    JointState: MessageClass
+    PlatformState: MessageClass
+    #: A ``float64[]`` field's value of float64 values (rclpy: ``array.array('d')``, rosbags: a numpy array).
+    float_sequence: Callable[[NDArray[np.float64]], RosMessage]
     #: ``gpr_interfaces/RobotState`` (the robot streams of :mod:`gpr_kinematics.robot.stream`).
-    RobotState: Any = None
+    RobotState: MessageClass
 
 
-def header(types: MessageTypes, stamp_ns: int, frame_id: str) -> Any:
+class Described(Protocol):
+    """What has a description file form: ``to_dict()``, the YAML mapping its loader reads back equal."""
+
+    def to_dict(self) -> Mapping[str, YamlValue]: ...
+
+
+def header(types: MessageTypes, stamp_ns: int, frame_id: str) -> RosMessage:
     """``std_msgs/Header`` with a stamp given in integer nanoseconds."""
     stamp_ns = int(stamp_ns)
     return types.Header(stamp=types.Time(sec=stamp_ns // _NS_PER_S, nanosec=stamp_ns % _NS_PER_S),
                         frame_id=str(frame_id))
 
 
-def pose(types: MessageTypes, position: Sequence[float], quaternion: Sequence[float]) -> Any:
+def pose(types: MessageTypes, position: Vector, quaternion: Vector) -> RosMessage:
     """``geometry_msgs/Pose`` from a position [m] and a quaternion (x, y, z, w)."""
     x, y, z = (float(v) for v in position)
     qx, qy, qz, qw = (float(v) for v in quaternion)
@@ -84,11 +106,11 @@ def pose(types: MessageTypes, position: Sequence[float], quaternion: Sequence[fl
                       orientation=types.Quaternion(x=qx, y=qy, z=qz, w=qw))
 
 
-def _floats(values: Any) -> np.ndarray:
+def _floats(values: ArrayLike) -> NDArray[np.float64]:
     return np.array(values, dtype=np.float64).reshape(-1)
 
 
-def forward_fields(types: MessageTypes, fk: Any) -> dict[str, Any]:
+def forward_fields(types: MessageTypes, fk: ForwardResult) -> dict[str, RosMessage]:
     """The message fields of :data:`STATE_FROM_RESULT` built from one forward result ``fk``
     (a :class:`~gpr_kinematics.core.ForwardResult`, or a row of a ``ForwardBatch``), as keyword
     arguments of ``PlatformState`` (or attributes of a ``ForwardKinematics`` response)."""
@@ -112,8 +134,8 @@ def forward_fields(types: MessageTypes, fk: Any) -> dict[str, Any]:
     }
 
 
-def platform_state(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: str, sample: int,
-                   commanded_tilt: float, commanded_azimuth: float) -> Any:
+def platform_state(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, frame_id: str, sample: int,
+                   commanded_tilt: float, commanded_azimuth: float) -> RosMessage:
     """``gpr_interfaces/PlatformState`` of one sample of a stream: the forward result ``fk`` (its pose in
     ``frame_id``), the running sample counter and the commanded (program) tilt and azimuth [rad]."""
     return types.PlatformState(header=header(types, stamp_ns, frame_id), sample=int(sample),
@@ -121,18 +143,18 @@ def platform_state(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: str
                                **forward_fields(types, fk))
 
 
-def fill_fields(msg: Any, fields: dict[str, Any]) -> Any:
+def fill_fields(msg: RosMessage, fields: Mapping[str, RosMessage]) -> RosMessage:
     """Set ``fields`` as attributes of an existing message (a service response); returns ``msg``."""
     for name, value in fields.items():
         setattr(msg, name, value)
     return msg
 
 
-def stream_messages(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: str, sample: int,
-                    commanded_tilt: float, commanded_azimuth: float) -> dict[str, Any]:
+def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, frame_id: str, sample: int,
+                    commanded_tilt: float, commanded_azimuth: float) -> dict[str, RosMessage]:
     """Every message the trajectory node publishes for one sample, by topic (relative names):
     ``gpr/platform_state``, ``gpr/platform_pose`` and ``gpr/nominal_pose`` (PoseStamped),
-    ``gpr/joint_states`` (the physical joints only: the rods ``rod_1..3`` [m], as ``robot_state_publisher``
+    ``joint_states`` (the physical joints only: the rods ``rod_1..3`` [m], as ``robot_state_publisher``
     expects) and ``gpr/virtual_joints`` (the virtual joints by their core names [m, rad])."""
     st = platform_state(types, fk, stamp_ns=stamp_ns, frame_id=frame_id, sample=sample,
                         commanded_tilt=commanded_tilt, commanded_azimuth=commanded_azimuth)
@@ -141,23 +163,22 @@ def stream_messages(types: MessageTypes, fk: Any, *, stamp_ns: int, frame_id: st
         'gpr/platform_state': st,
         'gpr/platform_pose': types.PoseStamped(header=st.header, pose=st.pose),
         'gpr/nominal_pose': types.PoseStamped(header=st.header, pose=st.nominal_pose),
-        'gpr/joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
-                                             position=types.float_sequence(_floats(fk.q)), velocity=empty,
-                                             effort=empty),
+        'joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
+                                         position=types.float_sequence(_floats(fk.q)), velocity=empty, effort=empty),
         'gpr/virtual_joints': types.JointState(header=st.header, name=list(st.virtual_joint_names),
                                                position=types.float_sequence(_floats(fk.virtual_joints)),
                                                velocity=empty, effort=empty),
     }
 
 
-def geometry_text(config: Any) -> str:
+def geometry_text(config: GprConfig) -> str:
     """``data`` of ``gpr/geometry`` (std_msgs/String, latched): the YAML of a ``GprConfig.to_dict()``, which
     ``GprConfig.from_mapping`` reads back equal; a recording names the geometry and model that produced it."""
     text: str = yaml.safe_dump(config.to_dict(), default_flow_style=False, sort_keys=False)
     return text
 
 
-def robot_text(robot: Any) -> str:
+def robot_text(robot: Described) -> str:
     """``data`` of ``gpr/robot`` (std_msgs/String, latched): the YAML of a ``RobotDescription.to_dict()`` (the
     robot description file format, its geometry inline), which ``parse_robot`` reads back equal."""
     text: str = yaml.safe_dump(robot.to_dict(), default_flow_style=False, sort_keys=False)

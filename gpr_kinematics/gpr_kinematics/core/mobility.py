@@ -140,6 +140,35 @@ class MobilityResult:
             eq5=(float(s[-1] * proj) if s.size else 0.0, float(s[0] * proj) if s.size else 0.0))
 
 
+@dataclass(frozen=True)
+class RodChange(SensitivityBounds):
+    """Eqs. (3)-(5) for a change ``dq`` of the rod lengths [m] (:func:`rod_change`): the first-order ``norm_dx`` and
+    its bounds, and ``norm_dx_full = |X(q + dq) - X(q)|`` by the full solve (:func:`exact_dx`; ``None`` where
+    ``q + dq`` tilts beyond the limit, ``full_solve_refused`` then says why)."""
+
+    dq: tuple[float, float, float]
+    norm_dx_full: float | None
+    full_solve_refused: str = ''
+
+
+def rod_change(result: MobilityResult, dq: ArrayLike, config: GprConfig | None = None) -> RodChange:
+    """:class:`RodChange` of ``dq`` (3 values [m]) at the configuration of ``result`` on the machine ``config``.
+
+    Raises:
+        InputError, LimitError: as :meth:`MobilityResult.dx_bounds` (a ``dq`` that leaves the stroke).
+    """
+    first = result.dx_bounds(result.rod_perturbation(dq))
+    d = np.asarray(dq, dtype=float)
+    full: float | None = None
+    why = ''
+    try:
+        full = float(np.linalg.norm(exact_dx(result.q, d, config, result.model)))
+    except LimitError as exc:  # q + dq tilts beyond the limit: the first order stands alone
+        why = str(exc)
+    return RodChange(norm_dx=first.norm_dx, eq4=first.eq4, eq5=first.eq5, dq=(float(d[0]), float(d[1]), float(d[2])),
+                     norm_dx_full=full, full_solve_refused=why)
+
+
 def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Array:
     """``dP`` of a change ``dq`` of the rod lengths: ``(dq, dq1 u_1, dq2 u_2, dq3 u_3)`` (eq. (1), first rows);
     ``directions``: the unit rod directions ``u_k`` (3 x 3), default ``e3`` (parallel rods)."""

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,6 +27,8 @@ from ..errors import InputError, brief
 from .ops import ARRAY, Ops
 
 Array = NDArray[np.float64]
+#: A component of the kernels written with :class:`~.ops.Ops`: one float (``SCALAR``) or a batch (``ARRAY``).
+Component = TypeVar('Component', float, Array)
 
 #: Below this tilt [rad] the azimuth is undefined and reported as 0.
 AZIMUTH_UNDEFINED_BELOW = 1e-15
@@ -116,7 +118,7 @@ def matrix_from_quaternion(quat: ArrayLike) -> Array:
     return R
 
 
-def tilt_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> tuple[Any, Any]:
+def tilt_of_normal(ops: Ops, nx: Component, ny: Component, nz: Component) -> tuple[Component, Component]:
     """Tilt (>= 0) and tilt azimuth in (-pi, pi] of a unit normal given by components (floats with
     ``ops = SCALAR`` or arrays with ``ops = ARRAY``).
 

@@ -9,14 +9,13 @@ at the next azimuth) so that the stream of samples is continuous, as the traject
 ``serpentine=False`` gives the paper's plain order.
 
 >>> s = paper_sweep()  # radial model, 0.5 m
->>> s.summary['samples'], s.summary['singular_crossings'], round(s.summary['max_centre_shift'] * 1e6, 2)
+>>> s.summary.samples, s.summary.singular_crossings, round(s.summary.max_centre_shift * 1e6, 2)
 (756, 36, 28.41)
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,28 +58,60 @@ class SweepResult:
         return np.asarray(self.alpha == 0.0)
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> SweepSummary:
         """Samples, crossings and the largest centre shift, joint displacement, residual, iterations."""
         fk = self.forward
         shift = np.linalg.norm(fk.centre_shift[:, :2], axis=-1)
         i = int(np.argmax(shift))
-        return {
-            'samples': len(self),
-            'passes': int(self.pass_index.max()) + 1 if len(self) else 0,
-            'singular_crossings': int(np.count_nonzero(self.singular)),
-            'model': fk.model,
-            'height': self.height,
-            'max_tilt': float(np.max(fk.tilt)),
-            'max_centre_shift': float(shift[i]),
-            'max_centre_shift_at': {'alpha': float(self.alpha[i]), 'gamma': float(self.gamma[i])},
-            'max_joint_displacement': float(np.max(fk.joint_displacement)),
-            'within_budget': bool(np.all(fk.within_budget)),
-            'max_residual': float(np.max(fk.residual)),
-            'max_fit_residual': float(np.max(fk.fit_residual)),
-            'max_fk_iterations': int(np.max(fk.iterations)),
-            'max_ik_iterations': int(np.max(self.inverse_iterations)),
-            'max_height_error': float(np.max(np.abs(fk.position[:, 2] - self.height))),
-        }
+        return SweepSummary(
+            samples=len(self),
+            passes=int(self.pass_index.max()) + 1 if len(self) else 0,
+            singular_crossings=int(np.count_nonzero(self.singular)),
+            model=fk.model,
+            height=self.height,
+            max_tilt=float(np.max(fk.tilt)),
+            max_centre_shift=float(shift[i]),
+            max_centre_shift_at=SweepSample(alpha=float(self.alpha[i]), gamma=float(self.gamma[i])),
+            max_joint_displacement=float(np.max(fk.joint_displacement)),
+            within_budget=bool(np.all(fk.within_budget)),
+            max_residual=float(np.max(fk.residual)),
+            max_fit_residual=float(np.max(fk.fit_residual)),
+            max_fk_iterations=int(np.max(fk.iterations)),
+            max_ik_iterations=int(np.max(self.inverse_iterations)),
+            max_height_error=float(np.max(np.abs(fk.position[:, 2] - self.height))),
+        )
+
+
+@dataclass(frozen=True)
+class SweepSample:
+    """Where in the sweep: the signed tilt ``alpha`` and its azimuth ``gamma`` [rad]."""
+
+    alpha: float
+    gamma: float
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """The sweep in numbers (``gpr sweep``, SI units): ``samples``, ``passes``, ``singular_crossings``; the model
+    and the platform ``height`` [m]; the largest tilt [rad], centre shift in the base plane [m] (and where),
+    joint displacement [m] (``within_budget``), closure and rigid-fit residuals [m], Newton iterations of the
+    forward and inverse solves, and the largest height error [m]."""
+
+    samples: int
+    passes: int
+    singular_crossings: int
+    model: str
+    height: float
+    max_tilt: float
+    max_centre_shift: float
+    max_centre_shift_at: SweepSample
+    max_joint_displacement: float
+    within_budget: bool
+    max_residual: float
+    max_fit_residual: float
+    max_fk_iterations: int
+    max_ik_iterations: int
+    max_height_error: float
 
 
 def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TILT_STEP,

@@ -13,15 +13,29 @@ text goes to a temporary file in the same folder, which then replaces the target
 interrupted run never leaves half a file. An existing symbolic link is refused too (the output would land
 elsewhere than named). The functions return the path written so that a command can say what it wrote where.
 
+Two rules hold within a context (a ``contextvars`` context: a thread, a task):
+
+* **confined reads** (:func:`confined_reads`): while a node serves a remote client's request (a ``gpr/run_program``
+  goal's ``program_file``, and every file that program names: its robot, the robot's geometry, imported station
+  files), :func:`read_text` opens only files whose real path (symbolic links and ``..`` resolved) lies under the
+  folders its operator allowed; any other is refused before it is opened, with a message that names the path and
+  the rule, never the file's content;
+* **a command's outputs are not its inputs** (:func:`command_reads`): while a command runs, every file it reads is
+  noted (device and inode, :func:`note_read`), and :func:`check_output` refuses an output that is one of them
+  (``gpr calibrate M.csv --output M.csv`` overwrote its measurements with the calibrated geometry). The CLI also
+  refuses, before any work, an output named like one of its inputs (:mod:`gpr_kinematics.cli.output`).
+
 Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
 what is allowed.
 """
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
@@ -29,6 +43,55 @@ from ..errors import FileError, brief
 
 #: Largest text file read when a caller names no limit [bytes] (configuration and mechanism files are a few kB).
 MAX_TEXT_BYTES = 16 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class ReadRule:
+    """The folders reads are confined to (real paths) and how a message names the rule (e.g. ``the folders of
+    trajectory_node's parameter program_folders``)."""
+
+    folders: tuple[str, ...]
+    rule: str
+
+    def resolve(self, name: str, what: str) -> str:
+        """The real path of ``name`` when it lies under one of :attr:`folders`; :class:`FileError` otherwise."""
+        real = os.path.realpath(name)
+        if not any(real == f or real.startswith(f.rstrip(os.sep) + os.sep) for f in self.folders):
+            raise FileError(f'{what} file {name!r} is outside the folders this node reads files from; allowed: a file '
+                            f'under {", ".join(self.folders) or "no folder"} ({self.rule})')
+        return real
+
+
+_CONFINED: contextvars.ContextVar[ReadRule | None] = contextvars.ContextVar('gpr_confined_reads', default=None)
+_READS: contextvars.ContextVar[set[tuple[int, int]] | None] = contextvars.ContextVar('gpr_command_reads',
+                                                                                      default=None)
+
+
+@contextlib.contextmanager
+def confined_reads(folders: Iterable[str | os.PathLike[str]], rule: str) -> Iterator[ReadRule]:
+    """Within the block, :func:`read_text` reads only under ``folders`` (module docstring)."""
+    token = _CONFINED.set(ReadRule(tuple(os.path.realpath(f) for f in folders), rule))
+    try:
+        yield _CONFINED.get()  # type: ignore[misc]  # set just above
+    finally:
+        _CONFINED.reset(token)
+
+
+@contextlib.contextmanager
+def command_reads() -> Iterator[set[tuple[int, int]]]:
+    """Within the block, the files read are noted and no output may be one of them (module docstring)."""
+    token = _READS.set(set())
+    try:
+        yield _READS.get()  # type: ignore[misc]  # set just above
+    finally:
+        _READS.reset(token)
+
+
+def note_read(info: os.stat_result) -> None:
+    """Note a file the running command reads (by its ``fstat``), for :func:`check_output`."""
+    reads = _READS.get()
+    if reads is not None:
+        reads.add((info.st_dev, info.st_ino))
 
 
 def kind_of(mode: int) -> str:
@@ -63,8 +126,10 @@ def read_text(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_TEXT
         FileError: missing or unreadable, not a regular file, larger than ``max_bytes``, not UTF-8.
     """
     name = _name(path, what)
+    rule = _CONFINED.get()
+    real = rule.resolve(name, what) if rule is not None else name
     try:
-        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        fd = os.open(real, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
     except OSError as exc:
         raise FileError(f'cannot read {what} file {name!r}: {exc.strerror or exc}') from None
     try:
@@ -74,6 +139,7 @@ def read_text(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_TEXT
                             'regular text file')
         if info.st_size > max_bytes:
             raise FileError(f'{what} file {name!r} has {info.st_size} bytes; allowed: at most {max_bytes}')
+        note_read(info)
         chunks, size = [], 0
         while size <= max_bytes:  # read(n) of a regular file may return less than n
             chunk = os.read(fd, max_bytes + 1 - size)
@@ -116,6 +182,9 @@ def check_output(path: str | os.PathLike[str], what: str) -> Path:
     if info is not None and not stat.S_ISREG(info.st_mode):
         raise FileError(f'{what} output {name} exists and is not a regular file (it is {kind_of(info.st_mode)}); '
                         f'{allowed}')
+    if info is not None and (info.st_dev, info.st_ino) in (_READS.get() or ()):
+        raise FileError(f'{what} output {name!r} is a file this command reads; allowed: a file the command does not '
+                        'read (write the output elsewhere)')
     folder = target.parent
     if not folder.is_dir():
         raise FileError(f'cannot write {what} file {name!r}: No such file or directory (the folder {str(folder)!r} '

@@ -8,16 +8,23 @@ file and the limit:
 
 * aliases (``*name``) are refused: configuration, mechanism, program and robot files never need them;
 * nesting deeper than :data:`MAX_DEPTH` levels is refused;
-* more than :data:`MAX_NODES` values (scalars, lists and mappings) are refused as they are composed: each costs
-  about 0.7 kB and 35 us in PyYAML, so 2 MiB of ``[1,1,1,...]`` took 0.7 GB and 34 s, and 10 MiB would take 3.6 GB;
-* a file larger than :data:`MAX_BYTES` or not a regular file is refused before it is read;
+* more than :data:`MAX_NODES` values (scalars, lists and mappings) are refused before a node is built: libyaml's
+  events are counted first (a few microseconds each), and only a document within the bounds is composed (each value
+  then costs about 0.7 kB and 35 us in PyYAML's Python composer, 10 times less through libyaml's; 2 MiB of
+  ``[1,1,1,...]`` took 0.7 GB and 34 s with the Python composer alone). Without libyaml the values are counted as
+  they are composed;
+* a key given twice in one mapping is refused, naming the key and both lines (PyYAML keeps the last silently);
+* a file larger than its kind's bound (:data:`KIND_BYTES`; :data:`MAX_BYTES` for the others) or not a regular
+  file is refused before a byte is read (so an 8 MB robot file costs nothing but a ``stat``);
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
 
 Numbers in exponent form are floats as in YAML 1.2 (``1e-3``, ``1.5e3``, ``-2E+6``): PyYAML follows YAML 1.1,
 which needs a decimal point and a signed exponent (``1.5e+3``) and reads the others as text, so ``leg_max: 13e-2``
 was refused as "not a number, got '13e-2'". The ROS nodes read ``ros2 param set ... 1e-13`` the same way.
 
-Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them.
+Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them, and a key is
+quoted only when it is a name (:func:`quoted_key`): the lines of a file that is not of the package's formats are
+never repeated in a message.
 """
 from __future__ import annotations
 
@@ -26,13 +33,18 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from yaml.events import AliasEvent
-from yaml.nodes import Node
+from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
+from yaml.nodes import MappingNode, Node, ScalarNode
 
 from ..errors import BRIEF_LENGTH, ConfigError, brief
 from .files import read_text
 
-__all__ = ['BRIEF_LENGTH', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'brief', 'load_text', 'read_file']
+__all__ = ['BRIEF_LENGTH', 'KIND_BYTES', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'YamlValue', 'brief', 'is_name',
+           'load_text', 'quoted_key', 'read_file']
+
+#: A value read from YAML before its file format has checked it: a dict, list, str, int, float, bool or None, nested
+#: in any way a user wrote. Honestly ``Any``: each format's checks (:mod:`gpr_kinematics.inputs.schema`) narrow it.
+YamlValue = Any
 
 #: Largest YAML file the package reads [bytes] (10 MiB: configuration files are a few kB; a program of 10,000
 #: stations is about 1 MB; the node count below bounds memory and time, this bound the text).
@@ -42,52 +54,147 @@ MAX_DEPTH = 64
 #: Most values (nodes) in one YAML document: about 0.15 GB and 7 s at the limit; a program of 10,000 stations and
 #: steps has about 150,000 (larger station lists go in CSV station files).
 MAX_NODES = 200_000
+#: Largest file of each kind (the ``what`` of :func:`read_file`) [bytes], refused before it is read: a geometry, a
+#: robot description, a tolerance table is a few kB (1 MiB holds a hundred times that); a mechanism with closure
+#: equations some 10 kB; programs and station files go up to :data:`MAX_BYTES` (10,000 stations are about 1 MB).
+KIND_BYTES: dict[str, int] = {'config': 1 << 20, 'robot': 1 << 20, 'tolerance table': 1 << 20, 'mechanism': 4 << 20}
 
 
-class _BoundedLoader(yaml.SafeLoader):
-    """SafeLoader that refuses aliases and bounds the nesting depth and the number of nodes while composing the
-    node graph."""
+class _Bounds:
+    """The bounds of one document, checked per event or node: no alias, at most ``max_nodes`` values, nesting at
+    most :data:`MAX_DEPTH` deep, each refusal naming the line."""
 
-    def __init__(self, stream: str, source: str) -> None:
+    def __init__(self, source: str, max_nodes: int) -> None:
+        self.source, self.max_nodes = source, max_nodes
+        self.depth = self.nodes = 0
+
+    def node(self, line: int) -> None:
+        """One more value (a scalar, list or mapping) at ``line``, one level below the open collections."""
+        self.nodes += 1
+        if self.nodes > self.max_nodes:
+            raise ConfigError(f'{self.source}: line {line}: more than {self.max_nodes} YAML values; allowed: at '
+                              f'most {self.max_nodes} (large station lists belong in CSV station files)')
+        if self.depth + 1 > MAX_DEPTH:
+            raise ConfigError(f'{self.source}: line {line}: nested deeper than {MAX_DEPTH} levels; '
+                              f'allowed: at most {MAX_DEPTH}')
+
+    def alias(self, line: int) -> None:
+        raise ConfigError(f'{self.source}: line {line}: YAML aliases (*name) are not accepted '
+                          '(they can expand without bound); write the values out')
+
+
+def _prescan(text: str, bounds: _Bounds) -> None:
+    """The bounds checked on libyaml's events, before a node is built: a refusal costs a few microseconds per value
+    read up to it (composing costs ten times as much)."""
+    for event in yaml.parse(text, Loader=yaml.CSafeLoader):
+        if isinstance(event, (ScalarEvent, CollectionStartEvent)):
+            bounds.node(_line(event.start_mark))
+            if isinstance(event, CollectionStartEvent):
+                bounds.depth += 1
+        elif isinstance(event, CollectionEndEvent):
+            bounds.depth -= 1
+        elif isinstance(event, AliasEvent):
+            bounds.alias(_line(event.start_mark))
+
+
+def _line(mark: Any) -> int:
+    """The line (from 1) of a PyYAML mark (0 without one)."""
+    return int(mark.line) + 1 if mark is not None else 0
+
+
+class _UniqueKeys:
+    """A constructor mixin: a mapping that names a key twice is refused, naming the key and both lines (PyYAML keeps
+    the last value silently)."""
+
+    _source: str
+
+    def construct_mapping(self, node: MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if not isinstance(key_node, ScalarNode) or key_node.tag == 'tag:yaml.org,2002:merge':
+                continue
+            key = self.construct_object(key_node)  # type: ignore[attr-defined]  # SafeConstructor's
+            line = _line(key_node.start_mark)
+            if key in seen:
+                raise ConfigError(f'{self._source}: line {line}: duplicate key {quoted_key(key)} (first on line '
+                                  f'{seen[key]}); allowed: each key once in a mapping')
+            seen[key] = line
+        out: dict[Any, Any] = super().construct_mapping(node, deep=deep)  # type: ignore[misc]
+        return out
+
+
+class _BoundedLoader(_UniqueKeys, yaml.SafeLoader):
+    """The pure-Python loader (where PyYAML has no libyaml): the bounds are checked while composing the nodes."""
+
+    def __init__(self, stream: str, source: str, max_nodes: int) -> None:
         super().__init__(stream)
         self._source = source
-        self._depth = 0
-        self._nodes = 0
-
-    def _line(self) -> int:
-        """The line (from 1) of the next event."""
-        event: Any = yaml.SafeLoader.peek_event(self)
-        return int(event.start_mark.line) + 1
+        self._bounds = _Bounds(source, max_nodes)
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
+        event: Any = yaml.SafeLoader.peek_event(self)
+        line = _line(event.start_mark)
         if self.check_event(AliasEvent):
-            raise ConfigError(f'{self._source}: line {self._line()}: YAML aliases (*name) are not accepted '
-                              '(they can expand without bound); write the values out')
-        self._nodes += 1
-        if self._nodes > MAX_NODES:
-            raise ConfigError(f'{self._source}: line {self._line()}: more than {MAX_NODES} YAML values; allowed: at '
-                              f'most {MAX_NODES} (large station lists belong in CSV station files)')
-        self._depth += 1
-        if self._depth > MAX_DEPTH:
-            raise ConfigError(f'{self._source}: line {self._line()}: nested deeper than {MAX_DEPTH} levels; '
-                              f'allowed: at most {MAX_DEPTH}')
+            self._bounds.alias(line)
+        self._bounds.node(line)
+        self._bounds.depth += 1
         try:
             return super().compose_node(parent, index)
         finally:
-            self._depth -= 1
+            self._bounds.depth -= 1
+
+
+#: libyaml's loader (PyYAML's C extension), when PyYAML was built with it: the bounds are checked by
+#: :func:`_prescan` first.
+_CLoader: Any = None
+if getattr(yaml, '__with_libyaml__', False):
+    class _CBoundedLoader(_UniqueKeys, yaml.CSafeLoader):
+        def __init__(self, stream: str, source: str) -> None:
+            super().__init__(stream)
+            self._source = source
+
+    _CLoader = _CBoundedLoader
 
 
 # YAML 1.2's exponent floats (PyYAML's YAML 1.1 resolver, tried first, keeps every form it knows).
-_BoundedLoader.add_implicit_resolver('tag:yaml.org,2002:float',
-                                     re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$'),
-                                     list('-+.0123456789'))
+_FLOAT_1_2 = re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$')
+_BoundedLoader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
+if _CLoader is not None:
+    _CLoader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
 
 
-def load_text(text: str, source: str = 'YAML text') -> Any:
-    """Parse YAML ``text`` into plain data (dicts, lists, str, int, float, bool, None) under the bounds above.
+def is_name(key: YamlValue) -> bool:
+    """A key that a message may quote: a name (letters, digits, ``_``, ``-``, ``.``, ``/``, starting with a letter
+    or ``_``: how every key of the package's formats looks, typos included), a number, a bool or null."""
+    return (isinstance(key, str) and _NAME.fullmatch(key) is not None) or key is None or (
+        isinstance(key, (int, float, bool)))
+
+
+def quoted_key(key: YamlValue) -> str:
+    """A key of a file as a message names it: quoted (:func:`brief`) when :func:`is_name`, else only described. A
+    file that is not of the package's formats (``/etc/shadow`` read as YAML has keys such as
+    ``root:*:19000:0:99999:7::``) is never quoted back to the user, or to a remote client, by its keys.
+
+    >>> quoted_key('radius'), quoted_key('root:*:19000:0:99999:7::'), quoted_key(3)
+    ("'radius'", 'a key that is not a name (24 characters, not quoted)', '3')
+    """
+    if is_name(key):
+        return brief(key, 40)
+    size = f'{len(key)} characters' if isinstance(key, str) else type(key).__name__
+    return f'a key that is not a name ({size}, not quoted)'
+
+
+_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_.\-/]{0,79}')
+_NON_PRINTABLE = yaml.reader.Reader.NON_PRINTABLE
+
+
+def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None) -> YamlValue:
+    """Parse YAML ``text`` into plain data (dicts, lists, str, int, float, bool, None) under the bounds above
+    (``max_nodes``: the values allowed, default :data:`MAX_NODES`).
 
     Raises:
-        ConfigError: an alias, nesting beyond :data:`MAX_DEPTH`, or invalid YAML (first line of PyYAML's message).
+        ConfigError: an alias, nesting beyond :data:`MAX_DEPTH`, too many values, a key twice in a mapping, or
+            invalid YAML (first line of PyYAML's message).
 
     >>> load_text('a: [1, 2.5, x, 13e-2, 1.5e3]')
     {'a': [1, 2.5, 'x', 0.13, 1500.0]}
@@ -95,16 +202,29 @@ def load_text(text: str, source: str = 'YAML text') -> Any:
     Traceback (most recent call last):
     ...
     gpr_kinematics.errors.ConfigError: demo.yaml: line 2: YAML aliases (*name) are not accepted ...
+    >>> load_text('radius: 0.1\\nmodel: polar\\nradius: 0.2', 'g.yaml')  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    gpr_kinematics.errors.ConfigError: g.yaml: line 3: duplicate key 'radius' (first on line 1); allowed: ...
     """
     if len(text) > MAX_BYTES:
         raise ConfigError(f'{source}: {len(text)} characters of YAML; allowed: at most {MAX_BYTES}')
-    loader: _BoundedLoader | None = None
+    limit = MAX_NODES if max_nodes is None else max_nodes
+    bad = _NON_PRINTABLE.search(text)
+    if bad:  # PyYAML's own words, whichever parser runs
+        raise ConfigError(f'{source}: not valid YAML (unacceptable character #x{ord(bad.group()):04x}: special '
+                          f'characters are not allowed, on line {text.count(chr(10), 0, bad.start()) + 1})')
+    loader: Any = None
     try:
-        loader = _BoundedLoader(text, source)  # the reader checks the characters here already
+        if _CLoader is not None:
+            _prescan(text, _Bounds(source, limit))
+            loader = _CLoader(text, source)
+        else:
+            loader = _BoundedLoader(text, source, limit)  # the reader checks the characters here already
         return loader.get_single_data()
     except yaml.YAMLError as exc:
         raise ConfigError(f'{source}: not valid YAML ({str(exc).splitlines()[0]})') from None
-    except RecursionError:  # flow collections recurse in the parser, before compose_node can count
+    except RecursionError:  # flow collections recurse in the Python parser, before compose_node can count
         raise ConfigError(f'{source}: nested too deeply; allowed: at most {MAX_DEPTH} levels') from None
     except ConfigError:  # the loader's own refusals (an alias, the depth) are ValueErrors too: as they are
         raise
@@ -115,12 +235,14 @@ def load_text(text: str, source: str = 'YAML text') -> Any:
             loader.dispose()
 
 
-def read_file(path: str | Path, what: str = 'YAML') -> Any:
-    """Parse the YAML file ``path``: a regular file of at most :data:`MAX_BYTES`, UTF-8
-    (:func:`gpr_kinematics.inputs.files.read_text`), within the bounds of :func:`load_text`. ``what`` names the kind of
-    file in messages (config, program, mechanism, ...).
+def read_file(path: str | Path, what: str = 'YAML', max_bytes: int | None = None) -> YamlValue:
+    """Parse the YAML file ``path``: a regular file of at most ``max_bytes`` (default: :data:`KIND_BYTES` of
+    ``what``, else :data:`MAX_BYTES`), judged by its size before a byte is read, UTF-8
+    (:func:`gpr_kinematics.inputs.files.read_text`), within the bounds of :func:`load_text`. ``what`` names the kind
+    of file in messages (config, program, mechanism, ...).
 
     Raises:
         ConfigError: the file is missing, unreadable, not a regular file, too large, not UTF-8 or not valid YAML.
     """
-    return load_text(read_text(path, what, MAX_BYTES), str(path))
+    limit = max_bytes if max_bytes is not None else KIND_BYTES.get(what, MAX_BYTES)
+    return load_text(read_text(path, what, limit), str(path))

@@ -11,17 +11,17 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError, brief
 from . import safe_yaml
+from .safe_yaml import YamlValue
 from .validation import MAX_COORDINATE
 
 
-def is_number(value: Any) -> bool:
+def is_number(value: YamlValue) -> bool:
     """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite and within
     +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (1e6: no value of the package's files is larger, and
     products of a few of them cannot overflow)."""
@@ -30,7 +30,7 @@ def is_number(value: Any) -> bool:
             and math.isfinite(value))
 
 
-def number_array(value: Any, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+def number_array(value: YamlValue, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
     """``value``, nested lists of numbers of ``shape`` each passing :func:`is_number`, as a float array; ``None``
     when it is anything else (the caller names the key and what is allowed)."""
     if len(shape) == 0:
@@ -43,17 +43,24 @@ def number_array(value: Any, shape: tuple[int, ...]) -> NDArray[np.float64] | No
     return np.array(rows, dtype=float).reshape(shape)
 
 
-def check_keys(data: Mapping[Any, Any], allowed: Iterable[str], where: str) -> None:
-    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them and the allowed ones."""
+def check_keys(data: Mapping[YamlValue, YamlValue], allowed: Iterable[str], where: str) -> None:
+    """Refuse keys of a YAML mapping outside ``allowed``: :class:`ConfigError` names them (those that are names:
+    :func:`~gpr_kinematics.inputs.safe_yaml.quoted_key`; the others are only counted, so a file that is not of the
+    package's formats is not repeated in the message) and the allowed ones."""
     allowed = set(allowed)
-    unknown = sorted(brief(k, 40).strip("'") for k in data if k not in allowed)
+    unknown = [k for k in data if k not in allowed]
     if unknown:
-        more = f' and {len(unknown) - 8} more' if len(unknown) > 8 else ''
-        raise ConfigError(f'{where}: unknown key(s) {", ".join(unknown[:8])}{more}; allowed keys: '
-                          + ', '.join(sorted(allowed)))
+        names = sorted(brief(k, 40).strip("'") for k in unknown if safe_yaml.is_name(k))
+        parts = names[:8]
+        if len(names) > 8:
+            parts[-1] += f' and {len(names) - 8} more'
+        others = len(unknown) - len(names)
+        if others:
+            parts.append(f'{others} that {"is" if others == 1 else "are"} not a name (not quoted)')
+        raise ConfigError(f'{where}: unknown key(s) {", ".join(parts)}; allowed keys: ' + ', '.join(sorted(allowed)))
 
 
-def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | None = None,
+def number_key(data: Mapping[YamlValue, YamlValue], key: str, source: str, default: float | None = None,
                positive: bool = True, unit: str = 'm') -> float:
     """A finite number (not a bool, not a string) under ``key`` of a YAML mapping, positive unless
     ``positive=False``; ``default`` when absent; else :class:`ConfigError` naming file, key and value.
@@ -72,7 +79,7 @@ def number_key(data: Mapping[Any, Any], key: str, source: str, default: float | 
     return float(val)
 
 
-def read_yaml(path: str | Path, what: str = 'config') -> Any:
+def read_yaml(path: str | Path, what: str = 'config') -> YamlValue:
     """Parse a YAML file with the package's bounds (:func:`gpr_kinematics.inputs.safe_yaml.read_file`: no aliases,
     bounded nesting and size, UTF-8, regular files only); any problem raises :class:`ConfigError` naming the file
     (``what`` says which kind of file it is in the message: config, program, mechanism)."""

@@ -64,23 +64,54 @@ class AccuracyResult:
         """``(N, 6)`` deviation of the complete pose, parasitic components included."""
         return np.asarray(self.exact_poses - self.poses)
 
-    def as_dict(self, index: int = 0) -> dict[str, Any]:
-        """One pose's result as plain data (for JSON)."""
-        return {
-            'mechanism': self.mechanism,
-            'pose': self.poses[index],
-            'joints': self.joints[index],
-            'joint_errors': self.joint_errors[index],
-            'parameter_errors': {k: np.asarray(v) for k, v in self.parameter_errors.items()},
-            'variables': list(self.variables),
-            'linearized': dict(zip(self.variables, self.linearized[index].tolist(), strict=True)),
-            'exact': dict(zip(self.variables, self.exact[index].tolist(), strict=True)),
-            'difference': dict(zip(self.variables, self.difference[index].tolist(), strict=True)),
-            'exact_pose': self.exact_poses[index],
-            'linearized_twist': self.linearized_twist[index],
-            'exact_twist': self.exact_twist[index],
-            'condition_number': float(self.condition_number[index]),
-        }
+    def record(self, index: int = 0) -> PoseDeviation:
+        """The result of pose ``index`` (:class:`PoseDeviation`)."""
+        names = self.variables
+        return PoseDeviation(
+            mechanism=self.mechanism, pose=self.poses[index], joints=self.joints[index],
+            joint_errors=self.joint_errors[index], parameter_errors=dict(self.parameter_errors), variables=names,
+            linearized=dict(zip(names, self.linearized[index].tolist(), strict=True)),
+            exact=dict(zip(names, self.exact[index].tolist(), strict=True)),
+            difference=dict(zip(names, self.difference[index].tolist(), strict=True)),
+            exact_pose=self.exact_poses[index], linearized_twist=self.linearized_twist[index],
+            exact_twist=self.exact_twist[index], condition_number=float(self.condition_number[index]))
+
+    def report(self, kind: str) -> AccuracyReport:
+        """Every pose's result (``gpr accuracy --json``); ``kind`` is the mechanism's type."""
+        return AccuracyReport(self.mechanism, kind, self.variables,
+                              tuple(self.record(i) for i in range(self.poses.shape[0])))
+
+
+@dataclass(frozen=True)
+class PoseDeviation:
+    """The accuracy of one nominal ``pose`` (6,) [m, rad]: its ``joints``, the ``joint_errors`` and
+    ``parameter_errors`` given, the deviation of the pose ``variables`` ``linearized`` (eq. (7)), ``exact`` and
+    their ``difference``, the ``exact_pose`` reached, both deviations as a rigid motion (position [m] and rotation
+    vector [rad], base frame) and the ``condition_number`` of the homogenised ``dq/du``."""
+
+    mechanism: str
+    pose: np.ndarray
+    joints: np.ndarray
+    joint_errors: np.ndarray
+    parameter_errors: dict[str, np.ndarray]
+    variables: tuple[str, ...]
+    linearized: dict[str, float]
+    exact: dict[str, float]
+    difference: dict[str, float]
+    exact_pose: np.ndarray
+    linearized_twist: np.ndarray
+    exact_twist: np.ndarray
+    condition_number: float
+
+
+@dataclass(frozen=True)
+class AccuracyReport:
+    """The accuracy of every pose of a mechanism (its name, ``type`` and pose ``variables``): ``results``."""
+
+    mechanism: str
+    type: str
+    variables: tuple[str, ...]
+    results: tuple[PoseDeviation, ...]
 
 
 def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:

@@ -37,15 +37,32 @@ class DexterityMap:
     variable2: str | None = None
     values2: np.ndarray | None = None
 
-    def as_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            'mechanism': self.mechanism, 'variable': self.variable, 'values': self.values,
-            'dexterity': self.dexterity, 'within_limits': self.within_limits, 'singular': self.singular,
-            'condition_number': np.where(np.isfinite(self.condition_number), self.condition_number, -1.0),
-        }
-        if self.variable2 is not None:
-            out['variable2'], out['values2'] = self.variable2, self.values2
-        return out
+    def record(self, kind: str) -> DexterityRecord:
+        """The map as ``gpr dexterity --json`` prints it (:class:`DexterityRecord`); ``kind`` is the mechanism's
+        type."""
+        return DexterityRecord(
+            mechanism=self.mechanism, variable=self.variable, values=self.values, dexterity=self.dexterity,
+            within_limits=self.within_limits, singular=self.singular,
+            condition_number=np.where(np.isfinite(self.condition_number), self.condition_number, -1.0),
+            variable2=self.variable2, values2=self.values2, type=kind)
+
+
+@dataclass(frozen=True)
+class DexterityRecord:
+    """A :class:`DexterityMap` without its poses: the ``values`` of ``variable`` (and ``values2`` of ``variable2``
+    on a grid, else ``None``), the ``dexterity``, ``within_limits``, ``singular`` and ``condition_number`` (-1 where
+    infinite) at each, and the mechanism's name and ``type``."""
+
+    mechanism: str
+    variable: str
+    values: np.ndarray
+    dexterity: np.ndarray
+    within_limits: np.ndarray
+    singular: np.ndarray
+    condition_number: np.ndarray
+    variable2: str | None
+    values2: np.ndarray | None
+    type: str
 
 
 def check_points(count: int, what: str) -> None:

@@ -40,7 +40,7 @@ from gpr_interfaces.srv import (
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError
 from .conversions import Vector, pose_msg
-from .qos import latched_qos, stream_qos
+from .qos import latched_qos, service_qos, stream_qos
 
 
 class ServiceTimeoutError(GprError, TimeoutError):
@@ -82,7 +82,7 @@ class GprClient:
         """The (cached) service client of ``name``, once the service is available (:class:`ServiceTimeoutError`)."""
         key = (srv_type, name)
         if key not in self._clients:
-            cli = self.node.create_client(srv_type, name)
+            cli = self.node.create_client(srv_type, name, qos_profile=service_qos())
             if not cli.wait_for_service(timeout_sec=timeout):
                 self.node.destroy_client(cli)
                 raise ServiceTimeoutError(f'service {name} not available after {timeout} s')
@@ -184,7 +184,7 @@ class GprClient:
         of the program format) and return its goal handle once the node answered (``accepted`` tells)."""
         key = (RunProgram, 'gpr/run_program')
         if key not in self._clients:
-            cli = ActionClient(self.node, RunProgram, 'gpr/run_program')
+            cli = ActionClient(self.node, RunProgram, 'gpr/run_program', feedback_sub_qos_profile=stream_qos(10000))
             if not cli.wait_for_server(timeout_sec=timeout):
                 cli.destroy()
                 raise ServiceTimeoutError(f'action gpr/run_program not available after {timeout} s')

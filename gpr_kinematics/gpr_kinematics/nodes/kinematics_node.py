@@ -19,6 +19,12 @@ unless ``config_file`` is given) and the GprConfig keys (see :mod:`.params`). Un
 unknown arm, a station out of reach) is answered with
 ``success: false`` and a message naming the problem, logged at warning level; the node goes on serving.
 No exception escapes a callback (one would end the spin and leave the client waiting).
+
+No request is dropped: the services keep every request and response (reliable, keep all: :func:`.qos.service_qos`;
+with a queue of 100, a burst of 600 requests from one client got 208 answers). A request that waited longer than
+the parameter ``max_queue_time`` (default 5 s) in the node's queue is answered at once with ``success: false`` and
+a message starting ``saturated:`` (not computed), so that a node that cannot keep up tells its clients so, and
+drains its queue, instead of answering requests their clients gave up on.
 """
 from __future__ import annotations
 
@@ -30,7 +36,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.executors import Executor
 
 from gpr_interfaces.srv import (
     AnalyzeMobility,
@@ -47,18 +53,19 @@ from ..core.config import GprConfig
 from ..core.mobility import analyze_mobility
 from ..errors import GprError, InputError
 from ..inputs.validation import finite_vector
+from ..ros.specs import KINEMATICS
 from .conversions import fill_forward, point_array, pose_arrays, pose_msg, tilt_of_quaternion, transform_msg, vector_msg
-from .params import ConfigParameters, declare_robot
+from .params import ConfigParameters, declare_parameters, declare_robot
+from .qos import service_qos
 from .robot_services import RobotModels, fill_robot_forward, fill_station_inverse
-from .runtime import GprNode, one_line, run
+from .runtime import GprNode, QueueTimedExecutor, one_line, run
 
 NODE_NAME = 'kinematics_node'
-SERVICE_QUEUE_DEPTH = 100
 
 
 def _model(name: str) -> str | None:
-    """Empty model string: the node's default (``None`` for the core)."""
-    name = name.strip()
+    """Empty model string: the node's default (``None`` for the core); any other is taken exactly as sent (the core
+    refuses a name that is not a model: ``"radial\\n"`` and ``" radial"`` are not)."""
     return name or None
 
 
@@ -91,6 +98,11 @@ def guarded(service: str) -> Callable[..., Any]:
     def wrap(fn: Callable[..., None]) -> Callable[..., Any]:
         @functools.wraps(fn)
         def inner(self: KinematicsNode, request: Any, response: Any) -> Any:
+            age = self.request_age()
+            if age > self.max_queue_time:
+                return _failed(response, f'saturated: the request waited {age:.3g} s in the queue of '
+                               f'{self.get_name()} (allowed: max_queue_time = {self.max_queue_time:g} s); not '
+                               'computed: retry later, or send fewer requests at once')
             try:
                 # Hostile numbers (1e308) overflow on the way: the result is then refused as not finite, below.
                 with np.errstate(all='ignore'):
@@ -132,10 +144,10 @@ class KinematicsNode(GprNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.params = ConfigParameters(self, robot=declare_robot(self))
+        self.max_queue_time = float(declare_parameters(self, KINEMATICS)['max_queue_time'])
+        self._executor: QueueTimedExecutor | None = None
         self.robot_models = RobotModels()
-        # Deeper than the default (keep last 10): with several clients at full speed a response history of
-        # 10 can be overwritten before it is delivered (docs/benchmarks.md).
-        qos = QoSProfile(depth=SERVICE_QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        qos = service_qos()  # keep all: no request is dropped by a full queue (nodes/qos.py)
         self.create_service(ForwardKinematics, 'gpr/forward_kinematics', self.on_forward, qos_profile=qos)
         self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse, qos_profile=qos)
         self.create_service(Compensate, 'gpr/compensate', self.on_compensate, qos_profile=qos)
@@ -150,6 +162,15 @@ class KinematicsNode(GprNode):
                                f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad), '
                                f'gpr/robot_forward_kinematics, gpr/station_inverse_kinematics (robot {robot.name} '
                                f'from {robot.source}: arms {", ".join(robot.arm_names)})')
+
+    def make_executor(self) -> Executor:
+        """rclpy's single-threaded executor that also notes when each request arrived (for ``max_queue_time``)."""
+        self._executor = QueueTimedExecutor()
+        return self._executor
+
+    def request_age(self) -> float:
+        """Seconds the request being answered waited in the node's queue (0 when not known)."""
+        return self._executor.request_age() if self._executor is not None else 0.0
 
     @property
     def config(self) -> GprConfig:

@@ -1,19 +1,37 @@
-"""Pieces the package's Python launch files share (``launch/*.launch.py``): the ``params_file`` argument, the
-declared arguments of a table, and RViz with ``rviz/gpr.rviz``. Imported by the launch files only, under
-``ros2 launch`` (the ``launch`` and ``launch_ros`` packages of a ROS 2 install)."""
+"""Pieces the package's Python launch files share (``launch/*.launch.py``): the common arguments, the package's nodes
+with the launch's robustness rules, and RViz with ``rviz/gpr.rviz``. Imported by the launch files only, under
+``ros2 launch`` (the ``launch`` and ``launch_ros`` packages of a ROS 2 install).
+
+Every node gets ``use_sim_time`` (the launch argument). A *required* node (the services, the robot simulator, the
+state publisher: they run until the launch stops) is restarted when it dies if the argument ``respawn`` is true;
+otherwise its end, and the failure (a non-zero exit status) of any other node, ends the launch with status 1 and
+the reason (which node, its exit status). ``launch`` itself would end a launch whose node emitted ``Shutdown`` with
+status 0; an error raised while handling the exit is what makes ``ros2 launch`` return 1, so that is how the reason
+is given.
+"""
 from __future__ import annotations
 
 from collections.abc import Iterable
 from typing import Any
 
-from launch.actions import DeclareLaunchArgument
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
+from launch.launch_context import LaunchContext
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
 PACKAGE = 'gpr_kinematics'
+#: Nodes that run until the launch stops: restarted (``respawn``) or the end of the launch when they die.
+REQUIRED = ('kinematics_node', 'robot_simulator_node', 'state_publisher_node')
+#: Arguments every launch file of the package declares (name, default, description).
+COMMON = (
+    ('use_sim_time', 'false', 'every node takes its time from /clock (a simulation) instead of the wall clock '
+                              '(true/false)'),
+    ('respawn', 'false', 'restart a required node (kinematics_node, robot_simulator_node, state_publisher_node) '
+                         'that dies; false: its end, or any node failing, ends the launch with status 1 (true/false)'),
+)
 
 
 def share_file(folder: str, name: str) -> Any:
@@ -22,11 +40,12 @@ def share_file(folder: str, name: str) -> Any:
 
 
 def arguments(table: Iterable[tuple[str, str, str]]) -> list[Any]:
-    """``params_file`` (the shipped config/gpr_params.yaml), then one declared argument per (name, default,
-    description) of ``table``."""
+    """``params_file`` (the shipped config/gpr_params.yaml), one declared argument per (name, default, description)
+    of ``table``, then :data:`COMMON`."""
     return [DeclareLaunchArgument('params_file', default_value=share_file('config', 'gpr_params.yaml'),
                                   description='ROS parameters file (ros__parameters form)'),
-            *(DeclareLaunchArgument(name, default_value=default, description=text) for name, default, text in table)]
+            *(DeclareLaunchArgument(name, default_value=default, description=text)
+              for name, default, text in (*table, *COMMON))]
 
 
 def typed(name: str, value_type: type = str) -> Any:
@@ -34,7 +53,36 @@ def typed(name: str, value_type: type = str) -> Any:
     return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
+def _exited(context: LaunchContext, name: str, required: bool) -> None:
+    """On a node's exit: nothing while the launch stops, or when the node is being restarted, or when a node that
+    finishes on its own (a sweep) ended well; else end the launch with status 1 and the reason."""
+    event = context.locals.event
+    code = int(event.returncode)
+    restarted = required and LaunchConfiguration('respawn').perform(context).lower() == 'true'
+    if context.is_shutdown or restarted or (code == 0 and not required):
+        return
+    what = 'is required and ended' if code == 0 else 'died'
+    raise RuntimeError(f'{name} {what} (exit status {code}): ending the launch')
+
+
+def node(executable: str, parameters: list[Any], namespace: Any = None, condition: Any = None,
+         remappings: list[tuple[str, Any]] | None = None) -> Any:
+    """The package's ``executable`` in ``namespace`` with ``params_file``, ``parameters`` and ``use_sim_time``, and
+    the exit rules of the module docstring."""
+    required = executable in REQUIRED
+    return Node(package=PACKAGE, executable=executable, namespace=namespace or LaunchConfiguration('namespace'),
+                output='screen', condition=condition, remappings=remappings or [],
+                parameters=[LaunchConfiguration('params_file'), *parameters,
+                            {'use_sim_time': typed('use_sim_time', bool)}],
+                respawn=LaunchConfiguration('respawn') if required else False, respawn_delay=1.0,
+                on_exit=[OpaqueFunction(function=_exited, args=[executable, required])])
+
+
 def rviz() -> Any:
-    """rviz2 with rviz/gpr.rviz, if the argument ``rviz`` is true."""
-    return Node(package='rviz2', executable='rviz2', output='screen',
-                condition=IfCondition(LaunchConfiguration('rviz')), arguments=['-d', share_file('rviz', 'gpr.rviz')])
+    """rviz2 in the launch's namespace with rviz/gpr.rviz (its topics relative: they follow the namespace) and the
+    fixed frame ``<frame_prefix>gpr_base``, if the argument ``rviz`` is true."""
+    return Node(package='rviz2', executable='rviz2', output='screen', namespace=LaunchConfiguration('namespace'),
+                condition=IfCondition(LaunchConfiguration('rviz')),
+                parameters=[{'use_sim_time': typed('use_sim_time', bool)}],
+                arguments=['-d', share_file('rviz', 'gpr.rviz'), '-f', [LaunchConfiguration('frame_prefix'),
+                                                                        'gpr_base']])

@@ -1,11 +1,19 @@
-"""Quality of service of the package's topics, the latched topics, and topic-name checks.
+"""Quality of service of the package's topics, services and action feedback, the latched topics, and topic-name
+checks.
 
 Streams (``gpr/platform_state`` and its companions, ``/tf``) are reliable, keep last ``depth``, volatile: a
 subscriber gets every sample published after it matched. Latched topics (``gpr/geometry``, ``gpr/robot``,
-``robot_description``, ``/tf_static``) are reliable, keep last 1, transient local, as ``robot_state_publisher``
-publishes ``robot_description``: a subscriber that joins later still gets the one sample. A subscription must
+``gpr/program``, ``robot_description``, ``/tf_static``) are reliable, keep last 1, transient local, as
+``robot_state_publisher`` publishes ``robot_description``: a subscriber that joins later still gets the last
+sample. A subscription must
 ask for transient local to receive it, and a transient-local subscription does not match a volatile publisher,
 so the recorder and the replay pick the durability per topic (:data:`LATCHED`).
+
+Services (the node's request queue and response writer, :class:`~gpr_kinematics.nodes.client.GprClient`'s too) are
+reliable, keep all (:func:`service_qos`): no request or response is dropped because a queue is full (with keep last
+100, a burst of 600 requests from one client got 208 answers, the rest vanished); a node that cannot keep up answers
+``success: false`` "saturated" instead (:mod:`gpr_kinematics.nodes.kinematics_node`). The action's feedback is a
+stream (:func:`stream_qos`), so a client that is slow for a moment loses no sample's feedback.
 """
 from __future__ import annotations
 
@@ -17,12 +25,19 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from ..errors import ConfigError
 
 #: Topics published once and latched (fully qualified names as in the root namespace).
-LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/gpr/robot', '/robot_description', '/tf_static'})
+LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/gpr/robot', '/gpr/program', '/robot_description',
+                                     '/tf_static'})
 
 
 def stream_qos(depth: int) -> QoSProfile:
     """Reliable, keep last ``depth``, volatile."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+
+
+def service_qos() -> QoSProfile:
+    """Reliable, keep all (module docstring)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 
 

@@ -41,7 +41,7 @@ from rclpy.qos import QoSProfile
 from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
-from ..bags.typestore import GPR_TOPICS, check_known
+from ..bags.typestore import KNOWN_TOPICS, check_known
 from ..bags.writer import SegmentedBagWriter, check_output_path
 from ..ros.specs import node_specs
 from .conversions import message_class
@@ -112,8 +112,8 @@ class RecorderNode(GprNode):
             full = valid_topic_name(self, name.strip(), 'topics')
             if sep:
                 topics[full] = check_known(msgtype, full)
-            elif full in GPR_TOPICS:
-                topics[full] = GPR_TOPICS[full]
+            elif full in KNOWN_TOPICS:      # the suite's topics, and those of bags recorded before
+                topics[full] = KNOWN_TOPICS[full]
             else:
                 topics[full] = None
         missing = [t for t, ty in topics.items() if ty is None]

@@ -8,9 +8,10 @@
 
 The node's robot description (parameter ``robot_file``) computes with the node's geometry; a request may name
 another virtual-joint model. Every field of a request is checked (finite numbers, the arm, the number of joints,
-the branch) and a bad one raises :class:`~gpr_kinematics.errors.InputError` naming the field and what is allowed;
-the core refuses what is beyond the robot's limits (stroke, tilt, reach, joint limits) with its message. SI units
-(metres, radians) and quaternions (x, y, z, w), as in the core.
+the branch; names exactly as sent: ``"arm1 "`` is no arm) and a bad one raises
+:class:`~gpr_kinematics.errors.InputError` naming the field and what is allowed; the core refuses what is beyond
+the robot's limits (stroke, tilt, reach, joint limits) with its message. SI units (metres, radians) and quaternions
+(x, y, z, w), as in the core.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..core.config import MODELS
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..inputs.validation import finite_number, finite_vector
 from ..robot import Stations, robot_forward, solve_stations
 from ..robot.description import Arm, RobotDescription
@@ -40,12 +41,12 @@ class RobotModels:
         self._cache: dict[tuple[int, str], RobotDescription] = {}
 
     def get(self, robot: RobotDescription, model: str) -> RobotDescription:
-        """``robot`` under ``model`` (empty: its own); InputError for a model that does not exist."""
-        model = model.strip()
+        """``robot`` under ``model`` (empty: its own; a name exactly as sent); InputError for a model that does not
+        exist."""
         if not model or model == robot.config.model:
             return robot
         if model not in MODELS:
-            raise InputError(f'model = {model[:80]!r} is invalid; allowed: {", ".join(MODELS)}, or empty for the '
+            raise InputError(f'model = {brief(model)} is invalid; allowed: {", ".join(MODELS)}, or empty for the '
                              "node's model")
         key = (id(robot.config), model)
         if key not in self._cache:
@@ -62,7 +63,7 @@ def _arm(robot: RobotDescription, name: str) -> Arm:
     for a in robot.arms:
         if a.name == name:
             return a
-    raise InputError(f'arm = {name[:80]!r} is invalid; allowed: {", ".join(robot.arm_names)} (the arms of robot '
+    raise InputError(f'arm = {brief(name)} is invalid; allowed: {", ".join(robot.arm_names)} (the arms of robot '
                      f'{robot.name})')
 
 
@@ -92,7 +93,7 @@ def _platform_fields(response: Any, gpr: Any) -> None:
 
 def fill_robot_forward(robot: RobotDescription, request: Any, response: Any) -> Any:
     """A RobotForwardKinematics response for ``request`` (module docstring)."""
-    arm = _arm(robot, request.arm.strip())
+    arm = _arm(robot, request.arm)
     rods = finite_vector(request.rods, 'rods', 3)
     joints = _joints(request.joints, arm, 'joints')
     fk = robot_forward(robot, rods[None, :], joints[None, :], arm.name)
@@ -122,9 +123,9 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
 
 def fill_station_inverse(robot: RobotDescription, request: Any, response: Any) -> Any:
     """A StationInverseKinematics response for ``request`` (module docstring)."""
-    arm = _arm(robot, request.arm.strip())
+    arm = _arm(robot, request.arm)
     stations = request_stations(robot, request, arm)
-    branch = request.branch.strip() or None
+    branch = request.branch or None
     value = finite_number(request.redundancy_value, 'redundancy_value') if request.use_redundancy_value else None
     sol = solve_stations(robot, stations, arm.name, branch=branch, redundancy_value=value)
     fk = sol.forward

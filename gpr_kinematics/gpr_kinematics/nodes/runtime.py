@@ -21,17 +21,19 @@ import os
 import re
 import signal
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Sequence
+import time
+from collections.abc import Callable, Coroutine, Iterable, Iterator, Sequence
 from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterType
 from rclpy.duration import Duration
-from rclpy.exceptions import NameValidationException, ParameterException
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.exceptions import InvalidHandle, NameValidationException, ParameterException
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor, await_or_execute
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
+from rclpy.service import Service
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import EXIT_BAD_INPUT, GprError
@@ -89,6 +91,43 @@ def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
     return out
 
 
+class QueueTimedExecutor(SingleThreadedExecutor):
+    """rclpy's single-threaded executor that also notes when the request a service callback answers arrived at the
+    node (``rmw_service_info_t.received_timestamp``, which rclpy takes but does not pass to the callback):
+    :meth:`request_age` in the callback is how long the request waited in the node's queue. A response that cannot
+    be sent (its client went away, or stopped reading while its queue is full) is dropped with a warning instead of
+    ending the node (rclpy's action server does the same for goal responses). Otherwise rclpy's ``_take_service``
+    (7.1, Jazzy), unchanged."""
+
+    received_ns = 0
+
+    def request_age(self) -> float:
+        """Seconds the request being answered waited since it arrived (0 where the middleware gives no stamp)."""
+        return max(time.time_ns() - self.received_ns, 0) / 1e9 if self.received_ns else 0.0
+
+    def _take_service(self, srv: Service) -> Callable[[], Coroutine[Any, Any, None]] | None:
+        srv_type: Any = srv.srv_type
+        try:
+            with srv.handle:
+                request, header = srv.handle.service_take_request(srv_type.Request)
+        except InvalidHandle:  # destroyed meanwhile: nothing to do
+            return None
+        if header is None:
+            return None
+        received = int(getattr(header, 'received_timestamp', 0) or 0)
+
+        async def execute() -> None:
+            self.received_ns = received
+            response = await await_or_execute(srv.callback, request, srv_type.Response())
+            try:
+                srv.send_response(response, header)
+            except (RCLError, InvalidHandle) as exc:
+                rclpy.logging.get_logger('gpr_services').warning(
+                    f'{srv.srv_name}: the response could not be sent (the client went away?): {one_line(exc)}')
+
+        return execute
+
+
 class GprNode(Node):
     """A node run by :func:`run`: :meth:`finish` ends the run with a status; :meth:`spin` and :meth:`on_exit`
     are the hooks a node overrides (the default spins callbacks until finished or stopped). Double parameters
@@ -107,6 +146,11 @@ class GprNode(Node):
         """End the run loop with ``status`` (the first call wins)."""
         if self.exit_status is None:
             self.exit_status = status
+
+    def make_executor(self) -> Executor:
+        """The executor :func:`run` spins the node with: one thread (a node whose callbacks must run apart, such as
+        an action served while a goal is planned, returns a multi-threaded one)."""
+        return SingleThreadedExecutor()
 
     def spin(self, executor: Executor, stop: StopFlag) -> None:
         """Run callbacks until :meth:`finish` was called or a stop signal arrived."""
@@ -180,7 +224,7 @@ def run(node_class: Callable[[], GprNode], args: Sequence[str] | None = None, na
         except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
             logger.error(f'cannot start: internal error: {type(exc).__name__}: {one_line(exc)}')
             return EXIT_FAILED
-        executor = SingleThreadedExecutor()
+        executor = node.make_executor()
         executor.add_node(node)
         status = EXIT_OK
         try:

@@ -5,41 +5,55 @@ Publishes, from the robot description (``robot_file``, default the shipped examp
 ``config_file`` is given):
 
 - ``robot_description`` (std_msgs/String, reliable, transient local, depth 1, as ``robot_state_publisher``): the
-  URDF of :func:`gpr_kinematics.robot.urdf.robot_urdf`: the world, the GPR, the arms, blades and wafers;
+  URDF of :func:`gpr_kinematics.robot.urdf.robot_urdf`: the world, the GPR, the arms, blades and wafers, every link
+  named with ``frame_prefix``;
 - ``/tf_static`` (tf2_msgs/TFMessage, transient local): the fixed joints: ``world -> gpr_base`` (the robot's base),
   the rod guides on the base, each arm's blade and wafer;
-- ``/tf`` (tf2_msgs/TFMessage): for every ``gpr/platform_state`` received (from ``trajectory_node`` or a replayed
-  bag), stamped with that state's header stamp: ``base_frame -> platform_frame`` (the exact pose, copied from
-  the state), ``base_frame -> nominal_frame`` (the naive model's pose) and ``gpr_rod_guide_k -> gpr_rod_k``
-  (rod k at its length ``q_k``); and for every ``gpr/joint_states`` received, stamped with its stamp, each arm's
-  links (``platform_frame -> <arm>_link1 -> ... -> <arm>_link<n>``) at the joint values it carries. An arm whose
-  joints a message does not carry (the rods-only joint states of a platform stream) is drawn at its ``home``
-  posture, as ``joint_state_publisher`` would draw a joint nobody publishes.
+- ``/tf`` (tf2_msgs/TFMessage): for every ``joint_states`` message received (sensor_msgs/JointState, relative: the
+  node's namespace, remappable; from ``robot_simulator_node``, ``trajectory_node`` or a replayed bag), stamped with
+  its stamp, the robot at the joint values it carries and those it holds for the joints it does not carry:
+  ``base_frame -> platform_frame`` (the exact pose: forward kinematics of the rods under the node's virtual-joint
+  model), ``base_frame -> nominal_frame`` (the naive model's pose), ``gpr_rod_guide_k -> gpr_rod_k`` (rod k at its
+  length ``q_k``) and each arm's links (``platform_frame -> <arm>_link1 -> ... -> <arm>_link<n>``);
+- ``gpr/cell`` (visualization_msgs/MarkerArray, transient local), when ``cell_file`` names a process cell: its
+  obstacles in the cell's frame (with ``frame_prefix``; :func:`gpr_kinematics.safety.markers.cell_marker_array`).
 
-A robot_state_publisher cannot do this: the platform closes an overconstrained loop, so its pose is not a
-function of a joint tree; here it is the kinematics' answer carried by the state message. Parameters:
-``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``queue_depth`` (see :mod:`.specs`).
+The state is held: the joints start at the robot's rest (equal rods at mid-stroke, each arm at its ``home``; the
+robot simulator's state before its first goal) and keep the last value received, and while no ``joint_states``
+arrive the held state is published again at ``idle_rate``, stamped with the current time, as ``joint_state_publisher``
+keeps ``robot_state_publisher`` fed: so ``/tf`` has the whole robot before the first motion, between motions and
+after the last. ``frame_prefix`` (``r1/``) prefixes every frame, as robot_state_publisher's does.
+
+A robot_state_publisher cannot do this from the URDF alone: the platform closes an overconstrained loop (three rods,
+one platform), so its pose is not a function of a joint tree; here it is the kinematics' answer for the rods.
+Parameters: ``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``frame_prefix``, ``idle_rate``,
+``queue_depth``, ``cell_file`` (see :mod:`.specs`).
 """
 from __future__ import annotations
 
 import math
 import sys
+import time
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
-from gpr_interfaces.msg import PlatformState
-
+from ..core import forward
+from ..errors import GprError
+from ..robot.controller import ControllerJoints
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
-from ..ros.specs import STATE_PUBLISHER
-from .conversions import transform_msg
+from ..ros.specs import STATE_PUBLISHER, check_frame_prefix
+from ..safety.cell import load_cell
+from ..safety.markers import cell_marker_array
+from .conversions import make_message, message_class, transform_msg
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import latched_qos, stream_qos
-from .runtime import GprNode, run
+from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'state_publisher_node'
 
@@ -53,20 +67,24 @@ def _stamped(stamp: Any, parent: str, child: str, translation: Sequence[float],
 
 
 class StatePublisherNode(GprNode):
-    """Publishes the URDF and the fixed transforms once, then the transforms of every platform state."""
+    """Publishes the URDF and the fixed transforms once, then the transforms of the held state (module docstring)."""
 
     NODE_NAME = NODE_NAME
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        robot = ConfigParameters(self, read_only=True, robot=declare_robot(self)).robot
+        params = ConfigParameters(self, read_only=True, robot=declare_robot(self))
+        self.cfg, robot = params.config, params.robot
         p = declare_parameters(self, STATE_PUBLISHER)
-        self.model: RobotUrdf = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'])
-        self.base, self.platform, self.nominal = p['base_frame'], p['platform_frame'], p['nominal_frame']
-        self.rods = [self.model.joint(f'rod_{k}') for k in (1, 2, 3)]
-        #: Per arm: its revolute joints in the model and its home posture [rad].
-        self.arms: list[tuple[list[Joint], tuple[float, ...]]] = [
-            ([self.model.joint(n) for n in arm.joint_names], arm.home) for arm in robot.arms]
+        prefix = check_frame_prefix(p['frame_prefix'])
+        self.model: RobotUrdf = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'], prefix)
+        self.base, self.platform, self.nominal = (prefix + p[k] for k in ('base_frame', 'platform_frame',
+                                                                            'nominal_frame'))
+        joints = ControllerJoints.of(robot)
+        #: The robot model's joints moved by joint values (rods, then every arm's), and their held values.
+        self.moving: list[Joint] = [self.model.joint(n) for n in joints.names]
+        self.held = joints.rest.copy()
+        self.index = {n: k for k, n in enumerate(joints.names)}
         self.pub_description = self.create_publisher(String, 'robot_description', latched_qos())
         self.pub_description.publish(String(data=self.model.to_urdf()))
         self.pub_static = self.create_publisher(TFMessage, '/tf_static', latched_qos())
@@ -74,50 +92,65 @@ class StatePublisherNode(GprNode):
         static = [_stamped(now, j.parent, j.child, *self.model.transform(j.name))
                   for j in self.model.joints if j.kind == 'fixed']
         self.pub_static.publish(TFMessage(transforms=static))
+        self.cell = load_cell(p['cell_file']) if p['cell_file'] else None
+        if self.cell is not None:
+            self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), 'gpr/cell',
+                                                  latched_qos())
+            header = make_message('std_msgs/msg/Header', frame_id=prefix + self.cell.frame, stamp=now)
+            self.pub_cell.publish(cell_marker_array(make_message, header, self.cell))
         depth = int(p['queue_depth'])
         self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth))
-        # gpr/platform_state last: a trajectory node waiting for its subscribers finds the other one matched by then.
-        self.create_subscription(JointState, 'gpr/joint_states', self.on_joints, stream_qos(depth))
-        self.create_subscription(PlatformState, 'gpr/platform_state', self.on_state, stream_qos(depth))
+        self.create_subscription(JointState, 'joint_states', self.on_joints, stream_qos(depth))
         self.received = 0
+        self.last_received = -math.inf
+        self.idle_period = 1.0 / float(p['idle_rate'])
+        self.platform_pose: tuple[Any, Any] | None = None
+        self._pose_of(self.held[:3])
+        self.create_timer(self.idle_period, self._idle)
+        self.pub_tf.publish(self.transforms(now))
         self.get_logger().info(f'publishing robot_description (robot {robot.name}, {len(self.model.links)} links), '
-                               f'/tf_static ({len(static)} fixed joints) and /tf per gpr/platform_state '
-                               f'({self.base} -> {self.platform}, {self.nominal}, rods) and per gpr/joint_states '
-                               f'(arms {", ".join(robot.arm_names)})')
+                               f'/tf_static ({len(static)} fixed joints) and /tf per joint_states ({self.base} -> '
+                               f'{self.platform}, {self.nominal}, rods, arms {", ".join(robot.arm_names)}), held at '
+                               f'{p["idle_rate"]} Hz while none arrive'
+                               + (f'; gpr/cell: {len(self.cell.obstacles)} obstacles of {self.cell.source}'
+                                  if self.cell is not None else ''))
 
-    def transforms(self, state: PlatformState) -> TFMessage:
-        """The transforms of one platform state (see the module docstring)."""
-        h = state.header.stamp
-        pose, nominal = state.pose, state.nominal_pose
-        out = [
-            _stamped(h, self.base, self.platform, (pose.position.x, pose.position.y, pose.position.z),
-                     (pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w)),
-            _stamped(h, self.base, self.nominal, (nominal.position.x, nominal.position.y, nominal.position.z),
-                     (nominal.orientation.x, nominal.orientation.y, nominal.orientation.z, nominal.orientation.w)),
-        ]
-        for joint, q in zip(self.rods, state.q, strict=True):
-            out.append(_stamped(h, joint.parent, joint.child, *self.model.transform(joint.name, q)))
-        return TFMessage(transforms=out)
+    def _pose_of(self, rods: Any) -> None:
+        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none)."""
+        try:
+            fk = forward(rods, self.cfg, check_limits=False)
+        except GprError as exc:
+            self.get_logger().warning(f'rods {list(rods)} m have no platform pose: {one_line(exc)}; the platform '
+                                      'keeps its last pose', throttle_duration_sec=5.0)
+            return
+        self.platform_pose = ((fk.position, fk.quaternion), (fk.nominal_position, fk.nominal_quaternion))
 
-    def arm_transforms(self, joints: JointState) -> TFMessage:
-        """The arms' link transforms at the joint values of ``joints`` (an arm it does not carry, or carries with a
-        value that is not a finite number: at its home posture), stamped with its stamp."""
-        values = dict(zip(joints.name, joints.position, strict=False))
+    def transforms(self, stamp: Any) -> TFMessage:
+        """The transforms of the held state (module docstring), stamped ``stamp``."""
         out = []
-        for arm_joints, home in self.arms:
-            posture = [values.get(j.name, math.nan) for j in arm_joints]
-            if not all(math.isfinite(v) for v in posture):
-                posture = list(home)
-            out += [_stamped(joints.header.stamp, j.parent, j.child, *self.model.transform(j.name, v))
-                    for j, v in zip(arm_joints, posture, strict=True)]
+        if self.platform_pose is not None:
+            exact, naive = self.platform_pose
+            out += [_stamped(stamp, self.base, self.platform, *exact), _stamped(stamp, self.base, self.nominal, *naive)]
+        out += [_stamped(stamp, j.parent, j.child, *self.model.transform(j.name, float(v)))
+                for j, v in zip(self.moving, self.held, strict=True)]
         return TFMessage(transforms=out)
 
     def on_joints(self, joints: JointState) -> None:
-        self.pub_tf.publish(self.arm_transforms(joints))
-
-    def on_state(self, state: PlatformState) -> None:
+        """Take the finite values of the joints the message names, then publish the transforms at its stamp."""
+        rods = self.held[:3].copy()
+        for name, value in zip(joints.name, joints.position, strict=False):
+            k = self.index.get(name)
+            if k is not None and math.isfinite(value):
+                self.held[k] = value
+        if self.platform_pose is None or not np.array_equal(rods, self.held[:3]):
+            self._pose_of(self.held[:3])
         self.received += 1
-        self.pub_tf.publish(self.transforms(state))
+        self.last_received = time.monotonic()
+        self.pub_tf.publish(self.transforms(joints.header.stamp))
+
+    def _idle(self) -> None:
+        if time.monotonic() - self.last_received > 1.5 * self.idle_period:
+            self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,12 +1,12 @@
 """``trajectory_node``: streams compensated GPR platform poses, continuously through singular tilts, and whole-robot
 programs (the arm joints and the wafer too).
 
-Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
+Topics (relative names), frame ``gpr_base`` (``base_frame``; every frame with ``frame_prefix``), SI units (m, rad):
 
 - ``gpr/platform_state`` (gpr_interfaces/PlatformState): the full state of each sample;
 - ``gpr/platform_pose`` / ``gpr/nominal_pose`` (geometry_msgs/PoseStamped): platform pose under the virtual-joint
   model / the naive model;
-- ``gpr/joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
+- ``joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
   and, in a robot program, every arm's joints [rad], as ``robot_state_publisher`` expects; ``gpr/virtual_joints``
   (sensor_msgs/JointState): the virtual joints, named as in the core (lengths [m], angles [rad]);
 - ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample
@@ -15,7 +15,9 @@ Topics (relative names), frame ``gpr_base`` (``base_frame``), SI units (m, rad):
   (geometry_msgs/PoseStamped), both in the robot's world frame (:mod:`gpr_kinematics.robot.stream`);
 - ``gpr/geometry`` and ``gpr/robot`` (std_msgs/String, reliable, transient local, depth 1): published once at
   start, the YAML of the node's ``GprConfig.to_dict()`` and of its robot description (``RobotDescription.to_dict``),
-  so a recording names the geometry, model and robot that produced it.
+  so a recording names the geometry, model and robot that produced it; ``gpr/program`` (the same QoS): at the start
+  of every stream, what it was asked to do (the sweep's parameters or the program, its first sample counter, rate
+  and length: :mod:`gpr_kinematics.bags.program_record`), so ``gpr verify`` recomputes the stream.
 
 Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
 azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
@@ -29,12 +31,21 @@ precomputed with the batch API (:mod:`.streams`) before its first sample; a wall
 publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
 ``loop`` is true (then it starts over; the sample counter keeps counting); ``idle`` runs until SIGINT/SIGTERM.
 
+The action is served by threads of its own (a ``MultiThreadedExecutor``; the action server's callbacks in a
+callback group apart from the timer's, a goal planned in the executing thread): while one goal is planned or
+streamed, new goals are answered at once (rejected: one program at a time) and cancels too (a goal cancelled while
+it is planned ends as cancelled before its first sample). A goal's files are read only under the package's
+``config/programs`` and the folders of the parameter ``program_folders``
+(:class:`~gpr_kinematics.ros.streams.GoalFiles`): any other path is refused naming the path and the rule, never
+the file's content; every bound of a goal (its stations, its samples) is checked before the work it bounds.
+
 The node's robot (parameter ``robot_file``; empty: the start-up robot program's robot, else the shipped example)
 runs every robot program; its ``gpr`` section is the node's geometry unless ``config_file`` is given.
 """
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -42,8 +53,8 @@ from typing import Any
 from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
-from rclpy.executors import Executor
-from rclpy.task import Future
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.executors import Executor, MultiThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -55,8 +66,16 @@ from ..core.messages import geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marker_array
 from ..robot.program import RobotProgram, load_any_program
-from ..ros.specs import TRAJECTORY
-from ..ros.streams import Trajectory, goal_program, program_robot, sweep_trajectory, trajectory_of
+from ..ros.specs import TRAJECTORY, check_frame_prefix
+from ..ros.streams import (
+    GoalFiles,
+    Trajectory,
+    goal_program,
+    program_robot,
+    record_of,
+    sweep_trajectory,
+    trajectory_of,
+)
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import latched_qos, stream_qos
@@ -69,10 +88,29 @@ SETTLE = 0.1
 CATCH_UP = 5
 #: The topics of one sample (published together, in this order) and their message types.
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
-                                 'gpr/nominal_pose': PoseStamped, 'gpr/joint_states': JointState,
+                                 'gpr/nominal_pose': PoseStamped, 'joint_states': JointState,
                                  'gpr/virtual_joints': JointState}
 #: The topics a robot program adds to each sample (their types: :data:`gpr_kinematics.bags.typestore.GPR_TOPICS`).
 ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
+#: Threads of the node's executor: the timer, the action server's requests, a goal being planned or run, one spare.
+THREADS = 4
+
+
+class GoalEnd:
+    """How a goal's stream ended, set once by the stream (:meth:`TrajectoryNode._end`) and awaited by the thread
+    that executes the goal."""
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self.outcome: tuple[str, str, int, int] = ('failed', '', 0, 0)
+
+    def set_result(self, outcome: tuple[str, str, int, int]) -> None:
+        self.outcome = outcome
+        self._event.set()
+
+    def wait(self) -> tuple[str, str, int, int]:
+        self._event.wait()
+        return self.outcome
 
 
 class TrajectoryNode(GprNode):
@@ -83,11 +121,14 @@ class TrajectoryNode(GprNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         p = self.p = declare_parameters(self, TRAJECTORY)
+        self.prefix = check_frame_prefix(p['frame_prefix'])
+        self.base_frame = self.prefix + p['base_frame']
         program = None
         if p['mode'] == 'program':
             if not p['program_file']:
                 raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
             program = load_any_program(p['program_file'])
+        self.goal_files = GoalFiles.of(p['program_folders'])
         robot_program = program if isinstance(program, RobotProgram) else None
         params = ConfigParameters(self, read_only=True,
                                   robot=declare_robot(self, robot_program.robot if robot_program else None))
@@ -103,12 +144,15 @@ class TrajectoryNode(GprNode):
         self.pub_geometry.publish(String(data=geometry_text(self.cfg)))
         self.pub_robot = self.create_publisher(String, 'gpr/robot', latched_qos())
         self.pub_robot.publish(String(data=robot_text(self.robot)))
+        self.pub_program = self.create_publisher(String, 'gpr/program', latched_qos())
 
         self.sample = 0
         self.stream: Trajectory | None = None
         self.goal: ServerGoalHandle | None = None
-        self._goal_done: Future | None = None
+        self._goal_done: GoalEnd | None = None
         self._reserved = False
+        self._lock = threading.Lock()   # the goal callback, the executing thread and the timer run apart
+        self._closing = False
         self.index = 0
         self.sent = 0
         self.started_at: float | None = None
@@ -118,7 +162,8 @@ class TrajectoryNode(GprNode):
         self.timer = self.create_timer(self.period, self._tick)
         self.timer.cancel()
         self.action = ActionServer(self, RunProgram, 'gpr/run_program', execute_callback=self._execute,
-                                   goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT)
+                                   goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
+                                   callback_group=MutuallyExclusiveCallbackGroup(), feedback_pub_qos_profile=qos)
         t0 = time.perf_counter()
         if p['mode'] == 'sweep':
             traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
@@ -133,8 +178,15 @@ class TrajectoryNode(GprNode):
         self.start(traj)
 
     # -- streams -------------------------------------------------------------------------------------------------
-    def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: Future | None = None) -> None:
+    def make_executor(self) -> Executor:
+        """A multi-threaded executor: goals and cancels are answered while a goal is planned (module docstring)."""
+        return MultiThreadedExecutor(num_threads=THREADS)
+
+    def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: GoalEnd | None = None) -> None:
         """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end)."""
+        self.pub_program.publish(String(data=record_of(traj, self.sample, float(self.p['rate']),
+                                                       bool(self.p['loop']) and goal is None,
+                                                       float(self.p['move_time']))))
         self.stream, self.goal, self._goal_done = traj, goal, done
         self.index = 0
         self.started_at = None
@@ -247,10 +299,13 @@ class TrajectoryNode(GprNode):
             self.get_logger().info(f'finished: published {published} samples in {elapsed:.3f} s (achieved '
                                    f'{achieved:.3f} Hz, requested {self.p["rate"]} Hz)'
                                    + ('' if outcome == 'succeeded' else f': {message}'))
-        traj, self.stream = self.stream, None
-        if self._goal_done is not None:
-            self._goal_done.set_result((outcome, message, published, len(traj) if traj else 0))
-            self._goal_done = None
+        with self._lock:  # on_exit may end a goal's stream while the timer's thread ends it too
+            traj, self.stream = self.stream, None
+            done, self._goal_done = self._goal_done, None
+        if done is not None:
+            done.set_result((outcome, message, published, len(traj) if traj else 0))
+        elif traj is None and self.goal is not None:
+            return  # ended already (by the other thread)
         elif outcome in ('succeeded', 'stopped'):
             self.finish(EXIT_OK)
         else:
@@ -260,11 +315,11 @@ class TrajectoryNode(GprNode):
     def publish_sample(self, traj: Trajectory, i: int) -> None:
         stamp_ns = self.get_clock().now().nanoseconds
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
-                               frame_id=self.p['base_frame'], sample=self.sample,
+                               frame_id=self.base_frame, sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
-        if traj.robot is not None:  # the arm joints join the rods on gpr/joint_states; the wafer on its topics
+        if traj.robot is not None:  # the arm joints join the rods on joint_states; the wafer on its topics
             msgs.update(traj.robot.messages(ROS_TYPES, i, stamp_ns=stamp_ns, sample=self.sample,
-                                            base_frame=self.p['base_frame']))
+                                            base_frame=self.base_frame, frame_prefix=self.prefix))
         for topic, msg in msgs.items():
             self.stream_publishers[topic].publish(msg)
         if self.sample % int(self.p['markers_every']) == 0:
@@ -273,31 +328,50 @@ class TrajectoryNode(GprNode):
 
     # -- the gpr/run_program action ----------------------------------------------------------------------------
     def _on_goal(self, _goal: Any) -> GoalResponse:
-        """Accept a goal only while no stream runs (one program at a time)."""
-        if self.stream is not None or self._reserved:
-            self.get_logger().warning('gpr/run_program: goal rejected: a stream is running')
-            return GoalResponse.REJECT
-        self._reserved = True
+        """Accept a goal only while no stream runs and no goal is being planned (one program at a time)."""
+        with self._lock:
+            if self.stream is not None or self._reserved or self._closing:
+                why = ('the node is shutting down' if self._closing else 'a goal is being planned' if self._reserved
+                       else 'a stream is running')
+                self.get_logger().warning(f'gpr/run_program: goal rejected: {why}')
+                return GoalResponse.REJECT
+            self._reserved = True
         return GoalResponse.ACCEPT
 
-    async def _execute(self, goal: ServerGoalHandle) -> Any:
+    def _refuse(self, goal: ServerGoalHandle, result: Any, message: str, cancelled: bool = False) -> Any:
+        with self._lock:
+            self._reserved = False
+        result.message = message
+        self.get_logger().warning(f'gpr/run_program: {message}')
+        if cancelled:
+            goal.canceled()
+        else:
+            goal.abort()
+        return result
+
+    def _execute(self, goal: ServerGoalHandle) -> Any:
+        """Plan the goal's program in this thread (the executor's others answer goals and cancels meanwhile), then
+        stream it and wait for its end."""
         result = RunProgram.Result()
         try:
-            traj = trajectory_of(goal_program(goal.request, self.robot), self.robot, self.p['rate'],
+            traj = trajectory_of(goal_program(goal.request, self.robot, self.goal_files), self.robot, self.p['rate'],
                                  self.p['move_time'])
         except Exception as exc:  # noqa: BLE001 - a goal must end with a result, and later goals be served
-            self._reserved = False
             reason = one_line(exc) if isinstance(exc, GprError) else f'internal error: {type(exc).__name__}: ' \
                 f'{one_line(exc)}'
-            result.message = f'cannot run the program: {reason}'
-            self.get_logger().warning(f'gpr/run_program: {result.message}')
-            goal.abort()
-            return result
+            return self._refuse(goal, result, f'cannot run the program: {reason}')
+        if goal.is_cancel_requested:
+            result.samples_total = len(traj)
+            return self._refuse(goal, result, f'cancelled before sample 0 of {len(traj)} (while it was planned)',
+                                cancelled=True)
+        if self._closing:
+            return self._refuse(goal, result, 'the node is shutting down')
         self.get_logger().info(f'gpr/run_program: {traj.description}')
-        done = Future()
-        self.start(traj, goal, done)
-        self._reserved = False
-        outcome, message, published, total = await done
+        done = GoalEnd()
+        with self._lock:
+            self.start(traj, goal, done)
+            self._reserved = False
+        outcome, message, published, total = done.wait()
         result.success, result.message = outcome == 'succeeded', message
         result.samples_published, result.samples_total = published, total
         if outcome == 'succeeded':
@@ -311,6 +385,10 @@ class TrajectoryNode(GprNode):
     def on_exit(self, executor: Executor, status: int) -> int:
         """After the last sample, wait until every subscription acknowledged what was published (reliable QoS,
         at most 2 s each); a stop signal leaves at once."""
+        with self._lock:
+            self._closing = True
+        if self.stream is not None and self._goal_done is not None:  # the thread executing the goal returns
+            self._end('stopped', 'the node is shutting down')
         if not self.signalled:
             wait_acknowledged(self.publishers_all, 2.0)
         self.action.destroy()

@@ -18,6 +18,7 @@ File format (``config/robots/example_robot.yaml`` is a commented example)::
         mount: {position: [0, 0, 0.05], yaw: 0}   # first joint axis on gpr_platform [m, rad]
         joints:                                    # 2 to 4 revolute joints, shoulder first
           - {name: arm1_shoulder, length: 0.3, height: 0.03, lower: -3, upper: 3, velocity: 2, acceleration: 8}
+          # optional zero_offset [rad]: the joint turns by its value plus this (a calibration's; default 0)
           - ...
         blade: {position: [0, 0, 0.01], yaw: 0, wafer_centre: [0.18, 0, 0.005]}
         branch: right                              # default elbow branch: left or right
@@ -32,8 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,8 +45,11 @@ from ..core.config import GprConfig, load_config
 from ..core.rotations import rpy_matrix
 from ..errors import ConfigError, brief
 from ..inputs.resources import config_path
-from ..inputs.schema import check_keys, number_key, read_yaml
+from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
+from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
+from .fields import NAME_RULE as _NAME_RULE
+from .fields import _angle, _mapping, _name, _number, _rpy, _vector, _xyz
 
 Array = NDArray[np.float64]
 
@@ -55,15 +58,14 @@ REDUNDANCY_RULES = ('fixed_joint', 'nearest')
 #: The shipped example robot, under the package's ``config/``.
 DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
-_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
-_NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
 _LENGTH_BOUND = 5.0  # m: arm and mount dimensions
 _WORLD_BOUND = 100.0  # m: base position in the world
 
 
 @dataclass(frozen=True)
 class ArmJoint:
-    """One revolute joint of a planar arm and the link after it (SI units)."""
+    """One revolute joint of a planar arm and the link after it (SI units). ``zero_offset`` [rad]: the joint's
+    angle is its value (commanded, limited, published) plus this (a calibration's, ``gpr calibrate --robot``)."""
 
     name: str
     length: float
@@ -72,6 +74,9 @@ class ArmJoint:
     upper: float
     velocity: float
     acceleration: float
+    zero_offset: float = 0.0
+    #: Jerk limit [rad/s^3] (None: unbounded, the moves' velocity profile is then a trapezoid).
+    jerk: float | None = None
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,8 @@ class Arm:
     branch: str
     home: tuple[float, ...]
     redundancy: Redundancy | None = None
+    #: Collision bodies of the links and blade, and the blade's grip (robot.collision).
+    bodies: ArmBodies = ArmBodies()
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -123,6 +130,12 @@ class Arm:
     upper = Stacked('joints')
     velocity = Stacked('joints')
     acceleration = Stacked('joints')
+    zero_offset = Stacked('joints')
+
+    @property
+    def jerk(self) -> Array:
+        """The joints' jerk limits ``(n,)`` [rad/s^3], ``inf`` where none is given."""
+        return np.array([math.inf if j.jerk is None else j.jerk for j in self.joints])
 
     @property
     def wafer_height(self) -> float:
@@ -151,6 +164,7 @@ class Rods:
     names: tuple[str, str, str]
     velocity: float
     acceleration: float
+    jerk: float | None = None
 
 
 @dataclass(frozen=True)
@@ -165,6 +179,9 @@ class RobotDescription:
     rods: Rods
     arms: tuple[Arm, ...]
     source: str = 'robot'
+    #: The GPR's collision bodies and the wafer's disc (robot.collision).
+    bodies: GprBodies = GprBodies()
+    wafer: WaferShape = WaferShape()
 
     @property
     def base_rotation(self) -> Array:
@@ -186,8 +203,12 @@ class RobotDescription:
         return {'name': self.name, 'gpr': {'config': None, **self.config.to_dict()},
                 'base': {'frame': self.world_frame, 'position': list(self.base_position), 'rpy': list(self.base_rpy)},
                 'rods': {'names': list(self.rods.names), 'velocity': self.rods.velocity,
-                         'acceleration': self.rods.acceleration},
-                'arms': [_arm_dict(a) for a in self.arms]}
+                         'acceleration': self.rods.acceleration, 'jerk': self.rods.jerk},
+                'arms': [_arm_dict(a) for a in self.arms],
+                'collision': {'column': {'radius': self.bodies.column_radius, 'height': self.bodies.column_height},
+                              'platform': {'radius': self.bodies.platform_radius,
+                                           'thickness': self.bodies.platform_thickness}},
+                'wafer': dataclasses.asdict(self.wafer)}
 
     def arm(self, name: str | None = None) -> Arm:
         """The arm called ``name`` (the first arm when ``None``); ConfigError names the arms there are."""
@@ -203,9 +224,11 @@ def _arm_dict(arm: Arm) -> dict[str, Any]:
     """An arm in the file format (:meth:`RobotDescription.to_dict`)."""
     out: dict[str, Any] = {
         'name': arm.name, 'mount': {'position': list(arm.mount_position), 'yaw': arm.mount_yaw},
-        'joints': [dataclasses.asdict(j) for j in arm.joints],
+        'joints': [{k: v for k, v in dataclasses.asdict(j).items() if k != 'zero_offset' or v} for j in arm.joints],
         'blade': {'position': list(arm.blade.position), 'yaw': arm.blade.yaw,
-                  'wafer_centre': list(arm.blade.wafer_centre)},
+                  'wafer_centre': list(arm.blade.wafer_centre), 'paddle': list(arm.bodies.paddle),
+                  'friction': arm.bodies.friction, 'vacuum': arm.bodies.vacuum},
+        'links': {'width': arm.bodies.width, 'thickness': arm.bodies.thickness},
         'branch': arm.branch, 'home': list(arm.home)}
     r = arm.redundancy
     if r is not None:
@@ -216,61 +239,10 @@ def _arm_dict(arm: Arm) -> dict[str, Any]:
     return out
 
 
-def _where(source: str, path: str) -> str:
-    return f'{source}: {path}' if path else source
-
-
-def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float, allowed: str,
-            default: float | None = None, unit: str = 'm') -> float:
-    value = number_key(data, key, where, default=default, positive=False, unit=unit)
-    if not lo <= value <= hi:
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {allowed}')
-    return value
-
-
-def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float, unit: str = 'm',
-            default: Sequence[float] | None = None) -> tuple[float, ...]:
-    raw = data.get(key, default)
-    allowed = f'a list of {n} finite numbers in {unit}, each within [-{bound:g}, {bound:g}]'
-    if not isinstance(raw, (list, tuple)) or len(raw) != n:
-        raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
-    out = []
-    for i, v in enumerate(raw):
-        out.append(_number({f'{key}[{i}]': v}, f'{key}[{i}]', where, -bound, bound, allowed, unit=unit))
-    return tuple(out)
-
-
-def _xyz(data: Mapping[str, Any], key: str, where: str, bound: float, default: Sequence[float] | None = None
-         ) -> tuple[float, float, float]:
-    x, y, z = _vector(data, key, where, 3, bound, default=default)
-    return x, y, z
-
-
-def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
-    r, p, y = _vector(data, 'rpy', where, 3, 2 * math.pi, 'rad', default=(0.0, 0.0, 0.0))
-    return r, p, y
-
-
-def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
-    value = data.get(key, default)
-    if not isinstance(value, str) or not _NAME.match(value):
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {_NAME_RULE}')
-    return value
-
-
-def _mapping(value: Any, where: str, what: str) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise ConfigError(f'{where}: expected a mapping ({what}), got {type(value).__name__}')
-    return value
-
-
-def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
-    return _number(data, key, where, -2 * math.pi, 2 * math.pi, 'radians within [-2pi, 2pi]', default, 'rad')
-
-
 def _joint(raw: Any, where: str) -> ArmJoint:
     data = _mapping(raw, where, 'a joint: name, length, height, lower, upper, velocity, acceleration')
-    check_keys(data, ('name', 'length', 'height', 'lower', 'upper', 'velocity', 'acceleration'), where)
+    check_keys(data, ('name', 'length', 'height', 'lower', 'upper', 'velocity', 'acceleration', 'zero_offset',
+                      'jerk'), where)
     name = _name(data, 'name', where)
     where = f'{where} ({name})'
     lower = _angle(data, 'lower', where)
@@ -284,7 +256,15 @@ def _joint(raw: Any, where: str) -> ArmJoint:
         lower=lower, upper=upper,
         velocity=_number(data, 'velocity', where, 1e-6, 100.0, 'rad/s, 0 < velocity <= 100', unit='rad/s'),
         acceleration=_number(data, 'acceleration', where, 1e-6, 1000.0, 'rad/s^2, 0 < acceleration <= 1000',
-                             unit='rad/s^2'))
+                             unit='rad/s^2'),
+        zero_offset=_number(data, 'zero_offset', where, -0.1, 0.1, 'radians within [-0.1, 0.1]', 0.0, 'rad'),
+        jerk=_jerk(data, where, 'rad/s^3', 1e5))
+
+
+def _jerk(data: Mapping[str, Any], where: str, unit: str, hi: float) -> float | None:
+    if data.get('jerk') is None:
+        return None
+    return _number(data, 'jerk', where, 1e-6, hi, f'{unit}, 0 < jerk <= {hi:g}, or null (unbounded)', unit=unit)
 
 
 def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundancy:
@@ -316,7 +296,7 @@ def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundanc
 
 def _arm(raw: Any, where: str) -> Arm:
     data = _mapping(raw, where, 'an arm: name, mount, joints, blade, branch, home, redundancy')
-    check_keys(data, ('name', 'mount', 'joints', 'blade', 'branch', 'home', 'redundancy'), where)
+    check_keys(data, ('name', 'mount', 'joints', 'blade', 'branch', 'home', 'redundancy', 'links'), where)
     name = _name(data, 'name', where)
     where = f'{where} ({name})'
     mount = _mapping(data.get('mount', {}), f'{where}: mount', 'position and yaw of the first joint axis')
@@ -332,7 +312,7 @@ def _arm(raw: Any, where: str) -> Arm:
                               'but the last (a zero-length link makes two joints coaxial)')
     bwhere = f'{where}: blade'
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
-    check_keys(blade_data, ('position', 'yaw', 'wafer_centre'), bwhere)
+    check_keys(blade_data, ('position', 'yaw', 'wafer_centre', 'paddle', 'friction', 'vacuum'), bwhere)
     blade = Blade(position=_xyz(blade_data, 'position', bwhere, _LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
                   yaw=_angle(blade_data, 'yaw', bwhere, default=0.0),
                   wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, _LENGTH_BOUND))
@@ -356,7 +336,8 @@ def _arm(raw: Any, where: str) -> Arm:
     arm = Arm(name=name, mount_position=_xyz(mount, 'position', f'{where}: mount', _LENGTH_BOUND,
                                               default=(0.0, 0.0, 0.0)),
               mount_yaw=_angle(mount, 'yaw', f'{where}: mount', default=0.0), joints=joints, blade=blade,
-              branch=branch, home=home, redundancy=redundancy)
+              branch=branch, home=home, redundancy=redundancy,
+              bodies=parse_arm_bodies(data.get('links'), blade_data, where))
     if len(joints) == 2 and joints[1].length + blade.position[0] == 0.0 and blade.position[1] == 0.0 \
             and blade.wafer_centre[0] == 0.0 and blade.wafer_centre[1] == 0.0:
         raise ConfigError(f'{where}: the wafer centre lies on the last joint axis: a 2-joint arm cannot then reach '
@@ -383,13 +364,13 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
                 geometry: GprConfig | None = None) -> RobotDescription:
     """Validate a robot mapping (as loaded from YAML). ``geometry`` replaces the file's ``gpr`` section."""
     data = _mapping(data, source, 'a robot description: name, gpr, base, rods, arms')
-    check_keys(data, ('name', 'gpr', 'base', 'rods', 'arms'), source)
+    check_keys(data, ('name', 'gpr', 'base', 'rods', 'arms', 'collision', 'wafer'), source)
     name = _name(data, 'name', source, default='robot')
     config = geometry if geometry is not None else _gpr(data.get('gpr'), source, Path(base_dir))
     base = _mapping(data.get('base', {}), f'{source}: base', 'frame, position, rpy of gpr_base in the world')
     check_keys(base, ('frame', 'position', 'rpy'), f'{source}: base')
     rods_data = _mapping(data.get('rods', {}), f'{source}: rods', 'names, velocity, acceleration')
-    check_keys(rods_data, ('names', 'velocity', 'acceleration'), f'{source}: rods')
+    check_keys(rods_data, ('names', 'velocity', 'acceleration', 'jerk'), f'{source}: rods')
     rwhere = f'{source}: rods'
     raw_names = rods_data.get('names', ['rod1', 'rod2', 'rod3'])
     if not isinstance(raw_names, list) or len(raw_names) != 3:
@@ -398,7 +379,8 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
     rods = Rods(names=(rod_names[0], rod_names[1], rod_names[2]),
                 velocity=_number(rods_data, 'velocity', rwhere, 1e-6, 10.0, 'm/s, 0 < velocity <= 10', unit='m/s'),
                 acceleration=_number(rods_data, 'acceleration', rwhere, 1e-6, 100.0,
-                                     'm/s^2, 0 < acceleration <= 100', unit='m/s^2'))
+                                     'm/s^2, 0 < acceleration <= 100', unit='m/s^2'),
+                jerk=_jerk(rods_data, rwhere, 'm/s^3', 1e4))
     raw_arms = data.get('arms')
     if not isinstance(raw_arms, list) or not 1 <= len(raw_arms) <= 2:
         raise ConfigError(f'{source}: arms must be a list of one or two arms')
@@ -412,7 +394,8 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
         name=name, config=config, world_frame=_name(base, 'frame', f'{source}: base', default='world'),
         base_position=_xyz(base, 'position', f'{source}: base', _WORLD_BOUND, default=(0.0, 0.0, 0.0)),
         base_rpy=_rpy(base, f'{source}: base'),
-        rods=rods, arms=arms, source=source)
+        rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),
+        wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'))
 
 
 def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig | None = None,

@@ -6,8 +6,9 @@ The frame chain (docs/robot.md) is ``world -> gpr_base`` (fixed, the description
 robots*, §IV-V) ``-> <arm>_link1 -> ... -> <arm>_link<n> -> <arm>_blade -> <arm>_wafer``, each link frame turned
 by its joint about the platform normal:
 
-* ``<arm>_link1`` in ``gpr_platform``: ``(mount position, Rz(mount_yaw + theta_1))``;
-* ``<arm>_link<k>`` in ``<arm>_link<k-1>``: ``((length_{k-1}, 0, height_{k-1}), Rz(theta_k))``;
+* ``<arm>_link1`` in ``gpr_platform``: ``(mount position, Rz(mount_yaw + theta_1 + o_1))``;
+* ``<arm>_link<k>`` in ``<arm>_link<k-1>``: ``((length_{k-1}, 0, height_{k-1}), Rz(theta_k + o_k))`` (``o_k``
+  the joint's ``zero_offset``, 0 unless calibrated);
 * ``<arm>_blade`` in ``<arm>_link<n>``: ``((length_n, 0, height_n) + blade position, Rz(blade yaw))``;
 * ``<arm>_wafer`` in ``<arm>_blade``: ``(wafer centre, I)``.
 
@@ -31,7 +32,8 @@ from ..errors import InputError, LimitError
 from ..inputs.validation import bounded, rows_of
 from .description import Arm, RobotDescription
 from .planar_arm import LIMIT_SLACK
-from .transforms import Mat3, PoseBatch, Vec3, compose_one, mat_vec, pose_batch, rot_z
+from .stations import StationRecord, stations_from_poses
+from .transforms import Mat3, PoseBatch, PoseRecord, Vec3, compose_one, mat_vec, pose_batch, rot_z
 
 Array = NDArray[np.float64]
 
@@ -58,11 +60,11 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
     for k, frame in enumerate(arm.link_frames):
         if k == 0:
             pos = np.broadcast_to(np.asarray(arm.mount_position), (n, 3))
-            rot = rotation_z(arm.mount_yaw + joints[:, 0])
+            rot = rotation_z(arm.mount_yaw + joints[:, 0] + arm.joints[0].zero_offset)
         else:
             prev = arm.joints[k - 1]
             pos = np.broadcast_to(np.array([prev.length, 0.0, prev.height]), (n, 3))
-            rot = rotation_z(joints[:, k])
+            rot = rotation_z(joints[:, k] + arm.joints[k].zero_offset)
         out.append((frame, parent, PoseBatch(pos, rot)))
         parent = frame
     last, blade = arm.joints[-1], arm.blade
@@ -75,9 +77,9 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
 def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
     """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the chain of :func:`arm_transforms`
     composed in closed form (every joint turns about the platform normal, so the link directions add up:
-    ``Theta_n = mount_yaw + theta_1 + ... + theta_n``)."""
+    ``Theta_n = mount_yaw + (theta_1 + o_1) + ... + (theta_n + o_n)``)."""
     n = joints.shape[0]
-    Theta = arm.mount_yaw + np.cumsum(joints, axis=1)
+    Theta = arm.mount_yaw + np.cumsum(joints + arm.zero_offset, axis=1)
     x = np.full(n, arm.mount_position[0])
     y = np.full(n, arm.mount_position[1])
     for k, joint in enumerate(arm.joints):
@@ -88,6 +90,42 @@ def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
     z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
     blade = PoseBatch(np.stack([x, y, np.full(n, z)], axis=1), rotation_z(Theta[:, -1] + arm.blade.yaw))
     return blade, PoseBatch(blade.apply(arm.blade.wafer_centre), blade.rotation)
+
+
+@dataclass(frozen=True)
+class PlatformRecord:
+    """The GPR's part of one configuration: ``tilt``, ``tilt_azimuth``, ``twist`` [rad], ``centre_shift`` [m, in
+    ``gpr_base``] and the virtual-joint ``model``."""
+
+    tilt: float
+    tilt_azimuth: float
+    twist: float
+    centre_shift: Array
+    model: str
+
+
+@dataclass(frozen=True)
+class RobotForwardRecord:
+    """One configuration of :class:`RobotForward` (``gpr robot fk --json``; SI units, world frame): the ``robot``, the
+    arm (``arm_name``), the ``rods`` [m] and the arm's joints by name [rad]; the ``wafer``, ``blade`` and ``platform``
+    poses, and where the naive model puts the wafer and the platform; the wafer's error under the naive model
+    (``naive_wafer_error`` [m], its vector and ``naive_wafer_angle_error`` [rad]); the platform's ``gpr`` values and
+    the wafer's ``station``."""
+
+    robot: str
+    arm_name: str
+    rods: Array
+    arm: dict[str, float]
+    wafer: PoseRecord
+    blade: PoseRecord
+    platform: PoseRecord
+    naive_wafer: PoseRecord
+    naive_platform: PoseRecord
+    naive_wafer_error: float
+    naive_wafer_error_vector: Array
+    naive_wafer_angle_error: float
+    gpr: PlatformRecord
+    station: StationRecord
 
 
 @dataclass(frozen=True)
@@ -138,6 +176,24 @@ class RobotForward:
     def naive_wafer_angle_error(self) -> Array:
         """Angle between the real and the naive wafer orientation ``(N,)`` [rad]."""
         return rotation_angle(self.naive_wafer.rotation, self.wafer.rotation)
+
+    def record(self, i: int, station: StationRecord | None = None) -> RobotForwardRecord:
+        """Configuration ``i`` as a :class:`RobotForwardRecord`; ``station`` defaults to the wafer's pose as a station
+        (:func:`~gpr_kinematics.robot.stations.stations_from_poses`)."""
+        arm = self.robot.arm(self.arm)
+        wafer = self.wafer.position[i:i + 1], self.wafer.rotation[i:i + 1]
+        g = self.gpr
+        return RobotForwardRecord(
+            robot=self.robot.name, arm_name=arm.name, rods=np.array(self.rods[i]),
+            arm=dict(zip(arm.joint_names, self.joints[i].tolist(), strict=True)),
+            wafer=self.wafer.record(i), blade=self.blade.record(i), platform=self.platform.record(i),
+            naive_wafer=self.naive_wafer.record(i), naive_platform=self.naive_platform.record(i),
+            naive_wafer_error=float(self.naive_wafer_error_norm[i]),
+            naive_wafer_error_vector=np.array(self.naive_wafer_error[i]),
+            naive_wafer_angle_error=float(self.naive_wafer_angle_error[i]),
+            gpr=PlatformRecord(float(g.tilt[i]), float(g.tilt_azimuth[i]), float(g.twist[i]),
+                               np.array(g.centre_shift[i]), g.model),
+            station=stations_from_poses(*wafer).record(0) if station is None else station)
 
 
 def base_pose(robot: RobotDescription, n: int) -> PoseBatch:
@@ -190,12 +246,13 @@ def _base(position: Vec3, rpy: Vec3) -> tuple[Vec3, Mat3]:
 
 
 def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Vec3]:
-    """:func:`platform_to_blade` of one posture in floats: the blade's position and rotation and the wafer's
-    position in ``gpr_platform`` (the wafer's rotation is the blade's)."""
+    """:func:`platform_to_blade` of one posture in floats (joints plus their ``zero_offset``, the cumulative sum
+    first, then the mount yaw, as the batch adds them): the blade's position and rotation and the wafer's position in
+    ``gpr_platform`` (the wafer's rotation is the blade's)."""
     x, y = arm.mount_position[0], arm.mount_position[1]
     turned, c, s, last = 0.0, 1.0, 0.0, 0.0
     for k, joint in enumerate(arm.joints):
-        turned = joints[0] if k == 0 else turned + joints[k]  # the cumulative sum first, then the mount yaw
+        turned = joints[0] + joint.zero_offset if k == 0 else turned + (joints[k] + joint.zero_offset)
         last = arm.mount_yaw + turned
         c, s = math.cos(last), math.sin(last)
         x, y = x + c * joint.length, y + s * joint.length

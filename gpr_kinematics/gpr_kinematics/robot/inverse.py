@@ -28,7 +28,7 @@ when the other branch fits), a heading a 2-joint arm cannot make.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +37,7 @@ from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch, 
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation
 from ..errors import ConvergenceError, InputError, LimitError, brief
 from .description import BRANCHES, Arm, RobotDescription
-from .forward import RobotForward, base_pose, forward_on_platform, platform_to_blade
+from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import HEADING_TOLERANCE, NORMAL_TOLERANCE, PLANE_ITERATIONS, PLANE_TOLERANCE, solve_one
 from .planar_arm import ArmSolution, branch_sign, solve_arm
 from .stations import Stations, per_station
@@ -45,6 +45,26 @@ from .transforms import PoseBatch
 
 Array = NDArray[np.float64]
 
+
+@dataclass(frozen=True)
+class NaiveJoints:
+    """The naive model's answer for one station: its ``rods`` [m] and the arm's joints by name [rad]."""
+
+    rods: Array
+    arm: dict[str, float]
+
+
+@dataclass(frozen=True)
+class StationSolutionRecord(RobotForwardRecord):
+    """One station of :class:`StationSolution` (``gpr robot ik --json``): the forward kinematics of the answer
+    (:class:`RobotForwardRecord`, with the target ``station``, and the ``naive_wafer_error`` fields measured from
+    it: where the naive model's joints really put the wafer), the elbow ``branch``, the ``naive`` joints, and how
+    closely the wafer reaches the station (``position_error`` [m], ``angle_error`` [rad])."""
+
+    branch: str
+    naive: NaiveJoints
+    position_error: float
+    angle_error: float
 
 
 @dataclass(frozen=True)
@@ -92,6 +112,21 @@ class StationSolution:
         """Angle between the wafer orientation the naive joints give and the station's ``(N,)`` [rad] (between
         the normals where the heading is free)."""
         return _angle_to(self.stations, self.naive_wafer.rotation)
+
+    def record(self, i: int) -> StationSolutionRecord:
+        """Station ``i`` as a :class:`StationSolutionRecord`."""
+        reached = self.forward.record(i, self.stations.record(i))
+        names = self.forward.robot.arm(self.arm).joint_names
+        naive = NaiveJoints(np.array(self.naive_rods[i]), dict(zip(names, self.naive_joints[i].tolist(), strict=True)))
+        # The forward record's naive fields compare the naive model with the answer's own joints; here they are
+        # those of the naive model's joints against the station.
+        return StationSolutionRecord(
+            **{f.name: getattr(reached, f.name) for f in fields(reached)} | {
+                'naive_wafer_error': float(self.naive_wafer_error_norm[i]),
+                'naive_wafer_error_vector': np.array(self.naive_wafer_error[i]),
+                'naive_wafer_angle_error': float(self.naive_wafer_angle_error[i])},
+            branch=self.branch[i], naive=naive, position_error=float(self.position_error[i]),
+            angle_error=float(self.angle_error[i]))
 
 
 def _angle_to(stations: Stations, R: Array) -> Array:

@@ -2,9 +2,10 @@
 
 :func:`plan_program` expands the program's steps into waypoints (:func:`~gpr_kinematics.robot.program.expand`),
 solves each for the rods and its arm's joints (:func:`~gpr_kinematics.robot.inverse.solve_stations`, the arms in
-one batch each; an arm not in use holds its joints, from its ``home`` posture on), and times the joint-space moves
-between them within the rods' and the joints' velocity and acceleration limits
-(:func:`~gpr_kinematics.robot.timing.parameterise`). Any waypoint the robot cannot reach, and any requested move
+one batch each; an arm not in use holds its joints, from its ``home`` posture on), and times the moves between them
+(joint-space lines, and the straight entries of :mod:`~gpr_kinematics.robot.paths`) within the rods' and the joints'
+velocity, acceleration and jerk limits (:func:`~gpr_kinematics.robot.timing.parameterise`). Any waypoint the
+robot cannot reach, and any requested move
 time the limits cannot meet, refuses the program with the step and the reason. :func:`sample_plan` samples the
 plan at a rate, with the wafer pose of the arm in use at every sample (forward kinematics, limits checked).
 """
@@ -15,12 +16,24 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import LimitError
+from ..errors import InputError, LimitError
 from .description import RobotDescription
 from .forward import robot_forward
 from .inverse import solve_stations
+from .paths import GRID, line_gains, line_positions
 from .program import RobotProgram, Waypoints, expand
-from .timing import Samples, Timing, parameterise, sample
+from .timing import (
+    MAX_SAMPLES,
+    Samples,
+    Timing,
+    check_rate,
+    evaluate,
+    locate,
+    parameterise,
+    sample,
+    sample_at,
+    velocities,
+)
 from .transforms import PoseBatch
 
 Array = NDArray[np.float64]
@@ -50,6 +63,28 @@ class ProgramPlan:
     labels: tuple[str, ...]
 
 
+def shortest_duration(program: RobotProgram) -> float:
+    """A lower bound of the program's duration [s], known before it is planned: its dwells and the move times it
+    asks for (a move as fast as the limits allow takes more than 0; the first move's time is unused)."""
+    total, first = 0.0, True
+    for step in program.steps:
+        if step.kind == 'dwell':
+            total += step.dwell or 0.0
+            continue
+        total += (step.dwell if step.dwell is not None else program.dwell) + (0.0 if first else step.time or 0.0)
+        first = False
+    return total
+
+
+def check_sample_count(program: RobotProgram, rate: float) -> None:
+    """Refuse, before the program is planned, a sampling at ``rate`` [Hz] that its dwells and move times alone take
+    beyond :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` (:class:`InputError`)."""
+    least = shortest_duration(program)
+    if not least * check_rate(rate) < MAX_SAMPLES:
+        raise InputError(f'{program.source}: the program lasts at least {least:.6g} s (its dwells and move times): at '
+                         f'{rate:g} Hz more than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
+
+
 def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array, list[slice]]:
     """Joint names (rods, then each arm's), velocity and acceleration limits, and each arm's column slice."""
     names = list(robot.rods.names)
@@ -62,6 +97,55 @@ def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array
         velocity += list(a.velocity)
         acceleration += list(a.acceleration)
     return tuple(names), np.array(velocity), np.array(acceleration), slices
+
+
+def jerk_limits(robot: RobotDescription) -> Array:
+    """The jerk limits of the rods and every arm's joints, in :func:`joint_limits`' order (``inf``: none)."""
+    rods = np.inf if robot.rods.jerk is None else robot.rods.jerk
+    return np.concatenate([[rods] * 3, *[a.jerk for a in robot.arms]])
+
+
+def line_moves(plan_way: Waypoints) -> list[int]:
+    """The moves (into waypoint ``m + 1``) that keep the wafer on a straight line."""
+    return [m for m in range(len(plan_way) - 1) if plan_way.path and plan_way.path[m + 1] == 'line']
+
+
+def move_rows(robot: RobotDescription, way: Waypoints, positions: Array, m: int, s: Array, label: str = '') -> Array:
+    """Joint rows at ``s`` (profile values) of move ``m``: on the joint-space line, or solved on the wafer's line."""
+    if not way.path or way.path[m + 1] != 'line':
+        return np.asarray(positions[m] + s[:, None] * (positions[m + 1] - positions[m]), dtype=np.float64)
+    _, _, _, slices = joint_limits(robot)
+    cols = slices[robot.arm_names.index(way.arm[m + 1])]
+    return line_positions(robot, way.stations, way.arm[m + 1], way.branch[m + 1], positions[m], cols, m, s, label)
+
+
+@dataclass(frozen=True)
+class ProgramSummary:
+    """What a planned program comes to (``gpr program check``'s summary and the head of its ``--json``): the
+    program and robot, counts, the duration [s], each joint's peak velocity and acceleration as a fraction of its
+    limit (in ``joint_names`` order), the largest naive-model wafer error [m] and the waypoint where."""
+
+    program: str
+    robot: str
+    stations: int
+    steps: int
+    waypoints: int
+    duration: float
+    joint_names: tuple[str, ...]
+    velocity_usage: Array
+    acceleration_usage: Array
+    max_naive_wafer_error: float
+    max_naive_wafer_error_at: str
+
+
+def program_summary(plan: ProgramPlan) -> ProgramSummary:
+    """The :class:`ProgramSummary` of ``plan``."""
+    v, a = plan.timing.usage()
+    err = np.linalg.norm(plan.naive_wafer_error, axis=1)
+    i = int(np.argmax(err))
+    return ProgramSummary(plan.program.source, plan.robot.name, len(plan.program.stations), len(plan.program.steps),
+                          len(plan.waypoints), plan.timing.total, tuple(plan.joint_names), v, a, float(err[i]),
+                          plan.labels[i])
 
 
 def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
@@ -110,8 +194,18 @@ def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
             else:
                 held = block[i]
         positions[:, cols] = block
+    D = np.abs(np.diff(positions, axis=0))
+    gains = (D, np.zeros(D.shape), np.zeros(D.shape))
+    grid = np.linspace(0.0, 1.0, GRID)
     try:
-        timing = parameterise(positions, velocity, acceleration, way.time, way.dwell, names, plan_labels)
+        for m in line_moves(way):
+            label = f'{program.source}: {plan_labels[m + 1]}'
+            cols = slices[robot.arm_names.index(way.arm[m + 1])]
+            g = line_gains(robot.arm(way.arm[m + 1]), cols, move_rows(robot, way, positions, m, grid, label), label)
+            for k in range(3):
+                gains[k][m] = g[k]
+        timing = parameterise(positions, velocity, acceleration, way.time, way.dwell, names, plan_labels,
+                              jerk_limits(robot), gains)
     except LimitError as exc:
         raise LimitError(f'{program.source}: {exc}') from None
     return ProgramPlan(robot, program, way, names, positions, PoseBatch(wafer_p, wafer_R), naive, timing,
@@ -136,10 +230,51 @@ class PlanSamples:
         return len(self.samples)
 
 
-def sample_plan(plan: ProgramPlan, rate: float) -> PlanSamples:
-    """Sample ``plan`` at ``rate`` [Hz]; forward kinematics of every sample (limits checked)."""
+def plan_samples(plan: ProgramPlan, s: Samples) -> Samples:
+    """``s`` with the rows of the straight lines solved on the line (:func:`move_rows`)."""
+    moving = s.held < 0
+    pos = s.positions.copy()
+    for m in line_moves(plan.waypoints):
+        idx = np.flatnonzero(moving & (s.target == m + 1))
+        if idx.size:
+            pos[idx] = move_rows(plan.robot, plan.waypoints, plan.positions, m, s.s[idx], plan.labels[m + 1])
+    return Samples(s.time, pos, s.held, s.target, s.s)
+
+
+#: Step of the path parameter for the joints' rates on a straight line (central differences, error ~1e-12 rad/s).
+_PATH_STEP = 1e-6
+
+
+def plan_velocities(plan: ProgramPlan, s: Samples) -> Array:
+    """The joints' velocities ``(S, J)`` at the samples ``s`` of :func:`plan_samples` [m/s, rad/s]: ``ds/dt D`` on
+    the joint-space line of a move (:func:`~gpr_kinematics.robot.timing.velocities`), ``dq/ds ds/dt`` on a straight
+    line of the wafer (``dq/ds`` by central differences of :func:`move_rows` in the path parameter)."""
+    vel = velocities(plan.timing, s.time)
+    moving = s.held < 0
+    _, _, m_all, tau = locate(plan.timing, s.time)
+    for m in line_moves(plan.waypoints):
+        idx = np.flatnonzero(moving & (s.target == m + 1))
+        if idx.size:
+            lo = np.clip(s.s[idx] - _PATH_STEP, 0.0, 1.0)
+            hi = np.clip(s.s[idx] + _PATH_STEP, 0.0, 1.0)
+            rows = move_rows(plan.robot, plan.waypoints, plan.positions, m, np.concatenate([lo, hi]),
+                             plan.labels[m + 1])
+            dq_ds = (rows[idx.size:] - rows[:idx.size]) / (hi - lo)[:, None]
+            ds_dt = evaluate(plan.timing.profiles, m_all[idx], tau[idx])[1]
+            vel[idx] = dq_ds * ds_dt[:, None]
+    return vel
+
+
+def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | None = None) -> PlanSamples:
+    """Sample ``plan`` at ``rate`` [Hz] (or at ``times`` [s]); forward kinematics of every sample (limits
+    checked)."""
     robot = plan.robot
-    s = sample(plan.timing, rate)
+    if times is None:
+        if rate is None:
+            raise InputError('sample_plan needs a rate or times')
+        s = plan_samples(plan, sample(plan.timing, rate))
+    else:
+        s = plan_samples(plan, sample_at(plan.timing, times))
     _, _, _, slices = joint_limits(robot)
     arm_of = np.array(plan.waypoints.arm)[s.target]
     S = len(s)

@@ -7,7 +7,9 @@ mount yaw) the arm is a planar chain. With ``Theta_k = theta_1 + ... + theta_k``
     ``p = sum_k Rz(Theta_k) d_k``,  ``d_n = (length_n, 0) + b_xy + Rz(beta) w_xy``,  ``phi = Theta_n + beta``
 
 (``b``, ``beta``: blade position and yaw in the flange frame; ``w``: wafer centre in the blade frame; ``p``,
-``phi``: wafer centre and blade heading in the mount frame). Inverse kinematics in closed form:
+``phi``: wafer centre and blade heading in the mount frame). A joint's ``zero_offset`` ``o_k`` (a calibration's) turns
+it by ``theta_k + o_k``: the chain works on those angles, the joint values in and out are the ``theta_k``.
+Inverse kinematics in closed form:
 
 * **2 joints**: the wafer position alone; the heading ``phi`` is an *outcome* (one per branch).
 * **3 joints**: ``Theta_3 = phi - beta``, the wrist axis ``p_3 = p - Rz(Theta_3) d_3``, then the two-link
@@ -69,7 +71,7 @@ def chain_forward(arm: Arm, theta: Array) -> tuple[Array, Array, Array]:
     Returns ``(axes (N, n, 2), wafer (N, 2), heading (N,))``: every joint axis, the wafer centre, the blade heading.
     """
     d, beta = link_vectors(arm)
-    Theta = np.cumsum(theta, axis=1)
+    Theta = np.cumsum(theta + arm.zero_offset, axis=1)
     n = theta.shape[1]
     axes = np.zeros(theta.shape + (2,))
     for k in range(1, n):
@@ -187,7 +189,7 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
     """
     d, beta = link_vectors(arm)
     n = len(arm.joints)
-    lower, upper = arm.lower, arm.upper
+    lower, upper, offset = arm.lower, arm.upper, arm.zero_offset
     if n == 2:
         tl = two_link(d[0], d[1], p, sign)
         theta = np.stack([tl.Theta1, tl.Theta2 - tl.Theta1], axis=-1)
@@ -201,9 +203,9 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
             v = np.full(p.shape[0], red.value) if value is None else np.asarray(value, dtype=float)
         else:
             v = nearest_value(arm, d, beta, p, phi, sign)
-        theta, tl = _solve_fixed(d, beta, red.joint, v, p, phi, sign)
-    theta, violation = wrap_to_limits(theta, lower, upper)
+        theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
     heading = np.sum(theta, axis=1) + beta
+    theta, violation = wrap_to_limits(theta - offset, lower, upper)
     return ArmSolution(theta=theta, heading=heading, reachable=tl.reachable, reach=tl.r, reach_min=tl.r_min,
                        reach_max=tl.r_max, violation=violation)
 
@@ -283,6 +285,7 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
     """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps)."""
     d_arrays, beta = link_vectors(arm)
     d = _floats2(d_arrays)
+    offset = [joint.zero_offset for joint in arm.joints]
     if len(arm.joints) == 2:
         T1, T2, r, lo, hi = _two_link_one(d[0], d[1], px, py, sign)
         theta = [T1, T2 - T1]
@@ -295,9 +298,11 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
             else:
                 v = float(nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
                                         np.array([sign]))[0])
+            v = v + offset[j]
         theta, r, lo, hi = _fixed_one(d, beta, j, v, px, py, phi, sign)
-    wrapped, violation = _wrap_one(arm, theta)
-    return OneArm(wrapped, sum(wrapped) + beta, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
+    heading = sum(theta) + beta
+    wrapped, violation = _wrap_one(arm, [t - o for t, o in zip(theta, offset, strict=True)])
+    return OneArm(wrapped, heading, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
 def _nearest_cost_one(arm: Arm, d: list[tuple[float, float]], beta: float, px: float, py: float, phi: float,
@@ -305,8 +310,8 @@ def _nearest_cost_one(arm: Arm, d: list[tuple[float, float]], beta: float, px: f
     """:func:`_nearest_cost` of one target and one held value in floats."""
     red = arm.redundancy
     assert red is not None
-    theta, r, lo, hi = _fixed_one(d, beta, red.joint, v, px, py, phi, sign)
-    wrapped, violation = _wrap_one(arm, theta)
+    theta, r, lo, hi = _fixed_one(d, beta, red.joint, v + arm.joints[red.joint].zero_offset, px, py, phi, sign)
+    wrapped, violation = _wrap_one(arm, [t - joint.zero_offset for t, joint in zip(theta, arm.joints, strict=True)])
     if not hi + REACH_SLACK >= r >= lo - REACH_SLACK or max(violation) > 0.0:
         return math.inf
     cost = 0.0
@@ -320,9 +325,10 @@ def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     """Cost of the ``nearest`` rule for held values ``v (N, G)``; ``inf`` where unreachable or beyond limits."""
     red = arm.redundancy
     assert red is not None
-    theta, tl = _solve_fixed(d, beta, red.joint, v, p[:, None, :], phi[:, None], sign[:, None])
+    offset = arm.zero_offset
+    theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p[:, None, :], phi[:, None], sign[:, None])
     lower, upper = arm.lower, arm.upper
-    theta, violation = wrap_to_limits(theta, lower, upper)
+    theta, violation = wrap_to_limits(theta - offset, lower, upper)
     scaled = (theta - np.asarray(red.reference)) / (upper - lower)
     cost = np.sum(np.asarray(red.weights) * scaled * scaled, axis=-1)
     bad = ~tl.reachable | (np.max(violation, axis=-1) > 0.0)
@@ -409,3 +415,45 @@ def branch_of(arm: Arm, theta: Array) -> tuple[str, ...]:
     u, v = points[1] - points[0], points[2] - points[1]
     cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return tuple('right' if c >= 0.0 else 'left' for c in cross)
+
+
+def line_rate_bounds(arm: Arm, theta0: Array, theta1: Array, s0: Array, s1: Array) -> Array:
+    """Upper bounds ``(K, n)`` of ``|d theta_k / ds|`` over ``[s0_i, s1_i]`` on the straight line that translates the
+    wafer, its heading fixed, from the posture ``theta0 (n,)`` (``s = 0``) to ``theta1 (n,)`` (``s = 1``).
+
+    The heading is fixed, so the reduced chain's wrist axis (:func:`branch_of`'s three axes: shoulder, elbow, wrist
+    after folding a held joint) moves on a line too, ``w(s) = w_0 + s (w_1 - w_0)`` from the shoulder axis, and only
+    the two-link problem changes along it. With ``a_1``, ``a_2`` the two links (lengths ``L1``, ``L2``, relative
+    angle ``g``), ``w' = A1' a_1^perp + A2' a_2^perp`` for the links' directions ``A1``, ``A2``; crossing with
+    ``a_2``, ``a_1`` and ``a_1 + a_2 = w``:
+
+        ``|A1'| <= |w'| / (L1 |sin g|)``, ``|A2' - A1'| <= |w'| r / (L1 L2 |sin g|)``, ``|A2'| <= |w'| / (L2 |sin g|)``
+
+    for the shoulder, the elbow and the wrist (which turns by ``-A2'``: the heading is fixed); a held joint does not
+    move. On ``[s0, s1]``: ``r^2(s)`` is a convex quadratic, so its range is exact, ``r <= r_max``, and
+    ``sin^2 g = ((L1 + L2)^2 - r^2)(r^2 - (L1 - L2)^2) / (2 L1 L2)^2`` is concave in ``r^2``: its minimum is at an
+    end of that range. A line through a stretched or folded posture (``sin g = 0``) has an infinite bound.
+    """
+    axes, _, _ = chain_forward(arm, np.stack([theta0, theta1]))
+    n = len(arm.joints)
+    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
+    sh, el, wr = (axes[:, k] for k in keep)
+    L1, L2 = float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
+    w0, dw = wr[0] - sh[0], (wr[1] - sh[1]) - (wr[0] - sh[0])
+    s0, s1 = np.minimum(s0, s1), np.maximum(s0, s1)
+    speed = float(np.hypot(*dw))
+    sq = float(dw @ dw)
+    star = np.clip(-float(w0 @ dw) / sq, s0, s1) if sq > 0.0 else s0
+
+    def r2(s: Array) -> Array:
+        return np.asarray((w0[0] + s * dw[0]) ** 2 + (w0[1] + s * dw[1]) ** 2, dtype=np.float64)
+
+    lo, hi = r2(star), np.maximum(r2(s0), r2(s1))
+    sin2 = np.minimum(*(((L1 + L2) ** 2 - x) * (x - (L1 - L2) ** 2) for x in (lo, hi))) / (2.0 * L1 * L2) ** 2
+    with np.errstate(divide='ignore', invalid='ignore'):
+        sg = np.sqrt(np.maximum(sin2, 0.0))
+        rates = [speed / (L1 * sg), speed * np.sqrt(hi) / (L1 * L2 * sg), speed / (L2 * sg)]
+    out = np.zeros((s0.shape[0], n))
+    for k, rate in zip(keep, rates, strict=True):
+        out[:, k] = np.where(speed > 0.0, rate, 0.0)
+    return out

@@ -37,12 +37,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, brief
-from ..inputs.schema import check_keys, read_yaml
+from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.validation import MAX_COORDINATE
 from .timing import MAX_SAMPLES
 
 #: The ``format:`` of a platform program (optional: a file without ``format`` is a platform program).
 FORMAT = 'gpr_platform_program'
 _STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
+#: Most stations of a platform program (a file's or a goal's), counted before any is read.
+MAX_STATIONS = 10_000
 
 
 @dataclass(frozen=True)
@@ -83,9 +86,9 @@ class ProgramSamples:
 
 def _number(source: str, where: str, key: str, value: Any, allowed: str, lo: float = -math.inf,
             lo_open: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)) \
-            or float(value) < lo or (lo_open and float(value) == lo):
-        raise ConfigError(f'{source}: {where}: {key} = {value!r} is invalid; allowed: {allowed}')
+    if not is_number(value) or float(value) < lo or (lo_open and float(value) == lo):  # a 401-digit integer too
+        raise ConfigError(f'{source}: {where}: {key} = {brief(value)} is invalid; allowed: {allowed} (of magnitude '
+                          f'at most {MAX_COORDINATE:g})')
     return float(value)
 
 
@@ -103,6 +106,8 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
     raw = data.get('stations')
     if not isinstance(raw, list) or not raw:
         raise ConfigError(f'{source}: "stations" must be a non-empty list of stations')
+    if len(raw) > MAX_STATIONS:
+        raise ConfigError(f'{source}: {len(raw)} stations; allowed: at most {MAX_STATIONS}')
     stations = []
     for i, st in enumerate(raw):
         where = f'station {i}'
@@ -150,17 +155,27 @@ def program_knots(program: PlatformProgram, default_move_time: float) -> tuple[n
     return np.asarray(times), np.asarray(states, dtype=float), np.asarray(index)
 
 
-def sample_program(program: PlatformProgram, rate: float, default_move_time: float = 2.0) -> ProgramSamples:
-    """Sample ``program`` at ``rate`` [Hz] with the smooth-step interpolation of the module docstring."""
+def check_samples(program: PlatformProgram, rate: float, default_move_time: float = 2.0
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The program's knots (:func:`program_knots`) once its sample count at ``rate`` [Hz] is within
+    :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES`: counted before any array of samples is made, and before its
+    stations are solved (a dwell of 1e12 s included); :class:`ConfigError` otherwise."""
     if not (math.isfinite(rate) and rate > 0):
         raise ConfigError(f'rate = {rate!r} is invalid; allowed: a finite rate in Hz > 0')
     if not (math.isfinite(default_move_time) and default_move_time > 0):
         raise ConfigError(f'move_time = {default_move_time!r} is invalid; allowed: seconds > 0')
     T, S, idx = program_knots(program, default_move_time)
     total = float(T[-1])
-    if not total * rate <= MAX_SAMPLES:  # counted before any array is made (a dwell of 1e12 s included)
-        raise ConfigError(f'the program lasts {total:.6g} s: {total * rate:.6g} samples at {rate:g} Hz; allowed: at '
-                          f'most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
+    if not total * rate <= MAX_SAMPLES:
+        raise ConfigError(f'{program.source}: the program lasts {total:.6g} s: {total * rate:.6g} samples at {rate:g} '
+                          f'Hz; allowed: at most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
+    return T, S, idx
+
+
+def sample_program(program: PlatformProgram, rate: float, default_move_time: float = 2.0) -> ProgramSamples:
+    """Sample ``program`` at ``rate`` [Hz] with the smooth-step interpolation of the module docstring."""
+    T, S, idx = check_samples(program, rate, default_move_time)
+    total = float(T[-1])
     n = int(math.floor(total * rate + 1e-9))
     t = np.arange(n + 1, dtype=float) / rate
     if total - t[-1] > 1e-9:

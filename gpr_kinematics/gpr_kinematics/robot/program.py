@@ -6,6 +6,8 @@ File format (``config/programs/example_robot_program.yaml`` is a commented examp
     format: gpr_robot_program          # required: tells a robot program from a platform program
     version: 1
     robot: ../robots/example_robot.yaml   # optional: relative to this file (the CLI's --robot overrides it)
+    cell: ../cells/example_cell.yaml   # optional: the process cell (safety.cell), relative to this file (--cell)
+    wafers: [load_port_1]              # optional: stations that hold a wafer at the start
     units: {length: mm, angle: deg}    # for the stations and heights in this file; m and rad by default
     defaults: {arm: arm1, approach_height: 10, retract_height: 10, dwell: 0.5}
     stations:                          # inline stations (robot.station_files), and/or
@@ -19,7 +21,10 @@ File format (``config/programs/example_robot_program.yaml`` is a commented examp
 
 Each step becomes waypoints (wafer poses): ``move S`` -> ``S``; ``pick S`` -> ``S`` lowered by the approach
 height along the station normal (the blade under the wafer), ``S`` (dwell: the wafer is taken), ``S`` raised by
-the retract height; ``place S`` -> raised, at (dwell), lowered. ``time`` is the duration of the move into the
+the retract height; ``place S`` -> raised, at (dwell), lowered. A station with a straight ``entry`` ``e`` adds a
+waypoint (phase ``entry``) ``e`` back along the wafer's heading before the first and one (phase ``exit``) after the
+last: the moves out of ``entry`` and into ``exit`` keep the wafer on that straight line with its orientation fixed
+(:mod:`gpr_kinematics.robot.paths`). ``time`` is the duration of the move into the
 step's first waypoint (default: as fast as the limits allow); the moves between a step's own waypoints are as fast
 as the limits allow. A step's arm and branch default to the station's, then the program's, then the arm's own.
 
@@ -40,7 +45,7 @@ import numpy as np
 
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, read_yaml
-from .description import RobotDescription
+from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
 from .station_files import StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
@@ -52,7 +57,7 @@ STEP_KINDS = ('move', 'pick', 'place', 'dwell')
 #: Most steps in a program, most imported files.
 MAX_STEPS = 100_000
 MAX_IMPORTS = 64
-_KEYS = ('format', 'version', 'robot', 'units', 'defaults', 'stations', 'import', 'steps')
+_KEYS = ('format', 'version', 'robot', 'cell', 'wafers', 'units', 'defaults', 'stations', 'import', 'steps')
 _DEFAULT_KEYS = ('arm', 'branch', 'approach_height', 'retract_height', 'dwell')
 
 
@@ -83,6 +88,9 @@ class RobotProgram:
     dwell: float
     robot: Path | None
     source: str
+    #: The process cell the program names (relative paths resolved), and the stations holding a wafer at the start.
+    cell: Path | None = None
+    wafers: tuple[str, ...] = ()
 
 
 def _seconds(value: Any, where: str, key: str, positive: bool = False) -> float:
@@ -149,15 +157,30 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
             raise ConfigError(f'{dw}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in the file\'s length '
                               'unit)')
         heights.append(float(value) * length)
-    robot = data.get('robot')
-    if robot is not None and not isinstance(robot, str):
-        raise ConfigError(f'{source}: robot = {brief(robot)} is invalid; allowed: a path to a robot description')
+    robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(
         stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),
         branch=_optional_text(defaults, 'branch', dw), approach_height=heights[0], retract_height=heights[1],
         dwell=_seconds(defaults.get('dwell', 0.0), dw, 'dwell'),
-        robot=None if robot is None else (base / robot if not Path(robot).is_absolute() else Path(robot)),
-        source=source)
+        robot=robot, source=source, cell=cell, wafers=_wafers(data.get('wafers', []), table, source))
+
+
+def _path(data: Mapping[str, Any], key: str, base: Path, source: str) -> Path | None:
+    value = data.get(key)
+    if value is not None and (not isinstance(value, str) or not value):
+        what = 'a robot description' if key == 'robot' else 'a cell file'
+        raise ConfigError(f'{source}: {key} = {brief(value)} is invalid; allowed: a path to {what}')
+    return None if value is None else (base / value if not Path(value).is_absolute() else Path(value))
+
+
+def _wafers(raw: Any, table: StationTable, source: str) -> tuple[str, ...]:
+    names = table.index()
+    if not isinstance(raw, list) or any(not isinstance(n, (str, int)) or str(n) not in names for n in raw):
+        raise ConfigError(f'{source}: wafers = {brief(raw)} is invalid; allowed: a list of station names (the '
+                          'stations that hold a wafer at the start)')
+    if len({str(n) for n in raw}) != len(raw):
+        raise ConfigError(f'{source}: wafers = {brief(raw)} names a station twice; allowed: one wafer per station')
+    return tuple(str(n) for n in raw)
 
 
 def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRows:
@@ -223,8 +246,11 @@ class Waypoints:
 
     Attributes:
         stations: the wafer pose of each waypoint (named ``STATION``, ``STATION/approach``, ``STATION/retract``).
-        arm, branch: per waypoint. step: index of the step. phase: ``move``, ``approach``, ``at``, ``retract``.
+        arm, branch: per waypoint. step: index of the step. phase: ``move``, ``entry``, ``approach``, ``at``,
+        ``retract``, ``exit``.
         dwell: time held at the waypoint [s]. time: requested duration of the move into it [s] (NaN: minimum).
+        path: how the move into the waypoint goes: ``joint`` (a line in joint space) or ``line`` (the wafer on a
+            straight line, its orientation fixed: out of an ``entry`` waypoint and into an ``exit`` one).
     """
 
     stations: Stations
@@ -234,6 +260,7 @@ class Waypoints:
     phase: tuple[str, ...]
     dwell: np.ndarray
     time: np.ndarray
+    path: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.stations)
@@ -252,6 +279,8 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
     phases: list[str] = []
     dwell: list[float] = []
     times: list[float] = []
+    back: list[float] = []
+    paths: list[str] = []
     for s, step in enumerate(program.steps):
         where = f'{program.source}: steps[{s}]'
         if step.kind == 'dwell':
@@ -274,13 +303,20 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
         approach = own_approach if own_approach is not None else program.approach_height
         retract = own_retract if own_retract is not None else program.retract_height
         d = step.dwell if step.dwell is not None else program.dwell
+        entry = None
         if step.kind == 'move':
             plan = [(0.0, 'move', d)]
-        elif step.kind == 'pick':
-            plan = [(-approach, 'approach', 0.0), (0.0, 'at', d), (retract, 'retract', 0.0)]
         else:
-            plan = [(approach, 'approach', 0.0), (0.0, 'at', d), (-retract, 'retract', 0.0)]
+            sign = -1.0 if step.kind == 'pick' else 1.0
+            plan = [(sign * approach, 'approach', 0.0), (0.0, 'at', d), (-sign * retract, 'retract', 0.0)]
+            entry = table.entry[i] if table.entry else None
+            if entry:
+                _check_entry(a, where, str(step.station))
+                plan = [(sign * approach, 'entry', 0.0), *plan, (-sign * retract, 'exit', 0.0)]
         for k, (off, phase, hold) in enumerate(plan):
+            back.append(entry if phase in ('entry', 'exit') and entry else 0.0)
+            paths.append('line' if phase == 'exit' or (phase == 'approach' and k == 1 and plan[0][1] == 'entry')
+                         else 'joint')
             idx.append(i)
             offset.append(off)
             arms.append(a.name)
@@ -291,6 +327,17 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
             times.append(step.time if (k == 0 and step.time is not None) else math.nan)
     way = st.take(idx).offset(np.array(offset))
     names = tuple(n if ph in ('move', 'at') else f'{n}/{ph}' for n, ph in zip(way.names, phases, strict=True))
-    way = Stations(way.position, way.tilt, way.azimuth, way.heading, way.heading_free, names)
+    position = way.position - np.array(back)[:, None] * way.rotation[:, :, 0]   # back along the heading
+    way = Stations(position, way.tilt, way.azimuth, way.heading, way.heading_free, names)
     return Waypoints(way, tuple(arms), tuple(branches), np.array(steps), tuple(phases), np.array(dwell),
-                     np.array(times))
+                     np.array(times), tuple(paths))
+
+
+def _check_entry(arm: Arm, where: str, station: str) -> None:
+    """A straight entry keeps the wafer's orientation: a 2-joint arm cannot, and a 4-joint arm does it with its
+    redundant joint held (``fixed_joint``)."""
+    if len(arm.joints) == 2 or (arm.redundancy is not None and arm.redundancy.rule != 'fixed_joint'):
+        why = ('has 2 joints and cannot hold the blade\'s heading' if len(arm.joints) == 2 else
+               'chooses its posture by the rule nearest, not with a held joint (fixed_joint)')
+        raise ConfigError(f'{where}: station {station} has a straight entry, but arm {arm.name} {why}; allowed: a '
+                          '3-joint arm, or a 4-joint arm under fixed_joint')

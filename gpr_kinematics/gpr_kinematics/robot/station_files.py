@@ -15,7 +15,8 @@ CSV: a header row names the columns, each with its unit in brackets (none: SI)::
     chamber_a,400,900,455,1.2,30,180,left
 
 Columns: ``name``, ``x``, ``y``, ``z`` (required), ``tilt``, ``azimuth`` (default 0), ``heading`` (empty: free, for
-a 2-joint arm), ``branch`` (empty: the arm's), ``approach_height``, ``retract_height`` (empty: the program's).
+a 2-joint arm), ``branch`` (empty: the arm's), ``approach_height``, ``retract_height`` (empty: the program's),
+``entry`` (a straight entry: the distance back along the heading, outside the slit, 0 to 2 m; empty: none).
 Length units ``m`` or ``mm``, angle units ``rad`` or ``deg``. Names are unique. Every problem is a
 :class:`~gpr_kinematics.errors.ConfigError` naming the file, the line or station, the field and what is allowed;
 files are bounded (:data:`MAX_BYTES`, :data:`MAX_STATIONS`).
@@ -45,9 +46,12 @@ from .stations import Stations
 #: Largest station file read [bytes] and most stations in a program.
 MAX_BYTES = 10 * 1024 * 1024
 MAX_STATIONS = 100_000
-_LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height')
+#: Longest straight entry [m].
+MAX_ENTRY = 2.0
+_LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height', 'entry')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
-_STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height')
+_STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
+                 'entry')
 _NAME = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
 
 
@@ -59,6 +63,8 @@ class StationTable:
     branch: tuple[str | None, ...]
     approach_height: tuple[float | None, ...]
     retract_height: tuple[float | None, ...]
+    #: Straight entry distance [m] per station (None: the wafer enters joint-interpolated).
+    entry: tuple[float | None, ...] = ()
 
     def __len__(self) -> int:
         return len(self.stations)
@@ -79,13 +85,14 @@ class StationRows:
     branch: list[str | None]
     approach: list[float | None]
     retract: list[float | None]
+    entry: list[float | None]
 
     @staticmethod
     def empty() -> StationRows:
-        return StationRows([], [], [], [], [], [], [], [])
+        return StationRows([], [], [], [], [], [], [], [], [])
 
     def extend(self, other: StationRows) -> None:
-        for field in ('names', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach', 'retract'):
+        for field in ('names', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach', 'retract', 'entry'):
             getattr(self, field).extend(getattr(other, field))
 
     def table(self, source: str) -> StationTable:
@@ -102,7 +109,7 @@ class StationRows:
         free = np.array([h is None for h in self.heading], dtype=bool)
         st = Stations(np.array(self.position, dtype=float).reshape(n, 3), np.array(self.tilt, dtype=float),
                       np.array(self.azimuth, dtype=float), heading, free, tuple(self.names))
-        return StationTable(st, tuple(self.branch), tuple(self.approach), tuple(self.retract))
+        return StationTable(st, tuple(self.branch), tuple(self.approach), tuple(self.retract), tuple(self.entry))
 
 
 def units_of(data: Mapping[str, Any], where: str) -> tuple[float, float]:
@@ -140,12 +147,12 @@ def _branch(value: Any, where: str) -> str | None:
     return str(value)
 
 
-def _height(value: Any, where: str, key: str, scale: float, unit: str) -> float | None:
+def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = 0.1) -> float | None:
     if value is None or value == '':
         return None
     h = _number(value, where, key, unit) * scale
-    if not 0.0 <= h <= 0.1:
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in {unit})')
+    if not 0.0 <= h <= most:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: 0 to {most:g} m (in {unit})')
     return h
 
 
@@ -183,6 +190,7 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         rows.branch.append(_branch(st.get('branch'), w))
         rows.approach.append(_height(st.get('approach_height'), w, 'approach_height', length, lunit))
         rows.retract.append(_height(st.get('retract_height'), w, 'retract_height', length, lunit))
+        rows.entry.append(_height(st.get('entry'), w, 'entry', length, lunit, MAX_ENTRY))
     return rows
 
 
@@ -299,10 +307,11 @@ def stations_from_csv(text: str, where: str) -> StationRows:
         rows.azimuth.append(table.number(r, 'azimuth', 0.0, w) or 0.0)
         rows.heading.append(table.number(r, 'heading', None, w))
         rows.branch.append(_branch(table.text(r, 'branch'), w))
-        for key, target in (('approach_height', rows.approach), ('retract_height', rows.retract)):
+        for key, target, most in (('approach_height', rows.approach, 0.1), ('retract_height', rows.retract, 0.1),
+                                  ('entry', rows.entry, MAX_ENTRY)):
             value = table.number(r, key, None, w)
-            if value is not None and not 0.0 <= value <= 0.1:
-                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} is invalid; allowed: 0 to 0.1 m (in '
+            if value is not None and not 0.0 <= value <= most:
+                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} is invalid; allowed: 0 to {most:g} m (in '
                                   f'{table.columns[key][2]})')
             target.append(value)
     return rows

@@ -48,6 +48,17 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
 
 
 @dataclass(frozen=True)
+class StationRecord:
+    """One station (module docstring) as the command line gives it: ``position`` [m, world], ``tilt``, ``azimuth``
+    and ``heading`` [rad]; ``heading`` is ``None`` where it is left free to a 2-joint arm."""
+
+    position: Array
+    tilt: float
+    azimuth: float
+    heading: float | None
+
+
+@dataclass(frozen=True)
 class Stations:
     """``N`` stations (module docstring): ``position (N, 3)`` [m, world], ``tilt``, ``azimuth``, ``heading``
     ``(N,)`` [rad], ``heading_free (N,)`` (the heading is left to a 2-joint arm; ``heading`` is then 0 and
@@ -96,6 +107,11 @@ class Stations:
     def normal(self) -> Array:
         """Station-plane normals in the world ``(N, 3)``."""
         return tilt_rotation(self.tilt, self.azimuth)[:, :, 2]
+
+    def record(self, i: int) -> StationRecord:
+        """Station ``i`` as a :class:`StationRecord` (its own copy of the position)."""
+        return StationRecord(np.array(self.position[i]), float(self.tilt[i]), float(self.azimuth[i]),
+                             None if self.heading_free[i] else float(self.heading[i]))
 
     def label(self, i: int) -> str:
         """How messages name station ``i``: by its name, or by its index when the stations are not named."""

@@ -13,7 +13,7 @@ The messages of one sample (:meth:`RobotStream.messages`), besides the platform'
 - ``gpr/robot_state`` (``gpr_interfaces/RobotState``, frame: the robot's world frame): every arm's joints, the arm in
   use, its wafer and blade poses, the naive model's wafer error, the waypoint held;
 - ``gpr/wafer_pose`` (``geometry_msgs/PoseStamped``, world frame): the wafer of the arm in use;
-- ``gpr/joint_states`` (``sensor_msgs/JointState``): the physical joints only, the rods ``rod_1..rod_3`` [m] then
+- ``joint_states`` (``sensor_msgs/JointState``): the physical joints only, the rods ``rod_1..rod_3`` [m] then
   every arm's joints [rad], as ``robot_state_publisher`` expects (the virtual joints stay on
   ``gpr/virtual_joints``).
 
@@ -24,13 +24,12 @@ azimuth. SI units (m, rad, s); quaternions (x, y, z, w).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core import ForwardBatch, forward_batch
-from ..core.messages import ROD_JOINT_NAMES, MessageTypes, header, pose
+from ..core.messages import ROD_JOINT_NAMES, MessageTypes, RosMessage, header, pose
 from . import robot_forward
 from .description import RobotDescription
 from .plan import ProgramPlan, joint_limits, plan_program, sample_plan
@@ -78,11 +77,12 @@ class RobotStream:
         k = int(self.waypoint[i])
         return self.waypoint_names[k] if k >= 0 else ''
 
-    def messages(self, types: MessageTypes, i: int, *, stamp_ns: int, sample: int, base_frame: str) -> dict[str, Any]:
+    def messages(self, types: MessageTypes, i: int, *, stamp_ns: int, sample: int, base_frame: str,
+                 frame_prefix: str = '') -> dict[str, RosMessage]:
         """The robot's messages of sample ``i`` by topic (module docstring), stamped ``stamp_ns`` [ns]; the
-        ``sample`` counter is the stream's and ``gpr/joint_states`` is in ``base_frame``, as the sample's
-        PlatformState (``gpr verify`` matches them by stamp and frame)."""
-        h = header(types, stamp_ns, self.robot.world_frame)
+        ``sample`` counter is the stream's and ``joint_states`` is in ``base_frame``, as the sample's
+        PlatformState (``gpr verify`` matches them by stamp and frame); the world frame with ``frame_prefix``."""
+        h = header(types, stamp_ns, frame_prefix + self.robot.world_frame)
         wafer = pose(types, self.wafer.position[i], self.wafer.quaternion[i])
         e = [float(v) for v in self.naive_wafer_error[i]]
         state = types.RobotState(
@@ -96,7 +96,7 @@ class RobotStream:
         return {
             'gpr/robot_state': state,
             'gpr/wafer_pose': types.PoseStamped(header=h, pose=wafer),
-            'gpr/joint_states': types.JointState(
+            'joint_states': types.JointState(
                 header=rods_header, name=[*ROD_JOINT_NAMES, *self.joint_names],
                 position=types.float_sequence(np.concatenate([self.gpr.q[i], self.joints[i]])), velocity=empty,
                 effort=empty),
@@ -108,7 +108,8 @@ def robot_stream(robot: RobotDescription, program: RobotProgram, rate: float) ->
 
     Raises:
         ConfigError, LimitError: the program does not fit the robot (a waypoint out of reach, a move too fast for
-            the limits), naming the step; InputError: a rate outside (0, 10000] Hz or too many samples.
+            the limits), naming the step; InputError: a rate outside :data:`~gpr_kinematics.robot.timing.RATES` or too
+            many samples.
     """
     plan = plan_program(robot, program)
     sampled = sample_plan(plan, rate)

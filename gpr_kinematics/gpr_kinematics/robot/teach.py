@@ -29,9 +29,44 @@ from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
 from .station_files import MAX_BYTES, read_csv_table
-from .stations import Stations, stations_from_poses
+from .stations import StationRecord, Stations, stations_from_poses
 
 Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TaughtRecord:
+    """One taught station: its ``name``, the ``station`` and the ``naive_station`` the naive model records for the
+    same joints, and the real minus the naive wafer position (``naive_error`` [m] and its vector [m, world])."""
+
+    name: str
+    station: StationRecord
+    naive_station: StationRecord
+    naive_error: float
+    naive_error_vector: Array
+
+
+@dataclass(frozen=True)
+class RetaughtRecord:
+    """One re-taught station: its ``name``, the station the old tool ``intended``, the new ``rods`` [m] and arm
+    joints by name [rad], and the wafer error the old joints made (``avoided_error`` [m] and its vector)."""
+
+    name: str
+    intended: StationRecord
+    rods: Array
+    arm: dict[str, float]
+    avoided_error: float
+    avoided_error_vector: Array
+
+
+@dataclass(frozen=True)
+class TeachReport:
+    """``gpr robot teach --json``: the ``robot``, whether the joints were re-taught (``reteach``) and a record per
+    station (:class:`TaughtRecord`, or :class:`RetaughtRecord` when re-taught)."""
+
+    robot: str
+    reteach: bool
+    stations: tuple[TaughtRecord, ...] | tuple[RetaughtRecord, ...]
 
 
 @dataclass(frozen=True)
@@ -47,6 +82,13 @@ class Taught:
     def naive_error(self) -> Array:
         """Real minus naive wafer position ``(N, 3)`` [m, world]."""
         return self.forward.naive_wafer_error
+
+    def records(self) -> tuple[TaughtRecord, ...]:
+        """Every station as a :class:`TaughtRecord` (each error array computed once, each record its own copy)."""
+        error = self.naive_error
+        norm = np.linalg.norm(error, axis=1)
+        return tuple(TaughtRecord(name, self.stations.record(i), self.naive_stations.record(i), float(norm[i]),
+                                  np.array(error[i])) for i, name in enumerate(self.stations.names))
 
 
 def teach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
@@ -79,6 +121,15 @@ class Retaught:
     @property
     def avoided_error_norm(self) -> Array:
         return np.asarray(np.linalg.norm(self.avoided_error, axis=1), dtype=np.float64)
+
+    def records(self) -> tuple[RetaughtRecord, ...]:
+        """Every station as a :class:`RetaughtRecord` (each error array computed once, each record its own copy)."""
+        sol = self.solution
+        names = sol.forward.robot.arm(sol.arm).joint_names
+        avoided, norm = self.avoided_error, self.avoided_error_norm
+        return tuple(RetaughtRecord(name, self.intended.record(i), np.array(sol.rods[i]),
+                                    dict(zip(names, sol.joints[i].tolist(), strict=True)), float(norm[i]),
+                                    np.array(avoided[i])) for i, name in enumerate(self.intended.names))
 
 
 def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,

@@ -1,17 +1,24 @@
-"""Time parameterisation of joint-space moves within velocity and acceleration limits, and sampling.
+"""Time parameterisation of the moves between waypoints within velocity, acceleration and jerk limits; sampling.
 
-A move from joint values ``P_i`` to ``P_{i+1}`` (rods and arm joints together) follows the straight line
-``P(t) = P_i + s(t) (P_{i+1} - P_i)`` with one normalised profile ``s`` for all joints, so they start and stop
-together. ``s`` is a trapezoid in velocity: constant acceleration ``A``, cruise at ``V``, constant deceleration.
-Joint ``k`` then moves at ``|D_k| V`` and accelerates at ``|D_k| A``, so the limits ``v_k``, ``a_k`` hold when
+A move from joint values ``P_i`` to ``P_{i+1}`` (rods and arm joints together) follows a path ``P(s)``, ``s`` from 0
+to 1, with one normalised profile ``s(t)`` for all joints, so they start and stop together: the straight line
+``P_i + s (P_{i+1} - P_i)`` in joint space, or (a straight entry, :mod:`gpr_kinematics.robot.paths`) the joints that
+keep the wafer on a line. ``s`` is an **S-curve**: the jerk ``+-J`` ramps the acceleration up to at most ``A`` and
+down, the speed cruises at ``V``, and the braking mirrors the start; without a jerk limit (``J = inf``) it is the
+trapezoid (constant acceleration). With ``G1_k = max |dP_k/ds|`` along the path (``|D_k|`` on a joint-space line)
+and, on a curved path, ``G2_k = max |d^2P_k/ds^2|``, ``G3_k = max |d^3P_k/ds^3|``, the joint's velocity, acceleration
+and jerk are at most ``G1 V``, ``G1 A + G2 V^2`` and ``G1 J + 3 G2 V A + G3 V^3`` (chain rule); the profile takes
+``V = min_k v_k / G1_k``, ``A = min_k a_k / G1_k``, ``J = min_k j_k / G1_k`` and, on a curved path, scales time by
+``c <= 1`` (``V c``, ``A c^2``, ``J c^3``) until the other two bounds hold.
 
-    ``V <= min_k v_k / |D_k|``,  ``A <= min_k a_k / |D_k|``.
-
-The shortest such move takes ``T_min = 1/V + V/A`` (with a cruise phase, when ``V^2 <= A``) or ``2 / sqrt(A)``
-(a triangle). A requested duration ``T >= T_min`` keeps the acceleration ``A`` and cruises at
-``V' = (A T - sqrt(A^2 T^2 - 4 A)) / 2`` (the root of ``V' T - V'^2 / A = 1``); a shorter one is refused, naming
-the joint that limits it. Linear interpolation keeps every joint within its range and, since the naive platform
-normal is linear in the rods, the platform within the tilt limit of its end points.
+Profile of a unit move (``v`` the cruise speed reached, ``t_a`` the time to reach it, ``d_a = v t_a / 2`` the
+distance then): with ``v J >= A^2`` the acceleration saturates, ``t_a = v/A + A/J``; else it peaks at
+``sqrt(v J)``, ``t_a = 2 sqrt(v/J)``. ``v = V`` when ``V t_a(V) <= 1`` (then a cruise of ``(1 - V t_a)/V``), else the
+root of ``v t_a(v) = 1``: ``v = A (sqrt(A^2/J^2 + 4/A) - A/J) / 2`` or ``(J/4)^(1/3)``. The duration is
+``2 t_a + cruise``; with ``J = inf``, ``1/V + V/A`` or ``2/sqrt(A)`` (a triangle), the trapezoid's. A requested
+duration ``T >= T_min`` keeps ``A`` and ``J`` and lowers the cruise speed until the duration is ``T`` (closed form
+for the trapezoid, ``V' = (A T - sqrt(A^2 T^2 - 4 A)) / 2``; bisection for the S-curve); a shorter one is refused,
+naming the joint that limits it. docs/robot.md compares the S-curve's durations with the trapezoid's.
 """
 from __future__ import annotations
 
@@ -30,6 +37,106 @@ STILL = 1e-15
 #: Most samples a program may be sampled into: a sample costs about 1.8 kB until its table is written (its forward
 #: kinematics and a row of Python numbers), 0.36 GB at the limit (5,000,000 asked for 9 GB).
 MAX_SAMPLES = 200_000
+#: The sample rates [Hz] a program is sampled at (a sample every 0.2 ms to every 10 s): the rates trajectory_node
+#: publishes at, too (its parameter ``rate``).
+RATES = (0.1, 5000.0)
+
+
+def check_rate(rate: object) -> float:
+    """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not RATES[0] <= rate <= RATES[1]:
+        raise InputError(f'rate = {rate!r} is invalid; allowed: {RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample '
+                         'every 0.2 ms to every 10 s)')
+    return float(rate)
+
+
+@dataclass(frozen=True)
+class Profiles:
+    """The unit S-curves of ``M`` moves: cruise speed ``v`` [1/s] and peak acceleration ``a`` [1/s^2] reached, jerk
+    ``j`` [1/s^3] (``inf``: a trapezoid), the jerk phases' ``tj``, the constant acceleration's ``tc``, the time ``ta``
+    to reach ``v`` and the duration ``T`` [s] (``(M,)`` each)."""
+
+    v: Array
+    a: Array
+    j: Array
+    tj: Array
+    tc: Array
+    ta: Array
+    T: Array
+
+
+def _accel_time(v: Array, A: Array, J: Array) -> tuple[Array, Array, Array]:
+    """``(tj, tc, a_peak)`` of the acceleration phase up to ``v`` (module docstring)."""
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        sat = v * J >= A * A
+        tj = np.where(np.isinf(J), 0.0, np.where(sat, A / J, np.sqrt(v / J)))
+        tc = np.where(sat, v / A - np.where(np.isinf(J), 0.0, A / J), 0.0)
+        peak = np.where(sat, A, np.sqrt(v * J))
+    return np.maximum(tj, 0.0), np.maximum(tc, 0.0), peak
+
+
+def unit_profiles(V: Array, A: Array, J: Array) -> Profiles:
+    """The shortest unit S-curves within ``V``, ``A``, ``J`` (``inf`` where the move is still: duration 0)."""
+    V, A, J = (np.asarray(x, dtype=float) for x in (V, A, J))
+    still = ~np.isfinite(V) | ~np.isfinite(A)
+    Vs, As = np.where(still, 1.0, V), np.where(still, 1.0, A)
+    tj, tc, _ = _accel_time(Vs, As, J)
+    cruise = Vs * (2 * tj + tc) <= 1.0
+    with np.errstate(invalid='ignore', divide='ignore'):
+        r = np.where(np.isinf(J), 0.0, As / J)
+        v_sat = As * (np.sqrt(r * r + 4.0 / As) - r) / 2.0
+        v_tri = np.cbrt(np.where(np.isinf(J), 1.0, J) / 4.0)
+    v = np.where(cruise, Vs, np.where(v_sat * np.where(np.isinf(J), np.inf, J) >= As * As, v_sat, v_tri))
+    return _with_speed(v, As, J, still)
+
+
+def _with_speed(v: Array, A: Array, J: Array, still: NDArray[np.bool_]) -> Profiles:
+    tj, tc, peak = _accel_time(v, A, J)
+    ta = 2 * tj + tc
+    with np.errstate(invalid='ignore', divide='ignore'):
+        T = 2 * ta + np.maximum(1.0 - v * ta, 0.0) / v
+    return Profiles(np.where(still, np.inf, v), np.where(still, np.inf, peak), J, np.where(still, 0.0, tj),
+                    np.where(still, 0.0, tc), np.where(still, 0.0, ta), np.where(still, 0.0, T))
+
+
+def stretched(p: Profiles, A: Array, J: Array, T: Array) -> Profiles:
+    """Profiles of durations ``T >= p.T`` with the same ``A``, ``J`` and a lower cruise speed."""
+    A, J, T = np.asarray(A, float), np.asarray(J, float), np.asarray(T, float)
+    with np.errstate(invalid='ignore'):
+        disc = np.maximum(A * A * T * T - 4.0 * A, 0.0)
+        v = (A * T - np.sqrt(disc)) / 2.0       # the trapezoid's closed form (J = inf)
+    lo, hi = np.zeros_like(T), np.where(np.isfinite(p.v), p.v, 0.0)
+    for _ in range(80):  # the S-curve: duration decreases with the cruise speed
+        mid = 0.5 * (lo + hi)
+        slow = _with_speed(mid, A, J, np.zeros(T.shape, dtype=bool)).T > T
+        lo, hi = np.where(slow, mid, lo), np.where(slow, hi, mid)
+    v = np.where(np.isinf(J), v, hi)
+    return _with_speed(v, A, J, ~np.isfinite(p.v))
+
+
+def evaluate(p: Profiles, m: NDArray[np.int64], tau: Array) -> tuple[Array, Array, Array]:
+    """``s``, ``ds/dt``, ``d^2s/dt^2`` of moves ``m`` at times ``tau`` [s] after their start (clipped to the move)."""
+    T = p.T[m]
+    tau = np.clip(tau, 0.0, T)
+    back = tau > 0.5 * T
+    u = np.where(back, T - tau, tau)                # the braking half mirrors the start
+    v, a, j, tj, tc, ta = (x[m] for x in (p.v, p.a, p.j, p.tj, p.tc, p.ta))
+    jj = np.where(np.isinf(j), 0.0, j)
+    with np.errstate(invalid='ignore', over='ignore'):
+        v1, s1 = 0.5 * jj * tj ** 2, jj * tj ** 3 / 6.0
+        v2, s2 = v1 + a * tc, s1 + v1 * tc + 0.5 * a * tc ** 2
+        u2, u3 = u - tj, u - tj - tc
+        s = np.select([u < tj, u < tj + tc, u < ta],
+                      [jj * u ** 3 / 6.0, s1 + v1 * u2 + 0.5 * a * u2 ** 2,
+                       s2 + v2 * u3 + 0.5 * a * u3 ** 2 - jj * u3 ** 3 / 6.0],
+                      0.5 * v * ta + v * (u - ta))
+        ds = np.select([u < tj, u < tj + tc, u < ta],
+                       [0.5 * jj * u ** 2, v1 + a * u2, v2 + a * u3 - 0.5 * jj * u3 ** 2], v)
+        dds = np.select([u < tj, u < tj + tc, u < ta], [jj * u, a, a - jj * u3], 0.0)
+    still = ~np.isfinite(v) | (T <= 0.0)
+    s = np.where(back, 1.0 - s, s)
+    return (np.clip(np.where(still, 1.0, s), 0.0, 1.0), np.where(still, 0.0, ds),
+            np.where(still, 0.0, np.where(back, -dds, dds)))
 
 
 @dataclass(frozen=True)
@@ -38,9 +145,11 @@ class Timing:
 
     Attributes:
         positions: joint values at the waypoints ``(W, J)``; arrive, depart: times [s] ``(W,)``.
-        duration: of the move into waypoint ``i + 1`` ``(W - 1,)`` [s]; speed, accel: its profile's ``V'`` and ``A``
-            [1/s, 1/s^2] (``inf`` for a move that moves nothing).
-        velocity, acceleration: the joints' limits ``(J,)``.
+        duration: of the move into waypoint ``i + 1`` ``(W - 1,)`` [s]; speed, accel: its profile's cruise speed and
+            peak acceleration [1/s, 1/s^2] (``inf`` for a move that moves nothing); profiles: the unit S-curves.
+        velocity, acceleration, jerk: the joints' limits ``(J,)`` (jerk ``inf``: none).
+        gains: ``(G1, G2, G3)`` per move and joint ``(W - 1, J)``: the path's largest first, second and third
+            derivatives in ``s`` (module docstring).
     """
 
     positions: Array
@@ -51,35 +160,50 @@ class Timing:
     accel: Array
     velocity: Array
     acceleration: Array
+    profiles: Profiles
+    jerk: Array
+    gains: tuple[Array, Array, Array]
 
     @property
     def total(self) -> float:
         """Duration of the whole program [s]."""
         return float(self.depart[-1])
 
+    def peaks(self) -> tuple[Array, Array, Array]:
+        """Per move and joint ``(W - 1, J)``, bounds on the speed, acceleration and jerk reached (chain rule)."""
+        G1, G2, G3 = self.gains
+        p = self.profiles
+        v, a = (np.where(np.isfinite(x), x, 0.0)[:, None] for x in (p.v, p.a))
+        j = np.where(np.isfinite(p.j) & np.isfinite(p.v), p.j, 0.0)[:, None]
+        return G1 * v, G1 * a + G2 * v * v, G1 * j + 3 * G2 * v * a + G3 * v ** 3
+
     def usage(self) -> tuple[Array, Array]:
         """Per joint, the largest speed and acceleration reached as a fraction of its limit ``(J,)``."""
-        D = np.abs(np.diff(self.positions, axis=0))
-        moving = D > STILL
-        v = np.where(moving, D * np.where(np.isfinite(self.speed), self.speed, 0.0)[:, None], 0.0)
-        a = np.where(moving, D * np.where(np.isfinite(self.accel), self.accel, 0.0)[:, None], 0.0)
-        if D.shape[0] == 0:
+        if self.duration.shape[0] == 0:
             return np.zeros(self.velocity.shape), np.zeros(self.velocity.shape)
+        v, a, _ = self.peaks()
         return np.max(v, axis=0) / self.velocity, np.max(a, axis=0) / self.acceleration
 
+    def jerk_usage(self) -> Array:
+        """Per joint, the largest jerk reached as a fraction of its limit ``(J,)`` (0 without a limit)."""
+        if self.duration.shape[0] == 0:
+            return np.zeros(self.velocity.shape)
+        return np.asarray(np.max(self.peaks()[2], axis=0) / self.jerk, dtype=np.float64)
 
-def shortest(D: Array, velocity: Array, acceleration: Array) -> tuple[Array, Array, Array]:
-    """For moves ``D (M, J)``: the profile limits ``V``, ``A`` and the shortest duration ``T_min`` ``(M,)``."""
-    aD = np.abs(D)
-    moving = aD > STILL
+
+def _limits(G: Array, limit: Array) -> Array:
+    moving = G > STILL
     with np.errstate(divide='ignore'):
-        V = np.min(np.where(moving, velocity / np.where(moving, aD, 1.0), np.inf), axis=1)
-        A = np.min(np.where(moving, acceleration / np.where(moving, aD, 1.0), np.inf), axis=1)
-    still = ~moving.any(axis=1)
-    cruise = V * V <= A
-    with np.errstate(invalid='ignore', divide='ignore'):
-        T = np.where(cruise, 1.0 / V + V / A, 2.0 / np.sqrt(A))
-    return V, A, np.where(still, 0.0, T)
+        return np.asarray(np.min(np.where(moving, limit / np.where(moving, G, 1.0), np.inf), axis=1), dtype=np.float64)
+
+
+def shortest(D: Array, velocity: Array, acceleration: Array, jerk: Array | None = None
+             ) -> tuple[Array, Array, Array]:
+    """For joint-space moves ``D (M, J)``: the profile limits ``V``, ``A`` and the shortest duration ``T_min``."""
+    aD = np.abs(D)
+    V, A = _limits(aD, velocity), _limits(aD, acceleration)
+    J = np.full(V.shape, np.inf) if jerk is None else _limits(aD, jerk)
+    return V, A, unit_profiles(V, A, J).T
 
 
 def joint_time(d: Array, v: Array, a: Array) -> Array:
@@ -89,13 +213,16 @@ def joint_time(d: Array, v: Array, a: Array) -> Array:
 
 
 def parameterise(positions: Array, velocity: Array, acceleration: Array, requested: Array, dwell: Array,
-                 names: tuple[str, ...], labels: tuple[str, ...]) -> Timing:
+                 names: tuple[str, ...], labels: tuple[str, ...], jerk: Array | None = None,
+                 gains: tuple[Array, Array, Array] | None = None) -> Timing:
     """Time the moves between waypoints ``positions (W, J)``.
 
     Args:
         requested: duration [s] of the move into each waypoint ``(W,)``, NaN for the shortest (the first unused).
         dwell: time held at each waypoint ``(W,)`` [s].
         names: the joints' names; labels: how messages name each waypoint.
+        jerk: the joints' jerk limits ``(J,)`` (None or ``inf``: none).
+        gains: ``(G1, G2, G3)`` per move (module docstring); default the joint-space lines ``(|D|, 0, 0)``.
 
     Raises:
         LimitError: a requested duration shorter than the limits allow (the move, the duration, the joint).
@@ -104,7 +231,18 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     if W == 0:
         raise InputError('a program needs at least one waypoint')
     D = np.diff(positions, axis=0)
-    V, A, T_min = shortest(D, velocity, acceleration)
+    jerk_lim = np.full(velocity.shape, np.inf) if jerk is None else np.asarray(jerk, dtype=float)
+    G1, G2, G3 = (np.abs(D), np.zeros(D.shape), np.zeros(D.shape)) if gains is None else gains
+    V, A, J = _limits(G1, velocity), _limits(G1, acceleration), _limits(G1, jerk_lim)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        fa = np.min(np.where(G2 > 0, acceleration / (G1 * A[:, None] + G2 * V[:, None] ** 2), np.inf), axis=1)
+        curved = ((G2 > 0) | (G3 > 0)) & np.isfinite(jerk_lim)   # without a jerk limit, only the acceleration
+        fj = np.min(np.where(curved, jerk_lim / (G1 * J[:, None] + 3 * G2 * (V * A)[:, None] + G3 * V[:, None] ** 3),
+                             np.inf), axis=1)
+    c = np.minimum(1.0, np.minimum(np.sqrt(fa), np.cbrt(fj)))
+    V, A, J = V * c, A * c * c, J * c ** 3
+    p = unit_profiles(V, A, J)
+    T_min = p.T
     req = requested[1:]
     given = np.isfinite(req)
     short = given & (req < T_min * (1.0 - 1e-12))
@@ -115,59 +253,89 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
         raise LimitError(f'the move into {labels[i + 1]} needs at least {T_min[i]:.4g} s within the limits, time = '
                          f'{req[i]:.4g} s is too short ({names[k]} alone needs {t[k]:.4g} s at {velocity[k]:g} /s and '
                          f'{acceleration[k]:g} /s^2)')
-    T = np.where(given, req, T_min)
-    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        disc = np.maximum(A * A * T * T - 4.0 * A, 0.0)
-        speed = np.where(given & np.isfinite(A), (A * T - np.sqrt(disc)) / 2.0, V)
+    if given.any():
+        slow = stretched(p, A, J, np.where(given, req, T_min))
+        fields = ('v', 'a', 'j', 'tj', 'tc', 'ta', 'T')
+        p = Profiles(*(np.where(given, getattr(slow, f), getattr(p, f)) for f in fields))
+    T = p.T
     arrive = np.concatenate([[0.0], np.cumsum(dwell[:-1] + T)])
-    return Timing(positions, arrive, arrive + dwell, T, speed, A, velocity, acceleration)
+    return Timing(positions, arrive, arrive + dwell, T, p.v, p.a, velocity, acceleration, p, jerk_lim, (G1, G2, G3))
 
 
-def profile(tau: Array, T: Array, V: Array, A: Array) -> Array:
-    """The normalised trapezoid ``s(tau)`` in [0, 1] of moves of durations ``T`` (module docstring)."""
-    with np.errstate(invalid='ignore', divide='ignore'):
-        ta = np.where(np.isfinite(A), np.minimum(V / A, T / 2.0), 0.0)
-        up = 0.5 * A * tau * tau
-        cruise = V * (tau - 0.5 * ta)
-        down = 1.0 - 0.5 * A * (T - tau) ** 2
-        s = np.where(tau < ta, up, np.where(tau <= T - ta, cruise, down))
-    return np.clip(np.where(np.isfinite(A) & (T > 0), s, 1.0), 0.0, 1.0)
+def profile(tau: Array, T: Array, V: Array, A: Array, J: Array | None = None) -> Array:
+    """The normalised profile ``s(tau)`` in [0, 1] of unit moves of durations ``T`` with cruise speed ``V``, peak
+    acceleration ``A`` and jerk ``J`` (None: the trapezoid)."""
+    J = np.full(np.shape(V), np.inf) if J is None else np.asarray(J, dtype=float)
+    tj, tc, _ = _accel_time(np.asarray(V, float), np.asarray(A, float), J)
+    p = Profiles(np.asarray(V, float), np.asarray(A, float), J, tj, tc, 2 * tj + tc, np.asarray(T, float))
+    return evaluate(p, np.arange(np.shape(T)[0]), np.asarray(tau, float))[0]
 
 
 @dataclass(frozen=True)
 class Samples:
     """A program sampled in time: ``time (S,)`` [s], joint values ``positions (S, J)``, the waypoint held
-    (``-1`` while moving) and the waypoint being moved to or held ``target (S,)``."""
+    (``-1`` while moving) and the waypoint being moved to or held ``target (S,)``; ``s (S,)`` the profile's value
+    in the move into ``target`` (1 while held)."""
 
     time: Array
     positions: Array
     held: NDArray[np.int64]
     target: NDArray[np.int64]
+    s: Array
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
 
 
-def sample(timing: Timing, rate: float) -> Samples:
-    """Samples at ``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant."""
-    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0 < rate <= 10_000):
-        raise InputError(f'rate = {rate!r} is invalid; allowed: 0 < rate <= 10000 Hz')
+def locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.int64], Array]:
+    """For times ``t``: the waypoint last arrived at ``i``, whether it is held, the move ``m`` (into ``m + 1``) and
+    the time into that move."""
+    last = len(timing.arrive) - 1
+    i = np.clip(np.searchsorted(timing.arrive, t, side='right') - 1, 0, last)
+    held = t <= timing.depart[i] + 1e-12
+    m = np.minimum(i, max(last - 1, 0))
+    return i, held, m, t - timing.depart[m]
+
+
+def sample_times(timing: Timing, rate: float) -> Array:
+    """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant (bounded by MAX_SAMPLES)."""
+    rate = check_rate(rate)
     total = timing.total
     count = int(math.floor(total * rate + 1e-9)) + 1
     if count > MAX_SAMPLES:
         raise InputError(f'the program lasts {total:.6g} s: at {rate:g} Hz that is {count} samples; allowed: at most '
                          f'{MAX_SAMPLES}; lower the rate')
     t = np.arange(count, dtype=float) / rate
-    if total - t[-1] > 1e-9:
-        t = np.append(t, total)
-    i = np.clip(np.searchsorted(timing.arrive, t, side='right') - 1, 0, len(timing.arrive) - 1)
-    held = t <= timing.depart[i] + 1e-12
-    last = len(timing.arrive) - 1
-    m = np.minimum(i, max(last - 1, 0))
-    if last == 0:
-        return Samples(t, np.repeat(timing.positions, t.shape[0], axis=0), np.zeros(t.shape, dtype=np.int64),
-                       np.zeros(t.shape, dtype=np.int64))
-    s = profile(t - timing.depart[m], timing.duration[m], timing.speed[m], timing.accel[m])
+    return np.append(t, total) if total - t[-1] > 1e-9 else t
+
+
+def sample(timing: Timing, rate: float) -> Samples:
+    """Samples at :func:`sample_times`; the joints on the joint-space line of each move (a curved path's rows are
+    replaced by its caller, :func:`gpr_kinematics.robot.plan.sample_plan`)."""
+    return sample_at(timing, sample_times(timing, rate))
+
+
+def sample_at(timing: Timing, t: Array) -> Samples:
+    """:class:`Samples` at the times ``t`` [s] (within ``[0, total]``)."""
+    if len(timing.arrive) == 1:
+        n = t.shape[0]
+        return Samples(t, np.repeat(timing.positions, n, axis=0), np.zeros(n, dtype=np.int64),
+                       np.zeros(n, dtype=np.int64), np.ones(n))
+    i, held, m, tau = locate(timing, t)
+    s = evaluate(timing.profiles, m, tau)[0]
     D = np.diff(timing.positions, axis=0)
     pos = np.where(held[:, None], timing.positions[i], timing.positions[m] + s[:, None] * D[m])
-    return Samples(t, pos, np.where(held, i, -1), np.where(held, i, m + 1))
+    return Samples(t, pos, np.where(held, i, -1), np.where(held, i, m + 1), np.where(held, 1.0, s))
+
+
+def velocities(timing: Timing, t: Array) -> Array:
+    """The joints' velocities ``(S, J)`` at times ``t (S,)`` [m/s, rad/s] on the joint-space line of each move:
+    ``ds/dt D`` of the move under way, 0 while a waypoint is held (the derivative of :func:`sample_at`; a curved
+    path's rows are its caller's, :func:`gpr_kinematics.robot.plan.plan_velocities`)."""
+    t = np.asarray(t, dtype=float)
+    if len(timing.arrive) == 1:
+        return np.zeros((t.shape[0], timing.positions.shape[1]))
+    _, held, m, tau = locate(timing, t)
+    ds = evaluate(timing.profiles, m, tau)[1]
+    out: Array = np.where(held[:, None], 0.0, ds[:, None] * np.diff(timing.positions, axis=0)[m])
+    return out

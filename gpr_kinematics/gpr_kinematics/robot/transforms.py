@@ -31,6 +31,15 @@ class Pose:
 
 
 @dataclass(frozen=True)
+class PoseRecord:
+    """One frame's pose as the command line and the messages give it: ``position`` (3,) [m] and ``quaternion``
+    (x, y, z, w), w >= 0."""
+
+    position: Array
+    quaternion: Array
+
+
+@dataclass(frozen=True)
 class PoseBatch:
     """Poses of one frame for ``N`` configurations: ``position (N, 3)`` [m], ``rotation (N, 3, 3)``."""
 
@@ -42,6 +51,10 @@ class PoseBatch:
 
     def __getitem__(self, i: int) -> Pose:
         return Pose(self.position[i], self.rotation[i])
+
+    def record(self, i: int) -> PoseRecord:
+        """Pose ``i`` as a :class:`PoseRecord` (its own copy: a record never holds on to the batch)."""
+        return PoseRecord(np.array(self.position[i]), quaternion_from_matrix(self.rotation[i]))
 
     @property
     def quaternion(self) -> Array:

@@ -9,7 +9,7 @@ URDF, the transforms and the plots always show the geometry the kinematics uses.
 - ``gpr_rod_k``: the top of rod k, at the spherical joint centre ``P_k = B_k + (q_k + o_k) u_k``
   (:class:`~gpr_kinematics.core.machine.MachineGeometry`: base point, zero offset and direction of the rod; the nominal
   machine's ``(R cos theta_k, R sin theta_k, q_k)``); joint ``rod_k`` (prismatic along ``u_k``, ``q_k`` in the
-  stroke): the joint names of ``gpr/joint_states``;
+  stroke): the joint names of ``joint_states``;
 - ``gpr_platform``: the platform (origin at the centre of the nominal joint triangle, z normal to it); joint
   ``gpr_platform_pose`` is *floating*: its pose comes from the kinematics (the virtual-joint model), not from a
   chain of joints (the GPR is a closed, overconstrained loop that a URDF tree cannot express);
@@ -21,8 +21,18 @@ The whole robot (:func:`robot_urdf`, from a robot description, docs/robot.md) ad
 - ``world`` (the description's ``base.frame``): the root; ``gpr_base`` fixed in it at ``base.position`` /
   ``base.rpy`` (joint ``gpr_base_mount``, ``/tf_static``);
 - ``<arm>_link<k>``: one frame per revolute joint (joint names: the description's, e.g. ``arm1_elbow``, the names of
-  ``gpr/joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
-- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``).
+  ``joint_states``), ``<arm>_link1`` on ``gpr_platform``, axes along the platform normal;
+- ``<arm>_blade`` and ``<arm>_wafer``: fixed on the last link (joints ``<arm>_blade_mount``, ``<arm>_wafer_mount``);
+- ``<collision>``: the description's collision bodies (:mod:`gpr_kinematics.robot.collision`: the column on
+  ``gpr_base``, the platform disc, the links, the paddles, the wafers as discs), exactly the shapes the clearance
+  check (:mod:`gpr_kinematics.safety.clearance`) measures.
+
+For a motion stack: the joints' limits carry the description's velocities (rods: ``rods.velocity``; arm joints: their
+``velocity``) and effort 0 (the description gives none: not modelled); every link with a shape has an ``<inertial>``,
+by default (the description gives no masses) that of its drawn shapes filled with aluminium (:data:`DENSITY`, the
+wafer silicon), about its centre of mass; a link's collision shapes (``Link.collisions``) are written as
+``<collision>`` elements. ``frame_prefix`` prefixes every link (frame) name, not the joint names, as
+``robot_state_publisher``'s ``frame_prefix`` prefixes the tf frames: the URDF and ``/tf`` name the same frames.
 
 The arm's joint origins are its frames at zero joint values as the robot core chains them
 (:func:`gpr_kinematics.robot.forward.arm_transforms`): the URDF, the transforms and the kinematics have one source.
@@ -54,33 +64,34 @@ from ..core.machine import MachineGeometry
 from ..core.messages import ROD_JOINT_NAMES
 from ..core.rotations import quaternion_from_matrix, rpy_matrix
 from ..errors import InputError
+from .collision import robot_shapes
+from .shapes import DENSITY, Inertial, Visual, default_inertial
 
 if TYPE_CHECKING:
     from .description import Arm, RobotDescription
 
 #: A 300 mm wafer (diameter, thickness [m]): how the wafer frame is drawn (a visual; the kinematics use its centre).
 WAFER_VISUAL = (0.300, 0.000775)
+#: The platform's closed chain, as the URDF explains it next to the floating joint.
+CLOSED_CHAIN_NOTE = (
+    'The platform closes an overconstrained loop: rods 1 to 3 (prismatic joints rod_k along their axes) end in '
+    'spherical joints on the platform, three chains meeting one body, which a URDF tree cannot express. The platform '
+    'hangs on this floating joint instead; its pose is the virtual-joint model\'s forward kinematics of the rods '
+    '(gpr_kinematics), published on /tf by state_publisher_node. robot_state_publisher alone cannot compute it (it '
+    'publishes no floating joint).')
 
 JOINT_KINDS = ('fixed', 'prismatic', 'revolute', 'floating')
 
 
 @dataclass(frozen=True)
-class Visual:
-    """A primitive shape of a link: ``box`` (size x y z), ``cylinder`` (radius, length along z), ``sphere``
-    (radius) [m], placed at ``xyz`` [m] / ``rpy`` [rad] in the link frame, colour RGBA in [0, 1]."""
-
-    shape: str
-    size: tuple[float, ...]
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    material: str = 'grey'
-    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
-
-
-@dataclass(frozen=True)
 class Link:
+    """A frame with its drawn shapes, its collision shapes (the robot description's bodies, :mod:`.collision`; none:
+    no ``<collision>``) and its inertia (None: :func:`default_inertial` of the shapes)."""
+
     name: str
     visuals: tuple[Visual, ...] = ()
+    collisions: tuple[Visual, ...] = ()
+    inertial: Inertial | None = None
 
 
 @dataclass(frozen=True)
@@ -98,6 +109,9 @@ class Joint:
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     lower: float = 0.0
     upper: float = 0.0
+    velocity: float = 0.0
+    effort: float = 0.0
+    note: str = ''
 
 
 def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
@@ -142,6 +156,14 @@ class RobotUrdf:
         raise InputError(f'robot model {self.name} has no joint {name!r}; it has: '
                          + ', '.join(j.name for j in self.joints))
 
+    def prefixed(self, prefix: str) -> RobotUrdf:
+        """This model with every link (frame) name prefixed by ``prefix``; the joint names stay."""
+        if not prefix:
+            return self
+        links = tuple(replace(link, name=prefix + link.name) for link in self.links)
+        joints = tuple(replace(j, parent=prefix + j.parent, child=prefix + j.child) for j in self.joints)
+        return replace(self, root=prefix + self.root, links=links, joints=joints)
+
     def extended(self, links: Iterable[Link], joints: Iterable[Joint]) -> RobotUrdf:
         """This model with more links and joints (e.g. an arm on ``gpr_platform``)."""
         return replace(self, links=(*self.links, *links), joints=(*self.joints, *joints))
@@ -171,8 +193,9 @@ def joint_transform(joint: Joint, value: float = 0.0) -> tuple[list[float], list
 
 
 def gpr_urdf(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
-              nominal_frame: str = 'gpr_platform_nominal') -> RobotUrdf:
-    """The GPR (base, three rods, exact and nominal platform) with the geometry of ``cfg``."""
+             nominal_frame: str = 'gpr_platform_nominal', rod_velocity: float = 0.0) -> RobotUrdf:
+    """The GPR (base, three rods, exact and nominal platform) with the geometry of ``cfg``, the rods' velocity limit
+    ``rod_velocity`` [m/s] (0: not known)."""
     R = cfg.radius
     stroke = cfg.stroke_max - cfg.stroke_min
     rod_r, ball_r, plate = 0.06 * R, 0.1 * R, 0.1 * R
@@ -191,20 +214,20 @@ def gpr_urdf(cfg: GprConfig, base_frame: str = 'gpr_base', platform_frame: str =
                                 Visual('sphere', (ball_r,), material='joint', rgba=(0.9, 0.9, 0.9, 1.0)))))
         joints.append(Joint(f'{guide}_mount', 'fixed', base_frame, guide, xyz=_xyz(feet[k])))
         joints.append(Joint(ROD_JOINT_NAMES[k], 'prismatic', guide, rod, axis=axis, lower=cfg.stroke_min,
-                            upper=cfg.stroke_max))
+                            upper=cfg.stroke_max, velocity=rod_velocity))
     disk = ('cylinder', (1.2 * R, plate), (0.0, 0.0, 0.5 * plate + ball_r))
     links.append(Link(platform_frame, (Visual(*disk, material='platform', rgba=(0.95, 0.55, 0.1, 1.0)),)))
     links.append(Link(nominal_frame, (Visual(*disk, material='nominal', rgba=(0.1, 0.8, 0.2, 0.35)),)))
-    joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame))
+    joints.append(Joint(f'{platform_frame}_pose', 'floating', base_frame, platform_frame, note=CLOSED_CHAIN_NOTE))
     joints.append(Joint(f'{nominal_frame}_pose', 'floating', base_frame, nominal_frame))
     return RobotUrdf('gpr', base_frame, tuple(links), tuple(joints))
 
 
 def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_frame: str = 'gpr_platform',
-                nominal_frame: str = 'gpr_platform_nominal') -> RobotUrdf:
+               nominal_frame: str = 'gpr_platform_nominal', frame_prefix: str = '') -> RobotUrdf:
     """The whole robot: the world, the GPR of the description's geometry (:func:`gpr_urdf`) and every arm with
-    its blade and wafer (module docstring)."""
-    gpr = gpr_urdf(robot.config, base_frame, platform_frame, nominal_frame)
+    its blade and wafer, every frame prefixed with ``frame_prefix`` (module docstring)."""
+    gpr = gpr_urdf(robot.config, base_frame, platform_frame, nominal_frame, robot.rods.velocity)
     world = Link(robot.world_frame)
     mount = Joint(f'{base_frame}_mount', 'fixed', robot.world_frame, base_frame, xyz=robot.base_position,
                   rpy=robot.base_rpy)
@@ -213,7 +236,12 @@ def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_f
         arm_links, arm_joints = _arm_parts(arm, platform_frame)
         links += arm_links
         joints += arm_joints
-    return RobotUrdf(robot.name, robot.world_frame, tuple(links), tuple(joints))
+    names = {'gpr_base': base_frame, 'gpr_platform': platform_frame}
+    shapes: dict[str, list[Visual]] = {}
+    for sh in robot_shapes(robot):
+        shapes.setdefault(names.get(sh.frame, sh.frame), []).append(Visual(sh.kind, sh.size, sh.xyz, sh.rpy))
+    links = [replace(link, collisions=tuple(shapes.get(link.name, ()))) for link in links]
+    return RobotUrdf(robot.name, robot.world_frame, tuple(links), tuple(joints)).prefixed(frame_prefix)
 
 
 def _yaw(R: np.ndarray) -> float:
@@ -244,7 +272,8 @@ def _arm_parts(arm: Arm, platform_frame: str) -> tuple[list[Link], list[Joint]]:
                 visuals.append(Visual('box', (j.length, 0.05, 0.02), (0.5 * j.length, 0.0, 0.0), material='arm',
                                       rgba=grey))
             links.append(Link(frame, tuple(visuals)))
-            joints.append(Joint(j.name, 'revolute', parent, frame, xyz=xyz, rpy=rpy, lower=j.lower, upper=j.upper))
+            joints.append(Joint(j.name, 'revolute', parent, frame, xyz=xyz, rpy=rpy, lower=j.lower, upper=j.upper,
+                                velocity=j.velocity))
         elif frame == arm.blade_frame:
             c = arm.blade.wafer_centre
             reach = math.hypot(c[0], c[1])
@@ -268,11 +297,45 @@ def _v(values: Iterable[float], exact: bool = True) -> str:
     return ' '.join(_f(v, exact) for v in values)
 
 
+def _geometry(v: Visual, exact: bool = False) -> str:
+    if v.shape == 'box':
+        return f'<box size="{_v(v.size, exact)}"/>'
+    if v.shape == 'cylinder':
+        return f'<cylinder radius="{_f(v.size[0], exact)}" length="{_f(v.size[1], exact)}"/>'
+    return f'<sphere radius="{_f(v.size[0], exact)}"/>'
+
+
+def _inertial_xml(i: Inertial) -> str:
+    names = ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz')
+    tensor = ' '.join(f'{n}="{_f(x, False)}"' for n, x in zip(names, i.inertia, strict=True))
+    return (f'    <inertial><origin xyz="{_v(i.xyz, False)}" rpy="0 0 0"/><mass value="{_f(i.mass, False)}"/>'
+            f'<inertia {tensor}/></inertial>')
+
+
+def _link_xml(link: Link) -> list[str]:
+    inertial = link.inertial or default_inertial(link.visuals)
+    if not link.visuals and not link.collisions and inertial is None:
+        return [f'  <link name={quoteattr(link.name)}/>']
+    out = [f'  <link name={quoteattr(link.name)}>']
+    if inertial is not None:
+        out.append(_inertial_xml(inertial))
+    for v in link.visuals:
+        out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>'
+                   f'{_geometry(v)}</geometry><material name={quoteattr(v.material)}/></visual>')
+    for c in link.collisions:  # exact numbers: the clearance check uses these very shapes
+        out.append(f'    <collision><origin xyz="{_v(c.xyz)}" rpy="{_v(c.rpy)}"/><geometry>{_geometry(c, True)}'
+                   '</geometry></collision>')
+    return [*out, '  </link>']
+
+
 def urdf_text(model: RobotUrdf) -> str:
-    """URDF 1.0 XML of ``model``: one ``<material>`` per colour, visuals, joints with origin, axis, limits."""
+    """URDF 1.0 XML of ``model``: one ``<material>`` per colour; links with visuals, collisions and inertia;
+    joints with origin, axis, limits (velocity, effort) and their notes as comments."""
     out = ['<?xml version="1.0"?>',
            '<!-- Generated by gpr_kinematics.robot.urdf from the geometry configuration: do not edit. '
-           'SI units (m, rad). -->',
+           'SI units (m, rad, kg). Effort limits 0: not given by the robot description (not modelled); inertia: '
+           f'of the drawn shapes in aluminium ({DENSITY:g} kg/m^3; the wafer silicon) where the description gives '
+           'no masses. -->',
            f'<robot name={quoteattr(model.name)}>']
     materials: dict[str, tuple[float, ...]] = {}
     for link in model.links:
@@ -281,29 +344,17 @@ def urdf_text(model: RobotUrdf) -> str:
     for name, rgba in materials.items():
         out.append(f'  <material name={quoteattr(name)}><color rgba="{_v(rgba, False)}"/></material>')
     for link in model.links:
-        if not link.visuals:
-            out.append(f'  <link name={quoteattr(link.name)}/>')
-            continue
-        out.append(f'  <link name={quoteattr(link.name)}>')
-        for v in link.visuals:
-            if v.shape == 'box':
-                geometry = f'<box size="{_v(v.size, False)}"/>'
-            elif v.shape == 'cylinder':
-                geometry = f'<cylinder radius="{_f(v.size[0], False)}" length="{_f(v.size[1], False)}"/>'
-            else:
-                geometry = f'<sphere radius="{_f(v.size[0], False)}"/>'
-            out.append(f'    <visual><origin xyz="{_v(v.xyz, False)}" rpy="{_v(v.rpy, False)}"/><geometry>{geometry}'
-                       f'</geometry><material name={quoteattr(v.material)}/></visual>')
-        out.append('  </link>')
+        out += _link_xml(link)
     for j in model.joints:
+        if j.note:
+            out.append(f'  <!-- {j.note} -->')
         out.append(f'  <joint name={quoteattr(j.name)} type="{j.kind}">')
         out.append(f'    <parent link={quoteattr(j.parent)}/><child link={quoteattr(j.child)}/>')
         if j.kind != 'floating':
             out.append(f'    <origin xyz="{_v(j.xyz)}" rpy="{_v(j.rpy)}"/>')
         if j.kind in ('prismatic', 'revolute'):
-            # Effort and velocity are required by URDF but not part of this kinematic model: 0 = not modelled.
             out.append(f'    <axis xyz="{_v(j.axis)}"/><limit lower="{_f(j.lower)}" upper="{_f(j.upper)}" '
-                       f'effort="0.0" velocity="0.0"/>')
+                       f'effort="{_f(j.effort)}" velocity="{_f(j.velocity)}"/>')
         out.append('  </joint>')
     out.append('</robot>')
     return '\n'.join(out) + '\n'
@@ -318,12 +369,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     args = list(sys.argv[1:] if argv is None else argv)
     try:
-        if not args:
+        from .description import load_robot
+
+        if not args:   # the GPR alone: the package geometry, the shipped example robot's rod velocity
             from ..core.config import load_config
 
-            print(gpr_urdf(load_config()).to_urdf(), end='')
+            print(gpr_urdf(load_config(), rod_velocity=load_robot().rods.velocity).to_urdf(), end='')
             return 0
-        from .description import load_robot
 
         print(robot_urdf(load_robot(None if args[0] == 'example' else args[0])).to_urdf(), end='')
     except GprError as exc:

@@ -15,8 +15,8 @@ tests, ``make demo`` and the benchmarks can start the nodes without a shell ``so
 
 ``base-paths``: the repository's packages (the folders ``gpr_interfaces`` and ``gpr_kinematics``), plus
 ``fallback/<pkg>`` for each message package the nodes need that is installed nowhere in the ament prefixes
-(:data:`FALLBACK_PACKAGES`: ``tf2_msgs``, which the PyPI wheels lack); a full ROS 2 install has it, and then its own
-is used.
+(:data:`FALLBACK_PACKAGES`: ``tf2_msgs`` and ``control_msgs``, which the PyPI wheels lack); a full ROS 2 install has
+them, and then its own are used.
 
 ``fix-wheels``: the wheels were built under ``/opt/python/cpXY-cpXY`` (the interpreter's version) and their
 exported CMake files name that interpreter's include directory and numpy include directory; building a custom
@@ -34,7 +34,7 @@ from pathlib import Path
 #: Packages built by ``colcon build`` at the repository root, in dependency order.
 COLCON_PACKAGES: tuple[str, ...] = ('gpr_interfaces', 'gpr_kinematics')
 #: Message packages built from ``fallback/<name>`` only where none is installed, before the packages above.
-FALLBACK_PACKAGES: tuple[str, ...] = ('tf2_msgs',)
+FALLBACK_PACKAGES: tuple[str, ...] = ('tf2_msgs', 'control_msgs')
 
 #: Where the wheels of this interpreter's version were built (named in their exported CMake files).
 _BUILD_HOST_PYTHON = f'/opt/python/cp{sys.version_info.major}{sys.version_info.minor}' \
@@ -212,6 +212,7 @@ def fix_wheels(prefix: Path | None = None) -> int:
 
 def _check() -> int:
     import rclpy
+    from control_msgs.action import FollowJointTrajectory
     from tf2_msgs.msg import TFMessage
 
     from gpr_interfaces import msg, srv
@@ -226,9 +227,12 @@ def _check() -> int:
     names = [t.__name__ for t in (msg.PlatformState, msg.ProgramStation, msg.RobotState, srv.ForwardKinematics,
                                    srv.InverseKinematics, srv.Compensate, srv.AnalyzeMobility,
                                    srv.RobotForwardKinematics, srv.StationInverseKinematics, RunProgram)]
-    print(f'rclpy {Path(rclpy.__file__).parent}, gpr_interfaces ({", ".join(names)}) and tf2_msgs '
-          f'({TFMessage.__name__} from {Path(sys.modules[TFMessage.__module__].__file__ or "").parents[2]}) '
-          'import and run')
+    def origin(t: type) -> Path:
+        return Path(sys.modules[t.__module__].__file__ or '').parents[2]
+
+    print(f'rclpy {Path(rclpy.__file__).parent}, gpr_interfaces ({", ".join(names)}), tf2_msgs '
+          f'({TFMessage.__name__} from {origin(TFMessage)}) and control_msgs ({FollowJointTrajectory.__name__} from '
+          f'{origin(FollowJointTrajectory)}) import and run')
     return 0
 
 

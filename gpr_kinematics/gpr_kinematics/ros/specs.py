@@ -12,12 +12,14 @@ Units are SI (metres, radians, seconds, hertz), as in the core (REP 103).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from ..core.config import MODELS, WEIGHTINGS, GprConfig, load_config
 from ..errors import ConfigError
+from ..robot.timing import RATES
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
 KINDS: dict[str, tuple[type, ...]] = {
@@ -187,6 +189,22 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
 
 # ---- node tables ------------------------------------------------------------------------------------------------
 
+#: The prefix of every tf frame a node publishes, as ``robot_state_publisher``'s ``frame_prefix``: two robots with
+#: ``r1/`` and ``r2/`` publish ``r1/gpr_base`` and ``r2/gpr_base`` on one ``/tf``.
+FRAME_PREFIX = ParamSpec('frame_prefix', 'string', '', 'prefix of every tf frame the node publishes or names (as '
+                         "robot_state_publisher's frame_prefix), e.g. r1/", constraint='empty, or letters, digits, _ '
+                         'and /, not starting with /', read_only=True)
+_PREFIX = re.compile(r'^[A-Za-z0-9_][A-Za-z0-9_/]{0,99}$')
+
+
+def check_frame_prefix(prefix: str) -> str:
+    """``prefix`` when it is a valid frame prefix (:data:`FRAME_PREFIX`), else :class:`ConfigError` naming it."""
+    if prefix and not _PREFIX.match(prefix):
+        raise ConfigError(f'parameter frame_prefix = {prefix!r} is invalid; allowed: {FRAME_PREFIX.constraint} (at '
+                          'most 100 characters), e.g. r1/')
+    return prefix
+
+
 #: Modes of trajectory_node: ``sweep`` and ``program`` stream at start (and exit when done unless ``loop``);
 #: ``idle`` streams nothing at start and serves programs through the ``gpr/run_program`` action.
 TRAJECTORY_MODES = ('sweep', 'program', 'idle')
@@ -195,7 +213,7 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('mode', _S, 'sweep', 'sweep (the paper grid), program (an offline program file) or idle (no stream '
               'at start: programs come through the gpr/run_program action)', choices=TRAJECTORY_MODES,
               read_only=True),
-    ParamSpec('rate', _D, 100.0, 'publishing rate [Hz]', (0.1, 5000.0), read_only=True),
+    ParamSpec('rate', _D, 100.0, 'publishing rate [Hz]', RATES, read_only=True),
     ParamSpec('height', _D, 0.5, 'sweep: height of the platform centre [m]', (-10.0, 10.0),
               constraint='within the stroke', read_only=True),
     ParamSpec('max_tilt', _D, math.radians(2.0), 'sweep: largest |alpha| [rad]', (1e-6, math.radians(15.0)),
@@ -207,11 +225,15 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
+    ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config/programs, whose files a '
+              'gpr/run_program goal may read (its program_file and the files it names: robot, geometry, stations); '
+              'any other path is refused', constraint='existing folders, or [\'\'] for none', read_only=True),
     ParamSpec('move_time', _D, 2.0, 'program: default duration of a move between stations [s]', (1e-3, 3600.0),
               read_only=True),
     ParamSpec('loop', _B, False, 'start over after the last sample instead of exiting', read_only=True),
     ParamSpec('base_frame', _S, 'gpr_base', 'frame of the base (header.frame_id)', constraint='a tf frame name',
               read_only=True),
+    FRAME_PREFIX,
     ParamSpec('markers_every', _I, 1, 'publish gpr/markers every n-th sample', (1, 100000), read_only=True),
     ParamSpec('wait_for_subscribers', _I, 0, 'before the first sample, wait until this many nodes (e.g. recorders) '
               'subscribe to the stream', (0, 1000), read_only=True),
@@ -222,6 +244,12 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('queue_depth', _I, 1000, 'publisher history depth (reliable, keep last)', (1, 100000), read_only=True),
 )
 
+
+KINEMATICS: tuple[ParamSpec, ...] = (
+    ParamSpec('max_queue_time', _D, 5.0, 'a request that waited longer than this [s] in the node\'s queue is answered '
+              'at once with success: false, "saturated" (not computed; the queues keep every request)',
+              (0.001, 3600.0), read_only=True),
+)
 
 #: Topics of trajectory_node besides the bag library's default list (typestore.GPR_TOPICS), with their types.
 STREAM_EXTRA_TOPICS: dict[str, str] = {'/gpr/virtual_joints': 'sensor_msgs/msg/JointState',
@@ -282,16 +310,43 @@ STATE_PUBLISHER: tuple[ParamSpec, ...] = (
               constraint='a tf frame name', read_only=True),
     ParamSpec('nominal_frame', _S, 'gpr_platform_nominal', 'tf frame of the platform under the naive model',
               constraint='a tf frame name', read_only=True),
-    ParamSpec('queue_depth', _I, 1000, 'gpr/platform_state subscription and /tf publisher depth (reliable)',
+    FRAME_PREFIX,
+    ParamSpec('idle_rate', _D, 10.0, 'rate of /tf [Hz] while no joint_states arrive: the last state held, so tf is '
+              'always there', (0.1, 1000.0), read_only=True),
+    ParamSpec('queue_depth', _I, 1000, 'joint_states subscription and /tf publisher depth (reliable)',
               (1, 100000), read_only=True),
+    ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): its obstacles published latched on gpr/cell '
+              '(visualization_msgs/MarkerArray); empty: none', constraint='a readable cell file or empty',
+              read_only=True),
+)
+
+#: The robot simulator: a FollowJointTrajectory server on the robot's joints (docs/ros.md).
+SIMULATOR: tuple[ParamSpec, ...] = (
+    ParamSpec('rate', _D, 100.0, 'sample rate of a motion and of joint_states while a goal runs [Hz]', (1.0, 1000.0),
+              read_only=True),
+    ParamSpec('idle_rate', _D, 10.0, 'rate of joint_states while no goal runs and nobody else publishes them [Hz]: '
+              'the state held', (0.1, 1000.0), read_only=True),
+    ParamSpec('start_tolerance', _D, 1e-3, 'largest distance [m or rad] of a first point at time_from_start 0 from '
+              'where the joint is', (0.0, 1.0), read_only=True),
+    ParamSpec('path_tolerance', _D, 0.0, 'default path position tolerance [m or rad] of every joint; 0: not checked',
+              (0.0, 10.0), read_only=True),
+    ParamSpec('goal_tolerance', _D, 1e-3, 'default goal position tolerance [m or rad] of every joint; 0: not '
+              'checked', (0.0, 10.0), read_only=True),
+    ParamSpec('goal_time', _D, 0.5, 'default goal_time_tolerance [s]: how long after the last point the goal '
+              'tolerance may still be reached', (1e-3, 3600.0), read_only=True),
+    ParamSpec('servo_time_constant', _D, 0.0, 'time constant [s] of the joints\' first-order response to the '
+              'trajectory; 0: they follow it exactly', (0.0, 10.0), read_only=True),
+    ParamSpec('queue_depth', _I, 1000, 'joint_states publisher and subscription depth (reliable)', (1, 100000),
+              read_only=True),
 )
 
 #: Executables and the parameters they declare, besides ``robot_file``, ``config_file`` and the ``GprConfig`` keys
 #: for those marked True (these are read-only in every node but ``kinematics_node``).
 NODES: dict[str, tuple[bool, str]] = {
-    'kinematics_node': (True, ''),
+    'kinematics_node': (True, 'kinematics'),
     'trajectory_node': (True, 'trajectory'),
     'state_publisher_node': (True, 'state'),
+    'robot_simulator_node': (True, 'simulator'),
     'recorder_node': (False, 'recorder'),
     'replay_node': (False, 'replay'),
 }
@@ -304,7 +359,8 @@ def node_specs(node: str, cfg: GprConfig | None = None) -> tuple[ParamSpec, ...]
         raise ConfigError(f'unknown node {node!r}; allowed: ' + ', '.join(NODES))
     with_config, table = NODES[node]
     own = _recorder_table() if table == 'recorder' else \
-        {'': (), 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'replay': REPLAY}[table]
+        {'kinematics': KINEMATICS, 'trajectory': TRAJECTORY, 'state': STATE_PUBLISHER, 'simulator': SIMULATOR,
+         'replay': REPLAY}[table]
     if not with_config:
         return tuple(own)
     return (ROBOT_FILE, CONFIG_FILE, *config_specs(cfg, read_only=node != 'kinematics_node'), *own)

@@ -10,24 +10,39 @@ a whole-robot program, the :class:`~gpr_kinematics.robot.stream.RobotStream` (ar
   sampled by the robot core within the joints' limits.
 
 :func:`goal_program` reads the program of a ``gpr/run_program`` goal (a file of either kind, or inline platform
-stations). SI units (m, rad, s).
+stations): every bound is checked before the work it bounds (the stations of a goal, the samples of a program before
+its stations are solved or its steps planned), and the files a goal names are read only under the folders
+:class:`GoalFiles` allows (the package's ``config/programs`` and the node's parameter ``program_folders``), the
+rule of :func:`gpr_kinematics.inputs.files.confined_reads`. SI units (m, rad, s).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..bags.program_record import record_text
 from ..core import ForwardBatch, inverse_batch
 from ..core.config import GprConfig
 from ..core.sweep import paper_sweep
 from ..errors import ConfigError, GprError
+from ..inputs.files import confined_reads
+from ..inputs.resources import config_dir
 from ..robot.description import RobotDescription, load_robot
 from ..robot.markers import marker_points
-from ..robot.platform_program import PlatformProgram, parse_platform_program, sample_program
+from ..robot.plan import check_sample_count
+from ..robot.platform_program import (
+    MAX_STATIONS,
+    PlatformProgram,
+    check_samples,
+    parse_platform_program,
+    sample_program,
+)
 from ..robot.program import RobotProgram, load_any_program
 from ..robot.stream import RobotStream, robot_stream
 
@@ -38,7 +53,9 @@ class Trajectory:
     the station each sample is at (-1 while moving or in a sweep; for a robot program the waypoint held) with the
     stations' (waypoints') names, and the points of every marker of every sample by namespace (the machine's own
     rods and joints, :func:`gpr_kinematics.robot.markers.marker_points`, what ``gpr verify`` checks them against).
-    ``robot``: the whole robot's samples of a robot program, else None."""
+    ``robot``: the whole robot's samples of a robot program, else None. ``kind`` and ``spec`` say what was asked for,
+    for the record of :mod:`gpr_kinematics.bags.program_record`: ``sweep`` and its parameters, or
+    ``platform_program`` / ``robot_program`` and the program."""
 
     fk: ForwardBatch
     cmd_tilt: list[float]
@@ -48,6 +65,8 @@ class Trajectory:
     description: str
     markers: dict[str, np.ndarray]
     robot: RobotStream | None = None
+    kind: str = 'sweep'
+    spec: Any = None
 
     def __len__(self) -> int:
         return len(self.fk)
@@ -70,35 +89,68 @@ def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: 
     desc = (f'sweep at height {height} m, |alpha| <= {max_tilt:.6g} rad in steps of {tilt_step:.6g} rad, '
             f'azimuth step {azimuth_step:.6g} rad, {passes} pass(es)')
     n = len(sw.forward)
+    spec = {'height': height, 'max_tilt': max_tilt, 'tilt_step': tilt_step, 'azimuth_step': azimuth_step,
+            'passes': passes}
     return Trajectory(sw.forward, np.asarray(sw.alpha, float).tolist(), np.asarray(sw.gamma, float).tolist(),
-                      [-1] * n, (), desc, stream_markers(cfg, sw.forward))
+                      [-1] * n, (), desc, stream_markers(cfg, sw.forward), kind='sweep', spec=spec)
+
+
+def first_failure(solve: Callable[[int, int], None], n: int) -> tuple[int, GprError]:
+    """The first index ``i`` of ``n`` items whose ``solve(i, i + 1)`` fails, found by bisection on batches
+    (``solve(a, b)`` solves items ``a`` to ``b`` at once and raises :class:`GprError` if one of them fails; it failed
+    for all ``n``): ``log2 n`` batch calls instead of ``n`` single ones."""
+    lo, hi = 0, n           # the first failure lies in [lo, hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        try:
+            solve(lo, mid)
+        except GprError:
+            hi = mid
+        else:
+            lo = mid
+    try:
+        solve(lo, lo + 1)
+    except GprError as exc:
+        return lo, exc
+    raise AssertionError('first_failure: no item fails alone')  # pragma: no cover - solve is per item
 
 
 def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_time: float) -> Trajectory:
-    """The stream of a platform program; :class:`ConfigError` names the first station out of reach."""
-    for i, st in enumerate(prog.stations):  # stations first, for a message that names the station at fault
-        try:
-            inverse_batch(st.height, st.tilt, st.azimuth, cfg, cfg.model)
-        except GprError as exc:
-            raise ConfigError(f'{prog.source}: station {i} ({st.name}): {exc}') from None
+    """The stream of a platform program; :class:`ConfigError` names the first station out of reach. The sample count
+    is checked first, then the stations are solved in one batch (a failing station is found by bisection), then
+    the samples."""
+    check_samples(prog, rate, move_time)  # before any station is solved (100,000 stations took 91 s, then this)
+    st = prog.stations
+
+    def solve(a: int, b: int) -> None:
+        inverse_batch([s.height for s in st[a:b]], [s.tilt for s in st[a:b]], [s.azimuth for s in st[a:b]], cfg,
+                      cfg.model)
+
+    try:
+        solve(0, len(st))
+    except GprError:
+        i, exc = first_failure(solve, len(st))
+        raise ConfigError(f'{prog.source}: station {i} ({st[i].name}): {exc}') from None
     samples = sample_program(prog, rate, move_time)
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
     desc = (f'program {prog.source}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
             f'{len(samples)} samples')
     return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
                       [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc,
-                      stream_markers(cfg, ik.achieved))
+                      stream_markers(cfg, ik.achieved), kind='platform_program', spec=prog)
 
 
 def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -> Trajectory:
     """The stream of a whole-robot program on ``robot`` (:func:`gpr_kinematics.robot.stream.robot_stream`); the
-    platform's commanded tilt and azimuth are its own tilt and tilt azimuth (the program commands joints)."""
+    platform's commanded tilt and azimuth are its own tilt and tilt azimuth (the program commands joints). A program
+    whose dwells and move times alone exceed the samples allowed is refused before it is planned."""
+    check_sample_count(prog, rate)   # before the program is planned
     rs = robot_stream(robot, prog, rate)
     gpr = rs.gpr
     desc = (f'robot program {prog.source} on robot {robot.name}: {len(prog.steps)} steps, {len(rs.waypoint_names)} '
             f'waypoints, {rs.time[-1]:.6g} s, {len(rs)} samples')
     return Trajectory(gpr, gpr.tilt.tolist(), gpr.tilt_azimuth.tolist(), rs.waypoint.tolist(), rs.waypoint_names,
-                      desc, stream_markers(robot.config, gpr), rs)
+                      desc, stream_markers(robot.config, gpr), rs, kind='robot_program', spec=prog)
 
 
 def same_robot(a: RobotDescription, b: RobotDescription) -> bool:
@@ -116,22 +168,57 @@ def program_robot(prog: RobotProgram, robot: RobotDescription) -> None:
                           f'{robot.name} ({robot.source}): start trajectory_node with robot_file:={prog.robot}')
 
 
-def goal_program(goal: Any, robot: RobotDescription) -> PlatformProgram | RobotProgram:
+#: How messages name the rule of the files a goal may read.
+GOAL_FILES_RULE = "the package's config/programs and trajectory_node's parameter program_folders"
+
+
+@dataclasses.dataclass(frozen=True)
+class GoalFiles:
+    """The folders a ``gpr/run_program`` goal may read files from: the package's ``config/programs`` and the
+    operator's ``program_folders`` (module docstring)."""
+
+    folders: tuple[Path, ...]
+
+    @classmethod
+    def of(cls, extra: Sequence[str]) -> GoalFiles:
+        """The package's folder and the existing folders ``extra`` (empty strings ignored); :class:`ConfigError`
+        names a parameter entry that is not a folder."""
+        folders = [config_dir() / 'programs']
+        for f in extra:
+            if f and not os.path.isdir(f):
+                raise ConfigError(f'program_folders: {f!r} is not a folder; allowed: existing folders (or \'\')')
+            if f:
+                folders.append(Path(f))
+        return cls(tuple(folders))
+
+    def path(self, name: str) -> Path:
+        """The file a goal names: an absolute path as is, a relative one in the first folder that has it."""
+        if os.path.isabs(name):
+            return Path(name)
+        return next((f / name for f in self.folders if (f / name).is_file()), self.folders[0] / name)
+
+
+def goal_program(goal: Any, robot: RobotDescription, files: GoalFiles) -> PlatformProgram | RobotProgram:
     """The program of a ``RunProgram`` goal: its file (a platform or a robot program; a robot program must be for
-    ``robot``), or its inline stations validated as a platform program file's."""
+    ``robot``), read with every file it names under ``files`` only, or its inline stations (at most
+    :data:`~gpr_kinematics.robot.platform_program.MAX_STATIONS`) validated as a platform program file's."""
     has_file, has_stations = bool(goal.program_file), len(goal.stations) > 0
     if has_file == has_stations:
         raise ConfigError('goal: give either program_file or stations; allowed: exactly one of the two')
     if has_file:
-        prog = load_any_program(Path(goal.program_file))
+        with confined_reads(files.folders, GOAL_FILES_RULE):
+            prog = load_any_program(files.path(goal.program_file))
+            if isinstance(prog, RobotProgram):
+                program_robot(prog, robot)
         if isinstance(prog, RobotProgram):
-            program_robot(prog, robot)
             if float(goal.move_time) != 0.0:
                 raise ConfigError(f'goal: move_time = {goal.move_time!r} does not apply to the robot program '
                                   f'{prog.source} (its moves are timed within the joints\' limits, or by a step\'s '
                                   'time); allowed: 0')
             return prog
     else:
+        if len(goal.stations) > MAX_STATIONS:
+            raise ConfigError(f'goal: {len(goal.stations)} stations; allowed: at most {MAX_STATIONS}')
         stations = []
         for st in goal.stations:
             entry = {'height': st.height, 'tilt': st.tilt, 'azimuth': st.azimuth, 'dwell': st.dwell}
@@ -148,6 +235,14 @@ def goal_program(goal: Any, robot: RobotDescription) -> PlatformProgram | RobotP
                               'program\'s default')
         prog = dataclasses.replace(prog, move_time=move_time)
     return prog
+
+
+def record_of(traj: Trajectory, first_sample: int, rate: float, loop: bool, move_time: float) -> str:
+    """The record of ``traj`` (:func:`gpr_kinematics.bags.program_record.record_text`), published on ``gpr/program``
+    as it starts at sample ``first_sample``."""
+    sweep = traj.spec if traj.kind == 'sweep' else None
+    program = traj.spec if traj.kind != 'sweep' else None
+    return record_text(traj.kind, first_sample, len(traj), rate, loop, move_time, sweep=sweep, program=program)
 
 
 def trajectory_of(prog: PlatformProgram | RobotProgram, robot: RobotDescription, rate: float,

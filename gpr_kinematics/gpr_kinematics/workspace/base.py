@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -24,6 +24,21 @@ from .interval import Interval
 #: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
 #: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
 MAX_BOXES = 10_000_000
+#: Wall time [s] after which every method stops like an interruption when the caller gives no limit of its own
+#: (``stopped = 'time limit (600 s)'``): a run never goes on without end (a grid run at a tenth of a millimetre did).
+DEFAULT_MAX_SECONDS = 600.0
+#: Longest time limit a caller may give [s] (a week).
+MAX_SECONDS = 7 * 24 * 3600.0
+
+
+def check_max_seconds(max_seconds: float | None) -> float:
+    """The time limit of a run [s]: :data:`DEFAULT_MAX_SECONDS` for ``None``, else a number in (0, MAX_SECONDS]."""
+    if max_seconds is None:
+        return DEFAULT_MAX_SECONDS
+    if isinstance(max_seconds, bool) or not isinstance(max_seconds, (int, float)) or not 0 < max_seconds <= MAX_SECONDS:
+        raise InputError(f'max_seconds = {max_seconds!r}; allowed: a time limit in seconds, > 0 and at most '
+                         f'{MAX_SECONDS:g} (a week)')
+    return float(max_seconds)
 
 
 class WorkspaceModel(ABC):
@@ -128,26 +143,69 @@ class WorkspaceResult:
     def outer_volume(self) -> float:
         return self.inner_volume + box_volume(self.boundary)
 
-    def summary(self) -> dict[str, Any]:
-        return {
-            'method': self.method,
-            'variables': list(self.variables),
-            'units': list(self.units),
-            'delta': self.delta,
-            'inner_boxes': self.inner_boxes,
-            'boundary_boxes': self.boundary_boxes,
-            'outside_boxes': self.outside_boxes,
-            'inner_volume': self.inner_volume,
-            'outer_volume': self.outer_volume,
-            'seconds': self.seconds,
-            'evaluations': self.evaluations,
-            'levels': self.levels,
-            'interrupted': self.interrupted,
-            'stopped': self.stopped,
-            'certified': self.certified,
-            'touches_initial_box': self.touches_initial_box,
-            **self.extra,
-        }
+    def summary(self) -> WorkspaceSummary:
+        """The run in numbers (:class:`WorkspaceSummary`)."""
+        return WorkspaceSummary(
+            method=self.method, variables=self.variables, units=self.units, delta=self.delta,
+            inner_boxes=self.inner_boxes, boundary_boxes=self.boundary_boxes, outside_boxes=self.outside_boxes,
+            inner_volume=self.inner_volume, outer_volume=self.outer_volume, seconds=self.seconds,
+            evaluations=self.evaluations, levels=self.levels, interrupted=self.interrupted, stopped=self.stopped,
+            certified=self.certified, touches_initial_box=self.touches_initial_box, details=dict(self.extra))
+
+
+#: The metadata of a dataclass field whose mapping gives its keys to the JSON object of the dataclass
+#: (:func:`gpr_kinematics.cli.output.jsonable`) instead of a key of its own.
+INLINE = {'json': 'inline'}
+
+
+@dataclass(frozen=True)
+class WorkspaceSummary:
+    """A :class:`WorkspaceResult` without its boxes: their counts and volumes (in the variables' units), the run's
+    ``seconds``, ``evaluations`` and ``levels``, whether and why it stopped early, whether the boxes are
+    ``certified`` and touch the initial box; ``details`` (its keys inline in JSON): what ran the covering
+    (``scheduler``, ``cluster_used``, ``workers``) or the grid's ``grid_cells``."""
+
+    method: str
+    variables: tuple[str, ...]
+    units: tuple[str, ...]
+    delta: float
+    inner_boxes: int
+    boundary_boxes: int
+    outside_boxes: int
+    inner_volume: float
+    outer_volume: float
+    seconds: float
+    evaluations: int
+    levels: int
+    interrupted: bool
+    stopped: str
+    certified: bool
+    touches_initial_box: bool
+    details: dict[str, object] = field(metadata=INLINE)
+
+
+@dataclass(frozen=True)
+class WorkspaceReport(WorkspaceSummary):
+    """``gpr workspace --json``: the :class:`WorkspaceSummary` of a run with the model's ``type`` and, over the
+    result's variables, its initial ``box`` and ``scale`` [m per unit], and the ``volume_units``; a model made of two
+    coverings (the joint working area) adds their summaries to ``details`` (``sub_coverings``)."""
+
+    type: str
+    box: np.ndarray
+    scale: np.ndarray
+    volume_units: str
+
+
+def workspace_report(model: WorkspaceModel, result: WorkspaceResult) -> WorkspaceReport:
+    """The :class:`WorkspaceReport` of ``result``, a run of ``model``."""
+    out = [list(model.variables).index(v) for v in result.variables]
+    summary = result.summary()
+    values = {f.name: getattr(summary, f.name) for f in fields(summary)}
+    tables = getattr(model, 'tables', None)
+    if tables:
+        values['details'] = summary.details | {'sub_coverings': tables.get('sub_coverings')}
+    return WorkspaceReport(**values, type=model.name, box=np.asarray(model.box)[out],
+                           scale=np.asarray(model.scale)[out], volume_units='*'.join(result.units))
 
 
 def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:

@@ -34,7 +34,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from ..errors import InputError
-from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, check_delta, check_initial_box
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, check_delta, check_initial_box, check_max_seconds
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
 from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
@@ -153,7 +153,8 @@ def approximate(
             workspace (reported: ``touches_initial_box`` is true when the boxes reach its faces).
         grid_nodes: nodes per edge for the grid method's classification.
         progress: progress bar on stderr after ``progress_after`` s; ``None`` shows it on a terminal.
-        max_seconds: stop like an interruption after this wall time (None: no limit).
+        max_seconds: stop like an interruption after this wall time [s] (None: the default limit,
+            :data:`~.base.DEFAULT_MAX_SECONDS`; every method has one).
         max_boxes: stop like an interruption before the boxes kept could exceed this count.
         chunk_size: pending boxes per chunk (default per model); results do not depend on where chunks run.
         scheduler: ``'none'`` (this process), ``'local'`` (a Dask local cluster, ``workers`` processes,
@@ -169,6 +170,7 @@ def approximate(
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
     _check_run_options(method, max_boxes, chunk_size, parts)
+    max_seconds = check_max_seconds(max_seconds)
     t0 = time.perf_counter()  # the run's time and time limit include the coverings a model builds on
     own = not isinstance(scheduler, Executor)
     executor = Executor(scheduler, workers) if isinstance(scheduler, str) else scheduler
@@ -180,7 +182,7 @@ def approximate(
         def part(sub_model: Any, sub_delta: float, keep: bool = False) -> WorkspaceResult:
             # a mechanism the model builds on, covered by the same scheduler (its own progress off), in the time
             # left of this run
-            left = None if max_seconds is None else max(max_seconds - (time.perf_counter() - t0), 1e-6)
+            left = max(max_seconds - (time.perf_counter() - t0), 1e-6)
             return approximate(sub_model, sub_delta, progress=False, max_seconds=left, max_boxes=max_boxes,
                                scheduler=executor, keep_outside=keep)
 
@@ -200,7 +202,7 @@ def approximate(
         task = _constraint_task(model, box, method, grid_nodes)
     check_delta(delta, task.box, task.scale)
     if method == 'uniform':
-        return uniform(model, delta, task.box)
+        return uniform(model, delta, task.box, max_seconds, t0)
     executor.forget_model()
     stream = progress_stream
     if progress is None:
@@ -247,7 +249,7 @@ class _Monitor:
     Ctrl-C (``flag``), the wall-time limit, the box limit."""
 
     def __init__(self, bar: Progress, delta: float, total_volume: float, flag: StopFlag, t0: float,
-                 max_seconds: float | None, max_boxes: int) -> None:
+                 max_seconds: float, max_boxes: int) -> None:
         self.bar, self.delta, self.total_volume, self.flag = bar, delta, total_volume, flag
         self.t0, self.max_seconds, self.max_boxes = t0, max_seconds, max_boxes
         self.evaluations = 0
@@ -258,7 +260,7 @@ class _Monitor:
         """Why the run must stop now ('' to go on)."""
         if self.flag.raised:
             return 'interrupted'
-        if self.max_seconds is not None and time.perf_counter() - self.t0 > self.max_seconds:
+        if time.perf_counter() - self.t0 > self.max_seconds:
             return f'time limit ({self.max_seconds:g} s)'
         return f'box limit ({self.max_boxes} boxes)' if self.kept > self.max_boxes else ''
 
@@ -293,7 +295,7 @@ def _run(
     method: str,
     executor: Executor,
     bar: Progress,
-    max_seconds: float | None,
+    max_seconds: float,
     max_boxes: int,
     chunk: int,
     keep_outside: bool,
@@ -310,7 +312,7 @@ def _run(
             if out.frontier.size and not out.stopped:
                 pieces = out.frontier.parts(parts)
                 results: list[Outcome | None] = [None] * len(pieces)
-                deadline = None if max_seconds is None else time.time() + max_seconds - (time.perf_counter() - t0)
+                deadline = time.time() + max_seconds - (time.perf_counter() - t0)
                 args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels)
                 try:
                     executor.run(cover_part, model, pieces, args, results, lambda: bool(mon.stop()), mon.done,

@@ -10,8 +10,9 @@ import time
 import numpy as np
 
 from ..errors import InputError, brief
-from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult
+from .base import DEFAULT_MAX_SECONDS, MAX_BOXES, WorkspaceModel, WorkspaceResult
 from .boxes import touches
+from .progress import StopFlag
 
 #: Most grid nodes inside one box for the grid method (``grid_nodes ** d``).
 MAX_NODES_PER_BOX = 4096
@@ -51,21 +52,36 @@ def grid_classify(model: WorkspaceModel, boxes: np.ndarray, nodes: int) -> tuple
     return all_ok, none_ok
 
 
-def _feasible_nodes(model: WorkspaceModel, axes: list[np.ndarray]) -> np.ndarray:
+def _feasible_nodes(model: WorkspaceModel, axes: list[np.ndarray], deadline: float) -> tuple[np.ndarray, np.ndarray]:
     """Feasibility at every node of the grid ``axes`` (shape ``len(axes[i])`` per axis), the nodes made chunk by
-    chunk from their flat index (C order, as ``meshgrid(indexing='ij')``): memory of one chunk, not of the grid."""
+    chunk from their flat index (C order, as ``meshgrid(indexing='ij')``): memory of one chunk, not of the grid.
+    Chunks after ``deadline`` (``time.perf_counter()``) or Ctrl-C are not evaluated: the second array says which
+    nodes were."""
     shape = tuple(a.size for a in axes)
     total = int(np.prod(shape))
-    ok = np.empty(total, dtype=bool)
-    for s in range(0, total, _POINT_CHUNK):
-        idx = np.unravel_index(np.arange(s, min(s + _POINT_CHUNK, total)), shape)
-        ok[s : s + _POINT_CHUNK] = model.feasible(np.stack([a[i] for a, i in zip(axes, idx, strict=True)], axis=1))
-    return ok.reshape(shape)
+    ok = np.zeros(total, dtype=bool)
+    known = np.zeros(total, dtype=bool)
+    flag = StopFlag()
+    try:
+        for s in range(0, total, _POINT_CHUNK):
+            if flag.raised or time.perf_counter() > deadline:
+                break
+            idx = np.unravel_index(np.arange(s, min(s + _POINT_CHUNK, total)), shape)
+            ok[s : s + _POINT_CHUNK] = model.feasible(np.stack([a[i] for a, i in zip(axes, idx, strict=True)],
+                                                               axis=1))
+            known[s : s + _POINT_CHUNK] = True
+    finally:
+        flag.restore()
+    return ok.reshape(shape), known.reshape(shape)
 
 
-def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceResult:
-    """Plain grid: cells of scaled edge < delta, classified by their 2**d corner nodes (not certified)."""
-    t0 = time.perf_counter()
+def uniform(model: WorkspaceModel, delta: float, box: np.ndarray, max_seconds: float = DEFAULT_MAX_SECONDS,
+            t0: float | None = None) -> WorkspaceResult:
+    """Plain grid: cells of scaled edge < delta, classified by their 2**d corner nodes (not certified). Stopped
+    after ``max_seconds`` from ``t0`` (``time.perf_counter()``, default now) or by Ctrl-C, a cell with a corner not
+    evaluated is a boundary cell (it may be either), and the result says ``interrupted`` and why."""
+    t0 = time.perf_counter() if t0 is None else t0
+    deadline = t0 + max_seconds
     scale = np.asarray(model.scale, dtype=float)
     d = box.shape[0]
     counts = np.maximum(np.ceil((box[:, 1] - box[:, 0]) * scale / delta * (1 + 1e-12)), 1)
@@ -77,14 +93,14 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceRe
         )
     cells = counts.astype(int)
     axes = [np.linspace(box[i, 0], box[i, 1], cells[i] + 1) for i in range(d)]
-    ok = _feasible_nodes(model, axes)
-    # a cell is inner if all its corners are feasible, outside if none is
-    corner_slices = []
-    for corner in range(2**d):
-        sl = tuple(slice(1, None) if (corner >> i) & 1 else slice(0, -1) for i in range(d))
-        corner_slices.append(ok[sl])
-    all_ok = np.logical_and.reduce(corner_slices)
-    any_ok = np.logical_or.reduce(corner_slices)
+    ok, known = _feasible_nodes(model, axes, deadline)
+    # a cell is inner if all its corners are feasible, outside if none is (a corner not evaluated may be either)
+    corners = [tuple(slice(1, None) if (corner >> i) & 1 else slice(0, -1) for i in range(d))
+               for corner in range(2**d)]
+    all_ok = np.logical_and.reduce([ok[sl] & known[sl] for sl in corners])
+    any_ok = np.logical_or.reduce([ok[sl] | ~known[sl] for sl in corners])
+    stopped = '' if known.all() else ('interrupted' if time.perf_counter() <= deadline else
+                                      f'time limit ({max_seconds:g} s)')
     idx_in = np.argwhere(all_ok)
     idx_bd = np.argwhere(any_ok & ~all_ok)
 
@@ -108,6 +124,8 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray) -> WorkspaceRe
         seconds=time.perf_counter() - t0,
         evaluations=int(ok.size),
         levels=1,
+        interrupted=bool(stopped),
+        stopped=stopped,
         certified=False,
         touches_initial_box=touches(box, inner, bnd),
         extra={'grid_cells': cells.tolist()},

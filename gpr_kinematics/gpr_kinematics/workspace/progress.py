@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import sys
 import threading
@@ -66,24 +67,28 @@ class Progress:
 
 
 class StopFlag:
-    """While alive, SIGINT (Ctrl-C) sets :attr:`raised` instead of raising KeyboardInterrupt (main thread).
+    """While alive, SIGINT (Ctrl-C) and SIGTERM (a kill) set :attr:`raised` instead of ending the process (main
+    thread).
 
-    The covering checks the flag between chunks, so a chunk is never half recorded.
+    The covering checks the flag between chunks, so a chunk is never half recorded, and a run stopped by either
+    signal leaves through its ``finally`` blocks: a Dask cluster it started is closed (killed with SIGTERM, a run on
+    a local cluster left its workers' semaphores behind).
     """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.raised = False
-        self._old: Any = None
+        self._old: dict[int, Any] = {}
         if threading.current_thread() is threading.main_thread():
-            try:
-                self._old = signal.signal(signal.SIGINT, self._handler)
-            except (ValueError, OSError):  # pragma: no cover - embedded interpreters
-                self._old = None
+            for sig in self.SIGNALS:
+                with contextlib.suppress(ValueError, OSError):  # embedded interpreters
+                    self._old[sig] = signal.signal(sig, self._handler)
 
     def _handler(self, signum: int, frame: FrameType | None) -> None:
         self.raised = True
 
     def restore(self) -> None:
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
-            self._old = None
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}

@@ -11,7 +11,9 @@ exactly the same boxes in the same order (on workers with the same numpy and lib
 * ``'local'``: a ``distributed.LocalCluster`` with one single-threaded worker process per core (or
   ``workers``), started the first time a level has more than one chunk (small runs never start it);
 * ``'tcp://HOST:PORT'`` (or ``tls://``): an existing Dask scheduler; its workers need this package
-  installed (same version).
+  installed (same version). It is connected to when the :class:`Executor` is made, before any work: an address
+  where nothing listens is an error at once (a TCP connection is tried first, so a refused one does not wait for
+  Dask's retries), whatever the size of the run.
 
 ``dask`` and ``distributed`` are imported only here, only when a cluster is asked for.
 """
@@ -21,6 +23,8 @@ from __future__ import annotations
 import logging
 import os
 import re
+import socket
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -50,6 +54,39 @@ def check_scheduler(scheduler: str, workers: int | None = None) -> None:
         raise InputError('workers applies to --scheduler local only (an existing cluster has its own workers)')
 
 
+def check_reachable(address: str) -> None:
+    """A TCP connection to the scheduler ``address`` (``tcp://HOST:PORT``) can be opened within
+    :data:`CONNECT_TIMEOUT`; :class:`InputError` naming the address and the reason otherwise."""
+    host, _, port = address.split('://', 1)[1].rpartition(':')
+    try:
+        socket.create_connection((host.strip('[]'), int(port)), timeout=CONNECT_TIMEOUT).close()
+    except (OSError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc) or type(exc).__name__
+        raise InputError(f'cannot reach the Dask scheduler at {address}: {reason[:200]}; allowed: the address of a '
+                         'running scheduler, or --scheduler local or none') from None
+
+
+def _remote_client(client_class: Any, address: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, made in a thread of its own so that a server that
+    accepts the connection but never answers (not a Dask scheduler) is given up after :data:`CONNECT_TIMEOUT`
+    (Dask's own timeout does not cover its handshake); :class:`InputError` otherwise."""
+    box: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            box['client'] = client_class(address, timeout=CONNECT_TIMEOUT)
+        except BaseException as exc:  # noqa: BLE001 - in this thread, whatever Dask raises becomes the one line
+            box['error'] = f'{str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__}'
+
+    thread = threading.Thread(target=connect, name='gpr-dask-connect', daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT + 1.0)
+    if 'client' in box:
+        return box['client']
+    reason = box.get('error', 'no answer (is it a Dask scheduler?)')
+    raise InputError(f'cannot connect to the Dask scheduler at {address} within {CONNECT_TIMEOUT:g} s: {reason}')
+
+
 class Executor:
     """Runs the chunks of one level and returns their results in chunk order."""
 
@@ -62,6 +99,9 @@ class Executor:
         self._model_key: Any = None
         self._model_future: Any = None
         self.used_cluster = False
+        if scheduler not in SCHEDULERS:
+            check_reachable(scheduler)
+            self._connect()
 
     # ----------------------------------------------------------------------------------------- running
     def run(
@@ -135,13 +175,7 @@ class Executor:
             )
             self._client = Client(self._cluster)
         else:
-            try:
-                self._client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
-            except (OSError, TimeoutError) as exc:
-                raise InputError(
-                    f'cannot connect to the Dask scheduler at {self.scheduler} within {CONNECT_TIMEOUT:g} s: '
-                    f'{str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__}'
-                ) from None
+            self._client = _remote_client(Client, self.scheduler)
         return self._client
 
     def describe(self) -> dict[str, Any]:

@@ -1,0 +1,114 @@
+"""``topic.program`` and ``stream.program``: every sample against its stream recomputed from the record of what the
+stream was asked to do (``gpr/program``, :mod:`.program_record`).
+
+- ``topic.program``: every recorded record parses (the package's YAML reader and bounds, known keys, a program of
+  either format), and recomputes (:func:`.program_record.expected`, with the geometry and the robot description
+  verified against) to as many samples as it says;
+- ``stream.program``: each PlatformState, by its sample counter the sample ``i`` of the record that covers it (the
+  last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
+  [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
+  its waypoint, each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot description that
+  disagrees with the stream (an arm's default branch, home posture, redundancy rule or limits edited: the branch is
+  in the joints of every waypoint it decides) fails, and so does a recorded program, or a recorded geometry, that
+  did not produce it.
+
+A recording without a record (of a node before it was published) skips both; its commanded tilts are still checked
+against the states (``state.commanded``, :mod:`.checks_state`).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.config import GprConfig
+from ..errors import GprError
+from ..robot.description import RobotDescription
+from .cdr import Columns
+from .columns import matrix, wrapped
+from .program_record import Expected, Record, expected, parse_record, sample_index
+from .reader import Bag
+from .results import Check, bag_check, skipped, value_check
+from .tolerances import Tolerances
+from .typestore import GPR_TOPICS, PROGRAM_TOPIC
+
+_DETAIL = 'inf = no recorded stream covers this sample (or it cannot be recomputed); else the largest difference'
+
+
+Problem = tuple[str, float, float, str]
+
+
+def _records(bag: Bag) -> tuple[list[Record], list[Problem]]:
+    """The distinct records of the bag, by first sample, and what is wrong with the others."""
+    t = bag.topic(PROGRAM_TOPIC)
+    assert t is not None  # program_checks checks
+    if t.msgtype != GPR_TOPICS[PROGRAM_TOPIC]:
+        return [], [(PROGRAM_TOPIC, 1.0, 0.0, f'type {t.msgtype}, not a std_msgs/msg/String')]
+    records: list[Record] = []
+    problems: list[Problem] = []
+    for text in dict.fromkeys(str(v) for v in t.columns()['data']):
+        try:
+            records.append(parse_record(text))
+        except GprError as exc:
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'not a record of a stream: {exc}'))
+    records.sort(key=lambda r: r.first_sample)
+    return records, problems
+
+
+def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected
+                  ) -> NDArray[np.float64]:
+    """Per state row of a robot program: the largest joint difference of its RobotState (inf: other joints, or
+    another waypoint held; 0 where the recording has no RobotState of the row)."""
+    out = np.zeros(rows.size)
+    if ex.joints is None or robot_rows is None:
+        return out
+    for k, (r, i) in enumerate(zip(rows.tolist(), ii.tolist(), strict=True)):
+        got = robot_rows.joints(r)
+        if got is None:
+            continue
+        names, values = got
+        same = names == ex.joint_names and values.shape == ex.joints[i].shape and (
+            ex.waypoint is None or robot_rows.waypoints.get(r, int(ex.waypoint[i])) == int(ex.waypoint[i]))
+        out[k] = float(np.max(np.abs(values - ex.joints[i]), initial=0.0)) if same else np.inf
+    return out
+
+
+def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,
+                   robot: RobotDescription | None, robot_rows: Any, tol: Tolerances) -> list[Check]:
+    """The checks of the module docstring for the PlatformState columns ``c`` (``robot_rows``: the joints of the
+    RobotState of each state row, :class:`~.checks_robot.RobotRows`, or None)."""
+    t = bag.topic(PROGRAM_TOPIC)
+    if t is None or len(t) == 0:
+        why = 'no record of the stream (gpr/program): a recording of an older node'
+        return [skipped('topic.program', PROGRAM_TOPIC, '', why),
+                skipped('stream.program', PROGRAM_TOPIC, 'm|rad', why, max(tol.position, tol.angle))]
+    records, problems = _records(bag)
+    errors = np.full(len(samples), np.inf)
+    if records:
+        owner = np.searchsorted([r.first_sample for r in records], samples, side='right') - 1
+        q, ct, ca = matrix(c['q'], 3), np.asarray(c['commanded_tilt'], float), np.asarray(c['commanded_azimuth'], float)
+        for k, record in enumerate(records):
+            rows = np.flatnonzero(owner == k)
+            try:
+                ex = expected(record, config, robot)
+            except GprError as exc:
+                problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the {record.kind} from sample {record.first_sample} '
+                                 f'cannot be recomputed: {exc}'))
+                continue
+            if len(ex.q) != record.samples:
+                problems.append((PROGRAM_TOPIC, float(abs(len(ex.q) - record.samples)), 0.0, f'the {record.kind} '
+                                 f'from sample {record.first_sample} says {record.samples} samples; it recomputes to '
+                                 f'{len(ex.q)}'))
+            ii = np.array([sample_index(record, int(s)) for s in samples[rows]], dtype=np.int64)
+            ok = (ii >= 0) & (ii < len(ex.q))
+            r, i = rows[ok], ii[ok]
+            with np.errstate(invalid='ignore'):
+                e = np.max(np.abs(q[r] - ex.q[i]), axis=1, initial=0.0)
+                e = np.maximum(e, np.abs(ct[r] - ex.commanded_tilt[i]))
+                e = np.maximum(e, wrapped(ca[r] - ex.commanded_azimuth[i]))
+            e = np.maximum(e, _joint_errors(robot_rows, r, i, ex))
+            errors[r] = np.where(np.isnan(e), np.inf, e)
+    return [bag_check('topic.program', PROGRAM_TOPIC, problems, len(t), ''),
+            value_check('stream.program', PROGRAM_TOPIC, errors, max(tol.position, tol.angle), 'm|rad', samples,
+                        _DETAIL)]

@@ -1,0 +1,350 @@
+"""Registration: the measuring instrument's frame and the measured target, identified with the geometry.
+
+A laser tracker measures the pose (a 6-DOF probe) or the position (a reflector) of a *target* fixed on the
+platform, in its own frame. The measured pose of row ``i`` is
+
+    ``T_i = B  P(theta, q_i)  G``
+
+with ``P`` the pose of ``gpr_platform`` in ``gpr_base`` (the geometry's model), ``B`` the pose of ``gpr_base`` in
+the measuring frame (the tf transform ``tracker -> gpr_base``) and ``G`` the pose of the target in
+``gpr_platform``. :class:`FramedModel` adds the unknown ones to the geometry's parameters: ``base_x base_y base_z``
+(the position of ``gpr_base``'s origin in the measuring frame [m]) and ``base_rx base_ry base_rz`` (a rotation
+vector [rad] that turns the reference orientation ``R_B0`` in the measuring frame's axes, ``R_B = exp([r]x) R_B0``),
+and ``target_x target_y target_z`` and ``target_rx target_ry target_rz`` (the target in ``gpr_platform``,
+``R_G = exp([r]x) R_G0`` in the platform's axes; only the position for a measured point). Their a-priori
+uncertainty (:data:`FRAME_SCALES`) is large against the geometry's: where a frame trades with the geometry (a
+common shift of the three rods is a shift of ``gpr_base``), the identifiability analysis holds a geometric
+parameter (that rod defines the frame) and fits the frame, and says so.
+
+The reference values come from a closed-form registration against the nominal model (:func:`initial_frames`):
+the base's orientation from the rotation axes of the measured relative rotations (Kabsch's alignment, *A solution
+for the best rotation to relate two sets of vectors*, Acta Cryst. A32, 1976), the target's orientation as the
+mean of the remaining rotations, the positions by linear least squares; for points, alternating Kabsch
+alignments of the points and least squares of the target's position. The fit refines them.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.rotations import euler_from_rotation, quaternion_from_matrix, rotation_from_vector, rotation_vector
+from ..errors import InputError
+from .measurements import Measurements
+from .model import Parameter, ParameterSet, PoseModel, evaluate
+
+Array = NDArray[np.float64]
+
+#: A-priori standard uncertainty of a frame's position [m] and rotation [rad] after the closed-form registration.
+FRAME_SCALES = {'m': 1e-2, 'rad': 1e-2}
+AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
+#: Alternations of the points' registration (:func:`initial_frames`).
+POINT_ALTERNATIONS = 20
+
+
+@dataclass(frozen=True)
+class Transform:
+    """A frame's pose in its parent: ``position (3,)`` [m] and ``rotation (3, 3)``."""
+
+    position: Array
+    rotation: Array
+
+    @staticmethod
+    def identity() -> Transform:
+        return Transform(np.zeros(3), np.eye(3))
+
+    @staticmethod
+    def from_xyz_rpy(values: Sequence[float]) -> Transform:
+        """From ``x y z [roll pitch yaw]`` (URDF ``rpy``: ``Rz(yaw) Ry(pitch) Rx(roll)``; 3 values: no rotation)."""
+        from ..core.rotations import rpy_matrix
+        v = [float(x) for x in values]
+        if len(v) not in (3, 6) or not np.all(np.isfinite(v)):
+            raise InputError(f'a pose is x y z [roll pitch yaw] (3 or 6 finite numbers), got {len(v)}')
+        return Transform(np.array(v[:3]), rpy_matrix(*v[3:]) if len(v) == 6 else np.eye(3))
+
+    @property
+    def is_identity(self) -> bool:
+        return not np.any(self.position) and bool(np.array_equal(self.rotation, np.eye(3)))
+
+    @property
+    def rpy(self) -> Array:
+        """Roll, pitch, yaw [rad] (URDF ``rpy``)."""
+        return np.asarray(euler_from_rotation(self.rotation[None], 'xyz')[0], dtype=np.float64)
+
+    def as_dict(self) -> dict[str, list[float]]:
+        return {'position': self.position.tolist(), 'rpy': self.rpy.tolist(),
+                'quaternion': quaternion_from_matrix(self.rotation).tolist()}
+
+
+TARGET_FITS = ('pose', 'position')
+
+
+class FramedModel:
+    """Poses of a target on the platform in a measuring frame (module docstring): ``inner``'s parameters (but those
+    that follow from the frames' datum), then those of the unknown frames.
+
+    Args:
+        inner: the geometry's pose model (``gpr_platform`` in ``gpr_base``), with a ``datum(base, target)`` method
+            when frames fitted with it trade with its parameters (:meth:`~.core_model.CoreModel.datum`).
+        base, target: reference poses of ``gpr_base`` in the measuring frame and of the target in ``gpr_platform``.
+        fit_base: ``gpr_base``'s pose is identified (else known). fit_target: ``None`` (known), ``pose`` or
+            ``position`` (its orientation known; the only choice for measured points).
+        points: the measurements are points (the target's orientation is then not a parameter).
+        free: the inner parameters that will be fitted (names or keys; default all): the datum conditions apply to
+            those only.
+    """
+
+    def __init__(self, inner: PoseModel, base: Transform, target: Transform, fit_base: bool,
+                 fit_target: str | None, points: bool = False, free: Iterable[str] | None = None) -> None:
+        if fit_target not in (None,) + TARGET_FITS:
+            raise InputError(f'fit_target {fit_target!r}; allowed: None, {", ".join(TARGET_FITS)}')
+        self.inner, self.base, self.target = inner, base, target
+        self.fit_base, self.points = fit_base, points
+        self.fit_target = 'position' if points and fit_target else fit_target
+        self.supports_displacement = inner.supports_displacement
+        datum = getattr(inner, 'datum', None)
+        P = len(inner.parameters)
+        found: tuple[Array, tuple[str, ...], str] = (
+            datum(fit_base, 'points' if points and fit_target else self.fit_target, inner.parameters.select(free))
+            if callable(datum) else (np.zeros((0, P)), (), ''))
+        #: The datum's linear conditions on the inner coordinates, and in words (:meth:`CoreModel.datum`).
+        self.conditions, dependent, self.datum_text = found
+        self.dependent = np.array([inner.parameters.index(n) for n in dependent], dtype=np.int64)
+        self.independent = np.flatnonzero(~np.isin(np.arange(P), self.dependent)).astype(np.int64)
+        if self.dependent.size:   # theta_D = nominal_D - C_D^-1 C_I (theta_I - nominal_I)
+            self.follow = -np.linalg.solve(self.conditions[:, self.dependent], self.conditions[:, self.independent])
+        extra = []
+        for frame, ref, n in (('base', base, 6 if fit_base else 0),
+                              ('target', target, {'pose': 6, 'position': 3, None: 0}[self.fit_target])):
+            for k, axis in enumerate(AXES[:n]):
+                unit = 'm' if k < 3 else 'rad'
+                extra.append(Parameter(f'{frame}_{axis}', float(ref.position[k]) if k < 3 else 0.0, unit,
+                                       FRAME_SCALES[unit], f'{frame}_frame', (k,)))
+        self._parameters = ParameterSet(tuple(inner.parameters[int(j)] for j in self.independent) + tuple(extra))
+        self.n_inner = self.independent.size
+
+    @property
+    def parameters(self) -> ParameterSet:
+        return self._parameters
+
+    def inner_theta(self, theta: Array) -> Array:
+        """The inner model's coordinates ``(S, P_inner)`` of rows ``theta (S, P)``: the independent ones, and those
+        that follow from the datum."""
+        nominal = self.inner.parameters.nominal
+        out = np.repeat(nominal[None], theta.shape[0], axis=0)
+        out[:, self.independent] = theta[:, :self.n_inner]
+        if self.dependent.size:
+            out[:, self.dependent] += (theta[:, :self.n_inner] - nominal[self.independent]) @ self.follow.T
+        return out
+
+    def frames(self, theta: Array) -> tuple[Transform, Transform]:
+        """The base and target poses at coordinates ``theta (P,)``."""
+        pb, Rb, pt, Rt = self._frames(np.asarray(theta, dtype=float)[None])
+        return Transform(pb[0], Rb[0]), Transform(pt[0], Rt[0])
+
+    def _frames(self, theta: Array) -> tuple[Array, Array, Array, Array]:
+        S, k = theta.shape[0], self.n_inner
+        out = []
+        for ref, n in ((self.base, 6 if self.fit_base else 0),
+                       (self.target, {'pose': 6, 'position': 3, None: 0}[self.fit_target])):
+            v = theta[:, k:k + n]
+            k += n
+            out.append(v[:, :3] if n else np.broadcast_to(ref.position, (S, 3)))
+            out.append(rotation_from_vector(v[:, 3:]) @ ref.rotation if n == 6
+                       else np.broadcast_to(ref.rotation, (S, 3, 3)))
+        return out[0], out[1], out[2], out[3]
+
+    def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
+        pos, rot = self.inner.poses(self.inner_theta(theta), Q, displacement)
+        pb, Rb, pt, Rt = self._frames(theta)
+        p = pos + np.einsum('snij,sj->sni', rot, pt)
+        return (pb[:, None, :] + np.einsum('sij,snj->sni', Rb, p),
+                np.einsum('sij,snjk,skl->snil', Rb, rot, Rt))
+
+
+def _kabsch(a: Array, b: Array) -> Array:
+    """The rotation ``R`` minimising ``sum |b_i - R a_i|^2`` (vectors ``(N, 3)``, centred by the caller)."""
+    U, _, Vt = np.linalg.svd(b.T @ a)
+    d = np.sign(np.linalg.det(U @ Vt)) or 1.0
+    return np.asarray(U @ np.diag([1.0, 1.0, d]) @ Vt, dtype=np.float64)
+
+
+def _mean_rotation(R: Array) -> Array:
+    """The rotation nearest the mean of rotation matrices ``(N, 3, 3)``."""
+    return _kabsch(np.eye(3), R.mean(axis=0).T)
+
+
+def _positions(A: Array, p: Array, R: Array, m: Array, t: Array | None, c: Array | None) -> tuple[Array, Array]:
+    """Least squares of ``m_i = A (p_i + R_i t) + c`` for the unknown ones of ``t`` (target) and ``c`` (base)."""
+    rhs = m - p @ A.T
+    cols, n = [], m.shape[0]
+    if t is None:
+        cols.append(np.einsum('ij,njk->nik', A, R))
+    else:
+        rhs = rhs - np.einsum('ij,njk,k->ni', A, R, t)
+    if c is None:
+        cols.append(np.broadcast_to(np.eye(3), (n, 3, 3)))
+    else:
+        rhs = rhs - c
+    x = np.linalg.lstsq(np.concatenate(cols, axis=2).reshape(3 * n, -1), rhs.ravel(), rcond=None)[0]
+    t_out = x[:3] if t is None else t
+    c_out = (x[3:] if t is None else x[:3]) if c is None else c
+    return np.asarray(t_out, dtype=np.float64), np.asarray(c_out, dtype=np.float64)
+
+
+def initial_frames(inner: PoseModel, meas: Measurements, base: Transform | None, target_position: Array | None,
+                   target_rotation: Array | None) -> tuple[Transform, Transform]:
+    """Reference poses of ``gpr_base`` in the measuring frame and of the target in ``gpr_platform`` by the
+    closed-form registration against the nominal model (module docstring); ``base``, the target's position and its
+    rotation are the known ones (``None``: unknown; a measured point has no rotation)."""
+    p, R = evaluate(inner, inner.parameters.nominal, meas.q)
+    m = meas.position
+    A = None if base is None else base.rotation
+    c_known = None if base is None else base.position
+    if meas.quaternion is not None:
+        M = meas.rotation
+        if A is None:
+            if target_rotation is not None:
+                A = _mean_rotation(M @ target_rotation.T @ np.swapaxes(R, 1, 2))
+            else:   # rotation axes of the relative rotations: rv(M_i M_0^T) = A rv(R_i R_0^T)
+                a = rotation_vector(R @ R[0].T)
+                b = rotation_vector(M @ M[0].T)
+                if np.linalg.matrix_rank(a, tol=1e-6 * max(float(np.abs(a).max()), 1e-300)) < 2:
+                    raise InputError(f'{meas.source}: the measured poses do not tilt about two different axes: the '
+                                     'orientation of the measuring frame cannot be registered (measure tilted poses '
+                                     'at several azimuths, or give --base)')
+                A = _kabsch(a, b)
+        G = target_rotation if target_rotation is not None else \
+            _mean_rotation(np.swapaxes(R, 1, 2) @ A.T @ M)
+        t, c = _positions(A, p, R, m, target_position, c_known)
+        return Transform(c, A), Transform(t, G)
+    if A is None:
+        A = _heading_search(p, R, m, target_position)
+    t, c = _positions(A, p, R, m, target_position, c_known)
+    for _ in range(POINT_ALTERNATIONS if base is None else 0):
+        x = p + np.einsum('nij,j->ni', R, t)    # the target where the nominal model puts it, aligned with the points
+        A = _kabsch(x - x.mean(axis=0), m - m.mean(axis=0))
+        t, c = _positions(A, p, R, m, target_position, c_known)
+    return Transform(c, A), Transform(t, np.eye(3))
+
+
+#: Headings tried by :func:`_heading_search` (every 5 degrees).
+HEADINGS = 72
+
+
+def _heading_search(p: Array, R: Array, m: Array, t: Array | None) -> Array:
+    """The measuring frame's orientation from points: its z axis along the line the points move on as the rods
+    lengthen (a regression on the nominal heights), its heading the best of :data:`HEADINGS` headings about it
+    (each with the least-squares target and origin): the points of a vertical stroke alone do not tell it."""
+    h = p[:, 2] - p[:, 2].mean()
+    if float(h @ h) <= 0.0:
+        raise InputError('the measured points do not move along the stroke: the measuring frame cannot be registered '
+                         '(measure at several heights, or give --base)')
+    a = (m - m.mean(axis=0)).T @ h / float(h @ h)
+    z = a / np.linalg.norm(a)
+    axis = np.cross([0.0, 0.0, 1.0], z)
+    s = float(np.linalg.norm(axis))
+    tilt = rotation_from_vector((axis / s * np.arctan2(s, z[2]))[None])[0] if s > 1e-15 else \
+        (np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0]))
+    best, best_cost = tilt, np.inf
+    for psi in 2.0 * np.pi * np.arange(HEADINGS) / HEADINGS:
+        A = tilt @ rotation_from_vector(np.array([[0.0, 0.0, psi]]))[0]
+        tt, c = _positions(A, p, R, m, t, None)
+        cost = float(np.sum((m - c - (p + np.einsum('nij,j->ni', R, tt)) @ A.T) ** 2))
+        if cost < best_cost:
+            best, best_cost = A, cost
+    return np.asarray(best, dtype=np.float64)
+
+
+def measuring_model(inner: PoseModel, meas: Measurements, frame: str = 'gpr_base', base: Transform | None = None,
+                    target: Transform | None = None, fit_target: str | None = None,
+                    free: Iterable[str] | None = None) -> PoseModel:
+    """The pose model of measurements in ``frame``: ``inner`` itself for poses of ``gpr_platform`` in ``gpr_base``,
+    else a :class:`FramedModel` from the closed-form registration (:func:`initial_frames`). ``base``: the pose of
+    ``gpr_base`` in ``frame`` when known (``gpr_base``: the identity); ``target``: the target's known pose in
+    ``gpr_platform`` (the start of its identification with ``fit_target`` ``pose`` or ``position``, which keeps its
+    orientation); measured points or a ``frame`` other than ``gpr_base`` identify an unknown target by default.
+    ``free``: the inner parameters to be fitted (their datum)."""
+    points = meas.quaternion is None
+    known_base = base if base is not None else (Transform.identity() if frame == 'gpr_base' else None)
+    if fit_target is None and target is None and (points or frame != 'gpr_base'):
+        fit_target = 'position' if points else 'pose'
+    if known_base is not None and fit_target is None:     # nothing to identify
+        given = target if target is not None else Transform.identity()
+        if known_base.is_identity and given.is_identity and not points:
+            return inner
+        return FramedModel(inner, known_base, given, False, None, points, free)
+    position = None if fit_target is not None or target is None else target.position
+    rotation = None if fit_target == 'pose' or target is None else target.rotation
+    ref_base, ref_target = initial_frames(inner, meas, known_base, position, rotation)
+    return FramedModel(inner, ref_base, ref_target, known_base is None, fit_target, points, free)
+
+
+@dataclass(frozen=True)
+class Registration:
+    """The frames of a calibration from measurements in the frame ``frame``: the pose of ``gpr_base`` in it and of
+    the target in ``gpr_platform``, with the standard errors of what was identified (position [m], then the
+    rotation vector [rad] about the parent's axes; ``None``: given as known, or a held part ``nan``), the datum
+    that fixes the frames and the values the datum gives its parameters (name -> value, standard error, unit)."""
+
+    frame: str
+    base: Transform
+    base_se: Array | None
+    target: Transform
+    target_se: Array | None
+    datum: str
+    derived: dict[str, tuple[float, float, str]]
+    points: bool = False
+
+    def as_dict(self) -> dict[str, object]:
+        def se(a: Array | None) -> list[float | None] | None:
+            return None if a is None else [float(x) if np.isfinite(x) else None for x in a]
+        return {'frame': self.frame, 'base': self.base.as_dict() | {'standard_error': se(self.base_se)},
+                'target': self.target.as_dict() | {'standard_error': se(self.target_se)}, 'datum': self.datum,
+                'derived': {k: {'value': v, 'standard_error': s, 'unit': u} for k, (v, s, u) in self.derived.items()}}
+
+    def lines(self) -> list[str]:
+        """The registration in words (the report's and the calibrated file's)."""
+        out = []
+        for what, t, se in ((f'gpr_base in {self.frame}', self.base, self.base_se),
+                            ('the target in gpr_platform', self.target, self.target_se)):
+            p, r = ', '.join(f'{x:.9f}' for x in t.position), ', '.join(f'{x:.9f}' for x in t.rpy)
+            if se is None:
+                out.append(f'{what}: position ({p}) m, rpy ({r}) rad (given)')
+                continue
+            sp = ', '.join(f'{x * 1e6:.3g}' for x in se[:3])
+            sr = f' +- ({", ".join(f"{x * 1e6:.3g}" for x in se[3:])}) urad about its parent\'s axes' if se.size > 3 \
+                else ' (a point: no orientation)' if self.points else ' (orientation given)'
+            out.append(f'{what}: position ({p}) m +- ({sp}) um, rpy ({r}) rad{sr}')
+        if self.datum:
+            fixed = ', '.join(f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}'
+                              for k, (v, s, u) in self.derived.items())
+            out.append(f'datum: {self.datum} ({fixed})')
+        return out
+
+
+def registration(model: FramedModel, estimate: Array, standard_error: Array, fitted: NDArray[np.int64],
+                 covariance: Array, frame: str) -> Registration:
+    """The :class:`Registration` of an identification with ``model`` (its estimate, standard errors, fitted
+    indices and their covariance)."""
+    base, target = model.frames(estimate)
+    names = model.parameters.names
+
+    def se(stem: str, on: bool) -> Array | None:
+        return np.array([standard_error[names.index(n)] for n in names if n.startswith(stem)]) if on else None
+
+    derived = {}
+    if model.dependent.size:
+        full = model.inner_theta(np.asarray(estimate, dtype=float)[None])[0]
+        cov = np.zeros((model.n_inner, model.n_inner))
+        inner = fitted[fitted < model.n_inner]
+        k = np.flatnonzero(fitted < model.n_inner)
+        cov[np.ix_(inner, inner)] = covariance[np.ix_(k, k)]
+        var = np.einsum('di,ij,dj->d', model.follow, cov, model.follow)
+        ps = model.inner.parameters
+        derived = {ps[int(j)].name: (float(full[j]), float(np.sqrt(max(v, 0.0))), ps[int(j)].unit)
+                   for j, v in zip(model.dependent, var, strict=True)}
+    return Registration(frame, base, se('base_', model.fit_base), target, se('target_', model.fit_target is not None),
+                        model.datum_text, derived, model.points)

@@ -1,0 +1,175 @@
+"""How far a fitted calibration can be trusted: leave-one-out cross-validation, the bias the held parameters can
+cause, and the gate a fit must pass before its file is written.
+
+All of it is linear algebra on the weighted Jacobian ``J`` of the fit at its solution (each column scaled by the
+parameter's a-priori uncertainty ``s_j``), ``A = J^T J``:
+
+* **Cross-validation** (leave one row out, the PRESS statistic; Allen, *The relationship between variable
+  selection and data augmentation and a method for prediction*, Technometrics 16(1), 1974): the residual block
+  ``r_i`` of row ``i`` predicted by the fit of all the other rows is ``(I - H_ii)^-1 r_i`` with
+  ``H_ii = J_i A^-1 J_i^T`` (exact for the linearised model: one Gauss-Newton step from the fit of all rows). Under
+  the model, with unit-variance residuals, its expected square is ``tr (I - H_ii)^-1``; the **ratio** of the
+  summed squares to that expectation, divided by the fit's own reduced chi-square, is about 1 when the rows left
+  out are predicted as well as the fitted ones are explained, and grows when some rows are fitted only because they
+  were in the fit. A row with ``H_ii`` near the identity determines a combination alone: nothing predicts it
+  (listed, left out of the ratio).
+* **Bias from what is held** (the alias matrix of regression; Box & Draper, *Empirical Model-Building and Response
+  Surfaces*, 1987, §10.2): a held (or fixed) parameter ``h`` off its nominal value by ``x_h`` moves the fitted ones
+  by ``-A^-1 J^T J_h x_h``; over its a-priori bound (a tolerance table's interval, else 3 a-priori standard
+  deviations, within the coordinate's range) the **worst case** is the sum of the absolute effects, the
+  **standard deviation** the root-sum-square over their a-priori standard deviations. The standard errors are
+  conditional on the held parameters; the bias is what that condition can cost.
+* **The gate** (:class:`Gate`): the fit reached a minimum (:mod:`.fitting`); with standard deviations from the
+  measurement file, ``chi2`` at most the :data:`CHI2_QUANTILE` point of the chi-square distribution with its
+  degrees of freedom (a correct model fails it once in a thousand fits); the cross-validation ratio at most
+  :data:`CV_GATE`.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2 as chi2_distribution
+
+from .fitting import gram
+
+Array = NDArray[np.float64]
+
+#: The chi-square gate: a fit with sigmas from the file passes when ``chi2`` is at most this quantile of the
+#: chi-square distribution with its degrees of freedom.
+CHI2_QUANTILE = 0.999
+#: The cross-validation gate: rows left out may be predicted this much worse than the fit explains the rows
+#: (ratio of the PRESS to its expectation, over the reduced chi-square).
+CV_GATE = 2.0
+#: A row whose ``I - H_ii`` has an eigenvalue below this determines a combination alone.
+LEVERAGE_ONE = 1e-9
+#: Fitted parameters named in a gate message, at most.
+NAMED = 4
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """Leave-one-row-out prediction errors (module docstring).
+
+    Attributes:
+        errors: per row the prediction error of the fit of the other rows ``(N, k)`` (metres, radians: position,
+            and rotation vector for a measured pose); ``nan`` for rows listed in ``alone``.
+        ratio: PRESS over its expectation, over the fit's reduced chi-square (about 1 for a model that holds).
+        alone: file lines of rows that alone determine a fitted combination (no prediction for them).
+    """
+
+    errors: Array
+    ratio: float
+    alone: tuple[int, ...]
+
+    def rms(self, part: slice) -> float:
+        """RMS norm of ``errors[:, part]`` over the rows that have a prediction."""
+        e = self.errors[:, part]
+        ok = np.all(np.isfinite(e), axis=1)
+        return float(np.sqrt(np.mean(np.sum(e[ok] ** 2, axis=1)))) if ok.any() else math.nan
+
+
+def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[int], chi2_reduced: float
+                     ) -> CrossValidation:
+    """:class:`CrossValidation` of a fit with scaled weighted Jacobian ``J (N k, F)`` and weighted residual blocks
+    ``residual (N, k)`` (``weights (N, k)``: the residuals' ``1 / sigma``)."""
+    n, k = residual.shape
+    if J.shape[1] == 0:
+        return CrossValidation(residual / weights, 1.0, ())
+    if not np.all(np.isfinite(J)):   # no Jacobian at the solution: nothing predicted
+        return CrossValidation(np.full((n, k), np.nan), math.nan, ())
+    Ainv = np.linalg.pinv(gram(J))
+    Jb = J.reshape(n, k, -1)
+    M = np.eye(k)[None] - np.einsum('nkf,fg,nlg->nkl', Jb, Ainv, Jb)
+    alone = np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, 1, 2)))[:, 0] < LEVERAGE_ONE
+    errors = np.full((n, k), np.nan)
+    ok = ~alone
+    if ok.any():
+        errors[ok] = np.linalg.solve(M[ok], residual[ok][..., None])[..., 0] / weights[ok]
+        press = float(np.sum((errors[ok] * weights[ok]) ** 2))
+        expected = float(np.sum(np.trace(np.linalg.inv(M[ok]), axis1=1, axis2=2)))
+        ratio = press / expected / chi2_reduced if chi2_reduced > 0 and expected > 0 else 1.0
+    else:
+        ratio = 1.0
+    return CrossValidation(errors, float(ratio), tuple(int(lines[int(i)]) for i in np.flatnonzero(alone)))
+
+
+@dataclass(frozen=True)
+class HeldBias:
+    """Per parameter ``(P,)`` (coordinates; ``nan`` for those not fitted): the worst-case and the standard deviation
+    of the bias the held and fixed parameters can cause, and the held parameter that causes most of the worst case
+    (``''``: none)."""
+
+    worst: Array
+    std: Array
+    source: tuple[str, ...]
+
+
+def held_bias(J_fit: Array, J_held: Array, fitted: NDArray[np.int64], held: NDArray[np.int64], scale: Array,
+              bound: Array, std: Array, names: Sequence[str]) -> HeldBias:
+    """:class:`HeldBias` from the scaled weighted Jacobians of the fitted (``J_fit``) and the held parameters
+    (``J_held``, columns scaled by ``scale[held]``), the held ones' a-priori bounds and standard deviations (SI,
+    ``(H,)``) and the ``scale (P,)``."""
+    P = len(names)
+    worst, sd = np.full(P, np.nan), np.full(P, np.nan)
+    source = [''] * P
+    if fitted.size == 0 or not (np.all(np.isfinite(J_fit)) and np.all(np.isfinite(J_held))):
+        return HeldBias(worst, sd, tuple(source))
+    A = gram(np.hstack([J_fit, J_held]))
+    F = J_fit.shape[1]
+    alias = -np.linalg.pinv(A[:F, :F]) @ A[:F, F:]                     # (F, H), scaled units
+    effect = np.abs(alias) * (bound / scale[held])[None, :] * scale[fitted][:, None]
+    worst[fitted] = effect.sum(axis=1)
+    sd[fitted] = scale[fitted] * np.sqrt(np.sum((alias * (std / scale[held])[None, :]) ** 2, axis=1))
+    if held.size:
+        for i, j in enumerate(fitted):
+            if effect[i].max() > 0.0:
+                source[int(j)] = names[int(held[int(np.argmax(effect[i]))])]
+    return HeldBias(worst, sd, tuple(source))
+
+
+@dataclass(frozen=True)
+class GateCheck:
+    """One check of the gate: ``name``, whether it ``passed``, its ``value`` and ``limit``, and what it found."""
+
+    name: str
+    passed: bool
+    value: float
+    limit: float
+    detail: str
+
+
+@dataclass(frozen=True)
+class Gate:
+    """The checks a fit must pass before its calibrated file is written (module docstring)."""
+
+    checks: tuple[GateCheck, ...]
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    def message(self) -> str:
+        """The failed checks in one sentence each (empty when it passed)."""
+        return ' '.join(c.detail for c in self.checks if not c.passed)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {'passed': self.passed,
+                'checks': [dict(c.__dict__) | {'value': c.value if math.isfinite(c.value) else None}
+                           for c in self.checks]}
+
+
+def chi2_limit(dof: int) -> float:
+    """The reduced chi-square at :data:`CHI2_QUANTILE` for ``dof`` degrees of freedom."""
+    return float(chi2_distribution.ppf(CHI2_QUANTILE, dof) / dof)
+
+
+def worst_rows(residual: Array, lines: Sequence[int], count: int = 3) -> str:
+    """The ``count`` rows of largest weighted residual, as ``line 8 (3.1 sigma)``."""
+    norm = np.sqrt(np.mean(residual ** 2, axis=1))
+    order = np.argsort(-norm)[:count]
+    return ', '.join(f'line {lines[i]} ({norm[i]:.2g} sigma)' for i in order)

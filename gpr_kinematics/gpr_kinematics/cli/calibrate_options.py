@@ -1,0 +1,84 @@
+"""The options ``gpr calibrate`` and ``gpr calibrate --robot`` share (:mod:`gpr_kinematics.cli.calibrate`): the
+geometry, the tolerance table and the sigmas, the frames' poses, ``--free``, and the gate's outcome."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..core.config import GprConfig, load_config
+from ..errors import InputError, one_line
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from ..calibration.frames import Transform
+    from ..calibration.model import PoseModel
+    from ..calibration.tolerances import ToleranceTable
+
+#: Exit status of a fit that failed its gate.
+EXIT_GATE = 1
+
+
+def config(args: argparse.Namespace) -> GprConfig:
+    return load_config(args.config) if args.config is not None else load_config()
+
+
+def table_of(args: argparse.Namespace) -> ToleranceTable | None:
+    """The tolerance table of ``--tolerances`` (``None`` without it)."""
+    from ..calibration.tolerances import load_tolerances
+    return load_tolerances(args.tolerances) if args.tolerances is not None else None
+
+
+def sigmas(args: argparse.Namespace, table: ToleranceTable | None = None) -> tuple[float, float]:
+    """The options' sigmas (SI), else the tolerance table's measurement noise, else the defaults."""
+    from ..calibration.identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
+    sp = table.sigma_position if table is not None and table.sigma_position is not None else DEFAULT_SIGMA_POSITION
+    sa = table.sigma_angle if table is not None and table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
+    if args.sigma_position is not None:
+        sp = args.sigma_position * (1e-3 if args.mm else 1.0)
+    if args.sigma_angle is not None:
+        sa = math.radians(args.sigma_angle) if args.deg else args.sigma_angle
+    return sp, sa
+
+
+def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
+         sizes: tuple[int, ...]) -> Transform | None:
+    """``--base`` / ``--target`` as a :class:`~gpr_kinematics.calibration.frames.Transform` (``--mm``, ``--deg``)."""
+    from ..calibration.frames import Transform
+    if values is None:
+        return None
+    if len(values) not in sizes or not all(math.isfinite(v) for v in values):
+        raise InputError(f'{flag} takes {" or ".join(map(str, sizes))} finite numbers (x y z [roll pitch yaw]), '
+                         f'got {len(values)}')
+    v = [x * (1e-3 if args.mm and i < 3 else 1.0) for i, x in enumerate(values)]
+    v[3:] = [math.radians(x) if args.deg else x for x in v[3:]]
+    return Transform.from_xyz_rpy(v)
+
+
+def priors(table: ToleranceTable | None,
+           model: PoseModel) -> tuple[NDArray[np.float64] | None, NDArray[np.float64] | None]:
+    """The tolerance table's standard deviations and bounds for the model's parameters (``None``: no table)."""
+    from ..calibration.tolerances import bound_of, prior_of
+    return (prior_of(table, model.parameters), bound_of(table, model.parameters)) if table is not None else (None,
+                                                                                                          None)
+
+
+def free_names(args: argparse.Namespace, model: PoseModel) -> list[str] | None:
+    """``--free`` and, with an identified frame, its parameters (``None``: all)."""
+    if args.free is None:
+        return None
+    frames = [n for n in model.parameters.names if n.startswith(('base_', 'target_'))]
+    return list(args.free) + frames
+
+
+def gate_outcome(passed: bool, message: str, args: argparse.Namespace) -> bool:
+    """Whether to write the file; a failed gate's reason on stderr (one line)."""
+    if passed:
+        return True
+    what = 'written anyway (--force)' if args.force else 'no file written (--force writes it anyway)'
+    sys.stderr.write(f'gpr calibrate: the fit failed its gate: {one_line(message)} {what}\n')
+    return bool(args.force)

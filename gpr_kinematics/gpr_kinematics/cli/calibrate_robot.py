@@ -1,0 +1,134 @@
+"""``gpr calibrate --robot FILE ARM.csv ...``: each arm's link lengths, joint zero offsets and wafer centre from
+measured points of its blade (:mod:`gpr_kinematics.calibration.arm`), the report of each, and the calibrated robot
+description for ``--robot``. Part of :mod:`gpr_kinematics.cli.calibrate`."""
+from __future__ import annotations
+
+import argparse
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import InputError
+from .calibrate_options import EXIT_GATE, gate_outcome, pose, sigmas, table_of
+from .output import emit_json
+
+if TYPE_CHECKING:
+    from ..calibration.arm import ArmMeasurements, ArmModel
+    from ..calibration.frames import Registration
+    from ..calibration.model import PoseModel
+    from ..calibration.results import CalibrationResult
+    from ..robot.description import RobotDescription
+
+
+
+def _free(args: argparse.Namespace, models: dict[str, PoseModel]) -> dict[str, list[str] | None]:
+    """``--free`` per arm: the names and keys of that arm's parameters (with an identified frame, its parameters)."""
+    if args.free is None:
+        return {arm: None for arm in models}
+    known = {n for m in models.values() for n in m.parameters.names + m.parameters.groups}
+    unknown = [n for n in args.free if n not in known]
+    if unknown:
+        allowed = ', '.join(sorted(known - {n for n in known if n.startswith(('base_', 'target_'))}))
+        raise InputError(f'--free: unknown parameter(s) {", ".join(unknown)}; allowed: {allowed}')
+    out: dict[str, list[str] | None] = {}
+    for arm, m in models.items():
+        mine = [n for n in args.free if n in m.parameters.names or n in m.parameters.groups]
+        out[arm] = mine + [n for n in m.parameters.names if n.startswith(('base_', 'target_'))]
+    return out
+
+
+def _check(args: argparse.Namespace) -> None:
+    if args.output is None:
+        raise InputError('--output FILE is required: the calibrated robot description is written there')
+    if not args.measurements:
+        raise InputError('--robot needs one or more files of measured points of its arms')
+    if args.target is not None or args.fit_target is not None:
+        raise InputError('--target and --fit-target are for the GPR; an arm\'s measured point is its wafer centre, '
+                         'or the blade point of the columns bx, by, bz')
+
+
+def _models(args: argparse.Namespace,
+            robot: RobotDescription) -> tuple[dict[str, PoseModel], dict[str, ArmModel]]:
+    """Per arm with files: its pose model in ``--frame`` and its :class:`~gpr_kinematics.calibration.arm.ArmModel`
+    (whose measurements it holds)."""
+    from ..calibration.arm import ArmModel, merge, read_arm_measurements
+    from ..calibration.frames import Transform, measuring_model
+    parts: dict[str, list[ArmMeasurements]] = {}
+    for path in args.measurements:
+        m = read_arm_measurements(path, robot)
+        parts.setdefault(m.arm, []).append(m)
+    base = None
+    if args.base is not None:
+        base = pose(args.base, args, '--base', (6,))
+    elif args.frame == robot.world_frame:
+        base = Transform(np.asarray(robot.base_position, dtype=float), robot.base_rotation)
+    models: dict[str, PoseModel] = {}
+    inners: dict[str, ArmModel] = {}
+    for arm, rows in parts.items():
+        inner = ArmModel(robot, merge(rows))
+        models[arm] = measuring_model(inner, inner.meas.points, args.frame, base, Transform.identity(), None)
+        inners[arm] = inner
+    return models, inners
+
+
+def _write(args: argparse.Namespace, robot: RobotDescription, results: list[tuple[str, CalibrationResult]],
+           values: dict[str, np.ndarray], regs: dict[str, Registration | None]) -> Path:
+    """The calibrated robot file, headed by what was fitted and the registrations."""
+    from ..calibration.arm import calibrated_robot, write_robot
+    stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
+    comments = [f'robot {robot.name} with its arms calibrated by `gpr calibrate --robot` from '
+                f'{", ".join(args.measurements)} (measured in {args.frame}), {stamp}']
+    comments += [f'arm {a}: fitted {", ".join(r.parameters[j].name for j in r.fitted) or "none"}; held '
+                 f'{", ".join(r.identifiability.held) or "none"}; residual RMS {r.after.rms_position:.3e} m; gate '
+                 f'{"passed" if r.gate.passed else "FAILED (written with --force)"}' for a, r in results]
+    comments += [f'registration of arm {a}: {line}' for a, reg in regs.items() if reg for line in reg.lines()]
+    comments.append('SI units; use with any command: --robot THIS_FILE')
+    return write_robot(args.output, calibrated_robot(robot, values), comments)
+
+
+def _as_dict(reg: Registration | None) -> dict[str, object] | None:
+    return None if reg is None else reg.as_dict()
+
+
+def calibrate_robot(args: argparse.Namespace) -> int:
+    """Identify every arm with measurement files (module docstring); status 0, or 1 when a fit fails its gate."""
+    from ..calibration.frames import FramedModel, registration
+    from ..calibration.identification import identify
+    from ..calibration.report import format_calibration
+    from ..robot.description import load_robot
+    _check(args)
+    robot = load_robot(args.robot, geometry=args.config, model=args.model)
+    models, inners = _models(args, robot)
+    sp, sa = sigmas(args, table_of(args))
+    free = _free(args, models)
+    results, texts, values = [], [], {}
+    regs: dict[str, Registration | None] = {}
+    for arm, model in models.items():
+        inner = inners[arm]
+        res = identify(model, inner.meas.points, free=free[arm], sigma_position=sp, sigma_angle=sa,
+                       threshold=args.threshold, frame=args.frame)
+        reg: Registration | None = None
+        if isinstance(model, FramedModel):
+            values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
+            if model.fit_base:
+                reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)
+        else:
+            values[arm] = res.values
+        results.append((arm, res))
+        regs[arm] = reg
+        texts.append(f'== arm {arm}\n{format_calibration(res)}'
+                     + ''.join(f'\nregistration: {line}' for line in (reg.lines() if reg else [])))
+    passed = all(r.gate.passed for _, r in results)
+    message = ' '.join(f'arm {a}: {r.gate.message()}' for a, r in results if not r.gate.passed)
+    path = _write(args, robot, results, values, regs) if gate_outcome(passed, message, args) else None
+    if args.json:
+        emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a])}
+                                                 for a, r in results],
+                   'output': str(path) if path else None})
+    else:
+        print('\n'.join(texts))
+        if path:
+            print(f'calibrated robot written to {path} (use it with --robot {path})')
+    return 0 if passed else EXIT_GATE

@@ -1,0 +1,325 @@
+"""``robot_simulator_node``: the robot's stand-in controller, a ``control_msgs/action/FollowJointTrajectory`` server.
+
+It serves ``joint_trajectory_controller/follow_joint_trajectory`` (relative: in the node's namespace, as
+ros2_control's ``joint_trajectory_controller`` named ``joint_trajectory_controller`` would), so MoveIt, ``gpr program
+send`` or ``ros2 action send_goal`` drive it as they would drive the real robot's controller. A goal names any of the
+robot's joints (the rods ``rod_1 .. rod_3``, the arms' joints; the others hold where they are) and is checked before
+anything moves (:func:`gpr_kinematics.robot.controller.plan_motion`: names, the robot description's limits, times,
+the platform's tilt under the virtual-joint model); a goal it refuses is aborted with the standard ``error_code`` and
+an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate`` and published on ``joint_states``
+(sensor_msgs/JointState, every joint, position and velocity; the header stamp of sample ``k`` is the start plus the
+sample's time ``t_k = k / rate``), with one feedback per sample (desired, actual, error of the goal's joints); the
+joints follow the samples exactly, or with the first-order lag ``servo_time_constant``. Path tolerances are checked at
+every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
+(``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
+preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does) and starts from where the
+joints are. A ``header.stamp`` of 0 starts at once, a later one then; one whose trajectory ends in the past is
+``OLD_HEADER_TIMESTAMP``.
+
+While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
+goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
+ended), and takes the joint values that other publishers send on ``joint_states`` (``trajectory_node`` streaming a
+program) as its state, quietly while they stream, so a goal starts where the robot is shown. ``state_publisher_node``
+turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
+the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action.server import ServerGoalHandle
+from rclpy.executors import Executor
+from rclpy.task import Future
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from ..errors import GprError
+from ..robot.controller import (
+    GOAL_TOLERANCE_VIOLATED,
+    INVALID_GOAL,
+    OLD_HEADER_TIMESTAMP,
+    PATH_TOLERANCE_VIOLATED,
+    SUCCESSFUL,
+    Clearance,
+    ControllerJoints,
+    GoalError,
+    Motion,
+    Tolerances,
+    plan_motion,
+    resolve_tolerances,
+    servo,
+    trajectory_from_points,
+    violation,
+)
+from ..robot.trajectory import MAX_DURATION, MAX_POINTS
+from ..ros.specs import SIMULATOR
+from .params import ConfigParameters, declare_parameters, declare_robot
+from .qos import stream_qos
+from .runtime import GprNode, one_line, run
+
+NODE_NAME = 'robot_simulator_node'
+ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
+#: Most samples one tick publishes to make up for ticks the busy machine could not serve in time.
+CATCH_UP = 5
+NS_PER_S = 1_000_000_000
+
+
+@dataclass
+class _Run:
+    """A goal under way: its handle, motion, start [ns], next sample, and the future its execute callback awaits."""
+
+    goal: ServerGoalHandle
+    motion: Motion
+    start_ns: int
+    done: Future
+    k: int = 0
+    started: float | None = None
+
+
+def _duration(t: float) -> Duration:
+    ns = round(t * NS_PER_S)
+    return Duration(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)
+
+
+def _seconds(d: Any) -> float:
+    return float(d.sec) + float(d.nanosec) / NS_PER_S
+
+
+class RobotSimulatorNode(GprNode):
+    """Serves FollowJointTrajectory on the robot's joints, publishes ``joint_states`` (module docstring)."""
+
+    NODE_NAME = NODE_NAME
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        params = ConfigParameters(self, read_only=True, robot=declare_robot(self))
+        self.cfg, self.robot = params.config, params.robot
+        p = self.p = declare_parameters(self, SIMULATOR)
+        self.joints = ControllerJoints.of(self.robot)
+        n = len(self.joints.names)
+        self.defaults = Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'], p['goal_time'])
+        #: The cell's clearance check of every sample (None: no cell loaded); set when a cell is.
+        self.clearance: Clearance | None = None
+        self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
+        self.period = 1.0 / float(p['rate'])
+        self.run: _Run | None = None
+        self.last_own_ns = 0
+        self.last_foreign = -math.inf
+        self.last_published = -math.inf
+        qos = stream_qos(int(p['queue_depth']))
+        self.pub = self.create_publisher(JointState, 'joint_states', qos)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states, qos)
+        self.motion_timer = self.create_timer(self.period, self._tick)
+        self.motion_timer.cancel()
+        self.create_timer(1.0 / float(p['idle_rate']), self._idle)
+        self.action = ActionServer(self, FollowJointTrajectory, ACTION, execute_callback=self._execute,
+                                   goal_callback=lambda _goal: GoalResponse.ACCEPT,
+                                   cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos)
+        self.get_logger().info(f'serving {self.action_name()} (control_msgs/action/FollowJointTrajectory) for '
+                               f'{n} joints ({", ".join(self.joints.names)}) of robot {self.robot.name} at '
+                               f'{p["rate"]} Hz; joint_states held at {p["idle_rate"]} Hz while idle')
+
+    def action_name(self) -> str:
+        ns = self.get_namespace().rstrip('/')
+        return f'{ns}/{ACTION}'
+
+    # -- joint_states ---------------------------------------------------------------------------------------------
+    def publish_state(self, stamp_ns: int) -> None:
+        msg = JointState(name=list(self.joints.names), position=self.actual.tolist(), velocity=self.velocity.tolist())
+        msg.header.stamp.sec, msg.header.stamp.nanosec = stamp_ns // NS_PER_S, stamp_ns % NS_PER_S
+        self.pub.publish(msg)
+        self.last_own_ns = max(self.last_own_ns, stamp_ns)
+        self.last_published = time.monotonic()
+
+    def _on_joint_states(self, msg: JointState) -> None:
+        """While idle, take newer joint values of another publisher as the robot's state (module docstring)."""
+        stamp = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
+        if self.run is not None or stamp <= self.last_own_ns:
+            return
+        self.last_foreign = time.monotonic()
+        for name, value in zip(msg.name, msg.position, strict=False):
+            if name in self.joints.names and math.isfinite(value):
+                k = self.joints.names.index(name)
+                self.actual[k], self.velocity[k] = value, 0.0
+
+    def _idle(self) -> None:
+        quiet = 2.0 / float(self.p['idle_rate'])
+        now = time.monotonic()
+        if self.run is None and now - self.last_foreign > quiet and now - self.last_published > 0.5 * quiet:
+            self.velocity[:] = 0.0
+            self.publish_state(self.get_clock().now().nanoseconds)
+
+    # -- goals ----------------------------------------------------------------------------------------------------
+    def _check(self, req: Any) -> tuple[Motion, int]:
+        """The motion of a goal and its start [ns]; :class:`GoalError` with the result code (module docstring)."""
+        multi = req.multi_dof_trajectory
+        if multi.joint_names or multi.points:
+            raise GoalError(INVALID_GOAL, 'multi_dof_trajectory: this robot has no multi-DOF joints; allowed: an empty '
+                            'multi_dof_trajectory')
+        if req.component_path_tolerance or req.component_goal_tolerance:
+            raise GoalError(INVALID_GOAL, 'component tolerances apply to multi-DOF joints, which this robot has none '
+                            'of; allowed: empty component_path_tolerance and component_goal_tolerance')
+        points = req.trajectory.points
+        if len(points) > MAX_POINTS:
+            raise GoalError(INVALID_GOAL, f'the trajectory has {len(points)} points; allowed: at most {MAX_POINTS}')
+        if any(len(pt.effort) for pt in points):
+            raise GoalError(INVALID_GOAL, 'points carry efforts; allowed: positions, velocities and accelerations '
+                            '(this controller commands positions)')
+        traj = trajectory_from_points(self.joints, list(req.trajectory.joint_names),
+                                      [_seconds(pt.time_from_start) for pt in points],
+                                      [pt.positions for pt in points], [pt.velocities for pt in points],
+                                      [pt.accelerations for pt in points])
+        tol = resolve_tolerances(self.joints, self.defaults,
+                                 [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
+                                 [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
+                                 _seconds(req.goal_time_tolerance))
+        now = self.get_clock().now().nanoseconds
+        stamp = req.trajectory.header.stamp.sec * NS_PER_S + req.trajectory.header.stamp.nanosec
+        start = now if stamp == 0 else stamp
+        if stamp and stamp < now - round(self.period * NS_PER_S):
+            late = (now - stamp) / NS_PER_S
+            ends = 'ends' if late > traj.duration else 'started'
+            raise GoalError(OLD_HEADER_TIMESTAMP, f'header.stamp lies {late:.6g} s in the past: the trajectory {ends} '
+                            'before it arrived; allowed: 0 (start at once) or a time not in the past')
+        if stamp and stamp > now + round(MAX_DURATION * NS_PER_S):
+            raise GoalError(INVALID_GOAL, f'header.stamp lies {(stamp - now) / NS_PER_S:.6g} s ahead; allowed: at '
+                            f'most {MAX_DURATION:g} s')
+        return plan_motion(self.joints, traj, self.actual, float(self.p['rate']), self.cfg, tol,
+                           float(self.p['start_tolerance']), self.clearance), start
+
+    async def _execute(self, goal: ServerGoalHandle) -> Any:
+        result = FollowJointTrajectory.Result()
+        if self.run is not None:    # preempted, as joint_trajectory_controller does
+            old = self.run
+            self._end('aborted', INVALID_GOAL, f'preempted by a newer goal at sample {old.k} of {len(old.motion)}')
+        try:
+            motion, start = self._check(goal.request)
+        except GprError as exc:
+            code = exc.code if isinstance(exc, GoalError) else INVALID_GOAL
+            result.error_code, result.error_string = code, one_line(exc)
+            self.get_logger().warning(f'goal refused ({code}): {result.error_string}')
+            goal.abort()
+            return result
+        except Exception as exc:  # noqa: BLE001 - a goal must end with a result, and later goals be served
+            result.error_code = INVALID_GOAL
+            result.error_string = f'internal error: {type(exc).__name__}: {one_line(exc)}'
+            self.get_logger().error(f'goal refused: {result.error_string}')
+            goal.abort()
+            return result
+        done = Future()
+        self.run = _Run(goal, motion, start, done)
+        self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
+                               f'{", ".join(motion.trajectory.joint_names)}, {motion.duration:.6g} s, '
+                               f'{len(motion)} samples')
+        self.motion_timer.reset()
+        outcome, code, text = await done
+        result.error_code, result.error_string = code, text
+        if outcome == 'succeeded':
+            goal.succeed()
+        elif outcome == 'canceled':
+            goal.canceled()
+        else:
+            goal.abort()
+        return result
+
+    def _end(self, outcome: str, code: int, text: str) -> None:
+        r, self.run = self.run, None
+        self.motion_timer.cancel()
+        self.velocity[:] = 0.0
+        if r is None:
+            return
+        if outcome == 'succeeded':   # rclpy: one severity per call site
+            self.get_logger().info(f'goal {outcome} ({code}): {text}')
+        else:
+            self.get_logger().warning(f'goal {outcome} ({code}): {text}')
+        r.done.set_result((outcome, code, text))
+
+    def _tick(self) -> None:
+        """Publish every sample due by now (at most :data:`CATCH_UP`), checking the tolerances."""
+        r = self.run
+        if r is None:
+            self.motion_timer.cancel()
+            return
+        if r.goal.is_cancel_requested:
+            t = r.motion.time[min(r.k, len(r.motion) - 1)]
+            self._end('canceled', SUCCESSFUL, f'cancelled at t = {t:.6g} s of {r.motion.duration:.6g} s; the joints '
+                      'hold where they are')
+            return
+        if self.get_clock().now().nanoseconds < r.start_ns:
+            return
+        if r.started is None:
+            r.started = time.monotonic()
+        due = int((time.monotonic() - r.started) / self.period) + 1
+        for _ in range(max(1, min(due - r.k, CATCH_UP))):
+            if self.run is not r or not self._step(r):
+                return
+
+    def _step(self, r: _Run) -> bool:
+        """Sample ``r.k``: move, publish, feedback, tolerances; False once the goal ended."""
+        m, tol = r.motion, r.motion.tolerances
+        K = len(m)
+        settling = r.k >= K
+        t = m.time[-1] + (r.k - K + 1) * self.period if settling else float(m.time[r.k])
+        desired = m.positions[-1] if settling else m.positions[r.k]
+        desired_v = np.zeros_like(desired) if settling else m.velocities[r.k]
+        dt = 0.0 if r.k == 0 else (self.period if settling else float(m.time[r.k] - m.time[r.k - 1]))
+        tau = float(self.p['servo_time_constant'])
+        before = self.actual
+        self.actual = servo(before, desired, dt, tau)
+        self.velocity = desired_v.copy() if tau <= 0.0 else (self.actual - before) / dt if dt > 0 else 0 * before
+        self.publish_state(r.start_ns + round(t * NS_PER_S))
+        self._feedback(r, t, desired, desired_v)
+        r.k += 1
+        err, err_v = desired - self.actual, desired_v - self.velocity
+        if not settling:
+            broken = violation(self.joints, m.goal, err, err_v, tol.path_position, tol.path_velocity, 'path')
+            if broken:
+                self._end('aborted', PATH_TOLERANCE_VIOLATED, f'at t = {t:.6g} s: {broken}')
+                return False
+        if r.k >= K:
+            final = m.positions[-1] - self.actual
+            off = violation(self.joints, m.goal, final, -self.velocity, tol.goal_position, tol.goal_velocity, 'goal')
+            if off is None:
+                self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {t:.6g} s ({K} samples)')
+                return False
+            if t > m.duration + tol.goal_time + 1e-9:
+                self._end('aborted', GOAL_TOLERANCE_VIOLATED, f'{tol.goal_time:g} s after the last point: {off}')
+                return False
+        return True
+
+    def _feedback(self, r: _Run, t: float, desired: Any, desired_v: Any) -> None:
+        g = r.motion.goal
+        stamp = r.start_ns + round(t * NS_PER_S)
+        fb = FollowJointTrajectory.Feedback(joint_names=list(r.motion.trajectory.joint_names))
+        fb.header.stamp.sec, fb.header.stamp.nanosec = stamp // NS_PER_S, stamp % NS_PER_S
+        at = _duration(t)
+        fb.desired = JointTrajectoryPoint(positions=desired[g].tolist(), velocities=desired_v[g].tolist(),
+                                          time_from_start=at)
+        fb.actual = JointTrajectoryPoint(positions=self.actual[g].tolist(), velocities=self.velocity[g].tolist(),
+                                         time_from_start=at)
+        fb.error = JointTrajectoryPoint(positions=(desired[g] - self.actual[g]).tolist(),
+                                        velocities=(desired_v[g] - self.velocity[g]).tolist(), time_from_start=at)
+        r.goal.publish_feedback(fb)
+
+    def on_exit(self, executor: Executor, status: int) -> int:
+        if self.run is not None:
+            self._end('aborted', INVALID_GOAL, 'the controller is shutting down')
+        self.action.destroy()
+        return status
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    return run(RobotSimulatorNode, args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

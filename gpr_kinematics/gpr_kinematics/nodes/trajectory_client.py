@@ -1,0 +1,137 @@
+"""The client side of ``control_msgs/action/FollowJointTrajectory``: where the robot is, and a trajectory sent to a
+controller (``robot_simulator_node``, ros2_control's ``joint_trajectory_controller``, any server of the action).
+
+:func:`current_positions` waits for ``joint_states`` messages that together carry every joint of a trajectory;
+:func:`follow_trajectory` sends a :class:`~gpr_kinematics.robot.trajectory.JointTrajectory` as a goal, reports its
+feedback and returns the outcome (:class:`FollowOutcome`: the goal status and the result's ``error_code`` and
+``error_string``); an interrupt (Ctrl-C) cancels the goal before it leaves. ``gpr program send`` runs on these.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
+from rclpy.action import ActionClient
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from ..robot.controller import ERROR_NAMES
+from ..robot.trajectory import JointTrajectory
+from .client import GprClient, ServiceTimeoutError
+from .qos import stream_qos
+
+#: The action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``.
+DEFAULT_ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
+_NS = 1_000_000_000
+#: Time [s] for a subscription to match a publisher the graph already shows.
+SETTLE = 0.3
+_STATUS = {GoalStatus.STATUS_SUCCEEDED: 'succeeded', GoalStatus.STATUS_ABORTED: 'aborted',
+           GoalStatus.STATUS_CANCELED: 'canceled'}
+
+
+def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
+    """``trajectory_msgs/JointTrajectory`` of ``traj`` (header stamp 0: start when it arrives)."""
+    points = []
+    for i in range(len(traj)):
+        ns = round(float(traj.time[i]) * _NS)
+        pt = JointTrajectoryPoint(positions=traj.positions[i].tolist(),
+                                  time_from_start=Duration(sec=ns // _NS, nanosec=ns % _NS))
+        if traj.velocities is not None:
+            pt.velocities = traj.velocities[i].tolist()
+        if traj.accelerations is not None:
+            pt.accelerations = traj.accelerations[i].tolist()
+        points.append(pt)
+    return JointTrajectoryMsg(joint_names=list(traj.joint_names), points=points)
+
+
+def current_positions(client: GprClient, names: Sequence[str], topic: str, timeout: float) -> np.ndarray | None:
+    """The latest positions of ``names`` from ``joint_states`` messages on ``topic`` (several messages may share
+    them), waiting at most ``timeout`` s for every one; None if some joint never came."""
+    latest: dict[str, float] = {}
+
+    def take(msg: JointState) -> None:
+        for n, v in zip(msg.name, msg.position, strict=False):
+            if math.isfinite(v):
+                latest[n] = float(v)
+
+    sub = client.node.create_subscription(JointState, topic, take, stream_qos(100))
+    try:
+        if not client.spin_until(lambda: all(n in latest for n in names), timeout):
+            return None
+        return np.array([latest[n] for n in names])
+    finally:
+        client.node.destroy_subscription(sub)
+
+
+@dataclass(frozen=True)
+class FollowOutcome:
+    """How a goal ended: ``status`` (succeeded, aborted, canceled, rejected), the result's ``error_code``, its name
+    and ``error_string``, and the feedback messages received."""
+
+    status: str
+    error_code: int
+    error_name: str
+    error_string: str
+    feedback: int
+
+
+def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, timeout: float,
+                      progress: Callable[[Any], None] | None = None) -> FollowOutcome:
+    """Send ``traj`` to the FollowJointTrajectory server ``action`` (waiting at most ``timeout`` s for it) and wait
+    for the result (the trajectory's duration plus ``timeout``); ``progress`` gets every feedback message.
+
+    Raises:
+        ServiceTimeoutError: no server, or no answer or result in time (a goal under way is cancelled first).
+    """
+    cli = ActionClient(client.node, FollowJointTrajectory, action, feedback_sub_qos_profile=stream_qos(1000))
+    try:
+        if not cli.wait_for_server(timeout_sec=timeout):
+            raise ServiceTimeoutError(f'no FollowJointTrajectory server on {action} within {timeout:g} s')
+        # The server's services answer before its feedback topic may be matched: wait until the graph shows the
+        # feedback publisher, and a moment for the match, so the first samples' feedback is not lost.
+        feedback_topic = client.node.resolve_topic_name(action) + '/_action/feedback'
+        if client.spin_until(lambda: bool(client.node.get_publishers_info_by_topic(feedback_topic)), timeout):
+            client.spin_for(SETTLE)
+        count = [0]
+
+        def on_feedback(msg: Any) -> None:
+            count[0] += 1
+            if progress is not None:
+                progress(msg.feedback)
+
+        goal = FollowJointTrajectory.Goal(trajectory=trajectory_msg(traj))
+        handle = client.wait(cli.send_goal_async(goal, feedback_callback=on_feedback), timeout, f'{action} goal')
+        if not handle.accepted:
+            return FollowOutcome('rejected', 0, '', f'{action} rejected the goal', 0)
+        future = handle.get_result_async()
+        try:
+            client.executor.spin_until_future_complete(future, timeout_sec=traj.duration + timeout)
+        except KeyboardInterrupt:
+            _cancel(client, handle)
+            raise
+        if not future.done():
+            _cancel(client, handle)
+            raise ServiceTimeoutError(f'{action}: no result {timeout:g} s after the trajectory\'s end; the goal was '
+                                      'cancelled')
+        res = future.result()
+        code = int(res.result.error_code)
+        return FollowOutcome(_STATUS.get(res.status, f'status {res.status}'), code, ERROR_NAMES.get(code, ''),
+                             str(res.result.error_string), count[0])
+    finally:
+        cli.destroy()
+
+
+def _cancel(client: GprClient, handle: Any) -> None:
+    """Ask the server to cancel ``handle``'s goal and wait briefly for the answer (best effort)."""
+    future = handle.cancel_goal_async()
+    end = time.monotonic() + 2.0
+    while not future.done() and time.monotonic() < end:
+        client.executor.spin_once(timeout_sec=0.05)

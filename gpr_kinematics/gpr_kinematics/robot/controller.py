@@ -1,0 +1,340 @@
+"""The robot as a joint trajectory controller drives it, and the checks of a trajectory goal (no ROS import).
+
+``robot_simulator_node`` serves ``control_msgs/action/FollowJointTrajectory`` as ros2_control's
+``joint_trajectory_controller`` does; everything it decides is here, tested without ROS:
+
+- :class:`ControllerJoints`: the joints a goal may name: the rods ``rod_1 .. rod_3`` (prismatic, the stroke, the rods'
+  velocity) and every arm's joints (revolute, the description's limits), and the state before any goal (:attr:`rest`:
+  equal rods at mid-stroke, a level platform, and each arm at its ``home``);
+- :func:`trajectory_from_points`: a goal's points (as the message carries them, one list per point) into a
+  :class:`~gpr_kinematics.robot.trajectory.JointTrajectory`, every size bounded before the work it bounds;
+- :func:`plan_motion`: the checks before moving and the motion sampled at the controller's rate. A goal is refused
+  with a :class:`GoalError` carrying the standard error code and a message that names the joint, the point, the value
+  and what is allowed: joint names unknown or repeated (``INVALID_JOINTS``); no points, positions of the wrong length,
+  velocities or accelerations on some points only, times not finite or not strictly increasing, a position beyond the
+  joint's limits, a point velocity or a segment's mean velocity ``|q_{i+1} - q_i| / (t_{i+1} - t_i)`` beyond the joint's
+  velocity limit (the move from the current state to a first point after ``t = 0`` included), a first point at
+  ``t = 0`` away from the current state, an interpolated sample beyond a limit, the platform tilted beyond
+  ``tilt_limit`` at any sample (forward kinematics of the virtual-joint model), or what a ``clearance`` check refuses
+  (``INVALID_GOAL``);
+- :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
+  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults; :func:`servo`, the actuators'
+  response (first order with time constant ``tau``; ``tau = 0``: the joints follow exactly), and
+  :func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ``GOAL_TOLERANCE_VIOLATED``).
+
+Units are SI: m and m/s for the rods, rad and rad/s for the arm joints, seconds.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core import forward_batch
+from ..core.config import GprConfig
+from ..core.messages import ROD_JOINT_NAMES
+from ..errors import GprError, InputError, brief
+from .description import RobotDescription
+from .timing import MAX_SAMPLES
+from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate
+
+Array = NDArray[np.float64]
+
+#: ``control_msgs/action/FollowJointTrajectory`` result codes.
+SUCCESSFUL, INVALID_GOAL, INVALID_JOINTS, OLD_HEADER_TIMESTAMP = 0, -1, -2, -3
+PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -4, -5
+ERROR_NAMES = {SUCCESSFUL: 'SUCCESSFUL', INVALID_GOAL: 'INVALID_GOAL', INVALID_JOINTS: 'INVALID_JOINTS',
+               OLD_HEADER_TIMESTAMP: 'OLD_HEADER_TIMESTAMP', PATH_TOLERANCE_VIOLATED: 'PATH_TOLERANCE_VIOLATED',
+               GOAL_TOLERANCE_VIOLATED: 'GOAL_TOLERANCE_VIOLATED'}
+#: Relative slack of the velocity limits (rounding of a trajectory timed exactly at a limit).
+VELOCITY_SLACK = 1e-9
+#: A check of the cell's clearance: sample times (K,) and every joint's positions (K, N) -> a refusal or None.
+Clearance = Callable[[Array, Array], str | None]
+
+
+class GoalError(InputError):
+    """A goal the controller refuses: ``code`` is the result's ``error_code``, the message its ``error_string``."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+@dataclass(frozen=True)
+class ControllerJoints:
+    """The controller's joints ``N``: names, limits (``lower``, ``upper`` [m, rad], ``velocity`` [m/s, rad/s]), the
+    units of their messages, and the state before any goal :attr:`rest`."""
+
+    names: tuple[str, ...]
+    lower: Array
+    upper: Array
+    velocity: Array
+    units: tuple[str, ...]
+    rest: Array
+
+    @classmethod
+    def of(cls, robot: RobotDescription) -> ControllerJoints:
+        """The rods (the stroke of the geometry, the rods' velocity) and every arm's joints of ``robot``."""
+        cfg = robot.config
+        names = [*ROD_JOINT_NAMES]
+        lower, upper = [cfg.stroke_min] * 3, [cfg.stroke_max] * 3
+        velocity, units = [robot.rods.velocity] * 3, ['m'] * 3
+        rest = [0.5 * (cfg.stroke_min + cfg.stroke_max)] * 3
+        for arm in robot.arms:
+            names += arm.joint_names
+            lower += list(arm.lower)
+            upper += list(arm.upper)
+            velocity += list(arm.velocity)
+            units += ['rad'] * len(arm.joints)
+            rest += list(arm.home)
+        return cls(tuple(names), np.array(lower), np.array(upper), np.array(velocity), tuple(units), np.array(rest))
+
+    def indices(self, names: Sequence[str], where: str = 'joint_names') -> NDArray[np.int64]:
+        """Positions of ``names`` among the joints; GoalError (``INVALID_JOINTS``) for none, an unknown or a repeated
+        name."""
+        if not names:
+            raise GoalError(INVALID_JOINTS, f'{where} is empty; allowed: some of {", ".join(self.names)}')
+        if len(names) > MAX_JOINTS:
+            raise GoalError(INVALID_JOINTS, f'{where} names {len(names)} joints; allowed: at most {len(self.names)}')
+        out = []
+        for n in names:
+            if n not in self.names:
+                raise GoalError(INVALID_JOINTS, f'{where}: unknown joint {brief(n)}; allowed: {", ".join(self.names)}')
+            if self.names.index(n) in out:
+                raise GoalError(INVALID_JOINTS, f'{where}: joint {brief(n)} named twice; allowed: each joint once')
+            out.append(self.names.index(n))
+        return np.array(out, dtype=np.int64)
+
+
+def _rows(values: Sequence[Sequence[float]], J: int, what: str, optional: bool) -> Array | None:
+    """Per-point lists of one kind (positions, velocities, accelerations) as ``(P, J)``; None when every point leaves
+    an optional kind empty."""
+    lengths = {len(v) for v in values}
+    if optional and lengths == {0}:
+        return None
+    if lengths != {J}:
+        i = next(k for k, v in enumerate(values) if len(v) != J)
+        allowed = f'{J} values (one per joint) on every point' + (', or none on every point' if optional else '')
+        raise GoalError(INVALID_GOAL, f'points[{i}].{what} has {len(values[i])} values; allowed: {allowed}')
+    out = np.array(values, dtype=float).reshape(len(values), J)
+    if not np.all(np.isfinite(out)):
+        i, k = np.argwhere(~np.isfinite(out))[0]
+        raise GoalError(INVALID_GOAL, f'points[{i}].{what}[{k}] = {float(out[i, k])!r}; allowed: finite numbers')
+    return out
+
+
+def trajectory_from_points(joints: ControllerJoints, names: Sequence[str], times: Sequence[float],
+                           positions: Sequence[Sequence[float]], velocities: Sequence[Sequence[float]],
+                           accelerations: Sequence[Sequence[float]]) -> JointTrajectory:
+    """A goal's trajectory from its points (``times`` [s], one list per point of each kind), checked for sizes, finite
+    numbers and strictly increasing times (:class:`GoalError`)."""
+    joints.indices(names)
+    if not times:
+        raise GoalError(INVALID_GOAL, 'the trajectory has no points; allowed: at least one point')
+    if len(times) > MAX_POINTS:
+        raise GoalError(INVALID_GOAL, f'the trajectory has {len(times)} points; allowed: at most {MAX_POINTS}')
+    J = len(names)
+    t = np.array(times, dtype=float)
+    bad = ~np.isfinite(t) | (t < 0.0) | (t > MAX_DURATION)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise GoalError(INVALID_GOAL, f'points[{i}].time_from_start = {float(t[i])!r} s; allowed: 0 to '
+                        f'{MAX_DURATION:g} s')
+    if np.any(np.diff(t) <= 0.0):
+        i = int(np.argmax(np.diff(t) <= 0.0)) + 1
+        raise GoalError(INVALID_GOAL, f'points[{i}].time_from_start = {float(t[i])!r} s is not after points[{i - 1}] '
+                        f'({float(t[i - 1])!r} s); allowed: strictly increasing times')
+    pos = _rows(positions, J, 'positions', optional=False)
+    assert pos is not None
+    vel = _rows(velocities, J, 'velocities', optional=True)
+    acc = _rows(accelerations, J, 'accelerations', optional=True)
+    if acc is not None and vel is None:
+        raise GoalError(INVALID_GOAL, 'points have accelerations but no velocities; allowed: positions, positions '
+                        'and velocities, or all three')
+    return JointTrajectory(tuple(names), t, pos, vel, acc)
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Per joint ``(N,)``: the largest position [m, rad] and velocity [m/s, rad/s] error along the path and at the
+    goal (``inf``: not checked), and the time after the last point by which the goal tolerance must hold [s]."""
+
+    path_position: Array
+    path_velocity: Array
+    goal_position: Array
+    goal_velocity: Array
+    goal_time: float
+
+    @classmethod
+    def uniform(cls, n: int, path: float, goal: float, goal_time: float) -> Tolerances:
+        """The same position tolerance on every joint (0: not checked), velocities not checked."""
+        def value(x: float) -> Array:
+            return np.full(n, np.inf if x == 0.0 else float(x))
+
+        return cls(value(path), np.full(n, np.inf), value(goal), np.full(n, np.inf), float(goal_time))
+
+
+#: One entry of a goal's tolerance list: joint name, position, velocity, acceleration (control_msgs/JointTolerance).
+JointTolerance = tuple[str, float, float, float]
+
+
+def _apply(joints: ControllerJoints, entries: Sequence[JointTolerance], position: Array, velocity: Array,
+           where: str) -> tuple[Array, Array]:
+    position, velocity = position.copy(), velocity.copy()
+    for i, (name, *values) in enumerate(entries):
+        k = int(joints.indices([name], f'{where}[{i}].name')[0])
+        for target, what, v in ((position, 'position', values[0]), (velocity, 'velocity', values[1]),
+                                (None, 'acceleration', values[2])):
+            if not (math.isfinite(v) and (v >= 0.0 or v == -1.0)):
+                raise GoalError(INVALID_GOAL, f'{where}[{i}].{what} = {v!r}; allowed: 0 (the default), -1 (not '
+                                'checked) or a positive tolerance')
+            if target is not None and v != 0.0:
+                target[k] = np.inf if v == -1.0 else v
+    return position, velocity
+
+
+def resolve_tolerances(joints: ControllerJoints, defaults: Tolerances, path: Sequence[JointTolerance],
+                       goal: Sequence[JointTolerance], goal_time: float) -> Tolerances:
+    """A goal's tolerances over ``defaults`` (module docstring); ``goal_time`` 0: the default. Acceleration tolerances
+    are validated and not checked (the simulated joints' accelerations are not measured)."""
+    if not math.isfinite(goal_time) or goal_time < 0.0:
+        raise GoalError(INVALID_GOAL, f'goal_time_tolerance = {goal_time!r} s; allowed: 0 (the default) or positive')
+    for where, entries in (('path_tolerance', path), ('goal_tolerance', goal)):
+        if len(entries) > len(joints.names):
+            raise GoalError(INVALID_GOAL, f'{where} has {len(entries)} entries; allowed: at most one per joint '
+                            f'({len(joints.names)})')
+    path_p, path_v = _apply(joints, path, defaults.path_position, defaults.path_velocity, 'path_tolerance')
+    goal_p, goal_v = _apply(joints, goal, defaults.goal_position, defaults.goal_velocity, 'goal_tolerance')
+    return Tolerances(path_p, path_v, goal_p, goal_v, goal_time or defaults.goal_time)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A checked goal sampled at the controller's rate: sample times ``time (K,)`` [s from the start], every joint's
+    desired ``positions`` and ``velocities`` ``(K, N)`` (the joints the goal does not name held), the goal's joints
+    ``goal (G,)`` (indices), its tolerances and its trajectory."""
+
+    time: Array
+    positions: Array
+    velocities: Array
+    goal: NDArray[np.int64]
+    tolerances: Tolerances
+    trajectory: JointTrajectory
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1])
+
+
+def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Array, time: Array, what: str) -> None:
+    lo, hi = joints.lower[cols], joints.upper[cols]
+    bad = (values < lo) | (values > hi)
+    if bad.any():
+        i, k = (int(v) for v in np.argwhere(bad)[0])
+        j = int(cols[k])
+        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {values[i, k]:.9g} '
+                        f'{joints.units[j]} is beyond its limits; allowed: [{joints.lower[j]:g}, {joints.upper[j]:g}] '
+                        f'{joints.units[j]}')
+
+
+def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array) -> None:
+    limit = joints.velocity[cols] * (1.0 + VELOCITY_SLACK)
+    unit = [f'{joints.units[j]}/s' for j in cols]
+    if traj.velocities is not None:
+        bad = np.abs(traj.velocities) > limit
+        if bad.any():
+            i, k = (int(v) for v in np.argwhere(bad)[0])
+            raise GoalError(INVALID_GOAL, f'points[{i}].velocities: {traj.joint_names[k]} = '
+                            f'{traj.velocities[i, k]:.6g} {unit[k]}; allowed: at most {joints.velocity[cols[k]]:g} '
+                            f'{unit[k]} in size')
+    t, P = traj.time, traj.positions
+    if t[0] > 0.0:
+        t, P = np.concatenate([[0.0], t]), np.vstack([start, P])
+    if t.shape[0] > 1:
+        mean = np.abs(np.diff(P, axis=0)) / np.diff(t)[:, None]
+        bad = mean > limit
+        if bad.any():
+            i, k = (int(v) for v in np.argwhere(bad)[0])
+            into = i + (0 if traj.time[0] > 0.0 else 1)
+            frm = 'the current state' if traj.time[0] > 0.0 and i == 0 else f'points[{into - 1}]'
+            raise GoalError(INVALID_GOAL, f'the move from {frm} into points[{into}] needs {traj.joint_names[k]} at '
+                            f'{mean[i, k]:.6g} {unit[k]} on average; allowed: at most {joints.velocity[cols[k]]:g} '
+                            f'{unit[k]} (give the point a later time_from_start)')
+
+
+def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,
+                tolerances: Tolerances, start_tolerance: float, clearance: Clearance | None = None) -> Motion:
+    """Check ``traj`` from the ``current`` positions of every joint ``(N,)`` and sample it at ``rate`` [Hz]: samples at
+    ``t_k = k / rate`` and the last point's time (module docstring; :class:`GoalError` with the code)."""
+    cols = joints.indices(traj.joint_names)
+    current = np.asarray(current, dtype=float)
+    start = current[cols]
+    _refuse_beyond(joints, cols, traj.positions, traj.time, 'point')
+    if traj.time[0] == 0.0:
+        off = np.abs(traj.positions[0] - start)
+        k = int(np.argmax(off))
+        if off[k] > start_tolerance:
+            unit = joints.units[cols[k]]
+            raise GoalError(INVALID_GOAL, f'points[0] at time_from_start 0 puts {traj.joint_names[k]} '
+                            f'{off[k]:.6g} {unit} from where it is ({start[k]:.9g} {unit}); allowed: at most '
+                            f'{start_tolerance:g} (start_tolerance), or a first point after 0 s, which the joints then '
+                            'reach from where they are')
+    _check_velocities(joints, cols, traj, start)
+    count = int(math.floor(traj.duration * rate + 1e-9)) + 2
+    if count > MAX_SAMPLES:
+        raise GoalError(INVALID_GOAL, f'the trajectory lasts {traj.duration:.6g} s: {count} samples at {rate:g} Hz; '
+                        f'allowed: at most {MAX_SAMPLES} samples')
+    t = np.arange(count - 1, dtype=float) / rate
+    if traj.duration - t[-1] > 1e-9:
+        t = np.append(t, traj.duration)
+    pos, vel, _ = evaluate(traj, start, t)
+    _refuse_beyond(joints, cols, pos, t, 'sample')
+    positions = np.repeat(current[None, :], t.shape[0], axis=0)
+    positions[:, cols] = pos
+    velocities = np.zeros_like(positions)
+    velocities[:, cols] = vel
+    rods = positions[:, :3]
+    try:
+        fk = forward_batch(rods, config, check_limits=False)
+    except GprError as exc:
+        raise GoalError(INVALID_GOAL, f'the rods have no platform pose on the way: {exc}') from None
+    tilted = fk.tilt > config.tilt_limit
+    if tilted.any():
+        i = int(np.argmax(tilted))
+        raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {fk.tilt[i]:.6g} rad '
+                        f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit '
+                        f'{config.tilt_limit:g} rad')
+    if clearance is not None:
+        refusal = clearance(t, positions)
+        if refusal:
+            raise GoalError(INVALID_GOAL, refusal)
+    return Motion(t, positions, velocities, cols, tolerances, traj)
+
+
+def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
+    """The joints after ``dt`` [s] of a first-order response with time constant ``tau`` [s] to ``desired`` held over
+    the step: ``desired + (actual - desired) exp(-dt / tau)``; ``tau = 0``: ``desired`` exactly."""
+    if tau <= 0.0:
+        return np.array(desired, dtype=float)
+    out: Array = desired + (actual - desired) * math.exp(-dt / tau)
+    return out
+
+
+def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,
+              position: Array, velocity: Array, what: str) -> str | None:
+    """The first joint of ``cols`` whose position or velocity error ``(N,)`` exceeds its tolerance ``(N,)``, named with
+    the tolerance and the error (``what``: path or goal), or None."""
+    for err, tol, kind, suffix in ((error_position, position, 'position', ''), (error_velocity, velocity, 'velocity',
+                                                                                '/s')):
+        bad = np.abs(err[cols]) > tol[cols]
+        if bad.any():
+            j = int(cols[int(np.argmax(bad))])
+            return (f'{joints.names[j]}: {kind} error {abs(err[j]):.6g} {joints.units[j]}{suffix} exceeds the {what} '
+                    f'tolerance {tol[j]:.6g} {joints.units[j]}{suffix}')
+    return None

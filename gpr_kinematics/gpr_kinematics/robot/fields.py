@@ -1,0 +1,66 @@
+"""The field rules of the robot description (and of the files that reuse them): names, numbers in a range, vectors,
+angles, mappings, each refused with the file, the key, the value and what is allowed."""
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ..errors import ConfigError, brief
+from ..inputs.schema import number_key
+
+_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
+NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
+
+
+def _where(source: str, path: str) -> str:
+    return f'{source}: {path}' if path else source
+
+
+def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float, allowed: str,
+            default: float | None = None, unit: str = 'm') -> float:
+    value = number_key(data, key, where, default=default, positive=False, unit=unit)
+    if not lo <= value <= hi:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {allowed}')
+    return value
+
+
+def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float, unit: str = 'm',
+            default: Sequence[float] | None = None) -> tuple[float, ...]:
+    raw = data.get(key, default)
+    allowed = f'a list of {n} finite numbers in {unit}, each within [-{bound:g}, {bound:g}]'
+    if not isinstance(raw, (list, tuple)) or len(raw) != n:
+        raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
+    out = []
+    for i, v in enumerate(raw):
+        out.append(_number({f'{key}[{i}]': v}, f'{key}[{i}]', where, -bound, bound, allowed, unit=unit))
+    return tuple(out)
+
+
+def _xyz(data: Mapping[str, Any], key: str, where: str, bound: float, default: Sequence[float] | None = None
+         ) -> tuple[float, float, float]:
+    x, y, z = _vector(data, key, where, 3, bound, default=default)
+    return x, y, z
+
+
+def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
+    r, p, y = _vector(data, 'rpy', where, 3, 2 * math.pi, 'rad', default=(0.0, 0.0, 0.0))
+    return r, p, y
+
+
+def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
+    value = data.get(key, default)
+    if not isinstance(value, str) or not _NAME.match(value):
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {NAME_RULE}')
+    return value
+
+
+def _mapping(value: Any, where: str, what: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(f'{where}: expected a mapping ({what}), got {type(value).__name__}')
+    return value
+
+
+def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
+    return _number(data, key, where, -2 * math.pi, 2 * math.pi, 'radians within [-2pi, 2pi]', default, 'rad')

@@ -1,0 +1,202 @@
+"""Joint trajectories as a robot controller takes them (``trajectory_msgs/JointTrajectory``, without ROS).
+
+A :class:`JointTrajectory` names its joints and gives points: a time from the start ``t_i`` [s], the joints'
+positions [m, rad] and optionally their velocities and accelerations. :func:`evaluate` interpolates it as ros2_control's
+``joint_trajectory_controller`` does (its spline interpolator): between two points a polynomial in ``tau = t - t_i``
+that meets both points' positions (degree 1, *linear*, when the points give positions only), and velocities (degree 3,
+*cubic* Hermite) and accelerations (degree 5, *quintic*) when they give them:
+
+    ``p(tau) = c0 + c1 tau + ... + c5 tau^5``,  ``c0 = p_i``, ``c1 = v_i``, ``c2 = a_i / 2`` and, with
+    ``D = p_{i+1} - p_i`` and ``h = t_{i+1} - t_i``:
+    ``c3 = (20 D - (8 v_{i+1} + 12 v_i) h - (3 a_i - a_{i+1}) h^2) / (2 h^3)``,
+    ``c4 = (-30 D + (14 v_{i+1} + 16 v_i) h + (3 a_i - 2 a_{i+1}) h^2) / (2 h^4)``,
+    ``c5 = (12 D - 6 (v_{i+1} + v_i) h + (a_{i+1} - a_i) h^2) / (2 h^5)`` (quintic; the cubic's ``c2, c3`` are
+    ``(3 D / h - 2 v_i - v_{i+1}) / h`` and ``(-2 D / h + v_i + v_{i+1}) / h^2``).
+
+At ``tau = 0`` the value is ``p_i`` exactly, so every point is met to the last bit at its own time. When the first point
+lies after ``t = 0`` the motion starts from the given start positions at rest (zero velocity and acceleration) and
+reaches the first point by the same rule; after the last point the joints hold it.
+
+:func:`program_trajectory` turns a checked robot program (:mod:`.plan`) into the trajectory that executes it as
+``gpr program export`` times it: one point per sample at a rate (:func:`~gpr_kinematics.robot.timing.sample`), with
+the positions and the exact velocities of the time parameterisation; :func:`lead_in` prepends the move from where the
+robot is to the program's first waypoint, timed within the joints' limits. :func:`trajectory_yaml` writes the
+``trajectory_msgs/JointTrajectory`` YAML that ``ros2 action send_goal`` reads. The rods are the joints ``rod_1 ..
+rod_3`` of the robot model and ``joint_states`` (:data:`~gpr_kinematics.core.messages.ROD_JOINT_NAMES`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.messages import ROD_JOINT_NAMES
+from ..errors import InputError
+from ..inputs.files import write_text
+from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
+from .timing import MAX_SAMPLES, parameterise, sample, sample_times, velocities
+
+Array = NDArray[np.float64]
+
+#: Most points a trajectory may have, and most joints (the example robot has 10).
+MAX_POINTS = MAX_SAMPLES
+MAX_JOINTS = 64
+#: Longest trajectory [s] (a day).
+MAX_DURATION = 86_400.0
+_NS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class JointTrajectory:
+    """Points ``P`` over joints ``J``: ``time (P,)`` [s from the start], ``positions (P, J)`` [m, rad],
+    ``velocities`` and ``accelerations`` ``(P, J)`` or None (not given)."""
+
+    joint_names: tuple[str, ...]
+    time: Array
+    positions: Array
+    velocities: Array | None = None
+    accelerations: Array | None = None
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    @property
+    def degree(self) -> int:
+        """1 (linear: positions only), 3 (cubic: with velocities) or 5 (quintic: with accelerations too)."""
+        return 1 if self.velocities is None else 3 if self.accelerations is None else 5
+
+    @property
+    def duration(self) -> float:
+        """Time of the last point [s]."""
+        return float(self.time[-1])
+
+    def shifted(self, dt: float) -> JointTrajectory:
+        """The same points ``dt`` seconds later."""
+        return replace(self, time=self.time + dt)
+
+
+def _coefficients(p0: Array, v0: Array, a0: Array, p1: Array, v1: Array, a1: Array, h: Array,
+                  degree: int) -> list[Array]:
+    """``c0 .. c5`` of the segments (module docstring); ``h`` broadcasts against the joints."""
+    D = p1 - p0
+    zero = np.zeros_like(D)
+    if degree == 1:
+        return [p0, D / h, zero, zero, zero, zero]
+    if degree == 3:
+        return [p0, v0, (3.0 * D / h - 2.0 * v0 - v1) / h, (-2.0 * D / h + v0 + v1) / h ** 2, zero, zero]
+    h2 = h * h
+    return [p0, v0, 0.5 * a0,
+            (20.0 * D - (8.0 * v1 + 12.0 * v0) * h - (3.0 * a0 - a1) * h2) / (2.0 * h2 * h),
+            (-30.0 * D + (14.0 * v1 + 16.0 * v0) * h + (3.0 * a0 - 2.0 * a1) * h2) / (2.0 * h2 * h2),
+            (12.0 * D - 6.0 * (v1 + v0) * h + (a1 - a0) * h2) / (2.0 * h2 * h2 * h)]
+
+
+def evaluate(traj: JointTrajectory, start: Array, t: Array) -> tuple[Array, Array, Array]:
+    """Positions, velocities and accelerations ``(K, J)`` of ``traj`` at times ``t (K,)`` [s], starting at rest from
+    ``start (J,)`` when the first point lies after ``t = 0`` (module docstring)."""
+    P = traj.positions
+    V = traj.velocities if traj.velocities is not None else np.zeros_like(P)
+    A = traj.accelerations if traj.accelerations is not None else np.zeros_like(P)
+    times = traj.time
+    if times[0] > 0.0:
+        rest = np.zeros((1, P.shape[1]))
+        times = np.concatenate([[0.0], times])
+        P, V, A = np.vstack([np.asarray(start, dtype=float)[None, :], P]), np.vstack([rest, V]), np.vstack([rest, A])
+    t = np.asarray(t, dtype=float)
+    n = times.shape[0]
+    i = np.clip(np.searchsorted(times, t, side='right') - 1, 0, n - 1)
+    j = np.minimum(i + 1, n - 1)
+    h = np.where(j > i, times[j] - times[i], 1.0)[:, None]
+    c = _coefficients(P[i], V[i], A[i], P[j], V[j], A[j], h, traj.degree)
+    tau = np.maximum(t - times[i], 0.0)[:, None]
+    pos = c[0] + tau * (c[1] + tau * (c[2] + tau * (c[3] + tau * (c[4] + tau * c[5]))))
+    vel = c[1] + tau * (2.0 * c[2] + tau * (3.0 * c[3] + tau * (4.0 * c[4] + tau * 5.0 * c[5])))
+    acc = 2.0 * c[2] + tau * (6.0 * c[3] + tau * (12.0 * c[4] + tau * 20.0 * c[5]))
+    after = (i == n - 1)[:, None]       # at or after the last point: hold it (its own velocity at its instant)
+    exact = (t == times[-1])[:, None]
+    pos = np.where(after, P[-1], pos)
+    vel = np.where(after, np.where(exact, V[-1], 0.0), vel)
+    acc = np.where(after, np.where(exact, A[-1], 0.0), acc)
+    return pos, vel, acc
+
+
+def trajectory_joint_names(plan: ProgramPlan) -> tuple[str, ...]:
+    """The joints of a program's trajectory: the rods as the robot model names them, then every arm's joints."""
+    return (*ROD_JOINT_NAMES, *plan.joint_names[3:])
+
+
+def program_trajectory(plan: ProgramPlan, rate: float) -> JointTrajectory:
+    """The trajectory that executes ``plan``: one point per sample at ``rate`` [Hz] (``t_k = k / rate`` and the final
+    instant, as ``gpr program export --samples`` samples it), positions and velocities of the time parameterisation,
+    over the rods and every arm's joints (module docstring)."""
+    s = plan_samples(plan, sample(plan.timing, rate))
+    return JointTrajectory(trajectory_joint_names(plan), s.time, s.positions, plan_velocities(plan, s))
+
+
+def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: float) -> tuple[JointTrajectory, float]:
+    """``traj`` (of :func:`program_trajectory`) preceded by the move from ``current`` (the robot's positions of
+    ``traj.joint_names``) to its first point, timed within the joints' velocity and acceleration limits and rounded up
+    to whole sample periods; the trajectory and the move's duration [s] (0 when the robot is at the first point)."""
+    current = np.asarray(current, dtype=float)
+    if current.shape != (len(traj.joint_names),) or not np.all(np.isfinite(current)):
+        raise InputError(f'the current positions must be {len(traj.joint_names)} finite numbers, one per joint of '
+                         f'the trajectory ({", ".join(traj.joint_names)})')
+    _, velocity, acceleration, _ = joint_limits(plan.robot)
+    ends = np.vstack([current, traj.positions[0]])
+    names = traj.joint_names
+    shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
+                            ('the current state', 'the first point')).total
+    if shortest == 0.0:
+        return traj, 0.0
+    periods = max(1, math.ceil(shortest * rate))
+    timing = parameterise(ends, velocity, acceleration, np.array([np.nan, periods / rate]), np.zeros(2), names,
+                          ('the current state', 'the first point'))
+    t = sample_times(timing, rate)[:-1]    # the move's samples before its end: the program's first point follows
+    move = sample(timing, rate)
+    if len(traj) + t.shape[0] > MAX_POINTS:
+        raise InputError(f'the trajectory would have {len(traj) + t.shape[0]} points; allowed: at most {MAX_POINTS}; '
+                         'lower the rate')
+    # The program's points keep their place on the rate's grid (t = (periods + k) / rate), so a controller sampling at
+    # the rate meets them at their own instants; a final instant off the grid moves by the whole lead-in.
+    k = np.round(traj.time * rate)
+    time = np.where(np.abs(traj.time * rate - k) <= 1e-6, (periods + k) / rate, traj.time + periods / rate)
+    vel = traj.velocities if traj.velocities is not None else np.zeros_like(traj.positions)
+    out = JointTrajectory(traj.joint_names, np.concatenate([t, time]),
+                          np.vstack([move.positions[:t.shape[0]], traj.positions]),
+                          np.vstack([velocities(timing, t), vel]))
+    return out, periods / rate
+
+
+def _duration(t: float) -> str:
+    ns = round(t * _NS)
+    return f'{{sec: {ns // _NS}, nanosec: {ns % _NS}}}'
+
+
+def _numbers(values: Array) -> str:
+    return '[' + ', '.join(repr(float(v)) for v in values) + ']'
+
+
+def trajectory_yaml(traj: JointTrajectory) -> str:
+    """``trajectory_msgs/JointTrajectory`` as YAML in flow style (one point per line), as ``ros2 action send_goal``
+    reads it: ``"{trajectory: $(cat FILE)}"``. Numbers round-trip exactly; times are ``builtin_interfaces/Duration``
+    (whole nanoseconds)."""
+    lines = ['{header: {frame_id: ""},', f'  joint_names: [{", ".join(traj.joint_names)}],', '  points: [']
+    for i in range(len(traj)):
+        fields = [f'positions: {_numbers(traj.positions[i])}']
+        if traj.velocities is not None:
+            fields.append(f'velocities: {_numbers(traj.velocities[i])}')
+        if traj.accelerations is not None:
+            fields.append(f'accelerations: {_numbers(traj.accelerations[i])}')
+        fields.append(f'time_from_start: {_duration(float(traj.time[i]))}')
+        lines.append('    {' + ', '.join(fields) + '}' + (',' if i + 1 < len(traj) else ''))
+    lines.append('  ]}')
+    return '\n'.join(lines) + '\n'
+
+
+def write_trajectory(path: str, traj: JointTrajectory) -> str:
+    """Write :func:`trajectory_yaml` to ``path`` atomically (a ``.yaml`` or ``.yml`` file); the path written."""
+    if not path.lower().endswith(('.yaml', '.yml')):
+        raise InputError(f'trajectory file {path!r}: allowed: a .yaml or .yml file')
+    return str(write_text(path, trajectory_yaml(traj), 'trajectory'))

@@ -1,0 +1,197 @@
+"""The process cell: obstacles around the robot, from YAML (docs/cell.md).
+
+File format (``config/cells/example_cell.yaml`` is a commented example)::
+
+    format: gpr_cell
+    version: 1
+    frame: world                       # the robot description's world frame
+    units: {length: mm, angle: deg}    # optional: m and rad by default
+    obstacles:
+      - {name: pm1_slit_top, box: [0.40, 0.05, 0.30], position: [1.25, 1.05, 0.50], rpy: [0, 0, 0.52]}
+      - {name: column, cylinder: {radius: 0.05, length: 1.0}, position: [0.2, 0.2, 0.5], rpy: [0, 0, 0]}
+      - {name: pm1, chamber: {size: [0.5, 0.5, 0.3], wall: 0.02, slit: [0.34, 0.04], slit_z: -0.005, front: 0.16},
+         position: [1.2, 1.0, 0.455], tilt: 1.2, azimuth: 30, heading: 45}
+
+A **box** is given by its full edge lengths and centred at ``position``; a **cylinder** lies along its local z,
+centred at ``position``; the orientation is URDF ``rpy`` (``R = Rz(yaw) Ry(pitch) Rx(roll)``) or, as a station's,
+``tilt``/``azimuth``/``heading`` (``R = tilt_rotation(tilt, azimuth) Rz(heading)``, docs/robot.md). A **chamber** is
+shorthand for the walls of a process chamber around a station at ``position`` (its local x along the heading into
+it): a box of outer ``size`` with walls ``wall`` thick whose front face (at ``x = -front``, ``front`` default half
+the depth) has a ``slit`` ``[width, height]`` opening centred ``slit_z`` above the station plane; it becomes the
+boxes ``NAME/front_top``, ``NAME/front_bottom``, ``NAME/front_left``, ``NAME/front_right``, ``NAME/back``,
+``NAME/left``, ``NAME/right``, ``NAME/floor``, ``NAME/roof``. Every value is checked; an error names the file, the
+key and the value, and at most :data:`MAX_OBSTACLES` obstacles are read.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
+from ..errors import ConfigError, brief
+from ..inputs.schema import check_keys, is_number, read_yaml
+from ..robot.station_files import units_of
+
+Array = NDArray[np.float64]
+
+FORMAT = 'gpr_cell'
+#: Most obstacles in a cell (after chambers are expanded), largest coordinate and size [m].
+MAX_OBSTACLES = 10_000
+_BOUND = 100.0
+_SIZE = 50.0
+_KEYS = ('format', 'version', 'frame', 'units', 'obstacles')
+_SHAPES = ('box', 'cylinder', 'chamber')
+_OBSTACLE_KEYS = ('name', *_SHAPES, 'position', 'rpy', 'tilt', 'azimuth', 'heading')
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A fixed body of the cell: ``kind`` box (full edges) or cylinder (radius, length), ``size`` [m], its centre
+    ``position`` [m] and ``rotation`` (3, 3) in the cell's frame."""
+
+    name: str
+    kind: str
+    size: tuple[float, ...]
+    position: Array
+    rotation: Array
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A validated cell: its obstacles in the frame ``frame``, and the file it came from."""
+
+    obstacles: tuple[Obstacle, ...]
+    frame: str
+    source: str
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(o.name for o in self.obstacles)
+
+
+def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, scale: float = 1.0) -> float:
+    if not is_number(value) or not lo <= float(value) * scale <= hi:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit}, '
+                          f'{lo:g} to {hi:g} {"m" if unit in ("m", "mm") else unit} after conversion')
+    return float(value) * scale
+
+
+def _vector(value: Any, where: str, key: str, n: int, lo: float, hi: float, unit: str, scale: float
+            ) -> tuple[float, ...]:
+    if not isinstance(value, list) or len(value) != n:
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a list of {n} numbers in {unit}')
+    return tuple(_number(v, where, f'{key}[{i}]', lo, hi, unit, scale) for i, v in enumerate(value))
+
+
+def _rotation(data: Mapping[str, Any], where: str, angle: float, aunit: str) -> Array:
+    if 'rpy' in data and any(k in data for k in ('tilt', 'azimuth', 'heading')):
+        raise ConfigError(f'{where}: give rpy or tilt/azimuth/heading, not both')
+    if 'rpy' in data:
+        r, p, y = _vector(data['rpy'], where, 'rpy', 3, -2 * math.pi, 2 * math.pi, aunit, angle)
+        return np.asarray(rpy_matrix(r, p, y), dtype=np.float64)
+    t, a, h = (_number(data.get(k, 0.0), where, k, -2 * math.pi, 2 * math.pi, aunit, angle)
+               for k in ('tilt', 'azimuth', 'heading'))
+    return np.asarray(tilt_rotation(np.array([t]), np.array([a]))[0] @ rotation_z(np.array([h]))[0],
+                      dtype=np.float64)
+
+
+def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, position: Array, R: Array
+             ) -> list[Obstacle]:
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f'{where}: chamber = {brief(raw)} is invalid; allowed: a mapping with size, wall, slit, '
+                          'slit_z, front')
+    check_keys(raw, ('size', 'wall', 'slit', 'slit_z', 'front'), f'{where}: chamber')
+    w = f'{where}: chamber'
+    dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, 1e-3, _SIZE, lunit, length)
+    wall = _number(raw.get('wall', 0.02 / length), w, 'wall', 1e-4, min(dx, dy, dz) / 2, lunit, length)
+    sw, sh = _vector(raw.get('slit', [0.34 / length, 0.04 / length]), w, 'slit', 2, 1e-3, _SIZE, lunit, length)
+    if sw >= dy - 2 * wall or sh >= dz - 2 * wall:
+        raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '
+                          'chamber inside its walls')
+    front = _number(raw.get('front', dx / 2 / length), w, 'front', wall, dx - wall, lunit, length)
+    sz = _number(raw.get('slit_z', 0.0), w, 'slit_z', -dz / 2 + wall + sh / 2, dz / 2 - wall - sh / 2, lunit, length)
+    cx, cz = dx / 2 - front, 0.0   # the box centre in the station frame (x into the chamber)
+    fx = -front + wall / 2
+    lo, hi = sz - sh / 2, sz + sh / 2
+    parts = [
+        ('front_top', (wall, dy, dz / 2 - hi), (fx, 0.0, (hi + dz / 2) / 2)),
+        ('front_bottom', (wall, dy, lo + dz / 2), (fx, 0.0, (lo - dz / 2) / 2)),
+        ('front_left', (wall, (dy - sw) / 2, sh), (fx, (sw + dy) / 4, sz)),
+        ('front_right', (wall, (dy - sw) / 2, sh), (fx, -(sw + dy) / 4, sz)),
+        ('back', (wall, dy, dz), (cx + dx / 2 - wall / 2, 0.0, cz)),
+        ('left', (dx - 2 * wall, wall, dz), (cx, dy / 2 - wall / 2, cz)),
+        ('right', (dx - 2 * wall, wall, dz), (cx, -dy / 2 + wall / 2, cz)),
+        ('floor', (dx - 2 * wall, dy - 2 * wall, wall), (cx, 0.0, -dz / 2 + wall / 2)),
+        ('roof', (dx - 2 * wall, dy - 2 * wall, wall), (cx, 0.0, dz / 2 - wall / 2)),
+    ]
+    return [Obstacle(f'{name}/{part}', 'box', size, position + R @ np.array(centre), R)
+            for part, size, centre in parts if min(size) > 0.0]
+
+
+def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle]:
+    lunit, aunit = ('mm' if length != 1.0 else 'm'), ('deg' if angle != 1.0 else 'rad')
+    if not isinstance(ob, Mapping):
+        raise ConfigError(f'{where}: expected a mapping with name, a shape ({", ".join(_SHAPES)}) and position')
+    check_keys(ob, _OBSTACLE_KEYS, where)
+    name = ob.get('name')
+    if not isinstance(name, str) or not 0 < len(name) <= 64 or not name.replace('_', '').replace('-', '').isalnum():
+        raise ConfigError(f'{where}: name = {brief(name)} is invalid; allowed: 1 to 64 letters, digits, _ and -')
+    where = f'{where} ({name})'
+    shapes = [k for k in _SHAPES if k in ob]
+    if len(shapes) != 1:
+        raise ConfigError(f'{where}: shape = {", ".join(shapes) or "none"} is invalid; allowed: exactly one of '
+                          f'{", ".join(_SHAPES)}')
+    position = np.array(_vector(ob.get('position'), where, 'position', 3, -_BOUND, _BOUND, lunit, length))
+    R = _rotation(ob, where, angle, aunit)
+    kind = shapes[0]
+    if kind == 'box':
+        return [Obstacle(name, 'box', _vector(ob['box'], where, 'box', 3, 1e-6, _SIZE, lunit, length), position, R)]
+    if kind == 'chamber':
+        return _chamber(ob['chamber'], name, where, length, lunit, position, R)
+    c = ob['cylinder']
+    if not isinstance(c, Mapping):
+        raise ConfigError(f'{where}: cylinder = {brief(c)} is invalid; allowed: {{radius: R, length: L}}')
+    check_keys(c, ('radius', 'length'), f'{where}: cylinder')
+    size = tuple(_number(c.get(k), where, k, 1e-6, _SIZE, lunit, length) for k in ('radius', 'length'))
+    return [Obstacle(name, 'cylinder', size, position, R)]
+
+
+def parse_cell(data: Any, source: str = 'cell') -> Cell:
+    """Validate a cell mapping (as loaded from YAML); ConfigError names the file, the key and the value."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f'{source}: expected a mapping (format: {FORMAT}, obstacles), got {type(data).__name__}')
+    if data.get('format') != FORMAT:
+        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
+    check_keys(data, _KEYS, source)
+    if data.get('version', 1) != 1:
+        raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')
+    frame = data.get('frame', 'world')
+    if not isinstance(frame, str) or not frame:
+        raise ConfigError(f'{source}: frame = {brief(frame)} is invalid; allowed: a frame name')
+    length, angle = units_of(data, source)
+    raw = data.get('obstacles', [])
+    if not isinstance(raw, list):
+        raise ConfigError(f'{source}: obstacles = {brief(raw)} is invalid; allowed: a list of obstacles')
+    if len(raw) > MAX_OBSTACLES:
+        raise ConfigError(f'{source}: obstacles: {len(raw)} obstacles; allowed: at most {MAX_OBSTACLES}')
+    out: list[Obstacle] = []
+    for i, ob in enumerate(raw):
+        out += _obstacle(ob, f'{source}: obstacles[{i}]', length, angle)
+        if len(out) > MAX_OBSTACLES:
+            raise ConfigError(f'{source}: obstacles: more than {MAX_OBSTACLES} bodies once chambers are expanded')
+    names = [o.name for o in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ConfigError(f'{source}: obstacles: name {brief(twice[0])} is used twice; allowed: unique names')
+    return Cell(tuple(out), frame, source)
+
+
+def load_cell(path: str | Path) -> Cell:
+    """Read and validate a cell file (module docstring)."""
+    return parse_cell(read_yaml(path, 'cell'), str(path))

@@ -1,0 +1,207 @@
+"""``gpr program check``'s safety verdict: the certified clearance of the program in its cell and against itself, and
+wafer slip, with the wafers where the program puts them (docs/cell.md).
+
+Wafers: a station listed in the program's ``wafers`` holds one from the start (a program that declares none has
+its picks find a wafer there, which is not modelled before the pick); a pick takes the station's wafer
+onto the arm's blade when the blade reaches it (arrival at the ``at`` waypoint), a place leaves it in the station
+(the same instant of its ``at``). A wafer in a station is a fixed disc at the station pose. The blade touches the
+wafer it picks or places, on purpose: that pair is not checked from the departure from the ``approach`` waypoint
+to the arrival at the ``retract`` one.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError
+from ..robot.plan import ProgramPlan
+from .bodies import Body, cell_bodies, default_pairs, robot_body_set
+from .cell import Cell
+from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
+from .motion import PlanMotion
+from .slip import slip_series
+
+Array = NDArray[np.float64]
+#: Rate [Hz] at which the slip ratio is evaluated (plus every waypoint's instants).
+SLIP_RATE = 200.0
+Windows = tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class Collision:
+    """A pair below the margin: the bodies, the first instant found below it [s], the pair's smallest distance [m],
+    and the step, station and waypoint label of that instant."""
+
+    bodies: tuple[str, str]
+    time: float
+    distance: float
+    step: int
+    station: str
+    label: str
+
+
+@dataclass(frozen=True)
+class MoveSafety:
+    """One row per waypoint (the move into it and its hold): the times, the smallest slip ratio's peak."""
+
+    waypoint: int
+    label: str
+    start: float
+    end: float
+    max_slip_ratio: float
+
+
+@dataclass(frozen=True)
+class SafetyReport:
+    """The verdict. ``safe``: every pair at least ``margin`` apart and every slip ratio below 1.
+
+    Attributes:
+        min_clearance: the smallest certified distance of any pair [m]; pairs: every pair, closest first
+            (``bodies``, ``distance`` [m], ``time`` [s]); collisions: the pairs below the margin, first first.
+        max_slip_ratio: the largest slip ratio of a carried wafer (0: none carried); max_slip_at: its time [s] and
+            slip_label the waypoint; moves: the slip per waypoint.
+        cell: the cell file (None: the robot against itself); evaluations: distance calls; instants: poses computed.
+    """
+
+    safe: bool
+    min_clearance: float
+    margin: float
+    tolerance: float
+    pairs: tuple[dict[str, object], ...]
+    collisions: tuple[Collision, ...]
+    max_slip_ratio: float
+    max_slip_at: float
+    slip_label: str
+    moves: tuple[MoveSafety, ...]
+    cell: str | None
+    evaluations: int
+    instants: int
+
+
+@dataclass(frozen=True)
+class WaferPlan:
+    """Where the wafers are: each arm's carrying windows, the wafers left in stations (bodies with windows), and
+    per (arm, station) the windows of intended contact."""
+
+    carried: dict[str, Windows]
+    stations: tuple[tuple[str, Windows], ...]
+    contact: dict[tuple[str, str], Windows]
+
+
+def wafer_plan(plan: ProgramPlan) -> WaferPlan:
+    """Follow the wafers through the program (module docstring); a pick from an empty station, a pick with a full
+    blade, a place with an empty one or onto a full station is refused (ConfigError naming the step)."""
+    way, timing, program = plan.waypoints, plan.timing, plan.program
+    end = timing.total
+    present: dict[str, float] = {name: 0.0 for name in program.wafers}
+    stations: list[tuple[str, Windows]] = []
+    carrying: dict[str, float] = {}
+    carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
+    contact: dict[tuple[str, str], list[tuple[float, float]]] = {}
+    for i, phase in enumerate(way.phase):
+        if phase != 'at':
+            continue
+        step = program.steps[int(way.step[i])]
+        arm, station = way.arm[i], str(step.station)
+        t = float(timing.arrive[i])
+        where = f'{program.source}: {plan.labels[i]}'
+        approach = max(k for k in range(i) if way.phase[k] in ('approach',) and int(way.step[k]) == int(way.step[i]))
+        retract = i + 1
+        contact.setdefault((arm, station), []).append((float(timing.depart[approach]), float(timing.arrive[retract])))
+        if step.kind == 'pick':
+            if arm in carrying:
+                raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
+            start = present.pop(station, None)
+            if start is None and program.wafers:
+                raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
+                                  f'{", ".join(program.wafers)}); allowed: a pick where a wafer lies')
+            if start is not None and start < t:
+                stations.append((station, ((start, t),)))
+            carrying[arm] = t
+        else:
+            if arm not in carrying and program.wafers:
+                raise ConfigError(f'{where}: arm {arm} carries no wafer to place')
+            if station in present:
+                raise ConfigError(f'{where}: station {station} already holds a wafer')
+            if arm in carrying:
+                carried[arm].append((carrying.pop(arm), t))
+            present[station] = t
+    for arm, t0 in carrying.items():
+        carried[arm].append((t0, end))
+    stations += [(name, ((t0, end),)) for name, t0 in present.items()]
+    return WaferPlan({a: tuple(w) for a, w in carried.items()}, tuple(stations),
+                     {k: tuple(w) for k, w in contact.items()})
+
+
+def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE
+                  ) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
+    """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
+    slip ratio against time (for the plot)."""
+    wafers = wafer_plan(plan)
+    robot = plan.robot
+    bodies = robot_body_set(robot, wafers.carried)
+    bodies += cell_bodies(cell)
+    index = plan.program.stations.index()
+    st = plan.program.stations.stations
+    for name, windows in wafers.stations:
+        k = index[name]
+        R = st.take([k]).rotation[0]
+        wafer = next(b for b in bodies if b.frame and b.frame.endswith('_wafer'))
+        bodies.append(Body(f'wafer@{name}', 'cylinder', wafer.size, None, R, st.position[k], windows))
+    pairs = []
+    for i, j in default_pairs(bodies):
+        skip: Windows = ()
+        for a, b in ((bodies[i], bodies[j]), (bodies[j], bodies[i])):
+            if a.frame and a.arm and a.frame == f'{a.arm}_blade' and b.name.startswith('wafer@'):
+                skip = wafers.contact.get((a.arm, b.name[len('wafer@'):]), ())
+        pairs.append((i, j, skip))
+    report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance)
+    times = _slip_times(plan)
+    carrying = np.full(times.shape, '', dtype=object)
+    for arm, windows in wafers.carried.items():
+        for t0, t1 in windows:
+            carrying[(times >= t0) & (times <= t1)] = arm
+    slip = slip_series(plan, times, carrying)
+    ratio = np.where(np.isnan(slip.ratio), 0.0, slip.ratio)
+    k = int(np.argmax(ratio))
+    moves = _moves(plan, times, ratio)
+    collisions = tuple(sorted((_collision(plan, p.bodies, p.first_below if np.isfinite(p.first_below) else p.time,
+                                          p.distance) for p in report.below_margin), key=lambda c: c.time))
+    safe = not collisions and float(ratio[k]) < 1.0
+    pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
+    return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, float(ratio[k]),
+                         float(times[k]), _label_at(plan, float(times[k])), moves,
+                         None if cell is None else cell.source, report.evaluations, report.instants),
+            report, (times, ratio))
+
+
+def _slip_times(plan: ProgramPlan) -> Array:
+    t = plan.timing
+    return np.unique(np.concatenate([np.arange(0.0, t.total, 1.0 / SLIP_RATE), t.arrive, t.depart, [t.total]]))
+
+
+def _waypoint_at(plan: ProgramPlan, t: float) -> int:
+    """The waypoint held at ``t`` or moved to."""
+    return min(int(np.searchsorted(plan.timing.depart, t - 1e-12)), len(plan.timing.arrive) - 1)
+
+
+def _label_at(plan: ProgramPlan, t: float) -> str:
+    return plan.labels[_waypoint_at(plan, t)]
+
+
+def _collision(plan: ProgramPlan, bodies: tuple[str, str], t: float, distance: float) -> Collision:
+    w = _waypoint_at(plan, t)
+    step = int(plan.waypoints.step[w])
+    return Collision(bodies, t, distance, step, str(plan.program.steps[step].station), plan.labels[w])
+
+
+def _moves(plan: ProgramPlan, times: Array, ratio: Array) -> tuple[MoveSafety, ...]:
+    t = plan.timing
+    out = []
+    for w in range(len(t.arrive)):
+        start = float(t.depart[w - 1]) if w else 0.0
+        sel = (times >= start) & (times <= t.depart[w])
+        out.append(MoveSafety(w, plan.labels[w], start, float(t.depart[w]), float(np.max(ratio[sel], initial=0.0))))
+    return tuple(out)

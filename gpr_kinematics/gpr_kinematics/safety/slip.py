@@ -1,0 +1,94 @@
+"""Wafer slip: does the blade's grip hold the wafer along the program (docs/cell.md, "Wafer slip")?
+
+The wafer (mass ``m``, a point at its centre) follows the wafer frame; the blade must supply the force
+``f = m (a - g)`` (``a`` its acceleration in the world, ``g = (0, 0, -9.80665) m/s^2``). With ``n`` the wafer
+frame's z axis (the paddle's normal), the normal part ``f_n = f . n`` presses the wafer on the paddle and the
+tangential part ``f_t = |f - f_n n|`` must be held by static friction: the **slip ratio**
+
+    ``ratio = |f_t| / (mu (f_n + F_vac))``
+
+(``mu`` the blade's ``friction``, ``F_vac`` its ``vacuum`` holding force) must stay below 1; a non-positive
+denominator (the wafer lifted off the paddle) is an infinite ratio. Gravity alone on a blade tilted by ``alpha``
+gives ``tan(alpha) / mu`` (0.035 g along the blade at 2 degrees). ``a`` comes from the path: on a joint-space line
+``a = dp/ds s'' + d^2p/ds^2 s'^2`` (the path derivatives by central differences of the exact forward kinematics in
+``s``), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''`` from the S-curve.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..robot.forward import robot_forward
+from ..robot.plan import ProgramPlan, joint_limits, move_rows, plan_samples
+from ..robot.timing import evaluate, locate, sample_at
+
+Array = NDArray[np.float64]
+
+GRAVITY = 9.80665
+#: Step in ``s`` of the central differences of the wafer's path.
+STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class SlipSeries:
+    """The slip ratio ``ratio (N,)`` at ``time (N,)`` [s] of the arm carrying a wafer (NaN: none carried), and the
+    wafer's acceleration ``acceleration (N, 3)`` [m/s^2, world]."""
+
+    time: Array
+    ratio: Array
+    acceleration: Array
+
+
+def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
+    """Wafer positions ``(len(s), 3)`` of ``arm`` at profile values ``s`` of move ``m`` (or of its hold, ``s = 1``)."""
+    robot = plan.robot
+    rows = move_rows(robot, plan.waypoints, plan.positions, m, np.clip(s, -1.0, 2.0), plan.labels[m + 1])
+    _, _, _, slices = joint_limits(robot)
+    cols = slices[robot.arm_names.index(arm)]
+    return robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.position
+
+
+def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
+    """The slip ratio at ``times`` for the arm named in ``carrying (N,)`` ('' where no wafer is carried)."""
+    timing = plan.timing
+    robot = plan.robot
+    _, held, m, tau = locate(timing, times)
+    if len(timing.duration):
+        s, ds, dds = evaluate(timing.profiles, m, tau)
+    else:
+        s, ds, dds = np.ones(times.shape), np.zeros(times.shape), np.zeros(times.shape)
+    s, ds, dds = np.where(held, 1.0, s), np.where(held, 0.0, ds), np.where(held, 0.0, dds)
+    acc = np.zeros((times.shape[0], 3))
+    ratio = np.full(times.shape[0], np.nan)
+    for arm in robot.arms:
+        idx = np.flatnonzero((carrying == arm.name) & ~held)
+        for k in np.unique(m[idx]):
+            sel = idx[m[idx] == k]
+            line = bool(plan.waypoints.path) and plan.waypoints.path[k + 1] == 'line'
+            p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - STEP, s[sel], s[sel] + STEP]))
+            n = sel.size
+            d1 = (p[2 * n:] - p[:n]) / (2 * STEP)
+            d2 = np.zeros_like(d1) if line else (p[2 * n:] - 2 * p[n:2 * n] + p[:n]) / STEP ** 2
+            acc[sel] = d1 * dds[sel, None] + d2 * ds[sel, None] ** 2
+        idx = np.flatnonzero(carrying == arm.name)
+        if idx.size:
+            ratio[idx] = _ratio(plan, arm.name, times[idx], acc[idx])
+    return SlipSeries(times, ratio, acc)
+
+
+def _ratio(plan: ProgramPlan, arm: str, t: Array, acc: Array) -> Array:
+    robot = plan.robot
+    rows = plan_samples(plan, sample_at(plan.timing, t)).positions
+    _, _, _, slices = joint_limits(robot)
+    cols = slices[robot.arm_names.index(arm)]
+    R = robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.rotation
+    a = robot.arm(arm)
+    f = acc + np.array([0.0, 0.0, GRAVITY])          # per unit mass: a - g
+    n = R[:, :, 2]
+    fn = np.einsum('ni,ni->n', f, n)
+    ft = np.linalg.norm(f - fn[:, None] * n, axis=1)
+    hold = a.bodies.friction * (fn + a.bodies.vacuum / robot.wafer.mass)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return np.asarray(np.where(hold > 0.0, ft / hold, np.inf), dtype=np.float64)

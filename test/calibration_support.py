@@ -1,0 +1,48 @@
+"""Helpers of the calibration tests: an imperfect GPR as a calibration engineer would make one (rod places, zero
+offsets, rod tilts, joint places and a different kappa per joint), random configurations within the machine's
+limits, and the prediction error of a calibrated model at configurations it was not fitted to (held out)."""
+from __future__ import annotations
+
+import numpy as np
+from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.model import evaluate, pose_error
+from gpr_kinematics.core import naive_inverse
+
+#: Standard deviations of the true machine's deviations per kind of parameter, SI.
+DEVIATIONS = {'rod_positions': 30e-6, 'rod_offsets': 30e-6, 'rod_directions': 1e-4, 'platform_joints': 30e-6}
+#: A different stiffness ratio per joint.
+KAPPAS = (2.0, 5.0, 0.7)
+
+
+def imperfect(model: CoreModel, seed: int, joints: bool = True) -> np.ndarray:
+    """Coordinates of a machine off the nominal one by :data:`DEVIATIONS` (seeded), kappa :data:`KAPPAS`;
+    ``joints=False`` keeps the platform joints nominal."""
+    ps = model.parameters
+    rng = np.random.default_rng(seed)
+    values = ps.values(ps.nominal)
+    for j, p in enumerate(ps):
+        if not p.transform and (joints or p.key != 'platform_joints'):
+            values[j] += rng.normal(0.0, DEVIATIONS[p.key])
+    values[[ps.index(f'kappa{k}') for k in (1, 2, 3)]] = KAPPAS
+    return ps.coordinates(values)
+
+
+def configurations(config, n: int, seed: int) -> np.ndarray:
+    """``n`` random rod lengths ``(n, 3)``: heights over the stroke, tilts up to 99 % of the limit, any azimuth."""
+    rng = np.random.default_rng(seed)
+    return naive_inverse(rng.uniform(0.02, 0.48, n), rng.uniform(0.0, 0.99, n) * config.tilt_limit,
+                         rng.uniform(-np.pi, np.pi, n), config)
+
+
+class HeldOut:
+    """The RMS position error [m] of a model's prediction against the true machine at 500 held-out
+    configurations."""
+
+    def __init__(self, model: CoreModel, truth: np.ndarray, seed: int = 99) -> None:
+        self.model = model
+        self.Q = configurations(model.config, 500, seed)
+        self.pos, self.rot = evaluate(model, truth, self.Q)
+
+    def __call__(self, theta: np.ndarray) -> float:
+        e = pose_error(*evaluate(self.model, theta, self.Q), self.pos, self.rot)
+        return float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1))))

@@ -1,0 +1,124 @@
+"""Tampered bags written by an independent MCAP writer: the public ``mcap`` library (not the package's recorder,
+not ``rosbags``) writes every storage file of a bag folder again after an edit, with every CRC (chunks, the data
+and the summary sections) computed anew, and ``metadata.yaml`` is recounted and re-signed (its file SHA-256 sums and
+its own digest recomputed, as the recorder writes them): an editor who knows every checksum of the format. What is
+left to catch the edit are ``gpr verify``'s checks of the content (issue 18).
+
+Edits (:func:`tampered`): ``message(topic, index, raw) -> raw | None`` (None drops the message; the bytes are CDR),
+``schema(name, text) -> text`` (the embedded message definitions), ``metadata(info)`` (the metadata's mapping, after
+it was recounted).
+"""
+from __future__ import annotations
+
+import hashlib
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from gpr_kinematics.bags.metadata import FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, render_metadata
+from gpr_kinematics.bags.reader import read_bag
+from gpr_kinematics.bags.typestore import typestore
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+MessageEdit = Callable[[str, int, bytes], 'bytes | None']
+
+
+def _rewrite_mcap(src: Path, dst: Path, message: MessageEdit | None, schema: Callable[[str, str], str] | None,
+                  seen: dict[str, int]) -> None:
+    with open(src, 'rb') as fh:
+        reader = make_reader(fh)
+        header = reader.get_header()
+        summary = reader.get_summary()
+        assert summary is not None
+        metadata = list(reader.iter_metadata())
+        with open(dst, 'wb') as out:
+            writer = Writer(out, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
+            writer.start(profile=header.profile, library='mcap-python (tamper test)')
+            schema_ids = {}
+            for sid, s in sorted(summary.schemas.items()):
+                text = s.data.decode()
+                schema_ids[sid] = writer.register_schema(s.name, s.encoding,
+                                                         (schema(s.name, text) if schema else text).encode())
+            channel_ids = {cid: writer.register_channel(c.topic, c.message_encoding, schema_ids[c.schema_id],
+                                                        dict(c.metadata))
+                           for cid, c in sorted(summary.channels.items())}
+            for _, channel, msg in reader.iter_messages(log_time_order=False):
+                i = seen.get(channel.topic, 0)
+                seen[channel.topic] = i + 1
+                data = message(channel.topic, i, msg.data) if message else msg.data
+                if data is not None:
+                    writer.add_message(channel_ids[channel.id], msg.log_time, data, msg.publish_time, msg.sequence)
+            for m in metadata:
+                writer.add_metadata(m.name, dict(m.metadata))
+            writer.finish()
+
+
+def resign(folder: Path, edit: Callable[[dict[str, Any]], None] | None = None) -> None:
+    """Recount ``metadata.yaml`` from the files (per file and per topic counts, times, totals), apply ``edit``, and
+    recompute the files' SHA-256 and the metadata digest."""
+    bag = read_bag(folder)
+    path = folder / 'metadata.yaml'
+    info = yaml.safe_load(path.read_text())['rosbag2_bagfile_information']
+    files = {f.name: f for f in bag.storage_files}
+    for entry in info['files']:
+        f = files[entry['path']]
+        entry['message_count'] = f.message_count
+        if f.start is not None and f.end is not None:
+            entry['starting_time']['nanoseconds_since_epoch'] = f.start
+            entry['duration']['nanoseconds'] = f.end - f.start
+    for t in info['topics_with_message_count']:
+        topic = bag.topics.get(t['topic_metadata']['name'])
+        t['message_count'] = len(topic) if topic is not None else 0
+    info['message_count'] = sum(f.message_count for f in bag.storage_files)
+    starts = [f.start for f in bag.storage_files if f.start is not None]
+    ends = [f.end for f in bag.storage_files if f.end is not None]
+    if starts:
+        info['starting_time']['nanoseconds_since_epoch'] = min(starts)
+        info['duration']['nanoseconds'] = max(ends) - min(starts)
+    if edit is not None:
+        edit(info)
+    custom = {k: v for k, v in (info.get('custom_data') or {}).items() if k != METADATA_DIGEST_KEY}
+    for name in files:
+        custom[FILE_DIGEST_PREFIX + name] = hashlib.sha256((folder / name).read_bytes()).hexdigest()
+    info['custom_data'] = custom
+    path.write_bytes(render_metadata(info))
+
+
+def tampered(src: Path, dst: Path, message: MessageEdit | None = None, schema: Callable[[str, str], str] | None = None,
+             metadata: Callable[[dict[str, Any]], None] | None = None) -> Path:
+    """A copy of the bag folder ``src`` at ``dst``, its MCAP files written again by the ``mcap`` library with the
+    edits, its metadata recounted and re-signed (module docstring)."""
+    shutil.copytree(src, dst)
+    seen: dict[str, int] = {}
+    for f in sorted(dst.glob('*.mcap')):
+        _rewrite_mcap(src / f.name, f, message, schema, seen)
+    resign(dst, metadata)
+    return dst
+
+
+def edited(msgtype: str, raw: bytes, change: Callable[[Any], Any]) -> bytes:
+    """CDR bytes of the message ``raw`` after ``change(message)`` (which returns the new message)."""
+    store = typestore()
+    return bytes(store.serialize_cdr(change(store.deserialize_cdr(raw, msgtype)), msgtype))
+
+
+def set_path(msg: Any, path: list[str | int], value: Any) -> Any:
+    """A copy of the ``rosbags`` message ``msg`` with the field at ``path`` (names and sequence indices) set to
+    ``value`` (numeric sequences are numpy arrays: copied, then the element set)."""
+    import dataclasses
+
+    head, rest = path[0], path[1:]
+    if isinstance(head, int):
+        if isinstance(msg, np.ndarray):
+            out = msg.copy()
+            out[head] = value
+            return out
+        items = list(msg)
+        items[head] = set_path(items[head], rest, value) if rest else value
+        return items
+    inner = getattr(msg, head)
+    return dataclasses.replace(msg, **{head: set_path(inner, rest, value) if rest else value})

@@ -1,0 +1,81 @@
+"""The record of what a stream was asked to do (``gpr/program``, bags/program_record.py): a program survives the
+round trip through its record exactly, a record recomputes the node's stream, bad records are refused naming what is
+wrong, and every numeric field of the recorded messages is placed as checked or unchecked (bags/coverage.py)."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from gpr_kinematics.bags.coverage import numeric_fields, rule_of, unchecked_fields
+from gpr_kinematics.bags.program_record import expected, parse_record, record_text, sample_index
+from gpr_kinematics.bags.typestore import GPR_TOPICS
+from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot import load_robot
+from gpr_kinematics.robot.platform_program import load_platform_program, sample_program
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot.stream import robot_stream
+
+CFG = load_config()
+
+
+def test_a_robot_program_survives_its_record_and_recomputes_the_stream() -> None:
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    record = parse_record(record_text('robot_program', 17, 194, 10.0, False, 2.0, program=program))
+    back = record.program
+    assert back.steps == program.steps and back.stations.branch == program.stations.branch
+    for name in ('position', 'tilt', 'azimuth', 'heading', 'heading_free'):
+        assert np.array_equal(getattr(back.stations.stations, name), getattr(program.stations.stations, name))
+    assert back.stations.stations.names == program.stations.stations.names
+    assert (back.arm, back.branch, back.approach_height, back.retract_height, back.dwell) == (
+        program.arm, program.branch, program.approach_height, program.retract_height, program.dwell)
+    robot = load_robot()
+    ex = expected(record, robot.config, robot)
+    rs = robot_stream(robot, program, 10.0)
+    assert np.array_equal(ex.q, rs.gpr.q) and np.array_equal(ex.joints, rs.joints) and len(ex.q) == 194
+    assert [sample_index(record, s) for s in (16, 17, 210, 211)] == [-1, 0, 193, -1]
+
+
+def test_a_platform_program_and_a_sweep_recompute_exactly() -> None:
+    program = load_platform_program(config_path('programs/example_stations.yaml'))
+    record = parse_record(record_text('platform_program', 0, 10, 50.0, True, 0.4, program=program))
+    assert record.program == dataclasses.replace(program, source=record.program.source)
+    ex = expected(record, CFG, None)
+    samples = sample_program(program, 50.0, 0.4)
+    assert np.array_equal(ex.q, inverse_batch(samples.height, samples.tilt, samples.azimuth, CFG, CFG.model).q)
+    assert sample_index(record, 23) == 3       # it loops: counters run on, the stream starts over
+    sweep = {'height': 0.5, 'max_tilt': math.radians(2), 'tilt_step': math.radians(0.2),
+             'azimuth_step': math.radians(10), 'passes': 1}
+    ex = expected(parse_record(record_text('sweep', 0, 756, 100.0, False, 2.0, sweep=sweep)), CFG, None)
+    assert ex.q.shape == (756, 3) and np.max(np.abs(ex.commanded_tilt)) == pytest.approx(math.radians(2))
+
+
+@pytest.mark.parametrize('text, words', [
+    ('kind: teleport\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\n', 'kind = '),
+    ('kind: sweep\nfirst_sample: -1\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\n', 'first_sample = -1'),
+    ('kind: sweep\nfirst_sample: 0\nsamples: 1\nrate: .nan\nloop: false\nmove_time: 1.0\n', 'rate = nan'),
+    ('kind: sweep\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: 1\nmove_time: 1.0\n', 'loop = 1'),
+    ('kind: sweep\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\nsweep: {height: 1}\n',
+     'sweep: height, max_tilt'),
+    ('kind: robot_program\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\nprogram: 3\n',
+     'expected a mapping'),
+    ('kind: sweep\nfirst_sample: 0\nfirst_sample: 1\n', "duplicate key 'first_sample'"),
+    ('secret: [a, b]\n', 'unknown key'),
+])
+def test_bad_records_are_refused_naming_what_is_wrong(text: str, words: str) -> None:
+    with pytest.raises(ConfigError, match=words):
+        parse_record(text)
+
+
+def test_every_numeric_field_of_the_recorded_messages_is_checked_or_declared_unchecked() -> None:
+    for msgtype in set(GPR_TOPICS.values()):
+        for path in numeric_fields(msgtype):
+            assert rule_of(msgtype, path) is not None, (msgtype, path)
+    unchecked = unchecked_fields(dict(GPR_TOPICS))
+    assert set(unchecked) == {'/gpr/markers'} and 'markers[].color' in unchecked['/gpr/markers'][0]
+    assert rule_of('gpr_interfaces/msg/PlatformState', 'commanded_tilt') == ('checked',
+                                                                             'state.commanded, stream.program')

@@ -1,0 +1,204 @@
+"""Tampered bags that passed ``gpr verify`` (issue 18), each written again by the public ``mcap`` library with every
+CRC recomputed and ``metadata.yaml`` recounted and re-signed (:mod:`mcap_tamper`): each fails, naming what is wrong.
+Then a seeded fuzz of the same kind: a random checked number of a random message changed, a random message dropped,
+a line of a random embedded definition changed; none passes. ``GPR_FUZZ_EXAMPLES`` and ``GPR_FUZZ_SEED`` make it
+deeper, as for the other fuzz tests."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from bag_support import small_sweep, write_bag
+from gpr_kinematics.bags.coverage import numeric_fields, rule_of
+from gpr_kinematics.bags.synthetic import robot_program_messages
+from gpr_kinematics.bags.typestore import GPR_TOPICS, ROBOT_TOPIC
+from gpr_kinematics.bags.verify import verify_bag
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot import load_robot
+from gpr_kinematics.robot.program import load_program
+from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import strategies as st
+from mcap_tamper import edited, set_path, tampered
+
+STATE = '/gpr/platform_state'
+EXAMPLES = int(os.environ.get('GPR_FUZZ_EXAMPLES', '12'))
+SEED = os.environ.get('GPR_FUZZ_SEED')
+
+
+def _failed(result: Any) -> dict[str, set[int | None]]:
+    out: dict[str, set[int | None]] = {}
+    for f in result.failures:
+        out.setdefault(f.check, set()).add(f.sample)
+    return out
+
+
+@pytest.fixture(scope='module')
+def sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    msgs = small_sweep()
+    bag = write_bag(tmp_path_factory.mktemp('tamper') / 'sweep', msgs, {t: GPR_TOPICS[t] for t in
+                                                                        dict.fromkeys(m[0] for m in msgs)})
+    assert verify_bag(bag).passed
+    return bag
+
+
+@pytest.fixture(scope='module')
+def robot_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    bag = write_bag(tmp_path_factory.mktemp('tamper') / 'robot', robot_program_messages(load_robot(), program, 10.0),
+                    dict(GPR_TOPICS))
+    assert verify_bag(bag).passed
+    return bag
+
+
+def test_a_rewrite_without_an_edit_passes(sweep: Path, tmp_path: Path) -> None:
+    """The independent writer itself is faithful: what fails below fails for its edit."""
+    assert verify_bag(tampered(sweep, tmp_path / 'same')).passed
+
+
+def test_a_marker_array_removed_mid_stream_fails(sweep: Path, tmp_path: Path) -> None:
+    bag = tampered(sweep, tmp_path / 'gap', lambda topic, i, raw: None if (topic, i) == ('/gpr/markers', 13) else raw)
+    assert _failed(verify_bag(bag)) == {'topic.markers_sequence': {13}}
+
+
+def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> None:
+    def json(info: dict[str, Any]) -> None:
+        for t in info['topics_with_message_count']:
+            t['topic_metadata']['serialization_format'] = 'json'
+
+    result = verify_bag(tampered(sweep, tmp_path / 'json', metadata=json))
+    assert set(_failed(result)) == {'bag.metadata'}
+    assert any("serialization_format in sweep_0.mcap: metadata.yaml says 'json', the files hold 'cdr'" in f.detail
+               for f in result.failures)
+
+
+@pytest.mark.parametrize('fmt, mode', [('zstd', 'file'), ('zstd', 'message'), ('', 'FILE')])
+def test_a_claimed_file_compression_fails(sweep: Path, tmp_path: Path, fmt: str, mode: str) -> None:
+    def compressed(info: dict[str, Any]) -> None:
+        info['compression_format'], info['compression_mode'] = fmt, mode
+
+    result = verify_bag(tampered(sweep, tmp_path / 'zstd', metadata=compressed))
+    assert set(_failed(result)) == {'bag.metadata'}
+    assert any('the files are not compressed' in f.detail for f in result.failures)
+
+
+def test_an_edited_robot_description_fails_against_its_recorded_program(robot_bag: Path, tmp_path: Path) -> None:
+    """arm1's default branch edited from right to left: every joint and wafer still agrees with forward kinematics,
+    but the recorded program, planned again on the edited robot, puts arm1's elbow the other way."""
+    def edit(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != ROBOT_TOPIC:
+            return raw
+        return edited('std_msgs/msg/String', raw, lambda m: dataclasses.replace(
+            m, data=m.data.replace('branch: right', 'branch: left', 1)))
+
+    result = verify_bag(tampered(robot_bag, tmp_path / 'branch', edit))
+    failed = _failed(result)
+    assert 'stream.program' in failed and set(failed) <= {'stream.program', 'topic.program'}, failed
+    check = next(c for c in result.checks if c.name == 'stream.program')
+    assert check.failed > 10 and check.worst > 0.1       # radians: the elbow on the other side (or no plan: inf)
+
+
+@pytest.mark.parametrize('field, value', [('commanded_tilt', 0.002), ('commanded_tilt', math.nan),
+                                          ('commanded_azimuth', math.inf), ('commanded_azimuth', 1.0)])
+def test_a_changed_commanded_value_fails(sweep: Path, tmp_path: Path, field: str, value: float) -> None:
+    def edit(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != STATE or i != 8:    # a tilted sample (the azimuth of an untilted one is not the platform's)
+            return raw
+        return edited(GPR_TOPICS[STATE], raw, lambda m: dataclasses.replace(m, **{field: value}))
+
+    failed = _failed(verify_bag(tampered(sweep, tmp_path / 'cmd', edit)))
+    assert failed == {'state.commanded': {8}, 'stream.program': {8}}, failed
+
+
+def test_an_edited_embedded_schema_fails(sweep: Path, tmp_path: Path) -> None:
+    def schema(name: str, text: str) -> str:
+        return text.replace('float64 residual', 'float32 residual') if name.endswith('PlatformState') else text
+
+    result = verify_bag(tampered(sweep, tmp_path / 'schema', schema=schema))
+    assert set(_failed(result)) == {'bag.schemas'}
+    (failure,) = result.failures
+    assert "gpr_interfaces/msg/PlatformState embedded in sweep_0.mcap differs from the package's" in failure.detail
+    assert "'float32 residual', the package's 'float64 residual'" in failure.detail
+
+
+# -- the fuzz ---------------------------------------------------------------------------------------------------------
+
+def _leaves(msg: Any, prefix: list[str | int], template: str) -> list[tuple[list[str | int], str]]:
+    """Every numeric field of a message instance, with its concrete path and its template (``markers[].id``)."""
+    out: list[tuple[list[str | int], str]] = []
+    for f in dataclasses.fields(msg):
+        if f.name == '__msgtype__':
+            continue
+        value, name = getattr(msg, f.name), f'{template}{f.name}'
+        if dataclasses.is_dataclass(value):
+            out += _leaves(value, [*prefix, f.name], name + '.')
+        elif isinstance(value, np.ndarray) and value.dtype.kind in 'fiub':
+            out += [([*prefix, f.name, k], name) for k in range(value.size)]
+        elif isinstance(value, list) and value and dataclasses.is_dataclass(value[0]):
+            for k, item in enumerate(value):
+                out += _leaves(item, [*prefix, f.name, k], name + '[].')
+        elif isinstance(value, (bool, int, float)):
+            out.append(([*prefix, f.name], name))
+    return out
+
+
+def _changed(value: Any, how: float) -> Any:
+    if isinstance(value, (bool, np.bool_)):
+        return not value
+    if isinstance(value, (int, np.integer)):
+        return int(value) + 1000
+    return float(value) + how if math.isfinite(how) else how
+
+
+@settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@seed(int(SEED or 0))
+@given(data=st.data())
+def test_tampered_bags_never_pass(sweep: Path, robot_bag: Path, tmp_path_factory: pytest.TempPathFactory,
+                                  data: st.DataObject) -> None:
+    src = data.draw(st.sampled_from([sweep, robot_bag]), label='bag')
+    kind = data.draw(st.sampled_from(['number', 'drop', 'schema']), label='edit')
+    dst = tmp_path_factory.mktemp('fuzz') / 'bag'
+    from gpr_kinematics.bags.reader import read_bag
+    from gpr_kinematics.bags.typestore import typestore
+
+    topics = {k: t for k, t in read_bag(src).topics.items() if len(t) and t.msgtype != 'std_msgs/msg/String'}
+    topic = data.draw(st.sampled_from(sorted(topics)), label='topic')
+    index = data.draw(st.integers(1, len(topics[topic]) - 2), label='message')   # inside the stream
+    if kind == 'schema':
+        msgtype = topics[topic].msgtype
+        lines = [k for k, line in enumerate(line for line in ''.join(typestore().generate_msgdef(
+            msgtype, ros_version=2)[0]).splitlines()) if line and not line.startswith(('#', '=', 'MSG'))]
+        k = data.draw(st.sampled_from(lines), label='line')
+
+        def schema(name: str, text: str) -> str:
+            if name != msgtype:
+                return text
+            rows = text.splitlines()
+            rows[k] = rows[k].replace('float64', 'float32', 1) if 'float64' in rows[k] else rows[k] + '_x'
+            return '\n'.join(rows) + ('\n' if text.endswith('\n') else '')
+
+        bag = tampered(src, dst, schema=schema)
+    elif kind == 'drop':
+        bag = tampered(src, dst, lambda t, i, raw: None if (t, i) == (topic, index) else raw)
+    else:
+        msgtype = topics[topic].msgtype
+        msg = typestore().deserialize_cdr(topics[topic].raw[index], msgtype)
+        checked = [(path, name) for path, name in _leaves(msg, [], '') if rule_of(msgtype, name) is not None
+                   and rule_of(msgtype, name)[0] == 'checked']
+        path, name = data.draw(st.sampled_from(checked), label='field')
+        how = data.draw(st.sampled_from([1e-6, 1e-3, 1.0, math.nan, math.inf]), label='change')
+        value = msg
+        for p in path:
+            value = value[p] if isinstance(p, int) else getattr(value, p)
+        new = set_path(msg, path, _changed(value, how))
+
+        bag = tampered(src, dst, lambda t, i, raw: bytes(typestore().serialize_cdr(new, msgtype))
+                       if (t, i) == (topic, index) else raw)
+    result = verify_bag(bag)
+    assert not result.passed, (kind, topic, index)
+    assert numeric_fields(topics[topic].msgtype)   # every recorded type has its fields placed (bags/coverage.py)

@@ -1,0 +1,195 @@
+"""The arms' calibration (gpr_kinematics.calibration.arm, gpr calibrate --robot): link lengths off by 50 um and zero
+offsets off by 100 urad identified to the noise level from measured wafer centres and blade points at several arm
+configurations and platform poses; the calibrated robot file used with --robot (its forward and inverse kinematics,
+the URDF) reproduces the identified arm; bad files refused in one line."""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gpr_kinematics.calibration.arm import ArmMeasurements, ArmModel, arm_parameters, read_arm_measurements
+from gpr_kinematics.calibration.identification import identify
+from gpr_kinematics.calibration.measurements import Measurements
+from gpr_kinematics.calibration.synthetic import synthetic_measurements
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core import naive_inverse
+from gpr_kinematics.robot import solve_stations
+from gpr_kinematics.robot.description import load_robot
+from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.stations import stations_from_poses
+from gpr_kinematics.robot.urdf import robot_urdf
+
+SIGMA = 5e-6
+BLADE_POINT = (0.05, 0.03, 0.0)
+
+
+def run(capsys, *argv):
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def rows(robot, arm, n, seed):
+    """``n`` random rods (heights, tilts up to the limit) and arm joints within 80 % of their ranges."""
+    rng = np.random.default_rng(seed)
+    cfg = robot.config
+    Q = naive_inverse(rng.uniform(0.05, 0.45, n), rng.uniform(0.0, 0.99, n) * cfg.tilt_limit,
+                      rng.uniform(-np.pi, np.pi, n), cfg)
+    return Q, rng.uniform(0.8 * arm.lower, 0.8 * arm.upper, (n, len(arm.joints)))
+
+
+def measured(robot, name, truth, Q, J, on_blade, seed):
+    """Points of the machine ``truth`` (the arm's parameter values) with tracker noise, as the file would give them."""
+    n = len(Q)
+    blade = np.where(on_blade[:, None], BLADE_POINT, 0.0)
+    lines = tuple(range(2, n + 2))
+    model = ArmModel(robot, ArmMeasurements(Measurements('x', Q, np.zeros((n, 3)), None, None, None, lines), name, J,
+                                            blade, on_blade))
+    points = synthetic_measurements(model, model.parameters.coordinates(truth), Q, SIGMA, 1e-5, seed=seed,
+                                    points=True)
+    return ArmMeasurements(points, name, J, blade, on_blade)
+
+
+def write(path, robot, meas):
+    arm = robot.arm(meas.arm)
+    blade = bool(meas.on_blade.any())
+    cols = ['q1', 'q2', 'q3', *arm.joint_names, 'x', 'y', 'z', 'sigma_position'] + (['bx', 'by', 'bz'] if blade else [])
+    lines = [','.join(cols)]
+    for i in range(len(meas.joints)):
+        row = [*meas.points.q[i], *meas.joints[i], *meas.points.position[i], SIGMA] + (list(meas.blade[i]) if blade
+                                                                                       else [])
+        lines.append(','.join(repr(float(v)) for v in row))
+    path.write_text('\n'.join(lines) + '\n')
+    return str(path)
+
+
+@pytest.fixture(scope='module')
+def arm_case():
+    robot = load_robot()
+    arm = robot.arm('arm1')
+    ps = arm_parameters(arm)
+    truth = ps.values(ps.nominal).copy()
+    rng = np.random.default_rng(4)
+    for j, p in enumerate(ps):
+        if p.key == 'length':
+            truth[j] += 50e-6 * rng.choice([-1.0, 1.0])
+        elif p.key == 'zero_offset':
+            truth[j] += 100e-6 * rng.choice([-1.0, 1.0])
+    Q, J = rows(robot, arm, 80, 1)
+    on_blade = np.arange(80) % 2 == 1                        # half the rows a blade point, half the wafer centre
+    return robot, ps, truth, measured(robot, 'arm1', truth, Q, J, on_blade, 2)
+
+
+def test_links_and_zero_offsets_identified_to_the_noise(arm_case):
+    robot, ps, truth, meas = arm_case
+    model = ArmModel(robot, meas)
+    res = identify(model, meas.points)
+    assert res.gate.passed and set(res.status) == {'fitted'}
+    z = (res.values - truth) / res.value_standard_error
+    assert np.all(np.abs(z) < 3.0), dict(zip(ps.names, z.round(2), strict=True))
+    se = dict(zip(ps.names, res.value_standard_error, strict=True))
+    assert max(se[f'{n}_length'] for n in robot.arm('arm1').joint_names) < 2e-6           # 50 um found to ~1 um
+    assert max(se[f'{n}_zero_offset'] for n in robot.arm('arm1').joint_names[:2]) < 10e-6  # 100 urad to < 10 urad
+    assert 1.4 * SIGMA < res.after.rms_position < 2.0 * SIGMA                               # sqrt(3) sigma
+    assert res.before.rms_position > 10 * SIGMA
+    # new arm configurations and platform poses: the identified arm predicts the wafer to the noise level
+    Q, J = rows(robot, robot.arm('arm1'), 200, 9)
+    new = measured(robot, 'arm1', truth, Q, J, np.zeros(200, dtype=bool), 0)
+    held_out = ArmModel(robot, new)
+    e = held_out.poses(res.estimate[None], Q[None])[0][0] - held_out.poses(ps.coordinates(truth)[None], Q[None])[0][0]
+    assert np.sqrt(np.mean(np.sum(e ** 2, axis=1))) < SIGMA
+
+
+def test_wafer_centres_alone_hold_what_they_cannot_separate(arm_case):
+    """Without blade points, the last link, the last zero offset and the wafer centre are one planar vector: two of
+    them held and said so; the wafer still predicted to the noise level at the measured rows."""
+    robot, ps, truth, meas = arm_case
+    keep = ~meas.on_blade
+    p = meas.points
+    only = ArmMeasurements(Measurements(p.source, p.q[keep], p.position[keep], None, p.sigma_position[keep], None,
+                                        tuple(np.array(p.lines)[keep])), 'arm1', meas.joints[keep], meas.blade[keep],
+                           meas.on_blade[keep])
+    res = identify(ArmModel(robot, only), only.points)
+    held = set(res.identifiability.held)
+    assert len(held) == 2 and held <= {'arm1_wrist_length', 'arm1_wrist_zero_offset', 'arm1_wafer_x', 'arm1_wafer_y'}
+    assert res.gate.passed and res.after.rms_position < 2.0 * SIGMA
+
+
+def test_calibrated_robot_file_with_robot(arm_case, capsys, tmp_path):
+    robot, ps, truth, meas = arm_case
+    wafer = meas.on_blade == 0
+    files = [write(tmp_path / 'w.csv', robot, ArmMeasurements(*_rows(meas, wafer))),
+             write(tmp_path / 'b.csv', robot, ArmMeasurements(*_rows(meas, ~wafer)))]
+    out = tmp_path / 'robot.yaml'
+    status, text, err = run(capsys, 'calibrate', '--robot', robot.source, *files, '--output', str(out), '--json')
+    assert status == 0, err
+    d = json.loads(text)
+    (arm,) = d['arms']
+    assert arm['arm'] == 'arm1' and arm['gate']['passed'] and arm['rows'] == 80
+    cal = load_robot(out)
+    joints = cal.arm('arm1').joints
+    est = {p['name']: p['estimate'] for p in arm['parameters']}
+    assert [j.zero_offset for j in joints] == [est[f'{j.name}_zero_offset'] for j in joints]
+    assert [j.length for j in joints] == [est[f'{j.name}_length'] for j in joints]
+    assert cal.arm('arm2') == robot.arm('arm2') and cal.config == robot.config
+    # the robot core with the calibrated file: the identified model's wafer (in gpr_base) at the measured rows
+    model = ArmModel(robot, meas)
+    ours = model.poses(model.parameters.coordinates(np.array([est[n] for n in ps.names]))[None],
+                       meas.points.q[None])[0][0]
+    fk = robot_forward(cal, meas.points.q, meas.joints, 'arm1', check_limits=False)
+    base = fk.platform.compose(fk.wafer_on_platform)
+    from gpr_kinematics.robot.forward import base_pose
+    in_base = base_pose(cal, len(wafer)).inverse_apply(base.position)
+    np.testing.assert_allclose(in_base[wafer], ours[wafer], rtol=0, atol=1e-12)
+    # station inverse kinematics with the zero offsets: forward of its joints reproduces the station
+    st = stations_from_poses(fk.wafer.position[:4], fk.wafer.rotation[:4])
+    sol = solve_stations(cal, st, arm='arm1', check=False)
+    again = robot_forward(cal, sol.rods, sol.joints, 'arm1', check_limits=False)
+    np.testing.assert_allclose(again.wafer.position, st.position, rtol=0, atol=1e-11)
+    # the URDF's joint origins carry the offsets: its chain is the core's
+    urdf = robot_urdf(cal)
+    elbow = urdf.joint('arm1_elbow')
+    assert elbow.rpy[2] == pytest.approx(joints[1].zero_offset, abs=1e-15)
+    status, text, err = run(capsys, 'robot', 'fk', '--rods', '0.25', '0.251', '0.252', '--joints', '0', '1', '-0.5',
+                            '--robot', str(out), '--json')
+    assert status == 0, err
+    expected = robot_forward(cal, [[0.25, 0.251, 0.252]], [[0.0, 1.0, -0.5]], 'arm1').wafer.position[0]
+    np.testing.assert_allclose(json.loads(text)['wafer']['position'], expected, rtol=0, atol=1e-12)
+
+
+def _rows(meas, keep):
+    p = meas.points
+    pts = Measurements(p.source, p.q[keep], p.position[keep], None, p.sigma_position[keep], None,
+                       tuple(np.array(p.lines)[keep]))
+    return pts, meas.arm, meas.joints[keep], meas.blade[keep], meas.on_blade[keep]
+
+
+def test_arm_refusals(arm_case, capsys, tmp_path):
+    robot, ps, truth, meas = arm_case
+    good = write(tmp_path / 'g.csv', robot, meas)
+    text = Path(good).read_text().splitlines()
+    both = tmp_path / 'both.csv'
+    both.write_text(text[0].replace('arm1_wrist', 'arm2_wrist') + '\n' + '\n'.join(text[1:]) + '\n')
+    deg = tmp_path / 'deg.csv'
+    deg.write_text('\n'.join([text[0]] + [','.join(v if k not in (3, 4, 5) else repr(float(v) * 60)
+                                                   for k, v in enumerate(ln.split(','))) for ln in text[1:]]) + '\n')
+    cases = [
+        (['--robot', robot.source, str(both), '--output', 'x.yaml'], r'the joint columns must be those of one arm'),
+        (['--robot', robot.source, str(deg), '--output', 'x.yaml'], r'line \d+, column arm1_\w+: .* rad is outside its '
+                                                                    r'limits .*declare "# units: deg"'),
+        (['--robot', robot.source, good], r'--output FILE is required'),
+        (['--robot', robot.source, good, '--output', 'x.yaml', '--target', '0', '0', '0'], r'--target and --fit-target '
+                                                                                          r'are for the GPR'),
+        (['--robot', robot.source, good, '--output', 'x.yaml', '--free', 'rod1_x'], r'--free: unknown parameter\(s\) '
+                                                                                    r'rod1_x'),
+        (['--robot', robot.source, '--plan', '4'], r'--plan is for the GPR'),
+    ]
+    for argv, pattern in cases:
+        status, _, err = run(capsys, 'calibrate', *argv)
+        assert status == 2 and err.count('\n') == 1 and 'Traceback' not in err, (argv, err)
+        assert re.search(pattern, err), (argv, err)
+    with pytest.raises(Exception, match='joint columns'):
+        read_arm_measurements(both, robot)

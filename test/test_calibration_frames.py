@@ -1,0 +1,189 @@
+"""Registration (gpr_kinematics.calibration.frames, gpr calibrate --frame): the tracker where it stands and the target
+where it sits, identified with the geometry.
+
+A tracker frame turned by 30 deg and shifted by metres, a target of unknown pose on the platform: the geometry comes
+out as from measurements in gpr_base (within the standard errors), and the transform as applied (within its
+standard errors; within 10 um and 20 urad for a precise tracker and many poses: the frames' origins and headings are
+seen only through the platform's tilt, so their errors are about sigma / tilt / sqrt(N)). Points without orientation
+calibrate from the configurations of a plan made for points."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from calibration_support import imperfect
+from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model
+from gpr_kinematics.calibration.identification import identify
+from gpr_kinematics.calibration.measurements import Measurements, write_measurements
+from gpr_kinematics.calibration.plan import plan_measurements
+from gpr_kinematics.calibration.synthetic import synthetic_measurements
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core import forward_batch
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.rotations import rotation_vector, rpy_matrix
+from gpr_kinematics.errors import InputError
+
+TRACKER = Transform(np.array([1.8, -2.4, 0.7]), rpy_matrix(0.01, -0.02, np.radians(30.0)))
+TARGET = Transform(np.array([0.12, -0.05, 0.08]), rpy_matrix(0.3, 0.1, -1.0))
+
+
+def run(capsys, *argv):
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def truth_of(core, framed):
+    """An imperfect machine (joints nominal: their radial places are invisible) whose frames are its datum's: the
+    rods' mean place, offset, direction and angular place are gpr_base's (a machine is its own datum)."""
+    th = imperfect(core, 3, joints=False)
+    return framed.inner_theta(th[framed.independent][None])[0]
+
+
+def frame_errors(model, estimate):
+    base, target = model.frames(estimate)
+    return (base.position - TRACKER.position, rotation_vector(base.rotation @ TRACKER.rotation.T),
+            target.position - TARGET.position)
+
+
+@pytest.fixture(scope='module')
+def setting():
+    cfg = load_config()
+    core = CoreModel(cfg)
+    Q = plan_measurements(core, cfg, 40, sigma_position=3e-6, sigma_angle=2e-5).q
+    true_model = FramedModel(core, TRACKER, TARGET, True, 'pose')
+    inner = truth_of(core, true_model)
+    theta = np.concatenate([inner[true_model.independent], TRACKER.position, np.zeros(3), TARGET.position,
+                            np.zeros(3)])
+    return cfg, core, Q, true_model, inner, theta
+
+
+def test_tracker_frame_gives_the_geometry_and_the_transform(setting):
+    cfg, core, Q, true_model, inner, theta = setting
+    tracker = synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5, seed=1, source='tracker.csv')
+    base = synthetic_measurements(core, inner, Q, 3e-6, 2e-5, seed=2, source='base.csv')
+    model = measuring_model(core, tracker, 'tracker')
+    assert isinstance(model, FramedModel) and model.fit_base and model.fit_target == 'pose'
+    e_p, e_r, e_t = frame_errors(model, model.parameters.nominal)        # the closed-form start: within a millimetre
+    assert np.abs(e_p).max() < 2e-3 and np.abs(e_r).max() < 5e-3 and np.abs(e_t).max() < 2e-3
+    res = identify(model, tracker, frame='tracker')
+    ref = identify(core, base)
+    assert res.gate.passed and ref.gate.passed
+    est = model.inner_theta(res.estimate[None])[0]
+    names = model.parameters.names
+    both = [j for j, p in enumerate(core.parameters) if ref.status[j] == 'fitted'
+            and (p.name not in names or res.status[names.index(p.name)] == 'fitted')]
+    se = np.full(len(core.parameters), np.nan)
+    se[model.independent] = res.standard_error[:model.n_inner]
+    from gpr_kinematics.calibration.frames import registration
+    reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, 'tracker')
+    for name, (_, s, _) in reg.derived.items():
+        se[core.parameters.index(name)] = s
+    both = [j for j in both if np.isfinite(se[j]) and se[j] > 0]
+    assert len(both) >= 18
+    z = (est[both] - ref.estimate[both]) / np.hypot(se[both], ref.standard_error[both])
+    assert np.all(np.abs(z) < 3.5), dict(zip([core.parameters[j].name for j in both], z.round(2), strict=True))
+    e_p, e_r, e_t = frame_errors(model, res.estimate)
+    k = model.n_inner
+    assert np.all(np.abs(e_p) < 3.5 * res.standard_error[k:k + 3])
+    assert np.all(np.abs(e_r) < 3.5 * res.standard_error[k + 3:k + 6])
+    assert np.all(np.abs(e_t) < 3.5 * res.standard_error[k + 6:k + 9])
+    assert reg.base_se is not None and np.allclose(reg.base_se, res.standard_error[k:k + 6])
+    # the calibrated geometry predicts the machine as the reference calibration does
+    Qc = Q[::3]
+    fk = forward_batch(Qc, core.config_for(est), check_limits=False)
+    fk_ref = forward_batch(Qc, core.config_for(ref.estimate), check_limits=False)
+    assert np.abs(fk.position - fk_ref.position).max() < 10e-6
+
+
+def test_a_precise_tracker_gives_the_transform_to_10_um_and_20_urad(setting):
+    cfg, core, Q, true_model, inner, theta = setting
+    meas = synthetic_measurements(true_model, theta, np.tile(Q, (10, 1)), 0.5e-6, 2.5e-6, seed=5)
+    model = measuring_model(core, meas, 'tracker')
+    res = identify(model, meas, frame='tracker')
+    assert res.gate.passed
+    e_p, e_r, e_t = frame_errors(model, res.estimate)
+    assert np.abs(e_p).max() < 10e-6 and np.abs(e_r).max() < 20e-6 and np.abs(e_t).max() < 10e-6, (e_p, e_r, e_t)
+
+
+def test_points_from_a_plan_for_points(capsys, tmp_path, setting):
+    """A reflector (points, no orientation) at an unknown place: the plan for points with the frames identified,
+    then the calibration from those configurations, through the command line; the fitted rods within 3.5 standard
+    errors of the machine's."""
+    cfg, core, _, _, _, _ = setting
+    status, out, err = run(capsys, 'calibrate', '--plan', '60', '--points', '--frame', 'tracker', '--target', '0.12',
+                           '-0.05', '0.08', '--fit-target', '--json', '--sigma-position', '3e-6')
+    assert status == 0, err
+    plan = json.loads(out)
+    assert 'base_rz' in plan['standard_errors'] and 'target_x' in plan['standard_errors']
+    Q = np.array([c['q'] for c in plan['configurations']])
+    true_model = FramedModel(core, TRACKER, TARGET, True, 'position', points=True)
+    inner = truth_of(core, true_model)
+    frames = np.concatenate([TRACKER.position, np.zeros(3), TARGET.position])
+    # What the points cannot separate is held at nominal: the machine keeps those nominal (a dry run tells which)
+    dry = identify(true_model, synthetic_measurements(true_model, np.concatenate([inner[true_model.independent],
+                                                                                frames]), Q, 3e-6, 2e-5, points=True))
+    assert dry.identifiability.held and set(dry.identifiability.held) & {f'rod{k}_{c}' for k in (1, 2)
+                                                                         for c in ('x', 'y', 'offset')}
+    for name in dry.identifiability.held:
+        inner[core.parameters.index(name)] = core.parameters.nominal[core.parameters.index(name)]
+    inner = true_model.inner_theta(inner[true_model.independent][None])[0]
+    theta = np.concatenate([inner[true_model.independent], frames])
+    meas = synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5, seed=7, points=True)
+    path = write_measurements(tmp_path / 'points.csv', meas)
+    assert 'qw' not in path.read_text()
+    status, out, err = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--output', str(tmp_path / 'c.yaml'),
+                           '--json')
+    assert status == 0, err
+    d = json.loads(out)
+    assert d['registration']['target']['standard_error'][0] is not None and len(d['registration']['target'][
+        'standard_error']) == 3
+    params = {p['name']: p for p in d['parameters']}
+    for name, p in params.items():
+        if p['status'] == 'fitted' and name.startswith('rod'):
+            true = core.parameters.values(inner)[core.parameters.index(name)]
+            assert abs(p['estimate'] - true) < 3.5 * p['standard_error'], name
+    text = (tmp_path / 'c.yaml').read_text()
+    assert '# registration: gpr_base in tracker: position (' in text and 'datum: gpr_base at the rods' in text
+    assert load_config(tmp_path / 'c.yaml').model == 'compliant'
+
+
+def test_command_line_registration_and_a_known_base(capsys, tmp_path, setting):
+    cfg, core, Q, true_model, inner, theta = setting
+    meas = synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5, seed=3)
+    path = write_measurements(tmp_path / 't.csv', meas)
+    status, text, err = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--output', str(tmp_path / 'a.yaml'))
+    assert status == 0, err
+    assert 'registration: gpr_base in tracker: position (1.8' in text and 'um, rpy (0.01' in text
+    # the tracker's pose given as known (mm, deg): only the target is identified, and gpr_base needs no datum
+    rpy = np.degrees(TRACKER.rpy)
+    status, out, err = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--output', str(tmp_path / 'b.yaml'),
+                           '--base', *map(str, TRACKER.position * 1000), *map(str, rpy), '--mm', '--deg', '--json')
+    assert status == 0, err
+    d = json.loads(out)
+    names = [p['name'] for p in d['parameters']]
+    assert 'base_x' not in names and 'target_rz' in names and 'rod3_x' in names
+    assert d['registration']['base']['standard_error'] is None
+    np.testing.assert_allclose(d['registration']['base']['position'], TRACKER.position, rtol=0, atol=1e-12)
+
+
+def test_registration_refusals(capsys, tmp_path, setting):
+    cfg, core, Q, true_model, inner, theta = setting
+    h = np.linspace(0.05, 0.45, 8)
+    flat = synthetic_measurements(true_model, theta, np.column_stack([h, h, h]), 3e-6, 2e-5, seed=1)
+    with pytest.raises(InputError, match='do not tilt about two different axes'):
+        initial_frames(core, flat, None, None, None)
+    path = write_measurements(tmp_path / 't.csv', synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5))
+    for argv, pattern in ((['--target', '1', '2'], r'--target takes 3 or 6 finite numbers'),
+                          (['--frame', 'a b'], r"--frame 'a b'; allowed: a frame name"),
+                          (['--base', '1', '2'], r'argument --base: expected 6 arguments')):
+        status, _, err = run(capsys, 'calibrate', str(path), '--output', str(tmp_path / 'x.yaml'), *argv)
+        assert status == 2 and err.count('\n') == 1, (argv, err)
+        assert __import__('re').search(pattern, err), (argv, err)
+    pts = Measurements('p', Q, np.zeros((len(Q), 3)), None, None, None, tuple(range(len(Q))))
+    with pytest.raises(InputError, match='do not move along the stroke'):
+        initial_frames(core, Measurements('p', np.full((4, 3), 0.2), np.zeros((4, 3)), None, None, None,
+                                          (1, 2, 3, 4)), None, None, None)
+    assert pts.rotation.shape == (len(Q), 3, 3)

@@ -1,0 +1,214 @@
+"""The trajectory controller's decisions without ROS: the joints of a robot, a goal's checks with their standard error
+codes and messages, the motion sampled at the rate, tolerances with control_msgs' rules, the servo."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gpr_kinematics.core import forward_batch
+from gpr_kinematics.robot.controller import (
+    GOAL_TOLERANCE_VIOLATED,
+    INVALID_GOAL,
+    INVALID_JOINTS,
+    PATH_TOLERANCE_VIOLATED,
+    ControllerJoints,
+    GoalError,
+    Tolerances,
+    plan_motion,
+    resolve_tolerances,
+    servo,
+    trajectory_from_points,
+    violation,
+)
+from gpr_kinematics.robot.trajectory import JointTrajectory, evaluate
+from robot_support import ROBOT
+
+JOINTS = ControllerJoints.of(ROBOT)
+CFG = ROBOT.config
+DEFAULTS = Tolerances.uniform(len(JOINTS.names), 0.0, 1e-3, 0.5)
+RATE = 100.0
+
+
+def test_joints_of_the_example_robot():
+    arm_joints = [n for a in ROBOT.arms for n in a.joint_names]
+    assert JOINTS.names == ('rod_1', 'rod_2', 'rod_3', *arm_joints)
+    np.testing.assert_array_equal(JOINTS.lower[:3], [CFG.stroke_min] * 3)
+    np.testing.assert_array_equal(JOINTS.upper[:3], [CFG.stroke_max] * 3)
+    np.testing.assert_array_equal(JOINTS.velocity, [ROBOT.rods.velocity] * 3 + [v for a in ROBOT.arms
+                                                                                 for v in a.velocity])
+    assert JOINTS.units == ('m',) * 3 + ('rad',) * len(arm_joints)
+    # At rest: equal rods at mid-stroke (a level platform), each arm at home.
+    np.testing.assert_array_equal(JOINTS.rest, [0.5 * (CFG.stroke_min + CFG.stroke_max)] * 3
+                                  + [h for a in ROBOT.arms for h in a.home])
+    assert forward_batch(JOINTS.rest[None, :3], CFG).tilt[0] < 1e-12
+
+
+@pytest.mark.parametrize('names, words', [
+    ([], 'joint_names is empty'),
+    (['rod_1', 'elbow'], "unknown joint 'elbow'; allowed: rod_1, rod_2, rod_3, arm1_shoulder"),
+    (['arm1_elbow', 'arm1_elbow'], "joint 'arm1_elbow' named twice"),
+])
+def test_unknown_or_repeated_joints_are_invalid_joints(names, words):
+    with pytest.raises(GoalError, match=words) as info:
+        JOINTS.indices(names)
+    assert info.value.code == INVALID_JOINTS
+
+
+def _points(names, times, positions, velocities=None, accelerations=None):
+    n = len(times)
+    return trajectory_from_points(JOINTS, names, times, positions, velocities or [[]] * n, accelerations or [[]] * n)
+
+
+@pytest.mark.parametrize('times, positions, velocities, accelerations, words', [
+    ([], [], None, None, 'no points'),
+    ([1.0], [[0.1]], None, None, r'points\[0\].positions has 1 values; allowed: 2 values'),
+    ([1.0, 2.0], [[0.1, 0.2], [0.1, 0.2]], [[0.0, 0.0], []], None, r'points\[1\].velocities has 0 values'),
+    ([1.0], [[0.1, math.nan]], None, None, r'points\[0\].positions\[1\] = nan'),
+    ([1.0, 1.0], [[0.1, 0.2], [0.1, 0.2]], None, None, r'points\[1\].time_from_start = 1.0 s is not after points\[0\]'),
+    ([2.0, 1.0], [[0.1, 0.2], [0.1, 0.2]], None, None, 'strictly increasing'),
+    ([-1.0], [[0.1, 0.2]], None, None, r'points\[0\].time_from_start = -1.0 s; allowed: 0 to 86400 s'),
+    ([math.inf], [[0.1, 0.2]], None, None, 'inf'),
+    ([1.0], [[0.1, 0.2]], None, [[0.0, 0.0]], 'accelerations but no velocities'),
+])
+def test_malformed_points_are_invalid_goals(times, positions, velocities, accelerations, words):
+    with pytest.raises(GoalError, match=words) as info:
+        _points(['rod_1', 'arm1_elbow'], times, positions, velocities, accelerations)
+    assert info.value.code == INVALID_GOAL
+
+
+def _plan(traj, current=None, tolerances=DEFAULTS, start_tolerance=1e-3, clearance=None):
+    return plan_motion(JOINTS, traj, JOINTS.rest if current is None else current, RATE, CFG, tolerances,
+                       start_tolerance, clearance)
+
+
+def _two_points(names, *targets, t=(1.0, 2.0)):
+    return JointTrajectory(tuple(names), np.array(t), np.array(targets, dtype=float))
+
+
+def test_a_feasible_two_point_trajectory_is_sampled_at_the_rate():
+    """Two points over an arm joint and a rod: the others held at rest, samples at k / rate, the points met exactly,
+    the platform's tilt computed for every sample."""
+    traj = _two_points(['arm1_elbow', 'rod_2'], [1.0, 0.256], [1.5, 0.255])
+    m = _plan(traj)
+    assert len(m) == 201 and np.array_equal(m.time, np.arange(201) / RATE)
+    elbow, rod2 = JOINTS.names.index('arm1_elbow'), JOINTS.names.index('rod_2')
+    np.testing.assert_array_equal(m.goal, [elbow, rod2])
+    assert np.array_equal(m.positions[100, [elbow, rod2]], [1.0, 0.256])
+    assert np.array_equal(m.positions[200, [elbow, rod2]], [1.5, 0.255])
+    held = [k for k in range(len(JOINTS.names)) if k not in (elbow, rod2)]
+    assert np.array_equal(m.positions[:, held], np.repeat(JOINTS.rest[None, held], 201, axis=0))
+    # Linear interpolation (positions only) from the rest state: the samples on the chords.
+    np.testing.assert_allclose(m.positions[50, elbow], 0.5 * (JOINTS.rest[elbow] + 1.0), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(m.velocities[150, elbow], 0.5, rtol=0, atol=1e-14)
+
+
+def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
+    traj = _two_points(['arm1_elbow'], [1.0], [3.0])
+    with pytest.raises(GoalError, match=r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its limits; allowed: '
+                                        r'\[-2.9, 2.9\] rad') as info:
+        _plan(traj)
+    assert info.value.code == INVALID_GOAL
+    with pytest.raises(GoalError, match=r'rod_1 = 0.6 m is beyond its limits; allowed: \[0, 0.508\] m'):
+        _plan(_two_points(['rod_1'], [0.3], [0.6]))
+
+
+def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():
+    # The elbow (2 rad/s) from 2.5 rad at rest to -2.5 rad in 1 s: 5 rad/s on average.
+    with pytest.raises(GoalError, match=r'the move from the current state into points\[0\] needs arm1_elbow at 5 '
+                                        r'rad/s on average; allowed: at most 2 rad/s') as info:
+        _plan(JointTrajectory(('arm1_elbow',), np.array([1.0]), np.array([[-2.5]])))
+    assert info.value.code == INVALID_GOAL
+    with pytest.raises(GoalError, match=r'points\[1\] needs rod_1 at 0.2 m/s'):
+        _plan(_two_points(['rod_1'], [0.254], [0.274], t=(1.0, 1.1)))
+    with pytest.raises(GoalError, match=r'points\[0\].velocities: rod_1 = 0.2 m/s; allowed: at most 0.15 m/s'):
+        _plan(JointTrajectory(('rod_1',), np.array([1.0]), np.array([[0.254]]), np.array([[0.2]])))
+
+
+def test_a_first_point_at_time_zero_must_be_where_the_robot_is():
+    at_rest = JOINTS.rest[JOINTS.names.index('arm1_elbow')]
+    assert len(_plan(JointTrajectory(('arm1_elbow',), np.array([0.0, 1.0]), np.array([[at_rest], [2.0]])))) == 101
+    with pytest.raises(GoalError, match=r'points\[0\] at time_from_start 0 puts arm1_elbow 0.5 rad from where it is '
+                                        r'\(2.5 rad\)'):
+        _plan(JointTrajectory(('arm1_elbow',), np.array([0.0, 1.0]), np.array([[2.0], [2.0]])))
+
+
+def test_a_platform_tilt_beyond_the_limit_is_refused_at_its_sample():
+    """Each rod within its stroke, but together they tilt the platform beyond tilt_limit."""
+    d = 1.3 * CFG.tilt_limit * 1.5 * CFG.radius          # rod 1 this much above the others: about 1.3 tilt_limit
+    q = [0.25 + d, 0.25, 0.25]
+    assert forward_batch(np.array([q]), CFG, check_limits=False).tilt[0] > CFG.tilt_limit
+    traj = JointTrajectory(('rod_1', 'rod_2', 'rod_3'), np.array([4.0]), np.array([q]))
+    with pytest.raises(GoalError, match=r'sample \d+ \(t = [\d.]+ s\): the platform would tilt [\d.]+ rad .*allowed: '
+                                        r'at most tilt_limit') as info:
+        _plan(traj)
+    assert info.value.code == INVALID_GOAL
+
+
+def test_the_clearance_hook_sees_every_sample_and_refuses():
+    seen = {}
+
+    def clearance(t, positions):
+        seen['shape'] = positions.shape
+        return 'arm1_blade would hit chamber_a at t = 1.2 s' if positions[:, 4].max() > 1.2 else None
+
+    traj = _two_points(['arm1_elbow'], [2.0], [1.0])
+    with pytest.raises(GoalError, match='arm1_blade would hit chamber_a') as info:
+        _plan(traj, clearance=clearance)
+    assert info.value.code == INVALID_GOAL and seen['shape'] == (201, len(JOINTS.names))
+    assert len(_plan(traj, clearance=lambda t, p: None)) == 201
+
+
+def test_tolerances_follow_control_msgs_rules():
+    n = len(JOINTS.names)
+    elbow, rod1 = JOINTS.names.index('arm1_elbow'), 0
+    tol = resolve_tolerances(JOINTS, DEFAULTS, [('arm1_elbow', 0.01, 0.2, 0.0), ('rod_1', -1.0, 0.0, 5.0)],
+                             [('arm1_elbow', 0.0, -1.0, 0.0), ('rod_1', 1e-5, 0.0, 0.0)], 0.0)
+    assert tol.path_position[elbow] == 0.01 and tol.path_velocity[elbow] == 0.2
+    assert math.isinf(tol.path_position[rod1])                  # -1: not checked
+    assert np.isinf(np.delete(tol.path_position, [elbow])).all()  # the default 0: not checked
+    assert tol.goal_position[elbow] == 1e-3                     # 0: the default
+    assert tol.goal_position[rod1] == 1e-5 and np.isinf(tol.goal_velocity).all()
+    assert tol.goal_time == 0.5                                 # 0: the default
+    assert resolve_tolerances(JOINTS, DEFAULTS, [], [], 2.0).goal_time == 2.0
+    assert tol.goal_position.shape == (n,)
+    for entry, words in ((('arm1_elbow', -0.5, 0.0, 0.0), r'path_tolerance\[0\].position = -0.5'),
+                         (('arm1_elbow', 0.0, math.nan, 0.0), 'velocity = nan'),
+                         (('nope', 0.1, 0.0, 0.0), r"path_tolerance\[0\].name: unknown joint 'nope'")):
+        with pytest.raises(GoalError, match=words):
+            resolve_tolerances(JOINTS, DEFAULTS, [entry], [], 0.0)
+    with pytest.raises(GoalError, match='goal_time_tolerance = -1.0 s'):
+        resolve_tolerances(JOINTS, DEFAULTS, [], [], -1.0)
+    with pytest.raises(GoalError, match='goal_tolerance has 11 entries; allowed: at most one per joint'):
+        resolve_tolerances(JOINTS, DEFAULTS, [], [('rod_1', 0.1, 0.0, 0.0)] * 11, 0.0)
+
+
+def test_servo_is_exact_first_order_and_tolerance_violations_are_named():
+    a, d = np.array([0.0, 1.0]), np.array([1.0, 1.0])
+    assert np.array_equal(servo(a, d, 0.01, 0.0), d)
+    np.testing.assert_allclose(servo(a, d, 0.01, 0.1), [1.0 - math.exp(-0.1), 1.0], rtol=0, atol=1e-15)
+    # Two steps of dt equal one of 2 dt (a constant target): the discrete response is the exact one.
+    np.testing.assert_allclose(servo(servo(a, d, 0.01, 0.1), d, 0.01, 0.1), servo(a, d, 0.02, 0.1), rtol=0,
+                               atol=1e-15)
+    n = len(JOINTS.names)
+    tol = Tolerances.uniform(n, 0.01, 0.001, 0.5)
+    err = np.zeros(n)
+    cols = np.arange(n)
+    assert violation(JOINTS, cols, err, err, tol.path_position, tol.path_velocity, 'path') is None
+    err[4] = 0.02
+    assert violation(JOINTS, cols, err, np.zeros(n), tol.path_position, tol.path_velocity, 'path') == \
+        'arm1_elbow: position error 0.02 rad exceeds the path tolerance 0.01 rad'
+    assert violation(JOINTS, np.array([0, 1]), err, np.zeros(n), tol.path_position, tol.path_velocity, 'path') is None
+    assert PATH_TOLERANCE_VIOLATED == -4 and GOAL_TOLERANCE_VIOLATED == -5
+
+
+def test_quintic_goal_from_rest_is_checked_along_the_path():
+    """With velocities and accelerations the samples follow the quintic; a quintic that overshoots the stroke between
+    its points is refused at the sample where it does, although both points are inside."""
+    top = CFG.stroke_max - 1e-4
+    traj = JointTrajectory(('rod_1',), np.array([2.0, 2.5]), np.array([[top], [top]]), np.array([[0.1], [0.0]]),
+                           np.zeros((2, 1)))
+    pos, _, _ = evaluate(traj, JOINTS.rest[:1], np.linspace(2.0, 2.5, 51))
+    assert pos.max() > CFG.stroke_max
+    with pytest.raises(GoalError, match=r'sample \d+ \(t = 2\.\d+ s\): rod_1 = 0.508\d* m is beyond its limits'):
+        _plan(traj)

@@ -1,0 +1,110 @@
+"""`gpr program send` over real DDS: the example robot program runs on robot_simulator_node from where the robot is
+(the lead-in from its rest state), exit 0, and the joint states the simulator published equal `gpr program export`'s
+samples at every point of the trajectory (1e-9); without a server it exits 1 with one line."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot.controller import ControllerJoints
+from gpr_kinematics.robot.export import sample_table
+from gpr_kinematics.robot.plan import plan_program, sample_plan
+from gpr_kinematics.robot.program import load_program
+from robot_support import ROBOT
+from ros_support import start, wait_for_log
+
+pytestmark = pytest.mark.ros
+
+PROGRAM = str(config_path('programs/example_robot_program.yaml'))
+NS = '/gpr_send'
+RATE = 10.0          # points per second of the goal
+SIM_RATE = 100.0     # the simulator's samples
+NS_PER_S = 1_000_000_000
+
+
+def _send(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', *args],
+                          capture_output=True, text=True, timeout=timeout, env=dict(os.environ))
+
+
+@pytest.fixture(scope='module')
+def sent(ros_environment):
+    """The example program sent to a simulator in NS; the command's result and every joint_states message."""
+    from gpr_kinematics.nodes.client import GprClient
+    from sensor_msgs.msg import JointState
+
+    sim = start('robot_simulator_node', namespace=NS, rate=SIM_RATE, idle_rate=20.0)
+    try:
+        wait_for_log(sim, r'serving /gpr_send/')
+        with GprClient('gpr_test_program_send', namespace=NS) as c:
+            states = c.subscribe(JointState, 'joint_states')
+            assert c.spin_until(lambda: len(states) >= 2, 20), sim.output()
+            proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
+                                     '--namespace', NS, '--rate', str(RATE), '--json'],
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
+            assert c.spin_until(lambda: proc.poll() is not None, 180), sim.output()
+            out, err = proc.communicate()
+            c.spin_for(0.5)
+            yield proc.returncode, out, err, states, sim
+    finally:
+        sim.stop()
+
+
+def test_the_example_program_runs_on_the_simulator(sent):
+    status, out, err, _, sim = sent
+    assert status == 0, out + err + sim.output()
+    result = json.loads(out)
+    assert (result['status'], result['error_code'], result['error_name']) == ('succeeded', 0, 'SUCCESSFUL')
+    assert result['lead_in'] > 0 and result['action'] == 'joint_trajectory_controller/follow_joint_trajectory'
+    assert result['joint_names'] == list(ControllerJoints.of(ROBOT).names)
+    # Feedback, one per sample (the client waits for the feedback topic's match before it sends the goal).
+    assert result['feedback'] == math.floor(result['duration'] * SIM_RATE + 1e-9) + 1 + \
+        (result['duration'] * SIM_RATE % 1 > 1e-6)
+
+
+def test_recorded_joint_states_equal_the_export_samples_at_every_point(sent):
+    """The goal's joint_states (stamped start + k / rate) at the program's points equal the rows of `gpr program
+    export --samples --rate 10` (the rods named rod_1..rod_3 there as gpr_rod1..3 by the description)."""
+    status, out, _, states, _ = sent
+    assert status == 0
+    result = json.loads(out)
+    plan = plan_program(ROBOT, load_program(PROGRAM))
+    _, rows = sample_table(plan, sample_plan(plan, RATE))
+    J = len(plan.joint_names)
+    times = np.array([r[0] for r in rows])
+    expected = np.array([r[3:3 + J] for r in rows], dtype=float)
+    stamps = np.array([m.header.stamp.sec * NS_PER_S + m.header.stamp.nanosec for m in states])
+    # The goal's messages: 10 ms apart from its start on; the first of that run is t = 0.
+    step = np.flatnonzero(np.diff(stamps) == NS_PER_S // int(SIM_RATE))
+    start = stamps[step[0]]
+    by_stamp = {int(s): m for s, m in zip(stamps, states, strict=True)}
+    names = list(states[-1].name)
+    order = [names.index(n) for n in result['joint_names']]
+    lead = result['lead_in']
+    n_lead = round(lead * RATE)
+    found = 0
+    for i, t in enumerate(times):
+        on_grid = abs(t * RATE - round(t * RATE)) < 1e-6
+        goal_t = (n_lead + round(t * RATE)) / RATE if on_grid else t + lead
+        msg = by_stamp.get(int(start + round(goal_t * NS_PER_S)))
+        assert msg is not None, (i, t)
+        np.testing.assert_allclose(np.array(msg.position)[order], expected[i], rtol=0, atol=1e-9)
+        found += 1
+    assert found == len(rows) > 150
+    # Before the goal the robot was at rest; the lead-in starts there.
+    rest = ControllerJoints.of(ROBOT).rest
+    np.testing.assert_array_equal(np.array(by_stamp[int(start)].position)[order], rest)
+
+
+def test_no_server_exits_1_with_one_line(ros_environment):
+    res = _send(PROGRAM, '--namespace', '/gpr_nobody', '--timeout', '1')
+    assert res.returncode == 1 and res.stdout == ''
+    assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
+    assert 'no joint_states with the joints rod_1, rod_2' in res.stderr
+    assert 'cannot tell where the robot is' in res.stderr

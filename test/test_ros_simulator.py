@@ -1,0 +1,244 @@
+"""robot_simulator_node over real DDS: control_msgs/action/FollowJointTrajectory as joint_trajectory_controller
+serves it. A feasible goal runs to SUCCESSFUL with joint_states at the rate (stamped start + k / rate, the points met
+exactly, the rest held) and ordered feedback; refused goals end with the standard error codes and a message (beyond a
+limit, unknown joints, too fast, old stamps), and the node serves the next goal; cancel holds the joints where they
+are; path and goal tolerances against a lagging servo; joint_states held at idle_rate, following another
+publisher while idle."""
+from __future__ import annotations
+
+import math
+import re
+import time
+
+import numpy as np
+import pytest
+from gpr_kinematics.robot.controller import ControllerJoints
+from gpr_kinematics.robot.trajectory import JointTrajectory, evaluate
+from robot_support import ROBOT
+from ros_support import start, wait_for_log
+
+pytestmark = pytest.mark.ros
+
+JOINTS = ControllerJoints.of(ROBOT)
+NS = '/gpr_sim'
+ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
+RATE = 100.0
+NS_PER_S = 1_000_000_000
+
+
+def _stamp(msg) -> int:
+    return msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
+
+
+@pytest.fixture(scope='module')
+def sim(ros_environment):
+    """A simulator and a client in NS; the client's joint_states subscription and its action client."""
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import stream_qos
+    from rclpy.action import ActionClient
+    from sensor_msgs.msg import JointState
+
+    proc = start('robot_simulator_node', namespace=NS, rate=RATE, idle_rate=20.0)
+    try:
+        wait_for_log(proc, r'serving /gpr_sim/joint_trajectory_controller/follow_joint_trajectory')
+        with GprClient('gpr_test_simulator', namespace=NS) as c:
+            states = c.subscribe(JointState, 'joint_states')
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION, feedback_sub_qos_profile=stream_qos(1000))
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
+            yield c, cli, states, proc
+    finally:
+        proc.stop()
+        print(proc.output())
+
+
+def _goal(names, times, positions, velocities=None, **extra):
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    goal = FollowJointTrajectory.Goal(**extra)
+    goal.trajectory.joint_names = list(names)
+    for i, (t, p) in enumerate(zip(times, positions, strict=True)):
+        ns = round(t * NS_PER_S)
+        pt = JointTrajectoryPoint(positions=[float(v) for v in p], time_from_start=Duration(sec=ns // NS_PER_S,
+                                                                                         nanosec=ns % NS_PER_S))
+        if velocities is not None:
+            pt.velocities = [float(v) for v in velocities[i]]
+        goal.trajectory.points.append(pt)
+    return goal
+
+
+def _run(c, cli, goal, feedback=None, cancel_after=None):
+    """Send ``goal``; its result message and status (cancelled after ``cancel_after`` s if given)."""
+    handle = c.wait(cli.send_goal_async(goal, feedback_callback=(lambda m: feedback.append(m.feedback))
+                                        if feedback is not None else None), 20, 'goal')
+    assert handle.accepted
+    if cancel_after is not None:
+        c.spin_for(cancel_after)
+        c.wait(handle.cancel_goal_async(), 10, 'cancel')
+    res = c.wait(handle.get_result_async(), 60, 'result')
+    return res.result, res.status
+
+
+def _held(c, states, name, timeout=5.0):
+    """The value of joint ``name`` in the next idle joint_states message."""
+    n = len(states)
+    assert c.spin_until(lambda: len(states) > n, timeout)
+    msg = states[-1]
+    return msg.position[list(msg.name).index(name)]
+
+
+def test_error_codes_are_control_msgs(sim):
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.robot import controller
+
+    R = FollowJointTrajectory.Result
+    assert (R.SUCCESSFUL, R.INVALID_GOAL, R.INVALID_JOINTS, R.OLD_HEADER_TIMESTAMP, R.PATH_TOLERANCE_VIOLATED,
+            R.GOAL_TOLERANCE_VIOLATED) == (controller.SUCCESSFUL, controller.INVALID_GOAL, controller.INVALID_JOINTS,
+                                           controller.OLD_HEADER_TIMESTAMP, controller.PATH_TOLERANCE_VIOLATED,
+                                           controller.GOAL_TOLERANCE_VIOLATED)
+
+
+def test_idle_joint_states_hold_the_rest_state(sim):
+    _, _, states, _ = sim
+    msg = states[0]
+    assert tuple(msg.name) == JOINTS.names
+    np.testing.assert_array_equal(msg.position, JOINTS.rest)
+    assert not any(msg.velocity)
+
+
+def test_a_feasible_two_point_trajectory_succeeds_and_is_published_at_the_rate(sim):
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    names = ('arm1_elbow', 'rod_2')
+    current = {n: _held(c, states, n) for n in names}
+    targets = [[1.0, 0.256], [1.5, 0.255]]
+    feedback: list = []
+    n0 = len(states)
+    result, status = _run(c, cli, _goal(names, [1.0, 2.0], targets), feedback)
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
+    assert 'reached the last point' in result.error_string
+    c.spin_for(0.2)
+    # The goal's samples: consecutive stamps 10 ms apart from its start.
+    stamps = np.array([_stamp(m) for m in states[n0:]])
+    gaps = np.diff(stamps)
+    first = int(np.argmax(gaps == NS_PER_S // 100))
+    goal_msgs = states[n0 + first:n0 + first + 201]
+    t = (np.array([_stamp(m) for m in goal_msgs]) - _stamp(goal_msgs[0])) / NS_PER_S
+    np.testing.assert_allclose(t, np.arange(201) / RATE, rtol=0, atol=1e-9)
+    traj = JointTrajectory(names, np.array([1.0, 2.0]), np.array(targets))
+    expected, _, _ = evaluate(traj, np.array([current[n] for n in names]), np.arange(201) / RATE)
+    idx = [JOINTS.names.index(n) for n in names]
+    got = np.array([[m.position[k] for k in idx] for m in goal_msgs])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert np.array_equal(got[[100, 200]], np.array(targets))          # the points, exactly
+    others = [k for k in range(len(JOINTS.names)) if k not in idx]
+    assert all(np.array_equal(np.array(m.position)[others], np.array(goal_msgs[0].position)[others])
+               for m in goal_msgs)
+    # Feedback: one per sample, over the goal's joints, in order; the joints follow exactly (tau = 0).
+    assert len(feedback) == 201 and all(list(f.joint_names) == list(names) for f in feedback)
+    times = [f.desired.time_from_start.sec + f.desired.time_from_start.nanosec / 1e9 for f in feedback]
+    assert times == sorted(times) and times[-1] == pytest.approx(2.0)
+    assert all(max(abs(e) for e in f.error.positions) == 0.0 for f in feedback)
+    # After the goal the joints hold the last point.
+    assert _held(c, states, 'arm1_elbow') == 1.5
+
+
+@pytest.mark.parametrize('names, positions, times, code, words', [
+    (['arm1_elbow'], [[1.0], [3.0]], [1.0, 2.0], -1, r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its limits'),
+    (['arm1_elbw'], [[1.0]], [1.0], -2, r"unknown joint 'arm1_elbw'"),
+    (['rod_1'], [[0.254], [0.3]], [1.0, 1.1], -1, r'needs rod_1 at .* m/s on average; allowed: at most 0.15 m/s'),
+    (['arm1_elbow'], [[1.0], [0.5]], [1.0, 1.0], -1, 'strictly increasing'),
+])
+def test_bad_goals_fail_with_the_standard_code_and_the_node_serves_on(sim, names, positions, times, code, words):
+    from action_msgs.msg import GoalStatus
+
+    c, cli, _, _ = sim
+    result, status = _run(c, cli, _goal(names, times, positions))
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == code
+    assert re.search(words, result.error_string), result.error_string
+
+
+def test_an_old_header_stamp(sim):
+    c, cli, _, _ = sim
+    goal = _goal(['arm1_elbow'], [0.5], [[1.5]])
+    goal.trajectory.header.stamp.sec = int(time.time()) - 10
+    result, _ = _run(c, cli, goal)
+    assert result.error_code == -3 and 'in the past' in result.error_string
+
+
+def test_cancel_holds_the_joints_where_they_are(sim):
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    start_value = _held(c, states, 'arm1_shoulder')
+    result, status = _run(c, cli, _goal(['arm1_shoulder'], [3.0], [[start_value + 1.5]]), cancel_after=0.6)
+    assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0
+    assert 'cancelled at t = ' in result.error_string
+    stopped = _held(c, states, 'arm1_shoulder')
+    assert start_value < stopped < start_value + 1.5
+    c.spin_for(0.3)
+    assert _held(c, states, 'arm1_shoulder') == stopped
+
+
+def test_idle_simulator_follows_another_publisher(sim):
+    """While idle, the joint values another node publishes (newer stamps) become the simulator's state."""
+    from sensor_msgs.msg import JointState
+
+    c, _, states, _ = sim
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+    msg = JointState(name=['arm2_hand', 'nope'], position=[0.75, 1.0])
+    msg.header.stamp = c.node.get_clock().now().to_msg()
+    pub.publish(msg)
+    assert c.spin_until(lambda: states[-1].position[list(states[-1].name).index('arm2_hand')] == 0.75, 5)
+    c.node.destroy_publisher(pub)
+
+
+@pytest.fixture(scope='module')
+def lagging(ros_environment):
+    """A simulator whose joints lag the trajectory (first order, 50 ms)."""
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.action import ActionClient
+
+    proc = start('robot_simulator_node', namespace='/gpr_sim_lag', rate=RATE, servo_time_constant=0.05,
+                 goal_time=0.5)
+    try:
+        wait_for_log(proc, r'serving /gpr_sim_lag/')
+        with GprClient('gpr_test_simulator_lag', namespace='/gpr_sim_lag') as c:
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION)
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            yield c, cli
+    finally:
+        proc.stop()
+
+
+def test_path_and_goal_tolerances(lagging):
+    """A lag of tau = 50 ms behind a ramp at v lags by about v tau: 1 rad/s -> 0.05 rad. A path tolerance of 0.01 rad
+    aborts the goal (-4) naming the joint; 0.1 rad passes, and the goal tolerance is reached while the joint settles
+    within goal_time; a goal tolerance of 1e-9 rad within 0.02 s is not (-5)."""
+    from control_msgs.msg import JointTolerance
+
+    c, cli = lagging
+    rest = JOINTS.rest[JOINTS.names.index('arm1_shoulder')]
+
+    def goal(target, path, tol, goal_time):
+        g = _goal(['arm1_shoulder'], [1.0], [[target]],
+                  path_tolerance=[JointTolerance(name='arm1_shoulder', position=path)],
+                  goal_tolerance=[JointTolerance(name='arm1_shoulder', position=tol)])
+        g.goal_time_tolerance.nanosec = int(goal_time * 1e9)
+        return g
+
+    result, _ = _run(c, cli, goal(rest + 1.0, 0.01, 1e-4, 0.5))
+    assert result.error_code == -4, result.error_string
+    assert re.search(r'arm1_shoulder: position error 0\.01\d* rad exceeds the path tolerance 0\.01 rad',
+                     result.error_string), result.error_string
+    result, _ = _run(c, cli, goal(rest, 0.1, 1e-4, 0.5))      # back (from where the aborted goal stopped)
+    assert result.error_code == 0, result.error_string
+    result, _ = _run(c, cli, goal(rest + 1.0, 0.1, 1e-9, 0.02))
+    assert result.error_code == -5 and 'exceeds the goal tolerance 1e-09 rad' in result.error_string
+    assert math.isfinite(rest)
+

@@ -1,0 +1,195 @@
+"""The bounds the clearance certificate stands on, checked against the exact motion: no body travels farther than
+its bound over random intervals (arm joints, platform, straight entries), the closed-form joint-rate bound of a
+straight entry, the platform's bound for tilting rods, the separating-axis bound under the library's distance,
+and the timing that keeps every joint within its velocity limit between samples."""
+import math
+
+import numpy as np
+import pytest
+from gpr_kinematics.core import forward_batch, inverse_batch
+from gpr_kinematics.core.machine import MachineGeometry
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot import load_robot
+from gpr_kinematics.robot.plan import joint_limits, line_moves, move_rows, plan_program
+from gpr_kinematics.robot.planar_arm import line_rate_bounds
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot.timing import evaluate
+from gpr_kinematics.safety.bodies import box_lower_bound, robot_body_set
+from gpr_kinematics.safety.check import wafer_plan
+from gpr_kinematics.safety.motion import LIPSCHITZ, PlanMotion, levers, platform_motion, platform_state
+
+ROBOT = load_robot()
+PLANS = {name: plan_program(ROBOT, load_program(config_path(f'programs/{name}.yaml')))
+         for name in ('example_cell_program', 'example_robot_program')}
+SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def _points(body, frames):
+    """The corners of a body's bounding box and its centre in the world ``(N, 9, 3)``."""
+    p, R = frames[body.frame]
+    local = np.vstack([body.position + (SIGNS * body.half) @ body.rotation.T, body.position])
+    return p[:, None, :] + np.einsum('nij,kj->nki', R, local)
+
+
+def _intervals(plan, rng, n):
+    """Random intervals within one move or hold (between consecutive knots), some short, some whole."""
+    knots = PlanMotion(plan).knots
+    k = rng.integers(0, len(knots) - 1, n)
+    a, b = knots[k], knots[k + 1]
+    u = np.sort(rng.uniform(0, 1, (n, 2)), axis=1)
+    u[: n // 4] = [0.0, 1.0]
+    return a + u[:, 0] * (b - a), a + u[:, 1] * (b - a)
+
+
+@pytest.mark.parametrize('name', list(PLANS))
+def test_no_body_travels_farther_than_its_bound(name):
+    """On 120 random intervals, every corner of every body stays within ``arm + platform`` of where it was at the
+    interval's start (41 instants inside), and a body the bounds say translates moves by exactly that vector."""
+    plan = PLANS[name]
+    motion = PlanMotion(plan)
+    bodies = robot_body_set(ROBOT, {a.name: ((0.0, math.inf),) for a in ROBOT.arms})
+    lev = levers(ROBOT, bodies)
+    t0, t1 = _intervals(plan, np.random.default_rng(19), 120)
+    tau = np.linspace(0.0, 1.0, 41)
+    times = (t0[:, None] + tau[None] * (t1 - t0)[:, None]).ravel()
+    snap = motion.snapshot(times)
+    ends = motion.snapshot(np.concatenate([t0, t1]))
+    K = t0.shape[0]
+    pair = lambda v: np.stack([v[:K], v[K:]], axis=1)   # noqa: E731
+    b = motion.bounds(t0, t1, lev, pair(ends.sigma), pair(ends.gamma), pair(ends.displacement))
+    checked = 0
+    for k, body in enumerate(bodies):
+        pts = _points(body, snap.frames).reshape(K, len(tau), 9, 3)
+        moved = np.max(np.linalg.norm(pts - pts[:, :1], axis=3), axis=(1, 2))
+        bound = b.arm[:, k] + b.platform[:, k]
+        assert np.all(moved <= bound + 1e-12), (body.name, np.max(moved - bound))
+        shift = b.shift[:, k]
+        pure = np.all(np.isfinite(shift), axis=1)
+        exact = pts[pure, -1] - pts[pure, 0]
+        np.testing.assert_allclose(exact, np.broadcast_to(shift[pure, None, :], exact.shape),
+                                   atol=1e-12 + float(np.max(b.platform[pure, k], initial=0.0)))
+        checked += int(np.count_nonzero(moved > 0.0))
+    assert checked > 200
+
+
+def test_straight_entry_rate_bound_holds_and_is_tight():
+    """The closed-form ``max |dtheta/ds|`` on 400 pieces of each straight line is above the finite-difference
+    rate everywhere and within 20 % of it for the joint that moves most."""
+    plan = PLANS['example_cell_program']
+    _, _, _, slices = joint_limits(ROBOT)
+    lines = line_moves(plan.waypoints)
+    assert len(lines) == 8
+    s = np.linspace(0.0, 1.0, 4001)
+    for m in lines:
+        arm = plan.waypoints.arm[m + 1]
+        cols = slices[ROBOT.arm_names.index(arm)]
+        rows = move_rows(ROBOT, plan.waypoints, plan.positions, m, s)[:, cols]
+        fd = np.abs(np.diff(rows, axis=0)) / np.diff(s)[:, None]
+        edges = np.linspace(0.0, 1.0, 401)
+        bound = line_rate_bounds(ROBOT.arm(arm), rows[0], rows[-1], edges[:-1], edges[1:])
+        piece = np.minimum((s[:-1] * 400).astype(int), 399)
+        assert np.all(fd <= bound[piece] * (1 + 1e-9) + 1e-12)
+        j = int(np.argmax(np.max(fd, axis=0)))
+        assert np.max(fd[:, j]) > 0.8 * np.max(bound[:, j])
+
+
+@pytest.mark.parametrize('tilt0, az0, tilt1, az1', [(2.0, 0.0, 2.0, 180.0), (0.0, 0.0, 1.5, 45.0),
+                                                    (1.0, 90.0, 0.5, -30.0)])
+def test_platform_bound_for_tilting_rods(tilt0, az0, tilt1, az1):
+    """Rods moving on a line between two tilts (through the singular configuration for the first): no point of a
+    disc of radius 0.8 m about the platform origin, 0.3 m above it, moves farther than ``A + Omega (rho + rbar)``
+    over random pieces of the line."""
+    cfg = ROBOT.config
+    q = inverse_batch(np.array([0.30, 0.32]), np.radians([tilt0, tilt1]), np.radians([az0, az1]), cfg).q
+    rng = np.random.default_rng(5)
+    s = np.sort(rng.uniform(0, 1, (40, 2)), axis=1)
+    s[0] = [0.0, 1.0]
+    tau = np.linspace(0, 1, 33)
+    S = s[:, :1] + tau[None] * (s[:, 1:] - s[:, :1])
+    Q = q[0] + S.reshape(-1, 1) * (q[1] - q[0])
+    fk = forward_batch(Q, cfg)
+    ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    pts = np.stack([0.8 * np.cos(ang), 0.8 * np.sin(ang), np.full(24, 0.3)], axis=1)
+    world = (fk.position[:, None, :] + np.einsum('nij,kj->nki', fk.rotation, pts)).reshape(40, 33, 24, 3)
+    moved = np.max(np.linalg.norm(world - world[:, :1], axis=3), axis=(1, 2))
+    ends = forward_batch(np.concatenate([q[0] + s[:, :1] * (q[1] - q[0]), q[0] + s[:, 1:] * (q[1] - q[0])]), cfg)
+    sigma, gamma, disp = (np.stack([v[:40], v[40:]], axis=1) for v in platform_state(cfg, ends))
+    geo = MachineGeometry.of(cfg)
+    A, omega, drift = platform_motion(geo, np.tile(q[0], (40, 1)), np.tile(q[1] - q[0], (40, 1)), s[:, 0], s[:, 1],
+                                      sigma, gamma, LIPSCHITZ)
+    rbar = np.max(disp, axis=1) + drift
+    bound = A + omega * (np.linalg.norm(pts, axis=1).max() + rbar)
+    assert np.all(moved <= bound), np.max(moved / bound)
+    assert np.all(bound < 3.0 * moved + 1e-9)    # and not loose by much
+
+
+def test_separating_axis_bound_never_above_the_library():
+    fcl = pytest.importorskip('fcl')
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(7)
+    n = 400
+    Ra, Rb = Rotation.random(n, random_state=1).as_matrix(), Rotation.random(n, random_state=2).as_matrix()
+    ha, hb = rng.uniform(0.001, 0.3, (n, 3)), rng.uniform(0.001, 0.3, (n, 3))
+    ca, cb = rng.uniform(-0.5, 0.5, (n, 3)), rng.uniform(-0.5, 0.5, (n, 3))
+    lb = box_lower_bound(Ra, ca, ha, Rb, cb, hb)
+    req = fcl.DistanceRequest(enable_signed_distance=True)
+    exact = np.array([fcl.distance(fcl.CollisionObject(fcl.Box(*(2 * ha[k])), fcl.Transform(Ra[k], ca[k])),
+                                   fcl.CollisionObject(fcl.Box(*(2 * hb[k])), fcl.Transform(Rb[k], cb[k])), req,
+                                   fcl.DistanceResult()) for k in range(n)])
+    assert np.all(lb <= exact + 1e-9)
+    apart = exact > 0.01
+    assert np.median(lb[apart] / exact[apart]) > 0.95
+
+
+@pytest.mark.parametrize('name', list(PLANS))
+def test_timing_keeps_every_joint_within_its_velocity_limit(name):
+    """The profile's speed never exceeds its cruise speed, and the joints' finite-difference speeds (1 kHz, the
+    straight entries included) stay within the limits everywhere."""
+    plan = PLANS[name]
+    t = plan.timing
+    _, velocity, _, _ = joint_limits(ROBOT)
+    for m in range(len(t.duration)):
+        if not np.isfinite(t.profiles.v[m]):
+            continue
+        tau = np.linspace(0.0, t.duration[m], 2001)
+        _, ds, _ = evaluate(t.profiles, np.full(tau.shape, m), tau)
+        assert np.max(ds) <= t.profiles.v[m] * (1 + 1e-12)
+        s = np.linspace(0.0, 1.0, 2001)
+        rows = move_rows(ROBOT, plan.waypoints, plan.positions, m, s)
+        speed = np.max(np.abs(np.diff(rows, axis=0)) / np.diff(s)[:, None], axis=0) * t.profiles.v[m]
+        assert np.all(speed <= velocity * (1 + 1e-9)), (plan.labels[m + 1], speed / velocity)
+
+
+def test_wafer_windows_follow_the_program():
+    """The carried wafer of the cell program: from the pick at the load port to the place in pm1, from the pick in
+    pm1 to the place in pm2, and from pm2 back to the load port."""
+    plan = PLANS['example_cell_program']
+    w = wafer_plan(plan)
+    at = [i for i, ph in enumerate(plan.waypoints.phase) if ph == 'at']
+    arrive = plan.timing.arrive[at]
+    np.testing.assert_allclose(np.ravel(w.carried['arm2']), np.ravel(list(zip(arrive[::2], arrive[1::2],
+                                                                              strict=True))))
+    assert w.carried['arm1'] == () and [s for s, _ in w.stations] == ['load_port_1', 'pm1', 'pm2', 'load_port_1']
+
+
+def test_trapezoids_and_s_curves_of_the_cell_program():
+    """Without jerk limits the moves are trapezoids: straight entries take time too (not zero), each move is no
+    longer than its S-curve, and the joints stay within their velocity limits on the lines."""
+    import dataclasses
+
+    trap = dataclasses.replace(ROBOT, rods=dataclasses.replace(ROBOT.rods, jerk=None), arms=tuple(
+        dataclasses.replace(a, joints=tuple(dataclasses.replace(j, jerk=None) for j in a.joints)) for a in ROBOT.arms))
+    s_curve = PLANS['example_cell_program']
+    plan = plan_program(trap, load_program(config_path('programs/example_cell_program.yaml')))
+    assert np.all(np.isinf(plan.timing.jerk)) and np.all(np.isfinite(s_curve.timing.jerk))
+    moving = np.any(np.abs(np.diff(plan.positions, axis=0)) > 1e-12, axis=1)
+    assert np.all(plan.timing.duration[moving] > 0.0)
+    assert np.all(plan.timing.duration <= s_curve.timing.duration + 1e-12)
+    _, velocity, _, _ = joint_limits(ROBOT)
+    s = np.linspace(0.0, 1.0, 2001)
+    for m in line_moves(plan.waypoints):
+        rows = move_rows(trap, plan.waypoints, plan.positions, m, s)
+        speed = np.max(np.abs(np.diff(rows, axis=0)) / np.diff(s)[:, None], axis=0) * plan.timing.profiles.v[m]
+        assert np.all(speed <= velocity * (1 + 1e-9))
+    assert 1.0 < s_curve.timing.total / plan.timing.total < 1.2

@@ -1,0 +1,146 @@
+"""The process cell file: shapes, units and the chamber shorthand (its walls leave exactly the slit open), and every
+bad file refused with one line naming the file, the key and the value (the CLI exits 2)."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from gpr_kinematics.core.rotations import rotation_z, tilt_rotation
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.safety.cell import MAX_OBSTACLES, load_cell, parse_cell
+from gpr_kinematics.safety.markers import CUBE, CYLINDER, cell_markers
+
+PROGRAM = config_path('programs/example_cell_program.yaml')
+
+
+def cell(*obstacles, **extra):
+    return {'format': 'gpr_cell', 'version': 1, 'obstacles': list(obstacles), **extra}
+
+
+def test_boxes_and_cylinders_in_si_and_in_mm_deg():
+    c = parse_cell(cell({'name': 'b', 'box': [0.4, 0.05, 0.3], 'position': [1.25, 1.05, 0.5], 'rpy': [0, 0, 0.52]},
+                        {'name': 'c', 'cylinder': {'radius': 0.05, 'length': 1.0}, 'position': [0.2, 0.2, 0.5]}))
+    b, cyl = c.obstacles
+    assert b.kind == 'box' and b.size == (0.4, 0.05, 0.3) and cyl.kind == 'cylinder' and cyl.size == (0.05, 1.0)
+    np.testing.assert_allclose(b.rotation, rotation_z(np.array([0.52]))[0], atol=1e-15)
+    mm = parse_cell(cell({'name': 'b', 'box': [400, 50, 300], 'position': [1250, 1050, 500], 'rpy': [0, 0, 29.79]},
+                         units={'length': 'mm', 'angle': 'deg'}))
+    np.testing.assert_allclose(mm.obstacles[0].size, b.size, rtol=1e-15)
+    np.testing.assert_allclose(mm.obstacles[0].position, b.position, rtol=1e-15)
+    np.testing.assert_allclose(mm.obstacles[0].rotation, rotation_z(np.array([math.radians(29.79)]))[0], atol=1e-15)
+
+
+def test_a_chamber_leaves_exactly_its_slit_open():
+    """The nine walls of a chamber around a tilted station: in the station frame the front wall's four pieces
+    bound an opening of the slit's width and height, centred slit_z above the station plane, front before it."""
+    tilt, az, heading = math.radians(1.5), math.radians(120), math.radians(30)
+    station = np.array([1.2, 1.0, 0.7])
+    c = parse_cell(cell({'name': 'pm', 'chamber': {'size': [0.5, 0.5, 0.25], 'wall': 0.01, 'slit': [0.34, 0.04],
+                                                  'slit_z': -0.002, 'front': 0.15},
+                         'position': station.tolist(), 'tilt': tilt, 'azimuth': az, 'heading': heading}))
+    R = tilt_rotation(np.array([tilt]), np.array([az]))[0] @ rotation_z(np.array([heading]))[0]
+    walls = {o.name.split('/')[1]: o for o in c.obstacles}
+    assert set(walls) == {'front_top', 'front_bottom', 'front_left', 'front_right', 'back', 'left', 'right',
+                          'floor', 'roof'}
+
+    def extent(name, axis):   # the wall's extent along a station axis, in the station frame
+        o = walls[name]
+        np.testing.assert_allclose(o.rotation, R, atol=1e-15)
+        centre = R.T @ (o.position - station)
+        return centre[axis] - o.size[axis] / 2, centre[axis] + o.size[axis] / 2
+
+    assert extent('front_top', 2)[0] - extent('front_bottom', 2)[1] == pytest.approx(0.04, abs=1e-12)
+    assert (extent('front_top', 2)[0] + extent('front_bottom', 2)[1]) / 2 == pytest.approx(-0.002, abs=1e-12)
+    assert extent('front_left', 1)[0] - extent('front_right', 1)[1] == pytest.approx(0.34, abs=1e-12)
+    for part in ('front_top', 'front_bottom', 'front_left', 'front_right'):
+        assert extent(part, 0) == pytest.approx((-0.15, -0.14), abs=1e-12)
+    assert extent('back', 0)[1] == pytest.approx(0.35, abs=1e-12)
+    assert extent('floor', 2)[0] == pytest.approx(-0.125, abs=1e-12)
+
+
+def test_markers_one_per_obstacle_at_its_pose():
+    c = load_cell(config_path('cells/example_cell.yaml'))
+    markers = cell_markers(c)
+    assert len(markers) == len(c.obstacles) == 3 * 9 + 5
+    for m, o in zip(markers, c.obstacles, strict=True):
+        assert m.type == (CUBE if o.kind == 'box' else CYLINDER) and m.ns == o.name.split('/')[0]
+        np.testing.assert_allclose(m.position, o.position, atol=0)
+        x, y, z, w = m.orientation
+        assert x * x + y * y + z * z + w * w == pytest.approx(1.0, abs=1e-15)
+
+
+@pytest.mark.parametrize('obstacle, pattern', [
+    ({'name': 'a', 'box': [float('nan'), 0.1, 0.1], 'position': [0, 0, 0]}, r'obstacles\[0\] \(a\): box\[0\] = nan'),
+    ({'name': 'a', 'box': [-0.1, 0.1, 0.1], 'position': [0, 0, 0]}, r'obstacles\[0\] \(a\): box\[0\] = -0\.1 is '
+                                                                     r'invalid; allowed: a finite number'),
+    ({'name': 'a', 'sphere': {'radius': 0.1}, 'position': [0, 0, 0]}, r'unknown key\(s\) sphere'),
+    ({'name': 'a', 'position': [0, 0, 0]}, r'shape = none is invalid; allowed: exactly one of box, cylinder'),
+    ({'name': 'a', 'cylinder': {'radius': 0.1, 'length': 1e9}, 'position': [0, 0, 0]},
+     r'obstacles\[0\] \(a\): length = 1000000000\.0 is invalid'),
+    ({'name': 'a b', 'box': [1, 1, 1], 'position': [0, 0, 0]}, r"name = 'a b' is invalid"),
+    ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0]}, r'position = \[0, 0\] is invalid; allowed: a list of 3'),
+    ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0, 0], 'rpy': [0, 0, 0], 'tilt': 0.1}, r'rpy or tilt'),
+    ({'name': 'c', 'chamber': {'size': [0.5, 0.5, 0.25], 'slit': [0.6, 0.04]}, 'position': [0, 0, 0]},
+     r'chamber: slit = \[0\.6, 0\.04\] is invalid; allowed: narrower'),
+], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'name', 'position', 'two-orientations', 'slit'])
+def test_bad_obstacles_named(obstacle, pattern):
+    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\]') as err:
+        parse_cell(cell(obstacle), 'my_cell.yaml')
+    assert __import__('re').search(pattern, str(err.value)), str(err.value)
+
+
+def test_too_many_obstacles_refused_before_any_is_read():
+    with pytest.raises(ConfigError, match=rf'^big\.yaml: obstacles: 10000000 obstacles; allowed: at most '
+                                          rf'{MAX_OBSTACLES}$'):
+        parse_cell({'format': 'gpr_cell', 'obstacles': [None] * 10_000_000}, 'big.yaml')
+    with pytest.raises(ConfigError, match=r'obstacles: name .a. is used twice'):
+        parse_cell(cell(*[{'name': 'a', 'box': [1, 1, 1], 'position': [0, 0, 0]}] * 2))
+
+
+def _gpr(*argv, cwd):
+    return subprocess.run([sys.executable, '-m', 'gpr_kinematics', *argv], capture_output=True, text=True,
+                          timeout=300, cwd=cwd)
+
+
+@pytest.mark.parametrize('name, text, pattern', [
+    ('nan', 'obstacles:\n  - {name: a, box: [.nan, 0.1, 0.1], position: [0, 0, 0]}\n', r'box\[0\] = nan is invalid'),
+    ('negative', 'obstacles:\n  - {name: a, box: [0.1, -0.1, 0.1], position: [0, 0, 0]}\n',
+     r'box\[1\] = -0\.1 is invalid'),
+    ('shape', 'obstacles:\n  - {name: a, cone: {radius: 0.1}, position: [0, 0, 0]}\n', r'unknown key\(s\) cone'),
+    ('many', 'many', rf'obstacles: {MAX_OBSTACLES + 1} obstacles; allowed: at most {MAX_OBSTACLES}'),
+    ('missing', None, r"cannot read cell file '.*missing\.yaml'"),
+], ids=['nan', 'negative', 'shape', 'many', 'missing'])
+def test_bad_cell_files_exit_2_with_one_line(tmp_path, name, text, pattern):
+    path = tmp_path / f'{name}.yaml'
+    if text == 'many':
+        text = 'obstacles:\n' + '  - {name: a, box: [1, 1, 1], position: [0, 0, 0]}\n' * (MAX_OBSTACLES + 1)
+    if text is not None:
+        path.write_text('format: gpr_cell\nversion: 1\n' + text)
+    res = _gpr('program', 'check', str(PROGRAM), '--cell', str(path), cwd=tmp_path)
+    assert res.returncode == 2 and res.stdout == '' and res.stderr.count('\n') == 1, res.stderr
+    assert 'Traceback' not in res.stderr and str(name) in res.stderr
+    assert __import__('re').search(pattern, res.stderr), res.stderr
+
+
+def test_ten_million_obstacles_refused_by_size_before_reading(tmp_path):
+    path = tmp_path / 'huge.yaml'
+    with path.open('w') as f:
+        f.write('format: gpr_cell\nobstacles:\n')
+        f.write('- {}\n' * 10_000_000)
+    res = _gpr('program', 'check', str(PROGRAM), '--cell', str(path), cwd=tmp_path)
+    assert res.returncode == 2 and res.stderr.count('\n') == 1 and 'huge.yaml' in res.stderr, res.stderr
+    assert 'allowed: at most' in res.stderr
+
+
+def test_program_names_its_cell_relative_to_itself(tmp_path):
+    """The shipped cell program's ``cell:`` is resolved next to the program; a missing one is named."""
+    text = PROGRAM.read_text().replace('robot: ../robots/example_robot.yaml',
+                                       f'robot: {config_path("robots/example_robot.yaml")}')
+    (tmp_path / 'p.yaml').write_text(text.replace('cell: ../cells/example_cell.yaml', 'cell: cells/none.yaml'))
+    res = _gpr('program', 'check', 'p.yaml', '--json', cwd=tmp_path)
+    assert res.returncode == 2 and 'cells/none.yaml' in res.stderr and res.stderr.count('\n') == 1, res.stderr
+    with pytest.raises(json.JSONDecodeError):
+        json.loads(res.stdout)

@@ -1,0 +1,196 @@
+"""``gpr program check`` in a cell, issue 19's "Done when": the cell example is safe with a positive clearance; a box
+on the carried wafer's path makes it unsafe (exit 1) naming the wafer and the box at the time the wafer reaches it;
+a box a known distance from the wafer's path is reported at that distance (to 0.1 mm, never more); straight-entry
+samples lie on their line (1 um) and a controller's interpolation between them within the certificate's bound;
+tenfold arm accelerations make the wafer slip, and the slip ratio agrees with finite differences of the exported
+wafer poses."""
+import csv
+import json
+import math
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from gpr_kinematics.core.rotations import matrix_from_quaternion, rotation_z, tilt_rotation
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot import load_robot, robot_forward
+from gpr_kinematics.robot.plan import joint_limits, line_moves, plan_program, sample_plan
+from gpr_kinematics.robot.planar_arm import line_rate_bounds
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.safety.bodies import robot_body_set
+from gpr_kinematics.safety.check import wafer_plan
+from gpr_kinematics.safety.clearance import TOLERANCE
+from gpr_kinematics.safety.motion import levers
+
+pytest.importorskip('fcl')
+
+PROGRAM = config_path('programs/example_cell_program.yaml')
+CELL = config_path('cells/example_cell.yaml')
+ROBOT = load_robot()
+PLAN = plan_program(ROBOT, load_program(PROGRAM))
+#: pm1's station (mm, deg), as in the cell and the program.
+PM1 = (np.array([1450.0, 500.0, 720.0]), 1.5, 120.0, 0.0)
+#: The carried wafer enters pm1 on the plane 8 mm above its station (the place's approach height).
+LIFT = 8.0
+
+
+def gpr(*argv, cwd):
+    return subprocess.run([sys.executable, '-m', 'gpr_kinematics', *argv], capture_output=True, text=True,
+                          timeout=600, cwd=cwd)
+
+
+def cell_with_box(tmp_path, centre_local_mm, size_mm, name='box'):
+    """The example cell and a box given in pm1's station frame (mm), oriented as the station."""
+    position, tilt, az, heading = PM1
+    R = tilt_rotation(np.radians([tilt]), np.radians([az]))[0] @ rotation_z(np.radians([heading]))[0]
+    centre = position + R @ np.asarray(centre_local_mm, dtype=float)
+    line = (f'  - {{name: {name}, box: [{size_mm[0]}, {size_mm[1]}, {size_mm[2]}], position: '
+            f'[{float(centre[0])!r}, {float(centre[1])!r}, {float(centre[2])!r}], tilt: {tilt}, azimuth: {az}, '
+            f'heading: {heading}}}\n')
+    path = tmp_path / 'cell.yaml'
+    path.write_text(CELL.read_text() + line)
+    return path
+
+
+def test_the_cell_example_is_safe(tmp_path):
+    res = gpr('program', 'check', str(PROGRAM), '--json', '--plot', str(tmp_path / 'check.png'), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    d = json.loads(res.stdout)
+    assert d['safe'] is True and d['collisions'] == [] and 0.002 < d['min_clearance'] < 0.02
+    assert d['min_clearance'] == min(p['distance'] for p in d['pairs']) and d['max_slip_ratio'] < 1.0
+    assert d['cell'].endswith('example_cell.yaml') and d['margin'] == 0.002
+    names = {n for p in d['pairs'] for n in p['bodies']}
+    assert {'arm2_wafer', 'arm2_blade', 'arm2_link1', 'gpr_base', 'pm1/front_top', 'wafer@pm1'} <= names
+    assert (tmp_path / 'check.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and d['plot_file'].endswith('.png')
+    # the same program with a margin above its clearance: unsafe, a table names the first collision
+    res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)
+    assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
+
+
+def test_a_box_on_the_wafers_path_is_a_collision_at_the_right_time(tmp_path):
+    """A 20 mm cube on the line the wafer enters pm1 by, just before the slit: exit 1; the first collision is
+    the wafer against the box, found while the wafer's disc covers the box (independently: the exported wafer
+    centre within 150 mm + the cube's half diagonal of its centre), in the step placing into pm1."""
+    cell = cell_with_box(tmp_path, [-163.0, 0.0, LIFT], [20, 20, 20])
+    res = gpr('program', 'check', str(PROGRAM), '--cell', str(cell), '--json', cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    d = json.loads(res.stdout)
+    assert d['safe'] is False
+    first = d['collisions'][0]
+    assert set(first['bodies']) == {'arm2_wafer', 'box'} and first['distance'] < 0.0
+    assert first['station'] == 'pm1' and first['label'].endswith('(place pm1, approach)')
+    position, tilt, az, heading = PM1
+    R = tilt_rotation(np.radians([tilt]), np.radians([az]))[0] @ rotation_z(np.radians([heading]))[0]
+    box = (position + R @ np.array([-163.0, 0.0, LIFT])) / 1000
+    s = sample_plan(PLAN, 1000.0)
+    near = np.linalg.norm(s.wafer.position - box, axis=1) < 0.15 + 0.01 * math.sqrt(2)
+    carried = np.any([(s.samples.time >= a) & (s.samples.time <= b) for a, b in wafer_plan(PLAN).carried['arm2']],
+                     axis=0)
+    times = s.samples.time[near & carried]
+    assert times.size and times[0] - 0.05 <= first['time'] <= times[-1]
+    res = gpr('program', 'check', str(PROGRAM), '--cell', str(cell), cwd=tmp_path)
+    assert res.returncode == 1
+    row = re.search(r'^\s+(\d+)\s+pm1\s+([\d.]+)\s+(\S+) / (\S+)\s+(-?[\d.]+)$', res.stdout, re.M)
+    assert row and {row[3], row[4]} == {'arm2_wafer', 'box'}, res.stdout
+
+
+@pytest.mark.parametrize('gap_mm', [3.0, 7.5])
+def test_a_box_a_known_distance_from_the_wafers_path(tmp_path, gap_mm):
+    """A plate parallel to pm1's plane over the wafer's straight entry, ``gap`` above the carried wafer's top face:
+    the pair's certified distance is that gap to 0.1 mm and never larger."""
+    top = LIFT + 0.775 / 2
+    cell = cell_with_box(tmp_path, [-250.0, 0.0, top + gap_mm + 5.0], [100, 60, 10], name='plate')
+    res = gpr('program', 'check', str(PROGRAM), '--cell', str(cell), '--json', cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    d = json.loads(res.stdout)
+    pair = next(p for p in d['pairs'] if set(p['bodies']) == {'arm2_wafer', 'plate'})
+    gap = gap_mm / 1000
+    assert gap - 1e-4 <= pair['distance'] <= gap + 1e-12
+    assert gap - pair['distance'] <= TOLERANCE + 1e-6
+    others = [p['distance'] for p in d['pairs'] if 'plate' in p['bodies'] and 'arm2_wafer' not in p['bodies']]
+    assert min(others) > gap
+
+
+def test_straight_entry_samples_lie_on_the_line():
+    """Every sample (100 Hz) of a straight entry is on its line to 1 um with the station's orientation; a controller
+    interpolating the joints linearly between two samples keeps the wafer within the certificate's bound of
+    the joints' motion (sum of lever arms times the joints' path lengths) from the line."""
+    s = sample_plan(PLAN, 100.0)
+    way = PLAN.waypoints
+    _, _, _, slices = joint_limits(ROBOT)
+    bodies = robot_body_set(ROBOT)
+    wafer = next(k for k, b in enumerate(bodies) if b.name == 'arm2_wafer')
+    lever = levers(ROBOT, bodies).lever[:, wafer]
+    count = 0
+    for m in line_moves(way):
+        sel = np.flatnonzero((s.samples.held < 0) & (s.samples.target == m + 1))
+        p0, p1 = way.stations.position[m], way.stations.position[m + 1]
+        u = (p1 - p0) / np.linalg.norm(p1 - p0)
+
+        def off_line(p, p0=p0, u=u):
+            d = p - p0
+            return np.linalg.norm(d - (d @ u)[:, None] * u, axis=1)
+
+        assert np.max(off_line(s.wafer.position[sel])) < 1e-6
+        np.testing.assert_allclose(s.wafer.rotation[sel], np.broadcast_to(way.stations.rotation[m + 1],
+                                                                          (sel.size, 3, 3)), atol=1e-12)
+        arm = way.arm[m + 1]
+        cols = slices[ROBOT.arm_names.index(arm)]
+        rows = s.samples.positions[sel]
+        mid = 0.5 * (rows[:-1] + rows[1:])
+        fk = robot_forward(ROBOT, mid[:, :3], mid[:, cols], arm)
+        V = np.zeros(rows[:-1].shape)
+        V[:, cols] = (np.diff(s.samples.s[sel])[:, None]
+                      * line_rate_bounds(ROBOT.arm(arm), PLAN.positions[m, cols], PLAN.positions[m + 1, cols],
+                                         s.samples.s[sel][:-1], s.samples.s[sel][1:]))
+        assert np.all(off_line(fk.wafer.position) <= V @ lever + 1e-12)
+        count += sel.size
+    assert count > 100
+
+
+@pytest.fixture(scope='module')
+def fast_robot(tmp_path_factory):
+    """A copy of the example robot with every arm joint's acceleration limit raised tenfold."""
+    path = tmp_path_factory.mktemp('robot') / 'fast_robot.yaml'
+    text = config_path('robots/example_robot.yaml').read_text()
+    text = text.replace('config: null', f'config: {config_path("gpr.yaml")}')
+    lines = [re.sub(r'acceleration: ([\d.]+)', lambda m: f'acceleration: {10 * float(m[1]):g}', line)
+             if 'name: arm' in line else line for line in text.splitlines()]
+    path.write_text('\n'.join(lines) + '\n')
+    return path
+
+
+def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
+    """The check fails on slip (exit 1, max_slip_ratio >= 1, where named), and the slip ratio agrees with the one
+    computed here from second differences of the exported wafer poses (1 kHz) while the wafer is carried."""
+    res = gpr('program', 'check', str(PROGRAM), '--robot', str(fast_robot), '--json', cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    d = json.loads(res.stdout)
+    assert d['safe'] is False and d['collisions'] == [] and d['max_slip_ratio'] > 1.0
+    csv_path = tmp_path / 'samples.csv'
+    res = gpr('program', 'export', str(PROGRAM), '--robot', str(fast_robot), '--samples', str(csv_path), '--rate',
+              '1000', cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    with csv_path.open() as f:
+        rows = [r for r in csv.DictReader(f)]
+    t = np.array([float(r['time']) for r in rows])
+    p = np.array([[float(r[f'wafer_{k}']) for k in 'xyz'] for r in rows])
+    q = np.array([[float(r[f'wafer_q{k}']) for k in 'xyzw'] for r in rows])
+    h = t[1] - t[0]
+    a = (p[2:] - 2 * p[1:-1] + p[:-2]) / h ** 2
+    f = a + np.array([0.0, 0.0, 9.80665])
+    n = matrix_from_quaternion(q[1:-1])[:, :, 2]
+    fn = np.einsum('ni,ni->n', f, n)
+    ratio = np.linalg.norm(f - fn[:, None] * n, axis=1) / (0.3 * fn)
+    plan = plan_program(load_robot(fast_robot), load_program(PROGRAM))
+    carried = np.any([(t[1:-1] > a0 + h) & (t[1:-1] < b0 - h) for a0, b0 in wafer_plan(plan).carried['arm2']],
+                     axis=0)
+    fd_max = float(np.max(ratio[carried]))
+    assert d['max_slip_ratio'] == pytest.approx(fd_max, rel=5e-3)
+    k = int(np.argmin(np.abs(t[1:-1] - d['max_slip_at'])))
+    assert ratio[k] == pytest.approx(d['max_slip_ratio'], rel=5e-3)
+    # the shipped limits keep the wafer on its blade
+    res = gpr('program', 'check', str(PROGRAM), '--json', cwd=tmp_path)
+    assert json.loads(res.stdout)['max_slip_ratio'] < 0.8
