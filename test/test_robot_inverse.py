@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.robot.arm_chain import link_vectors
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
-from gpr_kinematics.robot.planar_arm import branch_of, link_vectors
+from gpr_kinematics.robot.planar_arm import branch_of
 from gpr_kinematics.robot.stations import Stations
 from robot_support import ROBOT, elbow_angle, make_robot, random_stations, robot_data
 from scipy.optimize import least_squares
@@ -126,7 +127,7 @@ def test_nearest_redundancy_is_a_minimum_of_its_cost(joint):
     the rule's own search): no posture within 1e-3 rad of it is better (local), and a better posture anywhere in
     the range lies only in a run of feasible postures that holds no value of the rule's grid (joint limits and the
     reach cut the self-motion into runs; the rule documents that it can miss a run narrower than its grid step)."""
-    from gpr_kinematics.robot.planar_arm import NEAREST_GRID
+    from gpr_kinematics.robot.nearest import NEAREST_GRID
     robot = _nearest_robot(joint)
     a = robot.arm('arm2')
     st, _, _ = random_stations(robot, 'arm2', 60, seed=6)

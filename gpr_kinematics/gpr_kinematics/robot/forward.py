@@ -30,8 +30,8 @@ from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_fo
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix
 from ..errors import InputError, LimitError
 from ..inputs.validation import bounded, rows_of
+from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
-from .planar_arm import LIMIT_SLACK
 from .stations import StationRecord, stations_from_poses
 from .transforms import Mat3, PoseBatch, PoseRecord, Vec3, compose_one, mat_vec, pose_batch, rot_z
 
