@@ -190,7 +190,7 @@ def minimum_cost_floats(vjm: VirtualJointModel, w: Stiffness, rest: Closure, L0:
     model's :func:`stiffness` ``w`` and the closure ``rest`` at rest (the side lengths of the joints ``p_k``)
     computed once per model."""
     L = (L0, L1, L2)
-    d0, d1, d2 = rest.side_lengths
+    d0, d1, d2 = cast('list[float]', rest.side_lengths)
     err = max(max(abs(d0 - L0), abs(d1 - L1)), abs(d2 - L2))
     if err <= config.tolerance:
         return Closure(rest.X, rest.components, rest.side_lengths, 0, err)
@@ -209,5 +209,5 @@ def minimum_cost_floats(vjm: VirtualJointModel, w: Stiffness, rest: Closure, L0:
             raise not_converged('compliant closure (minimum elastic cost)', config, step, True)
     X = _displacements(vjm, w, cos(psi), sin(psi), qx, qy, tx, ty)
     comps = joint_components(SCALAR, vjm, X)
-    d, err = side_errors(SCALAR, comps, L)
-    return Closure(X, comps, d, iterations, err)
+    d, residual = side_errors(SCALAR, comps, L)
+    return Closure(X, comps, d, iterations, residual)

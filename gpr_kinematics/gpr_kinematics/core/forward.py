@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Any, Generic, TypeVar, cast
+from typing import Any, Generic, Self, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +44,6 @@ Array = NDArray[np.float64]
 S = TypeVar('S')
 I = TypeVar('I')  # noqa: E741 - the iteration counts' type, next to S and B
 B = TypeVar('B')
-_F = TypeVar('_F', bound='_Forward[Any, Any, Any]')
 
 #: Margin [rad] by which a solved tilt may exceed ``tilt_limit`` (rounding of targets at the limit).
 TILT_LIMIT_SLACK = 1e-9
@@ -92,7 +91,7 @@ class _Forward(Generic[S, I, B]):
     fit_residual: S
 
     @classmethod
-    def from_fields(cls: type[_F], values: Mapping[str, object]) -> _F:
+    def from_fields(cls, values: Mapping[str, object]) -> Self:
         """The result with every field given in ``values`` (checked), without the frozen ``__init__``'s
         per-field ``object.__setattr__`` (4 us of a 40 us single forward call); the instance stays frozen."""
         if values.keys() != _FIELD_NAMES:

@@ -21,7 +21,6 @@ old tool, given the calibrated geometry", so the centre shift it is compared wit
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -86,7 +85,7 @@ def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array,
     if np.any(h2 >= 1.0):
         i = int(np.argmax(h2))
         raise LimitError(f'q = {Q[i].tolist()} m implies no platform orientation')
-    tilt, az = tilt_of_normal(ARRAY, cast('Array', nx), cast('Array', ny), cast('Array', nz))  # a batch: arrays
+    tilt, az = tilt_of_normal(ARRAY, nx, ny, nz)
     pos = np.zeros((Q.shape[0], 3))
     pos[:, 2] = z
     return pos, tilt_rotation(tilt, az)

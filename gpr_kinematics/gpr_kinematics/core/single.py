@@ -21,11 +21,12 @@ the C library's (<= 1e-15 here, 1e-12 in the tests). Units: metres and radians.
 from __future__ import annotations
 
 import math
+from typing import cast
 
 from .closure import newton_closure
 from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
-from .machine import MachineGeometry
+from .machine import Floats3, MachineGeometry
 from .ops import SCALAR
 from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors, symmetric_solve3
 
@@ -47,10 +48,12 @@ class OnePose:
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
         geo = self.geometry = MachineGeometry.of(config)
-        self._directions = (list(vjm.cos), list(vjm.sin))
-        self._rest_xy = tuple(r * c for r, c in zip(vjm.rho, vjm.cos, strict=True)) + tuple(
-            r * s for r, s in zip(vjm.rho, vjm.sin, strict=True))
-        self._base = None if geo.upright else (geo.bx, geo.by, geo.ux, geo.uy, geo.uz, geo.offsets)
+        rho, cos, sin = cast('tuple[Floats3, Floats3, Floats3]', (vjm.rho, vjm.cos, vjm.sin))  # one machine
+        self._directions = (list(cos), list(sin))
+        self._rest_xy = tuple(r * c for r, c in zip(rho, cos, strict=True)) + tuple(
+            r * s for r, s in zip(rho, sin, strict=True))
+        self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
+                                                                          geo.offsets))
         self._stiffness: Stiffness | None = None
         self._rest: Closure | None = None
         if vjm.name == 'compliant':
@@ -61,9 +64,9 @@ class OnePose:
 
     def naive(self, q0: float, q1: float, q2: float) -> tuple[float, float, float, float, float]:
         """:func:`~gpr_kinematics.core.naive.naive_state` of the rods: ``(z, h2, nx, ny, nz)``."""
-        geo = self.geometry
-        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = geo.naive_inv
-        (o0, o1, o2), (u0, u1, u2) = geo.offsets, geo.uz
+        geo = self.geometry  # one machine: float triples
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = cast('tuple[Floats3, Floats3, Floats3]', geo.naive_inv)
+        (o0, o1, o2), (u0, u1, u2) = cast('tuple[Floats3, Floats3]', (geo.offsets, geo.uz))
         h0, h1, h2_ = (q0 + o0) * u0, (q1 + o1) * u1, (q2 + o2) * u2
         px = m10 * h0 + m11 * h1 + m12 * h2_
         py = m20 * h0 + m21 * h1 + m22 * h2_
@@ -75,7 +78,7 @@ class OnePose:
         """Joint centres ``P_k = B_k + (q_k + o_k) u_k`` (eq. (1); on parallel rods without offsets ``(B_k, q_k)``)."""
         if self._base is None:
             geo = self.geometry
-            return list(geo.bx), list(geo.by), [q0, q1, q2]
+            return cast('list[float]', list(geo.bx)), cast('list[float]', list(geo.by)), [q0, q1, q2]
         (bx0, bx1, bx2), (by0, by1, by2), (ux0, ux1, ux2), (uy0, uy1, uy2), (uz0, uz1, uz2), off = self._base
         s0, s1, s2 = q0 + off[0], q1 + off[1], q2 + off[2]
         return ([bx0 + s0 * ux0, bx1 + s1 * ux1, bx2 + s2 * ux2], [by0 + s0 * uy0, by1 + s1 * uy1, by2 + s2 * uy2],
@@ -106,7 +109,7 @@ class OnePose:
         C, S = self._directions
         c0, c1, c2 = C
         s0, s1, s2 = S
-        l0, l1, l2 = self.model.singular_floats
+        l0, l1, l2 = cast('Floats3', self.model.singular_floats)
         x0, x1, x2, y0, y1, y2 = self._rest_xy
         tol, most = cfg.tolerance, cfg.max_iterations
         iterations = 0
@@ -125,8 +128,9 @@ class OnePose:
             b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
             b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
             b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
-            w0, w1, w2 = symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2,
-                                          b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2)
+            w0, w1, w2 = cast('Floats3', symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1,
+                                                          b1 * a2, b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1,
+                                                          f2 - L2 * L2))
             l0, l1, l2 = l0 - (b2 * w2 + a0 * w0), l1 - (b0 * w0 + a1 * w1), l2 - (b1 * w1 + a2 * w2)
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2

@@ -130,7 +130,7 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     R_b = mat_tmul(R_wb, R_st)
     p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
-    tilt, az = tilt_of_normal(SCALAR, *n_b)
+    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
     if tilt - cfg.tilt_limit > TILT_LIMIT_SLACK:
         return None
     zw = arm.wafer_height
