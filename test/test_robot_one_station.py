@@ -6,10 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.core.floats import quaternion_of
+from gpr_kinematics.core.rotations import quaternion_from_matrix
 from gpr_kinematics.errors import LimitError
-from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.forward import forward_floats, naive_platform_one, robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
-from gpr_kinematics.robot.one_station import solve_one
+from gpr_kinematics.robot.one_station import solve_one, station_floats
 from gpr_kinematics.robot.planar_arm import branch_of, branch_sign
 from gpr_kinematics.robot.stations import Stations
 from robot_support import ROBOT, make_robot, random_postures, random_stations, robot_data
@@ -89,6 +91,22 @@ def test_one_station_per_call_equals_the_batch(case):
         one_station = st.take([i])
         assert solve_one(robot, one_station, a, branch_sign(branches[i]), None) is not None  # the float path
         _assert_row(solve_stations(robot, one_station, arm, branch=branches[i]), batch, i)
+        one = station_floats(robot, a, tuple(st.position[i].tolist()), float(st.tilt[i]), float(st.azimuth[i]),
+                             float(st.heading[i]), bool(st.heading_free[i]), branch_sign(branches[i]), None)
+        _assert_floats(one, batch.floats(i))
+
+
+def _assert_floats(one, batch):
+    """A :class:`StationFloats` of the float path equals the batch row's (what the station service answers)."""
+    for name in ('rods', 'joints', 'naive_rods', 'naive_joints', 'position_error', 'angle_error', 'naive_wafer_error',
+                 'naive_wafer_angle_error'):
+        np.testing.assert_allclose(getattr(one, name), getattr(batch, name), rtol=0, atol=ATOL, err_msg=name)
+    for name in ('platform', 'blade', 'wafer', 'on_platform', 'naive_wafer'):
+        for part in (0, 1):
+            np.testing.assert_allclose(getattr(one, name)[part], getattr(batch, name)[part], rtol=0, atol=ATOL,
+                                       err_msg=name)
+        np.testing.assert_allclose(quaternion_of(getattr(one, name)[1]),
+                                   quaternion_from_matrix(np.array(getattr(batch, name)[1])), rtol=0, atol=ATOL)
 
 
 def test_held_joint_value_per_call_equals_the_batch():
@@ -144,6 +162,12 @@ def test_robot_forward_of_one_configuration_equals_the_batch(case):
         for name in ('tilt', 'tilt_azimuth', 'centre_shift', 'virtual_joints', 'quaternion'):
             np.testing.assert_allclose(getattr(one.gpr, name)[0], getattr(batch.gpr, name)[i], rtol=0, atol=ATOL)
         assert one.gpr.within_budget.dtype == bool and one.gpr.iterations.dtype == np.int64
+        floats = forward_floats(robot, robot.arm(arm), Q[i].tolist(), J[i].tolist())
+        naive = naive_platform_one(robot, Q[i].tolist())
+        for got, want in ((floats.wafer, batch.wafer), (floats.on_platform, batch.wafer_on_platform),
+                          (naive, batch.naive_platform)):
+            np.testing.assert_allclose(got[0], want.position[i], rtol=0, atol=ATOL)
+            np.testing.assert_allclose(got[1], want.rotation[i], rtol=0, atol=ATOL)
 
 
 def test_robot_forward_of_one_configuration_refuses_like_the_batch():

@@ -38,7 +38,14 @@ from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_ro
 from ..errors import ConvergenceError, InputError, LimitError, brief
 from .description import BRANCHES, Arm, RobotDescription
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
-from .one_station import HEADING_TOLERANCE, NORMAL_TOLERANCE, PLANE_ITERATIONS, PLANE_TOLERANCE, solve_one
+from .one_station import (
+    HEADING_TOLERANCE,
+    NORMAL_TOLERANCE,
+    PLANE_ITERATIONS,
+    PLANE_TOLERANCE,
+    StationFloats,
+    solve_one,
+)
 from .planar_arm import ArmSolution, branch_sign, solve_arm
 from .stations import Stations, per_station
 from .transforms import PoseBatch
@@ -112,6 +119,16 @@ class StationSolution:
         """Angle between the wafer orientation the naive joints give and the station's ``(N,)`` [rad] (between
         the normals where the heading is free)."""
         return _angle_to(self.stations, self.naive_wafer.rotation)
+
+    def floats(self, i: int) -> StationFloats:
+        """Station ``i`` as the one-station path's :class:`~gpr_kinematics.robot.one_station.StationFloats`."""
+        fk = self.forward
+        x, y, z = self.naive_wafer_error[i].tolist()
+        return StationFloats(
+            self.rods[i].tolist(), self.joints[i].tolist(), fk.gpr[i], fk.platform.floats(i), fk.blade.floats(i),
+            fk.wafer.floats(i), fk.wafer_on_platform.floats(i), self.naive_rods[i].tolist(),
+            self.naive_joints[i].tolist(), self.naive_wafer.floats(i), float(self.position_error[i]),
+            float(self.angle_error[i]), (x, y, z), float(self.naive_wafer_angle_error[i]))
 
     def record(self, i: int) -> StationSolutionRecord:
         """Station ``i`` as a :class:`StationSolutionRecord`."""

@@ -20,6 +20,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, forward
+from ..core.floats import (
+    FloatPose,
+    Mat3,
+    Vec3,
+    angle_between,
+    compose_one,
+    mat_mul,
+    mat_tmul,
+    mat_tvec,
+    rot_z,
+    tilt_matrix,
+)
 from ..core.inverse import inverse_one
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
@@ -31,7 +43,7 @@ from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
 from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
-from .transforms import Mat3, PoseBatch, Vec3, compose_one, mat_mul, mat_tmul, mat_tvec, pose_batch, rot_z
+from .transforms import PoseBatch, pose_batch
 
 #: Convergence of the height: plane residual [m] and platform-normal error.
 PLANE_TOLERANCE = 1e-13
@@ -53,14 +65,6 @@ class OneStation(NamedTuple):
     naive_wafer: PoseBatch
     position_error: NDArray[np.float64]
     angle_error: NDArray[np.float64]
-
-
-def tilt_matrix(tilt: float, azimuth: float) -> Mat3:
-    """:func:`~gpr_kinematics.core.rotations.tilt_rotation` of one tilt and azimuth [rad] in floats."""
-    s, c = math.sin(tilt), math.cos(tilt)
-    ax, ay = math.cos(azimuth), math.sin(azimuth)
-    v = 1.0 - c
-    return (c + v * ax * ax, v * ax * ay, s * ay), (v * ax * ay, c + v * ay * ay, -s * ax), (-s * ay, s * ax, c)
 
 
 def _rows(R: NDArray[np.float64]) -> Mat3:
@@ -118,15 +122,40 @@ def _faulty(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, 
     return abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) > HEADING_TOLERANCE
 
 
-def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
-              ) -> OneStation | None:
-    """Rods and joints for the one station of ``stations`` (module docstring); ``None`` where the batch path must
-    answer (a limit, a fault, no convergence: it raises or marks the station with its message)."""
+class StationFloats(NamedTuple):
+    """The answer for one station in floats (world frame unless named): the ``rods`` [m] and ``joints`` [rad], the
+    platform's forward kinematics ``gpr`` (in ``gpr_base``), the ``platform``, ``blade`` and ``wafer`` poses and the
+    wafer's on the platform (``on_platform``, in ``gpr_platform``); the naive model's ``naive_rods`` and
+    ``naive_joints`` and where they really put the wafer (``naive_wafer``); how closely the wafer reaches the station
+    (``position_error`` [m], ``angle_error`` [rad]) and how far the naive answer misses it (``naive_wafer_error``,
+    its vector [m], and ``naive_wafer_angle_error`` [rad])."""
+
+    rods: list[float]
+    joints: list[float]
+    gpr: ForwardResult
+    platform: FloatPose
+    blade: FloatPose
+    wafer: FloatPose
+    on_platform: FloatPose
+    naive_rods: list[float]
+    naive_joints: list[float]
+    naive_wafer: FloatPose
+    position_error: float
+    angle_error: float
+    naive_wafer_error: Vec3
+    naive_wafer_angle_error: float
+
+
+def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
+                   free: bool, sign: float, value: float | None) -> StationFloats | None:
+    """Rods and joints for the station at ``P`` [m, world] with the station plane's ``tilt_st`` and ``azimuth`` and the
+    blade ``heading`` [rad] (``free``: the heading is left to a 2-joint arm), the branch ``sign`` and the held value
+    of a 4-joint arm (module docstring); ``None`` where the batch path must answer (a limit, a fault, no
+    convergence: it raises or marks the station with its message). The inputs are checked by the caller."""
     kernel = one_pose(robot.config)
     cfg = kernel.config
     p_wb, R_wb = base_floats(robot)
-    P = stations.position[0].tolist()
-    R_st = mat_mul(tilt_matrix(float(stations.tilt[0]), float(stations.azimuth[0])), rot_z(float(stations.heading[0])))
+    R_st = mat_mul(tilt_matrix(tilt_st, azimuth), rot_z(0.0 if free else heading))
     R_b = mat_tmul(R_wb, R_st)
     p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
@@ -142,7 +171,6 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     t = gpr.position.tolist()
     w = mat_tvec(R, (p_b[0] - t[0], p_b[1] - t[1], p_b[2] - t[2]))
     sol, phi = _arm(arm, w, R, R_b, sign, value)
-    free = bool(stations.heading_free[0])
     if _faulty(kernel, arm, q, sol, phi, free):
         return None
     platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
@@ -160,23 +188,34 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
     naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
-    rods = np.array([q])
-    fk = RobotForward(arm=arm.name, rods=rods, joints=np.array([sol.theta]), gpr=ForwardBatch.of_one(gpr),
-                      platform=pose_batch(*platform), blade=pose_batch(*blade), wafer=pose_batch(*wafer), robot=robot,
-                      wafer_on_platform=pose_batch(*on_platform))
-    return OneStation(rods=rods, joints=fk.joints, forward=fk, naive_rods=np.array([q_n]),
-                      naive_joints=np.array([naive_sol.theta]), naive_wafer=pose_batch(*naive_wafer),
-                      position_error=np.array([math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])]),
-                      angle_error=np.array([_angle(R_st, wafer[1], free)]))
+    e = (naive_wafer[0][0] - P[0], naive_wafer[0][1] - P[1], naive_wafer[0][2] - P[2])
+    return StationFloats(q, sol.theta, gpr, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
+                         math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), e,
+                         _angle(R_st, naive_wafer[1], free))
+
+
+def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
+              ) -> OneStation | None:
+    """:func:`station_floats` of the one station of ``stations`` as rows of one (``None`` likewise)."""
+    one = station_floats(robot, arm, cast('Vec3', tuple(stations.position[0].tolist())), float(stations.tilt[0]),
+                         float(stations.azimuth[0]), float(stations.heading[0]), bool(stations.heading_free[0]), sign,
+                         value)
+    if one is None:
+        return None
+    rods = np.array([one.rods])
+    fk = RobotForward(arm=arm.name, rods=rods, joints=np.array([one.joints]), gpr=ForwardBatch.of_one(one.gpr),
+                      platform=pose_batch(*one.platform), blade=pose_batch(*one.blade), wafer=pose_batch(*one.wafer),
+                      robot=robot, wafer_on_platform=pose_batch(*one.on_platform))
+    return OneStation(rods=rods, joints=fk.joints, forward=fk, naive_rods=np.array([one.naive_rods]),
+                      naive_joints=np.array([one.naive_joints]), naive_wafer=pose_batch(*one.naive_wafer),
+                      position_error=np.array([one.position_error]), angle_error=np.array([one.angle_error]))
 
 
 def _angle(R_station: Mat3, R: Mat3, free: bool) -> float:
     """The angle between ``R`` and the station's orientation [rad] (between the normals where the heading is free):
-    :func:`~gpr_kinematics.core.rotations.rotation_angle` in floats."""
+    the batch's ``_angle_to`` in floats."""
     if free:
         n, m = (R[0][2], R[1][2], R[2][2]), (R_station[0][2], R_station[1][2], R_station[2][2])
         cx, cy, cz = n[1] * m[2] - n[2] * m[1], n[2] * m[0] - n[0] * m[2], n[0] * m[1] - n[1] * m[0]
         return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), n[0] * m[0] + n[1] * m[1] + n[2] * m[2])
-    M = mat_tmul(R_station, R)
-    s = 0.5 * math.sqrt((M[2][1] - M[1][2]) ** 2 + (M[0][2] - M[2][0]) ** 2 + (M[1][0] - M[0][1]) ** 2)
-    return math.atan2(s, 0.5 * (M[0][0] + M[1][1] + M[2][2] - 1.0))
+    return angle_between(R_station, R)
