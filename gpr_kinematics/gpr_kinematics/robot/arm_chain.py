@@ -21,6 +21,10 @@ Array = NDArray[np.float64]
 REACH_SLACK = 1e-12
 #: Slack [rad] on the joint limits (rounding of targets at a limit).
 LIMIT_SLACK = 1e-12
+#: A target this close [m] to full stretch or fold is solved as stretched or folded: there the elbow angle goes as
+#: the square root of the distance, so rounding (1e-16 m) would move the joints by 1e-8 rad (the ``nearest`` rule's
+#: answers often lie exactly there); the wafer then misses by this much at most.
+STRETCH_SNAP = 1e-14
 
 
 def link_vectors(arm: Arm) -> tuple[list[Array], float]:
@@ -82,7 +86,8 @@ def two_link(D1: Array, D2: Array, p: Array, sign: Array | float) -> TwoLink:
     lo, hi = np.abs(L1 - L2), L1 + L2
     inv = 1.0 / (2.0 * L1 * L2)
     cos_g = np.clip((r * r - L1 * L1 - L2 * L2) * inv, -1.0, 1.0)
-    sin_g = sign * np.sqrt(np.maximum((hi - r) * (hi + r) * (r - lo) * (r + lo), 0.0)) * inv
+    prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
+    sin_g = sign * np.sqrt(np.where((hi - r > STRETCH_SNAP) & (r - lo > STRETCH_SNAP), prod, 0.0)) * inv
     g = np.arctan2(sin_g, cos_g)
     A1 = np.arctan2(p[..., 1], p[..., 0]) - np.arctan2(L2 * np.sin(g), L1 + L2 * np.cos(g))
     Theta1 = A1 - np.arctan2(D1[..., 1], D1[..., 0])
@@ -139,7 +144,7 @@ def two_link_one(D1: tuple[float, float], D2: tuple[float, float], px: float, py
     inv = 1.0 / (2.0 * L1 * L2)
     cos_g = min(max((r * r - L1 * L1 - L2 * L2) * inv, -1.0), 1.0)
     prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
-    g = math.atan2(sign * math.sqrt(prod if prod >= 0.0 else 0.0) * inv, cos_g)
+    g = math.atan2(sign * math.sqrt(prod if hi - r > STRETCH_SNAP and r - lo > STRETCH_SNAP else 0.0) * inv, cos_g)
     A1 = math.atan2(py, px) - math.atan2(L2 * math.sin(g), L1 + L2 * math.cos(g))
     return A1 - math.atan2(D1[1], D1[0]), A1 + g - math.atan2(D2[1], D2[0]), r, lo, hi
 
