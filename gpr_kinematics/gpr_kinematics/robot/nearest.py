@@ -24,13 +24,14 @@ middle of the range (the caller reports why). SI units: metres, radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core.rotations import rotate_z
-from .arm_chain import solve_fixed, wrap_to_limits
+from .arm_chain import REACH_SLACK, fixed_one, floats2, solve_fixed, wrap_one, wrap_to_limits
 from .description import Arm
 
 Array = NDArray[np.float64]
@@ -42,8 +43,12 @@ NEAREST_SAMPLES = 17
 NEAREST_PROBE = 1e-6
 #: A pair beside an edge of the reach without a bracket is scanned at these fractions of its width from the edge.
 NEAREST_SCAN = (0.01, 0.05, 0.25, 0.5)
-#: A minimum is found when Newton's step is this small [rad] (or the slope vanishes there).
+#: A minimum is found when its bracket is this narrow [rad] (or the slope vanishes there) ...
 NEAREST_TOLERANCE = 1e-14
+#: ... or after a Newton step this small [rad]: the error left is of the order of its square.
+NEAREST_LAST_STEP = 1e-7
+#: At most this many points are evaluated in floats (one target's Newton steps), more with numpy.
+NEAREST_FLOATS = 4
 #: Newton steps at most (it converges quadratically: some 5 are taken).
 NEAREST_STEPS = 60
 
@@ -111,7 +116,7 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     with np.errstate(invalid='ignore'):
         i = np.flatnonzero((ga < 0.0) & (gb > 0.0))
     if i.size:
-        xm = _minimum(arm, d, beta, p, phi, sign, r[i], a[i], b[i])
+        xm = _minimum(arm, d, beta, p, phi, sign, r[i], a[i], b[i], ga[i], gb[i])
         cand_rows.append(r[i])
         cand_x.append(xm)
         cand_f.append(_evaluate(arm, d, beta, p, phi, sign, r[i], xm).cost)
@@ -203,6 +208,10 @@ def _evaluate(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign:
     ``rows (M,)`` (module docstring; the curvature is NaN without)."""
     red = arm.redundancy
     assert red is not None
+    if x.size <= NEAREST_FLOATS:  # a few points (one target's Newton steps): floats, not numpy per operation
+        out = [_evaluate_one(arm, d, beta, p[i].tolist(), float(phi[i]), float(sign[i]), v, curvature)
+               for i, v in zip(rows.tolist(), x.tolist(), strict=True)]
+        return Evaluation(*(np.array(c, dtype=np.float64).reshape(-1) for c in zip(*out, strict=True)))
     j, o = red.joint, arm.zero_offset
     chain, tl = solve_fixed(d, beta, j, x + o[j], p[rows], phi[rows], sign[rows])
     theta, violation = wrap_to_limits(chain - o, arm.lower, arm.upper)
@@ -244,6 +253,64 @@ def _evaluate(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign:
     return Evaluation(np.where(bad, np.inf, cost), slope, second)
 
 
+def _evaluate_one(arm: Arm, d: list[Array], beta: float, p: list[float], phi: float, sign: float, v: float,
+                  curvature: bool) -> tuple[float, float, float]:
+    """:func:`_evaluate` of one held value ``v`` in floats (the same steps): cost, slope, curvature."""
+    red = arm.redundancy
+    assert red is not None
+    j, joints = red.joint, arm.joints
+    links = floats2(d)
+    chain, r, lo, hi = fixed_one(links, beta, j, v + joints[j].zero_offset, p[0], p[1], phi, sign)
+    theta, violation = wrap_one(arm, [c - joint.zero_offset for c, joint in zip(chain, joints, strict=True)])
+    span = [joint.upper - joint.lower for joint in joints]
+    g = [2.0 * w * (t - ref) / (s * s) for t, ref, w, s in zip(theta, red.reference, red.weights, span, strict=True)]
+    cost = sum(w * ((t - ref) / s) ** 2 for t, ref, w, s in zip(theta, red.reference, red.weights, span, strict=True))
+    if not hi + REACH_SLACK >= r >= lo - REACH_SLACK or max(violation) > 0.0:
+        cost = math.inf
+    ax, ay, turned = [0.0], [0.0], 0.0
+    for k in range(3):
+        turned += chain[k]
+        c, s_ = math.cos(turned), math.sin(turned)
+        ax.append(ax[-1] + c * links[k][0] - s_ * links[k][1])
+        ay.append(ay[-1] + s_ * links[k][0] + c * links[k][1])
+    others = [k for k in range(4) if k != j]
+    xs, ys = [ax[k] for k in others], [ay[k] for k in others]
+    det = _det3_one((1.0, 1.0, 1.0), xs, ys)
+    if det == 0.0:
+        return cost, math.nan, math.nan
+    rates = [0.0] * 4
+    rates[j] = 1.0
+    for m, k in enumerate(others):
+        rates[k] = _det3_one(*_column(m, (1.0, 1.0, 1.0), xs, ys, (-1.0, -ax[j], -ay[j]))) / det
+    slope = sum(gk * n for gk, n in zip(g, rates, strict=True))
+    if not curvature:
+        return cost, slope, math.nan
+    vx = vy = 0.0
+    for k in range(1, 4):  # sum_k n_k a'_k
+        vx -= rates[k] * sum(rates[i] * (ay[k] - ay[i]) for i in range(k))
+        vy += rates[k] * sum(rates[i] * (ax[k] - ax[i]) for i in range(k))
+    accel = [0.0] * 4
+    for m, k in enumerate(others):
+        accel[k] = _det3_one(*_column(m, (1.0, 1.0, 1.0), xs, ys, (0.0, -vx, -vy))) / det
+    second = sum(2.0 * w * (n / s) ** 2 + gk * a
+                 for w, n, s, gk, a in zip(red.weights, rates, span, g, accel, strict=True))
+    return cost, slope, second
+
+
+def _column(m: int, t: tuple[float, float, float], x: list[float], y: list[float], rhs: tuple[float, float, float]
+            ) -> tuple[list[float], list[float], list[float]]:
+    """The columns ``(t, x, y)`` with column ``m`` replaced by ``rhs``."""
+    t2, x2, y2 = list(t), list(x), list(y)
+    t2[m], x2[m], y2[m] = rhs
+    return t2, x2, y2
+
+
+def _det3_one(t: Sequence[float], x: Sequence[float], y: Sequence[float]) -> float:
+    """:func:`_det3` of one matrix in floats."""
+    return (t[0] * (x[1] * y[2] - x[2] * y[1]) - t[1] * (x[0] * y[2] - x[2] * y[0])
+            + t[2] * (x[0] * y[1] - x[1] * y[0]))
+
+
 def _solve_columns(out: Array, others: list[int], tops: list[Array | float], xs: list[Array], ys: list[Array],
                    rhs: tuple[Array | float, Array, Array], inv: Array) -> None:
     """Cramer's rule for the columns ``others`` of ``out``: column ``m`` of the matrix replaced by ``rhs``."""
@@ -260,11 +327,14 @@ def _det3(t: list[Array | float], x: list[Array], y: list[Array]) -> Array:
 
 
 def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, rows: Index, a: Array,
-             b: Array) -> Array:
-    """The zero of the slope in each bracket ``[a, b]`` (slope negative at ``a``, positive at ``b``): Newton's method
-    on the slope, a step that leaves the bracket replaced by bisection, the bracket kept."""
+             b: Array, ga: Array, gb: Array) -> Array:
+    """The zero of the slope in each bracket ``[a, b]`` (slopes ``ga < 0 < gb``): Newton's method on the slope from
+    the zero of the line through the ends' slopes, a step that leaves the bracket replaced by bisection, the bracket
+    kept."""
     a, b = a.copy(), b.copy()
-    x = 0.5 * (a + b)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        x = a - ga * (b - a) / (gb - ga)
+    x = np.where((x > a) & (x < b), x, 0.5 * (a + b))
     active = np.arange(a.size)
     for _ in range(NEAREST_STEPS):
         t = x[active]
@@ -276,9 +346,11 @@ def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: 
         with np.errstate(invalid='ignore', divide='ignore'):
             dt = g / ev.curvature
         step = t - dt
-        nxt = np.where((step >= A) & (step <= B), step, 0.5 * (A + B))
-        done = ~(left | right) | (np.abs(dt) <= NEAREST_TOLERANCE) | (B - A <= NEAREST_TOLERANCE)
-        x[active] = np.where(done, t, nxt)
+        inside = (step >= A) & (step <= B)
+        nxt = np.where(inside, step, 0.5 * (A + B))
+        last = inside & (np.abs(dt) <= NEAREST_LAST_STEP)  # converging quadratically: this step is the last
+        done = ~(left | right) | last | (B - A <= NEAREST_TOLERANCE)
+        x[active] = np.where(done & ~last, t, nxt)
         active = active[~done]
         if not active.size:
             break
