@@ -64,7 +64,7 @@ def test_tilt_matrix_and_angle_between_equal_the_batch():
     t, g = rng.uniform(-0.1, 0.1, 200), rng.uniform(-4.0, 4.0, 200)
     T = tilt_rotation(t, g)
     for ti, gi, Ti in zip(t, g, T, strict=True):
-        np.testing.assert_array_equal(tilt_matrix(float(ti), float(gi)), Ti)
+        np.testing.assert_allclose(tilt_matrix(float(ti), float(gi)), Ti, rtol=0, atol=4e-16)
     A, B = _rotations(200, 4), _rotations(200, 5)
     angles = rotation_angle(A, B)
     for a, b, angle in zip(A, B, angles, strict=True):
