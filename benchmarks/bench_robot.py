@@ -12,7 +12,10 @@ kinematics (6 unknowns: 3 rods, 3 arm joints; 6 residuals: wafer position and or
 time, started from the naive model's joints, at equal accuracy (checked in the run: the same rods and joints to
 1e-9 and the station reproduced to 1e-9 m).
 
-Prints a Markdown table of medians. Usage: ``python benchmarks/bench_robot.py [--quick]``.
+Prints a Markdown table of medians. Usage: ``python benchmarks/bench_robot.py [--quick] [--cpu] [--before TREE]``;
+``--before TREE`` also times one station and one configuration per call, and the batches, in another checkout
+(``TREE/gpr_kinematics``, e.g. the commit before a change) and in this one, alternating the two in fresh processes
+(CPU time, best of the repeats per round, median of the rounds).
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from bench_core import print_before_after
 from gpr_kinematics.core import inverse_batch
 from gpr_kinematics.core.rotations import rotation_angle
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations, stations_from_poses
@@ -36,13 +40,15 @@ from gpr_kinematics.robot.planar_arm import branch_of
 from gpr_kinematics.robot.program import load_program
 from scipy.optimize import least_squares
 
+CLOCK = time.perf_counter
+
 
 def timed(fn, repeat: int) -> list[float]:
     out = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = CLOCK()
         fn()
-        out.append(time.perf_counter() - t0)
+        out.append(CLOCK() - t0)
     return out
 
 
@@ -98,10 +104,51 @@ def program_files(robot, n: int, folder: Path) -> tuple[Path, Path]:
     return inline, imported
 
 
+#: One-station calls and batches timed in a fresh process for ``--before``, printed as JSON [us per call or station].
+ROBOT_CALLS = """
+import json, sys, time, timeit
+from pathlib import Path
+import yaml
+sys.path.insert(0, BENCHMARKS)
+from bench_robot import random_stations  # the stations of this script, made by the tree under test
+from gpr_kinematics.robot import load_robot, robot_forward, solve_stations
+from gpr_kinematics.robot.description import parse_robot
+robot = load_robot()
+data = yaml.safe_load(Path(robot.source).read_text())
+data['arms'][1]['redundancy'] = {'rule': 'nearest'}
+nearest = parse_robot(data, 'nearest', Path(robot.source).parent)
+def best(fn, number, repeat):
+    fn()
+    return min(timeit.repeat(fn, number=number, repeat=repeat, timer=time.process_time)) / number * 1e6
+out = {}
+for label, rob, arm, n in (('arm1', robot, 'arm1', 10_000), ('arm2, fixed_joint', robot, 'arm2', 10_000),
+                           ('arm2, nearest', nearest, 'arm2', 1_000)):
+    st, Q, J, br = random_stations(rob, arm, n, 2)
+    out[f'station IK, batch ({label}), per station'] = best(
+        lambda: solve_stations(rob, st, arm, branch=br, check=False), 1, 3) / n
+    one, b0 = st.take([0]), br[0]
+    calls = 5 if 'nearest' in label else 50
+    out[f'station IK, one station per call ({label})'] = best(lambda: solve_stations(rob, one, arm, branch=b0),
+                                                              calls, 5)
+    if arm == 'arm1':
+        out['whole-robot FK, one configuration per call (arm1)'] = best(
+            lambda: robot_forward(rob, Q[:1], J[:1], arm), 500, 5)
+        out['whole-robot FK, batch of 10,000 (arm1), per configuration'] = best(
+            lambda: robot_forward(rob, Q, J, arm), 1, 3) / n
+print(json.dumps(out))
+""".replace('BENCHMARKS', repr(str(Path(__file__).resolve().parent)))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='fewer repetitions (smoke run)')
+    ap.add_argument('--before', type=Path, metavar='TREE',
+                    help='also compare one-station calls and batches with the checkout TREE, alternating')
+    ap.add_argument('--cpu', action='store_true', help='time with the CPU time of this process, not the wall clock')
     args = ap.parse_args()
+    global CLOCK
+    if args.cpu:
+        CLOCK = time.process_time
     rep = 3 if args.quick else 7
     robot = load_robot()
     data = yaml.safe_load(Path(robot.source).read_text())
@@ -126,9 +173,16 @@ def main() -> None:
     t = timed(lambda: robot_forward(robot, Q, J, 'arm1'), rep)
     rows.append(('whole-robot FK, batch of 100,000 (arm1)', statistics.median(t) / 1e5 * 1e6, 'us/configuration',
                  '<= 10', min(t) / 1e5 * 1e6))
-    one = st.take([0])
-    t = timed(lambda: [solve_stations(robot, one, 'arm1', branch=br[0]) for _ in range(50)], rep)
-    rows.append(('station IK, one station per call (arm1)', statistics.median(t) / 50 * 1e6, 'us/call', ''))
+    t = timed(lambda: [robot_forward(robot, Q[i:i + 1], J[i:i + 1], 'arm1') for i in range(200)], rep)
+    rows.append(('whole-robot FK, one configuration per call (arm1)', statistics.median(t) / 200 * 1e6, 'us/call', ''))
+    for label, rob, arm, count in (('3-joint arm (arm1)', robot, 'arm1', 200),
+                                   ('4-joint arm, fixed_joint (arm2)', robot, 'arm2', 200),
+                                   ('4-joint arm, nearest (arm2)', nearest, 'arm2', 10)):
+        st1, _, _, br1 = random_stations(rob, arm, count, seed=5)
+        t = timed(lambda r=rob, s=st1, a=arm, b=br1, c=count: [solve_stations(r, s.take([i]), a, branch=b[i])
+                                                               for i in range(c)], rep)
+        rows.append((f'station IK, one station per call, {label}', statistics.median(t) / count * 1e6, 'us/call',
+                     '<= 20x its batch per station' if 'nearest' not in label else ''))
 
     # The peer, at equal accuracy, one station at a time.
     m = 20 if args.quick else 60
@@ -180,15 +234,24 @@ def main() -> None:
                      statistics.median(t) / count * 1e6, 'us/sample', ''))
 
     print(f'machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, '
-          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end')
+          f'numpy {np.__version__}; load average {os.getloadavg()[0]:.2f} at the end; clock: '
+          f'{"CPU time of the process" if args.cpu else "wall clock"}')
     print()
     print('| measurement | median | best | unit | target |')
     print('|---|---:|---:|---|---|')
     for name, value, unit, target, *best in rows:
         print(f'| {name} | {value:.3g} | {f"{best[0]:.3g}" if best else ""} | {unit} | {target} |')
     ik = rows[0][1]
+    value = {r[0]: r[1] for r in rows}
+    one = value['station IK, one station per call, 3-joint arm (arm1)']
+    fixed = value['station IK, batch of 10,000, 4-joint arm, fixed_joint (arm2)']
     print()
-    print(f'speed-up of batch station IK over the peer: {peer / ik:.0f}x (3-joint arm)')
+    print(f'speed-up of batch station IK over the peer: {peer / ik:.0f}x (3-joint arm); one station per call: '
+          f'{one / ik:.1f}x its batch cost per station (target <= 20), {peer / one:.0f}x faster than the peer '
+          f'(target >= 100); nearest / fixed_joint per station in batch: '
+          f'{value["station IK, batch of 1,000, 4-joint arm, nearest (arm2)"] / fixed:.1f} (target <= 3)')
+    if args.before is not None:
+        print_before_after(args.before, 3 if args.quick else 5, ROBOT_CALLS)
 
 
 if __name__ == '__main__':

@@ -2,12 +2,16 @@
 the whole-robot services), calls per second with 1 and 4 concurrent clients, and the trajectory node's achieved
 versus requested rate.
 
-Peers measured in the same run: the core calls alone in this process (``kinematics.forward``, and the robot
-core's ``solve_stations`` for one station), and a null rclpy service (``std_srvs/Trigger`` answering at once, in
-its own process) for the cost of ROS itself.
+Peers measured in the same run: beside each of the node's services a **null service of the same type** (in its own
+process, the same QoS, answering at once with a constant response: one the node gave to the same request, so the
+messages and their sizes are the same), called in alternation with ours, so the ratio is the node's overhead over
+ROS itself; the plain null rclpy service (``std_srvs/Trigger``); and the core calls alone in this process
+(``kinematics.forward``, and the robot core's ``solve_stations`` for one station). ``--before TREE`` runs a second
+``kinematics_node`` from the package in ``TREE`` (a checkout of an earlier commit, ``git archive C | tar -x -C
+TREE``; the messages are this tree's) under the namespace ``/before`` and calls it in the same alternation.
 
-Run: ``.venv/bin/python benchmarks/bench_ros.py [--calls 2000] [--duration 5] [--rates 50,100,200,500,1000]``
-(``make setup`` first). Prints a Markdown table for docs/benchmarks.md.
+Run: ``.venv/bin/python benchmarks/bench_ros.py [--calls 2000] [--duration 5] [--rates 50,100,200,500,1000]
+[--before TREE] [--services-only]`` (``make setup`` first). Prints a Markdown table for docs/benchmarks.md.
 """
 from __future__ import annotations
 
@@ -20,6 +24,7 @@ import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -35,33 +40,63 @@ ros_env.activate()
 
 import numpy as np  # noqa: E402 - after the ROS environment
 from gpr_kinematics.core import forward  # noqa: E402
+from gpr_kinematics.core.rotations import quaternion_from_matrix, tilt_rotation  # noqa: E402
 from gpr_kinematics.nodes.client import GprClient  # noqa: E402
+from gpr_kinematics.nodes.conversions import pose_msg  # noqa: E402
 from gpr_kinematics.nodes.qos import stream_qos  # noqa: E402
 from gpr_kinematics.robot import load_robot, solve_stations  # noqa: E402
 from gpr_kinematics.robot.stations import Stations  # noqa: E402
 from gpr_kinematics.ros.process import NodeProcess  # noqa: E402
+from rclpy.serialization import serialize_message  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from gpr_interfaces.msg import PlatformState  # noqa: E402
+from gpr_interfaces.srv import (  # noqa: E402
+    AnalyzeMobility,
+    Compensate,
+    ForwardKinematics,
+    InverseKinematics,
+    RobotForwardKinematics,
+    StationInverseKinematics,
+)
 
+#: The null services: each answers at once with the constant response (serialized, in the file named by argv[1])
+#: of its type; ``null/trigger`` is std_srvs/Trigger. The QoS of the node's services (reliable, keep all).
 NULL_SERVER = '''
-import rclpy, sys
+import importlib, json, sys
+import rclpy
 from rclpy.executors import ExternalShutdownException
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from std_srvs.srv import Trigger
+from gpr_kinematics.nodes.qos import service_qos
 rclpy.init()
 node = rclpy.create_node('null_server')
-def cb(req, res):
+def constant(response):
+    return lambda req, res: response
+def trigger(req, res):
     res.success = True
     return res
-# The same service QoS as kinematics_node (reliable, keep last 100).
-qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-node.create_service(Trigger, 'null/trigger', cb, qos_profile=qos)
+node.create_service(Trigger, 'null/trigger', trigger, qos_profile=service_qos())
+for kind, (module, name, data) in json.load(open(sys.argv[1])).items():
+    srv = getattr(importlib.import_module(module), name)
+    node.create_service(srv, f'null/{kind}', constant(deserialize_message(bytes.fromhex(data), srv.Response)),
+                        qos_profile=service_qos())
+print('ready', flush=True)
 try:
     rclpy.spin(node)
 except (KeyboardInterrupt, ExternalShutdownException):
     pass
 rclpy.try_shutdown()
+'''
+
+#: A node of an earlier tree (``--before``): its package first on the path, this tree's messages.
+BEFORE_NODE = '''
+import sys
+sys.path.insert(0, sys.argv[1])
+import gpr_kinematics
+assert gpr_kinematics.__file__.startswith(sys.argv[1]), gpr_kinematics.__file__
+from gpr_kinematics.nodes.kinematics_node import main
+sys.exit(main(['kinematics_node', '--ros-args', '-r', '__ns:=/before']))
 '''
 
 Q = [0.5, 0.498, 0.502]
@@ -75,9 +110,39 @@ _SOLVED = solve_stations(ROBOT, STATION, 'arm1')
 ROBOT_RODS, ROBOT_JOINTS = _SOLVED.rods[0].tolist(), _SOLVED.joints[0].tolist()
 
 
-def _null_server() -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, '-c', NULL_SERVER], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
+def _requests() -> dict[str, tuple[type, str, object]]:
+    """kind -> (service type, the node's service name, the request) of every service measured."""
+    inverse_target = pose_msg((0.0, 0.0, 0.45), quaternion_from_matrix(tilt_rotation(0.02, 0.0)))
+    compensate = Compensate.Request(command=pose_msg((0.0, 0.0, 0.45), (0.0, 0.01, 0.0, math.sqrt(1 - 0.01 ** 2))))
+    compensate.tool_offset.z = 0.1
+    station = StationInverseKinematics.Request(tilt=STATION_TILT, azimuth=STATION_AZIMUTH, heading=STATION_HEADING,
+                                               arm='arm1')
+    station.position.x, station.position.y, station.position.z = STATION_POSITION
+    return {
+        'forward': (ForwardKinematics, 'gpr/forward_kinematics', ForwardKinematics.Request(q=Q)),
+        'inverse': (InverseKinematics, 'gpr/inverse_kinematics', InverseKinematics.Request(target=inverse_target)),
+        'compensate': (Compensate, 'gpr/compensate', compensate),
+        'mobility': (AnalyzeMobility, 'gpr/analyze_mobility', AnalyzeMobility.Request(q=Q)),
+        'robot_fk': (RobotForwardKinematics, 'gpr/robot_forward_kinematics',
+                     RobotForwardKinematics.Request(rods=ROBOT_RODS, joints=ROBOT_JOINTS, arm='arm1')),
+        'station_ik': (StationInverseKinematics, 'gpr/station_inverse_kinematics', station),
+    }
+
+
+REQUESTS = _requests()
+
+
+def _null_server(responses: dict[str, object]) -> tuple[subprocess.Popen, str]:
+    """The null services' process, answering with ``responses`` (kind -> a response of the node)."""
+    data = {k: (REQUESTS[k][0].__module__.rsplit('.', 1)[0], REQUESTS[k][0].__name__, serialize_message(r).hex())
+            for k, r in responses.items()}
+    path = tempfile.mkstemp(prefix='bench_null_', suffix='.json')[1]
+    Path(path).write_text(json.dumps(data))
+    proc = subprocess.Popen([sys.executable, '-c', NULL_SERVER, path], stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if proc.stdout is None or proc.stdout.readline().strip() != 'ready':
+        raise RuntimeError(f'the null server did not start: {proc.stderr.read() if proc.stderr else ""}')
+    return proc, path
 
 
 def _stop(proc: subprocess.Popen) -> None:
@@ -93,38 +158,33 @@ class Caller:
     """Timed round trips through :class:`GprClient` (client side: rclpy.experimental's EventsExecutor; with the
     classic SingleThreadedExecutor, spin_until_future_complete alone costs ~6-12 ms per call here, which would
     hide the server). A lost response is re-sent by the client and counted in ``client.lost``; its time is not
-    a round trip (the re-sent call is timed alone)."""
+    a round trip (the re-sent call is timed alone). ``kind`` is a key of :data:`REQUESTS` (the node's service),
+    ``null/<kind>`` its null peer, ``before/<kind>`` the ``--before`` node's, or ``null`` (std_srvs/Trigger)."""
 
     def __init__(self, name: str) -> None:
         self.client = GprClient(name, executor='events')
 
     def call(self, kind: str) -> float:
         c = self.client
-        t0 = time.perf_counter()
-        lost = c.lost
-        if kind == 'forward':
-            res = c.forward_kinematics(Q)
-        elif kind == 'inverse':
-            res = c.inverse_kinematics(0.45, 0.02, 0.0)
-        elif kind == 'compensate':
-            res = c.compensate((0.0, 0.0, 0.45), (0.0, 0.01, 0.0, float(np.sqrt(1 - 0.01 ** 2))), (0.0, 0.0, 0.1))
-        elif kind == 'mobility':
-            res = c.analyze_mobility(Q)
-        elif kind == 'station_ik':
-            res = c.station_inverse_kinematics(STATION_POSITION, STATION_TILT, STATION_AZIMUTH, STATION_HEADING,
-                                               arm='arm1')
-        elif kind == 'robot_fk':
-            res = c.robot_forward_kinematics(ROBOT_RODS, ROBOT_JOINTS, arm='arm1')
-        elif kind == 'null':
-            res = c.call(Trigger, 'null/trigger', Trigger.Request(), timeout=2.0)
+        if kind == 'null':
+            srv, name, req = Trigger, 'null/trigger', Trigger.Request()
         else:
-            raise ValueError(kind)
+            where, _, base = kind.rpartition('/')
+            srv, name, req = REQUESTS[base]
+            name = f'/before/{name}' if where == 'before' else f'null/{base}' if where == 'null' else name
+        lost = c.lost
+        t0 = time.perf_counter()
+        res = c.call(srv, name, req, timeout=2.0)
         dt = time.perf_counter() - t0
         if not res.success:
             raise RuntimeError(f'{kind}: {res.message}')
         if c.lost != lost:  # a response was lost and the request re-sent: time a clean call instead
             return self.call(kind)
         return dt
+
+    def response(self, kind: str) -> object:
+        srv, name, req = REQUESTS[kind]
+        return self.client.call(srv, name, req, timeout=5.0)
 
     @property
     def lost(self) -> int:
@@ -151,12 +211,18 @@ def worker(kind: str, duration: float, start_at: float) -> None:
     print(json.dumps({'calls': n, 'elapsed': elapsed, 'lost': lost}))
 
 
-def latency(c: Caller, kind: str, calls: int) -> dict:
+def latency(c: Caller, kinds: list[str], calls: int) -> dict[str, dict[str, float]]:
+    """Round trips of ``kinds`` called in alternation (one call of each in turn, ``calls`` rounds after 50 of
+    warm-up): the median and 99th percentile of each [ms]."""
     for _ in range(50):
-        c.call(kind)
-    t = np.array([c.call(kind) for _ in range(calls)])
-    return {'median_ms': 1e3 * float(np.median(t)), 'p99_ms': 1e3 * float(np.percentile(t, 99)),
-            'calls': calls}
+        for k in kinds:
+            c.call(k)
+    t: dict[str, list[float]] = {k: [] for k in kinds}
+    for _ in range(calls):
+        for k in kinds:
+            t[k].append(c.call(k))
+    return {k: {'median_ms': 1e3 * float(np.median(v)), 'p99_ms': 1e3 * float(np.percentile(v, 99)), 'calls': calls}
+            for k, v in t.items()}
 
 
 def throughput(kind: str, clients: int, duration: float) -> float:
@@ -241,11 +307,19 @@ def one_station() -> object:
     return solve_stations(ROBOT, STATION, 'arm1')
 
 
+SERVICES = ('forward', 'inverse', 'compensate', 'mobility', 'robot_fk', 'station_ik')
+NAMES = {'forward': 'gpr/forward_kinematics', 'inverse': 'gpr/inverse_kinematics', 'compensate': 'gpr/compensate',
+         'mobility': 'gpr/analyze_mobility', 'robot_fk': 'gpr/robot_forward_kinematics (arm1)',
+         'station_ik': 'gpr/station_inverse_kinematics (arm1)'}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument('--calls', type=int, default=2000)
     ap.add_argument('--duration', type=float, default=5.0)
     ap.add_argument('--rates', default='50,100,200,500,1000')
+    ap.add_argument('--before', type=Path, metavar='TREE', help='also time the kinematics_node of this checkout')
+    ap.add_argument('--services-only', action='store_true', help='the round trips only (no throughput, no rates)')
     ap.add_argument('--worker')
     ap.add_argument('--start-at', type=float, default=0.0)
     args = ap.parse_args()
@@ -254,24 +328,39 @@ def main() -> int:
         return 0
 
     kin = NodeProcess('kinematics_node')
-    null = _null_server()
+    before = None
+    if args.before is not None:
+        before = subprocess.Popen([sys.executable, '-c', BEFORE_NODE, str(args.before.resolve() / 'gpr_kinematics')],
+                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    null, null_file = None, ''
     results: dict = {'machine': f'{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}',
-                     'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')}
+                     'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp'), 'load_start': os.getloadavg()}
     try:
         c = Caller('bench_client')
+        null, null_file = _null_server({k: c.response(k) for k in SERVICES})
         results['core_forward_ms'] = core_peer(lambda: forward(Q), args.calls)
         results['core_station_ik_ms'] = core_peer(one_station, args.calls // 10)
-        results['latency'] = {k: latency(c, k, args.calls if k in ('forward', 'null') else args.calls // 4)
-                              for k in ('null', 'forward', 'inverse', 'compensate', 'mobility')}
-        results['latency'].update({k: latency(c, k, args.calls // 10) for k in ('robot_fk', 'station_ik')})
+        results['latency'] = latency(c, ['null', 'null/forward', 'forward'], args.calls)
+        for k in SERVICES[1:]:
+            kinds = [f'null/{k}', k] + ([f'before/{k}'] if before is not None else [])
+            results['latency'].update(latency(c, kinds, args.calls // (4 if k in SERVICES[:4] else 10)))
+        if before is not None:
+            results['latency'].update(latency(c, ['null/forward', 'before/forward'], args.calls))
         results['lost_latency'] = c.lost
         c.close()
-        results['throughput'] = {f'{k}_{n}': throughput(k, n, args.duration)
-                                 for k in ('forward', 'null') for n in (1, 4)}
+        if not args.services_only:
+            results['throughput'] = {f'{k}_{n}': throughput(k, n, args.duration)
+                                     for k in ('forward', 'null') for n in (1, 4)}
     finally:
         kin.stop()
-        _stop(null)
-    results['trajectory'] = [trajectory_rate(float(r), args.duration) for r in args.rates.split(',')]
+        for proc in (null, before):
+            if proc is not None:
+                _stop(proc)
+        if null_file:
+            os.unlink(null_file)
+    if not args.services_only:
+        results['trajectory'] = [trajectory_rate(float(r), args.duration) for r in args.rates.split(',')]
+    results['load_end'] = os.getloadavg()
     print(json.dumps(results, indent=1))
     _markdown(results)
     return 0
@@ -279,31 +368,38 @@ def main() -> int:
 
 def _markdown(r: dict) -> None:
     lat = r['latency']
-    print('\n| service (round trip, 1 client) | median [ms] | p99 [ms] | median / null service |')
-    print('|---|---|---|---|')
-    for k, name in (('null', 'null rclpy service (std_srvs/Trigger), peer'),
-                    ('forward', 'gpr/forward_kinematics'), ('inverse', 'gpr/inverse_kinematics'),
-                    ('compensate', 'gpr/compensate'), ('mobility', 'gpr/analyze_mobility'),
-                    ('robot_fk', 'gpr/robot_forward_kinematics (arm1)'),
-                    ('station_ik', 'gpr/station_inverse_kinematics (arm1)')):
-        v = lat[k]
-        print(f'| {name} | {v["median_ms"]:.3f} | {v["p99_ms"]:.3f} | '
-              f'{v["median_ms"] / lat["null"]["median_ms"]:.2f} |')
+    before = any(k.startswith('before/') for k in lat)
+    print(f"\nload average {r['load_start'][0]:.2f} at the start, {r['load_end'][0]:.2f} at the end")
+    print('\n| service (round trip, 1 client) | null of its type [ms] | ours [ms] | ours / null | p99 ours [ms] |'
+          + (' before [ms] | before / null |' if before else ''))
+    print('|---|---:|---:|---:|---:|' + ('---:|---:|' if before else ''))
+    print(f'| std_srvs/Trigger null service | - | {lat["null"]["median_ms"]:.3f} | - | {lat["null"]["p99_ms"]:.3f} |'
+          + (' | |' if before else ''))
+    for k in SERVICES:
+        null, ours = lat[f'null/{k}']['median_ms'], lat[k]['median_ms']
+        row = f'| {NAMES[k]} | {null:.3f} | {ours:.3f} | {ours / null:.2f} | {lat[k]["p99_ms"]:.3f} |'
+        if before:
+            b = lat[f'before/{k}']['median_ms']
+            row += f' {b:.3f} | {b / null:.2f} |'
+        print(row)
     print(f'\nCore calls in-process (peers): `kinematics.forward` median {r["core_forward_ms"]:.3f} ms, the robot '
           f'core\'s `solve_stations` for one station {r["core_station_ik_ms"]:.3f} ms per call.')
-    t = r['throughput']
-    print('\n| calls/s | 1 client | 4 clients |\n|---|---|---|')
-    for k, name in (('forward', 'gpr/forward_kinematics'), ('null', 'null rclpy service (peer)')):
-        one, four = t[f'{k}_1'], t[f'{k}_4']
-        print(f'| {name} | {one["calls_per_s"]:.0f} (lost {one["lost"]}) | {four["calls_per_s"]:.0f} '
-              f'(lost {four["lost"]}) |')
     print(f'\nLost responses during the latency runs (re-sent): {r["lost_latency"]}')
-    print('\n| requested [Hz] | samples | in order | node timer [Hz] | header stamps [Hz] | arrivals [Hz] '
-          '| stamp error | p99 period [ms] |')
-    print('|---|---|---|---|---|---|---|---|')
-    for x in r['trajectory']:
-        print(f'| {x["requested_hz"]:.0f} | {x["samples"]} | {x["in_order"]} | {x["node_hz"]:.2f} | '
-              f'{x["stamp_hz"]:.2f} | {x["arrival_hz"]:.2f} | {x["error_pct"]:+.2f} % | {x["period_p99_ms"]:.2f} |')
+    if 'throughput' in r:
+        t = r['throughput']
+        print('\n| calls/s | 1 client | 4 clients |\n|---|---|---|')
+        for k, name in (('forward', 'gpr/forward_kinematics'), ('null', 'null rclpy service (peer)')):
+            one, four = t[f'{k}_1'], t[f'{k}_4']
+            print(f'| {name} | {one["calls_per_s"]:.0f} (lost {one["lost"]}) | {four["calls_per_s"]:.0f} '
+                  f'(lost {four["lost"]}) |')
+    if 'trajectory' in r:
+        print('\n| requested [Hz] | samples | in order | node timer [Hz] | header stamps [Hz] | arrivals [Hz] '
+              '| stamp error | p99 period [ms] |')
+        print('|---|---|---|---|---|---|---|---|')
+        for x in r['trajectory']:
+            print(f'| {x["requested_hz"]:.0f} | {x["samples"]} | {x["in_order"]} | {x["node_hz"]:.2f} | '
+                  f'{x["stamp_hz"]:.2f} | {x["arrival_hz"]:.2f} | {x["error_pct"]:+.2f} % | '
+                  f'{x["period_p99_ms"]:.2f} |')
 
 
 if __name__ == '__main__':

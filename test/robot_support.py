@@ -58,7 +58,7 @@ def random_postures(robot: RobotDescription, arm: str, n: int, seed: int = 0,
 
 def elbow_angle(robot: RobotDescription, arm: str, J: np.ndarray) -> np.ndarray:
     """Relative angle of the two-link sub-chain of each posture (0: stretched, the reach's edge)."""
-    from gpr_kinematics.robot.planar_arm import chain_forward
+    from gpr_kinematics.robot.arm_chain import chain_forward
     a = robot.arm(arm)
     axes, wafer, _ = chain_forward(a, J)
     keep = [k for k in range(len(a.joints)) if a.redundancy is None or k != a.redundancy.joint][:3]

@@ -3,7 +3,8 @@ import math
 
 import numpy as np
 import pytest
-from gpr_kinematics.robot.planar_arm import branch_of, chain_forward, link_vectors, solve_arm, two_link, wrap_to_limits
+from gpr_kinematics.robot.arm_chain import chain_forward, link_vectors, two_link, wrap_to_limits
+from gpr_kinematics.robot.planar_arm import branch_of, solve_arm
 from robot_support import ROBOT, make_robot, robot_data
 
 

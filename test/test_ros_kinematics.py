@@ -347,3 +347,38 @@ def test_executables_found_like_ros2_run():
         ros_env.find_executable('gpr_kinematics', 'no_such_node')
     with pytest.raises(FileNotFoundError, match='not found in the ament index'):
         ros_env.find_executable('no_such_package', 'x')
+
+
+def test_the_finiteness_check_of_a_response_names_the_field_the_walk_names(ros_environment):
+    """kinematics_node refuses a result with a NaN or an infinity in it: the check by one getter per response type
+    (conversions.first_non_finite) names the same field and value as the walk over every field, for a bad number
+    in each float field and array of every response."""
+    from gpr_kinematics.nodes.conversions import first_non_finite, non_finite_field
+
+    from gpr_interfaces import srv
+
+    for name in ('ForwardKinematics', 'InverseKinematics', 'Compensate', 'AnalyzeMobility', 'RobotForwardKinematics',
+                 'StationInverseKinematics'):
+        cls = getattr(srv, name).Response
+        paths = [(path, kind) for path, kind in _float_fields(cls(), '')]
+        assert paths and first_non_finite(cls()) is None
+        for path, kind in paths:
+            for bad in (math.nan, -math.inf):
+                msg = cls()
+                *parents, last = path.split('.')
+                target = msg
+                for part in parents:
+                    target = getattr(target, part)
+                setattr(target, last, bad if kind == 'double' else [0.5, bad, 0.25] if 'sequence' in kind
+                        else np.array([0.5, bad, 0.25]))
+                found = first_non_finite(msg)
+                assert found == non_finite_field(msg) and found is not None and found.startswith(path), (path, found)
+
+
+def _float_fields(msg, prefix):
+    for name, kind in msg.get_fields_and_field_types().items():
+        value = getattr(msg, name)
+        if hasattr(value, 'get_fields_and_field_types'):
+            yield from _float_fields(value, f'{prefix}{name}.')
+        elif kind == 'double' or kind.startswith(('sequence<double', 'double[3]')):
+            yield prefix + name, kind

@@ -36,9 +36,9 @@ from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..errors import InputError
+from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import Arm, RobotDescription
 from ..robot.forward import platform_to_blade
-from ..robot.planar_arm import LIMIT_SLACK
 from .core_model import check_limits
 from .files import comment_lines, read_text, write_text
 from .measurements import MAX_FILE_BYTES, REQUIRED_COLUMNS, Columns, Measurements, read_table

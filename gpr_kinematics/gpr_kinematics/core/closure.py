@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .compliance import minimum_cost_closure
 from .config import GprConfig
-from .ops import ARRAY, SCALAR, Ops
+from .ops import ARRAY, SCALAR, Ops, Value
 from .virtual_joints import (
     Closure,
     Components,
@@ -31,7 +31,7 @@ from .virtual_joints import (
 Array = NDArray[np.float64]
 
 
-def newton_terms(ops: Ops, comps: Components, L: Sequence[Any], wa: float) -> list[Any]:
+def newton_terms(ops: Ops, comps: Components, L: Sequence[Value], wa: float) -> list[Value]:
     """One Newton-Raphson step of the closure (paper eq. (8)), component-wise.
 
     ``J`` is sparse: row ``i`` (edge ``a -> b``: 1->2, 2->3, 3->1) depends only on the coordinates of
@@ -71,7 +71,7 @@ def newton_terms(ops: Ops, comps: Components, L: Sequence[Any], wa: float) -> li
     return dX
 
 
-def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Value], config: GprConfig) -> Closure:
     """Solve ``F(X) = 0`` for side lengths ``L`` (three floats, or three arrays ``(N,)``) by Newton-Raphson
     from the rest ``X``: the one loop of the single and the batch solve.
 
@@ -83,6 +83,7 @@ def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: G
     Raises:
         ConvergenceError: a sample did not reach the tolerance within ``max_iterations``.
     """
+    X: list[Value]
     if ops is SCALAR:
         X, comps = list(vjm.singular_floats), vjm.singular_components
     else:
@@ -111,7 +112,7 @@ def newton_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: G
     return Closure(X, comps, d, iterations, err)
 
 
-def solve_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+def solve_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Value], config: GprConfig) -> Closure:
     """The virtual joints of side lengths ``L`` under ``vjm``: the closure Newton loop (radial, polar, offset)
     or the minimum-cost fit (compliant, :func:`gpr_kinematics.core.compliance.minimum_cost_closure`)."""
     if vjm.name == 'compliant':
@@ -137,4 +138,4 @@ def solve_virtual_joints(L: Array, vjm: VirtualJointModel, config: GprConfig) ->
     sol = solve_closure(ARRAY, vjm, [np.ascontiguousarray(L[:, i]) for i in range(3)], config)
     return VirtualJointSolution(X=np.stack(sol.X, axis=-1), side_lengths=np.stack(sol.side_lengths, axis=-1),
                                 iterations=np.broadcast_to(sol.iterations, (n,)).astype(np.int64),
-                                residual=sol.residual, components=sol.components)
+                                residual=cast('Array', sol.residual), components=sol.components)

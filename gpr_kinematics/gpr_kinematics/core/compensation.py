@@ -29,7 +29,9 @@ its normal), never along the normal. Given the naive command ``T_c = (p_c, R_c)`
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,8 +40,10 @@ from ..errors import LimitError
 from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
-from .inverse import check_tool
-from .rotations import RigidTransform, matrix_from_quaternion, quaternion_from_matrix, tilt_from_matrix
+from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
+from .inverse import TOOL_REACH, check_tool
+from .ops import SCALAR
+from .rotations import RigidTransform, tilt_of_normal
 
 Array = NDArray[np.float64]
 
@@ -95,6 +99,24 @@ class CompensationResult:
         return self.arm_correction.apply(points)
 
 
+class CompensationFloats(NamedTuple):
+    """:func:`compensate` of one command in floats (the fields of :class:`CompensationResult`, the arm correction as
+    its ``translation`` [m] and ``quaternion`` (x, y, z, w))."""
+
+    q: list[float]
+    achieved: ForwardResult
+    command_tilt: float
+    command_azimuth: float
+    command_twist: float
+    tool_commanded: Vec3
+    tool_achieved: Vec3
+    tool_shift: Vec3
+    platform_point: Vec3
+    translation: Vec3
+    quaternion: Quat
+    iterations: int
+
+
 def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
                config: GprConfig | None = None, model: str | None = None) -> CompensationResult:
     """Actuator commands and arm correction for a naively commanded platform pose (module docstring).
@@ -109,27 +131,44 @@ def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLik
         LimitError: a commanded tilt beyond the tilt limit, a tool point beyond
             :data:`~gpr_kinematics.core.inverse.TOOL_REACH`, or rod lengths outside the stroke.
     """
-    cfg = resolve_config(config)
     p_c = finite_vector(position, 'position', 3)
     quat = unit_quaternion(quaternion, 'quaternion')
     tool = finite_vector(tool_offset, 'tool_offset', 3)
-    check_tool(tool, 'tool_offset')
-    R_c = matrix_from_quaternion(quat)
-    tilt, az, twist = (float(v) for v in tilt_from_matrix(R_c))
-    if tilt > cfg.tilt_limit:
-        raise LimitError(f'commanded tilt {tilt:.9g} rad ({np.degrees(tilt):.6g} deg) is beyond the tilt '
-                         f'limit {cfg.tilt_limit:.9g} rad ({np.degrees(cfg.tilt_limit):.6g} deg)')
-    tool_commanded = p_c + R_c @ tool
-    c, sn = np.cos(twist), np.sin(twist)
-    point = np.array([c * tool[0] - sn * tool[1], sn * tool[0] + c * tool[1], tool[2]])
-    ik = inverse(float(tool_commanded[2]), tilt, az, config=cfg, model=model, tool=point)
-    fk = ik.achieved
-    tool_achieved = fk.position + fk.rotation @ tool
-    C = fk.rotation.T @ R_c
+    x, y, z, w = quat.tolist()
+    one = compensate_one(cast('Vec3', tuple(p_c.tolist())), (x, y, z, w), cast('Vec3', tuple(tool.tolist())),
+                         resolve_config(config), model)
     return CompensationResult(
-        q=ik.q, achieved=fk, command_tilt=tilt, command_azimuth=az, command_twist=twist,
-        tool_offset=tool, tool_commanded=tool_commanded, tool_achieved=tool_achieved,
-        tool_shift=tool_achieved - tool_commanded, platform_point=point,
-        arm_correction=RigidTransform(translation=fk.rotation.T @ (p_c - fk.position),
-                                      quaternion=quaternion_from_matrix(C)),
-        iterations=ik.iterations)
+        q=np.array(one.q), achieved=one.achieved, command_tilt=one.command_tilt,
+        command_azimuth=one.command_azimuth, command_twist=one.command_twist, tool_offset=tool,
+        tool_commanded=np.array(one.tool_commanded), tool_achieved=np.array(one.tool_achieved),
+        tool_shift=np.array(one.tool_shift), platform_point=np.array(one.platform_point),
+        arm_correction=RigidTransform(translation=np.array(one.translation), quaternion=np.array(one.quaternion)),
+        iterations=one.iterations)
+
+
+def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str | None = None) -> CompensationFloats:
+    """:func:`compensate` in float arithmetic for a finite command position ``p_c`` [m], a unit quaternion ``quat``
+    and a finite tool point ``tool`` [m] (the caller checks them; the limits are checked here)."""
+    if max(abs(tool[0]), abs(tool[1]), abs(tool[2])) > TOOL_REACH / 1.8:  # the exact check only when close
+        check_tool(tool, 'tool_offset')
+    R_c = matrix_of(quat)
+    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, R_c[0][2], R_c[1][2], R_c[2][2]))
+    M = mat_tmul(tilt_matrix(tilt, az), R_c)
+    twist = math.atan2(M[1][0], M[0][0])
+    if tilt > cfg.tilt_limit:
+        raise LimitError(f'commanded tilt {tilt:.9g} rad ({math.degrees(tilt):.6g} deg) is beyond the tilt '
+                         f'limit {cfg.tilt_limit:.9g} rad ({math.degrees(cfg.tilt_limit):.6g} deg)')
+    a = mat_vec(R_c, tool)
+    commanded = (p_c[0] + a[0], p_c[1] + a[1], p_c[2] + a[2])
+    c, sn = math.cos(twist), math.sin(twist)
+    point = (c * tool[0] - sn * tool[1], sn * tool[0] + c * tool[1], tool[2])
+    ik = inverse(commanded[2], tilt, az, cfg, model, point)
+    fk = ik.achieved
+    (r0, r1, r2), (t0, t1, t2) = fk.rotation.tolist(), fk.position.tolist()
+    R: Mat3 = ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2]))
+    b = mat_vec(R, tool)
+    achieved = (t0 + b[0], t1 + b[1], t2 + b[2])
+    return CompensationFloats(
+        ik.q.tolist(), fk, tilt, az, twist, commanded, achieved,
+        (achieved[0] - commanded[0], achieved[1] - commanded[1], achieved[2] - commanded[2]), point,
+        mat_tvec(R, (p_c[0] - t0, p_c[1] - t1, p_c[2] - t2)), quaternion_of(mat_tmul(R, R_c)), ik.iterations)

@@ -41,17 +41,25 @@ the naive model (the reference values of ``docs/core.md``):
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from typing import Any
+from typing import NamedTuple, cast
 
 import numpy as np
 
 from .config import GprConfig
-from .ops import Ops
-from .virtual_joints import Closure, VirtualJointModel, joint_components, not_converged, side_errors, symmetric_solve3
+from .ops import SCALAR, Ops, Value
+from .virtual_joints import (
+    Closure,
+    VirtualJointModel,
+    joint_components,
+    not_converged,
+    side_errors,
+    symmetric_solve3,
+)
 
 
-def _triangle(ops: Ops, L: Sequence[Any], sign: Any) -> tuple[list[Any], list[Any]]:
+def _triangle(ops: Ops, L: Sequence[Value], sign: Value) -> tuple[list[Value], list[Value]]:
     """In-plane points ``Q_k`` with side lengths ``L = (L12, L23, L31)``: ``Q_1`` at the origin, ``Q_2`` on the
     x axis, ``Q_3`` on the side ``sign`` (+1: counter-clockwise, like the platform joints)."""
     L0, L1, L2 = L[0], L[1], L[2]
@@ -61,7 +69,83 @@ def _triangle(ops: Ops, L: Sequence[Any], sign: Any) -> tuple[list[Any], list[An
     return [zero, L0, x2], [zero, zero, y2]
 
 
-def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], config: GprConfig) -> Closure:
+class Stiffness(NamedTuple):
+    """What the minimum-cost closure takes from the model (floats, or arrays ``(N,)`` for one machine per row):
+    the platform joints ``p_k`` and their centroid [m], the side ``sign`` of the joint triangle, the stiffness
+    terms ``W_k = e_r e_r^T + kappa_k e_t e_t^T`` (``wxx, wxy, wyy`` per joint), their constant sum
+    ``H_tau,tau = (hxx, hxy, hyy)`` and the mean joint radius ``scale`` [m] that turns an angle into a length."""
+
+    px: list[Value]
+    py: list[Value]
+    pcx: Value
+    pcy: Value
+    sign: Value
+    wxx: list[Value]
+    wxy: list[Value]
+    wyy: list[Value]
+    hxx: Value
+    hxy: Value
+    hyy: Value
+    scale: Value
+
+
+def stiffness(vjm: VirtualJointModel) -> Stiffness:
+    """The :class:`Stiffness` of ``vjm`` (computed per solve for a batch; once per model for the one-pose path)."""
+    cs, sn, kap = vjm.cos, vjm.sin, vjm.kappa
+    px = [r * c for r, c in zip(vjm.rho, cs, strict=True)]
+    py = [r * s for r, s in zip(vjm.rho, sn, strict=True)]
+    turn = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
+    sign = np.where(turn > 0, 1.0, -1.0) if np.ndim(turn) else (1.0 if turn > 0 else -1.0)  # per row, or one
+    wxx = [cs[k] * cs[k] + kap[k] * sn[k] * sn[k] for k in range(3)]
+    wxy = [cs[k] * sn[k] * (1.0 - kap[k]) for k in range(3)]
+    wyy = [sn[k] * sn[k] + kap[k] * cs[k] * cs[k] for k in range(3)]
+    return Stiffness(px, py, sum(px) / 3.0, sum(py) / 3.0, sign, wxx, wxy, wyy, sum(wxx), sum(wxy), sum(wyy),
+                     sum(vjm.rho) / 3.0)
+
+
+def _start(ops: Ops, w: Stiffness, qx: list[Value], qy: list[Value], zero: Value) -> tuple[Value, Value, Value]:
+    """The isotropic optimum (2-D Kabsch): the centroids on each other, the rotation ``psi`` of best fit;
+    returns ``(tx, ty, psi)``."""
+    qcx, qcy = (qx[0] + qx[1] + qx[2]) / 3.0, (qy[0] + qy[1] + qy[2]) / 3.0
+    cross = dot = zero
+    for k in range(3):
+        ax, ay, bx, by = qx[k] - qcx, qy[k] - qcy, w.px[k] - w.pcx, w.py[k] - w.pcy
+        cross, dot = cross + ax * by - ay * bx, dot + ax * bx + ay * by
+    psi = ops.atan2(cross, dot)
+    c, s = ops.cos(psi), ops.sin(psi)
+    return w.pcx - (c * qcx - s * qcy), w.pcy - (s * qcx + c * qcy), psi
+
+
+def _newton_step(w: Stiffness, c: Value, s: Value, qx: list[Value], qy: list[Value], tx: Value, ty: Value,
+                 zero: Value) -> tuple[Value, Value, Value]:
+    """The Newton step ``H^-1 g`` on ``(tau, psi)`` at ``(tx, ty, psi)`` (``c, s``: ``cos psi, sin psi``), from
+    the gradient and Hessian of the module docstring (plain arithmetic: floats or arrays)."""
+    gx = gy = gp = hxp = hyp = hpp = zero
+    for k in range(3):
+        wxx, wxy, wyy = w.wxx[k], w.wxy[k], w.wyy[k]
+        mx, my = c * qx[k] - s * qy[k], s * qx[k] + c * qy[k]
+        dx, dy = mx + tx - w.px[k], my + ty - w.py[k]
+        wdx, wdy = wxx * dx + wxy * dy, wxy * dx + wyy * dy
+        jwx, jwy = wxx * -my + wxy * mx, wxy * -my + wyy * mx  # W_k J m_k
+        gx, gy, gp = gx + wdx, gy + wdy, gp + (-my * wdx + mx * wdy)
+        hxp, hyp = hxp + jwx, hyp + jwy
+        hpp = hpp + (-my * jwx + mx * jwy) - (mx * wdx + my * wdy)
+    return symmetric_solve3(w.hxx, w.hxy, hxp, w.hyy, hyp, hpp, gx, gy, gp)
+
+
+def _displacements(vjm: VirtualJointModel, w: Stiffness, c: Value, s: Value, qx: list[Value], qy: list[Value],
+                   tx: Value, ty: Value) -> list[Value]:
+    """``X = (dr_1..3, dt_1..3)``: the radial and tangential components of ``d_k = R(psi) Q_k + tau - p_k``."""
+    cs, sn = vjm.cos, vjm.sin
+    X: list[Value] = [0.0] * 6
+    for k in range(3):
+        dx = c * qx[k] - s * qy[k] + tx - w.px[k]
+        dy = s * qx[k] + c * qy[k] + ty - w.py[k]
+        X[k], X[k + 3] = cs[k] * dx + sn[k] * dy, -sn[k] * dx + cs[k] * dy
+    return X
+
+
+def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Value], config: GprConfig) -> Closure:
     """Virtual joints ``X = (dr_1..3, dt_1..3)`` [m] of minimum elastic cost for side lengths ``L`` (three
     floats, or three arrays ``(N,)``), by Newton's method on ``(tau, psi)`` (module docstring).
 
@@ -71,11 +155,7 @@ def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], con
     Raises:
         ConvergenceError: a sample's step is still above the tolerance after ``max_iterations`` steps.
     """
-    cs, sn, kap = vjm.cos, vjm.sin, vjm.kappa
-    px = [r * c for r, c in zip(vjm.rho, cs, strict=True)]
-    py = [r * s for r, s in zip(vjm.rho, sn, strict=True)]
-    turn = (px[1] - px[0]) * (py[2] - py[0]) - (py[1] - py[0]) * (px[2] - px[0])
-    sign = np.where(turn > 0, 1.0, -1.0) if np.ndim(turn) else (1.0 if turn > 0 else -1.0)  # per row, or one
+    w = stiffness(vjm)
     rest = [0.0 * L[0]] * 6
     rest_comps = joint_components(ops, vjm, rest)
     _, err = side_errors(ops, rest_comps, L)
@@ -83,52 +163,51 @@ def minimum_cost_closure(ops: Ops, vjm: VirtualJointModel, L: Sequence[Any], con
     if not ops.any(active):
         return Closure(rest, rest_comps, side_errors(ops, rest_comps, L)[0], 0 * active, err)
     moving = active
-    qx, qy = _triangle(ops, L, sign)
-    # Start: the isotropic optimum (2-D Kabsch): centroids on each other, the rotation of best fit.
-    qcx, qcy = (qx[0] + qx[1] + qx[2]) / 3.0, (qy[0] + qy[1] + qy[2]) / 3.0
-    pcx, pcy = sum(px) / 3.0, sum(py) / 3.0
-    cross = dot = 0.0 * L[0]
-    for k in range(3):
-        ax, ay, bx, by = qx[k] - qcx, qy[k] - qcy, px[k] - pcx, py[k] - pcy
-        cross, dot = cross + ax * by - ay * bx, dot + ax * bx + ay * by
-    psi = ops.atan2(cross, dot)
-    c, s = ops.cos(psi), ops.sin(psi)
-    tx, ty = pcx - (c * qcx - s * qcy), pcy - (s * qcx + c * qcy)
-    # W_k = e_r e_r^T + kappa_k e_t e_t^T; H_tau,tau = sum W_k is constant.
-    wxx = [cs[k] * cs[k] + kap[k] * sn[k] * sn[k] for k in range(3)]
-    wxy = [cs[k] * sn[k] * (1.0 - kap[k]) for k in range(3)]
-    wyy = [sn[k] * sn[k] + kap[k] * cs[k] * cs[k] for k in range(3)]
-    hxx, hxy, hyy = sum(wxx), sum(wxy), sum(wyy)
-    scale = sum(vjm.rho) / 3.0
+    zero = 0.0 * L[0]
+    qx, qy = _triangle(ops, L, w.sign)
+    tx, ty, psi = _start(ops, w, qx, qy, zero)
     iterations = 0 * active
     for _ in range(config.max_iterations):
-        c, s = ops.cos(psi), ops.sin(psi)
-        gx = gy = gp = hxp = hyp = hpp = 0.0 * L[0]
-        for k in range(3):
-            mx, my = c * qx[k] - s * qy[k], s * qx[k] + c * qy[k]
-            dx, dy = mx + tx - px[k], my + ty - py[k]
-            wdx, wdy = wxx[k] * dx + wxy[k] * dy, wxy[k] * dx + wyy[k] * dy
-            jwx, jwy = wxx[k] * -my + wxy[k] * mx, wxy[k] * -my + wyy[k] * mx  # W_k J m_k
-            gx, gy, gp = gx + wdx, gy + wdy, gp + (-my * wdx + mx * wdy)
-            hxp, hyp = hxp + jwx, hyp + jwy
-            hpp = hpp + (-my * jwx + mx * jwy) - (mx * wdx + my * wdy)
-        ex, ey, ep = symmetric_solve3(hxx, hxy, hxp, hyy, hyp, hpp, gx, gy, gp)
+        ex, ey, ep = _newton_step(w, ops.cos(psi), ops.sin(psi), qx, qy, tx, ty, zero)
         tx, ty, psi = ops.where(active, tx - ex, tx), ops.where(active, ty - ey, ty), ops.where(active, psi - ep, psi)
         iterations = iterations + active
-        step = ops.maximum(ops.maximum(ops.fabs(ex), ops.fabs(ey)), scale * ops.fabs(ep))
+        step = ops.maximum(ops.maximum(ops.fabs(ex), ops.fabs(ey)), w.scale * ops.fabs(ep))
         active = active & ops.not_(step <= config.tolerance)
         if not ops.any(active):
             break
     else:
         raise not_converged('compliant closure (minimum elastic cost)', config, step, active)
-    c, s = ops.cos(psi), ops.sin(psi)
-    X: list[Any] = [0.0] * 6
-    for k in range(3):
-        dx = c * qx[k] - s * qy[k] + tx - px[k]
-        dy = s * qx[k] + c * qy[k] + ty - py[k]
-        X[k] = ops.where(moving, cs[k] * dx + sn[k] * dy, rest[k])
-        X[k + 3] = ops.where(moving, -sn[k] * dx + cs[k] * dy, rest[k])
+    X = _displacements(vjm, w, ops.cos(psi), ops.sin(psi), qx, qy, tx, ty)
+    X = [ops.where(moving, x, r) for x, r in zip(X, rest, strict=True)]
     comps = joint_components(ops, vjm, X)
     d, err = side_errors(ops, comps, L)
     return Closure(X, comps, d, iterations, err)
 
+
+def minimum_cost_floats(vjm: VirtualJointModel, w: Stiffness, rest: Closure, L0: float, L1: float, L2: float,
+                        config: GprConfig) -> Closure:
+    """:func:`minimum_cost_closure` of one pose in float arithmetic (the same steps, to the last bit), with the
+    model's :func:`stiffness` ``w`` and the closure ``rest`` at rest (the side lengths of the joints ``p_k``)
+    computed once per model."""
+    L = (L0, L1, L2)
+    d0, d1, d2 = cast('list[float]', rest.side_lengths)
+    err = max(max(abs(d0 - L0), abs(d1 - L1)), abs(d2 - L2))
+    if err <= config.tolerance:
+        return Closure(rest.X, rest.components, rest.side_lengths, 0, err)
+    cos, sin, tol = math.cos, math.sin, config.tolerance
+    qx, qy = _triangle(SCALAR, L, w.sign)
+    tx, ty, psi = cast('tuple[float, float, float]', _start(SCALAR, w, qx, qy, 0.0))
+    iterations = 0
+    while True:
+        ex, ey, ep = cast('tuple[float, float, float]', _newton_step(w, cos(psi), sin(psi), qx, qy, tx, ty, 0.0))
+        tx, ty, psi = tx - ex, ty - ey, psi - ep
+        iterations += 1
+        step = max(max(abs(ex), abs(ey)), w.scale * abs(ep))
+        if step <= tol:
+            break
+        if iterations == config.max_iterations:
+            raise not_converged('compliant closure (minimum elastic cost)', config, step, True)
+    X = _displacements(vjm, w, cos(psi), sin(psi), qx, qy, tx, ty)
+    comps = joint_components(SCALAR, vjm, X)
+    d, residual = side_errors(SCALAR, comps, L)
+    return Closure(X, comps, d, iterations, residual)

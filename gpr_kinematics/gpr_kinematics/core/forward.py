@@ -8,8 +8,10 @@ Bratovanov & Sotirov §IV-V (``docs/references.md``); frames and conventions in 
 3. the rigid transform with ``P_k = Rot r_k(X) + t`` and the naive pose of the same rods
    (:func:`gpr_kinematics.core.platform_pose.platform_pose`); the *centre shift* is ``t - (0, 0, z_naive)``.
 
-One driver, :func:`_forward`, serves one pose (float arithmetic, no per-call numpy overhead) and a batch
-(vectorised over ``N``), with one limit check; the two agree to rounding (~1e-16).
+One driver, :func:`_forward`, serves a batch (vectorised over ``N``) and runs the same kernels on floats;
+:func:`forward` takes the one-pose path (:mod:`gpr_kinematics.core.single`, :func:`one_result`), which performs the
+driver's floating-point operations in the same order: the results are equal to the last bit, and equal to a batch
+row to rounding (~1e-16).
 
 >>> import math
 >>> fk = forward([0.5, 0.503, 0.498])
@@ -19,9 +21,9 @@ One driver, :func:`_forward`, serves one pose (float arithmetic, no per-call num
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Self, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,16 +33,17 @@ from ..inputs.validation import rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
-from .naive import NaiveState, naive_state
-from .ops import ARRAY, SCALAR, Ops
-from .platform_pose import PlatformPose, platform_pose
+from .naive import NaiveState, naive_state, tilt_matrix_of_normal
+from .ops import ARRAY, SCALAR, Ops, Value
+from .platform_pose import PlatformPose, RigidFit, platform_pose, rigid_fit
+from .rotations import tilt_of_normal
+from .single import Centres, OnePose, one_pose
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
 S = TypeVar('S')
 I = TypeVar('I')  # noqa: E741 - the iteration counts' type, next to S and B
 B = TypeVar('B')
-_F = TypeVar('_F', bound='_Forward[Any, Any, Any]')
 
 #: Margin [rad] by which a solved tilt may exceed ``tilt_limit`` (rounding of targets at the limit).
 TILT_LIMIT_SLACK = 1e-9
@@ -88,7 +91,7 @@ class _Forward(Generic[S, I, B]):
     fit_residual: S
 
     @classmethod
-    def from_fields(cls: type[_F], values: dict[str, Any]) -> _F:
+    def from_fields(cls, values: Mapping[str, object]) -> Self:
         """The result with every field given in ``values`` (checked), without the frozen ``__init__``'s
         per-field ``object.__setattr__`` (4 us of a 40 us single forward call); the instance stays frozen."""
         if values.keys() != _FIELD_NAMES:
@@ -130,15 +133,27 @@ class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
         """Platform normals ``(N, 3)``."""
         return self.rotation[:, :, 2]
 
+    @classmethod
+    def of_one(cls, one: ForwardResult) -> ForwardBatch:
+        """The batch of one row ``one`` (its arrays as views with a leading axis of length 1)."""
+        out: dict[str, Any] = {name: getattr(one, name) for name in _SHARED_FIELDS}
+        for name in _ROW_FIELDS:
+            out[name] = getattr(one, name)[None]
+        for name in _SCALAR_FIELDS:
+            out[name] = np.array([getattr(one, name)])
+        return cls.from_fields(out)
+
 
 #: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
 _SHARED_FIELDS = ('model', 'virtual_joint_names')
 _SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
 _ROW_FIELDS = tuple(f.name for f in fields(_Forward) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
 _FIELD_NAMES = {f.name for f in fields(_Forward)}
+#: The result of a driver: one pose's, or a batch's.
+Result = TypeVar('Result', ForwardResult, ForwardBatch)
 
 
-def side_lengths(ops: Ops, P: tuple[list[Any], list[Any], list[Any]]) -> list[Any]:
+def side_lengths(ops: Ops, P: tuple[list[Value], list[Value], list[Value]]) -> list[Value]:
     """``L_ij = |P_j - P_i|`` of the joint centres ``P = (x, y, z)`` (component lists), edges 1-2, 2-3, 3-1."""
     x, y, z = P
     out = []
@@ -148,12 +163,12 @@ def side_lengths(ops: Ops, P: tuple[list[Any], list[Any], list[Any]]) -> list[An
     return out
 
 
-def _rows(q: Sequence[Any]) -> NDArray[Any]:
+def _rows(q: Sequence[Value]) -> Array:
     """Rod lengths as an array ``(N, 3)`` for messages (from floats or columns)."""
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
 
 
-def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q') -> None:
+def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q') -> None:
     """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample."""
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
@@ -165,7 +180,7 @@ def check_stroke(ops: Ops, q: Sequence[Any], config: GprConfig, what: str = 'q')
                      f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
 
 
-def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: GprConfig) -> NaiveState:
+def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
     """Refuse ``q`` whose naive tilt exceeds the limit by 5 % (the real tilt differs by < 0.1 %; the margin
     keeps Newton inside its basin; the exact check follows the solve). Returns the naive state it computed."""
     naive = naive_state(ops, geo, q)
@@ -180,15 +195,15 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Any], config: 
     return naive
 
 
-def _check_tilt(q: Sequence[Any], tilt: Any, config: GprConfig) -> None:
+def _check_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
     raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {math.degrees(float(t[i])):.6g} deg, '
                      f'beyond the tilt limit {math.degrees(config.tilt_limit):.6g} deg')
 
 
-def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Any],
-               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Any], Closure, PlatformPose]:
+def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Value],
+               config: GprConfig, naive: NaiveState | None = None) -> tuple[list[Value], Closure, PlatformPose]:
     """Side lengths, solved virtual joints and platform pose of rods ``q`` (floats or columns): the kernel
     chain of forward kinematics, without limit checks (``naive``: the naive state of ``q`` if known)."""
     P = geo.joint_centres(q)
@@ -197,8 +212,8 @@ def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequen
     return L, closure, platform_pose(ops, geo, q, P, closure.components, naive)
 
 
-def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], vjm: VirtualJointModel,
-             config: GprConfig, L: list[Any], closure: Closure, pose: PlatformPose) -> Any:
+def assemble(ops: Ops, result: type[Result], q: Sequence[Value], vjm: VirtualJointModel, config: GprConfig,
+             L: list[Value], closure: Closure, pose: PlatformPose) -> Result:
     """The result dataclass (``ForwardResult`` for floats, ``ForwardBatch`` for columns) of a solved pose."""
     position = ops.vector(pose.position)
     z = pose.nominal_z
@@ -215,8 +230,8 @@ def assemble(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequ
         iterations=closure.iterations, residual=closure.residual, fit_residual=pose.fit_residual))
 
 
-def _forward(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], q: Sequence[Any], config: GprConfig,
-             vjm: VirtualJointModel, check_limits: bool, geometry: MachineGeometry | None = None) -> Any:
+def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConfig, vjm: VirtualJointModel,
+             check_limits: bool, geometry: MachineGeometry | None = None) -> Result:
     geo = MachineGeometry.of(config) if geometry is None else geometry
     naive = None
     if check_limits:
@@ -274,11 +289,75 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
             check_limits: bool = True) -> ForwardResult:
     """Forward kinematics of one configuration ``q = (q1, q2, q3)`` [m]; see :func:`forward_batch`.
 
-    Evaluated in float arithmetic by the same kernels and driver as the batch (no numpy overhead per step).
+    The one-pose path (:mod:`gpr_kinematics.core.single`): float arithmetic with the constants of the geometry and
+    model computed once, the limits checked in float comparisons (the batch's messages when one fails), the result
+    built from one array. Equal to the batch row to rounding (~1e-16).
     """
     cfg = resolve_config(config)
-    out: ForwardResult = _forward(SCALAR, ForwardResult, three_floats(q, 'q'), cfg, make_model(cfg, model),
-                                  check_limits)
+    kernel = one_pose(cfg, model)
+    q3 = three_floats(q, 'q')
+    q0, q1, q2 = q3
+    naive = None
+    if check_limits:
+        lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+        if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
+            check_stroke(SCALAR, q3, cfg)
+        naive = kernel.naive(q0, q1, q2)
+        h2, rest = naive[1], 1.0 - naive[1]
+        if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > 1.05 * cfg.tilt_limit:
+            _check_naive_tilt(SCALAR, kernel.geometry, q3, cfg)
+    P = kernel.centres(q0, q1, q2)
+    L = kernel.lengths(P)
+    closure = kernel.closure(*L)
+    out = one_result(kernel, q3, P, L, closure, rigid_fit(SCALAR, P, closure.components), naive)
+    if check_limits and out.tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:
+        _check_tilt(q3, out.tilt, cfg)
+    return out
+
+
+def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
+               frame: RigidFit, naive: NaiveState | None = None) -> ForwardResult:
+    """The :class:`ForwardResult` of one solved pose in floats: :func:`~gpr_kinematics.core.platform_pose.platform_pose`
+    from the rigid fit ``frame`` on, with its operations, and :func:`assemble`, fused: the values go straight into
+    one array, and every vector field is a view of it (no array and no ``__init__`` per field)."""
+    sqrt, atan2 = math.sqrt, math.atan2
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', frame)
+    (x0, x1, x2), (y0, y1, y2) = closure.components[0], closure.components[1]
+    (X0, X1, X2), (Y0, Y1, Y2), (Z0, Z1, Z2) = P
+    dx, dy, dz = r00 * x0 + r01 * y0 + tx - X0, r10 * x0 + r11 * y0 + ty - Y0, r20 * x0 + r21 * y0 + tz - Z0
+    fit = sqrt(dx * dx + dy * dy + dz * dz)
+    dx, dy, dz = r00 * x1 + r01 * y1 + tx - X1, r10 * x1 + r11 * y1 + ty - Y1, r20 * x1 + r21 * y1 + tz - Z1
+    fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
+    dx, dy, dz = r00 * x2 + r01 * y2 + tx - X2, r10 * x2 + r11 * y2 + ty - Y2, r20 * x2 + r21 * y2 + tz - Z2
+    fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
+    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, r02, r12, r22))
+    T = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, r02, r12, r22))
+    (t00, t01, _), (t10, t11, _), (t20, t21, _) = T
+    w4 = 2.0 * sqrt(1.0 + r00 + r11 + r22)
+    qx, qy, qz, qw = (r21 - r12) / w4, (r02 - r20) / w4, (r10 - r01) / w4, 0.25 * w4
+    inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    z, _, nx, ny, nz = cast('tuple[float, ...]', kernel.naive(q[0], q[1], q[2]) if naive is None else naive)
+    (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, nx,
+                                                                                                        ny, nz))
+    cw = sqrt(0.5 * (1.0 + nz))  # the naive tilt's quaternion (a sin(t/2), 0, cos(t/2))
+    half, zero = 0.5 / cw, 0.0 * z
+    geo = kernel.geometry
+    px, py = geo.px, geo.py
+    jd0, jd1, jd2 = (sqrt((x0 - px[0]) * (x0 - px[0]) + (y0 - py[0]) * (y0 - py[0])),
+                     sqrt((x1 - px[1]) * (x1 - px[1]) + (y1 - py[1]) * (y1 - py[1])),
+                     sqrt((x2 - px[2]) * (x2 - px[2]) + (y2 - py[2]) * (y2 - py[2])))
+    a = np.array([*q, *L, tx, ty, tz, r00, r01, r02, r10, r11, r12, r20, r21, r22, qx * inv, qy * inv, qz * inv,
+                  qw * inv, zero, zero, z, n00, n01, n02, n10, n11, n12, n20, n21, n22, -n12 * half, n02 * half,
+                  0.0 * cw, cw, tx - zero, ty - zero, tz - z, jd0, jd1, jd2, *closure.X])
+    out = ForwardResult.__new__(ForwardResult)
+    out.__dict__.update(
+        q=a[0:3], model=kernel.model.name, virtual_joints=a[44:], virtual_joint_names=kernel.names,
+        side_lengths=a[3:6], position=a[6:9], rotation=a[9:18].reshape(3, 3), quaternion=a[18:22], tilt=tilt,
+        tilt_azimuth=az, twist=atan2(t01 * r00 + t11 * r10 + t21 * r20, t00 * r00 + t10 * r10 + t20 * r20),
+        nominal_position=a[22:25], nominal_rotation=a[25:34].reshape(3, 3), nominal_quaternion=a[34:38],
+        centre_shift=a[38:41], joint_displacement=a[41:44],
+        within_budget=max(max(jd0, jd1), jd2) <= kernel.config.imperfection_budget, iterations=closure.iterations,
+        residual=closure.residual, fit_residual=fit)
     return out
 
 

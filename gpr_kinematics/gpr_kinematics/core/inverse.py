@@ -9,8 +9,9 @@ inverse (:func:`gpr_kinematics.core.naive.naive_rods`), the iteration
 
 where ``h(q), n(q)`` come from the virtual-joint forward kinematics, is Newton's method with the naive
 model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4), so each
-step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves one target (floats)
-and a batch (arrays); the last forward solve of the loop is the reported ``achieved`` pose.
+step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves a batch (arrays) and
+runs on floats; :func:`inverse` takes the one-pose path (:func:`inverse_one`: each step solves the closure and the
+rigid fit only) with the same operations. The last forward solve of the loop is the reported ``achieved`` pose.
 
 >>> import math
 >>> ik = inverse(0.5, math.radians(2.0), 0.0)     # 2 deg about the x axis at 0.5 m
@@ -22,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,10 +31,21 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
-from .forward import TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, assemble, check_stroke, solve_pose
+from .forward import (
+    TILT_LIMIT_SLACK,
+    ForwardBatch,
+    ForwardResult,
+    Result,
+    assemble,
+    check_stroke,
+    one_result,
+    solve_pose,
+)
 from .machine import MachineGeometry
 from .naive import naive_rods
-from .ops import ARRAY, SCALAR, Ops
+from .ops import ARRAY, SCALAR, Ops, Value
+from .platform_pose import rigid_fit
+from .single import OnePose, one_pose
 from .virtual_joints import VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -74,7 +86,7 @@ class InverseBatch:
         return InverseResult(q=self.q[i], achieved=self.achieved[i], iterations=int(self.iterations[i]))
 
 
-def _check_tilt_targets(ops: Ops, t: Any, config: GprConfig) -> None:
+def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
     if not ops.any(ops.fabs(t) > config.tilt_limit + TILT_LIMIT_SLACK):
         return
     a = np.atleast_1d(t)
@@ -95,22 +107,23 @@ def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
                          f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
 
 
-def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Any], tool: Sequence[Any], config: GprConfig
-                  ) -> tuple[Any, Any]:
+def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
+                  ) -> tuple[Value, Value]:
     """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
     normals ``n``: rod ``k`` of :func:`~gpr_kinematics.core.naive.naive_rods` is within ``[stroke_min, stroke_max]``
     for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
-    lo = hi = None
+    lo: Value = 0.0
+    hi: Value = 0.0
     for k in range(3):
         c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
         lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
         hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
-        lo = lo_k if lo is None else ops.maximum(lo, lo_k)
-        hi = hi_k if hi is None else -ops.maximum(-hi, -hi_k)
+        lo = lo_k if k == 0 else ops.maximum(lo, lo_k)
+        hi = hi_k if k == 0 else -ops.maximum(-hi, -hi_k)
     return lo, hi
 
 
-def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[Any], tool: Sequence[Any],
+def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence[Value], tool: Sequence[Value],
                   config: GprConfig) -> None:
     """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
     the solve, naming the heights allowed at that tilt; a height of 1e308 m never reaches the arithmetic."""
@@ -131,8 +144,8 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Any, t: Any, n: Sequence[An
                      f'{lo_:.6g} .. {hv:.6g} m')
 
 
-def _solve(ops: Ops, result: type[ForwardResult] | type[ForwardBatch], h: Any, t: Any, g: Any,
-           tool: Sequence[Any], config: GprConfig, vjm: VirtualJointModel) -> tuple[Any, Any]:
+def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,
+           vjm: VirtualJointModel) -> tuple[Result, Value]:
     """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
     _check_tilt_targets(ops, t, config)
     geo = MachineGeometry.of(config)
@@ -193,7 +206,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
                          'target, or one for all), got ' + ', '.join(str(c.shape[0]) for c in cols + [tools])
                          ) from None
     # One platform point for all targets (floats), or one per target (columns of length N).
-    tool_v: Sequence[Any] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
+    tool_v: Sequence[Value] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
                              [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
     achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm)
     return InverseBatch(q=achieved.q, achieved=achieved, iterations=np.asarray(iterations, dtype=np.int64))
@@ -201,11 +214,46 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
 
 def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None = None,
             model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseResult:
-    """Inverse kinematics of one target (float arithmetic, the same driver); see :func:`inverse_batch`."""
+    """Inverse kinematics of one target (the one-pose path of :mod:`gpr_kinematics.core.single`, the same steps as
+    the batch in float arithmetic); see :func:`inverse_batch`."""
     h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
     cfg = resolve_config(config)
+    kernel = one_pose(cfg, model)
     tool3 = three_floats(tool, 'tool')
     if max(abs(tool3[0]), abs(tool3[1]), abs(tool3[2])) > TOOL_REACH / 1.8:  # the exact check only when close
         check_tool(tool3)
-    achieved, iterations = _solve(SCALAR, ForwardResult, h, t, g, tool3, cfg, make_model(cfg, model))
-    return InverseResult(q=achieved.q, achieved=achieved, iterations=int(iterations))
+    return inverse_one(kernel, h, t, g, tool3)
+
+
+def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float]) -> InverseResult:
+    """:func:`_solve` of one target ``(h, t, g)`` with the tool point ``tool`` (floats, checked) on the one-pose
+    kernels: each step solves the closure and the rigid fit only; the pose of the last one is completed."""
+    cfg, geo = kernel.config, kernel.geometry
+    if abs(t) > cfg.tilt_limit + TILT_LIMIT_SLACK:
+        _check_tilt_targets(SCALAR, t, cfg)
+    s = math.sin(t)
+    n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
+    _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
+    q_target = cast('list[float]', naive_rods(geo, h, n_target, tool))
+    q = list(q_target)
+    t0, t1, t2 = tool
+    n0, n1, n2 = n_target
+    most = cfg.max_iterations
+    for iterations in range(most + 1):
+        P = kernel.centres(q[0], q[1], q[2])
+        L = kernel.lengths(P)
+        closure = kernel.closure(*L)
+        frame = rigid_fit(SCALAR, P, closure.components)
+        fr = cast('tuple[float, ...]', frame)
+        r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
+        h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
+        err = max(max(max(abs(h_now - h), abs(r02 - n0)), abs(r12 - n1)), abs(r22 - n2))
+        if err <= IK_TOLERANCE:
+            break
+        if iterations == most:
+            raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
+        q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
+        q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
+    check_stroke(SCALAR, q, cfg, what='q')
+    achieved = one_result(kernel, q, P, L, closure, frame)
+    return InverseResult(q=achieved.q, achieved=achieved, iterations=iterations)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -37,11 +37,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from .config import _TRIPLE_RANGES, MAX_SIDE_MISMATCH, MIN_TRIANGLE_ANGLE, GprConfig, Point2, Triple, nominal_points
+from .ops import Value
 
 Array = NDArray[np.float64]
 Floats3 = tuple[float, float, float]
 #: One value per rod or joint: floats (one machine) or arrays ``(N,)`` (one machine per row).
-Values3 = tuple[Any, Any, Any]
+Values3 = tuple[Value, Value, Value]
 
 
 def _floats(values: Sequence[float]) -> Floats3:
@@ -108,14 +109,18 @@ class MachineGeometry:
     def repeat(self, k: int) -> MachineGeometry:
         """The machines of :meth:`per_row`, each repeated for ``k`` consecutive samples (``rows * k`` rows):
         ``M`` machines at the same ``k`` configurations are built and checked once per machine."""
-        def rep(v: Any) -> Any:  # (a float shared by every row stays a float)
-            return tuple(rep(x) for x in v) if isinstance(v, tuple) else np.repeat(v, k) if np.ndim(v) else v
+        def rep(t: Values3) -> Values3:  # (a float shared by every row stays a float)
+            a, b, c = (np.repeat(v, k) if np.ndim(v) else v for v in t)
+            return a, b, c
 
         if not self.rows or self.play is not None:
             raise InputError('repeat() needs a per-row geometry (MachineGeometry.per_row) without play')
-        values = {f.name: rep(getattr(self, f.name)) for f in fields(self)
-                  if f.name not in ('upright', 'rows', 'play')}
-        return MachineGeometry(**values, upright=self.upright, rows=self.rows * k)
+        n0, n1, n2 = self.naive_inv
+        return MachineGeometry(
+            bx=rep(self.bx), by=rep(self.by), ux=rep(self.ux), uy=rep(self.uy), uz=rep(self.uz),
+            offsets=rep(self.offsets), px=rep(self.px), py=rep(self.py), rho=rep(self.rho), cos=rep(self.cos),
+            sin=rep(self.sin), kappa=rep(self.kappa), naive_inv=(rep(n0), rep(n1), rep(n2)), upright=self.upright,
+            rows=self.rows * k)
 
     def displaced(self, d: Array) -> MachineGeometry:
         """This geometry with the joint centre ``P_k`` of sample ``i`` displaced by ``d[i, k] (N, 3, 3)`` in
@@ -130,7 +135,7 @@ class MachineGeometry:
         play = tuple((D[:, 0, a], D[:, 1, a], D[:, 2, a]) for a in range(3))
         return replace(self, upright=False, play=play)  # type: ignore[arg-type]
 
-    def joint_centres(self, q: Sequence[Any]) -> tuple[list[Any], list[Any], list[Any]]:
+    def joint_centres(self, q: Sequence[Value]) -> tuple[list[Value], list[Value], list[Value]]:
         """``P_k = B_k + (q_k + o_k) u_k`` as component lists ``(x, y, z)`` over ``k`` (floats or arrays)."""
         if self.upright:  # exactly parallel rods without offsets: P_k = (B_k, q_k), no arithmetic
             return list(self.bx), list(self.by), list(q)
@@ -192,7 +197,7 @@ def _build(cfg: GprConfig) -> MachineGeometry:
                            upright=uz == (1.0, 1.0, 1.0) and offsets == (0.0, 0.0, 0.0))
 
 
-def _naive_inverse(px: Sequence[Any], py: Sequence[Any]) -> tuple[Values3, Values3, Values3]:
+def _naive_inverse(px: Sequence[Value], py: Sequence[Value]) -> tuple[Values3, Values3, Values3]:
     """Inverse of the matrix of rows ``r_k = (1, p_kx, p_ky)`` (the naive model's), as rows of entries (floats, or
     arrays for one machine per row): its columns are ``c_k = r_{k+1} x r_{k+2}`` over ``det = r_0 . c_0``."""
     c = [(px[(k + 1) % 3] * py[(k + 2) % 3] - px[(k + 2) % 3] * py[(k + 1) % 3], py[(k + 1) % 3] - py[(k + 2) % 3],
@@ -212,7 +217,7 @@ def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) 
         raise InputError(f'per-row geometry needs values of shape (N, {len(params)}), N >= 1, one column per '
                          f'parameter ({", ".join(p.name for p in params[:4])}{", ..." if len(params) > 4 else ""}); '
                          f'got shape {np.shape(values)}')
-    col: dict[str, Any] = dict(zip(PARAMETER_NAMES, parameter_vector(cfg).tolist(), strict=True))
+    col: dict[str, Value] = dict(zip(PARAMETER_NAMES, parameter_vector(cfg).tolist(), strict=True))
     col.update(zip((p.name for p in params), np.ascontiguousarray(V.T), strict=True))
     _check_rows(V, params, col)
 
@@ -246,7 +251,7 @@ def _triangles(x: Sequence[Array], y: Sequence[Array]) -> tuple[Array, Array, Ar
     return area, np.stack([np.hypot(a, b) for a, b in zip(ex, ey, strict=True)], axis=-1), angle
 
 
-def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Any]) -> None:
+def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Value]) -> None:
     """The checks of a geometry file (:mod:`gpr_kinematics.core.config`), row by row: the values ``V (N, len(params))``
     of ``params`` in their keys' ranges, then both triangles (``col``: every parameter's column or float)."""
     def fail(i: int, what: str) -> InputError:

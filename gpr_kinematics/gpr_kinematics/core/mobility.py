@@ -44,6 +44,7 @@ of the configuration of this machine, not a number that overflows.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,7 +53,9 @@ from ..errors import InputError, LimitError, brief
 from . import forward
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
-from .virtual_joints import EDGES, coordinate_scale, make_model
+from .ops import SCALAR
+from .single import one_pose
+from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components, make_model
 
 Array = NDArray[np.float64]
 
@@ -231,24 +234,27 @@ def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model
 
 
 def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> MobilityResult:
-    """Mobility and sensitivity analysis at rod lengths ``q`` [m] (module docstring)."""
+    """Mobility and sensitivity analysis at rod lengths ``q`` [m] (module docstring). One configuration: the joint
+    centres and the closure's Jacobian from the one-pose kernels (:mod:`gpr_kinematics.core.single`), ``dPhi/dP``
+    built once for the solve and the rank."""
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
     fk = forward(q, config=cfg, model=vjm.name)
-    geo = MachineGeometry.of(cfg)
+    kernel = one_pose(cfg, vjm.name)
+    geo = kernel.geometry
     u = np.array([geo.ux, geo.uy, geo.uz]).T
     M = vjm.size
-    dphi_dp = constraint_jacobian(geo.base_points(fk.q[None, :]), u)[0]
+    q0, q1, q2 = fk.q.tolist()
+    dphi_dp = constraint_jacobian(np.array(kernel.centres(q0, q1, q2)).T[None], u)[0]
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
-    _, J, _ = vjm.closure(fk.virtual_joints[None, :], np.zeros((1, 3)))
     dphi_dx = np.zeros((12, M))
-    dphi_dx[9:, :] = -J[0]
+    dphi_dx[9:, :] = -np.array(_closure_jacobian(vjm, fk.virtual_joints.tolist()))
     s = coordinate_scale(vjm, cfg)
     dx_dp = -(np.linalg.pinv(dphi_dx / s) / s[:, None]) @ dphi_dp
     evals, evecs = np.linalg.eigh(dx_dp.T @ dx_dp)
     sv = np.linalg.svd(dx_dp, compute_uv=False)
     sv = sv[sv > sv[0] * max(dx_dp.shape) * np.finfo(float).eps] if sv.size and sv[0] > 0 else sv[:0]
-    rank_p = int(rigid_rank(fk.q, cfg)[0])
+    rank_p = _rank(dphi_dp)
     bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
               'eq5': (float(sv[-1]), float(sv[0]))}
     return MobilityResult(
@@ -256,3 +262,21 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
         mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
         bounds=bounds, rod_directions=u, singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))
+
+
+def _closure_jacobian(vjm: VirtualJointModel, X: list[float]) -> list[list[float]]:
+    """``dF/dX`` (3 x M) of the closure ``F_i = d_i(X)^2 - L_i^2`` at one ``X`` in floats: row ``i`` (edge
+    ``a -> b``) is ``2 e_i . dr_b/dX - 2 e_i . dr_a/dX`` with ``e_i = r_b - r_a`` (the batch's
+    :meth:`~gpr_kinematics.core.virtual_joints.VirtualJointModel.closure`)."""
+    rx, ry, dlx, dly, dax, day = joint_components(SCALAR, vjm, X)
+    rows = []
+    for a, b in EDGES:
+        ex, ey = cast('float', rx[b]) - cast('float', rx[a]), cast('float', ry[b]) - cast('float', ry[a])
+        row = [0.0] * vjm.size
+        row[b] = 2.0 * (ex * cast('float', dlx[b]) + ey * cast('float', dly[b]))
+        row[a] = -2.0 * (ex * cast('float', dlx[a]) + ey * cast('float', dly[a]))
+        if vjm.size == 6 and dax is not None and day is not None:
+            row[3 + b] = 2.0 * (ex * cast('float', dax[b]) + ey * cast('float', day[b]))
+            row[3 + a] = -2.0 * (ex * cast('float', dax[a]) + ey * cast('float', day[a]))
+        rows.append(row)
+    return rows

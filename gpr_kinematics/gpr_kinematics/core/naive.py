@@ -21,7 +21,6 @@ old tool, given the calibrated geometry", so the centre shift it is compared wit
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,17 +29,17 @@ from ..errors import LimitError
 from ..inputs.validation import rows_of
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
-from .ops import ARRAY, Ops
+from .ops import ARRAY, Ops, Value
 from .rotations import AZIMUTH_UNDEFINED_BELOW, tilt_normal, tilt_of_normal, tilt_rotation
 
 Array = NDArray[np.float64]
 
 
 #: What :func:`naive_state` returns: ``(z, h2, nx, ny, nz)``, floats for one pose or columns for a batch.
-NaiveState = tuple[Any, Any, Any, Any, Any]
+NaiveState = tuple[Value, Value, Value, Value, Value]
 
 
-def naive_state(ops: Ops, geo: MachineGeometry, q: Sequence[Any]) -> NaiveState:
+def naive_state(ops: Ops, geo: MachineGeometry, q: Sequence[Value]) -> NaiveState:
     """Naive model for rod lengths ``q``: solve ``(q_k + o_k) u_kz = z + n' . p_k`` for ``z`` and ``n'_x, n'_y``.
 
     Returns ``(z, h2, nx, ny, nz)`` with the platform normal ``n = (-n'_x, -n'_y, n'_z)`` and
@@ -56,14 +55,14 @@ def naive_state(ops: Ops, geo: MachineGeometry, q: Sequence[Any]) -> NaiveState:
     return z, h2, -px, -py, ops.sqrt(ops.maximum(1.0 - h2, 0.0))
 
 
-def naive_rods(geo: MachineGeometry, h: Any, n: Sequence[Any], tool: Sequence[Any]) -> list[Any]:
+def naive_rods(geo: MachineGeometry, h: Value, n: Sequence[Value], tool: Sequence[Value]) -> list[Value]:
     """Naive inverse for a platform point ``tool`` at height ``h`` and platform normal ``n``:
     ``q_k = (h + n' . (p_k - tool)) / u_kz - o_k`` with ``n' = (-n_x, -n_y, n_z)``."""
     return [(h - n[0] * (geo.px[k] - tool[0]) - n[1] * (geo.py[k] - tool[1]) - n[2] * tool[2]) / geo.uz[k]
             - geo.offsets[k] for k in range(3)]
 
 
-def tilt_matrix_of_normal(ops: Ops, nx: Any, ny: Any, nz: Any) -> list[list[Any]]:
+def tilt_matrix_of_normal(ops: Ops, nx: Value, ny: Value, nz: Value) -> list[list[Value]]:
     """The pure tilt ``exp(t [a]x)`` taking ``e3`` to the unit normal ``n``, without trigonometry:
     ``sin t = |n_xy|``, ``cos t = n_z``, ``a = (-n_y, n_x) / |n_xy|`` (``a = e1`` when ``n = e3``)."""
     s = ops.hypot(nx, ny)
@@ -83,7 +82,7 @@ def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array,
     geo = MachineGeometry.of(resolve_config(config))
     Q = rows_of(q, 'q', 3)
     z, h2, nx, ny, nz = naive_state(ARRAY, geo, [Q[:, 0], Q[:, 1], Q[:, 2]])
-    if (h2 >= 1.0).any():
+    if np.any(h2 >= 1.0):
         i = int(np.argmax(h2))
         raise LimitError(f'q = {Q[i].tolist()} m implies no platform orientation')
     tilt, az = tilt_of_normal(ARRAY, nx, ny, nz)

@@ -18,17 +18,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, brief
-from .ops import ARRAY, Ops
+from .ops import ARRAY, Ops, Value
 
 Array = NDArray[np.float64]
-#: A component of the kernels written with :class:`~.ops.Ops`: one float (``SCALAR``) or a batch (``ARRAY``).
-Component = TypeVar('Component', float, Array)
 
 #: Below this tilt [rad] the azimuth is undefined and reported as 0.
 AZIMUTH_UNDEFINED_BELOW = 1e-15
@@ -118,7 +116,7 @@ def matrix_from_quaternion(quat: ArrayLike) -> Array:
     return R
 
 
-def tilt_of_normal(ops: Ops, nx: Component, ny: Component, nz: Component) -> tuple[Component, Component]:
+def tilt_of_normal(ops: Ops, nx: Value, ny: Value, nz: Value) -> tuple[Value, Value]:
     """Tilt (>= 0) and tilt azimuth in (-pi, pi] of a unit normal given by components (floats with
     ``ops = SCALAR`` or arrays with ``ops = ARRAY``).
 
@@ -134,7 +132,7 @@ def tilt_of_normal(ops: Ops, nx: Component, ny: Component, nz: Component) -> tup
 def tilt_from_normal(n: ArrayLike) -> tuple[Array, Array]:
     """:func:`tilt_of_normal` of unit platform normals ``(..., 3)``."""
     n = np.asarray(n, dtype=float)
-    return tilt_of_normal(ARRAY, n[..., 0], n[..., 1], n[..., 2])
+    return cast('tuple[Array, Array]', tilt_of_normal(ARRAY, n[..., 0], n[..., 1], n[..., 2]))
 
 
 def tilt_from_matrix(R: ArrayLike) -> tuple[Array, Array, Array]:

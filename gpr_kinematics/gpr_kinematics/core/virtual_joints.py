@@ -42,7 +42,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,11 +50,12 @@ from numpy.typing import NDArray
 from ..errors import ConvergenceError, InputError
 from .config import MODELS, GprConfig
 from .machine import MachineGeometry, Values3
-from .ops import ARRAY, SCALAR, Ops
+from .ops import ARRAY, SCALAR, Count, Mask, Ops, Value
 
 Array = NDArray[np.float64]
 #: ``(rx, ry, dlx, dly, dax, day)``: lists over the joints ``k``; see :func:`joint_components`.
-Components = tuple[list[Any], list[Any], list[Any], list[Any], list[Any] | None, list[Any] | None]
+Components = tuple[Sequence[Value], Sequence[Value], Sequence[Value], Sequence[Value], Sequence[Value] | None,
+                   Sequence[Value] | None]
 
 #: Edges of the joint triangle: (i, i % 3 + 1) in the paper's 1-based numbering.
 EDGES = ((0, 1), (1, 2), (2, 0))
@@ -104,8 +105,8 @@ class VirtualJointModel:
         return np.arange(self.size) >= (3 if self.name in ('polar', 'offset') else self.size)
 
     @functools.cached_property
-    def singular_floats(self) -> tuple[float, ...]:
-        """``X`` at rest (every joint at its place ``p_k``): the start of every solve."""
+    def singular_floats(self) -> tuple[Value, ...]:
+        """``X`` at rest (every joint at its place ``p_k``): the start of every solve (floats for one machine)."""
         lengths = self.rho if self.name in ('radial', 'polar') else (0.0, 0.0, 0.0)
         return tuple(lengths) + (0.0, 0.0, 0.0)[:self.size - 3]
 
@@ -127,7 +128,7 @@ class VirtualJointModel:
         X = np.asarray(X, dtype=float)
         rx, ry, dlx, dly, dax, day = joint_components(ARRAY, self, list(X.T))
 
-        def stack(cx: list[Any], cy: list[Any]) -> Array:
+        def stack(cx: Sequence[Value], cy: Sequence[Value]) -> Array:
             return np.broadcast_to(np.stack([np.stack(cx, -1), np.stack(cy, -1)], -1), (X.shape[0], 3, 2))
 
         r, dlin = stack(rx, ry), stack(dlx, dly)
@@ -187,7 +188,7 @@ def coordinate_scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
     so the norm is the elastic cost (``k_r = 1``)."""
     s = np.ones(vjm.size)
     if vjm.name == 'compliant':
-        s[3:] = np.sqrt(vjm.kappa)
+        s[3:] = np.sqrt(np.asarray(vjm.kappa, dtype=float))
     else:
         s[vjm.angular] = angle_scale(config)
     return s
@@ -201,7 +202,7 @@ def angular_weight(config: GprConfig) -> float:
     return w
 
 
-def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> Components:
+def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Value]) -> Components:
     """Components of ``r_k(X)`` and of its partials, for kernels (arrays of shape ``(N,)`` or floats).
 
     Returns ``(rx, ry, dlx, dly, dax, day)``, lists over ``k``: ``(dlx, dly)[k] = d r_k / d X_k`` and
@@ -233,7 +234,7 @@ def joint_components(ops: Ops, vjm: VirtualJointModel, X: Sequence[Any]) -> Comp
     return rx, ry, [u0, u1, u2], [v0, v1, v2], [-l0 * v0, -l1 * v1, -l2 * v2], [l0 * u0, l1 * u1, l2 * u2]
 
 
-def side_errors(ops: Ops, comps: Components, L: Sequence[Any]) -> tuple[list[Any], Any]:
+def side_errors(ops: Ops, comps: Components, L: Sequence[Value]) -> tuple[list[Value], Value]:
     """Side lengths ``d_i(X)`` and the closure error ``max_i |d_i - L_i|`` [m] from
     :func:`joint_components` (no Jacobian)."""
     (x0, x1, x2), (y0, y1, y2) = comps[0], comps[1]
@@ -243,8 +244,8 @@ def side_errors(ops: Ops, comps: Components, L: Sequence[Any]) -> tuple[list[Any
     return d, maximum(maximum(fabs(d[0] - L[0]), fabs(d[1] - L[1])), fabs(d[2] - L[2]))
 
 
-def symmetric_solve3(g00: Any, g01: Any, g02: Any, g11: Any, g12: Any, g22: Any,
-                     b0: Any, b1: Any, b2: Any) -> tuple[Any, Any, Any]:
+def symmetric_solve3(g00: Value, g01: Value, g02: Value, g11: Value, g12: Value, g22: Value,
+                     b0: Value, b1: Value, b2: Value) -> tuple[Value, Value, Value]:
     """``G^-1 b`` for the symmetric 3x3 ``G`` of the entries ``g_ij`` (i <= j), by its adjugate
     (component-wise: floats or arrays)."""
     c00, c11, c22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
@@ -259,14 +260,14 @@ class Closure(NamedTuple):
     components), their :func:`joint_components`, the side lengths ``d_i(X)`` [m], the iterations taken and
     the closure error ``max_i |d_i - L_i|`` [m]."""
 
-    X: list[Any]
+    X: list[Value]
     components: Components
-    side_lengths: list[Any]
-    iterations: Any
-    residual: Any
+    side_lengths: list[Value]
+    iterations: Count
+    residual: Value
 
 
-def not_converged(what: str, config: GprConfig, err: Any, active: Any) -> ConvergenceError:
+def not_converged(what: str, config: GprConfig, err: Value, active: Mask) -> ConvergenceError:
     """The error of a Newton loop that used up ``max_iterations``: the worst sample's error [m]
     (``err``, ``active``: a float and a bool for one pose, arrays for a batch, which name the sample)."""
     e = np.where(active, err, -1.0)

@@ -118,6 +118,8 @@ def three_floats(values: Any, name: str) -> list[float]:
 
 def single_number(value: Any, name: str) -> float:
     """One finite number (not an array); else :class:`InputError` naming ``name``."""
+    if type(value) is float and math.isfinite(value):  # the common case, without numpy
+        return value
     if np.ndim(value) != 0:
         raise InputError(f'{name} must be a single number, got shape {np.shape(value)}')
     return float(column_of(value, name)[0])

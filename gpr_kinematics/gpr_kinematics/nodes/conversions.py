@@ -10,8 +10,9 @@ import array
 import functools
 import importlib
 import math
+import operator
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -23,10 +24,12 @@ from std_msgs.msg import Header
 from gpr_interfaces.msg import PlatformState, RobotState
 
 from ..bags.errors import BagError
-from ..core.messages import MessageTypes, fill_fields, forward_fields
+from ..core import ForwardResult
+from ..core.floats import FloatPose, Quat, Vec3, quaternion_of
+from ..core.messages import STATE_FROM_RESULT, MessageTypes
 from ..core.rotations import matrix_from_quaternion, tilt_from_matrix
 from ..errors import InputError, brief
-from ..inputs.validation import finite_vector, unit_quaternion
+from ..inputs.validation import QUATERNION_NORM_TOLERANCE, finite_vector, unit_quaternion
 
 #: A vector of numbers given to a message builder: a sequence or a numpy array (SI units).
 Vector: TypeAlias = Sequence[float] | np.ndarray
@@ -91,12 +94,153 @@ ROS_TYPES = MessageTypes(Time=Time, Header=Header, Point=Point, Quaternion=Quate
                          float_sequence=lambda values: array.array('d', values), RobotState=RobotState)
 
 
-def fill_forward(msg: Any, fk: Any) -> Any:
-    """Copy a core ``ForwardResult`` into a ForwardKinematics response (the fields of
-    :data:`gpr_kinematics.core.messages.STATE_FROM_RESULT` but ``q``, which the request carries)."""
-    fields = forward_fields(ROS_TYPES, fk)
-    del fields['q']
-    return fill_fields(msg, fields)
+def _path(name: str) -> tuple[str, ...]:
+    return tuple(name.split('.'))
+
+
+#: The response fields of :data:`~gpr_kinematics.core.messages.STATE_FROM_RESULT` but ``q`` (the request carries it),
+#: as attribute paths, with the result's attribute.
+_FORWARD_PATHS = tuple((_path(field), attr) for field, attr in STATE_FROM_RESULT if field != 'q')
+
+
+def fill_forward(msg: Any, fk: ForwardResult) -> Any:
+    """Copy a core ``ForwardResult`` into a ForwardKinematics response in place (the fields of
+    :data:`gpr_kinematics.core.messages.STATE_FROM_RESULT` but ``q``, which the request carries): vectors into the
+    response's own Point, Quaternion and Vector3, no message built."""
+    for path, attr in _FORWARD_PATHS:
+        value = getattr(fk, attr)
+        parent = msg
+        for name in path[:-1]:
+            parent = getattr(parent, name)
+        if isinstance(value, np.ndarray):
+            values = value.tolist()
+            target = getattr(parent, path[-1])
+            if isinstance(target, (Point, Vector3)):
+                target.x, target.y, target.z = values
+            elif isinstance(target, Quaternion):
+                target.x, target.y, target.z, target.w = values
+            else:
+                setattr(parent, path[-1], values)
+        else:
+            setattr(parent, path[-1], list(value) if isinstance(value, tuple) else value)
+    return msg
+
+
+def floats_of(values: Any, name: str, size: int) -> list[float]:
+    """``size`` finite floats of a message's array field (:func:`~gpr_kinematics.inputs.validation.finite_vector`'s
+    refusal, naming the field, where they are not)."""
+    if len(values) == size:
+        out = [float(v) for v in values]
+        if all(map(math.isfinite, out)):
+            return out
+    finite_vector(values, name, size)
+    raise AssertionError('finite_vector accepted what was refused')  # pragma: no cover - it raises
+
+
+def point_floats(p: Point | Vector3, name: str) -> Vec3:
+    """(x, y, z) of a Point or Vector3 [m] as floats, checked finite (:func:`point_array`'s refusal otherwise)."""
+    x, y, z = p.x, p.y, p.z
+    if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+        return x, y, z
+    point_array(p, name)
+    raise AssertionError('point_array accepted what was refused')  # pragma: no cover - it raises
+
+
+def quaternion_floats(q: Quaternion, name: str) -> Quat:
+    """(x, y, z, w) of a Quaternion, checked finite and of unit norm, normalised, as floats
+    (:func:`quaternion_array`'s refusal otherwise)."""
+    x, y, z, w = q.x, q.y, q.z, q.w
+    if math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(w):
+        norm = math.sqrt(x * x + y * y + z * z + w * w)
+        if abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE:
+            return x / norm, y / norm, z / norm, w / norm
+    quaternion_array(q, name)
+    raise AssertionError('quaternion_array accepted what was refused')  # pragma: no cover - it raises
+
+
+def set_vector(msg: Point | Vector3, v: Vec3) -> None:
+    """Set a Point's or Vector3's x, y, z in place."""
+    msg.x, msg.y, msg.z = v
+
+
+def set_pose(msg: Pose, pose: FloatPose) -> None:
+    """Set a Pose in place from a position [m] and a rotation matrix (its quaternion, w >= 0)."""
+    msg.position.x, msg.position.y, msg.position.z = pose[0]
+    o = msg.orientation
+    o.x, o.y, o.z, o.w = quaternion_of(pose[1])
+
+
+#: The numbers a message class holds: attribute paths of its float fields and of its float arrays, in field order
+#: (False: an array), or None where it holds messages in arrays (then every value is walked).
+NumberPaths = tuple[tuple[str, bool], ...] | None
+
+
+_NUMBER_PATHS: dict[type, NumberPaths] = {}
+
+
+def _number_paths(cls: type) -> NumberPaths:
+    if cls in _NUMBER_PATHS:
+        return _NUMBER_PATHS[cls]
+    out: list[tuple[str, bool]] = []
+
+    def walk(msg: Any, prefix: str) -> bool:
+        for name, kind in msg.get_fields_and_field_types().items():
+            value = getattr(msg, name)
+            if hasattr(value, 'get_fields_and_field_types'):
+                if not walk(value, f'{prefix}{name}.'):
+                    return False
+            elif kind in ('double', 'float'):
+                out.append((prefix + name, True))
+            elif kind.startswith(('sequence<double', 'sequence<float', 'double[', 'float[')):
+                out.append((prefix + name, False))
+            elif '/' in kind:  # an array of messages
+                return False
+        return True
+
+    found = _NUMBER_PATHS[cls] = tuple(out) if walk(cls(), '') else None
+    return found
+
+
+@functools.cache
+def _getter(paths: tuple[str, ...]) -> Callable[[Any], Any]:
+    get = operator.attrgetter(*paths)
+    return (lambda msg: (get(msg),)) if len(paths) == 1 else get
+
+
+def first_non_finite(msg: Any) -> str | None:
+    """Path and value of the first non-finite number in a message (nested messages and arrays included), or
+    None: a response never reports success with an infinite or NaN number in it. The float fields of a message
+    class are found once and read with one getter (:func:`non_finite_field` walks every field)."""
+    paths = _number_paths(type(msg))
+    if paths is None:
+        return non_finite_field(msg)
+    values = _getter(tuple(p for p, _ in paths))(msg)
+    ok = True
+    for (_, scalar), value in zip(paths, values, strict=True):
+        if not (math.isfinite(value) if scalar else all(map(math.isfinite, value))):
+            ok = False
+            break
+    return None if ok else non_finite_field(msg)
+
+
+def non_finite_field(msg: Any, prefix: str = '') -> str | None:
+    """:func:`first_non_finite` by walking every field of the message (nested messages and arrays included)."""
+    for name in msg.get_fields_and_field_types():
+        value = getattr(msg, name)
+        path = f'{prefix}{name}'
+        if hasattr(value, 'get_fields_and_field_types'):
+            found = non_finite_field(value, path + '.')
+            if found:
+                return found
+        elif isinstance(value, float):
+            if not math.isfinite(value):
+                return f'{path} = {value!r}'
+        elif isinstance(value, (list, tuple, np.ndarray, array.array)) and len(value) and \
+                isinstance(value[0], (float, np.floating)):
+            bad = [i for i, v in enumerate(value) if not math.isfinite(float(v))]
+            if bad:
+                return f'{path}[{bad[0]}] = {float(value[bad[0]])!r}'
+    return None
 
 
 def non_negative_finite(value: float, name: str) -> float:

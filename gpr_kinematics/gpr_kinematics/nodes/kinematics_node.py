@@ -1,17 +1,10 @@
 """``kinematics_node``: GPR forward/inverse kinematics, compensation and mobility analysis as ROS 2 services.
 
-Services (relative names, so ``__ns`` and remapping apply), types from ``gpr_interfaces``:
-
-- ``gpr/forward_kinematics`` (ForwardKinematics): rod lengths -> platform pose (core ``kinematics.forward``);
-- ``gpr/inverse_kinematics`` (InverseKinematics): height and tilt of ``target`` -> rod lengths
-  (core ``kinematics.inverse``; the tilt and tilt azimuth come from ``target.orientation`` through
-  ``R = tilt_rotation(tilt, azimuth) Rz(twist)``, the twist is an outcome);
-- ``gpr/compensate`` (Compensate): naive command pose + tool offset -> rod lengths, reached pose, tool shift
-  and arm correction (core ``compensation.compensate``);
-- ``gpr/analyze_mobility`` (AnalyzeMobility): ranks, singular values and the bounds of paper eq. (4), (5)
-  (core ``mobility.analyze_mobility``);
-- ``gpr/robot_forward_kinematics`` (RobotForwardKinematics) and ``gpr/station_inverse_kinematics``
-  (StationInverseKinematics): the whole robot, its arms and wafers in the world (:mod:`.robot_services`).
+Services (relative names, so ``__ns`` and remapping apply), types from ``gpr_interfaces``: the platform's
+(``gpr/forward_kinematics``, ``gpr/inverse_kinematics``, ``gpr/compensate``, ``gpr/analyze_mobility``:
+:mod:`.platform_services`) and the whole robot's (``gpr/robot_forward_kinematics``,
+``gpr/station_inverse_kinematics``: :mod:`.robot_services`). Each callback is request -> the core's one-pose or
+one-station path -> the response, filled in place; this module adds what every service shares (:func:`guarded`).
 
 Parameters: ``robot_file`` (the robot description, default the shipped example; its ``gpr`` section is the geometry
 unless ``config_file`` is given) and the GprConfig keys (see :mod:`.params`). Units SI (m, rad). A bad request
@@ -28,9 +21,7 @@ drains its queue, instead of answering requests their clients gave up on.
 """
 from __future__ import annotations
 
-import array
 import functools
-import math
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -47,47 +38,17 @@ from gpr_interfaces.srv import (
     StationInverseKinematics,
 )
 
-from ..core import forward, inverse
-from ..core.compensation import compensate
 from ..core.config import GprConfig
-from ..core.mobility import analyze_mobility
 from ..errors import GprError, InputError
-from ..inputs.validation import finite_vector
 from ..ros.specs import KINEMATICS
-from .conversions import fill_forward, point_array, pose_arrays, pose_msg, tilt_of_quaternion, transform_msg, vector_msg
+from .conversions import first_non_finite
 from .params import ConfigParameters, declare_parameters, declare_robot
+from .platform_services import answer_compensate, answer_forward, answer_inverse, answer_mobility
 from .qos import service_qos
 from .robot_services import RobotModels, fill_robot_forward, fill_station_inverse
 from .runtime import GprNode, QueueTimedExecutor, one_line, run
 
 NODE_NAME = 'kinematics_node'
-
-
-def _model(name: str) -> str | None:
-    """Empty model string: the node's default (``None`` for the core); any other is taken exactly as sent (the core
-    refuses a name that is not a model: ``"radial\\n"`` and ``" radial"`` are not)."""
-    return name or None
-
-
-def non_finite_field(msg: Any, prefix: str = '') -> str | None:
-    """Path and value of the first non-finite number in a message (nested messages and arrays included), or
-    None: a response never reports success with an infinite or NaN number in it."""
-    for name in msg.get_fields_and_field_types():
-        value = getattr(msg, name)
-        path = f'{prefix}{name}'
-        if hasattr(value, 'get_fields_and_field_types'):
-            found = non_finite_field(value, path + '.')
-            if found:
-                return found
-        elif isinstance(value, float):
-            if not math.isfinite(value):
-                return f'{path} = {value!r}'
-        elif isinstance(value, (list, tuple, np.ndarray, array.array)) and len(value) and \
-                isinstance(value[0], (float, np.floating)):
-            bad = [i for i, v in enumerate(value) if not math.isfinite(float(v))]
-            if bad:
-                return f'{path}[{bad[0]}] = {float(value[bad[0]])!r}'
-    return None
 
 
 def guarded(service: str) -> Callable[..., Any]:
@@ -107,7 +68,7 @@ def guarded(service: str) -> Callable[..., Any]:
                 # Hostile numbers (1e308) overflow on the way: the result is then refused as not finite, below.
                 with np.errstate(all='ignore'):
                     fn(self, request, response)
-                bad = non_finite_field(response)
+                bad = first_non_finite(response)
                 if bad is not None:
                     raise InputError(f'the result is not finite ({bad}): the request is beyond what the model '
                                      'can represent')
@@ -178,40 +139,19 @@ class KinematicsNode(GprNode):
 
     @guarded('forward_kinematics')
     def on_forward(self, request: ForwardKinematics.Request, response: ForwardKinematics.Response) -> None:
-        q = finite_vector(request.q, 'q', 3)
-        fk = forward(q, self.config, _model(request.model))
-        fill_forward(response, fk)
+        answer_forward(self.config, request, response)
 
     @guarded('inverse_kinematics')
     def on_inverse(self, request: InverseKinematics.Request, response: InverseKinematics.Response) -> None:
-        position, quat = pose_arrays(request.target, 'target')
-        tilt, azimuth, _twist = tilt_of_quaternion(quat)
-        ik = inverse(float(position[2]), tilt, azimuth, self.config, _model(request.model))
-        fk = ik.achieved
-        response.q = np.asarray(ik.q, dtype=float).reshape(3)
-        response.achieved = pose_msg(fk.position, fk.quaternion)
-        response.tilt = float(fk.tilt)
-        response.tilt_azimuth = float(fk.tilt_azimuth)
-        response.twist = float(fk.twist)
-        response.iterations = int(ik.iterations)
+        answer_inverse(self.config, request, response)
 
     @guarded('compensate')
     def on_compensate(self, request: Compensate.Request, response: Compensate.Response) -> None:
-        position, quat = pose_arrays(request.command, 'command')
-        tool = point_array(request.tool_offset, 'tool_offset')
-        res = compensate(position, quat, tool_offset=tool, config=self.config, model=_model(request.model))
-        fk = res.achieved
-        response.q = np.asarray(res.q, dtype=float).reshape(3)
-        response.achieved = pose_msg(fk.position, fk.quaternion)
-        response.tool_shift = vector_msg(res.tool_shift)
-        response.arm_correction = transform_msg(res.arm_correction_translation, res.arm_correction_quaternion)
+        answer_compensate(self.config, request, response)
 
     @guarded('analyze_mobility')
     def on_mobility(self, request: AnalyzeMobility.Request, response: AnalyzeMobility.Response) -> None:
-        q = finite_vector(request.q, 'q', 3)
-        dq = finite_vector(request.dq, 'dq', 3)
-        res = analyze_mobility(q, self.config, _model(request.model))
-        fill_mobility(response, res, dq)
+        answer_mobility(self.config, request, response)
 
     @guarded('robot_forward_kinematics')
     def on_robot_forward(self, request: RobotForwardKinematics.Request,
@@ -222,25 +162,6 @@ class KinematicsNode(GprNode):
     def on_station_inverse(self, request: StationInverseKinematics.Request,
                            response: StationInverseKinematics.Response) -> None:
         fill_station_inverse(self.robot_models.get(self.params.robot, request.model), request, response)
-
-
-def fill_mobility(response: Any, res: Any, dq: np.ndarray | None = None) -> Any:
-    """Copy a core ``MobilityResult`` into an AnalyzeMobility response; with a non-zero ``dq`` [m] also
-    ``|dX|`` and the bounds (4), (5) for ``dP = res.rod_perturbation(dq)`` (along the machine's own rod directions
-    ``u_k``: rods that are not parallel move their joint centres off the base z axis)."""
-    response.rank_dphi_dp = int(res.rank_dphi_dp)
-    response.rank_augmented = int(res.rank_augmented)
-    response.mobility = int(res.mobility)
-    response.singular_values = [float(v) for v in np.asarray(res.singular_values).reshape(-1)]
-    response.eigenvalues = [float(v) for v in np.asarray(res.eigenvalues).reshape(-1)]
-    response.eq4_lower, response.eq4_upper = (float(v) for v in res.bounds['eq4'])
-    response.eq5_lower, response.eq5_upper = (float(v) for v in res.bounds['eq5'])
-    if dq is not None and np.any(dq != 0.0):
-        b = res.dx_bounds(res.rod_perturbation(dq))
-        response.dx_norm = b.norm_dx
-        response.dx_lower_eq4, response.dx_upper_eq4 = b.lower_eq4, b.upper_eq4
-        response.dx_lower_eq5, response.dx_upper_eq5 = b.lower_eq5, b.upper_eq5
-    return response
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -19,15 +19,18 @@ import dataclasses
 import math
 from typing import Any
 
-import numpy as np
-
+from ..core import ForwardResult
 from ..core.config import MODELS
+from ..core.floats import angle_between, compose_one
 from ..errors import InputError, brief
-from ..inputs.validation import finite_number, finite_vector
+from ..inputs.validation import MAX_COORDINATE, finite_number
 from ..robot import Stations, robot_forward, solve_stations
-from ..robot.description import Arm, RobotDescription
-from ..robot.transforms import PoseBatch
-from .conversions import point_array, pose_msg, vector_msg
+from ..robot.arm_chain import LIMIT_SLACK
+from ..robot.description import BRANCHES, Arm, RobotDescription
+from ..robot.forward import forward_floats, naive_platform_one
+from ..robot.one_station import StationFloats, station_floats
+from ..robot.planar_arm import branch_sign
+from .conversions import floats_of, point_array, set_pose, set_vector
 
 #: The name the refusals of the station service give the requested station (``station request: out of reach``).
 REQUEST_NAME = 'request'
@@ -67,45 +70,56 @@ def _arm(robot: RobotDescription, name: str) -> Arm:
                      f'{robot.name})')
 
 
-def _joints(values: Any, arm: Arm, field: str) -> np.ndarray:
+def _joints(values: Any, arm: Arm, field: str) -> list[float]:
     """The arm's joint values [rad]: as many as it has, finite (InputError naming the joint otherwise)."""
     n = len(arm.joints)
     if len(values) != n:
         raise InputError(f'{field}: {len(values)} values given; arm {arm.name} has {n} joints '
                          f'({", ".join(arm.joint_names)}) [rad]')
-    out = np.asarray(values, dtype=float)
-    for name, v in zip(arm.joint_names, out.tolist(), strict=True):
+    out = [float(v) for v in values]
+    for name, v in zip(arm.joint_names, out, strict=True):
         if not math.isfinite(v):
             raise InputError(f'{field}: {name} = {v} is not a finite number; allowed: radians within its limits')
     return out
 
 
-def _pose(poses: PoseBatch) -> Any:
-    return pose_msg(poses.position[0], poses.quaternion[0])
+def _platform_fields(response: Any, gpr: ForwardResult) -> None:
+    response.tilt = gpr.tilt
+    response.tilt_azimuth = gpr.tilt_azimuth
+    response.twist = gpr.twist
+    x, y, z = gpr.centre_shift.tolist()
+    set_vector(response.centre_shift, (x, y, z))
 
 
-def _platform_fields(response: Any, gpr: Any) -> None:
-    response.tilt = float(gpr.tilt[0])
-    response.tilt_azimuth = float(gpr.tilt_azimuth[0])
-    response.twist = float(gpr.twist[0])
-    response.centre_shift = vector_msg(gpr.centre_shift[0])
+def _within_limits(arm: Arm, joints: list[float]) -> bool:
+    return all(j.lower - LIMIT_SLACK <= v <= j.upper + LIMIT_SLACK for j, v in zip(arm.joints, joints, strict=True))
 
 
 def fill_robot_forward(robot: RobotDescription, request: Any, response: Any) -> Any:
-    """A RobotForwardKinematics response for ``request`` (module docstring)."""
+    """A RobotForwardKinematics response for ``request`` (module docstring): the one-configuration path in floats
+    (:func:`~gpr_kinematics.robot.forward.forward_floats`), the batch where it refuses (its message)."""
     arm = _arm(robot, request.arm)
-    rods = finite_vector(request.rods, 'rods', 3)
+    rods = floats_of(request.rods, 'rods', 3)
     joints = _joints(request.joints, arm, 'joints')
-    fk = robot_forward(robot, rods[None, :], joints[None, :], arm.name)
+    if not _within_limits(arm, joints):
+        robot_forward(robot, [rods], [joints], arm.name)  # raises, naming the joint
+    one = forward_floats(robot, arm, rods, joints)
+    naive_platform = naive_platform_one(robot, rods)
+    if naive_platform is None:
+        naive_platform = robot_forward(robot, [rods], [joints], arm.name).naive_platform.floats(0)  # raises
+    naive_wafer = compose_one(*naive_platform, *one.on_platform)
     response.world_frame = robot.world_frame
     response.arm = arm.name
     response.joint_names = list(arm.joint_names)
-    response.wafer, response.blade, response.platform = _pose(fk.wafer), _pose(fk.blade), _pose(fk.platform)
-    response.naive_wafer, response.naive_platform = _pose(fk.naive_wafer), _pose(fk.naive_platform)
-    response.naive_wafer_error = vector_msg(fk.naive_wafer_error[0])
-    response.naive_wafer_error_norm = float(fk.naive_wafer_error_norm[0])
-    response.naive_wafer_angle_error = float(fk.naive_wafer_angle_error[0])
-    _platform_fields(response, fk.gpr)
+    for name, pose in (('wafer', one.wafer), ('blade', one.blade), ('platform', one.platform),
+                       ('naive_wafer', naive_wafer), ('naive_platform', naive_platform)):
+        set_pose(getattr(response, name), pose)
+    (x, y, z), (u, v, w) = one.wafer[0], naive_wafer[0]
+    error = (x - u, y - v, z - w)
+    set_vector(response.naive_wafer_error, error)
+    response.naive_wafer_error_norm = math.sqrt(error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
+    response.naive_wafer_angle_error = angle_between(naive_wafer[1], one.wafer[1])
+    _platform_fields(response, one.gpr)
     return response
 
 
@@ -121,27 +135,52 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
                        names=(REQUEST_NAME,))
 
 
+def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, value: float | None
+                 ) -> StationFloats | None:
+    """The float path of one station where the request is within what it takes (every number finite and within
+    +-MAX_COORDINATE, a known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
+    p = request.position
+    numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
+    if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
+        return None
+    if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
+        return None
+    free = bool(request.heading_free)
+    if free and len(arm.joints) > 2:
+        return None
+    return station_floats(robot, arm, (p.x, p.y, p.z), request.tilt, request.azimuth, request.heading, free,
+                          branch_sign(branch), value)
+
+
 def fill_station_inverse(robot: RobotDescription, request: Any, response: Any) -> Any:
-    """A StationInverseKinematics response for ``request`` (module docstring)."""
+    """A StationInverseKinematics response for ``request`` (module docstring): the one-station path in floats
+    (:func:`~gpr_kinematics.robot.one_station.station_floats`), the batch path where it refuses (its message)."""
     arm = _arm(robot, request.arm)
-    stations = request_stations(robot, request, arm)
-    branch = request.branch or None
-    value = finite_number(request.redundancy_value, 'redundancy_value') if request.use_redundancy_value else None
-    sol = solve_stations(robot, stations, arm.name, branch=branch, redundancy_value=value)
-    fk = sol.forward
+    branch = request.branch or arm.branch
+    use = request.use_redundancy_value
+    value = float(request.redundancy_value) if use else None
+    one = _one_station(robot, request, arm, branch, value)
+    if one is None:  # a refusal, named by the batch path (or its answer, where the float path declined)
+        stations = request_stations(robot, request, arm)
+        value = finite_number(request.redundancy_value, 'redundancy_value') if use else None
+        sol = solve_stations(robot, stations, arm.name, branch=request.branch or None, redundancy_value=value)
+        one, branch = sol.floats(0), sol.branch[0]
     response.world_frame = robot.world_frame
     response.arm = arm.name
-    response.branch = sol.branch[0]
-    response.rods = sol.rods[0]
+    response.branch = branch
+    response.rods = one.rods
     response.joint_names = list(arm.joint_names)
-    response.joints = sol.joints[0].tolist()
-    response.wafer, response.blade, response.platform = _pose(fk.wafer), _pose(fk.blade), _pose(fk.platform)
-    response.position_error = float(sol.position_error[0])
-    response.angle_error = float(sol.angle_error[0])
-    response.naive_rods = sol.naive_rods[0]
-    response.naive_joints = sol.naive_joints[0].tolist()
-    response.naive_wafer_error_vector = vector_msg(sol.naive_wafer_error[0])
-    response.naive_wafer_error = float(sol.naive_wafer_error_norm[0])
-    response.naive_wafer_angle_error = float(sol.naive_wafer_angle_error[0])
-    _platform_fields(response, fk.gpr)
+    response.joints = one.joints
+    set_pose(response.wafer, one.wafer)
+    set_pose(response.blade, one.blade)
+    set_pose(response.platform, one.platform)
+    response.position_error = one.position_error
+    response.angle_error = one.angle_error
+    response.naive_rods = one.naive_rods
+    response.naive_joints = one.naive_joints
+    e = one.naive_wafer_error
+    set_vector(response.naive_wafer_error_vector, e)
+    response.naive_wafer_error = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    response.naive_wafer_angle_error = one.naive_wafer_angle_error
+    _platform_fields(response, one.gpr)
     return response

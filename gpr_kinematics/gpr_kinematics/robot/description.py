@@ -95,8 +95,8 @@ class Redundancy:
 
     ``fixed_joint``: joint ``joint`` (index) is held at ``value`` [rad] (or a value given per station) and the
     other three are solved in closed form. ``nearest``: the posture nearest to ``reference`` [rad] in the
-    metric ``sum_i weights_i ((theta_i - reference_i) / (upper_i - lower_i))^2``, found by sweeping joint
-    ``joint`` over its range and refining (golden section).
+    metric ``sum_i weights_i ((theta_i - reference_i) / (upper_i - lower_i))^2`` over the self-motion of joint
+    ``joint``: the best of the edges of its feasible runs and the minima inside them (:mod:`.nearest`).
     """
 
     rule: str

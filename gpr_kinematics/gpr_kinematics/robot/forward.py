@@ -18,20 +18,26 @@ believes the wafer is; ``naive_wafer_error = wafer - naive_wafer`` is the error 
 """
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core import ForwardBatch, forward_batch, naive_forward
-from ..core.rotations import rotation_angle, rotation_z
+from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
+from ..core.floats import FloatPose, Mat3, Vec3, compose_one, mat_vec, rot_z, tilt_matrix
+from ..core.ops import SCALAR
+from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
+from ..core.single import one_pose
 from ..errors import InputError, LimitError
 from ..inputs.validation import bounded, rows_of
+from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
-from .planar_arm import LIMIT_SLACK
 from .stations import StationRecord, stations_from_poses
-from .transforms import PoseBatch, PoseRecord
+from .transforms import PoseBatch, PoseRecord, pose_batch
 
 Array = NDArray[np.float64]
 
@@ -218,6 +224,8 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         check_joint_limits(a, J)
     else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
         bounded(J, f'joints of {a.name} [rad]')
+    if Q.shape[0] == 1:
+        return _robot_forward_one(robot, a, Q, J, check_limits)
     gpr = forward_batch(Q, robot.config, check_limits=check_limits)
     return forward_on_platform(robot, a, Q, J, gpr)
 
@@ -228,3 +236,86 @@ def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, g
     blade_p, wafer_p = platform_to_blade(arm, J)
     return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=gpr, platform=platform, blade=platform.compose(blade_p),
                         wafer=platform.compose(wafer_p), robot=robot, wafer_on_platform=wafer_p)
+
+
+def base_floats(robot: RobotDescription) -> tuple[Vec3, Mat3]:
+    """``gpr_base`` in the world as floats (:func:`base_pose` of one row)."""
+    return _base(robot.base_position, robot.base_rpy)
+
+
+@functools.lru_cache(maxsize=64)
+def _base(position: Vec3, rpy: Vec3) -> tuple[Vec3, Mat3]:
+    (a, b, c), (d, e, f), (g, h, i) = rpy_matrix(*rpy).tolist()
+    return position, ((a, b, c), (d, e, f), (g, h, i))
+
+
+def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Vec3]:
+    """:func:`platform_to_blade` of one posture in floats (joints plus their ``zero_offset``, the cumulative sum
+    first, then the mount yaw, as the batch adds them): the blade's position and rotation and the wafer's position in
+    ``gpr_platform`` (the wafer's rotation is the blade's)."""
+    x, y = arm.mount_position[0], arm.mount_position[1]
+    turned, c, s, last = 0.0, 1.0, 0.0, 0.0
+    for k, joint in enumerate(arm.joints):
+        turned = joints[0] + joint.zero_offset if k == 0 else turned + (joints[k] + joint.zero_offset)
+        last = arm.mount_yaw + turned
+        c, s = math.cos(last), math.sin(last)
+        x, y = x + c * joint.length, y + s * joint.length
+    bx, by = arm.blade.position[0], arm.blade.position[1]
+    x, y = x + c * bx - s * by, y + s * bx + c * by
+    z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
+    R = rot_z(last + arm.blade.yaw)
+    w = mat_vec(R, arm.blade.wafer_centre)
+    return (x, y, z), R, (x + w[0], y + w[1], z + w[2])
+
+
+def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], position: Vec3, rotation: Mat3
+                    ) -> tuple[FloatPose, FloatPose, FloatPose, FloatPose]:
+    """The platform, blade and wafer in the world and the wafer on the platform for one posture on the platform pose
+    ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`)."""
+    p_wb, R_wb = base_floats(robot)
+    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints)
+    platform = compose_one(p_wb, R_wb, position, rotation)
+    return (platform, compose_one(*platform, blade_p, blade_R), compose_one(*platform, wafer_p, blade_R),
+            (wafer_p, blade_R))
+
+
+class ForwardFloats(NamedTuple):
+    """:func:`robot_forward` of one configuration in floats: the platform's forward kinematics ``gpr`` (in
+    ``gpr_base``), the ``platform``, ``blade`` and ``wafer`` poses in the world and the wafer's on the platform
+    (``on_platform``, in ``gpr_platform``)."""
+
+    gpr: ForwardResult
+    platform: FloatPose
+    blade: FloatPose
+    wafer: FloatPose
+    on_platform: FloatPose
+
+
+def forward_floats(robot: RobotDescription, arm: Arm, rods: list[float], joints: list[float],
+                   check_limits: bool = True) -> ForwardFloats:
+    """:func:`robot_forward` of one configuration (finite rods [m], the arm's finite joints [rad] within their limits:
+    the caller checks them) in floats: the GPR's one-pose path, the chain in floats."""
+    gpr = forward(rods, robot.config, check_limits=check_limits)
+    (r0, r1, r2), (t0, t1, t2) = gpr.rotation.tolist(), gpr.position.tolist()
+    return ForwardFloats(gpr, *one_on_platform(robot, arm, joints, (t0, t1, t2), ((r0[0], r0[1], r0[2]),
+                                                                                    (r1[0], r1[1], r1[2]),
+                                                                                    (r2[0], r2[1], r2[2]))))
+
+
+def naive_platform_one(robot: RobotDescription, rods: list[float]) -> FloatPose | None:
+    """:attr:`RobotForward.naive_platform` of one configuration in floats (:func:`~gpr_kinematics.core.naive_forward`:
+    the naive centre ``(0, 0, z)`` tilted by the naive normal, in the world); ``None`` where the rods imply no
+    orientation (the batch says so)."""
+    z, h2, nx, ny, nz = one_pose(robot.config).naive(rods[0], rods[1], rods[2])
+    if h2 >= 1.0:
+        return None
+    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, nx, ny, nz))
+    return compose_one(*base_floats(robot), (0.0, 0.0, z), tilt_matrix(tilt, az))
+
+
+def _robot_forward_one(robot: RobotDescription, arm: Arm, Q: Array, J: Array, check_limits: bool) -> RobotForward:
+    """:func:`robot_forward` of one configuration (:func:`forward_floats`) as rows of one."""
+    one = forward_floats(robot, arm, Q[0].tolist(), J[0].tolist(), check_limits)
+    return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=ForwardBatch.of_one(one.gpr),
+                        platform=pose_batch(*one.platform), blade=pose_batch(*one.blade), wafer=pose_batch(*one.wafer),
+                        robot=robot, wafer_on_platform=pose_batch(*one.on_platform))

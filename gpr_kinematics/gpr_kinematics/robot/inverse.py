@@ -38,18 +38,19 @@ from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_ro
 from ..errors import ConvergenceError, InputError, LimitError, brief
 from .description import BRANCHES, Arm, RobotDescription
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
+from .one_station import (
+    HEADING_TOLERANCE,
+    NORMAL_TOLERANCE,
+    PLANE_ITERATIONS,
+    PLANE_TOLERANCE,
+    StationFloats,
+    solve_one,
+)
 from .planar_arm import ArmSolution, branch_sign, solve_arm
 from .stations import Stations, per_station
 from .transforms import PoseBatch
 
 Array = NDArray[np.float64]
-
-#: Convergence of the height: plane residual [m] and platform-normal error.
-PLANE_TOLERANCE = 1e-13
-NORMAL_TOLERANCE = 1e-12
-PLANE_ITERATIONS = 8
-#: A 2-joint arm's heading must match a requested one to this [rad].
-HEADING_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,16 @@ class StationSolution:
         """Angle between the wafer orientation the naive joints give and the station's ``(N,)`` [rad] (between
         the normals where the heading is free)."""
         return _angle_to(self.stations, self.naive_wafer.rotation)
+
+    def floats(self, i: int) -> StationFloats:
+        """Station ``i`` as the one-station path's :class:`~gpr_kinematics.robot.one_station.StationFloats`."""
+        fk = self.forward
+        x, y, z = self.naive_wafer_error[i].tolist()
+        return StationFloats(
+            self.rods[i].tolist(), self.joints[i].tolist(), fk.gpr[i], fk.platform.floats(i), fk.blade.floats(i),
+            fk.wafer.floats(i), fk.wafer_on_platform.floats(i), self.naive_rods[i].tolist(),
+            self.naive_joints[i].tolist(), self.naive_wafer.floats(i), float(self.position_error[i]),
+            float(self.angle_error[i]), (x, y, z), float(self.naive_wafer_angle_error[i]))
 
     def record(self, i: int) -> StationSolutionRecord:
         """Station ``i`` as a :class:`StationSolutionRecord`."""
@@ -223,6 +234,10 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
             raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
                              'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
         value = per_station(redundancy_value, 'redundancy value', n)
+    if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
+        one = solve_one(robot, stations, a, float(sign[0]), None if value is None else float(value[0]))
+        if one is not None:
+            return StationSolution(stations, a.name, names, *one, feasible=np.ones(1, dtype=bool))
     base = base_pose(robot, n)
     R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
     p_b = base.inverse_apply(stations.position)

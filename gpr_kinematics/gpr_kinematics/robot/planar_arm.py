@@ -28,133 +28,34 @@ to its left. Reachable when ``|L1 - L2| <= r <= L1 + L2``.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.rotations import rotate_z
+from .arm_chain import (
+    REACH_SLACK,
+    chain_forward,
+    fixed_one,
+    floats2,
+    link_vectors,
+    solve3,
+    solve_fixed,
+    two_link,
+    two_link_one,
+    wrap_one,
+    wrap_to_limits,
+)
 from .description import Arm
+from .nearest import nearest_value
 
 Array = NDArray[np.float64]
-
-#: Slack [m] on the reach interval (rounding of targets at full stretch).
-REACH_SLACK = 1e-12
-#: Slack [rad] on the joint limits (rounding of targets at a limit).
-LIMIT_SLACK = 1e-12
-#: The ``nearest`` rule's sweep of the held joint's range and its refinement steps (:func:`_nearest_value`).
-NEAREST_GRID = 121
-NEAREST_REFINE = 32
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def branch_sign(branch: str) -> float:
     """``+1`` for ``right``, ``-1`` for ``left`` (module docstring)."""
     return 1.0 if branch == 'right' else -1.0
-
-
-def link_vectors(arm: Arm) -> tuple[list[Array], float]:
-    """The planar link vectors ``d_k`` (mount-frame units, blade folded into the last) and the blade yaw."""
-    js = arm.joints
-    b, beta, w = arm.blade.position, arm.blade.yaw, arm.blade.wafer_centre
-    d = [np.array([j.length, 0.0]) for j in js]
-    d[-1] = np.array([js[-1].length + b[0] + math.cos(beta) * w[0] - math.sin(beta) * w[1],
-                      b[1] + math.sin(beta) * w[0] + math.cos(beta) * w[1]])
-    return d, beta
-
-
-def chain_forward(arm: Arm, theta: Array) -> tuple[Array, Array, Array]:
-    """Forward kinematics in the mount frame of joint values ``theta (N, n)``.
-
-    Returns ``(axes (N, n, 2), wafer (N, 2), heading (N,))``: every joint axis, the wafer centre, the blade heading.
-    """
-    d, beta = link_vectors(arm)
-    Theta = np.cumsum(theta + arm.zero_offset, axis=1)
-    n = theta.shape[1]
-    axes = np.zeros(theta.shape + (2,))
-    for k in range(1, n):
-        axes[:, k] = axes[:, k - 1] + rotate_z(Theta[:, k - 1], d[k - 1])
-    wafer = axes[:, n - 1] + rotate_z(Theta[:, n - 1], d[n - 1])
-    return axes, wafer, Theta[:, n - 1] + beta
-
-
-def wrap_to_limits(theta: Array, lower: Array, upper: Array) -> tuple[Array, Array]:
-    """The representative ``theta + 2 pi k`` nearest the middle of ``[lower, upper]`` and how far it lies beyond
-    the range [rad] (0 inside). Joints of a planar arm are defined modulo ``2 pi``; a range wider than ``2 pi``
-    always holds the representative."""
-    mid = 0.5 * (lower + upper)
-    t = mid + np.mod(theta - mid + math.pi, 2.0 * math.pi) - math.pi
-    violation = np.maximum(np.maximum(lower - t, t - upper) - LIMIT_SLACK, 0.0)
-    return t, violation
-
-
-@dataclass(frozen=True)
-class TwoLink:
-    """Two-link solution: absolute link directions ``Theta1, Theta2`` [rad], the distance ``r`` of the target
-    and the reach interval ``[r_min, r_max]`` [m]."""
-
-    Theta1: Array
-    Theta2: Array
-    r: Array
-    r_min: Array
-    r_max: Array
-
-    @property
-    def reachable(self) -> NDArray[np.bool_]:
-        return (self.r <= self.r_max + REACH_SLACK) & (self.r >= self.r_min - REACH_SLACK)
-
-
-def two_link(D1: Array, D2: Array, p: Array, sign: Array | float) -> TwoLink:
-    """Closed-form two-link inverse kinematics (module docstring); ``D1, D2, p`` broadcast as ``(..., 2)``.
-    Out of reach, the nearest posture (stretched or folded) is returned and ``reachable`` is False."""
-    L1, L2 = np.hypot(D1[..., 0], D1[..., 1]), np.hypot(D2[..., 0], D2[..., 1])
-    r = np.hypot(p[..., 0], p[..., 1])
-    lo, hi = np.abs(L1 - L2), L1 + L2
-    inv = 1.0 / (2.0 * L1 * L2)
-    cos_g = np.clip((r * r - L1 * L1 - L2 * L2) * inv, -1.0, 1.0)
-    sin_g = sign * np.sqrt(np.maximum((hi - r) * (hi + r) * (r - lo) * (r + lo), 0.0)) * inv
-    g = np.arctan2(sin_g, cos_g)
-    A1 = np.arctan2(p[..., 1], p[..., 0]) - np.arctan2(L2 * np.sin(g), L1 + L2 * np.cos(g))
-    Theta1 = A1 - np.arctan2(D1[..., 1], D1[..., 0])
-    Theta2 = A1 + g - np.arctan2(D2[..., 1], D2[..., 0])
-    shape = np.broadcast_shapes(r.shape, lo.shape, Theta1.shape)
-    return TwoLink(np.broadcast_to(Theta1, shape), np.broadcast_to(Theta2, shape), np.broadcast_to(r, shape),
-                   np.broadcast_to(lo, shape), np.broadcast_to(hi, shape))
-
-
-def _solve3(d: list[Array], c: list[Array | float], beta: Array | float, p: Array, phi: Array,
-            sign: Array | float) -> tuple[Array, TwoLink]:
-    """Three-joint chain with offsets ``c`` (joint ``k`` turns link ``k`` by ``theta_k + c_k``): returns the joint
-    values ``(..., 3)`` and the shoulder-elbow two-link solution."""
-    Theta3 = phi - beta
-    tl = two_link(d[0], d[1], p - rotate_z(Theta3, d[2]), sign)
-    theta = np.stack([tl.Theta1 - c[0], tl.Theta2 - tl.Theta1 - c[1], Theta3 - tl.Theta2 - c[2]], axis=-1)
-    return theta, tl
-
-
-def _solve_fixed(d: list[Array], beta: float, j: int, v: Array, p: Array, phi: Array,
-                 sign: Array | float) -> tuple[Array, TwoLink]:
-    """Four-joint chain with joint ``j`` held at ``v``: fold it into its neighbours, solve three joints, put it
-    back. Returns the joint values ``(..., 4)`` and the two-link solution of the reduced chain."""
-    zero = np.zeros_like(v)
-    c: list[Array | float]
-    b: Array | float
-    if j == 0:
-        p = p - rotate_z(v, d[0])
-        dd, c, b = d[1:], [v, zero, zero], beta
-    else:
-        merged = d[j - 1] + rotate_z(v, d[j])
-        dd = d[:j - 1] + [merged] + d[j + 1:]
-        c = [zero, zero, zero]
-        b = beta
-        if j == 3:
-            b = beta + v
-        else:
-            c[j] = v  # the joint after the held one turns from the held one's direction
-    theta3, tl = _solve3(dd, c, b, p, phi, sign)
-    theta = np.concatenate([theta3[..., :j], v[..., None], theta3[..., j:]], axis=-1)
-    return theta, tl
 
 
 @dataclass(frozen=True)
@@ -194,95 +95,56 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
         theta = np.stack([tl.Theta1, tl.Theta2 - tl.Theta1], axis=-1)
     elif n == 3:
         assert phi is not None
-        theta, tl = _solve3(d, [0.0, 0.0, 0.0], beta, p, phi, sign)
+        theta, tl = solve3(d, [0.0, 0.0, 0.0], beta, p, phi, sign)
     else:
         assert phi is not None and arm.redundancy is not None
         red = arm.redundancy
         if red.rule == 'fixed_joint':
             v = np.full(p.shape[0], red.value) if value is None else np.asarray(value, dtype=float)
         else:
-            v = _nearest_value(arm, d, beta, p, phi, sign)
-        theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
+            v = nearest_value(arm, d, beta, p, phi, sign)
+        theta, tl = solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
     heading = np.sum(theta, axis=1) + beta
     theta, violation = wrap_to_limits(theta - offset, lower, upper)
     return ArmSolution(theta=theta, heading=heading, reachable=tl.reachable, reach=tl.r, reach_min=tl.r_min,
                        reach_max=tl.r_max, violation=violation)
 
 
-def _nearest_cost(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, v: Array) -> Array:
-    """Cost of the ``nearest`` rule for held values ``v (N, G)``; ``inf`` where unreachable or beyond limits."""
-    red = arm.redundancy
-    assert red is not None
-    offset = arm.zero_offset
-    theta, tl = _solve_fixed(d, beta, red.joint, v + offset[red.joint], p[:, None, :], phi[:, None], sign[:, None])
-    lower, upper = arm.lower, arm.upper
-    theta, violation = wrap_to_limits(theta - offset, lower, upper)
-    scaled = (theta - np.asarray(red.reference)) / (upper - lower)
-    cost = np.sum(np.asarray(red.weights) * scaled * scaled, axis=-1)
-    bad = ~tl.reachable | (np.max(violation, axis=-1) > 0.0)
-    return np.where(bad, np.inf, cost)
+class OneArm(NamedTuple):
+    """:class:`ArmSolution` of one target in floats: joint values (wrapped) [rad], heading [rad], reachable, the reach
+    and its interval [m], each joint's violation of its limits [rad]."""
+
+    theta: list[float]
+    heading: float
+    reachable: bool
+    reach: float
+    reach_min: float
+    reach_max: float
+    violation: list[float]
 
 
-def _nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array) -> Array:
-    """The held joint's value of the posture nearest the reference.
-
-    Joint limits and the reach cut the self-motion into *runs* of feasible postures; within a run the cost is
-    smooth, and its minimum lies inside the run or at an edge. The joint is swept over :data:`NEAREST_GRID` values
-    of its range; every grid value whose cost is no higher than its neighbours' (an infeasible neighbour counts as
-    higher) is refined on both sides by golden-section search up to the neighbour or, if the neighbour is
-    infeasible, up to the run's edge found by bisection (:data:`NEAREST_REFINE` steps each). The answer
-    is the best over every run that holds a grid value; a run narrower than one grid step (the range / 120) can be
-    missed. Where no posture is feasible the middle of the range is returned and the caller reports why."""
-    red = arm.redundancy
-    assert red is not None
-    j = arm.joints[red.joint]
-    n = p.shape[0]
-    grid = np.linspace(j.lower, j.upper, NEAREST_GRID)
-    cost = _nearest_cost(arm, d, beta, p, phi, sign, np.broadcast_to(grid, (n, NEAREST_GRID)))
-    padded = np.pad(cost, ((0, 0), (1, 1)), constant_values=np.inf)
-    local_min = np.isfinite(cost) & (cost <= padded[:, :-2]) & (cost <= padded[:, 2:])
-    rows, cols = np.nonzero(local_min)
-    cand_rows, cand_x, cand_f = [rows], [grid[cols]], [cost[rows, cols]]
-
-    def f(r: NDArray[np.intp], x: Array) -> Array:
-        return _nearest_cost(arm, d, beta, p[r], phi[r], sign[r], x[:, None])[:, 0]
-
-    for side in (-1, 1):
-        nb = cols + side
-        inside = (nb >= 0) & (nb < NEAREST_GRID)
-        r, c, nb = rows[inside], cols[inside], nb[inside]
-        # towards an infeasible neighbour, bisect to the edge of the run first
-        edge = grid[nb]
-        to_edge = ~np.isfinite(cost[r, nb])
-        good, bad = grid[c][to_edge], grid[nb][to_edge]
-        for _ in range(NEAREST_REFINE):
-            mid = 0.5 * (good + bad)
-            ok = np.isfinite(f(r[to_edge], mid))
-            good, bad = np.where(ok, mid, good), np.where(ok, bad, mid)
-        edge[to_edge] = good
-        # golden section between the local minimum and its neighbour (or the run's edge)
-        a, b = np.minimum(grid[c], edge), np.maximum(grid[c], edge)
-        x1, x2 = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
-        f1, f2 = f(r, x1), f(r, x2)
-        cand_rows += [r, r]
-        cand_x += [edge, x1]
-        cand_f += [f(r, edge), f1]
-        for _ in range(NEAREST_REFINE):
-            left = f1 <= f2  # the minimum lies in [a, x2]
-            a, b = np.where(left, a, x1), np.where(left, x2, b)
-            x1n, x2n = np.where(left, b - _GOLDEN * (b - a), x2), np.where(left, x1, a + _GOLDEN * (b - a))
-            fn = f(r, np.where(left, x1n, x2n))
-            f1, f2, x1, x2 = np.where(left, fn, f2), np.where(left, f1, fn), x1n, x2n
-            cand_rows.append(r)
-            cand_x.append(np.where(left, x1, x2))
-            cand_f.append(np.where(left, f1, f2))
-    R, X, F = np.concatenate(cand_rows), np.concatenate(cand_x), np.concatenate(cand_f)
-    order = np.lexsort((F, R))  # by station, then cost
-    R, X, F = R[order], X[order], F[order]
-    first = np.flatnonzero(np.r_[True, R[1:] != R[:-1]]) if R.size else np.zeros(0, dtype=int)
-    out = np.full(n, 0.5 * (j.lower + j.upper))
-    out[R[first]] = X[first]
-    return out
+def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
+    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps)."""
+    d_arrays, beta = link_vectors(arm)
+    d = floats2(d_arrays)
+    offset = [joint.zero_offset for joint in arm.joints]
+    if len(arm.joints) == 2:
+        T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
+        theta = [T1, T2 - T1]
+    else:
+        j, v, red = -1, 0.0, arm.redundancy
+        if red is not None:
+            j = red.joint
+            if red.rule == 'fixed_joint':
+                v = red.value if value is None else value
+            else:
+                v = float(nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
+                                        np.array([sign]))[0])
+            v = v + offset[j]
+        theta, r, lo, hi = fixed_one(d, beta, j, v, px, py, phi, sign)
+    heading = sum(theta) + beta
+    wrapped, violation = wrap_one(arm, [t - o for t, o in zip(theta, offset, strict=True)])
+    return OneArm(wrapped, heading, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
 def branch_of(arm: Arm, theta: Array) -> tuple[str, ...]:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.floats import FloatPose, Mat3, Vec3
 from ..core.rotations import quaternion_from_matrix
 
 Array = NDArray[np.float64]
@@ -51,6 +52,11 @@ class PoseBatch:
     def __getitem__(self, i: int) -> Pose:
         return Pose(self.position[i], self.rotation[i])
 
+    def floats(self, i: int) -> FloatPose:
+        """Pose ``i`` as floats (position, rotation rows)."""
+        (x, y, z), (r0, r1, r2) = self.position[i].tolist(), self.rotation[i].tolist()
+        return (x, y, z), ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2]))
+
     def record(self, i: int) -> PoseRecord:
         """Pose ``i`` as a :class:`PoseRecord` (its own copy: a record never holds on to the batch)."""
         return PoseRecord(np.array(self.position[i]), quaternion_from_matrix(self.rotation[i]))
@@ -80,3 +86,8 @@ class PoseBatch:
         p = np.asarray(position, dtype=float)
         R = np.asarray(rotation, dtype=float)
         return PoseBatch(np.broadcast_to(p, (n, 3)), np.broadcast_to(R, (n, 3, 3)))
+
+
+def pose_batch(p: Vec3, R: Mat3) -> PoseBatch:
+    """One pose of floats as a :class:`PoseBatch` of one row."""
+    return PoseBatch(np.array([p]), np.array([R]))

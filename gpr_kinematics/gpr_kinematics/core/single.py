@@ -1,0 +1,147 @@
+"""The one-pose kernels: forward kinematics of one configuration in plain float arithmetic, constants precomputed.
+
+The batch kernels (:mod:`gpr_kinematics.core.closure`, :mod:`gpr_kinematics.core.platform_pose`, ...) run on arrays
+or on floats through :class:`~gpr_kinematics.core.ops.Ops`; a single call through them pays for the generality (the
+operations namespace, per-call constants, component lists). :class:`OnePose` holds what one call of
+:func:`gpr_kinematics.core.forward` or :func:`gpr_kinematics.core.inverse` needs of a geometry and a virtual-joint
+model, built once per ``(config, model)`` (:func:`one_pose`, cached on the config), and evaluates
+
+1. the naive state of the rods (Bratovanov & Sotirov, Fig. 2; :func:`gpr_kinematics.core.naive.naive_state`),
+2. the joint centres ``P_k = B_k + (q_k + o_k) u_k`` (eq. (1)) and the side lengths ``L_ij``,
+3. the closure: the ``radial`` model's Newton loop (eq. (8)) with the side errors inline and the shared step
+   :func:`~gpr_kinematics.core.closure.newton_terms`; the ``compliant`` model's minimum elastic cost
+   (:func:`~gpr_kinematics.core.compliance.minimum_cost_floats`); ``polar`` and ``offset`` through the shared loop
+   :func:`~gpr_kinematics.core.closure.newton_closure` on floats,
+
+with the same floating-point operations in the same order as the batch drivers run them on floats, so a one-pose
+result equals the old single call to the last bit (a test compares them over random, singular and limit poses);
+against a batch row it differs only where numpy's ``sin``, ``cos``, ``atan2`` and ``hypot`` round differently from
+the C library's (<= 1e-15 here, 1e-12 in the tests). Units: metres and radians.
+"""
+from __future__ import annotations
+
+import math
+from typing import cast
+
+from .closure import newton_closure
+from .compliance import Stiffness, minimum_cost_floats, stiffness
+from .config import GprConfig
+from .machine import Floats3, MachineGeometry
+from .ops import SCALAR
+from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors, symmetric_solve3
+
+#: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
+Centres = tuple[list[float], list[float], list[float]]
+
+
+class OnePose:
+    """The constants of one ``(config, model)`` for one-pose kinematics (module docstring), and its kernels.
+
+    Attributes:
+        config, geometry, model: the configuration, its :class:`~gpr_kinematics.core.machine.MachineGeometry` and
+            its :class:`~gpr_kinematics.core.virtual_joints.VirtualJointModel`.
+        names: the names of the virtual joints.
+    """
+
+    __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base')
+
+    def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
+        self.config, self.model, self.names = config, vjm, vjm.names
+        geo = self.geometry = MachineGeometry.of(config)
+        rho, cos, sin = cast('tuple[Floats3, Floats3, Floats3]', (vjm.rho, vjm.cos, vjm.sin))  # one machine
+        self._directions = (list(cos), list(sin))
+        self._rest_xy = tuple(r * c for r, c in zip(rho, cos, strict=True)) + tuple(
+            r * s for r, s in zip(rho, sin, strict=True))
+        self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
+                                                                          geo.offsets))
+        self._stiffness: Stiffness | None = None
+        self._rest: Closure | None = None
+        if vjm.name == 'compliant':
+            # every joint at its place p_k: the closure of every L within the tolerance of its side lengths
+            self._stiffness, comps = stiffness(vjm), vjm.singular_components
+            self._rest = Closure(list(vjm.singular_floats), comps, side_errors(SCALAR, comps, (0.0, 0.0, 0.0))[0], 0,
+                                 0.0)
+
+    def naive(self, q0: float, q1: float, q2: float) -> tuple[float, float, float, float, float]:
+        """:func:`~gpr_kinematics.core.naive.naive_state` of the rods: ``(z, h2, nx, ny, nz)``."""
+        geo = self.geometry  # one machine: float triples
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = cast('tuple[Floats3, Floats3, Floats3]', geo.naive_inv)
+        (o0, o1, o2), (u0, u1, u2) = cast('tuple[Floats3, Floats3]', (geo.offsets, geo.uz))
+        h0, h1, h2_ = (q0 + o0) * u0, (q1 + o1) * u1, (q2 + o2) * u2
+        px = m10 * h0 + m11 * h1 + m12 * h2_
+        py = m20 * h0 + m21 * h1 + m22 * h2_
+        h2 = px * px + py * py
+        a = 1.0 - h2
+        return m00 * h0 + m01 * h1 + m02 * h2_, h2, -px, -py, math.sqrt(a if a >= 0.0 else 0.0)
+
+    def centres(self, q0: float, q1: float, q2: float) -> Centres:
+        """Joint centres ``P_k = B_k + (q_k + o_k) u_k`` (eq. (1); on parallel rods without offsets ``(B_k, q_k)``)."""
+        if self._base is None:
+            geo = self.geometry
+            return cast('list[float]', list(geo.bx)), cast('list[float]', list(geo.by)), [q0, q1, q2]
+        (bx0, bx1, bx2), (by0, by1, by2), (ux0, ux1, ux2), (uy0, uy1, uy2), (uz0, uz1, uz2), off = self._base
+        s0, s1, s2 = q0 + off[0], q1 + off[1], q2 + off[2]
+        return ([bx0 + s0 * ux0, bx1 + s1 * ux1, bx2 + s2 * ux2], [by0 + s0 * uy0, by1 + s1 * uy1, by2 + s2 * uy2],
+                [s0 * uz0, s1 * uz1, s2 * uz2])
+
+    @staticmethod
+    def lengths(P: Centres) -> tuple[float, float, float]:
+        """Side lengths ``L12, L23, L31`` of the joint centres [m]."""
+        (x0, x1, x2), (y0, y1, y2), (z0, z1, z2) = P
+        ax, ay, az, bx, by, bz = x1 - x0, y1 - y0, z1 - z0, x2 - x1, y2 - y1, z2 - z1
+        cx, cy, cz = x0 - x2, y0 - y2, z0 - z2
+        return (math.sqrt(ax * ax + ay * ay + az * az), math.sqrt(bx * bx + by * by + bz * bz),
+                math.sqrt(cx * cx + cy * cy + cz * cz))
+
+    def closure(self, L0: float, L1: float, L2: float) -> Closure:
+        """The solved virtual joints of side lengths ``L`` (module docstring, step 3)."""
+        vjm = self.model
+        if vjm.name == 'radial':
+            return self._radial(L0, L1, L2)
+        if self._stiffness is not None and self._rest is not None:
+            return minimum_cost_floats(vjm, self._stiffness, self._rest, L0, L1, L2, self.config)
+        return newton_closure(SCALAR, vjm, [L0, L1, L2], self.config)
+
+    def _radial(self, L0: float, L1: float, L2: float) -> Closure:
+        """:func:`~gpr_kinematics.core.closure.newton_closure` of the ``radial`` model: ``X = (l1, l2, l3)``, the
+        joints ``r_k = l_k (cos theta_k, sin theta_k)``, from ``l = rho``; stops at a side error <= tolerance."""
+        cfg, sqrt = self.config, math.sqrt
+        C, S = self._directions
+        c0, c1, c2 = C
+        s0, s1, s2 = S
+        l0, l1, l2 = cast('Floats3', self.model.singular_floats)
+        x0, x1, x2, y0, y1, y2 = self._rest_xy
+        tol, most = cfg.tolerance, cfg.max_iterations
+        iterations = 0
+        while True:
+            e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+            f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
+            d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
+            err = max(max(abs(d0 - L0), abs(d1 - L1)), abs(d2 - L2))
+            if err <= tol:
+                return Closure([l0, l1, l2], ([x0, x1, x2], [y0, y1, y2], C, S, None, None), [d0, d1, d2], iterations,
+                               err)
+            if iterations == most:
+                raise not_converged('virtual-joint closure (radial)', cfg, err, True)
+            # newton_terms with the radial partials d r_k / d l_k = (cos theta_k, sin theta_k), inline:
+            # b (a): the derivative of edge i's residual by the coordinate of its end (start) joint
+            b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
+            b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
+            b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
+            w0, w1, w2 = cast('Floats3', symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1,
+                                                          b1 * a2, b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1,
+                                                          f2 - L2 * L2))
+            l0, l1, l2 = l0 - (b2 * w2 + a0 * w0), l1 - (b0 * w0 + a1 * w1), l2 - (b1 * w1 + a2 * w2)
+            iterations += 1
+            x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
+
+
+def one_pose(config: GprConfig, model: str | None = None) -> OnePose:
+    """The :class:`OnePose` of ``config`` under ``model`` (default: ``config.model``), built once and kept with the
+    config."""
+    key = f'one_pose:{model or config.model}'
+    kernel: OnePose | None = config.derived.get(key)
+    if kernel is None:
+        kernel = config.derived[key] = OnePose(config, make_model(config, model))
+    return kernel
+

@@ -1,0 +1,221 @@
+"""Station inverse kinematics of one station per call, in float arithmetic: the steps of
+:func:`gpr_kinematics.robot.inverse.solve_stations` without the batch machinery.
+
+A teach pendant, a planner sampling stations or a service answers one station at a time; there the batch's numpy
+operations on arrays of one row cost milliseconds of overhead. :func:`solve_one` takes the same steps (module
+docstring of :mod:`gpr_kinematics.robot.inverse`) on floats: the station in ``gpr_base``, the GPR's one-pose inverse
+kinematics (:func:`gpr_kinematics.core.inverse.inverse_one`, Bratovanov & Sotirov §IV-V) and the height through the
+wafer point, the arm in closed form (:func:`~gpr_kinematics.robot.planar_arm.solve_arm_one`), the forward kinematics
+of the answer, and the naive model's joints with the wafer error they make. It returns ``None`` where a station is
+refused or fails a limit (the caller then takes the batch path, which names why), so the messages have one source.
+Results equal the batch's to rounding (numpy's and the C library's ``sin``, ``cos``, ``atan2`` differ by an ulp at
+most; the tests compare them to 1e-12 over random stations). SI units.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, cast
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, forward
+from ..core.floats import (
+    FloatPose,
+    Mat3,
+    Vec3,
+    angle_between,
+    compose_one,
+    mat_mul,
+    mat_tmul,
+    mat_tvec,
+    rot_z,
+    tilt_matrix,
+)
+from ..core.inverse import inverse_one
+from ..core.naive import naive_rods
+from ..core.ops import SCALAR
+from ..core.platform_pose import rigid_fit
+from ..core.rotations import tilt_of_normal
+from ..core.single import OnePose, one_pose
+from ..errors import ConvergenceError, LimitError
+from .description import Arm, RobotDescription
+from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
+from .planar_arm import OneArm, solve_arm_one
+from .stations import Stations
+from .transforms import PoseBatch, pose_batch
+
+#: Convergence of the height: plane residual [m] and platform-normal error.
+PLANE_TOLERANCE = 1e-13
+NORMAL_TOLERANCE = 1e-12
+PLANE_ITERATIONS = 8
+#: A 2-joint arm's heading must match a requested one to this [rad].
+HEADING_TOLERANCE = 1e-9
+
+
+class OneStation(NamedTuple):
+    """The answer for one station as rows of one (the fields of
+    :class:`~gpr_kinematics.robot.inverse.StationSolution` but the stations, arm and branch)."""
+
+    rods: NDArray[np.float64]
+    joints: NDArray[np.float64]
+    forward: RobotForward
+    naive_rods: NDArray[np.float64]
+    naive_joints: NDArray[np.float64]
+    naive_wafer: PoseBatch
+    position_error: NDArray[np.float64]
+    angle_error: NDArray[np.float64]
+
+
+def _rows(R: NDArray[np.float64]) -> Mat3:
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    return (a, b, c), (d, e, f), (g, h, i)
+
+
+def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float
+                     ) -> tuple[list[float], ForwardResult]:
+    """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
+    ``_platform_height`` for one station)."""
+    cfg = kernel.config
+    zero = (0.0, 0.0, 0.0)
+    gpr = inverse_one(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero).achieved
+    q = gpr.q.tolist()
+    for _ in range(PLANE_ITERATIONS):
+        (_, _, n0), (_, _, n1), (_, _, n2) = gpr.rotation.tolist()
+        t0, t1, t2 = gpr.position.tolist()
+        e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
+        normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
+        if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
+            return q, gpr
+        if normal_error > NORMAL_TOLERANCE:  # rods that move together turned the platform: solve again
+            gpr = inverse_one(kernel, t2 + e / n2, tilt, az, zero).achieved
+            q = gpr.q.tolist()
+        else:
+            c = e / n2
+            q = [q[0] + c, q[1] + c, q[2] + c]
+            gpr = forward(q, cfg, kernel.model.name, check_limits=False)
+    raise ConvergenceError('station height did not converge')  # the batch path says by how much
+
+
+def _arm(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3, sign: float, value: float | None) -> tuple[OneArm, float]:
+    """The arm for the wafer at ``w`` in the platform frame and the station's orientation ``R_b`` (gpr_base) on a
+    platform turned by ``R_platform``: the target in the mount frame, then the arm in closed form. Returns the
+    arm's solution and the heading it was asked for in the mount frame [rad]."""
+    M = mat_tmul(R_platform, R_b)
+    c, s = math.cos(-arm.mount_yaw), math.sin(-arm.mount_yaw)
+    x, y = w[0] - arm.mount_position[0], w[1] - arm.mount_position[1]
+    phi = math.atan2(M[1][0], M[0][0]) - arm.mount_yaw
+    return solve_arm_one(arm, c * x - s * y, s * x + c * y, phi, sign, value), phi
+
+
+def _faulty(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
+    """The batch's fault mask for one station: a rod outside the stroke, out of reach, a joint beyond its limits,
+    a 2-joint arm's heading that misses the station's."""
+    cfg = kernel.config
+    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+    if not (lo <= q[0] <= hi and lo <= q[1] <= hi and lo <= q[2] <= hi) or not sol.reachable:
+        return True
+    if max(sol.violation) > 0.0:
+        return True
+    if len(arm.joints) != 2 or free:
+        return False
+    return abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) > HEADING_TOLERANCE
+
+
+class StationFloats(NamedTuple):
+    """The answer for one station in floats (world frame unless named): the ``rods`` [m] and ``joints`` [rad], the
+    platform's forward kinematics ``gpr`` (in ``gpr_base``), the ``platform``, ``blade`` and ``wafer`` poses and the
+    wafer's on the platform (``on_platform``, in ``gpr_platform``); the naive model's ``naive_rods`` and
+    ``naive_joints`` and where they really put the wafer (``naive_wafer``); how closely the wafer reaches the station
+    (``position_error`` [m], ``angle_error`` [rad]) and how far the naive answer misses it (``naive_wafer_error``,
+    its vector [m], and ``naive_wafer_angle_error`` [rad])."""
+
+    rods: list[float]
+    joints: list[float]
+    gpr: ForwardResult
+    platform: FloatPose
+    blade: FloatPose
+    wafer: FloatPose
+    on_platform: FloatPose
+    naive_rods: list[float]
+    naive_joints: list[float]
+    naive_wafer: FloatPose
+    position_error: float
+    angle_error: float
+    naive_wafer_error: Vec3
+    naive_wafer_angle_error: float
+
+
+def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
+                   free: bool, sign: float, value: float | None) -> StationFloats | None:
+    """Rods and joints for the station at ``P`` [m, world] with the station plane's ``tilt_st`` and ``azimuth`` and the
+    blade ``heading`` [rad] (``free``: the heading is left to a 2-joint arm), the branch ``sign`` and the held value
+    of a 4-joint arm (module docstring); ``None`` where the batch path must answer (a limit, a fault, no
+    convergence: it raises or marks the station with its message). The inputs are checked by the caller."""
+    kernel = one_pose(robot.config)
+    cfg = kernel.config
+    p_wb, R_wb = base_floats(robot)
+    R_st = mat_mul(tilt_matrix(tilt_st, azimuth), rot_z(0.0 if free else heading))
+    R_b = mat_tmul(R_wb, R_st)
+    p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
+    n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
+    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
+    if tilt - cfg.tilt_limit > TILT_LIMIT_SLACK:
+        return None
+    zw = arm.wafer_height
+    try:
+        q, gpr = _platform_height(kernel, tilt, az, p_b, n_b, zw)
+    except (LimitError, ConvergenceError):
+        return None
+    R = _rows(gpr.rotation)
+    t = gpr.position.tolist()
+    w = mat_tvec(R, (p_b[0] - t[0], p_b[1] - t[1], p_b[2] - t[2]))
+    sol, phi = _arm(arm, w, R, R_b, sign, value)
+    if _faulty(kernel, arm, q, sol, phi, free):
+        return None
+    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
+    # The naive model's answer: platform at (0, 0, h) tilted about its centre.
+    h = (n_b[0] * p_b[0] + n_b[1] * p_b[1] + n_b[2] * p_b[2] - zw) / n_b[2]
+    R_n = tilt_matrix(tilt, az)
+    naive_sol, _ = _arm(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b, sign, value)
+    s = math.sin(tilt)
+    normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
+    q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))
+    P_n = kernel.centres(q_n[0], q_n[1], q_n[2])  # the real platform under the naive rods: its pose only
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', rigid_fit(
+        SCALAR, P_n, kernel.closure(*kernel.lengths(P_n)).components))
+    naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)))
+    _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
+    naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
+    d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
+    e = (naive_wafer[0][0] - P[0], naive_wafer[0][1] - P[1], naive_wafer[0][2] - P[2])
+    return StationFloats(q, sol.theta, gpr, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
+                         math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), e,
+                         _angle(R_st, naive_wafer[1], free))
+
+
+def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
+              ) -> OneStation | None:
+    """:func:`station_floats` of the one station of ``stations`` as rows of one (``None`` likewise)."""
+    one = station_floats(robot, arm, cast('Vec3', tuple(stations.position[0].tolist())), float(stations.tilt[0]),
+                         float(stations.azimuth[0]), float(stations.heading[0]), bool(stations.heading_free[0]), sign,
+                         value)
+    if one is None:
+        return None
+    rods = np.array([one.rods])
+    fk = RobotForward(arm=arm.name, rods=rods, joints=np.array([one.joints]), gpr=ForwardBatch.of_one(one.gpr),
+                      platform=pose_batch(*one.platform), blade=pose_batch(*one.blade), wafer=pose_batch(*one.wafer),
+                      robot=robot, wafer_on_platform=pose_batch(*one.on_platform))
+    return OneStation(rods=rods, joints=fk.joints, forward=fk, naive_rods=np.array([one.naive_rods]),
+                      naive_joints=np.array([one.naive_joints]), naive_wafer=pose_batch(*one.naive_wafer),
+                      position_error=np.array([one.position_error]), angle_error=np.array([one.angle_error]))
+
+
+def _angle(R_station: Mat3, R: Mat3, free: bool) -> float:
+    """The angle between ``R`` and the station's orientation [rad] (between the normals where the heading is free):
+    the batch's ``_angle_to`` in floats."""
+    if free:
+        n, m = (R[0][2], R[1][2], R[2][2]), (R_station[0][2], R_station[1][2], R_station[2][2])
+        cx, cy, cz = n[1] * m[2] - n[2] * m[1], n[2] * m[0] - n[0] * m[2], n[0] * m[1] - n[1] * m[0]
+        return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), n[0] * m[0] + n[1] * m[1] + n[2] * m[2])
+    return angle_between(R_station, R)

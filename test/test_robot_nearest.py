@@ -1,0 +1,71 @@
+"""The nearest rule's parts (robot/nearest.py) against independent computations: the slope and curvature of its
+cost against central differences of the cost, the float evaluation of a few points against the numpy one, and the
+reach's edges in closed form against the two-link solver (stretched or folded there). Its answers against a dense
+sweep of the self-motion: test_robot_inverse.py."""
+import numpy as np
+import pytest
+from gpr_kinematics.robot import nearest
+from gpr_kinematics.robot.arm_chain import chain_forward, link_vectors, solve_fixed
+from gpr_kinematics.robot.planar_arm import branch_of, branch_sign
+from robot_support import make_robot, random_stations, robot_data
+
+JOINTS = ['arm2_shoulder', 'arm2_elbow', 'arm2_wrist', 'arm2_hand']
+
+
+def _case(joint, n=30):
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': joint, 'reference': [0.3, -1.0, 0.5, 0.2],
+                                     'weights': [1.0, 1.0, 2.0, 1.0]}
+    for k, j in enumerate(data['arms'][1]['joints']):
+        j['zero_offset'] = 0.01 * (k - 1.5)
+    robot = make_robot(data)
+    arm = robot.arm('arm2')
+    _, _, J = random_stations(robot, 'arm2', n, seed=8)
+    _, wafer, heading = chain_forward(arm, J)
+    sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
+    d, beta = link_vectors(arm)
+    return arm, d, beta, wafer, heading, sign
+
+
+@pytest.mark.parametrize('joint', JOINTS)
+def test_slope_and_curvature_are_the_derivatives_of_the_cost(joint):
+    arm, d, beta, p, phi, sign = _case(joint)
+    k = arm.redundancy.joint
+    rows = np.repeat(np.arange(len(p)), 40)
+    x = np.tile(np.linspace(arm.joints[k].lower + 0.01, arm.joints[k].upper - 0.01, 40), len(p))
+    h = 1e-5
+    ev, plus, minus = (nearest._evaluate(arm, d, beta, p, phi, sign, rows, x + e, curvature=True)
+                       for e in (0.0, h, -h))
+    ok = np.isfinite(ev.cost) & np.isfinite(plus.cost) & np.isfinite(minus.cost)
+    assert ok.sum() > 100
+    np.testing.assert_allclose(ev.slope[ok], (plus.cost[ok] - minus.cost[ok]) / (2 * h), rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(ev.curvature[ok], (plus.slope[ok] - minus.slope[ok]) / (2 * h), rtol=1e-3, atol=1e-5)
+
+
+@pytest.mark.parametrize('joint', JOINTS)
+def test_a_few_points_in_floats_equal_the_numpy_evaluation(joint, monkeypatch):
+    arm, d, beta, p, phi, sign = _case(joint, 10)
+    rows = np.repeat(np.arange(10), 30)
+    x = np.tile(np.linspace(-3.0, 3.0, 30), 10)
+    monkeypatch.setattr(nearest, 'NEAREST_FLOATS', 0)
+    batch = nearest._evaluate(arm, d, beta, p, phi, sign, rows, x, curvature=True)
+    monkeypatch.setattr(nearest, 'NEAREST_FLOATS', x.size)
+    floats = nearest._evaluate(arm, d, beta, p, phi, sign, rows, x, curvature=True)
+    np.testing.assert_array_equal(np.isfinite(floats.cost), np.isfinite(batch.cost))
+    ok = np.isfinite(batch.cost)
+    np.testing.assert_allclose(floats.cost[ok], batch.cost[ok], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(floats.slope[ok], batch.slope[ok], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(floats.curvature[ok], batch.curvature[ok], rtol=1e-8, atol=1e-10)
+
+
+@pytest.mark.parametrize('joint', JOINTS)
+def test_the_reach_edges_stretch_or_fold_the_two_link_sub_chain(joint):
+    arm, d, beta, p, phi, sign = _case(joint)
+    k = arm.redundancy.joint
+    edges = nearest._reach_edges(arm, d, beta, p, phi)
+    rows, cols = np.nonzero(np.isfinite(edges))
+    assert rows.size > len(p) // 2
+    v = edges[rows, cols] + arm.zero_offset[k]
+    _, tl = solve_fixed(d, beta, k, v, p[rows], phi[rows], sign[rows])
+    gap = np.minimum(np.abs(tl.r - tl.r_max), np.abs(tl.r - tl.r_min))
+    assert np.max(gap) < 1e-12

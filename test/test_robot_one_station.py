@@ -1,0 +1,180 @@
+"""One station per call (robot/one_station.py) and the robot's forward kinematics of one configuration: the float
+path equals the batch to 1e-12 on random stations of every arm kind (3 joints, 4 joints under fixed_joint and
+nearest, 2 joints with the heading given or free), on a moved and rolled base, with calibrated joint zero offsets,
+and refuses what the batch refuses with the batch's messages."""
+import math
+
+import numpy as np
+import pytest
+from gpr_kinematics.core.floats import quaternion_of
+from gpr_kinematics.core.rotations import quaternion_from_matrix
+from gpr_kinematics.errors import LimitError
+from gpr_kinematics.robot.forward import forward_floats, naive_platform_one, robot_forward
+from gpr_kinematics.robot.inverse import solve_stations
+from gpr_kinematics.robot.one_station import solve_one, station_floats
+from gpr_kinematics.robot.planar_arm import branch_of, branch_sign
+from gpr_kinematics.robot.stations import Stations
+from robot_support import ROBOT, make_robot, random_postures, random_stations, robot_data
+
+ATOL = 1e-12
+
+
+def _two_joint_robot():
+    data = robot_data()
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.5]
+    return make_robot(data)
+
+
+def _moved_base_robot():
+    data = robot_data()
+    data['base'] = {'position': [0.1, -0.2, 0.3], 'rpy': [math.radians(0.5), -math.radians(0.3), 1.0]}
+    return make_robot(data)
+
+
+def _nearest_robot(offsets=False):
+    data = _with_offsets(robot_data()) if offsets else robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest'}
+    return make_robot(data)
+
+
+def _with_offsets(data):
+    """Every arm joint turned by a calibration's zero_offset (distinct, both signs, within the allowed 0.1 rad)."""
+    for a, arm in enumerate(data['arms']):
+        for k, joint in enumerate(arm['joints']):
+            joint['zero_offset'] = 0.013 * (k + 1) * (-1) ** (a + k)
+    return data
+
+
+def _offset_robot():
+    return make_robot(_with_offsets(robot_data()))
+
+
+CASES = {
+    '3 joints': (ROBOT, 'arm1', 40),
+    '4 joints, fixed_joint': (ROBOT, 'arm2', 40),
+    '4 joints, nearest': (_nearest_robot(), 'arm2', 8),
+    '2 joints': (_two_joint_robot(), 'arm1', 40),
+    'moved base': (_moved_base_robot(), 'arm2', 30),
+    'offsets, 3 joints': (_offset_robot(), 'arm1', 30),
+    'offsets, 4 joints, fixed_joint': (_offset_robot(), 'arm2', 30),
+    'offsets, 4 joints, nearest': (_nearest_robot(offsets=True), 'arm2', 8),
+}
+
+
+def _assert_row(one, batch, i):
+    for name in ('rods', 'joints', 'naive_rods', 'naive_joints', 'position_error', 'angle_error',
+                 'naive_wafer_error', 'naive_wafer_angle_error'):
+        np.testing.assert_allclose(getattr(one, name)[0], getattr(batch, name)[i], rtol=0, atol=ATOL, err_msg=name)
+    for frame in ('platform', 'blade', 'wafer'):
+        for part in ('position', 'rotation'):
+            np.testing.assert_allclose(getattr(getattr(one.forward, frame), part)[0],
+                                       getattr(getattr(batch.forward, frame), part)[i], rtol=0, atol=ATOL,
+                                       err_msg=f'{frame}.{part}')
+    for name in ('position', 'rotation', 'tilt', 'twist', 'centre_shift', 'virtual_joints', 'q'):
+        np.testing.assert_allclose(getattr(one.forward.gpr, name)[0], getattr(batch.forward.gpr, name)[i], rtol=0,
+                                   atol=ATOL, err_msg=f'gpr.{name}')
+    assert one.branch == (batch.branch[i],) and one.feasible.tolist() == [True]
+    assert one.forward.gpr.iterations[0] == batch.forward.gpr.iterations[i]
+
+
+@pytest.mark.parametrize('case', CASES)
+def test_one_station_per_call_equals_the_batch(case):
+    robot, arm, n = CASES[case]
+    a = robot.arm(arm)
+    st, _, J = random_stations(robot, arm, n, seed=11)
+    if case == '2 joints':  # every other station leaves the heading to the arm
+        st = Stations.of(st.position, st.tilt, st.azimuth, st.heading, heading_free=np.arange(n) % 2 == 0)
+    branches = branch_of(a, J)
+    batch = solve_stations(robot, st, arm, branch=branches)
+    for i in range(n):
+        one_station = st.take([i])
+        assert solve_one(robot, one_station, a, branch_sign(branches[i]), None) is not None  # the float path
+        _assert_row(solve_stations(robot, one_station, arm, branch=branches[i]), batch, i)
+        one = station_floats(robot, a, tuple(st.position[i].tolist()), float(st.tilt[i]), float(st.azimuth[i]),
+                             float(st.heading[i]), bool(st.heading_free[i]), branch_sign(branches[i]), None)
+        _assert_floats(one, batch.floats(i))
+
+
+def _assert_floats(one, batch):
+    """A :class:`StationFloats` of the float path equals the batch row's (what the station service answers)."""
+    for name in ('rods', 'joints', 'naive_rods', 'naive_joints', 'position_error', 'angle_error', 'naive_wafer_error',
+                 'naive_wafer_angle_error'):
+        np.testing.assert_allclose(getattr(one, name), getattr(batch, name), rtol=0, atol=ATOL, err_msg=name)
+    for name in ('platform', 'blade', 'wafer', 'on_platform', 'naive_wafer'):
+        for part in (0, 1):
+            np.testing.assert_allclose(getattr(one, name)[part], getattr(batch, name)[part], rtol=0, atol=ATOL,
+                                       err_msg=name)
+        np.testing.assert_allclose(quaternion_of(getattr(one, name)[1]),
+                                   quaternion_from_matrix(np.array(getattr(batch, name)[1])), rtol=0, atol=ATOL)
+
+
+def test_held_joint_value_per_call_equals_the_batch():
+    st, _, J = random_stations(ROBOT, 'arm2', 20, seed=12)
+    values = np.linspace(-0.3, 0.3, 20)
+    batch = solve_stations(ROBOT, st, 'arm2', branch=branch_of(ROBOT.arm('arm2'), J), redundancy_value=values,
+                           check=False)
+    for i in range(20):
+        one = solve_stations(ROBOT, st.take([i]), 'arm2', branch=batch.branch[i], redundancy_value=values[i],
+                             check=False)
+        assert one.feasible[0] == batch.feasible[i]
+        assert one.joints[0, ROBOT.arm('arm2').redundancy.joint] == pytest.approx(values[i], abs=1e-15)
+        np.testing.assert_allclose(one.joints[0], batch.joints[i], rtol=0, atol=ATOL)
+        np.testing.assert_allclose(one.naive_wafer.position[0], batch.naive_wafer.position[i], rtol=0, atol=ATOL)
+
+
+@pytest.mark.parametrize('change, pattern', [
+    ({'tilt': math.radians(2.5)}, r'station 0: the station plane tilts 2.5 deg in gpr_base, beyond the tilt limit'),
+    ({'z': 0.95}, r'station 0: gpr_rod1 = .* m is above the stroke'),
+    ({'x': 2.0}, r'station 0: out of reach of arm arm1'),
+    ({'x': 1.14, 'heading': math.pi + 0.25}, r'station 0: arm1_wrist = .* rad is beyond its upper limit 3.05 rad'),
+])
+def test_refused_stations_take_the_batch_path_and_its_message(change, pattern):
+    p = dict(x=1.1, y=0.5, z=0.45, tilt=0.0, heading=0.0) | change
+    st = Stations.of([[p['x'], p['y'], p['z']]], p['tilt'], 0.3, p['heading'])
+    assert solve_one(ROBOT, st, ROBOT.arm('arm1'), branch_sign('right'), None) is None
+    with pytest.raises(LimitError, match=pattern):
+        solve_stations(ROBOT, st, 'arm1', branch='right')
+    if 'tilt' in change:  # refused even with check=False
+        return
+    two = Stations.of(np.repeat(st.position, 2, axis=0), p['tilt'], 0.3, p['heading'])
+    one, both = solve_stations(ROBOT, st, 'arm1', 'right', check=False), solve_stations(ROBOT, two, 'arm1', 'right',
+                                                                                      check=False)
+    assert not one.feasible[0] and not both.feasible.any()
+    np.testing.assert_allclose(one.joints[0], both.joints[0], rtol=0, atol=ATOL)
+
+
+@pytest.mark.parametrize('case', ['3 joints', '4 joints, fixed_joint', '2 joints', 'moved base', 'offsets, 3 joints',
+                                  'offsets, 4 joints, fixed_joint'])
+def test_robot_forward_of_one_configuration_equals_the_batch(case):
+    robot, arm, _ = CASES[case]
+    Q, J = random_postures(robot, arm, 30, seed=13)
+    batch = robot_forward(robot, Q, J, arm)
+    for i in range(30):
+        one = robot_forward(robot, Q[i:i + 1], J[i:i + 1], arm)
+        assert len(one) == 1 and one.arm == batch.arm
+        for frame in ('platform', 'blade', 'wafer', 'wafer_on_platform', 'naive_platform', 'naive_wafer'):
+            for part in ('position', 'rotation'):
+                np.testing.assert_allclose(getattr(getattr(one, frame), part)[0],
+                                           getattr(getattr(batch, frame), part)[i], rtol=0, atol=ATOL,
+                                           err_msg=f'{frame}.{part}')
+        np.testing.assert_allclose(one.naive_wafer_error[0], batch.naive_wafer_error[i], rtol=0, atol=ATOL)
+        for name in ('tilt', 'tilt_azimuth', 'centre_shift', 'virtual_joints', 'quaternion'):
+            np.testing.assert_allclose(getattr(one.gpr, name)[0], getattr(batch.gpr, name)[i], rtol=0, atol=ATOL)
+        assert one.gpr.within_budget.dtype == bool and one.gpr.iterations.dtype == np.int64
+        floats = forward_floats(robot, robot.arm(arm), Q[i].tolist(), J[i].tolist())
+        naive = naive_platform_one(robot, Q[i].tolist())
+        for got, want in ((floats.wafer, batch.wafer), (floats.on_platform, batch.wafer_on_platform),
+                          (naive, batch.naive_platform)):
+            np.testing.assert_allclose(got[0], want.position[i], rtol=0, atol=ATOL)
+            np.testing.assert_allclose(got[1], want.rotation[i], rtol=0, atol=ATOL)
+
+
+def test_robot_forward_of_one_configuration_refuses_like_the_batch():
+    Q, J = random_postures(ROBOT, 'arm1', 1, seed=14)
+    for rods, joints, pattern in ((Q + 0.6, J, r'q\d = [\d.]+ m( \(sample 0\))? is outside the stroke'),
+                                  (Q, J + 10.0, r'arm1_\w+ = [\d.]+ rad( \(sample 0\))? is beyond its upper limit')):
+        with pytest.raises(LimitError, match=pattern):
+            robot_forward(ROBOT, rods, joints, 'arm1')
+        with pytest.raises(LimitError, match=pattern):
+            robot_forward(ROBOT, np.repeat(rods, 2, axis=0), np.repeat(joints, 2, axis=0), 'arm1')
