@@ -272,11 +272,12 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     assert set(again.topics) == set(ref.topics)
     for name, topic in ref.topics.items():
         assert again.topic(name).raw == topic.raw, name
-    # The original spacing scaled by the rate: the replay cannot run ahead of its schedule.
+    # The original spacing scaled by the rate: the replay cannot run ahead of its schedule. (How far behind it falls
+    # is the machine's load, not the replay's contract: the recorder's receive times stretched 0.47 s to 3.3 s on a
+    # loaded CI machine, so no upper bound is asserted.)
     span_ref = (ref.topic(STATE).log_time[-1] - ref.topic(STATE).log_time[0]) * 1e-9
     span = (again.topic(STATE).log_time[-1] - again.topic(STATE).log_time[0]) * 1e-9
     assert span >= 0.9 * span_ref / rate
-    assert span < span_ref / rate + 2.0
     assert verify_bag(again).passed
 
 
