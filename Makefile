@@ -8,8 +8,8 @@
 # environment `source install/setup.bash` would (no system ROS needed); the tests activate it themselves
 # (test/conftest.py).
 #
-# `make test` runs every test (lint, mypy and the ROS tests included), then the non-ROS tests and the node tests
-# once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
+# `make test` runs the two setups side by side, then every test (lint, mypy and the ROS tests included) and, beside
+# it, the tests not marked slow once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
 # matplotlib 3.7.3, PyYAML 6.0.1: requirements-stock.txt) in .venv-stock with its own colcon build.
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -82,7 +82,8 @@ setup-stock: $(STOCK_COLCON_STAMP)
 
 # The pinned suite and the stock one run side by side (their nodes mostly wait on DDS and timers), each in its own
 # ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
-test: setup setup-stock
+test:
+	$(MAKE) --no-print-directory -j2 setup setup-stock
 	$(MAKE) --no-print-directory --output-sync=target -j2 test-pinned test-stock-run
 
 test-pinned:
@@ -103,13 +104,14 @@ test-core: $(STAMP)
 test-ros: setup
 	$(PY) -m pytest -q -m ros test
 
-# Core, CLI, bag and node tests on the stock versions (the lint and type checks ran on the pinned ones).
+# Core, CLI, bag and node tests on the stock versions, without the tests marked slow (each a long scenario whose code
+# the others also run on these versions: the pinned run has them) and the static checks (lint, types, layout).
 test-stock: setup-stock
 	$(MAKE) --no-print-directory test-stock-run
 
 test-stock-run:
 	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_DOMAIN) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
-		--ignore test/test_lint.py
+		-m 'not slow' --ignore test/test_lint.py --ignore test/test_types.py --ignore test/test_layout.py
 
 # The demo: the example robot programmed through tilted stations with the naive model's wafer error
 # (robot.demo), a calibration from the shipped synthetic measurements (calibration.demo), then the

@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # ros_support, for the
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line('markers', 'ros: needs the colcon build (make setup) and runs nodes over real DDS')
-    config.addinivalue_line('markers', 'slow: takes seconds; left out of make test-quick (make test runs it)')
+    config.addinivalue_line('markers', 'slow: takes seconds; left out of make test-quick and of the stock run '
+                                       '(make test runs it on the pinned versions)')
 
 
 def test_domain_id() -> int:

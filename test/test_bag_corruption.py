@@ -176,6 +176,7 @@ def test_corruptions_found_before(tmp_path: Path, bags: dict[str, Path]) -> None
 _KINDS = st.sampled_from(['flip', 'truncate', 'overwrite', 'length'])
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())

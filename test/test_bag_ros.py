@@ -155,6 +155,7 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     assert result.crossings == 12
 
 
+@pytest.mark.slow
 def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> None:
     """A whole-robot program streamed by trajectory_node into a recorder with its default topics: the bag holds
     the robot description once and a RobotState and a wafer pose per sample; gpr verify checks every wafer against
@@ -188,6 +189,7 @@ def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> Non
     assert np.abs(wafer - expected.wafer.position).max() <= 1e-12
 
 
+@pytest.mark.slow
 def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> None:
     """Two recorders on the same stream: ``full`` is stopped cleanly (the truth), ``killed`` gets SIGKILL
     mid-stream. The killed bag is a valid bag holding a gapless prefix of the stream, byte for byte, that
@@ -281,6 +283,7 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     assert verify_bag(again).passed
 
 
+@pytest.mark.slow
 def test_replay_topic_filter(tmp_path: Path) -> None:
     record_to_the_end(recorder(tmp_path / 'states', flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(
         'replay_node', bag=REFERENCE, rate=10.0, topics='[gpr/platform_state]', wait_for_subscribers=1), timeout=60)
@@ -290,6 +293,7 @@ def test_replay_topic_filter(tmp_path: Path) -> None:
     assert bad.wait(30) == 2 and 'does not exist' in bad.output()
 
 
+@pytest.mark.slow
 def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     rec = recorder(tmp_path / 'looped', flush_interval=0.5, topics='[gpr/platform_state]')
     replay = None

@@ -67,6 +67,7 @@ def case():
     return cfg, m, truth, held_out, np.array(planned)
 
 
+@pytest.mark.slow
 def test_unplanned_poses_reach_the_minimum_or_exit_1(case, capsys, tmp_path):
     cfg, m, truth, held_out, planned = case
     assert held_out(m.parameters.nominal) > 25e-6                  # what a calibration must beat: ~29 um

@@ -363,7 +363,8 @@ def test_every_subcommand_has_cases():
     assert sorted(leaf_commands()) == sorted(CASES)
 
 
-@pytest.mark.parametrize('command', sorted(CASES))
+@pytest.mark.parametrize('command', [pytest.param(c, marks=pytest.mark.slow) if c == 'calibrate' else c
+                                     for c in sorted(CASES)])
 @settings(max_examples=EXAMPLES, deadline=None, derandomize=SEED is None, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @seed(int(SEED or 0))
@@ -447,6 +448,7 @@ def test_an_empty_config_name_is_refused_not_ignored(worker: Worker, tmp_path: P
     assert 'config file path is empty' in outcome.err
 
 
+@pytest.mark.slow
 def test_the_largest_runs_the_limits_allow_fit_the_address_space(worker: Worker, tmp_path: Path) -> None:
     """The documented limits and the harness's bound agree: a sweep of 199,995 samples (199 tilts x 1005
     azimuths; sweep.MAX_SAMPLES is 200,000), a dexterity map of 50,000 poses (dexterity.MAX_POINTS) of the GPR,

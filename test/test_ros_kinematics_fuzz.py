@@ -280,6 +280,7 @@ def _answered(client, handle, what):
     return response, time.monotonic() - t0
 
 
+@pytest.mark.slow
 @SETTINGS
 @SEEDED
 @given(path=PATHS, stations=STATION_LISTS, use=st.sampled_from(['file', 'stations', 'both', 'neither']),

@@ -82,6 +82,7 @@ def test_colcon_finds_both_packages_in_a_standard_workspace(tmp_path):
     assert found == {'gpr_interfaces': '(ros.ament_cmake)', 'gpr_kinematics': '(ros.ament_python)'}, res.stdout
 
 
+@pytest.mark.slow
 def test_colcon_builds_both_packages_in_a_standard_workspace(tmp_path):
     ws = _workspace(tmp_path)
     python = sys.executable

@@ -56,6 +56,7 @@ def sent(ros_environment):
         sim.stop()
 
 
+@pytest.mark.slow
 def test_the_example_program_runs_on_the_simulator(sent):
     status, out, err, _, sim = sent
     assert status == 0, out + err + sim.output()
@@ -68,6 +69,7 @@ def test_the_example_program_runs_on_the_simulator(sent):
         (result['duration'] * SIM_RATE % 1 > 1e-6)
 
 
+@pytest.mark.slow
 def test_recorded_joint_states_equal_the_export_samples_at_every_point(sent):
     """The goal's joint_states (stamped start + k / rate) at the program's points equal the rows of `gpr program
     export --samples --rate 10` (the rods named rod_1..rod_3 there as gpr_rod1..3 by the description)."""

@@ -150,6 +150,7 @@ def _file_size_limit(limit: int):
     return apply
 
 
+@pytest.mark.slow
 def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tmp_path):
     """A file size limit (RLIMIT_FSIZE, as a full disk: writes fail with EFBIG) under an SQLite3 recording: small
     segments close fine while a slow stream runs; a fast stream then overfills a segment. The recorder ends with

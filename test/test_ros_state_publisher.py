@@ -240,6 +240,7 @@ def robot_run(ros_environment, tmp_path_factory):
             sp.stop()
 
 
+@pytest.mark.slow
 def test_tf_chain_world_to_wafer_equals_the_robot_core_for_every_sample(robot_run):
     """world -> gpr_base (static) -> gpr_platform (per state) -> the arm's links (per joint state) -> blade ->
     wafer (static), composed here from the transforms, equals robot_forward of the sample's rods and joints."""

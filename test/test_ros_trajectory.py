@@ -183,6 +183,7 @@ def test_geometry_latched_and_loadable(sweep_run):
     assert GprConfig.from_mapping(data) == CFG
 
 
+@pytest.mark.slow
 def test_an_imperfect_machine_streams_its_own_kinematics_and_markers(ros_environment, tmp_path):
     """A config_file with the keys no ROS parameter holds: the stream is forward kinematics on that machine, the
     markers draw its rods and platform joints (MachineGeometry), gpr/geometry records it whole."""
@@ -213,6 +214,7 @@ def test_an_imperfect_machine_streams_its_own_kinematics_and_markers(ros_environ
     assert GprConfig.from_mapping(yaml.safe_load(geometry.data)) == cfg
 
 
+@pytest.mark.slow
 def test_program_mode_streams_the_sampled_program(ros_environment):
     path = config_path('programs/example_stations.yaml')
     prog = load_platform_program(path)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 from ros_support import start, wait_for_log
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROBOTS = (('/r1', 'r1/'), ('/r2', 'r2/'))
 #: Names both robots use by design: tf is one tree of prefixed frames, the rest belongs to ROS itself.

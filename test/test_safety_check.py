@@ -69,6 +69,7 @@ def test_the_cell_example_is_safe(tmp_path):
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
 
 
+@pytest.mark.slow
 def test_a_box_on_the_wafers_path_is_a_collision_at_the_right_time(tmp_path):
     """A 20 mm cube on the line the wafer enters pm1 by, just before the slit: exit 1; the first collision is
     the wafer against the box, found while the wafer's disc covers the box (independently: the exported wafer
@@ -162,6 +163,7 @@ def fast_robot(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
     """The check fails on slip (exit 1, max_slip_ratio >= 1, where named), and the slip ratio agrees with the one
     computed here from second differences of the exported wafer poses (1 kHz) while the wafer is carried."""

@@ -95,6 +95,7 @@ def test_bad_files_exit_2(tmp_path, capsys, text, match):
     assert code == 2 and match in err and err.count('\n') == 1
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path):
     """A real SIGINT to a running ``gpr workspace``: exit 0, result marked interrupted, boxes saved."""
     import os

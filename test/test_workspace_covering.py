@@ -191,6 +191,7 @@ def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
     assert top(tall) > top(base) + 0.02
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('method', ['covering', 'grid', 'uniform'])
 def test_every_method_has_a_default_time_limit(monkeypatch, method):
     """Issue 18: the grid method at 0.072 mm on the planar 3-RRR ran without end; without a limit of the caller's,

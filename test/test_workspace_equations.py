@@ -34,6 +34,7 @@ def _elbow(P, pivot, proximal, distal):
     return out
 
 
+@pytest.mark.slow
 def test_dextar_6d_brackets_the_closed_form_area(dextar):
     model, res = dextar
     exact = load_workspace_model(config_path('mechanisms/dextar.yaml')).exact_area()

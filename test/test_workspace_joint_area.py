@@ -21,6 +21,7 @@ def joint():
     return model, approximate(model, DELTA)
 
 
+@pytest.mark.slow
 def test_the_reported_time_includes_the_mechanisms_coverings():
     """result.seconds is the whole run's: the tripod's and the planar mechanism's coverings (about half the work)
     included (they were left out)."""
@@ -64,6 +65,7 @@ def _realise(model, p, tries=20000):
     return tripod[i], planar[i]
 
 
+@pytest.mark.slow
 def test_inner_points_are_realised_by_explicit_poses(joint):
     model, res = joint
     assert res.certified and not res.interrupted and res.inner_boxes > 20
@@ -77,6 +79,7 @@ def test_inner_points_are_realised_by_explicit_poses(joint):
         assert np.allclose(model.tool_points(tripod[None], planar[None])[0], p, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_random_pose_pairs_land_in_the_outer_approximation(joint):
     model, res = joint
     tripod, planar = _feasible_poses(model, 50000)
@@ -89,6 +92,7 @@ def test_random_pose_pairs_land_in_the_outer_approximation(joint):
     assert res.inner_volume < hits < res.outer_volume
 
 
+@pytest.mark.slow
 def test_the_placement_is_an_explicit_assumption():
     base = load_workspace_model(config_path('mechanisms/joint_working_area.yaml'))
     up = JointWorkingArea(base.tripod, base.planar, translation=[0.0, 0.0, 0.25])
@@ -122,6 +126,7 @@ def test_bad_joint_descriptions_are_refused(change, match):
         model_from_mapping(data, 'joint')
 
 
+@pytest.mark.slow
 def test_a_box_that_misses_the_reachable_range_is_refused():
     data = {'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml', 'planar': 'rrr3_planar.yaml',
             'workspace': {'box': {'pz': [5.0, 6.0]}}}

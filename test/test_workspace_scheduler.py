@@ -22,6 +22,7 @@ def _same(a, b):
             and a.outside_boxes == b.outside_boxes and a.evaluations == b.evaluations)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, delta, chunk', [('dextar_6d', 0.02, 1024), ('tripod_3rps', 0.004, 4096)])
 def test_a_local_cluster_gives_exactly_the_boxes_of_one_process(cluster, name, delta, chunk):
     model = load_workspace_model(config_path(f'mechanisms/{name}.yaml'))
@@ -107,6 +108,7 @@ def test_a_port_that_is_no_dask_scheduler_is_reported(monkeypatch):
         s.close()
 
 
+@pytest.mark.slow
 def test_sigterm_stops_a_run_on_a_local_cluster_and_closes_it(tmp_path):
     """Issue 18: a grid run killed with SIGTERM left its local cluster's 12 semaphores behind (the resource
     tracker's warning); SIGTERM now stops it like Ctrl-C: the proved boxes are kept and the cluster closed."""
