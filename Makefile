@@ -8,8 +8,8 @@
 # environment `source install/setup.bash` would (no system ROS needed); the tests activate it themselves
 # (test/conftest.py).
 #
-# `make test` runs the two setups side by side, then every test (lint, mypy and the ROS tests included) and, beside
-# it, the tests not marked slow once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
+# `make test` runs the two setups side by side, then every test (lint, mypy and the ROS tests included; as two runs,
+# the ROS tests and the rest) and the tests not marked slow once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
 # matplotlib 3.7.3, PyYAML 6.0.1: requirements-stock.txt) in .venv-stock with its own colcon build.
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -25,7 +25,9 @@ STOCK_PY := $(STOCK_VENV)/bin/python
 STOCK_STAMP := $(STOCK_VENV)/.setup-stamp
 STOCK_INSTALL := install-stock
 STOCK_COLCON_STAMP := $(STOCK_INSTALL)/.colcon-stamp
-STOCK_DOMAIN := $(if $(GPR_TEST_ROS_DOMAIN_ID),GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(GPR_TEST_ROS_DOMAIN_ID) + 1 \) % 233),)
+# The ROS domains of `make test`'s three runs: GPR_TEST_ROS_DOMAIN_ID (or one from the shell's pid) and the next two.
+TEST_DOMAIN := $(or $(GPR_TEST_ROS_DOMAIN_ID),$(shell expr 10 + $$$$ % 200))
+DOMAIN_OF = GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(TEST_DOMAIN) + $(1) \) % 233)
 # Inputs of the colcon build: a change to any of them rebuilds (colcon itself is incremental).
 COLCON_INPUTS := $(shell find gpr_interfaces fallback $(addprefix gpr_kinematics/,config resource launch rviz urdf) -type f \
 	-not -path '*/__pycache__/*' -not -name '*.pyc' 2>/dev/null) $(addprefix gpr_kinematics/,setup.py setup.cfg package.xml) \
@@ -39,7 +41,7 @@ define COLCON_BUILD
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
-.PHONY: setup setup-stock test test-pinned test-quick test-core test-ros test-stock test-stock-run demo lint clean
+.PHONY: setup setup-stock test test-pinned test-pinned-ros test-pinned-rest test-quick test-core test-ros test-stock test-stock-run demo lint clean
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
@@ -82,12 +84,19 @@ setup-stock: $(STOCK_COLCON_STAMP)
 
 # The pinned suite and the stock one run side by side (their nodes mostly wait on DDS and timers), each in its own
 # ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
+# The pinned suite runs in two parts (the ROS tests, the rest) so that the three runs keep both cores busy.
 test:
 	$(MAKE) --no-print-directory -j2 setup setup-stock
-	$(MAKE) --no-print-directory --output-sync=target -j2 test-pinned test-stock-run
+	$(MAKE) --no-print-directory --output-sync=target -j2 test-pinned-ros test-stock-run test-pinned-rest
 
 test-pinned:
 	$(PY) -m pytest -q test
+
+test-pinned-ros:
+	$(call DOMAIN_OF,0) $(PY) -m pytest -q -m ros test
+
+test-pinned-rest:
+	$(call DOMAIN_OF,1) $(PY) -m pytest -q -p no:cacheprovider -m 'not ros' test
 
 # The quick loop while working on the core (docs/ros.md#tests): the kinematics core, its command line, the robot and
 # the mechanisms, the layout and the types, without the tests marked slow and the two hardening suites that start
@@ -110,7 +119,7 @@ test-stock: setup-stock
 	$(MAKE) --no-print-directory test-stock-run
 
 test-stock-run:
-	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(STOCK_DOMAIN) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
+	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(call DOMAIN_OF,2) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
 		-m 'not slow' --ignore test/test_lint.py --ignore test/test_types.py --ignore test/test_layout.py
 
 # The demo: the example robot programmed through tilted stations with the naive model's wafer error

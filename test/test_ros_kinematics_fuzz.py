@@ -324,6 +324,7 @@ def test_hostile_goals(action, allowed, path, stations, use, move_time, cancel, 
     assert action.node_process.alive()
 
 
+@pytest.mark.slow  # reads what test_hostile_goals reached
 def test_goal_fuzzing_reached_refusals_runs_and_cancels(action):
     assert {'4', '5', '6'} <= set(ACTION_ANSWERS), ACTION_ANSWERS   # succeeded, canceled, aborted
     out = action.node_process.output()
