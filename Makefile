@@ -8,8 +8,8 @@
 # environment `source install/setup.bash` would (no system ROS needed); the tests activate it themselves
 # (test/conftest.py).
 #
-# `make test` runs the two setups side by side, then every test (lint, mypy and the ROS tests included; as two runs,
-# the ROS tests and the rest) and the tests not marked slow once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
+# `make test` runs the two setups side by side, then every test (lint, mypy and the ROS tests included; as three
+# runs, the ROS tests and the rest in two halves) and the tests not marked slow once more on the versions of a stock ROS 2 Jazzy install (Python 3.12, numpy 1.26.4, scipy 1.11.4,
 # matplotlib 3.7.3, PyYAML 6.0.1: requirements-stock.txt) in .venv-stock with its own colcon build.
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -25,7 +25,7 @@ STOCK_PY := $(STOCK_VENV)/bin/python
 STOCK_STAMP := $(STOCK_VENV)/.setup-stamp
 STOCK_INSTALL := install-stock
 STOCK_COLCON_STAMP := $(STOCK_INSTALL)/.colcon-stamp
-# The ROS domains of `make test`'s three runs: GPR_TEST_ROS_DOMAIN_ID (or one from the shell's pid) and the next two.
+# The ROS domains of `make test`'s four runs: GPR_TEST_ROS_DOMAIN_ID (or one from the shell's pid) and the next three.
 TEST_DOMAIN := $(or $(GPR_TEST_ROS_DOMAIN_ID),$(shell expr 10 + $$$$ % 200))
 DOMAIN_OF = GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(TEST_DOMAIN) + $(1) \) % 233)
 # Inputs of the colcon build: a change to any of them rebuilds (colcon itself is incremental).
@@ -41,7 +41,7 @@ define COLCON_BUILD
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
-.PHONY: setup setup-stock test test-pinned test-pinned-ros test-pinned-rest test-quick test-core test-ros test-stock test-stock-run demo lint clean
+.PHONY: setup setup-stock test test-pinned test-pinned-ros test-pinned-rest-1 test-pinned-rest-2 test-quick test-core test-ros test-stock test-stock-run demo lint clean
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
@@ -84,19 +84,28 @@ setup-stock: $(STOCK_COLCON_STAMP)
 
 # The pinned suite and the stock one run side by side (their nodes mostly wait on DDS and timers), each in its own
 # ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
-# The pinned suite runs in two parts (the ROS tests, the rest) so that the three runs keep both cores busy.
+# The pinned suite runs in three parts (the ROS tests; the rest in two halves of about equal time, by file) beside the
+# stock run, the longest first, two at a time: so both cores stay busy to the end.
+PINNED_HALF := $(wildcard test/test_calibration_*.py test/test_fuzz_*.py test/test_ros_*.py test/test_bag_*.py \
+	test/test_lint.py test/test_types.py test/test_layout.py)
+PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider --durations=10 -m 'not ros'
+
 test:
 	$(MAKE) --no-print-directory -j2 setup setup-stock
-	$(MAKE) --no-print-directory --output-sync=target -j2 test-pinned-ros test-stock-run test-pinned-rest
+	$(MAKE) --no-print-directory --output-sync=target -j2 test-stock-run test-pinned-ros test-pinned-rest-1 \
+		test-pinned-rest-2
 
 test-pinned:
 	$(PY) -m pytest -q test
 
 test-pinned-ros:
-	$(call DOMAIN_OF,0) $(PY) -m pytest -q -m ros test
+	$(call DOMAIN_OF,0) $(PY) -m pytest -q --durations=10 -m ros test
 
-test-pinned-rest:
-	$(call DOMAIN_OF,1) $(PY) -m pytest -q -p no:cacheprovider -m 'not ros' test
+test-pinned-rest-1:
+	$(call PINNED_NOT_ROS,1) $(PINNED_HALF)
+
+test-pinned-rest-2:
+	$(call PINNED_NOT_ROS,3) test $(addprefix --ignore ,$(PINNED_HALF))
 
 # The quick loop while working on the core (docs/ros.md#tests): the kinematics core, its command line, the robot and
 # the mechanisms, the layout and the types, without the tests marked slow and the two hardening suites that start
