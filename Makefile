@@ -86,7 +86,7 @@ setup-stock: $(STOCK_COLCON_STAMP)
 # ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
 # The pinned suite runs in three parts (the ROS tests; the rest in two halves of about equal time, by file) beside the
 # stock run, the longest first, two at a time: so both cores stay busy to the end.
-PINNED_HALF := $(wildcard test/test_calibration_*.py test/test_fuzz_*.py test/test_ros_*.py test/test_bag_*.py \
+PINNED_HALF := $(wildcard test/test_calibration_*.py test/test_ros_*.py test/test_bag_*.py \
 	test/test_lint.py test/test_types.py test/test_layout.py)
 PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider --durations=10 -m 'not ros'
 
