@@ -19,6 +19,7 @@ import platform
 import statistics
 import time
 
+import bench_core
 import fcl
 import numpy as np
 from gpr_kinematics.inputs.resources import config_path
@@ -33,12 +34,8 @@ from gpr_kinematics.safety.motion import PlanMotion
 
 
 def timed(fn, repeat: int, clock=time.perf_counter) -> list[float]:
-    out = []
-    for _ in range(repeat):
-        t0 = clock()
-        fn()
-        out.append(clock() - t0)
-    return out
+    """:func:`bench_core.timed`, one call per sample, on the wall clock unless ``clock`` says otherwise."""
+    return bench_core.timed(fn, repeat, clock=clock)
 
 
 def fcl_object(body):

@@ -21,8 +21,10 @@ import platform
 import statistics
 import time
 
+import bench_core
 import fcl
 import numpy as np
+from bench_clearance import fcl_object
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot
 from gpr_kinematics.robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
@@ -38,12 +40,8 @@ from gpr_kinematics.safety.motion import levers
 
 
 def timed(fn, repeat: int, clock=time.process_time) -> list[float]:
-    out = []
-    for _ in range(repeat):
-        t0 = clock()
-        fn()
-        out.append(clock() - t0)
-    return out
+    """:func:`bench_core.timed`, one call per sample, on the CPU time of the process unless ``clock`` says otherwise."""
+    return bench_core.timed(fn, repeat, clock=clock)
 
 
 def main() -> None:
@@ -124,8 +122,7 @@ def main() -> None:
     rows.append((f'the 100 Hz goal, every pair\'s minimum to the tolerance instead of the margin alone '
                  f'({full[-1].evaluations:,} library calls; once)', every[0], 's'))
 
-    objs = [fcl.CollisionObject(fcl.Box(*b.size) if b.kind == 'box' else fcl.Cylinder(*b.size),
-                                fcl.Transform(b.rotation, b.position)) for b in check.bodies]
+    objs = [fcl_object(b) for b in check.bodies]
     request = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
     a, b = next((i, j) for i, j, _ in check.pairs if check.bodies[i].kind == check.bodies[j].kind == 'box'
                 and check.bodies[j].frame is None)       # a link's box and a wall's, as bench_clearance.py
