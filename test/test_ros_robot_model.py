@@ -318,3 +318,14 @@ def test_the_naive_platform_is_a_ghost_not_a_body(tmp_path):
                        (Joint('j', 'fixed', 'a', 'g'),))
     g = _urdf(tmp_path, forced).link_map['g']
     assert g.inertial is None and not g.collisions and g.visuals
+
+
+@pytest.mark.parametrize('text', ['arm1_link1', 'a&b<c>d', 'say "hi"', "it's", 'both \' and "', 'tab\there\nnew\rline',
+                                  '&amp; already', ''])
+def test_urdf_quoteattr_writes_what_the_standard_library_writes(text):
+    """The URDF's own attribute quoting (no xml.sax import at a node's start) equals xml.sax.saxutils.quoteattr."""
+    from xml.sax.saxutils import quoteattr as standard
+
+    from gpr_kinematics.robot.urdf import quoteattr
+
+    assert quoteattr(text) == standard(text)
