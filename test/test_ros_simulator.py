@@ -44,6 +44,10 @@ def session(proc, ready: str, name: str, namespace: str):
         with GprClient(name, namespace=namespace) as c:
             states = c.subscribe(JointState, 'joint_states')
             cli = ActionClient(c.node, FollowJointTrajectory, ACTION, feedback_sub_qos_profile=stream_qos(1000))
+            # The feedback topic itself: rclpy's action client drops the feedback it has not taken yet once the
+            # result arrives (it forgets the goal's callback), so a count of feedback needs its own subscription.
+            c.feedback_topic = c.subscribe(FollowJointTrajectory.Impl.FeedbackMessage,
+                                           f'{namespace}/{ACTION}/_action/feedback', 1000)
             assert cli.wait_for_server(timeout_sec=20.0), proc.output()
             _feedback_matched(c, namespace)
             assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
@@ -125,10 +129,6 @@ def test_idle_joint_states_hold_the_rest_state(sim):
     assert not any(msg.velocity)
 
 
-# Run on the pinned versions only: in two of three loaded CI runs the stock run's client received 144-145 of the 201
-# feedback messages (reliable, depth 1000 on both sides; not understood yet, see the closing note), the assertions
-# unchanged.
-@pytest.mark.slow
 def test_a_feasible_two_point_trajectory_succeeds_and_is_published_at_the_rate(sim):
     from action_msgs.msg import GoalStatus
 
@@ -137,13 +137,14 @@ def test_a_feasible_two_point_trajectory_succeeds_and_is_published_at_the_rate(s
     current = {n: _held(c, states, n) for n in names}
     targets = [[1.0, 0.256], [1.5, 0.255]]
     feedback: list = []
-    n0 = len(states)
+    n0, f0 = len(states), len(c.feedback_topic)
     result, status = _run(c, cli, _goal(names, [1.0, 2.0], targets), feedback)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
     assert 'reached the last point' in result.error_string
     # The result and the last feedback travel apart (on a loaded machine the feedback comes later): wait for it.
-    c.spin_until(lambda: len(feedback) >= 201, 10)
+    c.spin_until(lambda: len(c.feedback_topic) - f0 >= 201, 10)
     c.spin_for(0.2)
+    published = [m.feedback for m in c.feedback_topic[f0:]]
     # The goal's samples: consecutive stamps 10 ms apart from its start.
     stamps = np.array([_stamp(m) for m in states[n0:]])
     gaps = np.diff(stamps)
@@ -160,11 +161,13 @@ def test_a_feasible_two_point_trajectory_succeeds_and_is_published_at_the_rate(s
     others = [k for k in range(len(JOINTS.names)) if k not in idx]
     assert all(np.array_equal(np.array(m.position)[others], np.array(goal_msgs[0].position)[others])
                for m in goal_msgs)
-    # Feedback: one per sample, over the goal's joints, in order; the joints follow exactly (tau = 0).
-    assert len(feedback) == 201 and all(list(f.joint_names) == list(names) for f in feedback)
-    times = [f.desired.time_from_start.sec + f.desired.time_from_start.nanosec / 1e9 for f in feedback]
-    assert times == sorted(times) and times[-1] == pytest.approx(2.0)
-    assert all(max(abs(e) for e in f.error.positions) == 0.0 for f in feedback)
+    # Feedback: one per sample, over the goal's joints, in order; the joints follow exactly (tau = 0). The action
+    # client's callback saw the same messages up to the result (all of them on a quiet machine).
+    assert len(published) == 201 and all(list(f.joint_names) == list(names) for f in published)
+    times = [f.desired.time_from_start.sec + f.desired.time_from_start.nanosec / 1e9 for f in published]
+    np.testing.assert_allclose(times, np.arange(201) / RATE, rtol=0, atol=1e-9)
+    assert all(max(abs(e) for e in f.error.positions) == 0.0 for f in published)
+    assert feedback and feedback == published[:len(feedback)]
     # After the goal the joints hold the last point.
     assert _held(c, states, 'arm1_elbow') == 1.5
 
