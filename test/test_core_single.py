@@ -3,6 +3,7 @@ to the last bit, the batch rows to 1e-12, the same refusals, over random, singul
 the nominal and an imperfect machine."""
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -84,6 +85,29 @@ def test_forward_equals_the_driver_on_floats_to_the_last_bit_and_refuses_alike(g
                 continue
             _assert_same_bits(forward(q, cfg, model, check), ref)
     assert 10 < refused < 150
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_rods_far_outside_the_stroke_unchecked_end_in_the_packages_error_as_in_the_batch(model):
+    # A joint_states publisher may send any rods to the state publisher, which skips the limits: a singular Newton
+    # step (one radial case: rods -1769, 1303 and -0.0085 m) was a bare ZeroDivisionError.
+    rng = np.random.default_rng(7)
+    failed = 0
+    for _ in range(400):
+        q = rng.normal(0.0, 1.0, 3) * 10.0 ** rng.integers(-3, 4, 3)
+        try:
+            out = forward(q, model=model, check_limits=False)
+        except ConvergenceError as exc:
+            assert re.match(rf'(virtual-joint closure \({model}\)|{model} closure).* did not converge', str(exc))
+            with pytest.raises(ConvergenceError), np.errstate(all='ignore'):
+                forward_batch(q[None, :], model=model, check_limits=False)
+            failed += 1
+            continue
+        assert np.all(np.isfinite(out.position)) and np.isfinite(out.tilt)
+    assert failed > 0
+    with pytest.raises(ConvergenceError, match=r'did not converge for q = \[-1769\.0.*float division by zero'):
+        forward([-1769.0291745130303, 1303.4307942578168, -0.008524297508037591], model='radial',
+                check_limits=False)
 
 
 @pytest.mark.parametrize('geometry', CONFIGS)

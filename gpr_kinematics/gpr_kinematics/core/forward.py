@@ -28,7 +28,7 @@ from typing import Any, Generic, Self, TypeVar, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError, LimitError
+from ..errors import ConvergenceError, GprError, InputError, LimitError
 from ..inputs.validation import rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
@@ -291,7 +291,8 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
 
     The one-pose path (:mod:`gpr_kinematics.core.single`): float arithmetic with the constants of the geometry and
     model computed once, the limits checked in float comparisons (the batch's messages when one fails), the result
-    built from one array. Equal to the batch row to rounding (~1e-16).
+    built from one array. Equal to the batch row to rounding (~1e-16). With ``check_limits=False`` rods far outside
+    the stroke may have no closure: :class:`~gpr_kinematics.errors.ConvergenceError`, as in the batch.
     """
     cfg = resolve_config(config)
     kernel = one_pose(cfg, model)
@@ -306,10 +307,17 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
         h2, rest = naive[1], 1.0 - naive[1]
         if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > 1.05 * cfg.tilt_limit:
             _check_naive_tilt(SCALAR, kernel.geometry, q3, cfg)
-    P = kernel.centres(q0, q1, q2)
-    L = kernel.lengths(P)
-    closure = kernel.closure(*L)
-    out = one_result(kernel, q3, P, L, closure, rigid_fit(SCALAR, P, closure.components), naive)
+    try:
+        P = kernel.centres(q0, q1, q2)
+        L = kernel.lengths(P)
+        closure = kernel.closure(*L)
+        out = one_result(kernel, q3, P, L, closure, rigid_fit(SCALAR, P, closure.components), naive)
+    except GprError:
+        raise
+    except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
+        raise ConvergenceError(f'virtual-joint closure ({kernel.model.name}) did not converge for q = {list(q3)} m: '
+                               f'{exc} in a Newton step (the limits were not checked; the stroke is '
+                               f'[{cfg.stroke_min:g}, {cfg.stroke_max:g}] m)') from None
     if check_limits and out.tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:
         _check_tilt(q3, out.tilt, cfg)
     return out
