@@ -330,3 +330,34 @@ def test_a_new_tf_subscription_gets_the_held_state_when_it_matches(ros_environme
             assert 0.0 <= dt < 5.0
     finally:
         sp.stop()
+
+
+def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing(ros_environment):
+    """joint_states of any publisher reach the node with the limits unchecked: rods far outside the stroke whose
+    closure has a singular Newton step are logged (the platform keeps its last pose), and the next rods are shown."""
+    from gpr_kinematics.core import forward
+    from gpr_kinematics.nodes.client import GprClient
+    from sensor_msgs.msg import JointState
+    from tf2_msgs.msg import TFMessage
+
+    sp = start('state_publisher_node', namespace='/tf_bad_rods', frame_prefix='b/')
+    names = ['rod_1', 'rod_2', 'rod_3']
+
+    def platform_z(msgs):
+        return [t.transform.translation.z for m in msgs for t in m.transforms if t.child_frame_id == 'b/gpr_platform']
+
+    try:
+        wait_for_log(sp, r'publishing robot_description')
+        with GprClient('gpr_test_bad_rods') as c:
+            tf = c.subscribe(TFMessage, '/tf')
+            pub = c.node.create_publisher(JointState, '/tf_bad_rods/joint_states', 10)
+            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and platform_z(tf), 30), sp.output()
+            pub.publish(JointState(name=names, position=[-1769.0291745130303, 1303.4307942578168,
+                                                         -0.008524297508037591]))
+            wait_for_log(sp, r'have no platform pose: virtual-joint closure \(radial\) did not converge')
+            pub.publish(JointState(name=names, position=[0.3, 0.3, 0.3]))
+            z = forward([0.3, 0.3, 0.3]).position[2]
+            assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z(tf)), 10), sp.output()
+        assert sp.alive() and 'Traceback' not in sp.output()
+    finally:
+        sp.stop()
