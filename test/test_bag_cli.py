@@ -102,3 +102,17 @@ def test_metadata_fields_of_the_wrong_type(tmp_path: Path, capsys: pytest.Captur
         info['rosbag2_bagfile_information'][field] = value
         (bag / 'metadata.yaml').write_text(yaml.safe_dump(info))
         _one_line_error(*run('verify', str(bag), capsys=capsys), 'unreadable: ', 'metadata.yaml', words)
+
+
+def test_a_storage_identifier_that_does_not_match_the_files_is_named(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    bag = tmp_path / 'mismatch'
+    shutil.copytree(REFERENCE, bag)
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())
+    assert info['rosbag2_bagfile_information']['storage_identifier'] == 'mcap'
+    info['rosbag2_bagfile_information']['storage_identifier'] = 'sqlite3'
+    (bag / 'metadata.yaml').write_text(yaml.safe_dump(info))
+    _one_line_error(*run('verify', str(bag), capsys=capsys), 'unreadable: ',
+                    "metadata.yaml says storage_identifier sqlite3 but lists 'reference_sweep_0.mcap', an mcap file "
+                    'name',
+                    'allowed: the identifier of its files (sqlite3 files end in .db3)')

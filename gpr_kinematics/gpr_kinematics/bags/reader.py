@@ -146,6 +146,11 @@ def locate(path: str | Path) -> Layout:
     files = []
     for rel in meta.relative_file_paths:
         name = Path(rel).name
+        other = SUFFIXES.get(Path(name).suffix, meta.storage)
+        if other != meta.storage:
+            raise BagError(f'{path}: metadata.yaml says storage_identifier {meta.storage} but lists {rel!r}, an '
+                           f'{other} file name; allowed: the identifier of its files ({meta.storage} files end in '
+                           f'{suffix})')
         if not name or name != rel.replace('\\', '/').rsplit('/', 1)[-1] or Path(name).suffix != suffix:
             raise BagError(f'{path}: metadata.yaml lists {rel!r}; allowed: {meta.storage} file names ending in '
                            f'{suffix}')
