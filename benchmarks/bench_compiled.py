@@ -13,8 +13,8 @@ Newton's method; the rigid fit, tilt, twist, quaternions and centre shift of the
   compiled code from the cache.
 
 Before timing it checks that the compiled ``forward`` equals the shipped one over 2,000 random poses (the worst
-difference is printed; the script stops if it exceeds 1e-14). Needs numba (``pip install numba==0.68.1``; not a
-dependency of the package). Usage: ``python benchmarks/bench_compiled.py [--quick]``.
+difference is printed; the script stops if it exceeds 1e-14). Needs numba (``pip install numba==0.68.1``, in the
+``[bench]`` extra; not a dependency of the package). Usage: ``python benchmarks/bench_compiled.py [--quick]``.
 """
 from __future__ import annotations
 
@@ -241,8 +241,8 @@ def main() -> None:
     try:
         import numba
     except ImportError:
-        print('bench_compiled: needs numba (pip install numba==0.68.1); it is not a dependency of the package',
-              file=sys.stderr)
+        print("bench_compiled: needs numba (pip install numba==0.68.1, or the package's [bench] extra); the package "
+              'itself does not', file=sys.stderr)
         raise SystemExit(2) from None
     cfg = load_config()
     K = constants(cfg)

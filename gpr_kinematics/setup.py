@@ -26,14 +26,15 @@ setup(
     # Optional parts (exact pins in requirements.txt / requirements-ros.txt / requirements-bench.txt):
     # bags: gpr verify and the recorder/replay nodes' files; plot: PNG figures (dexterity, workspace, verify
     # reports); ros: the nodes (ROS 2 Jazzy from the PyPI wheels; the interfaces are built with colcon);
-    # bench: the peers of the benchmarks; safety: collision distances of gpr program check (python-fcl).
+    # bench: the peers of the benchmarks and numba for the compiled-code experiment (bench_compiled.py); safety:
+    # collision distances of gpr program check (python-fcl).
     extras_require={
         'bags': ['rosbags', 'mcap', 'mcap-ros2-support'],
         'plot': ['matplotlib'],
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
         'cluster': ['dask', 'distributed'],
         'safety': ['python-fcl'],
-        'bench': ['pin', 'codac'],
+        'bench': ['pin', 'codac', 'numba'],
     },
     zip_safe=True,
     maintainer='gpr_kinematics maintainers',
