@@ -4,6 +4,7 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -104,3 +105,25 @@ def imperfect_config_file(folder: Any) -> tuple[Any, Any]:
     path = folder / 'imperfect_gpr.yaml'
     path.write_text(yaml.safe_dump(IMPERFECT_MACHINE))
     return path, load_config(path)
+
+
+#: What the file beside an operator's program folder holds (:func:`program_folder`): no answer may quote it.
+SECRET = 's3cr3t-value'
+
+
+def program_folder(root: Path, dwell: float) -> Path:
+    """An operator's program folder (a node's ``program_folders``) in ``root``, with its hostile neighbours: a secret
+    beside it, a link out of it, programs naming a robot or importing stations outside it; and ``short.yaml``, a
+    one-station program dwelling ``dwell`` s. Returns the folder."""
+    (root / 'secret.yaml').write_text(f'token: {SECRET}\n')
+    folder = root / 'allowed'
+    folder.mkdir()
+    (folder / 'link_out.yaml').symlink_to(root / 'secret.yaml')
+    (folder / 'names_outside.yaml').write_text(
+        'format: gpr_robot_program\nrobot: ../secret.yaml\nstations: [{name: a, position: [1.3, 0.6, 0.45]}]\n'
+        'steps: [{move: a}]\n')
+    (folder / 'imports_outside.yaml').write_text(
+        'format: gpr_robot_program\nimport: [../secret.yaml]\nsteps: [{move: a}]\n')
+    (folder / 'short.yaml').write_text(
+        f'stations: [{{name: s, height: 0.3, tilt: 0.0, azimuth: 0.0, dwell: {dwell}}}]\n')
+    return folder

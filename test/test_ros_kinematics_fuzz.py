@@ -28,7 +28,7 @@ from gpr_kinematics.errors import GprError
 from gpr_kinematics.robot import Stations, load_robot, robot_forward, solve_stations
 from hypothesis import HealthCheck, example, given, seed, settings
 from hypothesis import strategies as st
-from ros_support import quat, start, vec
+from ros_support import SECRET, program_folder, quat, start, vec
 
 pytestmark = pytest.mark.ros
 
@@ -238,23 +238,13 @@ GOAL_STATION = st.fixed_dictionaries({'height': st.one_of(HOSTILE, st.floats(0.3
 STATION_LISTS = st.one_of(st.lists(GOAL_STATION, max_size=3), st.sampled_from([0, 1, 10_001]).map(
     lambda n: [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': 0.001}] * n))
 #: Contents no answer may quote (the files outside the allowed folder, /etc/shadow, /proc/self/environ).
-SECRET = 's3cr3t-value'
 LEAKS = (SECRET, 'root:', 'PATH=', 'HOME=')
 ACTION_ANSWERS: dict[str, int] = {}
 
 
 @pytest.fixture(scope='module')
 def allowed(tmp_path_factory):
-    root = tmp_path_factory.mktemp('fuzz_programs')
-    (root / 'secret.yaml').write_text(f'token: {SECRET}\n')
-    folder = root / 'allowed'
-    folder.mkdir()
-    (folder / 'link_out.yaml').symlink_to(root / 'secret.yaml')
-    (folder / 'names_outside.yaml').write_text(
-        'format: gpr_robot_program\nrobot: ../secret.yaml\nstations: [{name: a, position: [1.3, 0.6, 0.45]}]\n'
-        'steps: [{move: a}]\n')
-    (folder / 'short.yaml').write_text('stations: [{name: s, height: 0.3, tilt: 0.0, azimuth: 0.0, dwell: 0.01}]\n')
-    return folder
+    return program_folder(tmp_path_factory.mktemp('fuzz_programs'), 0.01)
 
 
 @pytest.fixture(scope='module')

@@ -18,7 +18,8 @@ from gpr_kinematics.core import inverse_batch
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.platform_program import load_platform_program, parse_platform_program, sample_program
-from ros_support import client_session, running, start
+from ros_support import SECRET as FOLDER_SECRET
+from ros_support import client_session, program_folder, running, start
 
 pytestmark = pytest.mark.ros
 
@@ -31,25 +32,13 @@ STATIONS = [{'name': 'load', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell'
 
 
 #: What the files outside the allowed folder hold: no message may repeat it.
-SECRET = 'token: s3cr3t-value'
+SECRET = f'token: {FOLDER_SECRET}'
 
 
 @pytest.fixture(scope='module')
 def allowed(tmp_path_factory):
-    """An operator's program folder (program_folders), with its hostile neighbours: a secret beside it, a link out
-    of it, a program naming a robot outside it."""
-    root = tmp_path_factory.mktemp('programs_root')
-    (root / 'secret.yaml').write_text(SECRET + '\n')
-    folder = root / 'allowed'
-    folder.mkdir()
-    (folder / 'link_out.yaml').symlink_to(root / 'secret.yaml')
-    (folder / 'names_outside.yaml').write_text(
-        'format: gpr_robot_program\nrobot: ../secret.yaml\nstations: [{name: a, position: [1.3, 0.6, 0.45]}]\n'
-        'steps: [{move: a}]\n')
-    (folder / 'imports_outside.yaml').write_text(
-        'format: gpr_robot_program\nimport: [../secret.yaml]\nsteps: [{move: a}]\n')
-    (folder / 'short.yaml').write_text('stations: [{name: s, height: 0.3, tilt: 0.0, azimuth: 0.0, dwell: 0.05}]\n')
-    return folder
+    """An operator's program folder (program_folders), with its hostile neighbours (:func:`program_folder`)."""
+    return program_folder(tmp_path_factory.mktemp('programs_root'), 0.05)
 
 
 @pytest.fixture(scope='module')
