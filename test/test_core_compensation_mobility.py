@@ -8,6 +8,7 @@ from gpr_kinematics.core.compensation import compensate
 from gpr_kinematics.core.config import MODELS, load_config
 from gpr_kinematics.core.mobility import analyze_mobility, exact_dx, rigid_rank, rod_perturbation
 from gpr_kinematics.core.rotations import matrix_from_quaternion, quaternion_from_matrix, rotation_z, tilt_rotation
+from gpr_kinematics.core.virtual_joints import coordinate_scale, make_model
 from gpr_kinematics.errors import InputError, LimitError
 
 CFG = load_config()
@@ -101,6 +102,30 @@ def test_ranks_9_at_singularity_11_elsewhere_12_augmented(model):
         q = naive_inverse(rng.uniform(0.1, 0.4), rng.uniform(1e-5, 1) * CFG.tilt_limit, rng.uniform(-3, 3))
         m = analyze_mobility(q, model=model)
         assert (m.rank_dphi_dp, m.rank_augmented, m.mobility) == (11, 12, 1)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_mobility_equals_the_separate_decompositions(model):
+    """analyze_mobility takes the pseudo-inverse of the non-zero rows of dPhi/dX, the eigenvalues from the SVD of
+    dX/dP and both ranks from one batched SVD: the same numbers as the textbook route on the whole matrices."""
+    rng = np.random.default_rng(31)
+    rods = [[0.5, 0.5, 0.5], [0.05, 0.05, 0.05]] + [naive_inverse(rng.uniform(0.06, 0.44), rng.uniform(0, 1)
+                                                                  * CFG.tilt_limit, rng.uniform(-3, 3))
+                                                    for _ in range(8)]
+    for q in rods:
+        m = analyze_mobility(q, CFG, model)
+        s = coordinate_scale(make_model(CFG, model), CFG)
+        dx_dp = -(np.linalg.pinv(m.dphi_dx / s) / s[:, None]) @ m.dphi_dp
+        np.testing.assert_allclose(m.dx_dp, dx_dp, rtol=0, atol=1e-12 * np.abs(dx_dp).max())
+        evals, evecs = np.linalg.eigh(dx_dp.T @ dx_dp)
+        np.testing.assert_allclose(m.eigenvalues, evals, rtol=0, atol=1e-12 * evals[-1])
+        top, mine = evecs[:, -3:], m.eigenvectors[:, -3:]   # the same subspace (the vectors up to sign)
+        np.testing.assert_allclose(top @ top.T, mine @ mine.T, atol=1e-10)
+        np.testing.assert_allclose(m.eigenvectors.T @ m.eigenvectors, np.eye(12), atol=1e-14)
+        sv = np.linalg.svd(dx_dp, compute_uv=False)
+        np.testing.assert_allclose(m.singular_values, sv[:m.singular_values.size], rtol=1e-12)
+        assert m.rank_dphi_dp == np.linalg.matrix_rank(m.dphi_dp) == 12 - m.mobility
+        assert m.rank_augmented == np.linalg.matrix_rank(np.hstack([m.dphi_dp, m.dphi_dx])) == 12
 
 
 @pytest.mark.parametrize('model', MODELS)

@@ -43,8 +43,9 @@ of the configuration of this machine, not a number that overflows.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,7 +56,7 @@ from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .ops import SCALAR
 from .single import one_pose
-from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components, make_model
+from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components
 
 Array = NDArray[np.float64]
 
@@ -185,8 +186,10 @@ def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Arra
     return dp
 
 
-def _rank(A: Array) -> int:
-    return int(np.linalg.matrix_rank(A))
+def numerical_rank(S: NDArray[np.floating[Any]], columns: int) -> NDArray[np.int64]:
+    """Ranks ``(...)`` from the singular values ``S (..., 12)`` of ``12 x columns`` matrices, with
+    ``numpy.linalg.matrix_rank``'s threshold ``sigma_max max(12, columns) eps`` (the one rank test of this module)."""
+    return np.asarray((S[..., :1] * (max(12, columns) * EPS) < S).sum(axis=-1), dtype=np.int64)
 
 
 def constraint_jacobian(P: ArrayLike, u: ArrayLike) -> Array:
@@ -215,7 +218,8 @@ def rigid_rank(q: ArrayLike, config: GprConfig | None = None) -> NDArray[np.int6
     geo = MachineGeometry.of(resolve_config(config))
     Q = np.atleast_2d(np.asarray(q, dtype=float))
     u = np.array([geo.ux, geo.uy, geo.uz]).T
-    return np.asarray(np.linalg.matrix_rank(constraint_jacobian(geo.base_points(Q), u)), dtype=np.int64)
+    S = np.linalg.svd(constraint_jacobian(geo.base_points(Q), u), compute_uv=False)
+    return np.asarray(numerical_rank(S, 12), dtype=np.int64)
 
 
 def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> Array:
@@ -236,32 +240,87 @@ def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model
 def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> MobilityResult:
     """Mobility and sensitivity analysis at rod lengths ``q`` [m] (module docstring). One configuration: the joint
     centres and the closure's Jacobian from the one-pose kernels (:mod:`gpr_kinematics.core.single`), ``dPhi/dP``
-    built once for the solve and the rank."""
+    built once for the solve and the rank.
+
+    The structure saves three of five decompositions: only the last three rows of ``dPhi/dX`` are non-zero, so
+    ``(dPhi/dX)^+ = [0 | B^+]`` with ``B`` those rows and ``dX/dP = -B^+ dPhi_{9..11}/dP`` (in the solver's metric);
+    the eigen-decomposition of ``dX/dP^T dX/dP`` is the singular value decomposition of ``dX/dP``
+    (``d = sigma^2``, ``V`` its right singular vectors; the nine eigenvalues beyond its rank ``M <= 6`` are 0); the
+    two ranks come from one batched SVD (``[dPhi/dP 0]`` has the singular values of ``dPhi/dP``) with
+    ``numpy.linalg.matrix_rank``'s threshold. Equal to the separate decompositions to rounding (1e-13).
+    """
     cfg = resolve_config(config)
-    vjm = make_model(cfg, model)
+    kernel = one_pose(cfg, model)
+    vjm = kernel.model
     fk = forward(q, config=cfg, model=vjm.name)
-    kernel = one_pose(cfg, vjm.name)
     geo = kernel.geometry
     u = np.array([geo.ux, geo.uy, geo.uz]).T
     M = vjm.size
     q0, q1, q2 = fk.q.tolist()
-    dphi_dp = constraint_jacobian(np.array(kernel.centres(q0, q1, q2)).T[None], u)[0]
+    dphi_dp = _constraint_jacobian_one(kernel.centres(q0, q1, q2), u)
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     dphi_dx = np.zeros((12, M))
-    dphi_dx[9:, :] = -np.array(_closure_jacobian(vjm, fk.virtual_joints.tolist()))
-    s = coordinate_scale(vjm, cfg)
-    dx_dp = -(np.linalg.pinv(dphi_dx / s) / s[:, None]) @ dphi_dp
-    evals, evecs = np.linalg.eigh(dx_dp.T @ dx_dp)
-    sv = np.linalg.svd(dx_dp, compute_uv=False)
-    sv = sv[sv > sv[0] * max(dx_dp.shape) * np.finfo(float).eps] if sv.size and sv[0] > 0 else sv[:0]
-    rank_p = _rank(dphi_dp)
+    B = dphi_dx[9:, :]
+    B[:] = _closure_jacobian(vjm, fk.virtual_joints.tolist())
+    np.negative(B, out=B)
+    s = _scale(vjm, cfg)
+    dx_dp = -(_pinv(B / s) / s[:, None]) @ dphi_dp[9:]
+    _, sv, vt = np.linalg.svd(dx_dp)
+    evals = np.zeros(12)
+    evals[12 - sv.size:] = sv[::-1] ** 2
+    evecs = vt[::-1].T
+    sv = sv[sv > sv[0] * max(dx_dp.shape) * EPS] if sv.size and sv[0] > 0 else sv[:0]
+    both = np.zeros((2, 12, 12 + M))
+    both[:, :, :12] = dphi_dp
+    both[1, :, 12:] = dphi_dx
+    S = np.linalg.svd(both, compute_uv=False)
+    rank_p, rank_a = int(numerical_rank(S[0], 12)), int(numerical_rank(S[1], 12 + M))
     bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
               'eq5': (float(sv[-1]), float(sv[0]))}
     return MobilityResult(
         q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
-        dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=_rank(np.hstack([dphi_dp, dphi_dx])),
-        mobility=12 - rank_p, eigenvalues=evals, eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float),
-        bounds=bounds, rod_directions=u, singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))
+        dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=rank_a, mobility=12 - rank_p, eigenvalues=evals,
+        eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float), bounds=bounds, rod_directions=u,
+        singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))
+
+
+#: Machine epsilon: ``numpy.linalg.matrix_rank``'s threshold is ``sigma_max max(rows, columns) EPS``.
+EPS = float(np.finfo(float).eps)
+
+
+def _scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
+    """:func:`~gpr_kinematics.core.virtual_joints.coordinate_scale`, computed once per configuration and model."""
+    key = f'coordinate_scale:{vjm.name}'
+    s: Array | None = config.derived.get(key)
+    if s is None:
+        s = config.derived[key] = coordinate_scale(vjm, config)
+        s.flags.writeable = False
+    return s
+
+
+def _pinv(A: Array) -> Array:
+    """``numpy.linalg.pinv(A)`` of one matrix (its steps and default cutoff ``1e-15 sigma_max``, without the wrapper
+    that costs three times the decomposition of a 3 x M matrix)."""
+    u, s, vt = np.linalg.svd(A, full_matrices=False)
+    large = s > 1e-15 * s[0]
+    s = np.divide(1.0, s, where=large, out=s)
+    s[~large] = 0.0
+    return np.asarray(vt.T @ (s[:, None] * u.T), dtype=np.float64)
+
+
+def _constraint_jacobian_one(P: Sequence[Sequence[float]], u: Array) -> Array:
+    """:func:`constraint_jacobian` ``(12, 12)`` of one configuration: joint centres ``P = (x, y, z)`` (lists over the
+    rods) [m], unit rod directions ``u (3, 3)``."""
+    x, y, z = P
+    J = np.zeros((12, 12))
+    for i in range(3):
+        J[3 * i:3 * i + 3, i] = u[i]
+        J[3 * i, 3 + 3 * i] = J[3 * i + 1, 4 + 3 * i] = J[3 * i + 2, 5 + 3 * i] = -1.0
+    for i, (a, b) in enumerate(EDGES):
+        ex, ey, ez = 2.0 * (x[b] - x[a]), 2.0 * (y[b] - y[a]), 2.0 * (z[b] - z[a])
+        J[9 + i, 3 + 3 * b:6 + 3 * b] = ex, ey, ez
+        J[9 + i, 3 + 3 * a:6 + 3 * a] = -ex, -ey, -ez
+    return J
 
 
 def _closure_jacobian(vjm: VirtualJointModel, X: list[float]) -> list[list[float]]:
