@@ -196,3 +196,22 @@ def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
     # the shipped limits keep the wafer on its blade
     res = gpr('program', 'check', str(PROGRAM), '--json', cwd=tmp_path)
     assert json.loads(res.stdout)['max_slip_ratio'] < 0.8
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'tolerance': 1e-9}, r'tolerance = 1e-09 is invalid; allowed: metres, at least 1e-06 and at most 1'),
+    ({'tolerance': 5e-324}, r'tolerance = 5e-324 is invalid'),
+    ({'tolerance': 0.0}, r'tolerance = 0.0 is invalid'),
+    ({'margin': -0.001}, r'margin = -0.001 is invalid; allowed: metres, at least 0 and at most 1'),
+    ({'margin': 10 ** 400}, r'margin = <an integer of about 401 digits> is invalid'),
+    ({'margin': float('nan')}, r'margin = nan is invalid'),
+    ({'margin': True}, r'margin = True is invalid'),
+])
+def test_check_refuses_a_tolerance_that_would_run_for_minutes_and_other_bad_numbers(kwargs, words):
+    """A tolerance of 1 nm took 104 s on this program (1 um: about 3 s); it is refused before any work."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+
+    with pytest.raises(InputError, match=words):
+        check_program(PLAN, load_cell(CELL), **kwargs)

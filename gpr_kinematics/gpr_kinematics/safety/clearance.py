@@ -25,13 +25,14 @@ they do not prove the pair's minimum.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from .bodies import Body, box_lower_bound
 from .distances import LIBRARY_SLACK, Exact, Store, Table, key
 from .motion import BodyMotion, Levers, levers
@@ -44,6 +45,8 @@ Pair = tuple[int, int, tuple[tuple[float, float], ...]]
 #: ``max(TOLERANCE, RELATIVE * (|d| - NEAR))`` [m]: 50 um up to 21 mm, 5 % of the excess beyond 20 mm.
 MARGIN = 0.002
 TOLERANCE = 5e-5
+#: Finest tolerance accepted [m]: 1 um takes a few seconds on the example cell program, 1 nm minutes.
+MIN_TOLERANCE = 1e-6
 RELATIVE = 0.05
 NEAR = 0.02
 #: Base sampling of the motion [Hz]; the shortest interval split [s]; most refinement rounds.
@@ -101,13 +104,23 @@ def _windows_mask(windows: Sequence[tuple[float, float]], t0: Array, t1: Array, 
 
 
 def check_numbers(margin: float, tolerance: float, rate: float) -> None:
-    for name, value in (('margin', margin), ('tolerance', tolerance)):
-        if not (isinstance(value, (int, float)) and np.isfinite(value) and 0.0 <= value <= 1.0) or \
-                (name == 'tolerance' and value <= 0.0):
-            raise InputError(f'{name} = {value!r} is invalid; allowed: metres, {">" if name == "tolerance" else ">="}'
-                             f' 0 and at most 1')
-    if not (isinstance(rate, (int, float)) and 0.0 < rate <= 1000.0):
-        raise InputError(f'rate = {rate!r} is invalid; allowed: 0 < rate <= 1000 Hz')
+    """The margin in [0, 1] m, the tolerance in [:data:`MIN_TOLERANCE`, 1] m and the rate in (0, 1000] Hz; else
+    :class:`~gpr_kinematics.errors.InputError` naming the value (a finer tolerance runs for minutes)."""
+    for name, value, lo, hi in (('margin', margin, 0.0, 1.0), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
+        if not lo <= _number(value) <= hi:
+            raise InputError(f'{name} = {brief(value)} is invalid; allowed: metres, at least {lo:g} and at most {hi:g}')
+    if not 0.0 < _number(rate) <= 1000.0:
+        raise InputError(f'rate = {brief(rate)} is invalid; allowed: 0 < rate <= 1000 Hz')
+
+
+def _number(value: object) -> float:
+    """``value`` as a float where it is an int or a float (a bool is not; a 400-digit int is infinite), else NaN."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return math.nan
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float = MARGIN,
@@ -124,7 +137,7 @@ def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair],
             its ``distance`` the bounds reached, a lower bound still).
 
     Raises:
-        InputError: a margin or tolerance that is not a number of metres in [0, 1] (tolerance > 0), a rate outside
+        InputError: a margin that is not a number of metres in [0, 1], a tolerance outside [1e-6, 1] m, a rate outside
             (0, 1000] Hz.
     """
     check_numbers(margin, tolerance, rate)
