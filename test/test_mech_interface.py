@@ -51,3 +51,58 @@ def test_interface_shapes_and_coordinate_jacobian(name):
     sv = np.linalg.svd(mech.homogenized_task_jacobian(poses), compute_uv=False)
     np.testing.assert_allclose(mech.dexterity(poses), sv[:, -1] / sv[:, 0], rtol=1e-8)
     assert not mech.is_singular(poses).any()
+
+
+@pytest.mark.parametrize('name', sorted(FILES))
+@pytest.mark.parametrize('kwargs, words', [
+    ({'tol': 0.0, 'max_iterations': 10 ** 9}, r'tol = 0.0 is invalid; allowed: a number from 1e-15 to 1'),
+    ({'max_iterations': 10 ** 9}, r'max_iterations = 1000000000 is invalid; allowed: an integer from 1 to 1000'),
+    ({'max_iterations': float('nan')}, r'max_iterations = nan is invalid'),
+    ({'tol': 'a'}, r"tol = 'a' is invalid"),
+])
+def test_forward_kinematics_refuses_settings_that_never_end(name, kwargs, words):
+    """tol = 0 with 1e9 iterations ran past 30 s on the six-joint mechanisms; a NaN count was a bare TypeError."""
+    from gpr_kinematics.errors import InputError
+
+    mech = load_mechanism(config_path(f'mechanisms/{name}'))
+    pose = mech.complete_pose(np.array([FILES[name]]))
+    with pytest.raises(InputError, match=words):
+        mech.forward_kinematics(mech.inverse_kinematics(pose), pose, **kwargs)
+
+
+@pytest.mark.parametrize('name', ['gsp_d3_6.yaml', 'upu3.yaml', 'gpr.yaml'])
+@pytest.mark.parametrize('step', [0.0, -0.0, -1e-7, 1.0, float('nan'), 'a', 10 ** 400])
+def test_parameter_jacobian_refuses_a_step_that_divides_by_zero(name, step):
+    """step = 0 gave a Jacobian of NaN."""
+    from gpr_kinematics.errors import InputError
+
+    mech = load_mechanism(config_path(f'mechanisms/{name}'))
+    with pytest.raises(InputError, match=r'step = .* is invalid; allowed: a number > 0 and at most 0.01'):
+        mech.parameter_jacobian(FILES[name], next(iter(mech.parameters())), step=step)
+
+
+@pytest.mark.parametrize('poses', ['a', [1j, 0, 0, 0, 0, 0], [10 ** 400, 0, 0, 0, 0, 0], [[0.0] * 6, [0.0] * 5]])
+def test_poses_that_are_not_numbers_are_named(poses):
+    from gpr_kinematics.errors import InputError
+
+    mech = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
+    with pytest.raises(InputError, match='poses must be numbers'):
+        mech.inverse_kinematics(poses)
+
+
+def test_conditioning_where_a_leg_has_zero_length_is_singular_not_an_error():
+    """The 3-RPS tripod at z = 0 has legs of zero length: its Jacobian is NaN there (LAPACK raised)."""
+    tripod = load_mechanism(config_path('mechanisms/tripod_3rps.yaml'))
+    poses = np.array([[0.0] * 6, FILES['tripod_3rps.yaml']])
+    dex = tripod.dexterity(poses)
+    assert dex[0] == 0.0 and dex[1] == tripod.dexterity(poses[1:])[0] > 0.0
+    assert tripod.condition_number(poses)[0] == np.inf and tripod.is_singular(poses).tolist() == [True, False]
+
+
+def test_accuracy_where_the_jacobian_is_singular_to_rounding_names_the_pose():
+    from gpr_kinematics.errors import SingularityError
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+
+    stewart = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
+    with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 1000000.0'):
+        accuracy_analysis(stewart, [0, 0, 1e6, 0, 0, 0], joint_errors=[1e-5] * 6)

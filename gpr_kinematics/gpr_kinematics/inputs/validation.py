@@ -22,6 +22,17 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 MAX_COORDINATE = 1e6
 
 
+def plain_number(value: Any) -> float:
+    """``value`` as a float where it is a Python or numpy int or float (a bool is not; an int too large for a float
+    is infinite), else NaN: for range checks that name the value as given."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return math.nan
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
 def finite_number(value: Any, name: str) -> float:
     """``value`` as a finite float; else :class:`InputError` naming ``name``."""
     try:

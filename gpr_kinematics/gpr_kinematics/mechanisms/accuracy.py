@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, SingularityError
+from ..errors import InputError, SingularityError, brief
 from .base import Mechanism, as_poses, rotation_vector
 
 #: Inverse condition number of dq/du below which the linearisation is refused.
@@ -160,9 +160,13 @@ def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
         rhs -= mech.parameter_jacobian(arr, key) @ np.nan_to_num(val.ravel())
     J = mech.coordinate_jacobian(arr)
     _check_regular(mech, arr)
-    if J.shape[1] == J.shape[2]:
-        return np.linalg.solve(J, rhs[..., None])[..., 0]
-    return np.asarray(np.linalg.pinv(J) @ rhs[..., None])[..., 0]
+    try:
+        if J.shape[1] == J.shape[2]:
+            return np.linalg.solve(J, rhs[..., None])[..., 0]
+        return np.asarray(np.linalg.pinv(J) @ rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # conditioned within the tolerance, yet singular to rounding (e.g. 1000 km away)
+        raise SingularityError(f'{mech.name}: dq/du is singular to rounding at a pose of {brief(arr.tolist())}; the '
+                               'pose deviation is unbounded there') from None
 
 
 def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ from ..core.rotations import (
     rotation_vector,
 )
 from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
-from ..inputs.validation import MAX_COORDINATE, bounded
+from ..inputs.validation import MAX_COORDINATE, bounded, plain_number
 from .conditioning import (
     ANGULAR_JOINTS,
     GRAM_CONDITION_LIMIT,
@@ -70,7 +70,11 @@ MAX_STEP = 0.5
 
 def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
     """Return ``poses`` as a float ``(N, 6)`` array and whether the input was a single ``(6,)`` pose."""
-    arr = np.asarray(poses, dtype=float)
+    try:
+        arr = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # strings, complex numbers, ragged lists, a 400-digit int
+        raise InputError(f'{name} must be numbers, shape (6,) or (N, 6) = (x, y, z, A, B, C) in m and rad; got '
+                         f'{brief(poses)}') from None
     single = arr.ndim == 1
     if single:
         arr = arr[None, :]
@@ -86,6 +90,32 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
         raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} {"m" if j < 3 else "rad"}; allowed: |x|, '
                          f'|y|, |z| <= {MAX_COORDINATE:g} m and |A|, |B|, |C| <= {MAX_COORDINATE:g} rad')
     return arr, single
+
+
+#: Most Newton iterations a caller may ask of :meth:`Mechanism.forward_kinematics`; the finest tolerance [m or rad].
+MAX_NEWTON_ITERATIONS = 1000
+MIN_NEWTON_TOLERANCE = 1e-15
+
+
+def newton_settings(name: str, tol: Any, max_iterations: Any) -> tuple[float, int]:
+    """A forward-kinematics tolerance in [:data:`MIN_NEWTON_TOLERANCE`, 1] (m or rad) and an iteration count in
+    1 .. :data:`MAX_NEWTON_ITERATIONS`; else :class:`InputError` (1e9 iterations at a zero tolerance never end)."""
+    if not MIN_NEWTON_TOLERANCE <= plain_number(tol) <= 1.0:
+        raise InputError(f'{name}: tol = {brief(tol)} is invalid; allowed: a number from {MIN_NEWTON_TOLERANCE:g} to 1 '
+                         '(m or rad)')
+    if not isinstance(max_iterations, (int, np.integer)) or not 1 <= plain_number(max_iterations) <= \
+            MAX_NEWTON_ITERATIONS:
+        raise InputError(f'{name}: max_iterations = {brief(max_iterations)} is invalid; allowed: an integer from 1 to '
+                         f'{MAX_NEWTON_ITERATIONS}')
+    return float(tol), int(max_iterations)
+
+
+def difference_step(name: str, step: Any) -> float:
+    """A central-difference step in (0, 0.01] (the parameter's SI unit); else :class:`InputError` (a zero step
+    divides by zero)."""
+    if not 0.0 < plain_number(step) <= 0.01:
+        raise InputError(f'{name}: step = {brief(step)} is invalid; allowed: a number > 0 and at most 0.01 (SI units)')
+    return float(step)
 
 
 def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
@@ -198,7 +228,11 @@ class Mechanism(abc.ABC):
 
     def pose_from_coordinates(self, coords: Any) -> np.ndarray:
         """Complete poses ``(N, 6)`` from independent coordinates ``(N, m)``."""
-        c = np.atleast_2d(np.asarray(coords, dtype=float))
+        c = np.atleast_2d(bounded(coords, f'{self.name}: coordinates'))
+        if c.ndim != 2 or c.shape[1] != len(self.variable_indices):
+            raise InputError(f'{self.name}: coordinates must have {len(self.variable_indices)} values per pose '
+                             f'({", ".join(POSE_COMPONENTS[i] for i in self.variable_indices)}); got shape '
+                             f'{np.shape(coords)}')
         poses = np.zeros((c.shape[0], 6))
         poses[:, self.variable_indices] = c
         return self.complete_pose(poses)
@@ -250,15 +284,27 @@ class Mechanism(abc.ABC):
         arr, _ = as_poses(poses)
         return np.full(arr.shape[0], '', dtype=object)
 
+    def _joint_rows(self, joints: Any) -> np.ndarray:
+        """Joint values as ``(N, n)`` floats (NaN kept: the limits name it); else :class:`InputError`."""
+        try:
+            q = np.atleast_2d(np.asarray(joints, dtype=float))
+        except (TypeError, ValueError, OverflowError):
+            raise InputError(f'{self.name}: joint values must be numbers, {self.n_joints} per pose; got '
+                             f'{brief(joints)}') from None
+        if q.ndim != 2 or q.shape[1] != self.n_joints:
+            raise InputError(f'{self.name}: joint values must be {self.n_joints} numbers per pose; got shape '
+                             f'{np.shape(joints)}')
+        return q
+
     def within_limits(self, joints: Any) -> np.ndarray:
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
-        q = np.atleast_2d(np.asarray(joints, dtype=float))
+        q = self._joint_rows(joints)
         lim = np.asarray(self.joint_limits, dtype=float)
         return np.asarray(np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1))
 
     def check_limits(self, joints: Any) -> None:
         """Raise :class:`LimitError` naming the first joint outside its limits."""
-        q = np.atleast_2d(np.asarray(joints, dtype=float))
+        q = self._joint_rows(joints)
         lim = np.asarray(self.joint_limits, dtype=float)
         bad = ~((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q))
         if np.any(bad):
@@ -283,10 +329,11 @@ class Mechanism(abc.ABC):
 
         Step ``step`` in the parameter's SI unit; subclasses override with closed forms where they have them.
         """
+        step = difference_step(self.name, step)
         arr, _ = as_poses(poses)
         arr = self.complete_pose(arr)
         base = self.parameters()
-        if name not in base:
+        if not isinstance(name, str) or name not in base:
             raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: {sorted(base)}')
         p0 = np.asarray(base[name], dtype=float)
         out = np.zeros((arr.shape[0], self.n_joints, p0.size))
@@ -310,8 +357,9 @@ class Mechanism(abc.ABC):
         below ``tol`` (m or rad). Raises :class:`ConvergenceError` otherwise and :class:`SingularityError`
         when a Jacobian is singular on the way.
         """
-        q = np.atleast_2d(np.asarray(joints, dtype=float))
-        if q.shape[-1] != self.n_joints or not np.all(np.isfinite(q)):
+        tol, max_iterations = newton_settings(self.name, tol, max_iterations)
+        q = self._joint_rows(joints)
+        if not np.all(np.isfinite(q)):
             raise InputError(f'{self.name}: joint values must be {self.n_joints} finite numbers per pose; '
                              f'got shape {np.shape(joints)}')
         bounded(q, f'{self.name}: joint values')

@@ -47,7 +47,8 @@ def _svd_dexterity(J: np.ndarray) -> np.ndarray:
 
 
 def dexterity_index(jac: np.ndarray) -> np.ndarray:
-    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity).
+    """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity, and where
+    ``J`` is not finite).
 
     For tall or square ``J`` the singular values come from the eigenvalues of the Gram matrix ``J^T J``
     (``sigma^2``; about twice as fast as an SVD on small matrices). The Gram matrix squares the condition
@@ -56,6 +57,12 @@ def dexterity_index(jac: np.ndarray) -> np.ndarray:
     so the result is accurate to ~1e-8 relative everywhere and singularities are resolved to ``eps``.
     """
     J = np.asarray(jac, dtype=float)
+    broken = ~np.all(np.isfinite(J), axis=(-2, -1)) if J.ndim >= 2 else np.zeros((), dtype=bool)
+    if np.any(broken):  # an infinite or undefined Jacobian (a leg of zero length): singular, dexterity 0
+        out = np.zeros(J.shape[:-2])
+        if not np.all(broken):
+            out[~broken] = dexterity_index(J[~broken])
+        return out
     if J.shape[-2] < J.shape[-1] or J.ndim < 2:
         return _svd_dexterity(J)
     lam = np.linalg.eigvalsh(np.swapaxes(J, -1, -2) @ J)

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
 from ..inputs.validation import bounded
-from .base import Mechanism, as_poses, rotation_vector
+from .base import Mechanism, as_poses, difference_step, newton_settings, rotation_vector
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
 
@@ -136,7 +136,9 @@ class GprMechanism(Mechanism):
 
     def forward_kinematics(self, joints: Any, guess: Any = None, tol: float = 1e-12, max_iterations: int = 50
                            ) -> np.ndarray:
-        """Forward kinematics by the core (a pure function of ``q``: ``guess`` is not needed)."""
+        """Forward kinematics by the core (a pure function of ``q``: ``guess`` is not needed; ``tol`` and
+        ``max_iterations`` are checked as for every mechanism, the core's closure has its own)."""
+        newton_settings(self.name, tol, max_iterations)
         return self.forward_poses(joints)
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:
@@ -232,6 +234,7 @@ class GprMechanism(Mechanism):
         """``dq/d delta (N, 3, 9)`` = ``-(dq/du) du/d delta`` (central differences of the imperfect FK)."""
         if name != 'joint_imperfections':
             raise InputError(f'{self.name}: unknown parameter {brief(name)}; allowed: joint_imperfections')
+        step = difference_step(self.name, step)
         arr, _ = as_poses(poses)
         q = self.inverse_kinematics(arr)
         dudp = self._pose_parameter_derivative(q, step)[:, 2:5]

@@ -157,7 +157,8 @@ class Tripod3RPS(Mechanism):
         R = self.rotation(full)
         Rb = self.platform_points @ np.swapaxes(R, -1, -2)
         v = full[:, None, :3] + Rb - self.base_points
-        n = v / np.linalg.norm(v, axis=-1, keepdims=True)
+        with np.errstate(divide='ignore', invalid='ignore'):  # a leg of zero length: NaN rows, dexterity 0
+            n = v / np.linalg.norm(v, axis=-1, keepdims=True)
         J = np.concatenate([n, np.cross(Rb, n)], axis=-1)
         return J[0] if single else J
 

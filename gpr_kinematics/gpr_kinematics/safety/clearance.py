@@ -25,7 +25,6 @@ they do not prove the pair's minimum.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -33,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError, brief
+from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
 from .distances import LIBRARY_SLACK, Exact, Store, Table, key
 from .motion import BodyMotion, Levers, levers
@@ -107,20 +107,10 @@ def check_numbers(margin: float, tolerance: float, rate: float) -> None:
     """The margin in [0, 1] m, the tolerance in [:data:`MIN_TOLERANCE`, 1] m and the rate in (0, 1000] Hz; else
     :class:`~gpr_kinematics.errors.InputError` naming the value (a finer tolerance runs for minutes)."""
     for name, value, lo, hi in (('margin', margin, 0.0, 1.0), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
-        if not lo <= _number(value) <= hi:
+        if not lo <= plain_number(value) <= hi:
             raise InputError(f'{name} = {brief(value)} is invalid; allowed: metres, at least {lo:g} and at most {hi:g}')
-    if not 0.0 < _number(rate) <= 1000.0:
+    if not 0.0 < plain_number(rate) <= 1000.0:
         raise InputError(f'rate = {brief(rate)} is invalid; allowed: 0 < rate <= 1000 Hz')
-
-
-def _number(value: object) -> float:
-    """``value`` as a float where it is an int or a float (a bool is not; a 400-digit int is infinite), else NaN."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return math.nan
-    try:
-        return float(value)
-    except OverflowError:
-        return math.inf
 
 
 def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float = MARGIN,
