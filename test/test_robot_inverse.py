@@ -314,3 +314,34 @@ def test_link_vectors_fold_the_blade():
     np.testing.assert_allclose(d[0], [0.3, 0.0])
     np.testing.assert_allclose(d[2], [0.2, 0.0])
     assert beta == 0.0
+
+
+@pytest.mark.parametrize('position, rotation, words', [
+    ([[1.15, 0.5, 0.4]], np.zeros((1, 3, 3)), r'rotation = .* is not a rotation matrix; allowed: finite, orthonormal'),
+    ([[1.15, 0.5, 0.4]], 1.01 * np.eye(3)[None], r'is not a rotation matrix'),
+    ([[1.15, 0.5, 0.4]], np.diag([1.0, 1.0, -1.0])[None], r'determinant \+1 \(not a mirror image\)'),
+    ([[1.15, 0.5, 0.4]], np.array([[[1.0, 1e-3, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]]), r'is not a rotation'),
+    ([[np.nan, 0.5, 0.4]], np.eye(3)[None], r'x = nan is not a finite number'),
+    ([[1.15, 0.5, 0.4]], np.stack([np.eye(3)] * 2), r'1 positions and 2 rotations; allowed: one rotation per'),
+    ([1.15, 0.5], np.eye(3), r'position must have 3 values per sample'),
+])
+def test_stations_from_poses_refuses_what_is_not_a_pose(position, rotation, words):
+    """A zero or scaled matrix became tilt 0, heading 0, and was solved; NaN positions passed into the stations."""
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    with pytest.raises(InputError, match=words):
+        stations_from_poses(position, rotation)
+
+
+def test_stations_from_poses_takes_lists_and_offset_checks_its_distances():
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    R = Rotation.from_rotvec([0.01, -0.02, 0.7]).as_matrix()
+    st = stations_from_poses([[1.15, 0.5, 0.4]], R.tolist(), names=['pm1'])
+    np.testing.assert_allclose(st.rotation[0], R, atol=1e-15)
+    assert st.names == ('pm1',)
+    np.testing.assert_allclose(st.offset(0.008).position[0], st.position[0] + 0.008 * R[:, 2], atol=1e-15)
+    for bad, words in (([np.nan], r'distance \[m\] = \[nan\]'), ('a', r'distance \[m\] must be numbers'),
+                       ([0.0, 0.0], r'must have shape \(1,\)'), (10 ** 400, r'must be numbers')):
+        with pytest.raises(InputError, match=words):
+            st.offset(bad)

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
+from ..inputs.validation import rotation_matrices
 from .model import (
     PoseModel,
     as_configurations,
@@ -251,11 +252,9 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
         raise InputError(f'tool must be 3 finite coordinates [m] (one point, or one per station: shape ({N}, 3)), '
                          f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
                          f'{tool_v.ravel()[:3].tolist()}')
-    R = np.eye(3) if frame_rotation is None else np.asarray(frame_rotation, dtype=float)
-    if (R.shape != (3, 3) or not np.all(np.isfinite(R)) or np.max(np.abs(R @ R.T - np.eye(3))) > 1e-9
-            or np.linalg.det(R) <= 0.0):
-        raise InputError(f'frame_rotation must be a rotation matrix (3, 3: orthonormal, determinant +1, not a '
-                         f'mirror image); got shape {R.shape}')
+    R = np.eye(3) if frame_rotation is None else rotation_matrices(frame_rotation, 'frame_rotation')[0]
+    if frame_rotation is not None and np.shape(frame_rotation) != (3, 3):
+        raise InputError(f'frame_rotation must be one rotation matrix (3, 3); got shape {np.shape(frame_rotation)}')
     pct = tuple(float(p) for p in percentiles)
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
         raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')

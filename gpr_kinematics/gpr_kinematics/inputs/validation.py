@@ -71,6 +71,29 @@ def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:
     return a / norm
 
 
+def rotation_matrices(values: Any, name: str, tolerance: float = 1e-9) -> NDArray[np.float64]:
+    """``values`` as rotation matrices ``(N, 3, 3)`` (one ``(3, 3)`` becomes ``(1, 3, 3)``): finite, orthonormal
+    within ``tolerance`` (``max |R R^T - I|``) and of determinant +1 (not a mirror image); else :class:`InputError`
+    naming the first matrix that is not."""
+    try:
+        R = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
+        raise InputError(f'{name} must be rotation matrices (3 x 3 numbers each), got {brief(values)}') from None
+    if R.ndim == 2:
+        R = R[None]
+    if R.ndim != 3 or R.shape[1:] != (3, 3):
+        raise InputError(f'{name} must be rotation matrices, shape (3, 3) or (N, 3, 3); got shape {np.shape(values)}')
+    with np.errstate(all='ignore'):
+        error = np.max(np.abs(R @ np.swapaxes(R, 1, 2) - np.eye(3)), axis=(1, 2), initial=0.0)
+        bad = ~np.all(np.isfinite(R), axis=(1, 2)) | ~(error <= tolerance) | ~(np.linalg.det(R) > 0.0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        where = f'{name}[{i}]' if R.shape[0] > 1 else name
+        raise InputError(f'{where} = {brief(R[i].tolist())} is not a rotation matrix; allowed: finite, orthonormal '
+                         f'(|R R^T - I| <= {tolerance:g}) with determinant +1 (not a mirror image)')
+    return R
+
+
 def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = None) -> NDArray[np.float64]:
     """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
     finite; else :class:`InputError` naming the value (by ``names`` when given, e.g. a robot's joint names;

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.rotations import rotation_z, tilt_from_matrix, tilt_rotation
 from ..errors import InputError, brief
-from ..inputs.validation import MAX_COORDINATE, bounded, rows_of
+from ..inputs.validation import MAX_COORDINATE, QUATERNION_NORM_TOLERANCE, bounded, rotation_matrices, rows_of
 
 Array = NDArray[np.float64]
 
@@ -125,15 +125,28 @@ class Stations:
 
     def offset(self, distance: ArrayLike) -> Stations:
         """The same stations moved by ``distance (N,)`` [m] along their plane's normal (approach heights)."""
-        d = np.asarray(distance, dtype=float)
+        d = np.broadcast_to(bounded(distance, 'distance [m]'), (len(self),)) if np.ndim(distance) == 0 else \
+            bounded(distance, 'distance [m]', (len(self),))
         return Stations(self.position + d[:, None] * self.normal, self.tilt, self.azimuth, self.heading,
                         self.heading_free, self.names)
 
 
-def stations_from_poses(position: Array, rotation: Array, names: Sequence[str] | None = None) -> Stations:
-    """Stations of wafer poses: ``tilt >= 0``, ``azimuth`` in (-pi, pi], ``heading`` = the twist about the
-    station normal (:func:`gpr_kinematics.core.rotations.tilt_from_matrix`)."""
-    tilt, azimuth, heading = tilt_from_matrix(rotation)
-    n = position.shape[0]
-    return Stations(np.asarray(position, dtype=float), tilt, azimuth, heading, np.zeros(n, dtype=bool),
-                    tuple(names) if names is not None else tuple(str(i) for i in range(n)))
+def stations_from_poses(position: ArrayLike, rotation: ArrayLike, names: Sequence[str] | None = None) -> Stations:
+    """Stations of wafer poses ``position (N, 3)`` [m] and ``rotation (N, 3, 3)`` (rotation matrices within 1e-6, as
+    a unit quaternion's norm): ``tilt >= 0``, ``azimuth`` in (-pi, pi], ``heading`` = the twist about the station
+    normal (:func:`gpr_kinematics.core.rotations.tilt_from_matrix`).
+
+    Raises:
+        InputError: positions not finite or beyond +-1e6 m, a matrix that is not a rotation, counts that differ.
+    """
+    P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
+    bounded(P, 'station position [m]')
+    R = rotation_matrices(rotation, 'rotation', QUATERNION_NORM_TOLERANCE)
+    n = P.shape[0]
+    if R.shape[0] != n:
+        raise InputError(f'{n} positions and {R.shape[0]} rotations; allowed: one rotation per position')
+    tilt, azimuth, heading = tilt_from_matrix(R)
+    label = tuple(str(v) for v in names) if names is not None else tuple(str(i) for i in range(n))
+    if len(label) != n:
+        raise InputError(f'names must name the {n} stations, got {len(label)} names')
+    return Stations(P, tilt, azimuth, heading, np.zeros(n, dtype=bool), label)
