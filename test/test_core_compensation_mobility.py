@@ -182,3 +182,30 @@ def test_rigid_rank_is_the_rank_of_the_constraint_jacobian():
     q = np.array([[0.5, 0.5, 0.5], [0.2, 0.2, 0.2], [0.5, 0.501, 0.5]])
     assert rigid_rank(q).tolist() == [9, 9, 11]
     assert [analyze_mobility(row).rank_dphi_dp for row in q] == [9, 9, 11]
+
+
+@pytest.mark.parametrize('call, words', [
+    (lambda: rigid_rank([np.nan, 0.25, 0.25]), r'q1 = nan is not a finite number'),   # LAPACK raised
+    (lambda: rigid_rank([np.inf, 0.25, 0.25]), r'q1 = inf is not a finite number'),   # was rank 0
+    (lambda: rigid_rank([0.25] * 4), r'q must have 3 values per sample'),             # was rank 9
+    (lambda: rigid_rank([]), r'q must have 3 values per sample'),
+    (lambda: exact_dx([0.25] * 3, [0, 0, 0, 0]), r'dq must be 3 numbers, got shape \(4,\)'),
+    (lambda: exact_dx([0.25] * 3, 'abc'), r'dq must be 3 numbers'),
+    (lambda: rod_perturbation([1e-4, 0, 0], np.full((3, 3), np.nan)), r'directions = .*; allowed: finite values'),
+    (lambda: naive_inverse(np.nan, 0.0, 0.0), r'height = nan; allowed: finite values'),     # was NaN rods
+    (lambda: naive_inverse(0.3, 1j, 0.0), r'tilt must be numbers'),
+    (lambda: naive_inverse([0.1, 0.2], [0.0, 0.0, 0.0], 0.0), r'must broadcast together'),
+])
+def test_mobility_helpers_and_the_naive_model_name_bad_input(call, words):
+    with pytest.raises(InputError, match=words):
+        call()
+
+
+def test_naive_pose_refuses_what_would_be_a_rotation_of_nan():
+    from gpr_kinematics.core.naive import naive_pose
+
+    with pytest.raises(InputError, match=r'tilt = inf; allowed: finite values'):
+        naive_pose(0.2, np.inf, 0.0)
+    pos, R = naive_pose([0.2, 0.3], 0.01, 0.5)
+    np.testing.assert_allclose(pos[:, 2], [0.2, 0.3])
+    np.testing.assert_allclose(R[0], tilt_rotation(0.01, 0.5))

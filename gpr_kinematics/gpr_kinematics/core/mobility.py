@@ -51,6 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, LimitError, brief
+from ..inputs.validation import bounded, finite_vector, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
@@ -176,10 +177,8 @@ def rod_change(result: MobilityResult, dq: ArrayLike, config: GprConfig | None =
 def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Array:
     """``dP`` of a change ``dq`` of the rod lengths: ``(dq, dq1 u_1, dq2 u_2, dq3 u_3)`` (eq. (1), first rows);
     ``directions``: the unit rod directions ``u_k`` (3 x 3), default ``e3`` (parallel rods)."""
-    d = np.asarray(dq, dtype=float)
-    if d.shape != (3,) or not np.all(np.isfinite(d)):
-        raise InputError(f'dq must be 3 finite numbers [m], got {brief(np.asarray(dq).tolist())}')
-    u = np.array([[0.0, 0.0, 1.0]] * 3) if directions is None else np.asarray(directions, dtype=float)
+    d = finite_vector(dq, 'dq', 3)
+    u = np.array([[0.0, 0.0, 1.0]] * 3) if directions is None else bounded(directions, 'directions', (3, 3))
     dp = np.zeros(12)
     dp[:3] = d
     dp[3:] = (d[:, None] * u).ravel()
@@ -216,7 +215,7 @@ def rigid_rank(q: ArrayLike, config: GprConfig | None = None) -> NDArray[np.int6
     [9, 11]
     """
     geo = MachineGeometry.of(resolve_config(config))
-    Q = np.atleast_2d(np.asarray(q, dtype=float))
+    Q = rows_of(q, 'q', 3)
     u = np.array([geo.ux, geo.uy, geo.uz]).T
     S = np.linalg.svd(constraint_jacobian(geo.base_points(Q), u), compute_uv=False)
     return np.asarray(numerical_rank(S, 12), dtype=np.int64)
@@ -233,8 +232,8 @@ def exact_dx(q: ArrayLike, dq: ArrayLike, config: GprConfig | None = None, model
     0.107
     """
     cfg = resolve_config(config)
-    q0 = np.asarray(q, dtype=float)
-    return forward(q0 + np.asarray(dq, dtype=float), cfg, model).virtual_joints - forward(q0, cfg, model).virtual_joints
+    q0 = finite_vector(q, 'q', 3)
+    return forward(q0 + finite_vector(dq, 'dq', 3), cfg, model).virtual_joints - forward(q0, cfg, model).virtual_joints
 
 
 def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str | None = None) -> MobilityResult:

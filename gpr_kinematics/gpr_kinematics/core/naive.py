@@ -25,8 +25,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import LimitError
-from ..inputs.validation import rows_of
+from ..errors import InputError, LimitError
+from ..inputs.validation import bounded, rows_of
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .ops import ARRAY, Ops, Value
@@ -91,17 +91,36 @@ def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array,
     return pos, tilt_rotation(tilt, az)
 
 
+def _naive_targets(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike) -> list[Array]:
+    """``height`` [m], ``tilt``, ``azimuth`` [rad] as finite float arrays broadcast together."""
+    values = [bounded(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
+    try:
+        return list(np.broadcast_arrays(*values))
+    except ValueError:
+        raise InputError('height, tilt and azimuth must broadcast together (one value or one per target), got shapes '
+                         + ', '.join(str(v.shape) for v in values)) from None
+
+
 def naive_pose(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike) -> tuple[Array, Array]:
-    """Naive commanded pose (paper Fig. 2): centre ``(0, 0, height)`` and ``tilt_rotation(tilt, azimuth)``."""
-    h, t, g = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (height, tilt, azimuth)))
+    """Naive commanded pose (paper Fig. 2): centre ``(0, 0, height)`` and ``tilt_rotation(tilt, azimuth)``.
+
+    Raises:
+        InputError: a value that is not a finite number within +-1e6 (m, rad), shapes that do not broadcast.
+    """
+    h, t, g = _naive_targets(height, tilt, azimuth)
     pos = np.stack([np.zeros_like(h), np.zeros_like(h), h], axis=-1)
     return pos, tilt_rotation(t, g)
 
 
 def naive_inverse(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike,
                   config: GprConfig | None = None) -> Array:
-    """Rod lengths of the naive model for the platform origin at ``height`` [m] and the tilt, shape ``(..., 3)``."""
+    """Rod lengths of the naive model for the platform origin at ``height`` [m] and the tilt, shape ``(..., 3)``: what
+    an offline tool without virtual joints commands, so no limit is checked (the rods may leave the stroke).
+
+    Raises:
+        InputError: a value that is not a finite number within +-1e6 (m, rad), shapes that do not broadcast.
+    """
     geo = MachineGeometry.of(resolve_config(config))
-    h, t, g = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (height, tilt, azimuth)))
+    h, t, g = _naive_targets(height, tilt, azimuth)
     n = tilt_normal(t, g)
     return np.stack(naive_rods(geo, h, [n[..., 0], n[..., 1], n[..., 2]], (0.0, 0.0, 0.0)), axis=-1)
