@@ -166,3 +166,22 @@ def test_upu3_parameters_of_the_wrong_size_are_refused():
         m.with_parameters({'base_points': [0.1] * 8})
     moved = m.with_parameters({'base_points': (m.base_points + 1e-3).ravel().tolist()})
     np.testing.assert_allclose(moved.base_points, m.base_points + 1e-3, rtol=0, atol=0)
+
+
+def test_dexterity_maps_count_and_check_their_values_before_converting():
+    """range(10**12) ran out of memory in np.asarray; strings were bare ValueErrors."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.mechanisms import load_mechanism
+
+    upu = load_mechanism(config_path('mechanisms/upu3.yaml'))
+    home = [0.0, 0.0, 0.2, 0.0, 0.0, 0.0]
+    with pytest.raises(InputError, match=r'dexterity along z: 1000000000000 poses; allowed: at most'):
+        dexterity_sweep(upu, home, 'z', range(10 ** 12))
+    with pytest.raises(InputError, match=r'dexterity on a 1000000 x 2000 grid: 2000000000 poses'):
+        dexterity_grid(upu, home, 'x', range(10 ** 6), 'y', range(2000))
+    with pytest.raises(InputError, match=r'values of z must be numbers'):
+        dexterity_sweep(upu, home, 'z', 'abc')
+    with pytest.raises(InputError, match=r'values of z = \[nan\]; allowed: finite values'):
+        dexterity_sweep(upu, home, 'z', [np.nan])
+    assert dexterity_sweep(upu, home, 'z', range(1)).dexterity.shape == (1,)

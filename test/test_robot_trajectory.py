@@ -219,3 +219,25 @@ def test_a_trajectory_through_straight_entries_follows_the_line():
     np.testing.assert_allclose(traj.velocities[idx], (ahead - back) / (2 * h), rtol=0, atol=1e-6)
     # and the joints' velocity limits hold along the lines
     assert np.all(np.abs(traj.velocities) <= plan.timing.velocity * (1 + 1e-9))
+
+
+@pytest.mark.parametrize('rate', [0.0, float('inf'), float('nan'), 'a', -5.0, 10 ** 400])
+def test_lead_in_checks_its_rate(rate):
+    """0 divided by zero, inf overflowed, NaN was a bare ValueError, -5 a misleading "too short"."""
+    plan = _plan()
+    traj = program_trajectory(plan, 50.0)
+    with pytest.raises(InputError, match=r'rate = .* is invalid; allowed: 0.1 <= rate <= 5000 Hz'):
+        lead_in(plan, traj, traj.positions[0] + 0.01, rate)
+
+
+def test_sample_plan_times_are_checked_and_counted_before_work():
+    plan = _plan()
+    got = sample_plan(plan, times=[0.0, 0.5])     # a list: was an AttributeError
+    np.testing.assert_array_equal(got.samples.time, [0.0, 0.5])
+    np.testing.assert_array_equal(got.wafer.position, sample_plan(plan, times=np.array([0.0, 0.5])).wafer.position)
+    for times, words in ((np.array([np.nan]), r'times\[0\] = nan is not a finite number'),
+                         (float('nan'), r'times\[0\] = nan is not a finite number'),
+                         (np.arange(10 ** 7) * 1e-6, r'10000000 times; allowed: at most 200000 samples'),
+                         ('abc', r'times must be a number or an array of numbers')):
+        with pytest.raises(InputError, match=words):
+            sample_plan(plan, times=times)

@@ -109,3 +109,14 @@ def test_bad_file_and_rate(tmp_path):
     for dwell in (1e12, 1e300):
         with pytest.raises(ConfigError, match=r'dwell = .* is invalid; allowed: seconds >= 0 \(of magnitude at most'):
             _prog((0.3, 0.0, 0.0, dwell))
+
+
+@pytest.mark.parametrize('rate, move_time, words', [
+    (None, 2.0, r'rate = None is invalid'), ('a', 2.0, r"rate = 'a' is invalid"),
+    (10 ** 400, 2.0, r'rate = <an integer of about 401 digits> is invalid'), (True, 2.0, r'rate = True is invalid'),
+    (50.0, None, r'move_time = None is invalid'), (50.0, float('inf'), r'move_time = inf is invalid'),
+])
+def test_sample_program_names_a_rate_or_move_time_that_is_not_a_number(rate, move_time, words):
+    """None and strings were bare TypeErrors, a 400-digit rate an OverflowError."""
+    with pytest.raises(ConfigError, match=words):
+        sample_program(_prog((0.3, 0.0, 0.0, 0.5), (0.4, 0.02, 1.0, 0.25)), rate, move_time)

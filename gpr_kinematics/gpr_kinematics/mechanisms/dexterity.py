@@ -8,6 +8,7 @@ pose and records dexterity, condition number, singularity and whether the joints
 """
 from __future__ import annotations
 
+from collections.abc import Sized
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, brief
+from ..inputs.validation import bounded
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
 
 #: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
@@ -71,6 +73,17 @@ def check_points(count: int, what: str) -> None:
         raise InputError(f'{what}: {count} poses; allowed: at most {MAX_POINTS} per map')
 
 
+def _count(values: Any) -> int:
+    """How many values a sized sequence holds (1 for anything else), before it is converted."""
+    return len(values) if isinstance(values, Sized) and not isinstance(values, (str, bytes)) else 1
+
+
+def _values(values: Any, variable: str) -> np.ndarray:
+    """The values of a varied pose variable as finite floats ``(K,)`` (the callers count them first with
+    :func:`_count`, so ``range(10**12)`` is refused, not allocated)."""
+    return bounded(values, f'values of {variable}').ravel()
+
+
 def _index(mech: Mechanism, variable: str) -> int:
     if variable not in mech.pose_variables:
         raise InputError(f'{mech.name}: cannot vary {brief(variable)}; its pose variables are '
@@ -100,10 +113,10 @@ def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any)
     Example (3-UPU, the paper's Fig. 6): ``dexterity_sweep(upu, [0]*6, 'z', np.linspace(0.17, 0.27, 51))``.
     """
     base, _ = as_poses(base_pose, 'base pose')
-    vals = np.asarray(values, dtype=float).ravel()
-    check_points(vals.size, f'dexterity along {variable}')
-    if vals.size == 0 or not np.all(np.isfinite(vals)):
-        raise InputError(f'values of {variable} must be finite numbers; got {brief(vals.tolist())}')
+    check_points(_count(values), f'dexterity along {variable}')
+    vals = _values(values, variable)
+    if vals.size == 0:
+        raise InputError(f'values of {variable} must be finite numbers; got none')
     poses = np.repeat(base, vals.size, axis=0)
     poses[:, _index(mech, variable)] = vals
     full, dex, cond, sing, within = evaluate(mech, poses)
@@ -114,8 +127,9 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
                    values2: Any) -> DexterityMap:
     """Dexterity on the grid ``values x values2`` of two pose variables (shape ``(K, K2)``)."""
     base, _ = as_poses(base_pose, 'base pose')
-    v1 = np.asarray(values, dtype=float).ravel()
-    v2 = np.asarray(values2, dtype=float).ravel()
+    n1, n2 = _count(values), _count(values2)
+    check_points(n1 * n2, f'dexterity on a {n1} x {n2} grid')
+    v1, v2 = _values(values, variable), _values(values2, variable2)
     check_points(v1.size * v2.size, f'dexterity on a {v1.size} x {v2.size} grid')
     i1, i2 = _index(mech, variable), _index(mech, variable2)
     if i1 == i2:

@@ -11,12 +11,14 @@ plan at a rate, with the wafer pose of the arm in use at every sample (forward k
 """
 from __future__ import annotations
 
+from collections.abc import Sized
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, LimitError
+from ..inputs.validation import column_of
 from .description import RobotDescription
 from .forward import robot_forward
 from .inverse import solve_stations
@@ -265,6 +267,16 @@ def plan_velocities(plan: ProgramPlan, s: Samples) -> Array:
     return vel
 
 
+def sample_times_of(times: ArrayLike) -> Array:
+    """Times [s] to sample a plan at, as a float array ``(S,)``: finite, at most
+    :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of them (counted before they are converted); else
+    :class:`~gpr_kinematics.errors.InputError`. Times outside the plan are clamped to its ends."""
+    count = len(times) if isinstance(times, Sized) and not isinstance(times, (str, bytes)) else 1
+    if count > MAX_SAMPLES:
+        raise InputError(f'{count} times; allowed: at most {MAX_SAMPLES} samples')
+    return column_of(times, 'times')
+
+
 def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | None = None) -> PlanSamples:
     """Sample ``plan`` at ``rate`` [Hz] (or at ``times`` [s]); forward kinematics of every sample (limits
     checked)."""
@@ -274,7 +286,7 @@ def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | Non
             raise InputError('sample_plan needs a rate or times')
         s = plan_samples(plan, sample(plan.timing, rate))
     else:
-        s = plan_samples(plan, sample_at(plan.timing, times))
+        s = plan_samples(plan, sample_at(plan.timing, sample_times_of(times)))
     _, _, _, slices = joint_limits(robot)
     arm_of = np.array(plan.waypoints.arm)[s.target]
     S = len(s)

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, read_yaml
-from ..inputs.validation import MAX_COORDINATE
+from ..inputs.validation import MAX_COORDINATE, plain_number
 from .timing import MAX_SAMPLES
 
 #: The ``format:`` of a platform program (optional: a file without ``format`` is a platform program).
@@ -160,10 +160,10 @@ def check_samples(program: PlatformProgram, rate: float, default_move_time: floa
     """The program's knots (:func:`program_knots`) once its sample count at ``rate`` [Hz] is within
     :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES`: counted before any array of samples is made, and before its
     stations are solved (a dwell of 1e12 s included); :class:`ConfigError` otherwise."""
-    if not (math.isfinite(rate) and rate > 0):
-        raise ConfigError(f'rate = {rate!r} is invalid; allowed: a finite rate in Hz > 0')
-    if not (math.isfinite(default_move_time) and default_move_time > 0):
-        raise ConfigError(f'move_time = {default_move_time!r} is invalid; allowed: seconds > 0')
+    if not 0.0 < plain_number(rate) < math.inf:
+        raise ConfigError(f'rate = {brief(rate)} is invalid; allowed: a finite rate in Hz > 0')
+    if not 0.0 < plain_number(default_move_time) < math.inf:
+        raise ConfigError(f'move_time = {brief(default_move_time)} is invalid; allowed: seconds > 0')
     T, S, idx = program_knots(program, default_move_time)
     total = float(T[-1])
     if not total * rate <= MAX_SAMPLES:

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError, LimitError
+from ..errors import InputError, LimitError, brief
+from ..inputs.validation import plain_number
 
 Array = NDArray[np.float64]
 
@@ -44,10 +45,11 @@ RATES = (0.1, 5000.0)
 
 def check_rate(rate: object) -> float:
     """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not RATES[0] <= rate <= RATES[1]:
-        raise InputError(f'rate = {rate!r} is invalid; allowed: {RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample '
-                         'every 0.2 ms to every 10 s)')
-    return float(rate)
+    value = plain_number(rate)
+    if not RATES[0] <= value <= RATES[1]:
+        raise InputError(f'rate = {brief(rate)} is invalid; allowed: {RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a '
+                         'sample every 0.2 ms to every 10 s)')
+    return value
 
 
 @dataclass(frozen=True)

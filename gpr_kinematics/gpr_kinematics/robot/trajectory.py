@@ -38,7 +38,7 @@ from ..errors import InputError
 from ..inputs.files import write_text
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
 from .spline import Spline
-from .timing import MAX_SAMPLES, parameterise, sample, sample_times, velocities
+from .timing import MAX_SAMPLES, check_rate, parameterise, sample, sample_times, velocities
 
 Array = NDArray[np.float64]
 
@@ -116,6 +116,7 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
     """``traj`` (of :func:`program_trajectory`) preceded by the move from ``current`` (the robot's positions of
     ``traj.joint_names``) to its first point, timed within the joints' velocity and acceleration limits and rounded up
     to whole sample periods; the trajectory and the move's duration [s] (0 when the robot is at the first point)."""
+    rate = check_rate(rate)
     current = np.asarray(current, dtype=float)
     if current.shape != (len(traj.joint_names),) or not np.all(np.isfinite(current)):
         raise InputError(f'the current positions must be {len(traj.joint_names)} finite numbers, one per joint of '
