@@ -47,6 +47,16 @@ def test_a_parameter_below_the_prior_is_held_alone():
     assert analyse(J, ['a', 'b', 'c'], threshold=1e-30).held == ('b',)
 
 
+
+@pytest.mark.parametrize('threshold', [float('nan'), 0.0, -1.0, float('inf'), 'a', None, 10 ** 400])
+def test_a_threshold_that_is_not_a_positive_number_is_refused(threshold):
+    """NaN fitted no parameter, with NaN standard errors, and raised nothing; strings were bare errors."""
+    from gpr_kinematics.errors import InputError
+
+    J = np.random.default_rng(2).normal(size=(40, 3))
+    with pytest.raises(InputError, match=r'threshold = .*; allowed: a finite number > 0'):
+        analyse(J, ['a', 'b', 'c'], threshold=threshold)
+
 def test_two_deficiencies_hold_two_parameters():
     rng = np.random.default_rng(3)
     base = rng.normal(size=(30, 3)) * 10

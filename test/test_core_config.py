@@ -92,3 +92,13 @@ def test_malformed_and_missing_files(tmp_path):
         load_config(f)
     with pytest.raises(ConfigError, match='cannot read config file'):
         load_config(tmp_path / 'missing.yaml')
+
+
+@pytest.mark.parametrize('config', ['x', 5, {'radius': 0.1}])
+def test_a_config_that_is_not_one_is_named(config):
+    """forward(q, config='x') was a bare AttributeError deep in the kernels."""
+    from gpr_kinematics.core import forward
+    from gpr_kinematics.errors import InputError
+
+    with pytest.raises(InputError, match=r'config = .* is not a GprConfig; allowed: a configuration of load_config'):
+        forward([0.3, 0.3, 0.3], config=config)

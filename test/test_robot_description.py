@@ -156,3 +156,11 @@ def test_to_dict_reads_back_through_yaml_into_an_equal_description(rule, tmp_pat
     assert again == robot
     assert again.config.rod_directions == ((1e-4, 0.0), (0.0, 0.0), (0.0, -1e-4))
     assert again.arms[1].redundancy is not None and again.arms[1].redundancy.rule == rule
+
+
+def test_a_path_that_is_not_one_is_named():
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot import load_robot
+
+    with pytest.raises(ConfigError, match=r'robot description path = 5; allowed: a file path'):
+        load_robot(5)

@@ -21,12 +21,16 @@ held combination keeps its nominal value instead of a value fitted to noise.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from ..errors import InputError, brief
+from ..inputs.validation import plain_number
 
 Array = NDArray[np.float64]
 
@@ -144,6 +148,9 @@ def analyse(J_scaled: Array, names: Sequence[str], threshold: float = DEFAULT_TH
     """Identifiability of the parameters ``names`` from the scaled, weighted Jacobian ``J_scaled (m, C)``
     (module docstring): singular values, the parameters to hold at nominal and the combinations they stand for.
     """
+    if not 0.0 < plain_number(threshold) < math.inf:  # NaN fitted nothing and said nothing
+        raise InputError(f'threshold = {brief(threshold)}; allowed: a finite number > 0 (the bound on the scaled '
+                         'singular values)')
     names = tuple(names)
     R = triangular_factor(J_scaled)
     s_all = np.linalg.svd(R, compute_uv=False)

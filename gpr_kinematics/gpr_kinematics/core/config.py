@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs.resources import config_path
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
@@ -274,6 +274,9 @@ def resolve_config(config: GprConfig | None) -> GprConfig:
     """``config``, or the package default (loaded once)."""
     global _DEFAULT_CONFIG
     if config is not None:
+        if not isinstance(config, GprConfig):
+            raise InputError(f'config = {brief(config)} is not a GprConfig; allowed: a configuration of '
+                             'load_config(...) or None (the package default)')
         return config
     if _DEFAULT_CONFIG is None:
         _DEFAULT_CONFIG = load_config()

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -409,6 +410,8 @@ def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig 
     Raises:
         ConfigError: unreadable file, invalid YAML, unknown key, a value outside its range.
     """
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise ConfigError(f'robot description path = {brief(path)}; allowed: a file path (str or Path) or None')
     file = config_path(DEFAULT_ROBOT) if path is None else path
     cfg = load_config(geometry) if isinstance(geometry, (str, Path)) else geometry
     robot = parse_robot(read_yaml(file, 'robot'), str(file), Path(file).parent, cfg)
