@@ -261,3 +261,18 @@ def test_tool_per_station_and_the_frame_of_the_errors(core_budget):
     tilted = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # 90 deg about x: base y is world z
     t = accuracy_budget(m, Q, table, tool=tools, samples=0, frame_rotation=tilted)
     np.testing.assert_allclose(t.std[:, 2], b.std[:, 1], rtol=1e-12)
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'seed': float('nan')}, r'seed = nan is invalid; allowed: an integer from 0 to 2\*\*63 - 1'),
+    ({'seed': -1}, r'seed = -1 is invalid'),
+    ({'percentiles': ('a',)}, r"percentiles \('a',\); allowed: numbers from 0 to 100"),
+    ({'percentiles': 95.0}, r'percentiles 95.0; allowed: numbers from 0 to 100'),
+    ({'tool': 'a'}, r'tool must be 3 finite coordinates'),
+])
+def test_monte_carlo_settings_that_are_not_numbers_are_named(kwargs, words):
+    """A NaN seed was a TypeError from numpy, a string percentile or tool a bare ValueError."""
+    cfg = load_config()
+    with pytest.raises(InputError, match=words):
+        accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], parse_tolerances({'rod_length': {'tolerance': 1e-6}}),
+                        samples=10, **kwargs)

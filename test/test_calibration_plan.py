@@ -136,3 +136,12 @@ def test_a_threshold_no_parameter_reaches_is_refused():
                                          r'threshold or a larger plan$'):
         plan_measurements(m, cfg, 5, threshold=300)
     assert plan_measurements(m, cfg, 5, threshold=100).q.shape == (5, 3)      # still possible below
+
+
+def test_a_seed_that_is_not_an_integer_is_named():
+    from gpr_kinematics.core.config import load_config
+    from gpr_kinematics.errors import InputError
+
+    cfg = load_config()
+    with pytest.raises(InputError, match=r'seed = nan is invalid; allowed: an integer from 0'):
+        plan_measurements(CoreModel(cfg), cfg, 6, seed=float('nan'))

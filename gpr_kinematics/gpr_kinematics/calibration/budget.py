@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
-from ..inputs.validation import rotation_matrices
+from ..inputs.validation import plain_number, random_seed, rotation_matrices
 from .model import (
     PoseModel,
     as_configurations,
@@ -247,7 +247,10 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
     if samples * N > MAX_POSES:
         raise InputError(f'{samples} samples x {N} stations = {samples * N} poses; allowed: at most {MAX_POSES} '
                          '(fewer samples)')
-    tool_v = np.asarray(tool, dtype=float)
+    try:
+        tool_v = np.asarray(tool, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        tool_v = np.full(1, np.nan)
     if tool_v.shape not in ((3,), (N, 3)) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
         raise InputError(f'tool must be 3 finite coordinates [m] (one point, or one per station: shape ({N}, 3)), '
                          f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
@@ -255,7 +258,7 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
     R = np.eye(3) if frame_rotation is None else rotation_matrices(frame_rotation, 'frame_rotation')[0]
     if frame_rotation is not None and np.shape(frame_rotation) != (3, 3):
         raise InputError(f'frame_rotation must be one rotation matrix (3, 3); got shape {np.shape(frame_rotation)}')
-    pct = tuple(float(p) for p in percentiles)
+    pct = tuple(plain_number(p) for p in percentiles) if isinstance(percentiles, (tuple, list)) else ()
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
         raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
     labels_t = tuple(str(x) for x in labels) if labels is not None else tuple(str(i + 1) for i in range(N))
@@ -306,6 +309,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     Qa = as_configurations(Q, 'stations')
     N = Qa.shape[0]
     tool_v, R, pct, labels_t = _check_options(N, samples, tool, frame_rotation, percentiles, labels)
+    seed = random_seed(seed)
     params = model.parameters
     P = len(params)
     th = params.nominal if theta is None else np.asarray(theta, dtype=float)

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core import naive_inverse
 from ..core.config import GprConfig
 from ..errors import InputError
+from ..inputs.validation import random_seed
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
 from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
@@ -265,6 +266,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     if index not in INDICES:
         raise InputError(f'observability index {index!r}; allowed: {", ".join(INDICES)}')
     check_sigmas(sigma_position, sigma_angle)
+    seed = random_seed(seed)
     cand = candidates if candidates is not None else candidate_configurations(config)
     C = cand.q.shape[0]
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= min(C, MAX_PLAN):

@@ -33,6 +33,13 @@ def plain_number(value: Any) -> float:
         return math.inf
 
 
+def random_seed(value: Any, name: str = 'seed') -> int:
+    """A seed of ``numpy.random.default_rng``: an integer from 0 to 2**63 - 1; else :class:`InputError`."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not 0 <= value < 2 ** 63:
+        raise InputError(f'{name} = {brief(value)} is invalid; allowed: an integer from 0 to 2**63 - 1')
+    return int(value)
+
+
 def finite_number(value: Any, name: str) -> float:
     """``value`` as a finite float; else :class:`InputError` naming ``name``."""
     try:
