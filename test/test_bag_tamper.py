@@ -76,6 +76,20 @@ def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> No
                for f in result.failures)
 
 
+
+@pytest.mark.parametrize('copies', [2, 1000])
+def test_a_segment_listed_more_than_once_is_refused_before_reading(sweep: Path, tmp_path: Path, copies: int) -> None:
+    """A 31 kB metadata.yaml listing one file 1000 times had the bag read 1000 times (4 GB, then a traceback)."""
+    def repeat(info: dict[str, Any]) -> None:
+        info['relative_file_paths'] = info['relative_file_paths'] * copies
+
+    from gpr_kinematics.bags.errors import BagError
+
+    bag = tampered(sweep, tmp_path / 'dup', metadata=repeat)
+    with pytest.raises(BagError, match=f"relative_file_paths lists 'sweep_0.mcap' {copies} times; allowed: each "
+                                       'segment file once'):
+        verify_bag(bag)
+
 @pytest.mark.parametrize('fmt, mode', [('zstd', 'file'), ('zstd', 'message'), ('', 'FILE')])
 def test_a_claimed_file_compression_fails(sweep: Path, tmp_path: Path, fmt: str, mode: str) -> None:
     def compressed(info: dict[str, Any]) -> None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,7 @@ from typing import Any, Final, Literal
 
 import yaml
 
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from ..inputs.schema import read_yaml
 from .errors import BagError
 from .fileio import read_bounded, require_regular
@@ -173,6 +174,10 @@ def read_metadata(folder: Path) -> Metadata:
     paths = top.get('relative_file_paths', [])
     if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
         raise top._fail('relative_file_paths', paths, 'a list of file names')
+    name, times = Counter(paths).most_common(1)[0] if paths else ('', 1)
+    if times > 1:  # a file listed 1000 times was read 1000 times (4 GB): each segment is listed once
+        raise BagError(f'{path}: relative_file_paths lists {brief(name)} {times} times; allowed: each segment file '
+                       'once')
     files = tuple(FileEntry(f.text('path'), f.integer('starting_time', 'nanoseconds_since_epoch'),
                             f.integer('duration', 'nanoseconds'), f.integer('message_count'))
                   for f in top.items('files'))
