@@ -133,3 +133,13 @@ def test_steps_checked_against_the_robot(tmp_path, step, pattern):
 def test_not_a_mapping():
     with pytest.raises(ConfigError, match=r'expected a mapping \(format: gpr_robot_program'):
         parse_program([1, 2])
+
+
+def test_a_program_of_more_steps_than_a_check_can_afford_is_refused_before_parsing(tmp_path):
+    """20,000 alternating moves (a 290 kB file) took `gpr program check` past 4 GB; 2,000 take about a minute."""
+    from gpr_kinematics.robot.program import MAX_STEPS, parse_program
+
+    data = {'format': 'gpr_robot_program', 'version': 1, 'stations': [{'name': 'a', 'position': [0.75, 0.8, 0.4]}],
+            'steps': [{'move': 'a'}] * (MAX_STEPS + 1)}
+    with pytest.raises(ConfigError, match=r'2001 steps; allowed: at most 2000'):
+        parse_program(data, tmp_path / 'p.yaml')

@@ -54,8 +54,9 @@ from .stations import Stations
 FORMAT = 'gpr_robot_program'
 VERSIONS = (1,)
 STEP_KINDS = ('move', 'pick', 'place', 'dwell')
-#: Most steps in a program, most imported files.
-MAX_STEPS = 100_000
+#: Most steps in a program, most imported files. A step costs ``gpr program check`` about 30 ms and 0.5 MB in the
+#: example cell (2,000 moves between two stations: 62 s, 1.1 GB; 20,000 ran out of 4 GB).
+MAX_STEPS = 2_000
 MAX_IMPORTS = 64
 _KEYS = ('format', 'version', 'robot', 'cell', 'wafers', 'units', 'defaults', 'stations', 'import', 'steps')
 _DEFAULT_KEYS = ('arm', 'branch', 'approach_height', 'retract_height', 'dwell')
