@@ -118,6 +118,12 @@ def test_program_check_and_export(capsys, tmp_path):
     (['program', 'export', PROGRAM, '--waypoints', '/proc'], r'/proc exists and is not a regular file'),
     (['program', 'export', PROGRAM, '--waypoints', ''], r'joint table output path is empty'),
     (['program', 'check', ''], r'program file path is empty'),
+    (['program', 'export', PROGRAM, '--waypoints', '/tmp/gpr_w.csv', '--samples', '/tmp/gpr_w.csv'],
+     r"--waypoints '/tmp/gpr_w.csv' and --samples '/tmp/gpr_w.csv' are the same file"),  # one table was lost
+    (['program', 'export', PROGRAM, '--waypoints', '/tmp/gpr_w.csv', '--samples', '/tmp/../tmp/gpr_w.csv'],
+     r'are the same file; allowed: a file of its own for each output'),
+    (['program', 'export', PROGRAM, '--samples', '/tmp/gpr_s.csv', '--lead-in', '5'],
+     r'--lead-in applies to --trajectory FILE.yaml, which is not given'),  # was ignored
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', ''],
      r'robot file path is empty'),
 ])

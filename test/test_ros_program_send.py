@@ -110,3 +110,20 @@ def test_no_server_exits_1_with_one_line(ros_environment):
     assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
     assert 'no joint_states with the joints rod_1, rod_2' in res.stderr
     assert 'cannot tell where the robot is' in res.stderr
+
+
+@pytest.mark.parametrize('option, value, words', [
+    ('--namespace', 'r 1', "--namespace 'r 1': Invalid namespace: namespace must not contain characters other than"),
+    ('--namespace', '/r1/', "--namespace '/r1/': Invalid namespace: namespace must not end with a '/'"),
+    ('--joint-states', '', "--joint-states '': Invalid topic name: topic name must not be empty string"),
+    ('--joint-states', '1x', "--joint-states '1x': Invalid topic name: topic name token must not start with a number"),
+    ('--action', '//x', "--action '//x': Invalid topic name: topic name must not contain repeated '/'"),
+    ('--progress', 'nan', '--progress = nan s; allowed: 0 < progress <= 3600 s'),
+    ('--progress', '-1', '--progress = -1.0 s; allowed: 0 < progress <= 3600 s'),
+])
+def test_bad_names_and_progress_exit_2_with_one_line_before_any_node(ros_environment, option, value, words):
+    """rclpy raised bad names as tracebacks (exit 1); --progress nan printed no progress line at all."""
+    res = _send(PROGRAM, option, value, '--timeout', '1')
+    assert res.returncode == 2 and res.stdout == '', res.stderr
+    assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
+    assert words in res.stderr, res.stderr

@@ -81,9 +81,13 @@ def emit_json(result: object, **context: JsonValue) -> None:
     sys.stdout.write('\n')
 
 
-def _existing(value: object) -> list[str]:
+def _given(value: object) -> list[str]:
     values = value if isinstance(value, list) else [value]
-    return [v for v in values if isinstance(v, str) and v and os.path.exists(v)]
+    return [v for v in values if isinstance(v, str) and v]
+
+
+def _existing(value: object) -> list[str]:
+    return [v for v in _given(value) if os.path.exists(v)]
 
 
 def distinct_outputs(args: argparse.Namespace) -> None:
@@ -92,6 +96,12 @@ def distinct_outputs(args: argparse.Namespace) -> None:
     with the calibrated geometry). Files the command reads without naming them (a robot's geometry file) are
     refused when written (:func:`gpr_kinematics.inputs.files.check_output`)."""
     values = vars(args)
+    named = [(k, v) for k in OUTPUT_OPTIONS for v in _given(values.get(k))]
+    for i, (key, out) in enumerate(named):  # two outputs of one path, existing or not: one table would be lost
+        for other, path in named[i + 1:]:
+            if os.path.normcase(os.path.realpath(out)) == os.path.normcase(os.path.realpath(path)):
+                raise InputError(f'--{key} {out!r} and --{other} {path!r} are the same file; allowed: a file of its '
+                                 'own for each output')
     outputs = [(k, v) for k in OUTPUT_OPTIONS for v in _existing(values.get(k))]
     others = [(k, v) for k, value in values.items() if k not in OUTPUT_OPTIONS for v in _existing(value)]
     for i, (key, out) in enumerate(outputs):

@@ -152,6 +152,8 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         check_output(args.trajectory, 'trajectory')
     if not 0.0 <= args.lead_in <= 3600.0:
         raise InputError(f'--lead-in = {args.lead_in!r} s; allowed: 0 to 3600 s')
+    if args.lead_in and args.trajectory is None:
+        raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 
 
 def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
@@ -206,14 +208,41 @@ def _ros_modules() -> Any:
     return trajectory_client
 
 
+def _check_ros_names(args: argparse.Namespace) -> None:
+    """``--namespace``, ``--joint-states`` and ``--action`` by ROS 2's own name rules, before any node is made (rclpy
+    raised them as tracebacks)."""
+    from rclpy.exceptions import NameValidationException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+    from rclpy.validate_namespace import validate_namespace
+    from rclpy.validate_topic_name import validate_topic_name
+
+    from ..errors import InputError, brief
+    ns = args.namespace if args.namespace.startswith('/') else '/' + args.namespace
+    for option, name in (('--namespace', args.namespace), ('--joint-states', args.joint_states),
+                         ('--action', args.action)):
+        try:
+            if option == '--namespace':
+                validate_namespace(ns)
+                continue
+            validate_topic_name(name)
+            if not name.startswith('~'):  # private names expand with the node's name
+                validate_full_topic_name(name if name.startswith('/') else ns.rstrip('/') + '/' + name)
+        except NameValidationException as exc:
+            rule = str(exc).splitlines()[0].rstrip(':')
+            raise InputError(f'{option} {brief(name)}: {rule}; allowed: a ROS 2 name') from None
+
+
 def _cmd_send(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..robot.trajectory import lead_in, program_trajectory
     if not 0.0 < args.timeout <= 3600.0:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
+    if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
+        raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
+    tc = _ros_modules()
+    _check_ros_names(args)
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
-    tc = _ros_modules()
     with tc.GprClient('gpr_program_send', namespace=args.namespace) as client:
         current = tc.current_positions(client, traj.joint_names, args.joint_states, args.timeout)
         if current is None:
