@@ -215,3 +215,36 @@ def test_check_refuses_a_tolerance_that_would_run_for_minutes_and_other_bad_numb
 
     with pytest.raises(InputError, match=words):
         check_program(PLAN, load_cell(CELL), **kwargs)
+
+
+def _cell_program(**changes):
+    """The example cell program with keys replaced (a key set to None is removed), planned."""
+    from gpr_kinematics.inputs.safe_yaml import read_file
+    from gpr_kinematics.robot.program import parse_program
+
+    data = dict(read_file(PROGRAM))
+    for key, value in changes.items():
+        if value is None:
+            data.pop(key, None)
+        else:
+            data[key] = value
+    return plan_program(ROBOT, parse_program(data, str(PROGRAM), PROGRAM.parent))
+
+
+def test_the_wafers_are_followed_through_the_program():
+    """wafers: [] turned every wafer check off (an empty list counted as "not declared"); it declares no wafer."""
+    from gpr_kinematics.errors import ConfigError
+
+    wafers = wafer_plan(_cell_program())               # wafers: [load_port_1]: taken to pm1, pm2 and back
+    assert wafers.carried['arm2'] and not wafers.carried['arm1']
+    with pytest.raises(ConfigError, match=r'steps\[1\] \(pick load_port_1, at\): station load_port_1 holds no wafer '
+                                          r'\(the program declares wafers: \[\]\); allowed: a pick where a wafer lies'):
+        wafer_plan(_cell_program(wafers=[]))
+    with pytest.raises(ConfigError, match=r'station pm1 holds no wafer \(the program declares wafers: \[load_port_1\]'):
+        wafer_plan(_cell_program(wafers=['load_port_1'], steps=[{'move': 'high'}, {'move': 'pm1_front'},
+                                                                {'pick': 'pm1'}]))
+    with pytest.raises(ConfigError, match=r'station pm1 already holds a wafer'):
+        wafer_plan(_cell_program(wafers=['load_port_1', 'pm1'], steps=[
+            {'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}]))
+    undeclared = wafer_plan(_cell_program(wafers=None))    # no key: picks find a wafer where they pick
+    assert undeclared.carried['arm2'] == wafers.carried['arm2']

@@ -89,9 +89,10 @@ class RobotProgram:
     dwell: float
     robot: Path | None
     source: str
-    #: The process cell the program names (relative paths resolved), and the stations holding a wafer at the start.
+    #: The process cell the program names (relative paths resolved), and the stations holding a wafer at the start
+    #: (``None``: not declared, so the wafers are not followed; ``()``: none, every pick is refused).
     cell: Path | None = None
-    wafers: tuple[str, ...] = ()
+    wafers: tuple[str, ...] | None = None
 
 
 def _seconds(value: Any, where: str, key: str, positive: bool = False) -> float:
@@ -163,7 +164,8 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
         stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),
         branch=_optional_text(defaults, 'branch', dw), approach_height=heights[0], retract_height=heights[1],
         dwell=_seconds(defaults.get('dwell', 0.0), dw, 'dwell'),
-        robot=robot, source=source, cell=cell, wafers=_wafers(data.get('wafers', []), table, source))
+        robot=robot, source=source, cell=cell,
+        wafers=_wafers(data['wafers'], table, source) if 'wafers' in data else None)
 
 
 def _path(data: Mapping[str, Any], key: str, base: Path, source: str) -> Path | None:

@@ -95,7 +95,8 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     blade, a place with an empty one or onto a full station is refused (ConfigError naming the step)."""
     way, timing, program = plan.waypoints, plan.timing, plan.program
     end = timing.total
-    present: dict[str, float] = {name: 0.0 for name in program.wafers}
+    declared = program.wafers is not None        # wafers: [] declares that no station holds one
+    present: dict[str, float] = {name: 0.0 for name in program.wafers or ()}
     stations: list[tuple[str, Windows]] = []
     carrying: dict[str, float] = {}
     carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
@@ -114,14 +115,14 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
             if arm in carrying:
                 raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
             start = present.pop(station, None)
-            if start is None and program.wafers:
+            if start is None and declared:
                 raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
-                                  f'{", ".join(program.wafers)}); allowed: a pick where a wafer lies')
+                                  f'[{", ".join(program.wafers or ())}]); allowed: a pick where a wafer lies')
             if start is not None and start < t:
                 stations.append((station, ((start, t),)))
             carrying[arm] = t
         else:
-            if arm not in carrying and program.wafers:
+            if arm not in carrying and declared:
                 raise ConfigError(f'{where}: arm {arm} carries no wafer to place')
             if station in present:
                 raise ConfigError(f'{where}: station {station} already holds a wafer')
