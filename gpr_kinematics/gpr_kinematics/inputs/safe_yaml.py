@@ -18,9 +18,12 @@ file and the limit:
   file is refused before a byte is read (so an 8 MB robot file costs nothing but a ``stat``);
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
 
-Numbers in exponent form are floats as in YAML 1.2 (``1e-3``, ``1.5e3``, ``-2E+6``): PyYAML follows YAML 1.1,
-which needs a decimal point and a signed exponent (``1.5e+3``) and reads the others as text, so ``leg_max: 13e-2``
-was refused as "not a number, got '13e-2'". The ROS nodes read ``ros2 param set ... 1e-13`` the same way.
+Numbers and booleans are those of YAML 1.2's core schema. Exponent forms are floats (``1e-3``, ``1.5e3``,
+``-2E+6``): PyYAML follows YAML 1.1, which needs a decimal point and a signed exponent (``1.5e+3``) and reads the
+others as text, so ``leg_max: 13e-2`` was refused as "not a number, got '13e-2'". The ROS nodes read ``ros2 param
+set ... 1e-13`` the same way. YAML 1.1's other forms are text, which a number check then refuses by name: ``0750``
+is 750 (YAML 1.1: octal, 488), ``1:31`` is not 91 (base 60), ``0x10``, ``0o17`` and ``1_000`` are not numbers, and
+``yes``, ``no``, ``on``, ``off`` are not booleans (only ``true`` and ``false``).
 
 Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them, and a key is
 quoted only when it is a name (:func:`quoted_key`): the lines of a file that is not of the package's formats are
@@ -156,11 +159,43 @@ if getattr(yaml, '__with_libyaml__', False):
     _CLoader = _CBoundedLoader
 
 
-# YAML 1.2's exponent floats (PyYAML's YAML 1.1 resolver, tried first, keeps every form it knows).
-_FLOAT_1_2 = re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$')
-_BoundedLoader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
-if _CLoader is not None:
-    _CLoader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
+# YAML 1.2's exponent floats and signed ``-.5`` (PyYAML's YAML 1.1 resolver, tried first, reads them as text).
+_FLOAT_1_2 = re.compile(r'^(?:[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+|[-+]?\.[0-9]+)$')
+# The scalars YAML 1.2's core schema reads as numbers and booleans. YAML 1.1's other forms stay text, so a number
+# check names them: ``0750`` was octal (488), ``1:31`` base 60 (91), ``0x10`` 16, ``1_0`` 10, ``yes`` and ``on`` true.
+_INT_CORE = re.compile(r'[-+]?[0-9]+')
+_FLOAT_CORE = re.compile(r'[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:inf|Inf|INF)|'
+                         r'\.(?:nan|NaN|NAN)')
+_BOOL_CORE = {'true': True, 'True': True, 'TRUE': True, 'false': False, 'False': False, 'FALSE': False}
+
+
+def _core_int(loader: Any, node: ScalarNode) -> int | str:
+    """An int of YAML 1.2's core schema (decimal, a leading zero included), or the text as written."""
+    text = str(node.value)
+    return int(text, 10) if _INT_CORE.fullmatch(text) else text
+
+
+def _core_float(loader: Any, node: ScalarNode) -> float | str:
+    """A float of YAML 1.2's core schema, or the text as written (a base-60 ``1:30.5``, ``1_000.5``)."""
+    text = str(node.value)
+    if not _FLOAT_CORE.fullmatch(text):
+        return text
+    value: float = loader.construct_yaml_float(node)
+    return value
+
+
+def _core_bool(loader: Any, node: ScalarNode) -> bool | str:
+    """``true``/``false`` (YAML 1.2's core schema); ``yes``, ``no``, ``on``, ``off`` stay text."""
+    text = str(node.value)
+    return _BOOL_CORE.get(text, text)
+
+
+for _loader in (_BoundedLoader, _CLoader):
+    if _loader is not None:
+        _loader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
+        _loader.add_constructor('tag:yaml.org,2002:int', _core_int)
+        _loader.add_constructor('tag:yaml.org,2002:float', _core_float)
+        _loader.add_constructor('tag:yaml.org,2002:bool', _core_bool)
 
 
 def is_name(key: YamlValue) -> bool:
