@@ -101,10 +101,9 @@ def rotation_matrices(values: Any, name: str, tolerance: float = 1e-9) -> NDArra
     return R
 
 
-def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = None) -> NDArray[np.float64]:
-    """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
-    finite; else :class:`InputError` naming the value (by ``names`` when given, e.g. a robot's joint names;
-    ``q2`` for rod 2, like the paper's ``q1..q3``) and, in a batch, the sample."""
+def number_rows(values: Any, name: str, width: int) -> NDArray[np.float64]:
+    """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), NaN and
+    infinity kept; else :class:`InputError` naming ``name`` (strings, complex numbers, a 400-digit int, the shape)."""
     try:
         a = np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
@@ -114,6 +113,14 @@ def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = No
     if a.ndim != 2 or a.shape[1] != width:
         raise InputError(f'{name} must have {width} values per sample (shape (N, {width})), '
                          f'got shape {np.shape(values)}')
+    return a
+
+
+def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = None) -> NDArray[np.float64]:
+    """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), all
+    finite; else :class:`InputError` naming the value (by ``names`` when given, e.g. a robot's joint names;
+    ``q2`` for rod 2, like the paper's ``q1..q3``) and, in a batch, the sample."""
+    a = number_rows(values, name, width)
     bad = ~np.isfinite(a)
     if bad.any():
         i, j = np.argwhere(bad)[0]
@@ -178,3 +185,30 @@ def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDA
     if not np.all(np.isfinite(arr)) or (arr.size and np.max(np.abs(arr)) > MAX_COORDINATE):
         raise InputError(f'{name} = {brief(arr.tolist())}; allowed: finite values within +-{MAX_COORDINATE:g} (SI)')
     return arr
+
+
+#: Most Newton iterations a caller may ask of a mechanism's forward kinematics (:mod:`gpr_kinematics.mechanisms.base`);
+#: the finest tolerance [m or rad].
+MAX_NEWTON_ITERATIONS = 1000
+MIN_NEWTON_TOLERANCE = 1e-15
+
+
+def newton_settings(name: str, tol: Any, max_iterations: Any) -> tuple[float, int]:
+    """A forward-kinematics tolerance in [:data:`MIN_NEWTON_TOLERANCE`, 1] (m or rad) and an iteration count in
+    1 .. :data:`MAX_NEWTON_ITERATIONS`; else :class:`InputError` (1e9 iterations at a zero tolerance never end)."""
+    if not MIN_NEWTON_TOLERANCE <= plain_number(tol) <= 1.0:
+        raise InputError(f'{name}: tol = {brief(tol)} is invalid; allowed: a number from {MIN_NEWTON_TOLERANCE:g} to 1 '
+                         '(m or rad)')
+    if not isinstance(max_iterations, (int, np.integer)) or not 1 <= plain_number(max_iterations) <= \
+            MAX_NEWTON_ITERATIONS:
+        raise InputError(f'{name}: max_iterations = {brief(max_iterations)} is invalid; allowed: an integer from 1 to '
+                         f'{MAX_NEWTON_ITERATIONS}')
+    return float(tol), int(max_iterations)
+
+
+def difference_step(name: str, step: Any) -> float:
+    """A central-difference step in (0, 0.01] (the parameter's SI unit); else :class:`InputError` (a zero step
+    divides by zero)."""
+    if not 0.0 < plain_number(step) <= 0.01:
+        raise InputError(f'{name}: step = {brief(step)} is invalid; allowed: a number > 0 and at most 0.01 (SI units)')
+    return float(step)

@@ -44,7 +44,7 @@ from ..core.rotations import (
     rotation_vector,
 )
 from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
-from ..inputs.validation import MAX_COORDINATE, bounded, plain_number
+from ..inputs.validation import MAX_COORDINATE, bounded, difference_step, newton_settings, number_rows
 from .conditioning import (
     ANGULAR_JOINTS,
     GRAM_CONDITION_LIMIT,
@@ -90,32 +90,6 @@ def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
         raise InputError(f'{name}: {POSE_COMPONENTS[j]} = {arr[i, j]:.6g} {"m" if j < 3 else "rad"}; allowed: |x|, '
                          f'|y|, |z| <= {MAX_COORDINATE:g} m and |A|, |B|, |C| <= {MAX_COORDINATE:g} rad')
     return arr, single
-
-
-#: Most Newton iterations a caller may ask of :meth:`Mechanism.forward_kinematics`; the finest tolerance [m or rad].
-MAX_NEWTON_ITERATIONS = 1000
-MIN_NEWTON_TOLERANCE = 1e-15
-
-
-def newton_settings(name: str, tol: Any, max_iterations: Any) -> tuple[float, int]:
-    """A forward-kinematics tolerance in [:data:`MIN_NEWTON_TOLERANCE`, 1] (m or rad) and an iteration count in
-    1 .. :data:`MAX_NEWTON_ITERATIONS`; else :class:`InputError` (1e9 iterations at a zero tolerance never end)."""
-    if not MIN_NEWTON_TOLERANCE <= plain_number(tol) <= 1.0:
-        raise InputError(f'{name}: tol = {brief(tol)} is invalid; allowed: a number from {MIN_NEWTON_TOLERANCE:g} to 1 '
-                         '(m or rad)')
-    if not isinstance(max_iterations, (int, np.integer)) or not 1 <= plain_number(max_iterations) <= \
-            MAX_NEWTON_ITERATIONS:
-        raise InputError(f'{name}: max_iterations = {brief(max_iterations)} is invalid; allowed: an integer from 1 to '
-                         f'{MAX_NEWTON_ITERATIONS}')
-    return float(tol), int(max_iterations)
-
-
-def difference_step(name: str, step: Any) -> float:
-    """A central-difference step in (0, 0.01] (the parameter's SI unit); else :class:`InputError` (a zero step
-    divides by zero)."""
-    if not 0.0 < plain_number(step) <= 0.01:
-        raise InputError(f'{name}: step = {brief(step)} is invalid; allowed: a number > 0 and at most 0.01 (SI units)')
-    return float(step)
 
 
 def _solve(J: np.ndarray, res: np.ndarray, name: str) -> np.ndarray:
@@ -228,11 +202,8 @@ class Mechanism(abc.ABC):
 
     def pose_from_coordinates(self, coords: Any) -> np.ndarray:
         """Complete poses ``(N, 6)`` from independent coordinates ``(N, m)``."""
-        c = np.atleast_2d(bounded(coords, f'{self.name}: coordinates'))
-        if c.ndim != 2 or c.shape[1] != len(self.variable_indices):
-            raise InputError(f'{self.name}: coordinates must have {len(self.variable_indices)} values per pose '
-                             f'({", ".join(POSE_COMPONENTS[i] for i in self.variable_indices)}); got shape '
-                             f'{np.shape(coords)}')
+        c = bounded(number_rows(coords, f'{self.name}: coordinates', len(self.variable_indices)),
+                    f'{self.name}: coordinates')
         poses = np.zeros((c.shape[0], 6))
         poses[:, self.variable_indices] = c
         return self.complete_pose(poses)
@@ -284,29 +255,20 @@ class Mechanism(abc.ABC):
         arr, _ = as_poses(poses)
         return np.full(arr.shape[0], '', dtype=object)
 
-    def _joint_rows(self, joints: Any) -> np.ndarray:
-        """Joint values as ``(N, n)`` floats (NaN kept: the limits name it); else :class:`InputError`."""
-        try:
-            q = np.atleast_2d(np.asarray(joints, dtype=float))
-        except (TypeError, ValueError, OverflowError):
-            raise InputError(f'{self.name}: joint values must be numbers, {self.n_joints} per pose; got '
-                             f'{brief(joints)}') from None
-        if q.ndim != 2 or q.shape[1] != self.n_joints:
-            raise InputError(f'{self.name}: joint values must be {self.n_joints} numbers per pose; got shape '
-                             f'{np.shape(joints)}')
-        return q
+    def _outside(self, joints: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Joint values ``(N, n)`` (:func:`~gpr_kinematics.inputs.validation.number_rows`), where they are outside
+        the limits (NaN included) and the limits."""
+        q = number_rows(joints, f'{self.name}: joint values', self.n_joints)
+        lim = np.asarray(self.joint_limits, dtype=float)
+        return q, ~((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q)), lim
 
     def within_limits(self, joints: Any) -> np.ndarray:
         """``(N,)`` True where every joint value lies within :attr:`joint_limits` (inclusive)."""
-        q = self._joint_rows(joints)
-        lim = np.asarray(self.joint_limits, dtype=float)
-        return np.asarray(np.all((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q), axis=-1))
+        return np.asarray(~np.any(self._outside(joints)[1], axis=-1))
 
     def check_limits(self, joints: Any) -> None:
         """Raise :class:`LimitError` naming the first joint outside its limits."""
-        q = self._joint_rows(joints)
-        lim = np.asarray(self.joint_limits, dtype=float)
-        bad = ~((q >= lim[:, 0] - 1e-12) & (q <= lim[:, 1] + 1e-12) & np.isfinite(q))
+        q, bad, lim = self._outside(joints)
         if np.any(bad):
             row, j = np.argwhere(bad)[0]
             unit = 'rad' if self.joint_types[j] in ANGULAR_JOINTS else 'm'
@@ -358,7 +320,7 @@ class Mechanism(abc.ABC):
         when a Jacobian is singular on the way.
         """
         tol, max_iterations = newton_settings(self.name, tol, max_iterations)
-        q = self._joint_rows(joints)
+        q = number_rows(joints, f'{self.name}: joint values', self.n_joints)
         if not np.all(np.isfinite(q)):
             raise InputError(f'{self.name}: joint values must be {self.n_joints} finite numbers per pose; '
                              f'got shape {np.shape(joints)}')

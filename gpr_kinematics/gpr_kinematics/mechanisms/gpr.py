@@ -30,8 +30,8 @@ import numpy as np
 
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
-from ..inputs.validation import bounded
-from .base import Mechanism, as_poses, difference_step, newton_settings, rotation_vector
+from ..inputs.validation import bounded, difference_step, newton_settings
+from .base import Mechanism, as_poses, rotation_vector
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
 
