@@ -207,3 +207,15 @@ def test_reference_bag_checksums_and_metadata() -> None:
         top = np.stack([mc[f'markers[1].points[{2 * k + 1}].{a}'] for a in 'xyz'], axis=1)
         assert np.allclose(top[:, :2], [0.093218 * math.cos(theta), 0.093218 * math.sin(theta)], rtol=0, atol=1e-15)
         assert np.array_equal(top[:, 2], q[:, k])
+
+
+def test_tolerances_beyond_any_meaningful_check_are_refused_in_python_too():
+    import pytest
+    from gpr_kinematics.bags.tolerances import Tolerances
+    from gpr_kinematics.errors import InputError
+
+    with pytest.raises(InputError, match=r'tolerance position = 1e\+308 is invalid; allowed: a number from 0 to 0.001'):
+        Tolerances(position=1e308)
+    with pytest.raises(InputError, match=r'tolerance jump_x = nan is invalid'):
+        Tolerances().replace(jump_x=float('nan'))
+    assert Tolerances().replace(position=1e-3).position == 1e-3

@@ -347,6 +347,14 @@ def test_unreadable_bags_give_exit_2(tmp_path: Path, messages: list, capsys: pyt
     assert status == 2 and 'unknown name' in err
     status, _, err = run_cli('verify', str(REFERENCE), '--tolerance', '-1', capsys=capsys)
     assert status == 2 and '>= 0' in err
+    # 1e308 passed every recording; an empty name was the global tolerance; a repeated name kept the last value
+    for argv, words in ((['1e308'], "tolerance position = 1e+308 is invalid; allowed: a number from 0 to 0.001"),
+                        (['jump_pos=1e308'], 'tolerance jump_pos = 1e+308 is invalid; allowed: a number from 0 to 10'),
+                        (['=1e-9'], 'the name before = is empty'),
+                        (['angle=1e-9', 'angle=1e-8'], "--tolerance 'angle=1e-8': angle is given twice")):
+        status, out, err = run_cli('verify', str(REFERENCE), *[a for v in argv for a in ('--tolerance', v)],
+                                   capsys=capsys)
+        assert status == 2 and out == '' and words in err and err.count('\n') == 1, err
 
 
 def test_bag_without_states_fails_with_a_named_check(tmp_path: Path, messages: list) -> None:

@@ -29,23 +29,31 @@ def parse_tolerances(items: list[str] | None) -> Tolerances:
     """``['1e-8', 'angle=1e-10', ...]`` -> :class:`Tolerances`; InputError naming a bad item."""
     tol = Tolerances()
     allowed = ', '.join(Tolerances.names())
+    given: set[str] = set()
     for item in items or []:
         name, sep, value = item.partition('=')
+        if sep and not name:
+            raise InputError(f'--tolerance {item[:60]!r}: the name before = is empty; allowed: VALUE, or NAME=VALUE '
+                             f'with NAME one of {allowed}')
         if not sep:
             name, value = '', item
+        if name in given:  # the last one won silently
+            raise InputError(f'--tolerance {item[:60]!r}: {name or "the value without a name"} is given twice; '
+                             'allowed: each once')
+        given.add(name)
         try:
             v = float(value)
         except ValueError:
             v = math.nan
         if not (math.isfinite(v) and v >= 0):
             raise InputError(f'--tolerance {item[:60]!r}: the value must be a finite number >= 0 (SI units)')
-        if not name:
-            tol = tol.replace(**dict.fromkeys(CORE_TOLERANCES, v))
-        elif name in Tolerances.names():
-            tol = tol.replace(**{name: v})
-        else:
+        if name and name not in Tolerances.names():
             raise InputError(f'--tolerance {item[:60]!r}: unknown name {name[:40]!r}; allowed: a number, or '
                              f'NAME=VALUE with NAME one of {allowed}')
+        try:
+            tol = tol.replace(**({name: v} if name else dict.fromkeys(CORE_TOLERANCES, v)))
+        except InputError as exc:
+            raise InputError(f'--tolerance {item[:60]!r}: {exc}') from None
     return tol
 
 
