@@ -119,3 +119,15 @@ def test_binding_refusals(tmp_path):
         load_tolerances(bomb)
     with pytest.raises(ConfigError, match=r'is not a regular file'):
         load_tolerances(tmp_path)
+
+
+def test_lists_where_mappings_belong_are_refused():
+    """units: [] and parameters: [] were read as no units and no parameters."""
+    import pytest
+    from gpr_kinematics.calibration.tolerances import parse_tolerances
+    from gpr_kinematics.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r'units: expected \{length: m\|mm, angle: rad\|deg\}'):
+        parse_tolerances({'units': []})
+    with pytest.raises(ConfigError, match=r'parameters: expected a mapping of parameter names to tolerances'):
+        parse_tolerances({'parameters': []})

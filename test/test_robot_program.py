@@ -143,3 +143,19 @@ def test_a_program_of_more_steps_than_a_check_can_afford_is_refused_before_parsi
             'steps': [{'move': 'a'}] * (MAX_STEPS + 1)}
     with pytest.raises(ConfigError, match=r'2001 steps; allowed: at most 2000'):
         parse_program(data, tmp_path / 'p.yaml')
+
+
+@pytest.mark.parametrize('version', [True, 1.0, '1', 2])
+def test_a_version_that_is_not_the_integer_1_is_refused(version, tmp_path):
+    """version: true and version: 1.0 were taken as version 1 (True == 1.0 == 1 in Python)."""
+    data = {'format': 'gpr_robot_program', 'version': version,
+            'stations': [{'name': 'a', 'position': [0.75, 0.8, 0.4]}], 'steps': [{'move': 'a'}]}
+    with pytest.raises(ConfigError, match=r'version = .* is invalid; allowed: 1'):
+        parse_program(data, str(tmp_path / 'p.yaml'))
+    from gpr_kinematics.robot.platform_program import parse_platform_program
+    from gpr_kinematics.safety.cell import parse_cell
+
+    with pytest.raises(ConfigError, match=r'version = .* is invalid'):
+        parse_platform_program({'version': version, 'stations': [{'height': 0.3}]})
+    with pytest.raises(ConfigError, match=r'version = .* is invalid'):
+        parse_cell({'format': 'gpr_cell', 'version': version, 'obstacles': []}, 'c.yaml')

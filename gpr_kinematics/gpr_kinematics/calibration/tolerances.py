@@ -276,7 +276,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         raise ConfigError(f'{source}: expected a mapping with keys parameters, rod_length, joint_clearance, '
                           'measurement_noise, units')
     check_keys(data, ('units', 'parameters', 'rod_length', 'joint_clearance', 'measurement_noise'), source)
-    units = data.get('units', {}) or {}
+    units = {} if data.get('units') is None else data['units']   # units: [] passed as no units
     if not isinstance(units, Mapping):
         raise ConfigError(f'{source}: units: expected {{length: m|mm, angle: rad|deg}}')
     check_keys(units, ('length', 'angle'), f'{source}: units')
@@ -285,7 +285,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         raise ConfigError(f'{source}: units: length {safe_yaml.brief(length)}, angle {safe_yaml.brief(angle)}; '
                           'allowed: length m or mm, angle rad or deg')
     lf = _LENGTH[length]
-    params = data.get('parameters', {}) or {}
+    params = {} if data.get('parameters') is None else data['parameters']
     if not isinstance(params, Mapping):
         raise ConfigError(f'{source}: parameters: expected a mapping of parameter names to tolerances')
     entries = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v) for k, v in params.items()}

@@ -30,6 +30,12 @@ def is_number(value: YamlValue) -> bool:
             and math.isfinite(value))
 
 
+def is_version(value: YamlValue, versions: Iterable[int]) -> bool:
+    """``value`` is one of a format's ``versions``: an int, not a bool or a float (``true`` and ``1.0`` equal 1 in
+    Python)."""
+    return type(value) is int and value in tuple(versions)
+
+
 def number_array(value: YamlValue, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
     """``value``, nested lists of numbers of ``shape`` each passing :func:`is_number`, as a float array; ``None``
     when it is anything else (the caller names the key and what is allowed)."""

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, brief
-from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
 from .timing import MAX_SAMPLES
 
@@ -97,7 +97,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
     if not isinstance(data, Mapping):
         raise ConfigError(f'{source}: expected a mapping with a "stations" list, got {type(data).__name__}')
     check_keys(data, ('format', 'version', 'stations', 'move_time'), source)
-    if data.get('format', FORMAT) != FORMAT or data.get('version', 1) != 1:
+    if data.get('format', FORMAT) != FORMAT or not is_version(data.get('version', 1), (1,)):
         raise ConfigError(f'{source}: format = {brief(data.get("format"))}, version = {brief(data.get("version"))} '
                           f'is invalid; allowed: format {FORMAT} (or none), version 1')
     move_time = data.get('move_time')

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, brief
-from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
@@ -138,7 +138,7 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     if data.get('format') != FORMAT:
         raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
     check_keys(data, _KEYS, source)
-    if data.get('version', 1) not in VERSIONS:
+    if not is_version(data.get('version', 1), VERSIONS):   # true and 1.0 passed as 1
         raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')
     length, _ = units_of(data, source)
     base = Path(base_dir)

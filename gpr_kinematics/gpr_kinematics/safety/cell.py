@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief
-from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..robot.station_files import units_of
 
 Array = NDArray[np.float64]
@@ -169,7 +169,7 @@ def parse_cell(data: Any, source: str = 'cell') -> Cell:
     if data.get('format') != FORMAT:
         raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
     check_keys(data, _KEYS, source)
-    if data.get('version', 1) != 1:
+    if not is_version(data.get('version', 1), (1,)):
         raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')
     frame = data.get('frame', 'world')
     if not isinstance(frame, str) or not frame:
