@@ -76,3 +76,19 @@ def test_reteach_refuses_a_meant_station_beyond_the_reach():
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')
+
+
+def test_a_joint_table_naming_a_station_twice_is_refused(tmp_path):
+    """Two rows named p1 were taught silently (which one a program meant by p1 was then a guess)."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
+    row = ','.join(['0.3'] * 3 + ['0.1'] * len(a.joints))
+    table = tmp_path / 't.csv'
+    table.write_text(f'{header}\np1,{row}\np2,{row}\np1,{row}\n')
+    with pytest.raises(ConfigError, match=r't.csv: line 4: name .p1. is also the name of line 2; allowed: each name'):
+        read_joint_table(table, ROBOT, 'arm1')
+    table.write_text(f'{header}\np1,{row}\np2,{row}\n')
+    assert read_joint_table(table, ROBOT, 'arm1')[0] == ('p1', 'p2')

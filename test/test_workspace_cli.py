@@ -75,6 +75,8 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=[&a [1, 1], &b [*a, *a], [*b, *b]]'], 'no aliases'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=' + '[' * 5000], 'at most 2000'),
     (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=0.2', '--set', 'l1=0.3'], '--set l1 is given twice'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=0x10'], "l1 must be a positive finite length in m; got '0x10'"),
 ])
 def test_bad_input_exits_2_with_one_line(argv, match, capsys):
     code, out, err = _run(capsys, *argv)

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.config import GprConfig, load_config
-from ..errors import InputError, one_line
+from ..errors import InputError, brief, one_line
+from ..inputs.validation import MAX_COORDINATE
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -54,6 +55,9 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
     if len(values) not in sizes or not all(math.isfinite(v) for v in values):
         raise InputError(f'{flag} takes {" or ".join(map(str, sizes))} finite numbers (x y z [roll pitch yaw]), '
                          f'got {len(values)}')
+    if max(abs(v) for v in values) > MAX_COORDINATE:  # 1e308 overflowed into the measurements' check
+        raise InputError(f'{flag} {brief(values)}: allowed: each value within +-{MAX_COORDINATE:g} (m or mm, rad or '
+                         'deg)')
     v = [x * (1e-3 if args.mm and i < 3 else 1.0) for i, x in enumerate(values)]
     v[3:] = [math.radians(x) if args.deg else x for x in v[3:]]
     return Transform.from_xyz_rpy(v)
@@ -71,6 +75,9 @@ def free_names(args: argparse.Namespace, model: PoseModel) -> list[str] | None:
     """``--free`` and, with an identified frame, its parameters (``None``: all)."""
     if args.free is None:
         return None
+    twice = sorted({n for n in args.free if args.free.count(n) > 1})
+    if twice:
+        raise InputError(f'--free names {brief(twice[0])} twice; allowed: each parameter once')
     frames = [n for n in model.parameters.names if n.startswith(('base_', 'target_'))]
     return list(args.free) + frames
 

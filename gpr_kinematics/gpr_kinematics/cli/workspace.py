@@ -88,6 +88,8 @@ def _overrides(items: list[str]) -> dict[str, YamlValue]:
             raise InputError(f'--set expects KEY=VALUE, got {item[:60]!r}')
         if len(value) > MAX_SET:
             raise InputError(f'--set {key[:40]}: the value has {len(value)} characters; allowed: at most {MAX_SET}')
+        if key.strip() in out:  # the last one won silently
+            raise InputError(f'--set {key.strip()[:40]} is given twice; allowed: each key once')
         try:  # the package's one YAML reader: no aliases (a value cannot expand), bounded depth and size
             out[key.strip()] = load_text(value, f'--set {key[:40]}')
         except ConfigError:

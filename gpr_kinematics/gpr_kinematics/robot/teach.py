@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.forward import check_stroke
 from ..core.ops import ARRAY
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from ..inputs.files import read_text
 from ..inputs.validation import rows_of
 from .description import RobotDescription
@@ -166,9 +166,13 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
                            robot.rods.names + a.joint_names)
     rods = np.empty((len(table), 3))
     joints = np.empty((len(table), len(a.joints)))
-    names = []
+    names: list[str] = []
+    first: dict[str, int] = {}
     for r in range(len(table)):
         names.append(table.text(r, 'name') or str(r))
+        if first.setdefault(names[-1], r) != r:  # two stations of one name: the taught table would be ambiguous
+            raise ConfigError(f'{table.row_where(r)}: name {brief(names[-1])} is also the name of line '
+                              f'{table.lines[first[names[-1]]]}; allowed: each name once')
         for k, rod in enumerate(robot.rods.names):
             rods[r, k] = table.number(r, rod, math.nan)
         for k, joint in enumerate(a.joint_names):
