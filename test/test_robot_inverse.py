@@ -345,3 +345,23 @@ def test_stations_from_poses_takes_lists_and_offset_checks_its_distances():
                        ([0.0, 0.0], r'must have shape \(1,\)'), (10 ** 400, r'must be numbers')):
         with pytest.raises(InputError, match=words):
             st.offset(bad)
+
+
+def test_stations_and_their_options_that_are_not_are_named():
+    """None, a float branch, an array as the arm, index 5 of one station, a heading_free per two stations: bare
+    TypeErrors, ValueErrors and IndexErrors before."""
+    from gpr_kinematics.errors import ConfigError
+
+    st = Stations.of([[1.15, 0.5, 0.4]], heading=0.3)
+    for call, error, words in (
+            (lambda: solve_stations(ROBOT, None), InputError, r'stations = None; allowed: Stations'),
+            (lambda: solve_stations(ROBOT, st, branch=0.5), InputError, r'branch = 0.5 is invalid; allowed: left or'),
+            (lambda: solve_stations(ROBOT, st, arm=np.zeros((0, 3))), ConfigError, r'no arm .*; allowed: arm1, arm2'),
+            (lambda: st.take([5]), InputError, r'station index \[5\]; allowed: integers from -1 to 0 \(1 stations\)'),
+            (lambda: st.take([np.nan]), InputError, r'station index \[nan\]'),
+            (lambda: Stations.of([[1, 2, 3]], heading_free=[True, False]), InputError,
+             r'heading_free must be one bool or one per station \(1\)'),
+            (lambda: Stations.of([[1, 2, 3]], names=0.5), InputError, r'names must be a list of station names')):
+        with pytest.raises(error, match=words):
+            call()
+    assert len(st.take([])) == 0 and st.take([-1]).names == st.names

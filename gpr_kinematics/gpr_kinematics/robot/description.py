@@ -216,7 +216,7 @@ class RobotDescription:
         if name is None:
             return self.arms[0]
         for a in self.arms:
-            if a.name == name:
+            if isinstance(name, str) and a.name == name:   # an array compared elementwise
                 return a
         raise ConfigError(f'{self.source}: no arm {brief(name)}; allowed: {", ".join(self.arm_names)}')
 

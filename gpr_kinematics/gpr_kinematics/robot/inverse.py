@@ -160,6 +160,8 @@ def _angle_to(stations: Stations, R: Array) -> Array:
 def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[str, ...], Array]:
     if branch is None or isinstance(branch, str):
         names = (branch or arm.branch,) * n
+    elif not isinstance(branch, Sequence | np.ndarray):
+        raise InputError(f'branch = {brief(branch)} is invalid; allowed: left or right, one or one per station')
     else:
         names = tuple(branch)
         if len(names) != n:
@@ -220,6 +222,9 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         InputError: malformed stations or branch; a missing heading for a 3- or 4-joint arm.
         LimitError: tilt, stroke, reach, joint limits, 2-joint heading (module docstring).
     """
+    if not isinstance(stations, Stations):
+        raise InputError(f'stations = {brief(stations)}; allowed: Stations (Stations.of, stations_from_poses, a '
+                         'station file)')
     a = robot.arm(arm)
     n = len(stations)
     cfg = robot.config

@@ -88,10 +88,15 @@ class Stations:
         n = P.shape[0]
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
         if heading_free is not None:
-            free = free | np.broadcast_to(np.asarray(heading_free, dtype=bool), (n,))
+            marks = np.asarray(heading_free)
+            if marks.dtype != bool or marks.shape not in ((), (n,)):
+                raise InputError(f'heading_free must be one bool or one per station ({n}), got {brief(heading_free)}')
+            free = free | np.broadcast_to(marks, (n,))
         head = np.zeros(n) if heading is None else per_station(heading, 'heading', n)
         if names is None:
             names = tuple(str(i) for i in range(n))
+        if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray):
+            raise InputError(f'names must be a list of station names, got {brief(names)}')
         names = tuple(str(v) for v in names)
         if len(names) != n:
             raise InputError(f'names must name the {n} stations, got {len(names)} names')
@@ -119,7 +124,15 @@ class Stations:
 
     def take(self, index: ArrayLike) -> Stations:
         """The stations at ``index`` (an integer array)."""
-        idx = np.asarray(index, dtype=int)
+        try:
+            idx = np.atleast_1d(np.asarray(index))
+        except (TypeError, ValueError):
+            idx = np.array([np.nan])
+        n = len(self)
+        if idx.ndim != 1 or (idx.size and (idx.dtype.kind not in 'iu' or idx.min() < -n or idx.max() >= n)):
+            raise InputError(f'station index {brief(np.asarray(index, dtype=object).tolist())}; allowed: integers '
+                             f'from {-n} to {n - 1} ({n} stations)')
+        idx = idx.astype(np.int64)
         return Stations(self.position[idx], self.tilt[idx], self.azimuth[idx], self.heading[idx],
                         self.heading_free[idx], tuple(self.names[i] for i in idx))
 
