@@ -218,3 +218,15 @@ def test_load_errors(tmp_path):
         load_mechanism(bad)
     with pytest.raises(InputError, match=r'shape \(6,\) or \(N, 6\)'):
         load_mechanism(config_path('mechanisms/gsp_d3_6.yaml')).inverse_kinematics([1, 2, 3])
+
+
+@pytest.mark.parametrize('points', [np.full((6, 3), 1e-300), np.zeros((6, 3))])
+def test_with_parameters_refuses_a_line_without_direction(points):
+    """A_i of 1e-300 gave inverse kinematics of inf, A_i = 0 of zeros: the file's check now holds here too."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.mechanisms import load_mechanism
+
+    gsp = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    with pytest.raises(InputError, match=r'constraint 1: degenerate base line K: A_j = .* coincides with A_i'):
+        gsp.with_parameters({'A_i': points})

@@ -221,6 +221,12 @@ class GeneralizedStewartPlatform(Mechanism):
             if key not in allowed:
                 raise InputError(f'{self.name}: unknown parameter {brief(key)}; allowed: {sorted(allowed)}')
             p[key] = bounded(val, f'{self.name}: parameter {key}', (6, 3))
+        for first, second, label in (('A_i', 'A_j', 'base line K'), ('B_i', 'B_j', 'platform line L')):
+            gap = np.linalg.norm(p[second] - p[first], axis=1)      # NaN where a constraint has no line
+            if np.any(gap < _DEGENERATE):                            # (the file's check: a line needs a direction)
+                k = int(np.argmax(gap < _DEGENERATE))
+                raise InputError(f'{self.name}: constraint {k + 1}: degenerate {label}: {second} = '
+                                 f'{brief(p[second][k].tolist())} coincides with {first}, so the line has no direction')
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new.A_i, new.A_j, new.B_i, new.B_j = p['A_i'], p['A_j'], p['B_i'], p['B_j']
