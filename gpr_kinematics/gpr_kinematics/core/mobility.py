@@ -45,7 +45,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -185,7 +185,7 @@ def rod_perturbation(dq: ArrayLike, directions: ArrayLike | None = None) -> Arra
     return dp
 
 
-def numerical_rank(S: NDArray[np.floating[Any]], columns: int) -> NDArray[np.int64]:
+def numerical_rank(S: Array, columns: int) -> NDArray[np.int64]:
     """Ranks ``(...)`` from the singular values ``S (..., 12)`` of ``12 x columns`` matrices, with
     ``numpy.linalg.matrix_rank``'s threshold ``sigma_max max(12, columns) eps`` (the one rank test of this module)."""
     return np.asarray((S[..., :1] * (max(12, columns) * EPS) < S).sum(axis=-1), dtype=np.int64)
@@ -217,7 +217,7 @@ def rigid_rank(q: ArrayLike, config: GprConfig | None = None) -> NDArray[np.int6
     geo = MachineGeometry.of(resolve_config(config))
     Q = rows_of(q, 'q', 3)
     u = np.array([geo.ux, geo.uy, geo.uz]).T
-    S = np.linalg.svd(constraint_jacobian(geo.base_points(Q), u), compute_uv=False)
+    S = np.asarray(np.linalg.svd(constraint_jacobian(geo.base_points(Q), u), compute_uv=False), dtype=np.float64)
     return np.asarray(numerical_rank(S, 12), dtype=np.int64)
 
 
@@ -272,7 +272,7 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     both = np.zeros((2, 12, 12 + M))
     both[:, :, :12] = dphi_dp
     both[1, :, 12:] = dphi_dx
-    S = np.linalg.svd(both, compute_uv=False)
+    S = np.asarray(np.linalg.svd(both, compute_uv=False), dtype=np.float64)
     rank_p, rank_a = int(numerical_rank(S[0], 12)), int(numerical_rank(S[1], 12 + M))
     bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
               'eq5': (float(sv[-1]), float(sv[0]))}
