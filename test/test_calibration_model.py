@@ -251,3 +251,18 @@ def test_exact_columns_of_the_core_model():
     # the play of joint 2 along its rod (d = s u_2) is a zero offset s of rod 2
     u = np.array([0.0, 0.0, 1.0])
     np.testing.assert_allclose(D[:, :, 1, :] @ u, J[:, :, ps.index('rod2_offset')], atol=1e-9)
+
+
+def test_pose_jacobian_names_a_theta_that_is_not_one_row_of_parameters():
+    """theta=None was an IndexError deep in the steps (evaluate already named it)."""
+    import pytest
+    from gpr_kinematics.calibration.core_model import CoreModel
+    from gpr_kinematics.calibration.model import pose_jacobian
+    from gpr_kinematics.core.config import load_config
+    from gpr_kinematics.errors import InputError
+
+    model = CoreModel(load_config())
+    for theta, words in ((None, r'theta must be 24 numbers, got shape \(\)'), ([0.0] * 3, r'got shape \(3,\)'),
+                         ([float('nan')] * 24, r'theta\[0\] = nan is not a finite number')):
+        with pytest.raises(InputError, match=words):
+            pose_jacobian(model, theta, [[0.3, 0.3, 0.3]])

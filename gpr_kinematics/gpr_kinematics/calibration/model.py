@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.rotations import rotation_vector
 from ..errors import InputError
 from ..inputs.stacked import Stacked
-from ..inputs.validation import rows_of
+from ..inputs.validation import finite_vector, rows_of
 
 Array = NDArray[np.float64]
 
@@ -329,8 +329,8 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
 
     All ``2 C`` perturbed parameter rows go to the model in one call (one batch of ``2 C x N`` poses).
     """
-    th = np.asarray(theta, dtype=float)
     params = model.parameters
+    th = finite_vector(theta, 'theta', len(params))     # None was an IndexError deep in the steps
     cols = np.arange(len(params)) if columns is None else np.asarray(columns)
     if cols.dtype == bool:
         cols = np.flatnonzero(cols)
