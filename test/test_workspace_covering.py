@@ -217,3 +217,17 @@ def test_time_limits_are_bounded(value):
     model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
     with pytest.raises(InputError, match='max_seconds = .*; allowed: a time limit in seconds, > 0 and at most 604800'):
         approximate(model, 0.05, max_seconds=value)
+
+
+def test_options_that_are_not_numbers_are_named():
+    """delta='a' and grid_nodes='a' or 2.5 were TypeErrors, a 400-digit bound an OverflowError."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.workspace import approximate, load_workspace_model
+
+    model = load_workspace_model(config_path('mechanisms/shell_arm.yaml'))
+    for kwargs, words in (({'delta': 'a'}, r"delta must be a positive length in metres, got 'a'"),
+                          ({'delta': 0.1, 'method': 'grid', 'grid_nodes': 'a'}, r"nodes per edge = 'a'; allowed"),
+                          ({'delta': 0.1, 'method': 'grid', 'grid_nodes': 2.5}, r'nodes per edge = 2.5; allowed'),
+                          ({'delta': 0.1, 'box': [[0, 10 ** 400]] * 3}, r'initial box must be numbers')):
+        with pytest.raises(InputError, match=words):
+            approximate(model, **kwargs)

@@ -9,6 +9,7 @@ them) and the **boundary** boxes (undecided, diameter below ``delta``); inner pl
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
@@ -16,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, brief
+from ..inputs.validation import plain_number
 from .boxes import box_volume
 from .interval import Interval
 
@@ -210,8 +212,8 @@ def workspace_report(model: WorkspaceModel, result: WorkspaceResult) -> Workspac
 
 def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:
     """``delta`` must be a positive length no smaller than 2^-40 of the box's scaled diameter."""
-    if not np.isfinite(delta) or delta <= 0:
-        raise InputError(f'delta must be a positive length in metres, got {delta!r}')
+    if not 0.0 < plain_number(delta) < math.inf:   # 'a' was a TypeError
+        raise InputError(f'delta must be a positive length in metres, got {brief(delta)}')
     diam = float(np.max((box[:, 1] - box[:, 0]) * scale))
     if delta < diam * 2.0**-40:
         raise InputError(
@@ -224,7 +226,7 @@ def check_initial_box(box: Any, names: Sequence[str]) -> np.ndarray:
     """The initial box as a finite (d, 2) float array with lower < upper, else :class:`InputError`."""
     try:
         arr = np.array(box, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):   # OverflowError: a 400-digit bound
         raise InputError(f'initial box must be numbers of shape ({len(names)}, 2)') from None
     if arr.ndim != 2 or arr.shape != (len(names), 2):
         raise InputError(f'initial box must have shape ({len(names)}, 2), got {arr.shape}')

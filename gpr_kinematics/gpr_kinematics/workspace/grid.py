@@ -22,6 +22,8 @@ _POINT_CHUNK = 200_000
 def check_grid_nodes(nodes: int, d: int) -> None:
     """``nodes`` per edge (>= 2) with ``nodes ** d`` at most :data:`MAX_NODES_PER_BOX` (integer arithmetic: an
     integer of 500 digits has no float)."""
+    if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)):   # 'a' and 2.5 were TypeErrors
+        raise InputError(f'grid method: nodes per edge = {brief(nodes)}; allowed: an integer, at least 2')
     if 2 <= nodes <= MAX_NODES_PER_BOX and nodes ** d <= MAX_NODES_PER_BOX:
         return
     allowed = f'allowed: at least 2 per edge and at most {MAX_NODES_PER_BOX} per box'
