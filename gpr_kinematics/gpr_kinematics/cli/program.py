@@ -239,10 +239,10 @@ def _cmd_send(args: argparse.Namespace) -> int:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
         raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
-    tc = _ros_modules()
-    _check_ros_names(args)
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
+    tc = _ros_modules()
+    _check_ros_names(args)
     with tc.GprClient('gpr_program_send', namespace=args.namespace) as client:
         current = tc.current_positions(client, traj.joint_names, args.joint_states, args.timeout)
         if current is None:
