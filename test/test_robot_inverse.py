@@ -365,3 +365,6 @@ def test_stations_and_their_options_that_are_not_are_named():
         with pytest.raises(error, match=words):
             call()
     assert len(st.take([])) == 0 and st.take([-1]).names == st.names
+    with pytest.raises(InputError, match=r'station index 5; allowed: an integer from -1 to 0 \(1 stations\)'):
+        st.record(5)
+    assert st.record(-1).heading == pytest.approx(0.3)

@@ -115,6 +115,9 @@ class Stations:
 
     def record(self, i: int) -> StationRecord:
         """Station ``i`` as a :class:`StationRecord` (its own copy of the position)."""
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -len(self) <= i < len(self):
+            raise InputError(f'station index {brief(i)}; allowed: an integer from {-len(self)} to {len(self) - 1} '
+                             f'({len(self)} stations)')
         return StationRecord(np.array(self.position[i]), float(self.tilt[i]), float(self.azimuth[i]),
                              None if self.heading_free[i] else float(self.heading[i]))
 
