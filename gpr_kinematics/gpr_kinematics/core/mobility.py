@@ -259,9 +259,8 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     dphi_dp = _constraint_jacobian_one(kernel.centres(q0, q1, q2), u)
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     dphi_dx = np.zeros((12, M))
-    B = dphi_dx[9:, :]
-    B[:] = _closure_jacobian(vjm, fk.virtual_joints.tolist())
-    np.negative(B, out=B)
+    dphi_dx[9:] = -np.array(_closure_jacobian(vjm, fk.virtual_joints.tolist()))
+    B = dphi_dx[9:]
     s = _scale(vjm, cfg)
     dx_dp = -(_pinv(B / s) / s[:, None]) @ dphi_dp[9:]
     _, sv, vt = np.linalg.svd(dx_dp)

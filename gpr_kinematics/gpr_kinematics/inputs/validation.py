@@ -6,7 +6,7 @@ is allowed, so a caller (CLI: exit 2; node: ``success: false``) can pass it on a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Sequence, Sized
 from typing import Any
 
 import numpy as np
@@ -31,6 +31,12 @@ def plain_number(value: Any) -> float:
         return float(value)
     except OverflowError:
         return math.inf
+
+
+def count_of(values: Any) -> int:
+    """How many values a sized sequence holds (1 for anything else), read before it is converted: so a bound on the
+    count refuses ``range(10**12)`` instead of allocating it."""
+    return len(values) if isinstance(values, Sized) and not isinstance(values, (str, bytes)) else 1
 
 
 def random_seed(value: Any, name: str = 'seed') -> int:

@@ -8,7 +8,6 @@ pose and records dexterity, condition number, singularity and whether the joints
 """
 from __future__ import annotations
 
-from collections.abc import Sized
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, brief
-from ..inputs.validation import bounded
+from ..inputs.validation import bounded, count_of
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
 
 #: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
@@ -73,14 +72,9 @@ def check_points(count: int, what: str) -> None:
         raise InputError(f'{what}: {count} poses; allowed: at most {MAX_POINTS} per map')
 
 
-def _count(values: Any) -> int:
-    """How many values a sized sequence holds (1 for anything else), before it is converted."""
-    return len(values) if isinstance(values, Sized) and not isinstance(values, (str, bytes)) else 1
-
-
 def _values(values: Any, variable: str) -> np.ndarray:
     """The values of a varied pose variable as finite floats ``(K,)`` (the callers count them first with
-    :func:`_count`, so ``range(10**12)`` is refused, not allocated)."""
+    :func:`~gpr_kinematics.inputs.validation.count_of`, so ``range(10**12)`` is refused, not allocated)."""
     return bounded(values, f'values of {variable}').ravel()
 
 
@@ -113,7 +107,7 @@ def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any)
     Example (3-UPU, the paper's Fig. 6): ``dexterity_sweep(upu, [0]*6, 'z', np.linspace(0.17, 0.27, 51))``.
     """
     base, _ = as_poses(base_pose, 'base pose')
-    check_points(_count(values), f'dexterity along {variable}')
+    check_points(count_of(values), f'dexterity along {variable}')
     vals = _values(values, variable)
     if vals.size == 0:
         raise InputError(f'values of {variable} must be finite numbers; got none')
@@ -127,7 +121,7 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
                    values2: Any) -> DexterityMap:
     """Dexterity on the grid ``values x values2`` of two pose variables (shape ``(K, K2)``)."""
     base, _ = as_poses(base_pose, 'base pose')
-    n1, n2 = _count(values), _count(values2)
+    n1, n2 = count_of(values), count_of(values2)
     check_points(n1 * n2, f'dexterity on a {n1} x {n2} grid')
     v1, v2 = _values(values, variable), _values(values2, variable2)
     check_points(v1.size * v2.size, f'dexterity on a {v1.size} x {v2.size} grid')

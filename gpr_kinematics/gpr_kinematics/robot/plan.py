@@ -11,14 +11,13 @@ plan at a rate, with the wafer pose of the arm in use at every sample (forward k
 """
 from __future__ import annotations
 
-from collections.abc import Sized
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, LimitError
-from ..inputs.validation import column_of
+from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import robot_forward
 from .inverse import solve_stations
@@ -271,7 +270,7 @@ def sample_times_of(times: ArrayLike) -> Array:
     """Times [s] to sample a plan at, as a float array ``(S,)``: finite, at most
     :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of them (counted before they are converted); else
     :class:`~gpr_kinematics.errors.InputError`. Times outside the plan are clamped to its ends."""
-    count = len(times) if isinstance(times, Sized) and not isinstance(times, (str, bytes)) else 1
+    count = count_of(times)
     if count > MAX_SAMPLES:
         raise InputError(f'{count} times; allowed: at most {MAX_SAMPLES} samples')
     return column_of(times, 'times')
