@@ -276,3 +276,13 @@ def test_monte_carlo_settings_that_are_not_numbers_are_named(kwargs, words):
     with pytest.raises(InputError, match=words):
         accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], parse_tolerances({'rod_length': {'tolerance': 1e-6}}),
                         samples=10, **kwargs)
+
+
+def test_percentiles_may_be_any_sequence_of_numbers():
+    """A numpy array of percentiles is a sequence of numbers (the check of strings must not refuse it)."""
+    cfg = load_config()
+    table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
+    budget = accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], table, samples=10, percentiles=np.array([50.0, 95.0]))
+    assert budget.percentiles == (50.0, 95.0)
+    with pytest.raises(InputError, match=r'percentiles \[101, 101, .*; allowed: numbers from 0 to 100'):
+        accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], table, samples=10, percentiles=[101] * 100_000)

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..inputs.validation import plain_number, random_seed, rotation_matrices
 from .model import (
     PoseModel,
@@ -256,11 +256,12 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
                          f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
                          f'{tool_v.ravel()[:3].tolist()}')
     R = np.eye(3) if frame_rotation is None else rotation_matrices(frame_rotation, 'frame_rotation')[0]
-    if frame_rotation is not None and np.shape(frame_rotation) != (3, 3):
+    if frame_rotation is not None and np.shape(frame_rotation) != (3, 3):   # converted above: a shape it has
         raise InputError(f'frame_rotation must be one rotation matrix (3, 3); got shape {np.shape(frame_rotation)}')
-    pct = tuple(plain_number(p) for p in percentiles) if isinstance(percentiles, (tuple, list)) else ()
+    pct = tuple(plain_number(p) for p in percentiles) if isinstance(percentiles, Sequence | np.ndarray) and not \
+        isinstance(percentiles, str) else ()
     if not pct or not all(0.0 <= p <= 100.0 for p in pct):
-        raise InputError(f'percentiles {percentiles!r}; allowed: numbers from 0 to 100')
+        raise InputError(f'percentiles {brief(percentiles)}; allowed: numbers from 0 to 100')
     labels_t = tuple(str(x) for x in labels) if labels is not None else tuple(str(i + 1) for i in range(N))
     if len(labels_t) != N:
         raise InputError(f'{len(labels_t)} labels for {N} stations')
