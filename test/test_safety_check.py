@@ -248,3 +248,49 @@ def test_the_wafers_are_followed_through_the_program():
             {'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}]))
     undeclared = wafer_plan(_cell_program(wafers=None))    # no key: picks find a wafer where they pick
     assert undeclared.carried['arm2'] == wafers.carried['arm2']
+
+
+def test_the_check_reports_its_progress_without_changing_its_verdict():
+    """Issue 19's check runs a minute for a long program: its stages report their share done as they go, never
+    backwards, each to its end; the report is the one computed without a listener."""
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+    heard = []
+    report = check_program(PLAN, load_cell(CELL), progress=lambda stage, share: heard.append((stage, share)))[0]
+    assert report == check_program(PLAN, load_cell(CELL))[0]
+    stages = [s for s, _ in heard]
+    assert stages == sorted(stages, key=['clearance', 'slip'].index) and set(stages) == {'clearance', 'slip'}
+    for stage in ('clearance', 'slip'):
+        shares = [f for s, f in heard if s == stage]
+        assert shares == sorted(shares) and shares[-1] == 1.0 and shares[0] >= 0.0
+    assert len([s for s in stages if s == 'clearance']) > 5   # one per round of the search, not one at the end
+
+
+def test_the_progress_line_waits_then_writes_each_stage_and_its_end():
+    """Into a pipe: nothing before ``after`` seconds, then a line at each new stage, at each stage's end and at
+    most every ``every`` seconds between; on a terminal one line redrawn in place and ended."""
+    import io
+
+    from gpr_kinematics.cli.progress import ProgressLine
+    times = iter([0.0, 1.0, 2.5, 3.0, 9.0, 9.5, 9.6, 9.7])
+    out = io.StringIO()
+    line = ProgressLine(out, after=2.0, every=5.0, clock=lambda: next(times))
+    for stage, share in [('clearance', 0.1), ('clearance', 0.2), ('clearance', 0.3), ('clearance', 0.9),
+                         ('clearance', 0.95), ('clearance', 1.0), ('slip', 0.0)]:
+        line(stage, share)
+    line.close()
+    assert out.getvalue().splitlines() == ['clearance:  20.0 % (2.5 s)', 'clearance:  90.0 % (9.0 s)',
+                                           'clearance: 100.0 % (9.6 s)', 'slip:   0.0 % (9.7 s)']
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Terminal()
+    line = ProgressLine(tty, after=0.0, clock=iter([0.0, 1.0, 2.0]).__next__)
+    line('clearance', 0.5)
+    line('clearance', 1.0)
+    line.close()
+    text = tty.getvalue()
+    assert text.startswith('\rclearance:  50.0 % (1.0 s)') and text.count('\r') == 2 and text.endswith('\n')
+    assert '100.0 % (2.0 s)' in text

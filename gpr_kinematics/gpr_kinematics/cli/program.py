@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ..robot.plan import ProgramSummary, program_summary
 from .options import robot_of, robot_options
 from .output import JsonValue, emit_json
+from .progress import ProgressLine
 
 if TYPE_CHECKING:
     from ..safety.check import SafetyReport
@@ -68,7 +69,11 @@ def _cmd_check(args: argparse.Namespace) -> int:
     program, plan = _program(args)
     path = args.cell if args.cell is not None else program.cell
     cell = None if path is None else load_cell(path)
-    report, clear, slip = check_program(plan, cell, margin)
+    line = ProgressLine(after=float('inf') if args.no_progress else 2.0)
+    try:
+        report, clear, slip = check_program(plan, cell, margin, progress=line)
+    finally:
+        line.close()
     written: dict[str, str] = {}
     if args.plot is not None:
         from ..safety.plot import plot_check
@@ -306,6 +311,8 @@ def register(sub: Any) -> None:
     p.add_argument('--margin', type=float, default=None, metavar='M',
                    help='clearance below which a pair collides [m] (default 0.002)')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
+    p.add_argument('--no-progress', action='store_true',
+                   help='no progress line on stderr (shown by default once the check has run 2 s)')
     robot_options(p)
     p.set_defaults(handler=_cmd_check)
     p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON')

@@ -10,6 +10,7 @@ to the arrival at the ``retract`` one.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,10 +137,17 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
                      {k: tuple(w) for k, w in contact.items()})
 
 
-def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE
-                  ) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
+#: What :func:`check_program` reports its progress to: the stage (``'clearance'``, ``'slip'``) and the share of it
+#: done, in [0, 1].
+StageProgress = Callable[[str, float], None]
+
+
+def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE,
+                  progress: StageProgress | None = None) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
-    slip ratio against time (for the plot)."""
+    slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
+    clearance after each round of its search; the slip before and after)."""
+    tell: StageProgress = progress if progress is not None else (lambda stage, share: None)
     wafers = wafer_plan(plan)
     robot = plan.robot
     bodies = robot_body_set(robot, wafers.carried)
@@ -158,13 +166,16 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
             if a.frame and a.arm and a.frame == f'{a.arm}_blade' and b.name.startswith('wafer@'):
                 skip = wafers.contact.get((a.arm, b.name[len('wafer@'):]), ())
         pairs.append((i, j, skip))
-    report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance)
+    report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance,
+                       progress=lambda share: tell('clearance', share))
+    tell('slip', 0.0)
     times = _slip_times(plan)
     carrying = np.full(times.shape, '', dtype=object)
     for arm, windows in wafers.carried.items():
         for t0, t1 in windows:
             carrying[(times >= t0) & (times <= t1)] = arm
     slip = slip_series(plan, times, carrying)
+    tell('slip', 1.0)
     ratio = np.where(np.isnan(slip.ratio), 0.0, slip.ratio)
     k = int(np.argmax(ratio))
     moves = _moves(plan, times, ratio)

@@ -25,7 +25,7 @@ they do not prove the pair's minimum.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -114,7 +114,8 @@ def check_numbers(margin: float, tolerance: float, rate: float) -> None:
 
 
 def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float = MARGIN,
-              tolerance: float = TOLERANCE, rate: float = BASE_RATE, decide: bool = False) -> ClearanceReport:
+              tolerance: float = TOLERANCE, rate: float = BASE_RATE, decide: bool = False,
+              progress: Callable[[float], None] | None = None) -> ClearanceReport:
     """The certified smallest distance of every pair of ``bodies`` over ``motion`` (module docstring).
 
     Args:
@@ -125,13 +126,15 @@ def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair],
             margin: a pair is settled once every interval's bound reaches the margin (its ``distance`` then a lower
             bound of at least the margin), or as soon as the library measures it closer (``measured``, at ``time``;
             its ``distance`` the bounds reached, a lower bound still).
+        progress: called after each round of the search with the share of the work done, in [0, 1]: the base
+            intervals of every pair settled (an interval split in halves counts half for each), chunk by chunk.
 
     Raises:
         InputError: a margin that is not a number of metres in [0, 1], a tolerance outside [1e-6, 1] m, a rate outside
             (0, 1000] Hz.
     """
     check_numbers(margin, tolerance, rate)
-    return _Search(motion, bodies, pairs, margin, tolerance, rate, decide).run()
+    return _Search(motion, bodies, pairs, margin, tolerance, rate, decide, progress).run()
 
 
 def _heights(motion: BodyMotion, bodies: Sequence[Body], platform: NDArray[np.bool_]) -> tuple[Array, Array]:
@@ -174,8 +177,10 @@ class _Search:
     """The branch and bound of :func:`clearance` over all pairs at once."""
 
     def __init__(self, motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair], margin: float,
-                 tolerance: float, rate: float, decide: bool) -> None:
+                 tolerance: float, rate: float, decide: bool, progress: Callable[[float], None] | None = None
+                 ) -> None:
         self.motion, self.bodies, self.margin, self.tol, self.decide = motion, bodies, margin, tolerance, decide
+        self.progress = progress
         self.pa = np.array([p[0] for p in pairs], dtype=np.int64)
         self.pb = np.array([p[1] for p in pairs], dtype=np.int64)
         self.skip = [p[2] for p in pairs]
@@ -235,12 +240,13 @@ class _Search:
         present = np.zeros(P, dtype=bool)
         static_p, static_k = [], []
         step = max(1, CHUNK_ITEMS // max(K, 1))
-        for start in range(0, P, step):
+        starts = range(0, P, step)
+        for chunk, start in enumerate(starts):
             items, sp, sk = self._items(np.arange(start, min(P, start + step)))
             present[items.p] = True
             static_p.append(sp)
             static_k.append(sk)
-            self._refine(items, upper, floor, series)
+            self._refine(items, upper, floor, series, self._share(chunk, len(starts)))
         certified = np.minimum(floor, upper)
         if static_p:
             sp, sk = np.concatenate(static_p), np.concatenate(static_k)
@@ -267,11 +273,29 @@ class _Search:
         item_p, item_k = item_p[keep], item_k[keep]
         return _Items(item_p, b0[item_k], np.where(self.static[item_p], b0[item_k], b1[item_k]), item_k), sp, sk
 
-    def _refine(self, items: _Items, upper: Array, floor: Array, series: Array) -> None:
+    def _share(self, chunk: int, chunks: int) -> Callable[[float], None]:
+        """The ``progress`` of the run for a chunk's own share ``f`` of its work: ``(chunk + f) / chunks``."""
+        report = self.progress
+        if report is None:
+            return lambda f: None
+        return lambda f: report(min(1.0, (chunk + f) / chunks))
+
+    def _weight(self, items: _Items) -> Array:
+        """Each item's share of its base interval (1 for a base interval and for a pair that never moves)."""
+        k = items.base
+        whole = self.store.t(self.base[k + 1]) - self.store.t(self.base[k])
+        part = self.store.t(items.i1) - self.store.t(items.i0)
+        return np.where(items.i1 == items.i0, 1.0, part / whole)
+
+    def _refine(self, items: _Items, upper: Array, floor: Array, series: Array,
+                progress: Callable[[float], None]) -> None:
         """The branch and bound of the module docstring on ``items``, lowering ``upper`` (the smallest distance
-        measured per pair), ``floor`` (the smallest bound settled per pair) and ``series`` (per base interval)."""
+        measured per pair), ``floor`` (the smallest bound settled per pair) and ``series`` (per base interval);
+        ``progress`` gets the share of ``items`` settled after each round."""
         if not items.p.size:
+            progress(1.0)
             return
+        total, settled = float(items.p.size), 0.0
         # a first exact distance per pair, where its spheres come closest
         lb0, lb1 = self.sphere(items.p, items.i0), self.sphere(items.p, items.i1)
         order = np.lexsort((np.minimum(lb0, lb1), items.p))
@@ -291,7 +315,9 @@ class _Search:
             done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p]
             np.minimum.at(floor, items.p[done], bound[done])
             np.minimum.at(series, items.base[done], bound[done])
+            settled += float(self._weight(items.take(done)).sum())
             items, l0, l1 = items.take(~done), l0[~done], l1[~done]
+            progress(settled / total)
             if not items.p.size or self.store.n > MAX_INSTANTS:
                 break
             # ends known by their spheres get the separating-axis bound; the intervals it does not settle get
@@ -302,11 +328,12 @@ class _Search:
                 self.boxes(np.concatenate([r.p, r.p]), np.concatenate([r.i0, r.i1]))
                 (e0, m0), (e1, m1) = self.lower(r.p, r.i0), self.lower(r.p, r.i1)
                 rb = self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))
-                settled = rb >= target[r.p]
-                np.minimum.at(floor, r.p[settled], rb[settled])
-                np.minimum.at(series, r.base[settled], rb[settled])
+                ok = rb >= target[r.p]
+                np.minimum.at(floor, r.p[ok], rb[ok])
+                np.minimum.at(series, r.base[ok], rb[ok])
+                settled += float(self._weight(r.take(ok)).sum())
                 keep = np.ones(items.p.shape, dtype=bool)
-                keep[np.flatnonzero(rough)[settled]] = False
+                keep[np.flatnonzero(rough)[ok]] = False
                 items, l0, l1 = items.take(keep), l0[keep], l1[keep]
             measure = (l0 < 2) | (l1 < 2)
             if measure.any():
@@ -319,6 +346,7 @@ class _Search:
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
             np.minimum.at(floor, items.p, bound)
             np.minimum.at(series, items.base, bound)
+        progress(1.0)
 
     def _split(self, items: _Items, split: NDArray[np.bool_]) -> _Items:
         """Split the intervals ``split`` at their midpoints (one new instant per distinct interval)."""

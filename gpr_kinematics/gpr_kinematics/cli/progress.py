@@ -1,0 +1,61 @@
+"""A progress line on stderr for the long commands (``gpr program check``): the stage, the share of it done and the
+time so far, shown once the command has run ``after`` seconds, so that a quick run prints nothing.
+
+On a terminal the line is redrawn in place; into a file or a pipe (a CI log) a line is written at most every
+``every`` seconds, and at the start and the end of each stage. stdout is untouched: ``--json`` stays one object.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from typing import TextIO
+
+
+class ProgressLine:
+    """``line(stage, share)`` reports ``share`` in [0, 1] of ``stage`` done; :meth:`close` ends the line.
+
+    >>> import io
+    >>> out = io.StringIO()
+    >>> line = ProgressLine(out, after=0.0, clock=iter([0.0, 1.5, 3.0]).__next__)
+    >>> line('clearance', 0.25)
+    >>> line.close()
+    >>> out.getvalue()
+    'clearance:  25.0 % (1.5 s)\\n'
+    """
+
+    def __init__(self, stream: TextIO | None = None, after: float = 2.0, every: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.stream = stream if stream is not None else sys.stderr
+        self.after, self.every = after, every
+        self.clock = clock
+        self.start = self.clock()
+        self.live = bool(getattr(self.stream, 'isatty', lambda: False)())
+        self.shown = False
+        self._last_stage = ''
+        self._last_write = -float('inf')
+
+    def __call__(self, stage: str, share: float) -> None:
+        now = self.clock()
+        elapsed = now - self.start
+        if elapsed < self.after:
+            return
+        new_stage = stage != self._last_stage
+        self._last_stage = stage
+        if not self.live and not new_stage and share < 1.0 and now - self._last_write < self.every:
+            return
+        text = f'{stage}: {100.0 * min(max(share, 0.0), 1.0):5.1f} % ({elapsed:.1f} s)'
+        if self.live:
+            self.stream.write(f'\r{text:<60}')
+        else:
+            self.stream.write(f'{text}\n')
+        self.stream.flush()
+        self._last_write = now
+        self.shown = True
+
+    def close(self) -> None:
+        """End the line on a terminal (nothing was shown: nothing to end)."""
+        if self.shown and self.live:
+            self.stream.write('\n')
+            self.stream.flush()
+        self.shown = False
