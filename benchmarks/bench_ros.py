@@ -5,10 +5,14 @@ versus requested rate.
 Peers measured in the same run: beside each of the node's services a **null service of the same type** (in its own
 process, the same QoS, answering at once with a constant response: one the node gave to the same request, so the
 messages and their sizes are the same), called in alternation with ours, so the ratio is the node's overhead over
-ROS itself; the plain null rclpy service (``std_srvs/Trigger``); and the core calls alone in this process
+ROS itself; the plain null rclpy service (``std_srvs/Trigger``, in a third process, in the same alternation); and
+the core calls alone in this process
 (``kinematics.forward``, and the robot core's ``solve_stations`` for one station). ``--before TREE`` runs a second
 ``kinematics_node`` from the package in ``TREE`` (a checkout of an earlier commit, ``git archive C | tar -x -C
 TREE``; the messages are this tree's) under the namespace ``/before`` and calls it in the same alternation.
+No two calls in a row go to one process: a process that has just answered answers its next call sooner (0.65
+against 0.74 ms for the forward null service called right after the Trigger one in its process, measured), which
+made an earlier version of this script read the forward service 1.6-1.7x its null service instead of 1.2-1.5x.
 
 Run: ``.venv/bin/python benchmarks/bench_ros.py [--calls 2000] [--duration 5] [--rates 50,100,200,500,1000]
 [--before TREE] [--services-only]`` (``make setup`` first). Prints a Markdown table for docs/benchmarks.md.
@@ -61,7 +65,8 @@ from gpr_interfaces.srv import (  # noqa: E402
 )
 
 #: The null services: each answers at once with the constant response (serialized, in the file named by argv[1])
-#: of its type; ``null/trigger`` is std_srvs/Trigger. The QoS of the node's services (reliable, keep all).
+#: of its type, as ``<argv[2]>/<kind>``; ``<argv[2]>/trigger`` is std_srvs/Trigger. The QoS of the node's services
+#: (reliable, keep all).
 NULL_SERVER = '''
 import importlib, json, sys
 import rclpy
@@ -70,16 +75,16 @@ from rclpy.serialization import deserialize_message
 from std_srvs.srv import Trigger
 from gpr_kinematics.nodes.qos import service_qos
 rclpy.init()
-node = rclpy.create_node('null_server')
+node = rclpy.create_node(f'{sys.argv[2]}_server')
 def constant(response):
     return lambda req, res: response
 def trigger(req, res):
     res.success = True
     return res
-node.create_service(Trigger, 'null/trigger', trigger, qos_profile=service_qos())
+node.create_service(Trigger, f'{sys.argv[2]}/trigger', trigger, qos_profile=service_qos())
 for kind, (module, name, data) in json.load(open(sys.argv[1])).items():
     srv = getattr(importlib.import_module(module), name)
-    node.create_service(srv, f'null/{kind}', constant(deserialize_message(bytes.fromhex(data), srv.Response)),
+    node.create_service(srv, f'{sys.argv[2]}/{kind}', constant(deserialize_message(bytes.fromhex(data), srv.Response)),
                         qos_profile=service_qos())
 print('ready', flush=True)
 try:
@@ -132,13 +137,14 @@ def _requests() -> dict[str, tuple[type, str, object]]:
 REQUESTS = _requests()
 
 
-def _null_server(responses: dict[str, object]) -> tuple[subprocess.Popen, str]:
-    """The null services' process, answering with ``responses`` (kind -> a response of the node)."""
+def _null_server(responses: dict[str, object], prefix: str = 'null') -> tuple[subprocess.Popen, str]:
+    """The null services' process, answering ``<prefix>/<kind>`` with ``responses`` (kind -> a response of the
+    node), and ``<prefix>/trigger``."""
     data = {k: (REQUESTS[k][0].__module__.rsplit('.', 1)[0], REQUESTS[k][0].__name__, serialize_message(r).hex())
             for k, r in responses.items()}
     path = tempfile.mkstemp(prefix='bench_null_', suffix='.json')[1]
     Path(path).write_text(json.dumps(data))
-    proc = subprocess.Popen([sys.executable, '-c', NULL_SERVER, path], stdin=subprocess.DEVNULL,
+    proc = subprocess.Popen([sys.executable, '-c', NULL_SERVER, path, prefix], stdin=subprocess.DEVNULL,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if proc.stdout is None or proc.stdout.readline().strip() != 'ready':
         raise RuntimeError(f'the null server did not start: {proc.stderr.read() if proc.stderr else ""}')
@@ -159,7 +165,8 @@ class Caller:
     classic SingleThreadedExecutor, spin_until_future_complete alone costs ~6-12 ms per call here, which would
     hide the server). A lost response is re-sent by the client and counted in ``client.lost``; its time is not
     a round trip (the re-sent call is timed alone). ``kind`` is a key of :data:`REQUESTS` (the node's service),
-    ``null/<kind>`` its null peer, ``before/<kind>`` the ``--before`` node's, or ``null`` (std_srvs/Trigger)."""
+    ``null/<kind>`` its null peer, ``before/<kind>`` the ``--before`` node's, or ``null`` (std_srvs/Trigger, in a
+    process of its own: ``trigger/trigger``)."""
 
     def __init__(self, name: str) -> None:
         self.client = GprClient(name, executor='events')
@@ -167,7 +174,7 @@ class Caller:
     def call(self, kind: str) -> float:
         c = self.client
         if kind == 'null':
-            srv, name, req = Trigger, 'null/trigger', Trigger.Request()
+            srv, name, req = Trigger, 'trigger/trigger', Trigger.Request()
         else:
             where, _, base = kind.rpartition('/')
             srv, name, req = REQUESTS[base]
@@ -332,21 +339,23 @@ def main() -> int:
     if args.before is not None:
         before = subprocess.Popen([sys.executable, '-c', BEFORE_NODE, str(args.before.resolve() / 'gpr_kinematics')],
                                   stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    null, null_file = None, ''
+    null, null_file, trigger, trigger_file = None, '', None, ''
     results: dict = {'machine': f'{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}',
                      'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp'), 'load_start': os.getloadavg()}
     try:
         c = Caller('bench_client')
         null, null_file = _null_server({k: c.response(k) for k in SERVICES})
+        trigger, trigger_file = _null_server({}, 'trigger')
         results['core_forward_ms'] = core_peer(lambda: forward(Q), args.calls)
         results['core_station_ik_ms'] = core_peer(one_station, args.calls // 10)
-        # each service in one alternation with its null service (and the --before node's): the forward one's ran
-        # in a block of its own after the others, so its null was not timed beside it (a gap of 0.5 ms read as ours)
-        results['latency'] = latency(c, ['null', 'null/forward', 'forward']
-                                     + (['before/forward'] if before is not None else []), args.calls)
-        for k in SERVICES[1:]:
-            kinds = [f'null/{k}', k] + ([f'before/{k}'] if before is not None else [])
-            results['latency'].update(latency(c, kinds, args.calls // (4 if k in SERVICES[:4] else 10)))
+        # each service in one alternation with its null service, the Trigger null service and the --before node's,
+        # each in a process of its own (module docstring: never two calls in a row to one process)
+        results['latency'] = {}
+        for k in SERVICES:
+            kinds = [f'null/{k}', k, 'null'] + ([f'before/{k}'] if before is not None else [])
+            block = latency(c, kinds, args.calls // (1 if k == 'forward' else 4 if k in SERVICES[:4] else 10))
+            block[f'null@{k}'] = block.pop('null')
+            results['latency'].update(block)
         results['lost_latency'] = c.lost
         c.close()
         if not args.services_only:
@@ -354,11 +363,12 @@ def main() -> int:
                                      for k in ('forward', 'null') for n in (1, 4)}
     finally:
         kin.stop()
-        for proc in (null, before):
+        for proc in (null, trigger, before):
             if proc is not None:
                 _stop(proc)
-        if null_file:
-            os.unlink(null_file)
+        for path in (null_file, trigger_file):
+            if path:
+                os.unlink(path)
     if not args.services_only:
         results['trajectory'] = [trajectory_rate(float(r), args.duration) for r in args.rates.split(',')]
     results['load_end'] = os.getloadavg()
@@ -371,14 +381,13 @@ def _markdown(r: dict) -> None:
     lat = r['latency']
     before = any(k.startswith('before/') for k in lat)
     print(f"\nload average {r['load_start'][0]:.2f} at the start, {r['load_end'][0]:.2f} at the end")
-    print('\n| service (round trip, 1 client) | null of its type [ms] | ours [ms] | ours / null | p99 ours [ms] |'
-          + (' before [ms] | before / null |' if before else ''))
-    print('|---|---:|---:|---:|---:|' + ('---:|---:|' if before else ''))
-    print(f'| std_srvs/Trigger null service | - | {lat["null"]["median_ms"]:.3f} | - | {lat["null"]["p99_ms"]:.3f} |'
-          + (' | |' if before else ''))
+    print('\n| service (round trip, 1 client) | null of its type [ms] | ours [ms] | ours / null | Trigger [ms] '
+          '| ours / Trigger | p99 ours [ms] |' + (' before [ms] | before / null |' if before else ''))
+    print('|---|---:|---:|---:|---:|---:|---:|' + ('---:|---:|' if before else ''))
     for k in SERVICES:
-        null, ours = lat[f'null/{k}']['median_ms'], lat[k]['median_ms']
-        row = f'| {NAMES[k]} | {null:.3f} | {ours:.3f} | {ours / null:.2f} | {lat[k]["p99_ms"]:.3f} |'
+        null, ours, trig = lat[f'null/{k}']['median_ms'], lat[k]['median_ms'], lat[f'null@{k}']['median_ms']
+        row = (f'| {NAMES[k]} | {null:.3f} | {ours:.3f} | {ours / null:.2f} | {trig:.3f} | {ours / trig:.2f} | '
+               f'{lat[k]["p99_ms"]:.3f} |')
         if before:
             b = lat[f'before/{k}']['median_ms']
             row += f' {b:.3f} | {b / null:.2f} |'

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Any, Generic, Self, TypeVar, cast
+from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -294,33 +294,55 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
     built from one array. Equal to the batch row to rounding (~1e-16). With ``check_limits=False`` rods far outside
     the stroke may have no closure: :class:`~gpr_kinematics.errors.ConvergenceError`, as in the batch.
     """
-    cfg = resolve_config(config)
-    kernel = one_pose(cfg, model)
+    return one_result(*solve_one(q, resolve_config(config), model, check_limits))
+
+
+class OneSolve(NamedTuple):
+    """One configuration solved by :func:`solve_one`: its kernel, rods ``q`` [m], joint centres ``P``, side lengths
+    ``L`` [m], the closure (virtual joints), the rigid fit of the platform and the naive state (None: not computed)."""
+
+    kernel: OnePose
+    q: list[float]
+    P: Centres
+    L: tuple[float, float, float]
+    closure: Closure
+    frame: RigidFit
+    naive: NaiveState | None
+
+
+def solve_one(q: ArrayLike, config: GprConfig, model: str | None = None, check_limits: bool = True) -> OneSolve:
+    """:func:`forward` up to its result: the limits checked (the stroke, the naive tilt, then the tilt of the fit),
+    the closure solved and the platform fitted, in floats. :func:`forward` builds its result from it; the mobility
+    analysis takes the virtual joints and the joint centres."""
+    kernel = one_pose(config, model)
     q3 = three_floats(q, 'q')
     q0, q1, q2 = q3
     naive = None
     if check_limits:
-        lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+        lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
         if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
-            check_stroke(SCALAR, q3, cfg)
+            check_stroke(SCALAR, q3, config)
         naive = kernel.naive(q0, q1, q2)
         h2, rest = naive[1], 1.0 - naive[1]
-        if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > 1.05 * cfg.tilt_limit:
-            _check_naive_tilt(SCALAR, kernel.geometry, q3, cfg)
+        if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > \
+                1.05 * config.tilt_limit:
+            _check_naive_tilt(SCALAR, kernel.geometry, q3, config)
     try:
         P = kernel.centres(q0, q1, q2)
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
-        out = one_result(kernel, q3, P, L, closure, rigid_fit(SCALAR, P, closure.components), naive)
+        frame = rigid_fit(SCALAR, P, closure.components)
     except GprError:
         raise
     except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
         raise ConvergenceError(f'virtual-joint closure ({kernel.model.name}) did not converge for q = {list(q3)} m: '
                                f'{exc} in a Newton step (the limits were not checked; the stroke is '
-                               f'[{cfg.stroke_min:g}, {cfg.stroke_max:g}] m)') from None
-    if check_limits and out.tilt > cfg.tilt_limit + TILT_LIMIT_SLACK:
-        _check_tilt(q3, out.tilt, cfg)
-    return out
+                               f'[{config.stroke_min:g}, {config.stroke_max:g}] m)') from None
+    if check_limits:
+        tilt = cast('float', tilt_of_normal(SCALAR, frame[2], frame[5], frame[8])[0])
+        if tilt > config.tilt_limit + TILT_LIMIT_SLACK:
+            _check_tilt(q3, tilt, config)
+    return OneSolve(kernel, q3, P, L, closure, frame, naive)
 
 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,

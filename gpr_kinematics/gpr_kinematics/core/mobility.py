@@ -43,6 +43,7 @@ of the configuration of this machine, not a number that overflows.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import cast
@@ -54,9 +55,9 @@ from ..errors import InputError, LimitError, brief
 from ..inputs.validation import bounded, finite_vector, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
+from .forward import solve_one
 from .machine import MachineGeometry
 from .ops import SCALAR
-from .single import one_pose
 from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components
 
 Array = NDArray[np.float64]
@@ -191,6 +192,12 @@ def numerical_rank(S: Array, columns: int) -> NDArray[np.int64]:
     return np.asarray((S[..., :1] * (max(12, columns) * EPS) < S).sum(axis=-1), dtype=np.int64)
 
 
+def rank_of(S: Sequence[float], columns: int) -> int:
+    """:func:`numerical_rank` of one matrix's singular values ``S`` (descending), in floats."""
+    threshold = S[0] * (max(12, columns) * EPS)
+    return sum(1 for sigma in S if threshold < sigma)
+
+
 def constraint_jacobian(P: ArrayLike, u: ArrayLike) -> Array:
     """``dPhi/dP`` ``(N, 12, 12)`` of eq. (1) at joint centres ``P (N, 3, 3)`` for unit rod directions ``u (3, 3)``."""
     P = np.asarray(P, dtype=float)
@@ -249,17 +256,17 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     ``numpy.linalg.matrix_rank``'s threshold. Equal to the separate decompositions to rounding (1e-13).
     """
     cfg = resolve_config(config)
-    kernel = one_pose(cfg, model)
+    kernel, q3, P, _, closure, _, _ = solve_one(q, cfg, model)  # forward kinematics' checks and closure
     vjm = kernel.model
-    fk = forward(q, config=cfg, model=vjm.name)
     geo = kernel.geometry
     u = np.array([geo.ux, geo.uy, geo.uz]).T
     M = vjm.size
-    q0, q1, q2 = fk.q.tolist()
-    dphi_dp = _constraint_jacobian_one(kernel.centres(q0, q1, q2), u)
+    X = cast('list[float]', closure.X)  # one pose: floats
+    dphi_dp = _constraint_jacobian_one(P, u)
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     dphi_dx = np.zeros((12, M))
-    dphi_dx[9:] = -np.array(_closure_jacobian(vjm, fk.virtual_joints.tolist()))
+    dphi_dx[9:] = _closure_jacobian(vjm, X)
+    dphi_dx[9:] *= -1.0
     B = dphi_dx[9:]
     s = _scale(vjm, cfg)
     dx_dp = -(_pinv(B / s) / s[:, None]) @ dphi_dp[9:]
@@ -271,12 +278,12 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     both = np.zeros((2, 12, 12 + M))
     both[:, :, :12] = dphi_dp
     both[1, :, 12:] = dphi_dx
-    S = np.asarray(np.linalg.svd(both, compute_uv=False), dtype=np.float64)
-    rank_p, rank_a = int(numerical_rank(S[0], 12)), int(numerical_rank(S[1], 12 + M))
-    bounds = {'eq4': (float(np.sqrt(max(evals[-3], 0.0))), float(np.sqrt(evals[-1]))),
-              'eq5': (float(sv[-1]), float(sv[0]))}
+    S0, S1 = np.linalg.svd(both, compute_uv=False).tolist()
+    rank_p, rank_a = rank_of(S0, 12), rank_of(S1, 12 + M)
+    e9, e11 = evals[9:12:2].tolist()
+    bounds = {'eq4': (math.sqrt(max(e9, 0.0)), math.sqrt(e11)), 'eq5': (float(sv[-1]), float(sv[0]))}
     return MobilityResult(
-        q=fk.q, model=vjm.name, virtual_joints=fk.virtual_joints, dphi_dp=dphi_dp, dphi_dx=dphi_dx,
+        q=np.array(q3), model=vjm.name, virtual_joints=np.array(X), dphi_dp=dphi_dp, dphi_dx=dphi_dx,
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=rank_a, mobility=12 - rank_p, eigenvalues=evals,
         eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float), bounds=bounds, rod_directions=u,
         singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))
