@@ -294,3 +294,31 @@ def test_the_progress_line_waits_then_writes_each_stage_and_its_end():
     text = tty.getvalue()
     assert text.startswith('\rclearance:  50.0 % (1.0 s)') and text.count('\r') == 2 and text.endswith('\n')
     assert '100.0 % (2.0 s)' in text
+
+
+def test_the_progress_line_never_stops_the_check_when_stderr_is_gone(monkeypatch):
+    """``gpr program check ... 2>&-`` (no stderr: ``sys.stderr`` is None), a closed stream or one whose reader went
+    away: the progress is dropped, the check goes on."""
+    import io
+
+    from gpr_kinematics.cli.progress import ProgressLine
+    monkeypatch.setattr('sys.stderr', None)
+    line = ProgressLine(after=0.0)
+    line('clearance', 0.5)
+    line.close()
+    closed = io.StringIO()
+    closed.close()
+    line = ProgressLine(closed, after=0.0)
+    line('clearance', 0.5)
+    line.close()
+
+    class Gone(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, 'Broken pipe')
+
+    gone = Gone()
+    line = ProgressLine(gone, after=0.0)
+    line('clearance', 0.5)
+    line('slip', 1.0)
+    line.close()
+    assert line.stream is None and not line.shown

@@ -26,11 +26,15 @@ class ProgressLine:
 
     def __init__(self, stream: TextIO | None = None, after: float = 2.0, every: float = 5.0,
                  clock: Callable[[], float] = time.monotonic) -> None:
-        self.stream = stream if stream is not None else sys.stderr
+        #: None: no stderr (``2>&-``) or it failed: nothing is shown.
+        self.stream: TextIO | None = stream if stream is not None else sys.stderr
         self.after, self.every = after, every
         self.clock = clock
         self.start = self.clock()
-        self.live = bool(getattr(self.stream, 'isatty', lambda: False)())
+        try:
+            self.live = bool(getattr(self.stream, 'isatty', lambda: False)())
+        except (OSError, ValueError):  # closed
+            self.live, self.stream = False, None
         self.shown = False
         self._last_stage = ''
         self._last_write = -float('inf')
@@ -38,24 +42,28 @@ class ProgressLine:
     def __call__(self, stage: str, share: float) -> None:
         now = self.clock()
         elapsed = now - self.start
-        if elapsed < self.after:
+        if elapsed < self.after or self.stream is None:
             return
         new_stage = stage != self._last_stage
         self._last_stage = stage
         if not self.live and not new_stage and share < 1.0 and now - self._last_write < self.every:
             return
         text = f'{stage}: {100.0 * min(max(share, 0.0), 1.0):5.1f} % ({elapsed:.1f} s)'
-        if self.live:
-            self.stream.write(f'\r{text:<60}')
-        else:
-            self.stream.write(f'{text}\n')
-        self.stream.flush()
+        try:
+            self.stream.write(f'\r{text:<60}' if self.live else f'{text}\n')
+            self.stream.flush()
+        except (OSError, ValueError):  # stderr closed or its reader gone: the check goes on without its progress
+            self.stream = None
+            return
         self._last_write = now
         self.shown = True
 
     def close(self) -> None:
         """End the line on a terminal (nothing was shown: nothing to end)."""
-        if self.shown and self.live:
-            self.stream.write('\n')
-            self.stream.flush()
+        if self.shown and self.live and self.stream is not None:
+            try:
+                self.stream.write('\n')
+                self.stream.flush()
+            except (OSError, ValueError):
+                self.stream = None
         self.shown = False
