@@ -124,6 +124,17 @@ def test_console_script_runs_without_traceback():
     assert bad.returncode == 2 and bad.stderr == 'gpr fk: error: q2 = inf is not a finite number\n'
 
 
+def test_a_closed_stderr_or_stdout_changes_nothing_but_what_is_seen():
+    """``gpr ... 2>&-`` and ``>&-`` (Python then has no ``sys.stderr``/``sys.stdout``): a bad input still exits 2, a
+    good one 0; the error line or the result is dropped, never an AttributeError's status 1."""
+    cmd = [sys.executable, '-m', 'gpr_kinematics']
+    for fd in (1, 2):
+        for argv, status in ((['fk', '0.3', 'inf', '0.3'], 2), (['fk', '0.3', '0.3', '0.3'], 0)):
+            res = subprocess.run(cmd + argv, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60,
+                                 preexec_fn=lambda fd=fd: os.close(fd))
+            assert res.returncode == status, (fd, argv, res.returncode)
+
+
 def test_outputs_that_are_not_regular_files_are_refused_before_the_work(capsys, tmp_path):
     """``--csv PATH`` replaced whatever was at PATH through a rename, device nodes included (as root)."""
     link = tmp_path / 'null.csv'

@@ -222,3 +222,26 @@ def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
     data = json.loads(out)
     assert code == 0 and data['interrupted'] and data['stopped'] == 'box limit (20000 boxes)'
     assert data['inner_boxes'] + data['boundary_boxes'] <= 40000 and 'box limit' in err
+
+
+def test_the_progress_bar_never_stops_a_run_when_stderr_is_gone(monkeypatch):
+    """``gpr workspace ... 2>&-`` (``sys.stderr`` None) or a stderr whose reader went away: the bar is dropped, the
+    covering goes on (it ended the run with an AttributeError once the bar was due)."""
+    import io
+
+    from gpr_kinematics.workspace.progress import Progress
+    monkeypatch.setattr('sys.stderr', None)
+    bar = Progress(True, after=0.0)
+    bar.update(1, 0.1, 0.01, 10, 0.5, 0.1, 0.5)
+    bar.close()
+    assert not bar.shown
+
+    class Gone(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, 'Broken pipe')
+
+    bar = Progress(True, Gone(), after=0.0)
+    bar.update(1, 0.1, 0.01, 10, 0.5, 0.1, 0.5)
+    bar.refresh()
+    bar.close()
+    assert bar.stream is None and not bar.enabled and not bar.shown

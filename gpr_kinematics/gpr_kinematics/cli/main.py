@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import re
 import sys
 from collections.abc import Sequence
@@ -115,6 +116,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gpr`` console script; returns the exit status."""
+    for name in ('stdout', 'stderr'):
+        if getattr(sys, name) is None:  # started with the stream closed (``2>&-``): what goes there is dropped
+            setattr(sys, name, open(os.devnull, 'w', encoding='utf-8'))  # noqa: SIM115 - for the process' life
     args_in = list(sys.argv[1:] if argv is None else argv)
     first = next((a for a in args_in if not a.startswith('-')), None)
     parser = build_parser(first if first in COMMANDS else None)

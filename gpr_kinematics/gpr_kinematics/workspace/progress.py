@@ -20,8 +20,9 @@ class Progress:
     """
 
     def __init__(self, enabled: bool, stream: TextIO | None = None, after: float = 2.0, units: str = '') -> None:
-        self.enabled = enabled
-        self.stream = stream or sys.stderr
+        #: None: no stderr (``2>&-``: ``sys.stderr`` is None) or writing to it failed: the run goes on without the bar.
+        self.stream: TextIO | None = stream or sys.stderr
+        self.enabled = enabled and self.stream is not None
         self.after = after
         self.units = units
         self.start = time.perf_counter()
@@ -47,13 +48,22 @@ class Progress:
         width = 24
         frac = min(max(done_frac, 0.0), 1.0)
         fill = int(round(width * frac))
-        self.stream.write(
+        self._write(
             f'\r[{"#" * fill}{"." * (width - fill)}] {100 * frac:5.1f}% of volume decided | level {level}, '
             f'diameter {diameter * 1e3:.3g} mm (delta {delta * 1e3:.3g} mm) | {processed:,} boxes processed | '
             f'inner {inner_volume:.4g}, boundary {boundary_volume:.4g} {self.units} | {elapsed:.1f} s '
         )
-        self.stream.flush()
-        self.shown = True
+        self.shown = self.enabled
+
+    def _write(self, text: str) -> None:
+        """Write and flush; a closed stream or a gone reader turns the bar off (the run goes on)."""
+        if self.stream is None:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (OSError, ValueError):
+            self.stream, self.enabled = None, False
 
     def refresh(self) -> None:
         """Show the last numbers again with the time elapsed (while waiting for a cluster's results)."""
@@ -62,8 +72,7 @@ class Progress:
 
     def close(self) -> None:
         if self.shown:
-            self.stream.write('\n')
-            self.stream.flush()
+            self._write('\n')
 
 
 class StopFlag:
