@@ -71,6 +71,32 @@ def test_parameter_of_the_wrong_type_exit_2_one_line(exe):
     assert_one_error_line(out, status, 2, 'cannot start', spec.name)
 
 
+def test_a_node_without_stderr_starts_serves_and_refuses_as_with_one():
+    """A node started with stderr closed (``2>&-``; a process manager may start it so): it serves and leaves with 0,
+    and a bad parameter still exits 2 (holding rcl's start-up line back duplicated fd 2: an OSError, status 1)."""
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.ros.process import NodeProcess
+
+    def no_stderr():
+        os.close(2)
+
+    bad = NodeProcess('kinematics_node', ['-p', 'tolerance:=not_a_number'], preexec=no_stderr)
+    try:
+        assert bad.wait(timeout=60) == 2
+    finally:
+        bad.stop()
+    node = NodeProcess('kinematics_node', ['-r', '__ns:=/no_stderr'], preexec=no_stderr)
+    try:
+        with GprClient('no_stderr_client', namespace='/no_stderr') as c:
+            ok = c.forward_kinematics([0.5, 0.498, 0.502])
+            refused = c.forward_kinematics([0.5, 0.498, 9.0])
+        assert ok.success and abs(ok.pose.position.z - 0.5) < 0.01
+        assert not refused.success and 'stroke' in refused.message
+        assert node.alive()
+    finally:
+        assert node.stop() == 0
+
+
 @pytest.mark.parametrize('exe', list(NODES))
 def test_parameter_out_of_range_exit_2_one_line(exe):
     spec = next(s for s in node_specs(exe) if s.limits is not None and s.kind == 'double')

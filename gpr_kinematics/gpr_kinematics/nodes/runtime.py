@@ -185,8 +185,13 @@ def one_line(exc: BaseException) -> str:
 @contextlib.contextmanager
 def _stderr_held() -> Iterator[None]:
     """Hold back what C code writes to stderr (rcl's own log line before an RCLError) until the block ends; it
-    is written out only when the block succeeds, so a failed init leaves one ``cannot start`` line."""
-    saved = os.dup(2)
+    is written out only when the block succeeds, so a failed init leaves one ``cannot start`` line. Without a stderr
+    (a node started with ``2>&-``) there is nothing to hold."""
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield
+        return
     with tempfile.TemporaryFile() as held:
         os.dup2(held.fileno(), 2)
         ok = False
