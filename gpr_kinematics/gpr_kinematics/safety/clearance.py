@@ -280,12 +280,12 @@ class _Search:
             return lambda f: None
         return lambda f: report(min(1.0, (chunk + f) / chunks))
 
-    def _weight(self, items: _Items) -> Array:
-        """Each item's share of its base interval (1 for a base interval and for a pair that never moves)."""
-        k = items.base
+    def _settled(self, items: _Items, sel: NDArray[np.bool_]) -> float:
+        """The work of the items ``sel``: each one's share of its base interval (1 for a base interval and for a pair
+        that never moves)."""
+        i0, i1, k = items.i0[sel], items.i1[sel], items.base[sel]
         whole = self.store.t(self.base[k + 1]) - self.store.t(self.base[k])
-        part = self.store.t(items.i1) - self.store.t(items.i0)
-        return np.where(items.i1 == items.i0, 1.0, part / whole)
+        return float(np.where(i1 == i0, 1.0, (self.store.t(i1) - self.store.t(i0)) / whole).sum())
 
     def _refine(self, items: _Items, upper: Array, floor: Array, series: Array,
                 progress: Callable[[float], None]) -> None:
@@ -315,7 +315,7 @@ class _Search:
             done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p]
             np.minimum.at(floor, items.p[done], bound[done])
             np.minimum.at(series, items.base[done], bound[done])
-            settled += float(self._weight(items.take(done)).sum())
+            settled += self._settled(items, done)
             items, l0, l1 = items.take(~done), l0[~done], l1[~done]
             progress(settled / total)
             if not items.p.size or self.store.n > MAX_INSTANTS:
@@ -331,7 +331,7 @@ class _Search:
                 ok = rb >= target[r.p]
                 np.minimum.at(floor, r.p[ok], rb[ok])
                 np.minimum.at(series, r.base[ok], rb[ok])
-                settled += float(self._weight(r.take(ok)).sum())
+                settled += self._settled(r, ok)
                 keep = np.ones(items.p.shape, dtype=bool)
                 keep[np.flatnonzero(rough)[ok]] = False
                 items, l0, l1 = items.take(keep), l0[keep], l1[keep]
