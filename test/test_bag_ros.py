@@ -363,3 +363,50 @@ def test_a_bag_type_that_is_no_message_type_is_never_imported(msgtype: str) -> N
     with pytest.raises(BagError, match='is not a ROS message type; allowed: package/msg/Type'):
         message_class(msgtype)
     assert message_class('std_msgs/msg/String').__name__ == 'String'
+
+
+def test_every_publisher_of_a_latched_topic_is_kept(tmp_path: Path) -> None:
+    """Robots side by side each latch their ``/tf_static``: a client and a recorder that join later get every
+    robot's sample. A reader of depth 1 kept the last when they arrived before it took the first (a loaded CI run of
+    the two-robot test saw one /tf_static message in 120 s; three publishers here lose two every time)."""
+    from gpr_kinematics.bags.typestore import typestore
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import latched_qos
+    from tf2_msgs.msg import TFMessage
+
+    topic, msgtype = '/tf_static', 'tf2_msgs/msg/TFMessage'
+
+    def static(frame: str) -> TFMessage:
+        from geometry_msgs.msg import TransformStamped
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = 'world', frame
+        t.transform.rotation.w = 1.0
+        return TFMessage(transforms=[t])
+
+    def frames(messages: list[TFMessage]) -> list[str]:
+        return sorted(t.child_frame_id for m in messages for t in m.transforms)
+
+    bag = tmp_path / 'bag'
+    rec = None
+    robots = ('r1/base', 'r2/base', 'r3/base')
+    with GprClient('latched_pub_a') as a, GprClient('latched_pub_b') as b, GprClient('latched_pub_c') as d:
+        for name, c in zip(robots, (a, b, d), strict=True):
+            c.node.create_publisher(TFMessage, topic, latched_qos()).publish(static(name))
+        try:
+            rec = recorder(bag, topics=f'["{topic}:{msgtype}"]', flush_interval=0.2)
+            wait_for_log(rec, r'recording 1 topic')
+            with GprClient('latched_sub') as c:
+                got = c.subscribe(TFMessage, topic, latched=True)
+                time.sleep(2.0)   # no spin: every sample reaches the reader before it takes one
+                c.spin_until(lambda: len(got) >= 3, 20)
+            end = time.monotonic() + 30
+            while time.monotonic() < end and not (
+                    (bag / 'metadata.yaml').is_file() and len(read_bag(bag).topic(topic) or ()) >= 3):
+                time.sleep(0.2)
+            assert rec.signal(signal.SIGINT, timeout=15)[0] == 0, rec.output()
+        finally:
+            if rec is not None:
+                rec.stop()
+    assert frames(got) == list(robots)
+    recorded = [typestore().deserialize_cdr(raw, msgtype) for raw in read_bag(bag).topic(topic).raw]
+    assert sorted(t.child_frame_id for m in recorded for t in m.transforms) == list(robots)

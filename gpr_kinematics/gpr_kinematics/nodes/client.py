@@ -148,11 +148,11 @@ class GprClient:
 
     # -- topics --------------------------------------------------------------------------------------------------
     def subscribe(self, msg_type: Any, topic: str, depth: int = 100_000, latched: bool = False) -> list[Any]:
-        """Keep every message of ``topic`` in the returned list (reliable; ``latched``: transient local, for
-        ``gpr/geometry`` or ``robot_description``)."""
+        """Keep every message of ``topic`` in the returned list (reliable, keep last ``depth``; ``latched``:
+        transient local, for ``gpr/geometry``, ``robot_description`` or ``/tf_static``)."""
         received: list[Any] = []
         self.node.create_subscription(msg_type, topic, received.append,
-                                      latched_qos() if latched else stream_qos(depth))
+                                      latched_qos(depth) if latched else stream_qos(depth))
         return received
 
     def spin_for(self, seconds: float) -> None:

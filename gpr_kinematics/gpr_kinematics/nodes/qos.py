@@ -41,9 +41,12 @@ def service_qos() -> QoSProfile:
                       durability=DurabilityPolicy.VOLATILE)
 
 
-def latched_qos() -> QoSProfile:
-    """Reliable, keep last 1, transient local (``robot_state_publisher``'s ``robot_description`` QoS)."""
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+def latched_qos(depth: int = 1) -> QoSProfile:
+    """Reliable, keep last ``depth``, transient local (``robot_state_publisher``'s ``robot_description`` QoS with the
+    default 1, for a publisher). A subscription keeps more (``depth``: every publisher's latched sample, as tf2's
+    static listener keeps 100): ``/tf_static`` has a publisher per robot, and a reader of depth 1 that got two
+    robots' samples before it took the first kept only the second."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 

@@ -96,12 +96,14 @@ class RecorderNode(GprNode):
 
     def _qos(self, topic: str) -> QoSProfile:
         """Transient local for a latched topic (a known one, or one whose publishers all offer it), so the
-        sample published before this subscription is delivered too; else the stream QoS."""
+        sample published before this subscription is delivered too, each publisher's (``queue_depth`` of them: two
+        robots' ``/tf_static``); else the stream QoS."""
+        depth = int(self.p['queue_depth'])
         infos = self.get_publishers_info_by_topic(topic)
         offered = [i.qos_profile.durability for i in infos]
         if latched_qos().durability in offered and len(set(offered)) == 1:
-            return latched_qos()
-        return latched_qos() if topic in LATCHED else stream_qos(int(self.p['queue_depth']))
+            return latched_qos(depth)
+        return latched_qos(depth) if topic in LATCHED else stream_qos(depth)
 
     def _resolve_topics(self, entries: list[str]) -> dict[str, str]:
         if not entries:
