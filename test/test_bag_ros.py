@@ -410,3 +410,18 @@ def test_every_publisher_of_a_latched_topic_is_kept(tmp_path: Path) -> None:
     assert frames(got) == list(robots)
     recorded = [typestore().deserialize_cdr(raw, msgtype) for raw in read_bag(bag).topic(topic).raw]
     assert sorted(t.child_frame_id for m in recorded for t in m.transforms) == list(robots)
+    # replayed, the topic is latched with all three: the replay's publisher keeps as many (the graph does not show
+    # a publisher's depth: the node is built here)
+    import rclpy
+    from gpr_kinematics.nodes.replay_node import ReplayNode
+    from rclpy.parameter import Parameter
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        node = ReplayNode(context=ctx, parameter_overrides=[Parameter('bag', value=str(bag))])
+        qos = node.pubs[topic].qos_profile
+        assert qos.depth == 3 and qos.durability.name == 'TRANSIENT_LOCAL'
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=ctx)

@@ -12,7 +12,8 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 - ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
 
 Latched topics (:data:`~gpr_kinematics.nodes.qos.LATCHED`, e.g. ``gpr/geometry``) are published transient
-local, so a subscriber that starts during the replay still gets them. Exits 0 at the end of the bag (after the
+local, so a subscriber that starts during the replay still gets them, every one of them in the bag (several
+robots' ``/tf_static``; at most ``queue_depth``). Exits 0 at the end of the bag (after the
 reliable publishers' acknowledgements, at most 5 s) or on SIGINT/SIGTERM; 2 with one ``cannot start:`` line when
 the bag cannot be read (missing, corrupt, not a regular file), a topic name is invalid or a parameter is invalid.
 """
@@ -56,8 +57,11 @@ class ReplayNode(GprNode):
                            + ', '.join(read_bag(p['bag']).topics))
         self.bag = bag
         depth = int(p['queue_depth'])
+        # a latched topic keeps every message of it in the bag (several robots' /tf_static: each a late subscriber
+        # must get), at most queue_depth
         self.pubs = {name: self.create_publisher(message_class(t.msgtype), name,
-                                                 latched_qos() if name in LATCHED else stream_qos(depth))
+                                                 latched_qos(min(max(len(t), 1), depth)) if name in LATCHED
+                                                 else stream_qos(depth))
                      for name, t in bag.topics.items()}
         # One stream in log-time order (stable: the bag's order for equal times).
         names = list(bag.topics)
