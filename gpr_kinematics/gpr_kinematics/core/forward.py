@@ -294,11 +294,11 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
     built from one array. Equal to the batch row to rounding (~1e-16). With ``check_limits=False`` rods far outside
     the stroke may have no closure: :class:`~gpr_kinematics.errors.ConvergenceError`, as in the batch.
     """
-    return one_result(*solve_one(q, resolve_config(config), model, check_limits))
+    return one_result(*forward_parts(q, resolve_config(config), model, check_limits))
 
 
-class OneSolve(NamedTuple):
-    """One configuration solved by :func:`solve_one`: its kernel, rods ``q`` [m], joint centres ``P``, side lengths
+class ForwardParts(NamedTuple):
+    """One configuration solved by :func:`forward_parts`: its kernel, rods ``q`` [m], joint centres ``P``, side lengths
     ``L`` [m], the closure (virtual joints), the rigid fit of the platform and the naive state (None: not computed)."""
 
     kernel: OnePose
@@ -310,7 +310,7 @@ class OneSolve(NamedTuple):
     naive: NaiveState | None
 
 
-def solve_one(q: ArrayLike, config: GprConfig, model: str | None = None, check_limits: bool = True) -> OneSolve:
+def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, check_limits: bool = True) -> ForwardParts:
     """:func:`forward` up to its result: the limits checked (the stroke, the naive tilt, then the tilt of the fit),
     the closure solved and the platform fitted, in floats. :func:`forward` builds its result from it; the mobility
     analysis takes the virtual joints and the joint centres."""
@@ -342,7 +342,7 @@ def solve_one(q: ArrayLike, config: GprConfig, model: str | None = None, check_l
         tilt = cast('float', tilt_of_normal(SCALAR, frame[2], frame[5], frame[8])[0])
         if tilt > config.tilt_limit + TILT_LIMIT_SLACK:
             _check_tilt(q3, tilt, config)
-    return OneSolve(kernel, q3, P, L, closure, frame, naive)
+    return ForwardParts(kernel, q3, P, L, closure, frame, naive)
 
 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,

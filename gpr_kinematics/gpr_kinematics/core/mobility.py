@@ -55,7 +55,7 @@ from ..errors import InputError, LimitError, brief
 from ..inputs.validation import bounded, finite_vector, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
-from .forward import solve_one
+from .forward import forward_parts
 from .machine import MachineGeometry
 from .ops import SCALAR
 from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components
@@ -256,7 +256,7 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     ``numpy.linalg.matrix_rank``'s threshold. Equal to the separate decompositions to rounding (1e-13).
     """
     cfg = resolve_config(config)
-    kernel, q3, P, _, closure, _, _ = solve_one(q, cfg, model)  # forward kinematics' checks and closure
+    kernel, q3, P, _, closure, _, _ = forward_parts(q, cfg, model)  # forward kinematics' checks and closure
     vjm = kernel.model
     geo = kernel.geometry
     u = np.array([geo.ux, geo.uy, geo.uz]).T
