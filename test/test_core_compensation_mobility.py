@@ -178,6 +178,20 @@ def test_changes_must_stay_within_the_stroke_and_the_first_order_is_named_as_suc
     np.testing.assert_allclose(exact_dx(q, 1e-6 * dq), m.dx_dp @ rod_perturbation(1e-6 * dq), rtol=1e-4)
 
 
+def test_the_float_rank_test_is_the_array_one():
+    """``rank_of`` (one matrix, floats; the one-pose mobility) and ``numerical_rank`` (arrays; ``rigid_rank``) take
+    the same decision for every singular value, those at the threshold (``matrix_rank``'s) and one ulp off included."""
+    from gpr_kinematics.core.mobility import EPS, numerical_rank, rank_of
+    rng = np.random.default_rng(7)
+    for columns in (12, 15, 18):
+        for _ in range(200):
+            S = np.sort(rng.choice([0.0, 1e-300, 1.0, 2.5], 12) * rng.uniform(0.5, 2.0, 12))[::-1].copy()
+            t = S[0] * (max(12, columns) * EPS)
+            k = rng.integers(1, 12)
+            S[k:] = np.sort(rng.choice([t, np.nextafter(t, 0.0), np.nextafter(t, 1.0), 0.0], 12 - k))[::-1]
+            assert rank_of(S.tolist(), columns) == int(numerical_rank(S, columns))
+
+
 def test_rigid_rank_is_the_rank_of_the_constraint_jacobian():
     q = np.array([[0.5, 0.5, 0.5], [0.2, 0.2, 0.2], [0.5, 0.501, 0.5]])
     assert rigid_rank(q).tolist() == [9, 9, 11]
