@@ -171,6 +171,17 @@ class Timing:
         """Duration of the whole program [s]."""
         return float(self.depart[-1])
 
+    def corners(self) -> Array:
+        """The instants [s] where a move's profile changes phase, sorted: the ends of its jerk ramps, of its constant
+        acceleration and of its cruise (``tj``, ``tj + tc``, ``ta`` from either end of the move), where the
+        acceleration has its corners and its plateaus' ends. A check sampled in time includes them: the largest
+        acceleration of a move lies on them."""
+        p = self.profiles
+        start, T = self.depart[:-1], p.T
+        offsets = (p.tj, p.tj + p.tc, p.ta, T - p.ta, T - p.tj - p.tc, T - p.tj)
+        t = np.concatenate([start + x for x in offsets]) if start.size else np.zeros(0)
+        return np.unique(t[np.isfinite(t) & (t >= 0.0) & (t <= self.total)])
+
     def peaks(self) -> tuple[Array, Array, Array]:
         """Per move and joint ``(W - 1, J)``, bounds on the speed, acceleration and jerk reached (chain rule)."""
         G1, G2, G3 = self.gains

@@ -190,8 +190,12 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
 
 
 def _slip_times(plan: ProgramPlan) -> Array:
+    """The instants of the slip check: :data:`SLIP_RATE`, the waypoints' and the S-curves' corners (where a move's
+    acceleration peaks: without them the example cell program's peak read 0.7512 for the 0.7529 that 100 kHz
+    sampling about it finds)."""
     t = plan.timing
-    return np.unique(np.concatenate([np.arange(0.0, t.total, 1.0 / SLIP_RATE), t.arrive, t.depart, [t.total]]))
+    return np.unique(np.concatenate([np.arange(0.0, t.total, 1.0 / SLIP_RATE), t.arrive, t.depart, t.corners(),
+                                     [t.total]]))
 
 
 def _waypoint_at(plan: ProgramPlan, t: float) -> int:
