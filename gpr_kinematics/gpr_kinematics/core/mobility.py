@@ -265,8 +265,7 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     dphi_dp = _constraint_jacobian_one(P, u)
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     dphi_dx = np.zeros((12, M))
-    dphi_dx[9:] = _closure_jacobian(vjm, X)
-    dphi_dx[9:] *= -1.0
+    dphi_dx[9:] = -np.array(_closure_jacobian(vjm, X))
     B = dphi_dx[9:]
     s = _scale(vjm, cfg)
     dx_dp = -(_pinv(B / s) / s[:, None]) @ dphi_dp[9:]

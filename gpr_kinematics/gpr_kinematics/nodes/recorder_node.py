@@ -99,11 +99,9 @@ class RecorderNode(GprNode):
         sample published before this subscription is delivered too, each publisher's (``queue_depth`` of them: two
         robots' ``/tf_static``); else the stream QoS."""
         depth = int(self.p['queue_depth'])
-        infos = self.get_publishers_info_by_topic(topic)
-        offered = [i.qos_profile.durability for i in infos]
-        if latched_qos().durability in offered and len(set(offered)) == 1:
-            return latched_qos(depth)
-        return latched_qos(depth) if topic in LATCHED else stream_qos(depth)
+        offered = {i.qos_profile.durability for i in self.get_publishers_info_by_topic(topic)}
+        latched = topic in LATCHED or offered == {latched_qos().durability}
+        return latched_qos(depth) if latched else stream_qos(depth)
 
     def _resolve_topics(self, entries: list[str]) -> dict[str, str]:
         if not entries:
