@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from gpr_kinematics.core.floats import quaternion_of
 from gpr_kinematics.core.rotations import quaternion_from_matrix
-from gpr_kinematics.errors import LimitError
+from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.robot.forward import forward_floats, naive_platform_one, robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.one_station import solve_one, station_floats
@@ -178,3 +178,52 @@ def test_robot_forward_of_one_configuration_refuses_like_the_batch():
             robot_forward(ROBOT, rods, joints, 'arm1')
         with pytest.raises(LimitError, match=pattern):
             robot_forward(ROBOT, np.repeat(rods, 2, axis=0), np.repeat(joints, 2, axis=0), 'arm1')
+
+
+def test_one_station_arrays_are_rows_of_one_and_independent():
+    """The answer's arrays come from one array of floats: each has the batch's shape and owns its own values."""
+    st, _, J = random_stations(ROBOT, 'arm2', 1, seed=3)
+    sol = solve_stations(ROBOT, st, 'arm2', branch=branch_of(ROBOT.arm('arm2'), J)[0])
+    batch = solve_stations(ROBOT, Stations.of(np.repeat(st.position, 2, axis=0), np.repeat(st.tilt, 2),
+                                              np.repeat(st.azimuth, 2), np.repeat(st.heading, 2)),
+                           'arm2', branch=branch_of(ROBOT.arm('arm2'), J)[0])
+    arrays = {'rods': sol.rods, 'joints': sol.joints, 'naive_rods': sol.naive_rods, 'naive_joints': sol.naive_joints,
+              'position_error': sol.position_error, 'angle_error': sol.angle_error,
+              'naive_wafer.position': sol.naive_wafer.position, 'naive_wafer.rotation': sol.naive_wafer.rotation}
+    for name in ('platform', 'blade', 'wafer', 'wafer_on_platform'):
+        arrays[f'{name}.position'] = getattr(sol.forward, name).position
+        arrays[f'{name}.rotation'] = getattr(sol.forward, name).rotation
+    copies = {name: np.array(a) for name, a in arrays.items()}
+    for name, a in arrays.items():
+        owner = batch.forward if name.split('.')[0] in ('platform', 'blade', 'wafer', 'wafer_on_platform') else batch
+        reference = owner
+        for part in name.split('.'):
+            reference = getattr(reference, part)
+        assert a.shape == (1,) + reference.shape[1:], name
+        np.testing.assert_allclose(a[0], reference[0], rtol=0, atol=ATOL, err_msg=name)
+        a[...] = -7.0  # writing one leaves every other as it was
+        for other, b in arrays.items():
+            if other != name:
+                np.testing.assert_array_equal(b, copies[other], err_msg=f'{name} wrote into {other}')
+        a[...] = copies[name]
+
+
+def test_arm_constants_are_each_arms_own():
+    """The one-target solves' link vectors and zero offsets (kept per arm): each arm's, also after many arms."""
+    from gpr_kinematics.robot.arm_chain import arm_floats, floats2, link_vectors
+    robots = [ROBOT, _offset_robot()]
+    robots += [make_robot(_with_offsets(robot_data())) for _ in range(140)]  # more arms than are kept
+    for robot in robots[:2] + robots[-2:] + robots[:1]:
+        for arm in robot.arms:
+            links, beta, offsets = arm_floats(arm)
+            d, b = link_vectors(arm)
+            assert links == floats2(d) and beta == b
+            assert offsets == tuple(j.zero_offset for j in arm.joints)
+    assert arm_floats(robots[1].arm('arm1')).offsets != arm_floats(ROBOT.arm('arm1')).offsets
+
+
+def test_a_branch_that_is_neither_left_nor_right_is_refused_for_any_number_of_stations():
+    st, _, _ = random_stations(ROBOT, 'arm1', 3, seed=1)
+    for stations in (st, st.take([0]), st.take([])):
+        with pytest.raises(InputError, match="branch = 'up' is invalid; allowed: left or right"):
+            solve_stations(ROBOT, stations, 'arm1', branch='up')

@@ -139,14 +139,17 @@ class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
         out: dict[str, Any] = {name: getattr(one, name) for name in _SHARED_FIELDS}
         for name in _ROW_FIELDS:
             out[name] = getattr(one, name)[None]
-        for name in _SCALAR_FIELDS:
-            out[name] = np.array([getattr(one, name)])
+        values = np.array([getattr(one, name) for name in _FLOAT_FIELDS])  # one array, a view per field
+        for k, name in enumerate(_FLOAT_FIELDS):
+            out[name] = values[k:k + 1]
+        out['within_budget'], out['iterations'] = np.array([one.within_budget]), np.array([one.iterations])
         return cls.from_fields(out)
 
 
 #: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
 _SHARED_FIELDS = ('model', 'virtual_joint_names')
 _SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
+_FLOAT_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'residual', 'fit_residual')
 _ROW_FIELDS = tuple(f.name for f in fields(_Forward) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
 _FIELD_NAMES = {f.name for f in fields(_Forward)}
 #: The result of a driver: one pose's, or a batch's.
@@ -327,22 +330,30 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
         if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > \
                 1.05 * config.tilt_limit:
             _check_naive_tilt(SCALAR, kernel.geometry, q3, config)
-    try:
-        P = kernel.centres(q0, q1, q2)
-        L = kernel.lengths(P)
-        closure = kernel.closure(*L)
-        frame = rigid_fit(SCALAR, P, closure.components)
-    except GprError:
-        raise
-    except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
-        raise ConvergenceError(f'virtual-joint closure ({kernel.model.name}) did not converge for q = {list(q3)} m: '
-                               f'{exc} in a Newton step (the limits were not checked; the stroke is '
-                               f'[{config.stroke_min:g}, {config.stroke_max:g}] m)') from None
+    P, L, closure, frame = solve_parts(kernel, q3)
     if check_limits:
         tilt = cast('float', tilt_of_normal(SCALAR, frame[2], frame[5], frame[8])[0])
         if tilt > config.tilt_limit + TILT_LIMIT_SLACK:
             _check_tilt(q3, tilt, config)
     return ForwardParts(kernel, q3, P, L, closure, frame, naive)
+
+
+def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, float, float], Closure, RigidFit]:
+    """The joint centres, side lengths, closure and rigid fit of the rods ``q`` (three floats) [m], no limit checked:
+    the solve of :func:`forward_parts`. A singular Newton step (rods far outside the limits) raises
+    :class:`~gpr_kinematics.errors.ConvergenceError`."""
+    try:
+        P = kernel.centres(q[0], q[1], q[2])
+        L = kernel.lengths(P)
+        closure = kernel.closure(*L)
+        return P, L, closure, rigid_fit(SCALAR, P, closure.components)
+    except GprError:
+        raise
+    except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
+        config = kernel.config
+        raise ConvergenceError(f'virtual-joint closure ({kernel.model.name}) did not converge for q = {list(q)} m: '
+                               f'{exc} in a Newton step (the limits were not checked; the stroke is '
+                               f'[{config.stroke_min:g}, {config.stroke_max:g}] m)') from None
 
 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,9 +44,9 @@ from .forward import (
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import rigid_fit
-from .single import OnePose, one_pose
-from .virtual_joints import VirtualJointModel, make_model
+from .platform_pose import RigidFit, rigid_fit
+from .single import Centres, OnePose, one_pose
+from .virtual_joints import Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
 
@@ -227,7 +227,28 @@ def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None
 
 def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float]) -> InverseResult:
     """:func:`_solve` of one target ``(h, t, g)`` with the tool point ``tool`` (floats, checked) on the one-pose
-    kernels: each step solves the closure and the rigid fit only; the pose of the last one is completed."""
+    kernels (:func:`inverse_parts`), the pose of the last step completed."""
+    parts = inverse_parts(kernel, h, t, g, tool)
+    achieved = one_result(kernel, *parts[:5])
+    return InverseResult(q=achieved.q, achieved=achieved, iterations=parts.iterations)
+
+
+class InverseParts(NamedTuple):
+    """One target solved by :func:`inverse_parts`: the rods ``q`` [m], and of the last step the joint centres ``P``,
+    side lengths ``L`` [m], closure and rigid fit ``frame`` (:func:`~gpr_kinematics.core.forward.forward_parts`'s),
+    and the iterations taken."""
+
+    q: list[float]
+    P: Centres
+    L: tuple[float, float, float]
+    closure: Closure
+    frame: RigidFit
+    iterations: int
+
+
+def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float]) -> InverseParts:
+    """:func:`_solve` of one target ``(h, t, g)`` up to its result: each step solves the closure and the rigid fit
+    only (floats; the tool point ``tool`` checked by the caller)."""
     cfg, geo = kernel.config, kernel.geometry
     if abs(t) > cfg.tilt_limit + TILT_LIMIT_SLACK:
         _check_tilt_targets(SCALAR, t, cfg)
@@ -255,5 +276,4 @@ def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[fl
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     check_stroke(SCALAR, q, cfg, what='q')
-    achieved = one_result(kernel, q, P, L, closure, frame)
-    return InverseResult(q=achieved.q, achieved=achieved, iterations=iterations)
+    return InverseParts(q, P, L, closure, frame, iterations)

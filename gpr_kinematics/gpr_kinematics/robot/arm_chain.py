@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -188,3 +189,30 @@ def wrap_one(arm: Arm, theta: list[float]) -> tuple[list[float], list[float]]:
 def floats2(d: list[Array]) -> list[tuple[float, float]]:
     """The link vectors of :func:`link_vectors` as pairs of floats."""
     return [(float(v[0]), float(v[1])) for v in d]
+
+
+class ArmFloats(NamedTuple):
+    """What a one-target solve needs of an arm, as floats: :func:`link_vectors` (``links``, ``beta``) and the joints'
+    ``zero_offset`` [m, rad]."""
+
+    links: list[tuple[float, float]]
+    beta: float
+    offsets: tuple[float, ...]
+
+
+#: :func:`arm_floats` per arm, keyed by ``id`` (the arm held with it, so the key is never reused while it is here).
+_ARM_FLOATS: dict[int, tuple[Arm, ArmFloats]] = {}
+
+
+def arm_floats(arm: Arm) -> ArmFloats:
+    """The :class:`ArmFloats` of ``arm``, computed once per arm (an arm is immutable): the one-station paths call
+    this per target, where converting the link vectors again cost a third of the arm's closed-form solve."""
+    held = _ARM_FLOATS.get(id(arm))
+    if held is not None and held[0] is arm:
+        return held[1]
+    d, beta = link_vectors(arm)
+    out = ArmFloats(floats2(d), beta, tuple(joint.zero_offset for joint in arm.joints))
+    if len(_ARM_FLOATS) >= 256:  # robots loaded and dropped in a long process: start again
+        _ARM_FLOATS.clear()
+    _ARM_FLOATS[id(arm)] = (arm, out)
+    return out

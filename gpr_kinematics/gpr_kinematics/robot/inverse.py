@@ -159,13 +159,15 @@ def _angle_to(stations: Stations, R: Array) -> Array:
 
 def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[str, ...], Array]:
     if branch is None or isinstance(branch, str):
-        names = (branch or arm.branch,) * n
-    elif not isinstance(branch, Sequence | np.ndarray):
+        name = branch or arm.branch
+        if name not in BRANCHES:
+            raise InputError(f'branch = {brief(name)} is invalid; allowed: left or right')
+        return (name,) * n, np.full(n, branch_sign(name))
+    if not isinstance(branch, Sequence | np.ndarray):
         raise InputError(f'branch = {brief(branch)} is invalid; allowed: left or right, one or one per station')
-    else:
-        names = tuple(branch)
-        if len(names) != n:
-            raise InputError(f'branch must be one value or one per station ({n}), got {len(names)}')
+    names = tuple(branch)
+    if len(names) != n:
+        raise InputError(f'branch must be one value or one per station ({n}), got {len(names)}')
     for b in set(names):
         if b not in BRANCHES:
             raise InputError(f'branch = {brief(b)} is invalid; allowed: left or right')

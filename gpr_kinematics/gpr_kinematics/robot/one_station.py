@@ -4,7 +4,7 @@
 A teach pendant, a planner sampling stations or a service answers one station at a time; there the batch's numpy
 operations on arrays of one row cost milliseconds of overhead. :func:`solve_one` takes the same steps (module
 docstring of :mod:`gpr_kinematics.robot.inverse`) on floats: the station in ``gpr_base``, the GPR's one-pose inverse
-kinematics (:func:`gpr_kinematics.core.inverse.inverse_one`, Bratovanov & Sotirov §IV-V) and the height through the
+kinematics (:func:`gpr_kinematics.core.inverse.inverse_parts`, Bratovanov & Sotirov §IV-V) and the height through the
 wafer point, the arm in closed form (:func:`~gpr_kinematics.robot.planar_arm.solve_arm_one`), the forward kinematics
 of the answer, and the naive model's joints with the wafer error they make. It returns ``None`` where a station is
 refused or fails a limit (the caller then takes the batch path, which names why), so the messages have one source.
@@ -19,7 +19,7 @@ from typing import NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult, forward
+from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult
 from ..core.floats import (
     FloatPose,
     Mat3,
@@ -32,7 +32,8 @@ from ..core.floats import (
     rot_z,
     tilt_matrix,
 )
-from ..core.inverse import inverse_one
+from ..core.forward import one_result, solve_parts
+from ..core.inverse import inverse_parts
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
 from ..core.platform_pose import rigid_fit
@@ -43,7 +44,7 @@ from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
 from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
-from .transforms import PoseBatch, pose_batch
+from .transforms import PoseBatch
 
 #: Convergence of the height: plane residual [m] and platform-normal error.
 PLANE_TOLERANCE = 1e-13
@@ -75,25 +76,23 @@ def _rows(R: NDArray[np.float64]) -> Mat3:
 def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float
                      ) -> tuple[list[float], ForwardResult]:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
-    ``_platform_height`` for one station)."""
+    ``_platform_height`` for one station): each step solves the closure and the platform's rigid fit only, the
+    forward kinematics of the answer is completed once."""
     cfg = kernel.config
     zero = (0.0, 0.0, 0.0)
-    gpr = inverse_one(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero).achieved
-    q = gpr.q.tolist()
+    q, P, L, closure, frame, _ = inverse_parts(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero)
     for _ in range(PLANE_ITERATIONS):
-        (_, _, n0), (_, _, n1), (_, _, n2) = gpr.rotation.tolist()
-        t0, t1, t2 = gpr.position.tolist()
+        _, _, n0, _, _, n1, _, _, n2, t0, t1, t2 = cast('tuple[float, ...]', frame)
         e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
         normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
         if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
-            return q, gpr
+            return q, one_result(kernel, q, P, L, closure, frame)
         if normal_error > NORMAL_TOLERANCE:  # rods that move together turned the platform: solve again
-            gpr = inverse_one(kernel, t2 + e / n2, tilt, az, zero).achieved
-            q = gpr.q.tolist()
+            q, P, L, closure, frame, _ = inverse_parts(kernel, t2 + e / n2, tilt, az, zero)
         else:
             c = e / n2
             q = [q[0] + c, q[1] + c, q[2] + c]
-            gpr = forward(q, cfg, kernel.model.name, check_limits=False)
+            P, L, closure, frame = solve_parts(kernel, q)
     raise ConvergenceError('station height did not converge')  # the batch path says by how much
 
 
@@ -196,19 +195,27 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
 
 def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
               ) -> OneStation | None:
-    """:func:`station_floats` of the one station of ``stations`` as rows of one (``None`` likewise)."""
+    """:func:`station_floats` of the one station of ``stations`` as rows of one (``None`` likewise): every array a
+    view of one, made at once from the floats."""
     one = station_floats(robot, arm, cast('Vec3', tuple(stations.position[0].tolist())), float(stations.tilt[0]),
                          float(stations.azimuth[0]), float(stations.heading[0]), bool(stations.heading_free[0]), sign,
                          value)
     if one is None:
         return None
-    rods = np.array([one.rods])
-    fk = RobotForward(arm=arm.name, rods=rods, joints=np.array([one.joints]), gpr=ForwardBatch.of_one(one.gpr),
-                      platform=pose_batch(*one.platform), blade=pose_batch(*one.blade), wafer=pose_batch(*one.wafer),
-                      robot=robot, wafer_on_platform=pose_batch(*one.on_platform))
-    return OneStation(rods=rods, joints=fk.joints, forward=fk, naive_rods=np.array([one.naive_rods]),
-                      naive_joints=np.array([one.naive_joints]), naive_wafer=pose_batch(*one.naive_wafer),
-                      position_error=np.array([one.position_error]), angle_error=np.array([one.angle_error]))
+    n = len(one.joints)
+    poses = (one.platform, one.blade, one.wafer, one.on_platform, one.naive_wafer)
+    flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error]
+    for p, (r0, r1, r2) in poses:
+        flat += [*p, *r0, *r1, *r2]
+    a = np.array(flat)
+    o = 8 + 2 * n  # the first pose's offset
+    batches = [PoseBatch(a[k:k + 3].reshape(1, 3), a[k + 3:k + 12].reshape(1, 3, 3)) for k in range(o, o + 60, 12)]
+    rods, joints = a[0:3].reshape(1, 3), a[3:3 + n].reshape(1, n)
+    fk = RobotForward(arm=arm.name, rods=rods, joints=joints, gpr=ForwardBatch.of_one(one.gpr), platform=batches[0],
+                      blade=batches[1], wafer=batches[2], robot=robot, wafer_on_platform=batches[3])
+    return OneStation(rods=rods, joints=joints, forward=fk, naive_rods=a[3 + n:6 + n].reshape(1, 3),
+                      naive_joints=a[6 + n:6 + 2 * n].reshape(1, n), naive_wafer=batches[4],
+                      position_error=a[6 + 2 * n:7 + 2 * n], angle_error=a[7 + 2 * n:8 + 2 * n])
 
 
 def _angle(R_station: Mat3, R: Mat3, free: bool) -> float:

@@ -36,9 +36,9 @@ from numpy.typing import NDArray
 
 from .arm_chain import (
     REACH_SLACK,
+    arm_floats,
     chain_forward,
     fixed_one,
-    floats2,
     link_vectors,
     solve3,
     solve_fixed,
@@ -125,9 +125,7 @@ class OneArm(NamedTuple):
 
 def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
     """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps)."""
-    d_arrays, beta = link_vectors(arm)
-    d = floats2(d_arrays)
-    offset = [joint.zero_offset for joint in arm.joints]
+    d, beta, offset = arm_floats(arm)
     if len(arm.joints) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
         theta = [T1, T2 - T1]
@@ -138,7 +136,7 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
             if red.rule == 'fixed_joint':
                 v = red.value if value is None else value
             else:
-                v = float(nearest_value(arm, d_arrays, beta, np.array([[px, py]]), np.array([phi]),
+                v = float(nearest_value(arm, link_vectors(arm)[0], beta, np.array([[px, py]]), np.array([phi]),
                                         np.array([sign]))[0])
             v = v + offset[j]
         theta, r, lo, hi = fixed_one(d, beta, j, v, px, py, phi, sign)
