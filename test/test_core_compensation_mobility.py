@@ -198,6 +198,27 @@ def test_rigid_rank_is_the_rank_of_the_constraint_jacobian():
     assert [analyze_mobility(row).rank_dphi_dp for row in q] == [9, 9, 11]
 
 
+def test_one_pose_constraint_jacobian_is_the_batch_one_and_results_are_their_own():
+    """``dPhi/dP`` of one pose (the pose-independent rows kept per config, the edges written in) equals
+    :func:`constraint_jacobian`, on rods that are not parallel too; a result's arrays are its own."""
+    from gpr_kinematics.core.machine import MachineGeometry, config_with_parameters
+    from gpr_kinematics.core.mobility import constraint_jacobian
+    bent = config_with_parameters(load_config(), [1e-4, -2e-4, 3e-5], ['rod1_ux', 'rod2_uy', 'rod2_offset'])
+    for cfg in (load_config(), bent):
+        geo = MachineGeometry.of(cfg)
+        u = np.array([geo.ux, geo.uy, geo.uz]).T
+        for q in ([0.3, 0.3, 0.3], [0.3, 0.302, 0.299]):
+            first = analyze_mobility(q, cfg)
+            np.testing.assert_array_equal(first.dphi_dp, constraint_jacobian(geo.base_points(np.array([q])), u)[0])
+            np.testing.assert_array_equal(first.rod_directions, u)
+            first.dphi_dp[:] = 0.0
+            first.rod_directions[:] = 0.0  # the next analysis is not touched
+            again = analyze_mobility(q, cfg)
+            np.testing.assert_array_equal(again.dphi_dp, constraint_jacobian(geo.base_points(np.array([q])), u)[0])
+            np.testing.assert_array_equal(again.rod_directions, u)
+        assert analyze_mobility([0.3, 0.3, 0.3], cfg).rank_dphi_dp == (9 if cfg is not bent else 12)
+
+
 @pytest.mark.parametrize('call, words', [
     (lambda: rigid_rank([np.nan, 0.25, 0.25]), r'q1 = nan is not a finite number'),   # LAPACK raised
     (lambda: rigid_rank([np.inf, 0.25, 0.25]), r'q1 = inf is not a finite number'),   # was rank 0

@@ -258,11 +258,10 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     cfg = resolve_config(config)
     kernel, q3, P, _, closure, _, _ = forward_parts(q, cfg, model)  # forward kinematics' checks and closure
     vjm = kernel.model
-    geo = kernel.geometry
-    u = np.array([geo.ux, geo.uy, geo.uz]).T
+    u, template = _rigid_part(kernel.geometry, cfg)
     M = vjm.size
     X = cast('list[float]', closure.X)  # one pose: floats
-    dphi_dp = _constraint_jacobian_one(P, u)
+    dphi_dp = _constraint_jacobian_one(P, template)
     # Phi_{9+i} = |P_b - P_a|^2 - d_i(X)^2, so dPhi/dX = -dF/dX (F = d^2 - L^2 of virtual_joints).
     dphi_dx = np.zeros((12, M))
     dphi_dx[9:] = -np.array(_closure_jacobian(vjm, X))
@@ -281,11 +280,13 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     rank_p, rank_a = rank_of(S0, 12), rank_of(S1, 12 + M)
     e9, e11 = evals[9:12:2].tolist()
     bounds = {'eq4': (math.sqrt(max(e9, 0.0)), math.sqrt(e11)), 'eq5': (float(sv[-1]), float(sv[0]))}
-    return MobilityResult(
+    out = MobilityResult.__new__(MobilityResult)  # every field, without the frozen __init__'s per-field setattr
+    out.__dict__.update(
         q=np.array(q3), model=vjm.name, virtual_joints=np.array(X), dphi_dp=dphi_dp, dphi_dx=dphi_dx,
         dx_dp=dx_dp, rank_dphi_dp=rank_p, rank_augmented=rank_a, mobility=12 - rank_p, eigenvalues=evals,
-        eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float), bounds=bounds, rod_directions=u,
+        eigenvectors=evecs, singular_values=np.asarray(sv, dtype=float), bounds=bounds, rod_directions=u.copy(),
         singular=12 - rank_p > 1, stroke=(cfg.stroke_min, cfg.stroke_max))
+    return out
 
 
 #: Machine epsilon: ``numpy.linalg.matrix_rank``'s threshold is ``sigma_max max(rows, columns) EPS``.
@@ -306,24 +307,47 @@ def _pinv(A: Array) -> Array:
     """``numpy.linalg.pinv(A)`` of one matrix (its steps and default cutoff ``1e-15 sigma_max``, without the wrapper
     that costs three times the decomposition of a 3 x M matrix)."""
     u, s, vt = np.linalg.svd(A, full_matrices=False)
-    large = s > 1e-15 * s[0]
-    s = np.divide(1.0, s, where=large, out=s)
-    s[~large] = 0.0
+    if s[-1] > 1e-15 * s[0]:  # every singular value above the cutoff (the closure's Jacobian within the limits)
+        s = 1.0 / s
+    else:
+        large = s > 1e-15 * s[0]
+        s = np.divide(1.0, s, where=large, out=s)
+        s[~large] = 0.0
     return np.asarray(vt.T @ (s[:, None] * u.T), dtype=np.float64)
 
 
-def _constraint_jacobian_one(P: Sequence[Sequence[float]], u: Array) -> Array:
+def _rigid_part(geo: MachineGeometry, config: GprConfig) -> tuple[Array, Array]:
+    """The unit rod directions ``u (3, 3)`` of ``geo`` (the machine of ``config``) and the rows of ``dPhi/dP`` that
+    do not depend on the pose (rows 0-8: ``u_i`` in column ``i``, ``-I`` at ``P_i``; rows 9-11 zero), kept with the
+    config (read-only)."""
+    key = 'mobility_rigid_part'
+    part: tuple[Array, Array] | None = config.derived.get(key)
+    if part is None:
+        u = np.array([geo.ux, geo.uy, geo.uz]).T
+        J = np.zeros((12, 12))
+        for i in range(3):
+            J[3 * i:3 * i + 3, i] = u[i]
+            J[3 * i, 3 + 3 * i] = J[3 * i + 1, 4 + 3 * i] = J[3 * i + 2, 5 + 3 * i] = -1.0
+        u.flags.writeable = J.flags.writeable = False
+        part = config.derived[key] = (u, J)
+    return part
+
+
+#: The flat indices in ``dPhi/dP`` of edge ``i``'s ``2 e`` (at ``P_b``) and ``-2 e`` (at ``P_a``): row ``9 + i``.
+_EDGE_INDEX = np.array([12 * (9 + i) + 3 + 3 * k + c for i, (a, b) in enumerate(EDGES) for k in (b, a)
+                        for c in range(3)])
+
+
+def _constraint_jacobian_one(P: Sequence[Sequence[float]], template: Array) -> Array:
     """:func:`constraint_jacobian` ``(12, 12)`` of one configuration: joint centres ``P = (x, y, z)`` (lists over the
-    rods) [m], unit rod directions ``u (3, 3)``."""
+    rods) [m] written into a copy of the pose-independent rows ``template`` (:func:`_rigid_part`)."""
     x, y, z = P
-    J = np.zeros((12, 12))
-    for i in range(3):
-        J[3 * i:3 * i + 3, i] = u[i]
-        J[3 * i, 3 + 3 * i] = J[3 * i + 1, 4 + 3 * i] = J[3 * i + 2, 5 + 3 * i] = -1.0
-    for i, (a, b) in enumerate(EDGES):
+    J = template.copy()
+    values: list[float] = []
+    for a, b in EDGES:
         ex, ey, ez = 2.0 * (x[b] - x[a]), 2.0 * (y[b] - y[a]), 2.0 * (z[b] - z[a])
-        J[9 + i, 3 + 3 * b:6 + 3 * b] = ex, ey, ez
-        J[9 + i, 3 + 3 * a:6 + 3 * a] = -ex, -ey, -ez
+        values += (ex, ey, ez, -ex, -ey, -ez)
+    J.flat[_EDGE_INDEX] = values
     return J
 
 
