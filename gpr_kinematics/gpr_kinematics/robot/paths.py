@@ -8,12 +8,13 @@ platform's normal and height, hence the rods, do not change along it: only the a
 every point on the waypoints' branch (a 4-joint arm holds its redundant joint), so the wafer lies on the line to
 rounding (~1e-15 m) at every instant, not only at samples. The other arm holds its joints.
 
-For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's first derivative is **bounded**,
-not sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed-form bounds of
+For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's derivatives are **bounded**, not
+sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed-form bounds of
 :func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds` on the :data:`GRID` - 1 pieces of the line, so a
 profile with ``G1 s' <= v`` keeps every joint within its velocity limit at every instant (what the clearance
-certificate relies on; docs/cell.md, "Straight entries"). The second and third derivatives (for the acceleration
-and jerk limits) are taken by finite differences on the grid, their maxima enlarged by :data:`GAIN_MARGIN`.
+certificate relies on; docs/cell.md, "Straight entries"); ``G2`` and ``G3``, for the acceleration and jerk limits,
+bound ``max |d^2P/ds^2|`` and ``max |d^3P/ds^3|`` likewise, from the exact derivatives at the grid's points and a
+bound of the next derivative on each piece (:func:`~gpr_kinematics.robot.line_bounds.line_derivative_bounds`).
 """
 from __future__ import annotations
 
@@ -25,14 +26,14 @@ from ..errors import LimitError
 from .description import Arm, RobotDescription
 from .forward import base_pose
 from .inverse import _arm_target, _heading_in, solve_stations
+from .line_bounds import line_derivative_bounds
 from .planar_arm import branch_sign, line_rate_bounds, solve_arm
 from .stations import Stations
 
 Array = NDArray[np.float64]
 
-#: Points on which a line's joint derivatives are taken, and the margin on their maxima.
+#: Points on which a line's joint derivatives are taken (the ends of its pieces).
 GRID = 257
-GAIN_MARGIN = 1.1
 #: Largest joint change between grid points [rad or m] before a line is taken to jump (a branch change).
 MAX_STEP = 0.25
 
@@ -79,24 +80,21 @@ def line_positions(robot: RobotDescription, way: Stations, arm: str, branch: str
 
 def line_gains(arm: Arm, cols: slice, rows: Array, label: str) -> tuple[Array, Array, Array]:
     """``(G1, G2, G3)`` ``(J,)`` of the line whose joint rows ``(GRID, J)`` are taken at ``s`` evenly spaced in
-    [0, 1] (``arm``'s joints in the columns ``cols``): ``G1`` the bound of ``max |dP/ds|``, ``G2``, ``G3`` the
-    largest second and third derivatives by finite differences, times :data:`GAIN_MARGIN` (module docstring).
+    [0, 1] (``arm``'s joints in the columns ``cols``): bounds of ``max |dP/ds|``, ``max |d^2P/ds^2|`` and
+    ``max |d^3P/ds^3|`` over the line (module docstring).
 
     Raises:
-        LimitError: the line passes through a stretched or folded posture (no finite rate bound) or jumps.
+        LimitError: the line passes through a stretched or folded posture (no finite bound) or jumps.
     """
-    h = 1.0 / (rows.shape[0] - 1)
     jump = np.max(np.abs(np.diff(rows, axis=0)))
     if jump > MAX_STEP:
         raise LimitError(f'{label}: the straight line into it changes a joint by {jump:.3g} between neighbouring '
                          'points: the arm would change its branch or wrap a joint on the way; move the entry')
     s = np.linspace(0.0, 1.0, rows.shape[0])
-    G1 = np.zeros(rows.shape[1])
+    G1, G2, G3 = (np.zeros(rows.shape[1]) for _ in range(3))
     G1[cols] = np.max(line_rate_bounds(arm, rows[0, cols], rows[-1, cols], s[:-1], s[1:]), axis=0)
-    if not np.all(np.isfinite(G1)):
+    G2[cols], G3[cols] = line_derivative_bounds(arm, rows[:, cols], s)
+    if not (np.all(np.isfinite(G1)) and np.all(np.isfinite(G2)) and np.all(np.isfinite(G3))):
         raise LimitError(f'{label}: the straight line into it passes through a stretched or folded arm posture; '
                          'move the entry or the station')
-    d1 = np.gradient(rows, h, axis=0, edge_order=2)
-    d2 = np.gradient(d1, h, axis=0, edge_order=2)
-    d3 = np.gradient(d2, h, axis=0, edge_order=2)
-    return G1, GAIN_MARGIN * np.max(np.abs(d2), axis=0), GAIN_MARGIN * np.max(np.abs(d3), axis=0)
+    return G1, G2, G3

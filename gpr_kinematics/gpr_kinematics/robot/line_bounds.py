@@ -1,0 +1,116 @@
+"""Bounds of a straight line's second and third joint derivatives: what the timing needs for the acceleration and
+jerk limits of a straight entry, bounded over the whole line rather than sampled.
+
+On a line the wafer's heading is fixed, so the reduced two-link chain's target ``w(s) = w_0 + s w'`` moves on a line
+(:func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds`: links of lengths ``L1``, ``L2`` at the angles ``A1``,
+``A2``, ``g = A2 - A1``, ``u(A) = (cos A, sin A)``; the shoulder turns by ``A1``, the elbow by ``g``, the wrist by
+``-A2``; a held joint not at all). Crossing ``L1 u(A1) + L2 u(A2) = w`` and its derivatives with the links' normals:
+
+    ``L1 A1' sin g = w' . u(A2)``,  ``-L2 A2' sin g = w' . u(A1)``
+    ``A1'' = (L1 A1'^2 cos g + L2 A2'^2) / (L1 sin g)``,  ``A2'' = -(L1 A1'^2 + L2 A2'^2 cos g) / (L2 sin g)``
+
+and their derivative for ``A'''`` give the exact derivatives wherever the angles are known: in closed form (the
+two-link problem of ``w(s)``) at :data:`REFINE` points per piece of the caller's grid. Between two points ``a``,
+``b`` a derivative ``f`` is at most ``max(|f(a)|, |f(b)|) + (b - a) / 2 max |f'|`` (the mean value
+theorem from either end), and ``max |f'|`` on the piece is bounded from the piece's least ``|sin g|`` and the rate
+bounds by the Leibniz rule on the first identity, ``sum_i C(k, i) A1^(1+i) (sin g)^(k-i) = w' . u(A2)^(k) / L1``,
+with ``|u(A)^(k)|`` and ``|(sin g)^(k)|`` at most the complete Bell polynomial ``Y_k`` of the bounds of the angle's
+derivatives (Faa di Bruno for ``exp(i A)``). SI units: rad per unit of the line parameter ``s`` and its powers.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .arm_chain import chain_forward
+from .description import Arm
+
+Array = NDArray[np.float64]
+
+
+def bell(x: list[Array], k: int) -> Array:
+    """The complete Bell polynomial ``Y_k(x_1, .., x_k)`` (``x[i - 1]`` is ``x_i``; ``k <= 4``): with ``x_i`` bounds of
+    ``|A^(i)|``, a bound of ``|d^k exp(i A) / ds^k|``."""
+    x1 = x[0]
+    if k == 1:
+        return x1
+    x2 = x[1]
+    if k == 2:
+        return x1 * x1 + x2
+    x3 = x[2]
+    if k == 3:
+        return x1 ** 3 + 3.0 * x1 * x2 + x3
+    return x1 ** 4 + 6.0 * x1 * x1 * x2 + 4.0 * x1 * x3 + 3.0 * x2 * x2 + x[3]
+
+
+#: The derivatives are evaluated exactly at this many points per piece of the caller's grid (the pieces' bounds of
+#: the next derivative then count for 1/32 of the width).
+REFINE = 32
+
+
+def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Array]:
+    """Bounds ``(G2, G3)`` ``(n,)`` of ``max |d^2 theta_k / ds^2|`` and ``max |d^3 theta_k / ds^3|`` over the line
+    whose joint rows ``rows (P, n)`` (``arm``'s joints, solved on the line) are taken at the increasing ``s (P,)``
+    spanning it (module docstring): the two-link sub-chain's angles in closed form at :data:`REFINE` points per piece
+    of ``s``, their exact derivatives there, and each piece's bound of the next one. Infinite where the line passes
+    through a stretched or folded posture."""
+    axes, _, _ = chain_forward(arm, rows)
+    n = len(arm.joints)
+    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
+    sh, el, wr = (axes[:, k] for k in keep)
+    L1, L2 = float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
+    w = wr - sh
+    dw = (w[-1] - w[0]) / (s[-1] - s[0])
+    w0 = w[0] - s[0] * dw
+    speed = float(np.hypot(*dw))
+    g_rows = np.arctan2(wr[:, 1] - el[:, 1], wr[:, 0] - el[:, 0]) - np.arctan2(el[:, 1] - sh[:, 1],
+                                                                               el[:, 0] - sh[:, 0])
+    branch = 1.0 if np.median(np.sin(g_rows)) >= 0.0 else -1.0
+    t = np.append((s[:-1, None] + np.diff(s)[:, None] * (np.arange(REFINE) / REFINE)).ravel(), s[-1])
+    # The angles at t in closed form (the two-link problem of the target w(t); the branch of the rows).
+    wx, wy = w0[0] + t * dw[0], w0[1] + t * dw[1]
+    r2 = wx * wx + wy * wy
+    cg = np.clip((r2 - L1 * L1 - L2 * L2) / (2.0 * L1 * L2), -1.0, 1.0)
+    sg = branch * np.sqrt(np.maximum(1.0 - cg * cg, 0.0))
+    A1 = np.arctan2(wy, wx) - np.arctan2(L2 * sg, L1 + L2 * cg)
+    A2 = A1 + np.arctan2(sg, cg)
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        a1 = (dw[0] * np.cos(A2) + dw[1] * np.sin(A2)) / (L1 * sg)
+        a2 = -(dw[0] * np.cos(A1) + dw[1] * np.sin(A1)) / (L2 * sg)
+        b1 = (L1 * a1 * a1 * cg + L2 * a2 * a2) / (L1 * sg)
+        b2 = -(L1 * a1 * a1 + L2 * a2 * a2 * cg) / (L2 * sg)
+        gp = a2 - a1
+        c1 = (2.0 * L1 * a1 * b1 * cg - L1 * a1 * a1 * sg * gp + 2.0 * L2 * a2 * b2 - b1 * L1 * cg * gp) / (L1 * sg)
+        c2 = -(2.0 * L1 * a1 * b1 + 2.0 * L2 * a2 * b2 * cg - L2 * a2 * a2 * sg * gp + b2 * L2 * cg * gp) / (L2 * sg)
+        # Bounds on each piece of t: the least |sin g| and the rates (line_rate_bounds' steps), then A^(2..4).
+        t0, t1 = t[:-1], t[1:]
+        sq = float(dw @ dw)
+        star = np.clip(-float(w0 @ dw) / sq, t0, t1) if sq > 0.0 else t0
+        lo, hi = _r2(w0, dw, star), np.maximum(r2[:-1], r2[1:])
+        sin2 = np.minimum(*(((L1 + L2) ** 2 - x) * (x - (L1 - L2) ** 2) for x in (lo, hi))) / (2.0 * L1 * L2) ** 2
+        S = np.sqrt(np.maximum(sin2, 0.0))
+        d1, d2 = [speed / (L1 * S)], [speed / (L2 * S)]  # bounds of |A1^(k)|, |A2^(k)|, k = 1, 2, ...
+        dg = [speed * np.sqrt(hi) / (L1 * L2 * S)]  # of |g^(k)|
+        for k in range(1, 4):  # A^(k+1) from the k-th derivative of L1 A1' sin g = w' . u(A2) (and of A2's)
+            sink = [bell(dg, i) for i in range(1, k + 1)]  # |(sin g)^(i)|, i = 1..k
+            rest1 = sum(math.comb(k, i) * d1[i] * sink[k - i - 1] for i in range(k))
+            rest2 = sum(math.comb(k, i) * d2[i] * sink[k - i - 1] for i in range(k))
+            d1.append((speed * bell(d2, k) / L1 + rest1) / S)
+            d2.append((speed * bell(d1[:k], k) / L2 + rest2) / S)
+            dg.append(d1[k] + d2[k])
+        exact2 = np.column_stack([b1, b2 - b1, -b2])  # the shoulder turns by A1, the elbow by g, the wrist by -A2
+        exact3 = np.column_stack([c1, c2 - c1, -c2])
+        half = (0.5 * (t1 - t0))[:, None]
+        piece2 = np.maximum(np.abs(exact2[:-1]), np.abs(exact2[1:])) + half * np.column_stack([d1[2], dg[2], d2[2]])
+        piece3 = np.maximum(np.abs(exact3[:-1]), np.abs(exact3[1:])) + half * np.column_stack([d1[3], dg[3], d2[3]])
+    G2, G3 = np.zeros(n), np.zeros(n)
+    G2[keep] = np.max(np.where(np.isnan(piece2), np.inf, piece2), axis=0)
+    G3[keep] = np.max(np.where(np.isnan(piece3), np.inf, piece3), axis=0)
+    return G2, G3
+
+
+def _r2(w0: Array, dw: Array, t: Array) -> Array:
+    """``|w(t)|^2`` of the target ``w(t) = w0 + t dw`` [m^2]."""
+    return np.asarray((w0[0] + t * dw[0]) ** 2 + (w0[1] + t * dw[1]) ** 2, dtype=np.float64)
