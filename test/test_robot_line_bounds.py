@@ -96,3 +96,10 @@ def test_complete_bell_polynomials_bound_the_derivatives_of_exp_i_a():
         d = np.diff(z, k) / h ** k
         mid = d[(len(d) - 1) // 2] if k % 2 == 0 else 0.5 * (d[len(d) // 2 - 1] + d[len(d) // 2])
         assert abs(mid) == pytest.approx(exact, rel=2e-3) and exact <= float(bell(x, k))
+
+
+def test_a_line_of_no_length_moves_no_joint():
+    arm = _arm(None)
+    rows = _rows(arm, np.array([0.3, 0.2]), np.array([0.3, 0.2]), 0.4, 1.0, GRID)
+    G2, G3 = line_derivative_bounds(arm, rows, GRID)
+    assert G2.tolist() == [0.0] * 3 and G3.tolist() == [0.0] * 3

@@ -65,6 +65,8 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
     dw = (w[-1] - w[0]) / (s[-1] - s[0])
     w0 = w[0] - s[0] * dw
     speed = float(np.hypot(*dw))
+    if speed == 0.0:  # the sub-chain does not move (a line of no length): nor do its joints
+        return np.zeros(n), np.zeros(n)
     g_rows = np.arctan2(wr[:, 1] - el[:, 1], wr[:, 0] - el[:, 0]) - np.arctan2(el[:, 1] - sh[:, 1],
                                                                                el[:, 0] - sh[:, 0])
     branch = 1.0 if np.median(np.sin(g_rows)) >= 0.0 else -1.0
