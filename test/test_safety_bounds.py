@@ -10,8 +10,8 @@ from gpr_kinematics.core import forward_batch, inverse_batch
 from gpr_kinematics.core.machine import MachineGeometry
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot
+from gpr_kinematics.robot.line_bounds import line_rate_bounds
 from gpr_kinematics.robot.plan import joint_limits, line_moves, move_rows, plan_program
-from gpr_kinematics.robot.planar_arm import line_rate_bounds
 from gpr_kinematics.robot.program import load_program
 from gpr_kinematics.robot.timing import evaluate
 from gpr_kinematics.safety.bodies import box_lower_bound, robot_body_set

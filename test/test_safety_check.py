@@ -16,8 +16,8 @@ import pytest
 from gpr_kinematics.core.rotations import matrix_from_quaternion, rotation_z, tilt_rotation
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot, robot_forward
+from gpr_kinematics.robot.line_bounds import line_rate_bounds
 from gpr_kinematics.robot.plan import joint_limits, line_moves, plan_program, sample_plan
-from gpr_kinematics.robot.planar_arm import line_rate_bounds
 from gpr_kinematics.robot.program import load_program
 from gpr_kinematics.safety.bodies import robot_body_set
 from gpr_kinematics.safety.check import wafer_plan

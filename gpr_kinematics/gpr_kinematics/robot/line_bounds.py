@@ -1,8 +1,9 @@
-"""Bounds of a straight line's second and third joint derivatives: what the timing needs for the acceleration and
-jerk limits of a straight entry, bounded over the whole line rather than sampled.
+"""Bounds of a straight line's joint derivatives: the rates (what the clearance certificate and the velocity limits
+need) and the second and third derivatives (the acceleration and jerk limits of a straight entry), over the whole
+line rather than sampled.
 
 On a line the wafer's heading is fixed, so the reduced two-link chain's target ``w(s) = w_0 + s w'`` moves on a line
-(:func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds`: links of lengths ``L1``, ``L2`` at the angles ``A1``,
+(:func:`line_rate_bounds`: links of lengths ``L1``, ``L2`` at the angles ``A1``,
 ``A2``, ``g = A2 - A1``, ``u(A) = (cos A, sin A)``; the shoulder turns by ``A1``, the elbow by ``g``, the wrist by
 ``-A2``; a held joint not at all). Crossing ``L1 u(A1) + L2 u(A2) = w`` and its derivatives with the links' normals:
 
@@ -45,6 +46,57 @@ def bell(x: list[Array], k: int) -> Array:
     return x1 ** 4 + 6.0 * x1 * x1 * x2 + 4.0 * x1 * x3 + 3.0 * x2 * x2 + x[3]
 
 
+def line_rate_bounds(arm: Arm, theta0: Array, theta1: Array, s0: Array, s1: Array) -> Array:
+    """Upper bounds ``(K, n)`` of ``|d theta_k / ds|`` over ``[s0_i, s1_i]`` on the straight line that translates the
+    wafer, its heading fixed, from the posture ``theta0 (n,)`` (``s = 0``) to ``theta1 (n,)`` (``s = 1``).
+
+    The heading is fixed, so the reduced chain's wrist axis (:func:`sub_chain`: shoulder, elbow, wrist after folding a
+    held joint) moves on a line too, ``w(s) = w_0 + s (w_1 - w_0)`` from the shoulder axis, and only the two-link
+    problem changes along it. With ``a_1``, ``a_2`` the two links (lengths ``L1``, ``L2``, relative angle ``g``),
+    ``w' = A1' a_1^perp + A2' a_2^perp`` for the links' directions ``A1``, ``A2``; crossing with ``a_2``, ``a_1`` and
+    ``a_1 + a_2 = w``:
+
+        ``|A1'| <= |w'| / (L1 |sin g|)``, ``|A2' - A1'| <= |w'| r / (L1 L2 |sin g|)``, ``|A2'| <= |w'| / (L2 |sin g|)``
+
+    for the shoulder, the elbow and the wrist (which turns by ``-A2'``: the heading is fixed); a held joint does not
+    move. On ``[s0, s1]`` :func:`reach_range` gives the largest ``r`` and the least ``|sin g|``. A line through a
+    stretched or folded posture (``sin g = 0``) has an infinite bound.
+    """
+    keep, sh, el, wr, L1, L2 = sub_chain(arm, np.stack([theta0, theta1]))
+    w0, dw = wr[0] - sh[0], (wr[1] - sh[1]) - (wr[0] - sh[0])
+    s0, s1 = np.minimum(s0, s1), np.maximum(s0, s1)
+    speed = float(np.hypot(*dw))
+    hi, sg = reach_range(w0, dw, s0, s1, L1, L2)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        rates = [speed / (L1 * sg), speed * np.sqrt(hi) / (L1 * L2 * sg), speed / (L2 * sg)]
+    out = np.zeros((s0.shape[0], len(arm.joints)))
+    for k, rate in zip(keep, rates, strict=True):
+        out[:, k] = np.where(speed > 0.0, rate, 0.0)
+    return out
+
+
+def sub_chain(arm: Arm, rows: Array) -> tuple[list[int], Array, Array, Array, float, float]:
+    """The reduced two-link chain of postures ``rows (P, n)``: the joints that move on a line (shoulder, elbow, wrist
+    after folding a held joint), their axes ``(P, 2)`` in the mount frame and the two links' lengths [m]."""
+    axes, _, _ = chain_forward(arm, rows)
+    n = len(arm.joints)
+    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
+    sh, el, wr = (axes[:, k] for k in keep)
+    return keep, sh, el, wr, float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
+
+
+def reach_range(w0: Array, dw: Array, s0: Array, s1: Array, L1: float, L2: float) -> tuple[Array, Array]:
+    """On the pieces ``[s0, s1]`` of the line ``w(s) = w0 + s dw``: the largest ``r^2 = |w|^2`` and the least
+    ``|sin g|`` of the two-link chain of links ``L1``, ``L2`` reaching it. ``r^2(s)`` is a convex quadratic, so its
+    range is exact, and ``sin^2 g = ((L1 + L2)^2 - r^2)(r^2 - (L1 - L2)^2) / (2 L1 L2)^2`` is concave in ``r^2``: its
+    minimum is at an end of that range."""
+    sq = float(dw @ dw)
+    star = np.clip(-float(w0 @ dw) / sq, s0, s1) if sq > 0.0 else s0
+    lo, hi = _r2(w0, dw, star), np.maximum(_r2(w0, dw, s0), _r2(w0, dw, s1))
+    sin2 = np.minimum(*(((L1 + L2) ** 2 - x) * (x - (L1 - L2) ** 2) for x in (lo, hi))) / (2.0 * L1 * L2) ** 2
+    return hi, np.sqrt(np.maximum(sin2, 0.0))
+
+
 #: The derivatives are evaluated exactly at this many points per piece of the caller's grid (the pieces' bounds of
 #: the next derivative then count for 1/32 of the width).
 REFINE = 32
@@ -56,11 +108,8 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
     spanning it (module docstring): the two-link sub-chain's angles in closed form at :data:`REFINE` points per piece
     of ``s``, their exact derivatives there, and each piece's bound of the next one. Infinite where the line passes
     through a stretched or folded posture."""
-    axes, _, _ = chain_forward(arm, rows)
+    keep, sh, el, wr, L1, L2 = sub_chain(arm, rows)
     n = len(arm.joints)
-    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
-    sh, el, wr = (axes[:, k] for k in keep)
-    L1, L2 = float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
     w = wr - sh
     dw = (w[-1] - w[0]) / (s[-1] - s[0])
     w0 = w[0] - s[0] * dw
@@ -86,13 +135,9 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
         gp = a2 - a1
         c1 = (2.0 * L1 * a1 * b1 * cg - L1 * a1 * a1 * sg * gp + 2.0 * L2 * a2 * b2 - b1 * L1 * cg * gp) / (L1 * sg)
         c2 = -(2.0 * L1 * a1 * b1 + 2.0 * L2 * a2 * b2 * cg - L2 * a2 * a2 * sg * gp + b2 * L2 * cg * gp) / (L2 * sg)
-        # Bounds on each piece of t: the least |sin g| and the rates (line_rate_bounds' steps), then A^(2..4).
+        # Bounds on each piece of t: the least |sin g| and the rates (line_rate_bounds'), then A^(2..4).
         t0, t1 = t[:-1], t[1:]
-        sq = float(dw @ dw)
-        star = np.clip(-float(w0 @ dw) / sq, t0, t1) if sq > 0.0 else t0
-        lo, hi = _r2(w0, dw, star), np.maximum(r2[:-1], r2[1:])
-        sin2 = np.minimum(*(((L1 + L2) ** 2 - x) * (x - (L1 - L2) ** 2) for x in (lo, hi))) / (2.0 * L1 * L2) ** 2
-        S = np.sqrt(np.maximum(sin2, 0.0))
+        hi, S = reach_range(w0, dw, t0, t1, L1, L2)
         d1, d2 = [speed / (L1 * S)], [speed / (L2 * S)]  # bounds of |A1^(k)|, |A2^(k)|, k = 1, 2, ...
         dg = [speed * np.sqrt(hi) / (L1 * L2 * S)]  # of |g^(k)|
         for k in range(1, 4):  # A^(k+1) from the k-th derivative of L1 A1' sin g = w' . u(A2) (and of A2's)

@@ -10,7 +10,7 @@ rounding (~1e-15 m) at every instant, not only at samples. The other arm holds i
 
 For the timing (:func:`~gpr_kinematics.robot.timing.parameterise`) the path's derivatives are **bounded**, not
 sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed-form bounds of
-:func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds` on the :data:`GRID` - 1 pieces of the line, so a
+:func:`~gpr_kinematics.robot.line_bounds.line_rate_bounds` on the :data:`GRID` - 1 pieces of the line, so a
 profile with ``G1 s' <= v`` keeps every joint within its velocity limit at every instant (what the clearance
 certificate relies on; docs/cell.md, "Straight entries"); ``G2`` and ``G3``, for the acceleration and jerk limits,
 bound ``max |d^2P/ds^2|`` and ``max |d^3P/ds^3|`` likewise, from the exact derivatives at the grid's points and a
@@ -26,8 +26,8 @@ from ..errors import LimitError
 from .description import Arm, RobotDescription
 from .forward import base_pose
 from .inverse import _arm_target, _heading_in, solve_stations
-from .line_bounds import line_derivative_bounds
-from .planar_arm import branch_sign, line_rate_bounds, solve_arm
+from .line_bounds import line_derivative_bounds, line_rate_bounds
+from .planar_arm import branch_sign, solve_arm
 from .stations import Stations
 
 Array = NDArray[np.float64]

@@ -11,7 +11,7 @@ in-plane distance at most ``L_ib`` from that axis (the link lengths from axis ``
 body's reach from that frame, by the triangle inequality, whatever the other joints do) moves by at most ``L_ib``
 times the joint's path length ``V_i``, so ``arm_b = sum_i L_ib V_i``. ``V_i = |D_i| |s1 - s0|`` on a joint-space line
 (``P = P_m + s D``, every joint monotone in ``s``); on a straight entry ``V_i <= |s1 - s0| max |dtheta_i/ds|`` with
-the closed-form bound of :func:`~gpr_kinematics.robot.planar_arm.line_rate_bounds` on ``[s0, s1]``.
+the closed-form bound of :func:`~gpr_kinematics.robot.line_bounds.line_rate_bounds` on ``[s0, s1]``.
 
 **Platform** (:func:`platform_motion`). The joint centres ``P_k = B_k + (q_k + o_k) u_k`` move along the rods; the
 platform is a rigid body whose points at the joint centres have body coordinates ``r_k(X)`` that drift with the
@@ -42,8 +42,8 @@ from ..core.machine import MachineGeometry
 from ..core.virtual_joints import coordinate_scale, make_model
 from ..robot.description import RobotDescription
 from ..robot.forward import arm_transforms, base_pose
+from ..robot.line_bounds import line_rate_bounds
 from ..robot.plan import ProgramPlan, joint_limits, line_moves, plan_samples
-from ..robot.planar_arm import line_rate_bounds
 from ..robot.timing import evaluate, locate, sample_at
 from ..robot.transforms import PoseBatch
 from .bodies import Body
