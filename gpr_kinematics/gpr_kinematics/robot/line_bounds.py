@@ -106,8 +106,8 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
     """Bounds ``(G2, G3)`` ``(n,)`` of ``max |d^2 theta_k / ds^2|`` and ``max |d^3 theta_k / ds^3|`` over the line
     whose joint rows ``rows (P, n)`` (``arm``'s joints, solved on the line) are taken at the increasing ``s (P,)``
     spanning it (module docstring): the two-link sub-chain's angles in closed form at :data:`REFINE` points per piece
-    of ``s``, their exact derivatives there, and each piece's bound of the next one. Infinite where the line passes
-    through a stretched or folded posture."""
+    of ``s``, their exact derivatives there, and each piece's bound of the next one for its parts. Infinite where the
+    line passes through a stretched or folded posture."""
     keep, sh, el, wr, L1, L2 = sub_chain(arm, rows)
     n = len(arm.joints)
     w = wr - sh
@@ -135,9 +135,9 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
         gp = a2 - a1
         c1 = (2.0 * L1 * a1 * b1 * cg - L1 * a1 * a1 * sg * gp + 2.0 * L2 * a2 * b2 - b1 * L1 * cg * gp) / (L1 * sg)
         c2 = -(2.0 * L1 * a1 * b1 + 2.0 * L2 * a2 * b2 * cg - L2 * a2 * a2 * sg * gp + b2 * L2 * cg * gp) / (L2 * sg)
-        # Bounds on each piece of t: the least |sin g| and the rates (line_rate_bounds'), then A^(2..4).
-        t0, t1 = t[:-1], t[1:]
-        hi, S = reach_range(w0, dw, t0, t1, L1, L2)
+        # Bounds on each piece of s (so on each of its REFINE parts): the least |sin g| and the rates
+        # (line_rate_bounds'), then A^(2..4).
+        hi, S = reach_range(w0, dw, s[:-1], s[1:], L1, L2)
         d1, d2 = [speed / (L1 * S)], [speed / (L2 * S)]  # bounds of |A1^(k)|, |A2^(k)|, k = 1, 2, ...
         dg = [speed * np.sqrt(hi) / (L1 * L2 * S)]  # of |g^(k)|
         for k in range(1, 4):  # A^(k+1) from the k-th derivative of L1 A1' sin g = w' . u(A2) (and of A2's)
@@ -147,11 +147,15 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
             d1.append((speed * bell(d2, k) / L1 + rest1) / S)
             d2.append((speed * bell(d1[:k], k) / L2 + rest2) / S)
             dg.append(d1[k] + d2[k])
-        exact2 = np.column_stack([b1, b2 - b1, -b2])  # the shoulder turns by A1, the elbow by g, the wrist by -A2
-        exact3 = np.column_stack([c1, c2 - c1, -c2])
-        half = (0.5 * (t1 - t0))[:, None]
-        piece2 = np.maximum(np.abs(exact2[:-1]), np.abs(exact2[1:])) + half * np.column_stack([d1[2], dg[2], d2[2]])
-        piece3 = np.maximum(np.abs(exact3[:-1]), np.abs(exact3[1:])) + half * np.column_stack([d1[3], dg[3], d2[3]])
+        exact2 = np.abs(np.column_stack([b1, b2 - b1, -b2]))  # the shoulder turns by A1, the elbow by g, the
+        exact3 = np.abs(np.column_stack([c1, c2 - c1, -c2]))  # wrist by -A2
+        half = 0.5 * np.diff(s)[:, None] / REFINE
+        pieces = s.shape[0] - 1
+        # On each piece: the largest value at its points (its parts' ends) plus half a part times the next's bound.
+        piece2 = np.maximum(exact2[:-1].reshape(pieces, REFINE, 3).max(axis=1), exact2[REFINE::REFINE]) + \
+            half * np.column_stack([d1[2], dg[2], d2[2]])
+        piece3 = np.maximum(exact3[:-1].reshape(pieces, REFINE, 3).max(axis=1), exact3[REFINE::REFINE]) + \
+            half * np.column_stack([d1[3], dg[3], d2[3]])
     G2, G3 = np.zeros(n), np.zeros(n)
     G2[keep] = np.max(np.where(np.isnan(piece2), np.inf, piece2), axis=0)
     G3[keep] = np.max(np.where(np.isnan(piece3), np.inf, piece3), axis=0)
