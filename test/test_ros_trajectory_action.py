@@ -86,10 +86,17 @@ def test_program_file_goal(client):
 def test_cancel_stops_within_one_sample_period_and_says_where(client):
     from action_msgs.msg import GoalStatus
 
+    from gpr_interfaces.action import RunProgram
     from gpr_interfaces.msg import PlatformState
 
     long = [{'name': 'hold', 'height': 0.35, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': 30.0}]
     states = client.subscribe(PlatformState, 'gpr/platform_state')
+    # Counted on the feedback topic: rclpy's action client drops the feedback it has not taken when the result
+    # arrives (it forgets the goal's callback; a loaded CI run got 47 of 71 through the client): its share is a prefix.
+    topic = f'{NS}/gpr/run_program/_action/feedback'
+    published = client.subscribe(RunProgram.Impl.FeedbackMessage, topic, 10000)
+    assert client.spin_until(lambda: bool(client.node.get_publishers_info_by_topic(topic)), 20), topic
+    client.spin_for(1.0)
     feedback: list = []
     handle = client.send_program(stations=long, feedback=feedback.append)
     assert handle.accepted
@@ -98,15 +105,20 @@ def test_cancel_stops_within_one_sample_period_and_says_where(client):
     client.wait(handle.cancel_goal_async(), 10, 'cancel')
     response = client.wait(handle.get_result_async(), 10, 'result')
     result = response.result
+    k = result.samples_published
+
+    def ours() -> list:
+        return [m.feedback for m in published if bytes(m.goal_id.uuid) == bytes(handle.goal_id.uuid)]
+
     # The result and the feedback of the last samples travel apart: wait for the feedback (none is lost).
-    client.spin_until(lambda: bool(feedback) and feedback[-1].sample_index >= result.samples_published - 1, 10)
+    client.spin_until(lambda: bool(ours()) and ours()[-1].sample_index >= k - 1, 10)
     client.spin_for(0.3)
     assert response.status == GoalStatus.STATUS_CANCELED
     assert not result.success
-    k = result.samples_published
     assert f'cancelled before sample {k} of {result.samples_total}' in result.message
     assert 'at station 0 (hold)' in result.message
-    assert feedback[-1].sample_index == k - 1
+    assert [f.sample_index for f in ours()] == list(range(k))
+    assert feedback == ours()[:len(feedback)]
     # The stream stops within one sample period of the cancel request reaching the node: the samples stamped after
     # the request left this process are the tick in flight, one sample or, on a loaded machine, that tick's catch-up
     # burst (at most CATCH_UP samples, published back to back), and on a loaded machine the tick after it while the
