@@ -28,7 +28,7 @@ from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
 from .machine import Floats3, MachineGeometry
 from .ops import SCALAR
-from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors
+from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors, symmetric_solve3
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
 Centres = tuple[list[float], list[float], list[float]]
@@ -113,7 +113,6 @@ class OnePose:
         x0, x1, x2, y0, y1, y2 = self._rest_xy
         tol, most = cfg.tolerance, cfg.max_iterations
         iterations = 0
-        LL0, LL1, LL2 = L0 * L0, L1 * L1, L2 * L2
         while True:
             e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
             f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
@@ -129,15 +128,9 @@ class OnePose:
             b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
             b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
             b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
-            # symmetric_solve3 of the Gauss-Newton matrix, inline (its operations in its order)
-            g00, g01, g02, g11, g12, g22 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2, \
-                b2 * b2 + a2 * a2
-            f0, f1, f2 = f0 - LL0, f1 - LL1, f2 - LL2
-            c00, c11, c22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
-            c01, c02, c12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
-            inv_det = 1.0 / (g00 * c00 + g01 * c01 + g02 * c02)
-            w0, w1, w2 = ((c00 * f0 + c01 * f1 + c02 * f2) * inv_det, (c01 * f0 + c11 * f1 + c12 * f2) * inv_det,
-                          (c02 * f0 + c12 * f1 + c22 * f2) * inv_det)
+            w0, w1, w2 = cast('Floats3', symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1,
+                                                          b1 * a2, b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1,
+                                                          f2 - L2 * L2))
             l0, l1, l2 = l0 - (b2 * w2 + a0 * w0), l1 - (b0 * w0 + a1 * w1), l2 - (b1 * w1 + a2 * w2)
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
