@@ -149,7 +149,8 @@ class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
 #: Fields of :class:`ForwardBatch` shared by all rows, with one array row per sample, and one scalar per sample.
 _SHARED_FIELDS = ('model', 'virtual_joint_names')
 _SCALAR_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'within_budget', 'iterations', 'residual', 'fit_residual')
-_FLOAT_FIELDS = ('tilt', 'tilt_azimuth', 'twist', 'residual', 'fit_residual')
+#: The float ones among the scalar fields (``within_budget`` is a bool, ``iterations`` an int).
+_FLOAT_FIELDS = tuple(name for name in _SCALAR_FIELDS if name not in ('within_budget', 'iterations'))
 _ROW_FIELDS = tuple(f.name for f in fields(_Forward) if f.name not in _SHARED_FIELDS + _SCALAR_FIELDS)
 _FIELD_NAMES = {f.name for f in fields(_Forward)}
 #: The result of a driver: one pose's, or a batch's.
