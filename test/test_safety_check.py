@@ -358,4 +358,4 @@ def test_the_slip_peak_is_among_the_instants_checked():
     fine = slip_max(np.arange(at - 0.01, at + 0.01, 1e-5))     # 100 kHz about the peak: it converges to it
     assert dense < report.max_slip_ratio and report.max_slip_ratio == pytest.approx(fine, rel=1e-9)
     coarse = slip_max(np.unique(np.concatenate([np.arange(0.0, timing.total, 1 / 200), timing.arrive, timing.depart])))
-    assert coarse < report.max_slip_ratio  # 200 Hz and the waypoints alone miss it
+    assert coarse < report.max_slip_ratio - 1e-3
