@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from .arm_chain import chain_forward
 from .description import Arm
+from .planar_arm import two_link_axes
 
 Array = NDArray[np.float64]
 
@@ -79,8 +80,7 @@ def sub_chain(arm: Arm, rows: Array) -> tuple[list[int], Array, Array, Array, fl
     """The reduced two-link chain of postures ``rows (P, n)``: the joints that move on a line (shoulder, elbow, wrist
     after folding a held joint), their axes ``(P, 2)`` in the mount frame and the two links' lengths [m]."""
     axes, _, _ = chain_forward(arm, rows)
-    n = len(arm.joints)
-    keep = [k for k in range(n) if arm.redundancy is None or n < 4 or k != arm.redundancy.joint][:3]
+    keep = two_link_axes(arm)
     sh, el, wr = (axes[:, k] for k in keep)
     return keep, sh, el, wr, float(np.hypot(*(el[0] - sh[0]))), float(np.hypot(*(wr[0] - el[0])))
 

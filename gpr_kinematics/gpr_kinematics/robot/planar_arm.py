@@ -145,16 +145,19 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
     return OneArm(wrapped, heading, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
+def two_link_axes(arm: Arm) -> list[int]:
+    """The joints whose axes are the shoulder, elbow and wrist of the two-link sub-chain of a 3- or 4-joint arm: all
+    but the held (or swept) joint of a 4-joint arm (module docstring)."""
+    held = arm.redundancy.joint if arm.redundancy is not None else -1
+    return [k for k in range(len(arm.joints)) if k != held][:3]
+
+
 def branch_of(arm: Arm, theta: Array) -> tuple[str, ...]:
     """The branch of each posture ``theta (N, n)``: on which side of the line from the shoulder axis to the wrist
     axis (the wafer centre for 2 joints) the elbow lies, seen from above the platform (module docstring). For a
     4-joint arm the two-link sub-chain is the one left after folding the held (or swept) joint."""
     axes, wafer, _ = chain_forward(arm, theta)
-    if len(arm.joints) == 2:
-        points = [axes[:, 0], axes[:, 1], wafer]
-    else:
-        keep = [k for k in range(len(arm.joints)) if arm.redundancy is None or k != arm.redundancy.joint]
-        points = [axes[:, k] for k in keep[:3]]
+    points = [axes[:, 0], axes[:, 1], wafer] if len(arm.joints) == 2 else [axes[:, k] for k in two_link_axes(arm)]
     u, v = points[1] - points[0], points[2] - points[1]
     cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return tuple('right' if c >= 0.0 else 'left' for c in cross)
