@@ -201,8 +201,9 @@ def test_bad_request_answered_and_node_stays_up(client, node, kind, fields, word
 def test_bad_requests_logged_at_warning(client, node):
     res = _fk(client, [0.5, 0.5, 0.7])
     assert not res.success
-    client.spin_for(0.3)
-    assert '[WARN]' in node.output() and 'forward_kinematics: rejected request' in node.output()
+    assert client.spin_until(lambda: 'forward_kinematics: rejected request' in node.output(), 10), node.output()
+    lines = [line for line in node.output().splitlines() if 'forward_kinematics: rejected request' in line]
+    assert lines and all('[WARN]' in line for line in lines), lines
 
 
 def _set_params(client, node_name, **values):

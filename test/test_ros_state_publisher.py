@@ -71,7 +71,8 @@ def run(ros_environment):
                          azimuth_step=AZ_STEP, wait_for_subscribers=2, wait_all_topics=False, wait_timeout=WAIT)
             assert c.spin_until(lambda: not traj.alive() and len(_by_stamp(tf, states)[0]) >= len(core), 60), \
                 traj.output() + sp.output()
-            c.spin_for(0.6)      # the held state after the last sample, at idle_rate
+            # the held state after the last sample, at idle_rate (waited for: a loaded machine may take a while)
+            assert c.spin_until(lambda: _held_after(tf, states), 10), sp.output()
             # A subscriber that comes late still gets the latched robot_description (transient local).
             description = c.subscribe(String, 'robot_description', latched=True)
             assert c.spin_until(lambda: description, 20), sp.output()
@@ -85,6 +86,12 @@ def run(ros_environment):
 def _stamp(msg):
     t = msg.transforms[0].header.stamp
     return t.sec, t.nanosec
+
+
+def _held_after(tf, states):
+    """The /tf messages of the held state published after the last sample (stamped later than it)."""
+    samples, held = _by_stamp(tf, states)
+    return [m for m in held if samples and _stamp(m) > _stamp(samples[-1])]
 
 
 def _by_stamp(tf, states):

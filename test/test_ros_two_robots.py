@@ -60,7 +60,10 @@ def graph(ros_environment):
                             f'topics of one robot only {_one_sided(topics)}, '
                             f'services of one robot only {_one_sided(services)}\n'
                             + '\n'.join(p.output() for p in procs))
-            c.spin_for(1.0)      # the held states on /tf, at idle_rate
+            # the held states on /tf, at idle_rate: each robot's platform, its arms' links with it
+            platforms = {f'{prefix}gpr_platform' for _, prefix in ROBOTS}
+            assert c.spin_until(lambda: platforms <= {t.child_frame_id for m in tf for t in m.transforms}, 30)
+            c.spin_for(0.5)
             yield {'names': {ns: _names_of(c.node, ns) for ns, _ in ROBOTS},
                    'tf': list(tf), 'static': list(static),
                    'descriptions': {ns: d[0].data for ns, d in descriptions.items()}}
