@@ -22,14 +22,11 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..errors import ConfigError
 from ..inputs.schema import check_keys
 from .fields import _mapping, _number, _vector
-
-if TYPE_CHECKING:
-    from .description import Arm, RobotDescription
 
 SHAPES = ('box', 'cylinder')
 #: Defaults: a 300 mm wafer [m, m, kg], a passive blade's friction coefficient.
@@ -132,37 +129,3 @@ def parse_arm_bodies(links: Any, blade: Mapping[str, Any], where: str) -> ArmBod
                              default=FRICTION, unit=''),
                      _number(blade, 'vacuum', bw, 0.0, 1000.0, 'newtons, 0 (a passive blade) to 1000',
                              default=0.0, unit='N'))
-
-
-def arm_shapes(arm: Arm, wafer: WaferShape) -> tuple[Shape, ...]:
-    """The links', blade's and wafer's bodies of ``arm`` (module docstring)."""
-    b = arm.bodies
-    out = []
-    for frame, joint in zip(arm.link_frames, arm.joints, strict=True):
-        out.append(Shape(frame, 'box', (joint.length + b.width, b.width, b.thickness),
-                         (0.5 * joint.length, 0.0, 0.5 * joint.height)))
-    c = arm.blade.wafer_centre
-    length = b.paddle[0] if b.paddle[0] > 0.0 else math.hypot(c[0], c[1]) + 0.1
-    top = c[2] - 0.5 * wafer.thickness
-    yaw = math.atan2(c[1], c[0])
-    out.append(Shape(arm.blade_frame, 'box', (length, b.paddle[1], b.paddle[2]),
-                     (0.5 * length * math.cos(yaw), 0.5 * length * math.sin(yaw), top - 0.5 * b.paddle[2]),
-                     (0.0, 0.0, yaw)))
-    out.append(Shape(arm.wafer_frame, 'cylinder', (0.5 * wafer.diameter, wafer.thickness)))
-    return tuple(out)
-
-
-def gpr_shapes(bodies: GprBodies) -> tuple[Shape, ...]:
-    """The column on ``gpr_base`` and the platform disc under ``gpr_platform``."""
-    return (Shape('gpr_base', 'cylinder', (bodies.column_radius, bodies.column_height),
-                  (0.0, 0.0, 0.5 * bodies.column_height)),
-            Shape('gpr_platform', 'cylinder', (bodies.platform_radius, bodies.platform_thickness),
-                  (0.0, 0.0, -0.5 * bodies.platform_thickness)))
-
-
-def robot_shapes(robot: RobotDescription) -> tuple[Shape, ...]:
-    """Every body of the robot: the GPR's, then each arm's (links, blade, wafer)."""
-    out = list(gpr_shapes(robot.bodies))
-    for arm in robot.arms:
-        out += arm_shapes(arm, robot.wafer)
-    return tuple(out)

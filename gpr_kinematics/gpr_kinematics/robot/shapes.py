@@ -7,16 +7,24 @@ filled with a material (:data:`DENSITY`), the URDF's ``<inertial>`` where the ro
 a cylinder (radius r, length h along z) ``((3 r^2 + h^2) / 12, (3 r^2 + h^2) / 12, r^2 / 2)``, a sphere ``2 r^2 / 5``;
 the shapes of a link combined about their common centre of mass by the parallel axis theorem
 ``I = sum_i (R_i I_i R_i^T + m_i (|d_i|^2 E - d_i d_i^T))``. SI units (m, kg).
+
+:func:`robot_shapes` places the collision bodies that :mod:`gpr_kinematics.robot.collision` defines in their frames:
+one source for the URDF's ``<collision>`` elements, the clearance check and the markers.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.rotations import rpy_matrix
+from .collision import GprBodies, Shape, WaferShape
+
+if TYPE_CHECKING:
+    from .description import Arm, RobotDescription
 
 #: Density [kg/m^3] of a link's drawn shapes for its default inertia (aluminium), and of the wafer (silicon).
 DENSITY, WAFER_DENSITY = 2700.0, 2330.0
@@ -77,3 +85,37 @@ def default_inertial(visuals: Sequence[Visual]) -> Inertial | None:
     x, y, z = (float(v) for v in centre)
     tensor = tuple(float(inertia[i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
     return Inertial(float(total), (x, y, z), (tensor[0], tensor[1], tensor[2], tensor[3], tensor[4], tensor[5]))
+
+
+def arm_shapes(arm: Arm, wafer: WaferShape) -> tuple[Shape, ...]:
+    """The links', blade's and wafer's bodies of ``arm`` (module docstring)."""
+    b = arm.bodies
+    out = []
+    for frame, joint in zip(arm.link_frames, arm.joints, strict=True):
+        out.append(Shape(frame, 'box', (joint.length + b.width, b.width, b.thickness),
+                         (0.5 * joint.length, 0.0, 0.5 * joint.height)))
+    c = arm.blade.wafer_centre
+    length = b.paddle[0] if b.paddle[0] > 0.0 else math.hypot(c[0], c[1]) + 0.1
+    top = c[2] - 0.5 * wafer.thickness
+    yaw = math.atan2(c[1], c[0])
+    out.append(Shape(arm.blade_frame, 'box', (length, b.paddle[1], b.paddle[2]),
+                     (0.5 * length * math.cos(yaw), 0.5 * length * math.sin(yaw), top - 0.5 * b.paddle[2]),
+                     (0.0, 0.0, yaw)))
+    out.append(Shape(arm.wafer_frame, 'cylinder', (0.5 * wafer.diameter, wafer.thickness)))
+    return tuple(out)
+
+
+def gpr_shapes(bodies: GprBodies) -> tuple[Shape, ...]:
+    """The column on ``gpr_base`` and the platform disc under ``gpr_platform``."""
+    return (Shape('gpr_base', 'cylinder', (bodies.column_radius, bodies.column_height),
+                  (0.0, 0.0, 0.5 * bodies.column_height)),
+            Shape('gpr_platform', 'cylinder', (bodies.platform_radius, bodies.platform_thickness),
+                  (0.0, 0.0, -0.5 * bodies.platform_thickness)))
+
+
+def robot_shapes(robot: RobotDescription) -> tuple[Shape, ...]:
+    """Every body of the robot: the GPR's, then each arm's (links, blade, wafer)."""
+    out = list(gpr_shapes(robot.bodies))
+    for arm in robot.arms:
+        out += arm_shapes(arm, robot.wafer)
+    return tuple(out)

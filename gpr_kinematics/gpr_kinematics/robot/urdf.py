@@ -66,8 +66,7 @@ from ..core.machine import MachineGeometry
 from ..core.messages import ROD_JOINT_NAMES
 from ..core.rotations import quaternion_from_matrix, rpy_matrix
 from ..errors import InputError
-from .collision import robot_shapes
-from .shapes import DENSITY, Inertial, Visual, default_inertial
+from .shapes import DENSITY, Inertial, Visual, default_inertial, robot_shapes
 
 if TYPE_CHECKING:
     from .description import Arm, RobotDescription

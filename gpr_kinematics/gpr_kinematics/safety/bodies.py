@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.rotations import rpy_matrix
-from ..robot.collision import robot_shapes
 from ..robot.description import RobotDescription
+from ..robot.shapes import robot_shapes
 from .cell import Cell
 
 Array = NDArray[np.float64]
@@ -62,7 +62,7 @@ class Body:
 
 
 def robot_body_set(robot: RobotDescription, wafer_windows: dict[str, Windows] | None = None) -> list[Body]:
-    """The robot's bodies (:func:`~gpr_kinematics.robot.collision.robot_shapes`); an arm's wafer exists only in
+    """The robot's bodies (:func:`~gpr_kinematics.robot.shapes.robot_shapes`); an arm's wafer exists only in
     ``wafer_windows[arm]`` (absent: never carried)."""
     out = []
     windows = wafer_windows or {}
