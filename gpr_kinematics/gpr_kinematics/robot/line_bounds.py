@@ -16,7 +16,9 @@ two-link problem of ``w(s)``) at :data:`REFINE` points per piece of the caller's
 theorem from either end), and ``max |f'|`` on the piece is bounded from the piece's least ``|sin g|`` and the rate
 bounds by the Leibniz rule on the first identity, ``sum_i C(k, i) A1^(1+i) (sin g)^(k-i) = w' . u(A2)^(k) / L1``,
 with ``|u(A)^(k)|`` and ``|(sin g)^(k)|`` at most the complete Bell polynomial ``Y_k`` of the bounds of the angle's
-derivatives (Faa di Bruno for ``exp(i A)``). SI units: rad per unit of the line parameter ``s`` and its powers.
+derivatives (Faa di Bruno for ``exp(i A)``). Near a stretched or folded posture that bound is loose: a piece whose
+bound is well above the line's exact values is split and its parts bounded the same way (:data:`TIGHT`). SI units:
+rad per unit of the line parameter ``s`` and its powers.
 """
 from __future__ import annotations
 
@@ -100,27 +102,16 @@ def reach_range(w0: Array, dw: Array, s0: Array, s1: Array, L1: float, L2: float
 #: The derivatives are evaluated exactly at this many points per piece of the caller's grid (the pieces' bounds of
 #: the next derivative then count for 1/32 of the width).
 REFINE = 32
+#: A piece whose bound exceeds the largest exact value of the line by more than ``TIGHT`` is split into ``FINER``
+#: parts, each bounded as the pieces are (its own least ``|sin g|``) from ``PARTS`` points, at most ``ROUNDS`` times:
+#: near a stretched or folded posture a piece's bound of the next derivative is loose.
+TIGHT, FINER, ROUNDS, PARTS = 0.05, 8, 2, 8
 
 
-def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Array]:
-    """Bounds ``(G2, G3)`` ``(n,)`` of ``max |d^2 theta_k / ds^2|`` and ``max |d^3 theta_k / ds^3|`` over the line
-    whose joint rows ``rows (P, n)`` (``arm``'s joints, solved on the line) are taken at the increasing ``s (P,)``
-    spanning it (module docstring): the two-link sub-chain's angles in closed form at :data:`REFINE` points per piece
-    of ``s``, their exact derivatives there, and each piece's bound of the next one for its parts. Infinite where the
-    line passes through a stretched or folded posture."""
-    keep, sh, el, wr, L1, L2 = sub_chain(arm, rows)
-    n = len(arm.joints)
-    w = wr - sh
-    dw = (w[-1] - w[0]) / (s[-1] - s[0])
-    w0 = w[0] - s[0] * dw
-    speed = float(np.hypot(*dw))
-    if speed == 0.0:  # the sub-chain does not move (a line of no length): nor do its joints
-        return np.zeros(n), np.zeros(n)
-    g_rows = np.arctan2(wr[:, 1] - el[:, 1], wr[:, 0] - el[:, 0]) - np.arctan2(el[:, 1] - sh[:, 1],
-                                                                               el[:, 0] - sh[:, 0])
-    branch = 1.0 if np.median(np.sin(g_rows)) >= 0.0 else -1.0
-    t = np.append((s[:-1, None] + np.diff(s)[:, None] * (np.arange(REFINE) / REFINE)).ravel(), s[-1])
-    # The angles at t in closed form (the two-link problem of the target w(t); the branch of the rows).
+def _exact(t: Array, w0: Array, dw: Array, L1: float, L2: float, branch: float) -> tuple[Array, Array]:
+    """The exact ``|d^2/ds^2|`` and ``|d^3/ds^3|`` ``(len(t), 3)`` of the shoulder, elbow and wrist at ``t``: the
+    angles of the two-link problem of ``w(t) = w0 + t dw`` in closed form on the ``branch`` (sign of ``sin g``), then
+    the identities of the module docstring (NaN or infinite at a stretched or folded posture)."""
     wx, wy = w0[0] + t * dw[0], w0[1] + t * dw[1]
     r2 = wx * wx + wy * wy
     cg = np.clip((r2 - L1 * L1 - L2 * L2) / (2.0 * L1 * L2), -1.0, 1.0)
@@ -135,9 +126,22 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
         gp = a2 - a1
         c1 = (2.0 * L1 * a1 * b1 * cg - L1 * a1 * a1 * sg * gp + 2.0 * L2 * a2 * b2 - b1 * L1 * cg * gp) / (L1 * sg)
         c2 = -(2.0 * L1 * a1 * b1 + 2.0 * L2 * a2 * b2 * cg - L2 * a2 * a2 * sg * gp + b2 * L2 * cg * gp) / (L2 * sg)
-        # Bounds on each piece of s (so on each of its REFINE parts): the least |sin g| and the rates
-        # (line_rate_bounds'), then A^(2..4).
-        hi, S = reach_range(w0, dw, s[:-1], s[1:], L1, L2)
+    # the shoulder turns by A1, the elbow by g, the wrist by -A2
+    return np.abs(np.column_stack([b1, b2 - b1, -b2])), np.abs(np.column_stack([c1, c2 - c1, -c2]))
+
+
+def _piece_bounds(w0: Array, dw: Array, L1: float, L2: float, branch: float, a: Array, b: Array, points: int
+                  ) -> tuple[Array, Array, Array, Array]:
+    """On the pieces ``[a, b]`` of the line: bounds ``(K, 3)`` of ``|d^2/ds^2|`` and ``|d^3/ds^3|`` of the shoulder,
+    elbow and wrist (the largest exact value at a piece's ``points + 1`` evenly spaced points plus half a part times
+    the bound of the next derivative on the piece), and the exact values ``(K (points + 1), 3)`` at those points."""
+    K = a.shape[0]
+    t = np.column_stack([a[:, None] + (b - a)[:, None] * (np.arange(points) / points), b]).ravel()
+    exact2, exact3 = _exact(t, w0, dw, L1, L2, branch)
+    speed = float(np.hypot(*dw))
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        # The least |sin g| and the rates on each piece (line_rate_bounds'), then A^(2..4).
+        hi, S = reach_range(w0, dw, a, b, L1, L2)
         d1, d2 = [speed / (L1 * S)], [speed / (L2 * S)]  # bounds of |A1^(k)|, |A2^(k)|, k = 1, 2, ...
         dg = [speed * np.sqrt(hi) / (L1 * L2 * S)]  # of |g^(k)|
         for k in range(1, 4):  # A^(k+1) from the k-th derivative of L1 A1' sin g = w' . u(A2) (and of A2's)
@@ -147,15 +151,47 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
             d1.append((speed * bell(d2, k) / L1 + rest1) / S)
             d2.append((speed * bell(d1[:k], k) / L2 + rest2) / S)
             dg.append(d1[k] + d2[k])
-        exact2 = np.abs(np.column_stack([b1, b2 - b1, -b2]))  # the shoulder turns by A1, the elbow by g, the
-        exact3 = np.abs(np.column_stack([c1, c2 - c1, -c2]))  # wrist by -A2
-        half = 0.5 * np.diff(s)[:, None] / REFINE
-        pieces = s.shape[0] - 1
-        # On each piece: the largest value at its points (its parts' ends) plus half a part times the next's bound.
-        piece2 = np.maximum(exact2[:-1].reshape(pieces, REFINE, 3).max(axis=1), exact2[REFINE::REFINE]) + \
-            half * np.column_stack([d1[2], dg[2], d2[2]])
-        piece3 = np.maximum(exact3[:-1].reshape(pieces, REFINE, 3).max(axis=1), exact3[REFINE::REFINE]) + \
-            half * np.column_stack([d1[3], dg[3], d2[3]])
+        half = 0.5 * (b - a)[:, None] / points
+        piece2 = exact2.reshape(K, points + 1, 3).max(axis=1) + half * np.column_stack([d1[2], dg[2], d2[2]])
+        piece3 = exact3.reshape(K, points + 1, 3).max(axis=1) + half * np.column_stack([d1[3], dg[3], d2[3]])
+    return piece2, piece3, exact2, exact3
+
+
+def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Array]:
+    """Bounds ``(G2, G3)`` ``(n,)`` of ``max |d^2 theta_k / ds^2|`` and ``max |d^3 theta_k / ds^3|`` over the line
+    whose joint rows ``rows (P, n)`` (``arm``'s joints, solved on the line) are taken at the increasing ``s (P,)``
+    spanning it (module docstring): the two-link sub-chain's angles in closed form at :data:`REFINE` points per piece
+    of ``s``, their exact derivatives there, and each piece's bound of the next one for its parts; the pieces whose
+    bound is loose (:data:`TIGHT`) split and bounded again. Infinite where the line passes through a stretched or
+    folded posture."""
+    keep, sh, el, wr, L1, L2 = sub_chain(arm, rows)
+    n = len(arm.joints)
+    w = wr - sh
+    dw = (w[-1] - w[0]) / (s[-1] - s[0])
+    w0 = w[0] - s[0] * dw
+    if float(np.hypot(*dw)) == 0.0:  # the sub-chain does not move (a line of no length): nor do its joints
+        return np.zeros(n), np.zeros(n)
+    g_rows = np.arctan2(wr[:, 1] - el[:, 1], wr[:, 0] - el[:, 0]) - np.arctan2(el[:, 1] - sh[:, 1],
+                                                                               el[:, 0] - sh[:, 0])
+    branch = 1.0 if np.median(np.sin(g_rows)) >= 0.0 else -1.0
+    a, b = s[:-1], s[1:]
+    piece2, piece3, exact2, exact3 = _piece_bounds(w0, dw, L1, L2, branch, a, b, REFINE)
+    low2, low3 = np.nanmax(exact2, axis=0), np.nanmax(exact3, axis=0)  # values of the line: below its maxima
+    for _ in range(ROUNDS):
+        with np.errstate(invalid='ignore'):
+            loose = np.isfinite(piece2).all(axis=1) & np.isfinite(piece3).all(axis=1) & (
+                (piece2 > (1.0 + TIGHT) * low2).any(axis=1) | (piece3 > (1.0 + TIGHT) * low3).any(axis=1))
+        if not loose.any():
+            break
+        edges = a[loose, None] + (b - a)[loose, None] * (np.arange(FINER + 1) / FINER)
+        sub_a, sub_b = edges[:, :-1].ravel(), edges[:, 1:].ravel()
+        sub2, sub3, e2, e3 = _piece_bounds(w0, dw, L1, L2, branch, sub_a, sub_b, PARTS)
+        low2, low3 = np.fmax(low2, np.nanmax(e2, axis=0)), np.fmax(low3, np.nanmax(e3, axis=0))
+        # A part keeps the lesser of its own bound and its piece's (both bound it); the tight pieces stay as they are.
+        sub2 = np.fmin(sub2, np.repeat(piece2[loose], FINER, axis=0))
+        sub3 = np.fmin(sub3, np.repeat(piece3[loose], FINER, axis=0))
+        a, b = np.concatenate([a[~loose], sub_a]), np.concatenate([b[~loose], sub_b])
+        piece2, piece3 = np.vstack([piece2[~loose], sub2]), np.vstack([piece3[~loose], sub3])
     G2, G3 = np.zeros(n), np.zeros(n)
     G2[keep] = np.max(np.where(np.isnan(piece2), np.inf, piece2), axis=0)
     G3[keep] = np.max(np.where(np.isnan(piece3), np.inf, piece3), axis=0)
