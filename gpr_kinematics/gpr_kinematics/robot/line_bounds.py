@@ -176,7 +176,7 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
     branch = 1.0 if np.median(np.sin(g_rows)) >= 0.0 else -1.0
     a, b = s[:-1], s[1:]
     piece2, piece3, exact2, exact3 = _piece_bounds(w0, dw, L1, L2, branch, a, b, REFINE)
-    low2, low3 = np.nanmax(exact2, axis=0), np.nanmax(exact3, axis=0)  # values of the line: below its maxima
+    low2, low3 = np.fmax.reduce(exact2), np.fmax.reduce(exact3)  # values of the line (NaN left out): below its maxima
     for _ in range(ROUNDS):
         with np.errstate(invalid='ignore'):
             loose = np.isfinite(piece2).all(axis=1) & np.isfinite(piece3).all(axis=1) & (
@@ -186,7 +186,7 @@ def line_derivative_bounds(arm: Arm, rows: Array, s: Array) -> tuple[Array, Arra
         edges = a[loose, None] + (b - a)[loose, None] * (np.arange(FINER + 1) / FINER)
         sub_a, sub_b = edges[:, :-1].ravel(), edges[:, 1:].ravel()
         sub2, sub3, e2, e3 = _piece_bounds(w0, dw, L1, L2, branch, sub_a, sub_b, PARTS)
-        low2, low3 = np.fmax(low2, np.nanmax(e2, axis=0)), np.fmax(low3, np.nanmax(e3, axis=0))
+        low2, low3 = np.fmax(low2, np.fmax.reduce(e2)), np.fmax(low3, np.fmax.reduce(e3))
         # A part keeps the lesser of its own bound and its piece's (both bound it); the tight pieces stay as they are.
         sub2 = np.fmin(sub2, np.repeat(piece2[loose], FINER, axis=0))
         sub3 = np.fmin(sub3, np.repeat(piece3[loose], FINER, axis=0))
