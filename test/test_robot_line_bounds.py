@@ -59,7 +59,7 @@ def test_line_derivative_bounds_hold_and_are_close(held):
         assert np.max(G2) < 1.25 * np.max(d2) and np.max(G3) < 1.2 * np.max(d3)
 
 
-def test_loose_pieces_evaluated_again_only_lower_the_bounds(monkeypatch):
+def test_splitting_the_loose_pieces_only_lowers_the_bounds(monkeypatch):
     """Splitting the loose pieces never raises a bound (each part keeps the lesser of its own and its piece's) and
     brings the loosest of the random lines above, near a stretched arm, from 5.3x its true jerk maximum to within
     1.2x of it; a line whose bounds are within 1.5 % of the differences (so every piece within ``TIGHT`` of the exact

@@ -14,7 +14,8 @@ sampled: ``G1 = max |dP/ds|`` over the line is at most the largest of the closed
 profile with ``G1 s' <= v`` keeps every joint within its velocity limit at every instant (what the clearance
 certificate relies on; docs/cell.md, "Straight entries"); ``G2`` and ``G3``, for the acceleration and jerk limits,
 bound ``max |d^2P/ds^2|`` and ``max |d^3P/ds^3|`` likewise, from the exact derivatives at 32 points per piece and
-a bound of the next derivative on each piece (:func:`~gpr_kinematics.robot.line_bounds.line_derivative_bounds`).
+a bound of the next derivative on each piece, the loose pieces split
+(:func:`~gpr_kinematics.robot.line_bounds.line_derivative_bounds`).
 """
 from __future__ import annotations
 

@@ -88,7 +88,7 @@ def default_inertial(visuals: Sequence[Visual]) -> Inertial | None:
 
 
 def arm_shapes(arm: Arm, wafer: WaferShape) -> tuple[Shape, ...]:
-    """The links', blade's and wafer's bodies of ``arm`` (module docstring)."""
+    """The links', blade's and wafer's bodies of ``arm`` (:mod:`gpr_kinematics.robot.collision` describes them)."""
     b = arm.bodies
     out = []
     for frame, joint in zip(arm.link_frames, arm.joints, strict=True):
