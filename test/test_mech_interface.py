@@ -5,6 +5,7 @@ import zlib
 
 import numpy as np
 import pytest
+from gpr_kinematics.errors import InputError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import MECHANISM_TYPES, load_mechanism
 
@@ -99,10 +100,32 @@ def test_conditioning_where_a_leg_has_zero_length_is_singular_not_an_error():
     assert tripod.condition_number(poses)[0] == np.inf and tripod.is_singular(poses).tolist() == [True, False]
 
 
-def test_accuracy_where_the_jacobian_is_singular_to_rounding_names_the_pose():
-    from gpr_kinematics.errors import SingularityError
+def test_accuracy_of_a_pose_whose_joints_leave_the_bound_names_the_pose():
+    """1000 km up the legs are 1e6 m long: with their errors beyond the bound of any value, named for the pose the
+    user gave (before any solve, so the same on every CPU: whether ``dq/du`` there is singular to rounding is not)."""
     from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
 
     stewart = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
-    with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 1000000.0'):
+    with pytest.raises(InputError, match=r'at the pose \[0.0, 0.0, 1000000.0, 0.0, 0.0, 0.0\] the joint values with '
+                                         r'their errors reach 1000000.0000\d*; allowed: poses whose joint values stay '
+                                         r'within \+-1e\+06 \(SI\)'):
         accuracy_analysis(stewart, [0, 0, 1e6, 0, 0, 0], joint_errors=[1e-5] * 6)
+    assert accuracy_analysis(stewart, [0, 0, 0.5, 0, 0, 0], joint_errors=[1e-5] * 6).exact.shape == (1, 6)
+
+
+def test_accuracy_where_the_jacobian_is_singular_to_rounding_names_the_pose(monkeypatch):
+    """A ``dq/du`` that passes the conditioning check yet that LAPACK finds singular (it depends on the CPU's
+    rounding: forced here) is a :class:`SingularityError` naming the pose."""
+    from gpr_kinematics.errors import SingularityError
+    from gpr_kinematics.mechanisms.accuracy import linearized_deviation
+
+    stewart = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
+    pose = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0]
+    assert np.all(np.isfinite(linearized_deviation(stewart, pose, [1e-5] * 6)))
+
+    def singular(*_):
+        raise np.linalg.LinAlgError('Singular matrix')
+
+    monkeypatch.setattr(np.linalg, 'solve', singular)
+    with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 0.5, '):
+        linearized_deviation(stewart, pose, [1e-5] * 6)

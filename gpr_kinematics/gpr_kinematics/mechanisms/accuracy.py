@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, SingularityError, brief
+from ..inputs.validation import MAX_COORDINATE
 from .base import Mechanism, as_poses, rotation_vector
 
 #: Inverse condition number of dq/du below which the linearisation is refused.
@@ -164,7 +165,7 @@ def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
         if J.shape[1] == J.shape[2]:
             return np.linalg.solve(J, rhs[..., None])[..., 0]
         return np.asarray(np.linalg.pinv(J) @ rhs[..., None])[..., 0]
-    except np.linalg.LinAlgError:  # conditioned within the tolerance, yet singular to rounding (e.g. 1000 km away)
+    except np.linalg.LinAlgError:  # conditioned within the tolerance, yet singular to rounding (CPU-dependent)
         raise SingularityError(f'{mech.name}: dq/du is singular to rounding at a pose of {brief(arr.tolist())}; the '
                                'pose deviation is unbounded there') from None
 
@@ -192,6 +193,10 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
 
     ``joint_errors``: ``(n,)`` or ``(N, n)`` actuator errors / leg deformations (m or rad).
     ``parameter_errors``: mapping parameter name -> error array (see ``mech.parameters()``), SI.
+
+    Raises:
+        SingularityError: a singular pose. InputError: a pose whose joint values with their errors leave
+            +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (the exact solve would refuse them).
     """
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
@@ -199,6 +204,11 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     dp = _parameter_errors(mech, parameter_errors)
     cond = _check_regular(mech, arr)
     q = mech.inverse_kinematics(arr)
+    reach = np.max(np.abs(q + ds), axis=-1)
+    if not np.all(reach <= MAX_COORDINATE):  # the exact solve would refuse joint values the user never gave
+        k = int(np.argmax(~(reach <= MAX_COORDINATE)))
+        raise InputError(f'{mech.name}: at the pose {brief(arr[k].tolist())} the joint values with their errors reach '
+                         f'{reach[k]:.17g}; allowed: poses whose joint values stay within +-{MAX_COORDINATE:g} (SI)')
     lin = linearized_deviation(mech, arr, ds, dp)
     if dp:
         nominal = mech.parameters()
