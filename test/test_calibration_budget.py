@@ -286,3 +286,8 @@ def test_percentiles_may_be_any_sequence_of_numbers():
     assert budget.percentiles == (50.0, 95.0)
     with pytest.raises(InputError, match=r'percentiles \[101, 101, .*; allowed: numbers from 0 to 100'):
         accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], table, samples=10, percentiles=[101] * 100_000)
+
+
+def test_core_model_of_something_else_than_a_config_names_it():
+    with pytest.raises(InputError, match=r"config = None; allowed: a GprConfig \(load_config, default_config\)"):
+        CoreModel(None)  # type: ignore[arg-type]

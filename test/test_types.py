@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from gpr_kinematics.cli.output import emit_json, json_object, jsonable
 from gpr_kinematics.core.mobility import analyze_mobility, rod_change
+from gpr_kinematics.errors import InputError
 from gpr_kinematics.mechanisms import load_mechanism
 from gpr_kinematics.mechanisms.pose_analysis import analyse_pose
 from gpr_kinematics.robot.forward import robot_forward
@@ -224,3 +225,8 @@ def test_rod_change_says_why_there_is_no_full_solve():
     change = rod_change(res, [0.01, -0.01, 0.0])  # 20 mm across the joint circle tilts far beyond 2 deg
     assert change.norm_dx_full is None and 'tilt' in change.full_solve_refused
     assert change.norm_dx == 0.0  # the singular configuration: the first order vanishes (eq. 3)
+
+
+def test_rod_change_of_something_else_than_a_mobility_result_names_it():
+    with pytest.raises(InputError, match=r"result = None; allowed: a MobilityResult \(analyze_mobility\)"):
+        rod_change(None, [1e-4, 0.0, 0.0])  # type: ignore[arg-type]

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
-from ..errors import InputError
+from ..errors import InputError, brief
 from .files import comment_lines, write_text
 from .measurements import Measurements
 from .model import Parameter, ParameterSet, coordinate_of
@@ -78,6 +78,8 @@ class CoreModel:
 
     def __init__(self, config: GprConfig, model: str | None = None,
                  scales: Mapping[str, float] | None = None) -> None:
+        if not isinstance(config, GprConfig):
+            raise InputError(f'config = {brief(config)}; allowed: a GprConfig (load_config, default_config)')
         self.config = config
         self.model = MODEL if model in (None, '') else str(model)
         self._parameters = geometry_parameters(config, scales)

@@ -161,8 +161,11 @@ def rod_change(result: MobilityResult, dq: ArrayLike, config: GprConfig | None =
     """:class:`RodChange` of ``dq`` (3 values [m]) at the configuration of ``result`` on the machine ``config``.
 
     Raises:
-        InputError, LimitError: as :meth:`MobilityResult.dx_bounds` (a ``dq`` that leaves the stroke).
+        InputError: ``result`` not a :class:`MobilityResult`; as :meth:`MobilityResult.dx_bounds`.
+        LimitError: as :meth:`MobilityResult.dx_bounds` (a ``dq`` that leaves the stroke).
     """
+    if not isinstance(result, MobilityResult):
+        raise InputError(f'result = {brief(result)}; allowed: a MobilityResult (analyze_mobility)')
     first = result.dx_bounds(result.rod_perturbation(dq))
     d = np.asarray(dq, dtype=float)
     full: float | None = None
