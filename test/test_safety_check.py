@@ -359,3 +359,43 @@ def test_the_slip_peak_is_among_the_instants_checked():
     assert dense < report.max_slip_ratio and report.max_slip_ratio == pytest.approx(fine, rel=1e-9)
     coarse = slip_max(np.unique(np.concatenate([np.arange(0.0, timing.total, 1 / 200), timing.arrive, timing.depart])))
     assert coarse < report.max_slip_ratio - 1e-3
+
+
+def test_on_a_straight_entry_the_slip_ratio_peaks_at_the_corners():
+    """A straight entry translates the wafer with its orientation fixed and ``a = (p_1 - p_0) s''``: the slip ratio is
+    a quasi-convex function of ``s''`` alone, whose extremes lie on the S-curve's corners, so the largest ratio among
+    the corners (evaluated by the check) is the move's largest: 2 kHz sampling finds no more (the plateau's value to
+    the central differences' rounding), ordered by ``s''`` the samples peak at its smallest or largest value, and the
+    wafer's acceleration is along the line."""
+    from gpr_kinematics.robot.timing import evaluate, locate
+    from gpr_kinematics.safety.check import _slip_times
+    from gpr_kinematics.safety.slip import slip_series, wafer_path
+
+    timing = PLAN.timing
+    corners = timing.corners()
+    assert np.all(np.isin(corners, _slip_times(PLAN)))  # the check evaluates every corner
+    carried = wafer_plan(PLAN).carried
+    entries = 0
+    for k in np.flatnonzero(timing.duration > 0.0):
+        t0, t1 = timing.depart[k], timing.arrive[k + 1]
+        arm = next((a for a, windows in carried.items() if any(w0 <= t0 and t1 <= w1 for w0, w1 in windows)), None)
+        if PLAN.waypoints.path[k + 1] != 'line' or arm is None:
+            continue
+        entries += 1
+        at = corners[(corners >= t0) & (corners <= t1)]
+        dense = np.linspace(t0, t1, int((t1 - t0) * 2000))
+
+        def ratio(times, arm=arm):
+            return slip_series(PLAN, times, np.full(times.shape, arm, dtype=object))
+
+        at_corners, sampled = ratio(at), ratio(dense)
+        assert np.max(sampled.ratio) <= np.max(at_corners.ratio) * (1.0 + 1e-9)
+        # the ratio depends on s'' only, and its largest value lies at the smallest or the largest s''
+        _, _, m, tau = locate(timing, dense)
+        r = sampled.ratio[np.argsort(evaluate(timing.profiles, m, tau)[2])]
+        assert np.max(r) <= max(r[0], r[-1]) * (1.0 + 1e-9)
+        ends = wafer_path(PLAN, arm, int(k), np.array([0.0, 1.0]))
+        d, a = ends[1] - ends[0], sampled.acceleration   # a = d s'': along the line
+        across = np.linalg.norm(np.cross(a, d), axis=1)
+        assert np.max(across) <= 1e-9 * np.linalg.norm(d) * np.max(np.linalg.norm(a, axis=1))
+    assert entries == 4  # into and out of pm1 and pm2 with a wafer

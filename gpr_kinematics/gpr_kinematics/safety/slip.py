@@ -11,7 +11,9 @@ tangential part ``f_t = |f - f_n n|`` must be held by static friction: the **sli
 denominator (the wafer lifted off the paddle) is an infinite ratio. Gravity alone on a blade tilted by ``alpha``
 gives ``tan(alpha) / mu`` (0.035 g along the blade at 2 degrees). ``a`` comes from the path: on a joint-space line
 ``a = dp/ds s'' + d^2p/ds^2 s'^2`` (the path derivatives by central differences of the exact forward kinematics in
-``s``), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''`` from the S-curve.
+``s``), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''`` from the S-curve. There, with the
+orientation fixed, the ratio is a quasi-convex function of ``s''`` alone: its largest value over the move lies on one of
+the S-curve's corners (docs/cell.md), which the check evaluates; on joint-space moves it is sampled.
 """
 from __future__ import annotations
 
