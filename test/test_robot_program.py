@@ -98,7 +98,10 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': [{'move': 'a', 'time': 0}]}, r'steps\[0\]: time = 0 is invalid; allowed: seconds, > 0'),
     ({'steps': [{'move': 'a', 'dwell': -1}]}, r'dwell = -1 is invalid; allowed: seconds, >= 0'),
     ({'steps': [{'move': 'a', 'dwell': float('nan')}]}, r'dwell = nan is invalid'),
-    ({'steps': [{'move': 'a', 'arm': 3}]}, r'steps\[0\]: arm = 3 is invalid; allowed: a name'),
+    ({'steps': [{'move': 'a', 'arm': 3}]}, r'steps\[0\]: arm = 3 is invalid \(YAML read it as a number: quote the '
+                                            r'name to keep it as written\); allowed: a name'),
+    ({'steps': [{'move': True}]}, r'steps\[0\]: move True: no such station \(YAML reads true and false as booleans: '
+                                  r'quote the name\); allowed: a, b'),
     ({'defaults': {'approach_height': 0.5}}, r'defaults: approach_height = 0.5 is invalid; allowed: 0 to 0.1 m'),
     ({'defaults': {'speed': 1}}, r'defaults: unknown key\(s\) speed'),
     ({'defaults': [1]}, r'defaults must be a mapping'),

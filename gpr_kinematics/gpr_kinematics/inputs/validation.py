@@ -22,6 +22,19 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 MAX_COORDINATE = 1e6
 
 
+def text_hint(value: Any) -> str:
+    """For a name that a YAML file gave as something else than text: how to keep it as written (else '').
+
+    >>> text_hint(False)
+    ' (YAML reads true and false as booleans: quote the name)'
+    """
+    if isinstance(value, bool):
+        return ' (YAML reads true and false as booleans: quote the name)'
+    if isinstance(value, (int, float)):
+        return ' (YAML read it as a number: quote the name to keep it as written)'
+    return ''
+
+
 def plain_number(value: Any) -> float:
     """``value`` as a float where it is a Python or numpy int or float (a bool is not; an int too large for a float
     is infinite), else NaN: for range checks that name the value as given."""

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
+from ..inputs.validation import text_hint
 from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
@@ -200,7 +201,7 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
 def _optional_text(data: Mapping[str, Any], key: str, where: str) -> str | None:
     value = data.get(key)
     if value is not None and not isinstance(value, str):
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a name')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid{text_hint(value)}; allowed: a name')
     return value
 
 
@@ -227,7 +228,8 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         station = st[kind]
         if not isinstance(station, (str, int)) or str(station) not in names:
             known = ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
-            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station; allowed: {known}')
+            hint = text_hint(station) if isinstance(station, bool) else ''
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{hint}; allowed: {known}')
         time = st.get('time')
         out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
                         _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None,

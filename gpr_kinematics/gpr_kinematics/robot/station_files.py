@@ -39,7 +39,7 @@ from ..inputs import units
 from ..inputs.files import read_text
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
-from ..inputs.validation import MAX_COORDINATE
+from ..inputs.validation import MAX_COORDINATE, text_hint
 from .description import BRANCHES
 from .stations import Stations
 
@@ -135,7 +135,8 @@ def _number(value: Any, where: str, key: str, unit: str) -> float:
 
 def _name(value: Any, where: str) -> str:
     if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.match(str(value)):
-        raise ConfigError(f'{where}: name = {brief(value)} is invalid; allowed: 1 to 64 letters, digits, _ . -')
+        hint = text_hint(value) if isinstance(value, bool) else ''
+        raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: 1 to 64 letters, digits, _ . -')
     return str(value)
 
 

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
+from ..inputs.validation import text_hint
 from ..robot.station_files import units_of
 
 Array = NDArray[np.float64]
@@ -141,7 +142,8 @@ def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle
     check_keys(ob, _OBSTACLE_KEYS, where)
     name = ob.get('name')
     if not isinstance(name, str) or not 0 < len(name) <= 64 or not name.replace('_', '').replace('-', '').isalnum():
-        raise ConfigError(f'{where}: name = {brief(name)} is invalid; allowed: 1 to 64 letters, digits, _ and -')
+        raise ConfigError(f'{where}: name = {brief(name)} is invalid{text_hint(name)}; allowed: 1 to 64 letters, '
+                          'digits, _ and -')
     where = f'{where} ({name})'
     shapes = [k for k in _SHAPES if k in ob]
     if len(shapes) != 1:
