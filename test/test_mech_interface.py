@@ -101,14 +101,14 @@ def test_conditioning_where_a_leg_has_zero_length_is_singular_not_an_error():
 
 
 def test_accuracy_of_a_pose_whose_joints_leave_the_bound_names_the_pose():
-    """1000 km up the legs are 1e6 m long: with their errors beyond the bound of any value, named for the pose the
-    user gave (before any solve, so the same on every CPU: whether ``dq/du`` there is singular to rounding is not)."""
+    """1000 km up the legs are longer than the bound of any value: the pose the user gave is named, before any solve
+    (so the same on every CPU: whether ``dq/du`` there is singular to rounding is not)."""
     from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
 
     stewart = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
-    with pytest.raises(InputError, match=r'at the pose \[0.0, 0.0, 1000000.0, 0.0, 0.0, 0.0\] the joint values with '
-                                         r'their errors reach 1000000.0000\d*; allowed: poses whose joint values stay '
-                                         r'within \+-1e\+06 \(SI\)'):
+    with pytest.raises(InputError, match=r'the pose \[0.0, 0.0, 1000000.0, 0.0, 0.0, 0.0\] needs joint values of '
+                                         r'1000000.0000\d*; allowed: poses whose joint values stay within '
+                                         r'\+-1e\+06 \(SI\)'):
         accuracy_analysis(stewart, [0, 0, 1e6, 0, 0, 0], joint_errors=[1e-5] * 6)
     assert accuracy_analysis(stewart, [0, 0, 0.5, 0, 0, 0], joint_errors=[1e-5] * 6).exact.shape == (1, 6)
 

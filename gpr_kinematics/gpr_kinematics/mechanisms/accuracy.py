@@ -195,8 +195,9 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     ``parameter_errors``: mapping parameter name -> error array (see ``mech.parameters()``), SI.
 
     Raises:
-        SingularityError: a singular pose. InputError: a pose whose joint values with their errors leave
-            +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (the exact solve would refuse them).
+        SingularityError: a singular pose. InputError: a pose whose joint values leave
+            +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (no solve takes them); errors that take them
+            beyond it (named by the exact solve).
     """
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
@@ -204,11 +205,11 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     dp = _parameter_errors(mech, parameter_errors)
     cond = _check_regular(mech, arr)
     q = mech.inverse_kinematics(arr)
-    reach = np.max(np.abs(q + ds), axis=-1)
-    if not np.all(reach <= MAX_COORDINATE):  # the exact solve would refuse joint values the user never gave
+    reach = np.max(np.abs(q), axis=-1)
+    if not np.all(reach <= MAX_COORDINATE):  # no solve takes them (too large errors are named by the exact solve)
         k = int(np.argmax(~(reach <= MAX_COORDINATE)))
-        raise InputError(f'{mech.name}: at the pose {brief(arr[k].tolist())} the joint values with their errors reach '
-                         f'{reach[k]:.17g}; allowed: poses whose joint values stay within +-{MAX_COORDINATE:g} (SI)')
+        raise InputError(f'{mech.name}: the pose {brief(arr[k].tolist())} needs joint values of {reach[k]:.17g}; '
+                         f'allowed: poses whose joint values stay within +-{MAX_COORDINATE:g} (SI)')
     lin = linearized_deviation(mech, arr, ds, dp)
     if dp:
         nominal = mech.parameters()
