@@ -146,3 +146,18 @@ def test_program_names_its_cell_relative_to_itself(tmp_path):
     assert res.returncode == 2 and 'cells/none.yaml' in res.stderr and res.stderr.count('\n') == 1, res.stderr
     with pytest.raises(json.JSONDecodeError):
         json.loads(res.stdout)
+
+
+def test_a_cell_in_another_frame_than_the_robots_world_is_refused(tmp_path):
+    """Obstacles are placed in the robot description's world frame; a cell given in another frame (``gpr_base``,
+    0.75 m / 0.5 m off in the example) or a misspelt one would be checked off by that offset, so it is refused."""
+    text = config_path('cells/example_cell.yaml').read_text()
+    assert text.count('\nframe: world ') == 1
+    for frame in ('gpr_base', 'wrld'):
+        (tmp_path / f'{frame}.yaml').write_text(text.replace('\nframe: world ', f'\nframe: {frame} '))
+        res = _gpr('program', 'check', str(PROGRAM), '--cell', f'{frame}.yaml', cwd=tmp_path)
+        assert res.returncode == 2 and res.stdout == '' and res.stderr.count('\n') == 1, res.stderr
+        assert f"frame = '{frame}'" in res.stderr and "allowed: 'world'" in res.stderr, res.stderr
+    assert load_cell(config_path('cells/example_cell.yaml')).in_frame('world').frame == 'world'
+    with pytest.raises(ConfigError, match=r"frame = 'world', but the robot description places the robot in 'map'"):
+        load_cell(config_path('cells/example_cell.yaml')).in_frame('map')

@@ -308,3 +308,10 @@ def test_bad_settings_are_refused():
         GoalClearance(ROBOT, cell, wafer_arms=('arm3',))
     with pytest.raises(InputError, match=r'margin = nan is invalid'):
         GoalClearance(ROBOT, cell, float('nan'))
+
+
+def test_a_cell_in_another_frame_is_refused_by_the_goal_check():
+    cell = _cell((0.1, 0.1, 0.1), (5.0, 5.0, 0.5))
+    other = type(cell)(cell.obstacles, 'gpr_base', 'cell.yaml')
+    with pytest.raises(ConfigError, match=r"cell\.yaml: frame = 'gpr_base'.*allowed: 'world'"):
+        GoalClearance(ROBOT, other)

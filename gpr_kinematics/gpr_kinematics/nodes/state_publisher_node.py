@@ -95,7 +95,7 @@ class StatePublisherNode(GprNode):
         static = [_stamped(now, j.parent, j.child, *self.model.transform(j.name))
                   for j in self.model.joints if j.kind == 'fixed']
         self.pub_static.publish(TFMessage(transforms=static))
-        self.cell = load_cell(p['cell_file']) if p['cell_file'] else None
+        self.cell = load_cell(p['cell_file']).in_frame(robot.world_frame) if p['cell_file'] else None
         if self.cell is not None:
             self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), 'gpr/cell',
                                                   latched_qos())

@@ -4,7 +4,7 @@ File format (``config/cells/example_cell.yaml`` is a commented example)::
 
     format: gpr_cell
     version: 1
-    frame: world                       # the robot description's world frame
+    frame: world                       # the robot description's world frame (base.frame); no other
     units: {length: mm, angle: deg}    # optional: m and rad by default
     obstacles:
       - {name: pm1_slit_top, box: [0.40, 0.05, 0.30], position: [1.25, 1.05, 0.50], rpy: [0, 0, 0.52]}
@@ -74,6 +74,15 @@ class Cell:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(o.name for o in self.obstacles)
+
+    def in_frame(self, world: str) -> Cell:
+        """This cell, if its obstacles are given in ``world`` (the robot description's world frame, in which the
+        checks place the robot); a :class:`~gpr_kinematics.errors.ConfigError` naming both frames otherwise (the
+        obstacles are not transformed: a cell in another frame would be checked off by that frame's offset)."""
+        if self.frame != world:
+            raise ConfigError(f'{self.source}: frame = {self.frame!r}, but the robot description places the robot in '
+                              f'{world!r}; allowed: {world!r} (the obstacles in the robot\'s world frame)')
+        return self
 
 
 def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, scale: float = 1.0) -> float:

@@ -151,7 +151,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     wafers = wafer_plan(plan)
     robot = plan.robot
     bodies = robot_body_set(robot, wafers.carried)
-    bodies += cell_bodies(cell)
+    bodies += cell_bodies(None if cell is None else cell.in_frame(robot.world_frame))
     index = plan.program.stations.index()
     st = plan.program.stations.stations
     for name, windows in wafers.stations:

@@ -48,7 +48,7 @@ class GoalClearance:
                 raise ConfigError(f'wafer_arms: unknown arm {arm!r}; allowed: some of '
                                   f'{", ".join(self.robot.arm_names)}, or none')
         bodies = robot_body_set(self.robot, {a: ((0.0, math.inf),) for a in self.wafer_arms})
-        bodies += cell_bodies(self.cell)
+        bodies += cell_bodies(self.cell.in_frame(self.robot.world_frame))
         object.__setattr__(self, 'bodies', tuple(bodies))
         object.__setattr__(self, 'pairs', tuple((i, j, ()) for i, j in default_pairs(bodies)))
 
