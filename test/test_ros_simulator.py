@@ -226,6 +226,79 @@ def test_idle_simulator_follows_another_publisher(sim):
     c.node.destroy_publisher(pub)
 
 
+def test_joint_states_beyond_the_limits_are_ignored_with_a_warning(sim):
+    """Another publisher cannot put the simulator where no goal can start: values beyond a joint's limits, or rods
+    that tilt the platform beyond its limit, are ignored (with a warning); a good goal runs afterwards."""
+    from action_msgs.msg import GoalStatus
+    from sensor_msgs.msg import JointState
+
+    c, cli, states, proc = sim
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+    before = {n: _held(c, states, n) for n in ('rod_1', 'rod_2', 'arm1_elbow')}
+    for names, values in ((['rod_1', 'arm1_elbow'], [1e300, 50.0]), (['rod_1', 'rod_2'], [0.0, 0.508]),
+                          (['arm1_elbow'], [50.0])):
+        msg = JointState(name=names, position=values)
+        msg.header.stamp = c.node.get_clock().now().to_msg()
+        pub.publish(msg)
+        c.spin_for(0.3)
+        assert {n: _held(c, states, n) for n in before} == before
+    wait_for_log(proc, r'joint_states of another publisher ignored: .*allowed: values within the joints. limits')
+    c.node.destroy_publisher(pub)
+    result, status = _run(c, cli, _goal(['arm1_shoulder'], [0.5], [[_held(c, states, 'arm1_shoulder') + 0.1]]))
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+
+
+def test_a_refused_goal_does_not_preempt_the_running_one(sim):
+    """As joint_trajectory_controller: a goal is checked before it preempts; one refused leaves the motion as it
+    was (it stopped the running goal before)."""
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    start_value = _held(c, states, 'arm1_elbow')
+    target = start_value + 0.5 if start_value + 0.5 < JOINTS.upper[JOINTS.names.index('arm1_elbow')] \
+        else start_value - 0.5
+    first = c.wait(cli.send_goal_async(_goal(['arm1_elbow'], [1.5], [[target]])), 20, 'goal')
+    assert first.accepted
+    c.spin_for(0.4)
+    result, status = _run(c, cli, _goal(['nope'], [0.5], [[0.0]]))
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == -2, result.error_string
+    res = c.wait(first.get_result_async(), 20, 'result')
+    assert res.status == GoalStatus.STATUS_SUCCEEDED and 'reached the last point' in res.result.error_string, \
+        res.result.error_string
+    assert _held(c, states, 'arm1_elbow') == target
+
+
+def test_a_burst_of_goals_is_answered_every_one(sim):
+    """The goal service keeps every request (rclpy's default kept the last 10: 13 of 30 were answered)."""
+    c, cli, _, _ = sim
+    futures = [cli.send_goal_async(_goal(['nope'], [0.5], [[0.0]])) for _ in range(30)]
+    assert c.spin_until(lambda: all(f.done() for f in futures), 60), sum(f.done() for f in futures)
+    results = [c.wait(f.result().get_result_async(), 20, 'result') for f in futures]
+    assert all(r.result.error_code == -2 for r in results)
+
+
+def _rss_mb(pid: int) -> float:
+    with open(f'/proc/{pid}/status') as f:
+        return next(int(line.split()[1]) for line in f if line.startswith('VmRSS:')) / 1024
+
+
+@pytest.mark.slow
+def test_refused_large_goals_do_not_pile_up_in_memory(sim):
+    """rclpy keeps a goal handle, and with it the request, for result_timeout after the goal ends (900 s by
+    default): four refused goals of 120,000 points each kept about 60 MB each. The node drops the request once read,
+    so the memory of one is reused by the next."""
+    c, cli, _, proc = sim
+    big = _goal(['nope'], np.arange(1, 120_001) * 1e-3, np.zeros((120_000, 1)))
+    rss = []
+    for _ in range(4):
+        handle = c.wait(cli.send_goal_async(big), 120, 'goal')
+        res = c.wait(handle.get_result_async(), 120, 'result')
+        assert res.result.error_code == -2, res.result.error_string
+        c.spin_for(0.5)
+        rss.append(_rss_mb(proc.proc.pid))
+    assert rss[-1] - rss[0] < 40, rss
+
+
 @pytest.fixture(scope='module')
 def lagging(ros_environment):
     """A simulator whose joints lag the trajectory (first order, 50 ms)."""

@@ -2,7 +2,7 @@
 and the stream the core computes; cancel stops within one sample period and says where; bad goals are aborted
 with a message and the node goes on serving; a second goal while one runs is rejected.
 
-Issue 18: a goal's files are read only under the package's config/programs and the node's program_folders (a
+Issue 18: a goal's files are read only under the package's config and the node's program_folders (a
 goal naming /etc/shadow got the file's lines back); any other path is refused within a second, naming the path
 and the rule, never the content; oversized goals are refused within a second, before any planning (100,000
 stations were planned for 91 s); goals and cancels are answered while a goal is planned."""
@@ -185,24 +185,54 @@ def _refused(client, seconds=1.0, **goal):
 @pytest.mark.parametrize('name, shown', [
     ('/etc/shadow', '/etc/shadow'),
     ('/etc/passwd', '/etc/passwd'),
-    ('../gpr.yaml', '../gpr.yaml'),                       # out of config/programs by ..
+    ('../../package.xml', '../../package.xml'),           # out of the package's config by ..
     ('{allowed}/../secret.yaml', '../secret.yaml'),
     ('{allowed}/link_out.yaml', 'link_out.yaml'),        # a link in the folder that points out of it
     ('{allowed}/names_outside.yaml', 'secret.yaml'),     # a program in the folder naming a robot outside it
     ('{allowed}/imports_outside.yaml', 'secret.yaml'),   # ... or station files outside it
     ('/proc/self/environ', '/proc/self/environ'),
     ('/dev/zero', '/dev/zero'),
+    ('../../../../../../../../etc/passwd', '../../../../../../../../etc/passwd'),
 ], ids=['shadow', 'passwd', 'dotdot-package', 'dotdot-allowed', 'link', 'robot-outside', 'import-outside', 'proc',
-        'device'])
+        'device', 'dotdot-root'])
 def test_files_outside_the_allowed_folders_are_refused_naming_the_path_and_the_rule(client, node, allowed, name,
                                                                                      shown):
     result = _refused(client, program_file=name.format(allowed=allowed))
     message = result.message
     assert 'is outside the folders this node reads files from' in message and shown in message, message
-    assert "config/programs and trajectory_node's parameter program_folders" in message and str(allowed) in message
+    assert "config folder (its programs, robots and cells) and trajectory_node's parameter program_folders" in message
+    assert str(allowed) in message
     for content in ('root:', 's3cr3t', 'token', 'PATH='):
         assert content not in message, message
     assert 's3cr3t' not in node.output() and 'root:x' not in node.output()
+
+
+def test_whether_a_file_outside_exists_does_not_change_the_answer(client, allowed):
+    """A relative name that leads out of the folders is refused naming it under the package's programs folder,
+    whether or not the file it leads to exists (it is not looked for), so a goal cannot probe the host's files."""
+    assert (allowed.parent / 'secret.yaml').is_file()      # beside the operator's folder, not beside the package's
+    there = _refused(client, program_file='../secret.yaml').message
+    absent = _refused(client, program_file='../no_such_file.yaml').message
+    assert there.replace('secret', 'X') == absent.replace('no_such_file', 'X'), (there, absent)
+    assert 'config/programs/../secret.yaml' in there and str(allowed) + '/..' not in there, there
+
+
+def test_the_shipped_robot_programs_run_with_the_files_they_name(client):
+    """The example robot programs name ../robots/ and ../cells/ beside config/programs: the package's config
+    folder is readable, so the documented goal runs (cancelled once it streams)."""
+    from action_msgs.msg import GoalStatus
+
+    for name in ('example_robot_program.yaml', 'example_cell_program.yaml'):
+        feedback: list = []
+        handle = client.send_program(program_file=name, feedback=feedback.append)
+        assert handle.accepted
+        done = handle.get_result_async()
+        assert client.spin_until(lambda: bool(feedback) or done.done(), 60), name
+        assert not done.done(), done.result().result.message
+        client.wait(handle.cancel_goal_async(), 10, 'cancel')
+        response = client.wait(done, 20, 'result')
+        assert response.status == GoalStatus.STATUS_CANCELED, response.result.message
+        assert re.search(r'cancelled before sample \d+ of \d+', response.result.message), response.result.message
 
 
 def test_a_relative_program_file_is_found_in_the_allowed_folders(client, allowed):

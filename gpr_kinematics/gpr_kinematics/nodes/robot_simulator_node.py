@@ -16,14 +16,15 @@ error of the goal's joints); the joints follow the samples exactly, or with the 
 ``servo_time_constant`` (the clearance check is of the commanded motion). Path tolerances are checked at
 every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
-preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does) and starts from where the
-joints are. A ``header.stamp`` of 0 starts at once, a later one then; one whose trajectory ends in the past is
-``OLD_HEADER_TIMESTAMP``.
+that passes the checks preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does) and
+starts from where the joints are; a refused one leaves the running goal as it was. A ``header.stamp`` of 0 starts
+at once, a later one then; one whose trajectory ends in the past is ``OLD_HEADER_TIMESTAMP``.
 
 While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
 goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
 ended), and takes the joint values that other publishers send on ``joint_states`` (``trajectory_node`` streaming a
-program) as its state, quietly while they stream, so a goal starts where the robot is shown. ``state_publisher_node``
+program) as its state, quietly while they stream, so a goal starts where the robot is shown (values beyond the
+joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning). ``state_publisher_node``
 turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
 the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
 """
@@ -46,6 +47,7 @@ from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
+from ..core.forward import forward
 from ..errors import GprError
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
@@ -68,7 +70,7 @@ from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
-from .qos import stream_qos
+from .qos import action_server_options, release_request, stream_qos
 from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
@@ -131,7 +133,8 @@ class RobotSimulatorNode(GprNode):
         self.create_timer(1.0 / float(p['idle_rate']), self._idle)
         self.action = ActionServer(self, FollowJointTrajectory, ACTION, execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
-                                   cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos)
+                                   cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos,
+                                   **action_server_options())
         cell = self.clearance
         self.get_logger().info(f'serving {self.action_name()} (control_msgs/action/FollowJointTrajectory) for '
                                f'{n} joints ({", ".join(self.joints.names)}) of robot {self.robot.name} at '
@@ -154,15 +157,38 @@ class RobotSimulatorNode(GprNode):
         self.last_published = time.monotonic()
 
     def _on_joint_states(self, msg: JointState) -> None:
-        """While idle, take newer joint values of another publisher as the robot's state (module docstring)."""
+        """While idle, take newer joint values of another publisher as the robot's state (module docstring); a
+        message whose values leave the joints' limits or tilt the platform beyond its limit is ignored, with a
+        warning, so no publisher can put the robot where no goal can start."""
         stamp = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
         if self.run is not None or stamp <= self.last_own_ns:
             return
         self.last_foreign = time.monotonic()
+        state, taken = self.actual.copy(), []
         for name, value in zip(msg.name, msg.position, strict=False):
             if name in self.joints.names and math.isfinite(value):
                 k = self.joints.names.index(name)
-                self.actual[k], self.velocity[k] = value, 0.0
+                state[k] = value
+                taken.append(k)
+        wrong = self._outside(state)
+        if wrong:
+            self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}; allowed: values within '
+                                      "the joints' limits", throttle_duration_sec=5.0)
+            return
+        self.actual = state
+        self.velocity[taken] = 0.0
+
+    def _outside(self, state: Any) -> str:
+        """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
+        j = self.joints
+        for k in np.flatnonzero((state < j.lower) | (state > j.upper)):
+            return (f'{j.names[k]} = {state[k]:.9g} {j.units[k]} is outside [{j.lower[k]:.9g}, {j.upper[k]:.9g}] '
+                    f'{j.units[k]}')
+        try:
+            forward(state[:3], self.cfg)
+        except GprError as exc:
+            return one_line(exc)
+        return ''
 
     def _idle(self) -> None:
         quiet = 2.0 / float(self.p['idle_rate'])
@@ -211,10 +237,7 @@ class RobotSimulatorNode(GprNode):
 
     async def _execute(self, goal: ServerGoalHandle) -> Any:
         result = FollowJointTrajectory.Result()
-        if self.run is not None:    # preempted, as joint_trajectory_controller does
-            old = self.run
-            self._end('aborted', INVALID_GOAL, f'preempted by a newer goal at sample {old.k} of {len(old.motion)}')
-        try:
+        try:    # checked before it preempts a running goal: a goal refused leaves the robot's motion as it was
             motion, start = self._check(goal.request)
         except GprError as exc:
             code = exc.code if isinstance(exc, GoalError) else INVALID_GOAL
@@ -228,6 +251,11 @@ class RobotSimulatorNode(GprNode):
             self.get_logger().error(f'goal refused: {result.error_string}')
             goal.abort()
             return result
+        finally:
+            release_request(goal)
+        if self.run is not None:    # preempted by a valid goal, as joint_trajectory_controller does
+            old = self.run
+            self._end('aborted', INVALID_GOAL, f'preempted by a newer goal at sample {old.k} of {len(old.motion)}')
         done = Future()
         self.run = _Run(goal, motion, start, done)
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '

@@ -19,7 +19,9 @@ Publishes, from the robot description (``robot_file``, default the shipped examp
   obstacles in the cell's frame (with ``frame_prefix``; :func:`gpr_kinematics.safety.markers.cell_marker_array`).
 
 The state is held: the joints start at the robot's rest (equal rods at mid-stroke, each arm at its ``home``; the
-robot simulator's state before its first goal) and keep the last value received, and while no ``joint_states``
+robot simulator's state before its first goal) and keep the last value received (a value beyond its joint's
+limits, or rods beyond the stroke or the tilt limit, shown as received, as robot_state_publisher shows a measured
+state, with a warning at most every 5 s), and while no ``joint_states``
 arrive the held state is published again at ``idle_rate``, stamped with the current time, as ``joint_state_publisher``
 keeps ``robot_state_publisher`` fed, and at once to a /tf subscription that matches meanwhile (a publisher-matched
 event): so ``/tf`` has the whole robot before the first motion, between motions and after the last, a listener
@@ -87,6 +89,7 @@ class StatePublisherNode(GprNode):
         #: The robot model's joints moved by joint values (rods, then every arm's), and their held values.
         self.moving: list[Joint] = [self.model.joint(n) for n in joints.names]
         self.held = joints.rest.copy()
+        self.lower, self.upper = joints.lower, joints.upper
         self.index = {n: k for k, n in enumerate(joints.names)}
         self.pub_description = self.create_publisher(String, 'robot_description', latched_qos())
         self.pub_description.publish(String(data=self.model.to_urdf()))
@@ -126,7 +129,12 @@ class StatePublisherNode(GprNode):
             self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
     def _pose_of(self, rods: Any) -> None:
-        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none)."""
+        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none); rods beyond
+        the stroke or the tilt limit are shown as received, with a warning."""
+        try:
+            forward(rods, self.cfg)
+        except GprError as exc:
+            self.get_logger().warning(f'joint_states: {one_line(exc)}; shown as received', throttle_duration_sec=5.0)
         try:
             fk = forward(rods, self.cfg, check_limits=False)
         except GprError as exc:
@@ -152,6 +160,10 @@ class StatePublisherNode(GprNode):
             k = self.index.get(name)
             if k is not None and math.isfinite(value):
                 self.held[k] = value
+                if k >= 3 and not self.lower[k] <= value <= self.upper[k]:
+                    self.get_logger().warning(f'joint_states: {name} = {value:.9g} rad is outside its limits '
+                                              f'[{self.lower[k]:.9g}, {self.upper[k]:.9g}] rad; shown as received',
+                                              throttle_duration_sec=5.0)
         if self.platform_pose is None or not np.array_equal(rods, self.held[:3]):
             self._pose_of(self.held[:3])
         self.received += 1

@@ -34,8 +34,9 @@ publishes one sample per tick. A start-up stream ends the node with status 0 aft
 The action is served by threads of its own (a ``MultiThreadedExecutor``; the action server's callbacks in a
 callback group apart from the timer's, a goal planned in the executing thread): while one goal is planned or
 streamed, new goals are answered at once (rejected: one program at a time) and cancels too (a goal cancelled while
-it is planned ends as cancelled before its first sample). A goal's files are read only under the package's
-``config/programs`` and the folders of the parameter ``program_folders``
+it is planned ends as cancelled before its first sample). A goal's program file is looked up in the package's
+``config/programs`` and the folders of the parameter ``program_folders``, and its files are read only under these
+folders and the package's ``config``
 (:class:`~gpr_kinematics.ros.streams.GoalFiles`): any other path is refused naming the path and the rule, never
 the file's content; every bound of a goal (its stations, its samples) is checked before the work it bounds.
 
@@ -78,7 +79,7 @@ from ..ros.streams import (
 )
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
-from .qos import latched_qos, stream_qos
+from .qos import action_server_options, latched_qos, release_request, stream_qos
 from .runtime import EXIT_FAILED, EXIT_OK, GprNode, one_line, run, wait_acknowledged
 
 NODE_NAME = 'trajectory_node'
@@ -163,7 +164,8 @@ class TrajectoryNode(GprNode):
         self.timer.cancel()
         self.action = ActionServer(self, RunProgram, 'gpr/run_program', execute_callback=self._execute,
                                    goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
-                                   callback_group=MutuallyExclusiveCallbackGroup(), feedback_pub_qos_profile=qos)
+                                   callback_group=MutuallyExclusiveCallbackGroup(), feedback_pub_qos_profile=qos,
+                                   **action_server_options())
         t0 = time.perf_counter()
         if p['mode'] == 'sweep':
             traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
@@ -360,6 +362,8 @@ class TrajectoryNode(GprNode):
             reason = one_line(exc) if isinstance(exc, GprError) else f'internal error: {type(exc).__name__}: ' \
                 f'{one_line(exc)}'
             return self._refuse(goal, result, f'cannot run the program: {reason}')
+        finally:
+            release_request(goal)
         if goal.is_cancel_requested:
             result.samples_total = len(traj)
             return self._refuse(goal, result, f'cancelled before sample 0 of {len(traj)} (while it was planned)',

@@ -169,15 +169,22 @@ def program_robot(prog: RobotProgram, robot: RobotDescription) -> None:
 
 
 #: How messages name the rule of the files a goal may read.
-GOAL_FILES_RULE = "the package's config/programs and trajectory_node's parameter program_folders"
+GOAL_FILES_RULE = ("the package's config folder (its programs, robots and cells) and trajectory_node's parameter "
+                   "program_folders")
 
 
 @dataclasses.dataclass(frozen=True)
 class GoalFiles:
-    """The folders a ``gpr/run_program`` goal may read files from: the package's ``config/programs`` and the
-    operator's ``program_folders`` (module docstring)."""
+    """The folders a ``gpr/run_program`` goal's program file is looked up in: the package's ``config/programs`` and
+    the operator's ``program_folders``; the files it names are read under :attr:`readable` (module docstring)."""
 
     folders: tuple[Path, ...]
+
+    @property
+    def readable(self) -> tuple[Path, ...]:
+        """The folders read from: the package's whole ``config`` (a shipped program names ``../robots/`` and
+        ``../cells/``) and the operator's ``program_folders``."""
+        return (config_dir(), *self.folders[1:])
 
     @classmethod
     def of(cls, extra: Sequence[str]) -> GoalFiles:
@@ -192,10 +199,18 @@ class GoalFiles:
         return cls(tuple(folders))
 
     def path(self, name: str) -> Path:
-        """The file a goal names: an absolute path as is, a relative one in the first folder that has it."""
+        """The file a goal names: an absolute path as is, a relative one in the first folder that has it. A relative
+        name that leads out of a folder (``..``) is not looked for there, so whether a file outside exists never
+        changes the answer (the read is then refused naming the path in the first folder)."""
         if os.path.isabs(name):
             return Path(name)
-        return next((f / name for f in self.folders if (f / name).is_file()), self.folders[0] / name)
+        inside = [f / name for f in self.folders if _within(os.path.normpath(f / name), os.path.normpath(f))]
+        return next((p for p in inside if p.is_file()), self.folders[0] / name)
+
+
+def _within(path: str, folder: str) -> bool:
+    """``path`` lies in ``folder`` (both normalised; by their names, without touching the file system)."""
+    return os.path.commonpath([path, folder]) == folder
 
 
 def goal_program(goal: Any, robot: RobotDescription, files: GoalFiles) -> PlatformProgram | RobotProgram:
@@ -206,7 +221,7 @@ def goal_program(goal: Any, robot: RobotDescription, files: GoalFiles) -> Platfo
     if has_file == has_stations:
         raise ConfigError('goal: give either program_file or stations; allowed: exactly one of the two')
     if has_file:
-        with confined_reads(files.folders, GOAL_FILES_RULE):
+        with confined_reads(files.readable, GOAL_FILES_RULE):
             prog = load_any_program(files.path(goal.program_file))
             if isinstance(prog, RobotProgram):
                 program_robot(prog, robot)
