@@ -227,7 +227,7 @@ def test_the_shipped_robot_programs_run_with_the_files_they_name(client):
         handle = client.send_program(program_file=name, feedback=feedback.append)
         assert handle.accepted
         done = handle.get_result_async()
-        assert client.spin_until(lambda: bool(feedback) or done.done(), 60), name
+        assert client.spin_until(lambda f=feedback, d=done: bool(f) or d.done(), 60), name
         assert not done.done(), done.result().result.message
         client.wait(handle.cancel_goal_async(), 10, 'cancel')
         response = client.wait(done, 20, 'result')
