@@ -106,6 +106,28 @@ def test_a_chunk_beyond_the_size_limit_is_refused(tmp_path: Path, messages: list
         read_mcap(bag / 'b_0.mcap')
 
 
+def test_chunks_beyond_the_files_uncompressed_bound_are_refused_before_decompression(
+        tmp_path: Path, messages: list, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 127 kB file of zstd chunks held 4 GB of messages (each chunk under the chunk bound): the sum of a file's
+    uncompressed chunks is bounded too, checked before each chunk is decompressed."""
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    from gpr_kinematics.bags import storage_writers
+
+    monkeypatch.setattr(storage_writers, 'MCAP_CHUNK_BYTES', 4000)
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), compression='zstd')
+    f = bag / 'b_0.mcap'
+    with f.open('rb') as fh:
+        sizes = [r.uncompressed_size for r in StreamReader(fh, emit_chunks=True).records if isinstance(r, Chunk)]
+    assert len(sizes) >= 3
+    monkeypatch.setattr(mcap_file, 'MAX_INFLATED_BYTES', sum(sizes))
+    assert read_mcap(f).chunks == len(sizes)
+    monkeypatch.setattr(mcap_file, 'MAX_INFLATED_BYTES', sum(sizes) - 1)
+    with pytest.raises(BagError, match=rf'more than {sum(sizes) - 1} uncompressed bytes in all; allowed: at most'):
+        read_mcap(f)
+
+
 def test_reference_file_holds_what_its_metadata_lists() -> None:
     bag = read_bag(REFERENCE)
     (f,) = bag.storage_files

@@ -254,6 +254,25 @@ def test_sqlite3_read_directly_gives_the_same_messages(tmp_path: Path, messages:
     assert sum(len(t) for t in bag.topics.values()) == len(rows)
 
 
+@pytest.mark.parametrize('table', ['messages', 'topics'])
+def test_a_view_in_place_of_a_rosbag2_table_is_refused_at_once(tmp_path: Path, messages: list, table: str) -> None:
+    """A view computes its rows: an endless recursive ``messages`` view never finished reading (and filled the temp
+    folder), an endless ``topics`` view filled the memory. Only stored rows are read."""
+    write_messages(tmp_path / 'b', messages, storage='sqlite3')
+    db = tmp_path / 'b' / 'b_0.db3'
+    con = sqlite3.connect(db)
+    endless = {'messages': "SELECT x AS id, 1 AS topic_id, x AS timestamp, x'00010000' AS data FROM c",
+               'topics': "SELECT x AS id, '/t' || x AS name, 'std_msgs/msg/String' AS type, 'cdr' AS "
+                         "serialization_format, '' AS offered_qos_profiles, '' AS type_description_hash FROM c"}[table]
+    con.executescript(f'DROP TABLE {table}; CREATE VIEW {table} AS WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL '
+                      f'SELECT x + 1 FROM c) {endless};')
+    con.close()
+    t0 = time.monotonic()
+    with pytest.raises(BagError, match=rf"b_0\.db3: {table} is a view, not a table; allowed: rosbag2's tables"):
+        read_bag(db)
+    assert time.monotonic() - t0 < 10
+
+
 # -- verification failures ---------------------------------------------------------------------------------
 def _tampered_copy(src: Path, dst: Path, sample: int, field: str, delta: float) -> None:
     bag = read_bag(src)

@@ -10,8 +10,8 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
 
 - every record length must fit in what is left of the file (a flipped length byte is never used to allocate:
   reads are bounded by the file size) and a record is at most :data:`MAX_RECORD_BYTES`;
-- a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, decompressed with an output bound
-  of that size, and it must come out exactly that long; its records must tile it exactly; its CRC, the
+- a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, and all of a file's at most
+  :data:`MAX_INFLATED_BYTES` (checked before each is decompressed), decompressed with an output bound of that size, and it must come out exactly that long; its records must tile it exactly; its CRC, the
   data-section CRC and the summary CRC must match when they are not 0;
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
   time range; the summary's Statistics must agree with the messages counted.
@@ -36,6 +36,8 @@ MAGIC = b'\x89MCAP0\r\n'
 MAX_RECORD_BYTES = 256 << 20
 #: Largest uncompressed chunk accepted.
 MAX_CHUNK_BYTES = 256 << 20
+#: Largest sum of the uncompressed chunks of one file (a compressed file of 127 kB held 4 GB of messages).
+MAX_INFLATED_BYTES = 1 << 30
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 OP_STATISTICS, OP_METADATA, OP_DATA_END = 0x0B, 0x0C, 0x0F
@@ -136,6 +138,7 @@ class _Walker:
         self.schemas: dict[int, tuple[str, str, str]] = {}   # id -> (name, encoding, text)
         self.out = McapFile(path, size, '', '', {})
         self.summary_start = 0
+        self.inflated = 0
 
     def read(self, n: int) -> memoryview:
         data = self.f.read(n)
@@ -200,6 +203,10 @@ class _Walker:
         payload = r.take(r.u64(), 'chunk records')
         if size > MAX_CHUNK_BYTES:
             raise _FormatError(f'chunk of {size} uncompressed bytes; allowed: at most {MAX_CHUNK_BYTES}')
+        self.inflated += size
+        if self.inflated > MAX_INFLATED_BYTES:
+            raise _FormatError(f'chunks of more than {MAX_INFLATED_BYTES} uncompressed bytes in all; allowed: at most '
+                               f'{MAX_INFLATED_BYTES} per file')
         raw = _decompress(payload, compression, size)
         self.out.chunks += 1
         if crc:

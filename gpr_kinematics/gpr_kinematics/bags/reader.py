@@ -203,7 +203,8 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
 
 
 def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
-    """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables)."""
+    """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
+    those names is refused, so every row read is stored in the file)."""
     sha = sha256_file(path, 'SQLite3 file')
     head, size = read_head(path, 'SQLite3 file', 16)
     if head != b'SQLite format 3\x00':
@@ -217,6 +218,12 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             if row is None or row[0] != b'ok':
                 answer = row[0].decode('utf-8', errors='replace') if row else 'no answer'
                 raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {answer})')
+            computed = sorted((_text(n), _text(k)) for n, k in con.execute(
+                "SELECT name, type FROM sqlite_master WHERE name IN ('topics', 'messages', 'message_definitions') "
+                "AND type != 'table'"))
+            if computed:  # a view computes its rows (an endless recursive one never ends): only stored rows are read
+                raise BagError(f'{path}: {computed[0][0]} is a {computed[0][1]}, not a table; allowed: rosbag2\'s '
+                               'tables topics, messages and message_definitions')
             columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
             hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
