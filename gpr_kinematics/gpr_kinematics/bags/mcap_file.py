@@ -11,8 +11,9 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
 - every record length must fit in what is left of the file (a flipped length byte is never used to allocate:
   reads are bounded by the file size) and a record is at most :data:`MAX_RECORD_BYTES`;
 - a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, and all of a file's at most
-  :data:`MAX_INFLATED_BYTES` (checked before each is decompressed), decompressed with an output bound of that size, and it must come out exactly that long; its records must tile it exactly; its CRC, the
-  data-section CRC and the summary CRC must match when they are not 0;
+  :data:`MAX_INFLATED_BYTES` (checked before each is decompressed), decompressed with an output bound of that
+  size, and it must come out exactly that long; its records must tile it exactly; its CRC, the data-section CRC
+  and the summary CRC must match when they are not 0;
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
   time range; the summary's Statistics must agree with the messages counted.
 
