@@ -218,12 +218,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             if row is None or row[0] != b'ok':
                 answer = row[0].decode('utf-8', errors='replace') if row else 'no answer'
                 raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {answer})')
-            computed = sorted((_text(n), _text(k)) for n, k in con.execute(
-                "SELECT name, type FROM sqlite_master WHERE name IN ('topics', 'messages', 'message_definitions') "
-                "AND type != 'table'"))
-            if computed:  # a view computes its rows (an endless recursive one never ends): only stored rows are read
-                raise BagError(f'{path}: {computed[0][0]} is a {computed[0][1]}, not a table; allowed: rosbag2\'s '
-                               'tables topics, messages and message_definitions')
+            _stored_tables(con, path)
             columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
             hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
@@ -273,6 +268,17 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
                        max(stamps, default=None), schemas=schemas, formats=formats)
     return _Contents(info, times, data)
+
+
+def _stored_tables(con: sqlite3.Connection, path: Path) -> None:
+    """:class:`BagError` if ``topics``, ``messages`` or ``message_definitions`` is not a table: a view computes its
+    rows (an endless recursive one never ends), so only stored rows are read."""
+    computed = sorted((_text(n), _text(k)) for n, k in con.execute(
+        "SELECT name, type FROM sqlite_master WHERE name IN ('topics', 'messages', 'message_definitions') "
+        "AND type != 'table'"))
+    if computed:
+        raise BagError(f"{path}: {computed[0][0]} is a {computed[0][1]}, not a table; allowed: rosbag2's tables "
+                       'topics, messages and message_definitions')
 
 
 def _text(value: object) -> str:
