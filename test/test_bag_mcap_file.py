@@ -110,10 +110,9 @@ def test_chunks_beyond_the_files_uncompressed_bound_are_refused_before_decompres
         tmp_path: Path, messages: list, monkeypatch: pytest.MonkeyPatch) -> None:
     """A 127 kB file of zstd chunks held 4 GB of messages (each chunk under the chunk bound): the sum of a file's
     uncompressed chunks is bounded too, checked before each chunk is decompressed."""
+    from gpr_kinematics.bags import storage_writers
     from mcap.records import Chunk
     from mcap.stream_reader import StreamReader
-
-    from gpr_kinematics.bags import storage_writers
 
     monkeypatch.setattr(storage_writers, 'MCAP_CHUNK_BYTES', 4000)
     bag = write_bag(tmp_path / 'b', messages, _types(messages), compression='zstd')
