@@ -161,3 +161,19 @@ def test_a_cell_in_another_frame_than_the_robots_world_is_refused(tmp_path):
     assert load_cell(config_path('cells/example_cell.yaml')).in_frame('world').frame == 'world'
     with pytest.raises(ConfigError, match=r"frame = 'world', but the robot description places the robot in 'map'"):
         load_cell(config_path('cells/example_cell.yaml')).in_frame('map')
+
+
+def test_program_export_does_not_replace_the_cell_its_program_names(tmp_path):
+    """Export does not read the cell, but the program names it: writing the trajectory over it left a program that
+    no longer checks (exit 0 before)."""
+    import shutil
+
+    for folder in ('programs', 'robots', 'cells'):
+        shutil.copytree(config_path(folder), tmp_path / folder)
+    cell = tmp_path / 'cells' / 'example_cell.yaml'
+    before = cell.read_bytes()
+    res = _gpr('program', 'export', 'programs/example_cell_program.yaml', '--trajectory', 'cells/example_cell.yaml',
+               cwd=tmp_path)
+    assert res.returncode == 2 and res.stderr.count('\n') == 1, res.stderr
+    assert "trajectory output 'cells/example_cell.yaml' is a file this command reads" in res.stderr, res.stderr
+    assert cell.read_bytes() == before

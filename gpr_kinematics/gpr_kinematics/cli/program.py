@@ -28,10 +28,14 @@ if TYPE_CHECKING:
 
 
 def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, Any]:
-    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned."""
+    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned. The cell the
+    program names is an input too, read or not: no output may replace it."""
+    from ..inputs.files import note_input
     from ..robot.plan import check_sample_count, plan_program
     from ..robot.program import load_program
     program = load_program(args.program)
+    if program.cell is not None:
+        note_input(program.cell)
     if rate is not None:
         check_sample_count(program, rate)
     return program, plan_program(robot_of(args, program.robot), program)

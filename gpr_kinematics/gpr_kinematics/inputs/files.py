@@ -87,6 +87,13 @@ def command_reads() -> Iterator[set[tuple[int, int]]]:
         _READS.reset(token)
 
 
+def note_input(path: str | os.PathLike[str]) -> None:
+    """Note a file the running command takes as an input without reading it (a program's cell, when the program is
+    only exported), so that no output replaces it; a missing or unreadable file is left to the command's own read."""
+    with contextlib.suppress(OSError):
+        note_read(os.stat(path))
+
+
 def note_read(info: os.stat_result) -> None:
     """Note a file the running command reads (by its ``fstat``), for :func:`check_output`."""
     reads = _READS.get()
