@@ -24,7 +24,9 @@ stations) over the move's normalised time ``u``. A move through the untilted, si
 therefore continuous (no azimuth jump), the interpolated rotations stay pure tilts (no twist) and
 ``|v| <= max(|v_from|, |v_to|)``, so no sample tilts beyond its stations. Commanded tilt and azimuth of a
 sample are ``|v|`` and ``atan2(v_y, v_x)`` (0 when untilted). Samples are ``t_k = k / rate`` for
-``k = 0 .. floor(T rate)``, plus the final instant ``T`` when it falls between samples.
+``k = 0 .. floor(T rate)``, plus the final instant ``T`` when it falls between samples (more than 1 ns after the
+last) or the program is shorter than that; a last sample within 1 ns before ``T`` is moved to ``T``: the stream
+always ends at the last station.
 """
 from __future__ import annotations
 
@@ -178,8 +180,10 @@ def sample_program(program: PlatformProgram, rate: float, default_move_time: flo
     total = float(T[-1])
     n = int(math.floor(total * rate + 1e-9))
     t = np.arange(n + 1, dtype=float) / rate
-    if total - t[-1] > 1e-9:
+    if total - t[-1] > 1e-9 or (n == 0 and total > 0.0):
         t = np.append(t, total)
+    elif total > t[-1]:   # within 1 ns of the last sample: that sample is the end (a 1e-12 s move lost its station)
+        t[-1] = total
     if T.shape[0] == 1:
         seg = np.zeros(t.shape, dtype=int)
     else:
