@@ -23,3 +23,15 @@ def test_the_last_sample_is_the_last_station_at_the_programs_end(move_time, dwel
     assert s.tilt[-1] == pytest.approx(math.radians(1.0), abs=1e-15)
     n = math.floor(total * 100.0 + 1e-9)
     assert len(s) == n + 1 + (total - n / 100.0 > 1e-9 or n == 0)
+
+
+@pytest.mark.parametrize('name', ['x' * 65, 'A\nB: station (9, 9, 9) m, FAKE', '', True, 'a b'])
+def test_station_names_follow_the_station_rule(name):
+    """A name is repeated in feedback, results and logs: 1 to 64 letters, digits, _ . - as in station files (a 4 MB
+    name went into every feedback message; a newline forged a line of output)."""
+    from gpr_kinematics.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r'station 0: name = .* is invalid.*allowed: 1 to 64 letters, digits, _ \. -'):
+        parse_platform_program({'stations': [{'name': name, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}, 'p.yaml')
+    assert parse_platform_program({'stations': [{'name': 7, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}
+                                  ).stations[0].name == '7'

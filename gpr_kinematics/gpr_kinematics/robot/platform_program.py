@@ -7,7 +7,7 @@ One of the two program formats; :func:`gpr_kinematics.robot.program.load_any_pro
     version: 1                # optional
     move_time: 2.0            # optional default duration of each move [s]
     stations:
-      - name: load            # optional
+      - name: load            # optional: 1 to 64 letters, digits, _ . -
         height: 0.30          # z of the platform centre in gpr_base [m]
         tilt: 0.0             # tilt angle [rad]; negative = about azimuth + pi
         azimuth: 0.0          # direction of the tilt axis [rad]
@@ -41,6 +41,7 @@ import numpy as np
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
+from .station_files import station_name
 from .timing import MAX_SAMPLES
 
 #: The ``format:`` of a platform program (optional: a file without ``format`` is a platform program).
@@ -119,7 +120,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
         missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
         if missing:
             raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
-        name = str(st.get('name', f'station_{i}'))
+        name = station_name(st['name'], f'{source}: {where}') if 'name' in st else f'station_{i}'
         where = f'station {i} ({name})'
         mt = st.get('move_time')
         stations.append(PlatformStation(

@@ -133,7 +133,9 @@ def _number(value: Any, where: str, key: str, unit: str) -> float:
     return float(value)
 
 
-def _name(value: Any, where: str) -> str:
+def station_name(value: Any, where: str) -> str:
+    """A station's name: 1 to 64 letters, digits, ``_ . -`` (a YAML number is read as its text, a boolean refused
+    with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
     if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.match(str(value)):
         hint = text_hint(value) if isinstance(value, bool) else ''
         raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: 1 to 64 letters, digits, _ . -')
@@ -176,7 +178,7 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         check_keys(st, _STATION_KEYS, w)
         if 'name' not in st or 'position' not in st:
             raise ConfigError(f'{w}: name and position are required')
-        name = _name(st['name'], w)
+        name = station_name(st['name'], w)
         w = f'{w} ({name})'
         pos = st['position']
         if not isinstance(pos, list) or len(pos) != 3:
@@ -297,7 +299,7 @@ def stations_from_csv(text: str, where: str) -> StationRows:
     table = read_csv_table(text, where, _CSV_KINDS, ('name', 'x', 'y', 'z'))
     rows = StationRows.empty()
     for r in range(len(table)):
-        name = _name(table.text(r, 'name'), table.row_where(r))
+        name = station_name(table.text(r, 'name'), table.row_where(r))
         w = f'{table.row_where(r)} ({name})'
         x, y, z = (table.number(r, k, None, w) for k in 'xyz')
         if x is None or y is None or z is None:
