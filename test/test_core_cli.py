@@ -107,6 +107,33 @@ def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
     assert 'Traceback' not in err
 
 
+@pytest.mark.parametrize('argv, pattern', [
+    # degrees typed as radians (40 deg meant) and a meaningless 1e300 used to run, wrapped
+    (['ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '40'],
+     r'^gpr ik: error: --azimuth = 40 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give --deg '
+     r'for degrees\)$'),
+    (['ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '1e300'], r'--azimuth = 1e\+300 rad is outside'),
+    (['ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '-6.3'], r'--azimuth = -6.3 rad is outside'),
+    (['ik', '--height', '0.5', '--tilt', '1', '--azimuth', '400', '--deg'],
+     r'--azimuth = 400 deg is outside \[-360, 360\] deg; allowed: a direction of at most one turn'),
+    (['compensate', '--height', '0.4', '--tilt', '0.02', '--azimuth', '40'], r'--azimuth = 40 rad is outside'),
+    (['compensate', '--height', '0.4', '--tilt', '0.02', '--azimuth', '1', '--heading', '20'],
+     r'--heading = 20 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give --deg'),
+])
+def test_directions_beyond_one_turn_are_refused(capsys, argv, pattern):
+    status, out, err = run(capsys, *argv)
+    assert status == 2 and out == ''
+    assert err.count('\n') == 1 and re.search(pattern, err.strip()), err
+
+
+def test_directions_within_one_turn_are_taken(capsys):
+    a = run_json(capsys, 'ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '-6.2')
+    b = run_json(capsys, 'ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', str(2 * math.pi - 6.2))
+    assert np.allclose(a['q'], b['q'], atol=1e-12)
+    run_json(capsys, 'ik', '--height', '0.5', '--tilt', '1', '--azimuth', '-360', '--deg')
+    run_json(capsys, 'compensate', '--height', '0.4', '--tilt', '1', '--azimuth', '350', '--heading', '-300', '--deg')
+
+
 def test_malformed_config_file(capsys, tmp_path):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('radius: -1\n')

@@ -271,6 +271,18 @@ def test_heights_the_stroke_cannot_reach_are_named_with_the_heights_it_can():
         inverse_batch([0.3, 2.0], 0.0, 0.0)
 
 
+def test_azimuth_beyond_its_bound_is_refused():
+    # Periodic: any turn within +-1e6 rad is the same direction; beyond it a float keeps no digits modulo 2 pi
+    # (an azimuth of 1e300 used to pass as some direction).
+    a, b = inverse(0.5, 0.02, 0.7), inverse(0.5, 0.02, 0.7 + 2 * math.pi * 1000)
+    assert np.allclose(a.q, b.q, atol=1e-12)
+    for g in (1e300, -1e7, 1e6 + 1):
+        with pytest.raises(InputError, match=r'azimuth = .* rad; allowed: finite values within \+-1e\+06 rad'):
+            inverse(0.5, 0.02, g)
+    with pytest.raises(InputError, match=r'azimuth = 1e\+300 rad \(target 1\); allowed: finite values within'):
+        inverse_batch([0.5, 0.5], 0.02, [0.0, 1e300])
+
+
 def test_tool_points_beyond_the_reach_are_refused():
     for tool in ([300.0, 0.0, 100.0], [1e308, 0.0, 0.0], [0.0, 0.0, -1e300], [6.0, 6.0, 6.0]):
         with pytest.raises(LimitError, match=r'tool = .* is beyond the reach of a tool point; allowed: at most 10 m'):

@@ -411,8 +411,10 @@ REGRESSIONS = [
     ('accuracy gpr.yaml --pose 0 0 0.5 0.0349 0 0 --errors 1e308 0 0', 2, 'q1 = 1e+308 m is farther than'),
     # found later, by the deep search (GPR_FUZZ_EXAMPLES=150) and by hand: angles beyond 1e6 rad, whose float
     # value modulo 2 pi has no digits left, passed as valid stations and joints
-    ('robot ik --position 1.3 0.6 0.6 --heading 1e308', 2, 'heading = 1e+308 rad (station 0); allowed: finite values'),
-    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --azimuth -1e308 --deg', 2, 'azimuth = -1.74533e+306 rad'),
+    # (a typed direction is now refused beyond one turn, before the stations' bound of 1e6 rad)
+    ('robot ik --position 1.3 0.6 0.6 --heading 1e308', 2, '--heading = 1e+308 rad is outside [-2pi, 2pi] rad'),
+    ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --azimuth -1e308 --deg', 2,
+     '--azimuth = -1e+308 deg is outside [-360, 360] deg'),
     ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --arm arm2 --redundancy 1e308 --deg', 2,
      'redundancy value = 1.74533e+306 rad (station 0); allowed: finite values within +-1e+06 rad'),
     ('robot teach --rods 0.25 0.251 0.252 --joints 0 1e308 -0.5 --naive', 2,

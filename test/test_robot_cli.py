@@ -100,6 +100,14 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--redundancy', '0.1'],
      r'a redundancy value applies to 4-joint arms under the fixed_joint rule'),
     (['robot', 'ik', '--position', '1.2', '0.5'], r'^gpr robot ik: error: argument --position: expected 3'),
+    # degrees typed as radians used to run, wrapped
+    (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--tilt', '0.02', '--azimuth', '30', '--heading', '20'],
+     r'^gpr robot: error: --azimuth = 30 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give '
+     r'--deg for degrees\)$'),
+    (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '20'],
+     r'^gpr robot: error: --heading = 20 rad is outside \[-2pi, 2pi\] rad'),
+    (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '-361', '--deg'],
+     r'^gpr robot: error: --heading = -361 deg is outside \[-360, 360\] deg'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
      r'^gpr robot: error: joints of arm1 must have 3 values per sample'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
-from .options import MM, vec
+from .options import MM, direction, vec
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -90,7 +90,7 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     from ..core import inverse
     cfg = _config(args)
     tool = [_length(args, v) for v in args.tool]
-    ik = inverse(_length(args, args.height), _angle(args, args.tilt), _angle(args, args.azimuth),
+    ik = inverse(_length(args, args.height), _angle(args, args.tilt), direction(args, args.azimuth, '--azimuth'),
                  config=cfg, model=args.model, tool=tool)
     if args.json:
         emit_json(ik)
@@ -108,8 +108,8 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     from ..inputs.validation import finite_number
     cfg = _config(args)
     # The command is built from the typed angles: check them by name before they become a quaternion.
-    tilt, azimuth, heading = (finite_number(_angle(args, getattr(args, n)), f'--{n}')
-                              for n in ('tilt', 'azimuth', 'heading'))
+    tilt = finite_number(_angle(args, args.tilt), '--tilt')
+    azimuth, heading = (direction(args, getattr(args, n), f'--{n}') for n in ('azimuth', 'heading'))
     R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
     res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
                      [_length(args, v) for v in args.tool], config=cfg, model=args.model)

@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
 from ..errors import InputError, brief
+from ..inputs.validation import finite_number
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
@@ -72,6 +73,26 @@ def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
 def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input angles in radians (``--deg`` converted)."""
     return [math.radians(v) if args.deg else v for v in values]
+
+
+#: The bound of a direction typed on the command line (``--azimuth``, ``--heading``): one turn [rad].
+TURN = 2.0 * math.pi
+
+
+def direction(args: argparse.Namespace, value: float, option: str) -> float:
+    """A direction angle typed as ``option`` (``--azimuth``, ``--heading``) in radians (``--deg`` converted): finite
+    and within one turn, [-2 pi, 2 pi] rad or [-360, 360] deg, else :class:`InputError` naming it. The core takes
+    any angle up to +-1e6 rad (periodic); a typed direction beyond one turn is a slip, mostly degrees given as
+    radians (``--azimuth 40`` meant 40 deg), never a direction meant."""
+    deg = bool(getattr(args, 'deg', False))
+    v = finite_number(value, option)
+    if abs(v) > (360.0 if deg else TURN):
+        if deg:
+            raise InputError(f'{option} = {v:g} deg is outside [-360, 360] deg; allowed: a direction of at most one '
+                             'turn')
+        raise InputError(f'{option} = {v:g} rad is outside [-2pi, 2pi] rad; allowed: an angle in radians (give '
+                         '--deg for degrees)')
+    return math.radians(v) if deg else v
 
 
 def robot_options(p: argparse.ArgumentParser) -> None:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .options import angles, lengths, robot_of, robot_options, unit_options, vec
+from .options import angles, direction, lengths, robot_of, robot_options, unit_options, vec
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -49,8 +49,9 @@ def _cmd_fk(args: argparse.Namespace) -> int:
 def _station_args(args: argparse.Namespace) -> Stations:
     from ..inputs.validation import finite_number
     from ..robot.stations import Stations
-    heading = None if args.heading is None else angles(args, [finite_number(args.heading, '--heading')])
-    tilt, azimuth = (angles(args, [finite_number(getattr(args, n), f'--{n}')])[0] for n in ('tilt', 'azimuth'))
+    tilt = angles(args, [finite_number(args.tilt, '--tilt')])[0]
+    azimuth = direction(args, args.azimuth, '--azimuth')
+    heading = None if args.heading is None else [direction(args, args.heading, '--heading')]
     return Stations.of([lengths(args, args.position)], tilt, azimuth, heading)
 
 

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError, LimitError
-from ..inputs.validation import column_of, rows_of, single_number, three_floats
+from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
 from .forward import (
     TILT_LIMIT_SLACK,
@@ -178,6 +178,11 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
 
+def _refuse_azimuth(value: float, where: str) -> None:
+    raise InputError(f'azimuth = {value:g} rad{where}; allowed: finite values within +-{MAX_COORDINATE:g} rad (an '
+                     'angle is periodic, but beyond that a float keeps no digits modulo 2 pi)')
+
+
 def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config: GprConfig | None = None,
                   model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseBatch:
     """Rod lengths that give platform tilts and heights under the virtual-joint model, vectorised.
@@ -190,13 +195,19 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
             (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
 
     Raises:
-        InputError: NaN, infinity, shapes that do not broadcast (``tool`` rows included).
+        InputError: NaN, infinity, an azimuth beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE`
+            rad (periodic, but a float angle beyond it keeps no digits modulo 2 pi), shapes that do not broadcast
+            (``tool`` rows included).
         LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke.
         ConvergenceError: no convergence within ``max_iterations`` (not seen inside the limits).
     """
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
     cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
+    big = np.abs(cols[2]) > MAX_COORDINATE
+    if big.any():
+        i = int(np.argmax(big))
+        _refuse_azimuth(float(cols[2][i]), f' (target {i})')
     tools = rows_of(tool, 'tool', 3)
     check_tool(tools)
     try:
@@ -217,6 +228,8 @@ def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None
     """Inverse kinematics of one target (the one-pose path of :mod:`gpr_kinematics.core.single`, the same steps as
     the batch in float arithmetic); see :func:`inverse_batch`."""
     h, t, g = (single_number(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth')))
+    if abs(g) > MAX_COORDINATE:
+        _refuse_azimuth(g, '')
     cfg = resolve_config(config)
     kernel = one_pose(cfg, model)
     tool3 = three_floats(tool, 'tool')
