@@ -5,6 +5,7 @@ import math
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -53,6 +54,16 @@ def test_fk_json_matches_the_core(capsys):
                     '--azimuth', str(st['azimuth']), '--heading', str(st['heading']))
     np.testing.assert_allclose(back['rods'], [0.25, 0.251, 0.252], atol=1e-12)
     np.testing.assert_allclose(list(back['arm'].values()), [0.0, math.radians(60), math.radians(-30)], atol=1e-9)
+
+
+def test_a_misspelt_step_kind_is_named(capsys, tmp_path):
+    text = Path(PROGRAM).read_text().replace('{pick: load_port_1}', '{pik: load_port_1}', 1)
+    program = tmp_path / 'typo.yaml'
+    program.write_text(text.replace('robot: ../robots/', f'robot: {Path(PROGRAM).parent.parent}/robots/'))
+    status, out, err = run(capsys, 'program', 'check', str(program))
+    assert status == 2 and out == '' and err.count('\n') == 1, err
+    assert re.search(r'typo.yaml: steps\[1\]: unknown key\(s\) pik; allowed keys: arm, branch, dwell, move, pick, '
+                     r'place, time \(a step gives exactly one of move, pick, place, dwell\)$', err.strip()), err
 
 
 def test_teach_and_reteach(capsys, tmp_path):

@@ -93,7 +93,12 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': [{'move': 'z'}]}, r"steps\[0\]: move 'z': no such station; allowed: a, b"),
     ({'steps': [{'move': 'a', 'pick': 'b'}]},
      r'steps\[0\]: give exactly one of move, pick, place, dwell, got move, pick'),
-    ({'steps': [{'jump': 'a'}]}, r'give exactly one of move, pick, place, dwell, got none'),
+    # a misspelt kind is named with the keys allowed (it said "give exactly one of ..., got none")
+    ({'steps': [{'jump': 'a'}]}, r'steps\[0\]: unknown key\(s\) jump; allowed keys: arm, branch, dwell, move, pick, '
+                                 r'place, time \(a step gives exactly one of move, pick, place, dwell\)$'),
+    ({'steps': [{'move': 'a'}, {'pik': 'a', 'dwell': 1}]}, r'steps\[1\]: unknown key\(s\) pik; allowed keys: arm, '),
+    ({'steps': [{'move': 'a'}, {'dwel': 1}]}, r'steps\[1\]: unknown key\(s\) dwel; allowed keys: '),
+    ({'steps': [{'arm': 'arm1'}]}, r'give exactly one of move, pick, place, dwell, got none'),
     ({'steps': [{'move': 'a', 'speed': 1}]}, r'steps\[0\]: unknown key\(s\) speed'),
     ({'steps': [{'move': 'a', 'time': 0}]}, r'steps\[0\]: time = 0 is invalid; allowed: seconds, > 0'),
     ({'steps': [{'move': 'a', 'dwell': -1}]}, r'dwell = -1 is invalid; allowed: seconds, >= 0'),

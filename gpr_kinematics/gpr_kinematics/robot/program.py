@@ -55,6 +55,8 @@ from .stations import Stations
 FORMAT = 'gpr_robot_program'
 VERSIONS = (1,)
 STEP_KINDS = ('move', 'pick', 'place', 'dwell')
+#: The keys a step may have: its kind and the options of a move, pick or place.
+STEP_KEYS = (*STEP_KINDS, 'arm', 'branch', 'time')
 #: Most steps in a program, most imported files. A step costs ``gpr program check`` about 30 ms and 0.5 MB in the
 #: example cell (2,000 moves between two stations: 62 s, 1.1 GB; 20,000 ran out of 4 GB).
 MAX_STEPS = 2_000
@@ -217,6 +219,11 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         if not isinstance(st, Mapping):
             raise ConfigError(f'{where}: expected a mapping such as {{pick: STATION}}')
         kinds = [k for k in STEP_KINDS[:3] if k in st] or [k for k in STEP_KINDS[3:] if k in st]
+        if kinds in ([], ['dwell']) and any(k not in STEP_KEYS for k in st):  # a misspelt kind (pik): named
+            try:
+                check_keys(st, STEP_KEYS, where)
+            except ConfigError as e:
+                raise ConfigError(f'{e} (a step gives exactly one of {", ".join(STEP_KINDS)})') from None
         if len(kinds) != 1:  # 'dwell' is a step of its own, or the hold of a move, pick or place
             raise ConfigError(f'{where}: give exactly one of {", ".join(STEP_KINDS)}, got {", ".join(kinds) or "none"}')
         kind = kinds[0]
