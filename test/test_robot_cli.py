@@ -81,6 +81,41 @@ def test_teach_and_reteach(capsys, tmp_path):
     assert status == 0 and out.startswith('a: station (') and '\nb: station (' in out
 
 
+@pytest.mark.parametrize('naive', [(), ('--naive',)])
+def test_a_bad_row_of_a_joint_table_is_located(capsys, tmp_path, naive):
+    # It said "q2 = 0.6 m (sample 1) is outside the stroke" (0-based, no file, no name), and gpr_rod2 with --naive.
+    header = 'name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+    table = tmp_path / 'old.csv'
+    table.write_text(header + 's1,0.25,0.251,0.252,0,1,-0.5\ns2,0.25,0.6,0.252,0,1,-0.5\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), *naive)
+    assert status == 2 and out == '' and err.count('\n') == 1, err
+    assert re.search(r"old.csv: line 3 \(row 2, station 's2'\): gpr_rod2 = 0.6 m is outside the stroke "
+                     r'\[0, 0.508\] m$', err.strip()), err
+    table.write_text(header.replace('name,', '') + '0.25,0.251,0.252,0,1,-0.5\n# a comment\n0.25,0.6,0.252,0,1,-0.5\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), *naive)
+    assert status == 2 and re.search(r'old.csv: line 4 \(row 2\): gpr_rod2 = 0.6 m is outside', err), err
+
+
+def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
+    table = tmp_path / 'deg.csv'
+    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+                     's1,0.25,0.251,0.252,0,57.2957795,-0.5\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))
+    assert status == 2 and out == '' and err.count('\n') == 1, err
+    assert re.search(r"deg.csv: line 2 \(row 1, station 's1'\): arm1_elbow = 57.2957795 rad is beyond its upper "
+                     r'limit 2.9 rad by 54.4 rad; allowed: \[-2.9, 2.9\] rad; in degrees it would be within: give the '
+                     r'column its unit, "arm1_elbow \[deg\]", or a "# units: deg" line before the header$',
+                     err.strip()), err
+    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n0.25,0.251,0.252,0,500,0\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))  # beyond as degrees too: no hint
+    assert status == 2 and err.rstrip().endswith('arm1_elbow = 500 rad is beyond its upper limit 2.9 rad by 497 rad; '
+                                                 'allowed: [-2.9, 2.9] rad'), err
+    # --deg and --mm convert --rods and --joints; they were ignored with a table
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--deg')
+    assert status == 2 and err.count('\n') == 1 and re.search(r'--deg converts --rods and --joints; a --table gives '
+                                                                r'its units in its header', err), err
+
+
 def test_program_check_and_export(capsys, tmp_path):
     s = run_json(capsys, 'program', 'check', PROGRAM)
     assert (s['stations'], s['steps'], s['waypoints']) == (5, 10, 21)

@@ -80,10 +80,13 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     from ..robot.teach import RetaughtRecord, TeachReport, read_joint_table, reteach, teach
     robot = robot_of(args)
     if args.table is not None:  # an empty name is refused, not ignored
+        from ..errors import InputError
         if args.rods or args.joints:
-            from ..errors import InputError
             raise InputError('give either --table FILE or --rods and --joints, not both')
-        names, rods, joints = read_joint_table(args.table, robot, args.arm)
+        if args.mm or args.deg:  # they were ignored: a table's columns without a unit were read as SI all the same
+            raise InputError(f'{"--mm" if args.mm else "--deg"} converts --rods and --joints; a --table gives its '
+                             'units in its header ("gpr_rod1 [mm]", "arm1_elbow [deg]") or a "# units: mm deg" line')
+        names, rods, joints = read_joint_table(args.table, robot, args.arm, check_limits=not args.naive)
     elif args.rods and args.joints:
         names, rods, joints = ('0',), np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
     else:

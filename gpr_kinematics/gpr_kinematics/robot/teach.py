@@ -19,16 +19,17 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.forward import check_stroke
+from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.ops import ARRAY
 from ..errors import ConfigError, brief
 from ..inputs.files import read_text
 from ..inputs.validation import rows_of
-from .description import RobotDescription
+from .arm_chain import LIMIT_SLACK
+from .description import Arm, RobotDescription
 from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
-from .station_files import MAX_BYTES, read_csv_table
+from .station_files import MAX_BYTES, CsvTable, read_csv_table
 from .stations import StationRecord, Stations, stations_from_poses
 
 Array = NDArray[np.float64]
@@ -155,11 +156,41 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     return Retaught(old=old, intended=intended, solution=solution)
 
 
-def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None = None
-                     ) -> tuple[tuple[str, ...], Array, Array]:
+def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: Array, joints: Array,
+               check_limits: bool) -> None:
+    """Refuse a row's rod outside the stroke or (``check_limits``) joint beyond its limits, naming the file, the line
+    and the row's name, before the batch would name it by a 0-based sample alone."""
+    cfg = robot.config
+    name = table.text(r, 'name')
+    where = f'{table.row_where(r)} (row {r + 1}' + (f', station {brief(name)})' if name else ')')
+    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+    for k, rod in enumerate(robot.rods.names):
+        if not lo <= rods[k] <= hi:
+            raise ConfigError(f'{where}: {rod} = {rods[k]:.9g} m is outside the stroke [{cfg.stroke_min:g}, '
+                              f'{cfg.stroke_max:g}] m')
+    if not check_limits:
+        return
+    for k, j in enumerate(a.joints):
+        value = joints[k]
+        if j.lower - LIMIT_SLACK <= value <= j.upper + LIMIT_SLACK:
+            continue
+        side, limit = ('lower', j.lower) if value < j.lower else ('upper', j.upper)
+        hint = ''
+        if table.columns[j.name][2] == 'rad' and j.lower <= math.radians(value) <= j.upper:
+            hint = (f'; in degrees it would be within: give the column its unit, "{j.name} [deg]", or a '
+                    '"# units: deg" line before the header')
+        raise ConfigError(f'{where}: {j.name} = {value:.9g} rad is beyond its {side} limit {limit:.9g} rad by '
+                          f'{abs(value - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad{hint}')
+
+
+def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None = None,
+                     check_limits: bool = True) -> tuple[tuple[str, ...], Array, Array]:
     """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
     for rods, ``[rad]``/``[deg]`` for joints; SI when none) and an optional ``name`` column; returns
-    ``(names, rods (N, 3), joints (N, n))``. ConfigError names the line and the field."""
+    ``(names, rods (N, 3), joints (N, n))``. ConfigError names the file, the line, the row's name (when the table
+    has a name column) and the field: a value that is not a number, a rod outside the stroke and, with
+    ``check_limits`` (:func:`teach`; not the old joints of :func:`reteach`), a joint beyond its limits, with a hint
+    when the value read as degrees would lie within them (a column without a unit is in radians)."""
     a = robot.arm(arm)
     kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
     table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
@@ -179,6 +210,7 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
             joints[r, k] = table.number(r, joint, math.nan)
         if np.isnan(rods[r]).any() or np.isnan(joints[r]).any():
             raise ConfigError(f'{table.row_where(r)}: every rod and joint needs a value')
+        _check_row(table, r, robot, a, rods[r], joints[r], check_limits)
     if len(table) == 0:
         raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
     return tuple(names), rods, joints
