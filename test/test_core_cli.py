@@ -80,8 +80,14 @@ def test_human_readable_output(capsys):
 
 @pytest.mark.parametrize('argv, pattern', [
     (['fk', '0.5', 'nan', '0.5'], 'q2 = nan is not a finite number'),
-    (['fk', '0.5', '0.5'], 'required'),
-    (['fk', '0.5', '0.5', '0.5', '0.5'], 'unrecognized arguments'),
+    # it said "the following arguments are required: Q" for two rods, "unrecognized arguments" for four
+    (['fk', '0.5', '0.503'],
+     r"^gpr fk: error: three rod lengths q1 q2 q3 are needed \[m, or mm with --mm\]; got 2: '0.5 0.503'$"),
+    (['fk'], r'^gpr fk: error: three rod lengths q1 q2 q3 are needed \[m, or mm with --mm\]; got 0$'),
+    (['fk', '0.5', '0.5', '0.5', '0.5'], r"three rod lengths q1 q2 q3 are needed .*; got 4: '0.5 0.5 0.5 0.5'$"),
+    (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
+                                                        r'needed \[m, or mm with --mm\]; got 2'),
+    (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'"),
     (['fk', '0.6', '0.5', '0.5'], r'q1 = 0.6 m is outside the stroke'),
     (['fk', '0.3', '0.3', '0.3', '--model', 'rigid'], "invalid choice: 'rigid'"),
     (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'], 'beyond the tilt limit'),
@@ -103,7 +109,7 @@ def test_human_readable_output(capsys):
 def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
     status, out, err = run(capsys, *argv)
     assert status == 2 and out == ''
-    assert err.count('\n') == 1 and re.search(pattern, err), err
+    assert err.count('\n') == 1 and re.search(pattern, err.strip()), err
     assert 'Traceback' not in err
 
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
-from .options import MM, direction, vec
+from .options import MM, direction, rod_lengths, vec
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -218,7 +218,7 @@ def register(sub: Subparsers) -> None:
     """Add the core subcommands to the ``gpr`` parser."""
     p = sub.add_parser('fk', help='forward kinematics: rod lengths -> platform pose',
                        description='Forward kinematics under the virtual-joint model (paper §IV-V).')
-    p.add_argument('q', type=float, nargs=3, metavar='Q', help='rod lengths q1 q2 q3 [m, or mm with --mm]')
+    rod_lengths(p)
     _common(p)
     p.set_defaults(handler=_cmd_fk)
 
@@ -242,7 +242,7 @@ def register(sub: Subparsers) -> None:
     p = sub.add_parser('mobility', help='mobility and sensitivity analysis (ranks, eqs. 4, 5)',
                        description='Ranks of dPhi/dP and [dPhi/dP dPhi/dX], singular values and bounds of dX '
                                    '(paper §IV-A).')
-    p.add_argument('q', type=float, nargs=3, metavar='Q', help='rod lengths q1 q2 q3 [m, or mm with --mm]')
+    rod_lengths(p)
     p.add_argument('--dq', type=float, nargs=3, metavar=('D1', 'D2', 'D3'),
                    help='a change of the rod lengths: also print |dX| and its bounds for it [m, or mm]')
     _common(p)

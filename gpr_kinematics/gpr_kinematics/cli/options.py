@@ -41,6 +41,26 @@ def finite(text: str) -> float:
     return val
 
 
+class RodLengths(argparse.Action):
+    """The positional ``Q Q Q`` of ``gpr fk`` and ``gpr mobility`` (``nargs='*'``): three rod lengths, else one line
+    saying so (with ``nargs=3`` two of them gave argparse's "the following arguments are required: Q")."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        got = list(values) if isinstance(values, list) else []
+        if len(got) != 3:
+            typed = f': {brief(" ".join(f"{v:g}" for v in got))}' if got else ''
+            raise argparse.ArgumentError(None, f'three rod lengths q1 q2 q3 are needed [m, or mm with --mm]; got '
+                                               f'{len(got)}{typed}')
+        setattr(namespace, self.dest, got)
+
+
+def rod_lengths(p: argparse.ArgumentParser) -> None:
+    """The positional rod lengths ``Q Q Q`` (:class:`RodLengths`)."""
+    p.add_argument('q', type=float, nargs='*', action=RodLengths, metavar='Q',
+                   help='three rod lengths q1 q2 q3 [m, or mm with --mm]')
+
+
 def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
     """``--pose X Y Z A B C`` in SI units (``--mm``, ``--deg`` converted), checked for ``mech``."""
     pose = np.array(args.pose, dtype=float)
