@@ -92,3 +92,18 @@ def test_a_joint_table_naming_a_station_twice_is_refused(tmp_path):
         read_joint_table(table, ROBOT, 'arm1')
     table.write_text(f'{header}\np1,{row}\np2,{row}\n')
     assert read_joint_table(table, ROBOT, 'arm1')[0] == ('p1', 'p2')
+
+
+@pytest.mark.parametrize('name', ['"A\nB: station (9, 9, 9) m, FAKE"', 'x' * 65, '"a,b"', '=cmd|calc'])
+def test_a_joint_table_name_follows_the_station_rule(tmp_path, name):
+    """A taught name is printed and written into station tables: a quoted newline forged an output line."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
+    row = ','.join(['0.3'] * 3 + ['0.1'] * len(a.joints))
+    table = tmp_path / 't.csv'
+    table.write_text(f'{header}\n{name},{row}\n')
+    with pytest.raises(ConfigError, match=r't.csv: line 2.*name = .* is invalid; allowed: 1 to 64 letters, digits'):
+        read_joint_table(table, ROBOT, 'arm1')

@@ -29,7 +29,7 @@ from .description import Arm, RobotDescription
 from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
-from .station_files import MAX_BYTES, CsvTable, read_csv_table
+from .station_files import MAX_BYTES, CsvTable, read_csv_table, station_name
 from .stations import StationRecord, Stations, stations_from_poses
 
 Array = NDArray[np.float64]
@@ -188,9 +188,10 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
     for rods, ``[rad]``/``[deg]`` for joints; SI when none) and an optional ``name`` column; returns
     ``(names, rods (N, 3), joints (N, n))``. ConfigError names the file, the line, the row's name (when the table
-    has a name column) and the field: a value that is not a number, a rod outside the stroke and, with
-    ``check_limits`` (:func:`teach`; not the old joints of :func:`reteach`), a joint beyond its limits, with a hint
-    when the value read as degrees would lie within them (a column without a unit is in radians)."""
+    has a name column: 1 to 64 letters, digits, ``_ . -``, as in station files) and the field: a value that is not
+    a number, a rod outside the stroke and, with ``check_limits`` (:func:`teach`; not the old joints of
+    :func:`reteach`), a joint beyond its limits, with a hint when the value read as degrees would lie within them (a
+    column without a unit is in radians)."""
     a = robot.arm(arm)
     kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
     table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
@@ -200,7 +201,8 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     names: list[str] = []
     first: dict[str, int] = {}
     for r in range(len(table)):
-        names.append(table.text(r, 'name') or str(r))
+        given = table.text(r, 'name')  # a name is printed and written: the station files' rule, not any text
+        names.append(station_name(given, table.row_where(r)) if given else str(r))
         if first.setdefault(names[-1], r) != r:  # two stations of one name: the taught table would be ambiguous
             raise ConfigError(f'{table.row_where(r)}: name {brief(names[-1])} is also the name of line '
                               f'{table.lines[first[names[-1]]]}; allowed: each name once')
