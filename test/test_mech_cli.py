@@ -207,3 +207,19 @@ def test_mechanism_and_mobility_agree_on_the_singular_configuration(capsys):
         assert (data['singularity'] is not None) is singular and mob['rank_dphi_dp'] == (9 if singular else 11)
     code, out, _ = run(capsys, 'mechanism', 'gpr.yaml', '--pose', '0', '0', '0.3', '0', '0', '0')
     assert 'singular: yes (rigid mechanism: rank dPhi/dP = 9, mobility 3' in out
+
+
+@pytest.mark.parametrize('box', ['x', [], float('inf'), {'q': [0, 1]}])
+def test_a_bad_workspace_section_is_refused_by_every_command_reading_the_file(capsys, tmp_path, box):
+    """``gpr dexterity`` and ``gpr mechanism`` do not use ``workspace:``, but a file whose box ``gpr workspace``
+    refuses is not valid: they took a box of "x" (exit 0)."""
+    data = yaml.safe_load(config_path('mechanisms/tripod_3rps.yaml').read_text())
+    data['workspace']['box'] = box
+    path = tmp_path / 'bad.yaml'
+    path.write_text(yaml.safe_dump(data))
+    for argv in (['dexterity', str(path)], ['mechanism', str(path), '--pose', '0', '0', '0.1', '0', '0', '0']):
+        code, out, err = run(capsys, *argv)
+        assert code == 2 and err.count('\n') == 1 and 'workspace.box' in err and 'bad.yaml' in err, (argv, err)
+    data['workspace']['box'] = {'z': [0.0, 0.14]}
+    path.write_text(yaml.safe_dump(data))
+    assert run(capsys, 'dexterity', str(path))[0] == 0

@@ -34,10 +34,9 @@ import numpy as np
 from ..calibration.core_model import MODEL
 from ..errors import InputError, brief
 from ..inputs.safe_yaml import YamlValue
-from ..mechanisms import load_mechanism
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_pose
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -226,7 +225,7 @@ def _accuracy(args: argparse.Namespace) -> int:
         return budget_command(args)
     from ..mechanisms.accuracy import accuracy_analysis
     check_budget_options(args, budget=False)
-    mech = load_mechanism(args.file)
+    mech = mechanism_of(args.file)
     trajectory = getattr(mech, 'trajectory', None)
     if args.pose is not None:
         poses = mechanism_pose(args, mech)[None, :]

@@ -9,10 +9,9 @@ import numpy as np
 
 from ..errors import InputError, brief
 from ..inputs.validation import MAX_COORDINATE
-from ..mechanisms import load_mechanism
 from ..mechanisms.base import Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, mechanism_pose
+from .options import CONVENTIONS, mechanism_of, mechanism_pose
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -52,7 +51,7 @@ def _dexterity(args: argparse.Namespace) -> int:
     from ..mechanisms.dexterity import check_plot_path, dexterity_grid, dexterity_sweep, plot_dexterity
     if args.plot is not None:
         check_plot_path(args.plot)  # before the work, not after it
-    mech = load_mechanism(args.file)
+    mech = mechanism_of(args.file)
     base = mechanism_pose(args, mech) if args.pose is not None else np.asarray(mech.home_pose, dtype=float)
     sweep = getattr(mech, 'default_sweep', None)
     default_var = sweep[0] if sweep is not None else 'z'

@@ -22,9 +22,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from ..mechanisms import load_mechanism
 from ..mechanisms.pose_analysis import analyse_pose
-from .options import CONVENTIONS, finite, mechanism_pose
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -32,7 +31,7 @@ if TYPE_CHECKING:
 
 
 def _mechanism(args: argparse.Namespace) -> int:
-    mech = load_mechanism(args.file)
+    mech = mechanism_of(args.file)
     res = analyse_pose(mech, mechanism_pose(args, mech))
     if args.json:
         emit_json(res, file=str(args.file))

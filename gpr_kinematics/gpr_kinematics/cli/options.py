@@ -61,6 +61,18 @@ def rod_lengths(p: argparse.ArgumentParser) -> None:
                    help='three rod lengths q1 q2 q3 [m, or mm with --mm]')
 
 
+def mechanism_of(path: str) -> Mechanism:
+    """The mechanism of a file, its ``workspace:`` section checked as ``gpr workspace`` checks it, whether the
+    command uses it or not (``gpr dexterity`` took a box of ``"x"``)."""
+    from ..mechanisms import mechanism_from_dict, read_mechanism_file
+    from ..workspace.builders import BUILDERS, model_from_mapping
+    data, p = read_mechanism_file(path)
+    mech = mechanism_from_dict(data, str(p))
+    if isinstance(data, dict) and data.get('workspace') is not None and data.get('type') in BUILDERS:
+        model_from_mapping(data, str(p))
+    return mech
+
+
 def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
     """``--pose X Y Z A B C`` in SI units (``--mm``, ``--deg`` converted), checked for ``mech``."""
     pose = np.array(args.pose, dtype=float)
