@@ -147,11 +147,51 @@ def test_progress_bar_is_written_for_long_runs():
     res = approximate(model, 0.05, progress=True, progress_stream=stream, progress_after=0.0)   # show at once
     text = stream.getvalue()
     assert '% of volume decided' in text and text.endswith('\n')
-    last = text.rstrip('\n').split('\r')[-1]
+    assert '\r' not in text    # not a terminal: plain lines (test_progress_off_a_terminal_is_plain_throttled_lines)
+    last = text.rstrip('\n').split('\n')[-1]
     # the last update: everything decided, the last level, all boxes processed, the final volumes
-    assert last.startswith('[########################] 100.0% of volume decided')
+    assert last.startswith('100.0% of volume decided')
     assert f'level {res.levels},' in last and f'{res.evaluations:,} boxes processed' in last
     assert f'inner {res.inner_volume:.4g}, boundary {res.outer_volume - res.inner_volume:.4g} m*m*m' in last
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def _feed(bar, times, fracs):
+    """Updates of ``bar`` at the clock's ``times`` [s] with the decided shares ``fracs``."""
+    for t, f in zip(times, fracs, strict=True):
+        bar.clock = lambda t=t: t
+        bar.update(3, 0.01, 0.006, int(1000 * t), 0.25, 0.05, f)
+    bar.close()
+
+
+def test_progress_off_a_terminal_is_plain_throttled_lines():
+    """Into a file or a pipe (a log) the bar writes no carriage-return redraws: a plain line once the run has lasted
+    ``after`` s, then at most one every ``every`` s, and one line when the whole volume is decided, as ``gpr program
+    check``'s progress does (docs/workspace.md); on a terminal it is redrawn in place at every update."""
+    from gpr_kinematics.workspace.progress import Progress
+    times = [0.5 * k for k in range(1, 61)]             # an update every 0.5 s for 30 s: 60 updates
+    fracs = [min(t / 30.0, 1.0) for t in times]
+    stream = io.StringIO()
+    bar = Progress(True, stream, after=2.0, units='m*m', clock=lambda: 0.0)
+    _feed(bar, times, fracs)
+    lines = stream.getvalue().splitlines()
+    assert '\r' not in stream.getvalue() and stream.getvalue().endswith('\n')
+    assert [float(ln.split()[-2]) for ln in lines] == [2.0, 7.0, 12.0, 17.0, 22.0, 27.0, 30.0]
+    assert lines[0].startswith('  6.7% of volume decided | level 3, diameter 10 mm (delta 6 mm) | 2,000 boxes')
+    assert lines[-1].startswith('100.0% of volume decided') and lines[-1].endswith('m*m | 30.0 s')
+    # the last numbers shown again (refresh) after the end: no second final line
+    bar.refresh()
+    assert stream.getvalue().splitlines() == lines
+    # on a terminal: every update redrawn in place after 2 s, the line ended at the close
+    tty = _Terminal()
+    _feed(Progress(True, tty, after=2.0, units='m*m', clock=lambda: 0.0), times, fracs)
+    text = tty.getvalue()
+    assert text.count('\r') == 57 and text.endswith('\n') and text.count('\n') == 1
+    assert text.split('\r')[-1].startswith('[########################] 100.0% of volume decided')
 
 
 @pytest.mark.parametrize('kwargs, match', [

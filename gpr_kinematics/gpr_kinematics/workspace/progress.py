@@ -7,6 +7,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from types import FrameType
 from typing import Any, TextIO
 
@@ -17,17 +18,30 @@ class Progress:
     It shows the share of the initial box's volume already decided (inner, outside or boundary), the
     bisection level and the largest pending box diameter against ``delta`` (the "delta level"), the boxes
     processed so far, and the inner and boundary volumes (in the output variables' units).
+
+    On a terminal the bar is redrawn in place at every update; into a file or a pipe (a CI log) a plain line
+    (without the bar's ``\\r`` redraws) is written at most every ``every`` seconds, and once when the whole
+    volume is decided, as ``gpr program check`` reports its progress (:mod:`gpr_kinematics.cli.progress`).
     """
 
-    def __init__(self, enabled: bool, stream: TextIO | None = None, after: float = 2.0, units: str = '') -> None:
+    def __init__(self, enabled: bool, stream: TextIO | None = None, after: float = 2.0, units: str = '',
+                 every: float = 5.0, clock: Callable[[], float] = time.perf_counter) -> None:
         #: None: no stderr (``2>&-``: ``sys.stderr`` is None) or writing to it failed: the run goes on without the bar.
         self.stream: TextIO | None = stream or sys.stderr
         self.enabled = enabled and self.stream is not None
-        self.after = after
+        self.after, self.every = after, every
         self.units = units
-        self.start = time.perf_counter()
+        self.clock = clock
+        self.start = clock()
+        try:
+            #: A terminal: redrawn in place; else plain lines, at most one per ``every`` seconds.
+            self.live = bool(getattr(self.stream, 'isatty', lambda: False)())
+        except (OSError, ValueError):  # closed
+            self.live, self.stream, self.enabled = False, None, False
         self.shown = False
         self._last: tuple[int, float, float, int, float, float, float] | None = None
+        self._last_write = -float('inf')
+        self._finished = False
 
     def update(
         self,
@@ -42,17 +56,24 @@ class Progress:
         if not self.enabled:
             return
         self._last = (level, diameter, delta, processed, inner_volume, boundary_volume, done_frac)
-        elapsed = time.perf_counter() - self.start
+        now = self.clock()
+        elapsed = now - self.start
         if elapsed < self.after:
             return
-        width = 24
         frac = min(max(done_frac, 0.0), 1.0)
-        fill = int(round(width * frac))
-        self._write(
-            f'\r[{"#" * fill}{"." * (width - fill)}] {100 * frac:5.1f}% of volume decided | level {level}, '
-            f'diameter {diameter * 1e3:.3g} mm (delta {delta * 1e3:.3g} mm) | {processed:,} boxes processed | '
-            f'inner {inner_volume:.4g}, boundary {boundary_volume:.4g} {self.units} | {elapsed:.1f} s '
-        )
+        finished = frac >= 1.0
+        if not self.live and ((finished and self._finished) or (not finished and now - self._last_write < self.every)):
+            return
+        text = (f'{100 * frac:5.1f}% of volume decided | level {level}, diameter {diameter * 1e3:.3g} mm (delta '
+                f'{delta * 1e3:.3g} mm) | {processed:,} boxes processed | inner {inner_volume:.4g}, boundary '
+                f'{boundary_volume:.4g} {self.units} | {elapsed:.1f} s')
+        if self.live:
+            width = 24
+            fill = int(round(width * frac))
+            self._write(f'\r[{"#" * fill}{"." * (width - fill)}] {text} ')
+        else:
+            self._write(f'{text}\n')
+        self._last_write, self._finished = now, finished
         self.shown = self.enabled
 
     def _write(self, text: str) -> None:
@@ -71,7 +92,8 @@ class Progress:
             self.update(*self._last)
 
     def close(self) -> None:
-        if self.shown:
+        """End the bar's line on a terminal (a plain line off a terminal is ended already)."""
+        if self.shown and self.live:
             self._write('\n')
 
 
