@@ -106,12 +106,26 @@ def _print_safety(r: Any) -> None:
     if r.collisions:
         c = r.collisions[0]
         print(f'  UNSAFE: {len(r.collisions)} pair(s) below the margin; the first:')
-        print(f'    {"step":>5}  {"station":<16} {"time [s]":>9}  {"bodies":<40} {"distance [mm]":>13}')
-        print(f'    {c.step:>5}  {c.station:<16} {c.time:>9.3f}  {" / ".join(c.bodies):<40} {c.distance * 1e3:>13.3f}')
+        print(f'    {"step":>5}  {"station":<16} {"first below [s]":>15}  {"bodies":<40} {"min distance [mm]":>17} '
+              f'{"min at [s]":>10}')
+        print(f'    {c.step:>5}  {c.station:<16} {c.time:>15.3f}  {" / ".join(c.bodies):<40} {c.distance * 1e3:>17.3f} '
+              f'{_least_at(r, c):>10.3f}')
+        print('    (first below: the first instant found closer than the margin, in that step at that station; '
+              "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
+              'its smallest measured distance)')
     if r.max_slip_ratio >= 1.0:
         print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_ratio:.3f} >= 1) at {r.max_slip_at:.3f} s, '
               f'{r.slip_label}')
     print(f'  {"safe" if r.safe else "NOT safe"}')
+
+
+def _least_at(r: Any, c: Any) -> float:
+    """When the collision ``c``'s pair is at its least distance: the time of its entry in the report's pairs (the
+    same bodies and distance; the collision itself carries the first instant below the margin)."""
+    for p in r.pairs:
+        if tuple(p['bodies']) == tuple(c.bodies) and p['distance'] == c.distance:
+            return float(p['time'])
+    return float('nan')
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
