@@ -284,6 +284,78 @@ def test_every_command_takes_the_calibrated_file(capsys, tmp_path):
             np.testing.assert_allclose(d['wafer']['position'], [1.3, 0.6, 0.45], rtol=0, atol=1e-12)
 
 
+#: A number as the calibration's text prints it (not a digit inside a name such as rod1_y).
+_NUMBER = r'[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?'
+
+
+def _literal(text: str) -> str:
+    """``text`` as a regular expression, a run of spaces any run (a column's padding follows its numbers' widths)."""
+    return ' +'.join(re.escape(chunk) for chunk in re.split(' +', text))
+
+
+def _pattern(quoted: str) -> tuple[re.Pattern[str], list[str]]:
+    """A quoted output line as a regular expression for a whole output line: ``...`` leaves out any text, runs of
+    spaces are any run, every number is captured; and the quoted numbers."""
+    parts, numbers = [], []
+    for k, piece in enumerate(quoted.split('...')):
+        if k:
+            parts.append('.*?')
+        at = 0
+        for m in re.finditer(rf'(?<![\w.]){_NUMBER}(?![\w])', piece):
+            parts.append(_literal(piece[at:m.start()]))
+            parts.append(f'({_NUMBER})')
+            numbers.append(m.group())
+            at = m.end()
+        parts.append(_literal(piece[at:]))
+    return re.compile(''.join(parts)), numbers
+
+
+def _same_number(quoted: str, printed: str) -> bool:
+    """Integers exactly; decimals to one unit of their last printed digit (a value on a rounding boundary may print
+    either way), and the 12-digit estimates to 1e-7 of their value: their last digits vary with the floating-point
+    kernels of the machine (docs/calibration.md)."""
+    if re.fullmatch(r'[-+]?\d+', quoted):
+        return quoted == printed
+    mantissa, _, exponent = quoted.lower().partition('e')
+    decimals = len(mantissa.partition('.')[2])
+    unit = 10.0 ** (int(exponent or 0) - decimals)
+    return abs(float(quoted) - float(printed)) <= max(1.001 * unit, 1e-7 * abs(float(printed)))
+
+
+def _assert_quoted_output(block: list[str], output: str) -> None:
+    """Every line the doc quotes is an output line (in order; a line ``...`` leaves out any lines), every number in
+    it the printed one (:func:`_same_number`)."""
+    lines = output.splitlines()
+    at = 0
+    for quoted in block:
+        if quoted.strip() == '...':
+            continue
+        pattern, numbers = _pattern(quoted)
+        for k in range(at, len(lines)):
+            m = pattern.fullmatch(lines[k])
+            if m and all(_same_number(q, v) for q, v in zip(numbers, m.groups(), strict=True)):
+                at = k + 1
+                break
+        else:
+            close = [ln for ln in lines if ln.split()[:1] == quoted.split()[:1]]
+            raise AssertionError(f'docs/calibration.md quotes\n{quoted}\nthe output has\n' + '\n'.join(close))
+
+
+def _console_blocks(section: str) -> list[list[str]]:
+    """The output lines quoted under each ``$ gpr`` command of the section."""
+    blocks: list[list[str]] = []
+    inside = False
+    for ln in section.splitlines():
+        if ln.startswith('$ gpr '):
+            blocks.append([])
+            inside = True
+        elif ln.startswith('```') or ln.startswith('$ '):
+            inside = False
+        elif inside:
+            blocks[-1].append(ln)
+    return blocks
+
+
 def test_the_worked_calibration_of_a_cell(capsys, tmp_path, monkeypatch):
     """The commands of docs/calibration.md's worked example, as written there (run in a temporary folder with the
     package's files), and what the text says of their outcome: the plan is the tracker file's configurations, the
@@ -312,6 +384,11 @@ def test_the_worked_calibration_of_a_cell(capsys, tmp_path, monkeypatch):
     assert np.all(np.abs(values[0] - cell.TRACKER[:3]) < 3.5 * values[1] * 1e-6)
     assert np.all(np.abs(values[2] - cell.TRACKER[3:]) < 3.5 * values[3] * 1e-6 + 1e-9)
     assert 'gate: passed' in outs[1] and 'gate: passed' in outs[2] and Path('cell/robot.yaml').exists()
+    # what the section quotes of the output is the output (the estimates to their machine-dependent last digits)
+    blocks = _console_blocks(section)
+    assert len(blocks) == 3 and all(len(b) >= 5 for b in blocks)
+    for block, out in zip(blocks, outs, strict=True):
+        _assert_quoted_output([ln.replace('gpr_kinematics/config', config) for ln in block], out)
     status, out, err = run(capsys, 'robot', 'ik', '--position', '1300', '600', '450', '--tilt', '1.2', '--azimuth',
                            '30', '--heading', '20', '--mm', '--deg', '--robot', 'cell/robot.yaml', '--json')
     assert status == 0, err
