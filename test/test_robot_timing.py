@@ -1,9 +1,10 @@
 """Time parameterisation: the synchronised trapezoid against an independent integration, the limits held by
-finite differences of the samples, requested durations, refusals."""
+finite differences of the samples, requested durations, refusals; on a curved path the shortest profile within the
+chain-rule bounds, never longer for higher limits."""
 import numpy as np
 import pytest
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.robot.timing import parameterise, profile, sample, shortest
+from gpr_kinematics.robot.timing import parameterise, profile, sample, shortest, unit_profiles
 
 V_LIM = np.array([0.15, 3.0, 4.0])
 A_LIM = np.array([0.6, 12.0, 16.0])
@@ -105,3 +106,54 @@ def test_too_many_samples_are_refused():
     with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 5000 Hz that is 5000000001 samples; '
                                          r'allowed: at most 200000; lower the rate'):
         sample(t, 5000.0)
+
+
+# The cell program's straight entry into pm1 (arm2's shoulder, elbow and hand): G1, G2, G3 = the bounds of
+# max |dP/ds|, |d^2P/ds^2|, |d^3P/ds^3| over the line (robot/line_bounds.py), and the arm's limits.
+LINE = np.array([[2.0764, 2.2932, 1.938], [2.3281, 4.5967, 2.2686], [15.9411, 30.7332, 14.7921]])
+ARM = {'velocity': np.array([1.5, 2.0, 2.5]), 'acceleration': np.array([2.0, 2.5, 3.0]),
+       'jerk': np.array([20.0, 24.0, 30.0])}
+
+
+def _entry(velocity, acceleration, jerk):
+    """A joint-space move, then the straight entry (its gains given), timed within the limits; the limits kept."""
+    P = np.array([[0.0, 0.0, 0.0], [3.0, -2.0, 1.5], [3.1, -1.9, 1.4]])
+    gains = (np.vstack([np.abs(P[1] - P[0]), LINE[0]]), np.vstack([np.zeros(3), LINE[1]]),
+             np.vstack([np.zeros(3), LINE[2]]))
+    t = parameterise(P, velocity, acceleration, np.full(3, np.nan), np.zeros(3), NAMES, ('a', 'b', 'c'), jerk, gains)
+    v, a, j = t.peaks()
+    assert np.all(v <= velocity * (1 + 1e-12)) and np.all(a <= acceleration * (1 + 1e-12))
+    assert np.all(j <= jerk * (1 + 1e-12))
+    return t
+
+
+@pytest.mark.parametrize('limit', list(ARM))
+def test_higher_limits_never_lengthen_a_move(limit):
+    """The shortest profile's duration is non-increasing in each limit; scaling time until the chain-rule bounds held
+    (``V c``, ``A c^2``, ``J c^3``) made the entry longer for higher accelerations (2.55 s at x2, 3.39 s at x10) and
+    speeds (21 s at x10)."""
+    durations = []
+    for factor in (1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 30.0):
+        limits = dict(ARM, **{limit: ARM[limit] * factor})
+        durations.append(_entry(**limits).duration)
+    d = np.array(durations)
+    assert np.all(d[1:] <= d[:-1] * (1 + 1e-12)), d
+    assert d[-1].sum() < d[0].sum()
+
+
+@pytest.mark.parametrize('scale', [(1.0, 1.0, 1.0), (1.0, 10.0, 1.0), (10.0, 1.0, 1.0), (1.0, 1.0, 10.0),
+                                   (0.3, 3.0, 0.5)])
+def test_a_curved_move_takes_the_shortest_profile_within_the_bounds(scale):
+    """No cruise speed, acceleration and jerk (a 300 x 300 grid, the largest jerk the bounds leave) that keeps
+    ``G1 V <= v``, ``G1 A + G2 V^2 <= a``, ``G1 J + 3 G2 V A + G3 V^3 <= j`` gives a shorter unit move."""
+    v, a, j = (ARM[k] * f for k, f in zip(ARM, scale, strict=True))
+    took = _entry(v, a, j).duration[1]
+    G1, G2, G3 = LINE
+    V = np.linspace(1e-3, 1.0, 300)[:, None, None] * np.min(v / G1)
+    A = np.linspace(1e-3, 1.0, 300)[None, :, None] * np.min((a - G2 * V ** 2) / G1, axis=2, keepdims=True)
+    J = np.min((j - 3 * G2 * V * A - G3 * V ** 3) / G1, axis=2)
+    ok = (A[..., 0] > 0) & (J > 0)
+    Vg, Ag = np.broadcast_to(V[..., 0], J.shape)[ok], np.broadcast_to(A[..., 0], J.shape)[ok]
+    grid = unit_profiles(Vg, Ag, J[ok]).T
+    assert took <= grid.min() * (1 + 1e-12)
+    assert took > 0.98 * grid.min()

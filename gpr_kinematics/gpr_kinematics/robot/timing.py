@@ -8,8 +8,10 @@ down, the speed cruises at ``V``, and the braking mirrors the start; without a j
 trapezoid (constant acceleration). With ``G1_k = max |dP_k/ds|`` along the path (``|D_k|`` on a joint-space line)
 and, on a curved path, ``G2_k = max |d^2P_k/ds^2|``, ``G3_k = max |d^3P_k/ds^3|``, the joint's velocity, acceleration
 and jerk are at most ``G1 V``, ``G1 A + G2 V^2`` and ``G1 J + 3 G2 V A + G3 V^3`` (chain rule); the profile takes
-``V = min_k v_k / G1_k``, ``A = min_k a_k / G1_k``, ``J = min_k j_k / G1_k`` and, on a curved path, scales time by
-``c <= 1`` (``V c``, ``A c^2``, ``J c^3``) until the other two bounds hold.
+``V = min_k v_k / G1_k``, ``A = min_k a_k / G1_k``, ``J = min_k j_k / G1_k`` on a joint-space line and, on a curved
+path, the ``(V, A, J)`` of the shortest move for which the three bounds hold (:func:`fastest_limits`), so that no
+higher limit lengthens a move. (Scaling time by ``c <= 1``, ``V c``, ``A c^2``, ``J c^3``, until they held did:
+``3 G2 V A`` grew with ``A`` and ``V``.)
 
 Profile of a unit move (``v`` the cruise speed reached, ``t_a`` the time to reach it, ``d_a = v t_a / 2`` the
 distance then): with ``v J >= A^2`` the acceleration saturates, ``t_a = v/A + A/J``; else it peaks at
@@ -210,6 +212,81 @@ def _limits(G: Array, limit: Array) -> Array:
         return np.asarray(np.min(np.where(moving, limit / np.where(moving, G, 1.0), np.inf), axis=1), dtype=np.float64)
 
 
+def _ramp(v: Array, G1: Array, G2: Array, G3: Array, acceleration: Array, jerk: Array) -> tuple[Array, Array, Array]:
+    """For cruise speeds ``v (M, N)`` [1/s] of moves of gains ``G1, G2, G3 (M, K)``: the least ramp time ``t_a = v/a
+    + a/J`` [s] over the peak accelerations ``a`` with ``G1 a + G2 v^2 <= acceleration`` and ``J = min_k (jerk_k - 3
+    G2_k v a - G3_k v^3) / G1_k > 0``, that ``a`` [1/s^2] and ``J`` [1/s^3] (``t_a`` inf where no ``a`` is left).
+    ``t_a`` is convex in ``a``: its least value lies at the top ``a``, at a piece's stationary point ``a = c sqrt(v) /
+    (sqrt(G1 c) + b sqrt(v))`` (``c = jerk - G3 v^3``, ``b = 3 G2 v``) or where two pieces of the ``min`` cross."""
+    M, N, K = v.shape[0], v.shape[1], G1.shape[1]
+    w = v[:, :, None]
+    g1, g2, g3 = (x[:, None, :] for x in (G1, G2, G3))
+    moving = g1 > STILL
+    piece = moving & np.isfinite(jerk)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        safe = np.where(moving, g1, 1.0)
+        top = np.min(np.where(moving, (acceleration - g2 * w * w) / safe, np.inf), axis=2)
+        c = np.where(np.isfinite(jerk), jerk - g3 * w ** 3, np.inf)
+        b = 3.0 * g2 * w
+        top = np.minimum(top, np.min(np.where(np.isfinite(jerk) & (b > 0), c / b, np.inf), axis=2))
+        stat = np.where(piece, np.sqrt(w) * c / (np.sqrt(g1 * c) + b * np.sqrt(w)), np.nan)
+        cross = ((g1[:, :, None, :] * c[:, :, :, None] - g1[:, :, :, None] * c[:, :, None, :])
+                 / (g1[:, :, None, :] * b[:, :, :, None] - g1[:, :, :, None] * b[:, :, None, :]))
+        cross = np.where(piece[:, :, :, None] & piece[:, :, None, :], cross, np.nan).reshape(M, N, K * K)
+        cand = np.concatenate([top[:, :, None], stat, cross], axis=2)
+        cand = np.where((cand > 0) & (cand < top[:, :, None]), cand, top[:, :, None])
+        den = c[:, :, None, :] - b[:, :, None, :] * cand[:, :, :, None]
+        h = np.where(piece[:, :, None, :], np.where(den > 0, g1[:, :, None, :] * cand[:, :, :, None] / den, np.inf),
+                     0.0)
+        t = np.where(top[:, :, None] > 0, w / cand + np.max(h, axis=3), np.inf)
+        k = np.argmin(t, axis=2)[:, :, None]
+        a = np.take_along_axis(cand, k, axis=2)
+        J = np.min(np.where(piece, (c - b * a) / safe, np.inf), axis=2)
+    return np.take_along_axis(t, k, axis=2)[:, :, 0], a[:, :, 0], J
+
+
+#: Cruise speeds tried per round on a curved path (:func:`fastest_limits`): each round narrows the interval
+#: searched to 1 or 2 of its steps (12 and 14 rounds: below the rounding).
+SPEEDS = 32
+
+
+def fastest_limits(G1: Array, G2: Array, G3: Array, velocity: Array, acceleration: Array, jerk: Array
+                   ) -> tuple[Array, Array, Array]:
+    """The profile limits ``V`` [1/s], ``A`` [1/s^2], ``J`` [1/s^3] ``(M,)`` of the shortest unit move on curved
+    paths of gains ``G1, G2, G3 (M, K)`` with ``G1 V <= v``, ``G1 A + G2 V^2 <= a`` and ``G1 J + 3 G2 V A + G3 V^3
+    <= j`` for every joint (module docstring): the least ``T = 1/V + t_a(V)`` (:func:`_ramp`) over the speeds the
+    move reaches, ``V t_a(V) <= 1`` (an interval: ``t_a`` grows with ``V``), searched on ever finer grids."""
+    M = G1.shape[0]
+    used = np.any((G1 > STILL) | (G2 > 0) | (G3 > 0), axis=0)  # the other joints do not move on any of the paths
+    G1, G2, G3, velocity, acceleration, jerk = (x[..., used] for x in (G1, G2, G3, velocity, acceleration, jerk))
+    moving = G1 > STILL
+    with np.errstate(invalid='ignore', divide='ignore'):
+        cap = np.min(np.minimum(np.minimum(
+            np.where(moving, velocity / np.where(moving, G1, 1.0), np.inf),
+            np.where(G2 > 0, np.sqrt(acceleration / np.where(G2 > 0, G2, 1.0)), np.inf)),
+            np.where((G3 > 0) & np.isfinite(jerk), np.cbrt(jerk / np.where(G3 > 0, G3, 1.0)), np.inf)), axis=1)
+
+    def ramp(x: Array) -> tuple[Array, Array, Array]:
+        return _ramp(x, G1, G2, G3, acceleration, jerk)
+
+    rows, step = np.arange(M), np.arange(1, SPEEDS + 1) / SPEEDS
+    lo, hi = np.zeros(M), cap
+    for _ in range(12):  # the fastest cruise reached: the last speed with v t_a(v) <= 1
+        x = lo[:, None] + (hi - lo)[:, None] * step
+        n = np.count_nonzero(x * ramp(x)[0] <= 1.0, axis=1)
+        lo, hi = np.where(n > 0, x[rows, np.maximum(n - 1, 0)], lo), x[rows, np.minimum(n, SPEEDS - 1)]
+    best, lo, hi = lo, np.zeros(M), lo
+    for _ in range(14):  # the least duration: the grid's least point and its neighbours bracket it
+        x = np.column_stack([best, lo[:, None] + (hi - lo)[:, None] * step])
+        with np.errstate(divide='ignore'):
+            T = 1.0 / x + ramp(x)[0]
+        best = x[rows, np.argmin(T, axis=1)]
+        i = np.argmin(T[:, 1:], axis=1) + 1
+        lo, hi = np.where(i > 1, x[rows, i - 1], lo), x[rows, np.minimum(i + 1, SPEEDS)]
+    _, a, J = ramp(best[:, None])
+    return best, a[:, 0], J[:, 0]
+
+
 def shortest(D: Array, velocity: Array, acceleration: Array, jerk: Array | None = None
              ) -> tuple[Array, Array, Array]:
     """For joint-space moves ``D (M, J)``: the profile limits ``V``, ``A`` and the shortest duration ``T_min``."""
@@ -247,13 +324,10 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     jerk_lim = np.full(velocity.shape, np.inf) if jerk is None else np.asarray(jerk, dtype=float)
     G1, G2, G3 = (np.abs(D), np.zeros(D.shape), np.zeros(D.shape)) if gains is None else gains
     V, A, J = _limits(G1, velocity), _limits(G1, acceleration), _limits(G1, jerk_lim)
-    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        fa = np.min(np.where(G2 > 0, acceleration / (G1 * A[:, None] + G2 * V[:, None] ** 2), np.inf), axis=1)
-        curved = ((G2 > 0) | (G3 > 0)) & np.isfinite(jerk_lim)   # without a jerk limit, only the acceleration
-        fj = np.min(np.where(curved, jerk_lim / (G1 * J[:, None] + 3 * G2 * (V * A)[:, None] + G3 * V[:, None] ** 3),
-                             np.inf), axis=1)
-    c = np.minimum(1.0, np.minimum(np.sqrt(fa), np.cbrt(fj)))
-    V, A, J = V * c, A * c * c, J * c ** 3
+    curved = np.any((G2 > 0) | (G3 > 0), axis=1) & np.isfinite(V)
+    if curved.any():
+        V[curved], A[curved], J[curved] = fastest_limits(G1[curved], G2[curved], G3[curved], velocity, acceleration,
+                                                         jerk_lim)
     p = unit_profiles(V, A, J)
     T_min = p.T
     req = requested[1:]
