@@ -177,3 +177,22 @@ def test_program_export_does_not_replace_the_cell_its_program_names(tmp_path):
     assert res.returncode == 2 and res.stderr.count('\n') == 1, res.stderr
     assert "trajectory output 'cells/example_cell.yaml' is a file this command reads" in res.stderr, res.stderr
     assert cell.read_bytes() == before
+
+
+def test_a_box_beside_the_column_is_measured_exactly_not_by_the_librarys_cylinder_distance(tmp_path):
+    """A reviewer's counterexample: a box 1.900 mm from the column (a cylinder; the truth by two independent
+    methods) read 2.035 mm in FCL, so the program checked safe at a 2 mm margin. The distance kept for a pair with a
+    cylinder is a certified lower bound (safety.distances.refine): the check reports at most the truth, unsafe."""
+    import shutil
+
+    for folder in ('programs', 'robots'):
+        shutil.copytree(config_path(folder), tmp_path / folder)
+    (tmp_path / 'cells').mkdir()
+    probe = ('  - {name: probe, box: [100, 100, 100], position: [691.889790209762, 704.925465354399, '
+             '-7.275337568528], rpy: [131.530848276969, -30.767947603633, 86.576792889835]}\n')
+    (tmp_path / 'cells' / 'example_cell.yaml').write_text(config_path('cells/example_cell.yaml').read_text() + probe)
+    res = _gpr('program', 'check', 'programs/example_cell_program.yaml', '--json', '--no-progress', cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    out = json.loads(res.stdout)
+    pair = [p for p in out['pairs'] if set(p['bodies']) == {'gpr_base', 'probe'}]
+    assert pair and 1.8985e-3 <= pair[0]['distance'] <= 1.9000e-3 + 1e-9 and not out['safe'], pair

@@ -72,8 +72,8 @@ def test_the_cell_example_is_safe(tmp_path):
 
 def test_the_collision_table_says_which_time_is_which(tmp_path):
     """A margin of 7 mm makes the cell example unsafe: arm2_link3 first comes closer than 7 mm to pm1's front at
-    16.19 s, while its least distance, 6.09 mm, is reached at 18.03 s. The table gives both times in their own
-    columns, named (the row read as the distance at 16.19 s before), and they are the JSON's: the collision's time
+    16.11 s, while its least distance, 6.09 mm, is reached at 17.93 s. The table gives both times in their own
+    columns, named (the row read as the distance at 16.11 s before), and they are the JSON's: the collision's time
     and distance, and the time of the same pair's entry in ``pairs``."""
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.007', '--json', cwd=tmp_path)
     assert res.returncode == 1, res.stderr

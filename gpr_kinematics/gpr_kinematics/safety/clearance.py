@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
-from .distances import LIBRARY_SLACK, Exact, Store, Table, key
+from .distances import Exact, Store, Table, key
 from .motion import BodyMotion, Levers, levers
 
 Array = NDArray[np.float64]
@@ -386,10 +386,13 @@ class _Search:
 
     def _convex(self, p: Ints, i0: Ints, i1: Ints, d0: Array, d1: Array, delta: Array) -> Array:
         """Tangent lower bound of a convex ``d(tau)`` on [0, 1] from the ends' values and slopes, less the slopes'
-        error (the nearest points are exact to about the library's tolerance)."""
-        g0 = np.einsum('ki,ki->k', delta, self.exact.gap(p, i0)) / (d0 + LIBRARY_SLACK)
-        g1 = np.einsum('ki,ki->k', delta, self.exact.gap(p, i1)) / (d1 + LIBRARY_SLACK)
-        err = np.linalg.norm(delta, axis=1) * 4.0 * LIBRARY_SLACK / np.minimum(d0, d1)
+        error: a direction from nearest points ``w`` off the true ones is ``2 w / d`` off the unit normal
+        (:meth:`~gpr_kinematics.safety.distances.Exact.gap_error`: the library's tolerance, or the refinement's)."""
+        ga, gb = self.exact.gap(p, i0), self.exact.gap(p, i1)
+        g0 = np.einsum('ki,ki->k', delta, ga) / np.linalg.norm(ga, axis=1)
+        g1 = np.einsum('ki,ki->k', delta, gb) / np.linalg.norm(gb, axis=1)
+        w = np.maximum(self.exact.gap_error(p, i0), self.exact.gap_error(p, i1))
+        err = np.linalg.norm(delta, axis=1) * 2.0 * w / np.minimum(d0, d1)
         with np.errstate(invalid='ignore', divide='ignore'):
             tau = np.clip((d1 - g1 - d0) / (g0 - g1), 0.0, 1.0)
         low = np.where(g0 >= 0.0, d0, np.where(g1 <= 0.0, d1, d0 + g0 * tau))
