@@ -25,7 +25,7 @@ from bag_support import (
 )
 from gpr_kinematics.bags.metadata import METADATA_DIGEST_KEY, digest_line
 from gpr_kinematics.bags.reader import read_bag
-from gpr_kinematics.bags.typestore import GPR_TOPICS
+from gpr_kinematics.bags.typestore import GPR_TOPICS, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.cli import main as cli
 
@@ -219,3 +219,28 @@ def test_tolerances_beyond_any_meaningful_check_are_refused_in_python_too():
     with pytest.raises(InputError, match=r'tolerance jump_x = nan is invalid'):
         Tolerances().replace(jump_x=float('nan'))
     assert Tolerances().replace(position=1e-3).position == 1e-3
+
+
+@pytest.mark.parametrize('tail', [b'\x01\x02\x03\x04', b'\x00' * 8, b'\x00' * 64, b'\x00\x00\x01', b'\x00\x00\x00'],
+                         ids=['junk', 'zeros', 'many', 'padding-not-zero', 'padding'])
+def test_bytes_after_a_messages_last_field_make_the_bag_unreadable(tmp_path: Path, src: Path, tail: bytes,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A state message with bytes appended after its last field verified (exit 0): the serializer pads the end to
+    4 bytes with at most 3 zeros (rmw's messages in the reference bag), anything else after the last field is
+    refused, naming the message."""
+    store = typestore()
+    t7 = int(read_bag(src).topic(STATE).log_time[7])
+
+    def edit(topic: str, msg: Any) -> Any:
+        if topic == STATE and msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t7:
+            return bytes(store.serialize_cdr(msg, 'gpr_interfaces/msg/PlatformState')) + tail
+        return msg
+
+    bad = rewritten(src, tmp_path / 'tail', edit)
+    if tail == b'\x00\x00\x00':
+        assert verify_bag(bad).passed
+        return
+    assert cli.main(['verify', str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and 'PlatformState cannot be decoded' in err, err
+    assert 'after its last field; allowed: at most 3 zero bytes of padding' in err, err

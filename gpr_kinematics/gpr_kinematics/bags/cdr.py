@@ -7,7 +7,8 @@ offset in every message, and a whole column is one strided numpy view over the c
 :func:`decode_columns` walks one message (the template) along the type's field definitions (XCDR1, little
 endian: a 4-byte encapsulation header, then every primitive aligned to its size counted from byte 4,
 strings and sequences prefixed by a ``uint32`` count) and records where each numeric field lies and which
-bytes carry the structure (counts, string bytes). Messages of the same length whose structure bytes equal
+bytes carry the structure (counts, string bytes, the end's padding: at most 3 zero bytes, anything more after the
+last field is refused). Messages of the same length whose structure bytes equal
 the template's are decoded by views; the others start a new template. After :data:`MAX_LAYOUTS` templates
 the rest is deserialised one by one with ``rosbags`` (correct, slower). Strings come back as Python objects.
 """
@@ -129,6 +130,11 @@ def layout_of(msgtype: str, buf: bytes) -> _Layout:
     w.message(msgtype)
     if w.pos > len(buf):
         raise ValueError('message shorter than its fields')
+    tail = buf[w.pos:]
+    if len(tail) > 3 or any(tail):   # the serializer pads the end to 4 bytes with zeros, nothing else
+        raise ValueError(f'{len(tail)} byte(s) after its last field; allowed: at most 3 zero bytes of padding')
+    if tail:   # the padding is structure: a message of the same length with other bytes there is not this layout
+        w.layout.structure.append((w.pos, len(buf)))
     return w.layout
 
 
@@ -272,6 +278,7 @@ def _decode_one_by_one(msgtype: str, raw: list[bytes], pending: NDArray[np.int64
     store = typestore()
     for i in pending:
         try:
+            layout_of(msgtype, raw[int(i)])   # the bytes after the last field, which rosbags does not look at
             msg = store.deserialize_cdr(raw[int(i)], msgtype)
         except (ValueError, IndexError, struct.error) as exc:  # what rosbags raises for bytes that do not fit
             raise BagError(f'message {int(i)} of type {msgtype} cannot be decoded: {exc}') from None
