@@ -190,6 +190,10 @@ def test_tolerances_follow_control_msgs_rules():
         resolve_tolerances(JOINTS, DEFAULTS, [], [], -1.0)
     with pytest.raises(GoalError, match='goal_tolerance has 11 entries; allowed: at most one per joint'):
         resolve_tolerances(JOINTS, DEFAULTS, [], [('rod_1', 0.1, 0.0, 0.0)] * 11, 0.0)
+    with pytest.raises(GoalError, match=r"goal_tolerance\[1\] names joint 'rod_1' as goal_tolerance\[0\] does"):
+        resolve_tolerances(JOINTS, DEFAULTS, [], [('rod_1', 0.1, 0.0, 0.0), ('rod_1', 0.2, 0.0, 0.0)], 0.0)
+    with pytest.raises(GoalError, match=r'goal_time_tolerance = 2147483648.0 s; .* at most 86400 s'):
+        resolve_tolerances(JOINTS, DEFAULTS, [], [], 2.0 ** 31)
 
 
 def test_servo_is_exact_first_order_and_tolerance_violations_are_named():

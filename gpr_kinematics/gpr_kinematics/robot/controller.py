@@ -183,8 +183,12 @@ JointTolerance = tuple[str, float, float, float]
 def _apply(joints: ControllerJoints, entries: Sequence[JointTolerance], position: Array, velocity: Array,
            where: str) -> tuple[Array, Array]:
     position, velocity = position.copy(), velocity.copy()
+    seen: dict[int, int] = {}
     for i, (name, *values) in enumerate(entries):
         k = int(joints.indices([name], f'{where}[{i}].name')[0])
+        if seen.setdefault(k, i) != i:   # which entry holds would be a guess
+            raise GoalError(INVALID_GOAL, f'{where}[{i}] names joint {name!r} as {where}[{seen[k]}] does; allowed: '
+                            'one entry per joint')
         for target, what, v in ((position, 'position', values[0]), (velocity, 'velocity', values[1]),
                                 (None, 'acceleration', values[2])):
             if not (math.isfinite(v) and (v >= 0.0 or v == -1.0)):
@@ -199,8 +203,9 @@ def resolve_tolerances(joints: ControllerJoints, defaults: Tolerances, path: Seq
                        goal: Sequence[JointTolerance], goal_time: float) -> Tolerances:
     """A goal's tolerances over ``defaults`` (module docstring); ``goal_time`` 0: the default. Acceleration tolerances
     are validated and not checked (the simulated joints' accelerations are not measured)."""
-    if not math.isfinite(goal_time) or goal_time < 0.0:
-        raise GoalError(INVALID_GOAL, f'goal_time_tolerance = {goal_time!r} s; allowed: 0 (the default) or positive')
+    if not (math.isfinite(goal_time) and 0.0 <= goal_time <= MAX_DURATION):
+        raise GoalError(INVALID_GOAL, f'goal_time_tolerance = {goal_time!r} s; allowed: 0 (the default) or positive, '
+                        f'at most {MAX_DURATION:g} s')
     for where, entries in (('path_tolerance', path), ('goal_tolerance', goal)):
         if len(entries) > len(joints.names):
             raise GoalError(INVALID_GOAL, f'{where} has {len(entries)} entries; allowed: at most one per joint '
