@@ -19,6 +19,9 @@ def test_column_cells_and_units_lines():
     assert units.file_units('# UNITS: deg', 'l') == (None, 'deg')
     with pytest.raises(FileError, match=r"unit 'inch' in \"# units:\" is unknown or repeated"):
         units.file_units('# units: inch', 'l')
+    for line in ('# units:', '# units: ,', '#units:   '):   # taken as SI before: a line meant to say something
+        with pytest.raises(FileError, match=r'"# units:" names no unit; allowed: one of m, mm'):
+            units.file_units(line, 'l')
     with pytest.raises(FileError, match=r'header column .* is not a name with an optional unit in brackets'):
         units.column('x [mm', 'l')
     # Own unit first, then the file's, then SI; a unit that does not fit the column is refused.

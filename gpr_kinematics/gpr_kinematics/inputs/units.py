@@ -60,6 +60,9 @@ def file_units(line: str, where: str) -> FileUnits:
         else:
             raise FileError(f'{where}: unit {brief(tok, 20)} in "# units:" is unknown or repeated; allowed: one of '
                              'm, mm (lengths) and one of rad, deg (angles), e.g. "# units: mm deg"')
+    if length is None and angle is None:   # a line meant to say something: SI was a guess
+        raise FileError(f'{where}: "# units:" names no unit; allowed: one of m, mm (lengths) and/or one of rad, deg '
+                        '(angles), e.g. "# units: mm deg", or no "# units:" line for m and rad')
     return length, angle
 
 
