@@ -102,3 +102,12 @@ def test_a_config_that_is_not_one_is_named(config):
 
     with pytest.raises(InputError, match=r'config = .* is not a GprConfig; allowed: a configuration of load_config'):
         forward([0.3, 0.3, 0.3], config=config)
+
+
+@pytest.mark.parametrize('text', ['', '# only a comment\n', '{}\n', '---\n'])
+def test_an_empty_geometry_file_is_refused_not_read_as_the_defaults(tmp_path, text):
+    """``gpr fk --config empty.yaml`` computed with the defaults: a truncated or wrong file passed as valid."""
+    path = tmp_path / 'g.yaml'
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=r'g\.yaml: the geometry file is empty \(no keys\); allowed: a mapping'):
+        load_config(path)

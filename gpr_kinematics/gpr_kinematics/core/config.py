@@ -302,7 +302,11 @@ def load_config(path: str | Path | None = None,
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
     if path is not None:  # the name as given: an empty one is refused, not read as '.'
-        cfg = _build(cfg, _read_yaml(path), str(path))
+        given = _read_yaml(path)
+        if not given:   # a truncated or wrong file would quietly be the defaults
+            raise ConfigError(f'{path}: the geometry file is empty (no keys); allowed: a mapping of geometry keys '
+                              '(e.g. radius: 0.25), or no file for the defaults')
+        cfg = _build(cfg, given, str(path))
     if overrides:
         cfg = _build(cfg, overrides, 'overrides')
     return cfg
