@@ -63,6 +63,7 @@ def test_a_config_the_solver_cannot_use_is_a_failed_check(tmp_path: Path, capsys
     assert ('differs from the recorded geometry in max_iterations (12 recorded, 1 given); pose difference not '
             'computable: ConvergenceError') in out
     _one_line_error(*run('verify', str(REFERENCE), '--config', '', capsys=capsys), '--config is empty')
+    _one_line_error(*run('verify', '', capsys=capsys), 'BAG is empty; allowed: a rosbag2 folder')   # not '.'
     _one_line_error(*run('verify', str(REFERENCE), '--config', str(tmp_path / 'none.yaml'), capsys=capsys),
                     'none.yaml')
 

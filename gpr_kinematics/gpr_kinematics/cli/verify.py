@@ -59,6 +59,8 @@ def parse_tolerances(items: list[str] | None) -> Tolerances:
 
 def _verify(args: argparse.Namespace) -> int:
     tol = parse_tolerances(args.tolerance)
+    if not args.bag:   # '' was read as '.', the folder the command runs in
+        raise InputError('BAG is empty; allowed: a rosbag2 folder (with metadata.yaml), a .mcap or a .db3 file')
     if args.config is not None and not args.config:
         raise InputError('--config is empty; allowed: the path of a GPR configuration YAML file')
     cfg = load_config(args.config) if args.config else None
