@@ -108,6 +108,16 @@ def test_a_port_that_is_no_dask_scheduler_is_reported(monkeypatch):
         s.close()
 
 
+def test_an_answer_that_is_not_dask_is_named_not_an_allocation():
+    """Garbage from the address made Dask read a frame length of exabytes: the message was 'Unable to allocate
+    3.07 EiB'; it now says the answer is not Dask's protocol."""
+    def client(address, timeout):
+        raise MemoryError('Unable to allocate 3.07 EiB for an array with shape (3539520420625276928,)')
+
+    with pytest.raises(InputError, match=r'within \S+ s: its answer is not the Dask protocol \(is it a Dask scheduler'):
+        sched._remote_client(client, 'tcp://127.0.0.1:9')
+
+
 @pytest.mark.slow
 def test_sigterm_stops_a_run_on_a_local_cluster_and_closes_it(tmp_path):
     """Issue 18: a grid run killed with SIGTERM left its local cluster's 12 semaphores behind (the resource

@@ -75,6 +75,8 @@ def _remote_client(client_class: Any, address: str) -> Any:
     def connect() -> None:
         try:
             box['client'] = client_class(address, timeout=CONNECT_TIMEOUT)
+        except MemoryError:   # Dask read a length from bytes that are not its protocol (3 EiB to allocate)
+            box['error'] = 'its answer is not the Dask protocol (is it a Dask scheduler?)'
         except BaseException as exc:  # noqa: BLE001 - in this thread, whatever Dask raises becomes the one line
             box['error'] = f'{str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__}'
 
