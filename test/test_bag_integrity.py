@@ -244,3 +244,27 @@ def test_bytes_after_a_messages_last_field_make_the_bag_unreadable(tmp_path: Pat
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and 'PlatformState cannot be decoded' in err, err
     assert 'after its last field; allowed: at most 3 zero bytes of padding' in err, err
+
+
+@pytest.mark.parametrize('change', ['terminator', 'not-utf8'])
+def test_a_string_that_is_not_nul_terminated_text_makes_the_bag_unreadable(tmp_path: Path, src: Path, change: str,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """A marker's frame id with its terminating NUL set to 'X', or a frame id of bytes that are not UTF-8,
+    verified (the decoder stripped NULs and replaced bad bytes)."""
+    store = typestore()
+    t7 = int(read_bag(src).topic(STATE).log_time[7])
+
+    def edit(m: Any) -> bytes:
+        raw = bytearray(store.serialize_cdr(m, 'visualization_msgs/msg/MarkerArray'))
+        if change == 'terminator':
+            i = raw.index(b'gpr_base\x00') + len(b'gpr_base')
+            raw[i] = ord('X')
+        else:
+            i = raw.index(b'gpr_base')
+            raw[i:i + 3] = b'\xff\xfe\xfd'
+        return bytes(raw)
+
+    bad = rewritten(src, tmp_path / 'str', _marker_edit(t7, edit))
+    assert cli.main(['verify', str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert 'MarkerArray cannot be decoded' in err and err.count('\n') == 1, err

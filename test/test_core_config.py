@@ -104,10 +104,13 @@ def test_a_config_that_is_not_one_is_named(config):
         forward([0.3, 0.3, 0.3], config=config)
 
 
-@pytest.mark.parametrize('text', ['', '# only a comment\n', '{}\n', '---\n'])
+@pytest.mark.parametrize('text', ['', '# only a comment\n', '---\n'])
 def test_an_empty_geometry_file_is_refused_not_read_as_the_defaults(tmp_path, text):
-    """``gpr fk --config empty.yaml`` computed with the defaults: a truncated or wrong file passed as valid."""
+    """``gpr fk --config empty.yaml`` computed with the defaults: a truncated or wrong file passed as valid. An
+    explicit ``{}`` still says "the defaults as they are"."""
     path = tmp_path / 'g.yaml'
     path.write_text(text)
-    with pytest.raises(ConfigError, match=r'g\.yaml: the geometry file is empty \(no keys\); allowed: a mapping'):
+    with pytest.raises(ConfigError, match=r'g\.yaml: the geometry file is empty \(no YAML document\); allowed: a'):
         load_config(path)
+    path.write_text('{}\n')
+    assert load_config(path) == load_config()

@@ -68,8 +68,11 @@ class _Walker:
         self.pos += n
         if self.pos > len(self.buf):
             raise ValueError('string beyond the end of the message')
+        text = self.buf[start:self.pos]
+        if n == 0 or text[-1] != 0 or 0 in text[:-1]:   # CDR: the count includes one terminating NUL, the only one
+            raise ValueError(f'string at byte {start} is not NUL-terminated text of {n} bytes')
         self.layout.structure.append((start, self.pos))
-        return self.buf[start:self.pos].rstrip(b'\0').decode('utf-8', errors='replace')
+        return bytes(text[:-1]).decode('utf-8')   # UnicodeDecodeError, a ValueError, for bytes that are not text
 
     def primitive(self, name: str, tname: str, count: int, scalar: bool) -> None:
         dtype, size = _PRIMITIVES[tname]

@@ -283,8 +283,13 @@ def resolve_config(config: GprConfig | None) -> GprConfig:
     return _DEFAULT_CONFIG
 
 
-def _read_yaml(path: str | Path) -> Mapping[str, YamlValue]:
+def _read_yaml(path: str | Path, empty: bool = True) -> Mapping[str, YamlValue]:
+    """The mapping of a geometry file; with ``empty`` False, a file without a YAML document is refused (an empty or
+    truncated file would quietly be the defaults; ``{}`` says so)."""
     data = read_yaml(path)
+    if data is None and not empty:
+        raise ConfigError(f'{path}: the geometry file is empty (no YAML document); allowed: a mapping of geometry '
+                          'keys (e.g. radius: 0.25), {} for the defaults as they are, or no file')
     if data is None:
         return {}
     if not isinstance(data, Mapping):
@@ -302,11 +307,7 @@ def load_config(path: str | Path | None = None,
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
     if path is not None:  # the name as given: an empty one is refused, not read as '.'
-        given = _read_yaml(path)
-        if not given:   # a truncated or wrong file would quietly be the defaults
-            raise ConfigError(f'{path}: the geometry file is empty (no keys); allowed: a mapping of geometry keys '
-                              '(e.g. radius: 0.25), or no file for the defaults')
-        cfg = _build(cfg, given, str(path))
+        cfg = _build(cfg, _read_yaml(path, empty=False), str(path))
     if overrides:
         cfg = _build(cfg, overrides, 'overrides')
     return cfg
