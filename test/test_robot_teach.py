@@ -78,20 +78,25 @@ def test_teach_refuses_joints_beyond_limits():
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')
 
 
+def _joint_table(tmp_path, *names):
+    """A joint table of arm1 with one row per name (the same joints), and its header."""
+    a = ROBOT.arm('arm1')
+    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
+    row = ','.join(['0.3'] * 3 + ['0.1'] * len(a.joints))
+    table = tmp_path / 't.csv'
+    table.write_text(header + '\n' + ''.join(f'{n},{row}\n' for n in names))
+    return table
+
+
 def test_a_joint_table_naming_a_station_twice_is_refused(tmp_path):
     """Two rows named p1 were taught silently (which one a program meant by p1 was then a guess)."""
     from gpr_kinematics.errors import ConfigError
     from gpr_kinematics.robot.teach import read_joint_table
 
-    a = ROBOT.arm('arm1')
-    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
-    row = ','.join(['0.3'] * 3 + ['0.1'] * len(a.joints))
-    table = tmp_path / 't.csv'
-    table.write_text(f'{header}\np1,{row}\np2,{row}\np1,{row}\n')
+    table = _joint_table(tmp_path, 'p1', 'p2', 'p1')
     with pytest.raises(ConfigError, match=r't.csv: line 4: name .p1. is also the name of line 2; allowed: each name'):
         read_joint_table(table, ROBOT, 'arm1')
-    table.write_text(f'{header}\np1,{row}\np2,{row}\n')
-    assert read_joint_table(table, ROBOT, 'arm1')[0] == ('p1', 'p2')
+    assert read_joint_table(_joint_table(tmp_path, 'p1', 'p2'), ROBOT, 'arm1')[0] == ('p1', 'p2')
 
 
 @pytest.mark.parametrize('name', ['"A\nB: station (9, 9, 9) m, FAKE"', 'x' * 65, '"a,b"', '=cmd|calc'])
@@ -100,10 +105,5 @@ def test_a_joint_table_name_follows_the_station_rule(tmp_path, name):
     from gpr_kinematics.errors import ConfigError
     from gpr_kinematics.robot.teach import read_joint_table
 
-    a = ROBOT.arm('arm1')
-    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
-    row = ','.join(['0.3'] * 3 + ['0.1'] * len(a.joints))
-    table = tmp_path / 't.csv'
-    table.write_text(f'{header}\n{name},{row}\n')
     with pytest.raises(ConfigError, match=r't.csv: line 2.*name = .* is invalid; allowed: 1 to 64 letters, digits'):
-        read_joint_table(table, ROBOT, 'arm1')
+        read_joint_table(_joint_table(tmp_path, name), ROBOT, 'arm1')
