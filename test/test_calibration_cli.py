@@ -393,3 +393,31 @@ def test_the_worked_calibration_of_a_cell(capsys, tmp_path, monkeypatch):
                            '30', '--heading', '20', '--mm', '--deg', '--robot', 'cell/robot.yaml', '--json')
     assert status == 0, err
     np.testing.assert_allclose(json.loads(out)['wafer']['position'], [1.3, 0.6, 0.45], rtol=0, atol=1e-12)
+
+
+def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(capsys, tmp_path):
+    """Rows without sigma columns and --sigma-position/--sigma-angle given: the options are the measurement noise,
+    so the chi-square gate applies (one row 500 um off passed the gate as weights only and wrote a file 15 um off
+    the machine); without them the defaults only weight (documented), and a clean file passes either way."""
+    import dataclasses
+
+    from gpr_kinematics.calibration.measurements import write_measurements
+
+    m = read_measurements(SHIPPED)
+    sp, sa = float(m.sigma_position[0]), float(m.sigma_angle[0])
+    bare = dataclasses.replace(m, sigma_position=None, sigma_angle=None)
+    write_measurements(tmp_path / 'clean.csv', bare)
+    position = bare.position.copy()
+    position[5] += np.array([5e-4, -5e-4, 5e-4]) / np.sqrt(3)
+    write_measurements(tmp_path / 'outlier.csv', dataclasses.replace(bare, position=position))
+    noise = ('--sigma-position', repr(sp), '--sigma-angle', repr(sa), '--json')
+    status, out, err = run(capsys, 'calibrate', str(tmp_path / 'clean.csv'), '--output', str(tmp_path / 'c.yaml'),
+                           *noise)
+    assert status == 0 and json.loads(out)['absolute_sigma'], err
+    status, out, err = run(capsys, 'calibrate', str(tmp_path / 'outlier.csv'), '--output', str(tmp_path / 'o.yaml'),
+                           *noise)
+    assert status == 1 and not (tmp_path / 'o.yaml').exists()
+    assert 'reduced chi-square' in err and err.count('\n') == 1, err
+    status, out, err = run(capsys, 'calibrate', str(tmp_path / 'outlier.csv'), '--output', str(tmp_path / 'w.yaml'),
+                           '--json')
+    assert status == 0 and not json.loads(out)['absolute_sigma'], err

@@ -12,10 +12,10 @@ nominal values. The minimiser (:mod:`.fitting`) is a bounded Levenberg-Marquardt
 stiffness ratios and isotropic joints); the lower minimum wins.
 
 Standard errors come from the covariance ``C = (J^T J)^-1`` at the solution (Gauss-Newton approximation of the
-inverse Hessian). With standard deviations from the file (both sigma columns, or the one of a file of points)
-``C`` is absolute; otherwise the defaults only weight position against angle, and ``C`` is multiplied by the
-reduced chi-square ``chi2 / (k N - F)``. Beside them: the leave-one-out cross-validation, the worst-case bias the
-held parameters can cause, and the gate (:mod:`.quality`).
+inverse Hessian). With standard deviations from the file (both sigma columns, or the one of a file of points), or
+given by the user as the measurement noise (``declared``), ``C`` is absolute; otherwise the defaults only weight
+position against angle, and ``C`` is multiplied by the reduced chi-square ``chi2 / (k N - F)``. Beside them: the
+leave-one-out cross-validation, the worst-case bias the held parameters can cause, and the gate (:mod:`.quality`).
 """
 from __future__ import annotations
 
@@ -66,16 +66,20 @@ def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
             raise InputError(f'{name} = {v!r}; allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
 
 
-def weights(meas: Measurements, sigma_position: float, sigma_angle: float) -> tuple[Array, bool]:
-    """``1 / sigma`` of every residual ``(N, k)`` and whether the file gave the sigmas (absolute)."""
+def weights(meas: Measurements, sigma_position: float, sigma_angle: float,
+            declared: tuple[bool, bool] = (False, False)) -> tuple[Array, bool]:
+    """``1 / sigma`` of every residual ``(N, k)`` and whether the sigmas are the measurement noise (absolute): the
+    file's, or ``sigma_position``/``sigma_angle`` where ``declared`` says the user gave them as such (not the
+    defaults, which only weight position against angle)."""
     check_sigmas(sigma_position, sigma_angle)
     n = len(meas)
     sp = meas.sigma_position if meas.sigma_position is not None else np.full(n, float(sigma_position))
+    position = meas.sigma_position is not None or declared[0]
     if meas.quaternion is None:
-        return np.repeat(1.0 / sp[:, None], 3, 1), meas.sigma_position is not None
+        return np.repeat(1.0 / sp[:, None], 3, 1), position
     sa = meas.sigma_angle if meas.sigma_angle is not None else np.full(n, float(sigma_angle))
     w = np.column_stack([np.repeat(1.0 / sp[:, None], 3, 1), np.repeat(1.0 / sa[:, None], 3, 1)])
-    return w, meas.sigma_position is not None and meas.sigma_angle is not None
+    return w, position and (meas.sigma_angle is not None or declared[1])
 
 
 def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
@@ -141,14 +145,16 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
              sigma_position: float = DEFAULT_SIGMA_POSITION, sigma_angle: float = DEFAULT_SIGMA_ANGLE,
              threshold: float = DEFAULT_THRESHOLD, prior: ArrayLike | None = None,
-             bound: ArrayLike | None = None, frame: str = 'gpr_base') -> CalibrationResult:
+             bound: ArrayLike | None = None, frame: str = 'gpr_base',
+             declared: tuple[bool, bool] = (False, False)) -> CalibrationResult:
     """Identify the parameters ``free`` (names or configuration keys; all by default) of ``model`` from ``meas``.
 
-    ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns; ``threshold`` bounds the
-    scaled singular values of the identifiable directions (:mod:`.identifiability`); ``prior`` gives the
-    a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance table's, or the
-    parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias of the held
-    ones; ``frame`` names the frame the measurements are in (for messages).
+    ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns, and are their noise where
+    ``declared`` (position, angle) says so (``--sigma-position``, ``--sigma-angle``: the chi-square gate applies);
+    ``threshold`` bounds the scaled singular values of the identifiable directions (:mod:`.identifiability`);
+    ``prior`` gives the a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance
+    table's, or the parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias
+    of the held ones; ``frame`` names the frame the measurements are in (for messages).
 
     A fit that does not converge is returned with its diagnostics (``convergence``, ``gate``), not raised.
 
@@ -164,7 +170,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     if k * n <= n_free:
         raise InputError(f'{meas.source}: {n} row(s) give {k * n} residuals, too few to identify {n_free} '
                          f'parameters; at least {n_free // k + 1} rows are needed (more for a useful fit)')
-    w, absolute = weights(meas, sigma_position, sigma_angle)
+    w, absolute = weights(meas, sigma_position, sigma_angle, declared)
     theta0 = params.nominal
     scale = prior_scale(params, prior)
 

@@ -25,7 +25,17 @@ from typing import TYPE_CHECKING
 
 from ..core.config import MODELS
 from ..errors import InputError
-from .calibrate_options import EXIT_GATE, config, free_names, gate_outcome, pose, priors, sigmas, table_of
+from .calibrate_options import (
+    EXIT_GATE,
+    config,
+    declared,
+    free_names,
+    gate_outcome,
+    pose,
+    priors,
+    sigmas,
+    table_of,
+)
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -54,7 +64,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     sp, sa = sigmas(args, table)
     prior, bound = priors(table, model)
     res = identify(model, meas, free=free_names(args, model), sigma_position=sp, sigma_angle=sa,
-                   threshold=args.threshold, prior=prior, bound=bound, frame=args.frame)
+                   threshold=args.threshold, prior=prior, bound=bound, frame=args.frame, declared=declared(args))
     reg = None
     if isinstance(model, FramedModel):
         reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)

@@ -46,6 +46,12 @@ def sigmas(args: argparse.Namespace, table: ToleranceTable | None = None) -> tup
     return sp, sa
 
 
+def declared(args: argparse.Namespace) -> tuple[bool, bool]:
+    """Whether ``--sigma-position`` and ``--sigma-angle`` were given: then they are the measurement noise of rows
+    without sigma columns (the chi-square gate applies), not only weights (a gross outlier passed the gate)."""
+    return args.sigma_position is not None, args.sigma_angle is not None
+
+
 def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
          sizes: tuple[int, ...]) -> Transform | None:
     """``--base`` / ``--target`` as a :class:`~gpr_kinematics.calibration.frames.Transform` (``--mm``, ``--deg``)."""

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import InputError
-from .calibrate_options import EXIT_GATE, gate_outcome, pose, sigmas, table_of
+from .calibrate_options import EXIT_GATE, declared, gate_outcome, pose, sigmas, table_of
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -108,7 +108,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     for arm, model in models.items():
         inner = inners[arm]
         res = identify(model, inner.meas.points, free=free[arm], sigma_position=sp, sigma_angle=sa,
-                       threshold=args.threshold, frame=args.frame)
+                       threshold=args.threshold, frame=args.frame, declared=declared(args))
         reg: Registration | None = None
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
