@@ -230,6 +230,13 @@ def test_refusals():
     with pytest.raises(InputError, match=r'mm\.csv line 4: the measured pose is .* m and .* rad from the '
                                          r'nominal model.*millimetres\? declare "# units: mm"'):
         identify(m, mm)
+    # 24 mm off (an arm's zero offset of a degree, or another frame), not a thousand times: no millimetre hint
+    off = Measurements('off.csv', meas.q, meas.position + [0.024, 0.0, 0.0], meas.quaternion, None, None,
+                       tuple(range(4, 9)))
+    with pytest.raises(InputError, match=r'off\.csv line 4: the measured pose is 0\.024 m .*another frame than '
+                                         r'gpr_base, or a machine that far from its nominal model') as err:
+        identify(m, off)
+    assert 'millimetres' not in str(err.value)
     with pytest.raises(InputError, match=r'mm\.csv line \d, column q\d: \d+\.?\d* m is outside the stroke '
                                          r'\[0, 0\.508\] m'):
         check_limits(Measurements('mm.csv', meas.q * 1000, meas.position, meas.quaternion, None, None,

@@ -97,9 +97,13 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
     bad = np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE))
     if bad.size:
         i = int(bad[0])
-        raise InputError(f'{meas.where(i)}: the measured pose is {dp[i]:.4g} m and {da[i]:.4g} rad from the nominal '
-                         f'model\'s (allowed: {PLAUSIBLE_POSITION} m, {PLAUSIBLE_ANGLE} rad): not a measurement in '
-                         f'{frame} in SI units (millimetres? declare "# units: mm")')
+        what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
+        limits = f'{PLAUSIBLE_POSITION} m' + (f', {PLAUSIBLE_ANGLE} rad' if errors.shape[1] == 6 else '')
+        why = ('millimetres? declare "# units: mm"' if dp[i] > 100 * PLAUSIBLE_POSITION else
+               f'another frame than {frame}, or a machine that far from its nominal model (an arm\'s zero offset of '
+               'a degree moves its wafer some centimetres): correct the nominal model first')
+        raise InputError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: {limits}): not a '
+                         f'measurement of this machine in {frame} in SI units ({why})')
 
 
 def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64]) -> list[tuple[str, Array]]:
