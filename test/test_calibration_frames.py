@@ -187,3 +187,18 @@ def test_registration_refusals(capsys, tmp_path, setting):
         initial_frames(core, Measurements('p', np.full((4, 3), 0.2), np.zeros((4, 3)), None, None, None,
                                           (1, 2, 3, 4)), None, None, None)
     assert pts.rotation.shape == (len(Q), 3, 3)
+
+
+def test_a_frame_left_unregistered_is_named_in_a_warning(setting):
+    """Measurements in a tracker frame 45 mrad off gpr_base, calibrated as if in gpr_base: the fit is consistent
+    (the gate passes) and moved the rods by millimetres, 20-40 a-priori standard deviations. The result names them
+    and asks whether the measurements are in another frame; the same machine measured in gpr_base has no warning."""
+    cfg, core, Q, _, inner, _ = setting
+    turned = Transform(np.zeros(3), rpy_matrix(0.0, 0.0, 0.045))
+    off = FramedModel(core, turned, Transform(np.zeros(3), np.eye(3)), True, 'pose')
+    theta = np.concatenate([inner[off.independent], np.zeros(12)])   # the frames as the transforms give them
+    meas = synthetic_measurements(off, theta, Q, 3e-6, 2e-5, seed=5, source='unregistered.csv')
+    res = identify(core, meas)
+    assert res.gate.passed
+    assert len(res.warnings) == 1 and 'another frame than gpr_base? (--frame NAME' in res.warnings[0]
+    assert identify(core, synthetic_measurements(core, inner, Q, 3e-6, 2e-5, seed=5)).warnings == ()

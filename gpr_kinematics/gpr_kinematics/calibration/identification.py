@@ -50,6 +50,9 @@ DEFAULT_SIGMA_ANGLE = 2e-5
 #: A measured pose farther than this from the nominal model's is not a measurement of this machine in
 #: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
 PLAUSIBLE_POSITION = 0.01
+#: A fitted parameter further from its nominal value than this many a-priori standard deviations is named in a
+#: warning: a tracker frame left unregistered moved the rods by 3-7 mm, 30-66 of them, and passed the gate.
+FAR_FROM_PRIOR = 20.0
 PLAUSIBLE_ANGLE = 0.05
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
 #: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
@@ -221,12 +224,29 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     status = tuple('fitted' if j in fitted else 'held' if p.name in held else 'fixed' for j, p in enumerate(params))
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
     gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines)
+    warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines),
                              after=ResidualStats.of(best.residual / w, meas.lines), identifiability=ident,
                              chi2_reduced=chi2_red, absolute_sigma=absolute, iterations=best.iterations, rows=n,
                              source=meas.source, convergence=Convergence(best.status, best.step_se, at, outcomes),
-                             cross_validation=cv, bias=bias, gate=gate, lines=meas.lines)
+                             cross_validation=cv, bias=bias, gate=gate, lines=meas.lines, warnings=warnings)
+
+
+def _far_from_prior(params: ParameterSet, fit: NDArray[np.int64], theta: Array, theta0: Array, scale: Array,
+                    frame: str) -> tuple[str, ...]:
+    """A warning naming the fitted parameters (not the stiffness ratios) more than :data:`FAR_FROM_PRIOR` a-priori
+    standard deviations from nominal: the gate passes such a fit when the measurements are consistent, which
+    measurements in another frame than the one named are."""
+    far = [(int(j), abs(theta[j] - theta0[j]) / scale[j]) for j in fit
+           if not params[int(j)].transform and abs(theta[j] - theta0[j]) > FAR_FROM_PRIOR * scale[j]]
+    if not far:
+        return ()
+    far.sort(key=lambda item: -item[1])
+    named = ', '.join(f'{params[j].name} {z:.0f}' for j, z in far[:4]) + (', ...' if len(far) > 4 else '')
+    return (f'fitted parameters far beyond their a-priori standard deviations (in those: {named}): are the '
+            f'measurements in another frame than {frame}? (--frame NAME identifies the tracker\'s frame with the '
+            'machine), or are the a-priori uncertainties too small (--tolerances)?',)
 
 
 __all__ = ['DEFAULT_SIGMA_ANGLE', 'DEFAULT_SIGMA_POSITION', 'CalibrationResult', 'Identifiability', 'ResidualStats',

@@ -90,7 +90,7 @@ def format_calibration(res: CalibrationResult) -> str:
     sig = 'sigmas from the file' if res.absolute_sigma else \
         'default sigmas: standard errors scaled by sqrt(chi-square)'
     lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({sig})')
-    return '\n'.join(lines + _checks(res))
+    return '\n'.join(lines + _checks(res) + [f'warning: {w}' for w in res.warnings])
 
 
 def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float) -> str:

@@ -114,6 +114,8 @@ class CalibrationResult:
     bias: HeldBias
     gate: Gate
     lines: tuple[int, ...] = ()
+    #: What the fit found that the gate does not judge (a parameter moved far beyond its a-priori uncertainty).
+    warnings: tuple[str, ...] = ()
 
     @property
     def values(self) -> Array:
@@ -167,4 +169,4 @@ class CalibrationResult:
                 'absolute_sigma': self.absolute_sigma, 'iterations': self.iterations,
                 'convergence': self.convergence.as_dict(), 'gate': self.gate.as_dict(),
                 'fitted': [self.parameters[j].name for j in self.fitted],
-                'correlation': self.correlation.tolist()}
+                'correlation': self.correlation.tolist(), 'warnings': list(self.warnings)}
