@@ -268,3 +268,31 @@ def test_a_string_that_is_not_nul_terminated_text_makes_the_bag_unreadable(tmp_p
     assert cli.main(['verify', str(bad)]) == 2
     err = capsys.readouterr().err
     assert 'MarkerArray cannot be decoded' in err and err.count('\n') == 1, err
+
+
+def test_a_bag_recorded_in_a_namespace_verifies_as_such(tmp_path: Path, src: Path) -> None:
+    """A recorder and a trajectory node in /r1 (offline_loop.launch.py namespace:=/r1) record /r1/gpr/...: verify
+    found no /gpr/platform_state and failed 'nothing to verify'. The suite's topics are looked up in the one
+    namespace they share; the result names it; a second namespace in the same bag is no namespace."""
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    ns = write_bag(tmp_path / 'ns', [('/r1' + t, s, raw) for t, s, raw in msgs],
+                   {'/r1' + k: v for k, v in types.items()})
+    bag = read_bag(ns)
+    assert bag.namespace == '/r1' and bag.topic(STATE) is bag.topics['/r1' + STATE]
+    res = verify_bag(ns)
+    assert res.passed, [(c.name, c.status) for c in res.checks if c.status == 'FAIL']
+    assert "the node suite's topics were recorded in the namespace /r1 (verified as such)" in res.notes
+    assert [c.name for c in res.checks] == [c.name for c in verify_bag(src).checks]
+    two = write_bag(tmp_path / 'two', [('/r1' + t, s, raw) for t, s, raw in msgs] +
+                    [('/r2' + t, s, raw) for t, s, raw in msgs if t == STATE],
+                    {**{'/r1' + k: v for k, v in types.items()}, '/r2' + STATE: types[STATE]})
+    assert read_bag(two).namespace == '' and not verify_bag(two).passed
+
+
+def test_latched_topics_are_known_in_a_namespace() -> None:
+    from gpr_kinematics.nodes.qos import is_latched
+
+    assert is_latched('/gpr/geometry') and is_latched('/r1/gpr/geometry') and is_latched('/r1/robot_description')
+    assert is_latched('/tf_static') and not is_latched('/r1/tf_static') and not is_latched('/r1/gpr/platform_state')
+    assert not is_latched('/foo_gpr/robot')

@@ -165,8 +165,9 @@ def bag_checks(bag: Bag, allow_missing_checksums: bool = False) -> list[Check]:
     topics = list(bag.topics.values())
     types: list[Problem] = [(t.name, 1.0, 0.0, f'type {t.msgtype!r} is not in the typestore') for t in topics
                             if t.msgtype not in store.fielddefs]
-    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {KNOWN_TOPICS[t.name]}')
-              for t in topics if t.name in KNOWN_TOPICS and t.msgtype != KNOWN_TOPICS[t.name]]
+    known = {t.name: KNOWN_TOPICS.get(bag.relative(t.name)) for t in topics}
+    types += [(t.name, 1.0, 0.0, f'type {t.msgtype!r}; the node suite publishes {known[t.name]}')
+              for t in topics if known[t.name] is not None and t.msgtype != known[t.name]]
     hashes: list[Problem] = [(t.name, 1.0, 0.0, 'stored type hash differs from the current message definition')
                              for t in topics if t.msgtype in store.fielddefs and t.digest
                              and t.digest != definition(t.msgtype)[1]]

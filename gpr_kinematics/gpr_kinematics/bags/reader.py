@@ -30,7 +30,7 @@ from .errors import BagError
 from .fileio import read_head, require_regular, sha256_file
 from .mcap_file import read_mcap
 from .metadata import Metadata, read_metadata
-from .typestore import normalize_type
+from .typestore import KNOWN_TOPICS, normalize_type
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
 OPEN_SEGMENT_DIR = '.recording'
@@ -102,6 +102,20 @@ class Bag:
     unlisted: list[str] = field(default_factory=list)
 
     @property
+    def namespace(self) -> str:
+        """The namespace the node suite's topics were recorded in (``/r1`` for ``/r1/gpr/platform_state``; ``''`` at
+        the root): the one prefix of every suite topic when none is at the root (:data:`.typestore.KNOWN_TOPICS`)."""
+        if any(n in KNOWN_TOPICS for n in self.topics):
+            return ''
+        found = {n[:-len(k)] for n in self.topics for k in KNOWN_TOPICS if n.endswith(k) and len(n) > len(k)}
+        return found.pop() if len(found) == 1 else ''
+
+    def relative(self, name: str) -> str:
+        """``name`` without the bag's :attr:`namespace` (as the node suite names its topics)."""
+        ns = self.namespace
+        return name[len(ns):] if ns and name.startswith(ns + '/') else name
+
+    @property
     def version(self) -> int | None:
         return self.metadata.version if self.metadata else None
 
@@ -110,11 +124,11 @@ class Bag:
         return sum(len(t) for t in self.topics.values())
 
     def topic(self, name: str) -> TopicData | None:
-        """The topic ``name`` (with or without the leading slash)."""
+        """The topic ``name`` (with or without the leading slash; a suite topic in the bag's :attr:`namespace`)."""
         if name in self.topics:
             return self.topics[name]
-        alt = name[1:] if name.startswith('/') else '/' + name
-        return self.topics.get(alt)
+        absolute = name if name.startswith('/') else '/' + name
+        return self.topics.get(absolute, self.topics.get(self.namespace + absolute) if self.namespace else None)
 
 
 @dataclass(frozen=True)

@@ -106,6 +106,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
+    if bag.namespace:
+        notes.append(f"the node suite's topics were recorded in the namespace {bag.namespace} (verified as such)")
     if bag.unlisted:
         notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
                      f'{", ".join(bag.unlisted)}')
@@ -114,4 +116,5 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
                         crossings=crossings, crossing_ratio=ratio, elapsed=time.perf_counter() - t0, read_time=t_read,
                         unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
                         robot=robot_summary(arms),
-                        unchecked=unchecked_fields({k: t.msgtype for k, t in bag.topics.items() if len(t)}))
+                        unchecked=unchecked_fields({bag.relative(k): t.msgtype for k, t in bag.topics.items()
+                                                    if len(t)}))

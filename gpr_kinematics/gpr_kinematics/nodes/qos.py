@@ -35,6 +35,12 @@ LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/gpr/robot', '/gpr/progra
                                      '/tf_static'})
 
 
+def is_latched(name: str) -> bool:
+    """``name`` (fully qualified) is one of :data:`LATCHED`, at the root or in a namespace (``/r1/gpr/geometry``;
+    ``/tf_static`` is absolute): a recorder in ``/r1`` subscribed to ``/r1/gpr/geometry`` as a stream and lost it."""
+    return name in LATCHED or any(name.endswith(k) for k in LATCHED if k != '/tf_static')
+
+
 def stream_qos(depth: int) -> QoSProfile:
     """Reliable, keep last ``depth``, volatile."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE,

@@ -46,7 +46,7 @@ from ..bags.writer import SegmentedBagWriter, check_output_path
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
-from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
+from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
 from .runtime import EXIT_OK, GprNode, one_line, run
 
 NODE_NAME = 'recorder_node'
@@ -100,7 +100,7 @@ class RecorderNode(GprNode):
         robots' ``/tf_static``); else the stream QoS."""
         depth = int(self.p['queue_depth'])
         offered = {i.qos_profile.durability for i in self.get_publishers_info_by_topic(topic)}
-        latched = topic in LATCHED or offered == {latched_qos().durability}
+        latched = is_latched(topic) or offered == {latched_qos().durability}
         return latched_qos(depth) if latched else stream_qos(depth)
 
     def _resolve_topics(self, entries: list[str]) -> dict[str, str]:

@@ -11,7 +11,7 @@ with the original spacing divided by ``rate``. Parameters (read-only):
   (default 0), at most ``wait_timeout`` seconds;
 - ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
 
-Latched topics (:data:`~gpr_kinematics.nodes.qos.LATCHED`, e.g. ``gpr/geometry``) are published transient
+Latched topics (:func:`~gpr_kinematics.nodes.qos.is_latched`, e.g. ``gpr/geometry``) are published transient
 local, so a subscriber that starts during the replay still gets them, every one of them in the bag (several
 robots' ``/tf_static``; at most ``queue_depth``). Exits 0 at the end of the bag (after the
 reliable publishers' acknowledgements, at most 5 s) or on SIGINT/SIGTERM; 2 with one ``cannot start:`` line when
@@ -32,7 +32,7 @@ from ..bags.reader import read_bag
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
-from .qos import LATCHED, latched_qos, stream_qos, valid_topic_name
+from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
 from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 
 NODE_NAME = 'replay_node'
@@ -60,7 +60,7 @@ class ReplayNode(GprNode):
         # a latched topic keeps every message of it in the bag (several robots' /tf_static: each a late subscriber
         # must get), at most queue_depth
         self.pubs = {name: self.create_publisher(message_class(t.msgtype), name,
-                                                 latched_qos(min(max(len(t), 1), depth)) if name in LATCHED
+                                                 latched_qos(min(max(len(t), 1), depth)) if is_latched(name)
                                                  else stream_qos(depth))
                      for name, t in bag.topics.items()}
         # One stream in log-time order (stable: the bag's order for equal times).
