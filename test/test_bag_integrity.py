@@ -280,6 +280,9 @@ def test_a_bag_recorded_in_a_namespace_verifies_as_such(tmp_path: Path, src: Pat
                    {'/r1' + k: v for k, v in types.items()})
     bag = read_bag(ns)
     assert bag.namespace == '/r1' and bag.topic(STATE) is bag.topics['/r1' + STATE]
+    listed = {t['topic_metadata']['name']: t['topic_metadata']['offered_qos_profiles'] for t in yaml.safe_load(
+        (ns / 'metadata.yaml').read_text())['rosbag2_bagfile_information']['topics_with_message_count']}
+    assert 'transient_local' in str(listed['/r1/gpr/geometry']).lower() and not listed['/r1' + STATE]
     res = verify_bag(ns)
     assert res.passed, [(c.name, c.status) for c in res.checks if c.status == 'FAIL']
     assert "the node suite's topics were recorded in the namespace /r1 (verified as such)" in res.notes

@@ -33,7 +33,8 @@ LATCHED_QOS = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
 
 def offered_qos(topic: str) -> list[dict[str, Any]]:
     """``offered_qos_profiles`` stored for ``topic`` (v9 form): the latched profile, or none (unknown)."""
-    return [dict(q) for q in dump_qos_v9([LATCHED_QOS])] if topic in LATCHED_TOPICS else []
+    latched = any(topic.endswith(k) for k in LATCHED_TOPICS)   # at the root or in a namespace (/r1/gpr/geometry)
+    return [dict(q) for q in dump_qos_v9([LATCHED_QOS])] if latched else []
 
 
 class StorageWriter(Protocol):
