@@ -489,3 +489,33 @@ def test_a_different_machine_geometry_fails_the_reference_bag(tmp_path: Path,
     assert data['config']['radius'] == 0.093318
     status, _, err = run_cli('verify', str(REFERENCE), '--config', str(tmp_path / 'none.yaml'), capsys=capsys)
     assert status == 2 and 'none.yaml' in err
+
+
+def test_a_segment_whose_metadata_cannot_be_written_is_not_counted_as_kept(tmp_path: Path, messages: list) -> None:
+    """A file size limit hit by metadata.yaml.tmp: the recorder logged 'kept the 279 messages of the 56 segments'
+    while the bag listed 55 and 274, and left the partial metadata.yaml.tmp behind. The segment whose listing
+    failed is not kept: what the writer says it kept is what metadata.yaml lists."""
+    import yaml
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+
+    types = {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in messages)}
+    w = SegmentedBagWriter(tmp_path / 'b', types, flush_interval=0, fsync=False, max_bag_size=20000)
+    w.open()
+    real, calls = w._prepare_metadata, []
+
+    def failing() -> Path:
+        calls.append(1)
+        if len(calls) == 3:
+            (tmp_path / 'b' / 'metadata.yaml.tmp').write_bytes(b'partial')
+            raise OSError(27, 'File too large')
+        return real()
+
+    w._prepare_metadata = failing    # type: ignore[method-assign]
+    with pytest.raises(Exception, match='File too large'):
+        for topic, t, raw in messages:
+            w.write(topic, t, raw)
+    w.abort()
+    meta = yaml.safe_load((tmp_path / 'b' / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert len(w.files) == len(meta['relative_file_paths']) == 2
+    assert w.closed_message_count == meta['message_count'] > 0
+    assert not (tmp_path / 'b' / 'metadata.yaml.tmp').exists()

@@ -250,9 +250,15 @@ class SegmentedBagWriter:
         end = seg.max_stamp if seg.max_stamp is not None else start
         self.files.append(_ClosedFile(dst.name, start, max(0, end - start), count, seg.storage.sha256()))
         # Prepare the metadata that lists it, then two renames back to back (a kill between them leaves a
-        # complete file that the metadata does not list yet: the window is two system calls).
-        tmp = self._prepare_metadata()
-        os.replace(src, dst)
+        # complete file that the metadata does not list yet: the window is two system calls). If either fails (a
+        # full disk, a file size limit), the segment is not kept: the bag is what its metadata.yaml lists.
+        try:
+            tmp = self._prepare_metadata()
+            os.replace(src, dst)
+        except BaseException:
+            self.files.pop()
+            (self.path / 'metadata.yaml.tmp').unlink(missing_ok=True)
+            raise
         os.replace(tmp, self.path / 'metadata.yaml')
         if self.fsync:
             _fsync_path(self.path, directory=True)
