@@ -319,6 +319,35 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
 
 
+def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_path: Path) -> None:
+    """A bag of one message looped at about 1,200 messages/s and its parameter services went unanswered: passes
+    are one mean interval apart (0.1 s when the messages share one instant), and callbacks are served while due
+    messages are published."""
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    from gpr_kinematics.nodes.client import GprClient
+    from rcl_interfaces.srv import ListParameters
+    from std_msgs.msg import String
+
+    bag = tmp_path / 'one'
+    with SegmentedBagWriter(bag, {'/chatter': 'std_msgs/msg/String'}, fsync=False) as w:
+        w.write('/chatter', time.time_ns(), bytes([0, 1, 0, 0, 3, 0, 0, 0]) + b'hi\x00')
+    replay = start('replay_node', bag=bag, loop=True, wait_for_subscribers=1)
+    try:
+        with GprClient('gpr_test_loop') as c:
+            got = c.subscribe(String, '/chatter')
+            wait_for_log(replay, r'started: publishing')
+            n0, t0 = len(got), time.monotonic()
+            c.spin_for(3.0)
+            rate = (len(got) - n0) / (time.monotonic() - t0)
+            cli = c.node.create_client(ListParameters, '/replay_node/list_parameters')
+            assert cli.wait_for_service(timeout_sec=10.0)
+            answer = c.wait(cli.call_async(ListParameters.Request()), 10, 'list_parameters')
+            assert 'loop' in answer.result.names
+        assert 5.0 <= rate <= 12.0, rate
+    finally:
+        replay.stop()
+
+
 @pytest.mark.parametrize('recorder_first', [True, False], ids=['recorder-first', 'recorder-later'])
 def test_latched_geometry_is_recorded(tmp_path: Path, recorder_first: bool) -> None:
     """gpr/geometry is published once, transient local: a recorder started before the trajectory node and one

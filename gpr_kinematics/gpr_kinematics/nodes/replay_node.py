@@ -5,7 +5,8 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 
 - ``bag``: the bag folder (or a single ``.mcap``/``.db3`` file); required;
 - ``rate``: speed factor (default 1; 2 = twice as fast);
-- ``loop``: start over after the last message (until SIGINT/SIGTERM);
+- ``loop``: start over after the last message (until SIGINT/SIGTERM), one mean interval of the bag later (0.1 s for a
+  bag whose messages share one instant);
 - ``topics``: replay only these topics (default: all);
 - ``wait_for_subscribers``: before the first message wait until every topic has this many subscriptions
   (default 0), at most ``wait_timeout`` seconds;
@@ -36,6 +37,8 @@ from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
 from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 
 NODE_NAME = 'replay_node'
+#: Seconds between the passes of a looped bag whose messages share one instant (at ``rate`` 1).
+LOOP_GAP = 0.1
 
 
 class ReplayNode(GprNode):
@@ -81,7 +84,8 @@ class ReplayNode(GprNode):
         """Serve callbacks (the parameter services) until ``due`` (monotonic time) or a stop signal."""
         while not stop:
             delay = due - time.monotonic()
-            if delay <= 0:
+            if delay <= 0:   # due already: still serve what is pending (a dense replay starved the services)
+                executor.spin_once(timeout_sec=0.0)
                 return
             executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT))
 
@@ -115,7 +119,16 @@ class ReplayNode(GprNode):
                 self.published[self._names[id(pub)]] += 1
             if not self.p['loop']:
                 break
+            self._wait(executor, stop, t0 + self._pass_period(rate))
         self.finish()
+
+    def _pass_period(self, rate: float) -> float:
+        """Seconds from one pass's start to the next with ``loop``: the bag's span and one mean interval between its
+        messages, at ``rate``; :data:`LOOP_GAP` when its messages share one instant (a one-message bag looped at
+        1,200 messages/s, starving the services)."""
+        n = len(self.times)
+        span = float(self.times[-1] - self.times[0]) * 1e-9 / rate
+        return span + (span / (n - 1) if n > 1 and span > 0 else LOOP_GAP)
 
     def on_exit(self, executor: Executor, status: int) -> int:
         """Wait for the reliable subscribers' acknowledgements (at most 5 s per topic) and log the counts."""
