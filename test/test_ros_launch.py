@@ -348,3 +348,26 @@ def test_frame_prefix_rule(prefix, ok):
     else:
         with pytest.raises(ConfigError, match='parameter frame_prefix = .* is invalid; allowed: empty, or letters'):
             check_frame_prefix(prefix)
+
+
+@pytest.mark.parametrize('frames, words', [
+    ({'base_frame': 'gpr_base', 'platform_frame': 'gpr_platform', 'nominal_frame': 'n'}, None),
+    ({'base_frame': 'cell/gpr_base', 'platform_frame': 'p', 'nominal_frame': 'n'}, None),
+    ({'base_frame': '/gpr_base', 'platform_frame': 'p', 'nominal_frame': 'n'}, "base_frame = '/gpr_base' is invalid"),
+    ({'base_frame': 'b', 'platform_frame': 'a b', 'nominal_frame': 'n'}, "platform_frame = 'a b' is invalid"),
+    ({'base_frame': 'b', 'platform_frame': 'p', 'nominal_frame': 'a"b<c'}, "nominal_frame = 'a\"b<c' is invalid"),
+    ({'base_frame': 'b', 'platform_frame': 'p/', 'nominal_frame': 'n'}, "platform_frame = 'p/' is invalid"),
+    ({'base_frame': 'b', 'platform_frame': 'b', 'nominal_frame': 'n'}, "platform_frame = 'b' names the frame of "
+                                                                       'base_frame'),
+])
+def test_frame_name_rule(frames, words):
+    """What the frame parameters accept (base_frame:=/gpr_base started and published a frame tf2 refuses)."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.ros.specs import check_frame_names
+
+    names = tuple(frames)
+    if words is None:
+        check_frame_names(frames, names)
+    else:
+        with pytest.raises(ConfigError, match=re.escape(words)):
+            check_frame_names(frames, names)

@@ -52,7 +52,7 @@ from ..core import forward
 from ..errors import GprError
 from ..robot.controller import ControllerJoints
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
-from ..ros.specs import STATE_PUBLISHER, check_frame_prefix
+from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
 from ..safety.cell import load_cell
 from ..safety.markers import cell_marker_array
 from .conversions import make_message, message_class, transform_msg
@@ -82,6 +82,7 @@ class StatePublisherNode(GprNode):
         self.cfg, robot = params.config, params.robot
         p = declare_parameters(self, STATE_PUBLISHER)
         prefix = check_frame_prefix(p['frame_prefix'])
+        check_frame_names(p, ('base_frame', 'platform_frame', 'nominal_frame'))
         self.model: RobotUrdf = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'], prefix)
         self.base, self.platform, self.nominal = (prefix + p[k] for k in ('base_frame', 'platform_frame',
                                                                             'nominal_frame'))

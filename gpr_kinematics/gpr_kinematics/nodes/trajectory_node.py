@@ -67,7 +67,7 @@ from ..core.messages import geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marker_array
 from ..robot.program import RobotProgram, load_any_program
-from ..ros.specs import TRAJECTORY, check_frame_prefix
+from ..ros.specs import TRAJECTORY, check_frame_names, check_frame_prefix
 from ..ros.streams import (
     GoalFiles,
     Trajectory,
@@ -123,6 +123,7 @@ class TrajectoryNode(GprNode):
         super().__init__(**kwargs)
         p = self.p = declare_parameters(self, TRAJECTORY)
         self.prefix = check_frame_prefix(p['frame_prefix'])
+        check_frame_names(p, ('base_frame',))
         self.base_frame = self.prefix + p['base_frame']
         program = None
         if p['mode'] == 'program':
