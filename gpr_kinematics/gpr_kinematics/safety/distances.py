@@ -3,9 +3,9 @@ certificate"): :class:`Store` keeps every body's world pose at a growing set of 
 signed distance and nearest points of pairs at instants (FCL through python-fcl, memoised), :class:`Table` the
 memo (integer keys looked up in bulk).
 
-**Pairs with a cylinder.** FCL's distance of a box and a box is exact to rounding, but with a cylinder its GJK
-stops early: a wafer-sized disc 2 mm from a box read up to 1.14 mm too far. For such a pair the library's nearest
-points only start :func:`refine`: alternating exact projections onto the two bodies (the nearest point of a box or
+**The library's distance is not exact.** FCL's GJK stops early with a cylinder (a wafer-sized disc 2 mm from a box
+read up to 1.14 mm too far) and between boxes whose faces are nearly parallel (0.6 mm too far at 0.26 mm). For every
+pair at a positive distance the library's nearest points only start :func:`refine` (:func:`certify`): alternating exact projections onto the two bodies (the nearest point of a box or
 of a solid cylinder in closed form) bring a point pair ``p``, ``q`` towards the nearest one, and for the unit
 direction ``n`` of ``q - p`` the gap between the bodies' extents along ``n``,
 
@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
-from .bodies import Body
+from .bodies import Body, box_lower_bound
 from .motion import BodyMotion
 
 Array = NDArray[np.float64]
@@ -168,12 +168,15 @@ def axis_gap(n: Array, a: tuple[Array, Array, Array, NDArray[np.bool_]],
 
 
 def refine(p: Array, q: Array, a: tuple[Array, Array, Array, NDArray[np.bool_]],
-           b: tuple[Array, Array, Array, NDArray[np.bool_]]) -> tuple[Array, Array, Array, Array]:
+           b: tuple[Array, Array, Array, NDArray[np.bool_]], known: Array | None = None
+           ) -> tuple[Array, Array, Array, Array]:
     """From points ``p`` near body ``a`` and ``q`` near ``b``, the lower bound of the pair's signed distance and the
     nearest points found, by alternating projections (module docstring); also how far ``q - p`` may be from the
     nearest points' difference [m]: ``sqrt(2 u e + e^2)`` with ``u = |q - p|`` and ``e`` the gap between the upper
     and the lower bound (for the minimum-norm ``v*`` of the convex set ``B - A``, ``|v - v*|^2 <= |v|^2 -
-    |v*|^2``)."""
+    |v*|^2``). ``known``: lower bounds known already (the separating-axis test of two boxes, exact where the nearest
+    features are a face and a vertex or two edges: there the projections zig-zag slowly between nearly parallel
+    faces)."""
     start = q - p
     active = np.arange(p.shape[0])
     for k in range(ROUNDS):
@@ -198,13 +201,24 @@ def refine(p: Array, q: Array, a: tuple[Array, Array, Array, NDArray[np.bool_]],
         n = d / np.where(ok, norm, 1.0)[:, None]
         low = np.where(ok, np.maximum(low, axis_gap(n, a, b)), low)
     low = np.where(np.isfinite(low), low, 0.0)    # touching at a point: a distance of at most 0
+    if known is not None:
+        low = np.maximum(low, known)
     e = np.maximum(u - low, 0.0)
     return low, p, q, np.sqrt(2.0 * u * e + e * e)
 
 
+def certify(p: Array, q: Array, a: tuple[Array, Array, Array, NDArray[np.bool_]],
+            b: tuple[Array, Array, Array, NDArray[np.bool_]]) -> tuple[Array, Array, Array, Array]:
+    """:func:`refine` from the library's nearest points ``p``, ``q`` (not changed) of bodies ``a`` and ``b`` (each
+    ``(R, c, half, cylinder)``), with the separating-axis bound of two boxes as a known lower bound."""
+    (Ra, ca, ha, cya), (Rb, cb, hb, cyb) = a, b
+    known = np.where(cya | cyb, -np.inf, box_lower_bound(Ra, ca, ha, Rb, cb, hb))
+    return refine(p.copy(), q.copy(), a, b, known)
+
+
 class Exact:
-    """The library's signed distance and nearest points of pairs at instants (memoised); a pair with a cylinder
-    refined to a certified lower bound (module docstring)."""
+    """The library's signed distance and nearest points of pairs at instants (memoised), refined to a certified
+    lower bound where positive (module docstring)."""
 
     def __init__(self, bodies: Sequence[Body], store: Store) -> None:
         fcl = _fcl()
@@ -248,12 +262,12 @@ class Exact:
             near[n] = res.nearest_points
         out[:, 1:4] = near[:, 0] - near[:, 1]
         out[:, 4] = 2.0 * LIBRARY_SLACK
-        cyl = (self.cylinder[a] | self.cylinder[b]) & (out[:, 0] > 0.0)
-        if cyl.any():   # FCL's distance with a cylinder is not exact: a certified lower bound instead
+        cyl = out[:, 0] > 0.0
+        if cyl.any():   # FCL's distance is not exact (cylinders; boxes with nearly parallel faces): a lower bound
             sa, sb = self.store.poses(a[cyl], i[cyl]), self.store.poses(b[cyl], i[cyl])
-            low, on_a, on_b, err = refine(near[cyl, 0].copy(), near[cyl, 1].copy(),
-                                          (*sa, self.half[a[cyl]], self.cylinder[a[cyl]]),
-                                          (*sb, self.half[b[cyl]], self.cylinder[b[cyl]]))
+            low, on_a, on_b, err = certify(near[cyl, 0], near[cyl, 1],
+                                           (*sa, self.half[a[cyl]], self.cylinder[a[cyl]]),
+                                           (*sb, self.half[b[cyl]], self.cylinder[b[cyl]]))
             out[cyl, 0], out[cyl, 1:4], out[cyl, 4] = low, on_a - on_b, err
         out[:, 0] -= LIBRARY_SLACK
         self.memo.put(keys, out)
