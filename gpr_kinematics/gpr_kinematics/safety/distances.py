@@ -7,7 +7,8 @@ memo (integer keys looked up in bulk).
 read up to 1.14 mm too far) and between boxes whose faces are nearly parallel (0.6 mm too far at 0.26 mm). For every
 pair at a positive distance the library's nearest points only start :func:`refine` (:func:`certify`): alternating
 exact projections onto the two bodies (the nearest point of a box or of a solid cylinder in closed form) bring a
-point pair ``p``, ``q`` towards the nearest one, and for the unit direction ``n`` of ``q - p`` the gap between the bodies' extents along ``n``,
+point pair ``p``, ``q`` towards the nearest one, and for the unit direction ``n`` of ``q - p`` the gap between the
+bodies' extents along ``n``,
 
     ``n . (c_b - c_a) - h_a(n) - h_b(n)``,   ``h(n) = sum_i e_i |R_i . n|`` (box, half-edges ``e_i``),
     ``h(n) = l |a . n| + r sqrt(1 - (a . n)^2)`` (cylinder, radius ``r``, half-length ``l``, axis ``a``),
