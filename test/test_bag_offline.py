@@ -380,6 +380,8 @@ def test_bag_without_states_fails_with_a_named_check(tmp_path: Path, messages: l
     path = write_messages(tmp_path / 'b', [m for m in messages if m[0] != STATE])
     result = verify_bag(path)
     assert not result.passed and result.failures[0].check == 'state.present'
+    # its line reads true: one thing missing where none may be ('value 0 > limit 1' before)
+    assert result.failures[0].line().startswith('FAIL state.present on /gpr/platform_state at bag: value 1 > limit 0')
 
 
 # -- writer safety -----------------------------------------------------------------------------------------

@@ -173,6 +173,12 @@ def test_lead_in_from_the_current_state():
     assert T0 == 0.0 and same is traj
     with pytest.raises(InputError, match='10 finite numbers'):
         lead_in(plan, traj, current[:5], rate)
+    # A reported state beyond the limits (a rod at 50 m; 1e300 made a program of 6.67e300 s): refused, named.
+    for k, value in ((0, 50.0), (0, 1e300), (4, -20.0)):
+        bad = traj.positions[0].copy()
+        bad[k] = value
+        with pytest.raises(InputError, match=rf'the robot reports {traj.joint_names[k]} = .*, outside its limits'):
+            lead_in(plan, traj, bad, rate)
 
 
 def test_trajectory_yaml_reads_back_exactly_and_embeds_in_a_goal(tmp_path):

@@ -53,7 +53,7 @@ STATE_TOPIC = '/gpr/platform_state'
 def _no_states() -> Check:
     why = 'no gpr_interfaces/msg/PlatformState messages on /gpr/platform_state: nothing to verify'
     return Check('state.present', STATE_TOPIC, 1, 1.0, 0.0, 'messages', 1,
-                 [Failure('state.present', STATE_TOPIC, None, 0.0, 1.0, why)])
+                 [Failure('state.present', STATE_TOPIC, None, 1.0, 0.0, why)])  # 1 missing > 0
 
 
 def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerances: Tolerances | None = None,

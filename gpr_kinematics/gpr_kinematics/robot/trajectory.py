@@ -122,8 +122,16 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
         raise InputError(f'the current positions must be {len(traj.joint_names)} finite numbers, one per joint of '
                          f'the trajectory ({", ".join(traj.joint_names)})')
     _, velocity, acceleration, _ = joint_limits(plan.robot)
-    ends = np.vstack([current, traj.positions[0]])
     names = traj.joint_names
+    robot = plan.robot
+    lower = np.array([robot.config.stroke_min] * 3 + [v for a in robot.arms for v in a.lower])
+    upper = np.array([robot.config.stroke_max] * 3 + [v for a in robot.arms for v in a.upper])
+    outside = np.flatnonzero((current < lower) | (current > upper))
+    if outside.size:   # a lead-in from there would leave the limits (or last for ever: 1e300 m)
+        j = int(outside[0])
+        raise InputError(f'the robot reports {names[j]} = {current[j]:.9g}, outside its limits [{lower[j]:.9g}, '
+                         f'{upper[j]:.9g}]; allowed: a robot within its limits (are these joint states of this robot?)')
+    ends = np.vstack([current, traj.positions[0]])
     shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
                             ('the current state', 'the first point')).total
     if shortest == 0.0:
