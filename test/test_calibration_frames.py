@@ -202,3 +202,24 @@ def test_a_frame_left_unregistered_is_named_in_a_warning(setting):
     assert res.gate.passed
     assert len(res.warnings) == 1 and 'another frame than gpr_base? (--frame NAME' in res.warnings[0]
     assert identify(core, synthetic_measurements(core, inner, Q, 3e-6, 2e-5, seed=5)).warnings == ()
+
+
+def test_derived_datum_parameters_of_held_ones_are_held_not_exact(capsys, tmp_path, setting):
+    """--fit-target position with the tracker frame: the datum derives joint3_x, joint3_y, joint2_x from the joint
+    parameters, which the poses cannot identify (held): they were printed '+- 0 um' (exact) while the machine
+    differed by 17-28 um. They are held: no standard error, said so."""
+    cfg, core, Q, true_model, inner, theta = setting
+    path = write_measurements(tmp_path / 'datum.csv', synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5,
+                                                                             seed=200))
+    status, out, err = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--target', '0.12', '-0.05', '0.08',
+                           '0.3', '0.1', '-1.0', '--fit-target', 'position', '--json', '--output',
+                           str(tmp_path / 'a.yaml'))
+    assert status == 0, err
+    derived = json.loads(out)['registration']['derived']
+    held = {k for k, v in derived.items() if v['status'] == 'held'}
+    assert held and all(k.startswith('joint') for k in held), derived
+    assert all(derived[k]['standard_error'] is None for k in held)
+    assert all(v['standard_error'] > 0 for k, v in derived.items() if k not in held)
+    status, text, _ = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--target', '0.12', '-0.05', '0.08',
+                          '0.3', '0.1', '-1.0', '--fit-target', 'position', '--output', str(tmp_path / 'b.yaml'))
+    assert '(held: it follows held parameters)' in text and '+- 0 um' not in text

@@ -24,6 +24,7 @@ alignments of the points and least squares of the target's position. The fit ref
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -303,7 +304,9 @@ class Registration:
             return None if a is None else [float(x) if np.isfinite(x) else None for x in a]
         return {'frame': self.frame, 'base': self.base.as_dict() | {'standard_error': se(self.base_se)},
                 'target': self.target.as_dict() | {'standard_error': se(self.target_se)}, 'datum': self.datum,
-                'derived': {k: {'value': v, 'standard_error': s, 'unit': u} for k, (v, s, u) in self.derived.items()}}
+                'derived': {k: {'value': v, 'standard_error': s if math.isfinite(s) else None, 'unit': u,
+                                'status': 'derived' if math.isfinite(s) else 'held'}
+                            for k, (v, s, u) in self.derived.items()}}
 
     def lines(self) -> list[str]:
         """The registration in words (the report's and the calibrated file's)."""
@@ -319,7 +322,8 @@ class Registration:
                 else ' (a point: no orientation)' if self.points else ' (orientation given)'
             out.append(f'{what}: position ({p}) m +- ({sp}) um, rpy ({r}) rad{sr}')
         if self.datum:
-            fixed = ', '.join(f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}'
+            fixed = ', '.join(f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}' if math.isfinite(s)
+                              else f'{k} {v:+.9g} (held: it follows held parameters)'
                               for k, (v, s, u) in self.derived.items())
             out.append(f'datum: {self.datum} ({fixed})')
         return out
@@ -343,8 +347,10 @@ def registration(model: FramedModel, estimate: Array, standard_error: Array, fit
         k = np.flatnonzero(fitted < model.n_inner)
         cov[np.ix_(inner, inner)] = covariance[np.ix_(k, k)]
         var = np.einsum('di,ij,dj->d', model.follow, cov, model.follow)
+        # A derived parameter that follows held parameters only is held too: no standard error (it read +- 0)
+        moves = np.any(model.follow[:, inner] != 0.0, axis=1) if inner.size else np.zeros(var.shape, dtype=bool)
         ps = model.inner.parameters
-        derived = {ps[int(j)].name: (float(full[j]), float(np.sqrt(max(v, 0.0))), ps[int(j)].unit)
-                   for j, v in zip(model.dependent, var, strict=True)}
+        derived = {ps[int(j)].name: (float(full[j]), float(np.sqrt(max(v, 0.0))) if m else math.nan, ps[int(j)].unit)
+                   for j, v, m in zip(model.dependent, var, moves, strict=True)}
     return Registration(frame, base, se('base_', model.fit_base), target, se('target_', model.fit_target is not None),
                         model.datum_text, derived, model.points)
