@@ -174,11 +174,16 @@ def test_lead_in_from_the_current_state():
     with pytest.raises(InputError, match='10 finite numbers'):
         lead_in(plan, traj, current[:5], rate)
     # A reported state beyond the limits (a rod at 50 m; 1e300 made a program of 6.67e300 s): refused, named.
-    for k, value in ((0, 50.0), (0, 1e300), (4, -20.0)):
+    for k, value in ((0, 50.0), (0, 1e300), (4, -20.0), (0, plan.robot.config.stroke_max + 0.01)):
         bad = traj.positions[0].copy()
         bad[k] = value
-        with pytest.raises(InputError, match=rf'the robot reports {traj.joint_names[k]} = .*, outside its limits'):
+        with pytest.raises(InputError, match=rf'the robot reports {traj.joint_names[k]} = .* outside its limits'):
             lead_in(plan, traj, bad, rate)
+    # at a limit as the planner leaves it (1e-13 beyond), or an encoder's overshoot: a state to start from
+    for over in (1e-13, 1e-4):
+        at = traj.positions[0].copy()
+        at[0] = plan.robot.config.stroke_max + over
+        assert lead_in(plan, traj, at, rate)[1] > 0.0
 
 
 def test_trajectory_yaml_reads_back_exactly_and_embeds_in_a_goal(tmp_path):

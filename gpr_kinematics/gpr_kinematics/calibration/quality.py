@@ -39,8 +39,8 @@ from .fitting import gram
 
 Array = NDArray[np.float64]
 
-#: The chi-square gate: a fit with sigmas from the file passes when ``chi2`` is at most this quantile of the
-#: chi-square distribution with its degrees of freedom.
+#: The chi-square gate: a fit with sigmas from the file (or given as the noise) passes when ``chi2`` is at most this
+#: quantile of the chi-square distribution with its degrees of freedom.
 CHI2_QUANTILE = 0.999
 #: The cross-validation gate: rows left out may be predicted this much worse than the fit explains the rows
 #: (ratio of the PRESS to its expectation, over the reduced chi-square).

@@ -37,7 +37,7 @@ from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
 from .runtime import SPIN_TIMEOUT, GprNode, StopFlag, run, wait_acknowledged
 
 NODE_NAME = 'replay_node'
-#: Seconds between the passes of a looped bag whose messages share one instant (at ``rate`` 1).
+#: Seconds between the passes of a looped bag whose messages share one instant (whatever the ``rate``).
 LOOP_GAP = 0.1
 
 

@@ -49,6 +49,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.forward import forward
 from ..errors import GprError
+from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
     INVALID_GOAL,
@@ -180,8 +181,8 @@ class RobotSimulatorNode(GprNode):
 
     def _outside(self, state: Any) -> str:
         """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
-        j = self.joints
-        for k in np.flatnonzero((state < j.lower) | (state > j.upper)):
+        j = self.joints   # a streamed sample may lie LIMIT_SLACK beyond a limit, as the planner allows
+        for k in np.flatnonzero((state < j.lower - LIMIT_SLACK) | (state > j.upper + LIMIT_SLACK)):
             return (f'{j.names[k]} = {state[k]:.9g} {j.units[k]} is outside [{j.lower[k]:.9g}, {j.upper[k]:.9g}] '
                     f'{j.units[k]}')
         try:

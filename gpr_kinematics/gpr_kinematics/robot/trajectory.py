@@ -112,6 +112,11 @@ def program_trajectory(plan: ProgramPlan, rate: float) -> JointTrajectory:
     return JointTrajectory(trajectory_joint_names(plan), s.time, s.positions, plan_velocities(plan, s))
 
 
+#: How far beyond a joint's limits a robot may report itself for :func:`lead_in` [m or rad] (an encoder's overshoot
+#: at a limit; 50 m or 1e300 are not a state of this robot).
+REPORTED_SLACK = 1e-3
+
+
 def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: float) -> tuple[JointTrajectory, float]:
     """``traj`` (of :func:`program_trajectory`) preceded by the move from ``current`` (the robot's positions of
     ``traj.joint_names``) to its first point, timed within the joints' velocity and acceleration limits and rounded up
@@ -126,11 +131,14 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
     robot = plan.robot
     lower = np.array([robot.config.stroke_min] * 3 + [v for a in robot.arms for v in a.lower])
     upper = np.array([robot.config.stroke_max] * 3 + [v for a in robot.arms for v in a.upper])
-    outside = np.flatnonzero((current < lower) | (current > upper))
+    over = np.maximum(lower - current, current - upper)
+    outside = np.flatnonzero(over > REPORTED_SLACK)
     if outside.size:   # a lead-in from there would leave the limits (or last for ever: 1e300 m)
         j = int(outside[0])
-        raise InputError(f'the robot reports {names[j]} = {current[j]:.9g}, outside its limits [{lower[j]:.9g}, '
-                         f'{upper[j]:.9g}]; allowed: a robot within its limits (are these joint states of this robot?)')
+        unit = 'm' if j < 3 else 'rad'
+        raise InputError(f'the robot reports {names[j]} = {current[j]:.9g} {unit}, {over[j]:.3g} {unit} outside its '
+                         f'limits [{lower[j]:.9g}, {upper[j]:.9g}] {unit}; allowed: a robot within its limits (to '
+                         f'{REPORTED_SLACK:g} {unit}; are these joint states of this robot?)')
     ends = np.vstack([current, traj.positions[0]])
     shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
                             ('the current state', 'the first point')).total

@@ -245,7 +245,7 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
-    ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config/programs, whose files a '
+    ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config, whose files a '
               'gpr/run_program goal may read (its program_file and the files it names: robot, geometry, stations); '
               'any other path is refused', constraint='existing folders, or [\'\'] for none', read_only=True),
     ParamSpec('move_time', _D, 2.0, 'program: default duration of a move between stations [s]', (1e-3, 3600.0),
