@@ -352,7 +352,7 @@ def test_frame_prefix_rule(prefix, ok):
 
 @pytest.mark.parametrize('frames, words', [
     ({'base_frame': 'gpr_base', 'platform_frame': 'gpr_platform', 'nominal_frame': 'n'}, None),
-    ({'base_frame': 'cell/gpr_base', 'platform_frame': 'p', 'nominal_frame': 'n'}, None),
+    ({'base_frame': 'cell/gpr_base', 'platform_frame': 'base-link', 'nominal_frame': 'n.1'}, None),
     ({'base_frame': '/gpr_base', 'platform_frame': 'p', 'nominal_frame': 'n'}, "base_frame = '/gpr_base' is invalid"),
     ({'base_frame': 'b', 'platform_frame': 'a b', 'nominal_frame': 'n'}, "platform_frame = 'a b' is invalid"),
     ({'base_frame': 'b', 'platform_frame': 'p', 'nominal_frame': 'a"b<c'}, "nominal_frame = 'a\"b<c' is invalid"),

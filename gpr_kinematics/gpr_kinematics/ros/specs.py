@@ -197,9 +197,9 @@ FRAME_PREFIX = ParamSpec('frame_prefix', 'string', '', 'prefix of every tf frame
 _PREFIX = re.compile(r'^[A-Za-z0-9_][A-Za-z0-9_/]{0,99}$')
 
 
-#: A tf frame name: letters, digits and _, parts joined by single slashes, not starting with one (tf2 refuses a
+#: A tf frame name: letters, digits, _ - and ., parts joined by single slashes, not starting with one (tf2 refuses a
 #: leading slash), at most 100 characters.
-_FRAME = re.compile(r'^[A-Za-z0-9_]+(/[A-Za-z0-9_]+)*$')
+_FRAME = re.compile(r'^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$')
 
 
 def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
@@ -210,7 +210,7 @@ def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
         value = p[name]
         if not (isinstance(value, str) and len(value) <= 100 and _FRAME.match(value)):
             raise ConfigError(f'parameter {name} = {value!r} is invalid; allowed: a tf frame name (letters, digits, '
-                              '_ and single / between parts, not at the start or the end; at most 100 characters)')
+                              '_ - . and single / between parts, not at the start or the end; at most 100 characters)')
         if value in seen:
             raise ConfigError(f'parameter {name} = {value!r} names the frame of {seen[value]}; allowed: a frame of '
                               'its own')
