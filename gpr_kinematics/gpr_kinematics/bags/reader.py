@@ -17,6 +17,7 @@ caught (``sqlite3.Error`` and the decoders' own errors); anything else is a bug 
 """
 from __future__ import annotations
 
+import functools
 import sqlite3
 import urllib.parse
 from dataclasses import dataclass, field
@@ -101,7 +102,7 @@ class Bag:
     unfinished: list[str] = field(default_factory=list)
     unlisted: list[str] = field(default_factory=list)
 
-    @property
+    @functools.cached_property
     def namespace(self) -> str:
         """The namespace the node suite's topics were recorded in (``/r1`` for ``/r1/gpr/platform_state``; ``''`` at
         the root): the one prefix of every suite topic when none is at the root (:data:`.typestore.KNOWN_TOPICS`)."""

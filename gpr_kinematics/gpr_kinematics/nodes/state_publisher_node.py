@@ -49,7 +49,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from ..core import forward
-from ..errors import GprError
+from ..errors import GprError, LimitError
 from ..robot.controller import ControllerJoints
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
@@ -132,12 +132,16 @@ class StatePublisherNode(GprNode):
     def _pose_of(self, rods: Any) -> None:
         """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none); rods beyond
         the stroke or the tilt limit are shown as received, with a warning."""
+        fk = None
         try:
-            forward(rods, self.cfg)
-        except GprError as exc:
+            fk = forward(rods, self.cfg)
+        except LimitError as exc:   # solved again without the limits: one solve for rods within them
             self.get_logger().warning(f'joint_states: {one_line(exc)}; shown as received', throttle_duration_sec=5.0)
+        except GprError:
+            pass
         try:
-            fk = forward(rods, self.cfg, check_limits=False)
+            if fk is None:
+                fk = forward(rods, self.cfg, check_limits=False)
         except GprError as exc:
             self.get_logger().warning(f'rods {list(rods)} m have no platform pose: {one_line(exc)}; the platform '
                                       'keeps its last pose', throttle_duration_sec=5.0)

@@ -32,7 +32,8 @@ from .motion import BodyMotion
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
 
-#: What the library's distance may exceed the true one by (its GJK tolerance) [m]: subtracted from every distance.
+#: Subtracted from every distance kept [m] (once the library's GJK tolerance; the refined bound below needs none,
+#: and keeps it as a margin), and the nearest points' error of a pair not refined is twice it.
 LIBRARY_SLACK = 1e-6
 #: Alternating projections of :func:`refine`: at most this many rounds, stopped once the upper and lower bounds
 #: of every pair agree to :data:`REFINED` [m].
@@ -263,13 +264,13 @@ class Exact:
             near[n] = res.nearest_points
         out[:, 1:4] = near[:, 0] - near[:, 1]
         out[:, 4] = 2.0 * LIBRARY_SLACK
-        cyl = out[:, 0] > 0.0
-        if cyl.any():   # FCL's distance is not exact (cylinders; boxes with nearly parallel faces): a lower bound
-            sa, sb = self.store.poses(a[cyl], i[cyl]), self.store.poses(b[cyl], i[cyl])
-            low, on_a, on_b, err = certify(near[cyl, 0], near[cyl, 1],
-                                           (*sa, self.half[a[cyl]], self.cylinder[a[cyl]]),
-                                           (*sb, self.half[b[cyl]], self.cylinder[b[cyl]]))
-            out[cyl, 0], out[cyl, 1:4], out[cyl, 4] = low, on_a - on_b, err
+        apart = out[:, 0] > 0.0
+        if apart.any():   # FCL's distance is not exact (cylinders; boxes with nearly parallel faces): a lower bound
+            sa, sb = self.store.poses(a[apart], i[apart]), self.store.poses(b[apart], i[apart])
+            low, on_a, on_b, err = certify(near[apart, 0], near[apart, 1],
+                                           (*sa, self.half[a[apart]], self.cylinder[a[apart]]),
+                                           (*sb, self.half[b[apart]], self.cylinder[b[apart]]))
+            out[apart, 0], out[apart, 1:4], out[apart, 4] = low, on_a - on_b, err
         out[:, 0] -= LIBRARY_SLACK
         self.memo.put(keys, out)
         self.calls += keys.shape[0]
