@@ -181,19 +181,22 @@ def refine(p: Array, q: Array, a: tuple[Array, Array, Array, NDArray[np.bool_]],
     faces)."""
     start = q - p
     active = np.arange(p.shape[0])
+    sa, sb, pk, qk = a, b, p.copy(), q.copy()   # the rows still refined (selected again only when they shrink)
     for k in range(ROUNDS):
-        sa = tuple(x[active] for x in a)
-        sb = tuple(x[active] for x in b)
-        p[active] = nearest_point(q[active], *sa)   # type: ignore[arg-type]
-        q[active] = nearest_point(p[active], *sb)   # type: ignore[arg-type]
-        if k % 10 == 9:
-            v = q[active] - p[active]
+        pk = nearest_point(qk, *sa)
+        qk = nearest_point(pk, *sb)
+        if k % 10 == 9 or k == ROUNDS - 1:
+            p[active], q[active] = pk, qk
+            v = qk - pk
             u = np.linalg.norm(v, axis=1)
             n = v / np.where(u > 0.0, u, 1.0)[:, None]
-            done = (u <= REFINED) | (u - axis_gap(n, sa, sb) <= REFINED)  # type: ignore[arg-type]
-            active = active[~done]
-            if not active.size:
+            more = (u > REFINED) & (u - axis_gap(n, sa, sb) > REFINED)
+            if not more.any():
                 break
+            if not more.all():
+                active, pk, qk = active[more], pk[more], qk[more]
+                sa = (sa[0][more], sa[1][more], sa[2][more], sa[3][more])
+                sb = (sb[0][more], sb[1][more], sb[2][more], sb[3][more])
     v = q - p
     u = np.linalg.norm(v, axis=1)
     low = np.full(u.shape, -np.inf)
