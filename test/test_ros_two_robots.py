@@ -43,11 +43,17 @@ def graph(ros_environment):
                 r1, r2, _ = _split(names)
                 return bool(r1) and {n.replace('/r1/', '/r2/', 1) for n in r1} == r2
 
+            def per_node_mirrored() -> bool:   # the per-node view (node names come by their own discovery)
+                names = {ns: _names_of(c.node, ns) for ns, _ in ROBOTS}
+                return all({n.replace('/r1/', '/r2/', 1) for n in _split(names['/r1'][kind])[0]}
+                           == _split(names['/r2'][kind])[1] for kind in ('topics', 'services', 'actions'))
+
             def complete() -> bool:
                 actions = {name for name, _ in get_action_names_and_types(c.node)}
                 return (wanted <= actions and len(static) >= 2 and all(descriptions.values())
                         and mirrored({n for n, _ in c.node.get_topic_names_and_types()})
-                        and mirrored({n for n, _ in c.node.get_service_names_and_types()}))
+                        and mirrored({n for n, _ in c.node.get_service_names_and_types()})
+                        and per_node_mirrored())
 
             # 8 nodes on a loaded 2-core CI machine: one loaded run did not see the graph complete within 60 s
             if not c.spin_until(complete, 120):
@@ -58,7 +64,8 @@ def graph(ros_environment):
                             f'{len(static)} /tf_static messages, '
                             f'descriptions of {[k for k, d in descriptions.items() if d]}, '
                             f'topics of one robot only {_one_sided(topics)}, '
-                            f'services of one robot only {_one_sided(services)}\n'
+                            f'services of one robot only {_one_sided(services)}, '
+                            f'per node {({ns: _names_of(c.node, ns) for ns, _ in ROBOTS})}\n'
                             + '\n'.join(p.output() for p in procs))
             # the held states on /tf, at idle_rate: each robot's platform, its arms' links with it
             platforms = {f'{prefix}gpr_platform' for _, prefix in ROBOTS}
