@@ -41,9 +41,9 @@ Ints = NDArray[np.int64]
 #: Subtracted from every distance kept [m] (once the library's GJK tolerance; the refined bound below needs none,
 #: and keeps it as a margin), and the nearest points' error of a pair not refined is twice it.
 LIBRARY_SLACK = 1e-6
-#: Projection rounds of :func:`refine`: at most this many, the bounds compared every :data:`CHECK` rounds, stopped
-#: once the upper and lower bounds of every pair agree to :data:`REFINED` [m]; the extrapolation factor at most
-#: :data:`STRETCH`.
+#: Projection rounds of :func:`refine`: at most this many, the bounds compared after the first and every :data:`CHECK`
+#: rounds, stopped once the upper and lower bounds of every pair agree to :data:`REFINED` [m]; the extrapolation factor
+#: at most :data:`STRETCH`.
 ROUNDS = 2000
 REFINED = 1e-10
 CHECK = 4
@@ -250,7 +250,7 @@ def refine(p: Array, q: Array, a: Pose, b: Pose, known: Array | None = None, rou
             take = np.einsum('ni,ni->n', down, step) <= round_off
             x, y = np.where(take[:, None], c, g), np.where(take[:, None], yy[m:], yy[:m])
             s = np.where(take, np.minimum(2.0 * s, STRETCH), np.maximum(0.25 * s, 2.0))
-        if k % CHECK == CHECK - 1 or k == ROUNDS - 1:
+        if k % CHECK == CHECK - 1 or k == 0 or k == ROUNDS - 1:   # many pairs are done after one round
             p[active], q[active] = x, y
             if rounds is not None:
                 rounds[active] = k + 1
