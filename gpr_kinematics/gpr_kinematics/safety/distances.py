@@ -42,12 +42,14 @@ Ints = NDArray[np.int64]
 #: and keeps it as a margin), and the nearest points' error of a pair not refined is twice it.
 LIBRARY_SLACK = 1e-6
 #: Projection rounds of :func:`refine`: at most this many, the bounds compared after the first and every :data:`CHECK`
-#: rounds, stopped once the upper and lower bounds of every pair agree to :data:`REFINED` [m]; the extrapolation factor
-#: at most :data:`STRETCH`.
+#: rounds, stopped once the upper and lower bounds of every pair agree to :data:`REFINED` [m] or their gap did not
+#: halve in :data:`STALL` rounds (the rounding of nearly parallel faces 1e-8 rad apart); the extrapolation factor at
+#: most :data:`STRETCH`.
 ROUNDS = 2000
 REFINED = 1e-10
 CHECK = 4
 STRETCH = 2.0 ** 40
+STALL = 100
 EPS = float(np.finfo(np.float64).eps)
 
 
@@ -236,6 +238,8 @@ def refine(p: Array, q: Array, a: Pose, b: Pose, known: Array | None = None, rou
     y = nearest_point(x, *sb)          # on b, the nearest to x
     s = np.full(p.shape[0], 2.0)
     best = np.full(p.shape[0], -np.inf)
+    floor = np.full(p.shape[0], -np.inf) if known is None else known.copy()
+    mark = np.full(p.shape[0], np.inf)   # the bounds' gap at the last look for a stall
     for k in range(ROUNDS):
         g = nearest_point(y, *sa)
         if k % 2 == 0:                 # a plain round (it damps what the extrapolation stirred up)
@@ -258,15 +262,18 @@ def refine(p: Array, q: Array, a: Pose, b: Pose, known: Array | None = None, rou
             u = np.linalg.norm(v, axis=1)
             n = v / np.where(u > 0.0, u, 1.0)[:, None]
             gap = axis_gap(n, sa, sb)
-            more = (u > REFINED) & (u - gap > REFINED)
+            more = (u > REFINED) & (u - np.maximum(gap, floor) > REFINED)
             if more.any():
                 gap[more] = _snapped_gap(n[more], gap[more], x[more], y[more], _rows(sa, more), _rows(sb, more))
-                more &= u - gap > REFINED
+                more &= u - np.maximum(gap, floor) > REFINED
             best[active] = gap
+            if k % STALL == STALL - 1:   # stalled (not even halved in STALL rounds): rounding, nothing to gain
+                more &= u - np.maximum(gap, floor) < 0.5 * mark
+                mark = u - np.maximum(gap, floor)
             if not more.any():
                 break
             if not more.all():
-                active, x, y, s = active[more], x[more], y[more], s[more]
+                active, x, y, s, floor, mark = active[more], x[more], y[more], s[more], floor[more], mark[more]
                 sa, sb = _rows(sa, more), _rows(sb, more)
                 sb2 = _twice(sb)
     v = q - p
