@@ -153,7 +153,11 @@ def bad_inputs(tmp_path):
     for r in rows:
         v = [float(x) for x in r.split(',')]
         mm_rows.append(','.join(repr(x * 1000) if i < 6 else repr(x) for i, x in enumerate(v[:10])))
+    jitter = [','.join(repr(float(x) * (1 + 1e-14 * (-1) ** i)) for i, x in enumerate(r.split(','))) for r in rows]
     return [
+        (['calibrate', write(tmp_path, 'twice.csv', '\n'.join([header] + rows + jitter)), '--output', 'x.yaml'],
+         rf'twice\.csv line {len(rows) + 2} repeats line 2: the same rod lengths and measurement to within 0\.001 '
+         r'of the standard deviation .*each measurement once'),
         (['calibrate', write(tmp_path, 'miss.csv', header.replace(',qw', '') + '\n' + '\n'.join(
             ','.join(r.split(',')[:9] + r.split(',')[10:]) for r in rows)), '--output', 'x.yaml'],
          r'miss\.csv line 1: missing column\(s\) qw'),

@@ -252,3 +252,55 @@ def test_refusals():
         identify(m, meas, sigma_position=-1.0)
     with pytest.raises(InputError, match=r"unknown parameter 'radius'"):
         identify(m, meas, free=['radius'])
+
+
+def test_a_measurement_twice_is_refused_not_counted_twice():
+    """A file copied into itself with 1e-14 jitter (rounding of an export) passed as twice the data, its standard
+    errors too small by sqrt 2; now the rows that repeat another's rods and measurement to far below the noise are
+    refused, naming the first ones. Measuring the same configurations again (new noise) is twice the data: accepted,
+    with standard errors sqrt 2 smaller."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    Q = plan_measurements(m, cfg, 8).q
+    truth = m.parameters.coordinates(perturbed(m, 3))
+    free = ['rod_offsets', 'kappa']
+    meas = synthetic_measurements(m, truth, Q, SP, SA, seed=5)
+    once = identify(m, meas, free=free)
+    again = synthetic_measurements(m, truth, Q, SP, SA, seed=6)
+    rng = np.random.default_rng(1)
+
+    def joined(b, lines=None, sigma=None, flip=False):
+        quat = np.vstack([meas.quaternion, -b.quaternion if flip else b.quaternion])
+        sp = np.concatenate([meas.sigma_position, b.sigma_position if sigma is None else sigma])
+        return Measurements('f.csv', np.vstack([meas.q, b.q]), np.vstack([meas.position, b.position]), quat, sp,
+                            np.concatenate([meas.sigma_angle, b.sigma_angle]), lines or tuple(range(5, 21)))
+
+    twice = identify(m, joined(again), free=free)
+    fitted = twice.fitted
+    np.testing.assert_allclose(twice.standard_error[fitted] * math.sqrt(2), once.standard_error[fitted], rtol=0.05)
+    jitter = Measurements('j', meas.q * (1 + 1e-14 * rng.standard_normal(meas.q.shape)),
+                          meas.position * (1 + 1e-14 * rng.standard_normal(meas.position.shape)),
+                          meas.quaternion, meas.sigma_position, meas.sigma_angle, meas.lines)
+    with pytest.raises(InputError, match=r'f\.csv line 13 repeats line 5: the same rod lengths and measurement to '
+                                         r'within 0\.001 of the standard deviation \(3e-06 m and 2e-05 rad\); 8 such '
+                                         r'row\(s\) \(line 14 repeats line 6, line 15 repeats line 7, line 16 repeats '
+                                         r'line 8, \.\.\.\): a copied row or file .*each measurement once'):
+        identify(m, joined(jitter), free=free)
+    # the same with a sign-flipped quaternion (the same orientation), another sigma column, or one row copied
+    for case in (joined(jitter, flip=True), joined(jitter, sigma=np.full(8, 2 * SP))):
+        with pytest.raises(InputError, match=r'line 13 repeats line 5'):
+            identify(m, case, free=free)
+    one = Measurements('g.csv', np.vstack([meas.q, meas.q[3:4] + 1e-13]), np.vstack([meas.position,
+                       meas.position[3:4]]), np.vstack([meas.quaternion, meas.quaternion[3:4]]), None, None,
+                       tuple(range(2, 11)))
+    with pytest.raises(InputError, match=r'g\.csv line 10 repeats line 5: .*\(3e-06 m and 2e-05 rad\); 1 such '
+                                         r'row\(s\): '):
+        identify(m, one, free=free, sigma_position=SP, sigma_angle=SA)
+    # merged files (an arm's): a line number names no row, the rows are numbered
+    with pytest.raises(InputError, match=r'f\.csv row 9 \(line 2 of its file\) repeats row 1 \(line 2 of its file\)'):
+        identify(m, joined(jitter, lines=tuple(range(2, 10)) * 2), free=free)
+    # points: the position alone
+    pts = synthetic_measurements(m, truth, Q, SP, SA, seed=5, points=True)
+    with pytest.raises(InputError, match=r'p\.csv line 12 repeats line 4: .*\(3e-06 m\); 8 such'):
+        identify(m, Measurements('p.csv', np.vstack([pts.q, pts.q]), np.vstack([pts.position, pts.position]),
+                                 None, np.full(16, SP), None, tuple(range(4, 20))), free=free)

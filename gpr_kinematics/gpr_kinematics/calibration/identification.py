@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ConvergenceError, InputError
 from .fitting import Minimum, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
-from .measurements import SIGMA_RANGE, Measurements
+from .measurements import SIGMA_RANGE, Measurements, check_repeats
 from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
 from .quality import (
     CV_GATE,
@@ -166,8 +166,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     A fit that does not converge is returned with its diagnostics (``convergence``, ``gate``), not raised.
 
     Raises:
-        InputError: too few rows for the free parameters, a pose implausibly far from the nominal model, a bad
-            sigma, an unknown parameter name, a fit that leaves the model's domain or explains nothing.
+        InputError: too few rows for the free parameters, a row that repeats another to far below the noise
+            (:func:`~.measurements.check_repeats`), a pose implausibly far from the nominal model, a bad sigma, an
+            unknown parameter name, a fit that leaves the model's domain or explains nothing.
     """
     params = model.parameters
     mask = params.select(free)
@@ -178,6 +179,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
         raise InputError(f'{meas.source}: {n} row(s) give {k * n} residuals, too few to identify {n_free} '
                          f'parameters; at least {n_free // k + 1} rows are needed (more for a useful fit)')
     w, absolute = weights(meas, sigma_position, sigma_angle, declared)
+    check_repeats(meas, float(np.min(1.0 / w[:, 0])), float(np.min(1.0 / w[:, -1])))
     theta0 = params.nominal
     scale = prior_scale(params, prior)
 

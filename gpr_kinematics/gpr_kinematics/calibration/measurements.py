@@ -25,6 +25,8 @@ than :data:`~gpr_kinematics.inputs.validation.QUATERNION_NORM_TOLERANCE`, a valu
 outside :data:`SIGMA_RANGE`, an unknown or misplaced unit declaration, a row repeated exactly, a file without
 data rows, and files beyond the limits :data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so
 memory stays bounded).
+Rows that repeat another's rods and measurement to within :data:`REPEAT_TOLERANCE` of the noise (a copy with
+rounding jitter) are refused by the identification, which knows the standard deviations (:func:`check_repeats`).
 """
 from __future__ import annotations
 
@@ -59,6 +61,10 @@ MAX_LINE_CHARS = 2048
 MAX_VALUE = 1e6
 #: Range of a standard deviation, SI: [m] for sigma_position, [rad] for sigma_angle.
 SIGMA_RANGE = (1e-9, 0.1)
+#: Two rows whose rod lengths and measurements agree to within this fraction of the smallest standard deviation of
+#: the file (every coordinate) are one measurement twice (:func:`repeated_rows`): independent measurements differ by
+#: about the noise, and agree that closely in all their coordinates with a probability below 1e-9 per pair.
+REPEAT_TOLERANCE = 1e-3
 
 _LENGTH_COLUMNS = frozenset(('q1', 'q2', 'q3', 'x', 'y', 'z', 'sigma_position'))
 
@@ -283,6 +289,58 @@ def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
                         position=np.column_stack([col['x'], col['y'], col['z']]), quaternion=quat,
                         sigma_position=table.sigma('sigma_position', source),
                         sigma_angle=table.sigma('sigma_angle', source), lines=tuple(line_nos), units=table.units)
+
+
+def repeated_rows(meas: Measurements, sigma_position: float, sigma_angle: float) -> list[tuple[int, int]]:
+    """The rows of ``meas`` that repeat an earlier row, as ``(row, earlier row)`` in file order: the rod lengths,
+    the measured position and orientation all within :data:`REPEAT_TOLERANCE` of ``sigma_position`` [m] (the rods
+    and the position) and ``sigma_angle`` [rad] (the rotation between the two orientations) of each other (a
+    file copied into itself, with or without rounding jitter, counts twice and makes the standard errors too small
+    by ``sqrt 2``). The sigma columns are not compared. ``O(N log N)`` (a k-d tree), bounded memory."""
+    from scipy.spatial import cKDTree
+
+    n = len(meas)
+    if n < 2:
+        return []
+    parts = [meas.q / sigma_position, meas.position / sigma_position]
+    if meas.quaternion is not None:
+        sign = np.where(meas.quaternion[:, 3:] < 0.0, -1.0, 1.0)   # q and -q are one orientation
+        parts.append(2.0 * sign * meas.quaternion / sigma_angle)     # 2 |dq| is the angle between them
+    X = np.hstack(parts) / REPEAT_TOLERANCE
+    X = X - X.mean(axis=0)
+    dist, idx = cKDTree(X).query(X, k=2, p=np.inf, distance_upper_bound=1.0)
+    found: dict[int, int] = {}
+    for i in np.flatnonzero(np.isfinite(dist[:, 1])):
+        j = int(idx[i, 1]) if int(idx[i, 1]) != i else int(idx[i, 0])
+        a, b = min(int(i), j), max(int(i), j)
+        found.setdefault(b, a)
+    return sorted(found.items())
+
+
+def check_repeats(meas: Measurements, sigma_position: float, sigma_angle: float) -> None:
+    """Refuse rows that repeat another (:func:`repeated_rows`), naming the first ones.
+
+    Raises:
+        InputError: the file, the lines of the first repeated rows and of the rows they repeat, and what to do.
+    """
+    pairs = repeated_rows(meas, sigma_position, sigma_angle)
+    if not pairs:
+        return
+    merged = len(set(meas.lines)) < len(meas.lines)     # files merged (an arm's): a line number names no row
+
+    def row(i: int) -> str:
+        return f'row {i + 1} (line {meas.lines[i]} of its file)' if merged else f'line {meas.lines[i]}'
+
+    b, a = pairs[0]
+    listed = ', '.join(f'{row(i)} repeats {row(j)}' for i, j in pairs[1:4])
+    others = f' ({listed}{", ..." if len(pairs) > 4 else ""})' if listed else ''
+    angle = f' and {sigma_angle:.3g} rad' if meas.quaternion is not None else ''
+    raise InputError(f'{meas.source} {row(b)} repeats {row(a)}: the same rod lengths and measurement to within '
+                     f'{REPEAT_TOLERANCE:g} of the standard deviation ({sigma_position:.3g} m{angle}); {len(pairs)} '
+                     f'such row(s){others}: a copied row or file counts as twice the data (standard errors too small '
+                     'by sqrt 2); each measurement once. Separate measurements differ by their noise: if these are, '
+                     'their noise is far below the standard deviation given (sigma columns, --sigma-position, '
+                     '--sigma-angle)')
 
 
 def read_measurements(path: str | Path) -> Measurements:
