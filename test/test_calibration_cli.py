@@ -425,3 +425,36 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
     status, out, err = run(capsys, 'calibrate', str(tmp_path / 'outlier.csv'), '--output', str(tmp_path / 'w.yaml'),
                            '--json')
     assert status == 0 and not json.loads(out)['absolute_sigma'], err
+
+
+def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):
+    """sigma_position 0.003 (3 mm: the um value written in mm) in a file in metres passed the gate with a reduced
+    chi-square of 0.44, the positions weighted 1e6 times too little and the zero offsets 14 um off the machine; the
+    gate's sigmas check now fails it (the positions' own reduced chi-square 0.0012), and sigma_angle in degrees in
+    a file in radians (the angles'); the shipped file passes it."""
+    lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
+    data = [ln for ln in lines if not ln.startswith('#')]
+    header = data[0].split(',')
+    truth = demo.true_values(CoreModel(load_config()))
+    for column, factor, kind in (('sigma_position', 1000.0, 'position'), ('sigma_angle', 180 / np.pi, 'angle')):
+        c = header.index(column)
+        rows = [r.split(',') for r in data[1:]]
+        for r in rows:
+            r[c] = repr(float(r[c]) * factor)
+        path = write(tmp_path, f'{column}.csv', '\n'.join([data[0]] + [','.join(r) for r in rows]))
+        status, out, err = run(capsys, 'calibrate', path, '--output', str(tmp_path / 'x.yaml'), '--json')
+        d = json.loads(out)
+        checks = {g['name']: g for g in d['gate']['checks']}
+        assert status == 1 and d['output'] is None and not (tmp_path / 'x.yaml').exists(), err
+        assert checks['chi_square']['passed'] and checks['cross_validation']['passed']   # what passed before
+        assert not checks['sigmas']['passed'] and checks['sigmas']['at_least']
+        assert checks['sigmas']['value'] < 0.01 < 0.6 < checks['sigmas']['limit'] < 0.7
+        assert re.search(rf'The {kind} residuals are far smaller than the standard deviations given: their reduced '
+                         r'chi-square [\d.e-]+ is below 0\.6\d+ .*a sigma column in other units', err), err
+        if kind == 'position':   # the fit ignored the positions: the zero offsets 14 um off (0.56 um standard errors)
+            p = {q['name']: q['estimate'] for q in d['parameters']}
+            assert abs(p['rod1_offset'] - truth[2]) > 10e-6
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'ok.yaml'), '--json')
+    d = json.loads(out)
+    g = {c['name']: c for c in d['gate']['checks']}['sigmas']
+    assert status == 0 and g['passed'] and g['value'] == pytest.approx(0.898, abs=5e-4) and g['limit'] < 0.7

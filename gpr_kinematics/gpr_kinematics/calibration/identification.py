@@ -37,6 +37,7 @@ from .quality import (
     chi2_limit,
     cross_validation,
     held_bias,
+    sigma_check,
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
@@ -129,7 +130,7 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
 
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int, absolute: bool,
-          cv_ratio: float, lines: tuple[int, ...]) -> Gate:
+          cv_ratio: float, lines: tuple[int, ...], sigmas: GateCheck | None) -> Gate:
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
@@ -142,6 +143,8 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                                 f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
                                 f'above the gate {limit:.4g} (the {100 * 0.999:g} % point for {dof} degrees of '
                                 f'freedom); largest residuals {worst}{bounds}.'))
+        if sigmas is not None:
+            checks.append(sigmas)
     checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
                             f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
@@ -225,7 +228,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     fitted = set(fit.tolist())
     status = tuple('fitted' if j in fitted else 'held' if p.name in held else 'fixed' for j, p in enumerate(params))
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
-    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines)
+    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines,
+                 sigma_check(Jf, best.residual) if absolute else None)
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines),

@@ -22,7 +22,11 @@ parameter's a-priori uncertainty ``s_j``), ``A = J^T J``:
 * **The gate** (:class:`Gate`): the fit reached a minimum (:mod:`.fitting`); with standard deviations from the
   measurement file, ``chi2`` at most the :data:`CHI2_QUANTILE` point of the chi-square distribution with its
   degrees of freedom (a correct model fails it once in a thousand fits); the cross-validation ratio at most
-  :data:`CV_GATE`.
+  :data:`CV_GATE`; and, with standard deviations given, the residuals of each kind (positions; angles) not far
+  below them: each kind's reduced chi-square ``sum r^2 / sum (1 - h_ii)`` over its residuals (``h_ii`` the diagonal
+  of the hat matrix ``J A^-1 J^T``, exact expectation for the linearised model) at least the ``1 - CHI2_QUANTILE``
+  point of its distribution (:func:`sigma_check`): a sigma column in other units than the file's (3 mm for 3 um) had
+  the fit ignore the positions, moved the zero offsets by 14 um and passed with a reduced chi-square of 0.44.
 """
 from __future__ import annotations
 
@@ -141,6 +145,8 @@ class GateCheck:
     value: float
     limit: float
     detail: str
+    #: The check passes when ``value >= limit`` (not ``<=``).
+    at_least: bool = False
 
 
 @dataclass(frozen=True)
@@ -166,6 +172,38 @@ class Gate:
 def chi2_limit(dof: int) -> float:
     """The reduced chi-square at :data:`CHI2_QUANTILE` for ``dof`` degrees of freedom."""
     return float(chi2_distribution.ppf(CHI2_QUANTILE, dof) / dof)
+
+
+#: Residuals of each kind, columns of the residual blocks: a measured pose's, a measured point's.
+KINDS = {6: (('position', slice(0, 3)), ('angle', slice(3, 6))), 3: (('position', slice(0, 3)),)}
+
+
+def sigma_check(J: Array, residual: Array) -> GateCheck | None:
+    """The gate's ``sigmas`` check (module docstring) of a fit with scaled weighted Jacobian ``J (N k, F)`` and
+    weighted residual blocks ``residual (N, k)``: the kind whose reduced chi-square is furthest below its
+    ``1 - CHI2_QUANTILE`` point; ``None`` when no kind has a degree of freedom or the Jacobian is not finite."""
+    n, k = residual.shape
+    if J.shape[1] and not np.all(np.isfinite(J)):
+        return None
+    h = (np.einsum('if,fg,ig->i', J, np.linalg.pinv(gram(J)), J) if J.shape[1] else np.zeros(n * k)).reshape(n, k)
+    found: tuple[float, str, float, float] | None = None
+    for kind, part in KINDS[k]:
+        dof = float(np.sum(1.0 - h[:, part]))
+        if dof < 1.0:
+            continue
+        red = float(np.sum(residual[:, part] ** 2)) / dof
+        low = float(chi2_distribution.ppf(1.0 - CHI2_QUANTILE, dof) / dof)
+        if found is None or red / low < found[0] / found[3]:
+            found = (red, kind, dof, low)
+    if found is None:
+        return None
+    red, kind, dof, low = found
+    return GateCheck('sigmas', red >= low, red, low,
+                     f'The {kind} residuals are far smaller than the standard deviations given: their reduced '
+                     f'chi-square {red:.3g} is below {low:.3g} (the {100 * (1 - CHI2_QUANTILE):g} % point for '
+                     f'{dof:.4g} degrees of freedom), and the fit weights the {kind}s too little: a sigma column in '
+                     'other units than the file\'s (mm or deg in a file in m and rad?), or the noise overstated; give '
+                     'the measurement noise.', at_least=True)
 
 
 def worst_rows(residual: Array, lines: Sequence[int], count: int = 3) -> str:

@@ -52,9 +52,9 @@ def _checks(res: CalibrationResult) -> list[str]:
         lines.append(f'  line(s) {", ".join(map(str, cv.alone))} alone determine a fitted combination: no other row '
                      'checks them')
     if res.gate.passed:
-        lines.append('gate: passed (' + ', '.join(f'{g.name.replace("_", " ")} {g.value:.3g} <= {g.limit:.3g}'
-                                                   for g in res.gate.checks if g.name != 'minimum')
-                     + ', minimum reached)')
+        passed = [f'{g.name.replace("_", " ")} {g.value:.3g} {">=" if g.at_least else "<="} {g.limit:.3g}'
+                  for g in res.gate.checks if g.name != 'minimum']
+        lines.append('gate: passed (' + ', '.join(passed) + ', minimum reached)')
     else:
         lines.append(f'gate: FAILED: {res.gate.message()}')
     return lines
