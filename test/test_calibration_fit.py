@@ -241,3 +241,31 @@ def test_a_model_that_cannot_be_evaluated_fails_the_gate_with_its_report():
     assert res.convergence.status in ('stalled', 'iterations', 'undefined') and not res.gate.passed
     assert 'The fit did not reach a minimum' in res.gate.message()
     json.dumps(res.as_dict(), allow_nan=False)
+
+
+def test_the_jacobian_is_evaluated_in_bounded_chunks(monkeypatch):
+    """All 2P perturbed machines at every row in one call of the model took ~1.5 kB per pose: a file of 100,000 rows
+    (the limit) needed ~7 GB for its Jacobian (1.5 GB at 20,000 rows). Now a call evaluates at most
+    JACOBIAN_RESIDUALS residuals (one pair of machines at least), and the Jacobian is the same as in one call."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    ps = m.parameters
+    meas = synthetic_measurements(m, imperfect(m, 1), configurations(cfg, 50, 2), 3e-6, 2e-5, seed=3)
+    w, _ = weights(meas, 3e-6, 2e-5)
+    sizes = []
+
+    def residuals(theta):
+        sizes.append(np.atleast_2d(theta).shape[0] * len(meas) * 6)
+        return measured_errors(m, meas, theta) * w
+
+    cols = np.arange(len(ps), dtype=np.int64)
+    whole = fitting.residual_jacobian(residuals, ps, ps.nominal, cols, ps.scale)
+    assert max(sizes) == 2 * len(ps) * 300                     # small: one call, as before
+    sizes.clear()
+    monkeypatch.setattr(fitting, 'JACOBIAN_RESIDUALS', 5 * 600)
+    chunked = fitting.residual_jacobian(residuals, ps, ps.nominal, cols, ps.scale)
+    assert max(sizes) == 5 * 600 and len(sizes) == 1 + math.ceil(24 / 5)      # 5 pairs a call
+    np.testing.assert_allclose(chunked, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
+    monkeypatch.setattr(fitting, 'JACOBIAN_RESIDUALS', 1)       # one pair per call at least
+    np.testing.assert_allclose(fitting.residual_jacobian(residuals, ps, ps.nominal, cols, ps.scale), whole, rtol=0,
+                               atol=1e-9 * np.abs(whole).max())
