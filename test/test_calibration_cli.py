@@ -3,6 +3,7 @@ printed numbers equal to the JSON's, and every bad input answered with exit 2 an
 from __future__ import annotations
 
 import json
+import math
 import re
 import subprocess
 import sys
@@ -17,6 +18,7 @@ from gpr_kinematics.cli.main import main
 from gpr_kinematics.core import forward
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.inputs.resources import config_path
+from scipy.special import erfcinv
 
 SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
 
@@ -458,3 +460,27 @@ def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):
     d = json.loads(out)
     g = {c['name']: c for c in d['gate']['checks']}['sigmas']
     assert status == 0 and g['passed'] and g['value'] == pytest.approx(0.898, abs=5e-4) and g['limit'] < 0.7
+
+
+def test_one_outlier_fails_the_gate(capsys, tmp_path):
+    """One row's z 20 um off (6.6 standard deviations of 3 um, studentized) among the shipped file's 40 passed the
+    gate: reduced chi-square 1.12 below 1.32, cross-validation 1.00, rod1_offset moved by about one standard error.
+    The outliers check fails it, naming the line and the coordinate; the file as shipped passes it (2.94 <= 4.6, the
+    point the largest of 240 normal residuals exceeds with probability 1e-3: two-sided 1e-3 / 240 / 2)."""
+    lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
+    at = next(i for i, ln in enumerate(lines) if ln.startswith('q1')) + 8
+    v = lines[at].split(',')
+    v[5] = repr(float(v[5]) + 20e-6)
+    lines[at] = ','.join(v)
+    path = write(tmp_path, 'outlier.csv', '\n'.join(lines) + '\n')
+    status, out, err = run(capsys, 'calibrate', path, '--output', str(tmp_path / 'x.yaml'), '--json')
+    checks = {g['name']: g for g in json.loads(out)['gate']['checks']}
+    assert status == 1 and not (tmp_path / 'x.yaml').exists()
+    assert checks['chi_square']['passed'] and checks['cross_validation']['passed'] and checks['sigmas']['passed']
+    assert not checks['outliers']['passed'] and checks['outliers']['value'] == pytest.approx(6.57, abs=0.01)
+    assert checks['outliers']['limit'] == pytest.approx(math.sqrt(2) * erfcinv(1e-3 / 240), rel=1e-9)
+    assert re.search(rf'Line {at + 1} is an outlier: its z residual is 6\.57 standard deviations \(studentized\), '
+                     r'above 4\.6', err), err
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'ok.yaml'), '--json')
+    g = {c['name']: c for c in json.loads(out)['gate']['checks']}['outliers']
+    assert status == 0 and g['passed'] and g['value'] == pytest.approx(2.94, abs=0.005)

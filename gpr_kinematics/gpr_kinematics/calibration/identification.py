@@ -36,7 +36,9 @@ from .quality import (
     GateCheck,
     chi2_limit,
     cross_validation,
+    hat_diagonal,
     held_bias,
+    outlier_check,
     sigma_check,
     worst_rows,
 )
@@ -130,7 +132,7 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
 
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int, absolute: bool,
-          cv_ratio: float, lines: tuple[int, ...], sigmas: GateCheck | None) -> Gate:
+          cv_ratio: float, lines: tuple[int, ...], more: tuple[GateCheck | None, ...]) -> Gate:
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
@@ -143,8 +145,7 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                                 f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
                                 f'above the gate {limit:.4g} (the {100 * 0.999:g} % point for {dof} degrees of '
                                 f'freedom); largest residuals {worst}{bounds}.'))
-        if sigmas is not None:
-            checks.append(sigmas)
+        checks.extend(c for c in more if c is not None)
     checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
                             f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
@@ -228,8 +229,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     fitted = set(fit.tolist())
     status = tuple('fitted' if j in fitted else 'held' if p.name in held else 'fixed' for j, p in enumerate(params))
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
+    h = hat_diagonal(Jf, best.residual.shape)
     gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines,
-                 sigma_check(Jf, best.residual) if absolute else None)
+                 (sigma_check(h, best.residual), outlier_check(h, best.residual, meas.lines)) if absolute else ())
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines),
