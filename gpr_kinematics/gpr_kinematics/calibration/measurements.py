@@ -93,6 +93,39 @@ class Measurements:
     lines: tuple[int, ...]
     units: tuple[str, str] = ('m', 'rad')
 
+    def __post_init__(self) -> None:
+        """Refuse arrays that are not the measurements of one set of rows (a library caller's; a file's pass)."""
+        n = np.shape(self.q)[0] if np.ndim(self.q) == 2 else -1
+        fields = (('q', self.q, (n, 3)), ('position', self.position, (n, 3)), ('quaternion', self.quaternion, (n, 4)),
+                  ('sigma_position', self.sigma_position, (n,)), ('sigma_angle', self.sigma_angle, (n,)))
+        for name, value, shape in fields:
+            if value is None and name in ('q', 'position'):
+                raise InputError(f'{self.source}: Measurements.{name} is None; allowed: an array {shape}')
+            if value is None:
+                continue
+            v = np.asarray(value)
+            if n < 1 or v.shape != shape or v.dtype.kind not in 'fiu':
+                raise InputError(f'{self.source}: Measurements.{name} has shape {v.shape} ({v.dtype}); allowed: '
+                                 f'numbers of shape {("N", *shape[1:]) if n < 1 else shape}, N >= 1 rows as q')
+            bad = np.flatnonzero(~np.all(np.isfinite(v.reshape(n, -1)), axis=1))
+            if bad.size:
+                raise InputError(f'{self.source}: Measurements.{name} of row {int(bad[0])} is not finite; allowed: '
+                                 'finite numbers')
+        if len(self.lines) != n:
+            raise InputError(f'{self.source}: {len(self.lines)} line numbers for {n} rows; allowed: one per row')
+        lo, hi = SIGMA_RANGE
+        for name, value in (('sigma_position', self.sigma_position), ('sigma_angle', self.sigma_angle)):
+            if value is not None and not np.all((np.asarray(value) >= lo) & (np.asarray(value) <= hi)):
+                raise InputError(f'{self.source}: Measurements.{name} outside [{lo:g}, {hi:g}] (SI); allowed: '
+                                 'standard deviations in that range')
+        if self.quaternion is not None:
+            norm = np.linalg.norm(self.quaternion, axis=1)
+            bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE)
+            if bad.size:
+                raise InputError(f'{self.source}: Measurements.quaternion of row {int(bad[0])} has norm '
+                                 f'{norm[bad[0]]:.9g}; allowed: unit quaternions, |norm - 1| <= '
+                                 f'{QUATERNION_NORM_TOLERANCE:g}')
+
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
