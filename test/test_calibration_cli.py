@@ -189,6 +189,13 @@ def bad_inputs(tmp_path):
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '1e308', '0', '0', '0', '0',
           '0'], r'--base \[1e\+308, 0.0, 0.0, 0.0, 0.0, 0.0\]: allowed: each value within \+-1e\+06'),
         (['calibrate', '--plan', '0'], r'plan size 0; allowed: an integer from 1 to 222'),
+        # --base in degrees without --deg: the file was blamed ("another frame"), not the option
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '0', '0', '0', '0', '0', '90'],
+         r'line \d+: the measured pose is .* rad from the nominal model\'s .*; or --base in other units than m and rad '
+         r'\(--mm for millimetres, --deg for degrees\)\?$'),
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '0', '0', '0', '0', '0', '90',
+          '--mm', '--target', '0', '0', '0'], r'; or --base and --target in other units than m and rad \(--deg for '
+                                              r'degrees\)\?$'),
         (['calibrate', '--plan', '3', '--config', ''], r'config'),
         (['calibrate', '--plan', 'many'], r"argument --plan: invalid int value: 'many'"),
         (['calibrate', '--plan', '3', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),

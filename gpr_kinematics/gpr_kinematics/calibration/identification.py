@@ -64,6 +64,11 @@ NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (len
                     '"# units:" line says, m by default? a measured frame other than the one declared?)')
 
 
+class ImplausiblePoseError(InputError):
+    """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
+    :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which)."""
+
+
 def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
     """Refuse standard deviations outside :data:`~.measurements.SIGMA_RANGE` (m, rad)."""
     lo, hi = SIGMA_RANGE
@@ -108,8 +113,8 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
         why = ('millimetres? declare "# units: mm"' if dp[i] > 100 * PLAUSIBLE_POSITION else
                f'another frame than {frame}, or a machine that far from its nominal model (an arm\'s zero offset of '
                'a degree moves its wafer some centimetres): correct the nominal model first')
-        raise InputError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: {limits}): not a '
-                         f'measurement of this machine in {frame} in SI units ({why})')
+        raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
+                                   f'{limits}): not a measurement of this machine in {frame} in SI units ({why})')
 
 
 def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64]) -> list[tuple[str, Array]]:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import math
 from datetime import datetime, timezone
+from functools import partial
 from typing import TYPE_CHECKING
 
 from ..core.config import MODELS
@@ -35,6 +36,7 @@ from .calibrate_options import (
     priors,
     sigmas,
     table_of,
+    with_given_poses,
 )
 from .output import emit_json
 
@@ -63,8 +65,9 @@ def _calibrate(args: argparse.Namespace) -> int:
     table = table_of(args)
     sp, sa = sigmas(args, table)
     prior, bound = priors(table, model)
-    res = identify(model, meas, free=free_names(args, model), sigma_position=sp, sigma_angle=sa,
-                   threshold=args.threshold, prior=prior, bound=bound, frame=args.frame, declared=declared(args))
+    res = with_given_poses(args, partial(identify, model, meas, free=free_names(args, model), sigma_position=sp,
+                                         sigma_angle=sa, threshold=args.threshold, prior=prior, bound=bound,
+                                         frame=args.frame, declared=declared(args)))
     reg = None
     if isinstance(model, FramedModel):
         reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)

@@ -5,13 +5,16 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from ..core.config import GprConfig, load_config
 from ..errors import InputError, brief, one_line
 from ..inputs.validation import MAX_COORDINATE
+
+T = TypeVar('T')
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -67,6 +70,21 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
     v = [x * (1e-3 if args.mm and i < 3 else 1.0) for i, x in enumerate(values)]
     v[3:] = [math.radians(x) if args.deg else x for x in v[3:]]
     return Transform.from_xyz_rpy(v)
+
+
+def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
+    """``run()``; a measured pose far from the nominal model's
+    (:class:`~gpr_kinematics.calibration.identification.ImplausiblePoseError`) also names ``--base``/``--target``
+    when they were given without ``--mm``/``--deg`` (their units are the options', not the file's)."""
+    from ..calibration.identification import ImplausiblePoseError
+    try:
+        return run()
+    except ImplausiblePoseError as exc:
+        flags = ' and '.join(f for f in ('--base', '--target') if getattr(args, f[2:], None) is not None)
+        units = [u for u, on in (('--mm for millimetres', not args.mm), ('--deg for degrees', not args.deg)) if on]
+        if not flags or not units:
+            raise
+        raise ImplausiblePoseError(f'{exc}; or {flags} in other units than m and rad ({", ".join(units)})?') from None
 
 
 def priors(table: ToleranceTable | None,

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import argparse
 from datetime import datetime, timezone
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import InputError
-from .calibrate_options import EXIT_GATE, declared, gate_outcome, pose, sigmas, table_of
+from .calibrate_options import EXIT_GATE, declared, gate_outcome, pose, sigmas, table_of, with_given_poses
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -107,8 +108,9 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     regs: dict[str, Registration | None] = {}
     for arm, model in models.items():
         inner = inners[arm]
-        res = identify(model, inner.meas.points, free=free[arm], sigma_position=sp, sigma_angle=sa,
-                       threshold=args.threshold, frame=args.frame, declared=declared(args))
+        res = with_given_poses(args, partial(identify, model, inner.meas.points, free=free[arm], sigma_position=sp,
+                                             sigma_angle=sa, threshold=args.threshold, frame=args.frame,
+                                             declared=declared(args)))
         reg: Registration | None = None
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
