@@ -83,3 +83,18 @@ def test_periodic_preimages_are_the_exact_arcs():
 def test_every_operation_of_the_graphs_has_a_backward_rule():
     # a graph can hold any of these operations; the backward pass must narrow through each of them
     assert set(_BACKWARD_RULES) == set(UNARY) | set(BINARY)
+
+
+def test_tan_preimage_keeps_solutions_next_to_a_pole():
+    """``tan(x) = tan(x0)`` for x0 the float nearest a pole (either side): the contraction of boxes that start or
+    end at x0 keeps x0 (the branch test rounded x0 = 1.5707963267948966, below the real pi/2, into the next
+    branch and narrowed the box to atan(.) + pi, far from x0: no solution left)."""
+    g = Graph(('x',))
+    tape = Tape.compile(g, [g.var('x').tan()])
+    for k in range(-20, 21):
+        pole = np.pi / 2 + k * np.pi
+        for x0 in (pole, np.nextafter(pole, -np.inf), np.nextafter(pole, np.inf)):
+            t0 = np.tan(x0)
+            for lo, hi in ((x0, x0 + 0.3), (x0 - 0.3, x0), (x0, x0)):
+                clo, chi, empty = contract(tape, np.array([[lo]]), np.array([[hi]]), np.array([t0]), np.array([t0]))
+                assert not empty[0] and clo[0, 0] <= x0 <= chi[0, 0], (k, x0, lo, hi)

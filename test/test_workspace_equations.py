@@ -133,3 +133,18 @@ def test_parameters_are_overridden_by_top_level_keys():
     hull = np.concatenate([res.inner, res.boundary])
     assert hull[:, 0, 0].min() <= -0.5 * math.sin(1) <= hull[:, 0, 0].min() + 0.01
     assert res.inner_volume <= math.sin(1) <= res.outer_volume
+
+
+def test_tan_next_to_its_pole_is_covered():
+    """An interval starting at the float pi/2 (below the real pole) crosses it: its tan enclosure came out
+    inverted and the contractor called the whole box outside, though ``tan(x) <= 0`` holds on (pi/2, 2]."""
+    data = {'type': 'equations', 'variables': {'x': [math.pi / 2, 2.0]}, 'units': {'x': 'rad'}, 'outputs': ['x'],
+            'inequalities': ['tan(x) <= 0']}
+    model = model_from_mapping(data)
+    res = approximate(model, 0.01, progress=False)
+    x = np.linspace(1.58, 2.0, 50)[:, None]
+    assert model.feasible(x).all()
+    assert contains_points(np.concatenate([res.inner, res.boundary]), x).all()
+    assert 0.40 < res.inner_volume <= 2.0 - math.pi / 2
+    inner_pts = res.inner[:, 0, :].ravel()[:, None]
+    assert model.feasible(inner_pts).all()

@@ -65,6 +65,25 @@ def test_tan_and_arcsin_on_their_domains():
     assert np.isinf(Interval(1.0, 2.0).tan().hi) and np.isinf(Interval(1.0, 2.0).tan().lo)
 
 
+def test_tan_across_a_pole_next_to_an_end_is_the_whole_line():
+    """The float pi/2 (and k pi + pi/2 rounded) may lie on either side of the real pole: ``floor(t / pi + 1/2)``
+    of both ends agreed for [1.5707963267948966, 2] (both 1), and the enclosure came out inverted, [1.6e16,
+    -1.83], though tan takes every real value there."""
+    half_pi = np.pi / 2                                     # 6.1e-17 below the real pole: tan = +1.6e16
+    for k in range(-40, 41):
+        pole = half_pi + k * np.pi
+        for end in (pole, np.nextafter(pole, -np.inf), np.nextafter(pole, np.inf)):
+            for lo, hi in ((end, end + 0.5), (end - 0.5, end)):
+                t = Interval(np.array([lo]), np.array([hi])).tan()
+                assert t.lo[0] <= t.hi[0], (lo, hi)
+                assert t.lo[0] <= min(np.tan(lo), np.tan(hi)) and max(np.tan(lo), np.tan(hi)) <= t.hi[0], (lo, hi)
+    t = Interval(np.array([half_pi]), np.array([2.0])).tan()
+    assert np.isinf(t.lo[0]) and np.isinf(t.hi[0])
+    # inside one branch it stays tight, up to the last float before the pole
+    t = Interval(np.array([1.0]), np.array([half_pi])).tan()
+    assert t.lo[0] <= np.tan(1.0) < t.hi[0] and t.hi[0] < 1.7e16
+
+
 def test_known_exact_ranges():
     s = Interval(np.array([0.0]), np.array([np.pi])).sin()
     assert s.hi[0] == 1.0 and -1e-15 < s.lo[0] <= 0.0

@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .interval import Interval
+from .interval import Interval, tan_branch
 from .tape import Tape, interval_op
 
 _HALF_PI_BELOW = 1.5707963267948  # below the real pi/2 by ~1.7e-14: tan is finite and increasing up to it
@@ -207,11 +207,15 @@ def _cos_preimage(u: Interval, y: Interval, shift: float) -> Interval:
 
 
 def _tan_preimage(u: Interval, y: Interval) -> Interval:
-    """Within one branch of tan (``u`` inside ``(-pi/2, pi/2) + k pi``): ``atan(y) + k pi``; else no narrowing."""
-    k_lo = np.floor(u.lo / np.pi + 0.5)
-    k_hi = np.floor(u.hi / np.pi + 0.5)
-    one = (k_lo == k_hi) & ((u.hi - u.lo) < np.pi * (1 - 1e-9))
+    """Within one branch of tan (``u`` inside ``(-pi/2, pi/2) + k pi``): ``atan(y) + k pi``, the hull of the pieces
+    of the branches ``k - 1 .. k + 1`` within ``u`` (the branch index of an end next to a pole may be one off by
+    rounding); else no narrowing."""
+    k_lo, one = tan_branch(u.lo, u.hi)
     at = y.arctan()
-    base = k_lo * np.pi
-    pad = 1e-15 * (np.abs(base) + 8.0)
-    return Interval(np.where(one, base + at.lo - pad, -np.inf), np.where(one, base + at.hi + pad, np.inf))
+    pieces = []
+    for dk in (-1, 0, 1):
+        base = (k_lo + dk) * np.pi
+        pad = 1e-15 * (np.abs(base) + 8.0)
+        pieces.append((base + at.lo - pad, base + at.hi + pad))
+    out = _hull_of_pieces(u, pieces, np.zeros(np.shape(u.lo), dtype=bool))
+    return Interval(np.where(one, out.lo, -np.inf), np.where(one, out.hi, np.inf))

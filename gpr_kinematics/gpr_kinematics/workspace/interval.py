@@ -280,10 +280,12 @@ class Interval:
         return _periodic(self, np.sin, 0.5 * np.pi)
 
     def tan(self) -> Interval:
-        """``tan`` on intervals inside one branch ``(-pi/2, pi/2) + k pi``; otherwise the whole line."""
-        k_lo = np.floor(self.lo / np.pi + 0.5)
-        k_hi = np.floor(self.hi / np.pi + 0.5)
-        ok = (k_lo == k_hi) & (self.width < np.pi * (1 - 1e-9))
+        """``tan`` on intervals inside one branch ``(-pi/2, pi/2) + k pi``; otherwise the whole line.
+
+        The branch test (:func:`tan_branch`) is conservative: an interval that may reach a pole by rounding
+        gets the whole line (the float pi/2 lies below the real pole, so ``[1.5707963267948966, 2]`` crosses it).
+        """
+        ok = tan_branch(self.lo, self.hi)[1]
         with np.errstate(invalid='ignore', over='ignore'):
             lo = np.where(ok, _down_t(np.tan(self.lo)), -_INF)
             hi = np.where(ok, _up_t(np.tan(self.hi)), _INF)
@@ -394,6 +396,18 @@ def _periodic(x: Interval, f: Callable[[np.ndarray], np.ndarray], shift: float) 
     out_lo = np.where(np.isnan(out_lo), -1.0, out_lo)
     out_hi = np.where(np.isnan(out_hi), 1.0, out_hi)
     return Interval(out_lo, out_hi)
+
+
+def tan_branch(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The branch ``k`` of ``tan`` (``(-pi/2 + k pi, pi/2 + k pi)``) nearest ``[lo, hi]`` (``floor(t / pi + 1/2)``
+    of ``lo``, which rounding may put one branch off next to a pole) and the mask of the intervals proved inside
+    one branch: narrower than pi, and ``tan(lo) <= tan(hi)``. An interval narrower than pi meets a pole exactly
+    when ``tan(lo) > tan(hi)``, by a margin far beyond libm's few ulp (the floor test alone missed poles: the float
+    pi/2 lies below the real one, so ``[1.5707963267948966, 2]`` crosses it while both ends floor to 1)."""
+    with np.errstate(invalid='ignore', over='ignore'):
+        k_lo = np.floor(lo / np.pi + 0.5)
+        one = (hi - lo < np.pi * (1 - 1e-9)) & (np.tan(lo) <= np.tan(hi))
+    return k_lo, np.asarray(one)
 
 
 def sqrt3_over_2() -> Interval:
