@@ -221,7 +221,7 @@ def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
                           '--scheduler', 'none')
     data = json.loads(out)
     assert code == 0 and data['interrupted'] and data['stopped'] == 'box limit (20000 boxes)'
-    assert data['inner_boxes'] + data['boundary_boxes'] <= 40000 and 'box limit' in err
+    assert data['inner_boxes'] + data['boundary_boxes'] <= 20000 and 'box limit' in err
 
 
 def test_the_progress_bar_never_stops_a_run_when_stderr_is_gone(monkeypatch):

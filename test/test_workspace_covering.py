@@ -141,6 +141,20 @@ def test_interruption_keeps_a_valid_partial_result():
     assert np.all(contains_points(np.concatenate([res2.inner, res2.boundary]), pts[ok]))
 
 
+@pytest.mark.parametrize('limit', [30000, 100000])
+def test_the_box_limit_bounds_the_boxes_of_a_run_cut_into_parts(limit):
+    """Once a run is cut into parts, each part had the whole limit as its own: at 0.5 mm the tripod came back with
+    804,787 boxes for max_boxes = 100,000 (16 parts, each stopping near the limit with its pending boxes kept as
+    boundary boxes). The parts' budgets now add up to the limit, and the result stays a valid outer approximation."""
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    res = approximate(model, 0.0005, max_boxes=limit)
+    assert res.stopped == f'box limit ({limit} boxes)'
+    assert res.inner_boxes + res.boundary_boxes <= limit
+    pts = model.box[:, 0] + (model.box[:, 1] - model.box[:, 0]) * RNG.random((20000, 3))
+    assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), pts[model.feasible(pts)]))
+    assert np.all(model.feasible(_points_in_boxes(res.inner, 2000)))
+
+
 def test_progress_bar_is_written_for_long_runs():
     model = load_workspace_model(config_path('mechanisms/shell_arm.yaml'))
     stream = io.StringIO()

@@ -313,7 +313,11 @@ def _run(
                 pieces = out.frontier.parts(parts)
                 results: list[Outcome | None] = [None] * len(pieces)
                 deadline = time.time() + max_seconds - (time.perf_counter() - t0)
-                args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels)
+                # each part may keep its own boxes plus an equal share of what the limit leaves: the parts' boxes
+                # then add up to at most max_boxes (each part once had the whole limit: 16 parts kept 8 times it)
+                kept = sum(a.shape[0] for a in (*out.inner, *out.boundary, *(out.outside if keep_outside else ())))
+                spare = max(0, max_boxes - kept - out.frontier.size) // len(pieces)
+                args = (delta, task.step, task.args, chunk, keep_outside, max_boxes, deadline, out.levels, spare)
                 try:
                     executor.run(cover_part, model, pieces, args, results, lambda: bool(mon.stop()), mon.done,
                                  bar.refresh)

@@ -76,11 +76,15 @@ def run_levels(
     report: Callable[[int, float, Any], None] | None = None,
     level: int = 0,
     until: int | None = None,
+    budget: int | None = None,
 ) -> Outcome:
     """Cover ``frontier`` level by level until it is empty, ``stop()`` returns a reason, the boxes kept could
-    exceed ``max_boxes``, or (``until``) it holds at least that many work units."""
+    exceed ``budget`` (default ``max_boxes``, the run's limit, which the reason names), or (``until``) it holds at
+    least that many work units. A level turns each pending box into at most two, so the boxes kept plus the
+    pending ones never exceed the budget (when the frontier starts within it)."""
     out = Outcome(levels=level)
     kept = 0
+    limit = max_boxes if budget is None else budget
     while frontier.size:
         reason = stop()
         if reason:
@@ -88,7 +92,7 @@ def run_levels(
             break
         if until is not None and frontier.size >= until:
             break
-        if kept + 2 * frontier.size > max_boxes:
+        if kept + 2 * frontier.size > limit:
             out.stopped = f'box limit ({max_boxes} boxes)'
             break
         out.levels += 1
@@ -140,9 +144,12 @@ def cover_part(
     max_boxes: int,
     deadline: float | None,
     level: int,
+    spare: int = 0,
 ) -> Outcome:
     """Cover one part to the end (the unit of work of a cluster). Stops at ``deadline`` (``time.time()``), or,
-    in the driver's process, when the driver stops."""
+    in the driver's process, when the driver stops, or before it keeps more than its own boxes plus ``spare``
+    (its share of the run's ``max_boxes``: the parts run apart, so each has a budget of its own, and the budgets
+    add up to the run's limit)."""
     local_stop = getattr(_LOCAL, 'stop', None)
     report = getattr(_LOCAL, 'report', None)
 
@@ -151,7 +158,8 @@ def cover_part(
             return str(local_stop())
         return 'time limit' if deadline is not None and time.time() > deadline else ''
 
-    out = run_levels(model, step, args, part, delta, chunk, keep_outside, max_boxes, stop, report, level)
+    out = run_levels(model, step, args, part, delta, chunk, keep_outside, max_boxes, stop, report, level,
+                     budget=part.size + spare)
     out.reported = report is not None
     if out.frontier.size:                                   # stopped: what is left counts as boundary
         out.boundary.append(out.frontier.output_boxes())
