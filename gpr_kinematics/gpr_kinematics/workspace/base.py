@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs.validation import plain_number
 from .boxes import box_volume
 from .interval import Interval
@@ -208,6 +208,20 @@ def workspace_report(model: WorkspaceModel, result: WorkspaceResult) -> Workspac
         values['details'] = summary.details | {'sub_coverings': tables.get('sub_coverings')}
     return WorkspaceReport(**values, type=model.name, box=np.asarray(model.box)[out],
                            scale=np.asarray(model.scale)[out], volume_units='*'.join(result.units))
+
+
+def check_parameters(model: str, positive: Mapping[str, float | None] | None = None,
+                     finite: Mapping[str, float | None] | None = None) -> None:
+    """:class:`ConfigError` naming the first parameter of a model's constructor that is not a finite number (NaN and
+    infinite radii were accepted by the Python API and gave coverings of nothing), or, among ``positive``, not
+    above 0 (an ``angle_scale`` of 0 or below never bisected the angles). ``None`` values (defaults) are skipped."""
+    for kind, values in (('a positive finite number', positive or {}), ('a finite number', finite or {})):
+        for name, value in values.items():
+            if value is None:
+                continue
+            v = plain_number(value)
+            if not math.isfinite(v) or (kind.startswith('a positive') and v <= 0):
+                raise ConfigError(f'{model}: {name} = {brief(value)}; allowed: {kind} (SI units)')
 
 
 def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, norm
 
 _INF = np.inf
@@ -38,6 +38,7 @@ class DextarModel(WorkspaceModel):
         d: float = 0.2,
         box: np.ndarray | None = None,
     ) -> None:
+        check_parameters(self.name, {'la': la, 'lb': lb, 'lc': lc, 'ld': ld}, {'d': d})
         if min(la, lb, lc, ld) <= 0 or d < 0:
             raise ConfigError('dextar needs positive link lengths la, lb, lc, ld and d >= 0 (m)')
         self.la, self.lb, self.lc, self.ld, self.d = (float(v) for v in (la, lb, lc, ld, d))

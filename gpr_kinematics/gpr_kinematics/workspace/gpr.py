@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, monotone
 
 _INF = np.inf
@@ -63,6 +63,9 @@ class GprModel(WorkspaceModel):
         angle_scale: float | None = None,
         max_tilt: float = 0.3,
     ) -> None:
+        check_parameters(self.name, {'radius': radius, 'imperfection_budget': imperfection_budget,
+                                     'angle_scale': angle_scale, 'max_tilt': max_tilt},
+                         {'stroke_min': stroke_min, 'stroke_max': stroke_max})
         if radius <= 0 or not stroke_min < stroke_max or imperfection_budget <= 0:
             raise ConfigError(
                 'gpr workspace needs radius > 0, stroke_min < stroke_max, imperfection_budget > 0'

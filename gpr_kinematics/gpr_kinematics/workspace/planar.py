@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T
 
 _INF = np.inf
@@ -41,6 +41,11 @@ class Rrr3PlanarModel(WorkspaceModel):
                  base_angles: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
                  platform_angles: Sequence[float] | None = None, branch: int = 1, box: np.ndarray | None = None,
                  angle_scale: float | None = None) -> None:
+        check_parameters(self.name, {'base_radius': base_radius, 'platform_radius': platform_radius, 'crank': crank,
+                                     'coupler': coupler, 'angle_scale': angle_scale},
+                         {'theta_min': theta_min, 'theta_max': theta_max,
+                          **{f'base_angles[{i}]': a for i, a in enumerate(base_angles)},
+                          **{f'platform_angles[{i}]': a for i, a in enumerate(platform_angles or ())}})
         if min(base_radius, platform_radius, crank, coupler) <= 0:
             raise ConfigError('rrr3_planar needs positive base_radius, platform_radius, crank, coupler')
         if not theta_min < theta_max < theta_min + 2 * math.pi:

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, norm
 
 _INF = np.inf
@@ -30,6 +30,7 @@ class ShellArmModel(WorkspaceModel):
     def __init__(
         self, l1: float = 0.3, l2: float = 0.2, floor: float = -0.1, box: np.ndarray | None = None
     ) -> None:
+        check_parameters(self.name, {'l1': l1, 'l2': l2}, None if floor == -math.inf else {'floor': floor})
         if l1 <= 0 or l2 <= 0:
             raise ConfigError('shell_arm needs positive l1, l2 (m)')
         self.l1, self.l2, self.floor = float(l1), float(l2), float(floor)

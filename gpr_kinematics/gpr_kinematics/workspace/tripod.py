@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T, norm
 
 
@@ -35,6 +35,8 @@ class TripodModel(WorkspaceModel):
 
     def __init__(self, base_radius: float = 0.05, platform_radius: float = 0.05, leg_min: float = 0.07,
                  leg_max: float = 0.13, box: np.ndarray | None = None, angle_scale: float | None = None) -> None:
+        check_parameters(self.name, {'base_radius': base_radius, 'platform_radius': platform_radius,
+                                     'leg_min': leg_min, 'leg_max': leg_max, 'angle_scale': angle_scale})
         if not (0 < leg_min < leg_max) or base_radius <= 0 or platform_radius <= 0:
             raise ConfigError('tripod_3rps needs base_radius, platform_radius > 0 and 0 < leg_min < leg_max')
         self.R = float(base_radius)

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from .base import WorkspaceModel
+from .base import WorkspaceModel, check_parameters
 from .interval import Interval, norm
 
 _INF = np.inf
@@ -32,6 +32,8 @@ class Upu3Model(WorkspaceModel):
     def __init__(self, b: float = 0.2, p: float = 0.17, limb_min: float = 0.17, limb_max: float = 0.27,
                  azimuths: Sequence[float] = (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6),
                  box: np.ndarray | None = None) -> None:
+        check_parameters(self.name, {'b': b, 'p': p, 'limb_min': limb_min, 'limb_max': limb_max},
+                         {f'azimuths[{i}]': a for i, a in enumerate(azimuths)})
         if b <= 0 or p <= 0 or not 0 < limb_min < limb_max:
             raise ConfigError('upu3 needs b > 0, p > 0 and 0 < limb_min < limb_max (m)')
         self.b, self.p, self.limb_min, self.limb_max = float(b), float(p), float(limb_min), float(limb_max)
