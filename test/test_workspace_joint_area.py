@@ -150,3 +150,18 @@ def test_voxel_sets_never_miss_a_box_they_hold():
     assert not vox.any(np.full((1, 3), 5.0), np.full((1, 3), 6.0))[0]
     with pytest.raises(Exception, match=f'limit of {MAX_VOXELS} voxels'):
         VoxelSet.from_boxes(boxes, np.full(3, 1e-4))
+
+
+@pytest.mark.parametrize('limits, stopped', [({'max_boxes': 20000}, 'box limit (20000 boxes)'),
+                                             ({'max_seconds': 0.3}, 'time limit (0.3 s)')])
+def test_a_mechanism_covering_stopped_early_stops_the_run_for_its_reason(limits, stopped):
+    """When the tripod's or the planar mechanism's own covering hit a limit, the run said 'interrupted' (as for
+    Ctrl-C) after 0.0 s, though it had worked until the limit: it now says which limit, and the time spent."""
+    model = model_from_mapping({'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml',
+                                'planar': 'rrr3_planar.yaml', 'sub_delta': 1e-3})
+    t0 = time.perf_counter()
+    res = approximate(model, 0.006, **limits)
+    wall = time.perf_counter() - t0
+    assert res.interrupted and res.stopped == stopped
+    assert 0.5 * wall <= res.seconds <= wall
+    assert res.inner_boxes == 0 and res.boundary_boxes == 1       # nothing proved: the whole box is boundary

@@ -188,10 +188,13 @@ def approximate(
 
         try:
             task = model.covering_task(delta, part)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SubCoveringStoppedError) as exc:
             if own:
                 executor.close()
-            return _nothing_proved(model, delta)
+            reason = exc.reason if isinstance(exc, SubCoveringStoppedError) else 'interrupted'
+            if reason.startswith('time limit'):            # the sub-covering had the time left of this run's limit
+                reason = f'time limit ({max_seconds:g} s)'
+            return _nothing_proved(model, delta, reason, time.perf_counter() - t0)
         except BaseException:  # a cluster the sub-coverings started is not left running
             if own:
                 executor.close()
@@ -229,14 +232,24 @@ def _check_run_options(method: str, max_boxes: int, chunk_size: int | None, part
         raise InputError(f'parts must be an integer from 1 to 100000, got {parts!r}')
 
 
-def _nothing_proved(model: Any, delta: float) -> WorkspaceResult:
-    """The result of a run stopped before its covering started: the whole box is a boundary box."""
+class SubCoveringStoppedError(Exception):
+    """Raised by a model's ``covering_task`` when a covering it builds on stopped early (``reason``: that covering's
+    ``stopped``, e.g. ``box limit (10000000 boxes)``): the run stops with that reason."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason or 'interrupted'
+
+
+def _nothing_proved(model: Any, delta: float, stopped: str = 'interrupted', seconds: float = 0.0) -> WorkspaceResult:
+    """The result of a run stopped (``stopped`` says why, after ``seconds``) before its covering started: the whole
+    box is a boundary box."""
     outputs = _output_index(model)
     box = model.box[outputs]
     return WorkspaceResult('covering', tuple(model.variables[i] for i in outputs),
                            tuple(model.units[i] for i in outputs), float(delta), np.empty((0, box.shape[0], 2)),
-                           box[None].copy(), 0, 0.0, 0, 0, interrupted=True, touches_initial_box=True,
-                           stopped='interrupted')
+                           box[None].copy(), 0, seconds, 0, 0, interrupted=True, touches_initial_box=True,
+                           stopped=stopped)
 
 
 def _output_index(model: Any) -> list[int]:

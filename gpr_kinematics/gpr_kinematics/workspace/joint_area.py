@@ -48,7 +48,7 @@ from ..inputs.schema import check_keys
 from ..mechanisms import read_mechanism_file
 from .boxes import box_from, number, scaled_diameter
 from .builders import model_from_mapping
-from .covering import CoveringTask, Step
+from .covering import CoveringTask, Step, SubCoveringStoppedError
 from .equations import compiled
 from .interval import Interval
 from .planar import Rrr3PlanarModel
@@ -177,8 +177,8 @@ class JointWorkingArea:
         sub = self.sub_delta * delta
         tri = approximate(self.tripod, sub)
         pla = approximate(compiled(self.planar), sub, True)
-        if tri.interrupted or pla.interrupted:
-            raise KeyboardInterrupt
+        if tri.interrupted or pla.interrupted:       # the run stops for the same reason (it said 'interrupted')
+            raise SubCoveringStoppedError(tri.stopped or pla.stopped)
         t_boxes = np.concatenate([tri.inner, tri.boundary])
         outer = np.concatenate([pla.inner, pla.boundary])
         hull = outer_hull = np.stack([outer[:, :, 0].min(axis=0), outer[:, :, 1].max(axis=0)], axis=1)
