@@ -8,6 +8,7 @@ from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace.dextar import DextarModel
 from gpr_kinematics.workspace.gpr import GprModel
+from gpr_kinematics.workspace.interval import Interval
 from gpr_kinematics.workspace.loader import load_workspace_model, model_from_mapping
 from gpr_kinematics.workspace.planar import Rrr3PlanarModel
 from gpr_kinematics.workspace.shell_arm import ShellArmModel
@@ -242,3 +243,42 @@ def test_models_refuse_parameters_that_are_not_finite(make, match):
     with pytest.raises(ConfigError, match=f'{match}; allowed: a (positive )?finite number'):
         make()
     assert ShellArmModel(floor=-math.inf).lower[1] == -math.inf        # no floor: still allowed
+
+
+def test_tripod_joint_directions_enclose_the_exact_120_and_240_degrees():
+    """The legs' enclosure took cos/sin of the float azimuths 2 pi/3, 4 pi/3 one ulp either side: [-0.49999999999999983,
+    -0.4999999999999997] for cos 120 deg, which misses the real -1/2 (and sin 240 deg missed -sqrt(3)/2): the
+    certified legs were those of joints turned by about 1e-16 rad. The enclosures now hold the exact values, and
+    the point formulas use their nearest floats."""
+    from fractions import Fraction
+
+    mpmath = pytest.importorskip('mpmath')
+    model = TripodModel()
+    exact_cos = [Fraction(1), Fraction(-1, 2), Fraction(-1, 2)]
+    for c, s, ec, sign in zip(model.unit_cos, model.unit_sin, exact_cos, (0, 1, -1), strict=True):
+        assert Fraction(float(c.lo)) <= ec <= Fraction(float(c.hi))
+        lo, hi = Fraction(float(s.lo)), Fraction(float(s.hi))
+        if sign == 0:
+            assert lo <= 0 <= hi
+        else:                                   # sign * sqrt(3)/2 in [lo, hi]  <=>  lo^2, hi^2 bracket 3/4
+            assert (lo <= 0 <= hi) is False and sorted([lo * lo, hi * hi])[0] <= Fraction(3, 4) <= max(lo * lo, hi * hi)
+            assert (lo > 0) == (sign > 0)
+    # leg lengths against 40-digit arithmetic with the exact azimuths, the parasitic motions of eqs. 2-3
+    mp = mpmath.mp.clone() if hasattr(mpmath.mp, 'clone') else mpmath.mp
+    mp.dps = 40
+    pts = np.array([[0.1, 0.3, -0.2], [0.09, -0.7, 0.5], [0.12, 1.2, 1.1]])
+    for z, psi, th in pts:
+        ps, t = mp.mpf(float(psi)), mp.mpf(float(th))
+        phi = mp.atan(mp.sin(ps) * mp.sin(t) / (mp.cos(ps) + mp.cos(t)))
+        Ry = mp.matrix([[mp.cos(t), 0, mp.sin(t)], [0, 1, 0], [-mp.sin(t), 0, mp.cos(t)]])
+        Rx = mp.matrix([[1, 0, 0], [0, mp.cos(ps), -mp.sin(ps)], [0, mp.sin(ps), mp.cos(ps)]])
+        Rz = mp.matrix([[mp.cos(phi), -mp.sin(phi), 0], [mp.sin(phi), mp.cos(phi), 0], [0, 0, 1]])
+        Rp = Ry * Rx * Rz
+        centre = mp.matrix([mp.mpf(model.r) / 2 * (Rp[0, 0] - Rp[1, 1]), -mp.mpf(model.r) * Rp[1, 0], mp.mpf(float(z))])
+        legs = Interval.point(np.array([z])), Interval.point(np.array([psi])), Interval.point(np.array([th]))
+        enc = model.legs(*legs)
+        for i, deg in enumerate((0, 120, 240)):
+            u = mp.matrix([mp.cos(mp.pi * deg / 180), mp.sin(mp.pi * deg / 180), 0])
+            leg = mp.norm(centre + mp.mpf(model.r) * (Rp * u) - mp.mpf(model.R) * u)
+            assert mp.mpf(float(enc[i].lo[0])) <= leg <= mp.mpf(float(enc[i].hi[0])), (i, z, psi, th)
+            assert abs(float(leg) - model.evaluate(np.array([[z, psi, th]]))[0, i]) < 1e-16

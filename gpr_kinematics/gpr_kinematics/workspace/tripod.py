@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import ConfigError, InputError
 from .base import WorkspaceModel, check_parameters
-from .interval import Interval, T, norm
+from .interval import Interval, T, norm, sqrt3_over_2
 
 
 class TripodModel(WorkspaceModel):
@@ -44,6 +44,12 @@ class TripodModel(WorkspaceModel):
         self.leg_min = float(leg_min)
         self.leg_max = float(leg_max)
         self.beta = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
+        # the directions u_i of the joints at 0, 120, 240 deg, from their exact coordinates (1, 0), (-1/2, +-sqrt(3)/2):
+        # cos(2 pi / 3) of the float 2 pi / 3 is -0.4999999999999998, whose one-ulp enclosure missed the real -1/2
+        h = sqrt3_over_2()
+        self.unit_cos = [Interval.point(1.0), Interval.point(-0.5), Interval.point(-0.5)]
+        self.unit_sin = [Interval.point(0.0), h, -h]
+        self.units_xy = np.array([[1.0, 0.0], [-0.5, math.sqrt(3.0) / 2], [-0.5, -math.sqrt(3.0) / 2]])
         self.box = np.array(box if box is not None else [[0.0, leg_max + 0.01], [-1.3, 1.3], [-1.3, 1.3]])
         s = self.r if angle_scale is None else float(angle_scale)
         self.scale = np.array([1.0, s, s])
@@ -81,10 +87,7 @@ class TripodModel(WorkspaceModel):
         p = self.centre(z, rot)
         r, R = self.r, self.R
         out = []
-        for b in self.beta:
-            cb, sb = Interval.const(math.cos(b)), Interval.const(math.sin(b))
-            if b == 0.0:
-                cb, sb = Interval.point(1.0), Interval.point(0.0)
+        for cb, sb in zip(self.unit_cos, self.unit_sin, strict=True):
             s = [p[k] + (rot[k][0] * cb + rot[k][1] * sb) * r for k in range(3)]
             out.append(norm(s[0] - cb * R, s[1] - sb * R, s[2]))
         return out
@@ -117,7 +120,7 @@ class TripodModel(WorkspaceModel):
     def joints(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Base joints a (3, 3) and platform joints s (N, 3, 3) (row i = joint i) in the base frame."""
         p, Rp = self.pose(points)
-        u = np.stack([np.cos(self.beta), np.sin(self.beta), np.zeros(3)], axis=1)
+        u = np.column_stack([self.units_xy, np.zeros(3)])
         s = p[:, None, :] + self.r * np.einsum('nij,kj->nki', Rp, u)
         return self.R * u, s
 
