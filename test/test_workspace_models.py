@@ -282,3 +282,18 @@ def test_tripod_joint_directions_enclose_the_exact_120_and_240_degrees():
             leg = mp.norm(centre + mp.mpf(model.r) * (Rp * u) - mp.mpf(model.R) * u)
             assert mp.mpf(float(enc[i].lo[0])) <= leg <= mp.mpf(float(enc[i].hi[0])), (i, z, psi, th)
             assert abs(float(leg) - model.evaluate(np.array([[z, psi, th]]))[0, i]) < 1e-16
+
+
+def test_dextar_closed_form_area_next_to_a_tangency():
+    """Two circles of the annuli tangent to rounding (0.05 + 0.55 = 0.6 = d here): math.acos got a cosine beyond 1
+    and exact_area raised 'math domain error'. The area now matches a fine midpoint grid over annulus 1."""
+    model = DextarModel(0.05, 0.1, 0.15, 0.4, 0.6)
+    area = model.exact_area()
+    n = 2000
+    x = 0.15 + 0.3 * (np.arange(n) + 0.5) / n                  # annulus 1 lies in [0.15, 0.45] x [-0.15, 0.15]
+    y = -0.15 + 0.3 * (np.arange(n) + 0.5) / n
+    X, Y = np.meshgrid(x, y)
+    grid = model.feasible(np.column_stack([X.ravel(), Y.ravel()])).sum() * (0.3 / n) ** 2
+    assert abs(area - grid) < 0.003 * area
+    for lengths in ((0.05, 0.1, 0.2, 0.35, 0.6), (0.05, 0.1, 0.25, 0.4, 0.7), (0.3, 0.1, 0.15, 0.15, 0.1)):
+        assert 0.0 <= DextarModel(*lengths).exact_area() < math.pi * 0.4 ** 2

@@ -75,7 +75,11 @@ def _lens_area(r1: float, r2: float, d: float) -> float:
         return 0.0
     if d <= abs(r1 - r2):
         return math.pi * min(r1, r2) ** 2
-    a1 = r1 * r1 * math.acos((d * d + r1 * r1 - r2 * r2) / (2 * d * r1))
-    a2 = r2 * r2 * math.acos((d * d + r2 * r2 - r1 * r1) / (2 * d * r2))
-    a3 = 0.5 * math.sqrt((-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2))
+    # next to a tangency (d within rounding of r1 + r2 or |r1 - r2|) the cosines round beyond +-1 and the product
+    # below 0 (math.acos raised 'math domain error' for la, lb, lc, ld, d = 0.05, 0.1, 0.15, 0.4, 0.6): clamped
+    c1 = min(max((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0), 1.0)
+    c2 = min(max((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0), 1.0)
+    a1 = r1 * r1 * math.acos(c1)
+    a2 = r2 * r2 * math.acos(c2)
+    a3 = 0.5 * math.sqrt(max((-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2), 0.0))
     return a1 + a2 - a3
