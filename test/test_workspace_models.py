@@ -297,3 +297,16 @@ def test_dextar_closed_form_area_next_to_a_tangency():
     assert abs(area - grid) < 0.003 * area
     for lengths in ((0.05, 0.1, 0.2, 0.35, 0.6), (0.05, 0.1, 0.25, 0.4, 0.7), (0.3, 0.1, 0.15, 0.15, 0.1)):
         assert 0.0 <= DextarModel(*lengths).exact_area() < math.pi * 0.4 ** 2
+
+
+def test_rrr3_whose_home_pose_does_not_close_is_refused():
+    """The input range is measured from the cranks' directions at the home pose; with crank 0.02 and coupler 0.1 no
+    leg closes there (|C - A| = 0.05 < 0.08), the directions were NaN and every pose came out infeasible, though
+    (0, 0, pi/2) closes all three legs. Such a geometry is refused, named."""
+    with pytest.raises(ConfigError, match=r'home pose x = y = phi = 0 does not close leg 1 \(\|C - A\| = 0\.05 m, '
+                                          r'outside \[0\.08, 0\.12\] m\)'):
+        Rrr3PlanarModel(crank=0.02, coupler=0.1)
+    data = {'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.02, 'coupler': 0.1}
+    with pytest.raises(ConfigError, match='does not close leg 1'):
+        model_from_mapping(data)
+    assert np.all(np.isfinite(Rrr3PlanarModel().m))

@@ -66,6 +66,13 @@ class Rrr3PlanarModel(WorkspaceModel):
         self.theta_min, self.theta_max = float(theta_min), float(theta_max)
         self.A = self.R * np.stack([np.cos(self.base_angles), np.sin(self.base_angles)], axis=1)
         home = self.crank_directions(np.zeros((1, 3)))[0]  # (3, 2)
+        if not np.all(np.isfinite(home)):                   # the range's origin: NaN made every pose infeasible
+            reach = np.linalg.norm(self._v(np.zeros((1, 3)))[0], axis=1)
+            leg = int(np.flatnonzero(~np.all(np.isfinite(home), axis=1))[0])
+            raise ConfigError(f'rrr3_planar: the home pose x = y = phi = 0 does not close leg {leg + 1} (|C - A| = '
+                              f'{reach[leg]:.6g} m, outside [{abs(self.l1 - self.l2):.6g}, {self.l1 + self.l2:.6g}] '
+                              'm), and the input range is measured from the cranks there; allowed: a geometry whose '
+                              'three legs close at the home pose')
         mid = 0.5 * (self.theta_min + self.theta_max)
         c, s = math.cos(mid), math.sin(mid)
         self.m = np.stack([c * home[:, 0] - s * home[:, 1], s * home[:, 0] + c * home[:, 1]], axis=1)
