@@ -1,6 +1,8 @@
 """3-UPU (Aboulissane & El Bakkali 2015) and 3-RPS tripod (Posypkin et al.)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from gpr_kinematics.errors import ConfigError, InputError
@@ -185,3 +187,14 @@ def test_dexterity_maps_count_and_check_their_values_before_converting():
     with pytest.raises(InputError, match=r'values of z = \[nan\]; allowed: finite values'):
         dexterity_sweep(upu, home, 'z', [np.nan])
     assert dexterity_sweep(upu, home, 'z', range(1)).dexterity.shape == (1,)
+
+
+@pytest.mark.parametrize('azimuths', [[0.0, 0.0, 2.0], [0.0, 2 * math.pi, 2.0], [1.0, 3.0, 1.0 - 4 * math.pi]])
+def test_upu3_limbs_sharing_an_azimuth_are_refused(azimuths):
+    """base_azimuths [0, 0, 0] was taken: three limbs on one joint pair (a Jacobian of rank 1 everywhere, a
+    'workspace' of one limb's shell); azimuths equal modulo 2 pi are refused, named, in the loader and the class."""
+    data = {'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.17, 'limb_max': 0.27, 'base_azimuths': azimuths}
+    with pytest.raises(ConfigError, match=r'two limbs share an azimuth \(mod 2 pi\); allowed: three distinct'):
+        mechanism_from_dict(data)
+    with pytest.raises(ConfigError, match='two limbs share an azimuth'):
+        UPU3(azimuths=azimuths)

@@ -45,6 +45,10 @@ class UPU3(Mechanism):
         az = np.asarray(azimuths, dtype=float)
         if az.shape != (3,) or not np.all(np.isfinite(az)):
             raise ConfigError(f'base_azimuths must be 3 finite angles in rad; got {brief(azimuths)}')
+        gaps = np.abs(np.angle(np.exp(1j * (az[:, None] - az[None, :]))))[np.triu_indices(3, 1)]
+        if np.any(gaps < 1e-6):                     # two limbs on one joint pair: not a 3-UPU (J of rank <= 2)
+            raise ConfigError(f'base_azimuths {np.round(az, 9).tolist()} rad: two limbs share an azimuth (mod 2 pi); '
+                              'allowed: three distinct azimuths (the paper: 120 deg apart)')
         self.b, self.p = float(b), float(p)
         self.azimuths = az
         self.name = name
