@@ -278,12 +278,11 @@ def refine(p: Array, q: Array, a: Pose, b: Pose, known: Array | None = None, rou
                 sb2 = _twice(sb)
     v = q - p
     u = np.linalg.norm(v, axis=1)
-    low = best
-    for d in (v, start):     # the better of the refined and the library's direction
-        norm = np.linalg.norm(d, axis=1)
-        ok = norm > 0.0
-        n = d / np.where(ok, norm, 1.0)[:, None]
-        low = np.where(ok, np.maximum(low, axis_gap(n, a, b)), low)
+    # the refined direction's gap is in ``best`` (set with ``p``, ``q`` at each pair's last look): the better of it
+    # and the library's direction's
+    norm = np.linalg.norm(start, axis=1)
+    ok = norm > 0.0
+    low = np.where(ok, np.maximum(best, axis_gap(start / np.where(ok, norm, 1.0)[:, None], a, b)), best)
     low = np.where(np.isfinite(low), low, 0.0)    # touching at a point: a distance of at most 0
     if known is not None:
         low = np.maximum(low, known)
