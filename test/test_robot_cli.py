@@ -198,6 +198,17 @@ def test_console_script_without_traceback(tmp_path):
     assert res.stderr.count('\n') == 1
 
 
+def test_export_refuses_too_many_samples_before_writing(capsys, tmp_path):
+    """The waypoint table was written, then the samples refused (the cell program at 4000 Hz: 238,328 samples); the
+    count is checked once the moves are timed, before any output."""
+    cell = str(config_path('programs/example_cell_program.yaml'))
+    status, out, err = run(capsys, 'program', 'export', cell, '--waypoints', str(tmp_path / 'w.csv'), '--samples',
+                           str(tmp_path / 's.csv'), '--rate', '4000')
+    assert status == 2 and out == '' and err.count('\n') == 1
+    assert 'the program lasts 59.582 s: at 4000 Hz that is 238328 samples; allowed: at most 200000' in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_program_export_trajectory(capsys, tmp_path):
     """--trajectory: the program's samples at the rate as trajectory_msgs/JointTrajectory YAML (the rods as the
     robot model names them), the same times and joint values as --samples; --lead-in shifts every point."""

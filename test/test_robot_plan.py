@@ -117,6 +117,53 @@ def test_a_program_too_long_to_sample_is_refused_before_it_is_planned(monkeypatc
         plan_module.check_sample_count(long, 100.0)
 
 
+def test_moves_too_long_to_sample_are_refused_before_they_are_timed(monkeypatch):
+    """The moves as fast as the limits allow counted 0 s before planning: a program whose moves alone pass the
+    samples allowed was refused only once planned (2,000 steps of the cell program at 100 Hz: 4.0 s, most of it the
+    straight lines' gains and the curved moves' timing). Its moves' least times on the joint-space lines bound it
+    from below once the waypoints are solved (cheap), before the lines and the timing."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.robot import plan as plan_module
+    cell = load_program(config_path('programs/example_cell_program.yaml'))
+    plan_module.check_sample_count(cell, 5000.0)   # the dwells alone, 9 s, pass
+    monkeypatch.setattr(plan_module, 'line_gains', lambda *a, **k: pytest.fail('the lines were bounded'))
+    monkeypatch.setattr(plan_module, 'parameterise', lambda *a, **k: pytest.fail('the moves were timed'))
+    with pytest.raises(InputError, match=r"example_cell_program.yaml: the program lasts at least 48\.9416 s \(its "
+                                         r"dwells and its moves' least times within the joints' limits\): at 5000 Hz "
+                                         r'more than 200000 samples; allowed: at most 200000; lower the rate'):
+        plan_program(ROBOT, cell, rate=5000.0)
+
+
+def test_a_program_too_long_to_sample_is_refused_once_timed():
+    """Between the bound and the duration (the cell program's straight entries take longer than the joint-space
+    lines: 48.94 s against 59.58 s): refused by its duration once its moves are timed, before it is sampled."""
+    from gpr_kinematics.errors import InputError
+    cell = load_program(config_path('programs/example_cell_program.yaml'))
+    with pytest.raises(InputError, match=r'example_cell_program.yaml: the program lasts 59\.582 s: at 4000 Hz that is '
+                                         r'238328 samples; allowed: at most 200000; lower the rate'):
+        plan_program(ROBOT, cell, rate=4000.0)
+
+
+@pytest.mark.parametrize('name, least', [('example_robot_program', 28.477170691875628),
+                                         ('example_cell_program', 48.941574447374975)])
+def test_the_least_duration_bounds_the_example_programs(name, least):
+    """The moves' least times: the duration itself on joint-space lines (to 1e-9), below it on straight entries; the
+    example programs are planned as before at an allowed rate."""
+    from gpr_kinematics.robot.plan import jerk_limits
+    from gpr_kinematics.robot.timing import least_total
+    program = load_program(config_path(f'programs/{name}.yaml'))
+    plan = plan_program(ROBOT, program)
+    _, velocity, acceleration, _ = joint_limits(ROBOT)
+    bound = least_total(plan.positions, velocity, acceleration, jerk_limits(ROBOT), plan.waypoints.time,
+                        plan.waypoints.dwell)
+    assert bound == pytest.approx(least, rel=2e-9) and bound < plan.timing.total
+    assert plan.timing.total == {'example_robot_program': pytest.approx(least, rel=1e-12),
+                                 'example_cell_program': pytest.approx(59.58197148682389, rel=1e-9)}[name]
+    again = plan_program(ROBOT, program, rate=100.0)
+    np.testing.assert_array_equal(again.timing.arrive, plan.timing.arrive)
+    np.testing.assert_array_equal(again.positions, plan.positions)
+
+
 @pytest.mark.parametrize('limit', ['acceleration', 'jerk', 'velocity'])
 def test_higher_arm_limits_never_slow_the_cell_program(limit):
     """The example cell program with its arm joints' limits raised: no move lengthens (its straight entries were

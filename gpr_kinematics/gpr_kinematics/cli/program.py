@@ -28,7 +28,8 @@ if TYPE_CHECKING:
 
 
 def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, Any]:
-    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned. The cell the
+    """The program and its plan; with ``rate``, its samples at that rate bounded before it is planned and again, by
+    its moves' least times, before its moves are timed (:func:`~gpr_kinematics.robot.plan.plan_program`). The cell the
     program names is an input too, read or not: no output may replace it."""
     from ..inputs.files import note_input
     from ..robot.plan import check_sample_count, plan_program
@@ -38,7 +39,7 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
         note_input(program.cell)
     if rate is not None:
         check_sample_count(program, rate)
-    return program, plan_program(robot_of(args, program.robot), program)
+    return program, plan_program(robot_of(args, program.robot), program, rate)
 
 
 def _print_summary(s: ProgramSummary) -> None:

@@ -29,10 +29,12 @@ from .timing import (
     Timing,
     check_rate,
     evaluate,
+    least_total,
     locate,
     parameterise,
     sample,
     sample_at,
+    sample_count,
     velocities,
 )
 from .transforms import PoseBatch
@@ -77,13 +79,16 @@ def shortest_duration(program: RobotProgram) -> float:
     return total
 
 
-def check_sample_count(program: RobotProgram, rate: float) -> None:
-    """Refuse, before the program is planned, a sampling at ``rate`` [Hz] that its dwells and move times alone take
-    beyond :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` (:class:`InputError`)."""
-    least = shortest_duration(program)
+def check_sample_count(program: RobotProgram, rate: float, least: float | None = None,
+                       what: str = 'its dwells and move times') -> None:
+    """Refuse a sampling at ``rate`` [Hz] beyond :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of a program that
+    lasts at least ``least`` [s] (:class:`InputError`; ``what`` says whence). By default, before the program is
+    planned, its :func:`shortest_duration`; :func:`plan_program` checks its moves' least durations once the waypoints
+    are solved."""
+    least = shortest_duration(program) if least is None else least
     if not least * check_rate(rate) < MAX_SAMPLES:
-        raise InputError(f'{program.source}: the program lasts at least {least:.6g} s (its dwells and move times): at '
-                         f'{rate:g} Hz more than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
+        raise InputError(f'{program.source}: the program lasts at least {least:.6g} s ({what}): at {rate:g} Hz more '
+                         f'than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
 
 
 def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array, list[slice]]:
@@ -149,10 +154,15 @@ def program_summary(plan: ProgramPlan) -> ProgramSummary:
                           plan.labels[i])
 
 
-def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
-    """Check ``program`` on ``robot`` (module docstring).
+def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | None = None) -> ProgramPlan:
+    """Check ``program`` on ``robot`` (module docstring). With ``rate`` [Hz], a program that cannot be sampled at it
+    is refused once its waypoints are solved, before its straight lines and moves are timed (the costly part): its
+    dwells and each move's least time within the joints' limits (:func:`~gpr_kinematics.robot.timing.least_total`,
+    the duration itself on joint-space lines) against :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES`; and, by its
+    duration, once its moves are timed, before it is sampled.
 
     Raises:
+        InputError: with ``rate``, more than MAX_SAMPLES samples at it, or a rate outside the allowed ones.
         ConfigError: an unknown arm or branch in a step.
         LimitError: a waypoint out of reach or beyond a limit, a move time shorter than the limits allow; the
             message names the program, the step and the reason.
@@ -184,17 +194,10 @@ def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
             more = int(np.count_nonzero(~feasible)) - 1
             tail = f' (and {more} more waypoint{"s" if more > 1 else ""})' if more else ''
             raise LimitError(f'{program.source}: {plan_labels[i]}: {exc}{tail}') from None
-    positions = np.empty((W, len(names)))
-    positions[:, :3] = rods
-    for a, cols in zip(robot.arms, slices, strict=True):
-        held = np.array(a.home)
-        block = own[:, cols]
-        for i in range(W):  # an arm not in use holds its joints
-            if np.isnan(block[i, 0]):
-                block[i] = held
-            else:
-                held = block[i]
-        positions[:, cols] = block
+    positions = _held_positions(robot, rods, own, slices)
+    if rate is not None:
+        least = least_total(positions, velocity, acceleration, jerk_limits(robot), way.time, way.dwell)
+        check_sample_count(program, rate, least, "its dwells and its moves' least times within the joints' limits")
     D = np.abs(np.diff(positions, axis=0))
     gains = (D, np.zeros(D.shape), np.zeros(D.shape))
     grid = np.linspace(0.0, 1.0, GRID)
@@ -209,8 +212,30 @@ def plan_program(robot: RobotDescription, program: RobotProgram) -> ProgramPlan:
                               jerk_limits(robot), gains)
     except LimitError as exc:
         raise LimitError(f'{program.source}: {exc}') from None
+    if rate is not None:   # the count itself, before anything is sampled or written
+        try:
+            sample_count(timing.total, rate)
+        except InputError as exc:
+            raise InputError(f'{program.source}: {exc}') from None
     return ProgramPlan(robot, program, way, names, positions, PoseBatch(wafer_p, wafer_R), naive, timing,
                        plan_labels)
+
+
+def _held_positions(robot: RobotDescription, rods: Array, own: Array, slices: list[slice]) -> Array:
+    """The joint rows ``(W, J)``: the rods, each arm's solved joints and, where an arm is not in use, its joints held
+    (from its ``home`` posture on)."""
+    positions = own.copy()
+    positions[:, :3] = rods
+    for a, cols in zip(robot.arms, slices, strict=True):
+        held = np.array(a.home)
+        block = own[:, cols]
+        for i in range(block.shape[0]):  # an arm not in use holds its joints
+            if np.isnan(block[i, 0]):
+                block[i] = held
+            else:
+                held = block[i]
+        positions[:, cols] = block
+    return positions
 
 
 def _label(program: RobotProgram, way: Waypoints, i: int) -> str:

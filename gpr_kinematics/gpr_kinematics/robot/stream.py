@@ -111,7 +111,7 @@ def robot_stream(robot: RobotDescription, program: RobotProgram, rate: float) ->
             the limits), naming the step; InputError: a rate outside :data:`~gpr_kinematics.robot.timing.RATES` or too
             many samples.
     """
-    plan = plan_program(robot, program)
+    plan = plan_program(robot, program, rate)
     sampled = sample_plan(plan, rate)
     s = sampled.samples
     names, _, _, slices = joint_limits(robot)

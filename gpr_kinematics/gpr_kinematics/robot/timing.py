@@ -296,6 +296,18 @@ def shortest(D: Array, velocity: Array, acceleration: Array, jerk: Array | None 
     return V, A, unit_profiles(V, A, J).T
 
 
+def least_total(positions: Array, velocity: Array, acceleration: Array, jerk: Array, requested: Array,
+                dwell: Array) -> float:
+    """A lower bound of :func:`parameterise`'s total duration [s] on any paths between the waypoints, without their
+    gains: the dwells plus, per move, the longer of its requested time and :func:`shortest`'s ``T_min`` of the
+    joint-space line (exact on a joint-space line; a curved path has ``G1_k >= |D_k|`` by the mean value theorem, so
+    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding."""
+    T = shortest(np.diff(positions, axis=0), velocity, acceleration, jerk)[2]
+    req = requested[1:]
+    T = np.where(np.isfinite(req), np.maximum(req, T), T)
+    return float(np.sum(dwell[:-1] + T) + dwell[-1]) * (1.0 - 1e-9)   # less the sums' and bisection's rounding
+
+
 def joint_time(d: Array, v: Array, a: Array) -> Array:
     """Shortest time of each joint's move alone (for messages): ``d/v + v/a`` or ``2 sqrt(d/a)``."""
     d = np.abs(d)
@@ -384,15 +396,22 @@ def locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool
     return i, held, m, t - timing.depart[m]
 
 
-def sample_times(timing: Timing, rate: float) -> Array:
-    """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant (bounded by MAX_SAMPLES)."""
+def sample_count(total: float, rate: float) -> int:
+    """The count ``floor(total rate) + 1`` of :func:`sample_times` for a program of ``total`` [s] at ``rate`` [Hz];
+    :class:`InputError` beyond :data:`MAX_SAMPLES` (or a rate outside :data:`RATES`)."""
     rate = check_rate(rate)
-    total = timing.total
     count = int(math.floor(total * rate + 1e-9)) + 1
     if count > MAX_SAMPLES:
         raise InputError(f'the program lasts {total:.6g} s: at {rate:g} Hz that is {count} samples; allowed: at most '
                          f'{MAX_SAMPLES}; lower the rate')
-    t = np.arange(count, dtype=float) / rate
+    return count
+
+
+def sample_times(timing: Timing, rate: float) -> Array:
+    """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant (bounded by MAX_SAMPLES)."""
+    rate = check_rate(rate)
+    total = timing.total
+    t = np.arange(sample_count(total, rate), dtype=float) / rate
     return np.append(t, total) if total - t[-1] > 1e-9 else t
 
 
