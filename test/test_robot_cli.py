@@ -116,6 +116,26 @@ def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
                                                                 r'its units in its header', err), err
 
 
+def test_degrees_in_a_column_without_unit_are_refused_with_naive(capsys, tmp_path):
+    """--naive held the old joints to +-1e6 rad only: arm1_elbow 57.2957795 (1 rad in degrees) was re-taught as 57
+    rad. More than a turn beyond its limits it is refused, naming the column, line, row and value, and the unit."""
+    table = tmp_path / 'deg.csv'
+    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+                     's1,0.25,0.251,0.252,0,1,-0.5\ns2,0.25,0.251,0.252,0,57.2957795,-0.5\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--naive')
+    assert status == 2 and out == '' and err.count('\n') == 1, err
+    assert err.strip().endswith("deg.csv: line 3 (row 2, station 's2'): arm1_elbow = 57.2957795 rad is more than a "
+                                'turn (2 pi) beyond its upper limit 2.9 rad, no posture of it (another unit?); allowed '
+                                'for old joints: [-9.18318531, 9.18318531] rad; in degrees? give the column its unit, '
+                                '"arm1_elbow [deg]", or a "# units: deg" line before the header'), err
+    table.write_text(table.read_text().replace('arm1_elbow,', 'arm1_elbow [deg],').replace(',1,', ',57.2957795,'))
+    r = run_json(capsys, 'robot', 'teach', '--table', str(table), '--naive')   # with its unit: re-taught
+    assert [s['arm']['arm1_elbow'] for s in r['stations']] == [pytest.approx(1.0, abs=1e-5)] * 2
+    status, out, err = run(capsys, 'robot', 'teach', '--rods', '0.25', '0.251', '0.252', '--joints', '0', '57.3', '0',
+                           '--naive')
+    assert status == 2 and 'old joints: arm1_elbow = 57.3 rad is more than a turn' in err, err
+
+
 def test_program_check_and_export(capsys, tmp_path):
     s = run_json(capsys, 'program', 'check', PROGRAM)
     assert (s['stations'], s['steps'], s['waypoints']) == (5, 10, 21)

@@ -73,6 +73,26 @@ def test_reteach_refuses_a_meant_station_beyond_the_reach():
         reteach(ROBOT, [q], [[np.pi / 2, 0.0, 0.0]], 'arm1')
 
 
+def test_reteach_refuses_old_joints_more_than_a_turn_beyond_their_limits():
+    """The old joints were only held to +-1e6 rad: degrees read as radians (57.3 for 1 rad) were re-taught. Just
+    within a turn beyond a limit is re-taught (the old tool need not keep the new limits); beyond it, refused."""
+    import math
+
+    from gpr_kinematics.errors import InputError
+    q = [0.25, 0.251, 0.252]
+    edge = 2.9 + 2 * math.pi
+    rt = reteach(ROBOT, [q, q], [[0.0, 1.0, -0.5], [0.0, 1.0 + 2 * math.pi, -0.5]], 'arm1')   # a turn on: taken
+    np.testing.assert_allclose(rt.solution.joints[1], rt.solution.joints[0], atol=1e-12)
+    assert rt.solution.joints[0, 1] == pytest.approx(1.0, abs=1e-5)
+    for value, side, limit in ((57.2957795, 'upper', 2.9), (-edge - 1e-6, 'lower', -2.9)):
+        message = (rf'^old joints \(row 2\): arm1_elbow = {value:.9g} rad is more than a turn \(2 pi\) beyond its '
+                   rf'{side} limit {limit:g} rad, no posture of it \(another unit\?\); allowed for old joints: '
+                   r'\[-9.18318531, 9.18318531\] rad; in degrees\? give them in radians \(or --deg to gpr robot '
+                   r'teach\)$')
+        with pytest.raises(InputError, match=message):
+            reteach(ROBOT, [q, q], [[0.0, 1.0, -0.5], [0.0, value, -0.5]], 'arm1')
+
+
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')

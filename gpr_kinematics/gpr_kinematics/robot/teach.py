@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.ops import ARRAY
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs.files import read_text
 from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
@@ -133,6 +133,24 @@ class Retaught:
                                     np.array(avoided[i])) for i, name in enumerate(self.intended.names))
 
 
+#: How far beyond its limits an old joint of :func:`reteach` may lie [rad]: a turn. The old tool's joints need not
+#: keep the new limits, but one more than a turn beyond is no posture of the joint (a turn back it is still beyond):
+#: a value in another unit (degrees in a column without one).
+OLD_JOINT_SLACK = 2.0 * math.pi
+
+
+def _beyond_a_turn(a: Arm, value: float, k: int) -> str | None:
+    """How an old joint value [rad] more than :data:`OLD_JOINT_SLACK` beyond joint ``k``'s limits is refused
+    (None within)."""
+    j = a.joints[k]
+    if j.lower - OLD_JOINT_SLACK <= value <= j.upper + OLD_JOINT_SLACK:
+        return None
+    side, limit = ('lower', j.lower) if value < j.lower else ('upper', j.upper)
+    return (f'{j.name} = {value:.9g} rad is more than a turn (2 pi) beyond its {side} limit {limit:.9g} rad, no '
+            f'posture of it (another unit?); allowed for old joints: [{j.lower - OLD_JOINT_SLACK:.9g}, '
+            f'{j.upper + OLD_JOINT_SLACK:.9g}] rad')
+
+
 def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
             names: Sequence[str] | None = None) -> Retaught:
     """New joints for old joints ``(N, 3)``, ``(N, n)`` that the naive model computed (module docstring).
@@ -140,11 +158,20 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     Raises:
         LimitError: an old rod outside the stroke (the old tool's rods were executed: they lie within it; a tilt
             or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
+        InputError: an old joint more than a turn beyond its limits (:data:`OLD_JOINT_SLACK`: degrees, not radians).
     """
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
     check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
-    old = robot_forward(robot, Q, joints, a.name, check_limits=False)
+    J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
+    for i, row in enumerate(J):
+        for k, value in enumerate(row):
+            why = _beyond_a_turn(a, float(value), k)
+            if why is not None:
+                row_of = f' (row {i + 1})' if J.shape[0] > 1 else ''
+                raise InputError(f'old joints{row_of}: {why}; in degrees? give them in radians (or --deg to gpr robot '
+                                 'teach)')
+    old = robot_forward(robot, Q, J, a.name, check_limits=False)
     intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
     if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
         intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
@@ -168,7 +195,13 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
         if not lo <= rods[k] <= hi:
             raise ConfigError(f'{where}: {rod} = {rods[k]:.9g} m is outside the stroke [{cfg.stroke_min:g}, '
                               f'{cfg.stroke_max:g}] m')
-    if not check_limits:
+    if not check_limits:   # the old joints of reteach: within a turn of their limits
+        for k, j in enumerate(a.joints):
+            why = _beyond_a_turn(a, joints[k], k)
+            if why is not None:
+                hint = (f'; in degrees? give the column its unit, "{j.name} [deg]", or a "# units: deg" line before '
+                        'the header' if table.columns[j.name][2] == 'rad' else '')
+                raise ConfigError(f'{where}: {why}{hint}')
         return
     for k, j in enumerate(a.joints):
         value = joints[k]
