@@ -194,7 +194,10 @@ def test_upu3_limbs_sharing_an_azimuth_are_refused(azimuths):
     """base_azimuths [0, 0, 0] was taken: three limbs on one joint pair (a Jacobian of rank 1 everywhere, a
     'workspace' of one limb's shell); azimuths equal modulo 2 pi are refused, named, in the loader and the class."""
     data = {'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.17, 'limb_max': 0.27, 'base_azimuths': azimuths}
-    with pytest.raises(ConfigError, match=r'two limbs share an azimuth \(mod 2 pi\); allowed: three distinct'):
+    with pytest.raises(ConfigError, match=r'<dict>: base_azimuths \[.*\] rad: limbs [12] and [23] share an azimuth '
+                                          r'\(mod 2 pi\), one joint pair for two limbs; allowed: three azimuths at '
+                                          r'least 1e-06 rad apart modulo 2 pi'):
         mechanism_from_dict(data)
-    with pytest.raises(ConfigError, match='two limbs share an azimuth'):
+    with pytest.raises(ConfigError, match=r'^base_azimuths \[.*\] rad: limbs [12] and [23] share an azimuth'):
         UPU3(azimuths=azimuths)
+

@@ -310,3 +310,19 @@ def test_rrr3_whose_home_pose_does_not_close_is_refused():
     with pytest.raises(ConfigError, match='does not close leg 1'):
         model_from_mapping(data)
     assert np.all(np.isfinite(Rrr3PlanarModel().m))
+
+
+@pytest.mark.parametrize('azimuths, message', [
+    ([0.0, 0.0, 0.0], r'upu3: azimuths \[0\.0, 0\.0, 0\.0\] rad: limbs 1 and 2 share an azimuth'),
+    ([0.0, 2.0, 2 * math.pi], r'upu3: azimuths \[0\.0, 2\.0, 6\.283185307\] rad: limbs 1 and 3 share an azimuth'),
+    ([1.0, 3.0, 3.0 - 4 * math.pi], r'limbs 2 and 3 share an azimuth \(mod 2 pi\), one joint pair for two limbs; '
+                                    r'allowed: three azimuths at least 1e-06 rad apart modulo 2 pi'),
+    ([0.0, 1.0], r'upu3: azimuths must be 3 finite angles in rad; got \[0\.0, 1\.0\]'),
+])
+def test_upu3_workspace_model_refuses_limbs_sharing_an_azimuth(azimuths, message):
+    """Upu3Model built in Python took [0, 0, 0] (three limbs on one joint pair, three equal constraint centres):
+    it checks the azimuths with the mechanism's own check (mechanisms.upu3.check_azimuths)."""
+    with pytest.raises(ConfigError, match=message):
+        Upu3Model(azimuths=azimuths)
+    model = Upu3Model(azimuths=[0.0, 2e-6, 4.0])               # distinct by twice the least gap: taken
+    np.testing.assert_allclose(model.centres[:, 0], 0.03 * np.cos([0.0, 2e-6, 4.0]))

@@ -26,6 +26,28 @@ from ..inputs.validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
 
 SINGULARITY_TOLERANCE = 1e-9
+#: Least angle between two limbs' azimuths [rad] (modulo 2 pi); closer, two limbs share one joint pair.
+AZIMUTH_GAP = 1e-6
+
+
+def check_azimuths(azimuths: Any, name: str = 'base_azimuths') -> np.ndarray:
+    """The limbs' azimuths as a ``(3,)`` array [rad], else :class:`ConfigError`: three finite angles, no two equal
+    modulo 2 pi (two limbs on one joint pair: ``J`` has rank <= 2 everywhere, not a 3-UPU). The one check of
+    :class:`UPU3`, its YAML loader and the workspace model
+    :class:`~gpr_kinematics.workspace.upu3.Upu3Model`."""
+    try:
+        az = np.asarray(azimuths, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        az = np.full(0, np.nan)
+    if az.shape != (3,) or not np.all(np.isfinite(az)):
+        raise ConfigError(f'{name} must be 3 finite angles in rad; got {brief(azimuths)}')
+    gaps = np.abs(np.angle(np.exp(1j * (az[:, None] - az[None, :]))))
+    for i, j in zip(*np.triu_indices(3, 1), strict=True):
+        if gaps[i, j] < AZIMUTH_GAP:
+            raise ConfigError(f'{name} {np.round(az, 9).tolist()} rad: limbs {i + 1} and {j + 1} share an azimuth '
+                              f'(mod 2 pi), one joint pair for two limbs; allowed: three azimuths at least '
+                              f'{AZIMUTH_GAP:g} rad apart modulo 2 pi (the paper: 120 deg apart)')
+    return az
 
 
 class UPU3(Mechanism):
@@ -42,13 +64,7 @@ class UPU3(Mechanism):
                  characteristic_length: float | None = None) -> None:
         if not limb_min < limb_max:
             raise ConfigError(f'limb_min = {limb_min} must be below limb_max = {limb_max} (m)')
-        az = np.asarray(azimuths, dtype=float)
-        if az.shape != (3,) or not np.all(np.isfinite(az)):
-            raise ConfigError(f'base_azimuths must be 3 finite angles in rad; got {brief(azimuths)}')
-        gaps = np.abs(np.angle(np.exp(1j * (az[:, None] - az[None, :]))))[np.triu_indices(3, 1)]
-        if np.any(gaps < 1e-6):                     # two limbs on one joint pair: not a 3-UPU (J of rank <= 2)
-            raise ConfigError(f'base_azimuths {np.round(az, 9).tolist()} rad: two limbs share an azimuth (mod 2 pi); '
-                              'allowed: three distinct azimuths (the paper: 120 deg apart)')
+        az = check_azimuths(azimuths)
         self.b, self.p = float(b), float(p)
         self.azimuths = az
         self.name = name
@@ -71,6 +87,7 @@ class UPU3(Mechanism):
         az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
         if az_arr is None:
             raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
+        check_azimuths(az_arr, f'{source}: base_azimuths')
         L = data.get('characteristic_length')
         if L is not None:
             L = number_key(data, 'characteristic_length', source)

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
+from ..mechanisms.upu3 import check_azimuths
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, norm
 
@@ -18,7 +19,8 @@ _INF = np.inf
 class Upu3Model(WorkspaceModel):
     """Translational 3-UPU (Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism", 2015):
     base joints ``B_i = b u_i``, platform joints ``P + p u_i`` (same azimuths), limb
-    ``l_i = |P + p u_i - b u_i|`` in ``[limb_min, limb_max]``.
+    ``l_i = |P + p u_i - b u_i|`` in ``[limb_min, limb_max]``. The three azimuths must be distinct modulo 2 pi
+    (:func:`~gpr_kinematics.mechanisms.upu3.check_azimuths`, the mechanism's check).
 
     The paper places the base triangle in its yz plane (its x axis normal to the base); here the base is the
     xy plane with z up (REP 103), so the paper's x is our z. The shapes (an upper dome over a lower one,
@@ -37,7 +39,7 @@ class Upu3Model(WorkspaceModel):
         if b <= 0 or p <= 0 or not 0 < limb_min < limb_max:
             raise ConfigError('upu3 needs b > 0, p > 0 and 0 < limb_min < limb_max (m)')
         self.b, self.p, self.limb_min, self.limb_max = float(b), float(p), float(limb_min), float(limb_max)
-        self.azimuths = np.asarray(azimuths, dtype=float)
+        self.azimuths = check_azimuths(azimuths, 'upu3: azimuths')
         self.centres = (self.b - self.p) * np.stack(
             [np.cos(self.azimuths), np.sin(self.azimuths), np.zeros(3)], axis=1
         )
