@@ -175,7 +175,15 @@ def test_singular_pose_asked_for_an_inverse_exits_2(capsys, tmp_path):
     path.write_text(yaml.safe_dump({'type': 'gsp', 'constraints': [
         {k: (list(map(float, v)) if k != 'type' else v) for k, v in c.items()} for c in legs]}))
     code, _, err = run(capsys, 'mechanism', str(path), '--pose', '0', '0', '1', '0', '0', '0')
-    assert code == 2 and 'not defined' in err
+    assert code == 2 and 'not defined' in err and 'a1_6 (A1): the lines K and L are parallel (theta = 0 or pi)' in err
+    # D4 lines parallel: the error was 'd4 = inf m is outside its limits [0, inf] m'
+    legs[-1] = {'type': 'D4', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0.1, 0, 0], 'B_j': [0.1, 0, 1]}
+    path.write_text(yaml.safe_dump({'type': 'gsp', 'constraints': [
+        {k: (list(map(float, v)) if k != 'type' else v) for k, v in c.items()} for c in legs]}))
+    for command in ('mechanism', 'accuracy'):
+        code, _, err = run(capsys, command, str(path), '--pose', '0', '0', '1', '0', '0', '0')
+        assert code == 2 and err.count('\n') == 1 and 'inf' not in err
+        assert 'd4_6 (D4): the lines K and L are parallel (R t x s = 0): their distance d = |v x s| is defined' in err
     code, _, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '0', '0.1', '0', '0',
                        '--errors', '0', '0', '0', '0', '0', '1e-4')
     assert code == 2 and 'singular' in err and err.count('\n') == 1

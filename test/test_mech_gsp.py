@@ -230,3 +230,41 @@ def test_with_parameters_refuses_a_line_without_direction(points):
     gsp = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
     with pytest.raises(InputError, match=r'constraint 1: degenerate base line K: A_j = .* coincides with A_i'):
         gsp.with_parameters({'A_i': points})
+
+
+def _parallel_d4() -> GeneralizedStewartPlatform:
+    """Five SPS legs and a D4 constraint whose lines (the z axis; the platform line through (0.1, 0, 0), along z)
+    are parallel at rotation zero."""
+    cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0],
+                              'B_i': [0.5 * math.cos(a), 0.5 * math.sin(a), 0]}, f'c{k}')
+            for k, a in enumerate(np.linspace(0, 2 * math.pi, 5, endpoint=False))]
+    cons.append(parse_constraint({'name': 'd4', 'type': 'D4', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1],
+                                  'B_i': [0.1, 0, 0], 'B_j': [0.1, 0, 1]}, 'd4'))
+    return GeneralizedStewartPlatform(cons)
+
+
+@pytest.mark.filterwarnings('error')
+def test_d4_of_parallel_lines_is_their_distance_and_its_row_is_named_undefined():
+    """Parallel D4 lines gave d4 = inf in one pose ('d4 = inf m is outside its limits [0, inf] m') and NaN with a
+    RuntimeWarning in a batch. The distance of parallel lines is |v x s| (0.1 m here, and 0.1 m with the platform
+    turned about z, which keeps them parallel); its rate is not defined (the common normal is not), which
+    singularity() and the pose analysis name."""
+    from gpr_kinematics.errors import SingularityError
+    from gpr_kinematics.mechanisms.pose_analysis import analyse_pose
+    mech = _parallel_d4()
+    pose = np.array([0, 0, 1.0, 0, 0, 0])
+    assert mech.inverse_kinematics(pose)[5] == pytest.approx(0.1, abs=1e-15)
+    batch = mech.inverse_kinematics(np.array([pose, [0, 0, 1.0, 0, 0, 0.3], [0, 0, 1.0, 0.2, 0, 0]]))
+    np.testing.assert_allclose(batch[:, 5], [0.1, 0.1, 0.1], atol=1e-15)
+    # next to it the common normal's length: 0.1 m about x (lines in parallel planes), 0 about y (they cross)
+    assert mech.inverse_kinematics([0, 0, 1.0, 1e-6, 0, 0])[5] == pytest.approx(0.1, abs=1e-12)
+    assert mech.inverse_kinematics([0, 0, 1.0, 0, 1e-6, 0])[5] == pytest.approx(0.0, abs=1e-12)
+    named = mech.singularity(np.array([pose, [0, 0, 1.0, 0.2, 0, 0]]))
+    assert named.tolist() == ['d4 (D4): the lines K and L are parallel (R t x s = 0): their distance d = |v x s| '
+                              "is defined, their common normal, and so d's rate, is not", '']
+    assert mech.report(pose).singular and mech.report(pose).within_limits
+    with pytest.raises(SingularityError, match=r'not defined at pose \[0\.0, 0\.0, 1\.0, 0\.0, 0\.0, 0\.0\] \(d4 \(D4\): '
+                                               r'the lines K and L are parallel .*\); allowed: poses where every row '
+                                               r'is defined'):
+        analyse_pose(mech, pose)
+    assert analyse_pose(mech, [0, 0, 1.0, 0.2, 0, 0]).joints[5].value == pytest.approx(0.1)

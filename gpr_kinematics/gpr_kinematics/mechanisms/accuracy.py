@@ -174,9 +174,10 @@ def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
     with np.errstate(divide='ignore', invalid='ignore'):
         Jh = mech.homogenized_task_jacobian(poses)
     if not np.all(np.isfinite(Jh)):
-        raise SingularityError(f'{mech.name}: the inverse Jacobian is not finite at the pose '
-                               f'{poses[~np.all(np.isfinite(Jh), axis=(1, 2))][0].tolist()} (singular '
-                               'configuration); the pose deviation is not defined there')
+        k = int(np.argmax(~np.all(np.isfinite(Jh), axis=(1, 2))))
+        why = str(mech.singularity(poses[k])[0]) or 'singular configuration'
+        raise SingularityError(f'{mech.name}: the inverse Jacobian is not finite at the pose {poses[k].tolist()} '
+                               f'({why}); the pose deviation is not defined there')
     sv = np.linalg.svd(Jh, compute_uv=False)
     dex = sv[:, -1] / sv[:, 0]
     if np.any(dex < SINGULAR_TOLERANCE):

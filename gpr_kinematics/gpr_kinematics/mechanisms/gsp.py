@@ -12,7 +12,7 @@ type      leg                   primitives                joint value (eqs. 2-6)
 ``D1``    SPS                   point A_i - point B_i     ``d = |v|``
 ``D2``    SPC                   point A_i - line L_i      ``d = |v x R t|``
 ``D3``    CPS                   line K_i - point B_i      ``d = |v x s|``
-``D4``    CCC (prismatic)       line K_i - line L_i       ``d = |v . (R t x s)| / |R t x s|``
+``D4``    CCC (prismatic)       line K_i - line L_i       ``d = |v . (R t x s)| / |R t x s|``, parallel: |v x s|
 ``A1``    CCC (revolute)        line K_i - line L_i       ``cos(theta) = R t . s``
 ========  ====================  ========================  ========================================
 
@@ -59,6 +59,16 @@ _POINTS = {
 _LEGS = {'D1': 'SPS', 'D2': 'SPC', 'D3': 'CPS', 'D4': 'CCC', 'A1': 'CCC'}
 _ALL_POINTS = ('A_i', 'A_j', 'B_i', 'B_j')
 _DEGENERATE = 1e-12  # m: shortest line segment accepted
+#: Where each constraint type's inverse-Jacobian row is not defined (it divides by zero there), named by
+#: :meth:`GeneralizedStewartPlatform.singularity`.
+UNDEFINED_ROW = {
+    'D1': 'the points A_i and B_i coincide (d = 0)',
+    'D2': 'the point A_i lies on the platform line L (d = 0)',
+    'D3': 'the point B_i lies on the base line K (d = 0)',
+    'D4': 'the lines K and L are parallel (R t x s = 0): their distance d = |v x s| is defined, their common normal, '
+          'and so d\'s rate, is not',
+    'A1': 'the lines K and L are parallel (theta = 0 or pi)',
+}
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -269,7 +279,10 @@ class GeneralizedStewartPlatform(Mechanism):
                 q[:, idx] = np.linalg.norm(_cross(vi, s[idx]), axis=-1)
             elif ct == 'D4':
                 n = _cross(Rt[:, idx], s[idx])
-                q[:, idx] = np.abs(_dot(vi, n)) / np.linalg.norm(n, axis=-1)
+                g = np.linalg.norm(n, axis=-1)
+                with np.errstate(divide='ignore', invalid='ignore'):   # parallel lines: the distance |v x s|
+                    q[:, idx] = np.where(g > 0, np.abs(_dot(vi, n)) / g,
+                                         np.linalg.norm(_cross(vi, np.broadcast_to(s[idx], vi.shape)), axis=-1))
             else:  # A1
                 q[:, idx] = np.arccos(np.clip(_dot(Rt[:, idx], s[idx]), -1.0, 1.0))
         return q
@@ -344,6 +357,19 @@ class GeneralizedStewartPlatform(Mechanism):
                 rows.append(row)
         return q, rows
 
+    def singularity(self, poses: Any) -> np.ndarray:
+        """``(N,)``: the constraints whose inverse-Jacobian row is not defined at each pose and why
+        (:data:`UNDEFINED_ROW`, e.g. a D4 constraint's parallel lines); ``''`` where every row is."""
+        arr, _ = as_poses(poses)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            J = self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+        bad = ~np.all(np.isfinite(J), axis=-1)
+        out = np.full(arr.shape[0], '', dtype=object)
+        for i in np.flatnonzero(np.any(bad, axis=1)):
+            out[i] = '; '.join(f'{self.joint_names[k]} ({self.types[k]}): {UNDEFINED_ROW[str(self.types[k])]}'
+                               for k in np.flatnonzero(bad[i]))
+        return out
+
     def describe(self) -> list[dict[str, Any]]:
         """The constraints as plain dicts (type, leg, joint name and type, points in m)."""
         out = []
@@ -409,7 +435,11 @@ def _row_d4(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jaco
     n = _cross3(Rt, s)
     g = math.sqrt(_dot3(n, n))
     fv = _dot3(v, n)
-    value = abs(fv) / g if g > 0 else math.inf
+    if g > 0:
+        value = abs(fv) / g
+    else:                                   # parallel lines: their distance |v x s| (the row is not defined)
+        c = _cross3(v, s)
+        value = math.sqrt(_dot3(c, c))
     if not jacobian:
         return value, None
     sg = math.copysign(1.0, fv) if fv != 0 else 0.0

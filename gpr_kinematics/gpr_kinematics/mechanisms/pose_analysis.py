@@ -78,8 +78,9 @@ def analyse_pose(mech: Mechanism, pose: ArrayLike) -> PoseAnalysis:
     mech.check_limits(q)
     rep = mech.report(full)
     if not (np.all(np.isfinite(rep.inverse_jacobian)) and np.all(np.isfinite(rep.task_jacobian))):
-        raise SingularityError(f'{mech.name}: the inverse Jacobian is not defined at pose {full.tolist()} '
-                               '(a constraint row divides by zero: zero distance, parallel lines, theta = 0)')
+        why = rep.singularity or 'a constraint row divides by zero: zero distance, parallel lines, theta = 0'
+        raise SingularityError(f'{mech.name}: the inverse Jacobian is not defined at pose {full.tolist()} ({why}); '
+                               'allowed: poses where every row is defined')
     residuals = getattr(mech, 'plane_residuals', None)
     return PoseAnalysis(
         mechanism=mech.name, type=mech.kind, euler_convention=mech.euler_convention,
