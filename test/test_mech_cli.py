@@ -80,6 +80,21 @@ def test_accuracy_json_trajectory(capsys):
     np.testing.assert_allclose(first['joint_errors'], [0.00012, 0.00045, 0.00026, 0.00032, 0.00028, 0.00041])
 
 
+def test_accuracy_warns_on_stderr_next_to_the_gimbal_lock(capsys):
+    """Point 1 of Alwan's trajectory (theta = 2 deg) is 0.0349 rad from the Z-X-Z lock: its psi, phi deviations
+    (-0.055, 0.056 rad for a rotation of 2.6 mrad) were printed without a word."""
+    for extra in ((), ('--json',)):
+        code, out, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', *extra)
+        assert code == 0 and err.count('\n') == 1
+        assert err.startswith('gpr accuracy: warning: pose 1: B = 0.0349066 rad is 0.0349 rad from the gimbal lock of '
+                              'the ZXZ Euler angles (warned within 0.1 rad)')
+        assert 'read the rotation vector of the rigid motion (rx ry rz, base frame) instead' in err
+    assert json.loads(out)['warnings'] == [err.removeprefix('gpr accuracy: warning: ').rstrip('\n')]
+    code, out, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', '--pose', '0.34', '-0.17', '1.83', '-7', '10', '2.2',
+                         '--deg')
+    assert code == 0 and err == '' and 'linearized' in out
+
+
 def test_accuracy_gpr_with_imperfections(capsys):
     code, out, err = run(capsys, 'accuracy', 'gpr.yaml', '--pose', '0', '0', '300', '0.01', '0', '0',
                          '--errors', '0.1', '0', '-0.1', '--mm', '--parameter-error', 'joint_imperfections',

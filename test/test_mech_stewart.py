@@ -105,3 +105,33 @@ def test_yaml_validation():
         accuracy_analysis(mech, [0, 0, 1, 0, 0.3, 0], [1e-3, 2e-3])
     with pytest.raises(InputError, match="unknown geometric parameter 'C_i'; allowed: A_i, B_i"):
         accuracy_analysis(mech, [0, 0, 1, 0, 0.3, 0], None, {'C_i': np.zeros((6, 3))})
+
+
+def test_euler_deviations_next_to_the_gimbal_lock_are_flagged(alwan):
+    """Next to the Z-X-Z lock (theta -> 0) the linearised psi and phi deviations grow without bound while the rotation
+    barely changes (theta = 1e-4: 21 rad each for a rotation of 2.6 mrad), and were given without a word. The result
+    now warns for every pose within EULER_LOCK_WARNING = 0.1 rad of the lock: Alwan's point 1 (theta = 2 deg),
+    not points 2-6 (theta 10-12.7 deg)."""
+    from gpr_kinematics.mechanisms.accuracy import EULER_LOCK_WARNING, euler_lock_distance
+    assert EULER_LOCK_WARNING == 0.1
+    theta = alwan.trajectory[:, 4]
+    np.testing.assert_allclose(euler_lock_distance(alwan, alwan.trajectory), theta, rtol=1e-12)
+    np.testing.assert_allclose(euler_lock_distance(alwan, [0, 0, 2, 0, math.pi - 0.03, 0]), [0.03], rtol=1e-9)
+    res = accuracy_analysis(alwan, alwan.trajectory, alwan.leg_deformations)
+    assert res.warnings == (
+        'pose 1: B = 0.0349066 rad is 0.0349 rad from the gimbal lock of the ZXZ Euler angles (warned within 0.1 rad): '
+        'the deviations of A and C are magnified up to about 28.7 times and are not meaningful there; read the '
+        'rotation vector of the rigid motion (rx ry rz, base frame) instead',)
+    assert res.report('stewart_6sps').warnings == res.warnings
+    near = np.array([0.66, -0.35, 1.8, -0.0873, 1e-4, 0.0244])
+    res = accuracy_analysis(alwan, near, alwan.leg_deformations)
+    assert abs(res.linearized[0, 3]) > 20 and abs(res.linearized[0, 5]) > 20
+    assert np.linalg.norm(res.linearized_twist[0, 3:]) < 3e-3
+    assert len(res.warnings) == 1 and 'is 0.0001 rad from the gimbal lock' in res.warnings[0]
+    assert 'magnified up to about 1e+04 times' in res.warnings[0]
+    # roll-pitch-yaw (a GSP): the lock is at B = +-pi/2; the 3-UPU has no Euler coordinates
+    gsp = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    np.testing.assert_allclose(euler_lock_distance(gsp, [0.01, -0.01, 0.138, 0.1, 89 * DEG, 0.2]), [DEG], rtol=1e-9)
+    assert accuracy_analysis(gsp, [0.01, -0.01, 0.138, 0.1, 0.2, 0.3], np.full(6, 1e-5)).warnings == ()
+    upu = load_mechanism(config_path('mechanisms/upu3.yaml'))
+    assert accuracy_analysis(upu, [0, 0, 0.2, 0, 0, 0], [1e-5, 0, 0]).warnings == ()

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -239,6 +240,8 @@ def _accuracy(args: argparse.Namespace) -> int:
     mech.check_limits(mech.inverse_kinematics(full))
     # The text and the JSON print the same numbers: both from this report.
     report = accuracy_analysis(mech, full, errors, params).report(mech.kind)
+    for warning in report.warnings:          # the JSON holds them too
+        sys.stderr.write(f'gpr accuracy: warning: {warning}\n')
     if args.json:
         emit_json(report)
         return 0

@@ -18,10 +18,14 @@ move the platform by ``du``:
 platform); the difference exact - linearised is second order in the errors. The deviation is also given
 as a small rigid motion (position and rotation vector in the base frame), which stays meaningful where
 the Euler angles are near their own singularity (Z-X-Z at ``theta -> 0``: there ``dpsi`` and ``dphi`` grow
-large and opposite while the rotation itself barely changes).
+large and opposite while the rotation itself barely changes). A rotation ``delta`` moves the first and third
+angles by up to ``delta / sin(D)``, ``D`` the second angle's distance from its gimbal lock (``sin D = |det E|``,
+``E`` the Euler-rate matrix: ``|sin theta|`` for Z-X-Z, ``|cos B|`` for roll-pitch-yaw); within
+:data:`EULER_LOCK_WARNING` of it the result carries a warning (``warnings``) naming the pose.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,10 +34,14 @@ import numpy as np
 
 from ..errors import InputError, SingularityError, brief
 from ..inputs.validation import MAX_COORDINATE
-from .base import Mechanism, as_poses, rotation_vector
+from .base import Mechanism, as_poses, euler_rate_matrix, rotation_vector
 
 #: Inverse condition number of dq/du below which the linearisation is refused.
 SINGULAR_TOLERANCE = 1e-10
+#: Distance [rad] of the second Euler angle from its gimbal lock (Z-X-Z: theta = 0 or pi; roll-pitch-yaw: B = +-pi/2)
+#: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
+#: the rotation or more (Alwan's trajectory point 1, theta = 2 deg: 29 times).
+EULER_LOCK_WARNING = 0.1
 
 
 @dataclass(frozen=True)
@@ -54,6 +62,8 @@ class AccuracyResult:
     linearized_twist: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     #: (N, 6) exact deviation: position (m) and rotation vector of ``R_exact R_nominal^T`` (rad, base frame)
     exact_twist: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    #: poses whose Euler-angle deviations are not meaningful (:func:`euler_lock_warnings`)
+    warnings: tuple[str, ...] = ()
 
     @property
     def difference(self) -> np.ndarray:
@@ -80,7 +90,7 @@ class AccuracyResult:
     def report(self, kind: str) -> AccuracyReport:
         """Every pose's result (``gpr accuracy --json``); ``kind`` is the mechanism's type."""
         return AccuracyReport(self.mechanism, kind, self.variables,
-                              tuple(self.record(i) for i in range(self.poses.shape[0])))
+                              tuple(self.record(i) for i in range(self.poses.shape[0])), self.warnings)
 
 
 @dataclass(frozen=True)
@@ -107,12 +117,41 @@ class PoseDeviation:
 
 @dataclass(frozen=True)
 class AccuracyReport:
-    """The accuracy of every pose of a mechanism (its name, ``type`` and pose ``variables``): ``results``."""
+    """The accuracy of every pose of a mechanism (its name, ``type`` and pose ``variables``): ``results``, and the
+    ``warnings`` of poses next to the Euler angles' gimbal lock (:func:`euler_lock_warnings`)."""
 
     mechanism: str
     type: str
     variables: tuple[str, ...]
     results: tuple[PoseDeviation, ...]
+    warnings: tuple[str, ...] = ()
+
+
+def euler_lock_distance(mech: Mechanism, poses: Any) -> np.ndarray:
+    """``(N,)`` distance [rad] in ``[0, pi/2]`` of each pose's second Euler angle from the gimbal lock of the
+    mechanism's convention, ``arcsin |det E|`` (module docstring); ``pi/2`` for a mechanism whose pose
+    coordinates are not three Euler angles (no lock)."""
+    arr, _ = as_poses(poses)
+    if len(mech.pose_variables) != 6:
+        return np.full(arr.shape[0], np.pi / 2)
+    det = np.abs(np.linalg.det(euler_rate_matrix(arr[:, 3:], mech.euler_convention)))
+    return np.asarray(np.arcsin(np.minimum(det, 1.0)))
+
+
+def euler_lock_warnings(mech: Mechanism, poses: Any) -> tuple[str, ...]:
+    """One warning per pose (numbered from 1) within :data:`EULER_LOCK_WARNING` of the gimbal lock: the deviations
+    of the first and third Euler angles are magnified by up to ``1 / sin D`` there and not meaningful."""
+    arr, _ = as_poses(poses)
+    dist = euler_lock_distance(mech, arr)
+    first, second, third = mech.pose_names[3:]
+    out = []
+    for i in np.flatnonzero(dist < EULER_LOCK_WARNING):
+        gain = f'{1.0 / math.sin(dist[i]):.3g} times' if dist[i] > 0 else 'infinitely'
+        out.append(f'pose {i + 1}: {second} = {arr[i, 4]:.6g} rad is {dist[i]:.3g} rad from the gimbal lock of the '
+                   f'{mech.euler_convention} Euler angles (warned within {EULER_LOCK_WARNING:g} rad): the deviations '
+                   f'of {first} and {third} are magnified up to about {gain} and are not meaningful there; read the '
+                   'rotation vector of the rigid motion (rx ry rz, base frame) instead')
+    return tuple(out)
 
 
 def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
@@ -230,4 +269,4 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     return AccuracyResult(mechanism=mech.name, variables=tuple(mech.pose_variables), poses=arr, joints=q,
                           joint_errors=ds, parameter_errors=dp, linearized=lin, exact=exact,
                           exact_poses=exact_poses, condition_number=cond, linearized_twist=lin_twist,
-                          exact_twist=exact_twist)
+                          exact_twist=exact_twist, warnings=euler_lock_warnings(mech, arr))
