@@ -224,6 +224,24 @@ def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
     assert data['inner_boxes'] + data['boundary_boxes'] <= 20000 and 'box limit' in err
 
 
+def test_the_default_box_limit_of_a_run_is_of_its_models_bytes(capsys, monkeypatch, tmp_path):
+    """Without --max-boxes a 16-variable model had the 10 million boxes of a 3-D one (4.3 GB at delta 0.2): its
+    default is the boxes BOX_MEMORY holds at 256 bytes each (here shrunk to 25,600 bytes: 100 boxes)."""
+    import yaml
+    from gpr_kinematics.workspace import base
+    names = [f'x{i}' for i in range(16)]
+    path = tmp_path / 'ball16.yaml'
+    path.write_text(yaml.safe_dump({'type': 'equations', 'variables': {v: [-1.0, 1.0] for v in names},
+                                    'outputs': names, 'inequalities': [' + '.join(f'{v}^2' for v in names) + ' <= 1']}))
+    monkeypatch.setattr(base, 'BOX_MEMORY', 25_600)
+    code, out, err = _run(capsys, str(path), '--delta', '0.0001', '--json', '--scheduler', 'none', '--no-progress')
+    data = json.loads(out)
+    assert code == 0 and data['stopped'] == 'box limit (100 boxes)' and 'box limit (100 boxes)' in err
+    code, out, _ = _run(capsys, '--help')
+    assert code == 0 and '16 bytes per variable each: 10000000 up to 3 variables, 1875000 for 16' in ' '.join(
+        out.split())
+
+
 def test_the_progress_bar_never_stops_a_run_when_stderr_is_gone(monkeypatch):
     """``gpr workspace ... 2>&-`` (``sys.stderr`` None) or a stderr whose reader went away: the bar is dropped, the
     covering goes on (it ended the run with an AttributeError once the bar was due)."""

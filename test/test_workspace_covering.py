@@ -285,3 +285,41 @@ def test_options_that_are_not_numbers_are_named():
                           ({'delta': 0.1, 'box': [[0, 10 ** 400]] * 3}, r'initial box must be numbers')):
         with pytest.raises(InputError, match=words):
             approximate(model, **kwargs)
+
+
+def _ball(n: int) -> dict:
+    """The unit ball of ``n`` variables, all of them outputs, as an equation model's YAML mapping."""
+    names = [f'x{i}' for i in range(n)]
+    return {'type': 'equations', 'name': f'ball{n}', 'variables': {v: [-1.0, 1.0] for v in names},
+            'outputs': names, 'inequalities': [' + '.join(f'{v}^2' for v in names) + ' <= 1']}
+
+
+def test_the_default_box_limit_bounds_the_boxes_bytes_not_their_count(monkeypatch):
+    """--max-boxes counted boxes: 10 million boxes of 16 variables (256 bytes each, not 48) took 4.3 GB at delta
+    0.2, where the docs said 0.5 GB. The default limit is now the boxes BOX_MEMORY (0.48 GB) holds, 16 bytes per
+    variable, at most MAX_BOXES: unchanged up to 3 variables, 5 million for DexTAR 6-D, 1,875,000 for 16."""
+    from gpr_kinematics.workspace import base, default_max_boxes
+    from gpr_kinematics.workspace.loader import model_from_mapping
+    ball16, ball3 = model_from_mapping(_ball(16)), model_from_mapping(_ball(3))
+    assert base.BOX_MEMORY == 480_000_000 and base.box_bytes(ball16) == 256 and base.box_bytes(ball3) == 48
+    assert default_max_boxes(ball16) == 1_875_000 and default_max_boxes(ball3) == 10_000_000
+    names = ('tripod_3rps', 'dextar', 'gpr', 'dextar_6d')
+    limits = [default_max_boxes(load_workspace_model(config_path(f'mechanisms/{name}.yaml'))) for name in names]
+    assert limits == [10_000_000, 10_000_000, 10_000_000, 5_000_000]
+    # the run takes its limit from its model: with 25,600 bytes for the boxes, 100 of 16 variables, 533 of 3
+    monkeypatch.setattr(base, 'BOX_MEMORY', 25_600)
+    res16, res3 = approximate(ball16, 1e-4), approximate(ball3, 1e-4)
+    assert (res16.stopped, res3.stopped) == ('box limit (100 boxes)', 'box limit (533 boxes)')
+    assert res16.inner_boxes + res16.boundary_boxes <= 100 and res3.inner_boxes + res3.boundary_boxes <= 533
+    assert approximate(ball16, 1e-4, max_boxes=300).stopped == 'box limit (300 boxes)'   # a limit given is kept
+
+
+def test_the_uniform_grid_limit_is_of_bytes_too():
+    """The uniform grid refused beyond 10 million cells whatever their variables; for 4 variables (64 bytes a cell)
+    it is 7.5 million."""
+    model = ShellArmModel()
+    model.variables, model.units, model.scale = ('x', 'y', 'z', 'w'), ('m',) * 4, np.ones(4)
+    box = np.array([[0.0, 1.0]] * 4)
+    with pytest.raises(InputError, match=r'uniform grid with \[53, 53, 53, 53\] cells \(7\.89e\+06\) is too large for '
+                                         r'delta 0\.019; allowed: at most 7\.5e\+06 cells'):
+        approximate(model, 0.019, method='uniform', box=box)

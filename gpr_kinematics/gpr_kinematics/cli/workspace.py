@@ -67,8 +67,9 @@ def register(subparsers: Subparsers) -> None:
     p.add_argument('--parts', type=int, default=PARTS,
                    help=f'parts a large run is cut into for the workers (default {PARTS}); changes the order '
                    'of the boxes, not the boxes')
-    p.add_argument('--max-boxes', type=int, default=MAX_BOXES,
-                   help=f'stop (like Ctrl-C) before keeping more boxes than this (default {MAX_BOXES})')
+    p.add_argument('--max-boxes', type=int, default=None,
+                   help='stop (like Ctrl-C) before keeping more boxes than this (default: the boxes of about 0.5 GB, '
+                   f'16 bytes per variable each: {MAX_BOXES} up to 3 variables, 1875000 for 16)')
     p.add_argument('--max-seconds', type=float, default=None,
                    help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
                    'has a limit)')
@@ -115,7 +116,7 @@ def _check_args(args: argparse.Namespace) -> float:
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
     check_max_seconds(args.max_seconds)
-    if not 1 <= args.max_boxes <= 10**9:
+    if args.max_boxes is not None and not 1 <= args.max_boxes <= 10**9:
         raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
     if not 1 <= args.parts <= 100_000:
         raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')

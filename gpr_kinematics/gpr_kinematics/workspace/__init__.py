@@ -8,7 +8,7 @@ level-by-level covering and its driver), :mod:`.scheduler` (one process or a Das
 See docs/workspace.md.
 """
 
-from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult
+from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, default_max_boxes
 from .boxes import box_volume, contains_points
 from .covering import METHODS, approximate
 from .loader import MODEL_TYPES, load_workspace_model, model_from_mapping
@@ -22,6 +22,7 @@ __all__ = [
     'approximate',
     'box_volume',
     'contains_points',
+    'default_max_boxes',
     'load_workspace_model',
     'model_from_mapping',
 ]

@@ -24,13 +24,32 @@ from .interval import Interval
 
 #: Most boxes a run keeps (the covering: inner + boundary + pending, counted before a level doubles them, beyond
 #: which it stops like an interruption, ``stopped = 'box limit'``; the uniform grid: cells, refused beyond it):
-#: about 0.5 GB of boxes in 3-D, instead of exhausting memory.
+#: about 0.5 GB of boxes in 3-D, instead of exhausting memory. The default limit of a model of more variables is
+#: lower (:func:`default_max_boxes`).
 MAX_BOXES = 10_000_000
+#: Bytes a box takes per variable it carries: its lower and upper bounds (two float64).
+BOX_BYTES_PER_VARIABLE = 16
+#: Bytes the default box limit gives the boxes: :data:`MAX_BOXES` boxes of 3 variables (0.48 GB).
+BOX_MEMORY = MAX_BOXES * 3 * BOX_BYTES_PER_VARIABLE
 #: Wall time [s] after which every method stops like an interruption when the caller gives no limit of its own
 #: (``stopped = 'time limit (600 s)'``): a run never goes on without end (a grid run at a tenth of a millimetre did).
 DEFAULT_MAX_SECONDS = 600.0
 #: Longest time limit a caller may give [s] (a week).
 MAX_SECONDS = 7 * 24 * 3600.0
+
+
+def box_bytes(model: Any) -> int:
+    """Bytes of one box a run on ``model`` counts against its limit: 16 per variable of the model (an equation
+    model's pending boxes carry all its variables, outputs and passive ones; index arrays and a level's
+    temporaries come on top, alike in every dimension)."""
+    return BOX_BYTES_PER_VARIABLE * len(model.variables)
+
+
+def default_max_boxes(model: Any) -> int:
+    """The default box limit of a run on ``model``: the boxes :data:`BOX_MEMORY` holds, at most :data:`MAX_BOXES`
+    (10 million up to 3 variables, as always; 1,875,000 for 16: the count alone let 16 variables take 5 times the
+    memory, 4.3 GB at delta 0.2)."""
+    return min(MAX_BOXES, BOX_MEMORY // box_bytes(model))
 
 
 def check_max_seconds(max_seconds: float | None) -> float:

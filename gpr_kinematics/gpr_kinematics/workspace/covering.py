@@ -34,7 +34,14 @@ from typing import Any, TextIO
 import numpy as np
 
 from ..errors import InputError
-from .base import MAX_BOXES, WorkspaceModel, WorkspaceResult, check_delta, check_initial_box, check_max_seconds
+from .base import (
+    WorkspaceModel,
+    WorkspaceResult,
+    check_delta,
+    check_initial_box,
+    check_max_seconds,
+    default_max_boxes,
+)
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
 from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
@@ -134,7 +141,7 @@ def approximate(
     progress_stream: TextIO | None = None,
     progress_after: float = 2.0,
     max_seconds: float | None = None,
-    max_boxes: int = MAX_BOXES,
+    max_boxes: int | None = None,
     chunk_size: int | None = None,
     scheduler: str | Executor = 'none',
     workers: int | None = None,
@@ -155,7 +162,8 @@ def approximate(
         progress: progress bar on stderr after ``progress_after`` s; ``None`` shows it on a terminal.
         max_seconds: stop like an interruption after this wall time [s] (None: the default limit,
             :data:`~.base.DEFAULT_MAX_SECONDS`; every method has one).
-        max_boxes: stop like an interruption before the boxes kept could exceed this count.
+        max_boxes: stop like an interruption before the boxes kept could exceed this count (None: the boxes of
+            about 0.5 GB, :func:`~.base.default_max_boxes`: 10 million up to 3 variables, fewer beyond).
         chunk_size: pending boxes per chunk (default per model); results do not depend on where chunks run.
         scheduler: ``'none'`` (this process), ``'local'`` (a Dask local cluster, ``workers`` processes,
             default one per core), a Dask scheduler address ``'tcp://HOST:PORT'``, or an :class:`Executor`
@@ -169,6 +177,7 @@ def approximate(
         :class:`WorkspaceResult`. Ctrl-C (SIGINT) during the run stops it cleanly between chunks: the
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
+    max_boxes = default_max_boxes(model) if max_boxes is None else max_boxes
     _check_run_options(method, max_boxes, chunk_size, parts)
     max_seconds = check_max_seconds(max_seconds)
     t0 = time.perf_counter()  # the run's time and time limit include the coverings a model builds on

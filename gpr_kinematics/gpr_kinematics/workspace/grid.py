@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from ..errors import InputError, brief
-from .base import DEFAULT_MAX_SECONDS, MAX_BOXES, WorkspaceModel, WorkspaceResult
+from .base import DEFAULT_MAX_SECONDS, WorkspaceModel, WorkspaceResult, default_max_boxes
 from .boxes import touches
 from .progress import StopFlag
 
@@ -87,11 +87,12 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray, max_seconds: f
     scale = np.asarray(model.scale, dtype=float)
     d = box.shape[0]
     counts = np.maximum(np.ceil((box[:, 1] - box[:, 0]) * scale / delta * (1 + 1e-12)), 1)
-    # every cell may come back as a box (48 bytes in 3-D): the covering's bound on the boxes kept
-    if float(np.prod(counts)) > MAX_BOXES:
+    # every cell may come back as a box (16 bytes per variable): the covering's default bound on the boxes kept
+    limit = default_max_boxes(model)
+    if float(np.prod(counts)) > limit:
         raise InputError(
             f'uniform grid with {counts.astype(int).tolist()} cells ({float(np.prod(counts)):.3g}) is too large for '
-            f'delta {delta:g}; allowed: at most {MAX_BOXES:.0e} cells (use a larger delta or the covering method)'
+            f'delta {delta:g}; allowed: at most {limit:.4g} cells (use a larger delta or the covering method)'
         )
     cells = counts.astype(int)
     axes = [np.linspace(box[i, 0], box[i, 1], cells[i] + 1) for i in range(d)]
