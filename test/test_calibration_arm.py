@@ -193,3 +193,41 @@ def test_arm_refusals(arm_case, capsys, tmp_path):
         assert re.search(pattern, err), (argv, err)
     with pytest.raises(Exception, match='joint columns'):
         read_arm_measurements(both, robot)
+
+
+def test_rows_of_merged_files_named_by_file_and_line(arm_case, capsys, tmp_path):
+    """An arm's files merged both have a line 40: every message citing a row names its file (the outlier and the
+    worst residuals of the gate, the report and the JSON; a pose implausibly far; a repeated row), not the line
+    alone."""
+    robot, ps, truth, meas = arm_case
+    wafer = meas.on_blade == 0
+    w = write(tmp_path / 'w.csv', robot, ArmMeasurements(*_rows(meas, wafer)))
+    b = write(tmp_path / 'b.csv', robot, ArmMeasurements(*_rows(meas, ~wafer)))
+    rows_b, rows_w = Path(b).read_text().splitlines(), Path(w).read_text().splitlines()
+
+    def with_line_40(values):
+        path = tmp_path / 'bad.csv'
+        path.write_text('\n'.join(rows_b[:39] + [','.join(map(str, values))] + rows_b[40:]) + '\n')
+        return str(path)
+
+    row = [float(v) for v in rows_b[39].split(',')]
+    z = 3 + 3 + 2                                                     # q1..q3, three joints, x y z
+    bad = with_line_40(row[:z] + [row[z] + 100e-6] + row[z + 1:])     # 20 sigma in z
+    status, text, err = run(capsys, 'calibrate', '--robot', robot.source, w, bad, '--output',
+                            str(tmp_path / 'r.yaml'))
+    assert status == 1 and not (tmp_path / 'r.yaml').exists()
+    assert re.search(rf'Line 40 of {re.escape(bad)} is an outlier: its z residual is 21 standard', err), err
+    assert f'largest residuals line 40 of {bad} (' in err
+    assert re.search(rf'^  after +\d+\.\d+ um +\d+\.\d+ um \(line 40 of {re.escape(bad)}\)', text, re.M), text
+    status, text, err = run(capsys, 'calibrate', '--robot', robot.source, w, bad, '--output',
+                            str(tmp_path / 'r.yaml'), '--json')
+    after = json.loads(text)['arms'][0]['residuals']['after']
+    assert (after['worst_position_line'], after['worst_position_file']) == (40, bad)
+    far = with_line_40(row[:z] + [row[z] + 0.02] + row[z + 1:])       # 2 cm: not a measurement of this machine
+    status, _, err = run(capsys, 'calibrate', '--robot', robot.source, w, far, '--output', str(tmp_path / 'r.yaml'))
+    assert status == 2, err
+    assert re.match(rf'gpr calibrate: error: {re.escape(far)} line 40: the measured point is 0\.02', err), err
+    copy = [float(v) for v in rows_w[39].split(',')]                  # w.csv's line 40 measured again, to 1e-15
+    again = with_line_40(copy[:-1] + [copy[-1] * (1 + 1e-15)] + row[-3:])
+    status, _, err = run(capsys, 'calibrate', '--robot', robot.source, w, again, '--output', str(tmp_path / 'r.yaml'))
+    assert status == 2 and f'{w} + {again}: line 40 of {again} repeats line 40 of {w}: the same rod lengths' in err, err

@@ -171,6 +171,8 @@ def test_measurements_built_by_a_caller_are_checked():
                           ((q, p, 2 * quat, None, None, lines), r'quaternion of row 0 has norm 2; allowed: unit'),
                           ((q, p, quat, np.zeros(8), None, lines), r'sigma_position outside \[1e-09, 0\.1\]'),
                           ((q, p, quat.astype(str), None, None, lines), r'Measurements\.quaternion has shape'),
-                          ((q[:0], p[:0], None, None, None, ()), r'Measurements\.q has shape \(0, 3\)')):
+                          ((q[:0], p[:0], None, None, None, ()), r'Measurements\.q has shape \(0, 3\)'),
+                          ((q, p, quat, None, None, lines, ('m', 'rad'), ('a.csv',) * 3),
+                           r'3 file names for 8 rows; allowed: one per row, or none')):
         with pytest.raises(InputError, match=pattern):
             measurements.Measurements('m', *args)

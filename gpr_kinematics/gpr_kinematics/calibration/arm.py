@@ -166,15 +166,17 @@ def read_arm_measurements(path: str | Path, robot: RobotDescription) -> ArmMeasu
 
 
 def merge(parts: Sequence[ArmMeasurements]) -> ArmMeasurements:
-    """The rows of several files of one arm as one set (sources joined, lines kept)."""
+    """The rows of several files of one arm as one set (sources joined, each row's line and file kept: two files
+    may both have a line 40)."""
     if len({p.arm for p in parts}) != 1:
         raise InputError('merge: the files are of different arms')
     pts = [p.points for p in parts]
     sig = None if any(p.sigma_position is None for p in pts) else np.concatenate([p.sigma_position for p in pts
                                                                                   if p.sigma_position is not None])
+    files = tuple(f for p in pts for f in (p.files or (p.source,) * len(p))) if len(pts) > 1 else pts[0].files
     joined = Measurements(' + '.join(p.source for p in pts), np.vstack([p.q for p in pts]),
                           np.vstack([p.position for p in pts]), None, sig, None,
-                          tuple(x for p in pts for x in p.lines), pts[0].units)
+                          tuple(x for p in pts for x in p.lines), pts[0].units, files)
     return ArmMeasurements(joined, parts[0].arm, np.vstack([p.joints for p in parts]),
                            np.vstack([p.blade for p in parts]), np.concatenate([p.on_blade for p in parts]))
 

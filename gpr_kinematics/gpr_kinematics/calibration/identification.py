@@ -137,13 +137,13 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
 
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int, absolute: bool,
-          cv_ratio: float, lines: tuple[int, ...], more: tuple[GateCheck | None, ...]) -> Gate:
+          cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...]) -> Gate:
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
                         f'The fit did not reach a minimum ({best.status} after {best.iterations} iterations, the '
                         f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).')]
-    worst = worst_rows(best.residual, lines)
+    worst = worst_rows(best.residual, names)
     if absolute:
         limit = chi2_limit(dof)
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
@@ -226,7 +226,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
         _, s, vt = np.linalg.svd(triangular_factor(Jf))
         cov = (vt.T / s ** 2) @ vt * np.outer(scale[fit], scale[fit]) * rescale
         se[fit] = np.sqrt(np.diag(cov))
-    cv = cross_validation(Jf, best.residual, w, meas.lines, chi2_red)
+    cv = cross_validation(Jf, best.residual, w, meas.lines, chi2_red, meas.files)
     hb = prior_bound(params, scale, bound)
     bias = held_bias(Jf, Jh, fit, other, scale, hb[other],
                      scale[other], params.names)
@@ -235,15 +235,17 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     status = tuple('fitted' if j in fitted else 'held' if p.name in held else 'fixed' for j, p in enumerate(params))
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
     h = hat_diagonal(Jf, best.residual.shape)
-    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, meas.lines,
-                 (sigma_check(h, best.residual), outlier_check(h, best.residual, meas.lines)) if absolute else ())
+    names = meas.row_names
+    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, names,
+                 (sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute else ())
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
-                             covariance=cov, before=ResidualStats.of(e0, meas.lines),
-                             after=ResidualStats.of(best.residual / w, meas.lines), identifiability=ident,
+                             covariance=cov, before=ResidualStats.of(e0, meas.lines, meas.files),
+                             after=ResidualStats.of(best.residual / w, meas.lines, meas.files), identifiability=ident,
                              chi2_reduced=chi2_red, absolute_sigma=absolute, iterations=best.iterations, rows=n,
                              source=meas.source, convergence=Convergence(best.status, best.step_se, at, outcomes),
-                             cross_validation=cv, bias=bias, gate=gate, lines=meas.lines, warnings=warnings)
+                             cross_validation=cv, bias=bias, gate=gate, lines=meas.lines, files=meas.files,
+                             warnings=warnings)
 
 
 def _far_from_prior(params: ParameterSet, fit: NDArray[np.int64], theta: Array, theta0: Array, scale: Array,

@@ -82,6 +82,8 @@ class Measurements:
             has no such column.
         lines: line number of each row in the file (for messages).
         units: the units the file declared, ``(length, angle)``.
+        files: the file of each row where rows of several files are merged (:func:`~.arm.merge`: two files may
+            both have a line 40); empty when every row is ``source``'s.
     """
 
     source: str
@@ -92,6 +94,7 @@ class Measurements:
     sigma_angle: Array | None
     lines: tuple[int, ...]
     units: tuple[str, str] = ('m', 'rad')
+    files: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Refuse arrays that are not the measurements of one set of rows (a library caller's; a file's pass)."""
@@ -113,6 +116,9 @@ class Measurements:
                                  'finite numbers')
         if len(self.lines) != n:
             raise InputError(f'{self.source}: {len(self.lines)} line numbers for {n} rows; allowed: one per row')
+        if len(self.files) not in (0, n):
+            raise InputError(f'{self.source}: {len(self.files)} file names for {n} rows; allowed: one per row, or '
+                             'none (every row from the source)')
         lo, hi = SIGMA_RANGE
         for name, value in (('sigma_position', self.sigma_position), ('sigma_angle', self.sigma_angle)):
             if value is not None and not np.all((np.asarray(value) >= lo) & (np.asarray(value) <= hi)):
@@ -137,8 +143,24 @@ class Measurements:
         return matrix_from_quaternion(self.quaternion)
 
     def where(self, i: int) -> str:
-        """``'<source> line <n>'`` of row ``i``, for messages."""
-        return f'{self.source} line {self.lines[i]}'
+        """``'<file> line <n>'`` of row ``i`` (its own file where files are merged), for messages."""
+        return f'{self.files[i] if self.files else self.source} line {self.lines[i]}'
+
+    @property
+    def row_names(self) -> tuple[str, ...]:
+        """Each row's name in messages that name the source already: ``'line 40'``, ``'line 40 of arm1_blade.csv'``
+        where files are merged (:func:`row_name`), ``'row 41 (line 40 of its file)'`` where lines repeat without
+        files (rows joined in code)."""
+        if self.files:
+            return tuple(row_name(ln, f) for ln, f in zip(self.lines, self.files, strict=True))
+        if len(set(self.lines)) < len(self.lines):
+            return tuple(f'row {i + 1} (line {ln} of its file)' for i, ln in enumerate(self.lines))
+        return tuple(row_name(ln) for ln in self.lines)
+
+
+def row_name(line: int, file: str | None = None) -> str:
+    """``'line 40'``, or ``'line 40 of arm1_blade.csv'`` for a row of merged files (``file`` given)."""
+    return f'line {line} of {file}' if file else f'line {line}'
 
 
 @dataclass(frozen=True)
@@ -359,16 +381,13 @@ def check_repeats(meas: Measurements, sigma_position: float, sigma_angle: float)
     pairs = repeated_rows(meas, sigma_position, sigma_angle)
     if not pairs:
         return
-    merged = len(set(meas.lines)) < len(meas.lines)     # files merged (an arm's): a line number names no row
-
-    def row(i: int) -> str:
-        return f'row {i + 1} (line {meas.lines[i]} of its file)' if merged else f'line {meas.lines[i]}'
-
+    names = meas.row_names     # files merged (an arm's): a line number alone names no row
     b, a = pairs[0]
-    listed = ', '.join(f'{row(i)} repeats {row(j)}' for i, j in pairs[1:4])
+    listed = ', '.join(f'{names[i]} repeats {names[j]}' for i, j in pairs[1:4])
     others = f' ({listed}{", ..." if len(pairs) > 4 else ""})' if listed else ''
     angle = f' and {sigma_angle:.3g} rad' if meas.quaternion is not None else ''
-    raise InputError(f'{meas.source} {row(b)} repeats {row(a)}: the same rod lengths and measurement to within '
+    source = f'{meas.source}:' if meas.files else meas.source
+    raise InputError(f'{source} {names[b]} repeats {names[a]}: the same rod lengths and measurement to within '
                      f'{REPEAT_TOLERANCE:g} of the standard deviation ({sigma_position:.3g} m{angle}); {len(pairs)} '
                      f'such row(s){others}: a copied row or file counts as twice the data (standard errors too small '
                      'by sqrt 2); each measurement once. Separate measurements differ by their noise: if these are, '

@@ -67,12 +67,14 @@ class CrossValidation:
         errors: per row the prediction error of the fit of the other rows ``(N, k)`` (metres, radians: position,
             and rotation vector for a measured pose); ``nan`` for rows listed in ``alone``.
         ratio: PRESS over its expectation, over the fit's reduced chi-square (about 1 for a model that holds).
-        alone: file lines of rows that alone determine a fitted combination (no prediction for them).
+        alone: file lines of rows that alone determine a fitted combination (no prediction for them);
+            alone_files: their files where files are merged (else empty).
     """
 
     errors: Array
     ratio: float
     alone: tuple[int, ...]
+    alone_files: tuple[str, ...] = ()
 
     def rms(self, part: slice) -> float:
         """RMS norm of ``errors[:, part]`` over the rows that have a prediction."""
@@ -81,10 +83,11 @@ class CrossValidation:
         return float(np.sqrt(np.mean(np.sum(e[ok] ** 2, axis=1)))) if ok.any() else math.nan
 
 
-def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[int], chi2_reduced: float
-                     ) -> CrossValidation:
+def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[int], chi2_reduced: float,
+                     files: Sequence[str] = ()) -> CrossValidation:
     """:class:`CrossValidation` of a fit with scaled weighted Jacobian ``J (N k, F)`` and weighted residual blocks
-    ``residual (N, k)`` (``weights (N, k)``: the residuals' ``1 / sigma``)."""
+    ``residual (N, k)`` (``weights (N, k)``: the residuals' ``1 / sigma``); ``lines`` and ``files`` (merged files
+    only) name the rows."""
     n, k = residual.shape
     if J.shape[1] == 0:
         return CrossValidation(residual / weights, 1.0, ())
@@ -103,7 +106,9 @@ def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[
         ratio = press / expected / chi2_reduced if chi2_reduced > 0 and expected > 0 else 1.0
     else:
         ratio = 1.0
-    return CrossValidation(errors, float(ratio), tuple(int(lines[int(i)]) for i in np.flatnonzero(alone)))
+    rows = np.flatnonzero(alone)
+    return CrossValidation(errors, float(ratio), tuple(int(lines[int(i)]) for i in rows),
+                           tuple(files[int(i)] for i in rows) if len(files) else ())
 
 
 @dataclass(frozen=True)
@@ -192,10 +197,11 @@ def hat_diagonal(J: Array, shape: tuple[int, int]) -> Array | None:
     return np.asarray(np.einsum('if,fg,ig->i', J, np.linalg.pinv(gram(J)), J).reshape(shape), dtype=np.float64)
 
 
-def outlier_check(h: Array | None, residual: Array, lines: Sequence[int]) -> GateCheck | None:
+def outlier_check(h: Array | None, residual: Array, names: Sequence[str]) -> GateCheck | None:
     """The gate's ``outliers`` check (module docstring): the largest studentized residual ``|r| / sqrt(1 - h)``
     against the point the largest of the fit's ``N k`` normal residuals exceeds with probability ``1 -
-    CHI2_QUANTILE`` (Bonferroni); ``None`` without a hat diagonal."""
+    CHI2_QUANTILE`` (Bonferroni); ``None`` without a hat diagonal. ``names``: the rows' names
+    (:attr:`~.measurements.Measurements.row_names`)."""
     if h is None:
         return None
     n, k = residual.shape
@@ -205,8 +211,9 @@ def outlier_check(h: Array | None, residual: Array, lines: Sequence[int]) -> Gat
     limit = float(norm_distribution.isf((1.0 - CHI2_QUANTILE) / 2.0 / (n * k)))
     value = float(z[i, j])
     what = ('x', 'y', 'z', 'rx', 'ry', 'rz')[j]
+    name = names[int(i)]
     return GateCheck('outliers', value <= limit, value, limit,
-                     f'Line {lines[int(i)]} is an outlier: its {what} residual is {value:.3g} standard deviations '
+                     f'{name[:1].upper()}{name[1:]} is an outlier: its {what} residual is {value:.3g} standard deviations '
                      f'(studentized), above {limit:.3g}, the point the largest of {n * k} residuals of a right model '
                      f'exceeds once in {1 / (1 - CHI2_QUANTILE):.0f} fits: a mismeasured row (remove it), or its '
                      'standard deviation larger than given.')
@@ -239,8 +246,8 @@ def sigma_check(h: Array | None, residual: Array) -> GateCheck | None:
                      'the measurement noise.', at_least=True)
 
 
-def worst_rows(residual: Array, lines: Sequence[int], count: int = 3) -> str:
-    """The ``count`` rows of largest weighted residual, as ``line 8 (3.1 sigma)``."""
+def worst_rows(residual: Array, names: Sequence[str], count: int = 3) -> str:
+    """The ``count`` rows of largest weighted residual, as ``line 8 (3.1 sigma)`` (``names``: the rows')."""
     norm = np.sqrt(np.mean(residual ** 2, axis=1))
     order = np.argsort(-norm)[:count]
-    return ', '.join(f'line {lines[i]} ({norm[i]:.2g} sigma)' for i in order)
+    return ', '.join(f'{names[i]} ({norm[i]:.2g} sigma)' for i in order)

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .budget import QUANTITIES, Budget
+from .measurements import row_name
 from .plan import MeasurementPlan
 from .quality import CV_GATE
 from .results import CalibrationResult, ResidualStats
@@ -25,10 +26,11 @@ def _micro(value: float, unit: str) -> str:
 
 
 def _residual_row(label: str, r: ResidualStats) -> str:
-    angle = (f'{r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad (line {r.worst_angle_line})'
-             if math.isfinite(r.rms_angle) else f'{"-":>15}{"-":>25}')
-    return (f'  {label:<10}{r.rms_position * 1e6:10.3f} um{r.max_position * 1e6:10.3f} um (line '
-            f'{r.worst_position_line}){angle}')
+    angle = (f'{r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad '
+             f'({row_name(r.worst_angle_line, r.worst_angle_file)})' if math.isfinite(r.rms_angle)
+             else f'{"-":>15}{"-":>25}')
+    return (f'  {label:<10}{r.rms_position * 1e6:10.3f} um{r.max_position * 1e6:10.3f} um '
+            f'({row_name(r.worst_position_line, r.worst_position_file)}){angle}')
 
 
 def _bias(res: CalibrationResult, j: int, unit: str) -> str:
@@ -49,7 +51,9 @@ def _checks(res: CalibrationResult) -> list[str]:
              f'cross-validation (each row predicted by the fit of the others): ratio {cv.ratio:.3g} to what the '
              f'fit\'s residuals predict (gate {CV_GATE:g})']
     if cv.alone:
-        lines.append(f'  line(s) {", ".join(map(str, cv.alone))} alone determine a fitted combination: no other row '
+        alone = (', '.join(row_name(ln, f) for ln, f in zip(cv.alone, cv.alone_files, strict=True))
+                 if cv.alone_files else 'line(s) ' + ', '.join(map(str, cv.alone)))
+        lines.append(f'  {alone} alone determine a fitted combination: no other row '
                      'checks them')
     if res.gate.passed:
         passed = [f'{g.name.replace("_", " ")} {g.value:.3g} {">=" if g.at_least else "<="} {g.limit:.3g}'

@@ -27,7 +27,7 @@ def _finite(x: float) -> float | None:
 class ResidualStats:
     """Residuals of a set of measurements: RMS and worst of ``|p - p_meas|`` [m] and of the rotation angle between
     predicted and measured orientation [rad] (``nan`` for measured points, which have none), with the file lines
-    of the worst."""
+    of the worst, and their files where files are merged (else ``None``)."""
 
     rms_position: float
     max_position: float
@@ -35,22 +35,27 @@ class ResidualStats:
     max_angle: float
     worst_position_line: int
     worst_angle_line: int
+    worst_position_file: str | None = None
+    worst_angle_file: str | None = None
 
     @staticmethod
-    def of(errors: Array, lines: tuple[int, ...]) -> ResidualStats:
-        """From errors ``(N, 6)`` (:func:`~.model.pose_error`) or ``(N, 3)`` (points); rows with a ``nan`` are left
-        out (a row no other row predicts, in a cross-validation)."""
+    def of(errors: Array, lines: tuple[int, ...], files: tuple[str, ...] = ()) -> ResidualStats:
+        """From errors ``(N, 6)`` (:func:`~.model.pose_error`) or ``(N, 3)`` (points) of the rows at ``lines`` (of
+        ``files``, merged files only); rows with a ``nan`` are left out (a row no other row predicts, in a
+        cross-validation)."""
         ok = np.all(np.isfinite(errors), axis=1)
-        e, ln = errors[ok], tuple(x for x, keep in zip(lines, ok, strict=True) if keep)
-        if not ln:
+        rows = np.flatnonzero(ok)
+        if not rows.size:
             return ResidualStats(math.nan, math.nan, math.nan, math.nan, 0, 0)
+        e = errors[ok]
         dp = np.linalg.norm(e[:, :3], axis=1)
-        da = np.linalg.norm(e[:, 3:], axis=1) if e.shape[1] == 6 else np.full(len(ln), math.nan)
         angle = e.shape[1] == 6
+        da = np.linalg.norm(e[:, 3:], axis=1) if angle else np.full(rows.size, math.nan)
+        ip, ia = int(rows[int(np.argmax(dp))]), int(rows[int(np.argmax(da))]) if angle else -1
         return ResidualStats(float(np.sqrt(np.mean(dp ** 2))), float(dp.max()),
                              float(np.sqrt(np.mean(da ** 2))) if angle else math.nan,
-                             float(da.max()) if angle else math.nan, ln[int(np.argmax(dp))],
-                             ln[int(np.argmax(da))] if angle else 0)
+                             float(da.max()) if angle else math.nan, lines[ip], lines[ia] if angle else 0,
+                             files[ip] if files else None, files[ia] if files and angle else None)
 
     def as_dict(self) -> dict[str, Any]:
         return {k: _finite(v) if isinstance(v, float) else v for k, v in self.__dict__.items()}
@@ -114,6 +119,8 @@ class CalibrationResult:
     bias: HeldBias
     gate: Gate
     lines: tuple[int, ...] = ()
+    #: The file of each row where files are merged (:attr:`~.measurements.Measurements.files`; else empty).
+    files: tuple[str, ...] = ()
     #: What the fit found that the gate does not judge (a parameter moved far beyond its a-priori uncertainty).
     warnings: tuple[str, ...] = ()
 
@@ -141,7 +148,8 @@ class CalibrationResult:
     @property
     def cross_validated(self) -> ResidualStats:
         """The leave-one-out prediction errors as residual statistics (:class:`~.quality.CrossValidation`)."""
-        return ResidualStats.of(self.cross_validation.errors, self.lines or tuple(range(1, self.rows + 1)))
+        return ResidualStats.of(self.cross_validation.errors, self.lines or tuple(range(1, self.rows + 1)),
+                                self.files)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON: per parameter its value (``nominal``, ``estimate``, ``change``, ``standard_error``,
@@ -164,7 +172,8 @@ class CalibrationResult:
         return {'source': self.source, 'rows': self.rows, 'parameters': params,
                 'residuals': {'before': self.before.as_dict(), 'after': self.after.as_dict(),
                               'cross_validated': self.cross_validated.as_dict() | {
-                                  'ratio': _finite(cv.ratio), 'alone': list(cv.alone)}},
+                                  'ratio': _finite(cv.ratio), 'alone': list(cv.alone),
+                                  'alone_files': list(cv.alone_files)}},
                 'identifiability': self.identifiability.as_dict(), 'chi2_reduced': self.chi2_reduced,
                 'absolute_sigma': self.absolute_sigma, 'iterations': self.iterations,
                 'convergence': self.convergence.as_dict(), 'gate': self.gate.as_dict(),
