@@ -188,6 +188,30 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         assert re.search(pattern, err), (argv, err)
 
 
+def test_a_table_without_error_sources_is_refused(capsys, tmp_path):
+    """parameters: {} (or only zero tolerances) and no rod_length or joint_clearance printed a budget of 0.000 um
+    everywhere, exit 0; it is refused naming the file and what is allowed. The same table with a planned calibration
+    (its measurement noise only, as gpr calibrate --tolerances takes it) is a budget: the calibration's."""
+    pose = ['--pose', '0', '0', '0.3', '0.02', '0', '0']
+    empty, zero = tmp_path / 'empty.yaml', tmp_path / 'zero.yaml'
+    empty.write_text('parameters: {}\nmeasurement_noise: {position: 3.0e-6, angle: 2.0e-5}\n')
+    zero.write_text('parameters: {rod_offsets: {tolerance: 0}}\n')
+    allowed = (r"every error would be 0; allowed: a table with at least one of a parameter's tolerance > 0 or range "
+               r'\(e\.g\. parameters: \{rod_offsets: \{tolerance: 5\.0e-5\}\}\), rod_length, joint_clearance, or a '
+               r'calibration \(--calibration-plan N\)$')
+    for table, what in ((empty, r'parameters: \{\}'), (zero, 'no tolerance above 0 in parameters')):
+        status, out, err = run(capsys, 'accuracy', 'gpr.yaml', *pose, '--tolerances', str(table), '--samples', '10')
+        assert status == 2 and not out and err.count('\n') == 1, err
+        assert re.match(rf'gpr accuracy: error: {re.escape(str(table))}: no error source for the accuracy budget '
+                        rf'\({what}, no rod_length, no joint_clearance\): {allowed}', err), err
+    status, out, err = run(capsys, 'accuracy', 'gpr.yaml', *pose, '--tolerances', str(empty), '--samples', '0',
+                           '--calibration-plan', '12', '--json')
+    assert status == 0, err
+    horizontal = json.loads(out)['stations'][0]['quantities']['platform_horizontal']
+    assert horizontal['shares'] == {'calibration': 1.0}
+    assert horizontal['rss'] == pytest.approx(1.3059e-6, rel=1e-3)     # the 12-pose plan's covariance alone
+
+
 def test_a_calibrated_file_is_the_budgets_nominal(capsys, tmp_path):
     """--config replaces the geometry: the rods of a pose are then those of the calibrated machine."""
     cfg = config_with_parameters(load_config(), [4e-5, 3.0, 3.0, 3.0], ['rod1_offset', 'kappa1', 'kappa2', 'kappa3'])

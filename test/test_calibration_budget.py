@@ -163,6 +163,10 @@ def test_refusals():
         accuracy_budget(NoPlay(m), Q, parse_tolerances({'joint_clearance': 1e-6}, 't.yaml'))
     with pytest.raises(ConfigError, match=r"unknown parameter 'offset1'"):
         accuracy_budget(m, Q, parse_tolerances({'parameters': {'offset1': {'tolerance': 1e-6}}}))
+    for empty in ({}, {'parameters': {}}, {'parameters': {'rod_offsets': {'tolerance': 0.0}}, 'rod_length': None}):
+        with pytest.raises(InputError, match=r'^e\.yaml: no error source for the accuracy budget .*: every error would '
+                                             r'be 0; allowed: '):
+            accuracy_budget(m, Q, parse_tolerances(empty, 'e.yaml'))
     with pytest.raises(InputError, match=r'10000 samples x 1000 stations = 10000000 poses; allowed: at most 5000000'):
         accuracy_budget(m, np.full((1000, 3), 0.3), table)
     with pytest.raises(InputError, match=r'tool must be 3 finite coordinates \[m\] \(one point, or one per station: '

@@ -304,7 +304,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         labels: station names (default ``1..N``).
 
     Raises:
-        InputError: bad shapes or values, too many samples or stations, joint play for a model without it.
+        InputError: bad shapes or values, too many samples or stations, joint play for a model without it, no error
+            source at all (:func:`_check_sources`: every error would be 0).
         ConfigError: the table names a parameter the model does not have.
     """
     Qa = as_configurations(Q, 'stations')
@@ -321,6 +322,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     if max(table.joint_clearance) > 0 and not model.supports_displacement:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
+    _check_sources(table, tols, cal)
     pos0, rot0 = evaluate(model, th, Qa)
     # Linearised where the tolerances are: each tolerated parameter at its mean (a kappa range's centre, not the
     # file's kappa), the difference to the prediction's parameters taken exactly ('systematic').
@@ -359,6 +361,20 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms, mean=mean,
                   std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
                   warnings=_disagreements(labels_t, rss, mc_rms) if samples else ())
+
+
+def _check_sources(table: ToleranceTable, tols: list[Tolerance | None], cal: Calibrated | None) -> None:
+    """Refuse a budget without any error source: a table without a parameter tolerance above 0 for the model, a
+    rod-length error or joint play (``parameters: {}``: meaningful for ``gpr calibrate``, its measurement noise
+    alone), and no calibration's covariance; its budget is 0 everywhere, which a machine never is."""
+    if any(t is not None for t in tols) or table.rod_length is not None or max(table.joint_clearance) > 0 or (
+            cal is not None and cal[0].size):
+        return
+    what = 'parameters: {}' if not table.entries else 'no tolerance above 0 in parameters'
+    raise InputError(f'{table.source}: no error source for the accuracy budget ({what}, no rod_length, no '
+                     'joint_clearance): every error would be 0; allowed: a table with at least one of a parameter\'s '
+                     'tolerance > 0 or range (e.g. parameters: {rod_offsets: {tolerance: 5.0e-5}}), rod_length, '
+                     'joint_clearance, or a calibration (--calibration-plan N)')
 
 
 def _disagreements(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array]) -> tuple[str, ...]:
