@@ -411,7 +411,8 @@ def test_the_worked_calibration_of_a_cell(capsys, tmp_path, monkeypatch):
 def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(capsys, tmp_path):
     """Rows without sigma columns and --sigma-position/--sigma-angle given: the options are the measurement noise,
     so the chi-square gate applies (one row 500 um off passed the gate as weights only and wrote a file 15 um off
-    the machine); without them the defaults only weight (documented), and a clean file passes either way."""
+    the machine); without them the gate judges the residuals against the assumed tracker noise and finds the row
+    by the residuals' robust scale; a clean file passes either way."""
     import dataclasses
 
     from gpr_kinematics.calibration.measurements import write_measurements
@@ -432,6 +433,10 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
     assert status == 1 and not (tmp_path / 'o.yaml').exists()
     assert 'reduced chi-square' in err and err.count('\n') == 1, err
     status, out, err = run(capsys, 'calibrate', str(tmp_path / 'outlier.csv'), '--output', str(tmp_path / 'w.yaml'),
+                           '--json')
+    assert status == 1 and not json.loads(out)['absolute_sigma'] and not (tmp_path / 'w.yaml').exists()
+    assert 'Line 8 is an outlier: its x residual is 25.7 robust standard deviations of its kind' in err, err
+    status, out, err = run(capsys, 'calibrate', str(tmp_path / 'clean.csv'), '--output', str(tmp_path / 'w.yaml'),
                            '--json')
     assert status == 0 and not json.loads(out)['absolute_sigma'], err
 
@@ -491,3 +496,54 @@ def test_one_outlier_fails_the_gate(capsys, tmp_path):
     status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'ok.yaml'), '--json')
     g = {c['name']: c for c in json.loads(out)['gate']['checks']}['outliers']
     assert status == 0 and g['passed'] and g['value'] == pytest.approx(2.94, abs=0.005)
+
+
+def test_without_declared_noise_the_gate_judges_against_a_trackers(capsys, tmp_path):
+    """The shipped file without its sigma columns and without --sigma-*: its x and y columns swapped (residuals 7.9 um
+    per coordinate against 3 um of noise) passed the gate with a reduced chi-square of 1.93 and so did a row 200 um
+    off in z (7.42), since the default sigmas only weighted. Now the residuals are judged against the assumed noise
+    (5 um, 20 urad: a laser tracker's, or a tolerance table's measurement_noise) and the outliers by the residuals'
+    own robust scale; the clean file passes; a table's noise of 1 um is the one judged against."""
+    lines = [ln.split(',')[:10] for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines()]
+    at = next(i for i, v in enumerate(lines) if v[0] == 'q1')
+
+    def variant(name, change):
+        rows = [','.join(v) if v[0].startswith('#') or i == at else ','.join(change(i - at, v.copy()))
+                for i, v in enumerate(lines)]
+        return write(tmp_path, name, '\n'.join(rows) + '\n')
+
+    def swap(k, v):
+        v[3], v[4] = v[4], v[3]
+        return v
+
+    def outlier(k, v):
+        v[5] = repr(float(v[5]) + 200e-6) if k == 8 else v[5]
+        return v
+
+    clean = variant('clean.csv', lambda k, v: v)
+    out = str(tmp_path / 'x.yaml')
+    status, text, err = run(capsys, 'calibrate', clean, '--output', out)
+    assert status == 0, err
+    assert 'gate: passed (chi square 0.631 <= 1.32, outliers 3.39 <= 4.6, cross validation 1.03 <= 2, minimum ' \
+           'reached)' in text, text
+    assert 'reduced chi-square 0.6314 (no noise declared: the sigmas used are the assumed noise' in text
+    Path(out).unlink()
+    status, text, err = run(capsys, 'calibrate', variant('swapped.csv', swap), '--output', out)
+    assert status == 1 and not Path(out).exists() and err.count('\n') == 1
+    assert ('gpr calibrate: the fit failed its gate: The residuals exceed the noise of a laser tracker assumed '
+            'without a declared one (positions 5 um, residuals 7.93 um RMS per coordinate; angles 20 urad, residuals '
+            '20 urad RMS per coordinate): reduced chi-square 1.927 above the gate 1.321 (the 99.9 % point for 219 '
+            'degrees of freedom); largest residuals line ') in err, err
+    assert ('Columns swapped or in other units, another frame, mismeasured rows? Or a noisier instrument: declare its '
+            'noise (sigma_position and sigma_angle columns, --sigma-position and --sigma-angle, or measurement_noise '
+            'in --tolerances). no file written') in err, err
+    status, text, err = run(capsys, 'calibrate', variant('outlier.csv', outlier), '--output', out, '--json')
+    checks = {g['name']: g for g in json.loads(text)['gate']['checks']}
+    assert status == 1 and not Path(out).exists() and 'sigmas' not in checks
+    assert checks['chi_square']['value'] == pytest.approx(7.416, abs=5e-4) and not checks['chi_square']['passed']
+    assert checks['outliers']['value'] == pytest.approx(54.2, abs=0.05) and checks['outliers']['limit'] < 4.7
+    assert (f'Line {at + 9} is an outlier: its z residual is 54.2 robust standard deviations of its kind (1.4826 '
+            'times the median studentized residual: no noise declared), above 4.6') in err, err
+    table = write(tmp_path, 'noise.yaml', 'measurement_noise: {position: 1.0e-6, angle: 2.0e-5}\n')
+    status, text, err = run(capsys, 'calibrate', clean, '--output', out, '--tolerances', table)
+    assert status == 1 and '(positions 1 um, residuals 2.7 um RMS per coordinate; angles 20 urad' in err, err

@@ -13,9 +13,13 @@ stiffness ratios and isotropic joints); the lower minimum wins.
 
 Standard errors come from the covariance ``C = (J^T J)^-1`` at the solution (Gauss-Newton approximation of the
 inverse Hessian). With standard deviations from the file (both sigma columns, or the one of a file of points), or
-given by the user as the measurement noise (``declared``), ``C`` is absolute; otherwise the defaults only weight
-position against angle, and ``C`` is multiplied by the reduced chi-square ``chi2 / (k N - F)``. Beside them: the
-leave-one-out cross-validation, the worst-case bias the held parameters can cause, and the gate (:mod:`.quality`).
+given by the user as the measurement noise (``declared``), ``C`` is absolute; otherwise the sigmas used (the
+defaults :data:`DEFAULT_SIGMA_POSITION` and :data:`DEFAULT_SIGMA_ANGLE`, a laser tracker's noise, or a tolerance
+table's ``measurement_noise``) weight position against angle, ``C`` is multiplied by the reduced chi-square
+``chi2 / (k N - F)``, and the gate judges the residuals against them as the noise they cannot much exceed (its
+``chi_square`` check) and finds outliers by the residuals' own robust scale (:func:`~.quality.outlier_check`).
+Beside them: the leave-one-out cross-validation, the worst-case bias the held parameters can cause, and the gate
+(:mod:`.quality`).
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triang
 from .measurements import SIGMA_RANGE, Measurements, check_repeats
 from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
 from .quality import (
+    CHI2_QUANTILE,
     CV_GATE,
     Gate,
     GateCheck,
@@ -46,9 +51,11 @@ from .results import CalibrationResult, Convergence, ResidualStats
 
 Array = NDArray[np.float64]
 
-#: Default standard deviation of a measured position coordinate [m] (a laser tracker's 6-DOF probe).
+#: Default standard deviation of a measured position coordinate [m] (a laser tracker's 6-DOF probe at a few metres):
+#: without a declared noise the residuals weighted by it must pass the chi-square gate (swapped x and y columns of
+#: the demonstration's file left 7.9 um per coordinate and passed when the defaults only weighted).
 DEFAULT_SIGMA_POSITION = 5e-6
-#: Default standard deviation of a measured rotation-vector component [rad].
+#: Default standard deviation of a measured rotation-vector component [rad] (the same probe).
 DEFAULT_SIGMA_ANGLE = 2e-5
 #: A measured pose farther than this from the nominal model's is not a measurement of this machine in
 #: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
@@ -136,21 +143,46 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
     return np.asarray(np.minimum(b, np.maximum(params.nominal - lo, hi - params.nominal)), dtype=np.float64)
 
 
-def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int, absolute: bool,
-          cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...]) -> Gate:
+def assumed_noise(meas: Measurements, residual: Array, w: Array) -> str:
+    """The noise the residuals of a fit without a declared noise are judged against, and their RMS per coordinate,
+    in words (the gate's message): ``w (N, k)`` the weights ``1 / sigma``, ``residual`` the weighted residuals."""
+    e = residual / w
+    kinds = [('position', slice(0, 3), 'um', meas.sigma_position)]
+    if w.shape[1] == 6:
+        kinds.append(('angle', slice(3, 6), 'urad', meas.sigma_angle))
+    said = []
+    for kind, part, unit, column in kinds:
+        sigma = 'the file\'s sigma_' + kind if column is not None else f'{1e6 / float(w[0, part][0]):.3g} {unit}'
+        said.append(f'{kind}s {sigma}, residuals {1e6 * math.sqrt(float(np.mean(e[:, part] ** 2))):.3g} {unit} RMS '
+                    'per coordinate')
+    return '; '.join(said)
+
+
+def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int,
+          noise: str | None, cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...]) -> Gate:
+    """The gate (:mod:`.quality`); ``noise``: ``None`` when the sigmas are the declared noise, else what the
+    residuals are judged against (:func:`assumed_noise`)."""
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
                         f'The fit did not reach a minimum ({best.status} after {best.iterations} iterations, the '
                         f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).')]
     worst = worst_rows(best.residual, names)
-    if absolute:
-        limit = chi2_limit(dof)
+    limit = chi2_limit(dof)
+    point = f'the {100 * CHI2_QUANTILE:g} % point for {dof} degrees of freedom'
+    if noise is None:
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
                                 f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
-                                f'above the gate {limit:.4g} (the {100 * 0.999:g} % point for {dof} degrees of '
-                                f'freedom); largest residuals {worst}{bounds}.'))
-        checks.extend(c for c in more if c is not None)
+                                f'above the gate {limit:.4g} ({point}); largest residuals {worst}{bounds}.'))
+    else:
+        checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
+                                f'The residuals exceed the noise of a laser tracker assumed without a declared one '
+                                f'({noise}): reduced chi-square {chi2_red:.4g} above the gate {limit:.4g} ({point}); '
+                                f'largest residuals {worst}{bounds}. Columns swapped or in other units, another '
+                                'frame, mismeasured rows? Or a noisier instrument: declare its noise (sigma_position '
+                                'and sigma_angle columns, --sigma-position and --sigma-angle, or measurement_noise in '
+                                '--tolerances).'))
+    checks.extend(c for c in more if c is not None)
     checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
                             f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
@@ -166,7 +198,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     """Identify the parameters ``free`` (names or configuration keys; all by default) of ``model`` from ``meas``.
 
     ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns, and are their noise where
-    ``declared`` (position, angle) says so (``--sigma-position``, ``--sigma-angle``: the chi-square gate applies);
+    ``declared`` (position, angle) says so (``--sigma-position``, ``--sigma-angle``: the whole gate applies), else
+    the noise assumed (the gate's chi-square against it, its outliers by the residuals' robust scale);
     ``threshold`` bounds the scaled singular values of the identifiable directions (:mod:`.identifiability`);
     ``prior`` gives the a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance
     table's, or the parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias
@@ -236,8 +269,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
     h = hat_diagonal(Jf, best.residual.shape)
     names = meas.row_names
-    gate = _gate(best, params, fit, chi2_red, dof, absolute, cv.ratio, names,
-                 (sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute else ())
+    gate = _gate(best, params, fit, chi2_red, dof, None if absolute else assumed_noise(meas, best.residual, w),
+                 cv.ratio, names, (sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
+                 else (outlier_check(h, best.residual, names, robust=True),))
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines, meas.files),

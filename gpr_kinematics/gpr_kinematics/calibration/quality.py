@@ -30,6 +30,10 @@ parameter's a-priori uncertainty ``s_j``), ``A = J^T J``:
   With them too, no residual an outlier: the largest studentized residual ``|r| / sqrt(1 - h_ii)`` at most the
   point the largest of ``N k`` normal residuals exceeds with probability ``1 - CHI2_QUANTILE`` (Bonferroni;
   :func:`outlier_check`): one row 20 um off (6.6 sigma) among 40 passed the chi-square gate (1.12).
+  Without a declared noise the sigmas used (a laser tracker's default noise, or a tolerance table's) are the noise
+  the chi-square must not much exceed (swapped x and y columns passed with a reduced chi-square of 1.93 when they
+  only weighted), there is no ``sigmas`` check (residuals below an assumed noise are no fault), and the outliers
+  are found in units of the residuals' own robust scale (:func:`robust_scale`): a row 200 um off passed.
 """
 from __future__ import annotations
 
@@ -47,7 +51,7 @@ from .fitting import gram
 
 Array = NDArray[np.float64]
 
-#: The chi-square gate: a fit with sigmas from the file (or given as the noise) passes when ``chi2`` is at most this
+#: The chi-square gate: a fit passes when ``chi2`` (with the declared noise, else the assumed one) is at most this
 #: quantile of the chi-square distribution with its degrees of freedom.
 CHI2_QUANTILE = 0.999
 #: The cross-validation gate: rows left out may be predicted this much worse than the fit explains the rows
@@ -57,6 +61,11 @@ CV_GATE = 2.0
 LEVERAGE_ONE = 1e-9
 #: Fitted parameters named in a gate message, at most.
 NAMED = 4
+#: The standard deviation of a normal distribution over its median absolute deviation (``1 / Phi^-1(3/4)``).
+MAD_NORMAL = 1.482602218505602
+#: Smallest robust scale of the outlier check without a declared noise, in units of the sigmas used: residuals of
+#: exact data (rounding) are no outliers.
+ROBUST_FLOOR = 0.01
 
 
 @dataclass(frozen=True)
@@ -197,26 +206,43 @@ def hat_diagonal(J: Array, shape: tuple[int, int]) -> Array | None:
     return np.asarray(np.einsum('if,fg,ig->i', J, np.linalg.pinv(gram(J)), J).reshape(shape), dtype=np.float64)
 
 
-def outlier_check(h: Array | None, residual: Array, names: Sequence[str]) -> GateCheck | None:
+def robust_scale(z: Array, h: Array) -> Array:
+    """Per column of studentized residuals ``|z| (N, k)`` the robust scale of its kind (:data:`KINDS`):
+    ``1.4826 median |z|`` over the rows that do not determine a combination alone (the normal's standard deviation
+    from its median absolute deviation), at least :data:`ROBUST_FLOOR`."""
+    out = np.ones(z.shape[1])
+    for _, part in KINDS[z.shape[1]]:
+        zk = z[:, part][h[:, part] < 1.0 - LEVERAGE_ONE]
+        out[part] = max(MAD_NORMAL * float(np.median(zk)) if zk.size else 1.0, ROBUST_FLOOR)
+    return out
+
+
+def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust: bool = False) -> GateCheck | None:
     """The gate's ``outliers`` check (module docstring): the largest studentized residual ``|r| / sqrt(1 - h)``
     against the point the largest of the fit's ``N k`` normal residuals exceeds with probability ``1 -
     CHI2_QUANTILE`` (Bonferroni); ``None`` without a hat diagonal. ``names``: the rows' names
-    (:attr:`~.measurements.Measurements.row_names`)."""
+    (:attr:`~.measurements.Measurements.row_names`). ``robust`` (no declared noise): in units of the residuals' own
+    robust scale per kind (:func:`robust_scale`), not of the sigmas."""
     if h is None:
         return None
     n, k = residual.shape
     with np.errstate(divide='ignore', invalid='ignore'):
         z = np.where(h < 1.0 - LEVERAGE_ONE, np.abs(residual) / np.sqrt(np.maximum(1.0 - h, LEVERAGE_ONE)), 0.0)
+    if robust:
+        z = z / robust_scale(z, h)[None, :]
     i, j = np.unravel_index(int(np.argmax(z)), z.shape)
     limit = float(norm_distribution.isf((1.0 - CHI2_QUANTILE) / 2.0 / (n * k)))
     value = float(z[i, j])
     what = ('x', 'y', 'z', 'rx', 'ry', 'rz')[j]
     name = names[int(i)]
+    units = ('robust standard deviations of its kind (1.4826 times the median studentized residual: no noise '
+             'declared)' if robust else 'standard deviations (studentized)')
+    cause = ('a mismeasured row (remove it)' if robust else 'a mismeasured row (remove it), or its standard deviation '
+             'larger than given')
     return GateCheck('outliers', value <= limit, value, limit,
-                     f'{name[:1].upper()}{name[1:]} is an outlier: its {what} residual is {value:.3g} standard deviations '
-                     f'(studentized), above {limit:.3g}, the point the largest of {n * k} residuals of a right model '
-                     f'exceeds once in {1 / (1 - CHI2_QUANTILE):.0f} fits: a mismeasured row (remove it), or its '
-                     'standard deviation larger than given.')
+                     f'{name[:1].upper()}{name[1:]} is an outlier: its {what} residual is {value:.3g} {units}, above '
+                     f'{limit:.3g}, the point the largest of {n * k} residuals of a right model exceeds once in '
+                     f'{1 / (1 - CHI2_QUANTILE):.0f} fits: {cause}.')
 
 
 def sigma_check(h: Array | None, residual: Array) -> GateCheck | None:

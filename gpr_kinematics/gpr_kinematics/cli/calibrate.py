@@ -202,10 +202,11 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--robot', metavar='FILE', help='calibrate the arms of this robot description from the files')
     p.add_argument('--sigma-position', type=float, metavar='S',
                    help='standard deviation of a measured coordinate for rows without sigma columns '
-                        '[m, or mm with --mm] (default 5e-6 m)')
+                        '[m, or mm with --mm]: their noise (without it 5e-6 m, a laser tracker\'s, or the '
+                        '--tolerances table\'s, is assumed: the gate fails residuals well beyond it)')
     p.add_argument('--sigma-angle', type=float, metavar='S',
-                   help='standard deviation of a measured rotation component [rad, or deg with --deg] '
-                        '(default 2e-5 rad)')
+                   help='standard deviation of a measured rotation component [rad, or deg with --deg]: their '
+                        'noise (assumed without it: 2e-5 rad, or the --tolerances table\'s)')
     p.add_argument('--tolerances', metavar='TABLE',
                    help='tolerance table (YAML, docs/calibration.md): its standard deviations are the a-priori '
                         'uncertainties the measurements must beat and its bounds those of the held parameters\' bias, '

@@ -50,8 +50,9 @@ def sigmas(args: argparse.Namespace, table: ToleranceTable | None = None) -> tup
 
 
 def declared(args: argparse.Namespace) -> tuple[bool, bool]:
-    """Whether ``--sigma-position`` and ``--sigma-angle`` were given: then they are the measurement noise of rows
-    without sigma columns (the chi-square gate applies), not only weights (a gross outlier passed the gate)."""
+    """Whether ``--sigma-position`` and ``--sigma-angle`` were given: then they are the declared measurement noise of
+    rows without sigma columns (the whole gate applies), not a noise assumed (the gate's chi-square against it and
+    outliers by the residuals' robust scale)."""
     return args.sigma_position is not None, args.sigma_angle is not None
 
 
