@@ -48,6 +48,9 @@ def test_mechanism_text_and_help(capsys):
     code, helptext, _ = run(capsys, 'mechanism', '--help')
     assert code == 0
     assert "from_euler('xyz', [A, B, C])" in helptext and 'ZXZ' in helptext
+    assert 'program' not in helptext.split('--pose')[0]
+    code, helptext, _ = run(capsys, 'accuracy', '--help')  # its FILE may also be a program (with --tolerances)
+    assert code == 0 and 'with --tolerances also a platform or robot program' in ' '.join(helptext.split())
 
 
 def test_tripod_and_upu_json(capsys):

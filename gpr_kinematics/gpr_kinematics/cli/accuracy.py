@@ -275,7 +275,8 @@ def register(subparsers: Subparsers) -> None:
                               'or a platform program) or of the whole robot at the wafer (FILE a robot program): '
                               'linearised RSS, worst case and shares, and Monte Carlo percentiles.',
                               epilog=CONVENTIONS, formatter_class=argparse.RawDescriptionHelpFormatter)
-    mechanism_options(p, False)
+    mechanism_options(p, False, 'mechanism YAML (config/mechanisms/*.yaml); with --tolerances also a platform or '
+                      'robot program')
     p.add_argument('--errors', nargs='+', type=finite, metavar='E',
                    help='one error per joint in file order (m, rad for angular joints)')
     p.add_argument('--parameter-error', nargs='+', action='append', metavar='NAME V',

@@ -51,9 +51,13 @@ def _mechanism(args: argparse.Namespace) -> int:
     return 0
 
 
-def mechanism_options(p: argparse.ArgumentParser, pose_required: bool) -> None:
-    """FILE, ``--pose``, ``--mm``, ``--deg`` and ``--json``: the options of every mechanism subcommand."""
-    p.add_argument('file', metavar='FILE', help='mechanism YAML (config/mechanisms/*.yaml)')
+MECHANISM_FILE = 'mechanism YAML (config/mechanisms/*.yaml)'
+
+
+def mechanism_options(p: argparse.ArgumentParser, pose_required: bool, file_help: str = MECHANISM_FILE) -> None:
+    """FILE (described by ``file_help``), ``--pose``, ``--mm``, ``--deg`` and ``--json``: the options of every
+    mechanism subcommand."""
+    p.add_argument('file', metavar='FILE', help=file_help)
     p.add_argument('--pose', nargs=6, type=finite, metavar=('X', 'Y', 'Z', 'A', 'B', 'C'),
                    required=pose_required, help='platform pose (m, rad; see the convention below)')
     p.add_argument('--mm', action='store_true', help='lengths given in mm (outputs stay SI)')
