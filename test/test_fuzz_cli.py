@@ -418,7 +418,7 @@ REGRESSIONS = [
     ('robot ik --position 1.3 0.6 0.6 --heading 0.3 --arm arm2 --redundancy 1e308 --deg', 2,
      'redundancy value = 1.74533e+306 rad (station 0); allowed: finite values within +-1e+06 rad'),
     ('robot teach --rods 0.25 0.251 0.252 --joints 0 1e308 -0.5 --naive', 2,
-     'joints of arm1 [rad] = [[0.0, 1e+308, -0.5]]; allowed: finite values within +-1e+06'),
+     'arm1_elbow = 1e+308 rad is more than a turn (2 pi) beyond its upper limit 2.9 rad'),
     ('calibrate --plan 5 --output p.csv --threshold 1e308', 2,
      'no parameter can be determined to the threshold 1e+308 even from all 222 candidate configurations'),
     ('calibrate --plan 5 --output p.csv --threshold 1000', 2, 'from the 5 configurations chosen; allowed: a lower'),
