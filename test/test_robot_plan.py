@@ -144,6 +144,22 @@ def test_a_program_too_long_to_sample_is_refused_once_timed():
         plan_program(ROBOT, cell, rate=4000.0)
 
 
+def test_a_timed_move_of_no_length_does_not_count_its_time_in_the_bound(tmp_path):
+    """A move that moves nothing takes 0 s whatever time it asks for (parameterise), but the moves' least times
+    counted its time: 'move a' twice, the second with time 50 s, lasts 0 s (no dwell: one sample) and was refused at
+    5000 Hz as lasting at least 50 s."""
+    from gpr_kinematics.robot.plan import jerk_limits
+    from gpr_kinematics.robot.timing import least_total
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0}],
+                      [{'move': 'a'}, {'move': 'a', 'time': 50.0}])
+    plan = plan_program(ROBOT, p, rate=5000.0)
+    assert plan.timing.total == 0.0
+    _, velocity, acceleration, _ = joint_limits(ROBOT)
+    bound = least_total(plan.positions, velocity, acceleration, jerk_limits(ROBOT), plan.waypoints.time,
+                        plan.waypoints.dwell)
+    assert bound == 0.0
+
+
 @pytest.mark.parametrize('name, least', [('example_robot_program', 28.477170691875628),
                                          ('example_cell_program', 48.941574447374975)])
 def test_the_least_duration_bounds_the_example_programs(name, least):

@@ -301,10 +301,11 @@ def least_total(positions: Array, velocity: Array, acceleration: Array, jerk: Ar
     """A lower bound of :func:`parameterise`'s total duration [s] on any paths between the waypoints, without their
     gains: the dwells plus, per move, the longer of its requested time and :func:`shortest`'s ``T_min`` of the
     joint-space line (exact on a joint-space line; a curved path has ``G1_k >= |D_k|`` by the mean value theorem, so
-    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding."""
+    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding. A move of no length counts 0 s, its
+    requested time too: :func:`parameterise` takes it in no time."""
     T = shortest(np.diff(positions, axis=0), velocity, acceleration, jerk)[2]
     req = requested[1:]
-    T = np.where(np.isfinite(req), np.maximum(req, T), T)
+    T = np.where(np.isfinite(req) & (T > 0.0), np.maximum(req, T), T)
     return float(np.sum(dwell[:-1] + T) + dwell[-1]) * (1.0 - 1e-9)   # less the sums' and bisection's rounding
 
 
