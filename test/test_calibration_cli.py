@@ -530,13 +530,13 @@ def test_without_declared_noise_the_gate_judges_against_a_trackers(capsys, tmp_p
     Path(out).unlink()
     status, text, err = run(capsys, 'calibrate', variant('swapped.csv', swap), '--output', out)
     assert status == 1 and not Path(out).exists() and err.count('\n') == 1
-    assert ('gpr calibrate: the fit failed its gate: The residuals exceed the noise of a laser tracker assumed '
-            'without a declared one (positions 5 um, residuals 7.93 um RMS per coordinate; angles 20 urad, residuals '
-            '20 urad RMS per coordinate): reduced chi-square 1.927 above the gate 1.321 (the 99.9 % point for 219 '
-            'degrees of freedom); largest residuals line ') in err, err
+    assert ('gpr calibrate: the fit failed its gate: The residuals exceed the noise assumed without a declared one '
+            "(a laser tracker's: positions 5 um, residuals 7.93 um RMS per coordinate; angles 20 urad, residuals 20 "
+            'urad RMS per coordinate): reduced chi-square 1.927 above the gate 1.321 (the 99.9 % point for 219 degrees '
+            'of freedom); largest residuals line ') in err, err
     assert ('Columns swapped or in other units, another frame, mismeasured rows? Or a noisier instrument: declare its '
-            'noise (sigma_position and sigma_angle columns, --sigma-position and --sigma-angle, or measurement_noise '
-            'in --tolerances). no file written') in err, err
+            "noise (sigma_position and sigma_angle columns, --sigma-position and --sigma-angle; a table's "
+            'measurement_noise is only assumed). no file written') in err, err
     status, text, err = run(capsys, 'calibrate', variant('outlier.csv', outlier), '--output', out, '--json')
     checks = {g['name']: g for g in json.loads(text)['gate']['checks']}
     assert status == 1 and not Path(out).exists() and 'sigmas' not in checks
@@ -546,4 +546,7 @@ def test_without_declared_noise_the_gate_judges_against_a_trackers(capsys, tmp_p
             'times the median studentized residual: no noise declared), above 4.6') in err, err
     table = write(tmp_path, 'noise.yaml', 'measurement_noise: {position: 1.0e-6, angle: 2.0e-5}\n')
     status, text, err = run(capsys, 'calibrate', clean, '--output', out, '--tolerances', table)
-    assert status == 1 and '(positions 1 um, residuals 2.7 um RMS per coordinate; angles 20 urad' in err, err
+    # the table's noise is assumed, not a laser tracker's; giving it again declares nothing (the message said both)
+    assert status == 1 and ('exceed the noise assumed without a declared one (positions 1 um (assumed), residuals 2.7 '
+                            "um RMS per coordinate; angles 20 urad (a laser tracker's)") in err, err
+    assert 'laser tracker assumed' not in err and 'or measurement_noise in --tolerances' not in err, err

@@ -143,19 +143,29 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
     return np.asarray(np.minimum(b, np.maximum(params.nominal - lo, hi - params.nominal)), dtype=np.float64)
 
 
-def assumed_noise(meas: Measurements, residual: Array, w: Array) -> str:
+def assumed_noise(meas: Measurements, residual: Array, w: Array, declared: tuple[bool, bool] = (False, False)
+                  ) -> str:
     """The noise the residuals of a fit without a declared noise are judged against, and their RMS per coordinate,
-    in words (the gate's message): ``w (N, k)`` the weights ``1 / sigma``, ``residual`` the weighted residuals."""
+    in words (the gate's message): ``w (N, k)`` the weights ``1 / sigma``, ``residual`` the weighted residuals.
+    Each sigma says what it is: the file's column, ``declared``, the defaults (a laser tracker's), or ``assumed``
+    (e.g. a tolerance table's ``measurement_noise``, which declares nothing)."""
     e = residual / w
-    kinds = [('position', slice(0, 3), 'um', meas.sigma_position)]
+    kinds = [('position', slice(0, 3), 'um', meas.sigma_position, declared[0], DEFAULT_SIGMA_POSITION)]
     if w.shape[1] == 6:
-        kinds.append(('angle', slice(3, 6), 'urad', meas.sigma_angle))
-    said = []
-    for kind, part, unit, column in kinds:
-        sigma = 'the file\'s sigma_' + kind if column is not None else f'{1e6 / float(w[0, part][0]):.3g} {unit}'
-        said.append(f'{kind}s {sigma}, residuals {1e6 * math.sqrt(float(np.mean(e[:, part] ** 2))):.3g} {unit} RMS '
-                    'per coordinate')
-    return '; '.join(said)
+        kinds.append(('angle', slice(3, 6), 'urad', meas.sigma_angle, declared[1], DEFAULT_SIGMA_ANGLE))
+    said, origins = [], set()
+    for kind, part, unit, column, given, default in kinds:
+        value = 1.0 / float(w[0, part][0])
+        rms = f'residuals {1e6 * math.sqrt(float(np.mean(e[:, part] ** 2))):.3g} {unit} RMS per coordinate'
+        if column is not None:
+            said.append((f'{kind}s the file\'s sigma_{kind}', '', rms))
+            continue
+        origin = 'declared' if given else 'a laser tracker\'s' if math.isclose(value, default) else 'assumed'
+        origins.add(origin)
+        said.append((f'{kind}s {1e6 * value:.3g} {unit}', f' ({origin})', rms))
+    if origins == {'a laser tracker\'s'} and all(label for _, label, _ in said):
+        return 'a laser tracker\'s: ' + '; '.join(f'{s}, {r}' for s, _, r in said)
+    return '; '.join(f'{s}{label}, {r}' for s, label, r in said)
 
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int,
@@ -176,12 +186,12 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                                 f'above the gate {limit:.4g} ({point}); largest residuals {worst}{bounds}.'))
     else:
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
-                                f'The residuals exceed the noise of a laser tracker assumed without a declared one '
-                                f'({noise}): reduced chi-square {chi2_red:.4g} above the gate {limit:.4g} ({point}); '
-                                f'largest residuals {worst}{bounds}. Columns swapped or in other units, another '
-                                'frame, mismeasured rows? Or a noisier instrument: declare its noise (sigma_position '
-                                'and sigma_angle columns, --sigma-position and --sigma-angle, or measurement_noise in '
-                                '--tolerances).'))
+                                f'The residuals exceed the noise assumed without a declared one ({noise}): reduced '
+                                f'chi-square {chi2_red:.4g} above the gate {limit:.4g} ({point}); largest residuals '
+                                f'{worst}{bounds}. Columns swapped or in other units, another frame, mismeasured '
+                                'rows? Or a noisier instrument: declare its noise (sigma_position and sigma_angle '
+                                'columns, --sigma-position and --sigma-angle; a table\'s measurement_noise is only '
+                                'assumed).'))
     checks.extend(c for c in more if c is not None)
     checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
@@ -269,9 +279,10 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
     h = hat_diagonal(Jf, best.residual.shape)
     names = meas.row_names
-    gate = _gate(best, params, fit, chi2_red, dof, None if absolute else assumed_noise(meas, best.residual, w),
-                 cv.ratio, names, (sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
-                 else (outlier_check(h, best.residual, names, robust=True),))
+    noise = None if absolute else assumed_noise(meas, best.residual, w, declared)
+    more = ((sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
+            else (outlier_check(h, best.residual, names, robust=True),))
+    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more)
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines, meas.files),
