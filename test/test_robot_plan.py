@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import yaml
 from gpr_kinematics.core.rotations import rotation_angle
-from gpr_kinematics.errors import LimitError
+from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.plan import joint_limits, plan_program, sample_plan
@@ -102,7 +102,6 @@ def test_a_program_too_long_to_sample_is_refused_before_it_is_planned(monkeypatc
     and requested move times bound the duration from below, before any station is solved."""
     import dataclasses
 
-    from gpr_kinematics.errors import InputError
     from gpr_kinematics.robot import plan as plan_module
     program = load_program(config_path('programs/example_robot_program.yaml'))
     least = plan_module.shortest_duration(program)
@@ -122,7 +121,6 @@ def test_moves_too_long_to_sample_are_refused_before_they_are_timed(monkeypatch)
     samples allowed was refused only once planned (2,000 steps of the cell program at 100 Hz: 4.0 s, most of it the
     straight lines' gains and the curved moves' timing). Its moves' least times on the joint-space lines bound it
     from below once the waypoints are solved (cheap), before the lines and the timing."""
-    from gpr_kinematics.errors import InputError
     from gpr_kinematics.robot import plan as plan_module
     cell = load_program(config_path('programs/example_cell_program.yaml'))
     plan_module.check_sample_count(cell, 5000.0)   # the dwells alone, 9 s, pass
@@ -137,27 +135,33 @@ def test_moves_too_long_to_sample_are_refused_before_they_are_timed(monkeypatch)
 def test_a_program_too_long_to_sample_is_refused_once_timed():
     """Between the bound and the duration (the cell program's straight entries take longer than the joint-space
     lines: 48.94 s against 59.58 s): refused by its duration once its moves are timed, before it is sampled."""
-    from gpr_kinematics.errors import InputError
     cell = load_program(config_path('programs/example_cell_program.yaml'))
     with pytest.raises(InputError, match=r'example_cell_program.yaml: the program lasts 59\.582 s: at 4000 Hz that is '
                                          r'238328 samples; allowed: at most 200000; lower the rate'):
         plan_program(ROBOT, cell, rate=4000.0)
 
 
-def test_a_timed_move_of_no_length_does_not_count_its_time_in_the_bound(tmp_path):
-    """A move that moves nothing takes 0 s whatever time it asks for (parameterise), but the moves' least times
-    counted its time: 'move a' twice, the second with time 50 s, lasts 0 s (no dwell: one sample) and was refused at
-    5000 Hz as lasting at least 50 s."""
+def test_a_timed_move_of_no_length_holds_for_its_time(tmp_path):
+    """A step's time sets its move's duration, also for a move that moves nothing: the robot stays at its waypoint for
+    that time (it took 0 s whatever it asked for, while the bounds before planning counted the time: 'move a' twice,
+    the second with time 50 s, was refused at 5000 Hz by the least times and planned in 0 s without a rate)."""
     from gpr_kinematics.robot.plan import jerk_limits
     from gpr_kinematics.robot.timing import least_total
     p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0}],
                       [{'move': 'a'}, {'move': 'a', 'time': 50.0}])
-    plan = plan_program(ROBOT, p, rate=5000.0)
-    assert plan.timing.total == 0.0
+    with pytest.raises(InputError, match='more than 200000 samples'):
+        plan_program(ROBOT, p, rate=5000.0)
+    plan = plan_program(ROBOT, p, rate=1000.0)
+    assert plan.timing.total == 50.0 and list(plan.timing.duration) == [50.0]
     _, velocity, acceleration, _ = joint_limits(ROBOT)
     bound = least_total(plan.positions, velocity, acceleration, jerk_limits(ROBOT), plan.waypoints.time,
                         plan.waypoints.dwell)
-    assert bound == 0.0
+    assert bound == pytest.approx(50.0, rel=2e-9) and bound <= 50.0
+    samples = sample_plan(plan, 10.0)
+    assert len(samples) == 501 and np.array_equal(samples.samples.positions, np.repeat(plan.positions[:1], 501, axis=0))
+    untimed = plan_program(ROBOT, _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45],
+                                                            'heading': 0.0}], [{'move': 'a'}, {'move': 'a'}]))
+    assert untimed.timing.total == 0.0
 
 
 @pytest.mark.parametrize('name, least', [('example_robot_program', 28.477170691875628),

@@ -25,7 +25,7 @@ naming the joint that limits it. docs/robot.md compares the S-curve's durations 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -301,11 +301,11 @@ def least_total(positions: Array, velocity: Array, acceleration: Array, jerk: Ar
     """A lower bound of :func:`parameterise`'s total duration [s] on any paths between the waypoints, without their
     gains: the dwells plus, per move, the longer of its requested time and :func:`shortest`'s ``T_min`` of the
     joint-space line (exact on a joint-space line; a curved path has ``G1_k >= |D_k|`` by the mean value theorem, so
-    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding. A move of no length counts 0 s, its
-    requested time too: :func:`parameterise` takes it in no time."""
+    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding (a move of no length lasts its requested
+    time, as in :func:`parameterise`)."""
     T = shortest(np.diff(positions, axis=0), velocity, acceleration, jerk)[2]
     req = requested[1:]
-    T = np.where(np.isfinite(req) & (T > 0.0), np.maximum(req, T), T)
+    T = np.where(np.isfinite(req), np.maximum(req, T), T)
     return float(np.sum(dwell[:-1] + T) + dwell[-1]) * (1.0 - 1e-9)   # less the sums' and bisection's rounding
 
 
@@ -357,6 +357,8 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
         slow = stretched(p, A, J, np.where(given, req, T_min))
         fields = ('v', 'a', 'j', 'tj', 'tc', 'ta', 'T')
         p = Profiles(*(np.where(given, getattr(slow, f), getattr(p, f)) for f in fields))
+        # A move of no length (its profile still: speed inf) with a time stays at its waypoint for that time.
+        p = replace(p, T=np.where(given & ~np.isfinite(p.v), req, p.T))
     T = p.T
     arrive = np.concatenate([[0.0], np.cumsum(dwell[:-1] + T)])
     return Timing(positions, arrive, arrive + dwell, T, p.v, p.a, velocity, acceleration, p, jerk_lim, (G1, G2, G3))
