@@ -9,21 +9,24 @@ calibrate from the configurations of a plan made for points."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
 from calibration_support import imperfect
 from gpr_kinematics.calibration.core_model import CoreModel
-from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model
+from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model, registration
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements, write_measurements
 from gpr_kinematics.calibration.plan import plan_measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
+from gpr_kinematics.calibration.tolerances import bound_of, load_tolerances, prior_of
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core import forward_batch
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.core.rotations import rotation_vector, rpy_matrix
 from gpr_kinematics.errors import InputError
+from gpr_kinematics.inputs.resources import config_path
 
 TRACKER = Transform(np.array([1.8, -2.4, 0.7]), rpy_matrix(0.01, -0.02, np.radians(30.0)))
 TARGET = Transform(np.array([0.12, -0.05, 0.08]), rpy_matrix(0.3, 0.1, -1.0))
@@ -77,7 +80,6 @@ def test_tracker_frame_gives_the_geometry_and_the_transform(setting):
             and (p.name not in names or res.status[names.index(p.name)] == 'fitted')]
     se = np.full(len(core.parameters), np.nan)
     se[model.independent] = res.standard_error[:model.n_inner]
-    from gpr_kinematics.calibration.frames import registration
     reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, 'tracker')
     for name, (_, s, _) in reg.derived.items():
         se[core.parameters.index(name)] = s
@@ -223,3 +225,65 @@ def test_derived_datum_parameters_of_held_ones_are_held_not_exact(capsys, tmp_pa
     status, text, _ = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--target', '0.12', '-0.05', '0.08',
                           '0.3', '0.1', '-1.0', '--fit-target', 'position', '--output', str(tmp_path / 'b.yaml'))
     assert '(held: it follows held parameters)' in text and '+- 0 um' not in text
+
+
+def test_derived_datum_parameters_carry_the_bias_of_the_held_ones(capsys, tmp_path, setting):
+    """--fit-target position, the example table: the datum's derived parameters had no bias from the held ones (the
+    joints' places that follow the held joints only read as held, as if exact). Independent checks: those against
+    the datum's conditions by hand (the nominal joints 120 deg apart on a circle, their centroid and mean angular
+    place kept: joint3_y = -(joint1_y + joint2_y), joint2_x = -joint1_x / 2 + sqrt(3)/2 joint1_y, joint3_x =
+    -joint1_x - joint2_x), and every derived one against refits of the truth with each held parameter moved by its
+    bound: the derived errors move by the reported worst case in sum (to 2 %: the linearisation at the estimate)."""
+    cfg, core, Q, true_model, inner, theta = setting
+    table = load_tolerances(config_path('calibration/tolerances_example.yaml'))
+    model = None
+
+    def fit(th):
+        nonlocal model
+        meas = synthetic_measurements(true_model, th, Q, 3e-6, 2e-5, seed=200)
+        model = model or measuring_model(core, meas, 'tracker', target=TARGET, fit_target='position')
+        res = identify(model, meas, prior=prior_of(table, model.parameters), bound=bound_of(table, model.parameters),
+                       frame='tracker')
+        reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, 'tracker', res.bias)
+        truth = true_model.inner_theta(th[None])[0][model.dependent]
+        return res, reg, np.array([v for v, _, _ in reg.derived.values()]) - truth
+
+    res, reg, error = fit(theta)
+    assert res.gate.passed and np.array_equal(model.independent, true_model.independent)
+    names = model.parameters.names
+    assert {names[j] for j in res.bias.held} == {'joint1_x', 'joint1_y', 'joint2_y', 'rod2_y'}
+    worst = {k: b for k, (b, _, _) in reg.derived_bias.items()}
+    assert math.isclose(worst['joint3_y'], 60e-6, rel_tol=1e-9)
+    assert math.isclose(worst['joint3_x'], 30e-6 * (0.5 + math.sqrt(3) / 2), rel_tol=1e-6)
+    assert math.isclose(worst['joint2_x'], worst['joint3_x'], rel_tol=1e-9)
+    assert math.isclose(reg.derived_bias['joint3_y'][1], math.sqrt(2) * 60e-6 / math.sqrt(12), rel_tol=1e-9)
+    moved = np.zeros(len(error))
+    for j, b in zip(res.bias.held, res.bias.held_bound, strict=True):
+        th = theta.copy()
+        th[j] += b
+        moved += np.abs(fit(th)[2] - error)
+    np.testing.assert_allclose(moved, list(worst.values()), rtol=0.02)
+    assert min(worst[k] for k in ('rod3_x', 'rod3_y', 'rod2_x')) > 5e-6    # through the fitted ones: rod2_y held
+    # the fitted parameters' own bias is the same rule with G the identity
+    np.testing.assert_allclose(res.bias.of(np.eye(len(names))[res.fitted])[0], res.bias.worst[res.fitted],
+                               rtol=1e-12)
+    # the report: beside the value, in the text and the JSON, no longer as exactly known
+    path = write_measurements(tmp_path / 'datum.csv', synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5,
+                                                                             seed=200))
+    argv = ['calibrate', str(path), '--frame', 'tracker', '--target', '0.12', '-0.05', '0.08', '0.3', '0.1', '-1.0',
+            '--fit-target', 'position', '--tolerances', str(config_path('calibration/tolerances_example.yaml')),
+            '--output', str(tmp_path / 'a.yaml')]
+    status, out, err = run(capsys, *argv, '--json')
+    assert status == 0, err
+    derived = json.loads(out)['registration']['derived']
+    for k, (b, sd, source) in reg.derived_bias.items():
+        assert derived[k]['bias'] == pytest.approx(b, rel=1e-9)
+        assert derived[k]['bias_std'] == pytest.approx(sd, rel=1e-9)
+        assert derived[k]['bias_from'] == source
+    assert derived['joint3_y']['status'] == 'held' and derived['joint3_y']['bias_from'] in ('joint1_y', 'joint2_y')
+    status, text, _ = run(capsys, *argv)
+    line = next(ln for ln in text.splitlines() if ln.startswith('registration: datum:'))
+    for k, (b, _, source) in reg.derived_bias.items():
+        assert f' bias <= {b * 1e6:.3f} {"urad" if "_u" in k else "um"} ({source})' in line, (k, line)
+    assert f'(held: it follows held parameters) bias <= 60.000 um ({derived["joint3_y"]["bias_from"]})' in line
+    assert (tmp_path / 'a.yaml').read_text().count(' bias <= ') == len(reg.derived_bias)

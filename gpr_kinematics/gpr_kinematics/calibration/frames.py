@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +35,7 @@ from ..core.rotations import euler_from_rotation, quaternion_from_matrix, rotati
 from ..errors import InputError
 from .measurements import Measurements
 from .model import Parameter, ParameterSet, PoseModel, evaluate
+from .quality import HeldBias
 
 Array = NDArray[np.float64]
 
@@ -288,7 +289,9 @@ class Registration:
     """The frames of a calibration from measurements in the frame ``frame``: the pose of ``gpr_base`` in it and of
     the target in ``gpr_platform``, with the standard errors of what was identified (position [m], then the
     rotation vector [rad] about the parent's axes; ``None``: given as known, or a held part ``nan``), the datum
-    that fixes the frames and the values the datum gives its parameters (name -> value, standard error, unit)."""
+    that fixes the frames and the values the datum gives its parameters (name -> value, standard error, unit), with
+    the bias the held parameters can cause them (name -> worst case, standard deviation, the held parameter causing
+    most of it; :meth:`~.quality.HeldBias.of`)."""
 
     frame: str
     base: Transform
@@ -298,15 +301,26 @@ class Registration:
     datum: str
     derived: dict[str, tuple[float, float, str]]
     points: bool = False
+    derived_bias: dict[str, tuple[float, float, str]] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
         def se(a: Array | None) -> list[float | None] | None:
             return None if a is None else [float(x) if np.isfinite(x) else None for x in a]
+        def bias(name: str) -> dict[str, float | str | None]:
+            b, sd, source = self.derived_bias.get(name, (math.nan, math.nan, ''))
+            return {'bias': b if math.isfinite(b) else None, 'bias_std': sd if math.isfinite(sd) else None,
+                    'bias_from': source or None}
         return {'frame': self.frame, 'base': self.base.as_dict() | {'standard_error': se(self.base_se)},
                 'target': self.target.as_dict() | {'standard_error': se(self.target_se)}, 'datum': self.datum,
                 'derived': {k: {'value': v, 'standard_error': s if math.isfinite(s) else None, 'unit': u,
-                                'status': 'derived' if math.isfinite(s) else 'held'}
+                                'status': 'derived' if math.isfinite(s) else 'held'} | bias(k)
                             for k, (v, s, u) in self.derived.items()}}
+
+    def _bias(self, name: str, unit: str) -> str:
+        """`` bias <= 1.234 um (rod2_y)`` of a derived parameter the held ones can bias (empty otherwise)."""
+        b, _, source = self.derived_bias.get(name, (math.nan, math.nan, ''))
+        return f' bias <= {b * 1e6:.3f} {"um" if unit == "m" else "urad"} ({source})' if math.isfinite(b) and source \
+            else ''
 
     def lines(self) -> list[str]:
         """The registration in words (the report's and the calibrated file's)."""
@@ -322,24 +336,25 @@ class Registration:
                 else ' (a point: no orientation)' if self.points else ' (orientation given)'
             out.append(f'{what}: position ({p}) m +- ({sp}) um, rpy ({r}) rad{sr}')
         if self.datum:
-            fixed = ', '.join(f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}' if math.isfinite(s)
-                              else f'{k} {v:+.9g} (held: it follows held parameters)'
+            fixed = ', '.join((f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}' if math.isfinite(s)
+                               else f'{k} {v:+.9g} (held: it follows held parameters)') + self._bias(k, u)
                               for k, (v, s, u) in self.derived.items())
             out.append(f'datum: {self.datum} ({fixed})')
         return out
 
 
 def registration(model: FramedModel, estimate: Array, standard_error: Array, fitted: NDArray[np.int64],
-                 covariance: Array, frame: str) -> Registration:
+                 covariance: Array, frame: str, bias: HeldBias | None = None) -> Registration:
     """The :class:`Registration` of an identification with ``model`` (its estimate, standard errors, fitted
-    indices and their covariance)."""
+    indices and their covariance, and the bias the held parameters can cause: the derived parameters' by the
+    chain rule, ``theta_D = nominal_D + follow (theta_I - nominal_I)``)."""
     base, target = model.frames(estimate)
     names = model.parameters.names
 
     def se(stem: str, on: bool) -> Array | None:
         return np.array([standard_error[names.index(n)] for n in names if n.startswith(stem)]) if on else None
 
-    derived = {}
+    derived, derived_bias = {}, {}
     if model.dependent.size:
         full = model.inner_theta(np.asarray(estimate, dtype=float)[None])[0]
         cov = np.zeros((model.n_inner, model.n_inner))
@@ -352,5 +367,10 @@ def registration(model: FramedModel, estimate: Array, standard_error: Array, fit
         ps = model.inner.parameters
         derived = {ps[int(j)].name: (float(full[j]), float(np.sqrt(max(v, 0.0))) if m else math.nan, ps[int(j)].unit)
                    for j, v, m in zip(model.dependent, var, moves, strict=True)}
+        if bias is not None:   # d theta_D / d theta: follow on the inner coordinates, nothing on the frames'
+            G = np.hstack([model.follow, np.zeros((model.dependent.size, len(names) - model.n_inner))])
+            worst, sd, source = bias.of(G)
+            derived_bias = {name: (float(b), float(s), src)
+                            for name, b, s, src in zip(derived, worst, sd, source, strict=True)}
     return Registration(frame, base, se('base_', model.fit_base), target, se('target_', model.fit_target is not None),
-                        model.datum_text, derived, model.points)
+                        model.datum_text, derived, model.points, derived_bias)

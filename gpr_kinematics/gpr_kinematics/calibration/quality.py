@@ -18,7 +18,8 @@ parameter's a-priori uncertainty ``s_j``), ``A = J^T J``:
   by ``-A^-1 J^T J_h x_h``; over its a-priori bound (a tolerance table's interval, else 3 a-priori standard
   deviations, within the coordinate's range) the **worst case** is the sum of the absolute effects, the
   **standard deviation** the root-sum-square over their a-priori standard deviations. The standard errors are
-  conditional on the held parameters; the bias is what that condition can cost.
+  conditional on the held parameters; the bias is what that condition can cost. A quantity ``y = G theta`` (the
+  parameters a registration's datum derives) has the sensitivity ``G_h + G_fitted alias_h`` (the chain rule).
 * **The gate** (:class:`Gate`): the fit reached a minimum (:mod:`.fitting`); with standard deviations from the
   measurement file, ``chi2`` at most the :data:`CHI2_QUANTILE` point of the chi-square distribution with its
   degrees of freedom (a correct model fails it once in a thousand fits); the cross-validation ratio at most
@@ -39,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -124,11 +125,35 @@ def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[
 class HeldBias:
     """Per parameter ``(P,)`` (coordinates; ``nan`` for those not fitted): the worst-case and the standard deviation
     of the bias the held and fixed parameters can cause, and the held parameter that causes most of the worst case
-    (``''``: none)."""
+    (``''``: none); and what gives them: the indices of the ``fitted`` and ``held`` (and fixed) parameters, the
+    alias matrix ``d theta_fitted / d theta_held (F, H)`` in coordinates (``nan``: no Jacobian at the solution),
+    the held ones' a-priori bounds and standard deviations ``(H,)``, and the parameters' names."""
 
     worst: Array
     std: Array
     source: tuple[str, ...]
+    fitted: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    held: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    alias: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    held_bound: Array = field(default_factory=lambda: np.zeros(0))
+    held_std: Array = field(default_factory=lambda: np.zeros(0))
+    names: tuple[str, ...] = ()
+
+    def of(self, G: Array) -> tuple[Array, Array, tuple[str, ...]]:
+        """Worst case, standard deviation and main source of the bias of quantities ``y = G theta`` (``G (D, P)``,
+        linear functions of the coordinates, e.g. the parameters a datum derives): by the chain rule their
+        sensitivity to the held parameters is ``S = G_held + G_fitted alias``, the worst case ``sum_h |S_h| b_h``,
+        the standard deviation ``sqrt(sum_h (S_h s_h)^2)`` (``nan`` where the alias is not known)."""
+        G = np.atleast_2d(np.asarray(G, dtype=float))
+        S = G[:, self.held]
+        moved = np.any(G[:, self.fitted] != 0.0, axis=1)    # through the fitted ones (else no alias is needed)
+        S[moved] += G[np.ix_(moved, self.fitted)] @ self.alias
+        effect = np.abs(S) * self.held_bound[None, :]
+        worst = effect.sum(axis=1)
+        sd = np.sqrt(np.sum((S * self.held_std[None, :]) ** 2, axis=1))
+        source = tuple(self.names[int(self.held[int(np.argmax(e))])] if e.size and e.max() > 0.0 else ''
+                       for e in effect)
+        return np.asarray(worst, dtype=np.float64), np.asarray(sd, dtype=np.float64), source
 
 
 def held_bias(J_fit: Array, J_held: Array, fitted: NDArray[np.int64], held: NDArray[np.int64], scale: Array,
@@ -139,8 +164,13 @@ def held_bias(J_fit: Array, J_held: Array, fitted: NDArray[np.int64], held: NDAr
     P = len(names)
     worst, sd = np.full(P, np.nan), np.full(P, np.nan)
     source = [''] * P
+
+    def result(alias_si: Array) -> HeldBias:
+        return HeldBias(worst, sd, tuple(source), fitted, held, alias_si, np.asarray(bound, dtype=np.float64),
+                        np.asarray(std, dtype=np.float64), tuple(names))
+
     if fitted.size == 0 or not (np.all(np.isfinite(J_fit)) and np.all(np.isfinite(J_held))):
-        return HeldBias(worst, sd, tuple(source))
+        return result(np.zeros((0, held.size)) if fitted.size == 0 else np.full((fitted.size, held.size), np.nan))
     A = gram(np.hstack([J_fit, J_held]))
     F = J_fit.shape[1]
     alias = -np.linalg.pinv(A[:F, :F]) @ A[:F, F:]                     # (F, H), scaled units
@@ -151,7 +181,7 @@ def held_bias(J_fit: Array, J_held: Array, fitted: NDArray[np.int64], held: NDAr
         for i, j in enumerate(fitted):
             if effect[i].max() > 0.0:
                 source[int(j)] = names[int(held[int(np.argmax(effect[i]))])]
-    return HeldBias(worst, sd, tuple(source))
+    return result(alias * scale[fitted][:, None] / scale[held][None, :])   # coordinates: d theta_f / d theta_h
 
 
 @dataclass(frozen=True)

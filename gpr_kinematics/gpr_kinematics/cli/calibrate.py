@@ -70,7 +70,8 @@ def _calibrate(args: argparse.Namespace) -> int:
                                          frame=args.frame, declared=declared(args)))
     reg = None
     if isinstance(model, FramedModel):
-        reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)
+        reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame,
+                           res.bias)
         calibrated = core.config_for(model.inner_theta(res.estimate[None])[0])
     else:
         calibrated = core.config_for(res.estimate)

@@ -115,7 +115,8 @@ def calibrate_robot(args: argparse.Namespace) -> int:
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
             if model.fit_base:
-                reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame)
+                reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, args.frame,
+                                   res.bias)
         else:
             values[arm] = res.values
         results.append((arm, res))
