@@ -201,7 +201,8 @@ def test_mechanism_json_is_the_pose_analysis(capsys):
 
 def test_accuracy_dexterity_sweep_mobility_json_keys(capsys):
     a = run_json(capsys, 'accuracy', 'stewart_alwan.yaml')
-    assert set(a) == {'mechanism', 'type', 'variables', 'results'}
+    assert set(a) == {'mechanism', 'type', 'variables', 'results', 'warnings'}
+    assert len(a['warnings']) == 1 and a['warnings'][0].startswith('pose 1: B = 0.0349066 rad')  # the gimbal lock
     assert set(a['results'][0]) == {'mechanism', 'pose', 'joints', 'joint_errors', 'parameter_errors', 'variables',
                                     'linearized', 'exact', 'difference', 'exact_pose', 'linearized_twist',
                                     'exact_twist', 'condition_number'}
