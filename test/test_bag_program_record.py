@@ -1,6 +1,7 @@
 """The record of what a stream was asked to do (``gpr/program``, bags/program_record.py): a program survives the
-round trip through its record exactly, a record recomputes the node's stream, bad records are refused naming what is
-wrong, and every numeric field of the recorded messages is placed as checked or unchecked (bags/coverage.py)."""
+round trip through its record exactly, a record recomputes the node's stream, the markers' cadence is recorded
+optionally, bad records are refused naming what is wrong, and every numeric field of the recorded
+messages is placed as checked or unchecked (bags/coverage.py)."""
 from __future__ import annotations
 
 import dataclasses
@@ -53,6 +54,28 @@ def test_a_platform_program_and_a_sweep_recompute_exactly() -> None:
              'azimuth_step': math.radians(10), 'passes': 1}
     ex = expected(parse_record(record_text('sweep', 0, 756, 100.0, False, 2.0, sweep=sweep)), CFG, None)
     assert ex.q.shape == (756, 3) and np.max(np.abs(ex.commanded_tilt)) == pytest.approx(math.radians(2))
+
+
+def test_markers_every_is_recorded_optionally() -> None:
+    """A record with markers_every (the node's since it was recorded) and one without (before)."""
+    sweep = {'height': 0.5, 'max_tilt': 0.01, 'tilt_step': 0.01, 'azimuth_step': 1.0, 'passes': 1}
+    new = parse_record(record_text('sweep', 5, 3, 10.0, True, 2.0, sweep=sweep, markers_every=4))
+    old_text = record_text('sweep', 20, 3, 10.0, False, 2.0, sweep=sweep)
+    assert new.markers_every == 4 and 'markers_every' not in old_text
+    assert parse_record(old_text).markers_every is None
+
+
+_SWEEP_RECORD = ('kind: sweep\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\n'
+                 'sweep: {height: 0.5, max_tilt: 0.01, tilt_step: 0.01, azimuth_step: 1.0, passes: 1}\n')
+
+
+@pytest.mark.parametrize('value', ['0', '100001', '2.5', '1e3', 'true', 'two', 'null', '-3'])
+def test_a_bad_markers_every_is_refused_naming_it(value: str) -> None:
+    shown = {'2.5': '2.5', '1e3': '1000.0', 'true': 'True', 'two': "'two'", 'null': 'None'}.get(value, value)
+    with pytest.raises(ConfigError, match=rf"^/gpr/program: markers_every = {shown}; allowed: an integer from 1 to "
+                                          r"100000 \(trajectory_node's markers_every\)$"):
+        parse_record(_SWEEP_RECORD + f'markers_every: {value}\n')
+    assert parse_record(_SWEEP_RECORD + 'markers_every: 100000\n').markers_every == 100000
 
 
 @pytest.mark.parametrize('text, words', [

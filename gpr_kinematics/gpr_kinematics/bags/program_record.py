@@ -9,7 +9,9 @@ still passed every check). So at the start of each stream the node publishes, on
 (:data:`~.typestore.PROGRAM_TOPIC`, ``std_msgs/String``, reliable, transient local, depth 1), the YAML of a
 :class:`Record`: the kind of stream
 (``sweep``, ``platform_program``, ``robot_program``), the sample counter of its first sample, its length, the rate,
-whether it loops, and the sweep's parameters or the program itself (:func:`program_dict`: every station and step
+whether it loops, which samples have markers (``markers_every``: those whose counter is a multiple of it,
+:func:`~gpr_kinematics.robot.markers.marked`; optional, recorded since it was added, so records without it still
+read), and the sweep's parameters or the program itself (:func:`program_dict`: every station and step
 inline, in SI units, as the node parsed it). :func:`expected` recomputes from a record, with the recorded geometry
 and robot, the numbers every sample must carry: the rods, the commanded tilt and azimuth and, for a robot program,
 every arm's joints (:mod:`.checks_program` compares them). SI units (m, rad, s).
@@ -31,6 +33,7 @@ from ..errors import ConfigError
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..robot.description import RobotDescription
+from ..robot.markers import MARKERS_EVERY
 from ..robot.platform_program import PlatformProgram, parse_platform_program, sample_program
 from ..robot.program import FORMAT as ROBOT_FORMAT
 from ..robot.program import RobotProgram, parse_program
@@ -41,12 +44,12 @@ KINDS = ('sweep', 'platform_program', 'robot_program')
 SWEEP_KEYS = ('height', 'max_tilt', 'tilt_step', 'azimuth_step', 'passes')
 #: Largest record read [bytes] (a program of 10,000 stations is about 1 MB of YAML).
 MAX_RECORD_BYTES = 8 << 20
-_KEYS = ('kind', 'first_sample', 'samples', 'rate', 'loop', 'move_time', 'sweep', 'program')
+_KEYS = ('kind', 'first_sample', 'samples', 'rate', 'loop', 'move_time', 'markers_every', 'sweep', 'program')
 
 
 @dataclass(frozen=True)
 class Record:
-    """One stream as the node was asked for it (module docstring)."""
+    """One stream as the node was asked for it (module docstring); ``markers_every`` None: not recorded."""
 
     kind: str
     first_sample: int
@@ -56,6 +59,7 @@ class Record:
     move_time: float
     sweep: dict[str, float] | None = None
     program: PlatformProgram | RobotProgram | None = None
+    markers_every: int | None = None
 
 
 def _optional(out: dict[str, Any], key: str, value: Any) -> None:
@@ -106,10 +110,13 @@ def program_dict(program: PlatformProgram | RobotProgram) -> dict[str, Any]:
 
 def record_text(kind: str, first_sample: int, samples: int, rate: float, loop: bool, move_time: float,
                 sweep: Mapping[str, float] | None = None,
-                program: PlatformProgram | RobotProgram | None = None) -> str:
-    """The YAML of a record (module docstring): the ``data`` of a :data:`PROGRAM_TOPIC` message."""
+                program: PlatformProgram | RobotProgram | None = None, markers_every: int | None = None) -> str:
+    """The YAML of a record (module docstring): the ``data`` of a :data:`PROGRAM_TOPIC` message (without
+    ``markers_every`` when it is None)."""
     data: dict[str, Any] = {'kind': kind, 'first_sample': int(first_sample), 'samples': int(samples),
                             'rate': float(rate), 'loop': bool(loop), 'move_time': float(move_time)}
+    if markers_every is not None:
+        data['markers_every'] = int(markers_every)
     if sweep is not None:
         data['sweep'] = {k: (int(v) if k == 'passes' else float(v)) for k, v in sweep.items()}
     if program is not None:
@@ -122,6 +129,19 @@ def _integer(data: Mapping[str, Any], key: str, where: str) -> int:
     value = data.get(key)
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**63:
         raise ConfigError(f'{where}: {key} = {safe_yaml.brief(value)}; allowed: an integer from 0 to 2^63 - 1')
+    return value
+
+
+def _markers_every(data: Mapping[str, Any], where: str) -> int | None:
+    """The record's ``markers_every``: None when it has none (recorded before it was), else an integer within
+    :data:`~gpr_kinematics.robot.markers.MARKERS_EVERY`."""
+    if 'markers_every' not in data:
+        return None
+    value = data['markers_every']
+    low, high = MARKERS_EVERY
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ConfigError(f"{where}: markers_every = {safe_yaml.brief(value)}; allowed: an integer from {low} to "
+                          f"{high} (trajectory_node's markers_every)")
     return value
 
 
@@ -148,7 +168,8 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
     if not isinstance(loop, bool):
         raise ConfigError(f'{where}: loop = {safe_yaml.brief(loop)}; allowed: true or false')
     common = dict(kind=kind, first_sample=_integer(data, 'first_sample', where), rate=_positive(data, 'rate', where),
-                  samples=_integer(data, 'samples', where), loop=loop, move_time=_positive(data, 'move_time', where))
+                  samples=_integer(data, 'samples', where), loop=loop, move_time=_positive(data, 'move_time', where),
+                  markers_every=_markers_every(data, where))
     if kind == 'sweep':
         sweep = data.get('sweep')
         if not isinstance(sweep, Mapping):

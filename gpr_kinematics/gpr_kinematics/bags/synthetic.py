@@ -6,7 +6,9 @@ functions (:func:`gpr_kinematics.core.messages.stream_messages` for the platform
 markers, :func:`gpr_kinematics.core.messages.geometry_text`, ``robot_text`` and
 :func:`.program_record.record_text` for the latched :data:`.typestore.GEOMETRY_TOPIC`, :data:`.typestore.ROBOT_TOPIC`
 and :data:`.typestore.PROGRAM_TOPIC`), serialized with the ``rosbags`` typestore
-instead of rclpy; recorded bags come from the real nodes over DDS.
+instead of rclpy; recorded bags come from the real nodes over DDS. The markers are those of the samples
+:func:`~gpr_kinematics.robot.markers.marked` by ``markers_every``, which the record carries (``markers_every=None``:
+markers at every sample and a record without it, as the node wrote before).
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from ..core.config import GprConfig
 from ..core.messages import geometry_text, robot_text, stream_messages
 from ..core.sweep import paper_sweep
 from ..robot.description import RobotDescription
-from ..robot.markers import marker_array, marker_points
+from ..robot.markers import marked, marker_array, marker_points
 from ..robot.program import RobotProgram
 from ..robot.stream import RobotStream, robot_stream
 from .program_record import record_text
@@ -76,38 +78,42 @@ def make_message(msgtype: str, **fields: Any) -> Any:
 def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_step: float = np.radians(0.2),
                    azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
-                   topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC)
-                   ) -> list[tuple[str, int, bytes]]:
+                   topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC),
+                   markers_every: int | None = 1) -> list[tuple[str, int, bytes]]:
     """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry and the
     record of the sweep once (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per
-    ``period_ns``."""
+    ``period_ns`` (the markers every ``markers_every``-th: module docstring)."""
     cfg = resolve_config(config)
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
     spec = {'height': height, 'max_tilt': max_tilt, 'tilt_step': tilt_step, 'azimuth_step': azimuth_step,
             'passes': passes}
     latched = {GEOMETRY_TOPIC: geometry_text(cfg),
-               PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, False, 2.0, sweep=spec)}
+               PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, False, 2.0, sweep=spec,
+                                          markers_every=markers_every)}
     return _stream(cfg, sw.forward, np.asarray(sw.alpha, float), np.asarray(sw.gamma, float), latched, None,
-                   start_ns, period_ns, topics)
+                   start_ns, period_ns, topics, markers_every or 1)
 
 
 def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate: float = 100.0,
                            start_ns: int = 1_700_000_000_000_000_000,
-                           topics: tuple[str, ...] = tuple(GPR_TOPICS)) -> list[tuple[str, int, bytes]]:
+                           topics: tuple[str, ...] = tuple(GPR_TOPICS),
+                           markers_every: int | None = 1) -> list[tuple[str, int, bytes]]:
     """(topic, log time [ns], CDR bytes) of every message ``trajectory_node`` publishes for a whole-robot program
     (:func:`gpr_kinematics.robot.stream.robot_stream` at ``rate``): the geometry, the robot description and the
-    record of the program once, then every sample's platform and robot messages, one sample per ``1 / rate``."""
+    record of the program once, then every sample's platform and robot messages, one sample per ``1 / rate`` (the
+    markers every ``markers_every``-th: module docstring)."""
     rs = robot_stream(robot, program, rate)
     latched = {GEOMETRY_TOPIC: geometry_text(robot.config), ROBOT_TOPIC: robot_text(robot),
-               PROGRAM_TOPIC: record_text('robot_program', 0, len(rs), rate, False, 2.0, program=program)}
+               PROGRAM_TOPIC: record_text('robot_program', 0, len(rs), rate, False, 2.0, program=program,
+                                          markers_every=markers_every)}
     return _stream(robot.config, rs.gpr, rs.gpr.tilt, rs.gpr.tilt_azimuth, latched, rs, start_ns,
-                   int(round(1e9 / rate)), topics)
+                   int(round(1e9 / rate)), topics, markers_every or 1)
 
 
 def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd_azimuth: NDArray[np.float64],
             latched: dict[str, str], robot: RobotStream | None, start_ns: int, period_ns: int,
-            topics: tuple[str, ...]) -> list[tuple[str, int, bytes]]:
+            topics: tuple[str, ...], markers_every: int) -> list[tuple[str, int, bytes]]:
     """The messages of a stream, as the trajectory node publishes them (the module docstring)."""
     ts = typestore()
     types = message_types()
@@ -123,7 +129,7 @@ def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd
                                commanded_tilt=float(cmd_tilt[i]), commanded_azimuth=float(cmd_azimuth[i]))
         if robot is not None:
             msgs.update(robot.messages(types, i, stamp_ns=t, sample=i, base_frame='gpr_base'))
-        if points:
+        if points and marked(i, markers_every):
             msgs['gpr/markers'] = marker_array(make_message, msgs['gpr/platform_state'].header,
                                                {ns: p[i] for ns, p in points.items()})
         for topic in topics:

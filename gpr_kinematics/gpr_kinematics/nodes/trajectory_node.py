@@ -9,15 +9,16 @@ Topics (relative names), frame ``gpr_base`` (``base_frame``; every frame with ``
 - ``joint_states`` (sensor_msgs/JointState): the physical joints only, ``rod_1..rod_3`` (rod lengths q [m])
   and, in a robot program, every arm's joints [rad], as ``robot_state_publisher`` expects; ``gpr/virtual_joints``
   (sensor_msgs/JointState): the virtual joints, named as in the core (lengths [m], angles [rad]);
-- ``gpr/markers`` (visualization_msgs/MarkerArray): every ``markers_every``-th sample
-  (:mod:`gpr_kinematics.robot.markers`);
+- ``gpr/markers`` (visualization_msgs/MarkerArray): every sample whose counter is a multiple of ``markers_every``
+  (:func:`gpr_kinematics.robot.markers.marked`);
 - robot programs only: ``gpr/robot_state`` (gpr_interfaces/RobotState) and ``gpr/wafer_pose``
   (geometry_msgs/PoseStamped), both in the robot's world frame (:mod:`gpr_kinematics.robot.stream`);
 - ``gpr/geometry`` and ``gpr/robot`` (std_msgs/String, reliable, transient local, depth 1): published once at
   start, the YAML of the node's ``GprConfig.to_dict()`` and of its robot description (``RobotDescription.to_dict``),
   so a recording names the geometry, model and robot that produced it; ``gpr/program`` (the same QoS): at the start
-  of every stream, what it was asked to do (the sweep's parameters or the program, its first sample counter, rate
-  and length: :mod:`gpr_kinematics.bags.program_record`), so ``gpr verify`` recomputes the stream.
+  of every stream, what it was asked to do (the sweep's parameters or the program, its first sample counter, rate,
+  length and ``markers_every``: :mod:`gpr_kinematics.bags.program_record`), so ``gpr verify`` recomputes the stream
+  and knows which samples have markers.
 
 Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
 azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
@@ -65,7 +66,7 @@ from gpr_interfaces.msg import PlatformState, RobotState
 
 from ..core.messages import geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
-from ..robot.markers import marker_array
+from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program
 from ..ros.specs import TRAJECTORY, check_frame_names, check_frame_prefix
 from ..ros.streams import (
@@ -189,7 +190,7 @@ class TrajectoryNode(GprNode):
         """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end)."""
         self.pub_program.publish(String(data=record_of(traj, self.sample, float(self.p['rate']),
                                                        bool(self.p['loop']) and goal is None,
-                                                       float(self.p['move_time']))))
+                                                       float(self.p['move_time']), int(self.p['markers_every']))))
         self.stream, self.goal, self._goal_done = traj, goal, done
         self.index = 0
         self.started_at = None
@@ -325,7 +326,7 @@ class TrajectoryNode(GprNode):
                                             base_frame=self.base_frame, frame_prefix=self.prefix))
         for topic, msg in msgs.items():
             self.stream_publishers[topic].publish(msg)
-        if self.sample % int(self.p['markers_every']) == 0:
+        if marked(self.sample, int(self.p['markers_every'])):
             self.pub_markers.publish(marker_array(make_message, msgs['gpr/platform_state'].header,
                                                   {ns: p[i] for ns, p in traj.markers.items()}))
 

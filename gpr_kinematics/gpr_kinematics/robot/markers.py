@@ -19,7 +19,8 @@ configuration's ``platform_joints``), ``p_n`` and ``R_n`` the naive pose: the ou
 the platform's joints. :func:`marker_points` computes them for a
 batch; :func:`marker_array` builds the message with any message classes (rclpy's or the ``rosbags``
 typestore's, through a ``make(type, **fields)`` factory), and ``gpr verify`` checks recorded markers against
-:func:`marker_points` of the PlatformState with the same stamp.
+:func:`marker_points` of the PlatformState with the same stamp. A stream has markers for the samples :func:`marked`
+says (``trajectory_node``'s ``markers_every``, within :data:`MARKERS_EVERY`).
 """
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ from ..core.config import GprConfig
 from ..core.machine import MachineGeometry
 
 LINE_STRIP, LINE_LIST, TRIANGLE_LIST, ADD = 4, 5, 11, 0
+#: The cadences of the markers, ``markers_every`` (``trajectory_node``'s parameter, a stream's record).
+MARKERS_EVERY = (1, 100000)
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,16 @@ MARKERS: tuple[MarkerSpec, ...] = (
     MarkerSpec(2, 'platform', TRIANGLE_LIST, 1.0, (0.95, 0.55, 0.1, 0.8)),
     MarkerSpec(3, 'nominal_platform', LINE_STRIP, 0.002, (0.1, 0.8, 0.2, 1.0)),
 )
+
+
+def marked(sample: Any, every: Any) -> Any:
+    """Whether the sample with counter ``sample`` has its markers in a stream with ``markers_every = every``:
+    ``sample % every == 0`` (the counter runs on over loops and streams), for numbers or arrays.
+
+    >>> marked(6, 3), marked(7, 3), marked(0, 1)
+    (True, False, True)
+    """
+    return sample % every == 0
 
 
 def marker_points(cfg: GprConfig, q: NDArray[np.float64], nominal_position: NDArray[np.float64],

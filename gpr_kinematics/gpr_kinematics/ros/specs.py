@@ -19,6 +19,7 @@ from typing import Any
 
 from ..core.config import MODELS, WEIGHTINGS, GprConfig, load_config
 from ..errors import ConfigError
+from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
@@ -254,7 +255,7 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
     ParamSpec('base_frame', _S, 'gpr_base', 'frame of the base (header.frame_id)', constraint='a tf frame name',
               read_only=True),
     FRAME_PREFIX,
-    ParamSpec('markers_every', _I, 1, 'publish gpr/markers every n-th sample', (1, 100000), read_only=True),
+    ParamSpec('markers_every', _I, 1, 'publish gpr/markers every n-th sample', MARKERS_EVERY, read_only=True),
     ParamSpec('wait_for_subscribers', _I, 0, 'before the first sample, wait until this many nodes (e.g. recorders) '
               'subscribe to the stream', (0, 1000), read_only=True),
     ParamSpec('wait_all_topics', _B, True, 'wait_for_subscribers counts nodes subscribed to every stream topic '
