@@ -1,6 +1,6 @@
 """The record of what a stream was asked to do (``gpr/program``, bags/program_record.py): a program survives the
-round trip through its record exactly, a record recomputes the node's stream, the markers' cadence is recorded
-optionally, bad records are refused naming what is wrong, and every numeric field of the recorded
+round trip through its record exactly, a record recomputes the node's stream, the markers' cadence is read per
+sample where recorded, bad records are refused naming what is wrong, and every numeric field of the recorded
 messages is placed as checked or unchecked (bags/coverage.py)."""
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.bags.checks_program import marker_cadence
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of, unchecked_fields
 from gpr_kinematics.bags.program_record import expected, parse_record, record_text, sample_index
 from gpr_kinematics.bags.typestore import GPR_TOPICS
@@ -56,13 +57,17 @@ def test_a_platform_program_and_a_sweep_recompute_exactly() -> None:
     assert ex.q.shape == (756, 3) and np.max(np.abs(ex.commanded_tilt)) == pytest.approx(math.radians(2))
 
 
-def test_markers_every_is_recorded_optionally() -> None:
-    """A record with markers_every (the node's since it was recorded) and one without (before)."""
+def test_markers_every_is_recorded_optionally_and_read_per_sample() -> None:
+    """A record with markers_every (the node's since it was recorded) and one without (before): the cadence of each
+    sample is its record's, 0 where none is recorded or no record covers the sample."""
     sweep = {'height': 0.5, 'max_tilt': 0.01, 'tilt_step': 0.01, 'azimuth_step': 1.0, 'passes': 1}
     new = parse_record(record_text('sweep', 5, 3, 10.0, True, 2.0, sweep=sweep, markers_every=4))
     old_text = record_text('sweep', 20, 3, 10.0, False, 2.0, sweep=sweep)
     assert new.markers_every == 4 and 'markers_every' not in old_text
     assert parse_record(old_text).markers_every is None
+    samples = np.array([0, 4, 5, 19, 20, 30], dtype=np.int64)
+    assert marker_cadence([new, parse_record(old_text)], samples).tolist() == [0, 0, 4, 4, 0, 0]
+    assert marker_cadence([], samples).tolist() == [0] * 6
 
 
 _SWEEP_RECORD = ('kind: sweep\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\n'

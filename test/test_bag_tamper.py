@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 import pytest
-from bag_support import small_sweep, write_bag
+from bag_support import MARKERS, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
 from gpr_kinematics.bags.synthetic import robot_program_messages
-from gpr_kinematics.bags.typestore import GPR_TOPICS, ROBOT_TOPIC
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PROGRAM_TOPIC, ROBOT_TOPIC
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot
@@ -63,6 +63,88 @@ def test_a_rewrite_without_an_edit_passes(sweep: Path, tmp_path: Path) -> None:
 def test_a_marker_array_removed_mid_stream_fails(sweep: Path, tmp_path: Path) -> None:
     bag = tampered(sweep, tmp_path / 'gap', lambda topic, i, raw: None if (topic, i) == ('/gpr/markers', 13) else raw)
     assert _failed(verify_bag(bag)) == {'topic.markers_sequence': {13}}
+
+
+def _types(msgs: list[tuple[str, int, bytes]]) -> dict[str, str]:
+    return {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in msgs)}
+
+
+def _sequence(result: Any) -> Any:
+    return next(c for c in result.checks if c.name == 'topic.markers_sequence')
+
+
+def test_every_other_marker_array_removed_fails_at_the_first_one(sweep: Path, tmp_path: Path) -> None:
+    """The sweep's record says markers_every: 1: every other MarkerArray removed (those of the odd samples) passed
+    as what markers_every: 2 records; now each removed one of samples 1 to 27 fails (29, after the last MarkerArray
+    left, is where a recording cut in the middle of a sample ends: not counted, as on every companion topic)."""
+    bag = tampered(sweep, tmp_path / 'halved', lambda topic, i, raw: None if topic == MARKERS and i % 2 else raw)
+    result = verify_bag(bag)
+    assert _failed(result) == {'topic.markers_sequence': set(range(1, 29, 2))}
+    check = _sequence(result)
+    assert (check.checked, check.failed, check.failures[0].sample) == (30, 14, 1)
+    assert 'a counter that is a multiple of the recorded markers_every = 1' in check.failures[0].detail
+
+
+def test_a_recorded_markers_every_of_2_passes_and_a_gap_in_it_fails(tmp_path: Path) -> None:
+    msgs = small_sweep(markers_every=2)
+    assert [m[1] for m in msgs if m[0] == MARKERS] == [1_700_000_000_000_000_000 + k * 1_000_000 for k in
+                                                        range(0, 30, 2)]
+    bag = write_bag(tmp_path / 'every2', msgs, _types(msgs))
+    assert verify_bag(bag).passed
+    gap = tampered(bag, tmp_path / 'gap', lambda topic, i, raw: None if (topic, i) == (MARKERS, 3) else raw)
+    assert _failed(verify_bag(gap)) == {'topic.markers_sequence': {6}}
+
+
+def test_a_record_without_markers_every_infers_the_cadence_as_before(tmp_path: Path) -> None:
+    """Records written before markers_every was recorded: every other MarkerArray removed is still what
+    markers_every: 2 records, and passes; one removed mid-stream still fails."""
+    msgs = small_sweep(markers_every=None)
+    record = next(raw for topic, _, raw in msgs if topic == PROGRAM_TOPIC)
+    assert b'markers_every' not in record and sum(m[0] == MARKERS for m in msgs) == 30
+    bag = write_bag(tmp_path / 'old', msgs, _types(msgs))
+    halved = tampered(bag, tmp_path / 'halved', lambda topic, i, raw: None if topic == MARKERS and i % 2 else raw)
+    assert verify_bag(halved).passed
+    gap = tampered(bag, tmp_path / 'gap', lambda topic, i, raw: None if (topic, i) == (MARKERS, 13) else raw)
+    result = verify_bag(gap)
+    assert _failed(result) == {'topic.markers_sequence': {13}}
+    assert 'every n-th from the first marked sample' in result.failures[0].detail
+
+
+def _record_edit(every: str) -> Any:
+    def edit(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != PROGRAM_TOPIC:
+            return raw
+        return edited('std_msgs/msg/String', raw, lambda m: dataclasses.replace(
+            m, data=m.data.replace('markers_every: 1\n', f'markers_every: {every}\n', 1)))
+    return edit
+
+
+def test_markers_off_the_recorded_cadence_fail(sweep: Path, tmp_path: Path) -> None:
+    """The record edited to markers_every: 2 while every sample has its MarkerArray: those of the odd samples are
+    not the node's (its rule: sample % markers_every == 0), to the last one."""
+    assert _failed(verify_bag(tampered(sweep, tmp_path / 'every2', _record_edit('2')))) == {
+        'topic.markers_sequence': set(range(1, 30, 2))}
+
+
+def test_a_record_with_a_bad_markers_every_is_refused(sweep: Path, tmp_path: Path) -> None:
+    result = verify_bag(tampered(sweep, tmp_path / 'every0', _record_edit('0')))
+    assert set(_failed(result)) == {'topic.program', 'stream.program'}   # no record left to recompute the stream
+    assert result.failures[0].detail == ("not a record of a stream: /gpr/program: markers_every = 0; allowed: an "
+                                         "integer from 1 to 100000 (trajectory_node's markers_every)")
+
+
+def test_a_recording_started_late_and_cut_early_passes_with_a_recorded_markers_every(tmp_path: Path) -> None:
+    """markers_every: 3 recorded; the recorder's states begin at sample 7 and end at 25, its markers begin later
+    (sample 12: 9 had one the recorder did not yet receive) and end earlier (18: 21 and 24 had theirs): an honest
+    recording, every sample between its first and last MarkerArray at a multiple of 3 has one, and it passes."""
+    start, period = 1_700_000_000_000_000_000, 1_000_000
+    span = {MARKERS: (11, 20)}
+    msgs = [m for m in small_sweep(markers_every=3) if m[0] in (GEOMETRY_TOPIC, PROGRAM_TOPIC)
+            or span.get(m[0], (7, 25))[0] <= (m[1] - start) // period <= span.get(m[0], (7, 25))[1]]
+    assert [(m[1] - start) // period for m in msgs if m[0] == MARKERS] == [12, 15, 18]
+    result = verify_bag(write_bag(tmp_path / 'late', msgs, _types(msgs)))
+    assert result.passed, [f.line() for f in result.failures]
+    assert (_sequence(result).checked, result.counts[STATE]) == (19, 19)
 
 
 def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> None:

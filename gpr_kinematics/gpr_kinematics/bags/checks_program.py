@@ -13,7 +13,8 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
   did not produce it.
 
 A recording without a record (of a node before it was published) skips both; its commanded tilts are still checked
-against the states (``state.commanded``, :mod:`.checks_state`).
+against the states (``state.commanded``, :mod:`.checks_state`). The records are read once (:func:`read_records`) for
+these checks and for ``topic.markers_sequence`` (:func:`marker_cadence`, the recorded cadence of each state's markers).
 """
 from __future__ import annotations
 
@@ -39,10 +40,12 @@ _DETAIL = 'inf = no recorded stream covers this sample (or it cannot be recomput
 Problem = tuple[str, float, float, str]
 
 
-def _records(bag: Bag) -> tuple[list[Record], list[Problem]]:
-    """The distinct records of the bag, by first sample, and what is wrong with the others."""
+def read_records(bag: Bag) -> tuple[list[Record], list[Problem]]:
+    """The distinct records of the bag, by first sample, and what is wrong with the others (none without
+    :data:`PROGRAM_TOPIC`)."""
     t = bag.topic(PROGRAM_TOPIC)
-    assert t is not None  # program_checks checks
+    if t is None:
+        return [], []
     if t.msgtype != GPR_TOPICS[PROGRAM_TOPIC]:
         return [], [(PROGRAM_TOPIC, 1.0, 0.0, f'type {t.msgtype}, not a std_msgs/msg/String')]
     records: list[Record] = []
@@ -54,6 +57,20 @@ def _records(bag: Bag) -> tuple[list[Record], list[Problem]]:
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'not a record of a stream: {exc}'))
     records.sort(key=lambda r: r.first_sample)
     return records, problems
+
+
+def owners(records: list[Record], samples: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Per sample counter, the index of the record that covers it (the last one that starts at or before it; -1:
+    none). ``records`` sorted by first sample, as :func:`read_records` gives them."""
+    out: NDArray[np.int64] = np.searchsorted([r.first_sample for r in records], samples, side='right') - 1
+    return out
+
+
+def marker_cadence(records: list[Record], samples: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Per sample counter, the ``markers_every`` of the record that covers it; 0 where none covers it or it has
+    none (recorded before records carried it)."""
+    every = np.array([r.markers_every or 0 for r in records] + [0], dtype=np.int64)
+    return every[owners(records, samples)]   # -1 (no record) reads the 0 appended
 
 
 def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected
@@ -75,18 +92,21 @@ def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64
 
 
 def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,
-                   robot: RobotDescription | None, robot_rows: Any, tol: Tolerances) -> list[Check]:
+                   robot: RobotDescription | None, robot_rows: Any, tol: Tolerances,
+                   recorded: tuple[list[Record], list[Problem]] | None = None) -> list[Check]:
     """The checks of the module docstring for the PlatformState columns ``c`` (``robot_rows``: the joints of the
-    RobotState of each state row, :class:`~.checks_robot.RobotRows`, or None)."""
+    RobotState of each state row, :class:`~.checks_robot.RobotRows`, or None; ``recorded``: what
+    :func:`read_records` gave, read here when None)."""
     t = bag.topic(PROGRAM_TOPIC)
     if t is None or len(t) == 0:
         why = 'no record of the stream (gpr/program): a recording of an older node'
         return [skipped('topic.program', PROGRAM_TOPIC, '', why),
                 skipped('stream.program', PROGRAM_TOPIC, 'm|rad', why, max(tol.position, tol.angle))]
-    records, problems = _records(bag)
+    records, problems = recorded if recorded is not None else read_records(bag)
+    problems = list(problems)
     errors = np.full(len(samples), np.inf)
     if records:
-        owner = np.searchsorted([r.first_sample for r in records], samples, side='right') - 1
+        owner = owners(records, samples)
         q, ct, ca = matrix(c['q'], 3), np.asarray(c['commanded_tilt'], float), np.asarray(c['commanded_azimuth'], float)
         for k, record in enumerate(records):
             rows = np.flatnonzero(owner == k)

@@ -13,11 +13,15 @@
   base frame), and the points of :func:`.markers.marker_points` for that state (rod tops = joint centres
   ``P_k``, the platform triangle, the naive outline) within 1e-12 m. Markers may be published for every n-th
   sample only (``markers_every``), so a state without markers is not a failure by itself; markers without a state
-  are, and so is a gap: ``markers_sequence`` takes ``n`` as the smallest step between the counters of the samples
-  that have markers, and every sample from the first to the last of them whose counter is a multiple of ``n`` steps
-  from the first must have its markers, and no other (a MarkerArray removed mid-stream passed before: 1927 markers
-  for 1928 states). Removing every other one of a stream with markers at every sample is not seen: it is what
-  ``markers_every: 2`` records.
+  are, and so is a gap: ``markers_sequence`` takes ``n`` as the stream's ``markers_every`` recorded on
+  ``gpr/program`` (:mod:`.program_record`), and every sample whose counter is a multiple of ``n``
+  (:func:`~gpr_kinematics.robot.markers.marked`, as the node decides) must have its markers, and no other: removing
+  every other MarkerArray of a stream with markers at every sample fails at the first one removed. For samples no
+  record with ``markers_every`` covers (recordings before it was recorded, such as the reference bag) ``n`` is
+  inferred as the smallest step between the counters of their samples that have markers, counted from the first
+  of them (a MarkerArray removed mid-stream passed before: 1927 markers for 1928 states); removing every other one
+  is then what ``markers_every: 2`` records, and passes. Either way a sample before the first or after the last
+  marked one is not missing (below).
 
 A sample before the first or after the last message of a companion topic is not counted as missing: a
 recording started, or cut by SIGKILL, in the middle of a sample holds only part of that sample's messages.
@@ -35,7 +39,7 @@ from numpy.typing import NDArray
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..core.rotations import matrix_from_quaternion
-from ..robot.markers import ADD, MARKERS, marker_points
+from ..robot.markers import ADD, MARKERS, marked, marker_points
 from .cdr import COUNT, Columns
 from .columns import field_matrix, matrix, stamp_ns, vec
 from .reader import Bag, TopicData
@@ -195,22 +199,51 @@ def _marker_errors(mc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c
     return err
 
 
-def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """Per state: a gap or an irregular sample of the markers' sequence (module docstring, ``markers_sequence``)."""
-    has = np.zeros(len(samples), dtype=bool)
-    has[rows] = True
-    marked = samples[rows]
-    steps = np.diff(marked)
-    if marked.size < 2 or not np.any(steps > 0):
+def _inferred_gaps(samples: NDArray[np.int64], has: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per state: a gap or an irregular sample of the markers' sequence every ``n`` from the first marked state,
+    ``n`` the smallest step between the counters of the marked ones (module docstring)."""
+    marked_samples = samples[has]
+    steps = np.diff(marked_samples)
+    if marked_samples.size < 2 or not np.any(steps > 0):
         return np.zeros(len(samples), dtype=bool)
-    n, first, last = int(np.min(steps[steps > 0])), int(marked.min()), int(marked.max())
+    n, first, last = int(np.min(steps[steps > 0])), int(marked_samples.min()), int(marked_samples.max())
     on = (samples - first) % n == 0
     inside = (samples >= first) & (samples <= last)
     out: NDArray[np.bool_] = (inside & on & ~has) | (has & ~on)
     return out
 
 
-def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float) -> list[Check]:
+def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64], every: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per state: a gap or an irregular sample of the markers' sequence (module docstring, ``markers_sequence``):
+    where ``every`` (the recorded ``markers_every`` per state, 0: none) is known, the counters :func:`marked` by it
+    between the first and the last marked state; elsewhere the cadence inferred from those states alone."""
+    has = np.zeros(len(samples), dtype=bool)
+    has[rows] = True
+    known = every > 0
+    out = np.zeros(len(samples), dtype=bool)
+    if np.any(~known):
+        out[~known] = _inferred_gaps(samples[~known], has[~known])
+    if np.any(known) and rows.size:
+        first, last = samples[rows].min(), samples[rows].max()
+        on = known & marked(samples, np.maximum(every, 1))
+        inside = (samples >= first) & (samples <= last)
+        out |= known & ((inside & on & ~has) | (has & ~on))
+    return out
+
+
+def _sequence_detail(every: NDArray[np.int64]) -> str:
+    """What ``markers_sequence`` held the states to: the recorded ``markers_every`` values and/or the inferred n."""
+    recorded = sorted({int(n) for n in every if n > 0})
+    parts = [f'a counter that is a multiple of the recorded markers_every = {", ".join(map(str, recorded))}'] \
+        if recorded else []
+    if np.any(every <= 0):
+        parts.append('every n-th from the first marked sample, n the smallest step between marked counters '
+                     '(no markers_every recorded)')
+    return f"a sample of the markers' sequence ({'; '.join(parts)}) without its MarkerArray, or one out of it"
+
+
+def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float,
+                   every: NDArray[np.int64]) -> list[Check]:
     name = '/gpr/markers'
     t = _topic(bag, name)
     if t is None or len(t) == 0:
@@ -228,14 +261,17 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
     err = _marker_errors(mc, idx[rows], rows, c, expected)
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
                        'inf = structure, stamp, frame or pose differ; else the largest point error'),
-           bool_check('topic.markers_sequence', name, ~_marker_gaps(samples, rows), samples,
-                      'a sample of the markers\' sequence (every n-th) without its MarkerArray, or one out of it')]
+           bool_check('topic.markers_sequence', name, ~_marker_gaps(samples, rows, every), samples,
+                      _sequence_detail(every))]
     return out + [x for x in [extra('topic.markers', name, stamp_ns(mc, first + 'stamp'), stamps, rows.size)] if x]
 
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
-                 tol: float, arms: Any = None) -> list[Check]:
+                 tol: float, arms: Any = None, markers_every: NDArray[np.int64] | None = None) -> list[Check]:
     """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
-    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`)."""
+    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`; ``markers_every``: the
+    recorded cadence of the markers per state, 0 or None where none is recorded,
+    :func:`~.checks_program.marker_cadence`)."""
+    every = np.zeros(len(samples), dtype=np.int64) if markers_every is None else np.asarray(markers_every, np.int64)
     return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms)
-            + _marker_checks(bag, c, samples, cfg, tol))
+            + _marker_checks(bag, c, samples, cfg, tol, every))

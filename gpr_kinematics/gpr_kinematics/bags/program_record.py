@@ -14,7 +14,8 @@ whether it loops, which samples have markers (``markers_every``: those whose cou
 read), and the sweep's parameters or the program itself (:func:`program_dict`: every station and step
 inline, in SI units, as the node parsed it). :func:`expected` recomputes from a record, with the recorded geometry
 and robot, the numbers every sample must carry: the rods, the commanded tilt and azimuth and, for a robot program,
-every arm's joints (:mod:`.checks_program` compares them). SI units (m, rad, s).
+every arm's joints (:mod:`.checks_program` compares them); ``topic.markers_sequence`` (:mod:`.checks_topics`)
+checks the markers against ``markers_every``. SI units (m, rad, s).
 """
 from __future__ import annotations
 

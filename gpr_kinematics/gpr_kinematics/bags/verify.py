@@ -8,7 +8,8 @@ read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic,
 - ``topic.geometry`` (:mod:`.recorded_geometry`): the recorded geometry is one usable configuration;
 - ``state.*`` (:mod:`.checks_state`): every PlatformState against forward kinematics of its ``q``;
 - ``stream.*`` (:mod:`.checks_stream`): counters, stamps, jumps at singular crossings;
-- ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp;
+- ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp, the
+  markers' sequence against the recorded ``markers_every``;
 - ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
   against the robot's forward kinematics, with the recorded robot description (or a given one);
 - ``topic.program``, ``stream.program`` (:mod:`.checks_program`): every sample against its stream recomputed from the
@@ -32,7 +33,7 @@ from ..core import resolve_config
 from ..core.config import GprConfig
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
-from .checks_program import program_checks
+from .checks_program import marker_cadence, program_checks, read_records
 from .checks_robot import choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
@@ -101,9 +102,11 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol)
-            checks += state.checks + stream.checks + topic_checks(bag, c, samples, state.series, geo.config,
-                                                                  tol.consistency, robot_rows) + robot_part
-            checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol)
+            recorded = read_records(bag)
+            checks += state.checks + stream.checks + topic_checks(
+                bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
+                marker_cadence(recorded[0], samples)) + robot_part
+            checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
     if bag.namespace:
