@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from bag_support import MARKERS, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
-from gpr_kinematics.bags.synthetic import robot_program_messages
+from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
 from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PROGRAM_TOPIC, ROBOT_TOPIC
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.inputs.resources import config_path
@@ -145,6 +145,40 @@ def test_a_recording_started_late_and_cut_early_passes_with_a_recorded_markers_e
     result = verify_bag(write_bag(tmp_path / 'late', msgs, _types(msgs)))
     assert result.passed, [f.line() for f in result.failures]
     assert (_sequence(result).checked, result.counts[STATE]) == (19, 19)
+
+
+def _record(msgs: list[tuple[str, int, bytes]]) -> tuple[str, int, bytes]:
+    return next(m for m in msgs if m[0] == PROGRAM_TOPIC)
+
+
+@pytest.mark.parametrize('other, diff', [
+    (lambda: _record(small_sweep(markers_every=None))[2], 'markers_every (1 and absent)'),
+    (lambda: edited('std_msgs/msg/String', _record(small_sweep())[2],
+                    lambda m: dataclasses.replace(m, data=m.data.replace('loop: false', 'loop: true'))),
+     'loop (False and True)'),
+    (lambda: _record(sweep_messages(tilt_step=math.radians(0.5), azimuth_step=math.radians(60.0)))[2],
+     'samples (30 and 54), sweep')])
+def test_a_second_record_of_a_first_sample_that_differs_fails(tmp_path: Path, other: Any, diff: str) -> None:
+    """A record of sample 0 appended after the stream: which one governed was an accident of order, so every other
+    MarkerArray removed passed with a record without markers_every appended. Two records of one first sample that
+    differ now fail topic.program, naming the sample and the difference (the node publishes one per first sample)."""
+    msgs = [m for m in small_sweep() if not (m[0] == MARKERS and (m[1] // 1_000_000) % 2)]
+    result = verify_bag(write_bag(tmp_path / 'two', msgs + [(PROGRAM_TOPIC, msgs[-1][1] + 1, other())], _types(msgs)))
+    program = next(c for c in result.checks if c.name == 'topic.program')
+    assert (program.checked, program.failed) == (2, 1)
+    assert program.failures[0].detail == (f'two records of the stream from sample 0 differ in {diff}; allowed: one '
+                                          'record per first sample (the first one read is used)')
+    assert _failed(result)['topic.markers_sequence'] == set(range(1, 29, 2))   # the first record's markers_every: 1
+
+
+def test_the_same_record_recorded_twice_passes(tmp_path: Path) -> None:
+    """The same latched record received twice (a replay recorded again, a copy in a later segment) is one record."""
+    msgs = small_sweep()
+    bag = write_bag(tmp_path / 'twice', msgs + [(PROGRAM_TOPIC, msgs[-1][1] + 1, _record(msgs)[2])], _types(msgs),
+                    max_bag_duration=0.01)
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    assert (result.counts[PROGRAM_TOPIC], len(result.files) > 1) == (2, True)
 
 
 def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> None:

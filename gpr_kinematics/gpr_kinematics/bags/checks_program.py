@@ -2,8 +2,9 @@
 stream was asked to do (``gpr/program``, :mod:`.program_record`).
 
 - ``topic.program``: every recorded record parses (the package's YAML reader and bounds, known keys, a program of
-  either format), and recomputes (:func:`.program_record.expected`, with the geometry and the robot description
-  verified against) to as many samples as it says;
+  either format), no two records of one first sample differ (the node publishes one per first sample: an appended
+  one would decide the stream by the order of the messages), and it recomputes (:func:`.program_record.expected`,
+  with the geometry and the robot description verified against) to as many samples as it says;
 - ``stream.program``: each PlatformState, by its sample counter the sample ``i`` of the record that covers it (the
   last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
   [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
@@ -24,7 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.config import GprConfig
-from ..errors import GprError
+from ..errors import GprError, brief
+from ..inputs import safe_yaml
 from ..robot.description import RobotDescription
 from .cdr import Columns
 from .columns import matrix, wrapped
@@ -40,23 +42,49 @@ _DETAIL = 'inf = no recorded stream covers this sample (or it cannot be recomput
 Problem = tuple[str, float, float, str]
 
 
+_ABSENT = object()
+
+
+def _difference(first: str, other: str) -> str:
+    """The keys in which two records' YAML (both read by :func:`parse_record`) differ, a scalar's two values given
+    (``markers_every (1 and absent)``); empty when they read alike."""
+    a, b = (safe_yaml.load_text(text, PROGRAM_TOPIC) for text in (first, other))
+    assert isinstance(a, dict) and isinstance(b, dict)  # parse_record accepted both
+    parts = []
+    for key in dict.fromkeys([*a, *b]):
+        x, y = a.get(key, _ABSENT), b.get(key, _ABSENT)
+        if x == y:
+            continue
+        if isinstance(x, (dict, list)) or isinstance(y, (dict, list)):
+            parts.append(key)
+        else:
+            parts.append(f'{key} ({" and ".join("absent" if v is _ABSENT else brief(v) for v in (x, y))})')
+    return ', '.join(parts)
+
+
 def read_records(bag: Bag) -> tuple[list[Record], list[Problem]]:
     """The distinct records of the bag, by first sample, and what is wrong with the others (none without
-    :data:`PROGRAM_TOPIC`)."""
+    :data:`PROGRAM_TOPIC`): a text that is no record, or a second record of a first sample that differs from the
+    first one (the node publishes one record per first sample; the same one received twice is one record)."""
     t = bag.topic(PROGRAM_TOPIC)
     if t is None:
         return [], []
     if t.msgtype != GPR_TOPICS[PROGRAM_TOPIC]:
         return [], [(PROGRAM_TOPIC, 1.0, 0.0, f'type {t.msgtype}, not a std_msgs/msg/String')]
-    records: list[Record] = []
+    records: dict[int, tuple[Record, str]] = {}
     problems: list[Problem] = []
     for text in dict.fromkeys(str(v) for v in t.columns()['data']):
         try:
-            records.append(parse_record(text))
+            record = parse_record(text)
         except GprError as exc:
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'not a record of a stream: {exc}'))
-    records.sort(key=lambda r: r.first_sample)
-    return records, problems
+            continue
+        if record.first_sample not in records:
+            records[record.first_sample] = (record, text)
+        elif diff := _difference(records[record.first_sample][1], text):
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'two records of the stream from sample {record.first_sample} '
+                             f'differ in {diff}; allowed: one record per first sample (the first one read is used)'))
+    return [r for r, _ in sorted(records.values(), key=lambda rt: rt[0].first_sample)], problems
 
 
 def owners(records: list[Record], samples: NDArray[np.int64]) -> NDArray[np.int64]:

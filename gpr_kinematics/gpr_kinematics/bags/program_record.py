@@ -5,7 +5,7 @@ of every stream and read back by ``gpr verify``, which recomputes the stream fro
 recording then says *who* produced it, but not *what* it was asked to do: the rods of a robot program come from
 station inverse kinematics with the arms' default branches, home postures, redundancy rules and limits, none of which
 the recorded states show once the stream is made (a description whose ``branch: right`` was edited to ``left``
-still passed every check). So at the start of each stream the node publishes, on ``gpr/program``
+still passed every check). So with the first sample of each stream the node publishes, on ``gpr/program``
 (:data:`~.typestore.PROGRAM_TOPIC`, ``std_msgs/String``, reliable, transient local, depth 1), the YAML of a
 :class:`Record`: the kind of stream
 (``sweep``, ``platform_program``, ``robot_program``), the sample counter of its first sample, its length, the rate,

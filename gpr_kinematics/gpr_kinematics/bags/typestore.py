@@ -35,7 +35,7 @@ ROBOT_TOPIC = '/gpr/robot'
 ROBOT_STATE_TOPIC = '/gpr/robot_state'
 WAFER_POSE_TOPIC = '/gpr/wafer_pose'
 #: What each stream was asked to do (``std_msgs/String``: the YAML of a :class:`~.program_record.Record`), latched,
-#: published at the start of every stream.
+#: published with the first sample of every stream.
 PROGRAM_TOPIC = '/gpr/program'
 
 #: The robot's joint states (``sensor_msgs/JointState``: the rods, and the arm joints in a robot program), on the

@@ -15,10 +15,11 @@ Topics (relative names), frame ``gpr_base`` (``base_frame``; every frame with ``
   (geometry_msgs/PoseStamped), both in the robot's world frame (:mod:`gpr_kinematics.robot.stream`);
 - ``gpr/geometry`` and ``gpr/robot`` (std_msgs/String, reliable, transient local, depth 1): published once at
   start, the YAML of the node's ``GprConfig.to_dict()`` and of its robot description (``RobotDescription.to_dict``),
-  so a recording names the geometry, model and robot that produced it; ``gpr/program`` (the same QoS): at the start
-  of every stream, what it was asked to do (the sweep's parameters or the program, its first sample counter, rate,
-  length and ``markers_every``: :mod:`gpr_kinematics.bags.program_record`), so ``gpr verify`` recomputes the stream
-  and knows which samples have markers.
+  so a recording names the geometry, model and robot that produced it; ``gpr/program`` (the same QoS): as the first
+  sample of every stream goes out, what it was asked to do (the sweep's parameters or the program, its first sample
+  counter, rate, length and ``markers_every``: :mod:`gpr_kinematics.bags.program_record`), so ``gpr verify``
+  recomputes the stream and knows which samples have markers. A goal cancelled before its first sample publishes no
+  record: the next stream starts at the same counter, and one counter has one record.
 
 Modes (parameter ``mode``, read-only): ``sweep`` -- the paper's grid (core ``sweep.paper_sweep``): for each
 azimuth ``gamma`` in steps of ``azimuth_step``, the tilt ``alpha`` from ``-max_tilt`` to ``+max_tilt`` in steps of
@@ -151,6 +152,7 @@ class TrajectoryNode(GprNode):
 
         self.sample = 0
         self.stream: Trajectory | None = None
+        self._record_due = False   # the stream's record is published with its first sample
         self.goal: ServerGoalHandle | None = None
         self._goal_done: GoalEnd | None = None
         self._reserved = False
@@ -187,11 +189,10 @@ class TrajectoryNode(GprNode):
         return MultiThreadedExecutor(num_threads=THREADS)
 
     def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: GoalEnd | None = None) -> None:
-        """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end)."""
-        self.pub_program.publish(String(data=record_of(traj, self.sample, float(self.p['rate']),
-                                                       bool(self.p['loop']) and goal is None,
-                                                       float(self.p['move_time']), int(self.p['markers_every']))))
+        """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end; its record with its
+        first sample, :meth:`_step`)."""
         self.stream, self.goal, self._goal_done = traj, goal, done
+        self._record_due = True
         self.index = 0
         self.started_at = None
         self._wait_start = time.monotonic()
@@ -256,6 +257,11 @@ class TrajectoryNode(GprNode):
         if self.goal is not None and self.goal.is_cancel_requested:
             self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({self._where(traj)})')
             return False
+        if self._record_due:   # after the cancel: a stream that publishes no sample publishes no record
+            self._record_due = False
+            self.pub_program.publish(String(data=record_of(
+                traj, self.sample, float(self.p['rate']), bool(self.p['loop']) and self.goal is None,
+                float(self.p['move_time']), int(self.p['markers_every']))))
         try:
             self.publish_sample(traj, self.index)
         except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback
