@@ -181,6 +181,43 @@ def test_the_same_record_recorded_twice_passes(tmp_path: Path) -> None:
     assert (result.counts[PROGRAM_TOPIC], len(result.files) > 1) == (2, True)
 
 
+def test_every_marker_array_removed_fails_from_the_first_one_due(sweep: Path, tmp_path: Path) -> None:
+    """The markers topic recorded, its every message removed: 'no markers in the bag' skipped the markers and the bag
+    passed. The record says markers_every: 1, so samples 1 to 28 fail (0 and 29, the first and last state, are where
+    a recording started or cut in the middle of a sample ends, not counted, as on every companion topic)."""
+    result = verify_bag(tampered(sweep, tmp_path / 'none', lambda topic, i, raw: None if topic == MARKERS else raw))
+    assert result.counts[MARKERS] == 0 and set(_failed(result)) == {'topic.markers_sequence'}
+    check = _sequence(result)
+    assert (check.checked, check.failed, check.failures[0].sample) == (30, 28, 1)
+    assert result.failures[0].detail.startswith('the markers topic is recorded without a message; a sample of the '
+                                                "markers' sequence (a counter that is a multiple of the recorded "
+                                                'markers_every = 1)')
+
+
+@pytest.mark.parametrize('every, states, fails', [
+    (10, (1, 9), set()),          # stopped before the first marked sample after 0, which it started after
+    (100, (1, 29), set()),        # a stream shorter than markers_every: sample 0's markers only
+    (5, (6, 10), set()),          # 10 due, the last state: its MarkerArray may be lost to a cut mid-sample
+    (5, (6, 11), {10}),           # 10 due between the first and the last state
+    (None, (1, 29), set())])      # no recorded markers_every: nothing is known to be due
+def test_an_empty_markers_topic_fails_only_where_markers_were_due(tmp_path: Path, every: int | None,
+                                                                   states: tuple[int, int], fails: set[int]) -> None:
+    start, period = 1_700_000_000_000_000_000, 1_000_000
+    msgs = [m for m in small_sweep(markers_every=every) if m[0] in (GEOMETRY_TOPIC, PROGRAM_TOPIC)
+            or (m[0] != MARKERS and states[0] <= (m[1] - start) // period <= states[1])]
+    result = verify_bag(write_bag(tmp_path / 'empty', msgs, {**_types(msgs), MARKERS: GPR_TOPICS[MARKERS]}))
+    assert (result.counts[MARKERS], result.counts[STATE]) == (0, states[1] - states[0] + 1)
+    assert _failed(result) == ({'topic.markers_sequence': fails} if fails else {})
+
+
+def test_a_recording_without_the_markers_topic_passes(sweep: Path, tmp_path: Path) -> None:
+    """A recorder whose topics leave out gpr/markers (its topic list is a parameter): nothing says markers are due."""
+    msgs = [m for m in small_sweep() if m[0] != MARKERS]
+    result = verify_bag(write_bag(tmp_path / 'without', msgs, _types(msgs)))
+    assert result.passed and MARKERS not in result.counts
+    assert next(c for c in result.checks if c.name == 'topic.markers').skipped == 'no markers in the bag'
+
+
 def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> None:
     def json(info: dict[str, Any]) -> None:
         for t in info['topics_with_message_count']:

@@ -21,7 +21,9 @@
   inferred as the smallest step between the counters of their samples that have markers, counted from the first
   of them (a MarkerArray removed mid-stream passed before: 1927 markers for 1928 states); removing every other one
   is then what ``markers_every: 2`` records, and passes. Either way a sample before the first or after the last
-  marked one is not missing (below).
+  marked one is not missing (below). The topic recorded without a message (every MarkerArray removed passed as
+  "no markers in the bag"): the samples a recorded ``markers_every`` marks between the first and the last state
+  fail ``markers_sequence``; a bag without the topic skips the markers.
 
 A sample before the first or after the last message of a companion topic is not counted as missing: a
 recording started, or cut by SIGKILL, in the middle of a sample holds only part of that sample's messages.
@@ -242,12 +244,28 @@ def _sequence_detail(every: NDArray[np.int64]) -> str:
     return f"a sample of the markers' sequence ({'; '.join(parts)}) without its MarkerArray, or one out of it"
 
 
+def _no_marker_checks(name: str, samples: NDArray[np.int64], tol: float, every: NDArray[np.int64]) -> list[Check]:
+    """The markers topic recorded without a message: skipped, unless a recorded ``markers_every`` says a sample
+    between the first and the last state had its MarkerArray (the end states' may be lost to a recording started
+    or cut in the middle of a sample, as on every companion topic); those fail ``markers_sequence``."""
+    due = (every > 0) & marked(samples, np.maximum(every, 1))
+    if samples.size:
+        due &= (samples > samples.min()) & (samples < samples.max())
+    if not np.any(due):
+        return [skipped('topic.markers', name, 'm', 'no markers in the bag', tol)]
+    return [skipped('topic.markers', name, 'm', 'no markers in the bag (their sequence fails)', tol),
+            bool_check('topic.markers_sequence', name, ~due, samples,
+                       f'the markers topic is recorded without a message; {_sequence_detail(every)}')]
+
+
 def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float,
                    every: NDArray[np.int64]) -> list[Check]:
     name = '/gpr/markers'
     t = _topic(bag, name)
-    if t is None or len(t) == 0:
+    if t is None:
         return [skipped('topic.markers', name, 'm', 'no markers in the bag', tol)]
+    if len(t) == 0:
+        return _no_marker_checks(name, samples, tol, every)
     mc = t.columns()
     first = 'markers[0].header.'
     if first + 'frame_id' not in mc:
