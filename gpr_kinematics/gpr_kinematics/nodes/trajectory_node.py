@@ -191,8 +191,8 @@ class TrajectoryNode(GprNode):
     def start(self, traj: Trajectory, goal: ServerGoalHandle | None = None, done: GoalEnd | None = None) -> None:
         """Publish ``traj`` from the next tick on (for ``goal``, completing ``done`` at the end; its record with its
         first sample, :meth:`_step`)."""
+        self._record_due = True   # before the stream: a tick that sees the stream sees its record due
         self.stream, self.goal, self._goal_done = traj, goal, done
-        self._record_due = True
         self.index = 0
         self.started_at = None
         self._wait_start = time.monotonic()
