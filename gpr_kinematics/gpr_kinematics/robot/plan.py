@@ -195,8 +195,9 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
             tail = f' (and {more} more waypoint{"s" if more > 1 else ""})' if more else ''
             raise LimitError(f'{program.source}: {plan_labels[i]}: {exc}{tail}') from None
     positions = _held_positions(robot, rods, own, slices)
+    jerk = jerk_limits(robot)
     if rate is not None:
-        least = least_total(positions, velocity, acceleration, jerk_limits(robot), way.time, way.dwell)
+        least = least_total(positions, velocity, acceleration, jerk, way.time, way.dwell)
         check_sample_count(program, rate, least, "its dwells and its moves' least times within the joints' limits")
     D = np.abs(np.diff(positions, axis=0))
     gains = (D, np.zeros(D.shape), np.zeros(D.shape))
@@ -208,8 +209,8 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
             g = line_gains(robot.arm(way.arm[m + 1]), cols, move_rows(robot, way, positions, m, grid, label), label)
             for k in range(3):
                 gains[k][m] = g[k]
-        timing = parameterise(positions, velocity, acceleration, way.time, way.dwell, names, plan_labels,
-                              jerk_limits(robot), gains)
+        timing = parameterise(positions, velocity, acceleration, way.time, way.dwell, names, plan_labels, jerk,
+                              gains)
     except LimitError as exc:
         raise LimitError(f'{program.source}: {exc}') from None
     if rate is not None:   # the count itself, before anything is sampled or written

@@ -163,15 +163,14 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
     check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
-    J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
-    for i, row in enumerate(J):
-        for k, value in enumerate(row):
-            why = _beyond_a_turn(a, float(value), k)
-            if why is not None:
-                row_of = f' (row {i + 1})' if J.shape[0] > 1 else ''
-                raise InputError(f'old joints{row_of}: {why}; in degrees? give them in radians (or --deg to gpr robot '
-                                 'teach)')
-    old = robot_forward(robot, Q, J, a.name, check_limits=False)
+    theta = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
+    beyond = (theta < a.lower - OLD_JOINT_SLACK) | (theta > a.upper + OLD_JOINT_SLACK)
+    if beyond.any():   # the first such value, by row then joint
+        i, k = (int(x) for x in np.argwhere(beyond)[0])
+        row_of = f' (row {i + 1})' if theta.shape[0] > 1 else ''
+        raise InputError(f'old joints{row_of}: {_beyond_a_turn(a, float(theta[i, k]), k)}; in degrees? give them in '
+                         'radians (or --deg to gpr robot teach)')
+    old = robot_forward(robot, Q, theta, a.name, check_limits=False)
     intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
     if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
         intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
