@@ -121,17 +121,16 @@ def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64
 
 def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,
                    robot: RobotDescription | None, robot_rows: Any, tol: Tolerances,
-                   recorded: tuple[list[Record], list[Problem]] | None = None) -> list[Check]:
+                   recorded: tuple[list[Record], list[Problem]]) -> list[Check]:
     """The checks of the module docstring for the PlatformState columns ``c`` (``robot_rows``: the joints of the
     RobotState of each state row, :class:`~.checks_robot.RobotRows`, or None; ``recorded``: what
-    :func:`read_records` gave, read here when None)."""
+    :func:`read_records` gave)."""
     t = bag.topic(PROGRAM_TOPIC)
     if t is None or len(t) == 0:
         why = 'no record of the stream (gpr/program): a recording of an older node'
         return [skipped('topic.program', PROGRAM_TOPIC, '', why),
                 skipped('stream.program', PROGRAM_TOPIC, 'm|rad', why, max(tol.position, tol.angle))]
-    records, problems = recorded if recorded is not None else read_records(bag)
-    problems = list(problems)
+    records, problems = recorded[0], list(recorded[1])
     errors = np.full(len(samples), np.inf)
     if records:
         owner = owners(records, samples)

@@ -215,6 +215,12 @@ def _inferred_gaps(samples: NDArray[np.int64], has: NDArray[np.bool_]) -> NDArra
     return out
 
 
+def _recorded_marks(samples: NDArray[np.int64], every: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per state: whether a recorded ``every`` (0: none) marks its counter (:func:`marked`)."""
+    out: NDArray[np.bool_] = (every > 0) & marked(samples, np.maximum(every, 1))
+    return out
+
+
 def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64], every: NDArray[np.int64]) -> NDArray[np.bool_]:
     """Per state: a gap or an irregular sample of the markers' sequence (module docstring, ``markers_sequence``):
     where ``every`` (the recorded ``markers_every`` per state, 0: none) is known, the counters :func:`marked` by it
@@ -227,7 +233,7 @@ def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64], every: NDA
         out[~known] = _inferred_gaps(samples[~known], has[~known])
     if np.any(known) and rows.size:
         first, last = samples[rows].min(), samples[rows].max()
-        on = known & marked(samples, np.maximum(every, 1))
+        on = _recorded_marks(samples, every)
         inside = (samples >= first) & (samples <= last)
         out |= known & ((inside & on & ~has) | (has & ~on))
     return out
@@ -248,7 +254,7 @@ def _no_marker_checks(name: str, samples: NDArray[np.int64], tol: float, every: 
     """The markers topic recorded without a message: skipped, unless a recorded ``markers_every`` says a sample
     between the first and the last state had its MarkerArray (the end states' may be lost to a recording started
     or cut in the middle of a sample, as on every companion topic); those fail ``markers_sequence``."""
-    due = (every > 0) & marked(samples, np.maximum(every, 1))
+    due = _recorded_marks(samples, every)
     if samples.size:
         due &= (samples > samples.min()) & (samples < samples.max())
     if not np.any(due):
@@ -285,11 +291,10 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
 
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
-                 tol: float, arms: Any = None, markers_every: NDArray[np.int64] | None = None) -> list[Check]:
+                 tol: float, arms: Any, markers_every: NDArray[np.int64]) -> list[Check]:
     """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
-    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`; ``markers_every``: the
-    recorded cadence of the markers per state, 0 or None where none is recorded,
-    :func:`~.checks_program.marker_cadence`)."""
-    every = np.zeros(len(samples), dtype=np.int64) if markers_every is None else np.asarray(markers_every, np.int64)
+    joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`, or None; ``markers_every``: the
+    recorded cadence of the markers per state, 0 where none is recorded, :func:`~.checks_program.marker_cadence`)."""
+    every = np.asarray(markers_every, np.int64)
     return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms)
             + _marker_checks(bag, c, samples, cfg, tol, every))
