@@ -80,6 +80,22 @@ def test_too_fast_a_move_refused_with_its_step(tmp_path):
         plan_program(ROBOT, p)
 
 
+def test_too_fast_a_move_is_named_before_the_sample_count(tmp_path):
+    """A rate whose samples the program would exceed once its too-short move is lengthened: the move is what is
+    wrong, named as without a rate (it read "more than 200000 samples" first: the least times take the longer of
+    the requested and the least time)."""
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [0.75, 1.1, 0.3], 'heading': 1.5}],
+                      [{'move': 'a'}, {'move': 'b', 'time': 0.2}, {'move': 'a', 'time': 60.0}])
+    with pytest.raises(LimitError) as plain:
+        plan_program(ROBOT, p)
+    with pytest.raises(LimitError) as rated:
+        plan_program(ROBOT, p, rate=4000.0)
+    assert str(rated.value) == str(plain.value)
+    assert 'steps[1] (move b, move) needs at least' in str(rated.value) and 'time = 0.2 s is too short' in str(
+        rated.value)
+
+
 @pytest.mark.slow
 def test_a_thousand_station_program(tmp_path):
     rng = np.random.default_rng(3)
@@ -155,7 +171,7 @@ def test_a_timed_move_of_no_length_holds_for_its_time(tmp_path):
     assert plan.timing.total == 50.0 and list(plan.timing.duration) == [50.0]
     _, velocity, acceleration, _ = joint_limits(ROBOT)
     bound = least_total(plan.positions, velocity, acceleration, jerk_limits(ROBOT), plan.waypoints.time,
-                        plan.waypoints.dwell)
+                        plan.waypoints.dwell, plan.joint_names, plan.labels)
     assert bound == pytest.approx(50.0, rel=2e-9) and bound <= 50.0
     samples = sample_plan(plan, 10.0)
     assert len(samples) == 501 and np.array_equal(samples.samples.positions, np.repeat(plan.positions[:1], 501, axis=0))
@@ -175,7 +191,7 @@ def test_the_least_duration_bounds_the_example_programs(name, least):
     plan = plan_program(ROBOT, program)
     _, velocity, acceleration, _ = joint_limits(ROBOT)
     bound = least_total(plan.positions, velocity, acceleration, jerk_limits(ROBOT), plan.waypoints.time,
-                        plan.waypoints.dwell)
+                        plan.waypoints.dwell, plan.joint_names, plan.labels)
     assert bound == pytest.approx(least, rel=2e-9) and bound < plan.timing.total
     assert plan.timing.total == {'example_robot_program': pytest.approx(least, rel=1e-12),
                                  'example_cell_program': pytest.approx(59.58197148682389, rel=1e-9)}[name]

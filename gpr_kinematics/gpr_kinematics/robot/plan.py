@@ -197,7 +197,10 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
     positions = _held_positions(robot, rods, own, slices)
     jerk = jerk_limits(robot)
     if rate is not None:
-        least = least_total(positions, velocity, acceleration, jerk, way.time, way.dwell)
+        try:
+            least = least_total(positions, velocity, acceleration, jerk, way.time, way.dwell, names, plan_labels)
+        except LimitError as exc:
+            raise LimitError(f'{program.source}: {exc}') from None
         check_sample_count(program, rate, least, "its dwells and its moves' least times within the joints' limits")
     D = np.abs(np.diff(positions, axis=0))
     gains = (D, np.zeros(D.shape), np.zeros(D.shape))

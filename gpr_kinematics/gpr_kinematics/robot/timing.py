@@ -10,8 +10,7 @@ and, on a curved path, ``G2_k = max |d^2P_k/ds^2|``, ``G3_k = max |d^3P_k/ds^3|`
 and jerk are at most ``G1 V``, ``G1 A + G2 V^2`` and ``G1 J + 3 G2 V A + G3 V^3`` (chain rule); the profile takes
 ``V = min_k v_k / G1_k``, ``A = min_k a_k / G1_k``, ``J = min_k j_k / G1_k`` on a joint-space line and, on a curved
 path, the ``(V, A, J)`` of the shortest move for which the three bounds hold (:func:`fastest_limits`), so that no
-higher limit lengthens a move. (Scaling time by ``c <= 1``, ``V c``, ``A c^2``, ``J c^3``, until they held did:
-``3 G2 V A`` grew with ``A`` and ``V``.)
+higher limit lengthens a move.
 
 Profile of a unit move (``v`` the cruise speed reached, ``t_a`` the time to reach it, ``d_a = v t_a / 2`` the
 distance then): with ``v J >= A^2`` the acceleration saturates, ``t_a = v/A + A/J``; else it peaks at
@@ -297,22 +296,30 @@ def shortest(D: Array, velocity: Array, acceleration: Array, jerk: Array | None 
 
 
 def least_total(positions: Array, velocity: Array, acceleration: Array, jerk: Array, requested: Array,
-                dwell: Array) -> float:
-    """A lower bound of :func:`parameterise`'s total duration [s] on any paths between the waypoints, without their
-    gains: the dwells plus, per move, the longer of its requested time and :func:`shortest`'s ``T_min`` of the
-    joint-space line (exact on a joint-space line; a curved path has ``G1_k >= |D_k|`` by the mean value theorem, so
-    lower ``V``, ``A``, ``J`` and a longer move), less 1e-9 of it for rounding (a move of no length lasts its requested
-    time, as in :func:`parameterise`)."""
-    T = shortest(np.diff(positions, axis=0), velocity, acceleration, jerk)[2]
+                dwell: Array, names: tuple[str, ...], labels: tuple[str, ...]) -> float:
+    """A lower bound of :func:`parameterise`'s total duration [s] on any paths: the dwells plus, per move, the longer of
+    its time and the joint-space line's ``T_min`` (:func:`shortest`; a curved path is longer), less 1e-9 for rounding.
+    LimitError: a requested time below that ``T_min``, as :func:`parameterise` words it (``names``, ``labels``)."""
+    D = np.diff(positions, axis=0)
+    T = shortest(D, velocity, acceleration, jerk)[2]
     req = requested[1:]
+    _refuse_short(D, T, req, velocity, acceleration, names, labels)
     T = np.where(np.isfinite(req), np.maximum(req, T), T)
     return float(np.sum(dwell[:-1] + T) + dwell[-1]) * (1.0 - 1e-9)   # less the sums' and bisection's rounding
 
 
-def joint_time(d: Array, v: Array, a: Array) -> Array:
-    """Shortest time of each joint's move alone (for messages): ``d/v + v/a`` or ``2 sqrt(d/a)``."""
-    d = np.abs(d)
-    return np.where(d * a >= v * v, d / v + v / a, 2.0 * np.sqrt(d / a))
+def _refuse_short(D: Array, T_min: Array, req: Array, velocity: Array, acceleration: Array, names: tuple[str, ...],
+                  labels: tuple[str, ...]) -> None:
+    """LimitError for the first move whose time ``req`` (NaN: none) is below ``T_min`` [s], naming the slowest joint."""
+    short = np.isfinite(req) & (req < T_min * (1.0 - 1e-12))
+    if short.any():
+        i = int(np.argmax(short))
+        d, v, a = np.abs(D[i]), velocity, acceleration
+        t = np.where(d * a >= v * v, d / v + v / a, 2.0 * np.sqrt(d / a))
+        k = int(np.argmax(t))
+        raise LimitError(f'the move into {labels[i + 1]} needs at least {T_min[i]:.4g} s within the limits, time = '
+                         f'{req[i]:.4g} s is too short ({names[k]} alone needs {t[k]:.4g} s at {velocity[k]:g} /s and '
+                         f'{acceleration[k]:g} /s^2)')
 
 
 def parameterise(positions: Array, velocity: Array, acceleration: Array, requested: Array, dwell: Array,
@@ -345,14 +352,7 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     T_min = p.T
     req = requested[1:]
     given = np.isfinite(req)
-    short = given & (req < T_min * (1.0 - 1e-12))
-    if short.any():
-        i = int(np.argmax(short))
-        t = joint_time(D[i], velocity, acceleration)
-        k = int(np.argmax(t))
-        raise LimitError(f'the move into {labels[i + 1]} needs at least {T_min[i]:.4g} s within the limits, time = '
-                         f'{req[i]:.4g} s is too short ({names[k]} alone needs {t[k]:.4g} s at {velocity[k]:g} /s and '
-                         f'{acceleration[k]:g} /s^2)')
+    _refuse_short(D, T_min, req, velocity, acceleration, names, labels)
     if given.any():
         slow = stretched(p, A, J, np.where(given, req, T_min))
         fields = ('v', 'a', 'j', 'tj', 'tc', 'ta', 'T')
