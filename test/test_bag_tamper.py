@@ -15,8 +15,15 @@ import numpy as np
 import pytest
 from bag_support import MARKERS, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
+from gpr_kinematics.bags.results import MAX_DETAILS
 from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
-from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PROGRAM_TOPIC, ROBOT_TOPIC
+from gpr_kinematics.bags.typestore import (
+    GEOMETRY_TOPIC,
+    GPR_TOPICS,
+    PLATFORM_STREAM_TOPICS,
+    PROGRAM_TOPIC,
+    ROBOT_TOPIC,
+)
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot
@@ -133,18 +140,156 @@ def test_a_record_with_a_bad_markers_every_is_refused(sweep: Path, tmp_path: Pat
                                          "integer from 1 to 100000 (trajectory_node's markers_every)")
 
 
-def test_a_recording_started_late_and_cut_early_passes_with_a_recorded_markers_every(tmp_path: Path) -> None:
-    """markers_every: 3 recorded; the recorder's states begin at sample 7 and end at 25, its markers begin later
-    (sample 12: 9 had one the recorder did not yet receive) and end earlier (18: 21 and 24 had theirs): an honest
-    recording, every sample between its first and last MarkerArray at a multiple of 3 has one, and it passes."""
+@pytest.mark.parametrize('states, markers, fails', [
+    ((7, 24), (11, 23), set()),        # 24 due, the last state: its MarkerArray lost to a cut mid-sample
+    ((7, 23), (11, 23), set()),        # 22 and 23 are not marked: the allowance runs to the next marked sample
+    ((7, 25), (11, 23), {24}),         # 24 due, and the recording went on to 25
+    ((7, 25), (11, 20), {21, 24})])    # the markers' tail removed beyond the allowance
+def test_a_recording_started_late_and_cut_mid_sample_passes_with_a_recorded_markers_every(
+        tmp_path: Path, states: tuple[int, int], markers: tuple[int, int], fails: set[int]) -> None:
+    """markers_every: 3 recorded; the recorder's states begin at sample 7, its markers later (sample 12: 9 had one
+    the recorder did not yet receive: discovery matches each topic on its own). At the end the node publishes a
+    sample's messages in one tick and a cut stops every topic at once: after the last MarkerArray (21) the states may
+    go on to the next marked sample (24), whose MarkerArray a cut mid-sample lost, and no further."""
     start, period = 1_700_000_000_000_000_000, 1_000_000
-    span = {MARKERS: (11, 20)}
+    span = {MARKERS: markers}
     msgs = [m for m in small_sweep(markers_every=3) if m[0] in (GEOMETRY_TOPIC, PROGRAM_TOPIC)
-            or span.get(m[0], (7, 25))[0] <= (m[1] - start) // period <= span.get(m[0], (7, 25))[1]]
-    assert [(m[1] - start) // period for m in msgs if m[0] == MARKERS] == [12, 15, 18]
+            or span.get(m[0], states)[0] <= (m[1] - start) // period <= span.get(m[0], states)[1]]
+    assert [(m[1] - start) // period for m in msgs if m[0] == MARKERS][0] == 12
     result = verify_bag(write_bag(tmp_path / 'late', msgs, _types(msgs)))
+    assert _failed(result) == ({'topic.markers_sequence': fails} if fails else {})
+    assert (_sequence(result).checked, result.counts[STATE]) == (states[1] - 6, states[1] - 6)
+    if fails:
+        assert result.failures[0].detail.endswith(
+            f'; {len(fails)} of them after the last MarkerArray (samples {min(fails)} to {max(fails)}; a recording '
+            "cut in the middle of a sample lacks only the last sample's)")
+
+
+#: The companion topics of a sweep and the check that counts a message missing from each.
+SWEEP_COMPANIONS = {'/gpr/platform_pose': 'topic.platform_pose', '/gpr/nominal_pose': 'topic.nominal_pose',
+                    '/joint_states': 'topic.joint_states', '/gpr/virtual_joints': 'topic.virtual_joints',
+                    MARKERS: 'topic.markers_sequence'}
+
+
+def _tail_removed(name: str, keep: int) -> Any:
+    return lambda topic, i, raw: None if topic == name and i >= keep else raw
+
+
+@pytest.mark.parametrize('topic', SWEEP_COMPANIONS)
+@pytest.mark.parametrize('removed, fails', [
+    (1, set()),                       # the last sample's: a recording cut (SIGKILL) in the middle of it
+    (2, {28}),
+    (20, set(range(10, 29))),
+    (29, set(range(1, 29)))])         # every message after the first sample's
+def test_a_companion_topic_without_its_tail_fails(sweep: Path, tmp_path: Path, topic: str, removed: int,
+                                                  fails: set[int]) -> None:
+    """The last messages of a companion topic removed (the metadata recounted): a state after the topic's last
+    message was not counted as missing, so any tail removed passed. The node publishes all of a sample's messages
+    in one tick and a cut stops every topic at once, so only the last sample's may be missing: each other state
+    after the topic's last message fails, the topic and the samples named, and how many."""
+    result = verify_bag(tampered(sweep, tmp_path / 'cut', _tail_removed(topic, 30 - removed)))
+    assert result.counts[topic] == 30 - removed
+    if not fails:
+        assert result.passed, [f.line() for f in result.failures]
+        return
+    check = SWEEP_COMPANIONS[topic]
+    assert _failed(result) == {check: set(sorted(fails)[:MAX_DETAILS])}   # the first 20 named, all counted
+    failed = next(c for c in result.checks if c.name == check)
+    assert (failed.topic, failed.checked, failed.failed) == (topic, 30, len(fails))
+    where = 'of them after the last MarkerArray' if topic == MARKERS else "missing after the topic's last message"
+    assert failed.failures[0].detail.endswith(f'; {len(fails)} {where} (samples {min(fails)} to {max(fails)}; a '
+                                              "recording cut in the middle of a sample lacks only the last sample's)")
+
+
+@pytest.mark.parametrize('topic', [t for t in SWEEP_COMPANIONS if t != MARKERS])
+def test_a_companion_topic_recorded_without_a_message_fails_but_at_the_ends(sweep: Path, tmp_path: Path,
+                                                                             topic: str) -> None:
+    """Every message of the topic removed, the topic left listed: every state but the first and the last fails
+    (as the markers do where they were due: a recording started and cut in the middle of a sample)."""
+    result = verify_bag(tampered(sweep, tmp_path / 'empty', _tail_removed(topic, 0)))
+    check = next(c for c in result.checks if c.failed)
+    assert (result.counts[topic], check.name, check.topic, check.failed) == (0, SWEEP_COMPANIONS[topic], topic, 28)
+    assert {c.name for c in result.checks if c.failed} == {check.name}
+    assert [f.sample for f in check.failures] == list(range(1, 21))
+    assert check.failures[0].detail.endswith("; 28 missing of a topic without a message (samples 1 to 28; a "
+                                             "recording cut in the middle of a sample lacks only the last sample's)")
+
+
+ROBOT_STATE, WAFER_POSE = '/gpr/robot_state', '/gpr/wafer_pose'
+#: What a RobotState missing fails (the joint states' arm joints are those of the RobotState of the stamp).
+ROBOT_STATE_CHECKS = ('robot.structure', 'robot.wafer_position', 'robot.wafer_orientation', 'robot.blade',
+                      'robot.naive_wafer_error', 'topic.joint_states')
+
+
+@pytest.mark.parametrize('topic, checks', [(ROBOT_STATE, ROBOT_STATE_CHECKS), (WAFER_POSE, ('topic.wafer_pose',))])
+@pytest.mark.parametrize('removed, fails', [(1, set()), (2, {284}), (285, set(range(1, 285)))])
+def test_a_robot_topic_without_its_tail_fails(robot_bag: Path, tmp_path: Path, topic: str, checks: tuple[str, ...],
+                                              removed: int, fails: set[int]) -> None:
+    """The robot topics of a robot program's 286 samples likewise: the last sample's RobotState or wafer pose lost
+    to a cut passes (its joint states then carry arm joints no RobotState gives: their rods are checked), two or
+    all but the first removed fail at every state but the last (20 named, all counted)."""
+    result = verify_bag(tampered(robot_bag, tmp_path / 'cut', _tail_removed(topic, 286 - removed)))
+    if not fails:
+        assert result.passed, [f.line() for f in result.failures]
+        return
+    assert _failed(result) == dict.fromkeys(checks, set(sorted(fails)[:MAX_DETAILS]))
+    assert {(c.name, c.failed) for c in result.checks if c.failed} == {(name, len(fails)) for name in checks}
+    first = next(c for c in result.checks if c.name == checks[0]).failures[0]
+    assert (first.topic, first.sample) == (topic, min(fails))
+    assert first.detail.endswith(f"; {len(fails)} missing after the topic's last message (samples {min(fails)} to "
+                                 f"{max(fails)}; a recording cut in the middle of a sample lacks only the last "
+                                 "sample's)")
+
+
+def test_a_wafer_pose_topic_recorded_without_a_message_fails_but_at_the_ends(robot_bag: Path, tmp_path: Path) -> None:
+    """An emptied companion topic had no columns to match and verify raised KeyError; now it fails at every state
+    but the first and the last."""
+    result = verify_bag(tampered(robot_bag, tmp_path / 'empty', _tail_removed(WAFER_POSE, 0)))
+    assert {(c.name, c.failed) for c in result.checks if c.failed} == {('topic.wafer_pose', 284)}
+    assert result.failures[0].line() == (
+        'FAIL topic.wafer_pose on /gpr/wafer_pose at sample 1: value inf > limit 1e-12 (inf = no message with the '
+        'stamp and frame of this RobotState; 284 missing of a topic without a message (samples 1 to 284; a recording '
+        "cut in the middle of a sample lacks only the last sample's))")
+
+
+def _robot_then_sweep(tmp_path: Path) -> Path:
+    """A robot program's 286 samples, then a sweep's 30 (counters 286 to 315, its record's first sample 286): the
+    node runs a platform stream after a robot program (a goal of gpr/run_program), without RobotStates."""
+    robot = load_robot()
+    msgs = robot_program_messages(robot, load_program(config_path('programs/example_robot_program.yaml')), 10.0)
+
+    def later(topic: str, t: int, raw: bytes) -> tuple[str, int, bytes]:
+        if topic == STATE:
+            raw = edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(m, sample=m.sample + 286))
+        elif topic == PROGRAM_TOPIC:
+            raw = edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(
+                m, data=m.data.replace('first_sample: 0\n', 'first_sample: 286\n', 1)))
+        return topic, t, raw
+
+    sweep = small_sweep(config=robot.config, start_ns=msgs[-1][1] + 100_000_000,
+                        topics=(*PLATFORM_STREAM_TOPICS, PROGRAM_TOPIC))
+    return write_bag(tmp_path / 'robot_then_sweep', msgs + [later(*m) for m in sweep], dict(GPR_TOPICS))
+
+
+def test_robot_states_are_due_only_in_a_robot_program(tmp_path: Path) -> None:
+    """With the records (gpr/program) a RobotState is due for the samples of a robot program only: a sweep after
+    it has none, and the recording's last sample is the sweep's. So the robot program's last RobotState removed
+    fails (no cut lost it: the recording went on), and so does the topic emptied (listed, no message: skipped as
+    'no robot states' before), at every robot program sample but the first."""
+    bag = _robot_then_sweep(tmp_path)
+    result = verify_bag(bag)
     assert result.passed, [f.line() for f in result.failures]
-    assert (_sequence(result).checked, result.counts[STATE]) == (19, 19)
+    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (316, 286)
+    last = verify_bag(tampered(bag, tmp_path / 'last', _tail_removed(ROBOT_STATE, 285)))
+    assert _failed(last) == dict.fromkeys(ROBOT_STATE_CHECKS, {285})
+    empty = verify_bag(tampered(bag, tmp_path / 'empty', _tail_removed(ROBOT_STATE, 0)))
+    assert empty.counts[ROBOT_STATE] == 0
+    structure = next(c for c in empty.checks if c.name == 'robot.structure')
+    assert (structure.failed, structure.failures[0].sample, structure.failures[-1].sample) == (285, 1, 20)
+    assert structure.failures[0].detail == (
+        'the robot states topic is recorded without a message; a sample of a robot program (gpr/program) without '
+        'its RobotState (the first and the last state are not counted: a recording started or cut in the middle of '
+        'a sample)')
 
 
 def _record(msgs: list[tuple[str, int, bytes]]) -> tuple[str, int, bytes]:

@@ -15,7 +15,8 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
 
 A recording without a record (of a node before it was published) skips both; its commanded tilts are still checked
 against the states (``state.commanded``, :mod:`.checks_state`). The records are read once (:func:`read_records`) for
-these checks and for ``topic.markers_sequence`` (:func:`marker_cadence`, the recorded cadence of each state's markers).
+these checks, for ``topic.markers_sequence`` (:func:`marker_cadence`, the recorded cadence of each state's markers)
+and for ``robot.structure`` (:func:`robot_program_states`, the states that have RobotStates).
 """
 from __future__ import annotations
 
@@ -99,6 +100,16 @@ def marker_cadence(records: list[Record], samples: NDArray[np.int64]) -> NDArray
     none (recorded before records carried it)."""
     every = np.array([r.markers_every or 0 for r in records] + [0], dtype=np.int64)
     return every[owners(records, samples)]   # -1 (no record) reads the 0 appended
+
+
+def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> NDArray[np.bool_] | None:
+    """Per sample counter, whether the record that covers it is a robot program's (its samples have RobotStates);
+    None without records (a recording of an older node: every state counts)."""
+    if not records:
+        return None
+    robot = np.array([r.kind == 'robot_program' for r in records] + [False], dtype=bool)
+    out: NDArray[np.bool_] = robot[owners(records, samples)]
+    return out
 
 
 def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected

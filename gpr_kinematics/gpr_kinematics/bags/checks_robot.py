@@ -11,8 +11,10 @@ overrides it), with the geometry the platform is verified against (:mod:`.record
   :func:`gpr_kinematics.robot.description.parse_robot` accepts, its geometry inline (never a file name), whose
   ``gpr`` section equals the recorded geometry (under ``--config`` it is replaced by the given one instead);
 - ``robot.structure``: every RobotState has a PlatformState of its stamp with the same sample counter, the robot's
-  world frame, an arm of the robot and every arm's joints by the robot's names (and every PlatformState inside
-  the robot states' span has its RobotState);
+  world frame, an arm of the robot and every arm's joints by the robot's names, and every PlatformState of a robot
+  program (by the records on ``gpr/program``; every one in a recording without them) has its RobotState but at the
+  ends of the recording (:mod:`.checks_topics`: before the first RobotState, and the last sample's), also where
+  the topic is recorded without a message;
 - ``robot.wafer_position``, ``robot.wafer_orientation``, ``robot.blade``, ``robot.naive_wafer_error``: the stored
   poses and error against :func:`gpr_kinematics.robot.robot_forward` of the PlatformState's rods and the RobotState's
   joints of its arm (one batch per arm) [m, rad];
@@ -37,7 +39,7 @@ from ..robot import robot_forward
 from ..robot.description import RobotDescription, parse_robot
 from ..robot.transforms import PoseBatch
 from .cdr import Columns
-from .checks_topics import extra, match, missing
+from .checks_topics import cut_detail, extra, match, missing, without_messages
 from .columns import matrix, quaternion_angle, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, bag_check, bool_check, skipped, value_check
@@ -164,15 +166,36 @@ def _pose_error(stored: tuple[NDArray[np.float64], NDArray[np.float64]], pose: P
     return np.max(np.abs(p - pose.position), axis=1), angle
 
 
-def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice,
-                 tol: Tolerances) -> tuple[list[Check], RobotRows | None]:
+def _no_robot_states(bag: Bag, stamps: NDArray[np.int64], samples: NDArray[np.int64],
+                     due: NDArray[np.bool_] | None) -> list[Check]:
+    """No RobotState in the bag: skipped, unless the topic is recorded (listed) without a message and records say
+    robot program samples were streamed (``due``): those fail ``robot.structure``, but the first and the last state
+    (:func:`.checks_topics.missing`)."""
+    why = 'no robot states in the bag'
+    t = bag.topic(ROBOT_STATE_TOPIC)
+    absent = missing(stamps, np.zeros(0, np.int64))
+    if due is not None:
+        absent[~due] = 0.0
+    if t is None or t.msgtype != GPR_TOPICS[ROBOT_STATE_TOPIC] or due is None or not np.any(absent > 0):
+        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', why)]
+    return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', f'{why} (their structure fails)'),
+            bool_check('robot.structure', ROBOT_STATE_TOPIC, absent == 0, samples,
+                       'the robot states topic is recorded without a message; a sample of a robot program '
+                       '(gpr/program) without its RobotState (the first and the last state are not counted: a '
+                       'recording started or cut in the middle of a sample)')]
+
+
+def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice, tol: Tolerances,
+                 due: NDArray[np.bool_] | None = None) -> tuple[list[Check], RobotRows | None]:
     """The ``robot.*`` and ``topic.wafer_pose`` checks (module docstring) against the PlatformState columns ``c``,
-    and the robot joints per state row for the ``joint_states`` check (None without robot states)."""
+    and the robot joints per state row for the ``joint_states`` check (None without robot states). ``due``: per
+    state, whether it is a robot program's (:func:`~.checks_program.robot_program_states`; None: no records, all)."""
+    stamps = stamp_ns(c)
     t = _topic(bag, ROBOT_STATE_TOPIC)
     if t is None or t.msgtype != GPR_TOPICS[ROBOT_STATE_TOPIC]:
-        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot states in the bag')], None
+        return _no_robot_states(bag, stamps, samples, due), None
     rc = t.columns()
-    stamps, rstamps = stamp_ns(c), stamp_ns(rc)
+    rstamps = stamp_ns(rc)
     idx = match(rstamps, np.zeros(len(rstamps), dtype=object), stamps, np.zeros(len(stamps), dtype=object))
     rows = np.flatnonzero(idx >= 0)
     j = idx[rows]
@@ -190,11 +213,14 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     if J.shape[1] == len(names):   # (else no message has the robot's joints: ok is all False)
         joints[rows[ok]] = J[ok]
     q = matrix(c['q'], 3)
-    e_pos, e_ang, e_blade, e_naive = (missing(stamps, rstamps) for _ in range(4))
+    absent = missing(stamps, rstamps)
+    if due is not None:
+        absent[~due] = 0.0
+    e_pos, e_ang, e_blade, e_naive = (absent.copy() for _ in range(4))
     e_limit = np.zeros(len(stamps))
     structure = np.ones(len(stamps), dtype=bool)
     structure[rows] = ok
-    structure[(missing(stamps, rstamps) > 0) & (idx < 0)] = False
+    structure[(absent > 0) & (idx < 0)] = False
     arms = rc['arm'][j]
     # every arm's joints against their limits, the arms at rest included
     lower = np.concatenate([a.lower for a in robot.arms])
@@ -229,7 +255,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     checks = [
         bool_check('robot.structure', ROBOT_STATE_TOPIC, structure, samples,
                    f'RobotState missing, or not in {robot.world_frame}, of another sample, an arm not of robot '
-                   f'{robot.name} or joints other than {", ".join(names)}'),
+                   f'{robot.name} or joints other than {", ".join(names)}'
+                   + cut_detail(stamps, rstamps, samples, np.where(idx < 0, absent, 0.0))),
         value_check('robot.wafer_position', ROBOT_STATE_TOPIC, e_pos, tol.position, 'm', samples, inf_detail),
         value_check('robot.wafer_orientation', ROBOT_STATE_TOPIC, e_ang, tol.angle, 'rad', samples, inf_detail),
         value_check('robot.blade', ROBOT_STATE_TOPIC, e_blade, max(tol.position, tol.angle), 'm|rad', samples,
@@ -239,26 +266,31 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
                     'beyond the joint range by this much'),
     ]
     checks += [x for x in [extra('robot.structure', ROBOT_STATE_TOPIC, rstamps, stamps, rows.size)] if x]
-    checks += _wafer_pose_checks(bag, rc, np.asarray(rc['sample'], dtype=np.int64), tol.consistency)
+    checks += _wafer_pose_checks(bag, rc, np.asarray(rc['sample'], dtype=np.int64), tol.consistency,
+                                 int(stamps.max()))
     return checks, recorded
 
 
-def _wafer_pose_checks(bag: Bag, rc: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
-    """``gpr/wafer_pose``: a PoseStamped with the stamp and frame of every RobotState, the same pose."""
+def _wafer_pose_checks(bag: Bag, rc: Columns, samples: NDArray[np.int64], tol: float, end: int) -> list[Check]:
+    """``gpr/wafer_pose``: a PoseStamped with the stamp and frame of every RobotState, the same pose (``end``: the
+    stamp of the recording's last sample, the only one whose wafer pose a cut may lose)."""
     name = WAFER_POSE_TOPIC
     t = bag.topic(name)
+    why = 'inf = no message with the stamp and frame of this RobotState'
     if t is None or t.msgtype != GPR_TOPICS[name]:
         return [skipped('topic.wafer_pose', name, 'm|rad', 'topic not in the bag', tol)]
+    if len(t) == 0:
+        return [without_messages('topic.wafer_pose', name, stamp_ns(rc), samples, tol, 'm|rad', why, end)]
     pc = t.columns()
     stamps, pstamps = stamp_ns(rc), stamp_ns(pc)
     idx = match(pstamps, pc['header.frame_id'], stamps, rc['header.frame_id'])
     ok = idx >= 0
-    e = missing(stamps, pstamps)
+    e = missing(stamps, pstamps, end)
     stored = np.concatenate([vec(pc, 'pose.position'), vec(pc, 'pose.orientation', 'xyzw')], axis=1)
     wafer = np.concatenate(_pose(rc, 'wafer', np.arange(len(stamps))), axis=1)
     e[ok] = np.max(np.abs(stored[idx[ok]] - wafer[ok]), axis=1)
     out = [value_check('topic.wafer_pose', name, e, tol, 'm|rad', samples,
-                       'inf = no message with the stamp and frame of this RobotState')]
+                       why + cut_detail(stamps, pstamps, samples, e))]
     return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum()))] if x]
 
 

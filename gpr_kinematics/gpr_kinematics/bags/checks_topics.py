@@ -20,15 +20,22 @@
   record with ``markers_every`` covers (recordings before it was recorded, such as the reference bag) ``n`` is
   inferred as the smallest step between the counters of their samples that have markers, counted from the first
   of them (a MarkerArray removed mid-stream passed before: 1927 markers for 1928 states); removing every other one
-  is then what ``markers_every: 2`` records, and passes. Either way a sample before the first or after the last
-  marked one is not missing (below). The topic recorded without a message (every MarkerArray removed passed as
-  "no markers in the bag"): the samples a recorded ``markers_every`` marks between the first and the last state
-  fail ``markers_sequence``; a bag without the topic skips the markers.
+  is then what ``markers_every: 2`` records, and passes. Either way the sequence runs from the first MarkerArray
+  to the recording's last sample (the ends, below): after the last MarkerArray the states may go on to the next
+  marked sample (whose MarkerArray a cut lost), not beyond. The topic recorded without a message (every
+  MarkerArray removed passed as "no markers in the bag"): the samples a recorded ``markers_every`` marks between
+  the first and the last state fail ``markers_sequence``; a bag without the topic skips the markers.
 
-A sample before the first or after the last message of a companion topic is not counted as missing: a
-recording started, or cut by SIGKILL, in the middle of a sample holds only part of that sample's messages.
-Companion messages without a PlatformState of the same stamp (inside the states' span) are ``*_extra``
-failures.
+The ends of a recording: a companion message of a state is not counted as missing (:func:`missing`) before the
+companion topic's first message, since the recorder subscribes to each topic on its own and discovery matches each
+topic on its own (a recorder started while the node streams may miss any number of a topic's first samples; before
+it subscribed to the state topic last, those of the joint states and the markers were lost in a test run), and at
+the recording's last sample after the topic's last message: the node publishes every message of a sample in one
+tick and a cut (SIGKILL) stops every topic at once, so a recording cut in the middle of a sample lacks that
+sample's only. Every other state after a topic's last message is missing, its tail removed (500 poses deleted from
+the end and the metadata recounted passed before): the failures name the topic, the samples and how many
+(:func:`cut_detail`). A topic recorded without a message: every state but the first and the last. Companion
+messages without a PlatformState of the same stamp (inside the states' span) are ``*_extra`` failures.
 """
 from __future__ import annotations
 
@@ -67,12 +74,41 @@ def match(companion_stamps: NDArray[np.int64], companion_frames: NDArray[np.obje
     return out
 
 
-def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Initial error per PlatformState: inf (missing) inside the companion topic's span of stamps, 0 outside."""
+def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64], end: int | None = None) -> NDArray[np.float64]:
+    """Initial error per PlatformState (per RobotState for the wafer poses): inf (missing), 0 where the companion
+    message may be missing from an honest recording (module docstring, *the ends*): before the companion topic's
+    first message, and at the recording's last sample (``end``: its stamp, default the last of ``stamps``) after its
+    last message; a topic without a message: the first and the last."""
     e = np.full(len(stamps), np.inf)
+    if len(stamps) == 0:
+        return e
+    end = int(stamps.max()) if end is None else end
     if len(companion):
-        e[(stamps < companion.min()) | (stamps > companion.max())] = 0.0
+        e[(stamps < companion.min()) | ((stamps == end) & (stamps > companion.max()))] = 0.0
+    else:
+        e[(stamps == stamps.min()) | (stamps == end)] = 0.0
     return e
+
+
+def cut_detail(stamps: NDArray[np.int64], companion: NDArray[np.int64], samples: NDArray[np.int64],
+               e: NDArray[np.float64]) -> str:
+    """How many of the missing (``e`` inf) are after the companion topic's last message, from which sample to which
+    (empty when none): a tail removed, not a recording cut in the middle of its last sample."""
+    gone = np.isinf(e) & (stamps > companion.max() if len(companion) else np.ones(len(stamps), dtype=bool))
+    if not np.any(gone):
+        return ''
+    where = "after the topic's last message" if len(companion) else 'of a topic without a message'
+    return (f'; {int(np.count_nonzero(gone))} missing {where} (samples {int(samples[gone].min())} to '
+            f"{int(samples[gone].max())}; a recording cut in the middle of a sample lacks only the last sample's)")
+
+
+def without_messages(check: str, topic: str, stamps: NDArray[np.int64], samples: NDArray[np.int64], tol: float,
+                     unit: str, detail: str, end: int | None = None) -> Check:
+    """``check`` of a companion topic recorded (listed) without a message: every state missing but at the ends
+    (:func:`missing`; such a topic has no columns to match)."""
+    e = missing(stamps, np.zeros(0, np.int64), end)
+    return value_check(check, topic, e, tol, unit, samples, detail + cut_detail(stamps, np.zeros(0, np.int64),
+                                                                                 samples, e))
 
 
 def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
@@ -97,16 +133,19 @@ def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -
     for name, field in (('/gpr/platform_pose', 'pose'), ('/gpr/nominal_pose', 'nominal_pose')):
         check = f'topic.{name.rsplit("/", 1)[-1]}'
         t = _topic(bag, name)
+        why = 'inf = no message with the stamp and frame of this PlatformState'
         if t is None:
             out.append(skipped(check, name, _UNIT, 'topic not in the bag', tol))
+            continue
+        if len(t) == 0:
+            out.append(without_messages(check, name, stamps, samples, tol, _UNIT, why))
             continue
         pc = t.columns()
         idx = match(stamp_ns(pc), pc['header.frame_id'], stamps, frames)
         ok = idx >= 0
         e = missing(stamps, stamp_ns(pc))
         e[ok] = np.max(np.abs(field_matrix(pc, 'pose')[idx[ok]] - field_matrix(c, field)[ok]), axis=1)
-        out.append(value_check(check, name, e, tol, _UNIT, samples,
-                               'inf = no message with the stamp and frame of this PlatformState'))
+        out.append(value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(pc), samples, e)))
         out += [x for x in [extra(check, name, stamp_ns(pc), stamps, int(ok.sum()))] if x]
     return out
 
@@ -116,14 +155,18 @@ _Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
 
 
 def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
-                  layouts: tuple[_Layout, ...], detail: str) -> list[Check]:
+                  layouts: tuple[_Layout, ...], detail: str, rods_only: int = -1) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
-    layout whose names it carries (inf when it carries none)."""
+    layout whose names it carries (inf when it carries none); of the state ``rods_only`` its first three joints
+    only (the last state of a robot recording whose RobotState a cut lost: its arm joints are not known)."""
     check = f'topic.{name.rsplit("/", 1)[-1]}'
     t = _topic(bag, name)
     if t is None:
         return [skipped(check, name, _UNIT, 'topic not in the bag', tol)]
     stamps = stamp_ns(c)
+    why = f'inf = missing, velocity or effort given, or {detail}'
+    if len(t) == 0:
+        return [without_messages(check, name, stamps, samples, tol, _UNIT, why)]
     jc = t.columns()
     idx = match(stamp_ns(jc), jc['header.frame_id'], stamps, c['header.frame_id'])
     rows = np.flatnonzero(idx >= 0)
@@ -131,6 +174,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     names, positions = jc['name'], jc['position']
     for r in rows:
         got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
+        if r == rods_only:
+            got_names, got = got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]
         e[r] = np.inf
         if np.size(jc['velocity'][idx[r]]) or np.size(jc['effort'][idx[r]]):
             continue   # the node publishes positions only
@@ -139,7 +184,7 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
             if got_names == want_names and got.shape == want.shape:
                 e[r] = float(np.max(np.abs(got - want), initial=0.0))
                 break
-    out = [value_check(check, name, e, tol, _UNIT, samples, f'inf = missing, velocity or effort given, or {detail}')]
+    out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(jc), samples, e))]
     return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
 
 
@@ -165,9 +210,11 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
 
     topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
         bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
+    last = int(np.argmax(stamp_ns(c))) if len(samples) else -1
     return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
-                          'recording; or, recorded before, rod_1..rod_3 + the virtual joints)')
+                          'recording; or, recorded before, rod_1..rod_3 + the virtual joints)',
+                          last if arms is not None and arms.joints(last) is None else -1)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
@@ -201,16 +248,17 @@ def _marker_errors(mc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c
     return err
 
 
-def _inferred_gaps(samples: NDArray[np.int64], has: NDArray[np.bool_]) -> NDArray[np.bool_]:
+def _inferred_gaps(samples: NDArray[np.int64], has: NDArray[np.bool_], end: int) -> NDArray[np.bool_]:
     """Per state: a gap or an irregular sample of the markers' sequence every ``n`` from the first marked state,
-    ``n`` the smallest step between the counters of the marked ones (module docstring)."""
+    ``n`` the smallest step between the counters of the marked ones, up to the recording's last sample ``end``
+    (module docstring)."""
     marked_samples = samples[has]
     steps = np.diff(marked_samples)
     if marked_samples.size < 2 or not np.any(steps > 0):
         return np.zeros(len(samples), dtype=bool)
-    n, first, last = int(np.min(steps[steps > 0])), int(marked_samples.min()), int(marked_samples.max())
+    n, first = int(np.min(steps[steps > 0])), int(marked_samples.min())
     on = (samples - first) % n == 0
-    inside = (samples >= first) & (samples <= last)
+    inside = (samples >= first) & (samples < end)
     out: NDArray[np.bool_] = (inside & on & ~has) | (has & ~on)
     return out
 
@@ -224,17 +272,18 @@ def _recorded_marks(samples: NDArray[np.int64], every: NDArray[np.int64]) -> NDA
 def _marker_gaps(samples: NDArray[np.int64], rows: NDArray[np.int64], every: NDArray[np.int64]) -> NDArray[np.bool_]:
     """Per state: a gap or an irregular sample of the markers' sequence (module docstring, ``markers_sequence``):
     where ``every`` (the recorded ``markers_every`` per state, 0: none) is known, the counters :func:`marked` by it
-    between the first and the last marked state; elsewhere the cadence inferred from those states alone."""
+    from the first marked state to the recording's last sample (whose MarkerArray a cut mid-sample may lose);
+    elsewhere the cadence inferred from those states alone."""
     has = np.zeros(len(samples), dtype=bool)
     has[rows] = True
     known = every > 0
     out = np.zeros(len(samples), dtype=bool)
+    end = int(samples.max()) if samples.size else 0
     if np.any(~known):
-        out[~known] = _inferred_gaps(samples[~known], has[~known])
+        out[~known] = _inferred_gaps(samples[~known], has[~known], end)
     if np.any(known) and rows.size:
-        first, last = samples[rows].min(), samples[rows].max()
         on = _recorded_marks(samples, every)
-        inside = (samples >= first) & (samples <= last)
+        inside = (samples >= samples[rows].min()) & (samples < end)
         out |= known & ((inside & on & ~has) | (has & ~on))
     return out
 
@@ -283,10 +332,14 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
     expected = marker_points(cfg, matrix(c['q'], 3)[rows], vec(c, 'nominal_pose.position')[rows],
                              matrix_from_quaternion(vec(c, 'nominal_pose.orientation', 'xyzw')[rows]))
     err = _marker_errors(mc, idx[rows], rows, c, expected)
+    gaps = _marker_gaps(samples, rows, every)
+    gone = gaps & (stamps > stamps[rows].max()) if rows.size else gaps
+    cut = (f"; {int(np.count_nonzero(gone))} of them after the last MarkerArray (samples {int(samples[gone].min())} "
+           f"to {int(samples[gone].max())}; a recording cut in the middle of a sample lacks only the last sample's)"
+           if np.any(gone) else '')
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
                        'inf = structure, stamp, frame or pose differ; else the largest point error'),
-           bool_check('topic.markers_sequence', name, ~_marker_gaps(samples, rows, every), samples,
-                      _sequence_detail(every))]
+           bool_check('topic.markers_sequence', name, ~gaps, samples, _sequence_detail(every) + cut)]
     return out + [x for x in [extra('topic.markers', name, stamp_ns(mc, first + 'stamp'), stamps, rows.size)] if x]
 
 

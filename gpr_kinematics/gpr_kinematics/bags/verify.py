@@ -33,7 +33,7 @@ from ..core import resolve_config
 from ..core.config import GprConfig
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
-from .checks_program import marker_cadence, program_checks, read_records
+from .checks_program import marker_cadence, program_checks, read_records, robot_program_states
 from .checks_robot import choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
@@ -101,8 +101,9 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
-            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol)
             recorded = read_records(bag)
+            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
+                                                  robot_program_states(recorded[0], samples))
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples)) + robot_part
