@@ -217,3 +217,31 @@ def test_higher_arm_limits_never_slow_the_cell_program(limit):
         durations.append(plan.timing.duration)
     d = np.array(durations)
     assert np.all(d[1:] <= d[:-1] * (1 + 1e-12)), d.sum(axis=1)
+
+
+def test_the_summary_gives_the_peaks_the_joints_reach():
+    """``gpr program check`` printed the timing's chain-rule bounds as the joints' peak speed and acceleration: on the
+    cell program's straight entries they lie well above what the joints reach (arm2_elbow 0.565 of its speed limit
+    for 0.422, arm2_hand 0.576 of its acceleration limit for 0.239). The summary now gives the peaks, which central
+    differences of the samples (2 kHz on the lines, where the bounds differ) find to 2e-3 (their truncation at the
+    acceleration's corners), and the bounds stay within the limits."""
+    from gpr_kinematics.robot.plan import line_moves, program_summary
+
+    plan = plan_program(ROBOT, load_program(config_path('programs/example_cell_program.yaml')))
+    s = program_summary(plan)
+    bound_v, bound_a = plan.timing.usage()
+    k_elbow, k_hand = plan.joint_names.index('arm2_elbow'), plan.joint_names.index('arm2_hand')
+    assert (bound_v[k_elbow], bound_a[k_hand]) == pytest.approx((0.5648, 0.5756), abs=1e-4)
+    assert (s.velocity_usage[k_elbow], s.acceleration_usage[k_hand]) == pytest.approx((0.4220, 0.2385), abs=1e-3)
+    assert np.all(s.velocity_usage <= bound_v + 1e-9) and np.all(s.acceleration_usage <= bound_a + 1e-9)
+    t, h = plan.timing, 1 / 2000
+    v_fd, a_fd = np.zeros(len(plan.joint_names)), np.zeros(len(plan.joint_names))
+    for m in line_moves(plan.waypoints):
+        times = np.arange(t.depart[m] - h, t.arrive[m + 1] + h, h)
+        x = sample_plan(plan, times=times).samples.positions
+        v_fd = np.maximum(v_fd, np.max(np.abs(x[2:] - x[:-2]) / (2 * h), axis=0))
+        a_fd = np.maximum(a_fd, np.max(np.abs(x[2:] - 2 * x[1:-1] + x[:-2]) / h ** 2, axis=0))
+    joint_space = np.setdiff1d(np.arange(len(t.duration)), line_moves(plan.waypoints))
+    v_js, a_js, _ = (x[joint_space].max(axis=0) for x in t.peaks())    # exact on joint-space lines
+    np.testing.assert_allclose(s.velocity_usage, np.maximum(v_js, v_fd) / t.velocity, atol=2e-3, rtol=0)
+    np.testing.assert_allclose(s.acceleration_usage, np.maximum(a_js, a_fd) / t.acceleration, atol=2e-3, rtol=0)

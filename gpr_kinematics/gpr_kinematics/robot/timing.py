@@ -192,14 +192,14 @@ class Timing:
         return G1 * v, G1 * a + G2 * v * v, G1 * j + 3 * G2 * v * a + G3 * v ** 3
 
     def usage(self) -> tuple[Array, Array]:
-        """Per joint, the largest speed and acceleration reached as a fraction of its limit ``(J,)``."""
+        """Per joint, the bounds of speed and acceleration over the limits ``(J,)`` (reached: plan.peak_usage)."""
         if self.duration.shape[0] == 0:
             return np.zeros(self.velocity.shape), np.zeros(self.velocity.shape)
         v, a, _ = self.peaks()
         return np.max(v, axis=0) / self.velocity, np.max(a, axis=0) / self.acceleration
 
     def jerk_usage(self) -> Array:
-        """Per joint, the largest jerk reached as a fraction of its limit ``(J,)`` (0 without a limit)."""
+        """Per joint, the bound of :meth:`peaks` on its jerk as a fraction of its limit ``(J,)`` (0 without a limit)."""
         if self.duration.shape[0] == 0:
             return np.zeros(self.velocity.shape)
         return np.asarray(np.max(self.peaks()[2], axis=0) / self.jerk, dtype=np.float64)
