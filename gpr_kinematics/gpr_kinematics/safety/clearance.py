@@ -19,9 +19,9 @@ library's nearest points; that bound less ``eps`` is used where larger.
 For each pair, an interval whose bound lies below the pair's smallest measured distance ``U`` less its tolerance
 ``max(TOLERANCE, RELATIVE U)`` is refined: its ends are measured exactly, then it is split at its midpoint (new
 instants, exact poses, shared by every pair), until no interval's bound does. The reported distance is the smallest
-bound: never above the true minimum, and at most the tolerance below it. The cheap bounds are vectorised over all
-pairs and intervals (numpy); the library (FCL, through python-fcl: exact primitives, GJK/EPA) is called only where
-they do not prove the pair's minimum.
+bound: never above the true minimum, and at most the tolerance and :data:`~.distances.LIBRARY_SLACK` below it
+(the measured distances keep it). The cheap bounds are vectorised over all pairs and intervals (numpy); the library
+(FCL, through python-fcl: exact primitives, GJK/EPA) is called only where they do not prove the pair's minimum.
 """
 from __future__ import annotations
 
