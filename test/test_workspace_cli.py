@@ -207,7 +207,7 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     (['--scheduler', 'cluster'], 'allowed: none, local or a Dask scheduler address'),
     (['--scheduler', 'none', '--workers', '2'], 'workers applies to --scheduler local only'),
     (['--workers', '0'], 'workers must be an integer from 1 to 256'),
-    (['--max-boxes', '0'], '--max-boxes must be from 1'),
+    (['--max-boxes', '0'], '--max-boxes = 0; allowed: a whole number of boxes, at least 1'),
     (['--parts', '0'], '--parts must be from 1'),
     (['--delta', '1e-300'], 'too small'),
 ])
@@ -240,6 +240,18 @@ def test_the_default_box_limit_of_a_run_is_of_its_models_bytes(capsys, monkeypat
     code, out, _ = _run(capsys, '--help')
     assert code == 0 and '16 bytes per variable each: 10000000 up to 3 variables, 1875000 for 16' in ' '.join(
         out.split())
+
+
+def test_a_box_limit_beyond_the_machines_memory_exits_2(capsys, monkeypatch):
+    """--max-boxes was checked to be 1 to 1e9 whatever the model and the machine (1e9 boxes of 3 variables take
+    48 GB): on a machine of 2.048 GB, 512 MB of boxes, 10,666,666 of the tripod's 3 variables."""
+    from gpr_kinematics.workspace import base
+    monkeypatch.setattr(base.os, 'sysconf', lambda name: {'SC_PAGE_SIZE': 4096, 'SC_PHYS_PAGES': 500_000}[name])
+    code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.01', '--max-boxes', '1000000000',
+                          '--scheduler', 'none')
+    assert code == 2 and out == '' and err == (
+        'gpr workspace: error: --max-boxes = 1000000000: that many boxes of 3 variables (48 bytes each) take 48 GB; '
+        'allowed: at most 10666666 boxes for this model (0.512 GB, 25% of the 2.05 GB of physical memory)\n')
 
 
 def test_the_progress_bar_never_stops_a_run_when_stderr_is_gone(monkeypatch):

@@ -314,6 +314,52 @@ def test_the_default_box_limit_bounds_the_boxes_bytes_not_their_count(monkeypatc
     assert approximate(ball16, 1e-4, max_boxes=300).stopped == 'box limit (300 boxes)'   # a limit given is kept
 
 
+def _memory(monkeypatch, pages):
+    """The machine's physical memory as ``pages`` of 4096 bytes (``None``: sysconf does not give it)."""
+    from gpr_kinematics.workspace import base
+
+    def sysconf(name):
+        if pages is None:
+            raise ValueError(f'unrecognized configuration name {name!r}')
+        return {'SC_PAGE_SIZE': 4096, 'SC_PHYS_PAGES': pages}[name]
+    monkeypatch.setattr(base.os, 'sysconf', sysconf)
+
+
+def test_a_box_limit_given_is_bounded_by_the_machines_memory(monkeypatch):
+    """max_boxes given was only checked to be positive: 1e9 boxes of 16 variables (256 GB) were taken as asked.
+    A limit whose boxes take more than a quarter of the physical memory is refused, naming the count, the bytes and
+    the most for the model (here a machine of 1.024 GB: 256 MB of boxes, 1,000,000 of 16 variables, 5,333,333 of 3),
+    and the default never exceeds it; where sysconf gives nothing, the default's BOX_MEMORY is the bound."""
+    from gpr_kinematics.workspace import base, default_max_boxes
+    from gpr_kinematics.workspace.loader import model_from_mapping
+    ball16, ball3 = model_from_mapping(_ball(16)), model_from_mapping(_ball(3))
+    _memory(monkeypatch, 250_000)
+    assert base.physical_memory() == 1_024_000_000 and base.box_memory_limit() == 256_000_000
+    assert (base.most_boxes(ball16), base.most_boxes(ball3)) == (1_000_000, 5_333_333)
+    assert (default_max_boxes(ball16), default_max_boxes(ball3)) == (1_000_000, 5_333_333)
+    with pytest.raises(InputError) as err:
+        approximate(ball16, 0.5, max_boxes=10**9)
+    assert str(err.value) == ('max_boxes = 1000000000: that many boxes of 16 variables (256 bytes each) take 256 GB; '
+                              'allowed: at most 1000000 boxes for this model (0.256 GB, 25% of the 1.02 GB of '
+                              'physical memory)')
+    with pytest.raises(InputError, match='max_boxes = 1000001: .* take 0.256 GB; allowed: at most 1000000 boxes'):
+        approximate(ball16, 0.5, max_boxes=1_000_001)
+    with pytest.raises(InputError, match='max_boxes = <an integer of about 401 digits>: .* take <an integer of about '
+                                         '403 digits> bytes; '):
+        approximate(ball16, 0.5, max_boxes=10**400)
+    res = approximate(ball3, 0.5, max_boxes=5_333_333)      # the most is allowed
+    assert not res.interrupted and res.inner_boxes == 64
+    for bad in (0, -1, True, 2.5, '10'):
+        with pytest.raises(InputError, match='allowed: a whole number of boxes, at least 1'):
+            approximate(ball3, 0.5, max_boxes=bad)
+    _memory(monkeypatch, None)
+    assert base.physical_memory() is None and base.most_boxes(ball16) == default_max_boxes(ball16) == 1_875_000
+    with pytest.raises(InputError) as err:
+        approximate(ball16, 0.5, max_boxes=1_875_001)
+    assert str(err.value).endswith("allowed: at most 1875000 boxes for this model (0.48 GB, the default limit's "
+                                   'memory: this system does not give its physical memory)')
+
+
 def test_the_uniform_grid_limit_is_of_bytes_too():
     """The uniform grid refused beyond 10 million cells whatever their variables; for 4 variables (64 bytes a cell)
     it is 7.5 million."""

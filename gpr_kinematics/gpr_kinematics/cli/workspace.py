@@ -29,7 +29,7 @@ from ..errors import ConfigError, InputError
 from ..inputs.files import atomic_output, check_output
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
-from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_seconds, workspace_report
+from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
 from ..workspace.scheduler import MAX_WORKERS
 from .output import JsonValue, emit_json, json_object
@@ -69,7 +69,8 @@ def register(subparsers: Subparsers) -> None:
                    'of the boxes, not the boxes')
     p.add_argument('--max-boxes', type=int, default=None,
                    help='stop (like Ctrl-C) before keeping more boxes than this (default: the boxes of about 0.5 GB, '
-                   f'16 bytes per variable each: {MAX_BOXES} up to 3 variables, 1875000 for 16)')
+                   f'16 bytes per variable each: {MAX_BOXES} up to 3 variables, 1875000 for 16; at most the boxes '
+                   'of a quarter of the physical memory)')
     p.add_argument('--max-seconds', type=float, default=None,
                    help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
                    'has a limit)')
@@ -116,8 +117,6 @@ def _check_args(args: argparse.Namespace) -> float:
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
     check_max_seconds(args.max_seconds)
-    if args.max_boxes is not None and not 1 <= args.max_boxes <= 10**9:
-        raise InputError(f'--max-boxes must be from 1 to 1e9, got {args.max_boxes}')
     if not 1 <= args.parts <= 100_000:
         raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
     if args.boxes is not None:  # an empty name is refused, not ignored
@@ -142,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     delta = _check_args(args)
     overrides = _overrides(args.set)
     model = load_workspace_model(args.file, overrides)
+    check_max_boxes(args.max_boxes, model, '--max-boxes')   # named as the option (approximate checks it again)
     result = approximate(model, delta, method=args.method, grid_nodes=args.grid_nodes,
                          progress=not args.no_progress, max_seconds=args.max_seconds,
                          max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,

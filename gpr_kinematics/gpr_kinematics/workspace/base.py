@@ -10,6 +10,7 @@ them) and the **boundary** boxes (undecided, diameter below ``delta``); inner pl
 from __future__ import annotations
 
 import math
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -31,6 +32,10 @@ MAX_BOXES = 10_000_000
 BOX_BYTES_PER_VARIABLE = 16
 #: Bytes the default box limit gives the boxes: :data:`MAX_BOXES` boxes of 3 variables (0.48 GB).
 BOX_MEMORY = MAX_BOXES * 3 * BOX_BYTES_PER_VARIABLE
+#: Share of the machine's physical memory the boxes of a run may take at most, whatever limit is given: a run's
+#: peak is up to about twice its boxes' bytes (the level being bisected and its children; docs/workspace.md,
+#: *Limits*), so a quarter leaves the machine at least half its memory.
+BOX_MEMORY_SHARE = 0.25
 #: Wall time [s] after which every method stops like an interruption when the caller gives no limit of its own
 #: (``stopped = 'time limit (600 s)'``): a run never goes on without end (a grid run at a tenth of a millimetre did).
 DEFAULT_MAX_SECONDS = 600.0
@@ -45,11 +50,65 @@ def box_bytes(model: Any) -> int:
     return BOX_BYTES_PER_VARIABLE * len(model.variables)
 
 
+def physical_memory() -> int | None:
+    """The machine's physical memory [bytes] (``SC_PAGE_SIZE * SC_PHYS_PAGES``), ``None`` where sysconf does not
+    give it."""
+    try:
+        size, pages = os.sysconf('SC_PAGE_SIZE'), os.sysconf('SC_PHYS_PAGES')
+    except (AttributeError, ValueError, OSError):   # no os.sysconf (Windows), or a name this system lacks
+        return None
+    return size * pages if size > 0 and pages > 0 else None
+
+
+def box_memory_limit() -> int:
+    """Most bytes the boxes of a run may take: :data:`BOX_MEMORY_SHARE` of :func:`physical_memory`, or
+    :data:`BOX_MEMORY` (the default limit's) where the machine does not say how much it has."""
+    memory = physical_memory()
+    return BOX_MEMORY if memory is None else int(memory * BOX_MEMORY_SHARE)
+
+
+def most_boxes(model: Any) -> int:
+    """The largest box limit a run on ``model`` may be given: the boxes :func:`box_memory_limit` holds (at least
+    one)."""
+    return max(1, box_memory_limit() // box_bytes(model))
+
+
 def default_max_boxes(model: Any) -> int:
     """The default box limit of a run on ``model``: the boxes :data:`BOX_MEMORY` holds, at most :data:`MAX_BOXES`
     (10 million up to 3 variables, as always; 1,875,000 for 16: the count alone let 16 variables take 5 times the
-    memory, 4.3 GB at delta 0.2)."""
-    return min(MAX_BOXES, BOX_MEMORY // box_bytes(model))
+    memory, 4.3 GB at delta 0.2), and at most :func:`most_boxes` (a machine of less than 2 GB)."""
+    return min(MAX_BOXES, BOX_MEMORY // box_bytes(model), most_boxes(model))
+
+
+def check_max_boxes(max_boxes: int | None, model: Any, name: str = 'max_boxes') -> int:
+    """The box limit of a run on ``model``: :func:`default_max_boxes` for ``None``, else an integer from 1 to
+    :func:`most_boxes` (a count whose boxes need more memory than the machine can give is refused, naming their
+    bytes; ``name`` is the option's name in the message)."""
+    if max_boxes is None:
+        return default_max_boxes(model)
+    if isinstance(max_boxes, bool) or not isinstance(max_boxes, int) or max_boxes < 1:
+        raise InputError(f'{name} = {brief(max_boxes)}; allowed: a whole number of boxes, at least 1')
+    most = most_boxes(model)
+    if max_boxes > most:
+        each = box_bytes(model)
+        raise InputError(
+            f'{name} = {brief(max_boxes)}: that many boxes of {len(model.variables)} variables ({each} bytes each) '
+            f'take {_gigabytes(max_boxes * each)}; allowed: at most {most} boxes for this model '
+            f'({_gigabytes(most * each)}, {_memory_source()})')
+    return max_boxes
+
+
+def _gigabytes(n: int) -> str:
+    """``n`` bytes in GB, for a message (an integer too large for a float is named by its digits)."""
+    return f'{n / 1e9:.3g} GB' if n < 10**300 else f'{brief(n)} bytes'
+
+
+def _memory_source() -> str:
+    """Where :func:`box_memory_limit` comes from, for a message."""
+    memory = physical_memory()
+    if memory is None:
+        return 'the default limit\'s memory: this system does not give its physical memory'
+    return f'{BOX_MEMORY_SHARE:.0%} of the {_gigabytes(memory)} of physical memory'
 
 
 def check_max_seconds(max_seconds: float | None) -> float:

@@ -39,8 +39,9 @@ from .base import (
     WorkspaceResult,
     check_delta,
     check_initial_box,
+    check_max_boxes,
     check_max_seconds,
-    default_max_boxes,
+    most_boxes,
 )
 from .boxes import bisect, box_volume, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
@@ -163,7 +164,8 @@ def approximate(
         max_seconds: stop like an interruption after this wall time [s] (None: the default limit,
             :data:`~.base.DEFAULT_MAX_SECONDS`; every method has one).
         max_boxes: stop like an interruption before the boxes kept could exceed this count (None: the boxes of
-            about 0.5 GB, :func:`~.base.default_max_boxes`: 10 million up to 3 variables, fewer beyond).
+            about 0.5 GB, :func:`~.base.default_max_boxes`: 10 million up to 3 variables, fewer beyond); a count
+            whose boxes take more than a quarter of the machine's memory is refused (:func:`~.base.check_max_boxes`).
         chunk_size: pending boxes per chunk (default per model); results do not depend on where chunks run.
         scheduler: ``'none'`` (this process), ``'local'`` (a Dask local cluster, ``workers`` processes,
             default one per core), a Dask scheduler address ``'tcp://HOST:PORT'``, or an :class:`Executor`
@@ -177,8 +179,8 @@ def approximate(
         :class:`WorkspaceResult`. Ctrl-C (SIGINT) during the run stops it cleanly between chunks: the
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
-    max_boxes = default_max_boxes(model) if max_boxes is None else max_boxes
-    _check_run_options(method, max_boxes, chunk_size, parts)
+    _check_run_options(method, chunk_size, parts)
+    max_boxes = check_max_boxes(max_boxes, model)
     max_seconds = check_max_seconds(max_seconds)
     t0 = time.perf_counter()  # the run's time and time limit include the coverings a model builds on
     own = not isinstance(scheduler, Executor)
@@ -192,8 +194,9 @@ def approximate(
             # a mechanism the model builds on, covered by the same scheduler (its own progress off), in the time
             # left of this run
             left = max(max_seconds - (time.perf_counter() - t0), 1e-6)
-            return approximate(sub_model, sub_delta, progress=False, max_seconds=left, max_boxes=max_boxes,
-                               scheduler=executor, keep_outside=keep)
+            # with the run's box limit (a mechanism of wider boxes than the model's, at most what the machine gives)
+            return approximate(sub_model, sub_delta, progress=False, max_seconds=left,
+                               max_boxes=min(max_boxes, most_boxes(sub_model)), scheduler=executor, keep_outside=keep)
 
         try:
             task = model.covering_task(delta, part)
@@ -229,12 +232,11 @@ def approximate(
             executor.close()
 
 
-def _check_run_options(method: str, max_boxes: int, chunk_size: int | None, parts: int) -> None:
-    """InputError naming the first option of :func:`approximate` out of its range, and the range."""
+def _check_run_options(method: str, chunk_size: int | None, parts: int) -> None:
+    """InputError naming the first option of :func:`approximate` out of its range, and the range (``max_boxes``:
+    :func:`~.base.check_max_boxes`)."""
     if method not in METHODS:
         raise InputError(f'unknown workspace method {method!r}; allowed: {", ".join(METHODS)}')
-    if not (isinstance(max_boxes, int) and max_boxes >= 1):
-        raise InputError(f'max_boxes must be a positive integer, got {max_boxes!r}')
     if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
         raise InputError(f'chunk_size must be a positive integer, got {chunk_size!r}')
     if not (isinstance(parts, int) and 1 <= parts <= 100_000):
