@@ -268,3 +268,28 @@ def test_d4_of_parallel_lines_is_their_distance_and_its_row_is_named_undefined()
                                                r'where every row is defined'):
         analyse_pose(mech, pose)
     assert analyse_pose(mech, [0, 0, 1.0, 0.2, 0, 0]).joints[5].value == pytest.approx(0.1)
+
+
+@pytest.mark.filterwarnings('error')
+def test_a_dexterity_map_computes_the_inverse_jacobian_once_with_the_same_results(monkeypatch):
+    """A GSP's dexterity map computed the inverse Jacobian twice per pose: for the conditioning and again in
+    singularity() (about 20 % of the map). jacobian_and_singularity gives both from one, bit for bit as the two
+    calls (a sweep of roll through the parallel D4 lines, exactly singular at A = 0, and a grid of the paper's GSP)."""
+    from gpr_kinematics.mechanisms.dexterity import dexterity_grid, dexterity_sweep
+    parallel, paper = _parallel_d4(), load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    calls = []
+    rows = GeneralizedStewartPlatform.inverse_jacobian_rt
+    monkeypatch.setattr(GeneralizedStewartPlatform, 'inverse_jacobian_rt',
+                        lambda self, pos, R: calls.append(pos.shape[0]) or rows(self, pos, R))
+    sweep = dexterity_sweep(parallel, [0, 0, 1.0, 0, 0, 0], 'A', np.linspace(-0.2, 0.2, 9))
+    grid = dexterity_grid(paper, [0.007, -0.008, 0.124, 2 * DEG, 5 * DEG, -5 * DEG], 'x', np.linspace(-0.02, 0.02, 5),
+                          'C', np.linspace(-0.3, 0.3, 4))
+    assert calls == [9, 20]                    # one inverse Jacobian per map (it was [9, 9, 20, 20])
+    assert sweep.singular.tolist() == [False] * 4 + [True] + [False] * 4 and sweep.dexterity[4] == 0.0
+    assert np.isinf(sweep.condition_number[4]) and not grid.singular.any()
+    for mech, poses in ((parallel, sweep.poses), (paper, grid.poses.reshape(-1, 6)), (paper, grid.poses[0, :1])):
+        Jh, named = mech.jacobian_and_singularity(poses)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            before = mech.homogenized_task_jacobian(poses)
+        assert np.array_equal(Jh, before, equal_nan=True) and named.tolist() == mech.singularity(poses).tolist()
+    assert parallel.jacobian_and_singularity(sweep.poses)[1][4].startswith('d4 (D4): the lines K and L are parallel')

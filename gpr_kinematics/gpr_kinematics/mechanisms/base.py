@@ -255,6 +255,11 @@ class Mechanism(abc.ABC):
         arr, _ = as_poses(poses)
         return np.full(arr.shape[0], '', dtype=object)
 
+    def jacobian_and_singularity(self, poses: Any) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`homogenized_task_jacobian` and :meth:`singularity` of completed poses, as a dexterity map takes
+        them; a mechanism whose singularity reads the same Jacobian (the GSP) computes it once."""
+        return self.homogenized_task_jacobian(poses), self.singularity(poses)
+
     def _outside(self, joints: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Joint values ``(N, n)`` (:func:`~gpr_kinematics.inputs.validation.number_rows`), where they are outside
         the limits (NaN included) and the limits."""

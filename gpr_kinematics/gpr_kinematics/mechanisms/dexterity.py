@@ -91,13 +91,14 @@ def evaluate(mech: Mechanism, poses: Any
     arr, _ = as_poses(poses)
     full = mech.complete_pose(arr)
     with np.errstate(divide='ignore', invalid='ignore'):
-        Jh = mech.homogenized_task_jacobian(full)
+        # named: a singular configuration of the mechanism itself (the GPR's rigid one, a GSP's undefined rows)
+        Jh, singularity = mech.jacobian_and_singularity(full)
+    named = singularity != ''
     finite = np.all(np.isfinite(Jh), axis=(1, 2))
     Jh = np.where(finite[:, None, None], Jh, 0.0)
     dex = np.where(finite, dexterity_index(Jh), 0.0)
     cond = np.where(finite, condition_number(Jh), np.inf)
     within = mech.within_limits(mech.inverse_kinematics(full))
-    named = mech.singularity(full) != ''  # a singular configuration of the mechanism itself (the GPR's rigid one)
     return full, dex, cond, (dex < SINGULAR_TOLERANCE) | named, within
 
 

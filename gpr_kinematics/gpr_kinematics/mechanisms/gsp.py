@@ -44,6 +44,7 @@ from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_array
 from ..inputs.validation import MAX_COORDINATE, bounded
 from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
+from .conditioning import homogenize
 from .gsp_rows import SCALAR_ROWS, mul3
 
 CONSTRAINT_TYPES = ('D1', 'D2', 'D3', 'D4', 'A1')
@@ -360,11 +361,24 @@ class GeneralizedStewartPlatform(Mechanism):
     def singularity(self, poses: Any) -> np.ndarray:
         """``(N,)``: the constraints whose inverse-Jacobian row is not defined at each pose and why
         (:data:`UNDEFINED_ROW`, e.g. a D4 constraint's parallel lines); ``''`` where every row is."""
+        return self._undefined_rows(self._inverse_jacobian(poses))
+
+    def jacobian_and_singularity(self, poses: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The homogenised task Jacobian and :meth:`singularity` from one inverse Jacobian (a six-DOF GSP's task
+        Jacobian is its inverse Jacobian: twist rates); a dexterity map computed it twice per pose."""
+        J = self._inverse_jacobian(poses)
+        return homogenize(J, self.joint_types, self.characteristic_length, self.variable_kinds), self._undefined_rows(J)
+
+    def _inverse_jacobian(self, poses: Any) -> np.ndarray:
+        """Inverse Jacobians ``(N, 6, 6)`` of poses, infinite or NaN rows where undefined (no warnings)."""
         arr, _ = as_poses(poses)
         with np.errstate(divide='ignore', invalid='ignore'):
-            J = self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+            return self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
+
+    def _undefined_rows(self, J: np.ndarray) -> np.ndarray:
+        """``(N,)`` strings naming the rows of inverse Jacobians ``J`` (N, 6, 6) that are not finite."""
         bad = ~np.all(np.isfinite(J), axis=-1)
-        out = np.full(arr.shape[0], '', dtype=object)
+        out = np.full(J.shape[0], '', dtype=object)
         for i in np.flatnonzero(np.any(bad, axis=1)):
             out[i] = '; '.join(f'{self.joint_names[k]} ({self.types[k]}): {UNDEFINED_ROW[str(self.types[k])]}'
                                for k in np.flatnonzero(bad[i]))
