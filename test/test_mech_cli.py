@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
 import yaml
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.mechanisms import load_mechanism
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -158,6 +160,10 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0', '0', '0', '--parameter-error', 'joint_imperfections',
       *['1e-4'] * 9, '--parameter-error', 'joint_imperfections', *['0'] * 9],
      '--parameter-error joint_imperfections is given twice; allowed: each parameter once'),
+    # a NaN among them was refused as 'must have 18 finite values (shape (6, 3), SI); got shape (6, 3)'
+    (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--parameter-error', 'A_i',
+      *['0'] * 3, 'nan', *['0'] * 14],
+     'error of parameter A_i: value 4 of 18 is nan, not a finite number; allowed: 18 finite values (shape (6, 3), SI)'),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, message):
     code, out, err = run(capsys, *argv)
@@ -249,3 +255,15 @@ def test_a_bad_workspace_section_is_refused_by_every_command_reading_the_file(ca
     data['workspace']['box'] = {'z': [0.0, 0.14]}
     path.write_text(yaml.safe_dump(data))
     assert run(capsys, 'dexterity', str(path))[0] == 0
+
+
+def test_the_library_names_a_parameter_error_that_is_not_numbers():
+    """accuracy_analysis took a parameter error of strings to a ValueError traceback (numpy's conversion)."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.mechanisms.accuracy import linearized_deviation
+    mech = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
+    for value, message in ((['a'] * 18, "A_i = ['a', 'a', 'a', 'a', 'a', 'a', 'a', 'a', ...]; allowed: 18 finite"),
+                           ([[0.0] * 3] * 5, 'A_i has shape (5, 3); allowed: 18 finite values (shape (6, 3), SI)'),
+                           (10**400, 'A_i = <an integer of about 401 digits>; allowed')):
+        with pytest.raises(InputError, match=re.escape(message)):
+            linearized_deviation(mech, [0, 0, 1, 0, 0, 0], parameter_errors={'A_i': value})

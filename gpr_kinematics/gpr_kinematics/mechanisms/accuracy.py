@@ -176,12 +176,20 @@ def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict
         if key not in nominal:
             raise InputError(f'{mech.name}: unknown geometric parameter {key!r}; allowed: '
                              + (', '.join(sorted(nominal)) or 'none'))
-        arr = np.asarray(val, dtype=float)
-        if arr.size != np.asarray(nominal[key]).size or not np.all(np.isfinite(arr)):
-            size = np.asarray(nominal[key]).size
-            raise InputError(f'{mech.name}: error of parameter {key} must have {size} '
-                             f'finite values (shape {np.shape(nominal[key])}, SI); got shape {arr.shape}')
-        out[key] = arr.reshape(np.shape(nominal[key]))
+        shape = np.shape(nominal[key])
+        allowed = f'allowed: {int(np.prod(shape))} finite values (shape {shape}, SI)'
+        try:
+            arr = np.asarray(val, dtype=float)
+        except (TypeError, ValueError, OverflowError):   # OverflowError: an int of 400 digits
+            raise InputError(f'{mech.name}: error of parameter {key} = {brief(val)}; {allowed}') from None
+        if arr.size != int(np.prod(shape)):
+            raise InputError(f'{mech.name}: error of parameter {key} has shape {arr.shape}; {allowed}')
+        bad = ~np.isfinite(arr.ravel())
+        if bad.any():   # the message said 'got shape (6, 3)', the shape it asked for, of 18 values with a NaN
+            k = int(np.argmax(bad))
+            raise InputError(f'{mech.name}: error of parameter {key}: value {k + 1} of {arr.size} is '
+                             f'{arr.ravel()[k]}, not a finite number; {allowed}')
+        out[key] = arr.reshape(shape)
     return out
 
 
