@@ -129,3 +129,35 @@ def test_accuracy_where_the_jacobian_is_singular_to_rounding_names_the_pose(monk
     monkeypatch.setattr(np.linalg, 'solve', singular)
     with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 0.5, '):
         linearized_deviation(stewart, pose, [1e-5] * 6)
+
+
+@pytest.mark.parametrize('name', ['gsp_d1d2d3d4a1a1.yaml', 'stewart_alwan.yaml', 'upu3.yaml', 'tripod_3rps.yaml'])
+@pytest.mark.parametrize('length', [1e-300, 1e-7, 1e300, 0, -0.1, float('nan'), True, 'a'])
+def test_a_characteristic_length_out_of_range_is_refused_naming_it(name, length):
+    """characteristic_length 1e-300 m divided the angular columns to 1e300: every dexterity map and gpr mechanism of
+    the file ended in numpy's LinAlgError ('Eigenvalues did not converge'), 1e-150 read a regular pose as singular
+    (gpr accuracy refused it), 1e300 passed for a GSP. It is a length from 1e-6 m to 1e6 m (the GPR core's least)."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.inputs.safe_yaml import read_file
+    from gpr_kinematics.mechanisms import mechanism_from_dict
+    data = read_file(config_path(f'mechanisms/{name}'), 'mechanism') | {'characteristic_length': length}
+    with pytest.raises(ConfigError) as err:
+        mechanism_from_dict(data, 'm.yaml')
+    assert str(err.value).startswith('m.yaml: characteristic_length = ') and str(err.value).endswith(
+        '; allowed: a length from 1e-06 to 1e+06 m (it homogenises the angular columns of the Jacobians)')
+    for ok in (1e-6, 1e6):   # the bounds are allowed, and every map stays finite
+        mech = mechanism_from_dict(data | {'characteristic_length': ok}, 'm.yaml')
+        assert mech.characteristic_length == ok and np.isfinite(mech.condition_number(FILES[name])).all()
+
+
+def test_a_default_characteristic_length_out_of_range_is_refused_naming_where_it_came_from():
+    """The tripod's and the 3-UPU's default is the platform radius: 1e-300 m of it went through unchecked."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.mechanisms.tripod import Tripod3RPS
+    from gpr_kinematics.mechanisms.upu3 import UPU3
+    with pytest.raises(ConfigError, match=r'^tripod: characteristic_length \(platform_radius, when none is given\) = '
+                                          r'1e-300; allowed: a length from 1e-06'):
+        Tripod3RPS(platform_radius=1e-300, name='tripod')
+    with pytest.raises(ConfigError, match=r'^upu: characteristic_length = 0; allowed'):   # 0 was the radius
+        UPU3(characteristic_length=0, name='upu')
+    assert UPU3(name='upu').characteristic_length == 0.17

@@ -6,11 +6,34 @@ Dexterity is the inverse condition number ``sigma_min / sigma_max`` (1 isotropic
 """
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
+
+from ..errors import ConfigError, brief
+from ..inputs.validation import MAX_COORDINATE
 
 #: Joint types: ``prismatic`` (a distance, m) or ``revolute`` (an angle, rad).
 LINEAR_JOINTS = frozenset({'prismatic', 'distance'})
 ANGULAR_JOINTS = frozenset({'revolute', 'angle'})
+
+#: Range of a characteristic length [m]: the GPR core's least (``core.config``) to every coordinate's bound. The
+#: homogenised Jacobian's angular columns are divided by it: 1e-300 m made them 1e300, whose squares overflow
+#: (numpy's LinAlgError from every dexterity map), and a regular pose read as singular.
+CHARACTERISTIC_LENGTH = (1e-6, MAX_COORDINATE)
+
+
+def check_characteristic_length(value: Any, where: str) -> float:
+    """``value`` as a length [m] within :data:`CHARACTERISTIC_LENGTH`, else :class:`ConfigError` naming ``where``
+    (e.g. ``'file.yaml: characteristic_length'``) and the range."""
+    lo, hi = CHARACTERISTIC_LENGTH
+    ok = isinstance(value, (int, float, np.floating)) and not isinstance(value, bool)
+    if not ok or not (math.isfinite(float(value)) and lo <= float(value) <= hi):
+        raise ConfigError(f'{where} = {brief(value)}; allowed: a length from {lo:g} to {hi:g} m (it homogenises the '
+                          'angular columns of the Jacobians)')
+    return float(value)
+
 
 #: Inverse condition number below which a configuration counts as singular.
 SINGULAR_TOLERANCE = 1e-9

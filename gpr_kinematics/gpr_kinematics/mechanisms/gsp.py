@@ -44,7 +44,7 @@ from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_array
 from ..inputs.validation import MAX_COORDINATE, bounded
 from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
-from .conditioning import homogenize
+from .conditioning import check_characteristic_length, homogenize
 from .gsp_rows import SCALAR_ROWS, mul3
 
 CONSTRAINT_TYPES = ('D1', 'D2', 'D3', 'D4', 'A1')
@@ -163,12 +163,10 @@ class GeneralizedStewartPlatform(Mechanism):
                  euler_convention: str = 'xyz') -> None:
         if len(constraints) != 6:
             raise ConfigError(f'a six-DOF GSP needs exactly 6 constraints; got {len(constraints)}')
-        if not (np.isfinite(characteristic_length) and characteristic_length > 0):
-            raise ConfigError('characteristic_length must be a positive length in m; '
-                              f'got {brief(characteristic_length)}')
+        length = check_characteristic_length(characteristic_length, f'{name}: characteristic_length')
         self.constraints = list(constraints)
         self.name = name
-        self.characteristic_length = float(characteristic_length)
+        self.characteristic_length = length
         self.euler_convention = check_euler_convention(euler_convention)
         self.types = np.array([c.type for c in constraints])
         self.joint_types = tuple(c.joint_type for c in constraints)
@@ -209,9 +207,7 @@ class GeneralizedStewartPlatform(Mechanism):
         if len(cons) != 6:
             raise ConfigError(f'{source}: key constraints must list exactly 6 constraints; got {len(cons)}')
         parsed = [parse_constraint(c, f'{source}: constraints[{k}]') for k, c in enumerate(cons)]
-        L = data.get('characteristic_length', 0.1)
-        if not isinstance(L, (int, float)) or isinstance(L, bool) or not L > 0:
-            raise ConfigError(f'{source}: characteristic_length must be a positive length in m; got {brief(L)}')
+        L = check_characteristic_length(data.get('characteristic_length', 0.1), f'{source}: characteristic_length')
         euler = data.get('euler', 'xyz')
         try:
             check_euler_convention(euler)

@@ -24,6 +24,7 @@ from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_array, number_key
 from ..inputs.validation import MAX_COORDINATE
 from .base import as_poses, check_euler_convention
+from .conditioning import check_characteristic_length
 from .gsp import Constraint, GeneralizedStewartPlatform
 
 
@@ -82,7 +83,11 @@ class StewartPlatform(GeneralizedStewartPlatform):
         check_keys(data, allowed, source)
         a = _points(data, 'base', source)
         b = _points(data, 'platform', source)
-        L = number_key(data, 'characteristic_length', source, default=float(np.mean(np.linalg.norm(b, axis=1))))
+        given = 'characteristic_length' in data
+        L = check_characteristic_length(
+            data['characteristic_length'] if given else float(np.mean(np.linalg.norm(b, axis=1))),
+            f'{source}: characteristic_length' + ('' if given else ' (the platform points\' mean radius when none '
+                                                                   'is given)'))
         euler = data.get('euler', 'ZXZ')
         try:
             check_euler_convention(euler)

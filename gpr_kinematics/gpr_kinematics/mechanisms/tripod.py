@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..inputs.schema import check_keys, number_key
 from .base import Mechanism, as_poses
+from .conditioning import check_characteristic_length
 
 LEG_AZIMUTHS = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
 _CS_STEP = 1e-30  # complex-step size: derivatives exact to rounding, no subtraction error
@@ -81,7 +82,10 @@ class Tripod3RPS(Mechanism):
         self.base_radius, self.platform_radius = float(base_radius), float(platform_radius)
         self.name = name
         self.joint_limits = np.array([[leg_min, leg_max]] * 3, dtype=float)
-        self.characteristic_length = float(characteristic_length or platform_radius)
+        given = characteristic_length is not None
+        self.characteristic_length = check_characteristic_length(
+            characteristic_length if given else platform_radius,
+            f'{name}: characteristic_length' + ('' if given else ' (platform_radius, when none is given)'))
         circle = np.column_stack([np.cos(LEG_AZIMUTHS), np.sin(LEG_AZIMUTHS), np.zeros(3)])
         self.base_points = self.base_radius * circle
         self.platform_points = self.platform_radius * circle
@@ -97,7 +101,8 @@ class Tripod3RPS(Mechanism):
         L = data.get('characteristic_length')
         return cls(number_key(data, 'base_radius', source), number_key(data, 'platform_radius', source), lo, hi,
                    name=str(data.get('name', '3-RPS tripod')),
-                   characteristic_length=None if L is None else number_key(data, 'characteristic_length', source))
+                   characteristic_length=None if L is None else check_characteristic_length(
+                       L, f'{source}: characteristic_length'))
 
     # ------------------------------------------------------------------ pose
     def _complete(self, z: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

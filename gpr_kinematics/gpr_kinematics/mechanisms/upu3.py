@@ -24,6 +24,7 @@ from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_array, number_key
 from ..inputs.validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
+from .conditioning import check_characteristic_length
 
 SINGULARITY_TOLERANCE = 1e-9
 #: Least angle between two limbs' azimuths [rad] (modulo 2 pi); closer, two limbs share one joint pair.
@@ -69,7 +70,10 @@ class UPU3(Mechanism):
         self.azimuths = az
         self.name = name
         self.joint_limits = np.array([[limb_min, limb_max]] * 3, dtype=float)
-        self.characteristic_length = float(characteristic_length or p)
+        given = characteristic_length is not None
+        self.characteristic_length = check_characteristic_length(
+            characteristic_length if given else p,
+            f'{name}: characteristic_length' + ('' if given else ' (p, when none is given)'))
         circle = np.column_stack([np.cos(az), np.sin(az), np.zeros(3)])
         self.base_points = self.b * circle
         self.platform_points = self.p * circle
@@ -90,7 +94,7 @@ class UPU3(Mechanism):
         check_azimuths(az_arr, f'{source}: base_azimuths')
         L = data.get('characteristic_length')
         if L is not None:
-            L = number_key(data, 'characteristic_length', source)
+            L = check_characteristic_length(L, f'{source}: characteristic_length')
         return cls(b, p, lo, hi, az_arr, name=str(data.get('name', '3-UPU')), characteristic_length=L)
 
     def parameters(self) -> dict[str, np.ndarray]:
