@@ -201,3 +201,29 @@ def test_upu3_limbs_sharing_an_azimuth_are_refused(azimuths):
     with pytest.raises(ConfigError, match=r'^base_azimuths \[.*\] rad: limbs [12] and [23] share an azimuth'):
         UPU3(azimuths=azimuths)
 
+
+
+@pytest.mark.filterwarnings('error')
+def test_a_tilt_of_half_a_turn_about_one_axis_is_singular_in_a_map_and_named_elsewhere(tripod):
+    """At theta = 180 deg, psi = 0 the parasitic phi is 0 / 0: the map of theta over -180..180 deg (its ends exactly
+    there) was refused whole, with a RuntimeWarning, as 'poses must be finite numbers; got [nan nan 0.1 3.14159265 0
+    nan]', tilts the user gave finite. The map marks those poses singular (dexterity 0, outside the limits, x y phi
+    NaN) and keeps the others as they were; a single pose is refused naming the tilts."""
+    from gpr_kinematics.errors import SingularityError
+    values = np.linspace(-math.pi, math.pi, 5)
+    sweep = dexterity_sweep(tripod, [0, 0, 0.1, 0, 0, 0], 'theta', values)
+    inner = dexterity_sweep(tripod, [0, 0, 0.1, 0, 0, 0], 'theta', values[1:-1])
+    assert sweep.singular.tolist() == [True, *inner.singular.tolist(), True]
+    assert sweep.dexterity[[0, 4]].tolist() == [0.0, 0.0] and np.isinf(sweep.condition_number[[0, 4]]).all()
+    assert not sweep.within_limits[[0, 4]].any() and np.array_equal(sweep.dexterity[1:4], inner.dexterity)
+    assert np.isnan(sweep.poses[0, [0, 1, 5]]).all() and sweep.poses[0, [2, 3, 4]].tolist() == [0.1, -math.pi, 0]
+    grid = dexterity_grid(tripod, [0, 0, 0.1, 0, 0, 0], 'theta', [math.pi], 'psi', [0.0])   # nothing to complete
+    assert grid.singular.tolist() == [[True]] and grid.dexterity.tolist() == [[0.0]]
+    assert tripod.undetermined([[0, 0, 0.1, 0, math.pi, 0], [0, 0, 0.1, 3.0, 0, 0]]).tolist() == [True, False]
+    message = (r'3-RPS tripod \(Posypkin et al.\): at theta = 3.14159 rad, psi = 0 rad the parasitic rotation phi is '
+               r'not determined \(sin psi sin theta = 0 = cos psi \+ cos theta: .*\); allowed: tilts where cos psi \+ '
+               r'cos theta or sin psi sin theta is not 0')
+    with pytest.raises(SingularityError, match=message):
+        tripod.report([0, 0, 0.1, math.pi, 0, 0])
+    with pytest.raises(SingularityError, match=r'psi = 3.14159 rad \(pose 2\) the parasitic rotation'):
+        accuracy_analysis(tripod, [[0, 0, 0.1, 0, 0, 0], [0, 0, 0.1, 0, math.pi, 0]], [1e-3, 0, 0])

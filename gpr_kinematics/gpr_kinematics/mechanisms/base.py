@@ -155,6 +155,12 @@ class Mechanism(abc.ABC):
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
         """Inverse Jacobians ``(N, n, 6)``: joint rates per twist ``(v, w)``, ``w`` in the base frame."""
 
+    def undetermined(self, poses: Any) -> np.ndarray:
+        """``(N,)`` True where :meth:`complete_pose` cannot complete the pose (a configuration singular for its
+        parasitic motions: the tripod's half turn about one axis); none here."""
+        arr, _ = as_poses(poses)
+        return np.zeros(arr.shape[0], dtype=bool)
+
     def complete_pose(self, poses: Any) -> np.ndarray:
         """The pose the mechanism reaches for the pose variables of ``poses`` (identity for 6 DOF)."""
         arr, single = as_poses(poses)

@@ -87,8 +87,20 @@ def _index(mech: Mechanism, variable: str) -> int:
 
 def evaluate(mech: Mechanism, poses: Any
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(poses, dexterity, condition, singular, within_limits)`` for a batch of poses ``(N, 6)``."""
+    """``(poses, dexterity, condition, singular, within_limits)`` for a batch of poses ``(N, 6)``; a pose the
+    mechanism cannot complete (:meth:`~.base.Mechanism.undetermined`) is singular, dexterity 0, outside the limits,
+    its completed components NaN."""
     arr, _ = as_poses(poses)
+    free = mech.undetermined(arr)
+    if free.any():   # the map was refused whole ('poses must be finite numbers') at theta = 180 deg of the tripod
+        n = arr.shape[0]
+        full, dex, cond = np.full((n, 6), np.nan), np.zeros(n), np.full(n, np.inf)
+        sing, within = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
+        full[:, mech.variable_indices] = arr[:, mech.variable_indices]
+        if not free.all():
+            ok = ~free
+            full[ok], dex[ok], cond[ok], sing[ok], within[ok] = evaluate(mech, arr[ok])
+        return full, dex, cond, sing, within
     full = mech.complete_pose(arr)
     with np.errstate(divide='ignore', invalid='ignore'):
         # named: a singular configuration of the mechanism itself (the GPR's rigid one, a GSP's undefined rows)

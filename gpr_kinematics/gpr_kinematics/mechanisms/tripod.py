@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, SingularityError
 from ..inputs.schema import check_keys, number_key
 from .base import Mechanism, as_poses
 from .conditioning import check_characteristic_length
@@ -52,10 +52,17 @@ def parasitic_motion(theta: Any, psi: Any, r: float) -> tuple[np.ndarray, np.nda
     Works on real or complex arrays (the latter for complex-step differentiation).
     """
     th, ps = np.asarray(theta), np.asarray(psi)
-    phi = np.arctan(np.sin(ps) * np.sin(th) / (np.cos(ps) + np.cos(th)))
+    with np.errstate(divide='ignore', invalid='ignore'):   # NaN where phi is not determined (undetermined_phi)
+        phi = np.arctan(np.sin(ps) * np.sin(th) / (np.cos(ps) + np.cos(th)))
     y = -r * np.cos(ps) * np.sin(phi)
     x = r / 2 * (np.cos(th) * np.cos(phi) + np.sin(ps) * np.sin(th) * np.sin(phi) - np.cos(ps) * np.cos(phi))
     return phi, x, y
+
+
+def undetermined_phi(theta: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    """``(N,)`` True where :func:`parasitic_motion`'s ``phi`` is ``0 / 0``: ``sin(psi) sin(theta) = 0 = cos(psi) +
+    cos(theta)`` (a tilt of half a turn about x or y alone; the legs' planes leave the turn about z free)."""
+    return np.asarray((np.sin(psi) * np.sin(theta) == 0) & (np.cos(psi) + np.cos(theta) == 0))
 
 
 def tripod_rotation(theta: Any, psi: Any, phi: Any) -> np.ndarray:
@@ -113,10 +120,23 @@ class Tripod3RPS(Mechanism):
     def complete_pose(self, poses: Any) -> np.ndarray:
         """Fill in the parasitic ``x``, ``y`` and ``phi`` for the requested ``z``, ``theta``, ``psi``."""
         arr, single = as_poses(poses)
+        free = self.undetermined(arr)
+        if free.any():   # it went on as NaN to 'poses must be finite numbers', of tilts the caller gave finite
+            k = int(np.argmax(free))
+            raise SingularityError(
+                f'{self.name}: at theta = {arr[k, 3]:.6g} rad, psi = {arr[k, 4]:.6g} rad'
+                + (f' (pose {k + 1})' if arr.shape[0] > 1 else '') + ' the parasitic rotation phi is not determined '
+                '(sin psi sin theta = 0 = cos psi + cos theta: half a turn about one axis, the turn about z is free); '
+                'allowed: tilts where cos psi + cos theta or sin psi sin theta is not 0')
         phi, x, y = parasitic_motion(arr[:, 3], arr[:, 4], self.platform_radius)
         out = arr.copy()
         out[:, 0], out[:, 1], out[:, 5] = x, y, phi
         return out[0] if single else out
+
+    def undetermined(self, poses: Any) -> np.ndarray:
+        """``(N,)``: the tilts of which :meth:`complete_pose` cannot complete the pose (:func:`undetermined_phi`)."""
+        arr, _ = as_poses(poses)
+        return undetermined_phi(arr[:, 3], arr[:, 4])
 
     def rotation(self, poses: Any) -> np.ndarray:
         arr, _ = as_poses(poses)
