@@ -62,6 +62,7 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.csv', 'name,x [mm],y,z\na,1e400,0,0.4\n', r"x = '1e400' is invalid; allowed: a finite number in mm"),
     ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid"),
     ('s.csv', 'name,x,y,z\n,1,0,0.4\n', r"line 2: name = '' is invalid; allowed: 1 to 64 letters"),
+    ('s.yaml', 'stations: [{name: "a\\n", position: [1, 2, 3]}]\n', r"stations\[0\]: name = 'a\\n' is invalid; allowed"),
     ('s.csv', 'name,x,y,z\na,1,0,\n', r'line 2 \(a\): x, y and z are required'),
     ('s.csv', 'name,x,y,z\na,1,0,0.4\na,1,0,0.5\n', r"station name 'a' is used twice \(stations 0 and 1\)"),
     ('s.csv', 'name,x,y,z,branch\na,1,0,0.4,up\n', r"branch = 'up' is invalid; allowed: left, right or empty"),

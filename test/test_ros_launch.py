@@ -337,7 +337,7 @@ def test_two_robots_example(monkeypatch):
 
 
 @pytest.mark.parametrize('prefix, ok', [('', True), ('r1/', True), ('cell_2/r1/', True), ('r1', True),
-                                        ('/r1/', False), ('r 1/', False), ('r1/' * 40, False)])
+                                        ('/r1/', False), ('r 1/', False), ('r1/' * 40, False), ('r1/\n', False)])
 def test_frame_prefix_rule(prefix, ok):
     """What frame_prefix accepts (state_publisher_node and trajectory_node refuse to start otherwise)."""
     from gpr_kinematics.errors import ConfigError

@@ -11,7 +11,7 @@ from ..errors import ConfigError, brief
 from ..inputs.schema import number_key
 from ..inputs.validation import text_hint
 
-_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]{0,63}$')
+_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
 NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
 
 
@@ -52,7 +52,7 @@ def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
 
 def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
     value = data.get(key, default)
-    if not isinstance(value, str) or not _NAME.match(value):
+    if not isinstance(value, str) or not _NAME.fullmatch(value):
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid{text_hint(value)}; allowed: {NAME_RULE}')
     return value
 

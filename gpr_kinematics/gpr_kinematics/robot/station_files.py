@@ -52,7 +52,7 @@ _LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height', 'entry')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
                  'entry')
-_NAME = re.compile(r'^[A-Za-z0-9_.\-]{1,64}$')
+_NAME = re.compile(r'[A-Za-z0-9_.\-]{1,64}')
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,7 @@ def _number(value: Any, where: str, key: str, unit: str) -> float:
 def station_name(value: Any, where: str) -> str:
     """A station's name: 1 to 64 letters, digits, ``_ . -`` (a YAML number is read as its text, a boolean refused
     with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.match(str(value)):
+    if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.fullmatch(str(value)):
         hint = text_hint(value) if isinstance(value, bool) else ''
         raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: 1 to 64 letters, digits, _ . -')
     return str(value)

@@ -195,12 +195,12 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
 FRAME_PREFIX = ParamSpec('frame_prefix', 'string', '', 'prefix of every tf frame the node publishes or names (as '
                          "robot_state_publisher's frame_prefix), e.g. r1/", constraint='empty, or letters, digits, _ '
                          'and /, not starting with /', read_only=True)
-_PREFIX = re.compile(r'^[A-Za-z0-9_][A-Za-z0-9_/]{0,99}$')
+_PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]{0,99}')
 
 
 #: A tf frame name: letters, digits, _ - and ., parts joined by single slashes, not starting with one (tf2 refuses a
 #: leading slash), at most 100 characters.
-_FRAME = re.compile(r'^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$')
+_FRAME = re.compile(r'[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*')
 
 
 def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
@@ -209,7 +209,7 @@ def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
     seen: dict[str, str] = {}
     for name in names:
         value = p[name]
-        if not (isinstance(value, str) and len(value) <= 100 and _FRAME.match(value)):
+        if not (isinstance(value, str) and len(value) <= 100 and _FRAME.fullmatch(value)):
             raise ConfigError(f'parameter {name} = {value!r} is invalid; allowed: a tf frame name (letters, digits, '
                               '_ - . and single / between parts, not at the start or the end; at most 100 characters)')
         if value in seen:
@@ -220,7 +220,7 @@ def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
 
 def check_frame_prefix(prefix: str) -> str:
     """``prefix`` when it is a valid frame prefix (:data:`FRAME_PREFIX`), else :class:`ConfigError` naming it."""
-    if prefix and not _PREFIX.match(prefix):
+    if prefix and not _PREFIX.fullmatch(prefix):
         raise ConfigError(f'parameter frame_prefix = {prefix!r} is invalid; allowed: {FRAME_PREFIX.constraint} (at '
                           'most 100 characters), e.g. r1/')
     return prefix
