@@ -72,7 +72,9 @@ _DELETE = object()
     (('arms', 0, 'joints'), [], r'arms\[0\] \(arm1\): joints must be a list of 2 to 4 revolute joints'),
     (('arms', 0, 'joints', 1, 'length'), -0.3,
      r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): length = -0.3 is invalid; allowed: metres, 0 <= length <= 5'),
-    (('arms', 0, 'joints', 0, 'length'), 0.0, r'arm1_shoulder: length = 0.0 is invalid; allowed: > 0 for every joint'),
+    (('arms', 0, 'joints', 0, 'length'), 0.0, r'arm1_shoulder: length = 0.0 is invalid; allowed: >= 1e-06 m for every'),
+    (('arms', 1, 'joints', 0, 'length'), 5e-324,   # passed, and overflowed (RuntimeWarning) in the inverse kinematics
+     r'arm2_shoulder: length = 5e-324 is invalid; allowed: >= 1e-06 m for every joint but the last'),
     (('arms', 0, 'joints', 1, 'lower'), 3.0, r'arm1_elbow\): lower = 3.0 must be below upper = 2.9'),
     (('arms', 0, 'joints', 1, 'upper'), 7.0, r'upper = 7.0 is invalid; allowed: radians within \[-2pi, 2pi\]'),
     (('arms', 0, 'joints', 1, 'velocity'), float('nan'), r'velocity must be a finite number in rad/s; got nan'),

@@ -61,6 +61,7 @@ DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
 _LENGTH_BOUND = 5.0  # m: arm and mount dimensions
 _WORLD_BOUND = 100.0  # m: base position in the world
+_LINK_LEAST = 1e-6  # m: the shortest link between two joint axes (the collision bodies' least size)
 
 
 @dataclass(frozen=True)
@@ -308,9 +309,9 @@ def _arm(raw: Any, where: str) -> Arm:
                           f'{len(raw_joints) if isinstance(raw_joints, list) else type(raw_joints).__name__}')
     joints = tuple(_joint(j, f'{where}: joints[{i}]') for i, j in enumerate(raw_joints))
     for j in joints[:-1]:
-        if j.length <= 0.0:
-            raise ConfigError(f'{where}: {j.name}: length = {j.length!r} is invalid; allowed: > 0 for every joint '
-                              'but the last (a zero-length link makes two joints coaxial)')
+        if j.length < _LINK_LEAST:   # 5e-324 passed: 1 / (2 L1 L2) overflowed in the arm's inverse kinematics
+            raise ConfigError(f'{where}: {j.name}: length = {j.length!r} is invalid; allowed: >= {_LINK_LEAST:g} m '
+                              'for every joint but the last (a zero-length link makes two joints coaxial)')
     bwhere = f'{where}: blade'
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
     check_keys(blade_data, ('position', 'yaw', 'wafer_centre', 'paddle', 'friction', 'vacuum'), bwhere)
