@@ -49,7 +49,7 @@ from ..inputs.validation import text_hint
 from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
-from .station_files import StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
+from .station_files import MAX_STATIONS, StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
 from .stations import Stations
 
 FORMAT = 'gpr_robot_program'
@@ -197,6 +197,9 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
     for p in raw:
         path = Path(p) if Path(p).is_absolute() else base / p
         rows.extend(read_station_rows(path))
+        if len(rows.names) > MAX_STATIONS:  # each file within the bound, 64 of them 6.4 million: 3 min and 1.9 GB
+            raise ConfigError(f'{source}: import {brief(p)}: {len(rows.names)} stations so far; allowed: at most '
+                              f'{MAX_STATIONS} in a program (inline and imported)')
     return rows
 
 
