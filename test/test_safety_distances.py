@@ -218,3 +218,44 @@ def test_slow_pairs_are_certified_to_1e_10_in_tens_of_rounds():
         assert upper - low[0] <= REFINED, (a.name, b.name, upper - low[0])
         assert low[0] <= truth + 1e-9 and low[0] >= truth - 1e-9, (low[0], truth)
         assert err[0] <= np.sqrt(2.0 * upper * REFINED + REFINED ** 2)
+
+
+#: A blade's paddle flat under a station's wafer, as ``gpr program check`` placed them with ``approach_height: 0``
+#: in the example cell program (the paddle's top face on the wafer's bottom one), and the same pair 50 um deeper.
+_TOUCH = """
+import numpy as np
+from gpr_kinematics.safety.bodies import Body
+from gpr_kinematics.safety.distances import Exact, Store
+
+c, s = 0.32342386716344623254, 0.94625419531383947458
+for depth in (0.0, 5e-5):
+    paddle = Body('paddle', 'box', (0.29000000000000003553, 0.080000000000000001665, 0.0030000000000000000625), None,
+                  np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]),
+                  np.array([0.91710352854294063807, -0.0014672684187215234708, 0.39811250000000003579]))
+    wafer = Body('wafer', 'cylinder', (0.14999999999999999445, 0.00077499999999999997276), None,
+                 np.array([[6.1232339957367660359e-17, 1.0, 0.0], [-1.0, 6.1232339957367660359e-17, 0.0],
+                           [0.0, 0.0, 1.0]]), np.array([0.75, -0.10000000000000000555, 0.4000000000000000222 - depth]))
+    exact = Exact([paddle, wafer], Store(None, [paddle, wafer]))
+    one = np.array([0])
+    exact.measure(one, one, one, one + 1)
+    print(repr(float(exact.values(one, one)[0][0])))
+"""
+
+
+def test_touching_bodies_do_not_abort_the_check(tmp_path):
+    """libccd's EPA, asked for the depth of a paddle that only touches a wafer, threw a C++ exception that aborted
+    the process (gpr program check of the cell program with approach_height 0: SIGABRT, exit 134). EPA is asked only
+    for bodies in contact that do not merely touch: the touching pair is at 0, less the library's 1 um slack (the
+    separating-axis bound along the face normal); 50 um deep it is EPA's depth as before (9.75 um)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import gpr_kinematics
+
+    run = subprocess.run([sys.executable, '-c', _TOUCH], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                         env={'PYTHONPATH': str(Path(gpr_kinematics.__file__).parents[1]), 'PATH': '/usr/bin:/bin'})
+    assert run.returncode == 0, run.stderr[-400:]
+    touching, deep = (float(v) for v in run.stdout.split())
+    assert touching == pytest.approx(-1e-6, abs=1e-15)
+    assert deep == pytest.approx(-9.747e-6 - 1e-6, abs=1e-9)   # EPA's, approximate with a cylinder (docs/cell.md)
