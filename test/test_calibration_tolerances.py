@@ -91,6 +91,12 @@ def test_moments_match_samples(tol):
     ({'measurement_noise': {'position': 0, 'angle': 1e-5}}, r'measurement_noise: position = 0; allowed: a finite '
                                                              r'number > 0'),
     ({'measurement_noise': {'position': 1e-6}}, r'measurement_noise: angle = None'),
+    # the sigmas a measurement file's rows may have: 1e6 m passed gpr accuracy, and gpr calibrate named no file
+    ({'measurement_noise': {'position': 1e6, 'angle': 1e-5}}, r't.yaml: measurement_noise: position = 1e\+06 m \(SI\); '
+                                                              r'allowed: a standard deviation from 1e-09 to 0.1 m$'),
+    ({'units': {'angle': 'deg'}, 'measurement_noise': {'position': 1e-6, 'angle': 1e-300}},
+     r't.yaml: measurement_noise: angle = 1.74533e-302 rad \(SI\); allowed: a standard deviation from 1e-09 to 0.1 '
+     r'rad$'),
 ])
 def test_malformed_tables_refused(data, pattern):
     with pytest.raises(ConfigError, match=pattern):

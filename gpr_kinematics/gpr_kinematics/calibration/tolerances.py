@@ -39,6 +39,7 @@ from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
 from ..inputs.validation import MAX_COORDINATE
+from .measurements import SIGMA_RANGE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
 Array = NDArray[np.float64]
@@ -313,6 +314,11 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
         sp = _number(noise.get('position'), f'{source}: measurement_noise: position', positive=True) * lf
         sa = _number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True) * _ANGLE[angle]
+        lo, hi = SIGMA_RANGE   # the sigmas of a measurement file's rows: 1e6 m passed gpr accuracy's plan, and
+        for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):   # calibrate named no file
+            if not lo <= value <= hi:
+                raise ConfigError(f'{source}: measurement_noise: {key} = {value:g} {unit} (SI); allowed: a standard '
+                                  f'deviation from {lo:g} to {hi:g} {unit}')
     return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
                           sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
 
