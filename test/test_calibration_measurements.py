@@ -76,6 +76,9 @@ def test_write_read_round_trip_is_exact(tmp_path):
     (text(ROW.replace('1e-5', 'nan')), r'line 2, column x: nan is not a finite number'),
     (text(ROW.replace('0.301', 'inf')), r'line 2, column q2: inf is not a finite number'),
     (text(ROW.replace('0.301', '0.3O1')), r"line 2, column q2: '0\.3O1' is not a number"),
+    # float() read 1_0 as 10 and other scripts' digits as numbers (YAML files refuse them as text)
+    (text(ROW.replace('0.301', '0.3_01')), r"line 2, column q2: '0\.3_01' is not a number"),
+    (text(ROW.replace('0.301', '\u0660.\u0663\u0660\u0661')), r"line 2, column q2: '.*' is not a number"),
     (text(ROW.replace('0.999981999', '0.9')), r'line 2, columns qx qy qz qw: quaternion norm 0\.9000'),
     (text(ROW + ',0', header=HEADER + ',sigma_position'),
      r"line 2, column sigma_position: 0\.0 is outside \[1e-09, 0\.1\] \(m, SI\)"),

@@ -61,6 +61,8 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.csv', 'name,x,y,z\na,1,nan,0.4\n', r"s.csv: line 2 \(a\): y = 'nan' is invalid; allowed: a finite number in m"),
     ('s.csv', 'name,x [mm],y,z\na,1e400,0,0.4\n', r"x = '1e400' is invalid; allowed: a finite number in mm"),
     ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid"),
+    ('s.csv', 'name,x,y,z\na,1_0,0,0.4\n', r"line 2 \(a\): x = '1_0' is invalid; allowed: a finite number in m"),  # was 10
+    ('s.csv', 'name,x,y,z\na,\uff11,0,0.4\n', r"line 2 \(a\): x = '\uff11' is invalid; allowed: a finite number"),
     ('s.csv', 'name,x,y,z\n,1,0,0.4\n', r"line 2: name = '' is invalid; allowed: 1 to 64 letters"),
     ('s.yaml', 'stations: [{name: "a\\n", position: [1, 2, 3]}]\n', r"stations\[0\]: name = 'a\\n' is invalid; allowed"),
     ('s.csv', 'name,x,y,z\na,1,0,\n', r'line 2 \(a\): x, y and z are required'),

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from ..core.rotations import matrix_from_quaternion
 from ..errors import InputError, brief
 from ..inputs import units
-from ..inputs.validation import QUATERNION_NORM_TOLERANCE
+from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal
 from .files import comment_lines, read_text, write_text
 
 Array = NDArray[np.float64]
@@ -217,7 +217,7 @@ def _header(fields: list[str], where: str, defaults: units.FileUnits, spec: Colu
 
 def _number(text: str, where: str, column: str) -> float:
     try:
-        v = float(text)
+        v = decimal(text)   # float() read 1_0 as 10, and other scripts' digits
     except ValueError:
         raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number') from None
     if not math.isfinite(v):

@@ -6,6 +6,7 @@ is allowed, so a caller (CLI: exit 2; node: ``success: false``) can pass it on a
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence, Sized
 from typing import Any
 
@@ -20,6 +21,24 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 #: mechanisms and stations the package accepts: far beyond any of them, and small enough that no product of a few
 #: of them overflows.
 MAX_COORDINATE = 1e6
+
+
+#: A number as a CSV file writes it: ASCII digits with an optional sign, point and exponent (YAML 1.2's forms, which
+#: :mod:`~gpr_kinematics.inputs.safe_yaml` reads), or inf and nan (which the readers then refuse as not finite).
+_DECIMAL = re.compile(r'[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[-+]?(?:inf|infinity|nan)', re.IGNORECASE)
+
+
+def decimal(text: str) -> float:
+    """The number a CSV field ``text`` writes (blanks around it allowed): ``float(text)`` for the forms of
+    :data:`_DECIMAL`, else ValueError. Python's float also reads ``1_0`` as 10 and the digits of other scripts
+    (``\u0661`` as 1, fullwidth ``\uff15`` as 5), which YAML files of the package refuse as text.
+
+    >>> decimal(' -2.5e-3 '), decimal('.5')
+    (-0.0025, 0.5)
+    """
+    if not _DECIMAL.fullmatch(text.strip(' \t\r\n')):
+        raise ValueError(f'not a decimal number: {text!r}')
+    return float(text)
 
 
 def text_hint(value: Any) -> str:

@@ -39,7 +39,7 @@ from ..inputs import units
 from ..inputs.files import read_text
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
-from ..inputs.validation import MAX_COORDINATE, text_hint
+from ..inputs.validation import MAX_COORDINATE, decimal, text_hint
 from .description import BRANCHES
 from .stations import Stations
 
@@ -222,7 +222,7 @@ class CsvTable:
         if text is None or text == '':
             return default
         try:
-            value = float(text)
+            value = decimal(text)   # float() read 1_0 as 10
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
