@@ -15,7 +15,8 @@ motion of at most ``eps``, ``d(tau)`` of the translated bodies is **convex** (th
 to the convex set ``B - A``), so it lies above its tangents at the ends: slopes ``Delta . (p_a - p_b) / d`` from the
 library's nearest points; that bound less ``eps`` is used where larger.
 
-**Branch and bound.** The motion is sampled at :data:`BASE_RATE` and at every waypoint's arrival and departure.
+**Branch and bound.** The motion is sampled at :data:`BASE_RATE` where it moves (not inside a hold, whose bounds are
+0) and at every waypoint's arrival and departure.
 For each pair, an interval whose bound lies below the pair's smallest measured distance ``U`` less its tolerance
 ``max(TOLERANCE, RELATIVE U)`` is refined: its ends are measured exactly, then it is split at its midpoint (new
 instants, exact poses, shared by every pair), until no interval's bound does. The reported distance is the smallest
@@ -25,6 +26,7 @@ bound: never above the true minimum, and at most the tolerance and :data:`~.dist
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -173,6 +175,28 @@ class _Items:
         return out
 
 
+def grid_within(starts: Array, ends: Array, total: float, rate: float) -> Array:
+    """The instants ``k / rate`` of ``[0, total)`` [s] that ``np.arange(0, total, 1 / rate)`` gives, those within
+    an interval ``[starts[j], ends[j]]`` only (a robot that holds needs no instant inside the hold: a dwell of 1e6 s
+    was a million instants here and 2e8 in the slip check)."""
+    step = 1.0 / rate
+    parts = [np.zeros(0)]
+    for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
+        k = np.arange(max(math.floor(a / step) - 1, 0), math.ceil(min(b, total) / step) + 2) * step
+        parts.append(k[(k >= a) & (k <= b) & (k < total)])
+    return np.unique(np.concatenate(parts))
+
+
+def _moving(motion: BodyMotion, knots: Array, lev: Levers) -> NDArray[np.bool_]:
+    """Whether anything may move between consecutive knots (the motion's own bounds over each interval)."""
+    if knots.shape[0] < 2:
+        return np.zeros(0, dtype=bool)
+    snap = motion.snapshot(knots)
+    ends = [np.stack([x[:-1], x[1:]], axis=1) for x in (snap.sigma, snap.gamma, snap.displacement)]
+    mb = motion.bounds(knots[:-1], knots[1:], lev, *ends)
+    return np.asarray(np.any(mb.arm > 0.0, axis=1) | np.any(mb.platform > 0.0, axis=1))
+
+
 class _Search:
     """The branch and bound of :func:`clearance` over all pairs at once."""
 
@@ -194,7 +218,9 @@ class _Search:
                                 lv.rides[sub])
         self.store = Store(motion, bodies)
         knots = np.asarray(motion.knots, dtype=float)
-        self.base = self.store.add(np.unique(np.concatenate([knots, np.arange(0.0, knots[-1], 1.0 / rate)])))
+        moving = _moving(motion, knots, self.robot_lev)   # a hold's instants stand as its ends: sampled at its ends
+        self.base = self.store.add(np.unique(np.concatenate([knots, grid_within(knots[:-1][moving], knots[1:][moving],
+                                                                                knots[-1], rate)])))
         self.exact = Exact(bodies, self.store)
         self.half = np.stack([b.half for b in bodies])
         self.radius = np.array([b.radius for b in bodies])
