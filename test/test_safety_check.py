@@ -525,3 +525,22 @@ def test_the_instants_of_a_hold_are_its_ends():
     assert a.safe and b.safe and b.instants < 2 * a.instants
     assert b.min_clearance == pytest.approx(a.min_clearance, abs=1e-9)
     assert b.max_slip_ratio == pytest.approx(a.max_slip_ratio, abs=1e-8)   # times of 1e7 s: 2e-9 s apart
+
+
+def test_a_move_of_a_million_seconds_is_sampled_within_bounds():
+    """A step's time may be 1e6 s: the slip check sampled it at 200 Hz (2e8 instants) and the search at 1 Hz (a
+    million). The moves get at most MAX_SAMPLES slip instants and BASE_MOST base instants in all."""
+    from gpr_kinematics.robot.timing import MAX_SAMPLES
+    from gpr_kinematics.safety.check import _slip_times
+
+    slow = _cell_program(steps=[{'move': 'low'}, {'move': 'high', 'time': 1e6}])
+    assert slow.timing.total == pytest.approx(1e6 + 1.0)
+    times = _slip_times(slow)
+    assert MAX_SAMPLES <= times.shape[0] <= MAX_SAMPLES + 20
+    np.testing.assert_allclose(np.diff(times[(times > 10.0) & (times < 9e5)]), 5.0, rtol=1e-6)   # 1e6 s / 2e5
+    from gpr_kinematics.safety.clearance import BASE_MOST, MARGIN, _Search
+    from gpr_kinematics.safety.motion import PlanMotion
+
+    bodies = robot_body_set(ROBOT, {})
+    search = _Search(PlanMotion(slow), bodies, [(0, len(bodies) - 1, ())], MARGIN, TOLERANCE, 1.0, False)
+    assert BASE_MOST <= search.base.shape[0] <= BASE_MOST + 4    # 100 s apart on the move

@@ -55,6 +55,9 @@ NEAR = 0.02
 BASE_RATE = 1.0
 MIN_INTERVAL = 1e-7
 MAX_ROUNDS = 60
+#: Most base instants within the moves: beyond :data:`BASE_RATE` times the moves' duration (10,000 s), the base is
+#: sparser and the search splits the intervals it needs (a move of 1e6 s was a million instants).
+BASE_MOST = 10_000
 #: Most (pair, interval) items refined at once (pairs are taken in chunks), most instants computed: beyond, the
 #: bounds reached are reported (lower bounds still, less tight than the tolerance).
 CHUNK_ITEMS = 400_000
@@ -219,6 +222,8 @@ class _Search:
         self.store = Store(motion, bodies)
         knots = np.asarray(motion.knots, dtype=float)
         moving = _moving(motion, knots, self.robot_lev)   # a hold's instants stand as its ends: sampled at its ends
+        span = float(np.sum((knots[1:] - knots[:-1])[moving]))
+        rate = min(rate, BASE_MOST / span) if span > 0.0 else rate   # a move of 1e6 s: not a million instants
         self.base = self.store.add(np.unique(np.concatenate([knots, grid_within(knots[:-1][moving], knots[1:][moving],
                                                                                 knots[-1], rate)])))
         self.exact = Exact(bodies, self.store)
