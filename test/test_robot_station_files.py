@@ -61,10 +61,11 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.csv', 'name,x,y,z\na,1,nan,0.4\n', r"s.csv: line 2 \(a\): y = 'nan' is invalid; allowed: a finite number in m"),
     ('s.csv', 'name,x [mm],y,z\na,1e400,0,0.4\n', r"x = '1e400' is invalid; allowed: a finite number in mm"),
     ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid"),
-    ('s.csv', 'name,x,y,z\na,1_0,0,0.4\n', r"line 2 \(a\): x = '1_0' is invalid; allowed: a finite number in m"),  # was 10
+    # float() read 1_0 as 10 and fullwidth digits as numbers
+    ('s.csv', 'name,x,y,z\na,1_0,0,0.4\n', r"line 2 \(a\): x = '1_0' is invalid; allowed: a finite number in m"),
     ('s.csv', 'name,x,y,z\na,\uff11,0,0.4\n', r"line 2 \(a\): x = '\uff11' is invalid; allowed: a finite number"),
     ('s.csv', 'name,x,y,z\n,1,0,0.4\n', r"line 2: name = '' is invalid; allowed: 1 to 64 letters"),
-    ('s.yaml', 'stations: [{name: "a\\n", position: [1, 2, 3]}]\n', r"stations\[0\]: name = 'a\\n' is invalid; allowed"),
+    ('s.yaml', 'stations: [{name: "a\\n", position: [1, 2, 3]}]\n', r"stations\[0\]: name = 'a\\n' is invalid"),
     ('s.csv', 'name,x,y,z\na,1,0,\n', r'line 2 \(a\): x, y and z are required'),
     ('s.csv', 'name,x,y,z\na,1,0,0.4\na,1,0,0.5\n', r"station name 'a' is used twice \(stations 0 and 1\)"),
     ('s.csv', 'name,x,y,z,branch\na,1,0,0.4,up\n', r"branch = 'up' is invalid; allowed: left, right or empty"),
@@ -120,4 +121,5 @@ def test_csv_rows_are_counted_as_they_are_read(tmp_path, monkeypatch):
     text = 'name,x,y,z\n\na,1,0,0.4\nb,1,0,0.4\nc,1,0,0.4\n"' + 'x' * 200_000 + '",1,0,0.4\n'
     with pytest.raises(ConfigError, match=r's.csv: line 5: more than 2 rows; allowed: at most 2$'):
         load_stations(_write(tmp_path, 's.csv', text))
-    assert load_stations(_write(tmp_path, 's.csv', 'name,x,y,z\na,1,0,0.4\n\n\nb,1,0,0.4\n')).stations.names == ('a', 'b')
+    blank_lines = load_stations(_write(tmp_path, 's.csv', 'name,x,y,z\na,1,0,0.4\n\n\nb,1,0,0.4\n'))
+    assert blank_lines.stations.names == ('a', 'b')

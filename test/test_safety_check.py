@@ -509,7 +509,7 @@ def test_the_instants_of_a_hold_are_its_ends():
     the least clearance and the slip are those of the program with short dwells."""
     from gpr_kinematics.safety.cell import load_cell
     from gpr_kinematics.safety.check import _slip_times, check_program
-    from gpr_kinematics.safety.clearance import grid_within
+    from gpr_kinematics.safety.motion import grid_within
 
     grid = np.arange(0.0, 10.0, 0.005)
     kept = grid_within(np.array([0.0, 3.0]), np.array([1.0, 9.5]), 10.0, 200.0)

@@ -271,6 +271,24 @@ def _entry(where: str, spec: Any) -> tuple[str, tuple[float, ...], str]:
     return 'range', (lo, hi), dist
 
 
+def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None, float | None]:
+    """The table's ``measurement_noise`` (SI): the sigmas a measurement file's rows may have
+    (:data:`~.measurements.SIGMA_RANGE`; 1e6 m passed gpr accuracy's plan, and gpr calibrate named no file)."""
+    if noise is None:
+        return None, None
+    if not isinstance(noise, Mapping):
+        raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
+    check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
+    sp = _number(noise.get('position'), f'{source}: measurement_noise: position', positive=True) * lf
+    sa = _number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True) * af
+    lo, hi = SIGMA_RANGE
+    for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):
+        if not lo <= value <= hi:
+            raise ConfigError(f'{source}: measurement_noise: {key} = {value:g} {unit} (SI); allowed: a standard '
+                              f'deviation from {lo:g} to {hi:g} {unit}')
+    return sp, sa
+
+
 def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
     """Check and convert a parsed tolerance table (module docstring)."""
     if not isinstance(data, Mapping):
@@ -306,19 +324,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
     clearance = tuple(_number(c, f'{source}: joint_clearance') * lf for c in clear_list)
     if max(clearance) > MAX_TOLERANCE['m']:
         raise ConfigError(f'{source}: joint_clearance: at most {MAX_TOLERANCE["m"]:g} m')
-    noise = data.get('measurement_noise')
-    sp = sa = None
-    if noise is not None:
-        if not isinstance(noise, Mapping):
-            raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
-        check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
-        sp = _number(noise.get('position'), f'{source}: measurement_noise: position', positive=True) * lf
-        sa = _number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True) * _ANGLE[angle]
-        lo, hi = SIGMA_RANGE   # the sigmas of a measurement file's rows: 1e6 m passed gpr accuracy's plan, and
-        for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):   # calibrate named no file
-            if not lo <= value <= hi:
-                raise ConfigError(f'{source}: measurement_noise: {key} = {value:g} {unit} (SI); allowed: a standard '
-                                  f'deviation from {lo:g} to {hi:g} {unit}')
+    sp, sa = _noise(data.get('measurement_noise'), source, lf, _ANGLE[angle])
     return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
                           sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
 

@@ -21,8 +21,8 @@ from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance, grid_within
-from .motion import PlanMotion
+from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
+from .motion import PlanMotion, grid_within
 from .slip import slip_series
 
 Array = NDArray[np.float64]
@@ -196,11 +196,11 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
 def _slip_times(plan: ProgramPlan) -> Array:
     """The instants of the slip check: :data:`SLIP_RATE` within the moves (a hold stands as at its ends: a dwell of
     1e6 s was 2e8 instants and gigabytes), at most :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of them (moves
-    longer than 1000 s in all are sampled more sparsely), the waypoints' and the S-curves' corners (where a move's acceleration
-    peaks: without them the example cell program's peak read 0.7512 for the 0.7529 that 100 kHz sampling about it
-    finds), and :data:`CORNER_SIDE` before and after each corner (a trapezoid's acceleration jumps at its corners:
-    the corner alone read the cell program's move into steps[14] 0.8126 for 0.8176 on the example robot without jerk
-    limits)."""
+    longer than 1000 s in all are sampled more sparsely), the waypoints' and the S-curves' corners (where a move's
+    acceleration peaks: without them the example cell program's peak read 0.7512 for the 0.7529 that 100 kHz
+    sampling about it finds), and :data:`CORNER_SIDE` before and after each corner (a trapezoid's acceleration
+    jumps at its corners: the corner alone read the cell program's move into steps[14] 0.8126 for 0.8176 on the
+    example robot without jerk limits)."""
     t = plan.timing
     corners = t.corners()
     sides = np.clip(np.concatenate([corners - CORNER_SIDE, corners + CORNER_SIDE]), 0.0, t.total)

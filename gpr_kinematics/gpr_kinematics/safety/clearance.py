@@ -26,7 +26,6 @@ bound: never above the true minimum, and at most the tolerance and :data:`~.dist
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -37,7 +36,7 @@ from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
 from .distances import Exact, Store, Table, key
-from .motion import BodyMotion, Levers, levers
+from .motion import BodyMotion, Levers, grid_within, levers, moving_intervals
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
@@ -178,28 +177,6 @@ class _Items:
         return out
 
 
-def grid_within(starts: Array, ends: Array, total: float, rate: float) -> Array:
-    """The instants ``k / rate`` of ``[0, total)`` [s] that ``np.arange(0, total, 1 / rate)`` gives, those within
-    an interval ``[starts[j], ends[j]]`` only (a robot that holds needs no instant inside the hold: a dwell of 1e6 s
-    was a million instants here and 2e8 in the slip check)."""
-    step = 1.0 / rate
-    parts = [np.zeros(0)]
-    for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
-        k = np.arange(max(math.floor(a / step) - 1, 0), math.ceil(min(b, total) / step) + 2) * step
-        parts.append(k[(k >= a) & (k <= b) & (k < total)])
-    return np.unique(np.concatenate(parts))
-
-
-def _moving(motion: BodyMotion, knots: Array, lev: Levers) -> NDArray[np.bool_]:
-    """Whether anything may move between consecutive knots (the motion's own bounds over each interval)."""
-    if knots.shape[0] < 2:
-        return np.zeros(0, dtype=bool)
-    snap = motion.snapshot(knots)
-    ends = [np.stack([x[:-1], x[1:]], axis=1) for x in (snap.sigma, snap.gamma, snap.displacement)]
-    mb = motion.bounds(knots[:-1], knots[1:], lev, *ends)
-    return np.asarray(np.any(mb.arm > 0.0, axis=1) | np.any(mb.platform > 0.0, axis=1))
-
-
 class _Search:
     """The branch and bound of :func:`clearance` over all pairs at once."""
 
@@ -221,7 +198,7 @@ class _Search:
                                 lv.rides[sub])
         self.store = Store(motion, bodies)
         knots = np.asarray(motion.knots, dtype=float)
-        moving = _moving(motion, knots, self.robot_lev)   # a hold's instants stand as its ends: sampled at its ends
+        moving = moving_intervals(motion, knots, self.robot_lev)   # a hold stands as at its ends: sampled there
         span = float(np.sum((knots[1:] - knots[:-1])[moving]))
         rate = min(rate, BASE_MOST / span) if span > 0.0 else rate   # a move of 1e6 s: not a million instants
         self.base = self.store.add(np.unique(np.concatenate([knots, grid_within(knots[:-1][moving], knots[1:][moving],

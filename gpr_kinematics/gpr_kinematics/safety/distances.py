@@ -367,9 +367,9 @@ class Exact:
             res = fcl.DistanceResult()
             out[n, 0] = fcl.distance(objects[ka], objects[kb], request, res)
             if out[n, 0] <= 0.0:   # in contact
-                low = float(contact_bound(self._pose(ka, ii, poses), self._pose(kb, ii, poses))[0])
-                if low >= -LIBRARY_SLACK:   # touching, or within the library's tolerance of it: no EPA
-                    out[n, 0], near[n] = min(low, 0.0), 0.0
+                touch = float(contact_bound(self._pose(ka, ii, poses), self._pose(kb, ii, poses))[0])
+                if touch >= -LIBRARY_SLACK:   # touching, or within the library's tolerance of it: no EPA
+                    out[n, 0], near[n] = min(touch, 0.0), 0.0
                     continue
                 res = fcl.DistanceResult()
                 out[n, 0] = fcl.distance(objects[ka], objects[kb], self.signed, res)

@@ -28,6 +28,7 @@ is exact; for the underdetermined models it is the first-order sensitivity of eq
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -318,3 +319,25 @@ class PlanMotion:
         plat[held] = 0.0
         arm_mu[held] = 0.0
         return IntervalBounds(arm_mu, plat, shift)
+
+
+def grid_within(starts: Array, ends: Array, total: float, rate: float) -> Array:
+    """The instants ``k / rate`` of ``[0, total)`` [s] that ``np.arange(0, total, 1 / rate)`` gives, those within
+    an interval ``[starts[j], ends[j]]`` only (a robot that holds needs no instant inside the hold: a dwell of 1e6 s
+    was a million instants here and 2e8 in the slip check)."""
+    step = 1.0 / rate
+    parts = [np.zeros(0)]
+    for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
+        k = np.arange(max(math.floor(a / step) - 1, 0), math.ceil(min(b, total) / step) + 2) * step
+        parts.append(k[(k >= a) & (k <= b) & (k < total)])
+    return np.unique(np.concatenate(parts))
+
+
+def moving_intervals(motion: BodyMotion, knots: Array, lev: Levers) -> NDArray[np.bool_]:
+    """Whether anything may move between consecutive knots (the motion's own bounds over each interval)."""
+    if knots.shape[0] < 2:
+        return np.zeros(0, dtype=bool)
+    snap = motion.snapshot(knots)
+    ends = [np.stack([x[:-1], x[1:]], axis=1) for x in (snap.sigma, snap.gamma, snap.displacement)]
+    mb = motion.bounds(knots[:-1], knots[1:], lev, *ends)
+    return np.asarray(np.any(mb.arm > 0.0, axis=1) | np.any(mb.platform > 0.0, axis=1))
