@@ -1,7 +1,8 @@
 """Parameters over real DDS: the shipped params file works with --params-file for every node; descriptors carry
 the specs' ranges, allowed values and constraints; a node's own dump (as ``ros2 param dump`` writes it) loads back
 (as ``ros2 param load`` reads it, through rclpy's params-file reader) and starts a fresh node with the same values;
-numbers sent as strings (``ros2 param set x 1e-13``) are accepted on double parameters."""
+numbers sent as strings (``ros2 param set x 1e-13``) are accepted on double parameters, and a long string is refused
+at once."""
 from __future__ import annotations
 
 import math
@@ -147,5 +148,8 @@ def test_numbers_sent_as_strings(client):
         assert not set_text('tolerance', 'small').successful
         assert not set_text('tolerance', '1e-3').successful          # a number, but outside the range
         assert not set_text('model', '1e-3').successful              # a string parameter keeps its check
+        # 100,000 digits and an 'x' held the pre-set callback (and every service of the node) for minutes
+        assert not set_text('tolerance', '1' * 100_000 + 'x').successful
+        assert set_text('tolerance', '1e-12').successful
     finally:
         node.stop()

@@ -23,21 +23,37 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 MAX_COORDINATE = 1e6
 
 
-#: A number as a CSV file writes it: ASCII digits with an optional sign, point and exponent (YAML 1.2's forms, which
-#: :mod:`~gpr_kinematics.inputs.safe_yaml` reads), or inf and nan (which the readers then refuse as not finite).
-_DECIMAL = re.compile(r'[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[-+]?(?:inf|infinity|nan)', re.IGNORECASE)
+#: A decimal number as text: ASCII digits with an optional sign, point and exponent (YAML 1.2's forms, which
+#: :mod:`~gpr_kinematics.inputs.safe_yaml` reads), with one way to read each text (``[0-9]+\.?[0-9]*`` split a run of
+#: n digits n ways: a parameter text of 30,000 digits and an ``x`` took 22 s).
+_DECIMAL = re.compile(r'[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?')
+#: The words of the numbers that are not finite, which CSV readers take and then refuse as not finite.
+_NOT_FINITE = re.compile(r'[-+]?(?:inf|infinity|nan)', re.IGNORECASE)
+#: Longest text read as a number (a double has 17 significant digits; ``-1.2345678901234567e-308`` has 25 characters).
+MAX_NUMBER_TEXT = 64
 
 
 def decimal(text: str) -> float:
     """The number a CSV field ``text`` writes (blanks around it allowed): ``float(text)`` for the forms of
-    :data:`_DECIMAL`, else ValueError. Python's float also reads ``1_0`` as 10 and the digits of other scripts
-    (``\u0661`` as 1, fullwidth ``\uff15`` as 5), which YAML files of the package refuse as text.
+    :data:`_DECIMAL` and the words inf and nan, else ValueError. Python's float also reads ``1_0`` as 10 and the
+    digits of other scripts (``\u0661`` as 1, fullwidth ``\uff15`` as 5), which YAML files of the package refuse as
+    text.
 
     >>> decimal(' -2.5e-3 '), decimal('.5')
     (-0.0025, 0.5)
     """
-    if not _DECIMAL.fullmatch(text.strip(' \t\r\n')):
-        raise ValueError(f'not a decimal number: {text!r}')
+    bare = text.strip(' \t\r\n')
+    if not (_DECIMAL.fullmatch(bare) or _NOT_FINITE.fullmatch(bare)):
+        raise ValueError(f'not a decimal number: {brief(text)}')
+    return float(bare)
+
+
+def decimal_number(text: str) -> float | None:
+    """The float of ``text`` (a parameter's text, as ``ros2 param set x 1e-13`` sends it) when it is a decimal number
+    of :data:`_DECIMAL` (blanks around it allowed) of at most :data:`MAX_NUMBER_TEXT` characters, else None
+    (``'nan'``, ``'inf'`` and ``'1e'`` are no decimal numbers)."""
+    if len(text) > MAX_NUMBER_TEXT or _DECIMAL.fullmatch(text.strip()) is None:
+        return None
     return float(text)
 
 

@@ -37,6 +37,7 @@ from rclpy.service import Service
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import EXIT_BAD_INPUT, GprError
+from ..inputs.validation import decimal_number
 
 EXIT_OK = 0
 #: Exit status of a node that stopped on an error while running.
@@ -70,23 +71,22 @@ class StopFlag:
         return bool(self.signals)
 
 
-#: A decimal number as text (what ``ros2 param set x 1e-13`` and ``ros2 param load`` of a dump send as a string).
-_NUMBER = re.compile(r'\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*')
-
-
 def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
     """Pre-set stage: a string that is a decimal number, set on a double parameter, becomes that double.
 
     YAML 1.1 (PyYAML, which the ``ros2`` CLI and rclpy's params-file loader use) reads ``1e-13`` as a string: so
     ``ros2 param set /kinematics_node tolerance 1e-13`` sends a string, and ``ros2 param load`` of a node's own
     ``ros2 param dump`` re-reads ``tolerance: 1.0e-14`` through ``str(1e-14) = '1e-14'`` as a string; rclpy would
-    refuse both (wrong type). Other strings pass unchanged and meet the type check.
+    refuse both (wrong type). Other strings (:func:`~gpr_kinematics.inputs.validation.decimal_number`: longer than 64
+    characters, or not a decimal number) pass unchanged and meet the type check.
     """
     out = []
     for p in params:
-        if (p.type_ == Parameter.Type.STRING and node.has_parameter(p.name) and _NUMBER.fullmatch(p.value)
+        if (p.type_ == Parameter.Type.STRING and node.has_parameter(p.name)
                 and node.describe_parameter(p.name).type == ParameterType.PARAMETER_DOUBLE):
-            p = Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+            number = decimal_number(p.value)
+            if number is not None:
+                p = Parameter(p.name, Parameter.Type.DOUBLE, number)
         out.append(p)
     return out
 
