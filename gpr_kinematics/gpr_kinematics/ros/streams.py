@@ -168,6 +168,9 @@ def program_robot(prog: RobotProgram, robot: RobotDescription) -> None:
                           f'{robot.name} ({robot.source}): start trajectory_node with robot_file:={prog.robot}')
 
 
+#: Longest ``program_file`` of a goal (Linux's ``PATH_MAX``, 4096 bytes; a longer one was looked up and quoted
+#: whole).
+MAX_PATH = 4096
 #: How messages name the rule of the files a goal may read.
 GOAL_FILES_RULE = ("the package's config folder (its programs, robots and cells) and trajectory_node's parameter "
                    "program_folders")
@@ -201,11 +204,23 @@ class GoalFiles:
     def path(self, name: str) -> Path:
         """The file a goal names: an absolute path as is, a relative one in the first folder that has it. A relative
         name that leads out of a folder (``..``) is not looked for there, so whether a file outside exists never
-        changes the answer (the read is then refused naming the path in the first folder)."""
+        changes the answer (the read is then refused naming the path in the first folder). :class:`ConfigError` for
+        a name of more than :data:`MAX_PATH` characters."""
+        if len(name) > MAX_PATH:
+            raise ConfigError(f'goal: program_file has {len(name)} characters; allowed: a path of at most {MAX_PATH}')
         if os.path.isabs(name):
             return Path(name)
         inside = [f / name for f in self.folders if _within(os.path.normpath(f / name), os.path.normpath(f))]
-        return next((p for p in inside if p.is_file()), self.folders[0] / name)
+        return next((p for p in inside if _is_file(p)), self.folders[0] / name)
+
+
+def _is_file(path: Path) -> bool:
+    """``path`` is a file; False where it cannot be looked at (a name too long for the file system was an
+    ``OSError`` that ended a goal as an internal error, its whole path quoted)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
 
 
 def _within(path: str, folder: str) -> bool:

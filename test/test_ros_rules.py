@@ -1,0 +1,52 @@
+"""What the nodes decide, tested without ROS: the text a double parameter takes as a number
+(:func:`gpr_kinematics.inputs.validation.decimal_number`, the nodes' pre-set callback: ``ros2 param set x 1e-13``
+sends the string '1e-13'); the program file a ``gpr/run_program`` goal names
+(:func:`gpr_kinematics.ros.streams.goal_program`)."""
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+
+import pytest
+from gpr_kinematics.errors import ConfigError, FileError
+from gpr_kinematics.inputs.validation import MAX_NUMBER_TEXT, decimal_number
+from gpr_kinematics.robot.description import load_robot
+from gpr_kinematics.ros.streams import MAX_PATH, GoalFiles, goal_program
+
+
+@pytest.mark.parametrize(('text', 'value'), [('1e-13', 1e-13), (' 3.0e-2 ', 0.03), ('1.', 1.0), ('.5', 0.5),
+                                             ('-1', -1.0), ('+2E5', 2e5), ('1.0e-14', 1e-14)])
+def test_decimal_text_is_a_number(text, value):
+    assert decimal_number(text) == value
+
+
+@pytest.mark.parametrize('text', ['nan', 'inf', '-inf', '1e', '.', '', 'small', '1.2.3', '0x10', '1_000', '1e-13 m'])
+def test_other_text_is_none(text):
+    assert decimal_number(text) is None
+
+
+def test_long_text_is_refused_at_once():
+    """A parameter service's pre-set callback reads every string set on a double: a run of 30,000 digits and an 'x'
+    took 22 s (the digits could be split between ``\\d+`` and ``\\d*`` n ways) and held every callback of the node;
+    a text longer than a double's is no number, decided in microseconds."""
+    assert decimal_number('1' * MAX_NUMBER_TEXT) == float('1' * MAX_NUMBER_TEXT)
+    for text in ('1' * (MAX_NUMBER_TEXT + 1), '1' * 1_000_000 + 'x', ' ' * 1_000_000 + '1', '1' * 1_000_000):
+        t0 = time.perf_counter()
+        assert decimal_number(text) is None
+        assert time.perf_counter() - t0 < 0.05
+
+
+def _goal(program_file: str) -> SimpleNamespace:
+    return SimpleNamespace(program_file=program_file, stations=[], move_time=0.0)
+
+
+def test_a_goal_file_name_too_long_is_refused_naming_the_rule():
+    """A name too long for the file system (a component of 300 characters, a path of 5,000) was an OSError of the
+    look-up: the goal ended as 'internal error: OSError: [Errno 36] File name too long: ...' quoting the whole path."""
+    robot, files = load_robot(None), GoalFiles.of([''])
+    with pytest.raises(FileError, match=r"^cannot read program file '.*/config/programs/x{300}': File name too long$"):
+        goal_program(_goal('x' * 300), robot, files)
+    with pytest.raises(ConfigError, match=f'^goal: program_file has 5000 characters; allowed: a path of at most '
+                                          f'{MAX_PATH}$'):
+        goal_program(_goal('x' * 5000), robot, files)
+    assert len(goal_program(_goal('example_stations.yaml'), robot, files).stations) > 1
