@@ -1,5 +1,6 @@
 """The trajectory controller's decisions without ROS: the joints of a robot, a goal's checks with their standard error
-codes and messages, the motion sampled at the rate, tolerances with control_msgs' rules, the servo."""
+codes and messages, the motion sampled at the rate, tolerances with control_msgs' rules, the servo; the joint values a
+JointState message carries (the simulator's and the state publisher's)."""
 from __future__ import annotations
 
 import math
@@ -7,6 +8,7 @@ import math
 import numpy as np
 import pytest
 from gpr_kinematics.core import forward_batch
+from gpr_kinematics.errors import InputError
 from gpr_kinematics.robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
     INVALID_GOAL,
@@ -15,6 +17,7 @@ from gpr_kinematics.robot.controller import (
     ControllerJoints,
     GoalError,
     Tolerances,
+    joint_state_values,
     plan_motion,
     resolve_tolerances,
     servo,
@@ -225,3 +228,28 @@ def test_quintic_goal_from_rest_is_checked_along_the_path():
     assert pos.max() > CFG.stroke_max
     with pytest.raises(GoalError, match=r'sample \d+ \(t = 2\.\d+ s\): rod_1 = 0.508\d* m is beyond its limits'):
         _plan(traj)
+
+
+def test_joint_states_give_the_finite_values_of_known_joints():
+    k, v = joint_state_values(JOINTS, ['other', 'rod_2', 'arm1_elbow', 'rod_1'], [9.0, 0.31, 0.5, math.nan])
+    assert k.tolist() == [1, JOINTS.names.index('arm1_elbow')] and v.tolist() == [0.31, 0.5]
+    k, v = joint_state_values(JOINTS, ['rod_1', 'rod_2'], [])   # velocities only: no position taken
+    assert k.size == 0 and v.size == 0
+
+
+@pytest.mark.parametrize('names, positions, words', [
+    (['rod_1', 'rod_2', 'rod_3'], [0.3, 0.31], '3 names and 2 positions; allowed: one position per name, or none'),
+    (['rod_1'], [0.3, 0.31, 0.32], '1 names and 3 positions'),
+    (['rod_1', 'rod_2', 'rod_1'], [0.3, 0.31, 0.32], "joint 'rod_1' named twice; allowed: each joint once"),
+])
+def test_malformed_joint_states_are_refused(names, positions, words):
+    """A JointState of three names and two positions moved rod_1 and rod_2 (the first values taken, misaligned or
+    not); rod_1 named twice took the last of its values."""
+    with pytest.raises(InputError, match=words):
+        joint_state_values(JOINTS, names, positions)
+
+
+def test_a_joint_named_twice_is_found_in_one_pass():
+    names = ['rod_1'] + [f'j{i}' for i in range(200_000)] * 2 + ['rod_1']   # other names may repeat: not ours
+    with pytest.raises(InputError, match="'rod_1' named twice"):
+        joint_state_values(JOINTS, names, [0.0] * len(names))

@@ -345,3 +345,23 @@ def test_path_and_goal_tolerances(lagging):
     assert result.error_code == -5 and 'exceeds the goal tolerance 1e-09 rad' in result.error_string
     assert math.isfinite(rest)
 
+
+
+def test_malformed_joint_states_are_ignored_with_a_warning(sim):
+    """A JointState of two names and one position moved the first joint (its value misaligned or not), one naming a
+    joint twice took the last value: each is ignored with a warning naming why."""
+    from sensor_msgs.msg import JointState
+
+    c, _, states, proc = sim
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+    before = _held(c, states, 'arm1_elbow')
+    for names, values in ((['arm1_elbow', 'arm1_shoulder'], [before + 0.1]),
+                          (['arm1_elbow', 'arm1_elbow'], [before + 0.1, before + 0.1])):
+        msg = JointState(name=names, position=values)
+        msg.header.stamp = c.node.get_clock().now().to_msg()
+        pub.publish(msg)
+        c.spin_for(0.3)
+        assert _held(c, states, 'arm1_elbow') == before
+    wait_for_log(proc, r'joint_states of another publisher ignored: 2 names and 1 positions; allowed: one position '
+                       'per name, or none')
+    c.node.destroy_publisher(pub)

@@ -368,3 +368,39 @@ def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing
         assert sp.alive() and 'Traceback' not in sp.output()
     finally:
         sp.stop()
+
+
+def test_malformed_joint_states_are_ignored_with_a_warning(ros_environment):
+    """A JointState of three names and two positions moved rod_1 and rod_2 (the first values taken), one naming rod_1
+    twice took its last value: each is ignored, as robot_state_publisher ignores it, with a warning naming why (the
+    platform stays at rest)."""
+    from gpr_kinematics.core import forward
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.robot.controller import ControllerJoints
+    from robot_support import ROBOT
+    from sensor_msgs.msg import JointState
+    from tf2_msgs.msg import TFMessage
+
+    sp = start('state_publisher_node', namespace='/tf_malformed', frame_prefix='w/')
+    rest = float(ControllerJoints.of(ROBOT).rest[0])
+
+    def platform_z(msgs):
+        return [t.transform.translation.z for m in msgs for t in m.transforms if t.child_frame_id == 'w/gpr_platform']
+
+    try:
+        wait_for_log(sp, r'publishing robot_description')
+        with GprClient('gpr_test_malformed_states') as c:
+            tf = c.subscribe(TFMessage, '/tf')
+            pub = c.node.create_publisher(JointState, '/tf_malformed/joint_states', 10)
+            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and platform_z(tf), 30), sp.output()
+            pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3'], position=[0.35, 0.35]))
+            wait_for_log(sp, r'joint_states: 3 names and 2 positions; allowed: one position per name, or none; '
+                             'message ignored')
+            # (its warning is throttled: one per 5 s; the messages of one publisher arrive in order)
+            pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3', 'rod_1'], position=[0.35, 0.35, 0.35, 0.36]))
+            pub.publish(JointState(name=['rod_3'], position=[rest]))   # rods 1 and 2 as held: at rest
+            z = forward([rest] * 3, ROBOT.config).position[2]
+            assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z(tf)), 10), sp.output()
+        assert sp.alive() and 'Traceback' not in sp.output()
+    finally:
+        sp.stop()

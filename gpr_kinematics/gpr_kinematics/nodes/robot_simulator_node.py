@@ -60,6 +60,7 @@ from ..robot.controller import (
     GoalError,
     Motion,
     Tolerances,
+    joint_state_values,
     plan_motion,
     resolve_tolerances,
     servo,
@@ -159,18 +160,21 @@ class RobotSimulatorNode(GprNode):
 
     def _on_joint_states(self, msg: JointState) -> None:
         """While idle, take newer joint values of another publisher as the robot's state (module docstring); a
-        message whose values leave the joints' limits or tilt the platform beyond its limit is ignored, with a
-        warning, so no publisher can put the robot where no goal can start."""
+        message whose values leave the joints' limits or tilt the platform beyond its limit, or that is malformed
+        (not one position per name, a joint named twice: :func:`~gpr_kinematics.robot.controller.joint_state_values`),
+        is ignored, with a warning, so no publisher can put the robot where no goal can start."""
         stamp = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
         if self.run is not None or stamp <= self.last_own_ns:
             return
         self.last_foreign = time.monotonic()
-        state, taken = self.actual.copy(), []
-        for name, value in zip(msg.name, msg.position, strict=False):
-            if name in self.joints.names and math.isfinite(value):
-                k = self.joints.names.index(name)
-                state[k] = value
-                taken.append(k)
+        try:
+            taken, values = joint_state_values(self.joints, msg.name, msg.position)
+        except GprError as exc:
+            self.get_logger().warning(f'joint_states of another publisher ignored: {one_line(exc)}',
+                                      throttle_duration_sec=5.0)
+            return
+        state = self.actual.copy()
+        state[taken] = values
         wrong = self._outside(state)
         if wrong:
             self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}; allowed: values within '

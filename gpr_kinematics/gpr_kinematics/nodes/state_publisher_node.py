@@ -50,7 +50,7 @@ from tf2_msgs.msg import TFMessage
 
 from ..core import forward
 from ..errors import GprError, LimitError
-from ..robot.controller import ControllerJoints
+from ..robot.controller import ControllerJoints, joint_state_values
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
 from ..safety.cell import load_cell
@@ -86,12 +86,11 @@ class StatePublisherNode(GprNode):
         self.model: RobotUrdf = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'], prefix)
         self.base, self.platform, self.nominal = (prefix + p[k] for k in ('base_frame', 'platform_frame',
                                                                             'nominal_frame'))
-        joints = ControllerJoints.of(robot)
+        joints = self.joints = ControllerJoints.of(robot)
         #: The robot model's joints moved by joint values (rods, then every arm's), and their held values.
         self.moving: list[Joint] = [self.model.joint(n) for n in joints.names]
         self.held = joints.rest.copy()
         self.lower, self.upper = joints.lower, joints.upper
-        self.index = {n: k for k, n in enumerate(joints.names)}
         self.pub_description = self.create_publisher(String, 'robot_description', latched_qos())
         self.pub_description.publish(String(data=self.model.to_urdf()))
         self.pub_static = self.create_publisher(TFMessage, '/tf_static', latched_qos())
@@ -159,16 +158,21 @@ class StatePublisherNode(GprNode):
         return TFMessage(transforms=out)
 
     def on_joints(self, joints: JointState) -> None:
-        """Take the finite values of the joints the message names, then publish the transforms at its stamp."""
+        """Take the finite values of the joints the message names, then publish the transforms at its stamp; a
+        malformed message (not one position per name, a joint named twice) is ignored with a warning, as
+        robot_state_publisher ignores it."""
+        try:
+            taken, values = joint_state_values(self.joints, joints.name, joints.position)
+        except GprError as exc:
+            self.get_logger().warning(f'joint_states: {one_line(exc)}; message ignored', throttle_duration_sec=5.0)
+            return
         rods = self.held[:3].copy()
-        for name, value in zip(joints.name, joints.position, strict=False):
-            k = self.index.get(name)
-            if k is not None and math.isfinite(value):
-                self.held[k] = value
-                if k >= 3 and not self.lower[k] <= value <= self.upper[k]:
-                    self.get_logger().warning(f'joint_states: {name} = {value:.9g} rad is outside its limits '
-                                              f'[{self.lower[k]:.9g}, {self.upper[k]:.9g}] rad; shown as received',
-                                              throttle_duration_sec=5.0)
+        self.held[taken] = values
+        for k, value in zip(taken.tolist(), values.tolist(), strict=True):
+            if k >= 3 and not self.lower[k] <= value <= self.upper[k]:
+                self.get_logger().warning(f'joint_states: {self.joints.names[k]} = {value:.9g} rad is outside its '
+                                          f'limits [{self.lower[k]:.9g}, {self.upper[k]:.9g}] rad; shown as received',
+                                          throttle_duration_sec=5.0)
         if self.platform_pose is None or not np.array_equal(rods, self.held[:3]):
             self._pose_of(self.held[:3])
         self.received += 1

@@ -108,6 +108,31 @@ class ControllerJoints:
         return np.array(out, dtype=np.int64)
 
 
+def joint_state_values(joints: ControllerJoints, names: Sequence[str], positions: Sequence[float]
+                       ) -> tuple[NDArray[np.int64], Array]:
+    """The positions a ``sensor_msgs/JointState`` carries for the joints among ``joints``: their indices and finite
+    values (other names and NaN values are left out; no positions at all: none). :class:`InputError` for a message
+    whose ``position`` is not one per ``name`` or that names one of ``joints`` twice (which value holds would be a
+    guess; the first values of a longer ``name`` were taken), as ``robot_state_publisher`` ignores it. Memory: one
+    entry per joint of ``joints``, whatever the message's size."""
+    if not len(positions):
+        return np.zeros(0, dtype=np.int64), np.zeros(0)
+    if len(positions) != len(names):
+        raise InputError(f'{len(names)} names and {len(positions)} positions; allowed: one position per '
+                         'name, or none')
+    index = {n: k for k, n in enumerate(joints.names)}
+    taken: dict[int, float] = {}
+    for n, v in zip(names, positions, strict=True):
+        k = index.get(n)
+        if k is None:
+            continue
+        if k in taken:
+            raise InputError(f'joint {brief(n)} named twice; allowed: each joint once')
+        taken[k] = float(v)
+    finite = [(k, v) for k, v in taken.items() if math.isfinite(v)]
+    return np.array([k for k, _ in finite], dtype=np.int64), np.array([v for _, v in finite], dtype=float)
+
+
 def _rows(values: Sequence[Sequence[float]], J: int, what: str, optional: bool) -> Array | None:
     """Per-point lists of one kind (positions, velocities, accelerations) as ``(P, J)``; None when every point leaves
     an optional kind empty."""
