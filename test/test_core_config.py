@@ -34,12 +34,15 @@ def test_replace_and_round_trip():
 
 
 @pytest.mark.parametrize('text, key, allowed', [
-    ('radius: -1', 'radius', '1e-4 < radius'),
+    ('radius: -1', 'radius', 'metres, 1e-4 <= radius <= 10'),
     ('radius: .nan', 'radius', 'radius'),
     ("radius: '0.1'", 'radius', 'metres'),
     ('stroke_max: 20', 'stroke_max', '<= 10'),
-    ('tilt_limit: 0', 'tilt_limit', '0 < tilt_limit'),
+    ('tilt_limit: 0', 'tilt_limit', '1e-6 <= tilt_limit'),
+    # below the least but above 0: named with the least (was '0 < tilt_limit', which it is)
+    ('tilt_limit: 5.0e-7', 'tilt_limit', 'radians, 1e-6 <= tilt_limit <= 0.2618 (15 deg)'),
     ('imperfection_budget: 1.0', 'imperfection_budget', '<= 0.01'),
+    ('imperfection_budget: 5.0e-10', 'imperfection_budget', 'metres, 1e-9 <= imperfection_budget <= 0.01'),
     ('model: elastic', 'model', 'radial or polar or offset'),
     ('model: stiff', 'model', 'radial or polar or offset or compliant'),
     ('weighting: heavy', 'weighting', 'characteristic or unweighted'),
@@ -47,7 +50,8 @@ def test_replace_and_round_trip():
     ('max_iterations: 2.5', 'max_iterations', 'integer'),
     ('tolerance: 1.0', 'tolerance', '1e-16 <= tolerance'),
     ('rod_azimuths: [0, 1]', 'rod_azimuths', 'a list of 3'),
-    ('characteristic_length: -0.1', 'characteristic_length', '> 0'),
+    ('characteristic_length: -0.1', 'characteristic_length', '1e-6 <= characteristic_length <= 100'),
+    ('characteristic_length: 5.0e-7', 'characteristic_length', 'metres, 1e-6 <= characteristic_length <= 100, or null'),
     # the imperfect geometry (test_core_machine)
     ('rod_offsets: [0, 0]', 'rod_offsets', 'a list of 3 lengths in metres, -0.1 <= o_k <= 0.1'),
     ('rod_offsets: [0, 0, 0.5]', 'rod_offsets', '-0.1 <= o_k <= 0.1'),
