@@ -58,6 +58,7 @@ _DELETE = object()
     (('colour',), 'red',
      r'test_robot.yaml: unknown key\(s\) colour; allowed keys: arms, base, collision, gpr, name, rods, wafer'),
     (('name',), 'my robot', r"name = 'my robot' is invalid; allowed: a name of letters, digits and _"),
+    (('name',), 'robot\n', r"name = 'robot\\n' is invalid; allowed: a name of letters, digits and _"),  # $ before \n
     (('name',), False, r"name = False is invalid \(YAML reads true and false as booleans: quote the name\); allowed: "),
     (('arms', 0, 'joints', 1, 'name'), 'arm1_elbow\n',   # '$' matched before a final newline: passed into the URDF
      r"joints\[1\]: name = 'arm1_elbow\\n' is invalid; allowed: a name of letters, digits and _"),

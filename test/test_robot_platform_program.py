@@ -25,7 +25,7 @@ def test_the_last_sample_is_the_last_station_at_the_programs_end(move_time, dwel
     assert len(s) == n + 1 + (total - n / 100.0 > 1e-9 or n == 0)
 
 
-@pytest.mark.parametrize('name', ['x' * 65, 'A\nB: station (9, 9, 9) m, FAKE', '', True, 'a b'])
+@pytest.mark.parametrize('name', ['x' * 65, 'A\nB: station (9, 9, 9) m, FAKE', '', True, 'a b', 'A\n'])
 def test_station_names_follow_the_station_rule(name):
     """A name is repeated in feedback, results and logs: 1 to 64 letters, digits, _ . - as in station files (a 4 MB
     name went into every feedback message; a newline forged a line of output)."""
