@@ -365,3 +365,32 @@ def test_malformed_joint_states_are_ignored_with_a_warning(sim):
     wait_for_log(proc, r'joint_states of another publisher ignored: 2 names and 1 positions; allowed: one position '
                        'per name, or none')
     c.node.destroy_publisher(pub)
+
+
+def test_a_goal_whose_cancel_came_first_ends_cancelled_when_a_newer_goal_preempts_it(ros_environment):
+    """A cancel accepted, then a newer goal before the next sample (a simulator at 1 Hz: its first sample 1 s after
+    the goal): the cancelled goal ended ABORTED, 'preempted by a newer goal', its client's accepted cancel ignored. It
+    ends CANCELED (SUCCESSFUL, the joints held), and the newer goal runs."""
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.action import ActionClient
+
+    proc = start('robot_simulator_node', namespace='/gpr_sim_slow', rate=1.0)
+    try:
+        wait_for_log(proc, r'serving /gpr_sim_slow/')
+        with GprClient('gpr_test_simulator_slow', namespace='/gpr_sim_slow') as c:
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION)
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            rest = JOINTS.rest[JOINTS.names.index('arm1_shoulder')]
+            first = c.wait(cli.send_goal_async(_goal(['arm1_shoulder'], [10.0], [[rest + 0.2]])), 20, 'goal')
+            assert first.accepted
+            c.wait(first.cancel_goal_async(), 10, 'cancel')
+            second = c.wait(cli.send_goal_async(_goal(['arm1_shoulder'], [2.0], [[rest + 0.05]])), 20, 'goal')
+            res = c.wait(first.get_result_async(), 20, 'result')
+            assert res.status == GoalStatus.STATUS_CANCELED, res.result.error_string
+            assert res.result.error_code == 0 and res.result.error_string.startswith('cancelled at t = 0 s of 10 s')
+            res = c.wait(second.get_result_async(), 20, 'result')
+            assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
+    finally:
+        proc.stop()

@@ -16,8 +16,9 @@ error of the goal's joints); the joints follow the samples exactly, or with the 
 ``servo_time_constant`` (the clearance check is of the commanded motion). Path tolerances are checked at
 every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
-that passes the checks preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does) and
-starts from where the joints are; a refused one leaves the running goal as it was. A ``header.stamp`` of 0 starts
+that passes the checks preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does; one
+whose cancel was accepted ends cancelled) and starts from where the joints are; a refused one leaves the running goal
+as it was. A ``header.stamp`` of 0 starts
 at once, a later one then; one whose trajectory ends in the past is ``OLD_HEADER_TIMESTAMP``.
 
 While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
@@ -258,7 +259,9 @@ class RobotSimulatorNode(GprNode):
             return result
         finally:
             release_request(goal)
-        if self.run is not None:    # preempted by a valid goal, as joint_trajectory_controller does
+        if self.run is not None and self.run.goal.is_cancel_requested:   # its cancel came first: it ends cancelled
+            self._cancelled(self.run)
+        elif self.run is not None:    # preempted by a valid goal, as joint_trajectory_controller does
             old = self.run
             self._end('aborted', INVALID_GOAL, f'preempted by a newer goal at sample {old.k} of {len(old.motion)}')
         done = Future()
@@ -289,6 +292,13 @@ class RobotSimulatorNode(GprNode):
             self.get_logger().warning(f'goal {outcome} ({code}): {text}')
         r.done.set_result((outcome, code, text))
 
+    def _cancelled(self, r: _Run) -> None:
+        """End ``r``, whose cancel was accepted, as cancelled (at the next tick, or when a newer goal preempts it
+        first: it ended aborted as 'preempted' although its client's cancel had been accepted)."""
+        t = r.motion.time[min(r.k, len(r.motion) - 1)]
+        self._end('canceled', SUCCESSFUL, f'cancelled at t = {t:.6g} s of {r.motion.duration:.6g} s; the joints '
+                  'hold where they are')
+
     def _tick(self) -> None:
         """Publish every sample due by now (at most :data:`CATCH_UP`), checking the tolerances."""
         r = self.run
@@ -296,9 +306,7 @@ class RobotSimulatorNode(GprNode):
             self.motion_timer.cancel()
             return
         if r.goal.is_cancel_requested:
-            t = r.motion.time[min(r.k, len(r.motion) - 1)]
-            self._end('canceled', SUCCESSFUL, f'cancelled at t = {t:.6g} s of {r.motion.duration:.6g} s; the joints '
-                      'hold where they are')
+            self._cancelled(r)
             return
         if self.get_clock().now().nanoseconds < r.start_ns:
             return
