@@ -88,6 +88,10 @@ def test_human_readable_output(capsys):
     (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
                                                         r'needed \[m, or mm with --mm\]; got 2'),
     (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'"),
+    # Python's float read 0.4_5 as 0.45 and other scripts' digits (fullwidth 0.５) as numbers; the files refuse them
+    (['fk', '0.45', '0.45', '0.4_5'], r"argument Q: invalid float value: '0.4_5'"),
+    (['fk', '0.45', '0.45', '0.\uff15'], "argument Q: invalid float value: '0.\uff15'"),
+    (['sweep', '--passes', '1_0'], "argument --passes: invalid int value: '1_0'"),
     (['fk', '0.6', '0.5', '0.5'], r'q1 = 0.6 m is outside the stroke'),
     (['fk', '0.3', '0.3', '0.3', '--model', 'rigid'], "invalid choice: 'rigid'"),
     (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'], 'beyond the tilt limit'),
@@ -192,3 +196,13 @@ def test_mobility_names_the_first_order_and_gives_the_full_solve(capsys):
     assert 'first order |dX/dP dP| = 0.000000e+00 (eq. 3)' in out and 'full solve |X(q + dq) - X(q)| = 1.0727' in out
     b = run_json(capsys, 'mobility', '0.5', '0.5', '0.5', '--dq', '1e-4', '-1e-4', '0')['bounds']['for_dq']
     assert b['norm_dx'] == 0.0 and b['norm_dx_full'] == pytest.approx(1.0727e-7, rel=1e-4)
+
+
+def test_a_long_negative_number_is_decided_at_once(capsys):
+    """argparse's rule for an argument that looks like a negative number split a run of digits n ways
+    (``\\d+\\.?\\d*``): 20,000 digits and an x took seconds before its refusal; one reading now."""
+    import time
+    start = time.process_time()
+    status, out, err = run(capsys, 'fk', '0.45', '0.45', '-' + '1' * 20000 + 'x')
+    assert status == 2 and 'Traceback' not in err and err.count('\n') == 1
+    assert time.process_time() - start < 1.0

@@ -37,7 +37,7 @@ from ..errors import InputError, brief
 from ..inputs.safe_yaml import YamlValue
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, number, whole
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -59,14 +59,14 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
     g.add_argument('--tool', nargs=3, type=finite, metavar=('X', 'Y', 'Z'),
                    help='tool point in gpr_platform [m, or mm with --mm] (default the origin; a robot program: the '
                         'wafer centre)')
-    g.add_argument('--samples', type=int, metavar='N',
+    g.add_argument('--samples', type=whole, metavar='N',
                    help=f'Monte Carlo samples (default {DEFAULT_SAMPLES}; 0: linearised only; at most {MAX_SAMPLES})')
-    g.add_argument('--seed', type=int, metavar='S', help='seed of the Monte Carlo draws (default 0)')
+    g.add_argument('--seed', type=whole, metavar='S', help='seed of the Monte Carlo draws (default 0)')
     g.add_argument('--config', metavar='FILE', help='GPR geometry (e.g. a calibrated file) instead of the default')
     g.add_argument('--robot', metavar='FILE', help='robot description for a robot program (default: the program\'s '
                                                     'robot, else config/robots/example_robot.yaml)')
     g.add_argument('--model', choices=MODELS, help='virtual-joint model of the budget (default compliant)')
-    g.add_argument('--calibration-plan', type=int, metavar='N',
+    g.add_argument('--calibration-plan', type=whole, metavar='N',
                    help='the budget after calibrating from N planned configurations (gpr calibrate --plan N) '
                         'measured with the table\'s measurement_noise')
 
@@ -210,7 +210,7 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
         if name in params:  # the second would silently replace the first
             raise InputError(f'--parameter-error {name} is given twice; allowed: each parameter once')
         try:
-            vals = np.array([float(v) for v in values])
+            vals = np.array([number(v) for v in values])
         except ValueError:
             raise InputError(f'--parameter-error {name}: values must be numbers; got {brief(values)}') from None
         size = np.asarray(nominal[name]).size

@@ -38,6 +38,7 @@ from .calibrate_options import (
     table_of,
     with_given_poses,
 )
+from .options import number, whole
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -178,7 +179,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument('measurements', nargs='*', metavar='MEASUREMENTS',
                    help='measurement CSV: q1,q2,q3,x,y,z[,qx,qy,qz,qw][,sigma_position[,sigma_angle]] '
                         '(docs/calibration.md); with --robot: one or more files of an arm\'s measured points')
-    p.add_argument('--plan', type=int, metavar='N', help='propose N measurement configurations instead')
+    p.add_argument('--plan', type=whole, metavar='N', help='propose N measurement configurations instead')
     p.add_argument('--output', metavar='FILE',
                    help='calibrated geometry YAML (a robot description with --robot; required when calibrating); '
                         'with --plan: the configurations as CSV')
@@ -191,9 +192,9 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--frame', default='gpr_base', metavar='NAME',
                    help='the frame the measurements are in (default gpr_base); another (tracker): the pose of '
                         'gpr_base in it is identified with the geometry, unless --base gives it')
-    p.add_argument('--base', nargs=6, type=float, metavar=('X', 'Y', 'Z', 'ROLL', 'PITCH', 'YAW'),
+    p.add_argument('--base', nargs=6, type=number, metavar=('X', 'Y', 'Z', 'ROLL', 'PITCH', 'YAW'),
                    help='the known pose of gpr_base in --frame [m, rad; --mm, --deg]')
-    p.add_argument('--target', nargs='+', type=float, metavar='V',
+    p.add_argument('--target', nargs='+', type=number, metavar='V',
                    help='the target\'s pose in gpr_platform, X Y Z [ROLL PITCH YAW] [m, rad; --mm, --deg]: known, or '
                         'the start of --fit-target; default: gpr_platform itself (poses in gpr_base), else identified')
     p.add_argument('--fit-target', nargs='?', const='pose', choices=('pose', 'position'),
@@ -201,18 +202,18 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--points', action='store_true',
                    help='with --plan: the configurations will be measured as points (a reflector, no orientation)')
     p.add_argument('--robot', metavar='FILE', help='calibrate the arms of this robot description from the files')
-    p.add_argument('--sigma-position', type=float, metavar='S',
+    p.add_argument('--sigma-position', type=number, metavar='S',
                    help='standard deviation of a measured coordinate for rows without sigma columns '
                         '[m, or mm with --mm]: their noise (without it 5e-6 m, a laser tracker\'s, or the '
                         '--tolerances table\'s, is assumed: the gate fails residuals well beyond it)')
-    p.add_argument('--sigma-angle', type=float, metavar='S',
+    p.add_argument('--sigma-angle', type=number, metavar='S',
                    help='standard deviation of a measured rotation component [rad, or deg with --deg]: their '
                         'noise (assumed without it: 2e-5 rad, or the --tolerances table\'s)')
     p.add_argument('--tolerances', metavar='TABLE',
                    help='tolerance table (YAML, docs/calibration.md): its standard deviations are the a-priori '
                         'uncertainties the measurements must beat and its bounds those of the held parameters\' bias, '
                         'its measurement_noise the default sigmas; a plan is made where its tolerances are')
-    p.add_argument('--threshold', type=float, default=1.0,
+    p.add_argument('--threshold', type=number, default=1.0,
                    help='scaled singular value a parameter combination must reach to be fitted (default 1: the '
                         'measurements must determine it better than its a-priori uncertainty)')
     p.add_argument('--index', choices=('product', 'smallest'), default='product',

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
-from .options import MM, direction, rod_lengths, vec
+from .options import MM, direction, number, rod_lengths, vec, whole
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -78,11 +78,11 @@ def _cmd_fk(args: argparse.Namespace) -> int:
 
 
 def _add_target(p: argparse.ArgumentParser) -> None:
-    p.add_argument('--height', type=float, required=True, help='height of the platform point [m, or mm with --mm]')
-    p.add_argument('--tilt', type=float, required=True, help='tilt angle [rad, or deg with --deg]; signed')
-    p.add_argument('--azimuth', type=float, required=True,
+    p.add_argument('--height', type=number, required=True, help='height of the platform point [m, or mm with --mm]')
+    p.add_argument('--tilt', type=number, required=True, help='tilt angle [rad, or deg with --deg]; signed')
+    p.add_argument('--azimuth', type=number, required=True,
                    help='azimuth of the tilt axis in gpr_base [rad, or deg with --deg]')
-    p.add_argument('--tool', type=float, nargs=3, metavar=('X', 'Y', 'Z'), default=(0.0, 0.0, 0.0),
+    p.add_argument('--tool', type=number, nargs=3, metavar=('X', 'Y', 'Z'), default=(0.0, 0.0, 0.0),
                    help='platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
 
 
@@ -233,7 +233,7 @@ def register(sub: Subparsers) -> None:
                        description='Rod commands, pose reached, tool shift and arm correction for a platform '
                                    'pose commanded with the naive model (rotation about the centre).')
     _add_target(p)
-    p.add_argument('--heading', type=float, default=0.0,
+    p.add_argument('--heading', type=number, default=0.0,
                    help='commanded rotation about the platform normal [rad, or deg]; the GPR cannot realise '
                         'it, the arm correction takes it up')
     _common(p, angles=True)
@@ -243,7 +243,7 @@ def register(sub: Subparsers) -> None:
                        description='Ranks of dPhi/dP and [dPhi/dP dPhi/dX], singular values and bounds of dX '
                                    '(paper §IV-A).')
     rod_lengths(p)
-    p.add_argument('--dq', type=float, nargs=3, metavar=('D1', 'D2', 'D3'),
+    p.add_argument('--dq', type=number, nargs=3, metavar=('D1', 'D2', 'D3'),
                    help='a change of the rod lengths: also print |dX| and its bounds for it [m, or mm]')
     _common(p)
     p.set_defaults(handler=_cmd_mobility)
@@ -251,11 +251,11 @@ def register(sub: Subparsers) -> None:
     p = sub.add_parser('sweep', help="the paper's singular-tilt sweep with a summary",
                        description='For each azimuth over 0..360 deg, the tilt from -max to +max in steps, at a '
                                    'height (paper §VI): inverse and forward kinematics of every sample.')
-    p.add_argument('--height', type=float, help='platform height [m, or mm] (default 0.5 m)')
-    p.add_argument('--max-tilt', type=float, help='largest tilt [rad, or deg] (default 2 deg)')
-    p.add_argument('--tilt-step', type=float, help='tilt step [rad, or deg] (default 0.2 deg)')
-    p.add_argument('--azimuth-step', type=float, help='azimuth step [rad, or deg] (default 10 deg)')
-    p.add_argument('--passes', type=int, default=1, help='repeat the azimuth sweep this many times (default 1)')
+    p.add_argument('--height', type=number, help='platform height [m, or mm] (default 0.5 m)')
+    p.add_argument('--max-tilt', type=number, help='largest tilt [rad, or deg] (default 2 deg)')
+    p.add_argument('--tilt-step', type=number, help='tilt step [rad, or deg] (default 0.2 deg)')
+    p.add_argument('--azimuth-step', type=number, help='azimuth step [rad, or deg] (default 10 deg)')
+    p.add_argument('--passes', type=whole, default=1, help='repeat the azimuth sweep this many times (default 1)')
     p.add_argument('--paper-order', action='store_true',
                    help='every pass from -max to +max (default alternates direction so the stream is continuous)')
     p.add_argument('--csv', metavar='FILE', help='write every sample to a CSV file (SI units)')

@@ -11,7 +11,7 @@ from ..errors import InputError, brief
 from ..inputs.validation import MAX_COORDINATE
 from ..mechanisms.base import Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, mechanism_of, mechanism_pose
+from .options import CONVENTIONS, mechanism_of, mechanism_pose, number, whole
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -28,7 +28,7 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
     from ..mechanisms.dexterity import MAX_POINTS
     name = values[0]
     try:
-        lo, hi, n = float(values[1]), float(values[2]), int(values[3])
+        lo, hi, n = number(values[1]), number(values[2]), whole(values[3])
     except ValueError:
         raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT an integer from 2 to {MAX_POINTS}); '
                          f'got {brief(values)}') from None

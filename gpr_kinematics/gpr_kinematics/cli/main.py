@@ -55,7 +55,10 @@ class _Parser(argparse.ArgumentParser):
 
     def __init__(self, *args: Forwarded, **kwargs: Forwarded) -> None:
         super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$')
+        # argparse's rule for a value that looks like a negative number, not an option: one reading of each text
+        # (`\d+\.?\d*` split a run of digits n ways) in ASCII digits, as the numbers are read (options.number)
+        self._negative_number_matcher = re.compile(r'-(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\Z'
+                                                   r'|-(?:inf|nan)\Z')
 
     def error(self, message: str) -> NoReturn:
         """Exit with status 2 and the one line ``prog: error: message`` (a long value argparse quotes in it, such as

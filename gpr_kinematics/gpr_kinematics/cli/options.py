@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -12,7 +13,7 @@ from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
 from ..errors import InputError, brief
-from ..inputs.validation import finite_number
+from ..inputs.validation import decimal, finite_number
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
@@ -30,10 +31,31 @@ CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
 angular velocities and inverse-Jacobian columns: v_x v_y v_z w_x w_y w_z, w in the base frame"""
 
 
+def number(text: str) -> float:
+    """An argparse type: a number as the files write it (:func:`~gpr_kinematics.inputs.validation.decimal`: ASCII
+    digits with a sign, point and exponent, or inf and nan; Python's float also read ``1_0`` as 10 and the digits of
+    other scripts). Named ``float`` for argparse's message (``invalid float value: '1_0'``)."""
+    return decimal(text)
+
+
+def whole(text: str) -> int:
+    """An argparse type: an integer of ASCII digits with an optional sign (Python's int also read ``1_000`` and the
+    digits of other scripts). Named ``int`` for argparse's message (``invalid int value: '1_0'``)."""
+    if not _WHOLE.fullmatch(text.strip(' \t')):
+        raise ValueError(f'not an integer: {brief(text)}')
+    return int(text)
+
+
+number.__name__ = 'float'
+whole.__name__ = 'int'
+#: The integers :func:`whole` reads.
+_WHOLE = re.compile(r'[-+]?[0-9]+')
+
+
 def finite(text: str) -> float:
-    """An argparse type: a finite float (the option's error names the text otherwise)."""
+    """An argparse type: a finite number (:func:`number`; the option's error names the text otherwise)."""
     try:
-        val = float(text)
+        val = decimal(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f'{brief(text)} is not a number') from None
     if not np.isfinite(val):
@@ -57,7 +79,7 @@ class RodLengths(argparse.Action):
 
 def rod_lengths(p: argparse.ArgumentParser) -> None:
     """The positional rod lengths ``Q Q Q`` (:class:`RodLengths`)."""
-    p.add_argument('q', type=float, nargs='*', action=RodLengths, metavar='Q',
+    p.add_argument('q', type=number, nargs='*', action=RodLengths, metavar='Q',
                    help='three rod lengths q1 q2 q3 [m, or mm with --mm]')
 
 

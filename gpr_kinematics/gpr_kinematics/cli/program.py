@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..robot.plan import ProgramSummary, program_summary
-from .options import robot_of, robot_options
+from .options import number, robot_of, robot_options
 from .output import JsonValue, emit_json
 from .progress import ProgressLine
 
@@ -310,10 +310,10 @@ def _send_parser(psub: Any) -> None:
     p.add_argument('--namespace', default='', metavar='NS', help="the robot's namespace, e.g. /r1 (default: none)")
     p.add_argument('--joint-states', default='joint_states', metavar='TOPIC',
                    help='where the robot publishes its joint states (default joint_states)')
-    p.add_argument('--rate', type=float, default=100.0, help='points per second [Hz] (default 100)')
-    p.add_argument('--timeout', type=float, default=10.0,
+    p.add_argument('--rate', type=number, default=100.0, help='points per second [Hz] (default 100)')
+    p.add_argument('--timeout', type=number, default=10.0,
                    help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
-    p.add_argument('--progress', type=float, default=1.0, help='seconds between progress lines (default 1)')
+    p.add_argument('--progress', type=number, default=1.0, help='seconds between progress lines (default 1)')
     robot_options(p)
     p.set_defaults(handler=_cmd_send)
 
@@ -327,7 +327,7 @@ def register(sub: Any) -> None:
     p = psub.add_parser('check', help='solve every waypoint, time every move, check clearance and wafer slip')
     p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
     p.add_argument('--cell', metavar='FILE', help='the process cell (default: the program\'s cell, else none)')
-    p.add_argument('--margin', type=float, default=None, metavar='M',
+    p.add_argument('--margin', type=number, default=None, metavar='M',
                    help='clearance below which a pair collides [m] (default 0.002)')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
     p.add_argument('--no-progress', action='store_true',
@@ -340,9 +340,9 @@ def register(sub: Any) -> None:
     p.add_argument('--samples', metavar='FILE', help='write the sample table (.csv or .json)')
     p.add_argument('--trajectory', metavar='FILE', help='write the trajectory_msgs/JointTrajectory YAML (.yaml) that '
                    'ros2 action send_goal reads: "{trajectory: $(cat FILE)}"')
-    p.add_argument('--lead-in', type=float, default=0.0, metavar='SECONDS', help='--trajectory: the first point this '
+    p.add_argument('--lead-in', type=number, default=0.0, metavar='SECONDS', help='--trajectory: the first point this '
                    'much after the start (a controller moves there from where the robot is); default 0')
-    p.add_argument('--rate', type=float, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
+    p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     robot_options(p)
     p.set_defaults(handler=_cmd_export)
     _send_parser(psub)

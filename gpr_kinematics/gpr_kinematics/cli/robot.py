@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .options import angles, direction, lengths, robot_of, robot_options, unit_options, vec
+from .options import angles, direction, lengths, number, robot_of, robot_options, unit_options, vec
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -118,31 +118,31 @@ def register(sub: Subparsers) -> None:
     rsub = robot.add_subparsers(dest='robot_command', metavar='SUBCOMMAND', parser_class=type(robot))
     rsub.required = True
     p = rsub.add_parser('fk', help='rods and arm joints -> wafer, blade and platform in the world')
-    p.add_argument('--rods', type=float, nargs=3, required=True, metavar='Q', help='rod lengths [m, or mm]')
-    p.add_argument('--joints', type=float, nargs='+', required=True, metavar='J', help='arm joints [rad, or deg]')
+    p.add_argument('--rods', type=number, nargs=3, required=True, metavar='Q', help='rod lengths [m, or mm]')
+    p.add_argument('--joints', type=number, nargs='+', required=True, metavar='J', help='arm joints [rad, or deg]')
     p.add_argument('--arm', help='arm name (default: the first arm)')
     unit_options(p)
     robot_options(p)
     p.set_defaults(handler=_cmd_fk)
 
     p = rsub.add_parser('ik', help='a station (wafer pose in the world) -> rods and arm joints')
-    p.add_argument('--position', type=float, nargs=3, required=True, metavar=('X', 'Y', 'Z'),
+    p.add_argument('--position', type=number, nargs=3, required=True, metavar=('X', 'Y', 'Z'),
                    help='wafer centre in the world [m, or mm]')
-    p.add_argument('--tilt', type=float, default=0.0, help='station plane tilt [rad, or deg] (default 0)')
-    p.add_argument('--azimuth', type=float, default=0.0, help='azimuth of the tilt axis [rad, or deg] (default 0)')
-    p.add_argument('--heading', type=float, help='blade heading in the station plane [rad, or deg]; required for '
+    p.add_argument('--tilt', type=number, default=0.0, help='station plane tilt [rad, or deg] (default 0)')
+    p.add_argument('--azimuth', type=number, default=0.0, help='azimuth of the tilt axis [rad, or deg] (default 0)')
+    p.add_argument('--heading', type=number, help='blade heading in the station plane [rad, or deg]; required for '
                                                    'arms of 3 or 4 joints, free when omitted for a 2-joint arm')
     p.add_argument('--arm', help='arm name (default: the first arm)')
     p.add_argument('--branch', choices=('left', 'right'), help="elbow branch (default: the arm's)")
-    p.add_argument('--redundancy', type=float, metavar='VALUE',
+    p.add_argument('--redundancy', type=number, metavar='VALUE',
                    help='4-joint arm under fixed_joint: the held joint value [rad, or deg]')
     unit_options(p)
     robot_options(p)
     p.set_defaults(handler=_cmd_ik)
 
     p = rsub.add_parser('teach', help='joints -> stations; with --naive: re-teach joints of the old naive model')
-    p.add_argument('--rods', type=float, nargs=3, metavar='Q', help='rod lengths [m, or mm]')
-    p.add_argument('--joints', type=float, nargs='+', metavar='J', help='arm joints [rad, or deg]')
+    p.add_argument('--rods', type=number, nargs=3, metavar='Q', help='rod lengths [m, or mm]')
+    p.add_argument('--joints', type=number, nargs='+', metavar='J', help='arm joints [rad, or deg]')
     p.add_argument('--table', metavar='CSV', help='many: a CSV with a header naming the rods and joints (units in '
                                                   'brackets, e.g. "gpr_rod1 [mm]") and an optional name column')
     p.add_argument('--naive', action='store_true', help='the joints came from the naive model (the old tool): '

@@ -16,6 +16,7 @@ from ..bags.report import check_report_folder, write_report
 from ..bags.verify import Tolerances, format_table, verify_bag
 from ..core.config import load_config
 from ..errors import InputError
+from .options import number
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -42,7 +43,7 @@ def parse_tolerances(items: list[str] | None) -> Tolerances:
                              'allowed: each once')
         given.add(name)
         try:
-            v = float(value)
+            v = number(value)
         except ValueError:
             v = math.nan
         if not (math.isfinite(v) and v >= 0):

@@ -32,6 +32,7 @@ from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_w
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
 from ..workspace.scheduler import MAX_WORKERS
+from .options import number, whole
 from .output import JsonValue, emit_json, json_object
 
 if TYPE_CHECKING:
@@ -46,13 +47,13 @@ def register(subparsers: Subparsers) -> None:
         description=(__doc__ or '').split('\n\n')[0],
     )
     p.add_argument('file', help='mechanism YAML file with a type key (e.g. config/mechanisms/tripod_3rps.yaml)')
-    p.add_argument('--delta', type=float, required=True,
+    p.add_argument('--delta', type=number, required=True,
                    help='accuracy: largest scaled edge of a boundary box, m (mm with --mm)')
     p.add_argument('--mm', action='store_true', help='--delta is in millimetres')
     p.add_argument('--method', choices=METHODS, default='covering',
                    help="covering (certified interval bounds), grid (node sampling per box, the paper's grid "
                    'method) or uniform (plain grid); default covering')
-    p.add_argument('--grid-nodes', type=int, default=3, help='grid method: nodes per box edge (default 3)')
+    p.add_argument('--grid-nodes', type=whole, default=3, help='grid method: nodes per box edge (default 3)')
     p.add_argument('--boxes', metavar='OUT.npz', help='save the boxes: arrays inner, boundary (n, d, 2), variables')
     p.add_argument('--plot', metavar='DIR', help='write PNG projections on the coordinate planes into DIR')
     p.add_argument('--json', action='store_true', help='print the summary as one JSON object')
@@ -62,16 +63,16 @@ def register(subparsers: Subparsers) -> None:
                    help='where the covering runs: local (default; a Dask local cluster, one worker per core, '
                    'started only when a run is large enough), none (this process) or the address of a Dask '
                    'scheduler; the boxes are the same')
-    p.add_argument('--workers', type=int, default=None,
+    p.add_argument('--workers', type=whole, default=None,
                    help=f'worker processes of --scheduler local (1 to {MAX_WORKERS}; default: the cores)')
-    p.add_argument('--parts', type=int, default=PARTS,
+    p.add_argument('--parts', type=whole, default=PARTS,
                    help=f'parts a large run is cut into for the workers (default {PARTS}); changes the order '
                    'of the boxes, not the boxes')
-    p.add_argument('--max-boxes', type=int, default=None,
+    p.add_argument('--max-boxes', type=whole, default=None,
                    help='stop (like Ctrl-C) before keeping more boxes than this (default: the boxes of about 0.5 GB, '
                    f'16 bytes per variable each: {MAX_BOXES} up to 3 variables, 1875000 for 16; at most the boxes '
                    'of a quarter of the physical memory)')
-    p.add_argument('--max-seconds', type=float, default=None,
+    p.add_argument('--max-seconds', type=number, default=None,
                    help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
                    'has a limit)')
     p.add_argument('--no-progress', action='store_true', help='no progress bar on stderr')

@@ -32,7 +32,7 @@ from typing import Any
 from ..errors import InputError
 
 SCHEDULERS = ('local', 'none')
-_ADDRESS = re.compile(r'^(tcp|tls)://[A-Za-z0-9_.\-\[\]:]+:\d{1,5}$')
+_ADDRESS = re.compile(r'(tcp|tls)://[A-Za-z0-9_.\-\[\]:]+:[0-9]{1,5}')
 #: Seconds to wait for an existing scheduler before giving up.
 CONNECT_TIMEOUT = 10.0
 #: Most worker processes of a local cluster.
@@ -43,7 +43,7 @@ StepFunction = Callable[..., Any]
 
 def check_scheduler(scheduler: str, workers: int | None = None) -> None:
     """Refuse a scheduler that is neither ``none``, ``local`` nor a ``tcp://HOST:PORT`` address."""
-    if not isinstance(scheduler, str) or not (scheduler in SCHEDULERS or _ADDRESS.match(scheduler)):
+    if not isinstance(scheduler, str) or not (scheduler in SCHEDULERS or _ADDRESS.fullmatch(scheduler)):
         raise InputError(
             f'scheduler {str(scheduler)[:80]!r} is not allowed; allowed: none, local or a Dask scheduler '
             'address tcp://HOST:PORT'
