@@ -198,6 +198,8 @@ def bad_inputs(tmp_path):
                                               r'degrees\)\?$'),
         (['calibrate', '--plan', '3', '--config', ''], r'config'),
         (['calibrate', '--plan', 'many'], r"argument --plan: invalid int value: 'many'"),
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tr\u0430cker'],   # a Cyrillic a passed isalnum
+         r"--frame 'tr\u0430cker'; allowed: a frame name of 1 to 64 ASCII letters, digits and _"),
         (['calibrate', '--plan', '3', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
         (['calibrate', '--plan', '3', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
     ]

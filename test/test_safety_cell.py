@@ -81,12 +81,16 @@ def test_markers_one_per_obstacle_at_its_pose():
     ({'name': 'a', 'cylinder': {'radius': 0.1, 'length': 1e9}, 'position': [0, 0, 0]},
      r'obstacles\[0\] \(a\): length = 1000000000\.0 is invalid'),
     ({'name': 'a b', 'box': [1, 1, 1], 'position': [0, 0, 0]}, r"name = 'a b' is invalid"),
+    # isalnum took any script's letters: a Cyrillic 'а' beside the Latin 'a' named two obstacles alike
+    ({'name': '\u0430', 'box': [1, 1, 1], 'position': [0, 0, 0]}, r"name = '\u0430' is invalid; allowed: 1 to 64 "
+                                                                     r"letters, digits, _ and - \(ASCII\)"),
     ({'name': 7, 'box': [1, 1, 1], 'position': [0, 0, 0]}, r'name = 7 is invalid \(YAML read it as a number: quote '),
     ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0]}, r'position = \[0, 0\] is invalid; allowed: a list of 3'),
     ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0, 0], 'rpy': [0, 0, 0], 'tilt': 0.1}, r'rpy or tilt'),
     ({'name': 'c', 'chamber': {'size': [0.5, 0.5, 0.25], 'slit': [0.6, 0.04]}, 'position': [0, 0, 0]},
      r'chamber: slit = \[0\.6, 0\.04\] is invalid; allowed: narrower'),
-], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'name', 'number-name', 'position', 'two-orientations',
+], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'name', 'cyrillic-name', 'number-name', 'position',
+        'two-orientations',
         'slit'])
 def test_bad_obstacles_named(obstacle, pattern):
     with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\]') as err:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from datetime import datetime, timezone
 from functools import partial
 from typing import TYPE_CHECKING
@@ -40,6 +41,9 @@ from .calibrate_options import (
 )
 from .options import number, whole
 from .output import emit_json
+
+#: The tracker's frame name (``--frame``).
+_FRAME = re.compile(r'[A-Za-z0-9_]{1,64}')
 
 if TYPE_CHECKING:
     from ..calibration.model import PoseModel
@@ -155,8 +159,8 @@ def _handler(args: argparse.Namespace) -> int:
     for flag, value in zip(('--sigma-position', '--sigma-angle'), sigmas(args), strict=True):
         if not lo <= value <= hi:
             raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
-    if not args.frame.replace('_', 'a').isalnum() or len(args.frame) > 64:
-        raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of letters, digits and _')
+    if not _FRAME.fullmatch(args.frame):   # isalnum took any script's letters and digits
+        raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of 1 to 64 ASCII letters, digits and _')
     if args.robot is not None:
         if args.plan is not None:
             raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')

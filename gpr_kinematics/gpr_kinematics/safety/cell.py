@@ -25,6 +25,7 @@ key and the value, and at most :data:`MAX_OBSTACLES` obstacles are read.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -144,15 +145,19 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
             for part, size, centre in parts if min(size) > 0.0]
 
 
+#: An obstacle's name (in messages, markers and the check's pairs).
+_NAME = re.compile(r'[A-Za-z0-9_\-]{1,64}')
+
+
 def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle]:
     lunit, aunit = ('mm' if length != 1.0 else 'm'), ('deg' if angle != 1.0 else 'rad')
     if not isinstance(ob, Mapping):
         raise ConfigError(f'{where}: expected a mapping with name, a shape ({", ".join(_SHAPES)}) and position')
     check_keys(ob, _OBSTACLE_KEYS, where)
     name = ob.get('name')
-    if not isinstance(name, str) or not 0 < len(name) <= 64 or not name.replace('_', '').replace('-', '').isalnum():
+    if not isinstance(name, str) or not _NAME.fullmatch(name):   # isalnum took any script's letters and digits
         raise ConfigError(f'{where}: name = {brief(name)} is invalid{text_hint(name)}; allowed: 1 to 64 letters, '
-                          'digits, _ and -')
+                          'digits, _ and - (ASCII)')
     where = f'{where} ({name})'
     shapes = [k for k in _SHAPES if k in ob]
     if len(shapes) != 1:
