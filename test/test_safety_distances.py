@@ -244,9 +244,10 @@ for depth in (0.0, 5e-5):
 
 def test_touching_bodies_do_not_abort_the_check(tmp_path):
     """libccd's EPA, asked for the depth of a paddle that only touches a wafer, threw a C++ exception that aborted
-    the process (gpr program check of the cell program with approach_height 0: SIGABRT, exit 134). EPA is asked only
-    for bodies in contact that do not merely touch: the touching pair is at 0, less the library's 1 um slack (the
-    separating-axis bound along the face normal); 50 um deep it is EPA's depth as before (9.75 um)."""
+    the process (gpr program check of the cell program with approach_height 0: SIGABRT, exit 134). EPA is never
+    asked: the touching pair is at 0, less the library's 1 um slack (the separating-axis bound along the face
+    normal); lowered 50 um it is the gap along the paddle's length, -9.748 um: the paddle's tip lies that far under
+    the wafer's rim (EPA's depth to 1e-11 m; a lower bound of the signed distance whatever the direction)."""
     import subprocess
     import sys
     from pathlib import Path
@@ -258,4 +259,29 @@ def test_touching_bodies_do_not_abort_the_check(tmp_path):
     assert run.returncode == 0, run.stderr[-400:]
     touching, deep = (float(v) for v in run.stdout.split())
     assert touching == pytest.approx(-1e-6, abs=1e-15)
-    assert deep == pytest.approx(-9.747e-6 - 1e-6, abs=1e-9)   # EPA's, approximate with a cylinder (docs/cell.md)
+    assert deep == pytest.approx(-9.7479743e-06 - 1e-6, abs=1e-12)
+
+
+def test_contact_bound_is_minus_the_depth_of_overlapping_boxes():
+    """Bodies in contact read contact_bound (the library's EPA is never asked): for two boxes the separating-axis
+    test's axes give minus the penetration depth exactly; for axis-parallel boxes that is the least overlap over the
+    three axes, ``min_k (h_a,k + h_b,k - |c_b,k - c_a,k|)`` (here computed alone); a cylinder's side pushed ``d`` into
+    a box's face reads ``-d``."""
+    from gpr_kinematics.safety.distances import contact_bound
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(11)
+    n = 300
+    ha, hb = rng.uniform(0.01, 0.3, (n, 3)), rng.uniform(0.01, 0.3, (n, 3))
+    d = (ha + hb) * rng.uniform(-0.95, 0.95, (n, 3))           # overlapping on every axis
+    turn = Rotation.random(n, random_state=3).as_matrix()          # the same turn of both: still axis-parallel
+    ca = rng.uniform(-1.0, 1.0, (n, 3))
+    cb = ca + np.einsum('nij,nj->ni', turn, d)
+    no = np.zeros(n, dtype=bool)
+    got = contact_bound((turn, ca, ha, no), (turn, cb, hb, no))
+    np.testing.assert_allclose(got, -np.min(ha + hb - np.abs(d), axis=1), rtol=0, atol=1e-12)
+    # a cylinder (radius 0.1, half-length 0.2, axis z) whose side is 3 mm into a box's +x face
+    R = np.eye(3)[None]
+    box = (R, np.zeros((1, 3)), np.array([[0.5, 0.5, 0.5]]), np.array([False]))
+    cyl = (R, np.array([[0.5 + 0.1 - 0.003, 0.0, 0.0]]), np.array([[0.1, 0.1, 0.2]]), np.array([True]))
+    assert contact_bound(box, cyl)[0] == pytest.approx(-0.003, abs=1e-12)

@@ -185,10 +185,11 @@ Pose = tuple[Array, Array, Array, NDArray[np.bool_]]
 
 
 def contact_bound(a: Pose, b: Pose) -> Array:
-    """A lower bound of the signed distance of bodies ``a`` and ``b`` in contact, where the library's EPA is not
-    asked: the best :func:`axis_gap` along each body's axes and the line of centres (two boxes: the separating-axis
-    test's 15 axes too). Bodies that touch along a face (a blade's paddle flat under a wafer) reach 0 on its
-    normal [m]."""
+    """A lower bound of the signed distance of bodies ``a`` and ``b`` in contact (the library's EPA is never asked:
+    it aborted the process on touching bodies): the best :func:`axis_gap`
+    along the line of centres and each body's axes, both ways (two boxes: the separating-axis test's 15 axes too,
+    which give minus their penetration depth exactly). Bodies that touch along a face (a blade's paddle flat under a
+    wafer) reach 0 on its normal [m]."""
     Ra, ca, ha, cya = a
     Rb, cb, hb, cyb = b
     d = cb - ca
@@ -196,8 +197,7 @@ def contact_bound(a: Pose, b: Pose) -> Array:
     line = np.where((norm > 0.0)[:, None], d / np.where(norm > 0.0, norm, 1.0)[:, None], np.array([1.0, 0.0, 0.0]))
     best = axis_gap(line, a, b)
     for n in [Ra[:, :, k] for k in range(3)] + [Rb[:, :, k] for k in range(3)]:
-        n = n * np.where(np.einsum('ni,ni->n', n, d) < 0.0, -1.0, 1.0)[:, None]   # from a towards b
-        best = np.maximum(best, axis_gap(n, a, b))
+        best = np.maximum(best, np.maximum(axis_gap(n, a, b), axis_gap(-n, a, b)))
     boxes = ~(cya | cyb)
     if boxes.any():
         best[boxes] = np.maximum(best[boxes], box_lower_bound(Ra[boxes], ca[boxes], ha[boxes], Rb[boxes], cb[boxes],
@@ -328,11 +328,10 @@ class Exact:
         self.fcl, self.store, self.bodies = fcl, store, bodies
         self.objects = [fcl.CollisionObject(fcl.Box(*b.size) if b.kind == 'box' else fcl.Cylinder(*b.size),
                                             fcl.Transform(b.rotation, b.position)) for b in bodies]
-        # GJK alone (the same distance and points as the signed request for bodies apart, -1 in contact); the signed
-        # request (EPA's depth) only for bodies in contact that do not merely touch: on a touching pair (the paddle
-        # flat under a station's wafer, approach_height 0) libccd's EPA throws a C++ exception that aborts the process
+        # GJK alone (the same distance and points as the signed request for bodies apart, -1 in contact), never the
+        # signed request's EPA: on a touching pair (the paddle flat under a station's wafer, approach_height 0)
+        # libccd's EPA throws a C++ exception that aborts the process; bodies in contact read contact_bound
         self.request = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=False)
-        self.signed = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
         self.calls = 0
         self.memo = Table(5)   # distance less the slack, then p_a - p_b, then the error of p_a - p_b
         self.cylinder = np.array([b.kind == 'cylinder' for b in bodies], dtype=bool)
@@ -366,13 +365,10 @@ class Exact:
                     placed[k] = ii
             res = fcl.DistanceResult()
             out[n, 0] = fcl.distance(objects[ka], objects[kb], request, res)
-            if out[n, 0] <= 0.0:   # in contact
+            if out[n, 0] <= 0.0:   # in contact: the best separating-axis gap (minus the depth for two boxes)
                 touch = float(contact_bound(self._pose(ka, ii, poses), self._pose(kb, ii, poses))[0])
-                if touch >= -LIBRARY_SLACK:   # touching, or within the library's tolerance of it: no EPA
-                    out[n, 0], near[n] = min(touch, 0.0), 0.0
-                    continue
-                res = fcl.DistanceResult()
-                out[n, 0] = fcl.distance(objects[ka], objects[kb], self.signed, res)
+                out[n, 0], near[n] = min(touch, 0.0), 0.0
+                continue
             near[n] = res.nearest_points
         out[:, 1:4] = near[:, 0] - near[:, 1]
         out[:, 4] = 2.0 * LIBRARY_SLACK
