@@ -544,3 +544,61 @@ def test_a_move_of_a_million_seconds_is_sampled_within_bounds():
     bodies = robot_body_set(ROBOT, {})
     search = _Search(PlanMotion(slow), bodies, [(0, len(bodies) - 1, ())], MARGIN, TOLERANCE, 1.0, False)
     assert BASE_MOST <= search.base.shape[0] <= BASE_MOST + 4    # 100 s apart on the move
+
+
+def test_the_plot_marks_and_names_the_closest_pair_the_first_collision_and_the_largest_slip():
+    """``--plot`` with a 7 mm margin (unsafe): the title names the program, the cell and the verdict with the text
+    output's numbers; the closest pair is marked at its least distance and instant and named, the first instant
+    below the margin too, the largest slip at its time with its waypoint; the legends lie beside the axes, not on
+    the curves (the no-cell program's legend covered its clearance at 57 mm)."""
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+    from gpr_kinematics.safety.plot import check_figure
+    report, clear, slip = check_program(PLAN, load_cell(CELL), 0.007)
+    fig = check_figure(clear, slip, report, PROGRAM)
+    ax1, ax2 = fig.axes
+    assert fig._suptitle.get_text() == ('example_cell_program.yaml in cell example_cell.yaml: NOT safe\nminimum '
+                                        'clearance 6.090 mm (margin 7 mm), max slip ratio 0.753 (limit 1)')
+    assert (ax1.get_ylabel(), ax2.get_ylabel(), ax2.get_xlabel()) == ('clearance [mm]', 'slip ratio (1: the wafer '
+                                                                       'slips)', 'time [s]')
+    marks = {line.get_label().split(' at')[0]: line for line in ax1.lines + ax2.lines if line.get_marker() != 'None'}
+    closest, first = report.pairs[0], report.collisions[0]
+    least = marks['least 6.090 mm']
+    assert (least.get_xdata()[0], least.get_ydata()[0]) == (closest['time'], report.min_clearance * 1e3)
+    assert least.get_label() == f"least 6.090 mm at {closest['time']:.3f} s:\narm2_link3 / pm1/front_bottom"
+    below = marks['first below the margin']
+    assert (below.get_xdata()[0], below.get_ydata()[0]) == (first.time, 7.0)
+    assert below.get_label().endswith(f'{" / ".join(first.bodies)}\n(step {first.step}, {first.station})')
+    peak = marks['largest 0.753']
+    assert (peak.get_xdata()[0], peak.get_ydata()[0]) == (report.max_slip_at, report.max_slip_ratio)
+    assert peak.get_label().endswith('steps[14] (place load_port_1, approach)')
+    limits = [(line.get_label(), line.get_ydata()[0]) for ax in (ax1, ax2) for line in ax.lines
+              if line.get_color() == 'r' and line.get_marker() == 'None']
+    assert limits == [('margin 7 mm', 7.0), ('slips at 1', 1.0)]
+    fig.canvas.draw()
+    for ax in (ax1, ax2):
+        assert ax.get_legend().get_window_extent().x0 > ax.get_window_extent().x1
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+
+
+def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_wafer_is_carried():
+    """A least clearance of 80 mm was drawn above the 60 mm top, its line and mark outside the axes: the top is
+    raised to 1.2 times it; a program carrying no wafer says so on the empty slip panel."""
+    from gpr_kinematics.safety.check import SafetyReport
+    from gpr_kinematics.safety.clearance import ClearanceReport, PairClearance
+    from gpr_kinematics.safety.plot import check_figure
+    report = SafetyReport(True, 0.08, 0.002, 5e-5, ({'bodies': ['a', 'b'], 'distance': 0.08, 'time': 1.5},), (), 0.0,
+                          0.0, '', (), None, 10, 4)
+    clear = ClearanceReport((PairClearance(('a', 'b'), 0.08, 1.5),), 0.08, 0.002, 5e-5, 10, 4,
+                            (np.array([0.0, 1.0, 2.0]), np.array([0.09, 0.08])))
+    fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), report)
+    ax1, ax2 = fig.axes
+    assert ax1.get_ylim()[1] == pytest.approx(96.0 * 1.02) and ax1.patches[0].get_data()[0].tolist() == [90.0, 80.0]
+    assert [t.get_text() for t in ax2.texts] == ['no wafer carried']
+    (least,) = [line for line in ax1.lines if line.get_marker() == 'v']
+    assert (least.get_xdata()[0], least.get_ydata()[0], least.get_label()) == (1.5, 80.0, 'least 80.000 mm at 1.500 s:'
+                                                                               '\na / b')
+    assert fig._suptitle.get_text().startswith('program against itself (no cell): safe\nminimum clearance 80.000 mm')
+    import matplotlib.pyplot as plt
+    plt.close(fig)

@@ -82,7 +82,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     written: dict[str, str] = {}
     if args.plot is not None:
         from ..safety.plot import plot_check
-        written['plot_file'] = str(plot_check(args.plot, clear, slip, report))
+        written['plot_file'] = str(plot_check(args.plot, clear, slip, report, args.program))
     if args.json:
         emit_json(ProgramCheck(program_summary(plan), report), **written)
     else:

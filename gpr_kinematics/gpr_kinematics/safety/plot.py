@@ -1,14 +1,17 @@
 """``gpr program check --plot``: the certified clearance and the slip ratio against time, the margin and the limit
-drawn (matplotlib).
+drawn, the closest pair and the largest slip marked and named (matplotlib).
 
 The clearance curve is, on each interval of the base sampling, the certified lower bound of every pair's distance
 there (the smallest over all pairs of the branch and bound's final bounds): the true clearance is never below it,
 and it is within the pairs' tolerance of the truth where a pair comes closest (far from that, the bound may lie
-lower than the truth, as a proof needs no more). Values beyond the plot's top are drawn at the top.
+lower than the truth, as a proof needs no more). Values beyond the plot's top are drawn at the top. The closest
+pair is marked at its least certified distance and the instant of its smallest measured distance (the text
+output's ``min distance`` and ``min at``); in an unsafe program the first instant below the margin too.
 """
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,40 +19,69 @@ from numpy.typing import NDArray
 from .check import SafetyReport
 from .clearance import ClearanceReport
 
-#: Top of the clearance axis [mm].
+#: Top of the clearance axis [mm] (raised to show a least clearance above it).
 TOP_MM = 60.0
 
 
-def plot_check(path: str | Path, clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
-               report: SafetyReport) -> Path:
-    """Write the figure to ``path`` (PNG, atomically) and return it."""
+def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
+                 report: SafetyReport, program: str | Path | None = None) -> Any:
+    """The figure (a matplotlib Figure, Agg): clearance [mm] above, slip ratio below, against time [s]; the title
+    names the program, the cell and the verdict with its numbers as the text output prints them."""
     import matplotlib
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from ..inputs.files import atomic_output
-
+    least = report.min_clearance * 1e3
+    top = TOP_MM if not np.isfinite(least) or least < 0.9 * TOP_MM else 1.2 * least
     t, bound = clear.series
-    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(9, 6))
+    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(11, 6.5), constrained_layout=True)
     if t.size > 1:
-        shown = np.clip(np.where(np.isfinite(bound), bound * 1e3, TOP_MM), None, TOP_MM)
-        ax1.stairs(shown, t, baseline=None, lw=1, label='certified clearance (lower bound over all pairs)')
-    ax1.axhline(clear.margin * 1e3, color='r', lw=1, label=f'margin {clear.margin * 1e3:g} mm')
-    ax1.axhline(clear.min_clearance * 1e3, color='k', ls=':', lw=1,
-                label=f'minimum {clear.min_clearance * 1e3:.2f} mm')
+        shown = np.clip(np.where(np.isfinite(bound), bound * 1e3, top), None, top)
+        ax1.stairs(shown, t, baseline=None, lw=1,
+                   label=f'certified clearance\n(lower bound over all pairs;\nabove {top:g} mm drawn at the top)')
+    ax1.axhline(report.margin * 1e3, color='r', lw=1, label=f'margin {report.margin * 1e3:g} mm')
+    if clear.pairs:
+        at, bodies = clear.pairs[0].time, ' / '.join(clear.pairs[0].bodies)
+        ax1.axhline(least, color='k', ls=':', lw=1)
+        ax1.plot([at], [least], 'v', color='k', ms=7, label=f'least {least:.3f} mm at {at:.3f} s:\n{bodies}')
+    if report.collisions:
+        c = report.collisions[0]
+        ax1.plot([c.time], [report.margin * 1e3], 'x', color='r', ms=9, mew=2, label=f'first below the margin at '
+                 f'{c.time:.3f} s:\n{" / ".join(c.bodies)}\n(step {c.step}, {c.station})')
     ax1.set_ylabel('clearance [mm]')
-    ax1.set_ylim(min(0.0, clear.min_clearance * 1e3 - 1), TOP_MM * 1.02)
-    ax1.legend(loc='upper right', fontsize=8)
+    ax1.set_ylim(min(0.0, least - 1) if np.isfinite(least) else 0.0, top * 1.02)
+    ax1.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax2.plot(slip[0], slip[1], lw=1, label='slip ratio of the carried wafer')
     ax2.axhline(1.0, color='r', lw=1, label='slips at 1')
-    ax2.set_ylabel('slip ratio')
+    if report.max_slip_ratio > 0.0:
+        ax2.plot([report.max_slip_at], [report.max_slip_ratio], 'v', color='k', ms=7,
+                 label=f'largest {report.max_slip_ratio:.3f} at {report.max_slip_at:.3f} s:\n{report.slip_label}')
+    else:
+        ax2.text(0.5, 0.5, 'no wafer carried', ha='center', va='center', transform=ax2.transAxes)
+    ax2.set_ylabel('slip ratio (1: the wafer slips)')
     ax2.set_ylim(0.0, max(1.1, float(np.max(slip[1], initial=0.0)) * 1.05))
     ax2.set_xlabel('time [s]')
-    ax2.legend(loc='upper right', fontsize=8)
-    where = Path(report.cell).name if report.cell else 'no cell'
-    fig.suptitle(f'{where}: {"safe" if report.safe else "NOT safe"}', fontsize=10)
-    with atomic_output(path, 'plot', binary=True) as out:
-        fig.savefig(out, format='png', dpi=110)
-    plt.close(fig)
+    ax2.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    what = Path(program).name if program is not None else 'program'
+    where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
+    fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
+                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} (limit 1)',
+                 fontsize=10)
+    return fig
+
+
+def plot_check(path: str | Path, clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
+               report: SafetyReport, program: str | Path | None = None) -> Path:
+    """Write :func:`check_figure` to ``path`` (PNG, atomically) and return it."""
+    import matplotlib.pyplot as plt
+
+    from ..inputs.files import atomic_output
+
+    fig = check_figure(clear, slip, report, program)
+    try:
+        with atomic_output(path, 'plot', binary=True) as out:
+            fig.savefig(out, format='png', dpi=90)
+    finally:
+        plt.close(fig)
     return Path(path)
