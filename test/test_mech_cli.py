@@ -267,3 +267,40 @@ def test_the_library_names_a_parameter_error_that_is_not_numbers():
                            (10**400, 'A_i = <an integer of about 401 digits>; allowed')):
         with pytest.raises(InputError, match=re.escape(message)):
             linearized_deviation(mech, [0, 0, 1, 0, 0, 0], parameter_errors={'A_i': value})
+
+
+def test_the_dexterity_plot_marks_the_least_and_the_singular_poses_in_si_units(capsys):
+    """The plot's x axis read 'z' (no unit) and the GPR's curve at 0.707 lay on the top frame, 'joints outside
+    limits' was in the legend with no such pose, and neither the least dexterity nor the singular tilt 0 (named by
+    the mechanism, dexterity 0.707) was marked: the axes are in m and rad, the top 10 % above the largest value, the
+    least within the limits marked at its pose and named with the text's numbers, the singular poses marked (and
+    said on the text's row)."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.mechanisms.dexterity import dexterity_figure, dexterity_grid, dexterity_sweep
+    gpr = load_mechanism('gpr.yaml')
+    dmap = dexterity_sweep(gpr, [0, 0, 0.3, 0, 0, 0], 'tilt_x', np.linspace(-0.02, 0.02, 5))
+    fig = dexterity_figure(dmap)
+    ax = fig.axes[0]
+    lines = {line.get_label(): line for line in ax.lines}
+    assert ax.get_xlabel() == 'tilt_x [rad]' and ax.get_ylim()[1] == pytest.approx(1.1 * dmap.dexterity.max())
+    assert 'joints outside limits' not in lines and list(lines['singular'].get_xdata()) == [0.0]
+    least = next(line for name, line in lines.items() if name.startswith('least'))
+    k = int(np.argmin(dmap.dexterity))
+    assert (least.get_xdata()[0], least.get_ydata()[0]) == (dmap.values[k], dmap.dexterity[k])
+    assert least.get_label() == f'least within limits {dmap.dexterity[k]:.6f}\nat tilt_x = 0 rad'
+    plt.close(fig)
+    code, out, _ = run(capsys, 'dexterity', 'gpr.yaml', '--vary', 'tilt_x', '-0.02', '0.02', '5')
+    assert code == 0 and [row.endswith('(singular)') for row in out.splitlines()[1:]] == [False, False, True, False,
+                                                                                          False]
+    upu = load_mechanism('upu3.yaml')
+    dmap = dexterity_grid(upu, [0, 0, 0.2, 0, 0, 0], 'x', np.linspace(-0.05, 0.05, 5), 'z', np.linspace(0.17, 0.26, 4))
+    fig = dexterity_figure(dmap)
+    ax = fig.axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ('z [m]', 'x [m]')
+    assert fig.axes[1].get_ylabel() == 'dexterity within joint limits\n(white: joints outside limits)'
+    inside = np.where(dmap.within_limits, dmap.dexterity, np.inf)
+    i, j = np.unravel_index(np.argmin(inside), inside.shape)
+    (least,) = ax.lines
+    assert (least.get_xdata()[0], least.get_ydata()[0]) == (dmap.values2[j], dmap.values[i])
+    assert least.get_label().startswith(f'least within limits {inside[i, j]:.4f} at z = 0.26 m, x = ')
+    plt.close(fig)

@@ -67,8 +67,9 @@ def _dexterity(args: argparse.Namespace) -> int:
         return 0
     if dmap.variable2 is None:
         print(f'{mech.name}: dexterity (inverse condition number) against {var}')
-        for v, d, ok in zip(dmap.values, dmap.dexterity, dmap.within_limits, strict=True):
-            print(f'  {var} = {v:12.6g}   dexterity {d:.6f}' + ('' if ok else '   (joints outside limits)'))
+        for v, d, ok, sing in zip(dmap.values, dmap.dexterity, dmap.within_limits, dmap.singular, strict=True):
+            print(f'  {var} = {v:12.6g}   dexterity {d:.6f}' + ('' if ok else '   (joints outside limits)')
+                  + ('   (singular)' if sing else ''))
     else:
         inside = dmap.dexterity[dmap.within_limits]
         print(f'{mech.name}: dexterity on a {vals.size} x {vals2.size} grid of {var} x {var2}; within joint '

@@ -37,6 +37,7 @@ class DexterityMap:
     within_limits: np.ndarray       #: bool, same shape
     variable2: str | None = None
     values2: np.ndarray | None = None
+    units: tuple[str, str] = ('', '')  #: the unit of ``variable`` and of ``variable2`` (m or rad; '' unknown)
 
     def record(self, kind: str) -> DexterityRecord:
         """The map as ``gpr dexterity --json`` prints it (:class:`DexterityRecord`); ``kind`` is the mechanism's
@@ -85,6 +86,10 @@ def _index(mech: Mechanism, variable: str) -> int:
     return mech.pose_names.index(variable)
 
 
+def _unit(mech: Mechanism, variable: str) -> str:
+    return 'm' if mech.pose_names.index(variable) < 3 else 'rad'
+
+
 def evaluate(mech: Mechanism, poses: Any
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(poses, dexterity, condition, singular, within_limits)`` for a batch of poses ``(N, 6)``; a pose the
@@ -127,7 +132,7 @@ def dexterity_sweep(mech: Mechanism, base_pose: Any, variable: str, values: Any)
     poses = np.repeat(base, vals.size, axis=0)
     poses[:, _index(mech, variable)] = vals
     full, dex, cond, sing, within = evaluate(mech, poses)
-    return DexterityMap(mech.name, variable, vals, full, dex, cond, sing, within)
+    return DexterityMap(mech.name, variable, vals, full, dex, cond, sing, within, units=(_unit(mech, variable), ''))
 
 
 def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, variable2: str,
@@ -147,7 +152,8 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
     full, dex, cond, sing, within = evaluate(mech, poses)
     shape = (v1.size, v2.size)
     return DexterityMap(mech.name, variable, v1, full.reshape(shape + (6,)), dex.reshape(shape),
-                        cond.reshape(shape), sing.reshape(shape), within.reshape(shape), variable2, v2)
+                        cond.reshape(shape), sing.reshape(shape), within.reshape(shape), variable2, v2,
+                        (_unit(mech, variable), _unit(mech, variable2)))
 
 
 #: Plot file types (by extension) :func:`plot_dexterity` writes.
@@ -165,32 +171,76 @@ def check_plot_path(path: str | Path) -> Path:
     return target
 
 
-def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
-    """Write a plot of the map (PNG, PDF or SVG by the extension): dexterity against the variable (dashed where
-    joints leave their limits), or a colour map for a grid. Returns the path written."""
-    from ..inputs.files import atomic_output
-    target = check_plot_path(path)
+def _axis(name: str, unit: str) -> str:
+    return f'{name} [{unit}]' if unit else name
+
+
+def _least(dmap: DexterityMap) -> tuple[float, tuple[int, ...]] | None:
+    """The least dexterity within the joint limits and its index, or None when no pose is within them."""
+    if not dmap.within_limits.any():
+        return None
+    inside = np.where(dmap.within_limits, dmap.dexterity, np.inf)
+    k = np.unravel_index(int(np.argmin(inside)), inside.shape)
+    return float(inside[k]), tuple(int(i) for i in k)
+
+
+def dexterity_figure(dmap: DexterityMap) -> Any:
+    """The figure of :func:`plot_dexterity` (a matplotlib Figure, Agg): the least dexterity within the joint limits
+    marked and named, singular poses marked, the axes in the variables' units (m, rad)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=100)
+    least = _least(dmap)
+    unit, unit2 = dmap.units
     if dmap.variable2 is None:
-        ax.plot(dmap.values, dmap.dexterity, '--', color='0.6', label='joints outside limits')
+        x = dmap.values
+        if not dmap.within_limits.all():
+            ax.plot(x, dmap.dexterity, '--', color='0.6', label='joints outside limits')
         inside = np.where(dmap.within_limits, dmap.dexterity, np.nan)
-        ax.plot(dmap.values, inside, '-', color='C0', lw=2, label='within joint limits')
-        ax.set_xlabel(dmap.variable)
+        ax.plot(x, inside, '-', color='C0', lw=2, label='within joint limits')
+        if dmap.singular.any():
+            ax.plot(x[dmap.singular], dmap.dexterity[dmap.singular], 'x', color='r', ms=8, mew=2, label='singular')
+        if least is not None:
+            d, (k,) = least
+            ax.plot([x[k]], [d], 'v', color='k', ms=8,
+                    label=f'least within limits {d:.6f}\nat {dmap.variable} = {x[k]:.6g} {unit}'.rstrip())
+        ax.set_xlabel(_axis(dmap.variable, unit))
         ax.set_ylabel('dexterity (inverse condition number)')
-        ax.set_ylim(bottom=0)
-        ax.legend()
+        ax.set_ylim(0.0, max(1e-3, 1.1 * float(np.max(dmap.dexterity, initial=0.0))))
+        ax.legend(loc='lower left', fontsize=8)
     else:
         data = np.where(dmap.within_limits, dmap.dexterity, np.nan)
-        im = ax.pcolormesh(np.asarray(dmap.values2), dmap.values, data, shading='auto')
-        fig.colorbar(im, ax=ax, label='dexterity (within joint limits)')
-        ax.set_xlabel(dmap.variable2)
-        ax.set_ylabel(dmap.variable)
-    ax.set_title(dmap.mechanism)
+        v2 = np.asarray(dmap.values2)
+        im = ax.pcolormesh(v2, dmap.values, data, shading='auto')
+        fig.colorbar(im, ax=ax, label='dexterity within joint limits\n(white: joints outside limits)')
+        if dmap.singular.any():
+            rows, cols = np.nonzero(dmap.singular)
+            ax.plot(v2[cols], dmap.values[rows], 'x', color='r', ms=6, mew=1.5, label='singular')
+        if least is not None:
+            d, (i, j) = least
+            ax.plot([v2[j]], [dmap.values[i]], 'v', color='r', mec='w', ms=9,
+                    label=f'least within limits {d:.4f} at {dmap.variable2} = {v2[j]:.6g} {unit2}, '
+                          f'{dmap.variable} = {dmap.values[i]:.6g} {unit}')
+        if ax.lines:
+            ax.legend(loc='upper center', bbox_to_anchor=(0.5, -0.14), fontsize=8)
+        ax.set_xlabel(_axis(dmap.variable2, unit2))
+        ax.set_ylabel(_axis(dmap.variable, unit))
+    ax.set_title(dmap.mechanism if least is not None else f'{dmap.mechanism}\nno pose within the joint limits',
+                 fontsize=10)
     fig.tight_layout()
+    return fig
+
+
+def plot_dexterity(dmap: DexterityMap, path: str | Path) -> Path:
+    """Write :func:`dexterity_figure` (PNG, PDF or SVG by the extension): dexterity against the variable (dashed
+    where joints leave their limits), or a colour map for a grid. Returns the path written."""
+    from ..inputs.files import atomic_output
+    target = check_plot_path(path)
+    import matplotlib.pyplot as plt
+
+    fig = dexterity_figure(dmap)
     try:
         with atomic_output(target, 'plot', binary=True) as fh:
             fig.savefig(fh, format=target.suffix.lower().lstrip('.'))
