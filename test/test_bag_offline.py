@@ -100,6 +100,45 @@ def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFix
     assert json.loads((tmp_path / 'rep' / 'verify.json').read_text())['passed'] is True
 
 
+def test_the_report_figures_name_their_bag_and_quantities_and_mark_r_and_the_largest_shift() -> None:
+    """The figures' y axes read 'mm' and 'deg' (which quantity?), their legends lay on the curves' right ends, no
+    title named the bag, Fig. 6's l = R at the singular configurations had no line, and the centre shift's largest
+    value (the docs' 28.4 um at 2 deg) no mark: each names the bag and its quantity, the legend stands beside the
+    axes, R is a line in Fig. 6 and the radial figure, the largest shift is marked and named."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.bags.report import report_figures
+    result = verify_bag(REFERENCE)
+    figures = dict(report_figures(result))
+    try:
+        assert list(figures) == ['fig05_rod_lengths.png', 'fig08_side_lengths.png',
+                                 'fig06_polar_linear_virtual_joints.png', 'fig07_polar_angular_virtual_joints.png',
+                                 'fig09_offset_linear_virtual_joints.png', 'fig10_offset_angular_virtual_joints.png',
+                                 'radial_virtual_joints.png', 'centre_shift_vs_tilt.png']
+        ylabels = {name: fig.axes[0].get_ylabel() for name, fig in figures.items()}
+        assert list(ylabels.values()) == ['q [mm]', 'L [mm]', 'l [mm]', 'phi [deg]', 'dr [mm]', 'dphi [deg]', 'l [mm]',
+                                          'centre shift vs naive model [um]']
+        for name, fig in figures.items():
+            assert fig.axes[0].get_title().endswith('bag reference_sweep'), name
+        fig6 = figures['fig06_polar_linear_virtual_joints.png']
+        assert fig6.axes[0].get_title().startswith('Fig. 6: polar model, linear virtual joints (computed from the '
+                                                   'recorded q of a radial bag)')
+        for fig in (fig6, figures['radial_virtual_joints.png']):
+            (line,) = [ln for ln in fig.axes[0].lines if ln.get_label().startswith('R = ')]
+            assert line.get_ydata()[0] == pytest.approx(93.218, abs=5e-4) and line.get_label().startswith('R = 93.218')
+            fig.canvas.draw()
+            ax = fig.axes[0]
+            assert ax.get_legend().get_window_extent().x0 > ax.get_window_extent().x1
+        shift = figures['centre_shift_vs_tilt.png'].axes[0]
+        (mark,) = [ln for ln in shift.lines if ln.get_label().startswith('largest')]
+        s = result.series
+        largest = np.linalg.norm(s.centre_shift[:, :2], axis=1).max() * 1e6
+        assert mark.get_ydata()[0] == largest and mark.get_xdata()[0] == pytest.approx(2.0, abs=1e-9)
+        assert mark.get_label().startswith('largest 28.4 um at tilt 2.00 deg (sample ')
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+
+
 def test_mcap_reader_with_ros2_decoder_gives_the_same_messages() -> None:
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory

@@ -68,17 +68,18 @@ def check_report_folder(folder: str | Path) -> Path:
     return out
 
 
-def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str],
-            ylabel: str, crossings: NDArray[np.int64]) -> None:
+def _figure(title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str], ylabel: str,
+            crossings: NDArray[np.int64], reference: tuple[float, str] | None = None) -> Any:
+    """The stream on top and the zoom below, the legend beside the top (not on its curves), ``reference`` (a value
+    and its label) a dashed line in both."""
     plt = _plt()
-    fig, (ax, az) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True)
+    fig, (ax, az) = plt.subplots(2, 1, figsize=(10, 6.5), constrained_layout=True)
     for k, lab in enumerate(labels):
         ax.plot(sample, curves[:, k], lw=0.8, label=lab)
     ax.set_title(title)
     ax.set_xlabel('sample')
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
-    ax.legend(loc='upper right', fontsize=8)
     sel = crossings[:ZOOM_CROSSINGS]
     if sel.size:
         lo, hi = max(0, int(sel[0]) - ZOOM), min(len(sample), int(sel[-1]) + ZOOM + 1)
@@ -90,10 +91,14 @@ def _figure(path: Path, title: str, sample: NDArray[np.int64], curves: NDArray[n
         az.set_title(f'zoom: samples {sample[lo]}..{sample[hi - 1]} around singular crossings (dotted)')
     else:
         az.text(0.5, 0.5, 'no singular crossing in this bag', ha='center', va='center', transform=az.transAxes)
+    if reference is not None:
+        for a in (ax, az):
+            a.axhline(reference[0], color='k', ls='--', lw=0.8, label=reference[1])
+    ax.legend(loc='upper left', bbox_to_anchor=(1.005, 1.0), fontsize=8)
     az.set_xlabel('sample')
     az.set_ylabel(ylabel)
     az.grid(alpha=0.3)
-    _save(fig, path)
+    return fig
 
 
 def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
@@ -126,53 +131,68 @@ def _write(result: VerifyResult, out: Path) -> list[Path]:
     written = [write_text(out / 'verify.json', json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n',
                           'report'),
                write_text(out / 'verify.txt', format_table(result) + '\n', 'report')]
+    figures = report_figures(result)
+    try:
+        for name, fig in figures:
+            written.append(_save(fig, out / name))
+    finally:  # a write refused: the figures not written are closed too
+        for _, fig in figures:
+            _plt().close(fig)
+    return written
+
+
+def report_figures(result: VerifyResult) -> list[tuple[str, Any]]:
+    """The report's figures (file name, matplotlib Figure), in the order written; none for a bag without states.
+    Each title names the bag; lengths in mm, angles in deg, the centre shift in um."""
     s = result.series
     if s is None or s.q.shape[0] == 0:
-        return written
+        return []
+    bag = Path(result.path).name
     x, cr = s.sample, s.crossings
-    p = out / 'fig05_rod_lengths.png'
-    _figure(p, 'Fig. 5: rod lengths q (generalized coordinates)', x, s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)
-    written.append(p)
-    p = out / 'fig08_side_lengths.png'
-    _figure(p, 'Fig. 8 / Fig. 11: side lengths L = F(X)', x, s.side_lengths * 1e3, ['L12', 'L23', 'L31'],
-            'L [mm]', cr)
-    written.append(p)
+    figures = [('fig05_rod_lengths.png', _figure(f'Fig. 5: rod lengths q (generalized coordinates), bag {bag}', x,
+                                                 s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)),
+               ('fig08_side_lengths.png', _figure(f'Fig. 8 / Fig. 11: side lengths L = F(X), bag {bag}', x,
+                                                  s.side_lengths * 1e3, ['L12', 'L23', 'L31'], 'L [mm]', cr))]
     finite = np.all(np.isfinite(s.q), axis=1)
     cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
+    radius = (cfg.radius * 1e3, f'R = {cfg.radius * 1e3:.3f} mm\n(l at a singular\nconfiguration)')
     for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
         if s.model == model and s.virtual_joints.shape[1] == 6:
             X, source = s.virtual_joints, 'recorded'
         else:
             X = np.full((len(x), 6), np.nan)
-            source = f'computed from the recorded q ({s.model} bag)'
+            source = f'computed from the recorded q of a {s.model} bag'
             try:
                 X[finite] = forward_batch(s.q[finite], cfg, model, check_limits=False).virtual_joints
             except GprError as exc:  # q far outside the workspace (a failed check already): an empty figure
                 source = f'not computable from the recorded q: {type(exc).__name__}'
         names = ['l1', 'l2', 'l3'] if model == 'polar' else ['dr1', 'dr2', 'dr3']
         anames = ['phi1', 'phi2', 'phi3'] if model == 'polar' else ['dphi1', 'dphi2', 'dphi3']
-        p = out / f'fig{figs[0]}_{model}_linear_virtual_joints.png'
-        _figure(p, f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source})', x, X[:, :3] * 1e3,
-                names, 'mm', cr)
-        written.append(p)
-        p = out / f'fig{figs[1]}_{model}_angular_virtual_joints.png'
-        _figure(p, f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source})', x,
-                np.degrees(X[:, 3:]), anames, 'deg', cr)
-        written.append(p)
+        figures.append((f'fig{figs[0]}_{model}_linear_virtual_joints.png',
+                        _figure(f'Fig. {int(figs[0])}: {model} model, linear virtual joints ({source}), bag {bag}', x,
+                                X[:, :3] * 1e3, names, f'{names[0][:-1]} [mm]', cr,
+                                radius if model == 'polar' else None)))
+        figures.append((f'fig{figs[1]}_{model}_angular_virtual_joints.png',
+                        _figure(f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source}), bag {bag}',
+                                x, np.degrees(X[:, 3:]), anames, f'{anames[0][:-1]} [deg]', cr)))
     if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
-        p = out / 'radial_virtual_joints.png'
-        _figure(p, 'radial model (authors\' earlier [11]): l1, l2, l3 (recorded)', x, s.virtual_joints * 1e3,
-                ['l1', 'l2', 'l3'], 'mm', cr)
-        written.append(p)
+        figures.append(('radial_virtual_joints.png',
+                        _figure(f"radial model (authors' earlier [11]): l1, l2, l3 (recorded), bag {bag}", x,
+                                s.virtual_joints * 1e3, ['l1', 'l2', 'l3'], 'l [mm]', cr, radius)))
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    tilt = np.degrees(s.tilt)
     shift = np.linalg.norm(s.centre_shift[:, :2], axis=1) * 1e6
-    ax.plot(np.degrees(s.tilt), shift, '.', ms=3, label='|centre shift| in the base plane')
-    ax.plot(np.degrees(s.tilt), np.abs(s.centre_shift[:, 2]) * 1e6, '.', ms=2, alpha=0.5, label='|z shift|')
+    ax.plot(tilt, shift, '.', ms=3, label='|centre shift| in the base plane')
+    ax.plot(tilt, np.abs(s.centre_shift[:, 2]) * 1e6, '.', ms=2, alpha=0.5, label='|z shift|')
+    if np.isfinite(shift).any():
+        k = int(np.nanargmax(shift))
+        ax.plot([tilt[k]], [shift[k]], 'o', mfc='none', mec='k', ms=10,
+                label=f'largest {shift[k]:.1f} um at tilt {tilt[k]:.2f} deg (sample {x[k]})')
     ax.set_xlabel('tilt [deg]')
     ax.set_ylabel('centre shift vs naive model [um]')
-    ax.set_title(f'centre shift against tilt ({s.model} model)')
+    ax.set_title(f'centre shift against tilt ({s.model} model), bag {bag}')
     ax.grid(alpha=0.3)
-    ax.legend()
-    written.append(_save(fig, out / 'centre_shift_vs_tilt.png'))
-    return written
+    ax.legend(loc='upper left')
+    figures.append(('centre_shift_vs_tilt.png', fig))
+    return figures
