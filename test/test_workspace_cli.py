@@ -277,3 +277,32 @@ def test_the_progress_bar_never_stops_a_run_when_stderr_is_gone(monkeypatch):
     bar.refresh()
     bar.close()
     assert bar.stream is None and not bar.enabled and not bar.shown
+
+
+def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_early():
+    """The 3-UPU with b = 0.25, limb_max = 0.3 reaches the top of its initial box (z = 0.28 m): the text said 'the
+    workspace may extend beyond it', the figure, framed by that box, showed a dome cut flat with no word. Its title
+    says so now, and a run stopped by --max-boxes says that its unexamined boxes are drawn as boundary; the boxes
+    are drawn as the covering's (one rectangle per distinct projection), the axes in the variables' units."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.cli.workspace import projection_figure
+    from gpr_kinematics.workspace import approximate
+    model = load_workspace_model(config_path('mechanisms/upu3.yaml'), {'b': 0.25, 'limb_max': 0.3})
+    result = approximate(model, 0.02, progress=False)
+    assert result.touches_initial_box and not result.interrupted
+    fig = projection_figure(result, 0, 2, 'upu3', model.box)
+    ax = fig.axes[0]
+    assert ax.get_title().splitlines() == ['upu3: projection on x-z', 'inner (blue) and boundary (orange), delta = '
+                                           '0.02 m', 'the boxes reach the initial box (the frame): the workspace may '
+                                           'extend beyond it']
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ('x [m]', 'z [m]') and ax.get_ylim() == tuple(model.box[2])
+    boundary, inner = ax.collections
+    assert len(inner.get_paths()) == len(np.unique(result.inner[:, [0, 2]].reshape(-1, 4), axis=0))
+    assert len(boundary.get_paths()) == len(np.unique(result.boundary[:, [0, 2]].reshape(-1, 4), axis=0))
+    plt.close(fig)
+    stopped = approximate(model, 0.02, progress=False, max_boxes=50)
+    assert stopped.interrupted
+    fig = projection_figure(stopped, 0, 2, 'upu3', model.box)
+    assert fig.axes[0].get_title().splitlines()[-1] == (f'stopped early ({stopped.stopped}): unexamined boxes drawn '
+                                                         'as boundary')
+    plt.close(fig)

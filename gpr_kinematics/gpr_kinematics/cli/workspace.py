@@ -21,7 +21,7 @@ import math
 import sys
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -204,13 +204,43 @@ def _unique_rects(boxes: np.ndarray, i: int, j: int) -> np.ndarray:
     return np.unique(rects, axis=0)
 
 
-def plot_projections(
-    result: WorkspaceResult, directory: str | Path, name: str, box: np.ndarray | None = None
-) -> list[Path]:
-    """PNG projections of the inner (dark) and outer (light) approximations on every coordinate plane."""
+def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: np.ndarray | None = None) -> Any:
+    """The projection of the inner (dark) and outer (light) approximations on the plane of variables ``i``, ``j``
+    (a matplotlib Figure), framed by ``box``; the title says when the boxes reach the box's faces (the workspace
+    may extend beyond the frame) and when the run stopped early (the unexamined boxes drawn as boundary)."""
     _matplotlib()
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
+
+    fig, ax = plt.subplots(figsize=(5.5, 5.0), dpi=110)
+    for arr, colour in ((result.boundary, '#f4a582'), (result.inner, '#2166ac')):
+        r = _unique_rects(arr, i, j)
+        verts = list(np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1))
+        ax.add_collection(PolyCollection(verts, facecolors=colour, edgecolors='none', linewidths=0))
+    if box is not None:
+        ax.set_xlim(box[i])
+        ax.set_ylim(box[j])
+    else:
+        ax.autoscale()
+    ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
+    ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
+    notes = []
+    if result.touches_initial_box:
+        notes.append('the boxes reach the initial box (the frame): the workspace may extend beyond it')
+    if result.interrupted:
+        notes.append(f'stopped early ({result.stopped or "interrupted"}): unexamined boxes drawn as boundary')
+    ax.set_title('\n'.join([f'{name}: projection on {result.variables[i]}-{result.variables[j]}',
+                            f'inner (blue) and boundary (orange), delta = {result.delta:g} m', *notes]), fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_projections(
+    result: WorkspaceResult, directory: str | Path, name: str, box: np.ndarray | None = None
+) -> list[Path]:
+    """PNG projections (:func:`projection_figure`) on every coordinate plane, written into ``directory``."""
+    _matplotlib()
+    import matplotlib.pyplot as plt
 
     out_dir = output_directory(directory)
     try:
@@ -221,21 +251,7 @@ def plot_projections(
     pairs = [(0, 1)] if d == 2 else [(i, j) for i in range(d) for j in range(i + 1, d)]
     files = []
     for i, j in pairs:
-        fig, ax = plt.subplots(figsize=(5.5, 5.0), dpi=110)
-        for arr, colour in ((result.boundary, '#f4a582'), (result.inner, '#2166ac')):
-            r = _unique_rects(arr, i, j)
-            verts = list(np.stack([r[:, [0, 2]], r[:, [1, 2]], r[:, [1, 3]], r[:, [0, 3]]], axis=1))
-            ax.add_collection(PolyCollection(verts, facecolors=colour, edgecolors='none', linewidths=0))
-        if box is not None:
-            ax.set_xlim(box[i])
-            ax.set_ylim(box[j])
-        else:
-            ax.autoscale()
-        ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
-        ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
-        ax.set_title(f'{name}: projection on {result.variables[i]}-{result.variables[j]}\n'
-                     f'inner (blue) and boundary (orange), delta = {result.delta:g} m', fontsize=9)
-        fig.tight_layout()
+        fig = projection_figure(result, i, j, name, box)
         path = out_dir / f'workspace_{name}_{result.variables[i]}_{result.variables[j]}.png'
         try:
             fig.savefig(path)
@@ -247,4 +263,4 @@ def plot_projections(
     return files
 
 
-__all__ = ['register', 'run', 'save_boxes', 'plot_projections']
+__all__ = ['register', 'run', 'save_boxes', 'plot_projections', 'projection_figure']
