@@ -602,3 +602,26 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     assert fig._suptitle.get_text().startswith('program against itself (no cell): safe\nminimum clearance 80.000 mm')
     import matplotlib.pyplot as plt
     plt.close(fig)
+
+
+def test_a_program_of_one_instant_is_checked_at_it():
+    """A program of one waypoint and no dwell lasts 0 s: its motion had one base instant and no interval between
+    two, so no pair was measured and gpr program check read 'minimum inf mm', safe, with arm1's blade 73.389 mm
+    into the load port's pedestal (the same waypoint held for a second: NOT safe). That instant is an interval of no
+    length: both programs read the same pair at the same distance, and a free pose its clearance (60.826 mm)."""
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+
+    cell = load_cell(CELL)
+    arm1 = {'arm': 'arm1', 'approach_height': 8, 'retract_height': 8, 'dwell': 0.0}
+    into = [{'name': 'a', 'position': [750, -100, 300], 'heading': -90}]
+    free = [{'name': 'a', 'position': [750, 850, 260], 'heading': 90}]
+    one = _cell_program(wafers=[], defaults=arm1, stations=into, steps=[{'move': 'a'}])
+    held = _cell_program(wafers=[], defaults=arm1, stations=into, steps=[{'move': 'a'}, {'move': 'a', 'time': 1.0}])
+    assert (len(one.waypoints), one.timing.total, held.timing.total) == (1, 0.0, 1.0)
+    a, b = check_program(one, cell)[0], check_program(held, cell)[0]
+    assert not a.safe and not b.safe
+    assert a.pairs[0]['bodies'] == b.pairs[0]['bodies'] == ['arm1_blade', 'load_port_1_pedestal']
+    assert a.min_clearance == pytest.approx(-73.389e-3, abs=1e-6) and a.min_clearance == b.min_clearance
+    ok = check_program(_cell_program(wafers=[], defaults=arm1, stations=free, steps=[{'move': 'a'}]), cell)[0]
+    assert ok.safe and ok.min_clearance == pytest.approx(60.826e-3, abs=1e-6)

@@ -201,8 +201,10 @@ class _Search:
         moving = moving_intervals(motion, knots, self.robot_lev)   # a hold stands as at its ends: sampled there
         span = float(np.sum((knots[1:] - knots[:-1])[moving]))
         rate = min(rate, BASE_MOST / span) if span > 0.0 else rate   # a move of 1e6 s: not a million instants
-        self.base = self.store.add(np.unique(np.concatenate([knots, grid_within(knots[:-1][moving], knots[1:][moving],
-                                                                                knots[-1], rate)])))
+        base = np.unique(np.concatenate([knots, grid_within(knots[:-1][moving], knots[1:][moving], knots[-1], rate)]))
+        # a motion of one instant (a program of one waypoint, no dwell: 0 s) had no interval, so no pair was measured
+        # ('minimum inf mm', safe, with the blade 73 mm into a pedestal): that instant is an interval of no length
+        self.base = self.store.add(np.repeat(base, 2) if base.shape[0] == 1 else base)
         self.exact = Exact(bodies, self.store)
         self.half = np.stack([b.half for b in bodies])
         self.radius = np.array([b.radius for b in bodies])
@@ -293,7 +295,8 @@ class _Search:
         that never moves)."""
         i0, i1, k = items.i0[sel], items.i1[sel], items.base[sel]
         whole = self.store.t(self.base[k + 1]) - self.store.t(self.base[k])
-        return float(np.where(i1 == i0, 1.0, (self.store.t(i1) - self.store.t(i0)) / whole).sum())
+        part = (self.store.t(i1) - self.store.t(i0)) / np.where(whole > 0.0, whole, 1.0)
+        return float(np.where((i1 == i0) | (whole <= 0.0), 1.0, part).sum())
 
     def _refine(self, items: _Items, upper: Array, floor: Array, series: Array,
                 progress: Callable[[float], None]) -> None:
