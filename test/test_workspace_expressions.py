@@ -137,6 +137,9 @@ def test_mean_value_enclosure_is_certified_and_tighter_on_small_boxes():
     ('sqrt(-1) + x = 0', 'sqrt of the constant'),
     ('x = 1e999', 'not finite'),
     ('x.real = 1', "unexpected character '\\.'"),
+    ('x = \u0661', "unexpected character '\u0661' at column 5"),     # Arabic-Indic 1: \\d read it as 1
+    ('x = 0.\uff15', "unexpected character '\uff15' at column 7"),   # fullwidth 5: 0.5 (files refuse both)
+    ('x = 1e\u0663', "unexpected character '\u0663' at column 7"),   # 1e3 with an Arabic-Indic 3
     ('__import__("os") = 1', 'unexpected character'),
     ('(' * (MAX_DEPTH + 2) + 'x' + ')' * (MAX_DEPTH + 2) + ' = 1', 'nested deeper than'),
     ('-' * (MAX_DEPTH + 2) + 'x = 1', 'nested deeper than'),

@@ -200,8 +200,10 @@ class Constraint:
 
 
 # ------------------------------------------------------------------------------------------- parsing
+#: A number is of ASCII digits (``\d`` read the digits of other scripts: ``x^2 + y^2 <= \u0661`` as ``<= 1``, as
+#: the files' numbers no longer are, :func:`~gpr_kinematics.inputs.validation.decimal`).
 _TOKEN = re.compile(
-    r'\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)'
+    r'\s*(?:(?P<num>(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)'
     r'|(?P<op>\*\*|<=|>=|==|[-+*/^(),=<>]))'
 )
 _RELATIONS = ('=', '==', '<=', '>=')
