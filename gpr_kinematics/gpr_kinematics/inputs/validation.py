@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError, brief
+from .safe_yaml import DECIMAL
 
 #: Largest accepted deviation of a quaternion's norm from 1 (messages and commands carry unit quaternions).
 QUATERNION_NORM_TOLERANCE = 1e-6
@@ -23,10 +24,9 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 MAX_COORDINATE = 1e6
 
 
-#: A decimal number as text: ASCII digits with an optional sign, point and exponent (YAML 1.2's forms, which
-#: :mod:`~gpr_kinematics.inputs.safe_yaml` reads), with one way to read each text (``[0-9]+\.?[0-9]*`` split a run of
-#: n digits n ways: a parameter text of 30,000 digits and an ``x`` took 22 s).
-_DECIMAL = re.compile(r'[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?')
+#: A decimal number as text: YAML 1.2's forms (:data:`~gpr_kinematics.inputs.safe_yaml.DECIMAL`), one way to read each
+#: text (``[0-9]+\.?[0-9]*`` split a run of n digits n ways: a parameter text of 30,000 digits and an ``x`` took 22 s).
+_DECIMAL = re.compile(DECIMAL)
 #: The words of the numbers that are not finite, which CSV readers take and then refuse as not finite.
 _NOT_FINITE = re.compile(r'[-+]?(?:inf|infinity|nan)', re.IGNORECASE)
 #: Longest text read as a number (a double has 17 significant digits; ``-1.2345678901234567e-308`` has 25 characters).

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.config import LEAST_LENGTH
 from ..errors import ConfigError, brief
 from ..inputs.validation import MAX_COORDINATE
 
@@ -21,7 +22,7 @@ ANGULAR_JOINTS = frozenset({'revolute', 'angle'})
 #: Range of a characteristic length [m]: the GPR core's least (``core.config``) to every coordinate's bound. The
 #: homogenised Jacobian's angular columns are divided by it: 1e-300 m made them 1e300, whose squares overflow
 #: (numpy's LinAlgError from every dexterity map), and a regular pose read as singular.
-CHARACTERISTIC_LENGTH = (1e-6, MAX_COORDINATE)
+CHARACTERISTIC_LENGTH = (LEAST_LENGTH, MAX_COORDINATE)
 
 
 def check_characteristic_length(value: Any, where: str) -> float:
