@@ -112,6 +112,8 @@ BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0,
     ({'variables': {'q': [1.0, -1.0], 'x': [-2.0, 2.0]}}, 'needs lower < upper'),
     ({'variables': {'q': [-1.0, 'one'], 'x': [-2.0, 2.0]}}, 'must be a finite number'),
     ({'variables': {'sin': [-1.0, 1.0], 'x': [-2.0, 2.0]}}, 'reserved'),
+    # isidentifier took alpha, which the tokenizer cannot read: refused later, at the equation, not at the name
+    ({'variables': {'\u03b1': [-1.0, 1.0], 'x': [-2.0, 2.0]}}, "variable '\u03b1' is not a name \\(ASCII letters"),
     ({'variables': {f'v{i}': [0, 1] for i in range(17)}}, '1 to 16'),
     ({'units': {'q': 'deg'}}, 'a unit must be m or rad'),
     ({'solve_for': ['x']}, 'solve_for must name 1 distinct passive'),

@@ -24,6 +24,7 @@ or build constraints with :class:`~.expressions.Expr` arithmetic and pass them i
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -296,9 +297,14 @@ def compiled(model: Any, title: str = '') -> EquationModel:
 
 
 # ---------------------------------------------------------------------------------------------- YAML
+#: A variable's, parameter's or constraint's name: what the equations' tokenizer reads as a name.
+_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]{0,31}')
+
+
 def _name(value: Any, what: str, source: str) -> str:
-    if not isinstance(value, str) or not value.isidentifier() or len(value) > 32:
-        raise ConfigError(f'{source}: {what} {str(value)[:40]!r} is not a name (letters, digits, _; at most 32)')
+    if not isinstance(value, str) or not _NAME.fullmatch(value):   # isidentifier took any script's letters
+        raise ConfigError(f'{source}: {what} {str(value)[:40]!r} is not a name (ASCII letters, digits, _, not '
+                          'starting with a digit; at most 32)')
     if value in FUNCTIONS or value in CONSTANTS:
         raise ConfigError(f'{source}: {what} {value!r} is reserved (a function or constant of the equations)')
     return value
