@@ -46,7 +46,10 @@ def test_a_goal_file_name_too_long_is_refused_naming_the_rule():
     robot, files = load_robot(None), GoalFiles.of([''])
     with pytest.raises(FileError, match=r"^cannot read program file '.*/config/programs/x{300}': File name too long$"):
         goal_program(_goal('x' * 300), robot, files)
-    with pytest.raises(ConfigError, match=f'^goal: program_file has 5000 characters; allowed: a path of at most '
-                                          f'{MAX_PATH}$'):
+    with pytest.raises(ConfigError, match=f'^goal: program_file has 5000 bytes \\(UTF-8\\); allowed: a path of at '
+                                          f'most {MAX_PATH}$'):
         goal_program(_goal('x' * 5000), robot, files)
+    # the file system counts bytes: 2,000 characters of three bytes each passed a count of characters
+    with pytest.raises(ConfigError, match=r'^goal: program_file has 6000 bytes \(UTF-8\)'):
+        goal_program(_goal('\u20ac' * 2000), robot, files)
     assert len(goal_program(_goal('example_stations.yaml'), robot, files).stations) > 1

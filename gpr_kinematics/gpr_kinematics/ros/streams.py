@@ -205,9 +205,10 @@ class GoalFiles:
         """The file a goal names: an absolute path as is, a relative one in the first folder that has it. A relative
         name that leads out of a folder (``..``) is not looked for there, so whether a file outside exists never
         changes the answer (the read is then refused naming the path in the first folder). :class:`ConfigError` for
-        a name of more than :data:`MAX_PATH` characters."""
-        if len(name) > MAX_PATH:
-            raise ConfigError(f'goal: program_file has {len(name)} characters; allowed: a path of at most {MAX_PATH}')
+        a name of more than :data:`MAX_PATH` bytes in UTF-8 (as the file system counts)."""
+        size = len(name.encode('utf-8', 'surrogatepass'))
+        if size > MAX_PATH:
+            raise ConfigError(f'goal: program_file has {size} bytes (UTF-8); allowed: a path of at most {MAX_PATH}')
         if os.path.isabs(name):
             return Path(name)
         inside = [f / name for f in self.folders if _within(os.path.normpath(f / name), os.path.normpath(f))]
