@@ -314,9 +314,16 @@ def test_the_default_box_limit_bounds_the_boxes_bytes_not_their_count(monkeypatc
     assert approximate(ball16, 1e-4, max_boxes=300).stopped == 'box limit (300 boxes)'   # a limit given is kept
 
 
-def _memory(monkeypatch, pages):
-    """The machine's physical memory as ``pages`` of 4096 bytes (``None``: sysconf does not give it)."""
+def _memory(monkeypatch, pages, container=None, folder=None):
+    """The machine's physical memory as ``pages`` of 4096 bytes (``None``: sysconf does not give it), and a
+    container's limit ``container`` (a cgroup file's text written in ``folder``; None: no container)."""
     from gpr_kinematics.workspace import base
+
+    limits: tuple[str, ...] = ()
+    if container is not None:
+        (folder / 'memory.max').write_text(container)
+        limits = (str(folder / 'absent.max'), str(folder / 'memory.max'))
+    monkeypatch.setattr(base, 'CGROUP_LIMITS', limits)
 
     def sysconf(name):
         if pages is None:
@@ -369,3 +376,21 @@ def test_the_uniform_grid_limit_is_of_bytes_too():
     with pytest.raises(InputError, match=r'uniform grid with \[53, 53, 53, 53\] cells \(7\.89e\+06\) is too large for '
                                          r'delta 0\.019; allowed: at most 7\.5e\+06 cells'):
         approximate(model, 0.019, method='uniform', box=box)
+
+
+def test_a_containers_memory_limit_bounds_the_boxes(monkeypatch, tmp_path):
+    """The physical memory was the bound also in a container whose limit is lower (the process is killed at the
+    limit): the smaller of the two counts, and the message says which; 'max' (no limit) leaves the machine's."""
+    from gpr_kinematics.workspace import base
+    from gpr_kinematics.workspace.loader import model_from_mapping
+    ball16 = model_from_mapping(_ball(16))
+    _memory(monkeypatch, 2_500_000, '512000000\n', tmp_path)              # 10.24 GB machine, 0.512 GB container
+    assert base.usable_memory()[0] == 512_000_000 and base.most_boxes(ball16) == 500_000
+    with pytest.raises(InputError) as err:
+        approximate(ball16, 0.5, max_boxes=500_001)
+    assert str(err.value).endswith("allowed: at most 500000 boxes for this model (0.128 GB, 25% of the 0.512 GB of "
+                                   "the container's memory limit)")
+    _memory(monkeypatch, 2_500_000, 'max\n', tmp_path)
+    assert base.usable_memory() == (10_240_000_000, 'the 10.2 GB of physical memory')
+    _memory(monkeypatch, None, '512000000', tmp_path)
+    assert base.usable_memory()[0] == 512_000_000

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -60,10 +61,38 @@ def physical_memory() -> int | None:
     return size * pages if size > 0 and pages > 0 else None
 
 
+#: Where a container's memory limit is read (cgroup v2, then v1): a number of bytes, or ``max`` for none.
+CGROUP_LIMITS = ('/sys/fs/cgroup/memory.max', '/sys/fs/cgroup/memory/memory.limit_in_bytes')
+
+
+def container_memory() -> int | None:
+    """The memory limit of this process's container [bytes] (:data:`CGROUP_LIMITS`), ``None`` where none is set."""
+    for path in CGROUP_LIMITS:
+        try:
+            with open(path, encoding='ascii') as f:
+                text = f.read(64).strip()
+        except (OSError, UnicodeDecodeError):
+            continue
+        if re.fullmatch(r'[0-9]{1,20}', text) and int(text) > 0:
+            return int(text)
+    return None
+
+
+def usable_memory() -> tuple[int | None, str]:
+    """The memory a run may count on [bytes] and what it is, for messages: the smaller of :func:`physical_memory`
+    and :func:`container_memory` (a container's limit is what the process gets); ``None`` where neither is known."""
+    physical, limit = physical_memory(), container_memory()
+    if limit is not None and (physical is None or limit < physical):
+        return limit, f'the {_gigabytes(limit)} of the container\'s memory limit'
+    if physical is None:
+        return None, ''
+    return physical, f'the {_gigabytes(physical)} of physical memory'
+
+
 def box_memory_limit() -> int:
-    """Most bytes the boxes of a run may take: :data:`BOX_MEMORY_SHARE` of :func:`physical_memory`, or
+    """Most bytes the boxes of a run may take: :data:`BOX_MEMORY_SHARE` of :func:`usable_memory`, or
     :data:`BOX_MEMORY` (the default limit's) where the machine does not say how much it has."""
-    memory = physical_memory()
+    memory = usable_memory()[0]
     return BOX_MEMORY if memory is None else int(memory * BOX_MEMORY_SHARE)
 
 
@@ -105,10 +134,10 @@ def _gigabytes(n: int) -> str:
 
 def _memory_source() -> str:
     """Where :func:`box_memory_limit` comes from, for a message."""
-    memory = physical_memory()
+    memory, what = usable_memory()
     if memory is None:
         return 'the default limit\'s memory: this system does not give its physical memory'
-    return f'{BOX_MEMORY_SHARE:.0%} of the {_gigabytes(memory)} of physical memory'
+    return f'{BOX_MEMORY_SHARE:.0%} of {what}'
 
 
 def check_max_seconds(max_seconds: float | None) -> float:
