@@ -21,7 +21,7 @@ import math
 import sys
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +36,8 @@ from .options import number, whole
 from .output import JsonValue, emit_json, json_object
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from .main import Subparsers
 
 
@@ -204,7 +206,7 @@ def _unique_rects(boxes: np.ndarray, i: int, j: int) -> np.ndarray:
     return np.unique(rects, axis=0)
 
 
-def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: np.ndarray | None = None) -> Any:
+def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: np.ndarray | None = None) -> Figure:
     """The projection of the inner (dark) and outer (light) approximations on the plane of variables ``i``, ``j``
     (a matplotlib Figure), framed by ``box``; the title says when the boxes reach the box's faces (the workspace
     may extend beyond the frame) and when the run stopped early (the unexamined boxes drawn as boundary)."""
