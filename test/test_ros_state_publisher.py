@@ -6,7 +6,10 @@ sample after the stream; for a whole-robot program the tf chain world -> wafer o
 core's forward kinematics (1e-12)."""
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -339,35 +342,46 @@ def test_a_new_tf_subscription_gets_the_held_state_when_it_matches(ros_environme
         sp.stop()
 
 
-def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing(ros_environment):
-    """joint_states of any publisher reach the node with the limits unchecked: rods far outside the stroke whose
-    closure has a singular Newton step are logged (the platform keeps its last pose), and the next rods are shown."""
-    from gpr_kinematics.core import forward
+@contextlib.contextmanager
+def _joint_states_to(namespace: str, prefix: str) -> Iterator[tuple[Any, Any, Any, Callable[[], list[float]]]]:
+    """A state publisher in ``namespace`` with ``frame_prefix`` ``prefix``, a client subscribed to ``/tf`` and a
+    JointState publisher to the node, matched and the platform shown: ``(node process, client, publisher, the
+    platform's heights on /tf so far)``; the node still alive without a traceback at the end."""
     from gpr_kinematics.nodes.client import GprClient
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
 
-    sp = start('state_publisher_node', namespace='/tf_bad_rods', frame_prefix='b/')
-    names = ['rod_1', 'rod_2', 'rod_3']
-
-    def platform_z(msgs):
-        return [t.transform.translation.z for m in msgs for t in m.transforms if t.child_frame_id == 'b/gpr_platform']
-
+    sp = start('state_publisher_node', namespace=namespace, frame_prefix=prefix)
     try:
         wait_for_log(sp, r'publishing robot_description')
-        with GprClient('gpr_test_bad_rods') as c:
+        with GprClient(f'gpr_test{namespace.replace("/", "_")}') as c:
             tf = c.subscribe(TFMessage, '/tf')
-            pub = c.node.create_publisher(JointState, '/tf_bad_rods/joint_states', 10)
-            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and platform_z(tf), 30), sp.output()
-            pub.publish(JointState(name=names, position=[-1769.0291745130303, 1303.4307942578168,
-                                                         -0.008524297508037591]))
-            wait_for_log(sp, r'have no platform pose: virtual-joint closure \(radial\) did not converge')
-            pub.publish(JointState(name=names, position=[0.3, 0.3, 0.3]))
-            z = forward([0.3, 0.3, 0.3]).position[2]
-            assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z(tf)), 10), sp.output()
+            pub = c.node.create_publisher(JointState, f'{namespace}/joint_states', 10)
+
+            def platform_z() -> list[float]:
+                return [t.transform.translation.z for m in tf for t in m.transforms
+                        if t.child_frame_id == f'{prefix}gpr_platform']
+
+            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and platform_z(), 30), sp.output()
+            yield sp, c, pub, platform_z
         assert sp.alive() and 'Traceback' not in sp.output()
     finally:
         sp.stop()
+
+
+def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing(ros_environment):
+    """joint_states of any publisher reach the node with the limits unchecked: rods far outside the stroke whose
+    closure has a singular Newton step are logged (the platform keeps its last pose), and the next rods are shown."""
+    from gpr_kinematics.core import forward
+    from sensor_msgs.msg import JointState
+
+    names = ['rod_1', 'rod_2', 'rod_3']
+    with _joint_states_to('/tf_bad_rods', 'b/') as (sp, c, pub, platform_z):
+        pub.publish(JointState(name=names, position=[-1769.0291745130303, 1303.4307942578168, -0.008524297508037591]))
+        wait_for_log(sp, r'have no platform pose: virtual-joint closure \(radial\) did not converge')
+        pub.publish(JointState(name=names, position=[0.3, 0.3, 0.3]))
+        z = forward([0.3, 0.3, 0.3]).position[2]
+        assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z()), 10), sp.output()
 
 
 def test_malformed_joint_states_are_ignored_with_a_warning(ros_environment):
@@ -375,32 +389,17 @@ def test_malformed_joint_states_are_ignored_with_a_warning(ros_environment):
     twice took its last value: each is ignored, as robot_state_publisher ignores it, with a warning naming why (the
     platform stays at rest)."""
     from gpr_kinematics.core import forward
-    from gpr_kinematics.nodes.client import GprClient
     from gpr_kinematics.robot.controller import ControllerJoints
     from robot_support import ROBOT
     from sensor_msgs.msg import JointState
-    from tf2_msgs.msg import TFMessage
 
-    sp = start('state_publisher_node', namespace='/tf_malformed', frame_prefix='w/')
     rest = float(ControllerJoints.of(ROBOT).rest[0])
-
-    def platform_z(msgs):
-        return [t.transform.translation.z for m in msgs for t in m.transforms if t.child_frame_id == 'w/gpr_platform']
-
-    try:
-        wait_for_log(sp, r'publishing robot_description')
-        with GprClient('gpr_test_malformed_states') as c:
-            tf = c.subscribe(TFMessage, '/tf')
-            pub = c.node.create_publisher(JointState, '/tf_malformed/joint_states', 10)
-            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and platform_z(tf), 30), sp.output()
-            pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3'], position=[0.35, 0.35]))
-            wait_for_log(sp, r'joint_states: 3 names and 2 positions; allowed: one position per name, or none; '
-                             'message ignored')
-            # (its warning is throttled: one per 5 s; the messages of one publisher arrive in order)
-            pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3', 'rod_1'], position=[0.35, 0.35, 0.35, 0.36]))
-            pub.publish(JointState(name=['rod_3'], position=[rest]))   # rods 1 and 2 as held: at rest
-            z = forward([rest] * 3, ROBOT.config).position[2]
-            assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z(tf)), 10), sp.output()
-        assert sp.alive() and 'Traceback' not in sp.output()
-    finally:
-        sp.stop()
+    with _joint_states_to('/tf_malformed', 'w/') as (sp, c, pub, platform_z):
+        pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3'], position=[0.35, 0.35]))
+        wait_for_log(sp, r'joint_states: 3 names and 2 positions; allowed: one position per name, or none; '
+                         'message ignored')
+        # (its warning is throttled: one per 5 s; the messages of one publisher arrive in order)
+        pub.publish(JointState(name=['rod_1', 'rod_2', 'rod_3', 'rod_1'], position=[0.35, 0.35, 0.35, 0.36]))
+        pub.publish(JointState(name=['rod_3'], position=[rest]))   # rods 1 and 2 as held: at rest
+        z = forward([rest] * 3, ROBOT.config).position[2]
+        assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z()), 10), sp.output()
