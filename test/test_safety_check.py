@@ -537,13 +537,50 @@ def test_a_move_of_a_million_seconds_is_sampled_within_bounds():
     assert slow.timing.total == pytest.approx(1e6 + 1.0)
     times = _slip_times(slow)
     assert MAX_SAMPLES <= times.shape[0] <= MAX_SAMPLES + 20
-    np.testing.assert_allclose(np.diff(times[(times > 10.0) & (times < 9e5)]), 5.0, rtol=1e-6)   # 1e6 s / 2e5
+    first = int(np.sum(times <= slow.timing.depart[0]))       # the move into 'low' at 200 Hz, the slow one the rest
+    np.testing.assert_allclose(np.diff(times[(times > 10.0) & (times < 9e5)]), 1e6 / (MAX_SAMPLES - first + 1),
+                               rtol=1e-3)
     from gpr_kinematics.safety.clearance import BASE_MOST, MARGIN, _Search
     from gpr_kinematics.safety.motion import PlanMotion
 
     bodies = robot_body_set(ROBOT, {})
     search = _Search(PlanMotion(slow), bodies, [(0, len(bodies) - 1, ())], MARGIN, TOLERANCE, 1.0, False)
     assert BASE_MOST <= search.base.shape[0] <= BASE_MOST + 4    # 100 s apart on the move
+
+
+def test_a_slow_move_leaves_the_fast_ones_their_slip_instants(tmp_path):
+    """The slip instants were bounded with one rate for every move, MAX_SAMPLES over the moves' total: a move of 1e5
+    s appended after the wafer is placed sampled arm1's swing with it (speeds and accelerations 1.947 times, jerks 10
+    times: its ratio
+    1.0002 mid-move, 20 kHz) at 2 Hz, which read 0.99995 at the corners: safe. Water filling: the short moves keep
+    200 Hz, the slow one takes the rest."""
+    from gpr_kinematics.safety.check import check_program, move_counts
+
+    np.testing.assert_allclose(move_counts(np.array([2.0, 1e5, 3.0]), 200.0, 200_000), [400.0, 199_000.0, 600.0])
+    np.testing.assert_allclose(move_counts(np.array([1e3, 2e3, 4.0]), 200.0, 200_000), [99_600.0, 99_600.0, 800.0])
+    np.testing.assert_allclose(move_counts(np.array([2.0, 3.0]), 200.0, 200_000), [400.0, 600.0])
+    text = config_path('robots/example_robot.yaml').read_text().replace('config: null',
+                                                                         f'config: {config_path("gpr.yaml")}')
+    scale = {'velocity': 1.947, 'acceleration': 1.947, 'jerk': 10.0}
+    lines = [re.sub(r'(velocity|acceleration|jerk): ([\d.]+)', lambda m: f'{m[1]}: {scale[m[1]] * float(m[2]):.6f}',
+                    line) if 'name: arm1' in line else line for line in text.splitlines()]
+    (tmp_path / 'robot.yaml').write_text('\n'.join(lines) + '\n')
+    program = {'format': 'gpr_robot_program', 'version': 1, 'wafers': ['A'], 'units': {'length': 'mm', 'angle': 'deg'},
+               'defaults': {'arm': 'arm1', 'branch': 'right', 'approach_height': 8, 'retract_height': 8,
+                            'dwell': 0.2},
+               'stations': [{'name': 'A', 'position': [1150, 500, 400], 'heading': 0},
+                            {'name': 'B', 'position': [750, 900, 400], 'heading': 90, 'branch': 'left'}],
+               'steps': [{'pick': 'A'}, {'move': 'B'}, {'move': 'A'}, {'place': 'A'}]}
+    from gpr_kinematics.robot.program import parse_program
+
+    robot = load_robot(tmp_path / 'robot.yaml')
+    ratios = []
+    for steps in (program['steps'], program['steps'] + [{'move': 'B', 'time': 1e5}]):
+        plan = plan_program(robot, parse_program({**program, 'steps': steps}, str(tmp_path / 'p.yaml'), tmp_path))
+        report = check_program(plan, None)[0]
+        ratios.append(report.max_slip_ratio)
+        assert not report.safe and report.max_slip_at == pytest.approx(4.3248, abs=5e-3)
+    assert ratios[0] == pytest.approx(1.00019, abs=2e-5) and ratios[1] == pytest.approx(ratios[0], abs=1e-5)
 
 
 def test_the_plot_marks_and_names_the_closest_pair_the_first_collision_and_the_largest_slip():

@@ -195,20 +195,38 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
 
 def _slip_times(plan: ProgramPlan) -> Array:
     """The instants of the slip check: :data:`SLIP_RATE` within the moves (a hold stands as at its ends: a dwell of
-    1e6 s was 2e8 instants and gigabytes), at most :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of them (moves
-    longer than 1000 s in all are sampled more sparsely), the waypoints' and the S-curves' corners (where a move's
-    acceleration peaks: without them the example cell program's peak read 0.7512 for the 0.7529 that 100 kHz
-    sampling about it finds), and :data:`CORNER_SIDE` before and after each corner (a trapezoid's acceleration
-    jumps at its corners: the corner alone read the cell program's move into steps[14] 0.8126 for 0.8176 on the
-    example robot without jerk limits)."""
+    1e6 s was 2e8 instants and gigabytes), at most :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` of them
+    (:func:`move_counts`: a slow move is sampled more sparsely, the others keep the rate), the waypoints' and the
+    S-curves' corners (where a move's acceleration peaks: without them the example cell program's peak read 0.7512
+    for the 0.7529 that 100 kHz sampling about it finds), and :data:`CORNER_SIDE` before and after each corner (a
+    trapezoid's acceleration jumps at its corners: the corner alone read the cell program's move into steps[14]
+    0.8126 for 0.8176 on the example robot without jerk limits)."""
     t = plan.timing
     corners = t.corners()
     sides = np.clip(np.concatenate([corners - CORNER_SIDE, corners + CORNER_SIDE]), 0.0, t.total)
-    moves = np.concatenate([[0.0], t.depart]), np.concatenate([t.arrive, [t.total]])   # and after the last hold
-    moving = float(np.sum(moves[1] - moves[0]))   # a move of 1e6 s: 200 Hz would be 2e8 instants
-    rate = min(SLIP_RATE, MAX_SAMPLES / moving) if moving > 0.0 else SLIP_RATE
-    return np.unique(np.concatenate([grid_within(*moves, t.total, rate), t.arrive, t.depart, corners, sides,
-                                     [t.total]]))
+    starts, ends = np.concatenate([[0.0], t.depart]), np.concatenate([t.arrive, [t.total]])   # and the last hold
+    durations = ends - starts
+    counts = move_counts(durations, SLIP_RATE, MAX_SAMPLES)
+    fast = counts >= SLIP_RATE * durations          # at the full rate: one grid, np.arange's instants
+    grids = [grid_within(starts[fast], ends[fast], t.total, SLIP_RATE)]
+    grids += [grid_within(starts[k:k + 1], ends[k:k + 1], t.total, counts[k] / durations[k])
+              for k in np.flatnonzero(~fast)]
+    return np.unique(np.concatenate(grids + [t.arrive, t.depart, corners, sides, [t.total]]))
+
+
+def move_counts(durations: Array, rate: float, most: int) -> Array:
+    """How many instants each move of ``durations`` [s] gets: ``rate`` times its duration, but at most ``c`` each,
+    the largest ``c`` that keeps the sum within ``most`` (water filling: the short, fast moves, where a wafer is
+    accelerated hard, keep ``rate``; one rate for all, ``most`` over the moves' total, sampled a 2 s swing at 2 Hz
+    once the program also held a move of 1e5 s, and missed its slip ratio of 1.0002 between the corners)."""
+    want = rate * np.maximum(durations, 0.0)
+    if float(np.sum(want)) <= most:
+        return want
+    order = np.sort(want)
+    below = np.concatenate([[0.0], np.cumsum(order)[:-1]])     # the moves shorter than the k-th, whole
+    cap = (most - below) / np.arange(order.shape[0], 0, -1)    # the rest shared by the k-th and longer ones
+    k = int(np.flatnonzero(cap <= order)[0])
+    return np.asarray(np.minimum(want, cap[k]), dtype=np.float64)
 
 
 def _waypoint_at(plan: ProgramPlan, t: float) -> int:
