@@ -583,6 +583,39 @@ def test_a_slow_move_leaves_the_fast_ones_their_slip_instants(tmp_path):
     assert ratios[0] == pytest.approx(1.00019, abs=2e-5) and ratios[1] == pytest.approx(ratios[0], abs=1e-5)
 
 
+def test_a_corner_after_21_dwells_of_a_million_seconds_is_evaluated_on_both_sides(tmp_path):
+    """The slip ratio was evaluated 1 ns either side of each corner, but at 2.1e7 s the doubles are 3.7e-9 s apart:
+    both sides were the corner, which takes one side of a trapezoid's jump. After 21 dwells of 1e6 s a 1 um move of
+    the blade (1.17 ms, no 200 Hz instant within; no jerk limits, arm accelerations 3.5 times the example's) on a
+    station tilted 1.5 deg read 0.898, safe, for the 1.084 of its decelerating half (20 kHz). The sides are at least
+    4 spacings of the doubles away."""
+    from gpr_kinematics.robot.program import parse_program
+    from gpr_kinematics.safety.check import check_program, corner_sides
+
+    sides = corner_sides(np.array([1.0, 2.1e7]))
+    assert sides[0] == 1.0 - 1e-9 and sides[2] == 1.0 + 1e-9
+    assert 2.1e7 - sides[1] == 4 * np.spacing(2.1e7) and sides[3] - 2.1e7 == 4 * np.spacing(2.1e7)
+    text = config_path('robots/example_robot.yaml').read_text().replace('config: null',
+                                                                         f'config: {config_path("gpr.yaml")}')
+    lines = [re.sub(r'acceleration: ([\d.]+)', lambda m: f'acceleration: {3.5 * float(m[1]):g}', line)
+             if 'name: arm' in line else line for line in text.splitlines() if not line.lstrip().startswith('jerk:')]
+    (tmp_path / 'robot.yaml').write_text(re.sub(r', jerk: [\d.]+', '', '\n'.join(lines)) + '\n')
+    robot = load_robot(tmp_path / 'robot.yaml')
+    R = tilt_rotation(np.radians(1.5), np.radians(90.0))
+    A = np.array([750.0, -100.0, 400.0])
+    B = A + 8.0 * R[:, 2] + 0.001 * R[:, 0]           # the retract pose moved 1 um in the station plane
+    station = {'heading': -90, 'tilt': 1.5, 'azimuth': 90}
+    data = {'format': 'gpr_robot_program', 'version': 1, 'wafers': ['A'], 'units': {'length': 'mm', 'angle': 'deg'},
+            'defaults': {'arm': 'arm2', 'branch': 'right', 'approach_height': 8, 'retract_height': 8, 'dwell': 0.5},
+            'stations': [{'name': 'A', 'position': A.tolist(), **station},
+                         {'name': 'B', 'position': B.tolist(), **station}]}
+    for dwells, at in ((0, 0.962), (21, 2.1e7 + 0.962)):
+        steps = [{'pick': 'A'}] + [{'dwell': 1e6}] * dwells + [{'move': 'B'}]
+        plan = plan_program(robot, parse_program({**data, 'steps': steps}, str(tmp_path / 'p.yaml'), tmp_path))
+        report = check_program(plan, None)[0]
+        assert not report.safe and report.max_slip_ratio >= 1.08 and report.max_slip_at == pytest.approx(at, abs=2e-3)
+
+
 def test_the_plot_marks_and_names_the_closest_pair_the_first_collision_and_the_largest_slip():
     """``--plot`` with a 7 mm margin (unsafe): the title names the program, the cell and the verdict with the text
     output's numbers; the closest pair is marked at its least distance and instant and named, the first instant

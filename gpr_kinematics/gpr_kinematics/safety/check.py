@@ -29,7 +29,8 @@ Array = NDArray[np.float64]
 #: Rate [Hz] at which the slip ratio is evaluated (plus every waypoint's instants).
 SLIP_RATE = 200.0
 #: How far on each side of an S-curve's corner the slip ratio is evaluated too [s]: without a jerk limit (a
-#: trapezoid) the acceleration jumps there, and the corner itself takes one side only.
+#: trapezoid) the acceleration jumps there, and the corner itself takes one side only. At least 4 spacings of the
+#: doubles at the corner (:func:`corner_sides`): beyond 1.7e7 s they are 3.7e-9 s apart and 1 ns was none.
 CORNER_SIDE = 1e-9
 Windows = tuple[tuple[float, float], ...]
 
@@ -203,7 +204,7 @@ def _slip_times(plan: ProgramPlan) -> Array:
     0.8126 for 0.8176 on the example robot without jerk limits)."""
     t = plan.timing
     corners = t.corners()
-    sides = np.clip(np.concatenate([corners - CORNER_SIDE, corners + CORNER_SIDE]), 0.0, t.total)
+    sides = np.clip(corner_sides(corners), 0.0, t.total)
     starts, ends = np.concatenate([[0.0], t.depart]), np.concatenate([t.arrive, [t.total]])   # and the last hold
     durations = ends - starts
     counts = move_counts(durations, SLIP_RATE, MAX_SAMPLES)
@@ -212,6 +213,16 @@ def _slip_times(plan: ProgramPlan) -> Array:
     grids += [grid_within(starts[k:k + 1], ends[k:k + 1], t.total, counts[k] / durations[k])
               for k in np.flatnonzero(~fast)]
     return np.unique(np.concatenate(grids + [t.arrive, t.depart, corners, sides, [t.total]]))
+
+
+def corner_sides(corners: Array) -> Array:
+    """The instants :data:`CORNER_SIDE` before and after each corner [s], or 4 spacings of the doubles there where
+    they are wider (a corner at 2.1e7 s, after 21 dwells of 1e6 s, is 3.7e-9 s from the next double: corner +- 1 ns
+    was the corner, which took one side of a trapezoid's jump, and a 1 um move of 1.2 ms between 200 Hz instants
+    read 0.898 for its ratio of 1.084 on the other side). The corner is off by at most half a spacing, so each side
+    lies beyond it."""
+    side = np.maximum(CORNER_SIDE, 4.0 * np.spacing(np.abs(corners)))
+    return np.asarray(np.concatenate([corners - side, corners + side]), dtype=np.float64)
 
 
 def move_counts(durations: Array, rate: float, most: int) -> Array:
