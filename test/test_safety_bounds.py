@@ -193,3 +193,26 @@ def test_trapezoids_and_s_curves_of_the_cell_program():
         speed = np.max(np.abs(np.diff(rows, axis=0)) / np.diff(s)[:, None], axis=0) * plan.timing.profiles.v[m]
         assert np.all(speed <= velocity * (1 + 1e-9))
     assert 1.0 < s_curve.timing.total / plan.timing.total < 1.2
+
+
+def test_a_bound_that_is_not_a_number_bounds_nothing():
+    """``0 * inf``: a drift bound infinite (``sigma^2 <= 2 lip flux``) times a point that does not move with X
+    (``gamma = 0``) was NaN, and a NaN motion bound compared false with every target and entered the pair's floor as
+    NaN, which no margin check sees (a verifier's reading of the code). The drift of such a point is 0, and a motion
+    bound that is not a number is infinite (it settles no interval)."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.core.config import GprConfig
+    from gpr_kinematics.core.machine import MachineGeometry
+    from gpr_kinematics.safety.motion import drift_bound, platform_bound
+
+    flux = np.array([1.0, 1.0, 0.0])
+    sigma = np.array([[0.1, 0.1], [1e3, 1e3], [0.1, 0.1]])
+    gamma = np.array([[0.0, 0.0], [2.0, 2.0], [0.0, 0.0]])
+    drift = drift_bound(flux, sigma, gamma, 1.0)
+    assert drift[0] == 0.0 and drift[2] == 0.0 and 0.0 < drift[1] < np.inf
+    geo = MachineGeometry.of(GprConfig())
+    lev = SimpleNamespace(platform=np.array([True, False]), reach=np.array([0.5, 0.5]))
+    b = platform_bound(geo, lev, np.array([0.0, 0.001]), np.array([0.0, np.inf]), np.array([np.inf, 0.0]),
+                       np.zeros((2, 2)))
+    assert b[0, 0] == np.inf and b[0, 1] == 0.0 and b[1, 0] == np.inf

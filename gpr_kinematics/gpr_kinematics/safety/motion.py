@@ -139,7 +139,8 @@ def drift_bound(flux: Array, sigma: Array, gamma: Array, lip: float) -> Array:
     with np.errstate(invalid='ignore', divide='ignore'):
         roots = (sigma - np.sqrt(np.maximum(sigma ** 2 - 2.0 * lip * flux[:, None], 0.0))) / lip
         x = np.min(np.where(sigma ** 2 > 2.0 * lip * flux[:, None], roots, np.inf), axis=1)
-    return np.asarray(np.max(gamma, axis=1) * np.where(flux > 0.0, x, 0.0), dtype=np.float64)
+        g = np.max(gamma, axis=1)   # a point that does not move with X does not drift, whatever x (0 inf was NaN)
+        return np.asarray(np.where((flux > 0.0) & (g > 0.0), g * x, 0.0), dtype=np.float64)
 
 
 def rod_angles(u: Array, normals: Sequence[Array], norms: Sequence[Array]) -> Array:
@@ -230,9 +231,11 @@ def platform_bound(geo: MachineGeometry, lev: Levers, A: Array, omega: Array, dr
     point's path ``A``, the swept angle ``Omega``, the drift of the joint centres and their displacement ``(K, 2)`` at
     the ends; zero for bodies the platform does not carry."""
     rbar = float(np.linalg.norm(geo.platform_points().mean(axis=0))) + np.max(displacement, axis=1) + drift
-    return np.asarray(np.where(lev.platform[None, :], A[:, None] + omega[:, None] * (lev.reach[None, :]
-                                                                                      + rbar[:, None]), 0.0),
-                      dtype=np.float64)
+    with np.errstate(invalid='ignore'):
+        b = np.where(lev.platform[None, :], A[:, None] + omega[:, None] * (lev.reach[None, :] + rbar[:, None]), 0.0)
+    # a bound that is not a number (0 inf) bounds nothing: inf, so that no interval is settled by it (a NaN bound
+    # compared false everywhere and entered the floor as NaN, which no margin check sees)
+    return np.asarray(np.where(np.isnan(b), np.inf, b), dtype=np.float64)
 
 
 class BodyMotion(Protocol):
