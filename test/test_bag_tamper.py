@@ -201,6 +201,36 @@ def test_a_companion_topic_without_its_tail_fails(sweep: Path, tmp_path: Path, t
                                               "recording cut in the middle of a sample lacks only the last sample's)")
 
 
+
+@pytest.mark.parametrize('removed', [1, 2, 5, 29])
+def test_the_states_without_their_tail_fail_by_the_companions_after_them(sweep: Path, tmp_path: Path,
+                                                                        removed: int) -> None:
+    """The last PlatformStates removed, their companions kept (the metadata recounted): a companion message after
+    the last state was not counted, so a stream's tail (where it went wrong) could be cut from the states alone.
+    A cut in the middle of a sample may lose that sample's state only: the companions of one stamp after the last
+    state pass, each further one is an extra message of its topic."""
+    result = verify_bag(tampered(sweep, tmp_path / 'cut', _tail_removed(STATE, 30 - removed)))
+    assert result.counts[STATE] == 30 - removed
+    if removed == 1:
+        assert result.passed, [f.line() for f in result.failures]
+        return
+    names = [f'{check.replace("_sequence", "")}_extra' for check in SWEEP_COMPANIONS.values()]
+    assert _failed(result) == dict.fromkeys(names, {None})
+    extras = {c.name: (c.checked, c.worst) for c in result.checks if c.name in names}
+    assert extras == dict.fromkeys(names, (30, removed - 1))
+    assert result.failures[0].detail == (f"messages without a PlatformState of the same stamp; {removed - 1} of them "
+                                         "after the last PlatformState's next sample (a recording cut in the middle "
+                                         "of a sample holds at most that sample's)")
+
+
+def test_a_recording_cut_after_whole_samples_passes(sweep: Path, tmp_path: Path) -> None:
+    """Every topic's last 5 samples removed: a recording stopped earlier (nothing tells it from one)."""
+    bag = tampered(sweep, tmp_path / 'cut', lambda topic, i, raw: None if topic not in (GEOMETRY_TOPIC, PROGRAM_TOPIC)
+                   and i >= 25 else raw)
+    result = verify_bag(bag)
+    assert result.passed and result.counts[STATE] == 25, [f.line() for f in result.failures]
+
+
 @pytest.mark.parametrize('topic', [t for t in SWEEP_COMPANIONS if t != MARKERS])
 def test_a_companion_topic_recorded_without_a_message_fails_but_at_the_ends(sweep: Path, tmp_path: Path,
                                                                              topic: str) -> None:
@@ -232,8 +262,11 @@ def test_a_robot_topic_without_its_tail_fails(robot_bag: Path, tmp_path: Path, t
     if not fails:
         assert result.passed, [f.line() for f in result.failures]
         return
-    assert _failed(result) == dict.fromkeys(checks, set(sorted(fails)[:MAX_DETAILS]))
-    assert {(c.name, c.failed) for c in result.checks if c.failed} == {(name, len(fails)) for name in checks}
+    # the wafer poses after the last RobotState left are more than a cut mid-sample leaves (all but the first)
+    wafer_extra = {'topic.wafer_pose_extra': {None}} if topic == ROBOT_STATE else {}
+    assert _failed(result) == dict.fromkeys(checks, set(sorted(fails)[:MAX_DETAILS])) | wafer_extra
+    assert {(c.name, c.failed if c.name not in wafer_extra else c.worst) for c in result.checks if c.failed} == {
+        (name, len(fails)) for name in checks} | {(name, removed - 1) for name in wafer_extra}
     first = next(c for c in result.checks if c.name == checks[0]).failures[0]
     assert (first.topic, first.sample) == (topic, min(fails))
     assert first.detail.endswith(f"; {len(fails)} missing after the topic's last message (samples {min(fails)} to "

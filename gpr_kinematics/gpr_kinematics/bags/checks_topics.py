@@ -35,7 +35,9 @@ tick and a cut (SIGKILL) stops every topic at once, so a recording cut in the mi
 sample's only. Every other state after a topic's last message is missing, its tail removed (500 poses deleted from
 the end and the metadata recounted passed before): the failures name the topic, the samples and how many
 (:func:`cut_detail`). A topic recorded without a message: every state but the first and the last. Companion
-messages without a PlatformState of the same stamp (inside the states' span) are ``*_extra`` failures.
+messages without a PlatformState of the same stamp are ``*_extra`` failures: inside the states' span, and after the
+last state all but those of one stamp (a cut in the middle of a sample may have lost its state only: the states'
+tail removed and the metadata recounted passed before); before the first state they are a late subscriber's.
 """
 from __future__ import annotations
 
@@ -113,13 +115,24 @@ def without_messages(check: str, topic: str, stamps: NDArray[np.int64], samples:
 
 def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
           matched: int) -> Check | None:
-    """A failed ``<check>_extra`` if the companion topic has messages without a PlatformState of their stamp."""
-    inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max()))) if len(stamps) else 0
-    if inside <= matched:
+    """A failed ``<check>_extra`` if the companion topic has messages without a PlatformState of their stamp: inside
+    the states' span, or after the last state beyond those of its first stamp there (a recording cut in the middle
+    of a sample may hold that sample's companions without its state; more is the states' tail removed). Those before
+    the first state are a late subscriber's to the state topic (module docstring, *the ends*)."""
+    if not len(stamps):
         return None
-    n = float(inside - matched)
-    return Check(f'{check}_extra', topic, inside, n, 0.0, 'messages', 1, [
-        Failure(f'{check}_extra', topic, None, n, 0.0, 'messages without a PlatformState of the same stamp')])
+    inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max())))
+    after = companion[companion > stamps.max()]
+    beyond = int(np.count_nonzero(after > after.min())) if after.size else 0
+    if inside <= matched and not beyond:
+        return None
+    n = float(inside - matched + beyond)
+    why = 'messages without a PlatformState of the same stamp'
+    if beyond:
+        why += (f"; {beyond} of them after the last PlatformState's next sample (a recording cut in the middle of a "
+                "sample holds at most that sample's)")
+    return Check(f'{check}_extra', topic, inside + after.size, n, 0.0, 'messages', 1,
+                 [Failure(f'{check}_extra', topic, None, n, 0.0, why)])
 
 
 def _topic(bag: Bag, name: str) -> TopicData | None:
