@@ -349,6 +349,19 @@ def test_a_second_record_of_a_first_sample_that_differs_fails(tmp_path: Path, ot
     assert _failed(result)['topic.markers_sequence'] == set(range(1, 29, 2))   # the first record's markers_every: 1
 
 
+
+def test_a_record_topic_recorded_without_a_message_reads_as_a_recording_without_records(tmp_path: Path) -> None:
+    """gpr/program listed in the metadata without a message (the record removed) raised KeyError: 'data' (a
+    traceback from gpr verify); it reads as a recording of a node before the records: both checks skipped, saying
+    so (the same limit as the topic removed whole)."""
+    msgs = [m for m in small_sweep() if m[0] != PROGRAM_TOPIC]
+    result = verify_bag(write_bag(tmp_path / 'norecord', msgs, {**_types(msgs), PROGRAM_TOPIC: 'std_msgs/msg/String'}))
+    assert result.passed and result.counts[PROGRAM_TOPIC] == 0, [f.line() for f in result.failures]
+    assert {c.name: c.skipped for c in result.checks if c.name in ('topic.program', 'stream.program')} == dict.fromkeys(
+        ('topic.program', 'stream.program'), 'the record topic (gpr/program) is recorded without a message: as a '
+        'recording of an older node')
+
+
 def test_the_same_record_recorded_twice_passes(tmp_path: Path) -> None:
     """The same latched record received twice (a replay recorded again, a copy in a later segment) is one record."""
     msgs = small_sweep()

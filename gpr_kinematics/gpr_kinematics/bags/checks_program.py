@@ -65,10 +65,11 @@ def _difference(first: str, other: str) -> str:
 
 def read_records(bag: Bag) -> tuple[list[Record], list[Problem]]:
     """The distinct records of the bag, by first sample, and what is wrong with the others (none without
-    :data:`PROGRAM_TOPIC`): a text that is no record, or a second record of a first sample that differs from the
-    first one (the node publishes one record per first sample; the same one received twice is one record)."""
+    :data:`PROGRAM_TOPIC` or a message on it): a text that is no record, or a second record of a first sample that
+    differs from the first one (the node publishes one record per first sample; the same one received twice is one
+    record)."""
     t = bag.topic(PROGRAM_TOPIC)
-    if t is None:
+    if t is None or len(t) == 0:   # a topic listed without a message has no columns
         return [], []
     if t.msgtype != GPR_TOPICS[PROGRAM_TOPIC]:
         return [], [(PROGRAM_TOPIC, 1.0, 0.0, f'type {t.msgtype}, not a std_msgs/msg/String')]
@@ -138,7 +139,8 @@ def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: Gpr
     :func:`read_records` gave)."""
     t = bag.topic(PROGRAM_TOPIC)
     if t is None or len(t) == 0:
-        why = 'no record of the stream (gpr/program): a recording of an older node'
+        why = ('no record of the stream (gpr/program): a recording of an older node' if t is None else
+               'the record topic (gpr/program) is recorded without a message: as a recording of an older node')
         return [skipped('topic.program', PROGRAM_TOPIC, '', why),
                 skipped('stream.program', PROGRAM_TOPIC, 'm|rad', why, max(tol.position, tol.angle))]
     records, problems = recorded[0], list(recorded[1])
