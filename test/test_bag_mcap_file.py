@@ -95,6 +95,49 @@ def test_a_flipped_message_byte_fails_the_chunk_crc(tmp_path: Path, messages: li
         read_mcap(f)
 
 
+
+def _summary_edited(path: Path, opcode: int, field: int, value: int) -> None:
+    """Set the u64 at byte ``field`` of the first ``opcode`` record of the summary section to ``value`` (same size,
+    so no offset moves) and recompute the summary CRC: an editor who knows the format's checksums."""
+    import struct
+    import zlib
+    data = bytearray(path.read_bytes())
+    footer = len(data) - 8 - 20
+    summary_start = struct.unpack_from('<Q', data, footer)[0]
+    pos = summary_start
+    while data[pos] != opcode:
+        pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
+    struct.pack_into('<Q', data, pos + 9 + field, value)
+    struct.pack_into('<I', data, footer + 16, zlib.crc32(bytes(data[summary_start:footer + 16])))
+    path.write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize('opcode, field, value, refusal', [
+    # chunk index: message end time (an indexed reader reading up to 10 ms skips the chunk's later messages)
+    (0x08, 8, 1_700_000_000_010_000_000, 'chunk index 0 says message end time 1700000000010000000; the chunk at byte '
+     r'\d+ has 1700000000029000000 \(allowed: the chunk index of a chunk names its own values\)'),
+    (0x08, 16, 8, r'chunk index 0 says start offset 8; the chunk at byte \d+ has \d+'),   # points elsewhere
+    # statistics: message end time 10 ms earlier
+    (0x0B, 34, 1_700_000_000_019_000_000, 'statistics record says 1 chunks and messages from 1700000000000000000 '
+     'to 1700000000019000000 ns; the file holds 1 chunks and messages from 1700000000000000000 to '
+     '1700000000029000000 ns')])
+def test_a_summary_that_disagrees_with_the_chunks_is_refused(tmp_path: Path, messages: list, opcode: int, field: int,
+                                                            value: int, refusal: str) -> None:
+    """The summary's chunk indexes and statistics were not compared with the chunks walked (only the message
+    counts were): an index that names another offset or a narrower time range than its chunk (what an indexed
+    reader, such as ros2 bag play, reads by) passed with its CRC recomputed."""
+    from mcap.reader import make_reader
+
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    f = bag / 'b_0.mcap'
+    read_mcap(f)
+    _summary_edited(f, opcode, field, value)
+    with f.open('rb') as fh:
+        assert make_reader(fh).get_summary() is not None   # the library reads the edited summary
+    with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
+        read_mcap(f)
+
+
 def test_a_chunk_beyond_the_size_limit_is_refused(tmp_path: Path, messages: list,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     bag = write_bag(tmp_path / 'b', messages, _types(messages))

@@ -15,7 +15,9 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
   size, and it must come out exactly that long; its records must tile it exactly; its CRC, the data-section CRC
   and the summary CRC must match when they are not 0;
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
-  time range; the summary's Statistics must agree with the messages counted.
+  time range; the summary's Statistics must agree with the messages, chunks and time range walked, and its chunk
+  indexes (which indexed readers such as ``ros2 bag play`` read instead of the walk) must be one per chunk, each
+  with that chunk's offset, length, time range, compression and sizes.
 
 Every violation raises :class:`~gpr_kinematics.bags.errors.BagError` naming the file, the byte offset and
 what is wrong. The SHA-256 of the whole file is computed on the way (for the bag's checksums).
@@ -41,7 +43,7 @@ MAX_CHUNK_BYTES = 256 << 20
 MAX_INFLATED_BYTES = 1 << 30
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
-OP_STATISTICS, OP_METADATA, OP_DATA_END = 0x0B, 0x0C, 0x0F
+OP_CHUNK_INDEX, OP_STATISTICS, OP_METADATA, OP_DATA_END = 0x08, 0x0B, 0x0C, 0x0F
 _FOOTER_LENGTH = 20  # summary_start u64, summary_offset_start u64, summary_crc u32
 _U16, _U32, _U64 = struct.Struct('<H'), struct.Struct('<I'), struct.Struct('<Q')
 _RECORD = struct.Struct('<BQ')
@@ -140,6 +142,12 @@ class _Walker:
         self.out = McapFile(path, size, '', '', {})
         self.summary_start = 0
         self.inflated = 0
+        self.record_start = 0
+        #: per chunk walked: (start offset, record length, message start, message end, compression, compressed
+        #: size, uncompressed size), as a chunk index must name it; and the chunk indexes read from the summary.
+        self.chunk_facts: list[tuple[int, int, int, int, str, int, int]] = []
+        self.chunk_indexes: list[tuple[int, int, int, int, str, int, int]] = []
+        self.stats_times: tuple[int, int, int] | None = None   # chunk count, message start, message end
 
     def read(self, n: int) -> memoryview:
         data = self.f.read(n)
@@ -210,6 +218,7 @@ class _Walker:
                                f'{MAX_INFLATED_BYTES} per file')
         raw = _decompress(payload, compression, size)
         self.out.chunks += 1
+        self.chunk_facts.append((self.record_start, _RECORD.size + len(body), lo, hi, compression, len(payload), size))
         if crc:
             if zlib.crc32(raw) != crc:
                 raise _FormatError(f'chunk CRC mismatch (stored {crc:#010x}, computed {zlib.crc32(raw):#010x})')
@@ -256,6 +265,7 @@ class _Walker:
                 summary_crc = zlib.crc32(body, zlib.crc32(head, summary_crc))
             else:
                 data_crc = zlib.crc32(body, zlib.crc32(head, data_crc))
+            self.record_start = start
             try:
                 stats = self.record(op, body, first, in_summary) or stats
             except _FormatError as exc:
@@ -265,6 +275,7 @@ class _Walker:
             raise _FormatError('bad end magic')
         if stats is not None:
             self.check_statistics(*stats)
+        self.check_chunk_indexes()
         self.out.sha256 = self.sha.hexdigest()
         return self.out
 
@@ -302,6 +313,29 @@ class _Walker:
                                                          for c, n in self.out.counts.items()):
             raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
                                f'{sum(self.out.counts.values())}')
+        if self.stats_times is not None:
+            walked = (self.out.chunks, self.out.start or 0, self.out.end or 0)
+            if self.stats_times != walked:
+                raise _FormatError(f'statistics record says {self.stats_times[0]} chunks and messages from '
+                                   f'{self.stats_times[1]} to {self.stats_times[2]} ns; the file holds {walked[0]} '
+                                   f'chunks and messages from {walked[1]} to {walked[2]} ns')
+
+    def check_chunk_indexes(self) -> None:
+        """The summary's chunk indexes (if any) against the chunks walked: one per chunk, in order, each naming
+        that chunk's offset, record length, time range, compression and sizes (an indexed reader reads through
+        them: a chunk left out, or a time range narrowed, hides its messages from it but not from this walk)."""
+        if not self.chunk_indexes or self.chunk_indexes == self.chunk_facts:
+            return
+        names = ('start offset', 'length', 'message start time', 'message end time', 'compression',
+                 'compressed size', 'uncompressed size')
+        if len(self.chunk_indexes) != len(self.chunk_facts):
+            raise _FormatError(f'the summary indexes {len(self.chunk_indexes)} chunks; the file holds '
+                               f'{len(self.chunk_facts)} (allowed: one chunk index per chunk, or none)')
+        k, (index, chunk) = next((k, ic) for k, ic in enumerate(zip(self.chunk_indexes, self.chunk_facts, strict=True))
+                                 if ic[0] != ic[1])
+        f = next(j for j in range(len(names)) if index[j] != chunk[j])
+        raise _FormatError(f'chunk index {k} says {names[f]} {index[f]!r}; the chunk at byte {chunk[0]} has '
+                           f'{chunk[f]!r} (allowed: the chunk index of a chunk names its own values)')
 
     def record(self, op: int, body: memoryview, first: bool, in_summary: bool) -> tuple[int, dict[int, int]] | None:
         if op == OP_HEADER:
@@ -325,14 +359,22 @@ class _Walker:
         elif op == OP_STATISTICS:
             r = _Fields(body)
             count = r.u64()
-            r.take(2 + 4 * 4 + 8 + 8, 'statistics counts and times')
+            r.take(2 + 4 * 3, 'statistics counts')
+            self.stats_times = (r.u32(), r.u64(), r.u64())
             per = _Fields(r.take(r.u32(), 'channel message counts'))
             per_channel: dict[int, int] = {}
             while per.pos < len(per.b):
                 cid = per.u16()
                 per_channel[cid] = per.u64()
             return count, per_channel
-        return None  # indexes, attachments, summary offsets: covered by the CRCs and the walk itself
+        elif op == OP_CHUNK_INDEX and in_summary:
+            r = _Fields(body)
+            lo, hi, start, length = r.u64(), r.u64(), r.u64(), r.u64()
+            r.take(r.u32(), 'chunk index message index offsets')
+            r.u64()   # message index length
+            compression = r.string('chunk index compression')
+            self.chunk_indexes.append((start, length, lo, hi, compression, r.u64(), r.u64()))
+        return None  # message indexes, attachments, summary offsets: covered by the CRCs and the walk itself
 
     def footer(self, body: memoryview, start: int, in_summary: bool, crc: int) -> None:
         if len(body) != _FOOTER_LENGTH or self.pos != self.size - 8:
