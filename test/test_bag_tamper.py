@@ -231,6 +231,24 @@ def test_a_recording_cut_after_whole_samples_passes(sweep: Path, tmp_path: Path)
     assert result.passed and result.counts[STATE] == 25, [f.line() for f in result.failures]
 
 
+
+@pytest.mark.parametrize('topic', SWEEP_COMPANIONS)
+def test_a_companion_topic_logged_out_of_the_order_of_its_stamps_fails(tmp_path: Path, topic: str) -> None:
+    """The recorder's log times of two messages of a companion topic swapped, their header stamps kept: the topic
+    is matched to the states by stamp, so it passed (the state topic's own order is stream.stamps). The node
+    publishes a topic in order and the recorder logs it so: the stamps going back in log order fail."""
+    msgs = small_sweep()
+    a, b = [k for k, m in enumerate(msgs) if m[0] == topic][10:12]
+    msgs[a], msgs[b] = (topic, msgs[b][1], msgs[a][2]), (topic, msgs[a][1], msgs[b][2])
+    result = verify_bag(write_bag(tmp_path / 'order', msgs, _types(msgs)))
+    check = f'{SWEEP_COMPANIONS[topic].replace("_sequence", "")}_order'
+    assert _failed(result) == {check: {None}}
+    start = 1_700_000_000_000_000_000
+    assert result.failures[0].detail == (
+        f'header stamps that go back in log-time order (the first: message 11 of the topic, stamped '
+        f'{start + 10_000_000} ns, logged after one stamped {start + 11_000_000} ns)')
+
+
 @pytest.mark.parametrize('topic', [t for t in SWEEP_COMPANIONS if t != MARKERS])
 def test_a_companion_topic_recorded_without_a_message_fails_but_at_the_ends(sweep: Path, tmp_path: Path,
                                                                              topic: str) -> None:

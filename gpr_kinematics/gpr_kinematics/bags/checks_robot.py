@@ -39,7 +39,7 @@ from ..robot import robot_forward
 from ..robot.description import RobotDescription, parse_robot
 from ..robot.transforms import PoseBatch
 from .cdr import Columns
-from .checks_topics import cut_detail, extra, match, missing, without_messages
+from .checks_topics import cut_detail, extra, match, missing, unordered, without_messages
 from .columns import matrix, quaternion_angle, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, bag_check, bool_check, skipped, value_check
@@ -265,7 +265,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
         value_check('robot.joint_limits', ROBOT_STATE_TOPIC, e_limit, 0.0, 'rad', samples,
                     'beyond the joint range by this much'),
     ]
-    checks += [x for x in [extra('robot.structure', ROBOT_STATE_TOPIC, rstamps, stamps, rows.size)] if x]
+    checks += [x for x in [extra('robot.structure', ROBOT_STATE_TOPIC, rstamps, stamps, rows.size),
+                           unordered('robot.structure', ROBOT_STATE_TOPIC, rstamps)] if x]
     checks += _wafer_pose_checks(bag, rc, np.asarray(rc['sample'], dtype=np.int64), tol.consistency,
                                  int(stamps.max()))
     return checks, recorded
@@ -291,7 +292,8 @@ def _wafer_pose_checks(bag: Bag, rc: Columns, samples: NDArray[np.int64], tol: f
     e[ok] = np.max(np.abs(stored[idx[ok]] - wafer[ok]), axis=1)
     out = [value_check('topic.wafer_pose', name, e, tol, 'm|rad', samples,
                        why + cut_detail(stamps, pstamps, samples, e))]
-    return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum()))] if x]
+    return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum())),
+                               unordered('topic.wafer_pose', name, pstamps)] if x]
 
 
 def robot_summary(choice: RobotChoice) -> dict[str, Any]:

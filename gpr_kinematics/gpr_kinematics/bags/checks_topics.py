@@ -37,7 +37,8 @@ the end and the metadata recounted passed before): the failures name the topic, 
 (:func:`cut_detail`). A topic recorded without a message: every state but the first and the last. Companion
 messages without a PlatformState of the same stamp are ``*_extra`` failures: inside the states' span, and after the
 last state all but those of one stamp (a cut in the middle of a sample may have lost its state only: the states'
-tail removed and the metadata recounted passed before); before the first state they are a late subscriber's.
+tail removed and the metadata recounted passed before); before the first state they are a late subscriber's. A
+companion topic's header stamps that go back in log-time order are a ``*_order`` failure (:func:`unordered`).
 """
 from __future__ import annotations
 
@@ -135,6 +136,20 @@ def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[
                  [Failure(f'{check}_extra', topic, None, n, 0.0, why)])
 
 
+def unordered(check: str, topic: str, companion: NDArray[np.int64]) -> Check | None:
+    """A failed ``<check>_order`` if the companion topic's header stamps, in the recorder's log-time order, go back:
+    the node publishes a topic's samples in order and the recorder receives and logs them so (the PlatformState
+    topic's own order is ``stream.stamps``); log times edited out of step with the stamps passed before."""
+    back = np.flatnonzero(np.diff(companion) < 0)
+    if not back.size:
+        return None
+    k = int(back[0]) + 1
+    return Check(f'{check}_order', topic, len(companion), float(back.size), 0.0, 'messages', 1, [
+        Failure(f'{check}_order', topic, None, float(back.size), 0.0,
+                f'header stamps that go back in log-time order (the first: message {k} of the topic, stamped '
+                f'{int(companion[k])} ns, logged after one stamped {int(companion[k - 1])} ns)')])
+
+
 def _topic(bag: Bag, name: str) -> TopicData | None:
     t = bag.topic(name)
     return t if t is not None and t.msgtype == KNOWN_TOPICS[name] else None
@@ -159,7 +174,8 @@ def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -
         e = missing(stamps, stamp_ns(pc))
         e[ok] = np.max(np.abs(field_matrix(pc, 'pose')[idx[ok]] - field_matrix(c, field)[ok]), axis=1)
         out.append(value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(pc), samples, e)))
-        out += [x for x in [extra(check, name, stamp_ns(pc), stamps, int(ok.sum()))] if x]
+        out += [x for x in [extra(check, name, stamp_ns(pc), stamps, int(ok.sum())),
+                            unordered(check, name, stamp_ns(pc))] if x]
     return out
 
 
@@ -198,7 +214,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
                 e[r] = float(np.max(np.abs(got - want), initial=0.0))
                 break
     out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(jc), samples, e))]
-    return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size)] if x]
+    return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size),
+                               unordered(check, name, stamp_ns(jc))] if x]
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
@@ -353,7 +370,9 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
                        'inf = structure, stamp, frame or pose differ; else the largest point error'),
            bool_check('topic.markers_sequence', name, ~gaps, samples, _sequence_detail(every) + cut)]
-    return out + [x for x in [extra('topic.markers', name, stamp_ns(mc, first + 'stamp'), stamps, rows.size)] if x]
+    marker_stamps = stamp_ns(mc, first + 'stamp')
+    return out + [x for x in [extra('topic.markers', name, marker_stamps, stamps, rows.size),
+                               unordered('topic.markers', name, marker_stamps)] if x]
 
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
