@@ -439,6 +439,23 @@ def test_a_claimed_serialization_format_fails(sweep: Path, tmp_path: Path) -> No
 
 
 
+def test_a_claimed_offered_qos_fails(sweep: Path, tmp_path: Path) -> None:
+    """The latched record topic listed as volatile in metadata.yaml (re-signed), its MCAP channel still transient
+    local: the QoS listed was not compared with the files' (a replay would not latch the record)."""
+    def volatile(info: dict[str, Any]) -> None:
+        for t in info['topics_with_message_count']:
+            if t['topic_metadata']['name'] == PROGRAM_TOPIC:
+                t['topic_metadata']['offered_qos_profiles'][0]['durability'] = 'volatile'
+
+    result = verify_bag(tampered(sweep, tmp_path / 'volatile', metadata=volatile))
+    assert set(_failed(result)) == {'bag.metadata'}
+    details = [f.detail for f in result.failures]
+    assert len(details) == 1 and details[0].startswith('offered_qos_profiles in sweep_0.mcap: metadata.yaml says [{')
+    assert "'durability': 'volatile'" in details[0].split('the files hold')[0]
+    assert "'durability': 'transient_local'" in details[0].split('the files hold')[1]
+
+
+
 @pytest.mark.parametrize('copies', [2, 1000])
 def test_a_segment_listed_more_than_once_is_refused_before_reading(sweep: Path, tmp_path: Path, copies: int) -> None:
     """A 31 kB metadata.yaml listing one file 1000 times had the bag read 1000 times (4 GB, then a traceback)."""

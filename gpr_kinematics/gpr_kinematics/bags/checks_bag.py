@@ -9,8 +9,10 @@
   suite's recorder, which carries its checksums; 1 to 9 for others), the file list
   (``relative_file_paths`` = ``files``), per file its message count, start and duration, the totals
   (``message_count``, ``starting_time``, ``duration``), each topic's type, type hash and serialization format as
-  the files store them, and the storage description: no file-level compression claimed (``compression_format``
-  and ``compression_mode`` empty: each file was read as it is, so a claim of ``zstd`` is false);
+  the files store them, its ``offered_qos_profiles`` too where the file stores them (MCAP channels: an edit of the
+  latched topics' durability would change what a replay latches), and the storage description: no file-level
+  compression claimed (``compression_format`` and ``compression_mode`` empty: each file was read as it is, so a
+  claim of ``zstd`` is false);
 - ``bag.schemas``: the message definition each file embeds (MCAP schemas; SQLite3's ``message_definitions``) is the
   package's definition of its type (:func:`.typestore.definition`), by text (comments and blank lines aside: an
   edited ``float64 residual`` -> ``float32 residual`` would make an independent decoder misread every message,
@@ -21,7 +23,8 @@
 """
 from __future__ import annotations
 
-from ..errors import brief
+from ..errors import GprError, brief
+from ..inputs import safe_yaml
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, digest_line
 from .reader import Bag
 from .results import Check, bag_check, skipped
@@ -33,6 +36,17 @@ Problem = tuple[str, float, float, str]
 def _differs(problems: list[Problem], where: str, what: str, listed: object, read: object) -> None:
     if listed != read:
         problems.append((where, 1.0, 0.0, f'{what}: metadata.yaml says {listed!r}, the files hold {read!r}'))
+
+
+def _qos(value: object, topic: str) -> object:
+    """``offered_qos_profiles`` as data: YAML text (a file's, or metadata before version 9) read by the package's
+    bounded reader; empty text or none is no profile."""
+    if isinstance(value, str):
+        try:
+            value = safe_yaml.load_text(value, f'{topic} offered_qos_profiles') if value.strip() else []
+        except GprError as exc:
+            return f'unreadable: {exc}'
+    return [] if value is None else value
 
 
 def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
@@ -47,6 +61,9 @@ def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
                 if t.name in f.formats:
                     _differs(problems, t.name, f'serialization_format in {f.name}', t.serialization_format,
                              f.formats[t.name])
+                if t.name in f.qos and t.offered_qos is not None:
+                    _differs(problems, t.name, f'offered_qos_profiles in {f.name}', _qos(t.offered_qos, t.name),
+                             _qos(f.qos[t.name], t.name))
 
 
 def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:

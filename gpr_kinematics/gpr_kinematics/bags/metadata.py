@@ -60,6 +60,8 @@ class TopicEntry:
     serialization_format: str
     type_description_hash: str
     message_count: int
+    #: ``offered_qos_profiles`` as listed: a list (version 9) or the YAML text of one (earlier versions), None absent.
+    offered_qos: Any = None
 
 
 @dataclass(frozen=True)
@@ -185,7 +187,8 @@ def read_metadata(folder: Path) -> Metadata:
     for t in top.items('topics_with_message_count'):
         meta = _Schema(str(path), t.get('topic_metadata'), f'{t.where}topic_metadata.')
         topics.append(TopicEntry(meta.text('name'), meta.text('type'), meta.text('serialization_format'),
-                                 meta.text('type_description_hash', ''), t.integer('message_count')))
+                                 meta.text('type_description_hash', ''), t.integer('message_count'),
+                                 meta.data.get('offered_qos_profiles')))
     custom = top.get('custom_data', {}) or {}
     if not isinstance(custom, Mapping) or not all(isinstance(k, str) and isinstance(v, str)
                                                   for k, v in custom.items()):

@@ -83,6 +83,8 @@ class StorageFile:
     schemas: dict[str, tuple[str, str]] = field(default_factory=dict)
     #: Per topic, the serialization format of its messages as the file says (MCAP: the channel's message encoding).
     formats: dict[str, str] = field(default_factory=dict)
+    #: Per topic, the ``offered_qos_profiles`` YAML the file stores (MCAP: the channel's metadata).
+    qos: dict[str, str] = field(default_factory=dict)
 
     @property
     def message_count(self) -> int:
@@ -200,6 +202,8 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
         raise BagError(f'{path}: message encoding {", ".join(bad)}; allowed: cdr')
     schemas = {ch.topic: (ch.schema_encoding, ch.schema_text) for ch in m.channels.values()}
     formats = {ch.topic: ch.encoding for ch in m.channels.values()}
+    qos = {ch.topic: ch.meta('offered_qos_profiles') for ch in m.channels.values()
+           if 'offered_qos_profiles' in dict(ch.metadata)}
     counts: dict[str, int] = {}
     times: dict[str, list[int]] = {}
     data: dict[str, list[bytes]] = {}
@@ -213,7 +217,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
             times.setdefault(ch.topic, []).extend(m.times[cid])
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
-                       m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats)
+                       m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
     return _Contents(info, times, data)
 
 
