@@ -96,16 +96,17 @@ def test_a_flipped_message_byte_fails_the_chunk_crc(tmp_path: Path, messages: li
 
 
 
-def _summary_edited(path: Path, opcode: int, field: int, value: int) -> None:
-    """Set the u64 at byte ``field`` of the first ``opcode`` record of the summary section to ``value`` (same size,
-    so no offset moves) and recompute the summary CRC: an editor who knows the format's checksums."""
+def _summary_edited(path: Path, opcode: int, field: int, value: int, group: int | None = None) -> None:
+    """Set the u64 at byte ``field`` of the first ``opcode`` record of the summary section (a summary offset: the
+    one of the ``group`` opcode) to ``value`` (same size, so no offset moves) and recompute the summary CRC: an
+    editor who knows the format's checksums."""
     import struct
     import zlib
     data = bytearray(path.read_bytes())
     footer = len(data) - 8 - 20
     summary_start = struct.unpack_from('<Q', data, footer)[0]
     pos = summary_start
-    while data[pos] != opcode:
+    while data[pos] != opcode or (group is not None and data[pos + 9] != group):
         pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
     struct.pack_into('<Q', data, pos + 9 + field, value)
     struct.pack_into('<I', data, footer + 16, zlib.crc32(bytes(data[summary_start:footer + 16])))
@@ -134,6 +135,22 @@ def test_a_summary_that_disagrees_with_the_chunks_is_refused(tmp_path: Path, mes
     _summary_edited(f, opcode, field, value)
     with f.open('rb') as fh:
         assert make_reader(fh).get_summary() is not None   # the library reads the edited summary
+    with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
+        read_mcap(f)
+
+
+
+@pytest.mark.parametrize('field, value, refusal', [
+    (9, 0, r'summary offsets leave out the record of opcode 0x08 at byte (\d+) \(allowed: every record of a group '
+     'they name\\)'),                                                  # the chunk indexes' group made empty
+    (1, 8, r'summary offset of opcode 0x08 spans bytes 8 to \d+, not whole records of that opcode')])
+def test_summary_offsets_that_hide_a_group_are_refused(tmp_path: Path, messages: list, field: int, value: int,
+                                                      refusal: str) -> None:
+    """A summary offset is where a seeking reader finds a group of the summary (the chunk indexes): one that leaves a
+    chunk index out, or points at other bytes, was not read (only the CRC covered it) and passed recomputed."""
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    f = bag / 'b_0.mcap'
+    _summary_edited(f, 0x0E, field, value, group=0x08)
     with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
         read_mcap(f)
 

@@ -17,7 +17,8 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
   time range; the summary's Statistics must agree with the messages, chunks and time range walked, and its chunk
   indexes (which indexed readers such as ``ros2 bag play`` read instead of the walk) must be one per chunk, each
-  with that chunk's offset, length, time range, compression and sizes.
+  with that chunk's offset, length, time range, compression and sizes, and its summary offsets must each span
+  whole records of their opcode, leaving none of a group out.
 
 Every violation raises :class:`~gpr_kinematics.bags.errors.BagError` naming the file, the byte offset and
 what is wrong. The SHA-256 of the whole file is computed on the way (for the bag's checksums).
@@ -33,6 +34,7 @@ from typing import BinaryIO
 
 from .errors import BagError
 from .fileio import open_regular
+from .mcap_summary import ChunkFacts, chunk_index_problem, statistics_problem, summary_offset_problem
 
 MAGIC = b'\x89MCAP0\r\n'
 #: Largest record accepted (a chunk of a rosbag2 or ``gpr`` recording is about 1 MiB).
@@ -43,7 +45,7 @@ MAX_CHUNK_BYTES = 256 << 20
 MAX_INFLATED_BYTES = 1 << 30
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
-OP_CHUNK_INDEX, OP_STATISTICS, OP_METADATA, OP_DATA_END = 0x08, 0x0B, 0x0C, 0x0F
+OP_CHUNK_INDEX, OP_STATISTICS, OP_METADATA, OP_SUMMARY_OFFSET, OP_DATA_END = 0x08, 0x0B, 0x0C, 0x0E, 0x0F
 _FOOTER_LENGTH = 20  # summary_start u64, summary_offset_start u64, summary_crc u32
 _U16, _U32, _U64 = struct.Struct('<H'), struct.Struct('<I'), struct.Struct('<Q')
 _RECORD = struct.Struct('<BQ')
@@ -143,11 +145,11 @@ class _Walker:
         self.summary_start = 0
         self.inflated = 0
         self.record_start = 0
-        #: per chunk walked: (start offset, record length, message start, message end, compression, compressed
-        #: size, uncompressed size), as a chunk index must name it; and the chunk indexes read from the summary.
-        self.chunk_facts: list[tuple[int, int, int, int, str, int, int]] = []
-        self.chunk_indexes: list[tuple[int, int, int, int, str, int, int]] = []
+        self.chunk_facts: list[ChunkFacts] = []     # per chunk walked, as a chunk index must name it
+        self.chunk_indexes: list[ChunkFacts] = []   # the chunk indexes of the summary
         self.stats_times: tuple[int, int, int] | None = None   # chunk count, message start, message end
+        self.summary_records: list[tuple[int, int]] = []   # (start offset, opcode) of each summary record
+        self.summary_offsets: list[tuple[int, int, int]] = []   # (opcode, group start, group length)
 
     def read(self, n: int) -> memoryview:
         data = self.f.read(n)
@@ -263,6 +265,7 @@ class _Walker:
                 continue
             if in_summary:
                 summary_crc = zlib.crc32(body, zlib.crc32(head, summary_crc))
+                self.summary_records.append((start, op))
             else:
                 data_crc = zlib.crc32(body, zlib.crc32(head, data_crc))
             self.record_start = start
@@ -275,7 +278,7 @@ class _Walker:
             raise _FormatError('bad end magic')
         if stats is not None:
             self.check_statistics(*stats)
-        self.check_chunk_indexes()
+        self.check_summary()
         self.out.sha256 = self.sha.hexdigest()
         return self.out
 
@@ -313,29 +316,15 @@ class _Walker:
                                                          for c, n in self.out.counts.items()):
             raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
                                f'{sum(self.out.counts.values())}')
-        if self.stats_times is not None:
-            walked = (self.out.chunks, self.out.start or 0, self.out.end or 0)
-            if self.stats_times != walked:
-                raise _FormatError(f'statistics record says {self.stats_times[0]} chunks and messages from '
-                                   f'{self.stats_times[1]} to {self.stats_times[2]} ns; the file holds {walked[0]} '
-                                   f'chunks and messages from {walked[1]} to {walked[2]} ns')
 
-    def check_chunk_indexes(self) -> None:
-        """The summary's chunk indexes (if any) against the chunks walked: one per chunk, in order, each naming
-        that chunk's offset, record length, time range, compression and sizes (an indexed reader reads through
-        them: a chunk left out, or a time range narrowed, hides its messages from it but not from this walk)."""
-        if not self.chunk_indexes or self.chunk_indexes == self.chunk_facts:
-            return
-        names = ('start offset', 'length', 'message start time', 'message end time', 'compression',
-                 'compressed size', 'uncompressed size')
-        if len(self.chunk_indexes) != len(self.chunk_facts):
-            raise _FormatError(f'the summary indexes {len(self.chunk_indexes)} chunks; the file holds '
-                               f'{len(self.chunk_facts)} (allowed: one chunk index per chunk, or none)')
-        k, (index, chunk) = next((k, ic) for k, ic in enumerate(zip(self.chunk_indexes, self.chunk_facts, strict=True))
-                                 if ic[0] != ic[1])
-        f = next(j for j in range(len(names)) if index[j] != chunk[j])
-        raise _FormatError(f'chunk index {k} says {names[f]} {index[f]!r}; the chunk at byte {chunk[0]} has '
-                           f'{chunk[f]!r} (allowed: the chunk index of a chunk names its own values)')
+    def check_summary(self) -> None:
+        """The summary's statistics, offsets and chunk indexes against the walk (:mod:`.mcap_summary`)."""
+        end = self.size - len(MAGIC) - _FOOTER_LENGTH - _RECORD.size   # the footer record's start
+        problem = (statistics_problem(self.stats_times, (self.out.chunks, self.out.start or 0, self.out.end or 0))
+                   or summary_offset_problem(self.summary_records, self.summary_offsets, end)
+                   or chunk_index_problem(self.chunk_indexes, self.chunk_facts))
+        if problem:
+            raise _FormatError(problem)
 
     def record(self, op: int, body: memoryview, first: bool, in_summary: bool) -> tuple[int, dict[int, int]] | None:
         if op == OP_HEADER:
@@ -356,8 +345,15 @@ class _Walker:
             r = _Fields(body)
             name = r.string('metadata name')
             self.out.metadata[name] = dict(r.string_map('metadata'))
-        elif op == OP_STATISTICS:
-            r = _Fields(body)
+        elif op in (OP_STATISTICS, OP_SUMMARY_OFFSET, OP_CHUNK_INDEX):
+            return self.summary_record(op, body, in_summary)
+        return None  # message indexes, attachments: covered by the CRCs and the walk itself
+
+    def summary_record(self, op: int, body: memoryview, in_summary: bool) -> tuple[int, dict[int, int]] | None:
+        """A Statistics record (its counts returned, its chunk count and times kept), a summary offset or a chunk
+        index (kept, for the checks after the walk)."""
+        r = _Fields(body)
+        if op == OP_STATISTICS:
             count = r.u64()
             r.take(2 + 4 * 3, 'statistics counts')
             self.stats_times = (r.u32(), r.u64(), r.u64())
@@ -367,14 +363,15 @@ class _Walker:
                 cid = per.u16()
                 per_channel[cid] = per.u64()
             return count, per_channel
+        if op == OP_SUMMARY_OFFSET and in_summary:
+            self.summary_offsets.append((int(r.take(1, 'summary offset opcode')[0]), r.u64(), r.u64()))
         elif op == OP_CHUNK_INDEX and in_summary:
-            r = _Fields(body)
             lo, hi, start, length = r.u64(), r.u64(), r.u64(), r.u64()
             r.take(r.u32(), 'chunk index message index offsets')
             r.u64()   # message index length
             compression = r.string('chunk index compression')
             self.chunk_indexes.append((start, length, lo, hi, compression, r.u64(), r.u64()))
-        return None  # message indexes, attachments, summary offsets: covered by the CRCs and the walk itself
+        return None
 
     def footer(self, body: memoryview, start: int, in_summary: bool, crc: int) -> None:
         if len(body) != _FOOTER_LENGTH or self.pos != self.size - 8:
