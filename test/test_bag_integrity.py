@@ -299,3 +299,22 @@ def test_latched_topics_are_known_in_a_namespace() -> None:
     assert is_latched('/gpr/geometry') and is_latched('/r1/gpr/geometry') and is_latched('/r1/robot_description')
     assert is_latched('/tf_static') and not is_latched('/r1/tf_static') and not is_latched('/r1/gpr/platform_state')
     assert not is_latched('/foo_gpr/robot')
+
+
+def test_an_sqlite_bag_stores_the_offered_profiles_in_its_database(tmp_path: Path, src: Path) -> None:
+    """rosbag2's sqlite3 plugin reads a topic's offered QoS from the database's topics table: the writer stored '[]'
+    there for every topic while metadata.yaml listed the latched profile, so a player would offer /gpr/geometry
+    volatile and a late subscriber would never get it. The database now carries what metadata.yaml lists."""
+    import sqlite3
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    listed = {t['topic_metadata']['name']: t['topic_metadata']['offered_qos_profiles'] for t in yaml.safe_load(
+        (bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']['topics_with_message_count']}
+    (db,) = bag.glob('*.db3')
+    with sqlite3.connect(db) as conn:
+        rows = conn.execute('SELECT name, offered_qos_profiles FROM topics').fetchall()
+    stored = {name: yaml.safe_load(qos) for name, qos in rows}
+    assert stored == listed and 'transient_local' in str(stored['/gpr/geometry']).lower() and stored[STATE] == []
+    assert verify_bag(bag).passed

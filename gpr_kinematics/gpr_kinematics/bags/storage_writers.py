@@ -31,10 +31,15 @@ LATCHED_QOS = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
                   QosLiveliness.AUTOMATIC, _T0, False)
 
 
-def offered_qos(topic: str) -> list[dict[str, Any]]:
-    """``offered_qos_profiles`` stored for ``topic`` (v9 form): the latched profile, or none (unknown)."""
+def offered_profiles(topic: str) -> list[Qos]:
+    """The QoS profiles offered on ``topic``: the latched profile, or none (unknown)."""
     latched = any(topic.endswith(k) for k in LATCHED_TOPICS)   # at the root or in a namespace (/r1/gpr/geometry)
-    return [dict(q) for q in dump_qos_v9([LATCHED_QOS])] if latched else []
+    return [LATCHED_QOS] if latched else []
+
+
+def offered_qos(topic: str) -> list[dict[str, Any]]:
+    """``offered_qos_profiles`` stored for ``topic`` (v9 form): :func:`offered_profiles`."""
+    return [dict(q) for q in dump_qos_v9(offered_profiles(topic))]
 
 
 class StorageWriter(Protocol):
@@ -126,8 +131,11 @@ class Sqlite3Storage:
         self.writer = Writer(folder, version=BAG_VERSION, storage_plugin=StoragePlugin.SQLITE3)
         self.file = folder / f'{folder.name}.db3'
         self.writer.open()
+        # the database's topics table carries the offered profiles too (rosbag2's sqlite3 plugin reads them there:
+        # '[]' made a player offer its latched topics volatile while metadata.yaml said latched)
         self.connections = {topic: self.writer.add_connection(topic, msgtype, msgdef=defs[topic][0],
-                                                              rihs01=defs[topic][1])
+                                                              rihs01=defs[topic][1],
+                                                              offered_qos_profiles=offered_profiles(topic))
                             for topic, msgtype in topics.items()}
 
     def write(self, topic: str, timestamp: int, data: bytes) -> None:
