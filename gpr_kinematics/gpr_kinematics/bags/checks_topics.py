@@ -94,14 +94,16 @@ def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64], end: int | 
 
 
 def cut_detail(stamps: NDArray[np.int64], companion: NDArray[np.int64], samples: NDArray[np.int64],
-               e: NDArray[np.float64]) -> str:
+               e: NDArray[np.float64], where: str = '') -> str:
     """How many of the missing (``e`` inf) are after the companion topic's last message, from which sample to which
-    (empty when none): a tail removed, not a recording cut in the middle of its last sample."""
+    (empty when none): a tail removed, not a recording cut in the middle of its last sample (``where``: how the
+    message names them, default by the topic's last message)."""
     gone = np.isinf(e) & (stamps > companion.max() if len(companion) else np.ones(len(stamps), dtype=bool))
     if not np.any(gone):
         return ''
-    where = "after the topic's last message" if len(companion) else 'of a topic without a message'
-    return (f'; {int(np.count_nonzero(gone))} missing {where} (samples {int(samples[gone].min())} to '
+    where = where or ("missing after the topic's last message" if len(companion) else
+                      'missing of a topic without a message')
+    return (f'; {int(np.count_nonzero(gone))} {where} (samples {int(samples[gone].min())} to '
             f"{int(samples[gone].max())}; a recording cut in the middle of a sample lacks only the last sample's)")
 
 
@@ -169,13 +171,14 @@ def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -
             out.append(without_messages(check, name, stamps, samples, tol, _UNIT, why))
             continue
         pc = t.columns()
-        idx = match(stamp_ns(pc), pc['header.frame_id'], stamps, frames)
+        pstamps = stamp_ns(pc)
+        idx = match(pstamps, pc['header.frame_id'], stamps, frames)
         ok = idx >= 0
-        e = missing(stamps, stamp_ns(pc))
+        e = missing(stamps, pstamps)
         e[ok] = np.max(np.abs(field_matrix(pc, 'pose')[idx[ok]] - field_matrix(c, field)[ok]), axis=1)
-        out.append(value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(pc), samples, e)))
-        out += [x for x in [extra(check, name, stamp_ns(pc), stamps, int(ok.sum())),
-                            unordered(check, name, stamp_ns(pc))] if x]
+        out.append(value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, pstamps, samples, e)))
+        out += [x for x in [extra(check, name, pstamps, stamps, int(ok.sum())), unordered(check, name, pstamps)]
+                if x]
     return out
 
 
@@ -197,9 +200,10 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     if len(t) == 0:
         return [without_messages(check, name, stamps, samples, tol, _UNIT, why)]
     jc = t.columns()
-    idx = match(stamp_ns(jc), jc['header.frame_id'], stamps, c['header.frame_id'])
+    jstamps = stamp_ns(jc)
+    idx = match(jstamps, jc['header.frame_id'], stamps, c['header.frame_id'])
     rows = np.flatnonzero(idx >= 0)
-    e = missing(stamps, stamp_ns(jc))
+    e = missing(stamps, jstamps)
     names, positions = jc['name'], jc['position']
     for r in rows:
         got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
@@ -213,9 +217,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
             if got_names == want_names and got.shape == want.shape:
                 e[r] = float(np.max(np.abs(got - want), initial=0.0))
                 break
-    out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, stamp_ns(jc), samples, e))]
-    return out + [x for x in [extra(check, name, stamp_ns(jc), stamps, rows.size),
-                               unordered(check, name, stamp_ns(jc))] if x]
+    out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, jstamps, samples, e))]
+    return out + [x for x in [extra(check, name, jstamps, stamps, rows.size), unordered(check, name, jstamps)] if x]
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
@@ -363,10 +366,7 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
                              matrix_from_quaternion(vec(c, 'nominal_pose.orientation', 'xyzw')[rows]))
     err = _marker_errors(mc, idx[rows], rows, c, expected)
     gaps = _marker_gaps(samples, rows, every)
-    gone = gaps & (stamps > stamps[rows].max()) if rows.size else gaps
-    cut = (f"; {int(np.count_nonzero(gone))} of them after the last MarkerArray (samples {int(samples[gone].min())} "
-           f"to {int(samples[gone].max())}; a recording cut in the middle of a sample lacks only the last sample's)"
-           if np.any(gone) else '')
+    cut = cut_detail(stamps, stamps[rows], samples, np.where(gaps, np.inf, 0.0), 'of them after the last MarkerArray')
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
                        'inf = structure, stamp, frame or pose differ; else the largest point error'),
            bool_check('topic.markers_sequence', name, ~gaps, samples, _sequence_detail(every) + cut)]
