@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import InputError, brief
 from ..inputs.validation import bounded, count_of
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: Most poses of one map (a sweep, or a grid of two variables): about 5 kB of memory and 0.2 ms each for the GPR
 #: (the costliest mechanism: its Jacobians are finite differences of the core), 0.3 GB and 10 s at the limit.
@@ -184,7 +187,7 @@ def _least(dmap: DexterityMap) -> tuple[float, tuple[int, ...]] | None:
     return float(inside[k]), tuple(int(i) for i in k)
 
 
-def dexterity_figure(dmap: DexterityMap) -> Any:
+def dexterity_figure(dmap: DexterityMap) -> Figure:
     """The figure of :func:`plot_dexterity` (a matplotlib Figure, Agg): the least dexterity within the joint limits
     marked and named, singular poses marked, the axes in the variables' units (m, rad)."""
     import matplotlib
