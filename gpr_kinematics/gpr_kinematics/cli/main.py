@@ -22,6 +22,7 @@ from typing import Any, NoReturn, TypeAlias
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
 from ..inputs.files import command_reads
+from ..inputs.safe_yaml import UNSIGNED_DECIMAL
 from .output import distinct_outputs
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
@@ -57,8 +58,7 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         # argparse's rule for a value that looks like a negative number, not an option: one reading of each text
         # (`\d+\.?\d*` split a run of digits n ways) in ASCII digits, as the numbers are read (options.number)
-        self._negative_number_matcher = re.compile(r'-(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\Z'
-                                                   r'|-(?:inf|nan)\Z')
+        self._negative_number_matcher = re.compile('-' + UNSIGNED_DECIMAL + r'\Z|-(?:inf|nan)\Z')
 
     def error(self, message: str) -> NoReturn:
         """Exit with status 2 and the one line ``prog: error: message`` (a long value argparse quotes in it, such as

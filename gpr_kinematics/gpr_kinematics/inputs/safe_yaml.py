@@ -165,8 +165,10 @@ _FLOAT_1_2 = re.compile(r'^(?:[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9
 # check names them: ``0750`` was octal (488), ``1:31`` base 60 (91), ``0x10`` 16, ``1_0`` 10, ``yes`` and ``on`` true.
 _INT_CORE = re.compile(r'[-+]?[0-9]+')
 #: A decimal number: ASCII digits with an optional sign, point and exponent, one way to read each text (the files'
-#: and the command line's numbers too, :func:`~gpr_kinematics.inputs.validation.decimal`).
-DECIMAL = r'[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?'
+#: and the command line's numbers too, :func:`~gpr_kinematics.inputs.validation.decimal`; unsigned, the workspace
+#: equations' numbers and argparse's negative-number rule).
+UNSIGNED_DECIMAL = r'(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?'
+DECIMAL = r'[-+]?' + UNSIGNED_DECIMAL
 _FLOAT_CORE = re.compile(DECIMAL + r'|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)')
 _BOOL_CORE = {'true': True, 'True': True, 'TRUE': True, 'false': False, 'False': False, 'FALSE': False}
 

@@ -11,7 +11,7 @@ output's ``min distance`` and ``min at``); in an unsafe program the first instan
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,12 +19,15 @@ from numpy.typing import NDArray
 from .check import SafetyReport
 from .clearance import ClearanceReport
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 #: Top of the clearance axis [mm] (raised to show a least clearance above it).
 TOP_MM = 60.0
 
 
 def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
-                 report: SafetyReport, program: str | Path | None = None) -> Any:
+                 report: SafetyReport, program: str | Path | None = None) -> Figure:
     """The figure (a matplotlib Figure, Agg): clearance [mm] above, slip ratio below, against time [s]; the title
     names the program, the cell and the verdict with its numbers as the text output prints them."""
     import matplotlib

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..inputs.safe_yaml import UNSIGNED_DECIMAL
 from .interval import Interval
 
 #: Function names of the expression language -> node operation.
@@ -203,7 +204,7 @@ class Constraint:
 #: A number is of ASCII digits (``\d`` read the digits of other scripts: ``x^2 + y^2 <= \u0661`` as ``<= 1``, as
 #: the files' numbers no longer are, :func:`~gpr_kinematics.inputs.validation.decimal`).
 _TOKEN = re.compile(
-    r'\s*(?:(?P<num>(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)'
+    r'\s*(?:(?P<num>' + UNSIGNED_DECIMAL + r')|(?P<name>[A-Za-z_][A-Za-z0-9_]*)'
     r'|(?P<op>\*\*|<=|>=|==|[-+*/^(),=<>]))'
 )
 _RELATIONS = ('=', '==', '<=', '>=')
