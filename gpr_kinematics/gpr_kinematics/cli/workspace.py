@@ -73,7 +73,7 @@ def register(subparsers: Subparsers) -> None:
     p.add_argument('--max-boxes', type=whole, default=None,
                    help='stop (like Ctrl-C) before keeping more boxes than this (default: the boxes of about 0.5 GB, '
                    f'16 bytes per variable each: {MAX_BOXES} up to 3 variables, 1875000 for 16; at most the boxes '
-                   'of a quarter of the physical memory)')
+                   "of a quarter of the physical memory, or of a container's lower memory limit)")
     p.add_argument('--max-seconds', type=number, default=None,
                    help=f'stop (like Ctrl-C) after this many seconds (default {DEFAULT_MAX_SECONDS:g}; every method '
                    'has a limit)')
