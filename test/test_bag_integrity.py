@@ -318,3 +318,36 @@ def test_an_sqlite_bag_stores_the_offered_profiles_in_its_database(tmp_path: Pat
     stored = {name: yaml.safe_load(qos) for name, qos in rows}
     assert stored == listed and 'transient_local' in str(stored['/gpr/geometry']).lower() and stored[STATE] == []
     assert verify_bag(bag).passed
+
+
+def test_an_sqlite_database_profile_edited_against_metadata_fails(tmp_path: Path, src: Path) -> None:
+    """The database's profiles were not compared with metadata.yaml: /gpr/geometry edited to volatile there (the
+    metadata re-signed) passed, and a player reading the database would not latch it. '[]' (the writer's before
+    2026-12-03) stores no profile and is not compared."""
+    import sqlite3
+
+    from mcap_tamper import resign
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    (db,) = bag.glob('*.db3')
+    old = tmp_path / 'old'
+    shutil.copytree(bag, old)
+    with sqlite3.connect(db) as conn:
+        (text,) = conn.execute("SELECT offered_qos_profiles FROM topics WHERE name = '/gpr/geometry'").fetchone()
+        assert 'transient_local' in text
+        conn.execute("UPDATE topics SET offered_qos_profiles = ? WHERE name = '/gpr/geometry'",
+                     (text.replace('transient_local', 'volatile'),))
+    conn.close()
+    resign(bag)
+    result = verify_bag(bag)
+    assert {f.check for f in result.failures} == {'bag.metadata'}
+    (detail,) = [f.detail for f in result.failures]
+    assert detail.startswith('offered_qos_profiles in db_0.db3: metadata.yaml says [{')
+    assert "'durability': 'volatile'" in detail.split('the files hold')[1]
+    with sqlite3.connect(old / 'db_0.db3') as conn:
+        conn.execute("UPDATE topics SET offered_qos_profiles = '[]'")
+    conn.close()
+    resign(old)
+    assert verify_bag(old).passed

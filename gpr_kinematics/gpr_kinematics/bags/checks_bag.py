@@ -9,8 +9,9 @@
   suite's recorder, which carries its checksums; 1 to 9 for others), the file list
   (``relative_file_paths`` = ``files``), per file its message count, start and duration, the totals
   (``message_count``, ``starting_time``, ``duration``), each topic's type, type hash and serialization format as
-  the files store them, its ``offered_qos_profiles`` too where the file stores them (MCAP channels: an edit of the
-  latched topics' durability would change what a replay latches), and the storage description: no file-level
+  the files store them, its ``offered_qos_profiles`` too where the file stores them (MCAP channels, an SQLite3
+  database's ``topics`` table where it holds a profile: an edit of the latched topics' durability would change what
+  a replay latches), and the storage description: no file-level
   compression claimed (``compression_format`` and ``compression_mode`` empty: each file was read as it is, so a
   claim of ``zstd`` is false);
 - ``bag.schemas``: the message definition each file embeds (MCAP schemas; SQLite3's ``message_definitions``) is the

@@ -83,7 +83,8 @@ class StorageFile:
     schemas: dict[str, tuple[str, str]] = field(default_factory=dict)
     #: Per topic, the serialization format of its messages as the file says (MCAP: the channel's message encoding).
     formats: dict[str, str] = field(default_factory=dict)
-    #: Per topic, the ``offered_qos_profiles`` YAML the file stores (MCAP: the channel's metadata).
+    #: Per topic, the ``offered_qos_profiles`` YAML the file stores (MCAP: the channel's metadata; SQLite3: the
+    #: ``topics`` table's column, where it holds a profile).
     qos: dict[str, str] = field(default_factory=dict)
 
     @property
@@ -240,7 +241,9 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             _stored_tables(con, path)
             columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
             hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
-            rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes} FROM topics').fetchall()
+            profiles = 'offered_qos_profiles' if b'offered_qos_profiles' in columns else "''"
+            rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes}, {profiles} '
+                               'FROM topics').fetchall()
             messages = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id').fetchall()
             tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
             definitions = con.execute('SELECT topic_type, encoding, encoded_message_definition FROM '
@@ -251,24 +254,8 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
         raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
     except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
         raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
-    names: dict[int, str] = {}
-    types: dict[str, str] = {}
-    digests: dict[str, str] = {}
-    formats: dict[str, str] = {}
+    names, types, digests, formats, qos = _topics_table(rows, path)
     defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
-    for tid, *texts in rows:
-        try:
-            name, msgtype, fmt, digest = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
-        except UnicodeDecodeError:
-            raise BagError(f'{path}: corrupt topics table (row {tid!r}: text that is not UTF-8)') from None
-        if not (isinstance(tid, int) and all(isinstance(v, str) for v in (name, msgtype, fmt, digest))):
-            raise BagError(f'{path}: corrupt topics table (row {tid!r})')
-        if fmt != 'cdr':
-            raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
-        formats[name] = fmt
-        names[tid] = name
-        types[name] = normalize_type(msgtype)
-        digests[name] = digest
     counts = dict.fromkeys(types, 0)
     keep = [n for n in types if topics is None or n in topics]
     times: dict[str, list[int]] = {n: [] for n in keep}
@@ -285,8 +272,37 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     stamps = [m[1] for m in messages]
     schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
     info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
-                       max(stamps, default=None), schemas=schemas, formats=formats)
+                       max(stamps, default=None), schemas=schemas, formats=formats, qos=qos)
     return _Contents(info, times, data)
+
+
+def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int, str], dict[str, str], dict[str, str],
+                                                                    dict[str, str], dict[str, str]]:
+    """The ``topics`` table's rows (id, name, type, serialization format, type hash, offered profiles) as the topic
+    names by id and, by name, the types, type hashes, formats and the offered profiles where one is stored (the
+    package's writer before 2026-12-03 stored ``[]``: none)."""
+    names: dict[int, str] = {}
+    types: dict[str, str] = {}
+    digests: dict[str, str] = {}
+    formats: dict[str, str] = {}
+    qos: dict[str, str] = {}
+    for tid, *texts in rows:
+        try:
+            name, msgtype, fmt, digest, profiles = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
+        except UnicodeDecodeError:
+            raise BagError(f'{path}: corrupt topics table (row {tid!r}: text that is not UTF-8)') from None
+        if not (isinstance(tid, int) and isinstance(name, str) and isinstance(msgtype, str) and isinstance(fmt, str)
+                and isinstance(digest, str) and isinstance(profiles, str)):
+            raise BagError(f'{path}: corrupt topics table (row {tid!r})')
+        if fmt != 'cdr':
+            raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
+        if profiles.strip() not in ('', '[]'):
+            qos[name] = profiles
+        formats[name] = fmt
+        names[tid] = name
+        types[name] = normalize_type(msgtype)
+        digests[name] = digest
+    return names, types, digests, formats, qos
 
 
 def _stored_tables(con: sqlite3.Connection, path: Path) -> None:
