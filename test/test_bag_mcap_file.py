@@ -118,6 +118,9 @@ def _summary_edited(path: Path, opcode: int, field: int, value: int, group: int 
     (0x08, 8, 1_700_000_000_010_000_000, 'chunk index 0 says message end time 1700000000010000000; the chunk at byte '
      r'\d+ has 1700000000029000000 \(allowed: the chunk index of a chunk names its own values\)'),
     (0x08, 16, 8, r'chunk index 0 says start offset 8; the chunk at byte \d+ has \d+'),   # points elsewhere
+    # chunk index: a message index offset pointing at the file's header (a seeking reader finds no index there)
+    (0x08, 38, 8, r'chunk index 0 says message index offsets \(\(\d+, 8\), .*; the chunk at byte \d+ has '
+     r'\(\(\d+, \d+\), '),
     # statistics: message end time 10 ms earlier
     (0x0B, 34, 1_700_000_000_019_000_000, 'statistics record says 1 chunks and messages from 1700000000000000000 '
      'to 1700000000019000000 ns; the file holds 1 chunks and messages from 1700000000000000000 to '
@@ -151,6 +154,55 @@ def test_summary_offsets_that_hide_a_group_are_refused(tmp_path: Path, messages:
     bag = write_bag(tmp_path / 'b', messages, _types(messages))
     f = bag / 'b_0.mcap'
     _summary_edited(f, 0x0E, field, value, group=0x08)
+    with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
+        read_mcap(f)
+
+
+def _data_edited(path: Path, opcode: int, which: int, field: int | None, value: int) -> None:
+    """Set the u64 at byte ``field`` of the ``which``-th ``opcode`` record of the data section to ``value`` (None:
+    set that record's opcode to ``value``) and recompute the data-section CRC (the DataEnd record's)."""
+    import struct
+    import zlib
+    data = bytearray(path.read_bytes())
+    pos, seen = 8, -1
+    while data[pos] != 0x0F:
+        seen += data[pos] == opcode
+        if data[pos] == opcode and seen == which:
+            if field is None:
+                data[pos] = value
+            else:
+                struct.pack_into('<Q', data, pos + 9 + field, value)
+        pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
+    struct.pack_into('<I', data, pos + 9, zlib.crc32(bytes(data[:pos])))
+    path.write_bytes(bytes(data))
+
+
+def _message_indexes(path: Path) -> int:
+    from mcap.records import MessageIndex
+    from mcap.stream_reader import StreamReader
+
+    with path.open('rb') as fh:
+        return sum(isinstance(r, MessageIndex) for r in StreamReader(fh).records)
+
+
+@pytest.mark.parametrize('field, value, refusal', [
+    (6, 1_700_000_000_029_000_000, r'record 0x07 at byte \d+: message index of channel \d+ lists \d+ entries; the '
+     r'chunk at byte \d+ holds \d+ messages of it \(first difference at entry 0 by log time; allowed: each message '
+     r'of the channel in the chunk, with its log time and offset\)'),  # the first message seemingly at the chunk's end
+    (14, 8, r'record 0x07 at byte \d+: message index of channel \d+ lists \d+ entries; the chunk at byte \d+ '
+     'holds'),                                                          # the first message's offset
+    (None, 0x80, r'channel \d+ of the chunk at byte \d+ is in no message index, while other messages are \(allowed: '
+     r'every channel of every chunk indexed, or no message index at all\)')])      # the last index made a custom record
+def test_message_indexes_that_misplace_or_hide_messages_are_refused(tmp_path: Path, messages: list,
+                                                                    field: int | None, value: int,
+                                                                    refusal: str) -> None:
+    """Message indexes were not compared with their chunk (only the data-section CRC covered them): a seeking
+    reader finds messages through them, so an entry moved to another time or offset, or a channel's index taken
+    away, passed with the CRC recomputed."""
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    f = bag / 'b_0.mcap'
+    read_mcap(f)
+    _data_edited(f, 0x07, 0 if field is not None else _message_indexes(f) - 1, field, value)
     with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
         read_mcap(f)
 

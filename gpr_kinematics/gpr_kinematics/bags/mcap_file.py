@@ -17,8 +17,9 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
   time range; the summary's Statistics must agree with the messages, chunks and time range walked, and its chunk
   indexes (which indexed readers such as ``ros2 bag play`` read instead of the walk) must be one per chunk, each
-  with that chunk's offset, length, time range, compression and sizes, and its summary offsets must each span
-  whole records of their opcode, leaving none of a group out.
+  with that chunk's offset, length, time range, compression, sizes and message indexes, and its summary offsets
+  must each span whole records of their opcode, leaving none of a group out;
+- the message indexes after each chunk must list exactly its messages, channel by channel (:mod:`.mcap_index`).
 
 Every violation raises :class:`~gpr_kinematics.bags.errors.BagError` naming the file, the byte offset and
 what is wrong. The SHA-256 of the whole file is computed on the way (for the bag's checksums).
@@ -34,6 +35,8 @@ from typing import BinaryIO
 
 from .errors import BagError
 from .fileio import open_regular
+from .mcap_index import MessageIndexes
+from .mcap_records import Fields, FormatError, decompress
 from .mcap_summary import ChunkFacts, chunk_index_problem, statistics_problem, summary_offset_problem
 
 MAGIC = b'\x89MCAP0\r\n'
@@ -45,9 +48,9 @@ MAX_CHUNK_BYTES = 256 << 20
 MAX_INFLATED_BYTES = 1 << 30
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
-OP_CHUNK_INDEX, OP_STATISTICS, OP_METADATA, OP_SUMMARY_OFFSET, OP_DATA_END = 0x08, 0x0B, 0x0C, 0x0E, 0x0F
+OP_MESSAGE_INDEX, OP_CHUNK_INDEX, OP_STATISTICS = 0x07, 0x08, 0x0B
+OP_METADATA, OP_SUMMARY_OFFSET, OP_DATA_END = 0x0C, 0x0E, 0x0F
 _FOOTER_LENGTH = 20  # summary_start u64, summary_offset_start u64, summary_crc u32
-_U16, _U32, _U64 = struct.Struct('<H'), struct.Struct('<I'), struct.Struct('<Q')
 _RECORD = struct.Struct('<BQ')
 _MESSAGE_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time, publish time
 
@@ -90,49 +93,6 @@ class McapFile:
     summary_crc: bool = False
 
 
-class _FormatError(Exception):
-    """A structural error at a byte offset (turned into BagError with the file name by read_mcap)."""
-
-
-class _Fields:
-    """Little-endian fields of one record body; every read is bounded by the body."""
-
-    def __init__(self, body: memoryview) -> None:
-        self.b = body
-        self.pos = 0
-
-    def take(self, n: int, what: str) -> memoryview:
-        if n > len(self.b) - self.pos:
-            left = len(self.b) - self.pos
-            raise _FormatError(f'{what}: length {n} beyond the end of its record ({left} bytes left)')
-        out = self.b[self.pos:self.pos + n]
-        self.pos += n
-        return out
-
-    def u16(self) -> int:
-        return int(_U16.unpack(self.take(2, 'u16'))[0])
-
-    def u32(self) -> int:
-        return int(_U32.unpack(self.take(4, 'u32'))[0])
-
-    def u64(self) -> int:
-        return int(_U64.unpack(self.take(8, 'u64'))[0])
-
-    def string(self, what: str) -> str:
-        raw = self.take(self.u32(), what)
-        try:
-            return bytes(raw).decode('utf-8')
-        except UnicodeDecodeError:
-            raise _FormatError(f'{what} is not UTF-8') from None
-
-    def string_map(self, what: str) -> tuple[tuple[str, str], ...]:
-        sub = _Fields(self.take(self.u32(), what))
-        out = []
-        while sub.pos < len(sub.b):
-            out.append((sub.string(f'{what} key'), sub.string(f'{what} value')))
-        return tuple(out)
-
-
 class _Walker:
     def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None) -> None:
         self.f = f
@@ -145,7 +105,8 @@ class _Walker:
         self.summary_start = 0
         self.inflated = 0
         self.record_start = 0
-        self.chunk_facts: list[ChunkFacts] = []     # per chunk walked, as a chunk index must name it
+        self.chunk_facts: list[tuple[int, int, int, int, str, int, int]] = []   # per chunk walked (with its indexes':
+        self.indexes = MessageIndexes()                                            # as a chunk index must name it)
         self.chunk_indexes: list[ChunkFacts] = []   # the chunk indexes of the summary
         self.stats_times: tuple[int, int, int] | None = None   # chunk count, message start, message end
         self.summary_records: list[tuple[int, int]] = []   # (start offset, opcode) of each summary record
@@ -154,35 +115,35 @@ class _Walker:
     def read(self, n: int) -> memoryview:
         data = self.f.read(n)
         if len(data) != n:
-            raise _FormatError(f'file ended after {self.pos + len(data)} of {self.size} bytes (changed while read?)')
+            raise FormatError(f'file ended after {self.pos + len(data)} of {self.size} bytes (changed while read?)')
         self.sha.update(data)
         self.pos += n
         return memoryview(data)
 
     # -- definitions ------------------------------------------------------------------------------------------
     def schema(self, body: memoryview) -> None:
-        r = _Fields(body)
+        r = Fields(body)
         sid = r.u16()
         name = r.string('schema name')
         encoding = r.string('schema encoding')
         text = bytes(r.take(r.u32(), 'schema data')).decode('utf-8', errors='replace')
         if sid == 0:
-            raise _FormatError('schema id 0 (reserved)')
+            raise FormatError('schema id 0 (reserved)')
         if self.schemas.setdefault(sid, (name, encoding, text)) != (name, encoding, text):
-            raise _FormatError(f'schema {sid} redefined as {name!r} (was {self.schemas[sid][0]!r})')
+            raise FormatError(f'schema {sid} redefined as {name!r} (was {self.schemas[sid][0]!r})')
 
     def channel(self, body: memoryview) -> None:
-        r = _Fields(body)
+        r = Fields(body)
         cid, sid = r.u16(), r.u16()
         topic = r.string('channel topic')
         encoding = r.string('channel message encoding')
         meta = r.string_map('channel metadata')
         if sid not in self.schemas:
-            raise _FormatError(f'channel {cid} ({topic!r}) refers to schema {sid}, which is not defined before it')
+            raise FormatError(f'channel {cid} ({topic!r}) refers to schema {sid}, which is not defined before it')
         name, schema_encoding, text = self.schemas[sid]
         ch = McapChannel(cid, topic, name, encoding, meta, schema_encoding, text)
         if self.out.channels.setdefault(cid, ch) != ch:
-            raise _FormatError(f'channel {cid} redefined ({topic!r})')
+            raise FormatError(f'channel {cid} redefined ({topic!r})')
         self.out.counts.setdefault(cid, 0)
         if self.topics is None or topic in self.topics:
             self.out.times.setdefault(cid, [])
@@ -190,12 +151,12 @@ class _Walker:
 
     def message(self, body: memoryview, lo: int = 0, hi: int = 2**64 - 1) -> None:
         if len(body) < _MESSAGE_HEAD.size:
-            raise _FormatError(f'message record of {len(body)} bytes (at least {_MESSAGE_HEAD.size})')
+            raise FormatError(f'message record of {len(body)} bytes (at least {_MESSAGE_HEAD.size})')
         cid, _seq, log_time, _pub = _MESSAGE_HEAD.unpack_from(body)
         if cid not in self.out.channels:
-            raise _FormatError(f'message on channel {cid}, which is not defined before it')
+            raise FormatError(f'message on channel {cid}, which is not defined before it')
         if not lo <= log_time <= hi:
-            raise _FormatError(f'message log time {log_time} outside its chunk [{lo}, {hi}]')
+            raise FormatError(f'message log time {log_time} outside its chunk [{lo}, {hi}]')
         self.out.counts[cid] += 1
         if self.out.start is None or log_time < self.out.start:
             self.out.start = log_time
@@ -208,46 +169,48 @@ class _Walker:
 
     # -- chunks -------------------------------------------------------------------------------------------------
     def chunk(self, body: memoryview) -> None:
-        r = _Fields(body)
+        r = Fields(body)
         lo, hi, size, crc = r.u64(), r.u64(), r.u64(), r.u32()
         compression = r.string('chunk compression')
         payload = r.take(r.u64(), 'chunk records')
         if size > MAX_CHUNK_BYTES:
-            raise _FormatError(f'chunk of {size} uncompressed bytes; allowed: at most {MAX_CHUNK_BYTES}')
+            raise FormatError(f'chunk of {size} uncompressed bytes; allowed: at most {MAX_CHUNK_BYTES}')
         self.inflated += size
         if self.inflated > MAX_INFLATED_BYTES:
-            raise _FormatError(f'chunks of more than {MAX_INFLATED_BYTES} uncompressed bytes in all; allowed: at most '
+            raise FormatError(f'chunks of more than {MAX_INFLATED_BYTES} uncompressed bytes in all; allowed: at most '
                                f'{MAX_INFLATED_BYTES} per file')
-        raw = _decompress(payload, compression, size)
+        raw = decompress(payload, compression, size)
         self.out.chunks += 1
         self.chunk_facts.append((self.record_start, _RECORD.size + len(body), lo, hi, compression, len(payload), size))
+        self.indexes.chunk(self.record_start, self.record_start + _RECORD.size + len(body))
         if crc:
             if zlib.crc32(raw) != crc:
-                raise _FormatError(f'chunk CRC mismatch (stored {crc:#010x}, computed {zlib.crc32(raw):#010x})')
+                raise FormatError(f'chunk CRC mismatch (stored {crc:#010x}, computed {zlib.crc32(raw):#010x})')
             self.out.chunks_with_crc += 1
         view, pos = memoryview(raw), 0
         while pos < len(view):
             if len(view) - pos < _RECORD.size:
-                raise _FormatError(f'chunk ends inside a record header ({len(view) - pos} bytes left)')
+                raise FormatError(f'chunk ends inside a record header ({len(view) - pos} bytes left)')
             op, length = _RECORD.unpack_from(view, pos)
-            pos += _RECORD.size
+            start, pos = pos, pos + _RECORD.size
             if length > len(view) - pos:
-                raise _FormatError(f'record of {length} bytes inside a chunk with {len(view) - pos} bytes left')
+                raise FormatError(f'record of {length} bytes inside a chunk with {len(view) - pos} bytes left')
             rec = view[pos:pos + length]
             pos += length
             if op == OP_MESSAGE:
                 self.message(rec, lo, hi)
+                self.indexes.message(rec, start)
             elif op == OP_SCHEMA:
                 self.schema(rec)
             elif op == OP_CHANNEL:
                 self.channel(rec)
             else:
-                raise _FormatError(f'record opcode {op:#04x} inside a chunk (allowed: schema, channel, message)')
+                raise FormatError(f'record opcode {op:#04x} inside a chunk (allowed: schema, channel, message)')
 
     # -- the file -------------------------------------------------------------------------------------------
     def walk(self) -> McapFile:
         if self.read(8) != MAGIC:
-            raise _FormatError('not an MCAP file (bad magic)')
+            raise FormatError('not an MCAP file (bad magic)')
         data_crc = zlib.crc32(MAGIC)
         summary_crc = 0
         in_summary = False
@@ -271,11 +234,11 @@ class _Walker:
             self.record_start = start
             try:
                 stats = self.record(op, body, first, in_summary) or stats
-            except _FormatError as exc:
-                raise _FormatError(f'record {op:#04x} at byte {start}: {exc}') from None
+            except FormatError as exc:
+                raise FormatError(f'record {op:#04x} at byte {start}: {exc}') from None
             first = False
         if self.read(8) != MAGIC:
-            raise _FormatError('bad end magic')
+            raise FormatError('bad end magic')
         if stats is not None:
             self.check_statistics(*stats)
         self.check_summary()
@@ -286,27 +249,27 @@ class _Walker:
         """The next record's header bytes, opcode and body; its length bounded by what is left of the file."""
         start = self.pos
         if self.size - start < _RECORD.size + 8:
-            raise _FormatError(f'no footer before the end of the file (record at byte {start})')
+            raise FormatError(f'no footer before the end of the file (record at byte {start})')
         head = self.read(_RECORD.size)
         op, length = _RECORD.unpack(head)
         if length > self.size - self.pos - 8:
-            raise _FormatError(f'record {op:#04x} at byte {start} claims {length} bytes; '
+            raise FormatError(f'record {op:#04x} at byte {start} claims {length} bytes; '
                                f'{self.size - self.pos - 8} are left before the end magic')
         if length > MAX_RECORD_BYTES:
-            raise _FormatError(f'record {op:#04x} at byte {start} of {length} bytes; allowed: at most '
+            raise FormatError(f'record {op:#04x} at byte {start} of {length} bytes; allowed: at most '
                                f'{MAX_RECORD_BYTES}')
         if first and op != OP_HEADER:
-            raise _FormatError(f'first record has opcode {op:#04x}, not the header')
+            raise FormatError(f'first record has opcode {op:#04x}, not the header')
         return head, op, self.read(length)
 
     def data_end(self, body: memoryview, start: int, in_summary: bool, data_crc: int) -> None:
         """The DataEnd record: the data section's CRC (checked when not 0); the summary section starts."""
         if in_summary:
-            raise _FormatError(f'second data end record at byte {start}')
-        stored = _Fields(body).u32()
+            raise FormatError(f'second data end record at byte {start}')
+        stored = Fields(body).u32()
         if stored:
             if stored != data_crc:
-                raise _FormatError(f'data section CRC mismatch (stored {stored:#010x}, computed {data_crc:#010x})')
+                raise FormatError(f'data section CRC mismatch (stored {stored:#010x}, computed {data_crc:#010x})')
             self.out.data_crc = True
         self.summary_start = self.pos
 
@@ -314,7 +277,7 @@ class _Walker:
         """The Statistics record's message counts (total and per channel) against the messages walked."""
         if count != sum(self.out.counts.values()) or any(per_channel.get(c, 0) != n
                                                          for c, n in self.out.counts.items()):
-            raise _FormatError(f'statistics record counts {count} messages, the chunks hold '
+            raise FormatError(f'statistics record counts {count} messages, the chunks hold '
                                f'{sum(self.out.counts.values())}')
 
     def check_summary(self) -> None:
@@ -322,42 +285,54 @@ class _Walker:
         end = self.size - len(MAGIC) - _FOOTER_LENGTH - _RECORD.size   # the footer record's start
         problem = (statistics_problem(self.stats_times, (self.out.chunks, self.out.start or 0, self.out.end or 0))
                    or summary_offset_problem(self.summary_records, self.summary_offsets, end)
-                   or chunk_index_problem(self.chunk_indexes, self.chunk_facts))
+                   or self.indexes.finish()
+                   or chunk_index_problem(self.chunk_indexes, [
+                       c + i for c, i in zip(self.chunk_facts, self.indexes.per_chunk, strict=True)]))
         if problem:
-            raise _FormatError(problem)
+            raise FormatError(problem)
 
     def record(self, op: int, body: memoryview, first: bool, in_summary: bool) -> tuple[int, dict[int, int]] | None:
+        self.message_index(op, body, in_summary)
         if op == OP_HEADER:
             if not first:
-                raise _FormatError('a second header record')
-            self.out.profile = _Fields(body).string('profile')
+                raise FormatError('a second header record')
+            self.out.profile = Fields(body).string('profile')
         elif op == OP_SCHEMA:
             self.schema(body)
         elif op == OP_CHANNEL:
             self.channel(body)
         elif op in (OP_MESSAGE, OP_CHUNK) and in_summary:
-            raise _FormatError('message data in the summary section')
+            raise FormatError('message data in the summary section')
         elif op == OP_MESSAGE:
             self.message(body)
         elif op == OP_CHUNK:
             self.chunk(body)
         elif op == OP_METADATA:
-            r = _Fields(body)
+            r = Fields(body)
             name = r.string('metadata name')
             self.out.metadata[name] = dict(r.string_map('metadata'))
         elif op in (OP_STATISTICS, OP_SUMMARY_OFFSET, OP_CHUNK_INDEX):
             return self.summary_record(op, body, in_summary)
-        return None  # message indexes, attachments: covered by the CRCs and the walk itself
+        return None  # attachments: covered by the CRCs and the walk itself
+
+    def message_index(self, op: int, body: memoryview, in_summary: bool) -> None:
+        """A message index checked against its chunk (:mod:`.mcap_index`); any other record but a chunk ends them."""
+        if op == OP_MESSAGE_INDEX:
+            problem = self.indexes.index(self.record_start, self.pos, body, in_summary)
+            if problem:
+                raise FormatError(problem)
+        elif op != OP_CHUNK:
+            self.indexes.other()
 
     def summary_record(self, op: int, body: memoryview, in_summary: bool) -> tuple[int, dict[int, int]] | None:
         """A Statistics record (its counts returned, its chunk count and times kept), a summary offset or a chunk
         index (kept, for the checks after the walk)."""
-        r = _Fields(body)
+        r = Fields(body)
         if op == OP_STATISTICS:
             count = r.u64()
             r.take(2 + 4 * 3, 'statistics counts')
             self.stats_times = (r.u32(), r.u64(), r.u64())
-            per = _Fields(r.take(r.u32(), 'channel message counts'))
+            per = Fields(r.take(r.u32(), 'channel message counts'))
             per_channel: dict[int, int] = {}
             while per.pos < len(per.b):
                 cid = per.u16()
@@ -367,60 +342,32 @@ class _Walker:
             self.summary_offsets.append((int(r.take(1, 'summary offset opcode')[0]), r.u64(), r.u64()))
         elif op == OP_CHUNK_INDEX and in_summary:
             lo, hi, start, length = r.u64(), r.u64(), r.u64(), r.u64()
-            r.take(r.u32(), 'chunk index message index offsets')
-            r.u64()   # message index length
+            pairs = r.take(r.u32(), 'chunk index message index offsets')
+            if len(pairs) % 10:
+                raise FormatError(f'chunk index message index offsets of {len(pairs)} bytes (allowed: 10 per channel)')
+            offsets = tuple(sorted(struct.iter_unpack('<HQ', pairs)))
+            index_length = r.u64()
             compression = r.string('chunk index compression')
-            self.chunk_indexes.append((start, length, lo, hi, compression, r.u64(), r.u64()))
+            self.chunk_indexes.append((start, length, lo, hi, compression, r.u64(), r.u64(), offsets, index_length))
         return None
 
     def footer(self, body: memoryview, start: int, in_summary: bool, crc: int) -> None:
         if len(body) != _FOOTER_LENGTH or self.pos != self.size - 8:
-            raise _FormatError(f'footer at byte {start} of {len(body)} bytes, {self.size - self.pos} bytes before the '
+            raise FormatError(f'footer at byte {start} of {len(body)} bytes, {self.size - self.pos} bytes before the '
                            f'end (a footer is {_FOOTER_LENGTH} bytes followed by the end magic)')
         if not in_summary:
-            raise _FormatError('no data end record before the footer')
-        r = _Fields(body)
+            raise FormatError('no data end record before the footer')
+        r = Fields(body)
         summary_start, summary_offset, stored = r.u64(), r.u64(), r.u32()
         has_summary = start > self.summary_start
         if summary_start != (self.summary_start if has_summary else 0) or not (
                 summary_offset == 0 or self.summary_start <= summary_offset <= start):
-            raise _FormatError(f'footer offsets (summary at {summary_start}, offsets at {summary_offset}) do not '
+            raise FormatError(f'footer offsets (summary at {summary_start}, offsets at {summary_offset}) do not '
                                f'match the file (summary at {self.summary_start})')
         if stored:
             if stored != crc:
-                raise _FormatError(f'summary CRC mismatch (stored {stored:#010x}, computed {crc:#010x})')
+                raise FormatError(f'summary CRC mismatch (stored {stored:#010x}, computed {crc:#010x})')
             self.out.summary_crc = True
-
-
-def _decompress(payload: memoryview, compression: str, size: int) -> bytes:
-    """Decompress a chunk to exactly ``size`` bytes, never producing more."""
-    if compression == '':
-        if len(payload) != size:
-            raise _FormatError(f'uncompressed chunk of {len(payload)} bytes declares {size}')
-        return bytes(payload)
-    if compression == 'zstd':
-        from backports import zstd  # the zstd of rosbags; compression.zstd from Python 3.14 has the same API
-
-        dec = zstd.ZstdDecompressor()
-        try:
-            raw = dec.decompress(payload, max_length=size)
-        except zstd.ZstdError as exc:
-            raise _FormatError(f'zstd chunk does not decompress ({exc})') from None
-    elif compression == 'lz4':
-        import lz4.frame
-
-        dec = lz4.frame.LZ4FrameDecompressor()
-        try:
-            raw = dec.decompress(bytes(payload), max_length=size)
-        except RuntimeError as exc:  # what lz4 raises for a corrupt frame
-            raise _FormatError(f'lz4 chunk does not decompress ({exc})') from None
-    else:
-        raise _FormatError(f'chunk compression {compression!r}; allowed: none, zstd or lz4')
-    if len(raw) != size or not dec.eof or dec.unused_data:
-        got = f'{len(raw)} bytes' if dec.eof else f'{len(raw)} bytes without reaching the end of its frame'
-        extra = f' and {len(dec.unused_data)} bytes after its frame' if dec.unused_data else ''
-        raise _FormatError(f'{compression} chunk decompresses to {got}{extra}; it declares {size}')
-    return bytes(raw)
 
 
 def read_mcap(path: Path, topics: set[str] | None = None) -> McapFile:
@@ -440,7 +387,7 @@ def read_mcap(path: Path, topics: set[str] | None = None) -> McapFile:
                                f'close it')
             f.seek(0)
             return _Walker(f, size, path, topics).walk()
-        except _FormatError as exc:
+        except FormatError as exc:
             raise BagError(f'{path}: corrupt MCAP file: {exc}') from None
         except OSError as exc:
             raise BagError(f'{path}: cannot be read: {exc.strerror or exc}') from None

@@ -4,11 +4,12 @@ instead of walking it. Each function returns what is wrong (empty when nothing i
 from __future__ import annotations
 
 #: A chunk as its index names it: (start offset, record length, message start time, message end time [ns],
-#: compression, compressed size, uncompressed size [bytes]).
-ChunkFacts = tuple[int, int, int, int, str, int, int]
+#: compression, compressed size, uncompressed size [bytes], its message indexes' (channel, offset) pairs sorted and
+#: their length [bytes]).
+ChunkFacts = tuple[int, int, int, int, str, int, int, tuple[tuple[int, int], ...], int]
 
 _NAMES = ('start offset', 'length', 'message start time', 'message end time', 'compression', 'compressed size',
-          'uncompressed size')
+          'uncompressed size', 'message index offsets', 'message index length')
 
 
 def statistics_problem(said: tuple[int, int, int] | None, walked: tuple[int, int, int]) -> str:
