@@ -126,6 +126,31 @@ def test_tripod_parasitic_motion_and_rotation(tripod):
     assert parasitic_motion(0.0, 0.3, 0.05)[0] == 0.0 and parasitic_motion(0.2, 0.0, 0.05)[0] == 0.0
 
 
+def test_tripod_eq7_as_printed_is_the_leg_at_120_deg_and_eq6_mixes_legs(tripod):
+    """Posypkin et al.'s eq. (7) as printed is the length of the leg at 120 deg; eq. (6) has the x term of a leg at
+    60 deg (both signs turned) with the y and z terms of the leg at 240 deg, so it is no leg's length."""
+    r = big_r = 0.05
+    h3 = np.sqrt(3.0)
+    rng = np.random.default_rng(11)
+    for theta, psi in rng.uniform(-0.5, 0.5, (6, 2)):
+        pose = tripod.complete_pose([0, 0, 0.1, theta, psi, 0])
+        x, y, z = pose[:3]
+        R = _paper_rotation(theta, psi, pose[5])
+        eq6 = np.sqrt((x + 0.5 * r * (R[0, 0] + h3 * R[0, 1]) - 0.5 * big_r) ** 2
+                      + (y - 0.5 * r * (R[1, 0] + h3 * R[1, 1]) + h3 / 2 * big_r) ** 2
+                      + (z - 0.5 * r * (R[2, 0] + h3 * R[2, 1])) ** 2)
+        eq7 = np.sqrt((x - 0.5 * r * (R[0, 0] - h3 * R[0, 1]) + 0.5 * big_r) ** 2
+                      + (y - 0.5 * r * (R[1, 0] - h3 * R[1, 1]) - h3 / 2 * big_r) ** 2
+                      + (z - 0.5 * r * (R[2, 0] - h3 * R[2, 1])) ** 2)
+        legs = tripod.inverse_kinematics(pose)               # legs at 0, 120, 240 deg
+        assert eq7 == pytest.approx(legs[1], abs=1e-15)
+        # eq. (6)'s x term is the leg at 240 deg's with r and R negated: x - r/2 (..) + R/2 became x + r/2 (..) - R/2
+        x240 = x - 0.5 * r * (R[0, 0] + h3 * R[0, 1]) + 0.5 * big_r
+        x_eq6 = x + 0.5 * r * (R[0, 0] + h3 * R[0, 1]) - 0.5 * big_r
+        assert eq6 ** 2 - legs[2] ** 2 == pytest.approx(x_eq6 ** 2 - x240 ** 2, abs=1e-15)
+        assert abs(x_eq6 - x240) > 1e-6 and abs(eq6 - legs[2]) > 1e-9   # tilted: the two x terms differ
+
+
 def test_tripod_spherical_joints_lie_in_leg_planes(tripod):
     rng = np.random.default_rng(10)
     poses = np.column_stack([np.zeros((200, 2)), rng.uniform(0.05, 0.12, 200), rng.uniform(-1.0, 1.0, (200, 2)),

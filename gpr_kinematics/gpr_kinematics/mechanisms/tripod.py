@@ -14,9 +14,10 @@ The tripod has three degrees of freedom, the height ``z`` and the tilts ``theta`
 - ``x = r/2 (cos(theta) cos(phi) + sin(psi) sin(theta) sin(phi) - cos(psi) cos(phi))``,
 
 the rotation (eqs. 2-3) ``R_p = Ry(theta) Rx(psi) Rz(phi)`` (scipy ``from_euler('YXZ', [theta, psi, phi])``)
-and the link lengths (eqs. 4-7) ``L_i = |p + R_p B_i - A_i|``. (Eqs. 6-7 as printed mix the signs of
-legs at 60 and 240 deg; the lengths here use the legs at 120 and 240 deg, for which the parasitic
-formulas put every spherical joint in its leg's plane, which :meth:`Tripod3RPS.plane_residuals` checks.)
+and the link lengths (eqs. 4-7) ``L_i = |p + R_p B_i - A_i|``. (Eq. 7 as printed is the leg at 120 deg;
+eq. 6 has the x term of a leg at 60 deg with the y and z terms of the leg at 240 deg. The lengths here use the
+legs at 120 and 240 deg, for which the parasitic formulas put every spherical joint in its leg's plane, which
+:meth:`Tripod3RPS.plane_residuals` checks.)
 
 Poses are ``(x, y, z, theta, psi, phi)`` (m, rad); the pose variables are ``z, theta, psi``.
 """

@@ -24,8 +24,9 @@ class TripodModel(WorkspaceModel):
     ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
     ``y = -r cos psi sin phi``, ``x = r/2 (Rp11 - Rp22)``, with ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2).
     Leg i joins ``a_i = R u_i`` to ``s_i = p + Rp r u_i``, ``u_i = (cos b_i, sin b_i, 0)``; the constraint is
-    ``leg_min <= |s_i - a_i| <= leg_max`` (eq. 4; eqs. 5-7 are its components, eq. 6-7 as printed carry
-    sign typos). These formulas keep each spherical joint in its leg's radial plane (tested exactly).
+    ``leg_min <= |s_i - a_i| <= leg_max`` (eq. 4; eqs. 5-7 are its components, eq. 6 as printed with
+    the x term's signs of a leg at 60 deg). These formulas keep each spherical joint in its leg's radial plane
+    (tested exactly).
     ``scale`` of the angles: the platform radius ``r`` (an angle step moves a joint by about ``r`` times it).
     """
 
