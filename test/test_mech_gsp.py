@@ -60,6 +60,36 @@ def test_asymmetric_paper_values():
     np.testing.assert_allclose(ref['pose'], pose, atol=1e-15)
 
 
+# The homogenised inverse Jacobians the paper prints, eqs. (24) and (25) (row 5 of (25) is printed with seven
+# entries, 0 0 0 0 -0.08 -0.309 0.947: its three angular entries are the last three).
+PRINTED_24 = [[0.243, 0.501, -0.829, 0.658, 0.462, 0.473], [0.231, -0.263, -0.936, -0.575, 0.726, -0.346],
+              [-0.568, -0.046, -0.821, -0.726, 0.418, 0.479], [0.155, 0.361, -0.919, -0.346, -0.844, -0.39],
+              [0.215, -0.401, -0.89, 0.05, -0.878, 0.408], [-0.46, -0.011, -0.887, 0.872, 0.072, -0.453]]
+PRINTED_25 = [[-0.599, -0.457, 0.656, -0.084, -0.645, -0.527], [-0.106, 0.181, 0.977, 0.283, -0.781, 0.176],
+              [-0.533, -0.026, -0.845, -0.458, 0.161, 0.284], [-0.08, -0.309, 0.947, 0.102, 0.311, 0.11],
+              [0, 0, 0, -0.08, -0.309, 0.947], [0, 0, 0, 0.058, -0.294, -0.953]]
+
+
+def test_printed_inverse_jacobians_differ_as_documented():
+    """docs/mechanisms.md, 'What does not reproduce': (24) is close to the negative of ours (up to 0.094), condition
+    number 3.06; in (25) the D1 and D2 rows' linear parts agree to 0.01-0.08, the D3 row is of opposite sign and
+    the D4 and A1 rows differ by up to 0.14 (0.136, the D4 row's angular part; up to 0.104 elsewhere)."""
+    d36 = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    J24 = d36.homogenized_inverse_jacobian(np.array([10e-3, -10e-3, 138e-3, 5 * DEG, -5 * DEG, -10 * DEG]))
+    assert np.max(np.abs(J24 + np.array(PRINTED_24))) == pytest.approx(0.094, abs=5e-4)
+    assert d36.report(np.array([10e-3, -10e-3, 138e-3, 5 * DEG, -5 * DEG, -10 * DEG])).condition_number \
+        == pytest.approx(3.06, abs=5e-3)
+    asym = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    J = asym.homogenized_inverse_jacobian(np.array([7e-3, -8e-3, 124e-3, 2 * DEG, 5 * DEG, -5 * DEG]))
+    diff = np.abs(J - np.array(PRINTED_25))
+    assert 0.005 < np.max(diff[:2, :3]) < 0.08
+    assert np.max(np.abs(J[2] + np.array(PRINTED_25[2]))) < 0.025
+    assert np.max(diff[3:]) == pytest.approx(0.136, abs=5e-4) and diff[3, 4] == np.max(diff[3:])
+    assert np.max(np.delete(diff[3:].ravel(), 4)) == pytest.approx(0.104, abs=5e-4)
+    # the unit common normal of leg 4's lines: ours (0.018, -0.239, 0.971), printed (-0.08, -0.309, 0.947)
+    np.testing.assert_allclose(J[4, 3:], [0.018, -0.239, 0.971], atol=5e-4)
+
+
 def test_euler_helpers_match_scipy_and_rates():
     rng = np.random.default_rng(3)
     ang = rng.uniform(-1, 1, (5, 3))
