@@ -73,6 +73,11 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.csv', 'name,x,y,z\n"a,1,0,0.4\n', r'line 2: 1 fields, the header has 4|not valid CSV'),
     ('s.yaml', 'units: {length: inch}\nstations: []\n', r"units: length = 'inch' is invalid; allowed: m or mm"),
     ('s.yaml', 'units: {angle: grad}\n', r"units: angle = 'grad' is invalid; allowed: rad or deg"),
+    # a misspelt top-level key was ignored: the stations read in m and rad, or none read at all
+    ('s.yaml', 'unit: {length: mm}\nstations: []\n', r"s.yaml: unknown key\(s\) unit; allowed keys: stations, units$"),
+    ('s.yaml', 'units: {length: mm}\nstation: []\n',
+     r"s.yaml: unknown key\(s\) station; allowed keys: stations, units$"),
+    ('s.yaml', 'units: {length: mm}\n', r's.yaml: no "stations" key; a station file is a mapping with "stations"'),
     ('s.yaml', 'units: {length: m, time: s}\n', r'units: unknown key\(s\) time'),
     ('s.yaml', 'stations: {a: 1}\n', r'stations must be a list of stations'),
     ('s.yaml', 'stations: [{name: a}]\n', r'stations\[0\]: name and position are required'),

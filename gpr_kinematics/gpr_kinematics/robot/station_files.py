@@ -163,7 +163,10 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
     """Stations of a mapping with ``stations`` (and optional ``units``), validated."""
     if not isinstance(data, Mapping):
         raise ConfigError(f'{where}: expected a mapping with "stations" (and "units"), got {type(data).__name__}')
+    check_keys(data, ('stations', 'units'), where)
     length, angle = units_of(data, where)
+    if 'stations' not in data:
+        raise ConfigError(f'{where}: no "stations" key; a station file is a mapping with "stations" (and "units")')
     lunit, aunit = ('mm' if length != 1.0 else 'm'), ('deg' if angle != 1.0 else 'rad')
     raw = data.get('stations', [])
     if not isinstance(raw, list):
