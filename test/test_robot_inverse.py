@@ -259,6 +259,17 @@ def test_refusals_name_what_and_by_how_much(change, kwargs, pattern):
         solve_stations(ROBOT, st, 'arm1', **kwargs)
 
 
+def test_unchecked_stations_beyond_the_tilt_limit_are_marked_not_raised():
+    """check=False marks every station beyond a limit infeasible; the tilt limit raised instead (and a program's
+    refusal lost its step: test_robot_plan)."""
+    st = Stations.of([[1.1, 0.5, 0.45]] * 3, [0.0, math.radians(2.5), 0.01], 0.3, 0.0)
+    sol = solve_stations(ROBOT, st, 'arm1', check=False)
+    assert sol.feasible.tolist() == [True, False, True]
+    alone = solve_stations(ROBOT, st.take([0, 2]), 'arm1')
+    np.testing.assert_array_equal(sol.joints[[0, 2]], alone.joints)
+    np.testing.assert_array_equal(sol.rods[[0, 2]], alone.rods)
+
+
 def test_joint_limit_refusal_with_the_value_computed_independently():
     """Level station 0.39 m in front of the shoulder, blade pointing back (heading pi + 0.25): the right branch
     needs the wrist beyond its limit 3.05 rad, the left one does not. The wrist angle from the cosine rule here."""

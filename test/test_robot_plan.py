@@ -71,6 +71,19 @@ def test_unreachable_waypoint_refused_with_its_step(tmp_path):
         plan_program(ROBOT, p)
 
 
+def test_a_station_beyond_the_tilt_limit_refused_with_its_step(tmp_path):
+    """The tilt refusal came out of the arm's batch without the program and the step (`station b: the station plane
+    tilts 68.7549 deg ... (and 2 more stations)`: a program's degrees read as radians); now it is the first such
+    waypoint's, as the other refusals."""
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [1.2, 0.5, 0.45], 'tilt': 1.2, 'heading': 0.0}],
+                      [{'move': 'a'}, {'pick': 'b'}, {'move': 'a'}])
+    with pytest.raises(LimitError, match=r"/p.yaml: steps\[1\] \(pick b, approach\): station b/approach: the "
+                                         r"station plane tilts 68.7549 deg in gpr_base, beyond the tilt limit 2 deg by "
+                                         r"66.8 deg \(1.17 rad\) \(and 2 more waypoints\)$"):
+        plan_program(ROBOT, p)
+
+
 def test_too_fast_a_move_refused_with_its_step(tmp_path):
     p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
                                  {'name': 'b', 'position': [0.75, 1.1, 0.3], 'heading': 1.5}],

@@ -251,11 +251,15 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     n_b = R_b[:, :, 2]
     tilt, az = tilt_from_normal(n_b)
     over = tilt - cfg.tilt_limit
-    if np.any(over > TILT_LIMIT_SLACK):
-        i = int(np.argmax(over > TILT_LIMIT_SLACK))
+    tilted = over > TILT_LIMIT_SLACK
+    if check and tilted.any():
+        i = int(np.argmax(tilted))
         raise LimitError(f'{stations.label(i)}: the station plane tilts {np.degrees(tilt[i]):.6g} deg in gpr_base, '
                          f'beyond the tilt limit {np.degrees(cfg.tilt_limit):.6g} deg by {np.degrees(over[i]):.3g} deg '
-                         f'({over[i]:.3g} rad)' + _more(over > TILT_LIMIT_SLACK))
+                         f'({over[i]:.3g} rad)' + _more(tilted))
+    if tilted.any():  # check=False: solved level instead, marked infeasible (the caller names them)
+        n_b = np.where(tilted[:, None], np.array([0.0, 0.0, 1.0]), n_b)
+        tilt, az = np.where(tilted, 0.0, tilt), np.where(tilted, 0.0, az)
     zw = a.wafer_height
     q, gpr = _platform_height(robot, tilt, az, p_b, n_b, zw)
     w = np.einsum('nji,nj->ni', gpr.rotation, p_b - gpr.position)
@@ -274,7 +278,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     naive_wafer = base.compose(PoseBatch(naive_gpr.position, naive_gpr.rotation)).compose(naive_wafer_p)
     free = stations.heading_free
     targets = _Targets(p_m, phi_m, sign, value)
-    bad = _fault_mask(robot, a, q, sol, targets, free)
+    bad = _fault_mask(robot, a, q, sol, targets, free) | tilted
     result = StationSolution(
         stations=stations, arm=a.name, branch=names, rods=q, joints=sol.theta, forward=fk, naive_rods=q_n,
         naive_joints=naive_sol.theta, naive_wafer=naive_wafer,
