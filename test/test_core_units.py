@@ -30,6 +30,8 @@ def test_column_cells_and_units_lines():
     assert units.scale('angle', None, (None, None), 'l', 'tilt') == (1.0, 'rad')
     with pytest.raises(FileError, match=r'column x: unit \[deg\] is invalid; allowed: m or mm \(a length\)'):
         units.scale('length', 'deg', (None, None), 'l', 'x')
+    with pytest.raises(FileError, match=r'column tilt: unit \[degree\] is invalid; allowed: rad or deg \(an angle\)$'):
+        units.scale('angle', 'degree', (None, None), 'l', 'tilt')   # it said "(a angle)"
     with pytest.raises(FileError, match=r'column qx takes no unit, got \[mm\]'):
         units.scale('number', 'mm', (None, None), 'l', 'qx')
     assert issubclass(FileError, ConfigError) and issubclass(FileError, InputError)

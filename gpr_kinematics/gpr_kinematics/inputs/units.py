@@ -88,5 +88,5 @@ def scale(kind: str, unit: str | None, defaults: FileUnits, where: str, name: st
     unit = unit or ('m' if kind == 'length' else 'rad')
     if unit not in units:
         raise FileError(f'{where}: column {name}: unit [{unit[:20]}] is invalid; allowed: '
-                         + ' or '.join(units) + f' (a {kind})')
+                         + ' or '.join(units) + f' ({"an" if kind[0] in "aeiou" else "a"} {kind})')
     return units[unit], unit
