@@ -193,7 +193,13 @@ def test_mobility_names_the_first_order_and_gives_the_full_solve(capsys):
     status, out, err = run(capsys, 'mobility', '0.5', '0.5', '0.5', '--dq', '1e-4', '-1e-4', '0')
     assert status == 0 and err == ''
     assert 'singular configuration: yes' in out
-    assert 'first order |dX/dP dP| = 0.000000e+00 (eq. 3)' in out and 'full solve |X(q + dq) - X(q)| = 1.0727' in out
+    assert 'first order |dX/dP dP| = 0.000000e+00 m (eq. 3)' in out and 'full solve |X(q + dq) - X(q)| = 1.0727' in out
+    assert re.search(r'eq\. 5 \[\S+, \S+\] m; full solve \|X\(q \+ dq\) - X\(q\)\| = 1\.072754e-07 m ', out)
+    # the polar model's virtual joints are lengths and angles: the norm's unit says so
+    status, out, _ = run(capsys, 'mobility', '0.5', '0.503', '0.498', '--dq', '1e-4', '0', '0', '--model', 'polar')
+    assert status == 0 and re.search(r'first order \|dX/dP dP\| = 1\.371122e-05 m\|rad \(eq\. 3\), eq\. 4 \[\S+, '
+                                     r'\S+\] m\|rad, eq\. 5 \[\S+, \S+\] m\|rad; full solve \|X\(q \+ dq\) - '
+                                     r'X\(q\)\| = 1\.369147e-05 m\|rad$', out.strip())
     b = run_json(capsys, 'mobility', '0.5', '0.5', '0.5', '--dq', '1e-4', '-1e-4', '0')['bounds']['for_dq']
     assert b['norm_dx'] == 0.0 and b['norm_dx_full'] == pytest.approx(1.0727e-7, rel=1e-4)
 

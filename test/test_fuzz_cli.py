@@ -400,7 +400,7 @@ REGRESSIONS = [
     ('mechanism gpr.yaml --pose 0 0 0.3 0 0 0', 0, 'singular: yes (rigid mechanism: rank dPhi/dP = 9, mobility 3'),
     ('mobility 0.5 0.5 0.5 --dq 1e308 0 0 --json', 2, 'a change larger than the stroke range 0.508 m'),
     ('mobility 0.5 0.5 0.5 --dq 1e308 0 0', 2, 'a change larger than the stroke range 0.508 m'),
-    ('mobility 0.5 0.5 0.5 --dq 1e-4 -1e-4 0', 0, 'full solve |X(q + dq) - X(q)| = 1.072754e-07'),
+    ('mobility 0.5 0.5 0.5 --dq 1e-4 -1e-4 0', 0, 'full solve |X(q + dq) - X(q)| = 1.072754e-07 m'),
     ('compensate --height 0.5 --tilt 0 --azimuth 0 --tool 1e300 0 0', 2, 'beyond the reach of a tool point'),
     ('compensate --height 0.4 --tilt 0.01 --azimuth 0 --tool 300 0 100', 2, 'beyond the reach of a tool point'),
     ('ik --height 500 --tilt 0 --azimuth 0', 2, 'height = 500 m puts a rod outside the stroke'),

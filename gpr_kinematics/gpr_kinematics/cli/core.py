@@ -149,11 +149,13 @@ def _cmd_mobility(args: argparse.Namespace) -> int:
     print(f'  |dX| / |projected dP| in [{res.bounds["eq4"][0]:.6g}, {res.bounds["eq4"][1]:.6g}] (eq. 4), '
           f'[{res.bounds["eq5"][0]:.6g}, {res.bounds["eq5"][1]:.6g}] (eq. 5)')
     if change is not None:
+        from ..core.virtual_joints import make_model
         full = change.norm_dx_full
-        print(f'  for dq = {vec(change.dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {change.norm_dx:.6e} (eq. 3), '
-              f'eq. 4 [{change.lower_eq4:.6e}, {change.upper_eq4:.6e}], eq. 5 [{change.lower_eq5:.6e}, '
-              f'{change.upper_eq5:.6e}]; '
-              + (f'full solve |X(q + dq) - X(q)| = {full:.6e}' if full is not None
+        u = 'm|rad' if make_model(cfg, res.model).angular.any() else 'm'  # |dX| of lengths and angles: mixed
+        print(f'  for dq = {vec(change.dq, fmt="{:.3e}")} m: first order |dX/dP dP| = {change.norm_dx:.6e} {u} '
+              f'(eq. 3), eq. 4 [{change.lower_eq4:.6e}, {change.upper_eq4:.6e}] {u}, eq. 5 [{change.lower_eq5:.6e}, '
+              f'{change.upper_eq5:.6e}] {u}; '
+              + (f'full solve |X(q + dq) - X(q)| = {full:.6e} {u}' if full is not None
                  else f'no full solve ({change.full_solve_refused})')
               + (' (at the singular configuration the first order of a rod change vanishes)' if res.singular else ''))
     return 0
