@@ -252,3 +252,17 @@ def test_program_export_trajectory(capsys, tmp_path):
     assert later['trajectory_duration'] == pytest.approx(e['trajectory_duration'] + 2.5)
     assert shifted[0]['time_from_start'] == {'sec': 2, 'nanosec': 500_000_000}
     assert [p['positions'] for p in shifted] == [p['positions'] for p in traj['points']]
+
+
+def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):
+    """`gpr --help` said programs were checked and exported (no send, no robot or calibration in its description),
+    and --lead-in gave no unit."""
+    code, out, _ = run(capsys, '--help')
+    text = ' '.join(out.split())
+    assert code == 0 and 'the whole robot and its programs, calibration and accuracy budgets' in text
+    assert 'program offline programs of the whole robot: check, export the joint tables and trajectory, send to a ' \
+           'controller' in text
+    code, out, _ = run(capsys, 'program', 'export', '--help')
+    text = ' '.join(out.split())
+    assert code == 0 and '--lead-in SECONDS --trajectory: the first point this much after the start [s]' in text
+    assert 'sample rate [Hz] (default 100; 0.1 to 5000)' in text

@@ -1,5 +1,5 @@
-"""The ``gpr`` command line: GPR kinematics, compensation, mobility, the paper's sweep; other mechanisms,
-workspaces and the verification of recorded bags.
+"""The ``gpr`` command line: GPR kinematics, compensation, mobility, the paper's sweep; the whole robot and its
+programs, calibration and accuracy budgets; other mechanisms, workspaces and the verification of recorded bags.
 
 SI units (metres, radians) by default; ``--mm`` and ``--deg`` convert inputs only, outputs stay SI.
 Subcommands live in modules with a ``register(subparsers)`` function whose parsers set ``handler=fn`` with

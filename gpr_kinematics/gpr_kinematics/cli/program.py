@@ -320,7 +320,8 @@ def _send_parser(psub: Any) -> None:
 
 def register(sub: Any) -> None:
     """Add ``gpr program`` to the ``gpr`` parser."""
-    program = sub.add_parser('program', help='offline programs of the whole robot: check, export the joint table',
+    program = sub.add_parser('program', help='offline programs of the whole robot: check, export the joint tables and '
+                             'trajectory, send to a controller',
                              description='Robot programs (docs/robot.md#programs).')
     psub = program.add_subparsers(dest='program_command', metavar='SUBCOMMAND', parser_class=type(program))
     psub.required = True
@@ -334,14 +335,16 @@ def register(sub: Any) -> None:
                    help='no progress line on stderr (shown by default once the check has run 2 s)')
     robot_options(p)
     p.set_defaults(handler=_cmd_check)
-    p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON')
+    p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON; the joint '
+                        'trajectory as YAML')
     p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
     p.add_argument('--waypoints', metavar='FILE', help='write the waypoint table (.csv or .json)')
     p.add_argument('--samples', metavar='FILE', help='write the sample table (.csv or .json)')
     p.add_argument('--trajectory', metavar='FILE', help='write the trajectory_msgs/JointTrajectory YAML (.yaml) that '
                    'ros2 action send_goal reads: "{trajectory: $(cat FILE)}"')
     p.add_argument('--lead-in', type=number, default=0.0, metavar='SECONDS', help='--trajectory: the first point this '
-                   'much after the start (a controller moves there from where the robot is); default 0')
+                   'much after the start [s] (a controller moves there from where the robot is; 0 to 3600); '
+                   'default 0')
     p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     robot_options(p)
     p.set_defaults(handler=_cmd_export)
