@@ -245,6 +245,10 @@ def test_demo_prints_before_and_after():
     m = re.search(r'nominal model (\d+\.\d+) um RMS, .*; calibrated model (\d+\.\d+) um RMS', res.stdout)
     assert float(m.group(1)) > 20 * float(m.group(2))
     assert res.stdout.count('accuracy budget: 2 station(s)') == 2
+    # the file it writes is a temporary one (it said "here calibrated.yaml", which a reader looked for)
+    assert re.search(r'^calibrated geometry: written to a temporary calibrated\.yaml and read back \(model compliant, '
+                     r'kappa 2\.747, 2\.935, 3\.069\), not kept: gpr calibrate MEASUREMENTS --output FILE writes one '
+                     r'for --config$', res.stdout, re.M)
 
 
 def test_corrupted_measurement_files_never_crash(capsys, tmp_path):

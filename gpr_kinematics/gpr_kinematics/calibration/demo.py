@@ -182,8 +182,9 @@ def run() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = write_calibrated_config(Path(tmp) / 'calibrated.yaml', model.config_for(res.estimate))
         back = load_config(out)
-        print(f'calibrated geometry: a config file for --config (here {out.name}: model {back.model}, kappa '
-              f'{", ".join(f"{k:.4g}" for k in back.kappa)})')
+        print(f'calibrated geometry: written to a temporary {out.name} and read back (model {back.model}, kappa '
+              f'{", ".join(f"{k:.4g}" for k in back.kappa)}), not kept: gpr calibrate MEASUREMENTS --output FILE '
+              'writes one for --config')
     st = np.array(STATIONS)
     from ..core import inverse_batch
     Q = inverse_batch(st[:, 0], st[:, 1], st[:, 2], cfg).q
