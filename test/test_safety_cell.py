@@ -76,7 +76,8 @@ def test_markers_one_per_obstacle_at_its_pose():
     ({'name': 'a', 'box': [float('nan'), 0.1, 0.1], 'position': [0, 0, 0]}, r'obstacles\[0\] \(a\): box\[0\] = nan'),
     ({'name': 'a', 'box': [-0.1, 0.1, 0.1], 'position': [0, 0, 0]}, r'obstacles\[0\] \(a\): box\[0\] = -0\.1 is '
                                                                      r'invalid; allowed: a finite number'),
-    ({'name': 'a', 'sphere': {'radius': 0.1}, 'position': [0, 0, 0]}, r'unknown key\(s\) sphere'),
+    ({'name': 'a', 'sphere': {'radius': 0.1}, 'position': [0, 0, 0]}, r'^my_cell\.yaml: obstacles\[0\] \(a\): unknown '
+                                                                      r'key\(s\) sphere; allowed keys: azimuth, box,'),
     ({'name': 'a', 'position': [0, 0, 0]}, r'shape = none is invalid; allowed: exactly one of box, cylinder'),
     ({'name': 'a', 'cylinder': {'radius': 0.1, 'length': 1e9}, 'position': [0, 0, 0]},
      r'obstacles\[0\] \(a\): length = 1000000000\.0 is invalid'),

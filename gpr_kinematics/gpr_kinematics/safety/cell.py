@@ -153,9 +153,10 @@ def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle
     lunit, aunit = ('mm' if length != 1.0 else 'm'), ('deg' if angle != 1.0 else 'rad')
     if not isinstance(ob, Mapping):
         raise ConfigError(f'{where}: expected a mapping with name, a shape ({", ".join(_SHAPES)}) and position')
-    check_keys(ob, _OBSTACLE_KEYS, where)
     name = ob.get('name')
-    if not isinstance(name, str) or not _NAME.fullmatch(name):   # isalnum took any script's letters and digits
+    named = isinstance(name, str) and _NAME.fullmatch(name) is not None   # isalnum took any script's letters, digits
+    check_keys(ob, _OBSTACLE_KEYS, f'{where} ({name})' if named else where)   # a misspelt key by the obstacle's name
+    if not isinstance(name, str) or not named:
         raise ConfigError(f'{where}: name = {brief(name)} is invalid{text_hint(name)}; allowed: 1 to 64 letters, '
                           'digits, _ and - (ASCII)')
     where = f'{where} ({name})'
