@@ -79,7 +79,9 @@ _DELETE = object()
     (('arms', 0, 'joints', 1, 'lower'), 3.0, r'arm1_elbow\): lower = 3.0 must be below upper = 2.9'),
     (('arms', 0, 'joints', 1, 'upper'), 7.0, r'upper = 7.0 is invalid; allowed: radians within \[-2pi, 2pi\]'),
     (('arms', 0, 'joints', 1, 'velocity'), float('nan'), r'velocity must be a finite number in rad/s; got nan'),
-    (('arms', 0, 'joints', 1, 'speed'), 1, r'unknown key\(s\) speed; allowed keys: acceleration, height, jerk, length'),
+    (('arms', 0, 'joints', 1, 'speed'), 1, r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): unknown key\(s\) speed; '
+                                           r'allowed keys: acceleration, height, jerk, length'),
+    (('arms', 0, 'brnch'), 'left', r'arms\[0\] \(arm1\): unknown key\(s\) brnch; allowed keys: blade, branch, home'),
     (('arms', 0, 'blade', 'wafer_centre'), _DELETE, r'blade: wafer_centre = None is invalid'),
     (('arms', 0, 'branch'), 'up', r"branch = 'up' is invalid; allowed: left or right"),
     (('arms', 0, 'home'), [0, 3.0, 0], r'home: arm1_elbow = 3.0 is invalid; allowed: within \[-2.9, 2.9\] rad'),

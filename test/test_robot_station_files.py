@@ -84,7 +84,9 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.yaml', 'stations: [{name: a, position: [1, 2]}]\n', r"stations\[0\] \(a\): position = \[1, 2\] is invalid"),
     ('s.yaml', 'stations: [{name: a, position: [1, 2, .inf]}]\n', r'z = inf is invalid; allowed: a finite number in m'),
     ('s.yaml', 'stations: [{name: a, position: [1, 2, 3], tilt: "1"}]\n', r"tilt = '1' is invalid"),
-    ('s.yaml', 'stations: [{name: a, position: [1, 2, 3], speed: 1}]\n', r'unknown key\(s\) speed'),
+    ('s.yaml', 'stations: [{name: a, position: [1, 2, 3], speed: 1}]\n',
+     r'stations\[0\] \(a\): unknown key\(s\) speed'),
+    ('s.yaml', 'stations: [{name: [a], position: [1, 2, 3], speed: 1}]\n', r'stations\[0\]: unknown key\(s\) speed'),
     ('s.yaml', 'stations: [{name: true, position: [1, 2, 3]}]\n', r'stations\[0\]: name = True is invalid \(YAML reads '
                                                                  r'true and false as booleans: quote the name\)'),
     ('s.yaml', '- 1\n', r'expected a mapping with "stations"'),

@@ -50,7 +50,7 @@ from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
 from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
 from .fields import NAME_RULE as _NAME_RULE
-from .fields import _angle, _mapping, _name, _number, _rpy, _vector, _xyz
+from .fields import _angle, _mapping, _name, _named, _number, _rpy, _vector, _xyz
 
 Array = NDArray[np.float64]
 
@@ -244,7 +244,7 @@ def _arm_dict(arm: Arm) -> dict[str, Any]:
 def _joint(raw: Any, where: str) -> ArmJoint:
     data = _mapping(raw, where, 'a joint: name, length, height, lower, upper, velocity, acceleration')
     check_keys(data, ('name', 'length', 'height', 'lower', 'upper', 'velocity', 'acceleration', 'zero_offset',
-                      'jerk'), where)
+                      'jerk'), _named(data, where))
     name = _name(data, 'name', where)
     where = f'{where} ({name})'
     lower = _angle(data, 'lower', where)
@@ -298,7 +298,7 @@ def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundanc
 
 def _arm(raw: Any, where: str) -> Arm:
     data = _mapping(raw, where, 'an arm: name, mount, joints, blade, branch, home, redundancy')
-    check_keys(data, ('name', 'mount', 'joints', 'blade', 'branch', 'home', 'redundancy', 'links'), where)
+    check_keys(data, ('name', 'mount', 'joints', 'blade', 'branch', 'home', 'redundancy', 'links'), _named(data, where))
     name = _name(data, 'name', where)
     where = f'{where} ({name})'
     mount = _mapping(data.get('mount', {}), f'{where}: mount', 'position and yaw of the first joint axis')

@@ -57,6 +57,12 @@ def _name(data: Mapping[str, Any], key: str, where: str, default: str | None = N
     return value
 
 
+def _named(data: Mapping[str, Any], where: str) -> str:
+    """``where`` with the mapping's ``name`` when it is a valid one: its keys' refusal names it before it is read."""
+    value = data.get('name')
+    return f'{where} ({value})' if isinstance(value, str) and _NAME.fullmatch(value) else where
+
+
 def _mapping(value: Any, where: str, what: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise ConfigError(f'{where}: expected a mapping ({what}), got {type(value).__name__}')

@@ -178,7 +178,11 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         w = f'{where}: stations[{i}]'
         if not isinstance(st, Mapping):
             raise ConfigError(f'{w}: expected a mapping with name, position, tilt, azimuth, heading')
-        check_keys(st, _STATION_KEYS, w)
+        try:   # a misspelt key named by the station's name when it has a valid one
+            label = f'{w} ({station_name(st.get("name"), w)})'
+        except ConfigError:
+            label = w
+        check_keys(st, _STATION_KEYS, label)
         if 'name' not in st or 'position' not in st:
             raise ConfigError(f'{w}: name and position are required')
         name = station_name(st['name'], w)
