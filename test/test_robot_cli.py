@@ -266,3 +266,27 @@ def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):
     text = ' '.join(out.split())
     assert code == 0 and '--lead-in SECONDS --trajectory: the first point this much after the start [s]' in text
     assert 'sample rate [Hz] (default 100; 0.1 to 5000)' in text
+
+
+def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(capsys, tmp_path):
+    """A program copied away from its robot and cell was refused as `cannot read robot file
+    '../robots/example_robot.yaml'`: neither the program that named it nor the folder it is relative to was said."""
+    import shutil
+
+    program = tmp_path / 'p.yaml'
+    shutil.copy(config_path('programs/example_cell_program.yaml'), program)
+    robot, cell = config_path('robots/example_robot.yaml'), config_path('cells/example_cell.yaml')
+    status, out, err = run(capsys, 'program', 'export', str(program), '--waypoints', str(tmp_path / 'w.csv'))
+    assert (status, out) == (2, '') and err.count('\n') == 1 and not (tmp_path / 'w.csv').exists()
+    assert err == (f"gpr program: error: {program}: robot file '{tmp_path / '../robots/example_robot.yaml'}' (named "
+                   'by the program, relative to its folder) does not exist; allowed: an existing file, or --robot '
+                   'FILE\n')
+    status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
+    assert status == 2 and f"{program}: cell file '{tmp_path / '../cells/example_cell.yaml'}'" in err
+    assert err.endswith('allowed: an existing file, or --cell FILE\n')
+    status, out, err = run(capsys, 'accuracy', str(program), '--tolerances',
+                           str(config_path('calibration/tolerances_example.yaml')))
+    assert status == 2 and f"{program}: robot file '{tmp_path / '../robots/example_robot.yaml'}'" in err
+    status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot), '--cell', str(cell),
+                           '--no-progress')
+    assert status == 0 and out.rstrip().endswith('safe')

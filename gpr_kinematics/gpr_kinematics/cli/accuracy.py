@@ -37,7 +37,7 @@ from ..errors import InputError, brief
 from ..inputs.safe_yaml import YamlValue
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, number, whole
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, whole
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -132,7 +132,7 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path) -> tuple[Budg
             raise InputError('--tool: a robot program\'s tool point is the wafer centre of each station\'s arm')
         program = parse_program(data, str(path), path.parent)
         # the stations solved under the budget's own model, as for a platform program
-        robot = load_robot(args.robot or program.robot, geometry=args.config, model=options.model or MODEL)
+        robot = load_robot(named_file(program, 'robot', args.robot), geometry=args.config, model=options.model or MODEL)
         return robot_budget(robot, program, table, options), (f'robot {robot.name}: tool point = the wafer centre of '
                                                               f'each station\'s arm, errors in the axes of '
                                                               f'{robot.world_frame}')

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 from collections.abc import Iterable
 from pathlib import Path
@@ -12,12 +13,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
-from ..errors import InputError, brief
+from ..errors import FileError, InputError, brief
 from ..inputs.validation import decimal, finite_number
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
     from ..robot.description import RobotDescription
+    from ..robot.program import RobotProgram
 
 #: The pose convention of ``gpr mechanism``, ``accuracy`` and ``dexterity`` (their help epilog).
 CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
@@ -117,6 +119,17 @@ def robot_of(args: argparse.Namespace, default: Path | None = None) -> RobotDesc
     from ..robot.description import load_robot
     path = default if args.robot is None else args.robot
     return load_robot(path, geometry=args.config, model=args.model)
+
+
+def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | None:
+    """The file the program names as ``key`` (``robot``, ``cell``) unless the option ``given`` replaces it;
+    :class:`FileError` naming the program when that file does not exist (a refusal that named the file alone left
+    the reader to guess who named it and relative to what)."""
+    path: Path | None = getattr(program, key)
+    if given is not None or path is None or os.path.lexists(path):
+        return given if given is not None else path
+    raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) does '
+                    f'not exist; allowed: an existing file, or --{key} FILE')
 
 
 def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:

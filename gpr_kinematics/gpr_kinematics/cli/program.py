@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..robot.plan import ProgramSummary, program_summary
-from .options import number, robot_of, robot_options
+from .options import named_file, number, robot_of, robot_options
 from .output import JsonValue, emit_json
 from .progress import ProgressLine
 
@@ -39,7 +39,8 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
         note_input(program.cell)
     if rate is not None:
         check_sample_count(program, rate)
-    return program, plan_program(robot_of(args, program.robot), program, rate)
+    return program, plan_program(robot_of(args, named_file(program, 'robot', args.robot)), program, rate)
+
 
 
 def _print_summary(s: ProgramSummary) -> None:
@@ -72,7 +73,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         check_output(args.plot, 'plot')
     margin = MARGIN if args.margin is None else args.margin
     program, plan = _program(args)
-    path = args.cell if args.cell is not None else program.cell
+    path = named_file(program, 'cell', args.cell)
     cell = None if path is None else load_cell(path)
     line = ProgressLine(after=float('inf') if args.no_progress else 2.0)
     try:
