@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
+from ..core.virtual_joints import EDGE_NAMES
 from .options import MM, direction, number, rod_lengths, vec, whole
 from .output import emit_json, json_object
 
@@ -67,7 +68,7 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     from ..core.virtual_joints import make_model
     names = ', '.join(f'{n} = {v:.9g}' for n, v in zip(fk.virtual_joint_names, fk.virtual_joints, strict=True))
     print(f'  virtual joints {names} ({"m, rad" if make_model(cfg, fk.model).angular.any() else "m"})')
-    print(f'  side lengths  L12, L23, L31 = {vec(fk.side_lengths)} m')
+    print(f'  side lengths  {", ".join(EDGE_NAMES)} = {vec(fk.side_lengths)} m')
     print(f'  centre shift  {vec(fk.centre_shift, 1e6, "{:.3f}")} um (versus the naive model)')
     print(f'  joint displacement {vec(fk.joint_displacement, 1e6, "{:.3f}")} um, '
           f'{"within" if fk.within_budget else "BEYOND"} the imperfection budget '
@@ -168,7 +169,7 @@ def _write_csv(path: str, s: SweepResult) -> Path:
     names = list(fk.virtual_joint_names)
     header = (['sample', 'pass', 'gamma', 'alpha', 'q1', 'q2', 'q3', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw',
                'tilt', 'tilt_azimuth', 'twist', 'centre_shift_x', 'centre_shift_y', 'centre_shift_z']
-              + names + ['L12', 'L23', 'L31', 'iterations', 'residual'])
+              + names + [*EDGE_NAMES, 'iterations', 'residual'])
     cols = np.column_stack([np.arange(len(s)), s.pass_index, s.gamma, s.alpha, s.q, fk.position, fk.quaternion,
                             fk.tilt, fk.tilt_azimuth, fk.twist, fk.centre_shift, fk.virtual_joints,
                             fk.side_lengths, fk.iterations, fk.residual])

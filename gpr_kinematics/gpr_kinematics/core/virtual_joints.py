@@ -59,6 +59,7 @@ Components = tuple[Sequence[Value], Sequence[Value], Sequence[Value], Sequence[V
 
 #: Edges of the joint triangle: (i, i % 3 + 1) in the paper's 1-based numbering.
 EDGES = ((0, 1), (1, 2), (2, 0))
+#: The side lengths of :data:`EDGES` as the paper names them (``L = (L12, L23, L31)``).
 EDGE_NAMES = ('L12', 'L23', 'L31')
 #: The paper's models, solved by the closure Newton-Raphson (:func:`newton_closure`); ``compliant`` is solved as
 #: a minimum of elastic cost (:mod:`gpr_kinematics.core.compliance`).

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.machine import MachineGeometry
+from ..core.virtual_joints import EDGES
 from ..robot.description import RobotDescription
 from ..robot.plan import joint_limits
 from ..robot.spline import Spline
@@ -57,7 +58,6 @@ from .motion import (
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
-EDGES = ((0, 1), (1, 2), (2, 0))
 
 
 def _with_rod_modes(X: Array) -> Array:

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from ..core import ForwardBatch, forward_batch
 from ..core.config import GprConfig
 from ..core.machine import MachineGeometry
-from ..core.virtual_joints import coordinate_scale, make_model
+from ..core.virtual_joints import EDGES, coordinate_scale, make_model
 from ..robot.description import RobotDescription
 from ..robot.forward import arm_transforms, base_pose
 from ..robot.line_bounds import line_rate_bounds
@@ -166,9 +166,8 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
     P0, P1 = geo.base_points(Q0 + s0[:, None] * D), geo.base_points(Q0 + s1[:, None] * D)
     ds = np.abs(s1 - s0)
     vel = D[:, :, None] * u[None]                                                     # u_k D_k (K, 3, 3)
-    edges = ((0, 1), (1, 2), (2, 0))
     flux = np.zeros(ds.shape)   # int |d(L^2)/dt|
-    for a, b in edges:
+    for a, b in EDGES:
         Ep = vel[:, b] - vel[:, a]
         flux += 2.0 * ds * np.maximum(np.abs(np.einsum('ki,ki->k', P0[:, b] - P0[:, a], Ep)),
                                    np.abs(np.einsum('ki,ki->k', P1[:, b] - P1[:, a], Ep)))
@@ -184,7 +183,7 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
         omega_t = np.where(ds * G > 0.0, np.where(nmin > 0.0, ds * G / nmin, np.inf), 0.0)
     sin_a = rod_angles(u, (N0, N1), (n0, n1)) + omega_t
     omega_n = np.full(ds.shape, np.inf)
-    for a, b in edges:
+    for a, b in EDGES:
         E0, Ep = P0[:, b] - P0[:, a], (vel[:, b] - vel[:, a]) * np.sign(s1 - s0)[:, None]
         tau = np.clip(-np.einsum('ki,ki->k', E0, Ep) / np.maximum(np.einsum('ki,ki->k', Ep, Ep), 1e-300), 0.0, ds)
         lmin = np.linalg.norm(E0 + tau[:, None] * Ep, axis=1)

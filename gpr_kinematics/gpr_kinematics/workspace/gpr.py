@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..core.virtual_joints import EDGES
 from ..errors import ConfigError, InputError
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, monotone
@@ -124,8 +125,7 @@ class GprModel(WorkspaceModel):
         """Radial virtual-joint displacements dl (N, 3) [m] for rod lengths q (N, 3): Newton on
         ``l_i^2 + l_j^2 + l_i l_j = 3 R^2 + (q_j - q_i)^2`` from ``l = R`` (the radial model)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        pairs = ((0, 1), (1, 2), (2, 0))
-        D = np.stack([(q[:, j] - q[:, i]) ** 2 for i, j in pairs], axis=1)
+        D = np.stack([(q[:, j] - q[:, i]) ** 2 for i, j in EDGES], axis=1)
         dl = np.zeros_like(q)
         for _ in range(30):
             F = (
@@ -135,14 +135,14 @@ class GprModel(WorkspaceModel):
                         + dl[:, i] ** 2
                         + dl[:, j] ** 2
                         + dl[:, i] * dl[:, j]
-                        for i, j in pairs
+                        for i, j in EDGES
                     ],
                     axis=1,
                 )
                 - D
             )
             J = np.zeros((q.shape[0], 3, 3))
-            for row, (i, j) in enumerate(pairs):
+            for row, (i, j) in enumerate(EDGES):
                 J[:, row, i] = 3 * self.R + 2 * dl[:, i] + dl[:, j]
                 J[:, row, j] = 3 * self.R + 2 * dl[:, j] + dl[:, i]
             step = np.linalg.solve(J, F[..., None])[..., 0]
@@ -167,9 +167,8 @@ class GprModel(WorkspaceModel):
         s = [Interval.point(0.0) if a == 0.0 else Interval.const(math.sin(a)) for a in self.az]
         lin = [wx * s[k] - wy * c[k] for k in range(3)]
         q = [z + t * lin[k] * R for k in range(3)]
-        pairs = ((0, 1), (1, 2), (2, 0))
         # d_ij = q_j - q_i = R t (wx (s_j - s_i) - wy (c_j - c_i)): computed without z (no cancellation)
-        D = [(t * (wx * (s[j] - s[i]) - wy * (c[j] - c[i])) * R).sqr() for i, j in pairs]
+        D = [(t * (wx * (s[j] - s[i]) - wy * (c[j] - c[i])) * R).sqr() for i, j in EDGES]
         inv6R = Interval.point(1.0) / (Interval.point(R) * 6.0)
         lin_dl = [(D[0] - D[1] + D[2]) * inv6R, (D[0] + D[1] - D[2]) * inv6R, (D[1] + D[2] - D[0]) * inv6R]
         m = np.maximum.reduce([np.maximum(np.abs(v.lo), np.abs(v.hi)) for v in lin_dl])
