@@ -60,8 +60,6 @@ CHI2_QUANTILE = 0.999
 CV_GATE = 2.0
 #: A row whose ``I - H_ii`` has an eigenvalue below this determines a combination alone.
 LEVERAGE_ONE = 1e-9
-#: Fitted parameters named in a gate message, at most.
-NAMED = 4
 #: The standard deviation of a normal distribution over its median absolute deviation (``1 / Phi^-1(3/4)``).
 MAD_NORMAL = 1.482602218505602
 #: Smallest robust scale of the outlier check without a declared noise, in units of the sigmas used: residuals of

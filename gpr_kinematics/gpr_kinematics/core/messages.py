@@ -143,13 +143,6 @@ def platform_state(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, fra
                                **forward_fields(types, fk))
 
 
-def fill_fields(msg: RosMessage, fields: Mapping[str, RosMessage]) -> RosMessage:
-    """Set ``fields`` as attributes of an existing message (a service response); returns ``msg``."""
-    for name, value in fields.items():
-        setattr(msg, name, value)
-    return msg
-
-
 def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, frame_id: str, sample: int,
                     commanded_tilt: float, commanded_azimuth: float) -> dict[str, RosMessage]:
     """Every message the trajectory node publishes for one sample, by topic (relative names):

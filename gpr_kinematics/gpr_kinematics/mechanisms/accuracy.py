@@ -70,11 +70,6 @@ class AccuracyResult:
         """``exact - linearized`` (N, m): the linearisation error (second order in the errors)."""
         return np.asarray(self.exact - self.linearized)
 
-    @property
-    def exact_pose_deviation(self) -> np.ndarray:
-        """``(N, 6)`` deviation of the complete pose, parasitic components included."""
-        return np.asarray(self.exact_poses - self.poses)
-
     def record(self, index: int = 0) -> PoseDeviation:
         """The result of pose ``index`` (:class:`PoseDeviation`)."""
         names = self.variables

@@ -188,10 +188,6 @@ class GprMechanism(Mechanism):
     def _du_dq(self, q: np.ndarray) -> np.ndarray:
         return self._fd(q)[0]
 
-    def forward_jacobian(self, joints: Any) -> tuple[np.ndarray, np.ndarray]:
-        """``(du/dq (N, 3, 3), dT/dq (N, 6, 3))`` at rod lengths ``(N, 3)``, central differences of FK."""
-        return self._fd(np.atleast_2d(np.asarray(joints, dtype=float)))
-
     def task_jacobian(self, poses: Any) -> np.ndarray:
         """``dq/du (N, 3, 3)`` = ``(du/dq)^-1`` (rows q1..q3, columns z, tilt_x, tilt_y)."""
         arr, _ = as_poses(poses)

@@ -168,13 +168,6 @@ class UPU3(Mechanism):
         out[parallel] = 'parallel'
         return out
 
-    def dexterity_vs_height(self, heights: Any, x: float = 0.0, y: float = 0.0) -> np.ndarray:
-        """Dexterity (inverse condition number of eq. (10)'s ``J``) at ``(x, y, z)`` for each height ``z``."""
-        z = np.asarray(heights, dtype=float).ravel()
-        poses = np.zeros((z.size, 6))
-        poses[:, 0], poses[:, 1], poses[:, 2] = x, y, z
-        return self.dexterity(poses)
-
 
 def load_upu3(data: Mapping[str, Any], source: str) -> UPU3:
     """YAML loader entry for ``type: upu3``."""

@@ -28,7 +28,6 @@ from ..errors import ConfigError
 from ..inputs.schema import check_keys
 from .fields import _mapping, _number, _vector
 
-SHAPES = ('box', 'cylinder')
 #: Defaults: a 300 mm wafer [m, m, kg], a passive blade's friction coefficient.
 WAFER_DIAMETER, WAFER_THICKNESS, WAFER_MASS = 0.300, 0.000775, 0.128
 FRICTION = 0.3
