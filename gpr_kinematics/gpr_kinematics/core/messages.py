@@ -63,7 +63,8 @@ STATE_FROM_RESULT: tuple[tuple[str, str], ...] = (
 #: The names of the three actuated joints (rods) in ``sensor_msgs/JointState`` and the robot model.
 ROD_JOINT_NAMES: tuple[str, str, str] = ('rod_1', 'rod_2', 'rod_3')
 
-_NS_PER_S = 1_000_000_000
+#: Nanoseconds per second: a ``builtin_interfaces`` Time or Duration is ``sec`` and ``nanosec`` in ``[0, NS_PER_S)``.
+NS_PER_S = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -91,11 +92,29 @@ class Described(Protocol):
     def to_dict(self) -> Mapping[str, YamlValue]: ...
 
 
+def time_parts(ns: int) -> tuple[int, int]:
+    """``(sec, nanosec)`` of a ``builtin_interfaces`` Time or Duration of ``ns`` integer nanoseconds.
+
+    >>> time_parts(1_500_000_000), time_parts(-1)
+    ((1, 500000000), (-1, 999999999))
+    """
+    ns = int(ns)
+    return ns // NS_PER_S, ns % NS_PER_S
+
+
+def duration_parts(seconds: float) -> tuple[int, int]:
+    """``(sec, nanosec)`` of a duration of ``seconds`` [s], rounded to the nearest nanosecond.
+
+    >>> duration_parts(0.005), duration_parts(2.0000000004)
+    ((0, 5000000), (2, 0))
+    """
+    return time_parts(round(seconds * NS_PER_S))
+
+
 def header(types: MessageTypes, stamp_ns: int, frame_id: str) -> RosMessage:
     """``std_msgs/Header`` with a stamp given in integer nanoseconds."""
-    stamp_ns = int(stamp_ns)
-    return types.Header(stamp=types.Time(sec=stamp_ns // _NS_PER_S, nanosec=stamp_ns % _NS_PER_S),
-                        frame_id=str(frame_id))
+    sec, nanosec = time_parts(stamp_ns)
+    return types.Header(stamp=types.Time(sec=sec, nanosec=nanosec), frame_id=str(frame_id))
 
 
 def pose(types: MessageTypes, position: Vector, quaternion: Vector) -> RosMessage:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.messages import ROD_JOINT_NAMES
+from ..core.messages import ROD_JOINT_NAMES, duration_parts
 from ..errors import InputError
 from ..inputs.files import write_text
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
@@ -47,7 +47,6 @@ MAX_POINTS = MAX_SAMPLES
 MAX_JOINTS = 64
 #: Longest trajectory [s] (a day).
 MAX_DURATION = 86_400.0
-_NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -164,8 +163,8 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
 
 
 def _duration(t: float) -> str:
-    ns = round(t * _NS)
-    return f'{{sec: {ns // _NS}, nanosec: {ns % _NS}}}'
+    sec, nanosec = duration_parts(t)
+    return f'{{sec: {sec}, nanosec: {nanosec}}}'
 
 
 def _numbers(values: Array) -> str:
