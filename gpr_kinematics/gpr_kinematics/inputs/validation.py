@@ -94,6 +94,16 @@ def random_seed(value: Any, name: str = 'seed') -> int:
     return int(value)
 
 
+def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np.float64]:
+    """``values`` as a float array of its own shape, NaN and infinity kept; what numpy cannot convert (strings,
+    complex numbers, ragged lists, an int of 400 digits: OverflowError) is an :class:`InputError` saying ``name``
+    must be ``expected`` and quoting the value. The one conversion of numbers a user gives."""
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f'{name} must be {expected}, got {brief(values)}') from None
+
+
 def finite_number(value: Any, name: str) -> float:
     """``value`` as a finite float; else :class:`InputError` naming ``name``."""
     try:
@@ -107,10 +117,7 @@ def finite_number(value: Any, name: str) -> float:
 
 def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be {size} numbers, got {brief(values)}') from None
+    a = float_array(values, name, f'{size} numbers')
     if a.shape != (size,):
         raise InputError(f'{name} must be {size} numbers, got shape {a.shape}')
     bad = ~np.isfinite(a)
@@ -136,10 +143,7 @@ def rotation_matrices(values: Any, name: str, tolerance: float = 1e-9) -> NDArra
     """``values`` as rotation matrices ``(N, 3, 3)`` (one ``(3, 3)`` becomes ``(1, 3, 3)``): finite, orthonormal
     within ``tolerance`` (``max |R R^T - I|``) and of determinant +1 (not a mirror image); else :class:`InputError`
     naming the first matrix that is not."""
-    try:
-        R = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be rotation matrices (3 x 3 numbers each), got {brief(values)}') from None
+    R = float_array(values, name, 'rotation matrices (3 x 3 numbers each)')
     if R.ndim == 2:
         R = R[None]
     if R.ndim != 3 or R.shape[1:] != (3, 3):
@@ -158,10 +162,7 @@ def rotation_matrices(values: Any, name: str, tolerance: float = 1e-9) -> NDArra
 def number_rows(values: Any, name: str, width: int) -> NDArray[np.float64]:
     """``values`` as a float array ``(N, width)`` (one row given as ``(width,)`` becomes ``(1, width)``), NaN and
     infinity kept; else :class:`InputError` naming ``name`` (strings, complex numbers, a 400-digit int, the shape)."""
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
+    a = float_array(values, name)
     if a.ndim == 1:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != width:
@@ -187,10 +188,7 @@ def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = No
 
 def column_of(values: Any, name: str) -> NDArray[np.float64]:
     """A scalar or a 1-D sequence as a finite float array ``(N,)``; else :class:`InputError` naming ``name``."""
-    try:
-        a = np.atleast_1d(np.asarray(values, dtype=float))
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be a number or an array of numbers, got {brief(values)}') from None
+    a = np.atleast_1d(float_array(values, name, 'a number or an array of numbers'))
     if a.ndim != 1:
         raise InputError(f'{name} must be a scalar or a 1-D array, got shape {a.shape}')
     bad = ~np.isfinite(a)
@@ -230,10 +228,7 @@ def single_number(value: Any, name: str) -> float:
 def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """``values`` as a float array (of ``shape``), finite and within +-:data:`MAX_COORDINATE`; else
     :class:`InputError` naming ``name``."""
-    try:
-        arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be numbers; got {brief(values)}') from None
+    arr = float_array(values, name)
     if shape is not None and arr.shape != shape:
         raise InputError(f'{name} must have shape {shape}; got {arr.shape}')
     if not np.all(np.isfinite(arr)) or (arr.size and np.max(np.abs(arr)) > MAX_COORDINATE):

@@ -44,7 +44,7 @@ from ..core.rotations import (
     rotation_vector,
 )
 from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
-from ..inputs.validation import MAX_COORDINATE, bounded, difference_step, newton_settings, number_rows
+from ..inputs.validation import MAX_COORDINATE, bounded, difference_step, float_array, newton_settings, number_rows
 from .conditioning import (
     ANGULAR_JOINTS,
     GRAM_CONDITION_LIMIT,
@@ -70,11 +70,7 @@ MAX_STEP = 0.5
 
 def as_poses(poses: Any, name: str = 'poses') -> tuple[np.ndarray, bool]:
     """Return ``poses`` as a float ``(N, 6)`` array and whether the input was a single ``(6,)`` pose."""
-    try:
-        arr = np.asarray(poses, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # strings, complex numbers, ragged lists, a 400-digit int
-        raise InputError(f'{name} must be numbers, shape (6,) or (N, 6) = (x, y, z, A, B, C) in m and rad; got '
-                         f'{brief(poses)}') from None
+    arr = float_array(poses, name, 'numbers, shape (6,) or (N, 6) = (x, y, z, A, B, C) in m and rad')
     single = arr.ndim == 1
     if single:
         arr = arr[None, :]

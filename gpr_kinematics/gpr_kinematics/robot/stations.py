@@ -21,7 +21,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.rotations import rotation_z, tilt_from_matrix, tilt_rotation
 from ..errors import InputError, brief
-from ..inputs.validation import MAX_COORDINATE, QUATERNION_NORM_TOLERANCE, bounded, rotation_matrices, rows_of
+from ..inputs.validation import (
+    MAX_COORDINATE,
+    QUATERNION_NORM_TOLERANCE,
+    bounded,
+    float_array,
+    rotation_matrices,
+    rows_of,
+)
 
 Array = NDArray[np.float64]
 
@@ -29,10 +36,7 @@ Array = NDArray[np.float64]
 def per_station(values: ArrayLike, name: str, n: int) -> Array:
     """One finite number [rad] or one per station, as an array ``(n,)``, within +-:data:`MAX_COORDINATE` (angles are
     periodic, but beyond that bound a float angle modulo 2 pi has no digits left); InputError names the value."""
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
-        raise InputError(f'{name} must be numbers, got {brief(values)}') from None
+    a = float_array(values, name)
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != n):
         raise InputError(f'{name} must be one number or {n} numbers (one per station), got shape {a.shape}')
     a = np.broadcast_to(a, (n,)).astype(float)

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, InputError, brief
-from ..inputs.validation import plain_number
+from ..inputs.validation import float_array, plain_number
 from .boxes import box_volume
 from .interval import Interval
 
@@ -345,10 +345,7 @@ def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:
 
 def check_initial_box(box: Any, names: Sequence[str]) -> np.ndarray:
     """The initial box as a finite (d, 2) float array with lower < upper, else :class:`InputError`."""
-    try:
-        arr = np.array(box, dtype=float)
-    except (TypeError, ValueError, OverflowError):   # OverflowError: a 400-digit bound
-        raise InputError(f'initial box must be numbers of shape ({len(names)}, 2)') from None
+    arr = float_array(box, 'initial box', f'numbers of shape ({len(names)}, 2)').copy()
     if arr.ndim != 2 or arr.shape != (len(names), 2):
         raise InputError(f'initial box must have shape ({len(names)}, 2), got {arr.shape}')
     if not np.all(np.isfinite(arr)) or np.any(arr[:, 1] <= arr[:, 0]):
