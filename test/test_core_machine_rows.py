@@ -119,3 +119,24 @@ def test_joint_play_moves_the_joint_centres():
         forward_batch(Q, cfg, displacement=np.zeros((2, 3, 3)))
     with pytest.raises(InputError, match=r'joint displacements must be finite numbers'):
         forward_batch(Q, cfg, displacement=np.full((8, 3, 3), np.nan))
+
+
+@pytest.mark.parametrize(('call', 'message'), [
+    (lambda: forward_batch(np.full((1, 3), 0.3), CFG, parameters='x'),
+     "per-row geometry values must be numbers [SI], got 'x'"),
+    (lambda: forward_batch(np.full((1, 3), 0.3), CFG, parameters=[[10 ** 400]], names=['rod1_x']),
+     'per-row geometry values must be numbers [SI], got [[<an integer of about 401 digits>]]'),
+    (lambda: forward_batch(np.full((2, 3), 0.3), CFG, displacement=[np.zeros((3, 3)), np.zeros((2, 3))]),
+     'joint displacements must be numbers [m], shape (2, 3, 3), got [array('),
+    (lambda: forward_batch(np.full((1, 3), 0.3), CFG, parameters=[[0.0]], names='rod1_x'),
+     "geometry parameter names must be a list of names, got 'rod1_x'; allowed: rod1_x, rod1_y"),
+    (lambda: parameter_vector(CFG, [['rod1_x']]),
+     "geometry parameter names must be a list of names, got [['rod1_x']]; allowed: rod1_x"),
+    (lambda: config_with_parameters(CFG, [1j], ['rod1_x']), 'the parameter vector must be numbers [SI], got [1j]'),
+])
+def test_values_that_are_not_numbers_are_refused(call, message):
+    """Strings, complex numbers, a 400-digit integer, ragged displacements and names that are not a list of names:
+    an InputError naming the argument and the value (numpy's ValueError, TypeError or OverflowError escaped)."""
+    with pytest.raises(InputError) as info:
+        call()
+    assert str(info.value).startswith(message)

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, GprError, InputError, LimitError
-from ..inputs.validation import rows_of, three_floats
+from ..inputs.validation import float_array, rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
@@ -281,10 +281,11 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
             geo = geo.repeat(A.shape[0] // geo.rows)
     vjm = make_model(cfg, model, geo)
     if displacement is not None:
-        if np.shape(displacement)[:1] != (A.shape[0],):
+        d = float_array(displacement, 'joint displacements', f'numbers [m], shape ({A.shape[0]}, 3, 3)')
+        if d.shape[:1] != (A.shape[0],):
             raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
-                             f'shape {np.shape(displacement)}')
-        geo = (geo or MachineGeometry.of(cfg)).displaced(np.asarray(displacement, dtype=float))
+                             f'shape {d.shape}')
+        geo = (geo or MachineGeometry.of(cfg)).displaced(d)
     out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo)
     return out
 

@@ -28,14 +28,15 @@ samples of a Monte Carlo budget.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError
+from ..errors import InputError, brief
+from ..inputs.validation import float_array
 from .config import _TRIPLE_RANGES, MAX_SIDE_MISMATCH, MIN_TRIANGLE_ANGLE, GprConfig, Point2, Triple, nominal_points
 from .ops import Value
 
@@ -122,11 +123,11 @@ class MachineGeometry:
             sin=rep(self.sin), kappa=rep(self.kappa), naive_inv=(rep(n0), rep(n1), rep(n2)), upright=self.upright,
             rows=self.rows * k)
 
-    def displaced(self, d: Array) -> MachineGeometry:
+    def displaced(self, d: ArrayLike) -> MachineGeometry:
         """This geometry with the joint centre ``P_k`` of sample ``i`` displaced by ``d[i, k] (N, 3, 3)`` in
         ``gpr_base`` [m]: the play of a spherical joint (the platform joints stay at their places ``p_k``; the naive
         model, which knows only the rods' heights, ignores it). ``N`` must match a per-row geometry's rows."""
-        D = np.asarray(d, dtype=float)
+        D = float_array(d, 'joint displacements', 'numbers [m], shape (N, 3, 3)')
         if D.ndim != 3 or D.shape[1:] != (3, 3) or (self.rows and D.shape[0] != self.rows):
             raise InputError(f'joint displacements must have shape (N, 3, 3) (sample, joint, x y z) with N = '
                              f'{self.rows or "the samples"}; got shape {np.shape(d)}')
@@ -212,7 +213,7 @@ def _build_rows(cfg: GprConfig, values: ArrayLike, names: Sequence[str] | None) 
     """:meth:`MachineGeometry.per_row`: the fields of :func:`_build` as arrays over the rows (a parameter that is
     not given keeps ``cfg``'s value, a float, which the kernels broadcast)."""
     params = _indices(names)
-    V = np.asarray(values, dtype=float)
+    V = float_array(values, 'per-row geometry values', 'numbers [SI]')
     if V.ndim != 2 or V.shape[1] != len(params) or V.shape[0] == 0:
         raise InputError(f'per-row geometry needs values of shape (N, {len(params)}), N >= 1, one column per '
                          f'parameter ({", ".join(p.name for p in params[:4])}{", ..." if len(params) > 4 else ""}); '
@@ -343,11 +344,15 @@ def _indices(names: Sequence[str] | None) -> list[GeometryParameter]:
     if names is None:
         return list(PARAMETERS)
     by_name = {p.name: p for p in PARAMETERS}
-    unknown = [n for n in names if n not in by_name]
+    given = list(names) if isinstance(names, Iterable) and not isinstance(names, str) else None
+    if given is None or not all(isinstance(n, str) for n in given):
+        raise InputError(f'geometry parameter names must be a list of names, got {brief(names)}; allowed: '
+                         + ', '.join(PARAMETER_NAMES))
+    unknown = [n for n in given if n not in by_name]
     if unknown:
         raise InputError(f'unknown geometry parameter(s) {", ".join(map(str, unknown))}; allowed: '
                          + ', '.join(PARAMETER_NAMES))
-    return [by_name[n] for n in names]
+    return [by_name[n] for n in given]
 
 
 def parameter_vector(config: GprConfig, names: Sequence[str] | None = None) -> Array:
@@ -374,7 +379,7 @@ def config_with_parameters(config: GprConfig, vector: ArrayLike, names: Sequence
     [2e-05, 0.0001]
     """
     params = _indices(names)
-    v = np.asarray(vector, dtype=float).ravel()
+    v = float_array(vector, 'the parameter vector', 'numbers [SI]').ravel()
     if v.shape != (len(params),):
         raise InputError(f'a parameter vector of {len(params)} values is needed for {len(params)} names; '
                          f'got shape {np.shape(vector)}')
