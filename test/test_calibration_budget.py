@@ -16,7 +16,7 @@ from gpr_kinematics.calibration.report import format_budget
 from gpr_kinematics.calibration.tolerances import parse_tolerances
 from gpr_kinematics.core import naive_inverse
 from gpr_kinematics.core.config import load_config
-from gpr_kinematics.errors import ConfigError, InputError
+from gpr_kinematics.errors import ConfigError, InputError, LimitError
 
 TOOL = (0.3, 0.0, 0.1)
 
@@ -178,8 +178,13 @@ def test_refusals():
         accuracy_budget(m, Q, table, frame_rotation=np.diag([1.0, 1.0, -1.0]))
     with pytest.raises(InputError, match=r'samples = 2000000; allowed: an integer from 0 to 1000000'):
         accuracy_budget(m, Q, table, samples=2_000_000)
-    with pytest.raises(InputError, match=r'tool must be 3 finite coordinates'):
-        accuracy_budget(m, Q, table, tool=(1e300, 0, 0))
+    # The reach of a tool point is the core's (core.inverse.TOOL_REACH, 10 m from the platform origin): (8, 8, 0),
+    # 11.3 m away, passed when each coordinate was bounded alone.
+    for far, rods, said in (((1e300, 0, 0), Q, r'\(1e\+300, 0, 0\) m'), ((8, 8, 0), Q, r'\(8, 8, 0\) m'),
+                            ([[0.1, 0, 0], [8, -8, 0]], np.vstack([Q, Q]), r'\(8, -8, 0\) m \(target 1\)')):
+        with pytest.raises(LimitError, match=rf'^tool = {said} is beyond the reach of a tool point; allowed: at most '
+                                             r'10 m from the platform origin \(gpr_platform\)$'):
+            accuracy_budget(m, rods, table, tool=far)
     with pytest.raises(InputError, match=r'percentiles'):
         accuracy_budget(m, Q, table, percentiles=(50, 101))
     with pytest.raises(InputError, match=r'2 labels for 1 stations'):

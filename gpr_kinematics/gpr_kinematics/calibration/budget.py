@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.inverse import check_tool
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number, random_seed, rotation_matrices
 from .model import (
@@ -55,8 +56,6 @@ QUANTITIES: dict[str, tuple[tuple[int, ...], str]] = {
 DIRECTIONS = 512
 MAX_SAMPLES = 1_000_000
 MAX_STATIONS = 10_000
-#: Largest tool coordinate accepted [m] (a tool point on the platform, not across the room).
-MAX_TOOL = 10.0
 #: An RSS below this [m or rad] is rounding: no shares are given for it.
 SHARE_FLOOR = 1e-12
 #: The linearised RSS and the Monte Carlo RMS of a quantity should agree within this fraction (a warning names
@@ -251,10 +250,10 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
         tool_v = np.asarray(tool, dtype=float)
     except (TypeError, ValueError, OverflowError):
         tool_v = np.full(1, np.nan)
-    if tool_v.shape not in ((3,), (N, 3)) or not np.all(np.isfinite(tool_v)) or np.max(np.abs(tool_v)) > MAX_TOOL:
-        raise InputError(f'tool must be 3 finite coordinates [m] (one point, or one per station: shape ({N}, 3)), '
-                         f'each within {MAX_TOOL:g} m of the platform origin; got shape {tool_v.shape}, '
-                         f'{tool_v.ravel()[:3].tolist()}')
+    if tool_v.shape not in ((3,), (N, 3)) or not np.all(np.isfinite(tool_v)):
+        raise InputError(f'tool must be 3 finite coordinates [m] (one point, or one per station: shape ({N}, 3)); '
+                         f'got shape {tool_v.shape}, {tool_v.ravel()[:3].tolist()}')
+    check_tool(tool_v)   # the reach of a tool point (core.inverse.TOOL_REACH from the platform origin)
     R = np.eye(3) if frame_rotation is None else rotation_matrices(frame_rotation, 'frame_rotation')[0]
     if frame_rotation is not None and np.shape(frame_rotation) != (3, 3):   # converted above: a shape it has
         raise InputError(f'frame_rotation must be one rotation matrix (3, 3); got shape {np.shape(frame_rotation)}')
