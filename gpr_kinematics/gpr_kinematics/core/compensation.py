@@ -41,7 +41,7 @@ from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
 from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
-from .inverse import TOOL_REACH, check_tool
+from .inverse import check_tool_point
 from .ops import SCALAR
 from .rotations import RigidTransform, tilt_of_normal
 
@@ -149,8 +149,7 @@ def compensate(position: ArrayLike, quaternion: ArrayLike, tool_offset: ArrayLik
 def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str | None = None) -> CompensationFloats:
     """:func:`compensate` in float arithmetic for a finite command position ``p_c`` [m], a unit quaternion ``quat``
     and a finite tool point ``tool`` [m] (the caller checks them; the limits are checked here)."""
-    if max(abs(tool[0]), abs(tool[1]), abs(tool[2])) > TOOL_REACH / 1.8:  # the exact check only when close
-        check_tool(tool, 'tool_offset')
+    check_tool_point(tool, 'tool_offset')
     R_c = matrix_of(quat)
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, R_c[0][2], R_c[1][2], R_c[2][2]))
     M = mat_tmul(tilt_matrix(tilt, az), R_c)

@@ -107,6 +107,13 @@ def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
                          f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
 
 
+def check_tool_point(tool: Sequence[float], name: str = 'tool') -> None:
+    """:func:`check_tool` of one point ``(x, y, z)`` [m] in floats: the exact check only when a coordinate lies beyond
+    ``TOOL_REACH / 1.8`` (nearer, ``|tool| <= sqrt(3) / 1.8 TOOL_REACH < TOOL_REACH``)."""
+    if max(abs(tool[0]), abs(tool[1]), abs(tool[2])) > TOOL_REACH / 1.8:
+        check_tool(tool, name)
+
+
 def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
                   ) -> tuple[Value, Value]:
     """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
@@ -233,8 +240,7 @@ def inverse(height: float, tilt: float, azimuth: float, config: GprConfig | None
     cfg = resolve_config(config)
     kernel = one_pose(cfg, model)
     tool3 = three_floats(tool, 'tool')
-    if max(abs(tool3[0]), abs(tool3[1]), abs(tool3[2])) > TOOL_REACH / 1.8:  # the exact check only when close
-        check_tool(tool3)
+    check_tool_point(tool3)
     return inverse_one(kernel, h, t, g, tool3)
 
 
