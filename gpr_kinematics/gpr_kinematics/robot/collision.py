@@ -26,7 +26,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..inputs.schema import check_keys
-from .fields import _mapping, _number, _vector
+from .fields import _mapping, _number, _positive_number, _vector
 
 #: Defaults: a 300 mm wafer [m, m, kg], a passive blade's friction coefficient.
 WAFER_DIAMETER, WAFER_THICKNESS, WAFER_MASS = 0.300, 0.000775, 0.128
@@ -86,7 +86,7 @@ class ArmBodies:
 
 
 def _positive(data: Mapping[str, Any], key: str, where: str, default: float, hi: float = _SIZE) -> float:
-    return _number(data, key, where, 1e-6, hi, f'metres, 0 < {key} <= {hi:g}', default=default)
+    return _positive_number(data, key, where, hi, 'm', 'metres', default)
 
 
 def parse_wafer(raw: Any, where: str) -> WaferShape:
@@ -94,7 +94,7 @@ def parse_wafer(raw: Any, where: str) -> WaferShape:
     check_keys(data, ('diameter', 'thickness', 'mass'), where)
     return WaferShape(_positive(data, 'diameter', where, WAFER_DIAMETER, 1.0),
                       _positive(data, 'thickness', where, WAFER_THICKNESS, 0.01),
-                      _number(data, 'mass', where, 1e-6, 10.0, 'kg, 0 < mass <= 10', default=WAFER_MASS, unit='kg'))
+                      _positive_number(data, 'mass', where, 10.0, 'kg', 'kg', WAFER_MASS))
 
 
 def parse_gpr_bodies(raw: Any, where: str) -> GprBodies:

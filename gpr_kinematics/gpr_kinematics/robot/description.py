@@ -49,8 +49,8 @@ from ..inputs.resources import config_path
 from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
 from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
+from .fields import LEAST, _angle, _mapping, _name, _named, _number, _positive_number, _rpy, _vector, _xyz
 from .fields import NAME_RULE as _NAME_RULE
-from .fields import _angle, _mapping, _name, _named, _number, _rpy, _vector, _xyz
 
 Array = NDArray[np.float64]
 
@@ -61,7 +61,6 @@ DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
 _LENGTH_BOUND = 5.0  # m: arm and mount dimensions
 _WORLD_BOUND = 100.0  # m: base position in the world
-_LINK_LEAST = 1e-6  # m: the shortest link between two joint axes (the collision bodies' least size)
 
 
 @dataclass(frozen=True)
@@ -256,9 +255,8 @@ def _joint(raw: Any, where: str) -> ArmJoint:
         length=_number(data, 'length', where, 0.0, _LENGTH_BOUND, f'metres, 0 <= length <= {_LENGTH_BOUND:g}'),
         height=_number(data, 'height', where, -1.0, 1.0, 'metres, -1 <= height <= 1', default=0.0),
         lower=lower, upper=upper,
-        velocity=_number(data, 'velocity', where, 1e-6, 100.0, 'rad/s, 0 < velocity <= 100', unit='rad/s'),
-        acceleration=_number(data, 'acceleration', where, 1e-6, 1000.0, 'rad/s^2, 0 < acceleration <= 1000',
-                             unit='rad/s^2'),
+        velocity=_positive_number(data, 'velocity', where, 100.0, 'rad/s', 'rad/s'),
+        acceleration=_positive_number(data, 'acceleration', where, 1000.0, 'rad/s^2', 'rad/s^2'),
         zero_offset=_number(data, 'zero_offset', where, -0.1, 0.1, 'radians within [-0.1, 0.1]', 0.0, 'rad'),
         jerk=_jerk(data, where, 'rad/s^3', 1e5))
 
@@ -266,7 +264,7 @@ def _joint(raw: Any, where: str) -> ArmJoint:
 def _jerk(data: Mapping[str, Any], where: str, unit: str, hi: float) -> float | None:
     if data.get('jerk') is None:
         return None
-    return _number(data, 'jerk', where, 1e-6, hi, f'{unit}, 0 < jerk <= {hi:g}, or null (unbounded)', unit=unit)
+    return _positive_number(data, 'jerk', where, hi, unit, unit, note=', or null (unbounded)')
 
 
 def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundancy:
@@ -309,8 +307,8 @@ def _arm(raw: Any, where: str) -> Arm:
                           f'{len(raw_joints) if isinstance(raw_joints, list) else type(raw_joints).__name__}')
     joints = tuple(_joint(j, f'{where}: joints[{i}]') for i, j in enumerate(raw_joints))
     for j in joints[:-1]:
-        if j.length < _LINK_LEAST:   # 5e-324 passed: 1 / (2 L1 L2) overflowed in the arm's inverse kinematics
-            raise ConfigError(f'{where}: {j.name}: length = {j.length!r} is invalid; allowed: >= {_LINK_LEAST:g} m '
+        if j.length < LEAST:   # 5e-324 passed: 1 / (2 L1 L2) overflowed in the arm's inverse kinematics
+            raise ConfigError(f'{where}: {j.name}: length = {j.length!r} is invalid; allowed: >= {LEAST:g} m '
                               'for every joint but the last (a zero-length link makes two joints coaxial)')
     bwhere = f'{where}: blade'
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
@@ -379,9 +377,8 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
         raise ConfigError(f'{rwhere}: names = {brief(raw_names)} is invalid; allowed: a list of 3 names ({_NAME_RULE})')
     rod_names = tuple(_name({'names': n}, 'names', rwhere) for n in raw_names)
     rods = Rods(names=(rod_names[0], rod_names[1], rod_names[2]),
-                velocity=_number(rods_data, 'velocity', rwhere, 1e-6, 10.0, 'm/s, 0 < velocity <= 10', unit='m/s'),
-                acceleration=_number(rods_data, 'acceleration', rwhere, 1e-6, 100.0,
-                                     'm/s^2, 0 < acceleration <= 100', unit='m/s^2'),
+                velocity=_positive_number(rods_data, 'velocity', rwhere, 10.0, 'm/s', 'm/s'),
+                acceleration=_positive_number(rods_data, 'acceleration', rwhere, 100.0, 'm/s^2', 'm/s^2'),
                 jerk=_jerk(rods_data, rwhere, 'm/s^3', 1e4))
     raw_arms = data.get('arms')
     if not isinstance(raw_arms, list) or not 1 <= len(raw_arms) <= 2:

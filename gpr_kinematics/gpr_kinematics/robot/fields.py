@@ -27,6 +27,18 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
     return value
 
 
+#: The least value of a quantity that must be positive (a body's size [m], a mass [kg], a speed, acceleration or jerk
+#: limit): 0 is refused and so is 5e-324, which overflows what divides by it.
+LEAST = 1e-6
+
+
+def _positive_number(data: Mapping[str, Any], key: str, where: str, hi: float, unit: str, words: str,
+                     default: float | None = None, note: str = '') -> float:
+    """``data[key]`` within ``[LEAST, hi]`` in ``unit``; the message's range is these bounds (``words`` name the
+    unit, ``note`` follows them)."""
+    return _number(data, key, where, LEAST, hi, f'{words}, {LEAST:g} <= {key} <= {hi:g}{note}', default, unit)
+
+
 def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float, unit: str = 'm',
             default: Sequence[float] | None = None) -> tuple[float, ...]:
     raw = data.get(key, default)
