@@ -20,11 +20,12 @@ moves at ``|v(x)| <= |mean_k w_k| + |omega| (|x| + |rbar|)`` (``rbar`` the joint
 ``|omega_t| = |ndot|``, the turn rate of the joint-centre triangle's normal ``N = E12 x E13`` (a quadratic in ``s``:
 model-free); ``|omega_n| L_ab <= |qdot_a| sin(a_a) + |qdot_b| sin(a_b) + |rdot_a| + |rdot_b|`` (the in-plane parts of
 an edge's end velocities, ``a_k`` the angle of rod ``k`` from the normal). The virtual joints follow from the
-closure ``F(X) = L(q)^2`` (Bratovanov & Sotirov, eq. (3)): ``|Xdot|_W <= |d(L^2)/dt| / sigma(t)``, ``sigma`` the
-smallest singular value of ``dF/dX`` in the solver's metric; ``sigma(t) >= sigma(t0) - Lip |X(t) - X(t0)|_W`` gives
-``int |Xdot|_W <= (sigma0 - sqrt(sigma0^2 - 2 Lip I)) / Lip`` with ``I = int |d(L^2)/dt|`` (the rods' motion), and
-``|rdot_k| <= gamma |Xdot|_W``. For the ``radial`` model (square closure, ``Lip = 4 sqrt(2)``, ``gamma = 1``) this
-is exact; for the underdetermined models it is the first-order sensitivity of eqs. (3)-(5).
+closure ``F(X) = L(q)^2`` (Bratovanov & Sotirov, eq. (6), differentiated as their eq. (3)):
+``|Xdot|_W <= |d(L^2)/dt| / sigma(t)``, ``sigma`` the smallest singular value of ``dF/dX`` in the solver's metric;
+``sigma(t) >= sigma(t0) - Lip |X(t) - X(t0)|_W`` gives ``int |Xdot|_W <= (sigma0 - sqrt(sigma0^2 - 2 Lip I)) / Lip``
+with ``I = int |d(L^2)/dt|`` (the rods' motion), and ``|rdot_k| <= gamma |Xdot|_W``. For the ``radial`` model
+(square closure, ``Lip = 4 sqrt(2)``, ``gamma = 1``) this is exact; for the underdetermined models it is the
+first-order sensitivity of eqs. (3)-(5).
 """
 from __future__ import annotations
 
