@@ -6,7 +6,8 @@ import pytest
 
 #: Core modules whose docstrings hold examples.
 MODULES = ('core.machine', 'core.naive', 'core.forward', 'core.inverse', 'core.compliance', 'core.mobility',
-           'core.sweep', 'inputs.units', 'inputs.files', 'errors', 'inputs.stacked', 'robot.markers', 'core.messages')
+           'core.sweep', 'inputs.units', 'inputs.files', 'errors', 'inputs.stacked', 'robot.markers', 'core.messages',
+           'robot.grid')
 
 
 @pytest.mark.parametrize('name', MODULES)

@@ -106,6 +106,19 @@ def test_a_feasible_two_point_trajectory_is_sampled_at_the_rate():
     np.testing.assert_allclose(m.velocities[150, elbow], 0.5, rtol=0, atol=1e-14)
 
 
+def test_the_last_point_is_always_a_sample():
+    """The samples end at the last point's time, as a platform program's do (robot.timing.grid_times, one rule): a goal
+    shorter than 1 ns was sampled at t = 0 alone and one ending within 1 ns after a k / rate instant ended there, so
+    the last point's positions were never commanded."""
+    elbow = JOINTS.names.index('arm1_elbow')
+    target = JOINTS.rest[elbow] + 1e-12
+    m = _plan(JointTrajectory(('arm1_elbow',), np.array([5e-10]), np.array([[target]])))
+    assert m.time.tolist() == [0.0, 5e-10] and m.positions[-1, elbow] == target
+    m = _plan(_two_points(['arm1_elbow'], [1.0], [1.5], t=(1.0, 2.0000000005)))
+    assert len(m) == 201 and m.time[-1] == 2.0000000005 and m.positions[-1, elbow] == 1.5
+    assert np.array_equal(m.time[:-1], np.arange(200) / RATE)
+
+
 def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
     traj = _two_points(['arm1_elbow'], [1.0], [3.0])
     with pytest.raises(GoalError, match=r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its limits; allowed: '

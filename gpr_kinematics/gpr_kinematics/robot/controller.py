@@ -39,6 +39,7 @@ from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, brief
 from .description import RobotDescription
+from .grid import grid_times
 from .timing import MAX_SAMPLES
 from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate
 
@@ -324,9 +325,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     if count > MAX_SAMPLES:
         raise GoalError(INVALID_GOAL, f'the trajectory lasts {traj.duration:.6g} s: {count} samples at {rate:g} Hz; '
                         f'allowed: at most {MAX_SAMPLES} samples')
-    t = np.arange(count - 1, dtype=float) / rate
-    if traj.duration - t[-1] > 1e-9:
-        t = np.append(t, traj.duration)
+    t = grid_times(traj.duration, rate)
     pos, vel, _ = evaluate(traj, start, t)
     _refuse_beyond(joints, cols, pos, t, 'sample')
     positions = np.repeat(current[None, :], t.shape[0], axis=0)

@@ -41,6 +41,7 @@ import numpy as np
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
+from .grid import grid_times
 from .station_files import station_name
 from .timing import MAX_SAMPLES
 
@@ -178,13 +179,7 @@ def check_samples(program: PlatformProgram, rate: float, default_move_time: floa
 def sample_program(program: PlatformProgram, rate: float, default_move_time: float = 2.0) -> ProgramSamples:
     """Sample ``program`` at ``rate`` [Hz] with the smooth-step interpolation of the module docstring."""
     T, S, idx = check_samples(program, rate, default_move_time)
-    total = float(T[-1])
-    n = int(math.floor(total * rate + 1e-9))
-    t = np.arange(n + 1, dtype=float) / rate
-    if total - t[-1] > 1e-9 or (n == 0 and total > 0.0):
-        t = np.append(t, total)
-    elif total > t[-1]:   # within 1 ns of the last sample: that sample is the end (a 1e-12 s move lost its station)
-        t[-1] = total
+    t = grid_times(float(T[-1]), rate)   # a 1e-12 s move keeps its station: the end is always a sample
     if T.shape[0] == 1:
         seg = np.zeros(t.shape, dtype=int)
     else:

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from ..errors import InputError, LimitError, brief
 from ..inputs.validation import plain_number
+from .grid import grid_times
 
 Array = NDArray[np.float64]
 
@@ -411,11 +412,10 @@ def sample_count(total: float, rate: float) -> int:
 
 
 def sample_times(timing: Timing, rate: float) -> Array:
-    """``t_k = k / rate`` for ``k = 0 .. floor(total rate)``, plus the final instant (bounded by MAX_SAMPLES)."""
+    """:func:`grid_times` of the program's ``total`` (:func:`sample_count` bounds them by MAX_SAMPLES)."""
     rate = check_rate(rate)
-    total = timing.total
-    t = np.arange(sample_count(total, rate), dtype=float) / rate
-    return np.append(t, total) if total - t[-1] > 1e-9 else t
+    sample_count(timing.total, rate)
+    return grid_times(timing.total, rate)
 
 
 def sample(timing: Timing, rate: float) -> Samples:
