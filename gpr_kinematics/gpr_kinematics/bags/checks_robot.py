@@ -43,13 +43,11 @@ from .checks_topics import cut_detail, extra, match, missing, unordered, without
 from .columns import matrix, quaternion_angle, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, bag_check, bool_check, skipped, value_check
-from .tolerances import Tolerances
+from .tolerances import LIMIT_SLACK, Tolerances
 from .typestore import GPR_TOPICS, ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
 
 #: Largest robot description message read.
 MAX_ROBOT_BYTES = 1 << 20
-#: Slack of ``robot.joint_limits`` [rad].
-LIMIT_SLACK = 1e-9
 
 
 @dataclass

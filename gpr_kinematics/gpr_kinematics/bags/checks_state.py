@@ -41,10 +41,8 @@ from ..errors import GprError
 from .cdr import Columns
 from .columns import field_matrix, matrix, quaternion_angle, wrapped
 from .results import Check, Series, bool_check, value_check
-from .tolerances import Tolerances
+from .tolerances import LIMIT_SLACK, Tolerances
 
-#: Slack of ``state.limits`` [m or rad].
-LIMIT_SLACK = 1e-9
 #: Tilt [rad] below which the tilt azimuth is undefined and not compared.
 AZIMUTH_MIN_TILT = 1e-12
 

@@ -10,9 +10,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.messages import NS_PER_S
 from .cdr import Columns
-
-_NS_PER_S = 1_000_000_000
 
 
 def field_matrix(c: Columns, name: str, width: int | None = None) -> NDArray[np.float64]:
@@ -45,7 +44,7 @@ def vec(c: Columns, prefix: str, keys: str = 'xyz') -> NDArray[np.float64]:
 
 def stamp_ns(c: Columns, prefix: str = 'header.stamp') -> NDArray[np.int64]:
     """Header stamps [ns since the epoch]."""
-    return (np.asarray(c[f'{prefix}.sec'], dtype=np.int64) * _NS_PER_S
+    return (np.asarray(c[f'{prefix}.sec'], dtype=np.int64) * NS_PER_S
             + np.asarray(c[f'{prefix}.nanosec'], dtype=np.int64))
 
 

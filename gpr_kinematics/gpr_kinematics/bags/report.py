@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..core.config import GprConfig
+from ..core.virtual_joints import EDGE_NAMES
 from ..errors import FileError, GprError
 from ..inputs.files import atomic_output, writable_folder, write_text
 from .errors import BagError
@@ -152,7 +153,7 @@ def report_figures(result: VerifyResult) -> list[tuple[str, Any]]:
     figures = [('fig05_rod_lengths.png', _figure(f'Fig. 5: rod lengths q (generalized coordinates), bag {bag}', x,
                                                  s.q * 1e3, ['q1', 'q2', 'q3'], 'q [mm]', cr)),
                ('fig08_side_lengths.png', _figure(f'Fig. 8 / Fig. 11: side lengths L = F(X), bag {bag}', x,
-                                                  s.side_lengths * 1e3, ['L12', 'L23', 'L31'], 'L [mm]', cr))]
+                                                  s.side_lengths * 1e3, list(EDGE_NAMES), 'L [mm]', cr))]
     finite = np.all(np.isfinite(s.q), axis=1)
     cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
     radius = (cfg.radius * 1e3, f'R = {cfg.radius * 1e3:.3f} mm\n(l at a singular\nconfiguration)')

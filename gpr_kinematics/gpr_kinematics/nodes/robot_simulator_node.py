@@ -49,6 +49,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.forward import forward
+from ..core.messages import NS_PER_S, duration_parts, time_parts
 from ..errors import GprError
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
@@ -80,7 +81,6 @@ NODE_NAME = 'robot_simulator_node'
 ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
 #: Most samples one tick publishes to make up for ticks the busy machine could not serve in time.
 CATCH_UP = 5
-NS_PER_S = 1_000_000_000
 
 
 @dataclass
@@ -96,8 +96,8 @@ class _Run:
 
 
 def _duration(t: float) -> Duration:
-    ns = round(t * NS_PER_S)
-    return Duration(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)
+    sec, nanosec = duration_parts(t)
+    return Duration(sec=sec, nanosec=nanosec)
 
 
 def _seconds(d: Any) -> float:
@@ -154,7 +154,7 @@ class RobotSimulatorNode(GprNode):
     # -- joint_states ---------------------------------------------------------------------------------------------
     def publish_state(self, stamp_ns: int) -> None:
         msg = JointState(name=list(self.joints.names), position=self.actual.tolist(), velocity=self.velocity.tolist())
-        msg.header.stamp.sec, msg.header.stamp.nanosec = stamp_ns // NS_PER_S, stamp_ns % NS_PER_S
+        msg.header.stamp.sec, msg.header.stamp.nanosec = time_parts(stamp_ns)
         self.pub.publish(msg)
         self.last_own_ns = max(self.last_own_ns, stamp_ns)
         self.last_published = time.monotonic()
@@ -354,7 +354,7 @@ class RobotSimulatorNode(GprNode):
         g = r.motion.goal
         stamp = r.start_ns + round(t * NS_PER_S)
         fb = FollowJointTrajectory.Feedback(joint_names=list(r.motion.trajectory.joint_names))
-        fb.header.stamp.sec, fb.header.stamp.nanosec = stamp // NS_PER_S, stamp % NS_PER_S
+        fb.header.stamp.sec, fb.header.stamp.nanosec = time_parts(stamp)
         at = _duration(t)
         fb.desired = JointTrajectoryPoint(positions=desired[g].tolist(), velocities=desired_v[g].tolist(),
                                           time_from_start=at)

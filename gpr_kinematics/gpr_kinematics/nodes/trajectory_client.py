@@ -23,6 +23,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint
 
+from ..core.messages import duration_parts
 from ..robot.controller import ERROR_NAMES
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
@@ -30,7 +31,6 @@ from .qos import stream_qos
 
 #: The action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``.
 DEFAULT_ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
-_NS = 1_000_000_000
 #: Time [s] for a subscription to match a publisher the graph already shows.
 SETTLE = 0.3
 _STATUS = {GoalStatus.STATUS_SUCCEEDED: 'succeeded', GoalStatus.STATUS_ABORTED: 'aborted',
@@ -41,9 +41,9 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
     """``trajectory_msgs/JointTrajectory`` of ``traj`` (header stamp 0: start when it arrives)."""
     points = []
     for i in range(len(traj)):
-        ns = round(float(traj.time[i]) * _NS)
+        sec, nanosec = duration_parts(float(traj.time[i]))
         pt = JointTrajectoryPoint(positions=traj.positions[i].tolist(),
-                                  time_from_start=Duration(sec=ns // _NS, nanosec=ns % _NS))
+                                  time_from_start=Duration(sec=sec, nanosec=nanosec))
         if traj.velocities is not None:
             pt.velocities = traj.velocities[i].tolist()
         if traj.accelerations is not None:
