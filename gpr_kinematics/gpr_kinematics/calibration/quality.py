@@ -234,6 +234,19 @@ def hat_diagonal(J: Array, shape: tuple[int, int]) -> Array | None:
     return np.asarray(np.einsum('if,fg,ig->i', J, np.linalg.pinv(gram(J)), J).reshape(shape), dtype=np.float64)
 
 
+def kind_variances(h: Array, residual: Array) -> Array:
+    """Per column of weighted residual blocks ``residual (N, k)`` the reduced chi-square of its kind
+    (:data:`KINDS`), ``sum r^2 / sum (1 - h_ii)`` over the kind's residuals (``h (N, k)`` the hat diagonal): the
+    variance of a weighted residual of that kind, 1 when its sigmas are the noise (1 where a kind has no degree of
+    freedom)."""
+    out = np.ones(residual.shape[1])
+    for _, part in KINDS[residual.shape[1]]:
+        dof = float(np.sum(1.0 - h[:, part]))
+        if dof >= 1.0:
+            out[part] = float(np.sum(residual[:, part] ** 2)) / dof
+    return out
+
+
 def robust_scale(z: Array, h: Array) -> Array:
     """Per column of studentized residuals ``|z| (N, k)`` the robust scale of its kind (:data:`KINDS`):
     ``1.4826 median |z|`` over the rows that do not determine a combination alone (the normal's standard deviation

@@ -92,7 +92,8 @@ def format_calibration(res: CalibrationResult) -> str:
     if ident.identified:
         lines.append(f'  condition number of the fitted parameters {ident.condition_number:.4g}')
     sig = 'sigmas from the file or --sigma-position/--sigma-angle: the noise' if res.absolute_sigma else \
-        'no noise declared: the sigmas used are the assumed noise, standard errors scaled by sqrt(chi-square)'
+        ('no noise declared: the sigmas used are the assumed noise, standard errors scaled by each kind\'s own '
+         'reduced chi-square (positions, angles)')
     lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({sig})')
     return '\n'.join(lines + _checks(res) + [f'warning: {w}' for w in res.warnings])
 
