@@ -171,7 +171,7 @@ def test_a_fit_out_of_iterations_is_reported_and_refused(capsys, tmp_path, monke
     status, out, err = run(capsys, 'calibrate', shipped, '--output', str(tmp_path / 'c.yaml'), '--json')
     d = json.loads(out)
     assert status == 1 and d['convergence']['status'] == 'iterations' and d['output'] is None
-    assert 'The fit did not reach a minimum (iterations after' in err and not (tmp_path / 'c.yaml').exists()
+    assert 'The fit did not reach a minimum (out of iterations after' in err and not (tmp_path / 'c.yaml').exists()
     assert {s['label'] for s in d['convergence']['starts']} == {'nominal', 'isotropic joints'}
 
 

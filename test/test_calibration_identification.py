@@ -6,6 +6,7 @@ on the tests' independent reference model (a base height against the zero offset
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -322,3 +323,34 @@ def test_a_measurement_twice_is_refused_not_counted_twice():
     with pytest.raises(InputError, match=r'p\.csv line 12 repeats line 4: .*\(3e-06 m\); 8 such'):
         identify(m, Measurements('p.csv', np.vstack([pts.q, pts.q]), np.vstack([pts.position, pts.position]),
                                  None, np.full(16, SP), None, tuple(range(4, 20))), free=free)
+
+
+def test_a_gate_failure_with_declared_noise_names_its_cause():
+    """Noise 10 times the declared (30 um and 200 urad declared as 3 um and 20 urad): the chi-square message named
+    no cause and the outlier check told to remove line 20 (31 standard deviations) while every row was as far off.
+    Now the chi-square message lists the causes with the residuals' robust scale per kind (9.1 and 11.7, near 9.8,
+    the square root of the chi-square: all too large alike), and the outlier check says it is not this row alone.
+    A row 30 um off keeps its 'mismeasured row' (the robust scale 0.96)."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    Q = plan_measurements(m, cfg, 40).q
+    truth = m.parameters.coordinates(perturbed(m, 5))
+    noisy = synthetic_measurements(m, truth, Q, 10 * SP, 10 * SA, seed=5)
+    declared = Measurements(noisy.source, noisy.q, noisy.position, noisy.quaternion, np.full(40, SP),
+                            np.full(40, SA), noisy.lines)
+    gate = {c.name: c for c in identify(m, declared).gate.checks}
+    assert not gate['chi_square'].passed and gate['chi_square'].value == pytest.approx(96, rel=0.1)
+    scale = re.search(r"robust scale: positions ([\d.]+), angles ([\d.]+) sigma\)", gate['chi_square'].detail)
+    assert scale is not None, gate['chi_square'].detail
+    position, angle = map(float, scale.groups())          # about 9.8, the square root of the chi-square: all alike
+    assert 8 < position < 12 and 8 < angle < 13
+    assert 'Swapped or mis-unit columns, another frame or machine, more noise than declared' in \
+        gate['chi_square'].detail
+    assert not gate['outliers'].passed and 'not this row alone' in gate['outliers'].detail
+    assert 'mismeasured row' not in gate['outliers'].detail
+    good = synthetic_measurements(m, truth, Q, SP, SA, seed=5)
+    one = good.position.copy()
+    one[17, 2] += 30e-6
+    gate = {c.name: c for c in identify(m, Measurements(good.source, good.q, one, good.quaternion, good.sigma_position,
+                                                          good.sigma_angle, good.lines)).gate.checks}
+    assert not gate['outliers'].passed and 'a mismeasured row (remove it)' in gate['outliers'].detail

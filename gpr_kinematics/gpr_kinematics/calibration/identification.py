@@ -48,6 +48,7 @@ from .quality import (
     kind_variances,
     outlier_check,
     sigma_check,
+    spread,
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
@@ -70,6 +71,8 @@ PLAUSIBLE_ANGLE = 0.05
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
 #: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
 MAX_CHI2 = 1e4
+#: A fit's status (:data:`~.fitting.STATUSES`) in the gate's words.
+STATUS_WORDS = {'iterations': 'out of iterations'}
 NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
                     '"# units:" line says, m by default? a measured frame other than the one declared?)')
 
@@ -187,21 +190,27 @@ def noise_variances(meas: Measurements, h: Array | None, residual: Array, declar
 
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int,
-          noise: str | None, cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...]) -> Gate:
+          noise: str | None, cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...],
+          spread: str = '') -> Gate:
     """The gate (:mod:`.quality`); ``noise``: ``None`` when the sigmas are the declared noise, else what the
-    residuals are judged against (:func:`assumed_noise`)."""
+    residuals are judged against (:func:`assumed_noise`); ``spread``: the residuals' robust scale per kind
+    (:func:`~.quality.spread`)."""
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
-                        f'The fit did not reach a minimum ({best.status} after {best.iterations} iterations, the '
+                        f'The fit did not reach a minimum ({STATUS_WORDS.get(best.status, best.status)} after '
+                        f'{best.iterations} iterations, the '
                         f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).')]
     worst = worst_rows(best.residual, names)
     limit = chi2_limit(dof)
     point = f'the {100 * CHI2_QUANTILE:g} % point for {dof} degrees of freedom'
     if noise is None:
+        scale = f' (robust scale: {spread} sigma)' if spread else ''
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
                                 f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
-                                f'above the gate {limit:.4g} ({point}); largest residuals {worst}{bounds}.'))
+                                f'above the gate {limit:.4g} ({point}); largest residuals {worst}{bounds}. '
+                                f'Swapped or mis-unit columns, another frame or machine, more noise than declared'
+                                f'{scale}?'))
     else:
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
                                 f'The residuals exceed the noise assumed without a declared one ({noise}): reduced '
@@ -303,7 +312,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     noise = None if absolute else assumed_noise(meas, best.residual, w, declared)
     more = ((sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
             else (outlier_check(h, best.residual, names, robust=True),))
-    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more)
+    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual))
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines, meas.files),

@@ -30,7 +30,9 @@ parameter's a-priori uncertainty ``s_j``), ``A = J^T J``:
   the fit ignore the positions, moved the zero offsets by 14 um and passed with a reduced chi-square of 0.44.
   With them too, no residual an outlier: the largest studentized residual ``|r| / sqrt(1 - h_ii)`` at most the
   point the largest of ``N k`` normal residuals exceeds with probability ``1 - CHI2_QUANTILE`` (Bonferroni;
-  :func:`outlier_check`): one row 20 um off (6.6 sigma) among 40 passed the chi-square gate (1.12).
+  :func:`outlier_check`): one row 20 um off (6.6 sigma) among 40 passed the chi-square gate (1.12). Their messages
+  give the residuals' robust scale per kind (:func:`spread`), which tells a noise larger than declared (every kind
+  about the square root of the reduced chi-square; no row an outlier alone) from a few bad rows (about 1).
   Without a declared noise the sigmas used (a laser tracker's default noise, or a tolerance table's) are the noise
   the chi-square must not much exceed (swapped x and y columns passed with a reduced chi-square of 1.93 when they
   only weighted), there is no ``sigmas`` check (residuals below an assumed noise are no fault), and the outliers
@@ -258,6 +260,24 @@ def robust_scale(z: Array, h: Array) -> Array:
     return out
 
 
+def studentized(h: Array, residual: Array) -> Array:
+    """``|r| / sqrt(1 - h_ii)`` of weighted residual blocks ``(N, k)`` (0 for a row that determines a combination
+    alone)."""
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return np.asarray(np.where(h < 1.0 - LEVERAGE_ONE,
+                                   np.abs(residual) / np.sqrt(np.maximum(1.0 - h, LEVERAGE_ONE)), 0.0))
+
+
+def spread(h: Array | None, residual: Array) -> str:
+    """The residuals' robust scale per kind in units of their sigmas, in words (``''`` without a hat diagonal):
+    about the square root of the reduced chi-square when every residual is as much larger than its sigma (a noise
+    larger than declared), about 1 when a few rows or a model error make the chi-square."""
+    if h is None:
+        return ''
+    scale = robust_scale(studentized(h, residual), h)
+    return ', '.join(f'{kind}s {scale[part][0]:.3g}' for kind, part in KINDS[residual.shape[1]])
+
+
 def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust: bool = False) -> GateCheck | None:
     """The gate's ``outliers`` check (module docstring): the largest studentized residual ``|r| / sqrt(1 - h)``
     against the point the largest of the fit's ``N k`` normal residuals exceeds with probability ``1 -
@@ -267,10 +287,10 @@ def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust
     if h is None:
         return None
     n, k = residual.shape
-    with np.errstate(divide='ignore', invalid='ignore'):
-        z = np.where(h < 1.0 - LEVERAGE_ONE, np.abs(residual) / np.sqrt(np.maximum(1.0 - h, LEVERAGE_ONE)), 0.0)
+    z = studentized(h, residual)
+    scale = robust_scale(z, h)
     if robust:
-        z = z / robust_scale(z, h)[None, :]
+        z = z / scale[None, :]
     i, j = np.unravel_index(int(np.argmax(z)), z.shape)
     limit = float(norm_distribution.isf((1.0 - CHI2_QUANTILE) / 2.0 / (n * k)))
     value = float(z[i, j])
@@ -278,12 +298,16 @@ def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust
     name = names[int(i)]
     units = ('robust standard deviations of its kind (1.4826 times the median studentized residual: no noise '
              'declared)' if robust else 'standard deviations (studentized)')
-    cause = ('a mismeasured row (remove it)' if robust else 'a mismeasured row (remove it), or its standard deviation '
-             'larger than given')
+    kind = KINDS[k][j // 3][0]
+    cause = ('a mismeasured row (remove it)' if robust else
+             'a mismeasured row (remove it), or its standard deviation larger than given'
+             if value > limit * scale[j] or scale[j] <= 1.0 else
+             f'not this row alone: the {kind}s\' robust scale is {scale[j]:.3g} sigma, this one '
+             f'{value / scale[j]:.3g} of it (more noise than declared?)')
     return GateCheck('outliers', value <= limit, value, limit,
                      f'{name[:1].upper()}{name[1:]} is an outlier: its {what} residual is {value:.3g} {units}, above '
-                     f'{limit:.3g}, the point the largest of {n * k} residuals of a right model exceeds once in '
-                     f'{1 / (1 - CHI2_QUANTILE):.0f} fits: {cause}.')
+                     f'{limit:.3g} (the largest of {n * k} residuals of a right model exceeds it once in '
+                     f'{1 / (1 - CHI2_QUANTILE):.0f} fits): {cause}.')
 
 
 def sigma_check(h: Array | None, residual: Array) -> GateCheck | None:
