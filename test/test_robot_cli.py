@@ -268,6 +268,16 @@ def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):
     assert 'sample rate [Hz] (default 100; 0.1 to 5000)' in text
 
 
+
+@pytest.mark.parametrize('command, says', [
+    ('fk', 'Forward kinematics of the whole robot'), ('ik', 'Station inverse kinematics'),
+    ('teach', 'Teach stations from joints read on the robot')])
+def test_robot_subcommands_describe_themselves(capsys, command, says):
+    """`gpr robot fk/ik/teach --help` had usage and options only, no paragraph saying what the command does."""
+    code, out, _ = run(capsys, 'robot', command, '--help')
+    text = ' '.join(out.split())
+    assert code == 0 and says in text and '(docs/robot.md)' in text
+
 def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(capsys, tmp_path):
     """A program copied away from its robot and cell was refused as `cannot read robot file
     '../robots/example_robot.yaml'`: neither the program that named it nor the folder it is relative to was said."""

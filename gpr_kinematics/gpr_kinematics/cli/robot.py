@@ -117,7 +117,11 @@ def register(sub: Subparsers) -> None:
                            description='The arm and the wafer on the GPR (docs/robot.md).')
     rsub = robot.add_subparsers(dest='robot_command', metavar='SUBCOMMAND', parser_class=type(robot))
     rsub.required = True
-    p = rsub.add_parser('fk', help='rods and arm joints -> wafer, blade and platform in the world')
+    p = rsub.add_parser('fk', help='rods and arm joints -> wafer, blade and platform in the world',
+                        description='Forward kinematics of the whole robot: the platform from the rods (the '
+                                    "description's virtual-joint model), then the arm on it; prints the wafer "
+                                    'centre, the blade and the platform in the world frame [m, rad] '
+                                    '(docs/robot.md).')
     p.add_argument('--rods', type=number, nargs=3, required=True, metavar='Q', help='rod lengths [m, or mm]')
     p.add_argument('--joints', type=number, nargs='+', required=True, metavar='J', help='arm joints [rad, or deg]')
     p.add_argument('--arm', help='arm name (default: the first arm)')
@@ -125,7 +129,10 @@ def register(sub: Subparsers) -> None:
     robot_options(p)
     p.set_defaults(handler=_cmd_fk)
 
-    p = rsub.add_parser('ik', help='a station (wafer pose in the world) -> rods and arm joints')
+    p = rsub.add_parser('ik', help='a station (wafer pose in the world) -> rods and arm joints',
+                        description='Station inverse kinematics: the rods and arm joints that put the wafer centre '
+                                    'at --position on a station plane of --tilt and --azimuth, the blade along '
+                                    '--heading; every limit checked (docs/robot.md).')
     p.add_argument('--position', type=number, nargs=3, required=True, metavar=('X', 'Y', 'Z'),
                    help='wafer centre in the world [m, or mm]')
     p.add_argument('--tilt', type=number, default=0.0, help='station plane tilt [rad, or deg] (default 0)')
@@ -140,7 +147,11 @@ def register(sub: Subparsers) -> None:
     robot_options(p)
     p.set_defaults(handler=_cmd_ik)
 
-    p = rsub.add_parser('teach', help='joints -> stations; with --naive: re-teach joints of the old naive model')
+    p = rsub.add_parser('teach', help='joints -> stations; with --naive: re-teach joints of the old naive model',
+                        description='Teach stations from joints read on the robot (--rods/--joints, or a --table '
+                                    'of them): the station each puts the wafer at; with --naive the joints came '
+                                    'from a tool that ignored the platform\'s tilt and centre shift, and the joints '
+                                    'that put the wafer where it meant are printed (docs/robot.md).')
     p.add_argument('--rods', type=number, nargs=3, metavar='Q', help='rod lengths [m, or mm]')
     p.add_argument('--joints', type=number, nargs='+', metavar='J', help='arm joints [rad, or deg]')
     p.add_argument('--table', metavar='CSV', help='many: a CSV with a header naming the rods and joints (units in '
