@@ -16,13 +16,14 @@ import pytest
 from bag_support import MARKERS, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
 from gpr_kinematics.bags.results import MAX_DETAILS
-from gpr_kinematics.bags.synthetic import robot_program_messages, sweep_messages
+from gpr_kinematics.bags.synthetic import make_message, robot_program_messages, sweep_messages
 from gpr_kinematics.bags.typestore import (
     GEOMETRY_TOPIC,
     GPR_TOPICS,
     PLATFORM_STREAM_TOPICS,
     PROGRAM_TOPIC,
     ROBOT_TOPIC,
+    typestore,
 )
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.inputs.resources import config_path
@@ -595,3 +596,45 @@ def test_tampered_bags_never_pass(sweep: Path, robot_bag: Path, tmp_path_factory
     result = verify_bag(bag)
     assert not result.passed, (kind, topic, index)
     assert numeric_fields(topics[topic].msgtype)   # every recorded type has its fields placed (bags/coverage.py)
+
+
+def _controller_joint_states(stamps: list[int], velocities: bool = True) -> list[tuple[str, int, bytes]]:
+    """``joint_states`` of the robot's controller (robot_simulator_node: every joint, positions and velocities,
+    frame ''), logged at their stamps: the example robot's rods at 0.254 m and its arms' nine joints."""
+    names = ['rod_1', 'rod_2', 'rod_3', 'arm1_shoulder', 'arm1_elbow', 'arm1_wrist', 'arm2_shoulder', 'arm2_elbow',
+             'arm2_wrist', 'arm2_hand']
+    out = []
+    for t in stamps:
+        header = make_message('std_msgs/msg/Header', stamp=make_message(
+            'builtin_interfaces/msg/Time', sec=t // 10**9, nanosec=t % 10**9), frame_id='')
+        msg = make_message(GPR_TOPICS['/joint_states'], header=header, name=names,
+                           position=np.full(len(names), 0.254), velocity=np.zeros(len(names) if velocities else 0))
+        out.append(('/joint_states', t, bytes(typestore().serialize_cdr(msg, GPR_TOPICS['/joint_states']))))
+    return out
+
+
+@pytest.mark.parametrize('velocities, fails', [(True, {}), (False, {'topic.joint_states_extra': {None},
+                                                                     'topic.joint_states_order': {None}})])
+def test_a_controllers_joint_states_around_the_stream_pass(tmp_path: Path, velocities: bool,
+                                                          fails: dict[str, set[None]]) -> None:
+    """The offline loop records joint_states beside the robot simulator, which holds the robot there at 10 Hz before
+    and after a stream (and one message may come between the stream's first samples, stamped later than the next):
+    its bag failed topic.joint_states_extra with every held state after the sweep. A controller's messages carry
+    velocities, the stream's positions only: those are not the stream's. The same messages without velocities fail."""
+    start, period = 1_700_000_000_000_000_000, 1_000_000
+    msgs = small_sweep()
+    held = [start - 200_000_000, start - 100_000_000, start + period * 5 // 2] + \
+        [start + 29 * period + k * 100_000_000 for k in range(1, 6)]
+    extra = _controller_joint_states(held, velocities)
+    before, inside, after = extra[:2], extra[2:3], extra[3:]
+    second = next(k for k, m in enumerate(msgs) if m[0] == '/joint_states' and m[1] == start + period)
+    msgs = before + msgs[:second + 1] + [(inside[0][0], start + period + 1, inside[0][2])] + msgs[second + 1:] + after
+    result = verify_bag(write_bag(tmp_path / 'loop', msgs, _types(msgs)))
+    assert result.counts['/joint_states'] == 30 + 8
+    assert _failed(result) == fails, [f.line() for f in result.failures]
+    if fails:
+        extras = next(c for c in result.checks if c.name == 'topic.joint_states_extra')
+        assert (extras.checked, extras.worst) == (31 + 5, 1 + 4)   # one inside; after the last state all but one
+        assert result.failures[1].detail == (
+            f'header stamps that go back in log-time order (the first: message 5 of the topic, stamped '
+            f'{start + 2 * period} ns, logged after one stamped {start + period * 5 // 2} ns)')

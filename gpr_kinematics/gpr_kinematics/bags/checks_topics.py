@@ -39,6 +39,14 @@ messages without a PlatformState of the same stamp are ``*_extra`` failures: ins
 last state all but those of one stamp (a cut in the middle of a sample may have lost its state only: the states'
 tail removed and the metadata recounted passed before); before the first state they are a late subscriber's. A
 companion topic's header stamps that go back in log-time order are a ``*_order`` failure (:func:`unordered`).
+
+A controller's joint states: ``joint_states`` is the robot's topic, and the robot's controller publishes on it too
+(``robot_simulator_node`` holding the robot before, between and after streams, and moving it for its goals, as
+ros2_control's joint_state_broadcaster does), every joint's position with its velocity; the stream's messages carry
+positions only. A message with velocities or efforts that no state's stamp matches is the controller's, not the
+stream's: it is neither ``topic.joint_states_extra`` nor ``_order`` (the offline loop's recorder, running beside the
+robot simulator, failed ``gpr verify`` with the simulator's held state after the sweep). One with a state's stamp is
+checked as the stream's (and fails: the node publishes positions only).
 """
 from __future__ import annotations
 
@@ -138,17 +146,20 @@ def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[
                  [Failure(f'{check}_extra', topic, None, n, 0.0, why)])
 
 
-def unordered(check: str, topic: str, companion: NDArray[np.int64]) -> Check | None:
+def unordered(check: str, topic: str, companion: NDArray[np.int64],
+              numbers: NDArray[np.int64] | None = None) -> Check | None:
     """A failed ``<check>_order`` if the companion topic's header stamps, in the recorder's log-time order, go back:
     the node publishes a topic's samples in order and the recorder receives and logs them so (the PlatformState
-    topic's own order is ``stream.stamps``); log times edited out of step with the stamps passed before."""
+    topic's own order is ``stream.stamps``); log times edited out of step with the stamps passed before.
+    ``numbers``: each stamp's message number in the topic, when ``companion`` is a part of it (the stream's)."""
     back = np.flatnonzero(np.diff(companion) < 0)
     if not back.size:
         return None
     k = int(back[0]) + 1
+    number = k if numbers is None else int(numbers[k])
     return Check(f'{check}_order', topic, len(companion), float(back.size), 0.0, 'messages', 1, [
         Failure(f'{check}_order', topic, None, float(back.size), 0.0,
-                f'header stamps that go back in log-time order (the first: message {k} of the topic, stamped '
+                f'header stamps that go back in log-time order (the first: message {number} of the topic, stamped '
                 f'{int(companion[k])} ns, logged after one stamped {int(companion[k - 1])} ns)')])
 
 
@@ -187,10 +198,12 @@ _Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
 
 
 def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
-                  layouts: tuple[_Layout, ...], detail: str, rods_only: int = -1) -> list[Check]:
+                  layouts: tuple[_Layout, ...], detail: str, rods_only: int = -1, shared: bool = False) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
     layout whose names it carries (inf when it carries none); of the state ``rods_only`` its first three joints
-    only (the last state of a robot recording whose RobotState a cut lost: its arm joints are not known)."""
+    only (the last state of a robot recording whose RobotState a cut lost: its arm joints are not known).
+    ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
+    states*): its messages, with velocities or efforts and no state's stamp, are not counted extra nor ordered."""
     check = f'topic.{name.rsplit("/", 1)[-1]}'
     t = _topic(bag, name)
     if t is None:
@@ -218,7 +231,13 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
                 e[r] = float(np.max(np.abs(got - want), initial=0.0))
                 break
     out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, jstamps, samples, e))]
-    return out + [x for x in [extra(check, name, jstamps, stamps, rows.size), unordered(check, name, jstamps)] if x]
+    own = np.ones(len(jstamps), dtype=bool)
+    if shared:
+        own[:] = [not (np.size(v) or np.size(f)) for v, f in zip(jc['velocity'], jc['effort'], strict=True)]
+        own[idx[rows]] = True
+    numbers = np.flatnonzero(own)
+    return out + [x for x in [extra(check, name, jstamps[own], stamps, rows.size),
+                              unordered(check, name, jstamps[own], numbers)] if x]
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
@@ -247,7 +266,7 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
     return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording; or, recorded before, rod_1..rod_3 + the virtual joints)',
-                          last if arms is not None and arms.joints(last) is None else -1)
+                          last if arms is not None and arms.joints(last) is None else -1, shared=True)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
