@@ -155,6 +155,29 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
     assert result.crossings == 12
 
 
+
+def test_a_sweep_recorded_beside_the_robot_simulator_verifies(tmp_path: Path) -> None:
+    """The documented offline loop (offline_loop.launch.py) records beside robot_simulator_node, which holds the
+    robot on joint_states (velocities included) before, during and after the sweep: its bag failed `gpr verify`
+    with the simulator's messages after the last state counted as topic.joint_states_extra. The controller's
+    messages are not the stream's."""
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
+
+    sim = start('robot_simulator_node', idle_rate=20.0)
+    bag = tmp_path / 'bag'
+    rec = recorder(bag, flush_interval=0.25)
+    try:
+        wait_for_log(sim, r'serving /joint_trajectory_controller/follow_joint_trajectory')
+        traj = record_to_the_end(rec, len(DEFAULT_TOPICS), lambda: (time.sleep(0.5), trajectory(400.0, 0.4, 30.0))[1])
+        n = published(traj)
+    finally:
+        sim.stop()
+    b = read_bag(bag)
+    assert len(b.topic(STATE)) == n == 132
+    assert len(b.topic(JOINT_STATES_TOPIC)) > n + 5   # the simulator's held state around the sweep
+    result = verify_bag(b)
+    assert result.passed, [f.line() for f in result.failures]
+
 @pytest.mark.slow
 def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> None:
     """A whole-robot program streamed by trajectory_node into a recorder with its default topics: the bag holds
