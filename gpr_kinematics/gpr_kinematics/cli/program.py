@@ -97,8 +97,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
 def _print_safety(r: Any) -> None:
     where = f'in cell {r.cell}' if r.cell else 'against itself (no cell)'
     print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, certified '
-          f'between samples; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} at '
-          f'{r.max_slip_at:.3f} s ({r.slip_label})')
+          f'between samples; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} (a bound over '
+          f'the motion; {r.max_slip_evaluated:.3f} evaluated at {r.max_slip_at:.3f} s, {r.slip_label})')
+    if not r.slip_certified:
+        from ..safety.slip_bound import SLIP_TOLERANCE
+        print(f'  the slip bound was not refined to within {SLIP_TOLERANCE:g} of the evaluated ratios (too many '
+              'instants): it is looser, still a bound')
     carried = [m for m in r.moves if m.max_slip_ratio > 0.0]
     if carried:
         head = 'waypoint (the move into it and its hold)'
@@ -115,9 +119,12 @@ def _print_safety(r: Any) -> None:
         print('    (first below: the first instant found closer than the margin, in that step at that station; '
               "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
               'its smallest measured distance)')
-    if r.max_slip_ratio >= 1.0:
-        print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_ratio:.3f} >= 1) at {r.max_slip_at:.3f} s, '
-              f'{r.slip_label}')
+    if r.max_slip_evaluated >= 1.0:
+        print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_evaluated:.3f} >= 1) at {r.max_slip_at:.3f} '
+              f's, {r.slip_label}')
+    elif r.max_slip_ratio >= 1.0:
+        print(f'  UNSAFE: the slip ratio is not bounded below 1 (its bound {r.max_slip_ratio:.3f}; evaluated at most '
+              f'{r.max_slip_evaluated:.3f}, at {r.max_slip_at:.3f} s, {r.slip_label})')
     print(f'  {"safe" if r.safe else "NOT safe"}')
 
 

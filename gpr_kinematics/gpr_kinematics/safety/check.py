@@ -24,6 +24,7 @@ from .cell import Cell
 from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
 from .motion import PlanMotion, grid_within
 from .slip import slip_series
+from .slip_bound import SlipBound, slip_bound
 
 Array = NDArray[np.float64]
 #: Rate [Hz] at which the slip ratio is evaluated (plus every waypoint's instants).
@@ -50,7 +51,7 @@ class Collision:
 
 @dataclass(frozen=True)
 class MoveSafety:
-    """One row per waypoint (the move into it and its hold): the times, the smallest slip ratio's peak."""
+    """One row per waypoint (the move into it and its hold): the times, the bound on its slip ratio."""
 
     waypoint: int
     label: str
@@ -66,8 +67,12 @@ class SafetyReport:
     Attributes:
         min_clearance: the smallest certified distance of any pair [m]; pairs: every pair, closest first
             (``bodies``, ``distance`` [m], ``time`` [s]); collisions: the pairs below the margin, first first.
-        max_slip_ratio: the largest slip ratio of a carried wafer (0: none carried); max_slip_at: its time [s] and
-            slip_label the waypoint; moves: the slip per waypoint.
+        max_slip_ratio: an upper bound of the slip ratio of a carried wafer over the whole motion (0: none carried;
+            :mod:`~gpr_kinematics.safety.slip_bound`); max_slip_evaluated: the largest ratio evaluated, at
+            max_slip_at [s] in the waypoint slip_label; slip_certified: the bound is within
+            :data:`~gpr_kinematics.safety.slip_bound.SLIP_TOLERANCE` of the evaluated ratios on every move, or of its
+            floor (else its refinement ran out of instants and the bound is looser, still a bound); moves: the bound
+            per waypoint.
         cell: the cell file (None: the robot against itself); evaluations: distance calls; instants: poses computed.
     """
 
@@ -78,8 +83,10 @@ class SafetyReport:
     pairs: tuple[dict[str, object], ...]
     collisions: tuple[Collision, ...]
     max_slip_ratio: float
+    max_slip_evaluated: float
     max_slip_at: float
     slip_label: str
+    slip_certified: bool
     moves: tuple[MoveSafety, ...]
     cell: str | None
     evaluations: int
@@ -180,16 +187,20 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
         for t0, t1 in windows:
             carrying[(times >= t0) & (times <= t1)] = arm
     slip = slip_series(plan, times, carrying)
+    bound = slip_bound(plan, times, slip.ratio, carrying)
     tell('slip', 1.0)
     ratio = np.where(np.isnan(slip.ratio), 0.0, slip.ratio)
-    k = int(np.argmax(ratio))
-    moves = _moves(plan, times, ratio)
+    every = np.concatenate([times, bound.time])
+    seen = np.concatenate([ratio, np.where(np.isnan(bound.ratio), 0.0, bound.ratio)])
+    k = int(np.argmax(seen))
+    moves = _moves(plan, times, ratio, bound)
+    most = max(float(seen[k]), max((m.max_slip_ratio for m in moves), default=0.0))
     collisions = tuple(sorted((_collision(plan, p.bodies, p.first_below if np.isfinite(p.first_below) else p.time,
                                           p.distance) for p in report.below_margin), key=lambda c: c.time))
-    safe = not collisions and float(ratio[k]) < 1.0
+    safe = not collisions and most < 1.0
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
-    return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, float(ratio[k]),
-                         float(times[k]), _label_at(plan, float(times[k])), moves,
+    return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
+                         float(every[k]), _label_at(plan, float(every[k])), bound.closed, moves,
                          None if cell is None else cell.source, report.evaluations, report.instants),
             report, (times, ratio))
 
@@ -255,11 +266,16 @@ def _collision(plan: ProgramPlan, bodies: tuple[str, str], t: float, distance: f
     return Collision(bodies, t, distance, step, str(plan.program.steps[step].station), plan.labels[w])
 
 
-def _moves(plan: ProgramPlan, times: Array, ratio: Array) -> tuple[MoveSafety, ...]:
+def _moves(plan: ProgramPlan, times: Array, ratio: Array, bound: SlipBound) -> tuple[MoveSafety, ...]:
+    """Per waypoint the largest of the ratios at the instants (exact on straight entries and holds) and of the
+    bounds between them on joint-space moves."""
     t = plan.timing
     out = []
     for w in range(len(t.arrive)):
         start = float(t.depart[w - 1]) if w else 0.0
         sel = (times >= start) & (times <= t.depart[w])
-        out.append(MoveSafety(w, plan.labels[w], start, float(t.depart[w]), float(np.max(ratio[sel], initial=0.0))))
+        within = (bound.start >= start) & (bound.end <= t.depart[w])
+        out.append(MoveSafety(w, plan.labels[w], start, float(t.depart[w]),
+                              max(float(np.max(ratio[sel], initial=0.0)), float(np.max(bound.bound[within],
+                                                                                         initial=0.0)))))
     return tuple(out)

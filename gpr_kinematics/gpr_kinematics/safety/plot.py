@@ -58,8 +58,8 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     ax2.plot(slip[0], slip[1], lw=1, label='slip ratio of the carried wafer')
     ax2.axhline(1.0, color='r', lw=1, label='slips at 1')
     if report.max_slip_ratio > 0.0:
-        ax2.plot([report.max_slip_at], [report.max_slip_ratio], 'v', color='k', ms=7,
-                 label=f'largest {report.max_slip_ratio:.3f} at {report.max_slip_at:.3f} s:\n{report.slip_label}')
+        ax2.plot([report.max_slip_at], [report.max_slip_evaluated], 'v', color='k', ms=7,
+                 label=f'largest {report.max_slip_evaluated:.3f} at {report.max_slip_at:.3f} s:\n{report.slip_label}')
     else:
         ax2.text(0.5, 0.5, 'no wafer carried', ha='center', va='center', transform=ax2.transAxes)
     ax2.set_ylabel('slip ratio (1: the wafer slips)')
@@ -69,7 +69,7 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     what = Path(program).name if program is not None else 'program'
     where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
     fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
-                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} (limit 1)',
+                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} (a bound; limit 1)',
                  fontsize=10)
     return fig
 

@@ -14,7 +14,8 @@ gives ``tan(alpha) / mu`` (0.035 g along the blade at 2 degrees). ``a`` comes fr
 ``s``), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''`` from the S-curve. There, with the
 orientation fixed, the ratio is a quasi-convex function of ``s''`` alone: its largest value over the move lies on one of
 the S-curve's corners (docs/cell.md), which the check evaluates, and on both sides of them (a trapezoid's
-acceleration jumps there); on joint-space moves it is sampled.
+acceleration jumps there); on joint-space moves it is sampled here and bounded between the samples by
+:mod:`~gpr_kinematics.safety.slip_bound`.
 """
 from __future__ import annotations
 

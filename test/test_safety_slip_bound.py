@@ -1,0 +1,292 @@
+"""The slip ratio's bound between the check's instants on joint-space moves (safety.slip_bound, docs/cell.md "Wafer
+slip"): never below the true ratio (dense scans of the example program and of random joint-space moves, with and
+without jerk limits), within its tolerance of it, and refusing a program whose ratio passes 1 between the instants
+only."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.robot.plan import jerk_limits, joint_limits, plan_program
+from gpr_kinematics.robot.program import load_program
+from gpr_kinematics.robot.timing import locate, parameterise
+from gpr_kinematics.safety.check import _slip_times, check_program, wafer_plan
+from gpr_kinematics.safety.slip import STEP, slip_series, wafer_path
+from gpr_kinematics.safety.slip_bound import POSITION_ERROR, SLIP_TOLERANCE, slip_bound, unit_rates
+from robot_support import make_robot, random_postures, robot_data
+
+PROGRAM = config_path('programs/example_cell_program.yaml')
+
+
+def _carrying(plan, times):
+    out = np.full(times.shape, '', dtype=object)
+    for arm, windows in wafer_plan(plan).carried.items():
+        for t0, t1 in windows:
+            out[(times >= t0) & (times <= t1)] = arm
+    return out
+
+
+def _bound(plan, carrying=_carrying):
+    times = _slip_times(plan)
+    held = carrying(plan, times)
+    return slip_bound(plan, times, slip_series(plan, times, held).ratio, held)
+
+
+def _scan(plan, bound, times, carrying=_carrying):
+    """The true ratio at ``times`` inside the bound's intervals (a corner shared by two: the larger bound; its value
+    takes one side of a trapezoid's jump), on the moves (an instant that starts a move is its hold's, exact there),
+    and the bound of the interval holding each."""
+    order = np.argsort(bound.start)
+    start, end, value, moves = bound.start[order], bound.end[order], bound.bound[order], bound.move[order]
+    k1 = np.minimum(np.searchsorted(end, times), end.size - 1)
+    k2 = np.maximum(np.searchsorted(start, times, side='right') - 1, 0)
+    in1, in2 = (start[k1] <= times) & (times <= end[k1]), (start[k2] <= times) & (times <= end[k2])
+    top = np.maximum(np.where(in1, value[k1], -np.inf), np.where(in2, value[k2], -np.inf))
+    keep = (in1 | in2) & ~locate(plan.timing, times)[1]
+    times = times[keep]
+    return (slip_series(plan, times, carrying(plan, times)).ratio, top[keep],
+            np.where(in1, moves[k1], moves[k2])[keep])
+
+
+def _no_jerk(data):
+    data['rods'].pop('jerk')
+    for arm in data['arms']:
+        for joint in arm['joints']:
+            joint.pop('jerk', None)
+    return data
+
+
+def test_unit_rates_bound_the_derivatives_of_a_unit_vector():
+    """``e/|e|`` for a random cubic ``e(s)``: its first three derivatives (finite differences) stay below the bounds
+    from ``|e^(k)| <= rho_k min |e|``, within a factor 3.2 of them at worst over 200 curves."""
+    rng = np.random.default_rng(1)
+    h = 1e-3
+    worst = []
+    for _ in range(200):
+        c = rng.normal(size=(4, 3)) * np.array([[1.0], [0.5], [0.3], [0.2]])
+        s = np.linspace(-0.2, 0.2, 401)
+        e = c[0] + s[:, None] * c[1] + s[:, None] ** 2 * c[2] + s[:, None] ** 3 * c[3]
+        d = [c[1] + 2 * s[:, None] * c[2] + 3 * s[:, None] ** 2 * c[3], 2 * c[2] + 6 * s[:, None] * c[3], 6 * c[3]]
+        least = float(np.min(np.linalg.norm(e, axis=1)))
+        rho = [float(np.max(np.linalg.norm(np.broadcast_to(x, e.shape), axis=1))) / least for x in d]
+        bounds = unit_rates(*(np.array([r]) for r in rho))
+        u = e / np.linalg.norm(e, axis=1)[:, None]
+        for k, b in enumerate(bounds, start=1):
+            du = np.diff(u, n=k, axis=0) / (s[1] - s[0]) ** k
+            assert np.max(np.linalg.norm(du, axis=1)) <= b[0] * (1.0 + h)
+        worst.append(max(float(np.max(np.linalg.norm(np.diff(u, n=k, axis=0), axis=1)) / (s[1] - s[0]) ** k
+                               / bounds[k - 1][0]) for k in (1, 2, 3)))
+    assert 0.3 < max(worst) <= 1.0
+
+
+def test_the_central_differences_rounding_is_within_the_assumed_error():
+    """The bound assumes the forward kinematics' noise from one ``s`` to the next at most ``POSITION_ERROR``
+    (1e-14 m) in the central differences, which allows the second difference of the wafer's path 4 POSITION_ERROR
+    / STEP^2 = 4e-6 m of noise: moving ``s`` by 1e-9 moves it by at most 1e-7 m on three moves of the example (the
+    path's own change there is below 1e-8 m), 2.5e-16 m of noise in the positions, 40 times less than assumed."""
+    plan = plan_program(make_robot(robot_data()), load_program(PROGRAM))
+    s = np.linspace(0.05, 0.95, 50)
+    for label in ('steps[2] (move low, move)', 'steps[5] (place pm1, at)', 'steps[8] (move pm2_front, move)'):
+        k = plan.labels.index(label) - 1
+        second = []
+        for shift in (0.0, 1e-9):
+            p = wafer_path(plan, 'arm2', k, np.concatenate([s + shift - STEP, s + shift, s + shift + STEP]))
+            second.append((p[100:] - 2 * p[50:100] + p[:50]) / STEP ** 2)
+        assert np.max(np.linalg.norm(second[1] - second[0], axis=1)) < 1.2e-7 < 4.0 * POSITION_ERROR / STEP ** 2 / 30
+
+
+def test_the_bound_holds_100_khz_about_every_peak_of_the_example():
+    """The example cell program (S-curves): 100 kHz about each move's largest bound and its instants' largest ratio
+    (+-10 ms) finds no ratio above the bound of its interval, and each move's bound is within SLIP_TOLERANCE (0.001)
+    of the largest ratio found (0.75388 over 0.75288 for the peak)."""
+    plan = plan_program(make_robot(robot_data()), load_program(PROGRAM))
+    bound = _bound(plan)
+    assert bound.closed
+    times = _slip_times(plan)
+    ratio = slip_series(plan, times, _carrying(plan, times)).ratio
+    _, _, m_of, _ = locate(plan.timing, times)
+    peaks = [bound.start[bound.move == m][np.argmax(bound.bound[bound.move == m])] for m in np.unique(bound.move)]
+    peaks += [times[m_of == m][np.nanargmax(ratio[m_of == m])] for m in np.unique(bound.move)]
+    times = np.unique(np.concatenate([np.arange(t - 0.01, t + 0.01, 1e-5) for t in peaks]))
+    ratio, value, move = _scan(plan, bound, times)
+    assert np.all(ratio <= value)
+    for m in np.unique(bound.move):
+        top = float(np.max(bound.bound[bound.move == m]))
+        assert float(np.max(ratio[move == m])) <= top <= float(np.max(ratio[move == m])) + SLIP_TOLERANCE
+    assert float(np.max(bound.bound)) == pytest.approx(0.75388, abs=2e-5)
+    assert float(np.max(ratio)) == pytest.approx(0.752885, abs=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('jerk', [True, False])
+def test_the_bound_holds_the_whole_example_at_100_khz(jerk):
+    """Every carried joint-space move of the example cell program, with and without jerk limits, scanned at 100 kHz:
+    no ratio above its interval's bound, every move's bound within SLIP_TOLERANCE of the scan's maximum."""
+    data = robot_data()
+    plan = plan_program(make_robot(data if jerk else _no_jerk(data)), load_program(PROGRAM))
+    bound = _bound(plan)
+    assert bound.closed
+    times = np.concatenate([np.arange(a, b, 1e-5) for a, b in zip(bound.start, bound.end, strict=True)])
+    ratio, value, move = _scan(plan, bound, times)
+    assert ratio.size > 1_000_000 and np.all(ratio <= value)
+    for m in np.unique(bound.move):
+        assert float(np.max(bound.bound[bound.move == m])) <= float(np.max(ratio[move == m])) + SLIP_TOLERANCE
+
+
+def _random_plan(seed, jerk):
+    """Three random postures of arm1 (rods at random heights and tilts, joints anywhere in their ranges) joined by
+    joint-space moves, the wafer carried throughout."""
+    data = robot_data()
+    robot = make_robot(data if jerk else _no_jerk(data))
+    base = plan_program(robot, load_program(PROGRAM))
+    rods, joints = random_postures(robot, 'arm1', 3, seed=seed, tilt_fraction=0.8)
+    names, velocity, acceleration, slices = joint_limits(robot)
+    positions = np.zeros((3, len(names)))
+    positions[:, :3], positions[:, slices[0]] = rods, joints
+    labels = ('a', 'b', 'c')
+    timing = parameterise(positions, velocity, acceleration, np.full(3, np.nan), np.zeros(3), names, labels,
+                          jerk_limits(robot))
+    return dataclasses.replace(base, positions=positions, timing=timing, labels=labels,
+                               waypoints=dataclasses.replace(base.waypoints, path=()))
+
+
+def _arm1(plan, times):
+    return np.full(times.shape, 'arm1', dtype=object)
+
+
+def _check_random(seed, jerk, rate):
+    plan = _random_plan(seed, jerk)
+    bound = _bound(plan, _arm1)
+    assert bound.closed
+    _, _, m_of, _ = locate(plan.timing, bound.time)
+    peaks = [bound.start[bound.move == m][np.argmax(bound.bound[bound.move == m])] for m in (0, 1)]
+    peaks += [bound.time[m_of == m][np.argmax(bound.ratio[m_of == m])] for m in (0, 1) if np.any(m_of == m)]
+    times = np.unique(np.concatenate([np.arange(0.0, plan.timing.total, 1.0 / rate)]
+                                     + [np.arange(t - 0.005, t + 0.005, 1e-5) for t in peaks]))
+    ratio, value, move = _scan(plan, bound, times, _arm1)
+    assert np.all(ratio <= value), seed
+    for m in (0, 1):
+        k = int(np.argmax(np.where(bound.move == m, bound.bound, -1.0)))
+        assert float(np.max(ratio[move == m])) <= bound.bound[k]
+        assert bound.bound[k] <= max(float(np.max(ratio[move == m])) + SLIP_TOLERANCE,
+                                     bound.floor[k] + 0.5 * SLIP_TOLERANCE)
+    return float(np.max(ratio)), float(np.max(bound.bound))
+
+
+@pytest.mark.parametrize('jerk, peak', [(True, 1.59798), (False, 1.76081)])
+def test_the_bound_holds_random_joint_space_moves(jerk, peak):
+    """Random joint-space moves of arm1 (with and without jerk limits): 10 kHz over both moves and 100 kHz about
+    each move's largest bound find no ratio above its interval's bound; the bound is closed, within SLIP_TOLERANCE
+    of the largest ratio found on each move."""
+    found, top = _check_random(3, jerk, 1e4)
+    assert found == pytest.approx(peak, abs=1e-5) and found < top < found + 1.1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('jerk', [True, False])
+def test_the_bound_holds_more_random_joint_space_moves_at_100_khz(jerk):
+    """As above for four more seeds, scanned at 100 kHz throughout."""
+    for seed in (4, 5, 6, 7):
+        _check_random(seed, jerk, 1e5)
+
+
+def test_a_slip_between_the_instants_is_refused(tmp_path):
+    """A pick from pm1 (tilted 1.5 deg) without jerk limits: the retract's ratio peaks between the 200 Hz instants
+    (0.0929806 at 0.34678 s, 100 kHz, 0.3 ms from the nearest instant; the instants read 0.0929787). With the
+    blade's friction set between the two (0.3 sqrt(0.0929787 0.0929806)) the instants alone stay below 1 (as the check
+    read before), the true ratio passes 1, and the check refuses the program (exit 1): its bound is above 1."""
+    data = _no_jerk(robot_data())
+    data['gpr']['config'] = str(config_path('gpr.yaml'))
+    program = {'format': 'gpr_robot_program', 'version': 1, 'robot': 'robot.yaml', 'wafers': ['pm1'],
+               'units': {'length': 'mm', 'angle': 'deg'},
+               'defaults': {'arm': 'arm2', 'branch': 'right', 'approach_height': 8, 'retract_height': 8},
+               'stations': [{'name': 'pm1', 'position': [1450, 500, 720], 'tilt': 1.5, 'azimuth': 120,
+                             'heading': 0}],
+               'steps': [{'pick': 'pm1'}]}
+    (tmp_path / 'p.yaml').write_text(yaml.safe_dump(program))
+    (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
+    plan = plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
+    times = _slip_times(plan)
+    sampled = float(np.nanmax(slip_series(plan, times, _carrying(plan, times)).ratio))
+    dense = np.arange(0.0, plan.timing.total, 1e-5)
+    true = slip_series(plan, dense, _carrying(plan, dense)).ratio
+    peak = float(np.nanmax(true))
+    assert sampled == pytest.approx(0.0929787, abs=1e-7) and peak == pytest.approx(0.0929806, abs=1e-7)
+    assert dense[np.nanargmax(true)] == pytest.approx(0.34678, abs=1e-5)
+    assert np.min(np.abs(times - 0.34678)) > 3e-4               # between the instants
+    data['arms'][1]['blade']['friction'] = 0.3 * float(np.sqrt(sampled * peak))
+    (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
+    plan = plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
+    assert float(np.nanmax(slip_series(plan, times, _carrying(plan, times)).ratio)) < 1.0
+    assert float(np.nanmax(slip_series(plan, dense, _carrying(plan, dense)).ratio)) > 1.0
+    report = check_program(plan, None)[0]
+    assert not report.safe and report.max_slip_ratio > 1.0 and report.slip_certified
+    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics', 'program', 'check', 'p.yaml', '--json'],
+                         cwd=tmp_path, capture_output=True, text=True, check=False)
+    assert res.returncode == 1, res.stderr
+    d = json.loads(res.stdout)
+    assert d['safe'] is False and d['collisions'] == [] and d['max_slip_ratio'] > 1.0
+    assert d['max_slip_evaluated'] < 1.0 and d['slip_certified'] is True
+    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics', 'program', 'check', 'p.yaml'],
+                         cwd=tmp_path, capture_output=True, text=True, check=False)
+    assert res.returncode == 1 and ('  UNSAFE: the slip ratio is not bounded below 1 (its bound 1.001; evaluated at '
+                                    'most 1.000, at 0.346 s, steps[0] (pick pm1, retract))\n') in res.stdout
+
+
+def test_the_bound_is_the_verdicts_and_the_moves(tmp_path):
+    """check_program reports the bound (max_slip_ratio, each move's row) over the ratio evaluated (max_slip_evaluated
+    at max_slip_at): on the example, 0.75388 >= 0.75288, every row at least its instants' largest ratio."""
+    plan = plan_program(make_robot(robot_data()), load_program(PROGRAM))
+    report, _, (times, ratio) = check_program(plan, None)
+    assert report.slip_certified and report.safe
+    assert report.max_slip_evaluated == pytest.approx(0.752885, abs=1e-6)
+    assert report.max_slip_ratio == pytest.approx(0.75388, abs=2e-5)
+    assert report.max_slip_ratio == max(m.max_slip_ratio for m in report.moves)
+    for m in report.moves:
+        sel = (times >= m.start) & (times <= m.end)
+        assert m.max_slip_ratio >= float(np.max(ratio[sel], initial=0.0))
+    assert report.cell is None
+    _, held, _, _ = locate(plan.timing, np.array([report.max_slip_at]))
+    assert not held[0]
+
+
+def test_a_bound_that_runs_out_of_instants_stays_a_bound_and_says_so(monkeypatch, capsys):
+    """With no instant to spare for refinement the example's bound is the first one, from the 200 Hz intervals' ends:
+    0.77992, still above the true 0.752885 and below 1 (safe), and the check says it was not closed."""
+    from gpr_kinematics.cli.program import _print_safety
+    from gpr_kinematics.safety import slip_bound as module
+
+    monkeypatch.setattr(module, 'MAX_REFINEMENTS', 0)
+    plan = plan_program(make_robot(robot_data()), load_program(PROGRAM))
+    report = check_program(plan, None)[0]
+    assert not report.slip_certified and report.safe
+    assert report.max_slip_ratio == pytest.approx(0.77992, abs=1e-5) and report.max_slip_evaluated < 0.752885
+    _print_safety(report)
+    out = capsys.readouterr().out
+    assert ('  the slip bound was not refined to within 0.001 of the evaluated ratios (too many instants): it is '
+            'looser, still a bound\n') in out
+    assert 'max slip ratio 0.780 (a bound over the motion; 0.753 evaluated at 54.683 s, steps[14] (place ' in out
+
+
+@pytest.mark.parametrize('model', ['compliant', 'polar', 'offset'])
+def test_the_bound_holds_under_the_first_order_models(model):
+    """The bound's platform terms are exact for the radial model only, first order for the others (their virtual
+    joints are a minimum-norm or least-cost solution): on the example under each, 1 kHz over every carried
+    joint-space move and 100 kHz about each move's largest bound find no ratio above it (the platform's share of the
+    wafer's jerk is small there: the bound is the radial model's, 0.75388)."""
+    data = robot_data()
+    data['gpr']['model'] = model
+    plan = plan_program(make_robot(data), load_program(PROGRAM))
+    bound = _bound(plan)
+    assert bound.closed and float(np.max(bound.bound)) == pytest.approx(0.75388, abs=2e-5)
+    peaks = [bound.start[bound.move == m][np.argmax(bound.bound[bound.move == m])] for m in np.unique(bound.move)]
+    times = np.unique(np.concatenate([np.arange(a, b, 1e-3) for a, b in zip(bound.start, bound.end, strict=True)]
+                                     + [np.arange(t - 0.005, t + 0.005, 1e-5) for t in peaks]))
+    ratio, value, _ = _scan(plan, bound, times)
+    assert ratio.size > 30_000 and np.all(ratio <= value)
