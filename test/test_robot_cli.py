@@ -300,3 +300,25 @@ def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot), '--cell', str(cell),
                            '--no-progress')
     assert status == 0 and out.rstrip().endswith('safe')
+
+
+
+def test_an_infinite_slip_ratio_is_null_in_the_json(capsys, tmp_path):
+    """A robot whose rods accelerate at 40 m/s^2 lowers a wafer faster than it falls (the ratio is infinite: lifted
+    off the blade): `gpr program check --json` printed half an object and ended in a ValueError traceback (JSON has
+    no infinity). A number that is not finite is null; the verdict is unsafe, exit 1."""
+    import yaml
+
+    robot = yaml.safe_load(open(config_path('robots/example_robot.yaml')))
+    robot['rods'].update(velocity=2.0, acceleration=40.0, jerk=4000.0)
+    (tmp_path / 'r.yaml').write_text(yaml.safe_dump(robot))
+    program = yaml.safe_load(open(PROGRAM))
+    program['robot'] = 'r.yaml'
+    (tmp_path / 'p.yaml').write_text(yaml.safe_dump(program))
+    status, out, err = run(capsys, 'program', 'check', str(tmp_path / 'p.yaml'), '--json', '--no-progress')
+    assert status == 1 and out.count('\n') == 1, err
+    d = json.loads(out)
+    assert d['safe'] is False and d['max_slip_ratio'] is None
+    assert None in [m['max_slip_ratio'] for m in d['moves']]
+    status, out, _ = run(capsys, 'program', 'check', str(tmp_path / 'p.yaml'), '--no-progress')
+    assert status == 1 and 'the wafer slips on the blade (ratio inf >= 1)' in out

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import os
 import sys
 from typing import TypeAlias
@@ -28,7 +29,9 @@ OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'rep
 def jsonable(obj: object) -> JsonValue:
     """``obj`` as JSON data: a dataclass becomes the mapping of its fields (recursively; a field whose metadata
     says ``json: inline``, a mapping, gives its keys instead of a key of its own), numpy arrays and scalars become
-    lists and numbers, tuples become lists. This is the one schema of ``--json``.
+    lists and numbers, tuples become lists, and a number that is not finite becomes ``null`` (JSON has none: an
+    infinite slip ratio, the wafer lifted off its blade, ended the output in a traceback after half an object). This
+    is the one schema of ``--json``.
 
     Raises:
         TypeError: a value that has no JSON form (``json.dump`` refused it the same way), or a key twice.
@@ -50,6 +53,8 @@ def jsonable(obj: object) -> JsonValue:
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
     if obj is None or isinstance(obj, (bool, int, float, str)):
         return obj
     raise TypeError(f'{type(obj).__name__} has no JSON form; allowed: dataclasses, numbers, strings, lists, '
@@ -77,8 +82,7 @@ def emit_json(result: object, **context: JsonValue) -> None:
     field again."""
     data = json_object(result)
     _merge(data, context, type(result).__name__)
-    json.dump(data, sys.stdout, allow_nan=False)
-    sys.stdout.write('\n')
+    sys.stdout.write(json.dumps(data, allow_nan=False) + '\n')   # whole, or nothing if it cannot be written
 
 
 def _given(value: object) -> list[str]:
