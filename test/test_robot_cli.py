@@ -309,10 +309,10 @@ def test_an_infinite_slip_ratio_is_null_in_the_json(capsys, tmp_path):
     no infinity). A number that is not finite is null; the verdict is unsafe, exit 1."""
     import yaml
 
-    robot = yaml.safe_load(open(config_path('robots/example_robot.yaml')))
+    robot = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
     robot['rods'].update(velocity=2.0, acceleration=40.0, jerk=4000.0)
     (tmp_path / 'r.yaml').write_text(yaml.safe_dump(robot))
-    program = yaml.safe_load(open(PROGRAM))
+    program = yaml.safe_load(Path(PROGRAM).read_text())
     program['robot'] = 'r.yaml'
     (tmp_path / 'p.yaml').write_text(yaml.safe_dump(program))
     status, out, err = run(capsys, 'program', 'check', str(tmp_path / 'p.yaml'), '--json', '--no-progress')
