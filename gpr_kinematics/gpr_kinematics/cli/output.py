@@ -10,13 +10,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import os
 import sys
 from typing import TypeAlias
 
 import numpy as np
 
+from ..bags.results import json_number
 from ..errors import InputError
 
 #: JSON data: what :func:`jsonable` returns and :func:`json.dump` writes.
@@ -29,7 +29,8 @@ OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'rep
 def jsonable(obj: object) -> JsonValue:
     """``obj`` as JSON data: a dataclass becomes the mapping of its fields (recursively; a field whose metadata
     says ``json: inline``, a mapping, gives its keys instead of a key of its own), numpy arrays and scalars become
-    lists and numbers, tuples become lists, and a number that is not finite becomes ``null`` (JSON has none: an
+    lists and numbers, tuples become lists, and a number that is not finite becomes the text ``"inf"``, ``"-inf"``
+    or ``"nan"`` (:func:`~gpr_kinematics.bags.results.json_number`, as ``gpr verify``'s; JSON has no such numbers: an
     infinite slip ratio, the wafer lifted off its blade, ended the output in a traceback after half an object). This
     is the one schema of ``--json``.
 
@@ -53,8 +54,8 @@ def jsonable(obj: object) -> JsonValue:
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
+    if isinstance(obj, float):
+        return json_number(obj)
     if obj is None or isinstance(obj, (bool, int, float, str)):
         return obj
     raise TypeError(f'{type(obj).__name__} has no JSON form; allowed: dataclasses, numbers, strings, lists, '
