@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,9 @@ from ..errors import FileError, GprError
 from ..inputs.files import atomic_output, writable_folder, write_text
 from .errors import BagError
 from .results import VerifyResult, format_table
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 ZOOM = 12
 ZOOM_CROSSINGS = 3
@@ -70,10 +73,12 @@ def check_report_folder(folder: str | Path) -> Path:
 
 
 def _figure(title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], labels: list[str], ylabel: str,
-            crossings: NDArray[np.int64], reference: tuple[float, str] | None = None) -> Any:
+            crossings: NDArray[np.int64], reference: tuple[float, str] | None = None) -> Figure:
     """The stream on top and the zoom below, the legend beside the top (not on its curves), ``reference`` (a value
     and its label) a dashed line in both."""
-    plt = _plt()
+    _plt()  # matplotlib there, the Agg backend chosen
+    import matplotlib.pyplot as plt
+
     fig, (ax, az) = plt.subplots(2, 1, figsize=(10, 6.5), constrained_layout=True)
     for k, lab in enumerate(labels):
         ax.plot(sample, curves[:, k], lw=0.8, label=lab)
@@ -116,7 +121,7 @@ def write_report(result: VerifyResult, folder: str | Path) -> list[Path]:
                        ) from None
 
 
-def _save(fig: Any, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     """Write the figure as PNG through the package's checked, atomic writer (an existing FIFO, device or link at
     ``path`` is refused: it would block the write, be overwritten or write elsewhere)."""
     try:
@@ -142,7 +147,7 @@ def _write(result: VerifyResult, out: Path) -> list[Path]:
     return written
 
 
-def report_figures(result: VerifyResult) -> list[tuple[str, Any]]:
+def report_figures(result: VerifyResult) -> list[tuple[str, Figure]]:
     """The report's figures (file name, matplotlib Figure), in the order written; none for a bag without states.
     Each title names the bag; lengths in mm, angles in deg, the centre shift in um."""
     s = result.series
