@@ -19,11 +19,13 @@ acceleration jumps there); on joint-space moves it is sampled here and bounded b
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.config import GprConfig
 from ..robot.forward import robot_forward
 from ..robot.plan import ProgramPlan, joint_limits, move_rows, plan_samples
 from ..robot.timing import evaluate, locate, sample_at
@@ -33,6 +35,20 @@ Array = NDArray[np.float64]
 GRAVITY = 9.80665
 #: Step in ``s`` of the central differences of the wafer's path.
 STEP = 1e-4
+#: The closure's tolerance [m] the slip check solves the forward kinematics to (the package's default): its second
+#: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
+#: 1e-6 m is allowed; 3.7e-7 m of position error then) is tightened to it here.
+CLOSURE_TOLERANCE = 1e-14
+
+
+def closure_exact(plan: ProgramPlan) -> ProgramPlan:
+    """``plan`` with its robot's closure solved to :data:`CLOSURE_TOLERANCE` (at least the default iterations)."""
+    cfg = plan.robot.config
+    if cfg.tolerance <= CLOSURE_TOLERANCE:
+        return plan
+    tight = cfg.replace(tolerance=CLOSURE_TOLERANCE, max_iterations=max(cfg.max_iterations,
+                                                                       GprConfig.max_iterations))
+    return dataclasses.replace(plan, robot=dataclasses.replace(plan.robot, config=tight))
 
 
 @dataclass(frozen=True)
@@ -55,7 +71,9 @@ def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
 
 
 def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
-    """The slip ratio at ``times`` for the arm named in ``carrying (N,)`` ('' where no wafer is carried)."""
+    """The slip ratio at ``times`` for the arm named in ``carrying (N,)`` ('' where no wafer is carried); the forward
+    kinematics to :data:`CLOSURE_TOLERANCE`."""
+    plan = closure_exact(plan)
     timing = plan.timing
     robot = plan.robot
     _, held, m, tau = locate(timing, times)

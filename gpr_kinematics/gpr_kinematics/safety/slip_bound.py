@@ -43,7 +43,7 @@ from ..robot.forward import robot_forward
 from ..robot.plan import ProgramPlan, joint_limits, line_moves
 from ..robot.timing import evaluate, locate
 from .motion import LIPSCHITZ, platform_state, rod_directions
-from .slip import GRAVITY, STEP
+from .slip import CLOSURE_TOLERANCE, GRAVITY, STEP, closure_exact
 
 Array = NDArray[np.float64]
 
@@ -51,9 +51,9 @@ Array = NDArray[np.float64]
 SLIP_TOLERANCE = 1e-3
 #: At most this many instants are added to settle the bound (beyond it the bound stays as it is, an upper bound).
 MAX_REFINEMENTS = 100_000
-#: The forward kinematics' rounding assumed in the central differences [m]: the closure's tolerance (its noise from
-#: one ``s`` to the next is at the doubles' spacing, 2e-16 m: a test measures it).
-POSITION_ERROR = 1e-14
+#: The forward kinematics' rounding assumed in the central differences [m]: the closure's tolerance the slip check
+#: solves to (its noise from one ``s`` to the next is at the doubles' spacing, 2e-16 m: a test measures it).
+POSITION_ERROR = CLOSURE_TOLERANCE
 #: An interval this short [s] is not halved again (its bound stays, an upper bound, and the bound is not closed).
 SHORTEST = 1e-7
 
@@ -264,7 +264,9 @@ def _ends(plan: ProgramPlan, t0: Array, t1: Array, m: NDArray[np.int64], arms: A
 def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array) -> SlipBound:
     """The bound on every interval between consecutive ``times`` (the slip check's instants, sorted; ``ratio`` there,
     NaN where no wafer is carried) that lies in a joint-space move with the wafer on one arm throughout (module
-    docstring); ``carrying`` the arm at each instant ('' none)."""
+    docstring); ``carrying`` the arm at each instant ('' none). The forward kinematics to
+    :data:`~gpr_kinematics.safety.slip.CLOSURE_TOLERANCE`."""
+    plan = closure_exact(plan)
     timing = plan.timing
     empty = np.zeros(0)
     if times.shape[0] < 2 or not len(timing.duration):
