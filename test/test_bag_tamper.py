@@ -638,3 +638,23 @@ def test_a_controllers_joint_states_around_the_stream_pass(tmp_path: Path, veloc
         assert result.failures[1].detail == (
             f'header stamps that go back in log-time order (the first: message 5 of the topic, stamped '
             f'{start + 2 * period} ns, logged after one stamped {start + period * 5 // 2} ns)')
+
+
+@pytest.mark.parametrize('frame', ['', 'gpr_base'])
+def test_a_second_joint_state_at_a_samples_stamp_fails_with_velocities(tmp_path: Path, frame: str) -> None:
+    """A message with velocities is a controller's only without a state's stamp: a second joint_states message at
+    sample 10's stamp (the rods at 0.3 m, zero velocities), logged after the stream's, passed as the controller's;
+    it is an extra message of the stream."""
+    start, period = 1_700_000_000_000_000_000, 1_000_000
+    t = start + 10 * period
+    msgs = small_sweep()
+    k = next(k for k, m in enumerate(msgs) if m[0] == '/joint_states' and m[1] == t)
+    header = make_message('std_msgs/msg/Header', stamp=make_message(
+        'builtin_interfaces/msg/Time', sec=t // 10**9, nanosec=t % 10**9), frame_id=frame)
+    msg = make_message(GPR_TOPICS['/joint_states'], header=header, name=['rod_1', 'rod_2', 'rod_3'],
+                       position=np.full(3, 0.3), velocity=np.zeros(3))
+    msgs.insert(k + 1, ('/joint_states', t, bytes(typestore().serialize_cdr(msg, GPR_TOPICS['/joint_states']))))
+    result = verify_bag(write_bag(tmp_path / 'bag', msgs, _types(msgs)))
+    assert _failed(result) == {'topic.joint_states_extra': {None}}
+    extras = next(c for c in result.checks if c.name == 'topic.joint_states_extra')
+    assert (extras.checked, extras.worst) == (31, 1)

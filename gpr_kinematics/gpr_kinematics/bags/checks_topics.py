@@ -203,7 +203,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     layout whose names it carries (inf when it carries none); of the state ``rods_only`` its first three joints
     only (the last state of a robot recording whose RobotState a cut lost: its arm joints are not known).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
-    states*): its messages, with velocities or efforts and no state's stamp, are not counted extra nor ordered."""
+    states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
+    with a state's stamp is, also beside the stream's message of that stamp)."""
     check = f'topic.{name.rsplit("/", 1)[-1]}'
     t = _topic(bag, name)
     if t is None:
@@ -234,7 +235,7 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     own = np.ones(len(jstamps), dtype=bool)
     if shared:
         own[:] = [not (np.size(v) or np.size(f)) for v, f in zip(jc['velocity'], jc['effort'], strict=True)]
-        own[idx[rows]] = True
+        own |= np.isin(jstamps, stamps)     # a state's stamp: the stream's, whichever message matched it
     numbers = np.flatnonzero(own)
     return out + [x for x in [extra(check, name, jstamps[own], stamps, rows.size),
                               unordered(check, name, jstamps[own], numbers)] if x]
