@@ -22,7 +22,7 @@ on the interval, which holds no corner: the corners are instants), the normal ``
 ``|n'| S_1``. Within ``h`` of the anchor ``|f - f_m| <= df`` (with the central differences' error, ``p'''``-bound
 times ``STEP``, and :data:`POSITION_ERROR`) and ``angle(n, n_m) <= dn``, so
 
-    ``ratio <= (|f_t,m| + (|f_m| + df) dn + df) / (mu (f_n,m - (|f_m| + df) dn - df) + F_vac / m)``.
+    ``ratio <= (|f_t,m| + (|f_m| + df) dn + df) / (mu (f_n,m - (|f_m| + df) dn - df + F_vac / m))``.
 
 Intervals whose bound exceeds the largest ratio evaluated on their move by more than :data:`SLIP_TOLERANCE` are
 halved (their midpoints become instants) until none does or lies more than half of it above its floor (the bound that
