@@ -354,3 +354,20 @@ def test_a_gate_failure_with_declared_noise_names_its_cause():
     gate = {c.name: c for c in identify(m, Measurements(good.source, good.q, one, good.quaternion, good.sigma_position,
                                                           good.sigma_angle, good.lines)).gate.checks}
     assert not gate['outliers'].passed and 'a mismeasured row (remove it)' in gate['outliers'].detail
+
+
+def test_a_kind_without_a_degree_of_freedom_takes_the_reduced_chi_square_of_all() -> None:
+    """Per-kind variances of the sandwich covariance: a kind with less than one degree of freedom (its residuals all
+    but determined by the fit) was given 1, trusting assumed sigmas the other kind showed to be 4 times too small;
+    it takes the reduced chi-square of all residuals now (its own cannot be estimated)."""
+    from gpr_kinematics.calibration.quality import kind_variances
+
+    rng = np.random.default_rng(7)
+    residual = np.hstack([2.0 * rng.standard_normal((10, 3)), 0.5 * rng.standard_normal((10, 3))])
+    h = np.hstack([np.full((10, 3), 0.2), np.full((10, 3), 0.99)])   # angles: 0.3 degrees of freedom
+    got = kind_variances(h, residual)
+    positions = float(np.sum(residual[:, :3] ** 2)) / 24.0
+    everything = float(np.sum(residual ** 2)) / 24.3
+    np.testing.assert_allclose(got, [positions] * 3 + [everything] * 3, rtol=1e-15)
+    assert got[3] > 2.0   # not the 1 of the assumed sigmas
+    np.testing.assert_array_equal(kind_variances(np.full((2, 6), 0.95), residual[:2]), np.ones(6))   # none at all

@@ -239,9 +239,11 @@ def hat_diagonal(J: Array, shape: tuple[int, int]) -> Array | None:
 def kind_variances(h: Array, residual: Array) -> Array:
     """Per column of weighted residual blocks ``residual (N, k)`` the reduced chi-square of its kind
     (:data:`KINDS`), ``sum r^2 / sum (1 - h_ii)`` over the kind's residuals (``h (N, k)`` the hat diagonal): the
-    variance of a weighted residual of that kind, 1 when its sigmas are the noise (1 where a kind has no degree of
-    freedom)."""
-    out = np.ones(residual.shape[1])
+    variance of a weighted residual of that kind, 1 when its sigmas are the noise. A kind with less than one degree
+    of freedom takes the reduced chi-square of all residuals (its own cannot be estimated: 1 trusted the assumed
+    sigmas), 1 when that has none either."""
+    total = float(np.sum(1.0 - h))
+    out = np.full(residual.shape[1], float(np.sum(residual ** 2)) / total if total >= 1.0 else 1.0)
     for _, part in KINDS[residual.shape[1]]:
         dof = float(np.sum(1.0 - h[:, part]))
         if dof >= 1.0:
