@@ -217,9 +217,11 @@ def test_a_slip_between_the_instants_is_refused(tmp_path):
     dense = np.arange(0.0, plan.timing.total, 1e-5)
     true = slip_series(plan, dense, _carrying(plan, dense)).ratio
     peak = float(np.nanmax(true))
-    assert sampled == pytest.approx(0.0929787, abs=1e-7) and peak == pytest.approx(0.0929806, abs=1e-7)
-    assert dense[np.nanargmax(true)] == pytest.approx(0.34678, abs=1e-5)
-    assert np.min(np.abs(times - 0.34678)) > 3e-4               # between the instants
+    # (the central differences' rounding moves both by about 2e-7 between numpy and Python versions)
+    assert sampled == pytest.approx(0.0929787, abs=1e-6) and peak == pytest.approx(0.0929806, abs=1e-6)
+    assert peak - sampled > 1e-6
+    at = dense[np.nanargmax(true)]   # a flat top: 0.34678 s (0.34729 s on numpy 1.26), 0.3 ms from an instant
+    assert 0.3465 < at < 0.3475 and np.min(np.abs(times - at)) > 2e-4   # between the instants
     data['arms'][1]['blade']['friction'] = 0.3 * float(np.sqrt(sampled * peak))
     (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
     plan = plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
