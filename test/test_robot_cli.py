@@ -283,27 +283,33 @@ def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(
     '../robots/example_robot.yaml'`: neither the program that named it nor the folder it is relative to was said."""
     import shutil
 
-    program = tmp_path / 'p.yaml'
+    (tmp_path / 'programs').mkdir()
+    program = tmp_path / 'programs' / 'p.yaml'
     shutil.copy(config_path('programs/example_cell_program.yaml'), program)
     robot, cell = config_path('robots/example_robot.yaml'), config_path('cells/example_cell.yaml')
     status, out, err = run(capsys, 'program', 'export', str(program), '--waypoints', str(tmp_path / 'w.csv'))
     assert (status, out) == (2, '') and err.count('\n') == 1 and not (tmp_path / 'w.csv').exists()
-    assert err == (f"gpr program: error: {program}: robot file '{tmp_path / '../robots/example_robot.yaml'}' (named "
-                   'by the program, relative to its folder) does not exist; allowed: an existing file, or --robot '
-                   'FILE\n')
+    robot_named = tmp_path / 'programs/../robots/example_robot.yaml'
+    assert err == (f"gpr program: error: {program}: robot file '{robot_named}' (named by the program, relative to its "
+                   "folder) does not exist; allowed: an existing file, or --robot FILE\n")
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
-    assert status == 2 and f"{program}: cell file '{tmp_path / '../cells/example_cell.yaml'}'" in err
+    assert status == 2 and f"{program}: cell file '{tmp_path / 'programs/../cells/example_cell.yaml'}'" in err
     assert err.endswith('allowed: an existing file, or --cell FILE\n')
     status, out, err = run(capsys, 'accuracy', str(program), '--tolerances',
                            str(config_path('calibration/tolerances_example.yaml')))
-    assert status == 2 and f"{program}: robot file '{tmp_path / '../robots/example_robot.yaml'}'" in err
+    assert status == 2 and f"{program}: robot file '{robot_named}'" in err
+    (tmp_path / 'cells').mkdir()
+    dangling = tmp_path / 'cells' / 'example_cell.yaml'
+    dangling.symlink_to(tmp_path / 'nowhere.yaml')   # a link to nothing is as missing as no file
+    status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
+    assert status == 2 and f"{program}: cell file '{tmp_path / 'programs/../cells/example_cell.yaml'}'" in err
+    dangling.unlink()
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot), '--cell', str(cell),
                            '--no-progress')
     assert status == 0 and out.rstrip().endswith('safe')
 
 
-
-def test_an_infinite_slip_ratio_is_null_in_the_json(capsys, tmp_path):
+def test_an_infinite_slip_ratio_is_the_text_inf_in_the_json(capsys, tmp_path):
     """A robot whose rods accelerate at 40 m/s^2 lowers a wafer faster than it falls (the ratio is infinite: lifted
     off the blade): `gpr program check --json` printed half an object and ended in a ValueError traceback (JSON has
     no infinity). A number that is not finite is the text 'inf', as gpr verify's JSON writes it; the verdict is

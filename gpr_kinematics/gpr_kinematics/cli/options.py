@@ -126,7 +126,7 @@ def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | No
     :class:`FileError` naming the program when that file does not exist (a refusal that named the file alone left
     the reader to guess who named it and relative to what)."""
     path: Path | None = getattr(program, key)
-    if given is not None or path is None or os.path.lexists(path):
+    if given is not None or path is None or os.path.exists(path):   # a dangling link does not exist either
         return given if given is not None else path
     raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) does '
                     f'not exist; allowed: an existing file, or --{key} FILE')
