@@ -328,7 +328,7 @@ def test_a_measurement_twice_is_refused_not_counted_twice():
 def test_a_gate_failure_with_declared_noise_names_its_cause():
     """Noise 10 times the declared (30 um and 200 urad declared as 3 um and 20 urad): the chi-square message named
     no cause and the outlier check told to remove line 20 (31 standard deviations) while every row was as far off.
-    Now the chi-square message lists the causes with the residuals' robust scale per kind (9.1 and 11.7, near 9.8,
+    Now the chi-square message lists the causes with the residuals' robust scale per kind (9.09 and 11.8, near 9.8,
     the square root of the chi-square: all too large alike), and the outlier check says it is not this row alone.
     A row 30 um off keeps its 'mismeasured row' (the robust scale 0.96)."""
     cfg = load_config()
@@ -354,6 +354,48 @@ def test_a_gate_failure_with_declared_noise_names_its_cause():
     gate = {c.name: c for c in identify(m, Measurements(good.source, good.q, one, good.quaternion, good.sigma_position,
                                                           good.sigma_angle, good.lines)).gate.checks}
     assert not gate['outliers'].passed and 'a mismeasured row (remove it)' in gate['outliers'].detail
+
+
+def test_the_documented_gate_failure_is_the_output(capsys, tmp_path):
+    """docs/calibration.md quotes the failed gate of the case above as `gpr calibrate` prints it, and the robust
+    scales of three causes: it quoted 96.4, positions 9.12 and angles 11.7, 31 and 2.64 standard deviations, and line
+    20 of 'the demonstration's machine' (a machine none of these numbers came from), and 1.4 and 1.19, 2.21 and 1.47
+    for a row 300 um off and x and y swapped, where the output reads 96.41, 9.09, 11.8, 31.1, 2.63, line 21 of the
+    file the package writes, 1.38 and 1.21, 2.41 and 1.47."""
+    from pathlib import Path
+
+    from gpr_kinematics.calibration.measurements import write_measurements
+    from gpr_kinematics.cli.main import main
+
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'calibration.md').read_text(encoding='utf-8')
+    cfg = load_config()
+    m = CoreModel(cfg)
+    Q = plan_measurements(m, cfg, 40).q
+    truth = m.parameters.coordinates(perturbed(m, 5))
+    noisy = synthetic_measurements(m, truth, Q, 10 * SP, 10 * SA, seed=5)
+    write_measurements(tmp_path / 'noisy.csv', Measurements(noisy.source, noisy.q, noisy.position, noisy.quaternion,
+                                                            np.full(40, SP), np.full(40, SA), noisy.lines))
+    assert main(['calibrate', str(tmp_path / 'noisy.csv'), '--output', str(tmp_path / 'c.yaml')]) == 1
+    err = capsys.readouterr().err
+    quoted = re.search(r'`(gpr calibrate: the fit failed its gate: .*?)`', ' '.join(doc.split()), re.S)
+    assert quoted is not None and err == quoted.group(1) + '\n'
+
+    def scales(position=None):
+        good = synthetic_measurements(m, truth, Q, SP, SA, seed=5)
+        meas = Measurements(good.source, good.q, good.position if position is None else position(good.position.copy()),
+                            good.quaternion, good.sigma_position, good.sigma_angle, good.lines)
+        gate = {c.name: c for c in identify(m, meas).gate.checks}['chi_square']
+        found = re.search(r'robust scale: positions ([\d.]+), angles ([\d.]+) sigma', gate.detail)
+        assert found is not None, gate.detail
+        return f'{found[1]} and {found[2]} against {math.sqrt(gate.value):.3g}'
+
+    def off(p):
+        p[17, 2] += 300e-6
+        return p
+
+    text = ' '.join(doc.split())
+    assert f'(one row 300 um off in z at the declared noise: {scales(off)})' in text
+    assert f'(x and y swapped: {scales(lambda p: p[:, [1, 0, 2]])})' in text
 
 
 def test_a_kind_without_a_degree_of_freedom_takes_the_reduced_chi_square_of_all() -> None:
