@@ -11,7 +11,8 @@ frame of the joint-centre triangle: the direction of ``E12``, affine in ``s``, a
 quadratic; ``F_r`` the in-plane frame of the platform joints ``r_k(X)``: the direction of ``r_2 - r_1``), ``w`` the
 wafer in ``gpr_platform`` (link vectors ``r_i u(phi_i)``, ``phi_i`` affine in ``s``: ``|w^(k)| <= sum_i r_i |b_i|^k``)
 and ``rbar`` the joints' centroid. The virtual joints close ``F(X(s)) = G(s) = L(s)^2`` (``G`` quadratic in ``s``;
-Bratovanov & Sotirov, eq. (3)): ``J X' = G'``, ``J X'' = G'' - H[X', X']``, ``J X''' = -3 H[X', X'']`` with
+Bratovanov & Sotirov, eq. (6), differentiated as their eq. (3)): ``J X' = G'``, ``J X'' = G'' - H[X', X']``,
+``J X''' = -3 H[X', X'']`` with
 ``|H[x, y]| <= Lip |x| |y|`` and ``J``'s smallest singular value at least ``(sigma_m + sqrt(sigma_m^2 - 4 Lip
 |G'| ds))/2`` within ``ds`` of the anchor; ``|r_k^(j)| <= gamma |X^(j)|``. This is exact for the ``radial`` model
 (``F`` quadratic in ``X``, ``gamma = 1``), first order for the others (as the clearance's platform bound). A unit
