@@ -13,16 +13,18 @@ from numpy.typing import NDArray
 def grid_times(total: float, rate: float) -> NDArray[np.float64]:
     """The instants of a motion of ``total`` [s] sampled at ``rate`` [Hz]: ``t_k = k / rate`` for ``k = 0 ..
     floor(total rate)`` and the end, ``total`` itself: appended when it lies more than 1 ns after the last ``t_k``
-    (or the motion is shorter than that), else the last ``t_k`` (a sample within 1 ns of the end is the end). The
-    caller bounds the count (:data:`~gpr_kinematics.robot.timing.MAX_SAMPLES`).
+    (or the motion is shorter than that), else the last ``t_k`` is the end (a sample within 1 ns of the end, before
+    or after it, is the end: never a sample past it). The caller bounds the count
+    (:data:`~gpr_kinematics.robot.timing.MAX_SAMPLES`).
 
     >>> grid_times(0.25, 10.0).tolist(), grid_times(0.3, 10.0).tolist()[-2:], grid_times(1e-12, 10.0).tolist()
     ([0.0, 0.1, 0.2, 0.25], [0.2, 0.3], [0.0, 1e-12])
+    >>> float(grid_times(0.3 - 1e-12, 10.0)[-1]) == 0.3 - 1e-12   # floor(total rate) was 3: t_3 = 0.3 past the end
+    True
     """
     n = int(math.floor(total * rate + 1e-9))
     t = np.arange(n + 1, dtype=float) / rate
     if total - t[-1] > 1e-9 or (n == 0 and total > 0.0):
         return np.append(t, total)
-    if total > t[-1]:
-        t[-1] = total
+    t[-1] = total
     return t
