@@ -19,9 +19,9 @@ Bratovanov & Sotirov, eq. (6), differentiated as their eq. (3)): ``J X' = G'``, 
 vector ``e/|e|`` with ``|e^(k)| <= m rho_k`` and ``|e| >= m`` has derivatives at most ``rho_1``, ``rho_2 + 3 rho_1^2``,
 ``rho_3 + 9 rho_1 rho_2 + 21 rho_1^3``. So ``|d^k p/ds^k| <= F_k`` and the wafer's jerk ``da/dt = p''' s'^3 + 3 p''
 s' s'' + p' s'''`` is at most ``F_3 S_1^3 + 3 F_2 S_1 S_2 + F_1 S_3`` (``S_k`` bounds of the S-curve's ``|s^(k)|``
-on the interval, which holds no corner: the corners are instants), the normal ``n = N/|N|`` turns at most
-``|n'| S_1``. Within ``h`` of the anchor ``|f - f_m| <= df`` (with the central differences' error, ``p'''``-bound
-times ``STEP``, and :data:`POSITION_ERROR`) and ``angle(n, n_m) <= dn``, so
+on the interval, which holds no corner: the corners are instants; ``S_3 = 0`` off the jerk ramps), the normal
+``n = N/|N|`` turns at most ``|n'| S_1``. Within ``h`` of the anchor ``|f - f_m| <= df`` (with the central
+differences' error, ``p'''``-bound times ``STEP``, and :data:`POSITION_ERROR`) and ``angle(n, n_m) <= dn``, so
 
     ``ratio <= (|f_t,m| + (|f_m| + df) dn + df) / (mu (f_n,m - (|f_m| + df) dn - df + F_vac / m))``.
 
@@ -55,6 +55,8 @@ MAX_REFINEMENTS = 100_000
 #: The forward kinematics' rounding assumed in the central differences [m]: the closure's tolerance the slip check
 #: solves to (its noise from one ``s`` to the next is at the doubles' spacing, 2e-16 m: a test measures it).
 POSITION_ERROR = CLOSURE_TOLERANCE
+#: How many of the doubles' spacings a computed corner may lie from the profile's (:func:`_jerk`).
+CORNER_SLACK = 8.0
 #: An interval this short [s] is not halved again (its bound stays, an upper bound, and the bound is not closed).
 SHORTEST = 1e-7
 
@@ -222,10 +224,19 @@ def bound_about(plan: ProgramPlan, m: NDArray[np.int64], at: Anchors, arms: Arra
     return ratio, within((np.linalg.norm(f, axis=1) + df) * dn + df), within(error)
 
 
-def _jerk(plan: ProgramPlan, m: NDArray[np.int64]) -> Array:
-    """The S-curve's ``|s'''|`` within a piece of move ``m`` (0 on a trapezoid's: its jumps are on the instants)."""
-    j = plan.timing.profiles.j[m]
-    return np.asarray(np.where(np.isfinite(j), j, 0.0), dtype=np.float64)
+def _jerk(plan: ProgramPlan, m: NDArray[np.int64], t0: Array, t1: Array) -> Array:
+    """The S-curve's ``|s'''|`` on ``[t0, t1]`` of move ``m``: ``J`` on a jerk ramp, 0 on a constant acceleration or
+    the cruise (and on a trapezoid's pieces: its jumps are on the instants). The corners are instants to within
+    :data:`CORNER_SLACK` of the doubles' spacing: off a ramp ``s'''`` is taken as ``J`` over that much of the interval
+    (``J`` times its share of the half; a cruise of 1e5 s between 200,000 instants took ``J`` throughout: its bound was
+    infinite)."""
+    p = plan.timing.profiles
+    j = np.where(np.isfinite(p.j[m]), p.j[m], 0.0)
+    tau = 0.5 * (t0 + t1) - plan.timing.depart[m]
+    u = np.minimum(tau, p.T[m] - tau)               # the braking half mirrors the start
+    ramp = (u < p.tj[m]) | ((u >= p.tj[m] + p.tc[m]) & (u < p.ta[m]))
+    sliver = np.minimum(CORNER_SLACK * np.spacing(np.maximum(np.abs(t0), np.abs(t1))), t1 - t0)
+    return np.asarray(np.where(ramp, j, j * sliver / np.maximum(0.5 * (t1 - t0), sliver)), dtype=np.float64)
 
 
 def _halves(plan: ProgramPlan, t0: Array, t1: Array, m: NDArray[np.int64], arms: Array
@@ -234,7 +245,7 @@ def _halves(plan: ProgramPlan, t0: Array, t1: Array, m: NDArray[np.int64], arms:
     timing = plan.timing
     tm, half = 0.5 * (t0 + t1), 0.5 * (t1 - t0) + 4.0 * np.spacing(t1)
     s, s1, s2 = evaluate(timing.profiles, m, tm - timing.depart[m])
-    S3 = _jerk(plan, m)
+    S3 = _jerk(plan, m, t0, t1)
     S = (s1 + np.abs(s2) * half + 0.5 * S3 * half ** 2, np.abs(s2) + S3 * half, S3)
     return bound_about(plan, m, anchors(plan, m, s, arms), arms, s1, s2, half, S)
 
@@ -253,7 +264,7 @@ def _ends(plan: ProgramPlan, t0: Array, t1: Array, m: NDArray[np.int64], arms: A
     at = Anchors(*(getattr(at, name)[back.ravel()] for name in Anchors.__dataclass_fields__))
     mid = evaluate(timing.profiles, m, 0.5 * (t0 + t1) - timing.depart[m])[2]
     side = np.where(np.isfinite(timing.profiles.j[mm]), s2, np.concatenate([mid, mid]))
-    S3 = _jerk(plan, m)
+    S3 = _jerk(plan, m, t0, t1)
     S1 = np.maximum(s1[:K], s1[K:]) + S3 * (t1 - t0) ** 2 / 8.0
     S2 = np.maximum(np.abs(side[:K]), np.abs(side[K:]))
     half = 0.5 * (t1 - t0) + 4.0 * np.spacing(t1)
