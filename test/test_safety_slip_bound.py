@@ -329,6 +329,21 @@ def test_a_bound_that_runs_out_of_instants_stays_a_bound_and_says_so(monkeypatch
     assert 'max slip ratio 0.780 (a bound over the motion; 0.753 evaluated at 54.683 s, steps[14] (place ' in out
 
 
+
+def test_a_budget_too_small_for_every_loose_interval_refines_the_loosest(monkeypatch):
+    """When the loose intervals needed more instants than were left, none was refined (all or nothing: a 640-step
+    program's bound stayed at 0.783 for 0.753 evaluated); the loosest are refined first, as many as fit: with 1,000
+    instants the example's bound falls from the first one (0.77992) to 0.7639 (the settled one 0.75382), still a bound
+    above the true 0.752885."""
+    from gpr_kinematics.safety import slip_bound as module
+
+    plan = plan_program(make_robot(robot_data()), load_program(PROGRAM))
+    monkeypatch.setattr(module, 'MAX_REFINEMENTS', 1000)
+    report = check_program(plan, None)[0]
+    assert not report.slip_certified and report.safe
+    assert 0.752885 < report.max_slip_ratio < 0.77992 - 0.01
+    assert report.max_slip_ratio == pytest.approx(0.7639, abs=5e-4)
+
 @pytest.mark.parametrize('model', ['compliant', 'polar', 'offset'])
 def test_the_bound_holds_under_the_first_order_models(model):
     """The bound's platform terms are exact for the radial model only, first order for the others (their virtual

@@ -28,7 +28,8 @@ differences' error, ``p'''``-bound times ``STEP``, and :data:`POSITION_ERROR`) a
 Intervals whose bound exceeds the largest ratio evaluated on their move by more than :data:`SLIP_TOLERANCE` are
 halved (their midpoints become instants) until none does or lies more than half of it above its floor (the bound that
 the differences' error alone leaves: no halving lowers it), down to :data:`SHORTEST` and at most
-:data:`MAX_REFINEMENTS` instants more (beyond, the bound stays, looser, and is not closed).
+:data:`MAX_REFINEMENTS` instants more (the loosest intervals first when they do not all fit; beyond, the bound stays,
+looser, and is not closed).
 """
 from __future__ import annotations
 
@@ -300,9 +301,12 @@ def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array) -
         short = loose & (b - a < SHORTEST)
         closed &= not np.any(short)
         loose &= ~short
-        if added + 2 * int(np.sum(loose)) > MAX_REFINEMENTS:
-            closed &= not np.any(loose)
+        room = max(MAX_REFINEMENTS - added, 0) // 2
+        if int(np.sum(loose)) > room:   # the loosest first, as many as the budget allows (none were, before)
+            closed = False
+            idx = np.flatnonzero(loose)
             loose[:] = False
+            loose[idx[np.argsort(best[mv[idx]] - bound[idx], kind='stable')[:room]]] = True
         out.append((a[~loose], b[~loose], mv[~loose], bound[~loose], floor[~loose]))
         c = 0.5 * (a[loose] + b[loose])
         a, b = np.concatenate([a[loose], c]), np.concatenate([c, b[loose]])
