@@ -65,7 +65,7 @@ def _points(names, times, positions, velocities=None, accelerations=None):
 
 @pytest.mark.parametrize('times, positions, velocities, accelerations, words', [
     ([], [], None, None, 'no points'),
-    ([1.0], [[0.1]], None, None, r'points\[0\].positions has 1 values; allowed: 2 values'),
+    ([1.0], [[0.1]], None, None, r'points\[0\].positions has 1 value; allowed: 2 values \(one per joint\)'),
     ([1.0, 2.0], [[0.1, 0.2], [0.1, 0.2]], [[0.0, 0.0], []], None, r'points\[1\].velocities has 0 values'),
     ([1.0], [[0.1, math.nan]], None, None, r'points\[0\].positions\[1\] = nan'),
     ([1.0, 1.0], [[0.1, 0.2], [0.1, 0.2]], None, None, r'points\[1\].time_from_start = 1.0 s is not after points\[0\]'),

@@ -134,6 +134,11 @@ def joint_state_values(joints: ControllerJoints, names: Sequence[str], positions
     return np.array([k for k, _ in finite], dtype=np.int64), np.array([v for _, v in finite], dtype=float)
 
 
+def _values(n: int) -> str:
+    """``n`` values, in words (``1 value``, ``2 values``)."""
+    return f'{n} value' + ('s' if n != 1 else '')
+
+
 def _rows(values: Sequence[Sequence[float]], J: int, what: str, optional: bool) -> Array | None:
     """Per-point lists of one kind (positions, velocities, accelerations) as ``(P, J)``; None when every point leaves
     an optional kind empty."""
@@ -142,8 +147,8 @@ def _rows(values: Sequence[Sequence[float]], J: int, what: str, optional: bool) 
         return None
     if lengths != {J}:
         i = next(k for k, v in enumerate(values) if len(v) != J)
-        allowed = f'{J} values (one per joint) on every point' + (', or none on every point' if optional else '')
-        raise GoalError(INVALID_GOAL, f'points[{i}].{what} has {len(values[i])} values; allowed: {allowed}')
+        allowed = f'{_values(J)} (one per joint) on every point' + (', or none on every point' if optional else '')
+        raise GoalError(INVALID_GOAL, f'points[{i}].{what} has {_values(len(values[i]))}; allowed: {allowed}')
     out = np.array(values, dtype=float).reshape(len(values), J)
     if not np.all(np.isfinite(out)):
         i, k = np.argwhere(~np.isfinite(out))[0]
