@@ -38,7 +38,7 @@ STEP = 1e-4
 #: The closure's tolerance [m] the slip check solves the forward kinematics to (the package's default): its second
 #: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
 #: 1e-6 m is allowed; 3.7e-7 m of position error then) is tightened to it here.
-CLOSURE_TOLERANCE = 1e-14
+CLOSURE_TOLERANCE = GprConfig.tolerance
 
 
 def closure_exact(plan: ProgramPlan) -> ProgramPlan:
