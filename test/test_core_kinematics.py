@@ -13,7 +13,7 @@ from gpr_kinematics.core import (
     naive_inverse,
     naive_pose,
 )
-from gpr_kinematics.core.config import MODELS, load_config
+from gpr_kinematics.core.config import MODELS, GprConfig, load_config
 from gpr_kinematics.core.rotations import (
     matrix_from_quaternion,
     quaternion_from_matrix,
@@ -218,8 +218,12 @@ def test_forward_batch_names_the_sample():
 
 
 def test_unknown_model_and_limits_of_inverse():
-    with pytest.raises(InputError, match="unknown virtual-joint model 'rigid'; allowed: radial, polar, offset"):
-        forward([0.3, 0.3, 0.3], model='rigid')
+    # the refusal lists all the argument takes: the models, and None or '' for the configuration's (it omitted these)
+    with pytest.raises(InputError) as err:
+        forward([0.3, 0.3, 0.3], GprConfig(model='offset'), model='rigid')
+    assert str(err.value) == ("unknown virtual-joint model 'rigid'; allowed: radial, polar, offset, compliant, or None "
+                              "or '' for the configuration's model (offset)")
+    assert forward([0.3, 0.301, 0.3], GprConfig(model='offset'), model='').model == 'offset'
     with pytest.raises(LimitError, match=r'tilt = .* \(3 deg\) is beyond the tilt limit .* \(2 deg\)'):
         inverse(0.3, math.radians(3.0), 0.0)
     with pytest.raises(LimitError, match='outside the stroke'):
