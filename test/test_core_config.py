@@ -50,8 +50,9 @@ def test_replace_and_round_trip():
     ('max_iterations: 2.5', 'max_iterations', 'integer'),
     ('tolerance: 1.0', 'tolerance', '1e-16 <= tolerance'),
     ('rod_azimuths: [0, 1]', 'rod_azimuths', 'a list of 3'),
-    ('characteristic_length: -0.1', 'characteristic_length', '1e-6 <= characteristic_length <= 100'),
-    ('characteristic_length: 5.0e-7', 'characteristic_length', 'metres, 1e-6 <= characteristic_length <= 100, or null'),
+    ('characteristic_length: -0.1', 'characteristic_length', '1e-06 <= characteristic_length <= 100'),
+    ('characteristic_length: 5.0e-7', 'characteristic_length',
+     'metres, 1e-06 <= characteristic_length <= 100, or null'),
     # the imperfect geometry (test_core_machine)
     ('rod_offsets: [0, 0]', 'rod_offsets', 'a list of 3 lengths in metres, -0.1 <= o_k <= 0.1'),
     ('rod_offsets: [0, 0, 0.5]', 'rod_offsets', '-0.1 <= o_k <= 0.1'),
@@ -70,6 +71,22 @@ def test_invalid_value_names_key_value_and_range(tmp_path, text, key, allowed):
         load_config(f)
     msg = str(err.value)
     assert key in msg and allowed in msg and str(f) in msg
+
+
+def test_the_least_characteristic_length_reads_as_the_mechanisms_and_the_ros_parameter_read_it():
+    """LEAST_LENGTH's text was written '1e-6' beside it here while the mechanisms derive '1e-06' from it: one text."""
+    from gpr_kinematics.core.config import LEAST_LENGTH
+    from gpr_kinematics.mechanisms.conditioning import check_characteristic_length
+    from gpr_kinematics.ros.specs import config_specs
+    with pytest.raises(ConfigError) as core:
+        default_config().replace(characteristic_length=5e-7)
+    assert str(core.value) == ('replace(): characteristic_length = 5e-07 is invalid; allowed: metres, 1e-06 <= '
+                               'characteristic_length <= 100, or null for the radius')
+    with pytest.raises(ConfigError) as mech:
+        check_characteristic_length(5e-7, 'm.yaml: characteristic_length')
+    assert 'allowed: a length from 1e-06 to 1e+06 m' in str(mech.value) and LEAST_LENGTH == 1e-6
+    spec = next(s for s in config_specs() if s.name == 'characteristic_length')
+    assert spec.constraint_text().endswith('0 means the radius, else at least 1e-06')
 
 
 def test_unknown_key_lists_allowed_keys(tmp_path):

@@ -121,8 +121,8 @@ _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
     'stroke_max': (-10.0, 10.0, 'metres, stroke_min < stroke_max <= 10'),
     'tilt_limit': (1e-6, math.radians(15.0), 'radians, 1e-6 <= tilt_limit <= 0.2618 (15 deg)'),
     'imperfection_budget': (1e-9, 0.01, 'metres, 1e-9 <= imperfection_budget <= 0.01'),
-    'characteristic_length': (LEAST_LENGTH, 100.0, 'metres, 1e-6 <= characteristic_length <= 100, or null for the '
-                              'radius'),
+    'characteristic_length': (LEAST_LENGTH, 100.0, f'metres, {LEAST_LENGTH:g} <= characteristic_length <= 100, or '
+                              'null for the radius'),
     'tolerance': (1e-16, 1e-6, 'metres, 1e-16 <= tolerance <= 1e-6'),
 }
 

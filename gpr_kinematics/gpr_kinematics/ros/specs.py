@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..core.config import MODELS, WEIGHTINGS, GprConfig, load_config
+from ..core.config import LEAST_LENGTH, MODELS, WEIGHTINGS, GprConfig, load_config
 from ..errors import ConfigError
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
@@ -108,7 +108,7 @@ _CONFIG_TABLE: tuple[tuple[str, str, str, tuple[float, float] | None, tuple[str,
      False),
     ('model', _S, 'default virtual-joint model', None, (*MODELS, ''), "'' means the geometry's model", False),
     ('characteristic_length', _D, 'weight of angular virtual joints in the Newton step [m]', (0.0, 100.0), None,
-     '0 means the radius, else at least 1e-6', False),
+     f'0 means the radius, else at least {LEAST_LENGTH:g}', False),
     ('weighting', _S, 'Newton step norm', None, WEIGHTINGS, '', False),
     ('max_iterations', _I, 'bound of Newton iterations per solve', (1, 100), None, '', False),
     ('tolerance', _D, 'closure tolerance on the side lengths [m]', (1e-16, 1e-6), None, '', False),
