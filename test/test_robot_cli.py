@@ -155,27 +155,28 @@ def test_program_check_and_export(capsys, tmp_path):
 
 @pytest.mark.parametrize('argv, pattern', [
     (['robot', 'ik', '--position', '3', '0.5', '0.45', '--heading', '0'],
-     r'^gpr robot: error: station 0: out of reach of arm arm1: the wrist axis would be 2.05 m'),
+     r'^gpr robot ik: error: station 0: out of reach of arm arm1: the wrist axis would be 2.05 m'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45'],
-     r'^gpr robot: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
-    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', 'nan'], r'^gpr robot: error: --heading = nan'),
+     r'^gpr robot ik: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', 'nan'],
+     r'^gpr robot ik: error: --heading = nan'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--tilt', '3', '--deg'],
      r'beyond the tilt limit 2 deg by 1 deg'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--arm', 'arm7'],
-     r"^gpr robot: error: .*no arm 'arm7'; allowed: arm1, arm2"),
+     r"^gpr robot ik: error: .*no arm 'arm7'; allowed: arm1, arm2"),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--redundancy', '0.1'],
      r'a redundancy value applies to 4-joint arms under the fixed_joint rule'),
     (['robot', 'ik', '--position', '1.2', '0.5'], r'^gpr robot ik: error: argument --position: expected 3'),
     # degrees typed as radians used to run, wrapped
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--tilt', '0.02', '--azimuth', '30', '--heading', '20'],
-     r'^gpr robot: error: --azimuth = 30 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give '
+     r'^gpr robot ik: error: --azimuth = 30 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give '
      r'--deg for degrees\)$'),
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '20'],
-     r'^gpr robot: error: --heading = 20 rad is outside \[-2pi, 2pi\] rad'),
+     r'^gpr robot ik: error: --heading = 20 rad is outside \[-2pi, 2pi\] rad'),
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '-361', '--deg'],
-     r'^gpr robot: error: --heading = -361 deg is outside \[-360, 360\] deg'),
+     r'^gpr robot ik: error: --heading = -361 deg is outside \[-360, 360\] deg'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
-     r'^gpr robot: error: joints of arm1 must have 3 values per sample'),
+     r'^gpr robot fk: error: joints of arm1 must have 3 values per sample'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),
     (['robot', 'teach'], r'give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 \[J3 J4\], or --table FILE'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', '/nonexistent.yaml'],
@@ -208,13 +209,39 @@ def test_errors_exit_2_with_one_line(capsys, argv, pattern):
     assert re.search(pattern, err), err
 
 
+def test_an_error_names_the_whole_command(capsys):
+    """The errors of a subcommand of a group were prefixed by the group (`gpr robot: error:` for `gpr robot teach`)
+    while argparse's usage errors named the whole command: both name it, for every command of every group."""
+    import argparse
+
+    from gpr_kinematics.cli import main as cli
+
+    def commands(parser, typed, dests):
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        if sub is None:
+            return [(typed, dests)]
+        return [c for name, p in sub.choices.items() for c in commands(p, [*typed, name], {**dests, sub.dest: name})]
+
+    parser = cli.build_parser()
+    found = commands(parser, ['gpr'], {})
+    assert {'gpr robot teach', 'gpr program send', 'gpr fk', 'gpr verify'} <= {' '.join(t) for t, _ in found}
+    for typed, dests in found:
+        assert cli.command_path(parser, argparse.Namespace(**dests)) == ' '.join(typed)
+    assert cli.command_path(parser, argparse.Namespace(command='robot', robot_command=None)) == 'gpr robot'
+    for argv, line in ((['robot', 'teach'], 'gpr robot teach: error: give the joints: --rods Q1 Q2 Q3 and --joints '
+                                            'J1 J2 [J3 J4], or --table FILE\n'),
+                       (['program', 'check', ''], 'gpr program check: error: program file path is empty; allowed: the '
+                                                  'path of a file\n')):
+        assert run(capsys, *argv) == (2, '', line)
+
+
 def test_console_script_without_traceback(tmp_path):
     bad = tmp_path / 'robot.yaml'
     bad.write_text('rods: {velocity: 0.1, acceleration: 0.5}\narms: [{name: arm1, joints: 5}]\n')
     res = subprocess.run([sys.executable, '-m', 'gpr_kinematics.cli.main', 'robot', 'fk', '--rods', '0.3', '0.3', '0.3',
                           '--joints', '0', '0', '--robot', str(bad)], capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and res.stdout == ''
-    assert res.stderr.startswith('gpr robot: error: ') and 'joints must be a list of 2 to 4' in res.stderr
+    assert res.stderr.startswith('gpr robot fk: error: ') and 'joints must be a list of 2 to 4' in res.stderr
     assert res.stderr.count('\n') == 1
 
 
@@ -290,8 +317,8 @@ def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(
     status, out, err = run(capsys, 'program', 'export', str(program), '--waypoints', str(tmp_path / 'w.csv'))
     assert (status, out) == (2, '') and err.count('\n') == 1 and not (tmp_path / 'w.csv').exists()
     robot_named = tmp_path / 'programs/../robots/example_robot.yaml'
-    assert err == (f"gpr program: error: {program}: robot file '{robot_named}' (named by the program, relative to its "
-                   "folder) does not exist; allowed: an existing file, or --robot FILE\n")
+    assert err == (f"gpr program export: error: {program}: robot file '{robot_named}' (named by the program, relative "
+                   "to its folder) does not exist; allowed: an existing file, or --robot FILE\n")
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
     assert status == 2 and f"{program}: cell file '{tmp_path / 'programs/../cells/example_cell.yaml'}'" in err
     assert err.endswith('allowed: an existing file, or --cell FILE\n')

@@ -7,7 +7,8 @@ Subcommands live in modules with a ``register(subparsers)`` function whose parse
 the module of the subcommand being run is imported (all of them for ``gpr --help``), so the core commands
 need only numpy, scipy and PyYAML. A subcommand whose optional dependency (the ``bags``, ``plot`` or ``ros``
 extra) is missing exits with status 2 and one line naming the package to install. Bad input raises a
-:class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr and exits with status 2.
+:class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr, after the command's full path
+(``gpr robot ik: error: ...``, as argparse's usage errors), and exits with status 2.
 ``--json`` output is the result dataclass itself (:func:`gpr_kinematics.cli.output.jsonable`): one JSON key per field.
 """
 from __future__ import annotations
@@ -117,6 +118,17 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def command_path(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """The command ``args`` ran, as typed (``gpr robot ik``): the ``prog`` of the deepest parser its subcommands
+    chose, which argparse's own errors name too (the prefix of the command's errors; ``gpr robot`` before)."""
+    while True:
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        name = None if sub is None else getattr(args, sub.dest, None)
+        if sub is None or name not in sub.choices:
+            return parser.prog
+        parser = sub.choices[name]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gpr`` console script; returns the exit status."""
     for name in ('stdout', 'stderr'):
@@ -129,21 +141,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(args_in)
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+    command = command_path(parser, args)
     try:
         distinct_outputs(args)
         with command_reads():  # no output may be a file the command read
             return int(args.handler(args))
     except GprError as exc:
-        sys.stderr.write(f'gpr {args.command}: error: {one_line(str(exc))}\n')
+        sys.stderr.write(f'{command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE
     except ModuleNotFoundError as exc:  # an optional package imported by the handler itself
         error = missing_dependency(exc)
         if error is None:
             raise
-        sys.stderr.write(f'gpr {args.command}: error: {error}\n')
+        sys.stderr.write(f'{command}: error: {error}\n')
         return EXIT_USAGE
     except KeyboardInterrupt:
-        sys.stderr.write(f'gpr {args.command}: interrupted\n')
+        sys.stderr.write(f'{command}: interrupted\n')
         return 130
     except BrokenPipeError:
         return 0
