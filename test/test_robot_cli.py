@@ -235,6 +235,65 @@ def test_an_error_names_the_whole_command(capsys):
         assert run(capsys, *argv) == (2, '', line)
 
 
+class _NoServerError(Exception):
+    pass
+
+
+class _Client:
+    def __init__(self, name, namespace):
+        self.name, self.namespace = name, namespace
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+@pytest.mark.parametrize('options, topic, action, where', [
+    (['--namespace', 'r3'], '/r3/joint_states', '/r3/joint_trajectory_controller/follow_joint_trajectory',
+     ('--joint-states and --namespace', '--action and --namespace')),
+    (['--namespace', '/r3', '--joint-states', '~/js', '--action', '/arm/follow'], '/r3/gpr_program_send/js',
+     '/arm/follow', ('--joint-states and --namespace', '--action')),
+])
+def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monkeypatch, options, topic, action, where):
+    """`gpr program send --namespace r3` without a server said 'no FollowJointTrajectory server on
+    joint_trajectory_controller/follow_joint_trajectory within 10 s' (no joint_states: 'no joint_states with the
+    joints ...'): not the names waited on (/r3/...), nor how to change them. The ROS client is stood in for here
+    (test_ros_program_send runs the real one); the names are expanded by rclpy's rules."""
+    pytest.importorskip('rclpy')
+    from gpr_kinematics.cli import program as cli_program
+    from gpr_kinematics.robot.controller import ControllerJoints
+
+    seen = {}
+    rest = ControllerJoints.of(ROBOT).rest
+
+    def positions(client, names, topic, timeout):
+        seen.update(client=(client.name, client.namespace), topic=topic, names=tuple(names))
+        return seen.get('current')
+
+    def follow(client, goal, action, timeout, progress):
+        seen['action'] = action
+        raise _NoServerError(action)
+
+    fake = type('tc', (), {'GprClient': _Client, 'current_positions': staticmethod(positions),
+                           'follow_trajectory': staticmethod(follow), 'NoServerError': _NoServerError,
+                           'ServiceTimeoutError': TimeoutError})
+    monkeypatch.setattr(cli_program, '_ros_modules', lambda: fake)
+    argv = ['program', 'send', PROGRAM, '--rate', '10', '--timeout', '0.5', *options]
+    status, out, err = run(capsys, *argv)
+    joints = ', '.join(seen['names'])
+    assert (status, out, seen['topic'], seen['client']) == (1, '', topic, ('gpr_program_send', options[1]))
+    assert err == (f'gpr program send: no joint states with the joints {joints} on {topic} within 0.5 s: cannot tell '
+                   f'where the robot is (change the name with {where[0]}, the wait with --timeout)\n')
+    assert joints.startswith('rod_1, rod_2, rod_3, ')
+    seen['current'] = rest
+    status, out, err = run(capsys, *argv)
+    assert (status, seen['action']) == (1, action) and out.endswith(f' to {action}\n')
+    assert err == (f'gpr program send: no FollowJointTrajectory server on {action} within 0.5 s (change the name with '
+                   f'{where[1]}, the wait with --timeout)\n')
+
+
 def test_console_script_without_traceback(tmp_path):
     bad = tmp_path / 'robot.yaml'
     bad.write_text('rods: {velocity: 0.1, acceleration: 0.5}\narms: [{name: arm1, joints: 5}]\n')

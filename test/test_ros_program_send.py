@@ -105,11 +105,37 @@ def test_recorded_joint_states_equal_the_export_samples_at_every_point(sent):
 
 
 def test_no_server_exits_1_with_one_line(ros_environment):
+    """The line names the topic waited on in full and how to change it (it said 'no joint_states with the joints')."""
     res = _send(PROGRAM, '--namespace', '/gpr_nobody', '--timeout', '1')
     assert res.returncode == 1 and res.stdout == ''
-    assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
-    assert 'no joint_states with the joints rod_1, rod_2' in res.stderr
-    assert 'cannot tell where the robot is' in res.stderr
+    joints = ', '.join(ControllerJoints.of(ROBOT).names)
+    assert res.stderr == (f'gpr program send: no joint states with the joints {joints} on /gpr_nobody/joint_states '
+                          'within 1 s: cannot tell where the robot is (change the name with --joint-states and '
+                          '--namespace, the wait with --timeout)\n')
+
+
+def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):
+    """Joint states come but no FollowJointTrajectory server answers: one line naming the action as resolved in the
+    namespace (it said 'on joint_trajectory_controller/follow_joint_trajectory'), the wait and the options."""
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import stream_qos
+    from sensor_msgs.msg import JointState
+
+    joints = ControllerJoints.of(ROBOT)
+    state = JointState(name=list(joints.names), position=[float(v) for v in joints.rest])
+    with GprClient('gpr_test_no_server', namespace='/gpr_noserver') as c:
+        pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
+        timer = c.node.create_timer(0.05, lambda: pub.publish(state))
+        proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
+                                 '--namespace', 'gpr_noserver', '--timeout', '1'],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
+        assert c.spin_until(lambda: proc.poll() is not None, 120)
+        _, err = proc.communicate()
+        c.node.destroy_timer(timer)
+    assert proc.returncode == 1
+    assert err == ('gpr program send: no FollowJointTrajectory server on '
+                   '/gpr_noserver/joint_trajectory_controller/follow_joint_trajectory within 1 s (change the name with '
+                   '--action and --namespace, the wait with --timeout)\n')
 
 
 @pytest.mark.parametrize('option, value, words', [

@@ -240,16 +240,23 @@ def _ros_modules() -> Any:
     return trajectory_client
 
 
-def _check_ros_names(args: argparse.Namespace) -> None:
+#: The node ``gpr program send`` runs as (a private name, ``~/...``, resolves in it).
+SEND_NODE = 'gpr_program_send'
+
+
+def _ros_names(args: argparse.Namespace) -> tuple[str, str]:
     """``--namespace``, ``--joint-states`` and ``--action`` by ROS 2's own name rules, before any node is made (rclpy
-    raised them as tracebacks)."""
+    raised them as tracebacks); the topic's and the action's full names, as the node :data:`SEND_NODE` in the
+    namespace resolves them (``joint_states`` in ``r3``: ``/r3/joint_states``)."""
     from rclpy.exceptions import NameValidationException
+    from rclpy.expand_topic_name import expand_topic_name
     from rclpy.validate_full_topic_name import validate_full_topic_name
     from rclpy.validate_namespace import validate_namespace
     from rclpy.validate_topic_name import validate_topic_name
 
     from ..errors import InputError, brief
     ns = args.namespace if args.namespace.startswith('/') else '/' + args.namespace
+    full: dict[str, str] = {}
     for option, name in (('--namespace', args.namespace), ('--joint-states', args.joint_states),
                          ('--action', args.action)):
         try:
@@ -259,9 +266,20 @@ def _check_ros_names(args: argparse.Namespace) -> None:
             validate_topic_name(name)
             if not name.startswith('~'):  # private names expand with the node's name
                 validate_full_topic_name(name if name.startswith('/') else ns.rstrip('/') + '/' + name)
-        except NameValidationException as exc:
-            rule = str(exc).splitlines()[0].rstrip(':')
+            full[option] = expand_topic_name(name, SEND_NODE, ns)
+            validate_full_topic_name(full[option])
+        except (NameValidationException, ValueError) as exc:  # ValueError: rcl's expansion (a substitution)
+            rule = str(exc).splitlines()[0].rstrip(':').split(', at ')[0]
             raise InputError(f'{option} {brief(name)}: {rule}; allowed: a ROS 2 name') from None
+    return full['--joint-states'], full['--action']
+
+
+def _no_answer(what: str, given: str, name: str, timeout: float, option: str, outcome: str = '') -> str:
+    """The line of a wait of ``gpr program send`` that ended with nothing: what did not come, on which full ROS name
+    ``name`` (``given`` as ``option``), within how long, and the options that change the name and the wait."""
+    where = option if given.startswith('/') else f'{option} and --namespace'
+    return (f'gpr program send: {what} on {name} within {timeout:g} s{": " + outcome if outcome else ""} (change the '
+            f'name with {where}, the wait with --timeout)')
 
 
 def _cmd_send(args: argparse.Namespace) -> int:
@@ -274,17 +292,18 @@ def _cmd_send(args: argparse.Namespace) -> int:
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
     tc = _ros_modules()
-    _check_ros_names(args)
-    with tc.GprClient('gpr_program_send', namespace=args.namespace) as client:
-        current = tc.current_positions(client, traj.joint_names, args.joint_states, args.timeout)
+    joint_states, action = _ros_names(args)
+    with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:
+        current = tc.current_positions(client, traj.joint_names, joint_states, args.timeout)
         if current is None:
-            print(f'gpr program send: no {args.joint_states} with the joints {", ".join(traj.joint_names)} within '
-                  f'{args.timeout:g} s: cannot tell where the robot is', file=sys.stderr)
+            print(_no_answer(f'no joint states with the joints {", ".join(traj.joint_names)}', args.joint_states,
+                             joint_states, args.timeout, '--joint-states', 'cannot tell where the robot is'),
+                  file=sys.stderr)
             return 1
         goal, start = lead_in(plan, traj, current, args.rate)
         if not args.json:
             print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '
-                  f'({start:.3f} s from where the robot is to the program\'s start) to {args.action}', flush=True)
+                  f'({start:.3f} s from where the robot is to the program\'s start) to {action}', flush=True)
         clock = {'next': 0.0}
 
         def progress(fb: Any) -> None:
@@ -294,7 +313,11 @@ def _cmd_send(args: argparse.Namespace) -> int:
                 print(f'  t = {t:8.3f} s of {goal.duration:.3f} s, largest error {error:.3g}', flush=True)
                 clock['next'] = t + args.progress
         try:
-            outcome = tc.follow_trajectory(client, goal, args.action, args.timeout, progress)
+            outcome = tc.follow_trajectory(client, goal, action, args.timeout, progress)
+        except tc.NoServerError:
+            print(_no_answer('no FollowJointTrajectory server', args.action, action, args.timeout, '--action'),
+                  file=sys.stderr)
+            return 1
         except tc.ServiceTimeoutError as exc:
             print(f'gpr program send: {exc}', file=sys.stderr)
             return 1

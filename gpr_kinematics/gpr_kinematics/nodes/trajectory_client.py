@@ -71,6 +71,10 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
         client.node.destroy_subscription(sub)
 
 
+class NoServerError(ServiceTimeoutError):
+    """No FollowJointTrajectory server answered on the action within the wait."""
+
+
 @dataclass(frozen=True)
 class FollowOutcome:
     """How a goal ended: ``status`` (succeeded, aborted, canceled, rejected), the result's ``error_code``, its name
@@ -89,12 +93,14 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
     for the result (the trajectory's duration plus ``timeout``); ``progress`` gets every feedback message.
 
     Raises:
-        ServiceTimeoutError: no server, or no answer or result in time (a goal under way is cancelled first).
+        NoServerError: no server answered on ``action`` (named in full) within ``timeout``.
+        ServiceTimeoutError: no answer to the goal or no result in time (a goal under way is cancelled first).
     """
     cli = ActionClient(client.node, FollowJointTrajectory, action, feedback_sub_qos_profile=stream_qos(1000))
     try:
         if not cli.wait_for_server(timeout_sec=timeout):
-            raise ServiceTimeoutError(f'no FollowJointTrajectory server on {action} within {timeout:g} s')
+            raise NoServerError(f'no FollowJointTrajectory server on {client.node.resolve_topic_name(action)} within '
+                                f'{timeout:g} s')
         # The server's services answer before its feedback topic may be matched: wait until the graph shows the
         # feedback publisher, and a moment for the match, so the first samples' feedback is not lost.
         feedback_topic = client.node.resolve_topic_name(action) + '/_action/feedback'
