@@ -170,7 +170,10 @@ def test_wafer_windows_follow_the_program():
     arrive = plan.timing.arrive[at]
     np.testing.assert_allclose(np.ravel(w.carried['arm2']), np.ravel(list(zip(arrive[::2], arrive[1::2],
                                                                               strict=True))))
-    assert w.carried['arm1'] == () and [s for s, _ in w.stations] == ['load_port_1', 'pm1', 'pm2', 'load_port_1']
+    assert w.carried['arm1'] == () and [s for _, s, _ in w.stations] == ['load_port_1', 'pm1', 'pm2', 'load_port_1']
+    # each its own name: the wafer there from the start, or the place that left it (both were wafer@load_port_1)
+    assert [n for n, _, _ in w.stations] == ['wafer@load_port_1:start', 'wafer@pm1:steps[5]', 'wafer@pm2:steps[9]',
+                                             'wafer@load_port_1:steps[14]']
 
 
 def test_trapezoids_and_s_curves_of_the_cell_program():

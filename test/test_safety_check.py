@@ -63,7 +63,10 @@ def test_the_cell_example_is_safe(tmp_path):
     assert d['min_clearance'] == min(p['distance'] for p in d['pairs']) and d['max_slip_ratio'] < 1.0
     assert d['cell'].endswith('example_cell.yaml') and d['margin'] == 0.002
     names = {n for p in d['pairs'] for n in p['bodies']}
-    assert {'arm2_wafer', 'arm2_blade', 'arm2_link1', 'gpr_base', 'pm1/front_top', 'wafer@pm1'} <= names
+    assert {'arm2_wafer', 'arm2_blade', 'arm2_link1', 'gpr_base', 'pm1/front_top', 'wafer@pm1:steps[5]'} <= names
+    # a pair once: the wafer at the load port before its pick and the one placed back were both wafer@load_port_1
+    assert len({tuple(p['bodies']) for p in d['pairs']}) == len(d['pairs'])
+    assert {'wafer@load_port_1:start', 'wafer@load_port_1:steps[14]'} <= names
     assert (tmp_path / 'check.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and d['plot_file'].endswith('.png')
     # the same program with a margin above its clearance: unsafe, a table names the first collision
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)

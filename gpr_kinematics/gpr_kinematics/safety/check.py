@@ -95,12 +95,19 @@ class SafetyReport:
 
 @dataclass(frozen=True)
 class WaferPlan:
-    """Where the wafers are: each arm's carrying windows, the wafers left in stations (bodies with windows), and
-    per (arm, station) the windows of intended contact."""
+    """Where the wafers are: each arm's carrying windows, the wafers left in stations (their body names,
+    :func:`station_wafer`, stations and windows), and per (arm, station) the windows of intended contact."""
 
     carried: dict[str, Windows]
-    stations: tuple[tuple[str, Windows], ...]
+    stations: tuple[tuple[str, str, Windows], ...]
     contact: dict[tuple[str, str], Windows]
+
+
+def station_wafer(station: str, origin: str) -> str:
+    """The body name of a wafer lying in ``station``: ``wafer@STATION:start`` for one there from the start (the
+    program's ``wafers``), ``wafer@STATION:steps[K]`` for one the place ``steps[K]`` left there (a station may hold
+    several in turn: ``wafer@STATION`` named them alike)."""
+    return f'wafer@{station}:{origin}'
 
 
 def wafer_plan(plan: ProgramPlan) -> WaferPlan:
@@ -109,8 +116,8 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     way, timing, program = plan.waypoints, plan.timing, plan.program
     end = timing.total
     declared = program.wafers is not None        # wafers: [] declares that no station holds one
-    present: dict[str, float] = {name: 0.0 for name in program.wafers or ()}
-    stations: list[tuple[str, Windows]] = []
+    present: dict[str, tuple[float, str]] = {name: (0.0, 'start') for name in program.wafers or ()}
+    stations: list[tuple[str, str, Windows]] = []
     carrying: dict[str, float] = {}
     carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
     contact: dict[tuple[str, str], list[tuple[float, float]]] = {}
@@ -127,12 +134,12 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
         if step.kind == 'pick':
             if arm in carrying:
                 raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
-            start = present.pop(station, None)
-            if start is None and declared:
+            lying = present.pop(station, None)
+            if lying is None and declared:
                 raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
                                   f'[{", ".join(program.wafers or ())}]); allowed: a pick where a wafer lies')
-            if start is not None and start < t:
-                stations.append((station, ((start, t),)))
+            if lying is not None and lying[0] < t:
+                stations.append((station_wafer(station, lying[1]), station, ((lying[0], t),)))
             carrying[arm] = t
         else:
             if arm not in carrying and declared:
@@ -141,10 +148,10 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
                 raise ConfigError(f'{where}: station {station} already holds a wafer')
             if arm in carrying:
                 carried[arm].append((carrying.pop(arm), t))
-            present[station] = t
+            present[station] = (t, f'steps[{int(way.step[i])}]')
     for arm, t0 in carrying.items():
         carried[arm].append((t0, end))
-    stations += [(name, ((t0, end),)) for name, t0 in present.items()]
+    stations += [(station_wafer(name, origin), name, ((t0, end),)) for name, (t0, origin) in present.items()]
     return WaferPlan({a: tuple(w) for a, w in carried.items()}, tuple(stations),
                      {k: tuple(w) for k, w in contact.items()})
 
@@ -166,17 +173,19 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     bodies += cell_bodies(None if cell is None else cell.in_frame(robot.world_frame))
     index = plan.program.stations.index()
     st = plan.program.stations.stations
-    for name, windows in wafers.stations:
-        k = index[name]
+    station_of: dict[str, str] = {}
+    for name, station, windows in wafers.stations:
+        k = index[station]
         R = st.take([k]).rotation[0]
         wafer = next(b for b in bodies if b.frame and b.frame.endswith('_wafer'))
-        bodies.append(Body(f'wafer@{name}', 'cylinder', wafer.size, None, R, st.position[k], windows))
+        bodies.append(Body(name, 'cylinder', wafer.size, None, R, st.position[k], windows))
+        station_of[name] = station
     pairs = []
     for i, j in default_pairs(bodies):
         skip: Windows = ()
         for a, b in ((bodies[i], bodies[j]), (bodies[j], bodies[i])):
-            if a.frame and a.arm and a.frame == f'{a.arm}_blade' and b.name.startswith('wafer@'):
-                skip = wafers.contact.get((a.arm, b.name[len('wafer@'):]), ())
+            if a.frame and a.arm and a.frame == f'{a.arm}_blade' and b.name in station_of:
+                skip = wafers.contact.get((a.arm, station_of[b.name]), ())
         pairs.append((i, j, skip))
     report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance,
                        progress=lambda share: tell('clearance', share))
