@@ -369,6 +369,59 @@ def test_a_second_record_of_a_first_sample_that_differs_fails(tmp_path: Path, ot
 
 
 
+def _record_edited(old: str, new: str, count: int = 1) -> Any:
+    """A message edit that replaces ``old`` by ``new`` in the ``count``-th record of the bag (1: its first)."""
+    def edit(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != PROGRAM_TOPIC or i != count - 1:
+            return raw
+        return edited('std_msgs/msg/String', raw, lambda m: dataclasses.replace(m, data=m.data.replace(old, new, 1)))
+    return edit
+
+
+def _program_details(result: Any) -> list[str]:
+    return [f.detail for f in result.failures if f.check == 'topic.program']
+
+
+def test_a_looping_sweeps_record_edited_to_loop_false_fails_naming_loop(tmp_path: Path) -> None:
+    """A sweep streamed with loop: true (75 samples of its 30) passes; its record edited to loop: false failed only
+    stream.program at samples 30 to 74 ('no recorded stream covers this sample'), not naming the record's loop. Now
+    topic.program names the field, its value and what the recording shows."""
+    msgs = small_sweep(loop=75)
+    bag = write_bag(tmp_path / 'looped', msgs, _types(msgs))
+    assert verify_bag(bag).passed
+    result = verify_bag(tampered(bag, tmp_path / 'noloop', _record_edited('loop: true', 'loop: false')))
+    assert _program_details(result) == [
+        'the sweep from sample 0 says loop = false and 30 samples; the recording has 45 samples after them (30 to 74) '
+        'and no record of a stream from them, as a looping stream has']
+    assert _failed(result) == {'topic.program': {None}, 'stream.program': set(range(30, 50))}   # 20 with details
+
+
+@pytest.mark.parametrize('count, detail', [
+    (1, 'the robot_program from sample 0 says loop = true; the recording has a stream from sample 286 after it (a '
+        'looping stream runs until the node stops)'),
+    (2, "the sweep from sample 286 says loop = true; only the node's start-up stream loops, and it starts at sample "
+        "0 (a gpr/run_program goal's stream never loops)")])
+def test_a_record_edited_to_loop_true_fails_where_the_recording_shows_no_loop(tmp_path: Path, count: int,
+                                                                             detail: str) -> None:
+    """Only the node's start-up stream loops (loop and no goal): it starts at sample 0 and never ends, so no other
+    stream follows it. A robot program followed by a platform stream, either record edited to loop: true, passed."""
+    bag = _robot_then_sweep(tmp_path)
+    result = verify_bag(tampered(bag, tmp_path / 'loop', _record_edited('loop: false', 'loop: true', count)))
+    assert (_failed(result), _program_details(result)) == ({'topic.program': {None}}, [detail])
+
+
+def test_a_sweeps_rate_move_time_and_a_loop_the_recording_ends_before_are_not_determined(sweep: Path,
+                                                                                        tmp_path: Path) -> None:
+    """What no recording determines passes when edited (docs/bags.md, *What a record's fields are checked against*):
+    a sweep's samples do not depend on the rate, the stamps are the node's clock at publishing, not the plan's times;
+    a sweep does not use move_time; a looping stream stopped by a signal at its last sample is recorded as one that
+    does not loop."""
+    for old, new in (('rate: 1000.0', 'rate: 10.0'), ('move_time: 2.0', 'move_time: 9.0'),
+                     ('loop: false', 'loop: true')):
+        result = verify_bag(tampered(sweep, tmp_path / old.split(':')[0], _record_edited(old, new)))
+        assert result.passed, (old, [f.line() for f in result.failures])
+
+
 def test_a_record_topic_recorded_without_a_message_reads_as_a_recording_without_records(tmp_path: Path) -> None:
     """gpr/program listed in the metadata without a message (the record removed) raised KeyError: 'data' (a
     traceback from gpr verify); it reads as a recording of a node before the records: both checks skipped, saying

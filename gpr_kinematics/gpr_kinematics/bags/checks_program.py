@@ -3,8 +3,9 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
 
 - ``topic.program``: every recorded record parses (the package's YAML reader and bounds, known keys, a program of
   either format), no two records of one first sample differ (the node publishes one per first sample: an appended
-  one would decide the stream by the order of the messages), and it recomputes (:func:`.program_record.expected`,
-  with the geometry and the robot description verified against) to as many samples as it says;
+  one would decide the stream by the order of the messages), it recomputes (:func:`.program_record.expected`,
+  with the geometry and the robot description verified against) to as many samples as it says, and its ``loop``
+  agrees with the recording (:func:`loop_problems`);
 - ``stream.program``: each PlatformState, by its sample counter the sample ``i`` of the record that covers it (the
   last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
   [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
@@ -113,6 +114,29 @@ def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> N
     return out
 
 
+def loop_problems(records: list[Record], samples: NDArray[np.int64]) -> list[Problem]:
+    """What the recording shows against each record's ``loop``: only the node's start-up stream loops, and it starts
+    at sample 0 (a ``gpr/run_program`` goal's stream never loops) and runs until the node stops, so no stream follows
+    it; a stream that does not loop ends after its samples, so no sample counter it covers (before the next record's
+    first sample) lies past them. ``records`` as :func:`read_records` gives them."""
+    problems: list[Problem] = []
+    owner = owners(records, samples)
+    for k, r in enumerate(records):
+        what = f'the {r.kind} from sample {r.first_sample} says loop = '
+        if r.loop and r.first_sample != 0:
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'{what}true; only the node\'s start-up stream loops, and it '
+                             'starts at sample 0 (a gpr/run_program goal\'s stream never loops)'))
+        if r.loop and k + 1 < len(records):
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'{what}true; the recording has a stream from sample '
+                             f'{records[k + 1].first_sample} after it (a looping stream runs until the node stops)'))
+        past = samples[(owner == k) & (samples - r.first_sample >= r.samples)]
+        if not r.loop and past.size:
+            problems.append((PROGRAM_TOPIC, float(past.size), 0.0, f'{what}false and {r.samples} samples; the '
+                             f'recording has {past.size} samples after them ({past.min()} to {past.max()}) and no '
+                             'record of a stream from them, as a looping stream has'))
+    return problems
+
+
 def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected
                   ) -> NDArray[np.float64]:
     """Per state row of a robot program: the largest joint difference of its RobotState (inf: other joints, or
@@ -146,6 +170,7 @@ def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: Gpr
     records, problems = recorded[0], list(recorded[1])
     errors = np.full(len(samples), np.inf)
     if records:
+        problems += loop_problems(records, samples)
         owner = owners(records, samples)
         q, ct, ca = matrix(c['q'], 3), np.asarray(c['commanded_tilt'], float), np.asarray(c['commanded_azimuth'], float)
         for k, record in enumerate(records):

@@ -79,20 +79,21 @@ def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_
                    azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
                    topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC),
-                   markers_every: int | None = 1) -> list[tuple[str, int, bytes]]:
+                   markers_every: int | None = 1, loop: int = 0) -> list[tuple[str, int, bytes]]:
     """(topic, log time [ns], CDR bytes) of every message of the sweep, in publishing order: the geometry and the
     record of the sweep once (if in ``topics``) at ``start_ns``, then every sample's messages, one sample per
-    ``period_ns`` (the markers every ``markers_every``-th: module docstring)."""
+    ``period_ns`` (the markers every ``markers_every``-th: module docstring). ``loop`` > 0: the node's ``loop``, the
+    sweep streamed over and over (the counters going on) until ``loop`` samples are out, the record saying so."""
     cfg = resolve_config(config)
     sw = paper_sweep(height=height, max_tilt=max_tilt, tilt_step=tilt_step, azimuth_step=azimuth_step,
                      passes=passes, config=cfg, model=cfg.model)
     spec = {'height': height, 'max_tilt': max_tilt, 'tilt_step': tilt_step, 'azimuth_step': azimuth_step,
             'passes': passes}
     latched = {GEOMETRY_TOPIC: geometry_text(cfg),
-               PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, False, 2.0, sweep=spec,
+               PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, loop > 0, 2.0, sweep=spec,
                                           markers_every=markers_every)}
     return _stream(cfg, sw.forward, np.asarray(sw.alpha, float), np.asarray(sw.gamma, float), latched, None,
-                   start_ns, period_ns, topics, markers_every or 1)
+                   start_ns, period_ns, topics, markers_every or 1, loop or len(sw.forward))
 
 
 def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate: float = 100.0,
@@ -113,8 +114,9 @@ def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate:
 
 def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd_azimuth: NDArray[np.float64],
             latched: dict[str, str], robot: RobotStream | None, start_ns: int, period_ns: int,
-            topics: tuple[str, ...], markers_every: int) -> list[tuple[str, int, bytes]]:
-    """The messages of a stream, as the trajectory node publishes them (the module docstring)."""
+            topics: tuple[str, ...], markers_every: int, count: int | None = None) -> list[tuple[str, int, bytes]]:
+    """The messages of a stream, as the trajectory node publishes them (the module docstring): ``count`` samples
+    (default: the stream's), the stream starting over after its last one as a looping node's."""
     ts = typestore()
     types = message_types()
     out: list[tuple[str, int, bytes]] = []
@@ -123,13 +125,13 @@ def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd
             out.append((topic, start_ns, bytes(ts.serialize_cdr(make_message(GPR_TOPICS[topic], data=text),
                                                                 GPR_TOPICS[topic]))))
     points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation) if '/gpr/markers' in topics else {}
-    for i in range(len(fk)):
-        t = start_ns + i * period_ns
-        msgs = stream_messages(types, fk[i], stamp_ns=t, frame_id='gpr_base', sample=i,
+    for n in range(len(fk) if count is None else count):
+        t, i = start_ns + n * period_ns, n % len(fk)
+        msgs = stream_messages(types, fk[i], stamp_ns=t, frame_id='gpr_base', sample=n,
                                commanded_tilt=float(cmd_tilt[i]), commanded_azimuth=float(cmd_azimuth[i]))
         if robot is not None:
-            msgs.update(robot.messages(types, i, stamp_ns=t, sample=i, base_frame='gpr_base'))
-        if points and marked(i, markers_every):
+            msgs.update(robot.messages(types, i, stamp_ns=t, sample=n, base_frame='gpr_base'))
+        if points and marked(n, markers_every):
             msgs['gpr/markers'] = marker_array(make_message, msgs['gpr/platform_state'].header,
                                                {ns: p[i] for ns, p in points.items()})
         for topic in topics:
