@@ -370,11 +370,13 @@ def test_a_second_record_of_a_first_sample_that_differs_fails(tmp_path: Path, ot
 
 
 def _record_edited(old: str, new: str, count: int = 1) -> Any:
-    """A message edit that replaces ``old`` by ``new`` in the ``count``-th record of the bag (1: its first)."""
+    """A message edit that replaces the first ``old`` by ``new`` in the ``count``-th record of the bag (1: its first;
+    0: every ``old`` of every record)."""
     def edit(topic: str, i: int, raw: bytes) -> bytes:
-        if topic != PROGRAM_TOPIC or i != count - 1:
+        if topic != PROGRAM_TOPIC or count and i != count - 1:
             return raw
-        return edited('std_msgs/msg/String', raw, lambda m: dataclasses.replace(m, data=m.data.replace(old, new, 1)))
+        return edited('std_msgs/msg/String', raw, lambda m: dataclasses.replace(
+            m, data=m.data.replace(old, new, 1 if count else -1)))
     return edit
 
 
@@ -547,6 +549,30 @@ def test_an_edited_robot_description_fails_against_its_recorded_program(robot_ba
     assert 'stream.program' in failed and set(failed) <= {'stream.program', 'topic.program'}, failed
     check = next(c for c in result.checks if c.name == 'stream.program')
     assert check.failed > 10 and check.worst > 0.1       # radians: the elbow on the other side (or no plan: inf)
+
+
+def test_a_station_renamed_in_the_record_or_in_a_robot_state_fails_naming_both_names(robot_bag: Path,
+                                                                                      tmp_path: Path) -> None:
+    """Every RobotState names the station it holds (station, the waypoint's name), which nothing compared: the
+    record's station 'aligner' renamed 'aligner_2' (in its steps too, so it parses) passed, and so did one
+    RobotState's station edited. Both fail now, at the samples that hold it, naming the record's and the recorded
+    name."""
+    def station(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != ROBOT_STATE or i != 100:
+            return raw
+        return edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(m, station='load_port_1'))
+
+    record = verify_bag(tampered(robot_bag, tmp_path / 'record', _record_edited('aligner', 'aligner_2', count=0)))
+    assert (_failed(record), _program_details(record)) == (
+        {'topic.program': {None}, 'stream.program': set(range(100, 110)) | set(range(117, 122))},
+        ["the robot_program from sample 0 names waypoint 6 'aligner_2'; its RobotStates (station) name it 'aligner' "
+         "at 10 samples (100 to 109)", "the robot_program from sample 0 names waypoint 9 'aligner_2'; its RobotStates "
+         "(station) name it 'aligner' at 5 samples (117 to 121)"])
+    state = verify_bag(tampered(robot_bag, tmp_path / 'state', station))
+    assert (_failed(state), _program_details(state)) == (
+        {'topic.program': {None}, 'stream.program': {100}},
+        ["the robot_program from sample 0 names waypoint 6 'aligner'; its RobotStates (station) name it "
+         "'load_port_1' at sample 100"])
 
 
 @pytest.mark.parametrize('field, value', [('commanded_tilt', 0.002), ('commanded_tilt', math.nan),

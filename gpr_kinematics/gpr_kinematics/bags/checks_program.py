@@ -9,10 +9,11 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
 - ``stream.program``: each PlatformState, by its sample counter the sample ``i`` of the record that covers it (the
   last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
   [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
-  its waypoint, each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot description that
-  disagrees with the stream (an arm's default branch, home posture, redundancy rule or limits edited: the branch is
-  in the joints of every waypoint it decides) fails, and so does a recorded program, or a recorded geometry, that
-  did not produce it.
+  its waypoint with the waypoint's name (``station``; a name that differs is also named in ``topic.program``),
+  each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot description that disagrees with the
+  stream (an arm's default branch, home posture, redundancy rule or limits edited: the branch is in the joints of
+  every waypoint it decides) fails, and so does a recorded program, or a recorded geometry, that did not produce it,
+  or a station renamed in the record.
 
 A recording without a record (of a node before it was published) skips both; its commanded tilts are still checked
 against the states (``state.commanded``, :mod:`.checks_state`). The records are read once (:func:`read_records`) for
@@ -38,7 +39,8 @@ from .results import Check, bag_check, skipped, value_check
 from .tolerances import Tolerances
 from .typestore import GPR_TOPICS, PROGRAM_TOPIC
 
-_DETAIL = 'inf = no recorded stream covers this sample (or it cannot be recomputed); else the largest difference'
+_DETAIL = ('inf = no recorded stream covers this sample (or it cannot be recomputed), or its RobotState holds '
+           'another waypoint or names it otherwise; else the largest difference')
 
 
 Problem = tuple[str, float, float, str]
@@ -137,22 +139,44 @@ def loop_problems(records: list[Record], samples: NDArray[np.int64]) -> list[Pro
     return problems
 
 
+#: A RobotState that names the waypoint it holds otherwise than the recomputed stream: (state row, the waypoint, its
+#: name in the record, the name the RobotState carries).
+Renamed = tuple[int, int, str, str]
+
+
 def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected
-                  ) -> NDArray[np.float64]:
-    """Per state row of a robot program: the largest joint difference of its RobotState (inf: other joints, or
-    another waypoint held; 0 where the recording has no RobotState of the row)."""
+                  ) -> tuple[NDArray[np.float64], list[Renamed]]:
+    """Per state row of a robot program: the largest joint difference of its RobotState (inf: other joints, another
+    waypoint held, or the waypoint named otherwise: those listed; 0 where the recording has no RobotState of the
+    row)."""
     out = np.zeros(rows.size)
+    renamed: list[Renamed] = []
     if ex.joints is None or robot_rows is None:
-        return out
+        return out, renamed
     for k, (r, i) in enumerate(zip(rows.tolist(), ii.tolist(), strict=True)):
         got = robot_rows.joints(r)
         if got is None:
             continue
         names, values = got
-        same = names == ex.joint_names and values.shape == ex.joints[i].shape and (
-            ex.waypoint is None or robot_rows.waypoints.get(r, int(ex.waypoint[i])) == int(ex.waypoint[i]))
+        w, station = -1 if ex.waypoint is None else int(ex.waypoint[i]), ex.station(i)
+        held = robot_rows.waypoints.get(r, w) == w
+        named = robot_rows.stations.get(r, station)
+        if held and named != station:
+            renamed.append((r, w, station, named))
+        same = names == ex.joint_names and values.shape == ex.joints[i].shape and held and named == station
         out[k] = float(np.max(np.abs(values - ex.joints[i]), initial=0.0)) if same else np.inf
-    return out
+    return out, renamed
+
+
+def _renamed_problems(record: Record, renamed: list[Renamed], samples: NDArray[np.int64]) -> list[Problem]:
+    """One problem per waypoint whose name in ``record`` is not the one its RobotStates carry (``station``)."""
+    by: dict[tuple[int, str, str], list[int]] = {}
+    for r, w, station, named in renamed:
+        by.setdefault((w, station, named), []).append(int(samples[r]))
+    return [(PROGRAM_TOPIC, float(len(at)), 0.0, f'the {record.kind} from sample {record.first_sample} names '
+             f'waypoint {w} {brief(station)}; its RobotStates (station) name it {brief(named)} at '
+             + (f'sample {at[0]}' if len(at) == 1 else f'{len(at)} samples ({min(at)} to {max(at)})'))
+            for (w, station, named), at in by.items()]
 
 
 def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,
@@ -192,7 +216,9 @@ def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: Gpr
                 e = np.max(np.abs(q[r] - ex.q[i]), axis=1, initial=0.0)
                 e = np.maximum(e, np.abs(ct[r] - ex.commanded_tilt[i]))
                 e = np.maximum(e, wrapped(ca[r] - ex.commanded_azimuth[i]))
-            e = np.maximum(e, _joint_errors(robot_rows, r, i, ex))
+            joint_errors, renamed = _joint_errors(robot_rows, r, i, ex)
+            e = np.maximum(e, joint_errors)
+            problems += _renamed_problems(record, renamed, samples)
             errors[r] = np.where(np.isnan(e), np.inf, e)
     return [bag_check('topic.program', PROGRAM_TOPIC, problems, len(t), ''),
             value_check('stream.program', PROGRAM_TOPIC, errors, max(tol.position, tol.angle), 'm|rad', samples,

@@ -126,8 +126,9 @@ class RobotRows:
     states alone, so the joint states are checked against them whether or not a robot description is known."""
 
     rows: dict[int, tuple[tuple[str, ...], NDArray[np.float64]]]
-    #: Per state row, the waypoint its RobotState says it holds (-1: moving).
+    #: Per state row, the waypoint its RobotState says it holds (-1: moving) and that waypoint's name (its station).
     waypoints: dict[int, int] = field(default_factory=dict)
+    stations: dict[int, str] = field(default_factory=dict)
 
     def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
         return self.rows.get(r)
@@ -197,9 +198,11 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     idx = match(rstamps, np.zeros(len(rstamps), dtype=object), stamps, np.zeros(len(stamps), dtype=object))
     rows = np.flatnonzero(idx >= 0)
     j = idx[rows]
+    pairs = list(zip(rows.tolist(), j.tolist(), strict=True))
     recorded = RobotRows({int(r): (tuple(rc['joint_names'][k]), np.asarray(rc['joints'][k], dtype=float))
-                          for r, k in zip(rows.tolist(), j.tolist(), strict=True)},
-                         {int(r): int(rc['waypoint'][k]) for r, k in zip(rows.tolist(), j.tolist(), strict=True)})
+                          for r, k in pairs},
+                         {int(r): int(rc['waypoint'][k]) for r, k in pairs},
+                         {int(r): str(rc['station'][k]) for r, k in pairs})
     robot = choice.robot
     if robot is None:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \

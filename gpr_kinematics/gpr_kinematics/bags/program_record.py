@@ -189,7 +189,7 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
 class Expected:
     """What every sample of a recorded stream must carry (``N`` samples): the rods ``q (N, 3)`` [m], the commanded
     tilt and azimuth ``(N,)`` [rad], and for a robot program every arm's joints ``(N, J)`` [rad] by name and the
-    waypoint held ``(N,)`` (-1 while moving)."""
+    waypoint held ``(N,)`` (-1 while moving) with every waypoint's name (the station a RobotState names)."""
 
     q: NDArray[np.float64]
     commanded_tilt: NDArray[np.float64]
@@ -197,6 +197,12 @@ class Expected:
     joint_names: tuple[str, ...] = ()
     joints: NDArray[np.float64] | None = None
     waypoint: NDArray[np.int64] | None = None
+    waypoint_names: tuple[str, ...] = ()
+
+    def station(self, i: int) -> str:
+        """The name of the waypoint held at sample ``i`` (empty while moving or without waypoints)."""
+        k = -1 if self.waypoint is None else int(self.waypoint[i])
+        return self.waypoint_names[k] if k >= 0 else ''
 
 
 def expected(record: Record, config: GprConfig, robot: RobotDescription | None) -> Expected:
@@ -216,7 +222,8 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
     if robot is None or not isinstance(record.program, RobotProgram):
         raise ConfigError('a robot program needs the robot description it ran on (none recorded or given)')
     rs = robot_stream(robot, record.program, record.rate)   # the robot computes with the geometry verified against
-    return Expected(rs.gpr.q, rs.gpr.tilt, rs.gpr.tilt_azimuth, rs.joint_names, rs.joints, rs.waypoint)
+    return Expected(rs.gpr.q, rs.gpr.tilt, rs.gpr.tilt_azimuth, rs.joint_names, rs.joints, rs.waypoint,
+                    rs.waypoint_names)
 
 
 def sample_index(record: Record, sample: int) -> int:
