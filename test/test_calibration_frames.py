@@ -107,7 +107,11 @@ def test_a_precise_tracker_gives_the_transform_to_10_um_and_20_urad(setting):
     res = identify(model, meas, frame='tracker')
     assert res.gate.passed
     e_p, e_r, e_t = frame_errors(model, res.estimate)
-    assert np.abs(e_p).max() < 10e-6 and np.abs(e_r).max() < 20e-6 and np.abs(e_t).max() < 10e-6, (e_p, e_r, e_t)
+    assert np.abs(e_p).max() < 10e-6 and np.abs(e_r).max() < 20e-6, (e_p, e_r)
+    # the probe's place trades with the joints' (its x and y known to 26-29 um here): it was held to 10 um, which only
+    # this seed's draw kept (8.6 um; 20-35 um at seeds 1-4 and 7); within its standard errors
+    k = model.n_inner
+    assert np.all(np.abs(e_t) < 3.5 * res.standard_error[k + 6:k + 9]), (e_t, res.standard_error[k + 6:k + 9])
 
 
 def test_points_from_a_plan_for_points(capsys, tmp_path, setting):
