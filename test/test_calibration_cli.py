@@ -451,7 +451,8 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
                            '--json')
     d = json.loads(out)
     assert status == 1 and not d['absolute_sigma'] and not (tmp_path / 'w.yaml').exists()
-    # (the check's own words: stderr's line, over 900 characters with the chi-square's, loses its middle: one_line)
+    # the check's own words, also in stderr's line (912 characters with the chi-square's: whole)
+    assert 'Line 8 is an outlier: its z residual is 21.2 robust standard deviations of its kind' in err, err
     outliers = {g['name']: g for g in d['gate']['checks']}['outliers']
     assert outliers['detail'].startswith('Line 8 is an outlier: its z residual is 21.2 robust standard deviations of '
                                          'its kind'), outliers

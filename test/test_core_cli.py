@@ -212,3 +212,19 @@ def test_a_long_negative_number_is_decided_at_once(capsys):
     status, out, err = run(capsys, 'fk', '0.45', '0.45', '-' + '1' * 20000 + 'x')
     assert status == 2 and 'Traceback' not in err and err.count('\n') == 1
     assert time.process_time() - start < 1.0
+
+
+def test_a_long_error_line_loses_only_what_is_over_the_limit():
+    """errors.one_line: a line of LONG_LINE + 12 characters keeps LONG_LINE - len(mark) of them, its start and its
+    last quarter; a line at the limit is kept whole."""
+    from gpr_kinematics.errors import LONG_LINE, one_line
+    words = ' '.join(f'w{k:04d}' for k in range(400))  # 6 characters per word with its space
+    exact = words[:LONG_LINE]
+    assert one_line(exact) == exact
+    longer = words[:LONG_LINE + 12]
+    cut = one_line(longer)
+    mark = f' ... ({LONG_LINE + 12} characters) ... '
+    assert len(cut) == LONG_LINE and mark in cut
+    head, tail = cut.split(mark)
+    assert longer.startswith(head) and longer.endswith(tail) and len(tail) == LONG_LINE // 4
+    assert len(head) + len(tail) == LONG_LINE - len(mark)

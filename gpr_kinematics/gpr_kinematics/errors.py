@@ -90,14 +90,16 @@ def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
 LONG_WORD = 300
 
 
-#: Longest error line [characters]: its middle is cut beyond (a list a message quoted whole by mistake).
-LONG_LINE = 900
+#: Longest error line [characters]: its middle is cut beyond (a list a message quoted whole by mistake). The
+#: longest message written on purpose, the calibration gate's with several failed checks and long file names, is
+#: about 1,000.
+LONG_LINE = 1500
 
 
 def one_line(message: str) -> str:
     """An error message as one bounded line: newlines become spaces, words longer than :data:`LONG_WORD` are cut
-    with their length named, and a line longer than :data:`LONG_LINE` loses its middle (its start names the
-    problem, its end what is allowed).
+    with their length named, and a line longer than :data:`LONG_LINE` loses the least of its middle that brings it
+    to that length (its start names the problem, its end what is allowed).
 
     >>> one_line('bad value ' + '9' * 1000 + '\\nallowed: 1 to 3')
     'bad value 999999999999999999999999999999999999999999999999999999999999... (1000 characters) allowed: 1 to 3'
@@ -107,5 +109,7 @@ def one_line(message: str) -> str:
 
     line = re.sub(rf'\S{{{LONG_WORD + 1},}}', cut, message.replace('\n', ' '))
     if len(line) > LONG_LINE:
-        line = f'{line[:LONG_LINE // 2]} ... ({len(line)} characters) ... {line[-LONG_LINE // 4:]}'
+        mark = f' ... ({len(line)} characters) ... '
+        tail = LONG_LINE // 4
+        line = f'{line[:LONG_LINE - tail - len(mark)]}{mark}{line[-tail:]}'
     return line
