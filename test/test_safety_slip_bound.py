@@ -6,18 +6,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 import yaml
+from gpr_kinematics.core.rotations import tilt_rotation
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.plan import jerk_limits, joint_limits, plan_program
-from gpr_kinematics.robot.program import load_program
-from gpr_kinematics.robot.timing import locate, parameterise
+from gpr_kinematics.robot.program import load_program, parse_program
+from gpr_kinematics.robot.timing import evaluate, locate, parameterise
 from gpr_kinematics.safety.check import _slip_times, check_program, corner_sides, wafer_plan
-from gpr_kinematics.safety.slip import STEP, slip_series, wafer_path
+from gpr_kinematics.safety.slip import STEP, _ratio, difference_step, slip_series, wafer_path
 from gpr_kinematics.safety.slip_bound import POSITION_ERROR, SLIP_TOLERANCE, slip_bound, unit_rates
 from robot_support import make_robot, random_postures, robot_data
 
@@ -249,11 +251,21 @@ def test_a_slow_move_is_safe(tmp_path):
     assert d['max_slip_ratio'] == pytest.approx(0.4162, abs=1e-4)
 
 
-def test_a_slip_between_the_instants_is_refused(tmp_path):
-    """A pick from pm1 (tilted 1.5 deg) without jerk limits: the retract's ratio peaks between the 200 Hz instants
-    (0.0929806 at 0.34678 s, 100 kHz, 0.3 ms from the nearest instant; the instants read 0.0929787). With the
-    blade's friction set between the two (0.3 sqrt(0.0929787 0.0929806)) the instants alone stay below 1 (as the check
-    read before), the true ratio passes 1, and the check refuses the program (exit 1): its bound is above 1."""
+def _fitted_ratio(plan, arm, times):
+    """The slip ratio at ``times`` (in one joint-space move) from a Chebyshev fit of degree 6 to the wafer's exact path
+    at 401 points of ``s`` in [-0.5, 1.5] (a fit within 1e-14 m of them): derivatives without the differences'
+    rounding."""
+    _, _, m, tau = locate(plan.timing, times)
+    s, ds, dds = evaluate(plan.timing.profiles, m, tau)
+    grid = np.linspace(-0.5, 1.5, 401)
+    path = wafer_path(plan, arm, int(m[0]), grid)
+    c = np.polynomial.chebyshev.chebfit(grid, path, 6)
+    assert np.all(m == m[0]) and np.max(np.abs(np.polynomial.chebyshev.chebval(grid, c).T - path)) < 1e-14
+    d1, d2 = (np.polynomial.chebyshev.chebval(s, np.polynomial.chebyshev.chebder(c, k)).T for k in (1, 2))
+    return _ratio(plan, arm, times, d1 * dds[:, None] + d2 * (ds ** 2)[:, None])
+
+
+def _pm1_pick(tmp_path):
     data = _no_jerk(robot_data())
     data['gpr']['config'] = str(config_path('gpr.yaml'))
     program = {'format': 'gpr_robot_program', 'version': 1, 'robot': 'robot.yaml', 'wafers': ['pm1'],
@@ -264,34 +276,84 @@ def test_a_slip_between_the_instants_is_refused(tmp_path):
                'steps': [{'pick': 'pm1'}]}
     (tmp_path / 'p.yaml').write_text(yaml.safe_dump(program))
     (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
-    plan = plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
+    return plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
+
+
+def test_the_differences_of_a_short_move_are_not_its_rounding(tmp_path):
+    """A pick from pm1 (tilted 1.5 deg) without jerk limits: its retract (rods 8 mm, arm joints 1.3 mrad) read a
+    ratio peaking between the 200 Hz instants (0.0929806 at 0.34678 s, 0.3 ms from an instant, which read 0.0929787;
+    0.34729 s on numpy 1.26), taken for a slip between the instants: it was the rounding of differences over
+    ``STEP = 1e-4`` (2e-6 of the ratio, moving with the numpy version). Over the move's step (0.0125) the ratio agrees
+    with a polynomial fit of the exact path to 1e-9, 0.0929788 at most, which the instants find."""
+    plan = _pm1_pick(tmp_path)
     times = _slip_times(plan)
     sampled = float(np.nanmax(slip_series(plan, times, _carrying(plan, times)).ratio))
-    dense = np.arange(0.0, plan.timing.total, 1e-5)
+    dense = np.linspace(plan.timing.depart[1], plan.timing.arrive[2], 20_001)[1:-1]    # the retract
     true = slip_series(plan, dense, _carrying(plan, dense)).ratio
-    peak = float(np.nanmax(true))
-    # (the central differences' rounding moves both by about 2e-7 between numpy and Python versions)
-    assert sampled == pytest.approx(0.0929787, abs=1e-6) and peak == pytest.approx(0.0929806, abs=1e-6)
-    assert peak - sampled > 1e-6
-    at = dense[np.nanargmax(true)]   # a flat top: 0.34678 s (0.34729 s on numpy 1.26), 0.3 ms from an instant
-    assert 0.3465 < at < 0.3475 and np.min(np.abs(times - at)) > 2e-4   # between the instants
-    data['arms'][1]['blade']['friction'] = 0.3 * float(np.sqrt(sampled * peak))
-    (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(data))
-    plan = plan_program(make_robot(data), load_program(tmp_path / 'p.yaml'))
-    assert float(np.nanmax(slip_series(plan, times, _carrying(plan, times)).ratio)) < 1.0
-    assert float(np.nanmax(slip_series(plan, dense, _carrying(plan, dense)).ratio)) > 1.0
+    assert float(difference_step(plan, 'arm2', np.array([1]))[0]) == pytest.approx(STEP / 0.0080027, rel=1e-4)
+    assert float(np.max(np.abs(true - _fitted_ratio(plan, 'arm2', dense)))) < 1e-9
+    assert sampled == pytest.approx(0.0929788, abs=2e-7) and float(np.max(true)) <= sampled + 1e-9
+
+
+def test_a_slip_between_the_instants_is_refused():
+    """Random joint-space moves of arm1 (seed 5, S-curves): the second move's ratio peaks between the check's instants
+    (0.5590352 at 4.9036 s, 1.4 ms from the nearest instant, 100 kHz; the instants read 0.5590128). With the blade's
+    friction set between the two the instants alone stay below 1, the true ratio passes 1, and the bound is above 1
+    (closed)."""
+    plan = _random_plan(5, True)
+    times = _slip_times(plan)
+    sampled = float(np.nanmax(slip_series(plan, times, _arm1(plan, times)).ratio))
+    dense = np.arange(4.89, 4.92, 1e-5)
+    true = slip_series(plan, dense, _arm1(plan, dense)).ratio
+    peak, at = float(np.max(true)), dense[np.argmax(true)]
+    assert sampled == pytest.approx(0.5590128, abs=2e-7) and peak == pytest.approx(0.5590352, abs=2e-7)
+    assert at == pytest.approx(4.9036, abs=2e-4) and np.min(np.abs(times - at)) > 1e-3   # between the instants
+    data = robot_data()
+    data['arms'][0]['blade']['friction'] = 0.3 * float(np.sqrt(sampled * peak))
+    plan = dataclasses.replace(plan, robot=make_robot(data))
+    ratio = slip_series(plan, times, _arm1(plan, times)).ratio
+    assert float(np.max(ratio)) < 1.0 < float(np.max(slip_series(plan, dense, _arm1(plan, dense)).ratio))
+    bound = slip_bound(plan, times, ratio, _arm1(plan, times))
+    assert bound.closed and float(np.max(bound.bound)) > 1.0
+
+
+def _jog(tmp_path, distance, axis):
+    """A pick from a station tilted 1.5 deg (without jerk limits) and a joint-space move of ``distance`` [m] along
+    the station's ``axis`` (0: in its plane, the arm's joints; 2: its normal, the rods)."""
+    data = _no_jerk(robot_data())
+    data['gpr']['config'] = str(config_path('gpr.yaml'))
+    R = tilt_rotation(np.radians(1.5), np.radians(90.0))
+    A = np.array([750.0, -100.0, 400.0])
+    B = A + 8.0 * R[:, 2] + 1e3 * distance * R[:, axis]      # the retract pose moved, in mm
+    station = {'heading': -90, 'tilt': 1.5, 'azimuth': 90}
+    program = {'format': 'gpr_robot_program', 'version': 1, 'wafers': ['A'], 'units': {'length': 'mm', 'angle': 'deg'},
+               'defaults': {'arm': 'arm2', 'branch': 'right', 'approach_height': 8, 'retract_height': 8,
+                            'dwell': 0.5},
+               'stations': [{'name': 'A', 'position': A.tolist(), **station},
+                            {'name': 'B', 'position': B.tolist(), **station}],
+               'steps': [{'pick': 'A'}, {'move': 'B'}]}
+    return plan_program(make_robot(data), parse_program(program, str(tmp_path / 'p.yaml'), tmp_path))
+
+
+@pytest.mark.parametrize('distance, axis, true', [(1e-6, 2, 0.0929749), (1e-5, 2, 0.0929749),
+                                                  (1e-6, 0, 0.3720113), (1e-5, 0, 0.3720079)])
+def test_a_jog_of_a_micrometre_is_not_refused(tmp_path, distance, axis, true):
+    """A joint-space move of 1 um (or 10 um) of the blade, a trapezoid of 2.2-8.2 ms, carrying a wafer: the central
+    differences over ``STEP = 1e-4`` rounded 1e-14 m into 4e-6 m of the path's second derivative, times ``s'^2`` up
+    to 6e5 /s^2, and the bound read 1.305 (2.300 in the plane) for the true 0.093 (0.372): the program was refused.
+    Over the move's step (1 here) the ratio agrees with a polynomial fit of the exact path to 1e-9, and its bound is
+    within 1e-6 above the largest of 20,000 instants (0.185 and 0.503 for 10 um before)."""
+    plan = _jog(tmp_path, distance, axis)
     report = check_program(plan, None)[0]
-    assert not report.safe and report.max_slip_ratio > 1.0 and report.slip_certified
-    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics', 'program', 'check', 'p.yaml', '--json'],
-                         cwd=tmp_path, capture_output=True, text=True, check=False)
-    assert res.returncode == 1, res.stderr
-    d = json.loads(res.stdout)
-    assert d['safe'] is False and d['collisions'] == [] and d['max_slip_ratio'] > 1.0
-    assert d['max_slip_evaluated'] < 1.0 and d['slip_certified'] is True
-    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics', 'program', 'check', 'p.yaml'],
-                         cwd=tmp_path, capture_output=True, text=True, check=False)
-    assert res.returncode == 1 and ('  UNSAFE: the slip ratio is not bounded below 1 (its bound 1.001; evaluated at '
-                                    'most 1.000, at 0.346 s, steps[0] (pick pm1, retract))\n') in res.stdout
+    assert report.safe and report.slip_certified
+    t = plan.timing
+    dense = np.linspace(t.depart[-2], t.arrive[-1], 20_001)[1:-1]
+    found = slip_series(plan, dense, np.full(dense.shape, 'arm2', dtype=object)).ratio
+    assert float(difference_step(plan, 'arm2', np.array([len(t.depart) - 2]))[0]) == 1.0
+    assert float(np.max(np.abs(found - _fitted_ratio(plan, 'arm2', dense)))) < 1e-9
+    move = report.moves[-1]
+    assert move.label == 'steps[1] (move B, move)' and float(np.max(found)) == pytest.approx(true, abs=2e-7)
+    assert float(np.max(found)) <= move.max_slip_ratio <= float(np.max(found)) + SLIP_TOLERANCE
 
 
 def test_the_bound_is_the_verdicts_and_the_moves(tmp_path):
@@ -378,3 +440,24 @@ def test_a_loose_closure_tolerance_is_tightened_for_the_slip_check():
     assert float(np.max(np.abs(ratio - tight))) < 1e-9 and float(np.max(ratio)) == pytest.approx(0.341401, abs=1e-6)
     assert float(np.max(_bound(loose, _arm1).bound)) == pytest.approx(float(np.max(_bound(plan, _arm1).bound)),
                                                                       abs=1e-9)
+
+
+def test_over_a_fixed_step_a_jog_was_refused(tmp_path, monkeypatch, capsys):
+    """The 1 um jog along the station's normal with the differences over ``STEP`` on every move (as before): the
+    bound read 1.305 for the true 0.093 (the instants' ratio moved by the rounding, 0.093-0.103) and the program was
+    refused, its bound not below 1."""
+    from gpr_kinematics.cli.program import _print_safety
+    from gpr_kinematics.safety import slip as slip_module
+    from gpr_kinematics.safety import slip_bound as bound_module
+
+    def fixed(plan, arm, m):
+        return np.full(m.shape, STEP)
+
+    monkeypatch.setattr(slip_module, 'difference_step', fixed)
+    monkeypatch.setattr(bound_module, 'difference_step', fixed)
+    report = check_program(_jog(tmp_path, 1e-6, 2), None)[0]
+    assert not report.safe and report.max_slip_ratio == pytest.approx(1.305, abs=0.1)
+    assert report.max_slip_evaluated < 0.11
+    _print_safety(report)
+    assert re.search(r'  UNSAFE: the slip ratio is not bounded below 1 \(its bound 1\.\d{3}; evaluated at most '
+                     r'0\.\d{3}, at 0\.\d{3} s, steps\[\d\] \(.+\)\)\n', capsys.readouterr().out)

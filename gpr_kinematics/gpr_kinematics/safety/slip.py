@@ -11,11 +11,11 @@ tangential part ``f_t = |f - f_n n|`` must be held by static friction: the **sli
 denominator (the wafer lifted off the paddle) is an infinite ratio. Gravity alone on a blade tilted by ``alpha``
 gives ``tan(alpha) / mu`` (0.035 g along the blade at 2 degrees). ``a`` comes from the path: on a joint-space line
 ``a = dp/ds s'' + d^2p/ds^2 s'^2`` (the path derivatives by central differences of the exact forward kinematics in
-``s``), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''`` from the S-curve. There, with the
-orientation fixed, the ratio is a quasi-convex function of ``s''`` alone: its largest value over the move lies on one of
-the S-curve's corners (docs/cell.md), which the check evaluates, and on both sides of them (a trapezoid's
-acceleration jumps there); on joint-space moves it is sampled here and bounded between the samples by
-:mod:`~gpr_kinematics.safety.slip_bound`.
+``s`` over the move's :func:`difference_step`), on a straight entry ``a = (p_1 - p_0) s''`` exactly; ``s'``, ``s''``
+from the S-curve. There, with the orientation fixed, the ratio is a quasi-convex function of ``s''`` alone: its
+largest value over the move lies on one of the S-curve's corners (docs/cell.md), which the check evaluates, and on
+both sides of them (a trapezoid's acceleration jumps there); on joint-space moves it is sampled here and bounded
+between the samples by :mod:`~gpr_kinematics.safety.slip_bound`.
 """
 from __future__ import annotations
 
@@ -33,7 +33,8 @@ from ..robot.timing import evaluate, locate, sample_at
 Array = NDArray[np.float64]
 
 GRAVITY = 9.80665
-#: Step in ``s`` of the central differences of the wafer's path.
+#: Step in ``s`` of the central differences of the wafer's path; on a joint-space move whose joints change by less than
+#: 1 (rad or m) the step is ``STEP`` over that change, at most 1 (:func:`difference_step`).
 STEP = 1e-4
 #: The closure's tolerance [m] the slip check solves the forward kinematics to (the package's default): its second
 #: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
@@ -70,6 +71,19 @@ def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
     return robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.position
 
 
+def difference_step(plan: ProgramPlan, arm: str, m: NDArray[np.int64]) -> Array:
+    """The step in ``s`` of the central differences of ``arm``'s wafer path on the joint-space moves ``m``:
+    ``STEP / c``, ``c`` the move's largest change of a rod [m] or of the arm's joints [rad] taken within [STEP, 1], so
+    the joints move by ``STEP`` between the differences' points on a move shorter than 1 (by ``c STEP`` beyond it, as
+    the example's swings). The rounding's share ``4 POSITION_ERROR / h^2`` then shrinks with ``c^2``, as the path's
+    second derivative does: over a fixed ``STEP`` a 1 um move's bound read 1.31 for its ratio of 0.09."""
+    robot = plan.robot
+    _, _, _, slices = joint_limits(robot)
+    cols = np.r_[0:3, slices[robot.arm_names.index(arm)]]
+    D = np.abs(plan.positions[m + 1][:, cols] - plan.positions[m][:, cols])
+    return np.asarray(STEP / np.clip(np.max(D, axis=1, initial=0.0), STEP, 1.0), dtype=np.float64)
+
+
 def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
     """The slip ratio at ``times`` for the arm named in ``carrying (N,)`` ('' where no wafer is carried); the forward
     kinematics to :data:`CLOSURE_TOLERANCE`."""
@@ -89,10 +103,11 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
         for k in np.unique(m[idx]):
             sel = idx[m[idx] == k]
             line = bool(plan.waypoints.path) and plan.waypoints.path[k + 1] == 'line'
-            p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - STEP, s[sel], s[sel] + STEP]))
+            h = STEP if line else float(difference_step(plan, arm.name, np.array([k]))[0])
+            p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - h, s[sel], s[sel] + h]))
             n = sel.size
-            d1 = (p[2 * n:] - p[:n]) / (2 * STEP)
-            d2 = np.zeros_like(d1) if line else (p[2 * n:] - 2 * p[n:2 * n] + p[:n]) / STEP ** 2
+            d1 = (p[2 * n:] - p[:n]) / (2 * h)
+            d2 = np.zeros_like(d1) if line else (p[2 * n:] - 2 * p[n:2 * n] + p[:n]) / h ** 2
             acc[sel] = d1 * dds[sel, None] + d2 * ds[sel, None] ** 2
         idx = np.flatnonzero(carrying == arm.name)
         if idx.size:

@@ -21,7 +21,9 @@ vector ``e/|e|`` with ``|e^(k)| <= m rho_k`` and ``|e| >= m`` has derivatives at
 s' s'' + p' s'''`` is at most ``F_3 S_1^3 + 3 F_2 S_1 S_2 + F_1 S_3`` (``S_k`` bounds of the S-curve's ``|s^(k)|``
 on the interval, which holds no corner: the corners are instants; ``S_3 = 0`` off the jerk ramps), the normal
 ``n = N/|N|`` turns at most ``|n'| S_1``. Within ``h`` of the anchor ``|f - f_m| <= df`` (with the central
-differences' error, ``p'''``-bound times ``STEP``, and :data:`POSITION_ERROR`) and ``angle(n, n_m) <= dn``, so
+differences' error over the move's step ``d`` (:func:`~gpr_kinematics.safety.slip.difference_step`),
+``d/3 F_3 + 4 POSITION_ERROR / d^2`` in ``p''``, ``d^2/6 F_3 + POSITION_ERROR / d`` in ``p'``) and
+``angle(n, n_m) <= dn``, so
 
     ``ratio <= (|f_t,m| + (|f_m| + df) dn + df) / (mu (f_n,m - (|f_m| + df) dn - df + F_vac / m))``.
 
@@ -45,7 +47,7 @@ from ..robot.forward import robot_forward
 from ..robot.plan import ProgramPlan, joint_limits, line_moves
 from ..robot.timing import evaluate, locate
 from .motion import LIPSCHITZ, platform_state, rod_directions
-from .slip import CLOSURE_TOLERANCE, GRAVITY, STEP, closure_exact
+from .slip import CLOSURE_TOLERANCE, GRAVITY, closure_exact, difference_step
 
 Array = NDArray[np.float64]
 
@@ -82,9 +84,10 @@ class SlipBound:
 @dataclass(frozen=True)
 class Anchors:
     """The wafer at profile values of joint-space moves ``(K,)``: its path's first and second derivatives in ``s``
-    ``d1``, ``d2`` (central differences of the exact forward kinematics), the paddle's normal ``n`` (world), its
-    position ``x`` in ``gpr_platform`` less the platform joints' centroid, their side ``r12 = |r_2 - r_1|``, ``sigma``,
-    ``gamma`` (:func:`~gpr_kinematics.safety.motion.platform_state`) and the joint ``rows``."""
+    ``d1``, ``d2`` (central differences of the exact forward kinematics over the step ``h`` in ``s``), the paddle's
+    normal ``n`` (world), its position ``x`` in ``gpr_platform`` less the platform joints' centroid, their side
+    ``r12 = |r_2 - r_1|``, ``sigma``, ``gamma`` (:func:`~gpr_kinematics.safety.motion.platform_state`) and the joint
+    ``rows``."""
 
     d1: Array
     d2: Array
@@ -94,6 +97,7 @@ class Anchors:
     sigma: Array
     gamma: Array
     rows: Array
+    h: Array
 
 
 def unit_rates(r1: Array, r2: Array, r3: Array) -> tuple[Array, Array, Array]:
@@ -114,7 +118,7 @@ def anchors(plan: ProgramPlan, m: NDArray[np.int64], s: Array, arms: Array) -> A
     rows = P[m] + s[:, None] * (P[m + 1] - P[m])
     K = s.shape[0]
     d1, d2, n, x = (np.zeros((K, 3)) for _ in range(4))
-    r12, sigma, gamma = np.zeros(K), np.zeros(K), np.zeros(K)
+    r12, sigma, gamma, h = np.zeros(K), np.zeros(K), np.zeros(K), np.zeros(K)
     _, _, _, slices = joint_limits(robot)
     model = make_model(robot.config)
     for arm, cols in zip(robot.arm_names, slices, strict=True):
@@ -122,11 +126,13 @@ def anchors(plan: ProgramPlan, m: NDArray[np.int64], s: Array, arms: Array) -> A
         if not sel.size:
             continue
         D, k = P[m[sel] + 1] - P[m[sel]], sel.size
-        around = np.concatenate([rows[sel] - STEP * D, rows[sel], rows[sel] + STEP * D])
+        h[sel] = difference_step(plan, arm, m[sel])
+        step = h[sel, None]
+        around = np.concatenate([rows[sel] - step * D, rows[sel], rows[sel] + step * D])
         fk = robot_forward(robot, around[:, :3], around[:, cols], arm, check_limits=False)
         p = fk.wafer.position
-        d1[sel] = (p[2 * k:] - p[:k]) / (2 * STEP)
-        d2[sel] = (p[2 * k:] - 2 * p[k:2 * k] + p[:k]) / STEP ** 2
+        d1[sel] = (p[2 * k:] - p[:k]) / (2 * step)
+        d2[sel] = (p[2 * k:] - 2 * p[k:2 * k] + p[:k]) / step ** 2
         n[sel] = fk.wafer.rotation[k:2 * k, :, 2]
         gpr = forward_batch(rows[sel, :3], robot.config, check_limits=False)
         sigma[sel], gamma[sel], _ = platform_state(robot.config, gpr)
@@ -134,7 +140,7 @@ def anchors(plan: ProgramPlan, m: NDArray[np.int64], s: Array, arms: Array) -> A
         r12[sel] = np.linalg.norm(r[:, 1] - r[:, 0], axis=1)
         x[sel] = fk.wafer_on_platform.position[k:2 * k]
         x[sel, :2] -= r.mean(axis=1)
-    return Anchors(d1, d2, n, x, r12, sigma, gamma, rows)
+    return Anchors(d1, d2, n, x, r12, sigma, gamma, rows, h)
 
 
 def _frames(plan: ProgramPlan, D: Array, at: Anchors, ws: Array) -> tuple[list[Array], list[Array], Array]:
@@ -181,7 +187,8 @@ def bound_about(plan: ProgramPlan, m: NDArray[np.int64], at: Anchors, arms: Arra
     lowers it); ``S``: the first three derivatives of ``s`` at most there (module docstring)."""
     robot = plan.robot
     S1, S2, S3 = S
-    ws = S1 * half + STEP                       # the s-range about the anchor, the differences' points in it
+    d = at.h
+    ws = S1 * half + d                          # the s-range about the anchor, the differences' points in it
     D = plan.positions[m + 1] - plan.positions[m]
     Rot, R, turn = _frames(plan, D, at, ws)
     _, _, _, slices = joint_limits(robot)
@@ -204,7 +211,7 @@ def bound_about(plan: ProgramPlan, m: NDArray[np.int64], at: Anchors, arms: Arra
         V = [np.linalg.norm(at.x, axis=1) + (W[1] + R[0]) * ws] + [W[k] + R[k - 1] for k in (1, 2, 3)]
         F3 = _leibniz(Rot, V, 3)
         # near the anchor the differences bound |p''| and |p'| better than the sums (their error from F3)
-        e1, e2 = STEP ** 2 / 6.0 * F3 + POSITION_ERROR / STEP, STEP / 3.0 * F3 + 4.0 * POSITION_ERROR / STEP ** 2
+        e1, e2 = d ** 2 / 6.0 * F3 + POSITION_ERROR / d, d / 3.0 * F3 + 4.0 * POSITION_ERROR / d ** 2
         F2 = np.minimum(_leibniz(Rot, V, 2), np.linalg.norm(at.d2, axis=1) + e2 + F3 * ws)
         F1 = np.minimum(centroid + _leibniz(Rot, V, 1), np.linalg.norm(at.d1, axis=1) + e1 + F2 * ws)
         f = at.d1 * s2[:, None] + at.d2 * (s1 ** 2)[:, None] + np.array([0.0, 0.0, GRAVITY])
