@@ -575,6 +575,29 @@ def test_a_station_renamed_in_the_record_or_in_a_robot_state_fails_naming_both_n
          "'load_port_1' at sample 100"])
 
 
+def test_the_arm_in_use_edited_in_a_robot_state_fails_naming_both_arms(robot_bag: Path, tmp_path: Path) -> None:
+    """A RobotState's arm (the arm in use) was compared with nothing of the program: only the wafer and blade poses
+    computed with the named arm's joints caught an edit, so a forger who recomputed them passed. The recomputed
+    stream's arm is compared now, and topic.program names both."""
+    seen: dict[str, str] = {}
+
+    def arm(topic: str, i: int, raw: bytes) -> bytes:
+        if topic != ROBOT_STATE or i != 100:
+            return raw
+
+        def swap(m: Any) -> Any:
+            seen['was'] = m.arm
+            return dataclasses.replace(m, arm='arm2' if m.arm == 'arm1' else 'arm1')
+        return edited(GPR_TOPICS[topic], raw, swap)
+
+    result = verify_bag(tampered(robot_bag, tmp_path / 'arm', arm))
+    failed = _failed(result)
+    other = 'arm2' if seen['was'] == 'arm1' else 'arm1'
+    assert failed['stream.program'] == {100} and failed['topic.program'] == {None}, failed
+    assert _program_details(result) == [f"the robot_program from sample 0 uses the arm '{seen['was']}'; its "
+                                        f"RobotStates (arm) name it '{other}' at sample 100"]
+
+
 @pytest.mark.parametrize('field, value', [('commanded_tilt', 0.002), ('commanded_tilt', math.nan),
                                           ('commanded_azimuth', math.inf), ('commanded_azimuth', 1.0)])
 def test_a_changed_commanded_value_fails(sweep: Path, tmp_path: Path, field: str, value: float) -> None:

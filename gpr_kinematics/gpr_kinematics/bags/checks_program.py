@@ -9,7 +9,8 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
 - ``stream.program``: each PlatformState, by its sample counter the sample ``i`` of the record that covers it (the
   last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
   [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
-  its waypoint with the waypoint's name (``station``; a name that differs is also named in ``topic.program``),
+  its waypoint with the waypoint's name (``station``) and the arm in use (``arm``; a name that differs is also
+  named in ``topic.program``),
   each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot description that disagrees with the
   stream (an arm's default branch, home posture, redundancy rule or limits edited: the branch is in the joints of
   every waypoint it decides) fails, and so does a recorded program, or a recorded geometry, that did not produce it,
@@ -40,7 +41,7 @@ from .tolerances import Tolerances
 from .typestore import GPR_TOPICS, PROGRAM_TOPIC
 
 _DETAIL = ('inf = no recorded stream covers this sample (or it cannot be recomputed), or its RobotState holds '
-           'another waypoint or names it otherwise; else the largest difference')
+           'another waypoint or names it or the arm in use otherwise; else the largest difference')
 
 
 Problem = tuple[str, float, float, str]
@@ -139,16 +140,16 @@ def loop_problems(records: list[Record], samples: NDArray[np.int64]) -> list[Pro
     return problems
 
 
-#: A RobotState that names the waypoint it holds otherwise than the recomputed stream: (state row, the waypoint, its
-#: name in the record, the name the RobotState carries).
-Renamed = tuple[int, int, str, str]
+#: A RobotState that names what it holds otherwise than the recomputed stream: (state row, what the record says
+#: (``names waypoint 6``, ``uses the arm``), the RobotState's field, the record's name, the RobotState's).
+Renamed = tuple[int, str, str, str, str]
 
 
 def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64], ex: Expected
                   ) -> tuple[NDArray[np.float64], list[Renamed]]:
     """Per state row of a robot program: the largest joint difference of its RobotState (inf: other joints, another
-    waypoint held, or the waypoint named otherwise: those listed; 0 where the recording has no RobotState of the
-    row)."""
+    waypoint held, the waypoint or the arm in use named otherwise: those listed; 0 where the recording has no
+    RobotState of the row)."""
     out = np.zeros(rows.size)
     renamed: list[Renamed] = []
     if ex.joints is None or robot_rows is None:
@@ -162,21 +163,26 @@ def _joint_errors(robot_rows: Any, rows: NDArray[np.int64], ii: NDArray[np.int64
         held = robot_rows.waypoints.get(r, w) == w
         named = robot_rows.stations.get(r, station)
         if held and named != station:
-            renamed.append((r, w, station, named))
-        same = names == ex.joint_names and values.shape == ex.joints[i].shape and held and named == station
+            renamed.append((r, f'names waypoint {w}', 'station', station, named))
+        arm = ex.arm[i] if ex.arm else ''
+        used = robot_rows.arms.get(r, arm) if arm else arm
+        if used != arm:
+            renamed.append((r, 'uses the arm', 'arm', arm, used))
+        same = names == ex.joint_names and values.shape == ex.joints[i].shape and held and named == station \
+            and used == arm
         out[k] = float(np.max(np.abs(values - ex.joints[i]), initial=0.0)) if same else np.inf
     return out, renamed
 
 
 def _renamed_problems(record: Record, renamed: list[Renamed], samples: NDArray[np.int64]) -> list[Problem]:
-    """One problem per waypoint whose name in ``record`` is not the one its RobotStates carry (``station``)."""
-    by: dict[tuple[int, str, str], list[int]] = {}
-    for r, w, station, named in renamed:
-        by.setdefault((w, station, named), []).append(int(samples[r]))
-    return [(PROGRAM_TOPIC, float(len(at)), 0.0, f'the {record.kind} from sample {record.first_sample} names '
-             f'waypoint {w} {brief(station)}; its RobotStates (station) name it {brief(named)} at '
+    """One problem per name in ``record`` (a waypoint's, the arm in use) that its RobotStates carry otherwise."""
+    by: dict[tuple[str, str, str, str], list[int]] = {}
+    for r, what, field, name, named in renamed:
+        by.setdefault((what, field, name, named), []).append(int(samples[r]))
+    return [(PROGRAM_TOPIC, float(len(at)), 0.0, f'the {record.kind} from sample {record.first_sample} {what} '
+             f'{brief(name)}; its RobotStates ({field}) name it {brief(named)} at '
              + (f'sample {at[0]}' if len(at) == 1 else f'{len(at)} samples ({min(at)} to {max(at)})'))
-            for (w, station, named), at in by.items()]
+            for (what, field, name, named), at in by.items()]
 
 
 def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,

@@ -126,9 +126,11 @@ class RobotRows:
     states alone, so the joint states are checked against them whether or not a robot description is known."""
 
     rows: dict[int, tuple[tuple[str, ...], NDArray[np.float64]]]
-    #: Per state row, the waypoint its RobotState says it holds (-1: moving) and that waypoint's name (its station).
+    #: Per state row, the waypoint its RobotState says it holds (-1: moving), that waypoint's name (its station) and
+    #: the arm in use.
     waypoints: dict[int, int] = field(default_factory=dict)
     stations: dict[int, str] = field(default_factory=dict)
+    arms: dict[int, str] = field(default_factory=dict)
 
     def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
         return self.rows.get(r)
@@ -202,7 +204,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     recorded = RobotRows({int(r): (tuple(rc['joint_names'][k]), np.asarray(rc['joints'][k], dtype=float))
                           for r, k in pairs},
                          {int(r): int(rc['waypoint'][k]) for r, k in pairs},
-                         {int(r): str(rc['station'][k]) for r, k in pairs})
+                         {int(r): str(rc['station'][k]) for r, k in pairs},
+                         {int(r): str(rc['arm'][k]) for r, k in pairs})
     robot = choice.robot
     if robot is None:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \

@@ -189,7 +189,8 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
 class Expected:
     """What every sample of a recorded stream must carry (``N`` samples): the rods ``q (N, 3)`` [m], the commanded
     tilt and azimuth ``(N,)`` [rad], and for a robot program every arm's joints ``(N, J)`` [rad] by name and the
-    waypoint held ``(N,)`` (-1 while moving) with every waypoint's name (the station a RobotState names)."""
+    waypoint held ``(N,)`` (-1 while moving) with every waypoint's name (the station a RobotState names) and the arm
+    in use ``(N,)``."""
 
     q: NDArray[np.float64]
     commanded_tilt: NDArray[np.float64]
@@ -198,6 +199,7 @@ class Expected:
     joints: NDArray[np.float64] | None = None
     waypoint: NDArray[np.int64] | None = None
     waypoint_names: tuple[str, ...] = ()
+    arm: tuple[str, ...] = ()
 
     def station(self, i: int) -> str:
         """The name of the waypoint held at sample ``i`` (empty while moving or without waypoints)."""
@@ -223,7 +225,7 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
         raise ConfigError('a robot program needs the robot description it ran on (none recorded or given)')
     rs = robot_stream(robot, record.program, record.rate)   # the robot computes with the geometry verified against
     return Expected(rs.gpr.q, rs.gpr.tilt, rs.gpr.tilt_azimuth, rs.joint_names, rs.joints, rs.waypoint,
-                    rs.waypoint_names)
+                    rs.waypoint_names, rs.arm)
 
 
 def sample_index(record: Record, sample: int) -> int:
