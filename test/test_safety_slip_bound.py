@@ -18,9 +18,10 @@ from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.plan import jerk_limits, joint_limits, plan_program
 from gpr_kinematics.robot.program import load_program, parse_program
 from gpr_kinematics.robot.timing import evaluate, locate, parameterise
+from gpr_kinematics.safety import slip_bound as slip_bound_module
 from gpr_kinematics.safety.check import _slip_times, check_program, corner_sides, wafer_plan
 from gpr_kinematics.safety.slip import STEP, _ratio, difference_step, slip_series, wafer_path
-from gpr_kinematics.safety.slip_bound import POSITION_ERROR, SLIP_TOLERANCE, slip_bound, unit_rates
+from gpr_kinematics.safety.slip_bound import POSITION_ERROR, SLIP_TOLERANCE, _halves, _leibniz, slip_bound, unit_rates
 from robot_support import make_robot, random_postures, robot_data
 
 PROGRAM = config_path('programs/example_cell_program.yaml')
@@ -461,3 +462,62 @@ def test_over_a_fixed_step_a_jog_was_refused(tmp_path, monkeypatch, capsys):
     _print_safety(report)
     assert re.search(r'  UNSAFE: the slip ratio is not bounded below 1 \(its bound 1\.\d{3}; evaluated at most '
                      r'0\.\d{3}, at 0\.\d{3} s, steps\[\d\] \(.+\)\)\n', capsys.readouterr().out)
+
+
+def test_a_vacuum_adds_its_force_to_the_normal_force_it_is_held_by():
+    """A blade's ``vacuum`` (0.5 N here; the example's blades have none) presses the wafer (0.128 kg) on the paddle:
+    held at pm1's front (tilted 1.5 deg: gravity alone, ``tan(1.5 deg) / 0.3 = 0.087286`` without it) the ratio is
+    ``sin a / (mu (cos a + F_vac / (m g))) = 0.062416``, the vacuum's force under the friction as the gravity's. The
+    bound's ratio at the middle of its intervals, from its anchors (its own vacuum term), is the slip series' there."""
+    data = robot_data()
+    for arm in data['arms']:
+        arm['blade']['vacuum'] = 0.5
+    plan = plan_program(make_robot(data), load_program(PROGRAM))
+    k = plan.labels.index('steps[4] (move pm1_front, move)')
+    t = np.array([0.5 * (plan.timing.arrive[k] + plan.timing.depart[k])])
+    a = np.radians(1.5)
+    expected = np.sin(a) / (0.3 * (np.cos(a) + 0.5 / (0.128 * 9.80665)))
+    assert float(slip_series(plan, t, _carrying(plan, t)).ratio[0]) == pytest.approx(expected, rel=1e-12)
+    assert expected == pytest.approx(0.0624159, abs=1e-7)
+    bound = _bound(plan)
+    assert bound.closed and float(np.max(bound.bound)) < 0.7
+    mid = 0.5 * (bound.start + bound.end)
+    ratio, top, _ = _halves(plan, bound.start, bound.end, bound.move, _carrying(plan, mid))
+    series = slip_series(plan, mid, _carrying(plan, mid)).ratio
+    assert float(np.max(series)) > 0.5 and np.allclose(ratio, series, rtol=0.0, atol=1e-6) and np.all(top >= ratio)
+
+
+def test_the_leibniz_bound_of_a_product_is_the_binomial_theorem():
+    """``_leibniz`` with ``a_j = x^j``, ``b_j = y^j`` (the derivatives of ``e^(x s)`` and ``e^(y s)`` at 0) is the
+    ``k``-th derivative of ``e^((x + y) s)`` there, ``(x + y)^k``: 1.3 and 0.7 give 2, 4 and 8."""
+    x, y = np.array([1.3]), np.array([0.7])
+    a, b = [x ** j for j in range(4)], [y ** j for j in range(4)]
+    assert [float(_leibniz(a, b, k)[0]) for k in (1, 2, 3)] == pytest.approx([2.0, 4.0, 8.0], rel=1e-15)
+
+
+def test_the_s_curves_bounds_about_a_midpoint_hold_on_its_interval(monkeypatch):
+    """The bounds ``S = (S_1, S_2, S_3)`` of ``|s'|``, ``|s''|``, ``|s'''|`` that the bound takes within ``half`` of a
+    midpoint (``s' + |s''| h + S_3 h^2 / 2``, ``|s''| + S_3 h``) hold at 201 points of each interval of the first
+    move of a random plan (its corners instants), the jerk ramps' too: over the first 16 ms ``s'`` grows from 0 to
+    ``J h^2 / 2 + s'' h + J h^2 / 2 = 2 J h^2``, which the first two terms alone leave at ``1.5 J h^2``."""
+    plan = _random_plan(0, True)
+    seen = []
+
+    def capture(plan, m, at, arms, s1, s2, half, S):
+        seen.append((half, S))
+        return s1, s1, s1
+
+    monkeypatch.setattr(slip_bound_module, 'bound_about', capture)
+    timing = plan.timing
+    corners = timing.corners()
+    edges = np.unique(np.concatenate([np.linspace(0.0, timing.arrive[1], 200), corners[corners < timing.arrive[1]]]))
+    t0, t1 = edges[:-1], edges[1:]   # as the check's instants: no corner inside an interval
+    _halves(plan, t0, t1, np.zeros(t0.size, dtype=np.int64), np.full(t0.size, 'arm1', dtype=object))
+    (half, (S1, S2, S3)), = seen
+    t = t0[:, None] + (t1 - t0)[:, None] * np.linspace(0.0, 1.0, 201)
+    _, ds, dds = evaluate(timing.profiles, np.zeros(t.size, dtype=np.int64), t.ravel() - timing.depart[0])
+    assert np.all(np.max(np.abs(ds.reshape(t.shape)), axis=1) <= S1 * (1.0 + 1e-12))
+    assert np.all(np.max(np.abs(dds.reshape(t.shape)), axis=1) <= S2 * (1.0 + 1e-12))
+    J = float(timing.profiles.j[0])
+    assert S3[0] == J and float(np.max(np.abs(ds.reshape(t.shape)[0]))) == pytest.approx(2.0 * J * half[0] ** 2,
+                                                                                         rel=1e-6)
