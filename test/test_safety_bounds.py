@@ -3,6 +3,7 @@ its bound over random intervals (arm joints, platform, straight entries), the cl
 straight entry, the platform's bound for tilting rods, the separating-axis bound under the library's distance,
 and the timing that keeps every joint within its velocity limit between samples."""
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -14,9 +15,11 @@ from gpr_kinematics.robot.line_bounds import line_rate_bounds
 from gpr_kinematics.robot.plan import joint_limits, line_moves, move_rows, plan_program
 from gpr_kinematics.robot.program import load_program
 from gpr_kinematics.robot.timing import evaluate
-from gpr_kinematics.safety.bodies import box_lower_bound, robot_body_set
+from gpr_kinematics.safety import motion as motion_module
+from gpr_kinematics.safety.bodies import box_lower_bound, default_pairs, robot_body_set
 from gpr_kinematics.safety.check import wafer_plan
-from gpr_kinematics.safety.motion import LIPSCHITZ, PlanMotion, levers, platform_motion, platform_state
+from gpr_kinematics.safety.clearance import MARGIN, TOLERANCE, _Items, _Search
+from gpr_kinematics.safety.motion import LIPSCHITZ, PlanMotion, drift_bound, levers, platform_motion, platform_state
 
 ROBOT = load_robot()
 PLANS = {name: plan_program(ROBOT, load_program(config_path(f'programs/{name}.yaml')))
@@ -219,3 +222,121 @@ def test_a_bound_that_is_not_a_number_bounds_nothing():
     b = platform_bound(geo, lev, np.array([0.0, 0.001]), np.array([0.0, np.inf]), np.array([np.inf, 0.0]),
                        np.zeros((2, 2)))
     assert b[0, 0] == np.inf and b[0, 1] == 0.0 and b[1, 0] == np.inf
+
+
+def test_a_pairs_motion_bound_holds_what_both_bodies_travel():
+    """The clearance search's bound ``mu`` of a pair (its arm and platform bounds of both bodies, the certificate's
+    ``d(t) >= d(t0) - mu``) is at least what the two travel together: on 120 random intervals of the example cell
+    program, for every pair not both carried by the platform (each wafer against the column: the column still, the
+    wafer moved by the rods alone on the vertical moves), the largest travel of a corner of each body (41 instants
+    inside) summed stays within it."""
+    plan = PLANS['example_cell_program']
+    motion = PlanMotion(plan)
+    bodies = robot_body_set(ROBOT, {a.name: ((0.0, math.inf),) for a in ROBOT.arms})
+    search = _Search(motion, bodies, [(i, j, ()) for i, j in default_pairs(bodies)], MARGIN, TOLERANCE, 1.0, False)
+    t0, t1 = _intervals(plan, np.random.default_rng(23), 120)
+    tau = np.linspace(0.0, 1.0, 41)
+    frames = motion.snapshot((t0[:, None] + tau[None] * (t1 - t0)[:, None]).ravel()).frames
+    K = t0.shape[0]
+    travel = np.zeros((K, len(bodies)))
+    for k, body in enumerate(bodies):
+        if body.frame is not None:
+            pts = _points(body, frames).reshape(K, len(tau), 9, 3)
+            travel[:, k] = np.max(np.linalg.norm(pts - pts[:, :1], axis=3), axis=(1, 2))
+    pairs = np.flatnonzero(~search.rigid)
+    assert {(bodies[int(search.pa[p])].name, bodies[int(search.pb[p])].name) for p in pairs} == {
+        ('gpr_base', 'arm1_wafer'), ('gpr_base', 'arm2_wafer')}
+    p, k = np.repeat(pairs, K), np.tile(np.arange(K), pairs.size)
+    i0, i1 = search.store.add(t0)[k], search.store.add(t1)[k]
+    items = _Items(p, i0, i1, np.zeros(p.size, dtype=np.int64))
+    search._motion(items)
+    together = travel[k, search.pa[p]] + travel[k, search.pb[p]]
+    assert np.all(together <= items.mu + 1e-12), float(np.max(together - items.mu))
+    assert float(np.max(together)) > 0.1
+
+
+def test_the_tangent_bound_takes_off_what_the_nearest_points_error_can_turn_its_slopes():
+    """The convex (translating) pair's tangent bound, with nearest points that are off by their error ``w``: a point
+    passing 1 mm from another, ``x(tau) = (-1, 1000, 0) um + tau (2, 0, 0) um`` (``d`` at most 0.5 nm above its 1 mm
+    minimum at the ends, slopes of -+2e-9), whose nearest points' differences are off by ``w = 1 um`` across the
+    motion, which tilts the slopes' directions by 1e-3 rad, 2e-9 m of slope, to 0: the tangents alone read the ends,
+    1 mm + 0.5 nm, above the minimum. Less the error ``2 w |Delta| / d = 4e-9`` m it is below."""
+    x0, delta = np.array([-1e-6, 1e-3, 0.0]), np.array([2e-6, 0.0, 0.0])
+    x1 = x0 + delta
+    d0, d1 = np.linalg.norm(x0), np.linalg.norm(x1)
+    w = 1e-6
+    off = {0: x0 + np.array([w, 0.0, 0.0]), 1: x1 - np.array([w, 0.0, 0.0])}   # both (0, 1 mm, 0): slopes 0
+
+    class Exact:
+        def gap(self, p, i):
+            return np.array([off[int(k)] for k in i])
+
+        def gap_error(self, p, i):
+            return np.full(i.shape, w)
+
+    one = np.zeros(1, dtype=np.int64)
+    low = _Search._convex(SimpleNamespace(exact=Exact()), one, one, one + 1, np.array([d0]), np.array([d1]),
+                          delta[None])
+    tau = np.linspace(0.0, 1.0, 10_001)
+    least = float(np.min(np.linalg.norm(x0 + tau[:, None] * delta, axis=1)))
+    assert least == pytest.approx(1e-3, abs=1e-15) and d0 - least == pytest.approx(5e-10, rel=1e-3)
+    assert float(low[0]) <= least and float(low[0]) == pytest.approx(d0 - 4e-9, abs=1e-11)
+
+
+def test_the_drift_bound_is_the_solution_of_its_differential_inequality():
+    """The joint centres' drift while the rods' squared sides change by ``I``: ``|Xdot| <= |d(L^2)/dt| / sigma(t)``
+    with ``sigma >= sigma_0 - Lip x`` gives ``dx/dI = 1 / (sigma_0 - Lip x)``, integrated here (RK4, 20,000 steps)
+    from 0: ends of ``sigma_0`` 1 and 1.3 (from either end: the larger's, 1.3, bounds less), ``Lip = 4 sqrt(2)``, the
+    larger ``gamma`` (0.7); ``I / sigma_0`` to first order; no bound (inf) from ``I = 1.3^2 / (2 Lip) = 0.149`` on,
+    where the solution's slope is infinite."""
+    flux = np.array([1e-6, 0.01, 0.14, 0.15])
+    sigma, gamma = np.array([[1.0, 1.3]] * 4), np.array([[0.7, 0.2]] * 4)
+    got = drift_bound(flux, sigma, gamma, LIPSCHITZ)
+    for total, value in zip(flux[:3], got[:3], strict=True):
+        x, h = 0.0, total / 20_000
+        for _ in range(20_000):
+            k1 = 1.0 / (1.3 - LIPSCHITZ * x)
+            k2 = 1.0 / (1.3 - LIPSCHITZ * (x + 0.5 * h * k1))
+            k3 = 1.0 / (1.3 - LIPSCHITZ * (x + 0.5 * h * k2))
+            k4 = 1.0 / (1.3 - LIPSCHITZ * (x + h * k3))
+            x += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+        assert value == pytest.approx(0.7 * x, rel=1e-9)
+    assert got[0] == pytest.approx(0.7e-6 / 1.3, rel=1e-5) and got[3] == math.inf
+    assert drift_bound(np.zeros(1), sigma[:1], gamma[:1], LIPSCHITZ)[0] == 0.0
+
+
+def test_the_rods_flux_bounds_the_change_of_the_squared_sides(monkeypatch):
+    """``I = int |d(L^2)/dt|`` that the drift is bounded from (``2 ds max(|E . E'|)`` at the ends per side; ``E . E'``
+    is linear in ``s``) is at least the squared sides' total variation, summed over 1,001 points of each of 40
+    pieces of lines tilting the rods: at most twice it where ``E . E'`` keeps its sign (from level, 0 at ``s = 0``:
+    the larger end's value over the mean), 1.3 times on the pieces from ``s = 0.5`` on."""
+    cfg = ROBOT.config
+    q = inverse_batch(np.array([0.30, 0.32]), np.radians([0.0, 2.0]), np.radians([0.0, 30.0]), cfg).q
+    s = np.sort(np.random.default_rng(7).uniform(0, 1, (40, 2)), axis=1)
+    seen = []
+    monkeypatch.setattr(motion_module, 'drift_bound', lambda flux, *rest: seen.append(flux) or np.zeros(flux.shape))
+    geo = MachineGeometry.of(cfg)
+    platform_motion(geo, np.tile(q[0], (40, 1)), np.tile(q[1] - q[0], (40, 1)), s[:, 0], s[:, 1],
+                    np.ones((40, 2)), np.ones((40, 2)), LIPSCHITZ)
+    S = s[:, :1] + np.linspace(0.0, 1.0, 1001)[None] * (s[:, 1:] - s[:, :1])
+    P = geo.base_points(q[0] + S.reshape(-1, 1) * (q[1] - q[0])).reshape(40, 1001, 3, 3)
+    variation = sum(np.sum(np.abs(np.diff(np.sum((P[:, :, b] - P[:, :, a]) ** 2, axis=2), axis=1)), axis=1)
+                    for a, b in ((0, 1), (1, 2), (2, 0)))
+    assert np.all(variation <= seen[0]) and np.all(seen[0] <= 2.0 * variation)
+    late = s[:, 0] >= 0.5
+    assert np.all(seen[0][late] <= 1.3 * variation[late]) and late.sum() > 5
+
+
+def test_a_joint_triangle_that_turns_over_has_no_bound_on_its_turn():
+    """Three joint centres, the third moving along ``-y`` through the line of the other two (``P_3 = (0, 1 - 2 s,
+    0)``): the triangle's normal ``N = E12 x E13`` (length 1 at both ends) passes through 0 and turns over, pi rad.
+    ``|N| >= (n0 + n1 - ds max |N'|) / 2 = 0`` leaves no bound on the turn (inf); the ends' lengths alone read 2 rad,
+    and the body's path about the centroid 2/3 m."""
+    B = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    u = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    geo = SimpleNamespace(ux=tuple(u[:, 0]), uy=tuple(u[:, 1]), uz=tuple(u[:, 2]),
+                          base_points=lambda Q: B[None] + Q[:, :, None] * u[None])
+    with np.errstate(invalid='ignore'):
+        A, omega, drift = platform_motion(geo, np.zeros((1, 3)), np.array([[0.0, 0.0, 2.0]]), np.zeros(1), np.ones(1),
+                                          np.full((1, 2), 1e9), np.zeros((1, 2)), LIPSCHITZ)
+    assert omega[0] == math.inf and A[0] == pytest.approx(2.0 / 3.0, rel=1e-15) and drift[0] == 0.0
