@@ -4,7 +4,8 @@ line, for the 3-joint arm and for the 4-joint arm with each of its joints held, 
 import numpy as np
 import pytest
 from gpr_kinematics.inputs.resources import config_path
-from gpr_kinematics.robot.line_bounds import bell, line_derivative_bounds
+from gpr_kinematics.robot import line_bounds
+from gpr_kinematics.robot.line_bounds import bell, line_derivative_bounds, reach_range
 from gpr_kinematics.robot.plan import joint_limits, line_moves, move_rows, plan_program
 from gpr_kinematics.robot.planar_arm import solve_arm
 from gpr_kinematics.robot.program import load_program
@@ -128,3 +129,38 @@ def test_a_line_of_no_length_moves_no_joint():
     rows = _rows(arm, np.array([0.3, 0.2]), np.array([0.3, 0.2]), 0.4, 1.0, GRID)
     G2, G3 = line_derivative_bounds(arm, rows, GRID)
     assert G2.tolist() == [0.0] * 3 and G3.tolist() == [0.0] * 3
+
+
+def test_the_reach_range_of_a_piece_takes_its_closest_approach():
+    """Links of 0.3 m and 0.3 m, the target on ``w(s) = (-0.1 + 0.2 s, 0.02)`` m: it passes the shoulder at 0.02 m
+    halfway, where the chain is nearly folded, ``sin^2 g = ((L1 + L2)^2 - r^2)(r^2 - (L1 - L2)^2) / (2 L1 L2)^2``:
+    ``|sin g| = 0.06663`` there, 0.33499 at the ends. The piece [0, 1] reads the halfway value and the largest
+    ``r^2 = 0.0104 m^2`` (the ends); the piece [0, 0.25] its end's."""
+    w0, dw = np.array([-0.1, 0.02]), np.array([0.2, 0.0])
+    hi, sg = reach_range(w0, dw, np.array([0.0, 0.0]), np.array([1.0, 0.25]), 0.3, 0.3)
+    s = np.linspace(0.0, 1.0, 20001)
+    r2 = (w0[0] + s * dw[0]) ** 2 + w0[1] ** 2
+    dense = np.sqrt((0.36 - r2) * r2) / 0.18
+    assert sg[0] == pytest.approx(float(np.min(dense)), rel=1e-12) and sg[0] == pytest.approx(0.066630, abs=1e-6)
+    assert sg[1] == pytest.approx(float(np.min(dense[s <= 0.25])), rel=1e-12)
+    assert np.allclose(hi, 0.0104, rtol=1e-12, atol=0.0) and float(np.max(dense)) == pytest.approx(0.33499, abs=1e-5)
+
+
+def test_a_piece_without_a_number_leaves_no_bound(monkeypatch):
+    """The closed form is 0/0 where ``sin g = 0`` falls on an evaluated point (a stretched or folded posture): such a
+    piece (NaN in place of its shoulder's bound, here the first one) leaves the line's bound infinite, not the other
+    pieces' largest (the rest of the line is finite)."""
+    arm = _arm(None)
+    rows = _rows(arm, np.array([0.3, 0.2]), np.array([0.1, 0.4]), 0.4, 1.0, GRID)
+    real = line_bounds._piece_bounds
+
+    def first_nan(*args):
+        piece2, piece3, exact2, exact3 = real(*args)
+        piece2[0, 0] = piece3[0, 0] = np.nan
+        return piece2, piece3, exact2, exact3
+
+    finite = line_derivative_bounds(arm, rows, GRID)
+    monkeypatch.setattr(line_bounds, '_piece_bounds', first_nan)
+    G2, G3 = line_derivative_bounds(arm, rows, GRID)
+    assert np.all(np.isfinite(finite[0])) and np.all(np.isfinite(finite[1]))
+    assert G2[0] == np.inf and G3[0] == np.inf and G2[1:].tolist() == finite[0][1:].tolist()

@@ -4,7 +4,7 @@ chain-rule bounds, never longer for higher limits."""
 import numpy as np
 import pytest
 from gpr_kinematics.errors import InputError, LimitError
-from gpr_kinematics.robot.timing import parameterise, profile, sample, shortest, unit_profiles
+from gpr_kinematics.robot.timing import evaluate, parameterise, profile, sample, shortest, unit_profiles
 
 V_LIM = np.array([0.15, 3.0, 4.0])
 A_LIM = np.array([0.6, 12.0, 16.0])
@@ -157,3 +157,46 @@ def test_a_curved_move_takes_the_shortest_profile_within_the_bounds(scale):
     grid = unit_profiles(Vg, Ag, J[ok]).T
     assert took <= grid.min() * (1 + 1e-12)
     assert took > 0.98 * grid.min()
+
+
+@pytest.mark.parametrize('scale', [(1.0, 1.0, 1.0), (1.0, 10.0, 1.0), (0.3, 3.0, 0.5)])
+def test_a_curved_moves_jerk_bound_reaches_the_limit_it_was_timed_to(scale):
+    """The straight entry's jerk, ``G1 J + 3 G2 V A + G3 V^3`` (chain rule of ``P(s(t))'''``:
+    ``P' s''' + 3 P'' s' s'' + P''' s'^3``), is what its profile was timed to: one joint's bound is its jerk limit
+    exactly (the shortest move takes the largest jerk the bounds leave), none above."""
+    v, a, j = (ARM[k] * f for k, f in zip(ARM, scale, strict=True))
+    jerk = _entry(v, a, j).peaks()[2][1]
+    assert float(np.max(jerk / j)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_a_time_a_millionth_short_is_refused_and_the_least_time_is_kept():
+    """The rod's move of 0.1 m needs ``0.1 / 0.15 + 0.15 / 0.6 = 0.91667`` s: asked in 1e-6 less it is refused (the
+    move would take its least time, not the one asked), asked in exactly that it takes it."""
+    P = np.array([[0.0, 0.0, 0.0], [0.1, 0.5, 0.0]])
+    need = 0.1 / 0.15 + 0.15 / 0.6
+    with pytest.raises(LimitError, match=r'^the move into b needs at least 0.9167 s within the limits, time = '):
+        parameterise(P, V_LIM, A_LIM, np.array([np.nan, need * (1.0 - 1e-6)]), np.zeros(2), NAMES, ('a', 'b'))
+    t = parameterise(P, V_LIM, A_LIM, np.array([np.nan, need]), np.zeros(2), NAMES, ('a', 'b'))
+    assert t.total == pytest.approx(need, rel=1e-12)
+
+
+def test_the_corners_are_where_the_jerk_changes():
+    """An S-curve move of the arm (its jerk limits, after a dwell of 0.3 s) has six corners, where ``s'''`` changes
+    between ``+-J`` and 0: found at 10 us from the third differences of ``s`` sampled densely (independent of the
+    profile's phases), they are :meth:`Timing.corners` but the waypoints' instants (the move's ends), to 20 us."""
+    P = np.array([[0.0, 0.0, 0.0], [0.0, 2.0, -1.0]])
+    t = parameterise(P, ARM['velocity'], ARM['acceleration'], np.full(2, np.nan), np.array([0.3, 0.0]), NAMES,
+                     ('a', 'b'), ARM['jerk'])
+    dt = 1e-5
+    times = np.arange(t.depart[0] - 0.01, t.total + 0.01, dt)
+    _, _, dds = evaluate(t.profiles, np.zeros(times.size, dtype=np.int64), times - t.depart[0])
+    jerk = np.diff(dds) / dt
+    J = float(t.profiles.j[0])
+    steps = np.flatnonzero(np.abs(np.diff(jerk)) > 0.5 * J)
+    found = times[steps + 1]
+    found = found[np.r_[True, np.diff(found) > 10 * dt]]          # one per corner
+    corners = t.corners()
+    inner = corners[(corners > t.depart[0] + 1e-9) & (corners < t.total - 1e-9)]
+    assert found.size == 8 and inner.size == 6       # the move's start and end too, where s''' jumps from 0 to J
+    assert np.allclose(found[1:-1], inner, rtol=0.0, atol=2e-5)
+    assert found[0] == pytest.approx(t.depart[0], abs=2e-5) and found[-1] == pytest.approx(t.total, abs=2e-5)
