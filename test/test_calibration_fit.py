@@ -16,17 +16,18 @@ import pytest
 from calibration_support import HeldOut, configurations, imperfect
 from gpr_kinematics.calibration import fitting
 from gpr_kinematics.calibration.core_model import CoreModel
-from gpr_kinematics.calibration.identification import identify, measured_errors, weights
+from gpr_kinematics.calibration.identification import _gate, identify, measured_errors, weights
 from gpr_kinematics.calibration.measurements import Measurements, write_measurements
 from gpr_kinematics.calibration.model import Parameter, ParameterSet
 from gpr_kinematics.calibration.plan import plan_measurements
-from gpr_kinematics.calibration.quality import chi2_limit
+from gpr_kinematics.calibration.quality import CV_GATE, chi2_limit, sigma_check
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConvergenceError
 from gpr_kinematics.inputs.resources import config_path
 from scipy.optimize import least_squares
+from scipy.stats import chi2 as chi2_distribution
 
 SP, SA = 10e-6, 50e-6
 DRAWS = 30
@@ -218,6 +219,8 @@ def test_the_bias_of_a_held_parameter_is_what_a_refit_shows():
     worst = moved.bias.worst[fit]
     assert np.all(np.abs(shift) <= worst * 40e-6 / 3e-4 * 1.02 + 1e-3 * moved.standard_error[fit])
     assert 'rod3_x' in {moved.bias.source[int(j)] for j in fit[big]}
+    held = list(moved.bias.held).index(ps.index('rod3_x'))
+    assert moved.bias.held_bound[held] == pytest.approx(3e-4, rel=1e-12)    # 3 a-priori standard deviations
     rod1 = ps.index('rod1_x')
     assert math.isfinite(moved.bias.std[rod1]) and moved.bias.std[rod1] <= moved.bias.worst[rod1]
 
@@ -269,3 +272,28 @@ def test_the_jacobian_is_evaluated_in_bounded_chunks(monkeypatch):
     monkeypatch.setattr(fitting, 'JACOBIAN_RESIDUALS', 1)       # one pair per call at least
     np.testing.assert_allclose(fitting.residual_jacobian(residuals, ps, ps.nominal, cols, ps.scale), whole, rtol=0,
                                atol=1e-9 * np.abs(whole).max())
+
+
+def test_the_gate_stops_at_twice_the_residuals_in_cross_validation():
+    """The cross-validation check passes a ratio of PRESS to its expectation (over the reduced chi-square) of 2, the
+    gate's, and fails one just above it, saying by how much the rows left out are predicted worse."""
+    params = CoreModel(load_config()).parameters
+    best = fitting.Minimum(theta=params.nominal, residual=np.full((4, 3), 0.5), cost=3.0, iterations=5,
+                           status='converged', at_bound=np.zeros(len(params), dtype=bool), step_se=0.01)
+    names = tuple(f'line {k}' for k in range(4))
+    at_gate, above = (_gate(best, params, np.arange(3), 1.0, 9, None, ratio, names, ())
+                      for ratio in (CV_GATE, CV_GATE * (1.0 + 1e-9)))
+    assert CV_GATE == 2.0 and at_gate.passed and not above.passed
+    assert above.message().startswith('Rows left out are predicted 2 times worse than the fit explains them (gate 2)')
+
+
+def test_the_sigmas_check_is_the_chi_squares_lower_point():
+    """Positions 20 % of their sigmas (reduced chi-square 0.04 over 30 degrees of freedom, no leverage) fail the
+    ``sigmas`` check at the 0.1 % point of the chi-square distribution (scipy: 11.588 / 30 = 0.38627); just above
+    they pass."""
+    h = np.zeros((10, 3))
+    low = float(chi2_distribution.ppf(0.001, 30) / 30)
+    check = sigma_check(h, np.full((10, 3), 0.2))
+    assert low == pytest.approx(0.38627, abs=1e-5) and check.limit == pytest.approx(low, rel=1e-12) and not check.passed
+    assert check.value == pytest.approx(0.04, rel=1e-12)
+    assert sigma_check(h, np.full((10, 3), math.sqrt(low) * (1.0 + 1e-12))).passed
