@@ -46,3 +46,16 @@ class HeldOut:
     def __call__(self, theta: np.ndarray) -> float:
         e = pose_error(*evaluate(self.model, theta, self.Q), self.pos, self.rot)
         return float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1))))
+
+
+def equivalent_truth(res, truth: np.ndarray) -> np.ndarray:
+    """The true coordinates moved along the combinations the poses cannot see (the identifiability report's) until the
+    held parameters are where the fit held them: the machine the identification can find."""
+    ps = res.parameters
+    combos = res.identifiability.combinations
+    V = np.zeros((len(ps), len(combos)))
+    for i, c in enumerate(combos):
+        for name, coef in c.coefficients.items():
+            V[ps.index(name), i] = coef * ps[ps.index(name)].scale
+    held = [ps.index(c.held) for c in combos]
+    return truth + V @ np.linalg.solve(V[held], res.estimate[held] - truth[held])

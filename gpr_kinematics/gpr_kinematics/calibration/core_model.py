@@ -144,6 +144,31 @@ class CoreModel:
                    turn, target is not None)
         return np.array(rows).reshape(-1, len(ps)), tuple(dependent), '; '.join(words)
 
+    def joints_on_rods(self, theta: Array) -> Array:
+        """Coordinate rows ``theta (S, P)`` with every platform joint where the design puts it relative to its rod,
+        ``p_k = p_k0 + (B_k - B_k0)`` (the nominal machine has ``p_k = B_k``): the joint triangle congruent with the
+        rods' (a machine millimetres off its drawing, e.g. of another radius, keeps it so)."""
+        ps = self._parameters
+        out = np.array(theta, dtype=float)
+        for k in (1, 2, 3):
+            for c in 'xy':
+                j, r = ps.index(f'joint{k}_{c}'), ps.index(f'rod{k}_{c}')
+                out[..., j] = ps.nominal[j] + (out[..., r] - ps.nominal[r])
+        return out
+
+    def side_mismatch(self, theta: Array) -> float:
+        """The largest difference of a side of the joint triangle from the rods' at coordinates ``theta (P,)``,
+        as a fraction of the rods' (a geometry allows :data:`~gpr_kinematics.core.config.MAX_SIDE_MISMATCH`)."""
+        ps = self._parameters
+        th = np.asarray(theta, dtype=float)
+
+        def sides(stem: str) -> Array:
+            xy = np.array([[th[ps.index(f'{stem}{k}_{c}')] for c in 'xy'] for k in (1, 2, 3)])
+            return np.asarray(np.linalg.norm(xy - np.roll(xy, -1, axis=0), axis=1), dtype=np.float64)
+
+        rods = sides('rod')
+        return float(np.max(np.abs(sides('joint') - rods) / rods))
+
     def config_for(self, theta: Any) -> GprConfig:
         """The configuration of the parameter coordinates ``theta (P,)``, with this model (validated): the
         calibrated geometry file's content."""

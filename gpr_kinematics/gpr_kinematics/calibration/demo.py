@@ -102,7 +102,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def equivalent_truth(model: CoreModel, res: object) -> np.ndarray:
     """The true machine's values moved along the combinations the poses cannot see (the identifiability report's,
-    which change no pose) until the parameters held for them are nominal: the machine the identification can find."""
+    which change no pose) until the parameters held for them are where the fit held them (nominal, or a platform
+    joint on its rod): the machine the identification can find."""
     from .identification import CalibrationResult
     assert isinstance(res, CalibrationResult)
     ps = model.parameters
@@ -115,7 +116,7 @@ def equivalent_truth(model: CoreModel, res: object) -> np.ndarray:
         for name, coef in c.coefficients.items():
             V[ps.index(name), i] = coef * ps[ps.index(name)].scale
     held = [ps.index(c.held) for c in combos]
-    shift = np.linalg.solve(V[held], ps.nominal[held] - truth[held])
+    shift = np.linalg.solve(V[held], res.estimate[held] - truth[held])
     return ps.values(truth + V @ shift)
 
 

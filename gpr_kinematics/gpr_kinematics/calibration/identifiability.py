@@ -50,12 +50,14 @@ class Combination:
         singular_value: scaled singular value of the direction when it was found.
         coefficients: parameter name -> coefficient of the direction, in units of each parameter's scale,
             the largest scaled to +-1 (terms below :data:`DESCRIBE_BELOW` left out).
-        held: the parameter held at nominal for it.
+        held: the parameter held for it. held_at: where (``nominal``; a platform joint of a machine far off its
+            nominal one: ``its rod's place``, :func:`~.identification.identify`).
     """
 
     singular_value: float
     coefficients: dict[str, float]
     held: str
+    held_at: str = 'nominal'
 
     def describe(self) -> str:
         """The combination in words, e.g. ``base_z, offset1, offset2, offset3 are not separable: the poses
@@ -65,13 +67,13 @@ class Combination:
         terms = ' '.join(f'{c:+.2g} {n}' for n, c in self.coefficients.items())
         if len(self.coefficients) == 1:
             return (f'{names} is not identifiable from these poses (scaled singular value '
-                    f'{self.singular_value:.3g}); held at nominal')
+                    f'{self.singular_value:.3g}); held at {self.held_at}')
         return (f'{names} are not separable: the poses cannot see a change of {terms} (each in units of its a-priori '
-                f'uncertainty; scaled singular value {self.singular_value:.3g}); {self.held} held at nominal')
+                f'uncertainty; scaled singular value {self.singular_value:.3g}); {self.held} held at {self.held_at}')
 
     def as_dict(self) -> dict[str, Any]:
         return {'singular_value': self.singular_value, 'coefficients': dict(self.coefficients),
-                'held': self.held, 'description': self.describe()}
+                'held': self.held, 'held_at': self.held_at, 'description': self.describe()}
 
 
 @dataclass(frozen=True)

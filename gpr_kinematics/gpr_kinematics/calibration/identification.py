@@ -26,13 +26,15 @@ Beside them: the leave-one-out cross-validation, the worst-case bias the held pa
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError
-from .fitting import Minimum, gram, minimise, residual_jacobian
+from .fitting import Minimum, gram, levenberg_marquardt, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements, check_repeats
 from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
@@ -71,6 +73,12 @@ PLAUSIBLE_ANGLE = 0.05
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
 #: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
 MAX_CHI2 = 1e4
+#: The linearised estimate's mismatch of the rods' triangle from the nominal joints' (a fraction of a side) beyond
+#: which the joints' held places follow their rods (:func:`_joints_on_rods`): half what a geometry allows, so that
+#: the fit has room about the estimate.
+GROSS_MISMATCH = 0.5 * MAX_SIDE_MISMATCH
+#: The label of the start with the joints on their rods.
+ON_RODS = 'joints on their rods'
 #: A fit's status (:data:`~.fitting.STATUSES`) in the gate's words.
 STATUS_WORDS = {'iterations': 'out of iterations'}
 NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
@@ -130,15 +138,52 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
                                    f'{limits}): not a measurement of this machine in {frame} in SI units ({why})')
 
 
-def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64]) -> list[tuple[str, Array]]:
-    """The nominal start, and one with isotropic joints (anisotropy 0) when a fitted anisotropy starts elsewhere."""
-    starts = [('nominal', theta0)]
+def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64], label: str = 'nominal'
+            ) -> list[tuple[str, Array]]:
+    """The start ``theta0`` (``label``), and one with isotropic joints (anisotropy 0) when a fitted anisotropy starts
+    elsewhere."""
+    starts = [(label, theta0)]
     transformed = np.array([params[int(j)].transform != '' for j in fit], dtype=bool)
     if transformed.any() and np.any(np.abs(theta0[fit[transformed]]) > 1e-6):
         iso = theta0.copy()
         iso[fit[transformed]] = 0.0
-        starts.append(('isotropic joints', iso))
+        starts.append(('isotropic joints' if label == 'nominal' else f'{label}, isotropic', iso))
     return starts
+
+
+def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[[Array], Array], theta0: Array,
+                    fit: NDArray[np.int64], J: Array, scale: Array) -> tuple[Array, tuple[str, ...], float] | None:
+    """The start and held values of a machine far off its nominal one, or ``None`` (hold at nominal, start there).
+
+    The poses cannot see the platform joints' radial places (the identifiability report holds them), so holding
+    them at nominal is a choice, which is wrong for a machine millimetres off its drawing: with the rods' triangle
+    fitted larger (another radius) the joints' would stay nominal, beyond :data:`~gpr_kinematics.core.config.
+    MAX_SIDE_MISMATCH` of it (1.8 mm of radius: 1.9 %), a geometry no file allows, and the fit stopped at that wall.
+    When the linearised estimate from nominal (one Gauss-Newton step, ``J (N k, fit)`` the scaled Jacobian there)
+    puts the rods' triangle more than :data:`GROSS_MISMATCH` from the joints', a first fit with every joint on its
+    rod (:meth:`~.core_model.CoreModel.joints_on_rods`: the machine family whose triangles are congruent, always a
+    valid geometry) over the other fitted parameters gives the start; the held joint coordinates keep its values
+    (on their rods), the rest is fitted from there. Returns ``(start, moved, mismatch)``: the start, the held
+    parameters it moved, the linearised estimate's mismatch. Only a model with ``joints_on_rods`` and
+    ``side_mismatch`` (the core's) takes this path."""
+    on_rods = getattr(model, 'joints_on_rods', None)
+    mismatch = getattr(model, 'side_mismatch', None)
+    if not (callable(on_rods) and callable(mismatch)) or fit.size == 0:
+        return None
+    r0 = residuals(theta0[None])[0].ravel()
+    estimate = theta0.copy()
+    estimate[fit] = np.clip(theta0[fit] + np.linalg.lstsq(J, -r0, rcond=None)[0] * scale[fit],
+                            *(b[fit] for b in params.bounds))
+    gross = float(mismatch(estimate))
+    if not gross > GROSS_MISMATCH:
+        return None
+    joints = np.array([params[int(j)].key == 'platform_joints' for j in fit], dtype=bool)
+    first = levenberg_marquardt(lambda th: residuals(on_rods(th)), params, theta0, fit[~joints], scale,
+                                ON_RODS)
+    start = on_rods(first.theta)
+    moved = tuple(p.name for j, p in enumerate(params)
+                  if j not in fit and p.key == 'platform_joints' and start[j] != theta0[j])
+    return start, moved, gross
 
 
 def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> Array:
@@ -268,12 +313,16 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     e0 = measured_errors(model, meas, theta0)
     _check_plausible(meas, e0, frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
-    ident = analyse(residual_jacobian(residuals, params, theta0, free_idx, scale),
-                    [params[int(j)].name for j in free_idx], threshold)
+    J0 = residual_jacobian(residuals, params, theta0, free_idx, scale)
+    ident = analyse(J0, [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
     dof = k * n - fit.size
     try:
-        best, outcomes = minimise(residuals, params, _starts(params, theta0, fit), fit, scale, dof)
+        gross = _joints_on_rods(model, params, residuals, theta0, fit, J0[:, np.searchsorted(free_idx, fit)],
+                                scale)
+        starts = _starts(params, theta0, fit) if gross is None else \
+            _starts(params, gross[0], fit, ON_RODS) + [('nominal', theta0)]
+        best, outcomes = minimise(residuals, params, starts, fit, scale, dof)
     except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
         raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
                          f'{NOT_THIS_MACHINE}') from None
@@ -314,6 +363,14 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
             else (outlier_check(h, best.residual, names, robust=True),))
     gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual))
     warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
+    if gross is not None and gross[1] and best.label.startswith(ON_RODS):   # held on their rods, not nominal
+        ident = replace(ident, combinations=tuple(replace(c, held_at='its rod\'s place') if c.held in gross[1] else c
+                                                  for c in ident.combinations))
+        shifts = ', '.join(f'{name} {1e3 * (theta[params.index(name)] - theta0[params.index(name)]):+.3f} mm'
+                           for name in gross[1])
+        warnings += (f'the rods\' triangle is {100 * gross[2]:.2g} % off the nominal joints\' (a geometry allows '
+                     f'{100 * MAX_SIDE_MISMATCH:g} %): the joints\' radial places, which these poses cannot see, are '
+                     f'held where a first fit with every joint on its rod put them, not at nominal ({shifts})',)
     return CalibrationResult(parameters=params, estimate=theta, standard_error=se, status=status, fitted=fit,
                              covariance=cov, before=ResidualStats.of(e0, meas.lines, meas.files),
                              after=ResidualStats.of(best.residual / w, meas.lines, meas.files), identifiability=ident,
