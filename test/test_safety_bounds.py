@@ -126,6 +126,25 @@ def test_platform_bound_for_tilting_rods(tilt0, az0, tilt1, az1):
     assert np.all(bound < 3.0 * moved + 1e-9)    # and not loose by much
 
 
+def test_the_platform_origin_drifts_with_the_joints_in_the_body():
+    """Rods ``(h - 2.5 mm, h, h + 2.5 mm)`` from level tilt the platform 1.77 deg about the joint centres' centroid,
+    which stays where it was (``A``'s rod part is 0): the platform origin (the body's point over the centroid at rest)
+    moves 22.3 um, as the joints drift in the body (up to 269 um, the drift bound). ``A`` holds that drift: the bound
+    ``A + Omega rbar`` reads 280 um, its rotation part alone 11.2 um."""
+    cfg = ROBOT.config
+    q0, q1 = np.full(3, 0.3), np.array([0.2975, 0.3, 0.3025])
+    fk = forward_batch(q0 + np.linspace(0.0, 1.0, 201)[:, None] * (q1 - q0), cfg)
+    assert math.degrees(math.acos(fk.rotation[-1, 2, 2])) == pytest.approx(1.774, abs=1e-3)
+    moved = float(np.max(np.linalg.norm(fk.position - fk.position[0], axis=1)))
+    sigma, gamma, disp = (v[None] for v in platform_state(cfg, forward_batch(np.stack([q0, q1]), cfg)))
+    geo = MachineGeometry.of(cfg)
+    A, omega, drift = platform_motion(geo, q0[None], (q1 - q0)[None], np.zeros(1), np.ones(1), sigma, gamma,
+                                      LIPSCHITZ)
+    turned = float(omega[0] * (np.linalg.norm(geo.platform_points().mean(axis=0)) + np.max(disp) + drift[0]))
+    assert moved == pytest.approx(2.234e-5, rel=1e-3) and float(drift[0]) == pytest.approx(2.689e-4, rel=1e-3)
+    assert turned == pytest.approx(1.121e-5, rel=1e-3) and turned < moved <= float(A[0]) + turned
+
+
 def test_separating_axis_bound_never_above_the_library():
     fcl = pytest.importorskip('fcl')
     from scipy.spatial.transform import Rotation
