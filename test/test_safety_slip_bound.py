@@ -521,3 +521,30 @@ def test_the_s_curves_bounds_about_a_midpoint_hold_on_its_interval(monkeypatch):
     J = float(timing.profiles.j[0])
     assert S3[0] == J and float(np.max(np.abs(ds.reshape(t.shape)[0]))) == pytest.approx(2.0 * J * half[0] ** 2,
                                                                                          rel=1e-6)
+
+
+def test_a_level_wafer_slips_by_its_normals_turn():
+    """Rods from ``q + (1.5, -0.75, -0.75)`` mm to ``q - (1.5, -0.75, -0.75)`` mm at a thousandth of their speed
+    (20 s) tilt arm1's paddle through level at the move's middle, where the ratio is the wafer's acceleration's alone
+    (7.3e-7): 0.2 s either side the normal has turned 0.32 mrad and the ratio is ``tan(0.32 mrad) / mu = 0.0010735``.
+    The bound over that interval from its middle, ``|n'| S_1 h`` of turn in its spread, reads 0.0010755; 0.99 of that
+    turn would read 0.0010647, below the ratio."""
+    robot = make_robot(robot_data())
+    base = plan_program(robot, load_program(PROGRAM))
+    names, velocity, acceleration, slices = joint_limits(robot)
+    positions = np.zeros((2, len(names)))
+    positions[:, :3] = 0.3 + np.array([[1.0, -0.5, -0.5], [-1.0, 0.5, 0.5]]) * 1.5e-3
+    positions[:, slices[0]] = np.linspace(0.2, -0.2, slices[0].stop - slices[0].start)
+    timing = parameterise(positions, velocity * 1e-3, acceleration, np.full(2, np.nan), np.zeros(2), names,
+                          ('a', 'b'), jerk_limits(robot))
+    plan = dataclasses.replace(base, positions=positions, timing=timing, labels=('a', 'b'),
+                               waypoints=dataclasses.replace(base.waypoints, path=()))
+    middle = 0.5 * timing.duration[0]
+    assert timing.duration[0] == pytest.approx(20.01, abs=1e-9) and np.all(np.abs(timing.corners() - middle) > 9.0)
+    t0, t1 = np.array([middle - 0.2]), np.array([middle + 0.2])
+    ratio, bound, _ = _halves(plan, t0, t1, np.zeros(1, dtype=np.int64), np.array(['arm1'], dtype=object))
+    times = np.linspace(t0[0], t1[0], 41)
+    true = slip_series(plan, times, _arm1(plan, times)).ratio
+    assert float(ratio[0]) == pytest.approx(7.346e-7, rel=1e-3) and float(np.max(true)) == pytest.approx(0.00107349,
+                                                                                                        rel=1e-5)
+    assert float(np.max(true)) <= float(bound[0]) == pytest.approx(0.00107545, rel=1e-5)
