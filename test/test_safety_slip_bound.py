@@ -13,7 +13,9 @@ import sys
 import numpy as np
 import pytest
 import yaml
+from gpr_kinematics.core import forward_batch
 from gpr_kinematics.core.rotations import tilt_rotation
+from gpr_kinematics.core.virtual_joints import make_model
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.plan import jerk_limits, joint_limits, plan_program
 from gpr_kinematics.robot.program import load_program, parse_program
@@ -21,7 +23,16 @@ from gpr_kinematics.robot.timing import evaluate, locate, parameterise
 from gpr_kinematics.safety import slip_bound as slip_bound_module
 from gpr_kinematics.safety.check import _slip_times, check_program, corner_sides, wafer_plan
 from gpr_kinematics.safety.slip import STEP, _ratio, difference_step, slip_series, wafer_path
-from gpr_kinematics.safety.slip_bound import POSITION_ERROR, SLIP_TOLERANCE, _halves, _leibniz, slip_bound, unit_rates
+from gpr_kinematics.safety.slip_bound import (
+    POSITION_ERROR,
+    SLIP_TOLERANCE,
+    _frames,
+    _halves,
+    _leibniz,
+    anchors,
+    slip_bound,
+    unit_rates,
+)
 from robot_support import make_robot, random_postures, robot_data
 
 PROGRAM = config_path('programs/example_cell_program.yaml')
@@ -548,3 +559,35 @@ def test_a_level_wafer_slips_by_its_normals_turn():
     assert float(ratio[0]) == pytest.approx(7.346e-7, rel=1e-3) and float(np.max(true)) == pytest.approx(0.00107349,
                                                                                                         rel=1e-5)
     assert float(np.max(true)) <= float(bound[0]) == pytest.approx(0.00107545, rel=1e-5)
+
+
+def test_the_platform_joints_curvature_is_in_their_second_derivative():
+    """``|r_k''| <= gamma |X''|`` with ``J X'' = G'' - H[X', X']`` (module docstring): the curvature ``H`` matters
+    where the sides' lengths change at first order, ``|E . E'|`` near ``|E| |E'|``, and ``sigma`` is small: on a flat
+    machine (rods and joints at azimuths 0, 15 and 35 deg, a triangle of 7.5, 10 and 162.5 deg) rod 1 rising 6 mm
+    from level, which tilts it 39 deg (beyond any tilt limit; the bound is the closure's, for any rods), the joints'
+    second derivative in ``s`` (central differences over 0.01 at 19 points) reaches 1.29 times ``G''`` alone,
+    ``gamma |G''| / sigma`` (``2 |E'|^2`` per side, ``E'`` the rods' relative velocity; ``sigma`` from 0.0044), and
+    0.46 of the bound with ``Lip X_1^2``."""
+    data = robot_data()
+    data['gpr'].update(rod_azimuths=[0.0, np.radians(15.0), np.radians(35.0)], tilt_limit=np.radians(15.0),
+                       max_iterations=100)
+    robot = make_robot(data)
+    names, _, _, _ = joint_limits(robot)
+    P = np.full((2, len(names)), 0.0)
+    P[:, :3] = [[0.3, 0.3, 0.3], [0.306, 0.3, 0.3]]
+    plan = dataclasses.replace(plan_program(make_robot(robot_data()), load_program(PROGRAM)), robot=robot,
+                               positions=P)
+    s = np.linspace(0.05, 0.95, 19)
+    m = np.zeros(s.size, dtype=np.int64)
+    at = anchors(plan, m, s, np.full(s.size, 'arm1', dtype=object))
+    R = _frames(plan, P[m + 1] - P[m], at, np.full(s.size, 1e-6))[1]
+    h = 0.01
+    rows = P[0, :3] + (s[:, None] + np.array([-h, 0.0, h])[None]).reshape(-1, 1) * (P[1, :3] - P[0, :3])
+    gpr = forward_batch(rows, robot.config, check_limits=False)
+    r = make_model(robot.config).points_and_partials(gpr.virtual_joints)[0].reshape(s.size, 3, 3, 2)
+    second = np.max(np.linalg.norm(r[:, 2] - 2.0 * r[:, 1] + r[:, 0], axis=2), axis=1) / h ** 2
+    alone = np.sqrt(2.0) * 2.0 * 0.006 ** 2 / at.sigma    # |E'|^2 = (6 mm)^2 on the two sides with rod 1, gamma 1
+    assert np.all(at.gamma == 1.0) and float(np.min(at.sigma)) == pytest.approx(0.0044, abs=1e-4)
+    assert float(np.max(second / alone)) == pytest.approx(1.29, abs=0.01)
+    assert np.all(second <= R[1]) and float(np.max(second / R[1])) == pytest.approx(0.46, abs=0.01)
