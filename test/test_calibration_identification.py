@@ -465,6 +465,22 @@ def test_a_machine_of_another_radius_is_calibrated(planned_40, tmp_path, radius,
     assert cfg.platform_joints is not None
 
 
+def test_platform_joints_left_out_of_the_fit_stay_where_the_configuration_puts_them(planned_40):
+    """The 1.8 mm machine with the platform joints left out of the fit (free: the rods, their offsets and directions,
+    kappa): the first fit with every joint on its rod moved them too, 1.8 mm from where the configuration puts them,
+    reported 'fixed' with a change of +1822.708 um and written so. They stay: no start on the rods, no warning of it,
+    every joint at nominal (the fit then meets the wall it met before)."""
+    m, Q = planned_40
+    ps = m.parameters
+    free = ['rod_positions', 'rod_offsets', 'rod_directions', 'kappa']
+    res = identify(m, synthetic_measurements(m, off_radius(m, 1.8e-3), Q, SP, SA, seed=11), free=free)
+    joints = [ps.index(f'joint{k}_{c}') for k in (1, 2, 3) for c in 'xy']
+    assert [res.status[j] for j in joints] == ['fixed'] * 6
+    np.testing.assert_array_equal(res.estimate[joints], ps.nominal[joints])
+    assert not any('joints on their rods' in o.label for o in res.convergence.starts)
+    assert not any("the rods' triangle" in w for w in res.warnings)
+
+
 def test_another_machine_is_still_refused_far_off_the_radius(planned_40):
     """The 4 mm machine with 30 um of play in its joints, another at every pose (no geometry of this model makes
     those poses): the fit from the joints on their rods does not make it one; the gate refuses it naming the

@@ -152,7 +152,8 @@ def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64], label: 
 
 
 def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[[Array], Array], theta0: Array,
-                    fit: NDArray[np.int64], J: Array, scale: Array) -> tuple[Array, tuple[str, ...], float] | None:
+                    free: NDArray[np.int64], fit: NDArray[np.int64], J: Array, scale: Array
+                    ) -> tuple[Array, tuple[str, ...], float] | None:
     """The start and held values of a machine far off its nominal one, or ``None`` (hold at nominal, start there).
 
     The poses cannot see the platform joints' radial places (the identifiability report holds them), so holding
@@ -165,10 +166,14 @@ def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[
     valid geometry) over the other fitted parameters gives the start; the held joint coordinates keep its values
     (on their rods), the rest is fitted from there. Returns ``(start, moved, mismatch)``: the start, the held
     parameters it moved, the linearised estimate's mismatch. Only a model with ``joints_on_rods`` and
-    ``side_mismatch`` (the core's) takes this path."""
+    ``side_mismatch`` (the core's) takes this path, and only with every platform joint ``free``: one left out of the
+    fit stays where the configuration puts it."""
     on_rods = getattr(model, 'joints_on_rods', None)
     mismatch = getattr(model, 'side_mismatch', None)
     if not (callable(on_rods) and callable(mismatch)) or fit.size == 0:
+        return None
+    chosen = set(free.tolist())
+    if any(p.key == 'platform_joints' and j not in chosen for j, p in enumerate(params)):
         return None
     r0 = residuals(theta0[None])[0].ravel()
     estimate = theta0.copy()
@@ -318,8 +323,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
     dof = k * n - fit.size
     try:
-        gross = _joints_on_rods(model, params, residuals, theta0, fit, J0[:, np.searchsorted(free_idx, fit)],
-                                scale)
+        gross = _joints_on_rods(model, params, residuals, theta0, free_idx, fit,
+                                J0[:, np.searchsorted(free_idx, fit)], scale)
         starts = _starts(params, theta0, fit) if gross is None else \
             _starts(params, gross[0], fit, ON_RODS) + [('nominal', theta0)]
         best, outcomes = minimise(residuals, params, starts, fit, scale, dof)
