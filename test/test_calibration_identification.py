@@ -465,6 +465,21 @@ def test_a_machine_of_another_radius_is_calibrated(planned_40, tmp_path, radius,
     assert cfg.platform_joints is not None
 
 
+def test_the_calibrated_file_says_where_the_joints_are_held(planned_40, tmp_path, capsys):
+    """gpr calibrate on the 1.8 mm machine: the written file's comment said 'held at nominal: joint1_x, joint3_y,
+    joint2_y' of joints held 1.6-1.8 mm from nominal, at their rods' places; it says where each is held."""
+    from gpr_kinematics.calibration.measurements import write_measurements
+    from gpr_kinematics.cli.main import main
+
+    m, Q = planned_40
+    write_measurements(tmp_path / 'off.csv', synthetic_measurements(m, off_radius(m, 1.8e-3), Q, SP, SA, seed=11))
+    assert main(['calibrate', str(tmp_path / 'off.csv'), '--output', str(tmp_path / 'c.yaml')]) == 0
+    assert "joint2_y held at its rod's place" in capsys.readouterr().out
+    comments = [line for line in (tmp_path / 'c.yaml').read_text().splitlines() if line.startswith('# fitted: ')]
+    assert len(comments) == 1 and comments[0].endswith("; held at its rod's place: joint1_x, joint3_y, joint2_y")
+    assert 'held at nominal' not in comments[0]
+
+
 def test_platform_joints_left_out_of_the_fit_stay_where_the_configuration_puts_them(planned_40):
     """The 1.8 mm machine with the platform joints left out of the fit (free: the rods, their offsets and directions,
     kappa): the first fit with every joint on its rod moved them too, 1.8 mm from where the configuration puts them,

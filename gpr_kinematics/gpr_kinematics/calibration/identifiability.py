@@ -85,7 +85,8 @@ class Identifiability:
         singular_values: scaled singular values of the Jacobian of all of them, descending.
         threshold: the bound a singular value had to reach (the larger of ``threshold`` and
             ``rcond * sigma_max``).
-        identified: the parameters fitted; held: those held at nominal (in the order they were chosen).
+        identified: the parameters fitted; held: those held, at nominal or where their combination says
+            (``held_at``), in the order they were chosen.
         combinations: one :class:`Combination` per held parameter.
         fitted_singular_values: scaled singular values of the identified subset, descending.
     """

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+from collections.abc import Sequence
 from datetime import datetime, timezone
 from functools import partial
 from typing import TYPE_CHECKING
@@ -46,6 +47,7 @@ from .output import emit_json
 _FRAME = re.compile(r'[A-Za-z0-9_]{1,64}')
 
 if TYPE_CHECKING:
+    from ..calibration.identifiability import Combination
     from ..calibration.model import PoseModel
     from .main import Subparsers
 
@@ -86,8 +88,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
         comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements[0]} ({res.rows} rows, '
                     f'measured in {args.frame}), {stamp}',
-                    f'fitted: {", ".join(res.parameters[j].name for j in res.fitted) or "none"}; held at nominal: '
-                    f'{", ".join(res.identifiability.held) or "none"}',
+                    f'fitted: {", ".join(res.parameters[j].name for j in res.fitted) or "none"}; '
+                    f'{_held_where(res.identifiability.combinations)}',
                     f'pose residuals RMS before {res.before.rms_position:.3e} m, {res.before.rms_angle:.3e} rad; after '
                     f'{res.after.rms_position:.3e} m, {res.after.rms_angle:.3e} rad; gate '
                     f'{"passed" if res.gate.passed else "FAILED (written with --force)"}',
@@ -104,6 +106,15 @@ def _calibrate(args: argparse.Namespace) -> int:
         if path:
             print(f'calibrated geometry written to {path} (use it with --config {path})')
     return 0 if res.gate.passed else EXIT_GATE
+
+
+def _held_where(combinations: Sequence[Combination]) -> str:
+    """``held at nominal: a, b; held at its rod's place: c``: the held parameters by where they are held (``held at
+    nominal: none`` without any)."""
+    where: dict[str, list[str]] = {}
+    for c in combinations:
+        where.setdefault(c.held_at, []).append(c.held)
+    return '; '.join(f'held at {at}: {", ".join(names)}' for at, names in where.items()) or 'held at nominal: none'
 
 
 def _plan(args: argparse.Namespace) -> int:
