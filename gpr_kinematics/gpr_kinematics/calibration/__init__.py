@@ -13,7 +13,8 @@ model of the platform pose); :mod:`.core_model` binds them to the kinematics cor
 * :mod:`.frames`: registration (the tracker's frame and the target identified with the geometry); :mod:`.arm`: the
   arms' link lengths, zero offsets and wafer centre;
 * :mod:`.plan`: measurement configurations that make the identification well conditioned;
-* :mod:`.tolerances`, :mod:`.budget`: the tolerance table and the accuracy budget (linearised, Monte Carlo);
+* :mod:`.tolerances`, :mod:`.budget`, :mod:`.monte_carlo`: the tolerance table and the accuracy budget (linearised,
+  Monte Carlo);
 * :mod:`.synthetic`: synthetic measurements of a known machine; :mod:`.core_model`: the core binding, its datum and
   the calibrated geometry file; :mod:`.demo`: the ``make demo`` step; :mod:`.cell`: the worked example's raw data.
 

@@ -44,6 +44,7 @@ from .model import (
     pose_jacobian,
     rod_jacobian,
 )
+from .monte_carlo import monte_carlo
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
@@ -67,9 +68,8 @@ AGREEMENT = 0.10
 #: A Monte Carlo error above the linearised worst case by more than this fraction of it (its rounding and the
 #: 0.002 % of the directions' polygon) is named in a warning.
 BEYOND_WORST = 1e-6
-#: Poses evaluated per Monte Carlo chunk (bounds memory), and the most poses of a budget (samples x stations:
-#: each keeps its 9 error components for the percentiles, 72 bytes).
-CHUNK_POSES = 200_000
+#: The most poses of a budget (samples x stations: each keeps its 9 error components for the percentiles, 72 bytes;
+#: evaluated in chunks of :data:`~.monte_carlo.CHUNK_POSES`).
 MAX_POSES = 5_000_000
 
 
@@ -223,41 +223,6 @@ def _worst(src: list[_Source], comps: tuple[int, ...]) -> Array:
     return np.asarray(best if len(comps) == 1 else best / math.cos(math.pi / DIRECTIONS), dtype=np.float64)
 
 
-def _within(x: Array, t: Tolerance) -> NDArray[np.bool_]:
-    """Whether deviations ``x`` drawn from ``t`` lie in the interval its worst case takes (a normal draw may not)."""
-    lo, hi = t.bounds
-    return np.asarray((x >= lo) & (x <= hi), dtype=bool)
-
-
-def _sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table: ToleranceTable,
-            rng: np.random.Generator, S: int, N: int, P: int
-            ) -> tuple[Array, Array, Array | None, NDArray[np.bool_]]:
-    """Parameter deviations ``(S, P)``, rod-length errors ``(S, N, 3)``, joint displacements or ``None``, and per
-    sample and station ``(S, N)`` whether every draw lies within the bounds the worst case takes (a normal one
-    within its 3 sigma, the calibration's within its 3-sigma ellipsoid)."""
-    dtheta = np.zeros((S, P))
-    inside = np.ones((S, N), dtype=bool)
-    for j, t in src_tols:
-        dtheta[:, j] = t.sample(rng, (S,))
-        inside &= _within(dtheta[:, j], t)[:, None]
-    if cal is not None and len(cal[0]):
-        lam, V = np.linalg.eigh(cal[1])                  # a square root that also takes a singular covariance
-        L = V * np.sqrt(np.maximum(lam, 0.0))
-        z = rng.standard_normal((S, len(cal[0])))
-        dtheta[:, cal[0]] = z @ L.T
-        inside &= (np.sum(z[:, lam > 0.0] ** 2, axis=1) <= 9.0)[:, None]   # x' C^+ x <= 3^2
-    dq = table.rod_length.sample(rng, (S, N, 3)) if table.rod_length is not None else np.zeros((S, N, 3))
-    if table.rod_length is not None:
-        inside &= np.all(_within(dq, table.rod_length), axis=-1)
-    disp = None
-    if max(table.joint_clearance) > 0:
-        d = rng.standard_normal((S, N, 3, 3))
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        r = np.asarray(table.joint_clearance)[None, None, :, None] * rng.uniform(0.0, 1.0, (S, N, 3, 1)) ** (1 / 3)
-        disp = d * r
-    return dtheta, dq, disp, inside
-
-
 def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayLike | None,
                    percentiles: Sequence[float], labels: Sequence[str] | None
                    ) -> tuple[Array, Array, tuple[float, ...], tuple[str, ...]]:
@@ -378,8 +343,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         with np.errstate(invalid='ignore', divide='ignore'):  # no shares of an error that is rounding only
             shares[name] = np.where(total[:, None] > SHARE_FLOOR ** 2,
                                     contrib[:, comps, :].sum(1) / total[:, None], 0.0)
-    mc, mc_rms, mc_max, max_inside, mc_mean, mc_std = _monte_carlo(model, th, Qa, (pos0, rot0), tool_v, R, tols,
-                                                                   cal, table, samples, seed, pct)
+    mc, mc_rms, mc_max, max_inside, mc_mean, mc_std = monte_carlo(model, th, Qa, (pos0, rot0), tool_v, R, tols,
+                                                                  cal, table, samples, seed, pct, QUANTITIES)
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
@@ -424,47 +389,3 @@ def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, 
                    'bounds the linearised error only'
                    for i in np.flatnonzero(over)]
     return tuple(disagree + beyond)
-
-
-def _monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array], tool: Array, frame: Array,
-                 tols: list[Tolerance | None], cal: Calibrated | None, table: ToleranceTable,
-                 samples: int, seed: int,
-                 pct: tuple[float, ...]
-                 ) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any], Array, Array]:
-    """Percentiles, RMS and largest ``|v|`` per quantity, the largest of the samples whose every draw lies within
-    the worst case's bounds (:func:`_sample`; ``-inf`` where none does), and the mean and standard deviation of
-    ``v`` ``(N, 9)``."""
-    N = Q.shape[0]
-    if samples == 0:
-        nan = np.full((N, len(pct)), np.nan)
-        return ({k: nan for k in QUANTITIES}, {k: np.full(N, np.nan) for k in QUANTITIES},
-                {k: np.full(N, np.nan) for k in QUANTITIES}, {k: np.full(N, np.nan) for k in QUANTITIES},
-                np.full((N, 9), np.nan), np.full((N, 9), np.nan))
-    rng = np.random.default_rng(seed)
-    cal_set = set(cal[0].tolist()) if cal is not None else set()
-    src_tols = [(j, t) for j, t in enumerate(tols) if t is not None and j not in cal_set]
-    chunk = max(1, CHUNK_POSES // N)
-    v = np.empty((samples, N, 9))
-    inside = np.empty((samples, N), dtype=bool)
-    pos0, rot0 = pose0
-    lower, upper = model.parameters.bounds
-    a0 = np.einsum('nij,nj->ni', rot0, tool)
-    for start in range(0, samples, chunk):
-        S = min(chunk, samples - start)
-        dtheta, dq, disp, inside[start:start + S] = _sample(src_tols, cal, table, rng, S, N, th.size)
-        # A coordinate with a range (a stiffness ratio's anisotropy) stays in it: a normal draw of a calibrated
-        # covariance beyond kappa = 1e6 is taken at the bound (a tangentially rigid joint).
-        pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
-        e = pose_error(pos, rot, pos0[None], rot0[None])
-        e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]
-        blocks = np.stack([e[..., :3], e[..., 3:], e_tool], axis=2)          # (S, N, 3 vectors, 3)
-        v[start:start + S] = np.einsum('ij,snbj->snbi', frame, blocks).reshape(S, N, 9)
-    mc, rms, top, top_inside = {}, {}, {}, {}
-    for name, (comps, _) in QUANTITIES.items():
-        mag = np.linalg.norm(v[:, :, comps], axis=-1)                # (S, N)
-        mc[name] = np.percentile(mag, pct, axis=0).T
-        rms[name] = np.sqrt(np.mean(mag ** 2, axis=0))
-        top[name] = np.max(mag, axis=0)
-        top_inside[name] = np.max(np.where(inside, mag, -np.inf), axis=0)
-    return mc, rms, top, top_inside, v.mean(axis=0), v.std(axis=0)
-
