@@ -3,6 +3,8 @@ offsets, rod tilts, joint places and a different kappa per joint), random config
 limits, and the prediction error of a calibrated model at configurations it was not fitted to (held out)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.model import evaluate, pose_error
@@ -24,6 +26,18 @@ def imperfect(model: CoreModel, seed: int, joints: bool = True) -> np.ndarray:
         if not p.transform and (joints or p.key != 'platform_joints'):
             values[j] += rng.normal(0.0, DEVIATIONS[p.key])
     values[[ps.index(f'kappa{k}') for k in (1, 2, 3)]] = KAPPAS
+    return ps.coordinates(values)
+
+
+def off_radius(model: CoreModel, radius: float, seed: int = 5) -> np.ndarray:
+    """Coordinates of an imperfect machine (:func:`imperfect`: tens of um, 0.1 mrad, kappa 2, 5, 0.7) whose rods and
+    platform joints stand ``radius`` [m] further out than the drawing's (a rework, a wrong revision)."""
+    ps = model.parameters
+    values = ps.values(imperfect(model, seed))
+    for k, t in enumerate(model.config.rod_azimuths, start=1):
+        for stem in ('rod', 'joint'):
+            values[ps.index(f'{stem}{k}_x')] += radius * math.cos(t)
+            values[ps.index(f'{stem}{k}_y')] += radius * math.sin(t)
     return ps.coordinates(values)
 
 

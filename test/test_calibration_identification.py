@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 from calibration_reference import ReferenceModel
-from calibration_support import equivalent_truth, imperfect
+from calibration_support import equivalent_truth, off_radius
 from gpr_kinematics.calibration.core_model import CoreModel, check_limits, write_calibrated_config
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements
@@ -416,18 +416,6 @@ def test_a_kind_without_a_degree_of_freedom_takes_the_reduced_chi_square_of_all(
     np.testing.assert_allclose(got, [positions] * 3 + [everything] * 3, rtol=1e-15)
     assert got[3] > 2.0   # not the 1 of the assumed sigmas
     np.testing.assert_array_equal(kind_variances(np.full((2, 6), 0.95), residual[:2]), np.ones(6))   # none at all
-
-
-def off_radius(model, radius, seed=5):
-    """Coordinates of an imperfect machine (calibration_support.imperfect: tens of um, 0.1 mrad, kappa 2, 5, 0.7) whose
-    rods and platform joints stand ``radius`` [m] further out than the drawing's (a rework, a wrong revision)."""
-    ps = model.parameters
-    values = ps.values(imperfect(model, seed))
-    for k, t in enumerate(model.config.rod_azimuths, start=1):
-        for stem in ('rod', 'joint'):
-            values[ps.index(f'{stem}{k}_x')] += radius * math.cos(t)
-            values[ps.index(f'{stem}{k}_y')] += radius * math.sin(t)
-    return ps.coordinates(values)
 
 
 @pytest.fixture(scope='module')

@@ -144,16 +144,30 @@ class CoreModel:
                    turn, target is not None)
         return np.array(rows).reshape(-1, len(ps)), tuple(dependent), '; '.join(words)
 
-    def joints_on_rods(self, theta: Array) -> Array:
+    def joints_on_rods(self, theta: Array, conditions: Array | None = None) -> Array:
         """Coordinate rows ``theta (S, P)`` with every platform joint where the design puts it relative to its rod,
         ``p_k = p_k0 + (B_k - B_k0)`` (the nominal machine has ``p_k = B_k``): the joint triangle congruent with the
-        rods' (a machine millimetres off its drawing, e.g. of another radius, keeps it so)."""
+        rods' (a machine millimetres off its drawing, e.g. of another radius, keeps it so).
+
+        ``conditions``: a registration's datum ``C (m, P)`` (:meth:`datum`, ``C (theta - nominal) = 0``); its rows
+        on the joints (their centroid, their mean angular place) then hold too: the triangle moved in the platform's
+        plane by the least rigid motion ``T a`` (shifts in x and y, the turn ``(-y_k0, x_k0)`` to first order) that
+        makes them hold, ``a = -(C_J T)^+ C_J dp``; its sides change by ``a_turn^2 / 2`` of themselves."""
         ps = self._parameters
         out = np.array(theta, dtype=float)
-        for k in (1, 2, 3):
-            for c in 'xy':
-                j, r = ps.index(f'joint{k}_{c}'), ps.index(f'rod{k}_{c}')
-                out[..., j] = ps.nominal[j] + (out[..., r] - ps.nominal[r])
+        joints = [ps.index(f'joint{k}_{c}') for k in (1, 2, 3) for c in 'xy']
+        for j in joints:
+            r = ps.index('rod' + ps[j].name[5:])
+            out[..., j] = ps.nominal[j] + (out[..., r] - ps.nominal[r])
+        C = np.zeros((0, len(ps))) if conditions is None else np.asarray(conditions, dtype=float)
+        C = C[np.any(C[:, joints] != 0.0, axis=1)][:, joints]
+        if C.size:
+            x0, y0 = ps.nominal[joints[0::2]], ps.nominal[joints[1::2]]
+            T = np.zeros((6, 3))
+            T[0::2, 0], T[1::2, 1], T[0::2, 2], T[1::2, 2] = 1.0, 1.0, -y0, x0
+            dp = out[..., joints] - ps.nominal[joints]
+            a = -np.einsum('ij,...j->...i', np.linalg.pinv(C @ T), dp @ C.T)
+            out[..., joints] += np.einsum('ij,...j->...i', T, a)
         return out
 
     def side_mismatch(self, theta: Array) -> float:

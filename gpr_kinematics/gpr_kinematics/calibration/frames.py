@@ -25,7 +25,7 @@ alignments of the points and least squares of the target's position. The fit ref
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -126,6 +126,15 @@ class FramedModel:
                                        FRAME_SCALES[unit], f'{frame}_frame', (k,)))
         self._parameters = ParameterSet(tuple(inner.parameters[int(j)] for j in self.independent) + tuple(extra))
         self.n_inner = self.independent.size
+        on_rods, mismatch = getattr(inner, 'joints_on_rods', None), getattr(inner, 'side_mismatch', None)
+        self._inner_family: tuple[Callable[[Array, Array], Array], Callable[[Array], float]] | None = None
+        if callable(on_rods) and callable(mismatch):
+            self._inner_family = (on_rods, mismatch)
+        #: The inner model's family of machines far off the nominal one (``joints_on_rods``, ``side_mismatch`` of
+        #: :class:`~.core_model.CoreModel`) in these coordinates, ``None`` when it has none: :meth:`_joints_on_rods`,
+        #: :meth:`_side_mismatch`.
+        self.joints_on_rods: Callable[[Array], Array] | None = self._joints_on_rods if self._inner_family else None
+        self.side_mismatch: Callable[[Array], float] | None = self._side_mismatch if self._inner_family else None
 
     @property
     def parameters(self) -> ParameterSet:
@@ -140,6 +149,22 @@ class FramedModel:
         if self.dependent.size:
             out[:, self.dependent] += (theta[:, :self.n_inner] - nominal[self.independent]) @ self.follow.T
         return out
+
+    def _joints_on_rods(self, theta: Array) -> Array:
+        """Rows ``theta (S, P)`` with the inner model's joints on their rods
+        (:meth:`~.core_model.CoreModel.joints_on_rods`, the datum's conditions on the joints kept: the frames do not
+        move); the frames' coordinates unchanged."""
+        assert self._inner_family is not None
+        th = np.array(theta, dtype=float)
+        rows = th.reshape(-1, th.shape[-1])
+        on = self._inner_family[0](self.inner_theta(rows), self.conditions)
+        rows[:, :self.n_inner] = on[:, self.independent]
+        return rows.reshape(th.shape)
+
+    def _side_mismatch(self, theta: Array) -> float:
+        """The inner model's :meth:`~.core_model.CoreModel.side_mismatch` at coordinates ``theta (P,)``."""
+        assert self._inner_family is not None
+        return float(self._inner_family[1](self.inner_theta(np.asarray(theta, dtype=float)[None])[0]))
 
     def frames(self, theta: Array) -> tuple[Transform, Transform]:
         """The base and target poses at coordinates ``theta (P,)``."""

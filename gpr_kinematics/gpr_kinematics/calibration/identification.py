@@ -166,8 +166,8 @@ def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[
     valid geometry) over the other fitted parameters gives the start; the held joint coordinates keep its values
     (on their rods), the rest is fitted from there. Returns ``(start, moved, mismatch)``: the start, the held
     parameters it moved, the linearised estimate's mismatch. Only a model with ``joints_on_rods`` and
-    ``side_mismatch`` (the core's) takes this path, and only with every platform joint ``free``: one left out of the
-    fit stays where the configuration puts it."""
+    ``side_mismatch`` (the core's, and a registration's over it: :class:`~.frames.FramedModel`) takes this path, and
+    only with every platform joint ``free``: one left out of the fit stays where the configuration puts it."""
     on_rods = getattr(model, 'joints_on_rods', None)
     mismatch = getattr(model, 'side_mismatch', None)
     if not (callable(on_rods) and callable(mismatch)) or fit.size == 0:
