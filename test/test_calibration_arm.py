@@ -16,6 +16,7 @@ from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core import naive_inverse
+from gpr_kinematics.errors import InputError
 from gpr_kinematics.robot import solve_stations
 from gpr_kinematics.robot.description import load_robot
 from gpr_kinematics.robot.forward import robot_forward
@@ -116,6 +117,38 @@ def test_wafer_centres_alone_hold_what_they_cannot_separate(arm_case):
     held = set(res.identifiability.held)
     assert len(held) == 2 and held <= {'arm1_wrist_length', 'arm1_wrist_zero_offset', 'arm1_wafer_x', 'arm1_wafer_y'}
     assert res.gate.passed and res.after.rms_position < 2.0 * SIGMA
+
+
+def test_links_millimetres_off_converge_from_nominal(arm_case):
+    """Links 2 mm off their drawing (the shoulder's longer, the elbow's shorter) and zero offsets 3 mrad: no held
+    parameter of an arm bounds another (the GPR's joints held at nominal did, off its radius), so the fit from the
+    nominal arm converges in 4 iterations; with blade points every value within 3 standard errors, from wafer centres
+    alone (the last link and its zero offset held at nominal, the wafer centre takes them) the wafer predicted at new
+    configurations within the noise (2.2 um, as for the drawing's arm). A millimetre more (3 mm with the 3 mrad) moves
+    a wafer 1.009 cm off the nominal arm's: refused before any fit (the plausibility check's 1 cm)."""
+    robot, ps, truth, meas = arm_case
+    arm = robot.arm('arm1')
+    off = truth.copy()
+    for j, p in enumerate(ps):
+        off[j] += {'length': 2e-3 * (1.0 if j % 4 == 0 else -1.0), 'zero_offset': 3e-3}.get(p.key, 0.0)
+    moved = measured(robot, 'arm1', off, meas.points.q, meas.joints, meas.on_blade, 2)
+    res = identify(ArmModel(robot, moved), moved.points)
+    assert res.gate.passed and res.convergence.status == 'converged' and res.iterations == 4
+    z = (res.values - off) / res.value_standard_error
+    assert np.all(np.abs(z) < 3.0), dict(zip(ps.names, z.round(2), strict=True))
+    wafer = ArmMeasurements(*_rows(moved, ~moved.on_blade))
+    res = identify(ArmModel(robot, wafer), wafer.points)
+    assert res.gate.passed and res.iterations == 4 and len(res.identifiability.held) == 2
+    Q, J = rows(robot, arm, 200, 9)
+    new = ArmModel(robot, measured(robot, 'arm1', off, Q, J, np.zeros(200, dtype=bool), 0))
+    e = new.poses(res.estimate[None], Q[None])[0][0] - new.poses(ps.coordinates(off)[None], Q[None])[0][0]
+    assert np.sqrt(np.mean(np.sum(e ** 2, axis=1))) < SIGMA
+    for j, p in enumerate(ps):
+        off[j] += 1e-3 * (1.0 if j % 4 == 0 else -1.0) if p.key == 'length' else 0.0
+    far = measured(robot, 'arm1', off, meas.points.q, meas.joints, meas.on_blade, 2)
+    refusal = r"synthetic line 41: the measured point is 0\.01009 m from the nominal model's \(allowed: 0\.01 m\)"
+    with pytest.raises(InputError, match=refusal):
+        identify(ArmModel(robot, far), far.points)
 
 
 def test_calibrated_robot_file_with_robot(arm_case, capsys, tmp_path):
