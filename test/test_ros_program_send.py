@@ -127,14 +127,14 @@ def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environ
         pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
         timer = c.node.create_timer(0.05, lambda: pub.publish(state))
         proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
-                                 '--namespace', 'gpr_noserver', '--timeout', '1'],
+                                 '--namespace', 'gpr_noserver', '--timeout', '8'],   # (discovery: up to ~3 s)
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
         assert c.spin_until(lambda: proc.poll() is not None, 120)
         _, err = proc.communicate()
         c.node.destroy_timer(timer)
     assert proc.returncode == 1
     assert err == ('gpr program send: no FollowJointTrajectory server on '
-                   '/gpr_noserver/joint_trajectory_controller/follow_joint_trajectory within 1 s (change the name with '
+                   '/gpr_noserver/joint_trajectory_controller/follow_joint_trajectory within 8 s (change the name with '
                    '--action and --namespace, the wait with --timeout)\n')
 
 
