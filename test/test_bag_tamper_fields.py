@@ -1,0 +1,244 @@
+"""Tampered bags that no test wrote before: mutation testing of ``gpr verify``'s checks (a comparison flipped, a
+condition dropped, a column left out) found each mutant passing every bag test. Each bag here is written by
+``bags.synthetic``, edited by the independent ``mcap`` writer with every CRC recomputed and the metadata re-signed
+(:mod:`mcap_tamper`, as in ``test_bag_tamper.py``), and fails naming the check and the sample."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from bag_support import MARKERS, small_sweep, write_bag
+from gpr_kinematics.bags.columns import quaternion_angle
+from gpr_kinematics.bags.reader import read_bag
+from gpr_kinematics.bags.synthetic import sweep_messages
+from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PROGRAM_TOPIC
+from gpr_kinematics.bags.verify import verify_bag
+from mcap_tamper import edited, tampered
+
+STATE, POSE, JOINTS = '/gpr/platform_state', '/gpr/platform_pose', '/joint_states'
+
+
+def _failed(result: Any) -> dict[str, set[int | None]]:
+    out: dict[str, set[int | None]] = {}
+    for f in result.failures:
+        out.setdefault(f.check, set()).add(f.sample)
+    return out
+
+
+def _types(msgs: list[tuple[str, int, bytes]]) -> dict[str, str]:
+    return {t: GPR_TOPICS[t] for t in dict.fromkeys(m[0] for m in msgs)}
+
+
+@pytest.fixture(scope='module')
+def sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    msgs = small_sweep()
+    bag = write_bag(tmp_path_factory.mktemp('fields') / 'sweep', msgs, _types(msgs))
+    assert verify_bag(bag).passed
+    return bag
+
+
+def _at(topic: str, index: int, change: Any) -> Any:
+    """A message edit: ``change(message)`` of the ``index``-th message of ``topic``."""
+    def edit(t: str, i: int, raw: bytes) -> bytes:
+        return edited(GPR_TOPICS[t], raw, change) if (t, i) == (topic, index) else raw
+    return edit
+
+
+def _all(*edits: Any) -> Any:
+    def edit(t: str, i: int, raw: bytes) -> bytes:
+        for e in edits:
+            raw = e(t, i, raw)
+        return raw
+    return edit
+
+
+def _turned(q: Any, by: float = 1e-6) -> Any:
+    """A quaternion message scaled by ``1 + by``: the same rotation, its norm ``by`` off 1."""
+    return dataclasses.replace(q, x=q.x * (1 + by), y=q.y * (1 + by), z=q.z * (1 + by), w=q.w * (1 + by))
+
+
+def _pose_orientation(m: Any, change: Any) -> Any:
+    return dataclasses.replace(m, pose=dataclasses.replace(m.pose, orientation=change(m.pose.orientation)))
+
+
+# -- state.* ------------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('name, edit, fails', [
+    # the stored closure residual (only the recomputed one was compared)
+    ('residual', _at(STATE, 8, lambda m: dataclasses.replace(m, residual=1e-6)), {'state.residual': {8}}),
+    # the commanded tilt 0.1 % larger, its sign kept (only a sign flip moved the azimuth the check compared)
+    ('commanded', _at(STATE, 8, lambda m: dataclasses.replace(m, commanded_tilt=m.commanded_tilt * 1.001)),
+     {'state.commanded': {8}, 'stream.program': {8}}),
+    # an infinite commanded azimuth at an untilted sample (sample 2: tilt 0)
+    ('azimuth', _at(STATE, 2, lambda m: dataclasses.replace(m, commanded_azimuth=math.inf)),
+     {'state.commanded': {2}, 'stream.program': {2}}),
+    # the virtual joints renamed, as many as the model's
+    ('names', _at(STATE, 8, lambda m: dataclasses.replace(m, virtual_joint_names=['x1', 'x2', 'x3'])),
+     {'state.virtual_joints': {8}, 'topic.virtual_joints': {8}}),
+    # the orientation's norm 1e-6 off 1 (the same rotation), in the state and its pose topic
+    ('norm', _all(_at(STATE, 8, lambda m: _pose_orientation(m, _turned)),
+                  _at(POSE, 8, lambda m: _pose_orientation(m, _turned))), {'state.pose_orientation': {8}}),
+    # the third rod moved by 1 um (only its first two were compared with the recorded program)
+    ('rod3', _at(STATE, 8, lambda m: dataclasses.replace(m, q=m.q + np.array([0.0, 0.0, 1e-6]))),
+     {'state.pose_position': {8}, 'state.pose_orientation': {8}, 'state.nominal_position': {8},
+      'state.nominal_orientation': {8}, 'state.centre_shift': {8}, 'state.virtual_joints': {8},
+      'state.side_lengths': {8}, 'state.tilt': {8}, 'state.joint_displacement': {8}, 'state.commanded': {8},
+      'topic.joint_states': {8}, 'topic.markers': {8}, 'stream.program': {8}})])
+def test_a_state_field_edited_fails_its_check(sweep: Path, tmp_path: Path, name: str, edit: Any,
+                                             fails: dict[str, set[int]]) -> None:
+    assert _failed(verify_bag(tampered(sweep, tmp_path / name, edit))) == fails
+
+
+def test_a_tilt_azimuth_edited_at_a_small_tilt_fails(tmp_path: Path) -> None:
+    """The tilt azimuth is compared wherever the tilt exceeds 1e-12 rad: at 1e-4 rad too (the sweep's samples tilt 0,
+    5e-5 and 1e-4 rad)."""
+    msgs = sweep_messages(max_tilt=1e-4, tilt_step=5e-5, azimuth_step=math.radians(60.0))
+    bag = write_bag(tmp_path / 'small', msgs, _types(msgs))
+    assert verify_bag(bag).passed
+    result = verify_bag(tampered(bag, tmp_path / 'azimuth', _at(STATE, 1, lambda m: dataclasses.replace(
+        m, tilt_azimuth=m.tilt_azimuth + 0.1))))
+    assert _failed(result) == {'state.tilt': {1}}
+    assert result.failures[0].value == pytest.approx(0.1, abs=1e-9)
+
+
+def _geometry(old: str, new: str) -> Any:
+    """The recorded geometry's line ``old`` (a regular expression) replaced by ``new``."""
+    def edit(t: str, i: int, raw: bytes) -> bytes:
+        if t != GEOMETRY_TOPIC:
+            return raw
+        return edited(GPR_TOPICS[t], raw, lambda m: dataclasses.replace(m, data=re.sub(old, new, m.data, count=1,
+                                                                                       flags=re.M)))
+    return edit
+
+
+@pytest.mark.parametrize('line, samples, worst', [
+    # 1.72 deg: the sweep's 2 deg samples (0.0349 rad) are beyond it
+    ('tilt_limit: 0.03', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], math.radians(2.0) - 0.03),
+    # the stroke's lower end above the shortest rod
+    ('stroke_min: 0.4999', None, 0.0027191242510815)])
+def test_a_recording_beyond_its_recorded_limits_fails_state_limits(sweep: Path, tmp_path: Path, line: str,
+                                                                   samples: list[int] | None, worst: float) -> None:
+    """The recorded geometry's tilt limit lowered, or its stroke's lower end raised, beyond the recorded states
+    (the record cannot be planned again then either)."""
+    key = line.split(':')[0]
+    result = verify_bag(tampered(sweep, tmp_path / key, _geometry(f'^{key}: .*$', line)))
+    assert set(_failed(result)) == {'state.limits', 'topic.program', 'stream.program'}
+    limits = next(c for c in result.checks if c.name == 'state.limits')
+    assert limits.worst == pytest.approx(worst, abs=1e-12)
+    if samples is not None:
+        assert limits.failed == len(samples) and [f.sample for f in limits.failures] == samples
+
+
+def test_one_joint_beyond_the_imperfection_budget_fails(sweep: Path, tmp_path: Path) -> None:
+    """The budget lowered to 35 um, between the largest joint displacements of the 1 deg and 2 deg samples (14.2 and
+    56.8 um; the others' of the 2 deg samples are 28.4 um): a sample fails by its largest, as the flag says."""
+    disp = np.stack(read_bag(sweep).topics[STATE].columns()['joint_displacement'])
+    over = np.flatnonzero(disp.max(axis=1) > 3.5e-5)
+    assert over.tolist() == [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29] and np.all(disp.min(axis=1)[over] < 3.5e-5)
+    result = verify_bag(tampered(sweep, tmp_path / 'budget', _geometry('^imperfection_budget: .*$',
+                                                                       'imperfection_budget: 3.5e-05')))
+    assert _failed(result) == dict.fromkeys(('state.within_budget', 'state.imperfection_budget'), set(over.tolist()))
+    check = next(c for c in result.checks if c.name == 'state.imperfection_budget')
+    assert check.worst == pytest.approx(disp.max(), abs=1e-15) and check.limit == 3.5e-5
+
+
+# -- stream.* -----------------------------------------------------------------------------------------------------
+
+def _states_only(tmp_path: Path, edit: Any) -> Any:
+    """A sweep of the state topic alone, without a record (as the reference bag: stream.* alone sees its order)."""
+    msgs = small_sweep(topics=(STATE, GEOMETRY_TOPIC))
+    bag = write_bag(tmp_path / 'states', msgs, _types(msgs))
+    assert verify_bag(bag).passed
+    return verify_bag(tampered(bag, tmp_path / 'edited', edit))
+
+
+def test_a_repeated_sample_counter_fails_at_it_and_after_it(tmp_path: Path) -> None:
+    """Sample 10's counter edited to 9: a repeated counter (step 0) and the step of 2 after it."""
+    result = _states_only(tmp_path, _at(STATE, 10, lambda m: dataclasses.replace(m, sample=9)))
+    assert [(f.check, f.sample, f.value) for f in result.failures] == [('stream.counter', 9, 1.0),
+                                                                      ('stream.counter', 11, 1.0)]
+
+
+def test_a_stamp_equal_to_the_previous_one_fails(tmp_path: Path) -> None:
+    def earlier(m: Any) -> Any:   # 1 ms earlier: the previous sample's stamp
+        stamp = dataclasses.replace(m.header.stamp, nanosec=m.header.stamp.nanosec - 1_000_000)
+        return dataclasses.replace(m, header=dataclasses.replace(m.header, stamp=stamp))
+
+    result = _states_only(tmp_path, _at(STATE, 10, earlier))
+    assert [(f.check, f.sample, f.value) for f in result.failures] == [('stream.stamps', 10, 1.0)]
+
+
+def test_the_crossing_ratio_is_the_rotation_over_its_bound(sweep: Path) -> None:
+    """At the singular crossings (commanded tilt 0 or changing sign) the jump ratio is the rotation's:
+    ``rot / (1.01 sqrt(2/3) / R |dq| + 1e-12)``, computed here from the states; it reaches 0.99 of the bound."""
+    result = verify_bag(sweep)
+    c = read_bag(sweep).topics[STATE].columns()
+    q = np.stack(c['q'])
+    quat = np.stack([np.asarray(c[f'pose.orientation.{k}'], float) for k in 'xyzw'], axis=1)
+    ratio = quaternion_angle(quat[:-1], quat[1:]) / (
+        1.01 * math.sqrt(2 / 3) / 0.093218 * np.linalg.norm(np.diff(q, axis=0), axis=1) + 1e-12)
+    tilt = np.asarray(c['commanded_tilt'], float)
+    cross = np.flatnonzero((tilt == 0) | np.r_[False, np.sign(tilt[1:]) * np.sign(tilt[:-1]) < 0])
+    assert result.crossings == cross.size == 6     # alpha = 0 once per azimuth row
+    assert result.crossing_ratio == pytest.approx(ratio[cross[cross >= 1] - 1].max(), rel=1e-12)
+    assert 0.98 < result.crossing_ratio < 1.0
+
+
+# -- topic.* ------------------------------------------------------------------------------------------------------
+
+def _marker(k: int, change: Any) -> Any:
+    """A MarkerArray edit: ``change`` of its ``k``-th marker."""
+    return lambda m: dataclasses.replace(m, markers=[change(x) if j == k else x for j, x in enumerate(m.markers)])
+
+
+@pytest.mark.parametrize('name, edit, fails', [
+    # another frame, the stamp kept (only the stamp matched a companion to its state)
+    ('frame', _at(POSE, 5, lambda m: dataclasses.replace(m, header=dataclasses.replace(m.header, frame_id='world'))),
+     {'topic.platform_pose': {5}, 'topic.platform_pose_extra': {None}}),
+    # the pose topic's orientation turned by 2e-6 rad (only its position was compared)
+    ('turned', _at(POSE, 5, lambda m: _pose_orientation(m, lambda q: dataclasses.replace(q, x=q.x + 1e-6))),
+     {'topic.platform_pose': {5}}),
+    # velocities on the stream's joint state (the node publishes positions only)
+    ('velocity', _at(JOINTS, 5, lambda m: dataclasses.replace(m, velocity=np.zeros(3))), {'topic.joint_states': {5}}),
+    # a fifth marker; a marker's action DELETE; its last point moved; its stamp; a point more
+    ('fifth', _at(MARKERS, 5, lambda m: dataclasses.replace(m, markers=[*m.markers, dataclasses.replace(
+        m.markers[0], id=4)])), {'topic.markers': {5}}),
+    ('delete', _at(MARKERS, 5, _marker(1, lambda x: dataclasses.replace(x, action=2))), {'topic.markers': {5}}),
+    ('last_point', _at(MARKERS, 5, _marker(3, lambda x: dataclasses.replace(x, points=[
+        *x.points[:-1], dataclasses.replace(x.points[-1], z=x.points[-1].z + 1e-6)]))), {'topic.markers': {5}}),
+    ('stamp', _at(MARKERS, 5, _marker(2, lambda x: dataclasses.replace(x, header=dataclasses.replace(
+        x.header, stamp=dataclasses.replace(x.header.stamp, nanosec=x.header.stamp.nanosec + 1))))),
+     {'topic.markers': {5}}),
+    ('point_more', _at(MARKERS, 5, _marker(1, lambda x: dataclasses.replace(x, points=[*x.points, x.points[0]]))),
+     {'topic.markers': {5}})])
+def test_a_companion_message_edited_fails_its_check(sweep: Path, tmp_path: Path, name: str, edit: Any,
+                                                   fails: dict[str, set[int | None]]) -> None:
+    assert _failed(verify_bag(tampered(sweep, tmp_path / name, edit))) == fails
+
+
+def test_a_marker_array_off_the_inferred_cadence_fails(tmp_path: Path) -> None:
+    """Without a recorded markers_every, markers at 0, 4, 8, 14, 20, 24, 28: every 4th from the first (the smallest
+    step), so 12 and 16 lack theirs and 14's is out of it."""
+    msgs = [m for m in small_sweep(markers_every=None)
+            if m[0] != MARKERS or (m[1] // 1_000_000) % 1000 in (0, 4, 8, 14, 20, 24, 28)]
+    result = verify_bag(write_bag(tmp_path / 'off', msgs, _types(msgs)))
+    assert _failed(result) == {'topic.markers_sequence': {12, 14, 16}}
+
+
+# -- topic.program, stream.program ----------------------------------------------------------------------------------
+
+def test_a_records_length_edited_fails(sweep: Path, tmp_path: Path) -> None:
+    """The record's samples: 30 edited to 31 (the recording ends within either)."""
+    def edit(t: str, i: int, raw: bytes) -> bytes:
+        return edited(GPR_TOPICS[t], raw, lambda m: dataclasses.replace(m, data=m.data.replace(
+            'samples: 30\n', 'samples: 31\n', 1))) if t == PROGRAM_TOPIC else raw
+
+    result = verify_bag(tampered(sweep, tmp_path / 'length', edit))
+    assert [(f.check, f.detail) for f in result.failures] == [
+        ('topic.program', 'the sweep from sample 0 says 31 samples; it recomputes to 30')]
+
