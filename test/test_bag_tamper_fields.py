@@ -242,3 +242,91 @@ def test_a_records_length_edited_fails(sweep: Path, tmp_path: Path) -> None:
     assert [(f.check, f.detail) for f in result.failures] == [
         ('topic.program', 'the sweep from sample 0 says 31 samples; it recomputes to 30')]
 
+
+
+# -- robot.*, topic.robot, topic.wafer_pose ---------------------------------------------------------------------------
+
+ROBOT_STATE, WAFER_POSE = '/gpr/robot_state', '/gpr/wafer_pose'
+#: What a RobotState that robot.structure refuses fails besides (its poses are not compared: inf).
+REFUSED = ('robot.structure', 'robot.wafer_position', 'robot.wafer_orientation', 'robot.blade',
+           'robot.naive_wafer_error')
+
+
+@pytest.fixture(scope='module')
+def robot_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from gpr_kinematics.bags.synthetic import robot_program_messages
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.program import load_program
+
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    bag = write_bag(tmp_path_factory.mktemp('fields') / 'robot', robot_program_messages(load_robot(), program, 10.0),
+                    dict(GPR_TOPICS))
+    assert verify_bag(bag).passed
+    return bag
+
+
+def _below_rest(k: int) -> Any:
+    """arm2's hand (at rest while arm1 works) 0.01 rad below its lower limit, -3.05 rad: the RobotState's joint ``k``
+    of the arms' joints, the joint state's after the rods."""
+    def state(m: Any) -> Any:
+        assert (m.arm, m.joint_names[k]) == ('arm1', 'arm2_hand')
+        return dataclasses.replace(m, joints=np.where(np.arange(m.joints.size) == k, -3.06, m.joints))
+
+    def joints(m: Any) -> Any:
+        assert m.name[3 + k] == 'arm2_hand'
+        return dataclasses.replace(m, position=np.where(np.arange(m.position.size) == 3 + k, -3.06, m.position))
+    return _all(_at(ROBOT_STATE, 5, state), _at(JOINTS, 5, joints))
+
+
+def _orientation(field: str, change: Any) -> Any:
+    return lambda m: dataclasses.replace(m, **{field: dataclasses.replace(getattr(m, field), orientation=change(
+        getattr(m, field).orientation))})
+
+
+def _x_plus(q: Any) -> Any:
+    return dataclasses.replace(q, x=q.x + 1e-6)
+
+
+@pytest.mark.parametrize('name, edit, fails', [
+    # another waypoint held at sample 100 (the aligner, waypoint 6), its name kept
+    ('waypoint', _at(ROBOT_STATE, 100, lambda m: dataclasses.replace(m, waypoint=7)), {'stream.program': {100}}),
+    # a joint of the arm at rest, its last one, below its lower limit (the upper one alone was tested)
+    ('below', _below_rest(6), {'robot.joint_limits': {5}, 'stream.program': {5}}),
+    # the blade turned by 2e-6 rad, its position kept
+    ('blade', _at(ROBOT_STATE, 9, _orientation('blade', _x_plus)), {'robot.blade': {9}}),
+    # the wafer's quaternion 1e-6 off unit norm (the same rotation), in the RobotState and its wafer pose
+    ('norm', _all(_at(ROBOT_STATE, 9, _orientation('wafer', _turned)),
+                  _at(WAFER_POSE, 9, lambda m: _pose_orientation(m, _turned))), {'robot.wafer_orientation': {9}}),
+    # the wafer pose topic's orientation turned (only its position was compared)
+    ('wafer_pose', _at(WAFER_POSE, 9, lambda m: _pose_orientation(m, _x_plus)), {'topic.wafer_pose': {9}}),
+    # the naive model's wafer error in z (a y edited was tested)
+    ('naive', _at(ROBOT_STATE, 9, lambda m: dataclasses.replace(m, naive_wafer_error=dataclasses.replace(
+        m.naive_wafer_error, z=m.naive_wafer_error.z + 1e-6))), {'robot.naive_wafer_error': {9}}),
+    # a frame that ends in the world frame's name without being it (r1/world is; gpr_world is not)
+    ('frame', _at(ROBOT_STATE, 9, lambda m: dataclasses.replace(m, header=dataclasses.replace(
+        m.header, frame_id='gpr_world'))), {**dict.fromkeys(REFUSED, {9}), 'topic.wafer_pose': {9},
+                                           'topic.wafer_pose_extra': {None}}),
+    # a joint value more than the robot's joints
+    ('extra', _at(ROBOT_STATE, 9, lambda m: dataclasses.replace(m, joints=np.append(m.joints, 0.0))),
+     {**dict.fromkeys(REFUSED, {9}), 'topic.joint_states': {9}, 'stream.program': {9}})])
+def test_a_robot_message_edited_fails_its_check(robot_bag: Path, tmp_path: Path, name: str, edit: Any,
+                                               fails: dict[str, set[int | None]]) -> None:
+    result = verify_bag(tampered(robot_bag, tmp_path / name, edit))
+    assert _failed(result) == fails
+    if name == 'below':
+        assert next(c for c in result.checks if c.name == 'robot.joint_limits').worst == pytest.approx(0.01 - 1e-9)
+
+
+def test_a_second_robot_description_that_differs_fails(robot_bag: Path, tmp_path: Path) -> None:
+    """Another description appended (arm1's branch left): which one governed would be an accident of order."""
+    from bag_support import messages_of
+
+    msgs = messages_of(robot_bag)
+    text = next(raw for t, _, raw in msgs if t == '/gpr/robot')
+    other = edited('std_msgs/msg/String', text, lambda m: dataclasses.replace(m, data=m.data.replace(
+        'branch: right', 'branch: left', 1)))
+    result = verify_bag(write_bag(tmp_path / 'two', [*msgs, ('/gpr/robot', msgs[-1][1] + 1, other)],
+                                  dict(GPR_TOPICS)))
+    robot = next(c for c in result.checks if c.name == 'topic.robot')
+    assert (robot.failed, robot.worst, robot.failures[0].detail) == (1, 2.0, 'the robot description messages differ')
