@@ -5,8 +5,9 @@ its own digest recomputed, as the recorder writes them): an editor who knows eve
 left to catch the edit are ``gpr verify``'s checks of the content (issue 18).
 
 Edits (:func:`tampered`): ``message(topic, index, raw) -> raw | None`` (None drops the message; the bytes are CDR),
-``schema(name, text) -> text`` (the embedded message definitions), ``metadata(info)`` (the metadata's mapping, after
-it was recounted).
+``schema(name, text) -> text`` (the embedded message definitions), ``encoding(name, encoding) -> encoding`` (their
+encodings), ``channel(topic, metadata) -> metadata`` (a channel's metadata: its type hash, its offered QoS),
+``metadata(info)`` (the metadata's mapping, after it was recounted).
 """
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ MessageEdit = Callable[[str, int, bytes], 'bytes | None']
 
 
 def _rewrite_mcap(src: Path, dst: Path, message: MessageEdit | None, schema: Callable[[str, str], str] | None,
-                  seen: dict[str, int]) -> None:
+                  seen: dict[str, int], encoding: Callable[[str, str], str] | None = None,
+                  channel: Callable[[str, dict[str, str]], dict[str, str]] | None = None) -> None:
     with open(src, 'rb') as fh:
         reader = make_reader(fh)
         header = reader.get_header()
@@ -41,10 +43,12 @@ def _rewrite_mcap(src: Path, dst: Path, message: MessageEdit | None, schema: Cal
             schema_ids = {}
             for sid, s in sorted(summary.schemas.items()):
                 text = s.data.decode()
-                schema_ids[sid] = writer.register_schema(s.name, s.encoding,
+                schema_ids[sid] = writer.register_schema(s.name,
+                                                         encoding(s.name, s.encoding) if encoding else s.encoding,
                                                          (schema(s.name, text) if schema else text).encode())
             channel_ids = {cid: writer.register_channel(c.topic, c.message_encoding, schema_ids[c.schema_id],
-                                                        dict(c.metadata))
+                                                        channel(c.topic, dict(c.metadata)) if channel
+                                                        else dict(c.metadata))
                            for cid, c in sorted(summary.channels.items())}
             for _, channel, msg in reader.iter_messages(log_time_order=False):
                 i = seen.get(channel.topic, 0)
@@ -89,13 +93,15 @@ def resign(folder: Path, edit: Callable[[dict[str, Any]], None] | None = None) -
 
 
 def tampered(src: Path, dst: Path, message: MessageEdit | None = None, schema: Callable[[str, str], str] | None = None,
-             metadata: Callable[[dict[str, Any]], None] | None = None) -> Path:
+             metadata: Callable[[dict[str, Any]], None] | None = None,
+             encoding: Callable[[str, str], str] | None = None,
+             channel: Callable[[str, dict[str, str]], dict[str, str]] | None = None) -> Path:
     """A copy of the bag folder ``src`` at ``dst``, its MCAP files written again by the ``mcap`` library with the
     edits, its metadata recounted and re-signed (module docstring)."""
     shutil.copytree(src, dst)
     seen: dict[str, int] = {}
     for f in sorted(dst.glob('*.mcap')):
-        _rewrite_mcap(src / f.name, f, message, schema, seen)
+        _rewrite_mcap(src / f.name, f, message, schema, seen, encoding, channel)
     resign(dst, metadata)
     return dst
 

@@ -330,3 +330,131 @@ def test_a_second_robot_description_that_differs_fails(robot_bag: Path, tmp_path
                                   dict(GPR_TOPICS)))
     robot = next(c for c in result.checks if c.name == 'topic.robot')
     assert (robot.failed, robot.worst, robot.failures[0].detail) == (1, 2.0, 'the robot description messages differ')
+
+
+# -- bag.* ----------------------------------------------------------------------------------------------------------
+
+OTHER_HASH = 'RIHS01_' + '0' * 64
+
+
+def _listed(name: str, change: Any) -> Any:
+    """A metadata edit: ``change(entry)`` of the topic ``name``'s entry of topics_with_message_count."""
+    def edit(info: dict[str, Any]) -> None:
+        for t in info['topics_with_message_count']:
+            if t['topic_metadata']['name'] == name:
+                change(t)
+    return edit
+
+
+def _hash(t: dict[str, Any]) -> None:
+    t['topic_metadata']['type_description_hash'] = OTHER_HASH
+
+
+def _fewer(t: dict[str, Any]) -> None:
+    t['message_count'] -= 1
+
+
+def _unlisted(info: dict[str, Any]) -> None:
+    info['topics_with_message_count'] = [t for t in info['topics_with_message_count']
+                                         if t['topic_metadata']['name'] != MARKERS]
+
+
+@pytest.mark.parametrize('name, edits, fails', [
+    # the metadata's type hash of the states (the files' kept)
+    ('metadata_hash', {'metadata': _listed(STATE, _hash)}, [
+        ('bag.type_hash', 'stored type hash differs from the current message definition'),
+        ('bag.metadata', f"type hash in sweep_0.mcap: metadata.yaml says '{OTHER_HASH}', the files hold "
+                         "'RIHS01_728c404de99cdee71b592cdc121c68ee0a2dcfce0bfffc41009d8b93fcd48711'")]),
+    # the file's type hash of the states (the metadata's kept)
+    ('file_hash', {'channel': lambda topic, meta: {**meta, 'topic_type_hash': OTHER_HASH} if topic == STATE
+                   else meta}, [
+        ('bag.schemas', "type hash of gpr_interfaces/msg/PlatformState in sweep_0.mcap is not the package's "
+                        '(RIHS01_728c404de99cdee71b592cdc121c68ee0a2dcfce0bfffc41009d8b93fcd48711)'),
+        ('bag.metadata', "type hash in sweep_0.mcap: metadata.yaml says 'RIHS01_728c404de99cdee71b592cdc121c68ee0a2dcf"
+                         f"ce0bfffc41009d8b93fcd48711', the files hold '{OTHER_HASH}'")]),
+    # the states' embedded definition said to be another encoding
+    ('encoding', {'encoding': lambda name, enc: 'ros2idl' if name.endswith('PlatformState') else enc}, [
+        ('bag.schemas', "the definition of gpr_interfaces/msg/PlatformState in sweep_0.mcap is encoded 'ros2idl'; "
+                        'allowed: ros2msg')]),
+    # a topic of the file left out of the metadata's list
+    ('unlisted', {'metadata': _unlisted}, [('bag.metadata', 'in sweep_0.mcap but not in metadata.yaml')]),
+    # a topic's count one less than the file holds (one more was tested)
+    ('fewer', {'metadata': _listed(MARKERS, _fewer)}, [('bag.message_count', 'metadata.yaml counts 29, the files '
+                                                                             'hold 30')])])
+def test_metadata_and_embedded_definitions_edited_fail(sweep: Path, tmp_path: Path, name: str, edits: dict[str, Any],
+                                                       fails: list[tuple[str, str]]) -> None:
+    result = verify_bag(tampered(sweep, tmp_path / name, **edits))
+    assert [(f.check, f.detail) for f in result.failures] == fails
+
+
+def _unsigned(src: Path, dst: Path, edit: Any) -> Path:
+    """A copy whose metadata.yaml is rewritten with ``edit`` and no digest of its own (another recorder's)."""
+    import shutil
+
+    import yaml
+
+    shutil.copytree(src, dst)
+    info = yaml.safe_load((dst / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    edit(info)
+    (dst / 'metadata.yaml').write_text(yaml.safe_dump({'rosbag2_bagfile_information': info}, sort_keys=False))
+    return dst
+
+
+def test_a_bag_of_another_recorder_needs_a_version_from_1(sweep: Path, tmp_path: Path) -> None:
+    def version0(info: dict[str, Any]) -> None:
+        info['version'], info['custom_data'] = 0, {}
+
+    result = verify_bag(_unsigned(sweep, tmp_path / 'v0', version0), allow_missing_checksums=True)
+    assert [(f.check, f.detail) for f in result.failures] == [('bag.metadata', 'version 0; allowed: 1 to 9')]
+
+
+def test_allowing_missing_checksums_needs_every_one_gone(sweep: Path, tmp_path: Path) -> None:
+    """The files' SHA-256 removed, the metadata's own digest kept (and recomputed): not a bag of another recorder."""
+    from bag_support import resign_metadata
+
+    bag = tampered(sweep, tmp_path / 'files')
+    resign_metadata(bag, lambda info: info.__setitem__('custom_data', {}))
+    result = verify_bag(bag, allow_missing_checksums=True)
+    assert [(f.check, f.topic, f.detail) for f in result.failures] == [
+        ('bag.checksums', 'sweep_0.mcap', 'no recorded SHA-256')]
+
+
+def test_a_single_mcap_file_without_its_summary_crc_is_not_checked(sweep: Path, tmp_path: Path) -> None:
+    """A single MCAP file passes on its CRCs, all of them: the summary's set to 0 ("not computed") fails."""
+    import shutil
+    import struct
+
+    f = tmp_path / 'single.mcap'
+    shutil.copy(sweep / 'sweep_0.mcap', f)
+    data = bytearray(f.read_bytes())
+    struct.pack_into('<I', data, len(data) - 8 - 4, 0)    # the footer's summary CRC
+    f.write_bytes(bytes(data))
+    result = verify_bag(f)
+    assert [(f.check, f.detail) for f in result.failures] == [
+        ('bag.checksums', 'a single file without checksums (no metadata.yaml, not every MCAP CRC): it cannot be '
+                          'checked')]
+    assert verify_bag(f, allow_missing_checksums=True).passed
+
+
+def test_a_message_of_a_topic_no_check_reads_must_decode(sweep: Path, tmp_path: Path) -> None:
+    """Every recorded topic is decoded, also one that no check reads (a string that runs beyond its message)."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.errors import BagError
+
+    msgs = messages_of(sweep)
+    bad = [*msgs, ('/notes', msgs[-1][1] + 1, b'\x00\x01\x00\x00\xff\xff\xff\x7f')]
+    bag = write_bag(tmp_path / 'notes', bad, {**_types(msgs), '/notes': 'std_msgs/msg/String'})
+    with pytest.raises(BagError, match='^/notes: message 0 of type std_msgs/msg/String cannot be decoded: string '
+                                       'beyond the end of the message$'):
+        verify_bag(bag)
+
+
+def test_a_state_topic_of_another_type_fails_without_a_traceback(tmp_path: Path) -> None:
+    msgs = [(POSE if t == POSE else t, ts, raw) for t, ts, raw in small_sweep() if t != STATE]
+    msgs += [(STATE, ts, raw) for t, ts, raw in small_sweep() if t == POSE]
+    msgs.sort(key=lambda m: m[1])
+    result = verify_bag(write_bag(tmp_path / 'poses', msgs, {**_types(msgs), STATE: GPR_TOPICS[POSE]}))
+    assert [(f.check, f.detail) for f in result.failures] == [
+        ('bag.topic_types', "type 'geometry_msgs/msg/PoseStamped'; the node suite publishes "
+                            'gpr_interfaces/msg/PlatformState'),
+        ('state.present', 'no gpr_interfaces/msg/PlatformState messages on /gpr/platform_state: nothing to verify')]

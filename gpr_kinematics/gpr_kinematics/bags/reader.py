@@ -58,7 +58,10 @@ class TopicData:
     def columns(self) -> Columns:
         """All fields decoded into numpy columns (cached); see :func:`~gpr_kinematics.bags.cdr.decode_columns`."""
         if self._columns is None:
-            self._columns = decode_columns(self.msgtype, self.raw)
+            try:
+                self._columns = decode_columns(self.msgtype, self.raw)
+            except BagError as exc:   # which topic: several carry one type (three PoseStamped topics)
+                raise BagError(f'{self.name}: {exc}') from None
         return self._columns
 
 
