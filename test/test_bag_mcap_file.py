@@ -273,3 +273,87 @@ def test_a_fifo_is_refused_without_blocking(tmp_path: Path, messages: list) -> N
         assert name in proc.stderr and proc.stderr.count('\n') == 1
         proc = subprocess.run([sys.executable, '-c', _READ, str(path)], text=True, capture_output=True, timeout=60)
         assert proc.returncode == 1 and 'BagError' in proc.stderr and 'is a FIFO' in proc.stderr
+
+
+def _mcap(tmp_path: Path, messages: list) -> Path:
+    bag = write_bag(tmp_path / 'b', messages, _types(messages))
+    read_mcap(bag / 'b_0.mcap')
+    return bag / 'b_0.mcap'
+
+
+def _replaced(path: Path, old: bytes, new: bytes, after: int = 0) -> None:
+    """The first ``old`` from byte ``after`` on replaced by ``new`` (as long): a flip no CRC was recomputed for."""
+    data = path.read_bytes()
+    i = data.index(old, after)
+    path.write_bytes(data[:i] + new + data[i + len(old):])
+
+
+def test_a_flipped_byte_outside_the_chunks_fails_the_data_or_summary_crc(tmp_path: Path, messages: list) -> None:
+    """A single MCAP file has no SHA-256 beside it: the data section's CRC covers its metadata record (ROS_DISTRO
+    jazzy), the summary's its metadata index, which nothing else reads."""
+    import re
+    f = _mcap(tmp_path, messages)
+    data = f.read_bytes()
+    _replaced(f, b'jazzy', b'jazzz')
+    with pytest.raises(BagError, match=r'corrupt MCAP file: data section CRC mismatch \(stored 0x[0-9a-f]{8}, '
+                                       r'computed 0x[0-9a-f]{8}\)$'):
+        read_mcap(f)
+    f.write_bytes(data)
+    _replaced(f, b'\x07\x00\x00\x00rosbag2', b'\x07\x00\x00\x00rosbag3', data.index(b'\x0f\x04\x00\x00'))
+    with pytest.raises(BagError, match=re.escape('corrupt MCAP file: summary CRC mismatch (stored')):
+        read_mcap(f)
+
+
+def test_record_edits_with_their_crcs_recomputed_are_refused(tmp_path: Path, messages: list) -> None:
+    """Each edit below passed a mutant of the reader (its check dropped) with every CRC recomputed."""
+    import struct
+    f = _mcap(tmp_path, messages)
+    original = f.read_bytes()
+    start = 1_700_000_000_000_000_000
+    cases = [
+        # the chunk and its index say its messages end at 10 ms: the messages after it lie outside the chunk
+        (lambda: (_data_edited(f, 0x06, 0, 8, start + 10_000_000), _summary_edited(f, 0x08, 8, start + 10_000_000)),
+         r'record 0x06 at byte \d+: message log time 1700000000011000000 outside its chunk '
+         r'\[1700000000000000000, 1700000000010000000\]$'),
+        # the file's first record made an unknown one
+        (lambda: _data_edited(f, 0x01, 0, None, 0x80), 'first record has opcode 0x80, not the header$'),
+        # the metadata record before the chunk made a message index
+        (lambda: _data_edited(f, 0x0C, 0, None, 0x07), r'record 0x07 at byte 55: message index that does not follow '
+         r'a chunk or its message indexes \(allowed: right after its chunk\)$'),
+        # the footer's summary offsets pointing at the file's first record (the summary CRC covers them)
+        (lambda: _footer_edited(f, 8, 8), r'footer offsets \(summary at \d+, offsets at 8\) do not match the file '
+         r'\(summary at \d+\)$'),
+        # bytes after the footer, the file still ending in the magic
+        (lambda: f.write_bytes(original + b'junk' + mcap_file.MAGIC), r'footer at byte \d+ of 20 bytes, 20 bytes '
+         r'before the end \(a footer is 20 bytes followed by the end magic\)$')]
+    for edit, refusal in cases:
+        f.write_bytes(original)
+        edit()
+        with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal):
+            read_mcap(f)
+    # the statistics' per-channel counts: one moved from a channel to another, the total kept
+    f.write_bytes(original)
+    pos = struct.unpack_from('<Q', original, len(original) - 28)[0]   # the summary's first record
+    while original[pos] != 0x0B:
+        pos += 9 + struct.unpack_from('<Q', original, pos + 1)[0]
+    body = pos + 9                                                     # the statistics record's body
+    assert struct.unpack_from('<I', original, body + 42)[0] == 80   # its channel counts: (u16 id, u64 count) each
+    (c1, n1), (c2, n2) = (struct.unpack_from('<HQ', original, body + 46 + 10 * k) for k in range(2))
+    _summary_edited(f, 0x0B, 48, n1 + 1)
+    _summary_edited(f, 0x0B, 58, n2 - 1)
+    with pytest.raises(BagError, match=f'statistics record counts {n1 + 1} messages of channel {c1}, the chunks hold '
+                                       f'{n1}$'):
+        read_mcap(f)
+
+
+def _footer_edited(path: Path, field: int, value: int) -> None:
+    """Set the footer's u64 at ``field`` (0: the summary's start, 8: the summary offsets' start) and recompute the
+    summary CRC, which covers them."""
+    import struct
+    import zlib
+    data = bytearray(path.read_bytes())
+    footer = len(data) - 8 - 20
+    struct.pack_into('<Q', data, footer + field, value)
+    summary_start = struct.unpack_from('<Q', data, footer)[0]
+    struct.pack_into('<I', data, footer + 16, zlib.crc32(bytes(data[summary_start:footer + 16])))
+    path.write_bytes(bytes(data))
