@@ -95,9 +95,10 @@ def test_json_of_values_that_are_not_finite(tmp_path: Path, capsys: pytest.Captu
 
 def test_metadata_fields_of_the_wrong_type(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     for field, value, words in (('message_count', 'many', "message_count = 'many' is invalid; allowed: an integer"),
+                                ('message_count', True, 'message_count = True is invalid; allowed: an integer'),
                                 ('relative_file_paths', 'x.mcap', 'allowed: a list of file names'),
                                 ('storage_identifier', 'rosbag1', 'allowed: mcap or sqlite3')):
-        bag = tmp_path / field
+        bag = tmp_path / f'{field}_{type(value).__name__}'
         shutil.copytree(REFERENCE, bag)
         info = yaml.safe_load((bag / 'metadata.yaml').read_text())
         info['rosbag2_bagfile_information'][field] = value

@@ -323,6 +323,11 @@ def test_record_edits_with_their_crcs_recomputed_are_refused(tmp_path: Path, mes
         # the footer's summary offsets pointing at the file's first record (the summary CRC covers them)
         (lambda: _footer_edited(f, 8, 8), r'footer offsets \(summary at \d+, offsets at 8\) do not match the file '
          r'\(summary at \d+\)$'),
+        # the chunk indexes' summary offset widened back over the statistics record before them
+        (lambda: (_summary_edited(f, 0x0E, 1, _summary_start(original, 0x0B), group=0x08),
+                  _summary_edited(f, 0x0E, 9, _summary_start(original, 0x0D) - _summary_start(original, 0x0B),
+                                  group=0x08)),
+         r'summary offset of opcode 0x08 spans bytes \d+ to \d+, not whole records of that opcode'),
         # bytes after the footer, the file still ending in the magic
         (lambda: f.write_bytes(original + b'junk' + mcap_file.MAGIC), r'footer at byte \d+ of 20 bytes, 20 bytes '
          r'before the end \(a footer is 20 bytes followed by the end magic\)$')]
@@ -333,10 +338,7 @@ def test_record_edits_with_their_crcs_recomputed_are_refused(tmp_path: Path, mes
             read_mcap(f)
     # the statistics' per-channel counts: one moved from a channel to another, the total kept
     f.write_bytes(original)
-    pos = struct.unpack_from('<Q', original, len(original) - 28)[0]   # the summary's first record
-    while original[pos] != 0x0B:
-        pos += 9 + struct.unpack_from('<Q', original, pos + 1)[0]
-    body = pos + 9                                                     # the statistics record's body
+    body = _summary_start(original, 0x0B) + 9                         # the statistics record's body
     assert struct.unpack_from('<I', original, body + 42)[0] == 80   # its channel counts: (u16 id, u64 count) each
     (c1, n1), (c2, n2) = (struct.unpack_from('<HQ', original, body + 46 + 10 * k) for k in range(2))
     _summary_edited(f, 0x0B, 48, n1 + 1)
@@ -357,3 +359,12 @@ def _footer_edited(path: Path, field: int, value: int) -> None:
     summary_start = struct.unpack_from('<Q', data, footer)[0]
     struct.pack_into('<I', data, footer + 16, zlib.crc32(bytes(data[summary_start:footer + 16])))
     path.write_bytes(bytes(data))
+
+
+def _summary_start(data: bytes, opcode: int) -> int:
+    """Where the summary's first ``opcode`` record starts."""
+    import struct
+    pos = struct.unpack_from('<Q', data, len(data) - 28)[0]   # the footer's summary start
+    while data[pos] != opcode:
+        pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
+    return pos

@@ -108,3 +108,18 @@ def test_every_numeric_field_of_the_recorded_messages_is_checked_or_declared_unc
     assert set(unchecked) == {'/gpr/markers'} and 'markers[].color' in unchecked['/gpr/markers'][0]
     assert rule_of('gpr_interfaces/msg/PlatformState', 'commanded_tilt') == ('checked',
                                                                              'state.commanded, stream.program')
+
+
+def test_a_field_the_tables_do_not_place_is_named_unchecked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A field added to a message and placed in neither table is listed as not checked, saying so; a rule covers its
+    own field and those under it only (``q`` covers ``q`` and ``q[...]``/``q.x``, not ``q_extra``)."""
+    from gpr_kinematics.bags import coverage
+
+    state = 'gpr_interfaces/msg/PlatformState'
+    monkeypatch.setitem(coverage.CHECKED, state, tuple(r for r in coverage.CHECKED[state] if r[0] != 'residual'))
+    coverage.unchecked_of.cache_clear()
+    try:
+        assert coverage.unchecked_of(state) == ('residual (not placed in the tables of bags/coverage.py)',)
+    finally:
+        coverage.unchecked_of.cache_clear()
+    assert rule_of(state, 'q_extra') is None and rule_of(state, 'tilt_azimuth') == ('checked', 'state.tilt')
