@@ -119,6 +119,8 @@ def _geometry(old: str, new: str) -> Any:
 @pytest.mark.parametrize('line, samples, worst', [
     # 1.72 deg: the sweep's 2 deg samples (0.0349 rad) are beyond it
     ('tilt_limit: 0.03', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], math.radians(2.0) - 0.03),
+    # 5 nm/rad beyond it: more than the check's slack of 1e-9
+    (f'tilt_limit: {math.radians(2.0) - 5e-9!r}', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], 5e-9),
     # the stroke's lower end above the shortest rod
     ('stroke_min: 0.4999', None, 0.0027191242510815)])
 def test_a_recording_beyond_its_recorded_limits_fails_state_limits(sweep: Path, tmp_path: Path, line: str,
@@ -126,7 +128,7 @@ def test_a_recording_beyond_its_recorded_limits_fails_state_limits(sweep: Path, 
     """The recorded geometry's tilt limit lowered, or its stroke's lower end raised, beyond the recorded states
     (the record cannot be planned again then either)."""
     key = line.split(':')[0]
-    result = verify_bag(tampered(sweep, tmp_path / key, _geometry(f'^{key}: .*$', line)))
+    result = verify_bag(tampered(sweep, tmp_path / 'geometry', _geometry(f'^{key}: .*$', line)))
     assert set(_failed(result)) == {'state.limits', 'topic.program', 'stream.program'}
     limits = next(c for c in result.checks if c.name == 'state.limits')
     assert limits.worst == pytest.approx(worst, abs=1e-12)
