@@ -49,6 +49,21 @@ def write_bag(dst: Path, messages: list[tuple[str, int, bytes]], types: dict[str
     return dst
 
 
+def example_robot_bag(dst: Path) -> Path:
+    """The example robot program streamed at 10 Hz as the node streams it, written and checked to verify."""
+    from gpr_kinematics.bags.synthetic import robot_program_messages
+    from gpr_kinematics.bags.typestore import GPR_TOPICS
+    from gpr_kinematics.bags.verify import verify_bag
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.program import load_program
+
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    bag = write_bag(dst, robot_program_messages(load_robot(), program, 10.0), dict(GPR_TOPICS))
+    assert verify_bag(bag).passed
+    return bag
+
+
 def rewritten(src: Path, dst: Path, edit: Callable[[str, Any], Any], **kw: Any) -> Path:
     """A copy of ``src`` in which ``edit(topic, message)`` changed messages, written again through the writer:
     its checksums are valid, so only the content checks can find the change."""

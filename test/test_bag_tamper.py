@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from bag_support import MARKERS, small_sweep, write_bag
+from bag_support import MARKERS, example_robot_bag, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
 from gpr_kinematics.bags.results import MAX_DETAILS
 from gpr_kinematics.bags.synthetic import make_message, robot_program_messages, sweep_messages
@@ -56,11 +56,7 @@ def sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope='module')
 def robot_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    program = load_program(config_path('programs/example_robot_program.yaml'))
-    bag = write_bag(tmp_path_factory.mktemp('tamper') / 'robot', robot_program_messages(load_robot(), program, 10.0),
-                    dict(GPR_TOPICS))
-    assert verify_bag(bag).passed
-    return bag
+    return example_robot_bag(tmp_path_factory.mktemp('tamper') / 'robot')
 
 
 def test_a_rewrite_without_an_edit_passes(sweep: Path, tmp_path: Path) -> None:

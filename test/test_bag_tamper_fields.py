@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from bag_support import MARKERS, small_sweep, write_bag
+from bag_support import MARKERS, example_robot_bag, small_sweep, write_bag
 from gpr_kinematics.bags.columns import quaternion_angle
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages
@@ -256,16 +256,7 @@ REFUSED = ('robot.structure', 'robot.wafer_position', 'robot.wafer_orientation',
 
 @pytest.fixture(scope='module')
 def robot_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from gpr_kinematics.bags.synthetic import robot_program_messages
-    from gpr_kinematics.inputs.resources import config_path
-    from gpr_kinematics.robot import load_robot
-    from gpr_kinematics.robot.program import load_program
-
-    program = load_program(config_path('programs/example_robot_program.yaml'))
-    bag = write_bag(tmp_path_factory.mktemp('fields') / 'robot', robot_program_messages(load_robot(), program, 10.0),
-                    dict(GPR_TOPICS))
-    assert verify_bag(bag).passed
-    return bag
+    return example_robot_bag(tmp_path_factory.mktemp('fields') / 'robot')
 
 
 def _below_rest(k: int) -> Any:
