@@ -100,10 +100,12 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
     ratio = np.full(times.shape[0], np.nan)
     for arm in robot.arms:
         idx = np.flatnonzero((carrying == arm.name) & ~held)
-        for k in np.unique(m[idx]):
+        moves = np.unique(m[idx])
+        steps = difference_step(plan, arm.name, moves) if moves.size else moves
+        for k, step in zip(moves.tolist(), steps.tolist(), strict=True):
             sel = idx[m[idx] == k]
             line = bool(plan.waypoints.path) and plan.waypoints.path[k + 1] == 'line'
-            h = STEP if line else float(difference_step(plan, arm.name, np.array([k]))[0])
+            h = STEP if line else float(step)
             p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - h, s[sel], s[sel] + h]))
             n = sel.size
             d1 = (p[2 * n:] - p[:n]) / (2 * h)
