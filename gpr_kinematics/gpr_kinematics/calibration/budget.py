@@ -44,12 +44,10 @@ from .model import (
     pose_jacobian,
     rod_jacobian,
 )
-from .monte_carlo import monte_carlo
+from .monte_carlo import Calibrated, monte_carlo
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
-#: Calibrated parameters: their indices and the covariance of their estimates.
-Calibrated = tuple[NDArray[np.int64], Array]
 
 #: The reported quantities: name -> (components of v, unit).
 QUANTITIES: dict[str, tuple[tuple[int, ...], str]] = {
