@@ -10,11 +10,10 @@ stream was asked to do (``gpr/program``, :mod:`.program_record`).
   last one that starts at or before it), carries that sample's rods ``q`` [m], commanded tilt and commanded azimuth
   [rad], and, in a robot program, the RobotState of its stamp carries that sample's joints of every arm [rad] and
   its waypoint with the waypoint's name (``station``) and the arm in use (``arm``; a name that differs is also
-  named in ``topic.program``),
-  each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot description that disagrees with the
-  stream (an arm's default branch, home posture, redundancy rule or limits edited: the branch is in the joints of
-  every waypoint it decides) fails, and so does a recorded program, or a recorded geometry, that did not produce it,
-  or a station renamed in the record.
+  named in ``topic.program``), each within ``Tolerances.position`` / ``angle`` (1e-9). So a recorded robot
+  description that disagrees with the stream (an arm's default branch, home posture, redundancy rule or limits
+  edited: the branch is in the joints of every waypoint it decides) fails, and so does a recorded program, or a
+  recorded geometry, that did not produce it, or a station renamed in the record.
 
 A recording without a record (of a node before it was published) skips both; its commanded tilts are still checked
 against the states (``state.commanded``, :mod:`.checks_state`). The records are read once (:func:`read_records`) for
@@ -117,13 +116,13 @@ def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> N
     return out
 
 
-def loop_problems(records: list[Record], samples: NDArray[np.int64]) -> list[Problem]:
+def loop_problems(records: list[Record], samples: NDArray[np.int64], owner: NDArray[np.int64]) -> list[Problem]:
     """What the recording shows against each record's ``loop``: only the node's start-up stream loops, and it starts
     at sample 0 (a ``gpr/run_program`` goal's stream never loops) and runs until the node stops, so no stream follows
     it; a stream that does not loop ends after its samples, so no sample counter it covers (before the next record's
-    first sample) lies past them. ``records`` as :func:`read_records` gives them."""
+    first sample) lies past them. ``records`` as :func:`read_records` gives them, ``owner`` the record of each sample
+    (:func:`owners`)."""
     problems: list[Problem] = []
-    owner = owners(records, samples)
     for k, r in enumerate(records):
         what = f'the {r.kind} from sample {r.first_sample} says loop = '
         if r.loop and r.first_sample != 0:
@@ -200,8 +199,8 @@ def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: Gpr
     records, problems = recorded[0], list(recorded[1])
     errors = np.full(len(samples), np.inf)
     if records:
-        problems += loop_problems(records, samples)
         owner = owners(records, samples)
+        problems += loop_problems(records, samples, owner)
         q, ct, ca = matrix(c['q'], 3), np.asarray(c['commanded_tilt'], float), np.asarray(c['commanded_azimuth'], float)
         for k, record in enumerate(records):
             rows = np.flatnonzero(owner == k)
