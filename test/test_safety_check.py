@@ -586,7 +586,11 @@ def test_a_slow_move_leaves_the_fast_ones_their_slip_instants(tmp_path):
         plan = plan_program(robot, parse_program({**program, 'steps': steps}, str(tmp_path / 'p.yaml'), tmp_path))
         report = check_program(plan, None)[0]
         ratios.append((report.max_slip_evaluated, report.max_slip_ratio))
-        assert not report.safe and report.max_slip_at == pytest.approx(4.3248, abs=5e-3)
+        # the swings to B and back are mirror images: their peaks (1.9742 s and 4.3248 s) tie to the rounding, which
+        # the CPU's decides (AVX-512 machines reported the second, an AVX2 EPYC the first)
+        assert not report.safe and min(abs(report.max_slip_at - 1.9742), abs(report.max_slip_at - 4.3248)) < 5e-3
+        swing = {m.label: m.max_slip_ratio for m in report.moves}
+        assert swing['steps[1] (move B, move)'] == pytest.approx(swing['steps[2] (move A, move)'], abs=1e-6)
     assert ratios[0][0] == pytest.approx(1.00019, abs=2e-5) and ratios[1][0] == pytest.approx(ratios[0][0], abs=1e-5)
     assert ratios[0][1] == pytest.approx(1.00119, abs=2e-5) and ratios[1][1] == pytest.approx(ratios[0][1], abs=1e-5)
 
