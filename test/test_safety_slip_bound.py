@@ -263,17 +263,19 @@ def test_a_slow_move_is_safe(tmp_path):
     assert d['max_slip_ratio'] == pytest.approx(0.4162, abs=1e-4)
 
 
-def _fitted_ratio(plan, arm, times):
+def _fitted_ratio(plan, arm, times, half=1.0):
     """The slip ratio at ``times`` (in one joint-space move) from a Chebyshev fit of degree 6 to the wafer's exact path
-    at 401 points of ``s`` in [-0.5, 1.5] (a fit within 1e-14 m of them): derivatives without the differences'
-    rounding."""
+    at 401 points of ``s`` in [0.5 - half, 0.5 + half] (a fit within 1e-14 m of them): derivatives without the
+    differences' rounding."""
     _, _, m, tau = locate(plan.timing, times)
     s, ds, dds = evaluate(plan.timing.profiles, m, tau)
-    grid = np.linspace(-0.5, 1.5, 401)
+    grid = np.linspace(0.5 - half, 0.5 + half, 401)
     path = wafer_path(plan, arm, int(m[0]), grid)
-    c = np.polynomial.chebyshev.chebfit(grid, path, 6)
-    assert np.all(m == m[0]) and np.max(np.abs(np.polynomial.chebyshev.chebval(grid, c).T - path)) < 1e-14
-    d1, d2 = (np.polynomial.chebyshev.chebval(s, np.polynomial.chebyshev.chebder(c, k)).T for k in (1, 2))
+    x = (grid - 0.5) / half
+    c = np.polynomial.chebyshev.chebfit(x, path, 6)
+    assert np.all(m == m[0]) and np.max(np.abs(np.polynomial.chebyshev.chebval(x, c).T - path)) < 1e-14
+    d1, d2 = (np.polynomial.chebyshev.chebval((s - 0.5) / half, np.polynomial.chebyshev.chebder(c, k)).T / half ** k
+              for k in (1, 2))
     return _ratio(plan, arm, times, d1 * dds[:, None] + d2 * (ds ** 2)[:, None])
 
 
@@ -353,19 +355,42 @@ def test_a_jog_of_a_micrometre_is_not_refused(tmp_path, distance, axis, true):
     """A joint-space move of 1 um (or 10 um) of the blade, a trapezoid of 2.2-8.2 ms, carrying a wafer: the central
     differences over ``STEP = 1e-4`` rounded 1e-14 m into 4e-6 m of the path's second derivative, times ``s'^2`` up
     to 6e5 /s^2, and the bound read 1.305 (2.300 in the plane) for the true 0.093 (0.372): the program was refused.
-    Over the move's step (1 here) the ratio agrees with a polynomial fit of the exact path to 1e-9, and its bound is
-    at most 1.2e-5 above the largest of 20,000 instants (within SLIP_TOLERANCE asserted; 0.185 and 0.503 for 10 um
-    before)."""
+    Over the move's step (``STEP / c``: 10 to 400, the joints +-1e-4 about the move) the ratio agrees with a
+    polynomial fit of the exact path to 1e-9, and its bound is at most 1.2e-5 above the largest of 20,000 instants
+    (within SLIP_TOLERANCE asserted; 0.185 and 0.503 for 10 um before)."""
     plan = _jog(tmp_path, distance, axis)
     report = check_program(plan, None)[0]
     assert report.safe and report.slip_certified
     t = plan.timing
     dense = np.linspace(t.depart[-2], t.arrive[-1], 20_001)[1:-1]
     found = slip_series(plan, dense, np.full(dense.shape, 'arm2', dtype=object)).ratio
-    assert float(difference_step(plan, 'arm2', np.array([len(t.depart) - 2]))[0]) == 1.0
+    c = float(np.max(np.abs(plan.positions[-1] - plan.positions[-2])))
+    assert float(difference_step(plan, 'arm2', np.array([len(t.depart) - 2]))[0]) == pytest.approx(STEP / c)
     assert float(np.max(np.abs(found - _fitted_ratio(plan, 'arm2', dense)))) < 1e-9
     move = report.moves[-1]
     assert move.label == 'steps[1] (move B, move)' and float(np.max(found)) == pytest.approx(true, abs=2e-7)
+    assert float(np.max(found)) <= move.max_slip_ratio <= float(np.max(found)) + SLIP_TOLERANCE
+
+
+@pytest.mark.parametrize('distance, axis', [(1e-12, 0), (1e-14, 0), (1e-15, 0), (1e-15, 2)])
+def test_a_jog_below_the_rounding_is_not_refused(tmp_path, distance, axis):
+    """Jogs of 1e-12 to 1e-15 m (the joints' change ``c`` of 2.5e-12 to 1.1e-15, rounding included): with the
+    differences' step at most 1 in ``s`` the rounding of 1e-14 m swamped the path (the 1e-14 m jog read 3.11 for
+    0.369, the 1e-15 m jogs an infinite bound: refused). The step ``STEP / c`` takes the differences' points beyond
+    the move's ends on the joints' line: the ratio agrees within 1e-8 with a fit of the exact path over joints
+    +-1e-3 about the move (independent of the step), and the bound is at least the largest of 20,000 instants and
+    within SLIP_TOLERANCE of it."""
+    plan = _jog(tmp_path, distance, axis)
+    report = check_program(plan, None)[0]
+    assert report.safe and report.slip_certified
+    t, P = plan.timing, plan.positions
+    c = float(np.max(np.abs(P[-1] - P[-2])))
+    assert 1e-16 < c < 3e-12
+    dense = np.linspace(t.depart[-2], t.arrive[-1], 20_001)[1:-1]
+    found = slip_series(plan, dense, np.full(dense.shape, 'arm2', dtype=object)).ratio
+    assert float(difference_step(plan, 'arm2', np.array([len(t.depart) - 2]))[0]) == pytest.approx(STEP / c)
+    assert float(np.max(np.abs(found - _fitted_ratio(plan, 'arm2', dense, half=1e-3 / c)))) < 1e-8
+    move = report.moves[-1]
     assert float(np.max(found)) <= move.max_slip_ratio <= float(np.max(found)) + SLIP_TOLERANCE
 
 

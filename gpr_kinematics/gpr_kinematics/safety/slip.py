@@ -36,6 +36,10 @@ GRAVITY = 9.80665
 #: Step in ``s`` of the central differences of the wafer's path; on a joint-space move whose joints change by less than
 #: 1 (rad or m) the step is ``STEP`` over that change, at most 1 (:func:`difference_step`).
 STEP = 1e-4
+#: The least joint change [m or rad] :func:`difference_step` divides by: below it (a move of no length as doubles go
+#: near joints of order 1 changes by at least 1e-17) the step stays at ``STEP / LEAST_CHANGE`` and its products with
+#: the joints' change and the bound's terms stay finite.
+LEAST_CHANGE = 1e-30
 #: The closure's tolerance [m] the slip check solves the forward kinematics to (the package's default): its second
 #: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
 #: 1e-6 m is allowed; 3.7e-7 m of position error then) is tightened to it here.
@@ -65,7 +69,8 @@ class SlipSeries:
 def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
     """Wafer positions ``(len(s), 3)`` of ``arm`` at profile values ``s`` of move ``m`` (or of its hold, ``s = 1``)."""
     robot = plan.robot
-    rows = move_rows(robot, plan.waypoints, plan.positions, m, np.clip(s, -1.0, 2.0), plan.labels[m + 1])
+    line = bool(plan.waypoints.path) and plan.waypoints.path[m + 1] == 'line'
+    rows = move_rows(robot, plan.waypoints, plan.positions, m, np.clip(s, -1.0, 2.0) if line else s, plan.labels[m + 1])
     _, _, _, slices = joint_limits(robot)
     cols = slices[robot.arm_names.index(arm)]
     return robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.position
@@ -73,15 +78,17 @@ def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
 
 def difference_step(plan: ProgramPlan, arm: str, m: NDArray[np.int64]) -> Array:
     """The step in ``s`` of the central differences of ``arm``'s wafer path on the joint-space moves ``m``:
-    ``STEP / c``, ``c`` the move's largest change of a rod [m] or of the arm's joints [rad] taken within [STEP, 1], so
-    the joints move by ``STEP`` between the differences' points on a move shorter than 1 (by ``c STEP`` beyond it, as
-    the example's swings). The rounding's share ``4 POSITION_ERROR / h^2`` then shrinks with ``c^2``, as the path's
-    second derivative does: over a fixed ``STEP`` a 1 um move's bound read 1.31 for its ratio of 0.09."""
+    ``STEP / c``, ``c`` the move's largest change of a rod [m] or of the arm's joints [rad] taken within
+    [:data:`LEAST_CHANGE`, 1], so the joints move by ``STEP`` between the differences' points on a move shorter than
+    1 (by ``c STEP`` beyond it, as the example's swings), the points beyond the move's ends on the joints' line when
+    ``c < STEP``. The rounding's share ``4 POSITION_ERROR / h^2`` then shrinks with ``c^2``, as the path's second
+    derivative does: over a fixed ``STEP`` a 1 um move's bound read 1.31 for its ratio of 0.09, and with the step
+    at most 1 a jog of 1e-14 m read 3.1 for 0.37."""
     robot = plan.robot
     _, _, _, slices = joint_limits(robot)
     cols = np.r_[0:3, slices[robot.arm_names.index(arm)]]
     D = np.abs(plan.positions[m + 1][:, cols] - plan.positions[m][:, cols])
-    return np.asarray(STEP / np.clip(np.max(D, axis=1, initial=0.0), STEP, 1.0), dtype=np.float64)
+    return np.asarray(STEP / np.clip(np.max(D, axis=1, initial=0.0), LEAST_CHANGE, 1.0), dtype=np.float64)
 
 
 def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
