@@ -258,6 +258,12 @@ def test_demo_prints_before_and_after():
     assert re.search(r'^calibrated geometry: written to a temporary calibrated\.yaml and read back \(model compliant, '
                      r'kappa 3\.009, 3\.189, 3\.161\), not kept: gpr calibrate MEASUREMENTS --output FILE writes one '
                      r'for --config$', res.stdout, re.M)
+    # docs/calibration.md's excerpt of this output (its "Demonstration") is the output (it had kappa1 3.009280599
+    # and a Gauss-Newton step of 1.9e-05 standard errors left where the demo prints 3.00928847858 and 1.5e-05)
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'calibration.md').read_text(encoding='utf-8')
+    section = doc[doc.index('## Demonstration'):doc.index('## A worked calibration of a cell')]
+    excerpt = section[section.index('```text\n') + 8:]
+    _assert_quoted_output(excerpt[:excerpt.index('```')].splitlines(), res.stdout)
 
 
 def test_corrupted_measurement_files_never_crash(capsys, tmp_path):
