@@ -74,6 +74,13 @@ def test_mobility_and_sweep_json(capsys, tmp_path):
 def test_human_readable_output(capsys):
     status, out, _ = run(capsys, 'sweep')
     assert status == 0 and 'max centre shift' in out and '756 samples' in out
+    # README.md's sample output is this output; the residuals' last digits are rounding (any below 1e-14 m)
+    readme = (Path(__file__).resolve().parents[1] / 'README.md').read_text(encoding='utf-8').splitlines()
+    k = next(i for i, ln in enumerate(readme) if ln.startswith('$ gpr sweep '))
+    quoted = readme[k + 1:readme.index('```', k)]
+    residuals = re.compile(r'residual +(\S+) m, rigid fit (\S+) m')
+    assert all(float(v) < 1e-14 for v in residuals.search(out).groups())
+    assert [residuals.sub('R', ln) for ln in quoted] == [residuals.sub('R', ln) for ln in out.splitlines()]
     status, out, _ = run(capsys, 'fk', '0.3', '0.3', '0.3')
     assert status == 0 and 'tilt          0 rad' in out
 

@@ -68,6 +68,18 @@ def test_the_cell_example_is_safe(tmp_path):
     assert len({tuple(p['bodies']) for p in d['pairs']}) == len(d['pairs'])
     assert {'wafer@load_port_1:start', 'wafer@load_port_1:steps[14]'} <= names
     assert (tmp_path / 'check.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and d['plot_file'].endswith('.png')
+    # what docs/cell.md's sample output and README.md say of this check are its numbers
+    root = Path(__file__).resolve().parents[1]
+    doc = ' '.join((root / 'docs' / 'cell.md').read_text(encoding='utf-8').split())
+    m = re.search(r'program \.\.\. (\d+) stations, (\d+) steps, (\d+) waypoints, ([\d.]+) s; .*? minimum ([\d.]+) mm '
+                  r'\(margin 2 mm, certified between samples; (\d+) distance calls\); max slip ratio ([\d.]+) \(a bound '
+                  r'over the motion; ([\d.]+) evaluated at ([\d.]+) s, (steps\[\d+\] \([^)]*\))\)', doc)
+    assert m, 'docs/cell.md: the sample output of gpr program check'
+    assert m.groups() == (str(d['stations']), str(d['steps']), str(d['waypoints']), f"{d['duration']:.3f}",
+                          f"{d['min_clearance'] * 1e3:.3f}", str(d['evaluations']), f"{d['max_slip_ratio']:.3f}",
+                          f"{d['max_slip_evaluated']:.3f}", f"{d['max_slip_at']:.3f}", d['slip_label'])
+    readme = ' '.join((root / 'README.md').read_text(encoding='utf-8').split())
+    assert f"The example cell program checks safe with {d['min_clearance'] * 1e3:.2f} mm of clearance" in readme
     # the same program with a margin above its clearance: unsafe, a table names the first collision
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
