@@ -318,6 +318,26 @@ def test_every_command_takes_the_calibrated_file(capsys, tmp_path):
             np.testing.assert_allclose(d['wafer']['position'], [1.3, 0.6, 0.45], rtol=0, atol=1e-12)
 
 
+
+def test_the_readmes_python_example_runs_as_written(capsys, tmp_path, monkeypatch):
+    """README.md's "From Python" block, run as written in a folder holding the calibrated.yaml it loads (`gpr
+    calibrate`'s output): it named an array ``Q`` it never made (NameError). Its last forward kinematics is the
+    calibrated machine's, as `gpr fk --config` gives it."""
+    readme = (Path(__file__).resolve().parents[1] / 'README.md').read_text(encoding='utf-8')
+    block = readme[readme.index('```python\n', readme.index('## From Python')) + 10:]
+    block = block[:block.index('```')]
+    monkeypatch.chdir(tmp_path)
+    status, _, err = run(capsys, 'calibrate', SHIPPED, '--output', 'calibrated.yaml')
+    assert status == 0, err
+    names: dict[str, object] = {}
+    exec(compile(block, 'README.md', 'exec'), names)
+    capsys.readouterr()
+    assert names['batch'].position.shape == (2, 3)
+    np.testing.assert_array_equal(names['fk'].position, forward([0.5, 0.503, 0.498], load_config('calibrated.yaml'))
+                                  .position)
+    assert names['fk'].model == 'compliant' and names['real'].model == 'compliant'
+
+
 #: A number as the calibration's text prints it (not a digit inside a name such as rod1_y).
 _NUMBER = r'[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?'
 

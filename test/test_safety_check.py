@@ -72,8 +72,8 @@ def test_the_cell_example_is_safe(tmp_path):
     root = Path(__file__).resolve().parents[1]
     doc = ' '.join((root / 'docs' / 'cell.md').read_text(encoding='utf-8').split())
     m = re.search(r'program \.\.\. (\d+) stations, (\d+) steps, (\d+) waypoints, ([\d.]+) s; .*? minimum ([\d.]+) mm '
-                  r'\(margin 2 mm, certified between samples; (\d+) distance calls\); max slip ratio ([\d.]+) \(a bound '
-                  r'over the motion; ([\d.]+) evaluated at ([\d.]+) s, (steps\[\d+\] \([^)]*\))\)', doc)
+                  r'\(margin 2 mm, certified between samples; (\d+) distance calls\); max slip ratio ([\d.]+) '
+                  r'\(a bound over the motion; ([\d.]+) evaluated at ([\d.]+) s, (steps\[\d+\] \([^)]*\))\)', doc)
     assert m, 'docs/cell.md: the sample output of gpr program check'
     assert m.groups() == (str(d['stations']), str(d['steps']), str(d['waypoints']), f"{d['duration']:.3f}",
                           f"{d['min_clearance'] * 1e3:.3f}", str(d['evaluations']), f"{d['max_slip_ratio']:.3f}",
