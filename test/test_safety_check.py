@@ -318,11 +318,12 @@ def test_the_progress_line_waits_then_writes_each_stage_and_its_end():
     import io
 
     from gpr_kinematics.cli.progress import ProgressLine
-    times = iter([0.0, 1.0, 2.5, 3.0, 9.0, 9.5, 9.6, 9.7])
+    times = iter([0.0, 1.0, 2.5, 3.0, 9.0, 9.5, 9.6, 9.65, 9.7])
     out = io.StringIO()
     line = ProgressLine(out, after=2.0, every=5.0, clock=lambda: next(times))
+    # the end told twice (the clearance search does) is written once: it printed 'clearance: 100.0 % (3.1 s)' twice
     for stage, share in [('clearance', 0.1), ('clearance', 0.2), ('clearance', 0.3), ('clearance', 0.9),
-                         ('clearance', 0.95), ('clearance', 1.0), ('slip', 0.0)]:
+                         ('clearance', 0.95), ('clearance', 1.0), ('clearance', 1.0), ('slip', 0.0)]:
         line(stage, share)
     line.close()
     assert out.getvalue().splitlines() == ['clearance:  20.0 % (2.5 s)', 'clearance:  90.0 % (9.0 s)',

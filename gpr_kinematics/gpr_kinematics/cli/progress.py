@@ -37,6 +37,7 @@ class ProgressLine:
             self.live, self.stream = False, None
         self.shown = False
         self._last_stage = ''
+        self._ended = False
         self._last_write = -float('inf')
 
     def __call__(self, stage: str, share: float) -> None:
@@ -46,8 +47,9 @@ class ProgressLine:
             return
         new_stage = stage != self._last_stage
         self._last_stage = stage
-        if not self.live and not new_stage and share < 1.0 and now - self._last_write < self.every:
-            return
+        if not self.live and not new_stage and (self._ended or share < 1.0 and now - self._last_write < self.every):
+            return   # the stage's end is written once (the search tells it again as it closes)
+        self._ended = share >= 1.0
         text = f'{stage}: {100.0 * min(max(share, 0.0), 1.0):5.1f} % ({elapsed:.1f} s)'
         try:
             self.stream.write(f'\r{text:<60}' if self.live else f'{text}\n')
