@@ -13,11 +13,13 @@ from gpr_kinematics.robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
     INVALID_GOAL,
     INVALID_JOINTS,
+    OLD_HEADER_TIMESTAMP,
     PATH_TOLERANCE_VIOLATED,
     ControllerJoints,
     GoalError,
     Tolerances,
     joint_state_values,
+    late_start,
     plan_motion,
     resolve_tolerances,
     servo,
@@ -266,3 +268,52 @@ def test_a_joint_named_twice_is_found_in_one_pass():
     names = ['rod_1'] + [f'j{i}' for i in range(200_000)] * 2 + ['rod_1']   # other names may repeat: not ours
     with pytest.raises(InputError, match="'rod_1' named twice"):
         joint_state_values(JOINTS, names, [0.0] * len(names))
+
+
+def _late_case(velocities: bool) -> tuple[JointTrajectory, np.ndarray]:
+    """A three-point trajectory of arm1_elbow and rod_2 from where the robot rests (first point at t = 0), with
+    velocities (cubic) or without (linear); the robot's rest state."""
+    cols = JOINTS.indices(['arm1_elbow', 'rod_2'])
+    rest = JOINTS.rest.copy()
+    P = np.array([rest[cols], rest[cols] + [-0.4, 0.002], rest[cols] + [-0.8, 0.001]])
+    V = np.array([[0.0, 0.0], [-0.3, 0.0005], [0.0, 0.0]]) if velocities else None
+    return JointTrajectory(('arm1_elbow', 'rod_2'), np.array([0.0, 1.0, 2.5]), P, V), rest
+
+
+@pytest.mark.parametrize('velocities', [False, True])
+def test_a_stamp_in_the_past_continues_the_trajectory_under_way(velocities):
+    """joint_trajectory_controller's rule for a header.stamp in the past: refused only when the trajectory ended before
+    the goal arrived. Under way, the rest of it from the arrival is the same motion: the new trajectory at s equals the
+    goal's at s + late (the spline evaluated independently at both); it was refused OLD_HEADER_TIMESTAMP whenever the
+    stamp lay more than one sample period in the past (a goal stamped by its client and 86 ms in transit)."""
+    traj, rest = _late_case(velocities)
+    cols = JOINTS.indices(traj.joint_names)
+    for late in (0.3, 1.0, 1.7):
+        cut = late_start(JOINTS, traj, rest, late, start_tolerance=1.0)
+        assert cut.time[0] == 0.0 and cut.degree == traj.degree
+        np.testing.assert_allclose(cut.time[1:] + late, traj.time[traj.time > late], rtol=0, atol=1e-15)
+        s = np.linspace(0.0, traj.duration - late, 101)
+        new, old = evaluate(cut, rest[cols], s), evaluate(traj, rest[cols], s + late)
+        for a, b in zip(new[:2], old[:2], strict=True):      # positions and velocities
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+        motion = plan_motion(JOINTS, cut, rest, RATE, CFG, DEFAULTS, 1.0)   # and it is a valid goal from there
+        np.testing.assert_allclose(motion.positions[-1, cols], traj.positions[-1], rtol=0, atol=1e-15)
+    # the state at the arrival farther from where the joints are than start_tolerance: refused, naming the joint
+    with pytest.raises(GoalError, match=r'header.stamp lies 0.3 s in the past: at its arrival the trajectory puts '
+                       r'arm1_elbow 0.12 rad from where it is .*start_tolerance') as e:
+        late_start(JOINTS, _late_case(False)[0], rest, 0.3, start_tolerance=1e-3)
+    assert e.value.code == INVALID_GOAL
+
+
+def test_a_stamp_in_the_past_keeps_a_first_point_ahead_at_its_instant_and_refuses_an_ended_trajectory():
+    traj, rest = _late_case(False)
+    later = traj.shifted(1.0)                  # the first point 1 s after the stamp
+    cut = late_start(JOINTS, later, rest, 0.25, start_tolerance=0.0)
+    np.testing.assert_array_equal(cut.positions, later.positions)
+    np.testing.assert_allclose(cut.time, later.time - 0.25, rtol=0, atol=0)
+    assert late_start(JOINTS, later, rest, 0.0, 0.0) is later
+    for late in (3.5, 10.0):                   # ended (at 3.5 s) before it arrived
+        with pytest.raises(GoalError, match=rf'header.stamp lies {late:g} s in the past: the trajectory \(3.5 s\) '
+                           'ended before it arrived; allowed: 0') as e:
+            late_start(JOINTS, later, rest, late, 0.0)
+        assert e.value.code == OLD_HEADER_TIMESTAMP

@@ -197,6 +197,28 @@ def test_an_old_header_stamp(sim):
     assert result.error_code == -3 and 'in the past' in result.error_string
 
 
+def test_a_stamp_in_the_past_whose_trajectory_has_not_ended_runs_with_its_points_at_their_instants(sim):
+    """As joint_trajectory_controller: a goal stamped by its client and late on arrival (here 0.4 s, as a goal of
+    5,000 points is in transit) runs; each point is reached at header.stamp + its time_from_start. It was refused
+    OLD_HEADER_TIMESTAMP whenever the stamp lay more than one sample period in the past."""
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    here = _held(c, states, 'arm1_elbow')
+    targets = [here - 0.2, here - 0.3]
+    goal = _goal(['arm1_elbow'], [1.0, 1.5], [[targets[0]], [targets[1]]])
+    stamp = c.node.get_clock().now().nanoseconds - 400_000_000
+    goal.trajectory.header.stamp.sec, goal.trajectory.header.stamp.nanosec = divmod(stamp, NS_PER_S)
+    n = len(states)
+    result, status = _run(c, cli, goal)
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
+    k = JOINTS.names.index('arm1_elbow')
+    assert c.spin_until(lambda: any(abs(_stamp(m) - (stamp + 1_500_000_000)) <= 1000 for m in states[n:]), 10)
+    for t, target in zip((1.0, 1.5), targets, strict=True):   # the samples at the points' instants (to 1 us)
+        (msg,) = [m for m in states[n:] if abs(_stamp(m) - (stamp + round(t * NS_PER_S))) <= 1000]
+        assert msg.position[k] == pytest.approx(target, abs=1e-12)
+
+
 def test_cancel_holds_the_joints_where_they_are(sim):
     from action_msgs.msg import GoalStatus
 

@@ -19,7 +19,9 @@ every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last po
 that passes the checks preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does; one
 whose cancel was accepted ends cancelled) and starts from where the joints are; a refused one leaves the running goal
 as it was. A ``header.stamp`` of 0 starts
-at once, a later one then; one whose trajectory ends in the past is ``OLD_HEADER_TIMESTAMP``.
+at once, a later one then; one in the past as joint_trajectory_controller takes it
+(:func:`~gpr_kinematics.robot.controller.late_start`: the points keep their instants, a trajectory that ended before
+it arrived is ``OLD_HEADER_TIMESTAMP``).
 
 While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
 goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
@@ -55,7 +57,6 @@ from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
     INVALID_GOAL,
-    OLD_HEADER_TIMESTAMP,
     PATH_TOLERANCE_VIOLATED,
     SUCCESSFUL,
     ControllerJoints,
@@ -63,6 +64,7 @@ from ..robot.controller import (
     Motion,
     Tolerances,
     joint_state_values,
+    late_start,
     plan_motion,
     resolve_tolerances,
     servo,
@@ -230,16 +232,24 @@ class RobotSimulatorNode(GprNode):
         now = self.get_clock().now().nanoseconds
         stamp = req.trajectory.header.stamp.sec * NS_PER_S + req.trajectory.header.stamp.nanosec
         start = now if stamp == 0 else stamp
-        if stamp and stamp < now - round(self.period * NS_PER_S):
-            late = (now - stamp) / NS_PER_S
-            ends = 'ends' if late > traj.duration else 'started'
-            raise GoalError(OLD_HEADER_TIMESTAMP, f'header.stamp lies {late:.6g} s in the past: the trajectory {ends} '
-                            'before it arrived; allowed: 0 (start at once) or a time not in the past')
         if stamp and stamp > now + round(MAX_DURATION * NS_PER_S):
             raise GoalError(INVALID_GOAL, f'header.stamp lies {(stamp - now) / NS_PER_S:.6g} s ahead; allowed: at '
                             f'most {MAX_DURATION:g} s')
-        return plan_motion(self.joints, traj, self.actual, float(self.p['rate']), self.cfg, tol,
-                           float(self.p['start_tolerance']), self.clearance), start
+        late = (now - stamp) / NS_PER_S if stamp and stamp < now - round(self.period * NS_PER_S) else 0.0
+        if late:   # as joint_trajectory_controller: refused only when it ended before it arrived
+            # from the next sample on the stamp's grid (stamp + k / rate), where an on-time goal's samples lie
+            k = math.ceil(late / self.period - 1e-9)
+            late = k * self.period if k * self.period < traj.duration else late
+            traj = late_start(self.joints, traj, self.actual, late, float(self.p['start_tolerance']))
+            start = stamp + round(late * NS_PER_S)
+        try:
+            return plan_motion(self.joints, traj, self.actual, float(self.p['rate']), self.cfg, tol,
+                               float(self.p['start_tolerance']), self.clearance), start
+        except GoalError as exc:
+            if not late:
+                raise
+            raise GoalError(exc.code, f'{exc} (times from the goal\'s arrival, {late:.6g} s after its header.stamp)'
+                            ) from None
 
     async def _execute(self, goal: ServerGoalHandle) -> Any:
         result = FollowJointTrajectory.Result()

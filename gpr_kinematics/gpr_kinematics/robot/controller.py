@@ -8,6 +8,7 @@
   equal rods at mid-stroke, a level platform, and each arm at its ``home``);
 - :func:`trajectory_from_points`: a goal's points (as the message carries them, one list per point) into a
   :class:`~gpr_kinematics.robot.trajectory.JointTrajectory`, every size bounded before the work it bounds;
+- :func:`late_start`: a goal whose ``header.stamp`` lies in the past, as joint_trajectory_controller takes it;
 - :func:`plan_motion`: the checks before moving and the motion sampled at the controller's rate. A goal is refused
   with a :class:`GoalError` carrying the standard error code and a message that names the joint, the point, the value
   and what is allowed: joint names unknown or repeated (``INVALID_JOINTS``); no points, positions of the wrong length,
@@ -354,6 +355,40 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         if refusal:
             raise GoalError(INVALID_GOAL, refusal)
     return motion
+
+
+def late_start(joints: ControllerJoints, traj: JointTrajectory, current: Array, late: float,
+               start_tolerance: float) -> JointTrajectory:
+    """``traj`` with its times from the goal's arrival, ``late`` [s] after the instant its ``header.stamp`` names, as
+    joint_trajectory_controller takes a stamp in the past: a trajectory that ended before it arrived is refused
+    (``OLD_HEADER_TIMESTAMP``); one whose first point is still ahead keeps every point at its instant (the joints reach
+    the first from ``current`` in the time left); one under way goes on from its state at the arrival (the spline
+    evaluated at ``late``, then the same polynomials: a segment's positions, velocities and accelerations at ``late``
+    determine the rest of it), which must lie within ``start_tolerance`` of where the joints are (``INVALID_GOAL``)."""
+    if late <= 0.0:
+        return traj
+    if late >= traj.duration:
+        raise GoalError(OLD_HEADER_TIMESTAMP, f'header.stamp lies {late:.6g} s in the past: the trajectory '
+                        f'({traj.duration:.6g} s) ended before it arrived; allowed: 0 (start at once) or a stamp whose '
+                        'trajectory ends after it arrives')
+    if traj.time[0] > late:
+        return traj.shifted(-late)
+    cols = joints.indices(traj.joint_names)
+    start = np.asarray(current, dtype=float)[cols]
+    p, v, a = (x[0] for x in evaluate(traj, start, np.array([late])))
+    off = np.abs(p - start)
+    k = int(np.argmax(off))
+    if off[k] > start_tolerance:
+        unit = joints.units[cols[k]]
+        raise GoalError(INVALID_GOAL, f'header.stamp lies {late:.6g} s in the past: at its arrival the trajectory '
+                        f'puts {traj.joint_names[k]} {off[k]:.6g} {unit} from where it is ({start[k]:.9g} {unit}); '
+                        f'allowed: at most {start_tolerance:g} (start_tolerance), a stamp of 0 (start at once) or one '
+                        'whose first point lies ahead')
+    after = traj.time > late
+    return JointTrajectory(traj.joint_names, np.concatenate([[0.0], traj.time[after] - late]),
+                           np.vstack([p, traj.positions[after]]),
+                           None if traj.velocities is None else np.vstack([v, traj.velocities[after]]),
+                           None if traj.accelerations is None else np.vstack([a, traj.accelerations[after]]))
 
 
 def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
