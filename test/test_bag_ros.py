@@ -371,6 +371,37 @@ def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_p
         replay.stop()
 
 
+@pytest.mark.parametrize('recorded_in', ['', '/r1'])
+def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path, recorded_in: str) -> None:
+    """replay.launch.py's namespace (``-r __ns:=/r2``) is where its state publisher and RViz read: the suite's topics
+    of a bag recorded at the root or in another namespace are published in the replay's namespace, another node's
+    topic as recorded. Before, a replay in /r2 published /gpr/... and /joint_states at their recorded names and the
+    nodes beside it received nothing."""
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import String
+
+    bag = tmp_path / 'ns'
+    joints, chatter = f'{recorded_in}/joint_states', '/chatter'
+    with SegmentedBagWriter(bag, {joints: 'sensor_msgs/msg/JointState', chatter: 'std_msgs/msg/String'},
+                            fsync=False) as w:
+        w.write(joints, time.time_ns(), serialize_message(JointState(name=['rod_1'], position=[0.3])))
+        w.write(chatter, time.time_ns(), serialize_message(String(data='hi')))
+    replay = start('replay_node', '-r', '__ns:=/r2', bag=bag, loop=True)
+    try:
+        with GprClient('gpr_test_replay_ns') as c:
+            there, kept = c.subscribe(JointState, '/r2/joint_states'), c.subscribe(String, chatter)
+            wait_for_log(replay, r'started: publishing')
+            assert c.spin_until(lambda: there and kept, 20), replay.output()
+            assert list(there[0].position) == [0.3] and kept[0].data == 'hi'
+            names = dict(c.node.get_topic_names_and_types())
+            assert '/joint_states' not in names and '/r1/joint_states' not in names
+    finally:
+        replay.stop()
+
+
 @pytest.mark.parametrize('recorder_first', [True, False], ids=['recorder-first', 'recorder-later'])
 def test_latched_geometry_is_recorded(tmp_path: Path, recorder_first: bool) -> None:
     """gpr/geometry is published once, transient local: a recorder started before the trajectory node and one

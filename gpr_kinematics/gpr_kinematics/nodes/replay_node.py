@@ -12,6 +12,10 @@ with the original spacing divided by ``rate``. Parameters (read-only):
   (default 0), at most ``wait_timeout`` seconds;
 - ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
 
+The node suite's topics (``gpr/platform_state``, ``joint_states``, ...: ``bags.typestore.KNOWN_TOPICS``) are
+published in the node's namespace, whatever namespace they were recorded in (``-r __ns:=/r1``, the launch file's
+``namespace``: where the state publisher and RViz of that namespace read them); other topics as recorded.
+
 Latched topics (:func:`~gpr_kinematics.nodes.qos.is_latched`, e.g. ``gpr/geometry``) are published transient
 local, so a subscriber that starts during the replay still gets them, every one of them in the bag (several
 robots' ``/tf_static``; at most ``queue_depth``). Exits 0 at the end of the bag (after the
@@ -30,6 +34,7 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
+from ..bags.typestore import KNOWN_TOPICS
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
@@ -62,7 +67,7 @@ class ReplayNode(GprNode):
         depth = int(p['queue_depth'])
         # a latched topic keeps every message of it in the bag (several robots' /tf_static: each a late subscriber
         # must get), at most queue_depth
-        self.pubs = {name: self.create_publisher(message_class(t.msgtype), name,
+        self.pubs = {name: self.create_publisher(message_class(t.msgtype), self.published_name(bag, name),
                                                  latched_qos(min(max(len(t), 1), depth)) if is_latched(name)
                                                  else stream_qos(depth))
                      for name, t in bag.topics.items()}
@@ -78,6 +83,14 @@ class ReplayNode(GprNode):
         self._names = {id(pub): n for n, pub in self.pubs.items()}
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
+
+    def published_name(self, bag: Any, name: str) -> str:
+        """Where the bag's topic ``name`` is published: a topic of the node suite (recorded at the root or in the
+        bag's namespace, :attr:`~gpr_kinematics.bags.reader.Bag.namespace`) in this node's namespace, as the nodes of
+        a replay launched in a namespace read it (``/gpr/joint_states`` of a bag recorded at the root is
+        ``/r1/gpr/joint_states`` for a replay in ``/r1``); any other topic (``/tf``, another node's) as recorded."""
+        relative = bag.relative(name)
+        return self.resolve_topic_name(relative.lstrip('/')) if relative in KNOWN_TOPICS else name
 
     @staticmethod
     def _wait(executor: Executor, stop: StopFlag, due: float) -> None:
