@@ -206,15 +206,15 @@ def test_a_stamp_in_the_past_whose_trajectory_has_not_ended_runs_with_its_points
     c, cli, states, _ = sim
     here = _held(c, states, 'arm1_elbow')
     targets = [here - 0.2, here - 0.3]
-    goal = _goal(['arm1_elbow'], [1.0, 1.5], [[targets[0]], [targets[1]]])
+    goal = _goal(['arm1_elbow'], [2.0, 2.5], [[targets[0]], [targets[1]]])     # 1.6 s ahead on arrival: a load's margin
     stamp = c.node.get_clock().now().nanoseconds - 400_000_000
     goal.trajectory.header.stamp.sec, goal.trajectory.header.stamp.nanosec = divmod(stamp, NS_PER_S)
     n = len(states)
     result, status = _run(c, cli, goal)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
     k = JOINTS.names.index('arm1_elbow')
-    assert c.spin_until(lambda: any(abs(_stamp(m) - (stamp + 1_500_000_000)) <= 1000 for m in states[n:]), 10)
-    for t, target in zip((1.0, 1.5), targets, strict=True):   # the samples at the points' instants (to 1 us)
+    assert c.spin_until(lambda: any(abs(_stamp(m) - (stamp + 2_500_000_000)) <= 1000 for m in states[n:]), 10)
+    for t, target in zip((2.0, 2.5), targets, strict=True):   # the samples at the points' instants (to 1 us)
         (msg,) = [m for m in states[n:] if abs(_stamp(m) - (stamp + round(t * NS_PER_S))) <= 1000]
         assert msg.position[k] == pytest.approx(target, abs=1e-12)
 
