@@ -10,7 +10,7 @@ from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
 from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
 from gpr_kinematics.mechanisms.dexterity import dexterity_grid, dexterity_sweep, plot_dexterity
-from gpr_kinematics.mechanisms.tripod import parasitic_motion
+from gpr_kinematics.mechanisms.tripod import Tripod3RPS, parasitic_motion
 from gpr_kinematics.mechanisms.upu3 import UPU3
 
 
@@ -99,6 +99,42 @@ def test_upu_yaml_errors():
         mechanism_from_dict(dict(good, limb_min=0.3), 'u.yaml')
     with pytest.raises(ConfigError, match=r'u\.yaml: missing key p'):
         mechanism_from_dict({k: v for k, v in good.items() if k != 'p'}, 'u.yaml')
+
+
+
+@pytest.mark.parametrize('data, where, message', [
+    ({'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.3, 'limb_max': 0.27}, 'u.yaml: ',
+     'limb_min = 0.3 must be below limb_max = 0.27 (m); allowed: limb_min < limb_max'),
+    ({'type': 'tripod_3rps', 'base_radius': 0.05, 'platform_radius': 0.05, 'leg_min': 0.13, 'leg_max': 0.13},
+     'u.yaml: ', 'leg_min = 0.13 must be below leg_max = 0.13 (m); allowed: leg_min < leg_max'),
+])
+def test_a_stroke_upside_down_names_the_rule_in_the_file_and_in_the_constructor(data, where, message):
+    """Both three-leg mechanisms refuse ``min >= max`` from a file (naming it) and from their constructor with one
+    rule (it named what was wrong, not what is allowed)."""
+    with pytest.raises(ConfigError) as err:
+        mechanism_from_dict(data, 'u.yaml')
+    assert str(err.value) == where + message
+    cls = {'upu3': UPU3, 'tripod_3rps': Tripod3RPS}[data['type']]
+    with pytest.raises(ConfigError) as err:
+        cls(**{k: v for k, v in data.items() if k != 'type'})   # the file's keys are the constructor's
+    assert str(err.value) == message
+
+
+def test_the_legs_of_both_mechanisms_lie_on_their_circles():
+    """The joints of the 3-UPU and of the tripod at their azimuths on circles of their radii (independent: the
+    radius and the angle of each joint), the limits the stroke, the characteristic length the platform's radius."""
+    upu = mechanism_from_dict({'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.17, 'limb_max': 0.27,
+                               'base_azimuths': [0.1, 2.0, 4.0]}, 'u.yaml')
+    tri = mechanism_from_dict({'type': 'tripod_3rps', 'base_radius': 0.06, 'platform_radius': 0.05,
+                               'leg_min': 0.07, 'leg_max': 0.13}, 't.yaml')
+    for m, (rb, rp), az, stroke in ((upu, (0.2, 0.17), [0.1, 2.0, 4.0], (0.17, 0.27)),
+                                    (tri, (0.06, 0.05), [0.0, 2 * math.pi / 3, 4 * math.pi / 3], (0.07, 0.13))):
+        for pts, r in ((m.base_points, rb), (m.platform_points, rp)):
+            np.testing.assert_allclose(np.hypot(pts[:, 0], pts[:, 1]), r, rtol=1e-15)
+            np.testing.assert_allclose(np.unwrap(np.arctan2(pts[:, 1], pts[:, 0])), az, atol=1e-15)
+            assert np.all(pts[:, 2] == 0.0)
+        np.testing.assert_array_equal(m.joint_limits, [stroke] * 3)
+        assert m.characteristic_length == rp
 
 
 # ---------------------------------------------------------------- 3-RPS tripod

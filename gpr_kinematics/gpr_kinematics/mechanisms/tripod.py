@@ -28,10 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, SingularityError
+from ..errors import SingularityError
 from ..inputs.schema import check_keys, number_key
 from .base import Mechanism, as_poses
 from .conditioning import check_characteristic_length
+from .upu3 import leg_limits, symmetric_legs
 
 LEG_AZIMUTHS = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
 _CS_STEP = 1e-30  # complex-step size: derivatives exact to rounding, no subtraction error
@@ -85,18 +86,11 @@ class Tripod3RPS(Mechanism):
     def __init__(self, base_radius: float = 0.05, platform_radius: float = 0.05, leg_min: float = 0.07,
                  leg_max: float = 0.13, name: str = '3-RPS tripod', characteristic_length: float | None = None
                  ) -> None:
-        if not leg_min < leg_max:
-            raise ConfigError(f'leg_min = {leg_min} must be below leg_max = {leg_max} (m)')
         self.base_radius, self.platform_radius = float(base_radius), float(platform_radius)
         self.name = name
-        self.joint_limits = np.array([[leg_min, leg_max]] * 3, dtype=float)
-        given = characteristic_length is not None
-        self.characteristic_length = check_characteristic_length(
-            characteristic_length if given else platform_radius,
-            f'{name}: characteristic_length' + ('' if given else ' (platform_radius, when none is given)'))
-        circle = np.column_stack([np.cos(LEG_AZIMUTHS), np.sin(LEG_AZIMUTHS), np.zeros(3)])
-        self.base_points = self.base_radius * circle
-        self.platform_points = self.platform_radius * circle
+        self.joint_limits, self.characteristic_length, self.base_points, self.platform_points = symmetric_legs(
+            leg_min, leg_max, base_radius, platform_radius, LEG_AZIMUTHS, characteristic_length,
+            ('leg_min', 'leg_max', 'platform_radius'), name)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> Tripod3RPS:
@@ -104,8 +98,7 @@ class Tripod3RPS(Mechanism):
                    'characteristic_length', 'workspace', 'reference'}
         check_keys(data, allowed, source)
         lo, hi = number_key(data, 'leg_min', source), number_key(data, 'leg_max', source)
-        if not lo < hi:
-            raise ConfigError(f'{source}: leg_min = {lo} must be below leg_max = {hi} (m)')
+        leg_limits(lo, hi, ('leg_min', 'leg_max'), f'{source}: ')
         L = data.get('characteristic_length')
         return cls(number_key(data, 'base_radius', source), number_key(data, 'platform_radius', source), lo, hi,
                    name=str(data.get('name', '3-RPS tripod')),

@@ -51,6 +51,30 @@ def check_azimuths(azimuths: Any, name: str = 'base_azimuths') -> np.ndarray:
     return az
 
 
+def leg_limits(lower: float, upper: float, names: tuple[str, str], where: str = '') -> np.ndarray:
+    """The joint limits ``(3, 2)`` [m] of three legs of stroke ``[lower, upper]``, else :class:`ConfigError` naming
+    ``where`` (a file's ``'name.yaml: '`` or nothing), both keys ``names`` and the rule."""
+    if not lower < upper:
+        raise ConfigError(f'{where}{names[0]} = {lower} must be below {names[1]} = {upper} (m); allowed: '
+                          f'{names[0]} < {names[1]}')
+    return np.array([[lower, upper]] * 3, dtype=float)
+
+
+def symmetric_legs(lower: float, upper: float, base_radius: float, platform_radius: float, azimuths: np.ndarray,
+                   characteristic_length: float | None, names: tuple[str, str, str], mechanism: str
+                   ) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+    """What a mechanism of three legs on circles (the 3-UPU, the 3-RPS tripod) is built of: the joint limits of
+    :func:`leg_limits` (``names[:2]``), the characteristic length [m] (``platform_radius``, called ``names[2]``, when
+    none is given), and the base and platform joints ``(3, 3)`` [m] at ``azimuths`` [rad] on circles of the radii."""
+    limits = leg_limits(lower, upper, (names[0], names[1]))
+    given = characteristic_length is not None
+    length = check_characteristic_length(
+        characteristic_length if given else platform_radius,
+        f'{mechanism}: characteristic_length' + ('' if given else f' ({names[2]}, when none is given)'))
+    circle = np.column_stack([np.cos(azimuths), np.sin(azimuths), np.zeros(3)])
+    return limits, length, float(base_radius) * circle, float(platform_radius) * circle
+
+
 class UPU3(Mechanism):
     """3-UPU translational manipulator; pose variables ``x, y, z`` (m), the rotation is always zero."""
 
@@ -63,20 +87,12 @@ class UPU3(Mechanism):
     def __init__(self, b: float = 0.2, p: float = 0.17, limb_min: float = 0.17, limb_max: float = 0.27,
                  azimuths: Any = (np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6), name: str = '3-UPU',
                  characteristic_length: float | None = None) -> None:
-        if not limb_min < limb_max:
-            raise ConfigError(f'limb_min = {limb_min} must be below limb_max = {limb_max} (m)')
         az = check_azimuths(azimuths)
         self.b, self.p = float(b), float(p)
         self.azimuths = az
         self.name = name
-        self.joint_limits = np.array([[limb_min, limb_max]] * 3, dtype=float)
-        given = characteristic_length is not None
-        self.characteristic_length = check_characteristic_length(
-            characteristic_length if given else p,
-            f'{name}: characteristic_length' + ('' if given else ' (p, when none is given)'))
-        circle = np.column_stack([np.cos(az), np.sin(az), np.zeros(3)])
-        self.base_points = self.b * circle
-        self.platform_points = self.p * circle
+        self.joint_limits, self.characteristic_length, self.base_points, self.platform_points = symmetric_legs(
+            limb_min, limb_max, b, p, az, characteristic_length, ('limb_min', 'limb_max', 'p'), name)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = '<dict>') -> UPU3:
@@ -85,8 +101,7 @@ class UPU3(Mechanism):
         check_keys(data, allowed, source)
         b, p = number_key(data, 'b', source), number_key(data, 'p', source)
         lo, hi = number_key(data, 'limb_min', source), number_key(data, 'limb_max', source)
-        if not lo < hi:
-            raise ConfigError(f'{source}: limb_min = {lo} must be below limb_max = {hi} (m)')
+        leg_limits(lo, hi, ('limb_min', 'limb_max'), f'{source}: ')
         az = data.get('base_azimuths', [np.pi / 2, 7 * np.pi / 6, 11 * np.pi / 6])
         az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
         if az_arr is None:
@@ -131,7 +146,7 @@ class UPU3(Mechanism):
     def limb_vectors(self, poses: Any) -> np.ndarray:
         """Limb vectors ``l_i = h + P_i - B_i`` ``(N, 3, 3)`` (m), eq. (4)."""
         arr, _ = as_poses(poses)
-        return arr[:, None, :3] + self.platform_points - self.base_points
+        return np.asarray(arr[:, None, :3] + self.platform_points - self.base_points)
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:
         """Limb lengths ``(N, 3)`` (m), eq. (6)."""
