@@ -329,3 +329,34 @@ def test_urdf_quoteattr_writes_what_the_standard_library_writes(text):
     from gpr_kinematics.robot.urdf import quoteattr
 
     assert quoteattr(text) == standard(text)
+
+
+def test_the_shipped_urdf_collides_with_the_bodies_the_clearance_check_measures():
+    """Issue 21's "a <collision> on every arm link, blade and wafer" and issue 19's "the same shapes": in the shipped
+    urdf/example_robot.urdf read by yourdfpy, every link of every arm (its links, blade and wafer) has a <collision>,
+    and link by link the collisions are the bodies of `gpr program check` (kind, size, pose in the link), the column
+    and the platform included; no other link collides."""
+    import yourdfpy
+    from gpr_kinematics.safety.bodies import robot_body_set
+
+    urdf = yourdfpy.URDF.load(str(ROOT / 'gpr_kinematics' / 'urdf' / 'example_robot.urdf'),
+                              build_collision_scene_graph=False, load_meshes=False)
+    bodies: dict[str, list] = {}
+    for b in robot_body_set(ROBOT):
+        bodies.setdefault(b.frame, []).append(b)
+    arm_links = [link.name for link in urdf.robot.links if any(link.name.startswith(f'{a.name}_') for a in ROBOT.arms)]
+    for a in ROBOT.arms:
+        assert {f'{a.name}_blade', f'{a.name}_wafer', f'{a.name}_link1'} <= set(arm_links)
+    assert all(urdf.link_map[name].collisions for name in arm_links)
+    colliding = {link.name for link in urdf.robot.links if link.collisions}
+    assert colliding == set(bodies) and set(arm_links) | {'gpr_base', 'gpr_platform'} == colliding
+    for name in colliding:
+        cols, want = urdf.link_map[name].collisions, bodies[name]
+        assert len(cols) == len(want), name
+        for c, b in zip(cols, want, strict=True):
+            g = c.geometry
+            size = tuple(g.box.size) if b.kind == 'box' else (g.cylinder.radius, g.cylinder.length)
+            assert (g.box is not None) == (b.kind == 'box') and (g.cylinder is not None) == (b.kind == 'cylinder')
+            np.testing.assert_allclose(size, b.size, rtol=1e-12, atol=0, err_msg=name)
+            np.testing.assert_allclose(c.origin[:3, 3], b.position, rtol=0, atol=1e-15, err_msg=name)
+            np.testing.assert_allclose(c.origin[:3, :3], b.rotation, rtol=0, atol=1e-12, err_msg=name)
