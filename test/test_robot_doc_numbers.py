@@ -3,7 +3,7 @@ rounding-level residual to 1e-15), `gpr program export --trajectory t.yaml --rat
 size to 1 %: the last digit of a number, and so the size by a few bytes, depends on the machine's rounding) and
 `gpr program send`'s sample output, derived without ROS as send and robot_simulator_node build it: the program's
 trajectory at send's default rate, the lead-in from the simulator's rest state, the simulator's samples at its rate
-(test_ros_program_send.py runs send itself)."""
+(test_ros_program_send.py runs send itself); docs/cell.md's table of S-curve and trapezoid durations."""
 import math
 import re
 from pathlib import Path
@@ -115,3 +115,23 @@ def test_program_send_output_as_send_builds_its_goal():
     assert f'{SEND_RATE:g} Hz: {len(traj)} points' in TEXT.replace('(default 100 Hz:', '100 Hz:')
     assert f'to the program\'s start, {start:.2f} s ({round(start * SEND_RATE)} periods): {len(goal)} points over ' \
            f'{goal.duration:.3f} s' in TEXT
+
+
+def test_the_s_curve_and_trapezoid_table_of_docs_cell_md():
+    """Issue 19's "program duration compared with the trapezoid timing in the docs": docs/cell.md's table (each
+    program's duration with S-curves, with trapezoids of the same limits and no jerk limit, and the ratio of their
+    moving times) is what the planner gives, to its printed digits."""
+    import dataclasses
+
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'cell.md').read_text(encoding='utf-8')
+    trap = dataclasses.replace(ROBOT, rods=dataclasses.replace(ROBOT.rods, jerk=None), arms=tuple(
+        dataclasses.replace(a, joints=tuple(dataclasses.replace(j, jerk=None) for j in a.joints)) for a in ROBOT.arms))
+    for name in ('example_robot_program', 'example_cell_program'):
+        row = re.search(rf'^\| `{name}\.yaml` \| ([\d.]+) s \| ([\d.]+) s \| ([\d.]+) \|$', doc, re.M)
+        assert row, f'docs/cell.md: the row of {name}.yaml'
+        program = load_program(config_path(f'programs/{name}.yaml'))
+        s_curve, trapezoid = plan_program(ROBOT, program).timing, plan_program(trap, program).timing
+        assert np.all(np.isinf(trapezoid.jerk)) and np.all(np.isfinite(s_curve.jerk))
+        ratio = float(np.sum(s_curve.duration) / np.sum(trapezoid.duration))
+        assert [float(v) for v in row.groups()] == [round(s_curve.total, 2), round(trapezoid.total, 2),
+                                                     round(ratio, 3)], name
