@@ -143,6 +143,54 @@ def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():
         _plan(JointTrajectory(('rod_1',), np.array([1.0]), np.array([[0.254]]), np.array([[0.2]])))
 
 
+@pytest.mark.parametrize('mean, refused', [(0.9, True), (0.66, False)])
+def test_a_spline_faster_than_the_limit_between_its_points_is_refused_at_its_sample(mean, refused):
+    """Two points at rest 1 s apart on the elbow (2 rad/s), ``mean`` of its limit on average: the cubic's velocity
+    ``6 d u (1 - u)`` peaks at 1.5 times the mean mid-way (1.35 times the limit: it was accepted and moved so; 0.99:
+    within it). Refused at the first sample beyond the limit and 1 %, the value the spline's."""
+    d = 2.0 * mean
+    home = float(JOINTS.rest[JOINTS.names.index('arm1_elbow')])
+    traj = JointTrajectory(('arm1_elbow',), np.array([1.0, 2.0]), np.array([[home], [home - d]]), np.zeros((2, 1)))
+    if not refused:
+        m = _plan(traj)
+        assert float(np.max(np.abs(m.velocities))) == pytest.approx(1.5 * d, abs=1e-12)   # at t = 1.5 s, a sample
+        return
+    with pytest.raises(GoalError) as info:
+        _plan(traj)
+    roots = np.roots([-6.0 * d, 6.0 * d, -1.01 * 2.0])            # 6 d u (1 - u) = 1.01 x 2 rad/s
+    first = 1.0 + math.ceil(float(np.min(roots)) * RATE) / RATE   # the first sample beyond it
+    k = round(first * RATE)
+    v = -6.0 * d * (first - 1.0) * (2.0 - first)
+    assert info.value.code == INVALID_GOAL
+    assert str(info.value) == (f'sample {k} (t = {first:.6g} s): arm1_elbow moves at {v:.6g} rad/s (the spline '
+                               'between the points overshoots); allowed: at most 2.02 rad/s in size (the limit 2 and '
+                               "1% for a spline through a timed motion's samples; give the points velocities or more "
+                               'points)')
+
+
+@pytest.mark.parametrize('program, rate, overshoot', [('example_robot_program.yaml', 10.0, 1.0021458),
+                                                      ('example_cell_program.yaml', 10.0, 1.0062579),
+                                                      ('example_cell_program.yaml', 100.0, 1.0000605)])
+def test_the_example_programs_as_sent_are_within_the_spline_slack(program, rate, overshoot):
+    """``gpr program send``'s goals (the program's samples at ``rate`` with their velocities: a cubic) move at most
+    ``overshoot`` times a joint's limit between their points (scanned at 1 kHz), under the 1 % the check allows; the
+    controller's 100 Hz samples pass (those between the points at 10 Hz above the limit)."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.plan import plan_program
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.robot.trajectory import program_trajectory
+
+    traj = program_trajectory(plan_program(ROBOT, load_program(config_path(f'programs/{program}'))), rate)
+    cols = JOINTS.indices(traj.joint_names)
+    _, vel, _ = evaluate(traj, traj.positions[0], np.arange(0.0, traj.duration, 1e-3))
+    assert float(np.max(np.abs(vel) / JOINTS.velocity[cols])) == pytest.approx(overshoot, abs=1e-6)
+    current = JOINTS.rest.copy()
+    current[cols] = traj.positions[0]
+    m = _plan(traj, current)
+    peak = float(np.max(np.abs(m.velocities[:, cols]) / JOINTS.velocity[cols]))   # 1 where the samples are the points
+    assert (peak > 1.0 if rate < RATE else peak == pytest.approx(1.0, abs=1e-12)) and peak <= overshoot
+
+
 def test_a_first_point_at_time_zero_must_be_where_the_robot_is():
     at_rest = JOINTS.rest[JOINTS.names.index('arm1_elbow')]
     assert len(_plan(JointTrajectory(('arm1_elbow',), np.array([0.0, 1.0]), np.array([[at_rest], [2.0]])))) == 101
