@@ -219,6 +219,12 @@ def test_arm_refusals(arm_case, capsys, tmp_path):
         (['--robot', robot.source, good, '--output', 'x.yaml', '--free', 'rod1_x'], r'--free: unknown parameter\(s\) '
                                                                                     r'rod1_x'),
         (['--robot', robot.source, '--plan', '4'], r'--plan is for the GPR'),
+        # --base in the world frame replaced the description's base unsaid (and in gpr_base: not the identity)
+        (['--robot', robot.source, good, '--output', 'x.yaml', '--frame', robot.world_frame, '--base',
+          *map(str, robot.base_position), '0', '0', '0.1'], r'--base gives the pose of gpr_base in --frame, which is '
+                                                             r'world, the world frame where the robot description'),
+        (['--robot', robot.source, good, '--output', 'x.yaml', '--base', '0', '0', '0.001', '0', '0', '0'],
+         r'--base gives the pose of gpr_base in --frame, which is gpr_base itself'),
     ]
     for argv, pattern in cases:
         status, _, err = run(capsys, 'calibrate', *argv)

@@ -196,6 +196,26 @@ def test_registration_refusals(capsys, tmp_path, setting):
     assert pts.rotation.shape == (len(Q), 3, 3)
 
 
+def test_a_base_pose_in_gpr_base_itself_is_refused(capsys, tmp_path):
+    """``--base`` is the pose of gpr_base in ``--frame``: in gpr_base (the default) the identity. Given there, it was
+    applied: ``--base 0 0 0.5 0 0 0 --mm`` on the shipped file passed its gate with every rod offset moved by about
+    -0.5 mm and the comment "gpr_base in gpr_base: position (0, 0, 0.0005)". In a frame named as another, the
+    identity (and the target as gpr_platform) gives the plain calibration's geometry to the last digits (what
+    ``--frame gpr_base`` means)."""
+    shipped = str(config_path('calibration/synthetic_measurements.csv'))
+    status, _, err = run(capsys, 'calibrate', shipped, '--output', str(tmp_path / 'b.yaml'), '--base', '0', '0', '0.5',
+                         '0', '0', '0', '--mm')
+    assert status == 2 and err.count('\n') == 1 and not (tmp_path / 'b.yaml').exists(), err
+    assert '--base gives the pose of gpr_base in --frame, which is gpr_base itself' in err
+    offsets = []
+    for argv in ([], ['--frame', 'tracker', '--base', *['0'] * 6, '--target', *['0'] * 6]):
+        status, out, err = run(capsys, 'calibrate', shipped, '--output', str(tmp_path / 'c.yaml'), '--json', *argv)
+        assert status == 0, err
+        offsets.append([p['estimate'] for p in json.loads(out)['parameters'] if p['name'].endswith('_offset')])
+    assert max(abs(v) for v in offsets[0]) < 1e-4           # the shipped machine's offsets: tens of um
+    np.testing.assert_allclose(offsets[1], offsets[0], rtol=0, atol=1e-12)
+
+
 def test_a_frame_left_unregistered_is_named_in_a_warning(setting):
     """Measurements in a tracker frame 45 mrad off gpr_base, calibrated as if in gpr_base: the fit is consistent
     (the gate passes) and moved the rods by millimetres, 20-40 a-priori standard deviations. The result names them

@@ -172,6 +172,9 @@ def _handler(args: argparse.Namespace) -> int:
             raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
     if not _FRAME.fullmatch(args.frame):   # isalnum took any script's letters and digits
         raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of 1 to 64 ASCII letters, digits and _')
+    if args.base is not None and args.frame == 'gpr_base':  # it was applied: 0.5 mm moved the rod offsets by 0.5 mm
+        raise InputError('--base gives the pose of gpr_base in --frame, which is gpr_base itself (the default): the '
+                         'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
     if args.robot is not None:
         if args.plan is not None:
             raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')

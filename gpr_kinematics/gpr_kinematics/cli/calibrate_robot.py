@@ -61,6 +61,10 @@ def _models(args: argparse.Namespace,
         m = read_arm_measurements(path, robot)
         parts.setdefault(m.arm, []).append(m)
     base = None
+    if args.base is not None and args.frame == robot.world_frame:  # it replaced the description's base unsaid
+        raise InputError(f'--base gives the pose of gpr_base in --frame, which is {args.frame}, the world frame where '
+                         'the robot description places gpr_base (its base); allowed: --base with --frame naming '
+                         'another frame (the tracker\'s), or the description\'s base edited')
     if args.base is not None:
         base = pose(args.base, args, '--base', (6,))
     elif args.frame == robot.world_frame:
