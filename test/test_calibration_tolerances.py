@@ -127,6 +127,29 @@ def test_binding_refusals(tmp_path):
         load_tolerances(tmp_path)
 
 
+def test_a_range_far_from_the_nominal_is_refused_as_a_tolerance_beyond_its_bound():
+    """A range gives the values; its ends' deviations from the nominal are bounded as a tolerance is (0.01 m, 0.1
+    rad). They were not: ``rod1_offset: {range: [0.05, 0.05001]}`` (5 cm off) passed ``gpr calibrate`` as the bias
+    bound of a held parameter and ``rod_positions: {range: [0, 3e-5]}`` (each rod's place about 0.09 m away: a key's
+    range applies to each of its parameters) calibrated and planned, the budget failing in its samples' geometry."""
+    ps = CoreModel(load_config()).parameters
+    x1 = float(ps.values(ps.nominal)[ps.index('rod1_x')])
+    near = parse_tolerances({'parameters': {'rod1_offset': {'range': [1e-5, 3e-5]},
+                                            'rod1_x': {'range': [x1 - 0.01, x1 + 0.004]}}}, 't.yaml').bind(ps)
+    off, x = near[ps.index('rod1_offset')], near[ps.index('rod1_x')]
+    assert (off.low, off.high, off.nominal) == (1e-5, 3e-5, 0.0)
+    assert off.mean == pytest.approx(2e-5, abs=1e-18) and off.std == pytest.approx(2e-5 / math.sqrt(12), rel=1e-12)
+    assert x.low == pytest.approx(-0.01, abs=1e-15) and x.high == pytest.approx(0.004, abs=1e-15)
+    for entry, pattern in ((('rod1_offset', [0.05, 0.05001]), r'rod1_offset: range \[0\.05, 0\.05001\] m reaches '
+                                                             r'0\.05001 m from the nominal 0 m; allowed: values within '
+                                                             r'0\.01 m'),
+                           (('rod_positions', [0.0, 3e-5]), rf'rod_positions: range \[0, 3e-05\] m reaches '
+                                                            rf'{abs(x1):.6g} m from the nominal {x1:.6g} m'),
+                           (('rod2_ux', [0.05, 0.2]), r'rod2_ux: range \[0\.05, 0\.2\] rad reaches 0\.2')):
+        with pytest.raises(ConfigError, match=pattern):
+            parse_tolerances({'parameters': {entry[0]: {'range': entry[1]}}}, 't.yaml').bind(ps)
+
+
 def test_lists_where_mappings_belong_are_refused():
     """units: [] and parameters: [] were read as no units and no parameters."""
     import pytest

@@ -195,6 +195,11 @@ class ToleranceTable:
             if hi - lo > 2 * limit:
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is wider than {2 * limit:g}')
             low, high = lo - nominal, hi - nominal
+            reach = max(abs(low), abs(high))
+            if not p.transform and reach > limit:  # it bypassed the tolerance's bound
+                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.6g} {p.unit} from '
+                                  f'the nominal {nominal:.6g} {p.unit}; allowed: values within {limit:g} {p.unit} of '
+                                  "the nominal (a key's range applies to each of its parameters)")
         if dist == 'log-uniform' and lo <= 0:
             raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
         if p.transform:
