@@ -314,6 +314,19 @@ def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
                             f'{unit[k]} (give the point a later time_from_start)')
 
 
+def _refuse_off_start(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, first: Array,
+                      start: Array, start_tolerance: float, what: str, otherwise: str) -> None:
+    """Refuse (``INVALID_GOAL``) a trajectory whose ``first`` positions lie farther than ``start_tolerance`` from where
+    the joints are (``start``): ``what`` puts the joint there; ``otherwise`` what else is allowed."""
+    off = np.abs(first - start)
+    k = int(np.argmax(off))
+    if off[k] > start_tolerance:
+        unit = joints.units[cols[k]]
+        raise GoalError(INVALID_GOAL, f'{what} puts {traj.joint_names[k]} {off[k]:.6g} {unit} from where it is '
+                        f'({start[k]:.9g} {unit}); allowed: at most {start_tolerance:g} (start_tolerance), or '
+                        f'{otherwise}')
+
+
 def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel: Array, time: Array) -> None:
     limit = joints.velocity[cols]
     bad = np.abs(vel) > limit * (1.0 + SPLINE_VELOCITY_SLACK)
@@ -336,14 +349,8 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     start = current[cols]
     _refuse_beyond(joints, cols, traj.positions, traj.time, 'point')
     if traj.time[0] == 0.0:
-        off = np.abs(traj.positions[0] - start)
-        k = int(np.argmax(off))
-        if off[k] > start_tolerance:
-            unit = joints.units[cols[k]]
-            raise GoalError(INVALID_GOAL, f'points[0] at time_from_start 0 puts {traj.joint_names[k]} '
-                            f'{off[k]:.6g} {unit} from where it is ({start[k]:.9g} {unit}); allowed: at most '
-                            f'{start_tolerance:g} (start_tolerance), or a first point after 0 s, which the joints then '
-                            'reach from where they are')
+        _refuse_off_start(joints, cols, traj, traj.positions[0], start, start_tolerance, 'points[0] at time_from_start '
+                          '0', 'a first point after 0 s, which the joints then reach from where they are')
     _check_velocities(joints, cols, traj, start)
     count = int(math.floor(traj.duration * rate + 1e-9)) + 2
     if count > MAX_SAMPLES:
@@ -395,14 +402,9 @@ def late_start(joints: ControllerJoints, traj: JointTrajectory, current: Array, 
     cols = joints.indices(traj.joint_names)
     start = np.asarray(current, dtype=float)[cols]
     p, v, a = (x[0] for x in evaluate(traj, start, np.array([late])))
-    off = np.abs(p - start)
-    k = int(np.argmax(off))
-    if off[k] > start_tolerance:
-        unit = joints.units[cols[k]]
-        raise GoalError(INVALID_GOAL, f'header.stamp lies {late:.6g} s in the past: at its arrival the trajectory '
-                        f'puts {traj.joint_names[k]} {off[k]:.6g} {unit} from where it is ({start[k]:.9g} {unit}); '
-                        f'allowed: at most {start_tolerance:g} (start_tolerance), a stamp of 0 (start at once) or one '
-                        'whose first point lies ahead')
+    _refuse_off_start(joints, cols, traj, p, start, start_tolerance,
+                      f'header.stamp lies {late:.6g} s in the past: at its arrival the trajectory',
+                      'a stamp of 0 (start at once) or one whose first point lies ahead')
     after = traj.time > late
     return JointTrajectory(traj.joint_names, np.concatenate([[0.0], traj.time[after] - late]),
                            np.vstack([p, traj.positions[after]]),
