@@ -31,6 +31,22 @@ def client(node):
     yield from client_session('gpr_test_robot_services', NS)
 
 
+def test_a_request_model_is_kept_per_robot_description():
+    """The node's robot under a request's model is kept per description: it was kept per configuration (its ``id``),
+    so a robot file changed at run time over the same configuration answered with the old arms (and, its configuration
+    freed, a new one at the same address could have been taken for the old)."""
+    import dataclasses
+
+    from gpr_kinematics.nodes.robot_services import RobotModels
+
+    models = RobotModels()
+    polar = models.get(ROBOT, 'polar')
+    assert polar.config.model == 'polar' and polar.arm_names == ('arm1', 'arm2') and models.get(ROBOT, 'polar') is polar
+    one_arm = dataclasses.replace(ROBOT, arms=ROBOT.arms[:1])       # the same configuration object
+    assert one_arm.config is ROBOT.config
+    assert models.get(one_arm, 'polar').arm_names == ('arm1',)
+
+
 @pytest.mark.parametrize('arm,rods,joints', [
     ('arm1', (0.25, 0.251, 0.252), (0.0, 1.0, -0.5)),
     ('arm2', (0.30, 0.2985, 0.3012), (0.4, -1.1, 0.3, 0.9)),

@@ -41,7 +41,8 @@ class RobotModels:
     model's per-configuration caches survive between requests)."""
 
     def __init__(self) -> None:
-        self._cache: dict[tuple[int, str], RobotDescription] = {}
+        # keyed by the description's identity; the entry holds the description, so its id is not reused while cached
+        self._cache: dict[tuple[int, str], tuple[RobotDescription, RobotDescription]] = {}
 
     def get(self, robot: RobotDescription, model: str) -> RobotDescription:
         """``robot`` under ``model`` (empty: its own; a name exactly as sent); InputError for a model that does not
@@ -51,12 +52,13 @@ class RobotModels:
         if model not in MODELS:
             raise InputError(f'model = {brief(model)} is invalid; allowed: {", ".join(MODELS)}, or empty for the '
                              "node's model")
-        key = (id(robot.config), model)
-        if key not in self._cache:
-            if len(self._cache) > 16:  # a configuration changed at run time: forget the old ones
+        key = (id(robot), model)
+        entry = self._cache.get(key)
+        if entry is None or entry[0] is not robot:
+            if len(self._cache) > 16:  # a description changed at run time: forget the old ones
                 self._cache.clear()
-            self._cache[key] = dataclasses.replace(robot, config=robot.config.replace(model=model))
-        return self._cache[key]
+            entry = self._cache[key] = (robot, dataclasses.replace(robot, config=robot.config.replace(model=model)))
+        return entry[1]
 
 
 def _arm(robot: RobotDescription, name: str) -> Arm:
