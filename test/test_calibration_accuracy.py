@@ -164,8 +164,8 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--tool', '0', '0', '0'], r"--tool: a robot program's tool "
                                                                                       r'point is the wafer centre'),
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, *pose], r'a program gives its stations'),
-        (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--robot', 'r.yaml'], r'--robot goes with a robot '
-                                                                                     r'program'),
+        (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--robot', 'example_robot.yaml'],
+         r'--robot goes with a robot program'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '-1'], r'--samples = -1; allowed'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '2000000'],
          r'samples = 2000000; allowed: an integer from 0 to 1000000'),

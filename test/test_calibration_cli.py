@@ -192,7 +192,7 @@ def bad_inputs(tmp_path):
                                  r'leaves residuals [\d.e+]+ times the standard deviations).*lengths in other '
                                  r'units than the file\'s "# units:" line says'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--sigma-angle', 'nan'], r'--sigma-angle = nan'),
-        (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'cannot read measurement file'),
+        (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'measurements file .*none\.csv\' not found'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod_offsets'],
          r"--free names 'rod_offsets' twice; allowed: each parameter once"),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '1e308', '0', '0', '0', '0',

@@ -180,7 +180,7 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),
     (['robot', 'teach'], r'give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 \[J3 J4\], or --table FILE'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', '/nonexistent.yaml'],
-     r"cannot read robot file '/nonexistent.yaml'"),
+     r"robot description file '/nonexistent.yaml' not found \(a path with a folder is read as given"),
     (['program', 'check', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
     (['program', 'check', '/'], r"program file '/'"),  # a directory, not a program
     (['program', 'export', PROGRAM], r'nothing to export: give --waypoints FILE and/or --samples FILE'),

@@ -10,10 +10,10 @@ linearised and exact; poses as ``gpr mechanism``). With ``--tolerances TABLE`` t
 * a whole-robot program (``format: gpr_robot_program``, docs/robot.md): the budget of each station it visits, at
   the wafer, in the world's axes (``--robot`` names the description, else the program's or the shipped example).
 
-Examples::
+Examples (bare names: the packaged files, :func:`~gpr_kinematics.inputs.resources.packaged_file`)::
 
-    gpr accuracy gpr.yaml --tolerances config/calibration/tolerances_example.yaml --pose 0 0 0.5 0.0349 0 0
-    gpr accuracy config/programs/example_robot_program.yaml --tolerances config/calibration/tolerances_example.yaml
+    gpr accuracy gpr.yaml --tolerances tolerances_example.yaml --pose 0 0 0.5 0.0349 0 0
+    gpr accuracy example_robot_program.yaml --tolerances tolerances_example.yaml
     gpr accuracy gpr.yaml --tolerances TABLE --pose 0 0 0.3 1.5 0 0 --deg --tool 0.3 0 0.1 --calibration-plan 40
 
 ``--config FILE`` replaces the GPR geometry (e.g. a calibrated file; for a robot, the description's ``gpr``
@@ -34,10 +34,11 @@ import numpy as np
 
 from ..calibration.core_model import MODEL
 from ..errors import InputError, brief
+from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
 from ..inputs.safe_yaml import YamlValue
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, whole
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, shipped, whole
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -55,7 +56,8 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
     from ..calibration.budget import MAX_SAMPLES
     from ..core.config import MODELS
     g = p.add_argument_group('accuracy budget (docs/calibration.md)')
-    g.add_argument('--tolerances', metavar='TABLE', help='tolerance table (YAML): make the accuracy budget')
+    g.add_argument('--tolerances', metavar='TABLE', type=shipped(TOLERANCES),
+                   help='tolerance table (YAML): make the accuracy budget')
     g.add_argument('--tool', nargs=3, type=finite, metavar=('X', 'Y', 'Z'),
                    help='tool point in gpr_platform [m, or mm with --mm] (default the origin; a robot program: the '
                         'wafer centre)')
@@ -63,8 +65,9 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
                    help=f'Monte Carlo samples (default {DEFAULT_SAMPLES}; 0: linearised only; at most {MAX_SAMPLES})')
     g.add_argument('--seed', type=whole, metavar='S', help='seed of the Monte Carlo draws (default 0)')
     g.add_argument('--config', metavar='FILE', help='GPR geometry (e.g. a calibrated file) instead of the default')
-    g.add_argument('--robot', metavar='FILE', help='robot description for a robot program (default: the program\'s '
-                                                    'robot, else config/robots/example_robot.yaml)')
+    g.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
+                   help='robot description for a robot program (default: the program\'s robot, else the packaged '
+                        'example_robot.yaml)')
     g.add_argument('--model', choices=MODELS, help='virtual-joint model of the budget (default compliant)')
     g.add_argument('--calibration-plan', type=whole, metavar='N',
                    help='the budget after calibrating from N planned configurations (gpr calibrate --plan N) '
@@ -166,7 +169,8 @@ def budget_command(args: argparse.Namespace) -> int:
     """``gpr accuracy FILE --tolerances TABLE ...`` (module docstring)."""
     from ..mechanisms import read_mechanism_file
     check_budget_options(args, budget=True)
-    data, path = read_mechanism_file(args.file)
+    # FILE may be a program too: a bare name is also one of the packaged programs
+    data, path = read_mechanism_file(packaged_file(args.file, MECHANISMS_AND_PROGRAMS) if args.file else args.file)
     budget, what = _budget(args, data, path)
     model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \

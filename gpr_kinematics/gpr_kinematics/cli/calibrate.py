@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 
 from ..core.config import MODELS
 from ..errors import InputError
+from ..inputs.resources import MEASUREMENTS, ROBOTS, TOLERANCES
 from .calibrate_options import (
     EXIT_GATE,
     config,
@@ -40,7 +41,7 @@ from .calibrate_options import (
     table_of,
     with_given_poses,
 )
-from .options import number, whole
+from .options import number, shipped, whole
 from .output import emit_json
 
 #: The tracker's frame name (``--frame``).
@@ -194,7 +195,7 @@ def register(sub: Subparsers) -> None:
                                    'cross-validation, identifiability, the frames of the tracker and the target) and '
                                    'write the calibrated geometry; or, with --plan N, propose N measurement '
                                    'configurations; or, with --robot, calibrate the arms.')
-    p.add_argument('measurements', nargs='*', metavar='MEASUREMENTS',
+    p.add_argument('measurements', nargs='*', metavar='MEASUREMENTS', type=shipped(MEASUREMENTS),
                    help='measurement CSV: q1,q2,q3,x,y,z[,qx,qy,qz,qw][,sigma_position[,sigma_angle]] '
                         '(docs/calibration.md); with --robot: one or more files of an arm\'s measured points')
     p.add_argument('--plan', type=whole, metavar='N', help='propose N measurement configurations instead')
@@ -219,7 +220,8 @@ def register(sub: Subparsers) -> None:
                    help='identify the target on the platform (position: its orientation is --target\'s)')
     p.add_argument('--points', action='store_true',
                    help='with --plan: the configurations will be measured as points (a reflector, no orientation)')
-    p.add_argument('--robot', metavar='FILE', help='calibrate the arms of this robot description from the files')
+    p.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
+                   help='calibrate the arms of this robot description from the files')
     p.add_argument('--sigma-position', type=number, metavar='S',
                    help='standard deviation of a measured coordinate for rows without sigma columns '
                         '[m, or mm with --mm]: their noise (without it 5e-6 m, a laser tracker\'s, or the '
@@ -227,7 +229,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--sigma-angle', type=number, metavar='S',
                    help='standard deviation of a measured rotation component [rad, or deg with --deg]: their '
                         'noise (assumed without it: 2e-5 rad, or the --tolerances table\'s)')
-    p.add_argument('--tolerances', metavar='TABLE',
+    p.add_argument('--tolerances', metavar='TABLE', type=shipped(TOLERANCES),
                    help='tolerance table (YAML, docs/calibration.md): its standard deviations are the a-priori '
                         'uncertainties the measurements must beat and its bounds those of the held parameters\' bias, '
                         'its measurement_noise the default sigmas; a plan is made where its tolerances are')

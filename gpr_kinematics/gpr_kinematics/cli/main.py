@@ -143,6 +143,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     command = command_path(parser, args)
     try:
+        from .options import resolve_shipped
+        resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
         distinct_outputs(args)
         with command_reads():  # no output may be a file the command read
             return int(args.handler(args))

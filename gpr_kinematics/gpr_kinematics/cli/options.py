@@ -5,7 +5,7 @@ import argparse
 import math
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
 from ..errors import FileError, InputError, brief
+from ..inputs.resources import ROBOTS, Packaged, packaged_file
 from ..inputs.validation import decimal, finite_number
 from ..mechanisms.base import Mechanism, as_poses
 
@@ -63,6 +64,41 @@ def finite(text: str) -> float:
     if not np.isfinite(val):
         raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
     return val
+
+
+class ShippedName(str):
+    """A file argument of a kind the package ships (:attr:`kind`), as typed; :func:`resolve_shipped` makes it the
+    file to read before the command runs."""
+
+    kind: Packaged
+
+    def __new__(cls, text: str, kind: Packaged) -> ShippedName:
+        """``text`` marked as a file of ``kind``."""
+        obj = super().__new__(cls, text)
+        obj.kind = kind
+        return obj
+
+
+def shipped(kind: Packaged) -> Callable[[str], ShippedName]:
+    """An argparse type: a file of ``kind``, or the bare name of one the package ships, looked up by
+    :func:`resolve_shipped` (an error then is the command's one line, the whole path quoted, not argparse's with
+    its quoted values cut)."""
+    def path(text: str) -> ShippedName:
+        return ShippedName(text, kind)
+
+    path.__name__ = kind.kind
+    return path
+
+
+def resolve_shipped(args: argparse.Namespace) -> None:
+    """Replace every :class:`ShippedName` of ``args`` (alone or in a list) by the path to read
+    (:func:`~gpr_kinematics.inputs.resources.packaged_file`: a local file, else a packaged one of its kind);
+    :class:`FileError` for a name that is neither."""
+    def resolved(value: object) -> object:
+        return packaged_file(str(value), value.kind) if isinstance(value, ShippedName) else value
+
+    for dest, value in vars(args).items():
+        setattr(args, dest, [resolved(v) for v in value] if isinstance(value, list) else resolved(value))
 
 
 class RodLengths(argparse.Action):
@@ -164,7 +200,8 @@ def direction(args: argparse.Namespace, value: float, option: str) -> float:
 
 def robot_options(p: argparse.ArgumentParser) -> None:
     """``--robot``, ``--config``, ``--model`` and ``--json``."""
-    p.add_argument('--robot', metavar='FILE', help='robot description (default: config/robots/example_robot.yaml)')
+    p.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
+                   help='robot description (default: the packaged example_robot.yaml)')
     p.add_argument('--config', metavar='FILE', help="GPR geometry file replacing the description's gpr section")
     p.add_argument('--model', choices=MODELS, help='virtual-joint model (default: from the geometry)')
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')

@@ -18,8 +18,9 @@ import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
-from .options import named_file, number, robot_of, robot_options
+from .options import named_file, number, robot_of, robot_options, shipped
 from .output import JsonValue, emit_json
 from .progress import ProgressLine
 
@@ -334,7 +335,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
 
 def _send_parser(psub: Any) -> None:
     p = psub.add_parser('send', help='run the program on a robot: a FollowJointTrajectory goal (ROS)')
-    p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
+    p.add_argument('program', metavar='PROGRAM', type=shipped(PROGRAMS), help='robot program YAML file')
     p.add_argument('--action', default='joint_trajectory_controller/follow_joint_trajectory', metavar='NAME',
                    help='the FollowJointTrajectory action (relative names resolve in --namespace; default '
                         'joint_trajectory_controller/follow_joint_trajectory)')
@@ -357,8 +358,9 @@ def register(sub: Any) -> None:
     psub = program.add_subparsers(dest='program_command', metavar='SUBCOMMAND', parser_class=type(program))
     psub.required = True
     p = psub.add_parser('check', help='solve every waypoint, time every move, check clearance and wafer slip')
-    p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
-    p.add_argument('--cell', metavar='FILE', help='the process cell (default: the program\'s cell, else none)')
+    p.add_argument('program', metavar='PROGRAM', type=shipped(PROGRAMS), help='robot program YAML file')
+    p.add_argument('--cell', metavar='FILE', type=shipped(CELLS),
+                   help='the process cell (default: the program\'s cell, else none)')
     p.add_argument('--margin', type=number, default=None, metavar='M',
                    help='clearance below which a pair collides [m] (default 0.002)')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
@@ -368,7 +370,7 @@ def register(sub: Any) -> None:
     p.set_defaults(handler=_cmd_check)
     p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON; the joint '
                         'trajectory as YAML')
-    p.add_argument('program', metavar='PROGRAM', help='robot program YAML file')
+    p.add_argument('program', metavar='PROGRAM', type=shipped(PROGRAMS), help='robot program YAML file')
     p.add_argument('--waypoints', metavar='FILE', help='write the waypoint table (.csv or .json)')
     p.add_argument('--samples', metavar='FILE', help='write the sample table (.csv or .json)')
     p.add_argument('--trajectory', metavar='FILE', help='write the trajectory_msgs/JointTrajectory YAML (.yaml) that '

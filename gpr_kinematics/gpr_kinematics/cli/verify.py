@@ -16,7 +16,8 @@ from ..bags.report import check_report_folder, write_report
 from ..bags.verify import Tolerances, format_table, verify_bag
 from ..core.config import load_config
 from ..errors import InputError
-from .options import number
+from ..inputs.resources import ROBOTS
+from .options import number, shipped
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -111,9 +112,9 @@ def register(subparsers: Subparsers) -> None:
     p.add_argument('--config', metavar='YAML', help='GPR configuration to verify against instead of the geometry '
                                                     'recorded in the bag (/gpr/geometry; without it, the '
                                                     "package's config/gpr.yaml); the difference is reported")
-    p.add_argument('--robot', metavar='YAML', help='robot description to verify the wafer poses of a whole-robot '
-                                                   'recording against instead of the one recorded (/gpr/robot); it '
-                                                   'computes with the geometry verified against')
+    p.add_argument('--robot', metavar='YAML', type=shipped(ROBOTS),
+                   help='robot description to verify the wafer poses of a whole-robot recording against instead of '
+                        'the one recorded (/gpr/robot); it computes with the geometry verified against')
     p.add_argument('--allow-missing-checksums', action='store_true',
                    help='verify a bag written by another recorder (no gpr checksums in metadata.yaml): skip '
                         'bag.checksums instead of failing it')

@@ -58,24 +58,15 @@ def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:
 
     A path is read as given. Only a *bare name* (no folder in it) that does not exist here is also looked up
     among the packaged files (``config/mechanisms/``), so ``'upu3.yaml'`` works from anywhere while a mistyped
-    ``'typo_dir/upu3.yaml'`` is an error, never silently the packaged file.
+    ``'typo_dir/upu3.yaml'`` is an error, never silently the packaged file
+    (:func:`~gpr_kinematics.inputs.resources.packaged_file`, the command line's rule for every shipped kind).
     """
-    from ..inputs.resources import config_dir, config_path
+    from ..inputs.resources import MECHANISMS, packaged_file
     name = os.fspath(path)
     if name == '':
         raise ConfigError('mechanism file path is empty; allowed: a mechanism YAML file, or the name of a packaged '
                           'one such as upu3.yaml')
-    p = Path(name)
-    if not os.path.lexists(name):
-        if os.sep in name or (os.altsep is not None and os.altsep in name):
-            raise ConfigError(f'mechanism file {brief(name)} not found (a path with a folder is read as given; only a '
-                              'bare name such as upu3.yaml is also looked up among the packaged files)')
-        try:
-            p = config_path(f'mechanisms/{name}')
-        except (ConfigError, OSError):  # OSError: a name too long for the file system
-            packaged = sorted(f.name for f in (config_dir() / 'mechanisms').glob('*.yaml'))
-            raise ConfigError(f'mechanism file {brief(name)} not found, here nor among the packaged files: '
-                              + ', '.join(packaged)) from None
+    p = Path(packaged_file(name, MECHANISMS))
     return read_yaml(p, 'mechanism'), p
 
 
