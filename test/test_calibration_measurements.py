@@ -109,6 +109,25 @@ def test_row_and_line_limits(monkeypatch):
         parse_measurements(text(*rows), 'f.csv')
 
 
+def test_too_many_rows_are_refused_before_any_is_parsed(tmp_path):
+    """Bounds before work: 100,001 rows were refused only once every row had been parsed (7-12 s); now they are
+    counted first. Row 50,000 is not a number and row 100,001 is fine: the row count is refused, not the number
+    (which came first before the count), naming the line of the row too many (comments and blank lines are not
+    rows); and a file of exactly MAX_ROWS rows reaches row 50,000's error."""
+    n = measurements.MAX_ROWS
+    assert n == 100_000
+    rows = [ROW.replace('0.3,', f'0.3{i:06d},', 1) for i in range(n + 1)]
+    rows[49_999] = rows[49_999].replace('0.301', 'x.301', 1)
+    lines = ['# units: m rad', '', HEADER, '# a comment', ''] + rows
+    path = tmp_path / 'many.csv'
+    path.write_text('\n'.join(lines) + '\n')
+    with pytest.raises(InputError) as refused:
+        read_measurements(path)
+    assert str(refused.value) == (f"{path} line {n + 6}: more than 100000 data rows; allowed: at most 100000")
+    with pytest.raises(InputError, match=r"line 50005, column q2: 'x\.301' is not a number"):
+        parse_measurements('\n'.join(lines[:-1]) + '\n', 'f.csv')
+
+
 def test_file_kinds_size_and_encoding(tmp_path, monkeypatch):
     with pytest.raises(InputError, match=r"cannot read measurement file '.*missing\.csv': No such file"):
         read_measurements(tmp_path / 'missing.csv')
