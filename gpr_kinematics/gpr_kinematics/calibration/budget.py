@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,6 +46,9 @@ from .model import (
 )
 from .monte_carlo import Calibrated, monte_carlo
 from .tolerances import Tolerance, ToleranceTable
+
+if TYPE_CHECKING:
+    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 
@@ -274,7 +277,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                     samples: int = 10_000, seed: int = 0, theta: ArrayLike | None = None,
                     calibrated: tuple[ArrayLike, ArrayLike] | None = None, labels: Sequence[str] | None = None,
                     percentiles: Sequence[float] = (50.0, 95.0, 99.0), frame: str = 'gpr_base',
-                    frame_rotation: ArrayLike | None = None) -> Budget:
+                    frame_rotation: ArrayLike | None = None, progress: StageProgress | None = None) -> Budget:
     """The accuracy budget of ``model`` at the stations ``Q (N, 3)`` [m] (module docstring).
 
     Args:
@@ -288,6 +291,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         calibrated: ``(indices, covariance)`` of calibrated parameters (e.g. ``CalibrationResult.fitted`` and
             ``.covariance``, or a plan's): their deviation is normal with that covariance, in place of the table.
         labels: station names (default ``1..N``).
+        progress: hears the share of the Monte Carlo's samples done (:func:`~.monte_carlo.monte_carlo`).
 
     Raises:
         InputError: bad shapes or values, too many samples or stations, joint play for a model without it, no error
@@ -342,7 +346,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
             shares[name] = np.where(total[:, None] > SHARE_FLOOR ** 2,
                                     contrib[:, comps, :].sum(1) / total[:, None], 0.0)
     mc, mc_rms, mc_max, max_inside, mc_mean, mc_std = monte_carlo(model, th, Qa, (pos0, rot0), tool_v, R, tols,
-                                                                  cal, table, samples, seed, pct, QUANTITIES)
+                                                                  cal, table, samples, seed, pct, QUANTITIES,
+                                                                  progress)
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,

@@ -25,12 +25,17 @@ from any minimum). When no step lowers the cost any more while the Gauss-Newton 
 isotropic joints as well: a minimum the nominal start misses shows as a lower cost from the other); the start
 that ends at the lowest cost wins, one whose model could be evaluated about its end before one that could not.
 A start after the first gets :data:`OTHER_START_ITERATIONS` iterations.
+
+**Progress**: a listener ``progress(stage, share)`` (the one of :func:`~gpr_kinematics.safety.check.check_program`,
+shown by :mod:`gpr_kinematics.cli.progress`) hears each Jacobian's share done after each call of the model, in the
+stage ``fit from <start>: iteration k, reduced chi-square c`` (the point it linearises at: iteration 0 the start).
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,8 +44,13 @@ from ..errors import ConvergenceError, InputError
 from .identifiability import triangular_factor
 from .model import ParameterSet
 
+if TYPE_CHECKING:
+    from ..safety.check import StageProgress
+
 Array = NDArray[np.float64]
 Residuals = Callable[[Array], Array]
+#: A fit's listener: the iteration, the cost ``|r|^2`` at the point it linearises at, the share of its Jacobian done.
+IterationProgress = Callable[[int, float, float], None]
 
 MAX_ITERATIONS = 60
 #: Iterations of a start after the first (an insurance: from a start near the first's minimum it converges in a
@@ -69,9 +79,10 @@ def _differences(r: Array, h: Array) -> Array:
 
 
 def residual_jacobian(residuals: Residuals, params: ParameterSet, theta: Array, cols: NDArray[np.int64],
-                      scale: Array) -> Array:
+                      scale: Array, progress: Callable[[float], None] | None = None) -> Array:
     """``d r / d (theta_j / s_j)`` ``(N k, C)`` for the coordinates ``cols`` at ``theta``, by central differences
-    with each parameter's step (one-sided at a bound: :meth:`~.model.ParameterSet.steps`)."""
+    with each parameter's step (one-sided at a bound: :meth:`~.model.ParameterSet.steps`); ``progress`` hears the
+    share of the columns done after each call of the model."""
     if cols.size == 0:
         r = residuals(theta[None])[0]
         return np.zeros((r.size, 0))
@@ -81,8 +92,12 @@ def residual_jacobian(residuals: Residuals, params: ParameterSet, theta: Array, 
     rows[2 * k, cols] += up
     rows[2 * k + 1, cols] -= down
     per = max(1, JACOBIAN_RESIDUALS // (2 * residuals(theta[None]).size))   # columns per call of the model
-    d = np.vstack([_differences(residuals(rows[2 * a:2 * (a + per)]), (up + down)[a:a + per])
-                   for a in range(0, cols.size, per)])
+    parts = []
+    for a in range(0, cols.size, per):
+        parts.append(_differences(residuals(rows[2 * a:2 * (a + per)]), (up + down)[a:a + per]))
+        if progress is not None:
+            progress(min(a + per, cols.size) / cols.size)
+    d = np.vstack(parts)
     return np.ascontiguousarray(d.T * scale[cols])
 
 
@@ -148,10 +163,10 @@ class _Linear:
 
 
 def _linearise(residuals: Residuals, params: ParameterSet, theta: Array, r: Array, fit: NDArray[np.int64],
-               scale: Array) -> _Linear | None:
+               scale: Array, progress: Callable[[float], None] | None = None) -> _Linear | None:
     """:class:`_Linear` at ``theta``, or ``None`` where the model cannot be evaluated about it."""
     try:
-        J = residual_jacobian(residuals, params, theta, fit, scale)
+        J = residual_jacobian(residuals, params, theta, fit, scale, progress)
     except (InputError, ConvergenceError):
         return None
     lower, upper = (b[fit] for b in params.bounds)
@@ -187,8 +202,10 @@ def _step(residuals: Residuals, lin: _Linear, fit: NDArray[np.int64], scale: Arr
 
 
 def levenberg_marquardt(residuals: Residuals, params: ParameterSet, theta0: Array, fit: NDArray[np.int64],
-                        scale: Array, label: str = '', max_iterations: int | None = None) -> Minimum:
-    """Minimise ``|residuals(theta)|^2`` over ``theta[fit]`` from ``theta0`` (module docstring).
+                        scale: Array, label: str = '', max_iterations: int | None = None,
+                        progress: IterationProgress | None = None) -> Minimum:
+    """Minimise ``|residuals(theta)|^2`` over ``theta[fit]`` from ``theta0`` (module docstring); ``progress``
+    hears each linearisation's iteration, cost and share of its Jacobian done.
 
     A trial the model refuses (an :class:`InputError`: a degenerate geometry) or cannot evaluate (a
     :class:`ConvergenceError`: no closure for that machine) counts as a failed step, and so does one about which
@@ -201,7 +218,10 @@ def levenberg_marquardt(residuals: Residuals, params: ParameterSet, theta0: Arra
     at = np.zeros(len(params), dtype=bool)
     if fit.size == 0:
         return Minimum(theta, r, cost, 0, 'converged', at, 0.0, label)
-    lin = _linearise(residuals, params, theta, r, fit, scale)
+    def told(it: int, cost: float) -> Callable[[float], None] | None:
+        return None if progress is None else (lambda share: progress(it, cost, share))
+
+    lin = _linearise(residuals, params, theta, r, fit, scale, told(0, cost))
     if lin is None:
         return Minimum(theta, r, cost, 0, 'undefined', at, math.inf, label)
     lam, status, it = 1e-6, 'iterations', 0
@@ -214,8 +234,8 @@ def levenberg_marquardt(residuals: Residuals, params: ParameterSet, theta0: Arra
         if step is None:   # no step lowers the cost: rounding of the model near a minimum, or a stall
             status = 'converged' if lin.step_se < STALL_SE else 'stalled'
             break
-        trial, r_t, _, lam = step
-        nxt = _linearise(residuals, params, trial, r_t, fit, scale)
+        trial, r_t, cost_t, lam = step
+        nxt = _linearise(residuals, params, trial, r_t, fit, scale, told(it, cost_t))
         if nxt is None:    # a point the model cannot be evaluated about: a shorter step from here
             lam *= 100.0
             continue
@@ -234,15 +254,27 @@ class StartOutcome:
     iterations: int
 
 
+def fit_progress(progress: StageProgress | None, label: str, dof: int) -> IterationProgress | None:
+    """The listener of the fit from the start ``label`` that tells ``progress`` its stage (module docstring): the
+    iteration and the reduced chi-square ``cost / dof`` of the point it linearises at."""
+    if progress is None:
+        return None
+    tell = progress
+    return lambda it, cost, share: tell(f'fit from {label}: iteration {it}, reduced chi-square '
+                                        f'{cost / max(dof, 1):.4g}', share)
+
+
 def minimise(residuals: Residuals, params: ParameterSet, starts: Sequence[tuple[str, Array]],
-             fit: NDArray[np.int64], scale: Array, dof: int) -> tuple[Minimum, tuple[StartOutcome, ...]]:
+             fit: NDArray[np.int64], scale: Array, dof: int, progress: StageProgress | None = None
+             ) -> tuple[Minimum, tuple[StartOutcome, ...]]:
     """The lowest minimum from ``starts`` (``(label, theta)``, module docstring): the best :class:`Minimum` and every
-    start's outcome."""
+    start's outcome; ``progress`` hears each start's iterations (:func:`fit_progress`)."""
     best: Minimum | None = None
     outcomes = []
     for k, (label, theta) in enumerate(starts):
         m = levenberg_marquardt(residuals, params, theta, fit, scale, label,
-                                MAX_ITERATIONS if k == 0 else OTHER_START_ITERATIONS)
+                                MAX_ITERATIONS if k == 0 else OTHER_START_ITERATIONS,
+                                fit_progress(progress, label, dof))
         outcomes.append(StartOutcome(label, m.cost / max(dof, 1), m.status, m.iterations))
         if best is None or (m.status == 'undefined', m.cost) < (best.status == 'undefined', best.cost):
             best = m

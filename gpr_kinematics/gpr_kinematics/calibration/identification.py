@@ -28,13 +28,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError
-from .fitting import Minimum, gram, levenberg_marquardt, minimise, residual_jacobian
+from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements, check_repeats
 from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
@@ -54,6 +55,9 @@ from .quality import (
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
+
+if TYPE_CHECKING:
+    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 
@@ -152,8 +156,8 @@ def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64], label: 
 
 
 def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[[Array], Array], theta0: Array,
-                    free: NDArray[np.int64], fit: NDArray[np.int64], J: Array, scale: Array
-                    ) -> tuple[Array, tuple[str, ...], float] | None:
+                    free: NDArray[np.int64], fit: NDArray[np.int64], J: Array, scale: Array,
+                    progress: StageProgress | None = None) -> tuple[Array, tuple[str, ...], float] | None:
     """The start and held values of a machine far off its nominal one, or ``None`` (hold at nominal, start there).
 
     The poses cannot see the platform joints' radial places (the identifiability report holds them), so holding
@@ -167,7 +171,8 @@ def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[
     (on their rods), the rest is fitted from there. Returns ``(start, moved, mismatch)``: the start, the held
     parameters it moved, the linearised estimate's mismatch. Only a model with ``joints_on_rods`` and
     ``side_mismatch`` (the core's, and a registration's over it: :class:`~.frames.FramedModel`) takes this path, and
-    only with every platform joint ``free``: one left out of the fit stays where the configuration puts it."""
+    only with every platform joint ``free``: one left out of the fit stays where the configuration puts it.
+    ``progress`` hears the first fit's iterations (:func:`~.fitting.fit_progress`)."""
     on_rods = getattr(model, 'joints_on_rods', None)
     mismatch = getattr(model, 'side_mismatch', None)
     if not (callable(on_rods) and callable(mismatch)) or fit.size == 0:
@@ -184,7 +189,7 @@ def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[
         return None
     joints = np.array([params[int(j)].key == 'platform_joints' for j in fit], dtype=bool)
     first = levenberg_marquardt(lambda th: residuals(on_rods(th)), params, theta0, fit[~joints], scale,
-                                ON_RODS)
+                                ON_RODS, progress=fit_progress(progress, ON_RODS, r0.size - int(np.sum(~joints))))
     start = on_rods(first.theta)
     moved = tuple(p.name for j, p in enumerate(params)
                   if j not in fit and p.key == 'platform_joints' and start[j] != theta0[j])
@@ -281,7 +286,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
              sigma_position: float = DEFAULT_SIGMA_POSITION, sigma_angle: float = DEFAULT_SIGMA_ANGLE,
              threshold: float = DEFAULT_THRESHOLD, prior: ArrayLike | None = None,
              bound: ArrayLike | None = None, frame: str = 'gpr_base',
-             declared: tuple[bool, bool] = (False, False)) -> CalibrationResult:
+             declared: tuple[bool, bool] = (False, False), progress: StageProgress | None = None
+             ) -> CalibrationResult:
     """Identify the parameters ``free`` (names or configuration keys; all by default) of ``model`` from ``meas``.
 
     ``sigma_position`` [m] and ``sigma_angle`` [rad] weight rows without sigma columns, and are their noise where
@@ -290,7 +296,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     ``threshold`` bounds the scaled singular values of the identifiable directions (:mod:`.identifiability`);
     ``prior`` gives the a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance
     table's, or the parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias
-    of the held ones; ``frame`` names the frame the measurements are in (for messages).
+    of the held ones; ``frame`` names the frame the measurements are in (for messages). ``progress`` hears the
+    share done of each stage as it goes: ``identifiability`` (the Jacobian at nominal), each start's iterations
+    (:func:`~.fitting.fit_progress`), ``standard errors`` (the Jacobian at the estimate), ``cross-validation``.
 
     A fit that does not converge is returned with its diagnostics (``convergence``, ``gate``), not raised.
 
@@ -318,16 +326,17 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     e0 = measured_errors(model, meas, theta0)
     _check_plausible(meas, e0, frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
-    J0 = residual_jacobian(residuals, params, theta0, free_idx, scale)
+    tell: StageProgress = progress if progress is not None else (lambda stage, share: None)
+    J0 = residual_jacobian(residuals, params, theta0, free_idx, scale, lambda share: tell('identifiability', share))
     ident = analyse(J0, [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)
     dof = k * n - fit.size
     try:
         gross = _joints_on_rods(model, params, residuals, theta0, free_idx, fit,
-                                J0[:, np.searchsorted(free_idx, fit)], scale)
+                                J0[:, np.searchsorted(free_idx, fit)], scale, progress)
         starts = _starts(params, theta0, fit) if gross is None else \
             _starts(params, gross[0], fit, ON_RODS) + [('nominal', theta0)]
-        best, outcomes = minimise(residuals, params, starts, fit, scale, dof)
+        best, outcomes = minimise(residuals, params, starts, fit, scale, dof, progress)
     except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
         raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
                          f'{NOT_THIS_MACHINE}') from None
@@ -341,7 +350,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     se = np.full(len(params), np.nan)
     other = np.flatnonzero(~np.isin(np.arange(len(params)), fit)).astype(np.int64)
     try:
-        J = residual_jacobian(residuals, params, theta, np.concatenate([fit, other]), scale)
+        J = residual_jacobian(residuals, params, theta, np.concatenate([fit, other]), scale,
+                              lambda share: tell('standard errors', share))
     except (InputError, ConvergenceError):   # the model cannot be evaluated about the point reached: no statistics
         J = np.full((best.residual.size, len(params)), np.nan)
     Jf, Jh = J[:, :fit.size], J[:, fit.size:]
@@ -354,7 +364,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
             Ainv = Ainv @ gram(Jf * np.sqrt(np.tile(variance, n))[:, None]) @ Ainv
         cov = Ainv * np.outer(scale[fit], scale[fit])
         se[fit] = np.sqrt(np.diag(cov))
+    tell('cross-validation', 0.0)
     cv = cross_validation(Jf, best.residual, w, meas.lines, chi2_red, meas.files)
+    tell('cross-validation', 1.0)
     hb = prior_bound(params, scale, bound)
     bias = held_bias(Jf, Jh, fit, other, scale, hb[other],
                      scale[other], params.names)

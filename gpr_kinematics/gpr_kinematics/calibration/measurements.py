@@ -34,6 +34,7 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +44,9 @@ from ..errors import InputError, brief
 from ..inputs import units
 from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal
 from .files import comment_lines, read_text, write_text
+
+if TYPE_CHECKING:
+    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 
@@ -286,10 +290,11 @@ class Table:
         return v
 
 
-def read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> Table:
+def read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: StageProgress | None = None
+               ) -> Table:
     """The :class:`Table` of the text of a CSV file of measurements with the columns ``spec`` (the checks of the
-    module docstring)."""
-    table = _read_table(text, source, spec)
+    module docstring); ``progress`` hears the share of the lines read (stage ``reading rows``)."""
+    table = _read_table(text, source, spec, progress)
     data = np.array(table.rows)
     names = table.cols or []
     length, angle = table.units or (None, None)
@@ -299,13 +304,10 @@ def read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> Table:
 
 
 def _check_row_count(lines: list[str], source: str) -> None:
-    """Refuse more than :data:`MAX_ROWS` data rows before any is parsed (bounds before work: 100,001 rows were
-    refused only after all were parsed, 7-12 s), naming the line of the first row too many. A data row is a line
-    that is neither blank nor a comment after the header's (the lines :func:`_read_table` parses as rows)."""
-    if len(lines) <= MAX_ROWS + 1:   # the header and MAX_ROWS rows at most: nothing to count
-        return
+    """Refuse more than :data:`MAX_ROWS` data rows (lines neither blank nor comments, after the header's) before any
+    is parsed, naming the line of the row too many (once all were parsed first: 7-12 s)."""
     seen = 0
-    for lineno, raw in enumerate(lines, 1):
+    for lineno, raw in enumerate(lines if len(lines) > MAX_ROWS + 1 else (), 1):   # else too few lines to count
         line = raw.strip()
         if line and not line.startswith('#'):
             seen += 1
@@ -314,12 +316,15 @@ def _check_row_count(lines: list[str], source: str) -> None:
                                  f'{MAX_ROWS}')
 
 
-def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> _Table:
+def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: StageProgress | None = None
+                ) -> _Table:
     """The header, the rows and the declared units of a measurement file's text."""
     table = _Table(spec)
     lines = text.split('\n')
     _check_row_count(lines, source)
     for lineno, raw in enumerate(lines, 1):
+        if progress is not None and lineno % 2000 == 0:   # its share read, every 2,000 lines
+            progress('reading rows', lineno / len(lines))
         where = f'{source} line {lineno}'
         if len(raw) > MAX_LINE_CHARS:
             raise InputError(f'{where}: {len(raw)} characters; allowed: at most {MAX_LINE_CHARS} per line')
@@ -339,12 +344,16 @@ def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS) -> _Table:
                          f'({",".join(spec.required)})')
     if not table.rows:
         raise InputError(f'{source}: no data rows after the header')
+    if progress is not None:   # the end of the stage
+        progress('reading rows', 1.0)
     return table
 
 
-def parse_measurements(text: str, source: str = 'measurements') -> Measurements:
-    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages."""
-    table = read_table(text, source)
+def parse_measurements(text: str, source: str = 'measurements', progress: StageProgress | None = None
+                       ) -> Measurements:
+    """Parse the text of a measurement file (format in the module docstring); ``source`` names it in messages,
+    ``progress`` hears the share read (:func:`read_table`)."""
+    table = read_table(text, source, progress=progress)
     col, line_nos = table.columns, table.lines
     quat = None
     if 'qw' in col:
@@ -411,14 +420,14 @@ def check_repeats(meas: Measurements, sigma_position: float, sigma_angle: float)
                      '--sigma-angle)')
 
 
-def read_measurements(path: str | Path) -> Measurements:
-    """Read and check a measurement file (format in the module docstring).
+def read_measurements(path: str | Path, progress: StageProgress | None = None) -> Measurements:
+    """Read and check a measurement file (format in the module docstring); ``progress`` hears the share read.
 
     Raises:
         InputError: the file cannot be read, is not a regular file, is too large, is not UTF-8, or any check of
             :func:`parse_measurements` fails; the message names the file, the line and the column.
     """
-    return parse_measurements(read_text(path, 'measurement', MAX_FILE_BYTES), str(path))
+    return parse_measurements(read_text(path, 'measurement', MAX_FILE_BYTES), str(path), progress)
 
 
 def format_measurements(m: Measurements, comments: tuple[str, ...] = ()) -> str:

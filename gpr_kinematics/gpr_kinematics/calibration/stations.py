@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,18 +32,23 @@ from .core_model import CoreModel
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
 from .tolerances import ToleranceTable, centre_of, prior_of
 
+if TYPE_CHECKING:
+    from ..safety.check import StageProgress
+
 Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
 class BudgetOptions:
     """What a budget is computed with: Monte Carlo ``samples`` and ``seed``, the virtual-joint ``model`` (None: the
-    core model's default, compliant), and ``plan``: the size of a planned calibration (0: none)."""
+    core model's default, compliant), ``plan``: the size of a planned calibration (0: none), and ``progress``: the
+    Monte Carlo's listener (:func:`~.monte_carlo.monte_carlo`)."""
 
     samples: int = 10_000
     seed: int = 0
     model: str | None = None
     plan: int = 0
+    progress: StageProgress | None = None
 
 
 def planned_calibration(model: CoreModel, table: ToleranceTable, n: int) -> tuple[NDArray[np.int64], Array]:
@@ -67,7 +72,8 @@ def _budget(config: GprConfig, Q: Array, table: ToleranceTable, tool: ArrayLike,
     if calibrated is not None:   # the calibration finds the machine: its parameters where the tolerances are
         theta[calibrated[0]] = centre_of(table, model.parameters)[calibrated[0]]
     return accuracy_budget(model, Q, table, tool=tool, samples=options.samples, seed=options.seed, labels=labels,
-                           theta=theta, calibrated=calibrated, frame=frame, frame_rotation=rotation)
+                           theta=theta, calibrated=calibrated, frame=frame, frame_rotation=rotation,
+                           progress=options.progress)
 
 
 def platform_budget(config: GprConfig, table: ToleranceTable, height: ArrayLike, tilt: ArrayLike,

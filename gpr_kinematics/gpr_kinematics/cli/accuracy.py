@@ -40,10 +40,12 @@ from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
 from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, shipped, whole
 from .output import emit_json
+from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
     from ..calibration.budget import Budget
     from ..core.config import GprConfig
+    from ..safety.check import StageProgress
     from .main import Subparsers
 
 #: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).
@@ -118,13 +120,16 @@ def _gpr_config(args: argparse.Namespace, overrides: Mapping[str, YamlValue] | N
     return load_config(args.config, overrides=overrides or None)
 
 
-def _budget(args: argparse.Namespace, data: YamlValue, path: Path) -> tuple[Budget, str]:
-    """The budget of FILE (module docstring) and a line saying what was computed."""
+def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: StageProgress | None = None
+            ) -> tuple[Budget, str]:
+    """The budget of FILE (module docstring) and a line saying what was computed; ``progress`` hears the Monte
+    Carlo's share done."""
     from ..calibration.stations import BudgetOptions, platform_budget, robot_budget
     from ..calibration.tolerances import load_tolerances
     table = load_tolerances(args.tolerances)
     options = BudgetOptions(samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
-                            seed=args.seed or 0, model=args.model, plan=args.calibration_plan or 0)
+                            seed=args.seed or 0, model=args.model, plan=args.calibration_plan or 0,
+                            progress=progress)
     kind = _kind(data)
     if kind != 'mechanism' and args.pose is not None:
         raise InputError(f'{path}: a program gives its stations; --pose goes with a mechanism file of type gpr')
@@ -171,7 +176,11 @@ def budget_command(args: argparse.Namespace) -> int:
     check_budget_options(args, budget=True)
     # FILE may be a program too: a bare name is also one of the packaged programs
     data, path = read_mechanism_file(packaged_file(args.file, MECHANISMS_AND_PROGRAMS) if args.file else args.file)
-    budget, what = _budget(args, data, path)
+    line = progress_line(args.no_progress)   # 5,000,000 poses: about 35 s of CPU time
+    try:
+        budget, what = _budget(args, data, path, line)
+    finally:
+        line.close()
     model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
         else ''
@@ -287,4 +296,5 @@ def register(subparsers: Subparsers) -> None:
                    help='geometric error: parameter name and its values, e.g. A_i (18 values, m) for a '
                    'Stewart platform, joint_imperfections (9 values, m) for the GPR; repeatable')
     add_budget_options(p, finite)
+    add_no_progress(p)
     p.set_defaults(handler=_accuracy)

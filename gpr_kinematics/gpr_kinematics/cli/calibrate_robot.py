@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .calibrate_options import EXIT_GATE, declared, gate_outcome, pose, sigmas, table_of, with_given_poses
 from .output import emit_json
+from .progress import progress_line
 
 if TYPE_CHECKING:
     from ..calibration.arm import ArmMeasurements, ArmModel
@@ -110,11 +111,19 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     free = _free(args, models)
     results, texts, values = [], [], {}
     regs: dict[str, Registration | None] = {}
+    shown = progress_line(args.no_progress)
     for arm, model in models.items():
         inner = inners[arm]
-        res = with_given_poses(args, partial(identify, model, inner.meas.points, free=free[arm], sigma_position=sp,
-                                             sigma_angle=sa, threshold=args.threshold, frame=args.frame,
-                                             declared=declared(args)))
+
+        def told(stage: str, share: float, arm: str = arm) -> None:
+            shown(f'arm {arm}: {stage}', share)
+
+        try:
+            res = with_given_poses(args, partial(identify, model, inner.meas.points, free=free[arm], sigma_position=sp,
+                                                 sigma_angle=sa, threshold=args.threshold, frame=args.frame,
+                                                 declared=declared(args), progress=told))
+        finally:
+            shown.close()
         reg: Registration | None = None
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])

@@ -22,7 +22,7 @@ from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
 from .options import named_file, number, robot_of, robot_options, shipped
 from .output import JsonValue, emit_json
-from .progress import ProgressLine
+from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
     from ..safety.check import SafetyReport
@@ -76,7 +76,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     program, plan = _program(args)
     path = named_file(program, 'cell', args.cell)
     cell = None if path is None else load_cell(path)
-    line = ProgressLine(after=float('inf') if args.no_progress else 2.0)
+    line = progress_line(args.no_progress)
     try:
         report, clear, slip = check_program(plan, cell, margin, progress=line)
     finally:
@@ -364,8 +364,7 @@ def register(sub: Any) -> None:
     p.add_argument('--margin', type=number, default=None, metavar='M',
                    help='clearance below which a pair collides [m] (default 0.002)')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
-    p.add_argument('--no-progress', action='store_true',
-                   help='no progress line on stderr (shown by default once the check has run 2 s)')
+    add_no_progress(p)
     robot_options(p)
     p.set_defaults(handler=_cmd_check)
     p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON; the joint '

@@ -1,15 +1,20 @@
-"""A progress line on stderr for the long commands (``gpr program check``): the stage, the share of it done and the
-time so far, shown once the command has run ``after`` seconds, so that a quick run prints nothing.
+"""A progress line on stderr for the long commands (``gpr program check``, ``gpr calibrate``, ``gpr accuracy``'s
+Monte Carlo): the stage, the share of it done and the time so far, shown once the command has run ``after`` seconds
+(:data:`AFTER`), so that a quick run prints nothing; ``--no-progress`` never shows it (:func:`progress_line`).
 
 On a terminal the line is redrawn in place; into a file or a pipe (a CI log) a line is written at most every
 ``every`` seconds, and at the start and the end of each stage. stdout is untouched: ``--json`` stays one object.
 """
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from collections.abc import Callable
 from typing import TextIO
+
+#: Seconds a command runs before its progress line shows.
+AFTER = 2.0
 
 
 class ProgressLine:
@@ -69,3 +74,14 @@ class ProgressLine:
             except (OSError, ValueError):
                 self.stream = None
         self.shown = False
+
+
+def progress_line(no_progress: bool) -> ProgressLine:
+    """The progress line of a command on stderr: shown after :data:`AFTER` s, or never with ``--no-progress``."""
+    return ProgressLine(after=float('inf') if no_progress else AFTER)
+
+
+def add_no_progress(parser: argparse.ArgumentParser) -> None:
+    """The option ``--no-progress`` of a command with a progress line."""
+    parser.add_argument('--no-progress', action='store_true',
+                        help=f'no progress line on stderr (shown by default once the command has run {AFTER:g} s)')

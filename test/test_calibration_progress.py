@@ -1,0 +1,112 @@
+"""The progress of the long calibration commands: ``gpr calibrate`` (70,000 rows took 94 s of CPU time with no word
+on stderr) and ``gpr accuracy``'s Monte Carlo (5,000,000 poses, about 35 s) report each stage's share done as they go,
+through the listener ``progress(stage, share)`` of ``gpr program check`` and its line on stderr
+(:mod:`gpr_kinematics.cli.progress`); the results are the ones computed without a listener."""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+from gpr_kinematics.calibration import fitting, monte_carlo
+from gpr_kinematics.calibration.budget import accuracy_budget
+from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.identification import identify
+from gpr_kinematics.calibration.measurements import parse_measurements, read_measurements
+from gpr_kinematics.calibration.tolerances import load_tolerances
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.core.config import load_config
+from gpr_kinematics.inputs.resources import config_path
+
+SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
+TABLE = str(config_path('calibration/tolerances_example.yaml'))
+FIT = re.compile(r'fit from (.+): iteration (\d+), reduced chi-square (\S+)')
+
+
+def test_identify_reports_every_jacobian_chunk_and_iteration(monkeypatch):
+    """The shipped file (40 rows, 24 parameters) with Jacobians of 3 columns per call of the model: every Jacobian
+    tells 1/8, 2/8, ... 8/8 of its columns; every start tells its iterations 0 .. n-1 (n its iterations in the
+    report) with the reduced chi-square of the point linearised, the best start's last the fit's; the result is
+    the one without a listener."""
+    meas = read_measurements(SHIPPED)
+    model = CoreModel(load_config())
+    quiet = identify(model, meas)
+    monkeypatch.setattr(fitting, 'JACOBIAN_RESIDUALS', 3 * 2 * 40 * 6)   # 3 columns (6 perturbed rows) per call
+    heard: list[tuple[str, float]] = []
+    res = identify(model, meas, progress=lambda stage, share: heard.append((stage, share)))
+    np.testing.assert_array_equal(res.estimate, quiet.estimate)
+    assert res.chi2_reduced == quiet.chi2_reduced and res.convergence == quiet.convergence
+    stages = list(dict.fromkeys(s for s, _ in heard))       # in the order first heard
+    assert stages[0] == 'identifiability' and stages[-2:] == ['standard errors', 'cross-validation']
+    shares = {s: [f for t, f in heard if t == s] for s in stages}
+    assert shares['identifiability'] == [k / 8 for k in range(1, 9)]            # 24 free columns, 3 a call
+    assert shares['standard errors'] == [k / 8 for k in range(1, 9)]            # all 24 parameters
+    assert shares['cross-validation'] == [0.0, 1.0]
+    fits = [FIT.fullmatch(s) for s in stages[1:-2]]
+    assert all(fits)
+    fitted = res.fitted.size                                                    # 21: each fit's Jacobian
+    calls = math.ceil(fitted / 3)
+    for m in fits:
+        assert shares[m.group(0)] == [min(3 * k, fitted) / fitted for k in range(1, calls + 1)]
+    for outcome in res.convergence.starts:
+        told = [int(m.group(2)) for m in fits if m.group(1) == outcome.label]
+        assert told == list(range(outcome.iterations)), outcome
+    best = [m for m in fits if m.group(1) == res.convergence.starts[0].label][-1]
+    assert best.group(3) == f'{res.chi2_reduced:.4g}' == '0.9207'
+
+
+def test_reading_rows_reports_its_share_every_2000_lines():
+    """A file of 4,500 rows (4,502 lines with the header and the final newline) tells 2000/4502, 4000/4502, 1."""
+    rows = [f'0.3,0.301,0.299,{i}e-6,-2e-5,0.3' for i in range(4500)]
+    heard: list[tuple[str, float]] = []
+    meas = parse_measurements('q1,q2,q3,x,y,z\n' + '\n'.join(rows) + '\n', 'f.csv',
+                              lambda stage, share: heard.append((stage, share)))
+    assert len(meas) == 4500
+    assert heard == [('reading rows', 2000 / 4502), ('reading rows', 4000 / 4502), ('reading rows', 1.0)]
+
+
+def test_the_monte_carlo_reports_its_samples_drawn(monkeypatch):
+    """1,000 samples at 2 stations in chunks of 300 poses (150 samples): the shares 150/1000, ..., 1; the budget is
+    the one without a listener."""
+    model = CoreModel(load_config())
+    table = load_tolerances(TABLE)
+    Q = np.array([[0.3, 0.3, 0.3], [0.2, 0.21, 0.2]])
+    monkeypatch.setattr(monte_carlo, 'CHUNK_POSES', 300)   # the draws depend on the chunks
+    quiet = accuracy_budget(model, Q, table, samples=1000, seed=3)
+    heard: list[tuple[str, float]] = []
+    budget = accuracy_budget(model, Q, table, samples=1000, seed=3,
+                             progress=lambda stage, share: heard.append((stage, share)))
+    assert heard == [('Monte Carlo', min(150 * k, 1000) / 1000) for k in range(1, 8)]
+    for name in quiet.mc:
+        np.testing.assert_array_equal(budget.mc[name], quiet.mc[name])
+
+
+def _run(capsys, *argv):
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_calibrate_and_accuracy_show_the_progress_line_unless_no_progress(capsys, tmp_path, monkeypatch):
+    """With the line shown from the start (``AFTER`` 0 s; 2 s by default), into a pipe: ``gpr calibrate`` writes
+    each stage and its end on stderr, ``gpr accuracy`` its Monte Carlo; stdout is the same as with
+    ``--no-progress``, which writes nothing on stderr."""
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', 0.0)
+    out_yaml = str(tmp_path / 'cal.yaml')
+    status, shown, err = _run(capsys, 'calibrate', SHIPPED, '--output', out_yaml)
+    assert status == 0
+    lines = err.splitlines()
+    assert lines[0].startswith('reading rows: 100.0 % (')
+    assert lines[1].startswith('identifiability: 100.0 % (')
+    assert FIT.match(lines[2]) and FIT.match(lines[2]).group(1, 2) == ('nominal', '0')
+    assert lines[-3].startswith('standard errors: 100.0 %')
+    assert lines[-2].startswith('cross-validation:   0.0 %') and lines[-1].startswith('cross-validation: 100.0 %')
+    assert all(re.fullmatch(r'.+: +\d+\.\d % \(\d+\.\d s\)', line) for line in lines)
+    status, quiet, err = _run(capsys, 'calibrate', SHIPPED, '--output', out_yaml, '--no-progress')
+    assert status == 0 and quiet == shown and err == ''
+    argv = ('accuracy', str(config_path('mechanisms/gpr.yaml')), '--tolerances', TABLE, '--pose', '0', '0', '0.5',
+            '0.0349', '0', '0', '--samples', '1000')
+    status, shown, err = _run(capsys, *argv)
+    assert status == 0 and err.startswith('Monte Carlo: 100.0 % (') and err.count('\n') == 1
+    status, quiet, err = _run(capsys, *argv, '--no-progress')
+    assert status == 0 and quiet == shown and err == ''
