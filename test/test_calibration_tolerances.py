@@ -150,6 +150,29 @@ def test_a_range_far_from_the_nominal_is_refused_as_a_tolerance_beyond_its_bound
             parse_tolerances({'parameters': {entry[0]: {'range': entry[1]}}}, 't.yaml').bind(ps)
 
 
+def test_a_range_at_the_bound_written_in_mm_is_not_refused_for_its_rounding():
+    """A range reaching exactly 10 mm from the nominal, or 20 mm wide, is within the bounds (0.01 m, as a tolerance of
+    10 mm is). Written in mm about rod2_x's nominal (-46.609 mm, -0.04660899999999998 m as the geometry computes it)
+    its ends' deviations round to 0.01 m and 1e-17 (the width to 0.02 and 4e-18): both were refused ('reaches 0.01 m
+    from the nominal ...; allowed: values within 0.01 m', 'is wider than 0.02'). 1e-8 m beyond is still refused."""
+    ps = CoreModel(load_config()).parameters
+    x2 = float(ps.values(ps.nominal)[ps.index('rod2_x')])
+    mm = round(x2 * 1e3, 6)
+    assert mm == -46.609
+    for lo, hi, low, high in ((mm - 10.0, mm + 10.0, -0.01, 0.01), (mm, mm + 10.0, 0.0, 0.01),
+                              (mm - 10.0, mm, -0.01, 0.0)):
+        t = parse_tolerances({'units': {'length': 'mm'}, 'parameters': {'rod2_x': {'range': [lo, hi]}}},
+                             't.yaml').bind(ps)[ps.index('rod2_x')]
+        assert t.low == pytest.approx(low, abs=1e-15) and t.high == pytest.approx(high, abs=1e-15)
+    for lo, hi, pattern in ((mm, mm + 10.00001, r'reaches 0\.01000001 m from the nominal -0\.046609 m; allowed: '
+                                                r'values within 0\.01 m'),
+                            (mm - 10.00001, mm + 10.00001, r'range \[-0\.056609, -0\.036609\] m is 0\.02000002 m '
+                                                          r'wide; allowed: at most 0\.02 m')):
+        with pytest.raises(ConfigError, match=pattern):
+            parse_tolerances({'units': {'length': 'mm'}, 'parameters': {'rod2_x': {'range': [lo, hi]}}},
+                             't.yaml').bind(ps)
+
+
 def test_lists_where_mappings_belong_are_refused():
     """units: [] and parameters: [] were read as no units and no parameters."""
     import pytest

@@ -47,6 +47,9 @@ Array = NDArray[np.float64]
 DISTRIBUTIONS = ('uniform', 'normal', 'log-uniform')
 #: Largest tolerance (half-width or range) accepted per unit, SI.
 MAX_TOLERANCE = {'m': 0.01, 'rad': 0.1, '1': 1e6}
+#: Relative slack of those bounds for a range's ends, whose deviations from the nominal are differences of rounded
+#: numbers: ``rod2_x: {range: [-56.609, -36.609]}`` (mm, the nominal -46.609 mm plus 10 mm) reaches 0.01 m and 1e-17.
+BOUND_SLACK = 1e-9
 _LENGTH = LENGTH_UNITS
 _ANGLE = ANGLE_UNITS
 
@@ -192,12 +195,13 @@ class ToleranceTable:
             lo, hi, low, high = nominal - t, nominal + t, -t, t
         else:
             lo, hi = vals[0] * f, vals[1] * f
-            if hi - lo > 2 * limit:
-                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is wider than {2 * limit:g}')
+            if hi - lo > 2 * limit * (1.0 + BOUND_SLACK):
+                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is {hi - lo:.9g} {p.unit} wide; '
+                                  f'allowed: at most {2 * limit:g} {p.unit}')
             low, high = lo - nominal, hi - nominal
             reach = max(abs(low), abs(high))
-            if not p.transform and reach > limit:  # it bypassed the tolerance's bound
-                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.6g} {p.unit} from '
+            if not p.transform and reach > limit * (1.0 + BOUND_SLACK):  # it bypassed the tolerance's bound
+                raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.9g} {p.unit} from '
                                   f'the nominal {nominal:.6g} {p.unit}; allowed: values within {limit:g} {p.unit} of '
                                   "the nominal (a key's range applies to each of its parameters)")
         if dist == 'log-uniform' and lo <= 0:
