@@ -34,7 +34,7 @@ Array = NDArray[np.float64]
 
 GRAVITY = 9.80665
 #: Step in ``s`` of the central differences of the wafer's path; on a joint-space move whose joints change by less than
-#: 1 (rad or m) the step is ``STEP`` over that change, at most 1 (:func:`difference_step`).
+#: 1 (rad or m) the step is ``STEP`` over that change, at most ``STEP / LEAST_CHANGE`` (:func:`difference_step`).
 STEP = 1e-4
 #: The least joint change [m or rad] :func:`difference_step` divides by: below it (a move of no length as doubles go
 #: near joints of order 1 changes by at least 1e-17) the step stays at ``STEP / LEAST_CHANGE`` and its products with
