@@ -82,9 +82,9 @@ def test_malformed_points_are_invalid_goals(times, positions, velocities, accele
     assert info.value.code == INVALID_GOAL
 
 
-def _plan(traj, current=None, tolerances=DEFAULTS, start_tolerance=1e-3, clearance=None):
+def _plan(traj, current=None, tolerances=DEFAULTS, start_tolerance=1e-3, clearance=None, under_way=False):
     return plan_motion(JOINTS, traj, JOINTS.rest if current is None else current, RATE, CFG, tolerances,
-                       start_tolerance, clearance)
+                       start_tolerance, clearance, under_way)
 
 
 def _two_points(names, *targets, t=(1.0, 2.0)):
@@ -189,6 +189,36 @@ def test_the_example_programs_as_sent_are_within_the_spline_slack(program, rate,
     m = _plan(traj, current)
     peak = float(np.max(np.abs(m.velocities[:, cols]) / JOINTS.velocity[cols]))   # 1 where the samples are the points
     assert (peak > 1.0 if rate < RATE else peak == pytest.approx(1.0, abs=1e-12)) and peak <= overshoot
+
+
+def test_a_goal_under_way_at_its_splines_peak_is_checked_as_its_samples():
+    """The example cell program as sent at 10 Hz (a cubic peaking at 1.00626 times a limit between its points,
+    accepted on time) arriving late at that peak with the joints on it: the cut point carries the spline's velocity
+    there, which the points' strict check refused ('points[0].velocities: ... allowed: at most'); under way it is a
+    sample, within the samples' 1 %, and the motion goes on as the original's (to 1e-12)."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.plan import plan_program
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.robot.trajectory import program_trajectory
+
+    plan = plan_program(ROBOT, load_program(config_path('programs/example_cell_program.yaml')))
+    traj = program_trajectory(plan, 10.0)
+    cols = JOINTS.indices(traj.joint_names)
+    t = np.arange(0.0, traj.duration, 1e-3)
+    _, vel, _ = evaluate(traj, traj.positions[0], t)
+    ratio = np.abs(vel) / JOINTS.velocity[cols]
+    i, k = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    late = float(t[i])
+    assert ratio[i, k] == pytest.approx(1.0062579, abs=1e-6)
+    current = JOINTS.rest.copy()
+    current[cols] = evaluate(traj, traj.positions[0], np.array([late]))[0][0]
+    cut = late_start(JOINTS, traj, current, late, 1e-3)
+    with pytest.raises(GoalError, match=r'points\[0\]\.velocities: '):
+        _plan(cut, current)
+    m = _plan(cut, current, under_way=True)
+    ahead = m.time[m.time <= traj.duration - late]
+    expected = evaluate(traj, traj.positions[0], late + ahead)[0]
+    np.testing.assert_allclose(m.positions[:ahead.size][:, cols], expected, rtol=0.0, atol=1e-12)
 
 
 def test_a_first_point_at_time_zero_must_be_where_the_robot_is():

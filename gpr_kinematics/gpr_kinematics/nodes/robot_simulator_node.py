@@ -236,15 +236,19 @@ class RobotSimulatorNode(GprNode):
             raise GoalError(INVALID_GOAL, f'header.stamp lies {(stamp - now) / NS_PER_S:.6g} s ahead; allowed: at '
                             f'most {MAX_DURATION:g} s')
         late = (now - stamp) / NS_PER_S if stamp and stamp < now - round(self.period * NS_PER_S) else 0.0
+        under_way = False
         if late:   # as joint_trajectory_controller: refused only when it ended before it arrived
-            # from the next sample on the stamp's grid (stamp + k / rate), where an on-time goal's samples lie
-            k = math.ceil(late / self.period - 1e-9)
-            late = k * self.period if k * self.period < traj.duration else late
+            # from the next sample on the stamp's grid (stamp + k / rate), where an on-time goal's samples lie, unless
+            # that would pass a first point still ahead on arrival
+            grid = math.ceil(late / self.period - 1e-9) * self.period
+            if grid < traj.duration and not late < traj.time[0] <= grid:
+                late = grid
+            under_way = bool(traj.time[0] <= late)
             traj = late_start(self.joints, traj, self.actual, late, float(self.p['start_tolerance']))
             start = stamp + round(late * NS_PER_S)
         try:
             return plan_motion(self.joints, traj, self.actual, float(self.p['rate']), self.cfg, tol,
-                               float(self.p['start_tolerance']), self.clearance), start
+                               float(self.p['start_tolerance']), self.clearance, under_way), start
         except GoalError as exc:
             if not late:
                 raise

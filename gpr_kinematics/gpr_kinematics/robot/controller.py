@@ -289,11 +289,17 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
                         f'{joints.units[j]}')
 
 
-def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array) -> None:
-    limit = joints.velocity[cols] * (1.0 + VELOCITY_SLACK)
+def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
+                      under_way: bool) -> None:
+    """Points' velocities and segments' means within the limits; ``under_way``: the first point is a sample of the
+    spline (:func:`late_start`'s state at the arrival), it and the first segment within the samples' slack."""
+    slack = np.full((traj.time.shape[0], 1), VELOCITY_SLACK)
+    if under_way:
+        slack[0] = SPLINE_VELOCITY_SLACK
+    limits = joints.velocity[cols] * (1.0 + slack)
     unit = [f'{joints.units[j]}/s' for j in cols]
     if traj.velocities is not None:
-        bad = np.abs(traj.velocities) > limit
+        bad = np.abs(traj.velocities) > limits
         if bad.any():
             i, k = (int(v) for v in np.argwhere(bad)[0])
             raise GoalError(INVALID_GOAL, f'points[{i}].velocities: {traj.joint_names[k]} = '
@@ -304,7 +310,7 @@ def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
         t, P = np.concatenate([[0.0], t]), np.vstack([start, P])
     if t.shape[0] > 1:
         mean = np.abs(np.diff(P, axis=0)) / np.diff(t)[:, None]
-        bad = mean > limit
+        bad = mean > (limits if traj.time[0] > 0.0 else limits[:-1])
         if bad.any():
             i, k = (int(v) for v in np.argwhere(bad)[0])
             into = i + (0 if traj.time[0] > 0.0 else 1)
@@ -341,9 +347,11 @@ def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel:
 
 
 def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,
-                tolerances: Tolerances, start_tolerance: float, clearance: Clearance | None = None) -> Motion:
+                tolerances: Tolerances, start_tolerance: float, clearance: Clearance | None = None,
+                under_way: bool = False) -> Motion:
     """Check ``traj`` from the ``current`` positions of every joint ``(N,)`` and sample it at ``rate`` [Hz]: samples at
-    ``t_k = k / rate`` and the last point's time (module docstring; :class:`GoalError` with the code)."""
+    ``t_k = k / rate`` and the last point's time (module docstring; :class:`GoalError` with the code). ``under_way``:
+    ``traj`` goes on from a trajectory's state at a late arrival (:func:`late_start`), its first point a sample."""
     cols = joints.indices(traj.joint_names)
     current = np.asarray(current, dtype=float)
     start = current[cols]
@@ -351,7 +359,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     if traj.time[0] == 0.0:
         _refuse_off_start(joints, cols, traj, traj.positions[0], start, start_tolerance, 'points[0] at time_from_start '
                           '0', 'a first point after 0 s, which the joints then reach from where they are')
-    _check_velocities(joints, cols, traj, start)
+    _check_velocities(joints, cols, traj, start, under_way)
     count = int(math.floor(traj.duration * rate + 1e-9)) + 2
     if count > MAX_SAMPLES:
         raise GoalError(INVALID_GOAL, f'the trajectory lasts {traj.duration:.6g} s: {count} samples at {rate:g} Hz; '
