@@ -118,7 +118,7 @@ def _gpr(*argv, cwd):
      r'box\[1\] = -0\.1 is invalid'),
     ('shape', 'obstacles:\n  - {name: a, cone: {radius: 0.1}, position: [0, 0, 0]}\n', r'unknown key\(s\) cone'),
     ('many', 'many', rf'obstacles: {MAX_OBSTACLES + 1} obstacles; allowed: at most {MAX_OBSTACLES}'),
-    ('missing', None, r"cannot read cell file '.*missing\.yaml'"),
+    ('missing', None, r"cell file '.*missing\.yaml' not found \(a path with a folder is read as given"),
 ], ids=['nan', 'negative', 'shape', 'many', 'missing'])
 def test_bad_cell_files_exit_2_with_one_line(tmp_path, name, text, pattern):
     path = tmp_path / f'{name}.yaml'
