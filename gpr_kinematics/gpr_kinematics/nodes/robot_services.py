@@ -54,7 +54,7 @@ class RobotModels:
                              "node's model")
         key = (id(robot), model)
         entry = self._cache.get(key)
-        if entry is None or entry[0] is not robot:
+        if entry is None:
             if len(self._cache) > 16:  # a description changed at run time: forget the old ones
                 self._cache.clear()
             entry = self._cache[key] = (robot, dataclasses.replace(robot, config=robot.config.replace(model=model)))
