@@ -423,3 +423,32 @@ def test_a_goal_whose_cancel_came_first_ends_cancelled_when_a_newer_goal_preempt
             assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
     finally:
         proc.stop()
+
+
+def test_a_best_effort_joint_states_publisher_is_heard_with_the_parameter(ros_environment):
+    """With joint_states_reliability:=best_effort the idle simulator takes a best-effort publisher's joint values
+    (as robot_state_publisher's SensorDataQoS hears them) and still publishes its own reliable state."""
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    proc = start('robot_simulator_node', namespace='/gpr_sim_be', joint_states_reliability='best_effort')
+    try:
+        wait_for_log(proc, r'serving /gpr_sim_be/')
+        with GprClient('gpr_test_sim_be', namespace='/gpr_sim_be') as c:
+            states = c.subscribe(JointState, 'joint_states')
+            pub = c.node.create_publisher(JointState, 'joint_states', qos_profile_sensor_data)
+
+            def hand() -> float | None:
+                return states[-1].position[list(states[-1].name).index('arm2_hand')] if states else None
+
+            assert c.spin_until(lambda: pub.get_subscription_count() > 0 and states, 20), proc.output()
+            for _ in range(3):      # best effort: sent a few times; the simulator is quiet while they arrive
+                msg = JointState(name=['arm2_hand'], position=[0.75])
+                msg.header.stamp = c.node.get_clock().now().to_msg()
+                pub.publish(msg)
+                c.spin_for(0.05)
+            assert c.spin_until(lambda: hand() == 0.75, 10), proc.output()
+        assert proc.alive() and 'Traceback' not in proc.output()
+    finally:
+        proc.stop()

@@ -343,20 +343,21 @@ def test_a_new_tf_subscription_gets_the_held_state_when_it_matches(ros_environme
 
 
 @contextlib.contextmanager
-def _joint_states_to(namespace: str, prefix: str) -> Iterator[tuple[Any, Any, Any, Callable[[], list[float]]]]:
-    """A state publisher in ``namespace`` with ``frame_prefix`` ``prefix``, a client subscribed to ``/tf`` and a
-    JointState publisher to the node, matched and the platform shown: ``(node process, client, publisher, the
-    platform's heights on /tf so far)``; the node still alive without a traceback at the end."""
+def _joint_states_to(namespace: str, prefix: str, qos: Any = 10,
+                     **params: Any) -> Iterator[tuple[Any, Any, Any, Callable[[], list[float]]]]:
+    """A state publisher in ``namespace`` with ``frame_prefix`` ``prefix`` (and ``params``), a client subscribed to
+    ``/tf`` and a JointState publisher (``qos``) to the node, matched and the platform shown: ``(node process, client,
+    publisher, the platform's heights on /tf so far)``; the node still alive without a traceback at the end."""
     from gpr_kinematics.nodes.client import GprClient
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
 
-    sp = start('state_publisher_node', namespace=namespace, frame_prefix=prefix)
+    sp = start('state_publisher_node', namespace=namespace, frame_prefix=prefix, **params)
     try:
         wait_for_log(sp, r'publishing robot_description')
         with GprClient(f'gpr_test{namespace.replace("/", "_")}') as c:
             tf = c.subscribe(TFMessage, '/tf')
-            pub = c.node.create_publisher(JointState, f'{namespace}/joint_states', 10)
+            pub = c.node.create_publisher(JointState, f'{namespace}/joint_states', qos)
 
             def platform_z() -> list[float]:
                 return [t.transform.translation.z for m in tf for t in m.transforms
@@ -403,3 +404,31 @@ def test_malformed_joint_states_are_ignored_with_a_warning(ros_environment):
         pub.publish(JointState(name=['rod_3'], position=[rest]))   # rods 1 and 2 as held: at rest
         z = forward([rest] * 3, ROBOT.config).position[2]
         assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z()), 10), sp.output()
+
+
+def test_a_best_effort_joint_states_publisher_is_named_or_heard(ros_environment):
+    """A driver publishing joint_states best effort (robot_state_publisher subscribes with SensorDataQoS) cannot
+    match the default reliable subscription: the node names the parameter that hears it; with
+    joint_states_reliability:=best_effort its rods move the platform (forward kinematics, 1e-12)."""
+    from gpr_kinematics.core import forward
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    sp = start('state_publisher_node', namespace='/tf_reliable_only')
+    try:
+        wait_for_log(sp, r'publishing robot_description')
+        with GprClient('gpr_test_reliable_only') as c:
+            c.node.create_publisher(JointState, '/tf_reliable_only/joint_states', qos_profile_sensor_data)
+            wait_for_log(sp, r'joint_states: a publisher offers a QoS this reliable subscription cannot match '
+                             r'\(RELIABILITY\).*-p joint_states_reliability:=best_effort')
+        assert sp.alive() and 'Traceback' not in sp.output()
+    finally:
+        sp.stop()
+    names, rods = ['rod_1', 'rod_2', 'rod_3'], [0.3005, 0.3, 0.2995]
+    z = forward(rods).position[2]
+    with _joint_states_to('/tf_best_effort', 'e/', qos_profile_sensor_data,
+                          joint_states_reliability='best_effort') as (sp, c, pub, platform_z):
+        assert c.spin_until(lambda: (pub.publish(JointState(name=names, position=rods)) or
+                                     any(abs(v - z) < 1e-12 for v in platform_z())), 10), sp.output()
+        assert 'cannot match' not in sp.output()

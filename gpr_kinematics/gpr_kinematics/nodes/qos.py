@@ -21,9 +21,11 @@ trajectory of 200,000 points).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from rclpy._rclpy_pybind11 import RCLError
+from rclpy.event_handler import QoSRequestedIncompatibleQoSInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -45,6 +47,29 @@ def stream_qos(depth: int) -> QoSProfile:
     """Reliable, keep last ``depth``, volatile."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
+
+
+def joint_states_subscription(node: Node, callback: Callable[[Any], None], depth: int, reliability: str) -> Any:
+    """Subscribe ``node`` to ``joint_states`` (relative), keep last ``depth``, volatile, ``reliability``
+    (``reliable``: every sample; ``best_effort``: as robot_state_publisher's ``SensorDataQoS``, which also hears a
+    best-effort driver). A publisher whose QoS cannot match (a best-effort one for a reliable subscription) gets a
+    warning that says which parameter hears it, in place of rclpy's (which names no remedy)."""
+    from sensor_msgs.msg import JointState
+
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), durability=DurabilityPolicy.VOLATILE,
+                     reliability=ReliabilityPolicy.RELIABLE if reliability == 'reliable'
+                     else ReliabilityPolicy.BEST_EFFORT)
+
+    def incompatible(info: QoSRequestedIncompatibleQoSInfo) -> None:
+        policy = str(getattr(info.last_policy_kind, 'name', info.last_policy_kind)).replace('RMW_QOS_POLICY_', '')
+        node.get_logger().warning(
+            f'joint_states: a publisher offers a QoS this {reliability} subscription cannot match ({policy}); none of '
+            'its messages are received; allowed: a reliable publisher, or start the node with '
+            '-p joint_states_reliability:=best_effort to hear a best-effort one (robot_state_publisher\'s '
+            'SensorDataQoS)')
+
+    return node.create_subscription(JointState, 'joint_states', callback, qos,
+                                    event_callbacks=SubscriptionEventCallbacks(incompatible_qos=incompatible))
 
 
 def service_qos() -> QoSProfile:

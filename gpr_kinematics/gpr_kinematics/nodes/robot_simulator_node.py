@@ -25,8 +25,9 @@ it arrived is ``OLD_HEADER_TIMESTAMP``).
 
 While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
 goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
-ended), and takes the joint values that other publishers send on ``joint_states`` (``trajectory_node`` streaming a
-program) as its state, quietly while they stream, so a goal starts where the robot is shown (values beyond the
+ended; reliable, so a best-effort subscriber hears it too), and takes the joint values that other publishers send on
+``joint_states`` (``trajectory_node`` streaming a program; a best-effort one with ``joint_states_reliability``) as
+its state, quietly while they stream, so a goal starts where the robot is shown (values beyond the
 joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning). ``state_publisher_node``
 turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
 the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
@@ -76,7 +77,7 @@ from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
-from .qos import action_server_options, release_request, stream_qos
+from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
 from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
@@ -132,7 +133,7 @@ class RobotSimulatorNode(GprNode):
         self.last_published = -math.inf
         qos = stream_qos(int(p['queue_depth']))
         self.pub = self.create_publisher(JointState, 'joint_states', qos)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states, qos)
+        joint_states_subscription(self, self._on_joint_states, qos.depth, p['joint_states_reliability'])
         self.motion_timer = self.create_timer(self.period, self._tick)
         self.motion_timer.cancel()
         self.create_timer(1.0 / float(p['idle_rate']), self._idle)

@@ -31,7 +31,8 @@ prefixes every frame, as robot_state_publisher's does.
 A robot_state_publisher cannot do this from the URDF alone: the platform closes an overconstrained loop (three rods,
 one platform), so its pose is not a function of a joint tree; here it is the kinematics' answer for the rods.
 Parameters: ``robot_file``, ``base_frame``, ``platform_frame``, ``nominal_frame``, ``frame_prefix``, ``idle_rate``,
-``queue_depth``, ``cell_file`` (see :mod:`.specs`).
+``queue_depth``, ``joint_states_reliability`` (reliable; ``best_effort`` hears a best-effort driver, as
+robot_state_publisher does), ``cell_file`` (see :mod:`.specs`).
 """
 from __future__ import annotations
 
@@ -57,7 +58,7 @@ from ..safety.cell import load_cell
 from ..safety.markers import cell_marker_array
 from .conversions import make_message, message_class, transform_msg
 from .params import ConfigParameters, declare_parameters, declare_robot
-from .qos import latched_qos, stream_qos
+from .qos import joint_states_subscription, latched_qos, stream_qos
 from .runtime import GprNode, one_line, run
 
 NODE_NAME = 'state_publisher_node'
@@ -108,7 +109,7 @@ class StatePublisherNode(GprNode):
         # a subscription that matches gets the held state at once (not up to an idle period later)
         self.pub_tf = self.create_publisher(TFMessage, '/tf', stream_qos(depth),
                                             event_callbacks=PublisherEventCallbacks(matched=self._on_matched))
-        self.create_subscription(JointState, 'joint_states', self.on_joints, stream_qos(depth))
+        joint_states_subscription(self, self.on_joints, depth, p['joint_states_reliability'])
         self.received = 0
         self.last_received = -math.inf
         self.idle_period = 1.0 / float(p['idle_rate'])

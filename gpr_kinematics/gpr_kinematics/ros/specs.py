@@ -195,6 +195,10 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
 FRAME_PREFIX = ParamSpec('frame_prefix', 'string', '', 'prefix of every tf frame the node publishes or names (as '
                          "robot_state_publisher's frame_prefix), e.g. r1/", constraint='empty, or letters, digits, _ '
                          'and /, not starting with /', read_only=True)
+JOINT_STATES_RELIABILITY = ParamSpec('joint_states_reliability', 'string', 'reliable', 'QoS reliability of the '
+                                     'joint_states subscription: reliable (every sample) or best_effort (hears a '
+                                     'best-effort publisher too, as robot_state_publisher\'s SensorDataQoS)',
+                                     choices=('reliable', 'best_effort'), read_only=True)
 _PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]{0,99}')
 
 
@@ -334,8 +338,9 @@ STATE_PUBLISHER: tuple[ParamSpec, ...] = (
     FRAME_PREFIX,
     ParamSpec('idle_rate', _D, 10.0, 'rate of /tf [Hz] while no joint_states arrive: the last state held, so tf is '
               'always there', (0.1, 1000.0), read_only=True),
-    ParamSpec('queue_depth', _I, 1000, 'joint_states subscription and /tf publisher depth (reliable)',
+    ParamSpec('queue_depth', _I, 1000, 'joint_states subscription and /tf publisher depth',
               (1, 100000), read_only=True),
+    JOINT_STATES_RELIABILITY,
     ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): its obstacles published latched on gpr/cell '
               '(visualization_msgs/MarkerArray); empty: none', constraint='a readable cell file or empty',
               read_only=True),
@@ -357,8 +362,9 @@ SIMULATOR: tuple[ParamSpec, ...] = (
               'tolerance may still be reached', (1e-3, 3600.0), read_only=True),
     ParamSpec('servo_time_constant', _D, 0.0, 'time constant [s] of the joints\' first-order response to the '
               'trajectory; 0: they follow it exactly', (0.0, 10.0), read_only=True),
-    ParamSpec('queue_depth', _I, 1000, 'joint_states publisher and subscription depth (reliable)', (1, 100000),
+    ParamSpec('queue_depth', _I, 1000, 'joint_states publisher and subscription depth', (1, 100000),
               read_only=True),
+    JOINT_STATES_RELIABILITY,
     ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): every goal\'s motion is checked against it '
               'before anything moves (certified clearance between samples; python-fcl); empty: no clearance check',
               constraint='a readable cell file or empty', read_only=True),
