@@ -93,6 +93,8 @@ def test_params_file_dump_load_round_trip(client, exe, tmp_path):
         fresh = start(exe, '--params-file', str(dump), *KEEP_UP.get(exe, []), namespace=f'{ns}_fresh')
         wait_for_log(fresh, r'serving|publishing|recording|replaying|idle')
         assert _dump(client, f'{ns}_fresh/{exe}') == dumped
+        # the shipped file and a dump name only the node's own parameters: no warning of an unknown one
+        assert 'is not a parameter of' not in node.output() + fresh.output()
     finally:
         for p in (node, fresh):
             if p is not None:
@@ -122,6 +124,21 @@ def test_descriptors_carry_the_specs(client, exe):
         by_name = {d.name: d for d in descriptors}
         assert 'at least 10 deg' in by_name['rod_azimuths'].additional_constraints
         assert by_name['model'].additional_constraints.startswith('one of: radial, polar, offset')
+    finally:
+        node.stop()
+
+
+def test_an_unknown_parameter_at_start_is_named_with_the_closest_one():
+    """rclpy ignores a start-up parameter that names none of the node's (a typo would leave the default in force
+    unnoticed): the node warns, naming it, the closest parameter and what is allowed, and runs on its defaults."""
+    node = start('state_publisher_node', '-p', 'idle_rat:=5.0', '-p', 'zzz:=1', namespace='/unknown_param')
+    try:
+        wait_for_log(node, r"parameter 'idle_rat' given at start is not a parameter of state_publisher_node and is "
+                           r"ignored; did you mean 'idle_rate'\? allowed: .*idle_rate")
+        wait_for_log(node, r"parameter 'zzz' given at start is not a parameter of state_publisher_node and is "
+                           r"ignored; allowed: ")
+        wait_for_log(node, r'held at 10.0 Hz while none arrive')
+        assert node.alive()
     finally:
         node.stop()
 

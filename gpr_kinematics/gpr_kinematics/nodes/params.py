@@ -14,6 +14,7 @@ called once the change is accepted, *applies* it.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,21 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool =
         spec.check(value)
         values[spec.name] = value
     return values
+
+
+def unknown_overrides(node: Node) -> list[str]:
+    """Warn once for each start-up parameter (``-p NAME:=VALUE``, a parameters file) that names no parameter of
+    ``node``: rclpy ignores it silently, so a typo (``idle_rat``) would leave the default in force unnoticed. The
+    warning names the closest parameter, if any; returns the names warned about."""
+    overrides = getattr(node, '_parameter_overrides', None) or {}
+    unknown = sorted(name for name in overrides if not node.has_parameter(name))
+    declared = sorted(node._parameters) if hasattr(node, '_parameters') else []
+    for name in unknown:
+        close = difflib.get_close_matches(name, declared, n=1)
+        hint = f'did you mean {close[0]!r}? ' if close else ''
+        node.get_logger().warning(f'parameter {name[:200]!r} given at start is not a parameter of {node.get_name()} '
+                                  f'and is ignored; {hint}allowed: {", ".join(declared)}')
+    return unknown
 
 
 def declare_robot(node: Node, default: str | Path | None = None) -> RobotDescription:

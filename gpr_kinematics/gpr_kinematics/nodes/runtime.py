@@ -38,6 +38,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..errors import EXIT_BAD_INPUT, GprError
 from ..inputs.validation import decimal_number
+from .params import unknown_overrides
 
 EXIT_OK = 0
 #: Exit status of a node that stopped on an error while running.
@@ -229,6 +230,7 @@ def run(node_class: Callable[[], GprNode], args: Sequence[str] | None = None, na
         except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
             logger.error(f'cannot start: internal error: {type(exc).__name__}: {one_line(exc)}')
             return EXIT_FAILED
+        unknown_overrides(node)
         executor = node.make_executor()
         executor.add_node(node)
         status = EXIT_OK
