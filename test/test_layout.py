@@ -15,7 +15,7 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'gpr_kine
 TOP = 'gpr_kinematics'
 #: The layers from the bottom up; a module may import its own layer's modules and those of the layers below.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ('errors',),
+    ('errors', 'callbacks'),
     ('inputs',),
     ('core',),
     ('robot', 'mechanisms'),
@@ -139,3 +139,18 @@ def test_cycle_finder_finds_a_loop():
 def test_graph_sees_imports_inside_functions(module):
     graph = import_graph()
     assert graph[module], module
+
+
+def test_progress_callback_type_has_one_home():
+    """``StageProgress`` is defined in ``callbacks`` (layer 1) and imported from there, never sideways (it was in
+    ``safety.check``, imported by ``calibration`` and ``cli``)."""
+    homes, sources = [], set()
+    for path in PACKAGE_DIR.rglob('*.py'):
+        module = _module_name(path)
+        for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+            if isinstance(node, ast.Assign) and any(getattr(t, 'id', '') == 'StageProgress' for t in node.targets):
+                homes.append(module)
+            elif isinstance(node, ast.ImportFrom) and any(a.name == 'StageProgress' for a in node.names):
+                sources.add((node.module or '').rpartition('.')[2])
+    assert homes == [f'{TOP}.callbacks']
+    assert sources == {'callbacks'}

@@ -27,11 +27,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..callbacks import StageProgress
 from ..core.inverse import check_tool
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number, random_seed, rotation_matrices
@@ -46,9 +47,6 @@ from .model import (
 )
 from .monte_carlo import Calibrated, monte_carlo
 from .tolerances import Tolerance, ToleranceTable
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 

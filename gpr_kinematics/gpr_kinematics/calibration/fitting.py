@@ -35,17 +35,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..callbacks import StageProgress
 from ..errors import ConvergenceError, InputError
 from .identifiability import triangular_factor
 from .model import ParameterSet
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 Residuals = Callable[[Array], Array]

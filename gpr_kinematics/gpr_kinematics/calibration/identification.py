@@ -28,11 +28,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..callbacks import StageProgress
 from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
@@ -55,9 +55,6 @@ from .quality import (
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 

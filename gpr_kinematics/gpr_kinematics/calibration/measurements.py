@@ -34,19 +34,16 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..callbacks import StageProgress
 from ..core.rotations import matrix_from_quaternion
 from ..errors import InputError, brief
 from ..inputs import units
 from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal
 from .files import comment_lines, read_text, write_text
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 

@@ -3,16 +3,14 @@ evaluated exactly, and whether each draw lies within the bounds the linearised w
 not: its worst case is its 3 sigma)."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..callbacks import StageProgress
 from .model import PoseModel, evaluate, pose_error
 from .tolerances import Tolerance, ToleranceTable
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 #: Calibrated parameters: their indices and the covariance of their estimates.

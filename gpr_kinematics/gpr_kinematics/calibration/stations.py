@@ -20,20 +20,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..callbacks import StageProgress
 from ..core.config import GprConfig
 from ..errors import InputError
 from .budget import Budget, accuracy_budget
 from .core_model import CoreModel
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
 from .tolerances import ToleranceTable, centre_of, prior_of
-
-if TYPE_CHECKING:
-    from ..safety.check import StageProgress
 
 Array = NDArray[np.float64]
 

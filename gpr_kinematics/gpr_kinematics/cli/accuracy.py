@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..calibration.core_model import MODEL
+from ..callbacks import StageProgress
 from ..errors import InputError, brief
 from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
 from ..inputs.safe_yaml import YamlValue
@@ -45,7 +46,6 @@ from .progress import add_no_progress, progress_line
 if TYPE_CHECKING:
     from ..calibration.budget import Budget
     from ..core.config import GprConfig
-    from ..safety.check import StageProgress
     from .main import Subparsers
 
 #: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).

@@ -10,12 +10,12 @@ to the arrival at the ``retract`` one.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..callbacks import StageProgress
 from ..errors import ConfigError
 from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
@@ -154,11 +154,6 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     stations += [(station_wafer(name, origin), name, ((t0, end),)) for name, (t0, origin) in present.items()]
     return WaferPlan({a: tuple(w) for a, w in carried.items()}, tuple(stations),
                      {k: tuple(w) for k, w in contact.items()})
-
-
-#: What :func:`check_program` reports its progress to: the stage (``'clearance'``, ``'slip'``) and the share of it
-#: done, in [0, 1].
-StageProgress = Callable[[str, float], None]
 
 
 def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE,
