@@ -181,3 +181,22 @@ def test_imports_stop_at_the_programs_bound_of_stations(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match=r"p.yaml: import 'two.csv': 4 stations so far; allowed: at most 3 in a "
                                           r'program \(inline and imported\)$'):
         _program(tmp_path, data)
+
+
+def test_a_move_is_a_line_out_of_an_entry_and_into_an_exit():
+    """``Waypoints.is_line(m)``, the one test of a straight move (``line_moves``, ``move_rows``, the slip use it):
+    the cell program's chambers are entered and left on lines, the move out of the ``entry`` waypoint and the one
+    into the ``exit`` waypoint; every other move, and every move of waypoints without ``path``, is a joint line."""
+    import dataclasses
+
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.robot.plan import line_moves
+
+    program = load_program(config_path('programs/example_cell_program.yaml'))
+    w = expand(program, load_robot(program.robot))
+    expected = [w.phase[m] == 'entry' or w.phase[m + 1] == 'exit' for m in range(len(w) - 1)]
+    assert [w.is_line(m) for m in range(len(w) - 1)] == expected
+    assert 0 < sum(expected) < len(expected)
+    assert line_moves(w) == [m for m, line in enumerate(expected) if line]
+    bare = dataclasses.replace(w, path=())
+    assert not any(bare.is_line(m) for m in range(len(w) - 1)) and line_moves(bare) == []

@@ -429,7 +429,7 @@ def test_on_a_straight_entry_the_slip_ratio_peaks_at_the_corners():
     for k in np.flatnonzero(timing.duration > 0.0):
         t0, t1 = timing.depart[k], timing.arrive[k + 1]
         arm = next((a for a, windows in carried.items() if any(w0 <= t0 and t1 <= w1 for w0, w1 in windows)), None)
-        if PLAN.waypoints.path[k + 1] != 'line' or arm is None:
+        if not PLAN.waypoints.is_line(k) or arm is None:
             continue
         entries += 1
         at = corners[(corners >= t0) & (corners <= t1)]

@@ -113,12 +113,12 @@ def jerk_limits(robot: RobotDescription) -> Array:
 
 def line_moves(plan_way: Waypoints) -> list[int]:
     """The moves (into waypoint ``m + 1``) that keep the wafer on a straight line."""
-    return [m for m in range(len(plan_way) - 1) if plan_way.path and plan_way.path[m + 1] == 'line']
+    return [m for m in range(len(plan_way) - 1) if plan_way.is_line(m)]
 
 
 def move_rows(robot: RobotDescription, way: Waypoints, positions: Array, m: int, s: Array, label: str = '') -> Array:
     """Joint rows at ``s`` (profile values) of move ``m``: on the joint-space line, or solved on the wafer's line."""
-    if not way.path or way.path[m + 1] != 'line':
+    if not way.is_line(m):
         return np.asarray(positions[m] + s[:, None] * (positions[m + 1] - positions[m]), dtype=np.float64)
     _, _, _, slices = joint_limits(robot)
     cols = slices[robot.arm_names.index(way.arm[m + 1])]

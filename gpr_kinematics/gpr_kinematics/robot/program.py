@@ -280,6 +280,11 @@ class Waypoints:
     def __len__(self) -> int:
         return len(self.stations)
 
+    def is_line(self, m: int) -> bool:
+        """Whether move ``m`` (into waypoint ``m + 1``) keeps the wafer on a straight line (its ``path`` is
+        ``line``); without ``path`` every move is a line in joint space."""
+        return bool(self.path) and self.path[m + 1] == 'line'
+
 
 def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
     """Waypoints of ``program`` for ``robot`` (module docstring); unknown arms and branches are refused."""

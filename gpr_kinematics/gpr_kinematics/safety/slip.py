@@ -69,7 +69,7 @@ class SlipSeries:
 def wafer_path(plan: ProgramPlan, arm: str, m: int, s: Array) -> Array:
     """Wafer positions ``(len(s), 3)`` of ``arm`` at profile values ``s`` of move ``m`` (or of its hold, ``s = 1``)."""
     robot = plan.robot
-    line = bool(plan.waypoints.path) and plan.waypoints.path[m + 1] == 'line'
+    line = plan.waypoints.is_line(m)
     rows = move_rows(robot, plan.waypoints, plan.positions, m, np.clip(s, -1.0, 2.0) if line else s, plan.labels[m + 1])
     _, _, _, slices = joint_limits(robot)
     cols = slices[robot.arm_names.index(arm)]
@@ -111,7 +111,7 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
         steps = difference_step(plan, arm.name, moves) if moves.size else moves
         for k, step in zip(moves.tolist(), steps.tolist(), strict=True):
             sel = idx[m[idx] == k]
-            line = bool(plan.waypoints.path) and plan.waypoints.path[k + 1] == 'line'
+            line = plan.waypoints.is_line(k)
             h = STEP if line else float(step)
             p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - h, s[sel], s[sel] + h]))
             n = sel.size
