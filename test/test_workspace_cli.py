@@ -156,6 +156,21 @@ def test_equation_models_through_the_cli(tmp_path, capsys):
     assert not list(tmp_path.glob('*.npz')) and not list(tmp_path.glob('.boxes-*'))
 
 
+def test_the_text_summary_is_headed_by_the_file_name_as_the_plots_are(tmp_path, capsys):
+    """A model given by equations was headed by its type (``equations:``), every packaged model by its own name,
+    which is its file's; all are now headed by the file's name, the name the plots carry. At ``delta`` 1 m the
+    covering stops at the first bisection (0.15 s): the 4 boxes of the initial box (2 x 1.04 m wide), all boundary."""
+    code, out, err = _run(capsys, 'dextar_6d.yaml', '--delta', '1000', '--mm', '--scheduler', 'none', '--no-progress')
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == 'dextar_6d: 0 inner and 4 boundary boxes (0 outside), method covering, delta 1 m'
+    assert lines[1].startswith(f'inner volume 0 m*m, outer volume {1.04 ** 2:.6g} m*m, ')
+    (tmp_path / 'my_shell.yaml').write_bytes(config_path('mechanisms/shell_arm.yaml').read_bytes())
+    code, out, err = _run(capsys, str(tmp_path / 'my_shell.yaml'), '--delta', '1000', '--mm', '--no-progress')
+    assert code == 0, err
+    assert out.startswith('my_shell: ')
+
+
 def test_the_joint_working_area_through_the_cli(tmp_path, capsys):
     code, out, err = _run(capsys, 'joint_working_area.yaml', '--delta', '16', '--mm', '--plot', str(tmp_path),
                           '--scheduler', 'none')

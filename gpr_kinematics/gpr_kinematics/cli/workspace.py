@@ -150,13 +150,14 @@ def run(args: argparse.Namespace) -> int:
                          max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,
                          parts=args.parts)
     report = workspace_report(model, result)
+    name = Path(args.file).stem   # the summary's heading and the plots' names (a model's type is in --json)
     written: dict[str, JsonValue] = {}
     notes = []
     if args.boxes is not None:
         written['boxes_file'] = path = str(save_boxes(args.boxes, result, report.box, report.scale))
         notes.append(f'boxes written to {path}')
     if args.plot is not None:
-        plots = plot_projections(result, args.plot, Path(args.file).stem, report.box)
+        plots = plot_projections(result, args.plot, name, report.box)
         written['plots'] = [str(p) for p in plots]
         notes.append(f'{len(plots)} projections written to {args.plot}')
     if result.interrupted:
@@ -166,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
         return 0
-    print(f'{model.name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
+    print(f'{name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
           f'({result.outside_boxes} outside), method {result.method}, delta {delta:g} m')
     print(f'inner volume {result.inner_volume:.6g} {report.volume_units}, outer volume '
           f'{result.outer_volume:.6g} {report.volume_units}, {result.seconds:.2f} s'
