@@ -226,6 +226,37 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch):
     assert not (tmp_path / 'x.yaml').exists()
 
 
+def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys, tmp_path, monkeypatch):
+    """``--output x.csv`` wrote the calibrated geometry's YAML under a CSV's name (after a fit of 40 rows); --plan's
+    CSV went under any name too. The suffix, and a folder as the output, are refused before any fit: identify is
+    never called."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+
+    def no_fit(*args, **kwargs):
+        raise AssertionError('a fit ran before the output was checked')
+
+    monkeypatch.setattr('gpr_kinematics.calibration.identification.identify', no_fit)
+    arm = write(tmp_path, 'arm.csv', 'arm,x,y,z\n')
+    for argv, line in [
+            (['calibrate', SHIPPED, '--output', 'x.csv'],
+             "--output 'x.csv': allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
+            (['calibrate', SHIPPED, '--output', 'x.YAML.txt'],
+             "--output 'x.YAML.txt': allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
+            (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.csv'],
+             "--output 'r.csv': allowed: a .yaml or .yml file (the calibrated robot is written as YAML)"),
+            (['calibrate', '--plan', '3', '--output', 'plan.yaml'],
+             "--output 'plan.yaml': allowed: a .csv file (the plan is written as CSV)"),
+            (['calibrate', SHIPPED, '--output', str(tmp_path)],
+             f'calibrated geometry output {tmp_path} exists and is not a regular file (it is a directory); allowed: '
+             'a new file or a regular file to replace, in an existing, writable folder')]:
+        status, out, err = run(capsys, *argv)
+        assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['arm.csv']
+    status, out, err = run(capsys, 'calibrate', '--plan', '3', '--output', 'plan.CSV')   # any case
+    assert status == 0 and (tmp_path / 'plan.CSV').read_text().splitlines()[3] == 'q1,q2,q3', err
+
+
 def test_one_row_is_enough_for_three_offsets(capsys, tmp_path):
     """6 residuals for 3 parameters: allowed (too few rows for all 24: the refusals above); whether the row determines
     them is the identifiability report's to say, whether the three explain it the gate's: here they do not (the

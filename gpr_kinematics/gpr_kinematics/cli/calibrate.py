@@ -165,6 +165,16 @@ def _plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_output(args: argparse.Namespace) -> None:
+    """Refuse, before any fit, an ``--output`` named unlike what is written (``--output x.csv`` got the calibrated
+    geometry's YAML) or that cannot be written (a folder was refused only after the fit)."""
+    from ..inputs.files import check_output, check_suffix
+    what, suffixes = ('plan', ('.csv',)) if args.plan is not None else (
+        'calibrated robot' if args.robot is not None else 'calibrated geometry', ('.yaml', '.yml'))
+    check_output(args.output, what)
+    check_suffix(args.output, '--output', suffixes, f' (the {what} is written as {suffixes[0][1:].upper()})')
+
+
 def _handler(args: argparse.Namespace) -> int:
     if bool(args.measurements) == (args.plan is not None):
         raise InputError('give a MEASUREMENTS file to calibrate from, or --plan N for a measurement plan '
@@ -181,9 +191,11 @@ def _handler(args: argparse.Namespace) -> int:
     if args.base is not None and args.frame == 'gpr_base':  # it was applied: 0.5 mm moved the rod offsets by 0.5 mm
         raise InputError('--base gives the pose of gpr_base in --frame, which is gpr_base itself (the default): the '
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
+    if args.robot is not None and args.plan is not None:
+        raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
+    if args.output is not None:
+        _check_output(args)
     if args.robot is not None:
-        if args.plan is not None:
-            raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
         from .calibrate_robot import calibrate_robot
         return calibrate_robot(args)
     if args.points and args.plan is None:

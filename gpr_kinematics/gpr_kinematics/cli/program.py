@@ -63,14 +63,12 @@ class ProgramCheck:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from ..errors import InputError
     from ..safety.cell import load_cell
     from ..safety.check import check_program
     from ..safety.clearance import MARGIN
     if args.plot is not None:
-        from ..inputs.files import check_output
-        if not str(args.plot).lower().endswith('.png'):
-            raise InputError(f'--plot {args.plot!r}: allowed: a .png file')
+        from ..inputs.files import check_output, check_suffix
+        check_suffix(args.plot, '--plot', ('.png',))
         check_output(args.plot, 'plot')
     margin = MARGIN if args.margin is None else args.margin
     program, plan = _program(args)
@@ -178,10 +176,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _check_trajectory_output(args: argparse.Namespace) -> None:
     """Refuse a bad ``--trajectory`` path or ``--lead-in`` before any work."""
     from ..errors import InputError
-    from ..inputs.files import check_output
+    from ..inputs.files import check_output, check_suffix
     if args.trajectory is not None:
-        if not str(args.trajectory).lower().endswith(('.yaml', '.yml')):
-            raise InputError(f'--trajectory {args.trajectory!r}: allowed: a .yaml or .yml file')
+        check_suffix(args.trajectory, '--trajectory', ('.yaml', '.yml'))
         check_output(args.trajectory, 'trajectory')
     if not 0.0 <= args.lead_in <= 3600.0:
         raise InputError(f'--lead-in = {args.lead_in!r} s; allowed: 0 to 3600 s')

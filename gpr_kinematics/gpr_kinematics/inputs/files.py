@@ -201,6 +201,18 @@ def check_output(path: str | os.PathLike[str], what: str) -> Path:
     return target
 
 
+def check_suffix(path: str | os.PathLike[str], option: str, suffixes: tuple[str, ...], why: str = '') -> None:
+    """Refuse an output named ``path`` by ``option`` whose name does not end in one of ``suffixes`` (lower case, any
+    case matches), before any work: ``gpr calibrate --output x.csv`` wrote YAML under a CSV's name.
+
+    Raises:
+        FileError: naming the option, the name given and the suffixes allowed (``why``: what is written, appended).
+    """
+    name = os.fspath(path)
+    if not name.lower().endswith(suffixes):
+        raise FileError(f'{option} {brief(name)}: allowed: a {" or ".join(suffixes)} file{why}')
+
+
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False) -> Iterator[IO[Any]]:
     """Write ``path`` atomically (module docstring): yields a file open on a temporary file in the target's
