@@ -257,6 +257,45 @@ def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys
     assert status == 0 and (tmp_path / 'plan.CSV').read_text().splitlines()[3] == 'q1,q2,q3', err
 
 
+def test_a_frame_that_moves_is_refused_as_the_measurements_frame(capsys, tmp_path, monkeypatch):
+    """``--frame gpr_platform`` passed as a tracker's name (its pose in gpr_base identified as if fixed). The frames
+    that move are the URDF's below a joint that is not fixed: the rods' tops and both platforms of the GPR, with
+    --robot also the arms' links, blades and wafers; the fixed ones (the root, gpr_base, the rod guides) and any
+    other name stay allowed."""
+    from gpr_kinematics.core.config import GprConfig
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.urdf import gpr_urdf, robot_urdf
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+    gpr, robot = gpr_urdf(GprConfig()), robot_urdf(load_robot())
+    guides = ('gpr_rod_guide_1', 'gpr_rod_guide_2', 'gpr_rod_guide_3')
+    assert gpr.fixed_frames() == ('gpr_base', *guides)
+    assert robot.fixed_frames() == ('world', 'gpr_base', *guides)
+    moving = {j.child for j in robot.joints if j.kind != 'fixed'}   # and what hangs below them
+    while True:
+        more = moving | {j.child for j in robot.joints if j.parent in moving}
+        if more == moving:
+            break
+        moving = more
+    assert len(moving) == 16 and moving == {link.name for link in robot.links} - set(robot.fixed_frames())
+    arm = write(tmp_path, 'arm.csv', 'arm,x,y,z\n')
+    fixed = "gpr_base, gpr_rod_guide_1, gpr_rod_guide_2, gpr_rod_guide_3, or a frame of the tracker's own name"
+    for argv, line in [
+            (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'gpr_platform'],
+             f'--frame gpr_platform moves with the machine; allowed: the fixed frame the measurements are in: {fixed} '
+             '(not one of the 5 frames of gpr that move)'),
+            (['calibrate', '--plan', '3', '--frame', 'gpr_rod_2'],
+             f'--frame gpr_rod_2 moves with the machine; allowed: the fixed frame the measurements are in: {fixed} '
+             '(not one of the 5 frames of gpr that move)'),
+            (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.yaml', '--frame', 'arm1_wafer'],
+             '--frame arm1_wafer moves with the machine; allowed: the fixed frame the measurements are in: world, '
+             f'{fixed} (not one of the 16 frames of example_dual_arm that move)')]:
+        status, out, err = run(capsys, *argv)
+        assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
+    status, out, err = run(capsys, 'calibrate', '--plan', '3', '--frame', 'gpr_rod_guide_1', '--json')
+    assert status == 0 and len(json.loads(out)['configurations']) == 3, err
+
+
 def test_one_row_is_enough_for_three_offsets(capsys, tmp_path):
     """6 residuals for 3 parameters: allowed (too few rows for all 24: the refusals above); whether the row determines
     them is the identifiability report's to say, whether the three explain it the gate's: here they do not (the

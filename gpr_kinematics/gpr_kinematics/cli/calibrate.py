@@ -33,6 +33,7 @@ from .calibrate_options import (
     EXIT_GATE,
     config,
     declared,
+    fixed_frame,
     free_names,
     gate_outcome,
     pose,
@@ -188,6 +189,10 @@ def _handler(args: argparse.Namespace) -> int:
             raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
     if not _FRAME.fullmatch(args.frame):   # isalnum took any script's letters and digits
         raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of 1 to 64 ASCII letters, digits and _')
+    if args.robot is None:
+        from ..core.config import GprConfig
+        from ..robot.urdf import gpr_urdf
+        fixed_frame(args.frame, gpr_urdf(GprConfig()))   # the frames' names: any geometry's
     if args.base is not None and args.frame == 'gpr_base':  # it was applied: 0.5 mm moved the rod offsets by 0.5 mm
         raise InputError('--base gives the pose of gpr_base in --frame, which is gpr_base itself (the default): the '
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
@@ -226,8 +231,9 @@ def register(sub: Subparsers) -> None:
                         '...) or whole keys (rod_positions, rod_offsets, rod_directions, platform_joints, kappa; '
                         'length, zero_offset, wafer_centre); default: all')
     p.add_argument('--frame', default='gpr_base', metavar='NAME',
-                   help='the frame the measurements are in (default gpr_base); another (tracker): the pose of '
-                        'gpr_base in it is identified with the geometry, unless --base gives it')
+                   help='the fixed frame the measurements are in (default gpr_base; not one that moves with the '
+                        'machine, gpr_platform ...); another (tracker): the pose of gpr_base in it is identified with '
+                        'the geometry, unless --base gives it')
     p.add_argument('--base', nargs=6, type=number, metavar=('X', 'Y', 'Z', 'ROLL', 'PITCH', 'YAW'),
                    help='the known pose of gpr_base in --frame [m, rad; --mm, --deg]')
     p.add_argument('--target', nargs='+', type=number, metavar='V',

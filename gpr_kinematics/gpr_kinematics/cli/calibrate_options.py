@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from ..calibration.frames import Transform
     from ..calibration.model import PoseModel
     from ..calibration.tolerances import ToleranceTable
+    from ..robot.urdf import RobotUrdf
 
 #: Exit status of a fit that failed its gate.
 EXIT_GATE = 1
@@ -71,6 +72,18 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
     v = [x * (1e-3 if args.mm and i < 3 else 1.0) for i, x in enumerate(values)]
     v[3:] = [math.radians(x) if args.deg else x for x in v[3:]]
     return Transform.from_xyz_rpy(v)
+
+
+def fixed_frame(frame: str, model: RobotUrdf) -> None:
+    """Refuse a ``--frame`` that moves with the machine (a frame of ``model``, the GPR's or the robot's, that is not
+    fixed in its root: ``--frame gpr_platform`` passed as a tracker's name): measurements are taken in a fixed
+    frame."""
+    fixed = model.fixed_frames()
+    moving = [link.name for link in model.links if link.name not in fixed]
+    if frame in moving:
+        raise InputError(f'--frame {frame} moves with the machine; allowed: the fixed frame the measurements are in: '
+                         f'{", ".join(fixed)}, or a frame of the tracker\'s own name (not one of the {len(moving)} '
+                         f'frames of {model.name} that move)')
 
 
 def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:

@@ -12,7 +12,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import InputError
-from .calibrate_options import EXIT_GATE, declared, gate_outcome, pose, sigmas, table_of, with_given_poses
+from .calibrate_options import (
+    EXIT_GATE,
+    declared,
+    fixed_frame,
+    gate_outcome,
+    pose,
+    sigmas,
+    table_of,
+    with_given_poses,
+)
 from .output import emit_json
 from .progress import progress_line
 
@@ -104,8 +113,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     from ..calibration.identification import identify
     from ..calibration.report import format_calibration
     from ..robot.description import load_robot
+    from ..robot.urdf import robot_urdf
     _check(args)
     robot = load_robot(args.robot, geometry=args.config, model=args.model)
+    fixed_frame(args.frame, robot_urdf(robot))
     models, inners = _models(args, robot)
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)

@@ -152,6 +152,20 @@ class RobotUrdf:
         if len(set(children)) != len(children) or len(children) != len(names) - 1:
             raise InputError(f'robot model {self.name}: every link but the root needs exactly one parent joint')
 
+    def fixed_frames(self) -> tuple[str, ...]:
+        """The frames (links) fixed in the root: joined to it by fixed joints only, in the links' order; every other
+        frame moves with the machine (a rod, the platforms, an arm's links, blade and wafer)."""
+        fixed = {self.root}
+        parents = {j.child: j for j in self.joints}
+        for link in self.links:
+            chain, name = [], link.name
+            while name not in fixed and name in parents and parents[name].kind == 'fixed':
+                chain.append(name)
+                name = parents[name].parent
+            if name in fixed:
+                fixed.update(chain)
+        return tuple(link.name for link in self.links if link.name in fixed)
+
     def joint(self, name: str) -> Joint:
         for j in self.joints:
             if j.name == name:
