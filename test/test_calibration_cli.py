@@ -179,6 +179,9 @@ def bad_inputs(tmp_path):
           '--output', 'x.yaml'], r'mm\.csv line 2, column q1: [\d.]+ m is outside the stroke .*declare "# units: mm"'),
         (['calibrate', write(tmp_path, 'empty.csv', header + '\n'), '--output', 'x.yaml'],
          r'empty\.csv: no data rows after the header'),
+        (['calibrate', write(tmp_path, 'bare.csv', header.replace('q1', 'q1 []', 1) + '\n' + '\n'.join(rows)),
+          '--output', 'x.yaml'], r'bare\.csv line 1: column q1: the unit in brackets is empty; allowed: m or mm \(a '
+                                 r"length\), or no brackets for the file's units$"),
         (['calibrate', SHIPPED], r'--output FILE is required'),
         (['calibrate', SHIPPED, '--output', str(tmp_path)], r'exists and is not a regular file'),
         (['calibrate', SHIPPED, '--plan', '3'], r'give a MEASUREMENTS file to calibrate from, or --plan N'),

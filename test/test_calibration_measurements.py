@@ -100,6 +100,28 @@ def test_malformed_content_refused_with_line_and_column(content, pattern):
         parse_measurements(content, 'f.csv')
 
 
+def test_an_empty_unit_in_brackets_is_refused():
+    """``q1 []`` read as metres, under ``# units: mm`` too (q1 = 300 m, refused as outside the stroke, or 0.3 read as
+    0.3 m where 0.3 mm was meant); now refused naming the column and the units allowed, also for an angle column.
+    Without brackets the file's unit applies (q1 0.3 mm = 3e-4 m)."""
+    lines = {}
+    for header, pre in (('q1 [],q2,q3,x,y,z,qx,qy,qz,qw', ()), ('q1,q2,q3,x [ ],y,z,qx,qy,qz,qw', ('# units: mm',))):
+        with pytest.raises(InputError) as exc:
+            parse_measurements(text(ROW, header=header, pre=pre), 'f.csv')
+        lines[header[:6]] = str(exc.value)
+    assert lines == {
+        'q1 [],': 'f.csv line 1: column q1: the unit in brackets is empty; allowed: m or mm (a length), or no brackets '
+                  "for the file's units",
+        'q1,q2,': 'f.csv line 2: column x: the unit in brackets is empty; allowed: m or mm (a length), or no brackets '
+                  "for the file's units"}
+    from gpr_kinematics.inputs.units import scale
+    with pytest.raises(InputError, match=r"^l: column tilt: the unit in brackets is empty; allowed: rad or deg \(an "
+                                         r"angle\), or no brackets for the file's units$"):
+        scale('angle', '', ('mm', 'deg'), 'l', 'tilt')
+    m = parse_measurements(text(ROW, pre=('# units: mm',)), 'f.csv')
+    assert m.q[0].tolist() == [3e-4, 0.301e-3, 0.299e-3]
+
+
 def test_row_and_line_limits(monkeypatch):
     with pytest.raises(InputError, match=r'line 2: 2049 characters; allowed: at most 2048'):
         parse_measurements(text('0' * 2049), 'f.csv')

@@ -7,10 +7,11 @@ A column's unit is, in this order (docs/core.md, "Units in CSV files"):
    angle unit, in any order);
 3. else SI: metres and radians.
 
-Length columns take ``m`` or ``mm``, angle columns ``rad`` or ``deg``; a column of another kind (a name, a
-quaternion component) takes none. Every value is converted to SI when read. A unit that is unknown or does not
-fit its column is a :class:`~gpr_kinematics.errors.FileError` (a ConfigError and an InputError, as the file's
-readers raise) naming the line and the column.
+Length columns take ``m`` or ``mm``, angle columns ``rad`` or ``deg`` (empty brackets, ``q1 []``, are refused: they
+read as metres, even under ``# units: mm``); a column of another kind (a name, a quaternion component) takes none.
+Every value is converted to SI when read. A unit that is unknown or does not fit its column is a
+:class:`~gpr_kinematics.errors.FileError` (a ConfigError and an InputError, as the file's readers raise) naming the
+line and the column.
 
 >>> column('x [mm]', 'line 1'), column(' tilt ', 'line 1')
 (('x', 'mm'), ('tilt', None))
@@ -83,6 +84,10 @@ def scale(kind: str, unit: str | None, defaults: FileUnits, where: str, name: st
         if unit is not None:
             raise FileError(f'{where}: column {name} takes no unit, got [{unit[:20]}]')
         return 1.0, ''
+    if unit == '':   # q1 [] read as metres, even under "# units: mm"
+        raise FileError(f'{where}: column {name}: the unit in brackets is empty; allowed: '
+                        + ' or '.join(units) + f' ({"an" if kind[0] in "aeiou" else "a"} {kind}), or no brackets for '
+                        'the file\'s units')
     if unit is None:
         unit = defaults[0] if kind == 'length' else defaults[1]
     unit = unit or ('m' if kind == 'length' else 'rad')
