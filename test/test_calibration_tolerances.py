@@ -3,6 +3,7 @@ model's parameters, and every malformed table refused with the key named."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -183,3 +184,59 @@ def test_lists_where_mappings_belong_are_refused():
         parse_tolerances({'units': []})
     with pytest.raises(ConfigError, match=r'parameters: expected a mapping of parameter names to tolerances'):
         parse_tolerances({'parameters': []})
+
+
+def test_a_tolerance_beyond_the_geometrys_limit_is_refused_naming_the_entry(capsys, tmp_path, monkeypatch):
+    """``rod_directions: {tolerance: 0.1}`` is within the table's 0.1 rad but a rod direction's limit is 0.05: the
+    budget drew rods of 0.09 and was refused as 'per-row geometry, row 0' (no table entry named); a range reaching
+    past it, or a tolerance about a nominal 0.04, likewise. Now bind refuses them naming the key, the value and the
+    limit, for gpr accuracy and gpr calibrate --tolerances alike; 0.05 itself, at the limit, is taken."""
+    from gpr_kinematics.cli.main import main
+    from gpr_kinematics.core.config import GprConfig
+    ps = CoreModel(load_config()).parameters
+    rule = ('rod_directions: a list of 3 pairs [u_x, u_y], |u_x|, |u_y| <= 0.05 (rods within about 4 deg of the base '
+            'z axis)')
+    for entry, name, reach, nominal in (({'rod_directions': {'tolerance': 0.1}}, 'rod1_ux', '[-0.1, 0.1]', 0),
+                                        ({'rod2_uy': {'range': [0.02, 0.06]}}, 'rod2_uy', '[0.02, 0.06]', 0)):
+        key, given = next(iter(entry)), entry[next(iter(entry))]
+        what = f'tolerance {given["tolerance"]:g} rad' if 'tolerance' in given else f'range {reach} rad'
+        with pytest.raises(ConfigError) as exc:
+            parse_tolerances({'parameters': entry}, 't.yaml').bind(ps)
+        assert str(exc.value) == (f"t.yaml: parameters: {key}: {what} takes {name} to {reach} (nominal {nominal}); "
+                                  f"allowed: within the geometry's limits [-0.05, 0.05] of {name} ({rule})")
+    tilted = CoreModel(GprConfig(rod_directions=((0.04, 0.0), (0.0, 0.0), (0.0, 0.0)))).parameters
+    with pytest.raises(ConfigError, match=r'^t\.yaml: parameters: rod1_ux: tolerance 0\.02 rad takes rod1_ux to '
+                                          r'\[0\.02, 0\.06\] \(nominal 0\.04\); allowed: within the geometry'):
+        parse_tolerances({'parameters': {'rod1_ux': {'tolerance': 0.02}}}, 't.yaml').bind(tilted)
+    at = parse_tolerances({'parameters': {'rod_directions': {'tolerance': 0.05}}}, 't.yaml').bind(ps)
+    assert at[ps.index('rod3_uy')].bounds == (-0.05, 0.05)
+    from gpr_kinematics.calibration.monte_carlo import limits
+    lower, upper = limits(ps)       # where the Monte Carlo takes a normal draw's tail beyond the limit
+    j, k = ps.index('rod1_ux'), ps.index('kappa1')
+    assert (lower[j], upper[j], lower[ps.index('rod1_offset')], upper[ps.index('joint2_y')]) == (-0.05, 0.05, -0.1, 10)
+    assert (lower[k], upper[k]) == (ps.bounds[0][k], ps.bounds[1][k]) == (-999999 / 1000001, 999999 / 1000001)
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+    bad = str(tmp_path / 'bad.yaml')
+    Path(bad).write_text('parameters:\n  rod_directions: {tolerance: 0.1}\n')
+    line = (f"{bad}: parameters: rod_directions: tolerance 0.1 rad takes rod1_ux to [-0.1, 0.1] (nominal 0); allowed: "
+            f"within the geometry's limits [-0.05, 0.05] of rod1_ux ({rule})")
+    for argv in (['accuracy', 'gpr.yaml', '--tolerances', bad, '--pose', '0', '0', '0.5', '0.0349', '0', '0'],
+                 ['calibrate', '--plan', '3', '--tolerances', bad]):
+        status = main(argv)
+        out, err = capsys.readouterr()
+        assert (status, out, err) == (2, '', f'gpr {argv[0]}: error: {line}\n'), argv
+
+
+def test_a_normal_draw_past_the_geometrys_limit_is_taken_at_the_limit(capsys, tmp_path, monkeypatch):
+    """``rod_directions: {tolerance: 0.045, distribution: normal}``: its 3 sigma within the limit 0.05, but 0.08 % of
+    the draws lie beyond 0.05 (3.33 sigma) and the Monte Carlo was refused as 'per-row geometry, row 303'; they are
+    taken at the limit (outside the worst case's bounds, as a calibrated kappa's beyond 1e6)."""
+    from gpr_kinematics.cli.main import main
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+    path = tmp_path / 'normal.yaml'
+    path.write_text('parameters:\n  rod_directions: {tolerance: 0.045, distribution: normal}\n')
+    status = main(['accuracy', 'gpr.yaml', '--tolerances', str(path), '--pose', '0', '0', '0.5', '0.0349', '0', '0',
+                   '--samples', '2000', '--json'])
+    out, err = capsys.readouterr()
+    assert status == 0, err
+    assert 'per-row geometry' not in err and '"monte_carlo' in out

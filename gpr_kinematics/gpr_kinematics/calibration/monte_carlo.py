@@ -9,7 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..callbacks import StageProgress
-from .model import PoseModel, evaluate, pose_error
+from ..core.machine import parameter_range
+from .model import ParameterSet, PoseModel, evaluate, pose_error
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
@@ -18,6 +19,17 @@ Calibrated = tuple[NDArray[np.int64], Array]
 
 #: Poses evaluated per Monte Carlo chunk (bounds memory).
 CHUNK_POSES = 200_000
+
+
+def limits(params: ParameterSet) -> tuple[Array, Array]:
+    """The lowest and highest coordinate of each parameter: its range (:attr:`~.model.Parameter.bounds`) within its
+    geometry's limits (:func:`~gpr_kinematics.core.machine.parameter_range`; none for an arm's or a frame's)."""
+    lower, upper = params.bounds
+    for j, p in enumerate(params):
+        r = None if p.transform else parameter_range(p.name)
+        if r is not None:
+            lower[j], upper[j] = max(lower[j], r[0]), min(upper[j], r[1])
+    return lower, upper
 
 
 def within(x: Array, t: Tolerance) -> NDArray[np.bool_]:
@@ -80,13 +92,15 @@ def monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array
     v = np.empty((samples, N, 9))
     inside = np.empty((samples, N), dtype=bool)
     pos0, rot0 = pose0
-    lower, upper = model.parameters.bounds
+    lower, upper = limits(model.parameters)
     a0 = np.einsum('nij,nj->ni', rot0, tool)
     for start in range(0, samples, chunk):
         S = min(chunk, samples - start)
         dtheta, dq, disp, inside[start:start + S] = sample(src_tols, cal, table, rng, S, N, th.size)
-        # A coordinate with a range (a stiffness ratio's anisotropy) stays in it: a normal draw of a calibrated
-        # covariance beyond kappa = 1e6 is taken at the bound (a tangentially rigid joint).
+        # A coordinate with a range stays in it: a normal draw of a calibrated covariance beyond kappa = 1e6 is taken
+        # at the bound (a tangentially rigid joint), and a normal draw beyond a geometry parameter's limit (a rod
+        # direction's 0.05: the tail past 3 sigma of rod_directions: {tolerance: 0.045, distribution: normal} was
+        # refused as 'per-row geometry, row 303') at the limit; either lies outside the worst case's bounds.
         pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
         e = pose_error(pos, rot, pos0[None], rot0[None])
         e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.machine import parameter_range
 from ..errors import ConfigError
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
@@ -204,6 +205,7 @@ class ToleranceTable:
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.9g} {p.unit} from '
                                   f'the nominal {nominal:.6g} {p.unit}; allowed: values within {limit:g} {p.unit} of '
                                   "the nominal (a key's range applies to each of its parameters)")
+        self._within_geometry(p, where, kind, vals[0] * f if kind == 'tolerance' else None, lo, hi)
         if dist == 'log-uniform' and lo <= 0:
             raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
         if p.transform:
@@ -214,6 +216,20 @@ class ToleranceTable:
                 raise ConfigError(f'{where}: [{lo:.6g}, {hi:.6g}] leaves the range of a stiffness ratio; allowed: '
                                   f'{KAPPA_RANGE[0]:g} to {KAPPA_RANGE[1]:g}')
         return Tolerance(low, high, dist, nominal, p.transform)
+
+
+    @staticmethod
+    def _within_geometry(p: Parameter, where: str, kind: str, t: float | None, lo: float, hi: float) -> None:
+        """Refuse values ``[lo, hi]`` of ``p`` beyond its geometry's range (:func:`~..core.machine.parameter_range`):
+        ``rod_directions: {tolerance: 0.1}``, within :data:`MAX_TOLERANCE`, drew rods of 0.09 and the Monte Carlo was
+        refused as 'per-row geometry, row 0', naming no table entry."""
+        limits = None if p.transform else parameter_range(p.name)
+        if limits is None or limits[0] <= lo and hi <= limits[1]:
+            return
+        given = f'tolerance {t:.6g} {p.unit}' if kind == 'tolerance' else f'range [{lo:.6g}, {hi:.6g}] {p.unit}'
+        raise ConfigError(f'{where}: {given} takes {p.name} to [{lo:.6g}, {hi:.6g}] (nominal {p.value(p.nominal):.6g})'
+                          f'; allowed: within the geometry\'s limits [{limits[0]:g}, {limits[1]:g}] of {p.name} '
+                          f'({p.key}: {limits[2]})')
 
 
 def centre_of(table: ToleranceTable, params: ParameterSet) -> Array:

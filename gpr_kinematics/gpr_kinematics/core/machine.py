@@ -330,6 +330,15 @@ _RANGES = (np.array([_TRIPLE_RANGES[p.key][1] for p in PARAMETERS]),
            np.array([_TRIPLE_RANGES[p.key][2] for p in PARAMETERS]))
 
 
+def parameter_range(name: str) -> tuple[float, float, str] | None:
+    """The lowest and highest value of the geometry parameter ``name`` and its key's rule as a geometry file states
+    it (``None``: not a geometry parameter), e.g. ``rod1_ux``: ``(-0.05, 0.05, 'a list of 3 pairs ...')``."""
+    if name not in PARAMETER_NAMES:
+        return None
+    j = PARAMETER_NAMES.index(name)
+    return float(_RANGES[0][j]), float(_RANGES[1][j]), _TRIPLE_RANGES[PARAMETERS[j].key][3]
+
+
 def _values(config: GprConfig) -> dict[str, list[list[float]]]:
     """The per-rod keys of ``config`` as 3 x width lists (nominal points where the file gives none)."""
     nominal = nominal_points(config)
