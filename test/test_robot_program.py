@@ -200,3 +200,16 @@ def test_a_move_is_a_line_out_of_an_entry_and_into_an_exit():
     assert line_moves(w) == [m for m, line in enumerate(expected) if line]
     bare = dataclasses.replace(w, path=())
     assert not any(bare.is_line(m) for m in range(len(w) - 1)) and line_moves(bare) == []
+
+
+def test_a_heading_in_degrees_in_a_program_in_radians_is_refused(tmp_path):
+    """A program's inline stations are read by the station files' rule: ``heading: 90`` without ``units`` was
+    14.3 turns (a station at 2.04 rad); refused with the key, the value and ``units: {angle: deg}``; with it, pi/2."""
+    stations = [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 90}, {'name': 'b', 'position': [0.75, 1.1, 0.4]}]
+    with pytest.raises(ConfigError, match=r'p.yaml: stations\[0\] \(a\): heading = 90 rad is beyond one turn; '
+                                          r'allowed: \[-2pi, 2pi\] rad \(degrees\? .*units: \{angle: deg\}\)'):
+        _program(tmp_path, _minimal(stations=stations))
+    p = _program(tmp_path, _minimal(stations=stations, units={'angle': 'deg'}))
+    assert p.stations.stations.heading[0] == pytest.approx(math.pi / 2, abs=1e-15)
+    stations[0]['heading'] = 6.2
+    assert _program(tmp_path, _minimal(stations=stations)).stations.stations.heading[0] == 6.2

@@ -130,3 +130,31 @@ def test_csv_rows_are_counted_as_they_are_read(tmp_path, monkeypatch):
         load_stations(_write(tmp_path, 's.csv', text))
     blank_lines = load_stations(_write(tmp_path, 's.csv', 'name,x,y,z\na,1,0,0.4\n\n\nb,1,0,0.4\n'))
     assert blank_lines.stations.names == ('a', 'b')
+
+
+@pytest.mark.parametrize('name, rad, deg, message', [
+    ('s.yaml', 'stations:\n  - {{name: a, position: [1, 0.5, 0.4], {key}: {v}}}\n',
+     'units: {{angle: deg}}\nstations:\n  - {{name: a, position: [1, 0.5, 0.4], {key}: {v}}}\n',
+     r'stations\[0\] \(a\): {key} = 90 rad is beyond one turn; allowed: \[-2pi, 2pi\] rad \(degrees\? a file in '
+     r'degrees declares them: units: \{{angle: deg\}}\)'),
+    ('s.csv', 'name,x,y,z,{key}\na,1,0.5,0.4,{v}\n', 'name,x,y,z,{key} [deg]\na,1,0.5,0.4,{v}\n',
+     r'line 2 \(a\): {key} = 90 rad is beyond one turn; allowed: \[-2pi, 2pi\] rad \(degrees\? a file in degrees '
+     r'declares them: "{key} \[deg\]" in the header or a "# units: deg" line before it\)'),
+    ('u.csv', '# units: rad\nname,x,y,z,{key}\na,1,0.5,0.4,{v}\n', '# units: deg\nname,x,y,z,{key}\na,1,0.5,0.4,{v}\n',
+     r'line 3 \(a\): {key} = 90 rad is beyond one turn'),
+])
+@pytest.mark.parametrize('key', ['heading', 'azimuth'])
+def test_an_orientation_beyond_a_turn_is_degrees_in_a_file_in_radians(tmp_path, name, rad, deg, message, key):
+    """``heading: 90`` in a file in radians was 14.3 turns, taken modulo 2 pi as 2.04 rad: a wrong station
+    silently. It is refused naming the key, the value and how the file declares degrees; in degrees it is pi/2, and
+    6.2 rad (within a turn) passes as is."""
+    with pytest.raises(ConfigError, match=message.format(key=key)):
+        load_stations(_write(tmp_path, name, rad.format(key=key, v=90)))
+    for text, v, want in ((deg, 90, math.pi / 2), (rad, 6.2, 6.2), (rad, -6.2, -6.2), (deg, -360, -2 * math.pi),
+                          (rad, 2 * math.pi, 2 * math.pi)):
+        got = getattr(load_stations(_write(tmp_path, name, text.format(key=key, v=repr(v)))).stations, key)
+        assert got[0] == pytest.approx(want, abs=1e-15)
+    with pytest.raises(ConfigError, match=f'{key} = 361 deg is beyond one turn; allowed: \\[-360, 360\\] deg$'):
+        load_stations(_write(tmp_path, name, deg.format(key=key, v=361)))
+    with pytest.raises(ConfigError, match=f'{key} = 6.2832 rad is beyond one turn'):   # 2 pi + 7e-6
+        load_stations(_write(tmp_path, name, rad.format(key=key, v=6.2832)))

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 from ..core.config import MODELS
 from ..errors import FileError, InputError, brief
 from ..inputs.resources import ROBOTS, Packaged, packaged_file
-from ..inputs.validation import decimal, finite_number
+from ..inputs.validation import TURN, decimal, finite_number
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
@@ -177,9 +177,6 @@ def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input angles in radians (``--deg`` converted)."""
     return [math.radians(v) if args.deg else v for v in values]
 
-
-#: The bound of a direction typed on the command line (``--azimuth``, ``--heading``): one turn [rad].
-TURN = 2.0 * math.pi
 
 
 def direction(args: argparse.Namespace, value: float, option: str) -> float:

@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 from ..errors import ConfigError, brief
 from . import safe_yaml
 from .safe_yaml import YamlValue
-from .validation import MAX_COORDINATE
+from .units import ANGLE_UNITS
+from .validation import MAX_COORDINATE, TURN, TURN_SLACK
 
 
 def is_number(value: YamlValue) -> bool:
@@ -83,6 +84,30 @@ def number_key(data: Mapping[YamlValue, YamlValue], key: str, source: str, defau
             what += f' of magnitude at most {MAX_COORDINATE:g}'
         raise ConfigError(f'{source}: {key} must be a {what}; got {brief(val)}')
     return float(val)
+
+
+def orientation_angle(value: YamlValue, key: str, where: str, unit: str = 'rad', declare: str | None = None) -> float:
+    """An orientation angle of a file (a heading, an azimuth, a yaw, an rpy angle) in radians: ``value`` a number
+    (:func:`is_number`) in the file's angle ``unit`` (``rad`` or ``deg``) of magnitude at most one turn,
+    :data:`~gpr_kinematics.inputs.validation.TURN` (+ :data:`~gpr_kinematics.inputs.validation.TURN_SLACK`) rad or
+    360 deg. Beyond it the value is degrees written in a file in radians (``heading: 90`` is 14.3 turns, taken modulo
+    2 pi as 2.04 rad): :class:`ConfigError` naming ``where``, the key, the value and how the file declares degrees
+    (``declare``, e.g. ``'units: {angle: deg}'``; ``None`` for a format in radians only). The one check of them."""
+    scale = ANGLE_UNITS[unit]
+    most = '[-360, 360] deg' if unit == 'deg' else '[-2pi, 2pi] rad'
+    if not is_number(value):
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite angle in {unit} within one '
+                          f'turn, {most}')
+    angle = float(value) * scale
+    if abs(angle) > TURN + TURN_SLACK:
+        if unit == 'deg':
+            hint = ''
+        elif declare is not None:
+            hint = f' (degrees? a file in degrees declares them: {declare})'
+        else:
+            hint = f' (this file is in radians only: {value:g} deg is {math.radians(value):.9g} rad)'
+        raise ConfigError(f'{where}: {key} = {value:g} {unit} is beyond one turn; allowed: {most}{hint}')
+    return angle
 
 
 def read_yaml(path: str | Path, what: str = 'config') -> YamlValue:

@@ -22,6 +22,11 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 #: mechanisms and stations the package accepts: far beyond any of them, and small enough that no product of a few
 #: of them overflows.
 MAX_COORDINATE = 1e6
+#: One turn [rad]: the most an orientation angle (a heading, an azimuth, a yaw, an rpy angle) of a file or of the
+#: command line may be; beyond it the value is degrees written as radians (``heading: 90``: 14.3 turns) almost surely.
+TURN = 2.0 * math.pi
+#: How far a file's orientation angle may pass :data:`TURN` [rad]: a turn written to more digits than a double keeps.
+TURN_SLACK = 1e-9
 
 
 #: A decimal number as text: YAML 1.2's forms (:data:`~gpr_kinematics.inputs.safe_yaml.DECIMAL`), one way to read each

@@ -37,7 +37,7 @@ import numpy as np
 from ..errors import ConfigError, brief
 from ..inputs import units
 from ..inputs.files import read_text
-from ..inputs.schema import check_keys, is_number
+from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
 from ..inputs.validation import MAX_COORDINATE, decimal, text_hint
 from .description import BRANCHES
@@ -53,6 +53,9 @@ _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
                  'entry')
 _NAME = re.compile(r'[A-Za-z0-9_.\-]{1,64}')
+#: How a station file (or a program) in YAML, and one in CSV, declares its angles in degrees.
+_DECLARE_YAML = 'units: {angle: deg}'
+_DECLARE_CSV = '"{key} [deg]" in the header or a "# units: deg" line before it'
 
 
 @dataclass(frozen=True)
@@ -194,9 +197,9 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
         rows.position.append((x, y, z))
         rows.tilt.append(_number(st.get('tilt', 0.0), w, 'tilt', aunit) * angle)
-        rows.azimuth.append(_number(st.get('azimuth', 0.0), w, 'azimuth', aunit) * angle)
+        rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, _DECLARE_YAML))
         h = st.get('heading')
-        rows.heading.append(None if h is None else _number(h, w, 'heading', aunit) * angle)
+        rows.heading.append(None if h is None else orientation_angle(h, 'heading', w, aunit, _DECLARE_YAML))
         rows.branch.append(_branch(st.get('branch'), w))
         rows.approach.append(_height(st.get('approach_height'), w, 'approach_height', length, lunit))
         rows.retract.append(_height(st.get('retract_height'), w, 'retract_height', length, lunit))
@@ -225,9 +228,21 @@ class CsvTable:
 
     def number(self, r: int, key: str, default: float | None, where: str | None = None) -> float | None:
         """The cell in SI units (``default`` when the column is absent or the cell empty)."""
+        value = self.written(r, key, where)
+        return default if value is None else value * self.columns[key][1]
+
+    def angle(self, r: int, key: str, default: float | None, where: str | None = None) -> float | None:
+        """An orientation angle's cell in radians (``default`` when the column is absent or the cell empty), at
+        most one turn (:func:`~gpr_kinematics.inputs.schema.orientation_angle`)."""
+        value = self.written(r, key, where)
+        return default if value is None else orientation_angle(value, key, where or self.row_where(r),
+                                                               self.columns[key][2], _DECLARE_CSV.format(key=key))
+
+    def written(self, r: int, key: str, where: str | None = None) -> float | None:
+        """The cell as a finite number in the column's unit (None when the column is absent or the cell empty)."""
         text = self.text(r, key)
         if text is None or text == '':
-            return default
+            return None
         try:
             value = decimal(text)   # float() read 1_0 as 10
         except ValueError:
@@ -235,7 +250,7 @@ class CsvTable:
         if not math.isfinite(value):
             raise ConfigError(f'{where or self.row_where(r)}: {key} = {brief(text)} is invalid; allowed: a finite '
                               f'number in {self.columns[key][2]}')
-        return value * self.columns[key][1]
+        return value
 
 
 def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple[str, ...]) -> CsvTable:
@@ -313,8 +328,8 @@ def stations_from_csv(text: str, where: str) -> StationRows:
         rows.names.append(name)
         rows.position.append((x, y, z))
         rows.tilt.append(table.number(r, 'tilt', 0.0, w) or 0.0)
-        rows.azimuth.append(table.number(r, 'azimuth', 0.0, w) or 0.0)
-        rows.heading.append(table.number(r, 'heading', None, w))
+        rows.azimuth.append(table.angle(r, 'azimuth', 0.0, w) or 0.0)
+        rows.heading.append(table.angle(r, 'heading', None, w))
         rows.branch.append(_branch(table.text(r, 'branch'), w))
         for key, target, most in (('approach_height', rows.approach, 0.1), ('retract_height', rows.retract, 0.1),
                                   ('entry', rows.entry, MAX_ENTRY)):
