@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.robot.platform_program import parse_platform_program, sample_program
 
 
@@ -35,3 +36,16 @@ def test_station_names_follow_the_station_rule(name):
         parse_platform_program({'stations': [{'name': name, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}, 'p.yaml')
     assert parse_platform_program({'stations': [{'name': 7, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}
                                   ).stations[0].name == '7'
+
+
+def test_an_azimuth_beyond_a_turn_is_refused_as_degrees():
+    """A platform program is in radians only: ``azimuth: 90`` (degrees meant) was 14.3 turns, the tilt axis at
+    2.04 rad; refused naming the station, the value and its radians; 6.2 rad and -2 pi pass as written."""
+    def program(azimuth):
+        return parse_platform_program({'stations': [{'name': 'a', 'height': 0.3, 'tilt': 0.01, 'azimuth': azimuth}]},
+                                      'p.yaml')
+    with pytest.raises(ConfigError, match=r'^p.yaml: station 0 \(a\): azimuth = 90 rad is beyond one turn; allowed: '
+                                          r'\[-2pi, 2pi\] rad \(radians only here: 90 deg is 1.57079633 '
+                                          r'rad\)$'):
+        program(90)
+    assert program(6.2).stations[0].azimuth == 6.2 and program(-2 * math.pi).stations[0].azimuth == -2 * math.pi

@@ -105,7 +105,7 @@ def orientation_angle(value: YamlValue, key: str, where: str, unit: str = 'rad',
         elif declare is not None:
             hint = f' (degrees? a file in degrees declares them: {declare})'
         else:
-            hint = f' (this file is in radians only: {value:g} deg is {math.radians(value):.9g} rad)'
+            hint = f' (radians only here: {value:g} deg is {math.radians(value):.9g} rad)'
         raise ConfigError(f'{where}: {key} = {value:g} {unit} is beyond one turn; allowed: {most}{hint}')
     return angle
 

@@ -10,7 +10,7 @@ One of the two program formats; :func:`gpr_kinematics.robot.program.load_any_pro
       - name: load            # optional: 1 to 64 letters, digits, _ . -
         height: 0.30          # z of the platform centre in gpr_base [m]
         tilt: 0.0             # tilt angle [rad]; negative = about azimuth + pi
-        azimuth: 0.0          # direction of the tilt axis [rad]
+        azimuth: 0.0          # direction of the tilt axis [rad], within one turn ([-2pi, 2pi])
         dwell: 0.5            # time held at the station [s], >= 0
       - {name: a, height: 0.45, tilt: 0.0262, azimuth: 0.7854, dwell: 1.0, move_time: 3.0}
 
@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, brief
-from ..inputs.schema import check_keys, is_number, is_version, read_yaml
+from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
 from .grid import grid_times
 from .station_files import station_name
@@ -128,7 +128,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
             name=name,
             height=_number(source, where, 'height', st['height'], 'a finite height in metres'),
             tilt=_number(source, where, 'tilt', st['tilt'], 'a finite angle in radians'),
-            azimuth=_number(source, where, 'azimuth', st['azimuth'], 'a finite angle in radians'),
+            azimuth=orientation_angle(st['azimuth'], 'azimuth', f'{source}: {where}'),
             dwell=_number(source, where, 'dwell', st.get('dwell', 0.0), 'seconds >= 0', 0.0),
             move_time=None if mt is None else _number(source, where, 'move_time', mt, 'seconds > 0', 0.0,
                                                        lo_open=True)))
