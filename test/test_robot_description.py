@@ -66,7 +66,14 @@ _DELETE = object()
     (('gpr', 'config'), 'missing.yaml', r"gpr: cannot read config file .*missing.yaml"),
     (('base', 'position'), [0, 0], r'base: position = \[0, 0\] is invalid; allowed: a list of 3 finite numbers in m'),
     (('base', 'position'), [0, 0, 1e3], r'base: position\[2\] = 1000.0 is invalid; allowed: a list of 3 finite'),
-    (('base', 'rpy'), [0, '1', 0], r"base: rpy\[1\] must be a finite number in rad; got '1'"),
+    (('base', 'rpy'), [0, '1', 0], r"base: rpy\[1\] = '1' is invalid; allowed: a finite angle in rad within one turn"),
+    # Orientations in radians beyond one turn are degrees (the format has none): 90 was 14.3 turns, 2.04 rad.
+    (('base', 'rpy'), [0, 0, 90], r'test_robot.yaml: base: rpy\[2\] = 90 rad is beyond one turn; allowed: '
+                                  r'\[-2pi, 2pi\] rad \(radians only here: 90 deg is 1.57079633 rad\)$'),
+    (('arms', 0, 'mount', 'yaw'), 90, r'arms\[0\] \(arm1\): mount: yaw = 90 rad is beyond one turn; allowed: '
+                                      r'\[-2pi, 2pi\] rad \(radians only here'),
+    (('arms', 1, 'blade', 'yaw'), -180, r'arms\[1\] \(arm2\): blade: yaw = -180 rad is beyond one turn; allowed: '
+                                        r'\[-2pi, 2pi\] rad \(radians only here: -180 deg is -3.14159265 rad\)$'),
     (('rods', 'velocity'), 0, r'rods: velocity = 0.0 is invalid; allowed: m/s, 1e-06 <= velocity <= 10$'),
     # The least positive values were said as 0 <, which 1e-7 is: the message names the bound the check applies.
     (('rods', 'jerk'), 1e-7, r'rods: jerk = 1e-07 is invalid; allowed: m/s\^3, 1e-06 <= jerk <= 10000, or null'),
@@ -178,3 +185,14 @@ def test_a_path_that_is_not_one_is_named():
 
     with pytest.raises(ConfigError, match=r'robot description path = 5; allowed: a file path'):
         load_robot(5)
+
+
+def test_orientations_within_a_turn_pass_as_written():
+    """Base rpy, mount and blade yaw up to one turn (+1e-9 rad) are taken as written: 6.2 rad is no slip."""
+    data = robot_data()
+    data['base']['rpy'] = [6.2, -6.2, 2 * math.pi]
+    data['arms'][0]['mount']['yaw'] = 6.2
+    data['arms'][0]['blade']['yaw'] = -2 * math.pi - 1e-10
+    robot = make_robot(data)
+    assert robot.base_rpy == (6.2, -6.2, 2 * math.pi)
+    assert robot.arms[0].mount_yaw == 6.2 and robot.arms[0].blade.yaw == -2 * math.pi - 1e-10

@@ -2,6 +2,7 @@
 bad file refused with one line naming the file, the key and the value (the CLI exits 2)."""
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -209,3 +210,32 @@ def test_reviewers_counterexamples_are_unsafe(tmp_path, probe, pair, truth):
     least = min(p['distance'] for p in out['pairs'] if set(p['bodies']) == pair)
     assert truth - 1.5e-5 <= least <= truth + 1e-9 and not out['safe'], least
 
+
+
+@pytest.mark.parametrize('key', ['rpy', 'azimuth', 'heading'])
+def test_an_orientation_in_degrees_in_a_cell_in_radians_is_named(key):
+    """A cell in radians with ``heading: 90`` (or an rpy angle, an azimuth: degrees meant) was refused as 'a finite
+    number in rad, -6.28319 to 6.28319 rad after conversion', not saying how a cell declares degrees: now the key,
+    the value and ``units: {angle: deg}``; in degrees it is pi/2, and 6.2 rad passes."""
+    def obstacle(v, tilt=0.0):
+        return {'name': 'b', 'box': [0.4, 0.05, 0.3], 'position': [1.25, 1.05, 0.5],
+                **({'rpy': [0, 0, v]} if key == 'rpy' else {key: v, 'tilt': tilt})}
+
+    def expected(v):   # R = tilt_rotation(tilt, azimuth) Rz(heading), or Rz(yaw)
+        if key == 'rpy':
+            return rotation_z(np.array([v]))[0]
+        tilt = np.array([math.radians(1.0)])
+        if key == 'azimuth':
+            return tilt_rotation(tilt, np.array([v]))[0]
+        return tilt_rotation(tilt, np.array([0.0]))[0] @ rotation_z(np.array([v]))[0]
+    name = 'rpy[2]' if key == 'rpy' else key
+    with pytest.raises(ConfigError, match=re.escape(f'obstacles[0] (b): {name} = 90 rad is beyond one turn; allowed: '
+                                                    '[-2pi, 2pi] rad (degrees? a file in degrees declares them: '
+                                                    'units: {angle: deg})')):
+        parse_cell(cell(obstacle(90)))
+    deg = parse_cell(cell(obstacle(90, 1.0), units={'angle': 'deg'})).obstacles[0].rotation
+    rad = parse_cell(cell(obstacle(math.pi / 2, math.radians(1.0)))).obstacles[0].rotation
+    np.testing.assert_allclose(deg, rad, atol=1e-15)
+    np.testing.assert_allclose(deg, expected(math.pi / 2), atol=1e-15)
+    R = parse_cell(cell(obstacle(6.2, math.radians(1.0)))).obstacles[0].rotation
+    np.testing.assert_allclose(R, expected(6.2), atol=1e-15)

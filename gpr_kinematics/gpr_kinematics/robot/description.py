@@ -49,7 +49,7 @@ from ..inputs.resources import config_path
 from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
 from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
-from .fields import LEAST, _angle, _mapping, _name, _named, _number, _positive_number, _rpy, _vector, _xyz
+from .fields import LEAST, _angle, _mapping, _name, _named, _number, _positive_number, _rpy, _vector, _xyz, _yaw
 from .fields import NAME_RULE as _NAME_RULE
 
 Array = NDArray[np.float64]
@@ -314,7 +314,7 @@ def _arm(raw: Any, where: str) -> Arm:
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
     check_keys(blade_data, ('position', 'yaw', 'wafer_centre', 'paddle', 'friction', 'vacuum'), bwhere)
     blade = Blade(position=_xyz(blade_data, 'position', bwhere, _LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
-                  yaw=_angle(blade_data, 'yaw', bwhere, default=0.0),
+                  yaw=_yaw(blade_data, bwhere),
                   wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, _LENGTH_BOUND))
     branch = data.get('branch', 'right')
     if branch not in BRANCHES:
@@ -335,7 +335,7 @@ def _arm(raw: Any, where: str) -> Arm:
         raise ConfigError(f'{where}: redundancy applies to 4-joint arms only; this arm has {len(joints)} joints')
     arm = Arm(name=name, mount_position=_xyz(mount, 'position', f'{where}: mount', _LENGTH_BOUND,
                                               default=(0.0, 0.0, 0.0)),
-              mount_yaw=_angle(mount, 'yaw', f'{where}: mount', default=0.0), joints=joints, blade=blade,
+              mount_yaw=_yaw(mount, f'{where}: mount'), joints=joints, blade=blade,
               branch=branch, home=home, redundancy=redundancy,
               bodies=parse_arm_bodies(data.get('links'), blade_data, where))
     if len(joints) == 2 and joints[1].length + blade.position[0] == 0.0 and blade.position[1] == 0.0 \

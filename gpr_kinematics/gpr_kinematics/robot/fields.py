@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..errors import ConfigError, brief
-from ..inputs.schema import number_key
+from ..inputs.schema import number_key, orientation_angle
 from ..inputs.validation import text_hint
 
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
@@ -58,7 +58,12 @@ def _xyz(data: Mapping[str, Any], key: str, where: str, bound: float, default: S
 
 
 def _rpy(data: Mapping[str, Any], where: str) -> tuple[float, float, float]:
-    r, p, y = _vector(data, 'rpy', where, 3, 2 * math.pi, 'rad', default=(0.0, 0.0, 0.0))
+    """URDF ``rpy`` [rad], each an orientation angle within one turn (robot descriptions are in radians only)."""
+    raw = data.get('rpy', (0.0, 0.0, 0.0))
+    if not isinstance(raw, (list, tuple)) or len(raw) != 3:
+        raise ConfigError(f'{where}: rpy = {brief(raw)} is invalid; allowed: a list of 3 finite numbers in rad, each '
+                          'within [-2pi, 2pi]')
+    r, p, y = (orientation_angle(v, f'rpy[{i}]', where) for i, v in enumerate(raw))
     return r, p, y
 
 
@@ -79,6 +84,11 @@ def _mapping(value: Any, where: str, what: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise ConfigError(f'{where}: expected a mapping ({what}), got {type(value).__name__}')
     return value
+
+
+def _yaw(data: Mapping[str, Any], where: str) -> float:
+    """A frame's ``yaw`` [rad] (default 0), an orientation angle within one turn (in radians only)."""
+    return orientation_angle(data.get('yaw', 0.0), 'yaw', where)
 
 
 def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
