@@ -152,3 +152,19 @@ def test_euler_deviations_next_to_the_gimbal_lock_are_flagged(alwan):
     assert accuracy_analysis(gsp, [0.01, -0.01, 0.138, 0.1, 0.2, 0.3], np.full(6, 1e-5)).warnings == ()
     upu = load_mechanism(config_path('mechanisms/upu3.yaml'))
     assert accuracy_analysis(upu, [0, 0, 0.2, 0, 0, 0], [1e-5, 0, 0]).warnings == ()
+
+
+@pytest.mark.parametrize('prefix', ['base', 'platform'])
+def test_joint_azimuths_in_degrees_are_refused(prefix):
+    """A mechanism file is in radians only: ``platform_azimuths: [15, 90, ...]`` (the paper's degrees) put the joints
+    at 15 and 90 rad modulo 2 pi, silently; refused naming the entry, the value and its radians. 6.2 rad passes, and
+    the joint point is at the radius along it."""
+    base = {'type': 'stewart_6sps', 'base_radius': 1.2, 'base_azimuths': [0, 1, 2, 3, 4, 5],
+            'platform_radius': 0.4, 'platform_azimuths': [0, 1, 2, 3, 4, 5]}
+    with pytest.raises(ConfigError, match=rf'^s\.yaml: {prefix}_azimuths\[1\] = 90 rad is beyond one turn; allowed: '
+                                          r'\[-2pi, 2pi\] rad \(radians only here: 90 deg is 1.57079633 rad\)$'):
+        mechanism_from_dict(dict(base, **{f'{prefix}_azimuths': [0, 90, 2, 3, 4, 5]}), 's.yaml')
+    mech = mechanism_from_dict(dict(base, **{f'{prefix}_azimuths': [0, 6.2, 2, 3, 4, 5]}), 's.yaml')
+    r = base[f'{prefix}_radius']
+    point = mech.constraints[1].A_i if prefix == 'base' else mech.constraints[1].B_i
+    np.testing.assert_allclose(point, [r * math.cos(6.2), r * math.sin(6.2), 0.0], atol=1e-15)

@@ -250,7 +250,8 @@ def test_dexterity_maps_count_and_check_their_values_before_converting():
     assert dexterity_sweep(upu, home, 'z', range(1)).dexterity.shape == (1,)
 
 
-@pytest.mark.parametrize('azimuths', [[0.0, 0.0, 2.0], [0.0, 2 * math.pi, 2.0], [1.0, 3.0, 1.0 - 4 * math.pi]])
+# (1 - 4 pi, two turns away, is refused in a file before: an azimuth beyond one turn is degrees)
+@pytest.mark.parametrize('azimuths', [[0.0, 0.0, 2.0], [0.0, 2 * math.pi, 2.0], [1.0, 3.0, 1.0 - 2 * math.pi]])
 def test_upu3_limbs_sharing_an_azimuth_are_refused(azimuths):
     """base_azimuths [0, 0, 0] was taken: three limbs on one joint pair (a Jacobian of rank 1 everywhere, a
     'workspace' of one limb's shell); azimuths equal modulo 2 pi are refused, named, in the loader and the class."""
@@ -288,3 +289,19 @@ def test_a_tilt_of_half_a_turn_about_one_axis_is_singular_in_a_map_and_named_els
         tripod.report([0, 0, 0.1, math.pi, 0, 0])
     with pytest.raises(SingularityError, match=r'psi = 3.14159 rad \(pose 2\) the parasitic rotation'):
         accuracy_analysis(tripod, [[0, 0, 0.1, 0, 0, 0], [0, 0, 0.1, 0, math.pi, 0]], [1e-3, 0, 0])
+
+
+def test_upu3_azimuths_in_degrees_are_refused():
+    """``base_azimuths: [90, 210, 330]`` (the paper's degrees) in a file in radians passed as three distinct angles
+    modulo 2 pi, a wrong machine silently; refused naming the entry and its radians; 6.2 rad passes."""
+    data = dict(load_yaml_data(), base_azimuths=[90, 210, 330])
+    with pytest.raises(ConfigError, match=r'^u\.yaml: base_azimuths\[0\] = 90 rad is beyond one turn; allowed: '
+                                          r'\[-2pi, 2pi\] rad \(radians only here: 90 deg is 1.57079633 rad\)$'):
+        mechanism_from_dict(data, 'u.yaml')
+    mech = mechanism_from_dict(dict(data, base_azimuths=[6.2, 2.0, 4.0]), 'u.yaml')
+    np.testing.assert_array_equal(mech.azimuths, [6.2, 2.0, 4.0])
+
+
+def load_yaml_data():
+    from gpr_kinematics.inputs.schema import read_yaml
+    return dict(read_yaml(config_path('mechanisms/upu3.yaml')))

@@ -115,7 +115,10 @@ def test_the_placement_is_an_explicit_assumption():
     ({'planar': 7}, 'must be a mechanism file name or mapping'),
     ({'placement': {'translation': [0, 0]}}, 'placement.translation must be a list of 3 numbers'),
     ({'placement': {'shift': [0, 0, 0]}}, 'unknown key.*shift'),
-    ({'placement': {'rpy': [0, 0, '1']}}, r'placement.rpy\[2\] must be a finite number'),
+    ({'placement': {'rpy': [0, 0, '1']}}, r"placement.rpy\[2\] = '1' is invalid; allowed: a finite angle in rad"),
+    # radians only: a yaw of 90 (degrees meant) turned the planar part by 90 rad modulo 2 pi, silently
+    ({'placement': {'rpy': [3.14159, 0, 90]}}, r'placement.rpy\[2\] = 90 rad is beyond one turn; allowed: '
+                                                r'\[-2pi, 2pi\] rad \(radians only here: 90 deg is 1.57079633 rad\)$'),
     ({'tool': [0, 0, True]}, r'tool\[2\] must be a finite length'),
     ({'sub_delta': 2.0}, 'sub_delta in \\(0, 1\\]'),
     ({'tool_lenght': 0.1}, 'unknown key.*tool_lenght'),

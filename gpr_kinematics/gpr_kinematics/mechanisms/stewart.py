@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, InputError, brief
-from ..inputs.schema import check_keys, number_array, number_key
+from ..inputs.schema import check_keys, number_array, number_key, orientation_angle
 from ..inputs.validation import MAX_COORDINATE
 from .base import as_poses, check_euler_convention
 from .conditioning import check_characteristic_length
@@ -48,6 +48,8 @@ def _points(data: Mapping[str, Any], prefix: str, source: str) -> np.ndarray:
         return arr
     r = number_key(data, f'{prefix}_radius', source)
     az = _vector(data, f'{prefix}_azimuths', source, 6, 'rad')
+    az = np.array([orientation_angle(v, f'{prefix}_azimuths[{i}]', source)
+                   for i, v in enumerate(data[f'{prefix}_azimuths'])])
     h = number_key(data, f'{prefix}_height', source, default=0.0, positive=False)
     return np.column_stack([r * np.cos(az), r * np.sin(az), np.full(6, h)])
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, InputError, brief
-from ..inputs.schema import check_keys, number_array, number_key
+from ..inputs.schema import check_keys, number_array, number_key, orientation_angle
 from ..inputs.validation import bounded
 from .base import Mechanism, as_poses, dexterity_index
 from .conditioning import check_characteristic_length
@@ -106,6 +106,7 @@ class UPU3(Mechanism):
         az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
         if az_arr is None:
             raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
+        az_arr = np.array([orientation_angle(v, f'base_azimuths[{i}]', source) for i, v in enumerate(az)])
         check_azimuths(az_arr, f'{source}: base_azimuths')
         L = data.get('characteristic_length')
         if L is not None:

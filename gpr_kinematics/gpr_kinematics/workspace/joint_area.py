@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from ..inputs.schema import check_keys
+from ..inputs.schema import check_keys, orientation_angle
 from ..mechanisms import read_mechanism_file
 from .boxes import box_from, number, scaled_diameter
 from .builders import model_from_mapping
@@ -363,6 +363,8 @@ def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, an
     def triple(value: Any, where: str, unit: str) -> list[float]:
         if not isinstance(value, list) or len(value) != 3:
             raise ConfigError(f'{source}: {where} must be a list of 3 numbers ({unit}), got {str(value)[:60]}')
+        if unit == 'rad':   # an orientation: within one turn (the file is in radians only)
+            return [orientation_angle(x, f'{where}[{i}]', source) for i, x in enumerate(value)]
         return [number(x, f'{where}[{i}]', source, unit=unit) for i, x in enumerate(value)]
 
     tripod, planar = parts['tripod'], parts['planar']
