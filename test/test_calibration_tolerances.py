@@ -240,3 +240,38 @@ def test_a_normal_draw_past_the_geometrys_limit_is_taken_at_the_limit(capsys, tm
     out, err = capsys.readouterr()
     assert status == 0, err
     assert 'per-row geometry' not in err and '"monte_carlo' in out
+
+
+def test_a_drawn_machine_the_geometry_refuses_names_the_table(capsys, tmp_path, monkeypatch):
+    """``rod_positions: {tolerance: 0.8 mm}`` is within every parameter's limits, but sample 116 of 3,000 moved two
+    rods 1.7 mm farther apart than their joints (1 % of the 161.5 mm side allowed), and a range ``rod1_x: [0.101,
+    0.103]`` centres the rods' triangle 7.7 mm wider: both budgets were refused as 'per-row geometry, row N', naming
+    no table. Now the table is named, with the sample (or the centre) and the geometry's reason; a small tolerance
+    passes."""
+    from gpr_kinematics.calibration.budget import accuracy_budget
+    from gpr_kinematics.cli.main import main
+    model = CoreModel(load_config())
+    Q = [[0.3, 0.3, 0.3]]
+    table = parse_tolerances({'parameters': {'rod_positions': {'tolerance': 8e-4}}}, 'wide.yaml')
+    with pytest.raises(ConfigError) as exc:
+        accuracy_budget(model, Q, table, samples=3000, seed=0)
+    sides = 'side 3-1 of the joint triangle is 0.161458 m, the rods are 0.163153 m apart'
+    assert str(exc.value) == (f'wide.yaml: Monte Carlo sample 116 of these tolerances is a machine the geometry '
+                              f'refuses ({sides}; allowed: within 1% of each other); allowed: tolerances whose every '
+                              'draw is a valid geometry (smaller ones of rod_positions and platform_joints: the rods '
+                              "and the joints keep triangles alike)")
+    small = parse_tolerances({'parameters': {'rod_positions': {'tolerance': 1e-4}}}, 'small.yaml')
+    assert np.all(np.isfinite(accuracy_budget(model, Q, small, samples=3000, seed=0).mc_rms['platform_horizontal'] > 0))
+    centred = parse_tolerances({'parameters': {'rod1_x': {'range': [0.101, 0.103]}}}, 'off.yaml')
+    with pytest.raises(ConfigError, match=r"^off\.yaml: the centre of these tolerances \(each parameter at its mean\) "
+                                          r'is a machine the geometry refuses \(side 1-2 of the joint triangle is '
+                                          r'0\.161458 m, the rods are 0\.169121 m apart; allowed: within 1% of each '
+                                          r'other\); allowed: tolerances whose'):
+        accuracy_budget(model, Q, centred, samples=10, seed=0)
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+    path = tmp_path / 'wide.yaml'
+    path.write_text('parameters:\n  rod_positions: {tolerance: 0.0008}\n')
+    status = main(['accuracy', 'gpr.yaml', '--tolerances', str(path), '--pose', '0', '0', '0.3', '0', '0', '0',
+                   '--samples', '3000', '--seed', '0'])
+    out, err = capsys.readouterr()
+    assert (status, out) == (2, '') and err.startswith(f'gpr accuracy: error: {path}: Monte Carlo sample '), err

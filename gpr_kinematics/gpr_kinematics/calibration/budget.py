@@ -45,7 +45,7 @@ from .model import (
     pose_jacobian,
     rod_jacobian,
 )
-from .monte_carlo import Calibrated, monte_carlo
+from .monte_carlo import Calibrated, drawn_from, monte_carlo
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
@@ -319,8 +319,9 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                       for j, t in enumerate(tols)])     # (a symmetric range's mean is its rounding: none)
     lower, upper = params.bounds
     th_c = np.clip(th + shift, lower, upper)
-    pos_c, rot_c = (pos0, rot0) if not np.any(shift) else evaluate(model, th_c, Qa)
-    src = _sources(model, th_c, Qa, rot_c, tool_v, R, tols, table, cal)
+    with drawn_from(table):      # a range's centre may break the triangles that each end keeps
+        pos_c, rot_c = (pos0, rot0) if not np.any(shift) else evaluate(model, th_c, Qa)
+        src = _sources(model, th_c, Qa, rot_c, tool_v, R, tols, table, cal)
     if np.any(shift):
         src.append(_systematic((pos0, rot0), (pos_c, rot_c), tool_v, R))
     names = tuple(s.name for s in src)

@@ -3,13 +3,16 @@ evaluated exactly, and whether each draw lies within the bounds the linearised w
 not: its worst case is its 3 sigma)."""
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..callbacks import StageProgress
-from ..core.machine import parameter_range
+from ..core.machine import GeometryRowError, parameter_range
+from ..errors import ConfigError
 from .model import ParameterSet, PoseModel, evaluate, pose_error
 from .tolerances import Tolerance, ToleranceTable
 
@@ -30,6 +33,22 @@ def limits(params: ParameterSet) -> tuple[Array, Array]:
         if r is not None:
             lower[j], upper[j] = max(lower[j], r[0]), min(upper[j], r[1])
     return lower, upper
+
+
+@contextlib.contextmanager
+def drawn_from(table: ToleranceTable, first: int | None = None) -> Iterator[None]:
+    """Name ``table`` when a machine drawn from it (Monte Carlo sample ``first + row``; ``None``: the tolerances'
+    centre) is one the geometry refuses (:class:`~gpr_kinematics.core.machine.GeometryRowError`, which names only a
+    row): ``rod_positions: {tolerance: 0.0008}``, within every parameter's limits, moved two rods 1.7 mm farther apart
+    than their joints at sample 116 (1 % of a side allowed)."""
+    try:
+        yield
+    except GeometryRowError as exc:
+        what = (f'Monte Carlo sample {first + exc.row} of these tolerances' if first is not None else
+                'the centre of these tolerances (each parameter at its mean)')
+        raise ConfigError(f'{table.source}: {what} is a machine the geometry refuses ({exc.reason}); allowed: '
+                          'tolerances whose every draw is a valid geometry (smaller ones of rod_positions and '
+                          'platform_joints: the rods and the joints keep triangles alike)') from exc
 
 
 def within(x: Array, t: Tolerance) -> NDArray[np.bool_]:
@@ -101,7 +120,8 @@ def monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array
         # at the bound (a tangentially rigid joint), and a normal draw beyond a geometry parameter's limit (a rod
         # direction's 0.05: the tail past 3 sigma of rod_directions: {tolerance: 0.045, distribution: normal} was
         # refused as 'per-row geometry, row 303') at the limit; either lies outside the worst case's bounds.
-        pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
+        with drawn_from(table, start):
+            pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
         e = pose_error(pos, rot, pos0[None], rot0[None])
         e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]
         blocks = np.stack([e[..., :3], e[..., 3:], e_tool], axis=2)          # (S, N, 3 vectors, 3)

@@ -50,6 +50,18 @@ def _floats(values: Sequence[float]) -> Floats3:
     return (float(values[0]), float(values[1]), float(values[2]))
 
 
+class GeometryRowError(InputError):
+    """A row of a per-row geometry (:meth:`MachineGeometry.per_row`) that no geometry file could hold: ``row`` its
+    index, ``reason`` what is wrong and what is allowed (a caller that drew the rows names where they came from)."""
+
+    def __init__(self, row: int, reason: str) -> None:
+        super().__init__(f'per-row geometry, row {row}: {reason}')
+        self.row, self.reason = row, reason
+
+    def __reduce__(self) -> tuple[type[GeometryRowError], tuple[int, str]]:
+        return GeometryRowError, (self.row, self.reason)
+
+
 @dataclass(frozen=True)
 class MachineGeometry:
     """Constants of one machine, as float triples (one value per rod or joint, index ``k = 0, 1, 2``), or of
@@ -255,8 +267,8 @@ def _triangles(x: Sequence[Array], y: Sequence[Array]) -> tuple[Array, Array, Ar
 def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Value]) -> None:
     """The checks of a geometry file (:mod:`gpr_kinematics.core.config`), row by row: the values ``V (N, len(params))``
     of ``params`` in their keys' ranges, then both triangles (``col``: every parameter's column or float)."""
-    def fail(i: int, what: str) -> InputError:
-        return InputError(f'per-row geometry, row {i}: {what}')
+    def fail(i: int, what: str) -> GeometryRowError:
+        return GeometryRowError(i, what)
 
     j_all = [PARAMETER_NAMES.index(p.name) for p in params]
     lo, hi = _RANGES[0][j_all], _RANGES[1][j_all]
