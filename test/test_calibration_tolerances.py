@@ -275,3 +275,23 @@ def test_a_drawn_machine_the_geometry_refuses_names_the_table(capsys, tmp_path, 
                    '--samples', '3000', '--seed', '0'])
     out, err = capsys.readouterr()
     assert (status, out) == (2, '') and err.startswith(f'gpr accuracy: error: {path}: Monte Carlo sample '), err
+
+
+def test_a_plan_from_tolerances_whose_centre_the_geometry_refuses_names_the_table(capsys, tmp_path, monkeypatch):
+    """``rod1_x: {range: [0.101, 0.103]}`` centres the rods' triangle 7.7 mm wider than the joints' (1 % of a side
+    allowed): a measurement plan made there (``gpr calibrate --plan``, ``gpr accuracy --calibration-plan``) was
+    refused as 'per-row geometry, row 0', naming no table; now the table and its centre are named."""
+    from gpr_kinematics.cli.main import main
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
+    path = tmp_path / 'off.yaml'
+    path.write_text('parameters:\n  rod1_x: {range: [0.101, 0.103]}\n')
+    line = (f'{path}: the centre of these tolerances (each parameter at its mean) is a machine the geometry refuses '
+            '(side 1-2 of the joint triangle is 0.161458 m, the rods are 0.169121 m apart; allowed: within 1% of each '
+            'other); allowed: tolerances whose every draw is a valid geometry (smaller ones of rod_positions and '
+            'platform_joints: the rods and the joints keep triangles alike)')
+    for argv in (['calibrate', '--plan', '3', '--tolerances', str(path)],
+                 ['accuracy', 'gpr.yaml', '--tolerances', str(path), '--pose', '0', '0', '0.3', '0', '0', '0',
+                  '--calibration-plan', '6', '--samples', '100']):
+        status = main(argv)
+        out, err = capsys.readouterr()
+        assert (status, out, err) == (2, '', f'gpr {argv[0]}: error: {line}\n'), argv

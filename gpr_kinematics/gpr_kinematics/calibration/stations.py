@@ -31,6 +31,7 @@ from ..errors import InputError
 from .budget import Budget, accuracy_budget
 from .core_model import CoreModel
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION
+from .monte_carlo import drawn_from
 from .tolerances import ToleranceTable, centre_of, prior_of
 
 Array = NDArray[np.float64]
@@ -57,8 +58,9 @@ def planned_calibration(model: CoreModel, table: ToleranceTable, n: int) -> tupl
     from .plan import plan_measurements
     sp = table.sigma_position if table.sigma_position is not None else DEFAULT_SIGMA_POSITION
     sa = table.sigma_angle if table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
-    plan = plan_measurements(model, model.config, n, sigma_position=sp, sigma_angle=sa,
-                             prior=prior_of(table, model.parameters), theta=centre_of(table, model.parameters))
+    with drawn_from(table):
+        plan = plan_measurements(model, model.config, n, sigma_position=sp, sigma_angle=sa,
+                                 prior=prior_of(table, model.parameters), theta=centre_of(table, model.parameters))
     return plan.fitted, plan.covariance
 
 

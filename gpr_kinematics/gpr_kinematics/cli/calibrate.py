@@ -19,6 +19,7 @@ Plugin of :mod:`gpr_kinematics.cli.main` (``register(subparsers)``).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import re
 from collections.abc import Sequence
@@ -128,6 +129,7 @@ def _plan(args: argparse.Namespace) -> int:
     from ..calibration.core_model import CoreModel
     from ..calibration.files import comment_lines, write_text
     from ..calibration.frames import FramedModel, Transform
+    from ..calibration.monte_carlo import drawn_from
     from ..calibration.plan import plan_measurements
     from ..calibration.report import format_plan
     from ..calibration.tolerances import centre_of
@@ -144,10 +146,11 @@ def _plan(args: argparse.Namespace) -> int:
     table = table_of(args)
     sp, sa = sigmas(args, table)
     prior, _ = priors(table, model)
-    plan = plan_measurements(model, cfg, args.plan, index=args.index, free=free_names(args, model), sigma_position=sp,
-                             sigma_angle=sa, threshold=args.threshold, prior=prior,
-                             theta=centre_of(table, model.parameters) if table is not None else None,
-                             points=args.points)
+    with contextlib.nullcontext() if table is None else drawn_from(table):   # planned at the table's centre
+        plan = plan_measurements(model, cfg, args.plan, index=args.index, free=free_names(args, model),
+                                 sigma_position=sp, sigma_angle=sa, threshold=args.threshold, prior=prior,
+                                 theta=centre_of(table, model.parameters) if table is not None else None,
+                                 points=args.points)
     path = None
     if args.output is not None:
         measure = 'x,y,z' if args.points else 'x,y,z,qx,qy,qz,qw'
