@@ -240,6 +240,13 @@ def test_a_normal_draw_past_the_geometrys_limit_is_taken_at_the_limit(capsys, tm
     out, err = capsys.readouterr()
     assert status == 0, err
     assert 'per-row geometry' not in err and '"monte_carlo' in out
+    # the clip's bounds: each rod direction's geometry limit, +-0.05; a kappa's range (kappa = 1e6) as before
+    from gpr_kinematics.calibration.monte_carlo import limits
+    params = CoreModel(load_config()).parameters
+    lower, upper = limits(params)
+    bounds = {p.name: (lo, hi) for p, lo, hi in zip(params, lower, upper, strict=True)}
+    assert all(bounds[f'rod{k}_{c}'] == (-0.05, 0.05) for k in (1, 2, 3) for c in ('ux', 'uy'))
+    assert bounds['kappa1'] == tuple(params.bounds[i][params.names.index('kappa1')] for i in (0, 1))
 
 
 def test_a_drawn_machine_the_geometry_refuses_names_the_table(capsys, tmp_path, monkeypatch):

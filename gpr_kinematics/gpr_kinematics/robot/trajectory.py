@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
 from ..errors import InputError
-from ..inputs.files import write_text
+from ..inputs.files import check_suffix, write_text
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
 from .spline import Spline
 from .timing import MAX_SAMPLES, check_rate, parameterise, sample, sample_times, velocities
@@ -190,6 +190,5 @@ def trajectory_yaml(traj: JointTrajectory) -> str:
 
 def write_trajectory(path: str, traj: JointTrajectory) -> str:
     """Write :func:`trajectory_yaml` to ``path`` atomically (a ``.yaml`` or ``.yml`` file); the path written."""
-    if not path.lower().endswith(('.yaml', '.yml')):
-        raise InputError(f'trajectory file {path!r}: allowed: a .yaml or .yml file')
+    check_suffix(path, 'trajectory file', ('.yaml', '.yml'))
     return str(write_text(path, trajectory_yaml(traj), 'trajectory'))
