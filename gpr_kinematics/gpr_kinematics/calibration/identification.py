@@ -201,6 +201,17 @@ def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> 
     return np.asarray(np.minimum(b, np.maximum(params.nominal - lo, hi - params.nominal)), dtype=np.float64)
 
 
+def noise_origin(kind: str, column: Array | None, given: bool, value: float) -> str:
+    """What the sigma ``value`` of a ``kind`` (``position``, ``angle``) is: ``the file's sigma_position`` (its
+    ``column``), ``declared`` (``given``: ``--sigma-position``), ``a laser tracker's`` (the defaults
+    :data:`DEFAULT_SIGMA_POSITION`, :data:`DEFAULT_SIGMA_ANGLE`) or ``assumed`` (a tolerance table's
+    ``measurement_noise``, which declares nothing)."""
+    if column is not None:
+        return f'the file\'s sigma_{kind}'
+    default = DEFAULT_SIGMA_POSITION if kind == 'position' else DEFAULT_SIGMA_ANGLE
+    return 'declared' if given else 'a laser tracker\'s' if math.isclose(value, default) else 'assumed'
+
+
 def assumed_noise(meas: Measurements, residual: Array, w: Array, declared: tuple[bool, bool] = (False, False)
                   ) -> str:
     """The noise the residuals of a fit without a declared noise are judged against, and their RMS per coordinate,
@@ -208,17 +219,17 @@ def assumed_noise(meas: Measurements, residual: Array, w: Array, declared: tuple
     Each sigma says what it is: the file's column, ``declared``, the defaults (a laser tracker's), or ``assumed``
     (e.g. a tolerance table's ``measurement_noise``, which declares nothing)."""
     e = residual / w
-    kinds = [('position', slice(0, 3), 'um', meas.sigma_position, declared[0], DEFAULT_SIGMA_POSITION)]
+    kinds = [('position', slice(0, 3), 'um', meas.sigma_position, declared[0])]
     if w.shape[1] == 6:
-        kinds.append(('angle', slice(3, 6), 'urad', meas.sigma_angle, declared[1], DEFAULT_SIGMA_ANGLE))
+        kinds.append(('angle', slice(3, 6), 'urad', meas.sigma_angle, declared[1]))
     said, origins = [], set()
-    for kind, part, unit, column, given, default in kinds:
+    for kind, part, unit, column, given in kinds:
         value = 1.0 / float(w[0, part][0])
         rms = f'residuals {1e6 * math.sqrt(float(np.mean(e[:, part] ** 2))):.3g} {unit} RMS per coordinate'
         if column is not None:
             said.append((f'{kind}s the file\'s sigma_{kind}', '', rms))
             continue
-        origin = 'declared' if given else 'a laser tracker\'s' if math.isclose(value, default) else 'assumed'
+        origin = noise_origin(kind, column, given, value)
         origins.add(origin)
         said.append((f'{kind}s {1e6 * value:.3g} {unit}', f' ({origin})', rms))
     if origins == {'a laser tracker\'s'} and all(label for _, label, _ in said):
