@@ -9,7 +9,7 @@ model of the platform pose); :mod:`.core_model` binds them to the kinematics cor
 * :mod:`.fitting`: the bounded Levenberg-Marquardt from several starts and its convergence; :mod:`.quality`: the
   cross-validation, the bias of the held parameters, the gate;
 * :mod:`.identification`, :mod:`.results`: weighted nonlinear least squares, standard errors, residuals before,
-  after and cross-validated;
+  after and cross-validated; :mod:`.residual_plot`, :mod:`.plot`: ``gpr calibrate --plot``'s data and figure;
 * :mod:`.frames`: registration (the tracker's frame and the target identified with the geometry); :mod:`.arm`: the
   arms' link lengths, zero offsets and wafer centre;
 * :mod:`.plan`: measurement configurations that make the identification well conditioned;

@@ -10,9 +10,11 @@ Examples::
     gpr calibrate --plan 12 --output plan.csv --json
     gpr calibrate --plan 40 --points --frame tracker --target 0.1 0 0.05 --fit-target
     gpr calibrate --robot robot.yaml ARM1.csv --output robot_calibrated.yaml
+    gpr calibrate MEASUREMENTS --output calibrated.yaml --plot residuals.png     # residuals before and after
 
 A fit that fails its gate (not at a minimum, chi-square or cross-validation: docs/calibration.md) exits with status 1,
-the report on stdout and the reason on stderr, and writes no file unless ``--force`` (then the file, still status 1).
+the report on stdout and the reason on stderr, and writes no calibrated file unless ``--force`` (then the file, still
+status 1); a ``--plot`` is drawn either way.
 The measurement file formats, the identification, registration, the gate and the plan: docs/calibration.md.
 Plugin of :mod:`gpr_kinematics.cli.main` (``register(subparsers)``).
 """
@@ -91,6 +93,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     else:
         calibrated = core.config_for(res.estimate)
     write = gate_outcome(res.gate.passed, res.gate.message(), args)
+    if args.plot is not None:   # also when the gate fails: the picture helps most then
+        from ..calibration.plot import plot_residuals
+        from ..calibration.residual_plot import residual_plot
+        plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args)))
     path = None
     if write:
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
@@ -169,14 +175,34 @@ def _plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_output(args: argparse.Namespace) -> None:
+def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse, before any fit, an ``--output`` named unlike what is written (``--output x.csv`` got the calibrated
-    geometry's YAML) or that cannot be written (a folder was refused only after the fit)."""
+    geometry's YAML) or that cannot be written (a folder was refused only after the fit); and ``--plot``
+    (:func:`_check_plot`)."""
     from ..inputs.files import check_output, check_suffix
-    what, suffixes = ('plan', ('.csv',)) if args.plan is not None else (
-        'calibrated robot' if args.robot is not None else 'calibrated geometry', ('.yaml', '.yml'))
-    check_output(args.output, what)
-    check_suffix(args.output, '--output', suffixes, f' (the {what} is written as {suffixes[0][1:].upper()})')
+    if args.output is not None:
+        what, suffixes = ('plan', ('.csv',)) if args.plan is not None else (
+            'calibrated robot' if args.robot is not None else 'calibrated geometry', ('.yaml', '.yml'))
+        check_output(args.output, what)
+        check_suffix(args.output, '--output', suffixes, f' (the {what} is written as {suffixes[0][1:].upper()})')
+    if args.plot is not None:
+        _check_plot(args)
+
+
+def _check_plot(args: argparse.Namespace) -> None:
+    """Refuse, before any fit, a ``--plot`` with ``--plan`` or ``--robot`` (it draws the GPR's residuals), not named
+    ``.png`` or that cannot be written; without matplotlib, the one-line error of a missing optional package
+    (:func:`~gpr_kinematics.cli.main.missing_dependency`)."""
+    from ..inputs.files import check_output, check_suffix
+    if args.plan is not None:
+        raise InputError('--plot draws the residuals of a fit, and --plan fits nothing; allowed: --plot with a '
+                         'MEASUREMENTS file of the GPR')
+    if args.robot is not None:
+        raise InputError('--plot draws the residuals of the GPR\'s calibration; the arms\' (--robot) are not drawn; '
+                         'allowed: --plot with a MEASUREMENTS file of the GPR, without --robot')
+    check_suffix(args.plot, '--plot', ('.png',))
+    check_output(args.plot, 'plot')
+    import matplotlib  # noqa: F401 - missing: main's one line, before the fit rather than after it
 
 
 def _handler(args: argparse.Namespace) -> int:
@@ -201,8 +227,7 @@ def _handler(args: argparse.Namespace) -> int:
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
     if args.robot is not None and args.plan is not None:
         raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
-    if args.output is not None:
-        _check_output(args)
+    _check_outputs(args)
     if args.robot is not None:
         from .calibrate_robot import calibrate_robot
         return calibrate_robot(args)
@@ -227,6 +252,9 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--output', metavar='FILE',
                    help='calibrated geometry YAML (a robot description with --robot; required when calibrating); '
                         'with --plan: the configurations as CSV')
+    p.add_argument('--plot', metavar='FILE.png',
+                   help='the residuals of every measurement before and after, against the noise, and the fitted '
+                        'parameters\' change in standard errors (needs matplotlib; written also when the gate fails)')
     p.add_argument('--force', action='store_true', help='write the calibrated file even when the fit fails its gate '
                                                         '(the status is still 1)')
     p.add_argument('--free', nargs='+', metavar='NAME',
