@@ -169,8 +169,8 @@ def test_the_cli_writes_a_png_and_prints_what_it_prints_without(capsys, tmp_path
 
 
 def test_a_bad_plot_is_refused_before_any_fit(capsys, tmp_path, monkeypatch):
-    """A --plot not named .png, a folder, with --plan or --robot, or without matplotlib: exit 2 with one line, no
-    fit run (identify replaced by a failure), nothing written."""
+    """A --plot not named .png (also with --robot), a folder, with --plan, or without matplotlib: exit 2 with one
+    line, no fit run (identify replaced by a failure), nothing written."""
     monkeypatch.chdir(tmp_path)
 
     def no_fit(*args, **kwargs):
@@ -187,10 +187,9 @@ def test_a_bad_plot_is_refused_before_any_fit(capsys, tmp_path, monkeypatch):
             ([*base, '--plot', 'folder.png'], 'plot output folder.png exists and is not a regular file (it is a '
              'directory); allowed: a new file or a regular file to replace, in an existing, writable folder'),
             (['calibrate', '--plan', '3', '--plot', 'r.png'], '--plot draws the residuals of a fit, and --plan fits '
-             'nothing; allowed: --plot with a MEASUREMENTS file of the GPR'),
-            (['calibrate', '--robot', 'example_robot.yaml', str(arm), '--output', 'r.yaml', '--plot', 'r.png'],
-             "--plot draws the residuals of the GPR's calibration; the arms' (--robot) are not drawn; allowed: "
-             '--plot with a MEASUREMENTS file of the GPR, without --robot')]:
+             'nothing; allowed: --plot with MEASUREMENTS files (of the GPR, or with --robot of the arms)'),
+            (['calibrate', '--robot', 'example_robot.yaml', str(arm), '--output', 'r.yaml', '--plot', 'r.svg'],
+             "--plot 'r.svg': allowed: a .png file")]:
         status, out, err = run(capsys, *argv)
         assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
     monkeypatch.setitem(sys.modules, 'matplotlib', None)   # not installed
@@ -202,3 +201,47 @@ def test_a_bad_plot_is_refused_before_any_fit(capsys, tmp_path, monkeypatch):
     status, out, err = run(capsys, *base, '--plot', 'x.yaml')   # the same file twice
     assert (status, err) == (2, "gpr calibrate: error: --output 'x.yaml' and --plot 'x.yaml' are the same file; "
                                 "allowed: a file of its own for each output\n")
+
+
+def test_the_arms_residuals_are_drawn_with_robot(capsys, tmp_path, monkeypatch):
+    """docs/calibration.md's worked cell: the arm's two files calibrated with --robot and --plot: one panel of
+    position residuals (points: no orientation) over the files' 80 rows and one of the parameters, whose numbers are
+    the JSON report's (RMS and worst before and after, the worst row's file and line, change over standard error of
+    each fitted arm parameter; the frame's left out); stdout and status as without --plot."""
+    from gpr_kinematics.calibration import cell, plot
+    monkeypatch.chdir(tmp_path)
+    assert cell.main(['cell']) == 0
+    config = str(config_path('.'))
+    status, out, err = run(capsys, 'calibrate', 'cell/tracker.csv', '--frame', 'tracker', '--target', '0', '0', '0',
+                           '0.3', '0.1', '-1', '--fit-target', 'position', '--tolerances',
+                           f'{config}/calibration/tolerances_example.yaml', '--output', 'gpr.yaml')
+    assert status == 0, err
+    drawn = []
+    monkeypatch.setattr(plot, 'plot_residuals', lambda path, plots, draw=plot.plot_residuals: drawn.append(plots)
+                        or draw(path, plots))
+    argv = ['calibrate', '--robot', 'example_robot.yaml', 'cell/arm1_wafer.csv', 'cell/arm1_blade.csv', '--config',
+            'gpr.yaml', '--frame', 'tracker', '--output', 'robot.yaml', '--json']
+    without = run(capsys, *argv)
+    assert run(capsys, *argv, '--plot', 'arms.png') == without and without[0] == 0
+    assert Path('arms.png').read_bytes()[:8] == PNG
+    (data,) = drawn[0]
+    (arm,) = json.loads(without[1])['arms']
+    assert data.label == 'arm arm1' and data.merged and data.angle is None and len(data.rows) == arm['rows'] == 80
+    for when in ('before', 'after'):
+        r = arm['residuals'][when]
+        pos = getattr(data.position, when)
+        assert getattr(data.position, f'rms_{when}') == pytest.approx(r['rms_position'], rel=1e-9)
+        assert pos.max() == pytest.approx(r['max_position'], rel=1e-9)
+        assert data.names[int(np.argmax(pos))] == f'line {r["worst_position_line"]} of {r["worst_position_file"]}'
+    fitted = [p for p in arm['parameters'] if p['status'] == 'fitted' and not p['name'].startswith('base_')]
+    assert data.parameters == tuple(p['name'] for p in fitted) and data.parameters[0] == 'arm1_shoulder_length'
+    np.testing.assert_allclose(data.z, [p['change'] / p['standard_error'] for p in fitted], rtol=1e-9)
+    assert data.passed and data.position.origin == "the file's sigma_position"
+    from gpr_kinematics.calibration.plot import residual_figure
+    fig = residual_figure(data)
+    try:
+        assert len(fig.get_axes()) == 2 and fig._suptitle.get_text() == ('arm arm1 from arm1_wafer.csv + '
+                                                                         'arm1_blade.csv: 80 rows, gate passed')
+    finally:
+        import matplotlib.pyplot as plt
+        plt.close(fig)

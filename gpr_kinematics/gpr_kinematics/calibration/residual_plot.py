@@ -70,6 +70,10 @@ class ResidualPlot:
     passed: bool
     failed: tuple[str, ...]
     source: str
+    #: What is calibrated, for the figure's titles: ``''`` the GPR, ``'arm arm1'`` an arm.
+    label: str = ''
+    #: The rows are of several files, one after the other (an arm's merged files).
+    merged: bool = False
 
 
 def _kind(errors0: Array, errors1: Array, sigma: Array, origin: str) -> Kind:
@@ -80,10 +84,10 @@ def _kind(errors0: Array, errors1: Array, sigma: Array, origin: str) -> Kind:
 
 
 def residual_plot(model: PoseModel, meas: Measurements, res: CalibrationResult, sigma_position: float,
-                  sigma_angle: float, declared: tuple[bool, bool] = (False, False)) -> ResidualPlot:
+                  sigma_angle: float, declared: tuple[bool, bool] = (False, False), label: str = '') -> ResidualPlot:
     """The data of the plot of ``res``, the identification of ``model`` from ``meas`` with the sigmas and
     ``declared`` it was made with (:func:`~.identification.identify`'s arguments): the model evaluated at the
-    nominal parameters and at the estimate (module docstring)."""
+    nominal parameters and at the estimate (module docstring); ``label`` names what is calibrated (an arm)."""
     e0 = measured_errors(model, meas, model.parameters.nominal)
     e1 = measured_errors(model, meas, res.estimate)
     w, _ = weights(meas, sigma_position, sigma_angle, declared)
@@ -97,4 +101,5 @@ def residual_plot(model: PoseModel, meas: Measurements, res: CalibrationResult, 
     z = np.array([(res.estimate[j] - nominal[j]) / res.standard_error[j] for j in shown], dtype=np.float64)
     return ResidualPlot(np.arange(1, len(meas) + 1, dtype=np.int64), meas.row_names, position, angle,
                         tuple(res.parameters[j].name for j in shown), z, res.gate.passed,
-                        tuple(c.name for c in res.gate.checks if not c.passed), meas.source)
+                        tuple(c.name for c in res.gate.checks if not c.passed), meas.source, label,
+                        bool(meas.files))

@@ -190,16 +190,13 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 
 def _check_plot(args: argparse.Namespace) -> None:
-    """Refuse, before any fit, a ``--plot`` with ``--plan`` or ``--robot`` (it draws the GPR's residuals), not named
-    ``.png`` or that cannot be written; without matplotlib, the one-line error of a missing optional package
+    """Refuse, before any fit, a ``--plot`` with ``--plan`` (it draws a fit's residuals), not named ``.png`` or that
+    cannot be written; without matplotlib, the one-line error of a missing optional package
     (:func:`~gpr_kinematics.cli.main.missing_dependency`)."""
     from ..inputs.files import check_output, check_suffix
     if args.plan is not None:
-        raise InputError('--plot draws the residuals of a fit, and --plan fits nothing; allowed: --plot with a '
-                         'MEASUREMENTS file of the GPR')
-    if args.robot is not None:
-        raise InputError('--plot draws the residuals of the GPR\'s calibration; the arms\' (--robot) are not drawn; '
-                         'allowed: --plot with a MEASUREMENTS file of the GPR, without --robot')
+        raise InputError('--plot draws the residuals of a fit, and --plan fits nothing; allowed: --plot with '
+                         'MEASUREMENTS files (of the GPR, or with --robot of the arms)')
     check_suffix(args.plot, '--plot', ('.png',))
     check_output(args.plot, 'plot')
     import matplotlib  # noqa: F401 - missing: main's one line, before the fit rather than after it
@@ -254,7 +251,8 @@ def register(sub: Subparsers) -> None:
                         'with --plan: the configurations as CSV')
     p.add_argument('--plot', metavar='FILE.png',
                    help='the residuals of every measurement before and after, against the noise, and the fitted '
-                        'parameters\' change in standard errors (needs matplotlib; written also when the gate fails)')
+                        'parameters\' change in standard errors (each arm\'s with --robot; needs matplotlib; written '
+                        'also when the gate fails)')
     p.add_argument('--force', action='store_true', help='write the calibrated file even when the fit fails its gate '
                                                         '(the status is still 1)')
     p.add_argument('--free', nargs='+', metavar='NAME',

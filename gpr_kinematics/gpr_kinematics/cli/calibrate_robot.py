@@ -149,7 +149,13 @@ def calibrate_robot(args: argparse.Namespace) -> int:
                      + ''.join(f'\nregistration: {line}' for line in (reg.lines() if reg else [])))
     passed = all(r.gate.passed for _, r in results)
     message = ' '.join(f'arm {a}: {r.gate.message()}' for a, r in results if not r.gate.passed)
-    path = _write(args, robot, results, values, regs) if gate_outcome(passed, message, args) else None
+    write = gate_outcome(passed, message, args)
+    if args.plot is not None:   # each arm's residuals, also when a gate fails
+        from ..calibration.plot import plot_residuals
+        from ..calibration.residual_plot import residual_plot
+        plot_residuals(args.plot, [residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args),
+                                                 f'arm {a}') for a, r in results])
+    path = _write(args, robot, results, values, regs) if write else None
     if args.json:
         emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a])}
                                                  for a, r in results],
