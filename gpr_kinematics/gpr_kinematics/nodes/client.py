@@ -40,7 +40,7 @@ from gpr_interfaces.srv import (
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError
 from .conversions import Vector, pose_msg
-from .qos import latched_qos, service_qos, stream_qos
+from .qos import action_client_options, latched_qos, service_qos, stream_qos
 
 
 class ServiceTimeoutError(GprError, TimeoutError):
@@ -184,7 +184,7 @@ class GprClient:
         of the program format) and return its goal handle once the node answered (``accepted`` tells)."""
         key = (RunProgram, 'gpr/run_program')
         if key not in self._clients:
-            cli = ActionClient(self.node, RunProgram, 'gpr/run_program', feedback_sub_qos_profile=stream_qos(10000))
+            cli = ActionClient(self.node, RunProgram, 'gpr/run_program', **action_client_options(10000))
             if not cli.wait_for_server(timeout_sec=timeout):
                 cli.destroy()
                 raise ServiceTimeoutError(f'action gpr/run_program not available after {timeout} s')

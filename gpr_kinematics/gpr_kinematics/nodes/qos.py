@@ -90,6 +90,15 @@ def action_server_options() -> dict[str, Any]:
             'result_service_qos_profile': service_qos(), 'result_timeout': RESULT_TIMEOUT}
 
 
+def action_client_options(feedback_depth: int) -> dict[str, Any]:
+    """``rclpy.action.ActionClient`` keyword arguments: the goal, cancel and result services with
+    :func:`service_qos` on the client's side too (rclpy's default keeps the last 10: a client that sent 30 goals at
+    once and took the answers late lost some of them in its own response queue, on a loaded machine) and the
+    feedback as a stream of ``feedback_depth``."""
+    return {'goal_service_qos_profile': service_qos(), 'cancel_service_qos_profile': service_qos(),
+            'result_service_qos_profile': service_qos(), 'feedback_sub_qos_profile': stream_qos(feedback_depth)}
+
+
 def release_request(goal: Any) -> None:
     """Drop a goal handle's reference to its request once the goal has been read: rclpy keeps the handle, and
     with it the request, until :data:`RESULT_TIMEOUT` after the goal ends (``ServerGoalHandle._goal_request``;

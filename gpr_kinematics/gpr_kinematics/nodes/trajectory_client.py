@@ -27,7 +27,7 @@ from ..core.messages import duration_parts
 from ..robot.controller import ERROR_NAMES
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
-from .qos import stream_qos
+from .qos import action_client_options, stream_qos
 
 #: The action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``.
 DEFAULT_ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
@@ -96,7 +96,7 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
         NoServerError: no server answered on ``action`` (named in full) within ``timeout``.
         ServiceTimeoutError: no answer to the goal or no result in time (a goal under way is cancelled first).
     """
-    cli = ActionClient(client.node, FollowJointTrajectory, action, feedback_sub_qos_profile=stream_qos(1000))
+    cli = ActionClient(client.node, FollowJointTrajectory, action, **action_client_options(1000))
     try:
         if not cli.wait_for_server(timeout_sec=timeout):
             raise NoServerError(f'no FollowJointTrajectory server on {client.node.resolve_topic_name(action)} within '
