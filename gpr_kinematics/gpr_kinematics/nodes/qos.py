@@ -15,7 +15,8 @@ reliable, keep all (:func:`service_qos`): no request or response is dropped beca
 ``success: false`` "saturated" instead (:mod:`gpr_kinematics.nodes.kinematics_node`). The action's feedback is a
 stream (:func:`stream_qos`), so a client that is slow for a moment loses no sample's feedback. The actions' goal,
 cancel and result services are services too (:func:`action_server_options`: keep all, where rclpy's default keeps
-the last 10 and a burst of 30 goals got 13 answers, the others none), and a goal's result is kept
+the last 10 and a burst of 30 goals got 13 answers, the others none; the package's action clients keep all too,
+:func:`action_client_options`), and a goal's result is kept
 :data:`RESULT_TIMEOUT` after it ends (rclpy's default 900 s kept every goal's request with it: about 100 MB for a
 trajectory of 200,000 points).
 """
