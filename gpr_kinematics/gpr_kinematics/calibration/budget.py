@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -87,6 +87,8 @@ class Budget:
             mc_mean, mc_std: the same from the samples.
         warnings: where the linearised RSS and the Monte Carlo RMS differ by more than :data:`AGREEMENT`, and where
             a sample's error exceeds the linearised worst case.
+        kept: per quantity the Monte Carlo's ``|v|`` ``(samples, K)`` of the first ``K`` stations (``keep_samples``
+            of :func:`accuracy_budget`; empty without): the samples ``mc`` summarises, for a plot.
     """
 
     q: Array
@@ -108,6 +110,7 @@ class Budget:
     mc_mean: Array
     mc_std: Array
     warnings: tuple[str, ...] = ()
+    kept: dict[str, Array] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON: per station, per quantity ``rss``, ``worst``, ``shares`` (by source) and, with
@@ -275,7 +278,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                     samples: int = 10_000, seed: int = 0, theta: ArrayLike | None = None,
                     calibrated: tuple[ArrayLike, ArrayLike] | None = None, labels: Sequence[str] | None = None,
                     percentiles: Sequence[float] = (50.0, 95.0, 99.0), frame: str = 'gpr_base',
-                    frame_rotation: ArrayLike | None = None, progress: StageProgress | None = None) -> Budget:
+                    frame_rotation: ArrayLike | None = None, progress: StageProgress | None = None,
+                    keep_samples: int = 0) -> Budget:
     """The accuracy budget of ``model`` at the stations ``Q (N, 3)`` [m] (module docstring).
 
     Args:
@@ -290,6 +294,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
             ``.covariance``, or a plan's): their deviation is normal with that covariance, in place of the table.
         labels: station names (default ``1..N``).
         progress: hears the share of the Monte Carlo's samples done (:func:`~.monte_carlo.monte_carlo`).
+        keep_samples: keep the Monte Carlo's samples of the first ``keep_samples`` stations (``Budget.kept``).
 
     Raises:
         InputError: bad shapes or values, too many samples or stations, joint play for a model without it, no error
@@ -344,13 +349,13 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         with np.errstate(invalid='ignore', divide='ignore'):  # no shares of an error that is rounding only
             shares[name] = np.where(total[:, None] > SHARE_FLOOR ** 2,
                                     contrib[:, comps, :].sum(1) / total[:, None], 0.0)
-    mc, mc_rms, mc_max, max_inside, mc_mean, mc_std = monte_carlo(model, th, Qa, (pos0, rot0), tool_v, R, tols,
-                                                                  cal, table, samples, seed, pct, QUANTITIES,
-                                                                  progress)
+    mc, mc_rms, mc_max, max_inside, mc_mean, mc_std, kept = monte_carlo(
+        model, th, Qa, (pos0, rot0), tool_v, R, tols, cal, table, samples, seed, pct, QUANTITIES, progress,
+        min(max(int(keep_samples), 0), N))
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
-                  warnings=_warnings(labels_t, rss, mc_rms, worst, max_inside) if samples else ())
+                  warnings=_warnings(labels_t, rss, mc_rms, worst, max_inside) if samples else (), kept=kept)
 
 
 def _check_sources(table: ToleranceTable, tols: list[Tolerance | None], cal: Calibrated | None) -> None:

@@ -90,20 +90,23 @@ def monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array
                 tols: list[Tolerance | None], cal: Calibrated | None, table: ToleranceTable,
                 samples: int, seed: int,
                 pct: tuple[float, ...], quantities: dict[str, tuple[tuple[int, ...], str]],
-                progress: StageProgress | None = None
-                ) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any], Array, Array]:
+                progress: StageProgress | None = None, keep: int = 0
+                ) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any], Array, Array,
+                           dict[str, Array]]:
     """``samples`` draws of every source (the tolerated parameters ``tols`` but the calibrated ones, which ``cal``
     draws), the model evaluated exactly at the stations ``Q``, the errors ``v`` against the poses ``pose0`` (and the
     tool points, in the axes ``frame``): per quantity the percentiles ``pct`` of ``|v|``, its RMS, its largest value
     and the largest of the samples whose every draw lies within the worst case's bounds (:func:`sample`; ``-inf``
-    where none does); and the mean and standard deviation of ``v`` ``(N, 9)``. ``progress`` hears the share of the
-    samples drawn after each chunk (stage ``Monte Carlo``: 5,000,000 poses take about 35 s of CPU time)."""
+    where none does); the mean and standard deviation of ``v`` ``(N, 9)``; and per quantity the samples ``|v|``
+    ``(samples, keep)`` of the first ``keep`` stations, the ones the percentiles summarise (for a plot; none when
+    ``keep`` is 0). ``progress`` hears the share of the samples drawn after each chunk (stage ``Monte Carlo``:
+    5,000,000 poses take about 35 s of CPU time)."""
     N = Q.shape[0]
     if samples == 0:
         nan = np.full((N, len(pct)), np.nan)
         return ({k: nan for k in quantities}, {k: np.full(N, np.nan) for k in quantities},
                 {k: np.full(N, np.nan) for k in quantities}, {k: np.full(N, np.nan) for k in quantities},
-                np.full((N, 9), np.nan), np.full((N, 9), np.nan))
+                np.full((N, 9), np.nan), np.full((N, 9), np.nan), {})
     rng = np.random.default_rng(seed)
     cal_set = set(cal[0].tolist()) if cal is not None else set()
     src_tols = [(j, t) for j, t in enumerate(tols) if t is not None and j not in cal_set]
@@ -128,11 +131,13 @@ def monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array
         v[start:start + S] = np.einsum('ij,snbj->snbi', frame, blocks).reshape(S, N, 9)
         if progress is not None:
             progress('Monte Carlo', (start + S) / samples)
-    mc, rms, top, top_inside = {}, {}, {}, {}
+    mc, rms, top, top_inside, kept = {}, {}, {}, {}, {}
     for name, (comps, _) in quantities.items():
         mag = np.linalg.norm(v[:, :, comps], axis=-1)                # (S, N)
         mc[name] = np.percentile(mag, pct, axis=0).T
         rms[name] = np.sqrt(np.mean(mag ** 2, axis=0))
         top[name] = np.max(mag, axis=0)
         top_inside[name] = np.max(np.where(inside, mag, -np.inf), axis=0)
-    return mc, rms, top, top_inside, v.mean(axis=0), v.std(axis=0)
+        if keep:
+            kept[name] = np.ascontiguousarray(mag[:, :keep])
+    return mc, rms, top, top_inside, v.mean(axis=0), v.std(axis=0), kept

@@ -1,14 +1,18 @@
 """``gpr calibrate --plot``: the residuals of every measurement before and after the calibration against the noise
-the gate judges them by, and the fitted parameters' change in standard errors (matplotlib, imported lazily; the
-data: :func:`~.residual_plot.residual_plot`)."""
+the gate judges them by, and the fitted parameters' change in standard errors (the data:
+:func:`~.residual_plot.residual_plot`); ``gpr accuracy --plot``: the Monte Carlo's distribution of each error
+against the budget's numbers (the data: :func:`~.budget_plot.budget_plot`). Matplotlib, imported lazily (Agg),
+the PNG written atomically."""
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .budget_plot import BudgetPlot, Panel
 from .residual_plot import Kind, ResidualPlot
 
 if TYPE_CHECKING:
@@ -64,13 +68,18 @@ def _heading(data: ResidualPlot) -> str:
     return f'{data.label or "calibration"} from {files}: {len(data.rows)} rows, {verdict}'
 
 
+def _agg() -> None:
+    """Draw on matplotlib's Agg backend (no display)."""
+    import matplotlib
+
+    matplotlib.use('Agg')
+
+
 def residual_figure(plots: ResidualPlot | Sequence[ResidualPlot]) -> Figure:
     """The figure (a matplotlib Figure, Agg) of one calibration or several (the arms'), for each: the position
     residual [um] per measurement row, the orientation residual [urad] (measured poses), the fitted parameters'
     change in standard errors; the gate's verdict in the title."""
-    import matplotlib
-
-    matplotlib.use('Agg')
+    _agg()
     import matplotlib.pyplot as plt
 
     plots = [plots] if isinstance(plots, ResidualPlot) else list(plots)
@@ -95,16 +104,73 @@ def residual_figure(plots: ResidualPlot | Sequence[ResidualPlot]) -> Figure:
     return fig
 
 
-def plot_residuals(path: str | Path, plots: ResidualPlot | Sequence[ResidualPlot]) -> Path:
-    """Write :func:`residual_figure` of ``plots`` to ``path`` (PNG, atomically) and return it."""
+def _write(path: str | Path, fig: Figure) -> Path:
+    """Write ``fig`` to ``path`` (PNG, atomically), close it and return the path."""
     import matplotlib.pyplot as plt
 
     from ..inputs.files import atomic_output
 
-    fig = residual_figure(plots)
     try:
         with atomic_output(path, 'plot', binary=True) as out:
             fig.savefig(out, format='png', dpi=90, bbox_inches='tight')   # the parameters' names whole
     finally:
         plt.close(fig)
     return Path(path)
+
+
+def plot_residuals(path: str | Path, plots: ResidualPlot | Sequence[ResidualPlot]) -> Path:
+    """Write :func:`residual_figure` of ``plots`` to ``path`` (PNG, atomically) and return it."""
+    return _write(path, residual_figure(plots))
+
+
+#: The colours of the budget's lines: the worst case, the RSS, then the percentiles in turn.
+_LINE_STYLES = {'worst': ('tab:red', '-'), 'RSS': ('k', '--')}
+_PERCENTILE_COLOURS = ('tab:green', 'tab:orange', 'tab:purple', 'tab:brown', 'tab:pink')
+
+
+def _budget_panel(ax: Axes, p: Panel) -> None:
+    unit = 'um' if p.unit == 'm' else 'urad'
+    ax.stairs(p.counts, p.edges * 1e6, fill=True, color='tab:blue', alpha=0.45, label=f'{len(p.samples)} samples')
+    k = 0
+    for name, value in p.lines:
+        colour, style = _LINE_STYLES.get(name, (_PERCENTILE_COLOURS[k % len(_PERCENTILE_COLOURS)], ':'))
+        k += name not in _LINE_STYLES
+        ax.axvline(value * 1e6, color=colour, ls=style, lw=1.1,
+                   label=f'{"worst case" if name == "worst" else name} {value * 1e6:.4g} {unit}')
+    ax.set_xlim(0.0, 1.04 * max(float(p.edges[-1]), max(v for _, v in p.lines)) * 1e6)
+    ax.set_xlabel(f'{p.quantity.replace("_", " ")} error [{unit}]', fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(True, lw=0.3)
+    ax.legend(loc='best', fontsize=6, framealpha=0.85)
+
+
+def budget_figure(data: BudgetPlot) -> Figure:
+    """The figure (a matplotlib Figure, Agg) of an accuracy budget: a row per station drawn (one station: its
+    quantities in rows of 2 or 3), a histogram per quantity of the Monte Carlo's error magnitudes with the
+    linearised worst case, the RSS and the percentiles as labelled lines; the title says how many of the stations
+    are drawn."""
+    _agg()
+    import matplotlib.pyplot as plt
+    n = len(data.panels[0])
+    step = n if len(data.panels) > 1 else 3 if n % 3 == 0 else 2
+    grid = [(label, panels[k:k + step]) for label, panels in zip(data.stations, data.panels, strict=True)
+            for k in range(0, n, step)]
+    rows, cols = len(grid), len(grid[0][1])
+    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.3 * rows + 0.7), constrained_layout=True,
+                             squeeze=False)
+    for r, (label, panels) in enumerate(grid):
+        for c, p in enumerate(panels):
+            _budget_panel(axes[r, c], p)
+        axes[r, 0].set_ylabel(textwrap.fill(f'station {label}', 32) + '\nsamples per bin', fontsize=8)
+    shown = len(data.stations)
+    which = f'the first {shown} of {data.total} stations' if data.total > shown else \
+        f'{shown} station{"s" if shown > 1 else ""}'
+    fig.suptitle(textwrap.fill(f'accuracy budget, {which}: Monte Carlo of {data.samples} samples (seed {data.seed}) '
+                               f'against the linearised worst case and RSS, errors in the axes of {data.frame}',
+                               40 * cols), fontsize=9)
+    return fig
+
+
+def plot_budget(path: str | Path, data: BudgetPlot) -> Path:
+    """Write :func:`budget_figure` of ``data`` to ``path`` (PNG, atomically) and return it."""
+    return _write(path, budget_figure(data))

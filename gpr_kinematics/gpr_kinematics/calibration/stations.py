@@ -40,14 +40,16 @@ Array = NDArray[np.float64]
 @dataclass(frozen=True)
 class BudgetOptions:
     """What a budget is computed with: Monte Carlo ``samples`` and ``seed``, the virtual-joint ``model`` (None: the
-    core model's default, compliant), ``plan``: the size of a planned calibration (0: none), and ``progress``: the
-    Monte Carlo's listener (:func:`~.monte_carlo.monte_carlo`)."""
+    core model's default, compliant), ``plan``: the size of a planned calibration (0: none), ``progress``: the
+    Monte Carlo's listener (:func:`~.monte_carlo.monte_carlo`), and ``keep_samples``: keep the Monte Carlo's samples
+    of that many first stations (``Budget.kept``, for a plot)."""
 
     samples: int = 10_000
     seed: int = 0
     model: str | None = None
     plan: int = 0
     progress: StageProgress | None = None
+    keep_samples: int = 0
 
 
 def planned_calibration(model: CoreModel, table: ToleranceTable, n: int) -> tuple[NDArray[np.int64], Array]:
@@ -73,7 +75,7 @@ def _budget(config: GprConfig, Q: Array, table: ToleranceTable, tool: ArrayLike,
         theta[calibrated[0]] = centre_of(table, model.parameters)[calibrated[0]]
     return accuracy_budget(model, Q, table, tool=tool, samples=options.samples, seed=options.seed, labels=labels,
                            theta=theta, calibrated=calibrated, frame=frame, frame_rotation=rotation,
-                           progress=options.progress)
+                           progress=options.progress, keep_samples=options.keep_samples)
 
 
 def platform_budget(config: GprConfig, table: ToleranceTable, height: ArrayLike, tilt: ArrayLike,

@@ -19,7 +19,9 @@ Examples (bare names: the packaged files, :func:`~gpr_kinematics.inputs.resource
 ``--config FILE`` replaces the GPR geometry (e.g. a calibrated file; for a robot, the description's ``gpr``
 section), ``--model`` the virtual-joint model (default ``compliant``), ``--samples``/``--seed`` the Monte Carlo
 draws (0: linearised only), ``--calibration-plan N`` makes the budget after a calibration from the ``N``
-configurations of ``gpr calibrate --plan N`` measured with the table's ``measurement_noise``.
+configurations of ``gpr calibrate --plan N`` measured with the table's ``measurement_noise``, ``--plot FILE.png``
+draws the Monte Carlo's samples of the first 4 stations against the budget's numbers
+(:func:`~gpr_kinematics.calibration.budget_plot.budget_plot`).
 """
 from __future__ import annotations
 
@@ -49,7 +51,7 @@ if TYPE_CHECKING:
     from .main import Subparsers
 
 #: The options that only a budget takes (their defaults are None, so that their use without --tolerances shows).
-BUDGET_OPTIONS = ('tool', 'samples', 'seed', 'config', 'robot', 'model', 'calibration_plan')
+BUDGET_OPTIONS = ('tool', 'samples', 'seed', 'config', 'robot', 'model', 'calibration_plan', 'plot')
 DEFAULT_SAMPLES = 10_000
 
 
@@ -74,6 +76,9 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
     g.add_argument('--calibration-plan', type=whole, metavar='N',
                    help='the budget after calibrating from N planned configurations (gpr calibrate --plan N) '
                         'measured with the table\'s measurement_noise')
+    g.add_argument('--plot', metavar='FILE.png',
+                   help='the Monte Carlo\'s distribution of each error of the first 4 stations against the worst '
+                        'case, the RSS and the percentiles (needs matplotlib and samples)')
 
 
 def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
@@ -96,6 +101,21 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
         raise InputError(f'--seed = {args.seed}; allowed: an integer >= 0')
     if args.calibration_plan is not None and args.calibration_plan < 1:
         raise InputError(f'--calibration-plan = {args.calibration_plan}; allowed: an integer >= 1 (configurations)')
+    if args.plot is not None:
+        _check_plot(args)
+
+
+def _check_plot(args: argparse.Namespace) -> None:
+    """Refuse, before any budget, a ``--plot`` without Monte Carlo samples (it draws them), not named ``.png`` or
+    that cannot be written; without matplotlib, the one-line error of a missing optional package
+    (:func:`~gpr_kinematics.cli.main.missing_dependency`)."""
+    from ..inputs.files import check_output, check_suffix
+    if args.samples == 0:
+        raise InputError('--plot draws the Monte Carlo\'s samples, and --samples 0 draws none; allowed: --plot with '
+                         f'--samples N >= 1 (default {DEFAULT_SAMPLES})')
+    check_suffix(args.plot, '--plot', ('.png',))
+    check_output(args.plot, 'plot')
+    import matplotlib  # noqa: F401 - missing: main's one line, before the budget rather than after it
 
 
 def _kind(data: YamlValue) -> str:
@@ -124,12 +144,13 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
             ) -> tuple[Budget, str]:
     """The budget of FILE (module docstring) and a line saying what was computed; ``progress`` hears the Monte
     Carlo's share done."""
+    from ..calibration.budget_plot import MAX_STATIONS
     from ..calibration.stations import BudgetOptions, platform_budget, robot_budget
     from ..calibration.tolerances import load_tolerances
     table = load_tolerances(args.tolerances)
     options = BudgetOptions(samples=DEFAULT_SAMPLES if args.samples is None else args.samples,
                             seed=args.seed or 0, model=args.model, plan=args.calibration_plan or 0,
-                            progress=progress)
+                            progress=progress, keep_samples=MAX_STATIONS if args.plot is not None else 0)
     kind = _kind(data)
     if kind != 'mechanism' and args.pose is not None:
         raise InputError(f'{path}: a program gives its stations; --pose goes with a mechanism file of type gpr')
@@ -181,6 +202,10 @@ def budget_command(args: argparse.Namespace) -> int:
         budget, what = _budget(args, data, path, line)
     finally:
         line.close()
+    if args.plot is not None:
+        from ..calibration.budget_plot import budget_plot
+        from ..calibration.plot import plot_budget
+        plot_budget(args.plot, budget_plot(budget))
     model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
         else ''
