@@ -1,11 +1,13 @@
 """``gpr accuracy --plot``: the plot's data against independent numbers (the JSON report's worst case, RSS,
 percentiles, RMS and largest error of the very samples drawn, a percentile recomputed from the samples by hand, the
 histogram's counts by hand), the PNG written without changing the output, the first 4 stations of more, a bad
-``--plot`` refused before any budget."""
+``--plot`` refused before any budget, and what docs/calibration.md says of its figure."""
 from __future__ import annotations
 
 import json
+import re
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ from gpr_kinematics.core.config import GprConfig
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.inputs.resources import config_path
 
+ROOT = Path(__file__).resolve().parents[1]
 TABLE = str(config_path('calibration/tolerances_example.yaml'))
 #: The documented example (docs/calibration.md, "gpr accuracy"), which docs/img/calibration_figures.py draws.
 EXAMPLE = ['accuracy', 'gpr.yaml', '--tolerances', TABLE, '--pose', '0', '0', '0.5', '0.0349', '0', '0', '--tool',
@@ -168,3 +171,28 @@ def test_a_bad_plot_is_refused_before_any_budget(capsys, tmp_path, monkeypatch):
                                                 "'gpr_kinematics[plot]'\n")
     assert [p.name for p in tmp_path.iterdir()] == ['folder.png']
 
+
+def test_what_the_docs_say_of_their_figure(capsys, monkeypatch):
+    """docs/calibration.md shows docs/img/accuracy_budget.png (under 150 KB) of the documented example (10,000
+    samples, seed 0), drawn by docs/img/calibration_figures.py with those arguments, and its sentence's numbers are
+    that budget's: the largest of the samples and the worst case of the platform's horizontal error and of the
+    heading."""
+    text = (ROOT / 'docs' / 'calibration.md').read_text(encoding='utf-8')
+    assert '](img/accuracy_budget.png)' in text
+    png = ROOT / 'docs' / 'img' / 'accuracy_budget.png'
+    assert png.read_bytes()[:8] == PNG and png.stat().st_size < 150_000
+    script = (ROOT / 'docs' / 'img' / 'calibration_figures.py').read_text(encoding='utf-8')
+    assert "'--pose',\n          '0', '0', '0.5', '0.0349', '0', '0', '--tool', '0.3', '0', '0.1']" in script
+    sentence = re.search(r'the 10,000 samples of the platform\'s horizontal error reach ([\d.]+) um, under (\w+) '
+                         r'of its worst case ([\d.]+) um, those of the heading ([\d.]+) urad against ([\d.]+) urad',
+                         ' '.join(text.split()))
+    assert sentence is not None
+    status, out, err = run(capsys, *EXAMPLE, '--json')
+    assert status == 0, err
+    q = json.loads(out)['stations'][0]['quantities']
+    h, g = q['platform_horizontal'], q['heading']
+    assert float(sentence[1]) == round(h['monte_carlo']['max'] * 1e6, 1)
+    assert float(sentence[3]) == round(h['worst'] * 1e6, 1)
+    assert sentence[2] == 'half' and 0.45 < h['monte_carlo']['max'] / h['worst'] < 0.5
+    assert float(sentence[4]) == round(g['monte_carlo']['max'] * 1e6)
+    assert float(sentence[5]) == round(g['worst'] * 1e6)
