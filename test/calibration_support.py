@@ -1,11 +1,13 @@
 """Helpers of the calibration tests: an imperfect GPR as a calibration engineer would make one (rod places, zero
 offsets, rod tilts, joint places and a different kappa per joint), random configurations within the machine's
-limits, and the prediction error of a calibrated model at configurations it was not fitted to (held out)."""
+limits, the prediction error of a calibrated model at configurations it was not fitted to (held out), and the
+``gpr`` command run in-process with its progress lines held back (the plot tests)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
+import pytest
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.model import evaluate, pose_error
 from gpr_kinematics.core import naive_inverse
@@ -73,3 +75,23 @@ def equivalent_truth(res, truth: np.ndarray) -> np.ndarray:
             V[ps.index(name), i] = coef * ps[ps.index(name)].scale
     held = [ps.index(c.held) for c in combos]
     return truth + V @ np.linalg.solve(V[held], res.estimate[held] - truth[held])
+
+
+
+#: The first bytes of a PNG file.
+PNG = b'\x89PNG\r\n\x1a\n'
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    """``gpr argv`` in-process: ``(status, stdout, stderr)``."""
+    from gpr_kinematics.cli.main import main
+
+    status = main(list(argv))
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+@pytest.fixture(autouse=True)
+def quiet_progress(monkeypatch):
+    """Progress lines held back (a loaded machine's fit passes their 2 s), for a module that imports this fixture."""
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))

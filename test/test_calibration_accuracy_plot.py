@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from calibration_support import PNG, quiet_progress, run  # noqa: F401 - quiet_progress: an autouse fixture
 from gpr_kinematics.calibration import plot as plot_module
 from gpr_kinematics.calibration.budget_plot import BINS, MAX_STATIONS, budget_plot
 from gpr_kinematics.calibration.stations import BudgetOptions, platform_budget
 from gpr_kinematics.calibration.tolerances import load_tolerances
-from gpr_kinematics.cli.main import main
 from gpr_kinematics.core.config import GprConfig
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.inputs.resources import config_path
@@ -25,18 +25,8 @@ TABLE = str(config_path('calibration/tolerances_example.yaml'))
 #: The documented example (docs/calibration.md, "gpr accuracy"), which docs/img/calibration_figures.py draws.
 EXAMPLE = ['accuracy', 'gpr.yaml', '--tolerances', TABLE, '--pose', '0', '0', '0.5', '0.0349', '0', '0', '--tool',
            '0.3', '0', '0.1']
-PNG = b'\x89PNG\r\n\x1a\n'
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-@pytest.fixture(autouse=True)
-def _quiet(monkeypatch):
-    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
 
 
 def _drawn(monkeypatch):

@@ -10,31 +10,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from calibration_support import PNG, quiet_progress, run  # noqa: F401 - quiet_progress: an autouse fixture
 from gpr_kinematics.calibration import demo
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import read_measurements
 from gpr_kinematics.calibration.residual_plot import LOG_RATIO, residual_plot
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
-from gpr_kinematics.cli.main import main
 from gpr_kinematics.core import forward_batch
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.inputs.resources import config_path
 from scipy.spatial.transform import Rotation
 
 SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
-PNG = b'\x89PNG\r\n\x1a\n'
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-@pytest.fixture(autouse=True)
-def _quiet(monkeypatch):
-    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))
 
 
 def _angles(rotation, quaternion_xyzw):
