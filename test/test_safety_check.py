@@ -720,3 +720,25 @@ def test_a_program_of_one_instant_is_checked_at_it():
     assert a.min_clearance == pytest.approx(-73.389e-3, abs=1e-6) and a.min_clearance == b.min_clearance
     ok = check_program(_cell_program(wafers=[], defaults=arm1, stations=free, steps=[{'move': 'a'}]), cell)[0]
     assert ok.safe and ok.min_clearance == pytest.approx(60.826e-3, abs=1e-6)
+
+
+def test_a_bad_plot_is_refused_before_the_check(tmp_path, capsys, monkeypatch):
+    """``--plot`` goes through the command line's one rule of a PNG plot (``cli.options.png_plot``, as ``gpr
+    calibrate`` and ``gpr accuracy``): a name not ``.png``, and without matplotlib the missing package's one line,
+    before any check runs (the check replaced by a failure: it is never reached); no file written."""
+    from gpr_kinematics.cli.main import main
+
+    def never(*_args, **_kwargs):
+        raise AssertionError('the program was checked before its --plot was')
+
+    monkeypatch.setattr('gpr_kinematics.safety.check.check_program', never)
+    monkeypatch.chdir(tmp_path)
+    argv = ['program', 'check', str(PROGRAM), '--plot']
+    assert main([*argv, 'c.svg']) == 2
+    assert capsys.readouterr().err == "gpr program check: error: --plot 'c.svg': allowed: a .png file\n"
+    monkeypatch.setitem(sys.modules, 'matplotlib', None)   # not installed
+    assert main([*argv, 'c.png']) == 2
+    assert capsys.readouterr().err == ("gpr program check: error: this command needs the optional package "
+                                       "'matplotlib', which is not installed; install it with pip install "
+                                       "'gpr_kinematics[plot]'\n")
+    assert list(tmp_path.iterdir()) == []

@@ -41,7 +41,7 @@ from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, pack
 from ..inputs.safe_yaml import YamlValue
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, shipped, whole
+from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, png_plot, shipped, whole
 from .output import emit_json
 from .progress import add_no_progress, progress_line
 
@@ -106,16 +106,12 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
 
 
 def _check_plot(args: argparse.Namespace) -> None:
-    """Refuse, before any budget, a ``--plot`` without Monte Carlo samples (it draws them), not named ``.png`` or
-    that cannot be written; without matplotlib, the one-line error of a missing optional package
-    (:func:`~gpr_kinematics.cli.main.missing_dependency`)."""
-    from ..inputs.files import check_output, check_suffix
+    """Refuse, before any budget, a ``--plot`` without Monte Carlo samples (it draws them), and what
+    :func:`~.options.png_plot` refuses."""
     if args.samples == 0:
         raise InputError('--plot draws the Monte Carlo\'s samples, and --samples 0 draws none; allowed: --plot with '
                          f'--samples N >= 1 (default {DEFAULT_SAMPLES})')
-    check_suffix(args.plot, '--plot', ('.png',))
-    check_output(args.plot, 'plot')
-    import matplotlib  # noqa: F401 - missing: main's one line, before the budget rather than after it
+    png_plot(args.plot)
 
 
 def _kind(data: YamlValue) -> str:

@@ -45,7 +45,7 @@ from .calibrate_options import (
     table_of,
     with_given_poses,
 )
-from .options import number, shipped, whole
+from .options import number, png_plot, shipped, whole
 from .output import emit_json
 from .progress import add_no_progress, progress_line
 
@@ -190,16 +190,12 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 
 def _check_plot(args: argparse.Namespace) -> None:
-    """Refuse, before any fit, a ``--plot`` with ``--plan`` (it draws a fit's residuals), not named ``.png`` or that
-    cannot be written; without matplotlib, the one-line error of a missing optional package
-    (:func:`~gpr_kinematics.cli.main.missing_dependency`)."""
-    from ..inputs.files import check_output, check_suffix
+    """Refuse, before any fit, a ``--plot`` with ``--plan`` (it draws a fit's residuals), and what
+    :func:`~.options.png_plot` refuses."""
     if args.plan is not None:
         raise InputError('--plot draws the residuals of a fit, and --plan fits nothing; allowed: --plot with '
                          'MEASUREMENTS files (of the GPR, or with --robot of the arms)')
-    check_suffix(args.plot, '--plot', ('.png',))
-    check_output(args.plot, 'plot')
-    import matplotlib  # noqa: F401 - missing: main's one line, before the fit rather than after it
+    png_plot(args.plot)
 
 
 def _handler(args: argparse.Namespace) -> int:

@@ -79,6 +79,16 @@ class ShippedName(str):
         return obj
 
 
+def png_plot(path: str) -> None:
+    """Refuse, before any work, a ``--plot`` not named ``.png`` or that cannot be written; without matplotlib, the
+    one-line error of a missing optional package (:func:`~gpr_kinematics.cli.main.missing_dependency`) before the
+    work rather than after it."""
+    from ..inputs.files import check_output, check_suffix
+    check_suffix(path, '--plot', ('.png',))
+    check_output(path, 'plot')
+    import matplotlib  # noqa: F401 - missing: main's one line
+
+
 def shipped(kind: Packaged) -> Callable[[str], ShippedName]:
     """An argparse type: a file of ``kind``, or the bare name of one the package ships, looked up by
     :func:`resolve_shipped` (an error then is the command's one line, the whole path quoted, not argparse's with

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
-from .options import named_file, number, robot_of, robot_options, shipped
+from .options import named_file, number, png_plot, robot_of, robot_options, shipped
 from .output import JsonValue, emit_json
 from .progress import add_no_progress, progress_line
 
@@ -67,9 +67,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..safety.check import check_program
     from ..safety.clearance import MARGIN
     if args.plot is not None:
-        from ..inputs.files import check_output, check_suffix
-        check_suffix(args.plot, '--plot', ('.png',))
-        check_output(args.plot, 'plot')
+        png_plot(args.plot)
     margin = MARGIN if args.margin is None else args.margin
     program, plan = _program(args)
     path = named_file(program, 'cell', args.cell)
