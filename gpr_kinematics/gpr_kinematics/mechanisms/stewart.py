@@ -47,9 +47,8 @@ def _points(data: Mapping[str, Any], prefix: str, source: str) -> np.ndarray:
                               f'{MAX_COORDINATE:g}); got {brief(val)}')
         return arr
     r = number_key(data, f'{prefix}_radius', source)
-    az = _vector(data, f'{prefix}_azimuths', source, 6, 'rad')
-    az = np.array([orientation_angle(v, f'{prefix}_azimuths[{i}]', source)
-                   for i, v in enumerate(data[f'{prefix}_azimuths'])])
+    az = np.array([orientation_angle(float(v), f'{prefix}_azimuths[{i}]', source)   # 6 numbers, each within a turn
+                   for i, v in enumerate(_vector(data, f'{prefix}_azimuths', source, 6, 'rad'))])
     h = number_key(data, f'{prefix}_height', source, default=0.0, positive=False)
     return np.column_stack([r * np.cos(az), r * np.sin(az), np.full(6, h)])
 

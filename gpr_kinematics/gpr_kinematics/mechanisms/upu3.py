@@ -106,7 +106,7 @@ class UPU3(Mechanism):
         az_arr = number_array(az, (3,))   # the one rule for YAML numbers (a 400-digit integer has no float)
         if az_arr is None:
             raise ConfigError(f'{source}: base_azimuths must be 3 finite angles in rad; got {brief(az)}')
-        az_arr = np.array([orientation_angle(v, f'base_azimuths[{i}]', source) for i, v in enumerate(az)])
+        az_arr = np.array([orientation_angle(float(v), f'base_azimuths[{i}]', source) for i, v in enumerate(az_arr)])
         check_azimuths(az_arr, f'{source}: base_azimuths')
         L = data.get('characteristic_length')
         if L is not None:

@@ -53,8 +53,8 @@ _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
                  'entry')
 _NAME = re.compile(r'[A-Za-z0-9_.\-]{1,64}')
-#: How a station file (or a program) in YAML, and one in CSV, declares its angles in degrees.
-_DECLARE_YAML = 'units: {angle: deg}'
+#: How a station file (or a program, or a cell) in YAML, and one in CSV, declares its angles in degrees.
+DECLARE_DEG = 'units: {angle: deg}'
 _DECLARE_CSV = '"{key} [deg]" in the header or a "# units: deg" line before it'
 
 
@@ -197,9 +197,9 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
         rows.position.append((x, y, z))
         rows.tilt.append(_number(st.get('tilt', 0.0), w, 'tilt', aunit) * angle)
-        rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, _DECLARE_YAML))
+        rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, DECLARE_DEG))
         h = st.get('heading')
-        rows.heading.append(None if h is None else orientation_angle(h, 'heading', w, aunit, _DECLARE_YAML))
+        rows.heading.append(None if h is None else orientation_angle(h, 'heading', w, aunit, DECLARE_DEG))
         rows.branch.append(_branch(st.get('branch'), w))
         rows.approach.append(_height(st.get('approach_height'), w, 'approach_height', length, lunit))
         rows.retract.append(_height(st.get('retract_height'), w, 'retract_height', length, lunit))

@@ -38,7 +38,7 @@ from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.validation import text_hint
-from ..robot.station_files import units_of
+from ..robot.station_files import DECLARE_DEG, units_of
 
 Array = NDArray[np.float64]
 
@@ -50,8 +50,6 @@ _SIZE = 50.0
 _KEYS = ('format', 'version', 'frame', 'units', 'obstacles')
 _SHAPES = ('box', 'cylinder', 'chamber')
 _OBSTACLE_KEYS = ('name', *_SHAPES, 'position', 'rpy', 'tilt', 'azimuth', 'heading')
-#: How a cell file declares its angles in degrees.
-_DECLARE = 'units: {angle: deg}'
 
 
 @dataclass(frozen=True)
@@ -109,10 +107,10 @@ def _rotation(data: Mapping[str, Any], where: str, angle: float, aunit: str) -> 
         rpy = data['rpy']
         if not isinstance(rpy, list) or len(rpy) != 3:
             raise ConfigError(f'{where}: rpy = {brief(rpy)} is invalid; allowed: a list of 3 numbers in {aunit}')
-        r, p, y = (orientation_angle(v, f'rpy[{i}]', where, aunit, _DECLARE) for i, v in enumerate(rpy))
+        r, p, y = (orientation_angle(v, f'rpy[{i}]', where, aunit, DECLARE_DEG) for i, v in enumerate(rpy))
         return np.asarray(rpy_matrix(r, p, y), dtype=np.float64)
     t = _number(data.get('tilt', 0.0), where, 'tilt', -2 * math.pi, 2 * math.pi, aunit, angle)
-    a, h = (orientation_angle(data.get(k, 0.0), k, where, aunit, _DECLARE) for k in ('azimuth', 'heading'))
+    a, h = (orientation_angle(data.get(k, 0.0), k, where, aunit, DECLARE_DEG) for k in ('azimuth', 'heading'))
     return np.asarray(tilt_rotation(np.array([t]), np.array([a]))[0] @ rotation_z(np.array([h]))[0],
                       dtype=np.float64)
 
