@@ -73,9 +73,9 @@ def unknown_overrides(node: Node) -> list[str]:
     """Warn once for each start-up parameter (``-p NAME:=VALUE``, a parameters file) that names no parameter of
     ``node``: rclpy ignores it silently, so a typo (``idle_rat``) would leave the default in force unnoticed. The
     warning names the closest parameter, if any; returns the names warned about."""
-    overrides = getattr(node, '_parameter_overrides', None) or {}
+    overrides = getattr(node, '_parameter_overrides', None) or {}   # rclpy has no public reader of them
     unknown = sorted(name for name in overrides if not node.has_parameter(name))
-    declared = sorted(node._parameters) if hasattr(node, '_parameters') else []
+    declared = sorted(node.get_parameters_by_prefix(''))
     for name in unknown:
         close = difflib.get_close_matches(name, declared, n=1)
         hint = f'did you mean {close[0]!r}? ' if close else ''
