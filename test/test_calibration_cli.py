@@ -260,11 +260,13 @@ def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys
     assert status == 0 and (tmp_path / 'plan.CSV').read_text().splitlines()[3] == 'q1,q2,q3', err
 
 
-def test_a_frame_that_moves_is_refused_as_the_measurements_frame(capsys, tmp_path, monkeypatch):
+def test_a_frame_of_the_machine_is_refused_as_the_measurements_frame_unless_its_pose_is_known(capsys, tmp_path,
+                                                                                              monkeypatch):
     """``--frame gpr_platform`` passed as a tracker's name (its pose in gpr_base identified as if fixed). The frames
     that move are the URDF's below a joint that is not fixed: the rods' tops and both platforms of the GPR, with
-    --robot also the arms' links, blades and wafers; the fixed ones (the root, gpr_base, the rod guides) and any
-    other name stay allowed."""
+    --robot also the arms' links, blades and wafers. Of the fixed ones the root and gpr_base have known poses and
+    stay allowed, as any name not of the machine (the tracker's); a rod guide, placed by the geometry, is refused
+    (its pose was fitted as a tracker's before)."""
     from gpr_kinematics.core.config import GprConfig
     from gpr_kinematics.robot import load_robot
     from gpr_kinematics.robot.urdf import gpr_urdf, robot_urdf
@@ -282,21 +284,27 @@ def test_a_frame_that_moves_is_refused_as_the_measurements_frame(capsys, tmp_pat
         moving = more
     assert len(moving) == 16 and moving == {link.name for link in robot.links} - set(robot.fixed_frames())
     arm = write(tmp_path, 'arm.csv', 'arm,x,y,z\n')
-    fixed = "gpr_base, gpr_rod_guide_1, gpr_rod_guide_2, gpr_rod_guide_3, or a frame of the tracker's own name"
+    allowed = ("allowed: the frame the measurements are in: one whose pose is known ({}) or one of the tracker's own "
+               'name')
+    gpr_allowed, robot_allowed = allowed.format('gpr_base'), allowed.format('world, gpr_base')
+    guide = ("--frame gpr_rod_guide_1 is a frame of {} placed by its geometry (a rod's guide, at the rod's foot and "
+             "direction), not a known pose: it would be fitted as a tracker's, apart from that geometry; {}")
     for argv, line in [
             (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'gpr_platform'],
-             f'--frame gpr_platform moves with the machine; allowed: the fixed frame the measurements are in: {fixed} '
-             '(not one of the 5 frames of gpr that move)'),
+             f'--frame gpr_platform moves with the machine; {gpr_allowed} (not one of the 5 frames of gpr that move)'),
             (['calibrate', '--plan', '3', '--frame', 'gpr_rod_2'],
-             f'--frame gpr_rod_2 moves with the machine; allowed: the fixed frame the measurements are in: {fixed} '
-             '(not one of the 5 frames of gpr that move)'),
+             f'--frame gpr_rod_2 moves with the machine; {gpr_allowed} (not one of the 5 frames of gpr that move)'),
             (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.yaml', '--frame', 'arm1_wafer'],
-             '--frame arm1_wafer moves with the machine; allowed: the fixed frame the measurements are in: world, '
-             f'{fixed} (not one of the 16 frames of example_dual_arm that move)')]:
+             f'--frame arm1_wafer moves with the machine; {robot_allowed} (not one of the 16 frames of '
+             'example_dual_arm that move)'),
+            (['calibrate', '--plan', '3', '--frame', 'gpr_rod_guide_1'], guide.format('gpr', gpr_allowed)),
+            (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.yaml', '--frame', 'gpr_rod_guide_1'],
+             guide.format('example_dual_arm', robot_allowed))]:
         status, out, err = run(capsys, *argv)
         assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
-    status, out, err = run(capsys, 'calibrate', '--plan', '3', '--frame', 'gpr_rod_guide_1', '--json')
-    assert status == 0 and len(json.loads(out)['configurations']) == 3, err
+    for frame in ('gpr_base', 'tracker'):
+        status, out, err = run(capsys, 'calibrate', '--plan', '3', '--frame', frame, '--json')
+        assert status == 0 and len(json.loads(out)['configurations']) == 3, err
 
 
 def test_one_row_is_enough_for_three_offsets(capsys, tmp_path):

@@ -75,15 +75,23 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
 
 
 def fixed_frame(frame: str, model: RobotUrdf) -> None:
-    """Refuse a ``--frame`` that moves with the machine (a frame of ``model``, the GPR's or the robot's, that is not
-    fixed in its root: ``--frame gpr_platform`` passed as a tracker's name): measurements are taken in a fixed
-    frame."""
+    """Refuse a ``--frame`` of ``model`` (the GPR's or the robot's URDF) other than one whose pose is known: its root
+    and ``gpr_base``. A frame that moves with the machine (``--frame gpr_platform`` passed as a tracker's name) is
+    refused since measurements are taken in a fixed frame; a fixed one placed by the geometry being calibrated (a rod
+    guide, at its rod's position and direction) since its pose would be fitted as a tracker's, apart from the
+    geometry that places it."""
+    known = tuple(dict.fromkeys((model.root, 'gpr_base')))
     fixed = model.fixed_frames()
     moving = [link.name for link in model.links if link.name not in fixed]
+    allowed = (f'allowed: the frame the measurements are in: one whose pose is known ({", ".join(known)}) or one of '
+               "the tracker's own name")
     if frame in moving:
-        raise InputError(f'--frame {frame} moves with the machine; allowed: the fixed frame the measurements are in: '
-                         f'{", ".join(fixed)}, or a frame of the tracker\'s own name (not one of the {len(moving)} '
-                         f'frames of {model.name} that move)')
+        raise InputError(f'--frame {frame} moves with the machine; {allowed} (not one of the {len(moving)} frames of '
+                         f'{model.name} that move)')
+    if frame in fixed and frame not in known:
+        raise InputError(f'--frame {frame} is a frame of {model.name} placed by its geometry (a rod\'s guide, at '
+                         f'the rod\'s foot and direction), not a known pose: it would be fitted as a tracker\'s, '
+                         f'apart from that geometry; {allowed}')
 
 
 def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
