@@ -9,3 +9,12 @@ from collections.abc import Callable
 #: A progress report: the stage (``'clearance'``, ``'slip'``, ``'reading rows'``, ...) and the share of it done,
 #: in [0, 1].
 StageProgress = Callable[[str, float], None]
+
+
+def silent(stage: str, share: float) -> None:
+    """The :data:`StageProgress` that reports nothing: a computation's own when its caller passes ``None``."""
+
+
+def reporter(progress: StageProgress | None) -> StageProgress:
+    """``progress``, or :func:`silent` when it is ``None``."""
+    return progress if progress is not None else silent

@@ -32,7 +32,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..callbacks import StageProgress
+from ..callbacks import StageProgress, reporter
 from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
@@ -334,7 +334,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     e0 = measured_errors(model, meas, theta0)
     _check_plausible(meas, e0, frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
-    tell: StageProgress = progress if progress is not None else (lambda stage, share: None)
+    tell = reporter(progress)
     J0 = residual_jacobian(residuals, params, theta0, free_idx, scale, lambda share: tell('identifiability', share))
     ident = analyse(J0, [params[int(j)].name for j in free_idx], threshold)
     fit = np.array([params.index(name) for name in ident.identified], dtype=np.int64)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..callbacks import StageProgress
+from ..callbacks import StageProgress, reporter
 from ..errors import ConfigError
 from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
@@ -161,7 +161,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
     slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
     clearance after each round of its search; the slip before and after)."""
-    tell: StageProgress = progress if progress is not None else (lambda stage, share: None)
+    tell = reporter(progress)
     wafers = wafer_plan(plan)
     robot = plan.robot
     bodies = robot_body_set(robot, wafers.carried)
