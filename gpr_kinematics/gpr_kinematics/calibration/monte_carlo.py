@@ -122,9 +122,13 @@ def monte_carlo(model: PoseModel, th: Array, Q: Array, pose0: tuple[Array, Array
         # A coordinate with a range stays in it: a normal draw of a calibrated covariance beyond kappa = 1e6 is taken
         # at the bound (a tangentially rigid joint), and a normal draw beyond a geometry parameter's limit (a rod
         # direction's 0.05: the tail past 3 sigma of rod_directions: {tolerance: 0.045, distribution: normal} was
-        # refused as 'per-row geometry, row 303') at the limit; either lies outside the worst case's bounds.
+        # refused as 'per-row geometry, row 303') at the limit. Such a sample is not the one drawn: it is not counted
+        # within the worst case's bounds (a calibrated draw within 3 sigma of a limit was).
+        drawn = th[None, :] + dtheta
+        taken = np.clip(drawn, lower, upper)
+        inside[start:start + S] &= np.all(taken == drawn, axis=1)[:, None]
         with drawn_from(table, start):
-            pos, rot = evaluate(model, np.clip(th[None, :] + dtheta, lower, upper), Q[None] + dq, disp)
+            pos, rot = evaluate(model, taken, Q[None] + dq, disp)
         e = pose_error(pos, rot, pos0[None], rot0[None])
         e_tool = pos + np.einsum('snij,nj->sni', rot, tool) - (pos0 + a0)[None]
         blocks = np.stack([e[..., :3], e[..., 3:], e_tool], axis=2)          # (S, N, 3 vectors, 3)
