@@ -4,6 +4,7 @@ limits, the prediction error of a calibrated model at configurations it was not 
 ``gpr`` command run in-process with its progress lines held back (the plot tests)."""
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -89,6 +90,21 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
     status = main(list(argv))
     out, err = capsys.readouterr()
     return status, out, err
+
+
+def plus_plot(without: tuple[int, str, str], path: object) -> tuple[int, str, str]:
+    """What ``gpr`` prints with ``--plot path`` where it printed ``without`` (status, stdout, stderr): the same status
+    and stderr; in text one more line, ``plot written to PATH``; in JSON one more key, ``plot_file``."""
+    status, out, err = without
+    if out.startswith('{'):
+        return status, json.dumps(json.loads(out) | {'plot_file': str(path)}, sort_keys=True), err
+    return status, f'{out}plot written to {path}\n', err
+
+
+def normalised(output: tuple[int, str, str]) -> tuple[int, str, str]:
+    """``output`` with a JSON stdout's keys sorted (:func:`plus_plot`'s form)."""
+    status, out, err = output
+    return status, json.dumps(json.loads(out), sort_keys=True) if out.startswith('{') else out, err
 
 
 @pytest.fixture(autouse=True)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from calibration_support import PNG, quiet_progress, run  # noqa: F401 - quiet_progress: an autouse fixture
+from calibration_support import PNG, normalised, plus_plot, quiet_progress, run  # noqa: F401 - an autouse fixture
 from gpr_kinematics.calibration import plot as plot_module
 from gpr_kinematics.calibration.budget_plot import BINS, MAX_STATIONS, budget_plot
 from gpr_kinematics.calibration.stations import BudgetOptions, platform_budget
@@ -88,13 +88,15 @@ def test_plot_data_is_the_reports_numbers_of_the_same_samples(capsys, tmp_path, 
     assert all(dict(p.lines)['worst'] > p.samples[-1] for p in panels)
 
 
-def test_stdout_is_unchanged_by_plot(capsys, tmp_path):
-    """Text and JSON, with and without --plot: the same output and status; the PNG written."""
+def test_stdout_is_unchanged_by_plot_but_for_the_files_name(capsys, tmp_path):
+    """Text and JSON, with and without --plot: the same output and status, plus the file's name (a line ``plot
+    written to PATH``; the key ``plot_file``); the PNG written."""
     for extra in ([], ['--json']):
         outputs = []
         for png in (None, tmp_path / 'b.png'):
             outputs.append(run(capsys, *EXAMPLE, '--samples', '1000', *extra, *(['--plot', str(png)] if png else [])))
-        assert outputs[0] == outputs[1] and outputs[0][0] == 0 and outputs[0][2] == ''
+        assert normalised(outputs[1]) == plus_plot(outputs[0], tmp_path / 'b.png')
+        assert outputs[0][0] == 0 and outputs[0][2] == ''
         assert (tmp_path / 'b.png').read_bytes()[:8] == PNG
         (tmp_path / 'b.png').unlink()
 

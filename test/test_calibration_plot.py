@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from calibration_support import PNG, quiet_progress, run  # noqa: F401 - quiet_progress: an autouse fixture
+from calibration_support import PNG, normalised, plus_plot, quiet_progress, run  # noqa: F401 - an autouse fixture
 from gpr_kinematics.calibration import demo
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.identification import identify
@@ -127,15 +127,16 @@ def test_points_with_declared_noise_are_drawn_on_a_log_scale():
 
 def test_the_cli_writes_a_png_and_prints_what_it_prints_without(capsys, tmp_path):
     """With --plot the PNG is written (its magic bytes) and stdout and the status are those without it, text and
-    JSON; a fit that fails its gate (one row 20 um off: the outliers check) still draws it, with and without --force,
-    its title naming the failed check."""
+    JSON, plus the file's name (a line ``plot written to PATH``; the key ``plot_file``); a fit that fails its gate
+    (one row 20 um off: the outliers check) still draws it, with and without --force, its title naming the failed
+    check."""
     for extra in ([], ['--json']):
         outputs = []
         for plot in (None, tmp_path / 'r.png'):
             (tmp_path / 'cal.yaml').unlink(missing_ok=True)
             argv = ['calibrate', SHIPPED, '--output', str(tmp_path / 'cal.yaml'), *extra]
             outputs.append(run(capsys, *argv, *(['--plot', str(plot)] if plot else [])))
-        assert outputs[0] == outputs[1] and outputs[0][0] == 0
+        assert normalised(outputs[1]) == plus_plot(outputs[0], tmp_path / 'r.png') and outputs[0][0] == 0
         assert (tmp_path / 'r.png').read_bytes()[:8] == PNG
         (tmp_path / 'r.png').unlink()
     lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
@@ -197,7 +198,7 @@ def test_the_arms_residuals_are_drawn_with_robot(capsys, tmp_path, monkeypatch):
     """docs/calibration.md's worked cell: the arm's two files calibrated with --robot and --plot: one panel of
     position residuals (points: no orientation) over the files' 80 rows and one of the parameters, whose numbers are
     the JSON report's (RMS and worst before and after, the worst row's file and line, change over standard error of
-    each fitted arm parameter; the frame's left out); stdout and status as without --plot."""
+    each fitted arm parameter; the frame's left out); stdout and status as without --plot, plus the file's name."""
     from gpr_kinematics.calibration import cell, plot
     monkeypatch.chdir(tmp_path)
     assert cell.main(['cell']) == 0
@@ -212,7 +213,7 @@ def test_the_arms_residuals_are_drawn_with_robot(capsys, tmp_path, monkeypatch):
     argv = ['calibrate', '--robot', 'example_robot.yaml', 'cell/arm1_wafer.csv', 'cell/arm1_blade.csv', '--config',
             'gpr.yaml', '--frame', 'tracker', '--output', 'robot.yaml', '--json']
     without = run(capsys, *argv)
-    assert run(capsys, *argv, '--plot', 'arms.png') == without and without[0] == 0
+    assert normalised(run(capsys, *argv, '--plot', 'arms.png')) == plus_plot(without, 'arms.png') and without[0] == 0
     assert Path('arms.png').read_bytes()[:8] == PNG
     (data,) = drawn[0]
     (arm,) = json.loads(without[1])['arms']

@@ -198,20 +198,23 @@ def budget_command(args: argparse.Namespace) -> int:
         budget, what = _budget(args, data, path, line)
     finally:
         line.close()
+    plotted: dict[str, str] = {}
     if args.plot is not None:
         from ..calibration.budget_plot import budget_plot
         from ..calibration.plot import plot_budget
-        plot_budget(args.plot, budget_plot(budget))
+        plotted['plot_file'] = str(plot_budget(args.plot, budget_plot(budget)))
     model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
         else ''
     if args.json:
         emit_json({'file': str(path), 'tolerances': str(args.tolerances), 'model': model,
-                   'calibration_plan': args.calibration_plan, 'description': what} | budget.as_dict())
+                   'calibration_plan': args.calibration_plan, 'description': what} | budget.as_dict() | plotted)
         return 0
     from ..calibration.report import format_budget
     print(f'{what}; tolerances {args.tolerances}, model {model}{plan}')
     print(format_budget(budget))
+    if plotted:
+        print(f'plot written to {plotted["plot_file"]}')
     return 0
 
 

@@ -93,10 +93,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     else:
         calibrated = core.config_for(res.estimate)
     write = gate_outcome(res.gate.passed, res.gate.message(), args)
+    plotted: dict[str, str] = {}
     if args.plot is not None:   # also when the gate fails: the picture helps most then
         from ..calibration.plot import plot_residuals
         from ..calibration.residual_plot import residual_plot
-        plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args)))
+        plotted['plot_file'] = str(plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args))))
     path = None
     if write:
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
@@ -112,13 +113,15 @@ def _calibrate(args: argparse.Namespace) -> int:
         path = write_calibrated_config(args.output, calibrated, comments)
     if args.json:
         emit_json(res.as_dict() | {'model': calibrated.model, 'output': str(path) if path else None,
-                                   'registration': reg.as_dict() if reg else None})
+                                   'registration': reg.as_dict() if reg else None} | plotted)
     else:
         print(format_calibration(res))
         if reg:
             print('\n'.join(f'registration: {line}' for line in reg.lines()))
         if path:
             print(f'calibrated geometry written to {path} (use it with --config {path})')
+        if plotted:
+            print(f'plot written to {plotted["plot_file"]}')
     return 0 if res.gate.passed else EXIT_GATE
 
 

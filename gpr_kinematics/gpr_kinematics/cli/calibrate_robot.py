@@ -150,18 +150,22 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     passed = all(r.gate.passed for _, r in results)
     message = ' '.join(f'arm {a}: {r.gate.message()}' for a, r in results if not r.gate.passed)
     write = gate_outcome(passed, message, args)
+    plotted: dict[str, str] = {}
     if args.plot is not None:   # each arm's residuals, also when a gate fails
         from ..calibration.plot import plot_residuals
         from ..calibration.residual_plot import residual_plot
-        plot_residuals(args.plot, [residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args),
-                                                 f'arm {a}') for a, r in results])
+        plotted['plot_file'] = str(plot_residuals(args.plot, [
+            residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}')
+            for a, r in results]))
     path = _write(args, robot, results, values, regs) if write else None
     if args.json:
         emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a])}
                                                  for a, r in results],
-                   'output': str(path) if path else None})
+                   'output': str(path) if path else None} | plotted)
     else:
         print('\n'.join(texts))
         if path:
             print(f'calibrated robot written to {path} (use it with --robot {path})')
+        if plotted:
+            print(f'plot written to {plotted["plot_file"]}')
     return 0 if passed else EXIT_GATE
