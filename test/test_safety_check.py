@@ -80,6 +80,8 @@ def test_the_cell_example_is_safe(tmp_path):
                           f"{d['max_slip_evaluated']:.3f}", f"{d['max_slip_at']:.3f}", d['slip_label'])
     readme = ' '.join((root / 'README.md').read_text(encoding='utf-8').split())
     assert f"The example cell program checks safe with {d['min_clearance'] * 1e3:.2f} mm of clearance" in readme
+    assert (f"({d['min_clearance'] * 1e3:.2f} mm against a 2 mm margin) and the wafer's slip ratio "
+            f"({d['max_slip_ratio']:.3f} at most" in readme)    # the caption of its picture
     # the same program with a margin above its clearance: unsafe, a table names the first collision
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
