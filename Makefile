@@ -86,10 +86,11 @@ setup-stock: $(STOCK_COLCON_STAMP)
 # ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
 # The pinned suite runs in three parts (the ROS tests; the rest in two parts by file) beside the stock run, the longest
 # first, two at a time: so both cores stay busy to the end. The first part of the rest follows the ROS tests, the
-# second the stock run, which takes about 2 min longer: the first is the longer by as much (measured: stock 9.6 min,
-# ROS 7.4, the parts 6.6 and 4.5).
-PINNED_HALF := $(wildcard test/test_calibration_*.py test/test_ros_*.py test/test_bag_*.py test/test_safety_*.py \
-	test/test_lint.py test/test_types.py test/test_layout.py)
+# second the stock run, which takes about 2 min longer: the first is the longer by as much (measured in a fresh-clone
+# run of 2026-12-04: stock 530 s, ROS 401, the parts 390 and 189 with test_calibration_fit.py's 34 s in the first,
+# which now runs in the second).
+PINNED_HALF := $(filter-out test/test_calibration_fit.py,$(wildcard test/test_calibration_*.py test/test_ros_*.py \
+	test/test_bag_*.py test/test_safety_*.py test/test_lint.py test/test_types.py test/test_layout.py))
 PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider --durations=10 -m 'not ros'
 
 test:
