@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -368,3 +370,76 @@ def _summary_start(data: bytes, opcode: int) -> int:
     while data[pos] != opcode:
         pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
     return pos
+
+
+def _chunk_edited(path: Path, edit: Callable[[bytearray, list[tuple[int, int, int]]], None]) -> None:
+    """Edit the records of the data section's first chunk (uncompressed) in place, their length kept:
+    ``edit(records, table)`` with ``table`` each record's ``(start, opcode, length)``; the chunk's CRC and the
+    data section's computed anew (the offsets of its message and chunk indexes stay right)."""
+    import struct
+    import zlib
+    data = bytearray(path.read_bytes())
+    pos = 8
+    while data[pos] != 0x06:
+        pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
+    body = pos + 9
+    (name_length,) = struct.unpack_from('<I', data, body + 28)
+    assert bytes(data[body + 32:body + 32 + name_length]) == b''          # uncompressed
+    at = body + 32 + name_length
+    (length,) = struct.unpack_from('<Q', data, at)
+    records = data[at + 8:at + 8 + length]
+    table, i = [], 0
+    while i < len(records):
+        op, n = struct.unpack_from('<BQ', records, i)
+        table.append((i, op, n))
+        i += 9 + n
+    edit(records, table)
+    assert len(records) == length
+    data[at + 8:at + 8 + length] = records
+    struct.pack_into('<I', data, body + 24, zlib.crc32(bytes(records)))
+    end = pos
+    while data[end] != 0x0F:
+        end += 9 + struct.unpack_from('<Q', data, end + 1)[0]
+    struct.pack_into('<I', data, end + 9, zlib.crc32(bytes(data[:end])))
+    path.write_bytes(bytes(data))
+
+
+def test_chunk_records_edited_with_every_crc_recomputed_are_refused(tmp_path: Path, messages: list) -> None:
+    """Edits inside a chunk and in the summary, each with the chunk's, the data section's and the summary's CRCs
+    computed anew, that mutants of the reader passed (its check loosened or dropped): the chunk's last record one
+    byte longer than what is left (a reader that slices past the end reads it short), a message record made another
+    opcode (a metadata record inside a chunk), and the summary's first record made a message."""
+    import struct
+
+    def longer(records: bytearray, table: list[tuple[int, int, int]]) -> None:
+        start, _, n = table[-1]
+        struct.pack_into('<Q', records, start + 1, n + 1)
+
+    def another_opcode(records: bytearray, table: list[tuple[int, int, int]]) -> None:
+        start = next(s for s, op, _ in table if op == 0x05)
+        records[start] = 0x0C
+
+    def message_in_summary() -> None:
+        data = bytearray(f.read_bytes())
+        summary = struct.unpack_from('<Q', data, len(data) - 28)[0]
+        assert data[summary] != 0x05
+        data[summary] = 0x05
+        f.write_bytes(bytes(data))
+        _footer_edited(f, 0, summary)                        # the summary CRC computed anew
+
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), compression='none')
+    f = bag / 'b_0.mcap'
+    original = f.read_bytes()
+    read_mcap(f)
+    for edit, refusal in [
+            (lambda: _chunk_edited(f, longer), r'record 0x06 at byte \d+: record of (\d+) bytes inside a chunk with '
+                                               r'(\d+) bytes left$'),
+            (lambda: _chunk_edited(f, another_opcode), r'record 0x06 at byte \d+: record opcode 0x0c inside a chunk '
+                                                       r'\(allowed: schema, channel, message\)$'),
+            (message_in_summary, r'record 0x05 at byte \d+: message data in the summary section$')]:
+        f.write_bytes(original)
+        edit()
+        with pytest.raises(BagError, match=r'b_0\.mcap: corrupt MCAP file: ' + refusal) as caught:
+            read_mcap(f)
+        m = re.search(r'record of (\d+) bytes inside a chunk with (\d+) bytes left', str(caught.value))
+        assert m is None or int(m[1]) == int(m[2]) + 1                 # one byte too long
