@@ -39,7 +39,7 @@ from ..core.config import MODELS, GprConfig
 from ..core.messages import STATE_FROM_RESULT
 from ..errors import GprError
 from .cdr import Columns
-from .columns import field_matrix, matrix, quaternion_angle, wrapped
+from .columns import field_matrix, matrix, quaternion_angle, row_sizes, wrapped
 from .results import Check, Series, bool_check, value_check
 from .tolerances import LIMIT_SLACK, Tolerances
 
@@ -217,5 +217,6 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
                     virtual_joints=matrix(c['virtual_joints']),
                     side_lengths=field_matrix(c, 'side_lengths'), centre_shift=field_matrix(c, 'centre_shift'),
                     tilt=np.asarray(c['tilt'], dtype=float),
-                    commanded_tilt=np.asarray(c['commanded_tilt'], dtype=float), crossings=crossings)
+                    commanded_tilt=np.asarray(c['commanded_tilt'], dtype=float), crossings=crossings,
+                    virtual_counts=row_sizes(c['virtual_joints']))
     return StateOutcome(checks, series, solved)

@@ -4,7 +4,8 @@
 - ``stamps``: header stamps strictly increasing;
 - ``jump``: between consecutive samples, with ``dq = ||q_i - q_(i-1)||_2`` [m]: rotation angle
   <= ``K_rot dq + eps``, ``||dp||`` <= ``K_pos dq + eps``, ``max |dX|`` <= ``K_x dq + eps``, ``max |dL|`` <=
-  ``K_L dq + eps``, as a ratio to the bound (<= 1). ``K_rot = 1.01 sqrt(2/3) / R`` [rad/m]: the plane through
+  ``K_L dq + eps``, as a ratio to the bound (<= 1); ``dX`` between samples of one model and as many virtual
+  joints. ``K_rot = 1.01 sqrt(2/3) / R`` [rad/m]: the plane through
   the three joint centres at ``R u_k`` has slope ``2/(3R) sum q_k u_k`` and ``|sum dq_k u_k| <= sqrt(3/2)
   ||dq||``; the 1 % covers the virtual joints' displacement of the centres (the paper sweep reaches 0.9901 of
   the bound). ``K_pos = 1/sqrt(3) + 0.05`` (the height is the mean of ``q``; the centre shift adds a slope of
@@ -67,10 +68,13 @@ def stream_checks(c: Columns, samples: NDArray[np.int64], topic: str, series: Se
     rot = quaternion_angle(quat[:-1], quat[1:])
     dp = np.linalg.norm(np.diff(vec(c, 'pose.position'), axis=0), axis=1)
     dL = np.max(np.abs(np.diff(series.side_lengths, axis=0)), axis=1)
-    X = series.virtual_joints
-    dX = np.max(np.abs(np.diff(X, axis=0)), axis=1) if X.shape[1] else np.zeros(n - 1)
+    X, counts = series.virtual_joints, series.virtual_counts
+    within = np.arange(X.shape[1])[None, :] < counts[1:, None]     # not the NaN padding of a shorter row
+    dX = np.max(np.where(within, np.abs(np.diff(X, axis=0)), 0.0), axis=1) if X.shape[1] else np.zeros(n - 1)
     models = c['model']
-    dX[models[1:] != models[:-1]] = 0.0  # virtual joints of different models are not comparable
+    # Virtual joints of different models, or as many as a different number of them (state.virtual_joints names
+    # the sample), are not comparable.
+    dX[(models[1:] != models[:-1]) | (counts[1:] != counts[:-1])] = 0.0
     k_rot = tol.jump_rot_factor * math.sqrt(2.0 / 3.0) / radius
     eps = tol.jump_eps
     ratio = np.max(np.stack([rot / (k_rot * dq + eps), dp / (tol.jump_pos * dq + eps),

@@ -256,10 +256,10 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
         return ROD_JOINT_NAMES, series.q[r]
 
     def rods_and_virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
-        return ROD_JOINT_NAMES + tuple(vnames[r]), np.concatenate([series.q[r], series.virtual_joints[r]])
+        return ROD_JOINT_NAMES + tuple(vnames[r]), np.concatenate([series.q[r], series.virtual(r)])
 
     def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
-        return tuple(vnames[r]), series.virtual_joints[r]
+        return tuple(vnames[r]), series.virtual(r)
 
     topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
         bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC

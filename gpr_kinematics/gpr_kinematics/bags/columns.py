@@ -37,6 +37,14 @@ def matrix(col: NDArray[Any], width: int | None = None) -> NDArray[np.float64]:
     return out
 
 
+def row_sizes(col: NDArray[Any]) -> NDArray[np.int64]:
+    """Each row's number of values of a numeric column (a ragged object column's own lengths; :func:`matrix` pads
+    the shorter rows with NaN)."""
+    if col.dtype != object:
+        return np.full(len(col), np.asarray(col, dtype=float).reshape(len(col), -1).shape[1], dtype=np.int64)
+    return np.array([len(r) for r in col], dtype=np.int64)
+
+
 def vec(c: Columns, prefix: str, keys: str = 'xyz') -> NDArray[np.float64]:
     """``(n, len(keys))`` of the fields ``prefix.k`` (a Point/Vector3: xyz; a Quaternion: xyzw)."""
     return np.stack([np.asarray(c[f'{prefix}.{k}'], dtype=float) for k in keys], axis=-1)

@@ -176,6 +176,12 @@ class Series:
     tilt: NDArray[np.float64]
     commanded_tilt: NDArray[np.float64]
     crossings: NDArray[np.int64]
+    #: Each sample's number of virtual joints: its row of :attr:`virtual_joints` beyond is NaN padding.
+    virtual_counts: NDArray[np.int64]
+
+    def virtual(self, r: int) -> NDArray[np.float64]:
+        """The virtual joints of sample row ``r`` (without the padding)."""
+        return self.virtual_joints[r, :self.virtual_counts[r]]
 
 
 @dataclass
