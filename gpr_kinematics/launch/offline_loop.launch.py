@@ -4,6 +4,7 @@ an offline program of the platform or of the whole robot, or idle for gpr/run_pr
 a bag), optionally RViz.
 
     ros2 launch gpr_kinematics offline_loop.launch.py [mode:=program program_file:=...] [bag:=bags/run1]
+        [flush_interval:=10.0]
         [rate:=200.0] [model:=polar] [config_file:=my_gpr.yaml] [robot:=my_robot.yaml] [namespace:=/r1]
         [frame_prefix:=r1/] [record:=false] [rviz:=true] [cell:=my_cell.yaml] [use_sim_time:=true] [respawn:=true]
 """
@@ -28,6 +29,9 @@ ARGUMENTS = (
     ('rate', '100.0', 'publishing rate of the stream [Hz]'),
     ('record', 'true', 'record the stream with recorder_node (true/false)'),
     ('bag', '', 'bag folder the recorder creates; empty: bags/gpr_<date>-<time>'),
+    ('flush_interval', '1.0', "recorder_node's longest time [s] a received message stays outside a closed segment: "
+                              "a segment file per interval while messages flow (the simulator's joint_states always "
+                              'do); 10.0 for a long session'),
     ('rviz', 'false', 'start RViz with rviz/gpr.rviz (true/false)'),
     ('cell', '', 'process cell YAML (format gpr_cell) of state_publisher_node (its obstacles on gpr/cell) and '
                  'robot_simulator_node (every goal checked against it); empty: none'),
@@ -44,7 +48,8 @@ def generate_launch_description() -> LaunchDescription:
         node('kinematics_node', [geometry]),
         node('robot_simulator_node', [geometry, cell]),
         node('state_publisher_node', [geometry, frames, cell]),
-        node('recorder_node', [{'output': typed('bag')}], condition=IfCondition(arg('record'))),
+        node('recorder_node', [{'output': typed('bag'), 'flush_interval': typed('flush_interval', float)}],
+             condition=IfCondition(arg('record'))),
         node('trajectory_node', [geometry, frames, {
             'mode': typed('mode'), 'program_file': typed('program_file'), 'rate': typed('rate', float),
             # With the recorder: wait until it subscribed to every stream topic (at most wait_timeout).
