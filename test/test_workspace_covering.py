@@ -227,6 +227,31 @@ def test_contains_points_matches_brute_force():
     assert brute[5000:].all() and 0 < brute[:5000].sum() < 5000
 
 
+def test_contains_points_of_large_overlapping_boxes_stays_bounded(monkeypatch):
+    """3,000 boxes each over most of the hull: the first grid (29 cells a side) would register each box in about
+    20,000 cells (60 million registrations, about 2 GB of index arrays); the grid is made coarser until it holds at
+    most MAX_REGISTRATIONS, and the points run in bounded batches of candidate pairs (forced small here): the same
+    answer as brute force, with a bounded peak of memory."""
+    import tracemalloc
+
+    from gpr_kinematics.workspace import boxes as boxes_module
+    rng = np.random.default_rng(7)
+    lo = rng.random((3000, 3)) * 0.1
+    boxes = np.stack([lo, 0.9 + rng.random((3000, 3)) * 0.1], axis=2)
+    pts = rng.random((400, 3)) * 1.2 - 0.1
+    brute = np.array([np.any(np.all((boxes[:, :, 0] <= p) & (p <= boxes[:, :, 1]), axis=1)) for p in pts])
+    tracemalloc.start()
+    try:
+        got = contains_points(boxes, pts)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert np.array_equal(got, brute) and 0 < brute.sum() < len(pts)
+    assert peak < 400e6, peak
+    monkeypatch.setattr(boxes_module, 'MAX_PAIRS', 1000)             # runs of about one point each
+    assert np.array_equal(contains_points(boxes, pts), brute)
+
+
 def test_upu3_workspace_shrinks_with_the_base_and_grows_with_the_limb_limit():
     """Aboulissane and El Bakkali, "Modeling and Simulation of Spatial Mechanism" (2015), Figs. 8-9: a larger base
     shrinks the workspace, a longer limb limit enlarges the upper dome. Certified: the outer volume of one is

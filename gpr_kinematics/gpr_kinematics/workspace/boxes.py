@@ -42,12 +42,21 @@ def touches(box: np.ndarray, *arrays: np.ndarray) -> bool:
                for a in arrays)
 
 
+#: At most this many (box, cell) registrations of :func:`contains_points`' bucket grid (coarser cells beyond: many
+#: large boxes overlapping everywhere registered ``n^2 2^d`` times), and (point, box) candidate pairs tested at once.
+MAX_REGISTRATIONS = 4_000_000
+MAX_PAIRS = 2_000_000
+
+
 def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Boolean (N,): point i lies in at least one of ``boxes`` (n, d, 2) (closed boxes).
 
     A bucket grid over the boxes' hull: every box is registered in the cells it overlaps, every point is
     tested against the boxes of its own cell only (cell indices from the same monotone floor, so a point of
-    a box always falls in one of the box's cells).
+    a box always falls in one of the box's cells). Memory is bounded whatever the boxes: the grid is made coarser
+    until it holds at most :data:`MAX_REGISTRATIONS` registrations (one cell, ``n``, at the coarsest), and the
+    points are tested in runs of at most :data:`MAX_PAIRS` candidate pairs (one point and its cell's boxes at
+    least).
     """
     points = np.atleast_2d(np.asarray(points, dtype=float))
     npts = points.shape[0]
@@ -59,14 +68,18 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     lo = boxes[:, :, 0].min(axis=0)
     hi = boxes[:, :, 1].max(axis=0)
     cells = int(np.clip(round(2.0 * n ** (1.0 / d)), 1, 256))
-    size = np.where(hi > lo, (hi - lo) / cells, 1.0)
+    while True:
+        size = np.where(hi > lo, (hi - lo) / cells, 1.0)
 
-    def cell_of(x: np.ndarray) -> np.ndarray:
-        return np.asarray(np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64))
+        def cell_of(x: np.ndarray, size: np.ndarray = size, cells: int = cells) -> np.ndarray:
+            return np.asarray(np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64))
 
-    i0 = cell_of(boxes[:, :, 0])
-    span = cell_of(boxes[:, :, 1]) - i0 + 1
-    counts = np.prod(span, axis=1)
+        i0 = cell_of(boxes[:, :, 0])
+        span = cell_of(boxes[:, :, 1]) - i0 + 1
+        counts = np.prod(span, axis=1)
+        if cells == 1 or int(counts.sum()) <= MAX_REGISTRATIONS:
+            break
+        cells //= 2
     box_id = np.repeat(np.arange(n), counts)
     k = np.arange(box_id.shape[0]) - np.repeat(np.cumsum(counts) - counts, counts)
     cell = np.zeros_like(k)
@@ -83,14 +96,19 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
         pcell = pcell * cells + pc[:, dim]
     start = np.searchsorted(cell_sorted, pcell, side='left')
     cnt = np.searchsorted(cell_sorted, pcell, side='right') - start
-    for s0 in range(0, npts, 20000):
-        sl = slice(s0, s0 + 20000)
+    total = np.cumsum(cnt)
+    s0 = 0
+    while s0 < npts:
+        before = int(total[s0 - 1]) if s0 else 0
+        s1 = max(s0 + 1, int(np.searchsorted(total, before + MAX_PAIRS, side='right')))
+        sl = slice(s0, s1)
         c = cnt[sl]
-        pid = np.repeat(np.arange(s0, s0 + c.shape[0]), c)
+        pid = np.repeat(np.arange(s0, s1), c)
         j = np.arange(pid.shape[0]) - np.repeat(np.cumsum(c) - c, c) + np.repeat(start[sl], c)
         b = box_sorted[j]
         inside = np.all((boxes[b, :, 0] <= points[pid]) & (points[pid] <= boxes[b, :, 1]), axis=1)
         out[pid[inside]] = True
+        s0 = s1
     return out
 
 
