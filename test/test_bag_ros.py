@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import re
 import signal
+import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -275,8 +276,13 @@ def test_recorder_refuses_bad_output_and_unknown_types(tmp_path: Path) -> None:
         ([f'output:={tmp_path / "new3"}', 'storage:=rosbag1'], 'storage'),
     ]
     procs = [start('recorder_node', *[a for p in params for a in ('-p', p)]) for params, _ in cases]
-    for proc, (_params, words) in zip(procs, cases, strict=True):
-        assert proc.wait(30) == 2, proc.output()
+    for proc, (params, words) in zip(procs, cases, strict=True):
+        try:
+            status = proc.wait(60)      # 2.5 s for all five on an idle machine, 4.5 s at a load of 8
+        except subprocess.TimeoutExpired:
+            proc.stop()
+            pytest.fail(f'recorder_node {params} did not exit in 60 s; its output: {proc.output()!r}')
+        assert status == 2, proc.output()
         out = proc.output()
         assert re.search(words, out), out
         assert 'Traceback' not in out

@@ -207,3 +207,33 @@ def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tm
     b = read_bag(bag)
     states = b.topic('/gpr/platform_state')
     assert states is not None and len(states) >= 3 * 9     # at least the slow stream (3 rows of 9 samples)
+
+
+def test_a_start_refused_half_way_destroys_its_node_before_rclpy_shuts_down(monkeypatch):
+    """``runtime.run`` with a node whose ``__init__`` raises after rclpy's node exists (as the recorder's refusal of
+    an output it cannot create): status 2, and the half-built node destroyed while rclpy still runs (it was left
+    to the garbage collector after the shutdown, where rclpy and Fast DDS hang now and then)."""
+    import rclpy
+    from gpr_kinematics.errors import GprError
+    from gpr_kinematics.nodes import runtime
+    from std_msgs.msg import String
+
+    events = []
+
+    class Refused(runtime.GprNode):
+        NODE_NAME = 'refused_half_way'
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.create_publisher(String, 'x', 1)
+            raise GprError('refused after the node was built')
+
+        def destroy_node(self) -> None:
+            events.append(('destroyed', rclpy.ok()))
+            super().destroy_node()
+
+    shutdown = rclpy.try_shutdown
+    monkeypatch.setattr(rclpy, 'try_shutdown', lambda *a, **k: (events.append(('shutdown', rclpy.ok())),
+                                                                 shutdown(*a, **k)))
+    assert runtime.run(Refused, []) == 2
+    assert events == [('destroyed', True), ('shutdown', True)]
