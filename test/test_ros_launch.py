@@ -180,6 +180,31 @@ def _sources_xml(name: str) -> list[tuple[str, dict[str, str]]]:
     return out
 
 
+def test_an_argument_that_sets_a_parameter_defaults_to_the_parameters_default(monkeypatch):
+    """A launch argument passed to a node's parameter (``flush_interval``, ``rate``, ``loop``) overrides the params
+    file, so its default is a second copy of the parameter's: it must equal the spec's (an empty default, a path or
+    name left to the node, is not a value)."""
+    read = {'double': float, 'integer': int, 'string': str, 'bool': lambda text: text.lower() == 'true'}
+    checked = []
+    for name in NAMES:
+        args = python_launch(name, monkeypatch)['args']
+        for e in _load(name, monkeypatch):
+            if type(e).__name__ != 'Node' or e.kwargs['package'] != 'gpr_kinematics':
+                continue
+            specs = {s.name: s for s in node_specs(e.kwargs['executable'])}
+            for item in e.kwargs['parameters']:
+                for param, value in (item.items() if isinstance(item, dict) else ()):
+                    source = value.args[0] if type(value).__name__ == 'ParameterValue' else None
+                    if type(source).__name__ != 'LaunchConfiguration' or param not in specs:
+                        continue                    # not the argument's value itself (an expression of it)
+                    default, kind = args[source.args[0]][0], specs[param].kind
+                    if default == '' or kind not in read:
+                        continue
+                    assert read[kind](default) == specs[param].default, (name, param, default)
+                    checked.append((e.kwargs['executable'], param))
+    assert {('recorder_node', 'flush_interval'), ('trajectory_node', 'rate'), ('replay_node', 'rate')} <= set(checked)
+
+
 @pytest.mark.parametrize('name', NAMES)
 def test_the_robot_argument_reaches_every_node_with_a_robot(name, monkeypatch):
     """``robot:=FILE`` sets ``robot_file`` of every node that declares it (kinematics, trajectory and state
