@@ -204,6 +204,22 @@ def leaf_commands() -> list[str]:
     return leaves
 
 
+def test_every_help_is_plain_text() -> None:
+    """``gpr --help`` and every subcommand's, nested ones too, print no reST markup of the docstrings they are made
+    from (````gpr````, ``:func:`x```): a user reads them on a terminal."""
+    markup = ('``', ':func:', ':class:', ':mod:', ':data:', ':meth:', ':attr:')
+    texts = {'gpr': cli.build_parser().format_help()}
+    for name in cli.COMMANDS:
+        top = next(a for a in cli.build_parser(name)._actions if isinstance(a, argparse._SubParsersAction))
+        texts[name] = top.choices[name].format_help()
+        for action in top.choices[name]._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                texts.update({f'{name} {c}': p.format_help() for c, p in action.choices.items()})
+    assert set(leaf_commands()) < set(texts)
+    assert {name: [m for m in markup if m in text] for name, text in texts.items() if any(m in text for m in markup)} \
+        == {}
+
+
 @pytest.fixture(scope='module')
 def worker() -> Any:
     w = Worker()

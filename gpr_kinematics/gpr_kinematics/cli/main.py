@@ -24,7 +24,7 @@ from typing import Any, NoReturn, TypeAlias
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
 from ..inputs.files import command_reads
 from ..inputs.safe_yaml import UNSIGNED_DECIMAL
-from .output import distinct_outputs
+from .output import description, distinct_outputs
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -106,7 +106,7 @@ def _register(sub: Subparsers, module: str) -> None:
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The ``gpr`` parser with the subcommand ``command`` fully registered (all of them when ``None``)."""
-    parser = _Parser(prog='gpr', description=(__doc__ or '').split('\n\n')[0])
+    parser = _Parser(prog='gpr', description=description(__doc__))
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
     sub.required = True
     wanted = [COMMANDS[command]] if command in COMMANDS else list(dict.fromkeys(COMMANDS.values()))

@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import json
 import os
+import re
 import sys
 from typing import TypeAlias
 
@@ -24,6 +25,13 @@ JsonValue: TypeAlias = 'None | bool | int | float | str | list[JsonValue] | dict
 JsonObject: TypeAlias = 'dict[str, JsonValue]'
 #: The options (argparse ``dest``) that name a file or folder a subcommand writes.
 OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'report', 'trajectory')
+
+
+def description(doc: str | None) -> str:
+    """A module docstring's first paragraph as a ``--help`` description: its reST literals (````gpr````) and roles
+    (``:func:`x```) printed as plain text."""
+    first = (doc or '').split('\n\n')[0]
+    return re.sub(r'``([^`]*)``', r'\1', re.sub(r':[a-z]+:`~?([^`]*)`', r'\1', first))
 
 
 def jsonable(obj: object) -> JsonValue:

@@ -33,7 +33,7 @@ from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_sec
 from ..workspace.levels import PARTS
 from ..workspace.scheduler import MAX_WORKERS
 from .options import number, whole
-from .output import JsonValue, emit_json, json_object
+from .output import JsonValue, description, emit_json, json_object
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -46,7 +46,7 @@ def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         'workspace',
         help='workspace approximation (nonuniform covering / grid)',
-        description=(__doc__ or '').split('\n\n')[0],
+        description=description(__doc__),
     )
     p.add_argument('file', help='mechanism YAML file with a type key (e.g. config/mechanisms/tripod_3rps.yaml)')
     p.add_argument('--delta', type=number, required=True,
