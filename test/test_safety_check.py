@@ -5,6 +5,7 @@ samples lie on their line (1 um) and a controller's interpolation between them w
 tenfold arm accelerations make the wafer slip, and the slip ratio agrees with finite differences of the exported
 wafer poses."""
 import csv
+import dataclasses
 import json
 import math
 import re
@@ -62,6 +63,7 @@ def test_the_cell_example_is_safe(tmp_path):
     assert d['safe'] is True and d['collisions'] == [] and 0.002 < d['min_clearance'] < 0.02
     assert d['min_clearance'] == min(p['distance'] for p in d['pairs']) and d['max_slip_ratio'] < 1.0
     assert d['cell'].endswith('example_cell.yaml') and d['margin'] == 0.002
+    assert (d['model'], d['proven']) == ('radial', True)   # the example robot's model: its bounds are proofs
     names = {n for p in d['pairs'] for n in p['bodies']}
     assert {'arm2_wafer', 'arm2_blade', 'arm2_link1', 'gpr_base', 'pm1/front_top', 'wafer@pm1:steps[5]'} <= names
     # a pair once: the wafer at the load port before its pick and the one placed back were both wafer@load_port_1
@@ -82,6 +84,11 @@ def test_the_cell_example_is_safe(tmp_path):
     assert f"The example cell program checks safe with {d['min_clearance'] * 1e3:.2f} mm of clearance" in readme
     assert (f"({d['min_clearance'] * 1e3:.2f} mm against a 2 mm margin) and the wafer's slip ratio "
             f"({d['max_slip_ratio']:.3f} at most" in readme)    # the caption of its picture
+    # under a model whose virtual joints enter the bounds to first order, the output says so, not "certified"
+    res = gpr('program', 'check', str(PROGRAM), '--model', 'polar', cwd=tmp_path)
+    assert res.returncode == 0 and 'certified' not in res.stdout, res.stdout
+    assert ("bounded between samples to first order in the polar model's virtual joints (proven for radial only)"
+            in res.stdout and 'max slip ratio 0.754 (a first-order bound over the motion;' in res.stdout), res.stdout
     # the same program with a margin above its clearance: unsafe, a table names the first collision
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
@@ -686,7 +693,7 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     from gpr_kinematics.safety.clearance import ClearanceReport, PairClearance
     from gpr_kinematics.safety.plot import check_figure
     report = SafetyReport(True, 0.08, 0.002, 5e-5, ({'bodies': ['a', 'b'], 'distance': 0.08, 'time': 1.5},), (), 0.0,
-                          0.0, 0.0, '', True, (), None, 10, 4)
+                          0.0, 0.0, '', True, (), None, 10, 4, 'radial', True)
     clear = ClearanceReport((PairClearance(('a', 'b'), 0.08, 1.5),), 0.08, 0.002, 5e-5, 10, 4,
                             (np.array([0.0, 1.0, 2.0]), np.array([0.09, 0.08])))
     fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), report)
@@ -697,7 +704,15 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     assert (least.get_xdata()[0], least.get_ydata()[0], least.get_label()) == (1.5, 80.0, 'least 80.000 mm at 1.500 s:'
                                                                                '\na / b')
     assert fig._suptitle.get_text().startswith('program against itself (no cell): safe\nminimum clearance 80.000 mm')
+    assert fig._suptitle.get_text().endswith('(a bound; limit 1)')
+    assert ax1.patches[0].get_label().startswith('certified')
     import matplotlib.pyplot as plt
+    plt.close(fig)
+    # a model whose bounds between samples are first order: the figure does not call them certified
+    fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), dataclasses.replace(report, model='polar',
+                                                                                      proven=False))
+    assert fig._suptitle.get_text().endswith('(a first-order bound: polar; limit 1)')
+    assert fig.axes[0].patches[0].get_label().startswith('first-order clearance')
     plt.close(fig)
 
 

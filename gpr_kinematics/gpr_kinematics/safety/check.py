@@ -22,7 +22,7 @@ from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
 from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
-from .motion import PlanMotion, grid_within
+from .motion import PROVEN_MODELS, PlanMotion, grid_within
 from .slip import slip_series
 from .slip_bound import SlipBound, slip_bound
 
@@ -74,6 +74,9 @@ class SafetyReport:
             floor (else its refinement ran out of instants and the bound is looser, still a bound); moves: the bound
             per waypoint.
         cell: the cell file (None: the robot against itself); evaluations: distance calls; instants: poses computed.
+        model: the GPR's virtual-joint model; proven: the bounds between samples (clearance and slip) are proofs,
+            as for ``radial`` (:data:`~gpr_kinematics.safety.motion.PROVEN_MODELS`); else the virtual joints' motion
+            enters them to first order (docs/cell.md, "The certificate").
     """
 
     safe: bool
@@ -91,6 +94,16 @@ class SafetyReport:
     cell: str | None
     evaluations: int
     instants: int
+    model: str
+    proven: bool
+
+    @property
+    def between_samples(self) -> str:
+        """How the clearance holds between the samples, in words."""
+        if self.proven:
+            return 'certified between samples'
+        return (f'bounded between samples to first order in the {self.model} model\'s virtual joints (proven for '
+                f'{" and ".join(PROVEN_MODELS)} only)')
 
 
 @dataclass(frozen=True)
@@ -205,7 +218,8 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
     return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
                          float(every[k]), _label_at(plan, float(every[k])), bound.closed, moves,
-                         None if cell is None else cell.source, report.evaluations, report.instants),
+                         None if cell is None else cell.source, report.evaluations, report.instants,
+                         robot.config.model, robot.config.model in PROVEN_MODELS),
             report, (times, ratio))
 
 

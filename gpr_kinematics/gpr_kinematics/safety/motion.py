@@ -55,6 +55,10 @@ Array = NDArray[np.float64]
 #: Lipschitz constant of ``dF/dX`` in ``X`` for the radial model (each entry ``2 (l_b - l_a cos)`` moves by at
 #: most ``2 (|dl_a| + |dl_b|)``; six entries): ``4 sqrt(2)``.
 LIPSCHITZ = 4.0 * np.sqrt(2.0)
+#: The virtual-joint models whose bounds between samples are proofs: the square closure of ``radial``. For the
+#: underdetermined models (their ``X`` a minimum-norm or least-cost solution) the virtual joints' rates enter to first
+#: order (module docstring), as the slip bound's higher derivatives do (:mod:`~gpr_kinematics.safety.slip_bound`).
+PROVEN_MODELS = ('radial',)
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,8 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     if t.size > 1:
         shown = np.clip(np.where(np.isfinite(bound), bound * 1e3, top), None, top)
         ax1.stairs(shown, t, baseline=None, lw=1,
-                   label=f'certified clearance\n(lower bound over all pairs;\nabove {top:g} mm drawn at the top)')
+                   label=f'{"certified" if report.proven else "first-order"} clearance\n(lower bound over all pairs;\n'
+                         f'above {top:g} mm drawn at the top)')
     ax1.axhline(report.margin * 1e3, color='r', lw=1, label=f'margin {report.margin * 1e3:g} mm')
     if clear.pairs:
         at, bodies = clear.pairs[0].time, ' / '.join(clear.pairs[0].bodies)
@@ -69,7 +70,8 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     what = Path(program).name if program is not None else 'program'
     where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
     fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
-                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} (a bound; limit 1)',
+                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} '
+                 f'({"a bound" if report.proven else "a first-order bound: " + report.model}; limit 1)',
                  fontsize=10)
     return fig
 
