@@ -235,3 +235,50 @@ def test_outward_rounding_steps_are_nextafter_bit_for_bit():
             assert np.array_equal(step(x[::7]), ref[::7], equal_nan=True)
             for v in special:
                 assert np.array_equal(step(np.float64(v)), np.nextafter(v, towards), equal_nan=True)
+
+
+@pytest.mark.parametrize('fn', ['sin', 'cos'])
+def test_extrema_next_to_large_arguments_are_not_missed(fn):
+    """Intervals two ulp wide around the maxima and minima of sin and cos at |t| from 1e4 to 1e15, found with
+    mpmath's pi: the reduction ``(t - shift) / 2 pi`` in floats is off by about |t| 1e-16 there (the float pi/2 and
+    2 pi are not the real ones), far more than a fixed 1e-12 pad, so only a pad that grows with |t| keeps the
+    extremum; the true range (the extremum, +-1, included) must lie in the enclosure."""
+    f = REFERENCE[fn]
+    shift = MP.pi / 2 if fn == 'sin' else MP.mpf(0)
+    ks = np.unique(np.concatenate([np.logspace(3, 14, 300).astype(np.int64), [837677640068, 888623816274]]))
+    lows, highs, extrema = [], [], []
+    for k in ks:
+        for sign in (1, -1):
+            for half in (0, MP.mpf(1) / 2):                     # cos(t - shift): max at 2 pi k, min at + pi
+                t = sign * (shift + (k + half) * 2 * MP.pi)     # an extremum, +-1
+                below = float(t)
+                if MP.mpf(below) > t:
+                    below = np.nextafter(below, -np.inf)
+                lows.append(below)
+                highs.append(np.nextafter(np.nextafter(below, np.inf), np.inf))
+                extrema.append(f(t))
+    res = getattr(Interval(np.array(lows), np.array(highs)), fn)()
+    for a, b, e, lo, hi in zip(lows, highs, extrema, res.lo, res.hi, strict=True):
+        vals = [f(MP.mpf(a)), f(MP.mpf(b)), e]
+        assert MP.mpf(float(lo)) <= min(vals) and max(vals) <= MP.mpf(float(hi)), (fn, a, b, e, lo, hi)
+
+
+def test_integer_powers_enclose_the_exact_rational_powers():
+    """``x ** n`` for n other than 2 multiplies n times: the exact range of t^n over [lo, hi] (endpoints, and 0 for
+    an even n when the interval holds 0), in exact rationals, lies in the enclosure; ``x ** 0`` is exactly 1, and
+    only an integer n >= 0 is accepted."""
+    from gpr_kinematics.errors import InputError
+    lo = np.array([-1.5, 0.5, -2.0, 0.1, -0.3, 1.0 / 3.0])
+    hi = np.array([0.7, 3.0, -0.25, 0.1, -0.3, 2.0 / 3.0])
+    x = Interval(lo, hi)
+    for n in (1, 3, 4, 5):
+        p = x ** n
+        for a, b, plo, phi in zip(lo, hi, p.lo, p.hi, strict=True):
+            vals = [Fraction(a) ** n, Fraction(b) ** n] + ([Fraction(0)] if n % 2 == 0 and a <= 0 <= b else [])
+            assert Fraction(plo) <= min(vals) and max(vals) <= Fraction(phi), (n, a, b)
+            assert phi - plo <= 4 * (max(abs(a), abs(b)) + 1) ** n    # a bound, not the whole line
+    one = x ** 0
+    assert np.all(one.lo == 1.0) and np.all(one.hi == 1.0)
+    for bad in (-1, 2.5):
+        with pytest.raises(InputError, match='integer n >= 0'):
+            x ** bad
