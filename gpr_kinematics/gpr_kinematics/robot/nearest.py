@@ -3,15 +3,20 @@
 
 Holding joint ``j`` at ``v`` leaves a two-link problem (:mod:`gpr_kinematics.robot.planar_arm`); over ``v`` the
 postures form the arm's *self-motion*, and joint limits and the reach cut it into *runs* of feasible postures. The
-cost ``C(v) = sum_k w_k ((theta_k(v) - ref_k) / (upper_k - lower_k))^2`` is smooth within a run, so its minimum
-over the feasible postures lies at an edge of a run or where ``C'(v) = 0`` inside one. The edges in closed form:
+cost ``C(v) = sum_k w_k ((theta_k(v) - ref_k) / (upper_k - lower_k))^2`` is smooth within a run (split where a joint
+wraps, below), so its minimum over the feasible postures lies at an edge of a run or where ``C'(v) = 0`` inside one.
+The edges in closed form:
 
 * **reach**: the two-link sub-chain stretched or folded, ``r = L1 + L2`` or ``r = |L1 - L2|``. Exactly one of the
   target distance ``r`` and the link lengths depends on ``v``, and its square is ``A + B cos v + C sin v`` (the law
   of cosines: ``|c - Rz(v) a|^2`` for a held shoulder or hand, ``|a + Rz(v) b|^2`` for a held middle joint), so
   each edge solves ``A + B cos v + C sin v = T``: ``v = atan2(C, B) +- acos((T - A) / hypot(B, C))``;
 * **joint limits**: joint ``k`` at a limit is the posture with ``k`` held there (a ``fixed_joint`` solve, both
-  branches: the other branch's answer is a value of ``v`` where nothing changes, a harmless extra point).
+  branches: the other branch's answer is a value of ``v`` where nothing changes, a harmless extra point);
+* **wraps**: a joint whose range exceeds a turn is given as the representative nearest the middle of its range, which
+  jumps from the middle + pi to the middle - pi where the joint passes there, and the cost jumps with it: those
+  values of ``v`` (the held joint's own, or another joint held there as at a limit) split a run like an edge, and
+  are evaluated :data:`NEAREST_WRAP_SIDE` to either side as well.
 
 Between consecutive edges every posture has the same feasibility; the rule evaluates the cost and its slope at every
 edge (and the range's ends), and each pair of neighbours whose slope goes from negative to positive brackets a
@@ -51,6 +56,9 @@ NEAREST_LAST_STEP = 1e-7
 NEAREST_FLOATS = 4
 #: Newton steps at most (it converges quadratically: some 5 are taken).
 NEAREST_STEPS = 60
+#: Where a joint whose range exceeds a turn wraps (the cost jumps there), the held values this far [rad] to either
+#: side are evaluated too: the lower side's cost need not be attained at the jump itself.
+NEAREST_WRAP_SIDE = 1e-12
 
 
 class Evaluation(NamedTuple):
@@ -71,7 +79,9 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     lo, hi = joint.lower, joint.upper
     n = p.shape[0]
     reach = _reach_edges(arm, d, beta, p, phi)
-    edges = np.concatenate([reach, _limit_edges(arm, d, beta, p, phi)], axis=1)
+    wraps = _wrap_edges(arm, d, beta, p, phi)
+    wraps = np.concatenate([wraps - NEAREST_WRAP_SIDE, wraps, wraps + NEAREST_WRAP_SIDE], axis=1)
+    edges = np.concatenate([reach, _limit_edges(arm, d, beta, p, phi), wraps], axis=1)
     edges = lo + np.mod(edges - lo, 2.0 * math.pi)  # every representative within the range (which may exceed 2 pi)
     edges = np.concatenate([edges, edges + 2.0 * math.pi, edges + 4.0 * math.pi], axis=1)
     singular = np.tile(np.arange(edges.shape[1] // 3) < reach.shape[1], 3)  # the reach's edges: infinite slopes
@@ -198,6 +208,29 @@ def _limit_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) ->
             continue
         held = np.broadcast_to(np.array([joint.lower, joint.lower, joint.upper, joint.upper]) + o[k], (n, 4))
         theta, tl = solve_fixed(d, beta, k, held, p[:, None, :], phi[:, None], np.array([1.0, -1.0, 1.0, -1.0]))
+        out.append(np.where(tl.reachable, theta[..., j] - o[j], np.nan))
+    return np.concatenate(out, axis=1)
+
+
+def _wrap_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
+    """Held values ``(N, m)`` where a joint whose range exceeds a turn wraps: its representative (the one nearest the
+    middle of its range) jumps from the middle + pi to the middle - pi there, and so does the cost. The held joint's
+    own and, on either branch, another joint's (the posture with it held there, as at a limit: NaN where out of
+    reach); ``(N, 0)`` where no range exceeds a turn (module docstring)."""
+    red = arm.redundancy
+    assert red is not None
+    j, o = red.joint, arm.zero_offset
+    n = p.shape[0]
+    out = [np.zeros((n, 0))]
+    for k, joint in enumerate(arm.joints):
+        if joint.upper - joint.lower <= 2.0 * math.pi:
+            continue
+        w = 0.5 * (joint.lower + joint.upper) + math.pi
+        if k == j:
+            out.append(np.full((n, 1), w))
+            continue
+        held = np.full((n, 2), w + o[k])
+        theta, tl = solve_fixed(d, beta, k, held, p[:, None, :], phi[:, None], np.array([1.0, -1.0]))
         out.append(np.where(tl.reachable, theta[..., j] - o[j], np.nan))
     return np.concatenate(out, axis=1)
 
