@@ -46,6 +46,8 @@ def test_forward_matches_an_independent_chain(arm):
     data['base'] = {'position': [0.3, -0.1, 0.2], 'rpy': [0.01, -0.02, 0.7]}
     data['arms'][0]['mount'] = {'position': [0.02, -0.01, 0.08], 'yaw': 0.3}
     data['arms'][0]['blade'] = {'position': [0.01, 0.005, 0.01], 'yaw': -0.2, 'wafer_centre': [0.2, 0.01, 0.004]}
+    data['arms'][1]['mount'] = {'position': [-0.03, 0.02, 0.21], 'yaw': -2.4}
+    data['arms'][1]['blade'] = {'position': [0.015, -0.01, 0.01], 'yaw': 0.3, 'wafer_centre': [0.19, -0.02, 0.005]}
     robot = make_robot(data)
     Q, J = random_postures(robot, arm, 200, seed=11)
     fk = robot_forward(robot, Q, J, arm)
@@ -58,6 +60,11 @@ def test_forward_matches_an_independent_chain(arm):
         np.testing.assert_allclose(fk.naive_wafer_error[i], T[:3, 3] - Tn[:3, 3], atol=1e-14)
         angle = Rotation.from_matrix(Tn[:3, :3].T @ T[:3, :3]).magnitude()
         assert fk.naive_wafer_angle_error[i] == pytest.approx(angle, abs=1e-12)
+        # one configuration takes the float path (forward_floats): the same chain
+        one = robot_forward(robot, Q[i:i + 1], J[i:i + 1], arm)
+        np.testing.assert_allclose(one.wafer.position[0], T[:3, 3], atol=1e-14)
+        np.testing.assert_allclose(one.wafer.rotation[0], T[:3, :3], atol=1e-14)
+        np.testing.assert_allclose(one.naive_wafer.position[0], Tn[:3, 3], atol=1e-14)
     # the wafer frame is the blade frame moved to the wafer centre
     np.testing.assert_allclose(fk.blade.rotation, fk.wafer.rotation, atol=0)
     np.testing.assert_allclose(fk.wafer.quaternion, Rotation.from_matrix(fk.wafer.rotation).as_quat()

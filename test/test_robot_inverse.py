@@ -55,6 +55,30 @@ def test_both_branches_reach_the_same_station(arm):
     assert np.min(np.abs(left.joints[:, 1] - right.joints[:, 1])) > 0.0
 
 
+@pytest.mark.parametrize('arm', ['arm1', 'arm2'])
+def test_round_trip_with_a_turned_mount_and_an_offset_blade(arm):
+    """Mounts turned and moved off the platform centre, blades moved and turned in the flange frame (the shipped arms
+    have neither): the wafer comes back to the station and the postures come back, in a batch and one by one."""
+    data = robot_data()
+    data['arms'][0]['mount'] = {'position': [0.02, -0.01, 0.08], 'yaw': 0.3}
+    data['arms'][0]['blade'] = {'position': [0.01, 0.005, 0.01], 'yaw': -0.2, 'wafer_centre': [0.2, 0.01, 0.004]}
+    data['arms'][1]['mount'] = {'position': [-0.03, 0.02, 0.21], 'yaw': -2.4}
+    data['arms'][1]['blade'] = {'position': [0.015, -0.01, 0.01], 'yaw': 0.3, 'wafer_centre': [0.19, -0.02, 0.005]}
+    robot = make_robot(data)
+    st, Q, J = random_stations(robot, arm, 200, seed=9)
+    branches = branch_of(robot.arm(arm), J)
+    sol = solve_stations(robot, st, arm, branch=branches)
+    _assert_reproduces(robot, sol, arm, tol=1e-9)
+    np.testing.assert_allclose(sol.rods, Q, atol=1e-12)
+    ok = np.abs(np.sin(elbow_angle(robot, arm, J))) > 0.05
+    assert ok.sum() > 150
+    np.testing.assert_allclose(sol.joints[ok], J[ok], atol=1e-9)
+    for i in np.flatnonzero(ok)[:10]:
+        one = solve_stations(robot, st.take([i]), arm, branch=branches[i])
+        np.testing.assert_allclose(one.joints[0], J[i], atol=1e-9)
+        assert one.position_error[0] < 1e-12 and one.angle_error[0] < 1e-12
+
+
 def test_batch_equals_single():
     st, _, J = random_stations(ROBOT, 'arm1', 40, seed=3)
     branches = branch_of(ROBOT.arm('arm1'), J)
