@@ -93,6 +93,39 @@ def test_reteach_refuses_old_joints_more_than_a_turn_beyond_their_limits():
             reteach(ROBOT, [q, q], [[0.0, 1.0, -0.5], [0.0, value, -0.5]], 'arm1')
 
 
+def test_old_joints_exactly_a_turn_beyond_their_limits_are_re_taught():
+    """The bound is inclusive ("more than a turn" is refused): the elbow at 2.9 + 2 pi and -2.9 - 2 pi rad on a level
+    platform (no naive error) is the posture at its limit, re-taught as +-2.9 rad."""
+    import math
+
+    edge = 2.9 + 2 * math.pi
+    q = [0.3, 0.3, 0.3]
+    rt = reteach(ROBOT, [q, q], [[0.0, edge, -0.5], [0.0, -edge, 0.5]], 'arm1')
+    np.testing.assert_allclose(rt.solution.joints, [[0.0, 2.9, -0.5], [0.0, -2.9, 0.5]], atol=1e-12)
+
+
+def test_a_table_of_old_joints_takes_them_within_a_turn_of_either_limit(tmp_path):
+    """read_joint_table without the limits (reteach's old joints): the elbow 6 rad below its lower limit -2.9 and
+    above its upper 2.9 is read as written; a turn and a micro-radian beyond either is refused with the file's line
+    and the allowed interval [-2.9 - 2 pi, 2.9 + 2 pi] = [-9.18318531, 9.18318531] rad."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
+    table = tmp_path / 'old.csv'
+    table.write_text(f'{header}\np1,0.3,0.3,0.3,0.0,-8.9,0.1\np2,0.3,0.3,0.3,0.0,8.9,0.1\n')
+    names, rods, joints = read_joint_table(table, ROBOT, 'arm1', check_limits=False)
+    assert names == ('p1', 'p2')
+    np.testing.assert_array_equal(joints[:, 1], [-8.9, 8.9])
+    for value, side in (('-9.183186', 'lower'), ('9.183186', 'upper')):
+        table.write_text(f'{header}\np1,0.3,0.3,0.3,0.0,{value},0.1\n')
+        with pytest.raises(ConfigError, match=rf'old.csv: line 2 \(row 1, station .p1.\): arm1_elbow = {value} rad is '
+                                              rf'more than a turn \(2 pi\) beyond its {side} limit .*allowed for old '
+                                              r'joints: \[-9.18318531, 9.18318531\] rad'):
+            read_joint_table(table, ROBOT, 'arm1', check_limits=False)
+
+
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')
