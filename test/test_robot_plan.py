@@ -258,3 +258,30 @@ def test_the_summary_gives_the_peaks_the_joints_reach():
     v_js, a_js, _ = (x[joint_space].max(axis=0) for x in t.peaks())    # exact on joint-space lines
     np.testing.assert_allclose(s.velocity_usage, np.maximum(v_js, v_fd) / t.velocity, atol=2e-3, rtol=0)
     np.testing.assert_allclose(s.acceleration_usage, np.maximum(a_js, a_fd) / t.acceleration, atol=2e-3, rtol=0)
+
+
+def _entry_program(first_arm):
+    """Move an arm somewhere, then place into a chamber with a straight entry with arm2 (the cell's pm1)."""
+    from gpr_kinematics.robot.program import parse_program
+
+    first = {'move': 'front_a1' if first_arm == 'arm1' else 'front', 'arm': first_arm}
+    data = {'format': 'gpr_robot_program', 'units': {'length': 'mm', 'angle': 'deg'},
+            'defaults': {'arm': 'arm2', 'branch': 'right', 'approach_height': 8, 'retract_height': 8, 'dwell': 0.5},
+            'stations': [{'name': 'front', 'position': [750, 800, 720], 'heading': 90},
+                         {'name': 'front_a1', 'position': [750, 800, 450], 'heading': 90},
+                         {'name': 'pm1', 'position': [1450, 500, 720], 'tilt': 1.5, 'azimuth': 120, 'heading': 0,
+                          'entry': 330}],
+            'steps': [first, {'place': 'pm1'}]}
+    return plan_program(ROBOT, parse_program(data, 'entry.yaml'))
+
+
+def test_a_straight_line_is_timed_by_its_own_arm_whatever_arm_moved_before():
+    """The moves of a place through a straight entry (into the approach and the exit lines) take the same time
+    whether arm1 or arm2 made the move before: the line's bounds are those of the arm on the line (arm2), the rods
+    stay put along it and the idle arm holds still."""
+    from gpr_kinematics.robot.plan import line_moves
+
+    after_arm1, after_arm2 = _entry_program('arm1'), _entry_program('arm2')
+    assert after_arm1.waypoints.arm[:2] == ('arm1', 'arm2') and line_moves(after_arm1.waypoints) == [1, 4]
+    np.testing.assert_allclose(after_arm1.timing.duration[1:], after_arm2.timing.duration[1:], rtol=1e-12, atol=0)
+    assert after_arm1.timing.duration[0] != pytest.approx(after_arm2.timing.duration[0])
