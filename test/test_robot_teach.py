@@ -126,6 +126,27 @@ def test_a_table_of_old_joints_takes_them_within_a_turn_of_either_limit(tmp_path
             read_joint_table(table, ROBOT, 'arm1', check_limits=False)
 
 
+def test_a_table_takes_a_joint_at_its_limit_to_rounding_as_teach_does(tmp_path):
+    """A joint read back 5e-13 rad beyond its limit (a joint at the limit, rounded) is within LIMIT_SLACK (1e-12 rad):
+    read_joint_table takes it, as teach's forward kinematics does; 2e-12 rad beyond is refused by both."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    header = ','.join(['name', *ROBOT.rods.names, *a.joint_names])
+    table = tmp_path / 'at_limit.csv'
+    for value in (2.9 + 5e-13, -2.9 - 5e-13):
+        table.write_text(f'{header}\np1,0.3,0.3,0.3,0.0,{value!r},0.1\n')
+        _, rods, joints = read_joint_table(table, ROBOT, 'arm1')
+        assert joints[0, 1] == value
+        teach(ROBOT, rods, joints, 'arm1')
+    table.write_text(f'{header}\np1,0.3,0.3,0.3,0.0,{2.9 + 2e-12!r},0.1\n')
+    with pytest.raises(ConfigError, match=r'arm1_elbow = 2.9 rad is beyond its upper limit 2.9 rad by 2e-12 rad'):
+        read_joint_table(table, ROBOT, 'arm1')
+    with pytest.raises(LimitError, match=r'arm1_elbow = 2.9 rad is beyond its upper limit 2.9 rad by 2e-12 rad'):
+        teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 2.9 + 2e-12, 0.1]], 'arm1')
+
+
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')
