@@ -53,6 +53,9 @@ def test_joints_of_the_example_robot():
     ([], 'joint_names is empty'),
     (['rod_1', 'elbow'], "unknown joint 'elbow'; allowed: rod_1, rod_2, rod_3, arm1_shoulder"),
     (['arm1_elbow', 'arm1_elbow'], "joint 'arm1_elbow' named twice"),
+    # a names list beyond MAX_JOINTS (64) is refused by its length before any name is looked up; 64 by the names
+    (['x'] * 65, r'^joint_names names 65 joints; allowed: at most 10$'),
+    (['x'] * 64, "unknown joint 'x'"),
 ])
 def test_unknown_or_repeated_joints_are_invalid_joints(names, words):
     with pytest.raises(GoalError, match=words) as info:
