@@ -282,3 +282,34 @@ def test_integer_powers_enclose_the_exact_rational_powers():
     for bad in (-1, 2.5):
         with pytest.raises(InputError, match='integer n >= 0'):
             x ** bad
+
+
+def test_reciprocals_of_one_signed_intervals_are_tight_and_straddling_ones_the_whole_line():
+    """``1/x`` is decreasing on each side of 0: over a negative or a positive interval its range is
+    ``[1/hi, 1/lo]``, checked in exact rationals and to a few ulp; over an interval that reaches 0 (at an end or
+    inside) the range is unbounded on the side(s) where 0 is approached."""
+    lo = np.array([-2.0, -4.0, 0.5, 3.0, -1e-3, 1e-300])
+    hi = np.array([-1.0, -0.5, 2.0, 7.0, -1e-6, 3.0])
+    r = Interval(lo, hi).reciprocal()
+    for a, b, rlo, rhi in zip(lo, hi, r.lo, r.hi, strict=True):
+        exact_lo, exact_hi = 1 / Fraction(b), 1 / Fraction(a)
+        assert Fraction(rlo) <= exact_lo and exact_hi <= Fraction(rhi), (a, b)
+        assert float(exact_lo) - rlo <= 4e-16 * abs(float(exact_lo)), (a, b)
+        assert rhi - float(exact_hi) <= 4e-16 * abs(float(exact_hi)), (a, b)
+    q = Interval.point(np.array([1.0])) / Interval(np.array([-3.0]), np.array([-1.5]))     # [-2/3, -1/3]
+    assert Fraction(q.lo[0]) <= Fraction(-2, 3) < Fraction(-1, 3) <= Fraction(q.hi[0]) and q.hi[0] < 0.0
+    # ranges reaching 0: [1/2, inf) over (0, 2], (-inf, -1/2] over [-2, 0), both over [-1, 1] without 0
+    for a, b, need_lo, need_hi in ((0.0, 2.0, 0.5, np.inf), (-2.0, 0.0, -np.inf, -0.5), (-1.0, 1.0, -np.inf, np.inf)):
+        w = Interval(np.array([a]), np.array([b])).reciprocal()
+        assert w.lo[0] <= need_lo and need_hi <= w.hi[0], (a, b)
+
+
+def test_midpoint_membership_and_hull():
+    """The interval helpers: the midpoint of [lo, hi], closed membership (both ends in, the next floats out), the
+    hull of two intervals (the smallest interval holding both)."""
+    x = Interval(np.array([1.0, -3.0, -1.0]), np.array([3.0, -1.0, 2.0]))
+    assert x.mid.tolist() == [2.0, -2.0, 0.5] and x.width.tolist() == [2.0, 2.0, 3.0]
+    assert x.contains(x.lo).all() and x.contains(x.hi).all() and x.contains(x.mid).all()
+    assert not x.contains(np.nextafter(x.lo, -np.inf)).any() and not x.contains(np.nextafter(x.hi, np.inf)).any()
+    h = x.hull(Interval(np.array([2.0, -5.0, -0.5]), np.array([4.0, -4.0, 0.5])))
+    assert h.lo.tolist() == [1.0, -5.0, -1.0] and h.hi.tolist() == [4.0, -1.0, 2.0]
