@@ -158,3 +158,47 @@ def test_stiffness_is_validated_by_name():
         with pytest.raises(Exception, match=r'kappa = .* is invalid; allowed: one number or a list of 3, '
                                             r'1e-6 <= kappa <= 1e6'):
             GprConfig.from_mapping({'kappa': bad})
+
+
+def test_isotropic_joints_start_at_the_optimum():
+    """For kappa = 1 the cost is isotropic and its minimum is the 2-D Kabsch fit, the start of Newton's method: the
+    first step is below the tolerance, so every sample takes exactly one iteration (a wrong start takes more)."""
+    rng = np.random.default_rng(4)
+    h, t, g = rng.uniform(0.1, 0.4, 100), rng.uniform(-1, 1, 100) * CFG.tilt_limit, rng.uniform(-3, 3, 100)
+    fb = forward_batch(naive_inverse(h, t, g), config=compliant(1.0))
+    assert np.all(fb.iterations == 1)
+    assert forward(naive_inverse(0.3, 0.03, 0.5), config=compliant(1.0)).iterations == 1
+
+
+def test_newton_step_is_the_gradient_over_the_hessian_of_the_elastic_cost():
+    """The step on (tau_x, tau_y, psi) is H^-1 g of the cost C = 1/2 sum d_k^T W_k d_k, d_k = R(psi) Q_k + tau - p_k,
+    with the cost written here from its definition and its gradient and Hessian taken by central differences,
+    at a point away from the minimum (where every term of the Hessian counts)."""
+    from gpr_kinematics.core.compliance import _newton_step, stiffness
+    from gpr_kinematics.core.virtual_joints import make_model
+
+    kappa = np.array([3.0, 0.2, 40.0])
+    cfg = compliant(tuple(kappa))
+    th = np.asarray(cfg.rod_azimuths)
+    p = R * np.stack([np.cos(th), np.sin(th)], -1)
+    er = p / R
+    et = np.stack([-er[:, 1], er[:, 0]], -1)
+    W = [np.outer(er[k], er[k]) + kappa[k] * np.outer(et[k], et[k]) for k in range(3)]
+    L = np.array([0.99 * math.sqrt(3.0) * R, 1.01 * math.sqrt(3.0) * R, math.sqrt(3.0) * R])  # sides 1-2, 2-3, 3-1
+    x3 = (L[0] ** 2 + L[2] ** 2 - L[1] ** 2) / (2 * L[0])
+    Q = np.array([[0.0, 0.0], [L[0], 0.0], [x3, math.sqrt(L[2] ** 2 - x3 ** 2)]])
+
+    def cost(z):
+        c, s = math.cos(z[2]), math.sin(z[2])
+        d = Q @ np.array([[c, s], [-s, c]]) + z[:2] - p
+        return 0.5 * sum(d[k] @ W[k] @ d[k] for k in range(3))
+
+    z0 = np.array([p[0, 0] + 0.004, p[0, 1] - 0.003, math.pi / 2 + 0.3])   # Q_1 near p_1, Q_2 - Q_1 along e_y
+    hs = np.array([1e-5, 1e-5, 1e-4])
+    E = np.diag(hs)
+    g = np.array([(cost(z0 + E[i]) - cost(z0 - E[i])) / (2 * hs[i]) for i in range(3)])
+    H = np.array([[(cost(z0 + E[i] + E[j]) - cost(z0 + E[i] - E[j]) - cost(z0 - E[i] + E[j])
+                    + cost(z0 - E[i] - E[j])) / (4 * hs[i] * hs[j]) for j in range(3)] for i in range(3)])
+    w = stiffness(make_model(cfg, 'compliant'))
+    step = _newton_step(w, math.cos(z0[2]), math.sin(z0[2]), Q[:, 0].tolist(), Q[:, 1].tolist(), z0[0], z0[1], 0.0)
+    np.testing.assert_allclose(step, np.linalg.solve(H, g), rtol=1e-6)

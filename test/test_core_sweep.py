@@ -87,3 +87,23 @@ def test_hostile_heights_and_tilts_are_named_before_the_solve():
     # -+R sin(120 deg) sin(2 deg) against the platform origin, rod 1 (on the axis) not at all.
     lift = 0.093218 * math.sin(math.radians(120)) * math.sin(math.radians(2.0))
     assert (round(lift, 8), round(0.508 - lift, 6)) == (0.00281741, 0.505183)
+
+
+def test_summary_reports_the_largest_value_of_every_row_field():
+    """The summary's maxima are those of the rows: the tilt reaches the paper's 2 deg, the centre shift peaks at
+    a full tilt, and every other maximum is the largest of its row field (here computed from the rows, where the
+    fields differ from row to row so that a smallest or a first value would not pass)."""
+    s = paper_sweep(passes=2)
+    fk, summary = s.forward, s.summary
+    assert summary.passes == 2 and summary.samples == 2 * 756 and summary.singular_crossings == 72
+    assert summary.max_tilt == pytest.approx(math.radians(2.0), rel=0, abs=1e-12)
+    assert abs(summary.max_centre_shift_at.alpha) == pytest.approx(math.radians(2.0), rel=0, abs=1e-15)
+    shift = np.hypot(fk.centre_shift[:, 0], fk.centre_shift[:, 1])
+    expect = {'max_centre_shift': shift, 'max_joint_displacement': fk.joint_displacement,
+              'max_residual': fk.residual, 'max_fit_residual': fk.fit_residual, 'max_fk_iterations': fk.iterations,
+              'max_ik_iterations': s.inverse_iterations, 'max_height_error': np.abs(fk.position[:, 2] - 0.5)}
+    for name, rows in expect.items():
+        assert np.ptp(rows) > 0, name   # the rows differ
+        assert getattr(summary, name) == np.max(rows), name
+    i = int(np.argmax(shift))
+    assert (summary.max_centre_shift_at.alpha, summary.max_centre_shift_at.gamma) == (s.alpha[i], s.gamma[i])
