@@ -244,3 +244,21 @@ def test_naive_pose_refuses_what_would_be_a_rotation_of_nan():
     pos, R = naive_pose([0.2, 0.3], 0.01, 0.5)
     np.testing.assert_allclose(pos[:, 2], [0.2, 0.3])
     np.testing.assert_allclose(R[0], tilt_rotation(0.01, 0.5))
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_reported_gains_are_the_extreme_singular_values_of_dx_dp(model):
+    """The gains of eqs. (4) and (5) reported with the analysis: ``sqrt(d10), sqrt(d12)`` of the eigenvalues of
+    ``dX/dP^T dX/dP`` and the smallest and largest non-zero singular values of ``dX/dP`` (numpy's SVD and eigh of
+    the reported ``dx_dp`` here), the same pair twice; ``dx_bounds`` scales them by the projected ``|dP|``."""
+    m = analyze_mobility(naive_inverse(0.3, math.radians(1.3), 0.4), model=model)
+    sv = np.linalg.svd(m.dx_dp, compute_uv=False)[:3]
+    assert sv[2] < 0.9 * sv[1]   # three distinct gains: the smallest is not the middle one
+    d = np.linalg.eigvalsh(m.dx_dp.T @ m.dx_dp)
+    np.testing.assert_allclose(m.bounds['eq5'], (sv[2], sv[0]), rtol=1e-12)
+    np.testing.assert_allclose(m.bounds['eq4'], (math.sqrt(d[9]), math.sqrt(d[11])), rtol=1e-9)
+    dP = m.rod_perturbation([1e-4, -2e-4, 0.5e-4])
+    proj = np.linalg.norm(m.eigenvectors[:, -3:].T @ dP)
+    b = m.dx_bounds(dP)
+    np.testing.assert_allclose(b.eq5, np.array(m.bounds['eq5']) * proj, rtol=1e-12)
+    np.testing.assert_allclose(b.eq4, np.array(m.bounds['eq4']) * proj, rtol=1e-9)

@@ -23,7 +23,7 @@ from gpr_kinematics.core.rotations import (
     tilt_normal,
     tilt_rotation,
 )
-from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.errors import ConvergenceError, InputError, LimitError
 from scipy.spatial.transform import Rotation
 
 CFG = load_config()
@@ -297,3 +297,47 @@ def test_tool_points_beyond_the_reach_are_refused():
     tool = np.array([5.7, 5.7, 0.5])   # 8.1 m from the origin
     ik = inverse(0.3, math.radians(1.9), 2.1, tool=tool)
     assert abs((ik.achieved.position + ik.achieved.rotation @ tool)[2] - 0.3) < 1e-13
+
+
+def test_heights_allowed_with_a_tool_point_are_those_of_the_rigid_platform():
+    """With a tool point the allowed heights are where the lowest and highest joint meet the stroke on a rigid
+    tilted platform: joint k lies ``(T (p_k - tool))_z`` above the tool point (T the tilt rotation), worked out here
+    from the rotation; the tool's x and y enter separately (a tool on a diagonal would hide a swap)."""
+    tool = np.array([0.12, -0.05, 0.25])
+    t, g = math.radians(1.5), 0.7
+    th = np.asarray(CFG.rod_azimuths)
+    p = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(3)])
+    above = ((p - tool) @ tilt_rotation(t, g).T)[:, 2]
+    lo, hi = CFG.stroke_min - above.min(), CFG.stroke_max - above.max()
+    for h in (hi + 0.05, lo - 0.05):
+        with pytest.raises(LimitError, match=rf'with this tool point; allowed heights: {lo:.6g} \.\. {hi:.6g} m'):
+            inverse(h, t, g, tool=tool)
+    q = inverse(hi - 0.0001, t, g, tool=tool).q
+    assert CFG.stroke_max - 0.0002 < q.max() <= CFG.stroke_max
+
+
+def test_a_target_within_the_height_margin_is_not_the_one_named():
+    """Before the solve a height may exceed the naive model's range by HEIGHT_MARGIN (10 mm): a batch whose first
+    target lies 5 mm inside the range and second 50 mm beyond it names the second target and its height."""
+    q = naive_inverse(0.0, math.radians(1.5), 0.7)
+    hi = CFG.stroke_max - q.max()
+    with pytest.raises(LimitError, match=rf'height = {hi + 0.05:.9g} m \(target 1\) puts a rod outside the stroke'):
+        inverse_batch([hi - 0.005, hi + 0.05], math.radians(1.5), 0.7)
+
+
+@pytest.mark.parametrize('batch', [False, True])
+def test_inverse_takes_exactly_max_iterations_steps_and_no_more(batch):
+    """The paper's target (0.5 m, 2 deg about x) takes 4 Newton steps (the doctest of core/inverse.py): with
+    max_iterations = 4 it is solved to IK_TOLERANCE, with 3 it is refused (not returned half solved)."""
+    def solve(most):
+        cfg = CFG.replace(max_iterations=most)
+        if batch:
+            ib = inverse_batch([0.5], math.radians(2.0), 0.0, config=cfg)
+            return int(ib.iterations[0]), float(ib.achieved.position[0, 2]), float(ib.achieved.tilt[0])
+        ik = inverse(0.5, math.radians(2.0), 0.0, config=cfg)
+        return ik.iterations, float(ik.achieved.position[2]), ik.achieved.tilt
+
+    steps, z, tilt = solve(4)
+    assert steps == 4 and abs(z - 0.5) <= 1e-14 and abs(tilt - math.radians(2.0)) <= 1e-14
+    with pytest.raises(ConvergenceError, match='inverse kinematics did not converge in 3 iterations'):
+        solve(3)
