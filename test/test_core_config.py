@@ -135,3 +135,30 @@ def test_an_empty_geometry_file_is_refused_not_read_as_the_defaults(tmp_path, te
         load_config(path)
     path.write_text('{}\n')
     assert load_config(path) == load_config()
+
+
+@pytest.mark.parametrize('key, least, most', [
+    ('radius', 1e-4, 10.0), ('stroke_min', -10.0, None), ('stroke_max', None, 10.0),
+    ('tilt_limit', 1e-6, math.radians(15.0)), ('imperfection_budget', 1e-9, 0.01),
+    ('characteristic_length', 1e-6, 100.0), ('tolerance', 1e-16, 1e-6), ('max_iterations', 1, 100),
+    ('rod_offsets', -0.1, 0.1), ('rod_directions', -0.05, 0.05), ('kappa', 1e-6, 1e6),
+])
+def test_the_ends_of_every_documented_range_are_taken_and_a_step_beyond_refused(key, least, most):
+    """Each range's ends as its allowed text states them (``1 to 100``, ``|u_x|, |u_y| <= 0.05``, ...) are valid
+    values; a value 1 % (or 1) beyond an end is refused by name."""
+    def value(v):
+        if key == 'rod_offsets':
+            return [v, 0.0, 0.0]
+        if key == 'rod_directions':
+            return [[v, v], [0.0, 0.0], [0.0, 0.0]]
+        return v
+
+    for end, outward in ((least, -1), (most, 1)):
+        if end is None:
+            continue
+        cfg = load_config(overrides={key: value(end)})
+        got = getattr(cfg, key)
+        assert (got[0][0] if key == 'rod_directions' else got[0] if isinstance(got, tuple) else got) == end
+        beyond = end + outward if key == 'max_iterations' else end + outward * 0.01 * abs(end)
+        with pytest.raises(ConfigError, match=rf'overrides: {key} = .* is invalid; allowed'):
+            load_config(overrides={key: value(beyond)})

@@ -157,3 +157,29 @@ def test_parameter_vector_round_trip_and_errors():
         config_with_parameters(cfg, [1.0], ['rod1_x', 'rod1_y'])
     with pytest.raises(ConfigError, match=r'rod_offsets = .* is invalid; allowed: .* -0.1 <= o_k <= 0.1'):
         config_with_parameters(cfg, [0.5], ['rod1_offset'])
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_an_irregular_layout_and_its_mirror_image(model):
+    """Rods at 0, 60 and 170 deg (counter-clockwise, an irregular triangle) and the mirror image at 0, -60, -170 deg
+    (clockwise): in both the joints sit on the rods (``P_k = Rot r_k + t``), the platform is level at equal rods, and
+    the mirror machine's pose is the mirror (y -> -y) of the first's for the same rods."""
+    th = np.radians([0.0, 60.0, 170.0])
+    cfg = CFG.replace(model=model, rod_azimuths=th.tolist())
+    mirror = CFG.replace(model=model, rod_azimuths=(-th).tolist())
+    rng = np.random.default_rng(6)
+    Q = np.vstack([[0.3, 0.3, 0.3], naive_inverse(rng.uniform(0.1, 0.4, 20), rng.uniform(-0.9, 0.9, 20)
+                                                  * CFG.tilt_limit, rng.uniform(-3, 3, 20), cfg)])
+    M = np.diag([1.0, -1.0, 1.0])
+    fa, fb = forward_batch(Q, config=cfg), forward_batch(Q, config=mirror)
+    for f, c in ((fa, cfg), (fb, mirror)):
+        r2, _, _ = make_model(c, model).points_and_partials(f.virtual_joints)
+        r = np.concatenate([r2, np.zeros(r2.shape[:-1] + (1,))], axis=-1)
+        B = np.column_stack([R * np.cos(c.rod_azimuths), R * np.sin(c.rod_azimuths), np.zeros(3)])
+        for i in range(Q.shape[0]):
+            P = B + Q[i][:, None] * [0.0, 0.0, 1.0]
+            np.testing.assert_allclose(r[i] @ f.rotation[i].T + f.position[i], P, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(f.rotation[0], np.eye(3), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(f.position[0], [0.0, 0.0, 0.3], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(fb.position, fa.position @ M, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(fb.rotation, M @ fa.rotation @ M, rtol=0, atol=1e-13)
