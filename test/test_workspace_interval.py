@@ -313,3 +313,34 @@ def test_midpoint_membership_and_hull():
     assert not x.contains(np.nextafter(x.lo, -np.inf)).any() and not x.contains(np.nextafter(x.hi, np.inf)).any()
     h = x.hull(Interval(np.array([2.0, -5.0, -0.5]), np.array([4.0, -4.0, 0.5])))
     assert h.lo.tolist() == [1.0, -5.0, -1.0] and h.hi.tolist() == [4.0, -1.0, 2.0]
+
+
+def test_constants_given_as_rounded_floats_are_enclosed():
+    """``Interval.const`` encloses the real number a float was rounded from (one ulp either side): the decimals
+    0.1, 0.2, 1/3 written as 0.3333333333333333 and 2.675 in exact rationals; pi, sqrt(3)/2 and the cosines and
+    sines of the float azimuths 2 pi/3 and 4 pi/3 (as the GPR model takes them from libm) against mpmath; the
+    enclosure is two ulp wide, not wider."""
+    for text in ('0.1', '0.2', '0.3333333333333333', '2.675', '-7.1', '1e-5'):
+        c = Interval.const(float(text))
+        assert Fraction(float(c.lo)) < Fraction(text) < Fraction(float(c.hi)), text
+        assert float(c.hi) == np.nextafter(np.nextafter(float(c.lo), np.inf), np.inf)
+    pairs = [(np.pi, MP.pi), (np.sqrt(3.0) / 2, MP.sqrt(3) / 2)]
+    for a in (2 * np.pi / 3, 4 * np.pi / 3):
+        pairs += [(np.cos(a), MP.cos(MP.mpf(a))), (np.sin(a), MP.sin(MP.mpf(a)))]
+    for value, exact in pairs:
+        c = Interval.const(value)
+        assert MP.mpf(float(c.lo)) < exact < MP.mpf(float(c.hi)), value
+
+
+def test_inverse_trigonometric_ranges_are_clipped_to_the_first_float_beyond_the_real_ends():
+    """arctan over the whole line and arcsin over [-1, 1] reach +-pi/2, arccos over [-1, 1] reaches pi; the floats
+    pi/2 and pi lie below the real ones, so the tightest certified ends are the next floats up (down for -pi/2),
+    and the enclosures clip to exactly those."""
+    half = np.nextafter(np.pi / 2, np.inf)
+    assert MP.mpf(float(np.pi / 2)) < MP.pi / 2 < MP.mpf(float(half))       # the tightest float above
+    whole = Interval(np.array([-np.inf, -1e300]), np.array([np.inf, 1e300])).arctan()
+    assert whole.lo.tolist() == [-half, -half] and whole.hi.tolist() == [half, half]
+    s = Interval(np.array([-1.0]), np.array([1.0])).arcsin()
+    assert s.lo[0] == -half and s.hi[0] == half
+    c = Interval(np.array([-1.0]), np.array([1.0])).arccos()
+    assert c.lo[0] == 0.0 and c.hi[0] == np.nextafter(np.pi, np.inf) and MP.mpf(float(c.hi[0])) > MP.pi
