@@ -183,3 +183,23 @@ def test_an_irregular_layout_and_its_mirror_image(model):
         np.testing.assert_allclose(f.position[0], [0.0, 0.0, 0.3], rtol=0, atol=1e-15)
     np.testing.assert_allclose(fb.position, fa.position @ M, rtol=0, atol=1e-13)
     np.testing.assert_allclose(fb.rotation, M @ fa.rotation @ M, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_a_layout_turned_about_z_turns_the_pose(model):
+    """Every rod and joint turned by 50 deg about the base z axis (rod 1 no longer on the x axis): the same rods give
+    the same pose turned by 50 deg, ``t' = Rz t`` and ``Rot' = Rz Rot Rz^T``, and the same side lengths and joint
+    displacements (the virtual joints are in each joint's own radial and tangential directions)."""
+    turn = math.radians(50.0)
+    cfg = CFG.replace(model=model)
+    turned = CFG.replace(model=model, rod_azimuths=(TH + turn).tolist())
+    rng = np.random.default_rng(7)
+    Q = naive_inverse(rng.uniform(0.1, 0.4, 20), rng.uniform(-0.9, 0.9, 20) * CFG.tilt_limit, rng.uniform(-3, 3, 20))
+    fa, fb = forward_batch(Q, config=cfg), forward_batch(Q, config=turned)
+    Rz = np.array([[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(fb.position, fa.position @ Rz.T, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(fb.rotation, Rz @ fa.rotation @ Rz.T, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(fb.virtual_joints, fa.virtual_joints, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(fb.joint_displacement, fa.joint_displacement, rtol=0, atol=1e-15)
+    for k in range(0, 20, 5):   # the one-pose path too
+        np.testing.assert_allclose(forward(Q[k], config=turned).position, fb.position[k], rtol=0, atol=1e-15)
