@@ -127,8 +127,9 @@ def test_a_table_of_old_joints_takes_them_within_a_turn_of_either_limit(tmp_path
 
 
 def test_a_table_takes_a_joint_at_its_limit_to_rounding_as_teach_does(tmp_path):
-    """A joint read back 5e-13 rad beyond its limit (a joint at the limit, rounded) is within LIMIT_SLACK (1e-12 rad):
-    read_joint_table takes it, as teach's forward kinematics does; 2e-12 rad beyond is refused by both."""
+    """A joint read back 5e-13 rad beyond its limit (a joint at the limit, rounded) is within LIMIT_SLACK (1e-12 rad),
+    a rod 5e-13 m beyond the stroke within STROKE_SLACK: read_joint_table takes them, as teach's forward kinematics
+    does; 2e-12 rad beyond is refused by both."""
     from gpr_kinematics.errors import ConfigError
     from gpr_kinematics.robot.teach import read_joint_table
 
@@ -140,11 +141,26 @@ def test_a_table_takes_a_joint_at_its_limit_to_rounding_as_teach_does(tmp_path):
         _, rods, joints = read_joint_table(table, ROBOT, 'arm1')
         assert joints[0, 1] == value
         teach(ROBOT, rods, joints, 'arm1')
+    for rods in ([0.508 + 5e-13] * 3, [-5e-13] * 3):   # within STROKE_SLACK (1e-12 m) of the stroke [0, 0.508] m
+        table.write_text(f'{header}\np1,{",".join(map(repr, rods))},0.0,1.0,0.1\n')
+        np.testing.assert_array_equal(read_joint_table(table, ROBOT, 'arm1')[1], [rods])
+        teach(ROBOT, [rods], [[0.0, 1.0, 0.1]], 'arm1')
     table.write_text(f'{header}\np1,0.3,0.3,0.3,0.0,{2.9 + 2e-12!r},0.1\n')
     with pytest.raises(ConfigError, match=r'arm1_elbow = 2.9 rad is beyond its upper limit 2.9 rad by 2e-12 rad'):
         read_joint_table(table, ROBOT, 'arm1')
     with pytest.raises(LimitError, match=r'arm1_elbow = 2.9 rad is beyond its upper limit 2.9 rad by 2e-12 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 2.9 + 2e-12, 0.1]], 'arm1')
+
+
+@pytest.mark.parametrize('k', [0, 1, 2])
+def test_reteach_refuses_each_old_rod_outside_the_stroke(k):
+    """The old tool's rods were executed, so they lie within the stroke [0, 0.508] m: any one of them at 0.52 m is
+    refused, named."""
+    q = [0.3, 0.3, 0.3]
+    q[k] = 0.52
+    words = rf'^gpr_rod{k + 1} = 0.52 m \(sample 1\) is outside the stroke \[0, 0.508\] m'
+    with pytest.raises(LimitError, match=words):
+        reteach(ROBOT, [[0.3, 0.3, 0.3], q], [[0.0, 1.0, 0.1]] * 2, 'arm1')
 
 
 def test_teach_refuses_joints_beyond_limits():
