@@ -27,7 +27,8 @@ def test_waypoint_table_round_trips_in_csv_and_json(tmp_path):
     np.testing.assert_array_equal([float(r[7]) for r in back[1:]], PLAN.timing.arrive)
     write_table(tmp_path / 'w.json', columns, rows, {'robot': ROBOT.name})
     doc = json.loads((tmp_path / 'w.json').read_text())
-    assert doc['format'] == 'gpr_joint_table' and doc['units'] == {'length': 'm', 'angle': 'rad', 'time': 's'}
+    assert doc['format'] == 'gpr_joint_table' and doc['version'] == 1
+    assert doc['units'] == {'length': 'm', 'angle': 'rad', 'time': 's'}
     assert doc['robot'] == ROBOT.name and doc['columns'] == columns
     np.testing.assert_array_equal(np.array([r[9:19] for r in doc['rows']]), PLAN.positions)
     i = columns.index('wafer_x')

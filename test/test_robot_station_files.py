@@ -47,6 +47,10 @@ def test_the_same_stations_in_every_form(tmp_path):
 def test_an_empty_heading_is_free(tmp_path):
     t = load_stations(_write(tmp_path, 's.csv', 'name,x,y,z,heading\na,1,0,0.4,\nb,1,0,0.4,0.5\n'))
     assert t.stations.heading_free.tolist() == [True, False]
+    # without tilt and azimuth columns, or with them empty, the station plane is level (module docstring: default 0)
+    assert t.stations.tilt.tolist() == [0.0, 0.0] and t.stations.azimuth.tolist() == [0.0, 0.0]
+    t = load_stations(_write(tmp_path, 's.csv', 'name,x,y,z,tilt,azimuth\na,1,0,0.4,,\nb,1,0,0.4,0.01,0.5\n'))
+    assert t.stations.tilt.tolist() == [0.0, 0.01] and t.stations.azimuth.tolist() == [0.0, 0.5]
 
 
 @pytest.mark.parametrize('name, text, pattern', [
