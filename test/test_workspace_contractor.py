@@ -98,3 +98,40 @@ def test_tan_preimage_keeps_solutions_next_to_a_pole():
             for lo, hi in ((x0, x0 + 0.3), (x0 - 0.3, x0), (x0, x0)):
                 clo, chi, empty = contract(tape, np.array([[lo]]), np.array([[hi]]), np.array([t0]), np.array([t0]))
                 assert not empty[0] and clo[0, 0] <= x0 <= chi[0, 0], (k, x0, lo, hi)
+
+
+def test_inverse_trigonometric_constraints_narrow_their_argument_to_the_exact_preimage():
+    """``arccos x`` in [0, pi/3] holds exactly for x in [1/2, 1], in [pi/2, pi] for x in [-1, 0]; ``arcsin x`` in
+    [-pi/2, pi/6] for x in [-1, 1/2], in [-pi/6, pi/2] for x in [-1/2, 1]; ``atan x`` in [pi/4, pi/2] for x >= 1, in
+    [-pi/3, pi/4] for x in [-sqrt(3), 1]: the backward pass narrows x in [-5, 5] to those intervals, to rounding."""
+    cases = [('arccos', 0.0, math.pi / 3, 0.5, 1.0), ('arccos', math.pi / 2, math.pi, -1.0, 0.0),
+             ('arcsin', -math.pi / 2, math.pi / 6, -1.0, 0.5), ('arcsin', -math.pi / 6, math.pi / 2, -0.5, 1.0),
+             ('arctan', math.pi / 4, math.pi / 2, 1.0, 5.0), ('arctan', -math.pi / 3, math.pi / 4, -math.sqrt(3), 1.0)]
+    for fn, ylo, yhi, xlo, xhi in cases:
+        g = Graph(('x',))
+        tape = Tape.compile(g, [getattr(g.var('x'), fn)()])
+        clo, chi, empty = contract(tape, np.array([[-5.0]]), np.array([[5.0]]), np.array([ylo]), np.array([yhi]))
+        assert not empty[0]
+        assert xlo - 1e-12 <= clo[0, 0] <= xlo and xhi <= chi[0, 0] <= xhi + 1e-12, (fn, ylo, yhi, clo, chi)
+
+
+@pytest.mark.parametrize('fn', ['cos', 'sin'])
+def test_periodic_preimages_keep_solutions_many_turns_from_zero(fn):
+    """``f(q) = t`` with ``t`` the one-ulp enclosure of ``f(q0)`` and ``q0`` thousands of turns either side of 0: the
+    arcs ``+-acos(t) + 2 pi k`` are computed with the float 2 pi (2.4e-16 short of the real one, so 1e-13 off after
+    a thousand turns, far beyond the width of the arc of t), and the contraction must still keep q0 (a box
+    0.6 rad wide holds one of the two arcs unless q0 is next to a multiple of pi)."""
+    g = Graph(('q', 't'))
+    q = g.var('q')
+    tape = Tape.compile(g, [getattr(q, fn)() - g.var('t')])
+    rng = np.random.default_rng(8)
+    q0 = np.concatenate([rng.uniform(1e3, 1e5, 200), -rng.uniform(1e3, 1e5, 200)])
+    value = getattr(np, fn)(q0)
+    t_lo, t_hi = np.nextafter(value, -np.inf), np.nextafter(value, np.inf)        # libm: within one ulp
+    for width in (0.3, 4.0):
+        lo = np.stack([q0 - width * rng.random(q0.size), t_lo], axis=1)
+        hi = np.stack([q0 + width * rng.random(q0.size), t_hi], axis=1)
+        clo, chi, empty = contract(tape, lo, hi, np.zeros(1), np.zeros(1))
+        assert not empty.any() and np.all(clo[:, 0] <= q0) and np.all(q0 <= chi[:, 0])
+        if width < 1.0:                                          # and mostly narrowed to the one arc holding q0
+            assert np.mean(chi[:, 0] - clo[:, 0] < 1e-6) > 0.9
