@@ -135,3 +135,35 @@ def test_periodic_preimages_keep_solutions_many_turns_from_zero(fn):
         assert not empty.any() and np.all(clo[:, 0] <= q0) and np.all(q0 <= chi[:, 0])
         if width < 1.0:                                          # and mostly narrowed to the one arc holding q0
             assert np.mean(chi[:, 0] - clo[:, 0] < 1e-6) > 0.9
+
+
+@pytest.mark.parametrize('text, box, bounds, expected', [
+    ('x^2', (-5.0, 5.0), (1.0, 4.0), (-2.0, 2.0)),                 # both branches of the square root
+    ('x^2', (-5.0, 0.0), (1.0, 4.0), (-2.0, -1.0)),
+    ('x^2', (-1.5, 5.0), (1.0, 4.0), (-1.5, 2.0)),                 # the hull of [-1.5, -1] and [1, 2]
+    ('abs(x)', (-5.0, 0.5), (1.0, 2.0), (-2.0, -1.0)),
+    ('abs(x)', (-0.5, 5.0), (1.0, 2.0), (1.0, 2.0)),
+    ('sqrt(x)', (-5.0, 50.0), (1.0, 2.0), (1.0, 4.0)),
+    ('exp(x)', (-5.0, 5.0), (1.0, math.e), (0.0, 1.0)),
+    ('log(x)', (-5.0, 50.0), (0.0, 1.0), (1.0, math.e)),
+    ('tan(x)', (-1.0, 1.0), (0.0, 1.0), (0.0, math.pi / 4)),
+    ('-x', (-5.0, 5.0), (1.0, 2.0), (-2.0, -1.0)),
+    ('3*x', (-5.0, 5.0), (1.0, 2.0), (1.0 / 3.0, 2.0 / 3.0)),
+    ('x/4', (-5.0, 5.0), (-1.0, 0.5), (-4.0, 2.0)),
+    ('2/x', (0.1, 5.0), (1.0, 4.0), (0.5, 2.0)),
+    ('x - 3', (-5.0, 5.0), (-1.0, 1.0), (2.0, 4.0)),
+    ('3 - x', (-5.0, 5.0), (-1.0, 1.0), (2.0, 4.0)),
+    ('x + 3', (-5.0, 5.0), (-1.0, 1.0), (-4.0, -2.0)),
+])
+def test_one_operation_narrows_its_argument_to_the_exact_preimage(text, box, bounds, expected):
+    """``f(x)`` in [a, b] over x in a box: the backward rule of each operation narrows x to the part of the box where
+    f takes values in [a, b] (worked out by hand: the branches of the square and of abs, the inverse functions,
+    the linear ones solved for x), to rounding."""
+    g = Graph(('x',))
+    c = parse_constraint(f'{text} = 0', g, {'x': g.var('x')}, 't')
+    tape = Tape.compile(g, [c.root])
+    clo, chi, empty = contract(tape, np.array([[box[0]]]), np.array([[box[1]]]), np.array([bounds[0]]),
+                               np.array([bounds[1]]))
+    assert not empty[0]
+    assert expected[0] - 1e-12 <= clo[0, 0] <= expected[0] and expected[1] <= chi[0, 0] <= expected[1] + 1e-12, (
+        clo[0, 0], chi[0, 0])
