@@ -4,7 +4,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from gpr_kinematics.workspace.interval import Interval, monotone
+from gpr_kinematics.workspace.interval import Interval, monotone, sqrt3_over_2
 
 RNG = np.random.default_rng(12345)
 
@@ -330,6 +330,9 @@ def test_constants_given_as_rounded_floats_are_enclosed():
     for value, exact in pairs:
         c = Interval.const(value)
         assert MP.mpf(float(c.lo)) < exact < MP.mpf(float(c.hi)), value
+    h = sqrt3_over_2()                                     # the float sqrt(3) is correctly rounded: halved exactly
+    assert MP.mpf(float(h.lo)) < MP.sqrt(3) / 2 < MP.mpf(float(h.hi))
+    assert float(h.hi) == np.nextafter(np.nextafter(float(h.lo), 1.0), 1.0)
 
 
 def test_inverse_trigonometric_ranges_are_clipped_to_the_first_float_beyond_the_real_ends():
