@@ -162,3 +162,10 @@ def test_the_ends_of_every_documented_range_are_taken_and_a_step_beyond_refused(
         beyond = end + outward if key == 'max_iterations' else end + outward * 0.01 * abs(end)
         with pytest.raises(ConfigError, match=rf'overrides: {key} = .* is invalid; allowed'):
             load_config(overrides={key: value(beyond)})
+
+
+def test_the_dataclass_defaults_are_the_embedded_file():
+    """``GprConfig()`` (the nominal machine of the doctests, the URDF and ``from_mapping``) is the machine of the
+    embedded config/gpr.yaml: 2 deg tilt limit, 0.508 m stroke, radius 0.093218 m, and every other value."""
+    assert GprConfig() == default_config()
+    assert GprConfig().tilt_limit == pytest.approx(math.radians(2.0), abs=1e-17)

@@ -341,3 +341,11 @@ def test_inverse_takes_exactly_max_iterations_steps_and_no_more(batch):
     assert steps == 4 and abs(z - 0.5) <= 1e-14 and abs(tilt - math.radians(2.0)) <= 1e-14
     with pytest.raises(ConvergenceError, match='inverse kinematics did not converge in 3 iterations'):
         solve(3)
+
+
+def test_a_batch_has_one_row_per_target():
+    """``len`` and indexing of the batches count targets (rows), not the three rods."""
+    h, t, g = _random_targets(5, seed=9)
+    ib = inverse_batch(h, t, g)
+    assert len(ib) == 5 and len(ib.achieved) == 5 and len(forward_batch(ib.q)) == 5
+    assert ib[4].achieved.position[2] == pytest.approx(h[4], abs=1e-14) and ib[4].iterations == ib.iterations[4]

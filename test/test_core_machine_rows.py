@@ -140,3 +140,18 @@ def test_values_that_are_not_numbers_are_refused(call, message):
     with pytest.raises(InputError) as info:
         call()
     assert str(info.value).startswith(message)
+
+
+@pytest.mark.parametrize('model', MODELS)
+def test_rows_of_a_clockwise_machine(model):
+    """Rows alternating between the nominal machine and its mirror image (rods and joints at 0, -120, -240 deg,
+    clockwise seen from +z): each row is the machine its parameters describe, and the mirror's pose is the mirror
+    image (y -> -y) of the nominal machine's for the same rods."""
+    mirror = CFG.replace(rod_azimuths=[0.0, -2 * math.pi / 3, -4 * math.pi / 3])
+    P = np.array([parameter_vector(CFG), parameter_vector(mirror)] * 4)
+    Q = np.repeat(naive_inverse([0.2, 0.35, 0.3, 0.1], [0.03, -0.02, 0.01, 0.034], [0.3, 2.0, -1.0, -2.5]), 2, axis=0)
+    fb = forward_batch(Q, CFG, model, parameters=P)
+    np.testing.assert_allclose(fb.position[::2], forward_batch(Q[::2], CFG, model).position, rtol=0, atol=5e-16)
+    np.testing.assert_allclose(fb.position[1::2], forward_batch(Q[1::2], mirror, model).position, rtol=0, atol=5e-16)
+    np.testing.assert_allclose(fb.position[1::2], fb.position[::2] * [1.0, -1.0, 1.0], rtol=0, atol=1e-15)
+    assert fb.fit_residual.max() < 1e-13 and fb.residual.max() <= CFG.tolerance

@@ -39,6 +39,10 @@ def test_rotation_from_vector_and_rodrigues_equal_scipy_from_rotvec():
     for w, R in zip(W, expect, strict=True):
         np.testing.assert_allclose(rodrigues(*w.tolist()), R, rtol=0, atol=4e-16)
     np.testing.assert_allclose(rotation_vector(expect), W, rtol=1e-13, atol=1e-22)
+    # Leading axes of any number: one vector (3,), a grid (2, 20, 3).
+    np.testing.assert_allclose(rotation_from_vector(W[7]), expect[7], rtol=0, atol=4e-16)
+    np.testing.assert_allclose(rotation_from_vector(W.reshape(2, 20, 3)), expect.reshape(2, 20, 3, 3), rtol=0,
+                               atol=4e-16)
     # A quarter turn about z takes x to y (the sign of the skew matrix).
     np.testing.assert_allclose(rotation_from_vector(np.array([[0.0, 0.0, math.pi / 2]]))[0] @ [1.0, 0.0, 0.0],
                                [0.0, 1.0, 0.0], rtol=0, atol=4e-16)

@@ -52,7 +52,8 @@ def test_serpentine_order_is_continuous_and_paper_order_is_not():
     ({'max_tilt': math.radians(2.0), 'tilt_step': math.radians(0.3)}, InputError, 'whole number'),
     ({'max_tilt': math.radians(3.0)}, LimitError, 'beyond the tilt limit'),
     ({'height': 0.507}, LimitError, 'outside the stroke'),
-    ({'height': float('nan')}, InputError, 'height'),
+    ({'height': float('nan')}, InputError, 'height = nan must be a finite number of metres'),
+    ({'height': '0.5'}, InputError, "height = '0.5' must be a finite number of metres"),   # numpy would read it
     ({'passes': 0}, InputError, 'passes'),
 ])
 def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
