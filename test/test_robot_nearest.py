@@ -102,3 +102,25 @@ def test_the_answer_is_the_least_cost_of_a_dense_sweep(joint, wide):
     grid = np.linspace(lo, hi, 4001)
     sweep = _sweep_costs(arm, d, beta, p, phi, sign, np.tile(grid, len(p)), np.repeat(rows, grid.size))
     assert np.all(best <= sweep.reshape(len(p), grid.size).min(axis=1) + 1e-9)
+
+
+def test_a_minimum_between_two_rising_slopes_is_found():
+    """The posture (0.28973066, -0.55593014, 1.16453349, 1.68586623) rad, its shoulder held under the rule: the
+    slope of the cost is positive at the neighbouring samples 0 and 0.38125 rad of the shoulder's range, yet the cost
+    dips between them (the cubic through the two ends' costs and slopes says so): the rule's answer lies there, no
+    worse than any of 4001 values of the range."""
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_shoulder',
+                                     'reference': [0.3, -1.0, 0.5, 0.2], 'weights': [1.0, 1.0, 2.0, 1.0]}
+    arm = make_robot(data).arm('arm2')
+    J = np.array([[0.28973066, -0.55593014, 1.16453349, 1.68586623]])
+    _, p, phi = chain_forward(arm, J)
+    sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
+    d, beta = link_vectors(arm)
+    ends = nearest._evaluate(arm, d, beta, p, phi, sign, np.zeros(2, dtype=np.intp), np.array([0.0, 0.38125]))
+    assert np.all(ends.slope > 0.0) and np.all(np.isfinite(ends.cost))
+    v = nearest.nearest_value(arm, d, beta, p, phi, sign)
+    assert 0.0 < v[0] < 0.38125
+    grid = np.linspace(-3.05, 3.05, 4001)
+    sweep = _sweep_costs(arm, d, beta, p, phi, sign, grid, np.zeros(grid.size, dtype=np.intp))
+    assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
