@@ -10,7 +10,7 @@ from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.robot import description, planar_arm, stations, transforms
 from gpr_kinematics.robot.description import load_robot
-from robot_support import ROBOT, make_robot, robot_data
+from robot_support import EXAMPLE, ROBOT, make_robot, robot_data
 
 
 def test_shipped_example():
@@ -83,6 +83,7 @@ _DELETE = object()
     (('arms', 0, 'links', 'width'), 1e-7, r'links: width = 1e-07 is invalid; allowed: metres, 1e-06 <= width <= 1$'),
     (('rods', 'names'), ['a', 'b'], r'rods: names = \[.a., .b.\] is invalid; allowed: a list of 3 names'),
     (('arms',), [], r'arms must be a list of one or two arms'),
+    (('arms',), [EXAMPLE['arms'][0]] * 3, r'arms must be a list of one or two arms'),
     (('arms', 0, 'joints'), [], r'arms\[0\] \(arm1\): joints must be a list of 2 to 4 revolute joints'),
     (('arms', 0, 'joints', 1, 'length'), -0.3,
      r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): length = -0.3 is invalid; allowed: metres, 0 <= length <= 5'),

@@ -213,3 +213,24 @@ def test_a_heading_in_degrees_in_a_program_in_radians_is_refused(tmp_path):
     assert p.stations.stations.heading[0] == pytest.approx(math.pi / 2, abs=1e-15)
     stations[0]['heading'] = 6.2
     assert _program(tmp_path, _minimal(stations=stations)).stations.stations.heading[0] == 6.2
+
+
+def test_a_straight_entry_needs_an_arm_that_holds_the_heading(tmp_path):
+    """A straight entry keeps the wafer's orientation: the 3-joint arm1 and the fixed_joint arm2 expand it (with its
+    entry and exit waypoints); a 2-joint arm and a 4-joint arm under the nearest rule are refused, named."""
+    from robot_support import make_robot, robot_data
+
+    stations = [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0, 'entry': 0.3}]
+    for arm in ('arm1', 'arm2'):
+        way = expand(_program(tmp_path, _minimal(stations=stations, steps=[{'place': 'a', 'arm': arm}])), ROBOT)
+        assert way.phase == ('entry', 'approach', 'at', 'retract', 'exit')
+    two = robot_data()
+    two['arms'][0]['joints'] = two['arms'][0]['joints'][:2]
+    two['arms'][0]['home'] = [0.0, 2.5]
+    nearest = robot_data()
+    nearest['arms'][1]['redundancy'] = {'rule': 'nearest'}
+    for data, arm, why in ((two, 'arm1', r"arm arm1 has 2 joints and cannot hold the blade's heading"),
+                           (nearest, 'arm2', r'arm arm2 chooses its posture by the rule nearest, not with a held')):
+        program = _program(tmp_path, _minimal(stations=stations, steps=[{'place': 'a', 'arm': arm}]))
+        with pytest.raises(ConfigError, match=rf'steps\[0\]: station a has a straight entry, but {why}'):
+            expand(program, make_robot(data))
