@@ -312,6 +312,19 @@ def test_joint_limit_refusal_with_the_value_computed_independently():
     assert solve_stations(ROBOT, st, 'arm1', branch='left').feasible.all()
 
 
+def test_no_hint_when_the_other_branch_is_beyond_a_limit_too():
+    """Level station 0.14 m in front of the shoulder, blade pointing away (heading 0): the wrist axis lies 0.06 m
+    behind the shoulder axis (the wafer 0.2 m beyond it), so the elbow folds to acos((0.06^2 - 2 0.3^2) / (2 0.3^2))
+    = 2.94126 rad, beyond +-2.9 rad on either branch: the refusal gives no hint of the other branch."""
+    elbow = math.acos((0.06 ** 2 - 2 * 0.3 ** 2) / (2 * 0.3 ** 2))
+    st = Stations.of([np.array(ROBOT.base_position) + [0.14, 0.0, 0.45]], 0.0, 0.0, 0.0)
+    for branch, side, sign in (('right', 'upper', 1.0), ('left', 'lower', -1.0)):
+        pattern = (rf'^station 0: arm1_elbow = {sign * elbow:.6g} rad is beyond its {side} limit {sign * 2.9:g} rad by '
+                   rf'{elbow - 2.9:.4g} rad \(branch {branch}\)$')
+        with pytest.raises(LimitError, match=pattern):
+            solve_stations(ROBOT, st, 'arm1', branch=branch)
+
+
 def test_refusal_counts_the_other_failing_stations_and_names_them():
     st = Stations.of([[1.1, 0.5, 0.45], [3.0, 0.5, 0.45], [3.1, 0.5, 0.45]], 0.0, 0.0, 0.0,
                      names=['ok', 'far1', 'far2'])
@@ -393,6 +406,8 @@ def test_stations_and_their_options_that_are_not_are_named():
             (lambda: solve_stations(ROBOT, st, branch=0.5), InputError, r'branch = 0.5 is invalid; allowed: left or'),
             (lambda: solve_stations(ROBOT, st, arm=np.zeros((0, 3))), ConfigError, r'no arm .*; allowed: arm1, arm2'),
             (lambda: st.take([5]), InputError, r'station index \[5\]; allowed: integers from -1 to 0 \(1 stations\)'),
+            (lambda: st.take([0, 5]), InputError, r'station index \[0, 5\]; allowed: integers from -1 to 0'),
+            (lambda: st.take([-2, 0]), InputError, r'station index \[-2, 0\]; allowed: integers from -1 to 0'),
             (lambda: st.take([np.nan]), InputError, r'station index \[nan\]'),
             (lambda: Stations.of([[1, 2, 3]], heading_free=[True, False]), InputError,
              r'heading_free must be one bool or one per station \(1\)'),
