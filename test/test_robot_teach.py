@@ -163,6 +163,23 @@ def test_reteach_refuses_each_old_rod_outside_the_stroke(k):
         reteach(ROBOT, [[0.3, 0.3, 0.3], q], [[0.0, 1.0, 0.1]] * 2, 'arm1')
 
 
+def test_a_joint_table_needs_every_rod_and_joint_column(tmp_path):
+    """The header must name the three rods and every joint of the arm (a missing column is named, not read as empty
+    cells); the name column is optional."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    table = tmp_path / 'j.csv'
+    table.write_text(','.join([*ROBOT.rods.names, *a.joint_names[:2]]) + '\n0.3,0.3,0.3,0.0,1.0\n')
+    with pytest.raises(ConfigError, match=r'j.csv: the header lacks the column\(s\) arm1_wrist; required: gpr_rod1, '
+                                          r'gpr_rod2, gpr_rod3, arm1_shoulder, arm1_elbow, arm1_wrist$'):
+        read_joint_table(table, ROBOT, 'arm1')
+    table.write_text(','.join([*ROBOT.rods.names, *a.joint_names]) + '\n0.3,0.3,0.3,0.0,1.0,0.1\n')
+    names, rods, joints = read_joint_table(table, ROBOT, 'arm1')
+    assert names == ('0',) and rods.tolist() == [[0.3] * 3] and joints.tolist() == [[0.0, 1.0, 0.1]]
+
+
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')
