@@ -2,6 +2,7 @@
 approximation, volumes converge (closed-form mechanisms), interruption keeps a valid result."""
 import io
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -419,3 +420,34 @@ def test_a_containers_memory_limit_bounds_the_boxes(monkeypatch, tmp_path):
     assert base.usable_memory() == (10_240_000_000, 'the 10.2 GB of physical memory')
     _memory(monkeypatch, None, '512000000', tmp_path)
     assert base.usable_memory()[0] == 512_000_000
+
+
+def test_contains_points_down_to_a_single_cell(monkeypatch):
+    """A registration limit below the box count coarsens the bucket grid down to one cell holding every box (and
+    no further): still the brute-force answer, closed boxes included (their corners are in)."""
+    from gpr_kinematics.workspace import boxes as boxes_module
+    rng = np.random.default_rng(3)
+    lo = rng.random((40, 2))
+    boxes = np.stack([lo, lo + 0.2 * rng.random((40, 2))], axis=2)
+    pts = np.concatenate([rng.random((500, 2)) * 1.4 - 0.2, boxes[:, :, 0], boxes[:, :, 1]])
+    brute = np.array([np.any(np.all((boxes[:, :, 0] <= p) & (p <= boxes[:, :, 1]), axis=1)) for p in pts])
+    for limit in (1, 39, 200):
+        monkeypatch.setattr(boxes_module, 'MAX_REGISTRATIONS', limit)
+        with warnings.catch_warnings():
+            warnings.simplefilter('error')                      # no division by a grid of 0 cells on the way
+            assert np.array_equal(contains_points(boxes, pts), brute), limit
+    assert brute[500:].all() and 0 < brute[:500].sum() < 500
+
+
+def test_touches_sees_every_face_of_the_initial_box():
+    """``touches`` is true when a box reaches a lower or an upper face of the initial box along any axis (closed:
+    equal bounds count), false for boxes strictly inside, and for no boxes at all."""
+    from gpr_kinematics.workspace.boxes import touches
+    box = np.array([[0.0, 1.0], [-2.0, 2.0]])
+    inside = np.array([[[0.2, 0.8], [-1.0, 1.0]]])
+    assert not touches(box, inside) and not touches(box, np.empty((0, 2, 2)))
+    for axis in range(2):
+        for side in range(2):
+            b = inside.copy()
+            b[0, axis, side] = box[axis, side]
+            assert touches(box, inside, b) and touches(box, b, np.empty((0, 2, 2))), (axis, side)
