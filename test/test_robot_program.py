@@ -99,6 +99,7 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': [{'move': 'a'}, {'pik': 'a', 'dwell': 1}]}, r'steps\[1\]: unknown key\(s\) pik; allowed keys: arm, '),
     ({'steps': [{'move': 'a'}, {'dwel': 1}]}, r'steps\[1\]: unknown key\(s\) dwel; allowed keys: '),
     ({'steps': [{'arm': 'arm1'}]}, r'give exactly one of move, pick, place, dwell, got none'),
+    ({'steps': [{'move': 'a'}, 'b']}, r'steps\[1\]: expected a mapping such as \{pick: STATION\}'),
     ({'steps': [{'move': 'a', 'speed': 1}]}, r'steps\[0\]: unknown key\(s\) speed'),
     ({'steps': [{'move': 'a', 'time': 0}]}, r'steps\[0\]: time = 0 is invalid; allowed: seconds, > 0'),
     ({'steps': [{'move': 'a', 'dwell': -1}]}, r'dwell = -1 is invalid; allowed: seconds, >= 0'),
