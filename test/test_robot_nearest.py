@@ -124,3 +124,24 @@ def test_a_minimum_between_two_rising_slopes_is_found():
     grid = np.linspace(-3.05, 3.05, 4001)
     sweep = _sweep_costs(arm, d, beta, p, phi, sign, grid, np.zeros(grid.size, dtype=np.intp))
     assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
+
+
+@pytest.mark.parametrize('joint', JOINTS)
+def test_at_the_reach_edges_floats_and_numpy_agree_on_feasibility(joint, monkeypatch):
+    """At an edge of the reach the sub-chain is stretched or folded to rounding (1e-16 m): both evaluations take it
+    within the reach (REACH_SLACK, 1e-12 m), so a posture there within the joint limits has a finite cost either way
+    (the rule's answer often lies exactly there)."""
+    arm, d, beta, p, phi, sign = _case(joint)
+    k = arm.redundancy.joint
+    edges = nearest._reach_edges(arm, d, beta, p, phi)
+    rows, cols = np.nonzero(np.isfinite(edges))
+    x = edges[rows, cols]
+    monkeypatch.setattr(nearest, 'NEAREST_FLOATS', 0)
+    batch = nearest._evaluate(arm, d, beta, p, phi, sign, rows, x)
+    monkeypatch.setattr(nearest, 'NEAREST_FLOATS', x.size)
+    floats = nearest._evaluate(arm, d, beta, p, phi, sign, rows, x)
+    within = np.max(wrap_to_limits(solve_fixed(d, beta, k, x + arm.zero_offset[k], p[rows], phi[rows],
+                                               sign[rows])[0] - arm.zero_offset, arm.lower, arm.upper)[1], axis=1) <= 0
+    assert within.sum() > 5
+    np.testing.assert_array_equal(np.isfinite(batch.cost), within)
+    np.testing.assert_array_equal(np.isfinite(floats.cost), within)
