@@ -173,3 +173,32 @@ def test_python_formulas_build_the_same_graph_and_mix_with_interval_constants():
         Graph(('u',)).var('u') + g.var('u')
     with pytest.raises(ExpressionError, match='integer exponent'):
         g.var('u') ** 1.5
+
+
+def test_derivatives_of_the_remaining_operations_match_finite_differences():
+    """tan, log, acos, abs, negation, a constant over a variable, a constant minus a variable, sqr and a quotient of
+    two variable terms: forward-mode derivatives against central differences at points off abs's kink, and the
+    interval slopes over boxes around them contain the point derivatives."""
+    g = Graph(('x', 'y', 'q'))
+    names = _symbols(g)
+    texts = ['tan(x/2) + log(2 + y) - acos(q/2) + abs(x - 0.5*y) = 0',
+             '-(x*q) + 1/(2 + y^2) - (3 - sqr(q)) + (x + 2)/(y + 3) = 0']
+    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    p = RNG.uniform(-1, 1, (300, 3))
+    p = p[np.abs(p[:, 0] - 0.5 * p[:, 1]) > 0.01]
+    val, jac = tape.jacobian_points(p, [0, 1, 2])
+    assert np.allclose(val, tape.points(p))
+    h = 1e-6
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        fd = (tape.points(p + e) - tape.points(p - e)) / (2 * h)
+        assert np.allclose(jac[:, :, j], fd, atol=1e-7), j
+    lo, hi = p - 0.05, p + 0.05                               # some boxes straddle the kink of abs
+    J, maybe = tape.jacobian_boxes(lo, hi, [0, 1, 2])
+    assert not maybe.any()
+    kink = (lo[:, 0] - 0.5 * hi[:, 1] < 0) & (hi[:, 0] - 0.5 * lo[:, 1] > 0)
+    assert 10 < kink.sum() < kink.size
+    for t in RNG.random((30, 3)):
+        _, jp = tape.jacobian_points(lo + (hi - lo) * t, [0, 1, 2])
+        assert np.all(J.lo <= jp) and np.all(jp <= J.hi)
