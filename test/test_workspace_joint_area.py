@@ -168,3 +168,35 @@ def test_a_mechanism_covering_stopped_early_stops_the_run_for_its_reason(limits,
     assert res.interrupted and res.stopped == stopped
     assert 0.5 * wall <= res.seconds <= wall
     assert res.inner_boxes == 0 and res.boundary_boxes == 1       # nothing proved: the whole box is boundary
+
+
+def test_voxel_sets_hit_within_two_voxels_of_a_box_and_never_beyond_three():
+    """The margins of the voxel set, one voxel around every box when marking and one around the query box when
+    counting: a query box less than two voxels (of its axis) from a box on every axis is always hit, and one three
+    or more voxels away from every box on some axis never is (the marked index range ends one past the box's
+    last voxel, the counted one starts one before the query's first: they share a voxel only when the gap is
+    below three). Queries are placed at gaps of 0 to 5 voxels on either side of a box along one axis."""
+    rng = np.random.default_rng(41)
+    lo = rng.random((60, 3))
+    boxes = np.stack([lo, lo + 0.1 * rng.random((60, 3))], axis=2)
+    vox = VoxelSet.from_boxes(boxes, np.array([0.01, 0.02, 0.005]))
+    s = vox.spacing
+    n = 6000
+    k, axis, side = rng.integers(0, 60, n), rng.integers(0, 3, n), rng.integers(0, 2, n)
+    size = 0.5 * s * rng.random((n, 3))
+    start = boxes[k, :, 0] + (boxes[k, :, 1] - boxes[k, :, 0]) * rng.random((n, 3))   # overlaps box k off the axis
+    qlo, qhi = start.copy(), start + size
+    rows = np.arange(n)
+    gap = 5.0 * s[axis] * rng.random(n)
+    below = side == 0
+    qhi[rows[below], axis[below]] = boxes[k[below], axis[below], 0] - gap[below]
+    qlo[rows[below], axis[below]] = qhi[rows[below], axis[below]] - size[rows[below], axis[below]]
+    qlo[rows[~below], axis[~below]] = boxes[k[~below], axis[~below], 1] + gap[~below]
+    qhi[rows[~below], axis[~below]] = qlo[rows[~below], axis[~below]] + size[rows[~below], axis[~below]]
+    # per query and box: the gap along each axis in voxels of that axis (0 where they overlap)
+    g = np.maximum(np.maximum(boxes[None, :, :, 0] - qhi[:, None, :], qlo[:, None, :] - boxes[None, :, :, 1]), 0.0) / s
+    near = np.any(np.all(g < 1.999, axis=2), axis=1)
+    far = ~np.any(np.all(g < 3.001, axis=2), axis=1)                  # a thousandth of a voxel for rounding
+    hit = vox.any(qlo, qhi)
+    assert near.sum() > 1000 and far.sum() > 1000
+    assert hit[near].all() and not hit[far].any()
