@@ -104,24 +104,32 @@ def test_the_answer_is_the_least_cost_of_a_dense_sweep(joint, wide):
     assert np.all(best <= sweep.reshape(len(p), grid.size).min(axis=1) + 1e-9)
 
 
-def test_a_minimum_between_two_rising_slopes_is_found():
-    """The posture (0.28973066, -0.55593014, 1.16453349, 1.68586623) rad, its shoulder held under the rule: the
-    slope of the cost is positive at the neighbouring samples 0 and 0.38125 rad of the shoulder's range, yet the cost
-    dips between them (the cubic through the two ends' costs and slopes says so): the rule's answer lies there, no
-    worse than any of 4001 values of the range."""
+@pytest.mark.parametrize('joint, posture, pair', [
+    ('arm2_shoulder', [0.28973066, -0.55593014, 1.16453349, 1.68586623], (0.0, 0.38125)),
+    ('arm2_wrist', [2.060879390724037, -0.15485527034210422, -1.0812513914381368, 2.7902993452066474],
+     (0.9375, 1.25)),
+])
+def test_a_minimum_between_two_slopes_of_one_sign_is_found(joint, posture, pair):
+    """The posture's target with ``joint`` held under the rule: the slope of the cost has one sign at the two
+    neighbouring samples ``pair`` of the range (positive for the shoulder, negative for the wrist), yet the cost dips
+    between them (the cubic through the two ends' costs and slopes says so): the rule's answer lies there, no worse
+    than any of 4001 values of the range. The wrist's minimum (1.01682 rad) lies off the cubic's: the slope at the
+    cubic's minimum (0.971 rad) is still negative, and the rule answered the sample 0.9375 rad (cost 5.3e-4 above the
+    minimum); the cubic's inflection (1.097 rad) brackets it."""
     data = robot_data()
-    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_shoulder',
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': joint,
                                      'reference': [0.3, -1.0, 0.5, 0.2], 'weights': [1.0, 1.0, 2.0, 1.0]}
     arm = make_robot(data).arm('arm2')
-    J = np.array([[0.28973066, -0.55593014, 1.16453349, 1.68586623]])
+    k = arm.redundancy.joint
+    J = np.array([posture])
     _, p, phi = chain_forward(arm, J)
     sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
     d, beta = link_vectors(arm)
-    ends = nearest._evaluate(arm, d, beta, p, phi, sign, np.zeros(2, dtype=np.intp), np.array([0.0, 0.38125]))
-    assert np.all(ends.slope > 0.0) and np.all(np.isfinite(ends.cost))
+    ends = nearest._evaluate(arm, d, beta, p, phi, sign, np.zeros(2, dtype=np.intp), np.array(pair))
+    assert abs(np.sum(np.sign(ends.slope))) == 2 and np.all(np.isfinite(ends.cost))
     v = nearest.nearest_value(arm, d, beta, p, phi, sign)
-    assert 0.0 < v[0] < 0.38125
-    grid = np.linspace(-3.05, 3.05, 4001)
+    assert pair[0] < v[0] < pair[1]
+    grid = np.linspace(arm.joints[k].lower, arm.joints[k].upper, 4001)
     sweep = _sweep_costs(arm, d, beta, p, phi, sign, grid, np.zeros(grid.size, dtype=np.intp))
     assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
 

@@ -143,8 +143,9 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
 def _split_dips(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, rows: Index, a: Array,
                 b: Array, ga: Array, gb: Array, fa: Array, fb: Array) -> None:
     """Where a pair's slopes do not bracket a minimum (both of one sign) but the cubic through the costs ``fa, fb``
-    and slopes ``ga, gb`` at its ends dips inside, the slope at the dip replaces the end it brackets a minimum with
-    (in place)."""
+    and slopes ``ga, gb`` at its ends dips inside, a point of the dip whose slope has the other sign replaces the end
+    it brackets a minimum with (in place): the cubic's inflection, where its slope is farthest from the ends' sign,
+    else its minimum (the slope there is near zero, of either sign: tried second)."""
     h = b - a
     m0, m1 = ga * h, gb * h
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
@@ -155,9 +156,13 @@ def _split_dips(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sig
         i = np.flatnonzero(same & (t > 0.0) & (t < 1.0))
     if not i.size:
         return
-    x = a[i] + t[i] * h[i]
-    g = _evaluate(arm, d, beta, p, phi, sign, rows[i], x).slope
+    # p' is a quadratic of the ends' sign at both ends: both its roots lie inside, its extremum -B / (2 A) between
+    inflection = np.clip(-B[i] / (2.0 * A[i]), 0.0, 1.0)
+    xs = np.concatenate([a[i] + inflection * h[i], a[i] + t[i] * h[i]])
+    gs = _evaluate(arm, d, beta, p, phi, sign, np.concatenate([rows[i], rows[i]]), xs).slope
     rising = ga[i] > 0.0  # + - +: a minimum right of a dip below zero; - + -: left of a rise above zero
+    first = np.where(rising, gs[:i.size] < 0.0, gs[:i.size] > 0.0)
+    x, g = np.where(first, xs[:i.size], xs[i.size:]), np.where(first, gs[:i.size], gs[i.size:])
     left = rising & (g < 0.0)
     right = ~rising & (g > 0.0)
     a[i[left]], ga[i[left]] = x[left], g[left]
