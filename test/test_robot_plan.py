@@ -260,11 +260,12 @@ def test_the_summary_gives_the_peaks_the_joints_reach():
     np.testing.assert_allclose(s.acceleration_usage, np.maximum(a_js, a_fd) / t.acceleration, atol=2e-3, rtol=0)
 
 
-def _entry_program(first_arm):
-    """Move an arm somewhere, then place into a chamber with a straight entry with arm2 (the cell's pm1)."""
+def _entry_program(first_arm, first_branch='right'):
+    """Move an arm somewhere, then place into a chamber with a straight entry with arm2 on its right branch (the
+    cell's pm1)."""
     from gpr_kinematics.robot.program import parse_program
 
-    first = {'move': 'front_a1' if first_arm == 'arm1' else 'front', 'arm': first_arm}
+    first = {'move': 'front_a1' if first_arm == 'arm1' else 'front', 'arm': first_arm, 'branch': first_branch}
     data = {'format': 'gpr_robot_program', 'units': {'length': 'mm', 'angle': 'deg'},
             'defaults': {'arm': 'arm2', 'branch': 'right', 'approach_height': 8, 'retract_height': 8, 'dwell': 0.5},
             'stations': [{'name': 'front', 'position': [750, 800, 720], 'heading': 90},
@@ -277,11 +278,18 @@ def _entry_program(first_arm):
 
 def test_a_straight_line_is_timed_by_its_own_arm_whatever_arm_moved_before():
     """The moves of a place through a straight entry (into the approach and the exit lines) take the same time
-    whether arm1 or arm2 made the move before: the line's bounds are those of the arm on the line (arm2), the rods
-    stay put along it and the idle arm holds still."""
-    from gpr_kinematics.robot.plan import line_moves
+    whether arm1 (on either branch) or arm2 made the move before: the line is solved and bounded for the arm and
+    branch on the line (arm2, right), the rods stay put along it and the idle arm holds still. The line's joints
+    start and end at its waypoints' (a line solved on the other branch is timed alike, its elbow mirrored)."""
+    from gpr_kinematics.robot.plan import line_moves, move_rows
 
-    after_arm1, after_arm2 = _entry_program('arm1'), _entry_program('arm2')
-    assert after_arm1.waypoints.arm[:2] == ('arm1', 'arm2') and line_moves(after_arm1.waypoints) == [1, 4]
-    np.testing.assert_allclose(after_arm1.timing.duration[1:], after_arm2.timing.duration[1:], rtol=1e-12, atol=0)
-    assert after_arm1.timing.duration[0] != pytest.approx(after_arm2.timing.duration[0])
+    after_arm2 = _entry_program('arm2')
+    for branch in ('right', 'left'):
+        after_arm1 = _entry_program('arm1', branch)
+        assert after_arm1.waypoints.arm[:2] == ('arm1', 'arm2') and after_arm1.waypoints.branch[:2] == (branch, 'right')
+        assert line_moves(after_arm1.waypoints) == [1, 4]
+        np.testing.assert_allclose(after_arm1.timing.duration[1:], after_arm2.timing.duration[1:], rtol=1e-12, atol=0)
+        assert after_arm1.timing.duration[0] != pytest.approx(after_arm2.timing.duration[0])
+        for m in (1, 4):
+            ends = move_rows(ROBOT, after_arm1.waypoints, after_arm1.positions, m, np.array([0.0, 1.0]))
+            np.testing.assert_allclose(ends, after_arm1.positions[m:m + 2], rtol=0, atol=1e-9)
