@@ -202,3 +202,38 @@ def test_derivatives_of_the_remaining_operations_match_finite_differences():
     for t in RNG.random((30, 3)):
         _, jp = tape.jacobian_points(lo + (hi - lo) * t, [0, 1, 2])
         assert np.all(J.lo <= jp) and np.all(jp <= J.hi)
+
+
+@pytest.mark.parametrize('fn, boxes, maybe_expected, surely_expected', [
+    # the domain's ends are in it: [-1, 1] for asin and acos, [0, inf) for sqrt; log needs x > 0, 1/x needs x != 0
+    ('asin(x)', [(-1.0, 1.0), (1.0, 2.0), (-2.0, -1.0), (1.5, 2.0), (-3.0, -1.5), (-2.0, 2.0)],
+     [False, True, True, True, True, True], [False, False, False, True, True, False]),
+    ('acos(x)', [(-1.0, 1.0), (1.0, 2.0), (-2.0, -1.0), (1.5, 2.0), (-3.0, -1.5), (-2.0, 2.0)],
+     [False, True, True, True, True, True], [False, False, False, True, True, False]),
+    ('sqrt(x)', [(0.0, 1.0), (-1.0, 0.0), (-2.0, -1.0), (0.0, 0.0)], [False, True, True, False],
+     [False, False, True, False]),
+    ('log(x)', [(1e-300, 1.0), (0.0, 1.0), (-1.0, 0.0), (-2.0, -1.0)], [False, True, True, True],
+     [False, False, True, True]),
+    ('1/x', [(0.5, 1.0), (0.0, 1.0), (-1.0, 0.0), (-1.0, 1.0), (0.0, 0.0), (-2.0, -1.0)],
+     [False, True, True, True, True, False], [False, False, False, False, True, False]),
+])
+def test_boxes_touching_the_end_of_a_domain_are_flagged_exactly(fn, boxes, maybe_expected, surely_expected):
+    """The undefinedness masks of one operation over boxes at the ends of its domain: *maybe* when some point of
+    the box is outside the domain, *surely* when every point is (a box whose end is a domain end holds a point
+    where the function is defined: asin(1), sqrt(0))."""
+    g = Graph(('x',))
+    tape = Tape.compile(g, [parse_constraint(f'{fn} <= 1', g, {'x': g.var('x')}, 't').root])
+    lo = np.array([[b[0]] for b in boxes])
+    hi = np.array([[b[1]] for b in boxes])
+    _, maybe, surely = tape.root_boxes(lo, hi)
+    assert maybe.tolist() == maybe_expected and surely.tolist() == surely_expected
+
+
+def test_the_slope_of_abs_is_its_sign_over_boxes_off_zero():
+    """d|x|/dx over a box: 1 where the box is positive, -1 where negative, [-1, 1] where it holds 0 (an end at 0
+    included: the slope between 0 and a positive x is 1, but the one-sided derivative at 0 from the left is -1)."""
+    g = Graph(('x',))
+    tape = Tape.compile(g, [g.var('x').abs()])
+    J, _ = tape.jacobian_boxes(np.array([[0.5], [-2.0], [-1.0], [0.0]]), np.array([[2.0], [-0.5], [1.0], [1.0]]), [0])
+    assert np.allclose(J.lo[:, 0, 0], [1.0, -1.0, -1.0, -1.0], rtol=1e-15, atol=0.0)     # to the outward ulp
+    assert np.allclose(J.hi[:, 0, 0], [1.0, -1.0, 1.0, 1.0], rtol=1e-15, atol=0.0)
