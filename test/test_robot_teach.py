@@ -178,6 +178,25 @@ def test_a_joint_table_needs_every_rod_and_joint_column(tmp_path):
     table.write_text(','.join([*ROBOT.rods.names, *a.joint_names]) + '\n0.3,0.3,0.3,0.0,1.0,0.1\n')
     names, rods, joints = read_joint_table(table, ROBOT, 'arm1')
     assert names == ('0',) and rods.tolist() == [[0.3] * 3] and joints.tolist() == [[0.0, 1.0, 0.1]]
+    for row in ('0.3,,0.3,0.0,1.0,0.1', '0.3,0.3,0.3,0.0,1.0,'):   # an empty cell is no value
+        table.write_text(','.join([*ROBOT.rods.names, *a.joint_names]) + f'\n{row}\n')
+        with pytest.raises(ConfigError, match=r'j.csv: line 2: every rod and joint needs a value$'):
+            read_joint_table(table, ROBOT, 'arm1')
+
+
+def test_reteach_keeps_the_held_joint_of_a_fixed_joint_arm():
+    """arm2 holds its wrist (fixed_joint, value 0): old joints with the wrist at 0.3 rad and -0.2 rad are re-taught
+    with the wrist where it was (the branch kept too), not moved to the rule's 0, and the new joints put the wafer
+    where the old tool meant it."""
+    from gpr_kinematics.core import inverse
+    q = inverse(0.3, 0.03, 0.5).q
+    old = [[0.4, -1.2, 0.3, 0.5], [-0.3, 1.1, -0.2, -0.4]]
+    rt = reteach(ROBOT, [q, q], old, 'arm2')
+    np.testing.assert_allclose(rt.solution.joints[:, 2], [0.3, -0.2], rtol=0, atol=1e-15)
+    assert rt.solution.branch == branch_of(ROBOT.arm('arm2'), np.array(old))
+    fk = robot_forward(ROBOT, rt.solution.rods, rt.solution.joints, 'arm2')
+    assert np.max(np.linalg.norm(fk.wafer.position - rt.intended.position, axis=1)) < 1e-9
+    np.testing.assert_allclose(rt.solution.joints, old, atol=1e-3)   # the naive error is micrometres
 
 
 def test_teach_refuses_joints_beyond_limits():
