@@ -41,6 +41,16 @@ def test_wrap_to_limits():
     np.testing.assert_allclose(v, [[two_pi - 3.2 - 3.0, 0.5, 0.0], [two_pi - 3.2 - 3.0, 0.0, 0.0]], atol=1e-12)
 
 
+def test_a_joint_at_its_limit_to_rounding_is_within_it():
+    """A joint 5e-13 rad beyond a limit (a station solved at the limit, rounded) is within LIMIT_SLACK (1e-12 rad):
+    no violation; 3e-12 rad beyond, 2e-12 rad of violation (the slack subtracted)."""
+    lower, upper = np.array([-2.9, -2.9]), np.array([2.9, 2.9])
+    t, v = wrap_to_limits(np.array([[2.9 + 5e-13, -2.9 - 5e-13], [2.9 + 3e-12, -2.9 - 3e-12]]), lower, upper)
+    np.testing.assert_allclose(t, [[2.9, -2.9], [2.9, -2.9]], atol=4e-12)
+    np.testing.assert_array_equal(v[0], [0.0, 0.0])
+    np.testing.assert_allclose(v[1], [2e-12, 2e-12], rtol=0, atol=1e-15)
+
+
 def test_blade_offsets_fold_into_the_last_link():
     data = robot_data()
     data['arms'][0]['blade'] = {'position': [0.01, 0.02, 0.0], 'yaw': 0.5, 'wafer_centre': [0.2, -0.03, 0.0]}
