@@ -289,6 +289,8 @@ def test_unchecked_stations_beyond_the_tilt_limit_are_marked_not_raised():
     st = Stations.of([[1.1, 0.5, 0.45]] * 3, [0.0, math.radians(2.5), 0.01], 0.3, 0.0)
     sol = solve_stations(ROBOT, st, 'arm1', check=False)
     assert sol.feasible.tolist() == [True, False, True]
+    with pytest.raises(LimitError, match=r'^station 1: the station plane tilts 2.5 deg in gpr_base'):
+        solve_stations(ROBOT, st, 'arm1')
     alone = solve_stations(ROBOT, st.take([0, 2]), 'arm1')
     np.testing.assert_array_equal(sol.joints[[0, 2]], alone.joints)
     np.testing.assert_array_equal(sol.rods[[0, 2]], alone.rods)
