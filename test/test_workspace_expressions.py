@@ -230,8 +230,8 @@ def test_boxes_touching_the_end_of_a_domain_are_flagged_exactly(fn, boxes, maybe
 
 
 def test_the_slope_of_abs_is_its_sign_over_boxes_off_zero():
-    """d|x|/dx over a box: 1 where the box is positive, -1 where negative, [-1, 1] where it holds 0 (an end at 0
-    included: the slope between 0 and a positive x is 1, but the one-sided derivative at 0 from the left is -1)."""
+    """d|x|/dx over a box: 1 where the box is positive, -1 where negative, [-1, 1] where it holds 0, an end at 0
+    included (the point derivative there is sign(0) = 0, which the enclosure must hold)."""
     g = Graph(('x',))
     tape = Tape.compile(g, [g.var('x').abs()])
     J, _ = tape.jacobian_boxes(np.array([[0.5], [-2.0], [-1.0], [0.0]]), np.array([[2.0], [-0.5], [1.0], [1.0]]), [0])
