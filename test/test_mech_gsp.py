@@ -209,6 +209,15 @@ def _paper_dict() -> dict:
     return yaml.safe_load(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml').read_text())
 
 
+def test_yaml_constraint_limits_are_the_joint_limits():
+    """A constraint's ``limits: [min, max]`` become its joint's limits (min < max; an infinite end is no limit)."""
+    data = _paper_dict()
+    data['constraints'][0]['limits'] = [0.5, 2.5]
+    data['constraints'][1]['limits'] = [0.0, math.inf]
+    limits = np.asarray(mechanism_from_dict(data, 'x.yaml').joint_limits)
+    assert limits[0].tolist() == [0.5, 2.5] and limits[1].tolist() == [0.0, math.inf]
+
+
 def test_yaml_ignores_workspace_section():
     data = _paper_dict()
     data['workspace'] = {'box': {'z': [0, 1]}}
@@ -232,6 +241,12 @@ def test_yaml_ignores_workspace_section():
     (lambda d: d.update(euler='xxz'), r'euler: Euler convention must be three axes'),
     (lambda d: d.update(colour='red'), r"unknown key\(s\) colour"),
     (lambda d: d.update(type='hexapod'), r"type = 'hexapod' is not a mechanism type"),
+    (lambda d: d['constraints'][0].update(limits=[2.0, 1.0]),
+     r'constraints\[0\]\.limits must be \[min, max\] with min < max'),
+    (lambda d: d['constraints'][0].update(limits=[1.5, 1.5]),
+     r'constraints\[0\]\.limits must be \[min, max\] with min < max'),
+    (lambda d: d['constraints'][0].update(limits=[1.0]), r'constraints\[0\]\.limits must be \[min, max\]'),
+    (lambda d: d['constraints'][0].update(limits=[1.0, 'x']), r'constraints\[0\]\.limits must be \[min, max\]'),
 ])
 def test_yaml_errors_name_file_key_and_value(mutate, match):
     data = _paper_dict()

@@ -42,6 +42,13 @@ def test_forward_kinematics_round_trip(alwan):
     np.testing.assert_allclose(alwan.leg_lengths(poses), s, atol=1e-12)
 
 
+def test_forward_kinematics_from_the_default_start_for_any_number_of_poses(alwan):
+    """The default start is built per pose: one, two or five poses (not only the trajectory's six) round-trip."""
+    for n in (1, 2, 5):
+        s = alwan.leg_lengths(alwan.trajectory[:n])
+        np.testing.assert_allclose(alwan.forward(s), alwan.trajectory[:n], atol=1e-9)
+
+
 def test_parameter_jacobian_closed_form_matches_differences(alwan):
     pose = alwan.trajectory[2]
     for name in ('A_i', 'B_i'):
@@ -118,6 +125,13 @@ def test_yaml_validation():
         mechanism_from_dict(dict(base, platform_radius=0), 's.yaml')
     with pytest.raises(ConfigError, match='leg_min = 2.0 must be below leg_max = 1.0'):
         mechanism_from_dict(dict(base, leg_min=2.0, leg_max=1.0), 's.yaml')
+    with pytest.raises(ConfigError, match='leg_min = 1.0 must be below leg_max = 1.0'):
+        mechanism_from_dict(dict(base, leg_min=1.0, leg_max=1.0), 's.yaml')
+    for given, missing in (('leg_max', 'leg_min'), ('leg_min', 'leg_max')):        # one end alone is refused
+        with pytest.raises(ConfigError, match=f's.yaml: missing key {missing}'):
+            mechanism_from_dict(dict(base, **{given: 1.5}), 's.yaml')
+    limited = mechanism_from_dict(dict(base, leg_min=1.0, leg_max=2.5), 's.yaml')
+    assert np.asarray(limited.joint_limits).tolist() == [[1.0, 2.5]] * 6
     with pytest.raises(InputError, match='joint errors must be 6 finite values'):
         accuracy_analysis(mech, [0, 0, 1, 0, 0.3, 0], [1e-3, 2e-3])
     with pytest.raises(InputError, match="unknown geometric parameter 'C_i'; allowed: A_i, B_i"):
