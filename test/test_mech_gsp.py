@@ -339,3 +339,19 @@ def test_a_dexterity_map_computes_the_inverse_jacobian_once_with_the_same_result
             before = mech.homogenized_task_jacobian(poses)
         assert np.array_equal(Jh, before, equal_nan=True) and named.tolist() == mech.singularity(poses).tolist()
     assert parallel.jacobian_and_singularity(sweep.poses)[1][4].startswith('d4 (D4): the lines K and L are parallel')
+
+
+def test_with_parameters_names_the_one_constraint_whose_line_has_no_direction():
+    """One degenerate line among six (constraint 4's A_i moved onto its A_j) is refused, naming that constraint;
+    moving A_i along its line (two distinct points still) is accepted, and only that joint's value changes."""
+    gsp = load_mechanism(config_path('mechanisms/gsp_d3_6.yaml'))
+    a, a_j = gsp.parameters()['A_i'], gsp.parameters()['A_j']
+    bad = a.copy()
+    bad[3] = a_j[3]
+    with pytest.raises(InputError, match=r'constraint 4: degenerate base line K: A_j = .* coincides with A_i'):
+        gsp.with_parameters({'A_i': bad})
+    moved = a.copy()
+    moved[3] = a[3] + 0.5 * (a_j[3] - a[3])
+    pose = np.array([0.0, 0.0, 0.3, 0.1, -0.05, 0.2])
+    before, after = gsp.inverse_kinematics(pose), gsp.with_parameters({'A_i': moved}).inverse_kinematics(pose)
+    assert np.all(np.isfinite(after)) and np.array_equal(np.delete(before, 3), np.delete(after, 3))
