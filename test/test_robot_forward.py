@@ -72,16 +72,24 @@ def test_forward_matches_an_independent_chain(arm):
 
 
 def test_frame_chain_names_and_composition():
+    """The tf chain composed from the platform is the wafer of the forward kinematics, also with the mount turned
+    and every joint's zero_offset calibrated (position and orientation)."""
     Q, J = random_postures(ROBOT, 'arm1', 5, seed=12)
     chain = arm_transforms(ROBOT.arm('arm1'), J)
     assert [(f, p) for f, p, _ in chain] == [('arm1_link1', 'gpr_platform'), ('arm1_link2', 'arm1_link1'),
                                              ('arm1_link3', 'arm1_link2'), ('arm1_blade', 'arm1_link3'),
                                              ('arm1_wafer', 'arm1_blade')]
-    fk = robot_forward(ROBOT, Q, J, 'arm1')
-    pose = fk.platform
-    for _, _, step in chain:
-        pose = pose.compose(step)
-    np.testing.assert_allclose(pose.position, fk.wafer.position, atol=1e-15)
+    data = robot_data()
+    data['arms'][0]['mount'] = {'position': [0.02, -0.01, 0.08], 'yaw': 0.3}
+    for k, joint in enumerate(data['arms'][0]['joints']):
+        joint['zero_offset'] = 0.02 * (k + 1) * (-1) ** k
+    for robot in (ROBOT, make_robot(data)):
+        fk = robot_forward(robot, Q, J, 'arm1')
+        pose = fk.platform
+        for _, _, step in arm_transforms(robot.arm('arm1'), J):
+            pose = pose.compose(step)
+        np.testing.assert_allclose(pose.position, fk.wafer.position, atol=1e-15)
+        np.testing.assert_allclose(pose.rotation, fk.wafer.rotation, atol=1e-15)
 
 
 def test_untilted_platform_has_no_naive_error():

@@ -83,3 +83,22 @@ def test_two_joint_heading_is_per_branch():
 def test_shipped_arm_reach():
     d, _ = link_vectors(ROBOT.arm('arm1'))
     assert np.hypot(*d[0]) + np.hypot(*d[1]) == pytest.approx(0.6)
+
+
+@pytest.mark.parametrize('held', ['arm2_shoulder', 'arm2_elbow', 'arm2_wrist', 'arm2_hand'])
+def test_branch_of_a_four_joint_arm_is_the_branch_it_was_solved_on(held):
+    """arm2 holding each of its joints in turn (fixed_joint): targets solved on the right and the left branch come
+    back as that branch from branch_of, which looks at the two-link sub-chain left by the held joint (its axes: the
+    three other joints'; for a held shoulder, not the mount)."""
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'fixed_joint', 'joint': held, 'value': 0.2}
+    arm = make_robot(data).arm('arm2')
+    rng = np.random.default_rng(5)
+    J = rng.uniform(arm.lower + 0.1, arm.upper - 0.1, (200, 4))
+    J[:, arm.redundancy.joint] = 0.2
+    _, wafer, heading = chain_forward(arm, J)
+    for branch, sign in (('right', 1.0), ('left', -1.0)):
+        sol = solve_arm(arm, wafer, heading, np.full(200, sign))
+        ok = sol.reachable & (np.max(sol.violation, axis=1) <= 0.0)
+        assert ok.sum() > 50
+        assert set(branch_of(arm, sol.theta[ok])) == {branch}
