@@ -27,6 +27,18 @@ def test_shipped_example():
     assert (a1.blade_frame, a1.wafer_frame) == ('arm1_blade', 'arm1_wafer')
 
 
+def test_an_arm_without_a_mount_or_a_blade_position_sits_at_the_platform_centre():
+    """mount and blade position are optional: the first joint axis at the platform's centre, yaw 0, the blade at
+    the flange; the wafer height is then the joints' and the wafer centre's heights alone."""
+    data = robot_data()
+    del data['arms'][0]['mount']
+    del data['arms'][0]['blade']['position']
+    a = make_robot(data).arm('arm1')
+    assert a.mount_position == (0.0, 0.0, 0.0) and a.mount_yaw == 0.0 and a.blade.position == (0.0, 0.0, 0.0)
+    heights = sum(j['height'] for j in data['arms'][0]['joints']) + data['arms'][0]['blade']['wafer_centre'][2]
+    assert a.wafer_height == pytest.approx(heights, abs=1e-15)
+
+
 def test_geometry_by_reference_inline_and_overridden(tmp_path):
     (tmp_path / 'geo.yaml').write_text('radius: 0.1\nmodel: polar\n')
     data = robot_data()

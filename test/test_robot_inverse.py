@@ -359,6 +359,15 @@ def test_malformed_stations(kwargs, pattern):
         Stations.of(**kwargs)
 
 
+def test_stations_of_a_position_alone_are_level_with_the_heading_free():
+    """Stations.of(position): tilt 0, azimuth 0 (the station plane level), every heading free (0, unused), names by
+    index; the orientation the identity."""
+    st = Stations.of([[1.1, 0.5, 0.45], [1.0, 0.6, 0.4]])
+    assert st.tilt.tolist() == [0.0, 0.0] and st.azimuth.tolist() == [0.0, 0.0] and st.heading.tolist() == [0.0, 0.0]
+    assert st.heading_free.tolist() == [True, True] and st.names == ('0', '1')
+    np.testing.assert_array_equal(st.rotation, np.stack([np.eye(3)] * 2))
+
+
 def test_link_vectors_fold_the_blade():
     d, beta = link_vectors(ROBOT.arm('arm1'))
     np.testing.assert_allclose(d[0], [0.3, 0.0])

@@ -293,3 +293,26 @@ def test_a_straight_line_is_timed_by_its_own_arm_whatever_arm_moved_before():
         for m in (1, 4):
             ends = move_rows(ROBOT, after_arm1.waypoints, after_arm1.positions, m, np.array([0.0, 1.0]))
             np.testing.assert_allclose(ends, after_arm1.positions[m:m + 2], rtol=0, atol=1e-9)
+
+
+def test_a_program_of_one_move_reports_its_peaks():
+    """One move between two stations (two waypoints, one joint-space line): the summary's peak speed and acceleration
+    are those central differences of the samples (2 kHz) find, to 2e-3; the idle arm's are 0."""
+    from gpr_kinematics.robot.plan import program_summary
+    from gpr_kinematics.robot.program import parse_program
+
+    data = {'format': 'gpr_robot_program', 'units': {'length': 'mm', 'angle': 'deg'},
+            'stations': [{'name': 'a', 'position': [1100, 500, 450], 'heading': 0},
+                         {'name': 'b', 'position': [750, 850, 420], 'heading': 90}],
+            'steps': [{'move': 'a', 'arm': 'arm1'}, {'move': 'b', 'arm': 'arm1'}]}
+    plan = plan_program(ROBOT, parse_program(data, 'one_move.yaml'))
+    assert plan.timing.duration.shape == (1,)
+    s = program_summary(plan)
+    h = 1 / 2000
+    x = sample_plan(plan, times=np.arange(plan.timing.depart[0] - h, plan.timing.arrive[1] + h, h)).samples.positions
+    v_fd = np.max(np.abs(x[2:] - x[:-2]) / (2 * h), axis=0) / plan.timing.velocity
+    a_fd = np.max(np.abs(x[2:] - 2 * x[1:-1] + x[:-2]) / h ** 2, axis=0) / plan.timing.acceleration
+    assert np.max(v_fd) > 0.1
+    np.testing.assert_allclose(s.velocity_usage, v_fd, atol=2e-3, rtol=0)
+    np.testing.assert_allclose(s.acceleration_usage, a_fd, atol=2e-3, rtol=0)
+    np.testing.assert_array_equal(s.velocity_usage[6:], 0.0)

@@ -252,3 +252,8 @@ def test_sample_plan_times_are_checked_and_counted_before_work():
                          ('abc', r'times must be a number or an array of numbers')):
         with pytest.raises(InputError, match=words):
             sample_plan(plan, times=times)
+    from gpr_kinematics.robot.plan import sample_times_of
+    from gpr_kinematics.robot.timing import MAX_SAMPLES
+    assert sample_times_of(np.zeros(MAX_SAMPLES)).shape == (MAX_SAMPLES,)   # at most MAX_SAMPLES: the bound itself
+    with pytest.raises(InputError, match=rf'^{MAX_SAMPLES + 1} times; allowed: at most {MAX_SAMPLES} samples$'):
+        sample_times_of(np.zeros(MAX_SAMPLES + 1))
