@@ -20,10 +20,11 @@ The edges in closed form:
 
 Between consecutive edges every posture has the same feasibility; the rule evaluates the cost and its slope at every
 edge (and the range's ends), and each pair of neighbours whose slope goes from negative to positive brackets a
-minimum, found by regula falsi with the Illinois modification to :data:`NEAREST_TOLERANCE`. The slope comes from the
-self-motion's joint rates ``n = d theta / dv`` (``n_j = 1``): the wafer and its heading stay put, so
-``sum_k n_k = 0`` and ``sum_k n_k a_k = 0`` for the joint axes ``a_k`` (``a_1`` at the mount), three linear
-equations for the other three rates. The answer is the best of these candidates; where no posture is feasible, the
+minimum, found by Newton's method on the slope (its analytic derivative; bisection where a step would leave the
+bracket) to :data:`NEAREST_TOLERANCE` (:func:`_minimum`). The slope comes from the self-motion's joint rates
+``n = d theta / dv`` (``n_j = 1``): the wafer and its heading stay put, so ``sum_k n_k = 0`` and
+``sum_k n_k a_k = 0`` for the joint axes ``a_k`` (``a_1`` at the mount), three linear equations for the other three
+rates. The answer is the best of these candidates; where no posture is feasible, the
 middle of the range (the caller reports why). SI units: metres, radians.
 """
 from __future__ import annotations
