@@ -326,3 +326,35 @@ def test_upu3_workspace_model_refuses_limbs_sharing_an_azimuth(azimuths, message
         Upu3Model(azimuths=azimuths)
     model = Upu3Model(azimuths=[0.0, 2e-6, 4.0])               # distinct by twice the least gap: taken
     np.testing.assert_allclose(model.centres[:, 0], 0.03 * np.cos([0.0, 2e-6, 4.0]))
+
+
+def test_gpr_tan_over_sqrt_is_accurate_on_both_sides_of_its_series_switch():
+    """``tan(sqrt(u)) / sqrt(u)`` (the series 1 + u/3 + 2u^2/15 below u = 1e-8) within 2^-50 of mpmath's value, from
+    u = 0 to tilts of 1.5 rad: the monotone enclosure of the GPR's rod lengths allows 2^-48."""
+    mpmath = pytest.importorskip('mpmath')
+    from gpr_kinematics.workspace.gpr import _tan_over
+    mp = mpmath.mp.clone() if hasattr(mpmath.mp, 'clone') else mpmath.mp
+    mp.prec = 120
+    u = np.concatenate([[0.0, 5e-324, 1e-20, 1e-12, 0.999e-8, np.nextafter(1e-8, 0), 1e-8, 1.001e-8, 1e-6],
+                        10.0 ** RNG.uniform(-10, np.log10(1.5 ** 2), 200)])
+    got = _tan_over(u)
+    for ui, gi in zip(u, got, strict=True):
+        s = mp.sqrt(mp.mpf(float(ui)))
+        exact = mp.tan(s) / s if ui > 0 else mp.mpf(1)
+        assert abs(mp.mpf(float(gi)) - exact) <= 2.0 ** -50 * exact, (ui, gi)
+
+
+def test_gpr_enclosures_of_point_like_boxes_hold_the_exact_displacements():
+    """Boxes 1e-9 wide at tilts up to 0.3 rad: there the linear part of the displacements is enclosed tightly and
+    the remainder bound (1.5 e1^2 / R, e1 from the linear part) does the work; the exact displacements (Newton on
+    the side lengths) must lie inside, the rod lengths too. Up to 1 rad, where the bound's condition 6 m < R fails
+    for most boxes, the enclosure must hold them still."""
+    model = GprModel(box=np.array([[0.0, 0.5], [-1.0, 1.0], [-1.0, 1.0]]))
+    for tilt in (0.3, 1.0):
+        pts = _uniform(np.array([[0.1, 0.4], [-tilt, tilt], [-tilt, tilt]]), 400)
+        boxes = np.stack([pts, pts + 1e-9], axis=2)
+        lo, hi = model.bounds(boxes)
+        g = model.evaluate(pts)
+        assert np.all(np.isfinite(g)) and np.all(lo <= g) and np.all(g <= hi), tilt
+        if tilt == 0.3:
+            assert np.median((hi - lo)[:, 3:]) < 0.5 * np.median(np.abs(g[:, 3:]))      # and not vacuous
