@@ -349,3 +349,41 @@ def test_a_batch_has_one_row_per_target():
     ib = inverse_batch(h, t, g)
     assert len(ib) == 5 and len(ib.achieved) == 5 and len(forward_batch(ib.q)) == 5
     assert ib[4].achieved.position[2] == pytest.approx(h[4], abs=1e-14) and ib[4].iterations == ib.iterations[4]
+
+
+def test_the_naive_pose_reported_is_the_pure_tilt_whose_joint_heights_are_the_rods():
+    """The naive model's pose of the result (paper Fig. 2): the pure tilt ``T`` about the centre ``(0, 0, z)`` whose
+    joints ``p_k = R (cos theta_k, sin theta_k, 0)`` stand at the rod heights, ``q_k = z + (T p_k)_z``: three linear
+    equations in ``z`` and ``n' = T^T e3`` solved here by numpy; batch and one pose."""
+    h, t, g = _random_targets(12, seed=11)
+    Q = naive_inverse(h, t, g)
+    fb = forward_batch(Q)
+    th = np.asarray(CFG.rod_azimuths)
+    A = np.column_stack([np.ones(3), R * np.cos(th), R * np.sin(th)])
+    for i in range(12):
+        z, nx_, ny_ = np.linalg.solve(A, Q[i])
+        n = np.array([-nx_, -ny_, math.sqrt(1.0 - nx_ ** 2 - ny_ ** 2)])
+        expect = tilt_rotation(math.atan2(math.hypot(n[0], n[1]), n[2]), math.atan2(n[0], -n[1]))
+        np.testing.assert_allclose(expect[:, 2], n, rtol=0, atol=4e-16)
+        np.testing.assert_allclose(expect[2], [-n[0], -n[1], n[2]], rtol=0, atol=4e-16)   # n' = T^T e3
+        for f in (fb[i], forward(Q[i])):
+            np.testing.assert_allclose(f.nominal_rotation, expect, rtol=0, atol=1e-15)
+            np.testing.assert_allclose(f.nominal_quaternion, quaternion_from_matrix(expect), rtol=0, atol=1e-15)
+            np.testing.assert_allclose(f.nominal_position, [0.0, 0.0, z], rtol=0, atol=1e-15)
+
+
+def test_heights_allowed_on_a_machine_with_rod_offsets():
+    """With zero offsets ``o_k`` a joint stands at ``q_k + o_k`` (P_k = B_k + (q_k + o_k) e3), so the heights allowed
+    at a tilt shift rod by rod: worked out here from the rigid tilted platform, each rod's stroke moved by its
+    offset."""
+    offsets = np.array([0.01, -0.02, 0.005])
+    cfg = CFG.replace(rod_offsets=offsets.tolist())
+    t, g = math.radians(1.2), -2.0
+    th = np.asarray(CFG.rod_azimuths)
+    p = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(3)])
+    above = (p @ tilt_rotation(t, g).T)[:, 2]
+    lo, hi = np.max(CFG.stroke_min + offsets - above), np.min(CFG.stroke_max + offsets - above)
+    with pytest.raises(LimitError, match=rf'allowed heights: {lo:.6g} \.\. {hi:.6g} m'):
+        inverse(hi + 0.05, t, g, config=cfg)
+    q = inverse(hi - 0.0001, t, g, config=cfg).q
+    assert CFG.stroke_max - 0.0002 < q.max() <= CFG.stroke_max

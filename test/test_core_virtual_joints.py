@@ -120,3 +120,25 @@ def test_offset_model_is_degenerate_at_its_start_and_stays_radial():
     assert np.max(np.abs(offset.position - radial.position)) < 1e-14
     assert np.max(np.abs(offset.virtual_joints[:, 3:])) < 1e-9
     np.testing.assert_allclose(offset.virtual_joints[:, :3] + CFG.radius, radial.virtual_joints, rtol=0, atol=1e-14)
+
+
+def test_non_convergence_names_the_worst_sample_and_its_error():
+    """A batch that runs out of iterations names the sample with the largest side-length error, and that error as
+    the sample alone gives it: here a sample at rest (converged, no error), and two that each fail alone."""
+    import re
+
+    from gpr_kinematics.core.closure import solve_virtual_joints
+
+    cfg = CFG.replace(max_iterations=1)
+    vjm = make_model(cfg, 'polar')
+    s = np.sqrt(3.0) * CFG.radius   # the side of the joint triangle at rest
+    rows = np.array([[s, s, s], [s * 1.001, s, s * 0.999], [0.1615, 0.1616, 0.1614]])
+    alone = []
+    for row in rows[1:]:
+        with pytest.raises(ConvergenceError) as exc:
+            solve_virtual_joints(row[None], vjm, cfg)
+        alone.append(float(re.search(r'side-length error (\S+) m', str(exc.value)).group(1)))
+    worst = 1 + int(np.argmax(alone))
+    with pytest.raises(ConvergenceError, match=rf'for sample {worst}: side-length error {max(alone):.3e} m > '
+                                               r'tolerance 1\.0e-14 m'):
+        solve_virtual_joints(rows, vjm, cfg)
