@@ -305,3 +305,16 @@ def test_upu3_azimuths_in_degrees_are_refused():
 def load_yaml_data():
     from gpr_kinematics.inputs.schema import read_yaml
     return dict(read_yaml(config_path('mechanisms/upu3.yaml')))
+
+
+def test_upu3_file_without_azimuths_places_the_limbs_120_degrees_apart_like_the_workspace_model():
+    """Without ``base_azimuths`` the limbs sit at 90, 210 and 330 deg (the paper's 120 deg spacing), the defaults of
+    the workspace model too: both give the same limb lengths."""
+    from gpr_kinematics.workspace.upu3 import Upu3Model
+    data = {'type': 'upu3', 'b': 0.2, 'p': 0.17, 'limb_min': 0.17, 'limb_max': 0.27}
+    mech = mechanism_from_dict(data, 'u.yaml')
+    np.testing.assert_allclose(mech.azimuths, np.radians([90.0, 210.0, 330.0]), rtol=0, atol=1e-15)
+    model = Upu3Model(b=0.2, p=0.17, limb_min=0.17, limb_max=0.27)
+    pts = np.array([[0.01, -0.02, 0.2], [0.0, 0.0, 0.25], [-0.03, 0.01, 0.18]])
+    poses = np.column_stack([pts, np.zeros((3, 3))])               # translational: no rotation
+    np.testing.assert_allclose(mech.inverse_kinematics(poses), model.evaluate(pts), atol=1e-15)
