@@ -358,3 +358,19 @@ def test_gpr_enclosures_of_point_like_boxes_hold_the_exact_displacements():
         assert np.all(np.isfinite(g)) and np.all(lo <= g) and np.all(g <= hi), tilt
         if tilt == 0.3:
             assert np.median((hi - lo)[:, 3:]) < 0.5 * np.median(np.abs(g[:, 3:]))      # and not vacuous
+
+
+@pytest.mark.parametrize('kwargs', [{}, {'base_radius': 0.05, 'platform_radius': 0.15, 'crank': 0.1, 'coupler': 0.1,
+                                         'theta_min': -3.0, 'theta_max': 3.0}])
+def test_rrr3_default_box_holds_every_feasible_pose(kwargs):
+    """The planar model's default box must contain its working area (the covering reports only what lies in it):
+    poses sampled from a box 1.5 times as wide, in x, y and over the whole turn of phi, are feasible only inside it
+    (the second geometry, cranks turning +-3 rad, reaches |x| = 0.125 m, beyond its coupler length)."""
+    model = Rrr3PlanarModel(**kwargs)
+    wide = model.box.copy()
+    wide[:2] *= 1.5
+    pts = _uniform(wide, 200_000)
+    ok = model.feasible(pts)
+    assert ok.sum() > 100
+    inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
+    assert inside[ok].all()
