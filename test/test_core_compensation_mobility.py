@@ -262,3 +262,14 @@ def test_reported_gains_are_the_extreme_singular_values_of_dx_dp(model):
     b = m.dx_bounds(dP)
     np.testing.assert_allclose(b.eq5, np.array(m.bounds['eq5']) * proj, rtol=1e-12)
     np.testing.assert_allclose(b.eq4, np.array(m.bounds['eq4']) * proj, rtol=1e-9)
+
+
+def test_compensation_without_a_tool_is_that_of_the_platform_origin():
+    """The default tool point is the platform origin: no tool argument gives what (0, 0, 0) gives (a command with a
+    heading, which the GPR cannot follow, so that a tool point off the origin would shift by the heading)."""
+    quaternion = quaternion_from_matrix(tilt_rotation(0.02, 0.7) @ rotation_z(0.3))
+    position = np.array([0.01, -0.02, 0.3])
+    a, b = compensate(position, quaternion), compensate(position, quaternion, (0.0, 0.0, 0.0))
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.tool_shift, b.tool_shift)
+    np.testing.assert_array_equal(a.arm_correction_translation, b.arm_correction_translation)

@@ -387,3 +387,39 @@ def test_heights_allowed_on_a_machine_with_rod_offsets():
         inverse(hi + 0.05, t, g, config=cfg)
     q = inverse(hi - 0.0001, t, g, config=cfg).q
     assert CFG.stroke_max - 0.0002 < q.max() <= CFG.stroke_max
+
+
+def test_naive_rods_of_a_tool_point_are_the_joint_heights_of_the_tilted_platform():
+    """The naive rods for a tool point at height h: joint k stands ``(T (p_k - tool))_z`` above the tool point (T the
+    pure tilt), worked out here from the rotation, with a tool off both axes; the result's base points are the
+    joint centres ``B_k + q_k e3``."""
+    from gpr_kinematics.core.forward import base_points
+    from gpr_kinematics.core.machine import MachineGeometry
+    from gpr_kinematics.core.naive import naive_rods
+
+    tool = np.array([0.12, -0.05, 0.25])
+    t, g, h = math.radians(1.5), 0.7, 0.4
+    th = np.asarray(CFG.rod_azimuths)
+    p = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(3)])
+    expect = h + ((p - tool) @ tilt_rotation(t, g).T)[:, 2]
+    n = tilt_normal(t, g)
+    np.testing.assert_allclose(naive_rods(MachineGeometry.of(CFG), h, list(n), tuple(tool)), expect, rtol=0,
+                               atol=1e-16)
+    Q = np.array([expect, expect + 0.01])
+    B = base_points(Q, CFG)
+    assert B.shape == (2, 3, 3)
+    np.testing.assert_allclose(B[1], p + (expect + 0.01)[:, None] * [0.0, 0.0, 1.0], rtol=0, atol=1e-16)
+
+
+def test_a_batch_of_one_result_is_that_result():
+    """``ForwardBatch.of_one`` turns one result into a batch of one row that gives it back field by field."""
+    from gpr_kinematics.core.forward import ForwardBatch
+
+    one = forward([0.5, 0.503, 0.498])
+    batch = ForwardBatch.of_one(one)
+    assert len(batch) == 1
+    back = batch[0]
+    for name in ('q', 'position', 'rotation', 'quaternion', 'centre_shift', 'virtual_joints', 'joint_displacement'):
+        np.testing.assert_array_equal(getattr(back, name), getattr(one, name), err_msg=name)
+    for name in ('tilt', 'tilt_azimuth', 'twist', 'residual', 'fit_residual', 'iterations', 'within_budget'):
+        assert getattr(back, name) == getattr(one, name), name

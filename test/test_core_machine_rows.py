@@ -155,3 +155,20 @@ def test_rows_of_a_clockwise_machine(model):
     np.testing.assert_allclose(fb.position[1::2], forward_batch(Q[1::2], mirror, model).position, rtol=0, atol=5e-16)
     np.testing.assert_allclose(fb.position[1::2], fb.position[::2] * [1.0, -1.0, 1.0], rtol=0, atol=1e-15)
     assert fb.fit_residual.max() < 1e-13 and fb.residual.max() <= CFG.tolerance
+
+
+@pytest.mark.parametrize('thin', [0, 1, 2])
+def test_a_row_names_the_smallest_angle_of_its_triangle_at_any_corner(thin):
+    """Rod positions on the circle of radius R at azimuths that make the corner ``thin`` 4 deg (an inscribed angle is
+    half the arc opposite it: 8 deg), the triangle turned by 37 deg: the row is refused with that angle, worked out
+    here by the law of cosines."""
+    az = np.radians(np.roll([200.0, 0.0, 8.0], thin) + 37.0)
+    pts = CFG.radius * np.column_stack([np.cos(az), np.sin(az)])
+    a, b, c = (np.linalg.norm(pts[(thin + i) % 3] - pts[(thin + j) % 3]) for i, j in ((1, 2), (0, 1), (0, 2)))
+    angle = math.degrees(math.acos((b * b + c * c - a * a) / (2 * b * c)))
+    assert angle == pytest.approx(4.0, abs=1e-9)
+    P = np.repeat(parameter_vector(CFG)[None], 2, axis=0)
+    for k in range(3):
+        P[1, PARAMETER_NAMES.index(f'rod{k + 1}_x')], P[1, PARAMETER_NAMES.index(f'rod{k + 1}_y')] = pts[k]
+    with pytest.raises(InputError, match=rf'row 1: the triangle of rod_positions has an angle of {angle:.3g} deg'):
+        MachineGeometry.per_row(CFG, P)

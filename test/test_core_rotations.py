@@ -114,3 +114,15 @@ def test_compose_one_is_the_product_of_homogeneous_transforms():
     T = Ta @ Tb
     np.testing.assert_allclose(p, T[:3, 3], rtol=0, atol=1e-15)
     np.testing.assert_allclose(R, T[:3, :3], rtol=0, atol=1e-15)
+
+
+def test_euler_conventions_taken_and_refused():
+    """Three axes from xyz, all lower (extrinsic) or all upper case (intrinsic), no axis twice in a row."""
+    from gpr_kinematics.core.rotations import check_euler_convention
+    from gpr_kinematics.errors import InputError
+
+    for good in ('xyz', 'zxz', 'ZYX', 'XZX'):
+        assert check_euler_convention(good) == good
+    for bad in ('xy', 'xyzx', 'xYz', 'xxz', 'xzz', 'abc', 3):
+        with pytest.raises(InputError, match='Euler convention must be three axes from xyz'):
+            check_euler_convention(bad)
