@@ -110,6 +110,11 @@ def test_accuracy_of_a_pose_whose_joints_leave_the_bound_names_the_pose():
                                          r'1000000.0000\d*; allowed: poses whose joint values stay within '
                                          r'\+-1e\+06 \(SI\)'):
         accuracy_analysis(stewart, [0, 0, 1e6, 0, 0, 0], joint_errors=[1e-5] * 6)
+    # among several poses, the one that leaves the bound is named (its joint values, not another pose's)
+    with pytest.raises(InputError, match=r'the pose \[0.0, 0.0, 1000000.0, 0.0, 0.0, 0.0\] needs joint values of '
+                                         r'1000000.0000\d*;'):
+        accuracy_analysis(stewart, [[0, 0, 0.5, 0, 0, 0], [0, 0, 0.6, 0, 0, 0], [0, 0, 1e6, 0, 0, 0]],
+                          joint_errors=[1e-5] * 6)
     assert accuracy_analysis(stewart, [0, 0, 0.5, 0, 0, 0], joint_errors=[1e-5] * 6).exact.shape == (1, 6)
 
 
