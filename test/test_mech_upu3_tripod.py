@@ -318,3 +318,24 @@ def test_upu3_file_without_azimuths_places_the_limbs_120_degrees_apart_like_the_
     pts = np.array([[0.01, -0.02, 0.2], [0.0, 0.0, 0.25], [-0.03, 0.01, 0.18]])
     poses = np.column_stack([pts, np.zeros((3, 3))])               # translational: no rotation
     np.testing.assert_allclose(mech.inverse_kinematics(poses), model.evaluate(pts), atol=1e-15)
+
+
+def test_a_dexterity_record_writes_an_infinite_condition_number_as_minus_one(tripod):
+    """The tripod at z = 0 (legs of zero length) is singular, its condition number infinite: the record that
+    ``gpr dexterity --json`` prints writes -1 there (JSON has no infinity) and the finite ones as they are."""
+    dmap = dexterity_sweep(tripod, [0, 0, 0.1, 0, 0, 0], 'z', [0.0, 0.05, 0.1])
+    assert dmap.singular.tolist() == [True, False, False] and np.isinf(dmap.condition_number[0])
+    record = dmap.record('tripod_3rps')
+    assert record.condition_number[0] == -1.0
+    assert np.array_equal(record.condition_number[1:], dmap.condition_number[1:])
+    assert np.all(record.condition_number[1:] >= 1.0)
+
+
+def test_mechanisms_without_euler_angles_are_never_near_a_gimbal_lock(upu, tripod):
+    """The 3-UPU and the tripod have no three Euler angles among their pose coordinates: their distance from a
+    gimbal lock is the largest there is, pi/2, whatever the pose, and their accuracy results carry no warning."""
+    from gpr_kinematics.mechanisms.accuracy import euler_lock_distance
+    poses = np.array([[0.0, 0.0, 0.2, 0.0, 0.0, 0.0], [0.01, -0.02, 0.22, 0.0, 0.0, 0.0]])
+    assert euler_lock_distance(upu, poses).tolist() == [math.pi / 2] * 2
+    assert euler_lock_distance(tripod, [0, 0, 0.1, 0, 0.3, 0]).tolist() == [math.pi / 2]
+    assert accuracy_analysis(upu, poses[1], joint_errors=[1e-5] * 3).warnings == ()
