@@ -118,6 +118,24 @@ def test_height_is_solved_for_the_wafer_point():
                                                       abs=1e-4)
 
 
+def test_a_batch_puts_every_station_on_its_plane_and_takes_rods_at_the_stroke_ends():
+    """A batch mixing a level station and stations tilted 1 and 2 deg (their heights converge in different numbers of
+    steps) puts each platform plane at the arm's wafer height through its station to 1e-14 m; and stations taught
+    with every rod at an end of the stroke (0 and 0.508 m: the platform level) are solved back to those rods, within
+    the stroke's rounding slack, not refused as beyond it."""
+    st = Stations.of([[1.2, 0.9, 0.5], [1.2, 0.9, 0.5], [1.1, 0.7, 0.45]], [0.0, math.radians(2.0), math.radians(1.0)],
+                     [0.0, 0.7, -2.0], [0.3, -0.3, 1.0])
+    sol = solve_stations(ROBOT, st, 'arm1')
+    n = sol.forward.platform.rotation[:, :, 2]
+    residual = np.einsum('ni,ni->n', n, st.position - sol.forward.platform.position) - ROBOT.arm('arm1').wafer_height
+    np.testing.assert_allclose(residual, 0.0, atol=1e-14)
+    from gpr_kinematics.robot.teach import teach
+    for q in (0.0, 0.508):
+        taught = teach(ROBOT, [[q] * 3] * 2, [[0.2, 1.0, -0.4], [-0.3, -1.2, 0.5]], 'arm1')
+        back = solve_stations(ROBOT, taught.stations, 'arm1', branch=['right', 'left'])
+        np.testing.assert_allclose(back.rods, q, atol=1e-13)
+
+
 def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
     st, _, _ = random_stations(ROBOT, 'arm2', 200, seed=5)
     sol = solve_stations(ROBOT, st, 'arm2', check=False)
