@@ -39,6 +39,16 @@ def test_an_arm_without_a_mount_or_a_blade_position_sits_at_the_platform_centre(
     assert a.wafer_height == pytest.approx(heights, abs=1e-15)
 
 
+def test_home_defaults_to_zero_clipped_into_each_range():
+    """Without home, each joint starts at 0 rad, or at the nearer limit of a range that excludes 0."""
+    data = robot_data()
+    del data['arms'][0]['home']
+    data['arms'][0]['joints'][1]['lower'] = 0.5
+    data['arms'][0]['joints'][2]['upper'] = -0.25
+    data['arms'][0]['joints'][2]['lower'] = -1.0
+    assert make_robot(data).arm('arm1').home == (0.0, 0.5, -0.25)
+
+
 def test_geometry_by_reference_inline_and_overridden(tmp_path):
     (tmp_path / 'geo.yaml').write_text('radius: 0.1\nmodel: polar\n')
     data = robot_data()
