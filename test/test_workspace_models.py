@@ -299,6 +299,17 @@ def test_dextar_closed_form_area_next_to_a_tangency():
         assert 0.0 <= DextarModel(*lengths).exact_area() < math.pi * 0.4 ** 2
 
 
+def test_lens_area_next_to_an_internal_tangency():
+    """Discs of radii 0.61 and 0.73 whose centres are |r1 - r2| plus an ulp apart (the small one inside the large
+    one, touching it): there the cosine of the small disc's half-angle rounds to -1.0000000000000002, below -1; the
+    lens is the whole small disc, pi r1^2, to rounding (math.acos raised 'math domain error' without the clamp)."""
+    from gpr_kinematics.workspace.dextar import _lens_area
+    r1, r2, d = 0.610569418009508, 0.7322015953741584, 0.12163217736465039
+    assert (d * d + r1 * r1 - r2 * r2) / (2 * d * r1) < -1.0 and d > abs(r1 - r2)
+    assert math.isclose(_lens_area(r1, r2, d), math.pi * r1 ** 2, rel_tol=1e-7)
+    assert math.isclose(_lens_area(r2, r1, d), math.pi * r1 ** 2, rel_tol=1e-7)
+
+
 def test_rrr3_whose_home_pose_does_not_close_is_refused():
     """The input range is measured from the cranks' directions at the home pose; with crank 0.02 and coupler 0.1 no
     leg closes there (|C - A| = 0.05 < 0.08), the directions were NaN and every pose came out infeasible, though
