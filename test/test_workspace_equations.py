@@ -96,6 +96,26 @@ def test_a_joint_limited_arm_brackets_its_annulus():
     assert np.all((r >= math.hypot(0.3, 0.2)) & (r <= 0.5))
 
 
+def test_a_periodic_angle_over_a_full_turn_is_widened_to_cover_the_circle():
+    """[-3.141592653589793, 3.141592653589793] and [0, 6.283185307179586] are full turns whose floats fall short of
+    the real 2 pi by 2.4e-16: a periodic angle over them is a full turn, widened by 1e-15 rad at both ends so that
+    no seam is left; over [-3, 3] it is not (0.28 rad short of a turn), nor is a full-turn range of an angle that is
+    not declared periodic."""
+    def arm(q1, periodic):
+        return model_from_mapping({
+            'type': 'equations', 'parameters': {'l1': 0.3, 'l2': 0.2},
+            'variables': {'q1': q1, 'q2': [0.0, math.pi / 2], 'x': [-0.6, 0.6], 'y': [-0.6, 0.6]},
+            'units': {'q1': 'rad', 'q2': 'rad'}, 'outputs': ['x', 'y'], 'periodic': periodic,
+            'equations': ['x = l1*cos(q1) + l2*cos(q1 + q2)', 'y = l1*sin(q1) + l2*sin(q1 + q2)']}, 'arm')
+    for q1 in ([-math.pi, math.pi], [0.0, 2 * math.pi]):
+        model = arm(q1, ['q1'])
+        assert model.full_turn.tolist() == [True, False, False, False]
+        assert model.box[0].tolist() == [q1[0] - 1e-15, q1[1] + 1e-15]
+    for q1, periodic in (([-3.0, 3.0], ['q1']), ([-math.pi, math.pi], [])):
+        model = arm(q1, periodic)
+        assert not model.full_turn.any() and model.box[0].tolist() == q1
+
+
 BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0, 1.0], 'x': [-2.0, 2.0]},
         'units': {'q': 'rad'}, 'outputs': ['x'], 'equations': ['x = a*sin(q)']}
 
