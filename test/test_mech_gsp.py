@@ -355,3 +355,20 @@ def test_with_parameters_names_the_one_constraint_whose_line_has_no_direction():
     pose = np.array([0.0, 0.0, 0.3, 0.1, -0.05, 0.2])
     before, after = gsp.inverse_kinematics(pose), gsp.with_parameters({'A_i': moved}).inverse_kinematics(pose)
     assert np.all(np.isfinite(after)) and np.array_equal(np.delete(before, 3), np.delete(after, 3))
+
+
+def test_dexterity_of_small_wide_zero_and_ill_conditioned_matrices():
+    """The inverse condition number sigma_min / sigma_max of matrices whose singular values are known: a wide one
+    (the SVD path) scaled far below 1, U diag(1, 0.5, 1e-7) V^T (beyond the Gram estimate's limit: recomputed by
+    SVD), a zero matrix (singular: 0)."""
+    from gpr_kinematics.mechanisms.conditioning import condition_number, dexterity_index
+    wide = 1e-3 * np.array([[[1.0, 0.0, 0.0], [0.0, 4.0, 0.0]]])              # sigma = 4e-3, 1e-3
+    np.testing.assert_allclose(dexterity_index(wide), [0.25], rtol=1e-14)
+    u, _ = np.linalg.qr(np.array([[2.0, 1.0, 0.5], [0.3, -1.0, 2.0], [1.0, 0.7, -0.4]]))
+    v, _ = np.linalg.qr(np.array([[1.0, -2.0, 0.1], [0.6, 0.2, 1.5], [-1.1, 0.9, 0.8]]))
+    # sigma 1, 0.5, 1e-7 (to 1e-16 absolute: 1e-9 relative on the least); the Gram estimate is 0.5 % off there
+    ill = np.stack([u @ np.diag([1.0, 0.5, 1e-7]) @ v.T, np.diag([1.0, 0.5, 0.25])])
+    np.testing.assert_allclose(dexterity_index(ill), [1e-7, 0.25], rtol=1e-7)
+    np.testing.assert_allclose(condition_number(ill), [1e7, 4.0], rtol=1e-7)
+    assert dexterity_index(np.zeros((1, 2, 3))).tolist() == [0.0]
+    assert dexterity_index(np.zeros((1, 3, 3))).tolist() == [0.0] and condition_number(np.zeros((1, 3, 3)))[0] == np.inf
