@@ -116,6 +116,14 @@ def test_a_periodic_angle_over_a_full_turn_is_widened_to_cover_the_circle():
         assert not model.full_turn.any() and model.box[0].tolist() == q1
 
 
+def test_feasible_points_lie_in_every_variable_range():
+    """``feasible`` (the test of a solved configuration) holds only inside the variables' box: x = sin(q) with q in
+    [-1, 1] and x in [-2, 2] holds at q = 0.5 and at the end q = -1, not at q = 1.5 or -1.2 (x inside, q not)."""
+    model = model_from_mapping(BASE, 'b')
+    q = np.array([0.5, -1.0, 1.5, -1.2])
+    assert model.feasible(np.column_stack([q, np.sin(q)])).tolist() == [True, True, False, False]
+
+
 BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0, 1.0], 'x': [-2.0, 2.0]},
         'units': {'q': 'rad'}, 'outputs': ['x'], 'equations': ['x = a*sin(q)']}
 

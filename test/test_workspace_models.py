@@ -385,3 +385,15 @@ def test_rrr3_default_box_holds_every_feasible_pose(kwargs):
     assert ok.sum() > 100
     inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
     assert inside[ok].all()
+
+
+def test_upu3_default_box_holds_every_feasible_position():
+    """The 3-UPU model's default box (limb_max + |b - p| around the axis, z from 0 to limb_max) must contain its
+    working area above the base: positions sampled from a box twice as wide are feasible only inside it."""
+    model = Upu3Model()
+    wide = np.array([[-0.6, 0.6], [-0.6, 0.6], [0.0, 0.6]])
+    pts = _uniform(wide, 200_000)
+    ok = model.feasible(pts)
+    assert ok.sum() > 1000
+    inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
+    assert inside[ok].all()
