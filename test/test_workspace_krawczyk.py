@@ -71,3 +71,25 @@ def test_newton_reports_singular_and_divergent_points():
     # x = y = 0 with l1 != l2 has no solution: Newton must not report convergence
     p, ok = newton(tape, np.array([[0.0, 0.0, 0.3, 1.0]]), [2, 3], np.zeros(2))
     assert not ok[0]
+
+
+def test_point_matrix_times_interval_vector_encloses_every_product():
+    """``C v`` for point matrices and interval vectors (the ``C F`` term of K): the exact products of C with the
+    corners of v, in rationals, lie inside, and the enclosure is the hull of those corners to rounding (the
+    range of a linear map over a box is attained at its corners)."""
+    from fractions import Fraction
+    from itertools import product
+
+    from gpr_kinematics.workspace.krawczyk import _matvec
+    rng = np.random.default_rng(9)
+    C = rng.normal(size=(20, 3, 3))
+    lo = rng.normal(size=(20, 3))
+    hi = lo + rng.random((20, 3))
+    out = _matvec(C, Interval(lo, hi))
+    for n in range(20):
+        corners = [[sum(Fraction(C[n, i, j]) * Fraction([lo, hi][c[j]][n, j]) for j in range(3)) for i in range(3)]
+                   for c in product((0, 1), repeat=3)]
+        for i in range(3):
+            vals = [row[i] for row in corners]
+            assert Fraction(out.lo[n, i]) <= min(vals) and max(vals) <= Fraction(out.hi[n, i])
+            assert float(min(vals)) - out.lo[n, i] < 1e-14 and out.hi[n, i] - float(max(vals)) < 1e-14

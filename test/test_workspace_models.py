@@ -397,3 +397,13 @@ def test_upu3_default_box_holds_every_feasible_position():
     assert ok.sum() > 1000
     inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
     assert inside[ok].all()
+
+
+def test_shell_arm_with_the_shorter_upper_arm_keeps_its_hole():
+    """The shell |l1 - l2| <= |P| <= l1 + l2 is the same for l1 < l2: the arm 0.2 + 0.3 cannot reach within 0.1 m
+    of its shoulder (the lower bound of the reach constraint is 0.1, not -0.1), and its volume is the shell's."""
+    arm = ShellArmModel(0.2, 0.3, floor=-1.0)
+    assert arm.lower[0] == pytest.approx(0.1)
+    points = np.array([[0.05, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.55]])
+    assert arm.feasible(points).tolist() == [False, True, False]
+    assert math.isclose(arm.exact_volume(), 4 / 3 * math.pi * (0.5 ** 3 - 0.1 ** 3))
