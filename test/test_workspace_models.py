@@ -371,6 +371,16 @@ def test_gpr_enclosures_of_point_like_boxes_hold_the_exact_displacements():
             assert np.median((hi - lo)[:, 3:]) < 0.5 * np.median(np.abs(g[:, 3:]))      # and not vacuous
 
 
+def _assert_box_holds_feasible(model, wide: np.ndarray, at_least: int) -> None:
+    """Of 200,000 points drawn from ``wide``, more than ``at_least`` are feasible, and every feasible one lies in the
+    model's default box."""
+    pts = _uniform(wide, 200_000)
+    ok = model.feasible(pts)
+    assert ok.sum() > at_least
+    inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
+    assert inside[ok].all()
+
+
 @pytest.mark.parametrize('kwargs', [{}, {'base_radius': 0.05, 'platform_radius': 0.15, 'crank': 0.1, 'coupler': 0.1,
                                          'theta_min': -3.0, 'theta_max': 3.0}])
 def test_rrr3_default_box_holds_every_feasible_pose(kwargs):
@@ -380,23 +390,13 @@ def test_rrr3_default_box_holds_every_feasible_pose(kwargs):
     model = Rrr3PlanarModel(**kwargs)
     wide = model.box.copy()
     wide[:2] *= 1.5
-    pts = _uniform(wide, 200_000)
-    ok = model.feasible(pts)
-    assert ok.sum() > 100
-    inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
-    assert inside[ok].all()
+    _assert_box_holds_feasible(model, wide, 100)
 
 
 def test_upu3_default_box_holds_every_feasible_position():
     """The 3-UPU model's default box (limb_max + |b - p| around the axis, z from 0 to limb_max) must contain its
     working area above the base: positions sampled from a box twice as wide are feasible only inside it."""
-    model = Upu3Model()
-    wide = np.array([[-0.6, 0.6], [-0.6, 0.6], [0.0, 0.6]])
-    pts = _uniform(wide, 200_000)
-    ok = model.feasible(pts)
-    assert ok.sum() > 1000
-    inside = np.all((pts >= model.box[:, 0]) & (pts <= model.box[:, 1]), axis=1)
-    assert inside[ok].all()
+    _assert_box_holds_feasible(Upu3Model(), np.array([[-0.6, 0.6], [-0.6, 0.6], [0.0, 0.6]]), 1000)
 
 
 def test_shell_arm_with_the_shorter_upper_arm_keeps_its_hole():
