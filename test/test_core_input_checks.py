@@ -8,11 +8,12 @@ import math
 
 import numpy as np
 import pytest
+from gpr_kinematics.core import inverse_batch
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.mechanisms import load_mechanism
 from gpr_kinematics.robot import load_robot, robot_forward, stations_from_poses
 
-from gpr_kinematics import compensate, forward, inverse
+from gpr_kinematics import compensate, forward, forward_batch, inverse
 
 QUAT = (0.0, 0.0, 0.0, 1.0)
 
@@ -28,6 +29,25 @@ QUAT = (0.0, 0.0, 0.0, 1.0)
     (lambda: compensate((0.0, 0.0, 0.4), QUAT, (0.0, 0.0, math.inf)), 'tool_offset[2] = inf is not a finite number'),
 ])
 def test_a_value_of_the_wrong_shape_or_not_finite_is_refused_by_name(call, message):
+    with pytest.raises(InputError) as err:
+        call()
+    assert message in str(err.value)
+
+
+@pytest.mark.parametrize('call, message', [
+    (lambda: inverse_batch('0.5', 0.0, 0.0), "height must be a number or an array of numbers, got '0.5'"),
+    (lambda: inverse_batch([0.5, '0.4'], 0.0, 0.0), 'height must be a number or an array of numbers'),
+    (lambda: inverse('0.5', 0.0, 0.0), "height must be a number or an array of numbers, got '0.5'"),
+    (lambda: forward(['0.5', '0.5', '0.5']), "q must be numbers, got ['0.5', '0.5', '0.5']"),
+    (lambda: forward_batch(np.array([['0.5', '0.5', '0.5']])), 'q must be numbers'),
+    (lambda: inverse(0.5, 0.0, 0.0, tool=(0.0, 0.0, b'0.1')), 'tool must be numbers'),
+    (lambda: compensate(np.array(['0', '0', '0.4']), QUAT), 'position must be 3 numbers'),
+    (lambda: forward_batch(np.array([[0.5 + 1e-3j, 0.5, 0.5]])), 'q must be numbers'),   # was cast to its real part
+])
+def test_numbers_given_as_text_or_complex_are_refused(call, message):
+    """numpy converts the text '0.5' to 0.5 and float() does too: the batch inverse kinematics solved a string height
+    while the sweep refused one. Text is no number in the Python API either (the command line and the files read
+    their own decimals). A numpy array of complex numbers was cast to its real parts with a warning."""
     with pytest.raises(InputError) as err:
         call()
     assert message in str(err.value)

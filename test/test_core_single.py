@@ -186,7 +186,7 @@ def test_the_kernels_are_built_once_per_config_and_model():
     (float('inf'), r'height\[0\] = inf is not a finite number'),
     (np.float64(0.3), None),
     (0, None),
-    ('0.3', None),
+    ('0.3', "height must be a number or an array of numbers, got '0.3'"),   # text is no number (was taken)
     ([0.3], 'height must be a single number'),
     ('high', 'height must be a number'),
 ])

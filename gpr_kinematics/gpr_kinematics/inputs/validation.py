@@ -99,20 +99,37 @@ def random_seed(value: Any, name: str = 'seed') -> int:
     return int(value)
 
 
+def _is_text(value: Any) -> bool:
+    return isinstance(value, (str, bytes))   # numpy's str_ and bytes_ too
+
+
+def _float(value: Any) -> float:
+    """``float(value)``, but text (``'0.5'``) is a TypeError."""
+    if type(value) is float:
+        return value
+    if _is_text(value):
+        raise TypeError('text')
+    return float(value)
+
+
 def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np.float64]:
-    """``values`` as a float array of its own shape, NaN and infinity kept; what numpy cannot convert (strings,
-    complex numbers, ragged lists, an int of 400 digits: OverflowError) is an :class:`InputError` saying ``name``
-    must be ``expected`` and quoting the value. The one conversion of numbers a user gives."""
+    """``values`` as a float array of its own shape, NaN and infinity kept; text (numpy reads ``'0.5'`` as 0.5),
+    complex numbers (an array of them numpy casts to its real parts) and what numpy cannot convert (ragged lists, an
+    int of 400 digits: OverflowError) are an :class:`InputError` saying ``name`` must be ``expected`` and quoting the
+    value. The one conversion of numbers a user gives."""
     try:
-        return np.asarray(values, dtype=float)
+        raw = np.asarray(values)
+        if raw.dtype.kind in 'SUc' or (raw.dtype.kind == 'O' and any(_is_text(v) for v in raw.ravel())):
+            raise TypeError('text or complex numbers')   # numpy casts complex arrays to their real parts
+        return np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f'{name} must be {expected}, got {brief(values)}') from None
 
 
 def finite_number(value: Any, name: str) -> float:
-    """``value`` as a finite float; else :class:`InputError` naming ``name``."""
+    """``value`` as a finite float (not text: ``float('0.5')`` is 0.5); else :class:`InputError` naming ``name``."""
     try:
-        v = float(value)
+        v = _float(value)
     except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
         raise InputError(f'{name} must be a number, got {brief(value)}') from None
     if not np.isfinite(v):
@@ -210,7 +227,7 @@ def three_floats(values: Any, name: str) -> list[float]:
         values = values.tolist()
     if isinstance(values, (list, tuple)) and len(values) == 3:
         try:
-            out = [float(v) for v in values]
+            out = [_float(v) for v in values]
         except (TypeError, ValueError, OverflowError):  # OverflowError: an int of 400 digits
             out = []
         if out and all(math.isfinite(v) for v in out):
