@@ -206,16 +206,20 @@ def _limit_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) ->
     docstring; NaN where out of reach)."""
     red = arm.redundancy
     assert red is not None
+    return np.concatenate([_held_where(arm, d, beta, p, phi, k, (joint.lower, joint.upper))
+                           for k, joint in enumerate(arm.joints) if k != red.joint], axis=1)
+
+
+def _held_where(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, k: int, values: Sequence[float]
+                ) -> Array:
+    """Held values ``(N, 2 len(values))`` of the postures with joint ``k`` at each of ``values`` [rad], on either
+    branch (NaN where out of reach): a ``fixed_joint`` solve with ``k`` held."""
+    red = arm.redundancy
+    assert red is not None
     j, o = red.joint, arm.zero_offset
-    n = p.shape[0]
-    out = []
-    for k, joint in enumerate(arm.joints):
-        if k == j:
-            continue
-        held = np.broadcast_to(np.array([joint.lower, joint.lower, joint.upper, joint.upper]) + o[k], (n, 4))
-        theta, tl = solve_fixed(d, beta, k, held, p[:, None, :], phi[:, None], np.array([1.0, -1.0, 1.0, -1.0]))
-        out.append(np.where(tl.reachable, theta[..., j] - o[j], np.nan))
-    return np.concatenate(out, axis=1)
+    held = np.broadcast_to(np.repeat(np.asarray(values, dtype=float), 2) + o[k], (p.shape[0], 2 * len(values)))
+    theta, tl = solve_fixed(d, beta, k, held, p[:, None, :], phi[:, None], np.tile([1.0, -1.0], len(values)))
+    return np.asarray(np.where(tl.reachable, theta[..., j] - o[j], np.nan), dtype=np.float64)
 
 
 def _wrap_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
@@ -225,19 +229,13 @@ def _wrap_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> 
     reach); ``(N, 0)`` where no range exceeds a turn (module docstring)."""
     red = arm.redundancy
     assert red is not None
-    j, o = red.joint, arm.zero_offset
     n = p.shape[0]
     out = [np.zeros((n, 0))]
     for k, joint in enumerate(arm.joints):
         if joint.upper - joint.lower <= 2.0 * math.pi:
             continue
         w = 0.5 * (joint.lower + joint.upper) + math.pi
-        if k == j:
-            out.append(np.full((n, 1), w))
-            continue
-        held = np.full((n, 2), w + o[k])
-        theta, tl = solve_fixed(d, beta, k, held, p[:, None, :], phi[:, None], np.array([1.0, -1.0]))
-        out.append(np.where(tl.reachable, theta[..., j] - o[j], np.nan))
+        out.append(np.full((n, 1), w) if k == red.joint else _held_where(arm, d, beta, p, phi, k, (w,)))
     return np.concatenate(out, axis=1)
 
 
