@@ -95,8 +95,8 @@ def _print_safety(r: Any) -> None:
     where = f'in cell {r.cell}' if r.cell else 'against itself (no cell)'
     print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, '
           f'{r.between_samples}; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} '
-          f'({"a bound" if r.proven else "a first-order bound"} over the motion; {r.max_slip_evaluated:.3f} evaluated '
-          f'at {r.max_slip_at:.3f} s, {r.slip_label})')
+          f'({r.bound} over the motion; {r.max_slip_evaluated:.3f} evaluated at {r.max_slip_at:.3f} s, '
+          f'{r.slip_label})')
     if not r.slip_certified:
         from ..safety.slip_bound import SLIP_TOLERANCE
         print(f'  the slip bound was not refined to within {SLIP_TOLERANCE:g} of the evaluated ratios (too many '

@@ -98,6 +98,11 @@ class SafetyReport:
     proven: bool
 
     @property
+    def bound(self) -> str:
+        """What the slip bound is, in words: ``a bound``, or ``a first-order bound`` where not :attr:`proven`."""
+        return 'a bound' if self.proven else 'a first-order bound'
+
+    @property
     def between_samples(self) -> str:
         """How the clearance holds between the samples, in words."""
         if self.proven:

@@ -71,7 +71,7 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
     fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
                  f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} '
-                 f'({"a bound" if report.proven else "a first-order bound: " + report.model}; limit 1)',
+                 f'({report.bound}{"" if report.proven else ": " + report.model}; limit 1)',
                  fontsize=10)
     return fig
 
