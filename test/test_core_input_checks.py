@@ -1,7 +1,8 @@
 """The shared input checks (``inputs.validation``) as the public functions meet them: a value of the wrong shape or
-a non-finite one is an :class:`InputError` naming it, never a silent answer for part of it. Each case was a guard
-whose removal no test noticed (a mutation audit): without it, two rod triples gave the forward kinematics of the
-first, two heights the inverse kinematics of the first, NaN a NaN answer."""
+a non-finite one is an :class:`InputError` naming it, never a silent answer for part of it. The shape, finiteness
+and bound cases are guards whose removal no test noticed (a mutation audit): without them, two rod triples gave the
+forward kinematics of the first, two heights the inverse kinematics of the first, NaN a NaN answer. Numbers given as
+text or as complex numbers were taken (below)."""
 from __future__ import annotations
 
 import math
@@ -54,11 +55,13 @@ def test_numbers_given_as_text_or_complex_are_refused(call, message):
 
 
 def test_the_checked_forms_still_answer():
-    """The same calls with valid values: the guards above refuse only what they name (one triple, one height)."""
-    assert forward([0.5, 0.5, 0.5]).position.shape == (3,)
+    """The same calls with valid values: the guards above refuse only what they name (one triple, one height). Equal
+    rods hold the platform level at their length (the singular configuration of the nominal machine), a level command
+    at 0.4 m needs rods of 0.4 m, and the inverse kinematics' rods give back its pose."""
+    np.testing.assert_allclose(forward([0.5, 0.5, 0.5]).position, [0.0, 0.0, 0.5], rtol=0, atol=1e-15)
     h = inverse(0.5, 0.01, 0.0)
     assert h.q.shape == (3,) and np.allclose(forward(h.q).position, h.achieved.position, atol=1e-12)
-    assert compensate((0.0, 0.0, 0.4), QUAT).q.shape == (3,)
+    np.testing.assert_allclose(compensate((0.0, 0.0, 0.4), QUAT).q, [0.4, 0.4, 0.4], rtol=0, atol=1e-15)
 
 
 def test_robot_joints_and_station_positions_are_bounded_to_a_million():
