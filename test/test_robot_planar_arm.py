@@ -102,3 +102,26 @@ def test_branch_of_a_four_joint_arm_is_the_branch_it_was_solved_on(held):
         ok = sol.reachable & (np.max(sol.violation, axis=1) <= 0.0)
         assert ok.sum() > 50
         assert set(branch_of(arm, sol.theta[ok])) == {branch}
+
+
+def test_a_held_value_given_to_the_one_target_solve_holds_the_joint_under_either_rule():
+    """``solve_arm_one(..., value)`` holds the redundant joint at ``value`` under ``nearest`` too (the one-station
+    path finds the real and the naive target's nearest values in one call and passes them on): the answer is the
+    ``fixed_joint`` arm's at that value, and without a value the ``nearest`` rule's own choice."""
+    from gpr_kinematics.robot.nearest import nearest_value
+    from gpr_kinematics.robot.planar_arm import solve_arm_one
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest'}  # holds the first joint
+    arm_near = make_robot(data).arm('arm2')
+    data['arms'][1]['redundancy'] = {'rule': 'fixed_joint', 'joint': 'arm2_shoulder', 'value': 0.0}
+    arm_fixed = make_robot(data).arm('arm2')
+    p, phi = (0.42, 0.13), 0.3
+    for v in (-0.4, 0.0, 0.7):
+        held = solve_arm_one(arm_near, *p, phi, 1.0, v)
+        fixed = solve_arm_one(arm_fixed, *p, phi, 1.0, v)
+        assert held.theta == fixed.theta and held.theta[0] == pytest.approx(v, abs=1e-15)
+    d, beta = link_vectors(arm_near)
+    chosen = float(nearest_value(arm_near, d, beta, np.array([p]), np.array([phi]), np.array([1.0]))[0])
+    own = solve_arm_one(arm_near, *p, phi, 1.0)
+    assert own.theta == solve_arm_one(arm_near, *p, phi, 1.0, chosen).theta
+    assert abs(chosen) > 1e-3  # the rule chose a value of its own, not the fixed rule's 0

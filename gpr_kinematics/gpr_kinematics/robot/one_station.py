@@ -40,8 +40,10 @@ from ..core.platform_pose import rigid_fit
 from ..core.rotations import tilt_of_normal
 from ..core.single import OnePose, one_pose
 from ..errors import ConvergenceError, LimitError
+from .arm_chain import link_vectors
 from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
+from .nearest import nearest_value
 from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
 from .transforms import PoseBatch
@@ -96,15 +98,27 @@ def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Ve
     raise ConvergenceError('station height did not converge')  # the batch path says by how much
 
 
-def _arm(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3, sign: float, value: float | None) -> tuple[OneArm, float]:
-    """The arm for the wafer at ``w`` in the platform frame and the station's orientation ``R_b`` (gpr_base) on a
-    platform turned by ``R_platform``: the target in the mount frame, then the arm in closed form. Returns the
-    arm's solution and the heading it was asked for in the mount frame [rad]."""
+def _target(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3) -> tuple[float, float, float]:
+    """The arm's target for the wafer at ``w`` in the platform frame and the station's orientation ``R_b``
+    (gpr_base) on a platform turned by ``R_platform``: the wafer point and heading in the mount frame [m, rad]."""
     M = mat_tmul(R_platform, R_b)
     c, s = math.cos(-arm.mount_yaw), math.sin(-arm.mount_yaw)
     x, y = w[0] - arm.mount_position[0], w[1] - arm.mount_position[1]
-    phi = math.atan2(M[1][0], M[0][0]) - arm.mount_yaw
-    return solve_arm_one(arm, c * x - s * y, s * x + c * y, phi, sign, value), phi
+    return c * x - s * y, s * x + c * y, math.atan2(M[1][0], M[0][0]) - arm.mount_yaw
+
+
+def _held_values(arm: Arm, targets: list[tuple[float, float, float]], sign: float, value: float | None
+                 ) -> list[float | None]:
+    """The held joint's value for each mount-frame target ``(x, y, phi)``: ``value`` (the caller's or ``None``,
+    the rule's own), except under the ``nearest`` rule, which is solved for all targets in one call (the real
+    and the naive target of a station: numpy's cost on rows of one is per call, not per row)."""
+    red = arm.redundancy
+    if red is None or red.rule != 'nearest':
+        return [value] * len(targets)
+    d, beta = link_vectors(arm)
+    held = nearest_value(arm, d, beta, np.array([t[:2] for t in targets]),
+                         np.array([t[2] for t in targets]), np.full(len(targets), sign))
+    return [float(v) for v in held.tolist()]
 
 
 def _faulty(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
@@ -169,14 +183,17 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     R = _rows(gpr.rotation)
     t = gpr.position.tolist()
     w = mat_tvec(R, (p_b[0] - t[0], p_b[1] - t[1], p_b[2] - t[2]))
-    sol, phi = _arm(arm, w, R, R_b, sign, value)
-    if _faulty(kernel, arm, q, sol, phi, free):
-        return None
-    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
+    target = _target(arm, w, R, R_b)
     # The naive model's answer: platform at (0, 0, h) tilted about its centre.
     h = (n_b[0] * p_b[0] + n_b[1] * p_b[1] + n_b[2] * p_b[2] - zw) / n_b[2]
     R_n = tilt_matrix(tilt, az)
-    naive_sol, _ = _arm(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b, sign, value)
+    naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
+    held, naive_held = _held_values(arm, [target, naive_target], sign, value)
+    sol = solve_arm_one(arm, *target, sign, held)
+    if _faulty(kernel, arm, q, sol, target[2], free):
+        return None
+    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
+    naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
     s = math.sin(tilt)
     normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
     q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))

@@ -124,7 +124,9 @@ class OneArm(NamedTuple):
 
 
 def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
-    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps)."""
+    """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps); ``value``:
+    a 4-joint arm's held joint at this value [rad] whatever its rule (the ``nearest`` rule's answer found by the
+    caller), by default the rule's own."""
     d, beta, offset = arm_floats(arm)
     if len(arm.joints) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
@@ -133,8 +135,10 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
         j, v, red = -1, 0.0, arm.redundancy
         if red is not None:
             j = red.joint
-            if red.rule == 'fixed_joint':
-                v = red.value if value is None else value
+            if value is not None:
+                v = value
+            elif red.rule == 'fixed_joint':
+                v = red.value
             else:
                 v = float(nearest_value(arm, link_vectors(arm)[0], beta, np.array([[px, py]]), np.array([phi]),
                                         np.array([sign]))[0])
