@@ -132,7 +132,7 @@ def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
     (['ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '1e300'], r'--azimuth = 1e\+300 rad is outside'),
     (['ik', '--height', '0.5', '--tilt', '0.02', '--azimuth', '-6.3'], r'--azimuth = -6.3 rad is outside'),
     (['ik', '--height', '0.5', '--tilt', '1', '--azimuth', '400', '--deg'],
-     r'--azimuth = 400 deg is outside \[-360, 360\] deg; allowed: a direction of at most one turn'),
+     r'--azimuth = 400 deg is outside \[-360, 360\] deg; allowed: an angle of at most one turn'),
     (['compensate', '--height', '0.4', '--tilt', '0.02', '--azimuth', '40'], r'--azimuth = 40 rad is outside'),
     (['compensate', '--height', '0.4', '--tilt', '0.02', '--azimuth', '1', '--heading', '20'],
      r'--heading = 20 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians \(give --deg'),

@@ -175,6 +175,10 @@ def test_program_check_and_export(capsys, tmp_path):
      r'^gpr robot ik: error: --heading = 20 rad is outside \[-2pi, 2pi\] rad'),
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '-361', '--deg'],
      r'^gpr robot ik: error: --heading = -361 deg is outside \[-360, 360\] deg'),
+    # a held joint's value in degrees typed as radians: 30 rad ran as 30 - 10 pi = -1.416 rad, silently
+    (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3', '--arm', 'arm2', '--redundancy', '30'],
+     r'^gpr robot ik: error: --redundancy = 30 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians '
+     r'\(give --deg for degrees\)$'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
      r'^gpr robot fk: error: joints of arm1 must have 3 values per sample'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),

@@ -190,15 +190,15 @@ def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
 
 
 def direction(args: argparse.Namespace, value: float, option: str) -> float:
-    """A direction angle typed as ``option`` (``--azimuth``, ``--heading``) in radians (``--deg`` converted): finite
-    and within one turn, [-2 pi, 2 pi] rad or [-360, 360] deg, else :class:`InputError` naming it. The core takes
-    any angle up to +-1e6 rad (periodic); a typed direction beyond one turn is a slip, mostly degrees given as
-    radians (``--azimuth 40`` meant 40 deg), never a direction meant."""
+    """A direction or joint angle typed as ``option`` (``--azimuth``, ``--heading``, ``--redundancy``) in radians
+    (``--deg`` converted): finite and within one turn, [-2 pi, 2 pi] rad or [-360, 360] deg, else
+    :class:`InputError` naming it. The core takes any angle up to +-1e6 rad (periodic); a typed angle beyond one
+    turn is a slip, mostly degrees given as radians (``--azimuth 40`` meant 40 deg), never an angle meant."""
     deg = bool(getattr(args, 'deg', False))
     v = finite_number(value, option)
     if abs(v) > (360.0 if deg else TURN):
         if deg:
-            raise InputError(f'{option} = {v:g} deg is outside [-360, 360] deg; allowed: a direction of at most one '
+            raise InputError(f'{option} = {v:g} deg is outside [-360, 360] deg; allowed: an angle of at most one '
                              'turn')
         raise InputError(f'{option} = {v:g} rad is outside [-2pi, 2pi] rad; allowed: an angle in radians (give '
                          '--deg for degrees)')

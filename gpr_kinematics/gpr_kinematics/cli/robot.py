@@ -58,7 +58,7 @@ def _station_args(args: argparse.Namespace) -> Stations:
 def _cmd_ik(args: argparse.Namespace) -> int:
     from ..robot.inverse import solve_stations
     robot = robot_of(args)
-    value = None if args.redundancy is None else angles(args, [args.redundancy])[0]
+    value = None if args.redundancy is None else direction(args, args.redundancy, '--redundancy')
     sol = solve_stations(robot, _station_args(args), args.arm, args.branch, redundancy_value=value)
     if args.json:
         emit_json(sol.record(0))

@@ -241,6 +241,13 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
             raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
                              'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
         value = per_station(redundancy_value, 'redundancy value', n)
+        beyond = np.abs(value) > 2.0 * np.pi  # the robot file's rule: a joint value is taken modulo a turn, and
+        if beyond.any():                     # one given beyond it is a slip (degrees), never a posture meant
+            i = int(np.argmax(beyond))
+            joint = a.joints[a.redundancy.joint]
+            raise InputError(f'redundancy value = {value[i]:g} rad ({stations.label(i)}) is beyond one turn; allowed: '
+                             f'radians within [-2pi, 2pi] (the held joint {joint.name} ranges over '
+                             f'[{joint.lower:g}, {joint.upper:g}] rad); in degrees? give radians')
     if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
         one = solve_one(robot, stations, a, float(sign[0]), None if value is None else float(value[0]))
         if one is not None:
