@@ -113,6 +113,23 @@ def test_missing_file_and_invalid_yaml(tmp_path) -> None:
         read_yaml(f)
 
 
+@pytest.mark.parametrize('c_loader', [True, False])
+def test_a_syntax_error_names_its_line_and_column(tmp_path, monkeypatch, c_loader) -> None:
+    """A mis-indented key of a program (line 4, column 4), an unclosed list and a tab: PyYAML's place and words
+    in one line, with the C parser and the Python one (their words differ; the message kept only PyYAML's first
+    line, 'while parsing a block collection', and lost the place)."""
+    if not c_loader:
+        monkeypatch.setattr(safe_yaml, '_CLoader', None)
+    f = tmp_path / 'x.yaml'
+    for text, where in (('format: gpr_robot_program\nsteps:\n  - move: a\n   bad: 1\n',
+                         r'on line 4, column 4: \S.* \(while parsing a block collection\)$'),
+                        ('a: [1, 2\n', r'on line 2, column 1: \S.* \(while parsing a flow sequence\)$'),
+                        ('a: 1\n\tb: 2\n', r'on line 2, column 1: \S')):
+        f.write_text(text)
+        with pytest.raises(ConfigError, match=r'x\.yaml: not valid YAML ' + where):
+            read_yaml(f)
+
+
 def test_brief_cuts_long_values() -> None:
     s = safe_yaml.brief('y' * 10_000)
     assert len(s) < 100 and s.endswith('(10002 characters)')

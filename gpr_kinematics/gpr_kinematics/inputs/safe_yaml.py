@@ -262,7 +262,7 @@ def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None
             loader = _BoundedLoader(text, source, limit)  # the reader checks the characters here already
         return loader.get_single_data()
     except yaml.YAMLError as exc:
-        raise ConfigError(f'{source}: not valid YAML ({str(exc).splitlines()[0]})') from None
+        raise ConfigError(f'{source}: not valid YAML{_where(exc)}') from None
     except RecursionError:  # flow collections recurse in the Python parser, before compose_node can count
         raise ConfigError(f'{source}: nested too deeply; allowed: at most {MAX_DEPTH} levels') from None
     except ConfigError:  # the loader's own refusals (an alias, the depth) are ValueErrors too: as they are
@@ -272,6 +272,16 @@ def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None
     finally:
         if loader is not None:
             loader.dispose()
+
+
+def _where(exc: yaml.YAMLError) -> str:
+    """PyYAML's complaint in one line with the place it names (``on line 24, column 3: expected <block end>, but
+    found '<block mapping start>' (while parsing a block mapping)``), its first line where it names none."""
+    mark, problem = getattr(exc, 'problem_mark', None), getattr(exc, 'problem', None)
+    if mark is None or not problem:
+        return f' ({str(exc).splitlines()[0]})'
+    context = getattr(exc, 'context', None)
+    return f' on line {mark.line + 1}, column {mark.column + 1}: {problem}' + (f' ({context})' if context else '')
 
 
 def read_file(path: str | Path, what: str = 'YAML', max_bytes: int | None = None) -> YamlValue:
