@@ -194,6 +194,7 @@ def test_program_check_and_export(capsys, tmp_path):
     (['program', 'send', PROGRAM, '--timeout', '0'], r'--timeout = 0.0 s; allowed: 0 < timeout'),
     (['program', 'send', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
     (['program', 'export', PROGRAM, '--samples', '/tmp/x.csv', '--rate', '0'], r'rate = 0.0 is invalid'),
+    (['program', 'export', PROGRAM, '--waypoints', '/tmp/x.csv', '--rate', '99999'], r'rate = 99999.0 is invalid'),
     (['program', 'export', PROGRAM, '--waypoints', '/proc'], r'/proc exists and is not a regular file'),
     (['program', 'export', PROGRAM, '--waypoints', ''], r'joint table output path is empty'),
     (['program', 'check', ''], r'program file path is empty'),

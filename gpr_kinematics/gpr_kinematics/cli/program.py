@@ -147,8 +147,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
         if path is not None:  # refused before the program is planned
             check_table_path(path)
     at_rate = args.samples is not None or args.trajectory is not None
-    if at_rate:
-        check_rate(args.rate)
+    check_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
     _, plan = _program(args, args.rate if at_rate else None)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
