@@ -95,6 +95,11 @@ def test_human_readable_output(capsys):
     (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
                                                         r'needed \[m, or mm with --mm\]; got 2'),
     (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'"),
+    # an option the command does not take: argparse named the top parser ("gpr: error:") and nothing allowed
+    (['fk', '0.5', '0.5', '0.5', '--deg'],
+     r'^gpr fk: error: unrecognized arguments: --deg; allowed: the options of gpr fk --help$'),
+    (['robot', 'ik', '--position', '1', '1', '1', '--bogus', 'x'],
+     r'^gpr robot ik: error: unrecognized arguments: --bogus x; allowed: the options of gpr robot ik --help$'),
     # Python's float read 0.4_5 as 0.45 and other scripts' digits (fullwidth 0.５) as numbers; the files refuse them
     (['fk', '0.45', '0.45', '0.4_5'], r"argument Q: invalid float value: '0.4_5'"),
     (['fk', '0.45', '0.45', '0.\uff15'], "argument Q: invalid float value: '0.\uff15'"),

@@ -118,15 +118,20 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def command_path(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
-    """The command ``args`` ran, as typed (``gpr robot ik``): the ``prog`` of the deepest parser its subcommands
-    chose, which argparse's own errors name too (the prefix of the command's errors; ``gpr robot`` before)."""
+def command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The deepest parser the subcommands of ``args`` chose (``gpr robot ik``'s)."""
     while True:
         sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
         name = None if sub is None else getattr(args, sub.dest, None)
         if sub is None or name not in sub.choices:
-            return parser.prog
+            return parser
         parser = sub.choices[name]
+
+
+def command_path(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """The command ``args`` ran, as typed (``gpr robot ik``): the ``prog`` of :func:`command_parser`, which
+    argparse's own errors name too (the prefix of the command's errors; ``gpr robot`` before)."""
+    return command_parser(parser, args).prog
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -138,7 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     first = next((a for a in args_in if not a.startswith('-')), None)
     parser = build_parser(first if first in COMMANDS else None)
     try:
-        args = parser.parse_args(args_in)
+        args, extra = parser.parse_known_args(args_in)
+        if extra:  # argparse names the top parser (gpr: error: ...) for an option the command does not take
+            command_parser(parser, args).error(f'unrecognized arguments: {" ".join(extra)}; allowed: the options of '
+                                               f'{command_path(parser, args)} --help')
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     command = command_path(parser, args)
