@@ -273,6 +273,19 @@ def test_heights_the_stroke_cannot_reach_are_named_with_the_heights_it_can():
     assert inverse(hi - 0.001, math.radians(1.5), 0.7).q.max() <= CFG.stroke_max
     with pytest.raises(LimitError, match=r'\(target 1\) puts a rod outside the stroke'):
         inverse_batch([0.3, 2.0], 0.0, 0.0)
+    # Within the margin past them (the virtual joints' millimetre) the solve runs and the rods decide: the refusal
+    # names the height and the heights allowed too (0.5 mm, with --mm meant 0.5 m, said only 'q3 = -0.0023 m ...')
+    for one in (True, False):
+        with pytest.raises(LimitError) as err:
+            if one:
+                inverse(0.0005, math.radians(2.0), 0.0)
+            else:
+                inverse_batch([0.3, 0.0005], math.radians(2.0), 0.0)
+        lo, hi = CFG.stroke_min - naive_inverse(0.0, math.radians(2.0), 0.0).min(), \
+            CFG.stroke_max - naive_inverse(0.0, math.radians(2.0), 0.0).max()
+        assert re.fullmatch(rf'q3 = -0.00231912\d* m{"" if one else " [(]sample 1[)]"} is outside the stroke \[0, '
+                            rf'0.508\] m: the height 0.0005 m at the tilt 0.0349066 rad needs it; allowed heights '
+                            rf'there: about {lo:.6g} \.\. {hi:.6g} m', str(err.value)), str(err.value)
 
 
 def test_azimuth_beyond_its_bound_is_refused():

@@ -32,6 +32,7 @@ from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
 from .forward import (
+    STROKE_SLACK,
     TILT_LIMIT_SLACK,
     ForwardBatch,
     ForwardResult,
@@ -151,6 +152,24 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequenc
                      f'{lo_:.6g} .. {hv:.6g} m')
 
 
+def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
+                         tool: Sequence[Value], config: GprConfig) -> None:
+    """:func:`~gpr_kinematics.core.forward.check_stroke` of the solved rods ``q``; a refusal names the target's
+    height and the heights allowed at its tilt too (within :data:`HEIGHT_MARGIN` of them a target is solved, so the
+    rods decide: ``--height 0.5 --mm`` said only that q3 is outside the stroke). The range is the naive model's
+    (:func:`_height_range`), which the virtual joints move by about a millimetre at most: 'about'."""
+    try:
+        check_stroke(ops, q, config, what='q')
+    except LimitError as exc:
+        lo, hi = _height_range(ops, geo, n, tool, config)
+        rods = np.column_stack(np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in q)))
+        bad = np.any((rods < config.stroke_min - STROKE_SLACK) | (rods > config.stroke_max + STROKE_SLACK), axis=1)
+        i = int(np.argmax(bad))  # check_stroke's sample
+        hh, tt, lv, hv = (float(np.atleast_1d(v)[i]) for v in (h, t, lo, hi))
+        raise LimitError(f'{exc}: the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: '
+                         f'about {lv:.6g} .. {hv:.6g} m') from None
+
+
 def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,
            vjm: VirtualJointModel) -> tuple[Result, Value]:
     """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
@@ -181,7 +200,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         q_now = naive_rods(geo, h_now, n_now, tool)
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
-    check_stroke(ops, q, config, what='q')
+    _check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
 
@@ -294,5 +313,5 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
             raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
-    check_stroke(SCALAR, q, cfg, what='q')
+    _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
     return InverseParts(q, P, L, closure, frame, iterations)
