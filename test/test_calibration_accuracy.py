@@ -164,6 +164,11 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--tool', '0', '0', '0'], r"--tool: a robot program's tool "
                                                                                       r'point is the wafer centre'),
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, *pose], r'a program gives its stations'),
+        # without --tolerances a program read as 'mechanism file ... not found' (a packaged bare name) or 'type = None'
+        (['accuracy', 'example_robot_program.yaml'], r'example_robot_program\.yaml: a whole-robot program: its '
+                                                     r'accuracy budget needs --tolerances TABLE'),
+        (['accuracy', ROBOT_PROGRAM], r'a whole-robot program: its accuracy budget needs --tolerances TABLE'),
+        (['accuracy', 'example_stations.yaml'], r'a platform program: its accuracy budget needs --tolerances TABLE'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--robot', 'example_robot.yaml'],
          r'--robot goes with a robot program'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '-1'], r'--samples = -1; allowed'),

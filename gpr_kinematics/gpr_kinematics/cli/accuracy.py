@@ -258,11 +258,28 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
     return params
 
 
+def _refuse_program(file: str) -> None:
+    """A program without ``--tolerances`` (``gpr accuracy example_robot_program.yaml``): refused as such, where it
+    read 'mechanism file ... not found' (a packaged program's bare name) or 'type = None is not a mechanism type'."""
+    from ..errors import GprError
+    from ..mechanisms import read_mechanism_file
+    try:
+        data, path = read_mechanism_file(packaged_file(file, MECHANISMS_AND_PROGRAMS) if file else file)
+    except GprError:
+        return  # the mechanism's own reading says what is wrong
+    kind = _kind(data)
+    if kind != 'mechanism':
+        raise InputError(f'{path}: a {"whole-robot" if kind == "robot" else "platform"} program: its accuracy budget '
+                         'needs --tolerances TABLE (e.g. tolerances_example.yaml); allowed without it: a mechanism '
+                         'file (config/mechanisms/*.yaml) with its trajectory or --pose and --errors')
+
+
 def _accuracy(args: argparse.Namespace) -> int:
     if args.tolerances is not None:
         return budget_command(args)
     from ..mechanisms.accuracy import accuracy_analysis
     check_budget_options(args, budget=False)
+    _refuse_program(args.file)
     mech = mechanism_of(args.file)
     trajectory = getattr(mech, 'trajectory', None)
     if args.pose is not None:
