@@ -1,6 +1,7 @@
 """Robot programs: the file format, units, imports, steps expanded into waypoints, today's platform programs named
 and refused, every malformed program refused with its place."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -83,7 +84,7 @@ def test_platform_programs_are_named_and_refused():
 
 
 @pytest.mark.parametrize('changes, pattern', [
-    ({'format': None}, r"format = None is invalid; allowed: gpr_robot_program"),
+    ({"format": None}, r"format = \(missing\) is invalid; allowed: gpr_robot_program"),  # the key removed
     ({'version': 2}, r'version = 2 is invalid; allowed: 1'),
     ({'colour': 1}, r'unknown key\(s\) colour'),
     ({'stations': []}, r'no stations; give "stations" or "import"'),
@@ -235,3 +236,12 @@ def test_a_straight_entry_needs_an_arm_that_holds_the_heading(tmp_path):
         program = _program(tmp_path, _minimal(stations=stations, steps=[{'place': 'a', 'arm': arm}]))
         with pytest.raises(ConfigError, match=rf'steps\[0\]: station a has a straight entry, but {why}'):
             expand(program, make_robot(data))
+
+
+def test_a_file_of_the_wrong_kind_is_named_in_a_users_words():
+    """An empty program file, a list, text: said as such (it read 'got NoneType', 'got list')."""
+    for data, said in ((None, 'nothing (an empty file or null)'), ([1, 2], 'a list'), ('steps', 'text'),
+                       (3, 'a number')):
+        with pytest.raises(ConfigError, match=re.escape(f'p.yaml: expected a mapping (format: gpr_robot_program, '
+                                                        f'stations, steps), got {said}')):
+            parse_program(data, 'p.yaml')

@@ -96,6 +96,34 @@ LONG_WORD = 300
 LONG_LINE = 1500
 
 
+def kind_of(value: Any) -> str:
+    """What a file gave where a mapping or a list was expected, in a user's words (``nothing (an empty file or
+    null)`` where a message said ``NoneType``).
+
+    >>> kind_of(None), kind_of([1]), kind_of('x'), kind_of(2.5), kind_of(True)
+    ('nothing (an empty file or null)', 'a list', 'text', 'a number', 'true/false')
+    """
+    if value is None:
+        return 'nothing (an empty file or null)'
+    if isinstance(value, bool):
+        return 'true/false'
+    if isinstance(value, (int, float)):
+        return 'a number'
+    if isinstance(value, (str, bytes)):
+        return 'text'
+    if isinstance(value, (list, tuple)):
+        return 'a list'
+    if isinstance(value, dict):
+        return 'a mapping'
+    return type(value).__name__
+
+
+def key_value(data: Any, key: str) -> str:
+    """:func:`brief` of ``data[key]``, ``(missing)`` where the mapping has no such key (``format = None`` read as if
+    the file had given None)."""
+    return brief(data[key]) if key in data else '(missing)'
+
+
 def one_line(message: str) -> str:
     """An error message as one bounded line: newlines become spaces, words longer than :data:`LONG_WORD` are cut
     with their length named, and a line longer than :data:`LONG_LINE` loses the least of its middle that brings it

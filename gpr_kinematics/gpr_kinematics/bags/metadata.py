@@ -24,7 +24,7 @@ from typing import Any, Final, Literal
 
 import yaml
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, kind_of
 from ..inputs.schema import read_yaml
 from .errors import BagError
 from .fileio import read_bounded, require_regular
@@ -92,7 +92,7 @@ class _Schema:
 
     def __init__(self, source: str, data: Any, where: str) -> None:
         if not isinstance(data, Mapping):
-            raise BagError(f'{source}: {where or "rosbag2_bagfile_information"} is {type(data).__name__}; allowed: a '
+            raise BagError(f'{source}: {where or "rosbag2_bagfile_information"} is {kind_of(data)}; allowed: a '
                            f'mapping')
         self.source, self.data, self.where = source, data, where
 

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..core.config import GprConfig
-from ..errors import GprError
+from ..errors import GprError, kind_of
 from ..inputs import safe_yaml
 from .columns import quaternion_angle
 from .reader import Bag
@@ -51,7 +51,7 @@ def _parse(text: str) -> GprConfig:
     # Through the package's one YAML parser (its limits on aliases, nesting and size apply to messages too).
     data = safe_yaml.load_text(text, f'{GEOMETRY_TOPIC} (recorded geometry)')
     if not isinstance(data, dict):
-        raise GprError(f'not a mapping of keys to values ({type(data).__name__})')
+        raise GprError(f'not a mapping of keys to values ({kind_of(data)})')
     return GprConfig.from_mapping(data, source=GEOMETRY_TOPIC)
 
 

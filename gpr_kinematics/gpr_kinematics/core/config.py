@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, InputError, brief
+from ..errors import ConfigError, InputError, brief, kind_of
 from ..inputs.resources import config_path
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
@@ -174,7 +174,7 @@ def _triple(source: str, key: str, value: YamlValue) -> tuple[float | tuple[floa
 
 def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> GprConfig:
     if not isinstance(values, Mapping):
-        raise ConfigError(f'{source}: expected a mapping of keys to values, got {type(values).__name__}')
+        raise ConfigError(f'{source}: expected a mapping of keys to values, got {kind_of(values)}')
     check_keys(values, (f.name for f in dataclasses.fields(GprConfig)), source)
     merged: dict[str, YamlValue] = base.to_dict()
     if base.characteristic_length == base.radius and 'characteristic_length' not in values:
@@ -296,7 +296,7 @@ def _read_yaml(path: str | Path, empty: bool = True) -> Mapping[str, YamlValue]:
     if data is None:
         return {}
     if not isinstance(data, Mapping):
-        raise ConfigError(f'{path}: expected a mapping of keys to values, got {type(data).__name__}')
+        raise ConfigError(f'{path}: expected a mapping of keys to values, got {kind_of(data)}')
     return data
 
 

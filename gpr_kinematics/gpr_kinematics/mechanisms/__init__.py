@@ -22,7 +22,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, key_value, kind_of
 from ..inputs.schema import read_yaml
 from .base import Mechanism
 
@@ -42,10 +42,10 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
     """Build a mechanism from a parsed YAML mapping; ``source`` names it in error messages."""
     if not isinstance(data, Mapping):
         raise ConfigError(f'{source}: a mechanism file must be a YAML mapping with a key type; got '
-                          f'{type(data).__name__}')
+                          f'{kind_of(data)}')
     mtype = data.get('type')
     if not isinstance(mtype, str) or mtype not in MECHANISM_TYPES:
-        raise ConfigError(f'{source}: type = {brief(mtype)} is not a mechanism type; allowed: '
+        raise ConfigError(f'{source}: type = {key_value(data, "type")} is not a mechanism type; allowed: '
                           + ', '.join(MECHANISM_TYPES))
     module, func = MECHANISM_TYPES[mtype]
     loader = getattr(importlib.import_module(module, __name__), func)

@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from ..core.config import GprConfig, load_config
 from ..core.rotations import rpy_matrix
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, kind_of
 from ..inputs.resources import config_path
 from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
@@ -304,7 +304,7 @@ def _arm(raw: Any, where: str) -> Arm:
     raw_joints = data.get('joints')
     if not isinstance(raw_joints, list) or not 2 <= len(raw_joints) <= 4:
         raise ConfigError(f'{where}: joints must be a list of 2 to 4 revolute joints (shoulder first), got '
-                          f'{len(raw_joints) if isinstance(raw_joints, list) else type(raw_joints).__name__}')
+                          f'{len(raw_joints) if isinstance(raw_joints, list) else kind_of(raw_joints)}')
     joints = tuple(_joint(j, f'{where}: joints[{i}]') for i, j in enumerate(raw_joints))
     for j in joints[:-1]:
         if j.length < LEAST:   # 5e-324 passed: 1 / (2 L1 L2) overflowed in the arm's inverse kinematics

@@ -7,7 +7,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, kind_of
 from ..inputs.schema import number_key, orientation_angle
 from ..inputs.validation import text_hint
 
@@ -82,7 +82,7 @@ def _named(data: Mapping[str, Any], where: str) -> str:
 
 def _mapping(value: Any, where: str, what: str) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
-        raise ConfigError(f'{where}: expected a mapping ({what}), got {type(value).__name__}')
+        raise ConfigError(f'{where}: expected a mapping ({what}), got {kind_of(value)}')
     return value
 
 

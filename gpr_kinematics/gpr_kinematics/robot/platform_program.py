@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
 from .grid import grid_times
@@ -99,7 +99,7 @@ def _number(source: str, where: str, key: str, value: Any, allowed: str, lo: flo
 def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgram:
     """Validate a program mapping (as loaded from YAML) into a :class:`PlatformProgram`."""
     if not isinstance(data, Mapping):
-        raise ConfigError(f'{source}: expected a mapping with a "stations" list, got {type(data).__name__}')
+        raise ConfigError(f'{source}: expected a mapping with a "stations" list, got {kind_of(data)}')
     check_keys(data, ('format', 'version', 'stations', 'move_time'), source)
     if data.get('format', FORMAT) != FORMAT or not is_version(data.get('version', 1), (1,)):
         raise ConfigError(f'{source}: format = {brief(data.get("format"))}, version = {brief(data.get("version"))} '

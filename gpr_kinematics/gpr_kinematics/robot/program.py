@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.validation import text_hint
 from .description import Arm, RobotDescription
@@ -118,7 +118,7 @@ def parse_any_program(data: Any, source: str = 'program', base_dir: str | Path =
     if isinstance(data, Mapping) and data.get('format') == FORMAT:
         return parse_program(data, source, base_dir)
     if isinstance(data, Mapping) and data.get('format', PLATFORM_FORMAT) != PLATFORM_FORMAT:
-        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT} (a robot '
+        raise ConfigError(f'{source}: format = {key_value(data, "format")} is invalid; allowed: {FORMAT} (a robot '
                           f'program) or {PLATFORM_FORMAT} (a platform program; also a file without format)')
     return parse_platform_program(data, source)
 
@@ -132,14 +132,14 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     """Validate a program mapping (as loaded from YAML); imported station files are read from ``base_dir``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f'{source}: expected a mapping (format: {FORMAT}, stations, steps), got '
-                          f'{type(data).__name__}')
+                          f'{kind_of(data)}')
     if _platform_program(data):
         raise ConfigError(f'{source}: this is a platform program (stations with height, tilt and azimuth of the '
                           f'platform), the format trajectory_node runs; a robot program places the wafer: '
                           f'"format: {FORMAT}" with stations (position, tilt, azimuth, heading) and steps '
                           '(docs/robot.md#programs)')
     if data.get('format') != FORMAT:
-        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
+        raise ConfigError(f'{source}: format = {key_value(data, "format")} is invalid; allowed: {FORMAT}')
     check_keys(data, _KEYS, source)
     if not is_version(data.get('version', 1), VERSIONS):   # true and 1.0 passed as 1
         raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')

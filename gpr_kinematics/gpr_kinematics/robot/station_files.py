@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, kind_of
 from ..inputs import units
 from ..inputs.files import read_text
 from ..inputs.schema import check_keys, is_number, orientation_angle
@@ -165,7 +165,7 @@ def _height(value: Any, where: str, key: str, scale: float, unit: str, most: flo
 def stations_from_yaml(data: Any, where: str) -> StationRows:
     """Stations of a mapping with ``stations`` (and optional ``units``), validated."""
     if not isinstance(data, Mapping):
-        raise ConfigError(f'{where}: expected a mapping with "stations" (and "units"), got {type(data).__name__}')
+        raise ConfigError(f'{where}: expected a mapping with "stations" (and "units"), got {kind_of(data)}')
     check_keys(data, ('stations', 'units'), where)
     length, angle = units_of(data, where)
     if 'stations' not in data:

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.validation import text_hint
 from ..robot.station_files import DECLARE_DEG, units_of
@@ -185,9 +185,9 @@ def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle
 def parse_cell(data: Any, source: str = 'cell') -> Cell:
     """Validate a cell mapping (as loaded from YAML); ConfigError names the file, the key and the value."""
     if not isinstance(data, Mapping):
-        raise ConfigError(f'{source}: expected a mapping (format: {FORMAT}, obstacles), got {type(data).__name__}')
+        raise ConfigError(f'{source}: expected a mapping (format: {FORMAT}, obstacles), got {kind_of(data)}')
     if data.get('format') != FORMAT:
-        raise ConfigError(f'{source}: format = {brief(data.get("format"))} is invalid; allowed: {FORMAT}')
+        raise ConfigError(f'{source}: format = {key_value(data, "format")} is invalid; allowed: {FORMAT}')
     check_keys(data, _KEYS, source)
     if not is_version(data.get('version', 1), (1,)):
         raise ConfigError(f'{source}: version = {brief(data.get("version"))} is invalid; allowed: 1')

@@ -148,8 +148,8 @@ def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[
         data.update(overrides)
     kind = data.get('type')
     if not isinstance(kind, str) or kind not in builders:
-        raise ConfigError(f'{source}: unknown mechanism type {str(kind)[:40]!r}; workspace models exist for '
-                          f'{", ".join(builders)}')
+        what = f'unknown mechanism type {str(kind)[:40]!r}' if 'type' in data else 'no mechanism type (a key type)'
+        raise ConfigError(f'{source}: {what}; workspace models exist for {", ".join(builders)}')
     builder, extra = builders[kind]
     ws = data.get('workspace') or {}
     if not isinstance(ws, Mapping):
