@@ -162,8 +162,12 @@ def test_radial_sensitivity_is_the_derivative_of_forward_kinematics():
 def test_changes_must_stay_within_the_stroke_and_the_first_order_is_named_as_such():
     m = analyze_mobility([0.5, 0.5, 0.5])
     assert m.singular and m.stroke == (0.0, 0.508)
-    with pytest.raises(InputError, match=r'a change larger than the stroke range 0\.508 m'):
+    with pytest.raises(LimitError, match=r'q1 \+ dq1 = 1e\+308 m is outside the stroke'):
         m.dx_bounds(m.rod_perturbation([1e308, 0, 0]))   # was |dX| = 0 and bounds inf, exit 0
+    big = np.zeros(12)
+    big[5] = 1e308   # a joint centre moved by itself (dP given whole): the size bound, nothing overflows
+    with pytest.raises(InputError, match=r'a change larger than the stroke range 0\.508 m'):
+        m.dx_bounds(big)
     with pytest.raises(LimitError, match=r'q1 \+ dq1 = 0\.51 m is outside the stroke \[0, 0\.508\] m'):
         m.dx_bounds(m.rod_perturbation([0.01, 0, 0]))
     # At the singular configuration the first order vanishes; the full solve does not: second order in dq.

@@ -128,15 +128,15 @@ class MobilityResult:
         if dp.shape != (12,) or not np.all(np.isfinite(dp)):
             raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
         lo, hi = self.stroke
-        if np.max(np.abs(dp)) > hi - lo:
-            raise InputError(f'dP = {brief(dp.tolist())}: a change larger than the stroke range {hi - lo:g} m; '
-                             'allowed: a change of the configuration of this machine')
-        moved = self.q + dp[:3]
+        moved = self.q + dp[:3]  # the rods first: what a --dq gives (it read as the dP vector the user never typed)
         out = (moved < lo) | (moved > hi)
         if out.any():
             k = int(np.argmax(out))
             raise LimitError(f'q{k + 1} + dq{k + 1} = {moved[k]:.9g} m is outside the stroke [{lo:g}, {hi:g}] m; '
                              'allowed: a change that keeps the rods within it')
+        if np.max(np.abs(dp)) > hi - lo:
+            raise InputError(f'dP = {brief(dp.tolist())}: a change larger than the stroke range {hi - lo:g} m; '
+                             'allowed: a change of the configuration of this machine')
         proj = float(np.sqrt(np.sum((self.eigenvectors[:, -3:].T @ dp) ** 2)))
         d = self.eigenvalues
         s = self.singular_values
