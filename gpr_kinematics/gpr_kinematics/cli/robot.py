@@ -30,10 +30,16 @@ def _print_poses(fk: RobotForward, i: int = 0) -> None:
 
 
 def _cmd_fk(args: argparse.Namespace) -> int:
+    from ..errors import InputError
     from ..robot.forward import robot_forward
     from ..robot.stations import stations_from_poses
     robot = robot_of(args)
-    fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], args.arm)
+    arm = robot.arm(args.arm)
+    if len(args.joints) != len(arm.joints):  # robot_forward's words are the array's (shape (N, 3))
+        raise InputError(f'--joints: {len(args.joints)} value{"s" if len(args.joints) != 1 else ""} for arm '
+                         f'{arm.name}, which has {len(arm.joints)} joints ({", ".join(arm.joint_names)}); allowed: '
+                         f'one value per joint, shoulder first')
+    fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], arm.name)
     if args.json:
         emit_json(fk.record(0))
         return 0
