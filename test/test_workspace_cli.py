@@ -226,6 +226,9 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     (['--workers', '0'], 'workers must be an integer from 1 to 256'),
     (['--max-boxes', '0'], '--max-boxes = 0; allowed: a whole number of boxes, at least 1'),
     (['--parts', '0'], '--parts must be from 1'),
+    # options of another method or scheduler ran without a word
+    (['--grid-nodes', '5'], '--grid-nodes belongs to --method grid; allowed with --method covering: no --grid-nodes'),
+    (['--scheduler', 'none', '--parts', '5'], '--parts cuts a run for the workers of a Dask scheduler'),
     (['--delta', '1e-300'], 'too small'),
 ])
 def test_bad_run_options_exit_2(argv, match, capsys):

@@ -55,7 +55,7 @@ def register(subparsers: Subparsers) -> None:
     p.add_argument('--method', choices=METHODS, default='covering',
                    help="covering (certified interval bounds), grid (node sampling per box, the paper's grid "
                    'method) or uniform (plain grid); default covering')
-    p.add_argument('--grid-nodes', type=whole, default=3, help='grid method: nodes per box edge (default 3)')
+    p.add_argument('--grid-nodes', type=whole, default=None, help='grid method: nodes per box edge (default 3)')
     p.add_argument('--boxes', metavar='OUT.npz', help='save the boxes: arrays inner, boundary (n, d, 2), variables')
     p.add_argument('--plot', metavar='DIR', help='write PNG projections on the coordinate planes into DIR')
     p.add_argument('--json', action='store_true', help='print the summary as one JSON object')
@@ -67,7 +67,7 @@ def register(subparsers: Subparsers) -> None:
                    'scheduler; the boxes are the same')
     p.add_argument('--workers', type=whole, default=None,
                    help=f'worker processes of --scheduler local (1 to {MAX_WORKERS}; default: the cores)')
-    p.add_argument('--parts', type=whole, default=PARTS,
+    p.add_argument('--parts', type=whole, default=None,
                    help=f'parts a large run is cut into for the workers (default {PARTS}); changes the order '
                    'of the boxes, not the boxes')
     p.add_argument('--max-boxes', type=whole, default=None,
@@ -117,6 +117,14 @@ def _check_args(args: argparse.Namespace) -> float:
     delta = float(args.delta) * (1e-3 if args.mm else 1.0)
     if not math.isfinite(delta) or delta <= 0:
         raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
+    # options of another method or scheduler were run without a word (--grid-nodes 5 under the covering)
+    if args.grid_nodes is not None and args.method != 'grid':
+        raise InputError(f'--grid-nodes belongs to --method grid; allowed with --method {args.method}: no --grid-nodes')
+    if args.parts is not None and args.scheduler == 'none':
+        raise InputError('--parts cuts a run for the workers of a Dask scheduler; allowed with --scheduler none: no '
+                         '--parts')
+    args.grid_nodes = 3 if args.grid_nodes is None else args.grid_nodes
+    args.parts = PARTS if args.parts is None else args.parts
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
     check_max_seconds(args.max_seconds)
