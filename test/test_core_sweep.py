@@ -55,6 +55,9 @@ def test_serpentine_order_is_continuous_and_paper_order_is_not():
     ({'height': float('nan')}, InputError, 'height = nan must be a finite number of metres'),
     ({'height': '0.5'}, InputError, "height = '0.5' must be a finite number of metres"),   # numpy would read it
     ({'passes': 0}, InputError, 'passes'),
+    # --azimuth-step 400 --deg echoed 6.98 rad only
+    ({'azimuth_step': math.radians(400.0)}, InputError,
+     r'azimuth_step = 6\.98131\d* rad \(400 deg\) is more than a turn; allowed: at most 2 pi rad \(360 deg\)'),
 ])
 def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
     with pytest.raises(exc, match=pattern):

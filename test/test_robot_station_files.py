@@ -100,7 +100,7 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.yaml', 'stations: [{name: true, position: [1, 2, 3]}]\n', r'stations\[0\]: name = True is invalid \(YAML reads '
                                                                  r'true and false as booleans: quote the name\)'),
     ('s.yaml', '- 1\n', r'expected a mapping with "stations"'),
-    ('s.txt', 'x', r"unknown type .txt; allowed: .csv, .yaml, .yml"),
+    ('s.txt', 'x', r"is of unknown type .txt; allowed: a .csv, .yaml or .yml file"),
 ])
 def test_malformed_files(tmp_path, name, text, pattern):
     with pytest.raises(ConfigError, match=pattern):
@@ -113,6 +113,9 @@ def test_hostile_files(tmp_path):
     (tmp_path / 'dir.csv').mkdir()
     with pytest.raises(ConfigError, match=r'is not a regular file'):
         load_stations(tmp_path / 'dir.csv')
+    (tmp_path / 'folder').mkdir()  # a folder named without a suffix read 'unknown type (none)'
+    with pytest.raises(ConfigError, match=r"station file '.*folder' is a folder; allowed: a .csv, .yaml or .yml file"):
+        load_stations(tmp_path / 'folder')
     fifo = tmp_path / 'fifo.csv'
     os.mkfifo(fifo)
     with pytest.raises(ConfigError, match=r'is not a regular file'):  # must not block on the FIFO

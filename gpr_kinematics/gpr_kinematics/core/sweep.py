@@ -137,7 +137,8 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
         raise InputError(f'max_tilt = {max_tilt!r} rad must be a whole number (>= 1) of tilt steps '
                          f'({tilt_step!r} rad) so that every pass crosses alpha = 0')
     if azimuth_step > 2 * math.pi:
-        raise InputError(f'azimuth_step = {azimuth_step!r} rad must be at most 2 pi')
+        raise InputError(f'azimuth_step = {azimuth_step!r} rad ({math.degrees(azimuth_step):.6g} deg) is more than a '
+                         'turn; allowed: at most 2 pi rad (360 deg)')
     turns = 2 * math.pi / azimuth_step
     if not turns <= MAX_SAMPLES:
         raise InputError(f'azimuth_step = {azimuth_step!r} rad gives {turns:.6g} azimuths; allowed: a sweep of at '

@@ -353,4 +353,5 @@ def read_station_rows(path: Path) -> StationRows:
     if suffix in ('.yaml', '.yml'):
         from ..inputs.schema import read_yaml
         return stations_from_yaml(read_yaml(path, 'station'), str(path))
-    raise ConfigError(f'station file {str(path)!r}: unknown type {suffix or "(none)"}; allowed: .csv, .yaml, .yml')
+    what = 'a folder' if path.is_dir() else f'of unknown type {suffix or "(no suffix)"}'
+    raise ConfigError(f'station file {str(path)!r} is {what}; allowed: a .csv, .yaml or .yml file')
