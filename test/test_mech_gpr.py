@@ -96,8 +96,10 @@ def test_limits_and_yaml(gpr):
         gpr.inverse_kinematics([0, 0, 0.3, 3 * DEG, 0, 0])
     mech = mechanism_from_dict({'type': 'gpr', 'overrides': {'model': 'polar'}, 'workspace': {}}, 'g.yaml')
     assert mech.config.model == 'polar'
-    with pytest.raises(ConfigError, match=r'g\.yaml: overrides:'):
+    with pytest.raises(ConfigError, match=r'^g\.yaml: overrides: radius = -1 is invalid'):
         mechanism_from_dict({'type': 'gpr', 'overrides': {'radius': -1}}, 'g.yaml')
+    with pytest.raises(ConfigError, match=r'^g\.yaml: overrides: unknown key\(s\) imperfection_budgt'):  # said twice
+        mechanism_from_dict({'type': 'gpr', 'overrides': {'imperfection_budgt': 1e-3}}, 'g.yaml')
 
 
 def test_the_documented_conditioning_range_over_the_tilt_range(gpr):

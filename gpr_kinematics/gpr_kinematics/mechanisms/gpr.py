@@ -92,7 +92,7 @@ class GprMechanism(Mechanism):
         try:
             cfg = load_config(overrides=dict(overrides))
         except ConfigError as exc:
-            raise ConfigError(f'{source}: overrides: {exc}') from None
+            raise ConfigError(f'{source}: {exc}') from None  # load_config names 'overrides:' itself
         return cls(cfg, name=str(data.get('name', 'GPR')))
 
     # ------------------------------------------------------------------ parameters
