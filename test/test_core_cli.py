@@ -95,6 +95,11 @@ def test_human_readable_output(capsys):
     (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
                                                         r'needed \[m, or mm with --mm\]; got 2'),
     (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'"),
+    # rods in millimetres given as metres: the hint where mm would fit, none for a metre value just beyond
+    (['fk', '250', '251', '252'],
+     r'^gpr fk: error: q1 = 250 m is outside the stroke \[0, 0.508\] m; 250 mm would be within it: millimetres given '
+     r'as metres\?$'),
+    (['fk', '0.6', '0.5', '0.5'], r'^gpr fk: error: q1 = 0.6 m is outside the stroke \[0, 0.508\] m$'),
     # an option the command does not take: argparse named the top parser ("gpr: error:") and nothing allowed
     (['fk', '0.5', '0.5', '0.5', '--deg'],
      r'^gpr fk: error: unrecognized arguments: --deg; allowed: the options of gpr fk --help$'),

@@ -110,6 +110,12 @@ def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))  # beyond as degrees too: no hint
     assert status == 2 and err.rstrip().endswith('arm1_elbow = 500 rad is beyond its upper limit 2.9 rad by 497 rad; '
                                                  'allowed: [-2.9, 2.9] rad'), err
+    # rods in millimetres, likewise (it had no hint)
+    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n250,251,252,0,1,-0.5\n')
+    status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))
+    assert status == 2 and err.rstrip().endswith('gpr_rod1 = 250 m is outside the stroke [0, 0.508] m; in millimetres '
+                                                 'it would be within: give the column its unit, "gpr_rod1 [mm]", or a '
+                                                 '"# units: mm" line before the header'), err
     # --deg and --mm convert --rods and --joints; they were ignored with a table
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--deg')
     assert status == 2 and err.count('\n') == 1 and re.search(r'--deg converts --rods and --joints; a --table gives '

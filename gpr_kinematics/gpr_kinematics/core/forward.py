@@ -172,16 +172,20 @@ def _rows(q: Sequence[Value]) -> Array:
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
 
 
-def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q') -> None:
-    """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample."""
+def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False) -> None:
+    """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample;
+    ``typed``: rods a user gave (not computed ones), where a value that would lie within as millimetres says so."""
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
         return
     rods = _rows(q)
     i, k = np.argwhere((rods < lo) | (rods > hi))[0]
     where = f' (sample {i})' if rods.shape[0] > 1 else ''
-    raise LimitError(f'{what}{k + 1} = {rods[i, k]:.9g} m{where} is outside the stroke '
-                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m')
+    value = float(rods[i, k])
+    mm = typed and value > 10.0 * hi and lo <= value / 1000.0 <= hi  # not 0.6 m for a stroke of 0.508 m
+    hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if mm else ''
+    raise LimitError(f'{what}{k + 1} = {value:.9g} m{where} is outside the stroke '
+                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m{hint}')
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
@@ -239,7 +243,7 @@ def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConf
     geo = MachineGeometry.of(config) if geometry is None else geometry
     naive = None
     if check_limits:
-        check_stroke(ops, q, config)
+        check_stroke(ops, q, config, typed=True)
         naive = _check_naive_tilt(ops, geo, q, config)
     L, closure, pose = solve_pose(ops, geo, vjm, q, config, naive)
     if check_limits and ops.any(pose.tilt > config.tilt_limit + TILT_LIMIT_SLACK):
@@ -326,7 +330,7 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
     if check_limits:
         lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
         if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
-            check_stroke(SCALAR, q3, config)
+            check_stroke(SCALAR, q3, config, typed=True)
         naive = kernel.naive(q0, q1, q2)
         h2, rest = naive[1], 1.0 - naive[1]
         if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > \

@@ -162,7 +162,7 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     """
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
-    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod')
+    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod', typed=True)
     theta = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
     beyond = (theta < a.lower - OLD_JOINT_SLACK) | (theta > a.upper + OLD_JOINT_SLACK)
     if beyond.any():   # the first such value, by row then joint
@@ -192,8 +192,12 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
     lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
     for k, rod in enumerate(robot.rods.names):
         if not lo <= rods[k] <= hi:
+            hint = ''
+            if table.columns[rod][2] == 'm' and rods[k] > 10.0 * hi and lo <= rods[k] / 1000.0 <= hi:  # as degrees
+                hint = (f'; in millimetres it would be within: give the column its unit, "{rod} [mm]", or a '
+                        '"# units: mm" line before the header')
             raise ConfigError(f'{where}: {rod} = {rods[k]:.9g} m is outside the stroke [{cfg.stroke_min:g}, '
-                              f'{cfg.stroke_max:g}] m')
+                              f'{cfg.stroke_max:g}] m{hint}')
     if not check_limits:   # the old joints of reteach: within a turn of their limits
         for k, j in enumerate(a.joints):
             why = _beyond_a_turn(a, joints[k], k)
