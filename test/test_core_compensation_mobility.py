@@ -86,10 +86,26 @@ def test_compensation_with_a_heading_solves_the_height_for_the_turned_tool_point
     ([0, 0, 0.9], [0, 0, 0, 1], [0, 0, 0], LimitError, r'outside the stroke'),
     ([0, 0, 0.3], [0, 0, 0, 1], [1e300, 0, 0], LimitError, r'tool_offset = \(1e\+300, 0, 0\) m is beyond the reach'),
     ([0, 0, 0.4], [0, 0, 0, 1], [300, 0, 100], LimitError, r'tool_offset = \(300, 0, 100\) m is beyond the reach'),
+    # a command far off the axis came back as an arm correction of 1.7e308 m, success (the ROS service too)
+    ([1.7e308, 1.7e308, 0.4], [0, 0, 0, 1], [0, 0, 0], LimitError,
+     r'commanded position x, y = \(1.7e\+308, 1.7e\+308\) m: the platform does not move horizontally .*; allowed: '
+     r'within 10 m of the GPR axis'),
 ])
 def test_compensation_rejects_bad_commands(position, quat, tool, exc, pattern):
     with pytest.raises(exc, match=pattern):
         compensate(position, quat, tool)
+
+
+def test_a_command_off_the_axis_leaves_the_arm_its_part_along_the_normal():
+    """docs/core.md: at x = y = 0 the correction's part along the normal is the tilt times the centre shift (< 1 um
+    at 2 deg); a command x = 10 mm off the axis adds n . (x, 0, 0) = sin(2 deg) 10 mm, 349 um, which no planar arm
+    makes."""
+    half = math.radians(2.0) / 2
+    quat = [0.0, math.sin(half), 0.0, math.cos(half)]  # 2 deg about y: the normal leans towards +x
+    at_axis = compensate([0.0, 0.0, 0.4], quat).arm_correction.translation
+    off = compensate([0.01, 0.0, 0.4], quat).arm_correction.translation
+    assert abs(at_axis[2]) < 1e-6
+    assert off[2] - at_axis[2] == pytest.approx(0.01 * math.sin(math.radians(2.0)), abs=1e-15)
 
 
 @pytest.mark.parametrize('model', MODELS)

@@ -18,7 +18,9 @@ its normal), never along the normal. Given the naive command ``T_c = (p_c, R_c)`
   platform normal that a planar arm cannot make, -106 um for 0.4 m, 1.5 deg about the axis at 40 deg, tool
   (0.3, 0, 0.1) m, heading 1 deg.) What remains along the normal is the tilt times the centre shift, which the
   naive command ignores: ``-n . (t_xy, 0)``, at most ``sin(tilt) |centre shift|``, 1 um at 2 deg
-  (0.36 um in that example);
+  (0.36 um in that example), for a command at the naive centre's ``x = y = 0``; a command off it adds
+  ``n . (p_c,x, p_c,y, 0)`` (0.35 mm for 10 mm at 2 deg), which no planar arm makes either; ``x``, ``y`` beyond
+  :data:`~gpr_kinematics.core.inverse.TOOL_REACH` are refused;
 * the pose ``T_a = (t, R)`` actually reached (forward kinematics of ``q``);
 * the tool point's residual shift ``T_a x_tool - T_c x_tool`` in ``gpr_base`` (the centre shift plus the
   commanded heading, which the arm makes; horizontal when the heading is zero);
@@ -41,7 +43,7 @@ from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
 from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
-from .inverse import check_tool_point
+from .inverse import TOOL_REACH, check_tool_point
 from .ops import SCALAR
 from .rotations import RigidTransform, tilt_of_normal
 
@@ -150,6 +152,10 @@ def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str
     """:func:`compensate` in float arithmetic for a finite command position ``p_c`` [m], a unit quaternion ``quat``
     and a finite tool point ``tool`` [m] (the caller checks them; the limits are checked here)."""
     check_tool_point(tool, 'tool_offset')
+    if max(abs(p_c[0]), abs(p_c[1])) > TOOL_REACH:  # 1.7e308 m came back as an arm correction, success
+        raise LimitError(f'commanded position x, y = ({p_c[0]:.6g}, {p_c[1]:.6g}) m: the platform does not move '
+                         f'horizontally (the naive model\'s centre is at x = y = 0) and the arm makes up the rest; '
+                         f'allowed: within {TOOL_REACH:g} m of the GPR axis')
     R_c = matrix_of(quat)
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, R_c[0][2], R_c[1][2], R_c[2][2]))
     M = mat_tmul(tilt_matrix(tilt, az), R_c)
