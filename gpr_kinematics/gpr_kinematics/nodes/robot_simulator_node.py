@@ -200,9 +200,12 @@ class RobotSimulatorNode(GprNode):
         return ''
 
     def _idle(self) -> None:
-        quiet = 2.0 / float(self.p['idle_rate'])
+        period = 1.0 / float(self.p['idle_rate'])
         now = time.monotonic()
-        if self.run is None and now - self.last_foreign > quiet and now - self.last_published > 0.5 * quiet:
+        # Quiet while another publisher streams (two periods since its last message), and not right after a state of
+        # its own (half a period: the end of a goal); a whole period skipped every other tick, early by the timer's
+        # jitter, and held the state at half the rate.
+        if self.run is None and now - self.last_foreign > 2.0 * period and now - self.last_published > 0.5 * period:
             self.velocity[:] = 0.0
             self.publish_state(self.get_clock().now().nanoseconds)
 
