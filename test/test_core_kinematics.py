@@ -201,7 +201,7 @@ def test_inverse_at_the_singular_configuration():
     (['a', 0.5, 0.5], InputError, r'numbers'),
     ([0.6, 0.5, 0.5], LimitError, r'q1 = 0.6 m is outside the stroke \[0, 0.508\] m'),
     ([0.5, 0.5, -0.01], LimitError, r'q3 = -0.01 m is outside the stroke'),
-    ([0.2, 0.3, 0.25], LimitError, r'beyond the tilt limit 2 deg'),
+    ([0.2, 0.3, 0.25], LimitError, r'beyond the tilt limit 0.03491 rad \(2 deg\)'),
 ])
 def test_forward_rejects_bad_input(q, exc, pattern):
     with pytest.raises(exc, match=pattern):

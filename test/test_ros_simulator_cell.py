@@ -63,10 +63,10 @@ def test_a_goal_into_the_box_is_refused_then_a_clear_one_runs(sim_cell):
     feedback: list = []
     result, status = _run(c, cli, _goal(['arm1_shoulder'], [0.0, 2.0], [[0.0], [1.2]]), feedback)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == -1 and not feedback
-    m = re.fullmatch(r'arm1_blade and box would come within the margin: (-?[\d.]+) mm apart at t = ([\d.]+) s '
-                     r'\(time_from_start; negative: penetration; found by the check certified between samples, cell '
-                     r'.*cell\.yaml\); allowed: every pair at least clearance_margin 2 mm apart over the whole motion',
-                     result.error_string)
+    m = re.fullmatch(r'arm1_blade and box would come within the margin: -?[\d.e+-]+ m \((-?[\d.]+) mm\) apart at '
+                     r't = ([\d.]+) s \(time_from_start; negative: penetration; found by the clearance check over the '
+                     r'whole motion, cell .*cell\.yaml\); allowed: every pair at least clearance_margin 0.002 m '
+                     r'\(2 mm\) apart over the whole motion', result.error_string)
     assert m, result.error_string
     assert -20.0 - 1e-3 <= float(m.group(1)) < 2.0 and 0.0 < float(m.group(2)) < 2.0
     assert 'goal refused (-1): arm1_blade and box' in proc.output()

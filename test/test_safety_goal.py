@@ -228,9 +228,10 @@ def _plan(traj, cell, margin=0.002, wafer_arms=()):
                        GoalClearance(ROBOT, cell, margin, wafer_arms=wafer_arms))
 
 
-REFUSAL = (r'(\w+) and box would come within the margin: (-?[\d.]+) mm apart at t = ([\d.]+) s \(time_from_start; '
-           r'negative: penetration; found by the check certified between samples, cell test_cell\); allowed: every '
-           r'pair at least clearance_margin (\d+) mm apart over the whole motion')
+REFUSAL = (r'(\w+) and box would come within the margin: -?[\d.e+-]+ m \((-?[\d.]+) mm\) apart at t = ([\d.]+) s '
+           r'\(time_from_start; negative: penetration; found by the clearance check over the whole motion, cell '
+           r'test_cell\); allowed: every pair at least clearance_margin [\d.]+ m \((\d+) mm\) apart over the whole '
+           r'motion')
 
 
 def _refused(cell, margin=0.002, wafer_arms=()):

@@ -215,8 +215,8 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
     if bad.size:
         i = int(bad[0])
         raise InputError(f'{meas.where(i)}, columns q1 q2 q3: the rod lengths tilt the platform by '
-                         f'{np.degrees(tilt[i]):.4g} deg, beyond the tilt limit '
-                         f'{np.degrees(config.tilt_limit):.4g} deg')
+                         f'{tilt[i]:.4g} rad ({np.degrees(tilt[i]):.4g} deg), beyond the tilt limit '
+                         f'{config.tilt_limit:.4g} rad ({np.degrees(config.tilt_limit):.4g} deg)')
 
 
 def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:

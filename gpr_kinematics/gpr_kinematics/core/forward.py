@@ -197,9 +197,13 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
     too = (h2 >= 1.0) | (n_tilt > 1.05 * config.tilt_limit)
     if ops.any(too):
         i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
-        raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about '
-                         f'{math.degrees(float(np.atleast_1d(n_tilt)[i])):.4g} deg, beyond the tilt limit '
-                         f'{math.degrees(config.tilt_limit):.4g} deg')
+        limit = f'the tilt limit {config.tilt_limit:.4g} rad ({math.degrees(config.tilt_limit):.4g} deg)'
+        if float(np.atleast_1d(h2)[i]) >= 1.0:  # the rods' differences exceed what any platform tilt makes
+            raise LimitError(f'q = {_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
+                             f'more than the joints\' spread can make at any tilt); allowed: rods within {limit}')
+        t = float(np.atleast_1d(n_tilt)[i])
+        raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about {t:.4g} rad '
+                         f'({math.degrees(t):.4g} deg), beyond {limit}')
     return naive
 
 

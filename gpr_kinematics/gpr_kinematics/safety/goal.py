@@ -74,14 +74,14 @@ def refusal(report: ClearanceReport, cell: str) -> str | None:
         return None
     found = [p for p in below if p.measured < report.margin]
     others = f'; {len(below) - 1} more pair(s) below the margin' if len(below) > 1 else ''
-    allowed = (f'; allowed: every pair at least clearance_margin {report.margin * 1e3:g} mm apart over the whole '
-               'motion')
+    allowed = (f'; allowed: every pair at least clearance_margin {report.margin:g} m ({report.margin * 1e3:g} mm) '
+               'apart over the whole motion')
     if found:
         p = min(found, key=lambda q: q.first_below)
-        return (f'{p.bodies[0]} and {p.bodies[1]} would come within the margin: {p.measured * 1e3:.3f} mm apart at '
-                f't = {p.time:.6g} s (time_from_start; negative: penetration; found by the check certified between '
-                f'samples, cell {cell}){others}{allowed}')
+        return (f'{p.bodies[0]} and {p.bodies[1]} would come within the margin: {p.measured:.6g} m '
+                f'({p.measured * 1e3:.3f} mm) apart at t = {p.time:.6g} s (time_from_start; negative: penetration; '
+                f'found by the clearance check over the whole motion, cell {cell}){others}{allowed}')
     p = min(below, key=lambda q: q.distance)
-    return (f'{p.bodies[0]} and {p.bodies[1]} could not be proven the margin apart: certified at least '
-            f'{p.distance * 1e3:.3f} mm, {p.measured * 1e3:.3f} mm measured at t = {p.time:.6g} s (time_from_start; '
-            f'cell {cell}){others}{allowed}')
+    return (f'{p.bodies[0]} and {p.bodies[1]} could not be shown the margin apart: at least {p.distance:.6g} m '
+            f'({p.distance * 1e3:.3f} mm) by the bounds between samples, {p.measured:.6g} m measured at '
+            f't = {p.time:.6g} s (time_from_start; cell {cell}){others}{allowed}')
