@@ -126,12 +126,18 @@ def test_the_last_point_is_always_a_sample():
 
 def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
     traj = _two_points(['arm1_elbow'], [1.0], [3.0])
-    with pytest.raises(GoalError, match=r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its limits; allowed: '
-                                        r'\[-2.9, 2.9\] rad') as info:
+    with pytest.raises(GoalError, match=r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its upper limit 2.9 rad '
+                                        r'by 0.1 rad; allowed: \[-2.9, 2.9\] rad') as info:
         _plan(traj)
     assert info.value.code == INVALID_GOAL
-    with pytest.raises(GoalError, match=r'rod_1 = 0.6 m is beyond its limits; allowed: \[0, 0.508\] m'):
+    with pytest.raises(GoalError, match=r'rod_1 = 0.6 m is beyond its upper limit 0.508 m by 0.092 m; allowed: '
+                                        r'\[0, 0.508\] m'):
         _plan(_two_points(['rod_1'], [0.3], [0.6]))
+    # a hair beyond: the value and the limit to 12 digits, and by how much (it read '3.05 rad is beyond its limits;
+    # allowed: [-3.05, 3.05] rad')
+    with pytest.raises(GoalError, match=r'arm1_shoulder = 3.0500000001 rad is beyond its upper limit 3.05 rad by '
+                                        r'1e-10 rad; allowed: \[-3.05, 3.05\] rad'):
+        _plan(_two_points(['arm1_shoulder'], [3.0], [3.0500000001]))
 
 
 def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():
@@ -262,7 +268,7 @@ def test_the_clearance_hook_sees_the_checked_motion_and_refuses():
     np.testing.assert_array_equal(m.positions[0], JOINTS.rest)
     assert len(_plan(traj, clearance=lambda motion: None)) == 201
     seen.clear()
-    with pytest.raises(GoalError, match='beyond its limits'):      # refused before the hook is asked
+    with pytest.raises(GoalError, match='beyond its upper limit'):      # refused before the hook is asked
         _plan(_two_points(['arm1_elbow'], [99.0]), clearance=clearance)
     assert not seen
 
@@ -322,7 +328,8 @@ def test_quintic_goal_from_rest_is_checked_along_the_path():
                            np.zeros((2, 1)))
     pos, _, _ = evaluate(traj, JOINTS.rest[:1], np.linspace(2.0, 2.5, 51))
     assert pos.max() > CFG.stroke_max
-    with pytest.raises(GoalError, match=r'sample \d+ \(t = 2\.\d+ s\): rod_1 = 0.508\d* m is beyond its limits'):
+    with pytest.raises(GoalError, match=r'sample \d+ \(t = 2\.\d+ s\): rod_1 = 0.508\d* m is beyond its upper limit '
+                                        r'0.508 m by'):
         _plan(traj)
 
 

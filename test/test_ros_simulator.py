@@ -185,7 +185,8 @@ def test_a_feasible_two_point_trajectory_succeeds_and_is_published_at_the_rate(s
 
 
 @pytest.mark.parametrize('names, positions, times, code, words', [
-    (['arm1_elbow'], [[1.0], [3.0]], [1.0, 2.0], -1, r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its limits'),
+    (['arm1_elbow'], [[1.0], [3.0]], [1.0, 2.0], -1,
+     r'point 1 \(t = 2 s\): arm1_elbow = 3 rad is beyond its upper limit 2.9 rad by 0.1 rad'),
     (['arm1_elbw'], [[1.0]], [1.0], -2, r"unknown joint 'arm1_elbw'"),
     (['rod_1'], [[0.254], [0.3]], [1.0, 1.1], -1, r'needs rod_1 at .* m/s on average; allowed: at most 0.15 m/s'),
     (['arm1_elbow'], [[1.0], [0.5]], [1.0, 1.0], -1, 'strictly increasing'),

@@ -143,8 +143,8 @@ class StatePublisherNode(GprNode):
             if fk is None:
                 fk = forward(rods, self.cfg, check_limits=False)
         except GprError as exc:
-            self.get_logger().warning(f'rods {list(rods)} m have no platform pose: {one_line(exc)}; the platform '
-                                      'keeps its last pose', throttle_duration_sec=5.0)
+            self.get_logger().warning(f'rods {[float(v) for v in rods]} m have no platform pose: {one_line(exc)}; the '
+                                      'platform keeps its last pose', throttle_duration_sec=5.0)
             return
         self.platform_pose = ((fk.position, fk.quaternion), (fk.nominal_position, fk.nominal_quaternion))
 

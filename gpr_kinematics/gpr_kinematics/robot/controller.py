@@ -284,9 +284,12 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
     if bad.any():
         i, k = (int(v) for v in np.argwhere(bad)[0])
         j = int(cols[k])
-        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {values[i, k]:.9g} '
-                        f'{joints.units[j]} is beyond its limits; allowed: [{joints.lower[j]:g}, {joints.upper[j]:g}] '
-                        f'{joints.units[j]}')
+        v, u = float(values[i, k]), joints.units[j]
+        side, limit = ('lower', float(joints.lower[j])) if v < joints.lower[j] else ('upper', float(joints.upper[j]))
+        # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
+        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {v:.12g} {u} is '
+                        f'beyond its {side} limit {limit:.12g} {u} by {abs(v - limit):.3g} {u}; allowed: '
+                        f'[{float(joints.lower[j]):.12g}, {float(joints.upper[j]):.12g}] {u}')
 
 
 def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
