@@ -165,6 +165,14 @@ def test_numbers_sent_as_strings(client):
         assert not set_text('tolerance', 'small').successful
         assert not set_text('tolerance', '1e-3').successful          # a number, but outside the range
         assert not set_text('model', '1e-3').successful              # a string parameter keeps its check
+        # the refusals in the parameters' terms: '' is a model (the geometry's), 0 the radius (null read as allowed)
+        assert set_text('model', 'polarx').reason.endswith("allowed: radial or polar or offset or compliant or '' "
+                                                            "(the geometry's model)")
+        assert set_text('model', '').successful
+        value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=1e-7)
+        req = SetParameters.Request(parameters=[Parameter(name='characteristic_length', value=value)])
+        reason = client.call(SetParameters, '/strings/kinematics_node/set_parameters', req).results[0].reason
+        assert reason.endswith('<= characteristic_length <= 100, or 0 for the radius'), reason
         # 100,000 digits and an 'x' held the pre-set callback (and every service of the node) for minutes
         assert not set_text('tolerance', '1' * 100_000 + 'x').successful
         assert set_text('tolerance', '1e-12').successful

@@ -23,7 +23,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..core.config import GprConfig, load_config
+from ..core.config import MODELS, GprConfig, load_config
 from ..errors import ConfigError, GprError
 from ..robot.description import RobotDescription, load_robot
 from ..ros.specs import CONFIG_FILE, ROBOT_FILE, ParamSpec, config_mapping, config_specs
@@ -94,6 +94,15 @@ def declare_robot(node: Node, default: str | Path | None = None) -> RobotDescrip
         raise ConfigError(f'robot_file: {exc}') from None
 
 
+def parameter_words(message: str) -> str:
+    """A configuration's refusal in the parameters' terms: a characteristic length follows the radius at 0 (a
+    parameter cannot be null) and an empty ``model`` is the geometry's
+    (:func:`~gpr_kinematics.ros.specs.config_mapping`), which the configuration's own words leave out."""
+    message = message.replace(', or null for the radius', ', or 0 for the radius')
+    if 'model = ' in message and message.endswith('allowed: ' + ' or '.join(MODELS)):
+        message += " or '' (the geometry's model)"
+    return message
+
 class ConfigParameters:
     """Declares ``config_file`` and the ``GprConfig`` parameters on ``node``; ``config`` follows them.
 
@@ -128,7 +137,10 @@ class ConfigParameters:
         """Every key of the loaded configuration file with the parameters' values on top (validated as a whole):
         keys that no ROS parameter holds (an imperfect machine's ``rod_positions``, ``rod_directions``,
         ``platform_joints``) keep the file's values."""
-        return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
+        try:
+            return GprConfig.from_mapping({**self._base.to_dict(), **config_mapping(values)}, source='ROS parameters')
+        except ConfigError as exc:
+            raise ConfigError(parameter_words(str(exc))) from None
 
     def _changes(self, params: Sequence[Parameter]) -> dict[str, Any]:
         return {p.name: p.value for p in params if p.name in self._specs}
