@@ -89,6 +89,8 @@ def test_write_read_round_trip_is_exact(tmp_path):
     (text(ROW, pre=('# units: inch',)), r"line 1: unit 'inch' in \"# units:\" is unknown or repeated"),
     (text(ROW, pre=('# units: mm mm',)), r"unit 'mm' in \"# units:\" is unknown or repeated"),
     (text(ROW, '# units: mm'), r'line 3: "# units:" must come once, before the header row'),
+    # a units line misspelt was a comment: millimetres read as metres
+    (text(ROW, pre=('# unit: mm',)), r"line 1: '# unit: mm' speaks of units but is not a \"# units:\" line"),
     (text(ROW, ROW), r'f\.csv line 3 repeats line 2 exactly'),
     (text(ROW + ',0.1'), r'line 2: 11 values, but the header names 10 columns'),
     ('# only comments\n\n', r'f\.csv: no header row'),

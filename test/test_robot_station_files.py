@@ -101,6 +101,10 @@ def test_an_empty_heading_is_free(tmp_path):
                                                                  r'true and false as booleans: quote the name\)'),
     ('s.yaml', '- 1\n', r'expected a mapping with "stations"'),
     ('s.txt', 'x', r"is of unknown type .txt; allowed: a .csv, .yaml or .yml file"),
+    # a units line misspelt was a comment: the headings' degrees were read as radians (57.3 deg for 1)
+    ('s.csv', '# unit: deg\nname,x,y,z,tilt,azimuth,heading\na,1.2,0.5,0.6,0,0,1\n',
+     r"line 1: '# unit: deg' speaks of units but is not a \"# units:\" line, so they would be ignored"),
+    ('s.csv', '# angle Units = deg\nname,x,y,z,tilt,azimuth,heading\na,1.2,0.5,0.6,0,0,1\n', r'speaks of units'),
 ])
 def test_malformed_files(tmp_path, name, text, pattern):
     with pytest.raises(ConfigError, match=pattern):

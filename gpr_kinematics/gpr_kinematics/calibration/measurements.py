@@ -247,6 +247,8 @@ class _Table:
             if self.cols is not None or self.units is not None:
                 raise InputError(f'{where}: "# units:" must come once, before the header row')
             self.units = units.file_units(line, where)
+        elif self.cols is None:
+            units.refuse_unit_words(line, where)
 
     def row(self, fields: list[str], lineno: int, where: str) -> None:
         if self.cols is None:

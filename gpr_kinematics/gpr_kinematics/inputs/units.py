@@ -33,6 +33,8 @@ ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 KINDS = {'length': LENGTH_UNITS, 'angle': ANGLE_UNITS, 'text': {}, 'number': {}}
 
 _UNITS_LINE = re.compile(r'#\s*units\s*:(.*)$', re.IGNORECASE)
+#: A comment that speaks of units (:func:`refuse_unit_words`).
+_UNIT_WORD = re.compile(r'\bunits?\b', re.IGNORECASE)
 _CELL = re.compile(r'^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[\s*([A-Za-z]*)\s*\])?\s*$')
 
 #: The file's units, ``(length, angle)``; ``None`` where it declares none.
@@ -42,6 +44,15 @@ FileUnits = tuple[str | None, str | None]
 def is_units_line(line: str) -> bool:
     """``line`` (stripped) is a ``# units:`` declaration."""
     return _UNITS_LINE.match(line) is not None
+
+
+def refuse_unit_words(line: str, where: str) -> None:
+    """Refuse a comment before the header that speaks of units in another form than ``# units:`` (``# unit: deg``,
+    ``# units = deg``, ``# angle units: deg``): taken as a comment, its file's degrees were read as radians."""
+    if _UNIT_WORD.search(line) is not None:
+        raise FileError(f'{where}: {brief(line)} speaks of units but is not a "# units:" line, so they would be '
+                        'ignored; allowed: "# units: mm deg" (one length unit and/or one angle unit), or a comment '
+                        'that does not name units')
 
 
 def file_units(line: str, where: str) -> FileUnits:

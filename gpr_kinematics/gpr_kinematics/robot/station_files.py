@@ -253,6 +253,18 @@ class CsvTable:
         return value
 
 
+def _comment(line: str, where: str, after_header: bool, defaults: units.FileUnits) -> units.FileUnits:
+    """A comment line: the file's units where it is the ``# units:`` line (once, before the header), else
+    ``defaults``; a comment before the header that speaks of units otherwise is refused."""
+    if units.is_units_line(line):
+        if after_header or defaults != (None, None):
+            raise ConfigError(f'{where}: "# units:" must come once, before the header row')
+        return units.file_units(line, where)
+    if not after_header:
+        units.refuse_unit_words(line, where)
+    return defaults
+
+
 def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple[str, ...]) -> CsvTable:
     """Parse a CSV text with a header row; ``kinds`` maps each allowed column to ``length``, ``angle`` or
     ``text``; ``required`` columns must be there. Units (:mod:`gpr_kinematics.inputs.units`): a column's own in brackets
@@ -266,11 +278,7 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
             if not row or (len(row) == 1 and not row[0].strip()):
                 continue
             if row[0].lstrip().startswith('#'):
-                line = ','.join(row).strip()
-                if units.is_units_line(line):
-                    if numbered or defaults != (None, None):
-                        raise ConfigError(f'{where}: line {n}: "# units:" must come once, before the header row')
-                    defaults = units.file_units(line, f'{where}: line {n}')
+                defaults = _comment(','.join(row).strip(), f'{where}: line {n}', bool(numbered), defaults)
                 continue
             if len(numbered) > MAX_STATIONS:
                 raise ConfigError(f'{where}: line {n}: more than {MAX_STATIONS} rows; allowed: at most {MAX_STATIONS}')
