@@ -90,7 +90,8 @@ def test_markers_one_per_obstacle_at_its_pose():
     ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0]}, r'position = \[0, 0\] is invalid; allowed: a list of 3'),
     ({'name': 'a', 'box': [1, 1, 1], 'position': [0, 0, 0], 'rpy': [0, 0, 0], 'tilt': 0.1}, r'rpy or tilt'),
     ({'name': 'c', 'chamber': {'size': [0.5, 0.5, 0.25], 'slit': [0.6, 0.04]}, 'position': [0, 0, 0]},
-     r'chamber: slit = \[0\.6, 0\.04\] is invalid; allowed: narrower'),
+     r'chamber: slit = \[0\.6, 0\.04\] is invalid; allowed: narrower and lower than the chamber inside its walls, '
+     r'0\.46 x 0\.21 m$'),  # the inside in numbers (0.5 and 0.25 less two walls of 20 mm)
 ], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'name', 'cyrillic-name', 'number-name', 'position',
         'two-orientations',
         'slit'])
@@ -106,6 +107,22 @@ def test_too_many_obstacles_refused_before_any_is_read():
         parse_cell({'format': 'gpr_cell', 'obstacles': [None] * 10_000_000}, 'big.yaml')
     with pytest.raises(ConfigError, match=r'obstacles: name .a. is used twice'):
         parse_cell(cell(*[{'name': 'a', 'box': [1, 1, 1], 'position': [0, 0, 0]}] * 2))
+    # a box and a chamber of one name passed (the chamber's parts are NAME/front_top, ...)
+    with pytest.raises(ConfigError, match=r"obstacles: name 'lp' is used twice; allowed: unique names"):
+        parse_cell(cell({'name': 'lp', 'box': [1, 1, 1], 'position': [0, 0, 0]},
+                        {'name': 'lp', 'chamber': {'size': [0.5, 0.5, 0.3]}, 'position': [2, 0, 0]}))
+
+
+def test_obstacles_smaller_than_a_millimetre_are_refused():
+    """A cell written in metres under `units: {length: mm}` made its boxes 40 um specks at the origin, checked safe:
+    a box, a cylinder and a chamber are 1 mm at least."""
+    specks = {'format': 'gpr_cell', 'units': {'length': 'mm'},
+              'obstacles': [{'name': 'rail', 'box': [0.04, 0.3, 0.1], 'position': [0.38, -0.25, 0.396]}]}
+    with pytest.raises(ConfigError, match=r'obstacles\[0\] \(rail\): box\[0\] = 0.04 is invalid; allowed: .*1 to '):
+        parse_cell(specks, 'c.yaml')
+    with pytest.raises(ConfigError, match=r'radius = 0.0005 is invalid'):
+        parse_cell(cell({'name': 'post', 'cylinder': {'radius': 0.0005, 'length': 1}, 'position': [0, 0, 0]}))
+    assert parse_cell(cell({'name': 'ok', 'box': [0.001, 0.001, 0.001], 'position': [0, 0, 0]})).obstacles
 
 
 def _gpr(*argv, cwd):

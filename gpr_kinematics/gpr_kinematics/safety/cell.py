@@ -122,12 +122,13 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
                           'slit_z, front')
     check_keys(raw, ('size', 'wall', 'slit', 'slit_z', 'front'), f'{where}: chamber')
     w = f'{where}: chamber'
-    dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, 1e-3, _SIZE, lunit, length)
+    dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, _LEAST, _SIZE, lunit, length)
     wall = _number(raw.get('wall', 0.02 / length), w, 'wall', 1e-4, min(dx, dy, dz) / 2, lunit, length)
     sw, sh = _vector(raw.get('slit', [0.34 / length, 0.04 / length]), w, 'slit', 2, 1e-3, _SIZE, lunit, length)
     if sw >= dy - 2 * wall or sh >= dz - 2 * wall:
         raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '
-                          'chamber inside its walls')
+                          f'chamber inside its walls, {(dy - 2 * wall) / length:.6g} x {(dz - 2 * wall) / length:.6g} '
+                          f'{lunit}')
     front = _number(raw.get('front', dx / 2 / length), w, 'front', wall, dx - wall, lunit, length)
     sz = _number(raw.get('slit_z', 0.0), w, 'slit_z', -dz / 2 + wall + sh / 2, dz / 2 - wall - sh / 2, lunit, length)
     cx, cz = dx / 2 - front, 0.0   # the box centre in the station frame (x into the chamber)
@@ -148,6 +149,9 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
             for part, size, centre in parts if min(size) > 0.0]
 
 
+#: The least size of an obstacle [m] (a box, a cylinder's radius and length, a chamber): a cell in metres declared in
+#: millimetres made its boxes 40 um specks at the origin, checked safe.
+_LEAST = 1e-3
 #: An obstacle's name (in messages, markers and the check's pairs).
 _NAME = re.compile(r'[A-Za-z0-9_\-]{1,64}')
 
@@ -171,14 +175,14 @@ def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle
     R = _rotation(ob, where, angle, aunit)
     kind = shapes[0]
     if kind == 'box':
-        return [Obstacle(name, 'box', _vector(ob['box'], where, 'box', 3, 1e-6, _SIZE, lunit, length), position, R)]
+        return [Obstacle(name, 'box', _vector(ob['box'], where, 'box', 3, _LEAST, _SIZE, lunit, length), position, R)]
     if kind == 'chamber':
         return _chamber(ob['chamber'], name, where, length, lunit, position, R)
     c = ob['cylinder']
     if not isinstance(c, Mapping):
         raise ConfigError(f'{where}: cylinder = {brief(c)} is invalid; allowed: {{radius: R, length: L}}')
     check_keys(c, ('radius', 'length'), f'{where}: cylinder')
-    size = tuple(_number(c.get(k), where, k, 1e-6, _SIZE, lunit, length) for k in ('radius', 'length'))
+    size = tuple(_number(c.get(k), where, k, _LEAST, _SIZE, lunit, length) for k in ('radius', 'length'))
     return [Obstacle(name, 'cylinder', size, position, R)]
 
 
@@ -205,7 +209,7 @@ def parse_cell(data: Any, source: str = 'cell') -> Cell:
         out += _obstacle(ob, f'{source}: obstacles[{i}]', length, angle)
         if len(out) > MAX_OBSTACLES:
             raise ConfigError(f'{source}: obstacles: more than {MAX_OBSTACLES} bodies once chambers are expanded')
-    names = [o.name for o in out]
+    names = [str(ob['name']) for ob in raw]  # as given: a box and a chamber of one name (its parts NAME/...) passed
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise ConfigError(f'{source}: obstacles: name {brief(twice[0])} is used twice; allowed: unique names')
