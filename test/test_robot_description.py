@@ -84,7 +84,7 @@ _DELETE = object()
     (('name',), False, r"name = False is invalid \(YAML reads true and false as booleans: quote the name\); allowed: "),
     (('arms', 0, 'joints', 1, 'name'), 'arm1_elbow\n',   # '$' matched before a final newline: passed into the URDF
      r"joints\[1\]: name = 'arm1_elbow\\n' is invalid; allowed: a name of letters, digits and _"),
-    (('gpr', 'radius'), -1, r'test_robot.yaml: gpr: overrides: radius = -1 is invalid; allowed: metres'),
+    (('gpr', 'radius'), -1, r'test_robot.yaml: gpr: radius = -1 is invalid; allowed: metres'),
     (('gpr', 'config'), 'missing.yaml', r"gpr: cannot read config file .*missing.yaml"),
     (('base', 'position'), [0, 0], r'base: position = \[0, 0\] is invalid; allowed: a list of 3 finite numbers in m'),
     (('base', 'position'), [0, 0, 1e3], r'base: position\[2\] = 1000.0 is invalid; allowed: a list of 3 finite'),

@@ -316,3 +316,23 @@ def test_a_program_of_one_move_reports_its_peaks():
     np.testing.assert_allclose(s.velocity_usage, v_fd, atol=2e-3, rtol=0)
     np.testing.assert_allclose(s.acceleration_usage, a_fd, atol=2e-3, rtol=0)
     np.testing.assert_array_equal(s.velocity_usage[6:], 0.0)
+
+
+def test_a_straight_entry_beyond_a_joint_limit_is_named_once_with_its_program(tmp_path):
+    """The example cell program with pm1's entry 600 mm long: the line into it bends arm2's elbow past its limit. The
+    refusal names the program once, the step, where on the line and the joint (it read 'x.yaml: x.yaml: steps[5]')."""
+    from pathlib import Path
+
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.program import parse_program
+    source = Path(config_path('programs/example_cell_program.yaml'))
+    data = yaml.safe_load(source.read_text())
+    data['stations'] = [dict(s, entry=600) if s.get('name') == 'pm1' else s for s in data['stations']]
+    data['robot'] = str((source.parent / data['robot']).resolve())
+    del data['cell']
+    program = parse_program(data, 'x.yaml', source.parent)
+    with pytest.raises(LimitError) as err:
+        plan_program(load_robot(data['robot']), program)
+    assert str(err.value).startswith('x.yaml: steps[5] (place pm1, approach): the straight line into it, at 0.043 of '
+                                     'its length: station pm1/approach: arm2_elbow = 2.9063 rad is beyond its upper '
+                                     'limit 2.9 rad by 0.006304 rad'), str(err.value)

@@ -75,6 +75,14 @@ def test_units_and_imports(tmp_path):
     np.testing.assert_allclose(st.position, [[1.2, 0.5, 0.45], [1.2, 0.5, 0.45], [0.75, 1.1, 0.4]], atol=1e-15)
     np.testing.assert_allclose(st.heading, [math.pi / 2, math.pi / 2, 0.5], atol=1e-15)
     assert p.approach_height == pytest.approx(0.005)
+    # a name given inline and in an import, or in two imports, is named with both places (it said 'stations 1 and 3')
+    (tmp_path / 'again.csv').write_text('name,x,y,z,heading\na,1.2,0.5,0.45,0\n')
+    for imports, where in ((['again.csv'], "in its stations and in import 'again.csv'"),
+                           (['more.csv', 'more.csv'], "in import 'more.csv'")):
+        with pytest.raises(ConfigError, match=rf"p\.yaml: station name '\w' is used twice, {where}; allowed: unique "
+                                              r'names over the program and its imports'):
+            _program(tmp_path, _minimal(stations=[{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0}],
+                                        **{'import': imports}, steps=[{'move': 'a'}]))
 
 
 def test_platform_programs_are_named_and_refused():
@@ -114,6 +122,9 @@ def test_platform_programs_are_named_and_refused():
     ({'defaults': [1]}, r'defaults must be a mapping'),
     ({'import': ['absent.csv']}, r"cannot read station file .*absent.csv"),
     ({'import': 7}, r'import must be a list of at most 64 station file paths'),
+    # a misspelt wafer station: named, and the stations listed
+    ({'wafers': ['bb']}, r"wafers = \['bb'\] names no station 'bb'; allowed: a list of station names \(the stations "
+                         r'that hold a wafer at the start\): a, b$'),
     ({'robot': 5}, r'robot = 5 is invalid; allowed: a path to a robot description'),
     ({'stations': [{'name': 'a', 'position': [1, 2, 3]}, {'name': 'a', 'position': [1, 2, 3]}]},
      r"station name 'a' is used twice"),

@@ -301,8 +301,9 @@ def _read_yaml(path: str | Path, empty: bool = True) -> Mapping[str, YamlValue]:
 
 
 def load_config(path: str | Path | None = None,
-                overrides: Mapping[str, YamlValue] | None = None) -> GprConfig:
-    """Load the embedded default, then a user's file ``path`` and ``overrides`` on top of it.
+                overrides: Mapping[str, YamlValue] | None = None, overrides_source: str = 'overrides') -> GprConfig:
+    """Load the embedded default, then a user's file ``path`` and ``overrides`` on top of it; ``overrides_source``
+    names where the overrides came from in messages (a robot description's ``gpr`` section names itself).
 
     Raises:
         ConfigError: unreadable file, invalid YAML, unknown key or a value outside its range.
@@ -312,5 +313,5 @@ def load_config(path: str | Path | None = None,
     if path is not None:  # the name as given: an empty one is refused, not read as '.'
         cfg = _build(cfg, _read_yaml(path, empty=False), str(path))
     if overrides:
-        cfg = _build(cfg, overrides, 'overrides')
+        cfg = _build(cfg, overrides, overrides_source)
     return cfg

@@ -354,10 +354,11 @@ def _gpr(raw: Any, source: str, base_dir: Path) -> GprConfig:
                           'null')
     overrides = {k: v for k, v in data.items() if k != 'config'}
     file = None if path is None else (base_dir / path if not Path(path).is_absolute() else Path(path))
-    try:
-        return load_config(file, overrides or None)
+    try:  # the section's keys named by the section ('rt.yaml: gpr: unknown key(s) modle', not 'gpr: overrides:')
+        return load_config(file, overrides or None, where)
     except ConfigError as exc:
-        raise ConfigError(f'{where}: {exc}') from None
+        message = str(exc)
+        raise ConfigError(message if message.startswith(where) else f'{where}: {message}') from None
 
 
 def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',

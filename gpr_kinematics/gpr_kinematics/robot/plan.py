@@ -246,7 +246,7 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
     grid = np.linspace(0.0, 1.0, GRID)
     try:
         for m in line_moves(way):
-            label = f'{program.source}: {plan_labels[m + 1]}'
+            label = plan_labels[m + 1]  # the program's name is added once, below (it read 'p.yaml: p.yaml: steps[4]')
             cols = slices[robot.arm_names.index(way.arm[m + 1])]
             g = line_gains(robot.arm(way.arm[m + 1]), cols, move_rows(robot, way, positions, m, grid, label), label)
             for k in range(3):

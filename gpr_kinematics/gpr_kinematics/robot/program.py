@@ -179,11 +179,19 @@ def _path(data: Mapping[str, Any], key: str, base: Path, source: str) -> Path | 
     return None if value is None else (base / value if not Path(value).is_absolute() else Path(value))
 
 
+def _known(names: Any) -> str:
+    """The first eight station names, for an 'allowed:' (a program may have 100,000)."""
+    return ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
+
+
 def _wafers(raw: Any, table: StationTable, source: str) -> tuple[str, ...]:
     names = table.index()
     if not isinstance(raw, list) or any(not isinstance(n, (str, int)) or str(n) not in names for n in raw):
-        raise ConfigError(f'{source}: wafers = {brief(raw)} is invalid; allowed: a list of station names (the '
-                          'stations that hold a wafer at the start)')
+        unknown = [n for n in raw if not isinstance(n, (str, int)) or str(n) not in names] if isinstance(raw, list) \
+            else []
+        what = f'names no station {brief(unknown[0])}' if unknown else 'is invalid'
+        raise ConfigError(f'{source}: wafers = {brief(raw)} {what}; allowed: a list of station names (the stations '
+                          f'that hold a wafer at the start): {_known(names)}')
     if len({str(n) for n in raw}) != len(raw):
         raise ConfigError(f'{source}: wafers = {brief(raw)} names a station twice; allowed: one wafer per station')
     return tuple(str(n) for n in raw)
@@ -194,9 +202,17 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
         raw = [raw]
     if not isinstance(raw, list) or len(raw) > MAX_IMPORTS or not all(isinstance(p, str) for p in raw):
         raise ConfigError(f'{source}: import must be a list of at most {MAX_IMPORTS} station file paths (.csv, .yaml)')
+    origin = {name: 'its stations' for name in rows.names}  # where each name came from, for a name given twice
     for p in raw:
         path = Path(p) if Path(p).is_absolute() else base / p
-        rows.extend(read_station_rows(path))
+        new, here = read_station_rows(path), f'import {brief(p)}'
+        for name in new.names:
+            if name in origin:
+                where = f'in {here}' if origin[name] == here else f'in {origin[name]} and in {here}'
+                raise ConfigError(f'{source}: station name {brief(name)} is used twice, {where}; allowed: unique '
+                                  'names over the program and its imports')
+            origin[name] = here
+        rows.extend(new)
         if len(rows.names) > MAX_STATIONS:  # each file within the bound, 64 of them 6.4 million: 3 min and 1.9 GB
             raise ConfigError(f'{source}: import {brief(p)}: {len(rows.names)} stations so far; allowed: at most '
                               f'{MAX_STATIONS} in a program (inline and imported)')
@@ -237,9 +253,8 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         check_keys(st, (kind, 'arm', 'branch', 'dwell', 'time'), where)
         station = st[kind]
         if not isinstance(station, (str, int)) or str(station) not in names:
-            known = ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
             hint = text_hint(station) if isinstance(station, bool) else ''
-            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{hint}; allowed: {known}')
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{hint}; allowed: {_known(names)}')
         time = st.get('time')
         out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
                         _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None,
