@@ -168,6 +168,12 @@ def test_program_check_and_export(capsys, tmp_path):
      r'^gpr robot ik: error: --heading = nan'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--tilt', '3', '--deg'],
      r'beyond the tilt limit 2 deg by 1 deg'),
+    # a tilt in degrees typed as radians: the hint (none for 0.05 rad just beyond the limit)
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.6', '--heading', '0', '--tilt', '1'],
+     r'tilts 57.2958 deg in gpr_base, beyond the tilt limit 2 deg by 55.3 deg \(0.965 rad\); a tilt of 1 deg would be '
+     r'within it: degrees given as radians\?$'),
+    (['robot', 'ik', '--position', '1.2', '0.5', '0.6', '--heading', '0', '--tilt', '0.05'],
+     r'tilts 2.86479 deg in gpr_base, beyond the tilt limit 2 deg by 0.865 deg \(0.0151 rad\)$'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--arm', 'arm7'],
      r"^gpr robot ik: error: .*no arm 'arm7'; allowed: arm1, arm2"),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--redundancy', '0.1'],

@@ -27,6 +27,7 @@ when the other branch fits), a heading a 2-joint arm cannot make.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
@@ -261,9 +262,12 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     tilted = over > TILT_LIMIT_SLACK
     if check and tilted.any():
         i = int(np.argmax(tilted))
+        given = float(stations.tilt[i])  # a station tilt of 1 typed for 1 deg: the plane tilts 57 deg
+        hint = (f'; a tilt of {given:g} deg would be within it: degrees given as radians?'
+                if given > 10.0 * cfg.tilt_limit and math.radians(given) <= cfg.tilt_limit else '')  # not 0.05 rad
         raise LimitError(f'{stations.label(i)}: the station plane tilts {np.degrees(tilt[i]):.6g} deg in gpr_base, '
                          f'beyond the tilt limit {np.degrees(cfg.tilt_limit):.6g} deg by {np.degrees(over[i]):.3g} deg '
-                         f'({over[i]:.3g} rad)' + _more(tilted))
+                         f'({over[i]:.3g} rad){hint}' + _more(tilted))
     if tilted.any():  # check=False: solved level instead, marked infeasible (the caller names them)
         n_b = np.where(tilted[:, None], np.array([0.0, 0.0, 1.0]), n_b)
         tilt, az = np.where(tilted, 0.0, tilt), np.where(tilted, 0.0, az)
