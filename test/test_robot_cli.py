@@ -432,4 +432,6 @@ def test_an_infinite_slip_ratio_is_the_text_inf_in_the_json(capsys, tmp_path):
     assert d['safe'] is False and d['max_slip_ratio'] == 'inf'
     assert 'inf' in [m['max_slip_ratio'] for m in d['moves']]
     status, out, _ = run(capsys, 'program', 'check', str(tmp_path / 'p.yaml'), '--no-progress')
-    assert status == 1 and 'the wafer slips on the blade (ratio inf >= 1)' in out
+    # lift-off said as such (it read 'slips ... (ratio inf >= 1)')
+    assert status == 1 and 'UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it ' \
+        'faster than gravity and the vacuum hold it down) at ' in out, out

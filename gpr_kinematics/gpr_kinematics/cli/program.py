@@ -117,7 +117,10 @@ def _print_safety(r: Any) -> None:
         print('    (first below: the first instant found closer than the margin, in that step at that station; '
               "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
               'its smallest measured distance)')
-    if r.max_slip_evaluated >= 1.0:
+    if r.max_slip_evaluated == float('inf'):  # the blade pulls away faster than gravity and the vacuum hold
+        print(f'  UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it faster than '
+              f'gravity and the vacuum hold it down) at {r.max_slip_at:.3f} s, {r.slip_label}')
+    elif r.max_slip_evaluated >= 1.0:
         print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_evaluated:.3f} >= 1) at {r.max_slip_at:.3f} '
               f's, {r.slip_label}')
     elif r.max_slip_ratio >= 1.0:
