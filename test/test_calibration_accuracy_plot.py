@@ -148,7 +148,7 @@ def test_a_bad_plot_is_refused_before_any_budget(capsys, tmp_path, monkeypatch):
     for argv, line in [
             ([*EXAMPLE, '--samples', '0', '--plot', 'b.png'], "--plot draws the Monte Carlo's samples, and --samples "
              '0 draws none; allowed: --plot with --samples N >= 1 (default 10000)'),
-            ([*EXAMPLE, '--plot', 'b.pdf'], "--plot 'b.pdf': allowed: a .png file"),
+            ([*EXAMPLE, '--plot', 'b.pdf'], "--plot 'b.pdf' has another suffix; allowed: a .png file"),
             ([*EXAMPLE, '--plot', 'folder.png'], 'plot output folder.png exists and is not a regular file (it is a '
              'directory); allowed: a new file or a regular file to replace, in an existing, writable folder'),
             (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0', '0', '0', '--plot', 'b.png'],

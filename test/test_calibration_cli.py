@@ -243,13 +243,16 @@ def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys
     arm = write(tmp_path, 'arm.csv', 'arm,x,y,z\n')
     for argv, line in [
             (['calibrate', SHIPPED, '--output', 'x.csv'],
-             "--output 'x.csv': allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
+             "--output 'x.csv' has another suffix; "
+             "allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
             (['calibrate', SHIPPED, '--output', 'x.YAML.txt'],
-             "--output 'x.YAML.txt': allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
+             "--output 'x.YAML.txt' has another suffix; "
+             "allowed: a .yaml or .yml file (the calibrated geometry is written as YAML)"),
             (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.csv'],
-             "--output 'r.csv': allowed: a .yaml or .yml file (the calibrated robot is written as YAML)"),
+             "--output 'r.csv' has another suffix; "
+             "allowed: a .yaml or .yml file (the calibrated robot is written as YAML)"),
             (['calibrate', '--plan', '3', '--output', 'plan.yaml'],
-             "--output 'plan.yaml': allowed: a .csv file (the plan is written as CSV)"),
+             "--output 'plan.yaml' has another suffix; allowed: a .csv file (the plan is written as CSV)"),
             (['calibrate', SHIPPED, '--output', str(tmp_path)],
              f'calibrated geometry output {tmp_path} exists and is not a regular file (it is a directory); allowed: '
              'a new file or a regular file to replace, in an existing, writable folder')]:

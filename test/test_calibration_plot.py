@@ -173,14 +173,14 @@ def test_a_bad_plot_is_refused_before_any_fit(capsys, tmp_path, monkeypatch):
     (tmp_path / 'folder.png').mkdir()
     base = ['calibrate', SHIPPED, '--output', 'x.yaml']
     for argv, line in [
-            ([*base, '--plot', 'r.pdf'], "--plot 'r.pdf': allowed: a .png file"),
-            ([*base, '--plot', 'r.PNG.txt'], "--plot 'r.PNG.txt': allowed: a .png file"),
+            ([*base, '--plot', 'r.pdf'], "--plot 'r.pdf' has another suffix; allowed: a .png file"),
+            ([*base, '--plot', 'r.PNG.txt'], "--plot 'r.PNG.txt' has another suffix; allowed: a .png file"),
             ([*base, '--plot', 'folder.png'], 'plot output folder.png exists and is not a regular file (it is a '
              'directory); allowed: a new file or a regular file to replace, in an existing, writable folder'),
             (['calibrate', '--plan', '3', '--plot', 'r.png'], '--plot draws the residuals of a fit, and --plan fits '
              'nothing; allowed: --plot with MEASUREMENTS files (of the GPR, or with --robot of the arms)'),
             (['calibrate', '--robot', 'example_robot.yaml', str(arm), '--output', 'r.yaml', '--plot', 'r.svg'],
-             "--plot 'r.svg': allowed: a .png file")]:
+             "--plot 'r.svg' has another suffix; allowed: a .png file")]:
         status, out, err = run(capsys, *argv)
         assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
     monkeypatch.setitem(sys.modules, 'matplotlib', None)   # not installed

@@ -200,8 +200,10 @@ def test_program_check_and_export(capsys, tmp_path):
      r"robot description file '/nonexistent.yaml' not found \(a path with a folder is read as given"),
     (['program', 'check', str(config_path('programs/example_stations.yaml'))], r'this is a platform program'),
     (['program', 'check', '/'], r"program file '/'"),  # a directory, not a program
+    (['program', 'check', PROGRAM, '--plot', '/tmp'], r"--plot '/tmp' is a folder; allowed: a .png file"),
     (['program', 'export', PROGRAM], r'nothing to export: give --waypoints FILE and/or --samples FILE'),
-    (['program', 'export', PROGRAM, '--trajectory', '/tmp/t.csv'], r"--trajectory '/tmp/t.csv': allowed: a .yaml"),
+    (['program', 'export', PROGRAM, '--trajectory', '/tmp/t.csv'],
+     r"--trajectory '/tmp/t.csv' has another suffix; allowed: a .yaml"),
     (['program', 'export', PROGRAM, '--trajectory', '/proc/t.yaml'], r'trajectory'),
     (['program', 'export', PROGRAM, '--trajectory', '/tmp/t.yaml', '--lead-in', '-1'], r'--lead-in = -1.0 s'),
     (['program', 'send', PROGRAM, '--timeout', '0'], r'--timeout = 0.0 s; allowed: 0 < timeout'),

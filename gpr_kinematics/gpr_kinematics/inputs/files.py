@@ -210,7 +210,8 @@ def check_suffix(path: str | os.PathLike[str], option: str, suffixes: tuple[str,
     """
     name = os.fspath(path)
     if not name.lower().endswith(suffixes):
-        raise FileError(f'{option} {brief(name)}: allowed: a {" or ".join(suffixes)} file{why}')
+        found = 'is a folder' if os.path.isdir(name) else 'has another suffix'  # said which ('outdir': a folder)
+        raise FileError(f'{option} {brief(name)} {found}; allowed: a {" or ".join(suffixes)} file{why}')
 
 
 @contextlib.contextmanager
