@@ -164,6 +164,8 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--tool', '0', '0', '0'], r"--tool: a robot program's tool "
                                                                                       r'point is the wafer centre'),
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, *pose], r'a program gives its stations'),
+        (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--mm'], r'--mm with a program: it says its own units'),
+        (['accuracy', 'example_stations.yaml', '--tolerances', TABLE, '--deg'], r'--deg with a program'),
         # without --tolerances a program read as 'mechanism file ... not found' (a packaged bare name) or 'type = None'
         (['accuracy', 'example_robot_program.yaml'], r'example_robot_program\.yaml: a whole-robot program: its '
                                                      r'accuracy budget needs --tolerances TABLE'),

@@ -150,6 +150,12 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
     kind = _kind(data)
     if kind != 'mechanism' and args.pose is not None:
         raise InputError(f'{path}: a program gives its stations; --pose goes with a mechanism file of type gpr')
+    if kind != 'mechanism':  # they were accepted and did nothing: a program says its own units
+        unused = [flag for flag, on in (('--mm', args.mm and (kind == 'robot' or args.tool is None)),
+                                        ('--deg', args.deg)) if on]
+        if unused:
+            raise InputError(f'{" and ".join(unused)} with a program: it says its own units; allowed: --mm with a '
+                             'platform program\'s --tool, --mm and --deg with --pose of a mechanism file')
     if kind == 'robot':
         from ..robot.description import load_robot
         from ..robot.program import parse_program
