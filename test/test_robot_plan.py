@@ -80,7 +80,8 @@ def test_a_station_beyond_the_tilt_limit_refused_with_its_step(tmp_path):
                       [{'move': 'a'}, {'pick': 'b'}, {'move': 'a'}])
     with pytest.raises(LimitError, match=r"/p.yaml: steps\[1\] \(pick b, approach\): station b/approach: the "
                                          r"station plane tilts 68.7549 deg in gpr_base, beyond the tilt limit 2 deg by "
-                                         r"66.8 deg \(1.17 rad\) \(and 2 more waypoints\)$"):
+                                         r"66.8 deg \(1.17 rad\); a tilt of 1.2 deg would be within it: degrees "
+                                         r"given as radians\? \(and 2 more waypoints\)$"):
         plan_program(ROBOT, p)
 
 

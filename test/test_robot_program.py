@@ -117,7 +117,7 @@ def test_platform_programs_are_named_and_refused():
                                             r'name to keep it as written\); allowed: a name'),
     ({'steps': [{'move': True}]}, r'steps\[0\]: move True: no such station \(YAML reads true and false as booleans: '
                                   r'quote the name\); allowed: a, b'),
-    ({'defaults': {'approach_height': 0.5}}, r'defaults: approach_height = 0.5 is invalid; allowed: 0 to 0.1 m'),
+    ({'defaults': {'approach_height': 0.5}}, r'defaults: approach_height = 0.5 m is invalid; allowed: 0 to 0.1 m'),
     ({'defaults': {'speed': 1}}, r'defaults: unknown key\(s\) speed'),
     ({'defaults': [1]}, r'defaults must be a mapping'),
     ({'import': ['absent.csv']}, r"cannot read station file .*absent.csv"),

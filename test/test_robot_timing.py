@@ -86,8 +86,8 @@ def test_too_short_a_time_is_refused_naming_the_joint():
     P = np.array([[0.0, 0.0, 0.0], [0.1, 0.5, 0.0]])
     need = 0.1 / 0.15 + 0.15 / 0.6  # the rod: accelerate, cruise, brake
     with pytest.raises(LimitError, match=rf'^the move into b needs at least {need:.4g} s within the limits, time = '
-                                         rf'0.5 s is too short \(rod alone needs {need:.4g} s at 0.15 /s and 0.6 '
-                                         r'/s\^2\)$'):
+                                         rf'0.5 s is too short \(rod alone needs {need:.4g} s at 0.15 m/s and 0.6 '
+                                         r'm/s\^2\)$'):
         parameterise(P, V_LIM, A_LIM, np.array([np.nan, 0.5]), np.zeros(2), NAMES, ('a', 'b'))
 
 

@@ -159,8 +159,9 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
         if not is_number(value) or not 0 <= value * length <= 0.1:
-            raise ConfigError(f'{dw}: {key} = {brief(value)} is invalid; allowed: 0 to 0.1 m (in the file\'s length '
-                              'unit)')
+            unit = 'mm' if length != 1.0 else 'm'
+            raise ConfigError(f'{dw}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {0.1 / length:g} {unit} '
+                              '(0.1 m)')
         heights.append(float(value) * length)
     robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(

@@ -158,7 +158,8 @@ def _height(value: Any, where: str, key: str, scale: float, unit: str, most: flo
         return None
     h = _number(value, where, key, unit) * scale
     if not 0.0 <= h <= most:
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: 0 to {most:g} m (in {unit})')
+        raise ConfigError(f'{where}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {most / scale:g} {unit} '
+                          f'({most:g} m)')
     return h
 
 
@@ -343,8 +344,9 @@ def stations_from_csv(text: str, where: str) -> StationRows:
                                   ('entry', rows.entry, MAX_ENTRY)):
             value = table.number(r, key, None, w)
             if value is not None and not 0.0 <= value <= most:
-                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} is invalid; allowed: 0 to {most:g} m (in '
-                                  f'{table.columns[key][2]})')
+                unit = table.columns[key][2]
+                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} {unit} is invalid; allowed: 0 to '
+                                  f'{most / (1e-3 if unit == "mm" else 1.0):g} {unit} ({most:g} m)')
             target.append(value)
     return rows
 
