@@ -258,6 +258,7 @@ def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
     ({'tolerance': 5e-324}, r'tolerance = 5e-324 is invalid'),
     ({'tolerance': 0.0}, r'tolerance = 0.0 is invalid'),
     ({'margin': -0.001}, r'margin = -0.001 is invalid; allowed: metres, at least 0 and at most 1'),
+    ({'margin': 5.0}, r'margin = 5.0 is invalid; allowed: metres, at least 0 and at most 1 \(5 mm\? give 0.005\)$'),
     ({'margin': 10 ** 400}, r'margin = <an integer of about 401 digits> is invalid'),
     ({'margin': float('nan')}, r'margin = nan is invalid'),
     ({'margin': True}, r'margin = True is invalid'),

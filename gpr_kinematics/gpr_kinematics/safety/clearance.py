@@ -112,7 +112,10 @@ def check_numbers(margin: float, tolerance: float, rate: float) -> None:
     :class:`~gpr_kinematics.errors.InputError` naming the value (a finer tolerance runs for minutes)."""
     for name, value, lo, hi in (('margin', margin, 0.0, 1.0), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
         if not lo <= plain_number(value) <= hi:
-            raise InputError(f'{name} = {brief(value)} is invalid; allowed: metres, at least {lo:g} and at most {hi:g}')
+            v = plain_number(value)
+            mm = f' ({v:g} mm? give {v / 1000.0:g})' if hi < v <= 1000.0 * hi else ''  # --margin 5 for 5 mm
+            raise InputError(f'{name} = {brief(value)} is invalid; allowed: metres, at least {lo:g} and at most '
+                             f'{hi:g}{mm}')
     if not 0.0 < plain_number(rate) <= 1000.0:
         raise InputError(f'rate = {brief(rate)} is invalid; allowed: 0 < rate <= 1000 Hz')
 
