@@ -45,13 +45,13 @@ def test_shipped_example():
 
 def test_expansion_into_waypoints(tmp_path):
     p = _program(tmp_path, _minimal(defaults={'approach_height': 0.01, 'retract_height': 0.004, 'dwell': 0.3},
-                                    steps=[{'move': 'a', 'time': 2.0}, {'pick': 'b', 'time': 3.0, 'dwell': 1.0},
+                                    steps=[{'move': 'a'}, {'pick': 'b', 'time': 3.0, 'dwell': 1.0},
                                            {'dwell': 0.7}, {'place': 'a', 'branch': 'left'}]))
     w = expand(p, ROBOT)
     assert w.phase == ('move', 'approach', 'at', 'retract', 'approach', 'at', 'retract')
     assert w.stations.names == ('a', 'b/approach', 'b', 'b/retract', 'a/approach', 'a', 'a/retract')
     np.testing.assert_allclose(w.dwell, [0.3, 0.0, 1.0, 0.7, 0.0, 0.3, 0.0])
-    np.testing.assert_array_equal(w.time, [2.0, 3.0, np.nan, np.nan, np.nan, np.nan, np.nan])
+    np.testing.assert_array_equal(w.time, [np.nan, 3.0, np.nan, np.nan, np.nan, np.nan, np.nan])
     assert w.branch == ('right',) * 4 + ('left',) * 3
     b = p.stations.stations.take([1])
     n = b.normal[0]
@@ -111,6 +111,9 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': [{'move': 'a'}, 'b']}, r'steps\[1\]: expected a mapping such as \{pick: STATION\}'),
     ({'steps': [{'move': 'a', 'speed': 1}]}, r'steps\[0\]: unknown key\(s\) speed'),
     ({'steps': [{'move': 'a', 'time': 0}]}, r'steps\[0\]: time = 0 is invalid; allowed: seconds, > 0'),
+    # the first move's time: nothing moves into the first waypoint (it was dropped without a word)
+    ({'steps': [{'dwell': 1.0}, {'move': 'a', 'time': 5}]}, r'steps\[1\]: time = 5 s on the first move: the program '
+                                                             r'starts at its first waypoint, so no move leads into it'),
     ({'steps': [{'move': 'a', 'dwell': -1}]}, r'dwell = -1 is invalid; allowed: seconds, >= 0'),
     ({'steps': [{'move': 'a', 'dwell': float('nan')}]}, r'dwell = nan is invalid'),
     ({'steps': [{'move': 'a', 'arm': 3}]}, r'steps\[0\]: arm = 3 is invalid \(YAML read it as a number: quote the '

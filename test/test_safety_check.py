@@ -753,7 +753,8 @@ def test_a_bad_plot_is_refused_before_the_check(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     argv = ['program', 'check', str(PROGRAM), '--plot']
     assert main([*argv, 'c.svg']) == 2
-    assert capsys.readouterr().err == "gpr program check: error: --plot 'c.svg': allowed: a .png file\n"
+    assert capsys.readouterr().err == ("gpr program check: error: --plot 'c.svg' has another suffix; allowed: a .png "
+                                       "file\n")
     monkeypatch.setitem(sys.modules, 'matplotlib', None)   # not installed
     assert main([*argv, 'c.png']) == 2
     assert capsys.readouterr().err == ("gpr program check: error: this command needs the optional package "

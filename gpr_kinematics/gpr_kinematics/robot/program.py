@@ -256,10 +256,13 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         if not isinstance(station, (str, int)) or str(station) not in names:
             hint = text_hint(station) if isinstance(station, bool) else ''
             raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{hint}; allowed: {_known(names)}')
-        time = st.get('time')
+        time = None if st.get('time') is None else _seconds(st['time'], where, 'time', positive=True)
+        if time is not None and all(s.kind == 'dwell' for s in out):  # it was dropped without a word
+            raise ConfigError(f'{where}: time = {time:g} s on the first move: the program starts at its first '
+                              'waypoint, so no move leads into it; allowed: a time on a later step (a dwell holds '
+                              'the robot where it is)')
         out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
-                        _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None,
-                        None if time is None else _seconds(time, where, 'time', positive=True)))
+                        _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None, time))
     if all(s.kind == 'dwell' for s in out):
         raise ConfigError(f'{source}: the steps only dwell; at least one move, pick or place is required')
     return tuple(out)
