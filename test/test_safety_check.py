@@ -680,6 +680,11 @@ def test_the_plot_marks_and_names_the_closest_pair_the_first_collision_and_the_l
     limits = [(line.get_label(), line.get_ydata()[0]) for ax in (ax1, ax2) for line in ax.lines
               if line.get_color() == 'r' and line.get_marker() == 'None']
     assert limits == [('margin 7 mm', 7.0), ('slips at 1', 1.0)]
+    # unsafe: the curve's label says the bound is refined to each pair's least distance only (a colliding pair's other
+    # intervals dip below the margin far from any approach: read as collisions)
+    curve = [p.get_label() for p in ax1.patches]
+    assert curve and curve[0].endswith('refined to each pair\'s least\ndistance only: below the margin\nit may lie '
+                                       'far under the truth;\nthe first approach is the x'), curve
     fig.canvas.draw()
     for ax in (ax1, ax2):
         assert ax.get_legend().get_window_extent().x0 > ax.get_window_extent().x1
