@@ -297,7 +297,11 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         angle_error=_angle_to(stations, fk.wafer.rotation), feasible=~bad)
     if check and bad.any():
         i = int(np.argmax(bad))
-        raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{_more(bad)}')
+        far = float(np.linalg.norm(p_b[i]))  # a position in mm typed as m: a station 1.5 km from the base
+        hint = (f'; the station lies {far:.4g} m from gpr_base, {far / 1000.0:.4g} m as millimetres: millimetres given '
+                'as metres?' if far > 100.0 and far / 1000.0 < 10.0 else '')
+        raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{hint}'
+                         f'{_more(bad)}')
     return result
 
 
