@@ -325,3 +325,14 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     assert fig.axes[0].get_title().splitlines()[-1] == (f'stopped early ({stopped.stopped}): unexamined boxes drawn '
                                                          'as boundary')
     plt.close(fig)
+
+
+def test_a_delta_as_large_as_the_box_is_warned_about(capsys):
+    """--delta 1 (1 mm meant) ran one box without a word: allowed (docs/workspace.md), now with a warning that names
+    the box's largest scaled edge and --mm; a delta that divides the box warns of nothing."""
+    code, out, err = _run(capsys, 'gpr.yaml', '--delta', '1', '--scheduler', 'none')
+    assert code == 0 and '0 inner and 1 boundary boxes' in out
+    assert ("gpr workspace: warning: --delta 1 m is at least the initial box's largest scaled edge (0.508 m): the box "
+            'is not divided; millimetres? give --mm\n') in err, err
+    code, out, err = _run(capsys, 'gpr.yaml', '--delta', '1', '--mm', '--scheduler', 'none', '--max-seconds', '2')
+    assert code == 0 and 'warning' not in err, err

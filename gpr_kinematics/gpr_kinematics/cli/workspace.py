@@ -153,6 +153,12 @@ def run(args: argparse.Namespace) -> int:
     overrides = _overrides(args.set)
     model = load_workspace_model(args.file, overrides)
     check_max_boxes(args.max_boxes, model, '--max-boxes')   # named as the option (approximate checks it again)
+    out = getattr(model, 'output_index', slice(None))
+    edge = float(np.max((model.box[out, 1] - model.box[out, 0]) * model.scale[out]))
+    if delta >= edge:  # allowed (docs/workspace.md), but --delta 1 for 1 mm ran one box without a word
+        mm = '; millimetres? give --mm' if not args.mm and delta / 1000.0 < edge else ''
+        sys.stderr.write(f'gpr workspace: warning: --delta {delta:g} m is at least the initial box\'s largest scaled '
+                         f'edge ({edge:.6g} m): the box is not divided{mm}\n')
     result = approximate(model, delta, method=args.method, grid_nodes=args.grid_nodes,
                          progress=not args.no_progress, max_seconds=args.max_seconds,
                          max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,
