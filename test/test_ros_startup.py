@@ -237,3 +237,36 @@ def test_a_start_refused_half_way_destroys_its_node_before_rclpy_shuts_down(monk
                                                                  shutdown(*a, **k)))
     assert runtime.run(Refused, []) == 2
     assert events == [('destroyed', True), ('shutdown', True)]
+
+
+def test_a_refused_process_leaves_even_when_rclpy_shutdown_hangs():
+    """A refused start in its own process (the console script's ``run(..., args=None)``) leaves with its status and
+    its one line, also when rclpy's shutdown hangs (as Fast DDS did now and then: a refused recorder stayed 60 s in
+    a CI run): the watchdog ends it after ``REFUSED_EXIT_WAIT``; without a hang it leaves at once, skipping the
+    interpreter's finalisation."""
+    import subprocess
+    import sys
+    import time
+
+    script = (
+        'import sys, time, rclpy\n'
+        'from gpr_kinematics.errors import GprError\n'
+        'from gpr_kinematics.nodes import runtime\n'
+        'runtime.REFUSED_EXIT_WAIT = 1.0\n'
+        'class Refused(runtime.GprNode):\n'
+        '    NODE_NAME = "refused_hanging"\n'
+        '    def __init__(self):\n'
+        '        super().__init__()\n'
+        '        raise GprError("refused on purpose")\n'
+        'if sys.argv[1] == "hang":\n'
+        '    rclpy.try_shutdown = lambda *a, **k: time.sleep(3600)\n'
+        'sys.argv = sys.argv[:1]\n'
+        'runtime.run(Refused)\n'
+        'print("returned: the process should have left")\n')
+    for mode, most in (('hang', 20.0), ('plain', 20.0)):
+        t0 = time.monotonic()
+        res = subprocess.run([sys.executable, '-c', script, mode], capture_output=True, text=True, timeout=60)
+        took = time.monotonic() - t0
+        assert res.returncode == 2, (mode, res.returncode, res.stdout, res.stderr)
+        assert 'cannot start: refused on purpose' in res.stdout + res.stderr, (mode, res.stderr)
+        assert 'returned' not in res.stdout and took < most, (mode, took)

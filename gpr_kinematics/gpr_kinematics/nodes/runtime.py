@@ -17,10 +17,13 @@ the same path: :meth:`GprNode.on_exit` (drain, flush, close files), destroy the 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import re
 import signal
+import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Iterator, Sequence
 from typing import Any
@@ -209,11 +212,28 @@ def _stderr_held() -> Iterator[None]:
                     os.write(2, data)
 
 
+#: How long [s] a process whose start was refused may take to shut rclpy down before it leaves regardless.
+REFUSED_EXIT_WAIT = 10.0
+
+
+def _leave(status: int) -> None:
+    """End the process with ``status`` now: the streams flushed (Python's and the C library's), no finalisation."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).fflush(None)
+    os._exit(status)
+
+
 def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
     """Init rclpy (signals: :class:`StopFlag`), build the node, spin it, leave; return the exit status. The node is
     destroyed before rclpy shuts down, also one whose start was refused half-way (its handles had been left to the
     garbage collector after the shutdown, where rclpy and Fast DDS are known to hang now and then: one of five
-    refused recorders did not exit in 30 s on a loaded CI machine)."""
+    refused recorders did not exit in 30 s on a loaded CI machine, and once more in a CI run after that mend). A
+    process started from its console script (``args`` None) whose start was refused then leaves at once with its
+    status, skipping the interpreter's finalisation, and within :data:`REFUSED_EXIT_WAIT` whatever the shutdown
+    does; called with ``args`` (in a test's process) it returns."""
     logger = rclpy.logging.get_logger(name or str(getattr(node_class, 'NODE_NAME', 'gpr_node')))
     stop = StopFlag()
     try:
@@ -224,16 +244,19 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
         return EXIT_BAD_CONFIG
     node: GprNode | None = None
     executor: Executor | None = None
+    refused: int | None = None
     try:
         try:
             node = node_class.__new__(node_class)   # bound before __init__: a refused start still destroys its node
             node_class.__init__(node)
         except START_ERRORS as exc:
             logger.error(f'cannot start: {one_line(exc)}')
-            return EXIT_BAD_CONFIG
+            refused = EXIT_BAD_CONFIG
+            return refused
         except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
             logger.error(f'cannot start: internal error: {type(exc).__name__}: {one_line(exc)}')
-            return EXIT_FAILED
+            refused = EXIT_FAILED
+            return refused
         unknown_overrides(node)
         executor = node.make_executor()
         executor.add_node(node)
@@ -253,6 +276,11 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
             return EXIT_FAILED
     finally:
+        leave = refused is not None and args is None   # a refused process of its own (not a test's call)
+        if leave:
+            watchdog = threading.Timer(REFUSED_EXIT_WAIT, _leave, (refused,))
+            watchdog.daemon = True
+            watchdog.start()
         if executor is not None:
             with contextlib.suppress(Exception):
                 executor.shutdown()
@@ -260,3 +288,5 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             with contextlib.suppress(Exception):
                 node.destroy_node()
         rclpy.try_shutdown()
+        if leave and refused is not None:
+            _leave(refused)
