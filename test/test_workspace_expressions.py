@@ -24,6 +24,13 @@ def _parse(text, variables=('x', 'y', 'q'), **params):
     return g, parse_constraint(text, g, _symbols(g, **params), 'test')
 
 
+def _tape(texts, **params):
+    """The tape of constraints ``texts`` over ``x, y, q`` with the constants ``params``."""
+    g = Graph(('x', 'y', 'q'))
+    names = _symbols(g, **params)
+    return Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+
+
 @pytest.mark.parametrize('text, lower, upper', [
     ('x = la*cos(q) + 0.5', (0.0, 0.0), (0.0, 0.0)),
     ('x^2 + y**2 <= 1', (-math.inf, -math.inf), (1.0, 1.0)),
@@ -61,10 +68,8 @@ def test_points_match_numpy_and_equal_subexpressions_are_shared():
 
 
 def test_interval_enclosures_contain_sampled_values_and_flag_undefined_boxes():
-    g = Graph(('x', 'y', 'q'))
-    names = _symbols(g, la=0.2)
-    texts = ['la*cos(q) - x*sin(q)^2 + atan(x*y) = 0', 'sqrt(x + 2) - exp(y)/(3 + q) + asin(x/3) <= 0']
-    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    tape = _tape(['la*cos(q) - x*sin(q)^2 + atan(x*y) = 0', 'sqrt(x + 2) - exp(y)/(3 + q) + asin(x/3) <= 0'],
+                 la=0.2)
     lo = RNG.uniform(-1, 0.5, (300, 3))
     hi = lo + RNG.uniform(0, 0.5, (300, 3))
     enc, maybe, surely = tape.root_boxes(lo, hi)
@@ -93,10 +98,8 @@ def _check_against_differences(tape: Tape, p: np.ndarray) -> None:
 
 
 def test_derivatives_match_finite_differences_and_interval_slopes_contain_them():
-    g = Graph(('x', 'y', 'q'))
-    names = _symbols(g, la=0.2)
-    texts = ['la*cos(q)*x - y^3/(2 + x^2) + atan(x*y)*sin(q) = 0', 'exp(x*y) - sqrt(3 + q^2) + asin(x/3) = 0']
-    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    tape = _tape(['la*cos(q)*x - y^3/(2 + x^2) + atan(x*y)*sin(q) = 0', 'exp(x*y) - sqrt(3 + q^2) + asin(x/3) = 0'],
+                 la=0.2)
     p = RNG.uniform(-1, 1, (200, 3))
     _check_against_differences(tape, p)
     lo, hi = p - 0.05, p + 0.05
@@ -185,11 +188,8 @@ def test_derivatives_of_the_remaining_operations_match_finite_differences():
     """tan, log, acos, abs, negation, a constant over a variable, a constant minus a variable, sqr and a quotient of
     two variable terms: forward-mode derivatives against central differences at points off abs's kink, and the
     interval slopes over boxes around them contain the point derivatives."""
-    g = Graph(('x', 'y', 'q'))
-    names = _symbols(g)
-    texts = ['tan(x/2) + log(2 + y) - acos(q/2) + abs(x - 0.5*y) = 0',
-             '-(x*q) + 1/(2 + y^2) - (3 - sqr(q)) + (x + 2)/(y + 3) = 0']
-    tape = Tape.compile(g, [parse_constraint(t, g, names, 't').root for t in texts])
+    tape = _tape(['tan(x/2) + log(2 + y) - acos(q/2) + abs(x - 0.5*y) = 0',
+                  '-(x*q) + 1/(2 + y^2) - (3 - sqr(q)) + (x + 2)/(y + 3) = 0'])
     p = RNG.uniform(-1, 1, (300, 3))
     p = p[np.abs(p[:, 0] - 0.5 * p[:, 1]) > 0.01]
     _check_against_differences(tape, p)
