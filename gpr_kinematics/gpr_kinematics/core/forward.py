@@ -21,7 +21,7 @@ row to rounding (~1e-16).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 
@@ -172,9 +172,18 @@ def _rows(q: Sequence[Value]) -> Array:
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
 
 
-def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False) -> None:
+def millimetres_within(value: float, config: GprConfig) -> bool:
+    """A rod length ``value`` [m] outside the stroke that would lie within it read as millimetres (250 for 0.25 m; not
+    0.6 m for a stroke of 0.508 m): the rule of the hints that a length was typed in mm."""
+    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
+    return value > 10.0 * hi and lo <= value / 1000.0 <= hi
+
+
+def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False,
+                 detail: Callable[[int], str] | None = None) -> None:
     """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample;
-    ``typed``: rods a user gave (not computed ones), where a value that would lie within as millimetres says so."""
+    ``typed``: rods a user gave (not computed ones), where a value that would lie within as millimetres says so;
+    ``detail(i)``: more words about the refused sample ``i`` (what asked for its rods)."""
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
         return
@@ -182,10 +191,11 @@ def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q
     i, k = np.argwhere((rods < lo) | (rods > hi))[0]
     where = f' (sample {i})' if rods.shape[0] > 1 else ''
     value = float(rods[i, k])
-    mm = typed and value > 10.0 * hi and lo <= value / 1000.0 <= hi  # not 0.6 m for a stroke of 0.508 m
-    hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if mm else ''
+    hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if typed and millimetres_within(
+        value, config) else ''
+    more = '' if detail is None else detail(int(i))
     raise LimitError(f'{what}{k + 1} = {value:.9g} m{where} is outside the stroke '
-                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m{hint}')
+                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m{hint}{more}')
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:

@@ -32,7 +32,6 @@ from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
 from .config import GprConfig, resolve_config
 from .forward import (
-    STROKE_SLACK,
     TILT_LIMIT_SLACK,
     ForwardBatch,
     ForwardResult,
@@ -158,16 +157,13 @@ def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: 
     height and the heights allowed at its tilt too (within :data:`HEIGHT_MARGIN` of them a target is solved, so the
     rods decide: ``--height 0.5 --mm`` said only that q3 is outside the stroke). The range is the naive model's
     (:func:`_height_range`), which the virtual joints move by about a millimetre at most: 'about'."""
-    try:
-        check_stroke(ops, q, config, what='q')
-    except LimitError as exc:
+    def heights(i: int) -> str:   # of the sample check_stroke refuses
         lo, hi = _height_range(ops, geo, n, tool, config)
-        rods = np.column_stack(np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=float)) for v in q)))
-        bad = np.any((rods < config.stroke_min - STROKE_SLACK) | (rods > config.stroke_max + STROKE_SLACK), axis=1)
-        i = int(np.argmax(bad))  # check_stroke's sample
         hh, tt, lv, hv = (float(np.atleast_1d(v)[i]) for v in (h, t, lo, hi))
-        raise LimitError(f'{exc}: the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: '
-                         f'about {lv:.6g} .. {hv:.6g} m') from None
+        return (f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: about '
+                f'{lv:.6g} .. {hv:.6g} m')
+
+    check_stroke(ops, q, config, what='q', detail=heights)
 
 
 def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,

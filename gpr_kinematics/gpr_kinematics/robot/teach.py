@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.forward import STROKE_SLACK, check_stroke
+from ..core.forward import STROKE_SLACK, check_stroke, millimetres_within
 from ..core.ops import ARRAY
 from ..errors import ConfigError, InputError, brief
 from ..inputs.files import read_text
@@ -193,7 +193,7 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
     for k, rod in enumerate(robot.rods.names):
         if not lo <= rods[k] <= hi:
             hint = ''
-            if table.columns[rod][2] == 'm' and rods[k] > 10.0 * hi and lo <= rods[k] / 1000.0 <= hi:  # as degrees
+            if table.columns[rod][2] == 'm' and millimetres_within(float(rods[k]), cfg):  # as degrees below
                 hint = (f'; in millimetres it would be within: give the column its unit, "{rod} [mm]", or a '
                         '"# units: mm" line before the header')
             raise ConfigError(f'{where}: {rod} = {rods[k]:.9g} m is outside the stroke [{cfg.stroke_min:g}, '
