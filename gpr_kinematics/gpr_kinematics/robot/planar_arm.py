@@ -85,7 +85,8 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
     Args:
         phi: required for 3- and 4-joint arms; ignored (an outcome) for 2-joint arms.
         sign: branch sign per target (:func:`branch_sign`).
-        value: for a 4-joint arm under ``fixed_joint``, the held joint's value per target (default: the rule's).
+        value: for a 4-joint arm, the held joint's value per target whatever its rule (default: the rule's own;
+            :func:`~gpr_kinematics.robot.inverse.solve_stations` takes one under ``fixed_joint`` only).
     """
     d, beta = link_vectors(arm)
     n = len(arm.joints)
@@ -99,8 +100,10 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
     else:
         assert phi is not None and arm.redundancy is not None
         red = arm.redundancy
-        if red.rule == 'fixed_joint':
-            v = np.full(p.shape[0], red.value) if value is None else np.asarray(value, dtype=float)
+        if value is not None:   # the held values given (as solve_arm_one takes them), whatever the rule
+            v = np.asarray(value, dtype=float)
+        elif red.rule == 'fixed_joint':
+            v = np.full(p.shape[0], red.value)
         else:
             v = nearest_value(arm, d, beta, p, phi, sign)
         theta, tl = solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
