@@ -145,8 +145,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args, extra = parser.parse_known_args(args_in)
         if extra:  # argparse names the top parser (gpr: error: ...) for an option the command does not take
-            command_parser(parser, args).error(f'unrecognized arguments: {" ".join(extra)}; allowed: the options of '
-                                               f'{command_path(parser, args)} --help')
+            chosen = command_parser(parser, args)
+            chosen.error(f'unrecognized arguments: {" ".join(extra)}; allowed: the options of {chosen.prog} --help')
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     command = command_path(parser, args)

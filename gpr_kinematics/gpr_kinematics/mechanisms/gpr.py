@@ -89,10 +89,7 @@ class GprMechanism(Mechanism):
         overrides = data.get('overrides') or {}
         if not isinstance(overrides, Mapping):
             raise ConfigError(f'{source}: overrides must be a mapping of GprConfig fields; got {brief(overrides)}')
-        try:
-            cfg = load_config(overrides=dict(overrides))
-        except ConfigError as exc:
-            raise ConfigError(f'{source}: {exc}') from None  # load_config names 'overrides:' itself
+        cfg = load_config(overrides=dict(overrides), overrides_source=f'{source}: overrides')
         return cls(cfg, name=str(data.get('name', 'GPR')))
 
     # ------------------------------------------------------------------ parameters

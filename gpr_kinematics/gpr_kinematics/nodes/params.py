@@ -103,6 +103,7 @@ def parameter_words(message: str) -> str:
         message += " or '' (the geometry's model)"
     return message
 
+
 class ConfigParameters:
     """Declares ``config_file`` and the ``GprConfig`` parameters on ``node``; ``config`` follows them.
 
