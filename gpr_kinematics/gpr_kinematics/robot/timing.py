@@ -317,7 +317,7 @@ def _refuse_short(D: Array, T_min: Array, req: Array, velocity: Array, accelerat
         i = int(np.argmax(short))
         d, v, a = np.abs(D[i]), velocity, acceleration
         t = np.where(d * a >= v * v, d / v + v / a, 2.0 * np.sqrt(d / a))
-        k, u = int(np.argmax(t)), 'm' if int(np.argmax(t)) < 3 else 'rad'   # the three rods, then the arms' joints
+        u = 'm' if (k := int(np.argmax(t))) < 3 else 'rad'   # joint k's unit: the three rods, then the arms' joints
         raise LimitError(f'the move into {labels[i + 1]} needs at least {T_min[i]:.4g} s within the limits, time = '
                          f'{req[i]:.4g} s is too short ({names[k]} alone needs {t[k]:.4g} s at {velocity[k]:g} {u}/s '
                          f'and {acceleration[k]:g} {u}/s^2)')
