@@ -75,7 +75,13 @@ def test_write_read_round_trip_is_exact(tmp_path):
     (text(ROW + ',1', header=HEADER + ',x'), r"line 1: column 'x' appears 2 times"),
     (text(ROW.replace('1e-5', 'nan')), r'line 2, column x: nan is not a finite number'),
     (text(ROW.replace('0.301', 'inf')), r'line 2, column q2: inf is not a finite number'),
-    (text(ROW.replace('0.301', '0.3O1')), r"line 2, column q2: '0\.3O1' is not a number"),
+    (text(ROW.replace('0.301', '0.3O1')), r"line 2, column q2: '0\.3O1' is not a number$"),
+    # a spreadsheet's export in a locale with decimal commas: a quoted number with a comma, semicolons between columns
+    (text(ROW.replace('0.301', '"0,301"')),
+     r"line 2, column q2: '0,301' is not a number \(a decimal comma: write a decimal point, 0\.301\)$"),
+    (text(ROW.replace(',', ';'), header=HEADER.replace(',', ';')),
+     r"line 1: header column 'q1;q2;.*' is not a name .* \(the columns are separated by semicolons: separate them "
+     r'by commas, and write numbers with a decimal point\)$'),
     # float() read 1_0 as 10 and other scripts' digits as numbers (YAML files refuse them as text)
     (text(ROW.replace('0.301', '0.3_01')), r"line 2, column q2: '0\.3_01' is not a number"),
     (text(ROW.replace('0.301', '\u0660.\u0663\u0660\u0661')), r"line 2, column q2: '.*' is not a number"),

@@ -94,7 +94,11 @@ def test_human_readable_output(capsys):
     (['fk', '0.5', '0.5', '0.5', '0.5'], r"three rod lengths q1 q2 q3 are needed .*; got 4: '0.5 0.5 0.5 0.5'$"),
     (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
                                                         r'needed \[m, or mm with --mm\]; got 2'),
-    (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'"),
+    (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'$"),
+    (['fk', '0,5', '0.5', '0.5'], r"argument Q: invalid float value: '0,5' \(a decimal comma: write a decimal point, "
+                                  r'0.5\)$'),
+    (['robot', 'ik', '--position', '1300,5', '600', '450', '--mm'],
+     r"argument --position: invalid float value: '1300,5' \(a decimal comma: write a decimal point, 1300.5\)$"),
     # rods in millimetres given as metres: the hint where mm would fit, none for a metre value just beyond
     (['fk', '250', '251', '252'],
      r'^gpr fk: error: q1 = 250 m is outside the stroke \[0, 0.508\] m; 250 mm would be within it: millimetres given '

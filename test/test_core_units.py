@@ -22,8 +22,14 @@ def test_column_cells_and_units_lines():
     for line in ('# units:', '# units: ,', '#units:   '):   # taken as SI before: a line meant to say something
         with pytest.raises(FileError, match=r'"# units:" names no unit; allowed: one of m, mm'):
             units.file_units(line, 'l')
-    with pytest.raises(FileError, match=r'header column .* is not a name with an optional unit in brackets'):
+    with pytest.raises(FileError, match=r'header column .* is not a name with an optional unit in brackets, e.g. '
+                                        r'"x \[mm\]"$'):
         units.column('x [mm', 'l')
+    # a spreadsheet's export with semicolons or tabs between the columns: said so
+    for cell, name in (('q1;q2;q3', 'semicolons'), ('q1\tq2', 'tabs')):
+        with pytest.raises(FileError, match=rf'\(the columns are separated by {name}: separate them by commas, and '
+                                            r'write numbers with a decimal point\)$'):
+            units.column(cell, 'l')
     # Own unit first, then the file's, then SI; a unit that does not fit the column is refused.
     assert units.scale('length', 'm', ('mm', 'deg'), 'l', 'x') == (1.0, 'm')
     assert units.scale('angle', None, ('mm', 'deg'), 'l', 'tilt') == (math.pi / 180, 'deg')

@@ -64,7 +64,14 @@ def test_an_empty_heading_is_free(tmp_path):
     ('s.csv', 'name,x,y,z\na,1,2\n', r's.csv: line 2: 3 fields, the header has 4'),
     ('s.csv', 'name,x,y,z\na,1,nan,0.4\n', r"s.csv: line 2 \(a\): y = 'nan' is invalid; allowed: a finite number in m"),
     ('s.csv', 'name,x [mm],y,z\na,1e400,0,0.4\n', r"x = '1e400' is invalid; allowed: a finite number in mm"),
-    ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid"),
+    ('s.csv', 'name,x,y,z\na,one,0,0.4\n', r"x = 'one' is invalid; allowed: a finite number in m$"),
+    # a spreadsheet's export in a locale with decimal commas: semicolons or tabs between the columns, commas in numbers
+    ('s.csv', 'name;x [mm];y [mm];z [mm]\ns1;1200,0;1000,0;440,0\n',
+     r"header column 1 'name;x \[mm\];.*' is invalid; .* \(the columns are separated by semicolons: separate them by "
+     r'commas, and write numbers with a decimal point\)$'),
+    ('s.csv', 'name\tx\ty\tz\ns1\t1.2\t1\t0.44\n', r'\(the columns are separated by tabs: separate them by commas'),
+    ('s.csv', 'name,x [mm],y,z\ns1,"1200,5",1,0.44\n',
+     r"x = '1200,5' is invalid; allowed: a finite number in mm \(a decimal comma: write a decimal point, 1200.5\)$"),
     # float() read 1_0 as 10 and fullwidth digits as numbers
     ('s.csv', 'name,x,y,z\na,1_0,0,0.4\n', r"line 2 \(a\): x = '1_0' is invalid; allowed: a finite number in m"),
     ('s.csv', 'name,x,y,z\na,\uff11,0,0.4\n', r"line 2 \(a\): x = '\uff11' is invalid; allowed: a finite number"),

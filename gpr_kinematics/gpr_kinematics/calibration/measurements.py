@@ -42,7 +42,7 @@ from ..callbacks import StageProgress
 from ..core.rotations import matrix_from_quaternion
 from ..errors import InputError, brief
 from ..inputs import units
-from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal
+from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal, number_hint
 from .files import comment_lines, read_text, write_text
 
 Array = NDArray[np.float64]
@@ -220,7 +220,8 @@ def _number(text: str, where: str, column: str) -> float:
     try:
         v = decimal(text)   # float() read 1_0 as 10, and other scripts' digits
     except ValueError:
-        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number') from None
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number{number_hint(text)}'
+                         ) from None
     if not math.isfinite(v):
         raise InputError(f'{where}, column {column}: {text.strip()[:40]} is not a finite number; allowed: finite '
                          'values')

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 from ..core.config import MODELS
 from ..errors import FileError, InputError, brief
 from ..inputs.resources import ROBOTS, Packaged, packaged_file
-from ..inputs.validation import TURN, decimal, finite_number
+from ..inputs.validation import TURN, decimal, finite_number, number_hint
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
@@ -37,8 +37,15 @@ angular velocities and inverse-Jacobian columns: v_x v_y v_z w_x w_y w_z, w in t
 def number(text: str) -> float:
     """An argparse type: a number as the files write it (:func:`~gpr_kinematics.inputs.validation.decimal`: ASCII
     digits with a sign, point and exponent, or inf and nan; Python's float also read ``1_0`` as 10 and the digits of
-    other scripts). Named ``float`` for argparse's message (``invalid float value: '1_0'``)."""
-    return decimal(text)
+    other scripts). Named ``float`` for argparse's message (``invalid float value: '1_0'``), with a hint for a
+    decimal comma."""
+    try:
+        return decimal(text)
+    except ValueError:
+        hint = number_hint(text)
+        if hint:
+            raise argparse.ArgumentTypeError(f'invalid float value: {text!r}{hint}') from None
+        raise
 
 
 def whole(text: str) -> int:
@@ -60,7 +67,7 @@ def finite(text: str) -> float:
     try:
         val = decimal(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f'{brief(text)} is not a number') from None
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a number{number_hint(text)}') from None
     if not np.isfinite(val):
         raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
     return val

@@ -78,12 +78,26 @@ def file_units(line: str, where: str) -> FileUnits:
     return length, angle
 
 
+def separator_hint(cell: str) -> str:
+    """For a header cell that is no column name: a hint where the row separates its columns by semicolons or tabs,
+    as spreadsheets of many locales export CSV (else '').
+
+    >>> separator_hint('name;x [mm]')
+    ' (the columns are separated by semicolons: separate them by commas, and write numbers with a decimal point)'
+    """
+    for sep, name in ((';', 'semicolons'), ('\t', 'tabs')):
+        if sep in cell:
+            return f' (the columns are separated by {name}: separate them by commas, and write numbers with a ' \
+                'decimal point)'
+    return ''
+
+
 def column(cell: str, where: str) -> tuple[str, str | None]:
     """A header cell's column name and its unit in brackets (``None`` without one)."""
     m = _CELL.match(cell)
     if m is None:
         raise FileError(f'{where}: header column {brief(cell, 40)} is not a name with an optional unit in brackets, '
-                         'e.g. "x [mm]"')
+                         f'e.g. "x [mm]"{separator_hint(cell)}')
     return m.group(1), (m.group(2).lower() if m.group(2) is not None else None)
 
 

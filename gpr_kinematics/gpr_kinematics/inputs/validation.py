@@ -34,6 +34,8 @@ TURN_SLACK = 1e-9
 _DECIMAL = re.compile(DECIMAL)
 #: The words of the numbers that are not finite, which CSV readers take and then refuse as not finite.
 _NOT_FINITE = re.compile(r'[-+]?(?:inf|infinity|nan)', re.IGNORECASE)
+#: A number written with a decimal comma (``1200,5``): :func:`number_hint`.
+_DECIMAL_COMMA = re.compile(r'[-+]?[0-9]*,[0-9]+(?:[eE][-+]?[0-9]+)?')
 #: Longest text read as a number (a double has 17 significant digits; ``-1.2345678901234567e-308`` has 25 characters).
 MAX_NUMBER_TEXT = 64
 
@@ -51,6 +53,19 @@ def decimal(text: str) -> float:
     if not (_DECIMAL.fullmatch(bare) or _NOT_FINITE.fullmatch(bare)):
         raise ValueError(f'not a decimal number: {brief(text)}')
     return float(bare)
+
+
+def number_hint(text: str) -> str:
+    """For a text that is no number: how to write it where it is one with a decimal comma, as spreadsheets of many
+    locales export numbers (else '').
+
+    >>> number_hint(' 1200,5 '), number_hint('12a')
+    (' (a decimal comma: write a decimal point, 1200.5)', '')
+    """
+    bare = text.strip(' \t\r\n')
+    if len(bare) <= MAX_NUMBER_TEXT and _DECIMAL_COMMA.fullmatch(bare):
+        return f' (a decimal comma: write a decimal point, {bare.replace(",", ".")})'
+    return ''
 
 
 def decimal_number(text: str) -> float | None:

@@ -39,7 +39,7 @@ from ..inputs import units
 from ..inputs.files import read_text
 from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
-from ..inputs.validation import MAX_COORDINATE, decimal, text_hint
+from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
 from .description import BRANCHES
 from .stations import Stations
 
@@ -250,7 +250,7 @@ class CsvTable:
             value = math.nan
         if not math.isfinite(value):
             raise ConfigError(f'{where or self.row_where(r)}: {key} = {brief(text)} is invalid; allowed: a finite '
-                              f'number in {self.columns[key][2]}')
+                              f'number in {self.columns[key][2]}{number_hint(text)}')
         return value
 
 
@@ -312,7 +312,7 @@ def _header_columns(header: list[str], where: str, kinds: dict[str, str], defaul
             key, unit = '', None
         if key not in kinds:
             raise ConfigError(f'{where}: header column {i + 1} {brief(cell)} is invalid; allowed: {", ".join(kinds)}, '
-                              'each with an optional unit in brackets, e.g. "x [mm]"')
+                              f'each with an optional unit in brackets, e.g. "x [mm]"{units.separator_hint(cell)}')
         if key in cols:
             raise ConfigError(f'{where}: column {key} appears twice in the header')
         factor, name = units.scale(kinds[key], unit, defaults, where, key)
