@@ -230,6 +230,31 @@ def test_a_stamp_in_the_past_whose_trajectory_has_not_ended_runs_with_its_points
         assert msg.position[k] == pytest.approx(target, abs=1e-12)
 
 
+def test_a_goal_waiting_for_its_stamp_keeps_the_held_state_on_joint_states(sim):
+    """A goal stamped ahead waits for its instant (as joint_trajectory_controller's); meanwhile the held state goes
+    out at idle_rate, stamped now, still: the simulator was silent until the stamp (up to a day ahead), and a client
+    that needs the robot's state (``gpr program send``, MoveIt's state monitor) took the robot for gone."""
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    here = _held(c, states, 'arm1_elbow')
+    goal = _goal(['arm1_elbow'], [0.5], [[here - 0.1]])
+    stamp = c.node.get_clock().now().nanoseconds + 2_500_000_000
+    goal.trajectory.header.stamp.sec, goal.trajectory.header.stamp.nanosec = divmod(stamp, NS_PER_S)
+    handle = c.wait(cli.send_goal_async(goal), 20, 'goal')
+    assert handle.accepted
+    n = len(states)
+    c.spin_for(1.0)
+    waiting = [m for m in states[n:] if _stamp(m) < stamp]
+    assert len(waiting) >= 10, len(waiting)   # 20 Hz for 1 s (none before)
+    k = list(waiting[0].name).index('arm1_elbow')
+    assert all(m.position[k] == here and not any(m.velocity) for m in waiting)
+    assert float(np.median(np.diff([_stamp(m) for m in waiting]))) == pytest.approx(0.05 * NS_PER_S, rel=0.4)
+    res = c.wait(handle.get_result_async(), 30, 'result')
+    assert res.status == GoalStatus.STATUS_SUCCEEDED and res.result.error_code == 0, res.result.error_string
+    assert _held(c, states, 'arm1_elbow') == pytest.approx(here - 0.1, abs=1e-12)
+
+
 def test_cancel_holds_the_joints_where_they_are(sim):
     from action_msgs.msg import GoalStatus
 

@@ -204,10 +204,13 @@ class RobotSimulatorNode(GprNode):
         now = time.monotonic()
         # Quiet while another publisher streams (two periods since its last message), and not right after a state of
         # its own (half a period: the end of a goal); a whole period skipped every other tick, early by the timer's
-        # jitter, and held the state at half the rate.
-        if self.run is None and now - self.last_foreign > 2.0 * period and now - self.last_published > 0.5 * period:
+        # jitter, and held the state at half the rate. A goal waiting for its header.stamp holds the state too (it
+        # was silent until then, up to a day: clients took the robot for gone).
+        stamp = self.get_clock().now().nanoseconds
+        waiting = self.run is None or stamp < self.run.start_ns
+        if waiting and now - self.last_foreign > 2.0 * period and now - self.last_published > 0.5 * period:
             self.velocity[:] = 0.0
-            self.publish_state(self.get_clock().now().nanoseconds)
+            self.publish_state(stamp)
 
     # -- goals ----------------------------------------------------------------------------------------------------
     def _check(self, req: Any) -> tuple[Motion, int]:
