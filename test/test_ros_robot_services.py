@@ -133,6 +133,12 @@ BAD = [
     ('ik', dict(position=(1.3, 0.6, 0.45), redundancy_value=0.1), ['redundancy value', 'arm arm1 has 3 joints']),
     ('ik', dict(position=(1.3, math.inf, 0.45)), ['position', 'finite']),
     ('ik', dict(position=(1.3, 0.6, 0.45), azimuth=math.nan), ['azimuth', 'finite']),
+    # degrees sent as radians: taken modulo a turn as another station (azimuth 90 -> 2.035 rad), success: true
+    ('ik', dict(position=(1.2, 1.0, 0.455), tilt=0.02, azimuth=90.0, heading=0.8),
+     ['azimuth = 90 rad is beyond one turn; allowed: [-2pi, 2pi] rad', '90 deg is 1.57079633 rad']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), heading=45.0), ['heading = 45 rad is beyond one turn']),
+    ('ik', dict(position=(1.3, 0.6, 0.60), heading=0.3, arm='arm2', branch='left', redundancy_value=30.0),
+     ['redundancy value = 30 rad', 'beyond one turn']),
 ]
 
 
@@ -150,7 +156,8 @@ def test_bad_requests_refused_with_their_message(client, node, kind, fields, wor
 
 def test_robot_file_and_config_file_choose_the_robot_and_its_geometry(ros_environment, tmp_path):
     """Another robot (base elsewhere, arm1 longer), its geometry replaced by an imperfect machine's config_file: the
-    services compute with that robot on that machine."""
+    services compute with that robot on that machine, and name its world frame with the node's frame_prefix (as the
+    state publisher beside it names it on /tf)."""
     from gpr_kinematics.nodes.client import GprClient
 
     data = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
@@ -161,18 +168,20 @@ def test_robot_file_and_config_file_choose_the_robot_and_its_geometry(ros_enviro
     robot_file.write_text(yaml.safe_dump(data))
     config_file, cfg = imperfect_config_file(tmp_path)
     robot = load_robot(robot_file, geometry=cfg)
-    proc = start('kinematics_node', namespace='/gpr_shifted', robot_file=str(robot_file), config_file=str(config_file))
+    proc = start('kinematics_node', namespace='/gpr_shifted', robot_file=str(robot_file), config_file=str(config_file),
+                 frame_prefix='r7/')
     try:
         with GprClient('gpr_test_robot_file', namespace='/gpr_shifted') as c:
             position = (1.6, -0.2, 0.55)
             res = c.station_inverse_kinematics(position, 0.01, 1.0, 0.7)
             assert res.success, res.message
-            assert res.world_frame == 'tool'
+            assert res.world_frame == 'r7/tool'   # the robot's world frame, with the node's frame_prefix
             core = solve_stations(robot, Stations.of([position], 0.01, 1.0, 0.7))
             np.testing.assert_allclose(res.rods, core.rods[0], **TIGHT)
             np.testing.assert_allclose(res.joints, core.joints[0], **TIGHT)
             fk = c.robot_forward_kinematics(res.rods, res.joints)
             np.testing.assert_allclose(vec(fk.wafer.position), position, rtol=0, atol=1e-9)
+            assert fk.world_frame == 'r7/tool'
             # The platform service of the same node is on the same machine (one geometry per node).
             gpr = c.forward_kinematics(res.rods)
             np.testing.assert_allclose(vec(gpr.pose.position), core.forward.gpr.position[0], **TIGHT)

@@ -45,7 +45,7 @@ def generate_launch_description() -> LaunchDescription:
     cell = {'cell_file': typed('cell')}
     return LaunchDescription([
         *arguments(ARGUMENTS),
-        node('kinematics_node', [geometry]),
+        node('kinematics_node', [geometry, frames]),
         node('robot_simulator_node', [geometry, cell]),
         node('state_publisher_node', [geometry, frames, cell]),
         node('recorder_node', [{'output': typed('bag'), 'flush_interval': typed('flush_interval', float)}],

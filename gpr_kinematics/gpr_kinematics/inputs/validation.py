@@ -152,6 +152,17 @@ def finite_number(value: Any, name: str) -> float:
     return v
 
 
+def within_turn(value: Any, name: str) -> float:
+    """An orientation angle of a request (a heading, an azimuth) [rad]: a finite number of magnitude at most one turn,
+    :data:`TURN` (+ :data:`TURN_SLACK`), as the files' (:func:`~gpr_kinematics.inputs.schema.orientation_angle`);
+    beyond it degrees sent as radians almost surely (``azimuth: 90``, 14.3 turns): :class:`InputError` naming it."""
+    v = finite_number(value, name)
+    if abs(v) > TURN + TURN_SLACK:
+        raise InputError(f'{name} = {v:g} rad is beyond one turn; allowed: [-2pi, 2pi] rad (radians only here: {v:g} '
+                         f'deg is {math.radians(v):.9g} rad)')
+    return v
+
+
 def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     """``values`` as a float array of shape ``(size,)``, all finite; else :class:`InputError`."""
     a = float_array(values, name, f'{size} numbers')

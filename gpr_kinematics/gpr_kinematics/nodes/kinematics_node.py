@@ -40,7 +40,7 @@ from gpr_interfaces.srv import (
 
 from ..core.config import GprConfig
 from ..errors import GprError, InputError
-from ..ros.specs import KINEMATICS
+from ..ros.specs import KINEMATICS, check_frame_prefix
 from .conversions import first_non_finite
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .platform_services import answer_compensate, answer_forward, answer_inverse, answer_mobility
@@ -105,7 +105,9 @@ class KinematicsNode(GprNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.params = ConfigParameters(self, robot=declare_robot(self))
-        self.max_queue_time = float(declare_parameters(self, KINEMATICS)['max_queue_time'])
+        p = declare_parameters(self, KINEMATICS)
+        self.max_queue_time = float(p['max_queue_time'])
+        self.frame_prefix = check_frame_prefix(p['frame_prefix'])
         self._executor: QueueTimedExecutor | None = None
         self.robot_models = RobotModels()
         qos = service_qos()  # keep all: no request is dropped by a full queue (nodes/qos.py)
@@ -156,12 +158,14 @@ class KinematicsNode(GprNode):
     @guarded('robot_forward_kinematics')
     def on_robot_forward(self, request: RobotForwardKinematics.Request,
                          response: RobotForwardKinematics.Response) -> None:
-        fill_robot_forward(self.robot_models.get(self.params.robot, request.model), request, response)
+        fill_robot_forward(self.robot_models.get(self.params.robot, request.model), request, response,
+                           self.frame_prefix)
 
     @guarded('station_inverse_kinematics')
     def on_station_inverse(self, request: StationInverseKinematics.Request,
                            response: StationInverseKinematics.Response) -> None:
-        fill_station_inverse(self.robot_models.get(self.params.robot, request.model), request, response)
+        fill_station_inverse(self.robot_models.get(self.params.robot, request.model), request, response,
+                             self.frame_prefix)
 
 
 def main(args: Sequence[str] | None = None) -> int:

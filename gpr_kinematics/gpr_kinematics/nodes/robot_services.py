@@ -23,7 +23,7 @@ from ..core import ForwardResult
 from ..core.config import MODELS
 from ..core.floats import angle_between, compose_one
 from ..errors import InputError, brief
-from ..inputs.validation import MAX_COORDINATE, finite_number
+from ..inputs.validation import MAX_COORDINATE, TURN, TURN_SLACK, finite_number, within_turn
 from ..robot import Stations, robot_forward, solve_stations
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import BRANCHES, Arm, RobotDescription
@@ -97,9 +97,10 @@ def _within_limits(arm: Arm, joints: list[float]) -> bool:
     return all(j.lower - LIMIT_SLACK <= v <= j.upper + LIMIT_SLACK for j, v in zip(arm.joints, joints, strict=True))
 
 
-def fill_robot_forward(robot: RobotDescription, request: Any, response: Any) -> Any:
+def fill_robot_forward(robot: RobotDescription, request: Any, response: Any, prefix: str = '') -> Any:
     """A RobotForwardKinematics response for ``request`` (module docstring): the one-configuration path in floats
-    (:func:`~gpr_kinematics.robot.forward.forward_floats`), the batch where it refuses (its message)."""
+    (:func:`~gpr_kinematics.robot.forward.forward_floats`), the batch where it refuses (its message); the world
+    frame named with the node's frame ``prefix``."""
     arm = _arm(robot, request.arm)
     rods = floats_of(request.rods, 'rods', 3)
     joints = _joints(request.joints, arm, 'joints')
@@ -110,7 +111,7 @@ def fill_robot_forward(robot: RobotDescription, request: Any, response: Any) -> 
     if naive_platform is None:
         naive_platform = robot_forward(robot, [rods], [joints], arm.name).naive_platform.floats(0)  # raises
     naive_wafer = compose_one(*naive_platform, *one.on_platform)
-    response.world_frame = robot.world_frame
+    response.world_frame = prefix + robot.world_frame
     response.arm = arm.name
     response.joint_names = list(arm.joint_names)
     for name, pose in (('wafer', one.wafer), ('blade', one.blade), ('platform', one.platform),
@@ -128,8 +129,9 @@ def fill_robot_forward(robot: RobotDescription, request: Any, response: Any) -> 
 def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Stations:
     """The station of a StationInverseKinematics request, checked field by field."""
     position = point_array(request.position, 'position')
-    angles = {k: finite_number(getattr(request, k), k) for k in ('tilt', 'azimuth', 'heading')}
     free = bool(request.heading_free)
+    angles = {'tilt': finite_number(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
+              'heading': 0.0 if free else within_turn(request.heading, 'heading')}
     if free and len(arm.joints) > 2:
         raise InputError(f'heading_free: arm {arm.name} has {len(arm.joints)} joints and needs the blade heading; '
                          'allowed: heading_free only for a 2-joint arm')
@@ -140,11 +142,14 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
 def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, value: float | None
                  ) -> StationFloats | None:
     """The float path of one station where the request is within what it takes (every number finite and within
-    +-MAX_COORDINATE, a known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
+    +-MAX_COORDINATE, the azimuth, heading and held value within a turn, a known branch, a held value only for a
+    ``fixed_joint`` arm), else ``None``."""
     p = request.position
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
         return None
+    if max(abs(request.azimuth), abs(request.heading)) > TURN + TURN_SLACK or abs(numbers[-1]) > TURN:
+        return None  # the batch path names which
     if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
         return None
     free = bool(request.heading_free)
@@ -154,9 +159,10 @@ def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, v
                           branch_sign(branch), value)
 
 
-def fill_station_inverse(robot: RobotDescription, request: Any, response: Any) -> Any:
+def fill_station_inverse(robot: RobotDescription, request: Any, response: Any, prefix: str = '') -> Any:
     """A StationInverseKinematics response for ``request`` (module docstring): the one-station path in floats
-    (:func:`~gpr_kinematics.robot.one_station.station_floats`), the batch path where it refuses (its message)."""
+    (:func:`~gpr_kinematics.robot.one_station.station_floats`), the batch path where it refuses (its message); the
+    world frame named with the node's frame ``prefix``."""
     arm = _arm(robot, request.arm)
     branch = request.branch or arm.branch
     use = request.use_redundancy_value
@@ -167,7 +173,7 @@ def fill_station_inverse(robot: RobotDescription, request: Any, response: Any) -
         value = finite_number(request.redundancy_value, 'redundancy_value') if use else None
         sol = solve_stations(robot, stations, arm.name, branch=request.branch or None, redundancy_value=value)
         one, branch = sol.floats(0), sol.branch[0]
-    response.world_frame = robot.world_frame
+    response.world_frame = prefix + robot.world_frame
     response.arm = arm.name
     response.branch = branch
     response.rods = one.rods

@@ -274,6 +274,7 @@ KINEMATICS: tuple[ParamSpec, ...] = (
     ParamSpec('max_queue_time', _D, 5.0, 'a request that waited longer than this [s] in the node\'s queue is answered '
               'at once with success: false, "saturated" (not computed; the queues keep every request)',
               (0.001, 3600.0), read_only=True),
+    FRAME_PREFIX,  # the robot services' world_frame: r1/world beside a state publisher with r1/
 )
 
 #: Topics of trajectory_node besides the bag library's default list (typestore.GPR_TOPICS), with their types.
