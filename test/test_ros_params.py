@@ -124,6 +124,12 @@ def test_descriptors_carry_the_specs(client, exe):
         by_name = {d.name: d for d in descriptors}
         assert 'at least 10 deg' in by_name['rod_azimuths'].additional_constraints
         assert by_name['model'].additional_constraints.startswith('one of: radial, polar, offset')
+        # the keys a ROS parameter takes from the geometry's values carry the rule its check applies (they were bare)
+        assert by_name['rod_offsets'].additional_constraints == 'a list of 3 lengths in metres, -0.1 <= o_k <= 0.1'
+        assert '1e-6 <= kappa <= 1e6' in by_name['kappa'].additional_constraints
+        bare = [s.name for s, d in zip(specs, descriptors, strict=True)
+                if s.kind != 'bool' and not d.additional_constraints]   # a switch needs none: true or false
+        assert not bare, bare
     finally:
         node.stop()
 

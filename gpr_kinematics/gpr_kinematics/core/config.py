@@ -136,6 +136,14 @@ _TRIPLE_RANGES: dict[str, tuple[int, float, float, str]] = {
     'kappa': (1, 1e-6, 1e6, 'one number or a list of 3, 1e-6 <= kappa <= 1e6 (k_t / k_r)'),
 }
 
+
+def allowed_values(key: str) -> str:
+    """What the per-rod or per-joint ``key`` allows, in words (``''`` for another key): the rule its check names, and
+    the ``additional_constraints`` of its ROS parameter."""
+    rule = _TRIPLE_RANGES.get(key)
+    return rule[3] if rule is not None else ''
+
+
 #: The smallest interior angle of the rod and joint triangles [rad] (a flatter triangle is degenerate).
 MIN_TRIANGLE_ANGLE = math.radians(5.0)
 #: Largest relative difference between a side of the platform-joint triangle and the same side of the rod

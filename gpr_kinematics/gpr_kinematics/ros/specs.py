@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..core.config import LEAST_LENGTH, MODELS, WEIGHTINGS, GprConfig, load_config
+from ..core.config import LEAST_LENGTH, MODELS, WEIGHTINGS, GprConfig, allowed_values, load_config
 from ..errors import ConfigError
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
@@ -184,7 +184,7 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
         if name not in known and inferred is not None:
             default = [float(v) for v in value] if inferred == _DA else value
             out.append(ParamSpec(name, inferred, default, f'geometry configuration key {name} (see config/gpr.yaml)',
-                                 read_only=True))
+                                 constraint=allowed_values(name), read_only=True))
     return tuple(out)
 
 
