@@ -179,6 +179,31 @@ def test_a_sweep_recorded_beside_the_robot_simulator_verifies(tmp_path: Path) ->
     result = verify_bag(b)
     assert result.passed, [f.line() for f in result.failures]
 
+def test_a_stop_beside_a_live_stream_records_nothing_after_it(tmp_path: Path) -> None:
+    """SIGINT while the simulator's held state flows at 20 Hz: the recorder takes what DDS had delivered and stops.
+    It waited for 0.2 s without a message, which a live stream never leaves: every stop beside the simulator recorded
+    5 s more and exited after 7 s (past ros2 launch's 5 s before SIGTERM)."""
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
+
+    sim = start('robot_simulator_node', idle_rate=20.0)
+    bag = tmp_path / 'bag'
+    rec = recorder(bag, topics=[f'{JOINT_STATES_TOPIC}:sensor_msgs/msg/JointState'], flush_interval=0.25)
+    try:
+        wait_for_log(sim, r'serving /joint_trajectory_controller/follow_joint_trajectory')
+        wait_for_log(rec, r'recording 1 topic')
+        time.sleep(1.5)
+        stopped = time.time_ns()
+        status, taken = rec.signal(signal.SIGINT, timeout=15)
+        assert status == 0, rec.output()
+    finally:
+        rec.stop()
+        sim.stop()
+    log_time = read_bag(bag).topic(JOINT_STATES_TOPIC).log_time
+    assert len(log_time) >= 10                          # 20 Hz for 1.5 s (its start and discovery aside)
+    assert int(log_time[-1]) - stopped < 0.5e9, (int(log_time[-1]) - stopped) / 1e9   # 5.0 s before
+    assert taken < 3.0, taken                           # the process's exit (7.3 s before)
+
+
 @pytest.mark.slow
 def test_recorded_robot_program_verifies_every_wafer_pose(tmp_path: Path) -> None:
     """A whole-robot program streamed by trajectory_node into a recorder with its default topics: the bag holds

@@ -52,8 +52,10 @@ from .runtime import EXIT_OK, GprNode, one_line, run
 NODE_NAME = 'recorder_node'
 #: What writing a segment raises when the disk is full or a file size limit is reached.
 WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterError, BagError)
-#: Longest drain after a stop request [s], and the quiet time that ends it earlier [s].
-DRAIN_LIMIT, DRAIN_QUIET = 5.0, 0.2
+#: Longest drain after a stop request [s], and the spins in a row that take no message, without waiting, which end it
+#: earlier: what DDS already delivered is written, what a live stream sends after the stop is not waited for (a
+#: quiet time of 0.2 s never came beside the simulator's idle joint_states: 5 s more were recorded after every stop).
+DRAIN_LIMIT, DRAIN_EMPTY_SPINS = 5.0, 3
 
 
 def default_output() -> Path:
@@ -78,7 +80,7 @@ class RecorderNode(GprNode):
                                          custom_data={'recorder': NODE_NAME})
         classes = {t: message_class(ty) for t, ty in topics.items()}
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
-        self.last_message = time.monotonic()
+        self.taken = 0  # messages taken, all topics
         self.writer.open()
         try:
             # The state topic last: a publisher that waits for a subscription on it (trajectory_node's
@@ -142,7 +144,7 @@ class RecorderNode(GprNode):
                 writer.write(topic, time.time_ns(), data)
             except WRITE_ERRORS as exc:
                 raise self._write_failed(exc) from None
-            self.last_message = time.monotonic()
+            self.taken += 1
 
         return cb
 
@@ -157,9 +159,9 @@ class RecorderNode(GprNode):
                         'disk full, or a file size limit reached?')
 
     def on_exit(self, executor: Executor, status: int) -> int:
-        """Drain what DDS already delivered (until :data:`DRAIN_QUIET` s without a message, at most
-        :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error (status 1) the bag
-        keeps the segments closed before it."""
+        """Drain what DDS already delivered (until :data:`DRAIN_EMPTY_SPINS` spins in a row that do not wait take no
+        message, at most :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error
+        (status 1) the bag keeps the segments closed before it."""
         if status != EXIT_OK:
             kept = self.writer.closed_message_count
             self.writer.abort(remove=kept == 0)
@@ -167,9 +169,11 @@ class RecorderNode(GprNode):
                                    'segment(s) closed before the error' if kept else
                                    f'{self.writer.path}: no segment was closed before the error; removed')
             return status
-        end = time.monotonic() + DRAIN_LIMIT
-        while time.monotonic() < end and time.monotonic() - self.last_message < DRAIN_QUIET:
-            executor.spin_once(timeout_sec=0.02)
+        end, empty = time.monotonic() + DRAIN_LIMIT, 0
+        while empty < DRAIN_EMPTY_SPINS and time.monotonic() < end:
+            taken = self.taken
+            executor.spin_once(timeout_sec=0.0)
+            empty = empty + 1 if self.taken == taken else 0
         self.writer.close()
         counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
         self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '
