@@ -149,6 +149,37 @@ def test_an_unknown_parameter_at_start_is_named_with_the_closest_one():
         node.stop()
 
 
+@pytest.mark.parametrize('exe', ['robot_simulator_node', 'kinematics_node'])
+def test_use_sim_time_is_fixed_once_a_node_runs(client, exe):
+    """Any client could switch a running node to simulated time: with no /clock, the simulator's goals were accepted
+    and never ended and its joint_states stopped. The change is refused, the same value set again is not."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    from sensor_msgs.msg import JointState
+
+    node = start(exe, namespace='/clock_fixed')
+    try:
+        wait_for_log(node, 'serving')
+        service = f'/clock_fixed/{exe}/set_parameters'
+
+        def set_sim_time(value: bool):
+            v = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
+            req = SetParameters.Request(parameters=[Parameter(name='use_sim_time', value=v)])
+            return client.call(SetParameters, service, req).results[0]
+
+        refused = set_sim_time(True)
+        assert not refused.successful
+        assert refused.reason == ('use_sim_time = True: the clock is fixed once the node runs (now False); allowed: '
+                                  'set it at start (-p use_sim_time:=true, or the launch argument use_sim_time)')
+        assert set_sim_time(False).successful
+        assert _dump(client, f'/clock_fixed/{exe}')['use_sim_time'] is False
+        if exe == 'robot_simulator_node':   # its idle joint_states go on (they stopped under a /clock nobody sends)
+            states = client.subscribe(JointState, '/clock_fixed/joint_states')
+            assert client.spin_until(lambda: len(states) >= 3, 10)
+    finally:
+        node.stop()
+
+
 def test_numbers_sent_as_strings(client):
     """ros2 param set /kinematics_node tolerance 1e-13 sends the string '1e-13' (YAML 1.1): accepted as 1e-13;
     a string that is no number is refused as before."""

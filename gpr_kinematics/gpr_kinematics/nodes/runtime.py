@@ -29,7 +29,7 @@ from collections.abc import Callable, Coroutine, Iterable, Iterator, Sequence
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.msg import ParameterType, SetParametersResult
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidHandle, NameValidationException, ParameterException
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor, await_or_execute
@@ -145,6 +145,18 @@ class GprNode(Node):
         #: True once SIGINT/SIGTERM stopped the run (set before :meth:`on_exit`).
         self.signalled = False
         self.add_pre_set_parameters_callback(lambda params: numbers_from_text(self, params))
+        self.add_on_set_parameters_callback(self._clock_fixed)  # in front of rclpy's TimeSource, which applies it
+
+    def _clock_fixed(self, params: list[Parameter]) -> SetParametersResult:
+        """Refuse a change of ``use_sim_time`` once the node runs: any client could switch a running node to a
+        ``/clock`` that nobody publishes, and its goals then never ended, its timers never fired."""
+        now = self.get_parameter('use_sim_time').value
+        for p in params:
+            if p.name == 'use_sim_time' and p.value != now:
+                return SetParametersResult(successful=False, reason=f'use_sim_time = {p.value!r}: the clock is fixed '
+                                           f'once the node runs (now {now}); allowed: set it at start (-p '
+                                           'use_sim_time:=true, or the launch argument use_sim_time)')
+        return SetParametersResult(successful=True)
 
     def finish(self, status: int = EXIT_OK) -> None:
         """End the run loop with ``status`` (the first call wins)."""
