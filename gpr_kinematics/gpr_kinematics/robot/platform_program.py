@@ -7,7 +7,7 @@ One of the two program formats; :func:`gpr_kinematics.robot.program.load_any_pro
     version: 1                # optional
     move_time: 2.0            # optional default duration of each move [s]
     stations:
-      - name: load            # optional: 1 to 64 letters, digits, _ . -
+      - name: load            # optional: 1 to 64 letters, digits, _ . - (not - first)
         height: 0.30          # z of the platform centre in gpr_base [m]
         tilt: 0.0             # tilt angle [rad]; negative = about azimuth + pi
         azimuth: 0.0          # direction of the tilt axis [rad], within one turn ([-2pi, 2pi])

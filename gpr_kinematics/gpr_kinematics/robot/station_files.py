@@ -52,7 +52,11 @@ _LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height', 'entry')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
                  'entry')
-_NAME = re.compile(r'[A-Za-z0-9_.\-]{1,64}')
+#: A station's name; not starting with ``-``: the exported tables' cells are read by spreadsheets, which take
+#: ``-A1-B1`` for a formula.
+_NAME = re.compile(r'[A-Za-z0-9_.][A-Za-z0-9_.\-]{0,63}')
+#: What :data:`_NAME` allows, in words.
+NAME_RULE = '1 to 64 letters, digits, _ . - (not - first: a spreadsheet reads such a cell as a formula)'
 #: How a station file (or a program, or a cell) in YAML, and one in CSV, declares its angles in degrees.
 DECLARE_DEG = 'units: {angle: deg}'
 _DECLARE_CSV = '"{key} [deg]" in the header or a "# units: deg" line before it'
@@ -137,11 +141,11 @@ def _number(value: Any, where: str, key: str, unit: str) -> float:
 
 
 def station_name(value: Any, where: str) -> str:
-    """A station's name: 1 to 64 letters, digits, ``_ . -`` (a YAML number is read as its text, a boolean refused
-    with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
+    """A station's name: 1 to 64 letters, digits, ``_ . -``, not ``-`` first (a YAML number is read as its text, a
+    boolean refused with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
     if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.fullmatch(str(value)):
         hint = text_hint(value) if isinstance(value, bool) else ''
-        raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: 1 to 64 letters, digits, _ . -')
+        raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: {NAME_RULE}')
     return str(value)
 
 

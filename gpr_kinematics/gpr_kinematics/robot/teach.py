@@ -224,10 +224,10 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
     for rods, ``[rad]``/``[deg]`` for joints; SI when none) and an optional ``name`` column; returns
     ``(names, rods (N, 3), joints (N, n))``. ConfigError names the file, the line, the row's name (when the table
-    has a name column: 1 to 64 letters, digits, ``_ . -``, as in station files) and the field: a value that is not
-    a number, a rod outside the stroke and, with ``check_limits`` (:func:`teach`; not the old joints of
-    :func:`reteach`), a joint beyond its limits, with a hint when the value read as degrees would lie within them (a
-    column without a unit is in radians)."""
+    has a name column: 1 to 64 letters, digits, ``_ . -``, not ``-`` first, as in station files) and the field: a
+    value that is not a number, a rod outside the stroke and, with ``check_limits`` (:func:`teach`; not the old joints
+    of :func:`reteach`), a joint beyond its limits, with a hint when the value read as degrees would lie within them
+    (a column without a unit is in radians)."""
     a = robot.arm(arm)
     kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
     table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
