@@ -241,6 +241,43 @@ def test_chunks_beyond_the_files_uncompressed_bound_are_refused_before_decompres
         read_mcap(f)
 
 
+def test_the_uncompressed_bound_holds_for_the_whole_bag(tmp_path: Path, messages: list,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Six MCAP files of 37 kB, each within the bound per file, held 6 GB of zstd chunks in all (224 kB of bag, 46 s
+    and 6.4 GB to read): the bound is the bag's, counted over its files."""
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), compression='zstd', max_bag_size=20_000)
+    files = sorted(bag.glob('*.mcap'))
+    assert len(files) >= 3
+    sizes, inflated = [], 0
+    for f in files:
+        inflated = read_mcap(f, inflated=inflated).inflated
+        sizes.append(inflated)
+    monkeypatch.setattr(mcap_file, 'MAX_INFLATED_BYTES', sizes[-1])
+    assert len(read_bag(bag).topics) > 0
+    monkeypatch.setattr(mcap_file, 'MAX_INFLATED_BYTES', sizes[-1] - 1)   # each file alone is well within
+    assert all(read_mcap(f).inflated < sizes[-1] - 1 for f in files)
+    with pytest.raises(BagError, match=rf"{files[-1].name}: corrupt MCAP file: record 0x06 at byte \d+: chunks of "
+                                       rf"more than {sizes[-1] - 1} uncompressed bytes in all \(this file's and the "
+                                       rf"{sizes[-2]} of the bag's files before it\); allowed: at most {sizes[-1] - 1} "
+                                       'per bag$'):
+        read_bag(bag)
+
+
+def test_a_bag_beyond_the_memory_is_refused_in_one_line(tmp_path: Path, messages: list,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """An allocation that fails while a file is read (a chunk decompressed beyond the process's memory: a 33 kB file
+    of 200 MiB chunks under the tests' 768 MiB address space) is named, not a traceback of MemoryError."""
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), compression='zstd')
+
+    def no_memory(*args: object) -> bytes:
+        raise MemoryError('Unable to allocate output buffer')
+
+    monkeypatch.setattr(mcap_file, 'decompress', no_memory)
+    with pytest.raises(BagError, match=r'b_0\.mcap: not enough memory to read its messages \(a bag is read into '
+                                       r"memory\); allowed: a bag whose messages fit in this process's memory$"):
+        read_bag(bag)
+
+
 def test_reference_file_holds_what_its_metadata_lists() -> None:
     bag = read_bag(REFERENCE)
     (f,) = bag.storage_files

@@ -10,7 +10,7 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
 
 - every record length must fit in what is left of the file (a flipped length byte is never used to allocate:
   reads are bounded by the file size) and a record is at most :data:`MAX_RECORD_BYTES`;
-- a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, and all of a file's at most
+- a chunk declares its uncompressed size: at most :data:`MAX_CHUNK_BYTES`, and all of a bag's files' at most
   :data:`MAX_INFLATED_BYTES` (checked before each is decompressed), decompressed with an output bound of that
   size, and it must come out exactly that long; its records must tile it exactly; its CRC, the data-section CRC
   and the summary CRC must match when they are not 0;
@@ -44,7 +44,8 @@ MAGIC = b'\x89MCAP0\r\n'
 MAX_RECORD_BYTES = 256 << 20
 #: Largest uncompressed chunk accepted.
 MAX_CHUNK_BYTES = 256 << 20
-#: Largest sum of the uncompressed chunks of one file (a compressed file of 127 kB held 4 GB of messages).
+#: Largest sum of the uncompressed chunks of a bag's files (a compressed file of 127 kB held 4 GB of messages; six
+#: files of 37 kB, each within a bound per file, 6 GB).
 MAX_INFLATED_BYTES = 1 << 30
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
@@ -91,10 +92,12 @@ class McapFile:
     chunks_with_crc: int = 0
     data_crc: bool = False
     summary_crc: bool = False
+    #: The uncompressed bytes of the chunks, with the bag's files read before (:func:`read_mcap`'s ``inflated``).
+    inflated: int = 0
 
 
 class _Walker:
-    def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None) -> None:
+    def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None, inflated: int) -> None:
         self.f = f
         self.size = size
         self.pos = 0
@@ -103,7 +106,7 @@ class _Walker:
         self.schemas: dict[int, tuple[str, str, str]] = {}   # id -> (name, encoding, text)
         self.out = McapFile(path, size, '', '', {})
         self.summary_start = 0
-        self.inflated = 0
+        self.inflated = self.before = inflated
         self.record_start = 0
         self.chunk_facts: list[tuple[int, int, int, int, str, int, int]] = []   # per chunk walked (with its indexes':
         self.indexes = MessageIndexes()                                            # as a chunk index must name it)
@@ -177,8 +180,9 @@ class _Walker:
             raise FormatError(f'chunk of {size} uncompressed bytes; allowed: at most {MAX_CHUNK_BYTES}')
         self.inflated += size
         if self.inflated > MAX_INFLATED_BYTES:
-            raise FormatError(f'chunks of more than {MAX_INFLATED_BYTES} uncompressed bytes in all; allowed: at most '
-                               f'{MAX_INFLATED_BYTES} per file')
+            before = f" (this file's and the {self.before} of the bag's files before it)" if self.before else ''
+            raise FormatError(f'chunks of more than {MAX_INFLATED_BYTES} uncompressed bytes in all{before}; '
+                               f'allowed: at most {MAX_INFLATED_BYTES} per bag')
         raw = decompress(payload, compression, size)
         self.out.chunks += 1
         self.chunk_facts.append((self.record_start, _RECORD.size + len(body), lo, hi, compression, len(payload), size))
@@ -243,6 +247,7 @@ class _Walker:
             self.check_statistics(*stats)
         self.check_summary()
         self.out.sha256 = self.sha.hexdigest()
+        self.out.inflated = self.inflated
         return self.out
 
     def next_record(self, first: bool) -> tuple[memoryview, int, memoryview]:
@@ -373,8 +378,9 @@ class _Walker:
             self.out.summary_crc = True
 
 
-def read_mcap(path: Path, topics: set[str] | None = None) -> McapFile:
-    """Walk the MCAP file ``path`` (see the module docstring); keep the messages of ``topics`` (all if None).
+def read_mcap(path: Path, topics: set[str] | None = None, inflated: int = 0) -> McapFile:
+    """Walk the MCAP file ``path`` (see the module docstring); keep the messages of ``topics`` (all if None). The
+    bag's files read before it uncompressed ``inflated`` bytes of chunks (:data:`MAX_INFLATED_BYTES` bounds all).
 
     Raises:
         BagError: not a regular file, not MCAP, truncated (no footer: the writer did not close it) or corrupt.
@@ -389,7 +395,7 @@ def read_mcap(path: Path, topics: set[str] | None = None) -> McapFile:
                 raise BagError(f'{path}: truncated MCAP file ({size} bytes, no footer magic): the writer did not '
                                f'close it')
             f.seek(0)
-            return _Walker(f, size, path, topics).walk()
+            return _Walker(f, size, path, topics, inflated).walk()
         except FormatError as exc:
             raise BagError(f'{path}: corrupt MCAP file: {exc}') from None
         except OSError as exc:

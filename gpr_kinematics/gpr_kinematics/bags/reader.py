@@ -195,10 +195,12 @@ class _Contents:
     file: StorageFile
     times: dict[str, list[int]]
     data: dict[str, list[bytes]]
+    #: The uncompressed bytes of MCAP chunks, this file's and the bag's files' before it.
+    inflated: int = 0
 
 
-def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
-    m = read_mcap(path, topics)
+def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0) -> _Contents:
+    m = read_mcap(path, topics, inflated)
     if m.profile != 'ros2':
         raise BagError(f'{path}: MCAP profile {m.profile!r}; allowed: ros2 (rosbag2)')
     bad = sorted({c.encoding for c in m.channels.values()} - {'cdr'})
@@ -222,7 +224,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None) -> _Contents:
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
                        m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
-    return _Contents(info, times, data)
+    return _Contents(info, times, data, m.inflated)
 
 
 def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
@@ -341,7 +343,14 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
     """
     layout = locate(path)
     wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
-    contents = [(_read_mcap_file if layout.storage == 'mcap' else read_sqlite)(f, wanted) for f in layout.files]
+    contents: list[_Contents] = []
+    for f in layout.files:
+        try:
+            contents.append(_read_mcap_file(f, wanted, contents[-1].inflated if contents else 0)
+                            if layout.storage == 'mcap' else read_sqlite(f, wanted))
+        except MemoryError:  # a failed allocation (a bag beyond the machine's memory), not a corrupt file
+            raise BagError(f'{f}: not enough memory to read its messages (a bag is read into memory); allowed: a '
+                           "bag whose messages fit in this process's memory") from None
     meta = layout.metadata
     listed = {t.name: t for t in meta.topics} if meta else {}
     names = sorted({n for c in contents for n in c.times} | (set(listed) & wanted if wanted else set(listed)))
