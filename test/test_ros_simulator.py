@@ -200,6 +200,25 @@ def test_bad_goals_fail_with_the_standard_code_and_the_node_serves_on(sim, names
     assert re.search(words, result.error_string), result.error_string
 
 
+def test_a_goal_that_ends_moving_is_refused_as_joint_trajectory_controller_refuses_it(sim):
+    """joint_trajectory_controller (Jazzy: allow_nonzero_velocity_at_trajectory_end false by default) refuses a goal
+    whose last point gives a joint a velocity; the simulator accepted it and stopped the joint dead at the end. The
+    same goal ending at rest runs."""
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    here = _held(c, states, 'arm1_elbow')
+    points = [[here - 0.1], [here - 0.2]]
+    result, status = _run(c, cli, _goal(['arm1_elbow'], [1.0, 2.0], points, velocities=[[-0.1], [-0.05]]))
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == -1
+    assert result.error_string == ('points[1] (the last) gives arm1_elbow a velocity of -0.05 rad/s; allowed: 0 at '
+                                   'the last point (parameter allow_nonzero_velocity_at_trajectory_end, false as '
+                                   "joint_trajectory_controller's)")
+    assert _held(c, states, 'arm1_elbow') == here
+    result, status = _run(c, cli, _goal(['arm1_elbow'], [1.0, 2.0], points, velocities=[[-0.1], [0.0]]))
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == 0, result.error_string
+
+
 def test_an_old_header_stamp(sim):
     c, cli, _, _ = sim
     goal = _goal(['arm1_elbow'], [0.5], [[1.5]])
