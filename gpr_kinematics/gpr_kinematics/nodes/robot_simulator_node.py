@@ -232,12 +232,14 @@ class RobotSimulatorNode(GprNode):
                                       [_seconds(pt.time_from_start) for pt in points],
                                       [pt.positions for pt in points], [pt.velocities for pt in points],
                                       [pt.accelerations for pt in points])
-        moving = np.flatnonzero(traj.velocities[-1] != 0.0) if traj.velocities is not None else ()
-        if len(moving) and not self.p['allow_nonzero_velocity_at_trajectory_end']:   # as joint_trajectory_controller
-            k, name = int(moving[0]), traj.joint_names[int(moving[0])]
+        end = traj.velocities[-1] if traj.velocities is not None else np.zeros(0)
+        moving = np.flatnonzero(end != 0.0)
+        if moving.size and not self.p['allow_nonzero_velocity_at_trajectory_end']:   # as joint_trajectory_controller
+            k = int(moving[0])
+            name = traj.joint_names[k]
             unit = self.joints.units[self.joints.names.index(name)]
             raise GoalError(INVALID_GOAL, f'points[{len(points) - 1}] (the last) gives {name} a velocity of '
-                            f'{float(traj.velocities[-1][k])!r} {unit}/s; allowed: 0 at the last point (parameter '
+                            f'{float(end[k])!r} {unit}/s; allowed: 0 at the last point (parameter '
                             'allow_nonzero_velocity_at_trajectory_end, false as joint_trajectory_controller\'s)')
         tol = resolve_tolerances(self.joints, self.defaults,
                                  [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
