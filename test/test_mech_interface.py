@@ -1,6 +1,7 @@
 """The common Mechanism interface on every packaged mechanism: shapes, Jacobians against differences."""
 from __future__ import annotations
 
+import math
 import zlib
 
 import numpy as np
@@ -125,15 +126,40 @@ def test_accuracy_where_the_jacobian_is_singular_to_rounding_names_the_pose(monk
     from gpr_kinematics.mechanisms.accuracy import linearized_deviation
 
     stewart = load_mechanism(config_path('mechanisms/stewart_alwan.yaml'))
-    pose = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0]
+    pose = [0.0, 0.0, 0.5, 0.0, 0.3, 0.0]
     assert np.all(np.isfinite(linearized_deviation(stewart, pose, [1e-5] * 6)))
 
     def singular(*_):
         raise np.linalg.LinAlgError('Singular matrix')
 
     monkeypatch.setattr(np.linalg, 'solve', singular)
-    with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 0.5, '):
+    with pytest.raises(SingularityError, match=r'singular to rounding at a pose of \[\[0.0, 0.0, 0.5, 0.0, 0.3, '):
         linearized_deviation(stewart, pose, [1e-5] * 6)
+
+
+@pytest.mark.parametrize('name, lock, size', [('stewart_alwan.yaml', [0.0, 0.0, 1.8, 0.4, 0.0, -0.2], 1e-5),
+                                              ('gsp_d3_6.yaml', [0.0, 0.0, 0.138, 0.1, math.pi / 2, 0.2], 1e-6)])
+def test_accuracy_on_the_euler_angles_gimbal_lock(name, lock, size):
+    """On the lock (Z-X-Z at B = 0, roll-pitch-yaw at B = 90 deg) the solve over the Euler coordinates gave +-8.4e12
+    rad and the rigid motion built from them was wrong by 4e-4 m; the mechanism itself is regular there. Now the
+    rigid motion is solved over twists: it equals an independent solve of the inverse Jacobian and the limit of poses
+    approaching the lock, the exact deviation to second order; the angles' deviations are NaN, said so."""
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis, linearized_deviation, linearized_motion
+
+    mech = load_mechanism(config_path(f'mechanisms/{name}'))
+    ds = size * np.array([1.0, -2.0, 0.0, 3.0, 0.0, -1.0])   # joint errors [m] of the mechanism's size
+    twist = np.linalg.solve(mech.inverse_jacobian([lock])[0], ds)   # independent of the Euler coordinates
+    res = accuracy_analysis(mech, lock, ds)
+    np.testing.assert_allclose(res.linearized_twist[0], twist, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(linearized_motion(mech, lock, ds)[0], twist, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(res.exact_twist[0], twist, rtol=0, atol=2e-3 * np.abs(twist).max())  # second order
+    near = np.array(lock)
+    near[4] += 1e-7
+    np.testing.assert_allclose(accuracy_analysis(mech, near, ds).linearized_twist[0], twist, rtol=0, atol=1e-9)
+    lin = linearized_deviation(mech, lock, ds)[0]
+    np.testing.assert_allclose(lin[:3], twist[:3], rtol=0, atol=1e-15)
+    assert np.isnan(lin[3:]).all()
+    assert 'are not defined there (NaN); read the rotation vector' in res.warnings[0]
 
 
 @pytest.mark.parametrize('name', ['gsp_d1d2d3d4a1a1.yaml', 'stewart_alwan.yaml', 'upu3.yaml', 'tripod_3rps.yaml'])

@@ -21,7 +21,10 @@ the Euler angles are near their own singularity (Z-X-Z at ``theta -> 0``: there 
 large and opposite while the rotation itself barely changes). A rotation ``delta`` moves the first and third
 angles by up to ``delta / sin(D)``, ``D`` the second angle's distance from its gimbal lock (``sin D = |det E|``,
 ``E`` the Euler-rate matrix: ``|sin theta|`` for Z-X-Z, ``|cos B|`` for roll-pitch-yaw); within
-:data:`EULER_LOCK_WARNING` of it the result carries a warning (``warnings``) naming the pose.
+:data:`EULER_LOCK_WARNING` of it the result carries a warning (``warnings``) naming the pose. The rigid motion is
+solved over twists (:func:`linearized_motion`), so it holds at the lock itself too, where the angles' deviations
+are not defined (NaN; ``sin D`` below :data:`EULER_LOCK_UNDEFINED`): the first and third are not, and the second
+moves by the size of the rotation, not linearly.
 """
 from __future__ import annotations
 
@@ -42,6 +45,9 @@ SINGULAR_TOLERANCE = 1e-10
 #: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
 #: the rotation or more (Alwan's trajectory point 1, theta = 2 deg: 29 times).
 EULER_LOCK_WARNING = 0.1
+#: ``sin D`` below which a pose is on the gimbal lock (module docstring): its first and third angles' deviations are
+#: not defined (a solve over the Euler coordinates there gave +-8.4e12 rad, and the rigid motion built from them).
+EULER_LOCK_UNDEFINED = 1e-12
 
 
 @dataclass(frozen=True)
@@ -141,11 +147,12 @@ def euler_lock_warnings(mech: Mechanism, poses: Any) -> tuple[str, ...]:
     first, second, third = mech.pose_names[3:]
     out = []
     for i in np.flatnonzero(dist < EULER_LOCK_WARNING):
-        gain = f'{1.0 / math.sin(dist[i]):.3g} times' if dist[i] > 0 else 'infinitely'
+        effect = (f'of {first} and {third} are magnified up to about {1.0 / math.sin(dist[i]):.3g} times and are not '
+                  'meaningful there' if math.sin(dist[i]) >= EULER_LOCK_UNDEFINED else
+                  f'of {first}, {second} and {third} are not defined there (NaN)')
         out.append(f'pose {i + 1}: {second} = {arr[i, 4]:.6g} rad is {dist[i]:.3g} rad from the gimbal lock of the '
                    f'{mech.euler_convention} Euler angles (warned within {EULER_LOCK_WARNING:g} rad): the deviations '
-                   f'of {first} and {third} are magnified up to about {gain} and are not meaningful there; read the '
-                   'rotation vector of the rigid motion (rx ry rz, base frame) instead')
+                   f'{effect}; read the rotation vector of the rigid motion (rx ry rz, base frame) instead')
     return tuple(out)
 
 
@@ -188,21 +195,19 @@ def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict
     return out
 
 
-def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
-                         parameter_errors: Mapping[str, Any] | None = None) -> np.ndarray:
-    """Eq. (7): ``du (N, m) = (dq/du)^-1 (Delta s - dq/dp Delta p)`` at nominal poses ``(N, 6)``.
-
-    Raises :class:`SingularityError` at a pose where ``dq/du`` is singular (the deviation is unbounded).
-    """
+def _closure_errors(mech: Mechanism, poses: Any, joint_errors: Any, parameter_errors: Mapping[str, Any] | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The completed poses ``(N, 6)`` and eq. (7)'s right side ``Delta s - dq/dp Delta p`` ``(N, n)``."""
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
-    ds = _joint_errors(mech, joint_errors, arr.shape[0])
-    dp = _parameter_errors(mech, parameter_errors)
-    rhs = ds.copy()
-    for key, val in dp.items():
+    rhs = _joint_errors(mech, joint_errors, arr.shape[0]).copy()
+    for key, val in _parameter_errors(mech, parameter_errors).items():
         rhs -= mech.parameter_jacobian(arr, key) @ np.nan_to_num(val.ravel())
-    J = mech.coordinate_jacobian(arr)
-    _check_regular(mech, arr)
+    return arr, rhs
+
+
+def _solve(mech: Mechanism, J: np.ndarray, rhs: np.ndarray, arr: np.ndarray) -> np.ndarray:
+    """``J^-1 rhs`` per pose (the pseudo-inverse for more constraints than coordinates)."""
     try:
         if J.shape[1] == J.shape[2]:
             return np.linalg.solve(J, rhs[..., None])[..., 0]
@@ -210,6 +215,35 @@ def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
     except np.linalg.LinAlgError:  # conditioned within the tolerance, yet singular to rounding (CPU-dependent)
         raise SingularityError(f'{mech.name}: dq/du is singular to rounding at a pose of {brief(arr.tolist())}; the '
                                'pose deviation is unbounded there') from None
+
+
+def linearized_motion(mech: Mechanism, poses: Any, joint_errors: Any = None,
+                      parameter_errors: Mapping[str, Any] | None = None) -> np.ndarray:
+    """Eq. (7) as a small rigid motion ``(N, 6)``: position [m] and rotation vector [rad, base frame], solved over
+    the mechanism's motion coordinates (twists for 6 DOF), so it holds wherever the mechanism is regular, the Euler
+    angles' gimbal lock included. Raises :class:`SingularityError` at a singular pose."""
+    arr, rhs = _closure_errors(mech, poses, joint_errors, parameter_errors)
+    _check_regular(mech, arr)
+    return np.asarray(mech.motion_basis(arr) @ _solve(mech, mech.task_jacobian(arr), rhs, arr)[..., None])[..., 0]
+
+
+def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
+                         parameter_errors: Mapping[str, Any] | None = None) -> np.ndarray:
+    """Eq. (7): ``du (N, m) = (dq/du)^-1 (Delta s - dq/dp Delta p)`` at nominal poses ``(N, 6)``; on the Euler
+    angles' gimbal lock (module docstring) the angles' deviations are NaN (not defined: the first and third are
+    not, and the second moves by the rotation's size, not linearly), the position's as :func:`linearized_motion`'s.
+
+    Raises :class:`SingularityError` at a pose where ``dq/du`` is singular (the deviation is unbounded).
+    """
+    arr, rhs = _closure_errors(mech, poses, joint_errors, parameter_errors)
+    _check_regular(mech, arr)
+    lock = np.sin(euler_lock_distance(mech, arr)) < EULER_LOCK_UNDEFINED
+    out = np.full((arr.shape[0], len(mech.pose_variables)), np.nan)
+    if not lock.all():
+        out[~lock] = _solve(mech, mech.coordinate_jacobian(arr[~lock]), rhs[~lock], arr[~lock])
+    if lock.any():   # 6 DOF: the twist's position; no Euler angle moves linearly there (the second by |rotation|)
+        out[lock, :3] = _solve(mech, mech.task_jacobian(arr[lock]), rhs[lock], arr[lock])[:, :3]
+    return out
 
 
 def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
@@ -266,7 +300,7 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     if hasattr(mech, 'linearized_twist'):  # mechanisms whose errors also move the outcome components
         lin_twist = mech.linearized_twist(arr, ds, dp)
     else:
-        lin_twist = (mech.coordinate_basis(arr) @ lin[..., None])[..., 0]
+        lin_twist = linearized_motion(mech, arr, ds, dp)
     dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)
     exact_twist = np.concatenate([exact_poses[:, :3] - arr[:, :3], rotation_vector(dR)], axis=-1)
     return AccuracyResult(mechanism=mech.name, variables=tuple(mech.pose_variables), poses=arr, joints=q,
