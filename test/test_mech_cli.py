@@ -283,7 +283,7 @@ def test_the_dexterity_plot_marks_the_least_and_the_singular_poses_in_si_units(c
     ax = fig.axes[0]
     lines = {line.get_label(): line for line in ax.lines}
     assert ax.get_xlabel() == 'tilt_x [rad]' and ax.get_ylim()[1] == pytest.approx(1.1 * dmap.dexterity.max())
-    assert 'joints outside limits' not in lines and list(lines['singular'].get_xdata()) == [0.0]
+    assert 'outside the limits (joints or pose)' not in lines and list(lines['singular'].get_xdata()) == [0.0]
     least = next(line for name, line in lines.items() if name.startswith('least'))
     k = int(np.argmin(dmap.dexterity))
     assert (least.get_xdata()[0], least.get_ydata()[0]) == (dmap.values[k], dmap.dexterity[k])
@@ -297,7 +297,7 @@ def test_the_dexterity_plot_marks_the_least_and_the_singular_poses_in_si_units(c
     fig = dexterity_figure(dmap)
     ax = fig.axes[0]
     assert (ax.get_xlabel(), ax.get_ylabel()) == ('z [m]', 'x [m]')
-    assert fig.axes[1].get_ylabel() == 'dexterity within joint limits\n(white: joints outside limits)'
+    assert fig.axes[1].get_ylabel() == 'dexterity within the limits\n(white: outside them)'
     inside = np.where(dmap.within_limits, dmap.dexterity, np.inf)
     i, j = np.unravel_index(np.argmin(inside), inside.shape)
     (least,) = ax.lines

@@ -68,6 +68,28 @@ def test_conditioning_through_the_singular_configuration(gpr):
     assert np.ptp(dmap.dexterity) < 1e-3
 
 
+def test_a_dexterity_map_beyond_the_limits_marks_those_poses(gpr):
+    """A sweep or map reaching past the tilt limit or the stroke was refused whole (the core's LimitError); every
+    other mechanism marks such poses outside the limits (white cells). The poses within are computed as before (the
+    same numbers to the last bit), those beyond with the model's domain (15 deg, the stroke's span either side)."""
+    from gpr_kinematics.errors import LimitError
+    from gpr_kinematics.mechanisms.dexterity import dexterity_grid
+
+    tilts = np.linspace(-0.05, 0.05, 5)     # the limit is 2 deg = 0.0349 rad
+    dmap = dexterity_sweep(gpr, gpr.home_pose, 'tilt_x', tilts)
+    assert dmap.within_limits.tolist() == [False, True, True, True, False]
+    inside = dexterity_sweep(gpr, gpr.home_pose, 'tilt_x', tilts[1:4])
+    assert dmap.dexterity[1:4].tolist() == inside.dexterity.tolist()
+    np.testing.assert_allclose(dmap.dexterity[[0, 4]], 1.0 / gpr.unlimited().condition_number(dmap.poses[[0, 4]]),
+                               rtol=1e-12)
+    with pytest.raises(LimitError):
+        gpr.inverse_kinematics(dmap.poses[0])   # the GPR itself still refuses it
+    heights = dexterity_sweep(gpr, gpr.home_pose, 'z', [0.4, 0.5, 0.55])   # 0.55 m puts a rod beyond 0.508 m
+    assert heights.within_limits.tolist() == [True, True, False] and np.all(np.isfinite(heights.dexterity))
+    square = dexterity_grid(gpr, gpr.home_pose, 'tilt_x', [-0.03, 0.0, 0.03], 'tilt_y', [-0.03, 0.0, 0.03])
+    assert square.within_limits.tolist() == [[False, True, False], [True, True, True], [False, True, False]]
+
+
 def test_accuracy_rod_errors_and_imperfections_second_order(gpr):
     rng = np.random.default_rng(4)
     dq, delta = rng.normal(size=3), rng.normal(size=(3, 3))

@@ -68,7 +68,7 @@ def _dexterity(args: argparse.Namespace) -> int:
     if dmap.variable2 is None:
         print(f'{mech.name}: dexterity (inverse condition number) against {var}')
         for v, d, ok, sing in zip(dmap.values, dmap.dexterity, dmap.within_limits, dmap.singular, strict=True):
-            print(f'  {var} = {v:12.6g}   dexterity {d:.6f}' + ('' if ok else '   (joints outside limits)')
+            print(f'  {var} = {v:12.6g}   dexterity {d:.6f}' + ('' if ok else '   (outside the limits: joints or pose)')
                   + ('   (singular)' if sing else ''))
     else:
         inside = dmap.dexterity[dmap.within_limits]

@@ -151,6 +151,16 @@ class Mechanism(abc.ABC):
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
         """Inverse Jacobians ``(N, n, 6)``: joint rates per twist ``(v, w)``, ``w`` in the base frame."""
 
+    def unlimited(self) -> Mechanism:
+        """The mechanism whose kinematics compute beyond its limits, as a dexterity map needs (itself: its joint
+        limits are checked apart, by :meth:`within_limits`; the GPR's core refuses poses beyond them)."""
+        return self
+
+    def pose_within_limits(self, poses: Any) -> np.ndarray:
+        """``(N,)`` True where a completed pose is within the mechanism's limits on poses (none here)."""
+        arr, _ = as_poses(poses)
+        return np.ones(arr.shape[0], dtype=bool)
+
     def undetermined(self, poses: Any) -> np.ndarray:
         """``(N,)`` True where :meth:`complete_pose` cannot complete the pose (a configuration singular for its
         parasitic motions: the tripod's half turn about one axis); none here."""

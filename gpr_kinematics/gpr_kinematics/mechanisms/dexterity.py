@@ -109,16 +109,17 @@ def evaluate(mech: Mechanism, poses: Any
             ok = ~free
             full[ok], dex[ok], cond[ok], sing[ok], within[ok] = evaluate(mech, arr[ok])
         return full, dex, cond, sing, within
-    full = mech.complete_pose(arr)
+    calc = mech.unlimited()   # computes beyond the limits, which mark the poses (within)
+    full = calc.complete_pose(arr)
     with np.errstate(divide='ignore', invalid='ignore'):
         # named: a singular configuration of the mechanism itself (the GPR's rigid one, a GSP's undefined rows)
-        Jh, singularity = mech.jacobian_and_singularity(full)
+        Jh, singularity = calc.jacobian_and_singularity(full)
     named = singularity != ''
     finite = np.all(np.isfinite(Jh), axis=(1, 2))
     Jh = np.where(finite[:, None, None], Jh, 0.0)
     dex = np.where(finite, dexterity_index(Jh), 0.0)
     cond = np.where(finite, condition_number(Jh), np.inf)
-    within = mech.within_limits(mech.inverse_kinematics(full))
+    within = mech.within_limits(calc.inverse_kinematics(full)) & mech.pose_within_limits(full)
     return full, dex, cond, (dex < SINGULAR_TOLERANCE) | named, within
 
 
@@ -200,7 +201,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
     if dmap.variable2 is None:
         x = dmap.values
         if not dmap.within_limits.all():
-            ax.plot(x, dmap.dexterity, '--', color='0.6', label='joints outside limits')
+            ax.plot(x, dmap.dexterity, '--', color='0.6', label='outside the limits (joints or pose)')
         inside = np.where(dmap.within_limits, dmap.dexterity, np.nan)
         ax.plot(x, inside, '-', color='C0', lw=2, label='within joint limits')
         if dmap.singular.any():
@@ -217,7 +218,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
         data = np.where(dmap.within_limits, dmap.dexterity, np.nan)
         v2 = np.asarray(dmap.values2)
         im = ax.pcolormesh(v2, dmap.values, data, shading='auto')
-        fig.colorbar(im, ax=ax, label='dexterity within joint limits\n(white: joints outside limits)')
+        fig.colorbar(im, ax=ax, label='dexterity within the limits\n(white: outside them)')
         if dmap.singular.any():
             rows, cols = np.nonzero(dmap.singular)
             ax.plot(v2[cols], dmap.values[rows], 'x', color='r', ms=6, mew=1.5, label='singular')

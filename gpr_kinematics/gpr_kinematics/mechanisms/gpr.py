@@ -23,6 +23,8 @@ rotation ``R = tilt_rotation(alpha, gamma) @ Rz(twist)`` (:mod:`gpr_kinematics.c
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -32,6 +34,9 @@ from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
 from ..inputs.validation import bounded, difference_step, newton_settings
 from .base import Mechanism, as_poses, rotation_vector
+
+#: The largest tilt limit of a geometry [rad] (GprConfig's range): a dexterity map computes up to it.
+TILT_DOMAIN = math.radians(15.0)
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
 
@@ -91,6 +96,21 @@ class GprMechanism(Mechanism):
             raise ConfigError(f'{source}: overrides must be a mapping of GprConfig fields; got {brief(overrides)}')
         cfg = load_config(overrides=dict(overrides), overrides_source=f'{source}: overrides')
         return cls(cfg, name=str(data.get('name', 'GPR')))
+
+    def unlimited(self) -> GprMechanism:
+        """This GPR with its tilt limit at the model's 15 deg and its stroke widened by its span on either side: a
+        dexterity map computes there and marks the poses beyond the limits (the core refused them, and the map)."""
+        c = self.config
+        span = c.stroke_max - c.stroke_min
+        wide = dataclasses.replace(c, tilt_limit=TILT_DOMAIN, stroke_min=max(c.stroke_min - span, -10.0),
+                                   stroke_max=min(c.stroke_max + span, 10.0))
+        return GprMechanism(wide, self.name, self.imperfections)
+
+    def pose_within_limits(self, poses: Any) -> np.ndarray:
+        """``(N,)`` True where a pose's tilt is within the tilt limit."""
+        from ..core import TILT_LIMIT_SLACK
+        arr, _ = as_poses(poses)
+        return np.asarray(np.hypot(arr[:, 3], arr[:, 4]) <= self.config.tilt_limit + TILT_LIMIT_SLACK)
 
     # ------------------------------------------------------------------ parameters
     def parameters(self) -> dict[str, np.ndarray]:
