@@ -138,3 +138,20 @@ def test_sigterm_stops_a_run_on_a_local_cluster_and_closes_it(tmp_path):
     result = json.loads(out)
     assert result['cluster_used'] and result['workers'] == 2 and result['stopped'] == 'interrupted', result
     assert 'leaked' not in err and 'Traceback' not in err and 'interrupted after' in err, err
+
+
+def test_a_run_names_every_reason_its_parts_stopped_for():
+    """Parts stop for reasons of their own: the first part's became the run's, so a run that ended on its time
+    limit said 'box limit (5000000 boxes)' when one part had used its share, holding far fewer boxes (a user would
+    raise --max-boxes, in vain). Now each reason is named once, a part's share as such."""
+    from gpr_kinematics.workspace.levels import Outcome
+
+    out = Outcome()
+    for reason in ('box limit (5000 boxes, shared among the parts)', 'time limit (10 s)', '', 'time limit (10 s)',
+                   'box limit (5000 boxes, shared among the parts)'):
+        out.merge(Outcome(stopped=reason), keep_outside=False)
+    assert out.stopped == 'box limit (5000 boxes, shared among the parts); time limit (10 s)'
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    res = approximate(model, 0.0005, chunk_size=1024, parts=8, max_boxes=4000, max_seconds=60)
+    assert res.interrupted and res.stopped == 'box limit (4000 boxes, shared among the parts)', res.stopped
+    assert res.inner_boxes + res.boundary_boxes <= 4000

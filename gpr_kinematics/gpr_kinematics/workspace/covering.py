@@ -350,8 +350,10 @@ def _run(
                 for piece, o in zip(pieces, results, strict=True):
                     if o is None:                    # not run (stopped): its boxes count as boundary
                         out.boundary.append(piece.output_boxes())
-                        out.stopped = out.stopped or mon.stop() or 'interrupted'
+                        out.stop(mon.stop() or 'interrupted')
                     else:
+                        if o.stopped == 'time limit':   # a cluster's part (its deadline), named as the driver's
+                            o.stopped = f'time limit ({max_seconds:g} s)'
                         out.merge(o, keep_outside)
             elif out.frontier.size:
                 out.boundary.append(out.frontier.output_boxes())

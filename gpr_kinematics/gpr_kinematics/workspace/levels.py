@@ -60,7 +60,13 @@ class Outcome:
         self.outside_volume += other.outside_volume
         self.levels = max(self.levels, other.levels)
         self.diameter = min(self.diameter, other.diameter)
-        self.stopped = self.stopped or other.stopped
+        self.stop(other.stopped)
+
+    def stop(self, reason: str) -> None:
+        """Add a reason the run stopped, once (parts stop for reasons of their own: the first no longer hides the
+        others, as a part's share of the box limit hid the time limit that ended the run)."""
+        if reason and reason not in self.stopped.split('; '):
+            self.stopped = f'{self.stopped}; {reason}' if self.stopped else reason
 
 
 def run_levels(
@@ -93,7 +99,7 @@ def run_levels(
         if until is not None and frontier.size >= until:
             break
         if kept + 2 * frontier.size > limit:
-            out.stopped = f'box limit ({max_boxes} boxes)'
+            out.stopped = f'box limit ({max_boxes} boxes{"" if budget is None else ", shared among the parts"})'
             break
         out.levels += 1
         out.diameter = frontier.diameter(model_scale(model, frontier))
