@@ -116,7 +116,7 @@ def test_tolerance_table_sets_the_prior_and_the_sigmas(capsys, tmp_path):
     # against the model's 0.1 mm): the poses beat fewer of them, so more combinations are held
     assert d['identifiability']['singular_values'][0] < plain['identifiability']['singular_values'][0]
     assert len(d['identifiability']['held']) > len(plain['identifiability']['held'])
-    status, out, _ = run(capsys, 'calibrate', '--plan', '4', '--tolerances', table)
+    status, out, _ = run(capsys, 'calibrate', '--plan', '5', '--tolerances', table)
     assert status == 0 and 'sigma_position 3 um, sigma_angle 20 urad' in out    # the table's measurement noise
 
 
@@ -184,7 +184,7 @@ def bad_inputs(tmp_path):
                                  r"length\), or no brackets for the file's units$"),
         (['calibrate', SHIPPED], r'--output FILE is required'),
         (['calibrate', SHIPPED, '--output', str(tmp_path)], r'exists and is not a regular file'),
-        (['calibrate', SHIPPED, '--plan', '3'], r'give a MEASUREMENTS file to calibrate from, or --plan N'),
+        (['calibrate', SHIPPED, '--plan', '8'], r'give a MEASUREMENTS file to calibrate from, or --plan N'),
         (['calibrate'], r'give a MEASUREMENTS file'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'radius'], r"unknown parameter 'radius'; allowed: "
                                                                             r'rod1_x'),
@@ -208,12 +208,12 @@ def bad_inputs(tmp_path):
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '0', '0', '0', '0', '0', '90',
           '--mm', '--target', '0', '0', '0'], r'; or --base and --target in other units than m and rad \(--deg for '
                                               r'degrees\)\?$'),
-        (['calibrate', '--plan', '3', '--config', ''], r'config'),
+        (['calibrate', '--plan', '8', '--config', ''], r'config'),
         (['calibrate', '--plan', 'many'], r"argument --plan: invalid int value: 'many'"),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tr\u0430cker'],   # a Cyrillic a passed isalnum
          r"--frame 'tr\u0430cker'; allowed: a frame name of 1 to 64 ASCII letters, digits and _"),
-        (['calibrate', '--plan', '3', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
-        (['calibrate', '--plan', '3', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
+        (['calibrate', '--plan', '8', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
+        (['calibrate', '--plan', '8', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
     ]
 
 
@@ -251,7 +251,7 @@ def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys
             (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.csv'],
              "--output 'r.csv' has another suffix; "
              "allowed: a .yaml or .yml file (the calibrated robot is written as YAML)"),
-            (['calibrate', '--plan', '3', '--output', 'plan.yaml'],
+            (['calibrate', '--plan', '8', '--output', 'plan.yaml'],
              "--output 'plan.yaml' has another suffix; allowed: a .csv file (the plan is written as CSV)"),
             (['calibrate', SHIPPED, '--output', str(tmp_path)],
              f'calibrated geometry output {tmp_path} exists and is not a regular file (it is a directory); allowed: '
@@ -259,7 +259,7 @@ def test_an_output_named_unlike_what_is_written_is_refused_before_the_fit(capsys
         status, out, err = run(capsys, *argv)
         assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
     assert sorted(p.name for p in tmp_path.iterdir()) == ['arm.csv']
-    status, out, err = run(capsys, 'calibrate', '--plan', '3', '--output', 'plan.CSV')   # any case
+    status, out, err = run(capsys, 'calibrate', '--plan', '8', '--output', 'plan.CSV')   # any case
     assert status == 0 and (tmp_path / 'plan.CSV').read_text().splitlines()[3] == 'q1,q2,q3', err
 
 
@@ -295,19 +295,19 @@ def test_a_frame_of_the_machine_is_refused_as_the_measurements_frame_unless_its_
     for argv, line in [
             (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'gpr_platform'],
              f'--frame gpr_platform moves with the machine; {gpr_allowed} (not one of the 5 frames of gpr that move)'),
-            (['calibrate', '--plan', '3', '--frame', 'gpr_rod_2'],
+            (['calibrate', '--plan', '8', '--frame', 'gpr_rod_2'],
              f'--frame gpr_rod_2 moves with the machine; {gpr_allowed} (not one of the 5 frames of gpr that move)'),
             (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.yaml', '--frame', 'arm1_wafer'],
              f'--frame arm1_wafer moves with the machine; {robot_allowed} (not one of the 16 frames of '
              'example_dual_arm that move)'),
-            (['calibrate', '--plan', '3', '--frame', 'gpr_rod_guide_1'], guide.format('gpr', gpr_allowed)),
+            (['calibrate', '--plan', '8', '--frame', 'gpr_rod_guide_1'], guide.format('gpr', gpr_allowed)),
             (['calibrate', '--robot', 'example_robot.yaml', arm, '--output', 'r.yaml', '--frame', 'gpr_rod_guide_1'],
              guide.format('example_dual_arm', robot_allowed))]:
         status, out, err = run(capsys, *argv)
         assert (status, out, err) == (2, '', f'gpr calibrate: error: {line}\n'), argv
     for frame in ('gpr_base', 'tracker'):
-        status, out, err = run(capsys, 'calibrate', '--plan', '3', '--frame', frame, '--json')
-        assert status == 0 and len(json.loads(out)['configurations']) == 3, err
+        status, out, err = run(capsys, 'calibrate', '--plan', '8', '--frame', frame, '--json')
+        assert status == 0 and len(json.loads(out)['configurations']) == 8, err
 
 
 def test_one_row_is_enough_for_three_offsets(capsys, tmp_path):
@@ -399,7 +399,7 @@ def test_every_command_takes_the_calibrated_file(capsys, tmp_path):
                  ['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3'],
                  ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0.02', '0', '0', '--tolerances',
                   str(config_path('calibration/tolerances_example.yaml')), '--samples', '0'],
-                 ['calibrate', '--plan', '3']):
+                 ['calibrate', '--plan', '8']):
         status, out, err = run(capsys, *argv, '--config', str(cal), '--json')
         assert status == 0, (argv, err)
         d = json.loads(out)

@@ -145,6 +145,17 @@ def test_refusals():
         plan_measurements(m, cfg, 0)
     with pytest.raises(InputError, match=r'plan size 1000; allowed'):
         plan_measurements(m, cfg, 1000)
+    # a plan whose file gpr calibrate refuses (k rows give k residuals per row, no more than the parameters): the
+    # plan and the budget after it were given, the calibration refused
+    with pytest.raises(InputError, match=r'plan size 4: 4 configuration\(s\) measured as poses give 24 residuals, too '
+                                         r'few to identify 24 parameters \(gpr calibrate refuses a file of so few '
+                                         r'rows\); allowed: at least 5$'):
+        plan_measurements(m, cfg, 4)
+    with pytest.raises(InputError, match=r'plan size 8: 8 configuration\(s\) measured as points give 24 residuals, '
+                                         r'.*allowed: at least 9$'):
+        plan_measurements(m, cfg, 8, points=True)
+    assert plan_measurements(m, cfg, 5).q.shape == (5, 3)
+    assert plan_measurements(m, cfg, 9, points=True).q.shape == (9, 3)
     with pytest.raises(InputError, match=r"observability index 'volume'; allowed: product, smallest"):
         plan_measurements(m, cfg, 3, index='volume')
     with pytest.raises(InputError, match=r'sigma_angle = 0; allowed'):

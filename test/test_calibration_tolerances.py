@@ -221,7 +221,7 @@ def test_a_tolerance_beyond_the_geometrys_limit_is_refused_naming_the_entry(caps
     line = (f"{bad}: parameters: rod_directions: tolerance 0.1 rad takes rod1_ux to [-0.1, 0.1] (nominal 0); allowed: "
             f"within the geometry's limits [-0.05, 0.05] of rod1_ux ({rule})")
     for argv in (['accuracy', 'gpr.yaml', '--tolerances', bad, '--pose', '0', '0', '0.5', '0.0349', '0', '0'],
-                 ['calibrate', '--plan', '3', '--tolerances', bad]):
+                 ['calibrate', '--plan', '8', '--tolerances', bad]):
         status = main(argv)
         out, err = capsys.readouterr()
         assert (status, out, err) == (2, '', f'gpr {argv[0]}: error: {line}\n'), argv
@@ -296,7 +296,7 @@ def test_a_plan_from_tolerances_whose_centre_the_geometry_refuses_names_the_tabl
             '(side 1-2 of the joint triangle is 0.161458 m, the rods are 0.169121 m apart; allowed: within 1% of each '
             'other); allowed: tolerances whose every draw is a valid geometry (smaller ones of rod_positions and '
             'platform_joints: the rods and the joints keep triangles alike)')
-    for argv in (['calibrate', '--plan', '3', '--tolerances', str(path)],
+    for argv in (['calibrate', '--plan', '8', '--tolerances', str(path)],
                  ['accuracy', 'gpr.yaml', '--tolerances', str(path), '--pose', '0', '0', '0.3', '0', '0', '0',
                   '--calibration-plan', '6', '--samples', '100']):
         status = main(argv)

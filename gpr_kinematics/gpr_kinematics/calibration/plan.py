@@ -280,6 +280,11 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
                          f'candidate configurations within the stroke and tilt limits is {C})')
     params = model.parameters
     free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
+    k = 3 if points else 6
+    if k * n <= free_idx.size:   # gpr calibrate refuses the file measured at such a plan (identification's rule)
+        raise InputError(f'plan size {n}: {n} configuration(s) measured as {"points" if points else "poses"} give '
+                         f'{k * n} residuals, too few to identify {free_idx.size} parameters (gpr calibrate refuses '
+                         f'a file of so few rows); allowed: at least {free_idx.size // k + 1}')
     theta0 = params.nominal if theta is None else np.asarray(theta, dtype=float)
     scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [0.0 if points else 1.0 / sigma_angle] * 3)
