@@ -356,6 +356,17 @@ def test_a_gate_failure_with_declared_noise_names_its_cause():
     gate = {c.name: c for c in identify(m, Measurements(good.source, good.q, one, good.quaternion, good.sigma_position,
                                                           good.sigma_angle, good.lines)).gate.checks}
     assert not gate['outliers'].passed and 'a mismeasured row (remove it)' in gate['outliers'].detail
+    _consistent(gate.values())
+    _consistent(identify(m, good).gate.checks)
+
+
+def _consistent(checks) -> None:
+    """Each check's value and limit agree with its verdict, and only a failed one says what it found: a failed fit
+    gave minimum {'value': 0.00032, 'limit': 1.0} (passed by the documented rule), and every passed check a
+    failure's sentence ('The fit did not reach a minimum', '... above 4.6')."""
+    for c in checks:
+        assert c.passed == (c.value >= c.limit if c.at_least else c.value <= c.limit), c
+        assert (c.detail == '') == c.passed, c
 
 
 def test_the_documented_gate_failure_is_the_output(capsys, tmp_path):

@@ -260,10 +260,11 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
     (:func:`~.quality.spread`)."""
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
-    checks = [GateCheck('minimum', best.converged, best.step_se, 1.0,
+    # passed or not by the fit's status (the step left decides it with the way the fit ended): 1 for converged
+    checks = [GateCheck('minimum', best.converged, float(best.converged), 1.0,
                         f'The fit did not reach a minimum ({STATUS_WORDS.get(best.status, best.status)} after '
                         f'{best.iterations} iterations, the '
-                        f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).')]
+                        f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).', at_least=True)]
     worst = worst_rows(best.residual, names)
     limit = chi2_limit(dof)
     point = f'the {100 * CHI2_QUANTILE:g} % point for {dof} degrees of freedom'
@@ -287,7 +288,8 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
                             f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
                             f'residuals {worst}{bounds}.'))
-    return Gate(tuple(checks))
+    # what a check found is said where it failed (a passed check's sentence read as a failure in the JSON)
+    return Gate(tuple(c if not c.passed else replace(c, detail='') for c in checks))
 
 
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
