@@ -255,8 +255,18 @@ def test_refusals():
     off = Measurements('off.csv', meas.q, meas.position + [0.024, 0.0, 0.0], meas.quaternion, None, None,
                        tuple(range(4, 9)))
     with pytest.raises(InputError, match=r'off\.csv line 4: the measured pose is 0\.024 m .*another frame than '
-                                         r'gpr_base, or a machine that far from its nominal model') as err:
+                                         r"gpr_base; a tracker's frame is identified with the machine with --frame "
+                                         r'NAME \(docs/calibration\.md\), or a machine that far from its nominal '
+                                         r'model') as err:
         identify(m, off)
+    assert 'millimetres' not in str(err.value)
+    # a tracker's frame 3 m away (the worked example without --frame): no millimetre hint either (it was given by
+    # the distance alone, beyond 1 m, to a file that declared its units)
+    far = Measurements('far.csv', meas.q, meas.position + [1.8, -2.4, 0.7], meas.quaternion, None, None,
+                       tuple(range(4, 9)))
+    with pytest.raises(InputError, match=r'far\.csv line 4: the measured pose is 3\.08\d* m .*another frame than '
+                                         r'gpr_base; a tracker') as err:
+        identify(m, far)
     assert 'millimetres' not in str(err.value)
     with pytest.raises(InputError, match=r'mm\.csv line \d, column q\d: \d+\.?\d* m is outside the stroke '
                                          r'\[0, 0\.508\] m'):

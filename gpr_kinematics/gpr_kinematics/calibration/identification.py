@@ -132,9 +132,15 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
         i = int(bad[0])
         what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
         limits = f'{PLAUSIBLE_POSITION} m' + (f', {PLAUSIBLE_ANGLE} rad' if errors.shape[1] == 6 else '')
-        why = ('millimetres? declare "# units: mm"' if dp[i] > 100 * PLAUSIBLE_POSITION else
-               f'another frame than {frame}, or a machine that far from its nominal model (an arm\'s zero offset of '
-               'a degree moves its wafer some centimetres): correct the nominal model first')
+        # millimetres read as metres only where a thousandth of the measurement lies where the model puts it (a pose in
+        # another frame 3 m away got the hint, in a file that declared its units)
+        model_position = meas.position[i] + errors[i, :3]
+        mm = bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
+        elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
+                     if frame == 'gpr_base' else '')
+        why = ('millimetres? declare "# units: mm"' if mm else
+               f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
+               'offset of a degree moves its wafer some centimetres): correct the nominal model first')
         raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in SI units ({why})')
 
