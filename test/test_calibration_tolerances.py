@@ -302,3 +302,23 @@ def test_a_plan_from_tolerances_whose_centre_the_geometry_refuses_names_the_tabl
         status = main(argv)
         out, err = capsys.readouterr()
         assert (status, out, err) == (2, '', f'gpr {argv[0]}: error: {line}\n'), argv
+
+
+def test_a_zero_tolerance_is_held_at_its_nominal_value_in_calibration():
+    """A tolerance of 0 means exact in the budget; as a calibration prior it was read as no entry, and the parameter
+    fitted with the model's default scale (0.1 mm for a rod offset), while 1e-12 held it. Now 0 holds it too."""
+    from gpr_kinematics.calibration.identification import identify
+    from gpr_kinematics.calibration.measurements import read_measurements
+    from gpr_kinematics.calibration.tolerances import EXACT_PRIOR, prior_of
+
+    model = CoreModel(load_config())
+    params = model.parameters
+    table = parse_tolerances({'parameters': {'rod_offsets': {'tolerance': 0}, 'rod1_x': {'tolerance': 3e-5}}})
+    prior = prior_of(table, params)
+    offsets = [params.names.index(f'rod{k}_offset') for k in (1, 2, 3)]
+    np.testing.assert_array_equal(prior[offsets], EXACT_PRIOR * params.scale[offsets])
+    assert prior[params.names.index('rod1_x')] == pytest.approx(3e-5 / math.sqrt(3))   # uniform in [-t, t]
+    assert np.isnan(prior[params.names.index('rod2_x')])                              # no entry: the model's scale
+    res = identify(model, read_measurements(config_path('calibration/synthetic_measurements.csv')), prior=prior)
+    assert [res.status[j] for j in offsets] == ['held'] * 3
+    assert np.all(res.estimate[offsets] == params.nominal[offsets])

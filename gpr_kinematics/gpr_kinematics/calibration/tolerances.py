@@ -251,10 +251,19 @@ def bound_of(table: ToleranceTable, params: ParameterSet) -> Array:
     return out
 
 
+#: The prior of a parameter whose tolerance is 0 (exact), as a fraction of its scale: identification and planning
+#: hold it at its nominal value, as the budget takes it (a zero cannot be a prior; it was read as no entry, and the
+#: parameter fitted with the model's default scale).
+EXACT_PRIOR = 1e-12
+
+
 def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
-    """The table's standard deviation of each parameter (``nan`` where the table has none), as the ``prior`` of
-    identification and planning."""
-    return np.array([t.std if t is not None else np.nan for t in table.bind(params)])
+    """The table's standard deviation of each parameter (``nan`` where the table has none; :data:`EXACT_PRIOR` of
+    its scale where its tolerance is 0), as the ``prior`` of identification and planning."""
+    bound = table.bind(params)
+    listed = [p.name in table.entries or p.key in table.entries for p in params]
+    return np.array([t.std if t is not None else EXACT_PRIOR * s if given else np.nan
+                     for t, given, s in zip(bound, listed, params.scale, strict=True)])
 
 
 def _finite(value: Any, where: str) -> float:
