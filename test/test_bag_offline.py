@@ -293,24 +293,36 @@ def test_sqlite3_read_directly_gives_the_same_messages(tmp_path: Path, messages:
     assert sum(len(t) for t in bag.topics.values()) == len(rows)
 
 
+def _schema_edited(tmp_path: Path, messages: list, script: str) -> Path:
+    """A fresh SQLite3 bag's file with ``script`` run on it (SQL)."""
+    write_messages(tmp_path / 'b', messages, storage='sqlite3')
+    db = tmp_path / 'b' / 'b_0.db3'
+    con = sqlite3.connect(db)
+    try:
+        con.executescript(script)
+    finally:
+        con.close()
+    return db
+
+
+def _refused_at_once(db: Path, pattern: str) -> None:
+    t0 = time.monotonic()
+    with pytest.raises(BagError, match=pattern):
+        read_bag(db)
+    assert time.monotonic() - t0 < 10
+
+
 @pytest.mark.parametrize('table', ['messages', 'topics'])
 def test_a_view_in_place_of_a_rosbag2_table_is_refused_at_once(tmp_path: Path, messages: list, table: str) -> None:
     """A view computes its rows: an endless recursive ``messages`` view never finished reading (and filled the temp
     folder), an endless ``topics`` view filled the memory. Only stored rows are read."""
-    write_messages(tmp_path / 'b', messages, storage='sqlite3')
-    db = tmp_path / 'b' / 'b_0.db3'
-    con = sqlite3.connect(db)
     endless = {'messages': "SELECT x AS id, 1 AS topic_id, x AS timestamp, x'00010000' AS data FROM c",
                'topics': "SELECT x AS id, '/t' || x AS name, 'std_msgs/msg/String' AS type, 'cdr' AS "
                          "serialization_format, '' AS offered_qos_profiles, '' AS type_description_hash FROM c"}[table]
-    con.executescript(f'DROP TABLE {table}; CREATE VIEW {table} AS WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL '
-                      f'SELECT x + 1 FROM c) {endless};')
-    con.close()
-    t0 = time.monotonic()
-    with pytest.raises(BagError, match=rf"b_0\.db3: {table} is a view, not a table; allowed: rosbag2's stored "
-                                      'tables topics, messages and message_definitions$'):
-        read_bag(db)
-    assert time.monotonic() - t0 < 10
+    db = _schema_edited(tmp_path, messages, f'DROP TABLE {table}; CREATE VIEW {table} AS WITH RECURSIVE c(x) AS '
+                                            f'(SELECT 1 UNION ALL SELECT x + 1 FROM c) {endless};')
+    _refused_at_once(db, rf"b_0\.db3: {table} is a view, not a table; allowed: rosbag2's stored tables topics, "
+                         'messages and message_definitions$')
 
 
 @pytest.mark.parametrize('kind', ['VIRTUAL', 'STORED'])
@@ -318,35 +330,23 @@ def test_a_generated_column_in_a_rosbag2_table_is_refused_at_once(tmp_path: Path
     """A generated column is computed from its expression: a 20 kB file of four rows whose ``data`` was
     ``zeroblob(500000000)`` (the expression swapped in through ``writable_schema``) took 2.5 GB to read, another 1 s
     of CPU per row. Only stored columns are read (a stored generated one too is refused: rosbag2 writes none)."""
-    write_messages(tmp_path / 'b', messages, storage='sqlite3')
-    db = tmp_path / 'b' / 'b_0.db3'
-    con = sqlite3.connect(db)
-    con.executescript('ALTER TABLE messages RENAME TO old; CREATE TABLE messages (id INTEGER PRIMARY KEY, topic_id '
-                      f'INTEGER NOT NULL, timestamp INTEGER NOT NULL, data BLOB GENERATED ALWAYS AS (zeroblob(10)) '
-                      f'{kind}); INSERT INTO messages (id, topic_id, timestamp) SELECT id, topic_id, timestamp FROM '
-                      'old; DROP TABLE old;')
-    con.close()
-    t0 = time.monotonic()
-    with pytest.raises(BagError, match=r'b_0\.db3: column data of messages is generated \(computed when read\), not '
-                                       "stored; allowed: rosbag2's stored tables"):
-        read_bag(db)
-    assert time.monotonic() - t0 < 10
+    db = _schema_edited(tmp_path, messages, 'ALTER TABLE messages RENAME TO old; CREATE TABLE messages (id INTEGER '
+                        'PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL, data BLOB GENERATED '
+                        f'ALWAYS AS (zeroblob(10)) {kind}); INSERT INTO messages (id, topic_id, timestamp) SELECT id, '
+                        'topic_id, timestamp FROM old; DROP TABLE old;')
+    _refused_at_once(db, r'b_0\.db3: column data of messages is generated \(computed when read\), not stored; '
+                         "allowed: rosbag2's stored tables")
 
 
 def test_a_virtual_table_in_place_of_a_rosbag2_table_is_refused(tmp_path: Path, messages: list) -> None:
     """A virtual table's rows come from its module (here the FTS index's, where the build has it)."""
-    write_messages(tmp_path / 'b', messages, storage='sqlite3')
-    db = tmp_path / 'b' / 'b_0.db3'
-    con = sqlite3.connect(db)
     try:
-        con.executescript('DROP TABLE message_definitions; CREATE VIRTUAL TABLE message_definitions USING '
-                          'fts4(topic_type, encoding, encoded_message_definition, type_description_hash);')
+        db = _schema_edited(tmp_path, messages, 'DROP TABLE message_definitions; CREATE VIRTUAL TABLE '
+                            'message_definitions USING fts4(topic_type, encoding, encoded_message_definition, '
+                            'type_description_hash);')
     except sqlite3.OperationalError as exc:
         pytest.skip(f'no FTS4 in this SQLite build ({exc})')
-    finally:
-        con.close()
-    with pytest.raises(BagError, match=r'b_0\.db3: message_definitions is a virtual table; allowed: rosbag2'):
-        read_bag(db)
+    _refused_at_once(db, r'b_0\.db3: message_definitions is a virtual table; allowed: rosbag2')
 
 
 # -- verification failures ---------------------------------------------------------------------------------
