@@ -365,9 +365,8 @@ SIMULATOR: tuple[ParamSpec, ...] = (
               'trajectory; 0: they follow it exactly', (0.0, 10.0), read_only=True),
     ParamSpec('queue_depth', _I, 1000, 'joint_states publisher and subscription depth', (1, 100000),
               read_only=True),
-    ParamSpec('allow_nonzero_velocity_at_trajectory_end', _B, False, 'accept a goal whose last point gives a joint '
-              'a velocity (joint_trajectory_controller\'s parameter; false, its default since Jazzy: the goal is '
-              'refused)', read_only=True),
+    ParamSpec('allow_nonzero_velocity_at_trajectory_end', _B, False, "accept a goal whose last point moves a joint "
+              "(joint_trajectory_controller's parameter; false, its default since Jazzy: refused)", read_only=True),
     JOINT_STATES_RELIABILITY,
     ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): every goal\'s motion is checked against it '
               'before anything moves (certified clearance between samples; python-fcl); empty: no clearance check',
