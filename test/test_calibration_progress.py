@@ -8,6 +8,7 @@ import math
 import re
 
 import numpy as np
+import pytest
 from gpr_kinematics.calibration import fitting, monte_carlo
 from gpr_kinematics.calibration.budget import accuracy_budget
 from gpr_kinematics.calibration.core_model import CoreModel
@@ -27,15 +28,19 @@ def test_identify_reports_every_jacobian_chunk_and_iteration(monkeypatch):
     """The shipped file (40 rows, 24 parameters) with Jacobians of 3 columns per call of the model: every Jacobian
     tells 1/8, 2/8, ... 8/8 of its columns; every start tells its iterations 0 .. n-1 (n its iterations in the
     report) with the reduced chi-square of the point linearised, the best start's last the fit's; the result is
-    the one without a listener."""
+    the one without a listener and without chunks, to the fit's convergence (the model evaluated in batches of other
+    sizes rounds differently: 2e-11 m apart, 2e-9 relative, in a loaded run on numpy 1.26)."""
     meas = read_measurements(SHIPPED)
     model = CoreModel(load_config())
     quiet = identify(model, meas)
     monkeypatch.setattr(fitting, 'JACOBIAN_RESIDUALS', 3 * 2 * 40 * 6)   # 3 columns (6 perturbed rows) per call
     heard: list[tuple[str, float]] = []
     res = identify(model, meas, progress=lambda stage, share: heard.append((stage, share)))
-    np.testing.assert_array_equal(res.estimate, quiet.estimate)
-    assert res.chi2_reduced == quiet.chi2_reduced and res.convergence == quiet.convergence
+    fitted = ~np.isnan(quiet.standard_error)
+    assert np.all(np.abs(res.estimate - quiet.estimate)[fitted] <= 1e-4 * quiet.standard_error[fitted])  # SE_TOLERANCE
+    np.testing.assert_array_equal(res.estimate[~fitted], quiet.estimate[~fitted])                          # held
+    assert res.chi2_reduced == pytest.approx(quiet.chi2_reduced, rel=1e-9)
+    assert (res.convergence.status, res.iterations) == (quiet.convergence.status, quiet.iterations)
     stages = list(dict.fromkeys(s for s, _ in heard))       # in the order first heard
     assert stages[0] == 'identifiability' and stages[-2:] == ['standard errors', 'cross-validation']
     shares = {s: [f for t, f in heard if t == s] for s in stages}

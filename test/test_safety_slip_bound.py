@@ -356,7 +356,8 @@ def test_a_jog_of_a_micrometre_is_not_refused(tmp_path, distance, axis, true):
     differences over ``STEP = 1e-4`` rounded 1e-14 m into 4e-6 m of the path's second derivative, times ``s'^2`` up
     to 6e5 /s^2, and the bound read 1.305 (2.300 in the plane) for the true 0.093 (0.372): the program was refused.
     Over the move's step (``STEP / c``: 10 to 400, the joints +-1e-4 about the move) the ratio agrees with a
-    polynomial fit of the exact path to 1e-9, and its bound is at most 1.2e-5 above the largest of 20,000 instants
+    polynomial fit of the exact path to 5e-9 (the differences' rounding: 2.3e-9 on an AVX-512 machine with numpy
+    1.26, below 1e-9 elsewhere), and its bound is at most 1.2e-5 above the largest of 20,000 instants
     (within SLIP_TOLERANCE asserted; 0.185 and 0.503 for 10 um before)."""
     plan = _jog(tmp_path, distance, axis)
     report = check_program(plan, None)[0]
@@ -366,7 +367,7 @@ def test_a_jog_of_a_micrometre_is_not_refused(tmp_path, distance, axis, true):
     found = slip_series(plan, dense, np.full(dense.shape, 'arm2', dtype=object)).ratio
     c = float(np.max(np.abs(plan.positions[-1] - plan.positions[-2])))
     assert float(difference_step(plan, 'arm2', np.array([len(t.depart) - 2]))[0]) == pytest.approx(STEP / c)
-    assert float(np.max(np.abs(found - _fitted_ratio(plan, 'arm2', dense)))) < 1e-9
+    assert float(np.max(np.abs(found - _fitted_ratio(plan, 'arm2', dense)))) < 5e-9
     move = report.moves[-1]
     assert move.label == 'steps[1] (move B, move)' and float(np.max(found)) == pytest.approx(true, abs=2e-7)
     assert float(np.max(found)) <= move.max_slip_ratio <= float(np.max(found)) + SLIP_TOLERANCE
