@@ -173,6 +173,13 @@ def test_use_sim_time_is_fixed_once_a_node_runs(client, exe):
                                   'set it at start (-p use_sim_time:=true, or the launch argument use_sim_time)')
         assert set_sim_time(False).successful
         assert _dump(client, f'/clock_fixed/{exe}')['use_sim_time'] is False
+        # a parameter without a name passed rclpy's check of undeclared names (created; a dump then did not load)
+        v = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=1.0)
+        nameless = client.call(SetParameters, service, SetParameters.Request(parameters=[Parameter(name='', value=v)]))
+        assert not nameless.results[0].successful
+        assert nameless.results[0].reason == "a parameter named '' (empty); allowed: the node's parameters " \
+                                             '(list_parameters)'
+        assert '' not in _dump(client, f'/clock_fixed/{exe}')
         if exe == 'robot_simulator_node':   # its idle joint_states go on (they stopped under a /clock nobody sends)
             states = client.subscribe(JointState, '/clock_fixed/joint_states')
             assert client.spin_until(lambda: len(states) >= 3, 10)

@@ -276,3 +276,13 @@ def test_goals_and_cancels_are_answered_while_a_goal_is_planned(client, node):
     assert ('cancelled before sample 0 of 199851 (while it was planned)' in message
             or re.search(r'cancelled before sample \d+ of 199851', message)), message
     assert client.run_program(stations=STATIONS[:1], timeout=30).success and node.alive()
+
+
+
+def test_the_log_of_a_stream_without_a_rate():
+    """A stream cancelled before its first sample logged 'published 0 samples in -0.000 s (achieved nan Hz, ...)'."""
+    from gpr_kinematics.nodes.trajectory_node import published_text
+
+    assert published_text(0, -1e-9, 100.0) == published_text(0, None, 100.0) == 'published 0 samples'
+    assert published_text(1, 0.0, 100.0) == 'published 1 sample'
+    assert published_text(11, 0.1, 100.0) == 'published 11 samples in 0.100 s (achieved 100.000 Hz, requested 100.0 Hz)'

@@ -145,13 +145,17 @@ class GprNode(Node):
         #: True once SIGINT/SIGTERM stopped the run (set before :meth:`on_exit`).
         self.signalled = False
         self.add_pre_set_parameters_callback(lambda params: numbers_from_text(self, params))
-        self.add_on_set_parameters_callback(self._clock_fixed)  # in front of rclpy's TimeSource, which applies it
+        self.add_on_set_parameters_callback(self._guarded)  # in front of rclpy's TimeSource, which applies a clock
 
-    def _clock_fixed(self, params: list[Parameter]) -> SetParametersResult:
-        """Refuse a change of ``use_sim_time`` once the node runs: any client could switch a running node to a
-        ``/clock`` that nobody publishes, and its goals then never ended, its timers never fired."""
+    def _guarded(self, params: list[Parameter]) -> SetParametersResult:
+        """Refuse a parameter without a name (rclpy's check of undeclared names passes ``''``: any client created it,
+        and a dump holding it does not load back) and a change of ``use_sim_time`` once the node runs (any client could
+        switch a running node to a ``/clock`` that nobody publishes: its goals never ended, its timers never fired)."""
         now = self.get_parameter('use_sim_time').value
         for p in params:
+            if p.name == '':
+                return SetParametersResult(successful=False, reason="a parameter named '' (empty); allowed: the "
+                                           "node's parameters (list_parameters)")
             if p.name == 'use_sim_time' and p.value != now:
                 return SetParametersResult(successful=False, reason=f'use_sim_time = {p.value!r}: the clock is fixed '
                                            f'once the node runs (now {now}); allowed: set it at start (-p '

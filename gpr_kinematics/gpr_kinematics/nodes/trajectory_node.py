@@ -116,6 +116,15 @@ class GoalEnd:
         return self.outcome
 
 
+def published_text(published: int, elapsed: float | None, rate: float) -> str:
+    """What a stream published, in how long and at what rate [Hz]; a stream of fewer than two samples has no rate
+    (one cancelled before its first sample read 'published 0 samples in -0.000 s (achieved nan Hz, ...)')."""
+    if elapsed is None or published < 2 or elapsed <= 0.0:
+        return f'published {published} sample{"" if published == 1 else "s"}'
+    return (f'published {published} samples in {elapsed:.3f} s (achieved {(published - 1) / elapsed:.3f} Hz, '
+            f'requested {rate} Hz)')
+
+
 class TrajectoryNode(GprNode):
     """Publishes precomputed streams, one sample per timer tick; serves ``gpr/run_program``."""
 
@@ -302,12 +311,10 @@ class TrajectoryNode(GprNode):
 
     def _end(self, outcome: str, message: str) -> None:
         self.timer.cancel()
-        elapsed = time.monotonic() - (self.started_at or time.monotonic())
         published = self.index
-        achieved = (published - 1) / elapsed if published > 1 and elapsed > 0 else float('nan')
         if outcome != 'stopped':
-            self.get_logger().info(f'finished: published {published} samples in {elapsed:.3f} s (achieved '
-                                   f'{achieved:.3f} Hz, requested {self.p["rate"]} Hz)'
+            elapsed = None if self.started_at is None else time.monotonic() - self.started_at
+            self.get_logger().info(f'finished: {published_text(published, elapsed, self.p["rate"])}'
                                    + ('' if outcome == 'succeeded' else f': {message}'))
         with self._lock:  # on_exit may end a goal's stream while the timer's thread ends it too
             traj, self.stream = self.stream, None
