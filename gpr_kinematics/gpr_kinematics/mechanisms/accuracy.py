@@ -45,8 +45,8 @@ SINGULAR_TOLERANCE = 1e-10
 #: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
 #: the rotation or more (Alwan's trajectory point 1, theta = 2 deg: 29 times).
 EULER_LOCK_WARNING = 0.1
-#: ``sin D`` below which a pose is on the gimbal lock (module docstring): its first and third angles' deviations are
-#: not defined (a solve over the Euler coordinates there gave +-8.4e12 rad, and the rigid motion built from them).
+#: ``sin D`` below which a pose is on the gimbal lock (module docstring): its angles' deviations are not defined (a
+#: solve over the Euler coordinates there gave +-8.4e12 rad, and the rigid motion built from them).
 EULER_LOCK_UNDEFINED = 1e-12
 
 
@@ -197,13 +197,21 @@ def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict
 
 def _closure_errors(mech: Mechanism, poses: Any, joint_errors: Any, parameter_errors: Mapping[str, Any] | None
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """The completed poses ``(N, 6)`` and eq. (7)'s right side ``Delta s - dq/dp Delta p`` ``(N, n)``."""
+    """The completed poses ``(N, 6)`` and eq. (7)'s right side (:func:`_right_side`), the poses checked regular."""
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
-    rhs = _joint_errors(mech, joint_errors, arr.shape[0]).copy()
-    for key, val in _parameter_errors(mech, parameter_errors).items():
-        rhs -= mech.parameter_jacobian(arr, key) @ np.nan_to_num(val.ravel())
+    rhs = _right_side(mech, arr, _joint_errors(mech, joint_errors, arr.shape[0]),
+                      _parameter_errors(mech, parameter_errors))
+    _check_regular(mech, arr)
     return arr, rhs
+
+
+def _right_side(mech: Mechanism, arr: np.ndarray, ds: np.ndarray, dp: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Eq. (7)'s right side ``Delta s - dq/dp Delta p`` ``(N, n)`` at completed poses."""
+    rhs = ds.copy()
+    for key, val in dp.items():
+        rhs -= mech.parameter_jacobian(arr, key) @ np.nan_to_num(val.ravel())
+    return rhs
 
 
 def _solve(mech: Mechanism, J: np.ndarray, rhs: np.ndarray, arr: np.ndarray) -> np.ndarray:
@@ -222,8 +230,10 @@ def linearized_motion(mech: Mechanism, poses: Any, joint_errors: Any = None,
     """Eq. (7) as a small rigid motion ``(N, 6)``: position [m] and rotation vector [rad, base frame], solved over
     the mechanism's motion coordinates (twists for 6 DOF), so it holds wherever the mechanism is regular, the Euler
     angles' gimbal lock included. Raises :class:`SingularityError` at a singular pose."""
-    arr, rhs = _closure_errors(mech, poses, joint_errors, parameter_errors)
-    _check_regular(mech, arr)
+    return _motion(mech, *_closure_errors(mech, poses, joint_errors, parameter_errors))
+
+
+def _motion(mech: Mechanism, arr: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.asarray(mech.motion_basis(arr) @ _solve(mech, mech.task_jacobian(arr), rhs, arr)[..., None])[..., 0]
 
 
@@ -235,8 +245,10 @@ def linearized_deviation(mech: Mechanism, poses: Any, joint_errors: Any = None,
 
     Raises :class:`SingularityError` at a pose where ``dq/du`` is singular (the deviation is unbounded).
     """
-    arr, rhs = _closure_errors(mech, poses, joint_errors, parameter_errors)
-    _check_regular(mech, arr)
+    return _deviation(mech, *_closure_errors(mech, poses, joint_errors, parameter_errors))
+
+
+def _deviation(mech: Mechanism, arr: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     lock = np.sin(euler_lock_distance(mech, arr)) < EULER_LOCK_UNDEFINED
     out = np.full((arr.shape[0], len(mech.pose_variables)), np.nan)
     if not lock.all():
@@ -287,7 +299,8 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
         k = int(np.argmax(~(reach <= MAX_COORDINATE)))
         raise InputError(f'{mech.name}: the pose {brief(arr[k].tolist())} needs joint values of {reach[k]:.17g}; '
                          f'allowed: poses whose joint values stay within +-{MAX_COORDINATE:g} (SI)')
-    lin = linearized_deviation(mech, arr, ds, dp)
+    rhs = _right_side(mech, arr, ds, dp)   # once for both deviations (its parameter Jacobians are differences)
+    lin = _deviation(mech, arr, rhs)
     if dp:
         nominal = mech.parameters()
         perturbed = mech.with_parameters({k: nominal[k] + v for k, v in dp.items()})
@@ -297,10 +310,8 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
     exact[:, angular] = (exact[:, angular] + np.pi) % (2 * np.pi) - np.pi  # Euler angles wrap
-    if hasattr(mech, 'linearized_twist'):  # mechanisms whose errors also move the outcome components
-        lin_twist = mech.linearized_twist(arr, ds, dp)
-    else:
-        lin_twist = linearized_motion(mech, arr, ds, dp)
+    # mechanisms whose errors also move the outcome components have their own
+    lin_twist = mech.linearized_twist(arr, ds, dp) if hasattr(mech, 'linearized_twist') else _motion(mech, arr, rhs)
     dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)
     exact_twist = np.concatenate([exact_poses[:, :3] - arr[:, :3], rotation_vector(dR)], axis=-1)
     return AccuracyResult(mechanism=mech.name, variables=tuple(mech.pose_variables), poses=arr, joints=q,
