@@ -155,3 +155,21 @@ def test_a_run_names_every_reason_its_parts_stopped_for():
     res = approximate(model, 0.0005, chunk_size=1024, parts=8, max_boxes=4000, max_seconds=60)
     assert res.interrupted and res.stopped == 'box limit (4000 boxes, shared among the parts)', res.stopped
     assert res.inner_boxes + res.boundary_boxes <= 4000
+
+
+def test_a_local_clusters_workers_keep_their_error_logs_to_themselves(capfd):
+    """A worker's heartbeat in flight as the cluster closed logged an ERROR with a traceback, which a SIGTERM'd run
+    printed to its user (a fresh-clone run failed on it): the workers' logs below CRITICAL stay silent, while a
+    task's error still reaches the client as its exception."""
+    import logging
+
+    with Executor('local', 1) as ex:
+        client = ex._connect()
+        client.run(lambda: logging.getLogger('distributed.worker').error('Failed to communicate with scheduler'))
+
+        def fails() -> None:
+            raise ValueError('a task that fails')
+
+        with pytest.raises(ValueError, match='a task that fails'):
+            client.submit(fails).result()
+    assert 'Failed to communicate with scheduler' not in capfd.readouterr().err

@@ -173,7 +173,9 @@ class Executor:
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=None,
-                silence_logs=logging.ERROR,
+                # a worker's heartbeat in flight when the cluster closes logs an ERROR with its traceback (a SIGTERM
+                # seen to print one to the user); a task's error still reaches the client as its exception
+                silence_logs=logging.CRITICAL,
             )
             self._client = Client(self._cluster)
         else:
