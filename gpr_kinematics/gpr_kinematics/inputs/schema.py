@@ -19,7 +19,7 @@ from ..errors import ConfigError, brief
 from . import safe_yaml
 from .safe_yaml import YamlValue
 from .units import ANGLE_UNITS
-from .validation import MAX_COORDINATE, TURN, TURN_SLACK
+from .validation import MAX_COORDINATE, beyond_turn, radians_hint
 
 
 def is_number(value: YamlValue) -> bool:
@@ -99,13 +99,13 @@ def orientation_angle(value: YamlValue, key: str, where: str, unit: str = 'rad',
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite angle in {unit} within one '
                           f'turn, {most}')
     angle = float(value) * scale
-    if abs(angle) > TURN + TURN_SLACK:
+    if beyond_turn(angle):
         if unit == 'deg':
             hint = ''
         elif declare is not None:
             hint = f' (degrees? a file in degrees declares them: {declare})'
         else:
-            hint = f' (radians only here: {value:g} deg is {math.radians(value):.9g} rad)'
+            hint = radians_hint(float(value))
         raise ConfigError(f'{where}: {key} = {value:g} {unit} is beyond one turn; allowed: {most}{hint}')
     return angle
 

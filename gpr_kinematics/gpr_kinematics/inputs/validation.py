@@ -152,14 +152,23 @@ def finite_number(value: Any, name: str) -> float:
     return v
 
 
+def beyond_turn(angle: float) -> bool:
+    """An orientation angle [rad] beyond one turn, :data:`TURN` (+ :data:`TURN_SLACK`): degrees given as radians,
+    almost surely (``azimuth: 90`` is 14.3 turns). The rule of the files' and the requests' angles."""
+    return abs(angle) > TURN + TURN_SLACK
+
+
+def radians_hint(value: float) -> str:
+    """What ``value`` given in degrees would be in radians, for a refusal where only radians are taken."""
+    return f' (radians only here: {value:g} deg is {math.radians(value):.9g} rad)'
+
+
 def within_turn(value: Any, name: str) -> float:
-    """An orientation angle of a request (a heading, an azimuth) [rad]: a finite number of magnitude at most one turn,
-    :data:`TURN` (+ :data:`TURN_SLACK`), as the files' (:func:`~gpr_kinematics.inputs.schema.orientation_angle`);
-    beyond it degrees sent as radians almost surely (``azimuth: 90``, 14.3 turns): :class:`InputError` naming it."""
+    """An orientation angle of a request (a heading, an azimuth) [rad]: a finite number not :func:`beyond_turn`, as
+    the files' (:func:`~gpr_kinematics.inputs.schema.orientation_angle`); else :class:`InputError` naming it."""
     v = finite_number(value, name)
-    if abs(v) > TURN + TURN_SLACK:
-        raise InputError(f'{name} = {v:g} rad is beyond one turn; allowed: [-2pi, 2pi] rad (radians only here: {v:g} '
-                         f'deg is {math.radians(v):.9g} rad)')
+    if beyond_turn(v):
+        raise InputError(f'{name} = {v:g} rad is beyond one turn; allowed: [-2pi, 2pi] rad{radians_hint(v)}')
     return v
 
 

@@ -23,7 +23,7 @@ from ..core import ForwardResult
 from ..core.config import MODELS
 from ..core.floats import angle_between, compose_one
 from ..errors import InputError, brief
-from ..inputs.validation import MAX_COORDINATE, TURN, TURN_SLACK, finite_number, within_turn
+from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_number, within_turn
 from ..robot import Stations, robot_forward, solve_stations
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import BRANCHES, Arm, RobotDescription
@@ -148,7 +148,7 @@ def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, v
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
         return None
-    if max(abs(request.azimuth), abs(request.heading)) > TURN + TURN_SLACK or abs(numbers[-1]) > TURN:
+    if beyond_turn(request.azimuth) or beyond_turn(request.heading) or abs(numbers[-1]) > TURN:
         return None  # the batch path names which
     if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
         return None
