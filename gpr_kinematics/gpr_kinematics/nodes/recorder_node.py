@@ -80,7 +80,6 @@ class RecorderNode(GprNode):
                                          custom_data={'recorder': NODE_NAME})
         classes = {t: message_class(ty) for t, ty in topics.items()}
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
-        self.taken = 0  # messages taken, all topics
         self.writer.open()
         try:
             # The state topic last: a publisher that waits for a subscription on it (trajectory_node's
@@ -144,7 +143,6 @@ class RecorderNode(GprNode):
                 writer.write(topic, time.time_ns(), data)
             except WRITE_ERRORS as exc:
                 raise self._write_failed(exc) from None
-            self.taken += 1
 
         return cb
 
@@ -171,9 +169,9 @@ class RecorderNode(GprNode):
             return status
         end, empty = time.monotonic() + DRAIN_LIMIT, 0
         while empty < DRAIN_EMPTY_SPINS and time.monotonic() < end:
-            taken = self.taken
+            taken = sum(self.received.values())
             executor.spin_once(timeout_sec=0.0)
-            empty = empty + 1 if self.taken == taken else 0
+            empty = empty + 1 if sum(self.received.values()) == taken else 0
         self.writer.close()
         counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
         self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '
