@@ -124,6 +124,12 @@ def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> A
     return pose_error(pos, rot, meas.position, meas.rotation)
 
 
+def least_rows(n_free: int, per_row: int) -> int:
+    """The fewest rows of ``per_row`` residuals each (6 for poses, 3 for points) that give more residuals than
+    ``n_free`` free parameters: what an identification needs (and a measurement plan must give)."""
+    return n_free // per_row + 1
+
+
 def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
     dp = np.linalg.norm(errors[:, :3], axis=1)
     da = np.linalg.norm(errors[:, 3:], axis=1) if errors.shape[1] == 6 else np.zeros(len(dp))
@@ -328,9 +334,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     n_free = int(mask.sum())
     n = len(meas)
     k = 3 if meas.quaternion is None else 6
-    if k * n <= n_free:
+    if n < least_rows(n_free, k):
         raise InputError(f'{meas.source}: {n} row(s) give {k * n} residuals, too few to identify {n_free} '
-                         f'parameters; at least {n_free // k + 1} rows are needed (more for a useful fit)')
+                         f'parameters; at least {least_rows(n_free, k)} rows are needed (more for a useful fit)')
     w, absolute = weights(meas, sigma_position, sigma_angle, declared)
     check_repeats(meas, float(np.min(1.0 / w[:, 0])), float(np.min(1.0 / w[:, -1])))
     theta0 = params.nominal

@@ -42,7 +42,7 @@ from ..errors import InputError
 from ..inputs.validation import random_seed
 from .core_model import TILT_MARGIN
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
-from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas
+from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas, least_rows
 from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
 
 Array = NDArray[np.float64]
@@ -281,10 +281,10 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     params = model.parameters
     free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
     k = 3 if points else 6
-    if k * n <= free_idx.size:   # gpr calibrate refuses the file measured at such a plan (identification's rule)
+    if n < least_rows(free_idx.size, k):   # gpr calibrate refuses the file measured at such a plan
         raise InputError(f'plan size {n}: {n} configuration(s) measured as {"points" if points else "poses"} give '
                          f'{k * n} residuals, too few to identify {free_idx.size} parameters (gpr calibrate refuses '
-                         f'a file of so few rows); allowed: at least {free_idx.size // k + 1}')
+                         f'a file of so few rows); allowed: at least {least_rows(free_idx.size, k)}')
     theta0 = params.nominal if theta is None else np.asarray(theta, dtype=float)
     scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [0.0 if points else 1.0 / sigma_angle] * 3)
