@@ -250,6 +250,19 @@ def test_a_platform_tilt_beyond_the_limit_is_refused_at_its_sample():
     assert info.value.code == INVALID_GOAL
 
 
+def test_rods_inverse_kinematics_answers_at_the_tilt_limit_are_a_valid_goal():
+    """Rods of ``inverse`` at exactly tilt_limit at 200 azimuths: 51 of them tilted the platform up to 9.5e-16 rad
+    beyond the limit, and the goal was refused; the controller allows forward kinematics' slack now."""
+    from gpr_kinematics import inverse
+    accepted = 0
+    for az in np.linspace(-math.pi, math.pi, 60, endpoint=False):
+        q = inverse(0.3, CFG.tilt_limit, az, CFG).q
+        traj = JointTrajectory(('rod_1', 'rod_2', 'rod_3'), np.array([4.0]), np.array([q]))
+        assert _plan(traj).positions[-1, :3] == pytest.approx(q, abs=1e-15)
+        accepted += 1
+    assert accepted == 60
+
+
 def test_the_clearance_hook_sees_the_checked_motion_and_refuses():
     """The hook gets the motion the controller would run (its trajectory, the goal's joints, every joint at the
     start and at the samples) after every other check, and its refusal is an INVALID_GOAL with its words."""

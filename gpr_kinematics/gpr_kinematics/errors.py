@@ -85,6 +85,20 @@ def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
     return f'{text[:limit]}... ({len(text)} characters)'
 
 
+def apart(value: float, limit: float, digits: int = 6) -> tuple[str, str]:
+    """``value`` and the ``limit`` it passed, in ``g`` form with ``digits`` significant digits or as many more as
+    tell them apart (17 at most): a refusal that read "0.508 m is outside [0, 0.508] m" contradicted itself.
+
+    >>> apart(0.5080000000010001, 0.508), apart(0.6, 0.508)
+    (('0.508000000001', '0.508'), ('0.6', '0.508'))
+    """
+    for d in range(digits, 18):
+        a, b = f'{value:.{d}g}', f'{limit:.{d}g}'
+        if a != b:
+            return a, b
+    return repr(value), repr(limit)
+
+
 #: Longest run of characters without a space an error line carries whole (a long path, or a value a message
 #: quoted whole by mistake, is cut: the line stays readable).
 LONG_WORD = 300

@@ -298,8 +298,8 @@ def read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: S
     data = np.array(table.rows)
     names = table.cols or []
     length, angle = table.units or (None, None)
-    return Table({c: data[:, i] * table.scales[i] for i, c in enumerate(names)}, dict(zip(names, table.scales,
-                                                                                          strict=True)),
+    columns = {c: units.to_si(data[:, i], table.scales[i]) for i, c in enumerate(names)}
+    return Table(columns, dict(zip(names, table.scales, strict=True)),
                  table.lines, (length or 'm', angle or 'rad'))
 
 

@@ -38,7 +38,7 @@ from ..core.machine import parameter_range
 from ..errors import ConfigError
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
-from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE
 from .measurements import SIGMA_RANGE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
@@ -188,14 +188,14 @@ class ToleranceTable:
         limit = MAX_TOLERANCE[p.unit]
         nominal = float(p.value(p.nominal))
         if kind == 'tolerance':
-            t = vals[0] * f
+            t = to_si(vals[0], f)
             if t > limit:
                 raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: at most {limit:g} {p.unit}')
             if t == 0:
                 return None
             lo, hi, low, high = nominal - t, nominal + t, -t, t
         else:
-            lo, hi = vals[0] * f, vals[1] * f
+            lo, hi = to_si(vals[0], f), to_si(vals[1], f)
             if hi - lo > 2 * limit * (1.0 + BOUND_SLACK):
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is {hi - lo:.9g} {p.unit} wide; '
                                   f'allowed: at most {2 * limit:g} {p.unit}')
@@ -205,7 +205,7 @@ class ToleranceTable:
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.9g} {p.unit} from '
                                   f'the nominal {nominal:.6g} {p.unit}; allowed: values within {limit:g} {p.unit} of '
                                   "the nominal (a key's range applies to each of its parameters)")
-        self._within_geometry(p, where, kind, vals[0] * f if kind == 'tolerance' else None, lo, hi)
+        self._within_geometry(p, where, kind, to_si(vals[0], f) if kind == 'tolerance' else None, lo, hi)
         if dist == 'log-uniform' and lo <= 0:
             raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
         if p.transform:
@@ -313,8 +313,8 @@ def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None,
     if not isinstance(noise, Mapping):
         raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
     check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
-    sp = _number(noise.get('position'), f'{source}: measurement_noise: position', positive=True) * lf
-    sa = _number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True) * af
+    sp = to_si(_number(noise.get('position'), f'{source}: measurement_noise: position', positive=True), lf)
+    sa = to_si(_number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True), af)
     lo, hi = SIGMA_RANGE
     for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):
         if not lo <= value <= hi:
@@ -347,7 +347,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         kind, vals, dist = _entry(f'{source}: rod_length', data['rod_length'])
         if kind != 'tolerance':
             raise ConfigError(f'{source}: rod_length: give a tolerance (a half-width), not a range')
-        t = vals[0] * lf
+        t = to_si(vals[0], lf)
         if t > MAX_TOLERANCE['m']:
             raise ConfigError(f'{source}: rod_length: tolerance {t:g} m; allowed: at most {MAX_TOLERANCE["m"]:g} m')
         rod = Tolerance(-t, t, dist) if t > 0 else None
@@ -355,7 +355,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
     clear_list = clear if isinstance(clear, list) else [clear] * 3
     if len(clear_list) != 3:
         raise ConfigError(f'{source}: joint_clearance: one value or a list of 3 (one per joint), in {length}')
-    clearance = tuple(_number(c, f'{source}: joint_clearance') * lf for c in clear_list)
+    clearance = tuple(to_si(_number(c, f'{source}: joint_clearance'), lf) for c in clear_list)
     if max(clearance) > MAX_TOLERANCE['m']:
         raise ConfigError(f'{source}: joint_clearance: at most {MAX_TOLERANCE["m"]:g} m')
     sp, sa = _noise(data.get('measurement_noise'), source, lf, _ANGLE[angle])

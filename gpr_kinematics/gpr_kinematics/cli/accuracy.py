@@ -39,6 +39,7 @@ from ..callbacks import StageProgress
 from ..errors import InputError, brief
 from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
 from ..inputs.safe_yaml import YamlValue
+from ..inputs.units import metres
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
 from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, png_plot, shipped, whole
@@ -127,8 +128,7 @@ def _kind(data: YamlValue) -> str:
 def _tool(args: argparse.Namespace) -> tuple[float, float, float]:
     if args.tool is None:
         return (0.0, 0.0, 0.0)
-    f = 1e-3 if args.mm else 1.0
-    return (args.tool[0] * f, args.tool[1] * f, args.tool[2] * f)
+    return (metres(args.tool[0], args.mm), metres(args.tool[1], args.mm), metres(args.tool[2], args.mm))
 
 
 def _gpr_config(args: argparse.Namespace, overrides: Mapping[str, YamlValue] | None = None) -> GprConfig:
@@ -184,7 +184,7 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
                          '--parameter-error')
     if args.pose is None:
         raise InputError(f'{mech.name}: give --pose X Y Z A B C (Z the height, A B the tilt vector) or a program')
-    pose = [v * (1e-3 if args.mm and i < 3 else 1.0) for i, v in enumerate(args.pose)]
+    pose = [metres(v, args.mm and i < 3) for i, v in enumerate(args.pose)]
     if args.deg:
         pose[3:] = [math.radians(v) for v in pose[3:]]
     config = _gpr_config(args, data.get('overrides')) if args.config is not None else mech.config
@@ -235,7 +235,7 @@ def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
                          f'got {errors.size}')
     ang = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
     if args.mm:
-        errors[~ang] *= 1e-3
+        errors[~ang] = metres(errors[~ang], True)
     if args.deg:
         errors[ang] = np.radians(errors[ang])
     return errors
@@ -260,7 +260,7 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
         if vals.size != size:
             raise InputError(f'--parameter-error {name} takes {size} values (shape '
                              f'{np.shape(nominal[name])}, m); got {vals.size}')
-        params[name] = (vals * (1e-3 if args.mm else 1.0)).reshape(np.shape(nominal[name]))
+        params[name] = metres(vals, args.mm).reshape(np.shape(nominal[name]))
     return params
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.config import GprConfig, load_config
 from ..errors import InputError, brief, one_line
+from ..inputs.units import metres
 from ..inputs.validation import MAX_COORDINATE
 
 T = TypeVar('T')
@@ -44,7 +45,7 @@ def sigmas(args: argparse.Namespace, table: ToleranceTable | None = None) -> tup
     sp = table.sigma_position if table is not None and table.sigma_position is not None else DEFAULT_SIGMA_POSITION
     sa = table.sigma_angle if table is not None and table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
     if args.sigma_position is not None:
-        sp = args.sigma_position * (1e-3 if args.mm else 1.0)
+        sp = metres(args.sigma_position, args.mm)
     if args.sigma_angle is not None:
         sa = math.radians(args.sigma_angle) if args.deg else args.sigma_angle
     return sp, sa
@@ -69,7 +70,7 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
     if max(abs(v) for v in values) > MAX_COORDINATE:  # 1e308 overflowed into the measurements' check
         raise InputError(f'{flag} {brief(values)}: allowed: each value within +-{MAX_COORDINATE:g} (m or mm, rad or '
                          'deg)')
-    v = [x * (1e-3 if args.mm and i < 3 else 1.0) for i, x in enumerate(values)]
+    v = [metres(x, args.mm and i < 3) for i, x in enumerate(values)]
     v[3:] = [math.radians(x) if args.deg else x for x in v[3:]]
     return Transform.from_xyz_rpy(v)
 

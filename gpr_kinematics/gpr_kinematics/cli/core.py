@@ -16,7 +16,8 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
-from .options import MM, direction, number, rod_lengths, vec, whole
+from ..inputs.units import metres
+from .options import direction, number, rod_lengths, vec, whole
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -30,7 +31,7 @@ def _config(args: argparse.Namespace) -> GprConfig:
 
 
 def _length(args: argparse.Namespace, value: float) -> float:
-    return value * MM if getattr(args, 'mm', False) else value
+    return metres(value, bool(getattr(args, 'mm', False)))
 
 
 def _angle(args: argparse.Namespace, value: float) -> float:

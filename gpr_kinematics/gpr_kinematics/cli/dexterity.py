@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import InputError, brief
+from ..inputs.units import metres
 from ..inputs.validation import MAX_COORDINATE
 from ..mechanisms.base import Mechanism
 from .mechanism import mechanism_options
@@ -39,12 +40,10 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
         raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite and of magnitude at most '
                          f'{MAX_COORDINATE:g}; got {brief(values[1:])}')
     idx = mech.pose_names.index(name) if name in mech.pose_names else -1
-    scale = 1.0
-    if 0 <= idx < 3 and args.mm:
-        scale = 1e-3
+    grid = np.linspace(lo, hi, n)
     if idx >= 3 and args.deg:
-        scale = np.pi / 180
-    return name, np.linspace(lo, hi, n) * scale
+        return name, np.radians(grid)
+    return name, metres(grid, 0 <= idx < 3 and args.mm)
 
 
 def _dexterity(args: argparse.Namespace) -> int:

@@ -13,9 +13,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.config import MODELS
-from ..errors import FileError, InputError, brief
+from ..errors import FileError, InputError, apart, brief
 from ..inputs.resources import ROBOTS, Packaged, packaged_file
-from ..inputs.validation import TURN, decimal, finite_number, number_hint
+from ..inputs.units import metres
+from ..inputs.validation import TURN, beyond_turn, decimal, finite_number, number_hint
 from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
@@ -154,17 +155,13 @@ def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
     """``--pose X Y Z A B C`` in SI units (``--mm``, ``--deg`` converted), checked for ``mech``."""
     pose = np.array(args.pose, dtype=float)
     if args.mm:
-        pose[:3] *= 1e-3
+        pose[:3] = metres(pose[:3], True)
     if args.deg:
         pose[3:] = np.radians(pose[3:])
     as_poses(pose, '--pose')  # the position's bound, named as the option
     if mech.kind == 'upu3' and np.any(pose[3:] != 0):
         raise InputError(f'{mech.name} only translates: the angles A B C must be 0; got {pose[3:].tolist()}')
     return pose
-
-
-#: Metres per millimetre (``--mm``).
-MM = 1e-3
 
 
 def robot_of(args: argparse.Namespace, default: Path | None = None) -> RobotDescription:
@@ -187,7 +184,7 @@ def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | No
 
 def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input lengths in metres (``--mm`` converted)."""
-    return [v * MM if args.mm else v for v in values]
+    return [metres(v, args.mm) for v in values]
 
 
 def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
@@ -203,12 +200,15 @@ def direction(args: argparse.Namespace, value: float, option: str) -> float:
     turn is a slip, mostly degrees given as radians (``--azimuth 40`` meant 40 deg), never an angle meant."""
     deg = bool(getattr(args, 'deg', False))
     v = finite_number(value, option)
-    if abs(v) > (360.0 if deg else TURN):
+    if beyond_turn(math.radians(v) if deg else v):   # the files' and the requests' rule
         if deg:
-            raise InputError(f'{option} = {v:g} deg is outside [-360, 360] deg; allowed: an angle of at most one '
-                             'turn')
-        raise InputError(f'{option} = {v:g} rad is outside [-2pi, 2pi] rad; allowed: an angle in radians (give '
-                         '--deg for degrees)')
+            shown, turn = apart(abs(v), 360.0)
+            raise InputError(f'{option} = {"-" if v < 0 else ""}{shown} deg is outside [-{turn}, {turn}] deg; '
+                             'allowed: an angle of at most one turn')
+        shown, turn = apart(abs(v), TURN)
+        near = f' (2pi = {turn})' if f'{abs(v):g}' == f'{TURN:g}' else ''   # 6.28318530818 read as 6.28319
+        raise InputError(f'{option} = {"-" if v < 0 else ""}{shown} rad is outside [-2pi, 2pi] rad{near}; allowed: an '
+                         'angle in radians (give --deg for degrees)')
     return math.radians(v) if deg else v
 
 

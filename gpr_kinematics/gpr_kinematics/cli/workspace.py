@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import ConfigError, InputError
 from ..inputs.files import atomic_output, check_output
 from ..inputs.safe_yaml import YamlValue, load_text
+from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
@@ -114,7 +115,7 @@ def _scheduler(args: argparse.Namespace) -> str:
 
 
 def _check_args(args: argparse.Namespace) -> float:
-    delta = float(args.delta) * (1e-3 if args.mm else 1.0)
+    delta = metres(float(args.delta), args.mm)
     if not math.isfinite(delta) or delta <= 0:
         raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
     # options of another method or scheduler were run without a word (--grid-nodes 5 under the covering)

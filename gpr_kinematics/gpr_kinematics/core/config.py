@@ -231,6 +231,10 @@ def nominal_points(cfg: GprConfig) -> tuple[Point2, Point2, Point2]:
     return (p[0], p[1], p[2])
 
 
+#: The least closure ``tolerance``, in ulps of the longest side length (the side lengths' own rounding).
+SIDE_ROUNDING_ULPS = 2
+
+
 def _triangle(points: tuple[Point2, ...]) -> tuple[float, list[float], float]:
     """Signed area, side lengths (1-2, 2-3, 3-1) and smallest interior angle of a triangle."""
     (ax, ay), (bx, by), (cx, cy) = points
@@ -271,6 +275,12 @@ def _validate(cfg: GprConfig) -> None:
             edge = ('1-2', '2-3', '3-1')[i]
             raise ConfigError(f'platform_joints: side {edge} of the joint triangle is {sp:.6g} m, the rods are '
                               f'{sb:.6g} m apart; allowed: within {MAX_SIDE_MISMATCH:.0%} of each other')
+    longest = max(*tri['rod_positions'][1], *tri['platform_joints'][1]) / math.cos(cfg.tilt_limit)
+    least = SIDE_ROUNDING_ULPS * math.ulp(longest)
+    if cfg.tolerance < least:   # 1e-16 m at a radius of 10 m: the closure could not converge
+        raise ConfigError(f'tolerance = {cfg.tolerance:g} m is below the rounding of the side lengths the closure '
+                          f'solves ({longest:.6g} m at most: {SIDE_ROUNDING_ULPS} ulps are {least:.3g} m); allowed: '
+                          f'at least {least:.3g} m for this geometry')
 
 
 def default_config() -> GprConfig:

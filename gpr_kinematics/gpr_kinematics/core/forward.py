@@ -28,7 +28,7 @@ from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, GprError, InputError, LimitError
+from ..errors import ConvergenceError, GprError, InputError, LimitError, apart
 from ..inputs.validation import float_array, rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
@@ -194,8 +194,10 @@ def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q
     hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if typed and millimetres_within(
         value, config) else ''
     more = '' if detail is None else detail(int(i))
-    raise LimitError(f'{what}{k + 1} = {value:.9g} m{where} is outside the stroke '
-                     f'[{config.stroke_min:g}, {config.stroke_max:g}] m{hint}{more}')
+    low = value < config.stroke_min
+    shown, end = apart(value, config.stroke_min if low else config.stroke_max, 9)
+    ends = (end, f'{config.stroke_max:g}') if low else (f'{config.stroke_min:g}', end)
+    raise LimitError(f'{what}{k + 1} = {shown} m{where} is outside the stroke [{ends[0]}, {ends[1]}] m{hint}{more}')
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
@@ -217,11 +219,19 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
     return naive
 
 
-def _check_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
+def check_tilt(ops: Ops, q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
+    """Refuse the rods ``q`` whose platform ``tilt`` [rad] (one or a column) is beyond ``tilt_limit`` (+
+    :data:`TILT_LIMIT_SLACK`): forward kinematics' rule, and inverse kinematics' for the rods it answers."""
+    if ops.any(tilt > config.tilt_limit + TILT_LIMIT_SLACK):
+        _refuse_tilt(q, tilt, config)
+
+
+def _refuse_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
-    raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {math.degrees(float(t[i])):.6g} deg, '
-                     f'beyond the tilt limit {math.degrees(config.tilt_limit):.6g} deg')
+    shown, limit = apart(math.degrees(float(t[i])), math.degrees(config.tilt_limit))
+    raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {shown} deg, beyond the tilt limit {limit} '
+                     'deg')
 
 
 def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Value],
@@ -260,8 +270,8 @@ def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConf
         check_stroke(ops, q, config, typed=True)
         naive = _check_naive_tilt(ops, geo, q, config)
     L, closure, pose = solve_pose(ops, geo, vjm, q, config, naive)
-    if check_limits and ops.any(pose.tilt > config.tilt_limit + TILT_LIMIT_SLACK):
-        _check_tilt(q, pose.tilt, config)
+    if check_limits:
+        check_tilt(ops, q, pose.tilt, config)
     return assemble(ops, result, q, vjm, config, L, closure, pose)
 
 
@@ -352,9 +362,7 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
             _check_naive_tilt(SCALAR, kernel.geometry, q3, config)
     P, L, closure, frame = solve_parts(kernel, q3)
     if check_limits:
-        tilt = cast('float', tilt_of_normal(SCALAR, frame[2], frame[5], frame[8])[0])
-        if tilt > config.tilt_limit + TILT_LIMIT_SLACK:
-            _check_tilt(q3, tilt, config)
+        check_tilt(SCALAR, q3, cast('float', tilt_of_normal(SCALAR, frame[2], frame[5], frame[8])[0]), config)
     return ForwardParts(kernel, q3, P, L, closure, frame, naive)
 
 

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError, LimitError
 from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
-from .config import GprConfig, resolve_config
+from .config import GprConfig, nominal_points, resolve_config
 from .forward import (
     TILT_LIMIT_SLACK,
     ForwardBatch,
@@ -38,6 +38,7 @@ from .forward import (
     Result,
     assemble,
     check_stroke,
+    check_tilt,
     one_result,
     solve_pose,
 )
@@ -45,13 +46,18 @@ from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import RigidFit, rigid_fit
+from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .virtual_joints import Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
 
-#: Inverse kinematics stops when height [m] and normal errors are both below this.
+#: Inverse kinematics stops when height [m] and normal errors are both below this (or below the rounding of a
+#: machine whose rods are longer or joints closer than the shipped one's: :func:`ik_tolerances`).
 IK_TOLERANCE = 1e-14
+#: The rounding of a pose in ulps of the longest rod length: for the height, and per radius for the normal.
+HEIGHT_ROUNDING_ULPS = 16
+NORMAL_ROUNDING_ULPS = 8
 #: Largest distance of the tool point from the platform origin [m]. No tool of a GPR is that long, and the
 #: height of a point much farther away carries rounding errors of the order of :data:`IK_TOLERANCE` (at 300 m
 #: Newton's method can no longer meet it).
@@ -93,6 +99,23 @@ def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
     i = int(np.argmax(np.abs(a)))
     raise LimitError(f'tilt = {a[i]:.9g} rad ({math.degrees(a[i]):.6g} deg) is beyond the tilt limit '
                      f'{config.tilt_limit:.9g} rad ({math.degrees(config.tilt_limit):.6g} deg)')
+
+
+def ik_tolerances(config: GprConfig) -> tuple[float, float]:
+    """The height [m] and normal tolerances inverse kinematics stops at: :data:`IK_TOLERANCE`, or the rounding of the
+    pose where that is larger, :data:`HEIGHT_ROUNDING_ULPS` ulps of the longest rod length for the height and
+    :data:`NORMAL_ROUNDING_ULPS` ulps of it per radius of the joint triangle for the normal (at a radius of 1e-4 m the
+    normal is known to about 5e-13, and 1e-14 was never met; rods of 8 m leave the height about 1e-14 m). The
+    shipped machine's are :data:`IK_TOLERANCE` both. Cached per config."""
+    cached: tuple[float, float] | None = config.derived.get('ik_tolerances')
+    if cached is None:
+        longest = max(abs(config.stroke_min), abs(config.stroke_max)) + max(abs(o) for o in config.rod_offsets)
+        joints = config.platform_joints or nominal_points(config)
+        radius = min(math.dist(joints[i], joints[i - 1]) for i in range(3)) / math.sqrt(3.0)
+        ulp = math.ulp(longest)
+        cached = config.derived['ik_tolerances'] = (max(IK_TOLERANCE, HEIGHT_ROUNDING_ULPS * ulp),
+                                                     max(IK_TOLERANCE, NORMAL_ROUNDING_ULPS * ulp / radius))
+    return cached
 
 
 def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
@@ -177,15 +200,17 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
     q_target = naive_rods(geo, h, n_target, tool)
     q = list(q_target)
     iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
+    tol_h, tol_n = ik_tolerances(config)
     for step in range(config.max_iterations + 1):
         L, closure, pose = solve_pose(ops, geo, vjm, q, config)
         R = pose.rotation
         h_now = pose.position[2] + R[2][0] * tool[0] + R[2][1] * tool[1] + R[2][2] * tool[2]
         n_now = [R[0][2], R[1][2], R[2][2]]
-        err = ops.fabs(h_now - h)
-        for i in range(3):
-            err = ops.maximum(err, ops.fabs(n_now[i] - n_target[i]))
-        active = ops.not_(err <= IK_TOLERANCE)
+        err_n = ops.fabs(n_now[0] - n_target[0])
+        for i in (1, 2):
+            err_n = ops.maximum(err_n, ops.fabs(n_now[i] - n_target[i]))
+        err = ops.maximum(ops.fabs(h_now - h), err_n)
+        active = ops.not_((ops.fabs(h_now - h) <= tol_h) & (err_n <= tol_n))
         if not ops.any(active):
             break
         if step == config.max_iterations:
@@ -197,6 +222,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
     _check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
+    check_tilt(ops, q, pose.tilt, config)   # a target within the slack may be answered a few ulps beyond it
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
 
@@ -294,6 +320,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     t0, t1, t2 = tool
     n0, n1, n2 = n_target
     most = cfg.max_iterations
+    tol_h, tol_n = ik_tolerances(cfg)
     for iterations in range(most + 1):
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
@@ -302,12 +329,15 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         fr = cast('tuple[float, ...]', frame)
         r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
         h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
-        err = max(max(max(abs(h_now - h), abs(r02 - n0)), abs(r12 - n1)), abs(r22 - n2))
-        if err <= IK_TOLERANCE:
+        err_n = max(max(abs(r02 - n0), abs(r12 - n1)), abs(r22 - n2))
+        if abs(h_now - h) <= tol_h and err_n <= tol_n:
             break
+        err = max(abs(h_now - h), err_n)
         if iterations == most:
             raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
+    if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
+        check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
     return InverseParts(q, P, L, closure, frame, iterations)

@@ -19,15 +19,28 @@ line and the column.
 ('mm', 'deg')
 >>> scale('length', None, ('mm', None), 'line 2', 'x')
 (0.001, 'mm')
+>>> to_si(9.0, 0.001), 9.0 * 0.001   # millimetres divided by 1000: the double nearest 0.009 m
+(0.009, 0.009000000000000001)
 """
 from __future__ import annotations
 
 import math
 import re
+from typing import TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import FileError, brief
 
-LENGTH_UNITS = {'m': 1.0, 'mm': 1e-3}
+#: A length's or an angle's value: one, or an array of them.
+Quantity = TypeVar('Quantity', float, NDArray[np.float64])
+
+#: Millimetres in a metre: a length in mm is divided by it (:func:`to_si`).
+MM_PER_M = 1000.0
+#: The factor to SI of millimetres (the key of :data:`LENGTH_UNITS` :func:`to_si` divides by :data:`MM_PER_M`).
+MM = 1e-3
+LENGTH_UNITS = {'m': 1.0, 'mm': MM}
 ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 #: Kinds of columns and the units each takes.
 KINDS = {'length': LENGTH_UNITS, 'angle': ANGLE_UNITS, 'text': {}, 'number': {}}
@@ -39,6 +52,19 @@ _CELL = re.compile(r'^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[\s*([A-Za-z]*)\s*\])?\s
 
 #: The file's units, ``(length, angle)``; ``None`` where it declares none.
 FileUnits = tuple[str | None, str | None]
+
+
+def to_si(value: Quantity, factor: float) -> Quantity:
+    """``value`` in the unit whose factor to SI is ``factor`` (of :data:`LENGTH_UNITS` or :data:`ANGLE_UNITS`), in SI:
+    millimetres divided by :data:`MM_PER_M`, which rounds correctly (``9 * 1e-3`` is 0.009000000000000001 m, 72 of
+    the whole millimetres to 508 were an ulp off the metres typed), the others multiplied (degrees as
+    :func:`math.radians` does)."""
+    return value / MM_PER_M if factor == MM else value * factor
+
+
+def metres(value: Quantity, mm: bool) -> Quantity:
+    """A length typed in millimetres (``mm``, the option ``--mm``) or metres, in metres (:func:`to_si`)."""
+    return value / MM_PER_M if mm else value
 
 
 def is_units_line(line: str) -> bool:

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import forward_batch
+from ..core import TILT_LIMIT_SLACK, forward_batch
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, brief
@@ -380,7 +380,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         fk = forward_batch(rods, config, check_limits=False)
     except GprError as exc:
         raise GoalError(INVALID_GOAL, f'the rods have no platform pose on the way: {exc}') from None
-    tilted = fk.tilt > config.tilt_limit
+    tilted = fk.tilt - config.tilt_limit > TILT_LIMIT_SLACK   # forward kinematics' rule
     if tilted.any():
         i = int(np.argmax(tilted))
         raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {fk.tilt[i]:.6g} rad '

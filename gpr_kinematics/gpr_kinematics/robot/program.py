@@ -45,6 +45,7 @@ import numpy as np
 
 from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
+from ..inputs.units import to_si
 from ..inputs.validation import text_hint
 from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
@@ -158,11 +159,11 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     heights = []
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
-        if not is_number(value) or not 0 <= value * length <= 0.1:
+        if not is_number(value) or not 0 <= to_si(value, length) <= 0.1:
             unit = 'mm' if length != 1.0 else 'm'
             raise ConfigError(f'{dw}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {0.1 / length:g} {unit} '
                               '(0.1 m)')
-        heights.append(float(value) * length)
+        heights.append(to_si(float(value), length))
     robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(
         stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),

@@ -38,7 +38,7 @@ from ..errors import ConfigError, brief, kind_of
 from ..inputs import units
 from ..inputs.files import read_text
 from ..inputs.schema import check_keys, is_number, orientation_angle
-from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS
+from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
 from .description import BRANCHES
 from .stations import Stations
@@ -160,7 +160,7 @@ def _branch(value: Any, where: str) -> str | None:
 def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = 0.1) -> float | None:
     if value is None or value == '':
         return None
-    h = _number(value, where, key, unit) * scale
+    h = to_si(_number(value, where, key, unit), scale)
     if not 0.0 <= h <= most:
         raise ConfigError(f'{where}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {most / scale:g} {unit} '
                           f'({most:g} m)')
@@ -199,9 +199,9 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         if not isinstance(pos, list) or len(pos) != 3:
             raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
-        x, y, z = (_number(v, w, k, lunit) * length for v, k in zip(pos, 'xyz', strict=True))
+        x, y, z = (to_si(_number(v, w, k, lunit), length) for v, k in zip(pos, 'xyz', strict=True))
         rows.position.append((x, y, z))
-        rows.tilt.append(_number(st.get('tilt', 0.0), w, 'tilt', aunit) * angle)
+        rows.tilt.append(to_si(_number(st.get('tilt', 0.0), w, 'tilt', aunit), angle))
         rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, DECLARE_DEG))
         h = st.get('heading')
         rows.heading.append(None if h is None else orientation_angle(h, 'heading', w, aunit, DECLARE_DEG))
@@ -234,7 +234,7 @@ class CsvTable:
     def number(self, r: int, key: str, default: float | None, where: str | None = None) -> float | None:
         """The cell in SI units (``default`` when the column is absent or the cell empty)."""
         value = self.written(r, key, where)
-        return default if value is None else value * self.columns[key][1]
+        return default if value is None else to_si(value, self.columns[key][1])
 
     def angle(self, r: int, key: str, default: float | None, where: str | None = None) -> float | None:
         """An orientation angle's cell in radians (``default`` when the column is absent or the cell empty), at

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
+from ..inputs.units import to_si
 from ..inputs.validation import text_hint
 from ..robot.station_files import DECLARE_DEG, units_of
 
@@ -87,10 +88,10 @@ class Cell:
 
 
 def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, scale: float = 1.0) -> float:
-    if not is_number(value) or not lo <= float(value) * scale <= hi:
+    if not is_number(value) or not lo <= to_si(float(value), scale) <= hi:
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit}, '
                           f'{lo:g} to {hi:g} {"m" if unit in ("m", "mm") else unit} after conversion')
-    return float(value) * scale
+    return to_si(float(value), scale)
 
 
 def _vector(value: Any, where: str, key: str, n: int, lo: float, hi: float, unit: str, scale: float
