@@ -37,7 +37,8 @@ from numpy.typing import NDArray
 from ..core import forward_batch
 from ..errors import InputError
 from ..robot.arm_chain import LIMIT_SLACK
-from ..robot.description import Arm, RobotDescription
+from ..robot.description import LENGTH_BOUND, Arm, RobotDescription
+from ..robot.fields import LEAST
 from ..robot.forward import platform_to_blade
 from .core_model import check_limits
 from .files import comment_lines, read_text, write_text
@@ -67,8 +68,10 @@ class ArmMeasurements:
 def arm_parameters(arm: Arm) -> ParameterSet:
     """The parameters of ``arm`` (module docstring) at its description's values."""
     out = []
+    last = len(arm.joints) - 1
     for k, j in enumerate(arm.joints):
-        out += [Parameter(f'{j.name}_length', j.length, 'm', ARM_SCALES['length'], 'length', (k,)),
+        limits = (0.0 if k == last else LEAST, LENGTH_BOUND)   # the robot description's rule (a file it reads back)
+        out += [Parameter(f'{j.name}_length', j.length, 'm', ARM_SCALES['length'], 'length', (k,), limits=limits),
                 Parameter(f'{j.name}_zero_offset', j.zero_offset, 'rad', ARM_SCALES['zero_offset'], 'zero_offset',
                           (k,))]
     out += [Parameter(f'{arm.name}_wafer_{c}', arm.blade.wafer_centre[i], 'm', ARM_SCALES['wafer_centre'],

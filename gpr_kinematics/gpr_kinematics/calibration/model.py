@@ -74,6 +74,8 @@ class Parameter:
         transform: ``''`` or ``'anisotropy'`` (:data:`TRANSFORMS`).
         nominal_value: the value at the nominal coordinate, exactly (a transform's round trip loses the last
             digits: kappa 1000 would come back as 999.99999999998); ``None``: the transform of the nominal.
+        limits: the range of an untransformed coordinate, what the file it is written to allows (an arm's link
+            length at least 0: a fitted -1.7e-7 m was written and then refused by the loader).
     """
 
     name: str
@@ -84,6 +86,7 @@ class Parameter:
     index: tuple[int, ...] = ()
     transform: str = ''
     nominal_value: float | None = None
+    limits: tuple[float, float] = (-math.inf, math.inf)
 
     def __post_init__(self) -> None:
         if self.unit not in UNITS:
@@ -105,11 +108,12 @@ class Parameter:
 
     @property
     def bounds(self) -> tuple[float, float]:
-        """Range of the coordinate: ``(-inf, inf)``, or for an anisotropy the image of :data:`KAPPA_RANGE`."""
+        """Range of the coordinate: :attr:`limits` (``(-inf, inf)`` by default), or for an anisotropy the image of
+        :data:`KAPPA_RANGE`."""
         if self.transform == 'anisotropy':
             lo, hi = KAPPA_RANGE
             return (lo - 1.0) / (lo + 1.0), (hi - 1.0) / (hi + 1.0)
-        return -math.inf, math.inf
+        return self.limits
 
     def value(self, u: ArrayLike) -> Array:
         """The value of coordinates ``u``: ``kappa = (1 + u) / (1 - u)`` for an anisotropy.

@@ -59,7 +59,7 @@ REDUNDANCY_RULES = ('fixed_joint', 'nearest')
 #: The shipped example robot, under the package's ``config/``.
 DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
-_LENGTH_BOUND = 5.0  # m: arm and mount dimensions
+LENGTH_BOUND = 5.0  # m: arm and mount dimensions
 _WORLD_BOUND = 100.0  # m: base position in the world
 
 
@@ -252,7 +252,7 @@ def _joint(raw: Any, where: str) -> ArmJoint:
         raise ConfigError(f'{where}: lower = {lower!r} must be below upper = {upper!r} (radians)')
     return ArmJoint(
         name=name,
-        length=_number(data, 'length', where, 0.0, _LENGTH_BOUND, f'metres, 0 <= length <= {_LENGTH_BOUND:g}'),
+        length=_number(data, 'length', where, 0.0, LENGTH_BOUND, f'metres, 0 <= length <= {LENGTH_BOUND:g}'),
         height=_number(data, 'height', where, -1.0, 1.0, 'metres, -1 <= height <= 1', default=0.0),
         lower=lower, upper=upper,
         velocity=_positive_number(data, 'velocity', where, 100.0, 'rad/s', 'rad/s'),
@@ -313,9 +313,9 @@ def _arm(raw: Any, where: str) -> Arm:
     bwhere = f'{where}: blade'
     blade_data = _mapping(data.get('blade'), bwhere, 'position, yaw, wafer_centre')
     check_keys(blade_data, ('position', 'yaw', 'wafer_centre', 'paddle', 'friction', 'vacuum'), bwhere)
-    blade = Blade(position=_xyz(blade_data, 'position', bwhere, _LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
+    blade = Blade(position=_xyz(blade_data, 'position', bwhere, LENGTH_BOUND, default=(0.0, 0.0, 0.0)),
                   yaw=_yaw(blade_data, bwhere),
-                  wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, _LENGTH_BOUND))
+                  wafer_centre=_xyz(blade_data, 'wafer_centre', bwhere, LENGTH_BOUND))
     branch = data.get('branch', 'right')
     if branch not in BRANCHES:
         raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left or right')
@@ -333,7 +333,7 @@ def _arm(raw: Any, where: str) -> Arm:
         redundancy = _redundancy(data['redundancy'], joints, f'{where}: redundancy')
     elif 'redundancy' in data:
         raise ConfigError(f'{where}: redundancy applies to 4-joint arms only; this arm has {len(joints)} joints')
-    arm = Arm(name=name, mount_position=_xyz(mount, 'position', f'{where}: mount', _LENGTH_BOUND,
+    arm = Arm(name=name, mount_position=_xyz(mount, 'position', f'{where}: mount', LENGTH_BOUND,
                                               default=(0.0, 0.0, 0.0)),
               mount_yaw=_yaw(mount, f'{where}: mount'), joints=joints, blade=blade,
               branch=branch, home=home, redundancy=redundancy,
