@@ -236,11 +236,7 @@ def test_urdf_for_a_motion_stack(tmp_path):
         assert link.inertial.mass > 0 and eig.min() > 0, link.name
         assert eig.max() <= eig.sum() - eig.max() + 1e-15, link.name
     wafer = next(link for link in urdf.robot.links if link.name == 'arm1_wafer').inertial
-    from gpr_kinematics.robot.shapes import WAFER_DENSITY
-    from gpr_kinematics.robot.urdf import WAFER_VISUAL
-
-    r, h = WAFER_VISUAL[0] / 2, WAFER_VISUAL[1]
-    m = WAFER_DENSITY * math.pi * r * r * h
+    r, h, m = ROBOT.wafer.diameter / 2, ROBOT.wafer.thickness, ROBOT.wafer.mass
     assert wafer.mass == pytest.approx(m, rel=1e-5)           # the URDF prints 6 digits
     np.testing.assert_allclose(np.diag(wafer.inertia), [m * (3 * r * r + h * h) / 12] * 2 + [m * r * r / 2],
                                rtol=1e-5)
@@ -248,6 +244,19 @@ def test_urdf_for_a_motion_stack(tmp_path):
     note = text.index('<!-- The platform closes an overconstrained loop')
     assert note < text.index('<joint name="gpr_platform_pose" type="floating">') and 'robot_state_publisher' in \
         text[note:text.index('-->', note)]
+
+
+def test_the_wafer_is_drawn_and_weighed_as_the_description_gives_it():
+    """A 200 mm wafer of 53 g: the URDF drew and weighed a 300 mm one of 127.6 g (its collision disc was right)."""
+    import dataclasses
+
+    from gpr_kinematics.robot.collision import WaferShape
+
+    robot = dataclasses.replace(ROBOT, wafer=WaferShape(0.200, 0.000725, 0.053))
+    link = next(k for k in robot_urdf(robot).links if k.name == 'arm2_wafer')
+    assert link.visuals[0].shape == 'cylinder' and link.visuals[0].size == (0.1, 0.000725)
+    assert link.collisions[0].size == link.visuals[0].size
+    assert link.inertial.mass == 0.053 and link.inertial.inertia[5] == pytest.approx(0.5 * 0.053 * 0.01, rel=1e-15)
 
 
 def test_composite_inertia_by_the_parallel_axis_theorem():

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import robot_forward
 from .description import RobotDescription
-from .urdf import WAFER_VISUAL, RobotUrdf, robot_urdf
+from .urdf import RobotUrdf, robot_urdf
 
 
 @dataclass(frozen=True)
@@ -127,11 +127,11 @@ def robot_figure(robot: RobotDescription, rods: Sequence[float], joints: Mapping
         frames = _arm_frames(model, robot, drawn, name, J)
         chain = np.array([drawn[:3, 3], *(T[:3, 3] for T in frames)])
         ax.plot(*chain.T, color=colour, lw=4, solid_capstyle='round', label=f'{name} {np.round(J, 3).tolist()} rad')
-        ax.add_collection3d(Poly3DCollection([_disk(frames[-1], 0.5 * WAFER_VISUAL[0])], color=colour, alpha=0.45))
+        ax.add_collection3d(Poly3DCollection([_disk(frames[-1], 0.5 * robot.wafer.diameter)], color=colour, alpha=0.45))
         ghost = _arm_frames(model, robot, naive, name, J)[-1]
         # A transparent face, not 'none': matplotlib 3.6/3.7 (a stock Jazzy install) fail to depth-sort a 3-D
         # polygon collection that has no face colours.
-        ax.add_collection3d(Poly3DCollection([_disk(ghost, 0.5 * WAFER_VISUAL[0])], facecolor=(0.0, 0.0, 0.0, 0.0),
+        ax.add_collection3d(Poly3DCollection([_disk(ghost, 0.5 * robot.wafer.diameter)], facecolor=(0.0, 0.0, 0.0, 0.0),
                                              edgecolor=colour, linestyle='--', lw=1))
         points += [T[:3, 3] for T in frames]
         errors[name] = fks[name].naive_wafer_error[0]

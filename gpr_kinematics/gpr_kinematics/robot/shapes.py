@@ -26,8 +26,8 @@ from .collision import GprBodies, Shape, WaferShape
 if TYPE_CHECKING:
     from .description import Arm, RobotDescription
 
-#: Density [kg/m^3] of a link's drawn shapes for its default inertia (aluminium), and of the wafer (silicon).
-DENSITY, WAFER_DENSITY = 2700.0, 2330.0
+#: Density [kg/m^3] of a link's drawn shapes for its default inertia (aluminium; the wafer has its own mass).
+DENSITY = 2700.0
 
 
 @dataclass(frozen=True)
@@ -65,13 +65,13 @@ def _solid(v: Visual) -> tuple[float, np.ndarray]:
 
 
 def default_inertial(visuals: Sequence[Visual]) -> Inertial | None:
-    """The inertia of a link's drawn shapes filled with aluminium (:data:`DENSITY`; a wafer's material: silicon),
+    """The inertia of a link's drawn shapes filled with aluminium (:data:`DENSITY`),
     about their common centre of mass (parallel axis theorem): what the URDF gives a link when the robot description
     gives no masses. None for a link without shapes (the world)."""
     parts = []
     for v in visuals:
         volume, unit = _solid(v)
-        mass = volume * (WAFER_DENSITY if v.material == 'wafer' else DENSITY)
+        mass = volume * DENSITY
         R = rpy_matrix(*v.rpy)
         parts.append((mass, np.asarray(v.xyz, dtype=float), mass * (R @ unit @ R.T)))
     total = sum(m for m, _, _ in parts)
