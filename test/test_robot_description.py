@@ -108,7 +108,8 @@ _DELETE = object()
     (('arms',), [EXAMPLE['arms'][0]] * 3, r'arms must be a list of one or two arms'),
     (('arms', 0, 'joints'), [], r'arms\[0\] \(arm1\): joints must be a list of 2 to 4 revolute joints'),
     (('arms', 0, 'joints', 1, 'length'), -0.3,
-     r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): length = -0.3 is invalid; allowed: metres, 0 <= length <= 5'),
+     r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): length = -0.3 is invalid; allowed: metres, 0 <= length <= 5 '
+     r'\(at least 1e-06 but on the last joint\)'),
     (('arms', 0, 'joints', 0, 'length'), 0.0, r'arm1_shoulder: length = 0.0 is invalid; allowed: >= 1e-06 m for every'),
     (('arms', 1, 'joints', 0, 'length'), 5e-324,   # passed, and overflowed (RuntimeWarning) in the inverse kinematics
      r'arm2_shoulder: length = 5e-324 is invalid; allowed: >= 1e-06 m for every joint but the last'),
@@ -219,3 +220,36 @@ def test_orientations_within_a_turn_pass_as_written():
     robot = make_robot(data)
     assert robot.base_rpy == (6.2, -6.2, 2 * math.pi)
     assert robot.arms[0].mount_yaw == 6.2 and robot.arms[0].blade.yaw == -2 * math.pi - 1e-10
+
+
+@pytest.mark.parametrize('frame', ['gpr_base', 'gpr_platform', 'arm2_link1', 'arm1_wafer'])
+def test_the_world_is_none_of_the_robots_own_frames(frame):
+    """``base.frame: gpr_base`` passed, and a cell given in ``gpr_base`` then read safe with its obstacles 2 m from
+    where they stood; the URDF named it "link names must be unique". Refused at load, naming the key."""
+    data = robot_data()
+    data.setdefault('base', {})['frame'] = frame
+    with pytest.raises(ConfigError, match=rf"base: frame = '{frame}' is one of the robot's own frames; allowed: a "
+                                          r'name for the world the robot stands in \(default world\), not '
+                                          r'arm1_blade, '):
+        make_robot(data)
+
+
+def test_a_nearest_reference_lies_within_the_joint_limits():
+    """``reference: [0, 1, 5, 0]`` on a joint of [-2.2, 2.2] rad measured the posture -1.28 rad (the same angle) as
+    3.5 rad away, so one posture written two ways gave two answers; refused with the angle modulo a turn. Negative
+    weights are refused by the range the message names."""
+    data = robot_data()
+    arm = data['arms'][1]
+    lower, upper = arm['joints'][2]['lower'], arm['joints'][2]['upper']
+    reference = [0.5 * (j['lower'] + j['upper']) for j in arm['joints']]
+    reference[2] = upper + 2 * math.pi - 0.1 - 4.0   # within one turn, outside the limits
+    arm['redundancy'] = {'rule': 'nearest', 'reference': reference}
+    with pytest.raises(ConfigError, match=rf'reference\[2\] = {reference[2]:g} rad is outside the limits of '
+                                          rf'{arm["joints"][2]["name"]}, \[{lower:g}, {upper:g}\] rad; allowed: a '
+                                          rf"posture within the joints' limits \({reference[2]:g} rad is "
+                                          rf'{upper - 4.1:g} rad modulo a turn\)'):
+        make_robot(data)
+    arm['redundancy'] = {'rule': 'nearest', 'weights': [1.0, -1.0, 1.0, 1.0]}
+    with pytest.raises(ConfigError, match=r'weights\[1\] = -1.0 is invalid; allowed: a list of 4 finite numbers in '
+                                          r'\(no unit\), each within \[0, 1e\+06\]'):
+        make_robot(data)

@@ -61,6 +61,9 @@ DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
 LENGTH_BOUND = 5.0  # m: arm and mount dimensions
 _WORLD_BOUND = 100.0  # m: base position in the world
+#: The GPR's own frames in the robot model (:mod:`.urdf`, the state publisher's defaults), which the world is not.
+GPR_FRAMES = ('gpr_base', 'gpr_platform', 'gpr_platform_nominal', *(f'gpr_rod_{k}' for k in (1, 2, 3)),
+              *(f'gpr_rod_guide_{k}' for k in (1, 2, 3)))
 
 
 @dataclass(frozen=True)
@@ -252,7 +255,8 @@ def _joint(raw: Any, where: str) -> ArmJoint:
         raise ConfigError(f'{where}: lower = {lower!r} must be below upper = {upper!r} (radians)')
     return ArmJoint(
         name=name,
-        length=_number(data, 'length', where, 0.0, LENGTH_BOUND, f'metres, 0 <= length <= {LENGTH_BOUND:g}'),
+        length=_number(data, 'length', where, 0.0, LENGTH_BOUND, f'metres, 0 <= length <= {LENGTH_BOUND:g} (at least '
+                       f'{LEAST:g} but on the last joint)'),
         height=_number(data, 'height', where, -1.0, 1.0, 'metres, -1 <= height <= 1', default=0.0),
         lower=lower, upper=upper,
         velocity=_positive_number(data, 'velocity', where, 100.0, 'rad/s', 'rad/s'),
@@ -288,8 +292,14 @@ def _redundancy(raw: Any, joints: tuple[ArmJoint, ...], where: str) -> Redundanc
     check_keys(data, ('rule', 'joint', 'reference', 'weights'), f'{where} (rule nearest)')
     mid = [0.5 * (j.lower + j.upper) for j in joints]
     reference = _vector(data, 'reference', where, len(joints), 2 * math.pi, 'rad', default=mid)
-    weights = _vector(data, 'weights', where, len(joints), 1e6, '(no unit)', default=[1.0] * len(joints))
-    if min(weights) < 0.0 or max(weights) <= 0.0:
+    for i, (r, j) in enumerate(zip(reference, joints, strict=True)):
+        if not j.lower <= r <= j.upper:   # 5 rad on a joint of [-2.2, 2.2]: the cost measured it as 3.5 rad from -1.28
+            turned = math.remainder(r - 0.5 * (j.lower + j.upper), 2 * math.pi) + 0.5 * (j.lower + j.upper)
+            hint = f' ({r:g} rad is {turned:.6g} rad modulo a turn)' if j.lower <= turned <= j.upper else ''
+            raise ConfigError(f'{where}: reference[{i}] = {r:g} rad is outside the limits of {j.name}, '
+                              f'[{j.lower:g}, {j.upper:g}] rad; allowed: a posture within the joints\' limits{hint}')
+    weights = _vector(data, 'weights', where, len(joints), 1e6, '(no unit)', default=[1.0] * len(joints), lowest=0.0)
+    if max(weights) <= 0.0:
         raise ConfigError(f'{where}: weights = {brief(list(weights))} is invalid; allowed: numbers >= 0, not all 0')
     return Redundancy(rule, k, reference=reference, weights=weights)
 
@@ -390,8 +400,13 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
     if duplicates:
         raise ConfigError(f'{source}: names must be unique across rods, arms and joints; repeated: '
                           + ', '.join(duplicates))
+    world = _name(base, 'frame', f'{source}: base', default='world')
+    own = {*GPR_FRAMES, *(f for a in arms for f in (*a.link_frames, a.blade_frame, a.wafer_frame))}
+    if world in own:   # gpr_base as the world: a cell given "in gpr_base" passed, 2 m from where its obstacles stand
+        raise ConfigError(f'{source}: base: frame = {world!r} is one of the robot\'s own frames; allowed: a name '
+                          f'for the world the robot stands in (default world), not {", ".join(sorted(own))}')
     return RobotDescription(
-        name=name, config=config, world_frame=_name(base, 'frame', f'{source}: base', default='world'),
+        name=name, config=config, world_frame=world,
         base_position=_xyz(base, 'position', f'{source}: base', _WORLD_BOUND, default=(0.0, 0.0, 0.0)),
         base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),

@@ -40,14 +40,16 @@ def _positive_number(data: Mapping[str, Any], key: str, where: str, hi: float, u
 
 
 def _vector(data: Mapping[str, Any], key: str, where: str, n: int, bound: float, unit: str = 'm',
-            default: Sequence[float] | None = None) -> tuple[float, ...]:
+            default: Sequence[float] | None = None, lowest: float | None = None) -> tuple[float, ...]:
+    """A list of ``n`` finite numbers within ``[-bound, bound]`` (``[lowest, bound]`` where given)."""
     raw = data.get(key, default)
-    allowed = f'a list of {n} finite numbers in {unit}, each within [-{bound:g}, {bound:g}]'
+    low = -bound if lowest is None else lowest
+    allowed = f'a list of {n} finite numbers in {unit}, each within [{low:g}, {bound:g}]'
     if not isinstance(raw, (list, tuple)) or len(raw) != n:
         raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
     out = []
     for i, v in enumerate(raw):
-        out.append(_number({f'{key}[{i}]': v}, f'{key}[{i}]', where, -bound, bound, allowed, unit=unit))
+        out.append(_number({f'{key}[{i}]': v}, f'{key}[{i}]', where, low, bound, allowed, unit=unit))
     return tuple(out)
 
 
