@@ -85,6 +85,16 @@ def test_a_station_beyond_the_tilt_limit_refused_with_its_step(tmp_path):
         plan_program(ROBOT, p)
 
 
+def test_a_station_without_heading_for_a_3_joint_arm_refused_with_its_step(tmp_path):
+    """The only waypoint refusal without the program and the step (an InputError of the arm's batch)."""
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [1.0, 0.6, 0.45]}],
+                      [{'move': 'a'}, {'pick': 'b'}])
+    with pytest.raises(InputError, match=r"/p.yaml: steps\[1\] \(pick b, approach\): station b/approach: arm arm1 has "
+                                         r"3 joints and needs the blade heading; only a 2-joint arm leaves it free$"):
+        plan_program(ROBOT, p)
+
+
 def test_too_fast_a_move_refused_with_its_step(tmp_path):
     p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
                                  {'name': 'b', 'position': [0.75, 1.1, 0.3], 'heading': 1.5}],

@@ -187,3 +187,21 @@ def test_an_orientation_beyond_a_turn_is_degrees_in_a_file_in_radians(tmp_path, 
         load_stations(_write(tmp_path, name, deg.format(key=key, v=361)))
     with pytest.raises(ConfigError, match=f'{key} = 6.2832 rad is beyond one turn'):   # 2 pi + 7e-6
         load_stations(_write(tmp_path, name, rad.format(key=key, v=6.2832)))
+
+
+@pytest.mark.parametrize('name, text, message', [
+    ('s.csv', 'name,x,y,z\nfar,2300,-900,800\n',
+     r"s.csv: line 2 \(far\): position = \(2300, -900, 800\) m; allowed: each coordinate within \+-100 m of the "
+     r'world origin; as millimetres it would be 2.3 m: millimetres given as metres\?'),
+    ('s.yaml', 'stations:\n  - {name: far, position: [0.5, 0.2, 150]}\n',
+     r"s.yaml: stations\[0\] \(far\): position = \(0.5, 0.2, 150\) m; allowed: each coordinate within \+-100 m of "
+     r'the world origin; as millimetres'),
+    ('m.csv', '# units: mm\nname,x,y,z\nfar,230000,0,800\n',
+     r'position = \(230, 0, 0.8\) m; allowed: each coordinate within \+-100 m of the world origin$')])
+def test_a_station_beyond_the_world_bound_is_refused(tmp_path, name, text, message):
+    """The cell's and the robot base's bound (``WORLD_BOUND``, 100 m): an imported station a program did not use,
+    in millimetres read as metres, passed its check unmentioned; the hint only where millimetres would fit."""
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=message):
+        load_stations(path)

@@ -49,7 +49,20 @@ from ..inputs.resources import config_path
 from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
 from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
-from .fields import LEAST, _angle, _mapping, _name, _named, _number, _positive_number, _rpy, _vector, _xyz, _yaw
+from .fields import (
+    LEAST,
+    WORLD_BOUND,
+    _angle,
+    _mapping,
+    _name,
+    _named,
+    _number,
+    _positive_number,
+    _rpy,
+    _vector,
+    _xyz,
+    _yaw,
+)
 from .fields import NAME_RULE as _NAME_RULE
 
 Array = NDArray[np.float64]
@@ -60,7 +73,6 @@ REDUNDANCY_RULES = ('fixed_joint', 'nearest')
 DEFAULT_ROBOT = 'robots/example_robot.yaml'
 
 LENGTH_BOUND = 5.0  # m: arm and mount dimensions
-_WORLD_BOUND = 100.0  # m: base position in the world
 #: The GPR's own frames in the robot model (:mod:`.urdf`, the state publisher's defaults), which the world is not.
 GPR_FRAMES = ('gpr_base', 'gpr_platform', 'gpr_platform_nominal', *(f'gpr_rod_{k}' for k in (1, 2, 3)),
               *(f'gpr_rod_guide_{k}' for k in (1, 2, 3)))
@@ -407,7 +419,7 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
                           f'for the world the robot stands in (default world), not {", ".join(sorted(own))}')
     return RobotDescription(
         name=name, config=config, world_frame=world,
-        base_position=_xyz(base, 'position', f'{source}: base', _WORLD_BOUND, default=(0.0, 0.0, 0.0)),
+        base_position=_xyz(base, 'position', f'{source}: base', WORLD_BOUND, default=(0.0, 0.0, 0.0)),
         base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),
         wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'))

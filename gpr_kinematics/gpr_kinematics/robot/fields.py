@@ -27,6 +27,10 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
     return value
 
 
+#: The largest coordinate [m] of a place in the world: the robot's base, a station, a cell's obstacle (a cell is a
+#: few metres; 2300 m is a station in millimetres read as metres).
+WORLD_BOUND = 100.0
+
 #: The least value of a quantity that must be positive (a body's size [m], a mass [kg], a speed, acceleration or jerk
 #: limit): 0 is refused and so is 5e-324, which overflows what divides by it.
 LEAST = 1e-6

@@ -20,7 +20,7 @@ from ..errors import InputError, LimitError
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import robot_forward
-from .inverse import solve_stations
+from .inverse import StationSolution, solve_stations
 from .paths import GRID, line_gains, line_positions
 from .program import RobotProgram, Waypoints, expand
 from .timing import (
@@ -193,6 +193,18 @@ def program_summary(plan: ProgramPlan) -> ProgramSummary:
                           plan.labels[i])
 
 
+def _solve_waypoints(robot: RobotDescription, program: RobotProgram, way: Waypoints, arm: str, idx: NDArray[np.intp]
+                     ) -> StationSolution:
+    """The waypoints ``idx`` of ``arm`` solved in one batch (limits marked, not raised); a refused input names the
+    program and its waypoint's step, as a limit's refusal does (a 3-joint arm at a station without heading)."""
+    try:
+        return solve_stations(robot, way.stations.take(idx), arm, branch=[way.branch[i] for i in idx], check=False)
+    except InputError as exc:
+        free = way.stations.heading_free[idx]
+        i = int(idx[np.argmax(free)]) if free.any() else int(idx[0])
+        raise InputError(f'{program.source}: {_label(program, way, i)}: {exc}') from None
+
+
 def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | None = None) -> ProgramPlan:
     """Check ``program`` on ``robot`` (module docstring). With ``rate`` [Hz], a program that cannot be sampled at it
     is refused once its waypoints are solved, before its straight lines and moves are timed (the costly part): its
@@ -218,7 +230,7 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
         idx = np.flatnonzero(arm_of == a.name)
         if idx.size == 0:
             continue
-        sol = solve_stations(robot, way.stations.take(idx), a.name, branch=[way.branch[i] for i in idx], check=False)
+        sol = _solve_waypoints(robot, program, way, a.name, idx)
         rods[idx] = sol.rods
         own[idx, cols] = sol.joints
         wafer_p[idx], wafer_R[idx] = sol.forward.wafer.position, sol.forward.wafer.rotation

@@ -41,6 +41,7 @@ from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
 from .description import BRANCHES
+from .fields import WORLD_BOUND
 from .stations import Stations
 
 #: Largest station file read [bytes] and most stations in a program.
@@ -140,6 +141,20 @@ def _number(value: Any, where: str, key: str, unit: str) -> float:
     return float(value)
 
 
+def _position(xyz: tuple[float, float, float], where: str, unit: str) -> tuple[float, float, float]:
+    """A station's position [m] within :data:`~.fields.WORLD_BOUND` of the world origin, else :class:`ConfigError`
+    (with a hint where the file's metres would fit as millimetres): an unused imported station at 2.3 km (a CSV in
+    millimetres without its unit) passed the program's check unmentioned."""
+    far = max(abs(v) for v in xyz)
+    if far > WORLD_BOUND:
+        hint = (f'; as millimetres it would be {far / 1000.0:g} m: millimetres given as metres? (declare them: '
+                '"# units: mm" or a column "x [mm]" in a CSV, units: {length: mm} in YAML)'
+                if unit == 'm' and far / 1000.0 <= WORLD_BOUND else '')
+        raise ConfigError(f'{where}: position = ({", ".join(f"{v:.6g}" for v in xyz)}) m; allowed: each coordinate '
+                          f'within +-{WORLD_BOUND:g} m of the world origin{hint}')
+    return xyz
+
+
 def station_name(value: Any, where: str) -> str:
     """A station's name: 1 to 64 letters, digits, ``_ . -``, not ``-`` first (a YAML number is read as its text, a
     boolean refused with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
@@ -200,7 +215,7 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
             raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
         x, y, z = (to_si(_number(v, w, k, lunit), length) for v, k in zip(pos, 'xyz', strict=True))
-        rows.position.append((x, y, z))
+        rows.position.append(_position((x, y, z), w, lunit))
         rows.tilt.append(to_si(_number(st.get('tilt', 0.0), w, 'tilt', aunit), angle))
         rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, DECLARE_DEG))
         h = st.get('heading')
@@ -339,7 +354,7 @@ def stations_from_csv(text: str, where: str) -> StationRows:
         if x is None or y is None or z is None:
             raise ConfigError(f'{w}: x, y and z are required')
         rows.names.append(name)
-        rows.position.append((x, y, z))
+        rows.position.append(_position((x, y, z), w, table.columns['x'][2]))
         rows.tilt.append(table.number(r, 'tilt', 0.0, w) or 0.0)
         rows.azimuth.append(table.angle(r, 'azimuth', 0.0, w) or 0.0)
         rows.heading.append(table.angle(r, 'heading', None, w))

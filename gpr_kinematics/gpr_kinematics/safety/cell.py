@@ -39,6 +39,7 @@ from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.units import to_si
 from ..inputs.validation import text_hint
+from ..robot.fields import WORLD_BOUND
 from ..robot.station_files import DECLARE_DEG, units_of
 
 Array = NDArray[np.float64]
@@ -46,7 +47,6 @@ Array = NDArray[np.float64]
 FORMAT = 'gpr_cell'
 #: Most obstacles in a cell (after chambers are expanded), largest coordinate and size [m].
 MAX_OBSTACLES = 10_000
-_BOUND = 100.0
 _SIZE = 50.0
 _KEYS = ('format', 'version', 'frame', 'units', 'obstacles')
 _SHAPES = ('box', 'cylinder', 'chamber')
@@ -172,7 +172,7 @@ def _obstacle(ob: Any, where: str, length: float, angle: float) -> list[Obstacle
     if len(shapes) != 1:
         raise ConfigError(f'{where}: shape = {", ".join(shapes) or "none"} is invalid; allowed: exactly one of '
                           f'{", ".join(_SHAPES)}')
-    position = np.array(_vector(ob.get('position'), where, 'position', 3, -_BOUND, _BOUND, lunit, length))
+    position = np.array(_vector(ob.get('position'), where, 'position', 3, -WORLD_BOUND, WORLD_BOUND, lunit, length))
     R = _rotation(ob, where, angle, aunit)
     kind = shapes[0]
     if kind == 'box':
