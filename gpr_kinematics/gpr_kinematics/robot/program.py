@@ -26,7 +26,8 @@ waypoint (phase ``entry``) ``e`` back along the wafer's heading before the first
 last: the moves out of ``entry`` and into ``exit`` keep the wafer on that straight line with its orientation fixed
 (:mod:`gpr_kinematics.robot.paths`). ``time`` is the duration of the move into the
 step's first waypoint (default: as fast as the limits allow); the moves between a step's own waypoints are as fast
-as the limits allow. A step's arm and branch default to the station's, then the program's, then the arm's own.
+as the limits allow. A step's arm defaults to the program's, then the robot's first; its branch to the station's,
+then the program's, then the arm's own (a station has a branch, no arm).
 
 The platform programs of ``trajectory_node`` (``format: gpr_platform_program``, or no ``format`` key: stations with
 ``height``, ``tilt``, ``azimuth`` of the platform, :mod:`gpr_kinematics.robot.platform_program`) are the other
