@@ -200,7 +200,8 @@ def bad_inputs(tmp_path):
          r"--free names 'rod_offsets' twice; allowed: each parameter once"),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '1e308', '0', '0', '0', '0',
           '0'], r'--base \[1e\+308, 0.0, 0.0, 0.0, 0.0, 0.0\]: allowed: each value within \+-1e\+06'),
-        (['calibrate', '--plan', '0'], r'plan size 0; allowed: an integer from 1 to 222'),
+        (['calibrate', '--plan', '0'], r'plan size 0: .*; allowed: at least 5'),
+        (['calibrate', '--plan', '500'], r'plan size 500; allowed: an integer from 5 to 222 \('),
         # --base in degrees without --deg: the file was blamed ("another frame"), not the option
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '0', '0', '0', '0', '0', '90'],
          r'line \d+: the measured pose is .* rad from the nominal model\'s .*; or --base in other units than m and rad '

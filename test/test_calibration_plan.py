@@ -141,9 +141,11 @@ def test_reference_plan_holds_what_no_candidate_identifies():
 def test_refusals():
     cfg = load_config()
     m = CoreModel(cfg)
-    with pytest.raises(InputError, match=r'plan size 0; allowed: an integer from 1 to 222'):
+    with pytest.raises(InputError, match=r'plan size 0: 0 configuration\(s\) measured as poses give 0 residuals, too '
+                                         r'few to identify 24 parameters .*; allowed: at least 5$'):
         plan_measurements(m, cfg, 0)
-    with pytest.raises(InputError, match=r'plan size 1000; allowed'):
+    with pytest.raises(InputError, match=r'plan size 1000; allowed: an integer from 5 to 222 \(the fewest that '
+                                         r'identify 24 parameters, the number of candidate configurations'):
         plan_measurements(m, cfg, 1000)
     # a plan whose file gpr calibrate refuses (k rows give k residuals per row, no more than the parameters): the
     # plan and the budget after it were given, the calibration refused

@@ -93,7 +93,7 @@ def test_program_send_output_as_send_builds_its_goal():
     goal, start = lead_in(plan, traj, rest, SEND_RATE)
     expected = [f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s ({start:.3f} '
                 "s from where the robot is to the program's start) to "
-                'joint_trajectory_controller/follow_joint_trajectory']
+                '/joint_trajectory_controller/follow_joint_trajectory']   # the full name, as send resolves it
     # robot_simulator_node's samples (robot.controller.plan_motion) of the goal it received, times in whole
     # nanoseconds; a feedback per sample, its desired time as send reads it
     ns = round(goal.duration * 1e9)

@@ -275,16 +275,18 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     seed = random_seed(seed)
     cand = candidates if candidates is not None else candidate_configurations(config)
     C = cand.q.shape[0]
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= min(C, MAX_PLAN):
-        raise InputError(f'plan size {n!r}; allowed: an integer from 1 to {min(C, MAX_PLAN)} (the number of '
-                         f'candidate configurations within the stroke and tilt limits is {C})')
     params = model.parameters
     free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
     k = 3 if points else 6
-    if n < least_rows(free_idx.size, k):   # gpr calibrate refuses the file measured at such a plan
+    least = least_rows(free_idx.size, k)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n > min(C, MAX_PLAN):
+        raise InputError(f'plan size {n!r}; allowed: an integer from {least} to {min(C, MAX_PLAN)} (the fewest that '
+                         f'identify {free_idx.size} parameters, the number of candidate configurations within the '
+                         f'stroke and tilt limits is {C})')
+    if n < least:   # gpr calibrate refuses the file measured at such a plan
         raise InputError(f'plan size {n}: {n} configuration(s) measured as {"points" if points else "poses"} give '
                          f'{k * n} residuals, too few to identify {free_idx.size} parameters (gpr calibrate refuses '
-                         f'a file of so few rows); allowed: at least {least_rows(free_idx.size, k)}')
+                         f'a file of so few rows); allowed: at least {least}')
     theta0 = params.nominal if theta is None else np.asarray(theta, dtype=float)
     scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [0.0 if points else 1.0 / sigma_angle] * 3)
