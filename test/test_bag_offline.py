@@ -597,3 +597,25 @@ def test_a_segment_whose_metadata_cannot_be_written_is_not_counted_as_kept(tmp_p
     assert len(w.files) == len(meta['relative_file_paths']) == 2
     assert w.closed_message_count == meta['message_count'] > 0
     assert not (tmp_path / 'b' / 'metadata.yaml.tmp').exists()
+
+
+def test_a_calibrated_machine_inside_its_drawing_verifies_clean(tmp_path: Path) -> None:
+    """A calibrated geometry keeps the drawing's ``radius`` and puts the rods and joints where they are: 1.8 mm
+    inside, the plane turns faster per rod change than ``sqrt(2/3)/R`` allows, and every sample of the package's own
+    recording failed ``stream.jump`` (1.010 x bound). The bound takes the rods' and joints' own triangles now
+    (``slope_gain``); the drawing's gain is the nominal one."""
+    from gpr_kinematics.bags.verify import verify_bag
+    from gpr_kinematics.core.config import GprConfig
+    from gpr_kinematics.core.machine import slope_gain
+
+    nominal = GprConfig()
+    assert slope_gain(nominal) == pytest.approx(math.sqrt(2.0 / 3.0) / nominal.radius, rel=1e-14)
+    inner = nominal.radius - 1.8e-3
+    points = [[inner * math.cos(t), inner * math.sin(t)] for t in nominal.rod_azimuths]
+    cfg = nominal.replace(rod_positions=points, platform_joints=points)
+    assert slope_gain(cfg) == pytest.approx(math.sqrt(2.0 / 3.0) / inner, rel=1e-14)
+    bag = write_messages(tmp_path / 'inner', sweep_messages(config=cfg, tilt_step=math.radians(0.2),
+                                                            azimuth_step=math.radians(5.0)))
+    result = verify_bag(bag)
+    jump = next(c for c in result.checks if c.name == 'stream.jump')
+    assert result.passed and 0.9 < jump.worst <= 1.0, jump

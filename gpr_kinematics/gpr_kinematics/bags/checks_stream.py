@@ -5,10 +5,12 @@
 - ``jump``: between consecutive samples, with ``dq = ||q_i - q_(i-1)||_2`` [m]: rotation angle
   <= ``K_rot dq + eps``, ``||dp||`` <= ``K_pos dq + eps``, ``max |dX|`` <= ``K_x dq + eps``, ``max |dL|`` <=
   ``K_L dq + eps``, as a ratio to the bound (<= 1); ``dX`` between samples of one model and as many virtual
-  joints. ``K_rot = 1.01 sqrt(2/3) / R`` [rad/m]: the plane through
-  the three joint centres at ``R u_k`` has slope ``2/(3R) sum q_k u_k`` and ``|sum dq_k u_k| <= sqrt(3/2)
-  ||dq||``; the 1 % covers the virtual joints' displacement of the centres (the paper sweep reaches 0.9901 of
-  the bound). ``K_pos = 1/sqrt(3) + 0.05`` (the height is the mean of ``q``; the centre shift adds a slope of
+  joints. ``K_rot = 1.01 G`` [rad/m], ``G`` the plane's slope gain
+  (:func:`~gpr_kinematics.core.machine.slope_gain`): on the drawing the plane through the three joint centres at
+  ``R u_k`` has slope ``2/(3R) sum q_k u_k`` and ``|sum dq_k u_k| <= sqrt(3/2) ||dq||``, ``G = sqrt(2/3) / R``; a
+  calibrated machine's rods 1.8 mm inside the drawing turn the plane faster (the drawing's ``R`` failed every sample
+  of its correct recording); the 1 % covers the virtual joints' displacement of the centres (the paper sweep reaches
+  0.9901 of the bound). ``K_pos = 1/sqrt(3) + 0.05`` (the height is the mean of ``q``; the centre shift adds a slope of
   0.014 on the sweep). ``K_L = sqrt(2)`` (from ``L_ij = sqrt(3 R^2 + (q_j - q_i)^2)``). ``K_x = 0.5`` (m or
   rad per m) is empirical: 3x the largest ratio over the paper sweep for all models and weightings (0.15).
   ``eps = 1e-12``. A solver that switched branches, or a stream that jumped, at a crossing of the singular
@@ -17,7 +19,6 @@
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +52,7 @@ class StreamOutcome:
     crossing_ratio: float
 
 
-def stream_checks(c: Columns, samples: NDArray[np.int64], topic: str, series: Series, radius: float,
+def stream_checks(c: Columns, samples: NDArray[np.int64], topic: str, series: Series, gain: float,
                   tol: Tolerances) -> StreamOutcome:
     """The ``stream.*`` checks of the PlatformState columns ``c`` (see the module docstring)."""
     checks = [value_check('stream.counter', topic, np.abs(np.diff(samples) - 1).astype(float), 0.0, 'samples',
@@ -75,7 +76,7 @@ def stream_checks(c: Columns, samples: NDArray[np.int64], topic: str, series: Se
     # Virtual joints of different models, or as many as a different number of them (state.virtual_joints names
     # the sample), are not comparable.
     dX[(models[1:] != models[:-1]) | (counts[1:] != counts[:-1])] = 0.0
-    k_rot = tol.jump_rot_factor * math.sqrt(2.0 / 3.0) / radius
+    k_rot = tol.jump_rot_factor * gain
     eps = tol.jump_eps
     ratio = np.max(np.stack([rot / (k_rot * dq + eps), dp / (tol.jump_pos * dq + eps),
                              dX / (tol.jump_x * dq + eps), dL / (tol.jump_length * dq + eps)], axis=1), axis=1)

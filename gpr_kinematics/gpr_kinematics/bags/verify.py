@@ -31,6 +31,7 @@ import numpy as np
 
 from ..core import resolve_config
 from ..core.config import GprConfig
+from ..core.machine import slope_gain
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
 from .checks_program import marker_cadence, program_checks, read_records, robot_program_states
@@ -100,7 +101,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             samples = np.asarray(c['sample'], dtype=np.int64)
             cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
-            stream = stream_checks(c, samples, st.name, state.series, geo.config.radius, tol)
+            stream = stream_checks(c, samples, st.name, state.series, slope_gain(geo.config), tol)
             recorded = read_records(bag)
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
                                                   robot_program_states(recorded[0], samples))

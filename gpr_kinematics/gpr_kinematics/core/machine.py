@@ -210,6 +210,19 @@ def _build(cfg: GprConfig) -> MachineGeometry:
                            upright=uz == (1.0, 1.0, 1.0) and offsets == (0.0, 0.0, 0.0))
 
 
+def slope_gain(config: GprConfig) -> float:
+    """The largest change of the slope of the plane through the joint centres per change of the rods,
+    ``max |d slope| / ||dq||`` [1/m]: the largest singular value of the slope rows of the inverse of the rows
+    ``(1, x_k, y_k)``, the larger over the base points ``B_k`` and the platform joints ``p_k``; ``sqrt(2/3) / R``
+    for the drawing's triangle of circumradius ``R``, more for a calibrated machine whose rods stand inside it."""
+    geo = MachineGeometry.of(config)
+    gains = []
+    for x, y in ((geo.bx, geo.by), (geo.px, geo.py)):
+        rows = np.column_stack([np.ones(3), np.asarray(x, dtype=float), np.asarray(y, dtype=float)])
+        gains.append(float(np.linalg.svd(np.linalg.inv(rows)[1:], compute_uv=False)[0]))
+    return max(gains)
+
+
 def _naive_inverse(px: Sequence[Value], py: Sequence[Value]) -> tuple[Values3, Values3, Values3]:
     """Inverse of the matrix of rows ``r_k = (1, p_kx, p_ky)`` (the naive model's), as rows of entries (floats, or
     arrays for one machine per row): its columns are ``c_k = r_{k+1} x r_{k+2}`` over ``det = r_0 . c_0``."""
