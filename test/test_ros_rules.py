@@ -53,3 +53,30 @@ def test_a_goal_file_name_too_long_is_refused_naming_the_rule():
     with pytest.raises(ConfigError, match=r'^goal: program_file has 6000 bytes \(UTF-8\)'):
         goal_program(_goal('\u20ac' * 2000), robot, files)
     assert len(goal_program(_goal('example_stations.yaml'), robot, files).stations) > 1
+
+
+def test_a_calibrated_robot_runs_its_robots_programs_and_another_robot_does_not(tmp_path):
+    """trajectory_node refused the example program on the example robot's calibration (``gpr calibrate --robot``
+    keeps the name and moves lengths and offsets) and advised the uncalibrated file, 128 um off at the wafer; the
+    command line's ``--robot`` takes it. The node now refuses another structure only: a renamed arm or joint."""
+    import yaml
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.ros.streams import program_robot
+
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    data = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
+    data['gpr'] = {'config': str(config_path('gpr.yaml'))}
+    data['arms'][0]['joints'][1]['length'] += 60e-6       # a calibration
+    data['arms'][0]['joints'][0]['zero_offset'] = 1e-4
+    calibrated = tmp_path / 'calibrated.yaml'
+    calibrated.write_text(yaml.safe_dump(data))
+    program_robot(program, load_robot(calibrated))
+    data['arms'][1]['joints'][0]['name'] = 'arm2_base'    # another robot under the same name
+    other = tmp_path / 'other.yaml'
+    other.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match=r'is a program for robot example_dual_arm \(.*example_robot.yaml; arms '
+                                          r'arm1: arm1_shoulder, .*\); this node runs robot example_dual_arm '
+                                          r'\(.*other.yaml; arms .*arm2: arm2_base, .*\): start trajectory_node with '
+                                          r"robot_file:= that robot's description or its calibration"):
+        program_robot(program, load_robot(other))

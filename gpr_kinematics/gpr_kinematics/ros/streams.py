@@ -153,19 +153,25 @@ def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -
                       desc, stream_markers(robot.config, gpr), rs, kind='robot_program', spec=prog)
 
 
-def same_robot(a: RobotDescription, b: RobotDescription) -> bool:
-    """The same robot whatever its file and geometry: name, base, rods and arms."""
-    return dataclasses.replace(a, config=b.config, source=b.source) == b
+def robot_structure(robot: RobotDescription) -> tuple[object, ...]:
+    """What a program is written against: the robot's name, its rods' names, its arms and their joints' names. Its
+    dimensions are not: a calibrated description (``gpr calibrate --robot``) keeps these and moves those."""
+    return robot.name, robot.rods.names, tuple((a.name, a.joint_names) for a in robot.arms)
 
 
 def program_robot(prog: RobotProgram, robot: RobotDescription) -> None:
-    """:class:`ConfigError` when a robot program names a robot description other than ``robot`` (the node's)."""
+    """:class:`ConfigError` when a robot program names a robot other than ``robot`` (the node's): another name,
+    rods or arms (:func:`robot_structure`). The node's description may be that robot's calibration, as the command
+    line's ``--robot`` may (it was refused, and the message sent the user back to the uncalibrated arms)."""
     if prog.robot is None:
         return
     other = load_robot(prog.robot, geometry=robot.config)
-    if not same_robot(other, robot):
-        raise ConfigError(f'{prog.source} is a program for robot {other.name} ({prog.robot}); this node runs robot '
-                          f'{robot.name} ({robot.source}): start trajectory_node with robot_file:={prog.robot}')
+    if robot_structure(other) != robot_structure(robot):
+        def arms(r: RobotDescription) -> str:
+            return '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in r.arms)
+        raise ConfigError(f'{prog.source} is a program for robot {other.name} ({prog.robot}; arms {arms(other)}); '
+                          f'this node runs robot {robot.name} ({robot.source}; arms {arms(robot)}): start '
+                          f'trajectory_node with robot_file:= that robot\'s description or its calibration')
 
 
 #: Longest ``program_file`` of a goal (Linux's ``PATH_MAX``, 4096 bytes; a longer one was looked up and quoted
