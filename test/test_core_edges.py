@@ -35,7 +35,8 @@ def test_compensation_takes_a_command_exactly_at_the_tilt_limit_at_every_azimuth
 
 def test_inverse_answers_only_rods_forward_kinematics_accepts():
     """A target at the limit + 1e-9 (the slack) was answered with rods tilting the platform a few ulps further, which
-    forward kinematics then refused; now inverse refuses them as forward does, and every answer passes forward."""
+    forward kinematics then refused; a target's slack is now forward's less ten normal tolerances
+    (``tilt_target_slack``), inverse checks its answer as forward does, and every answer passes forward."""
     refused = 0
     for model in ('radial', 'polar'):
         for az in np.linspace(-math.pi, math.pi, 41):
@@ -142,3 +143,19 @@ def test_apart_adds_the_digits_needed_and_no_more():
     assert apart(0.5080000000010001, 0.508) == ('0.508000000001', '0.508')
     assert apart(math.nextafter(2.0, 3.0), 2.0) == ('2.0000000000000004', '2')
     assert apart(1.0, 1.0) == ('1.0', '1.0')
+
+
+def test_a_station_at_the_tilt_slack_is_refused_by_its_name_and_marked_in_a_batch():
+    """A station plane tilted by the limit + 1e-9 rad: the GPR's answer lay a few ulps beyond the slack, and
+    ``solve_stations`` raised the core's unlabelled refusal even with ``check=False``; the station's slack is the
+    targets' now: marked infeasible in a batch, refused naming the station alone."""
+    from gpr_kinematics.robot import Stations, load_robot, solve_stations
+    robot = load_robot()
+    limit = robot.config.tilt_limit
+    for az in np.linspace(-math.pi, math.pi, 37):
+        st = Stations.of([[0.75, 0.15, 0.45], [1.2, 0.5, 0.45]], tilt=[limit + TILT_LIMIT_SLACK, 0.0], azimuth=az,
+                         heading=0.3, names=['edge', 'level'])
+        assert solve_stations(robot, st, 'arm1', check=False).feasible.tolist() == [False, True]
+        with pytest.raises(LimitError, match=r'^station edge: the station plane tilts 2\.0000001 deg in gpr_base, '
+                                             r'beyond the tilt limit 2 deg'):
+            solve_stations(robot, st.take([0]), 'arm1')

@@ -43,8 +43,7 @@ from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
 from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
-from .forward import TILT_LIMIT_SLACK
-from .inverse import TOOL_REACH, check_tool_point
+from .inverse import TOOL_REACH, check_tool_point, tilt_target_slack
 from .ops import SCALAR
 from .rotations import RigidTransform, tilt_of_normal
 
@@ -161,7 +160,7 @@ def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, R_c[0][2], R_c[1][2], R_c[2][2]))
     M = mat_tmul(tilt_matrix(tilt, az), R_c)
     twist = math.atan2(M[1][0], M[0][0])
-    if tilt - cfg.tilt_limit > TILT_LIMIT_SLACK:   # inverse kinematics' rule: 2 deg at an azimuth is a few ulps over
+    if tilt - cfg.tilt_limit > tilt_target_slack(cfg):   # inverse kinematics' rule: 2 deg at 45 deg is a few ulps over
         (shown, limit), (deg, deg_limit) = apart(tilt, cfg.tilt_limit, 9), apart(math.degrees(tilt),
                                                                                math.degrees(cfg.tilt_limit))
         raise LimitError(f'commanded tilt {shown} rad ({deg} deg) is beyond the tilt limit {limit} rad ({deg_limit} '

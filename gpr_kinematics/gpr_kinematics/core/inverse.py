@@ -92,8 +92,19 @@ class InverseBatch:
         return InverseResult(q=self.q[i], achieved=self.achieved[i], iterations=int(self.iterations[i]))
 
 
+def tilt_target_slack(config: GprConfig) -> float:
+    """How far beyond ``tilt_limit`` a target's tilt may lie [rad]: :data:`TILT_LIMIT_SLACK` less ten times the normal
+    tolerance the Newton loop stops at (:func:`ik_tolerances`), so that the rods answered tilt the platform within
+    the slack forward kinematics allows (a target at the slack's edge was met a few ulps beyond it). The rule of
+    every target: inverse kinematics, compensation, station inverse kinematics, sweeps, the GPR mechanism's poses."""
+    cached: float | None = config.derived.get('tilt_target_slack')
+    if cached is None:
+        cached = config.derived['tilt_target_slack'] = TILT_LIMIT_SLACK - 10.0 * ik_tolerances(config)[1]
+    return cached
+
+
 def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
-    if not ops.any(ops.fabs(t) > config.tilt_limit + TILT_LIMIT_SLACK):
+    if not ops.any(ops.fabs(t) - config.tilt_limit > tilt_target_slack(config)):
         return
     a = np.atleast_1d(t)
     i = int(np.argmax(np.abs(a)))
@@ -310,7 +321,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     """:func:`_solve` of one target ``(h, t, g)`` up to its result: each step solves the closure and the rigid fit
     only (floats; the tool point ``tool`` checked by the caller)."""
     cfg, geo = kernel.config, kernel.geometry
-    if abs(t) > cfg.tilt_limit + TILT_LIMIT_SLACK:
+    if abs(t) - cfg.tilt_limit > tilt_target_slack(cfg):
         _check_tilt_targets(SCALAR, t, cfg)
     s = math.sin(t)
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]

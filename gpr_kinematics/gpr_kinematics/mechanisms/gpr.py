@@ -108,9 +108,9 @@ class GprMechanism(Mechanism):
 
     def pose_within_limits(self, poses: Any) -> np.ndarray:
         """``(N,)`` True where a pose's tilt is within the tilt limit."""
-        from ..core import TILT_LIMIT_SLACK
+        from ..core.inverse import tilt_target_slack
         arr, _ = as_poses(poses)
-        return np.asarray(np.hypot(arr[:, 3], arr[:, 4]) <= self.config.tilt_limit + TILT_LIMIT_SLACK)
+        return np.asarray(np.hypot(arr[:, 3], arr[:, 4]) - self.config.tilt_limit <= tilt_target_slack(self.config))
 
     # ------------------------------------------------------------------ parameters
     def parameters(self) -> dict[str, np.ndarray]:

@@ -34,9 +34,10 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
+from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
+from ..core.inverse import tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation
-from ..errors import ConvergenceError, InputError, LimitError, brief
+from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from .description import BRANCHES, Arm, RobotDescription
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import (
@@ -259,15 +260,15 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     n_b = R_b[:, :, 2]
     tilt, az = tilt_from_normal(n_b)
     over = tilt - cfg.tilt_limit
-    tilted = over > TILT_LIMIT_SLACK
+    tilted = over > tilt_target_slack(cfg)   # inverse kinematics' rule for its targets
     if check and tilted.any():
         i = int(np.argmax(tilted))
         given = float(stations.tilt[i])  # a station tilt of 1 typed for 1 deg: the plane tilts 57 deg
         hint = (f'; a tilt of {given:g} deg would be within it: degrees given as radians?'
                 if given > 10.0 * cfg.tilt_limit and math.radians(given) <= cfg.tilt_limit else '')  # not 0.05 rad
-        raise LimitError(f'{stations.label(i)}: the station plane tilts {np.degrees(tilt[i]):.6g} deg in gpr_base, '
-                         f'beyond the tilt limit {np.degrees(cfg.tilt_limit):.6g} deg by {np.degrees(over[i]):.3g} deg '
-                         f'({over[i]:.3g} rad){hint}' + _more(tilted))
+        shown, limit = apart(math.degrees(float(tilt[i])), math.degrees(cfg.tilt_limit))
+        raise LimitError(f'{stations.label(i)}: the station plane tilts {shown} deg in gpr_base, beyond the tilt limit '
+                         f'{limit} deg by {np.degrees(over[i]):.3g} deg ({over[i]:.3g} rad){hint}' + _more(tilted))
     if tilted.any():  # check=False: solved level instead, marked infeasible (the caller names them)
         n_b = np.where(tilted[:, None], np.array([0.0, 0.0, 1.0]), n_b)
         tilt, az = np.where(tilted, 0.0, tilt), np.where(tilted, 0.0, az)

@@ -19,7 +19,7 @@ from typing import NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, ForwardResult
+from ..core import STROKE_SLACK, ForwardBatch, ForwardResult
 from ..core.floats import (
     FloatPose,
     Mat3,
@@ -33,7 +33,7 @@ from ..core.floats import (
     tilt_matrix,
 )
 from ..core.forward import one_result, solve_parts
-from ..core.inverse import inverse_parts
+from ..core.inverse import inverse_parts, tilt_target_slack
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
 from ..core.platform_pose import rigid_fit
@@ -173,7 +173,7 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
-    if tilt - cfg.tilt_limit > TILT_LIMIT_SLACK:
+    if tilt - cfg.tilt_limit > tilt_target_slack(cfg):
         return None
     zw = arm.wafer_height
     try:
