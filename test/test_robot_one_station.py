@@ -227,3 +227,54 @@ def test_a_branch_that_is_neither_left_nor_right_is_refused_for_any_number_of_st
     for stations in (st, st.take([0]), st.take([])):
         with pytest.raises(InputError, match="branch = 'up' is invalid; allowed: left or right"):
             solve_stations(ROBOT, stations, 'arm1', branch='up')
+
+
+
+@pytest.mark.parametrize('distance', [1.1e-14, 1e-12, 1e-10, 1e-8, 1e-7])
+def test_one_station_near_the_stretch_equals_the_batch(distance):
+    """Within 0.1 um of full stretch the elbow moves as the square root of the distance: the paths' targets an ulp
+    apart gave joints up to 2e-9 rad apart; there the batch answers (``STRETCH_MARGIN``), the same bits. Stations of
+    arm1 stretched (elbow 0), the wafer moved ``distance`` towards the shoulder along the first link."""
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    rng = np.random.default_rng(5)
+    a = ROBOT.arm('arm1')
+    for _ in range(8):
+        rods = 0.25 + rng.uniform(-0.002, 0.002, 3)
+        joints = [rng.uniform(-2.5, 2.5), 0.0, rng.uniform(-2.0, 2.0)]
+        fk = robot_forward(ROBOT, [rods], [joints], 'arm1', check_limits=False)
+        th = a.mount_yaw + joints[0] + a.joints[0].zero_offset
+        u = fk.platform.rotation[0] @ np.array([math.cos(th), math.sin(th), 0.0])
+        st = stations_from_poses((fk.wafer.position[0] - distance * u)[None], fk.wafer.rotation)
+        one = solve_stations(ROBOT, st, 'arm1', 'left')
+        batch = solve_stations(ROBOT, st.take([0, 0]), 'arm1', 'left')
+        np.testing.assert_array_equal(one.joints[0], batch.joints[0])
+        np.testing.assert_array_equal(one.rods[0], batch.rods[0])
+
+
+def test_a_joint_at_its_limits_slack_is_decided_by_the_batch_alone_or_not():
+    """arm2_elbow 1e-12 rad beyond its upper limit: the float path accepted (2.9000000000009996), a batch refused
+    (2.9000000000010004); within EDGE_MARGIN of a threshold the batch decides, so both refuse, naming the value
+    apart from the limit."""
+    st = Stations.of([[0.8474779812968567, 0.747119952604119, 0.5543797425305929]], tilt=0.01765745657897933,
+                     azimuth=1.8128326828767127, heading=1.2285782404307057)
+    for stations in (st, st.take([0, 0])):
+        with pytest.raises(LimitError, match=r'arm2_elbow = 2\.900000000001 rad is beyond its upper limit 2\.9 rad '
+                                             r'by 1\.00\de-12 rad'):
+            solve_stations(ROBOT, stations, 'arm2', 'right')
+
+
+def test_a_joint_at_the_wrap_of_a_range_wider_than_a_turn_is_the_batchs():
+    """arm2_hand over [-3.3, 3.4] at its middle + pi: the representatives -3.09 and 3.19 tie, and the paths, an ulp
+    apart, took one each (a plan and a service answer a turn apart); the batch answers there."""
+    data = robot_data()
+    hand = data['arms'][1]['joints'][3]
+    hand['lower'], hand['upper'] = -3.3, 3.4
+    for joint in (data['arms'][1]['joints'][0], data['arms'][0]['joints'][0]):
+        joint['lower'], joint['upper'] = -4.0, 4.0
+    robot = make_robot(data)
+    st = Stations.of([[0.9457617532682188, 0.26606476455375216, 0.5520033587601001]], tilt=0.02398426464337887,
+                     azimuth=-0.09786485520873778, heading=1.217077506513178)
+    one = solve_stations(robot, st, 'arm2', 'left')
+    batch = solve_stations(robot, st.take([0, 0]), 'arm2', 'left')
+    np.testing.assert_array_equal(one.joints[0], batch.joints[0])

@@ -32,7 +32,7 @@ from ..core.floats import FloatPose, Mat3, Vec3, compose_one, mat_vec, rot_z, ti
 from ..core.ops import SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
 from ..core.single import one_pose
-from ..errors import InputError, LimitError
+from ..errors import InputError, LimitError, apart
 from ..inputs.validation import bounded, rows_of
 from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
@@ -51,7 +51,8 @@ def check_joint_limits(arm: Arm, J: Array) -> None:
         j = arm.joints[k]
         side, limit = ('lower', j.lower) if J[i, k] < lower[k] else ('upper', j.upper)
         where = f' (sample {i})' if J.shape[0] > 1 else ''
-        raise LimitError(f'{j.name} = {J[i, k]:.9g} rad{where} is beyond its {side} limit {limit:.9g} rad by '
+        shown, end = apart(float(J[i, k]), limit, 9)
+        raise LimitError(f'{j.name} = {shown} rad{where} is beyond its {side} limit {end} rad by '
                          f'{abs(J[i, k] - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad')
 
 

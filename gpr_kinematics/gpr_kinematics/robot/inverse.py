@@ -374,7 +374,8 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
         side, limit = ('upper', j.upper) if value > j.upper else ('lower', j.lower)
         fits = bool(other.reachable[0] and np.max(other.violation[0]) <= 0.0)
         hint = '; the other branch stays within the limits' if fits else ''
-        return (f'{j.name} = {value:.6g} rad is beyond its {side} limit {limit:.6g} rad by {abs(value - limit):.4g} '
+        shown, end = apart(float(value), limit)
+        return (f'{j.name} = {shown} rad is beyond its {side} limit {end} rad by {abs(value - limit):.4g} '
                 f'rad (branch {result.branch[i]}{hint})')
     yaw = a.mount_yaw
     return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '

@@ -7,9 +7,12 @@ docstring of :mod:`gpr_kinematics.robot.inverse`) on floats: the station in ``gp
 kinematics (:func:`gpr_kinematics.core.inverse.inverse_parts`, Bratovanov & Sotirov §IV-V) and the height through the
 wafer point, the arm in closed form (:func:`~gpr_kinematics.robot.planar_arm.solve_arm_one`), the forward kinematics
 of the answer, and the naive model's joints with the wafer error they make. It returns ``None`` where a station is
-refused or fails a limit (the caller then takes the batch path, which names why), so the messages have one source.
-Results equal the batch's to rounding (numpy's and the C library's ``sin``, ``cos``, ``atan2`` differ by an ulp at
-most; the tests compare them to 1e-12 over random stations). SI units.
+refused or fails a limit (the caller then takes the batch path, which names why), so the messages have one source,
+and where a decision lies within :data:`EDGE_MARGIN` of its threshold or an arm within :data:`STRETCH_MARGIN` of its
+stretch or fold: there the batch answers, so the two paths never decide differently (an ulp had flipped a joint
+limit's refusal at its slack) nor answer joints a turn or 2e-9 rad apart. Results equal the batch's to rounding
+(numpy's and the C library's ``sin``, ``cos``, ``atan2`` differ by an ulp at most; the tests compare them to 1e-12
+over random stations). SI units.
 """
 from __future__ import annotations
 
@@ -40,7 +43,7 @@ from ..core.platform_pose import rigid_fit
 from ..core.rotations import tilt_of_normal
 from ..core.single import OnePose, one_pose
 from ..errors import ConvergenceError, LimitError
-from .arm_chain import link_vectors
+from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, link_vectors
 from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
 from .nearest import nearest_value
@@ -54,6 +57,13 @@ NORMAL_TOLERANCE = 1e-12
 PLANE_ITERATIONS = 8
 #: A 2-joint arm's heading must match a requested one to this [rad].
 HEADING_TOLERANCE = 1e-9
+#: Within this of a decision's threshold [m or rad] (a rod's stroke, the station's tilt, a joint's limit or the wrap
+#: of its representative, a 2-joint arm's heading tolerance), the batch decides and answers: the two paths round
+#: differently, and an ulp there flipped a refusal, or a joint's representative by a turn.
+EDGE_MARGIN = 2e-13
+#: Within this of an arm's full stretch or fold [m], the batch answers: the elbow moves as the square root of the
+#: distance there, and the paths' ulp apart targets put the joints up to 2e-9 rad apart (6e-13 rad at 1e-7 m).
+STRETCH_MARGIN = 1e-6
 
 
 class OneStation(NamedTuple):
@@ -121,6 +131,30 @@ def _held_values(arm: Arm, targets: list[tuple[float, float, float]], sign: floa
     return [float(v) for v in held.tolist()]
 
 
+def _near_stretch(sol: OneArm) -> bool:
+    """The (sub-)chain within :data:`STRETCH_MARGIN` of its full stretch or fold, but not within half the snap
+    (:data:`~.arm_chain.STRETCH_SNAP`), where both paths snap to it (a ``nearest`` answer at its run's edge)."""
+    d = min(abs(sol.reach - sol.reach_max), abs(sol.reach - sol.reach_min))
+    return 0.5 * STRETCH_SNAP < d < STRETCH_MARGIN
+
+
+def _near_edge(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
+    """A decision of :func:`_faulty` within :data:`EDGE_MARGIN` of its threshold, or the arm near its stretch or
+    fold (:func:`_near_stretch`): the batch's to take (module docstring)."""
+    cfg = kernel.config
+    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+    if min(min(abs(v - lo), abs(v - hi)) for v in q) < EDGE_MARGIN or _near_stretch(sol):
+        return True
+    for t, joint in zip(sol.theta, arm.joints, strict=True):
+        mid = 0.5 * (joint.lower + joint.upper)
+        if min(abs(t - joint.lower + LIMIT_SLACK), abs(t - joint.upper - LIMIT_SLACK),
+               abs(abs(t - mid) - math.pi)) < EDGE_MARGIN:
+            return True
+    if len(arm.joints) != 2 or free:
+        return False
+    return abs(abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) - HEADING_TOLERANCE) < EDGE_MARGIN
+
+
 def _faulty(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
     """The batch's fault mask for one station: a rod outside the stroke, out of reach, a joint beyond its limits,
     a 2-joint arm's heading that misses the station's."""
@@ -173,7 +207,7 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
-    if tilt - cfg.tilt_limit > tilt_target_slack(cfg):
+    if tilt - cfg.tilt_limit > tilt_target_slack(cfg) - EDGE_MARGIN:
         return None
     zw = arm.wafer_height
     try:
@@ -190,10 +224,12 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
     held, naive_held = _held_values(arm, [target, naive_target], sign, value)
     sol = solve_arm_one(arm, *target, sign, held)
-    if _faulty(kernel, arm, q, sol, target[2], free):
+    if _faulty(kernel, arm, q, sol, target[2], free) or _near_edge(kernel, arm, q, sol, target[2], free):
         return None
     platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
     naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
+    if _near_stretch(naive_sol):
+        return None
     s = math.sin(tilt)
     normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
     q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))
