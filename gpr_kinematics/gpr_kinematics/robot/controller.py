@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from ..core import TILT_LIMIT_SLACK, forward_batch
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
-from ..errors import GprError, InputError, brief
+from ..errors import GprError, InputError, apart, brief
 from .description import RobotDescription
 from .grid import grid_times
 from .timing import MAX_SAMPLES
@@ -287,8 +287,9 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
         v, u = float(values[i, k]), joints.units[j]
         side, limit = ('lower', float(joints.lower[j])) if v < joints.lower[j] else ('upper', float(joints.upper[j]))
         # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
-        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {v:.12g} {u} is '
-                        f'beyond its {side} limit {limit:.12g} {u} by {abs(v - limit):.3g} {u}; allowed: '
+        shown, end = apart(v, limit, 12)
+        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {shown} {u} is '
+                        f'beyond its {side} limit {end} {u} by {abs(v - limit):.3g} {u}; allowed: '
                         f'[{float(joints.lower[j]):.12g}, {float(joints.upper[j]):.12g}] {u}')
 
 

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.forward import STROKE_SLACK, check_stroke, millimetres_within
 from ..core.ops import ARRAY
-from ..errors import ConfigError, InputError, brief
+from ..errors import ConfigError, InputError, apart, brief
 from ..inputs.files import read_text
 from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
@@ -215,7 +215,8 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
         if table.columns[j.name][2] == 'rad' and j.lower <= math.radians(value) <= j.upper:
             hint = (f'; in degrees it would be within: give the column its unit, "{j.name} [deg]", or a '
                     '"# units: deg" line before the header')
-        raise ConfigError(f'{where}: {j.name} = {value:.9g} rad is beyond its {side} limit {limit:.9g} rad by '
+        shown, end = apart(value, limit, 9)
+        raise ConfigError(f'{where}: {j.name} = {shown} rad is beyond its {side} limit {end} rad by '
                           f'{abs(value - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad{hint}')
 
 
