@@ -102,7 +102,7 @@ def test_a_closure_tolerance_below_the_side_lengths_rounding_is_refused():
     assert GprConfig().replace(tolerance=1e-16).tolerance == 1e-16
 
 
-def test_millimetres_are_divided_by_1000():
+def test_whole_millimetres_are_the_metres_typed():
     """``9 * 1e-3`` is 0.009000000000000001 (72 of the whole millimetres 0..508 were an ulp off the metres typed), and
     -1e-9 mm was refused where -1e-12 m passed; every whole millimetre now gives the typed metres' double."""
     mm = np.arange(509.0)

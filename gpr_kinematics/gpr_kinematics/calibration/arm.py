@@ -156,8 +156,10 @@ def read_arm_measurements(path: str | Path, robot: RobotDescription) -> ArmMeasu
     if bad.size:
         i, k = bad[0]
         j = arm.joints[k]
+        hint = f' (degrees? declare "# units: deg" or write "{j.name} [deg]")' if table.scales[j.name.lower()] == 1.0 \
+            else ''
         raise InputError(f'{source} line {table.lines[i]}, column {j.name}: {J[i, k]:.9g} rad is outside its limits '
-                         f'[{j.lower:g}, {j.upper:g}] rad (degrees? declare "# units: deg")')
+                         f'[{j.lower:g}, {j.upper:g}] rad{hint}')
     n = J.shape[0]
     points = Measurements(source, np.column_stack([col['q1'], col['q2'], col['q3']]),
                           np.column_stack([col['x'], col['y'], col['z']]), None,

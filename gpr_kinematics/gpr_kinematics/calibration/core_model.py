@@ -206,8 +206,9 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
     outside = np.argwhere((meas.q < lo) | (meas.q > hi))
     if outside.size:
         i, k = outside[0]
+        hint = f' (millimetres? declare "# units: mm" or write "q{k + 1} [mm]")' if meas.units[0] == 'm' else ''
         raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
-                         f'[{lo:g}, {hi:g}] m (millimetres? declare "# units: mm")')
+                         f'[{lo:g}, {hi:g}] m{hint}')
     P = base_points(meas.q, config)
     n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     tilt = np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2])

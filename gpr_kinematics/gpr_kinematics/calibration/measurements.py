@@ -82,7 +82,8 @@ class Measurements:
         sigma_position, sigma_angle: per-row standard deviations ``(N,)`` [m], [rad], or ``None`` when the file
             has no such column.
         lines: line number of each row in the file (for messages).
-        units: the units the file declared, ``(length, angle)``.
+        units: the units the file gave, ``(length, angle)``: the rods' column's (its own or the file's) and the
+            file's angle unit.
         files: the file of each row where rows of several files are merged (:func:`~.arm.merge`: two files may
             both have a line 40); empty when every row is ``source``'s.
     """
@@ -285,8 +286,10 @@ class Table:
         bad = np.flatnonzero(~((v >= lo) & (v <= hi)))
         if bad.size:
             i = int(bad[0])
-            raise InputError(f'{source} line {self.lines[i]}, column {name}: {float(v[i] / self.scales[name])!r} is '
-                             f'outside [{lo:g}, {hi:g}] ({"m" if name == "sigma_position" else "rad"}, SI)')
+            si, given = ('m', 'mm') if name == 'sigma_position' else ('rad', 'deg')
+            converted = f' (converted from {given})' if self.scales[name] != 1.0 else ''
+            raise InputError(f'{source} line {self.lines[i]}, column {name}: {float(v[i]):.9g} {si}{converted} is '
+                             f'outside [{lo:g}, {hi:g}] {si}')
         return v
 
 
@@ -368,7 +371,8 @@ def parse_measurements(text: str, source: str = 'measurements', progress: StageP
     return Measurements(source=source, q=np.column_stack([col['q1'], col['q2'], col['q3']]),
                         position=np.column_stack([col['x'], col['y'], col['z']]), quaternion=quat,
                         sigma_position=table.sigma('sigma_position', source),
-                        sigma_angle=table.sigma('sigma_angle', source), lines=tuple(line_nos), units=table.units)
+                        sigma_angle=table.sigma('sigma_angle', source), lines=tuple(line_nos),
+                        units=('mm' if table.scales['q1'] == units.MM else 'm', table.units[1]))
 
 
 def repeated_rows(meas: Measurements, sigma_position: float, sigma_angle: float) -> list[tuple[int, int]]:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
+from ..errors import InputError
 from ..inputs.units import metres
 from .options import direction, number, rod_lengths, vec, whole
 from .output import emit_json, json_object
@@ -193,6 +194,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     def given(value: float | None, convert: Callable[[argparse.Namespace, float], float], default: float) -> float:
         # Defaults are SI already: --mm/--deg convert only what the user typed.
         return default if value is None else convert(args, value)
+
+    for option, value in (('--max-tilt', args.max_tilt), ('--tilt-step', args.tilt_step),
+                          ('--azimuth-step', args.azimuth_step)):   # named as typed, not as the radians they become
+        if value is not None and not value > 0.0:
+            raise InputError(f'{option} = {value:g} {"deg" if args.deg else "rad"}; allowed: a positive angle')
 
     s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
                           max_tilt=given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),

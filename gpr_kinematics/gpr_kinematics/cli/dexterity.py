@@ -3,6 +3,7 @@ al., Fig. 6). Poses as ``gpr mechanism`` (:data:`gpr_kinematics.cli.options.CONV
 from __future__ import annotations
 
 import argparse
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,10 +41,11 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
         raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite and of magnitude at most '
                          f'{MAX_COORDINATE:g}; got {brief(values[1:])}')
     idx = mech.pose_names.index(name) if name in mech.pose_names else -1
-    grid = np.linspace(lo, hi, n)
-    if idx >= 3 and args.deg:
-        return name, np.radians(grid)
-    return name, metres(grid, 0 <= idx < 3 and args.mm)
+    if idx >= 3 and args.deg:   # the ends in SI, then the grid: as the same grid typed in SI
+        lo, hi = math.radians(lo), math.radians(hi)
+    elif 0 <= idx < 3:
+        lo, hi = metres(lo, args.mm), metres(hi, args.mm)
+    return name, np.linspace(lo, hi, n)
 
 
 def _dexterity(args: argparse.Namespace) -> int:

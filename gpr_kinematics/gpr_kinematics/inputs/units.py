@@ -19,8 +19,8 @@ line and the column.
 ('mm', 'deg')
 >>> scale('length', None, ('mm', None), 'line 2', 'x')
 (0.001, 'mm')
->>> to_si(9.0, 0.001), 9.0 * 0.001   # millimetres divided by 1000: the double nearest 0.009 m
-(0.009, 0.009000000000000001)
+>>> to_si(9.0, 0.001), 9.0 * 0.001, to_si(437.1, 0.001), 437.1 / 1000   # the metres typed for the same decimal
+(0.009, 0.009000000000000001, 0.4371, 0.43710000000000004)
 """
 from __future__ import annotations
 
@@ -54,17 +54,31 @@ _CELL = re.compile(r'^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[\s*([A-Za-z]*)\s*\])?\s
 FileUnits = tuple[str | None, str | None]
 
 
+def _milli(value: float) -> float:
+    """``value`` [mm] in metres: the number its shortest decimal text (``repr``, the text typed) names, its exponent
+    less 3, so ``437.1`` mm is the double nearest 0.4371 m, as ``0.4371`` typed is (``437.1 / 1000`` is
+    0.43710000000000004: a quarter of the one-decimal millimetres, and 9 * 1e-3 is 0.009000000000000001)."""
+    if not math.isfinite(value):
+        return value / MM_PER_M
+    mantissa, _, exponent = repr(float(value)).partition('e')
+    return float(f'{mantissa}e{int(exponent or 0) - 3}')
+
+
 def to_si(value: Quantity, factor: float) -> Quantity:
     """``value`` in the unit whose factor to SI is ``factor`` (of :data:`LENGTH_UNITS` or :data:`ANGLE_UNITS`), in SI:
-    millimetres divided by :data:`MM_PER_M`, which rounds correctly (``9 * 1e-3`` is 0.009000000000000001 m, 72 of
-    the whole millimetres to 508 were an ulp off the metres typed), the others multiplied (degrees as
-    :func:`math.radians` does)."""
-    return value / MM_PER_M if factor == MM else value * factor
+    millimetres as :func:`metres`, the others multiplied (degrees as :func:`math.radians` does)."""
+    return metres(value, True) if factor == MM else value * factor
 
 
 def metres(value: Quantity, mm: bool) -> Quantity:
-    """A length typed in millimetres (``mm``, the option ``--mm``) or metres, in metres (:func:`to_si`)."""
-    return value / MM_PER_M if mm else value
+    """A length typed in millimetres (``mm``, the option ``--mm``) or metres, in metres: the metres a person would
+    have typed for the same decimal (:func:`_milli`; one or an array)."""
+    if not mm:
+        return value
+    if isinstance(value, np.ndarray):
+        flat = [_milli(v) for v in value.ravel().tolist()]
+        return np.array(flat, dtype=np.float64).reshape(value.shape)
+    return _milli(float(value))
 
 
 def is_units_line(line: str) -> bool:

@@ -89,9 +89,21 @@ class Cell:
 
 def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, scale: float = 1.0) -> float:
     if not is_number(value) or not lo <= to_si(float(value), scale) <= hi:
+        si = 'm' if unit in ('m', 'mm') else 'rad' if unit in ('rad', 'deg') else unit
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit}, '
-                          f'{lo:g} to {hi:g} {"m" if unit in ("m", "mm") else unit} after conversion')
+                          f'{lo:g} to {hi:g} {si} after conversion')
     return to_si(float(value), scale)
+
+
+def _default(raw: Mapping[str, Any], key: str, si: float, where: str, lo: float, hi: float, unit: str,
+             scale: float) -> float:
+    """``raw[key]`` as :func:`_number`, or the default ``si`` [m] itself where the key is absent (the default in the
+    file's unit and back moved a chamber's walls by an ulp: 2.8e-17 m in millimetres, 0 in metres)."""
+    if key in raw:
+        return _number(raw[key], where, key, lo, hi, unit, scale)
+    if not lo <= si <= hi:
+        raise ConfigError(f'{where}: {key} (default {si:g} m) is invalid; allowed: {lo:g} to {hi:g} m: give {key}')
+    return si
 
 
 def _vector(value: Any, where: str, key: str, n: int, lo: float, hi: float, unit: str, scale: float
@@ -124,14 +136,14 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
     check_keys(raw, ('size', 'wall', 'slit', 'slit_z', 'front'), f'{where}: chamber')
     w = f'{where}: chamber'
     dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, _LEAST, _SIZE, lunit, length)
-    wall = _number(raw.get('wall', 0.02 / length), w, 'wall', 1e-4, min(dx, dy, dz) / 2, lunit, length)
-    sw, sh = _vector(raw.get('slit', [0.34 / length, 0.04 / length]), w, 'slit', 2, 1e-3, _SIZE, lunit, length)
+    wall = _default(raw, 'wall', 0.02, w, 1e-4, min(dx, dy, dz) / 2, lunit, length)
+    sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, 1e-3, _SIZE, lunit, length)
     if sw >= dy - 2 * wall or sh >= dz - 2 * wall:
         raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '
                           f'chamber inside its walls, {(dy - 2 * wall) / length:.6g} x {(dz - 2 * wall) / length:.6g} '
                           f'{lunit}')
-    front = _number(raw.get('front', dx / 2 / length), w, 'front', wall, dx - wall, lunit, length)
-    sz = _number(raw.get('slit_z', 0.0), w, 'slit_z', -dz / 2 + wall + sh / 2, dz / 2 - wall - sh / 2, lunit, length)
+    front = _default(raw, 'front', dx / 2, w, wall, dx - wall, lunit, length)
+    sz = _default(raw, 'slit_z', 0.0, w, -dz / 2 + wall + sh / 2, dz / 2 - wall - sh / 2, lunit, length)
     cx, cz = dx / 2 - front, 0.0   # the box centre in the station frame (x into the chamber)
     fx = -front + wall / 2
     lo, hi = sz - sh / 2, sz + sh / 2
