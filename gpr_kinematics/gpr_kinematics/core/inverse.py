@@ -220,8 +220,9 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         err_n = ops.fabs(n_now[0] - n_target[0])
         for i in (1, 2):
             err_n = ops.maximum(err_n, ops.fabs(n_now[i] - n_target[i]))
-        err = ops.maximum(ops.fabs(h_now - h), err_n)
-        active = ops.not_((ops.fabs(h_now - h) <= tol_h) & (err_n <= tol_n))
+        err_h = ops.fabs(h_now - h)
+        err = ops.maximum(err_h, err_n)
+        active = ops.not_((err_h <= tol_h) & (err_n <= tol_n))
         if not ops.any(active):
             break
         if step == config.max_iterations:
@@ -340,10 +341,10 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         fr = cast('tuple[float, ...]', frame)
         r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
         h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
-        err_n = max(max(abs(r02 - n0), abs(r12 - n1)), abs(r22 - n2))
-        if abs(h_now - h) <= tol_h and err_n <= tol_n:
+        err_h, err_n = abs(h_now - h), max(max(abs(r02 - n0), abs(r12 - n1)), abs(r22 - n2))
+        if err_h <= tol_h and err_n <= tol_n:
             break
-        err = max(abs(h_now - h), err_n)
+        err = max(err_h, err_n)
         if iterations == most:
             raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))

@@ -138,17 +138,32 @@ def _near_stretch(sol: OneArm) -> bool:
     return 0.5 * STRETCH_SNAP < d < STRETCH_MARGIN
 
 
+#: Per arm (by identity, the arm kept): each joint's thresholds, ``(lower - slack, upper + slack, middle)`` [rad].
+_JOINT_EDGES: dict[int, tuple[Arm, list[tuple[float, float, float]]]] = {}
+
+
+def _joint_edges(arm: Arm) -> list[tuple[float, float, float]]:
+    hit = _JOINT_EDGES.get(id(arm))
+    if hit is None or hit[0] is not arm:
+        if len(_JOINT_EDGES) > 64:   # arms made per fit (calibration): not kept
+            _JOINT_EDGES.clear()
+        hit = _JOINT_EDGES[id(arm)] = (arm, [(j.lower - LIMIT_SLACK, j.upper + LIMIT_SLACK, 0.5 * (j.lower + j.upper))
+                                             for j in arm.joints])
+    return hit[1]
+
+
 def _near_edge(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
     """A decision of :func:`_faulty` within :data:`EDGE_MARGIN` of its threshold, or the arm near its stretch or
     fold (:func:`_near_stretch`): the batch's to take (module docstring)."""
     cfg = kernel.config
     lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
-    if min(min(abs(v - lo), abs(v - hi)) for v in q) < EDGE_MARGIN or _near_stretch(sol):
+    for v in q:
+        if abs(v - lo) < EDGE_MARGIN or abs(v - hi) < EDGE_MARGIN:
+            return True
+    if _near_stretch(sol):
         return True
-    for t, joint in zip(sol.theta, arm.joints, strict=True):
-        mid = 0.5 * (joint.lower + joint.upper)
-        if min(abs(t - joint.lower + LIMIT_SLACK), abs(t - joint.upper - LIMIT_SLACK),
-               abs(abs(t - mid) - math.pi)) < EDGE_MARGIN:
+    for t, (low, high, mid) in zip(sol.theta, _joint_edges(arm), strict=True):
+        if abs(t - low) < EDGE_MARGIN or abs(t - high) < EDGE_MARGIN or abs(abs(t - mid) - math.pi) < EDGE_MARGIN:
             return True
     if len(arm.joints) != 2 or free:
         return False
