@@ -122,7 +122,13 @@ def test_the_command_line_reads_millimetres_exactly(capsys):
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--azimuth', '6.2831853082'],
      '--azimuth = 6.283185308 rad is outside [-2pi, 2pi] rad (2pi = 6.283185307)'),
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--azimuth', '-400', '--deg'],
-     '--azimuth = -400 deg is outside [-360, 360] deg')])
+     '--azimuth = -400 deg is outside [-360, 360] deg'),
+    (['mobility', '0.3', '0.3', '0.3', '--dq', '0.2080000000001', '0', '0'],
+     'q1 + dq1 = 0.5080000000001 m is outside the stroke [0, 0.508] m'),
+    (['ik', '--height', '0.25', '--tilt', '2.00000006', '--azimuth', '0', '--deg'],
+     'tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit 0.034906585 rad (2 deg)'),
+    (['sweep', '--max-tilt', '2.00000006', '--deg'],
+     'max_tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit 0.034906585 rad (2 deg)')])
 def test_a_refusal_prints_the_value_apart_from_its_limit(capsys, argv, message):
     """"0.508 m is outside the stroke [0, 0.508] m" contradicted itself; the value takes the digits that tell it
     from the limit it passed (:func:`~gpr_kinematics.errors.apart`)."""
@@ -159,3 +165,16 @@ def test_a_station_at_the_tilt_slack_is_refused_by_its_name_and_marked_in_a_batc
         with pytest.raises(LimitError, match=r'^station edge: the station plane tilts 2\.0000001 deg in gpr_base, '
                                              r'beyond the tilt limit 2 deg'):
             solve_stations(robot, st.take([0]), 'arm1')
+
+
+def test_a_target_at_the_tilt_limit_is_one_on_every_allowed_machine():
+    """A joint triangle of 0.1 mm on rods of 10 m (both allowed) made the target slack negative: 2 deg itself, and
+    the default sweep, were refused as beyond 2 deg. The slack is never below 0 (``tilt_target_slack``)."""
+    from gpr_kinematics.core.inverse import tilt_target_slack
+    from gpr_kinematics.core.sweep import paper_sweep
+    cfg = GprConfig().replace(radius=1e-4, stroke_max=10.0)
+    assert 0.0 < tilt_target_slack(cfg) < TILT_LIMIT_SLACK
+    for az in np.linspace(-math.pi, math.pi, 13):
+        ik = inverse(5.0, cfg.tilt_limit, az, cfg)
+        forward(ik.q, cfg)
+    assert len(paper_sweep(height=5.0, config=cfg)) == 756

@@ -35,7 +35,7 @@ import yaml
 from numpy.typing import NDArray
 
 from ..core import forward_batch
-from ..errors import InputError
+from ..errors import InputError, apart
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import LENGTH_BOUND, Arm, RobotDescription
 from ..robot.fields import LEAST
@@ -158,8 +158,11 @@ def read_arm_measurements(path: str | Path, robot: RobotDescription) -> ArmMeasu
         j = arm.joints[k]
         hint = f' (degrees? declare "# units: deg" or write "{j.name} [deg]")' if table.scales[j.name.lower()] == 1.0 \
             else ''
-        raise InputError(f'{source} line {table.lines[i]}, column {j.name}: {J[i, k]:.9g} rad is outside its limits '
-                         f'[{j.lower:g}, {j.upper:g}] rad{hint}')
+        low = J[i, k] < lo[k]
+        shown, end = apart(float(J[i, k]), j.lower if low else j.upper, 9)
+        ends = f'[{end}, {j.upper:g}]' if low else f'[{j.lower:g}, {end}]'
+        raise InputError(f'{source} line {table.lines[i]}, column {j.name}: {shown} rad is outside its limits {ends} '
+                         f'rad{hint}')
     n = J.shape[0]
     points = Measurements(source, np.column_stack([col['q1'], col['q2'], col['q3']]),
                           np.column_stack([col['x'], col['y'], col['z']]), None,

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
+from ..core.forward import stroke_words
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
 from ..errors import InputError, brief
 from .files import comment_lines, write_text
@@ -207,8 +208,8 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
     if outside.size:
         i, k = outside[0]
         hint = f' (millimetres? declare "# units: mm" or write "q{k + 1} [mm]")' if meas.units[0] == 'm' else ''
-        raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {meas.q[i, k]:.9g} m is outside the stroke '
-                         f'[{lo:g}, {hi:g}] m{hint}')
+        shown, ends = stroke_words(float(meas.q[i, k]), lo, hi)
+        raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {shown} m is outside the stroke {ends} m{hint}')
     P = base_points(meas.q, config)
     n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     tilt = np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2])

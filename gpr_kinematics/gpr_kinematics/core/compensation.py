@@ -38,11 +38,12 @@ from typing import NamedTuple, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import LimitError, apart
+from ..errors import LimitError
 from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
 from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
+from .forward import beyond_tilt
 from .inverse import TOOL_REACH, check_tool_point, tilt_target_slack
 from .ops import SCALAR
 from .rotations import RigidTransform, tilt_of_normal
@@ -161,10 +162,7 @@ def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str
     M = mat_tmul(tilt_matrix(tilt, az), R_c)
     twist = math.atan2(M[1][0], M[0][0])
     if tilt - cfg.tilt_limit > tilt_target_slack(cfg):   # inverse kinematics' rule: 2 deg at 45 deg is a few ulps over
-        (shown, limit), (deg, deg_limit) = apart(tilt, cfg.tilt_limit, 9), apart(math.degrees(tilt),
-                                                                               math.degrees(cfg.tilt_limit))
-        raise LimitError(f'commanded tilt {shown} rad ({deg} deg) is beyond the tilt limit {limit} rad ({deg_limit} '
-                         'deg)')
+        raise LimitError(f'commanded tilt {beyond_tilt(tilt, cfg.tilt_limit)}')
     a = mat_vec(R_c, tool)
     commanded = (p_c[0] + a[0], p_c[1] + a[1], p_c[2] + a[2])
     c, sn = math.cos(twist), math.sin(twist)

@@ -194,10 +194,23 @@ def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q
     hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if typed and millimetres_within(
         value, config) else ''
     more = '' if detail is None else detail(int(i))
-    low = value < config.stroke_min
-    shown, end = apart(value, config.stroke_min if low else config.stroke_max, 9)
-    ends = (end, f'{config.stroke_max:g}') if low else (f'{config.stroke_min:g}', end)
-    raise LimitError(f'{what}{k + 1} = {shown} m{where} is outside the stroke [{ends[0]}, {ends[1]}] m{hint}{more}')
+    shown, ends = stroke_words(value, config.stroke_min, config.stroke_max)
+    raise LimitError(f'{what}{k + 1} = {shown} m{where} is outside the stroke {ends} m{hint}{more}')
+
+
+def stroke_words(value: float, lo: float, hi: float) -> tuple[str, str]:
+    """A rod length outside the stroke ``[lo, hi]`` [m] and the stroke, as a refusal prints them: the value and the
+    end it passed told apart (:func:`~gpr_kinematics.errors.apart`; "0.508 m is outside [0, 0.508] m" had
+    contradicted itself)."""
+    low = value < lo
+    shown, end = apart(value, lo if low else hi, 9)
+    return shown, f'[{end}, {hi:g}]' if low else f'[{lo:g}, {end}]'
+
+
+def beyond_tilt(tilt: float, limit: float) -> str:
+    """``'<tilt> rad (<deg> deg) is beyond the tilt limit <limit> rad (<deg> deg)'``, told apart in both units."""
+    (shown, end), (deg, deg_end) = apart(tilt, limit, 9), apart(math.degrees(tilt), math.degrees(limit))
+    return f'{shown} rad ({deg} deg) is beyond the tilt limit {end} rad ({deg_end} deg)'
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:

@@ -37,6 +37,7 @@ from .forward import (
     ForwardResult,
     Result,
     assemble,
+    beyond_tilt,
     check_stroke,
     check_tilt,
     one_result,
@@ -58,6 +59,8 @@ IK_TOLERANCE = 1e-14
 #: The rounding of a pose in ulps of the longest rod length: for the height, and per radius for the normal.
 HEIGHT_ROUNDING_ULPS = 16
 NORMAL_ROUNDING_ULPS = 8
+#: Normal tolerances a target's tilt keeps below forward kinematics' slack (:func:`tilt_target_slack`).
+TARGET_TOLERANCES = 4.0
 #: Largest distance of the tool point from the platform origin [m]. No tool of a GPR is that long, and the
 #: height of a point much farther away carries rounding errors of the order of :data:`IK_TOLERANCE` (at 300 m
 #: Newton's method can no longer meet it).
@@ -93,13 +96,15 @@ class InverseBatch:
 
 
 def tilt_target_slack(config: GprConfig) -> float:
-    """How far beyond ``tilt_limit`` a target's tilt may lie [rad]: :data:`TILT_LIMIT_SLACK` less ten times the normal
-    tolerance the Newton loop stops at (:func:`ik_tolerances`), so that the rods answered tilt the platform within
-    the slack forward kinematics allows (a target at the slack's edge was met a few ulps beyond it). The rule of
-    every target: inverse kinematics, compensation, station inverse kinematics, sweeps, the GPR mechanism's poses."""
+    """How far beyond ``tilt_limit`` a target's tilt may lie [rad]: :data:`TILT_LIMIT_SLACK` less
+    :data:`TARGET_TOLERANCES` times the normal tolerance the Newton loop stops at (:func:`ik_tolerances`; an answer's
+    tilt is within sqrt(2) of them of its target), so that the rods answered tilt the platform within the slack
+    forward kinematics allows (a target at the slack's edge was met a few ulps beyond it); never below 0. The rule
+    of every target: inverse kinematics, compensation, station inverse kinematics, sweeps, the GPR mechanism."""
     cached: float | None = config.derived.get('tilt_target_slack')
-    if cached is None:
-        cached = config.derived['tilt_target_slack'] = TILT_LIMIT_SLACK - 10.0 * ik_tolerances(config)[1]
+    if cached is None:   # never below 0: a target at the limit is one (a 0.1 mm triangle on 10 m rods refused it)
+        slack = TILT_LIMIT_SLACK - TARGET_TOLERANCES * ik_tolerances(config)[1]
+        cached = config.derived['tilt_target_slack'] = max(0.0, slack)
     return cached
 
 
@@ -108,8 +113,7 @@ def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
         return
     a = np.atleast_1d(t)
     i = int(np.argmax(np.abs(a)))
-    raise LimitError(f'tilt = {a[i]:.9g} rad ({math.degrees(a[i]):.6g} deg) is beyond the tilt limit '
-                     f'{config.tilt_limit:.9g} rad ({math.degrees(config.tilt_limit):.6g} deg)')
+    raise LimitError(f'tilt = {beyond_tilt(float(a[i]), config.tilt_limit)}')
 
 
 def ik_tolerances(config: GprConfig) -> tuple[float, float]:

@@ -55,7 +55,7 @@ from ..errors import InputError, LimitError, brief
 from ..inputs.validation import bounded, finite_vector, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
-from .forward import forward_parts
+from .forward import forward_parts, stroke_words
 from .machine import MachineGeometry
 from .ops import SCALAR
 from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components
@@ -132,8 +132,9 @@ class MobilityResult:
         out = (moved < lo) | (moved > hi)
         if out.any():
             k = int(np.argmax(out))
-            raise LimitError(f'q{k + 1} + dq{k + 1} = {moved[k]:.9g} m is outside the stroke [{lo:g}, {hi:g}] m; '
-                             'allowed: a change that keeps the rods within it')
+            shown, ends = stroke_words(float(moved[k]), lo, hi)
+            raise LimitError(f'q{k + 1} + dq{k + 1} = {shown} m is outside the stroke {ends} m; allowed: a change that '
+                             'keeps the rods within it')
         if np.max(np.abs(dp)) > hi - lo:
             raise InputError(f'dP = {brief(dp.tolist())}: a change larger than the stroke range {hi - lo:g} m; '
                              'allowed: a change of the configuration of this machine')

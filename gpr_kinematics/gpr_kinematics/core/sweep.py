@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from ..errors import InputError, LimitError, brief
 from . import ForwardBatch, inverse_batch, resolve_config
 from .config import GprConfig
+from .forward import beyond_tilt
 from .inverse import tilt_target_slack
 
 Array = NDArray[np.float64]
@@ -172,8 +173,7 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
     if not (isinstance(height, (int, float)) and math.isfinite(height)):
         raise InputError(f'height = {height!r} must be a finite number of metres')
     if isinstance(max_tilt, (int, float)) and max_tilt - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting
-        raise LimitError(f'max_tilt = {max_tilt:.9g} rad ({math.degrees(max_tilt):.6g} deg) is beyond the tilt limit '
-                         f'{cfg.tilt_limit:.9g} rad ({math.degrees(cfg.tilt_limit):.6g} deg)')
+        raise LimitError(f'max_tilt = {beyond_tilt(float(max_tilt), cfg.tilt_limit)}')
     gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
     ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)
     return SweepResult(gamma=gamma, alpha=alpha, pass_index=pass_index, height=float(height), q=ik.q,

@@ -384,9 +384,9 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     tilted = fk.tilt - config.tilt_limit > TILT_LIMIT_SLACK   # forward kinematics' rule
     if tilted.any():
         i = int(np.argmax(tilted))
-        raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {fk.tilt[i]:.6g} rad '
-                        f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit '
-                        f'{config.tilt_limit:g} rad')
+        shown, limit = apart(float(fk.tilt[i]), config.tilt_limit)
+        raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {shown} rad '
+                        f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit {limit} rad')
     motion = Motion(t, positions, velocities, cols, tolerances, traj)
     if clearance is not None:
         refusal = clearance(motion)

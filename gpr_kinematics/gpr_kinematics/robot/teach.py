@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.forward import STROKE_SLACK, check_stroke, millimetres_within
+from ..core.forward import STROKE_SLACK, check_stroke, millimetres_within, stroke_words
 from ..core.ops import ARRAY
 from ..errors import ConfigError, InputError, apart, brief
 from ..inputs.files import read_text
@@ -196,8 +196,8 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
             if table.columns[rod][2] == 'm' and millimetres_within(float(rods[k]), cfg):  # as degrees below
                 hint = (f'; in millimetres it would be within: give the column its unit, "{rod} [mm]", or a '
                         '"# units: mm" line before the header')
-            raise ConfigError(f'{where}: {rod} = {rods[k]:.9g} m is outside the stroke [{cfg.stroke_min:g}, '
-                              f'{cfg.stroke_max:g}] m{hint}')
+            shown, ends = stroke_words(float(rods[k]), cfg.stroke_min, cfg.stroke_max)
+            raise ConfigError(f'{where}: {rod} = {shown} m is outside the stroke {ends} m{hint}')
     if not check_limits:   # the old joints of reteach: within a turn of their limits
         for k, j in enumerate(a.joints):
             why = _beyond_a_turn(a, joints[k], k)
