@@ -23,10 +23,9 @@ Refused, with the file, the line and the column named (:class:`~gpr_kinematics.e
 unknown or repeated column, a value that is not a finite number, a quaternion whose norm differs from 1 by more
 than :data:`~gpr_kinematics.inputs.validation.QUATERNION_NORM_TOLERANCE`, a value beyond :data:`MAX_VALUE`, a sigma
 outside :data:`SIGMA_RANGE`, an unknown or misplaced unit declaration, a row repeated exactly, a file without
-data rows, and files beyond the limits :data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS` (so
-memory stays bounded).
-Rows that repeat another's rods and measurement to within :data:`REPEAT_TOLERANCE` of the noise (a copy with
-rounding jitter) are refused by the identification, which knows the standard deviations (:func:`check_repeats`).
+data rows, and files beyond :data:`MAX_FILE_BYTES`, :data:`MAX_ROWS` and :data:`MAX_LINE_CHARS`. Rows that repeat
+another's rods and measurement to within :data:`REPEAT_TOLERANCE` of the noise (a copy with rounding jitter) are
+refused by the identification, which knows the standard deviations (:func:`check_repeats`).
 """
 from __future__ import annotations
 
@@ -82,8 +81,7 @@ class Measurements:
         sigma_position, sigma_angle: per-row standard deviations ``(N,)`` [m], [rad], or ``None`` when the file
             has no such column.
         lines: line number of each row in the file (for messages).
-        units: the units the file gave, ``(length, angle)``: the rods' column's (its own or the file's) and the
-            file's angle unit.
+        units: the units the file gave, ``(length, angle)``: the rods' column's and the file's angle unit.
         files: the file of each row where rows of several files are merged (:func:`~.arm.merge`: two files may
             both have a line 40); empty when every row is ``source``'s.
     """
@@ -269,8 +267,7 @@ class _Table:
 
 @dataclass(frozen=True)
 class Table:
-    """A CSV file of measurements as read (:func:`read_table`): its columns in SI by name, each column's factor
-    to SI, the line of each row and the declared units ``(length, angle)``."""
+    """A measurement file as read (:func:`read_table`): columns in SI, factors to SI, lines, declared units."""
 
     columns: dict[str, Array]
     scales: dict[str, float]
@@ -287,9 +284,9 @@ class Table:
         if bad.size:
             i = int(bad[0])
             si, given = ('m', 'mm') if name == 'sigma_position' else ('rad', 'deg')
-            converted = f' (converted from {given})' if self.scales[name] != 1.0 else ''
-            raise InputError(f'{source} line {self.lines[i]}, column {name}: {float(v[i]):.9g} {si}{converted} is '
-                             f'outside [{lo:g}, {hi:g}] {si}')
+            raise InputError(f'{source} line {self.lines[i]}, column {name}: {float(v[i]):.9g} {si}'
+                             f'{f" (converted from {given})" if self.scales[name] != 1.0 else ""} is outside '
+                             f'[{lo:g}, {hi:g}] {si}')
         return v
 
 
