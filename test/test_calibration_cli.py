@@ -531,11 +531,13 @@ def test_the_worked_calibration_of_a_cell(capsys, tmp_path, monkeypatch):
     assert np.all(np.abs(values[0] - cell.TRACKER[:3]) < 3.5 * values[1] * 1e-6)
     assert np.all(np.abs(values[2] - cell.TRACKER[3:]) < 3.5 * values[3] * 1e-6 + 1e-9)
     assert 'gate: passed' in outs[1] and 'gate: passed' in outs[2] and Path('cell/robot.yaml').exists()
-    # what the section quotes of the output is the output (the estimates to their machine-dependent last digits)
+    # what the section quotes of the output is the output (the estimates to their machine-dependent last digits: the
+    # fit stops within SE_TOLERANCE, 1e-4 of a standard error, as the demonstration's test says; a loaded CI run of
+    # 2026-12-04 printed rod1_offset 1.4e-7 of its value (5e-6 of its standard error) from the doc's)
     blocks = _console_blocks(section)
     assert len(blocks) == 3 and all(len(b) >= 5 for b in blocks)
     for block, out in zip(blocks, outs, strict=True):
-        _assert_quoted_output([ln.replace('gpr_kinematics/config', config) for ln in block], out)
+        _assert_quoted_output([ln.replace('gpr_kinematics/config', config) for ln in block], out, rel=1e-5)
     status, out, err = run(capsys, 'robot', 'ik', '--position', '1300', '600', '450', '--tilt', '1.2', '--azimuth',
                            '30', '--heading', '20', '--mm', '--deg', '--robot', 'cell/robot.yaml', '--json')
     assert status == 0, err
