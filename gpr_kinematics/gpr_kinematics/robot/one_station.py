@@ -138,50 +138,23 @@ def _near_stretch(sol: OneArm) -> bool:
     return 0.5 * STRETCH_SNAP < d < STRETCH_MARGIN
 
 
-#: Per arm (by identity, the arm kept): each joint's thresholds, ``(lower - slack, upper + slack, middle)`` [rad].
-_JOINT_EDGES: dict[int, tuple[Arm, list[tuple[float, float, float]]]] = {}
-
-
-def _joint_edges(arm: Arm) -> list[tuple[float, float, float]]:
-    hit = _JOINT_EDGES.get(id(arm))
-    if hit is None or hit[0] is not arm:
-        if len(_JOINT_EDGES) > 64:   # arms made per fit (calibration): not kept
-            _JOINT_EDGES.clear()
-        hit = _JOINT_EDGES[id(arm)] = (arm, [(j.lower - LIMIT_SLACK, j.upper + LIMIT_SLACK, 0.5 * (j.lower + j.upper))
-                                             for j in arm.joints])
-    return hit[1]
-
-
-def _near_edge(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
-    """A decision of :func:`_faulty` within :data:`EDGE_MARGIN` of its threshold, or the arm near its stretch or
-    fold (:func:`_near_stretch`): the batch's to take (module docstring)."""
+def _batch_decides(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
+    """The batch's fault mask for one station (a rod outside the stroke, out of reach, a joint beyond its limits, a
+    2-joint arm's heading that misses the station's), each threshold moved :data:`EDGE_MARGIN` towards the inside,
+    and a joint at the wrap of its representative or the arm near its stretch or fold (:func:`_near_stretch`): a
+    station the batch answers (module docstring)."""
     cfg = kernel.config
-    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
-    for v in q:
-        if abs(v - lo) < EDGE_MARGIN or abs(v - hi) < EDGE_MARGIN:
-            return True
-    if _near_stretch(sol):
+    lo, hi = cfg.stroke_min - STROKE_SLACK + EDGE_MARGIN, cfg.stroke_max + STROKE_SLACK - EDGE_MARGIN
+    if not (lo < q[0] < hi and lo < q[1] < hi and lo < q[2] < hi) or not sol.reachable or _near_stretch(sol):
         return True
-    for t, (low, high, mid) in zip(sol.theta, _joint_edges(arm), strict=True):
-        if abs(t - low) < EDGE_MARGIN or abs(t - high) < EDGE_MARGIN or abs(abs(t - mid) - math.pi) < EDGE_MARGIN:
+    for t, joint in zip(sol.theta, arm.joints, strict=True):
+        mid = 0.5 * (joint.lower + joint.upper)
+        if not joint.lower - LIMIT_SLACK + EDGE_MARGIN < t < joint.upper + LIMIT_SLACK - EDGE_MARGIN or \
+                abs(abs(t - mid) - math.pi) < EDGE_MARGIN:
             return True
     if len(arm.joints) != 2 or free:
         return False
-    return abs(abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) - HEADING_TOLERANCE) < EDGE_MARGIN
-
-
-def _faulty(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
-    """The batch's fault mask for one station: a rod outside the stroke, out of reach, a joint beyond its limits,
-    a 2-joint arm's heading that misses the station's."""
-    cfg = kernel.config
-    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
-    if not (lo <= q[0] <= hi and lo <= q[1] <= hi and lo <= q[2] <= hi) or not sol.reachable:
-        return True
-    if max(sol.violation) > 0.0:
-        return True
-    if len(arm.joints) != 2 or free:
-        return False
-    return abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) > HEADING_TOLERANCE
+    return abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) > HEADING_TOLERANCE - EDGE_MARGIN
 
 
 class StationFloats(NamedTuple):
@@ -239,7 +212,7 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
     held, naive_held = _held_values(arm, [target, naive_target], sign, value)
     sol = solve_arm_one(arm, *target, sign, held)
-    if _faulty(kernel, arm, q, sol, target[2], free) or _near_edge(kernel, arm, q, sol, target[2], free):
+    if _batch_decides(kernel, arm, q, sol, target[2], free):
         return None
     platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
     naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
