@@ -53,12 +53,22 @@ def chain_forward(arm: Arm, theta: Array) -> tuple[Array, Array, Array]:
     return axes, wafer, Theta[:, n - 1] + beta
 
 
+def representative(theta: Array, mid: Array | float) -> Array:
+    """The representative ``theta + 2 pi k`` nearest ``mid`` [rad]: ``mid + ((theta - mid + pi) mod 2 pi) - pi``,
+    the ``mod`` taken only where its argument lies outside ``[0, 2 pi)``, where it is the identity (the same bits,
+    at a fraction of its cost)."""
+    u = theta - mid + math.pi
+    out = ~((u >= 0.0) & (u < 2.0 * math.pi))
+    if out.any():
+        u[out] = np.mod(u[out], 2.0 * math.pi)
+    return np.asarray(mid + u - math.pi, dtype=np.float64)
+
+
 def wrap_to_limits(theta: Array, lower: Array, upper: Array) -> tuple[Array, Array]:
     """The representative ``theta + 2 pi k`` nearest the middle of ``[lower, upper]`` and how far it lies beyond
     the range [rad] (0 inside). Joints of a planar arm are defined modulo ``2 pi``; a range wider than ``2 pi``
     always holds the representative."""
-    mid = 0.5 * (lower + upper)
-    t = mid + np.mod(theta - mid + math.pi, 2.0 * math.pi) - math.pi
+    t = representative(theta, 0.5 * (lower + upper))
     violation = np.maximum(np.maximum(lower - t, t - upper) - LIMIT_SLACK, 0.0)
     return t, violation
 

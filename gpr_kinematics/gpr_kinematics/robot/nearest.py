@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.rotations import rotate_z
-from .arm_chain import REACH_SLACK, fixed_one, floats2, solve_fixed, wrap_one, wrap_to_limits
+from .arm_chain import LIMIT_SLACK, REACH_SLACK, fixed_one, floats2, representative, solve_fixed, wrap_one
 from .description import Arm
 
 Array = NDArray[np.float64]
@@ -249,44 +249,59 @@ def _evaluate(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign:
         out = [_evaluate_one(arm, d, beta, p[i].tolist(), float(phi[i]), float(sign[i]), v, curvature)
                for i, v in zip(rows.tolist(), x.tolist(), strict=True)]
         return Evaluation(*(np.array(c, dtype=np.float64).reshape(-1) for c in zip(*out, strict=True)))
-    j, o = red.joint, arm.zero_offset
-    chain, tl = solve_fixed(d, beta, j, x + o[j], p[rows], phi[rows], sign[rows])
-    theta, violation = wrap_to_limits(chain - o, arm.lower, arm.upper)
-    span = arm.upper - arm.lower
-    scaled = (theta - np.asarray(red.reference)) / span
-    weights = np.asarray(red.weights)
-    cost = np.sum(weights * scaled * scaled, axis=-1)
-    bad = ~tl.reachable | (np.max(violation, axis=-1) > 0.0)
+    # Column by column: numpy's reductions over a short last axis and its (M, 4) temporaries cost more than the
+    # arithmetic (the same operations in the same order: the same bits).
+    j, joints = red.joint, arm.joints
+    chain, tl = solve_fixed(d, beta, j, x + joints[j].zero_offset, p[rows], phi[rows], sign[rows])
+    c = [chain[:, k] for k in range(4)]
+    bad = ~tl.reachable
+    g: list[Array] = []
+    cost: Array = np.zeros(x.size)
+    for k, joint in enumerate(joints):
+        lo, hi, ref, w = joint.lower, joint.upper, red.reference[k], red.weights[k]
+        theta = representative(c[k] - joint.zero_offset, 0.5 * (lo + hi))
+        bad |= (lo - theta - LIMIT_SLACK > 0.0) | (theta - hi - LIMIT_SLACK > 0.0)
+        scaled = (theta - ref) / (hi - lo)
+        cost = w * scaled * scaled if k == 0 else cost + w * scaled * scaled
+        g.append(2.0 * w * scaled / (hi - lo))
     # The joint axes a_2..a_4 (a_1 at the mount), then the rates n of the three other joints and their derivatives
     # n' (Cramer's rule: sum n_k = 0, sum n_k a_k = 0; sum n'_k = 0, sum n'_k a_k = -sum n_k a'_k, n_j = 1, n'_j = 0,
     # a'_k = sum_{i<k} n_i perp(a_k - a_i)).
-    Theta = np.cumsum(chain, axis=-1)
-    axes = [np.zeros((x.size, 2))]
+    zero = np.zeros(x.size)
+    ax, ay, turned = [zero], [zero], c[0]
     for k in range(3):
-        axes.append(axes[-1] + rotate_z(Theta[:, k], d[k]))
+        if k:
+            turned = turned + c[k]
+        cos, sin = np.cos(turned), np.sin(turned)
+        (dx, dy) = d[k].tolist()
+        ax.append(ax[-1] + (cos * dx - sin * dy))
+        ay.append(ay[-1] + (sin * dx + cos * dy))
     others = [k for k in range(4) if k != j]
-    tops: list[Array | float] = [1.0, 1.0, 1.0]
-    xs, ys = [axes[k][:, 0] for k in others], [axes[k][:, 1] for k in others]
-    rates = np.zeros((x.size, 4))
-    accel = np.zeros((x.size, 4))
+    xs, ys = [ax[k] for k in others], [ay[k] for k in others]
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        inv = 1.0 / _det3(tops, xs, ys)
-        rates[:, j] = 1.0
-        _solve_columns(rates, others, tops, xs, ys, (-1.0, -axes[j][:, 0], -axes[j][:, 1]), inv)
-        g = 2.0 * weights * scaled / span
-        slope = np.sum(g * rates, axis=-1)
+        inv = 1.0 / _det3([1.0, 1.0, 1.0], xs, ys)
+        rates: list[Array | float] = [1.0] * 4
+        for k, n in zip(others, _cramer(xs, ys, (-1.0, -ax[j], -ay[j]), inv), strict=True):
+            rates[k] = n
+        slope = g[0] * rates[0] + g[1] * rates[1] + g[2] * rates[2] + g[3] * rates[3]
         second = np.full(x.size, np.nan)
         if curvature:
-            vx, vy = np.zeros(x.size), np.zeros(x.size)
+            vx: Array | float = 0.0
+            vy: Array | float = 0.0
             for k in range(1, 4):  # sum_k n_k a'_k
-                ux, uy = np.zeros(x.size), np.zeros(x.size)
+                ux: Array | float = 0.0
+                uy: Array | float = 0.0
                 for i in range(k):
-                    ux -= rates[:, i] * (axes[k][:, 1] - axes[i][:, 1])
-                    uy += rates[:, i] * (axes[k][:, 0] - axes[i][:, 0])
-                vx += rates[:, k] * ux
-                vy += rates[:, k] * uy
-            _solve_columns(accel, others, tops, xs, ys, (0.0, -vx, -vy), inv)
-            second = np.sum(2.0 * weights * (rates / span) ** 2 + g * accel, axis=-1)
+                    ux = ux - rates[i] * (ay[k] - ay[i])
+                    uy = uy + rates[i] * (ax[k] - ax[i])
+                vx = vx + rates[k] * ux
+                vy = vy + rates[k] * uy
+            accel: list[Array | float] = [0.0] * 4
+            for k, n in zip(others, _cramer(xs, ys, (0.0, -np.asarray(vx), -np.asarray(vy)), inv), strict=True):
+                accel[k] = n
+            terms = [2.0 * w * (rates[k] / (jt.upper - jt.lower)) ** 2 + g[k] * accel[k]
+                     for k, (jt, w) in enumerate(zip(joints, red.weights, strict=True))]
+            second = np.asarray(terms[0] + terms[1] + terms[2] + terms[3], dtype=np.float64)
     return Evaluation(np.where(bad, np.inf, cost), slope, second)
 
 
@@ -348,13 +363,15 @@ def _det3_one(t: Sequence[float], x: Sequence[float], y: Sequence[float]) -> flo
             + t[2] * (x[0] * y[1] - x[1] * y[0]))
 
 
-def _solve_columns(out: Array, others: list[int], tops: list[Array | float], xs: list[Array], ys: list[Array],
-                   rhs: tuple[Array | float, Array, Array], inv: Array) -> None:
-    """Cramer's rule for the columns ``others`` of ``out``: column ``m`` of the matrix replaced by ``rhs``."""
-    for m, k in enumerate(others):
-        t, u, v = list(tops), list(xs), list(ys)
+def _cramer(xs: list[Array], ys: list[Array], rhs: tuple[float, Array, Array], inv: Array) -> list[Array]:
+    """Cramer's rule for the columns ``(1, x_m, y_m)``: the unknowns, column ``m`` replaced by ``rhs`` for each."""
+    out = []
+    for m in range(3):
+        t: list[Array | float] = [1.0, 1.0, 1.0]
+        u, v = list(xs), list(ys)
         t[m], u[m], v[m] = rhs
-        out[:, k] = _det3(t, u, v) * inv
+        out.append(_det3(t, u, v) * inv)
+    return out
 
 
 def _det3(t: list[Array | float], x: list[Array], y: list[Array]) -> Array:
