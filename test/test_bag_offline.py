@@ -139,6 +139,27 @@ def test_the_report_figures_name_their_bag_and_quantities_and_mark_r_and_the_lar
             plt.close(fig)
 
 
+def test_a_measured_machines_report_draws_no_r_line() -> None:
+    """l = R at a singular configuration holds for the drawing's machine only: a bag verified against a machine
+    whose rods stand at measured positions had its figures draw the drawing's R as if it held there."""
+    import dataclasses
+
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.bags.report import report_figures
+    from gpr_kinematics.core.config import GprConfig, nominal_points
+    result = verify_bag(REFERENCE)
+    cfg = GprConfig.from_mapping(result.config, source='test')
+    measured = [[x + 1e-4 * k, y] for k, (x, y) in enumerate(nominal_points(cfg))]
+    figures = dict(report_figures(dataclasses.replace(result, config={**result.config, 'rod_positions': measured})))
+    try:
+        for name in ('fig06_polar_linear_virtual_joints.png', 'radial_virtual_joints.png'):
+            labels = [str(ln.get_label()) for ln in figures[name].axes[0].lines]
+            assert [lab for lab in labels if not lab.startswith('_')] == ['l1', 'l2', 'l3'], (name, labels)
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+
+
 def test_mcap_reader_with_ros2_decoder_gives_the_same_messages() -> None:
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory

@@ -161,7 +161,9 @@ def report_figures(result: VerifyResult) -> list[tuple[str, Figure]]:
                                                   s.side_lengths * 1e3, list(EDGE_NAMES), 'L [mm]', cr))]
     finite = np.all(np.isfinite(s.q), axis=1)
     cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
-    radius = (cfg.radius * 1e3, f'R = {cfg.radius * 1e3:.3f} mm\n(l at a singular\nconfiguration)')
+    # R is l at a singular configuration of the drawing's machine only (a measured one's joints stand elsewhere)
+    radius = (cfg.radius * 1e3, f'R = {cfg.radius * 1e3:.3f} mm\n(l at a singular\nconfiguration)') \
+        if cfg.rod_positions is None and cfg.platform_joints is None else None
     for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
         if s.model == model and s.virtual_joints.shape[1] == 6:
             X, source = s.virtual_joints, 'recorded'

@@ -120,8 +120,10 @@ class KinematicsNode(GprNode):
         self.create_service(StationInverseKinematics, 'gpr/station_inverse_kinematics', self.on_station_inverse,
                             qos_profile=qos)
         cfg, robot = self.params.config, self.params.robot
+        measured = [w for w, v in (('rods', cfg.rod_positions), ('platform joints', cfg.platform_joints)) if v]
+        geometry = ' and '.join(measured) + ' at their measured positions' if measured else f'R = {cfg.radius} m'
         self.get_logger().info(f'serving gpr/forward_kinematics, gpr/inverse_kinematics, gpr/compensate, '
-                               f'gpr/analyze_mobility (model {cfg.model}, R = {cfg.radius} m, stroke '
+                               f'gpr/analyze_mobility (model {cfg.model}, {geometry}, stroke '
                                f'[{cfg.stroke_min}, {cfg.stroke_max}] m, tilt limit {cfg.tilt_limit} rad), '
                                f'gpr/robot_forward_kinematics, gpr/station_inverse_kinematics (robot {robot.name} '
                                f'from {robot.source}: arms {", ".join(robot.arm_names)})')
