@@ -204,6 +204,9 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'w': [0, 1]}}}, 'unknown variable'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [1, 0]}}}, 'lower < upper'),
     ({'type': 'gpr', 'workspace': {'virtual_joint_model': 'polar'}}, 'no certified enclosure'),
+    # the model in the overrides: the radial enclosure's boxes were called certified for polar and compliant
+    ({'type': 'gpr', 'overrides': {'model': 'polar'}}, "overrides model 'polar' has no certified enclosure"),
+    ({'type': 'gpr', 'overrides': {'model': 'compliant', 'kappa': 1.0}}, "model 'compliant' has no certified"),
     ({'type': 'tripod_3rps', 'base_radius': 0.05}, 'leg_min'),
     ({'type': 'gpr', 'workspace': {'box': {'tilt_x': [-1.2, 1.2], 'tilt_y': [-1.2, 1.2]}}}, 'below 1.5 rad'),
     ({'type': 'gpr', 'overrides': {'rod_azimuths': [0.0, 2.0, 4.0]}}, 'three azimuths 120 deg apart'),

@@ -103,6 +103,9 @@ def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float 
         raise ConfigError(f'{src}: workspace.virtual_joint_model {str(vj)[:40]!r} has no certified enclosure; '
                           'allowed: radial')
     cfg = _mechanism(data, src, GprMechanism).config
+    if cfg.model != 'radial':  # the enclosure is radial's: another model's boxes would be called certified
+        raise ConfigError(f'{src}: overrides model {cfg.model!r} has no certified enclosure; allowed: radial (the '
+                          'workspace model is the radial model\'s)')
     imperfect = [k for k, v in (('rod_positions', cfg.rod_positions), ('platform_joints', cfg.platform_joints))
                  if v is not None]
     imperfect += [k for k in ('rod_offsets', 'rod_directions') if any(np.ravel(getattr(cfg, k)))]
