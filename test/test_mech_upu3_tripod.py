@@ -339,3 +339,16 @@ def test_mechanisms_without_euler_angles_are_never_near_a_gimbal_lock(upu, tripo
     assert euler_lock_distance(upu, poses).tolist() == [math.pi / 2] * 2
     assert euler_lock_distance(tripod, [0, 0, 0.1, 0, 0.3, 0]).tolist() == [math.pi / 2]
     assert accuracy_analysis(upu, poses[1], joint_errors=[1e-5] * 3).warnings == ()
+
+
+def test_forward_kinematics_from_unreachable_joints_says_it_diverged():
+    """Limb lengths of 0.5, 0.1, 0.1 m (no pose has them) made Newton's iterate run off to 3e6 and the refusal named
+    that iterate as bad 'coordinates' the user never gave: it now says the solve diverged and which joint values."""
+    from gpr_kinematics.errors import ConvergenceError
+    m = load_mechanism(config_path('mechanisms/upu3.yaml'))
+    with pytest.raises(ConvergenceError, match=r'diverged for pose 0 .*joint values \[0.5, 0.1, 0.1\] are out of '
+                                               r'reach'):
+        m.forward_kinematics([0.5, 0.1, 0.1], [0, 0, 0.2, 0, 0, 0])
+    pose = np.array([0.01, -0.02, 0.2, 0.0, 0.0, 0.0])  # a reachable pose is still found from the same guess
+    got = m.forward_kinematics(m.inverse_kinematics(pose), [0, 0, 0.2, 0, 0, 0])
+    np.testing.assert_allclose(got[0], pose, atol=1e-10)
