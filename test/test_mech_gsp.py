@@ -372,3 +372,22 @@ def test_dexterity_of_small_wide_zero_and_ill_conditioned_matrices():
     np.testing.assert_allclose(condition_number(ill), [1e7, 4.0], rtol=1e-7)
     assert dexterity_index(np.zeros((1, 2, 3))).tolist() == [0.0]
     assert dexterity_index(np.zeros((1, 3, 3))).tolist() == [0.0] and condition_number(np.zeros((1, 3, 3)))[0] == np.inf
+
+
+def test_a_constraint_given_twice_is_refused_naming_the_file(tmp_path):
+    """Two identical D1 constraints loaded and every pose came out 'singular: yes' without a reason; refused at load,
+    naming the file and both constraints."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.mechanisms import load_mechanism
+
+    rows = [([0.1, 0, 0], [0.05, 0, 0]), ([0.1, 0, 0], [0.05, 0, 0]), ([-0.1, 0, 0], [-0.05, 0, 0]),
+            ([0, -0.1, 0], [0, -0.05, 0]), ([0.1, 0.1, 0], [0.05, 0.05, 0]), ([-0.1, 0.1, 0], [-0.05, 0.05, 0])]
+    text = 'type: gsp\nname: coinc\nconstraints:\n' + ''.join(f'  - {{type: D1, A_i: {a}, B_i: {b}}}\n'
+                                                              for a, b in rows)
+    path = tmp_path / 'coinc.yaml'
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=r'coinc\.yaml: coinc: constraints 1 and 2 are one D1 between the same '
+                                          r'points'):
+        load_mechanism(path)
+    path.write_text(text.replace('B_i: [0.05, 0, 0]}', 'B_i: [0.05, 0, 0.01]}', 1))  # one platform joint apart
+    assert load_mechanism(path).name == 'coinc'

@@ -182,3 +182,17 @@ def test_joint_azimuths_in_degrees_are_refused(prefix):
     r = base[f'{prefix}_radius']
     point = mech.constraints[1].A_i if prefix == 'base' else mech.constraints[1].B_i
     np.testing.assert_allclose(point, [r * math.cos(6.2), r * math.sin(6.2), 0.0], atol=1e-15)
+
+
+def test_two_legs_between_the_same_joints_are_refused():
+    """Legs 1 and 2 both from base azimuth 0 to platform azimuth 0 loaded and answered every pose as singular
+    (condition number 1.7e16); refused at load naming both legs. A leg sharing only its base joint is allowed (the
+    paper's pairs share joints), as is the same leg moved by 1e-6 m."""
+    base = {'type': 'stewart_6sps', 'base_radius': 1.2, 'base_azimuths': [0, 1, 2, 3, 4, 5],
+            'platform_radius': 0.4, 'platform_azimuths': [0.5, 1.5, 2.5, 3.5, 4.5, 5.5]}
+    twice = dict(base, base_azimuths=[0, 0, 2, 3, 4, 5], platform_azimuths=[0.5, 0.5, 2.5, 3.5, 4.5, 5.5])
+    with pytest.raises(ConfigError, match=r'^s\.yaml.*constraints 1 and 2 \(s1, s2\) are one D1 between the same '
+                                          r'points .*allowed: six distinct constraints$'):
+        mechanism_from_dict(twice, 's.yaml')
+    mechanism_from_dict(dict(base, base_azimuths=[0, 0, 2, 3, 4, 5]), 's.yaml')
+    mechanism_from_dict(dict(twice, platform_azimuths=[0.5, 0.5 + 2.5e-6, 2.5, 3.5, 4.5, 5.5]), 's.yaml')

@@ -116,6 +116,26 @@ def _point(value: Any, where: str) -> np.ndarray:
     return arr
 
 
+#: Two constraints whose points all lie this close [m] are one constraint given twice.
+SAME_POINT = 1e-9
+
+
+def _check_distinct(constraints: list[Constraint], name: str) -> None:
+    """:class:`ConfigError` where two constraints are one: the same type between the same points (a leg given
+    twice leaves the platform singular at every pose)."""
+    def same(a: Constraint, b: Constraint) -> bool:
+        pairs = [(getattr(a, k), getattr(b, k)) for k in ('A_i', 'B_i', 'A_j', 'B_j')]
+        return a.type == b.type and all((u is None) == (v is None) and (
+            u is None or float(np.max(np.abs(np.asarray(u) - np.asarray(v)))) <= SAME_POINT) for u, v in pairs)
+    for i, a in enumerate(constraints):
+        for j in range(i + 1, len(constraints)):
+            if same(a, constraints[j]):
+                names = f' ({a.name}, {constraints[j].name})' if a.name and constraints[j].name else ''
+                raise ConfigError(f'{name}: constraints {i + 1} and {j + 1}{names} are one {a.type} between the same '
+                                  f'points (within {SAME_POINT:g} m): the platform would be singular at every pose; '
+                                  'allowed: six distinct constraints')
+
+
 def parse_constraint(entry: Any, where: str) -> Constraint:
     """Validate one YAML constraint mapping (``type``, points, optional ``name`` and ``limits``)."""
     if not isinstance(entry, Mapping):
@@ -160,11 +180,12 @@ class GeneralizedStewartPlatform(Mechanism):
     kind = 'gsp'
 
     def __init__(self, constraints: list[Constraint], name: str = 'GSP', characteristic_length: float = 0.1,
-                 euler_convention: str = 'xyz') -> None:
+                 euler_convention: str = 'xyz', source: str = '') -> None:
         if len(constraints) != 6:
             raise ConfigError(f'a six-DOF GSP needs exactly 6 constraints; got {len(constraints)}')
         length = check_characteristic_length(characteristic_length, f'{name}: characteristic_length')
         self.constraints = list(constraints)
+        _check_distinct(self.constraints, f'{source}: {name}' if source else name)  # source: the file read
         self.name = name
         self.characteristic_length = length
         self.euler_convention = check_euler_convention(euler_convention)
@@ -214,7 +235,7 @@ class GeneralizedStewartPlatform(Mechanism):
         except InputError as exc:
             raise ConfigError(f'{source}: euler: {exc}') from None
         return cls(parsed, name=str(data.get('name', 'GSP')), characteristic_length=float(L),
-                   euler_convention=euler)
+                   euler_convention=euler, source=source)
 
     def parameters(self) -> dict[str, np.ndarray]:
         """The points ``A_i``, ``A_j``, ``B_i``, ``B_j`` ``(6, 3)`` (m; NaN where a constraint has none)."""

@@ -61,7 +61,8 @@ class StewartPlatform(GeneralizedStewartPlatform):
     def __init__(self, base_points: Any, platform_points: Any, name: str = 'Gough-Stewart platform',
                  characteristic_length: float = 1.0, euler_convention: str = 'ZXZ',
                  leg_limits: tuple[float, float] | None = None,
-                 trajectory: np.ndarray | None = None, leg_deformations: np.ndarray | None = None) -> None:
+                 trajectory: np.ndarray | None = None, leg_deformations: np.ndarray | None = None,
+                 source: str = '') -> None:
         a = np.asarray(base_points, dtype=float)
         b = np.asarray(platform_points, dtype=float)
         if a.shape != (6, 3) or b.shape != (6, 3):
@@ -69,7 +70,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
         cons = [Constraint(type='D1', A_i=a[k], B_i=b[k], name=f's{k + 1}', limits=leg_limits)
                 for k in range(6)]
         super().__init__(cons, name=name, characteristic_length=characteristic_length,
-                         euler_convention=euler_convention)
+                         euler_convention=euler_convention, source=source)
         self.trajectory = None if trajectory is None else np.asarray(trajectory, dtype=float)
         self.leg_deformations = (None if leg_deformations is None
                                  else np.asarray(leg_deformations, dtype=float))
@@ -110,7 +111,7 @@ class StewartPlatform(GeneralizedStewartPlatform):
                                   f'(m, rad); got {brief(data["trajectory"])}')
         dq = _vector(data, 'leg_deformations', source, 6, 'm') if 'leg_deformations' in data else None
         return cls(a, b, name=str(data.get('name', 'Gough-Stewart platform')), characteristic_length=L,
-                   euler_convention=euler, leg_limits=limits, trajectory=traj, leg_deformations=dq)
+                   euler_convention=euler, leg_limits=limits, trajectory=traj, leg_deformations=dq, source=source)
 
     # ------------------------------------------------------------------ parameters
     def parameters(self) -> dict[str, np.ndarray]:
