@@ -178,3 +178,23 @@ def test_tan_next_to_its_pole_is_covered():
     assert 0.40 < res.inner_volume <= 2.0 - math.pi / 2
     inner_pts = res.inner[:, 0, :].ravel()[:, None]
     assert model.feasible(inner_pts).all()
+
+
+@pytest.mark.parametrize('equation', ['x = 1/q', 'x = log(q)', 'x = tan(10*q)'])
+def test_unbounded_enclosures_warn_nothing_and_prove_nothing_false(equation):
+    """A successful covering of ``x = 1/q`` printed numpy's RuntimeWarnings (0 * inf in an interval product, the
+    middle of an unbounded Krawczyk image) with source lines on stderr; the NaN they make proves nothing, and no
+    warning is raised now. Every inner box holds only feasible points (checked at its corners and centre)."""
+    import warnings
+    data = {'type': 'equations', 'name': 'inv', 'variables': {'q': [-1, 1], 'x': [-2, 2]}, 'outputs': ['x'],
+            'equations': [equation]}
+    model = model_from_mapping(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter('error', RuntimeWarning)
+        res = approximate(model, 0.01, progress=False)
+    assert res.inner.shape[0] > 0
+    lo, hi = res.inner[:, 0, 0], res.inner[:, 0, 1]
+    q = {'x = 1/q': lambda x: 1 / x, 'x = log(q)': np.exp}.get(equation)
+    if q is not None:  # the output x is feasible where some q in [-1, 1] gives it
+        for x in np.concatenate([lo, hi, 0.5 * (lo + hi)]):
+            assert -1 - 1e-9 <= q(x) <= 1 + 1e-9, (equation, x)

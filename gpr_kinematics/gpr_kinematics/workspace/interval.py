@@ -211,7 +211,8 @@ class Interval:
         o = _as_interval(other)
         if o is None:
             return NotImplemented
-        p = (self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi)
+        with np.errstate(invalid='ignore'):  # 0 * inf: NaN, taken as the whole line below
+            p = (self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi)
         lo = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3]))
         hi = np.maximum(np.maximum(p[0], p[1]), np.maximum(p[2], p[3]))
         # 0 * inf never occurs in bounded boxes; guard NaN anyway (nan -> whole line).

@@ -136,8 +136,9 @@ def krawczyk(
             break
         # epsilon-inflation of the failed ones around K, keeping s~ inside S (the mean-value form needs the
         # segment from s~ to any point of S inside S); the proved keep their S, whose K is inside it
-        mid = 0.5 * (K.lo + K.hi)
-        rad = 0.5 * (K.hi - K.lo)
+        with np.errstate(invalid='ignore'):  # an unbounded K's middle is NaN: so is its S, which no test proves
+            mid = 0.5 * (K.lo + K.hi)
+            rad = 0.5 * (K.hi - K.lo)
         grow = np.where(np.isfinite(rad), 1.5 * rad + 1e-12 * (1.0 + np.abs(mid)), 0.0)
         keep = proved[:, None]
         S = Interval(np.where(keep, S.lo, np.minimum(mid - grow, s)),
