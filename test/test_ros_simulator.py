@@ -279,10 +279,15 @@ def test_cancel_holds_the_joints_where_they_are(sim):
 
     c, cli, states, _ = sim
     start_value = _held(c, states, 'arm1_shoulder')
-    result, status = _run(c, cli, _goal(['arm1_shoulder'], [3.0], [[start_value + 1.5]]), cancel_after=0.6)
+    feedback: list = []
+    result, status = _run(c, cli, _goal(['arm1_shoulder'], [3.0], [[start_value + 1.5]]), feedback, cancel_after=0.6)
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0
-    assert 'cancelled at t = ' in result.error_string
     stopped = _held(c, states, 'arm1_shoulder')
+    # the time named is the last sample sent, the one the joints hold (it named the next, never sent)
+    last = feedback[-1].desired
+    t = last.time_from_start.sec + 1e-9 * last.time_from_start.nanosec
+    assert re.match(rf'cancelled at t = {t:.6g} s of 3 s', result.error_string), (t, result.error_string)
+    assert stopped == last.positions[0]
     assert start_value < stopped < start_value + 1.5
     n = len(states)
     c.spin_for(0.3)
@@ -300,6 +305,27 @@ def test_idle_simulator_follows_another_publisher(sim):
     msg.header.stamp = c.node.get_clock().now().to_msg()
     pub.publish(msg)
     assert c.spin_until(lambda: states[-1].position[list(states[-1].name).index('arm2_hand')] == 0.75, 5)
+    c.node.destroy_publisher(pub)
+
+
+def test_joint_states_it_ignores_do_not_silence_the_simulator(sim):
+    """Another publisher's joint_states silenced the idle simulator (its own state stopped) even when it took
+    nothing from them (a gripper's joints only, a malformed message, values beyond a limit), and a client then found
+    no robot state: only values it takes silence it."""
+    from sensor_msgs.msg import JointState
+
+    c, _, states, _ = sim
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+    for names, values in ((['finger_joint'], [0.0]), (['arm1_elbow', 'rod_1'], [0.1]), (['rod_1'], [9.0])):
+        n = len(states)
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:   # 20 Hz of foreign messages for 1 s
+            msg = JointState(name=names, position=values)
+            msg.header.stamp = c.node.get_clock().now().to_msg()
+            pub.publish(msg)
+            c.spin_for(0.05)
+        own = [m for m in states[n:] if tuple(m.name) == JOINTS.names]
+        assert len(own) >= 10, (names, len(own))   # the simulator's own state at its idle rate (20 Hz) throughout
     c.node.destroy_publisher(pub)
 
 
@@ -506,5 +532,58 @@ def test_a_best_effort_joint_states_publisher_is_heard_with_the_parameter(ros_en
                 c.spin_for(0.05)
             assert c.spin_until(lambda: hand() == 0.75, 10), proc.output()
         assert proc.alive() and 'Traceback' not in proc.output()
+    finally:
+        proc.stop()
+
+
+def test_a_preempted_goal_ends_canceled_as_in_joint_trajectory_controller(sim):
+    """A newer valid goal ended the running one ABORTED, where docs and joint_trajectory_controller (its
+    preempt_active_goal: setCanceled, INVALID_GOAL) say canceled: it ends CANCELED, INVALID_GOAL, saying how many of
+    its samples were sent; the newer goal runs to its end."""
+    from action_msgs.msg import GoalStatus
+
+    c, cli, states, _ = sim
+    here = _held(c, states, 'arm1_wrist')
+    step = 0.3 if here + 0.3 < JOINTS.upper[JOINTS.names.index('arm1_wrist')] else -0.3
+    first = c.wait(cli.send_goal_async(_goal(['arm1_wrist'], [3.0], [[here + step]])), 20, 'goal')
+    assert first.accepted
+    c.spin_for(0.5)
+    result, status = _run(c, cli, _goal(['arm1_wrist'], [0.5], [[here]]))
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+    res = c.wait(first.get_result_async(), 20, 'result')
+    assert res.status == GoalStatus.STATUS_CANCELED and res.result.error_code == -1, res.result.error_string
+    assert re.match(r'preempted by a newer goal after \d+ of its \d+ samples$', res.result.error_string)
+    assert _held(c, states, 'arm1_wrist') == here
+
+
+@pytest.mark.parametrize('sig', ['SIGTERM', 'SIGINT'])
+def test_a_goal_running_when_the_simulator_stops_gets_its_result(ros_environment, sig):
+    """Stopped with a goal running, the simulator logged the goal aborted but destroyed its action server before rclpy
+    sent the result: the client waited for ever. Its client now gets ABORTED, 'the controller is shutting down'."""
+    import signal
+
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.action import ActionClient
+
+    ns = f'/gpr_sim_stop_{sig.lower()}'
+    proc = start('robot_simulator_node', namespace=ns)
+    try:
+        wait_for_log(proc, rf'serving {ns}/')
+        with GprClient(f'gpr_test_sim_stop_{sig.lower()}', namespace=ns) as c:
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION)
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            rest = JOINTS.rest[JOINTS.names.index('arm1_shoulder')]
+            handle = c.wait(cli.send_goal_async(_goal(['arm1_shoulder'], [10.0], [[rest + 0.2]])), 20, 'goal')
+            assert handle.accepted
+            result = handle.get_result_async()
+            c.spin_for(0.5)   # the result request reaches the server
+            proc.proc.send_signal(getattr(signal, sig))
+            res = c.wait(result, 20, 'result')
+            assert res.status == GoalStatus.STATUS_ABORTED and res.result.error_code == -1
+            assert res.result.error_string == 'the controller is shutting down'
+        assert proc.wait(timeout=20) == 0, proc.output()
+        assert 'Traceback' not in proc.output() and 'never retrieved' not in proc.output()
     finally:
         proc.stop()

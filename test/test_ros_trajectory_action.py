@@ -19,7 +19,7 @@ from gpr_kinematics.core.config import load_config
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.platform_program import load_platform_program, parse_platform_program, sample_program
 from ros_support import SECRET as FOLDER_SECRET
-from ros_support import client_session, program_folder, running, start
+from ros_support import client_session, program_folder, running, start, wait_for_log
 
 pytestmark = pytest.mark.ros
 
@@ -286,3 +286,34 @@ def test_the_log_of_a_stream_without_a_rate():
     assert published_text(0, -1e-9, 100.0) == published_text(0, None, 100.0) == 'published 0 samples'
     assert published_text(1, 0.0, 100.0) == 'published 1 sample'
     assert published_text(11, 0.1, 100.0) == 'published 11 samples in 0.100 s (achieved 100.000 Hz, requested 100.0 Hz)'
+
+
+@pytest.mark.parametrize('sig', ['SIGTERM', 'SIGINT'])
+def test_a_program_running_when_the_node_stops_gets_its_result(ros_environment, sig):
+    """Stopped with a program running, trajectory_node ended its goal but destroyed the action server before rclpy
+    sent the result (its log: 'Failed to take result: action server pointer is invalid'); the client waited for
+    ever. It now gets the result: not successful, 'the node is shutting down', the samples sent so far."""
+    import signal
+
+    from action_msgs.msg import GoalStatus
+    from gpr_kinematics.nodes.client import GprClient
+
+    ns = f'/gpr_action_stop_{sig.lower()}'
+    proc = start('trajectory_node', namespace=ns, mode='idle', rate=RATE, move_time=0.4)
+    try:
+        wait_for_log(proc, 'idle: serving')
+        with GprClient(f'gpr_test_action_stop_{sig.lower()}', namespace=ns) as c:
+            stations = [dict(st, dwell=2.0) for st in STATIONS]
+            handle = c.send_program(stations=stations)
+            assert handle.accepted
+            result = handle.get_result_async()
+            c.spin_for(1.0)   # streaming, and the result request at the server
+            proc.proc.send_signal(getattr(signal, sig))
+            res = c.wait(result, 20, 'result')
+            assert res.status == GoalStatus.STATUS_ABORTED and not res.result.success
+            assert res.result.message == 'the node is shutting down'
+            assert 0 < res.result.samples_published < res.result.samples_total
+        assert proc.wait(timeout=20) == 0, proc.output()
+        assert 'never retrieved' not in proc.output() and 'Traceback' not in proc.output()
+    finally:
+        proc.stop()

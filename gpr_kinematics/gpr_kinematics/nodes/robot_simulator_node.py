@@ -16,8 +16,8 @@ error of the goal's joints); the joints follow the samples exactly, or with the 
 ``servo_time_constant`` (the clearance check is of the commanded motion). Path tolerances are checked at
 every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
-that passes the checks preempts the running one (aborted, ``INVALID_GOAL``, as joint_trajectory_controller does; one
-whose cancel was accepted ends cancelled) and starts from where the joints are; a refused one leaves the running goal
+that passes the checks preempts the running one (canceled, ``INVALID_GOAL``, as joint_trajectory_controller does;
+one whose cancel was accepted ends cancelled, ``SUCCESSFUL``) and starts from where the joints are; a refused one leaves the running goal
 as it was. A ``header.stamp`` of 0 starts
 at once, a later one then; one in the past as joint_trajectory_controller takes it
 (:func:`~gpr_kinematics.robot.controller.late_start`: the points keep their instants, a trajectory that ended before
@@ -27,7 +27,7 @@ While no goal runs it publishes the state it holds on ``joint_states`` at ``idle
 goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
 ended; reliable, so a best-effort subscriber hears it too), and takes the joint values that other publishers send on
 ``joint_states`` (``trajectory_node`` streaming a program; a best-effort one with ``joint_states_reliability``) as
-its state, quietly while they stream, so a goal starts where the robot is shown (values beyond the
+its state, quietly while values it takes stream, so a goal starts where the robot is shown (values beyond the
 joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning). ``state_publisher_node``
 turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
 the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
@@ -45,7 +45,7 @@ import numpy as np
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.action.server import ServerGoalHandle
+from rclpy.action.server import GoalEvent, ServerGoalHandle
 from rclpy.executors import Executor
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
@@ -78,7 +78,7 @@ from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
-from .runtime import GprNode, one_line, run
+from .runtime import GprNode, deliver_results, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
 ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
@@ -170,12 +170,13 @@ class RobotSimulatorNode(GprNode):
         stamp = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
         if self.run is not None or stamp <= self.last_own_ns:
             return
-        self.last_foreign = time.monotonic()
         try:
             taken, values = joint_state_values(self.joints, msg.name, msg.position)
         except GprError as exc:
             self.get_logger().warning(f'joint_states of another publisher ignored: {one_line(exc)}',
                                       throttle_duration_sec=5.0)
+            return
+        if not taken.size:   # none of this robot's joints (a gripper's, say): nothing to take, nothing to silence
             return
         state = self.actual.copy()
         state[taken] = values
@@ -186,6 +187,7 @@ class RobotSimulatorNode(GprNode):
             return
         self.actual = state
         self.velocity[taken] = 0.0
+        self.last_foreign = time.monotonic()   # quiet while values it takes stream (not for those it ignores)
 
     def _outside(self, state: Any) -> str:
         """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
@@ -293,7 +295,8 @@ class RobotSimulatorNode(GprNode):
             self._cancelled(self.run)
         elif self.run is not None:    # preempted by a valid goal, as joint_trajectory_controller does
             old = self.run
-            self._end('aborted', INVALID_GOAL, f'preempted by a newer goal at sample {old.k} of {len(old.motion)}')
+            self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
+                      f'{len(old.motion)} samples')
         done = Future()
         self.run = _Run(goal, motion, start, done)
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
@@ -305,6 +308,9 @@ class RobotSimulatorNode(GprNode):
         if outcome == 'succeeded':
             goal.succeed()
         elif outcome == 'canceled':
+            goal.canceled()
+        elif outcome == 'preempted':  # canceled, as joint_trajectory_controller ends a preempted goal: rclpy's handle
+            goal._update_state(GoalEvent.CANCEL_GOAL)   # gets there through canceling, as a client's cancel takes it
             goal.canceled()
         else:
             goal.abort()
@@ -325,7 +331,7 @@ class RobotSimulatorNode(GprNode):
     def _cancelled(self, r: _Run) -> None:
         """End ``r``, whose cancel was accepted, as cancelled (at the next tick, or when a newer goal preempts it
         first: it ended aborted as 'preempted' although its client's cancel had been accepted)."""
-        t = r.motion.time[min(r.k, len(r.motion) - 1)]
+        t = r.motion.time[min(max(r.k - 1, 0), len(r.motion) - 1)]   # the last sample sent (r.k: the next)
         self._end('canceled', SUCCESSFUL, f'cancelled at t = {t:.6g} s of {r.motion.duration:.6g} s; the joints '
                   'hold where they are')
 
@@ -395,8 +401,10 @@ class RobotSimulatorNode(GprNode):
         r.goal.publish_feedback(fb)
 
     def on_exit(self, executor: Executor, status: int) -> int:
+        goal = None if self.run is None else self.run.goal
         if self.run is not None:
             self._end('aborted', INVALID_GOAL, 'the controller is shutting down')
+        deliver_results(executor, [goal])   # its client hears the result before the server goes
         self.action.destroy()
         return status
 

@@ -182,6 +182,26 @@ class GprNode(Node):
         return status
 
 
+#: On the way out, how long a goal ended there may take to reach its client [s], and the spinning after it ended.
+RESULT_WAIT = 2.0
+RESULT_GRACE = 0.2
+
+
+def deliver_results(executor: Executor, goals: Iterable[Any], seconds: float = RESULT_WAIT) -> None:
+    """Spin ``executor`` until every goal handle of ``goals`` (``None`` skipped) has ended and :data:`RESULT_GRACE`
+    longer, at most ``seconds``: rclpy sends a goal's result to its client from a callback the executor runs after
+    the goal ends, so a goal ended by a stop signal reached no client when the action server was destroyed at
+    once."""
+    pending = [g for g in goals if g is not None]
+    deadline = time.monotonic() + seconds
+    grace = deadline
+    while pending and time.monotonic() < grace:
+        if grace == deadline and not any(g.is_active for g in pending):
+            grace = min(deadline, time.monotonic() + RESULT_GRACE)
+        with contextlib.suppress(RCLError):  # a timer the stop cancelled after the executor found it ready
+            executor.spin_once(timeout_sec=0.02)
+
+
 def wait_acknowledged(publishers: Iterable[Publisher], seconds: float) -> None:
     """Wait until every reliable subscription acknowledged what each publisher sent (at most ``seconds`` per
     publisher; best effort on the way out: an error is ignored)."""
