@@ -17,9 +17,9 @@ error of the goal's joints); the joints follow the samples exactly, or with the 
 every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
 that passes the checks preempts the running one (canceled, ``INVALID_GOAL``, as joint_trajectory_controller does;
-one whose cancel was accepted ends cancelled, ``SUCCESSFUL``) and starts from where the joints are; a refused one leaves the running goal
-as it was. A ``header.stamp`` of 0 starts
-at once, a later one then; one in the past as joint_trajectory_controller takes it
+one whose cancel was accepted ends cancelled, ``SUCCESSFUL``) and starts from where the joints are; a refused
+one leaves the running goal as it was; a goal running when the node stops ends aborted, its client told. A
+``header.stamp`` of 0 starts at once, a later one then; one in the past as joint_trajectory_controller takes it
 (:func:`~gpr_kinematics.robot.controller.late_start`: the points keep their instants, a trajectory that ended before
 it arrived is ``OLD_HEADER_TIMESTAMP``).
 
