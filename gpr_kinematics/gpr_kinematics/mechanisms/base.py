@@ -359,10 +359,9 @@ class Mechanism(abc.ABC):
             gone = ~np.all(np.isfinite(u) & (np.abs(u) <= MAX_COORDINATE), axis=-1)
             if gone.any():  # diverged: say so, not that the iterate is a bad input
                 i = int(np.argmax(gone))
-                raise ConvergenceError(f'{self.name}: forward kinematics diverged for pose {i} (its coordinates left '
-                                       f'+-{MAX_COORDINATE:g}): the joint values {brief(q[i].tolist())} are out of '
-                                       'reach, or too far from the guess; allowed: joint values a pose reaches, '
-                                       'with a guess near that pose')
+                raise ConvergenceError(f'{self.name}: forward kinematics diverged for pose {i}: the joint values '
+                                       f'{brief(q[i].tolist())} are out of reach, or too far from the guess; allowed: '
+                                       'joint values a pose reaches, with a guess near that pose')
         raise ConvergenceError(f'{self.name}: forward kinematics did not converge to {tol:g} in '
                                f'{max_iterations} iterations (max residual {np.max(err):.3g})')
 
