@@ -766,3 +766,50 @@ def test_a_bad_plot_is_refused_before_the_check(tmp_path, capsys, monkeypatch):
                                        "'matplotlib', which is not installed; install it with pip install "
                                        "'gpr_kinematics[plot]'\n")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_two_wafers_carried_at_once_are_each_checked_for_slip():
+    """arm2 holds one wafer while arm1 carries another, on a blade of friction 0.15: the check evaluated one arm per
+    instant (the later arm's where both carried), read arm2's standing wafer (0.001) and called the program safe
+    while arm1's wafer slips. Each arm's wafer is checked: the largest ratio agrees with second differences of
+    arm1's wafer poses at 1 kHz, and the program is not safe."""
+    from gpr_kinematics.robot.program import parse_program
+    from gpr_kinematics.safety.check import check_program
+    from robot_support import make_robot, robot_data
+
+    data = robot_data()
+    data['arms'][0]['blade']['friction'] = 0.15
+    robot = make_robot(data)
+    stations = [{'name': 'home', 'position': [750, 850, 260], 'heading': 90},
+                {'name': 'home2', 'position': [750, 850, 400], 'heading': 90},
+                {'name': 'load_port_1', 'position': [750, -100, 400], 'heading': -90},
+                {'name': 'chamber_b', 'position': [300, 1050, 480], 'tilt': 0.8, 'azimuth': -60, 'heading': 130,
+                 'branch': 'left'}]
+    steps = [{'pick': 'chamber_b', 'arm': 'arm2'}, {'move': 'home2', 'arm': 'arm2'}, {'pick': 'load_port_1'},
+             {'move': 'home'}, {'place': 'chamber_b'}, {'move': 'home'}, {'place': 'load_port_1', 'arm': 'arm2'},
+             {'move': 'home2', 'arm': 'arm2'}]
+    program = {'format': 'gpr_robot_program', 'version': 1, 'units': {'length': 'mm', 'angle': 'deg'},
+               'defaults': {'arm': 'arm1', 'approach_height': 8, 'retract_height': 8, 'dwell': 0.5},
+               'stations': stations, 'steps': steps, 'wafers': ['load_port_1', 'chamber_b']}
+    plan = plan_program(robot, parse_program(program, 'dual.yaml', PROGRAM.parent))
+    wafers = wafer_plan(plan)
+    assert wafers.carried['arm1'] and wafers.carried['arm2']
+    report, _, _ = check_program(plan, None)
+    # arm1's wafer, by second differences of its world poses at 1 kHz while it carries
+    rate = 1000.0
+    s = sample_plan(plan, rate)
+    t = s.samples.time
+    h = 1.0 / rate
+    p, R = s.wafer.position, s.wafer.rotation
+    a = (p[2:] - 2 * p[1:-1] + p[:-2]) / h ** 2 + np.array([0.0, 0.0, 9.80665])
+    n = R[1:-1, :, 2]
+    fn = np.einsum('ni,ni->n', a, n)
+    ratio = np.linalg.norm(a - fn[:, None] * n, axis=1) / (0.15 * fn)
+    mid = t[1:-1]
+    own = np.array(s.arm[1:-1]) == 'arm1'
+    carried = own & np.any([(mid > a0 + h) & (mid < b0 - h) for a0, b0 in wafers.carried['arm1']], axis=0)
+    fd_max = float(np.max(ratio[carried]))
+    assert fd_max > 1.3
+    assert not report.safe and report.max_slip_ratio == pytest.approx(fd_max, rel=5e-3)
+    row = next(m for m in report.moves if m.label == 'steps[3] (move home, move)')
+    assert row.max_slip_ratio == pytest.approx(fd_max, rel=5e-3)

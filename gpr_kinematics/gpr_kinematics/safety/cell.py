@@ -136,7 +136,7 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
     check_keys(raw, ('size', 'wall', 'slit', 'slit_z', 'front'), f'{where}: chamber')
     w = f'{where}: chamber'
     dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, _LEAST, _SIZE, lunit, length)
-    wall = _default(raw, 'wall', 0.02, w, 1e-4, min(dx, dy, dz) / 2, lunit, length)
+    wall = _default(raw, 'wall', 0.02, w, _LEAST, min(dx, dy, dz) / 2, lunit, length)
     sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, 1e-3, _SIZE, lunit, length)
     if sw >= dy - 2 * wall or sh >= dz - 2 * wall:
         raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '

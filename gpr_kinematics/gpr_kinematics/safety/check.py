@@ -204,14 +204,8 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
                        progress=lambda share: tell('clearance', share))
     tell('slip', 0.0)
     times = _slip_times(plan)
-    carrying = np.full(times.shape, '', dtype=object)
-    for arm, windows in wafers.carried.items():
-        for t0, t1 in windows:
-            carrying[(times >= t0) & (times <= t1)] = arm
-    slip = slip_series(plan, times, carrying)
-    bound = slip_bound(plan, times, slip.ratio, carrying)
+    ratio, bound = _slip(plan, times, wafers.carried)
     tell('slip', 1.0)
-    ratio = np.where(np.isnan(slip.ratio), 0.0, slip.ratio)
     every = np.concatenate([times, bound.time])
     seen = np.concatenate([ratio, np.where(np.isnan(bound.ratio), 0.0, bound.ratio)])
     k = int(np.argmax(seen))
@@ -226,6 +220,30 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
                          None if cell is None else cell.source, report.evaluations, report.instants,
                          robot.config.model, robot.config.model in PROVEN_MODELS),
             report, (times, ratio))
+
+
+def _slip(plan: ProgramPlan, times: Array, carried: dict[str, tuple[tuple[float, float], ...]]
+          ) -> tuple[Array, SlipBound]:
+    """The slip ratio at ``times`` (0 where no wafer is carried) and its bound between them, each arm's wafer on its
+    own and the larger ratio where two arms carry at once (one array of the carrying arm had kept the later arm's:
+    the other wafer's slip went unchecked)."""
+    ratio = np.zeros(times.shape)
+    bounds = []
+    for arm, windows in carried.items():
+        if not windows:
+            continue
+        carrying = np.full(times.shape, '', dtype=object)
+        for t0, t1 in windows:
+            carrying[(times >= t0) & (times <= t1)] = arm
+        own = slip_series(plan, times, carrying).ratio
+        ratio = np.fmax(ratio, np.where(np.isnan(own), 0.0, own))
+        bounds.append(slip_bound(plan, times, own, carrying))
+    if not bounds:
+        bounds.append(slip_bound(plan, times, np.full(times.shape, np.nan), np.full(times.shape, '', dtype=object)))
+    def join(field: str) -> Array:
+        return np.concatenate([getattr(b, field) for b in bounds])
+    return ratio, SlipBound(join('start'), join('end'), join('move').astype(np.int64), join('bound'), join('floor'),
+                            join('time'), join('ratio'), all(b.closed for b in bounds))
 
 
 def _slip_times(plan: ProgramPlan) -> Array:
