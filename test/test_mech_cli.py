@@ -151,7 +151,7 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['mechanism', '', '--pose', '0', '0', '0.2', '0', '0', '0'], 'mechanism file path is empty'),
     # a bare name too long for the file system was an OSError traceback
     (['mechanism', 'a' * 5000, '--pose', '0', '0', '0.2', '0', '0', '0'],
-     "... (5002 characters) not found, here nor among the packaged files"),
+     "... (5000 characters) not found, here nor among the packaged files"),
     # an angle beyond 1e6 rad keeps no digits modulo 2 pi; it passed as valid
     (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '0.5', '1e308', '0', '0'],
      '--pose: A = 1e+308 rad; allowed: |x|, |y|, |z| <= 1e+06 m and |A|, |B|, |C| <= 1e+06 rad'),

@@ -55,6 +55,22 @@ def test_a_goal_file_name_too_long_is_refused_naming_the_rule():
     assert len(goal_program(_goal('example_stations.yaml'), robot, files).stations) > 1
 
 
+def test_a_relative_goal_file_that_is_no_regular_file_is_refused_as_such(tmp_path):
+    """A FIFO or a folder named relative to an operator's program folder was looked for in the package's folder
+    instead ('cannot read ... config/programs/fifo.yaml: No such file or directory'); it is refused as the absolute
+    path is: not a regular file."""
+    import os
+    robot, files = load_robot(None), GoalFiles.of([str(tmp_path)])
+    os.mkfifo(tmp_path / 'fifo.yaml')
+    (tmp_path / 'dir.yaml').mkdir()
+    for name, kind in (('fifo.yaml', 'a FIFO'), ('dir.yaml', 'a directory')):
+        assert files.path(name) == tmp_path / name
+        with pytest.raises(FileError, match=rf"'{tmp_path / name}' is not a regular file \({kind}\)"):
+            goal_program(_goal(name), robot, files)
+        with pytest.raises(FileError, match=rf"is not a regular file \({kind}\)"):
+            goal_program(_goal(str(tmp_path / name)), robot, files)
+
+
 def test_a_calibrated_robot_runs_its_robots_programs_and_another_robot_does_not(tmp_path):
     """trajectory_node refused the example program on the example robot's calibration (``gpr calibrate --robot``
     keeps the name and moves lengths and offsets) and advised the uncalibrated file, 128 um off at the wafer; the

@@ -74,7 +74,7 @@ def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
     abbreviated without ever building its whole text (a list of a million items costs no more than one of eight).
 
     >>> brief('x' * 1000)
-    "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx... (1002 characters)"
+    "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx... (1000 characters)"
     >>> brief([1, 2]), brief(list(range(10 ** 6))), brief(10 ** 5000)
     ('[1, 2]', '[0, 1, 2, 3, 4, 5, 6, 7, ...]', '<an integer of about 5001 digits>')
     """
@@ -82,7 +82,9 @@ def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
     text = repr(value) if isinstance(value, (str, bytes)) else _REPR.repr(value)
     if len(text) <= limit:
         return text
-    return f'{text[:limit]}... ({len(text)} characters)'
+    size = f'{len(value)} bytes' if isinstance(value, bytes) else \
+        f'{len(value) if isinstance(value, str) else len(text)} characters'   # the string's own, not its quotes'
+    return f'{text[:limit]}... ({size})'
 
 
 def apart(value: float, limit: float, digits: int = 6) -> tuple[str, str]:

@@ -218,14 +218,16 @@ class GoalFiles:
         if os.path.isabs(name):
             return Path(name)
         inside = [f / name for f in self.folders if _within(os.path.normpath(f / name), os.path.normpath(f))]
-        return next((p for p in inside if _is_file(p)), self.folders[0] / name)
+        return next((p for p in inside if _is(p, Path.is_file)), next((p for p in inside if _is(p, Path.exists)),
+                                                                      self.folders[0] / name))
 
 
-def _is_file(path: Path) -> bool:
-    """``path`` is a file; False where it cannot be looked at (a name too long for the file system was an
+def _is(path: Path, test: Callable[[Path], bool]) -> bool:
+    """``test(path)`` (a file, or anything there: a FIFO or a folder is then refused by the reader as such, not
+    looked for in the first folder); False where it cannot be looked at (a name too long for the file system was an
     ``OSError`` that ended a goal as an internal error, its whole path quoted)."""
     try:
-        return path.is_file()
+        return test(path)
     except (OSError, ValueError):
         return False
 
