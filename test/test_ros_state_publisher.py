@@ -371,13 +371,21 @@ def _joint_states_to(namespace: str, prefix: str, qos: Any = 10,
 
 
 def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing(ros_environment):
-    """joint_states of any publisher reach the node with the limits unchecked: rods far outside the stroke whose
-    closure has a singular Newton step are logged (the platform keeps its last pose), and the next rods are shown."""
+    """joint_states of any publisher reach the node with the limits unchecked: rods that no tilt makes, and rods far
+    outside the stroke whose closure has a singular Newton step, are logged (the platform keeps its last pose), and the
+    next rods are shown."""
     from gpr_kinematics.core import forward
     from sensor_msgs.msg import JointState
 
     names = ['rod_1', 'rod_2', 'rod_3']
     with _joint_states_to('/tf_bad_rods', 'b/') as (sp, c, pub, platform_z):
+        # rods that differ by more than any tilt makes: the warning said so and /tf showed the platform tilted 62 deg
+        # (a closure solved without the limits); it keeps its last pose (at rest, 0.254 m)
+        pub.publish(JointState(name=names, position=[0.1, 0.4, 0.3]))
+        wait_for_log(sp, r'imply no platform orientation .*; the platform keeps its last pose')
+        n = len(platform_z())
+        assert c.spin_until(lambda: len(platform_z()) > n + 2, 10)
+        assert all(abs(z - 0.254) < 1e-12 for z in platform_z()), sorted(set(platform_z()))
         pub.publish(JointState(name=names, position=[-1769.0291745130303, 1303.4307942578168, -0.008524297508037591]))
         wait_for_log(sp, r'have no platform pose: virtual-joint closure \(radial\) did not converge')
         pub.publish(JointState(name=names, position=[0.3, 0.3, 0.3]))

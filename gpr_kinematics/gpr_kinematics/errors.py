@@ -30,6 +30,10 @@ class LimitError(InputError):
     """A request lies outside the machine's limits (stroke, tilt, joint ranges)."""
 
 
+class NoPoseError(LimitError):
+    """Rod lengths whose differences no tilt of the platform makes: beyond every limit, with no pose to show."""
+
+
 class ConvergenceError(GprError, ArithmeticError):
     """An iterative solver did not reach its tolerance within its iteration bound."""
 

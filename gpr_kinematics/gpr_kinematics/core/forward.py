@@ -28,7 +28,7 @@ from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, GprError, InputError, LimitError, apart
+from ..errors import ConvergenceError, GprError, InputError, LimitError, NoPoseError, apart
 from ..inputs.validation import float_array, rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
@@ -224,7 +224,7 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
         i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
         limit = f'the tilt limit {config.tilt_limit:.4g} rad ({math.degrees(config.tilt_limit):.4g} deg)'
         if float(np.atleast_1d(h2)[i]) >= 1.0:  # the rods' differences exceed what any platform tilt makes
-            raise LimitError(f'q = {_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
+            raise NoPoseError(f'q = {_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
                              f'more than the joints\' spread can make at any tilt); allowed: rods within {limit}')
         t = float(np.atleast_1d(n_tilt)[i])
         raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about {t:.4g} rad '

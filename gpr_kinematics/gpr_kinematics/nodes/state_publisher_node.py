@@ -50,7 +50,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from ..core import forward
-from ..errors import GprError, LimitError
+from ..errors import GprError, LimitError, NoPoseError
 from ..robot.controller import ControllerJoints, joint_state_values
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
@@ -130,11 +130,15 @@ class StatePublisherNode(GprNode):
             self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
     def _pose_of(self, rods: Any) -> None:
-        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none); rods beyond
-        the stroke or the tilt limit are shown as received, with a warning."""
+        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none, or differ by more
+        than any tilt makes); rods beyond the stroke or the tilt limit are shown as received, with a warning."""
         fk = None
         try:
             fk = forward(rods, self.cfg)
+        except NoPoseError as exc:  # no tilt makes them: a pose solved without the limits would be the model's fiction
+            self.get_logger().warning(f'joint_states: {one_line(exc)}; the platform keeps its last pose',
+                                      throttle_duration_sec=5.0)
+            return
         except LimitError as exc:   # solved again without the limits: one solve for rods within them
             self.get_logger().warning(f'joint_states: {one_line(exc)}; shown as received', throttle_duration_sec=5.0)
         except GprError:
