@@ -156,6 +156,14 @@ def write(tmp_path, name, text):
     return str(p)
 
 
+def _exported(row: str, mm_decimals: int, quaternion_decimals: int) -> str:
+    """A row of the shipped file (SI) as exported in mm with ``mm_decimals`` and quaternions with
+    ``quaternion_decimals``."""
+    v = [float(x) for x in row.split(',')]
+    return ','.join([f'{x * 1000:.{mm_decimals}f}' for x in v[:6]] + [f'{x:.{quaternion_decimals}f}' for x in v[6:10]]
+                    + [repr(v[10] * 1000), repr(v[11])])
+
+
 def bad_inputs(tmp_path):
     lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
     data = [ln for ln in lines if not ln.startswith('#')]
@@ -167,8 +175,14 @@ def bad_inputs(tmp_path):
     jitter = [','.join(repr(float(x) * (1 + 1e-14 * (-1) ** i)) for i, x in enumerate(r.split(','))) for r in rows]
     return [
         (['calibrate', write(tmp_path, 'twice.csv', '\n'.join([header] + rows + jitter)), '--output', 'x.yaml'],
-         rf'twice\.csv line {len(rows) + 2} repeats line 2: the same rod lengths and measurement to within 0\.001 '
+         rf'twice\.csv line {len(rows) + 2} repeats line 2: the same rod lengths and measurement to within 0\.056 '
          r'of the standard deviation .*each measurement once'),
+        # the file and its copy exported in mm with 4 decimals and quaternions with 8 (0.02 of the noise apart):
+        # 1e-3 of the noise let it pass as 80 measurements, the standard errors sqrt 2 too small
+        (['calibrate', write(tmp_path, 'rounded.csv', '# units: mm rad\n' + header + '\n' + '\n'.join(
+            [_exported(r, 12, 12) for r in rows] + [_exported(r, 4, 8) for r in rows])), '--output', 'x.yaml'],
+         rf'rounded\.csv line {len(rows) + 3} repeats line 3: the same rod lengths and measurement to within '
+         r'0\.056 of the standard deviation'),
         (['calibrate', write(tmp_path, 'miss.csv', header.replace(',qw', '') + '\n' + '\n'.join(
             ','.join(r.split(',')[:9] + r.split(',')[10:]) for r in rows)), '--output', 'x.yaml'],
          r'miss\.csv line 1: missing column\(s\) qw'),

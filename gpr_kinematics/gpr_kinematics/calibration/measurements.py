@@ -61,10 +61,10 @@ MAX_LINE_CHARS = 2048
 MAX_VALUE = 1e6
 #: Range of a standard deviation, SI: [m] for sigma_position, [rad] for sigma_angle.
 SIGMA_RANGE = (1e-9, 0.1)
-#: Two rows whose rod lengths and measurements agree to within this fraction of the smallest standard deviation of
-#: the file (every coordinate) are one measurement twice (:func:`repeated_rows`): independent measurements differ by
-#: about the noise, and agree that closely in all their coordinates with a probability below 1e-9 per pair.
-REPEAT_TOLERANCE = 1e-3
+#: Two rows whose rods and measurement agree to within this fraction of the standard deviation in every coordinate
+#: (poses, points) are one measurement twice (:func:`repeated_rows`): two measurements agree that closely in each of
+#: their 6 (3) noisy coordinates with probability t / sqrt(pi), in all below 1e-9 a pair (poses 0.056, points 0.0018).
+REPEAT_TOLERANCE = {'pose': math.sqrt(math.pi) * 1e-9 ** (1 / 6), 'point': math.sqrt(math.pi) * 1e-9 ** (1 / 3)}
 
 _LENGTH_COLUMNS = frozenset(('q1', 'q2', 'q3', 'x', 'y', 'z', 'sigma_position'))
 
@@ -373,11 +373,10 @@ def parse_measurements(text: str, source: str = 'measurements', progress: StageP
 
 
 def repeated_rows(meas: Measurements, sigma_position: float, sigma_angle: float) -> list[tuple[int, int]]:
-    """The rows of ``meas`` that repeat an earlier row, as ``(row, earlier row)`` in file order: the rod lengths,
-    the measured position and orientation all within :data:`REPEAT_TOLERANCE` of ``sigma_position`` [m] (the rods
-    and the position) and ``sigma_angle`` [rad] (the rotation between the two orientations) of each other (a
-    file copied into itself, with or without rounding jitter, counts twice and makes the standard errors too small
-    by ``sqrt 2``). The sigma columns are not compared. ``O(N log N)`` (a k-d tree), bounded memory."""
+    """The rows of ``meas`` that repeat an earlier row, as ``(row, earlier row)`` in file order: the rods, the
+    measured position and orientation all within :data:`REPEAT_TOLERANCE` of ``sigma_position`` [m] (the rods and
+    the position) and ``sigma_angle`` [rad] (the angle between the orientations) of each other (a file copied into
+    itself, rounded or not, counts twice: standard errors too small by ``sqrt 2``). ``O(N log N)`` (a k-d tree)."""
     from scipy.spatial import cKDTree
 
     n = len(meas)
@@ -387,7 +386,7 @@ def repeated_rows(meas: Measurements, sigma_position: float, sigma_angle: float)
     if meas.quaternion is not None:
         sign = np.where(meas.quaternion[:, 3:] < 0.0, -1.0, 1.0)   # q and -q are one orientation
         parts.append(2.0 * sign * meas.quaternion / sigma_angle)     # 2 |dq| is the angle between them
-    X = np.hstack(parts) / REPEAT_TOLERANCE
+    X = np.hstack(parts) / REPEAT_TOLERANCE['point' if meas.quaternion is None else 'pose']
     X = X - X.mean(axis=0)
     dist, idx = cKDTree(X).query(X, k=2, p=np.inf, distance_upper_bound=1.0)
     found: dict[int, int] = {}
@@ -414,7 +413,8 @@ def check_repeats(meas: Measurements, sigma_position: float, sigma_angle: float)
     angle = f' and {sigma_angle:.3g} rad' if meas.quaternion is not None else ''
     source = f'{meas.source}:' if meas.files else meas.source
     raise InputError(f'{source} {names[b]} repeats {names[a]}: the same rod lengths and measurement to within '
-                     f'{REPEAT_TOLERANCE:g} of the standard deviation ({sigma_position:.3g} m{angle}); {len(pairs)} '
+                     f'{REPEAT_TOLERANCE["pose" if angle else "point"]:.2g} of the standard deviation '
+                     f'({sigma_position:.3g} m{angle}); {len(pairs)} '
                      f'such row(s){others}: a copied row or file counts as twice the data (standard errors too small '
                      'by sqrt 2); each measurement once. Separate measurements differ by their noise: if these are, '
                      'their noise is far below the standard deviation given (sigma columns, --sigma-position, '
