@@ -519,3 +519,32 @@ def test_another_machine_is_still_refused_far_off_the_radius(planned_40):
     assert any("joints on their rods" in o.label for o in res.convergence.starts)
     assert not res.gate.passed and res.chi2_reduced > 10
     assert 'Swapped or mis-unit columns, another frame or machine' in res.gate.message()
+
+
+def test_a_tolerance_of_zero_fixes_its_parameters():
+    """A tolerance table's 0 (known exactly) made a prior of 1e-12 of the scale: the report called the rod offsets
+    'not identifiable from these poses' and 'not separable', the best determined parameters. They are fixed at
+    nominal, named by no combination, and a machine whose offsets are nominal indeed passes the gate; one whose
+    offsets are not fails it, and the message names a parameter fixed off nominal."""
+    from gpr_kinematics.calibration.tolerances import parse_tolerances, prior_of
+
+    cfg = load_config()
+    m = CoreModel(cfg)
+    ps = m.parameters
+    Q = plan_measurements(m, cfg, 40, sigma_position=SP, sigma_angle=SA).q
+    values = perturbed(m, 7)
+    offsets = [j for j, p in enumerate(ps) if p.key == 'rod_offsets']
+    values[offsets] = ps.values(ps.nominal)[offsets]
+    dry = identify(m, synthetic_measurements(m, ps.nominal, Q, SP, SA, seed=0))
+    for name in dry.identifiability.held:   # the truth keeps what no pose sees at nominal (core_case's rule)
+        values[ps.index(name)] = ps.values(ps.nominal)[ps.index(name)]
+    prior = prior_of(parse_tolerances({'parameters': {'rod_offsets': {'tolerance': 0}}}), ps)
+    meas = synthetic_measurements(m, ps.coordinates(values), Q, SP, SA, seed=12)
+    res = identify(m, meas, prior=prior)
+    assert [res.status[j] for j in offsets] == ['fixed'] * 3
+    assert not any('offset' in name for c in res.identifiability.combinations for name in c.coefficients)
+    assert res.gate.passed, [c.detail for c in res.gate.checks]
+    off = synthetic_measurements(m, ps.coordinates(perturbed(m, 7)), Q, SP, SA, seed=12)
+    failed = identify(m, off, prior=prior).gate
+    assert not failed.passed
+    assert any('parameters fixed that are off nominal (--free, a tolerance of 0)' in c.detail for c in failed.checks)

@@ -306,7 +306,8 @@ def test_a_plan_from_tolerances_whose_centre_the_geometry_refuses_names_the_tabl
 
 def test_a_zero_tolerance_is_held_at_its_nominal_value_in_calibration():
     """A tolerance of 0 means exact in the budget; as a calibration prior it was read as no entry, and the parameter
-    fitted with the model's default scale (0.1 mm for a rod offset), while 1e-12 held it. Now 0 holds it too."""
+    fitted with the model's default scale (0.1 mm for a rod offset), while 1e-12 held it. Now 0 fixes it at its
+    nominal value (held, it was described as a direction the poses cannot see: test_calibration_identification)."""
     from gpr_kinematics.calibration.identification import identify
     from gpr_kinematics.calibration.measurements import read_measurements
     from gpr_kinematics.calibration.tolerances import EXACT_PRIOR, prior_of
@@ -320,5 +321,5 @@ def test_a_zero_tolerance_is_held_at_its_nominal_value_in_calibration():
     assert prior[params.names.index('rod1_x')] == pytest.approx(3e-5 / math.sqrt(3))   # uniform in [-t, t]
     assert np.isnan(prior[params.names.index('rod2_x')])                              # no entry: the model's scale
     res = identify(model, read_measurements(config_path('calibration/synthetic_measurements.csv')), prior=prior)
-    assert [res.status[j] for j in offsets] == ['held'] * 3
+    assert [res.status[j] for j in offsets] == ['fixed'] * 3
     assert np.all(res.estimate[offsets] == params.nominal[offsets])

@@ -55,6 +55,7 @@ from .quality import (
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
+from .tolerances import free_of
 
 Array = NDArray[np.float64]
 
@@ -286,7 +287,7 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                                 f'The model does not explain the measurements: reduced chi-square {chi2_red:.4g} '
                                 f'above the gate {limit:.4g} ({point}); largest residuals {worst}{bounds}. '
                                 f'Swapped or mis-unit columns, another frame or machine, more noise than declared'
-                                f'{scale}?'))
+                                f'{scale}, parameters fixed that are off nominal (--free, a tolerance of 0)?'))
     else:
         checks.append(GateCheck('chi_square', chi2_red <= limit, chi2_red, limit,
                                 f'The residuals exceed the noise assumed without a declared one ({noise}): reduced '
@@ -330,7 +331,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
             unknown parameter name, a fit that leaves the model's domain or explains nothing.
     """
     params = model.parameters
-    mask = params.select(free)
+    mask = free_of(params, free, prior)   # a tolerance of 0 fixes its parameter
     n_free = int(mask.sum())
     n = len(meas)
     k = 3 if meas.quaternion is None else 6

@@ -44,6 +44,7 @@ from .core_model import TILT_MARGIN
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .identification import DEFAULT_SIGMA_ANGLE, DEFAULT_SIGMA_POSITION, check_sigmas, least_rows
 from .model import ParameterSet, PoseModel, pose_jacobian, prior_scale
+from .tolerances import free_of
 
 Array = NDArray[np.float64]
 
@@ -276,7 +277,7 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     cand = candidates if candidates is not None else candidate_configurations(config)
     C = cand.q.shape[0]
     params = model.parameters
-    free_idx = np.flatnonzero(params.select(free)).astype(np.int64)
+    free_idx = np.flatnonzero(free_of(params, free, prior)).astype(np.int64)   # a tolerance of 0: fixed
     k = 3 if points else 6
     least = least_rows(free_idx.size, k)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n > min(C, MAX_PLAN):

@@ -26,13 +26,13 @@ the kinematics leaves its domain.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..core.machine import parameter_range
 from ..errors import ConfigError
@@ -255,6 +255,16 @@ def bound_of(table: ToleranceTable, params: ParameterSet) -> Array:
 #: hold it at its nominal value, as the budget takes it (a zero cannot be a prior; it was read as no entry, and the
 #: parameter fitted with the model's default scale).
 EXACT_PRIOR = 1e-12
+
+
+def free_of(params: ParameterSet, free: Iterable[str] | None, prior: ArrayLike | None) -> NDArray[np.bool_]:
+    """The parameters ``free`` (names or keys; all by default) but those a tolerance of 0 knows exactly (a ``prior``
+    of :data:`EXACT_PRIOR` of the scale): identification and planning fix them at nominal (free, they were held as
+    directions 'the poses cannot see', the best determined parameters named as the worst)."""
+    mask = params.select(free)
+    if prior is not None:
+        mask &= ~(np.asarray(prior, dtype=float) <= EXACT_PRIOR * params.scale)
+    return mask
 
 
 def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
