@@ -46,12 +46,14 @@ from .quality import (
     GateCheck,
     chi2_limit,
     cross_validation,
+    far_from_prior,
     hat_diagonal,
     held_bias,
     kind_variances,
     outlier_check,
     sigma_check,
     spread,
+    weak_at_estimate,
     worst_rows,
 )
 from .results import CalibrationResult, Convergence, ResidualStats
@@ -68,9 +70,6 @@ DEFAULT_SIGMA_ANGLE = 2e-5
 #: A measured pose farther than this from the nominal model's is not a measurement of this machine in
 #: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
 PLAUSIBLE_POSITION = 0.01
-#: A fitted parameter further from its nominal value than this many a-priori standard deviations is named in a
-#: warning: a tracker frame left unregistered moved the rods by 3-7 mm, 30-66 of them, and passed the gate.
-FAR_FROM_PRIOR = 20.0
 PLAUSIBLE_ANGLE = 0.05
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
 #: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
@@ -267,17 +266,18 @@ def noise_variances(meas: Measurements, h: Array | None, residual: Array, declar
 
 def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red: float, dof: int,
           noise: str | None, cv_ratio: float, names: tuple[str, ...], more: tuple[GateCheck | None, ...],
-          spread: str = '') -> Gate:
+          spread: str = '', weak: tuple[str, ...] = ()) -> Gate:
     """The gate (:mod:`.quality`); ``noise``: ``None`` when the sigmas are the declared noise, else what the
     residuals are judged against (:func:`assumed_noise`); ``spread``: the residuals' robust scale per kind
-    (:func:`~.quality.spread`)."""
+    (:func:`~.quality.spread`); ``weak``: :func:`~.quality.weak_at_estimate`'s warning, a cause of no minimum."""
     at = [params[int(j)].name for j in np.flatnonzero(best.at_bound)]
     bounds = f'; parameters at a bound of their range: {", ".join(at)}' if at else ''
     # passed or not by the fit's status (the step left decides it with the way the fit ended): 1 for converged
     checks = [GateCheck('minimum', best.converged, float(best.converged), 1.0,
                         f'The fit did not reach a minimum ({STATUS_WORDS.get(best.status, best.status)} after '
                         f'{best.iterations} iterations, the '
-                        f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).', at_least=True)]
+                        f'Gauss-Newton step left {best.step_se:.3g} standard errors{bounds}).'
+                        + ''.join(f' Where it stopped, {w}.' for w in weak), at_least=True)]
     worst = worst_rows(best.residual, names)
     limit = chi2_limit(dof)
     point = f'the {100 * CHI2_QUANTILE:g} % point for {dof} degrees of freedom'
@@ -401,8 +401,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     noise = None if absolute else assumed_noise(meas, best.residual, w, declared)
     more = ((sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
             else (outlier_check(h, best.residual, names, robust=True),))
-    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual))
-    warnings = _far_from_prior(params, fit, theta, theta0, scale, frame)
+    weak = weak_at_estimate(params, fit, se, scale)
+    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)
+    warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
     if gross is not None and gross[1] and best.label.startswith(ON_RODS):   # held on their rods, not nominal
         ident = replace(ident, combinations=tuple(replace(c, held_at='its rod\'s place') if c.held in gross[1] else c
                                                   for c in ident.combinations))
@@ -418,22 +419,6 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
                              source=meas.source, convergence=Convergence(best.status, best.step_se, at, outcomes),
                              cross_validation=cv, bias=bias, gate=gate, lines=meas.lines, files=meas.files,
                              warnings=warnings)
-
-
-def _far_from_prior(params: ParameterSet, fit: NDArray[np.int64], theta: Array, theta0: Array, scale: Array,
-                    frame: str) -> tuple[str, ...]:
-    """A warning naming the fitted parameters (not the stiffness ratios) more than :data:`FAR_FROM_PRIOR` a-priori
-    standard deviations from nominal: the gate passes such a fit when the measurements are consistent, which
-    measurements in another frame than the one named are."""
-    far = [(int(j), abs(theta[j] - theta0[j]) / scale[j]) for j in fit
-           if not params[int(j)].transform and abs(theta[j] - theta0[j]) > FAR_FROM_PRIOR * scale[j]]
-    if not far:
-        return ()
-    far.sort(key=lambda item: -item[1])
-    named = ', '.join(f'{params[j].name} {z:.0f}' for j, z in far[:4]) + (', ...' if len(far) > 4 else '')
-    return (f'fitted parameters far beyond their a-priori standard deviations (in those: {named}): are the '
-            f'measurements in another frame than {frame}? (--frame NAME identifies the tracker\'s frame with the '
-            'machine), or are the a-priori uncertainties too small (--tolerances)?',)
 
 
 __all__ = ['DEFAULT_SIGMA_ANGLE', 'DEFAULT_SIGMA_POSITION', 'CalibrationResult', 'Identifiability', 'ResidualStats',
