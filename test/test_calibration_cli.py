@@ -174,6 +174,10 @@ def bad_inputs(tmp_path):
         mm_rows.append(','.join(repr(x * 1000) if i < 6 else repr(x) for i, x in enumerate(v[:10])))
     jitter = [','.join(repr(float(x) * (1 + 1e-14 * (-1) ** i)) for i, x in enumerate(r.split(','))) for r in rows]
     return [
+        # options of a plan with a measurement file, an arm's files included: accepted, they did nothing
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--index', 'smallest'], r'--index goes with --plan'),
+        (['calibrate', '--robot', 'example_robot.yaml', SHIPPED, '--output', 'x.yaml', '--points'],
+         r'--points goes with --plan'),
         (['calibrate', write(tmp_path, 'twice.csv', '\n'.join([header] + rows + jitter)), '--output', 'x.yaml'],
          rf'twice\.csv line {len(rows) + 2} repeats line 2: the same rod lengths and measurement to within 0\.056 '
          r'of the standard deviation .*each measurement once'),

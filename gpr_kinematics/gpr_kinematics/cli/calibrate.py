@@ -156,7 +156,7 @@ def _plan(args: argparse.Namespace) -> int:
     sp, sa = sigmas(args, table)
     prior, _ = priors(table, model)
     with contextlib.nullcontext() if table is None else drawn_from(table):   # planned at the table's centre
-        plan = plan_measurements(model, cfg, args.plan, index=args.index, free=free_names(args, model),
+        plan = plan_measurements(model, cfg, args.plan, index=args.index or 'product', free=free_names(args, model),
                                  sigma_position=sp, sigma_angle=sa, threshold=args.threshold, prior=prior,
                                  theta=centre_of(table, model.parameters) if table is not None else None,
                                  points=args.points)
@@ -223,12 +223,14 @@ def _handler(args: argparse.Namespace) -> int:
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
     if args.robot is not None and args.plan is not None:
         raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
+    if args.points and args.plan is None:   # the arms' files too: it was accepted there, and did nothing
+        raise InputError('--points goes with --plan (a measurement file says itself whether it has orientations)')
+    if args.index is not None and args.plan is None:
+        raise InputError('--index goes with --plan (the observability index a plan maximises)')
     _check_outputs(args)
     if args.robot is not None:
         from .calibrate_robot import calibrate_robot
         return calibrate_robot(args)
-    if args.points and args.plan is None:
-        raise InputError('--points goes with --plan (a measurement file says itself whether it has orientations)')
     return _plan(args) if args.plan is not None else _calibrate(args)
 
 
@@ -287,8 +289,8 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--threshold', type=number, default=1.0,
                    help='scaled singular value a parameter combination must reach to be fitted (default 1: the '
                         'measurements must determine it better than its a-priori uncertainty)')
-    p.add_argument('--index', choices=('product', 'smallest'), default='product',
-                   help='observability index the plan maximises (default product: D-optimal)')
+    p.add_argument('--index', choices=('product', 'smallest'),
+                   help='with --plan: the observability index the plan maximises (default product: D-optimal)')
     p.add_argument('--model', choices=MODELS,
                    help='virtual-joint model of the identification (default compliant: kappa acts only there); the '
                         'calibrated file selects it')
