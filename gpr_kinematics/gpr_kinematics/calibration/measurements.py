@@ -219,8 +219,8 @@ def _number(text: str, where: str, column: str) -> float:
     try:
         v = decimal(text)   # float() read 1_0 as 10, and other scripts' digits
     except ValueError:
-        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number{number_hint(text)}'
-                         ) from None
+        raise InputError(f'{where}, column {column}: {text.strip()[:40]!r} is not a number{number_hint(text)}; '
+                         'allowed: a decimal number such as 0.25 or -1.5e-3') from None
     if not math.isfinite(v):
         raise InputError(f'{where}, column {column}: {text.strip()[:40]} is not a finite number; allowed: finite '
                          'values')
