@@ -275,7 +275,8 @@ def test_refusals():
     tilted = meas.q.copy()
     tilted[2] = [0.1, 0.1, 0.11]
     with pytest.raises(InputError, match=r'mm\.csv line 6, columns q1 q2 q3: the rod lengths tilt the platform by '
-                                         r'0\.07\d+ rad \(4\.\d+ deg\), beyond the tilt limit 0\.03491 rad \(2 deg\)'):
+                                         r'0\.07\d+ rad \(4\.\d+ deg\), beyond the tilt limit 0\.03491 rad \(2 deg\); '
+                                         r'allowed: at most 5 % beyond it, 0\.03665 rad'):
         check_limits(Measurements('mm.csv', tilted, meas.position, meas.quaternion, None, None, tuple(range(4, 9))),
                      cfg)
     check_limits(meas, cfg)

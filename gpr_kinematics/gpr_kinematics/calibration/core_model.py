@@ -218,7 +218,9 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
         i = int(bad[0])
         raise InputError(f'{meas.where(i)}, columns q1 q2 q3: the rod lengths tilt the platform by '
                          f'{tilt[i]:.4g} rad ({np.degrees(tilt[i]):.4g} deg), beyond the tilt limit '
-                         f'{config.tilt_limit:.4g} rad ({np.degrees(config.tilt_limit):.4g} deg)')
+                         f'{config.tilt_limit:.4g} rad ({np.degrees(config.tilt_limit):.4g} deg); allowed: at most '
+                         f'{100 * (TILT_MARGIN - 1):.0f} % beyond it, {TILT_MARGIN * config.tilt_limit:.4g} rad (a '
+                         'pose measured at the limit of a machine that tilts a little more than its nominal one)')
 
 
 def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:
