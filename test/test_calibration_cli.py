@@ -216,6 +216,9 @@ def bad_inputs(tmp_path):
         (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'measurements file .*none\.csv\' not found'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod_offsets'],
          r"--free names 'rod_offsets' twice; allowed: each parameter once"),
+        # a key and one of its parameters: accepted, while a name given twice was refused
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod1_offset'],
+         r'--free names rod1_offset twice, on its own and in rod_offsets; allowed: each parameter once'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tracker', '--base', '1e308', '0', '0', '0', '0',
           '0'], r'--base \[1e\+308, 0.0, 0.0, 0.0, 0.0, 0.0\]: allowed: each value within \+-1e\+06'),
         (['calibrate', '--plan', '0'], r'plan size 0: .*; allowed: at least 5'),

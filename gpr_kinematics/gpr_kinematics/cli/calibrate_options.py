@@ -125,6 +125,12 @@ def free_names(args: argparse.Namespace, model: PoseModel) -> list[str] | None:
     twice = sorted({n for n in args.free if args.free.count(n) > 1})
     if twice:
         raise InputError(f'--free names {brief(twice[0])} twice; allowed: each parameter once')
+    params = model.parameters
+    for key in set(args.free) & set(params.groups):   # a key and one of its own parameters: the parameter twice
+        inner = [p.name for p in params if p.key == key and p.name in args.free]
+        if inner:
+            raise InputError(f'--free names {inner[0]} twice, on its own and in {key}; allowed: each parameter once '
+                             '(a key selects all of its parameters)')
     frames = [n for n in model.parameters.names if n.startswith(('base_', 'target_'))]
     return list(args.free) + frames
 
