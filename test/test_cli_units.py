@@ -94,3 +94,14 @@ def test_the_millimetres_hint_only_where_the_rods_are_in_metres(capsys, tmp_path
 def test_a_sweeps_angle_refusal_names_the_option_as_typed(capsys, argv, message):
     assert main(['sweep', *argv]) == 2
     assert capsys.readouterr().err == f'gpr sweep: error: {message}; allowed: a positive angle\n'
+
+
+def test_no_millimetres_hint_below_the_stroke(capsys, tmp_path):
+    """A rod 1 nm below the stroke's start was told 'millimetres? declare # units: mm': only a rod above the stroke
+    can be one in millimetres."""
+    rows = '\n'.join(f'{-1e-9 if i == 0 else 0.3},{0.3 + i * 1e-3},0.3,0,0,0.3,0,0,0,1' for i in range(12))
+    path = tmp_path / 'm.csv'
+    path.write_text(f'q1,q2,q3,x,y,z,qx,qy,qz,qw\n{rows}\n')
+    assert main(['calibrate', str(path), '--output', str(tmp_path / 'c.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert 'is outside the stroke [0, 0.508] m' in err and 'millimetres' not in err, err

@@ -207,7 +207,8 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
     outside = np.argwhere((meas.q < lo) | (meas.q > hi))
     if outside.size:
         i, k = outside[0]
-        hint = f' (millimetres? declare "# units: mm" or write "q{k + 1} [mm]")' if meas.units[0] == 'm' else ''
+        mm = meas.units[0] == 'm' and meas.q[i, k] > hi   # above the stroke: in mm? (not below: -1e-9 m was told)
+        hint = f' (millimetres? declare "# units: mm" or write "q{k + 1} [mm]")' if mm else ''
         shown, ends = stroke_words(float(meas.q[i, k]), lo, hi)
         raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {shown} m is outside the stroke {ends} m{hint}')
     P = base_points(meas.q, config)
