@@ -97,6 +97,10 @@ _DELETE = object()
     (('arms', 1, 'blade', 'yaw'), -180, r'arms\[1\] \(arm2\): blade: yaw = -180 rad is beyond one turn; allowed: '
                                         r'\[-2pi, 2pi\] rad \(radians only here: -180 deg is -3.14159265 rad\)$'),
     (('rods', 'velocity'), 0, r'rods: velocity = 0.0 is invalid; allowed: m/s, 1e-06 <= velocity <= 10$'),
+    # beyond every number's bound the message named that bound, not the key's range
+    (('arms', 0, 'joints', 0, 'velocity'), 1e300, r'velocity = 1e\+300 is invalid; allowed: rad/s, 1e-06 <= velocity '
+                                                  r'<= 100$'),
+    (('wafer', 'diameter'), 10 ** 400, r'diameter = <an integer of about 401 digits> is invalid; allowed: metres'),
     # The least positive values were said as 0 <, which 1e-7 is: the message names the bound the check applies.
     (('rods', 'jerk'), 1e-7, r'rods: jerk = 1e-07 is invalid; allowed: m/s\^3, 1e-06 <= jerk <= 10000, or null'),
     (('arms', 0, 'joints', 1, 'acceleration'), 1e-7,

@@ -197,7 +197,10 @@ def test_an_orientation_beyond_a_turn_is_degrees_in_a_file_in_radians(tmp_path, 
      r"s.yaml: stations\[0\] \(far\): position = \(0.5, 0.2, 150\) m; allowed: each coordinate within \+-100 m of "
      r'the world origin; as millimetres'),
     ('m.csv', '# units: mm\nname,x,y,z\nfar,230000,0,800\n',
-     r'position = \(230, 0, 0.8\) m; allowed: each coordinate within \+-100 m of the world origin$')])
+     r'position = \(230, 0, 0.8\) m; allowed: each coordinate within \+-100 m of the world origin$'),
+    # beyond every number's bound (1e6 in the file's unit) it named that bound, not the positions' 100 m
+    ('y.yaml', 'units: {length: mm}\nstations:\n  - {name: far, position: [2.3e7, 0, 800]}\n',
+     r'x = 23000000.0 is invalid; allowed: a finite number in mm \(within \+-100 m of the world origin\)$')])
 def test_a_station_beyond_the_world_bound_is_refused(tmp_path, name, text, message):
     """The cell's and the robot base's bound (``WORLD_BOUND``, 100 m): an imported station a program did not use,
     in millimetres read as metres, passed its check unmentioned; the hint only where millimetres would fit."""

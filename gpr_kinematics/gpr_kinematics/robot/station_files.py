@@ -134,10 +134,12 @@ def units_of(data: Mapping[str, Any], where: str) -> tuple[float, float]:
     return LENGTH_UNITS[length], ANGLE_UNITS[angle]
 
 
-def _number(value: Any, where: str, key: str, unit: str) -> float:
+def _number(value: Any, where: str, key: str, unit: str, rule: str = '') -> float:
+    """A finite number in the file's ``unit``; the refusal names the key's own ``rule`` where given (a station at
+    2.3e6 mm was told 'at most 1e+06 mm' where positions are within 100 m)."""
     if not is_number(value):
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit} (of '
-                          f'magnitude at most {MAX_COORDINATE:g})')
+        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit} '
+                          + (f'({rule})' if rule else f'(of magnitude at most {MAX_COORDINATE:g})'))
     return float(value)
 
 
@@ -214,9 +216,10 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         if not isinstance(pos, list) or len(pos) != 3:
             raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
-        x, y, z = (to_si(_number(v, w, k, lunit), length) for v, k in zip(pos, 'xyz', strict=True))
+        x, y, z = (to_si(_number(v, w, k, lunit, f'within +-{WORLD_BOUND:g} m of the world origin'), length)
+                   for v, k in zip(pos, 'xyz', strict=True))
         rows.position.append(_position((x, y, z), w, lunit))
-        rows.tilt.append(to_si(_number(st.get('tilt', 0.0), w, 'tilt', aunit), angle))
+        rows.tilt.append(to_si(_number(st.get('tilt', 0.0), w, 'tilt', aunit, 'within the tilt limit'), angle))
         rows.azimuth.append(orientation_angle(st.get('azimuth', 0.0), 'azimuth', w, aunit, DECLARE_DEG))
         h = st.get('heading')
         rows.heading.append(None if h is None else orientation_angle(h, 'heading', w, aunit, DECLARE_DEG))
