@@ -413,7 +413,17 @@ def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(
     dangling.symlink_to(tmp_path / 'nowhere.yaml')   # a link to nothing is as missing as no file
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
     assert status == 2 and f"{program}: cell file '{tmp_path / 'programs/../cells/example_cell.yaml'}'" in err
+    # export does not read the cell, and passed a program whose cell was missing or a folder
+    status, out, err = run(capsys, 'program', 'export', str(program), '--robot', str(robot), '--waypoints',
+                           str(tmp_path / 'w.csv'))
+    assert status == 2 and err.endswith("(named by the program, relative to its folder) does not exist; allowed: an "
+                                        "existing cell file, or no cell key\n") and not (tmp_path / 'w.csv').exists()
     dangling.unlink()
+    dangling.mkdir()
+    status, out, err = run(capsys, 'program', 'export', str(program), '--robot', str(robot), '--waypoints',
+                           str(tmp_path / 'w.csv'))
+    assert status == 2 and 'is not a regular file; allowed: an existing cell file' in err
+    dangling.rmdir()
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot), '--cell', str(cell),
                            '--no-progress')
     assert status == 0 and out.rstrip().endswith('safe')

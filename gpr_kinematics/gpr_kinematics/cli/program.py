@@ -14,10 +14,12 @@ progress and result: exit 0 when it succeeded, 1 when the server refused, aborte
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
 from .options import named_file, number, png_plot, robot_of, robot_options, shipped
@@ -36,11 +38,16 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
     from ..robot.plan import check_sample_count, plan_program
     from ..robot.program import load_program
     program = load_program(args.program)
+    robot = named_file(program, 'robot', args.robot)
     if program.cell is not None:
         note_input(program.cell)
+        if not hasattr(args, 'cell') and not os.path.isfile(program.cell):   # unread (check reads it): not dangling
+            what = 'is not a regular file' if os.path.exists(program.cell) else 'does not exist'
+            raise FileError(f'{program.source}: cell file {str(program.cell)!r} (named by the program, relative to its '
+                            f'folder) {what}; allowed: an existing cell file, or no cell key')
     if rate is not None:
         check_sample_count(program, rate)
-    return program, plan_program(robot_of(args, named_file(program, 'robot', args.robot)), program, rate)
+    return program, plan_program(robot_of(args, robot), program, rate)
 
 
 
