@@ -234,3 +234,20 @@ def test_a_joint_table_name_follows_the_station_rule(tmp_path, name):
 
     with pytest.raises(ConfigError, match=r't.csv: line 2.*name = .* is invalid; allowed: 1 to 64 letters, digits'):
         read_joint_table(_joint_table(tmp_path, name), ROBOT, 'arm1')
+
+
+def test_a_joint_table_row_beyond_the_tilt_limit_is_named(tmp_path):
+    """A row whose rods tilt the platform 12 deg was refused by forward kinematics naming the rods alone, no file, line
+    or row (the stroke and the joints' limits were named): now as they are; the old rods of reteach stay unchecked."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    a = ROBOT.arm('arm1')
+    table = tmp_path / 't.csv'
+    table.write_text(','.join(['name', *ROBOT.rods.names, *a.joint_names]) + '\na,0.25,0.251,0.252,0,1,-0.5\n'
+                     'b,0.25,0.28,0.252,0,1,-0.4\n')
+    with pytest.raises(ConfigError, match=r"t\.csv: line 3 \(row 2, station 'b'\): q = \[0\.25, 0\.28, 0\.252\] m "
+                                          r'tilts the platform by about 0\.2093 rad \(11\.99 deg\), beyond the tilt '
+                                          r'limit'):
+        read_joint_table(table, ROBOT, 'arm1')
+    assert read_joint_table(table, ROBOT, 'arm1', check_limits=False)[0] == ('a', 'b')

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.forward import STROKE_SLACK, check_stroke, millimetres_within, stroke_words
+from ..core.forward import STROKE_SLACK, check_stroke, forward, forward_batch, millimetres_within, stroke_words
 from ..core.ops import ARRAY
-from ..errors import ConfigError, InputError, apart, brief
+from ..errors import ConfigError, InputError, LimitError, apart, brief
 from ..inputs.files import read_text
 from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
@@ -182,13 +182,18 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     return Retaught(old=old, intended=intended, solution=solution)
 
 
+def _row_where(table: CsvTable, r: int) -> str:
+    """``FILE: line L (row R, station 'NAME')``: a row of a joint table, counted from 1."""
+    name = table.text(r, 'name')
+    return f'{table.row_where(r)} (row {r + 1}' + (f', station {brief(name)})' if name else ')')
+
+
 def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: Array, joints: Array,
                check_limits: bool) -> None:
     """Refuse a row's rod outside the stroke or (``check_limits``) joint beyond its limits, naming the file, the line
     and the row's name, before the batch would name it by a 0-based sample alone."""
     cfg = robot.config
-    name = table.text(r, 'name')
-    where = f'{table.row_where(r)} (row {r + 1}' + (f', station {brief(name)})' if name else ')')
+    where = _row_where(table, r)
     lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
     for k, rod in enumerate(robot.rods.names):
         if not lo <= rods[k] <= hi:
@@ -252,4 +257,14 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
         _check_row(table, r, robot, a, rods[r], joints[r], check_limits)
     if len(table) == 0:
         raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
+    try:   # the tilt limit, as forward kinematics refuses the rods (it named no row; reteach's old rods: unchecked)
+        if check_limits:
+            forward_batch(rods, robot.config)
+    except LimitError:
+        for r in range(len(table)):   # the first refused row, named (only when one is)
+            try:
+                forward(rods[r], robot.config)
+            except LimitError as exc:
+                raise ConfigError(f'{_row_where(table, r)}: {exc}') from None
+        raise
     return tuple(names), rods, joints
