@@ -451,3 +451,13 @@ def test_an_infinite_slip_ratio_is_the_text_inf_in_the_json(capsys, tmp_path):
     # lift-off said as such (it read 'slips ... (ratio inf >= 1)')
     assert status == 1 and 'UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it ' \
         'faster than gravity and the vacuum hold it down) at ' in out, out
+
+
+def test_a_station_position_beyond_the_world_bound_is_refused_with_the_hint_its_units_allow(capsys):
+    """--position 2300000 0 400 --mm (2.3 km) was answered 'millimetres given as metres?' though --mm was given:
+    beyond the station files' 100 m it is refused, the millimetres hint only for numbers given as metres."""
+    status, _, err = run(capsys, 'robot', 'ik', '--position', '2300000', '0', '400', '--heading', '0', '--mm')
+    assert status == 2 and err == ('gpr robot ik: error: --position = 2300 0 0.4 m; allowed: each coordinate within '
+                                   '+-100 m of the world origin\n')
+    status, _, err = run(capsys, 'robot', 'ik', '--position', '2300', '0', '0.4', '--heading', '0')
+    assert status == 2 and err.endswith('of the world origin (millimetres? give --mm)\n')
