@@ -461,3 +461,13 @@ def test_a_station_position_beyond_the_world_bound_is_refused_with_the_hint_its_
                                    '+-100 m of the world origin\n')
     status, _, err = run(capsys, 'robot', 'ik', '--position', '2300', '0', '0.4', '--heading', '0')
     assert status == 2 and err.endswith('of the world origin (millimetres? give --mm)\n')
+
+
+def test_teach_names_a_wrong_joint_count_as_fk_does(capsys):
+    """--joints 0 1 for a 3-joint arm: teach answered in array shapes ('must have 3 values per sample (shape (N, 3)),
+    got shape (1, 2)'), fk named the option, the arm and its joints; both now as fk."""
+    for command in ('fk', 'teach'):
+        status, _, err = run(capsys, 'robot', command, '--rods', '0.25', '0.251', '0.252', '--joints', '0', '1')
+        assert status == 2 and err == (f'gpr robot {command}: error: --joints: 2 values for arm arm1, which has 3 '
+                                       'joints (arm1_shoulder, arm1_elbow, arm1_wrist); allowed: one value per joint, '
+                                       'shoulder first\n'), err

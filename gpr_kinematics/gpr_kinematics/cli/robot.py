@@ -16,6 +16,7 @@ from .options import angles, direction, lengths, number, robot_of, robot_options
 from .output import emit_json
 
 if TYPE_CHECKING:
+    from ..robot.description import Arm
     from ..robot.forward import RobotForward
     from ..robot.stations import Stations
     from .main import Subparsers
@@ -29,16 +30,21 @@ def _print_poses(fk: RobotForward, i: int = 0) -> None:
           'where the old tool places it')
 
 
-def _cmd_fk(args: argparse.Namespace) -> int:
+def _check_joint_count(joints: list[float], arm: Arm) -> None:
+    """``--joints`` one value per joint of ``arm`` (the core's words are the array's: shape (N, 3))."""
     from ..errors import InputError
+    if len(joints) != len(arm.joints):
+        raise InputError(f'--joints: {len(joints)} value{"s" if len(joints) != 1 else ""} for arm {arm.name}, which '
+                         f'has {len(arm.joints)} joints ({", ".join(arm.joint_names)}); allowed: one value per joint, '
+                         'shoulder first')
+
+
+def _cmd_fk(args: argparse.Namespace) -> int:
     from ..robot.forward import robot_forward
     from ..robot.stations import stations_from_poses
     robot = robot_of(args)
     arm = robot.arm(args.arm)
-    if len(args.joints) != len(arm.joints):  # robot_forward's words are the array's (shape (N, 3))
-        raise InputError(f'--joints: {len(args.joints)} value{"s" if len(args.joints) != 1 else ""} for arm '
-                         f'{arm.name}, which has {len(arm.joints)} joints ({", ".join(arm.joint_names)}); allowed: '
-                         f'one value per joint, shoulder first')
+    _check_joint_count(args.joints, arm)
     fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], arm.name)
     if args.json:
         emit_json(fk.record(0))
@@ -102,6 +108,7 @@ def _cmd_teach(args: argparse.Namespace) -> int:
                              'units in its header ("gpr_rod1 [mm]", "arm1_elbow [deg]") or a "# units: mm deg" line')
         names, rods, joints = read_joint_table(args.table, robot, args.arm, check_limits=not args.naive)
     elif args.rods and args.joints:
+        _check_joint_count(args.joints, robot.arm(args.arm))
         names, rods, joints = ('0',), np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
     else:
         from ..errors import InputError
