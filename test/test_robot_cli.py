@@ -166,8 +166,8 @@ def test_program_check_and_export(capsys, tmp_path):
      r'^gpr robot ik: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
     # a position in mm typed as m (it said only how far above the stroke the rods would be)
     (['robot', 'ik', '--position', '1300', '600', '450', '--heading', '0.3'],
-     r'is above the stroke .* too high for arm arm1; the station lies 1500 m from gpr_base, 1.5 m as millimetres: '
-     r'millimetres given as metres\?$'),
+     r'--position = 1300 600 450 m; allowed: each coordinate within \+-100 m of the world origin \(millimetres\? '
+     r'give --mm\)$'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', 'nan'],
      r'^gpr robot ik: error: --heading = nan'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', '0', '--tilt', '3', '--deg'],
