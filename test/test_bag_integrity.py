@@ -351,3 +351,24 @@ def test_an_sqlite_database_profile_edited_against_metadata_fails(tmp_path: Path
     conn.close()
     resign(old)
     assert verify_bag(old).passed
+
+
+def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None:
+    """13,000 segments (3.6 hours at the default flush_interval of 1 s) made 3.6 MB of metadata.yaml that the reader
+    refused ('more than 200000 YAML values': the package's YAML bound, not the metadata's 16 MiB): the recorder kept
+    writing a bag no tool could read. It reads back, every segment listed."""
+    import copy
+
+    from gpr_kinematics.bags.metadata import MAX_METADATA_BYTES, read_metadata, render_metadata
+
+    info = yaml.safe_load((REFERENCE / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    entry, digest = info['files'][0], next(v for k, v in info['custom_data'].items() if k.startswith('gpr_sha256/'))
+    names = [f'reference_sweep_{i}.mcap' for i in range(13_000)]
+    info['relative_file_paths'] = names
+    info['files'] = [dict(copy.deepcopy(entry), path=name) for name in names]
+    info['custom_data'] = {k: v for k, v in info['custom_data'].items() if not k.startswith('gpr_sha256/')} | {
+        f'gpr_sha256/{name}': digest for name in names}
+    text = render_metadata(info)
+    (tmp_path / 'metadata.yaml').write_bytes(text)
+    assert 3e6 < len(text) < MAX_METADATA_BYTES
+    assert [f.path for f in read_metadata(tmp_path).files] == names

@@ -25,7 +25,7 @@ from typing import Any, Final, Literal
 import yaml
 
 from ..errors import ConfigError, brief, kind_of
-from ..inputs.schema import read_yaml
+from ..inputs import safe_yaml
 from .errors import BagError
 from .fileio import read_bounded, require_regular
 
@@ -34,8 +34,11 @@ STORAGES = ('mcap', 'sqlite3')
 #: ``custom_data`` key prefix of a storage file's SHA-256, and the key of the metadata's own digest.
 FILE_DIGEST_PREFIX = 'gpr_sha256/'
 METADATA_DIGEST_KEY = 'gpr_metadata_sha256'
-#: Largest ``metadata.yaml`` read: about 250 bytes per storage file, so 16 MiB hold 18 hours of 1 s segments.
+#: Largest ``metadata.yaml`` read: about 280 bytes per storage file, so 16 MiB hold 16 hours of 1 s segments.
 MAX_METADATA_BYTES = 16 << 20
+#: Most YAML values in it: about 15 a storage file of some 260 bytes (the package's YAML bound, 200,000 values and
+#: 10 MiB, refused a recording of 3.6 hours at the default flush_interval that the recorder had written).
+MAX_METADATA_NODES = MAX_METADATA_BYTES // 12
 _DIGEST_LINE = re.compile(rb'^[ \t]*' + METADATA_DIGEST_KEY.encode() + rb':[^\n]*(\n|\Z)', re.MULTILINE)
 _PLACEHOLDER = '0' * 64
 _INDENT = ' ' * 4  # rosbag2_bagfile_information > custom_data > key, as PyYAML indents
@@ -162,7 +165,8 @@ def read_metadata(folder: Path) -> Metadata:
         raise BagError(f'{path}: not UTF-8 text (byte {exc.start}: {text[exc.start:exc.start + 1]!r}); '
                        f'allowed: a rosbag2 metadata file, UTF-8 YAML') from None
     try:
-        data = read_yaml(path, 'bag metadata')
+        data = safe_yaml.load_text(text.decode('utf-8'), str(path), max_nodes=MAX_METADATA_NODES,
+                                   max_chars=MAX_METADATA_BYTES)
     except ConfigError as exc:
         raise BagError(f'not a rosbag2 metadata file: {exc}') from None
     if not isinstance(data, Mapping) or 'rosbag2_bagfile_information' not in data:

@@ -227,9 +227,11 @@ _NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_.\-/]{0,79}')
 _NON_PRINTABLE = yaml.reader.Reader.NON_PRINTABLE
 
 
-def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None) -> YamlValue:
+def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None, max_chars: int = MAX_BYTES
+              ) -> YamlValue:
     """Parse YAML ``text`` into plain data (dicts, lists, str, int, float, bool, None) under the bounds above
-    (``max_nodes``: the values allowed, default :data:`MAX_NODES`).
+    (``max_nodes``: the values allowed, default :data:`MAX_NODES`; ``max_chars`` the characters, default
+    :data:`MAX_BYTES`).
 
     Raises:
         ConfigError: an alias, nesting beyond :data:`MAX_DEPTH`, too many values, a key twice in a mapping, or
@@ -246,8 +248,8 @@ def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None
     ...
     gpr_kinematics.errors.ConfigError: g.yaml: line 3: duplicate key 'radius' (first on line 1); allowed: ...
     """
-    if len(text) > MAX_BYTES:
-        raise ConfigError(f'{source}: {len(text)} characters of YAML; allowed: at most {MAX_BYTES}')
+    if len(text) > max_chars:
+        raise ConfigError(f'{source}: {len(text)} characters of YAML; allowed: at most {max_chars}')
     limit = MAX_NODES if max_nodes is None else max_nodes
     bad = _NON_PRINTABLE.search(text)
     if bad:  # PyYAML's own words, whichever parser runs
