@@ -109,7 +109,9 @@ BAD_NAMES = [("['gpr/bad name']", r"'gpr/bad name' is not a valid topic name"),
              ("['2gpr/starts_with_digit']", 'not a valid topic name')]
 # replay_node documents topics:=[''] as "all topics" (its default): an empty name is refused by the recorder only.
 TOPIC_CASES = [(exe, value, words) for exe in ('recorder_node', 'replay_node') for value, words in BAD_NAMES] + \
-    [('recorder_node', "['']", 'empty topic name')]
+    [('recorder_node', "['']", 'empty topic name'),
+     # a topic twice, with two types: the last one was recorded without a word
+     ('recorder_node', "['/a:std_msgs/msg/String','/a:std_msgs/msg/Int32']", '/a is given twice')]
 
 
 @pytest.mark.parametrize('exe,value,words', TOPIC_CASES)

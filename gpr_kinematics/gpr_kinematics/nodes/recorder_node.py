@@ -111,6 +111,9 @@ class RecorderNode(GprNode):
         for entry in entries:
             name, sep, msgtype = entry.partition(':')
             full = valid_topic_name(self, name.strip(), 'topics')
+            if full in topics:   # the last entry won without a word (another type, perhaps)
+                raise BagError(f'topics: {full} is given twice ({entry!r} and an entry before it); allowed: each '
+                               'topic once')
             if sep:
                 topics[full] = check_known(msgtype, full)
             elif full in KNOWN_TOPICS:      # the suite's topics, and those of bags recorded before
