@@ -227,13 +227,26 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0) -> _
     return _Contents(info, times, data, m.inflated)
 
 
+def _check_pages(path: Path, head: bytes, size: int) -> None:
+    """Refuse a database file whose size is not its header's page count times its page size (bytes appended or cut;
+    the count is valid where the header's version-valid-for number equals its change counter, as SQLite writes it
+    on every commit)."""
+    page = int.from_bytes(head[16:18], 'big') or 1
+    page = 65536 if page == 1 else page
+    count = int.from_bytes(head[28:32], 'big')
+    if len(head) == 100 and head[92:96] == head[24:28] and count and size != page * count:
+        raise BagError(f'{path}: {size} bytes where its header declares {count} pages of {page} bytes '
+                       f'({page * count} bytes): bytes appended or cut; allowed: the database as SQLite wrote it')
+
+
 def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
     """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
     those names is refused, so every row read is stored in the file)."""
-    sha = sha256_file(path, 'SQLite3 file')
-    head, size = read_head(path, 'SQLite3 file', 16)
-    if head != b'SQLite format 3\x00':
+    head, size = read_head(path, 'SQLite3 file', 100)
+    if head[:16] != b'SQLite format 3\x00':
         raise BagError(f'{path}: not an SQLite3 database')
+    _check_pages(path, head, size)   # before the digest: 50 GB of zeros after the database were hashed for minutes
+    sha = sha256_file(path, 'SQLite3 file')
     uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
     try:
         con = sqlite3.connect(uri, uri=True)
