@@ -372,3 +372,22 @@ def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None
     (tmp_path / 'metadata.yaml').write_bytes(text)
     assert 3e6 < len(text) < MAX_METADATA_BYTES
     assert [f.path for f in read_metadata(tmp_path).files] == names
+
+
+@pytest.mark.parametrize('n', [0, 1, 3, 40])
+def test_the_files_lines_rendered_once_are_the_whole_metadata_rendered_at_once(n: int) -> None:
+    """The writer renders each closed file's metadata lines once (a close that rendered every file took 0.24 s at
+    1,000 files and 3.3 s at 12,000, against the 0.15 s the crash-safety bound allows): spliced in, the bytes equal
+    the whole mapping rendered by PyYAML, the digest line included."""
+    from gpr_kinematics.bags.metadata import FILE_DIGEST_PREFIX, file_lines, render_metadata
+
+    files = [(f'rec_{i}.mcap', 10 ** 18 + i * 10 ** 9, 999_000_000 + i, 100 + i, f'{i:064x}') for i in range(n)]
+    info = yaml.safe_load((REFERENCE / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    custom = {k: v for k, v in info['custom_data'].items() if not k.startswith('gpr_sha256/')}
+    custom.pop(METADATA_DIGEST_KEY, None)
+    whole = {**info, 'relative_file_paths': [f[0] for f in files],
+             'files': [{'path': p, 'starting_time': {'nanoseconds_since_epoch': s}, 'duration': {'nanoseconds': d},
+                        'message_count': c} for p, s, d, c, _ in files],
+             'custom_data': {**custom, **{FILE_DIGEST_PREFIX + f[0]: f[4] for f in files}}}
+    spliced = {**info, 'relative_file_paths': [], 'files': [], 'custom_data': custom}
+    assert render_metadata(spliced, [file_lines(*f) for f in files]) == render_metadata(whole)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import hashlib
 import re
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
@@ -207,13 +207,43 @@ def read_metadata(folder: Path) -> Metadata:
                     computed_digest=digest, digest_lines=lines, digest_line=line)
 
 
-def render_metadata(info: dict[str, Any]) -> bytes:
+#: The one entry of each per-file list that :func:`render_metadata` replaces by the files' rendered lines.
+_SPLICE = 'gpr-splice'
+
+
+def file_lines(path: str, start: int, duration: int, count: int, digest: str) -> tuple[bytes, bytes, bytes]:
+    """A storage file's lines of ``relative_file_paths``, ``files`` and ``custom_data`` (its digest) as
+    :func:`render_metadata` writes them, rendered once when the file is closed: a close that rendered every file
+    listed took 0.24 s at 1,000 files and 3.3 s at 12,000 (an hour of 1 s segments and more), where the recorder's
+    crash-safety bound allows 0.15 s."""
+    def lines(key: str, value: Any) -> bytes:   # the lines after 'rosbag2_bagfile_information:' and 'KEY:'
+        text = yaml.safe_dump({'rosbag2_bagfile_information': {key: value}}, default_flow_style=False,
+                              sort_keys=False).encode('utf-8')
+        return text.split(b'\n', 2)[2]
+    entry = {'path': path, 'starting_time': {'nanoseconds_since_epoch': start}, 'duration': {'nanoseconds': duration},
+             'message_count': count}
+    return lines('relative_file_paths', [path]), lines('files', [entry]), lines('custom_data',
+                                                                                {FILE_DIGEST_PREFIX + path: digest})
+
+
+def render_metadata(info: dict[str, Any], files: Sequence[tuple[bytes, bytes, bytes]] | None = None) -> bytes:
     """``metadata.yaml`` bytes of ``info`` (a ``rosbag2_bagfile_information`` mapping) with the metadata digest
-    :data:`METADATA_DIGEST_KEY` added to its ``custom_data`` (see the module docstring)."""
+    :data:`METADATA_DIGEST_KEY` added to its ``custom_data`` (see the module docstring). ``files``: the storage files'
+    lines (:func:`file_lines`, in order) spliced in as its ``relative_file_paths``, ``files`` and the digests after
+    its ``custom_data`` (``info`` then lists none): the same bytes as the whole mapping rendered at once."""
     custom = dict(info.get('custom_data') or {})
+    splice = bool(files)
+    if splice:
+        info = {**info, 'relative_file_paths': [_SPLICE], 'files': [_SPLICE]}
+        custom[_SPLICE] = _SPLICE
     custom[METADATA_DIGEST_KEY] = _PLACEHOLDER
     text: bytes = yaml.safe_dump({'rosbag2_bagfile_information': {**info, 'custom_data': custom}},
                                  default_flow_style=False, sort_keys=False).encode('utf-8')
+    if splice and files:
+        item, entry = f'  - {_SPLICE}\n'.encode(), f'{_INDENT}{_SPLICE}: {_SPLICE}\n'.encode()
+        for k, marker in enumerate((item, item, entry)):
+            at = text.index(marker)
+            text = text[:at] + b''.join(f[k] for f in files) + text[at + len(marker):]
     digest, lines, line = _digest_without_line(text)
     if lines != 1 or not line.startswith(_INDENT.encode() + METADATA_DIGEST_KEY.encode()):
         raise BagError(f'metadata: the {METADATA_DIGEST_KEY} line came out as {line!r} ({lines} such lines)')

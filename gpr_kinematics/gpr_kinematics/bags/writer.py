@@ -35,7 +35,7 @@ from rosbags.rosbag2.errors import WriterError
 from ..errors import FileError
 from ..inputs.files import writable_folder
 from .errors import BagError
-from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, render_metadata
+from .metadata import BAG_VERSION, file_lines, render_metadata
 from .reader import OPEN_SEGMENT_DIR
 from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
 from .typestore import check_known, definition
@@ -66,6 +66,10 @@ class _ClosedFile:
     duration: int
     count: int
     sha256: str
+    lines: tuple[bytes, bytes, bytes] = (b'', b'', b'')   # its metadata lines, rendered once (metadata.file_lines)
+
+    def __post_init__(self) -> None:
+        self.lines = file_lines(self.path, self.start, self.duration, self.count, self.sha256)
 
 
 def check_output_path(path: Path) -> None:
@@ -291,13 +295,12 @@ class SegmentedBagWriter:
                 for topic, msgtype in self.topics.items()],
             'compression_format': '',
             'compression_mode': '',
-            'relative_file_paths': [f.path for f in files],
-            'files': [{'path': f.path, 'starting_time': {'nanoseconds_since_epoch': f.start},
-                       'duration': {'nanoseconds': f.duration}, 'message_count': f.count} for f in files],
-            'custom_data': {**self.custom_data, **{FILE_DIGEST_PREFIX + f.path: f.sha256 for f in files}},
+            'relative_file_paths': [],   # the files' own lines, spliced in (render_metadata)
+            'files': [],
+            'custom_data': self.custom_data,
             'ros_distro': ROS_DISTRO,
         }
-        text = render_metadata(info)
+        text = render_metadata(info, [f.lines for f in files])
         tmp = self.path / 'metadata.yaml.tmp'
         with tmp.open('wb') as f:
             f.write(text)
