@@ -352,17 +352,22 @@ def worst_rows(residual: Array, names: Sequence[str], count: int = 3) -> str:
 FAR_FROM_PRIOR = 20.0
 
 
+def _named(params: ParameterSet, fit: NDArray[np.int64], ratio: Array, above: float, digits: str) -> str:
+    """The fitted parameters (not the stiffness ratios) whose ``ratio`` exceeds ``above``, largest first, as
+    ``name ratio`` (at most four; '' for none)."""
+    over = sorted(((int(j), float(ratio[j])) for j in fit if not params[int(j)].transform and ratio[j] > above),
+                  key=lambda item: -item[1])
+    return ', '.join(f'{params[j].name} {r:{digits}}' for j, r in over[:4]) + (', ...' if len(over) > 4 else '')
+
+
 def far_from_prior(params: ParameterSet, fit: NDArray[np.int64], theta: Array, theta0: Array, scale: Array,
-                    frame: str) -> tuple[str, ...]:
+                   frame: str) -> tuple[str, ...]:
     """A warning naming the fitted parameters (not the stiffness ratios) more than :data:`FAR_FROM_PRIOR` a-priori
     standard deviations from nominal: the gate passes such a fit when the measurements are consistent, which
     measurements in another frame than the one named are."""
-    far = [(int(j), abs(theta[j] - theta0[j]) / scale[j]) for j in fit
-           if not params[int(j)].transform and abs(theta[j] - theta0[j]) > FAR_FROM_PRIOR * scale[j]]
-    if not far:
+    named = _named(params, fit, np.abs(theta - theta0) / scale, FAR_FROM_PRIOR, '.0f')
+    if not named:
         return ()
-    far.sort(key=lambda item: -item[1])
-    named = ', '.join(f'{params[j].name} {z:.0f}' for j, z in far[:4]) + (', ...' if len(far) > 4 else '')
     return (f'fitted parameters far beyond their a-priori standard deviations (in those: {named}): are the '
             f'measurements in another frame than {frame}? (--frame NAME identifies the tracker\'s frame with the '
             'machine), or are the a-priori uncertainties too small (--tolerances)?',)
@@ -372,11 +377,9 @@ def weak_at_estimate(params: ParameterSet, fit: NDArray[np.int64], se: Array, sc
     """A warning naming the fitted parameters (not the stiffness ratios) whose standard error at the estimate exceeds
     their a-priori standard deviation: identifiability is decided at the nominal machine, and at the estimate (a
     joint far softer than nominal) the poses may see a parameter worse than it was known, its value then noise."""
-    weak = [(int(j), se[j] / scale[j]) for j in fit if not params[int(j)].transform and se[j] > scale[j]]
-    if not weak:
+    named = _named(params, fit, se / scale, 1.0, '.3g')
+    if not named:
         return ()
-    weak.sort(key=lambda item: -item[1])
-    named = ', '.join(f'{params[j].name} {r:.3g}' for j, r in weak[:4]) + (', ...' if len(weak) > 4 else '')
     return (f'fitted parameters the poses determine worse at the estimate than they were known before (standard error '
             f'over a-priori standard deviation: {named}): their values are noise; leave them out of --free (held at '
             'nominal) and calibrate again',)
