@@ -36,7 +36,7 @@ FILE_DIGEST_PREFIX = 'gpr_sha256/'
 METADATA_DIGEST_KEY = 'gpr_metadata_sha256'
 #: Largest ``metadata.yaml`` read: about 280 bytes per storage file, so 16 MiB hold 16 hours of 1 s segments.
 MAX_METADATA_BYTES = 16 << 20
-#: Most YAML values in it: about 15 a storage file of some 260 bytes (the package's YAML bound, 200,000 values and
+#: Most YAML values in it: about 15 a storage file of some 280 bytes (the package's YAML bound, 200,000 values and
 #: 10 MiB, refused a recording of 3.6 hours at the default flush_interval that the recorder had written).
 MAX_METADATA_NODES = MAX_METADATA_BYTES // 12
 _DIGEST_LINE = re.compile(rb'^[ \t]*' + METADATA_DIGEST_KEY.encode() + rb':[^\n]*(\n|\Z)', re.MULTILINE)
@@ -232,14 +232,13 @@ def render_metadata(info: dict[str, Any], files: Sequence[tuple[bytes, bytes, by
     lines (:func:`file_lines`, in order) spliced in as its ``relative_file_paths``, ``files`` and the digests after
     its ``custom_data`` (``info`` then lists none): the same bytes as the whole mapping rendered at once."""
     custom = dict(info.get('custom_data') or {})
-    splice = bool(files)
-    if splice:
+    if files:
         info = {**info, 'relative_file_paths': [_SPLICE], 'files': [_SPLICE]}
         custom[_SPLICE] = _SPLICE
     custom[METADATA_DIGEST_KEY] = _PLACEHOLDER
     text: bytes = yaml.safe_dump({'rosbag2_bagfile_information': {**info, 'custom_data': custom}},
                                  default_flow_style=False, sort_keys=False).encode('utf-8')
-    if splice and files:
+    if files:
         item, entry = f'  - {_SPLICE}\n'.encode(), f'{_INDENT}{_SPLICE}: {_SPLICE}\n'.encode()
         for k, marker in enumerate((item, item, entry)):
             at = text.index(marker)
