@@ -31,6 +31,13 @@ def is_number(value: YamlValue) -> bool:
             and math.isfinite(value))
 
 
+def is_huge_number(value: YamlValue) -> bool:
+    """A number (an int, or a finite float; not a bool) beyond :func:`is_number`'s bound: refused as that number,
+    with the range of its key where the caller knows one."""
+    return (not isinstance(value, bool) and isinstance(value, (int, float)) and abs(value) > MAX_COORDINATE
+            and (isinstance(value, int) or math.isfinite(value)))
+
+
 def is_version(value: YamlValue, versions: Iterable[int]) -> bool:
     """``value`` is one of a format's ``versions``: an int, not a bool or a float (``true`` and ``1.0`` equal 1 in
     Python)."""
@@ -79,8 +86,7 @@ def number_key(data: Mapping[YamlValue, YamlValue], key: str, source: str, defau
     if val is None:
         raise ConfigError(f'{source}: missing key {key} (a {what})')
     if not is_number(val) or (positive and val <= 0):
-        if isinstance(val, (int, float)) and not isinstance(val, bool) and abs(val) > MAX_COORDINATE and (
-                isinstance(val, int) or math.isfinite(val)):   # finite, but beyond the bound of every number
+        if is_huge_number(val):   # finite, but beyond the bound of every number
             what += f' of magnitude at most {MAX_COORDINATE:g}'
         raise ConfigError(f'{source}: {key} must be a {what}; got {brief(val)}')
     return float(val)

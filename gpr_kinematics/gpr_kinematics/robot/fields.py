@@ -8,8 +8,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..errors import ConfigError, brief, kind_of
-from ..inputs.schema import number_key, orientation_angle
-from ..inputs.validation import MAX_COORDINATE, text_hint
+from ..inputs.schema import is_huge_number, number_key, orientation_angle
+from ..inputs.validation import text_hint
 
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
 NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
@@ -22,8 +22,7 @@ def _where(source: str, path: str) -> str:
 def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float, allowed: str,
             default: float | None = None, unit: str = 'm') -> float:
     raw = data.get(key, default)
-    if isinstance(raw, (int, float)) and not isinstance(raw, bool) and (isinstance(raw, int) or math.isfinite(raw)) \
-            and abs(raw) > MAX_COORDINATE:   # beyond every number's bound: the key's own range, not that bound
+    if is_huge_number(raw):   # beyond every number's bound: the key's own range, not that bound
         raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
     value = number_key(data, key, where, default=default, positive=False, unit=unit)
     if not lo <= value <= hi:
