@@ -256,14 +256,15 @@ def _evaluate(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign:
     c = [chain[:, k] for k in range(4)]
     bad = ~tl.reachable
     g: list[Array] = []
-    cost: Array = np.zeros(x.size)
+    costs: list[Array] = []
     for k, joint in enumerate(joints):
         lo, hi, ref, w = joint.lower, joint.upper, red.reference[k], red.weights[k]
         theta = representative(c[k] - joint.zero_offset, 0.5 * (lo + hi))
         bad |= (lo - theta - LIMIT_SLACK > 0.0) | (theta - hi - LIMIT_SLACK > 0.0)
         scaled = (theta - ref) / (hi - lo)
-        cost = w * scaled * scaled if k == 0 else cost + w * scaled * scaled
+        costs.append(w * scaled * scaled)
         g.append(2.0 * w * scaled / (hi - lo))
+    cost = costs[0] + costs[1] + costs[2] + costs[3]
     # The joint axes a_2..a_4 (a_1 at the mount), then the rates n of the three other joints and their derivatives
     # n' (Cramer's rule: sum n_k = 0, sum n_k a_k = 0; sum n'_k = 0, sum n'_k a_k = -sum n_k a'_k, n_j = 1, n'_j = 0,
     # a'_k = sum_{i<k} n_i perp(a_k - a_i)).
