@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import forward_batch
-from ..core.config import GprConfig
+from ..core.config import GprConfig, measured_points
 from ..core.virtual_joints import EDGE_NAMES
 from ..errors import FileError, GprError
 from ..inputs.files import atomic_output, writable_folder, write_text
@@ -163,7 +163,7 @@ def report_figures(result: VerifyResult) -> list[tuple[str, Figure]]:
     cfg = GprConfig.from_mapping(result.config, source='the verified geometry')
     # R is l at a singular configuration of the drawing's machine only (a measured one's joints stand elsewhere)
     radius = (cfg.radius * 1e3, f'R = {cfg.radius * 1e3:.3f} mm\n(l at a singular\nconfiguration)') \
-        if cfg.rod_positions is None and cfg.platform_joints is None else None
+        if not measured_points(cfg) else None
     for model, figs in (('polar', ('06', '07')), ('offset', ('09', '10'))):
         if s.model == model and s.virtual_joints.shape[1] == 6:
             X, source = s.virtual_joints, 'recorded'

@@ -231,6 +231,12 @@ def nominal_points(cfg: GprConfig) -> tuple[Point2, Point2, Point2]:
     return (p[0], p[1], p[2])
 
 
+def measured_points(cfg: GprConfig) -> tuple[str, ...]:
+    """The point sets of ``cfg`` given as measured, not on the drawing's circle of ``radius``: ``'rods'``
+    (``rod_positions``) and ``'platform joints'`` (``platform_joints``); none for the drawing's machine."""
+    return tuple(w for w, v in (('rods', cfg.rod_positions), ('platform joints', cfg.platform_joints)) if v is not None)
+
+
 #: The least closure ``tolerance``, in ulps of the longest side length (the side lengths' own rounding).
 SIDE_ROUNDING_ULPS = 2
 

@@ -38,7 +38,7 @@ from gpr_interfaces.srv import (
     StationInverseKinematics,
 )
 
-from ..core.config import GprConfig
+from ..core.config import GprConfig, measured_points
 from ..errors import GprError, InputError
 from ..ros.specs import KINEMATICS, check_frame_prefix
 from .conversions import first_non_finite
@@ -120,7 +120,7 @@ class KinematicsNode(GprNode):
         self.create_service(StationInverseKinematics, 'gpr/station_inverse_kinematics', self.on_station_inverse,
                             qos_profile=qos)
         cfg, robot = self.params.config, self.params.robot
-        measured = [w for w, v in (('rods', cfg.rod_positions), ('platform joints', cfg.platform_joints)) if v]
+        measured = measured_points(cfg)
         geometry = ' and '.join(measured) + ' at their measured positions' if measured else f'R = {cfg.radius} m'
         self.get_logger().info(f'serving gpr/forward_kinematics, gpr/inverse_kinematics, gpr/compensate, '
                                f'gpr/analyze_mobility (model {cfg.model}, {geometry}, stroke '
