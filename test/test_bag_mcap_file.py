@@ -263,6 +263,59 @@ def test_the_uncompressed_bound_holds_for_the_whole_bag(tmp_path: Path, messages
         read_bag(bag)
 
 
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_the_messages_of_a_bag_are_bounded_in_number_over_its_files(tmp_path: Path, messages: list,
+                                                                    monkeypatch: pytest.MonkeyPatch,
+                                                                    storage: str) -> None:
+    """A 25 kB MCAP chunk of 6.6 million empty messages (within the bytes' bound) took 2.15 GB and 23 s to read: a
+    bag's messages are bounded in number, every topic's (one topic asked for reads them all), over its files; an
+    SQLite3 file's rows are counted before any is read."""
+    from gpr_kinematics.bags import reader
+
+    bag = write_bag(tmp_path / 'b', messages, _types(messages), storage=storage, max_bag_size=20_000)
+    files = sorted(bag.glob('*.mcap' if storage == 'mcap' else '*.db3'))
+    assert len(files) >= 3
+    n, topic = len(messages), messages[0][0]
+    for module in (mcap_file, reader):
+        monkeypatch.setattr(module, 'MAX_MESSAGES', n)
+    assert sum(len(t.raw) for t in read_bag(bag).topics.values()) == n
+    for module in (mcap_file, reader):
+        monkeypatch.setattr(module, 'MAX_MESSAGES', n - 1)
+    said = f'more than {n - 1}' if storage == 'mcap' else str(n)   # MCAP stops at the message beyond, SQLite3 before
+    for topics in (None, [topic]):
+        with pytest.raises(BagError, match=rf"{files[-1].name}: .*{said} messages in all \(this file's and the \d+ "
+                                           rf"of the bag's files before it\); allowed: at most {n - 1} per bag$"):
+            read_bag(bag, topics)
+
+
+def test_a_message_costs_some_250_bytes_so_the_bound_holds_the_memory(tmp_path: Path) -> None:
+    """The bound on messages is a bound on memory: 30,000 messages of two bytes in one zstd chunk (a file of 1 byte
+    a message) take at most 300 bytes each to read, so :data:`MAX_MESSAGES` of them stay within 2.4 GB."""
+    import tracemalloc
+
+    from mcap.writer import CompressionType, IndexType, Writer
+
+    n = 30_000
+    f = tmp_path / 'small.mcap'
+    with f.open('wb') as fh:
+        w = Writer(fh, chunk_size=1 << 26, compression=CompressionType.ZSTD, index_types=IndexType.NONE)
+        w.start(profile='ros2', library='test')
+        cid = w.register_channel('/e', 'cdr', w.register_schema('std_msgs/msg/Empty', 'ros2msg', b''))
+        for i in range(n):   # two bytes and a time of their own: no object Python shares between them
+            w.add_message(cid, log_time=10**18 + i, data=b'\0\0', publish_time=0)
+        w.finish()
+    assert f.stat().st_size < 2 * n
+    tracemalloc.start()
+    try:
+        read = read_bag(f)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(read.topics['/e'].raw) == n
+    assert peak / n <= 300, peak / n
+    assert mcap_file.MAX_MESSAGES * 300 <= 2.4e9
+
+
 def test_a_bag_beyond_the_memory_is_refused_in_one_line(tmp_path: Path, messages: list,
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """An allocation that fails while a file is read (a chunk decompressed beyond the process's memory: a 33 kB file

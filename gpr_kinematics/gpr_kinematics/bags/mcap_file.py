@@ -14,6 +14,7 @@ format; rosbag2's writer leaves the data-section CRC at 0, and the ``rosbags`` w
   :data:`MAX_INFLATED_BYTES` (checked before each is decompressed), decompressed with an output bound of that
   size, and it must come out exactly that long; its records must tile it exactly; its CRC, the data-section CRC
   and the summary CRC must match when they are not 0;
+- a bag's files hold at most :data:`MAX_MESSAGES` messages in all (empty ones are 31 bytes of chunk each);
 - messages must reference a channel defined before them, channels a schema, and lie inside their chunk's
   time range; the summary's Statistics must agree with the messages, chunks and time range walked, and its chunk
   indexes (which indexed readers such as ``ros2 bag play`` read instead of the walk) must be one per chunk, each
@@ -47,6 +48,10 @@ MAX_CHUNK_BYTES = 256 << 20
 #: Largest sum of the uncompressed chunks of a bag's files (a compressed file of 127 kB held 4 GB of messages; six
 #: files of 37 kB, each within a bound per file, 6 GB).
 MAX_INFLATED_BYTES = 1 << 30
+#: Most messages of a bag's files, every topic's (MCAP and SQLite3 alike): reading one costs some 250 bytes of
+#: Python objects however small it is (a 25 kB chunk of 6.6 million empty messages, within the bytes' bound, took
+#: 2.15 GB and 23 s to verify), 2 GB at the bound; the sweep's 151,201 messages are 2 % of it.
+MAX_MESSAGES = 8_000_000
 
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 OP_MESSAGE_INDEX, OP_CHUNK_INDEX, OP_STATISTICS = 0x07, 0x08, 0x0B
@@ -94,10 +99,13 @@ class McapFile:
     summary_crc: bool = False
     #: The uncompressed bytes of the chunks, with the bag's files read before (:func:`read_mcap`'s ``inflated``).
     inflated: int = 0
+    #: The messages walked, with the bag's files read before (:func:`read_mcap`'s ``messages``).
+    messages: int = 0
 
 
 class _Walker:
-    def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None, inflated: int) -> None:
+    def __init__(self, f: BinaryIO, size: int, path: Path, topics: set[str] | None, inflated: int,
+                 messages: int) -> None:
         self.f = f
         self.size = size
         self.pos = 0
@@ -107,6 +115,7 @@ class _Walker:
         self.out = McapFile(path, size, '', '', {})
         self.summary_start = 0
         self.inflated = self.before = inflated
+        self.out.messages = self.messages_before = messages
         self.record_start = 0
         self.chunk_facts: list[tuple[int, int, int, int, str, int, int]] = []   # per chunk walked (with its indexes':
         self.indexes = MessageIndexes()                                            # as a chunk index must name it)
@@ -161,6 +170,12 @@ class _Walker:
         if not lo <= log_time <= hi:
             raise FormatError(f'message log time {log_time} outside its chunk [{lo}, {hi}]')
         self.out.counts[cid] += 1
+        self.out.messages += 1
+        if self.out.messages > MAX_MESSAGES:
+            before = (f" (this file's and the {self.messages_before} of the bag's files before it)"
+                      if self.messages_before else '')
+            raise FormatError(f'more than {MAX_MESSAGES} messages in all{before}; allowed: at most {MAX_MESSAGES} '
+                              'per bag')
         if self.out.start is None or log_time < self.out.start:
             self.out.start = log_time
         if self.out.end is None or log_time > self.out.end:
@@ -378,9 +393,10 @@ class _Walker:
             self.out.summary_crc = True
 
 
-def read_mcap(path: Path, topics: set[str] | None = None, inflated: int = 0) -> McapFile:
+def read_mcap(path: Path, topics: set[str] | None = None, inflated: int = 0, messages: int = 0) -> McapFile:
     """Walk the MCAP file ``path`` (see the module docstring); keep the messages of ``topics`` (all if None). The
-    bag's files read before it uncompressed ``inflated`` bytes of chunks (:data:`MAX_INFLATED_BYTES` bounds all).
+    bag's files read before it uncompressed ``inflated`` bytes of chunks and held ``messages`` messages
+    (:data:`MAX_INFLATED_BYTES` and :data:`MAX_MESSAGES` bound all).
 
     Raises:
         BagError: not a regular file, not MCAP, truncated (no footer: the writer did not close it) or corrupt.
@@ -395,7 +411,7 @@ def read_mcap(path: Path, topics: set[str] | None = None, inflated: int = 0) -> 
                 raise BagError(f'{path}: truncated MCAP file ({size} bytes, no footer magic): the writer did not '
                                f'close it')
             f.seek(0)
-            return _Walker(f, size, path, topics, inflated).walk()
+            return _Walker(f, size, path, topics, inflated, messages).walk()
         except FormatError as exc:
             raise BagError(f'{path}: corrupt MCAP file: {exc}') from None
         except OSError as exc:

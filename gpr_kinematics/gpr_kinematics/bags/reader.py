@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from .cdr import Columns, decode_columns
 from .errors import BagError
 from .fileio import read_head, require_regular, sha256_file
-from .mcap_file import read_mcap
+from .mcap_file import MAX_MESSAGES, read_mcap
 from .metadata import Metadata, read_metadata
 from .typestore import KNOWN_TOPICS, normalize_type
 
@@ -197,10 +197,12 @@ class _Contents:
     data: dict[str, list[bytes]]
     #: The uncompressed bytes of MCAP chunks, this file's and the bag's files' before it.
     inflated: int = 0
+    #: The messages, this file's and the bag's files' before it (:data:`~.mcap_file.MAX_MESSAGES` bounds them).
+    messages: int = 0
 
 
-def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0) -> _Contents:
-    m = read_mcap(path, topics, inflated)
+def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, messages: int = 0) -> _Contents:
+    m = read_mcap(path, topics, inflated, messages)
     if m.profile != 'ros2':
         raise BagError(f'{path}: MCAP profile {m.profile!r}; allowed: ros2 (rosbag2)')
     bad = sorted({c.encoding for c in m.channels.values()} - {'cdr'})
@@ -224,7 +226,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0) -> _
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
                        m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
-    return _Contents(info, times, data, m.inflated)
+    return _Contents(info, times, data, m.inflated, m.messages)
 
 
 def _check_pages(path: Path, head: bytes, size: int) -> None:
@@ -239,9 +241,11 @@ def _check_pages(path: Path, head: bytes, size: int) -> None:
                        f'({page * count} bytes): bytes appended or cut; allowed: the database as SQLite wrote it')
 
 
-def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
+def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -> _Contents:
     """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
-    those names is refused, so every row read is stored in the file)."""
+    those names is refused, so every row read is stored in the file). The bag's files before it held ``messages``
+    messages; its rows are counted before any is read (:data:`~.mcap_file.MAX_MESSAGES` bounds all) and only those
+    of ``topics`` (all if None) are kept."""
     head, size = read_head(path, 'SQLite3 file', 100)
     if head[:16] != b'SQLite format 3\x00':
         raise BagError(f'{path}: not an SQLite3 database')
@@ -262,36 +266,41 @@ def read_sqlite(path: Path, topics: set[str] | None = None) -> _Contents:
             profiles = 'offered_qos_profiles' if b'offered_qos_profiles' in columns else "''"
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes}, {profiles} '
                                'FROM topics').fetchall()
-            messages = con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id').fetchall()
             tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
             definitions = con.execute('SELECT topic_type, encoding, encoded_message_definition FROM '
                                       'message_definitions').fetchall() if b'message_definitions' in tables else []
+            names, types, digests, formats, qos = _topics_table(rows, path)
+            total = messages + con.execute('SELECT count(*) FROM messages').fetchone()[0]
+            if total > MAX_MESSAGES:
+                before = f" (this file's and the {messages} of the bag's files before it)" if messages else ''
+                raise BagError(f'{path}: {total} messages in all{before}; allowed: at most {MAX_MESSAGES} per bag')
+            counts = dict.fromkeys(types, 0)
+            keep = [n for n in types if topics is None or n in topics]
+            times: dict[str, list[int]] = {n: [] for n in keep}
+            data: dict[str, list[bytes]] = {n: [] for n in keep}
+            first = last = None
+            for tid, stamp, blob in con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id'):
+                name = names.get(tid) if isinstance(tid, int) else None
+                if name is None or not isinstance(stamp, int) or not isinstance(blob, bytes):
+                    raise BagError(f'{path}: corrupt messages table (topic id {tid!r}, timestamp '
+                                   f'{type(stamp).__name__}, data {type(blob).__name__})')
+                counts[name] += 1
+                first = stamp if first is None or stamp < first else first
+                last = stamp if last is None or stamp > last else last
+                if name in times:
+                    times[name].append(stamp)
+                    data[name].append(blob)
         finally:
             con.close()
     except sqlite3.Error as exc:
         raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
     except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
         raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
-    names, types, digests, formats, qos = _topics_table(rows, path)
     defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
-    counts = dict.fromkeys(types, 0)
-    keep = [n for n in types if topics is None or n in topics]
-    times: dict[str, list[int]] = {n: [] for n in keep}
-    data: dict[str, list[bytes]] = {n: [] for n in keep}
-    for tid, stamp, blob in messages:
-        name = names.get(tid) if isinstance(tid, int) else None
-        if name is None or not isinstance(stamp, int) or not isinstance(blob, bytes):
-            raise BagError(f'{path}: corrupt messages table (topic id {tid!r}, timestamp {type(stamp).__name__}, '
-                           f'data {type(blob).__name__})')
-        counts[name] += 1
-        if name in times:
-            times[name].append(stamp)
-            data[name].append(blob)
-    stamps = [m[1] for m in messages]
     schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
-    info = StorageFile(path.name, size, sha, counts, types, digests, min(stamps, default=None),
-                       max(stamps, default=None), schemas=schemas, formats=formats, qos=qos)
-    return _Contents(info, times, data)
+    info = StorageFile(path.name, size, sha, counts, types, digests, first, last, schemas=schemas, formats=formats,
+                       qos=qos)
+    return _Contents(info, times, data, messages=total)
 
 
 def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int, str], dict[str, str], dict[str, str],
@@ -359,8 +368,9 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
     contents: list[_Contents] = []
     for f in layout.files:
         try:
-            contents.append(_read_mcap_file(f, wanted, contents[-1].inflated if contents else 0)
-                            if layout.storage == 'mcap' else read_sqlite(f, wanted))
+            inflated, messages = (contents[-1].inflated, contents[-1].messages) if contents else (0, 0)
+            contents.append(_read_mcap_file(f, wanted, inflated, messages)
+                            if layout.storage == 'mcap' else read_sqlite(f, wanted, messages))
         except MemoryError:  # a failed allocation (a bag beyond the machine's memory), not a corrupt file
             raise BagError(f'{f}: not enough memory to read its messages (a bag is read into memory); allowed: a '
                            "bag whose messages fit in this process's memory") from None
