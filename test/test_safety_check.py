@@ -89,7 +89,7 @@ def test_the_cell_example_is_safe(tmp_path):
     assert res.returncode == 0 and 'certified' not in res.stdout, res.stdout
     assert ("bounded between samples to first order in the polar model's virtual joints (proven for radial only)"
             in res.stdout and 'max slip ratio 0.754 (a first-order bound over the motion;' in res.stdout), res.stdout
-    # the same program with a margin above its clearance: unsafe, a table names the first collision
+    # the same program with a margin above its clearance: unsafe, a table names each pair below it
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.01', cwd=tmp_path)
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
 
@@ -108,14 +108,18 @@ def test_the_collision_table_says_which_time_is_which(tmp_path):
     res = gpr('program', 'check', str(PROGRAM), '--margin', '0.007', cwd=tmp_path)
     assert res.returncode == 1
     lines = res.stdout.splitlines()
-    k = lines.index('  UNSAFE: 2 pair(s) below the margin; the first:')
+    k = lines.index('  UNSAFE: 2 pair(s) below the margin:')
     assert lines[k + 1].split() == ['step', 'station', 'first', 'below', '[s]', 'bodies', 'min', 'distance', '[mm]',
                                     'min', 'at', '[s]']
-    step, station, below, a, _, b, distance, at = lines[k + 2].split()
-    assert (int(step), station, f'{a} / {b}') == (first['step'], first['station'], ' / '.join(first['bodies']))
-    assert (below, distance, at) == (f"{first['time']:.3f}", f"{first['distance'] * 1e3:.3f}", f"{least['time']:.3f}")
-    assert 'first below: the first instant found closer than the margin' in lines[k + 3]
-    assert 'least certified distance over the whole program; min at: the instant of its smallest' in lines[k + 4]
+    assert len(d['collisions']) == 2   # a row each (docs/cell.md: the table names each pair), in the JSON's order
+    for row, c in zip(lines[k + 2:k + 4], d['collisions'], strict=True):
+        step, station, below, a, _, b, distance, at = row.split()
+        least = next(p for p in d['pairs'] if p['bodies'] == c['bodies'] and p['distance'] == c['distance'])
+        assert (int(step), station, f'{a} / {b}') == (c['step'], c['station'], ' / '.join(c['bodies']))
+        assert (below, distance, at) == (f"{c['time']:.3f}", f"{c['distance'] * 1e3:.3f}", f"{least['time']:.3f}")
+    assert 'first below: the first instant found closer than the margin' in lines[k + 4]
+    assert 'least certified distance over the whole program; min at: the instant of its smallest' in lines[k + 5]
+    least = next(p for p in d['pairs'] if p['bodies'] == first['bodies'] and p['distance'] == first['distance'])
     # docs/robot.md quotes this case (to the last printed digit: a rounding's flip at the boundary is allowed)
     doc = ' '.join((Path(__file__).resolve().parents[1] / 'docs' / 'robot.md').read_text(encoding='utf-8').split())
     m = re.search(r"arm2_link3 comes within 7 mm of pm1's front at ([\d.]+) s, ([\d.]+) mm at ([\d.]+) s", doc)

@@ -115,12 +115,12 @@ def _print_safety(r: Any) -> None:
         for m in carried:
             print(f'    {m.label:<48} {m.start:>9.3f} {m.end:>9.3f} {m.max_slip_ratio:>15.3f}')
     if r.collisions:
-        c = r.collisions[0]
-        print(f'  UNSAFE: {len(r.collisions)} pair(s) below the margin; the first:')
+        print(f'  UNSAFE: {len(r.collisions)} pair(s) below the margin:')
         print(f'    {"step":>5}  {"station":<16} {"first below [s]":>15}  {"bodies":<40} {"min distance [mm]":>17} '
               f'{"min at [s]":>10}')
-        print(f'    {c.step:>5}  {c.station:<16} {c.time:>15.3f}  {" / ".join(c.bodies):<40} {c.distance * 1e3:>17.3f} '
-              f'{_least_at(r, c):>10.3f}')
+        for c in r.collisions:
+            print(f'    {c.step:>5}  {c.station:<16} {c.time:>15.3f}  {" / ".join(c.bodies):<40} '
+                  f'{c.distance * 1e3:>17.3f} {_least_at(r, c):>10.3f}')
         print('    (first below: the first instant found closer than the margin, in that step at that station; '
               "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
               'its smallest measured distance)')
