@@ -192,6 +192,41 @@ def test_unlisted_and_unfinished_files_are_noted_not_read(tmp_path: Path, src: P
     assert any('src_9.mcap' in n and 'not read' in n for n in result.notes)
 
 
+def test_a_hostile_unfinished_segment_folder_is_noted_not_walked(tmp_path: Path, src: Path) -> None:
+    """``.recording`` linked to ``/`` walked the whole file system into a traceback, 1,200 nested folders into a
+    RecursionError (exit 1, "verification failed"): the recorder's layout only (two levels, real folders, a bounded
+    count) is listed, a linked folder is noted as such; the bag itself verifies."""
+    import os
+
+    from gpr_kinematics.bags import reader
+
+    bag = copy_bag(src, tmp_path / 'b')
+    (bag / '.recording').symlink_to('/')
+    result = verify_bag(bag)
+    assert result.passed and result.unfinished == ['.recording (a symbolic link, not the recorder\'s: not listed)']
+    (bag / '.recording').unlink()
+    deep = bag / '.recording' / 'src_10'
+    deep.mkdir(parents=True)
+    (deep / 'src_10.mcap').write_bytes(b'\x89MCAP0\r\n')
+    os.symlink('/usr/bin', deep / 'bin.mcap')    # a link to a folder named like a segment's file: not one
+    (deep / 'linked.mcap').symlink_to(deep / 'src_10.mcap')
+    here = Path.cwd()
+    try:
+        os.chdir(deep)
+        for _ in range(1_200):
+            os.mkdir('a')
+            os.chdir('a')
+        Path('x.mcap').write_bytes(b'')
+    finally:
+        os.chdir(here)
+    result = verify_bag(bag)
+    assert result.passed and result.unfinished == ['.recording/src_10/src_10.mcap'], result.unfinished
+    for i in range(reader.MAX_UNFINISHED + 5):
+        (bag / '.recording' / f'{i:03d}.db3').write_bytes(b'')
+    result = verify_bag(bag)
+    assert result.passed and len(result.unfinished) == reader.MAX_UNFINISHED
+
+
 def test_reference_bag_checksums_and_metadata() -> None:
     result = verify_bag(REFERENCE)
     checks = {c.name: c for c in result.checks}

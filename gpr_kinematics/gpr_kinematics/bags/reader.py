@@ -18,6 +18,8 @@ caught (``sqlite3.Error`` and the decoders' own errors); anything else is a bug 
 from __future__ import annotations
 
 import functools
+import itertools
+import os
 import sqlite3
 import urllib.parse
 from dataclasses import dataclass, field
@@ -35,6 +37,8 @@ from .typestore import KNOWN_TOPICS, normalize_type
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
 OPEN_SEGMENT_DIR = '.recording'
+#: The unfinished segments' storage files named at most (a killed recorder leaves one).
+MAX_UNFINISHED = 100
 SUFFIXES = {'.mcap': 'mcap', '.db3': 'sqlite3'}
 
 
@@ -182,10 +186,29 @@ def locate(path: str | Path) -> Layout:
         files.append(f)
     listed = {f.name for f in files}
     unlisted = sorted(p.name for p in path.iterdir() if p.suffix in SUFFIXES and p.name not in listed)
-    open_dir = path / OPEN_SEGMENT_DIR
-    unfinished = sorted(str(p.relative_to(path)) for p in open_dir.rglob('*')
-                        if p.suffix in SUFFIXES) if open_dir.is_dir() else []
-    return Layout(path, meta.storage, tuple(files), meta, tuple(unfinished), tuple(unlisted))
+    return Layout(path, meta.storage, tuple(files), meta, tuple(_unfinished(path)), tuple(unlisted))
+
+
+def _unfinished(path: Path) -> list[str]:
+    """The storage files of the recorder's unfinished segments, as it makes them: ``.recording/<segment>/<file>``
+    (noted, never read). Real folders only, two levels, at most :data:`MAX_UNFINISHED` names: a ``.recording``
+    linked to ``/`` walked the whole file system into a traceback, 1,200 nested folders into a RecursionError."""
+    top = path / OPEN_SEGMENT_DIR
+    if top.is_symlink() or not top.is_dir():
+        return [f'{OPEN_SEGMENT_DIR} (a symbolic link, not the recorder\'s: not listed)'] if top.is_symlink() else []
+    out: list[str] = []
+    try:
+        with os.scandir(top) as segments:
+            for seg in itertools.islice(segments, MAX_UNFINISHED):
+                names = [seg.name] if seg.is_file(follow_symlinks=False) else []
+                if seg.is_dir(follow_symlinks=False):
+                    with os.scandir(seg.path) as inner:
+                        names = [f'{seg.name}/{e.name}' for e in itertools.islice(inner, MAX_UNFINISHED)
+                                 if e.is_file(follow_symlinks=False)]
+                out += [f'{OPEN_SEGMENT_DIR}/{n}' for n in names if Path(n).suffix in SUFFIXES]
+    except OSError as exc:
+        out.append(f'{OPEN_SEGMENT_DIR} (cannot be listed: {exc.strerror or exc})')
+    return sorted(out)[:MAX_UNFINISHED]
 
 
 @dataclass
