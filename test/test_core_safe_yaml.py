@@ -175,6 +175,13 @@ def test_duplicate_keys_are_refused_naming_the_key_and_both_lines(monkeypatch, l
         safe_yaml.load_text('1: a\n01: b', 'x')
     assert safe_yaml.load_text('a: {b: 1}\nc: {b: 2}\nd: [{b: 1}, {b: 2}]') == {
         'a': {'b': 1}, 'c': {'b': 2}, 'd': [{'b': 1}, {'b': 2}]}     # the same key in two mappings is no duplicate
+    # YAML 1.1's merge key gave a key twice past the check (radius 0.2 dropped, the second merge winning)
+    for text, line in (('radius: 0.093218\n<<: {radius: 0.2, stroke_max: 0.3}\n', 2),
+                       ('<<: {stroke_max: 0.3}\n<<: {stroke_max: 0.4}\n', 1), ('a:\n  <<: [{b: 1}, {b: 2}]\n', 2),
+                       ('<<: 5\n', 1)):
+        with pytest.raises(ConfigError, match=rf'^x: line {line}: merge key <<; allowed: each key written out'):
+            safe_yaml.load_text(text, 'x')
+    assert safe_yaml.load_text("'<<': 1") == {'<<': 1}     # a key that is the text << (quoted) is a key like others
 
 
 @pytest.mark.parametrize('libyaml', [True, False], ids=['libyaml', 'python'])

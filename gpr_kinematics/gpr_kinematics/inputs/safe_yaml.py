@@ -13,7 +13,8 @@ file and the limit:
   then costs about 0.7 kB and 35 us in PyYAML's Python composer, 10 times less through libyaml's; 2 MiB of
   ``[1,1,1,...]`` took 0.7 GB and 34 s with the Python composer alone). Without libyaml the values are counted as
   they are composed;
-* a key given twice in one mapping is refused, naming the key and both lines (PyYAML keeps the last silently);
+* a key given twice in one mapping is refused, naming the key and both lines (PyYAML keeps the last silently), and
+  so is YAML 1.1's merge key ``<<`` (it gave a key twice past that check);
 * a file larger than its kind's bound (:data:`KIND_BYTES`; :data:`MAX_BYTES` for the others) or not a regular
   file is refused before a byte is read (so an 8 MB robot file costs nothing but a ``stat``);
 * text that is not UTF-8 is refused with the byte offset of the first bad byte.
@@ -114,10 +115,13 @@ class _UniqueKeys:
     def construct_mapping(self, node: MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[Any, int] = {}
         for key_node, _ in node.value:
-            if not isinstance(key_node, ScalarNode) or key_node.tag == 'tag:yaml.org,2002:merge':
+            line = _line(key_node.start_mark)
+            if key_node.tag == 'tag:yaml.org,2002:merge':  # PyYAML merged them past the check, the last one winning
+                raise ConfigError(f'{self._source}: line {line}: merge key <<; allowed: each key written out (YAML '
+                                  '1.2, which the package reads, has no merge keys)')
+            if not isinstance(key_node, ScalarNode):
                 continue
             key = self.construct_object(key_node)  # type: ignore[attr-defined]  # SafeConstructor's
-            line = _line(key_node.start_mark)
             if key in seen:
                 raise ConfigError(f'{self._source}: line {line}: duplicate key {quoted_key(key)} (first on line '
                                   f'{seen[key]}); allowed: each key once in a mapping')
