@@ -88,6 +88,8 @@ def test_a_goal_into_the_box_is_refused_then_a_clear_one_runs(sim_cell):
     ({'cell_file': 'no_such_cell.yaml'}, r'cannot start: .*no_such_cell\.yaml'),
     ({'cell_file': 'CELL', 'wafer_arms': ['arm3']}, r"cannot start: wafer_arms: unknown arm 'arm3'; allowed: some of "
                                                      r'arm1, arm2, or none'),
+    ({'wafer_arms': ['arm9']}, r"cannot start: wafer_arms = \['arm9'\] needs a cell_file .*; allowed: \[''\] \(none\) "
+                               'without a cell_file'),   # it served, the parameter taken without a word
 ])
 def test_a_bad_cell_or_wafer_arm_stops_the_node_with_one_line(ros_environment, values, words):
     from gpr_kinematics.inputs.resources import config_path

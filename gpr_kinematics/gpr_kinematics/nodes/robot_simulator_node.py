@@ -53,7 +53,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.forward import forward
 from ..core.messages import NS_PER_S, duration_parts, time_parts
-from ..errors import GprError
+from ..errors import ConfigError, GprError
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
@@ -122,9 +122,13 @@ class RobotSimulatorNode(GprNode):
         self.defaults = Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'], p['goal_time'])
         #: The cell's clearance check of a goal's whole motion (None: no cell_file).
         self.clearance: GoalClearance | None = None
+        wafer_arms = tuple(a for a in p['wafer_arms'] if a)
         if p['cell_file']:
             self.clearance = GoalClearance(self.robot, load_cell(p['cell_file']), float(p['clearance_margin']),
-                                           wafer_arms=tuple(a for a in p['wafer_arms'] if a))
+                                           wafer_arms=wafer_arms)
+        elif wafer_arms:  # taken without a word before: the wafers are checked against a cell only
+            raise ConfigError(f'wafer_arms = {list(wafer_arms)} needs a cell_file (the carried wafers are checked '
+                              "against the cell's bodies); allowed: [''] (none) without a cell_file")
         self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
         self.period = 1.0 / float(p['rate'])
         self.run: _Run | None = None
