@@ -219,12 +219,17 @@ def test_a_hostile_unfinished_segment_folder_is_noted_not_walked(tmp_path: Path,
         Path('x.mcap').write_bytes(b'')
     finally:
         os.chdir(here)
-    result = verify_bag(bag)
-    assert result.passed and result.unfinished == ['.recording/src_10/src_10.mcap'], result.unfinished
-    for i in range(reader.MAX_UNFINISHED + 5):
-        (bag / '.recording' / f'{i:03d}.db3').write_bytes(b'')
-    result = verify_bag(bag)
-    assert result.passed and len(result.unfinished) == reader.MAX_UNFINISHED
+    try:
+        result = verify_bag(bag)
+        assert result.passed and result.unfinished == ['.recording/src_10/src_10.mcap'], result.unfinished
+        for i in range(reader.MAX_UNFINISHED + 5):
+            (bag / '.recording' / f'{i:03d}.db3').write_bytes(b'')
+        result = verify_bag(bag)
+        assert result.passed and len(result.unfinished) == reader.MAX_UNFINISHED
+    finally:   # from the deepest folder up: a recursive removal (pytest's, os.walk) overflows the stack as rglob did
+        (deep / ('a/' * 1_200) / 'x.mcap').unlink()
+        for k in range(1_200, 0, -1):
+            (deep / ('a/' * k)).rmdir()
 
 
 def test_reference_bag_checksums_and_metadata() -> None:

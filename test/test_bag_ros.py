@@ -479,6 +479,35 @@ def test_a_bag_type_that_is_no_message_type_is_never_imported(msgtype: str) -> N
     assert message_class('std_msgs/msg/String').__name__ == 'String'
 
 
+def test_a_type_the_graph_does_not_publish_is_refused_or_warned(tmp_path: Path) -> None:
+    """A topic given as ``name:Type`` where the graph publishes it as another type matched no publisher: the
+    recorder said "recording", wrote 0 messages and exited 0. It stops at the start with one line naming both
+    types, or warns while recording where discovery finds the publisher only after the start."""
+    from gpr_kinematics.nodes.client import GprClient
+    from std_msgs.msg import Int32
+
+    topic = '/recorder_type_check'
+    with GprClient('typed_pub') as c:
+        pub = c.node.create_publisher(Int32, topic, 10)
+        time.sleep(1.0)   # the publisher announced before the recorder asks the graph (a later one: the warning)
+        rec = recorder(tmp_path / 'bag', topics=f'["{topic}:std_msgs/msg/String"]', flush_interval=0.2)
+        try:
+            end = time.monotonic() + 20
+            said = f'{topic} is published as std_msgs/msg/Int32, not std_msgs/msg/String'
+            while time.monotonic() < end and said not in rec.output():
+                pub.publish(Int32(data=1))
+                time.sleep(0.1)
+            out = rec.output()
+            assert said in out, out
+            if 'cannot start' in out:
+                assert rec.wait(15) == 2 and 'allowed: the type it is published as' in out, out
+                assert not (tmp_path / 'bag').exists()
+            else:
+                assert 'nothing of it is recorded' in out and out.count(said) == 1, out
+        finally:
+            rec.stop()
+
+
 def test_every_publisher_of_a_latched_topic_is_kept(tmp_path: Path) -> None:
     """Robots side by side each latch their ``/tf_static``: a client and a recorder that join later get every
     robot's sample. A reader of depth 1 kept the last when they arrived before it took the first (a loaded CI run of

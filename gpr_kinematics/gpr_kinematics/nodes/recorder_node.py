@@ -23,8 +23,9 @@ SIGINT and SIGTERM: the node stops taking new work, drains what DDS already deli
 the counts per topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more
 than ``flush_interval`` before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
 folder left behind) when the output exists or is not writable, a topic name is empty or invalid, a topic's
-type is unknown or a parameter is invalid. An error while recording (a full disk) ends it with one
-``stopped:`` line and exit status 1; the segments closed before the error stay a valid bag.
+type is unknown or not the one the graph publishes it as at the start (one discovered later: a warning), or a
+parameter is invalid. An error while recording (a full disk) ends it with one ``stopped:`` line and exit status 1;
+the segments closed before the error stay a valid bag.
 """
 from __future__ import annotations
 
@@ -41,7 +42,7 @@ from rclpy.qos import QoSProfile
 from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
-from ..bags.typestore import KNOWN_TOPICS, check_known
+from ..bags.typestore import KNOWN_TOPICS, check_known, normalize_type
 from ..bags.writer import SegmentedBagWriter, check_output_path
 from ..ros.specs import node_specs
 from .conversions import message_class
@@ -74,11 +75,16 @@ class RecorderNode(GprNode):
         output = Path(p['output']) if p['output'] else default_output()
         check_output_path(output)
         topics = self._resolve_topics(list(p['topics']))
+        wrong = self._wrong_types(topics)
+        if wrong:
+            raise BagError(wrong[0] + '; allowed: the type it is published as (or the name alone: its type is taken '
+                           'from the graph)')
         self.writer = SegmentedBagWriter(output, topics, storage=p['storage'], flush_interval=p['flush_interval'],
                                          max_bag_size=p['max_bag_size'], max_bag_duration=p['max_bag_duration'],
                                          compression=p['compression'], fsync=p['fsync'],
                                          custom_data={'recorder': NODE_NAME})
         classes = {t: message_class(ty) for t, ty in topics.items()}
+        self.types, self.warned = topics, set[str]()
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self.writer.open()
         try:
@@ -89,6 +95,7 @@ class RecorderNode(GprNode):
                          for t in order]
             if p['flush_interval'] > 0:
                 self.timer = self.create_timer(max(0.005, p['flush_interval'] / 20.0), self._poll)
+            self.type_timer = self.create_timer(1.0, self._watch_types)
         except BaseException:
             self.writer.abort(remove=True)
             raise
@@ -136,6 +143,23 @@ class RecorderNode(GprNode):
                 raise BagError(f'type of topic(s) {", ".join(missing)} unknown: not published within '
                                f'{self.p["discovery_timeout"]} s; allowed: give it as name:pkg/msg/Type')
         return {t: str(ty) for t, ty in topics.items()}
+
+    def _wrong_types(self, topics: dict[str, str]) -> list[str]:
+        """Topics the graph publishes as other types only (no publisher matches: their bag stays empty, and looked
+        valid), each as ``'<topic> is published as <types>, not <type>'``."""
+        out = []
+        for t, ty in topics.items():   # the publishers' types (the graph's list holds the recorder's subscription)
+            offered = sorted({normalize_type(i.topic_type) for i in self.get_publishers_info_by_topic(t)})
+            if offered and ty not in offered:
+                out.append(f'topics: {t} is published as {" and ".join(offered)}, not {ty}')
+        return out
+
+    def _watch_types(self) -> None:
+        """A publisher discovered after the start with another type than the one recorded: a warning, once a
+        topic (nothing of it is recorded)."""
+        for line in self._wrong_types({t: ty for t, ty in self.types.items() if t not in self.warned}):
+            self.warned.add(line.split()[1])
+            self.get_logger().warning(f'{line}: nothing of it is recorded')
 
     def _callback(self, topic: str) -> Any:
         writer, received = self.writer, self.received
