@@ -119,6 +119,15 @@ def test_invalid_models_refused():
     renamed = dataclasses.replace(arm, joints=(dataclasses.replace(arm.joints[0], name='rod_1'), *arm.joints[1:]))
     with pytest.raises(InputError, match=r'joint name\(s\) rod_1 used twice'):
         robot_urdf(dataclasses.replace(robot, arms=(renamed, *robot.arms[1:])))
+    # a frame parameter named like a link of the robot: "link names must be unique" named neither
+    for key, value in (('platform_frame', 'world'), ('nominal_frame', 'arm1_link1'), ('base_frame', 'arm2_wafer')):
+        with pytest.raises(InputError, match=rf"^{key} = '{value}' is the name of another frame of robot "
+                                             f'{robot.name} .*; allowed: a frame of its own$'):
+            robot_urdf(robot, **{key: value})
+    with pytest.raises(InputError, match=r"^robot model r: 'b' is the name of two links; allowed: unique link names"):
+        RobotUrdf('r', 'a', (Link('a'), Link('b'), Link('b')), ())
+    with pytest.raises(InputError, match=r"^robot model r: no link is the root 'c'; allowed: unique link names"):
+        RobotUrdf('r', 'c', (Link('a'), Link('b')), ())
 
 
 def test_robot_figure_draws_the_true_errors(tmp_path):

@@ -146,8 +146,11 @@ class RobotUrdf:
 
     def __post_init__(self) -> None:
         names = [link.name for link in self.links]
-        if len(set(names)) != len(names) or self.root not in names:
-            raise InputError(f'robot model {self.name}: link names must be unique and include the root {self.root}')
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice or self.root not in names:
+            what = f'{twice[0]!r} is the name of two links' if twice else f'no link is the root {self.root!r}'
+            raise InputError(f'robot model {self.name}: {what}; allowed: unique link names, the root {self.root!r} '
+                             'among them')
         joints = [j.name for j in self.joints]
         twice = sorted({n for n in joints if joints.count(n) > 1})
         if twice:
@@ -262,6 +265,12 @@ def robot_urdf(robot: RobotDescription, base_frame: str = 'gpr_base', platform_f
         arm_links, arm_joints = _arm_parts(arm, platform_frame, robot.wafer)
         links += arm_links
         joints += arm_joints
+    every = [link.name for link in links]
+    frames = {'base_frame': base_frame, 'platform_frame': platform_frame, 'nominal_frame': nominal_frame}
+    for key, value in frames.items():
+        if every.count(value) > 1:   # "link names must be unique" named neither the frame nor the parameter
+            raise InputError(f'{key} = {value!r} is the name of another frame of robot {robot.name} (its world, '
+                             'rods, arms, blades and wafers); allowed: a frame of its own')
     names = {'gpr_base': base_frame, 'gpr_platform': platform_frame}
     shapes: dict[str, list[Visual]] = {}
     for sh in robot_shapes(robot):
