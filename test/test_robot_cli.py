@@ -120,6 +120,16 @@ def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--deg')
     assert status == 2 and err.count('\n') == 1 and re.search(r'--deg converts --rods and --joints; a --table gives '
                                                                 r'its units in its header', err), err
+    # ... in this robot's names (the example's were printed for every robot)
+    import yaml
+    from gpr_kinematics.robot import load_robot
+    data = yaml.safe_load(Path(load_robot().source).read_text(encoding='utf-8'))
+    data['rods']['names'] = ['r1', 'r2', 'r3']
+    mine = tmp_path / 'mine.yaml'
+    mine.write_text(yaml.safe_dump(data), encoding='utf-8')
+    status, out, err = run(capsys, 'robot', 'teach', '--robot', str(mine), '--arm', 'arm2', '--table', str(table),
+                           '--mm')
+    assert status == 2 and 'units in its header ("r1 [mm]", "arm2_hand [deg]")' in err, err
 
 
 def test_degrees_in_a_column_without_unit_are_refused_with_naive(capsys, tmp_path):

@@ -127,7 +127,8 @@ _DELETE = object()
     (('arms', 0, 'branch'), 'up', r"branch = 'up' is invalid; allowed: left or right"),
     (('arms', 0, 'home'), [0, 3.0, 0], r'home: arm1_elbow = 3.0 is invalid; allowed: within \[-2.9, 2.9\] rad'),
     (('arms', 0, 'redundancy'), {'rule': 'nearest'}, r'redundancy applies to 4-joint arms only; this arm has 3'),
-    (('arms', 1, 'redundancy'), _DELETE, r'a 4-joint arm needs redundancy: \{rule: fixed_joint'),
+    (('arms', 1, 'redundancy'), _DELETE, r'a 4-joint arm needs redundancy: \{rule: fixed_joint, joint: NAME, '
+     r'value: RAD\} or \{rule: nearest, joint: NAME, reference: \[\.\.\.\], weights: \[\.\.\.\]\}$'),
     (('arms', 1, 'redundancy', 'rule'), 'random', r"rule = 'random' is invalid; allowed: fixed_joint or nearest"),
     (('arms', 1, 'redundancy', 'joint'), 'arm1_elbow', r"joint = 'arm1_elbow' is invalid; allowed: one of arm2_"),
     (('arms', 1, 'redundancy', 'value'), 2.6, r'value = 2.6 is invalid; allowed: within the limits of arm2_wrist'),

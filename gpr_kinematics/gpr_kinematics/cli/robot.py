@@ -104,8 +104,9 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         if args.rods or args.joints:
             raise InputError('give either --table FILE or --rods and --joints, not both')
         if args.mm or args.deg:  # they were ignored: a table's columns without a unit were read as SI all the same
+            rod, joint = robot.rods.names[0], robot.arm(args.arm).joints[-1].name   # this robot's names
             raise InputError(f'{"--mm" if args.mm else "--deg"} converts --rods and --joints; a --table gives its '
-                             'units in its header ("gpr_rod1 [mm]", "arm1_elbow [deg]") or a "# units: mm deg" line')
+                             f'units in its header ("{rod} [mm]", "{joint} [deg]") or a "# units: mm deg" line')
         names, rods, joints = read_joint_table(args.table, robot, args.arm, check_limits=not args.naive)
     elif args.rods and args.joints:
         _check_joint_count(args.joints, robot.arm(args.arm))

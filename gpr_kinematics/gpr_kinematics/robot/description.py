@@ -351,7 +351,7 @@ def _arm(raw: Any, where: str) -> Arm:
     if len(joints) == 4:
         if 'redundancy' not in data:
             raise ConfigError(f'{where}: a 4-joint arm needs redundancy: {{rule: fixed_joint, joint: NAME, value: '
-                              'RAD}} or {rule: nearest, joint: NAME, reference: [...], weights: [...]}')
+                              'RAD} or {rule: nearest, joint: NAME, reference: [...], weights: [...]}')
         redundancy = _redundancy(data['redundancy'], joints, f'{where}: redundancy')
     elif 'redundancy' in data:
         raise ConfigError(f'{where}: redundancy applies to 4-joint arms only; this arm has {len(joints)} joints')
