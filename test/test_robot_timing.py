@@ -91,6 +91,28 @@ def test_too_short_a_time_is_refused_naming_the_joint():
         parameterise(P, V_LIM, A_LIM, np.array([np.nan, 0.5]), np.zeros(2), NAMES, ('a', 'b'))
 
 
+def test_the_joint_named_in_a_too_short_time_is_timed_with_its_jerk():
+    """A joint of 3.29342 rad at 1.2 rad/s, 2 rad/s^2 and 20 rad/s^3 needs d/v + v/a + a/j = 3.4445 s (an S-curve
+    reaching both); 3.4 s was refused naming its trapezoid's 3.345 s, shorter than the time refused."""
+    d = 3.29342
+    need = d / 1.2 + 1.2 / 2.0 + 2.0 / 20.0
+    P = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, d]])
+    v, a, j = np.array([1.0, 1.0, 1.0, 1.2]), np.array([1.0, 1.0, 1.0, 2.0]), np.array([10.0, 10.0, 10.0, 20.0])
+    names = ('r1', 'r2', 'r3', 'fa_j1')
+    with pytest.raises(LimitError, match=rf'needs at least {need:.4g} s within the limits, time = 3.4 s is too short '
+                                         rf'\(fa_j1 alone needs {need:.4g} s at 1.2 rad/s, 2 rad/s\^2 and 20 rad/s\^3\)$'):
+        parameterise(P, v, a, np.array([np.nan, 3.4]), np.zeros(2), names, ('a', 'b'), jerk=j)
+    # one joint limited by its speed, one by its acceleration: together they need more than either alone
+    P = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
+    v, a = np.array([0.8, 100.0, 1.0]), np.array([100.0, 2.0, 1.0])
+    alone, together = 2.0 * np.sqrt(1.0 / 2.0), 1.0 / 0.8 + 0.8 / 2.0   # the second joint's triangle; V 0.8, A 2
+    with pytest.raises(LimitError, match=rf'needs at least {together:.4g} s within the limits, time = 1.5 s is too '
+                                         rf'short \(no joint alone needs as long, the slowest: shoulder alone needs '
+                                         rf'{alone:.4g} s at 100 m/s and 2 m/s\^2; their limits together, on this '
+                                         r'path, need more\)$'):
+        parameterise(P, v, a, np.array([np.nan, 1.5]), np.zeros(2), NAMES, ('a', 'b'))
+
+
 @pytest.mark.parametrize('rate, pattern', [(0.0, r'rate = 0.0 is invalid'), (float('nan'), 'rate = nan is invalid'),
                                            (1e5, r'rate = 100000.0 is invalid; allowed: 0.1 <= rate <= 5000 Hz'),
                                            (1e-300, r'rate = 1e-300 is invalid'), (5001, 'rate = 5001 is invalid')])

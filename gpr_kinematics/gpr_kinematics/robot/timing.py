@@ -304,23 +304,23 @@ def least_total(positions: Array, velocity: Array, acceleration: Array, jerk: Ar
     D = np.diff(positions, axis=0)
     T = shortest(D, velocity, acceleration, jerk)[2]
     req = requested[1:]
-    _refuse_short(D, T, req, velocity, acceleration, names, labels)
+    _refuse_short(D, T, req, velocity, acceleration, jerk, names, labels)
     T = np.where(np.isfinite(req), np.maximum(req, T), T)
     return float(np.sum(dwell[:-1] + T) + dwell[-1]) * (1.0 - 1e-9)   # less the sums' and bisection's rounding
 
 
-def _refuse_short(D: Array, T_min: Array, req: Array, velocity: Array, acceleration: Array, names: tuple[str, ...],
+def _refuse_short(D: Array, T_min: Array, req: Array, v: Array, a: Array, j: Array, names: tuple[str, ...],
                   labels: tuple[str, ...]) -> None:
-    """LimitError for the first move whose time ``req`` (NaN: none) is below ``T_min`` [s], naming the slowest joint."""
-    short = np.isfinite(req) & (req < T_min * (1.0 - 1e-12))
-    if short.any():
+    """LimitError for the first move whose time ``req`` is below ``T_min`` [s]: the slowest joint's own S-curve."""
+    if (short := np.isfinite(req) & (req < T_min * (1.0 - 1e-12))).any():
         i = int(np.argmax(short))
-        d, v, a = np.abs(D[i]), velocity, acceleration
-        t = np.where(d * a >= v * v, d / v + v / a, 2.0 * np.sqrt(d / a))
+        t = shortest(D[i][:, None], v[:, None], a[:, None], j[:, None])[2]   # each joint alone
         u = 'm' if (k := int(np.argmax(t))) < 3 else 'rad'   # joint k's unit: the three rods, then the arms' joints
+        jerk = f', {a[k]:g} {u}/s^2 and {j[k]:g} {u}/s^3' if np.isfinite(j[k]) else f' and {a[k]:g} {u}/s^2'
+        alone = f'{names[k]} alone needs {t[k]:.4g} s at {v[k]:g} {u}/s{jerk}'
         raise LimitError(f'the move into {labels[i + 1]} needs at least {T_min[i]:.4g} s within the limits, time = '
-                         f'{req[i]:.4g} s is too short ({names[k]} alone needs {t[k]:.4g} s at {velocity[k]:g} {u}/s '
-                         f'and {acceleration[k]:g} {u}/s^2)')
+                         f'{req[i]:.4g} s is too short (' + (alone if t[k] >= req[i] else f'no joint alone needs as '
+                         f'long, the slowest: {alone}; their limits together, on this path, need more') + ')')
 
 
 def parameterise(positions: Array, velocity: Array, acceleration: Array, requested: Array, dwell: Array,
@@ -353,7 +353,7 @@ def parameterise(positions: Array, velocity: Array, acceleration: Array, request
     T_min = p.T
     req = requested[1:]
     given = np.isfinite(req)
-    _refuse_short(D, T_min, req, velocity, acceleration, names, labels)
+    _refuse_short(D, T_min, req, velocity, acceleration, jerk_lim, names, labels)
     if given.any():
         slow = stretched(p, A, J, np.where(given, req, T_min))
         fields = ('v', 'a', 'j', 'tj', 'tc', 'ta', 'T')
