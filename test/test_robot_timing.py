@@ -99,8 +99,9 @@ def test_the_joint_named_in_a_too_short_time_is_timed_with_its_jerk():
     P = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, d]])
     v, a, j = np.array([1.0, 1.0, 1.0, 1.2]), np.array([1.0, 1.0, 1.0, 2.0]), np.array([10.0, 10.0, 10.0, 20.0])
     names = ('r1', 'r2', 'r3', 'fa_j1')
-    with pytest.raises(LimitError, match=rf'needs at least {need:.4g} s within the limits, time = 3.4 s is too short '
-                                         rf'\(fa_j1 alone needs {need:.4g} s at 1.2 rad/s, 2 rad/s\^2 and 20 rad/s\^3\)$'):
+    with pytest.raises(LimitError, match=rf'needs at least {need:.4g} s within the limits, time = 3.4 s is too '
+                                         rf'short \(fa_j1 alone needs {need:.4g} s at 1.2 rad/s, 2 rad/s\^2 and 20 '
+                                         r'rad/s\^3\)$'):
         parameterise(P, v, a, np.array([np.nan, 3.4]), np.zeros(2), names, ('a', 'b'), jerk=j)
     # one joint limited by its speed, one by its acceleration: together they need more than either alone
     P = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
