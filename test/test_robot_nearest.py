@@ -134,6 +134,53 @@ def test_a_minimum_between_two_slopes_of_one_sign_is_found(joint, posture, pair)
     assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
 
 
+def test_two_minima_in_a_run_narrower_than_the_grid_spacing_are_both_tried():
+    """An OLP engineer's arm (links 0.32, 0.27, 0.07 m, the wrist and hand ranges cut): the station is reached for the
+    held shoulder in [-1.13, -0.755] rad only, narrower than the range's grid spacing (0.375 rad), where the cost has
+    two minima (at -1.110 and -0.819, a maximum between): one bracket held both, its Newton search found the worse
+    (cost 0.0910 against 0.0559). A run of so few points gets a grid of its own: the better one, no worse than any of
+    40,001 values of the range."""
+    data = robot_data()
+    arm_data = data['arms'][1]
+    for j, (length, lo, hi) in zip(arm_data['joints'], ((0.32, -3.0, 3.0), (0.27, -2.8, 2.8), (0.07, -1.2, 1.0),
+                                                        (0.0, -1.5, 2.0)), strict=True):
+        j.update(length=length, lower=lo, upper=hi)
+    arm_data['blade'] = {'position': [0.0, 0.0, 0.008], 'yaw': 0.0, 'wafer_centre': [0.14, 0.0, 0.004]}
+    arm_data['home'] = [0.0, -2.4, 0.0, 1.5]
+    arm_data['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_shoulder', 'reference': [0.5, 1.0, -0.5, -1.0],
+                              'weights': [1.0, 0.1, 5.0, 1.0]}
+    arm = make_robot(data).arm('arm2')
+    J = np.array([[-0.819898233, -0.199936284, -0.500690594, -1.189328951]])
+    _, p, phi = chain_forward(arm, J)
+    sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
+    d, beta = link_vectors(arm)
+    grid = np.linspace(-3.0, 3.0, 40_001)
+    sweep = _sweep_costs(arm, d, beta, p, phi, sign, grid, np.zeros(grid.size, dtype=np.intp))
+    run = grid[np.isfinite(sweep)]
+    assert -1.14 < run[0] < -1.12 and -0.76 < run[-1] < -0.75 and run[-1] - run[0] < 6.0 / 16
+    inside = np.isfinite(sweep[1:-1]) & np.isfinite(sweep[:-2]) & np.isfinite(sweep[2:])
+    minima = grid[1:-1][inside & (sweep[1:-1] < sweep[:-2]) & (sweep[1:-1] < sweep[2:])]
+    np.testing.assert_allclose(minima, [-1.110, -0.819], atol=2e-3)
+    v = nearest.nearest_value(arm, d, beta, p, phi, sign)
+    cost = _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0]
+    assert abs(v[0] + 0.8199) < 1e-3 and cost <= sweep.min() + 1e-12 and abs(cost - 0.0559) < 1e-4, (v, cost)
+
+
+def test_a_narrow_runs_grid_is_merged_in_order():
+    """:func:`nearest._narrow_runs` keeps the points sorted by target, then held value, each with its own
+    evaluation (the same as evaluating the merged points afresh)."""
+    arm, d, beta, p, phi, sign = _case('arm2_shoulder', 40)
+    rows = np.repeat(np.arange(40), 9)
+    x = np.tile(np.linspace(-3.0, 3.0, 9), 40)
+    ev = nearest._evaluate(arm, d, beta, p, phi, sign, rows, x)
+    R, X, reach, E = nearest._narrow_runs(arm, d, beta, p, phi, sign, rows, x, np.zeros(x.size, dtype=bool), ev)
+    assert R.size > x.size and not reach.any()
+    assert np.all((R[1:] > R[:-1]) | ((R[1:] == R[:-1]) & (X[1:] > X[:-1])))
+    again = nearest._evaluate(arm, d, beta, p, phi, sign, R, X)
+    np.testing.assert_array_equal(E.cost, again.cost)
+    np.testing.assert_array_equal(E.slope, again.slope)
+
+
 @pytest.mark.parametrize('joint', JOINTS)
 def test_at_the_reach_edges_floats_and_numpy_agree_on_feasibility(joint, monkeypatch):
     """At an edge of the reach the sub-chain is stretched or folded to rounding (1e-16 m): both evaluations take it

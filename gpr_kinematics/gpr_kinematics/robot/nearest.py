@@ -19,13 +19,14 @@ The edges in closed form:
   are evaluated :data:`NEAREST_WRAP_SIDE` to either side as well.
 
 Between consecutive edges every posture has the same feasibility; the rule evaluates the cost and its slope at every
-edge (and the range's ends), and each pair of neighbours whose slope goes from negative to positive brackets a
-minimum, found by Newton's method on the slope (its analytic derivative; bisection where a step would leave the
-bracket) to :data:`NEAREST_TOLERANCE` (:func:`_minimum`). The slope comes from the self-motion's joint rates
-``n = d theta / dv`` (``n_j = 1``): the wafer and its heading stay put, so ``sum_k n_k = 0`` and
+edge, at :data:`NEAREST_SAMPLES` values of the range and at :data:`NEAREST_RUN_SAMPLES` more inside each run that
+held few of those points (:func:`_narrow_runs`), and each pair of neighbours whose slope goes from negative to
+positive brackets a minimum, found by Newton's method on the slope (its analytic derivative; bisection where a step
+would leave the bracket) to :data:`NEAREST_TOLERANCE` (:func:`_minimum`). The slope comes from the self-motion's
+joint rates ``n = d theta / dv`` (``n_j = 1``): the wafer and its heading stay put, so ``sum_k n_k = 0`` and
 ``sum_k n_k a_k = 0`` for the joint axes ``a_k`` (``a_1`` at the mount), three linear equations for the other three
-rates. The answer is the best of these candidates; where no posture is feasible, the
-middle of the range (the caller reports why). SI units: metres, radians.
+rates. The answer is the best of these candidates; where no posture is feasible, the middle of the range (the caller
+reports why). SI units: metres, radians.
 """
 from __future__ import annotations
 
@@ -45,6 +46,10 @@ Index = NDArray[np.intp]
 
 #: Samples of the held joint's range besides the edges: they find the minima inside a run.
 NEAREST_SAMPLES = 17
+#: A run of feasible postures evaluated at fewer points than this gets a grid of its own (:func:`_narrow_runs`) ...
+NEAREST_RUN_POINTS = 4
+#: ... of this many points inside it.
+NEAREST_RUN_SAMPLES = 7
 #: Where the slope at an edge of the reach is infinite, it is taken this fraction of the way to the neighbour.
 NEAREST_PROBE = 1e-6
 #: A pair beside an edge of the reach without a bracket is scanned at these fractions of its width from the edge.
@@ -95,6 +100,7 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     order = np.lexsort((x, rows))  # by target, then held value
     rows, x, at_reach = rows[order], x[order], at_reach[order]
     ev = _evaluate(arm, d, beta, p, phi, sign, rows, x)
+    rows, x, at_reach, ev = _narrow_runs(arm, d, beta, p, phi, sign, rows, x, at_reach, ev)
     cand_rows, cand_x, cand_f = [rows], [x], [ev.cost]
     finite = np.isfinite(ev.cost)
     pair = np.flatnonzero((rows[1:] == rows[:-1]) & finite[1:] & finite[:-1])
@@ -139,6 +145,34 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     best = first[np.isfinite(F[first])]
     out[R[best]] = X[best]
     return out
+
+
+def _narrow_runs(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, rows: Index, x: Array,
+                 at_reach: NDArray[np.bool_], ev: Evaluation) -> tuple[Index, Array, NDArray[np.bool_], Evaluation]:
+    """The points ``x`` of the targets ``rows`` (sorted) with a grid of :data:`NEAREST_RUN_SAMPLES` inside each run of
+    feasible postures that holds fewer than :data:`NEAREST_RUN_POINTS` of them: a run narrower than the range's grid
+    spacing held two minima between its edges, and the bracket's one Newton search found the worse."""
+    finite = np.isfinite(ev.cost)
+    same = np.r_[False, rows[1:] == rows[:-1]]
+    first = np.flatnonzero(finite & ~(same & np.r_[False, finite[:-1]]))   # where each run starts
+    last = np.flatnonzero(finite & ~(np.r_[same[1:], False] & np.r_[finite[1:], False]))
+    narrow = (last - first + 1 < NEAREST_RUN_POINTS) & (x[last] > x[first])
+    if not narrow.any():
+        return rows, x, at_reach, ev
+    i, k = first[narrow], NEAREST_RUN_SAMPLES
+    a, b = x[i], x[last[narrow]]
+    new_x = (a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, k + 2)[1:-1]).ravel()
+    new_rows = np.repeat(rows[i], k)
+    extra = _evaluate(arm, d, beta, p, phi, sign, new_rows, new_x)
+    # Merged in order: a new point goes after its run's first point and the middle one (of three) below it.
+    mid = np.repeat(np.where(last[narrow] - i == 2, x[np.minimum(i + 1, x.size - 1)], np.inf), k)
+    slot = np.repeat(i + 1, k) + (mid < new_x)
+    key = np.concatenate([2 * np.arange(x.size) + 1, 2 * slot])
+    order = np.argsort(key, kind='stable')
+    merged = [np.concatenate(pair)[order] for pair in ((rows, new_rows), (x, new_x),
+                                                      (at_reach, np.zeros(new_x.size, dtype=bool)))]
+    return merged[0], merged[1], merged[2], Evaluation(*(np.concatenate([u, v])[order]
+                                                         for u, v in zip(ev, extra, strict=True)))
 
 
 def _split_dips(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, rows: Index, a: Array,
