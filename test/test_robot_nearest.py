@@ -134,12 +134,8 @@ def test_a_minimum_between_two_slopes_of_one_sign_is_found(joint, posture, pair)
     assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
 
 
-def test_two_minima_in_a_run_narrower_than_the_grid_spacing_are_both_tried():
-    """An OLP engineer's arm (links 0.32, 0.27, 0.07 m, the wrist and hand ranges cut): the station is reached for the
-    held shoulder in [-1.13, -0.755] rad only, narrower than the range's grid spacing (0.375 rad), where the cost has
-    two minima (at -1.110 and -0.819, a maximum between): one bracket held both, its Newton search found the worse
-    (cost 0.0910 against 0.0559). A run of so few points gets a grid of its own: the better one, no worse than any of
-    40,001 values of the range."""
+def _olp_robot():
+    """An OLP engineer's arm as arm2 (links 0.32, 0.27, 0.07 m, the wrist and hand ranges cut), and a posture of it."""
     data = robot_data()
     arm_data = data['arms'][1]
     for j, (length, lo, hi) in zip(arm_data['joints'], ((0.32, -3.0, 3.0), (0.27, -2.8, 2.8), (0.07, -1.2, 1.0),
@@ -149,8 +145,16 @@ def test_two_minima_in_a_run_narrower_than_the_grid_spacing_are_both_tried():
     arm_data['home'] = [0.0, -2.4, 0.0, 1.5]
     arm_data['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_shoulder', 'reference': [0.5, 1.0, -0.5, -1.0],
                               'weights': [1.0, 0.1, 5.0, 1.0]}
-    arm = make_robot(data).arm('arm2')
-    J = np.array([[-0.819898233, -0.199936284, -0.500690594, -1.189328951]])
+    return make_robot(data), np.array([[-0.819898233, -0.199936284, -0.500690594, -1.189328951]])
+
+
+def test_two_minima_in_a_run_narrower_than_the_grid_spacing_are_both_tried():
+    """On :func:`_olp_robot`'s arm the station is reached for the held shoulder in [-1.13, -0.755] rad only, narrower
+    than the range's grid spacing (0.375 rad), where the cost has two minima (at -1.110 and -0.819, a maximum
+    between): one bracket held both, its Newton search found the worse (cost 0.0910 against 0.0559). A run of so few
+    points gets a grid of its own: the better one, no worse than any of 40,001 values of the range."""
+    robot, J = _olp_robot()
+    arm = robot.arm('arm2')
     _, p, phi = chain_forward(arm, J)
     sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
     d, beta = link_vectors(arm)
@@ -164,6 +168,47 @@ def test_two_minima_in_a_run_narrower_than_the_grid_spacing_are_both_tried():
     v = nearest.nearest_value(arm, d, beta, p, phi, sign)
     cost = _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0]
     assert abs(v[0] + 0.8199) < 1e-3 and cost <= sweep.min() + 1e-12 and abs(cost - 0.0559) < 1e-4, (v, cost)
+
+
+def test_no_posture_within_the_limits_is_named_as_such_not_as_out_of_reach():
+    """The same station on the other branch: in reach for the held shoulder within [-1.19, -0.76] rad, where the
+    hand stays below its lower limit. The refusal said "out of reach ... 0.536 m from the shoulder axis, the arm spans
+    [0.2, 0.34] m" (the elbow's sub-chain at the middle of the shoulder's range, the rule's answer where none fits);
+    it names the self-motion, the joint, its limit and the branch that fits. Out of reach at every held value: the
+    closest miss."""
+    import re
+
+    from gpr_kinematics.errors import LimitError
+    from gpr_kinematics.robot import robot_forward, solve_stations
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    robot, J = _olp_robot()
+    fk = robot_forward(robot, np.array([[0.2, 0.2, 0.2]]), J, 'arm2')
+    st = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    assert np.allclose(solve_stations(robot, st, 'arm2', branch='left').joints, J, atol=1e-8)
+    with pytest.raises(LimitError) as err:
+        solve_stations(robot, st, 'arm2', branch='right')
+    m = re.fullmatch(r'station 0: no posture of arm arm2 within its joint limits reaches the station: it is in reach '
+                     r'for its held joint arm2_shoulder within \[(-[\d.]+), (-[\d.]+)\] rad, where arm2_hand stays '
+                     r'beyond its lower limit -1.5 rad, by ([\d.]+) rad at the least \(arm2_shoulder = (-[\d.]+) rad; '
+                     r'branch right; the other branch stays within the limits\)', str(err.value))
+    assert m, str(err.value)
+    lo, hi, by, at = (float(g) for g in m.groups())
+    assert -1.2 < lo < -1.17 and -0.77 < hi < -0.75 and lo <= at <= hi and 0.0 < by < 1.0
+    # independently: the hand over the branch's self-motion, where the sub-chain reaches, never within its limit
+    arm = robot.arm('arm2')
+    _, p, phi = chain_forward(arm, J)
+    d, beta = link_vectors(arm)
+    v = np.linspace(lo, hi, 2001)
+    chain, tl = solve_fixed(d, beta, 0, v + arm.zero_offset[0], np.repeat(p, v.size, axis=0), np.repeat(phi, v.size),
+                            -np.asarray(branch_sign('left')))
+    hand, _ = wrap_to_limits(chain - arm.zero_offset, arm.lower, arm.upper)
+    assert tl.reachable.all() and np.all(hand[:, 3] < -1.5) and np.min(-1.5 - hand[:, 3]) > by - 2e-3
+    far = stations_from_poses(fk.wafer.position + np.array([[1.0, 0.0, 0.0]]), fk.wafer.rotation)
+    with pytest.raises(LimitError, match=r'out of reach of arm arm2: at no value of its held joint arm2_shoulder '
+                                         r'within \[-3, 3\] rad does it reach the station, the closest misses by '
+                                         r'[\d.]+ mm \(branch left'):
+        solve_stations(robot, far, 'arm2', branch='left')
 
 
 def test_a_narrow_runs_grid_is_merged_in_order():

@@ -38,6 +38,7 @@ from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, nai
 from ..core.inverse import tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
+from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import BRANCHES, Arm, RobotDescription
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import (
@@ -359,6 +360,12 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
         return (f'{robot.rods.names[k]} = {q[i, k]:.9g} m is {"above" if above else "below"} the stroke '
                 f'[{cfg.stroke_min:g}, {cfg.stroke_max:g}] m by {abs(q[i, k] - limit) * 1e3:.4g} mm: the station '
                 f'is too {"high" if above else "low"} for arm {a.name}')
+    other = targets.other_branch(a, i)
+    fits = bool(other.reachable[0] and np.max(other.violation[0]) <= 0.0)
+    hint = '; the other branch stays within the limits' if fits else ''
+    if a.redundancy is not None and a.redundancy.rule == 'nearest' and (
+            not sol.reachable[i] or np.max(sol.violation[i]) > 0.0):   # no posture of the self-motion fits
+        return _self_motion_fault(a, targets, i, f'branch {result.branch[i]}{hint}')
     if not sol.reachable[i]:
         far = sol.reach[i] > sol.reach_max[i]
         excess = sol.reach[i] - sol.reach_max[i] if far else sol.reach_min[i] - sol.reach[i]
@@ -366,14 +373,11 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
         return (f'out of reach of arm {a.name}: the {what} would be {sol.reach[i]:.6g} m from the shoulder axis, '
                 f'the arm spans [{sol.reach_min[i]:.6g}, {sol.reach_max[i]:.6g}] m ({excess * 1e3:.4g} mm too '
                 f'{"far" if far else "close"})')
-    other = targets.other_branch(a, i)
     if np.max(sol.violation[i]) > 0.0:
         k = int(np.argmax(sol.violation[i]))
         j = a.joints[k]
         value = sol.theta[i, k]
         side, limit = ('upper', j.upper) if value > j.upper else ('lower', j.lower)
-        fits = bool(other.reachable[0] and np.max(other.violation[0]) <= 0.0)
-        hint = '; the other branch stays within the limits' if fits else ''
         shown, end = apart(float(value), limit)
         return (f'{j.name} = {shown} rad is beyond its {side} limit {end} rad by {abs(value - limit):.4g} '
                 f'rad (branch {result.branch[i]}{hint})')
@@ -382,6 +386,34 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
             f'{_wrap(sol.heading[i] + yaw):.9g} rad (branch {result.branch[i]}) or {_wrap(other.heading[0] + yaw):.9g} '
             f'rad (the other branch) in gpr_platform, not {_wrap(targets.phi[i] + yaw):.9g} rad; leave the heading '
             'free or give one of these')
+
+
+def _self_motion_fault(a: Arm, targets: _Targets, i: int, branch: str) -> str:
+    """Why no posture of a ``nearest`` arm reaches station ``i`` (the rule then answers the middle of the held
+    joint's range, whose partial chain the reach message described): out of reach at every held value, or beyond a
+    joint limit wherever in reach, by the least violation over 3,601 held values."""
+    assert a.redundancy is not None
+    k, o = a.redundancy.joint, a.zero_offset
+    held = a.joints[k]
+    d, beta = link_vectors(a)
+    v = np.linspace(held.lower, held.upper, 3601)
+    chain, tl = solve_fixed(d, beta, k, v + o[k], np.broadcast_to(targets.p[i], (v.size, 2)),
+                            np.full(v.size, targets.phi[i]), float(targets.sign[i]))
+    theta, violation = wrap_to_limits(chain - o, a.lower, a.upper)
+    if not tl.reachable.any():
+        miss = float(np.min(np.maximum(tl.r - tl.r_max, tl.r_min - tl.r)))
+        return (f'out of reach of arm {a.name}: at no value of its held joint {held.name} within [{held.lower:g}, '
+                f'{held.upper:g}] rad does it reach the station, the closest misses by {miss * 1e3:.4g} mm ({branch})')
+    worst = np.where(tl.reachable, np.max(violation, axis=1), np.inf)
+    b = int(np.argmin(worst))
+    m = int(np.argmax(violation[b]))
+    j, value = a.joints[m], float(theta[b, m])
+    side, limit = ('upper', j.upper) if value > j.upper else ('lower', j.lower)
+    span = v[tl.reachable]
+    return (f'no posture of arm {a.name} within its joint limits reaches the station: it is in reach for its held '
+            f'joint {held.name} within [{span.min():.4g}, {span.max():.4g}] rad, where {j.name} stays beyond its '
+            f'{side} limit {limit:g} rad, by {abs(value - limit):.3g} rad at the least ({held.name} = {v[b]:.4g} '
+            f'rad; {branch})')
 
 
 def _wrap(angle: float) -> float:
