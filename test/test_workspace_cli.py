@@ -55,6 +55,31 @@ def test_tripod_variables_plots_and_text_output(tmp_path, capsys):
         assert np.all(contains_points(np.concatenate([npz['inner'], npz['boundary']]), pts[ok]))
 
 
+def test_plots_never_write_through_a_link_or_over_the_model(tmp_path, capsys, monkeypatch):
+    """A projection's name linked to the model file in the --plot folder: savefig wrote the PNG into the model
+    (exit 0, "3 projections written"); linked to /dev/null it wrote into the device; a FIFO there gave "cannot
+    write ...: None". Each is refused in one line naming it, the model untouched."""
+    monkeypatch.chdir(tmp_path)
+    model = tmp_path / 'sa.yaml'
+    model.write_bytes(config_path('mechanisms/shell_arm.yaml').read_bytes())
+    before = model.read_bytes()
+    plots = tmp_path / 'pd'
+    plots.mkdir()
+    target = plots / 'workspace_sa_x_y.png'
+    for make, words in ((lambda: target.symlink_to(model), 'is a symbolic link'),
+                        (lambda: target.symlink_to('/dev/null'), 'is a symbolic link'),
+                        (lambda: os.mkfifo(target), 'is a FIFO')):
+        make()
+        code, out, err = _run(capsys, 'sa.yaml', '--delta', '0.1', '--scheduler', 'none', '--plot', 'pd',
+                              '--no-progress')
+        assert code == 2 and err.count('\n') == 1 and 'workspace_sa_x_y.png' in err and words in err, err
+        assert 'None' not in err and model.read_bytes() == before
+        target.unlink()
+    code, out, err = _run(capsys, 'sa.yaml', '--delta', '0.1', '--scheduler', 'none', '--plot', 'pd',
+                          '--no-progress')
+    assert code == 0 and target.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and model.read_bytes() == before
+
+
 def test_overrides_grid_method_and_time_limit(capsys):
     code, out, _ = _run(capsys, 'upu3.yaml', '--delta', '0.02', '--json', '--set', 'b=0.25', '--method', 'grid')
     assert code == 0

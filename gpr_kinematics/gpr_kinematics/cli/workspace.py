@@ -271,10 +271,9 @@ def plot_projections(
     for i, j in pairs:
         fig = projection_figure(result, i, j, name, box)
         path = out_dir / f'workspace_{name}_{result.variables[i]}_{result.variables[j]}.png'
-        try:
-            fig.savefig(path)
-        except OSError as exc:
-            raise InputError(f'cannot write {str(path)!r}: {exc.strerror}') from None
+        try:  # never through a link, into a FIFO or device, or over the model file (savefig wrote through them)
+            with atomic_output(path, '--plot', binary=True) as fh:
+                fig.savefig(fh, format='png')
         finally:
             plt.close(fig)
         files.append(path)

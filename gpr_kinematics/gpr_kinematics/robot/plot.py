@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..inputs.files import atomic_output
 from . import robot_forward
 from .description import RobotDescription
 from .urdf import RobotUrdf, robot_urdf
@@ -158,7 +159,10 @@ def robot_figure(robot: RobotDescription, rods: Sequence[float], joints: Mapping
     ax.legend(loc='upper left', fontsize=8)
     ax.view_init(elev=28, azim=-60)
     out = Path(path)
-    fig.savefig(out, dpi=100, bbox_inches='tight')
-    plt.close(fig)
+    try:
+        with atomic_output(out, 'plot', binary=True) as fh:
+            fig.savefig(fh, format=out.suffix.lower().lstrip('.') or 'png', dpi=100, bbox_inches='tight')
+    finally:
+        plt.close(fig)
     return RobotFigure(rods=q, joints=postures, centre_shift=shift, wafer_error=errors,
                        exaggeration=float(exaggeration), path=out)
