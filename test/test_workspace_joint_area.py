@@ -170,6 +170,39 @@ def test_a_mechanism_covering_stopped_early_stops_the_run_for_its_reason(limits,
     assert res.inner_boxes == 0 and res.boundary_boxes == 1       # nothing proved: the whole box is boundary
 
 
+def test_the_tripods_early_stop_stops_the_run_before_the_planar_covering(monkeypatch):
+    """The tripod's covering stopped on its box limit after 11 s, yet the planar mechanism was covered on until the
+    run's time limit (147 s without one), and a stop of the planar one (SIGTERM) was reported as the tripod's:
+    the run stops at the first covering that stops, with its reason."""
+    from gpr_kinematics.workspace import joint_area
+
+    model = model_from_mapping({'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml',
+                                'planar': 'rrr3_planar.yaml', 'sub_delta': 1e-3})
+
+    def never(_model):
+        raise AssertionError('the planar mechanism was covered after the tripod stopped')
+
+    monkeypatch.setattr(joint_area, 'compiled', never)
+    res = approximate(model, 0.006, max_boxes=20000)
+    assert res.interrupted and res.stopped == 'box limit (20000 boxes)'
+
+
+def test_a_sub_coverings_reasons_name_the_runs_time_limit(monkeypatch):
+    """A sub-covering's reasons are several where two limits struck ('box limit (...); time limit (4.99997 s)'):
+    its time limit is the time left of the run's, named as the run's, in place ('time limit (5 s)')."""
+    from gpr_kinematics.workspace.covering import SubCoveringStoppedError
+
+    model = model_from_mapping({'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml',
+                                'planar': 'rrr3_planar.yaml', 'sub_delta': 1e-3})
+
+    def stopped(delta, part):
+        raise SubCoveringStoppedError('box limit (7 boxes); time limit (4.99997 s)')
+
+    monkeypatch.setattr(model, 'covering_task', stopped)
+    res = approximate(model, 0.006, max_seconds=5.0)
+    assert res.interrupted and res.stopped == 'box limit (7 boxes); time limit (5 s)'
+
+
 def test_voxel_sets_hit_within_two_voxels_of_a_box_and_never_beyond_three():
     """The margins of the voxel set, one voxel around every box when marking and one around the query box when
     counting: a query box less than two voxels (of its axis) from a box on every axis is always hit, and one three

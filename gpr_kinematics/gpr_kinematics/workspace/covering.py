@@ -25,6 +25,7 @@ discretisation (:mod:`.grid`). Neither is certified. Volumes are in the variable
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -204,8 +205,8 @@ def approximate(
             if own:
                 executor.close()
             reason = exc.reason if isinstance(exc, SubCoveringStoppedError) else 'interrupted'
-            if reason.startswith('time limit'):            # the sub-covering had the time left of this run's limit
-                reason = f'time limit ({max_seconds:g} s)'
+            # the sub-covering had the time left of this run's limit (its reasons may be several, '; '-joined)
+            reason = re.sub(r'time limit \([^)]*\)', f'time limit ({max_seconds:g} s)', reason)
             return _nothing_proved(model, delta, reason, time.perf_counter() - t0)
         except BaseException:  # a cluster the sub-coverings started is not left running
             if own:

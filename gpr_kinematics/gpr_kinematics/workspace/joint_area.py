@@ -176,9 +176,11 @@ class JointWorkingArea:
         box as its only pose box."""
         sub = self.sub_delta * delta
         tri = approximate(self.tripod, sub)
+        if tri.interrupted:   # the run stops for the same reason, at once (the planar one was covered to no use)
+            raise SubCoveringStoppedError(tri.stopped)
         pla = approximate(compiled(self.planar), sub, True)
-        if tri.interrupted or pla.interrupted:       # the run stops for the same reason (it said 'interrupted')
-            raise SubCoveringStoppedError(tri.stopped or pla.stopped)
+        if pla.interrupted:
+            raise SubCoveringStoppedError(pla.stopped)
         t_boxes = np.concatenate([tri.inner, tri.boundary])
         outer = np.concatenate([pla.inner, pla.boundary])
         hull = outer_hull = np.stack([outer[:, :, 0].min(axis=0), outer[:, :, 1].max(axis=0)], axis=1)
