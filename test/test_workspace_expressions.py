@@ -1,6 +1,7 @@
 """Expressions of closure equations: the parser (no eval; bad text refused with its column), the DAG, point and
 interval evaluation, derivatives against finite differences, and the mean-value enclosure."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -160,6 +161,22 @@ def test_malformed_constraints_are_refused_with_what_is_wrong(text, match):
     with pytest.raises(ExpressionError, match=match):
         _parse(text)
     assert issubclass(ExpressionError, ConfigError)
+
+
+@pytest.mark.parametrize('text, match', [
+    ('1e308*1e308*x <= 1', r'mul of the constants \[1e\+308, 1e\+308\] and \[1e\+308, 1e\+308\] is not a finite '
+                           r'number \(by column 7\)'),
+    ('exp(1000) <= x', r'exp of the constant \[1000, 1000\] is not a finite number \(by column 9\)'),
+    ('1/0 <= x', r'division by the constant \[0, 0\] is undefined \(by column 3\)'),   # it named the numerator 1
+    ('sqrt(-1) <= x', r'sqrt of the constant \[-1, -1\] is undefined \(by column 8\)'),
+])
+def test_a_constant_part_off_its_domain_is_located_in_one_line(text, match, recwarn):
+    """Constant parts are computed once, first: off their domain or beyond floats they printed numpy's warnings
+    and a message naming neither the constraint nor where in it (nor, for a division by zero, the zero)."""
+    with pytest.raises(ExpressionError, match=rf"^test \({re.escape(repr(text))}\): {match}; allowed: constant "
+                                              r'parts of finite value'):
+        _parse(text)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
 
 
 def test_python_formulas_build_the_same_graph_and_mix_with_interval_constants():

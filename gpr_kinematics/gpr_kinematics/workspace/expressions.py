@@ -97,14 +97,19 @@ class Graph:
         b = Interval(*(np.asarray(v) for v in self.consts[ids[1]])) if len(ids) > 1 else a
         domain = {'sqrt': a.hi >= 0, 'log': a.hi > 0, 'arcsin': (a.lo <= 1) & (a.hi >= -1),
                   'arccos': (a.lo <= 1) & (a.hi >= -1), 'div': (b.lo != 0) | (b.hi != 0)}
-        if not bool(domain.get(op, True)):
-            raise ExpressionError(f'{op} of the constant [{a.lo:g}, {a.hi:g}] is undefined')
-        if op in BINARY:
-            r = {'add': a + b, 'sub': a - b, 'mul': a * b, 'div': a / b}[op]
-        else:
-            r = -a if op == 'neg' else getattr(a, op)()
+        if not bool(domain.get(op, True)):   # a division's divisor is the constant at fault
+            bad = b if op == 'div' else a
+            raise ExpressionError(f'{"division by" if op == "div" else op + " of"} the constant [{bad.lo:g}, '
+                                  f'{bad.hi:g}] is undefined')
+        with np.errstate(all='ignore'):   # an overflow is refused below, in one line (numpy warned on stderr)
+            if op in BINARY:
+                r = {'add': a + b, 'sub': a - b, 'mul': a * b, 'div': a / b}[op]
+            else:
+                r = -a if op == 'neg' else getattr(a, op)()
         if not (np.isfinite(r.lo) and np.isfinite(r.hi)):
-            raise ExpressionError(f'{op} of the constant [{a.lo:g}, {a.hi:g}] is not a finite number')
+            of = f'the constants [{a.lo:g}, {a.hi:g}] and [{b.lo:g}, {b.hi:g}]' if op in BINARY else \
+                f'the constant [{a.lo:g}, {a.hi:g}]'
+            raise ExpressionError(f'{op} of {of} is not a finite number')
         return self.constant(float(r.lo), float(r.hi))
 
 
@@ -334,7 +339,14 @@ def parse_constraint(text: Any, graph: Graph, names: Mapping[str, Expr], where: 
     if len(text) > MAX_TEXT:
         raise ExpressionError(f'{where}: the text has {len(text)} characters; allowed: at most {MAX_TEXT}')
     p = _Parser(text, graph, names, f'{where} ({text[:60]!r})')
-    parts, rels = _relation_chain(p)
+    try:
+        parts, rels = _relation_chain(p)
+    except ExpressionError as exc:   # a constant part folded off its domain or beyond floats: located here
+        if str(exc).startswith(p.where):
+            raise
+        col = p.tokens[max(p.i - 1, 0)][2] if p.tokens else 1
+        p.fail(f'{exc} (by column {col}); allowed: constant parts of finite value (they are computed once, first)')
+        raise AssertionError from None  # unreachable: fail raises
     if len(rels) == 2:
         lo, f, hi = parts if rels[0] == '<=' else parts[::-1]
         if lo.constant is None or hi.constant is None:
