@@ -210,6 +210,22 @@ def test_progress_off_a_terminal_is_plain_throttled_lines():
     assert text.split('\r')[-1].startswith('[########################] 100.0% of volume decided')
 
 
+def test_the_last_line_off_a_terminal_is_written_where_the_sum_stops_an_ulp_short():
+    """The decided volume, a float sum, ended at 0.9999999999999999 of the box: the line of the whole volume was
+    never written into a log (the last one read 99.1 %). The close writes the last numbers where they were not."""
+    from gpr_kinematics.workspace.progress import Progress
+    times = [0.5 * k for k in range(1, 61)]
+    fracs = [min(t / 30.0, 1.0 - 2.0 ** -53) for t in times]
+    stream = io.StringIO()
+    _feed(Progress(True, stream, after=2.0, units='m*m', clock=lambda: 0.0), times, fracs)
+    lines = stream.getvalue().splitlines()
+    assert [float(ln.split()[-2]) for ln in lines] == [2.0, 7.0, 12.0, 17.0, 22.0, 27.0, 30.0]
+    assert lines[-1].startswith('100.0% of volume decided') and lines[-1].endswith('| 30.0 s')
+    stream = io.StringIO()   # closed right after a written line: nothing written twice
+    _feed(Progress(True, stream, after=2.0, units='m*m', clock=lambda: 0.0), times[:14], fracs[:14])
+    assert [float(ln.split()[-2]) for ln in stream.getvalue().splitlines()] == [2.0, 7.0]
+
+
 @pytest.mark.parametrize('kwargs, match', [
     ({'delta': 0.0}, 'positive'), ({'delta': -1.0}, 'positive'), ({'delta': float('nan')}, 'positive'),
     ({'delta': 1e-20}, 'too small'), ({'delta': 0.1, 'method': 'sivia'}, 'unknown workspace method'),

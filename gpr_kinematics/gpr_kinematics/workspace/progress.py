@@ -41,7 +41,8 @@ class Progress:
         self.shown = False
         self._last: tuple[int, float, float, int, float, float, float] | None = None
         self._last_write = -float('inf')
-        self._finished = False
+        self._finished = self._forced = False
+        self._written: tuple[int, float, float, int, float, float, float] | None = None
 
     def update(
         self,
@@ -62,7 +63,8 @@ class Progress:
             return
         frac = min(max(done_frac, 0.0), 1.0)
         finished = frac >= 1.0
-        if not self.live and ((finished and self._finished) or (not finished and now - self._last_write < self.every)):
+        if not self.live and not self._forced and (
+                (finished and self._finished) or (not finished and now - self._last_write < self.every)):
             return
         text = (f'{100 * frac:5.1f}% of volume decided | level {level}, diameter {diameter * 1e3:.3g} mm (delta '
                 f'{delta * 1e3:.3g} mm) | {processed:,} boxes processed | inner {inner_volume:.4g}, boundary '
@@ -73,7 +75,7 @@ class Progress:
             self._write(f'\r[{"#" * fill}{"." * (width - fill)}] {text} ')
         else:
             self._write(f'{text}\n')
-        self._last_write, self._finished = now, finished
+        self._last_write, self._finished, self._written = now, finished, self._last
         self.shown = self.enabled
 
     def _write(self, text: str) -> None:
@@ -92,7 +94,11 @@ class Progress:
             self.update(*self._last)
 
     def close(self) -> None:
-        """End the bar's line on a terminal (a plain line off a terminal is ended already)."""
+        """End the bar's line on a terminal; off a terminal write the last numbers if they were not (the volume's
+        float sum ended at 0.9999999999999999, and the line of the whole volume decided was never written)."""
+        if self.shown and not self.live and self._last is not None and self._written != self._last:
+            self._forced = True
+            self.update(*self._last)
         if self.shown and self.live:
             self._write('\n')
 
