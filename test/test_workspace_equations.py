@@ -152,8 +152,9 @@ BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0,
     ({'equations': [], 'inequalities': []}, 'constraints; allowed: 1 to 64'),
 ])
 def test_malformed_equation_models_are_refused(change, match):
-    with pytest.raises(ConfigError, match=match):
-        model_from_mapping({**BASE, **change}, 'eq')
+    with pytest.raises(ConfigError, match=match) as err:
+        model_from_mapping({**BASE, **change}, 'm.yaml')
+    assert str(err.value).startswith('m.yaml'), str(err.value)   # the file: the model's own checks named its title
 
 
 def test_parameters_are_overridden_by_top_level_keys():

@@ -333,7 +333,7 @@ def from_mapping(data: Mapping[str, Any], ws: Mapping[str, Any], source: str, an
     try:
         return EquationModel(str(data.get('name', 'equations'))[:80], graph, constraints, box, units, scale,
                              outputs, solve_for, periodic or ())
-    except InputError as exc:
+    except (InputError, ConfigError) as exc:   # the model's own checks name its title only, not the file
         raise ConfigError(f'{source}: {exc}') from None
 
 
