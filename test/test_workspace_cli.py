@@ -80,6 +80,22 @@ def test_plots_never_write_through_a_link_or_over_the_model(tmp_path, capsys, mo
     assert code == 0 and target.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and model.read_bytes() == before
 
 
+def test_the_options_are_named_and_a_plot_of_one_output_refused(tmp_path, capsys):
+    """--max-seconds was named as the Python parameter (max_seconds = -1.0); --plot on a model of one output exited 0
+    with "0 projections written"; contains_points of mismatched dimensions raised numpy's ValueError."""
+    from gpr_kinematics.errors import InputError
+    for value in ('-1', 'nan'):
+        code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.01', '--max-seconds', value)
+        assert code == 2 and err.count('\n') == 1 and '--max-seconds = ' in err and 'max_seconds =' not in err, err
+    one = tmp_path / 'one.yaml'
+    one.write_text("type: equations\nname: t\nvariables: {x: [-1, 1]}\noutputs: [x]\ninequalities: ['x <= 0.5']\n")
+    code, out, err = _run(capsys, str(one), '--delta', '0.1', '--plot', str(tmp_path / 'pp'))
+    assert code == 2 and err.count('\n') == 1 and 'has one (x); allowed: --plot for models of 2 or more' in err, err
+    for boxes, points in ((np.zeros((3, 2, 2)), np.zeros((4, 3))), (np.zeros((3, 2)), np.zeros((4, 2)))):
+        with pytest.raises(InputError, match=r'allowed: boxes \(n, d, 2\) and points \(N, d\) of the same d'):
+            contains_points(boxes, points)
+
+
 def test_overrides_grid_method_and_time_limit(capsys):
     code, out, _ = _run(capsys, 'upu3.yaml', '--delta', '0.02', '--json', '--set', 'b=0.25', '--method', 'grid')
     assert code == 0

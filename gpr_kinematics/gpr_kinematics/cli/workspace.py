@@ -128,7 +128,7 @@ def _check_args(args: argparse.Namespace) -> float:
     args.parts = PARTS if args.parts is None else args.parts
     if args.grid_nodes < 2:
         raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
-    check_max_seconds(args.max_seconds)
+    check_max_seconds(args.max_seconds, '--max-seconds')
     if not 1 <= args.parts <= 100_000:
         raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
     if args.boxes is not None:  # an empty name is refused, not ignored
@@ -155,6 +155,10 @@ def run(args: argparse.Namespace) -> int:
     model = load_workspace_model(args.file, overrides)
     check_max_boxes(args.max_boxes, model, '--max-boxes')   # named as the option (approximate checks it again)
     out = getattr(model, 'output_index', slice(None))
+    outputs = [str(v) for v in np.asarray(model.variables)[out]]
+    if args.plot is not None and len(outputs) < 2:   # exit 0 with "0 projections written" before
+        raise InputError(f'--plot draws the boxes on pairs of output variables; {args.file} has one ({outputs[0]}); '
+                         'allowed: --plot for models of 2 or more outputs (--boxes keeps the boxes)')
     edge = float(np.max((model.box[out, 1] - model.box[out, 0]) * model.scale[out]))
     if delta >= edge:  # allowed (docs/workspace.md), but --delta 1 for 1 mm ran one box without a word
         mm = '; millimetres? give --mm' if not args.mm and delta / 1000.0 < edge else ''

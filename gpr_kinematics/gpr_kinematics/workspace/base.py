@@ -140,12 +140,13 @@ def _memory_source() -> str:
     return f'{BOX_MEMORY_SHARE:.0%} of {what}'
 
 
-def check_max_seconds(max_seconds: float | None) -> float:
-    """The time limit of a run [s]: :data:`DEFAULT_MAX_SECONDS` for ``None``, else a number in (0, MAX_SECONDS]."""
+def check_max_seconds(max_seconds: float | None, name: str = 'max_seconds') -> float:
+    """The time limit of a run [s]: :data:`DEFAULT_MAX_SECONDS` for ``None``, else a number in (0, MAX_SECONDS]
+    (``name``: the option's name in the message)."""
     if max_seconds is None:
         return DEFAULT_MAX_SECONDS
     if isinstance(max_seconds, bool) or not isinstance(max_seconds, (int, float)) or not 0 < max_seconds <= MAX_SECONDS:
-        raise InputError(f'max_seconds = {max_seconds!r}; allowed: a time limit in seconds, > 0 and at most '
+        raise InputError(f'{name} = {max_seconds!r}; allowed: a time limit in seconds, > 0 and at most '
                          f'{MAX_SECONDS:g} (a week)')
     return float(max_seconds)
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, InputError
 from ..inputs.schema import number_key
 
 
@@ -59,6 +59,10 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     least).
     """
     points = np.atleast_2d(np.asarray(points, dtype=float))
+    boxes = np.asarray(boxes, dtype=float)
+    if boxes.ndim != 3 or boxes.shape[2] != 2 or points.ndim != 2 or points.shape[1] != boxes.shape[1]:
+        raise InputError(f'boxes of shape {boxes.shape} and points of shape {points.shape}; allowed: boxes (n, d, 2) '
+                         'and points (N, d) of the same d')   # numpy's ValueError or IndexError before
     npts = points.shape[0]
     out = np.zeros(npts, dtype=bool)
     n = boxes.shape[0]
