@@ -138,6 +138,14 @@ def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
     with pytest.raises(GoalError, match=r'arm1_shoulder = 3.0500000001 rad is beyond its upper limit 3.05 rad by '
                                         r'1e-10 rad; allowed: \[-3.05, 3.05\] rad'):
         _plan(_two_points(['arm1_shoulder'], [3.0], [3.0500000001]))
+    # within the slack the planner, forward kinematics and the nodes allow (1e-12) it is taken: a station solved at a
+    # limit was refused as a goal, by 5e-13 rad
+    top = 0.508 + 5e-13
+    m = _plan(_two_points(['arm1_shoulder', 'rod_1', 'rod_2', 'rod_3'], [3.0, 0.5, 0.5, 0.5], [3.05 + 5e-13, top, top,
+                                                                                              top], t=(3.0, 4.0)))
+    assert m.positions[-1, 0] == top and m.positions[-1, 3] == 3.05 + 5e-13
+    with pytest.raises(GoalError, match=r'arm1_shoulder = 3.050000000002 rad is beyond its upper limit 3.05 rad'):
+        _plan(_two_points(['arm1_shoulder'], [3.0], [3.05 + 2e-12], t=(3.0, 4.0)))
 
 
 def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():

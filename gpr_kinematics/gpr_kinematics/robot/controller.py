@@ -36,10 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import TILT_LIMIT_SLACK, forward_batch
+from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, forward_batch
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, apart, brief
+from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_times
 from .timing import MAX_SAMPLES
@@ -279,8 +280,8 @@ Clearance = Callable[[Motion], str | None]
 
 
 def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Array, time: Array, what: str) -> None:
-    lo, hi = joints.lower[cols], joints.upper[cols]
-    bad = (values < lo) | (values > hi)
+    slack = np.where(cols < 3, STROKE_SLACK, LIMIT_SLACK)   # the rods first; the planner's and nodes' rule
+    bad = (values < joints.lower[cols] - slack) | (values > joints.upper[cols] + slack)
     if bad.any():
         i, k = (int(v) for v in np.argwhere(bad)[0])
         j = int(cols[k])
