@@ -100,15 +100,17 @@ def test_each_field_of_a_robot_state_is_checked(robot_bag: Path, tmp_path: Path,
             "the robot_program from sample 0 uses the arm 'arm1'; its RobotStates (arm) name it 'arm3' at sample 9"]
 
 
-def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize('beyond', [0.01, 5e-10])
+def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_path: Path, beyond: float) -> None:
     """The elbow of arm1 set beyond its upper limit, with the wafer, blade and naive error it then gives (computed
-    here by the robot core) and the joint state: only robot.joint_limits fails."""
+    here by the robot core) and the joint state: only robot.joint_limits fails; also 5e-10 rad beyond, which the
+    core refuses and the check's own slack of 1e-9 passed (the core's 1e-12 now)."""
     limit = ROBOT.arm('arm1').joints[1].upper
 
     def edit(topic, msg):
         if getattr(msg, 'sample', None) == 5 and topic == ROBOT_STATE_TOPIC:
             joints = np.array(msg.joints)
-            joints[1] = limit + 0.01
+            joints[1] = limit + beyond
             rods = edit.rods
             fk = robot_forward(ROBOT, [rods], [joints[:3]], 'arm1', check_limits=False)
             wafer = dataclasses.replace(msg.wafer, position=dataclasses.replace(
@@ -127,7 +129,7 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
             edit.rods = np.array(msg.q)
         if topic == '/joint_states' and msg.header.stamp == edit.stamp:
             position = np.array(msg.position)
-            position[4] = limit + 0.01
+            position[4] = limit + beyond
             return dataclasses.replace(msg, position=position)
         if topic == WAFER_POSE_TOPIC and msg.header.stamp == edit.stamp:
             return dataclasses.replace(msg, pose=edit.wafer)
@@ -146,7 +148,7 @@ def test_a_joint_beyond_its_limit_fails_joint_limits_only(robot_bag: Path, tmp_p
     # ... and the stream recomputed from the recorded program has another elbow there (stream.program)
     assert failed == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in verify_bag(bag).checks if c.name == 'robot.joint_limits').worst
-    assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
+    assert worst == pytest.approx(beyond - 1e-12, abs=1e-15)
 
 
 def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp_path: Path) -> None:
@@ -179,7 +181,7 @@ def test_an_arm_at_rest_beyond_its_limit_fails_joint_limits(robot_bag: Path, tmp
     result = verify_bag(rewritten(bag, tmp_path / 'rest2', joint_state))
     assert _failed(result) == {'robot.joint_limits': {5}, 'stream.program': {5}}
     worst = next(c for c in result.checks if c.name == 'robot.joint_limits').worst
-    assert worst == pytest.approx(0.01 - 1e-9, abs=1e-12)
+    assert worst == pytest.approx(0.01 - 1e-12, abs=1e-15)
 
 
 def test_a_recorded_description_naming_a_geometry_file_is_refused(robot_bag: Path, tmp_path: Path) -> None:

@@ -123,11 +123,11 @@ def _geometry(old: str, new: str) -> Any:
 
 @pytest.mark.parametrize('line, samples, worst', [
     # 1.72 deg: the sweep's 2 deg samples (0.0349 rad) are beyond it
-    ('tilt_limit: 0.03', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], math.radians(2.0) - 0.03),
-    # 5 nm/rad beyond it: more than the check's slack of 1e-9
-    (f'tilt_limit: {math.radians(2.0) - 5e-9!r}', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], 5e-9),
-    # the stroke's lower end above the shortest rod
-    ('stroke_min: 0.4999', None, 0.0027191242510815)])
+    ('tilt_limit: 0.03', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], math.radians(2.0) - 0.03 - 1e-9),
+    # 5 nrad beyond it: more than forward kinematics' tilt slack of 1e-9 (the value: by how much beyond the slack)
+    (f'tilt_limit: {math.radians(2.0) - 5e-9!r}', [0, 4, 5, 9, 10, 14, 15, 19, 20, 24, 25, 29], 4e-9),
+    # the stroke's lower end above the shortest rod (the stroke's slack: 1e-12 m)
+    ('stroke_min: 0.4999', None, 0.0027191242510815 - 1e-12)])
 def test_a_recording_beyond_its_recorded_limits_fails_state_limits(sweep: Path, tmp_path: Path, line: str,
                                                                    samples: list[int] | None, worst: float) -> None:
     """The recorded geometry's tilt limit lowered, or its stroke's lower end raised, beyond the recorded states

@@ -36,6 +36,7 @@ from ..core.config import GprConfig
 from ..errors import GprError, brief
 from ..inputs import safe_yaml
 from ..robot import robot_forward
+from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import RobotDescription, parse_robot
 from ..robot.transforms import PoseBatch
 from .cdr import Columns
@@ -43,7 +44,7 @@ from .checks_topics import cut_detail, extra, match, missing, unordered, without
 from .columns import matrix, quaternion_angle, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, bag_check, bool_check, skipped, value_check
-from .tolerances import LIMIT_SLACK, Tolerances
+from .tolerances import Tolerances
 from .typestore import GPR_TOPICS, ROBOT_STATE_TOPIC, ROBOT_TOPIC, WAFER_POSE_TOPIC
 
 #: Largest robot description message read.

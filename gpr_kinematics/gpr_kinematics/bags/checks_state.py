@@ -34,14 +34,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import ForwardBatch, forward_batch
+from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch
 from ..core.config import MODELS, GprConfig
 from ..core.messages import STATE_FROM_RESULT
 from ..errors import GprError
 from .cdr import Columns
 from .columns import field_matrix, matrix, quaternion_angle, row_sizes, wrapped
 from .results import Check, Series, bool_check, value_check
-from .tolerances import LIMIT_SLACK, Tolerances
+from .tolerances import Tolerances
 
 #: Tilt [rad] below which the tilt azimuth is undefined and not compared.
 AZIMUTH_MIN_TILT = 1e-12
@@ -191,7 +191,8 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
             acc[rows] = np.maximum(acc[rows], err) if rule.check in touched else err
             touched.add(rule.check)
         stroke = np.maximum(cfg.stroke_min - q[rows], q[rows] - cfg.stroke_max).max(axis=1)
-        limits[rows] = np.maximum(np.maximum(stroke, fk.tilt - cfg.tilt_limit), 0.0)
+        # beyond the core's own slacks (forward kinematics' rule): by how much, 0 within
+        limits[rows] = np.maximum(np.maximum(stroke - STROKE_SLACK, fk.tilt - cfg.tilt_limit - TILT_LIMIT_SLACK), 0.0)
         commanded[rows] = commanded_error(np.asarray(c['commanded_tilt'], float)[rows],
                                           np.asarray(c['commanded_azimuth'], float)[rows], fk)
     disp = field_matrix(c, 'joint_displacement')
@@ -209,7 +210,7 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
                                       rule.unit, ok, detail))
     checks.append(value_check('state.imperfection_budget', topic, np.max(disp, axis=1), cfg.imperfection_budget,
                               'm', samples))
-    checks.append(value_check('state.limits', topic, limits[solved], LIMIT_SLACK, 'm|rad', ok,
+    checks.append(value_check('state.limits', topic, limits[solved], 0.0, 'm|rad', ok,
                               'q outside the stroke or tilt beyond tilt_limit'))
     checks.append(value_check('state.commanded', topic, commanded[solved], tol.angle, 'rad', ok,
                               'commanded tilt or azimuth is not what the platform achieves (NaN: not a number)'))

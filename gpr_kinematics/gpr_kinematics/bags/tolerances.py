@@ -7,9 +7,6 @@ from dataclasses import dataclass, fields
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 
-#: Slack [m or rad] of the recorded joints' and rods' limits (``state.limits``, ``robot.joint_limits``).
-LIMIT_SLACK = 1e-9
-
 
 @dataclass(frozen=True)
 class Tolerances:
