@@ -126,3 +126,22 @@ def test_euler_conventions_taken_and_refused():
     for bad in ('xy', 'xyzx', 'xYz', 'xxz', 'xzz', 'abc', 3):
         with pytest.raises(InputError, match='Euler convention must be three axes from xyz'):
             check_euler_convention(bad)
+
+
+def test_kabsch_recovers_a_rotation_and_never_returns_a_singular_matrix():
+    """One Kabsch for the mechanisms' pose fit and the calibration's frames (two copies before; the mechanisms' took
+    the sign of a zero determinant, 0, and returned a singular "rotation" for a degenerate set)."""
+    from gpr_kinematics.core.rotations import kabsch
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(5)
+    R = Rotation.random(20, random_state=7).as_matrix()
+    a = rng.normal(size=(20, 6, 3))
+    a -= a.mean(axis=1, keepdims=True)
+    b = np.einsum('nij,nkj->nki', R, a) + 1e-9 * rng.normal(size=a.shape)
+    got = kabsch(a, b)
+    assert np.max(np.abs(got - R)) < 1e-8
+    np.testing.assert_allclose(np.linalg.det(got), 1.0, atol=1e-12)
+    np.testing.assert_allclose(kabsch(a[0], b[0]), got[0], atol=1e-15)     # one set as the batch
+    flat = np.zeros((4, 3))                                                   # every vector zero: H = 0
+    assert abs(np.linalg.det(kabsch(flat, flat)) - 1.0) < 1e-12

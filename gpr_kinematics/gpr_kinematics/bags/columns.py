@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.messages import NS_PER_S
+from ..core.rotations import quaternion_multiply
 from .cdr import Columns
 
 
@@ -64,12 +65,7 @@ def quaternion_angle(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[
     >>> round(float(quaternion_angle(np.array([[0, 0, 0, 1.0]]), turn)[0]), 12)
     0.1
     """
-    ax, ay, az, aw = a.T
-    bx, by, bz, bw = b.T
-    w = aw * bw + ax * bx + ay * by + az * bz
-    x = aw * bx - ax * bw - (ay * bz - az * by)
-    y = aw * by - ay * bw - (az * bx - ax * bz)
-    z = aw * bz - az * bw - (ax * by - ay * bx)
+    x, y, z, w = np.moveaxis(quaternion_multiply(a * np.array([-1.0, -1.0, -1.0, 1.0]), b), -1, 0)
     out: NDArray[np.float64] = 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), np.abs(w))
     return out
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.rotations import euler_from_rotation, quaternion_from_matrix, rotation_from_vector, rotation_vector
+from ..core.rotations import euler_from_rotation, kabsch, quaternion_from_matrix, rotation_from_vector, rotation_vector
 from ..errors import InputError
 from .measurements import Measurements
 from .model import Parameter, ParameterSet, PoseModel, evaluate
@@ -191,16 +191,9 @@ class FramedModel:
                 np.einsum('sij,snjk,skl->snil', Rb, rot, Rt))
 
 
-def _kabsch(a: Array, b: Array) -> Array:
-    """The rotation ``R`` minimising ``sum |b_i - R a_i|^2`` (vectors ``(N, 3)``, centred by the caller)."""
-    U, _, Vt = np.linalg.svd(b.T @ a)
-    d = np.sign(np.linalg.det(U @ Vt)) or 1.0
-    return np.asarray(U @ np.diag([1.0, 1.0, d]) @ Vt, dtype=np.float64)
-
-
 def _mean_rotation(R: Array) -> Array:
     """The rotation nearest the mean of rotation matrices ``(N, 3, 3)``."""
-    return _kabsch(np.eye(3), R.mean(axis=0).T)
+    return kabsch(np.eye(3), R.mean(axis=0).T)
 
 
 def _positions(A: Array, p: Array, R: Array, m: Array, t: Array | None, c: Array | None) -> tuple[Array, Array]:
@@ -242,7 +235,7 @@ def initial_frames(inner: PoseModel, meas: Measurements, base: Transform | None,
                     raise InputError(f'{meas.source}: the measured poses do not tilt about two different axes: the '
                                      'orientation of the measuring frame cannot be registered (measure tilted poses '
                                      'at several azimuths, or give --base)')
-                A = _kabsch(a, b)
+                A = kabsch(a, b)
         G = target_rotation if target_rotation is not None else \
             _mean_rotation(np.swapaxes(R, 1, 2) @ A.T @ M)
         t, c = _positions(A, p, R, m, target_position, c_known)
@@ -252,7 +245,7 @@ def initial_frames(inner: PoseModel, meas: Measurements, base: Transform | None,
     t, c = _positions(A, p, R, m, target_position, c_known)
     for _ in range(POINT_ALTERNATIONS if base is None else 0):
         x = p + np.einsum('nij,j->ni', R, t)    # the target where the nominal model puts it, aligned with the points
-        A = _kabsch(x - x.mean(axis=0), m - m.mean(axis=0))
+        A = kabsch(x - x.mean(axis=0), m - m.mean(axis=0))
         t, c = _positions(A, p, R, m, target_position, c_known)
     return Transform(c, A), Transform(t, np.eye(3))
 

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.rotations import kabsch
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
 from ..inputs.validation import bounded, difference_step, newton_settings
@@ -51,15 +52,10 @@ def _tilt_vector(R: np.ndarray) -> np.ndarray:
 
 
 def _kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares rigid transforms ``dst ~ R src + t`` for point sets ``(N, K, 3)`` (Kabsch, SVD)."""
+    """Least-squares rigid transforms ``dst ~ R src + t`` for point sets ``(N, K, 3)`` (:func:`~..core.rotations.kabsch`
+    of the centred sets)."""
     cs, cd = src.mean(axis=1), dst.mean(axis=1)
-    H = np.einsum('nki,nkj->nij', src - cs[:, None], dst - cd[:, None])
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(np.swapaxes(Vt, -1, -2) @ np.swapaxes(U, -1, -2)))
-    D = np.zeros_like(H)
-    D[:, 0, 0] = D[:, 1, 1] = 1.0
-    D[:, 2, 2] = d
-    R = np.swapaxes(Vt, -1, -2) @ D @ np.swapaxes(U, -1, -2)
+    R = kabsch(src - cs[:, None], dst - cd[:, None])
     return R, cd - np.einsum('nij,nj->ni', R, cs)
 
 

@@ -64,7 +64,7 @@ import numpy as np
 from ..core.config import GprConfig
 from ..core.machine import MachineGeometry
 from ..core.messages import ROD_JOINT_NAMES
-from ..core.rotations import quaternion_from_matrix, rpy_matrix
+from ..core.rotations import quaternion_from_matrix, rodrigues, rpy_matrix
 from ..errors import InputError
 from .shapes import DENSITY, Inertial, Visual, default_inertial, robot_shapes
 
@@ -127,12 +127,10 @@ class Joint:
 
 
 def axis_angle_matrix(axis: Sequence[float] | np.ndarray, angle: float) -> np.ndarray:
-    """Rotation by ``angle`` [rad] about the unit ``axis`` (Rodrigues)."""
+    """Rotation by ``angle`` [rad] about ``axis`` (normalised): :func:`~..core.rotations.rodrigues`."""
     a = np.asarray(axis, dtype=float)
-    a = a / np.linalg.norm(a)
-    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    out: np.ndarray = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
-    return out
+    x, y, z = (a / np.linalg.norm(a) * angle).tolist()
+    return rodrigues(x, y, z)
 
 
 @dataclass(frozen=True)

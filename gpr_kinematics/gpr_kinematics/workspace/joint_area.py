@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.rotations import rpy_matrix
 from ..errors import ConfigError
 from ..inputs.schema import check_keys, orientation_angle
 from ..mechanisms import read_mechanism_file
@@ -70,13 +71,9 @@ CHUNK_PAIRS = 4096
 
 
 def rotation_rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """``Rz(yaw) Ry(pitch) Rx(roll)`` (fixed axes x, y, z) as floats, entries below 1e-15 (the rounding of
-    sin(pi), cos(pi/2)) set to exact zeros."""
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw),
-                              math.sin(yaw))
-    R = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                  [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                  [-sp, cp * sr, cp * cr]])
+    """:func:`~..core.rotations.rpy_matrix` (``Rz(yaw) Ry(pitch) Rx(roll)``, fixed axes x, y, z), entries below
+    1e-15 (the rounding of sin(pi), cos(pi/2)) set to exact zeros."""
+    R = rpy_matrix(roll, pitch, yaw)
     R[np.abs(R) < 1e-15] = 0.0
     return R
 
