@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from ..core import ForwardBatch, resolve_config
 from ..core.config import GprConfig
 from ..core.messages import geometry_text, robot_text, stream_messages
-from ..core.sweep import paper_sweep
+from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, paper_sweep
 from ..robot.description import RobotDescription
 from ..robot.markers import marked, marker_array, marker_points
 from ..robot.program import RobotProgram
@@ -75,8 +75,9 @@ def make_message(msgtype: str, **fields: Any) -> Any:
     return dataclasses.replace(_default(msgtype), **fields)
 
 
-def sweep_messages(height: float = 0.5, max_tilt: float = np.radians(2.0), tilt_step: float = np.radians(0.2),
-                   azimuth_step: float = np.radians(10.0), passes: int = 1, config: GprConfig | None = None,
+def sweep_messages(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TILT,
+                   tilt_step: float = DEFAULT_TILT_STEP, azimuth_step: float = DEFAULT_AZIMUTH_STEP, passes: int = 1,
+                   config: GprConfig | None = None,
                    start_ns: int = 1_700_000_000_000_000_000, period_ns: int = 1_000_000,
                    topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC),
                    markers_every: int | None = 1, loop: int = 0) -> list[tuple[str, int, bytes]]:

@@ -115,7 +115,8 @@ class GprConfig:
 
 #: The least characteristic length [m] (``characteristic_length``; the mechanisms' least too).
 LEAST_LENGTH = 1e-6
-_FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
+#: The numbers' ranges (lowest, highest, what is allowed): the one source of the nodes' parameter ranges too.
+FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
     'radius': (1e-4, 10.0, 'metres, 1e-4 <= radius <= 10'),
     'stroke_min': (-10.0, 10.0, 'metres, -10 <= stroke_min < stroke_max'),
     'stroke_max': (-10.0, 10.0, 'metres, stroke_min < stroke_max <= 10'),
@@ -125,6 +126,11 @@ _FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
                               'null for the radius'),
     'tolerance': (1e-16, 1e-6, 'metres, 1e-16 <= tolerance <= 1e-6'),
 }
+
+#: ``max_iterations``' range.
+ITERATIONS = (1, 100)
+#: The least angle [rad] between two rods' azimuths (a joint triangle not degenerate).
+ROD_GAP = math.radians(10.0)
 
 #: Per-rod and per-joint keys: (number of values per rod, lowest, highest, what is allowed).
 _TRIPLE_RANGES: dict[str, tuple[int, float, float, str]] = {
@@ -189,7 +195,7 @@ def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> Gpr
         merged['characteristic_length'] = None  # it followed the radius: keep following it
     merged.update(values)
     conv: dict[str, YamlValue] = {}
-    for key, (lo, hi, allowed) in _FLOAT_RANGES.items():
+    for key, (lo, hi, allowed) in FLOAT_RANGES.items():
         if key == 'characteristic_length' and merged[key] is None:
             conv[key] = 0.0
             continue
@@ -203,8 +209,8 @@ def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> Gpr
             raise _fail(source, key, merged[key], ' or '.join(choices))
         conv[key] = merged[key]
     iters = merged['max_iterations']
-    if isinstance(iters, bool) or not isinstance(iters, int) or not 1 <= iters <= 100:
-        raise _fail(source, 'max_iterations', iters, 'an integer from 1 to 100')
+    if isinstance(iters, bool) or not isinstance(iters, int) or not ITERATIONS[0] <= iters <= ITERATIONS[1]:
+        raise _fail(source, 'max_iterations', iters, f'an integer from {ITERATIONS[0]} to {ITERATIONS[1]}')
     conv['max_iterations'] = iters
     for key in _TRIPLE_RANGES:
         optional = key in ('rod_positions', 'platform_joints')
@@ -260,7 +266,7 @@ def _validate(cfg: GprConfig) -> None:
         raise ConfigError(f'stroke_min = {cfg.stroke_min!r} must be below stroke_max = {cfg.stroke_max!r}')
     a = [math.remainder(x, 2 * math.pi) for x in cfg.rod_azimuths]
     gaps = [abs(math.remainder(a[i] - a[j], 2 * math.pi)) for i, j in ((0, 1), (1, 2), (2, 0))]
-    if min(gaps) < math.radians(10.0):
+    if min(gaps) < ROD_GAP:
         raise ConfigError(f'rod_azimuths = {list(cfg.rod_azimuths)!r}: rods must be at least 10 deg apart '
                           'so that the joint triangle is not degenerate')
     nominal = nominal_points(cfg)

@@ -24,12 +24,12 @@ rotation ``R = tilt_rotation(alpha, gamma) @ Rz(twist)`` (:mod:`gpr_kinematics.c
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
 
+from ..core.config import FLOAT_RANGES
 from ..core.rotations import kabsch
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
@@ -37,7 +37,7 @@ from ..inputs.validation import bounded, difference_step, newton_settings
 from .base import Mechanism, as_poses, rotation_vector
 
 #: The largest tilt limit of a geometry [rad] (GprConfig's range): a dexterity map computes up to it.
-TILT_DOMAIN = math.radians(15.0)
+TILT_DOMAIN = FLOAT_RANGES['tilt_limit'][1]
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
 
@@ -98,8 +98,9 @@ class GprMechanism(Mechanism):
         dexterity map computes there and marks the poses beyond the limits (the core refused them, and the map)."""
         c = self.config
         span = c.stroke_max - c.stroke_min
-        wide = dataclasses.replace(c, tilt_limit=TILT_DOMAIN, stroke_min=max(c.stroke_min - span, -10.0),
-                                   stroke_max=min(c.stroke_max + span, 10.0))
+        wide = dataclasses.replace(c, tilt_limit=TILT_DOMAIN, stroke_min=max(c.stroke_min - span,
+                                                                             FLOAT_RANGES['stroke_min'][0]),
+                                   stroke_max=min(c.stroke_max + span, FLOAT_RANGES['stroke_max'][1]))
         return GprMechanism(wide, self.name, self.imperfections)
 
     def pose_within_limits(self, poses: Any) -> np.ndarray:

@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
 from ..ros import env as ros_env
 from ..ros.process import NodeProcess
 
@@ -24,11 +25,13 @@ from ..ros.process import NodeProcess
 def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog='gpr-demo', description=__doc__.split('\n\n')[0])
     p.add_argument('--rate', type=float, default=250.0, help='trajectory rate [Hz] (default 250)')
-    p.add_argument('--height', type=float, default=0.5, help='sweep height [m] (default 0.5)')
-    p.add_argument('--tilt-step-deg', type=float, default=0.2, help='sweep tilt step [deg] (default 0.2)')
-    p.add_argument('--azimuth-step-deg', type=float, default=10.0,
-                   help='sweep azimuth step [deg] (default 10)')
-    p.add_argument('--max-tilt-deg', type=float, default=2.0, help='sweep largest tilt [deg] (default 2)')
+    p.add_argument('--height', type=float, default=DEFAULT_HEIGHT,
+                   help=f'sweep height [m] (default {DEFAULT_HEIGHT:g})')
+    for name, value in (('tilt-step', DEFAULT_TILT_STEP), ('azimuth-step', DEFAULT_AZIMUTH_STEP),
+                        ('max-tilt', DEFAULT_MAX_TILT)):
+        deg = round(math.degrees(value), 9)
+        p.add_argument(f'--{name}-deg', type=float, default=deg, help=f'sweep {name.replace("-", " ")} [deg] (default '
+                       f'{deg:g})')
     return p.parse_args(argv)
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from ..bags.report import write_report
 from ..bags.verify import format_table, verify_bag
+from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_TILT_STEP
 from ..errors import GprError
 from .process import NodeProcess
 
@@ -37,8 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--compression', choices=('none', 'zstd'), default='none')
     p.add_argument('--flush-interval', type=float, default=1.0, help='recorder flush interval [s]')
     p.add_argument('--rate', type=float, default=400.0, help='publishing rate of the trajectory node [Hz]')
-    p.add_argument('--tilt-step-deg', type=float, default=0.2, help='sweep step of the tilt [deg] (paper: 0.2)')
-    p.add_argument('--azimuth-step-deg', type=float, default=10.0, help='sweep step of the azimuth [deg]')
+    p.add_argument('--tilt-step-deg', type=float, default=round(math.degrees(DEFAULT_TILT_STEP), 9),
+                   help='sweep step of the tilt [deg] (paper: 0.2)')
+    p.add_argument('--azimuth-step-deg', type=float, default=round(math.degrees(DEFAULT_AZIMUTH_STEP), 9),
+                   help='sweep step of the azimuth [deg]')
     p.add_argument('--timeout', type=float, default=300.0, help='longest wait for the sweep [s]')
     return p
 

@@ -17,20 +17,16 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..core.config import LEAST_LENGTH, MODELS, WEIGHTINGS, GprConfig, allowed_values, load_config
+from ..core.config import FLOAT_RANGES as _F
+from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
+from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
 from ..errors import ConfigError
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
-KINDS: dict[str, tuple[type, ...]] = {
-    'double': (float, int),
-    'integer': (int,),
-    'string': (str,),
-    'bool': (bool,),
-    'double_array': (list, tuple),
-    'string_array': (list, tuple),
-}
+KINDS: dict[str, tuple[type, ...]] = {'double': (float, int), 'integer': (int,), 'string': (str,), 'bool': (bool,),
+                                      'double_array': (list, tuple), 'string_array': (list, tuple)}
 
 
 @dataclass(frozen=True)
@@ -98,20 +94,20 @@ _D, _I, _S, _B, _DA, _SA = 'double', 'integer', 'string', 'bool', 'double_array'
 #: ``GprConfig`` keys with their parameter kind, description, range and constraint; the geometry is read-only.
 #: Defaults come from the geometry configuration (the package's ``config/gpr.yaml`` or ``config_file``).
 _CONFIG_TABLE: tuple[tuple[str, str, str, tuple[float, float] | None, tuple[str, ...] | None, str, bool], ...] = (
-    ('radius', _D, 'radius R of the circle of rod axes [m]', (1e-4, 10.0), None, '', True),
+    ('radius', _D, 'radius R of the circle of rod axes [m]', _F['radius'][:2], None, '', True),
     ('rod_azimuths', _DA, 'azimuths of rods 1, 2, 3 in gpr_base [rad]', None, None,
-     '3 angles in [-2 pi, 2 pi] rad, pairwise at least 10 deg (0.1745 rad) apart', True),
-    ('stroke_min', _D, 'lowest rod length q [m]', (-10.0, 10.0), None, 'stroke_min < stroke_max', True),
-    ('stroke_max', _D, 'highest rod length q [m]', (-10.0, 10.0), None, 'stroke_min < stroke_max', True),
-    ('tilt_limit', _D, 'largest platform tilt [rad]', (1e-6, math.radians(15.0)), None, '', False),
-    ('imperfection_budget', _D, 'largest virtual-joint displacement of a joint centre [m]', (1e-9, 0.01), None, '',
-     False),
+     f'3 angles in [-2 pi, 2 pi] rad, pairwise at least {math.degrees(ROD_GAP):g} deg ({ROD_GAP:.4g} rad) apart', True),
+    ('stroke_min', _D, 'lowest rod length q [m]', _F['stroke_min'][:2], None, 'stroke_min < stroke_max', True),
+    ('stroke_max', _D, 'highest rod length q [m]', _F['stroke_max'][:2], None, 'stroke_min < stroke_max', True),
+    ('tilt_limit', _D, 'largest platform tilt [rad]', _F['tilt_limit'][:2], None, '', False),
+    ('imperfection_budget', _D, 'largest virtual-joint displacement of a joint centre [m]',
+     _F['imperfection_budget'][:2], None, '', False),
     ('model', _S, 'default virtual-joint model', None, (*MODELS, ''), "'' means the geometry's model", False),
-    ('characteristic_length', _D, 'weight of angular virtual joints in the Newton step [m]', (0.0, 100.0), None,
-     f'0 means the radius, else at least {LEAST_LENGTH:g}', False),
+    ('characteristic_length', _D, 'weight of angular virtual joints in the Newton step [m]',
+     (0.0, _F['characteristic_length'][1]), None, f'0 means the radius, else at least {LEAST_LENGTH:g}', False),
     ('weighting', _S, 'Newton step norm', None, WEIGHTINGS, '', False),
-    ('max_iterations', _I, 'bound of Newton iterations per solve', (1, 100), None, '', False),
-    ('tolerance', _D, 'closure tolerance on the side lengths [m]', (1e-16, 1e-6), None, '', False),
+    ('max_iterations', _I, 'bound of Newton iterations per solve', ITERATIONS, None, '', False),
+    ('tolerance', _D, 'closure tolerance on the side lengths [m]', _F['tolerance'][:2], None, '', False),
 )
 
 CONFIG_FILE = ParamSpec('config_file', _S, '', 'geometry YAML (GprConfig keys over the package\'s config/gpr.yaml), '
@@ -239,14 +235,14 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
               'at start: programs come through the gpr/run_program action)', choices=TRAJECTORY_MODES,
               read_only=True),
     ParamSpec('rate', _D, 100.0, 'publishing rate [Hz]', RATES, read_only=True),
-    ParamSpec('height', _D, 0.5, 'sweep: height of the platform centre [m]', (-10.0, 10.0),
+    ParamSpec('height', _D, DEFAULT_HEIGHT, 'sweep: height of the platform centre [m]', _F['stroke_min'][:2],
               constraint='within the stroke', read_only=True),
-    ParamSpec('max_tilt', _D, math.radians(2.0), 'sweep: largest |alpha| [rad]', (1e-6, math.radians(15.0)),
+    ParamSpec('max_tilt', _D, DEFAULT_MAX_TILT, 'sweep: largest |alpha| [rad]', _F['tilt_limit'][:2],
               constraint='max_tilt <= tilt_limit', read_only=True),
-    ParamSpec('tilt_step', _D, math.radians(0.2), 'sweep: step of alpha [rad]', (1e-7, math.radians(15.0)),
+    ParamSpec('tilt_step', _D, DEFAULT_TILT_STEP, 'sweep: step of alpha [rad]', (1e-7, _F['tilt_limit'][1]),
               read_only=True),
-    ParamSpec('azimuth_step', _D, math.radians(10.0), 'sweep: step of the azimuth gamma [rad]', (1e-4, 2 * math.pi),
-              read_only=True),
+    ParamSpec('azimuth_step', _D, DEFAULT_AZIMUTH_STEP, 'sweep: step of the azimuth gamma [rad]',
+              (1e-4, 2 * math.pi), read_only=True),
     ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
