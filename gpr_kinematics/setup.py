@@ -13,10 +13,9 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
-        ('share/' + PACKAGE + '/config/mechanisms', glob('config/mechanisms/*.yaml')),
-        ('share/' + PACKAGE + '/config/programs', glob('config/programs/*.yaml')),
-        ('share/' + PACKAGE + '/config/calibration', glob('config/calibration/*')),
-        ('share/' + PACKAGE + '/config/robots', glob('config/robots/*.yaml')),
+        # every folder of config/, each file as it is (cells/ was left out: the documented cell:= failed installed)
+        *(('share/' + PACKAGE + '/' + folder, sorted(glob(folder + '/*.*')))
+          for folder in sorted(path.rstrip('/') for path in glob('config/*/'))),
         ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py') + glob('launch/*.launch.xml')),
         ('share/' + PACKAGE + '/rviz', glob('rviz/*.rviz')),
         ('share/' + PACKAGE + '/urdf', glob('urdf/*.urdf')),

@@ -95,3 +95,8 @@ def test_colcon_builds_both_packages_in_a_standard_workspace(tmp_path):
     assert parse_package(str(share / 'package.xml')).name == 'gpr_kinematics'   # what `ros2 pkg xml` prints
     assert (ws / 'install' / 'gpr_kinematics' / 'lib' / 'gpr_kinematics' / 'kinematics_node').is_file()
     assert (ws / 'install' / 'gpr_interfaces' / 'share' / 'gpr_interfaces' / 'msg' / 'PlatformState.msg').is_file()
+    # every file of config/, in its folder: cells/ was left out, and the documented cell:= of an installed package
+    # and the installed cell program failed
+    config = ROOT / 'gpr_kinematics' / 'config'
+    for f in config.rglob('*.*'):
+        assert (share / 'config' / f.relative_to(config)).is_file(), f"{f.relative_to(config)} is not installed"
