@@ -402,6 +402,32 @@ def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_p
         replay.stop()
 
 
+def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Path) -> None:
+    """The replay launch's state publisher subscribes to joint_states only: waiting for every topic held the bag 10 s,
+    not waiting lost its first 2 s of /tf. With ``wait_topic`` the replay starts once that one topic is subscribed,
+    every sample of it received; a topic the replay does not publish is refused at the start."""
+    from gpr_kinematics.nodes.client import GprClient
+    from sensor_msgs.msg import JointState
+
+    bad = start('replay_node', bag=REFERENCE, wait_for_subscribers=1, wait_topic='no_such_topic')
+    assert bad.wait(30) == 2 and "wait_topic = 'no_such_topic' (/no_such_topic) is not published by this replay; " \
+        'allowed: one of ' in bad.output(), bad.output()
+    states = read_bag(REFERENCE).topic('/gpr/joint_states')
+    assert states is not None
+    replay = start('replay_node', bag=REFERENCE, rate=20.0, wait_for_subscribers=1, wait_topic='gpr/joint_states',
+                   wait_timeout=60.0)
+    try:
+        with GprClient('gpr_test_wait_topic') as c:
+            got = c.subscribe(JointState, '/gpr/joint_states')
+            t0 = time.monotonic()
+            wait_for_log(replay, r'started: publishing', timeout=30)
+            assert time.monotonic() - t0 < 20.0     # not the 60 s a wait for every topic would take
+            assert c.spin_until(lambda: len(got) >= len(states), 60), (len(got), len(states))
+        assert replay.wait(30) == 0 and 'fewer than' not in replay.output()
+    finally:
+        replay.stop()
+
+
 @pytest.mark.parametrize('recorded_in', ['', '/r1'])
 def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path, recorded_in: str) -> None:
     """replay.launch.py's namespace (``-r __ns:=/r2``) is where its state publisher and RViz read: the suite's topics

@@ -2,7 +2,11 @@
 joint_states into /tf), optionally into RViz.
 
     ros2 launch gpr_kinematics replay.launch.py bag:=bags/run1 [rate:=2.0] [loop:=true] [robot:=my_robot.yaml]
-        [rviz:=true] [joint_states:=gpr/joint_states]
+        [model:=polar] [rviz:=true] [joint_states:=gpr/joint_states]
+
+The replay waits (up to 10 s) until the state publisher subscribes to the joint states, so /tf shows the bag from
+its first sample; ``model`` is the recording's virtual-joint model (the state publisher's /tf used the geometry's,
+28 um from the replayed platform pose of a bag recorded under another).
 """
 from gpr_kinematics.nodes.launch_common import arguments, node, rviz, typed
 from launch import LaunchDescription
@@ -18,6 +22,8 @@ ARGUMENTS = (
                                      'before joint_states)'),
     ('config_file', '', "geometry YAML for the robot model, replacing the robot's gpr section; empty: that "
                         'section'),
+    ('model', '', "virtual-joint model the bag was recorded with: radial, polar, offset or compliant; empty: the "
+                  "geometry's"),
     ('robot', '', 'robot description YAML of the robot model (state_publisher_node): the GPR, the arms, blades and '
                   'wafers; empty: config/robots/example_robot.yaml'),
     ('rviz', 'false', 'start RViz with rviz/gpr.rviz (true/false)'),
@@ -28,8 +34,9 @@ def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
         *arguments(ARGUMENTS),
         node('state_publisher_node', [{'robot_file': typed('robot'), 'config_file': typed('config_file'),
-                                       'frame_prefix': typed('frame_prefix')}],
+                                       'model': typed('model'), 'frame_prefix': typed('frame_prefix')}],
              remappings=[('joint_states', LaunchConfiguration('joint_states'))]),
-        node('replay_node', [{'bag': typed('bag'), 'rate': typed('rate', float), 'loop': typed('loop', bool)}]),
+        node('replay_node', [{'bag': typed('bag'), 'rate': typed('rate', float), 'loop': typed('loop', bool),
+                              'wait_for_subscribers': 1, 'wait_topic': typed('joint_states')}]),
         rviz(),
     ])

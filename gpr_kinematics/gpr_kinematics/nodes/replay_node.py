@@ -8,8 +8,9 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 - ``loop``: start over after the last message (until SIGINT/SIGTERM), one mean interval of the bag later (0.1 s for a
   bag whose messages share one instant);
 - ``topics``: replay only these topics (default: all);
-- ``wait_for_subscribers``: before the first message wait until every topic has this many subscriptions
-  (default 0), at most ``wait_timeout`` seconds;
+- ``wait_for_subscribers``: before the first message wait until every topic (or ``wait_topic`` alone: the replay
+  launch's ``joint_states``, which its state publisher turns into /tf) has this many subscriptions (default 0), at
+  most ``wait_timeout`` seconds;
 - ``queue_depth``: publisher history depth (reliable, keep last; default 10000).
 
 The node suite's topics (``gpr/platform_state``, ``joint_states``, ...: ``bags.typestore.KNOWN_TOPICS``) are
@@ -80,6 +81,14 @@ class ReplayNode(GprNode):
         raws = [r for n in names for r in bag.topics[n].raw]
         self.stream = [(self.pubs[names[int(which[i])]], raws[i]) for i in order]
         self.published: dict[str, int] = dict.fromkeys(names, 0)
+        #: The publishers whose subscriptions ``wait_for_subscribers`` counts.
+        self.waited = list(self.pubs.values())
+        if p['wait_topic']:
+            topic = valid_topic_name(self, p['wait_topic'], 'wait_topic')
+            self.waited = [pub for pub in self.pubs.values() if pub.topic_name == topic]
+            if not self.waited:
+                raise BagError(f'wait_topic = {p["wait_topic"]!r} ({topic}) is not published by this replay; allowed: '
+                               'one of ' + ', '.join(sorted(pub.topic_name for pub in self.pubs.values())))
         self._names = {id(pub): n for n, pub in self.pubs.items()}
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
@@ -108,12 +117,13 @@ class ReplayNode(GprNode):
             return
         deadline = time.monotonic() + float(self.p['wait_timeout'])
         while not stop and time.monotonic() < deadline:
-            if all(pub.get_subscription_count() >= want for pub in self.pubs.values()):
+            if all(pub.get_subscription_count() >= want for pub in self.waited):
                 return
             self._wait(executor, stop, time.monotonic() + 0.02)
         if not stop:
-            self.get_logger().warning(f'not every topic has {want} subscriber(s) after {self.p["wait_timeout"]} s; '
-                                      'starting anyway')
+            which = f'{self.p["wait_topic"]} has fewer than' if self.p['wait_topic'] else 'not every topic has'
+            self.get_logger().warning(f'{which} {want} subscriber(s) after {self.p["wait_timeout"]} s; starting '
+                                      'anyway')
 
     def spin(self, executor: Executor, stop: StopFlag) -> None:
         """Publish the stream (again and again with ``loop``) until it ends or a stop signal arrives."""

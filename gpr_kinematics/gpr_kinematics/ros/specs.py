@@ -320,6 +320,8 @@ REPLAY: tuple[ParamSpec, ...] = (
               constraint='topic names present in the bag', read_only=True),
     ParamSpec('wait_for_subscribers', _I, 0, 'wait for this many subscriptions on every topic first', (0, 1000),
               read_only=True),
+    ParamSpec('wait_topic', _S, '', "the one topic (as published) whose subscriptions wait_for_subscribers counts; '': "
+              'every topic', constraint='a topic the replay publishes', read_only=True),
     ParamSpec('wait_timeout', _D, 10.0, 'longest wait for subscribers [s]', (0.0, 3600.0), read_only=True),
     ParamSpec('queue_depth', _I, 10000, 'publisher history depth (reliable, keep last)', (1, 10_000_000),
               read_only=True),
