@@ -330,8 +330,13 @@ def test_exit_rule_ends_the_launch_with_the_reason(monkeypatch):
 
     with pytest.raises(RuntimeError, match=r'kinematics_node is required and ended \(exit status 0\)'):
         _exited(_Context(0), 'kinematics_node', True)
-    with pytest.raises(RuntimeError, match=r'trajectory_node died \(exit status 2\): ending the launch'):
+    with pytest.raises(RuntimeError, match=r'trajectory_node refused to start \(exit status 2\): ending the launch'):
         _exited(_Context(2), 'trajectory_node', False)
+    with pytest.raises(RuntimeError, match=r'kinematics_node died \(exit status 1\): ending the launch'):
+        _exited(_Context(1), 'kinematics_node', True)
+    # a start-up refusal is not respawned (robot:=typo.yaml restarted it every second, the launch never ended)
+    with pytest.raises(RuntimeError, match=r'kinematics_node refused to start \(exit status 2\): ending the launch'):
+        _exited(_Context(2, respawn='true'), 'kinematics_node', True)
     assert _exited(_Context(0), 'trajectory_node', False) is None              # a sweep that finished
     assert _exited(_Context(-2, shutdown=True), 'kinematics_node', True) is None  # Ctrl-C
     assert _exited(_Context(1, respawn='true'), 'robot_simulator_node', True) is None

@@ -22,6 +22,8 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
+from ..errors import EXIT_BAD_INPUT
+
 PACKAGE = 'gpr_kinematics'
 #: Nodes that run until the launch stops: restarted (``respawn``) or the end of the launch when they die.
 REQUIRED = ('kinematics_node', 'robot_simulator_node', 'state_publisher_node')
@@ -55,13 +57,16 @@ def typed(name: str, value_type: type = str) -> Any:
 
 def _exited(context: LaunchContext, name: str, required: bool) -> None:
     """On a node's exit: nothing while the launch stops, or when the node is being restarted, or when a node that
-    finishes on its own (a sweep) ended well; else end the launch with status 1 and the reason."""
+    finishes on its own (a sweep) ended well; else end the launch with status 1 and the reason. A node that refused
+    to start (status 2: its arguments, parameters or files) is not restarted: it would refuse again, every second,
+    for ever."""
     event = context.locals.event
     code = int(event.returncode)
-    restarted = required and LaunchConfiguration('respawn').perform(context).lower() == 'true'
+    restarted = (required and code != EXIT_BAD_INPUT
+                 and LaunchConfiguration('respawn').perform(context).lower() == 'true')
     if context.is_shutdown or restarted or (code == 0 and not required):
         return
-    what = 'is required and ended' if code == 0 else 'died'
+    what = ('refused to start' if code == EXIT_BAD_INPUT else 'died') if code else 'is required and ended'
     raise RuntimeError(f'{name} {what} (exit status {code}): ending the launch')
 
 
