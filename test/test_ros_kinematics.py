@@ -387,3 +387,13 @@ def _float_fields(msg, prefix):
             yield from _float_fields(value, f'{prefix}{name}.')
         elif kind == 'double' or kind.startswith(('sequence<double', 'double[3]')):
             yield prefix + name, kind
+
+
+def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment):
+    """GprClient(executor='x') raised a bare ValueError after rclpy.init and create_node: the context and the node
+    were never shut down (close() unreachable). Refused first, as the package's InputError."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.nodes.client import GprClient
+
+    with pytest.raises(InputError, match=r"executor = 'x'; allowed: 'single' or 'events'"):
+        GprClient('gpr_test_bad_executor', executor='x')

@@ -30,7 +30,7 @@ from ..inputs.resources import config_path
 from ..robot.description import load_robot
 from .arm import ArmMeasurements, ArmModel, write_arm_measurements
 from .core_model import CoreModel
-from .demo import SIGMA_ANGLE, SIGMA_POSITION, TOLERANCES, true_values
+from .demo import ROWS, SIGMA_ANGLE, SIGMA_POSITION, TOLERANCES, true_values
 from .frames import FramedModel, Transform
 from .measurements import Measurements, write_measurements
 from .plan import plan_measurements
@@ -46,7 +46,6 @@ ARM_LENGTHS = (5e-5, -5e-5, 5e-5)
 ARM_OFFSETS = (1e-4, -1e-4, 1e-4)
 BLADE_POINT = (0.05, 0.03, 0.0)
 ARM_SIGMA = 5e-6
-ROWS = 40
 SEED = 21
 HEADER = 'SYNTHETIC data of the worked calibration of a cell (gpr_kinematics.calibration.cell), not a real machine:'
 

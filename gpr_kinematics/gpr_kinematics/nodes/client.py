@@ -38,7 +38,7 @@ from gpr_interfaces.srv import (
 )
 
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
-from ..errors import GprError
+from ..errors import GprError, InputError, brief
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
 
@@ -61,6 +61,8 @@ class GprClient:
 
     def __init__(self, name: str = 'gpr_client', *, namespace: str = '', executor: str = 'single',
                  args: Sequence[str] | None = None) -> None:
+        if executor not in ('single', 'events'):   # before rclpy.init: a context and node refused here were never shut
+            raise InputError(f"executor = {brief(executor)}; allowed: 'single' or 'events'")
         self.context = rclpy.Context()
         rclpy.init(args=None if args is None else list(args), context=self.context)
         self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
@@ -69,10 +71,8 @@ class GprClient:
             from rclpy.experimental import EventsExecutor
 
             self.executor = EventsExecutor(context=self.context)
-        elif executor == 'single':
-            self.executor = SingleThreadedExecutor(context=self.context)
         else:
-            raise ValueError(f"executor = {executor!r}; allowed: 'single' or 'events'")
+            self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.lost = 0
         self._clients: dict[tuple[Any, str], Any] = {}

@@ -20,7 +20,7 @@ from typing import Any
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
 
@@ -71,7 +71,7 @@ class ParamSpec:
             item = (float, int) if self.kind == 'double_array' else (str,)
             bad = any(isinstance(v, bool) or not isinstance(v, item) for v in value)
         if bad:
-            raise ConfigError(f'{where} {self.name} = {value!r} is invalid; allowed: {allowed}')
+            raise ConfigError(f'{where} {self.name} = {brief(value)} is invalid; allowed: {allowed}')
 
 
 def _num(x: float) -> str:
