@@ -222,3 +222,16 @@ def test_numbers_sent_as_strings(client):
         assert set_text('tolerance', '1e-12').successful
     finally:
         node.stop()
+
+
+def test_a_refused_value_is_quoted_briefly():
+    """ParamSpec.check quoted the whole value: a 100,000-character mode made a message of 100,069 characters, a list
+    of a million integers 7.9 MB; errors.brief shortens it as every other message does."""
+    from gpr_kinematics.errors import BRIEF_LENGTH, ConfigError
+    from gpr_kinematics.ros.specs import TRAJECTORY
+
+    mode = next(s for s in TRAJECTORY if s.name == 'mode')
+    for value in ('x' * 100_000, list(range(10**6))):
+        with pytest.raises(ConfigError, match='mode = .* is invalid; allowed: ') as err:
+            mode.check(value)
+        assert len(str(err.value)) < BRIEF_LENGTH + 200, len(str(err.value))
