@@ -14,7 +14,7 @@ their differences ``d_k = q_k - m`` (polynomials of the same spline, their trave
 
 * the closure's flux: ``d(L_ab^2)/dt = 2 (mdot E_ab.(u_b - u_a) + ddot_b E_ab.u_b - ddot_a E_ab.u_a)``, so
   ``int |d(L^2)/dt| <= 2 sum_ab (max|E_ab.(u_b - u_a)| T_m + max|E_ab.u_b| T_db + max|E_ab.u_a| T_da)``, then the
-  drift of eq. (4) (Bratovanov & Sotirov, eq. (3));
+  drift bound (docs/cell.md, eq. (4): Bratovanov & Sotirov's closure, eq. (6), differentiated as their eq. (3));
 * the normal ``N = E_12 x E_13``: ``Ndot = sum_k qdot_k c_k`` with ``c_1 = -(u_1 x E_13) - E_12 x u_1``,
   ``c_2 = u_2 x E_13``, ``c_3 = E_12 x u_3``, so (``sum_k ddot_k = 0``) ``int |Ndot| <= max|sum_k c_k| T_m + sum_k
   max|c_k - cbar| T_dk`` (``cbar = mean_k c_k``), and the normal turns by at most that over ``min |N| >= (|N0| + |N1|

@@ -19,10 +19,12 @@ from .interval import Interval, T, norm, sqrt3_over_2
 class TripodModel(WorkspaceModel):
     """3-RPS tripod (Posypkin et al., Fig. 8): base and platform joints at azimuths 0, 120, 240 deg on radii R, r.
 
-    Pose variables ``z`` [m], ``psi`` (about x) and ``theta`` (about y) [rad]. The parasitic motions are
-    Rao and Rao's formulas (2013, docs/references.md) as the paper gives them:
+    Pose variables ``z`` [m], ``psi`` (about x) and ``theta`` (about y) [rad]. The parasitic motions as Posypkin et
+    al. print them before their eq. (2), citing Rao and Rao (2013), whose paper the project does not hold
+    (docs/references.md):
     ``phi = atan(sin psi sin theta / (cos psi + cos theta))``,
-    ``y = -r cos psi sin phi``, ``x = r/2 (Rp11 - Rp22)``, with ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2).
+    ``y = -r cos psi sin phi``, ``x = r/2 (Rp11 - Rp22)``, with ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2, its entries
+    eq. 3).
     Leg i joins ``a_i = R u_i`` to ``s_i = p + Rp r u_i``, ``u_i = (cos b_i, sin b_i, 0)``; the constraint is
     ``leg_min <= |s_i - a_i| <= leg_max`` (eq. 4; eqs. 5-7 are its components, eq. 6 as printed with
     the x term's signs of a leg at 60 deg). These formulas keep each spherical joint in its leg's radial plane
@@ -64,11 +66,11 @@ class TripodModel(WorkspaceModel):
         widest = float(np.max(np.abs(np.asarray(box, dtype=float)[1:3])))
         if not widest <= 0.5 * np.pi:
             raise InputError(f'{self.name} workspace box: |psi| or |theta| reaches {widest:.4g} rad; allowed: at most '
-                             'pi/2 (the parasitic rotation of Rao & Rao is defined there)')
+                             'pi/2 (the parasitic rotation Posypkin et al. give, after Rao & Rao, is defined there)')
 
     def rotation(self, psi: T, th: T) -> list[list[T]]:
-        """Rows of ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 3) with the parasitic ``phi``; intervals or symbolic
-        expressions (:mod:`.expressions`) alike."""
+        """Rows of ``Rp = Ry(theta) Rx(psi) Rz(phi)`` (eq. 2, its entries eq. 3) with the parasitic ``phi``;
+        intervals or symbolic expressions (:mod:`.expressions`) alike."""
         sps, cps, sth, cth = psi.sin(), psi.cos(), th.sin(), th.cos()
         phi = ((sps * sth) / (cps + cth)).arctan()
         sph, cph = phi.sin(), phi.cos()
