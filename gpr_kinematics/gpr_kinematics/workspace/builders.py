@@ -25,7 +25,7 @@ from ..mechanisms.upu3 import UPU3
 from .base import WorkspaceModel
 from .boxes import box_from, number
 from .dextar import DextarModel
-from .gpr import GprModel
+from .gpr import MAX_TILT, GprModel
 from .planar import Rrr3PlanarModel
 from .shell_arm import ShellArmModel
 from .tripod import TripodModel
@@ -119,7 +119,7 @@ def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float 
         cfg.stroke_max,
         cfg.imperfection_budget,
         angle_scale=scale,
-        max_tilt=number_key(ws, 'max_tilt', src, 0.3, unit='rad'),
+        max_tilt=number_key(ws, 'max_tilt', src, MAX_TILT, unit='rad'),
     )
 
 

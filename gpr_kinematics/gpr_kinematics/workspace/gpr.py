@@ -7,12 +7,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..core.config import GprConfig
 from ..core.virtual_joints import EDGES
 from ..errors import ConfigError, InputError
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, monotone
 
 _INF = np.inf
+#: The default largest tilt [rad] of the workspace's box (its ``max_tilt``; the workspace section's default too).
+MAX_TILT = 0.3
 
 
 def _tan_over(u: np.ndarray) -> np.ndarray:
@@ -55,14 +58,14 @@ class GprModel(WorkspaceModel):
 
     def __init__(
         self,
-        radius: float = 0.093218,
-        rod_azimuths: Sequence[float] = (0.0, 2 * math.pi / 3, 4 * math.pi / 3),
-        stroke_min: float = 0.0,
-        stroke_max: float = 0.508,
-        imperfection_budget: float = 0.0005,
+        radius: float = GprConfig.radius,   # the core's defaults: config/gpr.yaml's geometry
+        rod_azimuths: Sequence[float] = GprConfig.rod_azimuths,
+        stroke_min: float = GprConfig.stroke_min,
+        stroke_max: float = GprConfig.stroke_max,
+        imperfection_budget: float = GprConfig.imperfection_budget,
         box: np.ndarray | None = None,
         angle_scale: float | None = None,
-        max_tilt: float = 0.3,
+        max_tilt: float = MAX_TILT,
     ) -> None:
         check_parameters(self.name, {'radius': radius, 'imperfection_budget': imperfection_budget,
                                      'angle_scale': angle_scale, 'max_tilt': max_tilt},
