@@ -382,7 +382,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         fk = forward_batch(rods, config, check_limits=False)
     except GprError as exc:
         raise GoalError(INVALID_GOAL, f'the rods have no platform pose on the way: {exc}') from None
-    tilted = fk.tilt - config.tilt_limit > TILT_LIMIT_SLACK   # forward kinematics' rule
+    tilted = fk.tilt > config.tilt_limit + TILT_LIMIT_SLACK   # forward kinematics' rule (core.forward.check_tilt)
     if tilted.any():
         i = int(np.argmax(tilted))
         shown, limit = apart(float(fk.tilt[i]), config.tilt_limit)

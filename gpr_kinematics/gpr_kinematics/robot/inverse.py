@@ -40,6 +40,7 @@ from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_ro
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import BRANCHES, Arm, RobotDescription
+from .fields import WORLD_BOUND
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import (
     HEADING_TOLERANCE,
@@ -301,7 +302,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         i = int(np.argmax(bad))
         far = float(np.linalg.norm(p_b[i]))  # a position in mm typed as m: a station 1.5 km from the base
         hint = (f'; the station lies {far:.4g} m from gpr_base, {far / 1000.0:.4g} m as millimetres: millimetres given '
-                'as metres?' if far > 100.0 and far / 1000.0 < 10.0 else '')
+                'as metres?' if far > WORLD_BOUND and far / 1000.0 < 10.0 else '')   # beyond the world, in reach
         raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{hint}'
                          f'{_more(bad)}')
     return result
