@@ -65,6 +65,14 @@ def test_forward_matches_an_independent_chain(arm):
         np.testing.assert_allclose(one.wafer.position[0], T[:3, 3], atol=1e-14)
         np.testing.assert_allclose(one.wafer.rotation[0], T[:3, :3], atol=1e-14)
         np.testing.assert_allclose(one.naive_wafer.position[0], Tn[:3, 3], atol=1e-14)
+        # ... and its naive side in floats (what the robot service answers), the batch's numbers
+        from gpr_kinematics.robot.forward import forward_floats, naive_floats
+        naive = naive_floats(robot, Q[i].tolist(), forward_floats(robot, robot.arm(arm), Q[i].tolist(), J[i].tolist()))
+        assert naive is not None
+        np.testing.assert_allclose(naive.naive_wafer[0], Tn[:3, 3], atol=1e-14)
+        np.testing.assert_allclose(naive.naive_wafer_error, fk.naive_wafer_error[i], atol=1e-14)
+        assert naive.norm == pytest.approx(float(np.linalg.norm(fk.naive_wafer_error[i])), abs=1e-14)
+        assert naive.naive_wafer_angle_error == pytest.approx(angle, abs=1e-12)
     # the wafer frame is the blade frame moved to the wafer centre
     np.testing.assert_allclose(fk.blade.rotation, fk.wafer.rotation, atol=0)
     np.testing.assert_allclose(fk.wafer.quaternion, Rotation.from_matrix(fk.wafer.rotation).as_quat()

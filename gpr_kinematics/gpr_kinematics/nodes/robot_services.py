@@ -21,13 +21,11 @@ from typing import Any
 
 from ..core import ForwardResult
 from ..core.config import MODELS
-from ..core.floats import angle_between, compose_one
 from ..errors import InputError, brief
 from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_number, within_turn
 from ..robot import Stations, robot_forward, solve_stations
-from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import BRANCHES, Arm, RobotDescription
-from ..robot.forward import forward_floats, naive_platform_one
+from ..robot.forward import forward_floats, joints_within_limits, naive_floats
 from ..robot.one_station import StationFloats, station_floats
 from ..robot.planar_arm import branch_sign
 from .conversions import floats_of, point_array, set_pose, set_vector
@@ -93,10 +91,6 @@ def _platform_fields(response: Any, gpr: ForwardResult) -> None:
     set_vector(response.centre_shift, (x, y, z))
 
 
-def _within_limits(arm: Arm, joints: list[float]) -> bool:
-    return all(j.lower - LIMIT_SLACK <= v <= j.upper + LIMIT_SLACK for j, v in zip(arm.joints, joints, strict=True))
-
-
 def fill_robot_forward(robot: RobotDescription, request: Any, response: Any, prefix: str = '') -> Any:
     """A RobotForwardKinematics response for ``request`` (module docstring): the one-configuration path in floats
     (:func:`~gpr_kinematics.robot.forward.forward_floats`), the batch where it refuses (its message); the world
@@ -104,24 +98,22 @@ def fill_robot_forward(robot: RobotDescription, request: Any, response: Any, pre
     arm = _arm(robot, request.arm)
     rods = floats_of(request.rods, 'rods', 3)
     joints = _joints(request.joints, arm, 'joints')
-    if not _within_limits(arm, joints):
+    if not joints_within_limits(arm, joints):
         robot_forward(robot, [rods], [joints], arm.name)  # raises, naming the joint
     one = forward_floats(robot, arm, rods, joints)
-    naive_platform = naive_platform_one(robot, rods)
-    if naive_platform is None:
-        naive_platform = robot_forward(robot, [rods], [joints], arm.name).naive_platform.floats(0)  # raises
-    naive_wafer = compose_one(*naive_platform, *one.on_platform)
+    naive = naive_floats(robot, rods, one)
+    if naive is None:
+        robot_forward(robot, [rods], [joints], arm.name).naive_platform.floats(0)  # raises, naming the rods
+        raise AssertionError('unreachable: the batch refuses rods that imply no orientation')
     response.world_frame = prefix + robot.world_frame
     response.arm = arm.name
     response.joint_names = list(arm.joint_names)
     for name, pose in (('wafer', one.wafer), ('blade', one.blade), ('platform', one.platform),
-                       ('naive_wafer', naive_wafer), ('naive_platform', naive_platform)):
+                       ('naive_wafer', naive.naive_wafer), ('naive_platform', naive.naive_platform)):
         set_pose(getattr(response, name), pose)
-    (x, y, z), (u, v, w) = one.wafer[0], naive_wafer[0]
-    error = (x - u, y - v, z - w)
-    set_vector(response.naive_wafer_error, error)
-    response.naive_wafer_error_norm = math.sqrt(error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
-    response.naive_wafer_angle_error = angle_between(naive_wafer[1], one.wafer[1])
+    set_vector(response.naive_wafer_error, naive.naive_wafer_error)
+    response.naive_wafer_error_norm = naive.norm
+    response.naive_wafer_angle_error = naive.naive_wafer_angle_error
     _platform_fields(response, one.gpr)
     return response
 

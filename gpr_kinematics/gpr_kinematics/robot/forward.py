@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
-from ..core.floats import FloatPose, Mat3, Vec3, compose_one, mat_vec, rot_z, tilt_matrix
+from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat_vec, rot_z, tilt_matrix
 from ..core.ops import SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
 from ..core.single import one_pose
@@ -312,6 +312,36 @@ def naive_platform_one(robot: RobotDescription, rods: list[float]) -> FloatPose 
         return None
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, nx, ny, nz))
     return compose_one(*base_floats(robot), (0.0, 0.0, z), tilt_matrix(tilt, az))
+
+
+class NaiveFloats(NamedTuple):
+    """:class:`RobotForward`'s naive side of one configuration in floats: ``naive_platform``, ``naive_wafer`` (world),
+    ``naive_wafer_error`` (the wafer minus the naive one [m]), its ``norm`` and ``naive_wafer_angle_error`` [rad]."""
+
+    naive_platform: FloatPose
+    naive_wafer: FloatPose
+    naive_wafer_error: Vec3
+    norm: float
+    naive_wafer_angle_error: float
+
+
+def naive_floats(robot: RobotDescription, rods: list[float], one: ForwardFloats) -> NaiveFloats | None:
+    """:class:`NaiveFloats` of the configuration ``one`` (:func:`forward_floats` of ``rods``); ``None`` where the
+    rods imply no orientation (:func:`naive_platform_one`: the batch says so)."""
+    platform = naive_platform_one(robot, rods)
+    if platform is None:
+        return None
+    wafer = compose_one(*platform, *one.on_platform)
+    (x, y, z), (u, v, w) = one.wafer[0], wafer[0]
+    error = (x - u, y - v, z - w)
+    norm = math.sqrt(error[0] * error[0] + error[1] * error[1] + error[2] * error[2])
+    return NaiveFloats(platform, wafer, error, norm, angle_between(wafer[1], one.wafer[1]))
+
+
+def joints_within_limits(arm: Arm, joints: list[float]) -> bool:
+    """One posture's joints [rad] within their ranges and :data:`~.arm_chain.LIMIT_SLACK` (:func:`check_joint_limits`'
+    rule, in floats)."""
+    return all(j.lower - LIMIT_SLACK <= v <= j.upper + LIMIT_SLACK for j, v in zip(arm.joints, joints, strict=True))
 
 
 def _robot_forward_one(robot: RobotDescription, arm: Arm, Q: Array, J: Array, check_limits: bool) -> RobotForward:
