@@ -340,3 +340,22 @@ def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Pat
     result = verify_bag(rewritten(robot_bag, tmp_path / 'r1', edit))
     assert result.passed, [f.line() for f in result.failures]
     assert next(c for c in result.checks if c.name == 'robot.structure').checked > 0
+
+
+@pytest.mark.parametrize('dropped, failed', [
+    (range(0, 3), set()),                                          # a recorder that subscribed to them last
+    (range(4, 6), {'topic.joint_states', 'robot.structure'}),      # lost in the middle (and more checks)
+])
+def test_robot_states_missing_at_the_start_are_a_late_recorder(robot_bag: Path, tmp_path: Path, dropped: range,
+                                                              failed: set[str]) -> None:
+    """A recorder joining a running robot program subscribed to the robot states after the joint states: the first
+    samples' joint_states carry the arm joints without their RobotState in the bag, and topic.joint_states failed
+    an honest bag (it is checked as rods only there, as the last sample's a cut lost). Dropped mid-stream: fails."""
+    from bag_support import messages_of
+
+    messages = messages_of(robot_bag)
+    states = [k for k, m in enumerate(messages) if m[0] == ROBOT_STATE_TOPIC]
+    drop = {states[i] for i in dropped}
+    bag = write_bag(tmp_path / 'late', [m for k, m in enumerate(messages) if k not in drop], dict(GPR_TOPICS))
+    got = set(_failed(verify_bag(bag)))
+    assert got == failed if not failed else failed <= got, got

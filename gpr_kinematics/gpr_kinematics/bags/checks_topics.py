@@ -198,10 +198,12 @@ _Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
 
 
 def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
-                  layouts: tuple[_Layout, ...], detail: str, rods_only: int = -1, shared: bool = False) -> list[Check]:
+                  layouts: tuple[_Layout, ...], detail: str, rods_only: frozenset[int] = frozenset(),
+                  shared: bool = False) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
-    layout whose names it carries (inf when it carries none); of the state ``rods_only`` its first three joints
-    only (the last state of a robot recording whose RobotState a cut lost: its arm joints are not known).
+    layout whose names it carries (inf when it carries none); of the states ``rods_only`` their first three joints
+    only (those of a robot recording whose RobotState is not in the bag at its ends: a cut lost the last one, a
+    recorder that subscribed late missed the first ones; their arm joints are not known).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
     states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
     with a state's stamp is, also beside the stream's message of that stamp)."""
@@ -221,7 +223,7 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     names, positions = jc['name'], jc['position']
     for r in rows:
         got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
-        if r == rods_only:
+        if r in rods_only:
             got_names, got = got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]
         e[r] = np.inf
         if np.size(jc['velocity'][idx[r]]) or np.size(jc['effort'][idx[r]]):
@@ -263,13 +265,24 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
 
     topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
         bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
-    last = int(np.argmax(stamp_ns(c))) if len(samples) else -1
     return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording; or, recorded before, rod_1..rod_3 + the virtual joints)',
-                          last if arms is not None and arms.joints(last) is None else -1, shared=True)
+                          _without_robot_state_at_the_ends(stamp_ns(c), arms), shared=True)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
+
+
+def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any) -> frozenset[int]:
+    """The states of a robot recording without their RobotState before the first that has one (a recorder that
+    subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut)."""
+    if arms is None or not len(stamps):
+        return frozenset()
+    order = np.argsort(stamps, kind='stable')
+    known = [arms.joints(int(r)) is not None for r in order]
+    first = known.index(True) if True in known else len(order)
+    ends = {int(r) for r in order[:first]}
+    return frozenset(ends | ({int(order[-1])} if not known[-1] else set()))
 
 
 def _column(mc: Columns, name: str) -> NDArray[Any] | None:
