@@ -48,7 +48,7 @@ from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
 from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
-from .runtime import EXIT_OK, GprNode, one_line, run
+from .runtime import EXIT_OK, GprNode, StoppedAtStartError, one_line, run, stop_requested
 
 NODE_NAME = 'recorder_node'
 #: What writing a segment raises when the disk is full or a file size limit is reached.
@@ -115,18 +115,23 @@ class RecorderNode(GprNode):
         if not entries:
             raise BagError('topics is empty; allowed: one or more topic names (name or name:pkg/msg/Type)')
         topics: dict[str, str | None] = {}
+        ns = self.get_namespace().rstrip('/')
         for entry in entries:
             name, sep, msgtype = entry.partition(':')
             full = valid_topic_name(self, name.strip(), 'topics')
             if full in topics:   # the last entry won without a word (another type, perhaps)
                 raise BagError(f'topics: {full} is given twice ({entry!r} and an entry before it); allowed: each '
                                'topic once')
-            if sep:
-                topics[full] = check_known(msgtype, full)
-            elif full in KNOWN_TOPICS:      # the suite's topics, and those of bags recorded before
-                topics[full] = KNOWN_TOPICS[full]
-            else:
-                topics[full] = None
+            # the suite's topics (and those of bags recorded before) by their name in the node's namespace too: in
+            # /r1, gpr/platform_state waited for the graph and was refused where nothing published it yet
+            known = KNOWN_TOPICS.get(full) or (KNOWN_TOPICS.get(full[len(ns):]) if ns and full.startswith(ns + '/')
+                                                else None)
+            topics[full] = check_known(msgtype, full) if sep else known
+        return self._discover(topics)
+
+    def _discover(self, topics: dict[str, str | None]) -> dict[str, str]:
+        """The types of the topics given without one (``None``), from the graph within ``discovery_timeout``; a stop
+        signal meanwhile ends the start (:class:`~.runtime.StoppedAtStartError`)."""
         missing = [t for t, ty in topics.items() if ty is None]
         if missing:
             deadline = time.monotonic() + float(self.p['discovery_timeout'])
@@ -138,6 +143,9 @@ class RecorderNode(GprNode):
                 missing = [t for t, ty in topics.items() if ty is None]
                 if not missing or time.monotonic() >= deadline:
                     break
+                if stop_requested():   # up to discovery_timeout (an hour) of SIGINT/SIGTERM ignored before
+                    raise StoppedAtStartError(f'waiting for the type of topic(s) {", ".join(missing)}; no bag '
+                                              'written')
                 time.sleep(0.1)
             if missing:
                 raise BagError(f'type of topic(s) {", ".join(missing)} unknown: not published within '

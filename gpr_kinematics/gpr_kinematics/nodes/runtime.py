@@ -63,9 +63,11 @@ START_ERRORS: tuple[type[BaseException], ...] = (GprError, ParameterException, N
 class StopFlag:
     """SIGINT/SIGTERM handlers that only record the signal; ``bool(flag)`` is true once one arrived."""
 
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
     def __init__(self) -> None:
         self.signals: list[int] = []
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in self.SIGNALS:
             signal.signal(sig, self._on_signal)
 
     def _on_signal(self, signum: int, _frame: Any) -> None:
@@ -73,6 +75,20 @@ class StopFlag:
 
     def __bool__(self) -> bool:
         return bool(self.signals)
+
+
+#: The flag of the run under way (:func:`run`): a node's start that waits (the recorder's discovery of types) asks it.
+_STOP: list[StopFlag] = []
+
+
+class StoppedAtStartError(Exception):
+    """A stop signal arrived while the node was still starting (it waited for something): the run ends with status 0,
+    nothing started (:func:`stop_requested`)."""
+
+
+def stop_requested() -> bool:
+    """Whether SIGINT or SIGTERM arrived during the run under way (False outside :func:`run`)."""
+    return bool(_STOP) and bool(_STOP[-1])
 
 
 def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:
@@ -252,6 +268,16 @@ def _stderr_held() -> Iterator[None]:
 REFUSED_EXIT_WAIT = 10.0
 
 
+def _leaving(refused: int | None) -> None:
+    """A process of its own, leaving: the stop signals ignored from now on (Python's exit restores the default
+    handlers of the signals it handled, and a second Ctrl-C 0.2 s after the first ended a recorder that had closed its
+    bag with status 130; ignored ones stay ignored), then a refused start ends at once (:func:`_leave`)."""
+    for sig in StopFlag.SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+    if refused is not None:
+        _leave(refused)
+
+
 def _leave(status: int) -> None:
     """End the process with ``status`` now: the streams flushed (Python's and the C library's), no finalisation."""
     for stream in (sys.stdout, sys.stderr):
@@ -272,6 +298,7 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
     does; called with ``args`` (in a test's process) it returns."""
     logger = rclpy.logging.get_logger(name or str(getattr(node_class, 'NODE_NAME', 'gpr_node')))
     stop = StopFlag()
+    _STOP[:] = [stop]
     try:
         with _stderr_held():
             rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
@@ -285,6 +312,9 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
         try:
             node = node_class.__new__(node_class)   # bound before __init__: a refused start still destroys its node
             node_class.__init__(node)
+        except StoppedAtStartError as exc:
+            logger.info(f'stopped before it started: {one_line(exc)}')
+            return EXIT_OK
         except START_ERRORS as exc:
             logger.error(f'cannot start: {one_line(exc)}')
             refused = EXIT_BAD_CONFIG
@@ -312,8 +342,8 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
             return EXIT_FAILED
     finally:
-        leave = refused is not None and args is None   # a refused process of its own (not a test's call)
-        if leave:
+        own = args is None   # a process of its own (not a test's call)
+        if own and refused is not None:
             watchdog = threading.Timer(REFUSED_EXIT_WAIT, _leave, (refused,))
             watchdog.daemon = True
             watchdog.start()
@@ -324,5 +354,5 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             with contextlib.suppress(Exception):
                 node.destroy_node()
         rclpy.try_shutdown()
-        if leave and refused is not None:
-            _leave(refused)
+        if own:
+            _leaving(refused)
