@@ -355,10 +355,12 @@ def test_quintic_goal_from_rest_is_checked_along_the_path():
 
 
 def test_joint_states_give_the_finite_values_of_known_joints():
-    k, v = joint_state_values(JOINTS, ['other', 'rod_2', 'arm1_elbow', 'rod_1'], [9.0, 0.31, 0.5, math.nan])
+    k, v, left = joint_state_values(JOINTS, ['other', 'rod_2', 'arm1_elbow', 'rod_1', 'arm1_wrist'],
+                                    [9.0, 0.31, 0.5, math.nan, math.inf])
     assert k.tolist() == [1, JOINTS.names.index('arm1_elbow')] and v.tolist() == [0.31, 0.5]
-    k, v = joint_state_values(JOINTS, ['rod_1', 'rod_2'], [])   # velocities only: no position taken
-    assert k.size == 0 and v.size == 0
+    assert left == ['rod_1', 'arm1_wrist']   # named for the callers' warning (they were dropped without a word)
+    k, v, left = joint_state_values(JOINTS, ['rod_1', 'rod_2'], [])   # velocities only: no position taken
+    assert k.size == 0 and v.size == 0 and left == []
 
 
 @pytest.mark.parametrize('names, positions, words', [

@@ -388,6 +388,17 @@ def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing
         assert all(abs(z - 0.254) < 1e-12 for z in platform_z()), sorted(set(platform_z()))
         pub.publish(JointState(name=names, position=[-1769.0291745130303, 1303.4307942578168, -0.008524297508037591]))
         wait_for_log(sp, r'have no platform pose: virtual-joint closure \(radial\) did not converge')
+        # rods of 1e308 m put inf and NaN on /tf, of 1e15 m a naive platform tilted 90 deg: beyond 1e6 m, refused
+        pub.publish(JointState(name=names, position=[1e308] * 3))
+        wait_for_log(sp, r'joint_states: rods \[1e\+308, 1e\+308, 1e\+308\] m; allowed: within \+-1e\+06 m; the '
+                         'platform keeps its last pose')
+        n = len(platform_z())
+        assert c.spin_until(lambda: len(platform_z()) > n + 2, 10)
+        assert all(math.isfinite(v) and abs(v) < 10.0 for v in platform_z()), sorted(set(platform_z()))
+        # positions that are not numbers were left out without a word
+        pub.publish(JointState(name=names, position=[math.nan] * 3))
+        wait_for_log(sp, r'joint_states: rod_1, rod_2, rod_3 not finite, left out \(held as before\); allowed: '
+                         'finite positions')
         pub.publish(JointState(name=names, position=[0.3, 0.3, 0.3]))
         z = forward([0.3, 0.3, 0.3]).position[2]
         assert c.spin_until(lambda: any(abs(v - z) < 1e-12 for v in platform_z()), 10), sp.output()

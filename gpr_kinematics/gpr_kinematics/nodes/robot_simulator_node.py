@@ -175,11 +175,14 @@ class RobotSimulatorNode(GprNode):
         if self.run is not None or stamp <= self.last_own_ns:
             return
         try:
-            taken, values = joint_state_values(self.joints, msg.name, msg.position)
+            taken, values, left = joint_state_values(self.joints, msg.name, msg.position)
         except GprError as exc:
             self.get_logger().warning(f'joint_states of another publisher ignored: {one_line(exc)}',
                                       throttle_duration_sec=5.0)
             return
+        if left:
+            self.get_logger().warning(f'joint_states of another publisher: {", ".join(left)} not finite, left out; '
+                                      'allowed: finite positions', throttle_duration_sec=5.0)
         if not taken.size:   # none of this robot's joints (a gripper's, say): nothing to take, nothing to silence
             return
         state = self.actual.copy()

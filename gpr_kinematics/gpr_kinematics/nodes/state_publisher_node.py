@@ -51,6 +51,7 @@ from tf2_msgs.msg import TFMessage
 
 from ..core import forward
 from ..errors import GprError, LimitError, NoPoseError
+from ..inputs.validation import MAX_COORDINATE
 from ..robot.controller import ControllerJoints, joint_state_values
 from ..robot.urdf import Joint, RobotUrdf, robot_urdf
 from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
@@ -130,8 +131,15 @@ class StatePublisherNode(GprNode):
             self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
     def _pose_of(self, rods: Any) -> None:
-        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none, or differ by more
-        than any tilt makes); rods beyond the stroke or the tilt limit are shown as received, with a warning."""
+        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none, differ by more
+        than any tilt makes, or lie beyond :data:`~..inputs.validation.MAX_COORDINATE`, where floats give no faithful
+        pose: 1e308 m put inf and NaN on /tf, 1e15 m a 90 deg naive tilt); rods beyond the stroke or the tilt limit are
+        shown as received, with a warning."""
+        if max(abs(float(v)) for v in rods) > MAX_COORDINATE:
+            self.get_logger().warning(f'joint_states: rods {[float(v) for v in rods]} m; allowed: within '
+                                      f'+-{MAX_COORDINATE:g} m; the platform keeps its last pose',
+                                      throttle_duration_sec=5.0)
+            return
         fk = None
         try:
             fk = forward(rods, self.cfg)
@@ -167,10 +175,13 @@ class StatePublisherNode(GprNode):
         malformed message (not one position per name, a joint named twice) is ignored with a warning, as
         robot_state_publisher ignores it."""
         try:
-            taken, values = joint_state_values(self.joints, joints.name, joints.position)
+            taken, values, left = joint_state_values(self.joints, joints.name, joints.position)
         except GprError as exc:
             self.get_logger().warning(f'joint_states: {one_line(exc)}; message ignored', throttle_duration_sec=5.0)
             return
+        if left:
+            self.get_logger().warning(f'joint_states: {", ".join(left)} not finite, left out (held as before); '
+                                      'allowed: finite positions', throttle_duration_sec=5.0)
         rods = self.held[:3].copy()
         self.held[taken] = values
         for k, value in zip(taken.tolist(), values.tolist(), strict=True):
