@@ -312,6 +312,37 @@ def test_tool_points_beyond_the_reach_are_refused():
     assert abs((ik.achieved.position + ik.achieved.rotation @ tool)[2] - 0.3) < 1e-13
 
 
+@pytest.mark.parametrize('model', MODELS)
+def test_long_tool_points_within_the_reach_converge(model):
+    """A tool point 9 m off the platform origin (within the 10 m reach) left the normal 1.2e-14 from its target, and
+    inverse kinematics refused as not converged at 1e-14 (gpr compensate --tool 0 0 9; 51 of 300 random commands):
+    the tolerances take the tool's length's rounding. The tool point's height and the normal are met to them (1.2e-13
+    m and 1.5e-13 at 9 m), one at a time and in batch, and the tolerances without a tool are unchanged."""
+    from gpr_kinematics.core.inverse import ik_tolerances, tool_tolerances
+
+    rng = np.random.default_rng(11)
+    n = 60
+    d = rng.normal(size=(n, 3))
+    tools = d / np.linalg.norm(d, axis=1)[:, None] * rng.uniform(5.0, 9.99, (n, 1))
+    t, g = rng.uniform(0.0, 0.95 * CFG.tilt_limit, n), rng.uniform(-np.pi, np.pi, n)
+    h = np.empty(n)
+    for i in range(n):   # the middle of the heights the tool allows at that tilt
+        try:
+            inverse(1e3, t[i], g[i], model=model, tool=tools[i])
+        except LimitError as exc:
+            lo, hi = (float(v) for v in exc.args[0].split('allowed heights: ')[1].split(' m')[0].split(' .. '))
+            h[i] = 0.5 * (lo + hi)
+    batch = inverse_batch(h, t, g, model=model, tool=tools)
+    for i in range(n):
+        ik = inverse(h[i], t[i], g[i], model=model, tool=tools[i])
+        tol_h, tol_n = tool_tolerances(CFG, tuple(tools[i].tolist()))
+        assert tol_h < 1.3e-13 and tol_n < 1.6e-13
+        for pose in (ik.achieved, batch.achieved[i]):
+            assert abs((pose.position + pose.rotation @ tools[i])[2] - h[i]) <= tol_h
+            assert np.max(np.abs(pose.rotation[:, 2] - tilt_rotation(t[i], g[i])[:, 2])) <= tol_n + 1e-16
+    assert tool_tolerances(CFG, (0.0, 0.0, 0.0)) == ik_tolerances(CFG)
+
+
 def test_heights_allowed_with_a_tool_point_are_those_of_the_rigid_platform():
     """With a tool point the allowed heights are where the lowest and highest joint meet the stroke on a rigid
     tilted platform: joint k lies ``(T (p_k - tool))_z`` above the tool point (T the tilt rotation), worked out here

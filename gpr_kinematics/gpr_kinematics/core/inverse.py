@@ -116,6 +116,27 @@ def _check_tilt_targets(ops: Ops, t: Value, config: GprConfig) -> None:
     raise LimitError(f'tilt = {beyond_tilt(float(a[i]), config.tilt_limit)}')
 
 
+def tool_tolerances(config: GprConfig, tool: Sequence[Value]) -> tuple[Value, Value]:
+    """The height and normal tolerances [m, 1] with a tool point ``tool`` [m] off the platform origin: the rods then
+    carry terms of its length ``|tool|``, rounded to its ulps, so :func:`ik_tolerances`' rule takes ``|tool|`` for
+    the longest rod where that is longer, and the tool point's height moves with the normal's tolerance times
+    ``|tool|`` (a 9 m tool left the normal 1.2e-14 from its target, and every call was refused as not converged at
+    1e-14). The tolerances unchanged without a tool."""
+    tol_h, tol_n = ik_tolerances(config)
+    x, y, z = tool
+    if not (isinstance(x, np.ndarray) or isinstance(y, np.ndarray) or isinstance(z, np.ndarray)):   # one point
+        length = math.sqrt(x * x + y * y + z * z)
+        if length == 0.0:
+            return tol_h, tol_n
+        ulp = math.ulp(length)
+        return (max(tol_h, HEIGHT_ROUNDING_ULPS * ulp) + tol_n * length,
+                max(tol_n, NORMAL_ROUNDING_ULPS * ulp / config.derived['ik_radius']))
+    lengths = np.sqrt(x * x + y * y + z * z)
+    ulps = np.spacing(lengths)
+    return (np.maximum(tol_h, HEIGHT_ROUNDING_ULPS * ulps) + tol_n * lengths,
+            np.maximum(tol_n, NORMAL_ROUNDING_ULPS * ulps / config.derived['ik_radius']))
+
+
 def ik_tolerances(config: GprConfig) -> tuple[float, float]:
     """The height [m] and normal tolerances inverse kinematics stops at: :data:`IK_TOLERANCE`, or the rounding of the
     pose where that is larger, :data:`HEIGHT_ROUNDING_ULPS` ulps of the longest rod length for the height and
@@ -126,7 +147,7 @@ def ik_tolerances(config: GprConfig) -> tuple[float, float]:
     if cached is None:
         longest = max(abs(config.stroke_min), abs(config.stroke_max)) + max(abs(o) for o in config.rod_offsets)
         joints = config.platform_joints or nominal_points(config)
-        radius = min(math.dist(joints[i], joints[i - 1]) for i in range(3)) / math.sqrt(3.0)
+        radius = config.derived['ik_radius'] = min(math.dist(joints[i], joints[i - 1]) for i in range(3)) / math.sqrt(3)
         ulp = math.ulp(longest)
         cached = config.derived['ik_tolerances'] = (max(IK_TOLERANCE, HEIGHT_ROUNDING_ULPS * ulp),
                                                      max(IK_TOLERANCE, NORMAL_ROUNDING_ULPS * ulp / radius))
@@ -215,7 +236,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
     q_target = naive_rods(geo, h, n_target, tool)
     q = list(q_target)
     iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
-    tol_h, tol_n = ik_tolerances(config)
+    tol_h, tol_n = tool_tolerances(config, tool)
     for step in range(config.max_iterations + 1):
         L, closure, pose = solve_pose(ops, geo, vjm, q, config)
         R = pose.rotation
@@ -336,7 +357,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     t0, t1, t2 = tool
     n0, n1, n2 = n_target
     most = cfg.max_iterations
-    tol_h, tol_n = ik_tolerances(cfg)
+    tol_h, tol_n = cast('tuple[float, float]', tool_tolerances(cfg, tool))
     for iterations in range(most + 1):
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
