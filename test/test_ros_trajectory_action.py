@@ -157,6 +157,29 @@ def test_bad_goal_aborted_with_message_node_keeps_serving(client, node, goal, wo
     assert node.alive() and 'Traceback' not in node.output()
 
 
+def test_a_cancel_between_stations_names_the_move_under_way(client):
+    """Six stations, no dwell, moves of 0.333 s (no sample falls on a station): a cancel after 1.2 s said "moving
+    from station 0 to station 1" (the largest station a sample had been at, none). It names the move of the sample
+    the stream stopped before: station k - 1 to k, where k is the station that sample moves to."""
+    from action_msgs.msg import GoalStatus
+
+    stations = [{'name': f's{k}', 'height': 0.30 + 0.01 * (k % 2), 'tilt': 0.0, 'azimuth': 0.0, 'dwell': 0.0,
+                 'move_time': 0.333} for k in range(6)]
+    feedback: list = []
+    handle = client.send_program(stations=stations, feedback=feedback.append)
+    assert handle.accepted
+    assert client.spin_until(lambda: len(feedback) >= 70, 30)     # past station 2 (0.7 s at 100 Hz)
+    client.wait(handle.cancel_goal_async(), 10, 'cancel')
+    response = client.wait(handle.get_result_async(), 10, 'result')
+    assert response.status == GoalStatus.STATUS_CANCELED
+    m = re.search(r'cancelled before sample (\d+) of \d+ \(moving from station (\d+) to station (\d+)\)',
+                  response.result.message)
+    assert m, response.result.message
+    k, a, b = (int(v) for v in m.groups())
+    to = math.ceil(k / RATE / 0.333 - 1e-9)    # the station the sample k / rate s moves to (arrivals every 0.333 s)
+    assert (a, b) == (to - 1, to) and to >= 3, (k, a, b)
+
+
 def test_second_goal_rejected_while_one_runs(client):
     long = [{'name': 'hold', 'height': 0.35, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': 30.0}]
     first = client.send_program(stations=long)

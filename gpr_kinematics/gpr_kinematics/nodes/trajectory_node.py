@@ -306,8 +306,9 @@ class TrajectoryNode(GprNode):
         unit = traj.unit
         if i < len(traj) and traj.station[i] >= 0:
             return f'at {unit} {traj.station[i]} ({self._station_name(traj, i)})'
-        before = max((traj.station[j] for j in range(min(i, len(traj)))), default=-1)
-        return f'moving from {unit} {before} to {unit} {before + 1}'
+        # the sample's own target (the largest station passed was 0 where no sample fell on a station: dwell 0)
+        to = traj.target[min(i, len(traj) - 1)] if traj.target else 1
+        return f'moving from {unit} {to - 1} to {unit} {to}'
 
     def _end(self, outcome: str, message: str) -> None:
         self.timer.cancel()

@@ -76,13 +76,15 @@ class PlatformProgram:
 @dataclass(frozen=True)
 class ProgramSamples:
     """Time samples of a program: ``time`` [s], ``height`` [m], ``tilt`` >= 0 and ``azimuth`` [rad],
-    and ``station`` (index of the station the platform is at, -1 while moving between stations)."""
+    ``station`` (index of the station the platform is at, -1 while moving between stations) and ``target`` (the
+    station moved to or held)."""
 
     time: np.ndarray
     height: np.ndarray
     tilt: np.ndarray
     azimuth: np.ndarray
     station: np.ndarray
+    target: np.ndarray
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -197,4 +199,5 @@ def sample_program(program: PlatformProgram, rate: float, default_move_time: flo
     az = np.where(tilt > 0.0, np.arctan2(x[:, 2], x[:, 1]), 0.0)
     nxt = idx[np.minimum(seg + 1, idx.shape[0] - 1)]
     station = np.where((idx[seg] == nxt) | (u <= 0.0), idx[seg], np.where(u >= 1.0, nxt, -1))
-    return ProgramSamples(time=t, height=x[:, 0], tilt=tilt, azimuth=az, station=station)
+    return ProgramSamples(time=t, height=x[:, 0], tilt=tilt, azimuth=az, station=station,
+                          target=np.where(station >= 0, station, nxt))

@@ -23,7 +23,7 @@ azimuth. SI units (m, rad, s); quaternions (x, y, z, w).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,7 +48,8 @@ class RobotStream:
         joint_names: every arm's joints (arm after arm); joints ``(S, J)`` [rad].
         arm ``(S,)``: the arm in use; wafer, blade: its wafer and blade poses in the world;
         naive_wafer_error ``(S, 3)`` [m]: the wafer minus where the naive model places it.
-        waypoint ``(S,)``: the waypoint held (-1 while moving); waypoint_names: every waypoint's name.
+        waypoint ``(S,)``: the waypoint held (-1 while moving); waypoint_names: every waypoint's name; target
+        ``(S,)``: the waypoint moved to or held.
     """
 
     robot: RobotDescription
@@ -63,6 +64,7 @@ class RobotStream:
     naive_wafer_error: Array
     waypoint: NDArray[np.int64]
     waypoint_names: tuple[str, ...]
+    target: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -130,4 +132,4 @@ def robot_stream(robot: RobotDescription, program: RobotProgram, rate: float) ->
     return RobotStream(robot=robot, plan=plan, time=s.time, gpr=gpr, joint_names=names[3:], joints=s.positions[:, 3:],
                        arm=sampled.arm, wafer=sampled.wafer, blade=PoseBatch(blade_p, blade_R),
                        naive_wafer_error=naive, waypoint=np.asarray(s.held, dtype=np.int64),
-                       waypoint_names=plan.waypoints.stations.names)
+                       waypoint_names=plan.waypoints.stations.names, target=np.asarray(s.target, dtype=np.int64))

@@ -67,6 +67,8 @@ class Trajectory:
     robot: RobotStream | None = None
     kind: str = 'sweep'
     spec: Any = None
+    #: The station (waypoint) each sample moves to or is at (a program's; empty for a sweep).
+    target: list[int] = dataclasses.field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.fk)
@@ -137,7 +139,8 @@ def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_
             f'{len(samples)} samples')
     return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
                       [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc,
-                      stream_markers(cfg, ik.achieved), kind='platform_program', spec=prog)
+                      stream_markers(cfg, ik.achieved), kind='platform_program', spec=prog,
+                      target=[int(s) for s in samples.target])
 
 
 def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -> Trajectory:
@@ -150,7 +153,8 @@ def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -
     desc = (f'robot program {prog.source} on robot {robot.name}: {len(prog.steps)} steps, {len(rs.waypoint_names)} '
             f'waypoints, {rs.time[-1]:.6g} s, {len(rs)} samples')
     return Trajectory(gpr, gpr.tilt.tolist(), gpr.tilt_azimuth.tolist(), rs.waypoint.tolist(), rs.waypoint_names,
-                      desc, stream_markers(robot.config, gpr), rs, kind='robot_program', spec=prog)
+                      desc, stream_markers(robot.config, gpr), rs, kind='robot_program', spec=prog,
+                      target=rs.target.tolist())
 
 
 def robot_structure(robot: RobotDescription) -> tuple[object, ...]:
