@@ -429,6 +429,28 @@ def test_the_recorder_stops_cleanly_at_every_moment(tmp_path: Path) -> None:
         assert (tmp_path / f'twice{int(second)}' / 'metadata.yaml').is_file()
 
 
+def test_a_replay_that_falls_behind_its_bag_says_so(tmp_path: Path) -> None:
+    """A dense bag replayed at rate 1 took 2.7 times its span without a word (and served callbacks at every message,
+    which cost most of it): 150,000 messages within 1.5 ms no machine publishes in time (0.3 s here); the replay
+    warns how far behind it fell, once, and still publishes every message."""
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+
+    bag = tmp_path / 'dense'
+    t0 = time.time_ns()
+    with SegmentedBagWriter(bag, {'/chatter': 'std_msgs/msg/String'}, fsync=False) as w:
+        for i in range(150_000):
+            w.write('/chatter', t0 + i * 10, bytes([0, 1, 0, 0, 3, 0, 0, 0]) + b'hi\x00')
+    replay = start('replay_node', bag=bag)
+    try:
+        assert replay.wait(120) == 0, replay.output()
+    finally:
+        replay.stop()
+    out = replay.output()
+    assert out.count('the replay fell ') == 1 and 'behind the bag' in out and 'this machine publishes no faster' \
+        in out, out
+    assert 'finished: published /chatter 150000' in out, out
+
+
 def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Path) -> None:
     """The replay launch's state publisher subscribes to joint_states only: waiting for every topic held the bag 10 s,
     not waiting lost its first 2 s of /tf. With ``wait_topic`` the replay starts once that one topic is subscribed,
