@@ -506,6 +506,16 @@ def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path
             assert '/joint_states' not in names and '/r1/joint_states' not in names
     finally:
         replay.stop()
+    # topics filtered by their name as recorded, relative as in the docs' example: a replay in /r2 resolved
+    # joint_states to /r2/joint_states, which the bag recorded at the root does not hold, and refused it
+    replay = start('replay_node', '-r', '__ns:=/r2', bag=bag, topics='[joint_states]')
+    try:
+        if recorded_in:
+            assert replay.wait(30) == 2 and '/r2/joint_states not in the bag' in replay.output(), replay.output()
+        else:
+            wait_for_log(replay, r'replaying 1 messages of 1 topic\(s\)')
+    finally:
+        replay.stop()
 
 
 @pytest.mark.parametrize('recorder_first', [True, False], ids=['recorder-first', 'recorder-later'])

@@ -62,9 +62,12 @@ class ReplayNode(GprNode):
         if not p['bag']:
             raise BagError('parameter bag is empty; allowed: the path of a bag folder, .mcap or .db3 file')
         self.p = p
-        wanted = [valid_topic_name(self, t, 'topics') for t in p['topics'] if t]
-        bag = read_bag(p['bag'], topics=wanted or None)
-        missing = [t for t in wanted if bag.topic(t) is None]
+        # a name as recorded: a relative one resolves in this node's namespace, or is the bag's at the root (a
+        # replay in /lp refused gpr/platform_state, recorded as /gpr/platform_state)
+        asked = [(valid_topic_name(self, t, 'topics'), t) for t in p['topics'] if t]
+        choices = [(full, '/' + t.strip('/')) if not t.startswith('/') else (full,) for full, t in asked]
+        bag = read_bag(p['bag'], topics=[n for c in choices for n in c] or None)
+        missing = [c[0] for c in choices if all(bag.topic(n) is None for n in c)]
         if missing:
             raise BagError(f'topic(s) {", ".join(missing)} not in the bag {p["bag"]}; it has: '
                            + ', '.join(read_bag(p['bag']).topics))
