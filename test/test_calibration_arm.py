@@ -162,6 +162,9 @@ def test_calibrated_robot_file_with_robot(arm_case, capsys, tmp_path):
     d = json.loads(text)
     (arm,) = d['arms']
     assert arm['arm'] == 'arm1' and arm['gate']['passed'] and arm['rows'] == 80
+    # the standard errors take the GPR as exact, and say so (a calibrated GPR's heading, a few urad off, put a
+    # shoulder's zero offset 4 of them off, without a word)
+    assert "the arms' standard errors take the GPR's geometry (--config, else the robot's) as exact" in d['note']
     cal = load_robot(out)
     joints = cal.arm('arm1').joints
     est = {p['name']: p['estimate'] for p in arm['parameters']}

@@ -88,6 +88,13 @@ def _models(args: argparse.Namespace,
     return models, inners
 
 
+#: What the arms' standard errors leave out (a GPR calibrated from its own noisy poses put a shoulder's zero offset
+#: 4 standard errors off in 3 runs of 4, the heading it gives the platform a few urad off).
+GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, else the robot's) as exact: its own "
+                 "calibration's uncertainty (the platform's heading, a few urad) adds to the zero offsets and the "
+                 'mount, beyond them')
+
+
 def _write(args: argparse.Namespace, robot: RobotDescription, results: list[tuple[str, CalibrationResult]],
            values: dict[str, np.ndarray], regs: dict[str, Registration | None]) -> Path:
     """The calibrated robot file, headed by what was fitted and the registrations."""
@@ -161,9 +168,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a])}
                                                  for a, r in results],
-                   'output': str(path) if path else None} | plotted)
+                   'output': str(path) if path else None, 'note': GEOMETRY_NOTE} | plotted)
     else:
         print('\n'.join(texts))
+        print(f'note: {GEOMETRY_NOTE}')
         if path:
             print(f'calibrated robot written to {path} (use it with --robot {path})')
         if plotted:
