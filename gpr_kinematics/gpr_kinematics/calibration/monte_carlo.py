@@ -69,11 +69,16 @@ def sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table:
         dtheta[:, j] = t.sample(rng, (S,))
         inside &= within(dtheta[:, j], t)[:, None]
     if cal is not None and len(cal[0]):
-        lam, V = np.linalg.eigh(cal[1])                  # a square root that also takes a singular covariance
-        L = V * np.sqrt(np.maximum(lam, 0.0))
+        # The symmetric square root V sqrt(lam) V' (it also takes a singular covariance): eigh's eigenvectors are
+        # fixed up to sign and, for near-equal eigenvalues, mixing, which numpy 1.26 and 2.4 chose differently, so
+        # V sqrt(lam) drew other samples from the same seed; the symmetric root is the same matrix either way.
+        lam, V = np.linalg.eigh(cal[1])
+        root = np.sqrt(np.maximum(lam, 0.0))
+        L = (V * root) @ V.T
         z = rng.standard_normal((S, len(cal[0])))
         dtheta[:, cal[0]] = z @ L.T
-        inside &= (np.sum(z[:, lam > 0.0] ** 2, axis=1) <= 9.0)[:, None]   # x' C^+ x <= 3^2
+        w = (z @ V)[:, lam > 0.0]                    # the draw in the eigenbasis: x' C^+ x = |w|^2 where lam > 0
+        inside &= (np.sum(w ** 2, axis=1) <= 9.0)[:, None]   # x' C^+ x <= 3^2
     dq = table.rod_length.sample(rng, (S, N, 3)) if table.rod_length is not None else np.zeros((S, N, 3))
     if table.rod_length is not None:
         inside &= np.all(within(dq, table.rod_length), axis=-1)

@@ -143,7 +143,9 @@ def format_budget(b: Budget, top: int = 3) -> str:
             cells = f'{b.rss[name][i] * 1e6:11.3f}{b.worst[name][i] * 1e6:11.3f}'
             if b.samples:
                 cells += ''.join(f'{x * 1e6:11.3f}' for x in b.mc[name][i])
-            order = np.argsort(-b.shares[name][i])[:top]
+            # by share, ties (equal to 1e-9, rounding) by name: the same names on every numpy
+            order = sorted(range(len(b.sources)), key=lambda j: (-round(float(b.shares[name][i, j]), 9),
+                                                                  b.sources[j]))[:top]
             share = ', '.join(f'{b.sources[j]} {100 * b.shares[name][i, j]:.1f} %' for j in order
                               if b.shares[name][i, j] > 0)
             lines.append(f'  {name.replace("_", " "):<20}{u:>5}{cells}  {share}'.rstrip())

@@ -172,7 +172,9 @@ class Executor:
                 n_workers=n,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
+                # None served it on 8787 all the same: a second run printed distributed's "Port 8787 is already in
+                # use" warning with its source line; a free port of this host only
+                dashboard_address='127.0.0.1:0',
                 # a worker's heartbeat in flight when the cluster closes logs an ERROR with its traceback (a SIGTERM
                 # seen to print one to the user); a task's error still reaches the client as its exception
                 silence_logs=logging.CRITICAL,
