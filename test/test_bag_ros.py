@@ -407,8 +407,12 @@ def test_the_recorder_stops_cleanly_at_every_moment(tmp_path: Path) -> None:
     at once, status 0, no folder. A second Ctrl-C 0.2 s after the first ended a recorder that had closed its bag
     with status 130 (-2 here: Python's exit had restored the default handler): status 0. In a namespace the suite's
     own topics are known by their relative names (gpr/platform_state waited for the graph and was refused)."""
+    from gpr_kinematics.nodes.client import GprClient
+
     rec = start('recorder_node', output=tmp_path / 'waiting', topics='[unknown_topic]', discovery_timeout=60.0)
-    time.sleep(1.5)
+    with GprClient('gpr_test_waiting_recorder') as c:   # on the graph: its handlers are in place (a loaded CI run
+        assert c.spin_until(lambda: 'recorder_node' in c.node.get_node_names(), 30), rec.output()   # took > 1.5 s)
+    time.sleep(0.5)
     status, took = rec.signal(signal.SIGTERM, timeout=10)
     assert status == 0 and took < 5.0 and 'stopped before it started: waiting for the type of topic(s) ' \
         '/unknown_topic; no bag written' in rec.output(), rec.output()
