@@ -253,3 +253,16 @@ def test_the_slope_of_abs_is_its_sign_over_boxes_off_zero():
     J, _ = tape.jacobian_boxes(np.array([[0.5], [-2.0], [-1.0], [0.0]]), np.array([[2.0], [-0.5], [1.0], [1.0]]), [0])
     assert np.allclose(J.lo[:, 0, 0], [1.0, -1.0, -1.0, -1.0], rtol=1e-15, atol=0.0)     # to the outward ulp
     assert np.allclose(J.hi[:, 0, 0], [1.0, -1.0, 1.0, 1.0], rtol=1e-15, atol=0.0)
+
+
+def test_the_operation_limit_is_named_as_itself(monkeypatch):
+    """The operation limit's error, raised while a constraint is parsed, was relabelled as a constant part's (two
+    'allowed:', the second wrong): only a constant part's own error is."""
+    from gpr_kinematics.workspace import expressions
+
+    monkeypatch.setattr(expressions, 'MAX_NODES', 12)
+    with pytest.raises(ExpressionError) as err:
+        _parse('x + y + q + x*y + x*q + y*q + x*y*q <= 1')
+    text = str(err.value)
+    assert 'the equations need more than 12 operations; allowed: at most 12' in text, text
+    assert 'constant parts' not in text and text.count('allowed:') == 1, text

@@ -50,6 +50,11 @@ class ExpressionError(ConfigError):
     """A constraint that does not parse or names something unknown (a configuration error, exit 2)."""
 
 
+class FoldError(ExpressionError):
+    """A constant part of a constraint off its function's domain or beyond floats (located by the parser; the
+    operation limit's error was relabelled as one)."""
+
+
 class Graph:
     """The expression DAG of one model: nodes ``(op, args)``, variables first, constants as intervals."""
 
@@ -99,8 +104,8 @@ class Graph:
                   'arccos': (a.lo <= 1) & (a.hi >= -1), 'div': (b.lo != 0) | (b.hi != 0)}
         if not bool(domain.get(op, True)):   # a division's divisor is the constant at fault
             bad = b if op == 'div' else a
-            raise ExpressionError(f'{"division by" if op == "div" else op + " of"} the constant [{bad.lo:g}, '
-                                  f'{bad.hi:g}] is undefined')
+            raise FoldError(f'{"division by" if op == "div" else op + " of"} the constant [{bad.lo:g}, '
+                            f'{bad.hi:g}] is undefined')
         with np.errstate(all='ignore'):   # an overflow is refused below, in one line (numpy warned on stderr)
             if op in BINARY:
                 r = {'add': a + b, 'sub': a - b, 'mul': a * b, 'div': a / b}[op]
@@ -109,7 +114,7 @@ class Graph:
         if not (np.isfinite(r.lo) and np.isfinite(r.hi)):
             of = f'the constants [{a.lo:g}, {a.hi:g}] and [{b.lo:g}, {b.hi:g}]' if op in BINARY else \
                 f'the constant [{a.lo:g}, {a.hi:g}]'
-            raise ExpressionError(f'{op} of {of} is not a finite number')
+            raise FoldError(f'{op} of {of} is not a finite number')
         return self.constant(float(r.lo), float(r.hi))
 
 
@@ -341,9 +346,7 @@ def parse_constraint(text: Any, graph: Graph, names: Mapping[str, Expr], where: 
     p = _Parser(text, graph, names, f'{where} ({text[:60]!r})')
     try:
         parts, rels = _relation_chain(p)
-    except ExpressionError as exc:   # a constant part folded off its domain or beyond floats: located here
-        if str(exc).startswith(p.where):
-            raise
+    except FoldError as exc:   # a constant part folded off its domain or beyond floats: located here
         col = p.tokens[max(p.i - 1, 0)][2] if p.tokens else 1
         p.fail(f'{exc} (by column {col}); allowed: constant parts of finite value (they are computed once, first)')
         raise AssertionError from None  # unreachable: fail raises
