@@ -23,9 +23,9 @@ SIGINT and SIGTERM: the node stops taking new work, drains what DDS already deli
 the counts per topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more
 than ``flush_interval`` before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
 folder left behind) when the output exists or is not writable, a topic name is empty or invalid, a topic's
-type is unknown or not the one the graph publishes it as at the start (one discovered later: a warning), or a
-parameter is invalid. An error while recording (a full disk) ends it with one ``stopped:`` line and exit status 1;
-the segments closed before the error stay a valid bag.
+type is unknown or not the one the graph shows it published as at the start (discovery usually finds running
+publishers a second later: then a warning, once), or a parameter is invalid. An error while recording (a full
+disk) ends it with one ``stopped:`` line and exit status 1; the segments closed before the error stay a valid bag.
 """
 from __future__ import annotations
 
