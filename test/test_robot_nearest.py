@@ -211,6 +211,21 @@ def test_no_posture_within_the_limits_is_named_as_such_not_as_out_of_reach():
         solve_stations(robot, far, 'arm2', branch='left')
 
 
+def test_a_run_of_three_points_is_merged_around_its_middle():
+    """A run of three evaluated points gets its 7 points on both sides of the middle one, in order, and none on the
+    middle itself where the run is equally spaced (it was evaluated twice, a pair of no width)."""
+    arm, d, beta, p, phi, sign = _case('arm2_shoulder', 2)
+    rows = np.array([0, 0, 0, 0, 0, 1, 1], dtype=np.intp)
+    x = np.array([-3.0, -1.0, 0.0, 1.0, 3.0, -1.0, 1.0])
+    cost = np.array([np.inf, 1.0, 1.0, 1.0, np.inf, 1.0, 1.0])
+    ev = nearest.Evaluation(cost, np.zeros(7), np.full(7, np.nan))
+    R, X, _, E = nearest._narrow_runs(arm, d, beta, p, phi, sign, rows, x, np.zeros(7, dtype=bool), ev)
+    first = X[R == 0]
+    assert first.tolist() == [-3.0, -1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0, 3.0]   # 0 once
+    assert X[R == 1].tolist() == [-1.0] + [-1.0 + 2.0 * j / 8 for j in range(1, 8)] + [1.0]
+    assert E.cost[R == 0][5] == 1.0   # the middle point's own evaluation kept
+
+
 def test_a_narrow_runs_grid_is_merged_in_order():
     """:func:`nearest._narrow_runs` keeps the points sorted by target, then held value, each with its own
     evaluation (the same as evaluating the merged points afresh)."""

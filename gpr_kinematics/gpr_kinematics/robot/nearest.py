@@ -163,10 +163,13 @@ def _narrow_runs(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, si
     a, b = x[i], x[last[narrow]]
     new_x = (a[:, None] + (b - a)[:, None] * np.linspace(0.0, 1.0, k + 2)[1:-1]).ravel()
     new_rows = np.repeat(rows[i], k)
-    extra = _evaluate(arm, d, beta, p, phi, sign, new_rows, new_x)
-    # Merged in order: a new point goes after its run's first point and the middle one (of three) below it.
+    # Merged in order: a new point goes after its run's first point and the middle one (of three) below it; one on
+    # the middle point itself (an equally spaced run) is left out, not evaluated twice.
     mid = np.repeat(np.where(last[narrow] - i == 2, x[np.minimum(i + 1, x.size - 1)], np.inf), k)
     slot = np.repeat(i + 1, k) + (mid < new_x)
+    kept = new_x != mid
+    new_x, new_rows, slot = new_x[kept], new_rows[kept], slot[kept]
+    extra = _evaluate(arm, d, beta, p, phi, sign, new_rows, new_x)
     key = np.concatenate([2 * np.arange(x.size) + 1, 2 * slot])
     order = np.argsort(key, kind='stable')
     merged = [np.concatenate(pair)[order] for pair in ((rows, new_rows), (x, new_x),
