@@ -343,6 +343,31 @@ def test_long_tool_points_within_the_reach_converge(model):
     assert tool_tolerances(CFG, (0.0, 0.0, 0.0)) == ik_tolerances(CFG)
 
 
+def test_long_tool_points_converge_in_batches_too():
+    """The batch path's tolerances per tool row (a mutant keeping the tools' rows at the shipped tolerances left 2 of
+    30 batches of 10 unconverged, at 1.2e-13): 300 tools of 5 to 10 m, every batch converges, each row as alone."""
+    from gpr_kinematics.core.inverse import tool_tolerances
+
+    rng = np.random.default_rng(5)
+    n = 300
+    d = rng.normal(size=(n, 3))
+    tools = d / np.linalg.norm(d, axis=1)[:, None] * rng.uniform(5.0, 9.99, (n, 1))
+    t, g = rng.uniform(0.0, 0.95 * CFG.tilt_limit, n), rng.uniform(-np.pi, np.pi, n)
+    h = np.empty(n)
+    for i in range(n):
+        try:
+            inverse(1e3, t[i], g[i], tool=tools[i])
+        except LimitError as exc:
+            lo, hi = (float(v) for v in exc.args[0].split('allowed heights: ')[1].split(' m')[0].split(' .. '))
+            h[i] = 0.5 * (lo + hi)
+    for k in range(0, n, 10):
+        batch = inverse_batch(h[k:k + 10], t[k:k + 10], g[k:k + 10], tool=tools[k:k + 10])
+        tol_h, tol_n = tool_tolerances(CFG, tuple(tools[k:k + 10].T))
+        for i in range(10):
+            pose = batch.achieved[i]
+            assert abs((pose.position + pose.rotation @ tools[k + i])[2] - h[k + i]) <= tol_h[i]
+
+
 def test_heights_allowed_with_a_tool_point_are_those_of_the_rigid_platform():
     """With a tool point the allowed heights are where the lowest and highest joint meet the stroke on a rigid
     tilted platform: joint k lies ``(T (p_k - tool))_z`` above the tool point (T the tilt rotation), worked out here

@@ -146,6 +146,10 @@ def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
     assert m.positions[-1, 0] == top and m.positions[-1, 3] == 3.05 + 5e-13
     with pytest.raises(GoalError, match=r'arm1_shoulder = 3.050000000002 rad is beyond its upper limit 3.05 rad'):
         _plan(_two_points(['arm1_shoulder'], [3.0], [3.05 + 2e-12], t=(3.0, 4.0)))
+    m = _plan(_two_points(['arm1_shoulder'], [-3.0], [-3.05 - 5e-13], t=(3.0, 4.0)))   # the lower side alike
+    assert m.positions[-1, 3] == -3.05 - 5e-13
+    with pytest.raises(GoalError, match=r'arm1_shoulder = -3.050000000002 rad is beyond its lower limit -3.05 rad'):
+        _plan(_two_points(['arm1_shoulder'], [-3.0], [-3.05 - 2e-12], t=(3.0, 4.0)))
 
 
 def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():
