@@ -187,6 +187,27 @@ def test_the_tripods_early_stop_stops_the_run_before_the_planar_covering(monkeyp
     assert res.interrupted and res.stopped == 'box limit (20000 boxes)'
 
 
+def test_an_interrupted_planar_covering_stops_the_run_with_its_reason(monkeypatch):
+    """The planar mechanism's covering stopped early: its boxes are not a covering, and the run stops with its
+    reason (used as complete, a partial result would pass as valid; the tripod's reason was named before)."""
+    from gpr_kinematics.workspace import covering
+
+    model = model_from_mapping({'type': 'joint_working_area', 'tripod': 'tripod_3rps.yaml',
+                                'planar': 'rrr3_planar.yaml', 'sub_delta': 0.5})
+    real = covering.approximate
+    calls: list[str] = []
+
+    def part(sub_model, sub_delta, *args, **kwargs):
+        calls.append(type(sub_model).__name__)
+        if len(calls) == 2:   # the planar one, after the tripod's
+            kwargs['max_boxes'] = 50
+        return real(sub_model, sub_delta, *args, **kwargs)
+
+    monkeypatch.setattr(covering, 'approximate', part)
+    res = real(model, 0.006)
+    assert len(calls) == 2 and res.interrupted and res.stopped == 'box limit (50 boxes)', (calls, res.stopped)
+
+
 def test_a_sub_coverings_reasons_name_the_runs_time_limit(monkeypatch):
     """A sub-covering's reasons are several where two limits struck ('box limit (...); time limit (4.99997 s)'):
     its time limit is the time left of the run's, named as the run's, in place ('time limit (5 s)')."""
