@@ -232,6 +232,49 @@ def test_a_hostile_unfinished_segment_folder_is_noted_not_walked(tmp_path: Path,
             (deep / ('a/' * k)).rmdir()
 
 
+def test_the_unfinished_listing_reads_a_bounded_number_of_entries(tmp_path: Path, src: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A .recording of a million entries (or a segment's) is not read whole to name 100: each listing stops after
+    MAX_UNFINISHED entries; links in it are not the recorder's (a link named like a storage file is not listed)."""
+    import os
+
+    from gpr_kinematics.bags import reader
+
+    bag = copy_bag(src, tmp_path / 'b')
+    top = bag / '.recording'
+    (top / 'seg').mkdir(parents=True)
+    for i in range(40):
+        (top / f'{i:02d}.db3').write_bytes(b'')
+        (top / 'seg' / f'{i:02d}.mcap').write_bytes(b'')
+    (top / 'zz.mcap').symlink_to(top / '00.db3')
+    seen = []
+    real = os.scandir
+
+    class Counted:
+        def __init__(self, path: str) -> None:
+            self.it = real(path)
+
+        def __enter__(self) -> Counted:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            self.it.close()
+
+        def __iter__(self) -> Counted:
+            return self
+
+        def __next__(self) -> os.DirEntry[str]:
+            entry = next(self.it)
+            seen.append(entry.name)
+            return entry
+
+    monkeypatch.setattr(reader, 'MAX_UNFINISHED', 5)
+    monkeypatch.setattr(reader.os, 'scandir', Counted)
+    listed = reader._unfinished(bag)
+    assert len(listed) == 5 and len(seen) <= 5 + 5, seen      # five at the top, at most five in a segment
+    assert not any(u.endswith('zz.mcap') for u in listed)
+
+
 def test_reference_bag_checksums_and_metadata() -> None:
     result = verify_bag(REFERENCE)
     checks = {c.name: c for c in result.checks}
