@@ -312,6 +312,17 @@ def test_tool_points_beyond_the_reach_are_refused():
     assert abs((ik.achieved.position + ik.achieved.rotation @ tool)[2] - 0.3) < 1e-13
 
 
+def _middle_heights(t, g, tools, model=None):
+    """The middle of the heights each tool point allows at its tilt (from the refusal of a height of 1 km)."""
+    h = np.empty(len(t))
+    for i in range(len(t)):
+        with pytest.raises(LimitError) as err:
+            inverse(1e3, t[i], g[i], model=model, tool=tools[i])
+        lo, hi = (float(v) for v in err.value.args[0].split('allowed heights: ')[1].split(' m')[0].split(' .. '))
+        h[i] = 0.5 * (lo + hi)
+    return h
+
+
 @pytest.mark.parametrize('model', MODELS)
 def test_long_tool_points_within_the_reach_converge(model):
     """A tool point 9 m off the platform origin (within the 10 m reach) left the normal 1.2e-14 from its target, and
@@ -325,13 +336,7 @@ def test_long_tool_points_within_the_reach_converge(model):
     d = rng.normal(size=(n, 3))
     tools = d / np.linalg.norm(d, axis=1)[:, None] * rng.uniform(5.0, 9.99, (n, 1))
     t, g = rng.uniform(0.0, 0.95 * CFG.tilt_limit, n), rng.uniform(-np.pi, np.pi, n)
-    h = np.empty(n)
-    for i in range(n):   # the middle of the heights the tool allows at that tilt
-        try:
-            inverse(1e3, t[i], g[i], model=model, tool=tools[i])
-        except LimitError as exc:
-            lo, hi = (float(v) for v in exc.args[0].split('allowed heights: ')[1].split(' m')[0].split(' .. '))
-            h[i] = 0.5 * (lo + hi)
+    h = _middle_heights(t, g, tools, model)
     batch = inverse_batch(h, t, g, model=model, tool=tools)
     for i in range(n):
         ik = inverse(h[i], t[i], g[i], model=model, tool=tools[i])
@@ -353,13 +358,7 @@ def test_long_tool_points_converge_in_batches_too():
     d = rng.normal(size=(n, 3))
     tools = d / np.linalg.norm(d, axis=1)[:, None] * rng.uniform(5.0, 9.99, (n, 1))
     t, g = rng.uniform(0.0, 0.95 * CFG.tilt_limit, n), rng.uniform(-np.pi, np.pi, n)
-    h = np.empty(n)
-    for i in range(n):
-        try:
-            inverse(1e3, t[i], g[i], tool=tools[i])
-        except LimitError as exc:
-            lo, hi = (float(v) for v in exc.args[0].split('allowed heights: ')[1].split(' m')[0].split(' .. '))
-            h[i] = 0.5 * (lo + hi)
+    h = _middle_heights(t, g, tools)
     for k in range(0, n, 10):
         batch = inverse_batch(h[k:k + 10], t[k:k + 10], g[k:k + 10], tool=tools[k:k + 10])
         tol_h, tol_n = tool_tolerances(CFG, tuple(tools[k:k + 10].T))
