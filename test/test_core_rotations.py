@@ -129,8 +129,8 @@ def test_euler_conventions_taken_and_refused():
 
 
 def test_kabsch_recovers_a_rotation_and_never_returns_a_singular_matrix():
-    """One Kabsch for the mechanisms' pose fit and the calibration's frames (two copies before; the mechanisms' took
-    the sign of a zero determinant, 0, and returned a singular "rotation" for a degenerate set)."""
+    """One Kabsch for the mechanisms' pose fit and the calibration's frames (two copies before, one formula; the
+    determinant of the SVD's orthogonal factors is +-1, so its sign is never 0, even for a degenerate set)."""
     from gpr_kinematics.core.rotations import kabsch
     from scipy.spatial.transform import Rotation
 

@@ -189,14 +189,14 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> Array:
 
 def kabsch(a: ArrayLike, b: ArrayLike) -> Array:
     """The rotations ``R (..., 3, 3)`` minimising ``sum_k |b_k - R a_k|^2`` of centred vectors ``a, b (..., K, 3)``
-    (Kabsch: ``H = sum_k a_k b_k^T = U S V^T``, ``R = V diag(1, 1, d) U^T``, ``d = sign det(V U^T)``, 1 where 0)."""
+    (Kabsch: ``H = sum_k a_k b_k^T = U S V^T``, ``R = V diag(1, 1, d) U^T``, ``d = sign det(V U^T) = +-1``)."""
     H = np.swapaxes(np.asarray(a, dtype=float), -1, -2) @ np.asarray(b, dtype=float)
     U, _, Vt = np.linalg.svd(H)
     V, Ut = np.swapaxes(Vt, -1, -2), np.swapaxes(U, -1, -2)
     d = np.sign(np.linalg.det(V @ Ut))
     D = np.zeros(H.shape)
     D[..., 0, 0] = D[..., 1, 1] = 1.0
-    D[..., 2, 2] = np.where(d == 0.0, 1.0, d)   # a degenerate set: a rotation all the same, never a singular matrix
+    D[..., 2, 2] = np.where(d == 0.0, 1.0, d)   # +-1 (orthogonal factors); 1 should rounding ever give 0
     return np.asarray(V @ D @ Ut, dtype=np.float64)
 
 
