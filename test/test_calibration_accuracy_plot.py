@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from calibration_support import PNG, normalised, plus_plot, quiet_progress, run  # noqa: F401 - an autouse fixture
+from calibration_support import PNG, normalised, plus_plot, quiet_progress, rounded, run  # noqa: F401 - a fixture
 from gpr_kinematics.calibration import plot as plot_module
 from gpr_kinematics.calibration.budget_plot import BINS, MAX_STATIONS, budget_plot
 from gpr_kinematics.calibration.stations import BudgetOptions, platform_budget
@@ -95,7 +95,7 @@ def test_stdout_is_unchanged_by_plot_but_for_the_files_name(capsys, tmp_path):
         outputs = []
         for png in (None, tmp_path / 'b.png'):
             outputs.append(run(capsys, *EXAMPLE, '--samples', '1000', *extra, *(['--plot', str(png)] if png else [])))
-        assert normalised(outputs[1]) == plus_plot(outputs[0], tmp_path / 'b.png')
+        assert rounded(normalised(outputs[1])) == rounded(plus_plot(outputs[0], tmp_path / 'b.png'))
         assert outputs[0][0] == 0 and outputs[0][2] == ''
         assert (tmp_path / 'b.png').read_bytes()[:8] == PNG
         (tmp_path / 'b.png').unlink()
