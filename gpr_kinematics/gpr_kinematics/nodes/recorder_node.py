@@ -77,8 +77,8 @@ class RecorderNode(GprNode):
         topics = self._resolve_topics(list(p['topics']))
         wrong = self._wrong_types(topics)
         if wrong:
-            raise BagError(wrong[0] + '; allowed: the type it is published as (or the name alone: its type is taken '
-                           'from the graph)')
+            raise BagError(next(iter(wrong.values())) + '; allowed: the type it is published as (or the name alone: '
+                           'its type is taken from the graph)')
         self.writer = SegmentedBagWriter(output, topics, storage=p['storage'], flush_interval=p['flush_interval'],
                                          max_bag_size=p['max_bag_size'], max_bag_duration=p['max_bag_duration'],
                                          compression=p['compression'], fsync=p['fsync'],
@@ -152,21 +152,21 @@ class RecorderNode(GprNode):
                                f'{self.p["discovery_timeout"]} s; allowed: give it as name:pkg/msg/Type')
         return {t: str(ty) for t, ty in topics.items()}
 
-    def _wrong_types(self, topics: dict[str, str]) -> list[str]:
-        """Topics the graph publishes as other types only (no publisher matches: their bag stays empty, and looked
-        valid), each as ``'<topic> is published as <types>, not <type>'``."""
-        out = []
+    def _wrong_types(self, topics: dict[str, str]) -> dict[str, str]:
+        """The topics the graph publishes as other types only (no publisher matches: their bag stays empty, and
+        looked valid), each with ``'topics: <topic> is published as <types>, not <type>'``."""
+        out = {}
         for t, ty in topics.items():   # the publishers' types (the graph's list holds the recorder's subscription)
             offered = sorted({normalize_type(i.topic_type) for i in self.get_publishers_info_by_topic(t)})
             if offered and ty not in offered:
-                out.append(f'topics: {t} is published as {" and ".join(offered)}, not {ty}')
+                out[t] = f'topics: {t} is published as {" and ".join(offered)}, not {ty}'
         return out
 
     def _watch_types(self) -> None:
         """A publisher discovered after the start with another type than the one recorded: a warning, once a
         topic (nothing of it is recorded)."""
-        for line in self._wrong_types({t: ty for t, ty in self.types.items() if t not in self.warned}):
-            self.warned.add(line.split()[1])
+        for topic, line in self._wrong_types({t: ty for t, ty in self.types.items() if t not in self.warned}).items():
+            self.warned.add(topic)
             self.get_logger().warning(f'{line}: nothing of it is recorded')
 
     def _callback(self, topic: str) -> Any:
