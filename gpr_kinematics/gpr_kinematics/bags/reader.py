@@ -194,8 +194,10 @@ def _unfinished(path: Path) -> list[str]:
     (noted, never read). Real folders only, two levels, at most :data:`MAX_UNFINISHED` names: a ``.recording``
     linked to ``/`` walked the whole file system into a traceback, 1,200 nested folders into a RecursionError."""
     top = path / OPEN_SEGMENT_DIR
-    if top.is_symlink() or not top.is_dir():
-        return [f'{OPEN_SEGMENT_DIR} (a symbolic link, not the recorder\'s: not listed)'] if top.is_symlink() else []
+    if top.is_symlink():
+        return [f'{OPEN_SEGMENT_DIR} (a symbolic link, not the recorder\'s: not listed)']
+    if not top.is_dir():
+        return []
     out: list[str] = []
     try:
         with os.scandir(top) as segments:

@@ -66,7 +66,7 @@ class _ClosedFile:
     duration: int
     count: int
     sha256: str
-    lines: tuple[bytes, bytes, bytes] = (b'', b'', b'')   # its metadata lines, rendered once (metadata.file_lines)
+    lines: tuple[bytes, bytes, bytes] = field(init=False, repr=False)   # its metadata lines, rendered once
 
     def __post_init__(self) -> None:
         self.lines = file_lines(self.path, self.start, self.duration, self.count, self.sha256)
