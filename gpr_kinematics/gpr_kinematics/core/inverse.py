@@ -130,11 +130,21 @@ def tool_tolerances(config: GprConfig, tool: Sequence[Value]) -> tuple[Value, Va
             return tol_h, tol_n
         ulp = math.ulp(length)
         return (max(tol_h, HEIGHT_ROUNDING_ULPS * ulp) + tol_n * length,
-                max(tol_n, NORMAL_ROUNDING_ULPS * ulp / config.derived['ik_radius']))
+                max(tol_n, NORMAL_ROUNDING_ULPS * ulp / _triangle_radius(config)))
     lengths = np.sqrt(x * x + y * y + z * z)
     ulps = np.spacing(lengths)
     return (np.maximum(tol_h, HEIGHT_ROUNDING_ULPS * ulps) + tol_n * lengths,
-            np.maximum(tol_n, NORMAL_ROUNDING_ULPS * ulps / config.derived['ik_radius']))
+            np.maximum(tol_n, NORMAL_ROUNDING_ULPS * ulps / _triangle_radius(config)))
+
+
+def _triangle_radius(config: GprConfig) -> float:
+    """The joint triangle's radius [m] that the normal's rounding scales with (its shortest side over sqrt 3),
+    cached per config."""
+    cached: float | None = config.derived.get('ik_radius')
+    if cached is None:
+        joints = config.platform_joints or nominal_points(config)
+        cached = config.derived['ik_radius'] = min(math.dist(joints[i], joints[i - 1]) for i in range(3)) / math.sqrt(3)
+    return cached
 
 
 def ik_tolerances(config: GprConfig) -> tuple[float, float]:
@@ -146,11 +156,10 @@ def ik_tolerances(config: GprConfig) -> tuple[float, float]:
     cached: tuple[float, float] | None = config.derived.get('ik_tolerances')
     if cached is None:
         longest = max(abs(config.stroke_min), abs(config.stroke_max)) + max(abs(o) for o in config.rod_offsets)
-        joints = config.platform_joints or nominal_points(config)
-        radius = config.derived['ik_radius'] = min(math.dist(joints[i], joints[i - 1]) for i in range(3)) / math.sqrt(3)
         ulp = math.ulp(longest)
-        cached = config.derived['ik_tolerances'] = (max(IK_TOLERANCE, HEIGHT_ROUNDING_ULPS * ulp),
-                                                     max(IK_TOLERANCE, NORMAL_ROUNDING_ULPS * ulp / radius))
+        cached = config.derived['ik_tolerances'] = (
+            max(IK_TOLERANCE, HEIGHT_ROUNDING_ULPS * ulp),
+            max(IK_TOLERANCE, NORMAL_ROUNDING_ULPS * ulp / _triangle_radius(config)))
     return cached
 
 
