@@ -111,8 +111,8 @@ class ReplayNode(GprNode):
 
     def _wait(self, executor: Executor, stop: StopFlag, due: float) -> None:
         """Serve callbacks (the parameter services) until ``due`` (monotonic time) or a stop signal; a message due
-        already still serves what is pending, every :data:`SERVE_PERIOD` (a dense replay starved the services; served
-        at every message, a bag of 6,000 messages/s fell 6 s behind in 4 s)."""
+        already still serves what is pending, at most every :data:`SERVE_PERIOD` (a dense replay starved the services;
+        a spin at every message due added its cost to each, where the replay is behind already)."""
         while not stop:
             now = time.monotonic()
             delay = due - now
