@@ -391,3 +391,37 @@ def test_a_constraint_given_twice_is_refused_naming_the_file(tmp_path):
         load_mechanism(path)
     path.write_text(text.replace('B_i: [0.05, 0, 0]}', 'B_i: [0.05, 0, 0.01]}', 1))  # one platform joint apart
     assert load_mechanism(path).name == 'coinc'
+
+
+def test_parameters_of_a_mixed_gsp_round_trip_and_take_errors_on_the_points_it_has():
+    """The D1D2D3D4A1^2 platform's ``A_j``/``B_j`` are NaN for the constraints without them: ``with_parameters``
+    refused its own ``parameters()`` (so no accuracy analysis took an error on a line's point); the NaN rows are now
+    ignored, the constraints follow the points, an error on a point the mechanism has agrees with the exact solve to
+    first order, one on a point it lacks is refused, and two constraints made one are refused as in a file."""
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+    path = config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml')
+    gsp = load_mechanism(path)
+    pose = yaml.safe_load(path.read_text())['reference']['pose']
+    same = gsp.with_parameters(gsp.parameters())
+    assert np.array_equal(same.inverse_kinematics(pose), gsp.inverse_kinematics(pose))
+    moved = gsp.parameters()['A_j']
+    assert np.isnan(moved[0]).all() and np.isfinite(moved[3]).all()
+    moved[3, 0] += 1e-3
+    moved[0] = 5.0                                   # constraint 1 (D1) has no A_j: ignored
+    out = gsp.with_parameters({'A_j': moved})
+    assert out.constraints[3].A_j.tolist() == moved[3].tolist() and out.constraints[0].A_j is None
+    assert out.constraints[3].A_j.tolist() != gsp.constraints[3].A_j.tolist()   # the original is untouched
+    error = np.zeros((6, 3))
+    error[3, 0] = 1e-6
+    res = accuracy_analysis(gsp, [pose], np.zeros(6), {'A_j': error})
+    assert np.max(np.abs(res.linearized[0])) > 1e-8
+    np.testing.assert_allclose(res.exact[0], res.linearized[0], atol=1e-3 * np.max(np.abs(res.linearized[0])))
+    error[0, 1] = 1e-6
+    with pytest.raises(InputError, match=r'error of parameter A_j: value 2 of 18 is 1e-06 for a point this mechanism '
+                                         r'does not have .*allowed: 0 there'):
+        accuracy_analysis(gsp, [pose], np.zeros(6), {'A_j': error})
+    twice = gsp.parameters()
+    for key in twice:
+        twice[key][5] = twice[key][4]
+    with pytest.raises(InputError, match=r'constraints 5 and 6 \(theta4, theta5\) are one A1 between the same points'):
+        gsp.with_parameters(twice)

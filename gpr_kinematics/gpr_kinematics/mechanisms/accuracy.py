@@ -191,7 +191,13 @@ def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict
             k = int(np.argmax(bad))
             raise InputError(f'{mech.name}: error of parameter {key}: value {k + 1} of {arr.size} is '
                              f'{arr.ravel()[k]}, not a finite number; {allowed}')
-        out[key] = arr.reshape(shape)
+        arr = arr.reshape(shape)
+        undefined = ~np.isfinite(np.asarray(nominal[key], dtype=float))  # e.g. a GSP's A_j of a D1 constraint
+        if np.any(arr[undefined] != 0.0):
+            k = int(np.argmax((arr != 0.0) & undefined))
+            raise InputError(f'{mech.name}: error of parameter {key}: value {k + 1} of {arr.size} is {arr.flat[k]:g} '
+                             f'for a point this mechanism does not have (NaN in its parameters); allowed: 0 there')
+        out[key] = arr
     return out
 
 

@@ -35,14 +35,14 @@ the YAML key ``euler``. All lengths in metres, angles in radians.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_array
-from ..inputs.validation import MAX_COORDINATE, bounded
+from ..inputs.validation import MAX_COORDINATE, bounded, float_array
 from .base import Mechanism, as_poses, check_euler_convention, euler_rotation
 from .conditioning import check_characteristic_length, homogenize
 from .gsp_rows import SCALAR_ROWS, mul3
@@ -243,20 +243,35 @@ class GeneralizedStewartPlatform(Mechanism):
                 'B_j': self.B_j.copy()}
 
     def with_parameters(self, params: Mapping[str, Any]) -> GeneralizedStewartPlatform:
+        """A copy with the points ``params`` (name -> ``(6, 3)`` [m]); the rows of constraints without that point
+        (NaN in :meth:`parameters`) are ignored. Two constraints made one are refused (:class:`InputError`)."""
         p = {'A_i': self.A_i, 'A_j': self.A_j, 'B_i': self.B_i, 'B_j': self.B_j}
         allowed = self.parameters()
         for key, val in params.items():
             if key not in allowed:
                 raise InputError(f'{self.name}: unknown parameter {brief(key)}; allowed: {sorted(allowed)}')
-            p[key] = bounded(val, f'{self.name}: parameter {key}', (6, 3))
+            absent = np.isnan(allowed[key][:, 0])  # constraints without this point: their rows are ignored
+            arr = float_array(val, f'{self.name}: parameter {key}')
+            if arr.shape == (6, 3) and absent.any():
+                arr = arr.copy()
+                arr[absent] = 0.0
+            p[key] = bounded(arr, f'{self.name}: parameter {key}', (6, 3))
+            p[key][absent] = np.nan
         for first, second, label in (('A_i', 'A_j', 'base line K'), ('B_i', 'B_j', 'platform line L')):
             gap = np.linalg.norm(p[second] - p[first], axis=1)      # NaN where a constraint has no line
             if np.any(gap < _DEGENERATE):                            # (the file's check: a line needs a direction)
                 k = int(np.argmax(gap < _DEGENERATE))
                 raise InputError(f'{self.name}: constraint {k + 1}: degenerate {label}: {second} = '
                                  f'{brief(p[second][k].tolist())} coincides with {first}, so the line has no direction')
+        constraints = [replace(c, **{k: p[k][i].copy() if k in _POINTS[c.type] else None for k in p})
+                       for i, c in enumerate(self.constraints)]
+        try:
+            _check_distinct(constraints, self.name)
+        except ConfigError as exc:  # the parameters given, not a file, made two constraints one
+            raise InputError(str(exc)) from None
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
+        new.constraints = constraints
         new.A_i, new.A_j, new.B_i, new.B_j = p['A_i'], p['A_j'], p['B_i'], p['B_j']
         new._prepare()
         return new
