@@ -378,3 +378,12 @@ def test_the_shipped_urdf_collides_with_the_bodies_the_clearance_check_measures(
             np.testing.assert_allclose(size, b.size, rtol=1e-12, atol=0, err_msg=name)
             np.testing.assert_allclose(c.origin[:3, 3], b.position, rtol=0, atol=1e-15, err_msg=name)
             np.testing.assert_allclose(c.origin[:3, :3], b.rotation, rtol=0, atol=1e-12, err_msg=name)
+
+
+def test_main_refuses_extra_arguments_in_one_line_and_prints_its_usage(capsys):
+    """Extra arguments were ignored (the first file's URDF printed as if they were not there)."""
+    assert main(['example', 'other.yaml']) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and captured.err.count('\n') == 1
+    assert captured.err.startswith("robot_urdf: error: 2 arguments ['example', 'other.yaml']; allowed: at most one")
+    assert main(['--help']) == 0 and capsys.readouterr().out.startswith('usage: python -m gpr_kinematics.robot.urdf')

@@ -408,9 +408,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     description (``example`` for the shipped one) of that whole robot, on stdout."""
     import sys
 
-    from ..errors import EXIT_BAD_INPUT, GprError, one_line
+    from ..errors import EXIT_BAD_INPUT, GprError, brief, one_line
 
     args = list(sys.argv[1:] if argv is None else argv)
+    if args[:1] in (['-h'], ['--help']):
+        print('usage: python -m gpr_kinematics.robot.urdf [ROBOT_FILE | example]')
+        return 0
+    if len(args) > 1:
+        sys.stderr.write(f'robot_urdf: error: {len(args)} arguments {brief(args)}; allowed: at most one, a robot '
+                         'file or example\n')
+        return EXIT_BAD_INPUT
     try:
         from .description import load_robot
 
