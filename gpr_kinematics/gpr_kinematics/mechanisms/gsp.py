@@ -263,8 +263,10 @@ class GeneralizedStewartPlatform(Mechanism):
                 k = int(np.argmax(gap < _DEGENERATE))
                 raise InputError(f'{self.name}: constraint {k + 1}: degenerate {label}: {second} = '
                                  f'{brief(p[second][k].tolist())} coincides with {first}, so the line has no direction')
-        constraints = [replace(c, **{k: p[k][i].copy() if k in _POINTS[c.type] else None for k in p})
-                       for i, c in enumerate(self.constraints)]
+        def point(key: str, i: int, ctype: str) -> np.ndarray | None:
+            return p[key][i].copy() if key in _POINTS[ctype] else None
+        constraints = [replace(c, A_i=p['A_i'][i].copy(), B_i=p['B_i'][i].copy(), A_j=point('A_j', i, c.type),
+                               B_j=point('B_j', i, c.type)) for i, c in enumerate(self.constraints)]
         try:
             _check_distinct(constraints, self.name)
         except ConfigError as exc:  # the parameters given, not a file, made two constraints one
