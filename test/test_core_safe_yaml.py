@@ -241,3 +241,22 @@ def test_numbers_and_booleans_are_those_of_yaml_1_2(monkeypatch, libyaml: bool) 
     assert got[11:] == [True, False, 7, 0, 3, 1.5, -0.5, 0.5, 5.0, 1000.0, 0.25, math.inf, -math.inf, None]
     assert all(type(v) is int for v in got[13:16]) and all(type(v) is float for v in got[16:24])
     assert math.isnan(safe_yaml.load_text('x: .nan')['x'])
+
+
+@pytest.mark.parametrize('libyaml', [True, False], ids=['libyaml', 'python'])
+def test_dates_and_over_long_integers_are_text(monkeypatch, libyaml: bool, tmp_path) -> None:
+    """YAML 1.1's timestamps became Python dates: a station named 2024-01-15 was 'datetime.date(2024, 1, 15)', not
+    a valid name, and 2026-13-45 'a value cannot be read' without its key; an integer of 5,001 digits (beyond Python's
+    4,300) likewise. Both are text now (YAML 1.2's core schema has no dates), which the key's own check names."""
+    if not libyaml:
+        monkeypatch.setattr(safe_yaml, '_CLoader', None)
+    got = safe_yaml.load_text('a: [2024-01-15, 2024-01-15T10:00:00, 2026-13-45, 2001-12-14 21:59:43.10 -5]')['a']
+    assert got == ['2024-01-15', '2024-01-15T10:00:00', '2026-13-45', '2001-12-14 21:59:43.10 -5']
+    edge = '-' + '9' * safe_yaml.MAX_INT_DIGITS
+    big = safe_yaml.load_text(f'a: [{edge}, 1{"0" * 5000}]')['a']
+    assert big[0] == int(edge) and big[1] == '1' + '0' * 5000
+    from gpr_kinematics.core.config import load_config
+    geometry = tmp_path / 'g.yaml'
+    geometry.write_text(f'radius: 1{"0" * 5000}\n')
+    with pytest.raises(ConfigError, match=r"g\.yaml: radius = '1000.* is invalid; allowed: metres, 1e-4 <= radius"):
+        load_config(geometry)

@@ -24,7 +24,8 @@ Numbers and booleans are those of YAML 1.2's core schema. Exponent forms are flo
 others as text, so ``leg_max: 13e-2`` was refused as "not a number, got '13e-2'". The ROS nodes read ``ros2 param
 set ... 1e-13`` the same way. YAML 1.1's other forms are text, which a number check then refuses by name: ``0750``
 is 750 (YAML 1.1: octal, 488), ``1:31`` is not 91 (base 60), ``0x10``, ``0o17`` and ``1_000`` are not numbers, and
-``yes``, ``no``, ``on``, ``off`` are not booleans (only ``true`` and ``false``).
+``yes``, ``no``, ``on``, ``off`` are not booleans (only ``true`` and ``false``); a date such as ``2024-01-15`` (a
+station's name) is text, as is an integer of more than :data:`MAX_INT_DIGITS` digits.
 
 Values are never formatted whole into a message: :func:`gpr_kinematics.errors.brief` shortens them, and a key is
 quoted only when it is a name (:func:`quoted_key`): the lines of a file that is not of the package's formats are
@@ -177,10 +178,22 @@ _FLOAT_CORE = re.compile(DECIMAL + r'|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)')
 _BOOL_CORE = {'true': True, 'True': True, 'TRUE': True, 'false': False, 'False': False, 'FALSE': False}
 
 
+#: Digits of the longest integer read as one (Python's ``int`` refuses more than 4,300 by default): a longer one is
+#: kept as text, so the number check names its key and the range allowed.
+MAX_INT_DIGITS = 4000
+
+
 def _core_int(loader: Any, node: ScalarNode) -> int | str:
-    """An int of YAML 1.2's core schema (decimal, a leading zero included), or the text as written."""
+    """An int of YAML 1.2's core schema (decimal, a leading zero included), or the text as written (also an integer
+    of more than :data:`MAX_INT_DIGITS` digits)."""
     text = str(node.value)
-    return int(text, 10) if _INT_CORE.fullmatch(text) else text
+    return int(text, 10) if _INT_CORE.fullmatch(text) and len(text) <= MAX_INT_DIGITS + 1 else text
+
+
+def _as_text(loader: Any, node: ScalarNode) -> str:
+    """A date or time (``2024-01-15``, a YAML 1.1 timestamp; YAML 1.2's core schema has none) as the text written:
+    a station named ``2024-01-15`` is that name."""
+    return str(node.value)
 
 
 def _core_float(loader: Any, node: ScalarNode) -> float | str:
@@ -204,6 +217,7 @@ for _loader in (_BoundedLoader, _CLoader):
         _loader.add_constructor('tag:yaml.org,2002:int', _core_int)
         _loader.add_constructor('tag:yaml.org,2002:float', _core_float)
         _loader.add_constructor('tag:yaml.org,2002:bool', _core_bool)
+        _loader.add_constructor('tag:yaml.org,2002:timestamp', _as_text)
 
 
 def is_name(key: YamlValue) -> bool:
