@@ -94,7 +94,16 @@ def test_human_readable_output(capsys):
     (['fk', '0.5', '0.5', '0.5', '0.5'], r"three rod lengths q1 q2 q3 are needed .*; got 4: '0.5 0.5 0.5 0.5'$"),
     (['mobility', '0.5', '0.5', '--dq', '0', '0', '0'], r'^gpr mobility: error: three rod lengths q1 q2 q3 are '
                                                         r'needed \[m, or mm with --mm\]; got 2'),
-    (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'$"),
+    (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'; allowed: a decimal number of ASCII "
+                                  r'digits \(e\.g\. 0\.5, -2, 1e-3\)$'),
+    (['fk', '0.5', '0.5', '\u0660.5'], r"invalid float value: '\u0660.5'; allowed: a decimal number of ASCII digits"),
+    (['sweep', '--passes', 'x'], r"argument --passes: invalid int value: 'x'; allowed: a whole number of ASCII "
+                                 r'digits \(e\.g\. 10\)$'),
+    # a decimal comma where the command converts the values itself: a traceback (argparse's error escaped)
+    (['verify', 'BAG', '--tolerance', '0,5'], r"--tolerance '0,5': the value must be a finite number >= 0"),
+    (['dexterity', 'GSP', '--vary', 'z', '0,1', '0.2', '5'], r'--vary takes NAME MIN MAX COUNT'),
+    (['accuracy', 'GSP', '--pose', '0', '0', '0.3', '0', '0', '0', '--parameter-error', 'A_i', '0,5'],
+     r"--parameter-error A_i: values must be numbers; got \['0,5'\]$"),
     (['fk', '0,5', '0.5', '0.5'], r"argument Q: invalid float value: '0,5' \(a decimal comma: write a decimal point, "
                                   r'0.5\)$'),
     (['robot', 'ik', '--position', '1300,5', '600', '450', '--mm'],
@@ -133,7 +142,10 @@ def test_human_readable_output(capsys):
     (['sweep', '--csv', ''], 'CSV output path is empty'),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
-    status, out, err = run(capsys, *argv)
+    from gpr_kinematics.inputs.resources import config_path
+    files = {'BAG': str(Path(__file__).resolve().parents[1] / 'bags' / 'reference_sweep'),
+             'GSP': str(config_path('mechanisms/gsp_d3_6.yaml'))}
+    status, out, err = run(capsys, *(files.get(a, a) for a in argv))
     assert status == 2 and out == ''
     assert err.count('\n') == 1 and re.search(pattern, err.strip()), err
     assert 'Traceback' not in err

@@ -35,6 +35,11 @@ CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
 angular velocities and inverse-Jacobian columns: v_x v_y v_z w_x w_y w_z, w in the base frame"""
 
 
+class NumberTextError(argparse.ArgumentTypeError, ValueError):
+    """A text :func:`number` or :func:`whole` does not read: argparse prints it as the option's error; a caller
+    that converts values itself (``--vary``, ``--tolerance``, ``--parameter-error``) catches it as a ValueError."""
+
+
 def number(text: str) -> float:
     """An argparse type: a number as the files write it (:func:`~gpr_kinematics.inputs.validation.decimal`: ASCII
     digits with a sign, point and exponent, or inf and nan; Python's float also read ``1_0`` as 10 and the digits of
@@ -43,20 +48,21 @@ def number(text: str) -> float:
     try:
         return decimal(text)
     except ValueError:
-        hint = number_hint(text)
-        if hint:
-            raise argparse.ArgumentTypeError(f'invalid float value: {text!r}{hint}') from None
-        raise
+        hint = number_hint(text) or NUMBER_ALLOWED
+        raise NumberTextError(f'invalid float value: {brief(text)}{hint}') from None
 
 
 def whole(text: str) -> int:
     """An argparse type: an integer of ASCII digits with an optional sign (Python's int also read ``1_000`` and the
     digits of other scripts). Named ``int`` for argparse's message (``invalid int value: '1_0'``)."""
     if not _WHOLE.fullmatch(text.strip(' \t')):
-        raise ValueError(f'not an integer: {brief(text)}')
+        raise NumberTextError(f'invalid int value: {brief(text)}; allowed: a whole number of ASCII digits '
+                                         '(e.g. 10)')
     return int(text)
 
 
+#: What :func:`number` reads, said where it refuses a text without a more particular hint.
+NUMBER_ALLOWED = '; allowed: a decimal number of ASCII digits (e.g. 0.5, -2, 1e-3)'
 number.__name__ = 'float'
 whole.__name__ = 'int'
 #: The integers :func:`whole` reads.
