@@ -817,3 +817,23 @@ def test_two_wafers_carried_at_once_are_each_checked_for_slip():
     assert not report.safe and report.max_slip_ratio == pytest.approx(fd_max, rel=5e-3)
     row = next(m for m in report.moves if m.label == 'steps[3] (move home, move)')
     assert row.max_slip_ratio == pytest.approx(fd_max, rel=5e-3)
+
+
+@pytest.mark.parametrize('command', [['program', 'export', '--samples', 'out.csv'], ['program', 'check'],
+                                     ['program', 'send', '--timeout', '0.1']])
+def test_every_command_that_plans_a_program_refuses_its_wafers_out_of_order(tmp_path, capsys, monkeypatch, command):
+    """``wafers: []`` and then a pick: ``gpr program check`` refused it, ``gpr program export`` wrote the tables (and
+    ``send`` and the trajectory node took it): the order of picks and places is checked where every one of them
+    plans the program, before anything is solved (``send`` before it looks for the robot); nothing written.
+    (``gpr accuracy PROGRAM --tolerances`` budgets the program's stations, not its motion: it plans nothing.)"""
+    from gpr_kinematics.cli.main import main
+    text = PROGRAM.read_text().replace('wafers: [load_port_1]', 'wafers: []').replace(
+        '../robots/', f'{PROGRAM.parent.parent}/robots/').replace('../cells/', f'{PROGRAM.parent.parent}/cells/')
+    (tmp_path / 'p.yaml').write_text(text)
+    monkeypatch.chdir(tmp_path)
+    assert main([command[0], command[1], 'p.yaml', *command[2:]]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and err.endswith('p.yaml: steps[1] (pick load_port_1, at): station load_port_1 holds '
+                                                 'no wafer (the program declares wafers: []); allowed: a pick where a '
+                                                 'wafer lies\n'), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['p.yaml']

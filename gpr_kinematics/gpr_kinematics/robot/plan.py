@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError, LimitError
+from ..errors import ConfigError, InputError, LimitError
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import robot_forward
@@ -214,11 +214,12 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
 
     Raises:
         InputError: with ``rate``, more than MAX_SAMPLES samples at it, or a rate outside the allowed ones.
-        ConfigError: an unknown arm or branch in a step.
+        ConfigError: an unknown arm or branch in a step; a pick or place out of order (:func:`check_wafers`).
         LimitError: a waypoint out of reach or beyond a limit, a move time shorter than the limits allow; the
             message names the program, the step and the reason.
     """
     way = expand(program, robot)
+    check_wafers(program, way)
     W = len(way)
     names, velocity, acceleration, slices = joint_limits(robot)
     rods = np.empty((W, 3))
@@ -291,6 +292,35 @@ def _held_positions(robot: RobotDescription, rods: Array, own: Array, slices: li
                 held = block[i]
         positions[:, cols] = block
     return positions
+
+
+def check_wafers(program: RobotProgram, way: Waypoints) -> None:
+    """Follow the wafers through the steps, before anything is solved: a pick with a full blade, a place onto a full
+    station and, where the program declares its ``wafers``, a pick from an empty station or a place with an empty
+    blade are refused (ConfigError naming the step), for every command and node that plans the program."""
+    declared = program.wafers is not None        # wafers: [] declares that no station holds one
+    present, carrying = set(program.wafers or ()), set()
+    for i, phase in enumerate(way.phase):
+        if phase != 'at':
+            continue
+        step = program.steps[int(way.step[i])]
+        arm, station = way.arm[i], str(step.station)
+        where = f'{program.source}: {_label(program, way, i)}'
+        if step.kind == 'pick':
+            if arm in carrying:
+                raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
+            if station not in present and declared:
+                raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
+                                  f'[{", ".join(program.wafers or ())}]); allowed: a pick where a wafer lies')
+            present.discard(station)
+            carrying.add(arm)
+        else:
+            if arm not in carrying and declared:
+                raise ConfigError(f'{where}: arm {arm} carries no wafer to place')
+            if station in present:
+                raise ConfigError(f'{where}: station {station} already holds a wafer')
+            carrying.discard(arm)
+            present.add(station)
 
 
 def _label(program: RobotProgram, way: Waypoints, i: int) -> str:

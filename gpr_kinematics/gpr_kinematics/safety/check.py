@@ -16,7 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..callbacks import StageProgress, reporter
-from ..errors import ConfigError
 from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
@@ -129,11 +128,10 @@ def station_wafer(station: str, origin: str) -> str:
 
 
 def wafer_plan(plan: ProgramPlan) -> WaferPlan:
-    """Follow the wafers through the program (module docstring); a pick from an empty station, a pick with a full
-    blade, a place with an empty one or onto a full station is refused (ConfigError naming the step)."""
+    """Follow the wafers through the planned program (module docstring): their windows in time. The order of picks
+    and places was checked when the program was planned (:func:`~gpr_kinematics.robot.plan.check_wafers`)."""
     way, timing, program = plan.waypoints, plan.timing, plan.program
     end = timing.total
-    declared = program.wafers is not None        # wafers: [] declares that no station holds one
     present: dict[str, tuple[float, str]] = {name: (0.0, 'start') for name in program.wafers or ()}
     stations: list[tuple[str, str, Windows]] = []
     carrying: dict[str, float] = {}
@@ -145,25 +143,15 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
         step = program.steps[int(way.step[i])]
         arm, station = way.arm[i], str(step.station)
         t = float(timing.arrive[i])
-        where = f'{program.source}: {plan.labels[i]}'
         approach = max(k for k in range(i) if way.phase[k] in ('approach',) and int(way.step[k]) == int(way.step[i]))
         retract = i + 1
         contact.setdefault((arm, station), []).append((float(timing.depart[approach]), float(timing.arrive[retract])))
-        if step.kind == 'pick':
-            if arm in carrying:
-                raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
+        if step.kind == 'pick':   # the order of picks and places: refused by plan_program where wrong
             lying = present.pop(station, None)
-            if lying is None and declared:
-                raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
-                                  f'[{", ".join(program.wafers or ())}]); allowed: a pick where a wafer lies')
             if lying is not None and lying[0] < t:
                 stations.append((station_wafer(station, lying[1]), station, ((lying[0], t),)))
             carrying[arm] = t
         else:
-            if arm not in carrying and declared:
-                raise ConfigError(f'{where}: arm {arm} carries no wafer to place')
-            if station in present:
-                raise ConfigError(f'{where}: station {station} already holds a wafer')
             if arm in carrying:
                 carried[arm].append((carrying.pop(arm), t))
             present[station] = (t, f'steps[{int(way.step[i])}]')
