@@ -359,3 +359,31 @@ def test_robot_states_missing_at_the_start_are_a_late_recorder(robot_bag: Path, 
     bag = write_bag(tmp_path / 'late', [m for k, m in enumerate(messages) if k not in drop], dict(GPR_TOPICS))
     got = set(_failed(verify_bag(bag)))
     assert got == failed if not failed else failed <= got, got
+
+
+@pytest.mark.parametrize('kept', [(), (ROBOT_TOPIC,)], ids=['no robot topics', 'the robot recorded'])
+def test_a_robot_recording_of_fewer_topics_checks_the_rods_of_its_joint_states(robot_bag: Path, tmp_path: Path,
+                                                                                kept: tuple[str, ...]) -> None:
+    """A recorder given the platform state, joint_states and the geometry (no robot states) of a robot program:
+    every joint_states message carries the rods and the arm joints, and topic.joint_states failed every sample of the
+    honest bag (inf: the arm joints' RobotState not in the bag). The rods are checked there (as before the first
+    RobotState of a late recording); a rod edited by 1 um still fails."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, JOINT_STATES_TOPIC
+
+    topics = {'/gpr/platform_state', JOINT_STATES_TOPIC, GEOMETRY_TOPIC, *kept}
+    types = {t: GPR_TOPICS[t] for t in topics}
+    bag = write_bag(tmp_path / 'few', [m for m in messages_of(robot_bag) if m[0] in topics], types)
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    check = next(c for c in result.checks if c.name == 'topic.joint_states')
+    assert check.checked > 10 and not check.skipped
+
+    def edit(topic, msg):
+        if topic == JOINT_STATES_TOPIC and msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec > 0:
+            position = msg.position.copy()
+            position[1] += 1e-6
+            return dataclasses.replace(msg, position=position)
+        return msg
+
+    assert 'topic.joint_states' in _failed(verify_bag(rewritten(bag, tmp_path / 'edited', edit)))

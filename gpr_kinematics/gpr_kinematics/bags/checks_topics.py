@@ -202,8 +202,9 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
                   shared: bool = False) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
     layout whose names it carries (inf when it carries none); of the states ``rods_only`` their first three joints
-    only (those of a robot recording whose RobotState is not in the bag at its ends: a cut lost the last one, a
-    recorder that subscribed late missed the first ones; their arm joints are not known).
+    only where none of the layouts matches the whole message (those of a robot recording whose RobotState is not in
+    the bag at its ends: a cut lost the last one, a recorder that subscribed late missed the first ones; or not
+    recorded at all: their arm joints are not known).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
     states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
     with a state's stamp is, also beside the stream's message of that stamp)."""
@@ -223,16 +224,15 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     names, positions = jc['name'], jc['position']
     for r in rows:
         got_names, got = tuple(names[idx[r]]), np.asarray(positions[idx[r]], dtype=float)
-        if r in rods_only:
-            got_names, got = got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]
         e[r] = np.inf
         if np.size(jc['velocity'][idx[r]]) or np.size(jc['effort'][idx[r]]):
             continue   # the node publishes positions only
-        for layout in layouts:
-            want_names, want = layout(int(r))
-            if got_names == want_names and got.shape == want.shape:
-                e[r] = float(np.max(np.abs(got - want), initial=0.0))
-                break
+        whole = [(got_names, got)]    # the whole message first (a layout it carries whole is checked whole)
+        if r in rods_only:
+            whole.append((got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]))
+        e[r] = next((float(np.max(np.abs(values - want), initial=0.0)) for carried, values in whole
+                     for want_names, want in (layout(int(r)) for layout in layouts)
+                     if carried == want_names and values.shape == want.shape), np.inf)
     out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, jstamps, samples, e))]
     own = np.ones(len(jstamps), dtype=bool)
     if shared:
@@ -275,8 +275,11 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
 
 def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any) -> frozenset[int]:
     """The states of a robot recording without their RobotState before the first that has one (a recorder that
-    subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut)."""
-    if arms is None or not len(stamps):
+    subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut);
+    every state where no robot states are recorded (a recording of fewer topics: its rods are what can be checked)."""
+    if arms is None:
+        return frozenset(range(len(stamps)))
+    if not len(stamps):
         return frozenset()
     order = np.argsort(stamps, kind='stable')
     known = [arms.joints(int(r)) is not None for r in order]
