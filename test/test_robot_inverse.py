@@ -231,6 +231,39 @@ def test_two_joint_arm_heading_is_an_outcome():
         solve_stations(robot, free, 'arm2')
 
 
+@pytest.mark.parametrize('model', ['radial', 'compliant'])
+def test_a_two_joint_arms_refusal_gives_the_headings_it_can_reach_in_the_stations_frame(model):
+    """With the base yawed and tilted, the mount yawed and (compliant) the platform twisted, the refusal gave the
+    headings in gpr_platform and the heading sent shifted by the mount's yaw: the advised ones were refused in turn.
+    They are the station's own now: each, sent on its branch, is accepted."""
+    import re
+    data = robot_data()
+    data['base']['rpy'] = [0.004, -0.003, -0.5]
+    arm = data['arms'][0]
+    arm['joints'] = arm['joints'][:2]
+    arm['home'] = [0.0, 2.5]
+    arm['mount'] = {'position': [0.01, -0.02, 0.08], 'yaw': 0.3}
+    data['gpr'] = {**data.get('gpr', {}), 'model': model}
+    robot = make_robot(data)
+    a = robot.arm('arm1')
+    st, _, J = random_stations(robot, 'arm1', 5, seed=11)
+    branch = branch_of(a, J)
+    for i in range(5):
+        wrong = Stations.of(st.position[i:i + 1], st.tilt[i:i + 1], st.azimuth[i:i + 1], st.heading[i:i + 1] + 0.01)
+        with pytest.raises(LimitError) as caught:
+            solve_stations(robot, wrong, 'arm1', branch=branch[i])
+        m = re.search(r'it is (\S+) rad \(branch (\w+)\) or (\S+) rad \(the other branch\), not (\S+) rad', str(caught.value))
+        assert m is not None, caught.value
+        assert float(m[4]) == pytest.approx(float(np.remainder(st.heading[i] + 0.01 + np.pi, 2 * np.pi) - np.pi),
+                                            abs=1e-11)
+        assert abs(float(m[1]) - st.heading[i]) < 1e-10    # the posture's own heading, as fk gives it
+        other = 'left' if m[2] == 'right' else 'right'
+        for heading, side in ((float(m[1]), m[2]), (float(m[3]), other)):
+            ok = solve_stations(robot, Stations.of(st.position[i:i + 1], st.tilt[i:i + 1], st.azimuth[i:i + 1],
+                                                   [heading]), 'arm1', branch=side)
+            assert ok.position_error[0] < 1e-9
+
+
 def _radial_platform(q, R):
     """Exact platform pose under the radial model, independently: least squares on the closure, then a rigid fit."""
     th = np.radians([0.0, 120.0, 240.0])

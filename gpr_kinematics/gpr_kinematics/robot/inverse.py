@@ -382,11 +382,14 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
         shown, end = apart(float(value), limit)
         return (f'{j.name} = {shown} rad is beyond its {side} limit {end} rad by {abs(value - limit):.4g} '
                 f'rad (branch {result.branch[i]}{hint})')
-    yaw = a.mount_yaw
+    # The headings as the station gives its own (about its normal, in its plane): the platform lies in that plane,
+    # so the mount frame's heading is the station's plus one angle (a base's yaw, the mount's, the platform's twist).
+    given = float(result.stations.heading[i])
+    offset = float(targets.phi[i]) - given
     return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
-            f'{_wrap(sol.heading[i] + yaw):.9g} rad (branch {result.branch[i]}) or {_wrap(other.heading[0] + yaw):.9g} '
-            f'rad (the other branch) in gpr_platform, not {_wrap(targets.phi[i] + yaw):.9g} rad; leave the heading '
-            'free or give one of these')
+            f'{_wrap(sol.heading[i] - offset):.12g} rad (branch {result.branch[i]}) or '
+            f'{_wrap(other.heading[0] - offset):.12g} rad (the other branch), not {_wrap(given):.12g} rad; leave the '
+            'heading free or give one of these (to 1e-9 rad)')
 
 
 def _self_motion_fault(a: Arm, targets: _Targets, i: int, branch: str) -> str:
