@@ -252,7 +252,8 @@ def test_a_two_joint_arms_refusal_gives_the_headings_it_can_reach_in_the_station
         wrong = Stations.of(st.position[i:i + 1], st.tilt[i:i + 1], st.azimuth[i:i + 1], st.heading[i:i + 1] + 0.01)
         with pytest.raises(LimitError) as caught:
             solve_stations(robot, wrong, 'arm1', branch=branch[i])
-        m = re.search(r'it is (\S+) rad \(branch (\w+)\) or (\S+) rad \(the other branch\), not (\S+) rad', str(caught.value))
+        m = re.search(r'it is (\S+) rad \(branch (\w+)\) or (\S+) rad \(the other branch\), not (\S+) rad',
+                      str(caught.value))
         assert m is not None, caught.value
         assert float(m[4]) == pytest.approx(float(np.remainder(st.heading[i] + 0.01 + np.pi, 2 * np.pi) - np.pi),
                                             abs=1e-11)
