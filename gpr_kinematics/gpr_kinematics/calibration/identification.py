@@ -80,6 +80,9 @@ MAX_CHI2 = 1e4
 GROSS_MISMATCH = 0.5 * MAX_SIDE_MISMATCH
 #: The label of the start with the joints on their rods.
 ON_RODS = 'joints on their rods'
+#: The label of the start from the frames fitted alone (:meth:`~.frames.FramedModel.registered`), tried where the
+#: closed-form registration leaves a pose beyond :data:`PLAUSIBLE_POSITION` or :data:`PLAUSIBLE_ANGLE`.
+REGISTERED = 'frames fitted alone'
 #: A fit's status (:data:`~.fitting.STATUSES`) in the gate's words.
 STATUS_WORDS = {'iterations': 'out of iterations'}
 NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
@@ -130,10 +133,16 @@ def least_rows(n_free: int, per_row: int) -> int:
     return n_free // per_row + 1
 
 
-def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
+def _implausible(errors: Array) -> tuple[NDArray[np.int64], Array, Array]:
+    """The rows whose errors ``(N, 3 or 6)`` lie beyond :data:`PLAUSIBLE_POSITION` or :data:`PLAUSIBLE_ANGLE`, and
+    every row's position and angle error."""
     dp = np.linalg.norm(errors[:, :3], axis=1)
     da = np.linalg.norm(errors[:, 3:], axis=1) if errors.shape[1] == 6 else np.zeros(len(dp))
-    bad = np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE))
+    return np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE)).astype(np.int64), dp, da
+
+
+def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
+    bad, dp, da = _implausible(errors)
     if bad.size:
         i = int(bad[0])
         what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
@@ -347,7 +356,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
         return measured_errors(model, meas, theta) * w
 
     e0 = measured_errors(model, meas, theta0)
-    _check_plausible(meas, e0, frame)
+    refine = getattr(model, 'registered', None)   # a registration: the frames refined where its closed form misses
+    registered = refine(meas) if callable(refine) and _implausible(e0)[0].size else None
+    _check_plausible(meas, e0 if registered is None else measured_errors(model, meas, registered), frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
     tell = reporter(progress)
     J0 = residual_jacobian(residuals, params, theta0, free_idx, scale, lambda share: tell('identifiability', share))
@@ -359,6 +370,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
                                 J0[:, np.searchsorted(free_idx, fit)], scale, progress)
         starts = _starts(params, theta0, fit) if gross is None else \
             _starts(params, gross[0], fit, ON_RODS) + [('nominal', theta0)]
+        if registered is not None:   # the frames' best start under the nominal geometry, and the closed form's
+            starts = [(REGISTERED, registered)] + starts
         best, outcomes = minimise(residuals, params, starts, fit, scale, dof, progress)
     except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
         raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
