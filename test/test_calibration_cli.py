@@ -195,6 +195,18 @@ def bad_inputs(tmp_path):
          r'nan\.csv line 2, column x: nan is not a finite number'),
         (['calibrate', write(tmp_path, 'mm.csv', 'q1,q2,q3,x,y,z,qx,qy,qz,qw\n' + '\n'.join(mm_rows)),
           '--output', 'x.yaml'], r'mm\.csv line 2, column q1: [\d.]+ m is outside the stroke .*declare "# units: mm"'),
+        # the rods in mm under a "# units: mm" line, the positions left in metres: "in SI units" and no hint
+        (['calibrate', write(tmp_path, 'mixed.csv', '# units: mm\n' + '\n'.join([header] + [','.join(
+            [f'{float(v) * 1000!r}' for v in r.split(',')[:3]] + r.split(',')[3:10] + ['3e-3', r.split(',')[11]])
+            for r in rows])), '--output', 'x.yaml'],
+         r'mixed\.csv line 3: the measured pose is 0\.50\d+ m .* in gpr_base in millimetres, as the file declares '
+         r'\(metres under the "# units: mm" line\? give them in mm\)$'),
+        # sigmas 30 to 60 times too small, kappa alone free: the parameters held were not named as a cause
+        (['calibrate', write(tmp_path, 'tiny.csv', '\n'.join([header] + [r.replace(',3e-06,2e-05', ',1e-07,1e-06')
+                                                                      for r in rows])),
+          '--output', 'x.yaml', '--free', 'kappa'],
+         r'tiny\.csv: the best fit leaves residuals .*or sigma columns far too small, or parameters held that are off '
+         r'nominal \(21 held by --free or a tolerance of 0: rod1_x, rod1_y, rod1_offset, rod1_ux, \.\.\.\)\?$'),
         (['calibrate', write(tmp_path, 'empty.csv', header + '\n'), '--output', 'x.yaml'],
          r'empty\.csv: no data rows after the header'),
         (['calibrate', write(tmp_path, 'bare.csv', header.replace('q1', 'q1 []', 1) + '\n' + '\n'.join(rows)),

@@ -150,14 +150,18 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
         # millimetres read as metres only where a thousandth of the measurement lies where the model puts it (a pose in
         # another frame 3 m away got the hint, in a file that declared its units)
         model_position = meas.position[i] + errors[i, :3]
-        mm = bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
+        declared_mm = meas.units[0] == 'mm'
+        mm = not declared_mm and bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
+        metres = declared_mm and bool(np.linalg.norm(model_position - 1e3 * meas.position[i]) <= PLAUSIBLE_POSITION)
         elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
                      if frame == 'gpr_base' else '')
         why = ('millimetres? declare "# units: mm"' if mm else
+               'metres under the "# units: mm" line? give them in mm' if metres else
                f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
                'offset of a degree moves its wafer some centimetres): correct the nominal model first')
+        unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
         raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
-                                   f'{limits}): not a measurement of this machine in {frame} in SI units ({why})')
+                                   f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
 
 
 def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64], label: str = 'nominal'
@@ -379,9 +383,13 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     theta = best.theta
     chi2_red = best.cost / dof
     if absolute and chi2_red > MAX_CHI2:
+        fixed_names = [p.name for j, p in enumerate(params) if not mask[j]]
+        shown = ', '.join(fixed_names[:4]) + (', ...' if len(fixed_names) > 4 else '')
+        fixed = (f', or parameters held that are off nominal ({len(fixed_names)} held by --free or a tolerance of 0: '
+                 f'{shown})?' if fixed_names else '')
         raise InputError(f'{meas.source}: the best fit leaves residuals {math.sqrt(chi2_red):.3g} times the standard '
                          f'deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most {MAX_CHI2:g}): '
-                         f'{NOT_THIS_MACHINE}, or sigma columns far too small')
+                         f'{NOT_THIS_MACHINE}, or sigma columns far too small{fixed}')
     cov = np.zeros((0, 0))
     se = np.full(len(params), np.nan)
     other = np.flatnonzero(~np.isin(np.arange(len(params)), fit)).astype(np.int64)
