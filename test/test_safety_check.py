@@ -303,7 +303,7 @@ def test_the_wafers_are_followed_through_the_program():
     with pytest.raises(ConfigError, match=r'station pm1 holds no wafer \(the program declares wafers: \[load_port_1\]'):
         wafer_plan(_cell_program(wafers=['load_port_1'], steps=[{'move': 'high'}, {'move': 'pm1_front'},
                                                                 {'pick': 'pm1'}]))
-    with pytest.raises(ConfigError, match=r'station pm1 already holds a wafer'):
+    with pytest.raises(ConfigError, match=r'station pm1 already holds a wafer; allowed: a place onto an empty station'):
         wafer_plan(_cell_program(wafers=['load_port_1', 'pm1'], steps=[
             {'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}]))
     undeclared = wafer_plan(_cell_program(wafers=None))    # no key: picks find a wafer where they pick

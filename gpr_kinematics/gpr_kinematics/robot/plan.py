@@ -316,9 +316,11 @@ def check_wafers(program: RobotProgram, way: Waypoints) -> None:
             carrying.add(arm)
         else:
             if arm not in carrying and declared:
-                raise ConfigError(f'{where}: arm {arm} carries no wafer to place')
+                raise ConfigError(f'{where}: arm {arm} carries no wafer to place; allowed: a place after the arm\'s '
+                                  'pick')
             if station in present:
-                raise ConfigError(f'{where}: station {station} already holds a wafer')
+                raise ConfigError(f'{where}: station {station} already holds a wafer; allowed: a place onto an empty '
+                                  'station (pick its wafer first)')
             carrying.discard(arm)
             present.add(station)
 
