@@ -432,3 +432,19 @@ def test_a_stamp_in_the_past_keeps_a_first_point_ahead_at_its_instant_and_refuse
                            'ended before it arrived; allowed: 0') as e:
             late_start(JOINTS, later, rest, late, 0.0)
         assert e.value.code == OLD_HEADER_TIMESTAMP
+
+
+@pytest.mark.parametrize('times', [(0.5, 1.0), (0.503, 0.508)], ids=['samples inside', 'between two samples'])
+def test_a_spline_that_overflows_is_an_invalid_goal(times):
+    """A point's acceleration of 1e308 (finite, as the points' check asks) makes the quintic's coefficients inf - inf:
+    its samples were NaN, which no limit comparison caught, and the goal succeeded publishing NaN joint states (with
+    a cell the clearance search never settled: minutes and gigabytes). Refused with its reason, also where the
+    segment lies between two samples."""
+    a = float(JOINTS.rest[JOINTS.indices(['arm1_elbow'])[0]])
+    traj = _points(['arm1_elbow'], list(times), [[a], [a - 0.001]], [[0.0], [0.0]], [[0.0], [1e308]])
+    with pytest.raises(GoalError, match=r'^the spline between the points overflows; allowed: velocities and '
+                                        r'accelerations that keep it finite$') as info:
+        _plan(traj)
+    assert info.value.code == INVALID_GOAL
+    ok = _points(['arm1_elbow'], list(times), [[a], [a - 0.001]], [[0.0], [0.0]], [[0.0], [0.0]])
+    assert np.all(np.isfinite(_plan(ok).positions))

@@ -395,6 +395,9 @@ def test_rods_without_a_platform_pose_are_reported_and_the_node_keeps_publishing
         n = len(platform_z())
         assert c.spin_until(lambda: len(platform_z()) > n + 2, 10)
         assert all(math.isfinite(v) and abs(v) < 10.0 for v in platform_z()), sorted(set(platform_z()))
+        # an arm joint of 1e155 rad overflowed its transform and stopped the node: left out, held as before
+        pub.publish(JointState(name=['arm1_elbow'], position=[1e155]))
+        wait_for_log(sp, r'joint_states: arm1_elbow beyond \+-1e\+06 rad, left out \(held as before\)')
         # positions that are not numbers were left out without a word
         pub.publish(JointState(name=names, position=[math.nan] * 3))
         wait_for_log(sp, r'joint_states: rod_1, rod_2, rod_3 not finite, left out \(held as before\); allowed: '

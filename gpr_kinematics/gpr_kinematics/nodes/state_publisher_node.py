@@ -182,6 +182,13 @@ class StatePublisherNode(GprNode):
         if left:
             self.get_logger().warning(f'joint_states: {", ".join(left)} not finite, left out (held as before); '
                                       'allowed: finite positions', throttle_duration_sec=5.0)
+        far = (taken >= 3) & (np.abs(values) > MAX_COORDINATE)   # an arm joint (the rods: _pose_of): no faithful
+        # transform there (1e155 rad overflowed one and stopped the node)
+        if far.any():
+            self.get_logger().warning(f'joint_states: {", ".join(self.joints.names[k] for k in taken[far])} beyond '
+                                      f'+-{MAX_COORDINATE:g} rad, left out (held as before)',
+                                      throttle_duration_sec=5.0)
+            taken, values = taken[~far], values[~far]
         rods = self.held[:3].copy()
         self.held[taken] = values
         for k, value in zip(taken.tolist(), values.tolist(), strict=True):

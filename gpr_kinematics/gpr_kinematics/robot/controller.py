@@ -15,17 +15,14 @@
   velocities or accelerations on some points only, times not finite or not strictly increasing, a position beyond the
   joint's limits, a point velocity or a segment's mean velocity ``|q_{i+1} - q_i| / (t_{i+1} - t_i)`` beyond the joint's
   velocity limit (the move from the current state to a first point after ``t = 0`` included), a first point at
-  ``t = 0`` away from the current state, an interpolated sample beyond a position limit or beyond a velocity
-  limit by more than :data:`SPLINE_VELOCITY_SLACK`, the platform tilted beyond
+  ``t = 0`` away from the current state, a spline that overflows (not finite), an interpolated sample beyond a
+  position limit or beyond a velocity limit by more than :data:`SPLINE_VELOCITY_SLACK`, the platform tilted beyond
   ``tilt_limit`` at any sample (forward kinematics of the virtual-joint model), or what a ``clearance`` check refuses
   (``INVALID_GOAL``: the robot simulator's is :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance
   of the whole interpolated motion, certified between samples);
 - :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
-  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults; :func:`servo`, the actuators'
-  response (first order with time constant ``tau``; ``tau = 0``: the joints follow exactly), and
-  :func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ``GOAL_TOLERANCE_VIOLATED``).
-
-Units are SI: m and m/s for the rods, rad and rad/s for the arm joints, seconds.
+  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults; :func:`servo` (the actuators,
+  first order) and :func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ...). SI units.
 """
 from __future__ import annotations
 
@@ -44,7 +41,7 @@ from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_times
 from .timing import MAX_SAMPLES
-from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate
+from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate, spline
 
 Array = NDArray[np.float64]
 
@@ -283,11 +280,14 @@ Clearance = Callable[[Motion], str | None]
 
 def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Array, time: Array, what: str) -> None:
     slack = np.where(cols < 3, STROKE_SLACK, LIMIT_SLACK)   # the rods first; the planner's and nodes' rule
-    bad = (values < joints.lower[cols] - slack) | (values > joints.upper[cols] + slack)
+    bad = ~((values >= joints.lower[cols] - slack) & (values <= joints.upper[cols] + slack))   # NaN is bad too
     if bad.any():
         i, k = (int(v) for v in np.argwhere(bad)[0])
-        j = int(cols[k])
-        v, u = float(values[i, k]), joints.units[j]
+        j, v = int(cols[k]), float(values[i, k])
+        u = joints.units[j]
+        if not math.isfinite(v):   # the spline overflowed (a point's acceleration of 1e308: inf - inf)
+            raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {v} {u}: the spline '
+                            'between the points overflows; allowed: velocities and accelerations that keep it finite')
         side, limit = ('lower', float(joints.lower[j])) if v < joints.lower[j] else ('upper', float(joints.upper[j]))
         # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
         shown, end = apart(v, limit, 12)
@@ -342,7 +342,7 @@ def _refuse_off_start(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
 
 def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel: Array, time: Array) -> None:
     limit = joints.velocity[cols]
-    bad = np.abs(vel) > limit * (1.0 + SPLINE_VELOCITY_SLACK)
+    bad = ~(np.abs(vel) <= limit * (1.0 + SPLINE_VELOCITY_SLACK))   # a velocity of NaN (an overflow) too
     if bad.any():
         i, k = (int(v) for v in np.argwhere(bad)[0])
         j, unit = int(cols[k]), f'{joints.units[int(cols[k])]}/s'
@@ -371,8 +371,11 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     if count > MAX_SAMPLES:
         raise GoalError(INVALID_GOAL, f'the trajectory lasts {traj.duration:.6g} s: {count} samples at {rate:g} Hz; '
                         f'allowed: at most {MAX_SAMPLES} samples')
-    t = grid_times(traj.duration, rate)
-    pos, vel, _ = evaluate(traj, start, t)
+    t, moving = grid_times(traj.duration, rate), spline(traj, start)
+    if not np.all(np.isfinite(moving.coefficients)):   # inf - inf: NaN between samples as well as at them
+        raise GoalError(INVALID_GOAL, 'the spline between the points overflows; allowed: velocities and accelerations '
+                        'that keep it finite')
+    pos, vel, _ = moving.evaluate(t)
     _refuse_beyond(joints, cols, pos, t, 'sample')
     _refuse_fast_samples(joints, cols, vel, t)
     positions = np.repeat(current[None, :], t.shape[0], axis=0)
@@ -430,10 +433,7 @@ def late_start(joints: ControllerJoints, traj: JointTrajectory, current: Array, 
 def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
     """The joints after ``dt`` [s] of a first-order response with time constant ``tau`` [s] to ``desired`` held over
     the step: ``desired + (actual - desired) exp(-dt / tau)``; ``tau = 0``: ``desired`` exactly."""
-    if tau <= 0.0:
-        return np.array(desired, dtype=float)
-    out: Array = desired + (actual - desired) * math.exp(-dt / tau)
-    return out
+    return np.array(desired if tau <= 0.0 else desired + (actual - desired) * math.exp(-dt / tau), dtype=np.float64)
 
 
 def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,

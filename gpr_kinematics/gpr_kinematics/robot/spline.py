@@ -40,18 +40,20 @@ CHUNK = 20_000
 def coefficients(p0: Array, v0: Array, a0: Array, p1: Array, v1: Array, a1: Array, h: Array,
                  degree: int) -> list[Array]:
     """``c0 .. c5`` of segments from their end points' positions, velocities and accelerations (:mod:`.trajectory`'s
-    docstring); ``h`` broadcasts against the joints."""
+    docstring); ``h`` broadcasts against the joints. Values near the float range overflow to inf or NaN, without a
+    warning: a goal's check refuses such a spline (:func:`~gpr_kinematics.robot.controller.plan_motion`)."""
     D = p1 - p0
     zero = np.zeros_like(D)
-    if degree == 1:
-        return [p0, D / h, zero, zero, zero, zero]
-    if degree == 3:
-        return [p0, v0, (3.0 * D / h - 2.0 * v0 - v1) / h, (-2.0 * D / h + v0 + v1) / h ** 2, zero, zero]
-    h2 = h * h
-    return [p0, v0, 0.5 * a0,
-            (20.0 * D - (8.0 * v1 + 12.0 * v0) * h - (3.0 * a0 - a1) * h2) / (2.0 * h2 * h),
-            (-30.0 * D + (14.0 * v1 + 16.0 * v0) * h + (3.0 * a0 - 2.0 * a1) * h2) / (2.0 * h2 * h2),
-            (12.0 * D - 6.0 * (v1 + v0) * h + (a1 - a0) * h2) / (2.0 * h2 * h2 * h)]
+    with np.errstate(over='ignore', invalid='ignore'):
+        if degree == 1:
+            return [p0, D / h, zero, zero, zero, zero]
+        if degree == 3:
+            return [p0, v0, (3.0 * D / h - 2.0 * v0 - v1) / h, (-2.0 * D / h + v0 + v1) / h ** 2, zero, zero]
+        h2 = h * h
+        return [p0, v0, 0.5 * a0,
+                (20.0 * D - (8.0 * v1 + 12.0 * v0) * h - (3.0 * a0 - a1) * h2) / (2.0 * h2 * h),
+                (-30.0 * D + (14.0 * v1 + 16.0 * v0) * h + (3.0 * a0 - 2.0 * a1) * h2) / (2.0 * h2 * h2),
+                (12.0 * D - 6.0 * (v1 + v0) * h + (a1 - a0) * h2) / (2.0 * h2 * h2 * h)]
 
 
 def unit_roots(b: Array) -> Array:
