@@ -254,3 +254,34 @@ def test_voxel_sets_hit_within_two_voxels_of_a_box_and_never_beyond_three():
     hit = vox.any(qlo, qhi)
     assert near.sum() > 1000 and far.sum() > 1000
     assert hit[near].all() and not hit[far].any()
+
+
+def test_a_tool_grid_beyond_the_voxel_limit_is_refused_before_the_planar_covering(monkeypatch):
+    """``--delta 1 --mm`` covered the tripod and the planar mechanism (87 s, 710 MB) before its tool points' grid of
+    27.5 million voxels was refused, with no word of which delta would do: refused after the tripod's covering now
+    (the planar one never runs), naming the delta from which the dyadic grid fits; the grid of that delta fits."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.workspace import joint_area
+    from gpr_kinematics.workspace.voxels import grid, hull_of
+    model = load_workspace_model(config_path('mechanisms/joint_working_area.yaml'))
+    box = np.asarray(model.tripod.box, dtype=float)[None]
+    whole = SimpleNamespace(interrupted=False, inner=box, boundary=box[:0], stopped='')   # every tripod pose
+
+    def cover(sub_model, _sub, *_args):
+        assert sub_model is model.tripod, 'the planar mechanism was covered before the grid was refused'
+        return whole
+
+    monkeypatch.setattr(joint_area, 'compiled', lambda m: m)
+    with pytest.raises(Exception, match=r'a voxel grid of \[\d+, \d+, \d+\] cells exceeds the limit of 16000000 '
+                                        r'voxels; allowed: a coarser delta \(delta 0.001 here; about ([\d.e-]+) or '
+                                        r'more\)$') as info:
+        model.covering_task(1e-3, cover)
+    coarser = float(str(info.value).rsplit('about ', 1)[1].split(' ')[0])
+    box_points = model.tool_point(*(joint_area.Interval(box[0, i, 0], box[0, i, 1]) for i in range(3)))
+    hull = hull_of(np.stack([np.stack([np.asarray(p.lo), np.asarray(p.hi)], axis=-1) for p in box_points],
+                            axis=0)[None])
+    step = np.full(3, model.sub_delta * coarser * (1 + 1e-9) / 2)
+    assert np.prod(grid(hull, step)[2].astype(float)) <= MAX_VOXELS
+    with pytest.raises(Exception, match='exceeds the limit'):   # the power of two below does not fit
+        grid(hull, step / 2)

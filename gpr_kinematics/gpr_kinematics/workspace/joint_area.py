@@ -55,7 +55,7 @@ from .interval import Interval
 from .planar import Rrr3PlanarModel
 from .projection import GroupFrontier, split_groups
 from .tripod import TripodModel
-from .voxels import VoxelSet
+from .voxels import VoxelSet, grid, hull_of
 
 OUTPUTS = ('px', 'py', 'pz')
 DEFAULT_PLACEMENT = {'translation': [0.0, 0.0, 0.2], 'rpy': [math.pi, 0.0, 0.0]}
@@ -172,28 +172,29 @@ class JointWorkingArea:
         scheduler), build the voxel sets and the candidates, and start from the output box with the planar
         box as its only pose box."""
         sub = self.sub_delta * delta
+        step = np.array([sub, sub, sub]) / 2
         tri = approximate(self.tripod, sub)
         if tri.interrupted:   # the run stops for the same reason, at once (the planar one was covered to no use)
             raise SubCoveringStoppedError(tri.stopped)
+        t_boxes = np.concatenate([tri.inner, tri.boundary])
+        P0 = self.tool_point(*(Interval(t_boxes[:, i, 0], t_boxes[:, i, 1]) for i in range(3)))
+        images = np.stack([np.stack([np.asarray(p.lo), np.asarray(p.hi)], axis=1) for p in P0], axis=1)
+        grid(hull_of(images), step, delta)   # the tool points' grid refused before the planar covering runs
         pla = approximate(compiled(self.planar), sub, True)
         if pla.interrupted:
             raise SubCoveringStoppedError(pla.stopped)
-        t_boxes = np.concatenate([tri.inner, tri.boundary])
         outer = np.concatenate([pla.inner, pla.boundary])
-        hull = outer_hull = np.stack([outer[:, :, 0].min(axis=0), outer[:, :, 1].max(axis=0)], axis=1)
-        P0 = self.tool_point(*(Interval(t_boxes[:, i, 0], t_boxes[:, i, 1]) for i in range(3)))
-        images = np.stack([np.stack([np.asarray(p.lo), np.asarray(p.hi)], axis=1) for p in P0], axis=1)
+        hull = outer_hull = hull_of(outer)
         p_scale = self.planar.scale
-        step = np.array([sub, sub, sub]) / 2
         tilts, turns = self._candidates(tri.inner, pla.inner)
         self.tables = {
-            'tool': VoxelSet.from_boxes(images, step),
-            'planar_outer': VoxelSet.from_boxes(outer, step / p_scale),
+            'tool': VoxelSet.from_boxes(images, step, delta=delta),
+            'planar_outer': VoxelSet.from_boxes(outer, step / p_scale, delta=delta),
             # the leaves that are not inner boxes: with the inner ones they tile the planar box, so a box inside
             # the outer hull that meets none of them lies in the union of the inner boxes
             'planar_hull': hull,
             'planar_not_inner': VoxelSet.from_boxes(np.concatenate([pla.boundary, pla.outside]), step / p_scale,
-                                                    hull),
+                                                    hull, delta),
             'candidates': (tilts, turns),
             'tilt_terms': self._tilt_terms(tilts),
             'turn_cos': Interval.point(turns).cos(),

@@ -21,9 +21,35 @@ from ..errors import InputError
 MAX_VOXELS = 16_000_000
 
 
+def hull_of(boxes: np.ndarray) -> np.ndarray:
+    """The hull (d, 2) of (n, d, 2) boxes (zeros for none)."""
+    if not len(boxes):
+        return np.zeros((boxes.shape[1], 2))
+    return np.stack([boxes[:, :, 0].min(axis=0), boxes[:, :, 1].max(axis=0)], axis=1)
+
+
 def dyadic(step: float) -> float:
     """The largest power of two not above ``step`` (> 0)."""
     return float(2.0 ** math.floor(math.log2(step)))
+
+
+def grid(hull: np.ndarray, spacing: np.ndarray, delta: float | None = None) -> tuple[np.ndarray, np.ndarray,
+                                                                                  np.ndarray]:
+    """The dyadic spacing, the origin and the cells per axis of a grid of (rounded down) ``spacing`` over ``hull``
+    (d, 2) with a two-voxel margin; :class:`InputError` beyond :data:`MAX_VOXELS` cells, naming the delta ``delta``
+    [SI] of the covering it serves and about the finest one allowed (the cells go as 1 / delta^d)."""
+    s = np.array([dyadic(float(v)) for v in spacing])
+    origin = (np.floor(hull[:, 0] / s) - 2) * s
+    shape = (np.floor((hull[:, 1] - origin) / s) + 3).astype(np.int64)
+    cells = float(np.prod(shape.astype(float)))
+    if cells > MAX_VOXELS:
+        # the spacing is a power of two: each doubling of it divides the cells by about 2^d
+        doublings = math.ceil(math.log2(cells / MAX_VOXELS) / len(shape))
+        coarser = 0.0 if delta is None else delta * float(np.max(s * 2.0 ** doublings / np.asarray(spacing)))
+        finer = '' if delta is None else f' (delta {delta:g} here; about {coarser:.3g} or more)'
+        raise InputError(f'a voxel grid of {shape.tolist()} cells exceeds the limit of {MAX_VOXELS} voxels; '
+                         f'allowed: a coarser delta{finer}')
+    return s, origin, shape
 
 
 @dataclass(frozen=True)
@@ -40,19 +66,13 @@ class VoxelSet:
         return tuple(int(n) - 1 for n in self.table.shape)
 
     @classmethod
-    def from_boxes(cls, boxes: np.ndarray, spacing: np.ndarray, hull: np.ndarray | None = None) -> VoxelSet:
+    def from_boxes(cls, boxes: np.ndarray, spacing: np.ndarray, hull: np.ndarray | None = None,
+                   delta: float | None = None) -> VoxelSet:
         """Voxelise (n, d, 2) boxes on a grid of (rounded down to dyadic) ``spacing`` over ``hull`` (d, 2)
-        (default: the boxes' hull; the parts of boxes beyond it are left out)."""
+        (default: the boxes' hull, :func:`hull_of`; the parts of boxes beyond it are left out); ``delta``: the
+        covering's, for the message of a grid beyond :data:`MAX_VOXELS` (:func:`grid`)."""
         d = boxes.shape[1]
-        s = np.array([dyadic(float(v)) for v in spacing])
-        if hull is None:
-            hull = np.stack([boxes[:, :, 0].min(axis=0), boxes[:, :, 1].max(axis=0)], axis=1) if len(boxes) else (
-                np.zeros((d, 2)))
-        origin = (np.floor(hull[:, 0] / s) - 2) * s
-        shape = (np.floor((hull[:, 1] - origin) / s) + 3).astype(np.int64)
-        if float(np.prod(shape.astype(float))) > MAX_VOXELS:
-            raise InputError(f'a voxel grid of {shape.tolist()} cells exceeds the limit of {MAX_VOXELS} voxels; '
-                             'allowed: a coarser delta')
+        s, origin, shape = grid(hull_of(boxes) if hull is None else hull, spacing, delta)
         marks = np.zeros(tuple(int(n) + 1 for n in shape), dtype=np.int32)
         if len(boxes):
             i0 = np.floor((boxes[:, :, 0] - origin) / s).astype(np.int64) - 1
