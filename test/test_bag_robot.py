@@ -361,29 +361,61 @@ def test_robot_states_missing_at_the_start_are_a_late_recorder(robot_bag: Path, 
     assert got == failed if not failed else failed <= got, got
 
 
-@pytest.mark.parametrize('kept', [(), (ROBOT_TOPIC,)], ids=['no robot topics', 'the robot recorded'])
+@pytest.mark.parametrize('kept', [(), (ROBOT_TOPIC,)], ids=['the robot given', 'the robot recorded'])
 def test_a_robot_recording_of_fewer_topics_checks_the_rods_of_its_joint_states(robot_bag: Path, tmp_path: Path,
                                                                                 kept: tuple[str, ...]) -> None:
     """A recorder given the platform state, joint_states and the geometry (no robot states) of a robot program:
     every joint_states message carries the rods and the arm joints, and topic.joint_states failed every sample of the
-    honest bag (inf: the arm joints' RobotState not in the bag). The rods are checked there (as before the first
-    RobotState of a late recording); a rod edited by 1 um still fails."""
+    honest bag (inf: the arm joints' RobotState not in the bag). With the robot known (recorded, or given as
+    --robot) the rods are checked there, the message carrying that robot's joints after them (as before the first
+    RobotState of a late recording); a rod edited by 1 um still fails, and so do joints other than the robot's.
+    Without a robot known nothing tells such a message from a platform recording's with joints appended: it fails."""
     from bag_support import messages_of
     from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, JOINT_STATES_TOPIC
 
     topics = {'/gpr/platform_state', JOINT_STATES_TOPIC, GEOMETRY_TOPIC, *kept}
     types = {t: GPR_TOPICS[t] for t in topics}
     bag = write_bag(tmp_path / 'few', [m for m in messages_of(robot_bag) if m[0] in topics], types)
-    result = verify_bag(bag)
+    robot = None if kept else ROBOT
+    result = verify_bag(bag, robot=robot)
     assert result.passed, [f.line() for f in result.failures]
     check = next(c for c in result.checks if c.name == 'topic.joint_states')
     assert check.checked > 10 and not check.skipped
+    if not kept:
+        assert 'topic.joint_states' in _failed(verify_bag(bag))
 
-    def edit(topic, msg):
-        if topic == JOINT_STATES_TOPIC and msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec > 0:
-            position = msg.position.copy()
-            position[1] += 1e-6
-            return dataclasses.replace(msg, position=position)
+    def edit(change):
+        def apply(topic, msg):
+            if topic == JOINT_STATES_TOPIC and msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec > 0:
+                return change(msg)
+            return msg
+        return apply
+
+    def rod(msg):
+        position = msg.position.copy()
+        position[1] += 1e-6
+        return dataclasses.replace(msg, position=position)
+
+    def renamed(msg):
+        return dataclasses.replace(msg, name=[*msg.name[:-1], 'gripper'])
+
+    for name, change in (('rod', rod), ('renamed', renamed)):
+        edited = verify_bag(rewritten(bag, tmp_path / name, edit(change)), robot=robot)
+        assert 'topic.joint_states' in _failed(edited), name
+
+
+def test_a_platform_recordings_joint_states_carry_the_rods_alone(tmp_path: Path) -> None:
+    """A sweep's joint_states with a joint appended (1e9 rad) passed once the rods alone were checked wherever no
+    robot states are recorded: without a robot known, the whole message is checked again."""
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
+
+    msgs = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0))
+    bag = write_bag(tmp_path / 'sweep', msgs, dict(GPR_TOPICS))
+    assert verify_bag(bag).passed
+
+    def appended(topic, msg):
+        if topic == JOINT_STATES_TOPIC:
+            return dataclasses.replace(msg, name=[*msg.name, 'bogus'], position=np.append(msg.position, 1e9))
         return msg
 
-    assert 'topic.joint_states' in _failed(verify_bag(rewritten(bag, tmp_path / 'edited', edit)))
+    assert 'topic.joint_states' in _failed(verify_bag(rewritten(bag, tmp_path / 'appended', appended)))

@@ -199,12 +199,12 @@ _Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
 
 def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
                   layouts: tuple[_Layout, ...], detail: str, rods_only: frozenset[int] = frozenset(),
-                  shared: bool = False) -> list[Check]:
+                  shared: bool = False, after_rods: tuple[str, ...] | None = None) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
     layout whose names it carries (inf when it carries none); of the states ``rods_only`` their first three joints
     only where none of the layouts matches the whole message (those of a robot recording whose RobotState is not in
     the bag at its ends: a cut lost the last one, a recorder that subscribed late missed the first ones; or not
-    recorded at all: their arm joints are not known).
+    recorded at all, where ``after_rods`` names the joints the message must carry after the rods: the robot's).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
     states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
     with a state's stamp is, also beside the stream's message of that stamp)."""
@@ -228,7 +228,7 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
         if np.size(jc['velocity'][idx[r]]) or np.size(jc['effort'][idx[r]]):
             continue   # the node publishes positions only
         whole = [(got_names, got)]    # the whole message first (a layout it carries whole is checked whole)
-        if r in rods_only:
+        if r in rods_only and (after_rods is None or got_names[len(ROD_JOINT_NAMES):] == after_rods):
             whole.append((got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]))
         e[r] = next((float(np.max(np.abs(values - want), initial=0.0)) for carried, values in whole
                      for want_names, want in (layout(int(r)) for layout in layouts)
@@ -244,11 +244,12 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
-                        arms: Any = None) -> list[Check]:
+                        arms: Any = None, robot_joints: tuple[str, ...] | None = None) -> list[Check]:
     """``/joint_states`` (``/gpr/joint_states`` in bags recorded before) carries the rods (``rod_1..rod_3``, ``q``),
     and in a whole-robot recording then every arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the
-    robot states); bags recorded before the virtual joints got their own topic carry the rods then the virtual
-    joints. ``/gpr/virtual_joints`` carries the virtual joints."""
+    robot states; without them, the rods alone where the message carries the known robot's joints, ``robot_joints``,
+    after them); bags recorded before the virtual joints got their own topic carry the rods then the virtual joints.
+    ``/gpr/virtual_joints`` carries the virtual joints."""
     vnames = c['virtual_joint_names']
 
     def rods(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
@@ -267,18 +268,22 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
         bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
     return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
-                          'recording; or, recorded before, rod_1..rod_3 + the virtual joints)',
-                          _without_robot_state_at_the_ends(stamp_ns(c), arms), shared=True)
+                          'recording, or of the robot recorded or given without its states; or, recorded before, '
+                          'rod_1..rod_3 + the virtual joints)',
+                          _without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None), shared=True,
+                          after_rods=robot_joints if arms is None else None)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
 
-def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any) -> frozenset[int]:
+def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any, robot: bool) -> frozenset[int]:
     """The states of a robot recording without their RobotState before the first that has one (a recorder that
     subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut);
-    every state where no robot states are recorded (a recording of fewer topics: its rods are what can be checked)."""
+    every state where no robot states are recorded but the robot is known (``robot``: recorded or given; a recording
+    of fewer topics, its rods what can be checked); none where neither is (a platform recording: its messages carry
+    the rods alone)."""
     if arms is None:
-        return frozenset(range(len(stamps)))
+        return frozenset(range(len(stamps))) if robot else frozenset()
     if not len(stamps):
         return frozenset()
     order = np.argsort(stamps, kind='stable')
@@ -412,10 +417,12 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
 
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
-                 tol: float, arms: Any, markers_every: NDArray[np.int64]) -> list[Check]:
+                 tol: float, arms: Any, markers_every: NDArray[np.int64],
+                 robot_joints: tuple[str, ...] | None = None) -> list[Check]:
     """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
     joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`, or None; ``markers_every``: the
-    recorded cadence of the markers per state, 0 where none is recorded, :func:`~.checks_program.marker_cadence`)."""
+    recorded cadence of the markers per state, 0 where none is recorded, :func:`~.checks_program.marker_cadence`;
+    ``robot_joints``: every arm joint of the robot recorded or given, None without one)."""
     every = np.asarray(markers_every, np.int64)
-    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms)
+    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms, robot_joints)
             + _marker_checks(bag, c, samples, cfg, tol, every))

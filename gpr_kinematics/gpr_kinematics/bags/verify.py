@@ -105,9 +105,10 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             recorded = read_records(bag)
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
                                                   robot_program_states(recorded[0], samples))
+            robot_joints = None if arms.robot is None else tuple(n for a in arms.robot.arms for n in a.joint_names)
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
-                marker_cadence(recorded[0], samples)) + robot_part
+                marker_cadence(recorded[0], samples), robot_joints) + robot_part
             checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
