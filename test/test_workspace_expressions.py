@@ -156,6 +156,9 @@ def test_mean_value_enclosure_is_certified_and_tighter_on_small_boxes():
     ('x' + ' + x' * 800 + ' = 1', 'characters; allowed: at most'),
     ('', 'non-empty text'),
     (3, 'non-empty text'),
+    # an empty range: an empty workspace was reported, exit 0
+    ('2 <= x <= 1', r'the range \[2, 1\] of a <= f <= b is empty; allowed: a <= b'),
+    ('1 >= x >= 2', r'the range \[2, 1\] of a <= f <= b is empty; allowed: a <= b'),
 ])
 def test_malformed_constraints_are_refused_with_what_is_wrong(text, match):
     with pytest.raises(ExpressionError, match=match):
@@ -167,7 +170,11 @@ def test_malformed_constraints_are_refused_with_what_is_wrong(text, match):
     ('1e308*1e308*x <= 1', r'mul of the constants \[1e\+308, 1e\+308\] and \[1e\+308, 1e\+308\] is not a finite '
                            r'number \(by column 7\)'),
     ('exp(1000) <= x', r'exp of the constant \[1000, 1000\] is not a finite number \(by column 9\)'),
-    ('1/0 <= x', r'division by the constant \[0, 0\] is undefined \(by column 3\)'),   # it named the numerator 1
+    ('1/0 <= x', r'division by the constant \[0, 0\], which holds 0, is undefined \(by column 3\)'),   # it named 1
+    # a variable over a constant 0 (or an enclosure holding 0): an empty workspace, exit 0
+    ('x/0 <= 1', r'division by the constant \[0, 0\], which holds 0, is undefined \(by column 3\)'),
+    ('x/(1-1) <= 1', r'division by the constant \[-4.94066e-324, 4.94066e-324\], which holds 0, is undefined '
+                     r'\(by column 7\)'),
     ('sqrt(-1) <= x', r'sqrt of the constant \[-1, -1\] is undefined \(by column 8\)'),
 ])
 def test_a_constant_part_off_its_domain_is_located_in_one_line(text, match, recwarn):

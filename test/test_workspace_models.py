@@ -342,6 +342,21 @@ def test_upu3_workspace_model_refuses_limbs_sharing_an_azimuth(azimuths, message
     np.testing.assert_allclose(model.centres[:, 0], 0.03 * np.cos([0.0, 2e-6, 4.0]))
 
 
+@pytest.mark.parametrize('kwargs, message', [
+    ({'base_angles': [0.0, 0.0, 0.0]}, r'rrr3_planar: base_angles \[0\.0, 0\.0, 0\.0\] rad: limbs 1 and 2 share'),
+    ({'base_angles': [math.pi / 2, 5 * math.pi / 2, 11 * math.pi / 6]}, r'base_angles .* limbs 1 and 2 share an '
+                                                                         r'azimuth'),
+    ({'platform_angles': [0.0, 1.0, 1.0]}, r'rrr3_planar: platform_angles \[0\.0, 1\.0, 1\.0\] rad: limbs 2 and 3'),
+])
+def test_rrr3_workspace_model_refuses_two_legs_on_one_pivot(kwargs, message):
+    """base_angles [0, 0, 0] (or two equal modulo 2 pi) were covered as a "certified" workspace of three legs on one
+    base pivot; the 3-UPU's check of its azimuths applies (mechanisms.upu3.check_azimuths)."""
+    with pytest.raises(ConfigError, match=message):
+        Rrr3PlanarModel(**kwargs)
+    given = [math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6]     # the defaults, given: taken
+    assert Rrr3PlanarModel(platform_angles=given).platform_angles.tolist() == given
+
+
 def test_gpr_tan_over_sqrt_is_accurate_on_both_sides_of_its_series_switch():
     """``tan(sqrt(u)) / sqrt(u)`` (the series 1 + u/3 + 2u^2/15 below u = 1e-8) within 2^-50 of mpmath's value, from
     u = 0 to tilts of 1.5 rad: the monotone enclosure of the GPR's rod lengths allows 2^-48."""

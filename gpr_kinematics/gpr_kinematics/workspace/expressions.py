@@ -92,6 +92,9 @@ class Graph:
 
     def apply(self, op: str, *operands: Expr) -> Expr:
         ids = tuple(e.id for e in operands)
+        divisor = self.consts.get(ids[1]) if op == 'div' else None   # x / 0: undefined wherever x is
+        if divisor is not None and divisor[0] <= 0.0 <= divisor[1]:
+            raise FoldError(f'division by the constant [{divisor[0]:g}, {divisor[1]:g}], which holds 0, is undefined')
         if all(i in self.consts for i in ids):
             return self._fold(op, ids)
         return Expr(self, self._add((op, ids), op, ids))
@@ -101,11 +104,9 @@ class Graph:
         a = Interval(*(np.asarray(v) for v in self.consts[ids[0]]))
         b = Interval(*(np.asarray(v) for v in self.consts[ids[1]])) if len(ids) > 1 else a
         domain = {'sqrt': a.hi >= 0, 'log': a.hi > 0, 'arcsin': (a.lo <= 1) & (a.hi >= -1),
-                  'arccos': (a.lo <= 1) & (a.hi >= -1), 'div': (b.lo != 0) | (b.hi != 0)}
-        if not bool(domain.get(op, True)):   # a division's divisor is the constant at fault
-            bad = b if op == 'div' else a
-            raise FoldError(f'{"division by" if op == "div" else op + " of"} the constant [{bad.lo:g}, '
-                            f'{bad.hi:g}] is undefined')
+                  'arccos': (a.lo <= 1) & (a.hi >= -1)}   # a divisor holding 0: refused by apply
+        if not bool(domain.get(op, True)):
+            raise FoldError(f'{op} of the constant [{a.lo:g}, {a.hi:g}] is undefined')
         with np.errstate(all='ignore'):   # an overflow is refused below, in one line (numpy warned on stderr)
             if op in BINARY:
                 r = {'add': a + b, 'sub': a - b, 'mul': a * b, 'div': a / b}[op]
@@ -354,6 +355,8 @@ def parse_constraint(text: Any, graph: Graph, names: Mapping[str, Expr], where: 
         lo, f, hi = parts if rels[0] == '<=' else parts[::-1]
         if lo.constant is None or hi.constant is None:
             p.fail('the outer terms of a <= f <= b must be constants')
+        elif lo.constant[0] > hi.constant[1]:   # no value of f lies in it: the workspace would be empty by typing
+            p.fail(f'the range [{lo.constant[0]:g}, {hi.constant[1]:g}] of a <= f <= b is empty; allowed: a <= b')
         return Constraint(f, lo.constant or (0.0, 0.0), hi.constant or (0.0, 0.0), text)
     return _one_relation(parts[0], rels[0], parts[1], text)
 

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
+from ..mechanisms.upu3 import check_azimuths
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T
 
@@ -58,10 +59,10 @@ class Rrr3PlanarModel(WorkspaceModel):
             float(crank),
             float(coupler),
         )
-        self.base_angles = np.asarray(base_angles, dtype=float)
-        self.platform_angles = (
-            self.base_angles.copy() if platform_angles is None else np.asarray(platform_angles, dtype=float)
-        )
+        # two legs on one base pivot (or one platform joint) were covered as three constraints, two the same
+        self.base_angles = check_azimuths(base_angles, 'rrr3_planar: base_angles')
+        self.platform_angles = (self.base_angles.copy() if platform_angles is None else
+                                check_azimuths(platform_angles, 'rrr3_planar: platform_angles'))
         self.branch = int(branch)
         self.theta_min, self.theta_max = float(theta_min), float(theta_max)
         self.A = self.R * np.stack([np.cos(self.base_angles), np.sin(self.base_angles)], axis=1)
