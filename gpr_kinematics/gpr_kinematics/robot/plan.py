@@ -308,7 +308,8 @@ def check_wafers(program: RobotProgram, way: Waypoints) -> None:
         where = f'{program.source}: {_label(program, way, i)}'
         if step.kind == 'pick':
             if arm in carrying:
-                raise ConfigError(f'{where}: arm {arm} already carries a wafer; place it before picking another')
+                raise ConfigError(f'{where}: arm {arm} already carries a wafer; allowed: a pick with an empty blade '
+                                  '(place the wafer first)')
             if station not in present and declared:
                 raise ConfigError(f'{where}: station {station} holds no wafer (the program declares wafers: '
                                   f'[{", ".join(program.wafers or ())}]); allowed: a pick where a wafer lies')
