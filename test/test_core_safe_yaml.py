@@ -252,9 +252,9 @@ def test_dates_and_over_long_integers_are_text(monkeypatch, libyaml: bool, tmp_p
         monkeypatch.setattr(safe_yaml, '_CLoader', None)
     got = safe_yaml.load_text('a: [2024-01-15, 2024-01-15T10:00:00, 2026-13-45, 2001-12-14 21:59:43.10 -5]')['a']
     assert got == ['2024-01-15', '2024-01-15T10:00:00', '2026-13-45', '2001-12-14 21:59:43.10 -5']
-    edge = '-' + '9' * safe_yaml.MAX_INT_DIGITS
-    big = safe_yaml.load_text(f'a: [{edge}, 1{"0" * 5000}]')['a']
-    assert big[0] == int(edge) and big[1] == '1' + '0' * 5000
+    edge = '9' * safe_yaml.MAX_INT_DIGITS
+    big = safe_yaml.load_text(f'a: [-{edge}, {edge}, {edge}9, -{edge}9, 1{"0" * 5000}]')['a']
+    assert big == [-int(edge), int(edge), edge + '9', f'-{edge}9', '1' + '0' * 5000]
     from gpr_kinematics.core.config import load_config
     geometry = tmp_path / 'g.yaml'
     geometry.write_text(f'radius: 1{"0" * 5000}\n')

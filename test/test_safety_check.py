@@ -306,6 +306,13 @@ def test_the_wafers_are_followed_through_the_program():
     with pytest.raises(ConfigError, match=r'station pm1 already holds a wafer; allowed: a place onto an empty station'):
         wafer_plan(_cell_program(wafers=['load_port_1', 'pm1'], steps=[
             {'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}]))
+    with pytest.raises(ConfigError, match=r'steps\[4\] \(pick pm1, at\): arm arm2 already carries a wafer; allowed: a '
+                                          r'pick with an empty blade \(place the wafer first\)'):
+        _cell_program(wafers=['load_port_1', 'pm1'], steps=[
+            {'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'pick': 'pm1'}])
+    with pytest.raises(ConfigError, match=r'steps\[2\] \(place pm1, at\): arm arm2 carries no wafer to place; allowed: '
+                                          r"a place after the arm's pick"):
+        _cell_program(wafers=['load_port_1'], steps=[{'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}])
     undeclared = wafer_plan(_cell_program(wafers=None))    # no key: picks find a wafer where they pick
     assert undeclared.carried['arm2'] == wafers.carried['arm2']
 

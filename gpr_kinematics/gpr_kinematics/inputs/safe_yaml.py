@@ -187,7 +187,7 @@ def _core_int(loader: Any, node: ScalarNode) -> int | str:
     """An int of YAML 1.2's core schema (decimal, a leading zero included), or the text as written (also an integer
     of more than :data:`MAX_INT_DIGITS` digits)."""
     text = str(node.value)
-    return int(text, 10) if _INT_CORE.fullmatch(text) and len(text) <= MAX_INT_DIGITS + 1 else text
+    return int(text, 10) if _INT_CORE.fullmatch(text) and len(text.lstrip('+-')) <= MAX_INT_DIGITS else text
 
 
 def _as_text(loader: Any, node: ScalarNode) -> str:
