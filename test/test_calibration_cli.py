@@ -201,6 +201,12 @@ def bad_inputs(tmp_path):
             for r in rows])), '--output', 'x.yaml'],
          r'mixed\.csv line 3: the measured pose is 0\.50\d+ m .* in gpr_base in millimetres, as the file declares '
          r'\(metres under the "# units: mm" line\? give them in mm\)$'),
+        # millimetres as declared, a pose 3 m off: another frame, not "metres under the mm line"
+        (['calibrate', write(tmp_path, 'far_mm.csv', '# units: mm\n' + '\n'.join([header] + [','.join(
+            [f'{float(v) * 1000 + (3000.0 if k == 3 else 0.0)!r}' for k, v in enumerate(r.split(',')[:6])]
+            + r.split(',')[6:10] + ['3e-3', r.split(',')[11]]) for r in rows])), '--output', 'x.yaml'],
+         r'far_mm\.csv line 3: the measured pose is 3 m .* in gpr_base in millimetres, as the file declares \(another '
+         r'frame than gpr_base'),
         # sigmas 30 to 60 times too small, kappa alone free: the parameters held were not named as a cause
         (['calibrate', write(tmp_path, 'tiny.csv', '\n'.join([header] + [r.replace(',3e-06,2e-05', ',1e-07,1e-06')
                                                                       for r in rows])),

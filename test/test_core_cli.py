@@ -97,6 +97,7 @@ def test_human_readable_output(capsys):
     (['fk', '0.5', '0.5', 'abc'], r"argument Q: invalid float value: 'abc'; allowed: a decimal number of ASCII "
                                   r'digits \(e\.g\. 0\.5, -2, 1e-3\)$'),
     (['fk', '0.5', '0.5', '\u0660.5'], r"invalid float value: '\u0660.5'; allowed: a decimal number of ASCII digits"),
+    (['fk', '0.5', '0.5', 'x' * 5000], r"invalid float value: 'x{59}\.\.\. \(5000 characters\); allowed: a decimal "),
     (['sweep', '--passes', 'x'], r"argument --passes: invalid int value: 'x'; allowed: a whole number of ASCII "
                                  r'digits \(e\.g\. 10\)$'),
     # a decimal comma where the command converts the values itself: a traceback (argparse's error escaped)

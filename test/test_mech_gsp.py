@@ -410,16 +410,18 @@ def test_parameters_of_a_mixed_gsp_round_trip_and_take_errors_on_the_points_it_h
     moved[0] = 5.0                                   # constraint 1 (D1) has no A_j: ignored
     out = gsp.with_parameters({'A_j': moved})
     assert out.constraints[3].A_j.tolist() == moved[3].tolist() and out.constraints[0].A_j is None
+    assert np.isnan(out.parameters()['A_j'][:2]).all()    # the constraints without A_j still have none
     assert out.constraints[3].A_j.tolist() != gsp.constraints[3].A_j.tolist()   # the original is untouched
     error = np.zeros((6, 3))
     error[3, 0] = 1e-6
     res = accuracy_analysis(gsp, [pose], np.zeros(6), {'A_j': error})
     assert np.max(np.abs(res.linearized[0])) > 1e-8
     np.testing.assert_allclose(res.exact[0], res.linearized[0], atol=1e-3 * np.max(np.abs(res.linearized[0])))
-    error[0, 1] = 1e-6
-    with pytest.raises(InputError, match=r'error of parameter A_j: value 2 of 18 is 1e-06 for a point this mechanism '
-                                         r'does not have .*allowed: 0 there'):
-        accuracy_analysis(gsp, [pose], np.zeros(6), {'A_j': error})
+    for value in (1e-6, -1e-6):
+        error[0, 1] = value
+        with pytest.raises(InputError, match=rf'error of parameter A_j: value 2 of 18 is {value:g} for a point this '
+                                             r'mechanism does not have .*allowed: 0 there'):
+            accuracy_analysis(gsp, [pose], np.zeros(6), {'A_j': error})
     twice = gsp.parameters()
     for key in twice:
         twice[key][5] = twice[key][4]
