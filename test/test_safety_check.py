@@ -844,3 +844,29 @@ def test_every_command_that_plans_a_program_refuses_its_wafers_out_of_order(tmp_
                                                  'no wafer (the program declares wafers: []); allowed: a pick where a '
                                                  'wafer lies\n'), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ['p.yaml']
+
+
+def test_a_program_longer_than_a_goal_may_last_is_not_exported_or_sent_as_one(tmp_path, capsys, monkeypatch):
+    """A dwell of 90,000 s: the program checks (and exports as samples), but its trajectory lasts beyond the day a
+    FollowJointTrajectory goal of the controller may (86,400 s): exported and sent, it was refused by the robot only
+    once connected. Refused where the trajectory is made, before any file is written; a lead-in counts."""
+    from gpr_kinematics.cli.main import main
+    from gpr_kinematics.robot.trajectory import MAX_DURATION, program_trajectory
+    source = config_path('programs/example_robot_program.yaml')
+    text = source.read_text().replace('../robots/', f'{source.parent.parent}/robots/')
+    (tmp_path / 'long.yaml').write_text(text.rstrip('\n') + '\n  - {dwell: 90000}\n')
+    (tmp_path / 'edge.yaml').write_text(text.rstrip('\n') + f'\n  - {{dwell: {MAX_DURATION - 40:g}}}\n')
+    monkeypatch.chdir(tmp_path)
+    assert main(['program', 'check', 'long.yaml']) == 0
+    capsys.readouterr()
+    for argv in (['export', 'long.yaml', '--waypoints', 'w.csv', '--trajectory', 't.yaml', '--rate', '0.1'],
+                 ['send', 'long.yaml', '--rate', '0.1', '--timeout', '0.1'],
+                 ['export', 'edge.yaml', '--trajectory', 't.yaml', '--rate', '0.1', '--lead-in', '20']):
+        assert main(['program', *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count('\n') == 1 and re.search(r'lasts (86|90)\d{3}(\.\d+)? s', err), err
+        assert 'allowed: at most 86400 s (a day, the longest a FollowJointTrajectory goal of the controller ' \
+               'lasts): split the program' in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['edge.yaml', 'long.yaml']
+    plan = plan_program(ROBOT, load_program(tmp_path / 'edge.yaml'), 0.1)
+    assert program_trajectory(plan, 0.1).duration <= MAX_DURATION   # within the day without a lead-in: made

@@ -160,6 +160,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
     check_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
     _, plan = _program(args, args.rate if at_rate else None)
+    if args.trajectory is not None:   # before any file is written
+        from ..robot.trajectory import within_a_day
+        within_a_day(plan.timing.total + args.lead_in, f'{plan.program.source}: the trajectory'
+                     + (f' with its --lead-in of {args.lead_in:g} s' if args.lead_in else ''))
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, JsonValue] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:

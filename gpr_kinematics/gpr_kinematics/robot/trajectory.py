@@ -103,10 +103,20 @@ def trajectory_joint_names(plan: ProgramPlan) -> tuple[str, ...]:
     return (*ROD_JOINT_NAMES, *plan.joint_names[3:])
 
 
+def within_a_day(duration: float, what: str = 'the trajectory') -> None:
+    """:class:`InputError` for a trajectory of ``duration`` [s] beyond :data:`MAX_DURATION`, the longest a goal of the
+    controller may last (its points' ``time_from_start``): a program that long is checked and exported as samples,
+    not sent as one goal."""
+    if duration > MAX_DURATION:
+        raise InputError(f'{what} lasts {duration:.6g} s; allowed: at most {MAX_DURATION:g} s (a day, the longest a '
+                         'FollowJointTrajectory goal of the controller lasts): split the program')
+
+
 def program_trajectory(plan: ProgramPlan, rate: float) -> JointTrajectory:
     """The trajectory that executes ``plan``: one point per sample at ``rate`` [Hz] (``t_k = k / rate`` and the final
     instant, as ``gpr program export --samples`` samples it), positions and velocities of the time parameterisation,
-    over the rods and every arm's joints (module docstring)."""
+    over the rods and every arm's joints (module docstring); :func:`within_a_day`."""
+    within_a_day(plan.timing.total, f'{plan.program.source}: the program')
     s = plan_samples(plan, sample(plan.timing, rate))
     return JointTrajectory(trajectory_joint_names(plan), s.time, s.positions, plan_velocities(plan, s))
 
@@ -155,6 +165,7 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
     # the rate meets them at their own instants; a final instant off the grid moves by the whole lead-in.
     k = np.round(traj.time * rate)
     time = np.where(np.abs(traj.time * rate - k) <= 1e-6, (periods + k) / rate, traj.time + periods / rate)
+    within_a_day(float(time[-1]), 'the trajectory with its lead-in')
     vel = traj.velocities if traj.velocities is not None else np.zeros_like(traj.positions)
     out = JointTrajectory(traj.joint_names, np.concatenate([t, time]),
                           np.vstack([move.positions[:t.shape[0]], traj.positions]),
