@@ -343,18 +343,22 @@ def test_upu3_workspace_model_refuses_limbs_sharing_an_azimuth(azimuths, message
 
 
 @pytest.mark.parametrize('kwargs, message', [
-    ({'base_angles': [0.0, 0.0, 0.0]}, r'rrr3_planar: base_angles \[0\.0, 0\.0, 0\.0\] rad: limbs 1 and 2 share'),
-    ({'base_angles': [math.pi / 2, 5 * math.pi / 2, 11 * math.pi / 6]}, r'base_angles .* limbs 1 and 2 share an '
-                                                                         r'azimuth'),
-    ({'platform_angles': [0.0, 1.0, 1.0]}, r'rrr3_planar: platform_angles \[0\.0, 1\.0, 1\.0\] rad: limbs 2 and 3'),
+    ({'base_angles': [0.0, 0.0, 0.0]}, r'rrr3_planar: legs 1 and 2 join the same base pivot and platform joint '
+                                       r'\(base_angles \[0\.0, 0\.0, 0\.0\], platform_angles \[0\.0, 0\.0, 0\.0\] '
+                                       r'rad\): one leg given twice; allowed: legs whose base or platform angles '
+                                       r'differ'),
+    ({'base_angles': [math.pi / 2, 5 * math.pi / 2, 11 * math.pi / 6]}, r'legs 1 and 2 join the same base pivot'),
+    ({'base_angles': [0.0, 1.0, 1.0 + 2 * math.pi]}, r'legs 2 and 3 join'),
 ])
-def test_rrr3_workspace_model_refuses_two_legs_on_one_pivot(kwargs, message):
-    """base_angles [0, 0, 0] (or two equal modulo 2 pi) were covered as a "certified" workspace of three legs on one
-    base pivot; the 3-UPU's check of its azimuths applies (mechanisms.upu3.check_azimuths)."""
+def test_rrr3_workspace_model_refuses_one_leg_given_twice(kwargs, message):
+    """base_angles [0, 0, 0] (or two equal modulo 2 pi, the platform's angles the base's) were covered as a "certified"
+    workspace of three constraints, two of them one leg. Two legs sharing a base pivot alone are a design: taken."""
     with pytest.raises(ConfigError, match=message):
         Rrr3PlanarModel(**kwargs)
     given = [math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6]     # the defaults, given: taken
     assert Rrr3PlanarModel(platform_angles=given).platform_angles.tolist() == given
+    with pytest.raises(ConfigError, match='the home pose'):        # one pivot, two platform joints: past this check
+        Rrr3PlanarModel(base_angles=[0.0, 0.0, 2.0], platform_angles=[0.0, 2.0, 4.0])
 
 
 def test_gpr_tan_over_sqrt_is_accurate_on_both_sides_of_its_series_switch():

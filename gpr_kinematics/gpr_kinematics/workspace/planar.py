@@ -12,11 +12,26 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from ..mechanisms.upu3 import check_azimuths
+from ..mechanisms.upu3 import AZIMUTH_GAP
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T
 
 _INF = np.inf
+
+
+def _check_legs_distinct(base: np.ndarray, platform: np.ndarray) -> None:
+    """:class:`ConfigError` for two legs between the same base pivot and platform joint (their angles equal modulo
+    2 pi, within :data:`~gpr_kinematics.mechanisms.upu3.AZIMUTH_GAP`): one leg given twice, three constraints two of
+    them the same (``base_angles [0, 0, 0]`` was covered as a workspace). Legs that share a pivot alone are a design."""
+    def same(a: np.ndarray) -> np.ndarray:
+        return np.asarray(np.abs(np.angle(np.exp(1j * (a[:, None] - a[None, :])))) < AZIMUTH_GAP)
+    twice = np.triu(same(base) & same(platform), 1)
+    if twice.any():
+        i, j = (int(v) + 1 for v in np.argwhere(twice)[0])
+        raise ConfigError(f'rrr3_planar: legs {i} and {j} join the same base pivot and platform joint (base_angles '
+                          f'{np.round(base, 9).tolist()}, platform_angles {np.round(platform, 9).tolist()} rad): one '
+                          f'leg given twice; allowed: legs whose base or platform angles differ by at least '
+                          f'{AZIMUTH_GAP:g} rad modulo 2 pi')
 
 
 class Rrr3PlanarModel(WorkspaceModel):
@@ -59,10 +74,11 @@ class Rrr3PlanarModel(WorkspaceModel):
             float(crank),
             float(coupler),
         )
-        # two legs on one base pivot (or one platform joint) were covered as three constraints, two the same
-        self.base_angles = check_azimuths(base_angles, 'rrr3_planar: base_angles')
-        self.platform_angles = (self.base_angles.copy() if platform_angles is None else
-                                check_azimuths(platform_angles, 'rrr3_planar: platform_angles'))
+        self.base_angles = np.asarray(base_angles, dtype=float)
+        self.platform_angles = (
+            self.base_angles.copy() if platform_angles is None else np.asarray(platform_angles, dtype=float)
+        )
+        _check_legs_distinct(self.base_angles, self.platform_angles)
         self.branch = int(branch)
         self.theta_min, self.theta_max = float(theta_min), float(theta_max)
         self.A = self.R * np.stack([np.cos(self.base_angles), np.sin(self.base_angles)], axis=1)
