@@ -137,7 +137,9 @@ class RobotRows:
         return self.rows.get(r)
 
 
-def _names(robot: RobotDescription) -> tuple[str, ...]:
+def arm_joint_names(robot: RobotDescription) -> tuple[str, ...]:
+    """Every arm's joints, in the description's order: what a robot recording's ``joint_states`` carry after the
+    rods and its RobotStates' ``joint_names``."""
     return tuple(n for a in robot.arms for n in a.joint_names)
 
 
@@ -145,7 +147,7 @@ def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Co
                robot: RobotDescription) -> NDArray[np.bool_]:
     """Per matched RobotState ``j`` (of the state ``rows``): frame (the world frame, with a node's frame prefix
     ``r1/`` or without), sample counter, arm and joint names right."""
-    names = _names(robot)
+    names = arm_joint_names(robot)
     world = robot.world_frame
     frame_ok = np.array([f == world or str(f).endswith('/' + world) for f in rc['header.frame_id'][j]], dtype=bool)
     sample_ok = np.asarray(rc['sample'])[j] == np.asarray(c['sample'])[rows]
@@ -212,7 +214,7 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \
             recorded
     ok = _structure(rc, j, rows, c, robot)
-    names = _names(robot)
+    names = arm_joint_names(robot)
     joints = np.full((len(stamps), len(names)), np.nan)
     J = matrix(rc['joints'], len(names))[j]
     if J.shape[1] == len(names):   # (else no message has the robot's joints: ok is all False)

@@ -35,7 +35,7 @@ from ..core.machine import slope_gain
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
 from .checks_program import marker_cadence, program_checks, read_records, robot_program_states
-from .checks_robot import choose_robot, robot_checks, robot_summary
+from .checks_robot import arm_joint_names, choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
 from .checks_topics import topic_checks
@@ -105,7 +105,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             recorded = read_records(bag)
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
                                                   robot_program_states(recorded[0], samples))
-            robot_joints = None if arms.robot is None else tuple(n for a in arms.robot.arms for n in a.joint_names)
+            robot_joints = None if arms.robot is None else arm_joint_names(arms.robot)
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples), robot_joints) + robot_part

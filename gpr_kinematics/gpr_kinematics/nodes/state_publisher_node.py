@@ -50,6 +50,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from ..core import forward
+from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, LimitError, NoPoseError
 from ..inputs.validation import MAX_COORDINATE
 from ..robot.controller import ControllerJoints, joint_state_values
@@ -182,8 +183,9 @@ class StatePublisherNode(GprNode):
         if left:
             self.get_logger().warning(f'joint_states: {", ".join(left)} not finite, left out (held as before); '
                                       'allowed: finite positions', throttle_duration_sec=5.0)
-        far = (taken >= 3) & (np.abs(values) > MAX_COORDINATE)   # an arm joint (the rods: _pose_of): no faithful
-        # transform there (1e155 rad overflowed one and stopped the node)
+        # an arm joint (the rods: _pose_of) beyond: no faithful transform there (1e155 rad overflowed one and stopped
+        # the node)
+        far = (taken >= len(ROD_JOINT_NAMES)) & (np.abs(values) > MAX_COORDINATE)
         if far.any():
             self.get_logger().warning(f'joint_states: {", ".join(self.joints.names[k] for k in taken[far])} beyond '
                                       f'+-{MAX_COORDINATE:g} rad, left out (held as before)',

@@ -389,7 +389,7 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
     return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
             f'{_wrap(sol.heading[i] - offset):.12g} rad (branch {result.branch[i]}) or '
             f'{_wrap(other.heading[0] - offset):.12g} rad (the other branch), not {_wrap(given):.12g} rad; leave the '
-            'heading free or give one of these (to 1e-9 rad)')
+            f'heading free or give one of these (to {HEADING_TOLERANCE:g} rad)')
 
 
 def _self_motion_fault(a: Arm, targets: _Targets, i: int, branch: str) -> str:
