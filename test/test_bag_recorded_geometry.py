@@ -77,8 +77,8 @@ def test_a_bag_without_geometry_falls_back_and_says_so(tmp_path: Path) -> None:
     result = verify_bag(bag)
     assert result.passed and result.geometry == {'source': 'package'}
     assert result.notes == ['no geometry recorded in the bag: verified against the package configuration',
-                            'robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
-                            'no wafer poses to verify']
+                            'robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream, '
+                            'or a recording of fewer topics): no wafer pose verified']
     assert next(c for c in result.checks if c.name == 'topic.geometry').skipped == 'no geometry recorded in the bag'
 
 

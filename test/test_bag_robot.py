@@ -262,8 +262,8 @@ def test_a_sweep_with_its_robot_recorded_skips_the_robot_checks(tmp_path: Path) 
     assert result.passed, [f.line() for f in result.failures]
     checks = {c.name: c for c in result.checks}
     assert not checks['topic.robot'].skipped and checks['robot.wafer_position'].skipped == 'no robot states in the bag'
-    assert result.notes[-1] == ('robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream): '
-                                'no wafer poses to verify')
+    assert result.notes[-1] == ('robot example_dual_arm recorded on /gpr/robot; no robot states (a platform stream, '
+                                'or a recording of fewer topics): no wafer pose verified')
 
 
 def test_a_recording_without_robot_topics_says_it_has_no_robot_checks(tmp_path: Path) -> None:
@@ -419,3 +419,88 @@ def test_a_platform_recordings_joint_states_carry_the_rods_alone(tmp_path: Path)
         return msg
 
     assert 'topic.joint_states' in _failed(verify_bag(rewritten(bag, tmp_path / 'appended', appended)))
+
+
+def test_a_sweeps_joint_states_with_the_robots_arm_joints_appended_fail(tmp_path: Path) -> None:
+    """The reference sweep records its robot and lists gpr/robot_state without a message: its joint_states with
+    the example robot's arm joints appended (1000 rad each) passed, read as a robot recording of fewer topics."""
+    from bag_support import REFERENCE
+
+    names = [n for a in ROBOT.arms for n in a.joint_names]
+
+    def appended(topic, msg):
+        if topic in ('/joint_states', '/gpr/joint_states'):
+            return dataclasses.replace(msg, name=[*msg.name, *names],
+                                       position=np.concatenate([msg.position, np.full(len(names), 1e3)]))
+        return msg
+
+    assert 'topic.joint_states' in _failed(verify_bag(rewritten(REFERENCE, tmp_path / 'appended', appended)))
+
+
+def test_a_late_recorders_first_joint_states_carry_the_robots_joints(robot_bag: Path, tmp_path: Path) -> None:
+    """Before the first RobotState of a late recording the rods are checked alone: a joint 'foo' in place of the arm
+    joints passed there; the names must be the robot states' own."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
+
+    messages = messages_of(robot_bag)
+    states = [k for k, m in enumerate(messages) if m[0] == ROBOT_STATE_TOPIC]
+    late = write_bag(tmp_path / 'late', [m for k, m in enumerate(messages) if k not in set(states[:3])],
+                     dict(GPR_TOPICS))
+    assert verify_bag(late).passed
+    seen = {'n': 0}
+
+    def foo(topic, msg):
+        if topic == JOINT_STATES_TOPIC and seen['n'] < 2:
+            seen['n'] += 1
+            return dataclasses.replace(msg, name=[*msg.name[:3], 'foo'], position=np.append(msg.position[:3], 5.0))
+        return msg
+
+    assert 'topic.joint_states' in _failed(verify_bag(rewritten(late, tmp_path / 'foo', foo)))
+
+
+def test_wafer_poses_without_robot_states_fail_in_a_sweep_and_are_declared_unchecked_elsewhere(
+        robot_bag: Path, tmp_path: Path) -> None:
+    """Wafer poses are checked against the RobotState of their stamp: without robot states they passed unchecked
+    (a sweep with 1e6 m wafer poses added, a robot recording of fewer topics with every wafer moved 1 m) under a note
+    that said there were none. A sweep's record shows no robot program: they are extra there; elsewhere the check
+    says it was not made, and why."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import typestore
+
+    store = typestore()
+    msgs = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0))
+    out = []
+    for topic, t, raw in msgs:
+        out.append((topic, t, raw))
+        if topic == '/gpr/platform_state':
+            header = store.deserialize_cdr(raw, GPR_TOPICS[topic]).header
+            pose = store.types['geometry_msgs/msg/PoseStamped'](header=header, pose=store.types[
+                'geometry_msgs/msg/Pose'](position=store.types['geometry_msgs/msg/Point'](x=1e6, y=0.0, z=0.0),
+                                          orientation=store.types['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0,
+                                                                                                  z=0.0, w=1.0)))
+            out.append((WAFER_POSE_TOPIC, t, bytes(store.serialize_cdr(pose, 'geometry_msgs/msg/PoseStamped'))))
+    failed = _failed(verify_bag(write_bag(tmp_path / 'sweep', out, dict(GPR_TOPICS))))
+    assert 'topic.wafer_pose' in failed, failed
+    types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC}
+    fewer = write_bag(tmp_path / 'fewer', [m for m in messages_of(robot_bag) if m[0] != ROBOT_STATE_TOPIC], types)
+    result = verify_bag(fewer)
+    check = next(c for c in result.checks if c.name == 'topic.wafer_pose')
+    assert result.passed and check.skipped.endswith('wafer poses not checked: no robot states recorded, against '
+                                                    'which each is checked'), check.skipped
+
+
+def test_a_sweep_record_after_sample_0_is_another_run_spliced_on() -> None:
+    """A node streams one sweep, its start-up stream (a goal runs a program or stations): a second sweep's record at
+    sample 30 (another run spliced after the first, stamps and counters shifted) passed."""
+    from gpr_kinematics.bags.checks_program import loop_problems
+    from gpr_kinematics.bags.program_record import parse_record, record_text
+
+    spec = {'height': 0.25, 'max_tilt': 0.03, 'tilt_step': 0.01, 'azimuth_step': 1.0, 'passes': 1}
+    records = [parse_record(record_text('sweep', first, 30, 100.0, False, 2.0, sweep=spec)) for first in (0, 30)]
+    samples = np.arange(60)
+    owner = np.searchsorted([0, 30], samples, side='right') - 1
+    assert not loop_problems(records[:1], samples[:30], owner[:30])
+    problems = loop_problems(records, samples, owner)
+    assert [p[3] for p in problems] == ['the sweep from sample 30 follows another sweep; a node streams one sweep, '
+                                        'its start-up stream (a gpr/run_program goal runs a program or stations)']

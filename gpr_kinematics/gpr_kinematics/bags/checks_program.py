@@ -117,13 +117,18 @@ def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> N
 
 
 def loop_problems(records: list[Record], samples: NDArray[np.int64], owner: NDArray[np.int64]) -> list[Problem]:
-    """What the recording shows against each record's ``loop``: only the node's start-up stream loops, and it starts
+    """What the recording shows against each record's ``loop`` (and kind: a node streams one sweep, at its start):
+    only the node's start-up stream loops, and it starts
     at sample 0 (a ``gpr/run_program`` goal's stream never loops) and runs until the node stops, so no stream follows
     it; a stream that does not loop ends after its samples, so no sample counter it covers (before the next record's
     first sample) lies past them. ``records`` as :func:`read_records` gives them, ``owner`` the record of each sample
     (:func:`owners`)."""
     problems: list[Problem] = []
     for k, r in enumerate(records):
+        if r.kind == 'sweep' and any(e.kind == 'sweep' for e in records[:k]):   # another run spliced on
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the sweep from sample {r.first_sample} follows another sweep; '
+                             "a node streams one sweep, its start-up stream (a gpr/run_program goal runs a program or "
+                             'stations)'))
         what = f'the {r.kind} from sample {r.first_sample} says loop = '
         if r.loop and r.first_sample != 0:
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'{what}true; only the node\'s start-up stream loops, and it '

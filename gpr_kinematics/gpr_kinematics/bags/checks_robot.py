@@ -115,8 +115,8 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, 1.0, 0.0, f'not a usable robot description: {exc}')], len(t), ''))
     note = (f'verified the wafer poses against the robot {robot.name} recorded on {ROBOT_TOPIC}' if states else
-            f'robot {robot.name} recorded on {ROBOT_TOPIC}; no robot states (a platform stream): no wafer poses to '
-            'verify')
+            f'robot {robot.name} recorded on {ROBOT_TOPIC}; no robot states (a platform stream, or a recording of '
+            'fewer topics): no wafer pose verified')
     return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''), [note])
 
 
@@ -135,6 +135,11 @@ class RobotRows:
 
     def joints(self, r: int) -> tuple[tuple[str, ...], NDArray[np.float64]] | None:
         return self.rows.get(r)
+
+    def names(self) -> tuple[str, ...] | None:
+        """The arm joints the robot states name (the first's; None without one): what a state without its RobotState
+        (a late recorder's first ones, a cut's last) must carry after the rods."""
+        return next(iter(self.rows.values()))[0] if self.rows else None
 
 
 def arm_joint_names(robot: RobotDescription) -> tuple[str, ...]:
@@ -176,17 +181,33 @@ def _no_robot_states(bag: Bag, stamps: NDArray[np.int64], samples: NDArray[np.in
     robot program samples were streamed (``due``): those fail ``robot.structure``, but the first and the last state
     (:func:`.checks_topics.missing`)."""
     why = 'no robot states in the bag'
+    poses = _wafer_poses_without_states(bag, due)
     t = bag.topic(ROBOT_STATE_TOPIC)
     absent = missing(stamps, np.zeros(0, np.int64))
     if due is not None:
         absent[~due] = 0.0
     if t is None or t.msgtype != GPR_TOPICS[ROBOT_STATE_TOPIC] or due is None or not np.any(absent > 0):
-        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', why)]
-    return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', f'{why} (their structure fails)'),
+        return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', why), *poses]
+    return [*poses, skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', f'{why} (their structure fails)'),
             bool_check('robot.structure', ROBOT_STATE_TOPIC, absent == 0, samples,
                        'the robot states topic is recorded without a message; a sample of a robot program '
                        '(gpr/program) without its RobotState (the first and the last state are not counted: a '
                        'recording started or cut in the middle of a sample)')]
+
+
+def _wafer_poses_without_states(bag: Bag, due: NDArray[np.bool_] | None) -> list[Check]:
+    """Messages on :data:`WAFER_POSE_TOPIC` in a bag without RobotStates: extra where the records say no sample is a
+    robot program's (a platform stream publishes no wafer pose), else declared unchecked (a wafer pose is checked
+    against the RobotState of its stamp; a recording of fewer topics has none)."""
+    t = bag.topic(WAFER_POSE_TOPIC)
+    if t is None or not len(t):
+        return []
+    if due is not None and not due.any():
+        return [bag_check('topic.wafer_pose', WAFER_POSE_TOPIC, [(WAFER_POSE_TOPIC, float(len(t)), 0.0, (
+            f'{len(t)} wafer poses where the records (gpr/program) show no robot program: a platform stream '
+            'publishes none'))], len(t), '')]
+    return [skipped('topic.wafer_pose', WAFER_POSE_TOPIC, 'm', f'{len(t)} wafer poses not checked: no robot states '
+                    'recorded, against which each is checked')]
 
 
 def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice, tol: Tolerances,

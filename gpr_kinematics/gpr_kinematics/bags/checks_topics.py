@@ -271,7 +271,7 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
                           'recording, or of the robot recorded or given without its states; or, recorded before, '
                           'rod_1..rod_3 + the virtual joints)',
                           _without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None), shared=True,
-                          after_rods=robot_joints if arms is None else None)
+                          after_rods=robot_joints if arms is None else arms.names())
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 

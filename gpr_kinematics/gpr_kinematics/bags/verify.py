@@ -45,7 +45,7 @@ from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
 from .tolerances import Tolerances
-from .typestore import PLATFORM_STATE, typestore
+from .typestore import PLATFORM_STATE, ROBOT_STATE_TOPIC, typestore
 
 __all__ = ['Tolerances', 'VerifyResult', 'format_table', 'verify_bag']
 
@@ -105,7 +105,11 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             recorded = read_records(bag)
             robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
                                                   robot_program_states(recorded[0], samples))
-            robot_joints = None if arms.robot is None else arm_joint_names(arms.robot)
+            # the rods alone in joint_states without robot states: only where they are not recorded at all (a sweep's
+            # listed empty says it has none) and no record says the stream is not a robot program's
+            fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
+                not recorded[0] or any(r.kind == 'robot_program' for r in recorded[0]))
+            robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples), robot_joints) + robot_part
