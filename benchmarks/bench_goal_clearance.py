@@ -3,12 +3,12 @@
 Measures, on the shipped example cell and its program sent as one FollowJointTrajectory goal (as ``gpr program send``
 sends it: one point per sample with velocities, cubic segments; arm2 carrying a wafer throughout): the check of the
 goal (:class:`gpr_kinematics.safety.goal.GoalClearance`, the simulator's ``clearance`` hook) for goals of 1,193,
-5,960 and 29,792 points (20, 100 and 500 Hz; the program's 59.6 s), the goal's checks without it (``plan_motion``: limits, tilt, samples)
-for scale, the pieces (the spline's turning points, the motion bounds per interval, the robot's poses per instant),
-the refusal of the same goal with a box on the carried wafer's path, the same check asked for every pair's minimum
-to the tolerance (``gpr program check``'s question) instead of the margin alone, and, as the peer, the collision
-library's own distance call (``fcl.distance``, bodies placed once) with what a plain sampled check at the
-controller's 100 Hz (every pair at every sample, no certificate) costs.
+5,960 and 29,792 points (20, 100 and 500 Hz; the program's 59.6 s), the goal's checks without it (``plan_motion``:
+limits, tilt, samples) for scale, the pieces (the spline's turning points, the motion bounds per interval, the robot's
+poses per instant), the refusal of the same goal with a box on the carried wafer's path, the same check asked for
+every pair's minimum to the tolerance (``gpr program check``'s question) instead of the margin alone, and, as the
+peer, the collision library's own distance call (``fcl.distance``, bodies placed once) with what a plain sampled
+check at the controller's 100 Hz (every pair at every sample, no certificate) costs.
 
 Prints a Markdown table of medians. Usage: ``python benchmarks/bench_goal_clearance.py [--quick]``.
 """

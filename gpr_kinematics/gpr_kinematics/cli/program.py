@@ -19,6 +19,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from ..core.messages import FOLLOW_JOINT_TRAJECTORY
 from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
@@ -345,9 +346,9 @@ def _cmd_send(args: argparse.Namespace) -> int:
 def _send_parser(psub: Any) -> None:
     p = psub.add_parser('send', help='run the program on a robot: a FollowJointTrajectory goal (ROS)')
     p.add_argument('program', metavar='PROGRAM', type=shipped(PROGRAMS), help='robot program YAML file')
-    p.add_argument('--action', default='joint_trajectory_controller/follow_joint_trajectory', metavar='NAME',
+    p.add_argument('--action', default=FOLLOW_JOINT_TRAJECTORY, metavar='NAME',
                    help='the FollowJointTrajectory action (relative names resolve in --namespace; default '
-                        'joint_trajectory_controller/follow_joint_trajectory)')
+                        f'{FOLLOW_JOINT_TRAJECTORY})')
     p.add_argument('--namespace', default='', metavar='NS', help="the robot's namespace, e.g. /r1 (default: none)")
     p.add_argument('--joint-states', default='joint_states', metavar='TOPIC',
                    help='where the robot publishes its joint states (default joint_states)')

@@ -63,6 +63,9 @@ STATE_FROM_RESULT: tuple[tuple[str, str], ...] = (
 #: The names of the three actuated joints (rods) in ``sensor_msgs/JointState`` and the robot model.
 ROD_JOINT_NAMES: tuple[str, str, str] = ('rod_1', 'rod_2', 'rod_3')
 
+#: The FollowJointTrajectory action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``
+#: (relative: in the robot's namespace).
+FOLLOW_JOINT_TRAJECTORY = 'joint_trajectory_controller/follow_joint_trajectory'
 #: Nanoseconds per second: a ``builtin_interfaces`` Time or Duration is ``sec`` and ``nanosec`` in ``[0, NS_PER_S)``.
 NS_PER_S = 1_000_000_000
 

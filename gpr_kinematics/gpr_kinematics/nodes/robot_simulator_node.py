@@ -52,7 +52,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.forward import forward
-from ..core.messages import NS_PER_S, duration_parts, time_parts
+from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, duration_parts, time_parts
 from ..errors import ConfigError, GprError
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
@@ -78,12 +78,10 @@ from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
-from .runtime import GprNode, deliver_results, one_line, run
+from .runtime import CATCH_UP, GprNode, deliver_results, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
-ACTION = 'joint_trajectory_controller/follow_joint_trajectory'
-#: Most samples one tick publishes to make up for ticks the busy machine could not serve in time.
-CATCH_UP = 5
+ACTION = FOLLOW_JOINT_TRAJECTORY
 
 
 @dataclass

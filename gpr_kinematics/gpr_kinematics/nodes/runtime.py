@@ -50,6 +50,9 @@ EXIT_FAILED = 1
 EXIT_BAD_CONFIG = EXIT_BAD_INPUT
 #: Longest time [s] the spin loop waits before it looks at the stop flag again (the delay of a clean exit).
 SPIN_TIMEOUT = 0.05
+#: Most samples one timer tick of a streaming node publishes to make up for ticks the busy machine could not serve in
+#: time (the trajectory node's stream, the simulator's joint states).
+CATCH_UP = 5
 #: Longest error text put on the one error line (a user's value is never printed whole).
 MAX_MESSAGE = 600
 

@@ -82,13 +82,11 @@ from ..ros.streams import (
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, latched_qos, release_request, stream_qos
-from .runtime import EXIT_FAILED, EXIT_OK, GprNode, deliver_results, one_line, run, wait_acknowledged
+from .runtime import CATCH_UP, EXIT_FAILED, EXIT_OK, GprNode, deliver_results, one_line, run, wait_acknowledged
 
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
 SETTLE = 0.1
-#: Most samples one timer tick publishes to make up for ticks the process could not serve in time.
-CATCH_UP = 5
 #: The topics of one sample (published together, in this order) and their message types.
 STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
                                  'gpr/nominal_pose': PoseStamped, 'joint_states': JointState,
