@@ -49,6 +49,21 @@ def test_joints_of_the_example_robot():
     assert forward_batch(JOINTS.rest[None, :3], CFG).tilt[0] < 1e-12
 
 
+def test_the_rest_state_is_level_on_a_machine_with_rod_offsets():
+    """Rod zero offsets of +-3 mm (a valid geometry): equal rods at mid-stroke tilted the platform 0.0371 rad, beyond
+    the 2 deg limit, and the simulator refused every goal at its first sample, its own rest. The rest is the level
+    platform at mid-stroke: the rods differ by the offsets, and a goal from there is planned."""
+    import dataclasses
+    robot = dataclasses.replace(ROBOT, config=CFG.replace(rod_offsets=[0.003, -0.003, 0.0]))
+    joints = ControllerJoints.of(robot)
+    mid = 0.5 * (CFG.stroke_min + CFG.stroke_max)
+    np.testing.assert_allclose(joints.rest[:3], [mid - 0.003, mid + 0.003, mid], atol=1e-12)
+    assert forward_batch(joints.rest[None, :3], robot.config).tilt[0] < 1e-12
+    traj = JointTrajectory(('rod_1',), np.array([2.0]), np.array([[joints.rest[0] + 0.001]]))
+    motion = plan_motion(joints, traj, joints.rest, RATE, robot.config, DEFAULTS, 1e-3)
+    assert motion.positions[-1, 0] == joints.rest[0] + 0.001
+
+
 @pytest.mark.parametrize('names, words', [
     ([], 'joint_names is empty'),
     (['rod_1', 'elbow'], "unknown joint 'elbow'; allowed: rod_1, rod_2, rod_3, arm1_shoulder"),

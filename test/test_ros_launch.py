@@ -340,6 +340,9 @@ def test_exit_rule_ends_the_launch_with_the_reason(monkeypatch):
     assert _exited(_Context(0), 'trajectory_node', False) is None              # a sweep that finished
     assert _exited(_Context(-2, shutdown=True), 'kinematics_node', True) is None  # Ctrl-C
     assert _exited(_Context(1, respawn='true'), 'robot_simulator_node', True) is None
+    # launch reads respawn:=1 (and True) as true, as the XML's if= does: the Python file ended the launch instead
+    assert _exited(_Context(-9, respawn='1'), 'kinematics_node', True) is None
+    assert _exited(_Context(-9, respawn='True'), 'kinematics_node', True) is None
     with pytest.raises(RuntimeError, match='recorder_node died'):
         _exited(_Context(1, respawn='true'), 'recorder_node', False)          # not respawned: not required
 

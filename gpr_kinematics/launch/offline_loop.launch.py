@@ -53,6 +53,6 @@ def generate_launch_description() -> LaunchDescription:
         node('trajectory_node', [geometry, frames, {
             'mode': typed('mode'), 'program_file': typed('program_file'), 'rate': typed('rate', float),
             # With the recorder: wait until it subscribed to every stream topic (at most wait_timeout).
-            'wait_for_subscribers': PythonExpression(["1 if '", arg('record'), "'.lower() == 'true' else 0"])}]),
+            'wait_for_subscribers': PythonExpression(["1 if '", arg('record'), "'.lower() in ('true', '1') else 0"])}]),
         rviz(),
     ])

@@ -63,7 +63,7 @@ def _exited(context: LaunchContext, name: str, required: bool) -> None:
     event = context.locals.event
     code = int(event.returncode)
     restarted = (required and code != EXIT_BAD_INPUT
-                 and LaunchConfiguration('respawn').perform(context).lower() == 'true')
+                 and LaunchConfiguration('respawn').perform(context).lower() in ('true', '1'))
     if context.is_shutdown or restarted or (code == 0 and not required):
         return
     what = ('refused to start' if code == EXIT_BAD_INPUT else 'died') if code else 'is required and ended'

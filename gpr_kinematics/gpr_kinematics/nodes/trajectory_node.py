@@ -158,6 +158,7 @@ class TrajectoryNode(GprNode):
         self.pub_program = self.create_publisher(String, 'gpr/program', latched_qos())
 
         self.sample = 0
+        self._stamped = -1   # the last sample's stamp [ns]: each one later (a simulated clock stands within a tick)
         self.stream: Trajectory | None = None
         self._record_due = False   # the stream's record is published with its first sample
         self.goal: ServerGoalHandle | None = None
@@ -329,7 +330,9 @@ class TrajectoryNode(GprNode):
             self.finish(EXIT_FAILED)
 
     def publish_sample(self, traj: Trajectory, i: int) -> None:
-        stamp_ns = self.get_clock().now().nanoseconds
+        # the clock's time, a nanosecond after the last sample's at least: under use_sim_time /clock stands still while
+        # a tick catches up samples, which shared a stamp (the stream's stamps must increase; tf drops repeats)
+        stamp_ns = self._stamped = max(self.get_clock().now().nanoseconds, self._stamped + 1)
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
                                frame_id=self.base_frame, sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])

@@ -5,7 +5,7 @@
 
 - :class:`ControllerJoints`: the joints a goal may name: the rods ``rod_1 .. rod_3`` (prismatic, the stroke, the rods'
   velocity) and every arm's joints (revolute, the description's limits), and the state before any goal (:attr:`rest`:
-  equal rods at mid-stroke, a level platform, and each arm at its ``home``);
+  the platform level at mid-stroke, equal rods on a machine without rod offsets, and each arm at its ``home``);
 - :func:`trajectory_from_points`: a goal's points (as the message carries them, one list per point) into a
   :class:`~gpr_kinematics.robot.trajectory.JointTrajectory`, every size bounded before the work it bounds;
 - :func:`late_start`: a goal whose ``header.stamp`` lies in the past, as joint_trajectory_controller takes it;
@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, forward_batch
+from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, forward_batch, inverse
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, apart, brief
@@ -86,7 +86,7 @@ class ControllerJoints:
         names = [*ROD_JOINT_NAMES]
         lower, upper = [cfg.stroke_min] * 3, [cfg.stroke_max] * 3
         velocity, units = [robot.rods.velocity] * 3, ['m'] * 3
-        rest = [0.5 * (cfg.stroke_min + cfg.stroke_max)] * 3
+        rest = inverse(0.5 * (cfg.stroke_min + cfg.stroke_max), 0.0, 0.0, cfg).q.tolist()   # level (rod offsets)
         for arm in robot.arms:
             names += arm.joint_names
             lower += list(arm.lower)
