@@ -47,11 +47,19 @@ import numpy as np
 from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.units import to_si
-from ..inputs.validation import text_hint
+from ..inputs.validation import MAX_COORDINATE, text_hint
 from .description import Arm, RobotDescription
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
-from .station_files import MAX_STATIONS, StationRows, StationTable, read_station_rows, stations_from_yaml, units_of
+from .station_files import (
+    MAX_APPROACH,
+    MAX_STATIONS,
+    StationRows,
+    StationTable,
+    read_station_rows,
+    stations_from_yaml,
+    units_of,
+)
 from .stations import Stations
 
 FORMAT = 'gpr_robot_program'
@@ -101,9 +109,9 @@ class RobotProgram:
 
 
 def _seconds(value: Any, where: str, key: str, positive: bool = False) -> float:
-    if not is_number(value) or value < 0 or (positive and value == 0) or value > 1e6:
+    if not is_number(value) or value < 0 or (positive and value == 0):   # is_number: at most MAX_COORDINATE
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: seconds, '
-                          f'{"> 0" if positive else ">= 0"} and at most 1e6')
+                          f'{"> 0" if positive else ">= 0"} and at most {MAX_COORDINATE:g}')
     return float(value)
 
 
@@ -160,10 +168,10 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     heights = []
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
-        if not is_number(value) or not 0 <= to_si(value, length) <= 0.1:
+        if not is_number(value) or not 0 <= to_si(value, length) <= MAX_APPROACH:
             unit = 'mm' if length != 1.0 else 'm'
-            raise ConfigError(f'{dw}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {0.1 / length:g} {unit} '
-                              '(0.1 m)')
+            raise ConfigError(f'{dw}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to '
+                              f'{MAX_APPROACH / length:g} {unit} ({MAX_APPROACH:g} m)')
         heights.append(to_si(float(value), length))
     robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(

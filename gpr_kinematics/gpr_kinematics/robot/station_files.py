@@ -49,6 +49,8 @@ MAX_BYTES = 10 * 1024 * 1024
 MAX_STATIONS = 100_000
 #: Longest straight entry [m].
 MAX_ENTRY = 2.0
+#: Highest approach and retract above a station [m] (the program's defaults too).
+MAX_APPROACH = 0.1
 _LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height', 'entry')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
@@ -174,7 +176,7 @@ def _branch(value: Any, where: str) -> str | None:
     return str(value)
 
 
-def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = 0.1) -> float | None:
+def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = MAX_APPROACH) -> float | None:
     if value is None or value == '':
         return None
     h = to_si(_number(value, where, key, unit), scale)
@@ -362,13 +364,14 @@ def stations_from_csv(text: str, where: str) -> StationRows:
         rows.azimuth.append(table.angle(r, 'azimuth', 0.0, w) or 0.0)
         rows.heading.append(table.angle(r, 'heading', None, w))
         rows.branch.append(_branch(table.text(r, 'branch'), w))
-        for key, target, most in (('approach_height', rows.approach, 0.1), ('retract_height', rows.retract, 0.1),
+        for key, target, most in (('approach_height', rows.approach, MAX_APPROACH),
+                                  ('retract_height', rows.retract, MAX_APPROACH),
                                   ('entry', rows.entry, MAX_ENTRY)):
             value = table.number(r, key, None, w)
             if value is not None and not 0.0 <= value <= most:
                 unit = table.columns[key][2]
                 raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} {unit} is invalid; allowed: 0 to '
-                                  f'{most / (1e-3 if unit == "mm" else 1.0):g} {unit} ({most:g} m)')
+                                  f'{most / (units.MM if unit == "mm" else 1.0):g} {unit} ({most:g} m)')
             target.append(value)
     return rows
 
