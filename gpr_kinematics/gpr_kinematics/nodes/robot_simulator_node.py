@@ -81,7 +81,6 @@ from .qos import action_server_options, joint_states_subscription, release_reque
 from .runtime import CATCH_UP, GprNode, deliver_results, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
-ACTION = FOLLOW_JOINT_TRAJECTORY
 
 
 @dataclass
@@ -139,7 +138,7 @@ class RobotSimulatorNode(GprNode):
         self.motion_timer = self.create_timer(self.period, self._tick)
         self.motion_timer.cancel()
         self.create_timer(1.0 / float(p['idle_rate']), self._idle)
-        self.action = ActionServer(self, FollowJointTrajectory, ACTION, execute_callback=self._execute,
+        self.action = ActionServer(self, FollowJointTrajectory, FOLLOW_JOINT_TRAJECTORY, execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos,
                                    **action_server_options())
@@ -154,7 +153,7 @@ class RobotSimulatorNode(GprNode):
 
     def action_name(self) -> str:
         ns = self.get_namespace().rstrip('/')
-        return f'{ns}/{ACTION}'
+        return f'{ns}/{FOLLOW_JOINT_TRAJECTORY}'
 
     # -- joint_states ---------------------------------------------------------------------------------------------
     def publish_state(self, stamp_ns: int) -> None:

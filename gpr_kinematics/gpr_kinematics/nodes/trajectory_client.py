@@ -23,13 +23,12 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from ..core.messages import FOLLOW_JOINT_TRAJECTORY, duration_parts
+from ..core.messages import duration_parts
 from ..robot.controller import ERROR_NAMES
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
 from .qos import action_client_options, stream_qos
 
-DEFAULT_ACTION = FOLLOW_JOINT_TRAJECTORY
 #: Time [s] for a subscription to match a publisher the graph already shows.
 SETTLE = 0.3
 _STATUS = {GoalStatus.STATUS_SUCCEEDED: 'succeeded', GoalStatus.STATUS_ABORTED: 'aborted',
