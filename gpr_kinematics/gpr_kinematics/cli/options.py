@@ -40,6 +40,10 @@ class NumberTextError(argparse.ArgumentTypeError, ValueError):
     that converts values itself (``--vary``, ``--tolerance``, ``--parameter-error``) catches it as a ValueError."""
 
 
+#: What :func:`number` reads, said where it refuses a text without a more particular hint.
+NUMBER_ALLOWED = '; allowed: a decimal number of ASCII digits (e.g. 0.5, -2, 1e-3)'
+
+
 def number(text: str) -> float:
     """An argparse type: a number as the files write it (:func:`~gpr_kinematics.inputs.validation.decimal`: ASCII
     digits with a sign, point and exponent, or inf and nan; Python's float also read ``1_0`` as 10 and the digits of
@@ -56,13 +60,10 @@ def whole(text: str) -> int:
     """An argparse type: an integer of ASCII digits with an optional sign (Python's int also read ``1_000`` and the
     digits of other scripts). Named ``int`` for argparse's message (``invalid int value: '1_0'``)."""
     if not _WHOLE.fullmatch(text.strip(' \t')):
-        raise NumberTextError(f'invalid int value: {brief(text)}; allowed: a whole number of ASCII digits '
-                                         '(e.g. 10)')
+        raise NumberTextError(f'invalid int value: {brief(text)}; allowed: a whole number of ASCII digits (e.g. 10)')
     return int(text)
 
 
-#: What :func:`number` reads, said where it refuses a text without a more particular hint.
-NUMBER_ALLOWED = '; allowed: a decimal number of ASCII digits (e.g. 0.5, -2, 1e-3)'
 number.__name__ = 'float'
 whole.__name__ = 'int'
 #: The integers :func:`whole` reads.

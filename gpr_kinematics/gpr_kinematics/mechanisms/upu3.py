@@ -31,6 +31,11 @@ SINGULARITY_TOLERANCE = 1e-9
 AZIMUTH_GAP = 1e-6
 
 
+def azimuth_gaps(az: np.ndarray) -> np.ndarray:
+    """The angles ``(n, n)`` [rad, 0 to pi] between azimuths ``az (n,)`` modulo 2 pi."""
+    return np.asarray(np.abs(np.angle(np.exp(1j * (az[:, None] - az[None, :])))), dtype=np.float64)
+
+
 def check_azimuths(azimuths: Any, name: str = 'base_azimuths') -> np.ndarray:
     """The limbs' azimuths as a ``(3,)`` array [rad], else :class:`ConfigError`: three finite angles, no two equal
     modulo 2 pi (two limbs on one joint pair: ``J`` has rank <= 2 everywhere, not a 3-UPU). The one check of
@@ -42,7 +47,7 @@ def check_azimuths(azimuths: Any, name: str = 'base_azimuths') -> np.ndarray:
         az = np.full(0, np.nan)
     if az.shape != (3,) or not np.all(np.isfinite(az)):
         raise ConfigError(f'{name} must be 3 finite angles in rad; got {brief(azimuths)}')
-    gaps = np.abs(np.angle(np.exp(1j * (az[:, None] - az[None, :]))))
+    gaps = azimuth_gaps(az)
     for i, j in zip(*np.triu_indices(3, 1), strict=True):
         if gaps[i, j] < AZIMUTH_GAP:
             raise ConfigError(f'{name} {np.round(az, 9).tolist()} rad: limbs {i + 1} and {j + 1} share an azimuth '

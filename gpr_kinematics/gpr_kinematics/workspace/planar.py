@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from ..mechanisms.upu3 import AZIMUTH_GAP
+from ..mechanisms.upu3 import AZIMUTH_GAP, azimuth_gaps
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T
 
@@ -23,9 +23,7 @@ def _check_legs_distinct(base: np.ndarray, platform: np.ndarray) -> None:
     """:class:`ConfigError` for two legs between the same base pivot and platform joint (their angles equal modulo
     2 pi, within :data:`~gpr_kinematics.mechanisms.upu3.AZIMUTH_GAP`): one leg given twice, three constraints two of
     them the same (``base_angles [0, 0, 0]`` was covered as a workspace). Legs that share a pivot alone are a design."""
-    def same(a: np.ndarray) -> np.ndarray:
-        return np.asarray(np.abs(np.angle(np.exp(1j * (a[:, None] - a[None, :])))) < AZIMUTH_GAP)
-    twice = np.triu(same(base) & same(platform), 1)
+    twice = np.triu((azimuth_gaps(base) < AZIMUTH_GAP) & (azimuth_gaps(platform) < AZIMUTH_GAP), 1)
     if twice.any():
         i, j = (int(v) + 1 for v in np.argwhere(twice)[0])
         raise ConfigError(f'rrr3_planar: legs {i} and {j} join the same base pivot and platform joint (base_angles '
