@@ -21,7 +21,7 @@ from typing import Any
 
 from ..core import ForwardResult
 from ..core.config import MODELS
-from ..errors import InputError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_number, within_turn
 from ..robot import Stations, robot_forward, solve_stations
 from ..robot.description import BRANCHES, Arm, RobotDescription
@@ -60,14 +60,12 @@ class RobotModels:
 
 
 def _arm(robot: RobotDescription, name: str) -> Arm:
-    """The arm ``name`` (empty: the first); InputError naming the arms there are."""
-    if not name:
-        return robot.arms[0]
-    for a in robot.arms:
-        if a.name == name:
-            return a
-    raise InputError(f'arm = {brief(name)} is invalid; allowed: {", ".join(robot.arm_names)} (the arms of robot '
-                     f'{robot.name})')
+    """The arm ``name`` (empty: the first) by :meth:`RobotDescription.arm`; InputError naming the request's field."""
+    try:
+        return robot.arm(name or None)
+    except ConfigError:
+        raise InputError(f'arm = {brief(name)} is invalid; allowed: {", ".join(robot.arm_names)} (the arms of robot '
+                         f'{robot.name})') from None
 
 
 def _joints(values: Any, arm: Arm, field: str) -> list[float]:
