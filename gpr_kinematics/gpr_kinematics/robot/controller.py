@@ -40,6 +40,7 @@ from ..errors import GprError, InputError, apart, brief
 from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_times
+from .plan import joint_limits, position_limits
 from .timing import MAX_SAMPLES
 from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate, spline
 
@@ -83,18 +84,12 @@ class ControllerJoints:
     def of(cls, robot: RobotDescription) -> ControllerJoints:
         """The rods (the stroke of the geometry, the rods' velocity) and every arm's joints of ``robot``."""
         cfg = robot.config
-        names = [*ROD_JOINT_NAMES]
-        lower, upper = [cfg.stroke_min] * 3, [cfg.stroke_max] * 3
-        velocity, units = [robot.rods.velocity] * 3, ['m'] * 3
+        _, velocity, _, _ = joint_limits(robot)
+        lower, upper = position_limits(robot)
         rest = inverse(0.5 * (cfg.stroke_min + cfg.stroke_max), 0.0, 0.0, cfg).q.tolist()   # level (rod offsets)
-        for arm in robot.arms:
-            names += arm.joint_names
-            lower += list(arm.lower)
-            upper += list(arm.upper)
-            velocity += list(arm.velocity)
-            units += ['rad'] * len(arm.joints)
-            rest += list(arm.home)
-        return cls(tuple(names), np.array(lower), np.array(upper), np.array(velocity), tuple(units), np.array(rest))
+        arms = [j for a in robot.arms for j in a.joint_names]
+        return cls((*ROD_JOINT_NAMES, *arms), lower, upper, velocity, ('m',) * 3 + ('rad',) * len(arms),
+                   np.array(rest + [v for a in robot.arms for v in a.home]))
 
     def indices(self, names: Sequence[str], where: str = 'joint_names') -> NDArray[np.int64]:
         """Positions of ``names`` among the joints; GoalError (``INVALID_JOINTS``) for none, an unknown or a repeated

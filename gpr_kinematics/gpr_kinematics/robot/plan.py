@@ -105,6 +105,15 @@ def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array
     return tuple(names), np.array(velocity), np.array(acceleration), slices
 
 
+def position_limits(robot: RobotDescription) -> tuple[Array, Array]:
+    """The lower and upper limits of the rods (the geometry's stroke [m]) and every arm's joints [rad], in
+    :func:`joint_limits`' order."""
+    cfg = robot.config
+    lower = [cfg.stroke_min] * 3 + [v for a in robot.arms for v in a.lower]
+    upper = [cfg.stroke_max] * 3 + [v for a in robot.arms for v in a.upper]
+    return np.array(lower), np.array(upper)
+
+
 def jerk_limits(robot: RobotDescription) -> Array:
     """The jerk limits of the rods and every arm's joints, in :func:`joint_limits`' order (``inf``: none)."""
     rods = np.inf if robot.rods.jerk is None else robot.rods.jerk

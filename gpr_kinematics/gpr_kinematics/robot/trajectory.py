@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
 from ..errors import InputError
 from ..inputs.files import check_suffix, write_text
-from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities
+from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities, position_limits
 from .spline import Spline
 from .timing import MAX_SAMPLES, check_rate, parameterise, sample, sample_times, velocities
 
@@ -137,9 +137,7 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
                          f'the trajectory ({", ".join(traj.joint_names)})')
     _, velocity, acceleration, _ = joint_limits(plan.robot)
     names = traj.joint_names
-    robot = plan.robot
-    lower = np.array([robot.config.stroke_min] * 3 + [v for a in robot.arms for v in a.lower])
-    upper = np.array([robot.config.stroke_max] * 3 + [v for a in robot.arms for v in a.upper])
+    lower, upper = position_limits(plan.robot)
     over = np.maximum(lower - current, current - upper)
     outside = np.flatnonzero(over > REPORTED_SLACK)
     if outside.size:   # a lead-in from there would leave the limits (or last for ever: 1e300 m)
