@@ -7,9 +7,11 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from gpr_kinematics.calibration.stations import BudgetOptions, platform_budget, robot_stations
 from gpr_kinematics.calibration.tolerances import load_tolerances, parse_tolerances
 from gpr_kinematics.cli.main import main
@@ -17,6 +19,7 @@ from gpr_kinematics.core import inverse_batch
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.core.machine import config_with_parameters, parameter_vector
 from gpr_kinematics.inputs.resources import config_path
+from gpr_kinematics.inputs.safe_yaml import read_file
 from gpr_kinematics.robot.description import load_robot
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.program import load_program
@@ -152,6 +155,11 @@ def test_robot_program_budget_at_the_wafer(capsys):
 
 def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
     pose = ['--pose', '0', '0', '0.3', '0.01', '0', '0']
+    # a program whose pick finds no wafer: refused by every command that plans it, and budgeted before
+    data = read_file(ROBOT_PROGRAM)
+    disorder = tmp_path / 'no_wafer.yaml'
+    robot_file = str(Path(ROBOT_PROGRAM).parent / data['robot'])
+    disorder.write_text(yaml.safe_dump({**data, 'wafers': [], 'robot': robot_file}))
     cases = [
         (['accuracy', 'gpr.yaml', *pose, '--samples', '10'], r'--samples belongs to the accuracy budget: give '
                                                              r'--tolerances TABLE'),
@@ -164,6 +172,9 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--tool', '0', '0', '0'], r"--tool: a robot program's tool "
                                                                                       r'point is the wafer centre'),
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, *pose], r'a program gives its stations'),
+        (['accuracy', str(disorder), '--tolerances', TABLE],
+         r'no_wafer\.yaml: steps\[\d+\] \(pick \w+, at\): station \w+ holds no wafer \(the program declares '
+         r'wafers: \[\]\)'),
         (['accuracy', ROBOT_PROGRAM, '--tolerances', TABLE, '--mm'], r'--mm with a program: it says its own units'),
         (['accuracy', 'example_stations.yaml', '--tolerances', TABLE, '--deg'], r'--deg with a program'),
         # without --tolerances a program read as 'mechanism file ... not found' (a packaged bare name) or 'type = None'

@@ -111,8 +111,10 @@ def robot_stations(robot: Any, program: Any) -> RobotStations:
     """Each station ``program`` visits (a move to it, or the wafer handed over there), with the arm and branch of its
     first visit, solved for the robot (module docstring)."""
     from ..robot import solve_stations
+    from ..robot.plan import check_wafers
     from ..robot.program import expand
     way = expand(program, robot)
+    check_wafers(program, way)   # a program every other command refuses is not budgeted either
     seen: dict[tuple[str, str], int] = {}
     for i, phase in enumerate(way.phase):
         key = (way.stations.names[i], way.arm[i])
