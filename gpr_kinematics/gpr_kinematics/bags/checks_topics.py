@@ -64,7 +64,15 @@ from .cdr import COUNT, Columns
 from .columns import field_matrix, matrix, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, Failure, Series, bool_check, skipped, value_check
-from .typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC, VIRTUAL_JOINTS_TOPIC
+from .typestore import (
+    JOINT_STATES_TOPIC,
+    KNOWN_TOPICS,
+    LEGACY_JOINT_STATES_TOPIC,
+    MARKERS_TOPIC,
+    NOMINAL_POSE_TOPIC,
+    PLATFORM_POSE_TOPIC,
+    VIRTUAL_JOINTS_TOPIC,
+)
 
 _UNIT = 'm|rad'
 
@@ -171,7 +179,7 @@ def _topic(bag: Bag, name: str) -> TopicData | None:
 def _pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float) -> list[Check]:
     stamps, frames = stamp_ns(c), c['header.frame_id']
     out: list[Check] = []
-    for name, field in (('/gpr/platform_pose', 'pose'), ('/gpr/nominal_pose', 'nominal_pose')):
+    for name, field in ((PLATFORM_POSE_TOPIC, 'pose'), (NOMINAL_POSE_TOPIC, 'nominal_pose')):
         check = f'topic.{name.rsplit("/", 1)[-1]}'
         t = _topic(bag, name)
         why = 'inf = no message with the stamp and frame of this PlatformState'
@@ -389,7 +397,7 @@ def _no_marker_checks(name: str, samples: NDArray[np.int64], tol: float, every: 
 
 def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprConfig, tol: float,
                    every: NDArray[np.int64]) -> list[Check]:
-    name = '/gpr/markers'
+    name = MARKERS_TOPIC
     t = _topic(bag, name)
     if t is None:
         return [skipped('topic.markers', name, 'm', 'no markers in the bag', tol)]

@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.messages import Topic
+
 #: How many failures per check are kept with their details (all are counted).
 MAX_DETAILS = 20
 
@@ -216,7 +218,7 @@ class VerifyResult:
 
     @property
     def states(self) -> int:
-        return self.counts.get('/gpr/platform_state', 0)
+        return self.counts.get('/' + Topic.PLATFORM_STATE, 0)
 
     def record(self) -> VerifyRecord:
         """The result for JSON (:class:`VerifyRecord`; non-finite numbers as strings, see the module docstring)."""

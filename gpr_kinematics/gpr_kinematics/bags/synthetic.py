@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..core import ForwardBatch, resolve_config
 from ..core.config import GprConfig
-from ..core.messages import geometry_text, robot_text, stream_messages
+from ..core.messages import Topic, geometry_text, robot_text, stream_messages
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, paper_sweep
 from ..robot.description import RobotDescription
 from ..robot.markers import marked, marker_array, marker_points
@@ -34,6 +34,7 @@ from .typestore import (
     BASE,
     GEOMETRY_TOPIC,
     GPR_TOPICS,
+    MARKERS_TOPIC,
     NAME,
     PLATFORM_STREAM_TOPICS,
     PROGRAM_TOPIC,
@@ -125,7 +126,7 @@ def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd
         if topic in topics:
             out.append((topic, start_ns, bytes(ts.serialize_cdr(make_message(GPR_TOPICS[topic], data=text),
                                                                 GPR_TOPICS[topic]))))
-    points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation) if '/gpr/markers' in topics else {}
+    points = marker_points(cfg, fk.q, fk.nominal_position, fk.nominal_rotation) if MARKERS_TOPIC in topics else {}
     for n in range(len(fk) if count is None else count):
         t, i = start_ns + n * period_ns, n % len(fk)
         msgs = stream_messages(types, fk[i], stamp_ns=t, frame_id='gpr_base', sample=n,
@@ -133,7 +134,7 @@ def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd
         if robot is not None:
             msgs.update(robot.messages(types, i, stamp_ns=t, sample=n, base_frame='gpr_base'))
         if points and marked(n, markers_every):
-            msgs['gpr/markers'] = marker_array(make_message, msgs['gpr/platform_state'].header,
+            msgs[Topic.MARKERS] = marker_array(make_message, msgs[Topic.PLATFORM_STATE].header,
                                                {ns: p[i] for ns, p in points.items()})
         for topic in topics:
             key = topic.lstrip('/')

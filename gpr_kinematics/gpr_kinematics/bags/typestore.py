@@ -16,41 +16,47 @@ import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from ..core.messages import MessageTypes
+from ..core.messages import MessageTypes, Topic
 from .errors import BagError
 
 INTERFACES_PACKAGE = 'gpr_interfaces'
 
 #: The geometry and model that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
 #: node's ``GprConfig.to_dict()``, published once at start (reliable, transient local, depth 1).
-GEOMETRY_TOPIC = '/gpr/geometry'
+GEOMETRY_TOPIC = '/' + Topic.GEOMETRY
 #: The virtual joints of each sample (``sensor_msgs/JointState``, names of the model), apart from the physical joints.
-VIRTUAL_JOINTS_TOPIC = '/gpr/virtual_joints'
+VIRTUAL_JOINTS_TOPIC = '/' + Topic.VIRTUAL_JOINTS
 
 #: The robot description that produced a stream: ``std_msgs/String`` whose ``data`` is the YAML of the producing
 #: node's ``RobotDescription.to_dict()`` (the description file format), published once at start, latched.
-ROBOT_TOPIC = '/gpr/robot'
+ROBOT_TOPIC = '/' + Topic.ROBOT
 #: The whole robot at each sample of a robot program (``gpr_interfaces/RobotState``: arm joints, the arm in use,
 #: its wafer) and the wafer pose alone (``geometry_msgs/PoseStamped``), in the robot's world frame.
-ROBOT_STATE_TOPIC = '/gpr/robot_state'
-WAFER_POSE_TOPIC = '/gpr/wafer_pose'
+ROBOT_STATE_TOPIC = '/' + Topic.ROBOT_STATE
+WAFER_POSE_TOPIC = '/' + Topic.WAFER_POSE
 #: What each stream was asked to do (``std_msgs/String``: the YAML of a :class:`~.program_record.Record`), latched,
 #: published with the first sample of every stream.
-PROGRAM_TOPIC = '/gpr/program'
+PROGRAM_TOPIC = '/' + Topic.PROGRAM
 
 #: The robot's joint states (``sensor_msgs/JointState``: the rods, and the arm joints in a robot program), on the
 #: topic ``robot_state_publisher`` reads; bags recorded before carry them on ``/gpr/joint_states`` (still verified).
-JOINT_STATES_TOPIC = '/joint_states'
+JOINT_STATES_TOPIC = '/' + Topic.JOINT_STATES
 LEGACY_JOINT_STATES_TOPIC = '/gpr/joint_states'
+
+#: The platform stream's state, poses and markers, recorded.
+PLATFORM_STATE_TOPIC = '/' + Topic.PLATFORM_STATE
+PLATFORM_POSE_TOPIC = '/' + Topic.PLATFORM_POSE
+NOMINAL_POSE_TOPIC = '/' + Topic.NOMINAL_POSE
+MARKERS_TOPIC = '/' + Topic.MARKERS
 
 #: Topics the trajectory node publishes and their types: the recorder's default topic list.
 GPR_TOPICS: dict[str, str] = {
-    '/gpr/platform_state': 'gpr_interfaces/msg/PlatformState',
-    '/gpr/platform_pose': 'geometry_msgs/msg/PoseStamped',
-    '/gpr/nominal_pose': 'geometry_msgs/msg/PoseStamped',
+    PLATFORM_STATE_TOPIC: 'gpr_interfaces/msg/PlatformState',
+    PLATFORM_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
+    NOMINAL_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
     JOINT_STATES_TOPIC: 'sensor_msgs/msg/JointState',
     VIRTUAL_JOINTS_TOPIC: 'sensor_msgs/msg/JointState',
-    '/gpr/markers': 'visualization_msgs/msg/MarkerArray',
+    MARKERS_TOPIC: 'visualization_msgs/msg/MarkerArray',
     ROBOT_STATE_TOPIC: 'gpr_interfaces/msg/RobotState',
     WAFER_POSE_TOPIC: 'geometry_msgs/msg/PoseStamped',
     GEOMETRY_TOPIC: 'std_msgs/msg/String',
@@ -62,8 +68,8 @@ GPR_TOPICS: dict[str, str] = {
 KNOWN_TOPICS: dict[str, str] = {**GPR_TOPICS, LEGACY_JOINT_STATES_TOPIC: 'sensor_msgs/msg/JointState'}
 
 #: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.
-PLATFORM_STREAM_TOPICS = ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', JOINT_STATES_TOPIC,
-                          VIRTUAL_JOINTS_TOPIC, '/gpr/markers')
+PLATFORM_STREAM_TOPICS = (PLATFORM_STATE_TOPIC, PLATFORM_POSE_TOPIC, NOMINAL_POSE_TOPIC, JOINT_STATES_TOPIC,
+                          VIRTUAL_JOINTS_TOPIC, MARKERS_TOPIC)
 
 #: Topics published once and latched (transient local): their recorded QoS says so, for ``ros2 bag play``.
 LATCHED_TOPICS = frozenset({GEOMETRY_TOPIC, ROBOT_TOPIC, PROGRAM_TOPIC})

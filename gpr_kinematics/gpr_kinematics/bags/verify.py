@@ -46,14 +46,12 @@ from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
 from .tolerances import Tolerances
 from .typestore import PLATFORM_STATE, ROBOT_STATE_TOPIC, typestore
+from .typestore import PLATFORM_STATE_TOPIC as STATE_TOPIC
 
 __all__ = ['Tolerances', 'VerifyResult', 'format_table', 'verify_bag']
 
-STATE_TOPIC = '/gpr/platform_state'
-
-
 def _no_states() -> Check:
-    why = 'no gpr_interfaces/msg/PlatformState messages on /gpr/platform_state: nothing to verify'
+    why = f'no gpr_interfaces/msg/PlatformState messages on {STATE_TOPIC}: nothing to verify'
     return Check('state.present', STATE_TOPIC, 1, 1.0, 0.0, 'messages', 1,
                  [Failure('state.present', STATE_TOPIC, None, 1.0, 0.0, why)])  # 1 missing > 0
 

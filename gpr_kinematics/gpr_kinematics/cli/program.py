@@ -19,7 +19,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ..core.messages import FOLLOW_JOINT_TRAJECTORY
+from ..core.messages import FOLLOW_JOINT_TRAJECTORY, Topic
 from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
@@ -350,7 +350,7 @@ def _send_parser(psub: Any) -> None:
                    help='the FollowJointTrajectory action (relative names resolve in --namespace; default '
                         f'{FOLLOW_JOINT_TRAJECTORY})')
     p.add_argument('--namespace', default='', metavar='NS', help="the robot's namespace, e.g. /r1 (default: none)")
-    p.add_argument('--joint-states', default='joint_states', metavar='TOPIC',
+    p.add_argument('--joint-states', default=Topic.JOINT_STATES, metavar='TOPIC',
                    help='where the robot publishes its joint states (default joint_states)')
     p.add_argument('--rate', type=number, default=100.0, help='points per second [Hz] (default 100)')
     p.add_argument('--timeout', type=number, default=10.0,

@@ -63,6 +63,37 @@ STATE_FROM_RESULT: tuple[tuple[str, str], ...] = (
 #: The names of the three actuated joints (rods) in ``sensor_msgs/JointState`` and the robot model.
 ROD_JOINT_NAMES: tuple[str, str, str] = ('rod_1', 'rod_2', 'rod_3')
 
+
+class Topic:
+    """The node suite's topics, relative to a node's namespace (a bag records them absolute: ``'/' + name``)."""
+
+    PLATFORM_STATE = 'gpr/platform_state'    #: gpr_interfaces/PlatformState, one per sample of a stream
+    PLATFORM_POSE = 'gpr/platform_pose'      #: geometry_msgs/PoseStamped, the platform with its centre shift
+    NOMINAL_POSE = 'gpr/nominal_pose'        #: geometry_msgs/PoseStamped, the platform without it
+    JOINT_STATES = 'joint_states'            #: sensor_msgs/JointState, the rods (and a robot's arm joints)
+    VIRTUAL_JOINTS = 'gpr/virtual_joints'    #: sensor_msgs/JointState, the virtual joints by the model's names
+    MARKERS = 'gpr/markers'                  #: visualization_msgs/MarkerArray of a stream
+    ROBOT_STATE = 'gpr/robot_state'          #: gpr_interfaces/RobotState, the whole robot of a robot program
+    WAFER_POSE = 'gpr/wafer_pose'            #: geometry_msgs/PoseStamped, the wafer in the world frame
+    GEOMETRY = 'gpr/geometry'                #: std_msgs/String (latched), the geometry's YAML
+    ROBOT = 'gpr/robot'                      #: std_msgs/String (latched), the robot description's YAML
+    PROGRAM = 'gpr/program'                  #: std_msgs/String (latched), what a stream was asked to do
+    CELL = 'gpr/cell'                        #: visualization_msgs/MarkerArray (latched), the process cell
+    ROBOT_DESCRIPTION = 'robot_description'  #: std_msgs/String (latched), the URDF
+
+
+class Service:
+    """The kinematics node's services and the trajectory node's action, relative to a node's namespace."""
+
+    FORWARD_KINEMATICS = 'gpr/forward_kinematics'
+    INVERSE_KINEMATICS = 'gpr/inverse_kinematics'
+    COMPENSATE = 'gpr/compensate'
+    ANALYZE_MOBILITY = 'gpr/analyze_mobility'
+    ROBOT_FORWARD_KINEMATICS = 'gpr/robot_forward_kinematics'
+    STATION_INVERSE_KINEMATICS = 'gpr/station_inverse_kinematics'
+    RUN_PROGRAM = 'gpr/run_program'          #: the action gpr_interfaces/RunProgram
+
+
 #: The FollowJointTrajectory action of a ros2_control joint_trajectory_controller named ``joint_trajectory_controller``
 #: (relative: in the robot's namespace).
 FOLLOW_JOINT_TRAJECTORY = 'joint_trajectory_controller/follow_joint_trajectory'
@@ -175,12 +206,12 @@ def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, fr
                         commanded_tilt=commanded_tilt, commanded_azimuth=commanded_azimuth)
     empty = types.float_sequence(np.zeros(0))
     return {
-        'gpr/platform_state': st,
-        'gpr/platform_pose': types.PoseStamped(header=st.header, pose=st.pose),
-        'gpr/nominal_pose': types.PoseStamped(header=st.header, pose=st.nominal_pose),
-        'joint_states': types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
+        Topic.PLATFORM_STATE: st,
+        Topic.PLATFORM_POSE: types.PoseStamped(header=st.header, pose=st.pose),
+        Topic.NOMINAL_POSE: types.PoseStamped(header=st.header, pose=st.nominal_pose),
+        Topic.JOINT_STATES: types.JointState(header=st.header, name=list(ROD_JOINT_NAMES),
                                          position=types.float_sequence(_floats(fk.q)), velocity=empty, effort=empty),
-        'gpr/virtual_joints': types.JointState(header=st.header, name=list(st.virtual_joint_names),
+        Topic.VIRTUAL_JOINTS: types.JointState(header=st.header, name=list(st.virtual_joint_names),
                                                position=types.float_sequence(_floats(fk.virtual_joints)),
                                                velocity=empty, effort=empty),
     }

@@ -37,6 +37,7 @@ from gpr_interfaces.srv import (
     StationInverseKinematics,
 )
 
+from ..core.messages import Service
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError, InputError, brief
 from .conversions import Vector, pose_msg
@@ -105,32 +106,32 @@ class GprClient:
     def forward_kinematics(self, q: Vector, model: str = '') -> Any:
         """``gpr/forward_kinematics``: rod lengths ``q`` [m] -> ForwardKinematics.Response."""
         req = ForwardKinematics.Request(q=[float(v) for v in q], model=model)
-        return self.call(ForwardKinematics, 'gpr/forward_kinematics', req)
+        return self.call(ForwardKinematics, Service.FORWARD_KINEMATICS, req)
 
     def inverse_kinematics(self, height: float, tilt: float, azimuth: float, model: str = '') -> Any:
         """``gpr/inverse_kinematics``: platform height [m], tilt and tilt azimuth [rad] -> the response."""
         quat = quaternion_from_matrix(tilt_rotation(tilt, azimuth))
         req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=model)
-        return self.call(InverseKinematics, 'gpr/inverse_kinematics', req)
+        return self.call(InverseKinematics, Service.INVERSE_KINEMATICS, req)
 
     def compensate(self, position: Vector, quaternion: Vector, tool_offset: Vector = (0.0, 0.0, 0.0),
                    model: str = '') -> Any:
         """``gpr/compensate``: naive command pose and tool offset (platform frame) [m] -> the response."""
         req = Compensate.Request(command=pose_msg(position, quaternion), model=model)
         req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = (float(v) for v in tool_offset)
-        return self.call(Compensate, 'gpr/compensate', req)
+        return self.call(Compensate, Service.COMPENSATE, req)
 
     def analyze_mobility(self, q: Vector, dq: Vector = (0.0, 0.0, 0.0), model: str = '') -> Any:
         """``gpr/analyze_mobility``: ranks, singular values and bounds at ``q``, ``|dX|`` for ``dq`` [m]."""
         req = AnalyzeMobility.Request(q=[float(v) for v in q], dq=[float(v) for v in dq], model=model)
-        return self.call(AnalyzeMobility, 'gpr/analyze_mobility', req)
+        return self.call(AnalyzeMobility, Service.ANALYZE_MOBILITY, req)
 
     def robot_forward_kinematics(self, rods: Vector, joints: Vector, arm: str = '', model: str = '') -> Any:
         """``gpr/robot_forward_kinematics``: rod lengths [m] and the arm's joints [rad] -> the response (wafer,
         blade, platform in the world, exact and naive)."""
         req = RobotForwardKinematics.Request(rods=[float(v) for v in rods], joints=[float(v) for v in joints],
                                              arm=arm, model=model)
-        return self.call(RobotForwardKinematics, 'gpr/robot_forward_kinematics', req)
+        return self.call(RobotForwardKinematics, Service.ROBOT_FORWARD_KINEMATICS, req)
 
     def station_inverse_kinematics(self, position: Vector, tilt: float = 0.0, azimuth: float = 0.0,
                                    heading: float | None = 0.0, arm: str = '', branch: str = '',
@@ -144,7 +145,7 @@ class GprClient:
                                                use_redundancy_value=redundancy_value is not None,
                                                redundancy_value=float(redundancy_value or 0.0))
         req.position.x, req.position.y, req.position.z = (float(v) for v in position)
-        return self.call(StationInverseKinematics, 'gpr/station_inverse_kinematics', req)
+        return self.call(StationInverseKinematics, Service.STATION_INVERSE_KINEMATICS, req)
 
     # -- topics --------------------------------------------------------------------------------------------------
     def subscribe(self, msg_type: Any, topic: str, depth: int = 100_000, latched: bool = False) -> list[Any]:
@@ -182,9 +183,9 @@ class GprClient:
                      feedback: Callable[[Any], None] | None = None, timeout: float = 20.0) -> Any:
         """Send a ``gpr/run_program`` goal (a program file or inline stations given as mappings with the keys
         of the program format) and return its goal handle once the node answered (``accepted`` tells)."""
-        key = (RunProgram, 'gpr/run_program')
+        key = (RunProgram, Service.RUN_PROGRAM)
         if key not in self._clients:
-            cli = ActionClient(self.node, RunProgram, 'gpr/run_program', **action_client_options(10000))
+            cli = ActionClient(self.node, RunProgram, Service.RUN_PROGRAM, **action_client_options(10000))
             if not cli.wait_for_server(timeout_sec=timeout):
                 cli.destroy()
                 raise ServiceTimeoutError(f'action gpr/run_program not available after {timeout} s')

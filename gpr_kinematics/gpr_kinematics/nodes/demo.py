@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from ..core.messages import Service, Topic
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
 from ..ros import env as ros_env
 from ..ros.process import NodeProcess
@@ -81,7 +82,7 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
 
     try:
         print('\n== gpr/forward_kinematics: q = (0.5, 0.498, 0.502) m', flush=True)
-        r = check('gpr/forward_kinematics', client.forward_kinematics([0.5, 0.498, 0.502]))
+        r = check(Service.FORWARD_KINEMATICS, client.forward_kinematics([0.5, 0.498, 0.502]))
         vj = dict(zip(r.virtual_joint_names, (round(v, 9) for v in r.virtual_joints), strict=True))
         print(f'   success {r.success} {r.message}\n   model {r.model}, iterations {r.iterations}, '
               f'residual {r.residual:.2e} m\n   position {fmt(xyz(r.pose.position))} m, tilt '
@@ -90,7 +91,7 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
               f'   virtual joints {vj}')
 
         print('\n== gpr/inverse_kinematics: height 0.45 m, tilt 1.5 deg about azimuth 30 deg', flush=True)
-        r = check('gpr/inverse_kinematics', client.inverse_kinematics(0.45, math.radians(1.5), math.radians(30.0)))
+        r = check(Service.INVERSE_KINEMATICS, client.inverse_kinematics(0.45, math.radians(1.5), math.radians(30.0)))
         print(f'   success {r.success} {r.message}\n   q {fmt(r.q)} m ({r.iterations} iterations)\n'
               f'   achieved position {fmt(xyz(r.achieved.position))} m, tilt {math.degrees(r.tilt):.6f} deg, '
               f'twist {math.degrees(r.twist):.2e} deg')
@@ -98,7 +99,7 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
         print('\n== gpr/compensate: naive command z 0.40 m, tilt 2 deg about azimuth 90 deg, tool (0.1, 0, 0.15) m',
               flush=True)
         quat = quaternion_from_matrix(tilt_rotation(math.radians(2.0), math.radians(90.0)))
-        r = check('gpr/compensate', client.compensate((0.0, 0.0, 0.40), quat, (0.1, 0.0, 0.15)))
+        r = check(Service.COMPENSATE, client.compensate((0.0, 0.0, 0.40), quat, (0.1, 0.0, 0.15)))
         t = r.arm_correction.translation
         print(f'   success {r.success} {r.message}\n   q {fmt(r.q)} m\n'
               f'   tool shift {fmt(xyz(r.tool_shift), 1e6, 3)} µm\n'
@@ -107,7 +108,7 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
         print('\n== gpr/analyze_mobility: singular q = (0.5, 0.5, 0.5) m and tilted q = (0.5, 0.498, 0.502) m',
               flush=True)
         for q_rods in ((0.5, 0.5, 0.5), (0.5, 0.498, 0.502)):
-            r = check('gpr/analyze_mobility', client.analyze_mobility(q_rods, (0.0, 1e-4, -1e-4)))
+            r = check(Service.ANALYZE_MOBILITY, client.analyze_mobility(q_rods, (0.0, 1e-4, -1e-4)))
             print(f'   q {q_rods}: success {r.success}, rank dPhi/dP {r.rank_dphi_dp}, rank [dPhi/dP dPhi/dX] '
                   f'{r.rank_augmented}, singular values {fmt(r.singular_values, 1.0, 4)}\n'
                   f'      bounds (4) [{r.eq4_lower:.4f}, {r.eq4_upper:.4f}], (5) [{r.eq5_lower:.4f}, '
@@ -117,13 +118,13 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
         print('\n== gpr/station_inverse_kinematics, then gpr/robot_forward_kinematics of its answer: the example '
               'robot, arm1, wafer at (1.2, 1.0, 0.455) m in the world, station plane tilted 1.2 deg about azimuth '
               '30 deg, blade heading 45 deg', flush=True)
-        r = check('gpr/station_inverse_kinematics', client.station_inverse_kinematics(
+        r = check(Service.STATION_INVERSE_KINEMATICS, client.station_inverse_kinematics(
             (1.2, 1.0, 0.455), math.radians(1.2), math.radians(30.0), math.radians(45.0), arm='arm1'))
         print(f'   success {r.success} {r.message}\n   rods {fmt(r.rods)} m; {r.arm} ({r.branch}) '
               + ', '.join(f'{n} {math.degrees(v):.4f} deg' for n, v in zip(r.joint_names, r.joints, strict=True))
               + f'\n   wafer reached to {r.position_error:.1e} m; the naive model\'s joints would miss it by '
               f'{1e6 * r.naive_wafer_error:.3f} µm')
-        f = check('gpr/robot_forward_kinematics', client.robot_forward_kinematics(r.rods, r.joints, arm=r.arm))
+        f = check(Service.ROBOT_FORWARD_KINEMATICS, client.robot_forward_kinematics(r.rods, r.joints, arm=r.arm))
         print(f'   forward kinematics of that answer: wafer at {fmt(xyz(f.wafer.position))} m; for the same rods and '
               f'joints the naive model would place it {1e6 * f.naive_wafer_error_norm:.3f} µm away')
 
@@ -132,7 +133,7 @@ def _demo(args: argparse.Namespace) -> int:  # noqa: C901 - a linear script
         print(f'\n== trajectory_node: paper sweep at {args.height} m, ±{args.max_tilt_deg} deg in '
               f'{args.tilt_step_deg} deg steps, azimuth step {args.azimuth_step_deg} deg, {args.rate} Hz',
               flush=True)
-        states = client.subscribe(PlatformState, 'gpr/platform_state')
+        states = client.subscribe(PlatformState, Topic.PLATFORM_STATE)
         traj = _start('trajectory_node', '-p', 'mode:=sweep', '-p', f'rate:={args.rate}',
                       '-p', f'height:={args.height}', '-p', f'max_tilt:={max_tilt!r}',
                       '-p', f'tilt_step:={step!r}', '-p', f'azimuth_step:={az_step!r}',

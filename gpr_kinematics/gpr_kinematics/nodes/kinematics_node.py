@@ -39,6 +39,7 @@ from gpr_interfaces.srv import (
 )
 
 from ..core.config import GprConfig, measured_points
+from ..core.messages import Service
 from ..errors import GprError, InputError
 from ..ros.specs import KINEMATICS, check_frame_prefix
 from .conversions import first_non_finite
@@ -111,13 +112,13 @@ class KinematicsNode(GprNode):
         self._executor: QueueTimedExecutor | None = None
         self.robot_models = RobotModels()
         qos = service_qos()  # keep all: no request is dropped by a full queue (nodes/qos.py)
-        self.create_service(ForwardKinematics, 'gpr/forward_kinematics', self.on_forward, qos_profile=qos)
-        self.create_service(InverseKinematics, 'gpr/inverse_kinematics', self.on_inverse, qos_profile=qos)
-        self.create_service(Compensate, 'gpr/compensate', self.on_compensate, qos_profile=qos)
-        self.create_service(AnalyzeMobility, 'gpr/analyze_mobility', self.on_mobility, qos_profile=qos)
-        self.create_service(RobotForwardKinematics, 'gpr/robot_forward_kinematics', self.on_robot_forward,
+        self.create_service(ForwardKinematics, Service.FORWARD_KINEMATICS, self.on_forward, qos_profile=qos)
+        self.create_service(InverseKinematics, Service.INVERSE_KINEMATICS, self.on_inverse, qos_profile=qos)
+        self.create_service(Compensate, Service.COMPENSATE, self.on_compensate, qos_profile=qos)
+        self.create_service(AnalyzeMobility, Service.ANALYZE_MOBILITY, self.on_mobility, qos_profile=qos)
+        self.create_service(RobotForwardKinematics, Service.ROBOT_FORWARD_KINEMATICS, self.on_robot_forward,
                             qos_profile=qos)
-        self.create_service(StationInverseKinematics, 'gpr/station_inverse_kinematics', self.on_station_inverse,
+        self.create_service(StationInverseKinematics, Service.STATION_INVERSE_KINEMATICS, self.on_station_inverse,
                             qos_profile=qos)
         cfg, robot = self.params.config, self.params.robot
         measured = measured_points(cfg)

@@ -31,11 +31,12 @@ from rclpy.exceptions import NameValidationException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from ..core.messages import Topic
 from ..errors import ConfigError
 
 #: Topics published once and latched (fully qualified names as in the root namespace).
-LATCHED: frozenset[str] = frozenset({'/gpr/geometry', '/gpr/robot', '/gpr/program', '/robot_description',
-                                     '/tf_static'})
+LATCHED: frozenset[str] = frozenset({*('/' + t for t in (Topic.GEOMETRY, Topic.ROBOT, Topic.PROGRAM,
+                                                          Topic.ROBOT_DESCRIPTION)), '/tf_static'})
 
 
 def is_latched(name: str) -> bool:
@@ -69,7 +70,7 @@ def joint_states_subscription(node: Node, callback: Callable[[Any], None], depth
             '-p joint_states_reliability:=best_effort to hear a best-effort one (robot_state_publisher\'s '
             'SensorDataQoS)')
 
-    return node.create_subscription(JointState, 'joint_states', callback, qos,
+    return node.create_subscription(JointState, Topic.JOINT_STATES, callback, qos,
                                     event_callbacks=SubscriptionEventCallbacks(incompatible_qos=incompatible))
 
 

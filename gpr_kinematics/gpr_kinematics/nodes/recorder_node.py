@@ -42,7 +42,7 @@ from rclpy.qos import QoSProfile
 from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
-from ..bags.typestore import KNOWN_TOPICS, check_known, normalize_type
+from ..bags.typestore import KNOWN_TOPICS, PLATFORM_STATE_TOPIC, check_known, normalize_type
 from ..bags.writer import SegmentedBagWriter, check_output_path
 from ..ros.specs import node_specs
 from .conversions import message_class
@@ -90,7 +90,7 @@ class RecorderNode(GprNode):
         try:
             # The state topic last: a publisher that waits for a subscription on it (trajectory_node's
             # wait_for_subscribers) then finds the other subscriptions announced already.
-            order = sorted(topics, key=lambda t: t == '/gpr/platform_state')
+            order = sorted(topics, key=lambda t: t == PLATFORM_STATE_TOPIC)
             self.subs = [self.create_subscription(classes[t], t, self._callback(t), self._qos(t), raw=True)
                          for t in order]
             if p['flush_interval'] > 0:

@@ -52,7 +52,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.forward import forward
-from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, duration_parts, time_parts
+from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, Topic, duration_parts, time_parts
 from ..errors import ConfigError, GprError
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
@@ -133,7 +133,7 @@ class RobotSimulatorNode(GprNode):
         self.last_foreign = -math.inf
         self.last_published = -math.inf
         qos = stream_qos(int(p['queue_depth']))
-        self.pub = self.create_publisher(JointState, 'joint_states', qos)
+        self.pub = self.create_publisher(JointState, Topic.JOINT_STATES, qos)
         joint_states_subscription(self, self._on_joint_states, qos.depth, p['joint_states_reliability'])
         self.motion_timer = self.create_timer(self.period, self._tick)
         self.motion_timer.cancel()

@@ -50,7 +50,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from ..core import forward
-from ..core.messages import ROD_JOINT_NAMES
+from ..core.messages import ROD_JOINT_NAMES, Topic
 from ..errors import GprError, LimitError, NoPoseError
 from ..inputs.validation import MAX_COORDINATE
 from ..robot.controller import ControllerJoints, joint_state_values
@@ -94,7 +94,7 @@ class StatePublisherNode(GprNode):
         self.moving: list[Joint] = [self.model.joint(n) for n in joints.names]
         self.held = joints.rest.copy()
         self.lower, self.upper = joints.lower, joints.upper
-        self.pub_description = self.create_publisher(String, 'robot_description', latched_qos())
+        self.pub_description = self.create_publisher(String, Topic.ROBOT_DESCRIPTION, latched_qos())
         self.pub_description.publish(String(data=self.model.to_urdf()))
         self.pub_static = self.create_publisher(TFMessage, '/tf_static', latched_qos())
         now = self.get_clock().now().to_msg()
@@ -103,7 +103,7 @@ class StatePublisherNode(GprNode):
         self.pub_static.publish(TFMessage(transforms=static))
         self.cell = load_cell(p['cell_file']).in_frame(robot.world_frame) if p['cell_file'] else None
         if self.cell is not None:
-            self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), 'gpr/cell',
+            self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), Topic.CELL,
                                                   latched_qos())
             header = make_message('std_msgs/msg/Header', frame_id=prefix + self.cell.frame, stamp=now)
             self.pub_cell.publish(cell_marker_array(make_message, header, self.cell))

@@ -65,7 +65,7 @@ from visualization_msgs.msg import MarkerArray
 from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import PlatformState, RobotState
 
-from ..core.messages import geometry_text, robot_text, stream_messages
+from ..core.messages import Service, Topic, geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program
@@ -88,11 +88,11 @@ NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
 SETTLE = 0.1
 #: The topics of one sample (published together, in this order) and their message types.
-STREAM_TOPICS: dict[str, Any] = {'gpr/platform_state': PlatformState, 'gpr/platform_pose': PoseStamped,
-                                 'gpr/nominal_pose': PoseStamped, 'joint_states': JointState,
-                                 'gpr/virtual_joints': JointState}
+STREAM_TOPICS: dict[str, Any] = {Topic.PLATFORM_STATE: PlatformState, Topic.PLATFORM_POSE: PoseStamped,
+                                 Topic.NOMINAL_POSE: PoseStamped, Topic.JOINT_STATES: JointState,
+                                 Topic.VIRTUAL_JOINTS: JointState}
 #: The topics a robot program adds to each sample (their types: :data:`gpr_kinematics.bags.typestore.GPR_TOPICS`).
-ROBOT_STREAM_TOPICS: dict[str, Any] = {'gpr/robot_state': RobotState, 'gpr/wafer_pose': PoseStamped}
+ROBOT_STREAM_TOPICS: dict[str, Any] = {Topic.ROBOT_STATE: RobotState, Topic.WAFER_POSE: PoseStamped}
 #: Threads of the node's executor: the timer, the action server's requests, a goal being planned or run, one spare.
 THREADS = 4
 
@@ -149,13 +149,13 @@ class TrajectoryNode(GprNode):
         qos = stream_qos(int(p['queue_depth']))
         topics = {**STREAM_TOPICS, **ROBOT_STREAM_TOPICS}
         self.stream_publishers = {t: self.create_publisher(ty, t, qos) for t, ty in topics.items()}
-        self.pub_markers = self.create_publisher(MarkerArray, 'gpr/markers', qos)
+        self.pub_markers = self.create_publisher(MarkerArray, Topic.MARKERS, qos)
         self.publishers_all = (*self.stream_publishers.values(), self.pub_markers)
-        self.pub_geometry = self.create_publisher(String, 'gpr/geometry', latched_qos())
+        self.pub_geometry = self.create_publisher(String, Topic.GEOMETRY, latched_qos())
         self.pub_geometry.publish(String(data=geometry_text(self.cfg)))
-        self.pub_robot = self.create_publisher(String, 'gpr/robot', latched_qos())
+        self.pub_robot = self.create_publisher(String, Topic.ROBOT, latched_qos())
         self.pub_robot.publish(String(data=robot_text(self.robot)))
-        self.pub_program = self.create_publisher(String, 'gpr/program', latched_qos())
+        self.pub_program = self.create_publisher(String, Topic.PROGRAM, latched_qos())
 
         self.sample = 0
         self._stamped = -1   # the last sample's stamp [ns]: each one later (a simulated clock stands within a tick)
@@ -174,7 +174,7 @@ class TrajectoryNode(GprNode):
         self.period = 1.0 / float(p['rate'])
         self.timer = self.create_timer(self.period, self._tick)
         self.timer.cancel()
-        self.action = ActionServer(self, RunProgram, 'gpr/run_program', execute_callback=self._execute,
+        self.action = ActionServer(self, RunProgram, Service.RUN_PROGRAM, execute_callback=self._execute,
                                    goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
                                    callback_group=MutuallyExclusiveCallbackGroup(), feedback_pub_qos_profile=qos,
                                    **action_server_options())
@@ -218,7 +218,7 @@ class TrajectoryNode(GprNode):
         """How many nodes subscribe to every stream topic (``wait_all_topics``) or to ``gpr/platform_state``, and
         are matched: nodes, not subscriptions, so a node that listens to one topic only (a state publisher on
         ``gpr/platform_state``, RViz on ``gpr/markers``) does not count as a recorder of the stream."""
-        pubs = self.stream_topics() if self.p['wait_all_topics'] else (self.stream_publishers['gpr/platform_state'],)
+        pubs = self.stream_topics() if self.p['wait_all_topics'] else (self.stream_publishers[Topic.PLATFORM_STATE],)
         nodes = set.intersection(*({(i.node_namespace, i.node_name) for i in
                                     self.get_subscriptions_info_by_topic(pub.topic_name)} for pub in pubs))
         return int(min(len(nodes), *(pub.get_subscription_count() for pub in pubs)))
@@ -233,7 +233,7 @@ class TrajectoryNode(GprNode):
             return time.monotonic() - self._ready_since >= SETTLE
         self._ready_since = None
         if time.monotonic() - self._wait_start > float(self.p['wait_timeout']):
-            where = 'every stream topic' if self.p['wait_all_topics'] else 'gpr/platform_state'
+            where = 'every stream topic' if self.p['wait_all_topics'] else Topic.PLATFORM_STATE
             self.get_logger().warning(f'no {want} subscriber(s) on {where} after {self.p["wait_timeout"]} s; '
                                       'starting anyway')
             return True
@@ -342,7 +342,7 @@ class TrajectoryNode(GprNode):
         for topic, msg in msgs.items():
             self.stream_publishers[topic].publish(msg)
         if marked(self.sample, int(self.p['markers_every'])):
-            self.pub_markers.publish(marker_array(make_message, msgs['gpr/platform_state'].header,
+            self.pub_markers.publish(marker_array(make_message, msgs[Topic.PLATFORM_STATE].header,
                                                   {ns: p[i] for ns, p in traj.markers.items()}))
 
     # -- the gpr/run_program action ----------------------------------------------------------------------------

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import ForwardBatch, forward_batch
-from ..core.messages import ROD_JOINT_NAMES, MessageTypes, RosMessage, header, pose
+from ..core.messages import ROD_JOINT_NAMES, MessageTypes, RosMessage, Topic, header, pose
 from . import robot_forward
 from .description import RobotDescription
 from .plan import ProgramPlan, joint_limits, plan_program, sample_plan
@@ -96,9 +96,9 @@ class RobotStream:
         empty = types.float_sequence(np.zeros(0))
         rods_header = header(types, stamp_ns, base_frame)
         return {
-            'gpr/robot_state': state,
-            'gpr/wafer_pose': types.PoseStamped(header=h, pose=wafer),
-            'joint_states': types.JointState(
+            Topic.ROBOT_STATE: state,
+            Topic.WAFER_POSE: types.PoseStamped(header=h, pose=wafer),
+            Topic.JOINT_STATES: types.JointState(
                 header=rods_header, name=[*ROD_JOINT_NAMES, *self.joint_names],
                 position=types.float_sequence(np.concatenate([self.gpr.q[i], self.joints[i]])), velocity=empty,
                 effort=empty),

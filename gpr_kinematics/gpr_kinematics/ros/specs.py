@@ -19,6 +19,7 @@ from typing import Any
 
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
+from ..core.messages import Topic
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
@@ -274,8 +275,8 @@ KINEMATICS: tuple[ParamSpec, ...] = (
 )
 
 #: Topics of trajectory_node besides the bag library's default list (typestore.GPR_TOPICS), with their types.
-STREAM_EXTRA_TOPICS: dict[str, str] = {'/gpr/virtual_joints': 'sensor_msgs/msg/JointState',
-                                       '/gpr/geometry': 'std_msgs/msg/String'}
+STREAM_EXTRA_TOPICS: dict[str, str] = {'/' + Topic.VIRTUAL_JOINTS: 'sensor_msgs/msg/JointState',
+                                       '/' + Topic.GEOMETRY: 'std_msgs/msg/String'}
 
 
 def recorded_topics() -> dict[str, str]:
