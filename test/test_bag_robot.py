@@ -342,6 +342,22 @@ def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Pat
     assert next(c for c in result.checks if c.name == 'robot.structure').checked > 0
 
 
+@pytest.mark.parametrize('prefix', ['', 'r1/'])
+def test_robot_states_in_another_prefix_world_fail(robot_bag: Path, tmp_path: Path, prefix: str) -> None:
+    """The robot states' world frame carries the node's frame prefix, the one of its PlatformStates' frame: every
+    RobotState and wafer pose moved to evil/world (any */world passed) fails robot.structure at every sample."""
+    def edit(topic, msg):
+        if not hasattr(msg, 'header'):
+            return msg
+        frame = msg.header.frame_id
+        moved = 'evil/' + frame if topic in (ROBOT_STATE_TOPIC, WAFER_POSE_TOPIC) else prefix + frame
+        return dataclasses.replace(msg, header=dataclasses.replace(msg.header, frame_id=moved))
+
+    result = verify_bag(rewritten(robot_bag, tmp_path / 'evil', edit))
+    structure = next(c for c in result.checks if c.name == 'robot.structure')
+    assert not result.passed and structure.failed == structure.checked == result.counts[ROBOT_STATE_TOPIC]
+
+
 @pytest.mark.parametrize('dropped, failed', [
     (range(0, 3), set()),                                          # a recorder that subscribed to them last
     (range(4, 6), {'topic.joint_states', 'robot.structure'}),      # lost in the middle (and more checks)
@@ -491,16 +507,34 @@ def test_wafer_poses_without_robot_states_fail_in_a_sweep_and_are_declared_unche
 
 
 def test_a_sweep_record_after_sample_0_is_another_run_spliced_on() -> None:
-    """A node streams one sweep, its start-up stream (a goal runs a program or stations): a second sweep's record at
-    sample 30 (another run spliced after the first, stamps and counters shifted) passed."""
+    """A node streams a sweep only as its start-up stream (a goal runs a program or stations), from sample 0, and
+    it ends the node: a second sweep's record at sample 30 (another run spliced after the first, stamps and counters
+    shifted) passed; so did a sweep spliced before or after a robot program."""
     from gpr_kinematics.bags.checks_program import loop_problems
     from gpr_kinematics.bags.program_record import parse_record, record_text
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.program import load_program
 
     spec = {'height': 0.25, 'max_tilt': 0.03, 'tilt_step': 0.01, 'azimuth_step': 1.0, 'passes': 1}
     records = [parse_record(record_text('sweep', first, 30, 100.0, False, 2.0, sweep=spec)) for first in (0, 30)]
     samples = np.arange(60)
     owner = np.searchsorted([0, 30], samples, side='right') - 1
     assert not loop_problems(records[:1], samples[:30], owner[:30])
+    program = parse_record(record_text('robot_program', 30, 30, 100.0, False, 2.0,
+                                       program=load_program(config_path('programs/example_robot_program.yaml'))))
+    assert [p[3] for p in loop_problems([records[0], program], samples, owner)] == [
+        'the recording has a stream from sample 30 after the sweep from sample 0; a sweep is the node\'s start-up '
+        'stream, which ends the node after its last sample']
+    program = dataclasses.replace(program, first_sample=0)
+    assert [p[3] for p in loop_problems([program, records[1]], samples, owner)] == [
+        'the sweep from sample 30 follows the robot_program from sample 0; a node streams a sweep only as its '
+        'start-up stream, from sample 0 (a gpr/run_program goal runs a program or stations)']
+    assert [p[3] for p in loop_problems(records[1:], samples[30:], owner[30:] - 1)] == [
+        'the sweep from sample 30 starts there; a node streams a sweep only as its start-up stream, from sample 0 (a '
+        'gpr/run_program goal runs a program or stations)']
     problems = loop_problems(records, samples, owner)
-    assert [p[3] for p in problems] == ['the sweep from sample 30 follows another sweep; a node streams one sweep, '
-                                        'its start-up stream (a gpr/run_program goal runs a program or stations)']
+    assert [p[3] for p in problems] == [
+        'the recording has a stream from sample 30 after the sweep from sample 0; a sweep is the node\'s start-up '
+        'stream, which ends the node after its last sample',
+        'the sweep from sample 30 follows the sweep from sample 0; a node streams a sweep only as its start-up stream, '
+        'from sample 0 (a gpr/run_program goal runs a program or stations)']

@@ -16,7 +16,12 @@ import pytest
 from bag_support import MARKERS, example_robot_bag, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
 from gpr_kinematics.bags.results import MAX_DETAILS
-from gpr_kinematics.bags.synthetic import make_message, robot_program_messages, sweep_messages
+from gpr_kinematics.bags.synthetic import (
+    make_message,
+    platform_program_messages,
+    robot_program_messages,
+    sweep_messages,
+)
 from gpr_kinematics.bags.typestore import (
     GEOMETRY_TOPIC,
     GPR_TOPICS,
@@ -28,6 +33,7 @@ from gpr_kinematics.bags.typestore import (
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot import load_robot
+from gpr_kinematics.robot.platform_program import load_platform_program
 from gpr_kinematics.robot.program import load_program
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
@@ -300,9 +306,9 @@ def test_a_wafer_pose_topic_recorded_without_a_message_fails_but_at_the_ends(rob
         "cut in the middle of a sample lacks only the last sample's))")
 
 
-def _robot_then_sweep(tmp_path: Path) -> Path:
-    """A robot program's 286 samples, then a sweep's 30 (counters 286 to 315, its record's first sample 286): the
-    node runs a platform stream after a robot program (a goal of gpr/run_program), without RobotStates."""
+def _robot_then_platform(tmp_path: Path) -> Path:
+    """A robot program's 286 samples, then a platform program's 45 (counters 286 to 330, its record's first sample
+    286): an idle node runs two gpr/run_program goals, the second a platform program, without RobotStates."""
     robot = load_robot()
     msgs = robot_program_messages(robot, load_program(config_path('programs/example_robot_program.yaml')), 10.0)
 
@@ -314,20 +320,21 @@ def _robot_then_sweep(tmp_path: Path) -> Path:
                 m, data=m.data.replace('first_sample: 0\n', 'first_sample: 286\n', 1)))
         return topic, t, raw
 
-    sweep = small_sweep(config=robot.config, start_ns=msgs[-1][1] + 100_000_000,
-                        topics=(*PLATFORM_STREAM_TOPICS, PROGRAM_TOPIC))
-    return write_bag(tmp_path / 'robot_then_sweep', msgs + [later(*m) for m in sweep], dict(GPR_TOPICS))
+    platform = platform_program_messages(load_platform_program(config_path('programs/example_stations.yaml')),
+                                         robot.config, 10.0, start_ns=msgs[-1][1] + 100_000_000,
+                                         topics=(*PLATFORM_STREAM_TOPICS, PROGRAM_TOPIC))
+    return write_bag(tmp_path / 'robot_then_platform', msgs + [later(*m) for m in platform], dict(GPR_TOPICS))
 
 
 def test_robot_states_are_due_only_in_a_robot_program(tmp_path: Path) -> None:
-    """With the records (gpr/program) a RobotState is due for the samples of a robot program only: a sweep after
-    it has none, and the recording's last sample is the sweep's. So the robot program's last RobotState removed
-    fails (no cut lost it: the recording went on), and so does the topic emptied (listed, no message: skipped as
-    'no robot states' before), at every robot program sample but the first."""
-    bag = _robot_then_sweep(tmp_path)
+    """With the records (gpr/program) a RobotState is due for the samples of a robot program only: a platform
+    program after it has none, and the recording's last sample is the platform program's. So the robot program's
+    last RobotState removed fails (no cut lost it: the recording went on), and so does the topic emptied (listed, no
+    message: skipped as 'no robot states' before), at every robot program sample but the first."""
+    bag = _robot_then_platform(tmp_path)
     result = verify_bag(bag)
     assert result.passed, [f.line() for f in result.failures]
-    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (316, 286)
+    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (332, 286)
     last = verify_bag(tampered(bag, tmp_path / 'last', _tail_removed(ROBOT_STATE, 285)))
     assert _failed(last) == dict.fromkeys(ROBOT_STATE_CHECKS, {285})
     empty = verify_bag(tampered(bag, tmp_path / 'empty', _tail_removed(ROBOT_STATE, 0)))
@@ -397,13 +404,13 @@ def test_a_looping_sweeps_record_edited_to_loop_false_fails_naming_loop(tmp_path
 @pytest.mark.parametrize('count, detail', [
     (1, 'the robot_program from sample 0 says loop = true; the recording has a stream from sample 286 after it (a '
         'looping stream runs until the node stops)'),
-    (2, "the sweep from sample 286 says loop = true; only the node's start-up stream loops, and it starts at sample "
-        "0 (a gpr/run_program goal's stream never loops)")])
+    (2, "the platform_program from sample 286 says loop = true; only the node's start-up stream loops, and it starts "
+        "at sample 0 (a gpr/run_program goal's stream never loops)")])
 def test_a_record_edited_to_loop_true_fails_where_the_recording_shows_no_loop(tmp_path: Path, count: int,
                                                                              detail: str) -> None:
     """Only the node's start-up stream loops (loop and no goal): it starts at sample 0 and never ends, so no other
     stream follows it. A robot program followed by a platform stream, either record edited to loop: true, passed."""
-    bag = _robot_then_sweep(tmp_path)
+    bag = _robot_then_platform(tmp_path)
     result = verify_bag(tampered(bag, tmp_path / 'loop', _record_edited('loop: false', 'loop: true', count)))
     assert (_failed(result), _program_details(result)) == ({'topic.program': {None}}, [detail])
 

@@ -117,7 +117,8 @@ def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> N
 
 
 def loop_problems(records: list[Record], samples: NDArray[np.int64], owner: NDArray[np.int64]) -> list[Problem]:
-    """What the recording shows against each record's ``loop`` (and kind: a node streams one sweep, at its start):
+    """What the recording shows against each record's ``loop`` (and kind: a node streams a sweep only at its start,
+    and nothing after it):
     only the node's start-up stream loops, and it starts
     at sample 0 (a ``gpr/run_program`` goal's stream never loops) and runs until the node stops, so no stream follows
     it; a stream that does not loop ends after its samples, so no sample counter it covers (before the next record's
@@ -125,10 +126,18 @@ def loop_problems(records: list[Record], samples: NDArray[np.int64], owner: NDAr
     (:func:`owners`)."""
     problems: list[Problem] = []
     for k, r in enumerate(records):
-        if r.kind == 'sweep' and any(e.kind == 'sweep' for e in records[:k]):   # another run spliced on
-            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the sweep from sample {r.first_sample} follows another sweep; '
-                             "a node streams one sweep, its start-up stream (a gpr/run_program goal runs a program or "
-                             'stations)'))
+        # a sweep is only ever the node's start-up stream: from sample 0, and it ends the node (or loops until the
+        # node stops; goals are refused while it runs): another run spliced before or after it
+        if r.kind == 'sweep' and (k > 0 or r.first_sample != 0):
+            before = records[k - 1] if k else None
+            after = 'starts there' if before is None else f'follows the {before.kind} from sample {before.first_sample}'
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the sweep from sample {r.first_sample} {after}; a node streams '
+                             'a sweep only as its start-up stream, from sample 0 (a gpr/run_program goal runs a '
+                             'program or stations)'))
+        if r.kind == 'sweep' and not r.loop and k + 1 < len(records):
+            problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the recording has a stream from sample '
+                             f'{records[k + 1].first_sample} after the sweep from sample {r.first_sample}; a sweep is '
+                             'the node\'s start-up stream, which ends the node after its last sample'))
         what = f'the {r.kind} from sample {r.first_sample} says loop = '
         if r.loop and r.first_sample != 0:
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'{what}true; only the node\'s start-up stream loops, and it '

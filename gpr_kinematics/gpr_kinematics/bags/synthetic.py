@@ -20,12 +20,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import ForwardBatch, resolve_config
+from ..core import ForwardBatch, inverse_batch, resolve_config
 from ..core.config import GprConfig
 from ..core.messages import Topic, geometry_text, robot_text, stream_messages
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, paper_sweep
 from ..robot.description import RobotDescription
 from ..robot.markers import marked, marker_array, marker_points
+from ..robot.platform_program import PlatformProgram, sample_program
 from ..robot.program import RobotProgram
 from ..robot.stream import RobotStream, robot_stream
 from .program_record import record_text
@@ -112,6 +113,23 @@ def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate:
                                           markers_every=markers_every)}
     return _stream(robot.config, rs.gpr, rs.gpr.tilt, rs.gpr.tilt_azimuth, latched, rs, start_ns,
                    int(round(1e9 / rate)), topics, markers_every or 1)
+
+
+def platform_program_messages(program: PlatformProgram, config: GprConfig | None = None, rate: float = 100.0,
+                              start_ns: int = 1_700_000_000_000_000_000,
+                              topics: tuple[str, ...] = (*PLATFORM_STREAM_TOPICS, GEOMETRY_TOPIC, PROGRAM_TOPIC),
+                              markers_every: int | None = 1) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], CDR bytes) of every message ``trajectory_node`` publishes for a platform program
+    (its stations interpolated at ``rate``, solved by the inverse kinematics under ``config``'s model): the geometry
+    and the record once, then every sample's platform messages, one sample per ``1 / rate``."""
+    cfg = resolve_config(config)
+    samples = sample_program(program, rate)
+    ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
+    latched = {GEOMETRY_TOPIC: geometry_text(cfg),
+               PROGRAM_TOPIC: record_text('platform_program', 0, len(ik.achieved), rate, False, 2.0, program=program,
+                                          markers_every=markers_every)}
+    return _stream(cfg, ik.achieved, samples.tilt, samples.azimuth, latched, None, start_ns, int(round(1e9 / rate)),
+                   topics, markers_every or 1)
 
 
 def _stream(cfg: GprConfig, fk: ForwardBatch, cmd_tilt: NDArray[np.float64], cmd_azimuth: NDArray[np.float64],
