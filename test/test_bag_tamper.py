@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from bag_support import MARKERS, example_robot_bag, small_sweep, write_bag
+from bag_support import MARKERS, example_robot_bag, messages_of, small_sweep, write_bag
 from gpr_kinematics.bags.coverage import numeric_fields, rule_of
 from gpr_kinematics.bags.results import MAX_DETAILS
 from gpr_kinematics.bags.synthetic import (
@@ -345,6 +345,26 @@ def test_robot_states_are_due_only_in_a_robot_program(tmp_path: Path) -> None:
         'the robot states topic is recorded without a message; a sample of a robot program (gpr/program) without '
         'its RobotState (the first and the last state are not counted: a recording started or cut in the middle of '
         'a sample)')
+
+
+def test_robot_states_at_a_platform_programs_samples_fail_structure(tmp_path: Path) -> None:
+    """A platform stream publishes no RobotState: the robot program's first 40 RobotStates copied onto the platform
+    program's samples (stamps and counters of theirs, frame and names right) passed robot.structure there, and with
+    the rods' own wafer they passed every check (a reviewer's forged sweep). Now robot.structure fails at each."""
+    bag = _robot_then_platform(tmp_path)
+    msgs = messages_of(bag)
+    ts = typestore()
+    sample = {m[1]: ts.deserialize_cdr(m[2], GPR_TOPICS[STATE]).sample for m in msgs if m[0] == STATE}
+    platform = sorted(t for t, n in sample.items() if n >= 286)[:40]
+    robot_states = [m for m in msgs if m[0] == ROBOT_STATE][:40]
+    forged = [(ROBOT_STATE, t, edited(GPR_TOPICS[ROBOT_STATE], raw, lambda m, t=t: dataclasses.replace(
+        m, sample=sample[t],
+        header=dataclasses.replace(m.header, stamp=dataclasses.replace(m.header.stamp, sec=t // 10**9,
+                                                                        nanosec=t % 10**9)))))
+              for (_, _, raw), t in zip(robot_states, platform, strict=True)]
+    result = verify_bag(write_bag(tmp_path / 'forged', msgs + forged, dict(GPR_TOPICS)))
+    structure = next(c for c in result.checks if c.name == 'robot.structure')
+    assert structure.failed == 40 and [f.sample for f in structure.failures] == list(range(286, 306))
 
 
 def _record(msgs: list[tuple[str, int, bytes]]) -> tuple[str, int, bytes]:

@@ -252,6 +252,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     structure = np.ones(len(stamps), dtype=bool)
     structure[rows] = ok
     structure[(absent > 0) & (idx < 0)] = False
+    if due is not None:
+        structure[rows[~due[rows]]] = False   # a platform stream publishes no RobotState
     arms = rc['arm'][j]
     # every arm's joints against their limits, the arms at rest included
     lower = np.concatenate([a.lower for a in robot.arms])
@@ -286,7 +288,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     checks = [
         bool_check('robot.structure', ROBOT_STATE_TOPIC, structure, samples,
                    f'RobotState missing, or not in {robot.world_frame}, of another sample, an arm not of robot '
-                   f'{robot.name} or joints other than {", ".join(names)}'
+                   f'{robot.name}, joints other than {", ".join(names)}, or at a sample of no robot program '
+                   '(gpr/program: a platform stream publishes none)'
                    + cut_detail(stamps, rstamps, samples, np.where(idx < 0, absent, 0.0))),
         value_check('robot.wafer_position', ROBOT_STATE_TOPIC, e_pos, tol.position, 'm', samples, inf_detail),
         value_check('robot.wafer_orientation', ROBOT_STATE_TOPIC, e_ang, tol.angle, 'rad', samples, inf_detail),
