@@ -19,9 +19,10 @@ File format (``config/programs/example_robot_program.yaml`` is a commented examp
       - {place: chamber_a, arm: arm1, branch: left, dwell: 1.0}
       - {dwell: 0.5}                   # hold where the robot is
 
-Each step becomes waypoints (wafer poses): ``move S`` -> ``S``; ``pick S`` -> ``S`` lowered by the approach
-height along the station normal (the blade under the wafer), ``S`` (dwell: the wafer is taken), ``S`` raised by
-the retract height; ``place S`` -> raised, at (dwell), lowered. A station with a straight ``entry`` ``e`` adds a
+Each step becomes waypoints (wafer poses): ``move S`` -> ``S`` (held for the dwell too); ``pick S`` -> ``S``
+lowered by the approach height along the station normal (the blade under the wafer), ``S`` (dwell: the wafer is
+taken), ``S`` raised by the retract height; ``place S`` -> raised, at (dwell), lowered. The dwell of a move, pick
+or place is the step's own ``dwell``, else the program's default. A station with a straight ``entry`` ``e`` adds a
 waypoint (phase ``entry``) ``e`` back along the wafer's heading before the first and one (phase ``exit``) after the
 last: the moves out of ``entry`` and into ``exit`` keep the wafer on that straight line with its orientation fixed
 (:mod:`gpr_kinematics.robot.paths`). ``time`` is the duration of the move into the
