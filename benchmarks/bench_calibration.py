@@ -38,10 +38,11 @@ from gpr_kinematics.calibration.arm import ArmMeasurements, ArmModel
 from gpr_kinematics.calibration.budget import accuracy_budget
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.frames import FramedModel, Transform, measuring_model
-from gpr_kinematics.calibration.identification import identify, measured_errors, weights
+from gpr_kinematics.calibration.identification import identify, weights
 from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.model import evaluate
 from gpr_kinematics.calibration.plan import plan_measurements
+from gpr_kinematics.calibration.plausibility import measured_errors
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.calibration.tolerances import parse_tolerances
 from gpr_kinematics.core import naive_inverse

@@ -195,6 +195,12 @@ def bad_inputs(tmp_path):
          r'nan\.csv line 2, column x: nan is not a finite number'),
         (['calibrate', write(tmp_path, 'mm.csv', 'q1,q2,q3,x,y,z,qx,qy,qz,qw\n' + '\n'.join(mm_rows)),
           '--output', 'x.yaml'], r'mm\.csv line 2, column q1: [\d.]+ m is outside the stroke .*declare "# units: mm"'),
+        # points (their target fitted) with x, y, z in mm and no units line: the target took up half the thousandfold
+        # and the hint was lost ('another frame than gpr_base')
+        (['calibrate', write(tmp_path, 'points_mm.csv', 'q1,q2,q3,x,y,z\n' + '\n'.join(
+            ','.join(r.split(',')[:3] + [repr(float(v) * 1000) for v in r.split(',')[3:6]]) for r in rows)),
+          '--output', 'x.yaml'], r'points_mm\.csv line 2: the measured point is [\d.]+ m .*\(millimetres\? declare '
+                                 r'"# units: mm"\)$'),
         # the rods in mm under a "# units: mm" line, the positions left in metres: "in SI units" and no hint
         (['calibrate', write(tmp_path, 'mixed.csv', '# units: mm\n' + '\n'.join([header] + [','.join(
             [f'{float(v) * 1000!r}' for v in r.split(',')[:3]] + r.split(',')[3:10] + ['3e-3', r.split(',')[11]])

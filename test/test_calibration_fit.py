@@ -16,10 +16,11 @@ import pytest
 from calibration_support import HeldOut, configurations, imperfect
 from gpr_kinematics.calibration import fitting
 from gpr_kinematics.calibration.core_model import CoreModel
-from gpr_kinematics.calibration.identification import _gate, identify, measured_errors, weights
+from gpr_kinematics.calibration.identification import _gate, identify, weights
 from gpr_kinematics.calibration.measurements import Measurements, write_measurements
 from gpr_kinematics.calibration.model import Parameter, ParameterSet
 from gpr_kinematics.calibration.plan import plan_measurements
+from gpr_kinematics.calibration.plausibility import measured_errors
 from gpr_kinematics.calibration.quality import CV_GATE, chi2_limit, sigma_check
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.cli.main import main

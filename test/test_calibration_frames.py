@@ -403,7 +403,8 @@ def test_a_closed_form_registration_that_misses_is_refined_before_the_data_are_j
     machine". The frames fitted alone under the nominal geometry register them within a millimetre. A start
     turned by 6 deg about the tracker's z axis (a larger miss) is refined the same way: the data are judged from
     it, the fit starts there too, passes its gate and finds the frames within their standard errors."""
-    from gpr_kinematics.calibration.identification import REGISTERED, measured_errors
+    from gpr_kinematics.calibration.identification import REGISTERED
+    from gpr_kinematics.calibration.plausibility import measured_errors
     cfg, core, Q, true_model, inner, theta = setting
     names = list(true_model.parameters.names)
     th = theta.copy()

@@ -38,7 +38,8 @@ from ..errors import ConvergenceError, InputError
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements, check_repeats
-from .model import ParameterSet, PoseModel, evaluate, pose_error, prior_scale
+from .model import ParameterSet, PoseModel, prior_scale
+from .plausibility import measured_errors, plausible_start
 from .quality import (
     CHI2_QUANTILE,
     CV_GATE,
@@ -67,10 +68,6 @@ Array = NDArray[np.float64]
 DEFAULT_SIGMA_POSITION = 5e-6
 #: Default standard deviation of a measured rotation-vector component [rad] (the same probe).
 DEFAULT_SIGMA_ANGLE = 2e-5
-#: A measured pose farther than this from the nominal model's is not a measurement of this machine in
-#: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
-PLAUSIBLE_POSITION = 0.01
-PLAUSIBLE_ANGLE = 0.05
 #: Largest reduced chi-square of a fit to measurements with their own standard deviations: beyond it the residuals
 #: are 100 times the stated noise, and no geometry of this machine explains the poses (a refusal, exit 2).
 MAX_CHI2 = 1e4
@@ -87,11 +84,6 @@ REGISTERED = 'frames fitted alone'
 STATUS_WORDS = {'iterations': 'out of iterations'}
 NOT_THIS_MACHINE = ('not measurements of this machine in the declared units (lengths in other units than the file\'s '
                     '"# units:" line says, m by default? a measured frame other than the one declared?)')
-
-
-class ImplausiblePoseError(InputError):
-    """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
-    :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which)."""
 
 
 def check_sigmas(sigma_position: float, sigma_angle: float) -> None:
@@ -118,50 +110,10 @@ def weights(meas: Measurements, sigma_position: float, sigma_angle: float,
     return w, position and (meas.sigma_angle is not None or declared[1])
 
 
-def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
-    """Errors of the model's poses at ``theta`` (rows ``(S, P)`` or one ``(P,)``) against the measurements: pose
-    errors ``(..., N, 6)``, or position errors ``(..., N, 3)`` for measured points."""
-    pos, rot = evaluate(model, theta, meas.q)
-    if meas.quaternion is None:
-        return np.asarray(pos - meas.position, dtype=np.float64)
-    return pose_error(pos, rot, meas.position, meas.rotation)
-
-
 def least_rows(n_free: int, per_row: int) -> int:
     """The fewest rows of ``per_row`` residuals each (6 for poses, 3 for points) that give more residuals than
     ``n_free`` free parameters: what an identification needs (and a measurement plan must give)."""
     return n_free // per_row + 1
-
-
-def _implausible(errors: Array) -> tuple[NDArray[np.int64], Array, Array]:
-    """The rows whose errors ``(N, 3 or 6)`` lie beyond :data:`PLAUSIBLE_POSITION` or :data:`PLAUSIBLE_ANGLE`, and
-    every row's position and angle error."""
-    dp = np.linalg.norm(errors[:, :3], axis=1)
-    da = np.linalg.norm(errors[:, 3:], axis=1) if errors.shape[1] == 6 else np.zeros(len(dp))
-    return np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE)).astype(np.int64), dp, da
-
-
-def _check_plausible(meas: Measurements, errors: Array, frame: str) -> None:
-    bad, dp, da = _implausible(errors)
-    if bad.size:
-        i = int(bad[0])
-        what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
-        limits = f'{PLAUSIBLE_POSITION} m' + (f', {PLAUSIBLE_ANGLE} rad' if errors.shape[1] == 6 else '')
-        # millimetres read as metres only where a thousandth of the measurement lies where the model puts it (a pose in
-        # another frame 3 m away got the hint, in a file that declared its units)
-        model_position = meas.position[i] + errors[i, :3]
-        declared_mm = meas.units[0] == 'mm'
-        mm = not declared_mm and bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
-        metres = declared_mm and bool(np.linalg.norm(model_position - 1e3 * meas.position[i]) <= PLAUSIBLE_POSITION)
-        elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
-                     if frame == 'gpr_base' else '')
-        why = ('millimetres? declare "# units: mm"' if mm else
-               'metres under the "# units: mm" line? give them in mm' if metres else
-               f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
-               'offset of a degree moves its wafer some centimetres): correct the nominal model first')
-        unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
-        raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
-                                   f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
 
 
 def _starts(params: ParameterSet, theta0: Array, fit: NDArray[np.int64], label: str = 'nominal'
@@ -360,9 +312,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
         return measured_errors(model, meas, theta) * w
 
     e0 = measured_errors(model, meas, theta0)
-    refine = getattr(model, 'registered', None)   # a registration: the frames refined where its closed form misses
-    registered = refine(meas) if callable(refine) and _implausible(e0)[0].size else None
-    _check_plausible(meas, e0 if registered is None else measured_errors(model, meas, registered), frame)
+    registered = plausible_start(model, meas, theta0, frame)
     free_idx = np.flatnonzero(mask).astype(np.int64)
     tell = reporter(progress)
     J0 = residual_jacobian(residuals, params, theta0, free_idx, scale, lambda share: tell('identifiability', share))

@@ -3,7 +3,7 @@ magnitude with the nominal and with the calibrated geometry, the noise the gate 
 parameters' change from nominal in standard errors.
 
 For row ``i`` the position residual is ``|p(theta, q_i) - p_i|`` [m] and the orientation residual the angle
-``|phi(R(theta, q_i) R_i^T)|`` [rad] (:func:`~.identification.measured_errors`), at the nominal ``theta_0``
+``|phi(R(theta, q_i) R_i^T)|`` [rad] (:func:`~.plausibility.measured_errors`), at the nominal ``theta_0``
 (before) and at the estimate (after): the RMS and the worst of each are the report's ``residuals.before`` and
 ``residuals.after``. The noise line is ``sqrt(3) sigma_i``, the RMS of the magnitude of a 3-vector of independent
 zero-mean coordinates of standard deviation ``sigma_i`` (``E |e_i|^2 = 3 sigma_i^2``; ``sigma_i`` the row's sigma
@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .identification import measured_errors, noise_origin, weights
+from .identification import noise_origin, weights
 from .measurements import Measurements
 from .model import PoseModel
+from .plausibility import measured_errors
 from .results import CalibrationResult
 
 Array = NDArray[np.float64]

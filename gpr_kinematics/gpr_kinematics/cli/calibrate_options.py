@@ -97,9 +97,9 @@ def fixed_frame(frame: str, model: RobotUrdf) -> None:
 
 def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
     """``run()``; a measured pose far from the nominal model's
-    (:class:`~gpr_kinematics.calibration.identification.ImplausiblePoseError`) also names ``--base``/``--target``
+    (:class:`~gpr_kinematics.calibration.plausibility.ImplausiblePoseError`) also names ``--base``/``--target``
     when they were given without ``--mm``/``--deg`` (their units are the options', not the file's)."""
-    from ..calibration.identification import ImplausiblePoseError
+    from ..calibration.plausibility import ImplausiblePoseError
     try:
         return run()
     except ImplausiblePoseError as exc:

@@ -1,0 +1,94 @@
+"""Whether measurements are of this machine at all: a measured pose implausibly far from the nominal model's (wrong
+units, another frame, a wrong row) is refused before any fit, with the likely cause named (millimetres read as
+metres, or metres under a ``# units: mm`` line, tested by rescaling the file and fitting its frames again).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import GprError, InputError
+from .measurements import Measurements
+from .model import PoseModel, evaluate, pose_error
+
+Array = NDArray[np.float64]
+
+#: A measured pose farther than this from the nominal model's is not a measurement of this machine in
+#: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
+PLAUSIBLE_POSITION = 0.01
+PLAUSIBLE_ANGLE = 0.05
+
+
+class ImplausiblePoseError(InputError):
+    """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
+    :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which)."""
+
+
+def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
+    """Errors of the model's poses at ``theta`` (rows ``(S, P)`` or one ``(P,)``) against the measurements: pose
+    errors ``(..., N, 6)``, or position errors ``(..., N, 3)`` for measured points."""
+    pos, rot = evaluate(model, theta, meas.q)
+    if meas.quaternion is None:
+        return np.asarray(pos - meas.position, dtype=np.float64)
+    return pose_error(pos, rot, meas.position, meas.rotation)
+
+
+def implausible(errors: Array) -> tuple[NDArray[np.int64], Array, Array]:
+    """The rows whose errors ``(N, 3 or 6)`` lie beyond :data:`PLAUSIBLE_POSITION` or :data:`PLAUSIBLE_ANGLE`, and
+    every row's position and angle error."""
+    dp = np.linalg.norm(errors[:, :3], axis=1)
+    da = np.linalg.norm(errors[:, 3:], axis=1) if errors.shape[1] == 6 else np.zeros(len(dp))
+    return np.flatnonzero((dp > PLAUSIBLE_POSITION) | (da > PLAUSIBLE_ANGLE)).astype(np.int64), dp, da
+
+
+def _check_plausible(meas: Measurements, errors: Array, frame: str,
+                     rescaled: Callable[[float], bool] = lambda factor: False) -> None:
+    """ImplausiblePoseError for the first row beyond the plausible errors; ``rescaled(factor)``: the positions
+    times ``factor`` fit the model (its frames fitted again), for the hint on units."""
+    bad, dp, da = implausible(errors)
+    if bad.size:
+        i = int(bad[0])
+        what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
+        limits = f'{PLAUSIBLE_POSITION} m' + (f', {PLAUSIBLE_ANGLE} rad' if errors.shape[1] == 6 else '')
+        # millimetres read as metres only where a thousandth of the measurement lies where the model puts it (a pose in
+        # another frame 3 m away got the hint, in a file that declared its units)
+        model_position = meas.position[i] + errors[i, :3]
+        declared_mm = meas.units[0] == 'mm'
+        # (with frames fitted, a fitted target took up half of the thousandfold: the file rescaled and fitted again)
+        mm = not declared_mm and (bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
+                                  or rescaled(1e-3))
+        metres = declared_mm and (bool(np.linalg.norm(model_position - 1e3 * meas.position[i]) <= PLAUSIBLE_POSITION)
+                                  or rescaled(1e3))
+        elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
+                     if frame == 'gpr_base' else '')
+        why = ('millimetres? declare "# units: mm"' if mm else
+               'metres under the "# units: mm" line? give them in mm' if metres else
+               f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
+               'offset of a degree moves its wafer some centimetres): correct the nominal model first')
+        unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
+        raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
+                                   f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
+
+
+def plausible_start(model: PoseModel, meas: Measurements, theta0: Array, frame: str) -> Array | None:
+    """Refuse measurements implausibly far from the model at ``theta0`` (:class:`ImplausiblePoseError`), its frames
+    fitted alone (the model's ``registered``) where the closed-form registration misses; that start, else None."""
+    refine = getattr(model, 'registered', None)   # a registration: the frames refined where its closed form misses
+
+    def errors(m: Measurements) -> tuple[Array, Array | None]:
+        e = measured_errors(model, m, theta0)
+        start = refine(m) if callable(refine) and implausible(e)[0].size else None
+        return (e, start) if start is None else (measured_errors(model, m, start), start)
+
+    def rescaled(factor: float) -> bool:
+        try:
+            return not implausible(errors(replace(meas, position=meas.position * factor))[0])[0].size
+        except GprError:
+            return False
+
+    e, start = errors(meas)
+    _check_plausible(meas, e, frame, rescaled)
+    return start
