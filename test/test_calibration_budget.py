@@ -187,8 +187,9 @@ def test_refusals():
     # 11.3 m away, passed when each coordinate was bounded alone.
     for far, rods, said in (((1e300, 0, 0), Q, r'\(1e\+300, 0, 0\) m'), ((8, 8, 0), Q, r'\(8, 8, 0\) m'),
                             ([[0.1, 0, 0], [8, -8, 0]], np.vstack([Q, Q]), r'\(8, -8, 0\) m \(target 1\)')):
-        with pytest.raises(LimitError, match=rf'^tool = {said} is beyond the reach of a tool point; allowed: at most '
-                                             r'10 m from the platform origin \(gpr_platform\)$'):
+        with pytest.raises(LimitError, match=rf'^tool = {said} is beyond the reach of a tool point \([\d.e+]+ m from '
+                                             r'the platform origin\); allowed: at most 10 m from the platform origin '
+                                             r'\(gpr_platform\)$'):
             accuracy_budget(m, rods, table, tool=far)
     with pytest.raises(InputError, match=r'percentiles'):
         accuracy_budget(m, Q, table, percentiles=(50, 101))

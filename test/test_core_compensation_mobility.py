@@ -88,8 +88,16 @@ def test_compensation_with_a_heading_solves_the_height_for_the_turned_tool_point
     ([0, 0, 0.4], [0, 0, 0, 1], [300, 0, 100], LimitError, r'tool_offset = \(300, 0, 100\) m is beyond the reach'),
     # a command far off the axis came back as an arm correction of 1.7e308 m, success (the ROS service too)
     ([1.7e308, 1.7e308, 0.4], [0, 0, 0, 1], [0, 0, 0], LimitError,
-     r'commanded position x, y = \(1.7e\+308, 1.7e\+308\) m: the platform does not move horizontally .*; allowed: '
-     r'within 10 m of the GPR axis'),
+     r'commanded position x, y = \(1.7e\+308, 1.7e\+308\) m, more than 1.7e\+308 m from the GPR axis: the platform '
+     r'does not move horizontally .*; allowed: within 10 m of the GPR axis'),
+    # the bound is a distance from the axis, as its message says: (9, 9) is 12.7 m away and passed a box of 10 m
+    ([9, 9, 0.3], [0, 0, 0, 1], [0, 0, 0], LimitError, r'x, y = \(9, 9\) m, 12.7279 m from the GPR axis'),
+    # just beyond: the distance printed apart from the limit ('(10, 0) m ... allowed: within 10 m' read as allowed)
+    ([10.0000001, 0, 0.3], [0, 0, 0, 1], [0, 0, 0], LimitError,
+     r'x, y = \(10, 0\) m, 10.0000001 m from the GPR axis: .*; allowed: within 10 m of the GPR axis'),
+    ([0, 0, 0.3], [0, 0, 0, 1], [10.0000001, 0, 0], LimitError,
+     r'tool_offset = \(10, 0, 0\) m is beyond the reach of a tool point \(10.0000001 m from the platform origin\); '
+     r'allowed: at most 10 m'),
 ])
 def test_compensation_rejects_bad_commands(position, quat, tool, exc, pattern):
     with pytest.raises(exc, match=pattern):

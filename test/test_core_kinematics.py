@@ -302,7 +302,8 @@ def test_azimuth_beyond_its_bound_is_refused():
 
 def test_tool_points_beyond_the_reach_are_refused():
     for tool in ([300.0, 0.0, 100.0], [1e308, 0.0, 0.0], [0.0, 0.0, -1e300], [6.0, 6.0, 6.0]):
-        with pytest.raises(LimitError, match=r'tool = .* is beyond the reach of a tool point; allowed: at most 10 m'):
+        with pytest.raises(LimitError, match=r'tool = .* is beyond the reach of a tool point \(.* m from the platform '
+                                             r'origin\); allowed: at most 10 m'):
             inverse(0.3, 0.01, 0.0, tool=tool)
     with pytest.raises(LimitError, match=r'\(target 1\) is beyond the reach'):
         inverse_batch([0.3, 0.3], 0.01, 0.0, tool=[[0.1, 0, 0], [0, 11.0, 0]])

@@ -6,6 +6,7 @@ Every error the package raises on purpose derives from :class:`GprError`, so a c
 """
 from __future__ import annotations
 
+import math
 import re
 import reprlib
 from typing import Any
@@ -103,6 +104,15 @@ def apart(value: float, limit: float, digits: int = 6) -> tuple[str, str]:
         if a != b:
             return a, b
     return repr(value), repr(limit)
+
+
+def norm_text(values: tuple[float, ...], limit: float) -> tuple[str, str]:
+    """The Euclidean norm of ``values`` against ``limit`` as :func:`apart` prints them; beyond the floats (1.7e308 m
+    twice) ``more than`` the largest value."""
+    norm = math.hypot(*values)
+    if math.isfinite(norm):
+        return apart(norm, limit)
+    return f'more than {max(abs(v) for v in values):.6g}', f'{limit:g}'
 
 
 #: Longest run of characters without a space an error line carries whole (a long path, or a value a message

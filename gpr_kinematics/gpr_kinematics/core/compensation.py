@@ -38,7 +38,7 @@ from typing import NamedTuple, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import LimitError
+from ..errors import LimitError, norm_text
 from ..inputs.validation import finite_vector, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
@@ -153,10 +153,11 @@ def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str
     """:func:`compensate` in float arithmetic for a finite command position ``p_c`` [m], a unit quaternion ``quat``
     and a finite tool point ``tool`` [m] (the caller checks them; the limits are checked here)."""
     check_tool_point(tool, 'tool_offset')
-    if max(abs(p_c[0]), abs(p_c[1])) > TOOL_REACH:  # 1.7e308 m came back as an arm correction, success
-        raise LimitError(f'commanded position x, y = ({p_c[0]:.6g}, {p_c[1]:.6g}) m: the platform does not move '
-                         f'horizontally (the naive model\'s centre is at x = y = 0) and the arm makes up the rest; '
-                         f'allowed: within {TOOL_REACH:g} m of the GPR axis')
+    if math.hypot(p_c[0], p_c[1]) > TOOL_REACH:   # 1.7e308 m came back as an arm correction, success
+        far, reach = norm_text((p_c[0], p_c[1]), TOOL_REACH)
+        raise LimitError(f'commanded position x, y = ({p_c[0]:.6g}, {p_c[1]:.6g}) m, {far} m from the GPR axis: the '
+                         'platform does not move horizontally (the naive model\'s centre is at x = y = 0) and the arm '
+                         f'makes up the rest; allowed: within {reach} m of the GPR axis')
     R_c = matrix_of(quat)
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, R_c[0][2], R_c[1][2], R_c[2][2]))
     M = mat_tmul(tilt_matrix(tilt, az), R_c)

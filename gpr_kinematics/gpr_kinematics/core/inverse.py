@@ -28,7 +28,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, InputError, LimitError
+from ..errors import ConvergenceError, InputError, LimitError, norm_text
 from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
 from .config import GprConfig, nominal_points, resolve_config
 from .forward import (
@@ -171,8 +171,10 @@ def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
     if far.any():
         i = int(np.argmax(far))
         where = f' (target {i})' if T.shape[0] > 1 else ''
+        distance, reach = norm_text(tuple(float(v) for v in T[i]), TOOL_REACH)
         raise LimitError(f'{name} = ({T[i, 0]:.6g}, {T[i, 1]:.6g}, {T[i, 2]:.6g}) m{where} is beyond the reach of a '
-                         f'tool point; allowed: at most {TOOL_REACH:g} m from the platform origin (gpr_platform)')
+                         f'tool point ({distance} m from the platform origin); allowed: at most {reach} m from the '
+                         'platform origin (gpr_platform)')
 
 
 def check_tool_point(tool: Sequence[float], name: str = 'tool') -> None:
