@@ -345,7 +345,7 @@ def test_export_refuses_too_many_samples_before_writing(capsys, tmp_path):
     status, out, err = run(capsys, 'program', 'export', cell, '--waypoints', str(tmp_path / 'w.csv'), '--samples',
                            str(tmp_path / 's.csv'), '--rate', '4000')
     assert status == 2 and out == '' and err.count('\n') == 1
-    assert 'the program lasts 59.582 s: at 4000 Hz that is 238328 samples; allowed: at most 200000' in err
+    assert 'the program lasts 59.582 s: at 4000 Hz that is 238329 samples; allowed: at most 200000' in err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -26,6 +26,7 @@ from gpr_kinematics.robot.controller import (
     trajectory_from_points,
     violation,
 )
+from gpr_kinematics.robot.timing import MAX_SAMPLES
 from gpr_kinematics.robot.trajectory import JointTrajectory, evaluate
 from robot_support import ROBOT
 
@@ -137,6 +138,18 @@ def test_the_last_point_is_always_a_sample():
     m = _plan(_two_points(['arm1_elbow'], [1.0], [1.5], t=(1.0, 2.0000000005)))
     assert len(m) == 201 and m.time[-1] == 2.0000000005 and m.positions[-1, elbow] == 1.5
     assert np.array_equal(m.time[:-1], np.arange(200) / RATE)
+
+
+def test_the_sample_bound_counts_the_samples_made():
+    """MAX_SAMPLES bounds the samples the goal has (robot.grid.grid_count, one rule with the programs): a goal of
+    1999.99 s at 100 Hz has 200,000 samples and was refused as 200,001; one of 1999.995 s has 200,001."""
+    elbow = JOINTS.names.index('arm1_elbow')
+    rest = JOINTS.rest[elbow]
+    m = _plan(JointTrajectory(('arm1_elbow',), np.array([1999.99]), np.array([[rest + 0.1]])))
+    assert len(m) == MAX_SAMPLES and m.time[-1] == 1999.99
+    with pytest.raises(GoalError, match=r'the trajectory lasts 1999.99 s: 200001 samples at 100 Hz; allowed: at most '
+                                        r'200000 samples'):
+        _plan(JointTrajectory(('arm1_elbow',), np.array([1999.995]), np.array([[rest + 0.1]])))
 
 
 def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():

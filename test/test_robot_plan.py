@@ -177,7 +177,7 @@ def test_a_program_too_long_to_sample_is_refused_once_timed():
     lines: 48.94 s against 59.58 s): refused by its duration once its moves are timed, before it is sampled."""
     cell = load_program(config_path('programs/example_cell_program.yaml'))
     with pytest.raises(InputError, match=r'example_cell_program.yaml: the program lasts 59\.582 s: at 4000 Hz that is '
-                                         r'238328 samples; allowed: at most 200000; lower the rate'):
+                                         r'238329 samples; allowed: at most 200000; lower the rate'):
         plan_program(ROBOT, cell, rate=4000.0)
 
 

@@ -109,6 +109,10 @@ def test_bad_file_and_rate(tmp_path):
     for dwell in (1e12, 1e300):
         with pytest.raises(ConfigError, match=r'dwell = .* is invalid; allowed: seconds >= 0 \(of magnitude at most'):
             _prog((0.3, 0.0, 0.0, dwell))
+    # the bound counts the samples made (the one at t = 0 too): a dwell of 1000 s at 200 Hz has 200,001 and passed
+    assert len(sample_program(_prog((0.3, 0.0, 0.0, 999.995)), 200.0).time) == 200_000
+    with pytest.raises(ConfigError, match=r'lasts 1000 s: 200001 samples at 200 Hz; allowed: at most 200000 samples'):
+        sample_program(_prog((0.3, 0.0, 0.0, 1000.0)), 200.0)
 
 
 @pytest.mark.parametrize('rate, move_time, words', [

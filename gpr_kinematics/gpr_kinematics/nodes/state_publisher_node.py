@@ -50,7 +50,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from ..core import forward
-from ..core.messages import ROD_JOINT_NAMES, Topic
+from ..core.messages import Topic
 from ..errors import GprError, LimitError, NoPoseError
 from ..inputs.validation import MAX_COORDINATE
 from ..robot.controller import ControllerJoints, joint_state_values
@@ -132,15 +132,10 @@ class StatePublisherNode(GprNode):
             self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
 
     def _pose_of(self, rods: Any) -> None:
-        """The exact and naive platform poses of ``rods`` (kept as they were when the rods have none, differ by more
-        than any tilt makes, or lie beyond :data:`~..inputs.validation.MAX_COORDINATE`, where floats give no faithful
-        pose: 1e308 m put inf and NaN on /tf, 1e15 m a 90 deg naive tilt); rods beyond the stroke or the tilt limit are
-        shown as received, with a warning."""
-        if max(abs(float(v)) for v in rods) > MAX_COORDINATE:
-            self.get_logger().warning(f'joint_states: rods {[float(v) for v in rods]} m; allowed: within '
-                                      f'+-{MAX_COORDINATE:g} m; the platform keeps its last pose',
-                                      throttle_duration_sec=5.0)
-            return
+        """The exact and naive platform poses of ``rods`` (within :data:`~..inputs.validation.MAX_COORDINATE`: the
+        joints beyond are left out on arrival, where floats give no faithful pose: 1e308 m put inf and NaN on /tf,
+        1e15 m a 90 deg naive tilt; kept as they were when the rods have none or differ by more than any tilt makes);
+        rods beyond the stroke or the tilt limit are shown as received, with a warning."""
         fk = None
         try:
             fk = forward(rods, self.cfg)
@@ -183,13 +178,14 @@ class StatePublisherNode(GprNode):
         if left:
             self.get_logger().warning(f'joint_states: {", ".join(left)} not finite, left out (held as before); '
                                       'allowed: finite positions', throttle_duration_sec=5.0)
-        # an arm joint (the rods: _pose_of) beyond: no faithful transform there (1e155 rad overflowed one and stopped
-        # the node)
-        far = (taken >= len(ROD_JOINT_NAMES)) & (np.abs(values) > MAX_COORDINATE)
+        # a joint beyond: no faithful transform there (an arm joint of 1e155 rad overflowed one and stopped the node;
+        # a rod of 1e300 m went on /tf as its own transform)
+        far = np.abs(values) > MAX_COORDINATE
         if far.any():
-            self.get_logger().warning(f'joint_states: {", ".join(self.joints.names[k] for k in taken[far])} beyond '
-                                      f'+-{MAX_COORDINATE:g} rad, left out (held as before)',
-                                      throttle_duration_sec=5.0)
+            told = ', '.join(f'{self.joints.names[k]} = {v:.6g} {self.joints.units[k]}'
+                             for k, v in zip(taken[far], values[far], strict=True))
+            self.get_logger().warning(f'joint_states: {told}: left out (held as before); allowed: within '
+                                      f'+-{MAX_COORDINATE:g} m or rad', throttle_duration_sec=5.0)
             taken, values = taken[~far], values[~far]
         rods = self.held[:3].copy()
         self.held[taken] = values

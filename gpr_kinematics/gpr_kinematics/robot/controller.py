@@ -39,7 +39,7 @@ from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, apart, brief
 from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
-from .grid import grid_times
+from .grid import grid_count, grid_times
 from .plan import joint_limits, position_limits
 from .timing import MAX_SAMPLES
 from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate, spline
@@ -362,7 +362,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         _refuse_off_start(joints, cols, traj, traj.positions[0], start, start_tolerance, 'points[0] at time_from_start '
                           '0', 'a first point after 0 s, which the joints then reach from where they are')
     _check_velocities(joints, cols, traj, start, under_way)
-    count = int(math.floor(traj.duration * rate + 1e-9)) + 2
+    count = grid_count(traj.duration, rate)
     if count > MAX_SAMPLES:
         raise GoalError(INVALID_GOAL, f'the trajectory lasts {traj.duration:.6g} s: {count} samples at {rate:g} Hz; '
                         f'allowed: at most {MAX_SAMPLES} samples')

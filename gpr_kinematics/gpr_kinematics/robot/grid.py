@@ -28,3 +28,18 @@ def grid_times(total: float, rate: float) -> NDArray[np.float64]:
         return np.append(t, total)
     t[-1] = total
     return t
+
+
+def grid_count(total: float, rate: float) -> int:
+    """How many instants :func:`grid_times` gives for ``total`` [s] at ``rate`` [Hz], counted without making them (the
+    bound :data:`~gpr_kinematics.robot.timing.MAX_SAMPLES` is checked before any array): ``2**53`` for a motion
+    beyond the floats' integers (and NaN).
+
+    >>> [grid_count(t, 10.0) == len(grid_times(t, 10.0)) for t in (0.0, 1e-12, 0.25, 0.3, 0.3 - 1e-12, 1999.99)]
+    [True, True, True, True, True, True]
+    """
+    x = total * rate + 1e-9
+    if not x < 2.0 ** 53:
+        return 2 ** 53
+    n = int(math.floor(x))
+    return n + 1 + int(total - n / rate > 1e-9 or (n == 0 and total > 0.0))

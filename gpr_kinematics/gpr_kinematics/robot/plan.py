@@ -20,6 +20,7 @@ from ..errors import ConfigError, InputError, LimitError
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import robot_forward
+from .grid import grid_count
 from .inverse import StationSolution, solve_stations
 from .paths import GRID, line_gains, line_positions
 from .program import RobotProgram, Waypoints, expand
@@ -86,7 +87,7 @@ def check_sample_count(program: RobotProgram, rate: float, least: float | None =
     planned, its :func:`shortest_duration`; :func:`plan_program` checks its moves' least durations once the waypoints
     are solved."""
     least = shortest_duration(program) if least is None else least
-    if not least * check_rate(rate) < MAX_SAMPLES:
+    if grid_count(least, check_rate(rate)) > MAX_SAMPLES:
         raise InputError(f'{program.source}: the program lasts at least {least:.6g} s ({what}): at {rate:g} Hz more '
                          f'than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
 

@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import ConfigError, brief, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.validation import MAX_COORDINATE, plain_number
-from .grid import grid_times
+from .grid import grid_count, grid_times
 from .station_files import station_name
 from .timing import MAX_SAMPLES
 
@@ -172,9 +172,10 @@ def check_samples(program: PlatformProgram, rate: float, default_move_time: floa
         raise ConfigError(f'move_time = {brief(default_move_time)} is invalid; allowed: seconds > 0')
     T, S, idx = program_knots(program, default_move_time)
     total = float(T[-1])
-    if not total * rate <= MAX_SAMPLES:
-        raise ConfigError(f'{program.source}: the program lasts {total:.6g} s: {total * rate:.6g} samples at {rate:g} '
-                          f'Hz; allowed: at most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
+    count = grid_count(total, rate)
+    if count > MAX_SAMPLES:
+        raise ConfigError(f'{program.source}: the program lasts {total:.6g} s: {count} samples at {rate:g} Hz; '
+                          f'allowed: at most {MAX_SAMPLES} samples (shorter dwells and moves, or a lower rate)')
     return T, S, idx
 
 

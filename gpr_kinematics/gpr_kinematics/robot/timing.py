@@ -23,7 +23,6 @@ naming the joint that limits it. docs/robot.md compares the S-curve's durations 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -31,7 +30,7 @@ from numpy.typing import NDArray
 
 from ..errors import InputError, LimitError, brief
 from ..inputs.validation import plain_number
-from .grid import grid_times
+from .grid import grid_count, grid_times
 
 Array = NDArray[np.float64]
 
@@ -401,10 +400,10 @@ def locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool
 
 
 def sample_count(total: float, rate: float) -> int:
-    """The count ``floor(total rate) + 1`` of :func:`sample_times` for a program of ``total`` [s] at ``rate`` [Hz];
-    :class:`InputError` beyond :data:`MAX_SAMPLES` (or a rate outside :data:`RATES`)."""
+    """The count of :func:`sample_times` (:func:`~.grid.grid_count`) for a program of ``total`` [s] at ``rate``
+    [Hz]; :class:`InputError` beyond :data:`MAX_SAMPLES` (or a rate outside :data:`RATES`)."""
     rate = check_rate(rate)
-    count = int(math.floor(total * rate + 1e-9)) + 1
+    count = grid_count(total, rate)
     if count > MAX_SAMPLES:
         raise InputError(f'the program lasts {total:.6g} s: at {rate:g} Hz that is {count} samples; allowed: at most '
                          f'{MAX_SAMPLES}; lower the rate')
