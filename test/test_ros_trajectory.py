@@ -304,3 +304,38 @@ def test_under_a_simulated_clock_the_samples_stamps_increase(ros_environment):
     stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in states])
     assert len(stamps) > 10 and np.all(np.diff(stamps) > 0), np.diff(stamps)[:20]
     assert stamps[0] >= 1000 * 10**9 and stamps[-1] <= now['ns'] + len(stamps)   # the simulated clock's time
+
+
+def test_a_simulated_clock_slower_than_real_time_sets_the_streams_pace(ros_environment):
+    """use_sim_time with /clock advancing 1 ms every 20 ms of wall time (a simulation at 1/20 of real time): the
+    samples due were counted on the wall clock, so every tick caught up CATCH_UP samples and the stream ran five times
+    its rate in simulated time (1 kHz for 200 Hz). Now at most the samples of the simulated time gone by, plus one
+    tick's catch-up, are out."""
+    from builtin_interfaces.msg import Time
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.runtime import CATCH_UP
+    from rosgraph_msgs.msg import Clock
+
+    ns = '/traj_slowclock'
+    with GprClient('gpr_test_traj_slowclock') as c:
+        msgs = subscribe_stream(c, ns)
+        clock = c.node.create_publisher(Clock, '/clock', 10)
+        now = {'ns': 1000 * 10**9}
+
+        def tick() -> None:
+            now['ns'] += 1_000_000
+            clock.publish(Clock(clock=Time(sec=now['ns'] // 10**9, nanosec=now['ns'] % 10**9)))
+
+        c.node.create_timer(0.02, tick)
+        proc = start('trajectory_node', namespace=ns, wait_for_subscribers=1, rate=RATE, mode='sweep', height=HEIGHT,
+                     max_tilt=math.radians(1.0), tilt_step=math.radians(0.05), azimuth_step=math.radians(120.0),
+                     passes=1, use_sim_time=True)
+        try:
+            assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 0, 30), proc.output()
+            first = msgs['gpr/platform_state'][0].header.stamp
+            c.spin_for(3.0)
+            states = list(msgs['gpr/platform_state'])
+            elapsed = now['ns'] - (first.sec * 10**9 + first.nanosec)
+        finally:
+            proc.stop()
+    assert 5 <= len(states) <= elapsed * 1e-9 * RATE + CATCH_UP + 2, (len(states), elapsed)

@@ -350,9 +350,10 @@ class RobotSimulatorNode(GprNode):
             return
         if self.get_clock().now().nanoseconds < r.start_ns:
             return
+        now = self.pace_clock()
         if r.started is None:
-            r.started = time.monotonic()
-        due = int((time.monotonic() - r.started) / self.period) + 1
+            r.started = now
+        due = int((now - r.started) / self.period) + 1
         for _ in range(max(1, min(due - r.k, CATCH_UP))):
             if self.run is not r or not self._step(r):
                 return

@@ -181,6 +181,15 @@ class GprNode(Node):
                                            'use_sim_time:=true, or the launch argument use_sim_time)')
         return SetParametersResult(successful=True)
 
+    def pace_clock(self) -> float:
+        """Seconds on the clock that paces the node's streams, as its timers run: the ROS clock under
+        ``use_sim_time`` (a simulation slower than real time sets the pace: counted on the wall clock, every tick
+        caught up :data:`CATCH_UP` samples and a stream ran five times too fast in simulated time), else
+        ``time.monotonic`` (no jump of the system clock)."""
+        if self.get_parameter('use_sim_time').value:
+            return float(self.get_clock().now().nanoseconds) * 1e-9
+        return time.monotonic()
+
     def finish(self, status: int = EXIT_OK) -> None:
         """End the run loop with ``status`` (the first call wins)."""
         if self.exit_status is None:

@@ -250,12 +250,13 @@ class TrajectoryNode(GprNode):
         if self.started_at is None and not cancelled:
             if not self._ready():
                 return
-            self.started_at = time.monotonic()
+            self.started_at = self.pace_clock()
             self.sent = 0
             self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
                                    f'({"goal" if self.goal else self.p["mode"]}'
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
-        due = int((time.monotonic() - (self.started_at or time.monotonic())) / self.period) + 1
+        now = self.pace_clock()
+        due = int((now - (self.started_at or now)) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, CATCH_UP))):
             if self.stream is None or not self._step(self.stream):
                 return
@@ -313,7 +314,7 @@ class TrajectoryNode(GprNode):
         self.timer.cancel()
         published = self.index
         if outcome != 'stopped':
-            elapsed = None if self.started_at is None else time.monotonic() - self.started_at
+            elapsed = None if self.started_at is None else self.pace_clock() - self.started_at
             self.get_logger().info(f'finished: {published_text(published, elapsed, self.p["rate"])}'
                                    + ('' if outcome == 'succeeded' else f': {message}'))
         with self._lock:  # on_exit may end a goal's stream while the timer's thread ends it too
