@@ -304,3 +304,15 @@ def test_the_dexterity_plot_marks_the_least_and_the_singular_poses_in_si_units(c
     assert (least.get_xdata()[0], least.get_ydata()[0]) == (dmap.values2[j], dmap.values[i])
     assert least.get_label().startswith(f'least within limits {inside[i, j]:.4f} at z = 0.26 m, x = ')
     plt.close(fig)
+
+
+def test_accuracy_refuses_where_mechanism_calls_the_pose_singular(capsys):
+    """One threshold and one dexterity (mechanisms.conditioning): at a dexterity of 2e-10, which `gpr mechanism` and
+    docs/mechanisms.md call singular (below 1e-9), `gpr accuracy` had its own 1e-10 and linearised, printing a
+    rotation of 3.84 rad where the exact one is 0.05 rad."""
+    pose = ['0', '0', '0', '0', '0', '-0.8909522654903852']
+    code, out, _ = run(capsys, 'mechanism', 'gsp_d3_6.yaml', '--pose', *pose, '--json')
+    data = json.loads(out)
+    assert code == 0 and data['singular'] is True and 1e-10 < data['dexterity'] < 1e-9, data['dexterity']
+    code, _, err = run(capsys, 'accuracy', 'gsp_d3_6.yaml', '--pose', *pose, '--errors', *['1e-10'] * 6)
+    assert code == 2 and err.count('\n') == 1 and 'is singular (inverse condition number' in err, err

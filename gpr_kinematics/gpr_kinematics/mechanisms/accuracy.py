@@ -37,10 +37,8 @@ import numpy as np
 
 from ..errors import InputError, SingularityError, brief
 from ..inputs.validation import MAX_COORDINATE
-from .base import Mechanism, as_poses, euler_rate_matrix, rotation_vector
+from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, dexterity_index, euler_rate_matrix, rotation_vector
 
-#: Inverse condition number of dq/du below which the linearisation is refused.
-SINGULAR_TOLERANCE = 1e-10
 #: Distance [rad] of the second Euler angle from its gimbal lock (Z-X-Z: theta = 0 or pi; roll-pitch-yaw: B = +-pi/2)
 #: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
 #: the rotation or more (Alwan's trajectory point 1, theta = 2 deg: 29 times).
@@ -272,8 +270,7 @@ def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
         why = str(mech.singularity(poses[k])[0]) or 'singular configuration'
         raise SingularityError(f'{mech.name}: the inverse Jacobian is not finite at the pose {poses[k].tolist()} '
                                f'({why}); the pose deviation is not defined there')
-    sv = np.linalg.svd(Jh, compute_uv=False)
-    dex = sv[:, -1] / sv[:, 0]
+    dex = dexterity_index(Jh)   # the singularity of `gpr mechanism` and `gpr dexterity`: one threshold, one formula
     if np.any(dex < SINGULAR_TOLERANCE):
         k = int(np.argmin(dex))
         raise SingularityError(f'{mech.name}: pose {poses[k].tolist()} is singular (inverse condition '
