@@ -90,6 +90,12 @@ class ProgramSamples:
         return int(self.time.shape[0])
 
 
+def move_time_of(value: Any, source: str, where: str) -> float:
+    """A ``move_time`` [s] of a program file, a station or a goal: a number > 0 of magnitude at most
+    :data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (:class:`ConfigError` naming ``source`` and ``where``)."""
+    return _number(source, where, 'move_time', value, 'seconds > 0', 0.0, lo_open=True)
+
+
 def _number(source: str, where: str, key: str, value: Any, allowed: str, lo: float = -math.inf,
             lo_open: bool = False) -> float:
     if not is_number(value) or float(value) < lo or (lo_open and float(value) == lo):  # a 401-digit integer too
@@ -108,7 +114,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
                           f'is invalid; allowed: format {FORMAT} (or none), version 1')
     move_time = data.get('move_time')
     if move_time is not None:
-        move_time = _number(source, 'file', 'move_time', move_time, 'seconds > 0', 0.0, lo_open=True)
+        move_time = move_time_of(move_time, source, 'file')
     raw = data.get('stations')
     if not isinstance(raw, list) or not raw:
         raise ConfigError(f'{source}: "stations" must be a non-empty list of stations')
@@ -132,8 +138,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
             tilt=_number(source, where, 'tilt', st['tilt'], 'a finite angle in radians'),
             azimuth=orientation_angle(st['azimuth'], 'azimuth', f'{source}: {where}'),
             dwell=_number(source, where, 'dwell', st.get('dwell', 0.0), 'seconds >= 0', 0.0),
-            move_time=None if mt is None else _number(source, where, 'move_time', mt, 'seconds > 0', 0.0,
-                                                       lo_open=True)))
+            move_time=None if mt is None else move_time_of(mt, source, where)))
     return PlatformProgram(stations=tuple(stations), move_time=move_time, source=source)
 
 

@@ -18,7 +18,6 @@ rule of :func:`gpr_kinematics.inputs.files.confined_reads`. SI units (m, rad, s)
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -40,6 +39,7 @@ from ..robot.platform_program import (
     MAX_STATIONS,
     PlatformProgram,
     check_samples,
+    move_time_of,
     parse_platform_program,
     sample_program,
 )
@@ -271,11 +271,8 @@ def goal_program(goal: Any, robot: RobotDescription, files: GoalFiles) -> Platfo
                 entry['move_time'] = st.move_time
             stations.append(entry)
         prog = parse_platform_program({'stations': stations}, 'goal stations')
-    move_time = float(goal.move_time)
-    if move_time != 0.0:
-        if not (math.isfinite(move_time) and move_time > 0.0):
-            raise ConfigError(f'goal: move_time = {move_time!r} is invalid; allowed: seconds > 0, or 0 for the '
-                              'program\'s default')
+    if goal.move_time != 0.0:   # 0: the program's default
+        move_time = move_time_of(float(goal.move_time), 'goal', 'move_time field (0: the program\'s default)')
         prog = dataclasses.replace(prog, move_time=move_time)
     return prog
 
