@@ -176,7 +176,7 @@ def test_program_check_and_export(capsys, tmp_path):
      r'^gpr robot ik: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
     # a position in mm typed as m (it said only how far above the stroke the rods would be)
     (['robot', 'ik', '--position', '1300', '600', '450', '--heading', '0.3'],
-     r'--position = 1300 600 450 m; allowed: each coordinate within \+-100 m of the world origin \(millimetres\? '
+     r'--position = \(1300, 600, 450\) m; allowed: each coordinate within \+-100 m of the world origin \(millimetres\? '
      r'give --mm\)$'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45', '--heading', 'nan'],
      r'^gpr robot ik: error: --heading = nan'),
@@ -467,8 +467,8 @@ def test_a_station_position_beyond_the_world_bound_is_refused_with_the_hint_its_
     """--position 2300000 0 400 --mm (2.3 km) was answered 'millimetres given as metres?' though --mm was given:
     beyond the station files' 100 m it is refused, the millimetres hint only for numbers given as metres."""
     status, _, err = run(capsys, 'robot', 'ik', '--position', '2300000', '0', '400', '--heading', '0', '--mm')
-    assert status == 2 and err == ('gpr robot ik: error: --position = 2300 0 0.4 m; allowed: each coordinate within '
-                                   '+-100 m of the world origin\n')
+    assert status == 2 and err == ('gpr robot ik: error: --position = (2300, 0, 0.4) m; allowed: each coordinate '
+                                   'within +-100 m of the world origin\n')
     status, _, err = run(capsys, 'robot', 'ik', '--position', '2300', '0', '0.4', '--heading', '0')
     assert status == 2 and err.endswith('of the world origin (millimetres? give --mm)\n')
 

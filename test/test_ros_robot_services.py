@@ -132,6 +132,10 @@ BAD = [
     ('ik', dict(position=(1.3, 0.6, 0.45), branch='up'), ["branch = 'up'", 'left or right']),
     ('ik', dict(position=(1.3, 0.6, 0.45), redundancy_value=0.1), ['redundancy value', 'arm arm1 has 3 joints']),
     ('ik', dict(position=(1.3, math.inf, 0.45)), ['position', 'finite']),
+    # beyond the world's bound, as a station file and gpr robot ik refuse it (the service solved it: a robot based
+    # 99.8 m out reaches a station 100.56 m out)
+    ('ik', dict(position=(130.0, 60.0, 45.0)), ['position = (130, 60, 45) m; allowed: each coordinate within +-100 m '
+                                                'of the world origin']),
     ('ik', dict(position=(1.3, 0.6, 0.45), azimuth=math.nan), ['azimuth', 'finite']),
     # degrees sent as radians: taken modulo a turn as another station (azimuth 90 -> 2.035 rad), success: true
     ('ik', dict(position=(1.2, 1.0, 0.455), tilt=0.02, azimuth=90.0, heading=0.8),

@@ -61,17 +61,13 @@ def _cmd_fk(args: argparse.Namespace) -> int:
 def _station_args(args: argparse.Namespace) -> Stations:
     from ..errors import InputError
     from ..inputs.validation import finite_number
-    from ..robot.fields import WORLD_BOUND
+    from ..robot.fields import check_world_position
     from ..robot.stations import Stations
     tilt = angles(args, [finite_number(args.tilt, '--tilt')])[0]
     azimuth = direction(args, args.azimuth, '--azimuth')
     heading = None if args.heading is None else [direction(args, args.heading, '--heading')]
     position = lengths(args, args.position)
-    far = max(abs(v) for v in position)
-    if far > WORLD_BOUND:   # the station files' bound; the mm hint only where the numbers were metres
-        hint = ' (millimetres? give --mm)' if not args.mm and far / 1000.0 <= WORLD_BOUND else ''
-        raise InputError(f'--position = {" ".join(f"{v:.6g}" for v in position)} m; allowed: each coordinate within '
-                         f'+-{WORLD_BOUND:g} m of the world origin{hint}')
+    check_world_position(position, '--position', '' if args.mm else ' (millimetres? give --mm)', InputError)
     return Stations.of([position], tilt, azimuth, heading)
 
 

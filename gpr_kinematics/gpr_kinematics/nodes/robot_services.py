@@ -25,6 +25,7 @@ from ..errors import ConfigError, InputError, brief
 from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_number, within_turn
 from ..robot import Stations, robot_forward, solve_stations
 from ..robot.description import BRANCHES, Arm, RobotDescription
+from ..robot.fields import WORLD_BOUND, check_world_position
 from ..robot.forward import forward_floats, joints_within_limits, naive_floats
 from ..robot.one_station import StationFloats, station_floats
 from ..robot.planar_arm import branch_sign
@@ -119,6 +120,7 @@ def fill_robot_forward(robot: RobotDescription, request: Any, response: Any, pre
 def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Stations:
     """The station of a StationInverseKinematics request, checked field by field."""
     position = point_array(request.position, 'position')
+    check_world_position(position.tolist(), 'position', error=InputError)   # as a station file's and gpr robot ik's
     free = bool(request.heading_free)
     angles = {'tilt': finite_number(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
               'heading': 0.0 if free else within_turn(request.heading, 'heading')}
@@ -132,14 +134,16 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
 def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, value: float | None
                  ) -> StationFloats | None:
     """The float path of one station where the request is within what it takes (every number finite and within
-    +-MAX_COORDINATE, the azimuth, heading and held value within a turn, a known branch, a held value only for a
-    ``fixed_joint`` arm), else ``None``."""
+    +-MAX_COORDINATE, the position within the world's bound, the azimuth, heading and held value within a turn, a
+    known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
     p = request.position
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
         return None
     if beyond_turn(request.azimuth) or beyond_turn(request.heading) or abs(numbers[-1]) > TURN:
         return None  # the batch path names which
+    if max(abs(p.x), abs(p.y), abs(p.z)) > WORLD_BOUND:
+        return None  # beyond the world: the batch path refuses it (check_world_position)
     if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
         return None
     free = bool(request.heading_free)

@@ -7,7 +7,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..errors import ConfigError, brief, kind_of
+from ..errors import ConfigError, GprError, brief, kind_of
 from ..inputs.schema import is_huge_number, number_key, orientation_angle
 from ..inputs.validation import text_hint
 
@@ -33,6 +33,18 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
 #: The largest coordinate [m] of a place in the world: the robot's base, a station, a cell's obstacle (a cell is a
 #: few metres; 2300 m is a station in millimetres read as metres).
 WORLD_BOUND = 100.0
+
+def check_world_position(xyz: Sequence[float], label: str, mm_hint: str = '',
+                         error: type[GprError] = ConfigError) -> None:
+    """Refuse a station's position ``xyz`` [m] with a coordinate beyond :data:`WORLD_BOUND` (``error`` naming
+    ``label``), for the station files, ``gpr robot ik`` and the station service alike; ``mm_hint`` (``{mm}``: the
+    farthest coordinate as millimetres [m]) is added where the numbers fit the world as millimetres."""
+    far = max(abs(float(v)) for v in xyz)
+    if far > WORLD_BOUND:
+        hint = mm_hint.format(mm=f'{far / 1000.0:g}') if far / 1000.0 <= WORLD_BOUND else ''
+        raise error(f'{label} = ({", ".join(f"{float(v):.6g}" for v in xyz)}) m; allowed: each coordinate within '
+                    f'+-{WORLD_BOUND:g} m of the world origin{hint}')
+
 
 #: The least value of a quantity that must be positive (a body's size [m], a mass [kg], a speed, acceleration or jerk
 #: limit): 0 is refused and so is 5e-324, which overflows what divides by it.

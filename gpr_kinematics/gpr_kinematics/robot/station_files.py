@@ -41,7 +41,7 @@ from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
 from .description import BRANCHES
-from .fields import WORLD_BOUND
+from .fields import WORLD_BOUND, check_world_position
 from .stations import Stations
 
 #: Largest station file read [bytes] and most stations in a program.
@@ -146,16 +146,12 @@ def _number(value: Any, where: str, key: str, unit: str, rule: str = '') -> floa
 
 
 def _position(xyz: tuple[float, float, float], where: str, unit: str) -> tuple[float, float, float]:
-    """A station's position [m] within :data:`~.fields.WORLD_BOUND` of the world origin, else :class:`ConfigError`
-    (with a hint where the file's metres would fit as millimetres): an unused imported station at 2.3 km (a CSV in
-    millimetres without its unit) passed the program's check unmentioned."""
-    far = max(abs(v) for v in xyz)
-    if far > WORLD_BOUND:
-        hint = (f'; as millimetres it would be {far / 1000.0:g} m: millimetres given as metres? (declare them: '
-                '"# units: mm" or a column "x [mm]" in a CSV, units: {length: mm} in YAML)'
-                if unit == 'm' and far / 1000.0 <= WORLD_BOUND else '')
-        raise ConfigError(f'{where}: position = ({", ".join(f"{v:.6g}" for v in xyz)}) m; allowed: each coordinate '
-                          f'within +-{WORLD_BOUND:g} m of the world origin{hint}')
+    """A station's position [m] within :data:`~.fields.WORLD_BOUND` of the world origin
+    (:func:`~.fields.check_world_position`; the mm hint where the file's metres would fit as millimetres): an unused
+    imported station at 2.3 km (a CSV in millimetres without its unit) passed the program's check unmentioned."""
+    check_world_position(xyz, f'{where}: position', '; as millimetres it would be {mm} m: millimetres given as '
+                         'metres? (declare them: "# units: mm" or a column "x [mm]" in a CSV, units: {{length: mm}} in '
+                         'YAML)' if unit == 'm' else '')
     return xyz
 
 
