@@ -377,6 +377,54 @@ def test_robot_states_missing_at_the_start_are_a_late_recorder(robot_bag: Path, 
     assert got == failed if not failed else failed <= got, got
 
 
+def _stamp(msg) -> int:
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
+@pytest.mark.parametrize('ends', ['first 7', 'last'])
+def test_wafer_poses_without_their_robot_state_at_the_ends_are_recomputed(robot_bag: Path, tmp_path: Path,
+                                                                           ends: str) -> None:
+    """A wafer pose was checked against the RobotState of its stamp only: with the first 7 RobotStates dropped (a late
+    recorder) wafer poses 0-6 moved 5 cm passed, and so did a wafer pose 1 m off between two samples, and with the
+    last RobotState dropped (a cut) the last wafer pose moved 5 cm. They are checked against the stream recomputed
+    from the record; one at a stamp of no PlatformState inside the states' span is extra."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import typestore
+
+    store = typestore()
+    messages = messages_of(robot_bag)
+    states = [k for k, m in enumerate(messages) if m[0] == ROBOT_STATE_TOPIC]
+    drop = set(states[:7]) if ends == 'first 7' else {states[-1]}
+    bag = write_bag(tmp_path / 'ends', [m for k, m in enumerate(messages) if k not in drop], dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    assert next(c for c in result.checks if c.name == 'topic.wafer_pose_recomputed').checked == len(drop)
+    stamps = sorted(_stamp(store.deserialize_cdr(messages[k][2], GPR_TOPICS[ROBOT_STATE_TOPIC])) for k in drop)
+    at = dict(zip(stamps, range(7) if ends == 'first 7' else [len(states) - 1], strict=True))
+
+    def moved(topic, msg):
+        if topic == WAFER_POSE_TOPIC and _stamp(msg) in at:
+            msg.pose.position.x += 0.05
+        return msg
+
+    failed = _failed(verify_bag(rewritten(bag, tmp_path / 'moved', moved)))
+    assert failed == {'topic.wafer_pose_recomputed': set(at.values())}, failed
+    if ends != 'first 7':
+        return
+    out = []
+    for topic, t, raw in messages_of(bag):
+        out.append((topic, t, raw))
+        msg = store.deserialize_cdr(raw, GPR_TOPICS[topic]) if topic == WAFER_POSE_TOPIC else None
+        if msg is not None and _stamp(msg) == stamps[2]:   # between samples 2 and 3, no PlatformState of its stamp
+            msg.header.stamp.nanosec += 50_000_000
+            msg.pose.position.x += 1.0
+            out.append((topic, t + 1, bytes(store.serialize_cdr(msg, GPR_TOPICS[topic]))))
+    extra = verify_bag(write_bag(tmp_path / 'extra', out, dict(GPR_TOPICS)))
+    assert {c.name for c in extra.checks if c.failed} == {'topic.wafer_pose_recomputed_extra'}
+    assert extra.failures[0].line() == ('FAIL topic.wafer_pose_recomputed_extra on /gpr/wafer_pose at bag: value 1 > '
+                                        'limit 0 (messages without a PlatformState of the same stamp)')
+
+
 @pytest.mark.parametrize('kept', [(), (ROBOT_TOPIC,)], ids=['the robot given', 'the robot recorded'])
 def test_a_robot_recording_of_fewer_topics_checks_the_rods_of_its_joint_states(robot_bag: Path, tmp_path: Path,
                                                                                 kept: tuple[str, ...]) -> None:
@@ -475,12 +523,12 @@ def test_a_late_recorders_first_joint_states_carry_the_robots_joints(robot_bag: 
     assert 'topic.joint_states' in _failed(verify_bag(rewritten(late, tmp_path / 'foo', foo)))
 
 
-def test_wafer_poses_without_robot_states_fail_in_a_sweep_and_are_declared_unchecked_elsewhere(
+def test_wafer_poses_without_robot_states_fail_in_a_sweep_and_are_recomputed_elsewhere(
         robot_bag: Path, tmp_path: Path) -> None:
     """Wafer poses are checked against the RobotState of their stamp: without robot states they passed unchecked
     (a sweep with 1e6 m wafer poses added, a robot recording of fewer topics with every wafer moved 1 m) under a note
-    that said there were none. A sweep's record shows no robot program: they are extra there; elsewhere the check
-    says it was not made, and why."""
+    that said there were none. A sweep's record shows no robot program: they are extra there; elsewhere each is
+    checked against the stream recomputed from the record (declared unchecked, and why, without a record)."""
     from bag_support import messages_of
     from gpr_kinematics.bags.typestore import typestore
 
@@ -501,9 +549,25 @@ def test_wafer_poses_without_robot_states_fail_in_a_sweep_and_are_declared_unche
     types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC}
     fewer = write_bag(tmp_path / 'fewer', [m for m in messages_of(robot_bag) if m[0] != ROBOT_STATE_TOPIC], types)
     result = verify_bag(fewer)
-    check = next(c for c in result.checks if c.name == 'topic.wafer_pose')
-    assert result.passed and check.skipped.endswith('wafer poses not checked: no robot states recorded, against '
-                                                    'which each is checked'), check.skipped
+    check = next(c for c in result.checks if c.name == 'topic.wafer_pose_recomputed')
+    assert result.passed and check.checked == result.counts[WAFER_POSE_TOPIC] and not check.skipped, [
+        f.line() for f in result.failures]
+
+    states = [store.deserialize_cdr(raw, GPR_TOPICS[topic]) for topic, _, raw in messages_of(fewer)
+              if topic == '/gpr/platform_state']
+
+    def moved(topic, msg):
+        if topic == WAFER_POSE_TOPIC and _stamp(msg) == _stamp(states[30]):
+            msg.pose.position.x += 1.0
+        return msg
+
+    failed = _failed(verify_bag(rewritten(fewer, tmp_path / 'moved', moved)))
+    assert failed == {'topic.wafer_pose_recomputed': {states[30].sample}}, failed
+    types.pop('/gpr/program')
+    older = write_bag(tmp_path / 'older', [m for m in messages_of(fewer) if m[0] != '/gpr/program'], types)
+    check = next(c for c in verify_bag(older).checks if c.name == 'topic.wafer_pose_recomputed')
+    assert check.skipped == (f'{len(states)} wafer poses without their RobotState not checked: no record of the stream '
+                             '(gpr/program) to recompute them from: a recording of an older node'), check.skipped
 
 
 def test_a_sweep_record_after_sample_0_is_another_run_spliced_on() -> None:

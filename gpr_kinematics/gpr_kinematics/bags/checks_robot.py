@@ -19,7 +19,8 @@ overrides it), with the geometry the platform is verified against (:mod:`.record
   poses and error against :func:`gpr_kinematics.robot.robot_forward` of the PlatformState's rods and the RobotState's
   joints of its arm (one batch per arm) [m, rad];
 - ``robot.joint_limits``: every arm joint within its range (by how much it is beyond, 1e-9 rad of slack);
-- ``topic.wafer_pose``: a PoseStamped with the stamp and frame of every RobotState and the same pose (1e-12).
+- ``topic.wafer_pose``: a PoseStamped with the stamp and frame of every RobotState and the same pose (1e-12); those
+  without a RobotState (at the ends, or none recorded): :mod:`.checks_wafer`.
 
 Robot states without a robot description (none recorded, none given) fail ``topic.robot``: the wafer cannot be
 verified without knowing the arm. A recording without robot states (a sweep, a platform program) skips the rest.
@@ -200,17 +201,14 @@ def _no_robot_states(bag: Bag, stamps: NDArray[np.int64], samples: NDArray[np.in
 
 def _wafer_poses_without_states(bag: Bag, due: NDArray[np.bool_] | None) -> list[Check]:
     """Messages on :data:`WAFER_POSE_TOPIC` in a bag without RobotStates: extra where the records say no sample is a
-    robot program's (a platform stream publishes no wafer pose), else declared unchecked (a wafer pose is checked
-    against the RobotState of its stamp; a recording of fewer topics has none)."""
+    robot program's (a platform stream publishes no wafer pose); elsewhere each is checked as one without its
+    RobotState (:mod:`.checks_wafer`: against the stream recomputed from the record)."""
     t = bag.topic(WAFER_POSE_TOPIC)
-    if t is None or not len(t):
+    if t is None or not len(t) or due is None or due.any():
         return []
-    if due is not None and not due.any():
-        return [bag_check('topic.wafer_pose', WAFER_POSE_TOPIC, [(WAFER_POSE_TOPIC, float(len(t)), 0.0, (
-            f'{len(t)} wafer poses where the records (gpr/program) show no robot program: a platform stream '
-            'publishes none'))], len(t), '')]
-    return [skipped('topic.wafer_pose', WAFER_POSE_TOPIC, 'm', f'{len(t)} wafer poses not checked: no robot states '
-                    'recorded, against which each is checked')]
+    return [bag_check('topic.wafer_pose', WAFER_POSE_TOPIC, [(WAFER_POSE_TOPIC, float(len(t)), 0.0, (
+        f'{len(t)} wafer poses where the records (gpr/program) show no robot program: a platform stream '
+        'publishes none'))], len(t), '')]
 
 
 def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice, tol: Tolerances,

@@ -39,6 +39,7 @@ from ..robot.platform_program import PlatformProgram, parse_platform_program, sa
 from ..robot.program import FORMAT as ROBOT_FORMAT
 from ..robot.program import RobotProgram, parse_program
 from ..robot.stream import robot_stream
+from ..robot.transforms import PoseBatch
 from .typestore import PROGRAM_TOPIC
 
 KINDS = ('sweep', 'platform_program', 'robot_program')
@@ -189,8 +190,8 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
 class Expected:
     """What every sample of a recorded stream must carry (``N`` samples): the rods ``q (N, 3)`` [m], the commanded
     tilt and azimuth ``(N,)`` [rad], and for a robot program every arm's joints ``(N, J)`` [rad] by name and the
-    waypoint held ``(N,)`` (-1 while moving) with every waypoint's name (the station a RobotState names) and the arm
-    in use ``(N,)``."""
+    waypoint held ``(N,)`` (-1 while moving) with every waypoint's name (the station a RobotState names), the arm
+    in use ``(N,)`` and its wafer in the world (what ``gpr/wafer_pose`` carries)."""
 
     q: NDArray[np.float64]
     commanded_tilt: NDArray[np.float64]
@@ -200,6 +201,7 @@ class Expected:
     waypoint: NDArray[np.int64] | None = None
     waypoint_names: tuple[str, ...] = ()
     arm: tuple[str, ...] = ()
+    wafer: PoseBatch | None = None
 
     def station(self, i: int) -> str:
         """The name of the waypoint held at sample ``i`` (empty while moving or without waypoints)."""
@@ -225,7 +227,7 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
         raise ConfigError('a robot program needs the robot description it ran on (none recorded or given)')
     rs = robot_stream(robot, record.program, record.rate)   # the robot computes with the geometry verified against
     return Expected(rs.gpr.q, rs.gpr.tilt, rs.gpr.tilt_azimuth, rs.joint_names, rs.joints, rs.waypoint,
-                    rs.waypoint_names, rs.arm)
+                    rs.waypoint_names, rs.arm, rs.wafer)
 
 
 def sample_index(record: Record, sample: int) -> int:

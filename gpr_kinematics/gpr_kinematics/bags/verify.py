@@ -12,6 +12,8 @@ read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic,
   markers' sequence against the recorded ``markers_every``;
 - ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
   against the robot's forward kinematics, with the recorded robot description (or a given one);
+  ``topic.wafer_pose_recomputed`` (:mod:`.checks_wafer`): the wafer poses without their RobotState (at the ends of
+  the recording, or none recorded) against the stream recomputed from the record;
 - ``topic.program``, ``stream.program`` (:mod:`.checks_program`): every sample against its stream recomputed from the
   recorded record of what it was asked to do (``gpr/program``).
 
@@ -39,6 +41,7 @@ from .checks_robot import arm_joint_names, choose_robot, robot_checks, robot_sum
 from .checks_state import state_checks
 from .checks_stream import singular_crossings, stream_checks
 from .checks_topics import topic_checks
+from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
 from .reader import Bag, read_bag
@@ -111,6 +114,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples), robot_joints) + robot_part
+            checks += wafer_pose_checks(bag, c, samples, arms.robot, geo.config, recorded[0], tol)
             checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
