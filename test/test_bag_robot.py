@@ -501,6 +501,65 @@ def test_a_sweeps_joint_states_with_the_robots_arm_joints_appended_fail(tmp_path
     assert 'topic.joint_states' in _failed(verify_bag(rewritten(REFERENCE, tmp_path / 'appended', appended)))
 
 
+def _sweep_then(robot_bag: Path) -> list[tuple[str, int, bytes]]:
+    """A sweep (samples 0-29) then the robot program of ``robot_bag`` from sample 30, as one node streams them."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
+
+    store = typestore()
+    sweep = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(60.0), config=ROBOT.config,
+                           start_ns=1_600_000_000_000_000_000, period_ns=100_000_000)
+    out = list(sweep)
+    for topic, t, raw in messages_of(robot_bag):
+        if topic == GEOMETRY_TOPIC:
+            continue
+        msg = store.deserialize_cdr(raw, GPR_TOPICS[topic])
+        if topic == '/gpr/program':
+            msg.data = msg.data.replace('first_sample: 0\n', 'first_sample: 30\n', 1)
+        if hasattr(msg, 'sample'):
+            msg.sample += 30
+        out.append((topic, t, bytes(store.serialize_cdr(msg, GPR_TOPICS[topic]))))
+    return out
+
+
+def test_joint_states_follow_the_records_a_sweeps_the_rods_a_robot_programs_the_arm_joints_too(
+        robot_bag: Path, tmp_path: Path) -> None:
+    """Every state before the first RobotState was taken as a late recorder's and its joint_states checked by the
+    rods: a sweep's joint_states (before a robot program) with the arm joints appended at 0.77 rad passed. And with
+    gpr/robot_state not recorded a robot program's joint_states stripped of the arm joints passed (a rods-only
+    message matched the rods whole). The records decide: a platform stream's carry the rods alone, a robot
+    program's the rods then the robot's joints."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
+
+    names = [n for a in ROBOT.arms for n in a.joint_names]
+    both = write_bag(tmp_path / 'both', _sweep_then(robot_bag), dict(GPR_TOPICS))
+    assert verify_bag(both).passed, [f.line() for f in verify_bag(both).failures]
+
+    def appended(topic, msg):
+        if topic == JOINT_STATES_TOPIC and len(msg.name) == 3:
+            return dataclasses.replace(msg, name=[*msg.name, *names],
+                                       position=np.concatenate([msg.position, np.full(len(names), 0.77)]))
+        return msg
+
+    failed = _failed(verify_bag(rewritten(both, tmp_path / 'appended', appended)))
+    assert failed == {'topic.joint_states': set(range(20))}, failed
+    types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC}
+    fewer = write_bag(tmp_path / 'fewer', [m for m in messages_of(robot_bag) if m[0] != ROBOT_STATE_TOPIC], types)
+    assert verify_bag(fewer).passed
+    seen = {'n': 0}
+
+    def stripped(topic, msg):
+        if topic == JOINT_STATES_TOPIC:
+            seen['n'] += 1
+            if 20 <= seen['n'] < 30:
+                return dataclasses.replace(msg, name=msg.name[:3], position=msg.position[:3])
+        return msg
+
+    failed = _failed(verify_bag(rewritten(fewer, tmp_path / 'stripped', stripped)))
+    assert failed == {'topic.joint_states': set(range(19, 29))}, failed
+
+
 def test_a_late_recorders_first_joint_states_carry_the_robots_joints(robot_bag: Path, tmp_path: Path) -> None:
     """Before the first RobotState of a late recording the rods are checked alone: a joint 'foo' in place of the arm
     joints passed there; the names must be the robot states' own."""

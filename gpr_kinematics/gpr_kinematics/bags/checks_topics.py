@@ -207,12 +207,14 @@ _Layout = Callable[[int], tuple[tuple[str, ...], NDArray[np.float64]]]
 
 def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, name: str,
                   layouts: tuple[_Layout, ...], detail: str, rods_only: frozenset[int] = frozenset(),
-                  shared: bool = False, after_rods: tuple[str, ...] | None = None) -> list[Check]:
+                  shared: bool = False, after_rods: tuple[str, ...] | None = None, recorded: bool = False
+                  ) -> list[Check]:
     """A JointState topic against the states: per matched message, the largest position error of the first
     layout whose names it carries (inf when it carries none); of the states ``rods_only`` their first three joints
     only where none of the layouts matches the whole message (those of a robot recording whose RobotState is not in
     the bag at its ends: a cut lost the last one, a recorder that subscribed late missed the first ones; or not
-    recorded at all, where ``after_rods`` names the joints the message must carry after the rods: the robot's).
+    recorded at all, where ``after_rods`` names the joints the message must carry after the rods: the robot's;
+    ``recorded``: the records say ``rods_only`` are a robot program's, whose messages always carry those joints).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
     states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
     with a state's stamp is, also beside the stream's message of that stamp)."""
@@ -238,6 +240,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
         whole = [(got_names, got)]    # the whole message first (a layout it carries whole is checked whole)
         if r in rods_only and (after_rods is None or got_names[len(ROD_JOINT_NAMES):] == after_rods):
             whole.append((got_names[:len(ROD_JOINT_NAMES)], got[:len(ROD_JOINT_NAMES)]))
+        if r in rods_only and recorded:   # never the rods alone
+            whole = whole[1:]
         e[r] = next((float(np.max(np.abs(values - want), initial=0.0)) for carried, values in whole
                      for want_names, want in (layout(int(r)) for layout in layouts)
                      if carried == want_names and values.shape == want.shape), np.inf)
@@ -252,11 +256,14 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
 
 
 def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, tol: float,
-                        arms: Any = None, robot_joints: tuple[str, ...] | None = None) -> list[Check]:
+                        arms: Any = None, robot_joints: tuple[str, ...] | None = None,
+                        due: NDArray[np.bool_] | None = None) -> list[Check]:
     """``/joint_states`` (``/gpr/joint_states`` in bags recorded before) carries the rods (``rod_1..rod_3``, ``q``),
     and in a whole-robot recording then every arm's joints (``arms``: the :class:`~.checks_robot.RobotRows` of the
     robot states; without them, the rods alone where the message carries the known robot's joints, ``robot_joints``,
-    after them); bags recorded before the virtual joints got their own topic carry the rods then the virtual joints.
+    after them; ``due``: per state, whether the records say it is a robot program's, whose messages carry the rods
+    then the robot's joints, the others the rods alone); bags recorded before the virtual joints got their own topic
+    carry the rods then the virtual joints.
     ``/gpr/virtual_joints`` carries the virtual joints."""
     vnames = c['virtual_joint_names']
 
@@ -278,18 +285,23 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording, or of the robot recorded or given without its states; or, recorded before, '
                           'rod_1..rod_3 + the virtual joints)',
-                          _without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None), shared=True,
-                          after_rods=robot_joints if arms is None else arms.names())
+                          _without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None, due),
+                          shared=True, after_rods=robot_joints if arms is None else arms.names(),
+                          recorded=due is not None)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
 
-def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any, robot: bool) -> frozenset[int]:
+def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any, robot: bool,
+                                     due: NDArray[np.bool_] | None = None) -> frozenset[int]:
     """The states of a robot recording without their RobotState before the first that has one (a recorder that
     subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut);
     every state where no robot states are recorded but the robot is known (``robot``: recorded or given; a recording
     of fewer topics, its rods what can be checked); none where neither is (a platform recording: its messages carry
-    the rods alone)."""
+    the rods alone). Where the records say which states are a robot program's (``due``), those only: a platform
+    stream's messages carry the rods alone, also before a robot program's first RobotState."""
+    if due is not None:
+        return frozenset(r for r in _without_robot_state_at_the_ends(stamps, arms, robot) if due[r])
     if arms is None:
         return frozenset(range(len(stamps))) if robot else frozenset()
     if not len(stamps):
@@ -426,11 +438,13 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
 
 def topic_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series: Series, cfg: GprConfig,
                  tol: float, arms: Any, markers_every: NDArray[np.int64],
-                 robot_joints: tuple[str, ...] | None = None) -> list[Check]:
+                 robot_joints: tuple[str, ...] | None = None, due: NDArray[np.bool_] | None = None) -> list[Check]:
     """The ``topic.*`` checks of the companion topics against the PlatformState columns ``c`` (``arms``: the robot
     joints per state of a whole-robot recording, :class:`~.checks_robot.RobotRows`, or None; ``markers_every``: the
     recorded cadence of the markers per state, 0 where none is recorded, :func:`~.checks_program.marker_cadence`;
-    ``robot_joints``: every arm joint of the robot recorded or given, None without one)."""
+    ``robot_joints``: every arm joint of the robot recorded or given, None without one; ``due``: per state, whether
+    the records say it is a robot program's, None without records)."""
     every = np.asarray(markers_every, np.int64)
-    return (_pose_checks(bag, c, samples, tol) + _joint_state_checks(bag, c, samples, series, tol, arms, robot_joints)
+    return (_pose_checks(bag, c, samples, tol)
+            + _joint_state_checks(bag, c, samples, series, tol, arms, robot_joints, due)
             + _marker_checks(bag, c, samples, cfg, tol, every))

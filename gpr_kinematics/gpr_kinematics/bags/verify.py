@@ -104,8 +104,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, slope_gain(geo.config), tol)
             recorded = read_records(bag)
-            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol,
-                                                  robot_program_states(recorded[0], samples))
+            due = robot_program_states(recorded[0], samples)
+            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol, due)
             # the rods alone in joint_states without robot states: only where they are not recorded at all (a sweep's
             # listed empty says it has none) and no record says the stream is not a robot program's
             fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
@@ -113,7 +113,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
-                marker_cadence(recorded[0], samples), robot_joints) + robot_part
+                marker_cadence(recorded[0], samples), robot_joints, due) + robot_part
             checks += wafer_pose_checks(bag, c, samples, arms.robot, geo.config, recorded[0], tol)
             checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
