@@ -376,6 +376,39 @@ def test_a_bag_recorded_in_a_namespace_verifies_as_such(tmp_path: Path, src: Pat
     assert read_bag(two).namespace == '' and not verify_bag(two).passed
 
 
+def test_the_namespace_is_where_the_platform_state_is_and_several_suites_fail_naming_them(tmp_path: Path,
+                                                                                         src: Path) -> None:
+    """The namespace was the one prefix of every topic named like a suite topic: the suite in /r1 beside an ordinary
+    /r1/arm_controller/joint_states gave two prefixes and failed 'nothing to verify'; two suites (/r1, /r2) failed
+    so, saying nothing of why; and the suite at the root beside a /r1/gpr/platform_state of garbage (tilt 5 rad)
+    passed, that topic unverified and unnamed. The namespace is where gpr/platform_state is: another node's topic is
+    named in a note as not verified, several suites fail naming them."""
+    store = typestore()
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    r1 = [('/r1' + t, s, raw) for t, s, raw in msgs]
+    joints = [('/r1/arm_controller/joint_states', s, raw) for t, s, raw in msgs if t == '/joint_states'][:5]
+    ns = write_bag(tmp_path / 'ns', sorted(r1 + joints, key=lambda m: m[1]), {
+        **{'/r1' + k: v for k, v in types.items()}, '/r1/arm_controller/joint_states': types['/joint_states']})
+    res = verify_bag(ns)
+    assert res.passed and read_bag(ns).namespace == '/r1', [f.line() for f in res.failures]
+    assert res.notes[-1] == ("topics named like the node suite's outside its namespace /r1, not verified: "
+                             '/r1/arm_controller/joint_states')
+    garbage = []
+    for t, s, raw in msgs:
+        if t == STATE:
+            m = store.deserialize_cdr(raw, types[t])
+            m.tilt = 5.0
+            garbage.append(('/r1' + t, s, bytes(store.serialize_cdr(m, types[t]))))
+    two = write_bag(tmp_path / 'two', sorted(msgs + garbage, key=lambda m: m[1]),
+                    {**types, '/r1' + STATE: types[STATE]})
+    res = verify_bag(two)
+    assert [f.line() for f in res.failures] == [
+        'FAIL state.present on /gpr/platform_state at bag: value 2 > limit 1 (2 node suites recorded (/, /r1: a '
+        'gpr/platform_state in each): verify checks the one suite of a bag and cannot choose; nothing verified '
+        '(record each suite in its own bag))']
+
+
 def test_latched_topics_are_known_in_a_namespace() -> None:
     from gpr_kinematics.nodes.qos import is_latched
 

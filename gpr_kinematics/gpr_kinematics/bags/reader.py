@@ -33,7 +33,7 @@ from .errors import BagError
 from .fileio import read_head, require_regular, sha256_file
 from .mcap_file import MAX_MESSAGES, read_mcap
 from .metadata import Metadata, read_metadata
-from .typestore import KNOWN_TOPICS, normalize_type
+from .typestore import KNOWN_TOPICS, PLATFORM_STATE_TOPIC, normalize_type
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
 OPEN_SEGMENT_DIR = '.recording'
@@ -113,13 +113,28 @@ class Bag:
     unlisted: list[str] = field(default_factory=list)
 
     @functools.cached_property
+    def suites(self) -> list[str]:
+        """The namespaces of the node suites recorded: the prefix of each ``gpr/platform_state`` topic (``''`` at the
+        root, ``/r1`` for ``/r1/gpr/platform_state``), sorted."""
+        return sorted(n[:-len(PLATFORM_STATE_TOPIC)] for n in self.topics if n.endswith(PLATFORM_STATE_TOPIC))
+
+    @functools.cached_property
     def namespace(self) -> str:
-        """The namespace the node suite's topics were recorded in (``/r1`` for ``/r1/gpr/platform_state``; ``''`` at
-        the root): the one prefix of every suite topic when none is at the root (:data:`.typestore.KNOWN_TOPICS`)."""
+        """The namespace the node suite's topics were recorded in: where its ``gpr/platform_state`` is (one suite;
+        ``''`` with several, :attr:`suites`); without one, the one prefix of every suite topic when none is at the
+        root (:data:`.typestore.KNOWN_TOPICS`; by that rule ``/r1/arm_controller/joint_states`` was a suite's)."""
+        if self.suites:
+            return self.suites[0] if len(self.suites) == 1 else ''
         if any(n in KNOWN_TOPICS for n in self.topics):
             return ''
         found = {n[:-len(k)] for n in self.topics for k in KNOWN_TOPICS if n.endswith(k) and len(n) > len(k)}
         return found.pop() if len(found) == 1 else ''
+
+    def outside(self) -> list[str]:
+        """Topics named like a suite topic (:data:`.typestore.KNOWN_TOPICS`) but not in the bag's :attr:`namespace`:
+        not verified (another suite's, or another node's such as ``/r1/arm_controller/joint_states``)."""
+        inside = {self.namespace + k for k in KNOWN_TOPICS}
+        return sorted(n for n in self.topics if n not in inside and any(n.endswith(k) for k in KNOWN_TOPICS))
 
     def relative(self, name: str) -> str:
         """``name`` without the bag's :attr:`namespace` (as the node suite names its topics)."""

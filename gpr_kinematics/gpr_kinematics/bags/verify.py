@@ -59,6 +59,14 @@ def _no_states() -> Check:
                  [Failure('state.present', STATE_TOPIC, None, 1.0, 0.0, why)])  # 1 missing > 0
 
 
+def _several_suites(suites: list[str]) -> Check:
+    where = ', '.join(ns or '/' for ns in suites)
+    why = (f'{len(suites)} node suites recorded ({where}: a gpr/platform_state in each): verify checks the one suite '
+           'of a bag and cannot choose; nothing verified (record each suite in its own bag)')
+    return Check('state.present', STATE_TOPIC, len(suites), float(len(suites)), 1.0, 'suites', 1,
+                 [Failure('state.present', STATE_TOPIC, None, float(len(suites)), 1.0, why)])
+
+
 def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerances: Tolerances | None = None,
                config_source: str = 'the given configuration', allow_missing_checksums: bool = False,
                robot: RobotDescription | None = None, robot_source: str = 'the given robot description'
@@ -96,7 +104,9 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
         arms = choose_robot(bag, given_robot, robot_source, geo.config, config_given=config is not None)
         checks.append(arms.check)
         series, crossings, ratio = None, 0, 0.0
-        if st is None or c is None:
+        if len(bag.suites) > 1:
+            checks.append(_several_suites(bag.suites))
+        elif st is None or c is None:
             checks.append(_no_states())
         else:
             samples = np.asarray(c['sample'], dtype=np.int64)
@@ -120,6 +130,9 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
     notes = list(geo.notes) + arms.notes
     if bag.namespace:
         notes.append(f"the node suite's topics were recorded in the namespace {bag.namespace} (verified as such)")
+    if bag.outside() and len(bag.suites) <= 1:
+        notes.append(f"topics named like the node suite's outside its namespace {bag.namespace or '/'}, not verified: "
+                     f'{", ".join(bag.outside())}')
     if bag.unlisted:
         notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
                      f'{", ".join(bag.unlisted)}')
