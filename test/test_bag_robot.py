@@ -501,23 +501,28 @@ def test_a_sweeps_joint_states_with_the_robots_arm_joints_appended_fail(tmp_path
     assert 'topic.joint_states' in _failed(verify_bag(rewritten(REFERENCE, tmp_path / 'appended', appended)))
 
 
-def _sweep_then(robot_bag: Path) -> list[tuple[str, int, bytes]]:
-    """A sweep (samples 0-29) then the robot program of ``robot_bag`` from sample 30, as one node streams them."""
+def _platform_then(robot_bag: Path) -> list[tuple[str, int, bytes]]:
+    """A platform program (the example stations at 10 Hz, samples 0 to n - 1) then the robot program of
+    ``robot_bag`` from sample n, as an idle node streams two goals."""
     from bag_support import messages_of
-    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
+    from gpr_kinematics.bags.synthetic import platform_program_messages
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, PLATFORM_STATE_TOPIC, typestore
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.platform_program import load_platform_program
 
     store = typestore()
-    sweep = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(60.0), config=ROBOT.config,
-                           start_ns=1_600_000_000_000_000_000, period_ns=100_000_000)
-    out = list(sweep)
+    first = platform_program_messages(load_platform_program(config_path('programs/example_stations.yaml')),
+                                      ROBOT.config, 10.0, start_ns=1_600_000_000_000_000_000)
+    n = sum(1 for m in first if m[0] == PLATFORM_STATE_TOPIC)
+    out = list(first)
     for topic, t, raw in messages_of(robot_bag):
         if topic == GEOMETRY_TOPIC:
             continue
         msg = store.deserialize_cdr(raw, GPR_TOPICS[topic])
         if topic == '/gpr/program':
-            msg.data = msg.data.replace('first_sample: 0\n', 'first_sample: 30\n', 1)
+            msg.data = msg.data.replace('first_sample: 0\n', f'first_sample: {n}\n', 1)
         if hasattr(msg, 'sample'):
-            msg.sample += 30
+            msg.sample += n
         out.append((topic, t, bytes(store.serialize_cdr(msg, GPR_TOPICS[topic]))))
     return out
 
@@ -525,15 +530,15 @@ def _sweep_then(robot_bag: Path) -> list[tuple[str, int, bytes]]:
 def test_joint_states_follow_the_records_a_sweeps_the_rods_a_robot_programs_the_arm_joints_too(
         robot_bag: Path, tmp_path: Path) -> None:
     """Every state before the first RobotState was taken as a late recorder's and its joint_states checked by the
-    rods: a sweep's joint_states (before a robot program) with the arm joints appended at 0.77 rad passed. And with
-    gpr/robot_state not recorded a robot program's joint_states stripped of the arm joints passed (a rods-only
-    message matched the rods whole). The records decide: a platform stream's carry the rods alone, a robot
+    rods: a platform program's joint_states (before a robot program) with the arm joints appended at 0.77 rad
+    passed. And with gpr/robot_state not recorded a robot program's joint_states stripped of the arm joints passed (a
+    rods-only message matched the rods whole). The records decide: a platform stream's carry the rods alone, a robot
     program's the rods then the robot's joints."""
     from bag_support import messages_of
     from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC
 
     names = [n for a in ROBOT.arms for n in a.joint_names]
-    both = write_bag(tmp_path / 'both', _sweep_then(robot_bag), dict(GPR_TOPICS))
+    both = write_bag(tmp_path / 'both', _platform_then(robot_bag), dict(GPR_TOPICS))
     assert verify_bag(both).passed, [f.line() for f in verify_bag(both).failures]
 
     def appended(topic, msg):

@@ -149,16 +149,23 @@ def arm_joint_names(robot: RobotDescription) -> tuple[str, ...]:
     return tuple(n for a in robot.arms for n in a.joint_names)
 
 
+def in_world(frames: Any, state_frames: Any, robot: RobotDescription) -> NDArray[np.bool_]:
+    """Per message, whether its frame is the robot's world frame with the node's frame prefix: the prefix its
+    PlatformState's frame (``state_frames``) carries (``r1/world`` beside ``r1/gpr_base``, ``world`` beside
+    ``gpr_base``; ``evil/world`` beside ``gpr_base`` is not, nor ``gpr_world``)."""
+    world = robot.world_frame
+    return np.array([str(f) == world or (str(f).endswith('/' + world)
+                                         and str(base).startswith(str(f)[:len(str(f)) - len(world)]))
+                     for f, base in zip(frames, state_frames, strict=True)], dtype=bool)
+
+
 def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,
                robot: RobotDescription) -> NDArray[np.bool_]:
     """Per matched RobotState ``j`` (of the state ``rows``): frame (the world frame, with the node's frame prefix:
     ``r1/world`` beside a PlatformState in ``r1/gpr_base``, ``world`` beside ``gpr_base``), sample counter, arm and
     joint names right."""
     names = arm_joint_names(robot)
-    world = robot.world_frame
-    frame_ok = np.array([str(f).endswith(world) and str(base).startswith(str(f)[:len(str(f)) - len(world)])
-                         for f, base in zip(rc['header.frame_id'][j], np.asarray(c['header.frame_id'])[rows],
-                                            strict=True)], dtype=bool)
+    frame_ok = in_world(rc['header.frame_id'][j], np.asarray(c['header.frame_id'])[rows], robot)
     sample_ok = np.asarray(rc['sample'])[j] == np.asarray(c['sample'])[rows]
     arm_ok = np.isin(rc['arm'][j], robot.arm_names)
     names_ok = np.array([tuple(n) == names for n in rc['joint_names'][j]], dtype=bool)

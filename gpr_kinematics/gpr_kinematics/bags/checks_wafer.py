@@ -30,6 +30,7 @@ from ..errors import GprError
 from ..robot.description import RobotDescription
 from .cdr import Columns
 from .checks_program import owners
+from .checks_robot import in_world
 from .checks_topics import extra, match
 from .columns import quaternion_angle, stamp_ns, vec
 from .program_record import Expected, Record, expected, sample_index
@@ -58,12 +59,6 @@ def _without_robot_state(bag: Bag, wc: Columns, wstamps: NDArray[np.int64]) -> N
     paired[idx[idx >= 0]] = True
     out: NDArray[np.int64] = np.flatnonzero(~paired & ((wstamps < rstamps.min()) | (wstamps > rstamps.max())))
     return out
-
-
-def _in_world(frames: NDArray[np.object_], robot: RobotDescription) -> NDArray[np.bool_]:
-    """The robot's world frame, with a node's frame prefix or without (as ``robot.structure`` takes it)."""
-    world = robot.world_frame
-    return np.array([f == world or str(f).endswith('/' + world) for f in frames], dtype=bool)
 
 
 def _errors(wc: Columns, w: NDArray[np.int64], samples: NDArray[np.int64], robot: RobotDescription,
@@ -113,7 +108,8 @@ def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: R
     if robot is None or not records:
         why = 'no robot description (topic.robot)' if robot is None else \
             'no record of the stream (gpr/program) to recompute them from: a recording of an older node'
-        wrong = ~_in_world(wc['header.frame_id'][w], robot) if robot is not None else np.zeros(w.size, dtype=bool)
+        wrong = (~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot) if robot is not None
+                 else np.zeros(w.size, dtype=bool))
         if np.any(wrong):
             out.append(value_check(CHECK, WAFER_POSE_TOPIC, np.full(int(wrong.sum()), np.inf), limit, 'm|rad',
                                    samples[rows[wrong]], f"not in the robot's world frame (values not checked: {why})"))
@@ -122,5 +118,5 @@ def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: R
                                f'checked: {why}', limit))
         return out
     e = _errors(wc, w, samples[rows], robot, config, records)
-    e[~_in_world(wc['header.frame_id'][w], robot)] = np.inf
+    e[~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot)] = np.inf
     return out + [value_check(CHECK, WAFER_POSE_TOPIC, e, limit, 'm|rad', samples[rows], _DETAIL)]
