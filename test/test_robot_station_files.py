@@ -6,7 +6,8 @@ import os
 import numpy as np
 import pytest
 from gpr_kinematics.errors import ConfigError
-from gpr_kinematics.robot.station_files import MAX_BYTES, load_stations
+from gpr_kinematics.inputs.safe_yaml import MAX_BYTES
+from gpr_kinematics.robot.station_files import load_stations
 
 CSV_MM_DEG = """name,x [mm],y [mm],z [mm],tilt [deg],azimuth [deg],heading [deg],branch,approach_height [mm]
 load_port_1,1100,250,420,0,0,90,,

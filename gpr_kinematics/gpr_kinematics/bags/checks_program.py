@@ -33,7 +33,7 @@ from ..inputs import safe_yaml
 from ..robot.description import RobotDescription
 from .cdr import Columns
 from .columns import matrix, wrapped
-from .program_record import Expected, Record, expected, parse_record, sample_index
+from .program_record import ROBOT_PROGRAM, SWEEP, Expected, Record, expected, parse_record, sample_index
 from .reader import Bag
 from .results import Check, bag_check, skipped, value_check
 from .tolerances import Tolerances
@@ -111,7 +111,7 @@ def robot_program_states(records: list[Record], samples: NDArray[np.int64]) -> N
     None without records (a recording of an older node: every state counts)."""
     if not records:
         return None
-    robot = np.array([r.kind == 'robot_program' for r in records] + [False], dtype=bool)
+    robot = np.array([r.kind == ROBOT_PROGRAM for r in records] + [False], dtype=bool)
     out: NDArray[np.bool_] = robot[owners(records, samples)]
     return out
 
@@ -128,13 +128,13 @@ def loop_problems(records: list[Record], samples: NDArray[np.int64], owner: NDAr
     for k, r in enumerate(records):
         # a sweep is only ever the node's start-up stream: from sample 0, and it ends the node (or loops until the
         # node stops; goals are refused while it runs): another run spliced before or after it
-        if r.kind == 'sweep' and (k > 0 or r.first_sample != 0):
+        if r.kind == SWEEP and (k > 0 or r.first_sample != 0):
             before = records[k - 1] if k else None
             after = 'starts there' if before is None else f'follows the {before.kind} from sample {before.first_sample}'
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the sweep from sample {r.first_sample} {after}; a node streams '
                              'a sweep only as its start-up stream, from sample 0 (a gpr/run_program goal runs a '
                              'program or stations)'))
-        if r.kind == 'sweep' and not r.loop and k + 1 < len(records):
+        if r.kind == SWEEP and not r.loop and k + 1 < len(records):
             problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the recording has a stream from sample '
                              f'{records[k + 1].first_sample} after the sweep from sample {r.first_sample}; a sweep is '
                              'the node\'s start-up stream, which ends the node after its last sample'))

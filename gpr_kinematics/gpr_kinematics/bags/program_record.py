@@ -42,7 +42,9 @@ from ..robot.stream import robot_stream
 from ..robot.transforms import PoseBatch
 from .typestore import PROGRAM_TOPIC
 
-KINDS = ('sweep', 'platform_program', 'robot_program')
+#: The kinds of stream a record names (what ``trajectory_node`` streamed).
+SWEEP, PLATFORM_PROGRAM, ROBOT_PROGRAM = 'sweep', 'platform_program', 'robot_program'
+KINDS = (SWEEP, PLATFORM_PROGRAM, ROBOT_PROGRAM)
 SWEEP_KEYS = ('height', 'max_tilt', 'tilt_step', 'azimuth_step', 'passes')
 #: Largest record read [bytes] (a program of 10,000 stations is about 1 MB of YAML).
 MAX_RECORD_BYTES = 8 << 20
@@ -172,7 +174,7 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
     common = dict(kind=kind, first_sample=_integer(data, 'first_sample', where), rate=_positive(data, 'rate', where),
                   samples=_integer(data, 'samples', where), loop=loop, move_time=_positive(data, 'move_time', where),
                   markers_every=_markers_every(data, where))
-    if kind == 'sweep':
+    if kind == SWEEP:
         sweep = data.get('sweep')
         if not isinstance(sweep, Mapping):
             raise ConfigError(f'{where}: sweep: a mapping of {", ".join(SWEEP_KEYS)}')
@@ -181,7 +183,7 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
             raise ConfigError(f'{where}: sweep: {", ".join(SWEEP_KEYS)} must be numbers')
         return Record(**common, sweep={k: float(sweep[k]) for k in SWEEP_KEYS})
     program = data.get('program')
-    parsed = (parse_program(program, f'{where}: program') if kind == 'robot_program' else
+    parsed = (parse_program(program, f'{where}: program') if kind == ROBOT_PROGRAM else
               parse_platform_program(program, f'{where}: program'))
     return Record(**common, program=parsed)
 
@@ -213,7 +215,7 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
     """Recompute a recorded stream (the functions ``trajectory_node`` computes it with), with ``config`` as the
     geometry of sweeps and platform programs and ``robot`` (computing with that geometry) for a robot program;
     :class:`~gpr_kinematics.errors.GprError` when it cannot be (a station out of reach under this geometry, ...)."""
-    if record.kind == 'sweep':
+    if record.kind == SWEEP:
         assert record.sweep is not None  # parse_record sets it
         s = record.sweep
         sw = paper_sweep(height=s['height'], max_tilt=s['max_tilt'], tilt_step=s['tilt_step'],

@@ -44,6 +44,7 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
+from .program_record import ROBOT_PROGRAM
 from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
@@ -119,7 +120,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             # the rods alone in joint_states without robot states: only where they are not recorded at all (a sweep's
             # listed empty says it has none) and no record says the stream is not a robot program's
             fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
-                not recorded[0] or any(r.kind == 'robot_program' for r in recorded[0]))
+                not recorded[0] or any(r.kind == ROBOT_PROGRAM for r in recorded[0]))
             robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,

@@ -35,7 +35,8 @@ from ..core.rotations import euler_from_rotation, kabsch, quaternion_from_matrix
 from ..errors import InputError
 from .fitting import levenberg_marquardt
 from .measurements import Measurements
-from .model import Parameter, ParameterSet, PoseModel, evaluate, pose_error
+from .model import Parameter, ParameterSet, PoseModel, evaluate
+from .plausibility import measured_errors
 from .quality import HeldBias
 
 Array = NDArray[np.float64]
@@ -177,10 +178,7 @@ class FramedModel:
         fit = np.arange(self.n_inner, len(params), dtype=np.int64)
 
         def residuals(theta: Array) -> Array:
-            pos, rot = evaluate(self, theta, meas.q)
-            if meas.quaternion is None:
-                return np.asarray(pos - meas.position, dtype=np.float64)
-            return pose_error(pos, rot, meas.position, meas.rotation)
+            return measured_errors(self, meas, theta)
 
         return levenberg_marquardt(residuals, params, params.nominal, fit, params.scale, 'registered').theta
 

@@ -23,8 +23,8 @@ from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
 from ..errors import EXIT_BAD_INPUT
+from ..inputs.resources import PACKAGE
 
-PACKAGE = 'gpr_kinematics'
 #: Nodes that run until the launch stops: restarted (``respawn``) or the end of the launch when they die.
 REQUIRED = ('kinematics_node', 'robot_simulator_node', 'state_publisher_node')
 #: Arguments every launch file of the package declares (name, default, description).

@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import ConfigError, brief, kind_of
 from ..inputs import units
 from ..inputs.files import read_text
+from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
@@ -44,8 +45,7 @@ from .description import BRANCHES
 from .fields import WORLD_BOUND, check_world_position
 from .stations import Stations
 
-#: Largest station file read [bytes] and most stations in a program.
-MAX_BYTES = 10 * 1024 * 1024
+#: Most stations in a program (a station file is read up to the YAML files' bound, :data:`MAX_BYTES`).
 MAX_STATIONS = 100_000
 #: Longest straight entry [m].
 MAX_ENTRY = 2.0

@@ -23,13 +23,14 @@ from ..core.forward import STROKE_SLACK, check_stroke, forward, forward_batch, m
 from ..core.ops import ARRAY
 from ..errors import ConfigError, InputError, LimitError, apart, brief
 from ..inputs.files import read_text
+from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
 from .forward import RobotForward, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
-from .station_files import MAX_BYTES, CsvTable, read_csv_table, station_name
+from .station_files import CsvTable, read_csv_table, station_name
 from .stations import StationRecord, Stations, stations_from_poses
 
 Array = NDArray[np.float64]

@@ -25,9 +25,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO
 
+from ..inputs.resources import PACKAGE
 from . import env as ros_env
-
-PACKAGE = 'gpr_kinematics'
 
 
 class NodeProcess:

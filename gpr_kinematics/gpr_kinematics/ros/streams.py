@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..bags.program_record import record_text
+from ..bags.program_record import PLATFORM_PROGRAM, ROBOT_PROGRAM, SWEEP, record_text
 from ..core import ForwardBatch, inverse_batch
 from ..core.config import GprConfig
 from ..core.sweep import paper_sweep
@@ -94,7 +94,7 @@ def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: 
     spec = {'height': height, 'max_tilt': max_tilt, 'tilt_step': tilt_step, 'azimuth_step': azimuth_step,
             'passes': passes}
     return Trajectory(sw.forward, np.asarray(sw.alpha, float).tolist(), np.asarray(sw.gamma, float).tolist(),
-                      [-1] * n, (), desc, stream_markers(cfg, sw.forward), kind='sweep', spec=spec)
+                      [-1] * n, (), desc, stream_markers(cfg, sw.forward), kind=SWEEP, spec=spec)
 
 
 def first_failure(solve: Callable[[int, int], None], n: int) -> tuple[int, GprError]:
@@ -139,7 +139,7 @@ def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_
             f'{len(samples)} samples')
     return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
                       [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc,
-                      stream_markers(cfg, ik.achieved), kind='platform_program', spec=prog,
+                      stream_markers(cfg, ik.achieved), kind=PLATFORM_PROGRAM, spec=prog,
                       target=[int(s) for s in samples.target])
 
 
@@ -153,7 +153,7 @@ def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -
     desc = (f'robot program {prog.source} on robot {robot.name}: {len(prog.steps)} steps, {len(rs.waypoint_names)} '
             f'waypoints, {rs.time[-1]:.6g} s, {len(rs)} samples')
     return Trajectory(gpr, gpr.tilt.tolist(), gpr.tilt_azimuth.tolist(), rs.waypoint.tolist(), rs.waypoint_names,
-                      desc, stream_markers(robot.config, gpr), rs, kind='robot_program', spec=prog,
+                      desc, stream_markers(robot.config, gpr), rs, kind=ROBOT_PROGRAM, spec=prog,
                       target=rs.target.tolist())
 
 
@@ -281,7 +281,7 @@ def record_of(traj: Trajectory, first_sample: int, rate: float, loop: bool, move
               markers_every: int) -> str:
     """The record of ``traj`` (:func:`gpr_kinematics.bags.program_record.record_text`), published on ``gpr/program``
     as it starts at sample ``first_sample``, its markers published every ``markers_every``-th sample."""
-    sweep = traj.spec if traj.kind == 'sweep' else None
+    sweep = traj.spec if traj.kind == SWEEP else None
     program = traj.spec if traj.kind != 'sweep' else None
     return record_text(traj.kind, first_sample, len(traj), rate, loop, move_time, sweep=sweep, program=program,
                        markers_every=markers_every)
