@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.messages import NS_PER_S
-from ..core.rotations import quaternion_multiply
+from ..core.rotations import quaternion_multiply, wrap_angle
 from .cdr import Columns
 
 
@@ -72,5 +72,5 @@ def quaternion_angle(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[
 
 def wrapped(a: NDArray[np.float64]) -> NDArray[np.float64]:
     """``|a|`` wrapped to [0, pi] (angle differences)."""
-    out: NDArray[np.float64] = np.abs((a + np.pi) % (2 * np.pi) - np.pi)
+    out: NDArray[np.float64] = np.abs(wrap_angle(a))
     return out

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import cast
+from typing import cast, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +30,16 @@ Array = NDArray[np.float64]
 
 #: Below this tilt [rad] the azimuth is undefined and reported as 0.
 AZIMUTH_UNDEFINED_BELOW = 1e-15
+
+
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: Array) -> Array: ...
+def wrap_angle(angle: float | Array) -> float | Array:
+    """``angle`` [rad] taken to ``[-pi, pi)``: ``(angle + pi) mod 2 pi - pi`` (floored, as Python's ``%`` and
+    ``numpy.remainder`` both compute it), a float for a float, an array for an array."""
+    return (angle + np.pi) % (2 * np.pi) - np.pi
 
 
 def tilt_rotation(tilt: ArrayLike, azimuth: ArrayLike) -> Array:

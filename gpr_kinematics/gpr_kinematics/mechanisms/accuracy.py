@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.rotations import wrap_angle
 from ..errors import InputError, SingularityError, brief
 from ..inputs.validation import MAX_COORDINATE
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, dexterity_index, euler_rate_matrix, rotation_vector
@@ -312,7 +313,7 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     exact_poses = perturbed.forward_kinematics(q + ds, arr, tol=tol)
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
-    exact[:, angular] = (exact[:, angular] + np.pi) % (2 * np.pi) - np.pi  # Euler angles wrap
+    exact[:, angular] = wrap_angle(exact[:, angular])  # Euler angles wrap
     # mechanisms whose errors also move the outcome components have their own
     lin_twist = mech.linearized_twist(arr, ds, dp) if hasattr(mech, 'linearized_twist') else _motion(mech, arr, rhs)
     dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)

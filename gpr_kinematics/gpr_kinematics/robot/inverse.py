@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
 from ..core.inverse import tilt_target_slack
-from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation
+from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import BRANCHES, Arm, RobotDescription
@@ -336,7 +336,7 @@ def _stroke(robot: RobotDescription, q: Array) -> NDArray[np.bool_]:
 def _heading_miss(arm: Arm, sol: ArmSolution, targets: _Targets, free: NDArray[np.bool_]) -> NDArray[np.bool_]:
     if len(arm.joints) != 2:
         return np.zeros(free.shape, dtype=bool)
-    diff = np.abs(np.remainder(sol.heading - targets.phi + np.pi, 2 * np.pi) - np.pi)
+    diff = np.abs(wrap_angle(sol.heading - targets.phi))
     return ~free & (diff > HEADING_TOLERANCE)
 
 
@@ -421,4 +421,4 @@ def _self_motion_fault(a: Arm, targets: _Targets, i: int, branch: str) -> str:
 
 
 def _wrap(angle: float) -> float:
-    return float(np.remainder(angle + np.pi, 2 * np.pi) - np.pi)
+    return float(wrap_angle(angle))

@@ -40,7 +40,7 @@ from ..core.inverse import inverse_parts, tilt_target_slack
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
 from ..core.platform_pose import rigid_fit
-from ..core.rotations import tilt_of_normal
+from ..core.rotations import tilt_of_normal, wrap_angle
 from ..core.single import OnePose, one_pose
 from ..errors import ConvergenceError, LimitError
 from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, link_vectors
@@ -154,7 +154,7 @@ def _batch_decides(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: 
             return True
     if len(arm.joints) != 2 or free:
         return False
-    return abs((sol.heading - phi + math.pi) % (2 * math.pi) - math.pi) > HEADING_TOLERANCE - EDGE_MARGIN
+    return abs(wrap_angle(sol.heading - phi)) > HEADING_TOLERANCE - EDGE_MARGIN
 
 
 class StationFloats(NamedTuple):
