@@ -339,3 +339,34 @@ def test_a_simulated_clock_slower_than_real_time_sets_the_streams_pace(ros_envir
         finally:
             proc.stop()
     assert 5 <= len(states) <= elapsed * 1e-9 * RATE + CATCH_UP + 2, (len(states), elapsed)
+
+
+def test_a_simulated_clock_set_back_is_followed(ros_environment):
+    """A simulation reset sets /clock back (1000 s to 10 s): each sample was stamped a nanosecond after the last
+    whatever the clock said, so the stream went on at 1000 s; the stamps follow the clock back."""
+    from builtin_interfaces.msg import Time
+    from gpr_kinematics.nodes.client import GprClient
+    from rosgraph_msgs.msg import Clock
+
+    ns = '/traj_clockback'
+    with GprClient('gpr_test_traj_clockback') as c:
+        msgs = subscribe_stream(c, ns)
+        clock = c.node.create_publisher(Clock, '/clock', 10)
+        now = {'ns': 1000 * 10**9}
+
+        def tick() -> None:
+            now['ns'] += 5_000_000
+            clock.publish(Clock(clock=Time(sec=now['ns'] // 10**9, nanosec=now['ns'] % 10**9)))
+
+        c.node.create_timer(0.01, tick)
+        proc = start('trajectory_node', namespace=ns, wait_for_subscribers=1, rate=RATE, mode='sweep', height=HEIGHT,
+                     max_tilt=math.radians(1.0), tilt_step=math.radians(0.05), azimuth_step=math.radians(120.0),
+                     passes=1, use_sim_time=True)
+        try:
+            assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 10, 30), proc.output()
+            now['ns'] = 10 * 10**9
+            c.spin_for(1.5)
+        finally:
+            proc.stop()
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs['gpr/platform_state']])
+    assert stamps[0] >= 1000 * 10**9 and stamps[-1] < 20 * 10**9, (stamps[0], stamps[-1])

@@ -65,7 +65,7 @@ from visualization_msgs.msg import MarkerArray
 from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import PlatformState, RobotState
 
-from ..core.messages import Service, Topic, geometry_text, robot_text, stream_messages
+from ..core.messages import NS_PER_S, Service, Topic, geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program
@@ -333,7 +333,9 @@ class TrajectoryNode(GprNode):
     def publish_sample(self, traj: Trajectory, i: int) -> None:
         # the clock's time, a nanosecond after the last sample's at least: under use_sim_time /clock stands still while
         # a tick catches up samples, which shared a stamp (the stream's stamps must increase; tf drops repeats)
-        stamp_ns = self._stamped = max(self.get_clock().now().nanoseconds, self._stamped + 1)
+        now = self.get_clock().now().nanoseconds   # a later stamp within a tick; a clock set back a tick or more
+        back = now < self._stamped - round(self.period * NS_PER_S)   # (a simulation reset) is followed, not outrun
+        stamp_ns = self._stamped = now if back else max(now, self._stamped + 1)
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
                                frame_id=self.base_frame, sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
