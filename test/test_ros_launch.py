@@ -343,6 +343,10 @@ def test_exit_rule_ends_the_launch_with_the_reason(monkeypatch):
     # launch reads respawn:=1 (and True) as true, as the XML's if= does: the Python file ended the launch instead
     assert _exited(_Context(-9, respawn='1'), 'kinematics_node', True) is None
     assert _exited(_Context(-9, respawn='True'), 'kinematics_node', True) is None
+    # and yes/on as YAML 1.1 does, where the exit rule ended the launch that launch had respawned the node for
+    assert _exited(_Context(-9, respawn='yes'), 'kinematics_node', True) is None
+    with pytest.raises(RuntimeError, match='kinematics_node died'):
+        _exited(_Context(-9, respawn='off'), 'kinematics_node', True)
     with pytest.raises(RuntimeError, match='recorder_node died'):
         _exited(_Context(1, respawn='true'), 'recorder_node', False)          # not respawned: not required
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+import yaml
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.launch_context import LaunchContext
@@ -55,6 +56,17 @@ def typed(name: str, value_type: type = str) -> Any:
     return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
+def launch_bool(text: str) -> bool:
+    """A launch argument read as ``launch`` reads a bool (``launch.utilities.type_utils.coerce_to_type``, which the
+    Node's ``respawn`` goes through): ``1`` and ``0``, else YAML 1.1 (``true``, ``True``, ``yes``, ``on``, ...): the
+    exit rule and the respawn agree (``respawn:=yes`` restarted the node and ended the launch)."""
+    value = {'1': 'true', '0': 'false'}.get(text, text)
+    try:
+        return yaml.safe_load(value) is True
+    except yaml.YAMLError:
+        return False
+
+
 def _exited(context: LaunchContext, name: str, required: bool) -> None:
     """On a node's exit: nothing while the launch stops, or when the node is being restarted, or when a node that
     finishes on its own (a sweep) ended well; else end the launch with status 1 and the reason. A node that refused
@@ -63,7 +75,7 @@ def _exited(context: LaunchContext, name: str, required: bool) -> None:
     event = context.locals.event
     code = int(event.returncode)
     restarted = (required and code != EXIT_BAD_INPUT
-                 and LaunchConfiguration('respawn').perform(context).lower() in ('true', '1'))
+                 and launch_bool(LaunchConfiguration('respawn').perform(context)))
     if context.is_shutdown or restarted or (code == 0 and not required):
         return
     what = ('refused to start' if code == EXIT_BAD_INPUT else 'died') if code else 'is required and ended'
