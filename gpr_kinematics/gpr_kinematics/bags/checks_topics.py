@@ -285,23 +285,23 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording, or of the robot recorded or given without its states; or, recorded before, '
                           'rod_1..rod_3 + the virtual joints)',
-                          _without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None, due),
+                          without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None, due),
                           shared=True, after_rods=robot_joints if arms is None else arms.names(),
                           recorded=due is not None)
             + _joint_checks(bag, c, samples, tol, VIRTUAL_JOINTS_TOPIC, (virtual,),
                             "names not the state's virtual_joint_names"))
 
 
-def _without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any, robot: bool,
+def without_robot_state_at_the_ends(stamps: NDArray[np.int64], arms: Any, robot: bool,
                                      due: NDArray[np.bool_] | None = None) -> frozenset[int]:
     """The states of a robot recording without their RobotState before the first that has one (a recorder that
     subscribed to the robot states after the joint states: an honest late recording failed) and the last one (a cut);
     every state where no robot states are recorded but the robot is known (``robot``: recorded or given; a recording
-    of fewer topics, its rods what can be checked); none where neither is (a platform recording: its messages carry
-    the rods alone). Where the records say which states are a robot program's (``due``), those only: a platform
-    stream's messages carry the rods alone, also before a robot program's first RobotState."""
+    of fewer topics); none where neither is (a platform recording: its messages carry the rods alone). Where the records
+    say which states are a robot program's (``due``), those only: a platform stream's carry the rods alone, also
+    before a robot program's first RobotState. The rods checked here, the arm joints in :mod:`.checks_joints`."""
     if due is not None:
-        return frozenset(r for r in _without_robot_state_at_the_ends(stamps, arms, robot) if due[r])
+        return frozenset(r for r in without_robot_state_at_the_ends(stamps, arms, robot) if due[r])
     if arms is None:
         return frozenset(range(len(stamps))) if robot else frozenset()
     if not len(stamps):

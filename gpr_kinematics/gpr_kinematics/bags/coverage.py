@@ -29,7 +29,8 @@ CHECKED: dict[str, tuple[tuple[str, str], ...]] = {
         ('within_budget', 'state.within_budget'), ('iterations', 'state.iterations'), ('residual', 'state.residual'),
     ),
     'geometry_msgs/msg/PoseStamped': (_STAMP, ('pose', 'topic.platform_pose, topic.nominal_pose, topic.wafer_pose')),
-    'sensor_msgs/msg/JointState': (_STAMP, ('position', 'topic.joint_states, topic.virtual_joints'),
+    'sensor_msgs/msg/JointState': (_STAMP, ('position', 'topic.joint_states, topic.joint_states_recomputed, '
+                                                        'topic.virtual_joints'),
                                    ('velocity', 'topic.joint_states (empty)'),
                                    ('effort', 'topic.joint_states (empty)')),
     'visualization_msgs/msg/MarkerArray': (

@@ -9,7 +9,9 @@ read raises :class:`~gpr_kinematics.bags.errors.BagError`), decodes every topic,
 - ``state.*`` (:mod:`.checks_state`): every PlatformState against forward kinematics of its ``q``;
 - ``stream.*`` (:mod:`.checks_stream`): counters, stamps, jumps at singular crossings;
 - ``topic.*`` (:mod:`.checks_topics`): poses, joint states and markers against the state of the same stamp, the
-  markers' sequence against the recorded ``markers_every``;
+  markers' sequence against the recorded ``markers_every``; ``topic.joint_states_recomputed``
+  (:mod:`.checks_joints`): the arm joints of the joint states without their RobotState against the stream
+  recomputed from the record (without one: the joint limits);
 - ``topic.robot``, ``robot.*``, ``topic.wafer_pose`` (:mod:`.checks_robot`): a whole-robot recording's wafer poses
   against the robot's forward kinematics, with the recorded robot description (or a given one);
   ``topic.wafer_pose_recomputed`` (:mod:`.checks_wafer`): the wafer poses without their RobotState (at the ends of
@@ -36,6 +38,7 @@ from ..core.config import GprConfig
 from ..core.machine import slope_gain
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
+from .checks_joints import joint_state_checks
 from .checks_program import marker_cadence, program_checks, read_records, robot_program_states
 from .checks_robot import arm_joint_names, choose_robot, robot_checks, robot_summary
 from .checks_state import state_checks
@@ -125,6 +128,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples), robot_joints, due) + robot_part
+            checks += joint_state_checks(bag, c, samples, arms.robot, geo.config, recorded[0], robot_rows,
+                                         robot_joints, due, tol)
             checks += wafer_pose_checks(bag, c, samples, arms.robot, geo.config, recorded[0], tol)
             checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
