@@ -2,8 +2,11 @@
 alpha = 0 without a jump, carries consistent poses; the latched geometry; program mode; clean exits."""
 from __future__ import annotations
 
+import contextlib
 import math
 import signal
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -306,67 +309,55 @@ def test_under_a_simulated_clock_the_samples_stamps_increase(ros_environment):
     assert stamps[0] >= 1000 * 10**9 and stamps[-1] <= now['ns'] + len(stamps)   # the simulated clock's time
 
 
-def test_a_simulated_clock_slower_than_real_time_sets_the_streams_pace(ros_environment):
-    """use_sim_time with /clock advancing 1 ms every 20 ms of wall time (a simulation at 1/20 of real time): the
-    samples due were counted on the wall clock, so every tick caught up CATCH_UP samples and the stream ran five times
-    its rate in simulated time (1 kHz for 200 Hz). Now at most the samples of the simulated time gone by, plus one
-    tick's catch-up, are out."""
+@contextlib.contextmanager
+def _simulated_clock(ns: str, step_ns: int, every: float) -> Iterator[tuple[Any, dict[str, list], dict[str, int]]]:
+    """A trajectory_node sweeping at RATE under use_sim_time in ``ns``, /clock advanced by ``step_ns`` every ``every``
+    s of wall time from 1000 s: (client, the stream's messages, the clock ``{'ns': now}``, settable)."""
     from builtin_interfaces.msg import Time
     from gpr_kinematics.nodes.client import GprClient
-    from gpr_kinematics.nodes.runtime import CATCH_UP
     from rosgraph_msgs.msg import Clock
 
-    ns = '/traj_slowclock'
-    with GprClient('gpr_test_traj_slowclock') as c:
+    with GprClient(f'gpr_test{ns.replace("/", "_")}') as c:
         msgs = subscribe_stream(c, ns)
         clock = c.node.create_publisher(Clock, '/clock', 10)
         now = {'ns': 1000 * 10**9}
 
         def tick() -> None:
-            now['ns'] += 1_000_000
+            now['ns'] += step_ns
             clock.publish(Clock(clock=Time(sec=now['ns'] // 10**9, nanosec=now['ns'] % 10**9)))
 
-        c.node.create_timer(0.02, tick)
+        c.node.create_timer(every, tick)
         proc = start('trajectory_node', namespace=ns, wait_for_subscribers=1, rate=RATE, mode='sweep', height=HEIGHT,
                      max_tilt=math.radians(1.0), tilt_step=math.radians(0.05), azimuth_step=math.radians(120.0),
                      passes=1, use_sim_time=True)
         try:
             assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 0, 30), proc.output()
-            first = msgs['gpr/platform_state'][0].header.stamp
-            c.spin_for(3.0)
-            states = list(msgs['gpr/platform_state'])
-            elapsed = now['ns'] - (first.sec * 10**9 + first.nanosec)
+            yield c, msgs, now
         finally:
             proc.stop()
+
+
+def test_a_simulated_clock_slower_than_real_time_sets_the_streams_pace(ros_environment):
+    """use_sim_time with /clock advancing 1 ms every 20 ms of wall time (a simulation at 1/20 of real time): the
+    samples due were counted on the wall clock, so every tick caught up CATCH_UP samples and the stream ran five times
+    its rate in simulated time (1 kHz for 200 Hz). Now at most the samples of the simulated time gone by, plus one
+    tick's catch-up, are out."""
+    from gpr_kinematics.nodes.runtime import CATCH_UP
+
+    with _simulated_clock('/traj_slowclock', 1_000_000, 0.02) as (c, msgs, now):
+        first = msgs['gpr/platform_state'][0].header.stamp
+        c.spin_for(3.0)
+        states = list(msgs['gpr/platform_state'])
+        elapsed = now['ns'] - (first.sec * 10**9 + first.nanosec)
     assert 5 <= len(states) <= elapsed * 1e-9 * RATE + CATCH_UP + 2, (len(states), elapsed)
 
 
 def test_a_simulated_clock_set_back_is_followed(ros_environment):
     """A simulation reset sets /clock back (1000 s to 10 s): each sample was stamped a nanosecond after the last
     whatever the clock said, so the stream went on at 1000 s; the stamps follow the clock back."""
-    from builtin_interfaces.msg import Time
-    from gpr_kinematics.nodes.client import GprClient
-    from rosgraph_msgs.msg import Clock
-
-    ns = '/traj_clockback'
-    with GprClient('gpr_test_traj_clockback') as c:
-        msgs = subscribe_stream(c, ns)
-        clock = c.node.create_publisher(Clock, '/clock', 10)
-        now = {'ns': 1000 * 10**9}
-
-        def tick() -> None:
-            now['ns'] += 5_000_000
-            clock.publish(Clock(clock=Time(sec=now['ns'] // 10**9, nanosec=now['ns'] % 10**9)))
-
-        c.node.create_timer(0.01, tick)
-        proc = start('trajectory_node', namespace=ns, wait_for_subscribers=1, rate=RATE, mode='sweep', height=HEIGHT,
-                     max_tilt=math.radians(1.0), tilt_step=math.radians(0.05), azimuth_step=math.radians(120.0),
-                     passes=1, use_sim_time=True)
-        try:
-            assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 10, 30), proc.output()
-            now['ns'] = 10 * 10**9
-            c.spin_for(1.5)
-        finally:
-            proc.stop()
+    with _simulated_clock('/traj_clockback', 5_000_000, 0.01) as (c, msgs, now):
+        assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 10, 30)
+        now['ns'] = 10 * 10**9
+        c.spin_for(1.5)
     stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs['gpr/platform_state']])
     assert stamps[0] >= 1000 * 10**9 and stamps[-1] < 20 * 10**9, (stamps[0], stamps[-1])

@@ -35,7 +35,7 @@ from .cdr import Columns
 from .checks_program import owners
 from .checks_topics import match, without_robot_state_at_the_ends
 from .columns import stamp_ns
-from .program_record import Record, expected, sample_index
+from .program_record import ROBOT_PROGRAM, Record, expected, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
@@ -85,7 +85,7 @@ def _recomputed(rows: NDArray[np.int64], values: list[NDArray[np.float64]], samp
     owner = owners(records, samples[rows])
     for k in np.unique(owner[owner >= 0]).tolist():
         record = records[k]
-        if record.kind != 'robot_program':
+        if record.kind != ROBOT_PROGRAM:
             continue
         try:
             ex = expected(record, config, robot)

@@ -33,7 +33,7 @@ from .checks_program import owners
 from .checks_robot import in_world
 from .checks_topics import extra, match
 from .columns import quaternion_angle, stamp_ns, vec
-from .program_record import Expected, Record, expected, sample_index
+from .program_record import ROBOT_PROGRAM, Expected, Record, expected, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
@@ -70,7 +70,7 @@ def _errors(wc: Columns, w: NDArray[np.int64], samples: NDArray[np.int64], robot
     position, orientation = vec(wc, 'pose.position')[w], vec(wc, 'pose.orientation', 'xyzw')[w]
     for k in np.unique(owner[owner >= 0]).tolist():
         record = records[k]
-        if record.kind != 'robot_program':
+        if record.kind != ROBOT_PROGRAM:
             continue
         try:
             ex: Expected = expected(record, config, robot)
