@@ -186,6 +186,26 @@ def test_lead_in_from_the_current_state():
         assert lead_in(plan, traj, at, rate)[1] > 0.0
 
 
+def test_a_lead_in_that_takes_the_trajectory_past_a_day_is_refused(tmp_path):
+    """A program of 86,395 s (a dwell appended) makes a trajectory within the day; its lead-in from a robot away from
+    the first point (one period at 0.1 Hz: 10 s) takes it to 86,405 s: refused, naming the day, not made."""
+    from gpr_kinematics.robot.trajectory import MAX_DURATION
+
+    rate = 0.1
+    short = _plan().timing.total
+    path = tmp_path / 'long.yaml'
+    path.write_text(SHORT_PROGRAM + f'  - {{dwell: {MAX_DURATION - 5 - short:.6f}}}\n')
+    plan = plan_program(ROBOT, load_program(path), rate)
+    traj = program_trajectory(plan, rate)
+    assert math.isclose(traj.duration, MAX_DURATION - 5, abs_tol=1e-5)
+    same, none = lead_in(plan, traj, traj.positions[0].copy(), rate)     # no lead-in: within the day
+    assert same is traj and none == 0.0
+    with pytest.raises(InputError) as info:
+        lead_in(plan, traj, traj.positions[0] + 0.01, rate)
+    assert str(info.value) == ('the trajectory with its lead-in lasts 86405 s; allowed: at most 86400 s (a day, the '
+                               'longest a FollowJointTrajectory goal of the controller lasts): split the program')
+
+
 def test_trajectory_yaml_reads_back_exactly_and_embeds_in_a_goal(tmp_path):
     plan = _plan()
     traj = program_trajectory(plan, 10.0)
