@@ -144,6 +144,27 @@ def test_malformed_programs(tmp_path, changes, pattern):
         expand(p, ROBOT)
 
 
+@pytest.mark.parametrize('key', ['approach_height', 'retract_height'])
+def test_default_heights_are_bounded_at_a_tenth_of_a_metre_in_metres_and_in_mm(tmp_path, key):
+    """The bound is station_files.MAX_APPROACH (0.1 m): the bound itself is a height, just above it is refused, and a
+    program in mm reads the bound in mm (100 mm), the metres after it."""
+    from gpr_kinematics.robot.station_files import MAX_APPROACH
+
+    assert MAX_APPROACH == 0.1
+    mm = {'units': {'length': 'mm'},
+          'stations': [{'name': 'a', 'position': [1200, 500, 450], 'heading': 0.0},
+                       {'name': 'b', 'position': [750, 1100, 400], 'heading': 1.5}]}
+    for changes, ok, high, unit in (({}, (0.0999, 0.1), (0.1001, 0.15), 'm'), (mm, (99.9, 100), (100.1, 150), 'mm')):
+        for value in ok:
+            p = _program(tmp_path, _minimal(defaults={key: value}, **changes))
+            assert getattr(p, key) == pytest.approx(value * (0.001 if unit == 'mm' else 1.0), rel=1e-15)
+        for value in high:
+            with pytest.raises(ConfigError) as info:
+                _program(tmp_path, _minimal(defaults={key: value}, **changes))
+            assert str(info.value) == (f'{tmp_path / "p.yaml"}: defaults: {key} = {value:g} {unit} is invalid; '
+                                       f'allowed: 0 to {"100 mm" if unit == "mm" else "0.1 m"} (0.1 m)')
+
+
 @pytest.mark.parametrize('step, pattern', [
     ({'move': 'a', 'arm': 'arm9'}, r"steps\[0\]: arm = 'arm9' is invalid; allowed: arm1, arm2"),
     ({'move': 'a', 'branch': 'up'}, r"steps\[0\]: branch = 'up' is invalid; allowed: left or right"),
