@@ -124,6 +124,24 @@ def test_malformed_files(tmp_path, name, text, pattern):
         load_stations(_write(tmp_path, name, text))
 
 
+@pytest.mark.parametrize('key, bound', [('approach_height', 0.1), ('retract_height', 0.1), ('entry', 2.0)])
+def test_csv_heights_are_bounded_in_metres_and_in_mm(tmp_path, key, bound):
+    """A CSV's approach and retract heights (at most station_files.MAX_APPROACH, 0.1 m) and entry (MAX_ENTRY, 2 m):
+    the bound itself is taken, just above it refused; a column in mm reads the bound in mm, the metres after it."""
+    for unit, scale in (('m', 1.0), ('mm', 1000.0)):
+        header = f'name,x,y,z,{key} [{unit}]\n'
+        at = f'{bound * scale:g}'
+        t = load_stations(_write(tmp_path, 's.csv', f'{header}a,1,0,0.4,{at}\nb,1,0,0.5,0\n'))
+        got = getattr(t, key)
+        assert got[0] == pytest.approx(bound, rel=1e-15) and got[1] == 0.0
+        over = f'{bound * scale * 1.001:g}'
+        path = _write(tmp_path, 's.csv', f'{header}a,1,0,0.4,{over}\n')
+        with pytest.raises(ConfigError) as info:
+            load_stations(path)
+        assert str(info.value) == (f"{path}: line 2 (a): {key} = '{over}' {unit} is invalid; allowed: 0 to {at} {unit} "
+                                   f'({bound:g} m)')
+
+
 def test_hostile_files(tmp_path):
     with pytest.raises(ConfigError, match=r"cannot read station file .*absent.csv"):
         load_stations(tmp_path / 'absent.csv')
