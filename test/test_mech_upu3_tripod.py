@@ -264,6 +264,25 @@ def test_upu3_limbs_sharing_an_azimuth_are_refused(azimuths):
         UPU3(azimuths=azimuths)
 
 
+@pytest.mark.parametrize('azimuths, limbs, apart', [
+    ([0.0, 1e-9, 2.0], (1, 2), [0.0, 1.5e-6, 2.0]),
+    ([0.0, 2.0, 2 * math.pi - 5e-7], (1, 3), [0.0, 2.0, 2 * math.pi - 1.5e-6]),
+    ([1.0, 3.0, 3.0 + 9e-7], (2, 3), [1.0, 3.0, 3.0 + 1.1e-6]),
+])
+def test_upu3_limbs_nearly_sharing_an_azimuth_are_refused(azimuths, limbs, apart):
+    """Not only equal azimuths: any two closer than AZIMUTH_GAP (1e-6 rad) modulo 2 pi are one joint pair to the
+    Jacobian's rank; two just farther apart are three limbs."""
+    from gpr_kinematics.mechanisms.upu3 import AZIMUTH_GAP, check_azimuths
+
+    assert AZIMUTH_GAP == 1e-6
+    i, j = limbs
+    with pytest.raises(ConfigError) as info:
+        UPU3(azimuths=azimuths)
+    assert str(info.value) == (f'base_azimuths {np.round(azimuths, 9).tolist()} rad: limbs {i} and {j} share an '
+                               'azimuth (mod 2 pi), one joint pair for two limbs; allowed: three azimuths at least '
+                               '1e-06 rad apart modulo 2 pi (the paper: 120 deg apart)')
+    np.testing.assert_array_equal(check_azimuths(apart), apart)
+
 
 @pytest.mark.filterwarnings('error')
 def test_a_tilt_of_half_a_turn_about_one_axis_is_singular_in_a_map_and_named_elsewhere(tripod):
