@@ -46,6 +46,21 @@ def test_constraint_forms_and_bounds(text, lower, upper):
     assert c.equality == (lower == upper)
 
 
+@pytest.mark.parametrize('text, lower, upper', [
+    ('1 <= x <= 1', (1.0, 1.0), (1.0, 1.0)),
+    ('1 >= x >= 1', (1.0, 1.0), (1.0, 1.0)),
+    # 0.1 + 0.2 folds outwards to [0.3, 0.3000000000000001]: it may be 0.3, so the range is not empty
+    ('0.1+0.2 <= x <= 0.3', (0.3, math.nextafter(0.1 + 0.2, 1.0)), (0.3, 0.3)),
+    ('0.3 >= x >= 0.1 + 0.2', (0.3, math.nextafter(0.1 + 0.2, 1.0)), (0.3, 0.3)),
+])
+def test_a_range_of_one_value_is_not_empty(text, lower, upper):
+    """a <= f <= b is refused as empty only when a surely exceeds b: a == b, or constants whose enclosures overlap at
+    one value, are a range (an equality when exact)."""
+    _, c = _parse(text)
+    assert (c.lower, c.upper) == (lower, upper)
+    assert c.equality == (lower == upper)
+
+
 def test_points_match_numpy_and_equal_subexpressions_are_shared():
     g = Graph(('x', 'y', 'q'))
     names = _symbols(g, la=0.2, lb=0.3)
