@@ -387,3 +387,17 @@ def test_main_refuses_extra_arguments_in_one_line_and_prints_its_usage(capsys):
     assert captured.out == '' and captured.err.count('\n') == 1
     assert captured.err.startswith("robot_urdf: error: 2 arguments ['example', 'other.yaml']; allowed: at most one")
     assert main(['--help']) == 0 and capsys.readouterr().out.startswith('usage: python -m gpr_kinematics.robot.urdf')
+
+
+@pytest.mark.parametrize('flag', ['-h', '--help'])
+def test_main_prints_its_usage_for_h_as_for_help(capsys, flag):
+    """`python -m gpr_kinematics.robot.urdf -h` prints the usage and exits 0, as --help does (not a robot file -h)."""
+    import subprocess
+    import sys
+
+    usage = 'usage: python -m gpr_kinematics.robot.urdf [ROBOT_FILE | example]\n'
+    assert main([flag]) == 0
+    assert capsys.readouterr() == (usage, '')
+    res = subprocess.run([sys.executable, '-m', 'gpr_kinematics.robot.urdf', flag], capture_output=True, text=True,
+                         timeout=120)
+    assert (res.returncode, res.stdout, res.stderr) == (0, usage, '')
