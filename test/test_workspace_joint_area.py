@@ -5,7 +5,7 @@ import time
 
 import numpy as np
 import pytest
-from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.errors import ConfigError, InputError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import approximate, contains_points, load_workspace_model, model_from_mapping
 from gpr_kinematics.workspace.joint_area import JointWorkingArea
@@ -285,3 +285,33 @@ def test_a_tool_grid_beyond_the_voxel_limit_is_refused_before_the_planar_coverin
     assert np.prod(grid(hull, step)[2].astype(float)) <= MAX_VOXELS
     with pytest.raises(Exception, match='exceeds the limit'):   # the power of two below does not fit
         grid(hull, step / 2)
+
+
+def test_a_planar_grid_beyond_the_voxel_limit_names_the_delta(monkeypatch):
+    """The planar mechanism's voxel sets (its outer boxes, and those not inner) over a grid beyond the limit: refused
+    naming the covering's delta and about the coarsest one from which the grid fits, as the tool points' grid is
+    (a tripod of one small pose box: its tool grid fits; the planar covering is its whole box)."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.workspace import joint_area
+    from gpr_kinematics.workspace.voxels import grid
+    model = load_workspace_model(config_path('mechanisms/joint_working_area.yaml'))
+    tripod = np.array([[[0.07, 0.07 + 1e-6], [0.1, 0.1 + 1e-6], [-0.2, -0.2 + 1e-6]]])
+    planar = np.asarray(model.planar.box, dtype=float)[None]
+    covered = []
+
+    def cover(sub_model, _sub, *_args):
+        covered.append(sub_model)
+        boxes = tripod if sub_model is model.tripod else planar
+        return SimpleNamespace(interrupted=False, inner=boxes, boundary=boxes[:0], outside=boxes[:0], stopped='')
+
+    monkeypatch.setattr(joint_area, 'compiled', lambda m: m)
+    with pytest.raises(InputError) as info:
+        model.covering_task(1e-3, cover)
+    assert covered == [model.tripod, model.planar]
+    assert str(info.value) == ('a voxel grid of [824, 824, 1614] cells exceeds the limit of 16000000 voxels; allowed: '
+                               'a coarser delta (delta 0.001 here; about 0.00781 or more)')
+    step = np.full(3, model.sub_delta * 0.00781 / 2) / model.planar.scale
+    assert np.prod(grid(planar[0], step)[2].astype(float)) <= MAX_VOXELS
+    with pytest.raises(Exception, match='exceeds the limit'):   # the power of two below does not fit
+        grid(planar[0], step / 2)
