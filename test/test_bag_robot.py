@@ -501,6 +501,37 @@ def test_a_sweeps_joint_states_with_the_robots_arm_joints_appended_fail(tmp_path
     assert 'topic.joint_states' in _failed(verify_bag(rewritten(REFERENCE, tmp_path / 'appended', appended)))
 
 
+def test_a_recorded_sweeps_joint_states_with_arm_joints_fail_without_robot_states_and_with_robot(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A sweep whose record (gpr/program) says a platform stream, gpr/robot_state not recorded at all and the robot
+    given (--robot): its joint_states carry the rods alone, so the example robot's arm joints appended (1000 rad each)
+    fail at every sample; not read as a robot recording of fewer topics, whose rods alone would be checked."""
+    from gpr_kinematics.inputs.resources import config_path
+
+    names = [n for a in ROBOT.arms for n in a.joint_names]
+    types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC}
+    sweep = write_bag(tmp_path / 'sweep', sweep_messages(tilt_step=math.radians(1.0),
+                                                         azimuth_step=math.radians(120.0)), types)
+    given = config_path('robots/example_robot.yaml')
+    assert verify_bag(sweep, robot=ROBOT).passed
+    assert cli.main(['verify', str(sweep), '--robot', str(given)]) == 0
+
+    def appended(topic, msg):
+        if topic == '/joint_states':
+            return dataclasses.replace(msg, name=[*msg.name, *names],
+                                       position=np.concatenate([msg.position, np.full(len(names), 1e3)]))
+        return msg
+
+    bad = rewritten(sweep, tmp_path / 'appended', appended)
+    result = verify_bag(bad, robot=ROBOT, robot_source='--robot example_robot.yaml')
+    assert ROBOT_STATE_TOPIC not in result.counts and result.counts['/gpr/program'] == 1
+    samples = set(range(result.counts['/gpr/platform_state']))
+    assert _failed(result) == {'topic.joint_states': samples}, _failed(result)
+    capsys.readouterr()
+    assert cli.main(['verify', str(bad), '--robot', str(given)]) == 1
+    assert 'FAIL topic.joint_states on /joint_states at sample 0: value inf > limit 1e-12' in capsys.readouterr().out
+
+
 def _platform_then(robot_bag: Path) -> list[tuple[str, int, bytes]]:
     """A platform program (the example stations at 10 Hz, samples 0 to n - 1) then the robot program of
     ``robot_bag`` from sample n, as an idle node streams two goals."""
