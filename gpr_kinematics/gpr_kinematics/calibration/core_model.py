@@ -224,6 +224,20 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
                          'pose measured at the limit of a machine that tilts a little more than its nominal one)')
 
 
+def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
+    """A warning where the calibrated machine ``config`` displaces its joints at the measured rods ``q (N, 3)`` [m]
+    beyond its ``imperfection_budget`` (the largest |joint displacement| of its forward kinematics): its recordings
+    then fail ``gpr verify``'s ``state.imperfection_budget`` and ``forward`` says ``within_budget: false``, with
+    nothing at calibration time to say why."""
+    worst = float(np.max(np.abs(forward_batch(q, config, check_limits=False).joint_displacement), initial=0.0))
+    if not worst > config.imperfection_budget:
+        return ()
+    return (f'the calibrated machine displaces its joints by up to {1e3 * worst:.4g} mm at the measured poses, beyond '
+            f'its imperfection_budget of {1e3 * config.imperfection_budget:.4g} mm: its recordings fail gpr verify\'s '
+            'state.imperfection_budget and forward reports within_budget: false there; raise imperfection_budget in '
+            'the written file if this machine is right',)
+
+
 def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:
     """YAML text of every key of ``config`` (the schema of ``config/gpr.yaml``), floats at full precision;
     ``characteristic_length`` is written ``null`` when it follows the radius. ``comments`` head the file."""

@@ -25,6 +25,7 @@ import contextlib
 import math
 import re
 from collections.abc import Sequence
+from dataclasses import replace
 from datetime import datetime, timezone
 from functools import partial
 from typing import TYPE_CHECKING
@@ -59,7 +60,7 @@ if TYPE_CHECKING:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from ..calibration.core_model import CoreModel, check_limits, write_calibrated_config
+    from ..calibration.core_model import CoreModel, beyond_budget, check_limits, write_calibrated_config
     from ..calibration.frames import FramedModel, measuring_model, registration
     from ..calibration.identification import identify
     from ..calibration.measurements import read_measurements
@@ -92,6 +93,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         calibrated = core.config_for(model.inner_theta(res.estimate[None])[0])
     else:
         calibrated = core.config_for(res.estimate)
+    res = replace(res, warnings=res.warnings + beyond_budget(calibrated, meas.q))
     write = gate_outcome(res.gate.passed, res.gate.message(), args)
     plotted: dict[str, str] = {}
     if args.plot is not None:   # also when the gate fails: the picture helps most then
