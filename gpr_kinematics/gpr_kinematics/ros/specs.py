@@ -24,6 +24,7 @@ from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT,
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
+from ..safety.clearance import MARGIN, MARGIN_RANGE
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
 KINDS: dict[str, tuple[type, ...]] = {'double': (float, int), 'integer': (int,), 'string': (str,), 'bool': (bool,),
@@ -370,8 +371,8 @@ SIMULATOR: tuple[ParamSpec, ...] = (
     ParamSpec('cell_file', _S, '', 'process cell YAML (format gpr_cell): every goal\'s motion is checked against it '
               'before anything moves (certified clearance between samples; python-fcl); empty: no clearance check',
               constraint='a readable cell file or empty', read_only=True),
-    ParamSpec('clearance_margin', _D, 0.002, 'smallest distance [m] every pair of bodies must keep over a goal\'s '
-              'motion when cell_file is given', (0.0, 1.0), read_only=True),
+    ParamSpec('clearance_margin', _D, MARGIN, 'smallest distance [m] every pair of bodies must keep over a goal\'s '
+              'motion when cell_file is given', MARGIN_RANGE, read_only=True),
     ParamSpec('wafer_arms', _SA, [''], 'arms that carry a wafer during every goal (their wafer discs are checked '
               'against the cell); [\'\']: none', constraint='names of the robot\'s arms', read_only=True),
 )

@@ -45,6 +45,8 @@ Pair = tuple[int, int, tuple[tuple[float, float], ...]]
 #: Default margin [m] below which a pair counts as a collision; each pair's minimum ``d`` is certified to within
 #: ``max(TOLERANCE, RELATIVE * (|d| - NEAR))`` [m]: 50 um up to 21 mm, 5 % of the excess beyond 20 mm.
 MARGIN = 0.002
+#: The margins allowed [m] (:func:`check_numbers`, the simulator's ``clearance_margin``).
+MARGIN_RANGE = (0.0, 1.0)
 TOLERANCE = 5e-5
 #: Finest tolerance accepted [m]: 1 um takes a few seconds on the example cell program, 1 nm minutes.
 MIN_TOLERANCE = 1e-6
@@ -110,7 +112,7 @@ def _windows_mask(windows: Sequence[tuple[float, float]], t0: Array, t1: Array, 
 def check_numbers(margin: float, tolerance: float, rate: float) -> None:
     """The margin in [0, 1] m, the tolerance in [:data:`MIN_TOLERANCE`, 1] m and the rate in (0, 1000] Hz; else
     :class:`~gpr_kinematics.errors.InputError` naming the value (a finer tolerance runs for minutes)."""
-    for name, value, lo, hi in (('margin', margin, 0.0, 1.0), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
+    for name, value, lo, hi in (('margin', margin, *MARGIN_RANGE), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
         if not lo <= plain_number(value) <= hi:
             v = plain_number(value)
             mm = f' ({v:g} mm? give {v / 1000.0:g})' if hi < v <= 1000.0 * hi else ''  # --margin 5 for 5 mm
