@@ -192,9 +192,9 @@ class RecorderNode(GprNode):
                         'disk full, or a file size limit reached?')
 
     def on_exit(self, executor: Executor, status: int) -> int:
-        """Drain what DDS already delivered (until :data:`DRAIN_EMPTY_SPINS` spins in a row that do not wait take no
-        message, at most :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After an error
-        (status 1) the bag keeps the segments closed before it."""
+        """Drain what DDS already delivered (the timers cancelled, until :data:`DRAIN_EMPTY_SPINS` spins in a row that
+        do not wait take no message, at most :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After
+        an error (status 1) the bag keeps the segments closed before it."""
         if status != EXIT_OK:
             kept = self.writer.closed_message_count
             self.writer.abort(remove=kept == 0)
@@ -202,6 +202,9 @@ class RecorderNode(GprNode):
                                    'segment(s) closed before the error' if kept else
                                    f'{self.writer.path}: no segment was closed before the error; removed')
             return status
+        for timer in (getattr(self, 'timer', None), getattr(self, 'type_timer', None)):
+            if timer is not None:   # a due timer took the spins: a recorder behind stopped with messages waiting
+                timer.cancel()
         end, empty = time.monotonic() + DRAIN_LIMIT, 0
         while empty < DRAIN_EMPTY_SPINS and time.monotonic() < end:
             taken = sum(self.received.values())
