@@ -78,7 +78,7 @@ from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
-from .runtime import CATCH_UP, GprNode, deliver_results, one_line, run
+from .runtime import GprNode, deliver_results, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
 
@@ -340,7 +340,7 @@ class RobotSimulatorNode(GprNode):
                   'hold where they are')
 
     def _tick(self) -> None:
-        """Publish every sample due by now (at most :data:`CATCH_UP`), checking the tolerances."""
+        """Publish every sample due by now (at most :meth:`~.runtime.GprNode.catch_up`), checking the tolerances."""
         r = self.run
         if r is None:
             self.motion_timer.cancel()
@@ -354,7 +354,7 @@ class RobotSimulatorNode(GprNode):
         if r.started is None:
             r.started = now
         due = int((now - r.started) / self.period) + 1
-        for _ in range(max(1, min(due - r.k, CATCH_UP))):
+        for _ in range(max(1, min(due - r.k, self.catch_up()))):
             if self.run is not r or not self._step(r):
                 return
 

@@ -53,6 +53,10 @@ SPIN_TIMEOUT = 0.05
 #: Most samples one timer tick of a streaming node publishes to make up for ticks the busy machine could not serve in
 #: time (the trajectory node's stream, the simulator's joint states).
 CATCH_UP = 5
+#: Most samples one tick publishes under ``use_sim_time``: a simulated clock advances in steps (``ros2 bag play
+#: --clock`` at 40 Hz, a simulator at 10 Hz), and every sample due at a step goes out at it, each stamped at its own
+#: instant (a 10 Hz clock at a 5 kHz stream: 500).
+SIM_CATCH_UP = 1000
 #: Longest error text put on the one error line (a user's value is never printed whole).
 MAX_MESSAGE = 600
 
@@ -189,6 +193,10 @@ class GprNode(Node):
         if self.get_parameter('use_sim_time').value:
             return float(self.get_clock().now().nanoseconds) * 1e-9
         return time.monotonic()
+
+    def catch_up(self) -> int:
+        """Most samples a tick publishes: :data:`SIM_CATCH_UP` under ``use_sim_time``, else :data:`CATCH_UP`."""
+        return SIM_CATCH_UP if self.get_parameter('use_sim_time').value else CATCH_UP
 
     def finish(self, status: int = EXIT_OK) -> None:
         """End the run loop with ``status`` (the first call wins)."""

@@ -82,7 +82,7 @@ from ..ros.streams import (
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, latched_qos, release_request, stream_qos
-from .runtime import CATCH_UP, EXIT_FAILED, EXIT_OK, GprNode, deliver_results, one_line, run, wait_acknowledged
+from .runtime import EXIT_FAILED, EXIT_OK, GprNode, deliver_results, one_line, run, wait_acknowledged
 
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
@@ -159,6 +159,7 @@ class TrajectoryNode(GprNode):
 
         self.sample = 0
         self._stamped = -1   # the last sample's stamp [ns]: each one later (a simulated clock stands within a tick)
+        self._due_ns: int | None = None   # under use_sim_time the instant of the sample published next [ns]
         self.stream: Trajectory | None = None
         self._record_due = False   # the stream's record is published with its first sample
         self.goal: ServerGoalHandle | None = None
@@ -242,7 +243,8 @@ class TrajectoryNode(GprNode):
     def _tick(self) -> None:
         """Publish every sample due by now: sample k of a stream at ``start + k / rate``. A tick the process could
         not serve in time (the machine is busy) is made up at the next one, at most :data:`CATCH_UP` samples at
-        once, so the stream keeps its rate on average instead of losing the ticks."""
+        once, so the stream keeps its rate on average instead of losing the ticks; under ``use_sim_time`` every
+        sample due at a step of the clock goes out, stamped at its instant (:data:`~.runtime.SIM_CATCH_UP`)."""
         if self.stream is None:
             self.timer.cancel()
             return
@@ -257,7 +259,10 @@ class TrajectoryNode(GprNode):
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
         now = self.pace_clock()
         due = int((now - (self.started_at or now)) / self.period) + 1
-        for _ in range(max(1, min(due - self.sent, CATCH_UP))):
+        start, simulated = self.started_at, bool(self.get_parameter('use_sim_time').value)
+        for _ in range(max(1, min(due - self.sent, self.catch_up()))):
+            # under a simulated clock each sample at its own instant (a clock in steps: not a burst of one instant)
+            self._due_ns = round((start + self.sent * self.period) * NS_PER_S) if simulated and start else None
             if self.stream is None or not self._step(self.stream):
                 return
 
@@ -334,8 +339,9 @@ class TrajectoryNode(GprNode):
         # the clock's time, a nanosecond after the last sample's at least: under use_sim_time /clock stands still while
         # a tick catches up samples, which shared a stamp (the stream's stamps must increase; tf drops repeats)
         now = self.get_clock().now().nanoseconds   # a later stamp within a tick; a clock set back a tick or more
-        back = now < self._stamped - round(self.period * NS_PER_S)   # (a simulation reset) is followed, not outrun
-        stamp_ns = self._stamped = now if back else max(now, self._stamped + 1)
+        at = now if self._due_ns is None else min(now, self._due_ns)
+        back = at < self._stamped - round(self.period * NS_PER_S)   # (a simulation reset) is followed, not outrun
+        stamp_ns = self._stamped = at if back else max(at, self._stamped + 1)
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
                                frame_id=self.base_frame, sample=self.sample,
                                commanded_tilt=traj.cmd_tilt[i], commanded_azimuth=traj.cmd_azimuth[i])
