@@ -377,3 +377,13 @@ def test_a_delta_as_large_as_the_box_is_warned_about(capsys):
             'is not divided; millimetres? give --mm\n') in err, err
     code, out, err = _run(capsys, 'gpr.yaml', '--delta', '1', '--mm', '--scheduler', 'none', '--max-seconds', '2')
     assert code == 0 and 'warning' not in err, err
+
+
+def test_a_plot_folder_that_cannot_be_made_says_what_is_allowed(tmp_path, capsys):
+    """--plot under a regular file: the refusal named the error only (every refusal names what is allowed)."""
+    afile = tmp_path / 'afile'
+    afile.write_text('')
+    code, _, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.02', '--scheduler', 'none', '--plot',
+                        str(afile / 'sub'))
+    assert code == 2 and err.count('\n') == 1 and err.endswith(
+        'Not a directory; allowed: a directory that exists or can be created (its parent directories writable)\n'), err

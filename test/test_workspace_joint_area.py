@@ -274,14 +274,14 @@ def test_a_tool_grid_beyond_the_voxel_limit_is_refused_before_the_planar_coverin
 
     monkeypatch.setattr(joint_area, 'compiled', lambda m: m)
     with pytest.raises(Exception, match=r'a voxel grid of \[\d+, \d+, \d+\] cells exceeds the limit of 16000000 '
-                                        r'voxels; allowed: a coarser delta \(delta 0.001 here; about ([\d.e-]+) or '
+                                        r'voxels; allowed: a coarser delta \(delta 0.001 here; ([\d.e-]+) or '
                                         r'more\)$') as info:
         model.covering_task(1e-3, cover)
-    coarser = float(str(info.value).rsplit('about ', 1)[1].split(' ')[0])
+    coarser = float(str(info.value).rsplit('here; ', 1)[1].split(' ')[0])
     box_points = model.tool_point(*(joint_area.Interval(box[0, i, 0], box[0, i, 1]) for i in range(3)))
     hull = hull_of(np.stack([np.stack([np.asarray(p.lo), np.asarray(p.hi)], axis=-1) for p in box_points],
                             axis=0)[None])
-    step = np.full(3, model.sub_delta * coarser * (1 + 1e-9) / 2)
+    step = np.full(3, model.sub_delta * coarser / 2)   # the named delta itself (it was rounded to the nearest)
     assert np.prod(grid(hull, step)[2].astype(float)) <= MAX_VOXELS
     with pytest.raises(Exception, match='exceeds the limit'):   # the power of two below does not fit
         grid(hull, step / 2)
@@ -310,8 +310,23 @@ def test_a_planar_grid_beyond_the_voxel_limit_names_the_delta(monkeypatch):
         model.covering_task(1e-3, cover)
     assert covered == [model.tripod, model.planar]
     assert str(info.value) == ('a voxel grid of [824, 824, 1614] cells exceeds the limit of 16000000 voxels; allowed: '
-                               'a coarser delta (delta 0.001 here; about 0.00781 or more)')
-    step = np.full(3, model.sub_delta * 0.00781 / 2) / model.planar.scale
+                               'a coarser delta (delta 0.001 here; 0.00782 or more)')
+    step = np.full(3, model.sub_delta * 0.00782 / 2) / model.planar.scale
     assert np.prod(grid(planar[0], step)[2].astype(float)) <= MAX_VOXELS
     with pytest.raises(Exception, match='exceeds the limit'):   # the power of two below does not fit
         grid(planar[0], step / 2)
+
+
+def test_the_coarser_delta_a_voxel_refusal_names_fits():
+    """The delta a refusal names is one the grid takes: rounded to the nearest at three digits, below the
+    spacing's doubling (`--delta 1 --mm` was told 'about 0.00195 or more', and 1.95 mm was refused again, the
+    doubling at 0.001953125). Over hulls of many sizes, each suggestion given back passes."""
+    import re
+
+    from gpr_kinematics.workspace.voxels import grid
+    for size in np.linspace(0.2, 3.0, 57):
+        hull = np.array([[0.0, size], [0.0, 1.1 * size], [0.0, 2.0 * size]])
+        with pytest.raises(InputError) as info:
+            grid(hull, np.full(3, 1e-3), 1e-3)
+        suggested = float(re.search(r'; (?:about )?([\d.e+-]+) or more\)$', str(info.value)).group(1))
+        grid(hull, np.full(3, suggested), suggested)

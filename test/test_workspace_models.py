@@ -190,6 +190,9 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
       'branch': 1.0}, 'branch must be 1 or -1'),
     ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
+      'theta_min': -4.0, 'theta_max': 3.0}, r'rrr3_planar: theta_min = -4.0, theta_max = 3.0 rad; allowed: theta_min '
+                                            r'< theta_max < theta_min \+ 2 pi'),
+    ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
       'base_angles': [0, 1, True]}, r'base_angles\[2\] must be a finite number in rad'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [False, 1]}}}, 'workspace.box.x'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': '0 1'}}}, r'must be \[lower, upper\]'),
@@ -210,6 +213,10 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'tripod_3rps', 'base_radius': 0.05}, 'leg_min'),
     ({'type': 'gpr', 'workspace': {'box': {'tilt_x': [-1.2, 1.2], 'tilt_y': [-1.2, 1.2]}}}, 'below 1.5 rad'),
     ({'type': 'gpr', 'overrides': {'rod_azimuths': [0.0, 2.0, 4.0]}}, 'three azimuths 120 deg apart'),
+    # 2.4e-9 rad off: refused, its values shown in degrees to 6 digits read as 0, 120, 240 deg
+    ({'type': 'gpr', 'overrides': {'rod_azimuths': [0, 2.0943951, 4.1887902]}},
+     r'rod_azimuths \[0.0, 2.0943951, 4.1887902\] rad, their gaps \[-2.39\d*e-09, -2.39\d*e-09\] rad off 120 deg; '
+     r'allowed: three azimuths 120 deg apart to 1e-09 rad'),
     ({'type': 'gpr', 'overrides': {'rod_offsets': [1e-4, 0.0, 0.0]}}, 'rod_offsets in overrides.*nominal machine'),
     ({'type': 'tripod_3rps', 'base_radius': 0.05, 'platform_radius': 0.05, 'leg_min': 0.07, 'leg_max': 0.13,
       'workspace': {'box': {'psi': [-2.0, 2.0]}}}, r'reaches 2 rad; allowed: at most pi/2'),

@@ -268,7 +268,8 @@ def plot_projections(
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f'cannot create --plot directory {str(out_dir)!r}: {exc.strerror}') from None
+        raise InputError(f'cannot create --plot directory {str(out_dir)!r}: {exc.strerror}; allowed: a directory '
+                         'that exists or can be created (its parent directories writable)') from None
     d = len(result.variables)
     pairs = [(0, 1)] if d == 2 else [(i, j) for i in range(d) for j in range(i + 1, d)]
     files = []

@@ -79,8 +79,10 @@ class GprModel(WorkspaceModel):
         # the side-length relations below hold for joints 120 deg apart only
         gaps = np.diff(np.sort(np.mod(self.az, 2 * math.pi)))
         if self.az.shape != (3,) or not np.allclose(gaps, 2 * math.pi / 3, rtol=0.0, atol=1e-9):
-            raise ConfigError(f'gpr workspace: rod_azimuths {np.degrees(self.az).round(6).tolist()} deg; allowed: '
-                              'three azimuths 120 deg apart (the certified enclosure assumes that spacing)')
+            off = ('' if self.az.shape != (3,) else
+                   f', their gaps {(gaps - 2 * math.pi / 3).tolist()} rad off 120 deg')
+            raise ConfigError(f'gpr workspace: rod_azimuths {self.az.tolist()} rad{off}; allowed: three azimuths '
+                              '120 deg apart to 1e-09 rad (the certified enclosure assumes that spacing)')
         self.stroke_min, self.stroke_max = float(stroke_min), float(stroke_max)
         self.budget = float(imperfection_budget)
         self.box = np.array(

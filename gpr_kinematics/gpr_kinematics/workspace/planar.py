@@ -63,7 +63,8 @@ class Rrr3PlanarModel(WorkspaceModel):
         if min(base_radius, platform_radius, crank, coupler) <= 0:
             raise ConfigError('rrr3_planar needs positive base_radius, platform_radius, crank, coupler')
         if not theta_min < theta_max < theta_min + 2 * math.pi:
-            raise ConfigError('rrr3_planar needs theta_min < theta_max < theta_min + 2 pi (rad)')
+            raise ConfigError(f'rrr3_planar: theta_min = {theta_min!r}, theta_max = {theta_max!r} rad; allowed: '
+                              'theta_min < theta_max < theta_min + 2 pi (rad)')
         if branch not in (1, -1):
             raise ConfigError(f'rrr3_planar branch must be 1 or -1, got {branch!r}')
         self.R, self.r, self.l1, self.l2 = (

@@ -33,20 +33,35 @@ def dyadic(step: float) -> float:
     return float(2.0 ** math.floor(math.log2(step)))
 
 
+def _up(x: float) -> str:
+    """``x`` > 0 rounded up at three significant digits (rounded to nearest, 0.001953125 read 0.00195: a delta
+    refused again)."""
+    e = math.floor(math.log10(x)) - 2
+    return f'{float(f"{math.ceil(x / 10.0 ** e - 1e-9)}e{e}"):g}'
+
+
+def _cells(hull: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The origin and the cells per axis of the grid of spacing ``s`` over ``hull`` with a two-voxel margin."""
+    origin = (np.floor(hull[:, 0] / s) - 2) * s
+    return origin, (np.floor((hull[:, 1] - origin) / s) + 3).astype(np.int64)
+
+
 def grid(hull: np.ndarray, spacing: np.ndarray, delta: float | None = None) -> tuple[np.ndarray, np.ndarray,
                                                                                   np.ndarray]:
     """The dyadic spacing, the origin and the cells per axis of a grid of (rounded down) ``spacing`` over ``hull``
     (d, 2) with a two-voxel margin; :class:`InputError` beyond :data:`MAX_VOXELS` cells, naming the delta ``delta``
     [SI] of the covering it serves and about the finest one allowed (the cells go as 1 / delta^d)."""
     s = np.array([dyadic(float(v)) for v in spacing])
-    origin = (np.floor(hull[:, 0] / s) - 2) * s
-    shape = (np.floor((hull[:, 1] - origin) / s) + 3).astype(np.int64)
+    origin, shape = _cells(hull, s)
     cells = float(np.prod(shape.astype(float)))
     if cells > MAX_VOXELS:
-        # the spacing is a power of two: each doubling of it divides the cells by about 2^d
+        # the spacing is a power of two: the fewest doublings whose grid fits (each divides the cells by about 2^d,
+        # the margins and the floors aside: the estimate named a delta refused again)
         doublings = math.ceil(math.log2(cells / MAX_VOXELS) / len(shape))
+        while doublings < 1100 and float(np.prod(_cells(hull, s * 2.0 ** doublings)[1].astype(float))) > MAX_VOXELS:
+            doublings += 1
         coarser = 0.0 if delta is None else delta * float(np.max(s * 2.0 ** doublings / np.asarray(spacing)))
-        finer = '' if delta is None else f' (delta {delta:g} here; about {coarser:.3g} or more)'
+        finer = '' if delta is None else f' (delta {delta:g} here; {_up(coarser)} or more)'
         raise InputError(f'a voxel grid of {shape.tolist()} cells exceeds the limit of {MAX_VOXELS} voxels; '
                          f'allowed: a coarser delta{finer}')
     return s, origin, shape
