@@ -308,6 +308,16 @@ def _leave(status: int) -> None:
     os._exit(status)
 
 
+def finish_callbacks(executor: Executor) -> None:
+    """Let the callbacks a ``MultiThreadedExecutor`` handed to its threads end before anything of the node goes: its
+    ``shutdown`` destroys its guard conditions first, and a timer's tick still queued then failed on them or on the
+    cancelled timer ('The following exception was never retrieved: cannot use Destroyable ...' at a stop mid-stream).
+    No new callback is taken after (the node is leaving)."""
+    pool = getattr(executor, '_executor', None)   # rclpy's ThreadPoolExecutor of the MultiThreadedExecutor
+    if pool is not None:
+        pool.shutdown(wait=True)
+
+
 def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
     """Init rclpy (signals: :class:`StopFlag`), build the node, spin it, leave; return the exit status. The node is
     destroyed before rclpy shuts down, also one whose start was refused half-way (its handles had been left to the

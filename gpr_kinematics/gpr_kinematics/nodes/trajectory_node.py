@@ -82,7 +82,16 @@ from ..ros.streams import (
 from .conversions import ROS_TYPES, make_message
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, latched_qos, release_request, stream_qos
-from .runtime import EXIT_FAILED, EXIT_OK, GprNode, deliver_results, one_line, run, wait_acknowledged
+from .runtime import (
+    EXIT_FAILED,
+    EXIT_OK,
+    GprNode,
+    deliver_results,
+    finish_callbacks,
+    one_line,
+    run,
+    wait_acknowledged,
+)
 
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
@@ -421,6 +430,7 @@ class TrajectoryNode(GprNode):
         if goal is not None:  # the thread executing the goal returns, and its client hears the result
             self._end('stopped', 'the node is shutting down')
             deliver_results(executor, [goal])
+        finish_callbacks(executor)
         if not self.signalled:
             wait_acknowledged(self.publishers_all, 2.0)
         self.action.destroy()
