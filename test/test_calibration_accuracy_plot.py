@@ -42,6 +42,17 @@ def _drawn(monkeypatch):
     return seen
 
 
+def _close(a, b) -> bool:
+    """``a`` and ``b`` (a budget's ``as_dict``) equal but for floats within 1e-12 relative of each other."""
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return isinstance(b, (list, tuple)) and len(a) == len(b) and all(map(_close, a, b))
+    if isinstance(a, float) and isinstance(b, float):
+        return bool(np.isclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True))
+    return bool(a == b)
+
+
 def _percentile(sorted_x, p):
     """The ``p`` percentile of sorted samples by linear interpolation between the closest ranks (numpy's default
     method, written out)."""
@@ -110,7 +121,10 @@ def test_the_first_four_of_more_stations_and_no_tool_quantities_without_a_tool()
     kept = platform_budget(GprConfig(), table, heights, 0.02, 0.5, options=BudgetOptions(samples=400, seed=3,
                                                                                           keep_samples=MAX_STATIONS))
     plain = platform_budget(GprConfig(), table, heights, 0.02, 0.5, options=BudgetOptions(samples=400, seed=3))
-    assert kept.as_dict() == plain.as_dict() and plain.kept == {}
+    # equal to the rounding: a loaded CI run of the stock versions differed in the last bit of three percentiles (its
+    # chunks' sums in another order), where the claim is that keeping the samples changes no number
+    assert _close(kept.as_dict(), plain.as_dict()) and not _close(kept.as_dict(), {**plain.as_dict(), 'seed': 4})
+    assert plain.kept == {}
     for name, x in kept.kept.items():
         assert x.shape == (400, 4)
         np.testing.assert_array_equal(np.percentile(x, kept.percentiles, axis=0).T, kept.mc[name][:4])
