@@ -43,6 +43,19 @@ def test_a_robot_program_survives_its_record_and_recomputes_the_stream() -> None
     assert [sample_index(record, s) for s in (16, 17, 16 + n, 17 + n)] == [-1, 0, n - 1, -1]
 
 
+def test_a_program_with_straight_entries_and_wafers_survives_its_record() -> None:
+    """The record left out the stations' straight entries (and the declared wafers): every honest recording of the
+    example cell program failed gpr verify (597 samples recomputed to 399, the entries' lines missing)."""
+    program = load_program(config_path('programs/example_cell_program.yaml'))
+    robot = load_robot()
+    rs = robot_stream(robot, program, 10.0)
+    record = parse_record(record_text('robot_program', 0, len(rs.gpr.q), 10.0, False, 2.0, program=program))
+    assert record.program.stations.entry == program.stations.entry and any(program.stations.entry)
+    assert record.program.wafers == program.wafers == ('load_port_1',)
+    ex = expected(record, robot.config, robot)
+    assert np.array_equal(ex.q, rs.gpr.q) and np.array_equal(ex.joints, rs.joints)
+
+
 def test_a_platform_program_and_a_sweep_recompute_exactly() -> None:
     program = load_platform_program(config_path('programs/example_stations.yaml'))
     record = parse_record(record_text('platform_program', 0, 10, 50.0, True, 0.4, program=program))
@@ -94,6 +107,12 @@ def test_a_bad_markers_every_is_refused_naming_it(value: str) -> None:
      'expected a mapping'),
     ('kind: sweep\nfirst_sample: 0\nfirst_sample: 1\n', "duplicate key 'first_sample'"),
     ('secret: [a, b]\n', 'unknown key'),
+    # a record names no file (the robot is the recorded one): 'robot: /etc/passwd' passed, dropped unchecked
+    ('kind: robot_program\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\nprogram: {format: '
+     'gpr_robot_program, version: 1, robot: /etc/passwd, stations: [], steps: []}\n',
+     r'program: unknown key\(s\) robot; allowed keys: defaults, format, stations, steps, version, wafers'),
+    ('kind: robot_program\nfirst_sample: 0\nsamples: 1\nrate: 1.0\nloop: false\nmove_time: 1.0\nprogram: {format: '
+     'gpr_robot_program, version: 1, import: /etc/hosts, stations: [], steps: []}\n', r'unknown key\(s\) import'),
 ])
 def test_bad_records_are_refused_naming_what_is_wrong(text: str, words: str) -> None:
     with pytest.raises(ConfigError, match=words):

@@ -702,3 +702,17 @@ def test_a_sweep_record_after_sample_0_is_another_run_spliced_on() -> None:
         'stream, which ends the node after its last sample',
         'the sweep from sample 30 follows the sweep from sample 0; a node streams a sweep only as its start-up stream, '
         'from sample 0 (a gpr/run_program goal runs a program or stations)']
+
+
+def test_a_recorded_program_with_straight_entries_verifies(tmp_path: Path) -> None:
+    """The example cell program (straight entries through two chamber slits) recorded as the node streams it: its
+    record dropped the entries, and the honest recording failed topic.program (597 samples recomputed to 399) and
+    stream.program from the first entry on."""
+    from gpr_kinematics.bags.synthetic import robot_program_messages
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.program import load_program
+
+    program = load_program(config_path('programs/example_cell_program.yaml'))
+    bag = write_bag(tmp_path / 'cell', robot_program_messages(ROBOT, program, 10.0), dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    assert result.passed and result.counts['/gpr/platform_state'] == 597, [f.line() for f in result.failures]

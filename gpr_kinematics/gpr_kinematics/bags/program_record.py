@@ -42,6 +42,9 @@ from ..robot.stream import robot_stream
 from ..robot.transforms import PoseBatch
 from .typestore import PROGRAM_TOPIC
 
+#: The keys of a recorded robot program (:func:`program_dict`): its stations inline, no robot, cell or station file
+#: (a record naming one was read as the file format, the robot dropped unchecked, a file opened).
+RECORD_PROGRAM_KEYS = ('format', 'version', 'defaults', 'stations', 'steps', 'wafers')
 #: The kinds of stream a record names (what ``trajectory_node`` streamed).
 SWEEP, PLATFORM_PROGRAM, ROBOT_PROGRAM = 'sweep', 'platform_program', 'robot_program'
 KINDS = (SWEEP, PLATFORM_PROGRAM, ROBOT_PROGRAM)
@@ -95,6 +98,7 @@ def program_dict(program: PlatformProgram | RobotProgram) -> dict[str, Any]:
         _optional(row, 'branch', table.branch[i])
         _optional(row, 'approach_height', table.approach_height[i])
         _optional(row, 'retract_height', table.retract_height[i])
+        _optional(row, 'entry', table.entry[i] if table.entry else None)   # its straight lines: other samples
         rows.append(row)
     steps = []
     for step in program.steps:
@@ -109,7 +113,9 @@ def program_dict(program: PlatformProgram | RobotProgram) -> dict[str, Any]:
                                 'dwell': program.dwell}
     _optional(defaults, 'arm', program.arm)
     _optional(defaults, 'branch', program.branch)
-    return {'format': ROBOT_FORMAT, 'version': 1, 'defaults': defaults, 'stations': rows, 'steps': steps}
+    out = {'format': ROBOT_FORMAT, 'version': 1, 'defaults': defaults, 'stations': rows, 'steps': steps}
+    _optional(out, 'wafers', None if program.wafers is None else list(program.wafers))
+    return out
 
 
 def record_text(kind: str, first_sample: int, samples: int, rate: float, loop: bool, move_time: float,
@@ -183,6 +189,8 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
             raise ConfigError(f'{where}: sweep: {", ".join(SWEEP_KEYS)} must be numbers')
         return Record(**common, sweep={k: float(sweep[k]) for k in SWEEP_KEYS})
     program = data.get('program')
+    if kind == ROBOT_PROGRAM and isinstance(program, Mapping):   # what program_dict writes: no file named, none read
+        check_keys(program, RECORD_PROGRAM_KEYS, f'{where}: program')
     parsed = (parse_program(program, f'{where}: program') if kind == ROBOT_PROGRAM else
               parse_platform_program(program, f'{where}: program'))
     return Record(**common, program=parsed)
