@@ -118,3 +118,17 @@ def test_a_storage_identifier_that_does_not_match_the_files_is_named(tmp_path: P
                     "metadata.yaml says storage_identifier sqlite3 but lists 'reference_sweep_0.mcap', an mcap file "
                     'name',
                     'allowed: the identifier of its files (sqlite3 files end in .db3)')
+
+
+def test_the_offline_loop_refuses_zstd_on_sqlite3_before_any_node(capsys, tmp_path, monkeypatch):
+    """`python -m gpr_kinematics.ros.offline_loop --storage sqlite3 --compression zstd`: the recorder refused the
+    pair at once, and the loop streamed the whole sweep with nothing recording before it said so (about 10 s). Now
+    one line, status 2, no node started (the writer's own rule)."""
+    from gpr_kinematics.ros import offline_loop
+
+    started = []
+    monkeypatch.setattr(offline_loop, 'NodeProcess', lambda *a, **k: started.append(a))   # would start a node
+    status = offline_loop.main(['--output', str(tmp_path / 'bag'), '--storage', 'sqlite3', '--compression', 'zstd'])
+    err = capsys.readouterr().err
+    assert status == 2 and not started and err == (
+        "offline loop: compression = 'zstd' needs storage mcap (MCAP chunk compression); storage is 'sqlite3'\n")

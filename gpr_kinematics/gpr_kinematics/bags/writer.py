@@ -93,6 +93,17 @@ def _fsync_path(path: Path, directory: bool = False) -> None:
         os.close(fd)
 
 
+def check_format(storage: str, compression: str) -> None:
+    """Refuse a storage or compression the writer does not write, or compression without MCAP (:class:`BagError`)."""
+    if storage not in STORAGES:
+        raise BagError(f'storage = {storage!r} is invalid; allowed: {" or ".join(STORAGES)}')
+    if compression not in COMPRESSIONS:
+        raise BagError(f'compression = {compression!r} is invalid; allowed: {" or ".join(COMPRESSIONS)}')
+    if compression != 'none' and storage != 'mcap':
+        raise BagError(f'compression = {compression!r} needs storage mcap (MCAP chunk compression); '
+                       f'storage is {storage!r}')
+
+
 class SegmentedBagWriter:
     """Crash-safe rosbag2 writer (see the module docstring).
 
@@ -117,13 +128,7 @@ class SegmentedBagWriter:
                  compression: str = 'none', fsync: bool = True,
                  custom_data: dict[str, str] | None = None) -> None:
         self.path = Path(path)
-        if storage not in STORAGES:
-            raise BagError(f'storage = {storage!r} is invalid; allowed: {" or ".join(STORAGES)}')
-        if compression not in COMPRESSIONS:
-            raise BagError(f'compression = {compression!r} is invalid; allowed: {" or ".join(COMPRESSIONS)}')
-        if compression != 'none' and storage != 'mcap':
-            raise BagError(f'compression = {compression!r} needs storage mcap (MCAP chunk compression); '
-                           f'storage is {storage!r}')
+        check_format(storage, compression)
         for name, value in (('flush_interval', flush_interval), ('max_bag_size', max_bag_size),
                             ('max_bag_duration', max_bag_duration)):
             if not isinstance(value, (int, float)) or not value >= 0 or value != value or value == float('inf'):

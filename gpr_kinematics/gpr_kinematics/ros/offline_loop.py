@@ -23,8 +23,10 @@ from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
 
+from ..bags.errors import BagError
 from ..bags.report import write_report
 from ..bags.verify import format_table, verify_bag
+from ..bags.writer import check_format
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_TILT_STEP
 from ..errors import GprError
 from .process import NodeProcess
@@ -48,6 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    try:   # before any node: the recorder refused zstd on sqlite3 at once, the sweep ran on without it
+        check_format(args.storage, args.compression)
+    except BagError as exc:
+        print(f'offline loop: {exc}', file=sys.stderr)
+        return 2
     stamp = datetime.now().strftime('%Y_%m_%d-%H_%M_%S')
     bag = Path(args.output) if args.output else Path('bags') / f'demo_{stamp}'
     report = Path(args.report) if args.report else bag.with_name(bag.name + '_report')
@@ -70,11 +77,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                '-p', f'azimuth_step:={math.radians(args.azimuth_step_deg)!r}'],
                            env=env, log_dir=logs)
         procs.append(traj)
-        try:
-            status = traj.wait(timeout=args.timeout)
-        except subprocess.TimeoutExpired:
-            print(f'offline loop: the sweep did not end within {args.timeout} s', file=sys.stderr)
-            return 2
+        end = time.monotonic() + args.timeout
+        while True:
+            try:
+                status = traj.wait(timeout=0.5)
+                break
+            except subprocess.TimeoutExpired:
+                if not rec.alive():   # a recorder that ended has nothing to record: the sweep is not waited for
+                    print(f'offline loop: recorder_node exited with status {rec.wait()}:\n{rec.tail()}',
+                          file=sys.stderr)
+                    return 2
+                if time.monotonic() > end:
+                    print(f'offline loop: the sweep did not end within {args.timeout} s', file=sys.stderr)
+                    return 2
         print(traj.tail(2), flush=True)
         if status != 0:
             print(f'offline loop: trajectory_node exited with status {status}:\n{traj.tail()}', file=sys.stderr)
