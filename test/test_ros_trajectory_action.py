@@ -123,7 +123,7 @@ def test_cancel_stops_within_one_sample_period_and_says_where(client):
     # the request left this process are the tick in flight, one sample or, on a loaded machine, that tick's catch-up
     # burst (at most CATCH_UP samples, published back to back), and on a loaded machine the tick after it while the
     # request is in transit (11.6 ms apart in a loaded CI run), never a stream that goes on.
-    from gpr_kinematics.nodes.trajectory_node import CATCH_UP
+    from gpr_kinematics.nodes.runtime import CATCH_UP
 
     stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in states])
     late = np.sort(stamps[stamps > t_cancel])
