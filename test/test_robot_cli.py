@@ -173,7 +173,8 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'ik', '--position', '3', '0.5', '0.45', '--heading', '0'],
      r'^gpr robot ik: error: station 0: out of reach of arm arm1: the wrist axis would be 2.05 m'),
     (['robot', 'ik', '--position', '1.2', '0.5', '0.45'],
-     r'^gpr robot ik: error: station 0: arm arm1 has 3 joints and needs the blade heading'),
+     r'^gpr robot ik: error: --heading is missing: arm arm1 has 3 joints and needs the blade heading; allowed: '
+     r'--heading H \[rad, or deg with --deg\] \(free only for a 2-joint arm\)$'),
     # a position in mm typed as m (it said only how far above the stroke the rods would be)
     (['robot', 'ik', '--position', '1300', '600', '450', '--heading', '0.3'],
      r'--position = \(1300, 600, 450\) m; allowed: each coordinate within \+-100 m of the world origin \(millimetres\? '
