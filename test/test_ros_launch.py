@@ -410,3 +410,23 @@ def test_frame_name_rule(frames, words):
     else:
         with pytest.raises(ConfigError, match=re.escape(words)):
             check_frame_names(frames, names)
+
+
+def test_a_node_stopped_while_it_imports_leaves_quietly():
+    """SIGINT 0.2 s after a node's start, while it still imports rclpy (a Ctrl-C in a launch's first second):
+    a KeyboardInterrupt traceback of some 50 lines and status 130 (-2 under launch); now status 0, no traceback."""
+    import signal
+    import time
+
+    from gpr_kinematics.nodes import EXECUTABLES
+    from ros_support import start
+    setup = (Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'setup.py').read_text()
+    assert sorted(EXECUTABLES) == sorted(re.findall(r"'(\w+) = gpr_kinematics\.nodes\.", setup))   # one list
+    proc = start('kinematics_node', namespace='/quiet_start')
+    try:
+        time.sleep(0.2)
+        proc.proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 0, proc.output()
+        assert 'Traceback' not in proc.output() and 'KeyboardInterrupt' not in proc.output(), proc.output()
+    finally:
+        proc.stop()
