@@ -75,12 +75,12 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     from ..robot.inverse import solve_stations
     robot = robot_of(args)
     value = None if args.redundancy is None else direction(args, args.redundancy, '--redundancy')
-    arm = robot.arm(args.arm)
+    stations, arm = _station_args(args), robot.arm(args.arm)
     if args.heading is None and len(arm.joints) > 2:   # the core's 'station 0: ...' named no station given
         from ..errors import InputError
         raise InputError(f'--heading is missing: arm {arm.name} has {len(arm.joints)} joints and needs the blade '
                          'heading; allowed: --heading H [rad, or deg with --deg] (free only for a 2-joint arm)')
-    sol = solve_stations(robot, _station_args(args), args.arm, args.branch, redundancy_value=value)
+    sol = solve_stations(robot, stations, args.arm, args.branch, redundancy_value=value)
     if args.json:
         emit_json(sol.record(0))
         return 0
