@@ -412,7 +412,8 @@ def test_frame_name_rule(frames, words):
             check_frame_names(frames, names)
 
 
-def test_a_node_stopped_while_it_imports_leaves_quietly():
+@pytest.mark.ros
+def test_a_node_stopped_while_it_imports_leaves_quietly(ros_environment):
     """SIGINT 0.2 s after a node's start, while it still imports rclpy (a Ctrl-C in a launch's first second):
     a KeyboardInterrupt traceback of some 50 lines and status 130 (-2 under launch); now status 0, no traceback."""
     import signal
