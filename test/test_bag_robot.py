@@ -716,3 +716,54 @@ def test_a_recorded_program_with_straight_entries_verifies(tmp_path: Path) -> No
     bag = write_bag(tmp_path / 'cell', robot_program_messages(ROBOT, program, 10.0), dict(GPR_TOPICS))
     result = verify_bag(bag)
     assert result.passed and result.counts['/gpr/platform_state'] == 597, [f.line() for f in result.failures]
+
+
+def _reframed(o, frame):
+    """``o`` (a message) with every ``frame_id`` through ``frame``."""
+    if dataclasses.is_dataclass(o):
+        return dataclasses.replace(o, **{f.name: (frame(v) if f.name == 'frame_id' else _reframed(v, frame))
+                                         for f in dataclasses.fields(o) for v in [getattr(o, f.name)]
+                                         if f.name == 'frame_id' or dataclasses.is_dataclass(v) or isinstance(v, list)})
+    return [_reframed(x, frame) for x in o] if isinstance(o, list) else o
+
+
+def _in_r1(robot_bag: Path, robot_frame=lambda f: 'r1/' + f if f else f) -> list[tuple[str, int, bytes]]:
+    """The robot bag as a node in /r1 with frame_prefix r1/ records it (the robot topics' frames by ``robot_frame``)."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import typestore
+
+    ts, out = typestore(), []
+    for topic, t, raw in messages_of(robot_bag):
+        robot = topic in (ROBOT_STATE_TOPIC, WAFER_POSE_TOPIC)
+        msg = _reframed(ts.deserialize_cdr(raw, GPR_TOPICS[topic]),
+                        robot_frame if robot else (lambda f: 'r1/' + f if f else f))
+        out.append(('/r1' + topic, t, bytes(ts.serialize_cdr(msg, GPR_TOPICS[topic]))))
+    return out
+
+
+def test_a_namespaced_suite_is_read_in_its_namespace_and_its_world_carries_its_prefix(robot_bag: Path,
+                                                                                         tmp_path: Path) -> None:
+    """In /r1, a root /joint_states (a copy of the honest one beside a tampered /r1/joint_states, or another node's)
+    was read as the suite's: the forgery passed, an honest recording beside a conveyor's joint states failed. And
+    RobotStates in `world` beside PlatformStates in `r1/gpr_base` passed (the prefix is every part before the base
+    frame's name)."""
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC, typestore
+
+    types = {'/r1' + k: v for k, v in GPR_TOPICS.items()}
+    honest = _in_r1(robot_bag)
+    assert verify_bag(write_bag(tmp_path / 'honest', honest, types)).passed
+    ts, js = typestore(), GPR_TOPICS[JOINT_STATES_TOPIC]
+    moved = [(t, s, bytes(ts.serialize_cdr(dataclasses.replace(m, position=m.position + np.r_[0, 0, 0, 0.5, np.zeros(
+        len(m.position) - 4)]), js))) if t == '/r1' + JOINT_STATES_TOPIC else (t, s, raw)
+             for t, s, raw in honest for m in [ts.deserialize_cdr(raw, js) if t.endswith('joint_states') else None]]
+    decoy = [(JOINT_STATES_TOPIC, s, raw) for t, s, raw in honest if t == '/r1' + JOINT_STATES_TOPIC]
+    forged = verify_bag(write_bag(tmp_path / 'forged', moved + decoy, {**types, JOINT_STATES_TOPIC: js}))
+    assert not forged.passed and 'topic.joint_states' in _failed(forged)
+    conveyor = [(JOINT_STATES_TOPIC, s, bytes(ts.serialize_cdr(dataclasses.replace(
+        ts.deserialize_cdr(raw, js), name=['conveyor'], position=np.array([0.1]), velocity=np.array([0.2]),
+        effort=np.zeros(0)), js))) for t, s, raw in honest if t == '/r1' + JOINT_STATES_TOPIC]
+    beside = verify_bag(write_bag(tmp_path / 'beside', honest + conveyor, {**types, JOINT_STATES_TOPIC: js}))
+    assert beside.passed, [f.line() for f in beside.failures]
+    bare = verify_bag(write_bag(tmp_path / 'bare', _in_r1(robot_bag, lambda f: f), types))
+    structure = next(c for c in bare.checks if c.name == 'robot.structure')
+    assert not bare.passed and structure.failed == structure.checked > 0

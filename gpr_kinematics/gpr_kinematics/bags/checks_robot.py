@@ -154,9 +154,12 @@ def in_world(frames: Any, state_frames: Any, robot: RobotDescription) -> NDArray
     PlatformState's frame (``state_frames``) carries (``r1/world`` beside ``r1/gpr_base``, ``world`` beside
     ``gpr_base``; ``evil/world`` beside ``gpr_base`` is not, nor ``gpr_world``)."""
     world = robot.world_frame
-    return np.array([str(f) == world or (str(f).endswith('/' + world)
-                                         and str(base).startswith(str(f)[:len(str(f)) - len(world)]))
-                     for f, base in zip(frames, state_frames, strict=True)], dtype=bool)
+
+    def prefixed(f: str, base: str) -> bool:   # the prefix: every part of the base frame before its name
+        prefix = f[:len(f) - len(world)]
+        return (f == world or f.endswith('/' + world)) and base.startswith(prefix) and '/' not in base[len(prefix):]
+
+    return np.array([prefixed(str(f), str(base)) for f, base in zip(frames, state_frames, strict=True)], dtype=bool)
 
 
 def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,

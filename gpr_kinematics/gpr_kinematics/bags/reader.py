@@ -150,11 +150,14 @@ class Bag:
         return sum(len(t) for t in self.topics.values())
 
     def topic(self, name: str) -> TopicData | None:
-        """The topic ``name`` (with or without the leading slash; a suite topic in the bag's :attr:`namespace`)."""
-        if name in self.topics:
-            return self.topics[name]
+        """The topic ``name`` (with or without the leading slash), a suite topic in the bag's :attr:`namespace`
+        only: a root topic of the same name is not the suite's (a decoy ``/joint_states`` beside a tampered
+        ``/r1/joint_states`` was verified in its place)."""
         absolute = name if name.startswith('/') else '/' + name
-        return self.topics.get(absolute, self.topics.get(self.namespace + absolute) if self.namespace else None)
+        ns = self.namespace
+        if ns and not absolute.startswith(ns + '/'):
+            absolute = ns + absolute
+        return self.topics.get(absolute)
 
 
 @dataclass(frozen=True)
