@@ -142,3 +142,25 @@ def test_a_field_the_tables_do_not_place_is_named_unchecked(monkeypatch: pytest.
     finally:
         coverage.unchecked_of.cache_clear()
     assert rule_of(state, 'q_extra') is None and rule_of(state, 'tilt_azimuth') == ('checked', 'state.tilt')
+
+
+def test_a_recorded_stream_is_recomputed_once_per_verify(tmp_path, monkeypatch) -> None:
+    """The stream's samples, the joint states and the wafer poses without their RobotState each planned the robot
+    program again (three plans a record); the checks now share one (program_record.Recomputed)."""
+    from bag_support import write_bag
+    from gpr_kinematics.bags import program_record
+    from gpr_kinematics.bags.synthetic import robot_program_messages
+    from gpr_kinematics.bags.typestore import ROBOT_STATE_TOPIC
+    from gpr_kinematics.bags.verify import verify_bag
+
+    program = load_program(config_path('programs/example_robot_program.yaml'))
+    types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC}
+    bag = write_bag(tmp_path / 'fewer', [m for m in robot_program_messages(load_robot(), program, 10.0)
+                                         if m[0] != ROBOT_STATE_TOPIC], types)
+    calls = []
+    plan = program_record.expected
+    monkeypatch.setattr(program_record, 'expected', lambda *a: calls.append(a) or plan(*a))
+    result = verify_bag(bag)
+    assert result.passed and len(calls) == 1
+    assert {c.name for c in result.checks if c.checked} >= {'stream.program', 'topic.joint_states_recomputed',
+                                                          'topic.wafer_pose_recomputed'}

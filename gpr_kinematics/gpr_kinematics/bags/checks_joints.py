@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError
 from ..robot.arm_chain import LIMIT_SLACK
@@ -35,7 +34,7 @@ from .cdr import Columns
 from .checks_program import owners
 from .checks_topics import match, without_robot_state_at_the_ends
 from .columns import stamp_ns
-from .program_record import ROBOT_PROGRAM, Record, expected, sample_index
+from .program_record import ROBOT_PROGRAM, Recomputed, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
@@ -78,17 +77,16 @@ def _carried(bag: Bag, name: str, c: Columns, rows: frozenset[int], after: tuple
 
 
 def _recomputed(rows: NDArray[np.int64], values: list[NDArray[np.float64]], samples: NDArray[np.int64],
-                after: tuple[str, ...], robot: RobotDescription, config: GprConfig,
-                records: list[Record]) -> NDArray[np.float64]:
+                after: tuple[str, ...], streams: Recomputed) -> NDArray[np.float64]:
     """Per row: the largest difference of its arm joints from the recomputed stream's (inf: not recomputable)."""
     out = np.full(rows.size, np.inf)
-    owner = owners(records, samples[rows])
+    owner = owners(streams.records, samples[rows])
     for k in np.unique(owner[owner >= 0]).tolist():
-        record = records[k]
+        record = streams.records[k]
         if record.kind != ROBOT_PROGRAM:
             continue
         try:
-            ex = expected(record, config, robot)
+            ex = streams(k)
         except GprError:   # named in topic.program
             continue
         if ex.joints is None or ex.joint_names != after:
@@ -114,13 +112,14 @@ def _beyond_limits(values: list[NDArray[np.float64]], after: tuple[str, ...],
     return np.where(np.isnan(out), np.inf, out)
 
 
-def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: RobotDescription | None,
-                       config: GprConfig, records: list[Record], arms: Any, robot_joints: tuple[str, ...] | None,
-                       due: NDArray[np.bool_] | None, tol: Tolerances) -> list[Check]:
+def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams: Recomputed, arms: Any,
+                       robot_joints: tuple[str, ...] | None, due: NDArray[np.bool_] | None,
+                       tol: Tolerances) -> list[Check]:
     """The checks of the module docstring against the PlatformState columns ``c`` (``arms``, ``robot_joints``,
-    ``due``: as :func:`.checks_topics.topic_checks` takes them; ``records``: the recorded records; ``robot``: the
-    description verified against, None: none); none where every joint_states message has its RobotState or carries
-    no arm joints."""
+    ``due``: as :func:`.checks_topics.topic_checks` takes them; ``streams``: the recorded records' streams, with the
+    robot verified against, None: none); none where every joint_states message has its RobotState or carries no
+    arm joints."""
+    robot = streams.robot
     after = robot_joints if arms is None else arms.names()
     if not after:
         return []
@@ -129,8 +128,8 @@ def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: 
     rows, values = _carried(bag, name, c, rods_only, after)
     if not rows.size:
         return []
-    if robot is not None and records:
-        e = _recomputed(rows, values, samples, after, robot, config, records)
+    if robot is not None and streams.records:
+        e = _recomputed(rows, values, samples, after, streams)
         return [value_check(CHECK, name, e, tol.angle, 'rad', samples[rows], _DETAIL)]
     what = f'{rows.size} joint_states messages without their RobotState carry the arm joints'
     if robot is None:

@@ -27,13 +27,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.config import GprConfig
 from ..errors import GprError, brief
 from ..inputs import safe_yaml
-from ..robot.description import RobotDescription
 from .cdr import Columns
 from .columns import matrix, wrapped
-from .program_record import ROBOT_PROGRAM, SWEEP, Expected, Record, expected, parse_record, sample_index
+from .program_record import ROBOT_PROGRAM, SWEEP, Expected, Recomputed, Record, parse_record, sample_index
 from .reader import Bag
 from .results import Check, bag_check, skipped, value_check
 from .tolerances import Tolerances
@@ -198,12 +196,11 @@ def _renamed_problems(record: Record, renamed: list[Renamed], samples: NDArray[n
             for (what, field, name, named), at in by.items()]
 
 
-def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: GprConfig,
-                   robot: RobotDescription | None, robot_rows: Any, tol: Tolerances,
-                   recorded: tuple[list[Record], list[Problem]]) -> list[Check]:
-    """The checks of the module docstring for the PlatformState columns ``c`` (``robot_rows``: the joints of the
-    RobotState of each state row, :class:`~.checks_robot.RobotRows`, or None; ``recorded``: what
-    :func:`read_records` gave)."""
+def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams: Recomputed, robot_rows: Any,
+                   tol: Tolerances, recorded: tuple[list[Record], list[Problem]]) -> list[Check]:
+    """The checks of the module docstring for the PlatformState columns ``c`` (``streams``: the records' streams
+    recomputed; ``robot_rows``: the joints of the RobotState of each state row, :class:`~.checks_robot.RobotRows`,
+    or None; ``recorded``: what :func:`read_records` gave)."""
     t = bag.topic(PROGRAM_TOPIC)
     if t is None or len(t) == 0:
         why = ('no record of the stream (gpr/program): a recording of an older node' if t is None else
@@ -219,7 +216,7 @@ def program_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], config: Gpr
         for k, record in enumerate(records):
             rows = np.flatnonzero(owner == k)
             try:
-                ex = expected(record, config, robot)
+                ex = streams(k)
             except GprError as exc:
                 problems.append((PROGRAM_TOPIC, 1.0, 0.0, f'the {record.kind} from sample {record.first_sample} '
                                  f'cannot be recomputed: {exc}'))

@@ -11,10 +11,10 @@ with the last RobotState dropped, wafer poses in frame ``nowhere`` at stamps of 
 - its stamp is a PlatformState's: ``topic.wafer_pose_recomputed_extra`` otherwise, by the rule of ``topic.*_extra``
   (inside the states' span; after the last state beyond the messages of one stamp; before the first state they are
   a late subscriber's);
-- it is in the robot's world frame (with a node's frame prefix ``r1/`` or without), its sample is a robot
-  program's (by the records: a platform stream publishes none) and it is the wafer of that sample of the stream
-  recomputed from its record (:func:`.program_record.expected`: the node's ``robot_stream``): position [m] and
-  rotation angle + quaternion norm defect [rad] within ``Tolerances.position`` / ``angle`` (1e-9).
+- it is in the robot's world frame (with its PlatformState's frame prefix: :func:`.checks_robot.in_world`), its
+  sample is a robot program's (by the records: a platform stream publishes none) and it is the wafer of that sample
+  of the stream recomputed from its record (:func:`.program_record.expected`: the node's ``robot_stream``):
+  position [m] and rotation angle + quaternion norm defect [rad] within ``Tolerances.position`` / ``angle`` (1e-9).
 
 Without a record (an older node's recording) or a robot description their values cannot be recomputed: the check is
 skipped, saying how many and why (their stamps are still checked, and their frame where the robot is known). Wafer
@@ -25,15 +25,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.config import GprConfig
 from ..errors import GprError
-from ..robot.description import RobotDescription
 from .cdr import Columns
 from .checks_program import owners
 from .checks_robot import in_world
 from .checks_topics import extra, match
 from .columns import quaternion_angle, stamp_ns, vec
-from .program_record import ROBOT_PROGRAM, Expected, Record, expected, sample_index
+from .program_record import ROBOT_PROGRAM, Recomputed, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
@@ -61,19 +59,19 @@ def _without_robot_state(bag: Bag, wc: Columns, wstamps: NDArray[np.int64]) -> N
     return out
 
 
-def _errors(wc: Columns, w: NDArray[np.int64], samples: NDArray[np.int64], robot: RobotDescription,
-            config: GprConfig, records: list[Record]) -> NDArray[np.float64]:
+def _errors(wc: Columns, w: NDArray[np.int64], samples: NDArray[np.int64], streams: Recomputed
+            ) -> NDArray[np.float64]:
     """Per wafer pose ``w`` (at the state counters ``samples``): the largest difference from the recomputed wafer of
     its sample, inf where its sample is no robot program's or the stream cannot be recomputed."""
     out = np.full(len(w), np.inf)
-    owner = owners(records, samples)
+    owner = owners(streams.records, samples)
     position, orientation = vec(wc, 'pose.position')[w], vec(wc, 'pose.orientation', 'xyzw')[w]
     for k in np.unique(owner[owner >= 0]).tolist():
-        record = records[k]
+        record = streams.records[k]
         if record.kind != ROBOT_PROGRAM:
             continue
         try:
-            ex: Expected = expected(record, config, robot)
+            ex = streams(k)
         except GprError:   # named in topic.program
             continue
         if ex.wafer is None:
@@ -87,11 +85,12 @@ def _errors(wc: Columns, w: NDArray[np.int64], samples: NDArray[np.int64], robot
     return np.where(np.isnan(out), np.inf, out)
 
 
-def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: RobotDescription | None,
-                      config: GprConfig, records: list[Record], tol: Tolerances) -> list[Check]:
-    """The checks of the module docstring against the PlatformState columns ``c`` (``records``: the recorded
-    records, :func:`~.checks_program.read_records`; ``robot``: the description verified against, None: none);
-    none where every wafer pose has its RobotState."""
+def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams: Recomputed,
+                      tol: Tolerances) -> list[Check]:
+    """The checks of the module docstring against the PlatformState columns ``c`` (``streams``: the recorded
+    records' streams, :func:`~.checks_program.read_records`, with the robot verified against, None: none); none
+    where every wafer pose has its RobotState."""
+    robot = streams.robot
     t = bag.topic(WAFER_POSE_TOPIC)
     if t is None or not len(t) or t.msgtype != GPR_TOPICS[WAFER_POSE_TOPIC]:
         return []
@@ -105,7 +104,7 @@ def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: R
     w, rows = alone[state >= 0], state[state >= 0]
     out = [x for x in [extra(CHECK, WAFER_POSE_TOPIC, wstamps[alone], stamps, int(w.size))] if x]
     limit = max(tol.position, tol.angle)
-    if robot is None or not records:
+    if robot is None or not streams.records:
         why = 'no robot description (topic.robot)' if robot is None else \
             'no record of the stream (gpr/program) to recompute them from: a recording of an older node'
         wrong = (~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot) if robot is not None
@@ -117,6 +116,6 @@ def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], robot: R
             out.append(skipped(CHECK, WAFER_POSE_TOPIC, 'm|rad', f'{w.size} wafer poses without their RobotState not '
                                f'checked: {why}', limit))
         return out
-    e = _errors(wc, w, samples[rows], robot, config, records)
+    e = _errors(wc, w, samples[rows], streams)
     e[~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot)] = np.inf
     return out + [value_check(CHECK, WAFER_POSE_TOPIC, e, limit, 'm|rad', samples[rows], _DETAIL)]

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from ..core import inverse_batch
 from ..core.config import GprConfig
 from ..core.sweep import paper_sweep
-from ..errors import ConfigError
+from ..errors import ConfigError, GprError
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..robot.description import RobotDescription
@@ -240,6 +240,28 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
                     rs.waypoint_names, rs.arm, rs.wafer)
 
 
+class Recomputed:
+    """The recorded ``records``' streams, each recomputed once (:func:`expected`, with ``config`` and ``robot``) for
+    every check that compares with it (the stream's samples, the joint states and the wafer poses without their
+    RobotState: a robot program was planned three times)."""
+
+    def __init__(self, records: list[Record], config: GprConfig, robot: RobotDescription | None) -> None:
+        self.records, self.config, self.robot = records, config, robot
+        self._done: dict[int, Expected | GprError] = {}
+
+    def __call__(self, k: int) -> Expected:
+        """The stream of ``records[k]``; :class:`~gpr_kinematics.errors.GprError` as :func:`expected` raises it."""
+        if k not in self._done:
+            try:
+                self._done[k] = expected(self.records[k], self.config, self.robot)
+            except GprError as exc:
+                self._done[k] = exc
+        out = self._done[k]
+        if isinstance(out, GprError):
+            raise out
+        return out
+
+
 def sample_index(record: Record, sample: int) -> int:
     """The index in the recorded stream of the sample with counter ``sample`` (-1 when it is not one of its
     samples): counters run on from the first sample, and start over with the stream when it loops."""
@@ -251,5 +273,5 @@ def sample_index(record: Record, sample: int) -> int:
     return i if i < record.samples else -1
 
 
-__all__ = ['KINDS', 'PROGRAM_TOPIC', 'Expected', 'Record', 'expected', 'parse_record', 'program_dict', 'record_text',
-           'sample_index']
+__all__ = ['KINDS', 'PROGRAM_TOPIC', 'Expected', 'Recomputed', 'Record', 'expected', 'parse_record', 'program_dict',
+           'record_text', 'sample_index']

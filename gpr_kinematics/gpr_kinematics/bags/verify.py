@@ -47,7 +47,7 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
-from .program_record import ROBOT_PROGRAM
+from .program_record import ROBOT_PROGRAM, Recomputed
 from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
@@ -128,10 +128,10 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks += state.checks + stream.checks + topic_checks(
                 bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                 marker_cadence(recorded[0], samples), robot_joints, due) + robot_part
-            checks += joint_state_checks(bag, c, samples, arms.robot, geo.config, recorded[0], robot_rows,
-                                         robot_joints, due, tol)
-            checks += wafer_pose_checks(bag, c, samples, arms.robot, geo.config, recorded[0], tol)
-            checks += program_checks(bag, c, samples, geo.config, arms.robot, robot_rows, tol, recorded)
+            streams = Recomputed(recorded[0], geo.config, arms.robot)   # each record's stream planned once
+            checks += joint_state_checks(bag, c, samples, streams, robot_rows, robot_joints, due, tol)
+            checks += wafer_pose_checks(bag, c, samples, streams, tol)
+            checks += program_checks(bag, c, samples, streams, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     notes = list(geo.notes) + arms.notes
     if bag.namespace:
