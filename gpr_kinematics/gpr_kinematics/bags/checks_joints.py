@@ -38,19 +38,12 @@ from .program_record import ROBOT_PROGRAM, Recomputed, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
-from .typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC
+from .typestore import KNOWN_TOPICS
 
 CHECK = 'topic.joint_states_recomputed'
 _DETAIL = ("the arm joints of a joint_states message without its RobotState against that sample's joints of the "
            'stream recomputed from the record (gpr/program); inf = other joints, or its sample not a robot '
            "program's or not recomputable")
-
-
-def _topic(bag: Bag) -> str:
-    """The joint states' topic: ``joint_states``, ``gpr/joint_states`` in bags recorded before it moved."""
-    if bag.topic(JOINT_STATES_TOPIC) is None and bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None:
-        return LEGACY_JOINT_STATES_TOPIC
-    return JOINT_STATES_TOPIC
 
 
 def _carried(bag: Bag, name: str, c: Columns, rows: frozenset[int], after: tuple[str, ...]
@@ -123,7 +116,7 @@ def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams
     after = robot_joints if arms is None else arms.names()
     if not after:
         return []
-    name = _topic(bag)
+    name = bag.joint_states_topic()
     rods_only = without_robot_state_at_the_ends(stamp_ns(c), arms, robot_joints is not None, due)
     rows, values = _carried(bag, name, c, rods_only, after)
     if not rows.size:

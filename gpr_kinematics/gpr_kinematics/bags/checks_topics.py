@@ -65,9 +65,7 @@ from .columns import field_matrix, matrix, stamp_ns, vec
 from .reader import Bag, TopicData
 from .results import Check, Failure, Series, bool_check, skipped, value_check
 from .typestore import (
-    JOINT_STATES_TOPIC,
     KNOWN_TOPICS,
-    LEGACY_JOINT_STATES_TOPIC,
     MARKERS_TOPIC,
     NOMINAL_POSE_TOPIC,
     PLATFORM_POSE_TOPIC,
@@ -279,9 +277,7 @@ def _joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], series
     def virtual(r: int) -> tuple[tuple[str, ...], NDArray[np.float64]]:
         return tuple(vnames[r]), series.virtual(r)
 
-    topic = LEGACY_JOINT_STATES_TOPIC if bag.topic(JOINT_STATES_TOPIC) is None and \
-        bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None else JOINT_STATES_TOPIC
-    return (_joint_checks(bag, c, samples, tol, topic, (rods, rods_and_virtual),
+    return (_joint_checks(bag, c, samples, tol, bag.joint_states_topic(), (rods, rods_and_virtual),
                           'names not rod_1..rod_3 (then the arm joints of the RobotState of the stamp, in a robot '
                           'recording, or of the robot recorded or given without its states; or, recorded before, '
                           'rod_1..rod_3 + the virtual joints)',

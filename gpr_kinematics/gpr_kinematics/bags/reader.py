@@ -33,7 +33,13 @@ from .errors import BagError
 from .fileio import read_head, require_regular, sha256_file
 from .mcap_file import MAX_MESSAGES, read_mcap
 from .metadata import Metadata, read_metadata
-from .typestore import KNOWN_TOPICS, PLATFORM_STATE_TOPIC, normalize_type
+from .typestore import (
+    JOINT_STATES_TOPIC,
+    KNOWN_TOPICS,
+    LEGACY_JOINT_STATES_TOPIC,
+    PLATFORM_STATE_TOPIC,
+    normalize_type,
+)
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
 OPEN_SEGMENT_DIR = '.recording'
@@ -158,6 +164,11 @@ class Bag:
         if ns and not absolute.startswith(ns + '/'):
             absolute = ns + absolute
         return self.topics.get(absolute)
+
+    def joint_states_topic(self) -> str:
+        """The suite's joint states: ``/joint_states``, ``/gpr/joint_states`` in bags recorded before it moved."""
+        legacy = self.topic(JOINT_STATES_TOPIC) is None and self.topic(LEGACY_JOINT_STATES_TOPIC) is not None
+        return LEGACY_JOINT_STATES_TOPIC if legacy else JOINT_STATES_TOPIC
 
 
 @dataclass(frozen=True)
