@@ -169,6 +169,8 @@ class GprNode(Node):
         self.signalled = False
         self.add_pre_set_parameters_callback(lambda params: numbers_from_text(self, params))
         self.add_on_set_parameters_callback(self._guarded)  # in front of rclpy's TimeSource, which applies a clock
+        #: ``use_sim_time``, fixed once the node runs (:meth:`_guarded`): read once, not at every tick.
+        self.simulated = bool(self.get_parameter('use_sim_time').value)
 
     def _guarded(self, params: list[Parameter]) -> SetParametersResult:
         """Refuse a parameter without a name (rclpy's check of undeclared names passes ``''``: any client created it,
@@ -190,13 +192,13 @@ class GprNode(Node):
         ``use_sim_time`` (a simulation slower than real time sets the pace: counted on the wall clock, every tick
         caught up :data:`CATCH_UP` samples and a stream ran five times too fast in simulated time), else
         ``time.monotonic`` (no jump of the system clock)."""
-        if self.get_parameter('use_sim_time').value:
+        if self.simulated:
             return float(self.get_clock().now().nanoseconds) * 1e-9
         return time.monotonic()
 
     def catch_up(self) -> int:
         """Most samples a tick publishes: :data:`SIM_CATCH_UP` under ``use_sim_time``, else :data:`CATCH_UP`."""
-        return SIM_CATCH_UP if self.get_parameter('use_sim_time').value else CATCH_UP
+        return SIM_CATCH_UP if self.simulated else CATCH_UP
 
     def finish(self, status: int = EXIT_OK) -> None:
         """End the run loop with ``status`` (the first call wins)."""

@@ -266,12 +266,12 @@ class TrajectoryNode(GprNode):
             self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
                                    f'({"goal" if self.goal else self.p["mode"]}'
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
-        now = self.pace_clock()
-        due = int((now - (self.started_at or now)) / self.period) + 1
-        start, simulated = self.started_at, bool(self.get_parameter('use_sim_time').value)
+        now, start = self.pace_clock(), self.started_at   # (a simulated clock may start at 0.0)
+        due = int((now - (now if start is None else start)) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, self.catch_up()))):
             # under a simulated clock each sample at its own instant (a clock in steps: not a burst of one instant)
-            self._due_ns = round((start + self.sent * self.period) * NS_PER_S) if simulated and start else None
+            self._due_ns = (round((start + self.sent * self.period) * NS_PER_S) if self.simulated and start is not None
+                            else None)
             if self.stream is None or not self._step(self.stream):
                 return
 
