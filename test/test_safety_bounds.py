@@ -18,7 +18,8 @@ from gpr_kinematics.robot.timing import evaluate
 from gpr_kinematics.safety import motion as motion_module
 from gpr_kinematics.safety.bodies import box_lower_bound, default_pairs, robot_body_set
 from gpr_kinematics.safety.check import wafer_plan
-from gpr_kinematics.safety.clearance import MARGIN, TOLERANCE, _Items, _Search
+from gpr_kinematics.safety.clearance import TOLERANCE, _Items, _Search
+from gpr_kinematics.safety.margin import MARGIN
 from gpr_kinematics.safety.motion import LIPSCHITZ, PlanMotion, drift_bound, levers, platform_motion, platform_state
 
 ROBOT = load_robot()

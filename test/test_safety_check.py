@@ -581,7 +581,8 @@ def test_a_move_of_a_million_seconds_is_sampled_within_bounds():
     first = int(np.sum(times <= slow.timing.depart[0]))       # the move into 'low' at 200 Hz, the slow one the rest
     np.testing.assert_allclose(np.diff(times[(times > 10.0) & (times < 9e5)]), 1e6 / (MAX_SAMPLES - first + 1),
                                rtol=1e-3)
-    from gpr_kinematics.safety.clearance import BASE_MOST, MARGIN, _Search
+    from gpr_kinematics.safety.clearance import BASE_MOST, _Search
+    from gpr_kinematics.safety.margin import MARGIN
     from gpr_kinematics.safety.motion import PlanMotion
 
     bodies = robot_body_set(ROBOT, {})
@@ -870,3 +871,19 @@ def test_a_program_longer_than_a_goal_may_last_is_not_exported_or_sent_as_one(tm
     assert sorted(p.name for p in tmp_path.iterdir()) == ['edge.yaml', 'long.yaml']
     plan = plan_program(ROBOT, load_program(tmp_path / 'edge.yaml'), 0.1)
     assert program_trajectory(plan, 0.1).duration <= MAX_DURATION   # within the day without a lead-in: made
+
+
+def test_margin_help_prints_the_default_the_check_uses(tmp_path):
+    """``--margin``'s help printed a literal "(default 0.002)" beside the check's own default: now both are
+    ``safety.margin.MARGIN``, and building the command line does not import the clearance search (70 ms)."""
+    code = ('import sys\nfrom gpr_kinematics.cli.main import build_parser\nbuild_parser()\n'
+            'print("gpr_kinematics.safety.clearance" in sys.modules)')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == 'False'
+    import inspect
+
+    from gpr_kinematics.safety import check, clearance, margin
+    for function in (clearance.clearance, check.check_program):
+        assert inspect.signature(function).parameters['margin'].default == margin.MARGIN
+    res = gpr('program', 'check', '--help', cwd=tmp_path)
+    assert f'(default {margin.MARGIN:g})' in ' '.join(res.stdout.split())

@@ -23,6 +23,7 @@ from ..core.messages import FOLLOW_JOINT_TRAJECTORY, Topic
 from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
+from ..safety.margin import MARGIN
 from .options import named_file, number, png_plot, robot_of, robot_options, shipped
 from .output import JsonValue, emit_json
 from .progress import add_no_progress, progress_line
@@ -73,7 +74,6 @@ class ProgramCheck:
 def _cmd_check(args: argparse.Namespace) -> int:
     from ..safety.cell import load_cell
     from ..safety.check import check_program
-    from ..safety.clearance import MARGIN
     if args.plot is not None:
         png_plot(args.plot)
     margin = MARGIN if args.margin is None else args.margin
@@ -372,7 +372,7 @@ def register(sub: Any) -> None:
     p.add_argument('--cell', metavar='FILE', type=shipped(CELLS),
                    help='the process cell (default: the program\'s cell, else none)')
     p.add_argument('--margin', type=number, default=None, metavar='M',
-                   help='clearance below which a pair collides [m] (default 0.002)')
+                   help=f'clearance below which a pair collides [m] (default {MARGIN:g})')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
     add_no_progress(p)
     robot_options(p)

@@ -24,7 +24,7 @@ from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT,
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
 from ..robot.timing import RATES
-from ..safety.clearance import MARGIN, MARGIN_RANGE
+from ..safety.margin import MARGIN, MARGIN_RANGE
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).
 KINDS: dict[str, tuple[type, ...]] = {'double': (float, int), 'integer': (int,), 'string': (str,), 'bool': (bool,),

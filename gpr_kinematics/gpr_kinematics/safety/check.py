@@ -20,7 +20,8 @@ from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import MARGIN, TOLERANCE, ClearanceReport, clearance
+from .clearance import TOLERANCE, ClearanceReport, clearance
+from .margin import MARGIN
 from .motion import PROVEN_MODELS, PlanMotion, grid_within
 from .slip import slip_series
 from .slip_bound import SlipBound, slip_bound

@@ -36,17 +36,15 @@ from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
 from .distances import Exact, Store, Table, key
+from .margin import MARGIN, MARGIN_RANGE
 from .motion import BodyMotion, Levers, grid_within, levers, moving_intervals
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
 Pair = tuple[int, int, tuple[tuple[float, float], ...]]
 
-#: Default margin [m] below which a pair counts as a collision; each pair's minimum ``d`` is certified to within
-#: ``max(TOLERANCE, RELATIVE * (|d| - NEAR))`` [m]: 50 um up to 21 mm, 5 % of the excess beyond 20 mm.
-MARGIN = 0.002
-#: The margins allowed [m] (:func:`check_numbers`, the simulator's ``clearance_margin``).
-MARGIN_RANGE = (0.0, 1.0)
+#: Each pair's minimum ``d`` is certified to within ``max(TOLERANCE, RELATIVE * (|d| - NEAR))`` [m]: 50 um up to
+#: 21 mm, 5 % of the excess beyond 20 mm (the margin: :mod:`~gpr_kinematics.safety.margin`).
 TOLERANCE = 5e-5
 #: Finest tolerance accepted [m]: 1 um takes a few seconds on the example cell program, 1 nm minutes.
 MIN_TOLERANCE = 1e-6

@@ -21,9 +21,10 @@ from ..robot.controller import Motion
 from ..robot.description import RobotDescription
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import MARGIN, TOLERANCE, ClearanceReport, check_numbers, clearance
+from .clearance import TOLERANCE, ClearanceReport, check_numbers, clearance
 from .distances import require_library
 from .joint_motion import TrajectoryMotion
+from .margin import MARGIN
 
 
 @dataclass(frozen=True)
