@@ -28,10 +28,9 @@ from numpy.typing import NDArray
 
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError
-from ..robot.arm_chain import LIMIT_SLACK
-from ..robot.description import RobotDescription
 from .cdr import Columns
 from .checks_program import owners
+from .checks_robot import beyond_limits
 from .checks_topics import match, without_robot_state_at_the_ends
 from .columns import stamp_ns
 from .program_record import ROBOT_PROGRAM, Recomputed, sample_index
@@ -91,20 +90,6 @@ def _recomputed(rows: NDArray[np.int64], values: list[NDArray[np.float64]], samp
     return np.where(np.isnan(out), np.inf, out)
 
 
-def _beyond_limits(values: list[NDArray[np.float64]], after: tuple[str, ...],
-                   robot: RobotDescription) -> NDArray[np.float64]:
-    """Per row: by how much its farthest arm joint is beyond its range (inf: a joint not of the robot, or NaN)."""
-    limits = {n: (float(lo), float(hi)) for a in robot.arms for n, lo, hi in zip(a.joint_names, a.lower, a.upper,
-                                                                               strict=True)}
-    if not all(n in limits for n in after):
-        return np.full(len(values), np.inf)
-    lower = np.array([limits[n][0] for n in after])
-    upper = np.array([limits[n][1] for n in after])
-    out = np.array([float(np.max(np.maximum(lower - LIMIT_SLACK - v, v - upper - LIMIT_SLACK).clip(0.0), initial=0.0))
-                    for v in values])
-    return np.where(np.isnan(out), np.inf, out)
-
-
 def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams: Recomputed, arms: Any,
                        robot_joints: tuple[str, ...] | None, due: NDArray[np.bool_] | None,
                        tol: Tolerances) -> list[Check]:
@@ -129,7 +114,7 @@ def joint_state_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams
         return [skipped(CHECK, name, 'rad', f'{what}; their values not checked: no robot description (topic.robot)',
                         tol.angle)]
     why = 'no record of the stream (gpr/program) to recompute them from: a recording of an older node'
-    e = _beyond_limits(values, after, robot)
+    e = beyond_limits(np.array(values), after, robot)
     beyond = ~(e <= 0.0)
     out = []
     if np.any(beyond):

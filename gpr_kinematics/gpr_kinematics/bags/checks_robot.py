@@ -221,6 +221,22 @@ def _wafer_poses_without_states(bag: Bag, due: NDArray[np.bool_] | None) -> list
         'publishes none'))], len(t), '')]
 
 
+
+def beyond_limits(joints: NDArray[np.float64], names: tuple[str, ...], robot: RobotDescription) -> NDArray[np.float64]:
+    """Per row of ``joints (N, J)`` [rad], the arm joints ``names``: by how much its farthest joint is beyond its range
+    (1e-12 rad of slack, :data:`~gpr_kinematics.robot.arm_chain.LIMIT_SLACK`; 0 within; inf for a NaN or a name
+    that is not one of the robot's joints): the rule of ``robot.joint_limits`` and of the arm joints on
+    ``joint_states`` (:mod:`.checks_joints`)."""
+    limits = {n: (lo, hi) for a in robot.arms for n, lo, hi in zip(a.joint_names, a.lower, a.upper, strict=True)}
+    if not all(n in limits for n in names):
+        return np.full(len(joints), np.inf)
+    lower = np.array([limits[n][0] for n in names])
+    upper = np.array([limits[n][1] for n in names])
+    out = np.max(np.maximum(lower - LIMIT_SLACK - joints, joints - upper - LIMIT_SLACK).clip(0.0), axis=1,
+                 initial=0.0)
+    return np.where(np.isnan(out), np.inf, out)
+
+
 def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice, tol: Tolerances,
                  due: NDArray[np.bool_] | None = None) -> tuple[list[Check], RobotRows | None]:
     """The ``robot.*`` and ``topic.wafer_pose`` checks (module docstring) against the PlatformState columns ``c``,
@@ -264,11 +280,8 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
         structure[rows[~due[rows]]] = False   # a platform stream publishes no RobotState
     arms = rc['arm'][j]
     # every arm's joints against their limits, the arms at rest included
-    lower = np.concatenate([a.lower for a in robot.arms])
-    upper = np.concatenate([a.upper for a in robot.arms])
     checked = rows[ok]
-    e_limit[checked] = np.max(np.maximum(lower - LIMIT_SLACK - joints[checked], joints[checked] - upper - LIMIT_SLACK)
-                              .clip(0.0), axis=1, initial=0.0)
+    e_limit[checked] = beyond_limits(joints[checked], names, robot)
     start = 0
     for a in robot.arms:
         cols = slice(start, start + len(a.joints))
