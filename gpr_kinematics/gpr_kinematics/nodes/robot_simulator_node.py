@@ -65,14 +65,10 @@ from ..robot.controller import (
     Motion,
     Tolerances,
     joint_state_values,
-    late_start,
-    plan_motion,
-    resolve_tolerances,
     servo,
-    trajectory_from_points,
     violation,
 )
-from ..robot.trajectory import MAX_DURATION, MAX_POINTS
+from ..robot.goal import Controller, Goal, check_point_count, plan_goal
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
@@ -116,7 +112,6 @@ class RobotSimulatorNode(GprNode):
         p = self.p = declare_parameters(self, SIMULATOR)
         self.joints = ControllerJoints.of(self.robot)
         n = len(self.joints.names)
-        self.defaults = Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'], p['goal_time'])
         #: The cell's clearance check of a goal's whole motion (None: no cell_file).
         self.clearance: GoalClearance | None = None
         wafer_arms = tuple(a for a in p['wafer_arms'] if a)
@@ -128,6 +123,10 @@ class RobotSimulatorNode(GprNode):
                               "against the cell's bodies); allowed: [''] (none) without a cell_file")
         self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
         self.period = 1.0 / float(p['rate'])
+        self.controller = Controller(self.joints, Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'],
+                                                                     p['goal_time']),
+                                     float(p['rate']), self.cfg, float(p['start_tolerance']),
+                                     bool(p['allow_nonzero_velocity_at_trajectory_end']), self.clearance)
         self.run: _Run | None = None
         self.last_own_ns = 0
         self.last_foreign = -math.inf
@@ -220,62 +219,20 @@ class RobotSimulatorNode(GprNode):
 
     # -- goals ----------------------------------------------------------------------------------------------------
     def _check(self, req: Any) -> tuple[Motion, int]:
-        """The motion of a goal and its start [ns]; :class:`GoalError` with the result code (module docstring)."""
-        multi = req.multi_dof_trajectory
-        if multi.joint_names or multi.points:
-            raise GoalError(INVALID_GOAL, 'multi_dof_trajectory: this robot has no multi-DOF joints; allowed: an empty '
-                            'multi_dof_trajectory')
-        if req.component_path_tolerance or req.component_goal_tolerance:
-            raise GoalError(INVALID_GOAL, 'component tolerances apply to multi-DOF joints, which this robot has none '
-                            'of; allowed: empty component_path_tolerance and component_goal_tolerance')
+        """The motion of a goal and its start [ns] (:func:`~gpr_kinematics.robot.goal.plan_goal`); :class:`GoalError`
+        with the result code (module docstring)."""
         points = req.trajectory.points
-        if len(points) > MAX_POINTS:
-            raise GoalError(INVALID_GOAL, f'the trajectory has {len(points)} points; allowed: at most {MAX_POINTS}')
-        if any(len(pt.effort) for pt in points):
-            raise GoalError(INVALID_GOAL, 'points carry efforts; allowed: positions, velocities and accelerations '
-                            '(this controller commands positions)')
-        traj = trajectory_from_points(self.joints, list(req.trajectory.joint_names),
-                                      [_seconds(pt.time_from_start) for pt in points],
-                                      [pt.positions for pt in points], [pt.velocities for pt in points],
-                                      [pt.accelerations for pt in points])
-        end = traj.velocities[-1] if traj.velocities is not None else np.zeros(0)
-        moving = np.flatnonzero(end != 0.0)
-        if moving.size and not self.p['allow_nonzero_velocity_at_trajectory_end']:   # as joint_trajectory_controller
-            k = int(moving[0])
-            name = traj.joint_names[k]
-            unit = self.joints.units[self.joints.names.index(name)]
-            raise GoalError(INVALID_GOAL, f'points[{len(points) - 1}] (the last) gives {name} a velocity of '
-                            f'{float(end[k])!r} {unit}/s; allowed: 0 at the last point (parameter '
-                            'allow_nonzero_velocity_at_trajectory_end, false as joint_trajectory_controller\'s)')
-        tol = resolve_tolerances(self.joints, self.defaults,
-                                 [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
-                                 [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
-                                 _seconds(req.goal_time_tolerance))
-        now = self.get_clock().now().nanoseconds
-        stamp = req.trajectory.header.stamp.sec * NS_PER_S + req.trajectory.header.stamp.nanosec
-        start = now if stamp == 0 else stamp
-        if stamp and stamp > now + round(MAX_DURATION * NS_PER_S):
-            raise GoalError(INVALID_GOAL, f'header.stamp lies {(stamp - now) / NS_PER_S:.6g} s ahead; allowed: at '
-                            f'most {MAX_DURATION:g} s')
-        late = (now - stamp) / NS_PER_S if stamp and stamp < now - round(self.period * NS_PER_S) else 0.0
-        under_way = False
-        if late:   # as joint_trajectory_controller: refused only when it ended before it arrived
-            # from the next sample on the stamp's grid (stamp + k / rate), where an on-time goal's samples lie, unless
-            # that would pass a first point still ahead on arrival
-            grid = math.ceil(late / self.period - 1e-9) * self.period
-            if grid < traj.duration and not late < traj.time[0] <= grid:
-                late = grid
-            under_way = bool(traj.time[0] <= late)
-            traj = late_start(self.joints, traj, self.actual, late, float(self.p['start_tolerance']))
-            start = stamp + round(late * NS_PER_S)
-        try:
-            return plan_motion(self.joints, traj, self.actual, float(self.p['rate']), self.cfg, tol,
-                               float(self.p['start_tolerance']), self.clearance, under_way), start
-        except GoalError as exc:
-            if not late:
-                raise
-            raise GoalError(exc.code, f'{exc} (times from the goal\'s arrival, {late:.6g} s after its header.stamp)'
-                            ) from None
+        check_point_count(len(points))   # before the points are read
+        stamp = req.trajectory.header.stamp
+        goal = Goal(list(req.trajectory.joint_names), [_seconds(pt.time_from_start) for pt in points],
+                    [pt.positions for pt in points], [pt.velocities for pt in points],
+                    [pt.accelerations for pt in points], any(len(pt.effort) for pt in points),
+                    bool(req.multi_dof_trajectory.joint_names or req.multi_dof_trajectory.points),
+                    bool(req.component_path_tolerance or req.component_goal_tolerance),
+                    [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
+                    [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
+                    _seconds(req.goal_time_tolerance), stamp.sec * NS_PER_S + stamp.nanosec)
+        return plan_goal(goal, self.controller, self.actual, self.get_clock().now().nanoseconds)
 
     async def _execute(self, goal: ServerGoalHandle) -> Any:
         result = FollowJointTrajectory.Result()

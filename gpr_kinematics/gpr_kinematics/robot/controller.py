@@ -178,6 +178,10 @@ def trajectory_from_points(joints: ControllerJoints, names: Sequence[str], times
         i = int(np.argmax(np.diff(t) <= 0.0)) + 1
         raise GoalError(INVALID_GOAL, f'points[{i}].time_from_start = {float(t[i])!r} s is not after points[{i - 1}] '
                         f'({float(t[i - 1])!r} s); allowed: strictly increasing times')
+    for what, rows in (('positions', positions), ('velocities', velocities), ('accelerations', accelerations)):
+        if len(rows) != len(times):   # a message has one list per point; the Python API is told the same
+            raise GoalError(INVALID_GOAL, f'{len(rows)} lists of {what} for {len(times)} points; allowed: one list per '
+                            'point (empty where a point gives none)')
     pos = _rows(positions, J, 'positions', optional=False)
     assert pos is not None
     vel = _rows(velocities, J, 'velocities', optional=True)

@@ -1,0 +1,135 @@
+"""A ``control_msgs/action/FollowJointTrajectory`` goal, checked and planned from its fields as plain data: the
+rules the simulator node (``robot_simulator_node``) applies before it moves, as ros2_control's
+joint_trajectory_controller applies them (docs/ros.md, "The robot simulator"). The node converts the message into a
+:class:`Goal`; everything that decides lives here.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.config import GprConfig
+from ..core.messages import NS_PER_S
+from .controller import (
+    INVALID_GOAL,
+    Clearance,
+    ControllerJoints,
+    GoalError,
+    JointTolerance,
+    Motion,
+    Tolerances,
+    late_start,
+    plan_motion,
+    resolve_tolerances,
+    trajectory_from_points,
+)
+from .trajectory import MAX_DURATION, MAX_POINTS
+
+Array = NDArray[np.float64]
+
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A goal's fields [s, rad, m]: the trajectory's joints, its points' times, positions, velocities and
+    accelerations (empty lists where a point gives none), whether some point carries efforts, whether its
+    multi-DOF trajectory or component tolerances are given, its path and goal tolerances, the goal time tolerance
+    and the trajectory's ``header.stamp`` [ns] (0: start at once)."""
+
+    joint_names: Sequence[str]
+    times: Sequence[float]
+    positions: Sequence[Sequence[float]]
+    velocities: Sequence[Sequence[float]]
+    accelerations: Sequence[Sequence[float]]
+    efforts: bool
+    multi_dof: bool
+    component_tolerances: bool
+    path_tolerance: Sequence[JointTolerance]
+    goal_tolerance: Sequence[JointTolerance]
+    goal_time_tolerance: float
+    stamp_ns: int
+
+
+@dataclass(frozen=True)
+class Controller:
+    """The simulated controller's setting: its joints, default tolerances, sampling ``rate`` [Hz], the machine,
+    the ``start_tolerance`` [rad or m], whether a trajectory may end moving, and the cell's clearance check
+    (None: no cell)."""
+
+    joints: ControllerJoints
+    defaults: Tolerances
+    rate: float
+    config: GprConfig
+    start_tolerance: float
+    allow_nonzero_velocity_at_end: bool
+    clearance: Clearance | None = None
+
+
+def check_point_count(count: int) -> None:
+    """Refuse a trajectory of more than :data:`~.trajectory.MAX_POINTS` points, before its points are read."""
+    if count > MAX_POINTS:
+        raise GoalError(INVALID_GOAL, f'the trajectory has {count} points; allowed: at most {MAX_POINTS}')
+
+
+def _check_fields(goal: Goal) -> None:
+    if goal.multi_dof:
+        raise GoalError(INVALID_GOAL, 'multi_dof_trajectory: this robot has no multi-DOF joints; allowed: an empty '
+                        'multi_dof_trajectory')
+    if goal.component_tolerances:
+        raise GoalError(INVALID_GOAL, 'component tolerances apply to multi-DOF joints, which this robot has none of; '
+                        'allowed: empty component_path_tolerance and component_goal_tolerance')
+    check_point_count(len(goal.times))
+    if goal.efforts:
+        raise GoalError(INVALID_GOAL, 'points carry efforts; allowed: positions, velocities and accelerations (this '
+                        'controller commands positions)')
+
+
+def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -> tuple[Motion, int]:
+    """The motion of ``goal`` from the joints at ``current`` and its start [ns] on the clock that reads ``now_ns``:
+    the fields checked, the trajectory built (:func:`~.controller.trajectory_from_points`), a stamp at most
+    :data:`~.trajectory.MAX_DURATION` ahead, a stamp in the past taken as joint_trajectory_controller takes it (from
+    the next sample on the stamp's grid, :func:`~.controller.late_start`), then planned and checked
+    (:func:`~.controller.plan_motion`). :class:`~.controller.GoalError` with the result code on a refusal."""
+    _check_fields(goal)
+    c = controller
+    joints = c.joints
+    traj = trajectory_from_points(joints, list(goal.joint_names), list(goal.times), list(goal.positions),
+                                  list(goal.velocities), list(goal.accelerations))
+    end = traj.velocities[-1] if traj.velocities is not None else np.zeros(0)
+    moving = np.flatnonzero(end != 0.0)
+    if moving.size and not c.allow_nonzero_velocity_at_end:   # as joint_trajectory_controller
+        k = int(moving[0])
+        name = traj.joint_names[k]
+        unit = joints.units[joints.names.index(name)]
+        raise GoalError(INVALID_GOAL, f'points[{len(goal.times) - 1}] (the last) gives {name} a velocity of '
+                        f'{float(end[k])!r} {unit}/s; allowed: 0 at the last point (parameter '
+                        'allow_nonzero_velocity_at_trajectory_end, false as joint_trajectory_controller\'s)')
+    tol = resolve_tolerances(joints, c.defaults, goal.path_tolerance, goal.goal_tolerance, goal.goal_time_tolerance)
+    stamp, period = goal.stamp_ns, 1.0 / c.rate
+    start = now_ns if stamp == 0 else stamp
+    if stamp and stamp > now_ns + round(MAX_DURATION * NS_PER_S):
+        raise GoalError(INVALID_GOAL, f'header.stamp lies {(stamp - now_ns) / NS_PER_S:.6g} s ahead; allowed: at '
+                        f'most {MAX_DURATION:g} s')
+    late = (now_ns - stamp) / NS_PER_S if stamp and stamp < now_ns - round(period * NS_PER_S) else 0.0
+    under_way = False
+    if late:   # as joint_trajectory_controller: refused only when it ended before it arrived
+        # from the next sample on the stamp's grid (stamp + k / rate), where an on-time goal's samples lie, unless
+        # that would pass a first point still ahead on arrival
+        grid = math.ceil(late / period - 1e-9) * period
+        if grid < traj.duration and not late < traj.time[0] <= grid:
+            late = grid
+        under_way = bool(traj.time[0] <= late)
+        traj = late_start(joints, traj, current, late, c.start_tolerance)
+        start = stamp + round(late * NS_PER_S)
+    try:
+        return plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance,
+                           under_way), start
+    except GoalError as exc:
+        if not late:
+            raise
+        raise GoalError(exc.code, f'{exc} (times from the goal\'s arrival, {late:.6g} s after its header.stamp)'
+                        ) from None

@@ -1,0 +1,130 @@
+"""A FollowJointTrajectory goal checked and planned from its fields (``robot.goal``), without ROS: the rules
+``robot_simulator_node`` applies before it moves, each against a number computed here."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gpr_kinematics.robot.controller import INVALID_GOAL, OLD_HEADER_TIMESTAMP, ControllerJoints, GoalError, Tolerances
+from gpr_kinematics.robot.goal import Controller, Goal, check_point_count, plan_goal
+from gpr_kinematics.robot.trajectory import MAX_DURATION, MAX_POINTS
+from robot_support import ROBOT
+
+JOINTS = ControllerJoints.of(ROBOT)
+RATE = 100.0
+CONTROLLER = Controller(JOINTS, Tolerances.uniform(len(JOINTS.names), 0.0, 1e-3, 0.5), RATE, ROBOT.config, 1e-3,
+                        False)
+NS = 1_000_000_000
+NOW = 1_000 * NS
+
+
+def _goal(times=(1.0, 2.0), stamp_ns=0, velocities=([], []), **fields) -> Goal:
+    """arm1_elbow from rest to rest + 0.4 rad and back to rest + 0.2 rad at ``times`` [s]."""
+    k = JOINTS.names.index('arm1_elbow')
+    rest = float(JOINTS.rest[k])
+    parts = dict(joint_names=['arm1_elbow'], times=list(times), positions=[[rest + 0.4], [rest + 0.2]],
+                 velocities=list(velocities), accelerations=[[], []], efforts=False, multi_dof=False,
+                 component_tolerances=False, path_tolerance=[], goal_tolerance=[], goal_time_tolerance=0.0,
+                 stamp_ns=stamp_ns)
+    parts.update(fields)
+    return Goal(**parts)
+
+
+def test_a_goal_at_once_starts_now_and_samples_at_the_rate():
+    motion, start = plan_goal(_goal(), CONTROLLER, JOINTS.rest, NOW)
+    assert start == NOW
+    assert len(motion) == 201 and np.array_equal(motion.time, np.arange(201) / RATE)
+    k = JOINTS.names.index('arm1_elbow')
+    assert motion.positions[100, k] == JOINTS.rest[k] + 0.4 and motion.positions[200, k] == JOINTS.rest[k] + 0.2
+
+
+@pytest.mark.parametrize('fields, words', [
+    (dict(multi_dof=True), 'multi_dof_trajectory: this robot has no multi-DOF joints'),
+    (dict(component_tolerances=True), 'component tolerances apply to multi-DOF joints'),
+    (dict(efforts=True), 'points carry efforts; allowed: positions, velocities and accelerations'),
+    (dict(velocities=[[0.0], [0.25]]), r'points\[1\] \(the last\) gives arm1_elbow a velocity of 0.25 rad/s; allowed: '
+                                      '0 at the last point'),
+])
+def test_fields_this_controller_does_not_take_are_invalid_goals(fields, words):
+    with pytest.raises(GoalError, match=words) as e:
+        plan_goal(_goal(**fields), CONTROLLER, JOINTS.rest, NOW)
+    assert e.value.code == INVALID_GOAL
+
+
+def test_a_last_velocity_is_taken_where_the_parameter_allows_it():
+    moving = Controller(*[getattr(CONTROLLER, f) for f in ('joints', 'defaults', 'rate', 'config', 'start_tolerance')],
+                        True)
+    motion, _ = plan_goal(_goal(velocities=[[0.0], [0.25]]), moving, JOINTS.rest, NOW)
+    assert motion.velocities[-1, JOINTS.names.index('arm1_elbow')] == 0.25
+
+
+def test_one_list_of_each_kind_per_point():
+    """A goal's points each carry their lists (a message cannot do otherwise); the Python API is held to it (two lists
+    for one point raised StopIteration)."""
+    with pytest.raises(GoalError, match=r'0 lists of velocities for 2 points; allowed: one list per point'):
+        plan_goal(_goal(velocities=[]), CONTROLLER, JOINTS.rest, NOW)
+    with pytest.raises(GoalError, match=r'1 lists of positions for 2 points'):
+        plan_goal(_goal(positions=[[0.1]]), CONTROLLER, JOINTS.rest, NOW)
+
+
+def test_the_point_count_is_bounded_before_the_points_are_read():
+    check_point_count(MAX_POINTS)
+    with pytest.raises(GoalError, match=f'the trajectory has {MAX_POINTS + 1} points; allowed: at most {MAX_POINTS}'):
+        check_point_count(MAX_POINTS + 1)
+
+
+def test_a_stamp_ahead_waits_for_it_within_a_day():
+    ahead = NOW + 5 * NS
+    assert plan_goal(_goal(stamp_ns=ahead), CONTROLLER, JOINTS.rest, NOW)[1] == ahead
+    far = NOW + round(MAX_DURATION * NS) + 1
+    with pytest.raises(GoalError, match=r'header.stamp lies 86400 s ahead; allowed: at most 86400 s') as e:
+        plan_goal(_goal(stamp_ns=far), CONTROLLER, JOINTS.rest, NOW)
+    assert e.value.code == INVALID_GOAL
+
+
+def test_a_stamp_within_one_period_in_the_past_starts_at_the_stamp():
+    stamp = NOW - NS // 200   # half a sample period
+    motion, start = plan_goal(_goal(stamp_ns=stamp), CONTROLLER, JOINTS.rest, NOW)
+    assert start == stamp and len(motion) == 201
+
+
+def test_a_late_goal_goes_on_from_the_next_sample_on_its_stamps_grid():
+    """Stamped 1.234 s ago: the first point (at 1 s) is under way, so the motion goes on from the next sample on the
+    stamp's grid, 1.24 s after it: its start is stamp + 1.24 s and its samples are the on-time goal's from there."""
+    stamp = NOW - 1_234_000_000
+    on_time, _ = plan_goal(_goal(), CONTROLLER, JOINTS.rest, NOW)
+    k = JOINTS.names.index('arm1_elbow')
+    there = on_time.positions[124]   # where the robot is when the goal arrives (as if it had run on time)
+    assert there[k] == pytest.approx(JOINTS.rest[k] + 0.4 - 0.2 * 0.24, abs=1e-12)
+    motion, start = plan_goal(_goal(stamp_ns=stamp), CONTROLLER, there, NOW)
+    assert start == stamp + 1_240_000_000
+    np.testing.assert_allclose(motion.positions[:, k], on_time.positions[124:, k], rtol=0, atol=1e-12)
+    with pytest.raises(GoalError, match=r'header.stamp lies 1.24 s in the past: at its arrival the trajectory puts '
+                       r'arm1_elbow 0.352 rad from where it is'):   # from rest instead: too far from the robot
+        plan_goal(_goal(stamp_ns=stamp), CONTROLLER, JOINTS.rest, NOW)
+
+
+def test_a_late_goal_whose_first_point_is_still_ahead_keeps_it_at_its_instant():
+    """Stamped 0.5 s ago with the first point at 1 s: the points keep their instants (the grid's next sample would
+    not pass the point), the start is the arrival, 0.5 s after the stamp."""
+    stamp = NOW - NS // 2
+    motion, start = plan_goal(_goal(stamp_ns=stamp), CONTROLLER, JOINTS.rest, NOW)
+    assert start == stamp + NS // 2
+    k = JOINTS.names.index('arm1_elbow')
+    assert motion.time[-1] == pytest.approx(1.5, abs=1e-12)
+    assert motion.positions[-1, k] == JOINTS.rest[k] + 0.2
+
+
+def test_a_goal_that_ended_before_it_arrived_is_an_old_header_timestamp():
+    with pytest.raises(GoalError, match=r'header.stamp lies 3 s in the past: the trajectory \(2 s\) ended before it '
+                       'arrived') as e:
+        plan_goal(_goal(stamp_ns=NOW - 3 * NS), CONTROLLER, JOINTS.rest, NOW)
+    assert e.value.code == OLD_HEADER_TIMESTAMP
+
+
+def test_a_late_goals_refusal_says_its_times_count_from_the_arrival():
+    """A late goal refused by the planner (too fast once late) names the arrival's offset."""
+    k = JOINTS.names.index('arm1_elbow')
+    rest = float(JOINTS.rest[k])
+    goal = _goal(times=(0.5, 0.51), positions=[[rest + 0.4], [rest + 3.0]], stamp_ns=NOW - NS // 4)
+    with pytest.raises(GoalError, match=r"\(times from the goal's arrival, 0.25 s after its header.stamp\)"):
+        plan_goal(goal, CONTROLLER, JOINTS.rest, NOW)
