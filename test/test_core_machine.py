@@ -29,7 +29,7 @@ def real(model='radial', **changes):
 
 def joint_centres(cfg, q):
     """P_k = B_k + (q_k + o_k) u_k, written here from the config's values."""
-    B = np.column_stack([np.asarray(cfg.rod_positions), np.zeros(3)])
+    B = np.column_stack([NOMINAL, np.zeros(3)])   # rod_positions unset: the nominal radius and azimuths
     d = np.asarray(cfg.rod_directions)
     u = np.column_stack([d, np.sqrt(1 - np.sum(d * d, axis=1))])
     return B + (np.asarray(q) + np.asarray(cfg.rod_offsets))[:, None] * u
@@ -137,6 +137,38 @@ def test_mobility_ranks_for_parallel_and_for_non_parallel_rods():
     assert np.linalg.norm(m.dphi_dp[9:] @ dP) > 1e-9
     par = analyze_mobility(q_tilted)
     assert np.linalg.norm(par.dphi_dp[9:] @ par.rod_perturbation([1e-3, 1e-3, 1e-3])) < 1e-18
+
+
+def test_non_parallel_rods_lose_one_rank_where_the_rods_length_changes_keep_the_sides():
+    """Non-parallel rods are rank 12 at almost every configuration, not everywhere (a docs claim): with
+    ``dP_k = u_k dq_k`` the side lengths' rows ``2 e_ab . (u_b dq_b - u_a dq_a)`` form a 3 x 3 matrix ``M`` whose
+    determinant changes sign with the rods' lengths; where it is 0 (found here by bisection on q3, with base points
+    and directions taken from the configuration) ``dq = ker M`` keeps all three sides: rank 11, h = 1, still not
+    singular (h > 1)."""
+    ux, uy = np.array([[0.001, 0.0], [-0.001, 0.0], [0.0, 0.0]]).T
+    cfg = CFG.replace(rod_directions=np.column_stack([ux, uy]).tolist())
+    B = np.column_stack([NOMINAL, np.zeros(3)])   # rod_positions unset: the nominal radius and azimuths
+    u = np.column_stack([ux, uy, np.sqrt(1.0 - ux ** 2 - uy ** 2)])
+
+    def m_matrix(q3):
+        P = B + np.array([0.25, 0.248, q3])[:, None] * u
+        M = np.zeros((3, 3))
+        for row, (a, b) in enumerate(((0, 1), (1, 2), (2, 0))):
+            e = P[b] - P[a]
+            M[row, a], M[row, b] = -e @ u[a], e @ u[b]
+        return M
+
+    lo, hi = 0.2475, 0.2485
+    assert np.linalg.det(m_matrix(lo)) * np.linalg.det(m_matrix(hi)) < 0.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.linalg.det(m_matrix(lo)) * np.linalg.det(m_matrix(mid)) > 0.0 else (lo, mid)
+    m = analyze_mobility([0.25, 0.248, lo], config=cfg)
+    assert (m.rank_dphi_dp, m.mobility, m.rank_augmented, m.singular) == (11, 1, 12, False)
+    dq = np.linalg.svd(m_matrix(lo))[2][-1]
+    assert np.linalg.norm(m.dphi_dp @ m.rod_perturbation(1e-3 * dq)) < 1e-15   # the lost rank's motion
+    for q3 in (lo - 1e-6, lo + 1e-6):   # on either side: rank 12
+        assert analyze_mobility([0.25, 0.248, q3], config=cfg).rank_dphi_dp == 12
 
 
 def test_parameter_vector_round_trip_and_errors():

@@ -15,8 +15,9 @@ perpendicular to the rods, ``q1 = q2 = q3`` for vertical rods (h = 3, instantane
 rigid platform can only move along the rods, the tilt is blocked).
 *Rods that are not parallel*: equal extensions of the rods change the distances between the joint centres
 (``d |P_b - P_a|^2 / dq (1, 1, 1) = 2 e . (u_b - u_a) != 0``), so even that motion is blocked: rank 12 (h = 0)
-everywhere, with no singular configuration; the virtual joints then take up the vertical motion too, and
-the augmented rank stays 12.
+almost everywhere; the virtual joints then take up the vertical motion too, and the augmented rank stays 12. Where
+the 3 x 3 matrix ``M`` of the sides' rows in ``dq`` (``dP_k = u_k dq_k``) is singular, a surface of rod lengths,
+``ker M`` keeps every side: rank 11 (h = 1). No configuration is singular.
 
 The configuration is *singular* where the rigid mechanism gains instantaneous freedoms, ``h > 1``
 (:func:`rigid_rank`: the one test, shared by ``gpr mobility`` and ``gpr mechanism``).
