@@ -67,6 +67,7 @@ def test_alwan_accuracy_linear_and_exact(alwan):
                                + alwan.leg_deformations, atol=1e-12)
     # Position agrees to second order (errors ~0.4 mm, lever ~1 m: differences of a few micrometres).
     assert np.max(np.abs(res.difference[:, :3])) < 1e-5
+    assert round(float(np.max(np.abs(res.difference[:, :3]))) * 1e6, 1) == 4.3   # docs/mechanisms.md: 4.3 um
     # Near the Z-X-Z gimbal lock (theta = 2 deg at point 1) psi and phi deviations are large and opposite,
     # while the rotation itself (rotation vector) moves by about 2 mrad.
     assert abs(res.linearized[0, 3]) > 0.05 and res.linearized[0, 3] == pytest.approx(-res.linearized[0, 5],
