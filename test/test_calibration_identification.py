@@ -237,6 +237,36 @@ def test_base_height_and_offsets_named_not_separable(reference_case):
     assert res.estimate[21] == pytest.approx(3.0, abs=3 * res.standard_error[21])
 
 
+def test_a_low_row_off_in_angle_or_sideways_gets_no_millimetre_hint():
+    """A row 3.3 mm above the base: a thousandth of anything within some metres lies within 10 mm of it, so an angle
+    0.06 rad off (its position right) or a point 12 mm sideways got "millimetres?"; now the cause the message gives
+    is another frame or the machine, and a file really in millimetres whose first row is that low keeps the hint
+    (the whole file rescaled)."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    Q = plan_measurements(m, cfg, 6).q.copy()
+    Q[0] = [0.0033, 0.0033, 0.0033]
+    meas = synthetic_measurements(m, m.parameters.nominal, Q, SP, SA)
+    rows = tuple(range(4, 4 + len(Q)))
+    c, s_ = math.cos(0.03), math.sin(0.03)   # a quaternion turned by 0.06 rad about z
+    x, y, z, w = meas.quaternion[0]
+    turned = meas.quaternion.copy()
+    turned[0] = [c * x - s_ * y, c * y + s_ * x, c * z + s_ * w, c * w - s_ * z]
+    angle = Measurements('angle.csv', meas.q, meas.position, turned, None, None, rows)
+    moved = meas.position.copy()
+    moved[0, 0] += 0.012
+    side = Measurements('side.csv', meas.q, moved, meas.quaternion, None, None, rows)
+    for bad, words in ((angle, r'angle\.csv line 4: the measured pose is \d.*e-\d+ m and 0\.06\d* rad'),
+                       (side, r'side\.csv line 4: the measured pose is 0\.012 m')):
+        with pytest.raises(InputError, match=words + r'.*another frame than gpr_base') as err:
+            identify(m, bad)
+        assert 'millimetres' not in str(err.value)
+    mm = Measurements('mm.csv', meas.q, meas.position * 1000, meas.quaternion, None, None, rows)
+    assert meas.position[0, 2] < 0.01
+    with pytest.raises(InputError, match=r'mm\.csv line 4: .*millimetres\? declare "# units: mm"'):
+        identify(m, mm)
+
+
 def test_refusals():
     cfg = load_config()
     m = CoreModel(cfg)

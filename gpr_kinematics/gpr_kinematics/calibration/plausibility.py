@@ -53,15 +53,9 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
         i = int(bad[0])
         what = (f'pose is {dp[i]:.4g} m and {da[i]:.4g} rad' if errors.shape[1] == 6 else f'point is {dp[i]:.4g} m')
         limits = f'{PLAUSIBLE_POSITION} m' + (f', {PLAUSIBLE_ANGLE} rad' if errors.shape[1] == 6 else '')
-        # millimetres read as metres only where a thousandth of the measurement lies where the model puts it (a pose in
-        # another frame 3 m away got the hint, in a file that declared its units)
-        model_position = meas.position[i] + errors[i, :3]
         declared_mm = meas.units[0] == 'mm'
-        # (with frames fitted, a fitted target took up half of the thousandfold: the file rescaled and fitted again)
-        mm = not declared_mm and (bool(np.linalg.norm(model_position - 1e-3 * meas.position[i]) <= PLAUSIBLE_POSITION)
-                                  or rescaled(1e-3))
-        metres = declared_mm and (bool(np.linalg.norm(model_position - 1e3 * meas.position[i]) <= PLAUSIBLE_POSITION)
-                                  or rescaled(1e3))
+        mm = not declared_mm and _units_explain(meas, errors, i, 1e-3, rescaled)
+        metres = declared_mm and _units_explain(meas, errors, i, 1e3, rescaled)
         elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
                      if frame == 'gpr_base' else '')
         why = ('millimetres? declare "# units: mm"' if mm else
@@ -71,6 +65,23 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
         unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
         raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
+
+
+def _units_explain(meas: Measurements, errors: Array, i: int, factor: float,
+                   rescaled: Callable[[float], bool]) -> bool:
+    """Whether the lengths times ``factor`` (1e-3: millimetres read as metres; 1e3: metres under a ``# units: mm``
+    line) explain row ``i``'s implausible error: the row alone where it can tell (its position what failed, its
+    angle within :data:`PLAUSIBLE_ANGLE`, its rescaled position where the model puts it and more than
+    :data:`PLAUSIBLE_POSITION` from the origin: a row a few millimetres above the base matched any thousandth of
+    itself, an angle off or a point moved sideways got the hint), else the whole file rescaled with its frames
+    fitted again (a fitted target took up half of the thousandfold)."""
+    e = errors[i]
+    scaled = factor * meas.position[i]
+    if np.linalg.norm(e[:3]) > PLAUSIBLE_POSITION and np.linalg.norm(e[3:]) <= PLAUSIBLE_ANGLE and \
+            np.linalg.norm(scaled) > PLAUSIBLE_POSITION and \
+            np.linalg.norm(meas.position[i] + e[:3] - scaled) <= PLAUSIBLE_POSITION:
+        return True
+    return rescaled(factor)
 
 
 def plausible_start(model: PoseModel, meas: Measurements, theta0: Array, frame: str) -> Array | None:
