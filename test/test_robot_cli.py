@@ -327,6 +327,12 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
     assert (status, seen['action']) == (1, action) and out.endswith(f' to {action}\n')
     assert err == (f'gpr program send: no FollowJointTrajectory server on {action} within 0.5 s (change the name with '
                    f'{where[1]}, the wait with --timeout)\n')
+    # the JSON result names the action as resolved, as the text line does (it gave the name as typed)
+    outcome = type('Outcome', (), dict(status='succeeded', error_code=0, error_name='SUCCESSFUL', error_string='',
+                                       feedback=3))
+    monkeypatch.setattr(fake, 'follow_trajectory', staticmethod(lambda *a: outcome), raising=False)
+    status, out, err = run(capsys, *argv, '--json')
+    assert (status, json.loads(out)['action']) == (0, action)
 
 
 def test_console_script_without_traceback(tmp_path):

@@ -62,7 +62,7 @@ def test_the_example_program_runs_on_the_simulator(sent):
     assert status == 0, out + err + sim.output()
     result = json.loads(out)
     assert (result['status'], result['error_code'], result['error_name']) == ('succeeded', 0, 'SUCCESSFUL')
-    assert result['lead_in'] > 0 and result['action'] == 'joint_trajectory_controller/follow_joint_trajectory'
+    assert result['lead_in'] > 0 and result['action'] == f'{NS}/joint_trajectory_controller/follow_joint_trajectory'
     assert result['joint_names'] == list(ControllerJoints.of(ROBOT).names)
     # Feedback, one per sample (the client waits for the feedback topic's match before it sends the goal).
     assert result['feedback'] == math.floor(result['duration'] * SIM_RATE + 1e-9) + 1 + \

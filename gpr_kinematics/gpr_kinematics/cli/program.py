@@ -211,7 +211,8 @@ def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class SendResult:
-    """What ``gpr program send`` did: the program, robot and action; the trajectory sent (points, duration [s], the
+    """What ``gpr program send`` did: the program, robot and action (its full name, resolved in the namespace, as the
+    text output prints it); the trajectory sent (points, duration [s], the
     lead-in from where the robot was [s]); how it ended (``status``; the result's ``error_code``, its name and
     ``error_string``) and the feedback received."""
 
@@ -332,7 +333,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
         except tc.ServiceTimeoutError as exc:
             print(f'gpr program send: {exc}', file=sys.stderr)
             return 1
-    result = SendResult(plan.program.source, plan.robot.name, args.action, list(goal.joint_names), len(goal),
+    result = SendResult(plan.program.source, plan.robot.name, action, list(goal.joint_names), len(goal),
                         goal.duration, start, outcome.status, outcome.error_code, outcome.error_name,
                         outcome.error_string, outcome.feedback)
     if args.json:
