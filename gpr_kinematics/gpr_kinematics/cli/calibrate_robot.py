@@ -123,7 +123,12 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     from ..robot.urdf import robot_urdf
     _check(args)
     robot = load_robot(args.robot, geometry=args.config, model=args.model)
-    fixed_frame(args.frame, robot_urdf(robot))
+    urdf = robot_urdf(robot)
+    fixed_frame(args.frame, urdf)
+    if args.frame == 'world' and urdf.root != 'world':   # the docs' name for it, not this robot's: a user's mistake
+        raise InputError(f'--frame world: the world frame of robot {robot.name} is {urdf.root} (its description\'s '
+                         f'base frame); allowed: --frame {urdf.root} for measurements in it, gpr_base, or a tracker\'s '
+                         'frame under a name of its own (it would be fitted: world would read as a tracker here)')
     models, inners = _models(args, robot)
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)
