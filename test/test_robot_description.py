@@ -135,6 +135,12 @@ _DELETE = object()
     (('arms', 1, 'redundancy', 'reference'), [0, 0, 0, 0], r'unknown key\(s\) reference; allowed keys: joint, rule'),
     (('arms', 1, 'name'), 'arm1', r'names must be unique across rods, arms and joints; repeated: arm1'),
     (('arms', 1, 'joints', 0, 'name'), 'gpr_rod1', r'repeated: gpr_rod1'),
+    # the rods' joint names on joint_states: an arm joint rod_1 made a trajectory name rod_1 twice, rods named
+    # [rod_2, rod_1, rod_3] a table's rod_2 column hold q1 (both were accepted; the URDF refused the first)
+    (('arms', 1, 'joints', 0, 'name'), 'rod_1', r"arm joint name\(s\) rod_1 are the rods' joint names on joint_states "
+     r'and in trajectories; allowed: other names than rod_1, rod_2, rod_3'),
+    (('rods', 'names'), ['rod_2', 'rod_1', 'rod_3'], r"rods: names\[0\] = 'rod_2' is rod 2's joint name on "
+     r"joint_states and in trajectories; allowed: 'rod_1' for rod 1, or a name other than rod_1, rod_2, rod_3"),
 ])
 def test_bad_values_are_named(path, value, pattern):
     data = robot_data()
