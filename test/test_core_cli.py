@@ -1,4 +1,6 @@
 """The gpr command line (core subcommands): JSON keys, units, and one-line errors with status 2."""
+import errno
+import io
 import json
 import math
 import os
@@ -263,3 +265,23 @@ def test_a_long_error_line_loses_only_what_is_over_the_limit():
     head, tail = cut.split(mark)
     assert longer.startswith(head) and longer.endswith(tail) and len(tail) == LONG_LINE // 4
     assert len(head) + len(tail) == LONG_LINE - len(mark)
+
+
+class _FullDisk(io.StringIO):
+    """A standard output on a full disk: every write fails as a write to one does."""
+
+    def write(self, text):
+        raise OSError(errno.ENOSPC, 'No space left on device')
+
+    def flush(self):
+        raise OSError(errno.ENOSPC, 'No space left on device')
+
+
+@pytest.mark.parametrize('argv', [['fk', '0.1', '0.1', '0.1', '--json'], ['fk', '0.1', '0.1', '0.1'], ['sweep']])
+def test_a_standard_output_that_cannot_be_written_is_one_line_and_status_2(capsys, monkeypatch, argv):
+    """`gpr fk --json > /dev/full` ended in a traceback (OSError from emit_json) with status 1; a command that
+    prints without flushing would have failed at the interpreter's exit."""
+    monkeypatch.setattr(sys, 'stdout', _FullDisk())
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (f'gpr {argv[0]}: error: cannot write the standard output: No space left on '
+                                       'device; allowed: an output with room for it\n')

@@ -14,6 +14,7 @@ extra) is missing exits with status 2 and one line naming the package to install
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import re
@@ -155,7 +156,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
         distinct_outputs(args)
         with command_reads():  # no output may be a file the command read
-            return int(args.handler(args))
+            status = int(args.handler(args))
+        sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
+        return status
     except GprError as exc:
         sys.stderr.write(f'{command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE
@@ -170,6 +173,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except OSError as exc:  # the standard output on a full disk or a failing device (files are the handlers' to name)
+        where = f" '{exc.filename}'" if exc.filename else ' the standard output'
+        with contextlib.suppress(OSError):
+            sys.stderr.write(f'{command}: error: cannot write{where}: {exc.strerror or exc}; allowed: an output '
+                             'with room for it\n')
+        return EXIT_USAGE
 
 
 if __name__ == '__main__':
