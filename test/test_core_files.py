@@ -106,6 +106,48 @@ def test_atomic_output_replaces_a_regular_file_or_leaves_it(tmp_path):
     assert (tmp_path / 'b.png').read_bytes() == b'\x89PNG'
 
 
+def test_a_command_that_fails_takes_back_every_output_it_wrote(tmp_path):
+    """All of a command's outputs or none: within command_writes a file replaced gets its old content back, a file
+    created is removed and a folder created is removed when the command raises; kept when it ends (no backup
+    left behind either way)."""
+    replaced, created, folder = tmp_path / 'w.csv', tmp_path / 'new.json', tmp_path / 'report' / 'figs'
+    replaced.write_text('old')
+    with pytest.raises(FileError, match='second output'), files.command_writes():
+        files.write_text(replaced, 'new', 'CSV')
+        files.write_text(created, '{}', 'JSON')
+        files.write_text(replaced, 'newer', 'CSV')   # the same file twice: the first content comes back
+        files.output_folder(folder)
+        files.write_text(folder / 'a.png', 'png', 'plot')
+        assert replaced.read_text() == 'newer'   # written at once: a later step may read it
+        raise FileError('second output')
+    assert replaced.read_text() == 'old' and sorted(p.name for p in tmp_path.iterdir()) == ['w.csv']
+    with files.command_writes():
+        files.write_text(replaced, 'new', 'CSV')
+        files.output_folder(folder)
+        files.write_text(folder / 'a.png', 'png', 'plot')
+    assert replaced.read_text() == 'new' and sorted(p.name for p in tmp_path.iterdir()) == ['report', 'w.csv']
+    assert [p.name for p in folder.iterdir()] == ['a.png']
+
+
+def test_export_that_fails_on_its_second_output_leaves_the_first_as_it_was(tmp_path, monkeypatch, capsys):
+    """`gpr program export --waypoints W --samples S` left W written when S could not be (a full disk)."""
+    from gpr_kinematics.cli.main import main
+    waypoints = tmp_path / 'w.csv'
+    waypoints.write_text('old')
+    real = files._replace
+
+    def full_on_samples(tmp: Path, target: Path) -> None:
+        if target.name == 's.json':
+            raise OSError(28, 'No space left on device')
+        real(tmp, target)
+
+    monkeypatch.setattr(files, '_replace', full_on_samples)
+    assert main(['program', 'export', 'example_cell_program.yaml', '--waypoints', str(waypoints), '--samples',
+                 str(tmp_path / 's.json')]) == 2
+    assert "cannot write joint table file" in capsys.readouterr().err
+    assert waypoints.read_text() == 'old' and sorted(p.name for p in tmp_path.iterdir()) == ['w.csv']
+
+
 def test_a_full_disk_is_a_file_error_and_leaves_nothing(tmp_path, monkeypatch):
     def full(*args: object) -> None:
         raise OSError(28, 'No space left on device')

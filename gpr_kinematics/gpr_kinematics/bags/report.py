@@ -24,7 +24,7 @@ from ..core import forward_batch
 from ..core.config import GprConfig, measured_points
 from ..core.virtual_joints import EDGE_NAMES
 from ..errors import FileError, GprError
-from ..inputs.files import atomic_output, writable_folder, write_text
+from ..inputs.files import atomic_output, output_folder, writable_folder, write_text
 from .errors import BagError
 from .results import VerifyResult, format_table
 
@@ -133,7 +133,7 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def _write(result: VerifyResult, out: Path) -> list[Path]:
-    out.mkdir(parents=True, exist_ok=True)
+    output_folder(out)
     written = [write_text(out / 'verify.json', json.dumps(result.to_dict(), indent=1, allow_nan=False) + '\n',
                           'report'),
                write_text(out / 'verify.txt', format_table(result) + '\n', 'report')]

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn, TypeAlias
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
-from ..inputs.files import command_reads
+from ..inputs.files import command_reads, command_writes
 from ..inputs.safe_yaml import UNSIGNED_DECIMAL
 from .output import description, distinct_outputs
 
@@ -155,7 +155,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .options import resolve_shipped
         resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
         distinct_outputs(args)
-        with command_reads():  # no output may be a file the command read
+        with command_reads(), command_writes():  # no output may be a file the command read; all outputs or none
             status = int(args.handler(args))
         sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
         return status

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from ..inputs.files import atomic_output, check_output
+from ..inputs.files import atomic_output, check_output, output_folder
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
@@ -266,7 +266,7 @@ def plot_projections(
 
     out_dir = output_directory(directory)
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        output_folder(out_dir)
     except OSError as exc:
         raise InputError(f'cannot create --plot directory {str(out_dir)!r}: {exc.strerror}; allowed: a directory '
                          'that exists or can be created (its parent directories writable)') from None

@@ -23,7 +23,11 @@ Two rules hold within a context (a ``contextvars`` context: a thread, a task):
 * **a command's outputs are not its inputs** (:func:`command_reads`): while a command runs, every file it reads is
   noted (device and inode, :func:`note_read`), and :func:`check_output` refuses an output that is one of them
   (``gpr calibrate M.csv --output M.csv`` overwrote its measurements with the calibrated geometry). The CLI also
-  refuses, before any work, an output named like one of its inputs (:mod:`gpr_kinematics.cli.output`).
+  refuses, before any work, an output named like one of its inputs (:mod:`gpr_kinematics.cli.output`);
+* **all of a command's outputs or none** (:func:`command_writes`): a command that fails (an exception, Ctrl-C) after
+  some of its outputs were written takes them back: files it created are removed, files it replaced get their old
+  content back (a hard link kept until the command ends), folders it created are removed when empty (``gpr program
+  export --waypoints W --samples S`` left ``W`` when ``S`` could not be written).
 
 Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
 what is allowed.
@@ -33,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import shutil
 import stat
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -85,6 +90,87 @@ def command_reads() -> Iterator[set[tuple[int, int]]]:
         yield _READS.get()  # type: ignore[misc]  # set just above
     finally:
         _READS.reset(token)
+
+
+@dataclass
+class _Writes:
+    """What the running command wrote: ``(target, backup)`` per replaced or created file (``backup``: a hard link to
+    the content replaced, None: created), and the folders it created."""
+
+    files: list[tuple[Path, Path | None]]
+    folders: list[Path]
+
+    def undo(self) -> None:
+        for target, backup in reversed(self.files):
+            with contextlib.suppress(OSError):
+                if backup is None:
+                    target.unlink()
+                else:
+                    os.replace(backup, target)
+        for folder in reversed(self.folders):
+            with contextlib.suppress(OSError):
+                folder.rmdir()   # only when empty
+
+    def keep(self) -> None:
+        for _, backup in self.files:
+            if backup is not None:
+                with contextlib.suppress(OSError):
+                    backup.unlink()
+
+
+_WRITES: contextvars.ContextVar[_Writes | None] = contextvars.ContextVar('gpr_command_writes', default=None)
+
+
+@contextlib.contextmanager
+def command_writes() -> Iterator[None]:
+    """Within the block, the outputs written are all kept when it ends normally, all taken back when it raises
+    (module docstring)."""
+    writes = _Writes([], [])
+    token = _WRITES.set(writes)
+    try:
+        yield
+    except BaseException:
+        writes.undo()
+        raise
+    else:
+        writes.keep()
+    finally:
+        _WRITES.reset(token)
+
+
+def output_folder(path: str | os.PathLike[str]) -> Path:
+    """Create the folder ``path`` and its missing parents (``mkdir -p``), noting those created for
+    :func:`command_writes`; returns it. OSError as ``Path.mkdir`` raises it."""
+    folder = Path(path)
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    writes = _WRITES.get()
+    if writes is not None:
+        writes.folders.extend(reversed(missing))   # parents first: undone children first
+    return folder
+
+
+def _replace(tmp: Path, target: Path) -> None:
+    """``os.replace(tmp, target)``, noted for :func:`command_writes` (a hard link to a replaced target's content)."""
+    writes = _WRITES.get()
+    if writes is None:
+        os.replace(tmp, target)
+        return
+    backup = None
+    if target.exists():
+        backup = target.with_name(f'.{target.name}.{os.getpid()}.{len(writes.files)}.bak')
+        try:
+            os.link(target, backup)
+        except OSError:   # a file system without hard links: a copy
+            shutil.copyfile(target, backup)
+    try:
+        os.replace(tmp, target)
+    except BaseException:
+        if backup is not None:
+            with contextlib.suppress(OSError):
+                backup.unlink()
+        raise
+    writes.files.append((target, backup))
 
 
 def note_input(path: str | os.PathLike[str]) -> None:
@@ -233,7 +319,7 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
         with (os.fdopen(fd, 'wb') if binary else os.fdopen(fd, 'w', encoding='utf-8', newline='')) as fh:
             yield fh
         check_output(target, what)  # the target may have been replaced by something else meanwhile
-        os.replace(tmp, target)
+        _replace(tmp, target)
     except OSError as exc:
         raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
     finally:
