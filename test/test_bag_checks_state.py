@@ -78,3 +78,33 @@ def test_the_azimuth_is_not_compared_without_tilt() -> None:
     assert err[0] == 0.0 and err[1] == pytest.approx(1.0)
     # Wrapped: a full turn is no difference.
     assert checks_state._error('angle', fk.twist + 2 * math.pi, fk.twist, fk) == pytest.approx([0, 0], abs=1e-12)
+
+
+def test_a_stream_through_tiny_tilts_verifies_and_a_turned_azimuth_fails(tmp_path: Path) -> None:
+    """An honest platform program (a tilted station, a 1 ms dwell, then a level one, at 50 Hz: a sample passes a tilt
+    of 1.5e-8 rad) failed ``state.commanded``: the achieved azimuth of so short a tilt rounds by 7.9e-9 rad against
+    the 1e-9 rad bound. The commanded and achieved tilt vectors are compared now (1e-16 apart there); an azimuth
+    turned by 1e-7 rad at a tilt of 0.02 rad (2e-9 rad of tilt vector) still fails."""
+    from gpr_kinematics.bags.synthetic import platform_program_messages
+    from gpr_kinematics.bags.typestore import PLATFORM_STATE_TOPIC, typestore
+    from gpr_kinematics.robot.platform_program import parse_platform_program
+
+    program = parse_platform_program({'move_time': 2.0, 'stations': [
+        {'name': 's1', 'height': 0.35, 'tilt': 0.02, 'azimuth': 2.634894976671063, 'dwell': 0.001},
+        {'name': 's0', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]})
+    msgs = platform_program_messages(program, rate=50.0)
+    store = typestore()
+    states = [store.deserialize_cdr(raw, GPR_TOPICS[t]) for t, _, raw in msgs if t == PLATFORM_STATE_TOPIC]
+    tilts = np.array([s.commanded_tilt for s in states])
+    assert np.any((tilts > 0.0) & (tilts < 1e-7))   # the stream passes a tiny tilt
+    types = {t: GPR_TOPICS[t] for t in {m[0] for m in msgs}}
+    assert verify_bag(write_bag(tmp_path / 'honest', msgs, types)).passed
+    k = int(np.argmax(tilts))   # at 0.02 rad: the azimuth turned by 1e-7 rad
+
+    def turn(topic: str, msg: Any) -> Any:
+        if topic == PLATFORM_STATE_TOPIC and msg.sample == states[k].sample:
+            msg.commanded_azimuth += 1e-7
+        return msg
+
+    result = verify_bag(rewritten(tmp_path / 'honest', tmp_path / 'turned', turn))
+    assert {c.name for c in result.checks if not c.passed} >= {'state.commanded'}
