@@ -69,13 +69,19 @@ def test_an_orientation_turned_by_a_known_angle(tmp_path: Path, bag: Path) -> No
     assert checks['state.pose_orientation'].worst == pytest.approx(1e-6, rel=1e-6)
 
 
-def test_the_azimuth_is_not_compared_without_tilt() -> None:
+def test_the_azimuth_is_compared_by_the_tilt_vectors() -> None:
+    """The azimuth's difference times the tilt: nothing without tilt, the tilt vectors' distance (for a small
+    difference) with it; a NaN azimuth fails even without tilt."""
     q = np.array([[0.5, 0.5, 0.5], [0.499, 0.5, 0.501]])
     fk = forward_batch(q)
-    stored = np.array([[fk.tilt_azimuth[0] + 1.0], [fk.tilt_azimuth[1] + 1.0]])
+    stored = np.array([[fk.tilt_azimuth[0] + 1.0], [fk.tilt_azimuth[1] + 1e-6]])
     err = checks_state._error('azimuth', stored, fk.tilt_azimuth, fk)
     assert fk.tilt[0] < 1e-12 < fk.tilt[1]
-    assert err[0] == 0.0 and err[1] == pytest.approx(1.0)
+    assert err[0] == 0.0 and err[1] == pytest.approx(1e-6 * fk.tilt[1], rel=1e-6)
+    a, b = fk.tilt[1] * np.array([np.cos(stored[1, 0]), np.sin(stored[1, 0])]), \
+        fk.tilt[1] * np.array([np.cos(fk.tilt_azimuth[1]), np.sin(fk.tilt_azimuth[1])])
+    assert err[1] == pytest.approx(np.linalg.norm(a - b), rel=1e-6)   # the vectors' distance
+    assert np.isnan(checks_state._error('azimuth', np.array([[np.nan], [0.0]]), fk.tilt_azimuth, fk)[0])
     # Wrapped: a full turn is no difference.
     assert checks_state._error('angle', fk.twist + 2 * math.pi, fk.twist, fk) == pytest.approx([0, 0], abs=1e-12)
 

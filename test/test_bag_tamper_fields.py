@@ -100,15 +100,16 @@ def test_a_state_field_edited_fails_its_check(sweep: Path, tmp_path: Path, name:
 
 
 def test_a_tilt_azimuth_edited_at_a_small_tilt_fails(tmp_path: Path) -> None:
-    """The tilt azimuth is compared wherever the tilt exceeds 1e-12 rad: at 1e-4 rad too (the sweep's samples tilt 0,
-    5e-5 and 1e-4 rad)."""
+    """The tilt azimuth is compared by the tilt vectors (its difference times the tilt): an azimuth turned by 0.1 rad
+    at a tilt of 5e-5 rad moves the tilt vector by 5e-6 rad, far beyond 1e-9 (the sweep's samples tilt 0, 5e-5 and
+    1e-4 rad)."""
     msgs = sweep_messages(max_tilt=1e-4, tilt_step=5e-5, azimuth_step=math.radians(60.0))
     bag = write_bag(tmp_path / 'small', msgs, _types(msgs))
     assert verify_bag(bag).passed
     result = verify_bag(tampered(bag, tmp_path / 'azimuth', _at(STATE, 1, lambda m: dataclasses.replace(
         m, tilt_azimuth=m.tilt_azimuth + 0.1))))
     assert _failed(result) == {'state.tilt': {1}}
-    assert result.failures[0].value == pytest.approx(0.1, abs=1e-9)
+    assert result.failures[0].value == pytest.approx(0.1 * 5e-5, rel=1e-6)
 
 
 def _geometry(old: str, new: str) -> Any:

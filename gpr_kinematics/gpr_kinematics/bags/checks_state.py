@@ -11,18 +11,19 @@ Kinds of comparison, per sample, of the stored value ``s`` with the recomputed `
 
 - ``value``: ``max_k |s_k - f_k|`` (a different count of values: inf);
 - ``quaternion``: rotation angle ``2 atan2(|v|, |w|)`` of ``conj(f) s`` plus ``| |s| - 1 |``;
-- ``angle``: ``|s - f|`` wrapped to [0, pi]; ``azimuth``: the same where the tilt > 1e-12 rad, else 0;
+- ``angle``: ``|s - f|`` wrapped to [0, pi]; ``azimuth``: the same times the tilt (the distance of the two tilt
+  vectors of one tilt: an azimuth of a tilt of 1e-8 rad is rounded to about 1e-9 rad, another machine's differs);
 - ``equal``: 0 when equal, else 1 (limit 0); ``names``: 0 when the tuples are equal, else inf;
 - ``bound``: ``s`` itself against a configuration limit; ``small``: ``max(s, f)`` against the tolerance.
 
 Besides the table: ``state.model`` (a model of :data:`gpr_kinematics.core.config.MODELS`), ``state.forward`` (``q``
-finite and the core solves it: a solver error is a failed check, not a crash), ``state.imperfection_budget``
-(every stored joint displacement <= ``imperfection_budget``), ``state.limits`` (``q`` inside the stroke and
-the tilt <= ``tilt_limit``, 1e-9 of slack) and ``state.commanded``: the commanded tilt and azimuth (inputs of the
-stream, never recomputed from ``q``) are what the platform achieves, ``|commanded_tilt|`` = the tilt and the
-commanded azimuth (plus pi for a negative commanded tilt) = the tilt azimuth where the tilt > 1e-12 rad, within
-``Tolerances.angle`` (every stream of the node commands its platform exactly: the inverse kinematics of a sweep and
-a platform program, the platform's own tilt in a robot program; a changed, NaN or infinite commanded value fails).
+finite and the core solves it: a solver error is a failed check, not a crash), ``state.imperfection_budget`` (every
+stored joint displacement <= ``imperfection_budget``), ``state.limits`` (``q`` inside the stroke and the tilt <=
+``tilt_limit``, 1e-9 of slack) and ``state.commanded``: the commanded tilt and azimuth (inputs of the stream, never
+recomputed from ``q``) are what the platform achieves: the commanded tilt vector ``tilt (cos azimuth, sin azimuth)`` (a
+negative tilt points along azimuth + pi) is the achieved one within ``Tolerances.angle`` (every stream of the node
+commands its platform exactly: the inverse kinematics of a sweep and a platform program, the platform's own tilt in a
+robot program; a changed, NaN or infinite commanded value fails).
 A sample that cannot be recomputed (unknown model, ``q`` not finite, the solver fails) fails ``state.model`` or
 ``state.forward`` and is left out of the comparisons.
 """
@@ -42,9 +43,6 @@ from .cdr import Columns
 from .columns import field_matrix, matrix, quaternion_angle, row_sizes, wrapped
 from .results import Check, Series, bool_check, value_check
 from .tolerances import Tolerances
-
-#: Tilt [rad] below which the tilt azimuth is undefined and not compared.
-AZIMUTH_MIN_TILT = 1e-12
 
 
 @dataclass(frozen=True)
@@ -134,7 +132,7 @@ def _error(kind: str, stored: NDArray[Any], value: Any, fk: ForwardBatch) -> NDA
     elif kind in ('angle', 'azimuth'):
         out = np.max(wrapped(s - f), axis=1)
         if kind == 'azimuth':
-            out = np.where(fk.tilt > AZIMUTH_MIN_TILT, out, 0.0)
+            out = out * fk.tilt
     else:
         out = np.max(np.abs(s - f), axis=1) if s.shape[1] else np.zeros(n)
     return out
