@@ -330,6 +330,8 @@ def test_a_recording_with_a_frame_prefix_verifies(robot_bag: Path, tmp_path: Pat
         return dataclasses.replace(header, frame_id='r1/' + header.frame_id)
 
     def edit(topic, msg):
+        if topic == '/gpr/program':   # the node records its prefix
+            return dataclasses.replace(msg, data=msg.data.replace("frame_prefix: ''", 'frame_prefix: r1/'))
         if hasattr(msg, 'markers'):
             return dataclasses.replace(msg, markers=[dataclasses.replace(m, header=prefixed(m.header))
                                                      for m in msg.markers])
@@ -347,6 +349,8 @@ def test_robot_states_in_another_prefix_world_fail(robot_bag: Path, tmp_path: Pa
     """The robot states' world frame carries the node's frame prefix, the one of its PlatformStates' frame: every
     RobotState and wafer pose moved to evil/world (any */world passed) fails robot.structure at every sample."""
     def edit(topic, msg):
+        if topic == '/gpr/program' and prefix:   # the node records its prefix
+            return dataclasses.replace(msg, data=msg.data.replace("frame_prefix: ''", f'frame_prefix: {prefix}'))
         if not hasattr(msg, 'header'):
             return msg
         frame = msg.header.frame_id
@@ -727,8 +731,10 @@ def _reframed(o, frame):
     return [_reframed(x, frame) for x in o] if isinstance(o, list) else o
 
 
-def _in_r1(robot_bag: Path, robot_frame=lambda f: 'r1/' + f if f else f) -> list[tuple[str, int, bytes]]:
-    """The robot bag as a node in /r1 with frame_prefix r1/ records it (the robot topics' frames by ``robot_frame``)."""
+def _in_r1(robot_bag: Path, robot_frame=lambda f: 'r1/' + f if f else f,
+           prefix_line: str = 'frame_prefix: r1/\n') -> list[tuple[str, int, bytes]]:
+    """The robot bag as a node in /r1 with frame_prefix r1/ records it (the robot topics' frames by ``robot_frame``;
+    its records' prefix line ``prefix_line``: '' for an older node's records, without one)."""
     from bag_support import messages_of
     from gpr_kinematics.bags.typestore import typestore
 
@@ -737,6 +743,8 @@ def _in_r1(robot_bag: Path, robot_frame=lambda f: 'r1/' + f if f else f) -> list
         robot = topic in (ROBOT_STATE_TOPIC, WAFER_POSE_TOPIC)
         msg = _reframed(ts.deserialize_cdr(raw, GPR_TOPICS[topic]),
                         robot_frame if robot else (lambda f: 'r1/' + f if f else f))
+        if topic == '/gpr/program':   # the node records its prefix
+            msg.data = msg.data.replace("frame_prefix: ''\n", prefix_line)
         out.append(('/r1' + topic, t, bytes(ts.serialize_cdr(msg, GPR_TOPICS[topic]))))
     return out
 
@@ -767,3 +775,44 @@ def test_a_namespaced_suite_is_read_in_its_namespace_and_its_world_carries_its_p
     bare = verify_bag(write_bag(tmp_path / 'bare', _in_r1(robot_bag, lambda f: f), types))
     structure = next(c for c in bare.checks if c.name == 'robot.structure')
     assert not bare.passed and structure.failed == structure.checked > 0
+
+
+def _framed(robot_bag: Path, frame, prefix_line: str) -> list[tuple[str, int, bytes]]:
+    """The robot bag with every frame through ``frame`` and its records' prefix line ``prefix_line``."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import typestore
+
+    ts, out = typestore(), []
+    for topic, t, raw in messages_of(robot_bag):
+        msg = _reframed(ts.deserialize_cdr(raw, GPR_TOPICS[topic]), frame)
+        if topic == '/gpr/program':
+            msg.data = msg.data.replace("frame_prefix: ''\n", prefix_line)
+        out.append((topic, t, bytes(ts.serialize_cdr(msg, GPR_TOPICS[topic]))))
+    return out
+
+
+@pytest.mark.parametrize('prefix, base', [('r1_', 'gpr_base'), ('', 'gpr/base'), ('r1/', 'tool/gpr_base')])
+def test_a_prefix_without_a_slash_or_a_base_frame_with_one_verifies(robot_bag: Path, tmp_path: Path, prefix: str,
+                                                                   base: str) -> None:
+    """Honest recordings of `frame_prefix:=r1_` (`r1_world` beside `r1_gpr_base`) or `base_frame:=gpr/base` failed
+    every robot check: the prefix was taken as every part of the base frame before its last `/`. The node records
+    its prefix now; a robot frame is exactly that prefix and the world frame. An older node's records (no prefix)
+    take any prefix the two frames share."""
+    def frame(f: str) -> str:
+        return prefix + (base if f == 'gpr_base' else f) if f else f
+
+    for line, kind in ((f"frame_prefix: '{prefix}'\n" if prefix == '' else f'frame_prefix: {prefix}\n', 'recorded'),
+                       ('', 'older')):
+        result = verify_bag(write_bag(tmp_path / f'{kind}{len(prefix)}', _framed(robot_bag, frame, line),
+                                      dict(GPR_TOPICS)))
+        assert result.passed, (kind, [f.line() for f in result.failures])
+    # the recorded prefix decides: the world frame without it, or with another, fails
+    def bare(f: str) -> str:
+        return f if f in ('world', '') else prefix + (base if f == 'gpr_base' else f)
+
+    if prefix:
+        result = verify_bag(write_bag(tmp_path / 'bare', _framed(robot_bag, bare, f'frame_prefix: {prefix}\n'),
+                                      dict(GPR_TOPICS)))
+        structure = next(c for c in result.checks if c.name == 'robot.structure')
+        assert not result.passed and structure.failed == structure.checked > 0
+

@@ -149,26 +149,31 @@ def arm_joint_names(robot: RobotDescription) -> tuple[str, ...]:
     return tuple(n for a in robot.arms for n in a.joint_names)
 
 
-def in_world(frames: Any, state_frames: Any, robot: RobotDescription) -> NDArray[np.bool_]:
-    """Per message, whether its frame is the robot's world frame with the node's frame prefix: the prefix its
-    PlatformState's frame (``state_frames``) carries (``r1/world`` beside ``r1/gpr_base``, ``world`` beside
-    ``gpr_base``; ``evil/world`` beside ``gpr_base`` is not, nor ``gpr_world``)."""
+def in_world(frames: Any, state_frames: Any, robot: RobotDescription, prefix: str | None = None
+             ) -> NDArray[np.bool_]:
+    """Per message, whether its frame is the robot's world frame with the node's frame prefix. With the ``prefix``
+    the records name (:func:`~.program_record.recorded_prefix`): exactly ``prefix + world``, beside a PlatformState
+    frame ``prefix + base`` (``r1_world`` beside ``r1_gpr_base``; ``world`` beside ``r1/gpr_base`` fails). Without
+    (an older node's records): some prefix ``P`` with the frame ``P + world`` and the PlatformState's frame ``P +
+    base`` for a non-empty base (``world`` beside a ``base_frame`` of ``gpr/base``; ``evil/world`` beside
+    ``gpr_base`` fails; what the prefix was is not in such a bag: ``world`` beside ``r1/gpr_base`` passes, as a
+    ``base_frame`` of ``r1/gpr_base`` would publish it)."""
     world = robot.world_frame
 
-    def prefixed(f: str, base: str) -> bool:   # the prefix: every part of the base frame before its name
-        prefix = f[:len(f) - len(world)]
-        return (f == world or f.endswith('/' + world)) and base.startswith(prefix) and '/' not in base[len(prefix):]
+    def prefixed(f: str, base: str) -> bool:
+        p = f[:len(f) - len(world)] if prefix is None else prefix
+        return f == p + world and base.startswith(p) and len(base) > len(p)
 
     return np.array([prefixed(str(f), str(base)) for f, base in zip(frames, state_frames, strict=True)], dtype=bool)
 
 
 def _structure(rc: Columns, j: NDArray[np.int64], rows: NDArray[np.int64], c: Columns,
-               robot: RobotDescription) -> NDArray[np.bool_]:
+               robot: RobotDescription, prefix: str | None) -> NDArray[np.bool_]:
     """Per matched RobotState ``j`` (of the state ``rows``): frame (the world frame, with the node's frame prefix:
     ``r1/world`` beside a PlatformState in ``r1/gpr_base``, ``world`` beside ``gpr_base``), sample counter, arm and
     joint names right."""
     names = arm_joint_names(robot)
-    frame_ok = in_world(rc['header.frame_id'][j], np.asarray(c['header.frame_id'])[rows], robot)
+    frame_ok = in_world(rc['header.frame_id'][j], np.asarray(c['header.frame_id'])[rows], robot, prefix)
     sample_ok = np.asarray(rc['sample'])[j] == np.asarray(c['sample'])[rows]
     arm_ok = np.isin(rc['arm'][j], robot.arm_names)
     names_ok = np.array([tuple(n) == names for n in rc['joint_names'][j]], dtype=bool)
@@ -238,7 +243,8 @@ def beyond_limits(joints: NDArray[np.float64], names: tuple[str, ...], robot: Ro
 
 
 def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: RobotChoice, tol: Tolerances,
-                 due: NDArray[np.bool_] | None = None) -> tuple[list[Check], RobotRows | None]:
+                 due: NDArray[np.bool_] | None = None, prefix: str | None = None
+                 ) -> tuple[list[Check], RobotRows | None]:
     """The ``robot.*`` and ``topic.wafer_pose`` checks (module docstring) against the PlatformState columns ``c``,
     and the robot joints per state row for the ``joint_states`` check (None without robot states). ``due``: per
     state, whether it is a robot program's (:func:`~.checks_program.robot_program_states`; None: no records, all)."""
@@ -261,7 +267,7 @@ def robot_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], choice: Robot
     if robot is None:
         return [skipped('robot.wafer_position', ROBOT_STATE_TOPIC, 'm', 'no robot description (topic.robot)')], \
             recorded
-    ok = _structure(rc, j, rows, c, robot)
+    ok = _structure(rc, j, rows, c, robot, prefix)
     names = arm_joint_names(robot)
     joints = np.full((len(stamps), len(names)), np.nan)
     J = matrix(rc['joints'], len(names))[j]

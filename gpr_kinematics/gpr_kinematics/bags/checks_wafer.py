@@ -31,7 +31,7 @@ from .checks_program import owners
 from .checks_robot import in_world
 from .checks_topics import extra, match
 from .columns import quaternion_angle, stamp_ns, vec
-from .program_record import ROBOT_PROGRAM, Recomputed, sample_index
+from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check
 from .tolerances import Tolerances
@@ -117,5 +117,6 @@ def wafer_pose_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], streams:
                                f'checked: {why}', limit))
         return out
     e = _errors(wc, w, samples[rows], streams)
-    e[~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot)] = np.inf
+    e[~in_world(wc['header.frame_id'][w], c['header.frame_id'][rows], robot, recorded_prefix(streams.records))] = \
+        np.inf
     return out + [value_check(CHECK, WAFER_POSE_TOPIC, e, limit, 'm|rad', samples[rows], _DETAIL)]

@@ -19,6 +19,7 @@ checks the markers against ``markers_every``. SI units (m, rad, s).
 """
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -51,7 +52,10 @@ KINDS = (SWEEP, PLATFORM_PROGRAM, ROBOT_PROGRAM)
 SWEEP_KEYS = ('height', 'max_tilt', 'tilt_step', 'azimuth_step', 'passes')
 #: Largest record read [bytes] (a program of 10,000 stations is about 1 MB of YAML).
 MAX_RECORD_BYTES = 8 << 20
-_KEYS = ('kind', 'first_sample', 'samples', 'rate', 'loop', 'move_time', 'markers_every', 'sweep', 'program')
+_KEYS = ('kind', 'first_sample', 'samples', 'rate', 'loop', 'move_time', 'markers_every', 'frame_prefix', 'sweep',
+         'program')
+#: A recorded ``frame_prefix``: what ``trajectory_node`` takes (letters, digits, ``_`` and ``/``), at most 256 of them.
+FRAME_PREFIX = re.compile(r'[A-Za-z0-9_/]{0,256}')
 
 
 @dataclass(frozen=True)
@@ -67,6 +71,7 @@ class Record:
     sweep: dict[str, float] | None = None
     program: PlatformProgram | RobotProgram | None = None
     markers_every: int | None = None
+    frame_prefix: str | None = None
 
 
 def _optional(out: dict[str, Any], key: str, value: Any) -> None:
@@ -120,13 +125,16 @@ def program_dict(program: PlatformProgram | RobotProgram) -> dict[str, Any]:
 
 def record_text(kind: str, first_sample: int, samples: int, rate: float, loop: bool, move_time: float,
                 sweep: Mapping[str, float] | None = None,
-                program: PlatformProgram | RobotProgram | None = None, markers_every: int | None = None) -> str:
+                program: PlatformProgram | RobotProgram | None = None, markers_every: int | None = None,
+                frame_prefix: str | None = None) -> str:
     """The YAML of a record (module docstring): the ``data`` of a :data:`PROGRAM_TOPIC` message (without
-    ``markers_every`` when it is None)."""
+    ``markers_every`` or ``frame_prefix`` when None)."""
     data: dict[str, Any] = {'kind': kind, 'first_sample': int(first_sample), 'samples': int(samples),
                             'rate': float(rate), 'loop': bool(loop), 'move_time': float(move_time)}
     if markers_every is not None:
         data['markers_every'] = int(markers_every)
+    if frame_prefix is not None:
+        data['frame_prefix'] = str(frame_prefix)
     if sweep is not None:
         data['sweep'] = {k: (int(v) if k == 'passes' else float(v)) for k, v in sweep.items()}
     if program is not None:
@@ -155,6 +163,17 @@ def _markers_every(data: Mapping[str, Any], where: str) -> int | None:
     return value
 
 
+def _frame_prefix(data: Mapping[str, Any], where: str) -> str | None:
+    """The record's ``frame_prefix``: None when it has none (recorded before it was), else the node's prefix."""
+    if 'frame_prefix' not in data:
+        return None
+    value = data['frame_prefix']
+    if not isinstance(value, str) or not FRAME_PREFIX.fullmatch(value):
+        raise ConfigError(f"{where}: frame_prefix = {safe_yaml.brief(value)}; allowed: text of letters, digits, _ and "
+                          "/, at most 256 (trajectory_node's frame_prefix)")
+    return value
+
+
 def _positive(data: Mapping[str, Any], key: str, where: str) -> float:
     value: Any = data.get(key)
     if not is_number(value) or not value > 0:
@@ -179,7 +198,7 @@ def parse_record(text: str, where: str = PROGRAM_TOPIC) -> Record:
         raise ConfigError(f'{where}: loop = {safe_yaml.brief(loop)}; allowed: true or false')
     common = dict(kind=kind, first_sample=_integer(data, 'first_sample', where), rate=_positive(data, 'rate', where),
                   samples=_integer(data, 'samples', where), loop=loop, move_time=_positive(data, 'move_time', where),
-                  markers_every=_markers_every(data, where))
+                  markers_every=_markers_every(data, where), frame_prefix=_frame_prefix(data, where))
     if kind == SWEEP:
         sweep = data.get('sweep')
         if not isinstance(sweep, Mapping):
@@ -238,6 +257,13 @@ def expected(record: Record, config: GprConfig, robot: RobotDescription | None) 
     rs = robot_stream(robot, record.program, record.rate)   # the robot computes with the geometry verified against
     return Expected(rs.gpr.q, rs.gpr.tilt, rs.gpr.tilt_azimuth, rs.joint_names, rs.joints, rs.waypoint,
                     rs.waypoint_names, rs.arm, rs.wafer)
+
+
+def recorded_prefix(records: list[Record]) -> str | None:
+    """The ``frame_prefix`` the records name when every one names the same; None otherwise (no records, or records
+    of a node from before it was recorded)."""
+    prefixes = {r.frame_prefix for r in records}
+    return next(iter(prefixes)) if len(prefixes) == 1 else None
 
 
 class Recomputed:

@@ -94,7 +94,7 @@ def sweep_messages(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX
             'passes': passes}
     latched = {GEOMETRY_TOPIC: geometry_text(cfg),
                PROGRAM_TOPIC: record_text('sweep', 0, len(sw.forward), 1e9 / period_ns, loop > 0, 2.0, sweep=spec,
-                                          markers_every=markers_every)}
+                                          markers_every=markers_every, frame_prefix='')}
     return _stream(cfg, sw.forward, np.asarray(sw.alpha, float), np.asarray(sw.gamma, float), latched, None,
                    start_ns, period_ns, topics, markers_every or 1, loop or len(sw.forward))
 
@@ -110,7 +110,7 @@ def robot_program_messages(robot: RobotDescription, program: RobotProgram, rate:
     rs = robot_stream(robot, program, rate)
     latched = {GEOMETRY_TOPIC: geometry_text(robot.config), ROBOT_TOPIC: robot_text(robot),
                PROGRAM_TOPIC: record_text('robot_program', 0, len(rs), rate, False, 2.0, program=program,
-                                          markers_every=markers_every)}
+                                          markers_every=markers_every, frame_prefix='')}
     return _stream(robot.config, rs.gpr, rs.gpr.tilt, rs.gpr.tilt_azimuth, latched, rs, start_ns,
                    int(round(1e9 / rate)), topics, markers_every or 1)
 
@@ -127,7 +127,7 @@ def platform_program_messages(program: PlatformProgram, config: GprConfig | None
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
     latched = {GEOMETRY_TOPIC: geometry_text(cfg),
                PROGRAM_TOPIC: record_text('platform_program', 0, len(ik.achieved), rate, False, 2.0, program=program,
-                                          markers_every=markers_every)}
+                                          markers_every=markers_every, frame_prefix='')}
     return _stream(cfg, ik.achieved, samples.tilt, samples.azimuth, latched, None, start_ns, int(round(1e9 / rate)),
                    topics, markers_every or 1)
 

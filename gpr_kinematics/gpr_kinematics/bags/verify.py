@@ -47,7 +47,7 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
-from .program_record import ROBOT_PROGRAM, Recomputed
+from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix
 from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
@@ -119,7 +119,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             stream = stream_checks(c, samples, st.name, state.series, slope_gain(geo.config), tol)
             recorded = read_records(bag)
             due = robot_program_states(recorded[0], samples)
-            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol, due)
+            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol, due, recorded_prefix(recorded[0]))
             # the rods alone in joint_states without robot states: only where they are not recorded at all (a sweep's
             # listed empty says it has none) and no record says the stream is not a robot program's
             fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (

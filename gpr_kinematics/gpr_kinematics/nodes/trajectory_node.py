@@ -284,7 +284,7 @@ class TrajectoryNode(GprNode):
             self._record_due = False
             self.pub_program.publish(String(data=record_of(
                 traj, self.sample, float(self.p['rate']), bool(self.p['loop']) and self.goal is None,
-                float(self.p['move_time']), int(self.p['markers_every']))))
+                float(self.p['move_time']), int(self.p['markers_every']), self.prefix)))
         try:
             self.publish_sample(traj, self.index)
         except Exception as exc:  # noqa: BLE001 - an escaping exception would end the spin with a traceback

@@ -278,13 +278,14 @@ def goal_program(goal: Any, robot: RobotDescription, files: GoalFiles) -> Platfo
 
 
 def record_of(traj: Trajectory, first_sample: int, rate: float, loop: bool, move_time: float,
-              markers_every: int) -> str:
+              markers_every: int, frame_prefix: str) -> str:
     """The record of ``traj`` (:func:`gpr_kinematics.bags.program_record.record_text`), published on ``gpr/program``
-    as it starts at sample ``first_sample``, its markers published every ``markers_every``-th sample."""
+    as it starts at sample ``first_sample``, its markers published every ``markers_every``-th sample, its frames
+    named with ``frame_prefix``."""
     sweep = traj.spec if traj.kind == SWEEP else None
     program = traj.spec if traj.kind != 'sweep' else None
     return record_text(traj.kind, first_sample, len(traj), rate, loop, move_time, sweep=sweep, program=program,
-                       markers_every=markers_every)
+                       markers_every=markers_every, frame_prefix=frame_prefix)
 
 
 def trajectory_of(prog: PlatformProgram | RobotProgram, robot: RobotDescription, rate: float,
