@@ -29,7 +29,7 @@ def real(model='radial', **changes):
 
 def joint_centres(cfg, q):
     """P_k = B_k + (q_k + o_k) u_k, written here from the config's values."""
-    B = np.column_stack([NOMINAL, np.zeros(3)])   # rod_positions unset: the nominal radius and azimuths
+    B = np.column_stack([np.asarray(cfg.rod_positions), np.zeros(3)])
     d = np.asarray(cfg.rod_directions)
     u = np.column_stack([d, np.sqrt(1 - np.sum(d * d, axis=1))])
     return B + (np.asarray(q) + np.asarray(cfg.rod_offsets))[:, None] * u
