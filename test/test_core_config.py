@@ -1,7 +1,9 @@
 """Configuration: embedded default, user overrides, validation messages."""
 import math
 
+import numpy as np
 import pytest
+from gpr_kinematics.core import forward
 from gpr_kinematics.core.config import GprConfig, default_config, load_config
 from gpr_kinematics.errors import ConfigError
 
@@ -169,3 +171,38 @@ def test_the_dataclass_defaults_are_the_embedded_file():
     embedded config/gpr.yaml: 2 deg tilt limit, 0.508 m stroke, radius 0.093218 m, and every other value."""
     assert GprConfig() == default_config()
     assert GprConfig().tilt_limit == pytest.approx(math.radians(2.0), abs=1e-17)
+
+
+@pytest.mark.parametrize('fields, words', [
+    # a tolerance of 1 m returned the naive pose without a word; the others were taken as given
+    (dict(tolerance=1.0), r'GprConfig: tolerance = 1.0 is invalid; allowed: metres, 1e-16 <= tolerance <= 1e-6'),
+    (dict(radius=-1.0), r'GprConfig: radius = -1.0 is invalid; allowed: metres, 1e-4 <= radius <= 10'),
+    (dict(tilt_limit=3.0), r'tilt_limit = 3.0 is invalid; allowed: radians, 1e-6 <= tilt_limit <= 0.2618'),
+    (dict(max_iterations=10 ** 6), r'max_iterations = 1000000 is invalid; allowed: an integer from 1 to 100'),
+    (dict(imperfection_budget=-1.0), r'imperfection_budget = -1.0 is invalid'),
+    (dict(model='polar', weighting='foo'), r"weighting = 'foo' is invalid; allowed: characteristic or unweighted"),
+    (dict(model='rigid'), r"model = 'rigid' is invalid; allowed: radial or polar or offset or compliant"),
+    (dict(radius='0.1'), r"radius = '0.1' is invalid"),   # TypeError before
+    (dict(kappa=[1.0, 2.0]), r'kappa = \[1.0, 2.0\] is invalid; allowed: one number or a list of 3'),
+])
+def test_a_config_built_in_code_is_checked_as_a_file_is(fields, words):
+    """``GprConfig(...)`` checked only how values relate (stroke order, triangles); the ranges, names and types were
+    the file reader's and ``replace``'s alone."""
+    with pytest.raises(ConfigError, match=words):
+        GprConfig(**fields)
+
+
+def test_a_config_built_in_code_takes_what_a_file_takes():
+    """A scalar ``kappa`` for all three (TypeError before), numpy scalars and arrays (``replace(radius=
+    np.float32(0.1))`` was refused as out of range), and the default following the radius."""
+    c = GprConfig(model='compliant', kappa=5.0)
+    assert c.kappa == (5.0, 5.0, 5.0)
+    q = [0.5, 0.503, 0.5]
+    assert forward(q, config=c).tilt == forward(q, config=GprConfig().replace(model='compliant', kappa=5.0)).tilt
+    assert GprConfig().replace(radius=np.float32(0.1)).radius == float(np.float32(0.1))
+    assert GprConfig().replace(max_iterations=np.int64(10)).max_iterations == 10
+    assert GprConfig(rod_offsets=np.array([1e-4, 0.0, -1e-4])).rod_offsets == (1e-4, 0.0, -1e-4)
+    assert GprConfig().characteristic_length == GprConfig().radius
+    assert GprConfig(radius=0.1).characteristic_length == 0.1
+    assert GprConfig(radius=0.1, characteristic_length=0.2).characteristic_length == 0.2
+    assert GprConfig() == load_config().replace(**{k: v for k, v in GprConfig().to_dict().items()})

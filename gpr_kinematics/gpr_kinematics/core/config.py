@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import ConfigError, InputError, brief, kind_of
 from ..inputs.resources import config_path
 from ..inputs.safe_yaml import YamlValue
@@ -85,7 +87,12 @@ class GprConfig:
     kappa: Triple = (1000.0, 1000.0, 1000.0)
 
     def __post_init__(self) -> None:
-        if self.characteristic_length in (None, 0.0):
+        # every field checked and converted as a file's (a config built in code skipped the ranges: a tolerance of
+        # 1 m returned the naive pose without a word, a scalar kappa raised TypeError)
+        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        for key, value in _convert(values, type(self).__name__, length_follows_radius=True).items():
+            object.__setattr__(self, key, value)
+        if self.characteristic_length == 0.0:
             object.__setattr__(self, 'characteristic_length', self.radius)
         _validate(self)
 
@@ -171,6 +178,8 @@ def _triple(source: str, key: str, value: YamlValue) -> tuple[float | tuple[floa
     """Three values (or three pairs) of a per-rod key, checked against :data:`_TRIPLE_RANGES`."""
     width, lo, hi, allowed = _TRIPLE_RANGES[key]
     given = value
+    if isinstance(value, np.ndarray):   # a config built in code
+        value = value.tolist()
     if key == 'kappa' and is_number(value):
         value = [value] * 3
     if not isinstance(value, (list, tuple)) or len(value) != 3:
@@ -194,9 +203,21 @@ def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> Gpr
     if base.characteristic_length == base.radius and 'characteristic_length' not in values:
         merged['characteristic_length'] = None  # it followed the radius: keep following it
     merged.update(values)
+    conv = _convert(merged, source)
+    try:
+        return GprConfig(**conv)
+    except ConfigError as exc:
+        raise ConfigError(f'{source}: {exc}') from None
+
+
+def _convert(merged: Mapping[str, YamlValue], source: str, length_follows_radius: bool = False
+             ) -> dict[str, YamlValue]:
+    """Every field of ``merged`` checked against its range and converted (floats, tuples; a scalar ``kappa`` for all
+    three); ``characteristic_length`` None (and 0.0 where ``length_follows_radius``: the dataclass default) is 0.0,
+    the radius. :class:`ConfigError` naming the key, the value and what is allowed."""
     conv: dict[str, YamlValue] = {}
     for key, (lo, hi, allowed) in FLOAT_RANGES.items():
-        if key == 'characteristic_length' and merged[key] is None:
+        if key == 'characteristic_length' and (merged[key] is None or length_follows_radius and merged[key] == 0.0):
             conv[key] = 0.0
             continue
         val = _as_float(source, key, merged[key], allowed)
@@ -209,16 +230,14 @@ def _build(base: GprConfig, values: Mapping[str, YamlValue], source: str) -> Gpr
             raise _fail(source, key, merged[key], ' or '.join(choices))
         conv[key] = merged[key]
     iters = merged['max_iterations']
-    if isinstance(iters, bool) or not isinstance(iters, int) or not ITERATIONS[0] <= iters <= ITERATIONS[1]:
+    if isinstance(iters, (bool, np.bool_)) or not isinstance(iters, (int, np.integer)) or \
+            not ITERATIONS[0] <= iters <= ITERATIONS[1]:
         raise _fail(source, 'max_iterations', iters, f'an integer from {ITERATIONS[0]} to {ITERATIONS[1]}')
-    conv['max_iterations'] = iters
+    conv['max_iterations'] = int(iters)
     for key in _TRIPLE_RANGES:
         optional = key in ('rod_positions', 'platform_joints')
         conv[key] = None if optional and merged[key] is None else _triple(source, key, merged[key])
-    try:
-        return GprConfig(**conv)
-    except ConfigError as exc:
-        raise ConfigError(f'{source}: {exc}') from None
+    return conv
 
 
 def _azimuths(source: str, az: YamlValue) -> Triple:

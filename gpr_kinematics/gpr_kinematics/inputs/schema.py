@@ -26,7 +26,10 @@ def is_number(value: YamlValue) -> bool:
     """The one rule for a number read from YAML: an int or a float (not a bool, not a string), finite and within
     +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (1e6: no value of the package's files is larger, and
     products of a few of them cannot overflow)."""
-    # abs() before isfinite(): an integer of 400 digits has no float (isfinite would raise OverflowError).
+    # abs() before isfinite(): an integer of 400 digits has no float (isfinite would raise OverflowError). numpy's
+    # real scalars count as their Python kinds (a config built in code: replace(radius=np.float32(0.1))).
+    if isinstance(value, (np.integer, np.floating)) and not isinstance(value, np.bool_):
+        value = value.item()
     return (not isinstance(value, bool) and isinstance(value, (int, float)) and abs(value) <= MAX_COORDINATE
             and math.isfinite(value))
 
