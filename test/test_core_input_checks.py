@@ -88,3 +88,75 @@ def test_a_mechanisms_newton_iterations_are_bounded_by_a_thousand():
     np.testing.assert_allclose(mech.forward_kinematics(joints, pose + 0.001, max_iterations=1000), pose, atol=1e-12)
     with pytest.raises(InputError, match='max_iterations = 1001 is invalid; allowed: an integer from 1 to 1000'):
         mech.forward_kinematics(joints, pose, max_iterations=1001)
+
+
+def _refused(call, words):
+    with pytest.raises(InputError, match=words):
+        call()
+
+
+def test_what_a_python_caller_passes_is_checked_where_numpy_raised_or_guessed():
+    """An API user's review: numpy's own ValueError, IndexError, AttributeError or TypeError, a masked value read
+    from under its mask, a truth value taken as 0 m, text taken as numbers, a shape returned unrefused; now the
+    package's InputError naming what was wrong and what is allowed."""
+    from gpr_kinematics.core.mobility import analyze_mobility
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+    from gpr_kinematics.workspace import load_workspace_model
+
+    tripod = load_workspace_model('tripod_3rps.yaml')
+    _refused(lambda: tripod.feasible([]), r'points of z, psi, theta must have 3 values per sample \(shape \(N, 3\)\), '
+             r'got shape \(0,\)')
+    _refused(lambda: tripod.feasible([['a', 0, 0]]), 'points of z, psi, theta must be numbers')
+    _refused(lambda: load_workspace_model('upu3.yaml').feasible([[[0.1, 0.1, 0.1]]]), r'got shape \(1, 1, 3\)')
+    assert tripod.feasible([0.1, 0.0, 0.0]).shape == (1,)
+    c = compensate([0, 0, 0.4], [0.01, 0, 0, 0.99995])
+    _refused(lambda: c.correct([0.1, 0]), r'points must have 3 values per sample')
+    _refused(lambda: c.correct([0.1, 0, np.nan]), r'points\[2\] = nan is not a finite number')
+    _refused(lambda: c.correct(['0.1', '0', '0']), 'points must be numbers')
+    np.testing.assert_array_equal(c.correct([0.1, 0.0, 0.0]), c.correct([[0.1, 0.0, 0.0]])[0])
+    np.testing.assert_allclose(c.correct([0.1, 0.0, 0.0]), c.arm_correction.apply([0.1, 0.0, 0.0]), rtol=0, atol=0)
+    m = analyze_mobility([0.5, 0.503, 0.498])
+    _refused(lambda: m.dx_bounds('abc'), r'dP must be 12 numbers')
+    _refused(lambda: m.dx_bounds(['0.0001'] + ['0'] * 11), r'dP must be 12 numbers')
+    alwan, pose = load_mechanism('stewart_alwan.yaml'), [0, 0, 0.9, 0.05, 0.05, 0.05]
+    _refused(lambda: accuracy_analysis(alwan, pose, joint_errors='abc'), 'joint errors must be 6 numbers per pose')
+    _refused(lambda: accuracy_analysis(alwan, pose, parameter_errors=[1, 2]),
+             r'parameter errors = \[1, 2\]; allowed: a mapping of parameter name \(')
+    _refused(lambda: accuracy_analysis(alwan, pose, joint_errors=[np.nan] * 6), r'per pose; got \[nan')
+    gpr = load_mechanism('gpr.yaml')
+    _refused(lambda: gpr.forward_kinematics([np.nan, 0.254, 0.254]), r'q1 = nan is not a finite number')
+    _refused(lambda: gpr.forward_kinematics([0.25, 0.254, 0.254], np.zeros(5)), r'guess must have shape \(6,\)')
+    # truth values and masked values are not numbers; one pose and its batch agree
+    _refused(lambda: forward([False] * 3), r'q must be numbers, got \[False, False, False\]')
+    _refused(lambda: inverse(False, False, False), 'height must be a number')
+    masked = np.ma.array([0.5, 0.503, 0.498], mask=[0, 1, 0])
+    _refused(lambda: forward_batch(masked[None]), 'a masked array with masked values')
+    _refused(lambda: forward(masked), 'q2 = nan is not a finite number')
+    assert forward(np.ma.array([0.5, 0.503, 0.498])).tilt == forward([0.5, 0.503, 0.498]).tilt
+
+
+def test_a_zero_dimensional_array_counts_as_one_value():
+    """``len()`` of a 0-d array raises: ``dexterity_sweep(..., np.array(0.2))`` and ``sample_plan(plan,
+    times=np.array(1.0))`` failed with TypeError where the float worked."""
+    import yaml
+    from gpr_kinematics.inputs.validation import count_of
+    from gpr_kinematics.robot.plan import plan_program, sample_plan
+    from gpr_kinematics.robot.program import parse_program
+    from robot_support import ROBOT, SHORT_PROGRAM
+
+    assert count_of(np.array(0.2)) == 1 and count_of(np.zeros(3)) == 3 and count_of(0.2) == 1
+    plan = plan_program(ROBOT, parse_program(yaml.safe_load(SHORT_PROGRAM), 'short'))
+    a, b = sample_plan(plan, times=np.array(1.0)), sample_plan(plan, times=1.0)
+    np.testing.assert_array_equal(a.samples.time, b.samples.time)
+    np.testing.assert_array_equal(a.samples.positions, b.samples.positions)
+
+
+def test_per_row_geometry_names_and_joint_play_are_bounded():
+    Q = [[0.5, 0.503, 0.498]] * 2
+    _refused(lambda: forward_batch(Q, parameters=[[1e-3, 2e-3], [0.0, 0.0]], names=['rod1_offset', 'rod1_offset']),
+             r'geometry parameter\(s\) rod1_offset named twice; allowed: each name once')
+    _refused(lambda: forward_batch(Q, names=['rod1_offset']), r"names = \['rod1_offset'\] without parameters")
+    _refused(lambda: forward_batch(Q, displacement=np.full((2, 3, 3), 1e3)),
+             r'joint displacement \[0, 0, 0\] = 1000.0 m; allowed: finite, within \+-0.01 m')
+    _refused(lambda: forward_batch(Q, displacement=np.full((2, 3, 3), np.nan)), r'= nan m; allowed: finite')
+    assert forward_batch(Q, displacement=np.full((2, 3, 3), 1e-5)).tilt.shape == (2,)

@@ -117,7 +117,7 @@ def test_joint_play_moves_the_joint_centres():
                                                                                                  (8, 3)), atol=1e-15)
     with pytest.raises(InputError, match=r'joint displacements must have shape \(8, 3, 3\), one \(3, 3\) per sample'):
         forward_batch(Q, cfg, displacement=np.zeros((2, 3, 3)))
-    with pytest.raises(InputError, match=r'joint displacements must be finite numbers'):
+    with pytest.raises(InputError, match=r'joint displacement \[0, 0, 0\] = nan m; allowed: finite, within'):
         forward_batch(Q, cfg, displacement=np.full((8, 3, 3), np.nan))
 
 

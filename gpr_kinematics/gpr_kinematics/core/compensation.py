@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import LimitError, norm_text
-from ..inputs.validation import finite_vector, unit_quaternion
+from ..inputs.validation import finite_vector, rows_of, unit_quaternion
 from . import ForwardResult, inverse
 from .config import GprConfig, resolve_config
 from .floats import Mat3, Quat, Vec3, mat_tmul, mat_tvec, mat_vec, matrix_of, quaternion_of, tilt_matrix
@@ -98,8 +98,11 @@ class CompensationResult:
         return self.arm_correction.translation
 
     def correct(self, points: ArrayLike) -> Array:
-        """Apply the arm correction to targets ``(..., 3)`` given in the naive platform frame."""
-        return self.arm_correction.apply(points)
+        """Apply the arm correction to targets ``(N, 3)`` or one ``(3,)`` [m] given in the naive platform frame
+        (finite numbers, else :class:`~gpr_kinematics.errors.InputError`)."""
+        rows = rows_of(points, 'points', 3)
+        out: Array = self.arm_correction.apply(rows)
+        return out[0] if np.ndim(points) == 1 else out
 
 
 class CompensationFloats(NamedTuple):

@@ -28,7 +28,7 @@ from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, GprError, InputError, LimitError, NoPoseError, apart
+from ..errors import ConvergenceError, GprError, InputError, LimitError, NoPoseError, apart, brief
 from ..inputs.validation import float_array, rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
@@ -313,6 +313,9 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     A = rows_of(Q, 'q', 3)
     cols = [np.ascontiguousarray(A[:, k]) for k in range(3)]
     geo = None
+    if parameters is None and names is not None:
+        raise InputError(f'names = {brief(names)} without parameters; allowed: names with the parameters they name, '
+                         'or neither')
     if parameters is not None:
         geo = MachineGeometry.per_row(cfg, parameters, names)
         if A.shape[0] % geo.rows:

@@ -37,13 +37,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, brief
 from ..inputs.validation import float_array
-from .config import _TRIPLE_RANGES, MAX_SIDE_MISMATCH, MIN_TRIANGLE_ANGLE, GprConfig, Point2, Triple, nominal_points
+from .config import (
+    _TRIPLE_RANGES,
+    FLOAT_RANGES,
+    MAX_SIDE_MISMATCH,
+    MIN_TRIANGLE_ANGLE,
+    GprConfig,
+    Point2,
+    Triple,
+    nominal_points,
+)
 from .ops import Value
 
 Array = NDArray[np.float64]
 Floats3 = tuple[float, float, float]
 #: One value per rod or joint: floats (one machine) or arrays ``(N,)`` (one machine per row).
 Values3 = tuple[Value, Value, Value]
+#: Largest joint displacement [m] (:meth:`MachineGeometry.displaced`): the largest imperfection budget a geometry takes.
+MAX_PLAY = FLOAT_RANGES['imperfection_budget'][1]
 
 
 def _floats(values: Sequence[float]) -> Floats3:
@@ -143,8 +154,11 @@ class MachineGeometry:
         if D.ndim != 3 or D.shape[1:] != (3, 3) or (self.rows and D.shape[0] != self.rows):
             raise InputError(f'joint displacements must have shape (N, 3, 3) (sample, joint, x y z) with N = '
                              f'{self.rows or "the samples"}; got shape {np.shape(d)}')
-        if not np.all(np.isfinite(D)):
-            raise InputError('joint displacements must be finite numbers [m]')
+        if not np.all(np.abs(D) <= MAX_PLAY):   # NaN too: a metre of it failed the closure, 1 cm blamed the rods
+            i, k, a = np.argwhere(~(np.abs(D) <= MAX_PLAY))[0]
+            raise InputError(f'joint displacement [{i}, {k}, {a}] = {brief(float(D[i, k, a]))} m; allowed: finite, '
+                             f'within +-{MAX_PLAY:g} m (the play of a spherical joint, at most the largest '
+                             'imperfection budget)')
         play = tuple((D[:, 0, a], D[:, 1, a], D[:, 2, a]) for a in range(3))
         return replace(self, upright=False, play=play)  # type: ignore[arg-type]
 
@@ -386,6 +400,9 @@ def _indices(names: Sequence[str] | None) -> list[GeometryParameter]:
     if unknown:
         raise InputError(f'unknown geometry parameter(s) {", ".join(map(str, unknown))}; allowed: '
                          + ', '.join(PARAMETER_NAMES))
+    twice = sorted({n for n in given if given.count(n) > 1})
+    if twice:   # the last column won without a word
+        raise InputError(f'geometry parameter(s) {", ".join(twice)} named twice; allowed: each name once')
     return [by_name[n] for n in given]
 
 

@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, LimitError, brief
-from ..inputs.validation import bounded, finite_vector, rows_of
+from ..inputs.validation import bounded, finite_vector, float_array, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
 from .forward import forward_parts, stroke_words
@@ -125,7 +125,7 @@ class MobilityResult:
             InputError: not 12 finite numbers, or a component larger than the stroke range (so nothing overflows).
             LimitError: ``q + dq`` outside the stroke.
         """
-        dp = np.asarray(dP, dtype=float)
+        dp = float_array(dP, 'dP', '12 numbers (dq1..dq3, dP1, dP2, dP3) [m]')
         if dp.shape != (12,) or not np.all(np.isfinite(dp)):
             raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
         lo, hi = self.stroke

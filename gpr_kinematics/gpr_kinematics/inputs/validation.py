@@ -104,6 +104,8 @@ def plain_number(value: Any) -> float:
 def count_of(values: Any) -> int:
     """How many values a sized sequence holds (1 for anything else), read before it is converted: so a bound on the
     count refuses ``range(10**12)`` instead of allocating it."""
+    if isinstance(values, np.ndarray) and values.ndim == 0:   # a 0-d array: one value (len() raises)
+        return 1
     return len(values) if isinstance(values, Sized) and not isinstance(values, (str, bytes)) else 1
 
 
@@ -122,8 +124,8 @@ def _float(value: Any) -> float:
     """``float(value)``, but text (``'0.5'``) is a TypeError."""
     if type(value) is float:
         return value
-    if _is_text(value):
-        raise TypeError('text')
+    if _is_text(value) or isinstance(value, (bool, np.bool_)):
+        raise TypeError('text or a truth value')
     return float(value)
 
 
@@ -132,10 +134,14 @@ def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np
     complex numbers (an array of them numpy casts to its real parts) and what numpy cannot convert (ragged lists, an
     int of 400 digits: OverflowError) are an :class:`InputError` saying ``name`` must be ``expected`` and quoting the
     value. The one conversion of numbers a user gives."""
+    if isinstance(values, np.ma.MaskedArray) and np.ma.is_masked(values):   # asarray would take the hidden values
+        raise InputError(f'{name} must be {expected}, got a masked array with masked values ({brief(values)}); '
+                         'allowed: numbers (fill or drop the masked ones first)')
     try:
         raw = np.asarray(values)
-        if raw.dtype.kind in 'SUc' or (raw.dtype.kind == 'O' and any(_is_text(v) for v in raw.ravel())):
-            raise TypeError('text or complex numbers')   # numpy casts complex arrays to their real parts
+        if raw.dtype.kind in 'SUcb' or (raw.dtype.kind == 'O' and any(_is_text(v) or isinstance(v, (bool, np.bool_))
+                                                                        for v in raw.ravel())):
+            raise TypeError('text, truth values or complex numbers')   # numpy casts complex to their real parts
         return np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f'{name} must be {expected}, got {brief(values)}') from None

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.rotations import wrap_angle
 from ..errors import InputError, SingularityError, brief
-from ..inputs.validation import MAX_COORDINATE
+from ..inputs.validation import MAX_COORDINATE, float_array
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, dexterity_index, euler_rate_matrix, rotation_vector
 
 #: Distance [rad] of the second Euler angle from its gimbal lock (Z-X-Z: theta = 0 or pi; roll-pitch-yaw: B = +-pi/2)
@@ -158,19 +158,23 @@ def euler_lock_warnings(mech: Mechanism, poses: Any) -> tuple[str, ...]:
 def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
     if errors is None:
         return np.zeros((n_poses, mech.n_joints))
-    arr = np.asarray(errors, dtype=float)
+    arr = float_array(errors, f'{mech.name}: joint errors', f'{mech.n_joints} numbers per pose (m, or rad for angular '
+                      'joints)')
     if arr.ndim == 1:
         arr = np.broadcast_to(arr, (n_poses, arr.shape[0]))
     if arr.shape != (n_poses, mech.n_joints) or not np.all(np.isfinite(arr)):
+        got = f'shape {np.shape(errors)}' if arr.shape != (n_poses, mech.n_joints) else f'{brief(errors)}'
         raise InputError(f'{mech.name}: joint errors must be {mech.n_joints} finite values (m, or rad for '
-                         f'angular joints) for {", ".join(mech.joint_names)} per pose; '
-                         f'got shape {np.shape(errors)}')
+                         f'angular joints) for {", ".join(mech.joint_names)} per pose; got {got}')
     return np.array(arr)
 
 
 def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
-    if not errors:
+    if errors is None or (isinstance(errors, Mapping) and not errors):
         return {}
+    if not isinstance(errors, Mapping):
+        raise InputError(f'{mech.name}: parameter errors = {brief(errors)}; allowed: a mapping of parameter name '
+                         f'({", ".join(sorted(mech.parameters())) or "none"}) to its error (SI)')
     nominal = mech.parameters()
     out: dict[str, np.ndarray] = {}
     for key, val in errors.items():

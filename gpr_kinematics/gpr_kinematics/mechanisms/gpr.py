@@ -33,7 +33,7 @@ from ..core.config import FLOAT_RANGES
 from ..core.rotations import kabsch
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
-from ..inputs.validation import bounded, difference_step, newton_settings
+from ..inputs.validation import bounded, difference_step, newton_settings, rows_of
 from .base import Mechanism, as_poses, rotation_vector
 
 #: The largest tilt limit of a geometry [rad] (GprConfig's range): a dexterity map computes up to it.
@@ -132,7 +132,8 @@ class GprMechanism(Mechanism):
         from ..core import base_points, forward_batch
         from ..core.rotations import tilt_from_matrix
         from ..core.virtual_joints import make_model
-        Q = np.atleast_2d(np.asarray(joints, dtype=float))
+        # NaN named as such (it read as farther than the stroke range)
+        Q = rows_of(joints, 'q', 3, [f'{self.name}: q{k}' for k in (1, 2, 3)])
         span = self.config.stroke_max - self.config.stroke_min
         if not np.all(np.abs(Q - 0.5 * (self.config.stroke_min + self.config.stroke_max)) <= span):  # NaN too
             i, k = np.argwhere(~(np.abs(Q - 0.5 * (self.config.stroke_min + self.config.stroke_max)) <= span))[0]
@@ -153,6 +154,8 @@ class GprMechanism(Mechanism):
         """Forward kinematics by the core (a pure function of ``q``: ``guess`` is not needed; ``tol`` and
         ``max_iterations`` are checked as for every mechanism, the core's closure has its own)."""
         newton_settings(self.name, tol, max_iterations)
+        if guess is not None:
+            as_poses(guess, 'guess')   # checked as every mechanism's, then not needed
         return self.forward_poses(joints)
 
     def inverse_kinematics(self, poses: Any) -> np.ndarray:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError, InputError, brief
-from ..inputs.validation import float_array, plain_number
+from ..inputs.validation import float_array, number_rows, plain_number
 from .boxes import box_volume
 from .interval import Interval
 
@@ -178,8 +178,10 @@ class WorkspaceModel(ABC):
         """Point values ``g(x)`` for ``points`` (N, d) -> (N, m) (NaN where undefined = infeasible)."""
 
     def feasible(self, points: np.ndarray) -> np.ndarray:
-        """Boolean (N,): every constraint satisfied at the point (NaN counts as violated)."""
-        g = self.evaluate(np.atleast_2d(np.asarray(points, dtype=float)))
+        """Boolean (N,): every constraint satisfied at the point (NaN counts as violated); ``points (N, d)`` or one
+        ``(d,)``, else :class:`~gpr_kinematics.errors.InputError` naming the shape allowed."""
+        d = len(self.variables)
+        g = self.evaluate(number_rows(points, f'points of {", ".join(self.variables)}', d))
         return np.asarray(np.all((g >= self.lower) & (g <= self.upper), axis=1))
 
     def bounds(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
