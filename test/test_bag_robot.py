@@ -429,6 +429,69 @@ def test_wafer_poses_without_their_robot_state_at_the_ends_are_recomputed(robot_
                                         'limit 0 (messages without a PlatformState of the same stamp)')
 
 
+def _late_bag(robot_bag: Path, dst: Path, record: bool = True) -> tuple[Path, dict[int, int]]:
+    """``robot_bag`` without its first 7 RobotStates (a late recorder; without /gpr/program unless ``record``) and
+    the stamps [ns] of the wafer poses 0-6 left without a RobotState, mapped to their samples."""
+    from bag_support import messages_of
+    from gpr_kinematics.bags.typestore import typestore
+
+    messages = messages_of(robot_bag)
+    states = [k for k, m in enumerate(messages) if m[0] == ROBOT_STATE_TOPIC]
+    drop = set(states[:7])
+    types = {k: v for k, v in GPR_TOPICS.items() if record or k != '/gpr/program'}
+    bag = write_bag(dst, [m for k, m in enumerate(messages) if k not in drop and m[0] in types], types)
+    msgs = [typestore().deserialize_cdr(messages[k][2], GPR_TOPICS[ROBOT_STATE_TOPIC]) for k in sorted(drop)]
+    return bag, {_stamp(m): m.sample for m in msgs}
+
+
+@pytest.mark.parametrize('scale', [2.0, 0.0])
+def test_a_wafer_pose_without_its_robot_state_needs_a_unit_quaternion(robot_bag: Path, tmp_path: Path,
+                                                                      scale: float) -> None:
+    """The recomputed check adds the quaternion's norm defect to its rotation angle: a wafer pose 0-6 of a late
+    recording whose quaternion is scaled by 2 (the same rotation, norm 2) or is all zeros (angle 0 by atan2(0, 0))
+    fails at its sample by the defect, 1."""
+    bag, at = _late_bag(robot_bag, tmp_path / 'late')
+    assert sorted(at.values()) == list(range(7))
+    assert verify_bag(bag).passed
+
+    def scaled(topic, msg):
+        if topic == WAFER_POSE_TOPIC and _stamp(msg) in at:
+            o = msg.pose.orientation
+            o.x, o.y, o.z, o.w = o.x * scale, o.y * scale, o.z * scale, o.w * scale
+        return msg
+
+    result = verify_bag(rewritten(bag, tmp_path / 'scaled', scaled))
+    assert _failed(result) == {'topic.wafer_pose_recomputed': set(range(7))}, _failed(result)
+    check = next(c for c in result.checks if c.name == 'topic.wafer_pose_recomputed')
+    assert check.failed == 7 and check.worst == pytest.approx(1.0, abs=1e-9)   # |norm - 1|: the angle is 0
+
+
+@pytest.mark.parametrize('record', [True, False], ids=['recorded', 'no record'])
+@pytest.mark.parametrize('frame', ['nowhere', 'evil/world'])
+def test_a_wafer_pose_without_its_robot_state_outside_the_world_frame_fails(robot_bag: Path, tmp_path: Path,
+                                                                          frame: str, record: bool) -> None:
+    """Wafer poses 0-6 of a late recording (no RobotState of their stamp) moved to another frame fail
+    topic.wafer_pose_recomputed at their samples, with the record of the stream (values recomputed) and without
+    (an older node's recording: the values are not checked, the frame is)."""
+    bag, at = _late_bag(robot_bag, tmp_path / 'late', record=record)
+    result = verify_bag(bag)
+    assert result.passed, [f.line() for f in result.failures]
+    assert ('/gpr/program' in result.counts) == record
+
+    def moved(topic, msg):
+        if topic == WAFER_POSE_TOPIC and _stamp(msg) in at:
+            msg.header.frame_id = frame
+        return msg
+
+    result = verify_bag(rewritten(bag, tmp_path / 'moved', moved))
+    assert _failed(result) == {'topic.wafer_pose_recomputed': set(range(7))}, _failed(result)
+    fails = [f for f in result.failures if f.check == 'topic.wafer_pose_recomputed']
+    assert len(fails) == 7 and all(f.value == math.inf for f in fails)
+    if not record:
+        assert fails[0].detail == ("not in the robot's world frame (values not checked: no record of the stream "
+                                   '(gpr/program) to recompute them from: a recording of an older node)')
+
+
 @pytest.mark.parametrize('kept', [(), (ROBOT_TOPIC,)], ids=['the robot given', 'the robot recorded'])
 def test_a_robot_recording_of_fewer_topics_checks_the_rods_of_its_joint_states(robot_bag: Path, tmp_path: Path,
                                                                                 kept: tuple[str, ...]) -> None:
