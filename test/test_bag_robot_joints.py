@@ -140,3 +140,40 @@ def test_an_older_recording_without_robot_states_holds_its_arm_joints_to_the_joi
     assert set(_failed(one)) == {CHECK} and [c.failed for c in _check(one)] == [1, 0], _failed(one)
     assert [c.skipped.split(';')[1].split(':')[0] for c in _check(one) if c.skipped] == [
         f' {n - 1} within the joint limits of robot example_dual_arm, their values not checked']
+
+
+def test_an_older_recording_holds_its_arm_joints_to_the_lower_limits_too(tmp_path: Path) -> None:
+    """No record, no robot states, the robot recorded: one arm joint (arm1's first) at -1000 rad at every state
+    fails by how far it is below its lower limit, as +1000 rad fails above the upper one."""
+    within = _reference_with_arms(tmp_path / 'within', None)
+    assert verify_bag(within).passed
+    low = verify_bag(rewritten(within, tmp_path / 'low', _arms(lambda v: np.full_like(v, -1e3), joint=0,
+                                                               topics=('/joint_states', '/gpr/joint_states'))))
+    n = low.counts['/gpr/platform_state']
+    assert set(_failed(low)) == {CHECK} and [c.failed for c in _check(low) if not c.skipped] == [n], _failed(low)
+    [check] = [c for c in _check(low) if not c.skipped]
+    assert check.worst == pytest.approx(1e3 + ROBOT.arms[0].lower[0], abs=1e-9)
+    assert check.failures[0].detail.startswith('an arm joint beyond its range by this much (robot example_dual_arm')
+
+
+@pytest.mark.parametrize('record', [True, False], ids=['recorded', 'no record'])
+def test_joint_states_naming_the_arm_joints_with_the_rods_positions_only_fail(robot_messages, tmp_path: Path,
+                                                                              record: bool) -> None:
+    """gpr/robot_state not recorded: a joint_states message naming the rods and the arm joints but carrying only the
+    3 rod positions fails at its sample (no value for the arm joints: inf), it does not stop verify."""
+    types = {k: v for k, v in GPR_TOPICS.items() if k != ROBOT_STATE_TOPIC and (record or k != '/gpr/program')}
+    fewer = write_bag(tmp_path / 'fewer', [m for m in robot_messages if m[0] in types], types)
+    assert verify_bag(fewer).passed
+    samples = _samples(fewer)
+    stamp = sorted(samples)[12]
+
+    def short(topic, msg):
+        if topic == JOINT_STATES_TOPIC and _stamp(msg) == stamp:
+            assert list(msg.name[3:]) == NAMES
+            return dataclasses.replace(msg, position=np.array(msg.position[:3]))
+        return msg
+
+    result = verify_bag(rewritten(fewer, tmp_path / 'short', short))
+    assert _failed(result) == {CHECK: {samples[stamp]}}, _failed(result)
+    [fail] = result.failures
+    assert fail.value == np.inf and fail.topic == JOINT_STATES_TOPIC
