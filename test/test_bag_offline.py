@@ -82,6 +82,38 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     assert np.allclose(c['virtual_joints'][zero], 0.093218, atol=1e-12)
 
 
+def test_with_both_joint_states_topics_the_current_one_is_verified(tmp_path: Path, messages: list) -> None:
+    """``/joint_states`` is where the suite publishes; ``/gpr/joint_states`` is read only in bags recorded before the
+    move (``/joint_states`` absent). A bag with both, the legacy one an honest copy and ``/joint_states`` with rod 2
+    of sample 7 moved 1 um: the moved one is verified, and fails there."""
+    import dataclasses
+
+    from bag_support import rewritten, write_bag
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC
+
+    out = []
+    for topic, t, raw in messages:
+        out.append((topic, t, raw))
+        if topic == JOINT_STATES_TOPIC:
+            out.append((LEGACY_JOINT_STATES_TOPIC, t, raw))
+    types = {**GPR_TOPICS, LEGACY_JOINT_STATES_TOPIC: KNOWN_TOPICS[LEGACY_JOINT_STATES_TOPIC]}
+    both = write_bag(tmp_path / 'both', out, types)
+    assert read_bag(both).joint_states_topic() == JOINT_STATES_TOPIC
+    assert verify_bag(both).passed
+    stamp = (1_700_000_000, 7_000_000)   # sample 7, 1 ms a sample
+
+    def moved(topic, msg):
+        if topic == JOINT_STATES_TOPIC and (msg.header.stamp.sec, msg.header.stamp.nanosec) == stamp:
+            position = np.array(msg.position)
+            position[1] += 1e-6
+            return dataclasses.replace(msg, position=position)
+        return msg
+
+    result = verify_bag(rewritten(both, tmp_path / 'moved', moved))
+    assert [(f.check, f.topic, f.sample) for f in result.failures] == [('topic.joint_states', JOINT_STATES_TOPIC, 7)]
+    assert result.failures[0].value == pytest.approx(1e-6, rel=1e-6)
+
+
 def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     status, out, _ = run_cli('verify', str(REFERENCE), '--json', '--report', str(tmp_path / 'rep'), capsys=capsys)
     assert status == 0
