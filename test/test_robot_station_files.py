@@ -227,3 +227,42 @@ def test_a_station_beyond_the_world_bound_is_refused(tmp_path, name, text, messa
     path.write_text(text)
     with pytest.raises(ConfigError, match=message):
         load_stations(path)
+
+
+def test_the_world_bound_takes_100_m_and_hints_millimetres_only_where_they_fit(tmp_path):
+    """A station exactly 100 m from the world origin (``WORLD_BOUND``) is accepted, 100.000001 m refused; a file in
+    metres with 2e4 m is told 'as millimetres it would be 20 m', one with 2e5 m (200 m as millimetres: beyond the
+    bound still) gets no such hint."""
+    for xyz in ('100,0,0.4', '0,-100,0.4', '1,2,100'):
+        st = load_stations(_write(tmp_path, 'edge.csv', f'name,x,y,z\nedge,{xyz}\n')).stations
+        assert np.max(np.abs(st.position)) == 100.0
+    with pytest.raises(ConfigError, match=r'position = \(100, 0, 0.4\) m; allowed: each coordinate within \+-100 m '
+                                          r'of the world origin; as millimetres it would be 0.1 m: millimetres given'):
+        load_stations(_write(tmp_path, 'past.csv', 'name,x,y,z\npast,100.000001,0,0.4\n'))
+    with pytest.raises(ConfigError, match=r'position = \(20000, 0, 0.4\) m; allowed: each coordinate within \+-100 m '
+                                          r'of the world origin; as millimetres it would be 20 m: millimetres given'):
+        load_stations(_write(tmp_path, 'mm.csv', 'name,x,y,z\nfar,20000,0,0.4\n'))
+    with pytest.raises(ConfigError, match=r'position = \(0, 200000, 0.4\) m; allowed: each coordinate within \+-100 m '
+                                          r'of the world origin$'):
+        load_stations(_write(tmp_path, 'km.csv', 'name,x,y,z\nfar,0,200000,0.4\n'))
+
+
+def test_check_world_position_bound_and_hint():
+    """The public check itself: 100 m passes, 100 m + 1 um is refused; the hint ({mm}: the farthest coordinate as
+    millimetres) where that fits the bound, 100 000 m exactly (100 m as millimetres) included, not at 2e5 m."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.robot.fields import WORLD_BOUND, check_world_position
+
+    assert WORLD_BOUND == 100.0
+    for xyz in ([100.0, 0.0, 0.0], [-100.0, 100.0, -100.0]):
+        assert check_world_position(xyz, 'p', ' [{mm} m as mm]') is None
+    with pytest.raises(InputError, match=r'^p = \(0, 0, -100\) m; allowed: each coordinate within \+-100 m of the '
+                                         r'world origin \[0.1 m as mm\]$'):
+        check_world_position([0.0, 0.0, -100.000001], 'p', ' [{mm} m as mm]', InputError)
+    with pytest.raises(ConfigError, match=r'\(20000, 0, 0\) m; .* world origin \[20 m as mm\]$'):
+        check_world_position([2e4, 0.0, 0.0], 'p', ' [{mm} m as mm]')
+    with pytest.raises(ConfigError, match=r'\(100000, 0, 0\) m; .* world origin \[100 m as mm\]$'):
+        check_world_position([1e5, 0.0, 0.0], 'p', ' [{mm} m as mm]')
+    with pytest.raises(ConfigError, match=r'\(200000, 0, 0\) m; allowed: each coordinate within \+-100 m of the world '
+                                          r'origin$'):
+        check_world_position([2e5, 0.0, 0.0], 'p', ' [{mm} m as mm]')
