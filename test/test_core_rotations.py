@@ -18,6 +18,7 @@ from gpr_kinematics.core.rotations import (
     rpy_matrix,
     tilt_from_matrix,
     tilt_rotation,
+    wrap_angle,
 )
 from scipy.spatial.transform import Rotation
 
@@ -145,3 +146,21 @@ def test_kabsch_recovers_a_rotation_and_never_returns_a_singular_matrix():
     np.testing.assert_allclose(kabsch(a[0], b[0]), got[0], atol=1e-15)     # one set as the batch
     flat = np.zeros((4, 3))                                                   # every vector zero: H = 0
     assert abs(np.linalg.det(kabsch(flat, flat)) - 1.0) < 1e-12
+
+
+def test_wrap_angle_range_is_minus_pi_inclusive_pi_exclusive():
+    """``wrap_angle`` documents ``[-pi, pi)``: pi, -pi, 3 pi, -3 pi and 5 pi all give -pi exactly (never +pi), 2 pi
+    gives 0; values 1e-9 rad inside either end stay as they are; a float stays a float, an array an array."""
+    pi = math.pi
+    for a in (pi, -pi, 3 * pi, -3 * pi, 5 * pi):
+        got = wrap_angle(a)
+        assert got == -pi and isinstance(got, float), (a, got)
+    assert wrap_angle(2 * pi) == 0.0 and wrap_angle(0.0) == 0.0
+    assert wrap_angle(pi - 1e-9) == pytest.approx(pi - 1e-9, abs=1e-15)
+    assert wrap_angle(-pi + 1e-9) == pytest.approx(-pi + 1e-9, abs=1e-15)
+    assert wrap_angle(pi + 1e-9) == pytest.approx(-pi + 1e-9, abs=1e-15)
+    got = wrap_angle(np.array([pi, -pi, 3 * pi, pi - 1e-9, -pi + 1e-9, 0.5]))
+    assert isinstance(got, np.ndarray)
+    np.testing.assert_allclose(got, [-pi, -pi, -pi, pi - 1e-9, -pi + 1e-9, 0.5], rtol=0, atol=1e-15)
+    dense = wrap_angle(np.linspace(-20.0, 20.0, 100_001))
+    assert dense.min() >= -pi and dense.max() < pi
