@@ -267,6 +267,53 @@ def test_a_low_row_off_in_angle_or_sideways_gets_no_millimetre_hint():
         identify(m, mm)
 
 
+
+def test_metres_under_a_millimetre_line_with_a_low_first_row_get_the_hint_from_the_whole_file():
+    """A file in a tracker's frame declared in millimetres whose positions are metres (a thousandth of the truth once
+    read; the rods right, as a rods column in mm), its first row 3.3 mm above the base: the registered frames put
+    that row 0.2 m off, and a thousand times its read position (3.3 mm) is within 10 mm of anything, so the row alone
+    cannot tell; the whole file rescaled (x 1e3, its frames fitted again) fits, which names the cause."""
+    from gpr_kinematics.calibration.frames import FramedModel, measuring_model
+
+    cfg = load_config()
+    core = CoreModel(cfg)
+    Q = plan_measurements(core, cfg, 12).q.copy()
+    Q[0] = [0.0033, 0.0033, 0.0033]
+    meas = synthetic_measurements(core, core.parameters.nominal, Q, SP, SA)
+    assert np.linalg.norm(meas.position[0]) < 0.0034
+    rows = tuple(range(4, 4 + len(Q)))
+    for quaternion, what in ((meas.quaternion, r'pose is 0\.2059 m and [\d.e-]+ rad'), (None, r'point is 0\.2059 m')):
+        small = Measurements('metres.csv', meas.q, meas.position / 1000, quaternion, None, None, rows,
+                             units=('mm', 'rad'))
+        model = measuring_model(core, small, 'tracker')
+        assert isinstance(model, FramedModel)
+        with pytest.raises(InputError, match=r'^metres\.csv line 4: the measured ' + what + r" from the nominal "
+                           r"model's \(allowed: 0\.01 m.*\): not a measurement of this machine in tracker in "
+                           r'millimetres, as the file declares \(metres under the "# units: mm" line\? give them in '
+                           r'mm\)$'):
+            identify(model, small, frame='tracker')
+
+
+def test_a_rescaled_file_that_is_refused_gives_no_units_hint():
+    """Whether the whole file rescaled fits is False where the rescaled file is refused (a GprError): a row at 1e306 m
+    under "# units: mm" is not finite a thousand times over; the cause named is another frame, not metres."""
+    from gpr_kinematics.calibration.plausibility import ImplausiblePoseError, plausible_start
+
+    cfg = load_config()
+    core = CoreModel(cfg)
+    Q = plan_measurements(core, cfg, 6).q
+    meas = synthetic_measurements(core, core.parameters.nominal, Q, SP, SA)
+    position = meas.position.copy()
+    position[0, 0] = 1e306
+    huge = Measurements('huge.csv', meas.q, position, meas.quaternion, None, None, tuple(range(4, 4 + len(Q))),
+                        units=('mm', 'rad'))
+    with pytest.raises(ImplausiblePoseError, match=r'^huge\.csv line 4: the measured pose is inf m and .* rad from '
+                       r'the nominal .* in gpr_base in millimetres, as the file declares \(another frame than '
+                       r'gpr_base; a tracker') as err, np.errstate(over='ignore', invalid='ignore'):
+        plausible_start(core, huge, core.parameters.nominal, 'gpr_base')
+    assert 'metres under' not in str(err.value)
+    assert plausible_start(core, meas, core.parameters.nominal, 'gpr_base') is None
+
 def test_refusals():
     cfg = load_config()
     m = CoreModel(cfg)
