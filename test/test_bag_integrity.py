@@ -507,3 +507,82 @@ def test_the_files_lines_rendered_once_are_the_whole_metadata_rendered_at_once(n
              'custom_data': {**custom, **{FILE_DIGEST_PREFIX + f[0]: f[4] for f in files}}}
     spliced = {**info, 'relative_file_paths': [], 'files': [], 'custom_data': custom}
     assert render_metadata(spliced, [file_lines(*f) for f in files]) == render_metadata(whole)
+
+
+def _string(text: str = 'x') -> bytes:
+    from gpr_kinematics.bags.typestore import message_types  # noqa: F401 - the store knows std_msgs
+    store = typestore()
+    return bytes(store.serialize_cdr(store.types['std_msgs/msg/String'](data=text), 'std_msgs/msg/String'))
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_the_writer_refuses_a_bad_log_time_and_keeps_the_bag(tmp_path: Path, storage: str) -> None:
+    """A log time of -5 or 2**64 raised struct.error and broke the open segment (every later write and the close
+    failed: no metadata.yaml, the good messages lost); 2**63 was written and crashed the reader (OverflowError). Now a
+    BagError before anything is written, and the bag goes on."""
+    from gpr_kinematics.bags.errors import BagError
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+
+    with SegmentedBagWriter(tmp_path / 'b', {'/gpr/program': 'std_msgs/msg/String'}, storage=storage,
+                            fsync=False) as w:
+        w.write('/gpr/program', 10, _string('a'))
+        for bad in (-5, 2**63, 2**64, 1.9, float('nan'), 'x', True):
+            with pytest.raises(BagError, match=r'log time = .*; allowed: an integer from 0 to 2\^63 - 1 \[ns\]'):
+                w.write('/gpr/program', bad, _string())
+        w.write('/gpr/program', np.int64(20), _string('b'))
+    bag = read_bag(tmp_path / 'b')
+    assert bag.topics['/gpr/program'].log_time.tolist() == [10, 20]
+
+
+def test_arguments_of_the_bag_api_of_the_wrong_kind_are_named(tmp_path: Path) -> None:
+    """AttributeError, TypeError or a bag its own reader refused: now BagError naming the argument and what is
+    allowed; a single topic name to read_bag read nothing (a set of its characters)."""
+    from gpr_kinematics.bags.errors import BagError
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+
+    for kwargs, words in ((dict(topics=['/gpr/program']), r"topics = \['/gpr/program'\]; allowed: a mapping"),
+                          (dict(topics={1: 'std_msgs/msg/String'}), 'topics = '),
+                          (dict(custom_data={'a': 1}), r"custom_data = \{'a': 1\}; allowed: a mapping of strings"),
+                          (dict(max_bag_size=0.5), r'max_bag_size = 0.5 is invalid; allowed: a whole number of bytes'),
+                          (dict(max_bag_size=True), r'max_bag_size = True is invalid')):
+        args = {'topics': {'/gpr/program': 'std_msgs/msg/String'}, **kwargs}
+        with pytest.raises(BagError, match=words):
+            SegmentedBagWriter(tmp_path / 'w', args.pop('topics'), **args)
+    SegmentedBagWriter(tmp_path / 'ok', {'/gpr/program': 'std_msgs/msg/String'}, max_bag_size=np.int64(100))
+    with SegmentedBagWriter(tmp_path / 'b', {'/gpr/program': 'std_msgs/msg/String'}, fsync=False) as w:
+        w.write('/gpr/program', 10, _string())
+    for topics in ('/gpr/program', [], [1]):
+        with pytest.raises(BagError, match=r'topics = .*; allowed: None \(every topic\) or a list of one or more'):
+            read_bag(tmp_path / 'b', topics=topics)   # type: ignore[arg-type]
+    assert len(read_bag(tmp_path / 'b', topics=['/gpr/program']).topics['/gpr/program']) == 1
+    for kwargs, words in ((dict(bag=5), r'bag = 5; allowed: a bag folder or file path'),
+                          (dict(bag=None), 'bag = None'),
+                          (dict(config={}), r'config = \{\}; allowed: a GprConfig'),
+                          (dict(robot={}), r'robot = \{\}; allowed: a RobotDescription'),
+                          (dict(tolerances={}), r'tolerances = \{\}; allowed: Tolerances or None')):
+        call = {'bag': tmp_path / 'b', **kwargs}
+        with pytest.raises(BagError, match=words):
+            verify_bag(call.pop('bag'), **call)
+
+
+def test_a_log_time_beyond_int64_in_a_file_is_a_bag_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A message logged at 2**63 ns (another writer's file: MCAP stores 64 unsigned bits) crashed read_bag, verify_bag
+    and `gpr verify` with OverflowError and a traceback; now a BagError, exit 2 and one line."""
+    from gpr_kinematics.bags.errors import BagError
+    from mcap.writer import Writer
+
+    path = tmp_path / 'late.mcap'
+    with open(path, 'wb') as out:
+        w = Writer(out)
+        w.start(profile='ros2', library='test')
+        sid = w.register_schema('std_msgs/msg/String', 'ros2msg', b'string data')
+        cid = w.register_channel('/gpr/program', 'cdr', sid)
+        w.add_message(cid, 10, _string(), 10)
+        w.add_message(cid, 2**63, _string(), 2**63)
+        w.finish()
+    with pytest.raises(BagError, match=r'topic /gpr/program has a log time of 9223372036854775808 ns; allowed: 0 to '
+                       r'2\^63 - 1 ns'):
+        read_bag(path)
+    status = cli.main(['verify', str(path)])
+    out, err = capsys.readouterr()
+    assert (status, out) == (2, '') and err.count('\n') == 1 and 'log time of 9223372036854775808 ns' in err

@@ -112,6 +112,8 @@ def test_with_both_joint_states_topics_the_current_one_is_verified(tmp_path: Pat
     result = verify_bag(rewritten(both, tmp_path / 'moved', moved))
     assert [(f.check, f.topic, f.sample) for f in result.failures] == [('topic.joint_states', JOINT_STATES_TOPIC, 7)]
     assert result.failures[0].value == pytest.approx(1e-6, rel=1e-6)
+    assert "/gpr/joint_states recorded beside /joint_states: the legacy topic of older recordings, not verified" in \
+        " ".join(result.notes)
 
 
 def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

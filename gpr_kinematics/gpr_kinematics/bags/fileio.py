@@ -90,3 +90,15 @@ def sha256_file(path: Path, what: str) -> str:
         except OSError as exc:
             raise BagError(f'{path}: {what} cannot be read: {exc.strerror or exc}') from None
     return digest.hexdigest()
+
+
+def check_sqlite_pages(path: Path, head: bytes, size: int) -> None:
+    """Refuse a database file whose size is not its header's page count times its page size (bytes appended or cut;
+    the count is valid where the header's version-valid-for number equals its change counter, as SQLite writes it
+    on every commit)."""
+    page = int.from_bytes(head[16:18], 'big') or 1
+    page = 65536 if page == 1 else page
+    count = int.from_bytes(head[28:32], 'big')
+    if len(head) == 100 and head[92:96] == head[24:28] and count and size != page * count:
+        raise BagError(f'{path}: {size} bytes where its header declares {count} pages of {page} bytes '
+                       f'({page * count} bytes): bytes appended or cut; allowed: the database as SQLite wrote it')

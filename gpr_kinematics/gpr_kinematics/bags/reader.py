@@ -28,9 +28,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import brief
 from .cdr import Columns, decode_columns
 from .errors import BagError
-from .fileio import read_head, require_regular, sha256_file
+from .fileio import check_sqlite_pages, read_head, require_regular, sha256_file
 from .mcap_file import MAX_MESSAGES, read_mcap
 from .metadata import Metadata, read_metadata
 from .typestore import (
@@ -283,18 +284,6 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
     return _Contents(info, times, data, m.inflated, m.messages)
 
 
-def _check_pages(path: Path, head: bytes, size: int) -> None:
-    """Refuse a database file whose size is not its header's page count times its page size (bytes appended or cut;
-    the count is valid where the header's version-valid-for number equals its change counter, as SQLite writes it
-    on every commit)."""
-    page = int.from_bytes(head[16:18], 'big') or 1
-    page = 65536 if page == 1 else page
-    count = int.from_bytes(head[28:32], 'big')
-    if len(head) == 100 and head[92:96] == head[24:28] and count and size != page * count:
-        raise BagError(f'{path}: {size} bytes where its header declares {count} pages of {page} bytes '
-                       f'({page * count} bytes): bytes appended or cut; allowed: the database as SQLite wrote it')
-
-
 def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -> _Contents:
     """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
     those names is refused, so every row read is stored in the file). The bag's files before it held ``messages``
@@ -303,7 +292,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
     head, size = read_head(path, 'SQLite3 file', 100)
     if head[:16] != b'SQLite format 3\x00':
         raise BagError(f'{path}: not an SQLite3 database')
-    _check_pages(path, head, size)   # before the digest: 50 GB of zeros after the database were hashed for minutes
+    check_sqlite_pages(path, head, size)   # before the digest: 50 GB of zeros after it were hashed for minutes
     sha = sha256_file(path, 'SQLite3 file')
     uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
     try:
@@ -417,6 +406,12 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
         BagError: the path is missing or not a bag, its metadata is missing or bad, a storage file is missing,
             not a regular file, truncated or corrupt.
     """
+    if topics is not None and (isinstance(topics, (str, bytes)) or not isinstance(topics, (list, tuple, set))
+                               or not topics or not all(isinstance(t, str) and t for t in topics)):
+        raise BagError(f'topics = {brief(topics)}; allowed: None (every topic) or a list of one or more topic names '
+                       "(['/gpr/platform_state'], not a single name)")
+    if not isinstance(path, (str, os.PathLike)):
+        raise BagError(f'path = {brief(path)}; allowed: a bag folder or a .mcap or .db3 file')
     layout = locate(path)
     wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
     contents: list[_Contents] = []
@@ -433,7 +428,12 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
     names = sorted({n for c in contents for n in c.times} | (set(listed) & wanted if wanted else set(listed)))
     out: dict[str, TopicData] = {}
     for name in names:
-        t = np.asarray([v for c in contents for v in c.times.get(name, [])], dtype=np.int64)
+        times = [v for c in contents for v in c.times.get(name, [])]
+        if times and not 0 <= min(times) <= max(times) < 2**63:   # int64 would overflow (a traceback before)
+            bad = min(times) if min(times) < 0 else max(times)
+            raise BagError(f'{layout.path}: topic {name} has a log time of {bad} ns; allowed: 0 to 2^63 - 1 ns (a '
+                           'rosbag2 time stamp)')
+        t = np.asarray(times, dtype=np.int64)
         raw = [v for c in contents for v in c.data.get(name, [])]
         order = np.argsort(t, kind='stable')
         if np.any(order != np.arange(order.size)):

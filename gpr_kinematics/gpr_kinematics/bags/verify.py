@@ -28,6 +28,7 @@ an edit still has to pass every content check.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from pathlib import Path
 
@@ -36,6 +37,7 @@ import numpy as np
 from ..core import resolve_config
 from ..core.config import GprConfig
 from ..core.machine import slope_gain
+from ..errors import brief
 from ..robot.description import RobotDescription
 from .checks_bag import bag_checks
 from .checks_joints import joint_state_checks
@@ -47,12 +49,19 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
+from .errors import BagError
 from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix
 from .reader import Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
 from .tolerances import Tolerances
-from .typestore import PLATFORM_STATE, ROBOT_STATE_TOPIC, typestore
+from .typestore import (
+    JOINT_STATES_TOPIC,
+    LEGACY_JOINT_STATES_TOPIC,
+    PLATFORM_STATE,
+    ROBOT_STATE_TOPIC,
+    typestore,
+)
 from .typestore import PLATFORM_STATE_TOPIC as STATE_TOPIC
 
 __all__ = ['Tolerances', 'VerifyResult', 'format_table', 'verify_bag']
@@ -87,10 +96,17 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
         BagError: the bag cannot be read, or a message does not decode.
     """
     t0 = time.perf_counter()
+    for name, value, kind, allowed in (
+            ('bag', bag, (Bag, str, os.PathLike), 'a bag folder or file path, or a Bag of read_bag'),
+            ('config', config, (GprConfig, type(None)), 'a GprConfig (load_config) or None (the recorded one)'),
+            ('tolerances', tolerances, (Tolerances, type(None)), 'Tolerances or None (the defaults)'),
+            ('robot', robot, (RobotDescription, type(None)), 'a RobotDescription (load_robot) or None')):
+        if not isinstance(value, kind):
+            raise BagError(f'{name} = {brief(value)}; allowed: {allowed}')
     if not isinstance(bag, Bag):
         bag = read_bag(bag)
     t_read = time.perf_counter() - t0
-    tol = tolerances or Tolerances()
+    tol = Tolerances() if tolerances is None else tolerances
     # Recorded numbers may be anything (a corrupt q of 1e290): what overflows is a failed check, not a warning.
     with np.errstate(all='ignore'):
         checks = bag_checks(bag, allow_missing_checksums)
@@ -139,6 +155,10 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
     if bag.outside() and len(bag.suites) <= 1:
         notes.append(f"topics named like the node suite's outside its namespace {bag.namespace or '/'}, not verified: "
                      f'{", ".join(bag.outside())}')
+    if bag.joint_states_topic() == JOINT_STATES_TOPIC and bag.topic(LEGACY_JOINT_STATES_TOPIC) is not None:
+        ns = bag.namespace or ''
+        notes.append(f'{ns}{LEGACY_JOINT_STATES_TOPIC} recorded beside {ns}{JOINT_STATES_TOPIC}: the legacy topic of '
+                     'older recordings, not verified (the current one is)')
     if bag.unlisted:
         notes.append(f'storage file(s) in the folder that metadata.yaml does not list, not read: '
                      f'{", ".join(bag.unlisted)}')

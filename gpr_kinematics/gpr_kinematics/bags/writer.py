@@ -24,16 +24,20 @@ Tools read the segments as one recording (``ros2 bag info/play``, :func:`~gpr_ki
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from rosbags.rosbag2.errors import WriterError
 
-from ..errors import FileError
+from ..errors import FileError, brief
 from ..inputs.files import writable_folder
+from ..inputs.validation import plain_number
 from .errors import BagError
 from .metadata import BAG_VERSION, file_lines, render_metadata
 from .reader import OPEN_SEGMENT_DIR
@@ -131,10 +135,18 @@ class SegmentedBagWriter:
         check_format(storage, compression)
         for name, value in (('flush_interval', flush_interval), ('max_bag_size', max_bag_size),
                             ('max_bag_duration', max_bag_duration)):
-            if not isinstance(value, (int, float)) or not value >= 0 or value != value or value == float('inf'):
-                raise BagError(f'{name} = {value!r} is invalid; allowed: a finite number >= 0 (0 = off)')
-        if not topics:
-            raise BagError('no topics to record; allowed: at least one topic name')
+            number = plain_number(value)   # numpy scalars as their numbers; truth values and text NaN
+            if not 0.0 <= number < math.inf or name == 'max_bag_size' and number != int(number):
+                whole = 'a whole number of bytes' if name == 'max_bag_size' else 'a finite number'
+                raise BagError(f'{name} = {brief(value)} is invalid; allowed: {whole} >= 0 (0 = off)')
+        if not isinstance(topics, Mapping) or not topics or not all(
+                isinstance(t, str) and isinstance(ty, str) for t, ty in topics.items()):
+            raise BagError(f'topics = {brief(topics)}; allowed: a mapping of one or more topic names to their message '
+                           "types ({'/gpr/platform_state': 'gpr_interfaces/msg/PlatformState'})")
+        if custom_data is not None and (not isinstance(custom_data, Mapping) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in custom_data.items())):
+            raise BagError(f'custom_data = {brief(custom_data)}; allowed: a mapping of strings to strings (as '
+                           'metadata.yaml stores it)')
         self.topics = {self._topic(t): check_known(ty, t) for t, ty in topics.items()}
         self.storage = storage
         self.suffix = STORAGES[storage]
@@ -190,7 +202,12 @@ class SegmentedBagWriter:
         self.segment = _Segment(i, storage, folder, time.monotonic(), counts=dict.fromkeys(self.topics, 0))
 
     def write(self, topic: str, timestamp: int, data: bytes) -> None:
-        """Append one serialized message (CDR bytes, stored unchanged) with its log time [ns]."""
+        """Append one serialized message (CDR bytes, stored unchanged) with its log time [ns], an integer from 0 to
+        2^63 - 1 (refused before anything is written: a bad one had broken the open segment and lost the bag)."""
+        if isinstance(timestamp, (bool, np.bool_)) or not isinstance(timestamp, (int, np.integer)) or \
+                not 0 <= timestamp < 2**63:
+            raise BagError(f'log time = {brief(timestamp)}; allowed: an integer from 0 to 2^63 - 1 [ns]')
+        timestamp = int(timestamp)
         seg = self.segment
         if seg is None:
             raise BagError('the bag writer is not open')
