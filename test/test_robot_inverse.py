@@ -419,6 +419,19 @@ def test_malformed_stations(kwargs, pattern):
         Stations.of(**kwargs)
 
 
+def test_stations_keep_their_own_positions():
+    """Stations.of and stations_from_poses kept the caller's position array: a NaN written into it afterwards passed
+    by the validation (a solve then read "q1 = nan")."""
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    for make in (lambda P: Stations.of(P), lambda P: stations_from_poses(P, np.eye(3)[None])):
+        P = np.array([[1.1, 0.5, 0.45]])
+        st = make(P)
+        P[0, 0] = np.nan
+        assert st.position.tolist() == [[1.1, 0.5, 0.45]]
+        assert np.all(np.isfinite(st.position))
+
+
 def test_stations_of_a_position_alone_are_level_with_the_heading_free():
     """Stations.of(position): tilt 0, azimuth 0 (the station plane level), every heading free (0, unused), names by
     index; the orientation the identity."""

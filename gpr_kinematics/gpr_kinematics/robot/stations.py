@@ -87,7 +87,7 @@ class Stations:
         >>> len(s), s.names
         (1, ('0',))
         """
-        P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
+        P = np.array(rows_of(position, 'position', 3, ('x', 'y', 'z')))   # a copy: the caller's array may change
         bounded(P, 'station position [m]')
         n = P.shape[0]
         free = np.ones(n, dtype=bool) if heading is None else np.zeros(n, dtype=bool)
@@ -159,7 +159,7 @@ def stations_from_poses(position: ArrayLike, rotation: ArrayLike, names: Sequenc
     Raises:
         InputError: positions not finite or beyond +-1e6 m, a matrix that is not a rotation, counts that differ.
     """
-    P = rows_of(position, 'position', 3, ('x', 'y', 'z'))
+    P = np.array(rows_of(position, 'position', 3, ('x', 'y', 'z')))   # a copy: the caller's array may change
     bounded(P, 'station position [m]')
     R = rotation_matrices(rotation, 'rotation', QUATERNION_NORM_TOLERANCE)
     n = P.shape[0]
