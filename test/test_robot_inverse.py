@@ -1,6 +1,7 @@
 """Station inverse kinematics: round trips on thousands of stations, batch = single, branches, redundancy, the
 naive model's wafer error against an independent computation, and every refusal with its message."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -430,6 +431,24 @@ def test_stations_keep_their_own_positions():
         P[0, 0] = np.nan
         assert st.position.tolist() == [[1.1, 0.5, 0.45]]
         assert np.all(np.isfinite(st.position))
+
+
+@pytest.mark.parametrize('names, pattern', [
+    ('abc', "names must be a list of station names, got 'abc'"),
+    (5, 'names must be a list of station names, got 5'),
+    (['a', 'b'], 'names must name the 3 stations, got 2 names'),
+])
+def test_station_names_follow_one_rule(names, pattern):
+    """stations_from_poses took a text as a list of names ('abc': stations a, b and c) and raised TypeError for 5;
+    Stations.of refused both: one rule for both."""
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    P = [[1.1, 0.5, 0.45]] * 3
+    with pytest.raises(InputError, match=re.escape(pattern)):
+        stations_from_poses(P, np.stack([np.eye(3)] * 3), names=names)
+    with pytest.raises(InputError, match=re.escape(pattern)):
+        Stations.of(P, names=names)
+    assert stations_from_poses(P, np.stack([np.eye(3)] * 3), names=('a', 'b', 'c')).names == ('a', 'b', 'c')
 
 
 def test_stations_of_a_position_alone_are_level_with_the_heading_free():

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 from gpr_kinematics.core.rotations import rotation_angle
-from gpr_kinematics.errors import LimitError
+from gpr_kinematics.errors import InputError, LimitError
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.planar_arm import branch_of
@@ -48,6 +48,14 @@ def test_reteach_puts_the_wafer_where_the_old_tool_meant(arm):
     assert rt.solution.branch == branch_of(ROBOT.arm(arm), J)
     if arm == 'arm2':
         np.testing.assert_allclose(rt.solution.joints[:, 2], J[:, 2], atol=0)
+
+
+def test_reteach_refuses_names_that_are_no_list():
+    """reteach(names='ab') named two stations a and b; names=5 raised TypeError."""
+    Q, J = random_postures(ROBOT, 'arm1', 2, seed=24)
+    for names in ('ab', 5):
+        with pytest.raises(InputError, match='names must be a list of station names, got '):
+            reteach(ROBOT, Q, J, 'arm1', names=names)
 
 
 def test_reteach_two_joint_arm_leaves_the_heading_to_the_arm():

@@ -51,6 +51,19 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
     return a
 
 
+def station_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
+    """The names of ``n`` stations: a list (or tuple, array) of ``n`` names, each taken as its text; ``None`` names
+    them by index. Else InputError (a text is no list of names: ``'abc'`` made stations a, b and c)."""
+    if names is None:
+        return tuple(str(i) for i in range(n))
+    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray):
+        raise InputError(f'names must be a list of station names, got {brief(names)}')
+    label = tuple(str(v) for v in names)
+    if len(label) != n:
+        raise InputError(f'names must name the {n} stations, got {len(label)} names')
+    return label
+
+
 @dataclass(frozen=True)
 class StationRecord:
     """One station (module docstring) as the command line gives it: ``position`` [m, world], ``tilt``, ``azimuth``
@@ -97,15 +110,8 @@ class Stations:
                 raise InputError(f'heading_free must be one bool or one per station ({n}), got {brief(heading_free)}')
             free = free | np.broadcast_to(marks, (n,))
         head = np.zeros(n) if heading is None else per_station(heading, 'heading', n)
-        if names is None:
-            names = tuple(str(i) for i in range(n))
-        if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray):
-            raise InputError(f'names must be a list of station names, got {brief(names)}')
-        names = tuple(str(v) for v in names)
-        if len(names) != n:
-            raise InputError(f'names must name the {n} stations, got {len(names)} names')
         return Stations(P, per_station(tilt, 'tilt', n), per_station(azimuth, 'azimuth', n), np.where(free, 0.0, head),
-                        free, names)
+                        free, station_names(names, n))
 
     @cached_property
     def rotation(self) -> Array:
@@ -166,7 +172,4 @@ def stations_from_poses(position: ArrayLike, rotation: ArrayLike, names: Sequenc
     if R.shape[0] != n:
         raise InputError(f'{n} positions and {R.shape[0]} rotations; allowed: one rotation per position')
     tilt, azimuth, heading = tilt_from_matrix(R)
-    label = tuple(str(v) for v in names) if names is not None else tuple(str(i) for i in range(n))
-    if len(label) != n:
-        raise InputError(f'names must name the {n} stations, got {len(label)} names')
-    return Stations(P, tilt, azimuth, heading, np.zeros(n, dtype=bool), label)
+    return Stations(P, tilt, azimuth, heading, np.zeros(n, dtype=bool), station_names(names, n))
