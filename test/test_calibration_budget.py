@@ -202,7 +202,7 @@ def test_refusals():
     with pytest.raises(InputError, match=r'not positive semi-definite'):
         accuracy_budget(m, Q, table, calibrated=([0, 1], np.array([[1e-10, 0], [0, -1e-10]])))
     singular = np.array([[1e-10, 1e-10], [1e-10, 1e-10]])            # rank 1: sampled without failure
-    b = accuracy_budget(m, [[0.3, 0.31, 0.3]], table, calibrated=([0, 1], singular), samples=100)
+    b = accuracy_budget(m, [[0.3, 0.303, 0.3]], table, calibrated=([0, 1], singular), samples=100)
     assert np.all(np.isfinite(b.mc_std))
     with pytest.raises(InputError, match=r'q2 = nan is not a finite number'):
         accuracy_budget(m, [[0.3, np.nan, 0.3]], table)
@@ -291,6 +291,39 @@ def test_monte_carlo_settings_that_are_not_numbers_are_named(kwargs, words):
     with pytest.raises(InputError, match=words):
         accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], parse_tolerances({'rod_length': {'tolerance': 1e-6}}),
                         samples=10, **kwargs)
+
+
+@pytest.mark.parametrize('Q, words', [
+    ([[5, 5, 5]], r'^station 1: q1 = 5 m is outside the stroke \[0, 0\.508\] m$'),
+    ([[-2, -2, -2]], r'^station 1: q1 = -2 m is outside the stroke \[0, 0\.508\] m$'),
+    ([[0.3, 0.3, 0.3], [0.3, 0.3, 300]], r'^station 2: q3 = 300 m is outside the stroke .*millimetres given as metres'),
+    ([[0.3, 0.3, 0.3], [0.3, 0.4, 0.3]], r'^station 2: q = \[0\.3, 0\.4, 0\.3\] m tilt the platform by 0\.6208 rad '
+                                         r'\(35\.57 deg\), beyond the tilt limit 0\.03491 rad \(2 deg\); allowed: at '
+                                         r'most 5 % beyond it, 0\.03665 rad$'),
+])
+def test_stations_beyond_the_machines_limits_are_refused(Q, words):
+    """Rods outside the stroke or tilting the platform far beyond its limit returned numbers: the core's stroke rule
+    and the measurements' tilt rule (5 % beyond the limit) now refuse them, naming the station."""
+    table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
+    with pytest.raises(LimitError, match=words):
+        accuracy_budget(CoreModel(load_config()), Q, table, samples=10)
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'theta': ['a'] * 24}, r"^theta must be 24 finite parameter values, got \['a', 'a'"),
+    ({'calibrated': 'x'}, r"^calibrated = 'x'; allowed: a pair \(indices, covariance\) of the calibrated parameters"),
+    ({'calibrated': ([0], 'a')}, r"^calibrated covariance must be a finite symmetric matrix, got 'a'$"),
+    ({'keep_samples': 'x'}, r"^keep_samples = 'x'; allowed: an integer >= 0"),
+    ({'keep_samples': -1}, r'^keep_samples = -1; allowed: an integer >= 0 \(the samples of that many first stations '
+                           r'are kept\)$'),
+    ({'keep_samples': 1.5}, r'^keep_samples = 1\.5; allowed: an integer >= 0'),
+])
+def test_budget_options_of_the_wrong_kind_are_named(kwargs, words):
+    """theta as text was a ValueError, calibrated='x' an IndexError, keep_samples='x' a ValueError and -1 silently
+    0."""
+    table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
+    with pytest.raises(InputError, match=words):
+        accuracy_budget(CoreModel(load_config()), [[0.3, 0.3, 0.3]], table, samples=10, **kwargs)
 
 
 def test_percentiles_may_be_any_sequence_of_numbers():

@@ -33,9 +33,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..callbacks import StageProgress
+from ..core.config import GprConfig
+from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.inverse import check_tool
-from ..errors import InputError, brief
-from ..inputs.validation import plain_number, random_seed, rotation_matrices
+from ..core.ops import ARRAY
+from ..errors import InputError, LimitError, brief
+from ..inputs.validation import float_array, plain_number, random_seed, rotation_matrices
+from .core_model import TILT_MARGIN, platform_tilts
 from .model import (
     PoseModel,
     as_configurations,
@@ -258,11 +262,42 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
     return np.array(np.broadcast_to(tool_v, (N, 3))), R, pct, labels_t
 
 
-def _check_calibrated(calibrated: tuple[ArrayLike, ArrayLike], P: int) -> Calibrated:
+def _check_stations(model: PoseModel, rods: Array, labels: tuple[str, ...]) -> None:
+    """Refuse stations a model of the machine (one with a ``config``, :class:`~.core_model.CoreModel`) cannot take,
+    with the core's rules: a rod outside the stroke (:func:`~gpr_kinematics.core.forward.check_stroke`), rods that
+    tilt the platform beyond its tilt limit by more than :data:`~.core_model.TILT_MARGIN` (the rule of measured
+    configurations, :func:`~.core_model.check_limits`): the budget of a pose the machine never takes is no number
+    of it."""
+    config = getattr(model, 'config', None)
+    if not isinstance(config, GprConfig):   # a model without a machine's limits
+        return
+    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
+    for i in np.flatnonzero(~np.all((rods >= lo) & (rods <= hi), axis=1))[:1]:   # the first station outside, by name
+        try:
+            check_stroke(ARRAY, [rods[i:i + 1, 0], rods[i:i + 1, 1], rods[i:i + 1, 2]], config, what='q', typed=True)
+        except LimitError as exc:
+            raise LimitError(f'station {labels[i]}: {exc}') from None
+    tilt = platform_tilts(rods, config)
+    bad = np.flatnonzero(~(tilt <= TILT_MARGIN * config.tilt_limit))
+    if bad.size:
+        i, limit = int(bad[0]), config.tilt_limit
+        raise LimitError(f'station {labels[i]}: q = {rods[i].tolist()} m tilt the platform by {tilt[i]:.4g} rad '
+                         f'({np.degrees(tilt[i]):.4g} deg), beyond the tilt limit {limit:.4g} rad '
+                         f'({np.degrees(limit):.4g} deg); allowed: at most {100 * (TILT_MARGIN - 1):.0f} % beyond it, '
+                         f'{TILT_MARGIN * limit:.4g} rad')
+
+
+def _check_calibrated(calibrated: Any, P: int) -> Calibrated:
     """``(indices, covariance)`` of calibrated parameters, checked: distinct indices below ``P``, a finite,
     symmetric, positive semi-definite covariance of matching size."""
-    idx = np.asarray(calibrated[0]).ravel()
-    cov = np.asarray(calibrated[1], dtype=float)
+    if isinstance(calibrated, (str, bytes)) or not isinstance(calibrated, Sequence) or len(calibrated) != 2:
+        raise InputError(f'calibrated = {brief(calibrated)}; allowed: a pair (indices, covariance) of the calibrated '
+                         'parameters (e.g. CalibrationResult.fitted and .covariance)')
+    try:
+        idx = np.asarray(calibrated[0]).ravel()
+    except (TypeError, ValueError):   # a ragged list
+        idx = np.array([], dtype=float)
+    cov = float_array(calibrated[1], 'calibrated covariance', 'a finite symmetric matrix')
     if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
         raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
     if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)) or \
@@ -299,6 +334,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     Raises:
         InputError: bad shapes or values, too many samples or stations, joint play for a model without it, no error
             source at all (:func:`_check_sources`: every error would be 0).
+        LimitError: a station outside the machine's limits, for a model with a ``config`` (:func:`_check_stations`).
         ConfigError: the table names a parameter the model does not have.
     """
     Qa = as_configurations(Q, 'stations')
@@ -307,11 +343,16 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     seed = random_seed(seed)
     params = model.parameters
     P = len(params)
-    th = params.nominal if theta is None else np.asarray(theta, dtype=float)
+    th = params.nominal if theta is None else float_array(theta, 'theta', f'{P} finite parameter values')
     if th.shape != (P,) or not np.all(np.isfinite(th)):
         raise InputError(f'theta must be {P} finite parameter values, got shape {th.shape}')
     tols = table.bind(params)
     cal = None if calibrated is None else _check_calibrated(calibrated, P)
+    if isinstance(keep_samples, (bool, np.bool_)) or not isinstance(keep_samples, (int, np.integer)) or \
+            keep_samples < 0:
+        raise InputError(f'keep_samples = {brief(keep_samples)}; allowed: an integer >= 0 (the samples of that many '
+                         'first stations are kept)')
+    _check_stations(model, Qa, labels_t)
     if max(table.joint_clearance) > 0 and not model.supports_displacement:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
@@ -351,7 +392,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                                     contrib[:, comps, :].sum(1) / total[:, None], 0.0)
     mc, mc_rms, mc_max, max_inside, mc_mean, mc_std, kept = monte_carlo(
         model, th, Qa, (pos0, rot0), tool_v, R, tols, cal, table, samples, seed, pct, QUANTITIES, progress,
-        min(max(int(keep_samples), 0), N))
+        min(int(keep_samples), N))
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,

@@ -199,6 +199,15 @@ class CoreModel:
         return fk.position.reshape(S, N, 3), fk.rotation.reshape(S, N, 3, 3)
 
 
+def platform_tilts(q: Array, config: GprConfig) -> Array:
+    """The tilts [rad] of the plane of the joint centres ``P_k`` at the rods ``q (N, 3)`` [m], which every
+    virtual-joint model shares: what :func:`check_limits` and the accuracy budget bound by :data:`TILT_MARGIN` times
+    the tilt limit."""
+    P = base_points(q, config)
+    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    return np.asarray(np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2]), dtype=float)
+
+
 def check_limits(meas: Measurements, config: GprConfig) -> None:
     """Refuse measured configurations outside the machine's limits, naming the line and the column: a rod length
     outside the stroke, or rod lengths that tilt the platform beyond the tilt limit (the tilt of the plane of the
@@ -211,9 +220,7 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
         hint = f' (millimetres? declare "# units: mm" or write "q{k + 1} [mm]")' if mm else ''
         shown, ends = stroke_words(float(meas.q[i, k]), lo, hi)
         raise InputError(f'{meas.where(int(i))}, column q{k + 1}: {shown} m is outside the stroke {ends} m{hint}')
-    P = base_points(meas.q, config)
-    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    tilt = np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2])
+    tilt = platform_tilts(meas.q, config)
     bad = np.flatnonzero(tilt > TILT_MARGIN * config.tilt_limit)
     if bad.size:
         i = int(bad[0])
