@@ -230,3 +230,29 @@ def test_measurements_built_by_a_caller_are_checked():
                            r'3 file names for 8 rows; allowed: one per row, or none')):
         with pytest.raises(InputError, match=pattern):
             measurements.Measurements('m', *args)
+
+
+@pytest.mark.parametrize('kwargs, pattern', [
+    ({'sigma_position': -1e-6}, r'^sigma_position = -1e-06 m is outside \[1e-09, 0\.1\] m; allowed: a standard '
+                                r'deviation in that range$'),
+    ({'sigma_angle': 'a'}, r"^sigma_angle must be a number or an array of numbers, got 'a'$"),
+    ({'sigma_position': [1e-6, 2e-6]}, r'^sigma_position must be a single number \[m\] \(one standard deviation for '
+                                       r'every row\), got shape \(2,\)$'),
+    ({'sigma_position': 0.5, 'with_sigmas': False}, r'^sigma_position = 0\.5 m is outside \[0, 0\.1\] m; allowed: a '
+                                                    r'standard deviation in that range \(0: no noise\)$'),
+    ({'seed': 'a'}, r"^seed = 'a' is invalid; allowed: an integer from 0 to 2\*\*63 - 1$"),
+    ({'seed': -1}, r'^seed = -1 is invalid; allowed: an integer from 0 to 2\*\*63 - 1$'),
+])
+def test_synthetic_measurements_name_a_bad_sigma_or_seed(kwargs, pattern):
+    """A negative sigma was numpy's 'scale < 0', a sigma of text or one per row a bare ValueError, seed='a' a
+    TypeError and seed=-1 a ValueError; a noise-free set (sigma 0, not recorded) is still made."""
+    from gpr_kinematics.calibration.core_model import CoreModel
+    from gpr_kinematics.calibration.synthetic import synthetic_measurements
+    from gpr_kinematics.core.config import load_config
+
+    model = CoreModel(load_config())
+    args = {'sigma_position': 1e-6, 'sigma_angle': 1e-5} | kwargs
+    with pytest.raises(InputError, match=pattern):
+        synthetic_measurements(model, model.parameters.nominal, [[0.3, 0.3, 0.3], [0.2, 0.2, 0.2]], **args)
+    exact = synthetic_measurements(model, model.parameters.nominal, [[0.3, 0.3, 0.3]], 0.0, 0.0, with_sigmas=False)
+    assert exact.sigma_position is None and np.all(np.isfinite(exact.position))
