@@ -37,7 +37,7 @@ from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
-from .measurements import SIGMA_RANGE, Measurements, check_repeats
+from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, prior_scale
 from .plausibility import measured_errors, plausible_start
 from .quality import (
@@ -57,6 +57,7 @@ from .quality import (
     weak_at_estimate,
     worst_rows,
 )
+from .repeats import check_repeats
 from .results import CalibrationResult, Convergence, ResidualStats
 from .tolerances import free_of
 
@@ -292,7 +293,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
 
     Raises:
         InputError: too few rows for the free parameters, a row that repeats another to far below the noise
-            (:func:`~.measurements.check_repeats`), a pose implausibly far from the nominal model, a bad sigma, an
+            (:func:`~.repeats.check_repeats`), a pose implausibly far from the nominal model, a bad sigma, an
             unknown parameter name, a fit that leaves the model's domain or explains nothing.
     """
     params = model.parameters
