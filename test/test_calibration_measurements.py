@@ -256,3 +256,16 @@ def test_synthetic_measurements_name_a_bad_sigma_or_seed(kwargs, pattern):
         synthetic_measurements(model, model.parameters.nominal, [[0.3, 0.3, 0.3], [0.2, 0.2, 0.2]], **args)
     exact = synthetic_measurements(model, model.parameters.nominal, [[0.3, 0.3, 0.3]], 0.0, 0.0, with_sigmas=False)
     assert exact.sigma_position is None and np.all(np.isfinite(exact.position))
+
+
+def test_measurements_built_from_lists_are_the_files_arrays():
+    """Measurements built in code with lists passed the checks, then len() raised AttributeError (it reads
+    q.shape); lines=None was a TypeError. Lists of numbers become float arrays, lines a tuple of integers."""
+    m = Measurements('m', [[0.3, 0.3, 0.3], [0.2, 0.2, 0.2]], [[0.0, 0.0, 0.3], [0.0, 0.0, 0.2]], None, [1e-6, 2e-6],
+                     None, [2, 3])
+    assert len(m) == 2 and m.lines == (2, 3)
+    assert all(isinstance(a, np.ndarray) and a.dtype == float for a in (m.q, m.position, m.sigma_position))
+    for lines, shown in ((None, 'None'), ('ab', "'ab'"), ([2, 2.5], r'\[2, 2\.5\]'), ([-1, 2], r'\[-1, 2\]')):
+        with pytest.raises(InputError, match=rf'^m: Measurements\.lines = {shown}; allowed: the line number of each '
+                                             r'row, integers >= 0$'):
+            Measurements('m', m.q, m.position, None, None, None, lines)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -93,11 +94,12 @@ class Measurements:
     files: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        """Refuse arrays that are not the measurements of one set of rows (a library caller's; a file's pass)."""
+        """Refuse arrays that are not the measurements of one set of rows (a library caller's; a file's pass); take
+        lists of numbers as float arrays and the line numbers as a tuple of integers >= 0, as a file's are."""
         n = np.shape(self.q)[0] if np.ndim(self.q) == 2 else -1
-        fields = (('q', self.q, (n, 3)), ('position', self.position, (n, 3)), ('quaternion', self.quaternion, (n, 4)),
-                  ('sigma_position', self.sigma_position, (n,)), ('sigma_angle', self.sigma_angle, (n,)))
-        for name, value, shape in fields:
+        for name, shape in (('q', (n, 3)), ('position', (n, 3)), ('quaternion', (n, 4)), ('sigma_position', (n,)),
+                            ('sigma_angle', (n,))):
+            value = getattr(self, name)
             if value is None and name in ('q', 'position'):
                 raise InputError(f'{self.source}: Measurements.{name} is None; allowed: an array {shape}')
             if value is None:
@@ -110,6 +112,8 @@ class Measurements:
             if bad.size:
                 raise InputError(f'{self.source}: Measurements.{name} of row {int(bad[0])} is not finite; allowed: '
                                  'finite numbers')
+            object.__setattr__(self, name, np.asarray(v, dtype=float))   # a list (a caller's) as the file's arrays
+        object.__setattr__(self, 'lines', _line_numbers(self.lines, self.source))
         if len(self.lines) != n:
             raise InputError(f'{self.source}: {len(self.lines)} line numbers for {n} rows; allowed: one per row')
         if len(self.files) not in (0, n):
@@ -152,6 +156,15 @@ class Measurements:
         if len(set(self.lines)) < len(self.lines):
             return tuple(f'row {i + 1} (line {ln} of its file)' for i, ln in enumerate(self.lines))
         return tuple(row_name(ln) for ln in self.lines)
+
+
+def _line_numbers(lines: object, source: str) -> tuple[int, ...]:
+    """``Measurements.lines`` as a tuple of integers >= 0 (a list's too); else :class:`InputError`."""
+    if isinstance(lines, (str, bytes)) or not isinstance(lines, Sequence | np.ndarray) or not all(
+            isinstance(x, (int, np.integer)) and not isinstance(x, bool) and x >= 0 for x in lines):
+        raise InputError(f'{source}: Measurements.lines = {brief(lines)}; allowed: the line number of each row, '
+                         'integers >= 0')
+    return tuple(int(x) for x in lines)
 
 
 def row_name(line: int, file: str | None = None) -> str:
