@@ -264,3 +264,12 @@ def test_a_nearest_reference_lies_within_the_joint_limits():
     with pytest.raises(ConfigError, match=r'weights\[1\] = -1.0 is invalid; allowed: a list of 4 finite numbers in '
                                           r'\(no unit\), each within \[0, 1e\+06\]'):
         make_robot(data)
+
+
+@pytest.mark.parametrize('geometry, shown', [({'model': 'radial'}, r"\{'model': 'radial'\}"), (5, '5')])
+def test_a_geometry_that_is_no_file_or_config_is_named(geometry, shown):
+    """load_robot(geometry={'model': 'radial'}) or geometry=5 made a robot whose config was that value: an
+    AttributeError at its first use."""
+    with pytest.raises(ConfigError, match=rf'^geometry = {shown}; allowed: a GPR geometry file path \(str or Path\), '
+                                          r"a GprConfig \(load_config\) or None \(the description's gpr section\)$"):
+        load_robot(geometry=geometry)

@@ -136,3 +136,9 @@ def test_refusals(rods, joints, error, pattern):
 def test_limits_can_be_skipped_for_analyses():
     fk = robot_forward(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1', check_limits=False)
     assert np.isfinite(fk.wafer.position).all()
+
+
+def test_forward_of_something_else_than_a_robot_is_named():
+    """robot_forward(None, ...) raised AttributeError ('NoneType' object has no attribute 'arm')."""
+    with pytest.raises(InputError, match=r'^robot = None; allowed: a RobotDescription \(load_robot or parse_robot\)$'):
+        robot_forward(None, [0.3, 0.3, 0.3], [0.0, 0.0, 0.0])

@@ -347,3 +347,13 @@ def test_a_straight_entry_beyond_a_joint_limit_is_named_once_with_its_program(tm
     assert str(err.value).startswith('x.yaml: steps[5] (place pm1, approach): the straight line into it, at 0.043 of '
                                      'its length: station pm1/approach: arm2_elbow = 2.9063 rad is beyond its upper '
                                      'limit 2.9 rad by 0.006304 rad'), str(err.value)
+
+
+def test_a_plan_of_something_else_than_a_robot_and_a_program_is_named():
+    """plan_program(robot, a_dict) raised AttributeError ('dict' object has no attribute 'stations')."""
+    program = load_program(config_path('programs/example_cell_program.yaml'))
+    with pytest.raises(InputError, match=r"^program = \{'format': 'gpr_program'\}; allowed: a RobotProgram "
+                                         r'\(load_program or parse_program\)$'):
+        plan_program(ROBOT, {'format': 'gpr_program'})
+    with pytest.raises(InputError, match=r'^robot = None; allowed: a RobotDescription \(load_robot or parse_robot\)$'):
+        plan_program(None, program)

@@ -887,3 +887,15 @@ def test_margin_help_prints_the_default_the_check_uses(tmp_path):
         assert inspect.signature(function).parameters['margin'].default == margin.MARGIN
     res = gpr('program', 'check', '--help', cwd=tmp_path)
     assert f'(default {margin.MARGIN:g})' in ' '.join(res.stdout.split())
+
+
+def test_a_check_of_something_else_than_a_plan_and_a_cell_is_named():
+    """check_program(plan, {'format': 'gpr_cell'}) raised AttributeError; so did a mapping as the plan."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.safety.check import check_program
+
+    with pytest.raises(InputError, match=r"^cell = \{'format': 'gpr_cell'\}; allowed: a Cell \(load_cell or "
+                                         r'parse_cell\) or None \(no cell\)$'):
+        check_program(PLAN, {'format': 'gpr_cell'})
+    with pytest.raises(InputError, match=r"^plan = \{'x': 1\}; allowed: a ProgramPlan \(plan_program\)$"):
+        check_program({'x': 1}, None)

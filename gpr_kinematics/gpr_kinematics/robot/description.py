@@ -455,8 +455,11 @@ def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig 
     """
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise ConfigError(f'robot description path = {brief(path)}; allowed: a file path (str or Path) or None')
+    if geometry is not None and not isinstance(geometry, (str, os.PathLike, GprConfig)):
+        raise ConfigError(f'geometry = {brief(geometry)}; allowed: a GPR geometry file path (str or Path), a GprConfig '
+                          '(load_config) or None (the description\'s gpr section)')
     file = config_path(DEFAULT_ROBOT) if path is None else path
-    cfg = load_config(geometry) if isinstance(geometry, (str, Path)) else geometry
+    cfg = load_config(geometry) if isinstance(geometry, (str, os.PathLike)) else geometry
     robot = parse_robot(read_yaml(file, 'robot'), str(file), Path(file).parent, cfg)
     if model is not None:
         try:

@@ -32,7 +32,7 @@ from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat
 from ..core.ops import SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
 from ..core.single import one_pose
-from ..errors import InputError, LimitError, apart
+from ..errors import InputError, LimitError, apart, brief
 from ..inputs.validation import bounded, rows_of
 from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
@@ -216,6 +216,8 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``;
             without, InputError for a joint beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` rad).
     """
+    if not isinstance(robot, RobotDescription):
+        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot or parse_robot)')
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
     J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)

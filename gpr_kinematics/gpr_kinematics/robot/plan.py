@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConfigError, InputError, LimitError
+from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import robot_forward
@@ -215,6 +215,14 @@ def _solve_waypoints(robot: RobotDescription, program: RobotProgram, way: Waypoi
         raise InputError(f'{program.source}: {_label(program, way, i)}: {exc}') from None
 
 
+def _check_kinds(robot: object, program: object) -> None:
+    """Refuse a robot that is no RobotDescription and a program that is no RobotProgram (an AttributeError later)."""
+    if not isinstance(robot, RobotDescription):
+        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot or parse_robot)')
+    if not isinstance(program, RobotProgram):
+        raise InputError(f'program = {brief(program)}; allowed: a RobotProgram (load_program or parse_program)')
+
+
 def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | None = None) -> ProgramPlan:
     """Check ``program`` on ``robot`` (module docstring). With ``rate`` [Hz], a program that cannot be sampled at it
     is refused once its waypoints are solved, before its straight lines and moves are timed (the costly part): its
@@ -228,6 +236,7 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
         LimitError: a waypoint out of reach or beyond a limit, a move time shorter than the limits allow; the
             message names the program, the step and the reason.
     """
+    _check_kinds(robot, program)
     way = expand(program, robot)
     check_wafers(program, way)
     W = len(way)

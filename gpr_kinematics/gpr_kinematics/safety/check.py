@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..callbacks import StageProgress, reporter
+from ..errors import InputError, brief
 from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
@@ -167,7 +168,15 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
                   progress: StageProgress | None = None) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
     slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
-    clearance after each round of its search; the slip before and after)."""
+    clearance after each round of its search; the slip before and after).
+
+    Raises:
+        InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None.
+    """
+    if not isinstance(plan, ProgramPlan):
+        raise InputError(f'plan = {brief(plan)}; allowed: a ProgramPlan (plan_program)')
+    if cell is not None and not isinstance(cell, Cell):
+        raise InputError(f'cell = {brief(cell)}; allowed: a Cell (load_cell or parse_cell) or None (no cell)')
     tell = reporter(progress)
     wafers = wafer_plan(plan)
     robot = plan.robot
