@@ -273,3 +273,15 @@ def test_a_geometry_that_is_no_file_or_config_is_named(geometry, shown):
     with pytest.raises(ConfigError, match=rf'^geometry = {shown}; allowed: a GPR geometry file path \(str or Path\), '
                                           r"a GprConfig \(load_config\) or None \(the description's gpr section\)$"):
         load_robot(geometry=geometry)
+
+
+def test_tuples_are_named_as_tuples_and_joints_may_be_one():
+    """kind_of called a tuple 'a list': joints as a tuple read 'joints must be a list ..., got a list'. A tuple of
+    joints is taken as the list; a tuple where a mapping belongs is named a tuple."""
+    data = robot_data()
+    data['arms'][0]['joints'] = tuple(data['arms'][0]['joints'])
+    assert make_robot(data).arms[0].joint_names == ROBOT.arms[0].joint_names
+    data['base'] = (1.0, 2.0)
+    with pytest.raises(ConfigError, match=r'^test_robot\.yaml: base: expected a mapping \(frame, position, rpy of '
+                                          r'gpr_base in the world\), got a tuple$'):
+        make_robot(data)

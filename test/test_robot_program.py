@@ -280,3 +280,13 @@ def test_a_file_of_the_wrong_kind_is_named_in_a_users_words():
         with pytest.raises(ConfigError, match=re.escape(f'p.yaml: expected a mapping (format: gpr_robot_program, '
                                                         f'stations, steps), got {said}')):
             parse_program(data, 'p.yaml')
+
+
+def test_a_station_position_given_as_a_tuple_is_taken_as_a_list():
+    """A code caller's tuple: the robot description's base.position took it, a program station's position refused
+    it ('position = (750, 800, 400) is invalid; allowed: [x, y, z]'); both take it now."""
+    data = yaml.safe_load(config_path('programs/example_cell_program.yaml').read_text(encoding='utf-8'))
+    listed = parse_program(data, 'p.yaml', config_path('programs'))
+    data['stations'][0]['position'] = tuple(data['stations'][0]['position'])
+    tupled = parse_program(data, 'p.yaml', config_path('programs'))
+    np.testing.assert_array_equal(tupled.stations.stations.position, listed.stations.stations.position)

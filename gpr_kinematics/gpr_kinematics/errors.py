@@ -130,8 +130,8 @@ def kind_of(value: Any) -> str:
     """What a file gave where a mapping or a list was expected, in a user's words (``nothing (an empty file or
     null)`` where a message said ``NoneType``).
 
-    >>> kind_of(None), kind_of([1]), kind_of('x'), kind_of(2.5), kind_of(True)
-    ('nothing (an empty file or null)', 'a list', 'text', 'a number', 'true/false')
+    >>> kind_of(None), kind_of([1]), kind_of((1,)), kind_of('x'), kind_of(2.5), kind_of(True)
+    ('nothing (an empty file or null)', 'a list', 'a tuple', 'text', 'a number', 'true/false')
     """
     if value is None:
         return 'nothing (an empty file or null)'
@@ -141,8 +141,10 @@ def kind_of(value: Any) -> str:
         return 'a number'
     if isinstance(value, (str, bytes)):
         return 'text'
-    if isinstance(value, (list, tuple)):
+    if isinstance(value, list):
         return 'a list'
+    if isinstance(value, tuple):   # a code caller's (a file has lists): "must be a list, got a list" contradicted it
+        return 'a tuple'
     if isinstance(value, dict):
         return 'a mapping'
     return type(value).__name__

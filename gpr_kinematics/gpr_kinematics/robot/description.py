@@ -325,9 +325,9 @@ def _arm(raw: Any, where: str) -> Arm:
     mount = _mapping(data.get('mount', {}), f'{where}: mount', 'position and yaw of the first joint axis')
     check_keys(mount, ('position', 'yaw'), f'{where}: mount')
     raw_joints = data.get('joints')
-    if not isinstance(raw_joints, list) or not 2 <= len(raw_joints) <= 4:
+    if not isinstance(raw_joints, (list, tuple)) or not 2 <= len(raw_joints) <= 4:
         raise ConfigError(f'{where}: joints must be a list of 2 to 4 revolute joints (shoulder first), got '
-                          f'{len(raw_joints) if isinstance(raw_joints, list) else kind_of(raw_joints)}')
+                          f'{len(raw_joints) if isinstance(raw_joints, (list, tuple)) else kind_of(raw_joints)}')
     joints = tuple(_joint(j, f'{where}: joints[{i}]') for i, j in enumerate(raw_joints))
     for j in joints[:-1]:
         if j.length < LEAST:   # 5e-324 passed: 1 / (2 L1 L2) overflowed in the arm's inverse kinematics

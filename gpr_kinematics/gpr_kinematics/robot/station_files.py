@@ -211,7 +211,7 @@ def stations_from_yaml(data: Any, where: str) -> StationRows:
         name = station_name(st['name'], w)
         w = f'{w} ({name})'
         pos = st['position']
-        if not isinstance(pos, list) or len(pos) != 3:
+        if not isinstance(pos, (list, tuple)) or len(pos) != 3:   # a tuple as the robot's base.position
             raise ConfigError(f'{w}: position = {brief(pos)} is invalid; allowed: [x, y, z] in {lunit}')
         rows.names.append(name)
         x, y, z = (to_si(_number(v, w, k, lunit, f'within +-{WORLD_BOUND:g} m of the world origin'), length)
