@@ -223,3 +223,20 @@ def test_the_corners_are_where_the_jerk_changes():
     assert found.size == 8 and inner.size == 6       # the move's start and end too, where s''' jumps from 0 to J
     assert np.allclose(found[1:-1], inner, rtol=0.0, atol=2e-5)
     assert found[0] == pytest.approx(t.depart[0], abs=2e-5) and found[-1] == pytest.approx(t.total, abs=2e-5)
+
+
+def test_a_rate_or_margin_given_as_a_0d_array_is_its_number():
+    """rate=np.array(100.) and margin=np.array(0.002) were refused as out of range ('rate = array(100.) is
+    invalid'): a 0-d array of a number counts as that number (plain_number), and one out of range is still named."""
+    from gpr_kinematics.robot.timing import check_rate
+    from gpr_kinematics.safety.clearance import check_numbers
+
+    assert check_rate(np.array(100.0)) == 100.0 and check_rate(np.array(100)) == 100.0
+    check_numbers(np.array(0.002), np.array(1e-4), np.array(50.0))
+    with pytest.raises(InputError, match=r'^rate = array\(1000000\.\) is invalid; allowed: 0\.1 <= rate <= 5000 Hz'):
+        check_rate(np.array(1e6))
+    with pytest.raises(InputError, match=r"^rate = array\('100', dtype='<U3'\) is invalid"):
+        check_rate(np.array('100'))
+    with pytest.raises(InputError, match=r'^margin = array\(5\.\) is invalid; allowed: metres, at least 0 and at '
+                                         r'most 1 \(5 mm\? give 0\.005\)$'):
+        check_numbers(np.array(5.0), 1e-4, 50.0)
