@@ -131,7 +131,7 @@ def test_what_a_python_caller_passes_is_checked_where_numpy_raised_or_guessed():
     _refused(lambda: inverse(False, False, False), 'height must be a number')
     masked = np.ma.array([0.5, 0.503, 0.498], mask=[0, 1, 0])
     _refused(lambda: forward_batch(masked[None]), 'a masked array with masked values')
-    _refused(lambda: forward(masked), 'q2 = nan is not a finite number')
+    _refused(lambda: forward(masked), 'a masked array with masked values')
     assert forward(np.ma.array([0.5, 0.503, 0.498])).tilt == forward([0.5, 0.503, 0.498]).tilt
 
 
@@ -160,3 +160,20 @@ def test_per_row_geometry_names_and_joint_play_are_bounded():
              r'joint displacement \[0, 0, 0\] = 1000.0 m; allowed: finite, within \+-0.01 m')
     _refused(lambda: forward_batch(Q, displacement=np.full((2, 3, 3), np.nan)), r'= nan m; allowed: finite')
     assert forward_batch(Q, displacement=np.full((2, 3, 3), 1e-5)).tilt.shape == (2,)
+
+
+def test_none_is_no_number():
+    """numpy reads None as NaN: robot_forward(robot, [None] * 3, ...) said 'gpr_rod1 = nan is not a finite number',
+    Stations.of(P, tilt=None) 'tilt = nan', forward([0.5, None, 0.5]) 'q2 = nan': None is named as given."""
+    from gpr_kinematics.robot.stations import Stations
+
+    robot = load_robot()
+    for call, message in ((lambda: robot_forward(robot, [None] * 3, [0.0, 0.0, 0.0]),
+                           'rods must be numbers, got [None, None, None]'),
+                          (lambda: Stations.of([[1.0, 0.5, 0.4]], tilt=None), 'tilt must be numbers, got None'),
+                          (lambda: forward([0.5, None, 0.5]), 'q must be numbers, got [0.5, None, 0.5]'),
+                          (lambda: inverse_batch([0.5, None], 0.0, 0.0),
+                           'height must be a number or an array of numbers, got [0.5, None]')):
+        with pytest.raises(InputError) as err:
+            call()
+        assert str(err.value) == message

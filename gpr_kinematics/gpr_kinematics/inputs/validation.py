@@ -132,18 +132,19 @@ def _float(value: Any) -> float:
 
 
 def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np.float64]:
-    """``values`` as a float array of its own shape, NaN and infinity kept; text (numpy reads ``'0.5'`` as 0.5),
-    complex numbers (an array of them numpy casts to its real parts) and what numpy cannot convert (ragged lists, an
-    int of 400 digits: OverflowError) are an :class:`InputError` saying ``name`` must be ``expected`` and quoting the
-    value. The one conversion of numbers a user gives."""
+    """``values`` as a float array of its own shape, NaN and infinity kept; text (numpy reads ``'0.5'`` as 0.5), None
+    (numpy reads it as NaN), complex numbers (an array of them numpy casts to its real parts) and what numpy cannot
+    convert (ragged lists, an int of 400 digits: OverflowError) are an :class:`InputError` saying ``name`` must be
+    ``expected`` and quoting the value. The one conversion of numbers a user gives."""
     if isinstance(values, np.ma.MaskedArray) and np.ma.is_masked(values):   # asarray would take the hidden values
         raise InputError(f'{name} must be {expected}, got a masked array with masked values ({brief(values)}); '
                          'allowed: numbers (fill or drop the masked ones first)')
     try:
         raw = np.asarray(values)
-        if raw.dtype.kind in 'SUcb' or (raw.dtype.kind == 'O' and any(_is_text(v) or isinstance(v, (bool, np.bool_))
-                                                                        for v in raw.ravel())):
-            raise TypeError('text, truth values or complex numbers')   # numpy casts complex to their real parts
+        if raw.dtype.kind in 'SUcb' or (raw.dtype.kind == 'O' and any(
+                v is None or _is_text(v) or isinstance(v, (bool, np.bool_)) for v in raw.ravel())):
+            # numpy casts complex numbers to their real parts, None to NaN (told as "nan is not a finite number")
+            raise TypeError('text, truth values, None or complex numbers')
         return np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f'{name} must be {expected}, got {brief(values)}') from None
@@ -266,7 +267,8 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
 def three_floats(values: Any, name: str) -> list[float]:
     """Three finite floats from a sequence (fast for a list, tuple or array of 3), with the messages of
     :func:`rows_of`."""
-    if isinstance(values, np.ndarray) and values.shape == (3,) and values.dtype.kind in 'fiu':
+    if isinstance(values, np.ndarray) and values.shape == (3,) and values.dtype.kind in 'fiu' and \
+            not np.ma.is_masked(values):   # a masked value's tolist() is None: float_array names the masked array
         values = values.tolist()
     if isinstance(values, (list, tuple)) and len(values) == 3:
         try:
