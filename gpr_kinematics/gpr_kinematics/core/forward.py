@@ -314,8 +314,7 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     cols = [np.ascontiguousarray(A[:, k]) for k in range(3)]
     geo = None
     if parameters is None and names is not None:
-        raise InputError(f'names = {brief(names)} without parameters; allowed: names with the parameters they name, '
-                         'or neither')
+        raise InputError(f'names = {brief(names)} without parameters; allowed: names with their parameters, or neither')
     if parameters is not None:
         geo = MachineGeometry.per_row(cfg, parameters, names)
         if A.shape[0] % geo.rows:

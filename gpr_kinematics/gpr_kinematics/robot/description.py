@@ -43,7 +43,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.config import GprConfig, load_config
-from ..core.messages import ROD_JOINT_NAMES
 from ..core.rotations import rpy_matrix
 from ..errors import ConfigError, brief, kind_of
 from ..inputs.resources import config_path
@@ -63,6 +62,7 @@ from .fields import (
     _vector,
     _xyz,
     _yaw,
+    check_names,
 )
 from .fields import NAME_RULE as _NAME_RULE
 
@@ -408,12 +408,7 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
     if not isinstance(raw_arms, list) or not 1 <= len(raw_arms) <= 2:
         raise ConfigError(f'{source}: arms must be a list of one or two arms')
     arms = tuple(_arm(a, f'{source}: arms[{i}]') for i, a in enumerate(raw_arms))
-    names = list(rod_names) + [j for a in arms for j in a.joint_names] + [a.name for a in arms]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        raise ConfigError(f'{source}: names must be unique across rods, arms and joints; repeated: '
-                          + ', '.join(duplicates))
-    _check_rod_joint_names(rod_names, arms, source)
+    check_names(rod_names, [j for a in arms for j in a.joint_names], [a.name for a in arms], source)
     world = _name(base, 'frame', f'{source}: base', default='world')
     own = {*GPR_FRAMES, *(f for a in arms for f in (*a.link_frames, a.blade_frame, a.wafer_frame))}
     if world in own:   # gpr_base as the world: a cell given "in gpr_base" passed, 2 m from where its obstacles stand
@@ -425,21 +420,6 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
         base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),
         wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'))
-
-
-def _check_rod_joint_names(rod_names: tuple[str, ...], arms: tuple[Arm, ...], source: str) -> None:
-    """Refuse names that clash with the rods' joint names on ``joint_states`` and in trajectories, ``rod_1 ..
-    rod_3`` (:data:`~gpr_kinematics.core.messages.ROD_JOINT_NAMES`): an arm joint named ``rod_1`` made a trajectory
-    name ``rod_1`` twice, rods named ``[rod_2, rod_1, rod_3]`` a table's ``rod_2`` column hold ``q1``."""
-    taken = [n for a in arms for n in a.joint_names if n in ROD_JOINT_NAMES]
-    if taken:
-        raise ConfigError(f'{source}: arm joint name(s) {", ".join(taken)} are the rods\' joint names on joint_states '
-                          f'and in trajectories; allowed: other names than {", ".join(ROD_JOINT_NAMES)}')
-    for k, n in enumerate(rod_names):
-        if n in ROD_JOINT_NAMES and n != ROD_JOINT_NAMES[k]:
-            raise ConfigError(f'{source}: rods: names[{k}] = {n!r} is rod {ROD_JOINT_NAMES.index(n) + 1}\'s joint name '
-                              f'on joint_states and in trajectories; allowed: {ROD_JOINT_NAMES[k]!r} for rod {k + 1}, '
-                              f'or a name other than {", ".join(ROD_JOINT_NAMES)}')
 
 
 def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig | None = None,

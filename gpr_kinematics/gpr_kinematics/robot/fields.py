@@ -7,6 +7,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..core.messages import ROD_JOINT_NAMES
 from ..errors import ConfigError, GprError, brief, kind_of
 from ..inputs.schema import is_huge_number, number_key, orientation_angle
 from ..inputs.validation import text_hint
@@ -114,3 +115,25 @@ def _yaw(data: Mapping[str, Any], where: str) -> float:
 
 def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
     return _number(data, key, where, -2 * math.pi, 2 * math.pi, 'radians within [-2pi, 2pi]', default, 'rad')
+
+
+def check_names(rods: Sequence[str], joints: Sequence[str], arms: Sequence[str], source: str) -> None:
+    """Refuse a robot description's names that repeat across its rods, arm ``joints`` and ``arms``, and names that
+    clash with the rods' joint names on ``joint_states`` and in trajectories, ``rod_1 .. rod_3``
+    (:data:`~gpr_kinematics.core.messages.ROD_JOINT_NAMES`): an arm joint named ``rod_1`` made a trajectory name
+    ``rod_1`` twice, rods named ``[rod_2, rod_1, rod_3]`` a table's ``rod_2`` column hold ``q1``."""
+    names = [*rods, *joints, *arms]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ConfigError(f'{source}: names must be unique across rods, arms and joints; repeated: '
+                          + ', '.join(duplicates))
+    taken = [n for n in joints if n in ROD_JOINT_NAMES]
+    if taken:
+        raise ConfigError(f'{source}: arm joint name(s) {", ".join(taken)} are the rods\' joint names on joint_states '
+                          f'and in trajectories; allowed: other names than {", ".join(ROD_JOINT_NAMES)}')
+    for k, n in enumerate(rods):
+        if n in ROD_JOINT_NAMES and n != ROD_JOINT_NAMES[k]:
+            raise ConfigError(f'{source}: rods: names[{k}] = {n!r} is rod {ROD_JOINT_NAMES.index(n) + 1}\'s joint name '
+                              f'on joint_states and in trajectories; allowed: {ROD_JOINT_NAMES[k]!r} for rod {k + 1}, '
+                              f'or a name other than {", ".join(ROD_JOINT_NAMES)}')
+
