@@ -262,7 +262,7 @@ def test_pose_jacobian_names_a_theta_that_is_not_one_row_of_parameters():
     from gpr_kinematics.errors import InputError
 
     model = CoreModel(load_config())
-    for theta, words in ((None, r'theta must be 24 numbers, got shape \(\)'), ([0.0] * 3, r'got shape \(3,\)'),
+    for theta, words in ((None, r'theta must be 24 numbers, got None'), ([0.0] * 3, r'got shape \(3,\)'),
                          ([float('nan')] * 24, r'theta\[0\] = nan is not a finite number')):
         with pytest.raises(InputError, match=words):
             pose_jacobian(model, theta, [[0.3, 0.3, 0.3]])
