@@ -587,3 +587,58 @@ def test_a_goal_running_when_the_simulator_stops_gets_its_result(ros_environment
         assert 'Traceback' not in proc.output() and 'never retrieved' not in proc.output()
     finally:
         proc.stop()
+
+
+def test_under_a_stepped_simulated_clock_a_stream_silences_the_simulator_and_a_clock_set_back_too(ros_environment):
+    """use_sim_time with /clock in 0.1 s steps (a simulator at 10 Hz) and another node streaming rods at 100 Hz, every
+    sample of a step stamped within it: the simulator dropped every sample not newer than its own held state (stamped
+    at the step, so later than each of them), never took one, and published its rest state among them (/tf flickered
+    between the rest and the stream). And after the clock was set back (a simulation reset) it took none again. Now
+    it tells its own messages by stamp and values, and measures its quiet on the node's clock."""
+    from builtin_interfaces.msg import Time
+    from gpr_kinematics.nodes.client import GprClient
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+
+    ns = '/gpr_sim_stepclock'
+    proc = start('robot_simulator_node', namespace=ns, rate=RATE, idle_rate=10.0, use_sim_time=True)
+    try:
+        wait_for_log(proc, 'serving ')
+        with GprClient('gpr_test_sim_stepclock', namespace=ns) as c:
+            states = c.subscribe(JointState, 'joint_states')
+            clock = c.node.create_publisher(Clock, '/clock', 10)
+            pub = c.node.create_publisher(JointState, 'joint_states', 100)
+            now = {'ns': 1000 * NS_PER_S, 'value': 0.30, 'stream': True}
+
+            def step() -> None:   # the clock, then the stream's ten samples of the step just gone, stamped in it
+                now['ns'] += 100_000_000
+                clock.publish(Clock(clock=Time(sec=now['ns'] // NS_PER_S, nanosec=now['ns'] % NS_PER_S)))
+                for k in range(10 if now['stream'] else 0):
+                    now['value'] += 1e-5
+                    msg = JointState(name=['rod_1', 'rod_2', 'rod_3'], position=[now['value']] * 3)
+                    t = now['ns'] - 100_000_000 + (k + 1) * 10_000_000
+                    msg.header.stamp = Time(sec=t // NS_PER_S, nanosec=t % NS_PER_S)
+                    pub.publish(msg)
+
+            def theirs(m) -> bool:
+                return tuple(m.name) == ('rod_1', 'rod_2', 'rod_3')
+
+            def own_after(n: int) -> list:
+                return [(_stamp(m), m.position[0]) for m in states[n:] if not theirs(m)]
+
+            c.node.create_timer(0.1, step)
+            assert c.spin_until(lambda: sum(theirs(m) for m in states) >= 100, 30), proc.output()
+            n = len(states)
+            c.spin_for(2.0)
+            assert own_after(n) == []   # silent while the stream goes on
+            now['ns'] = 10 * NS_PER_S   # a simulation reset: the clock set back
+            c.spin_for(1.0)
+            n = len(states)
+            c.spin_for(2.0)
+            assert own_after(n) == []   # and after it
+            now['stream'] = False       # the stream ends: the simulator holds its last sample
+            last = now['value']
+            assert c.spin_until(lambda: len(own_after(n)) >= 3, 20), proc.output()
+            assert all(v == last for _, v in own_after(n)[1:]), own_after(n)
+    finally:
+        proc.stop()

@@ -44,9 +44,9 @@ A controller's joint states: ``joint_states`` is the robot's topic, and the robo
 (``robot_simulator_node`` holding the robot before, between and after streams, and moving it for its goals, as
 ros2_control's joint_state_broadcaster does), every joint's position with its velocity; the stream's messages carry
 positions only. A message with velocities or efforts that no state's stamp matches is the controller's, not the
-stream's: it is neither ``topic.joint_states_extra`` nor ``_order`` (the offline loop's recorder, running beside the
-robot simulator, failed ``gpr verify`` with the simulator's held state after the sweep). One with a state's stamp is
-checked as the stream's (and fails: the node publishes positions only).
+stream's: neither ``topic.joint_states_extra`` nor ``_order`` (the offline loop's recorder beside the simulator failed
+with its held state after the sweep), also at a state's stamp beside the node's message (a simulator's held state at
+a step of a simulated clock); one alone at a state's stamp is checked as the stream's (and fails).
 """
 from __future__ import annotations
 
@@ -214,8 +214,8 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
     recorded at all, where ``after_rods`` names the joints the message must carry after the rods: the robot's;
     ``recorded``: the records say ``rods_only`` are a robot program's, whose messages always carry those joints).
     ``shared``: the robot's topic, on which a controller publishes too (module docstring, *a controller's joint
-    states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered (one
-    with a state's stamp is, also beside the stream's message of that stamp)."""
+    states*): its messages with velocities or efforts and no state's stamp are not counted extra nor ordered, nor
+    those beside the node's message of their stamp (one alone at a state's stamp is checked as the stream's)."""
     check = f'topic.{name.rsplit("/", 1)[-1]}'
     t = _topic(bag, name)
     if t is None:
@@ -226,7 +226,12 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
         return [without_messages(check, name, stamps, samples, tol, _UNIT, why)]
     jc = t.columns()
     jstamps = stamp_ns(jc)
-    idx = match(jstamps, jc['header.frame_id'], stamps, c['header.frame_id'])
+    ctrl = np.array([bool(np.size(v) or np.size(f)) for v, f in zip(jc['velocity'], jc['effort'], strict=True)],
+                    dtype=bool) if shared else np.zeros(len(jstamps), dtype=bool)
+    beside = ctrl & np.isin(jstamps, jstamps[~ctrl])   # a controller's beside the node's at its stamp: claims nothing
+    usable = np.flatnonzero(~beside)
+    found = match(jstamps[usable], jc['header.frame_id'][usable], stamps, c['header.frame_id'])
+    idx = np.where(found >= 0, usable[np.maximum(found, 0)], -1)
     rows = np.flatnonzero(idx >= 0)
     e = missing(stamps, jstamps)
     names, positions = jc['name'], jc['position']
@@ -244,10 +249,9 @@ def _joint_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], tol: float, 
                      for want_names, want in (layout(int(r)) for layout in layouts)
                      if carried == want_names and values.shape == want.shape), np.inf)
     out = [value_check(check, name, e, tol, _UNIT, samples, why + cut_detail(stamps, jstamps, samples, e))]
-    own = np.ones(len(jstamps), dtype=bool)
-    if shared:
-        own[:] = [not (np.size(v) or np.size(f)) for v, f in zip(jc['velocity'], jc['effort'], strict=True)]
-        own |= np.isin(jstamps, stamps)     # a state's stamp: the stream's, whichever message matched it
+    own = ~ctrl
+    if shared:   # a state's stamp: the stream's, whichever message matched it (but a controller's beside the node's)
+        own |= np.isin(jstamps, stamps) & ~beside
     numbers = np.flatnonzero(own)
     return out + [x for x in [extra(check, name, jstamps[own], stamps, rows.size),
                               unordered(check, name, jstamps[own], numbers)] if x]

@@ -34,9 +34,7 @@ the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
 """
 from __future__ import annotations
 
-import math
 import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -77,6 +75,8 @@ from .qos import action_server_options, joint_states_subscription, release_reque
 from .runtime import GprNode, deliver_results, one_line, run
 
 NODE_NAME = 'robot_simulator_node'
+#: How many of its latest states it remembers to tell its own messages heard back from another publisher's.
+OWN_KEPT = 256
 
 
 @dataclass
@@ -94,6 +94,11 @@ class _Run:
 def _duration(t: float) -> Duration:
     sec, nanosec = duration_parts(t)
     return Duration(sec=sec, nanosec=nanosec)
+
+
+def _within(now: int, then: int | None, span: int) -> bool:
+    """``then`` lies at most ``span`` [ns] before ``now`` on the node's clock (a clock set back since: no)."""
+    return then is not None and 0 <= now - then <= span
 
 
 def _seconds(d: Any) -> float:
@@ -128,9 +133,13 @@ class RobotSimulatorNode(GprNode):
                                      float(p['rate']), self.cfg, float(p['start_tolerance']),
                                      bool(p['allow_nonzero_velocity_at_trajectory_end']), self.clearance)
         self.run: _Run | None = None
-        self.last_own_ns = 0
-        self.last_foreign = -math.inf
-        self.last_published = -math.inf
+        #: The states it published lately, stamp [ns] -> positions: its own messages heard back are not another
+        #: publisher's (told by content: under a stepped simulated clock a stream's samples share or precede the stamp
+        #: of its held state, and after a clock set back every stamp is older than the last one it published).
+        self.own: dict[int, tuple[float, ...]] = {}
+        #: When [ns, the node's clock] it last took another publisher's values, and last published its own.
+        self.last_foreign: int | None = None
+        self.last_published: int | None = None
         qos = stream_qos(int(p['queue_depth']))
         self.pub = self.create_publisher(JointState, Topic.JOINT_STATES, qos)
         joint_states_subscription(self, self._on_joint_states, qos.depth, p['joint_states_reliability'])
@@ -159,16 +168,18 @@ class RobotSimulatorNode(GprNode):
         msg = JointState(name=list(self.joints.names), position=self.actual.tolist(), velocity=self.velocity.tolist())
         msg.header.stamp.sec, msg.header.stamp.nanosec = time_parts(stamp_ns)
         self.pub.publish(msg)
-        self.last_own_ns = max(self.last_own_ns, stamp_ns)
-        self.last_published = time.monotonic()
+        self.own[stamp_ns] = tuple(msg.position)
+        if len(self.own) > OWN_KEPT:
+            del self.own[next(iter(self.own))]
+        self.last_published = self.get_clock().now().nanoseconds
 
     def _on_joint_states(self, msg: JointState) -> None:
-        """While idle, take newer joint values of another publisher as the robot's state (module docstring); a
+        """While idle, take another publisher's joint values as the robot's state (module docstring); a
         message whose values leave the joints' limits or tilt the platform beyond its limit, or that is malformed
         (not one position per name, a joint named twice: :func:`~gpr_kinematics.robot.controller.joint_state_values`),
         is ignored, with a warning, so no publisher can put the robot where no goal can start."""
         stamp = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
-        if self.run is not None or stamp <= self.last_own_ns:
+        if self.run is not None or self.own.get(stamp) == tuple(msg.position):   # running, or its own message
             return
         try:
             taken, values, left = joint_state_values(self.joints, msg.name, msg.position)
@@ -190,7 +201,7 @@ class RobotSimulatorNode(GprNode):
             return
         self.actual = state
         self.velocity[taken] = 0.0
-        self.last_foreign = time.monotonic()   # quiet while values it takes stream (not for those it ignores)
+        self.last_foreign = self.get_clock().now().nanoseconds   # quiet while values it takes stream (not others)
 
     def _outside(self, state: Any) -> str:
         """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
@@ -205,15 +216,15 @@ class RobotSimulatorNode(GprNode):
         return ''
 
     def _idle(self) -> None:
-        period = 1.0 / float(self.p['idle_rate'])
-        now = time.monotonic()
+        period = round(NS_PER_S / float(self.p['idle_rate']))
         # Quiet while another publisher streams (two periods since its last message), and not right after a state of
         # its own (half a period: the end of a goal); a whole period skipped every other tick, early by the timer's
         # jitter, and held the state at half the rate. A goal waiting for its header.stamp holds the state too (it
         # was silent until then, up to a day: clients took the robot for gone).
         stamp = self.get_clock().now().nanoseconds
         waiting = self.run is None or stamp < self.run.start_ns
-        if waiting and now - self.last_foreign > 2.0 * period and now - self.last_published > 0.5 * period:
+        if waiting and not _within(stamp, self.last_foreign, 2 * period) and \
+                not _within(stamp, self.last_published, period // 2):
             self.velocity[:] = 0.0
             self.publish_state(stamp)
 
