@@ -217,7 +217,10 @@ def test_measurements_built_by_a_caller_are_checked():
     nan[2, 0] = np.nan
     ok = measurements.Measurements('m', q, p, quat, np.full(8, 3e-6), np.full(8, 2e-5), lines)
     assert len(ok) == 8
+    huge = p.copy()
+    huge[3, 1] = 1e306   # reached scipy's cKDTree "data must be finite" in the repeated-rows check
     for args, pattern in (((q, nan, quat, None, None, lines), r'm: Measurements\.position of row 2 is not finite'),
+                          ((q, huge, quat, None, None, lines), r'position of row 3 is not finite or beyond \+-1e\+06'),
                           ((q, p[:5], quat, None, None, lines), r'Measurements\.position has shape \(5, 3\) '
                                                                  r'\(float64\); allowed: numbers of shape \(8, 3\)'),
                           ((q[:, :2], p, quat, None, None, lines), r'Measurements\.q has shape \(8, 2\)'),

@@ -42,7 +42,7 @@ from ..callbacks import StageProgress
 from ..core.rotations import matrix_from_quaternion
 from ..errors import InputError, brief
 from ..inputs import units
-from ..inputs.validation import QUATERNION_NORM_TOLERANCE, decimal, number_hint
+from ..inputs.validation import MAX_COORDINATE, QUATERNION_NORM_TOLERANCE, decimal, number_hint
 from .files import comment_lines, read_text, write_text
 
 Array = NDArray[np.float64]
@@ -108,10 +108,10 @@ class Measurements:
             if n < 1 or v.shape != shape or v.dtype.kind not in 'fiu':
                 raise InputError(f'{self.source}: Measurements.{name} has shape {v.shape} ({v.dtype}); allowed: '
                                  f'numbers of shape {("N", *shape[1:]) if n < 1 else shape}, N >= 1 rows as q')
-            bad = np.flatnonzero(~np.all(np.isfinite(v.reshape(n, -1)), axis=1))
-            if bad.size:
-                raise InputError(f'{self.source}: Measurements.{name} of row {int(bad[0])} is not finite; allowed: '
-                                 'finite numbers')
+            bad = np.flatnonzero(~np.all(np.abs(v.reshape(n, -1)) <= MAX_COORDINATE, axis=1))   # NaN too
+            if bad.size:   # 1e306 m reached scipy's "data must be finite" in the repeated-rows check
+                raise InputError(f'{self.source}: Measurements.{name} of row {int(bad[0])} is not finite or beyond '
+                                 f'+-{MAX_COORDINATE:g}; allowed: finite numbers within it (SI)')
             object.__setattr__(self, name, np.asarray(v, dtype=float))   # a list (a caller's) as the file's arrays
         object.__setattr__(self, 'lines', _line_numbers(self.lines, self.source))
         if len(self.lines) != n:
