@@ -184,6 +184,7 @@ def test_the_dataclass_defaults_are_the_embedded_file():
     (dict(model='rigid'), r"model = 'rigid' is invalid; allowed: radial or polar or offset or compliant"),
     (dict(radius='0.1'), r"radius = '0.1' is invalid"),   # TypeError before
     (dict(kappa=[1.0, 2.0]), r'kappa = \[1.0, 2.0\] is invalid; allowed: one number or a list of 3'),
+    (dict(characteristic_length=np.array([0.1, 0.2])), r'characteristic_length = array\(\[0.1, 0.2\]\) is invalid'),
 ])
 def test_a_config_built_in_code_is_checked_as_a_file_is(fields, words):
     """``GprConfig(...)`` checked only how values relate (stroke order, triangles); the ranges, names and types were

@@ -128,6 +128,10 @@ def test_what_a_python_caller_passes_is_checked_where_numpy_raised_or_guessed():
     _refused(lambda: gpr.forward_kinematics([0.25, 0.254, 0.254], np.zeros(5)), r'guess must have shape \(6,\)')
     # truth values and masked values are not numbers; one pose and its batch agree
     _refused(lambda: forward([False] * 3), r'q must be numbers, got \[False, False, False\]')
+    # one truth value among numbers: numpy made the list floats (False 0 m, True 1 m "outside the stroke")
+    _refused(lambda: forward([0.0, 0.0, False]), r'q must be numbers, got \[0.0, 0.0, False\]')
+    _refused(lambda: forward([True, 0.1, 0.1]), r'q must be numbers, got \[True, 0.1, 0.1\]')
+    _refused(lambda: forward_batch([[0.3, 0.3, 0.3], (0.3, 0.3, np.True_)]), 'q must be numbers')
     _refused(lambda: inverse(False, False, False), 'height must be a number')
     masked = np.ma.array([0.5, 0.503, 0.498], mask=[0, 1, 0])
     _refused(lambda: forward_batch(masked[None]), 'a masked array with masked values')

@@ -217,7 +217,8 @@ def _convert(merged: Mapping[str, YamlValue], source: str, length_follows_radius
     the radius. :class:`ConfigError` naming the key, the value and what is allowed."""
     conv: dict[str, YamlValue] = {}
     for key, (lo, hi, allowed) in FLOAT_RANGES.items():
-        if key == 'characteristic_length' and (merged[key] is None or length_follows_radius and merged[key] == 0.0):
+        follows = length_follows_radius and isinstance(merged[key], (int, float)) and merged[key] == 0.0
+        if key == 'characteristic_length' and (merged[key] is None or follows):
             conv[key] = 0.0
             continue
         val = _as_float(source, key, merged[key], allowed)

@@ -131,6 +131,12 @@ def _float(value: Any) -> float:
     return float(value)
 
 
+def _holds_truth_value(values: list[Any] | tuple[Any, ...]) -> bool:
+    """Whether nested lists or tuples hold a truth value (``bool``, numpy's too) among their items."""
+    return any(isinstance(v, (bool, np.bool_)) or isinstance(v, (list, tuple)) and _holds_truth_value(v)
+               for v in values)
+
+
 def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np.float64]:
     """``values`` as a float array of its own shape, NaN and infinity kept; text (numpy reads ``'0.5'`` as 0.5), None
     (numpy reads it as NaN), complex numbers (an array of them numpy casts to its real parts) and what numpy cannot
@@ -145,6 +151,8 @@ def float_array(values: Any, name: str, expected: str = 'numbers') -> NDArray[np
                 v is None or _is_text(v) or isinstance(v, (bool, np.bool_)) for v in raw.ravel())):
             # numpy casts complex numbers to their real parts, None to NaN (told as "nan is not a finite number")
             raise TypeError('text, truth values, None or complex numbers')
+        if isinstance(values, (list, tuple)) and raw.dtype.kind in 'fiu' and _holds_truth_value(values):
+            raise TypeError('a truth value among numbers')   # [0.0, 0.0, False]: numpy made it floats, False 0 m
         return np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f'{name} must be {expected}, got {brief(values)}') from None
