@@ -295,8 +295,9 @@ def test_metres_under_a_millimetre_line_with_a_low_first_row_get_the_hint_from_t
 
 
 def test_a_rescaled_file_that_is_refused_gives_no_units_hint():
-    """Whether the whole file rescaled fits is False where the rescaled file is refused (a GprError): a row at 1e306 m
-    under "# units: mm" is not finite a thousand times over; the cause named is another frame, not metres."""
+    """Whether the whole file rescaled fits is False where the rescaled file is refused (a GprError): a row at 5e5 m
+    under "# units: mm" is beyond the +-1e6 bound a thousand times over; the cause named is another frame, not
+    metres."""
     from gpr_kinematics.calibration.plausibility import ImplausiblePoseError, plausible_start
 
     cfg = load_config()
@@ -304,10 +305,10 @@ def test_a_rescaled_file_that_is_refused_gives_no_units_hint():
     Q = plan_measurements(core, cfg, 6).q
     meas = synthetic_measurements(core, core.parameters.nominal, Q, SP, SA)
     position = meas.position.copy()
-    position[0, 0] = 1e306
+    position[0, 0] = 5e5
     huge = Measurements('huge.csv', meas.q, position, meas.quaternion, None, None, tuple(range(4, 4 + len(Q))),
                         units=('mm', 'rad'))
-    with pytest.raises(ImplausiblePoseError, match=r'^huge\.csv line 4: the measured pose is inf m and .* rad from '
+    with pytest.raises(ImplausiblePoseError, match=r'^huge\.csv line 4: the measured pose is 5e\+05 m and .* rad from '
                        r'the nominal .* in gpr_base in millimetres, as the file declares \(another frame than '
                        r'gpr_base; a tracker') as err, np.errstate(over='ignore', invalid='ignore'):
         plausible_start(core, huge, core.parameters.nominal, 'gpr_base')
