@@ -158,6 +158,36 @@ def test_a_full_disk_is_a_file_error_and_leaves_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_ctrl_c_inside_a_command_takes_back_the_outputs_it_wrote(tmp_path):
+    """Ctrl-C (a KeyboardInterrupt, not an Exception) after a write: the outputs are taken back too."""
+    replaced, created = tmp_path / 'w.csv', tmp_path / 'new.json'
+    replaced.write_text('old')
+    with pytest.raises(KeyboardInterrupt), files.command_writes():
+        files.write_text(replaced, 'new', 'CSV')
+        files.write_text(created, '{}', 'JSON')
+        raise KeyboardInterrupt
+    assert replaced.read_text() == 'old' and sorted(p.name for p in tmp_path.iterdir()) == ['w.csv']
+
+
+def test_a_replace_that_fails_within_a_command_leaves_no_backup_and_the_old_content(tmp_path, monkeypatch):
+    """os.replace failing (a full disk) inside command_writes: the hard link kept as a backup is removed, the target
+    keeps its old content and nothing else is left in the folder."""
+    target = tmp_path / 'w.csv'
+    target.write_text('old')
+    real = os.replace
+
+    def full(src: object, dst: object) -> None:
+        if str(src).endswith('.tmp'):
+            raise OSError(28, 'No space left on device')
+        real(src, dst)
+
+    monkeypatch.setattr(os, 'replace', full)
+    with pytest.raises(FileError, match=r"cannot write CSV file '.*w\.csv': No space left on device"), \
+            files.command_writes():
+        files.write_text(target, 'new', 'CSV')
+    assert target.read_text() == 'old' and [p.name for p in tmp_path.iterdir()] == ['w.csv']
+
+
 def test_brief_bounds_every_value():
     assert brief('y' * 10_000).endswith('(10000 characters)') and len(brief('y' * 10_000)) < 100
     assert brief(0.5) == '0.5' and brief(float('nan')) == 'nan'
