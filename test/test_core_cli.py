@@ -285,3 +285,18 @@ def test_a_standard_output_that_cannot_be_written_is_one_line_and_status_2(capsy
     assert main(argv) == 2
     assert capsys.readouterr().err == (f'gpr {argv[0]}: error: cannot write the standard output: No space left on '
                                        'device; allowed: an output with room for it\n')
+
+
+class _FullDiskNamed(io.StringIO):
+    """An output whose OSError names its file (exc.filename): a handler's write to 'out.csv' on a full disk."""
+
+    def write(self, text):
+        raise OSError(errno.ENOSPC, 'No space left on device', 'out.csv')
+
+
+def test_a_write_that_fails_on_a_named_file_names_that_file(capsys, monkeypatch):
+    """The OSError branch of main: with exc.filename set the message names the file, not the standard output."""
+    monkeypatch.setattr(sys, 'stdout', _FullDiskNamed())
+    assert main(['fk', '0.1', '0.1', '0.1']) == 2
+    assert capsys.readouterr().err == ("gpr fk: error: cannot write 'out.csv': No space left on device; allowed: an "
+                                       'output with room for it\n')
