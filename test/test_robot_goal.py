@@ -128,3 +128,63 @@ def test_a_late_goals_refusal_says_its_times_count_from_the_arrival():
     goal = _goal(times=(0.5, 0.51), positions=[[rest + 0.4], [rest + 3.0]], stamp_ns=NOW - NS // 4)
     with pytest.raises(GoalError, match=r"\(times from the goal's arrival, 0.25 s after its header.stamp\)"):
         plan_goal(goal, CONTROLLER, JOINTS.rest, NOW)
+
+
+@pytest.mark.parametrize('late_ns', [1_110_000_000, 1_120_000_000])
+def test_a_stamp_late_by_a_whole_number_of_samples_starts_on_that_sample(late_ns):
+    """1.11 s (1.12 s) late at 100 Hz: late / period is 111.00000000000001 (112.00000000000001) in floating point; the
+    goal goes on from the sample at stamp + 1.11 s (1.12 s), not from the one after."""
+    k = JOINTS.names.index('arm1_elbow')
+    on_time, _ = plan_goal(_goal(), CONTROLLER, JOINTS.rest, NOW)
+    n = late_ns // 10_000_000
+    motion, start = plan_goal(_goal(stamp_ns=NOW - late_ns), CONTROLLER, on_time.positions[n], NOW)
+    assert start == NOW
+    assert len(motion) == 201 - n
+    np.testing.assert_allclose(motion.positions[:, k], on_time.positions[n:, k], rtol=0, atol=1e-12)
+
+
+def test_an_on_time_goals_refusal_does_not_speak_of_an_arrival():
+    """A goal at once (and one stamped within a period of now) refused by the planner: its message is the planner's,
+    without the late goal's '(times from the goal's arrival ...)'."""
+    k = JOINTS.names.index('arm1_elbow')
+    rest = float(JOINTS.rest[k])
+    for stamp in (0, NOW - NS // 200):
+        goal = _goal(times=(0.5, 0.51), positions=[[rest + 0.4], [rest + 3.0]], stamp_ns=stamp)
+        with pytest.raises(GoalError) as e:
+            plan_goal(goal, CONTROLLER, JOINTS.rest, NOW)
+        assert str(e.value) and 'arrival' not in str(e.value) and 'header.stamp' not in str(e.value)
+
+
+def test_a_goal_late_by_less_than_its_duration_runs_its_last_samples():
+    """Times (1, 2) stamped 1.995 s ago: the next sample on the grid (2 s) is the end, so the goal goes on from its
+    arrival for the last 5 ms (not refused as ended before it arrived)."""
+    k = JOINTS.names.index('arm1_elbow')
+    rest = float(JOINTS.rest[k])
+    there = JOINTS.rest.copy()
+    there[k] = rest + 0.4 - 0.2 * 0.995    # where the goal puts the joint at 1.995 s (a straight segment)
+    motion, start = plan_goal(_goal(stamp_ns=NOW - 1_995_000_000), CONTROLLER, there, NOW)
+    assert start == NOW
+    assert len(motion) == 2 and motion.time[-1] == pytest.approx(0.005, abs=1e-12)
+    assert motion.positions[-1, k] == rest + 0.2
+    assert motion.positions[0, k] == pytest.approx(rest + 0.201, abs=1e-12)
+
+
+def test_a_first_point_on_the_grids_next_sample_is_still_ahead_at_the_arrival():
+    """Stamped 0.995 s ago with the first point at 1 s, exactly on the grid's next sample: the point is still ahead,
+    so the points keep their instants and the joints reach it from where they are (0.01 rad away) in the 5 ms left;
+    taken as under way from 1 s, the goal would be refused 0.01 rad from the robot."""
+    k = JOINTS.names.index('arm1_elbow')
+    rest = float(JOINTS.rest[k])
+    current = JOINTS.rest.copy()
+    current[k] = rest + 0.39
+    motion, start = plan_goal(_goal(stamp_ns=NOW - 995_000_000), CONTROLLER, current, NOW)
+    assert start == NOW
+    assert motion.time[-1] == pytest.approx(1.005, abs=1e-12)
+    assert motion.positions[0, k] == rest + 0.39 and motion.positions[-1, k] == rest + 0.2
+
+
+def test_a_stamp_exactly_the_longest_wait_ahead_is_taken():
+    ahead = NOW + round(MAX_DURATION * NS)
+    assert plan_goal(_goal(stamp_ns=ahead), CONTROLLER, JOINTS.rest, NOW)[1] == ahead
+    with pytest.raises(GoalError, match=r'header.stamp lies 86400 s ahead; allowed: at most 86400 s'):
+        plan_goal(_goal(stamp_ns=ahead + 1), CONTROLLER, JOINTS.rest, NOW)
