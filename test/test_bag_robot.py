@@ -879,3 +879,15 @@ def test_a_prefix_without_a_slash_or_a_base_frame_with_one_verifies(robot_bag: P
         structure = next(c for c in result.checks if c.name == 'robot.structure')
         assert not result.passed and structure.failed == structure.checked > 0
 
+
+
+def test_beyond_limits_is_infinite_for_a_joint_the_robot_does_not_have():
+    """bags.checks_robot.beyond_limits with the example robot: 0 within the range, the excess beyond it (1e-12 rad of
+    slack), inf for NaN and for a name that is not one of the robot's joints."""
+    from gpr_kinematics.bags.checks_robot import beyond_limits
+    from robot_support import ROBOT
+    names = ('arm1_shoulder', 'arm1_elbow')
+    rows = np.array([[0.0, 2.9], [0.0, 3.0], [math.nan, 0.0]])
+    out = beyond_limits(rows, names, ROBOT)
+    assert out[0] == 0.0 and out[1] == pytest.approx(0.1 - 1e-12, abs=1e-15) and out[2] == math.inf
+    assert beyond_limits(rows, ('arm1_shoulder', 'arm9_elbow'), ROBOT).tolist() == [math.inf] * 3
