@@ -164,3 +164,34 @@ def test_a_recorded_stream_is_recomputed_once_per_verify(tmp_path, monkeypatch) 
     assert result.passed and len(calls) == 1
     assert {c.name for c in result.checks if c.checked} >= {'stream.program', 'topic.joint_states_recomputed',
                                                           'topic.wafer_pose_recomputed'}
+
+
+def test_records_naming_different_frame_prefixes_name_none() -> None:
+    """recorded_prefix: the prefix every record names; None when two name different ones, or one names none (a node
+    from before frame_prefix was recorded) and another 'r1/'."""
+    from gpr_kinematics.bags.program_record import recorded_prefix
+    sweep = {'height': 0.5, 'max_tilt': 0.01, 'tilt_step': 0.01, 'azimuth_step': 1.0, 'passes': 1}
+
+    def record(prefix: str | None):
+        return parse_record(record_text('sweep', 0, 1, 1.0, False, 1.0, sweep=sweep, frame_prefix=prefix))
+
+    assert record('r1/').frame_prefix == 'r1/' and record(None).frame_prefix is None
+    assert recorded_prefix([record('r1/'), record('r1/')]) == 'r1/'
+    assert recorded_prefix([record('r1/'), record('r2/')]) is None
+    assert recorded_prefix([record(None), record('r1/')]) is None
+    assert recorded_prefix([record('r1/'), record(None)]) is None
+    assert recorded_prefix([record('')]) == '' and recorded_prefix([]) is None
+
+
+@pytest.mark.parametrize('value, shown', [("'r1 /'", "'r1 /'"), ('5', '5'),
+                                          ('x' * 257, "'" + 'x' * 59 + '... (257 characters)'),
+                                          ('x' * 300, "'" + 'x' * 59 + '... (300 characters)')],
+                         ids=['a space', 'a number', '257 characters', '300 characters'])
+def test_a_bad_frame_prefix_is_refused_naming_it(value: str, shown: str) -> None:
+    """A recorded frame_prefix: text of letters, digits, _ and / (at most 256) as trajectory_node takes it."""
+    with pytest.raises(ConfigError) as e:
+        parse_record(_SWEEP_RECORD + f'frame_prefix: {value}\n')
+    assert str(e.value) == (f"/gpr/program: frame_prefix = {shown}; allowed: text of letters, digits, _ and /, at "
+                            "most 256 (trajectory_node's frame_prefix)")
+    assert parse_record(_SWEEP_RECORD + f"frame_prefix: {'x' * 256}\n").frame_prefix == 'x' * 256
+    assert parse_record(_SWEEP_RECORD + 'frame_prefix: r1/arm_2\n').frame_prefix == 'r1/arm_2'
