@@ -677,12 +677,12 @@ def test_a_calibrated_machine_inside_its_drawing_verifies_clean(tmp_path: Path) 
 
 
 def test_a_negative_log_time_in_an_sqlite3_bag_is_named(tmp_path: Path, messages: list) -> None:
-    """A message stored with timestamp -5 (SQLite takes any integer): refused naming the topic and the negative value
-    (not the largest, which is in range)."""
-    topic = messages[0][0]
-    db = _schema_edited(tmp_path, messages, 'UPDATE messages SET timestamp = -5 WHERE id = (SELECT min(id) FROM '
-                                            'messages);')
+    """The first platform state stored with timestamp -5 (SQLite takes any integer): refused naming the topic and the
+    negative value (not the topic's largest, which is in range)."""
+    assert sum(m[0] == STATE for m in messages) > 1
+    db = _schema_edited(tmp_path, messages, 'UPDATE messages SET timestamp = -5 WHERE id = (SELECT min(messages.id) '
+                        f"FROM messages JOIN topics ON messages.topic_id = topics.id WHERE topics.name = '{STATE}');")
     with pytest.raises(BagError) as e:
         read_bag(db)
-    assert str(e.value) == (f'{db}: topic {topic} has a log time of -5 ns; allowed: 0 to 2^63 - 1 ns (a rosbag2 time '
+    assert str(e.value) == (f'{db}: topic {STATE} has a log time of -5 ns; allowed: 0 to 2^63 - 1 ns (a rosbag2 time '
                             'stamp)')
