@@ -268,6 +268,25 @@ def test_a_low_row_off_in_angle_or_sideways_gets_no_millimetre_hint():
 
 
 
+def test_one_high_row_typed_in_millimetres_gets_the_hint_from_the_row_alone():
+    """A metres file whose third row (0.1 m and more from the base) was typed in millimetres, the others right: the
+    whole file a thousandth would not fit, but that row a thousandth is where the model puts it: "millimetres?"."""
+    from gpr_kinematics.calibration.plausibility import plausible_start
+
+    cfg = load_config()
+    m = CoreModel(cfg)
+    Q = plan_measurements(m, cfg, 6).q
+    meas = synthetic_measurements(m, m.parameters.nominal, Q, SP, SA)
+    assert np.linalg.norm(meas.position[2]) > 0.1
+    position = meas.position.copy()
+    position[2] *= 1000
+    typed = Measurements('typed.csv', meas.q, position, meas.quaternion, None, None, tuple(range(4, 4 + len(Q))))
+    with pytest.raises(InputError, match=r'^typed\.csv line 6: the measured pose is [\d.]+ m and .*millimetres\? '
+                                         r'declare "# units: mm"') as err:
+        plausible_start(m, typed, m.parameters.nominal, 'gpr_base')
+    assert 'another frame' not in str(err.value)
+
+
 def test_metres_under_a_millimetre_line_with_a_low_first_row_get_the_hint_from_the_whole_file():
     """A file in a tracker's frame declared in millimetres whose positions are metres (a thousandth of the truth once
     read; the rods right, as a rods column in mm), its first row 3.3 mm above the base: the registered frames put
