@@ -261,6 +261,23 @@ def test_synthetic_measurements_name_a_bad_sigma_or_seed(kwargs, pattern):
     assert exact.sigma_position is None and np.all(np.isfinite(exact.position))
 
 
+def test_synthetic_points_take_any_sigma_angle_and_a_sigma_at_the_top_of_its_range():
+    """Points record no angle sigma, so sigma_angle=0 is taken (no noise drawn on an orientation not kept); a sigma
+    of exactly 0.1 (the top of SIGMA_RANGE) is taken, recorded or not."""
+    from gpr_kinematics.calibration.core_model import CoreModel
+    from gpr_kinematics.calibration.synthetic import synthetic_measurements
+    from gpr_kinematics.core.config import load_config
+
+    model = CoreModel(load_config())
+    Q = [[0.3, 0.3, 0.3], [0.2, 0.2, 0.2]]
+    pts = synthetic_measurements(model, model.parameters.nominal, Q, 1e-6, 0.0, points=True)
+    assert pts.quaternion is None and pts.sigma_angle is None and pts.sigma_position.tolist() == [1e-6, 1e-6]
+    top = synthetic_measurements(model, model.parameters.nominal, Q, 0.1, 0.1)
+    assert top.sigma_position.tolist() == [0.1, 0.1] and top.sigma_angle.tolist() == [0.1, 0.1]
+    bare = synthetic_measurements(model, model.parameters.nominal, Q, 0.1, 0.1, with_sigmas=False)
+    assert bare.sigma_position is None and np.all(np.isfinite(bare.position))
+
+
 def test_measurements_built_from_lists_are_the_files_arrays():
     """Measurements built in code with lists passed the checks, then len() raised AttributeError (it reads
     q.shape); lines=None was a TypeError. Lists of numbers become float arrays, lines a tuple of integers."""
