@@ -317,6 +317,8 @@ def test_stations_beyond_the_machines_limits_are_refused(Q, words):
     ({'keep_samples': -1}, r'^keep_samples = -1; allowed: an integer >= 0 \(the samples of that many first stations '
                            r'are kept\)$'),
     ({'keep_samples': 1.5}, r'^keep_samples = 1\.5; allowed: an integer >= 0'),
+    ({'keep_samples': True}, r'^keep_samples = True; allowed: an integer >= 0'),
+    ({'calibrated': ([0], np.eye(1), 'x')}, r'^calibrated = .*; allowed: a pair \(indices, covariance\)'),
 ])
 def test_budget_options_of_the_wrong_kind_are_named(kwargs, words):
     """theta as text was a ValueError, calibrated='x' an IndexError, keep_samples='x' a ValueError and -1 silently
@@ -424,3 +426,21 @@ def test_calibrated_draws_do_not_depend_on_the_eigenvectors_numpy_chooses(monkey
     second = monte_carlo.sample([], cal, table, np.random.default_rng(0), 500, 2, 4)
     np.testing.assert_allclose(second[0], first[0], rtol=1e-9, atol=1e-20)   # the same root, to rounding
     assert np.array_equal(second[3], first[3]) and 0 < first[3].sum() < first[3].size
+
+
+def test_stations_at_the_edges_the_core_allows_are_budgeted():
+    """The budget's limits are the core's: a rod 1e-12 m beyond the stroke (its rounding slack) and a platform 3 %
+    beyond the tilt limit (the measurements' 5 % margin) are budgeted; 6 % beyond is refused."""
+    from gpr_kinematics.core import naive_inverse
+
+    cfg = load_config()
+    table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
+    accuracy_budget(CoreModel(cfg), [[cfg.stroke_max + 1e-12, cfg.stroke_max, cfg.stroke_max]], table, samples=10)
+    for factor, refused in ((1.03, False), (1.06, True)):
+        q = naive_inverse(0.25, factor * cfg.tilt_limit, 0.3, cfg)
+        if refused:
+            with pytest.raises(LimitError, match=r'station 1: .*beyond the tilt limit'):
+                accuracy_budget(CoreModel(cfg), [q], table, samples=10)
+        else:
+            accuracy_budget(CoreModel(cfg), [q], table, samples=10)
+

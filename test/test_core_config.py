@@ -207,3 +207,9 @@ def test_a_config_built_in_code_takes_what_a_file_takes():
     assert GprConfig(radius=0.1).characteristic_length == 0.1
     assert GprConfig(radius=0.1, characteristic_length=0.2).characteristic_length == 0.2
     assert GprConfig() == load_config().replace(**{k: v for k, v in GprConfig().to_dict().items()})
+
+
+def test_numpy_integers_count_as_numbers():
+    assert GprConfig(kappa=np.int64(1000)).kappa == (1000.0, 1000.0, 1000.0)
+    assert GprConfig().replace(max_iterations=np.int32(5)).max_iterations == 5
+

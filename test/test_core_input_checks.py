@@ -181,3 +181,13 @@ def test_none_is_no_number():
         with pytest.raises(InputError) as err:
             call()
         assert str(err.value) == message
+
+
+def test_joint_play_of_exactly_its_bound_is_taken():
+    Q = [[0.5, 0.503, 0.498]]
+    D = np.zeros((1, 3, 3))
+    D[0, 1, 0] = 0.01
+    assert forward_batch(Q, displacement=D).tilt.shape == (1,)
+    D[0, 1, 0] = 0.01 + 1e-12
+    _refused(lambda: forward_batch(Q, displacement=D), r'joint displacement \[0, 1, 0\] = 0.010000000001 m')
+

@@ -285,3 +285,11 @@ def test_tuples_are_named_as_tuples_and_joints_may_be_one():
     with pytest.raises(ConfigError, match=r'^test_robot\.yaml: base: expected a mapping \(frame, position, rpy of '
                                           r'gpr_base in the world\), got a tuple$'):
         make_robot(data)
+
+
+def test_rods_may_take_their_own_joint_names():
+    """A rod may be named its own ``rod_k`` (rods named in the trajectory's order); only another rod's is refused."""
+    data = robot_data()
+    data['rods']['names'] = ['rod_1', 'rod_2', 'rod_3']
+    assert make_robot(data).rods.names == ('rod_1', 'rod_2', 'rod_3')
+
