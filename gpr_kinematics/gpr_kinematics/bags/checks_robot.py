@@ -226,7 +226,6 @@ def _wafer_poses_without_states(bag: Bag, due: NDArray[np.bool_] | None) -> list
         'publishes none'))], len(t), '')]
 
 
-
 def beyond_limits(joints: NDArray[np.float64], names: tuple[str, ...], robot: RobotDescription) -> NDArray[np.float64]:
     """Per row of ``joints (N, J)`` [rad], the arm joints ``names``: by how much its farthest joint is beyond its range
     (1e-12 rad of slack, :data:`~gpr_kinematics.robot.arm_chain.LIMIT_SLACK`; 0 within; inf for a NaN or a name

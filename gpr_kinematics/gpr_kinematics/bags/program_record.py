@@ -19,7 +19,6 @@ checks the markers against ``markers_every``. SI units (m, rad, s).
 """
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -30,6 +29,7 @@ from numpy.typing import NDArray
 
 from ..core import inverse_batch
 from ..core.config import GprConfig
+from ..core.messages import FRAME_PREFIX_RULE, FRAME_PREFIX_WORDS
 from ..core.sweep import paper_sweep
 from ..errors import ConfigError, GprError
 from ..inputs import safe_yaml
@@ -54,8 +54,6 @@ SWEEP_KEYS = ('height', 'max_tilt', 'tilt_step', 'azimuth_step', 'passes')
 MAX_RECORD_BYTES = 8 << 20
 _KEYS = ('kind', 'first_sample', 'samples', 'rate', 'loop', 'move_time', 'markers_every', 'frame_prefix', 'sweep',
          'program')
-#: A recorded ``frame_prefix``: what ``trajectory_node`` takes (letters, digits, ``_`` and ``/``), at most 256 of them.
-FRAME_PREFIX = re.compile(r'[A-Za-z0-9_/]{0,256}')
 
 
 @dataclass(frozen=True)
@@ -168,9 +166,9 @@ def _frame_prefix(data: Mapping[str, Any], where: str) -> str | None:
     if 'frame_prefix' not in data:
         return None
     value = data['frame_prefix']
-    if not isinstance(value, str) or not FRAME_PREFIX.fullmatch(value):
-        raise ConfigError(f"{where}: frame_prefix = {safe_yaml.brief(value)}; allowed: text of letters, digits, _ and "
-                          "/, at most 256 (trajectory_node's frame_prefix)")
+    if not isinstance(value, str) or not FRAME_PREFIX_RULE.fullmatch(value):   # the node's own rule
+        raise ConfigError(f"{where}: frame_prefix = {safe_yaml.brief(value)}; allowed: {FRAME_PREFIX_WORDS}, at most "
+                          "100 characters (trajectory_node's frame_prefix)")
     return value
 
 

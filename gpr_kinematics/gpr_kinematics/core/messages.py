@@ -15,6 +15,7 @@ Units are SI (metres, radians), quaternions (x, y, z, w), as in the core.
 """
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
@@ -28,6 +29,11 @@ from ..inputs.safe_yaml import YamlValue
 if TYPE_CHECKING:
     from .config import GprConfig
     from .forward import ForwardResult
+
+#: What a node's ``frame_prefix`` may be (the parameter, and the prefix ``trajectory_node`` records with each stream):
+#: empty, or letters, digits, ``_`` and ``/``, not starting with ``/``, at most 100 characters.
+FRAME_PREFIX_RULE = re.compile(r'([A-Za-z0-9_][A-Za-z0-9_/]{0,99})?')
+FRAME_PREFIX_WORDS = 'empty, or letters, digits, _ and /, not starting with /'
 
 #: A ROS message or one of its field values, of a class generated from a ``.msg`` file (rclpy's, or the ``rosbags``
 #: typestore's): its type is made at run time, so this module, which takes either, cannot name it.

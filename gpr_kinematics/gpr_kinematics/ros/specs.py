@@ -19,7 +19,7 @@ from typing import Any
 
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
-from ..core.messages import Topic
+from ..core.messages import FRAME_PREFIX_RULE, FRAME_PREFIX_WORDS, Topic
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
@@ -191,13 +191,12 @@ def config_specs(cfg: GprConfig | None = None, read_only: bool = False) -> tuple
 #: The prefix of every tf frame a node publishes, as ``robot_state_publisher``'s ``frame_prefix``: two robots with
 #: ``r1/`` and ``r2/`` publish ``r1/gpr_base`` and ``r2/gpr_base`` on one ``/tf``.
 FRAME_PREFIX = ParamSpec('frame_prefix', 'string', '', 'prefix of every tf frame the node publishes or names (as '
-                         "robot_state_publisher's frame_prefix), e.g. r1/", constraint='empty, or letters, digits, _ '
-                         'and /, not starting with /', read_only=True)
+                         "robot_state_publisher's frame_prefix), e.g. r1/", constraint=FRAME_PREFIX_WORDS,
+                         read_only=True)
 JOINT_STATES_RELIABILITY = ParamSpec('joint_states_reliability', 'string', 'reliable', 'QoS reliability of the '
                                      'joint_states subscription: reliable (every sample) or best_effort (hears a '
                                      'best-effort publisher too, as robot_state_publisher\'s SensorDataQoS)',
                                      choices=('reliable', 'best_effort'), read_only=True)
-_PREFIX = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/]{0,99}')
 
 
 #: A tf frame name: letters, digits, _ - and ., parts joined by single slashes, not starting with one (tf2 refuses a
@@ -222,7 +221,7 @@ def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
 
 def check_frame_prefix(prefix: str) -> str:
     """``prefix`` when it is a valid frame prefix (:data:`FRAME_PREFIX`), else :class:`ConfigError` naming it."""
-    if prefix and not _PREFIX.fullmatch(prefix):
+    if not FRAME_PREFIX_RULE.fullmatch(prefix):
         raise ConfigError(f'parameter frame_prefix = {prefix!r} is invalid; allowed: {FRAME_PREFIX.constraint} (at '
                           'most 100 characters), e.g. r1/')
     return prefix
