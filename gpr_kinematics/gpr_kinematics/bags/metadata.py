@@ -31,6 +31,8 @@ from .fileio import read_bounded, require_regular
 
 BAG_VERSION: Final[Literal[9]] = 9
 STORAGES = ('mcap', 'sqlite3')
+#: The end of rosbag2's integers (int64 nanoseconds, counts): every one lies in ``[0, INT_END)``.
+INT_END = 2**63
 #: ``custom_data`` key prefix of a storage file's SHA-256, and the key of the metadata's own digest.
 FILE_DIGEST_PREFIX = 'gpr_sha256/'
 METADATA_DIGEST_KEY = 'gpr_metadata_sha256'
@@ -116,7 +118,7 @@ class _Schema:
         for p in path:
             value = _Schema(self.source, value, f'{self.where}{key}.').get(p)
             key = f'{key}.{p}'
-        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**63:
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < INT_END:
             raise self._fail(key, value, 'an integer from 0 to 2^63 - 1')
         return value
 

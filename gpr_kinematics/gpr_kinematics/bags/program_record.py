@@ -41,6 +41,7 @@ from ..robot.program import FORMAT as ROBOT_FORMAT
 from ..robot.program import RobotProgram, parse_program
 from ..robot.stream import robot_stream
 from ..robot.transforms import PoseBatch
+from .metadata import INT_END
 from .typestore import PROGRAM_TOPIC
 
 #: The keys of a recorded robot program (:func:`program_dict`): its stations inline, no robot, cell or station file
@@ -143,7 +144,7 @@ def record_text(kind: str, first_sample: int, samples: int, rate: float, loop: b
 
 def _integer(data: Mapping[str, Any], key: str, where: str) -> int:
     value = data.get(key)
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**63:
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < INT_END:
         raise ConfigError(f'{where}: {key} = {safe_yaml.brief(value)}; allowed: an integer from 0 to 2^63 - 1')
     return value
 

@@ -33,7 +33,7 @@ from .cdr import Columns, decode_columns
 from .errors import BagError
 from .fileio import check_sqlite_pages, read_head, require_regular, sha256_file
 from .mcap_file import MAX_MESSAGES, read_mcap
-from .metadata import Metadata, read_metadata
+from .metadata import INT_END, Metadata, read_metadata
 from .typestore import (
     JOINT_STATES_TOPIC,
     KNOWN_TOPICS,
@@ -429,7 +429,7 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
     out: dict[str, TopicData] = {}
     for name in names:
         times = [v for c in contents for v in c.times.get(name, [])]
-        if times and not 0 <= min(times) <= max(times) < 2**63:   # int64 would overflow (a traceback before)
+        if times and not 0 <= min(times) <= max(times) < INT_END:   # int64 would overflow (a traceback before)
             bad = min(times) if min(times) < 0 else max(times)
             raise BagError(f'{layout.path}: topic {name} has a log time of {bad} ns; allowed: 0 to 2^63 - 1 ns (a '
                            'rosbag2 time stamp)')

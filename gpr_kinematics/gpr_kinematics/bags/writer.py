@@ -39,7 +39,7 @@ from ..errors import FileError, brief
 from ..inputs.files import writable_folder
 from ..inputs.validation import plain_number
 from .errors import BagError
-from .metadata import BAG_VERSION, file_lines, render_metadata
+from .metadata import BAG_VERSION, INT_END, file_lines, render_metadata
 from .reader import OPEN_SEGMENT_DIR
 from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
 from .typestore import check_known, definition
@@ -205,7 +205,7 @@ class SegmentedBagWriter:
         """Append one serialized message (CDR bytes, stored unchanged) with its log time [ns], an integer from 0 to
         2^63 - 1 (refused before anything is written: a bad one had broken the open segment and lost the bag)."""
         if isinstance(timestamp, (bool, np.bool_)) or not isinstance(timestamp, (int, np.integer)) or \
-                not 0 <= timestamp < 2**63:
+                not 0 <= timestamp < INT_END:
             raise BagError(f'log time = {brief(timestamp)}; allowed: an integer from 0 to 2^63 - 1 [ns]')
         timestamp = int(timestamp)
         seg = self.segment
