@@ -206,6 +206,12 @@ def base_pose(robot: RobotDescription, n: int) -> PoseBatch:
     return PoseBatch.fixed(robot.base_position, robot.base_rotation, n)
 
 
+def check_robot(robot: object) -> None:
+    """Refuse a ``robot`` argument that is no :class:`RobotDescription` (an AttributeError later), naming it."""
+    if not isinstance(robot, RobotDescription):
+        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot or parse_robot)')
+
+
 def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: str | None = None,
                   check_limits: bool = True) -> RobotForward:
     """Forward kinematics of rod lengths ``(N, 3)`` [m] and the joints ``(N, n)`` [rad] of ``arm`` (default: the
@@ -216,8 +222,7 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         LimitError: a rod outside the stroke, a tilt beyond the limit, a joint beyond its range (``check_limits``;
             without, InputError for a joint beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` rad).
     """
-    if not isinstance(robot, RobotDescription):
-        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot or parse_robot)')
+    check_robot(robot)
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
     J = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
-from .forward import robot_forward
+from .forward import check_robot, robot_forward
 from .grid import grid_count
 from .inverse import StationSolution, solve_stations
 from .paths import GRID, line_gains, line_positions
@@ -217,8 +217,7 @@ def _solve_waypoints(robot: RobotDescription, program: RobotProgram, way: Waypoi
 
 def _check_kinds(robot: object, program: object) -> None:
     """Refuse a robot that is no RobotDescription and a program that is no RobotProgram (an AttributeError later)."""
-    if not isinstance(robot, RobotDescription):
-        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot or parse_robot)')
+    check_robot(robot)
     if not isinstance(program, RobotProgram):
         raise InputError(f'program = {brief(program)}; allowed: a RobotProgram (load_program or parse_program)')
 
