@@ -891,3 +891,20 @@ def test_beyond_limits_is_infinite_for_a_joint_the_robot_does_not_have():
     out = beyond_limits(rows, names, ROBOT)
     assert out[0] == 0.0 and out[1] == pytest.approx(0.1 - 1e-12, abs=1e-15) and out[2] == math.inf
     assert beyond_limits(rows, ('arm1_shoulder', 'arm9_elbow'), ROBOT).tolist() == [math.inf] * 3
+
+
+def test_in_world_reads_the_prefix_as_its_docstring_says() -> None:
+    """The frame rule, case by case: with the recorded prefix exactly ``prefix + world`` beside a PlatformState frame
+    that is more than the prefix; without one (an older node's records) any prefix shared by both frames."""
+    from gpr_kinematics.bags.checks_robot import in_world
+
+    world = ROBOT.world_frame
+    cases = [  # (frame, state frame, recorded prefix, verdict)
+        (f'r1_{world}', 'r1_gpr_base', 'r1_', True), (world, 'r1/gpr_base', 'r1/', False),
+        (f'r1/{world}', 'r1/gpr_base', 'r1/', True), (f'r1/{world}', 'r1/', 'r1/', False),
+        (world, 'gpr_base', '', True), (f'evil/{world}', 'gpr_base', None, False),
+        (world, 'gpr/base', None, True), (world, 'r1/gpr_base', None, True),
+        (f'r1/{world}', 'r1/', None, False), (f'r1/{world}', 'r2/gpr_base', None, False),
+        (f'{world}x', 'gpr_base', None, False)]
+    for frame, base, prefix, verdict in cases:
+        assert in_world([frame], [base], ROBOT, prefix).tolist() == [verdict], (frame, base, prefix)

@@ -191,3 +191,16 @@ def test_joint_play_of_exactly_its_bound_is_taken():
     D[0, 1, 0] = 0.01 + 1e-12
     _refused(lambda: forward_batch(Q, displacement=D), r'joint displacement \[0, 1, 0\] = 0.010000000001 m')
 
+
+
+def test_plain_number_reads_what_a_range_check_names():
+    """A bound names the value as given: Python and numpy numbers and a 0-d array of one are that number; a bool,
+    a 0-d bool or text array, a 1-element list and None are no number (NaN); an int beyond a float is infinite."""
+    from gpr_kinematics.inputs.validation import plain_number
+
+    for value in (2.5, 3, np.float32(0.5), np.int64(-4), np.array(100.0), np.array(7, dtype=np.uint8)):
+        got = plain_number(value)
+        assert type(got) is float and got == float(np.asarray(value))
+    for value in (True, np.bool_(False), np.array(True), np.array('1.0'), [1.0], None, '2.0', 1j):
+        assert math.isnan(plain_number(value)), value
+    assert plain_number(10 ** 400) == math.inf and plain_number(-10 ** 400) == -math.inf

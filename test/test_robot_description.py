@@ -293,3 +293,20 @@ def test_rods_may_take_their_own_joint_names():
     data['rods']['names'] = ['rod_1', 'rod_2', 'rod_3']
     assert make_robot(data).rods.names == ('rod_1', 'rod_2', 'rod_3')
 
+
+
+def test_a_geometry_given_as_any_path_like_is_read_as_that_file(tmp_path):
+    """os.PathLike is the documented kind of a path: one that is no ``pathlib.Path`` reads the same file."""
+    import os
+
+    class Where(os.PathLike):   # a caller's own path type
+        def __init__(self, path):
+            self.path = str(path)
+
+        def __fspath__(self):
+            return self.path
+
+    source = tmp_path / 'geo.yaml'
+    source.write_text('radius: 0.1\n')
+    robot = load_robot(geometry=Where(source))
+    assert robot.config.radius == 0.1 and robot.config == load_robot(geometry=source).config

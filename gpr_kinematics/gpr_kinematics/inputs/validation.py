@@ -92,15 +92,16 @@ def text_hint(value: Any) -> str:
 
 def plain_number(value: Any) -> float:
     """``value`` as a float where it is a Python or numpy int or float (a bool is not; an int too large for a float
-    is infinite; a 0-d array of one counts as it), else NaN: for range checks that name the value as given."""
+    is infinite, of its sign; a 0-d array of one counts as it), else NaN: for range checks that name the value as
+    given."""
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in 'iuf':   # np.array(100.0)
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         return math.nan
     try:
         return float(value)
-    except OverflowError:
-        return math.inf
+    except OverflowError:   # an int beyond a float's range
+        return math.inf if value > 0 else -math.inf
 
 
 def count_of(values: Any) -> int:
