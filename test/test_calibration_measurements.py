@@ -289,3 +289,17 @@ def test_measurements_built_from_lists_are_the_files_arrays():
         with pytest.raises(InputError, match=rf'^m: Measurements\.lines = {shown}; allowed: the line number of each '
                                              r'row, integers >= 0$'):
             Measurements('m', m.q, m.position, None, None, None, lines)
+
+
+def test_the_documented_example_file_is_read():
+    """docs/calibration.md's example measurement file (its quaternion's norm was 0.9999908: refused by the
+    unit-quaternion rule, |norm - 1| <= 1e-6)."""
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'calibration.md').read_text(encoding='utf-8')
+    block = doc.split('## Measurement files', 1)[1].split('```text\n', 1)[1].split('```', 1)[0]
+    m = parse_measurements(block, 'doc.csv')
+    assert len(m) == 1 and m.units == ('mm', 'deg')
+    np.testing.assert_allclose(m.q[0], [0.25, 0.2521, 0.2483], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(m.position[0], [1.31e-5, -2.05e-5, 0.2501], rtol=0, atol=1e-15)
+    assert m.sigma_position[0] == pytest.approx(5e-6, rel=1e-12)

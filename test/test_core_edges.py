@@ -123,6 +123,11 @@ def test_the_command_line_reads_millimetres_exactly(capsys):
      '--azimuth = 6.283185308 rad is outside [-2pi, 2pi] rad (2pi = 6.283185307)'),
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--azimuth', '-400', '--deg'],
      '--azimuth = -400 deg is outside [-360, 360] deg'),
+    # a typed tilt beyond a turn was taken modulo 2 pi (1000 turns + 0.02 rad solved as 0.02 rad)
+    (['robot', 'ik', '--position', '1.2', '1.0', '0.455', '--tilt', '6283.205307179586'],
+     '--tilt = 6283.21 rad is outside [-2pi, 2pi] rad; allowed: an angle in radians (give --deg for degrees)'),
+    (['compensate', '--height', '0.25', '--tilt', '361', '--azimuth', '0', '--deg'],
+     '--tilt = 361 deg is outside [-360, 360] deg'),
     (['mobility', '0.3', '0.3', '0.3', '--dq', '0.2080000000001', '0', '0'],
      'q1 + dq1 = 0.5080000000001 m is outside the stroke [0, 0.508] m'),
     (['ik', '--height', '0.25', '--tilt', '2.00000006', '--azimuth', '0', '--deg'],

@@ -58,6 +58,10 @@ def test_serpentine_order_is_continuous_and_paper_order_is_not():
     # --azimuth-step 400 --deg echoed 6.98 rad only
     ({'azimuth_step': math.radians(400.0)}, InputError,
      r'azimuth_step = 6\.98131\d* rad \(400 deg\) is more than a turn; allowed: at most 2 pi rad \(360 deg\)'),
+    # a step beyond max_tilt was 'max_tilt ... must be a whole number (>= 1) of tilt steps': the default blamed
+    ({'tilt_step': 0.2}, InputError,
+     r'^tilt_step = 0\.2 rad is more than max_tilt = 0\.0349065\d* rad; allowed: a step that divides max_tilt a whole '
+     r'number \(>= 1\) of times$'),
 ])
 def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
     with pytest.raises(exc, match=pattern):
@@ -111,3 +115,21 @@ def test_summary_reports_the_largest_value_of_every_row_field():
         assert getattr(summary, name) == np.max(rows), name
     i = int(np.argmax(shift))
     assert (summary.max_centre_shift_at.alpha, summary.max_centre_shift_at.gamma) == (s.alpha[i], s.gamma[i])
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['--azimuth-step', '10'], '--azimuth-step = 10 rad is outside [-2pi, 2pi] rad; allowed: an angle in radians '
+                               '(give --deg for degrees)'),
+    (['--tilt-step', '0.2'], '--tilt-step = 0.2 rad is more than the tilt limit 0.0349066 rad (2 deg); allowed: a '
+                             'step within it (give --deg for degrees)'),
+    (['--azimuth-step', '400', '--deg'], '--azimuth-step = 400 deg is outside [-360, 360] deg; allowed: an angle of at '
+                                         'most one turn'),
+])
+def test_gpr_sweep_names_a_typed_step_in_degrees_given_as_radians(capsys, argv, message):
+    """``gpr sweep --azimuth-step 10`` and ``--tilt-step 0.2`` (degrees meant) named the radians without the --deg
+    hint that ``gpr ik`` gives, the second blaming the default max_tilt."""
+    from gpr_kinematics.cli.main import main
+
+    assert main(['sweep', *argv]) == 2
+    assert capsys.readouterr().err.strip().endswith(message)
+    assert main(['sweep', '--tilt-step', '0.2', '--azimuth-step', '10', '--deg', '--json']) == 0

@@ -191,7 +191,7 @@ def test_csv_rows_are_counted_as_they_are_read(tmp_path, monkeypatch):
     ('u.csv', '# units: rad\nname,x,y,z,{key}\na,1,0.5,0.4,{v}\n', '# units: deg\nname,x,y,z,{key}\na,1,0.5,0.4,{v}\n',
      r'line 3 \(a\): {key} = 90 rad is beyond one turn'),
 ])
-@pytest.mark.parametrize('key', ['heading', 'azimuth'])
+@pytest.mark.parametrize('key', ['heading', 'azimuth', 'tilt'])   # tilt: 36001.2 deg passed as 1.2 deg
 def test_an_orientation_beyond_a_turn_is_degrees_in_a_file_in_radians(tmp_path, name, rad, deg, message, key):
     """``heading: 90`` in a file in radians was 14.3 turns, taken modulo 2 pi as 2.04 rad: a wrong station
     silently. It is refused naming the key, the value and how the file declares degrees; in degrees it is pi/2, and

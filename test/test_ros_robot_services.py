@@ -141,6 +141,9 @@ BAD = [
     ('ik', dict(position=(1.2, 1.0, 0.455), tilt=0.02, azimuth=90.0, heading=0.8),
      ['azimuth = 90 rad is beyond one turn; allowed: [-2pi, 2pi] rad', '90 deg is 1.57079633 rad']),
     ('ik', dict(position=(1.3, 0.6, 0.45), heading=45.0), ['heading = 45 rad is beyond one turn']),
+    # a tilt of 1000 turns + 0.02 rad was solved as 0.02 rad, success: true
+    ('ik', dict(position=(1.2, 1.0, 0.455), tilt=6283.205307179586, azimuth=0.5, heading=0.8),
+     ['tilt = 6283.21 rad is beyond one turn; allowed: [-2pi, 2pi] rad']),
     ('ik', dict(position=(1.3, 0.6, 0.60), heading=0.3, arm='arm2', branch='left', redundancy_value=30.0),
      ['redundancy value = 30 rad', 'beyond one turn']),
 ]

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
-from ..errors import InputError
+from ..errors import InputError, apart
 from ..inputs.units import metres
 from .options import direction, number, rod_lengths, vec, whole
 from .output import emit_json, json_object
@@ -108,10 +108,9 @@ def _cmd_ik(args: argparse.Namespace) -> int:
 def _cmd_compensate(args: argparse.Namespace) -> int:
     from ..core.compensation import compensate
     from ..core.rotations import quaternion_from_matrix, rotation_z, tilt_rotation
-    from ..inputs.validation import finite_number
     cfg = _config(args)
     # The command is built from the typed angles: check them by name before they become a quaternion.
-    tilt = finite_number(_angle(args, args.tilt), '--tilt')
+    tilt = direction(args, args.tilt, '--tilt')   # 2pi - 0.02 is -0.02 once a rotation: within a turn
     azimuth, heading = (direction(args, getattr(args, n), f'--{n}') for n in ('azimuth', 'heading'))
     R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
     res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
@@ -199,6 +198,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                           ('--azimuth-step', args.azimuth_step)):   # named as typed, not as the radians they become
         if value is not None and not value > 0.0:
             raise InputError(f'{option} = {value:g} {"deg" if args.deg else "rad"}; allowed: a positive angle')
+    if args.azimuth_step is not None:   # beyond a turn: degrees typed as radians, as a typed direction
+        direction(args, args.azimuth_step, '--azimuth-step')
+    if args.tilt_step is not None and not args.deg and args.tilt_step > cfg.tilt_limit:   # 0.2 meant 0.2 deg
+        shown, limit = apart(args.tilt_step, cfg.tilt_limit)
+        raise InputError(f'--tilt-step = {shown} rad is more than the tilt limit {limit} rad '
+                         f'({math.degrees(cfg.tilt_limit):g} deg); allowed: a step within it (give --deg for degrees)')
 
     s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
                           max_tilt=given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),

@@ -201,7 +201,8 @@ def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
 
 
 def direction(args: argparse.Namespace, value: float, option: str) -> float:
-    """A direction or joint angle typed as ``option`` (``--azimuth``, ``--heading``, ``--redundancy``) in radians
+    """A direction or joint angle typed as ``option`` (``--azimuth``, ``--heading``, ``--redundancy``, a station's
+    or a command's ``--tilt``) in radians
     (``--deg`` converted): finite and within one turn, [-2 pi, 2 pi] rad or [-360, 360] deg, else
     :class:`InputError` naming it. The core takes any angle up to +-1e6 rad (periodic); a typed angle beyond one
     turn is a slip, mostly degrees given as radians (``--azimuth 40`` meant 40 deg), never an angle meant."""

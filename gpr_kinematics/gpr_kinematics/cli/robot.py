@@ -60,10 +60,9 @@ def _cmd_fk(args: argparse.Namespace) -> int:
 
 def _station_args(args: argparse.Namespace) -> Stations:
     from ..errors import InputError
-    from ..inputs.validation import finite_number
     from ..robot.fields import check_world_position
     from ..robot.stations import Stations
-    tilt = angles(args, [finite_number(args.tilt, '--tilt')])[0]
+    tilt = direction(args, args.tilt, '--tilt')   # a tilt of more than a turn is a slip, as a direction's
     azimuth = direction(args, args.azimuth, '--azimuth')
     heading = None if args.heading is None else [direction(args, args.heading, '--heading')]
     position = lengths(args, args.position)

@@ -133,6 +133,9 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
         raise InputError(f'max_tilt / tilt_step = {half:.6g} tilt steps; allowed: a sweep of at most {MAX_SAMPLES} '
                          'samples (a larger tilt_step)')
+    if tilt_step > max_tilt:   # not 'max_tilt must be a whole number of steps': the step is what is wrong
+        raise InputError(f'tilt_step = {tilt_step!r} rad is more than max_tilt = {max_tilt!r} rad; allowed: a step '
+                         'that divides max_tilt a whole number (>= 1) of times')
     n_half = round(half)
     if abs(half - n_half) > 1e-9 * max(1.0, half) or n_half < 1:
         raise InputError(f'max_tilt = {max_tilt!r} rad must be a whole number (>= 1) of tilt steps '

@@ -122,7 +122,7 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
     position = point_array(request.position, 'position')
     check_world_position(position.tolist(), 'position', error=InputError)   # as a station file's and gpr robot ik's
     free = bool(request.heading_free)
-    angles = {'tilt': finite_number(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
+    angles = {'tilt': within_turn(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
               'heading': 0.0 if free else within_turn(request.heading, 'heading')}
     if free and len(arm.joints) > 2:
         raise InputError(f'heading_free: arm {arm.name} has {len(arm.joints)} joints and needs the blade heading; '
@@ -134,13 +134,13 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
 def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, value: float | None
                  ) -> StationFloats | None:
     """The float path of one station where the request is within what it takes (every number finite and within
-    +-MAX_COORDINATE, the position within the world's bound, the azimuth, heading and held value within a turn, a
+    +-MAX_COORDINATE, the position within the world's bound, the tilt, azimuth, heading and held value within a turn, a
     known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
     p = request.position
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
         return None
-    if beyond_turn(request.azimuth) or beyond_turn(request.heading) or abs(numbers[-1]) > TURN:
+    if any(beyond_turn(v) for v in (request.tilt, request.azimuth, request.heading)) or abs(numbers[-1]) > TURN:
         return None  # the batch path names which
     if max(abs(p.x), abs(p.y), abs(p.z)) > WORLD_BOUND:
         return None  # beyond the world: the batch path refuses it (check_world_position)
