@@ -2,6 +2,7 @@
 the one way a message quotes a user's value (errors.brief)."""
 import doctest
 import os
+import re
 import stat
 import threading
 from pathlib import Path
@@ -234,3 +235,52 @@ def test_an_output_may_not_be_a_file_the_command_read(tmp_path):
         assert write_text(tmp_path / 'out.yaml', 'b: 2\n', 'calibrated geometry').read_text() == 'b: 2\n'
     assert src.read_text() == 'a: 1\n'
     write_text(src, 'c: 3\n', 'config')                     # outside a command: no reads are noted
+
+
+def _another_process_writes(path: Path, text: str) -> None:
+    """What a second command does to ``path``: a new file renamed over it (atomic_output's way)."""
+    other = path.with_name(path.name + '.other')
+    other.write_text(text)
+    os.replace(other, path)
+
+
+@pytest.mark.parametrize('existed', [False, True])
+def test_a_failing_command_leaves_an_output_another_process_wrote_since(tmp_path, existed):
+    """A command interrupted after another command replaced its output took that one back: the other's file was
+    deleted (or the content before both put back) though the other had said it wrote it."""
+    target, mine = tmp_path / 'w.csv', tmp_path / 'mine.json'
+    if existed:
+        target.write_text('old')
+    with pytest.raises(FileError, match=rf"^{re.escape(str(target))} was replaced by another process while this "
+                                        r'command ran; left as it is \(this command failed: disk full\); allowed: one '
+                                        'command writing an output at a time$'), files.command_writes():
+        files.write_text(target, 'A', 'CSV')
+        files.write_text(mine, '{}', 'JSON')
+        _another_process_writes(target, 'B')
+        raise FileError('disk full')
+    assert target.read_text() == 'B' and sorted(p.name for p in tmp_path.iterdir()) == ['w.csv']
+    with pytest.raises(KeyboardInterrupt), files.command_writes():   # Ctrl-C: left the same way
+        files.write_text(target, 'A', 'CSV')
+        _another_process_writes(target, 'C')
+        raise KeyboardInterrupt
+    assert target.read_text() == 'C' and sorted(p.name for p in tmp_path.iterdir()) == ['w.csv']
+
+
+def test_a_command_whose_output_another_process_replaced_fails_and_takes_back_the_rest(tmp_path):
+    """Two commands writing the same pair of files both said they had written it, leaving each file of another
+    command. The one that ends to find an output replaced fails naming it and takes back its other outputs."""
+    waypoints, samples = tmp_path / 'w.csv', tmp_path / 's.csv'
+    samples.write_text('s of B')
+    with pytest.raises(FileError, match=rf"^{re.escape(str(waypoints))} was replaced by another process while this "
+                                        r"command ran; left as the other process wrote it, this command's other "
+                                        'outputs taken back; allowed: one command writing an output at a time$'), \
+            files.command_writes():
+        files.write_text(waypoints, 'w of A', 'CSV')
+        _another_process_writes(waypoints, 'w of B')
+        files.write_text(samples, 's of A', 'CSV')
+    assert (waypoints.read_text(), samples.read_text()) == ('w of B', 's of B')
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['s.csv', 'w.csv']
+    with files.command_writes():   # the same file written twice by one command is no clash
+        files.write_text(waypoints, '1', 'CSV')
+        files.write_text(waypoints, '2', 'CSV')
+    assert waypoints.read_text() == '2'

@@ -27,7 +27,10 @@ Two rules hold within a context (a ``contextvars`` context: a thread, a task):
 * **all of a command's outputs or none** (:func:`command_writes`): a command that fails (an exception, Ctrl-C) after
   some of its outputs were written takes them back: files it created are removed, files it replaced get their old
   content back (a hard link kept until the command ends), folders it created are removed when empty (``gpr program
-  export --waypoints W --samples S`` left ``W`` when ``S`` could not be written).
+  export --waypoints W --samples S`` left ``W`` when ``S`` could not be written). Only what still holds what the
+  command wrote is taken back: an output another process replaced meanwhile is left as it is, and a command that
+  ends to find one of its outputs replaced fails naming it (two commands writing the same pair of files both said
+  they had written it, each file of another command).
 
 Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
 what is allowed.
@@ -92,30 +95,70 @@ def command_reads() -> Iterator[set[tuple[int, int]]]:
         _READS.reset(token)
 
 
+def _identity(info: os.stat_result) -> tuple[int, int, int, int]:
+    """What tells a file written from another one at the same path: device, inode, size and modification time (an
+    inode number freed by a replacement may be reused at once)."""
+    return info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns
+
+
+@dataclass
+class _Written:
+    """One output written: its ``target``, a hard link to the content it replaced (``backup``; None: created) and
+    the :func:`_identity` of what the command wrote."""
+
+    target: Path
+    backup: Path | None
+    identity: tuple[int, int, int, int]
+
+    def ours(self) -> bool:
+        """Whether the target still holds what the command wrote."""
+        try:
+            return _identity(os.lstat(self.target)) == self.identity
+        except OSError:
+            return False
+
+
 @dataclass
 class _Writes:
-    """What the running command wrote: ``(target, backup)`` per replaced or created file (``backup``: a hard link to
-    the content replaced, None: created), and the folders it created."""
+    """What the running command wrote (:class:`_Written`, in order) and the folders it created."""
 
-    files: list[tuple[Path, Path | None]]
+    files: list[_Written]
     folders: list[Path]
 
-    def undo(self) -> None:
-        for target, backup in reversed(self.files):
+    def undo(self) -> list[Path]:
+        """Take back what still holds what the command wrote; the targets another process replaced since, left."""
+        left = []
+        for w in reversed(self.files):
             with contextlib.suppress(OSError):
-                if backup is None:
-                    target.unlink()
+                if not w.ours():
+                    left.append(w.target)
+                    if w.backup is not None:
+                        w.backup.unlink()
+                elif w.backup is None:
+                    w.target.unlink()
                 else:
-                    os.replace(backup, target)
+                    os.replace(w.backup, w.target)
         for folder in reversed(self.folders):
             with contextlib.suppress(OSError):
                 folder.rmdir()   # only when empty
+        return left
+
+    def replaced(self) -> list[Path]:
+        """The outputs another process replaced since the command wrote them (each target's last write)."""
+        last = {w.target: w for w in self.files}
+        return [t for t, w in last.items() if not w.ours()]
 
     def keep(self) -> None:
-        for _, backup in self.files:
-            if backup is not None:
+        for w in self.files:
+            if w.backup is not None:
                 with contextlib.suppress(OSError):
-                    backup.unlink()
+                    w.backup.unlink()
+
+
+def _clash(paths: list[Path], what: str) -> FileError:
+    named = ', '.join(str(p) for p in paths)
+    return FileError(f'{named} {"was" if len(paths) == 1 else "were"} replaced by another process while this command '
+                     f'ran; {what}; allowed: one command writing an output at a time')
 
 
 _WRITES: contextvars.ContextVar[_Writes | None] = contextvars.ContextVar('gpr_command_writes', default=None)
@@ -127,9 +170,19 @@ def command_writes() -> Iterator[None]:
     (module docstring)."""
     writes = _Writes([], [])
     token = _WRITES.set(writes)
+    clash = None
     try:
         yield
-    except BaseException:
+        clashed = writes.replaced()
+        if clashed:   # another command's output: this one's are no pair with it
+            clash = _clash(clashed, "left as the other process wrote it, this command's other outputs taken back")
+            raise clash
+    except Exception as error:
+        left = writes.undo()
+        if left and error is not clash:
+            raise _clash(left, f'left as it is (this command failed: {error})') from error
+        raise
+    except BaseException:   # Ctrl-C: what another process wrote is left, silently as before
         writes.undo()
         raise
     else:
@@ -164,13 +217,14 @@ def _replace(tmp: Path, target: Path) -> None:
         except OSError:   # a file system without hard links: a copy
             shutil.copyfile(target, backup)
     try:
+        identity = _identity(os.lstat(tmp))
         os.replace(tmp, target)
     except BaseException:
         if backup is not None:
             with contextlib.suppress(OSError):
                 backup.unlink()
         raise
-    writes.files.append((target, backup))
+    writes.files.append(_Written(target, backup, identity))
 
 
 def note_input(path: str | os.PathLike[str]) -> None:
