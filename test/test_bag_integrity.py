@@ -25,6 +25,7 @@ from bag_support import (
 )
 from gpr_kinematics.bags.metadata import METADATA_DIGEST_KEY, digest_line
 from gpr_kinematics.bags.reader import read_bag
+from gpr_kinematics.bags.results import format_table
 from gpr_kinematics.bags.typestore import GPR_TOPICS, typestore
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.cli import main as cli
@@ -190,6 +191,9 @@ def test_unlisted_and_unfinished_files_are_noted_not_read(tmp_path: Path, src: P
     result = verify_bag(bag)
     assert result.passed and result.unfinished == ['.recording/src_10/src_10.mcap']
     assert any('src_9.mcap' in n and 'not read' in n for n in result.notes)
+    # a bag still being recorded has one too: the note does not say the recorder was killed
+    assert ('note: unfinished segment(s) not read (a recording still running, or a recorder killed): '
+            ".recording/src_10/src_10.mcap") in format_table(result).splitlines()
 
 
 def test_a_hostile_unfinished_segment_folder_is_noted_not_walked(tmp_path: Path, src: Path) -> None:

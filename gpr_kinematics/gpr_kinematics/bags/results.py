@@ -266,7 +266,8 @@ def format_table(result: VerifyResult) -> str:
     lines = [f'bag {result.path} ({result.storage}, {len(result.files)} file(s)): '
              + ', '.join(f'{k} {v}' for k, v in result.counts.items())]
     if result.unfinished:
-        lines.append(f'note: unfinished segment(s) of a killed recorder, not read: {", ".join(result.unfinished)}')
+        lines.append('note: unfinished segment(s) not read (a recording still running, or a recorder killed): '
+                     + ', '.join(result.unfinished))
     lines += [f'note: {n}' for n in result.notes]
     lines += [f'note: not checked on {topic}: {"; ".join(fields)}' for topic, fields in result.unchecked.items()]
     lines.append(f'{"check":28s} {"topic":22s} {"status":6s} {"checked":>8s} {"worst":>12s} {"limit":>12s} unit')
