@@ -73,3 +73,26 @@ def random_stations(robot: RobotDescription, arm: str, n: int, seed: int = 0) ->
     Q, J = random_postures(robot, arm, n, seed)
     fk = robot_forward(robot, Q, J, arm)
     return stations_from_poses(fk.wafer.position, fk.wafer.rotation), Q, J
+
+
+#: A calibrated GPR whose rods are not parallel (a review's geometry): rod positions, offsets and directions,
+#: platform joints, the compliant model.
+TILTED_RODS = {'model': 'compliant', 'kappa': 2.0,
+               'rod_positions': [[0.0934, 0.0003], [-0.0465, 0.0809], [-0.0468, -0.0806]],
+               'rod_offsets': [0.0002, -0.0001, 0.00015],
+               'rod_directions': [[0.001, -0.0005], [0.0, 0.0008], [-0.0007, 0.0002]],
+               'platform_joints': [[0.0931, 0.0001], [-0.0467, 0.0806], [-0.0465, -0.0808]]}
+
+#: Rods at the stroke's ends and inside it, arm1's joints near their limits (both branches).
+TAUGHT_RODS = [[0.0, 0.0005, 0.0002], [0.0, 0.0005, 0.0002], [0.0, 0.0, 0.0], [0.508, 0.508, 0.508],
+               [0.508, 0.5075, 0.5078], [0.2, 0.2004, 0.1997]]
+TAUGHT_JOINTS = [[0.4, 1.0, 0.5], [3.0, -2.9, -3.0], [0.1, 0.2, 0.3], [-3.04, 2.89, 3.04], [-2.99, -2.89, 2.99],
+                 [3.04, -0.5, -3.04]]
+
+
+def tilted_rods_robot() -> RobotDescription:
+    """The example robot on :data:`TILTED_RODS`, its base moved, rolled and yawed."""
+    data = robot_data()
+    data['gpr'] = {'config': None, **TILTED_RODS}
+    data['base'] = {'frame': 'world', 'position': [1.2, -0.4, 0.3], 'rpy': [0.02, -0.03, 2.1]}
+    return make_robot(data)

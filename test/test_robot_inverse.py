@@ -11,8 +11,17 @@ from gpr_kinematics.robot.arm_chain import link_vectors
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.planar_arm import branch_of
-from gpr_kinematics.robot.stations import Stations
-from robot_support import ROBOT, elbow_angle, make_robot, random_stations, robot_data
+from gpr_kinematics.robot.stations import Stations, stations_from_poses
+from robot_support import (
+    ROBOT,
+    TAUGHT_JOINTS,
+    TAUGHT_RODS,
+    elbow_angle,
+    make_robot,
+    random_stations,
+    robot_data,
+    tilted_rods_robot,
+)
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
@@ -135,6 +144,38 @@ def test_a_batch_puts_every_station_on_its_plane_and_takes_rods_at_the_stroke_en
         taught = teach(ROBOT, [[q] * 3] * 2, [[0.2, 1.0, -0.4], [-0.3, -1.2, 0.5]], 'arm1')
         back = solve_stations(ROBOT, taught.stations, 'arm1', branch=['right', 'left'])
         np.testing.assert_allclose(back.rods, q, atol=1e-13)
+
+
+def test_rods_that_are_not_parallel_come_back_at_the_stroke_ends():
+    """On rods that are not parallel the height is solved again at corrected heights; an iterate of a station
+    taught with a rod at 0 lay 5e-9 m (7e-7 m) below the stroke and the core refused it (q1 = -4.94300834e-09 m is
+    outside the stroke), also under check=False. Only the converged rods are judged: fk -> ik -> fk comes back."""
+    robot = tilted_rods_robot()
+    fk = robot_forward(robot, TAUGHT_RODS, TAUGHT_JOINTS, 'arm1')
+    st = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    branch = branch_of(robot.arm('arm1'), np.array(TAUGHT_JOINTS))
+    for check in (True, False):
+        sol = solve_stations(robot, st, 'arm1', branch=branch, check=check)
+        assert sol.feasible.all()
+        np.testing.assert_allclose(sol.rods, TAUGHT_RODS, atol=1e-13, rtol=0)
+        np.testing.assert_allclose(sol.joints, TAUGHT_JOINTS, atol=1e-12, rtol=0)
+        _assert_reproduces(robot, sol, 'arm1', tol=1e-12)
+
+
+def test_rods_that_are_not_parallel_beyond_the_stroke_are_refused_in_the_robots_words():
+    """A station 1 cm, 1 m and 60 m below the stroke and 5 cm above it on rods that are not parallel: the robot's
+    refusal, by the rods' excess (the core had said its own words, or not converged far beyond), or marked."""
+    robot = tilted_rods_robot()
+    fk = robot_forward(robot, TAUGHT_RODS[:1], TAUGHT_JOINTS[:1], 'arm1')
+    st = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    for dz, side, by in ((-0.01, 'below', '9.994 mm'), (-1.0, 'below', '999.4 mm'), (-60.0, 'below', '5.996e+04 mm'),
+                         (0.05 + 0.508, 'above', '49.65 mm')):
+        moved = Stations.of(st.position + [0.0, 0.0, dz], st.tilt, st.azimuth, st.heading)
+        with pytest.raises(LimitError, match=rf'^station 0: gpr_rod1 = \S+ m is {side} the stroke \[0, 0\.508\] m by '
+                                             rf'{re.escape(by)}: the station is too {"low" if dz < 0 else "high"} for '
+                                             r'arm arm1$'):
+            solve_stations(robot, moved, 'arm1', branch='right')
+        assert not solve_stations(robot, moved, 'arm1', branch='right', check=False).feasible[0]
 
 
 def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():

@@ -221,6 +221,16 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequenc
                      f'{lo_:.6g} .. {hv:.6g} m')
 
 
+def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Array, Array]:
+    """The platform origin's heights ``(lo, hi)`` [m] at which :func:`inverse_batch` solves the tilts ``tilt`` about
+    ``azimuth`` [rad]: those keeping the naive model's rods within the stroke, widened by :data:`HEIGHT_MARGIN`
+    (beyond, it refuses before the solve; the answered rods decide within)."""
+    s = np.sin(tilt)
+    n = [s * np.sin(azimuth), -s * np.cos(azimuth), np.cos(tilt)]
+    lo, hi = _height_range(ARRAY, MachineGeometry.of(config), n, (0.0, 0.0, 0.0), config)
+    return np.asarray(lo - HEIGHT_MARGIN), np.asarray(hi + HEIGHT_MARGIN)
+
+
 def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
                          tool: Sequence[Value], config: GprConfig) -> None:
     """:func:`~gpr_kinematics.core.forward.check_stroke` of the solved rods ``q``; a refusal names the target's
@@ -237,8 +247,9 @@ def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: 
 
 
 def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,
-           vjm: VirtualJointModel) -> tuple[Result, Value]:
-    """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``."""
+           vjm: VirtualJointModel, stroke: bool = True) -> tuple[Result, Value]:
+    """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``; ``stroke=False``
+    answers rods outside the stroke (the caller judges them)."""
     _check_tilt_targets(ops, t, config)
     geo = MachineGeometry.of(config)
     s = ops.sin(t)
@@ -269,7 +280,8 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         q_now = naive_rods(geo, h_now, n_now, tool)
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
-    _check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
+    if stroke:
+        _check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
     check_tilt(ops, q, pose.tilt, config)   # a target within the slack may be answered a few ulps beyond it
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
@@ -280,7 +292,7 @@ def _refuse_azimuth(value: float, where: str) -> None:
 
 
 def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config: GprConfig | None = None,
-                  model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0)) -> InverseBatch:
+                  model: str | None = None, tool: ArrayLike = (0.0, 0.0, 0.0), stroke: bool = True) -> InverseBatch:
     """Rod lengths that give platform tilts and heights under the virtual-joint model, vectorised.
 
     Args:
@@ -289,12 +301,15 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
         azimuth: direction of the tilt axis [rad]. The three broadcast to ``(N,)``.
         tool: point of the platform, in ``gpr_platform`` [m], whose height is prescribed: shape ``(3,)``
             (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
+        stroke: refuse an answer whose rods leave the stroke; ``False`` answers it (the iterates of a caller that
+            judges its converged rods itself: station inverse kinematics on rods that are not parallel). A height
+            beyond :func:`solvable_heights` is refused either way.
 
     Raises:
         InputError: NaN, infinity, an azimuth beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE`
             rad (periodic, but a float angle beyond it keeps no digits modulo 2 pi), shapes that do not broadcast
             (``tool`` rows included).
-        LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke.
+        LimitError: ``|tilt| > tilt_limit``, or the answer leaves the stroke (unless ``stroke=False``).
         ConvergenceError: no convergence within ``max_iterations`` (not seen inside the limits).
     """
     cfg = resolve_config(config)
@@ -315,7 +330,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
     # One platform point for all targets (floats), or one per target (columns of length N).
     tool_v: Sequence[Value] = (tuple(float(v) for v in tools[0]) if tools.shape[0] == 1 else
                              [np.ascontiguousarray(np.broadcast_to(tools[:, i], h.shape)) for i in range(3)])
-    achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm)
+    achieved, iterations = _solve(ARRAY, ForwardBatch, h, t, g, tool_v, cfg, vjm, stroke)
     return InverseBatch(q=achieved.q, achieved=achieved, iterations=np.asarray(iterations, dtype=np.int64))
 
 
@@ -354,9 +369,10 @@ class InverseParts(NamedTuple):
     iterations: int
 
 
-def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float]) -> InverseParts:
+def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float], stroke: bool = True
+                  ) -> InverseParts:
     """:func:`_solve` of one target ``(h, t, g)`` up to its result: each step solves the closure and the rigid fit
-    only (floats; the tool point ``tool`` checked by the caller)."""
+    only (floats; the tool point ``tool`` checked by the caller; ``stroke`` as :func:`inverse_batch`'s)."""
     cfg, geo = kernel.config, kernel.geometry
     if abs(t) - cfg.tilt_limit > tilt_target_slack(cfg):
         _check_tilt_targets(SCALAR, t, cfg)
@@ -385,7 +401,8 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
             raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
-    _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
+    if stroke:
+        _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
     if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
         check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
     return InverseParts(q, P, L, closure, frame, iterations)

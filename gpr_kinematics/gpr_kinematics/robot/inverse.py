@@ -12,7 +12,8 @@ reproduces the station (tests: 1e-9 m and 1e-9 rad; in practice ~1e-15):
    the three rods translates a platform on parallel rods by ``c`` along ``gpr_base`` z without turning it, so
    ``c = (n . (p_b - t) - z_w) / n_z`` puts the plane through the station exactly. Forward kinematics of the
    result verifies the normal and the plane (if they were off -- rods that are not parallel -- the rods are
-   solved again at the corrected height, up to :data:`PLANE_ITERATIONS` times).
+   solved again at the corrected height, up to :data:`PLANE_ITERATIONS` times); only the converged rods are
+   judged against the stroke.
 3. **Arm.** The wafer in the platform frame ``w = R^T (p_b - t)`` and the blade heading ``psi`` from
    ``R^T R_b = Rz(psi)``: the arm absorbs the platform's centre shift and twist exactly. In the mount frame the
    planar chain is solved in closed form (:mod:`gpr_kinematics.robot.planar_arm`), on the chosen branch.
@@ -35,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
-from ..core.inverse import tilt_target_slack
+from ..core.inverse import solvable_heights, tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
@@ -48,6 +49,7 @@ from .one_station import (
     PLANE_ITERATIONS,
     PLANE_TOLERANCE,
     StationFloats,
+    parallel_rods,
     solve_one,
 )
 from .planar_arm import ArmSolution, branch_sign, solve_arm
@@ -181,24 +183,36 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
 
 def _platform_height(robot: RobotDescription, tilt: Array, az: Array, p_b: Array, n_b: Array,
                      zw: float) -> tuple[Array, ForwardBatch]:
-    """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (step 2)."""
+    """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (step 2). The
+    iterates are not judged against the stroke, the answer is (:func:`_fault_mask`). A height the core does not
+    solve (:func:`~gpr_kinematics.core.inverse.solvable_heights`: 1 cm beyond the stroke) is solved at the nearest
+    one and the rest moved along the rods as if parallel: a station beyond the stroke, its rods to ~1e-3 of the rest."""
     cfg = robot.config
-    ik = inverse_batch(0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, cfg)
+    ik = inverse_batch(0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, cfg, stroke=False)
     q, gpr = ik.q, ik.achieved
+    lo, hi = solvable_heights(tilt, az, cfg)
+    parallel = parallel_rods(cfg)
+    far = np.zeros(q.shape[0], dtype=bool)
     for _ in range(PLANE_ITERATIONS):
         n = gpr.rotation[:, :, 2]
         e = np.einsum('ni,ni->n', n, p_b - gpr.position) - zw
         normal_error = np.max(np.abs(n - n_b), axis=1)
-        if np.all(np.abs(e) <= PLANE_TOLERANCE) and np.all(normal_error <= NORMAL_TOLERANCE):
+        turned = ~far & (normal_error > NORMAL_TOLERANCE)
+        if np.all(far | (np.abs(e) <= PLANE_TOLERANCE)) and not turned.any():
+            if far.any():
+                q = q + np.where(far, e / n[:, 2], 0.0)[:, None]
+                gpr = forward_batch(q, cfg, check_limits=False)
             return q, gpr
-        if np.any(normal_error > NORMAL_TOLERANCE):  # rods that move together turned the platform: solve again
-            ik = inverse_batch(gpr.position[:, 2] + e / n[:, 2], tilt, az, cfg)
+        if turned.any() or not parallel:  # rods that move together would turn the platform: solve again
+            h = gpr.position[:, 2] + e / n[:, 2]
+            far |= (h < lo) | (h > hi)
+            ik = inverse_batch(np.clip(h, lo, hi), tilt, az, cfg, stroke=False)
             q, gpr = ik.q, ik.achieved
         else:
-            q = q + (e / n[:, 2])[:, None]
+            q = q + np.where(far, 0.0, e / n[:, 2])[:, None]
             gpr = forward_batch(q, cfg, check_limits=False)
     raise ConvergenceError(f'station height did not converge in {PLANE_ITERATIONS} iterations: plane residual '
-                           f'{np.max(np.abs(e)):.3e} m, normal error {np.max(normal_error):.3e}')
+                           f'{np.max(np.abs(e[~far])):.3e} m, normal error {np.max(normal_error[~far]):.3e}')
 
 
 def _arm_target(arm: Arm, w: Array, psi: Array) -> tuple[Array, Array]:

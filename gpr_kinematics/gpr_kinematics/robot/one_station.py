@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import STROKE_SLACK, ForwardBatch, ForwardResult
+from ..core.config import GprConfig
 from ..core.floats import (
     FloatPose,
     Mat3,
@@ -66,6 +67,12 @@ EDGE_MARGIN = 2e-13
 STRETCH_MARGIN = 1e-6
 
 
+def parallel_rods(config: GprConfig) -> bool:
+    """The rods move along one direction (``rod_directions`` all equal): a common change of them translates the
+    platform without turning it. Else every step of the height solves the rods again."""
+    return all(tuple(d) == tuple(config.rod_directions[0]) for d in config.rod_directions)
+
+
 class OneStation(NamedTuple):
     """The answer for one station as rows of one (the fields of
     :class:`~gpr_kinematics.robot.inverse.StationSolution` but the stations, arm and branch)."""
@@ -89,18 +96,21 @@ def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Ve
                      ) -> tuple[list[float], ForwardResult]:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
     ``_platform_height`` for one station): each step solves the closure and the platform's rigid fit only, the
-    forward kinematics of the answer is completed once."""
+    forward kinematics of the answer is completed once. The iterates are not judged against the stroke (the answer
+    is, by :func:`_batch_decides`); a height the core does not solve is left to the batch."""
     cfg = kernel.config
     zero = (0.0, 0.0, 0.0)
-    q, P, L, closure, frame, _ = inverse_parts(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero)
+    parallel = parallel_rods(cfg)
+    q, P, L, closure, frame, _ = inverse_parts(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero,
+                                               stroke=False)
     for _ in range(PLANE_ITERATIONS):
         _, _, n0, _, _, n1, _, _, n2, t0, t1, t2 = cast('tuple[float, ...]', frame)
         e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
         normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
         if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
             return q, one_result(kernel, q, P, L, closure, frame)
-        if normal_error > NORMAL_TOLERANCE:  # rods that move together turned the platform: solve again
-            q, P, L, closure, frame, _ = inverse_parts(kernel, t2 + e / n2, tilt, az, zero)
+        if normal_error > NORMAL_TOLERANCE or not parallel:  # rods that move together would turn the platform
+            q, P, L, closure, frame, _ = inverse_parts(kernel, t2 + e / n2, tilt, az, zero, stroke=False)
         else:
             c = e / n2
             q = [q[0] + c, q[1] + c, q[2] + c]
