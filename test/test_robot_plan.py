@@ -9,7 +9,8 @@ from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.plan import joint_limits, plan_program, sample_plan
 from gpr_kinematics.robot.program import load_program
-from robot_support import ROBOT
+from gpr_kinematics.robot.stations import stations_from_poses
+from robot_support import ROBOT, tilted_rods_robot
 
 PLAN = plan_program(ROBOT, load_program(config_path('programs/example_robot_program.yaml')))
 
@@ -93,6 +94,42 @@ def test_a_station_without_heading_for_a_3_joint_arm_refused_with_its_step(tmp_p
     with pytest.raises(InputError, match=r"/p.yaml: steps\[1\] \(pick b, approach\): station b/approach: arm arm1 has "
                                          r"3 joints and needs the blade heading; only a 2-joint arm leaves it free$"):
         plan_program(ROBOT, p)
+
+
+def test_a_refusal_of_the_batch_names_the_waypoint_it_is_about(tmp_path, monkeypatch):
+    """The planner gave an InputError of an arm's batch to its first waypoint (or first without heading): an
+    error about the third step was said of the first. It solves each waypoint alone to find it."""
+    import gpr_kinematics.robot.plan as plan
+    real = plan.solve_stations
+
+    def refusing(robot, stations, *args, **kwargs):
+        if any(name.startswith('b') for name in stations.names):
+            raise LimitError('station b is refused')
+        return real(robot, stations, *args, **kwargs)
+
+    monkeypatch.setattr(plan, 'solve_stations', refusing)
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [1.0, 0.6, 0.45], 'heading': 0.3}],
+                      [{'move': 'a'}, {'dwell': 1.0}, {'move': 'b'}])
+    with pytest.raises(LimitError, match=r"/p.yaml: steps\[2\] \(move b, move\): station b is refused$"):
+        plan_program(ROBOT, p)
+
+
+def test_a_station_below_the_stroke_on_rods_that_are_not_parallel_is_named_with_its_step(tmp_path):
+    """Rods that are not parallel: a station 1 cm below the stroke after two moves to a reachable one was said of
+    steps[0] in the core's words (q1 = -0.00999381229 m (sample 2) is outside the stroke); the robot's refusal of
+    its own step now, as on parallel rods."""
+    robot = tilted_rods_robot()
+    fk = robot_forward(robot, [[0.25, 0.2504, 0.2497], [0.0, 0.0005, 0.0002]], [[0.4, 1.0, 0.5], [0.1, 0.2, 0.3]],
+                       'arm1')
+    st = stations_from_poses(fk.wafer.position - [[0.0, 0.0, 0.0], [0.0, 0.0, 0.01]], fk.wafer.rotation)
+    rows = [{'name': name, 'position': st.position[i].tolist(), 'tilt': float(st.tilt[i]),
+             'azimuth': float(st.azimuth[i]), 'heading': float(st.heading[i])} for i, name in enumerate(['s1', 'low'])]
+    p = _program_file(tmp_path, rows, [{'move': 's1'}, {'dwell': 1.0}, {'move': 's1'}, {'move': 'low'}])
+    with pytest.raises(LimitError, match=r"/p.yaml: steps\[3\] \(move low, move\): station low: gpr_rod1 = "
+                                         r"-0.0099\d+ m is below the stroke \[0, 0.508\] m by 9.99\d mm: the station "
+                                         r"is too low for arm arm1$"):
+        plan_program(robot, p)
 
 
 def test_too_fast_a_move_refused_with_its_step(tmp_path):

@@ -205,14 +205,19 @@ def program_summary(plan: ProgramPlan) -> ProgramSummary:
 
 def _solve_waypoints(robot: RobotDescription, program: RobotProgram, way: Waypoints, arm: str, idx: NDArray[np.intp]
                      ) -> StationSolution:
-    """The waypoints ``idx`` of ``arm`` solved in one batch (limits marked, not raised); a refused input names the
-    program and its waypoint's step, as a limit's refusal does (a 3-joint arm at a station without heading)."""
+    """The waypoints ``idx`` of ``arm`` solved in one batch (limits marked, not raised); a refusal of the batch names
+    the program and the step of the waypoint it is about, found by solving each alone (the first one refused, with
+    its own message; a 3-joint arm at a station without heading), as a limit's refusal does."""
     try:
         return solve_stations(robot, way.stations.take(idx), arm, branch=[way.branch[i] for i in idx], check=False)
     except InputError as exc:
-        free = way.stations.heading_free[idx]
-        i = int(idx[np.argmax(free)]) if free.any() else int(idx[0])
-        raise InputError(f'{program.source}: {_label(program, way, i)}: {exc}') from None
+        batch = exc
+    for i in idx.tolist():
+        try:
+            solve_stations(robot, way.stations.take([i]), arm, branch=way.branch[i], check=False)
+        except InputError as exc:
+            raise type(exc)(f'{program.source}: {_label(program, way, i)}: {exc}') from None
+    raise type(batch)(f'{program.source}: arm {arm}: {batch}') from None   # of the batch, no waypoint's alone
 
 
 def _check_kinds(robot: object, program: object) -> None:
