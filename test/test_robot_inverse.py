@@ -16,6 +16,7 @@ from robot_support import (
     ROBOT,
     TAUGHT_JOINTS,
     TAUGHT_RODS,
+    TILTED_RODS,
     elbow_angle,
     make_robot,
     random_stations,
@@ -271,6 +272,31 @@ def test_two_joint_arm_heading_is_an_outcome():
         solve_stations(robot, wrong, 'arm1', branch=branch_of(a, J[:1]))
     with pytest.raises(InputError, match='arm arm2 has 4 joints and needs the blade heading'):
         solve_stations(robot, free, 'arm2')
+
+
+def test_a_two_joint_arms_heading_of_the_other_branch_names_that_branch():
+    """The heading fk gave, asked on the other branch, was refused as 'it is h1 (branch left) or h2 (the other
+    branch), not h2': the message names the branch to give now, with the heading this branch makes."""
+    data = robot_data()
+    data['gpr'] = {'config': None, **TILTED_RODS}
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.5]
+    robot = make_robot(data)
+    a = robot.arm('arm1')
+    fk = robot_forward(robot, [[0.45, 0.449, 0.4505]], [[-2.9, 2.8]], 'arm1')
+    st = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    taught = branch_of(a, np.array([[-2.9, 2.8]]))[0]
+    other = 'left' if taught == 'right' else 'right'
+    free = solve_stations(robot, Stations.of(st.position, st.tilt, st.azimuth, None), 'arm1', branch=other)
+    made = stations_from_poses(free.forward.wafer.position, free.forward.wafer.rotation).heading[0]
+    with pytest.raises(LimitError) as caught:
+        solve_stations(robot, st, 'arm1', branch=other)
+    assert str(caught.value) == (
+        f'station 0: arm arm1 has 2 joints and cannot choose the blade heading: at this position it is {made:.12g} '
+        f'rad on branch {other}; {st.heading[0]:.12g} rad is the heading of branch {taught}: give branch {taught}, or '
+        'leave the heading free')
+    ok = solve_stations(robot, st, 'arm1', branch=taught)
+    np.testing.assert_allclose(ok.joints, [[-2.9, 2.8]], atol=1e-12, rtol=0)
 
 
 @pytest.mark.parametrize('model', ['radial', 'compliant'])

@@ -400,6 +400,11 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
     # so the mount frame's heading is the station's plus one angle (a base's yaw, the mount's, the platform's twist).
     given = float(result.stations.heading[i])
     offset = float(targets.phi[i]) - given
+    if abs(_wrap(other.heading[0] - targets.phi[i])) <= HEADING_TOLERANCE:   # the other branch's, as the check takes it
+        side = 'right' if result.branch[i] == 'left' else 'left'
+        return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
+                f'{_wrap(sol.heading[i] - offset):.12g} rad on branch {result.branch[i]}; {_wrap(given):.12g} rad is '
+                f'the heading of branch {side}: give branch {side}, or leave the heading free')
     return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
             f'{_wrap(sol.heading[i] - offset):.12g} rad (branch {result.branch[i]}) or '
             f'{_wrap(other.heading[0] - offset):.12g} rad (the other branch), not {_wrap(given):.12g} rad; leave the '
