@@ -899,3 +899,57 @@ def test_a_check_of_something_else_than_a_plan_and_a_cell_is_named():
         check_program(PLAN, {'format': 'gpr_cell'})
     with pytest.raises(InputError, match=r"^plan = \{'x': 1\}; allowed: a ProgramPlan \(plan_program\)$"):
         check_program({'x': 1}, None)
+
+
+def test_samples_beyond_the_imperfection_budget_are_a_finding_verify_agrees_with(tmp_path):
+    """The review's program on a compliant geometry of tilted rods read 'safe' (exit 0) while its recording failed
+    gpr verify's state.imperfection_budget at 267 of 606 samples. The check judges the same quantity at the samples
+    of the stream at --rate against the same limit: the example robot program under a budget of 30 um, at 10 Hz, is
+    NOT safe (exit 1) naming the 17 samples in 4 waypoints that its synthetic recording fails verify at."""
+    from bag_support import write_bag
+    from gpr_kinematics.bags.synthetic import robot_program_messages
+    from gpr_kinematics.bags.typestore import GPR_TOPICS
+    from gpr_kinematics.bags.verify import verify_bag
+    from gpr_kinematics.safety.budget import judge_budget
+
+    text = config_path('gpr.yaml').read_text()
+    assert 'imperfection_budget: 0.0005 ' in text
+    (tmp_path / 'tight.yaml').write_text(text.replace('imperfection_budget: 0.0005 ', 'imperfection_budget: 0.00003'))
+    program = config_path('programs/example_robot_program.yaml')
+    res = gpr('program', 'check', str(program), '--config', 'tight.yaml', '--rate', '10', cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    tail = res.stdout.splitlines()[-8:]
+    assert tail == [
+        '  largest joint displacement 30.673 um at 16.500 s, steps[5] (place chamber_a, at) (imperfection budget 30 '
+        'um; the samples of a stream at 10 Hz)',
+        "  BEYOND the imperfection budget: 17 sample(s) in 4 waypoint(s) (gpr verify fails the recording's "
+        'state.imperfection_budget there):',
+        '    waypoint (the move into it and its hold)         first [s]  samples   max [um]    at [s]',
+        '    steps[5] (place chamber_a, approach)                16.300        2     30.590    16.400',
+        '    steps[5] (place chamber_a, at)                      16.500        9     30.673    16.500',
+        '    steps[5] (place chamber_a, retract)                 17.400        3     30.673    17.400',
+        '    steps[6] (pick chamber_b, approach)                 17.700        3     30.673    17.700',
+        '  NOT safe'], res.stdout
+    # docs/cell.md shows this output
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'cell.md').read_text(encoding='utf-8')
+    assert '\n'.join(tail) in doc
+    # the synthetic recording at 10 Hz fails verify at exactly those samples, by the same values
+    robot = load_robot(geometry=tmp_path / 'tight.yaml')
+    plan = plan_program(robot, load_program(program))
+    budget = judge_budget(plan, 10.0)
+    bag = write_bag(tmp_path / 'bag', robot_program_messages(robot, load_program(program), 10.0), dict(GPR_TOPICS))
+    result = verify_bag(bag)
+    (check,) = [c for c in result.checks if c.name == 'state.imperfection_budget']
+    assert (check.failed, check.limit) == (17, 3e-5) and [c.name for c in result.checks if not c.passed] == [
+        'state.imperfection_budget']
+    assert check.worst == budget.max_displacement == pytest.approx(30.673e-6, abs=1e-9)
+    failed = {f.sample: f.value for f in check.failures}
+    assert sorted(failed) == [163, 164, 165, 166, 167, 168, 169, 170, 171, 172, 173, 174, 175, 176, 177, 178, 179]
+    firsts = [round(f.first * 10) for f in budget.beyond]
+    assert firsts == [163, 165, 174, 177] and [f.samples for f in budget.beyond] == [2, 9, 3, 3]
+    assert [failed[round(f.at * 10)] for f in budget.beyond] == [f.displacement for f in budget.beyond]
+    # within the budget of the shipped geometry: safe, the largest displacement reported
+    res = gpr('program', 'check', str(program), '--json', cwd=tmp_path)
+    d = json.loads(res.stdout)
+    assert res.returncode == 0 and d['safe'] and d['budget']['beyond'] == [] and d['budget']['rate'] == 100.0
+    assert d['budget']['max_displacement'] == budget.max_displacement and d['budget']['budget'] == 5e-4

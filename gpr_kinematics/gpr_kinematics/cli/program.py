@@ -1,10 +1,11 @@
 """``gpr program check|export|send``: offline programs of the whole robot (docs/robot.md#programs).
 
 ``gpr program check`` exits 0 when the program is safe (clearance at least ``--margin`` for every pair of bodies,
-certified between samples, and no wafer slip), 1 when it is not (a table names the first collision), 2 on bad
-input. ``--robot FILE`` names the robot description (default: the program's ``robot``, else the shipped example),
-``--config FILE`` a GPR geometry replacing the description's, ``--json`` prints one JSON object on stdout. Bad input
-exits with status 2 and one line on stderr.
+certified between samples, no wafer slip, and every sample of a stream at ``--rate`` within the geometry's
+imperfection budget, as ``gpr verify`` judges its recording), 1 when it is not (a table names the first collision,
+or the steps beyond the budget), 2 on bad input. ``--robot FILE`` names the robot description (default: the
+program's ``robot``, else the shipped example), ``--config FILE`` a GPR geometry replacing the description's,
+``--json`` prints one JSON object on stdout. Bad input exits with status 2 and one line on stderr.
 
 ``export --trajectory FILE.yaml`` writes the program as a ``trajectory_msgs/JointTrajectory`` (one point per sample at
 ``--rate``, timed as ``--samples``); ``send`` (the ``ros`` extra, in a ROS environment) sends that trajectory, from
@@ -23,7 +24,7 @@ from ..core.messages import FOLLOW_JOINT_TRAJECTORY, Topic
 from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
-from ..safety.margin import MARGIN
+from ..safety.margin import MARGIN, STREAM_RATE
 from .options import named_file, number, png_plot, robot_of, robot_options, shipped
 from .output import JsonValue, emit_json
 from .progress import add_no_progress, progress_line
@@ -82,7 +83,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     cell = None if path is None else load_cell(path)
     line = progress_line(args.no_progress)
     try:
-        report, clear, slip = check_program(plan, cell, margin, progress=line)
+        report, clear, slip = check_program(plan, cell, margin, progress=line, rate=args.rate)
     finally:
         line.close()
     written: dict[str, str] = {}
@@ -125,6 +126,7 @@ def _print_safety(r: Any) -> None:
         print('    (first below: the first instant found closer than the margin, in that step at that station; '
               "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
               'its smallest measured distance)')
+    _print_budget(r.budget)
     if r.max_slip_evaluated == float('inf'):  # the blade pulls away faster than gravity and the vacuum hold
         print(f'  UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it faster than '
               f'gravity and the vacuum hold it down) at {r.max_slip_at:.3f} s, {r.slip_label}')
@@ -135,6 +137,18 @@ def _print_safety(r: Any) -> None:
         print(f'  UNSAFE: the slip ratio is not bounded below 1 (its bound {r.max_slip_ratio:.3f}; evaluated at most '
               f'{r.max_slip_evaluated:.3f}, at {r.max_slip_at:.3f} s, {r.slip_label})')
     print(f'  {"safe" if r.safe else "NOT safe"}')
+
+
+def _print_budget(b: Any) -> None:
+    print(f'  largest joint displacement {b.max_displacement * 1e6:.3f} um at {b.max_at:.3f} s, {b.max_label} '
+          f'(imperfection budget {b.budget * 1e6:g} um; the samples of a stream at {b.rate:g} Hz)')
+    if b.beyond:
+        print(f'  BEYOND the imperfection budget: {sum(f.samples for f in b.beyond)} sample(s) in {len(b.beyond)} '
+              "waypoint(s) (gpr verify fails the recording's state.imperfection_budget there):")
+        head = 'waypoint (the move into it and its hold)'
+        print(f'    {head:<48} {"first [s]":>9} {"samples":>8} {"max [um]":>10} {"at [s]":>9}')
+        for f in b.beyond:
+            print(f'    {f.label:<48} {f.first:>9.3f} {f.samples:>8} {f.displacement * 1e6:>10.3f} {f.at:>9.3f}')
 
 
 def _least_at(r: Any, c: Any) -> float:
@@ -375,6 +389,9 @@ def register(sub: Any) -> None:
     p.add_argument('--margin', type=number, default=None, metavar='M',
                    help=f'clearance below which a pair collides [m] (default {MARGIN:g})')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
+    p.add_argument('--rate', type=number, default=STREAM_RATE, help='the rate of the stream whose samples the '
+                   f'imperfection budget is judged at [Hz] (trajectory_node\'s rate; default {STREAM_RATE:g}; 0.1 to '
+                   '5000)')
     add_no_progress(p)
     robot_options(p)
     p.set_defaults(handler=_cmd_check)

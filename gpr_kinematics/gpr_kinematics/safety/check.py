@@ -1,5 +1,6 @@
-"""``gpr program check``'s safety verdict: the certified clearance of the program in its cell and against itself, and
-wafer slip, with the wafers where the program puts them (docs/cell.md).
+"""``gpr program check``'s safety verdict: the certified clearance of the program in its cell and against itself,
+wafer slip, with the wafers where the program puts them (docs/cell.md), and the imperfection budget at the samples
+of a stream of the program (:mod:`.budget`: what ``gpr verify`` judges of its recording).
 
 Wafers: a station listed in the program's ``wafers`` holds one from the start (a program that declares none has
 its picks find a wafer there, which is not modelled before the pick); a pick takes the station's wafer
@@ -20,10 +21,11 @@ from ..errors import InputError, brief
 from ..robot.plan import ProgramPlan
 from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
+from .budget import BudgetReport, judge_budget
 from .cell import Cell
 from .clearance import TOLERANCE, ClearanceReport, clearance
-from .margin import MARGIN
-from .motion import PROVEN_MODELS, PlanMotion, grid_within
+from .margin import MARGIN, STREAM_RATE
+from .motion import PROVEN_MODELS, PlanMotion, grid_within, move_counts
 from .slip import slip_series
 from .slip_bound import SlipBound, slip_bound
 
@@ -63,7 +65,8 @@ class MoveSafety:
 
 @dataclass(frozen=True)
 class SafetyReport:
-    """The verdict. ``safe``: every pair at least ``margin`` apart and every slip ratio below 1.
+    """The verdict. ``safe``: every pair at least ``margin`` apart, every slip ratio below 1 and every sample within
+    the imperfection budget.
 
     Attributes:
         min_clearance: the smallest certified distance of any pair [m]; pairs: every pair, closest first
@@ -97,6 +100,7 @@ class SafetyReport:
     instants: int
     model: str
     proven: bool
+    budget: BudgetReport | None = None
 
     @property
     def bound(self) -> str:
@@ -165,19 +169,23 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
 
 
 def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE,
-                  progress: StageProgress | None = None) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
+                  progress: StageProgress | None = None, rate: float = STREAM_RATE
+                  ) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
     slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
-    clearance after each round of its search; the slip before and after).
+    clearance after each round of its search; the slip before and after). ``rate`` [Hz]: the stream whose samples
+    the imperfection budget is judged at.
 
     Raises:
-        InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None.
+        InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None, a rate outside
+            :data:`~gpr_kinematics.robot.timing.RATES`.
     """
     if not isinstance(plan, ProgramPlan):
         raise InputError(f'plan = {brief(plan)}; allowed: a ProgramPlan (plan_program)')
     if cell is not None and not isinstance(cell, Cell):
         raise InputError(f'cell = {brief(cell)}; allowed: a Cell (load_cell or parse_cell) or None (no cell)')
     tell = reporter(progress)
+    budget = judge_budget(plan, rate)
     wafers = wafer_plan(plan)
     robot = plan.robot
     bodies = robot_body_set(robot, wafers.carried)
@@ -211,12 +219,12 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     most = max(float(seen[k]), max((m.max_slip_ratio for m in moves), default=0.0))
     collisions = tuple(sorted((_collision(plan, p.bodies, p.first_below if np.isfinite(p.first_below) else p.time,
                                           p.distance) for p in report.below_margin), key=lambda c: c.time))
-    safe = not collisions and most < 1.0
+    safe = not collisions and most < 1.0 and not budget.beyond
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
     return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
                          float(every[k]), _label_at(plan, float(every[k])), bound.closed, moves,
                          None if cell is None else cell.source, report.evaluations, report.instants,
-                         robot.config.model, robot.config.model in PROVEN_MODELS),
+                         robot.config.model, robot.config.model in PROVEN_MODELS, budget),
             report, (times, ratio))
 
 
@@ -273,21 +281,6 @@ def corner_sides(corners: Array) -> Array:
     lies beyond it."""
     side = np.maximum(CORNER_SIDE, 4.0 * np.spacing(np.abs(corners)))
     return np.asarray(np.concatenate([corners - side, corners + side]), dtype=np.float64)
-
-
-def move_counts(durations: Array, rate: float, most: int) -> Array:
-    """How many instants each move of ``durations`` [s] gets: ``rate`` times its duration, but at most ``c`` each,
-    the largest ``c`` that keeps the sum within ``most`` (water filling: the short, fast moves, where a wafer is
-    accelerated hard, keep ``rate``; one rate for all, ``most`` over the moves' total, sampled a 2 s swing at 2 Hz
-    once the program also held a move of 1e5 s, and missed its slip ratio of 1.0002 between the corners)."""
-    want = rate * np.maximum(durations, 0.0)
-    if float(np.sum(want)) <= most:
-        return want
-    order = np.sort(want)
-    below = np.concatenate([[0.0], np.cumsum(order)[:-1]])     # the moves shorter than the k-th, whole
-    cap = (most - below) / np.arange(order.shape[0], 0, -1)    # the rest shared by the k-th and longer ones
-    k = int(np.flatnonzero(cap <= order)[0])
-    return np.asarray(np.minimum(want, cap[k]), dtype=np.float64)
 
 
 def _waypoint_at(plan: ProgramPlan, t: float) -> int:
