@@ -840,6 +840,42 @@ def test_a_namespaced_suite_is_read_in_its_namespace_and_its_world_carries_its_p
     assert not bare.passed and structure.failed == structure.checked > 0
 
 
+def test_a_namespaced_suite_s_checks_name_its_topics_as_the_bag_has_them(robot_bag: Path, tmp_path: Path) -> None:
+    """In /r1 the rows and --json of the companion topics' checks read /gpr/platform_pose, /joint_states,
+    /gpr/wafer_pose, /gpr/robot_state, /gpr/geometry (the topics verified were /r1/...), and so did their failures,
+    the notes of the recorded geometry and robot, the fields not checked, and a bag without its states."""
+    from gpr_kinematics.bags.results import format_table
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC, PLATFORM_STATE_TOPIC, typestore
+
+    types = {'/r1' + k: v for k, v in GPR_TOPICS.items()}
+    honest = _in_r1(robot_bag)
+    result = verify_bag(write_bag(tmp_path / 'honest', honest, types))
+    assert result.passed
+    topics = {c.name: c.topic for c in result.checks}
+    assert {c.topic for c in result.checks} == {'bag', *types}
+    assert [topics[k] for k in ('topic.platform_pose', 'topic.joint_states', 'topic.wafer_pose', 'robot.structure',
+                                'topic.geometry', 'topic.robot', 'topic.program', 'topic.markers')] == [
+        '/r1/gpr/platform_pose', '/r1/joint_states', '/r1/gpr/wafer_pose', '/r1/gpr/robot_state', '/r1/gpr/geometry',
+        '/r1/gpr/robot', '/r1/gpr/program', '/r1/gpr/markers']
+    assert 'verified against the geometry recorded on /r1/gpr/geometry' in result.notes
+    assert any(n.startswith(f'verified the wafer poses against the robot {ROBOT.name} recorded on /r1/gpr/robot')
+               for n in result.notes) and list(result.unchecked) == ['/r1/gpr/markers']
+    table = format_table(result)
+    assert 'topic.platform_pose          /r1/gpr/platform_pose ' in table and ' /gpr/' not in table.replace(
+        '/r1/gpr/', '')
+    # a failure names the topic as the bag has it too
+    ts, js = typestore(), GPR_TOPICS[JOINT_STATES_TOPIC]
+    moved = [(t, s, bytes(ts.serialize_cdr(dataclasses.replace(m, position=m.position + 0.5), js)))
+             if t == '/r1' + JOINT_STATES_TOPIC else (t, s, raw)
+             for t, s, raw in honest for m in [ts.deserialize_cdr(raw, js) if t.endswith('joint_states') else None]]
+    forged = verify_bag(write_bag(tmp_path / 'forged', moved, types))
+    assert {f.topic for f in forged.failures} == {'/r1/joint_states'}
+    gone = verify_bag(write_bag(tmp_path / 'gone', [m for m in honest if m[0] != '/r1' + PLATFORM_STATE_TOPIC], types))
+    (present,) = [c for c in gone.checks if c.name == 'state.present']
+    assert present.topic == '/r1/gpr/platform_state' and present.failures[0].detail == (
+        'no gpr_interfaces/msg/PlatformState messages on /r1/gpr/platform_state: nothing to verify')
+
+
 def _framed(robot_bag: Path, frame, prefix_line: str) -> list[tuple[str, int, bytes]]:
     """The robot bag with every frame through ``frame`` and its records' prefix line ``prefix_line``."""
     from bag_support import messages_of

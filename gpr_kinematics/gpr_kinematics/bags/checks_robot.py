@@ -63,19 +63,20 @@ class RobotChoice:
     notes: list[str] = field(default_factory=list)
 
 
-def _parse(text: str, config: GprConfig, compare: bool) -> RobotDescription:
+def _parse(text: str, config: GprConfig, compare: bool, topic: str) -> RobotDescription:
     """The recorded description (bounded, its geometry inline: a recording never names a file to read), with
-    ``config`` as its geometry; ``compare``: its own ``gpr`` section must equal ``config``."""
+    ``config`` as its geometry; ``compare``: its own ``gpr`` section must equal ``config``; ``topic``: where it was
+    recorded."""
     if len(text.encode('utf-8', errors='replace')) > MAX_ROBOT_BYTES:
         raise GprError(f'{len(text)} characters; allowed: at most {MAX_ROBOT_BYTES} bytes')
-    data = safe_yaml.load_text(text, f'{ROBOT_TOPIC} (recorded robot description)')
+    data = safe_yaml.load_text(text, f'{topic} (recorded robot description)')
     gpr = data.get('gpr') if isinstance(data, dict) else None
     if isinstance(gpr, dict) and gpr.get('config') is not None:
         raise GprError(f'its gpr section names a geometry file ({brief(gpr["config"], 40)}); allowed: the geometry '
                        'inline (config: null), as the recorder writes it')
     if not compare:
-        return parse_robot(data, ROBOT_TOPIC, geometry=config)
-    recorded = parse_robot(data, ROBOT_TOPIC)
+        return parse_robot(data, topic, geometry=config)
+    recorded = parse_robot(data, topic)
     if recorded.config != config:
         raise GprError('its gpr section differs from the geometry verified against')
     return recorded
@@ -111,12 +112,12 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, float(len(texts)), 1.0, 'the robot description messages differ')], len(t), '', 1.0))
     try:
-        robot = _parse(texts[0], config, compare=not config_given)
+        robot = _parse(texts[0], config, not config_given, t.name)
     except GprError as exc:
         return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [
             (ROBOT_TOPIC, 1.0, 0.0, f'not a usable robot description: {exc}')], len(t), ''))
-    note = (f'verified the wafer poses against the robot {robot.name} recorded on {ROBOT_TOPIC}' if states else
-            f'robot {robot.name} recorded on {ROBOT_TOPIC}; no robot states (a platform stream, or a recording of '
+    note = (f'verified the wafer poses against the robot {robot.name} recorded on {t.name}' if states else
+            f'robot {robot.name} recorded on {t.name}; no robot states (a platform stream, or a recording of '
             'fewer topics): no wafer pose verified')
     return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''), [note])
 

@@ -40,6 +40,7 @@ from .typestore import (
     LEGACY_JOINT_STATES_TOPIC,
     PLATFORM_STATE_TOPIC,
     normalize_type,
+    suite_topic,
 )
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
@@ -160,11 +161,7 @@ class Bag:
         """The topic ``name`` (with or without the leading slash), a suite topic in the bag's :attr:`namespace`
         only: a root topic of the same name is not the suite's (a decoy ``/joint_states`` beside a tampered
         ``/r1/joint_states`` was verified in its place)."""
-        absolute = name if name.startswith('/') else '/' + name
-        ns = self.namespace
-        if ns and not absolute.startswith(ns + '/'):
-            absolute = ns + absolute
-        return self.topics.get(absolute)
+        return self.topics.get(suite_topic(self.namespace, name))
 
     def joint_states_topic(self) -> str:
         """The suite's joint states: ``/joint_states``, ``/gpr/joint_states`` in bags recorded before it moved."""

@@ -28,7 +28,7 @@ from ..inputs import safe_yaml
 from .columns import quaternion_angle
 from .reader import Bag
 from .results import Check, bag_check, skipped
-from .typestore import GEOMETRY_TOPIC, GPR_TOPICS
+from .typestore import GEOMETRY_TOPIC, GPR_TOPICS, suite_topic
 
 #: Largest geometry message read.
 MAX_GEOMETRY_BYTES = 1 << 20
@@ -45,14 +45,14 @@ class Geometry:
     report: dict[str, Any] = field(default_factory=dict)
 
 
-def _parse(text: str) -> GprConfig:
+def _parse(text: str, topic: str) -> GprConfig:
     if len(text.encode('utf-8', errors='replace')) > MAX_GEOMETRY_BYTES:
         raise GprError(f'{len(text)} characters; allowed: at most {MAX_GEOMETRY_BYTES} bytes')
     # Through the package's one YAML parser (its limits on aliases, nesting and size apply to messages too).
-    data = safe_yaml.load_text(text, f'{GEOMETRY_TOPIC} (recorded geometry)')
+    data = safe_yaml.load_text(text, f'{topic} (recorded geometry)')
     if not isinstance(data, dict):
         raise GprError(f'not a mapping of keys to values ({kind_of(data)})')
-    return GprConfig.from_mapping(data, source=GEOMETRY_TOPIC)
+    return GprConfig.from_mapping(data, source=topic)
 
 
 def recorded_geometry(bag: Bag) -> tuple[GprConfig | None, Check]:
@@ -69,7 +69,7 @@ def recorded_geometry(bag: Bag) -> tuple[GprConfig | None, Check]:
         return None, bag_check('topic.geometry', GEOMETRY_TOPIC, [(GEOMETRY_TOPIC, float(len(texts)), 1.0,
                                                                    'the geometry messages differ')], len(t), '', 1.0)
     try:
-        cfg = _parse(texts[0])
+        cfg = _parse(texts[0], t.name)
     except GprError as exc:
         return None, bag_check('topic.geometry', GEOMETRY_TOPIC, [(GEOMETRY_TOPIC, 1.0, 0.0,
                                                                    f'not a usable geometry: {exc}')], len(t), '')
@@ -110,7 +110,8 @@ def choose(bag: Bag, given: GprConfig | None, given_source: str, q: NDArray[np.f
     if given is None:
         if recorded is not None:
             return Geometry(recorded, 'recorded', check,
-                            [f'verified against the geometry recorded on {GEOMETRY_TOPIC}'], {'source': 'recorded'})
+                            [f'verified against the geometry recorded on {suite_topic(bag.namespace, GEOMETRY_TOPIC)}'],
+                            {'source': 'recorded'})
         why = 'no geometry recorded in the bag' if check.skipped else 'the recorded geometry is unusable'
         return Geometry(default, 'package', check, [f'{why}: verified against the package configuration'],
                         {'source': 'package'})

@@ -67,6 +67,13 @@ GPR_TOPICS: dict[str, str] = {
 #: Every topic ``gpr verify`` knows the type of: the suite's and those of earlier recordings.
 KNOWN_TOPICS: dict[str, str] = {**GPR_TOPICS, LEGACY_JOINT_STATES_TOPIC: 'sensor_msgs/msg/JointState'}
 
+def suite_topic(namespace: str, name: str) -> str:
+    """``name`` (with or without the leading slash) as a suite recorded in ``namespace`` (``''``, ``/r1``) names it:
+    ``/r1/gpr/platform_pose`` for ``gpr/platform_pose``; a name already in the namespace is kept."""
+    absolute = name if name.startswith('/') else '/' + name
+    return namespace + absolute if namespace and not absolute.startswith(namespace + '/') else absolute
+
+
 #: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.
 PLATFORM_STREAM_TOPICS = (PLATFORM_STATE_TOPIC, PLATFORM_POSE_TOPIC, NOMINAL_POSE_TOPIC, JOINT_STATES_TOPIC,
                           VIRTUAL_JOINTS_TOPIC, MARKERS_TOPIC)

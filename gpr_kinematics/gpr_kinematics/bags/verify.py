@@ -57,19 +57,30 @@ from .results import Check, Failure, VerifyResult, format_table
 from .tolerances import Tolerances
 from .typestore import (
     JOINT_STATES_TOPIC,
+    KNOWN_TOPICS,
     LEGACY_JOINT_STATES_TOPIC,
     PLATFORM_STATE,
     ROBOT_STATE_TOPIC,
+    suite_topic,
     typestore,
 )
 from .typestore import PLATFORM_STATE_TOPIC as STATE_TOPIC
 
 __all__ = ['Tolerances', 'VerifyResult', 'format_table', 'verify_bag']
 
-def _no_states() -> Check:
-    why = f'no gpr_interfaces/msg/PlatformState messages on {STATE_TOPIC}: nothing to verify'
+def _no_states(namespace: str) -> Check:
+    why = f'no gpr_interfaces/msg/PlatformState messages on {suite_topic(namespace, STATE_TOPIC)}: nothing to verify'
     return Check('state.present', STATE_TOPIC, 1, 1.0, 0.0, 'messages', 1,
                  [Failure('state.present', STATE_TOPIC, None, 1.0, 0.0, why)])  # 1 missing > 0
+
+
+def _as_recorded(namespace: str, checks: list[Check]) -> None:
+    """Every check and failure names a suite topic as the bag has it, in its ``namespace`` (the checks look the
+    topics up there; ``topic.platform_pose`` on ``/gpr/platform_pose`` was read from ``/r1/gpr/platform_pose``)."""
+    for check in checks:
+        check.topic = suite_topic(namespace, check.topic) if check.topic in KNOWN_TOPICS else check.topic
+        for f in check.failures:
+            f.topic = suite_topic(namespace, f.topic) if f.topic in KNOWN_TOPICS else f.topic
 
 
 def _several_suites(suites: list[str]) -> Check:
@@ -127,7 +138,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
         if len(bag.suites) > 1:
             checks.append(_several_suites(bag.suites))
         elif st is None or c is None:
-            checks.append(_no_states())
+            checks.append(_no_states(bag.namespace))
         else:
             samples = np.asarray(c['sample'], dtype=np.int64)
             cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
@@ -149,6 +160,7 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks += wafer_pose_checks(bag, c, samples, streams, tol)
             checks += program_checks(bag, c, samples, streams, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
+    _as_recorded(bag.namespace, checks)
     notes = list(geo.notes) + arms.notes
     if bag.namespace:
         notes.append(f"the node suite's topics were recorded in the namespace {bag.namespace} (verified as such)")
@@ -167,5 +179,5 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
                         crossings=crossings, crossing_ratio=ratio, elapsed=time.perf_counter() - t0, read_time=t_read,
                         unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
                         robot=robot_summary(arms),
-                        unchecked=unchecked_fields({bag.relative(k): t.msgtype for k, t in bag.topics.items()
-                                                    if len(t)}))
+                        unchecked={suite_topic(bag.namespace, k): v for k, v in unchecked_fields(
+                            {bag.relative(k): t.msgtype for k, t in bag.topics.items() if len(t)}).items()})
