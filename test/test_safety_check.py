@@ -948,6 +948,17 @@ def test_samples_beyond_the_imperfection_budget_are_a_finding_verify_agrees_with
     firsts = [round(f.first * 10) for f in budget.beyond]
     assert firsts == [163, 165, 174, 177] and [f.samples for f in budget.beyond] == [2, 9, 3, 3]
     assert [failed[round(f.at * 10)] for f in budget.beyond] == [f.displacement for f in budget.beyond]
+    # the plot's title names them; the clearance curve is not called cut short (only a collision or a slip does so)
+    from gpr_kinematics.safety.check import check_program
+    from gpr_kinematics.safety.plot import check_figure
+    report, clear, slip = check_program(plan, None, rate=10.0)
+    assert not report.safe and report.budget == budget and not report.collisions and report.max_slip_ratio < 1.0
+    fig = check_figure(clear, slip, report)
+    assert fig._suptitle.get_text().endswith('\nBEYOND the imperfection budget: 17 sample(s) at 10 Hz, up to 30.673 um '
+                                             '(budget 30 um)')
+    assert 'refined' not in fig.axes[0].patches[0].get_label()
+    import matplotlib.pyplot as plt
+    plt.close(fig)
     # within the budget of the shipped geometry: safe, the largest displacement reported
     res = gpr('program', 'check', str(program), '--json', cwd=tmp_path)
     d = json.loads(res.stdout)
