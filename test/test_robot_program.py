@@ -290,3 +290,28 @@ def test_a_station_position_given_as_a_tuple_is_taken_as_a_list():
     data['stations'][0]['position'] = tuple(data['stations'][0]['position'])
     tupled = parse_program(data, 'p.yaml', config_path('programs'))
     np.testing.assert_array_equal(tupled.stations.stations.position, listed.stations.stations.position)
+
+
+def test_the_documented_program_is_accepted_and_planned(tmp_path):
+    """docs/robot.md's program, written as shown (beside copies of the shipped robots/ and cells/ and a station file
+    it imports): it placed with arm2 what arm1 had picked, refused as 'arm arm2 carries no wafer to place'."""
+    import shutil
+    from pathlib import Path
+
+    from gpr_kinematics.robot.plan import plan_program
+
+    doc = (Path(__file__).resolve().parents[1] / 'docs' / 'robot.md').read_text(encoding='utf-8')
+    text = next(b for b in doc.split('```yaml\n')[1:] if b.startswith('format: gpr_robot_program')).split('```')[0]
+    for folder in ('robots', 'cells'):
+        shutil.copytree(config_path(folder), tmp_path / folder)
+    (tmp_path / 'programs').mkdir()
+    (tmp_path / 'programs' / 'more_stations.csv').write_text('name,x [mm],y [mm],z [mm]\nbuffer,900,-300,420\n')
+    (tmp_path / 'programs' / 'p.yaml').write_text(text)
+    program = load_program(tmp_path / 'programs' / 'p.yaml')
+    assert program.stations.stations.names == ('load_port_1', 'chamber_a', 'pm1', 'buffer')
+    assert [(s.kind, s.station, s.arm) for s in program.steps] == [
+        ('move', 'load_port_1', None), ('pick', 'load_port_1', None), ('place', 'chamber_a', None),
+        ('dwell', None, None)]
+    assert program.cell is not None and program.wafers == ('load_port_1',)
+    plan = plan_program(ROBOT, program)
+    assert plan.timing.total > 0.0
