@@ -307,3 +307,26 @@ def test_a_joint_at_the_wrap_of_a_range_wider_than_a_turn_is_the_batchs():
     one = solve_stations(robot, st, 'arm2', 'left')
     batch = solve_stations(robot, st.take([0, 0]), 'arm2', 'left')
     np.testing.assert_array_equal(one.joints[0], batch.joints[0])
+
+
+@pytest.mark.parametrize('rod, z, azimuth, value, by', [
+    (1, 0.7009, 4.7124, '0.508280448', '0.2804'),
+    (2, 0.679, 1.309, '0.508300486', '0.3005'),
+    (3, 0.679, 1.8326, '0.50830048', '0.3005'),
+])
+def test_a_tilted_station_with_one_rod_above_the_stroke_is_refused_per_call_and_in_batch(rod, z, azimuth, value, by):
+    """Stations tilted 1.9 deg whose one rod ``rod`` alone ends ~0.3 mm above the stroke's 0.508 m (the other two
+    within it): the float path leaves each to the batch (dropping its check of any one rod had passed every test), both
+    paths mark it infeasible under check=False and refuse it with one message."""
+    st = Stations.of([[1.1, 0.5, z]], math.radians(1.9), azimuth, 0.0)
+    assert solve_one(ROBOT, st, ROBOT.arm('arm1'), branch_sign('right'), None) is None
+    message = (f'station 0: gpr_rod{rod} = {value} m is above the stroke [0, 0.508] m by {by} mm: the station is too '
+               f'high for arm arm1')
+    for stations, more in ((st, ''), (st.take([0, 0]), ' (and 1 more station)')):
+        sol = solve_stations(ROBOT, stations, 'arm1', 'right', check=False)
+        assert not sol.feasible.any()
+        rods = sol.rods[0]
+        assert rods[rod - 1] > 0.508 + 2e-4 and all(0.5 < r < 0.508 for k, r in enumerate(rods) if k != rod - 1)
+        with pytest.raises(LimitError) as refused:
+            solve_stations(ROBOT, stations, 'arm1', 'right')
+        assert str(refused.value) == message + more
