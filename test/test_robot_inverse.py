@@ -1,5 +1,6 @@
 """Station inverse kinematics: round trips on thousands of stations, batch = single, branches, redundancy, the
 naive model's wafer error against an independent computation, and every refusal with its message."""
+import contextlib
 import math
 import re
 
@@ -272,6 +273,50 @@ def test_two_joint_arm_heading_is_an_outcome():
         solve_stations(robot, wrong, 'arm1', branch=branch_of(a, J[:1]))
     with pytest.raises(InputError, match='arm arm2 has 4 joints and needs the blade heading'):
         solve_stations(robot, free, 'arm2')
+
+
+
+@pytest.mark.parametrize('miss', [1e-4, 2e-9, 5e-10])
+def test_a_two_joint_arms_heading_is_held_to_its_tolerance_per_call_and_in_batch(miss):
+    """The heading each posture of a 2-joint arm makes, asked ``miss`` rad off (stations tilted up to 1.7 deg):
+    beyond the 1e-9 rad tolerance (1e-4, 2e-9) every station is refused, one per call (the float path) and three in
+    a batch, naming the headings the arm makes; within it (5e-10) accepted, the blade that far from the station's
+    orientation. A tolerance of 1e-3 in either path had passed every test."""
+    data = robot_data()
+    data['arms'][0]['joints'] = data['arms'][0]['joints'][:2]
+    data['arms'][0]['home'] = [0.0, 2.5]
+    robot = make_robot(data)
+    st, _, J = random_stations(robot, 'arm1', 3, seed=7)
+    branch = branch_of(robot.arm('arm1'), J)
+    asked = Stations.of(st.position, st.tilt, st.azimuth, st.heading + miss)
+    batch = solve_stations(robot, asked, 'arm1', branch=branch, check=False)
+    assert batch.feasible.tolist() == [miss < 1e-9] * 3
+    np.testing.assert_allclose(batch.angle_error, miss, rtol=3e-5, atol=0)
+    messages = []
+    for i in range(3):
+        free = Stations.of(st.position[i:i + 1], st.tilt[i:i + 1], st.azimuth[i:i + 1], None)
+        other = 'left' if branch[i] == 'right' else 'right'
+        fk = solve_stations(robot, free, 'arm1', branch=other, check=False).forward.wafer
+        made = stations_from_poses(fk.position, fk.rotation).heading[0]
+        messages.append(f'station {i}: arm arm1 has 2 joints and cannot choose the blade heading: at this position '
+                        f'it is {st.heading[i]:.12g} rad (branch {branch[i]}) or {made:.12g} rad (the other branch), '
+                        f'not {st.heading[i] + miss:.12g} rad; leave the heading free or give one of these '
+                        '(to 1e-09 rad)')
+        if miss < 1e-9:
+            one = solve_stations(robot, asked.take([i]), 'arm1', branch=branch[i])
+            np.testing.assert_allclose(one.angle_error, miss, rtol=3e-5, atol=0)
+            continue
+        for check in (False, True):  # a station alone takes the float path
+            with pytest.raises(LimitError) if check else contextlib.nullcontext() as caught:
+                one = solve_stations(robot, asked.take([i]), 'arm1', branch=branch[i], check=check)
+            if check:
+                assert str(caught.value) == messages[i]
+            else:
+                assert one.feasible.tolist() == [False]
+    if miss > 1e-9:
+        with pytest.raises(LimitError) as caught:
+            solve_stations(robot, asked, 'arm1', branch=branch)
+        assert str(caught.value) == messages[0] + ' (and 2 more stations)'
 
 
 def test_a_two_joint_arms_heading_of_the_other_branch_names_that_branch():
