@@ -317,6 +317,27 @@ def test_the_wafers_are_followed_through_the_program():
     assert undeclared.carried['arm2'] == wafers.carried['arm2']
 
 
+
+def test_without_declared_wafers_a_second_pick_or_a_place_onto_a_filled_station_is_refused():
+    """No ``wafers:`` key: a pick finds a wafer and a place has one, but the wafers picked and placed are still
+    followed (docs/cell.md): a pick with the blade full and a place onto a station an earlier place filled are
+    refused, naming the step."""
+    from gpr_kinematics.errors import ConfigError
+
+    for steps, message in (
+            ([{'pick': 'load_port_1'}, {'move': 'low'}, {'move': 'high'}, {'move': 'pm1_front'}, {'pick': 'pm1'}],
+             'steps[4] (pick pm1, at): arm arm2 already carries a wafer; allowed: a pick with an empty blade (place '
+             'the wafer first)'),
+            ([{'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'}, {'move': 'pm1_front'}, {'place': 'pm1'}],
+             'steps[4] (place pm1, at): station pm1 already holds a wafer; allowed: a place onto an empty station '
+             '(pick its wafer first)')):
+        with pytest.raises(ConfigError) as refused:
+            _cell_program(wafers=None, steps=steps)
+        assert str(refused.value) == f'{PROGRAM}: {message}'
+    plan = _cell_program(wafers=None, steps=[{'move': 'high'}, {'move': 'pm1_front'}, {'place': 'pm1'},
+                                             {'pick': 'pm1'}, {'place': 'pm1'}])   # emptied between the places
+    assert [s.kind for s in plan.program.steps] == ['move', 'move', 'place', 'pick', 'place']
+
 def test_the_check_reports_its_progress_without_changing_its_verdict():
     """Issue 19's check runs a minute for a long program: its stages report their share done as they go, never
     backwards, each to its end; the report is the one computed without a listener."""
