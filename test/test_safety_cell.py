@@ -104,6 +104,38 @@ def test_bad_obstacles_named(obstacle, pattern):
     assert __import__('re').search(pattern, str(err.value)), str(err.value)
 
 
+
+def _chamber(**changes):
+    return parse_cell(cell({'name': 'c', 'position': [0, 0, 0], 'chamber': {
+        'size': [0.5, 0.4, 0.3], 'wall': 0.02, 'slit': [0.34, 0.04]} | changes}), 'my_cell.yaml')
+
+
+@pytest.mark.parametrize('changes, allowed', [
+    ({'slit': [0.38, 0.04]}, 'slit = [0.38, 0.04] is invalid; allowed: narrower and lower than the chamber inside its '
+                             'walls, 0.36 x 0.26 m'),  # narrower than the chamber (0.4), wider than its inside
+    ({'slit_z': -0.125}, 'slit_z = -0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after '
+                         'conversion'),  # the slit's lower edge 5 mm into the floor (20 mm)
+    ({'slit_z': 0.125}, 'slit_z = 0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after conversion'),
+])
+def test_a_slit_beyond_the_chambers_inside_is_refused(changes, allowed):
+    """A chamber 0.4 m wide and 0.3 m high with 20 mm walls: its slit (40 mm high) within the inside, 0.36 m wide
+    and its centre 0.11 m above or below the station plane at most (0.15 less the wall and half the slit)."""
+    with pytest.raises(ConfigError) as refused:
+        _chamber(**changes)
+    assert str(refused.value) == f'my_cell.yaml: obstacles[0] (c): chamber: {allowed}'
+
+
+def test_a_slit_at_the_chambers_inside_is_accepted():
+    """The slit 1 mm narrower than the inside leaves the front wall 20.5 mm each side; at slit_z -0.11 (0.11) the
+    slit's edge lies on the floor (roof): the front wall below (above) it is the wall's 20 mm."""
+    parts = {o.name: o for o in _chamber(slit=[0.359, 0.04]).obstacles}
+    assert parts['c/front_left'].size == pytest.approx((0.02, 0.0205, 0.04), abs=1e-15)
+    for z, below, above in ((-0.11, 0.02, 0.24), (0.11, 0.24, 0.02)):
+        parts = {o.name: o for o in _chamber(slit_z=z).obstacles}
+        assert parts['c/front_bottom'].size == pytest.approx((0.02, 0.4, below), abs=1e-15)
+        assert parts['c/front_top'].size == pytest.approx((0.02, 0.4, above), abs=1e-15)
+        assert parts['c/front_left'].position[2] == z
+
 def test_too_many_obstacles_refused_before_any_is_read():
     with pytest.raises(ConfigError, match=rf'^big\.yaml: obstacles: 10000000 obstacles; allowed: at most '
                                           rf'{MAX_OBSTACLES}$'):
