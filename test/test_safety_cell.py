@@ -113,6 +113,8 @@ def _chamber(**changes):
 @pytest.mark.parametrize('changes, allowed', [
     ({'slit': [0.38, 0.04]}, 'slit = [0.38, 0.04] is invalid; allowed: narrower and lower than the chamber inside its '
                              'walls, 0.36 x 0.26 m'),  # narrower than the chamber (0.4), wider than its inside
+    ({'slit': [0.36, 0.04]}, 'slit = [0.36, 0.04] is invalid; allowed: narrower and lower than the chamber inside its '
+                             'walls, 0.36 x 0.26 m'),  # as wide as the inside: passed, 0.4 - 2 * 0.02 rounding above
     ({'slit_z': -0.125}, 'slit_z = -0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after '
                          'conversion'),  # the slit's lower edge 5 mm into the floor (20 mm)
     ({'slit_z': 0.125}, 'slit_z = 0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after conversion'),

@@ -138,7 +138,7 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
     dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, _LEAST, _SIZE, lunit, length)
     wall = _default(raw, 'wall', 0.02, w, _LEAST, min(dx, dy, dz) / 2, lunit, length)
     sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, 1e-3, _SIZE, lunit, length)
-    if sw >= dy - 2 * wall or sh >= dz - 2 * wall:
+    if sw >= dy - 2 * wall - _EVEN or sh >= dz - 2 * wall - _EVEN:
         raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '
                           f'chamber inside its walls, {(dy - 2 * wall) / length:.6g} x {(dz - 2 * wall) / length:.6g} '
                           f'{lunit}')
@@ -165,6 +165,9 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
 #: The least size of an obstacle [m] (a box, a cylinder's radius and length, a chamber): a cell in metres declared in
 #: millimetres made its boxes 40 um specks at the origin, checked safe.
 _LEAST = 1e-3
+#: A slit within this of the chamber's inside [m] reaches it, and is refused: 0.4 less two walls of 0.02 is
+#: 0.36000000000000004, and a slit 0.36 wide passed as narrower than 0.36.
+_EVEN = 1e-12
 #: An obstacle's name (in messages, markers and the check's pairs).
 _NAME = re.compile(r'[A-Za-z0-9_\-]{1,64}')
 
