@@ -298,3 +298,26 @@ def test_the_sigmas_check_is_the_chi_squares_lower_point():
     assert low == pytest.approx(0.38627, abs=1e-5) and check.limit == pytest.approx(low, rel=1e-12) and not check.passed
     assert check.value == pytest.approx(0.04, rel=1e-12)
     assert sigma_check(h, np.full((10, 3), math.sqrt(low) * (1.0 + 1e-12))).passed
+
+
+def test_sigmas_declared_a_third_above_the_noise_fail_the_sigmas_check():
+    """700 poses with noise 3 um and 20 urad: sigma columns of the noise pass the sigmas check (reduced chi-square
+    0.99 per kind); 1.3 times the noise (the fit unchanged, the reduced chi-square 1.69 times smaller: 0.587) fail
+    it, below the 0.1 % point 0.907 for 2091 degrees of freedom, with its message."""
+    cfg = load_config()
+    m = CoreModel(cfg)
+    meas = synthetic_measurements(m, imperfect(m, 2), configurations(cfg, 700, 3), 3e-6, 2e-5, seed=4)
+    checks = []
+    for factor in (1.0, 1.3):
+        declared = Measurements(meas.source, meas.q, meas.position, meas.quaternion, meas.sigma_position * factor,
+                                meas.sigma_angle * factor, meas.lines)
+        checks.append({c.name: c for c in identify(m, declared).gate.checks}['sigmas'])
+    noise, over = checks
+    assert noise.passed and noise.value == pytest.approx(0.9916, abs=1e-4) and noise.limit < 0.908
+    assert not over.passed and over.value == pytest.approx(noise.value / 1.69, rel=1e-6)
+    assert over.limit == pytest.approx(0.9072, abs=1e-4)
+    assert over.detail == (
+        'The position residuals are far smaller than the standard deviations given: their reduced chi-square 0.587 '
+        'is below 0.907 (the 0.1 % point for 2091 degrees of freedom), and the fit weights the positions too little: '
+        'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?), or the noise '
+        'overstated; give the measurement noise.')
