@@ -134,6 +134,35 @@ def test_a_minimum_between_two_slopes_of_one_sign_is_found(joint, posture, pair)
     assert _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0] <= sweep.min() + 1e-12
 
 
+
+def test_a_minimum_within_a_grid_step_of_the_reach_edge_is_found():
+    """The wrist held: its run of feasible postures ends at the sub-chain's reach edge 0.7591 rad, where the slope is
+    infinite; the least cost (0.158048 at 0.683935 rad) lies between it and the grid's sample 0.625 rad, 0.075 rad
+    inside the edge (a grid step is 0.3125 rad). The scan from the edge finds that minimum, not the edge's cost
+    (0.158345): the rule's answer is the best of 200001 values of the range, to their spacing."""
+    data = robot_data()
+    data['arms'][1]['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_wrist', 'reference': [0.3, -1.0, 0.5, 0.2],
+                                     'weights': [1.0, 1.0, 2.0, 1.0]}
+    for k, j in enumerate(data['arms'][1]['joints']):
+        j['zero_offset'] = 0.01 * (k - 1.5)
+    arm = make_robot(data).arm('arm2')
+    J = np.array([[2.696874748357666, -0.3123696257541866, -0.35454204581100957, 1.0748874296179887]])
+    _, p, phi = chain_forward(arm, J)
+    sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
+    d, beta = link_vectors(arm)
+    edges = nearest._reach_edges(arm, d, beta, p, phi)[0]
+    assert edges[0] == pytest.approx(0.7591016, abs=1e-7)
+    v = nearest.nearest_value(arm, d, beta, p, phi, sign)
+    assert edges[0] - 0.3125 < 0.625 < v[0] < edges[0]
+    grid = np.linspace(-2.5, 2.5, 200001)
+    sweep = _sweep_costs(arm, d, beta, p, phi, sign, grid, np.zeros(grid.size, dtype=np.intp))
+    assert np.max(grid[np.isfinite(sweep)]) == pytest.approx(edges[0], abs=2.5e-5)   # the run ends at the edge
+    cost = _sweep_costs(arm, d, beta, p, phi, sign, v, np.zeros(1, dtype=np.intp))[0]
+    assert cost == pytest.approx(0.158048, abs=1e-6) and cost <= sweep.min() + 1e-12
+    assert v[0] == pytest.approx(grid[np.argmin(sweep)], abs=2.5e-5) and v[0] == pytest.approx(0.683935, abs=1e-6)
+    edge_cost = _sweep_costs(arm, d, beta, p, phi, sign, np.array([edges[0] - 1e-9]), np.zeros(1, dtype=np.intp))
+    assert edge_cost[0] == pytest.approx(0.158345, abs=1e-6)
+
 def _olp_robot():
     """An OLP engineer's arm as arm2 (links 0.32, 0.27, 0.07 m, the wrist and hand ranges cut), and a posture of it."""
     data = robot_data()
