@@ -20,7 +20,15 @@ from gpr_kinematics.safety.bodies import box_lower_bound, default_pairs, robot_b
 from gpr_kinematics.safety.check import wafer_plan
 from gpr_kinematics.safety.clearance import TOLERANCE, _Items, _Search
 from gpr_kinematics.safety.margin import MARGIN
-from gpr_kinematics.safety.motion import LIPSCHITZ, PlanMotion, drift_bound, levers, platform_motion, platform_state
+from gpr_kinematics.safety.motion import (
+    LIPSCHITZ,
+    PlanMotion,
+    drift_bound,
+    levers,
+    platform_motion,
+    platform_state,
+    shortest_edge,
+)
 
 ROBOT = load_robot()
 PLANS = {name: plan_program(ROBOT, load_program(config_path(f'programs/{name}.yaml')))
@@ -145,6 +153,20 @@ def test_the_platform_origin_drifts_with_the_joints_in_the_body():
     assert moved == pytest.approx(2.234e-5, rel=1e-3) and float(drift[0]) == pytest.approx(2.689e-4, rel=1e-3)
     assert turned == pytest.approx(1.121e-5, rel=1e-3) and turned < moved <= float(A[0]) + turned
 
+
+
+def test_the_shortest_edge_over_an_interval_is_taken_inside_it():
+    """An edge of 0.3162 m (0.3, 0.1, 0) shrinking along x at 0.2 m per unit: over [0, 3] it is shortest, 0.1 m, at
+    1.5 inside the interval (the start's 0.3162 m would bound the platform's turn 3.2 times too tight); over
+    [0, 1] at the end (0.1414 m); growing (the opposite rate) at the start. Each against 30001 samples."""
+    E0 = np.array([[0.3, 0.1, 0.0]] * 4)
+    Ep = np.array([[-0.2, 0.0, 0.0], [-0.2, 0.0, 0.0], [0.2, 0.0, 0.0], [-0.1, 0.05, 0.02]])
+    ds = np.array([3.0, 1.0, 3.0, 2.5])
+    least = shortest_edge(E0, Ep, ds)
+    t = np.linspace(0.0, 1.0, 30001)[None, :, None] * ds[:, None, None]
+    sampled = np.min(np.linalg.norm(E0[:, None] + t * Ep[:, None], axis=2), axis=1)
+    np.testing.assert_allclose(least[:3], [0.1, math.sqrt(0.02), math.sqrt(0.1)], rtol=1e-15, atol=0)
+    assert np.all(least <= sampled) and np.all(sampled - least < 1e-9)
 
 def test_separating_axis_bound_never_above_the_library():
     fcl = pytest.importorskip('fcl')

@@ -161,6 +161,13 @@ def rod_directions(geo: MachineGeometry) -> Array:
     return np.stack([np.array(geo.ux), np.array(geo.uy), np.array(geo.uz)], axis=1)
 
 
+def shortest_edge(E0: Array, Ep: Array, ds: Array) -> Array:
+    """The least length ``|E0 + t Ep|`` over ``0 <= t <= ds`` ``(K,)`` [m] of an edge ``E0 (K, 3)`` changing at
+    ``Ep`` per unit of ``t``: at ``t = -E0.Ep / |Ep|^2`` clipped to the interval (the edge may shrink inside it)."""
+    tau = np.clip(-np.einsum('ki,ki->k', E0, Ep) / np.maximum(np.einsum('ki,ki->k', Ep, Ep), 1e-300), 0.0, ds)
+    return np.asarray(np.linalg.norm(E0 + tau[:, None] * Ep, axis=1), dtype=np.float64)
+
+
 def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Array, sigma: Array, gamma: Array,
                     lip: float) -> tuple[Array, Array, Array]:
     """``(A, Omega, drift)`` ``(K,)``: the path length of the platform's reference point (the joint centres'
@@ -190,8 +197,7 @@ def platform_motion(geo: MachineGeometry, Q0: Array, D: Array, s0: Array, s1: Ar
     omega_n = np.full(ds.shape, np.inf)
     for a, b in EDGES:
         E0, Ep = P0[:, b] - P0[:, a], (vel[:, b] - vel[:, a]) * np.sign(s1 - s0)[:, None]
-        tau = np.clip(-np.einsum('ki,ki->k', E0, Ep) / np.maximum(np.einsum('ki,ki->k', Ep, Ep), 1e-300), 0.0, ds)
-        lmin = np.linalg.norm(E0 + tau[:, None] * Ep, axis=1)
+        lmin = shortest_edge(E0, Ep, ds)
         move = ds * (np.abs(D[:, a]) + np.abs(D[:, b])) * sin_a + 2.0 * rv
         with np.errstate(invalid='ignore', divide='ignore'):
             omega_n = np.minimum(omega_n, np.where(move > 0.0, move / lmin, 0.0))
