@@ -292,6 +292,27 @@ def test_params_file_values_have_the_declared_types():
             assert value == specs[name].default
 
 
+
+@pytest.mark.parametrize('node, name, value, allowed', [
+    ('trajectory_node', 'loop', 1, 'a bool'),                        # an int is no bool
+    ('trajectory_node', 'loop', 'true', 'a bool'),
+    ('trajectory_node', 'passes', True, '1 <= passes <= 1000'),     # a bool is no integer
+    ('trajectory_node', 'passes', 1001, '1 <= passes <= 1000'),     # above the upper limit
+    ('trajectory_node', 'passes', 0, '1 <= passes <= 1000'),
+    ('trajectory_node', 'mode', 'sweeps', 'one of: sweep, program, idle'),
+])
+def test_a_parameter_of_another_kind_beyond_its_range_or_not_among_its_choices_is_refused(node, name, value, allowed):
+    """The specs' own check (what each node runs on a parameter set), without ROS: the value, the parameter and
+    what is allowed; the values at the limits and of the kind pass."""
+    from gpr_kinematics.errors import ConfigError
+
+    spec = {s.name: s for s in node_specs(node)}[name]
+    with pytest.raises(ConfigError) as refused:
+        spec.check(value)
+    assert str(refused.value) == f'parameter {name} = {value!r} is invalid; allowed: {allowed}'
+    for ok in {'loop': (True, False), 'passes': (1, 1000), 'mode': ('sweep', 'idle')}[name]:
+        spec.check(ok)
+
 REQUIRED = {'kinematics_node', 'robot_simulator_node', 'state_publisher_node'}
 
 
