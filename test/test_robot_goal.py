@@ -188,3 +188,14 @@ def test_a_stamp_exactly_the_longest_wait_ahead_is_taken():
     assert plan_goal(_goal(stamp_ns=ahead), CONTROLLER, JOINTS.rest, NOW)[1] == ahead
     with pytest.raises(GoalError, match=r'header.stamp lies 86400 s ahead; allowed: at most 86400 s'):
         plan_goal(_goal(stamp_ns=ahead + 1), CONTROLLER, JOINTS.rest, NOW)
+
+
+def test_a_goal_that_would_run_past_the_int32_sec_of_a_stamp_is_refused():
+    # a stamp near 2038: the feedback and joint_states stamps after 2^31 s wrapped negative (or failed rclpy's check)
+    stamp = (2**31 - 2) * NS   # 2 s before the end; the goal lasts 2 s, goal_time 0.5 s
+    with pytest.raises(GoalError) as e:
+        plan_goal(_goal(stamp_ns=stamp), CONTROLLER, JOINTS.rest, stamp)
+    assert e.value.code == INVALID_GOAL
+    assert str(e.value) == ('the goal would run until 2147483648.5 s on the clock, beyond the int32 sec of a message '
+                            'stamp; allowed: a goal ending by 2147483647 s (2038-01-19T03:14:07Z)')
+    assert plan_goal(_goal(stamp_ns=stamp - NS), CONTROLLER, JOINTS.rest, stamp - NS)[1] == stamp - NS

@@ -24,6 +24,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import InputError
 from ..inputs.safe_yaml import YamlValue
 
 if TYPE_CHECKING:
@@ -132,14 +133,23 @@ class Described(Protocol):
     def to_dict(self) -> Mapping[str, YamlValue]: ...
 
 
+#: The range of a ``builtin_interfaces`` Time's or Duration's ``sec`` (``int32``): Time ends in January 2038.
+SEC_MIN, SEC_MAX = -2**31, 2**31 - 1
+
+
 def time_parts(ns: int) -> tuple[int, int]:
-    """``(sec, nanosec)`` of a ``builtin_interfaces`` Time or Duration of ``ns`` integer nanoseconds.
+    """``(sec, nanosec)`` of a ``builtin_interfaces`` Time or Duration of ``ns`` integer nanoseconds;
+    :class:`InputError` for a ``sec`` beyond ``int32`` (a stamp after 2038-01-19T03:14:07Z wrapped negative).
 
     >>> time_parts(1_500_000_000), time_parts(-1)
     ((1, 500000000), (-1, 999999999))
     """
     ns = int(ns)
-    return ns // NS_PER_S, ns % NS_PER_S
+    sec = ns // NS_PER_S
+    if not SEC_MIN <= sec <= SEC_MAX:
+        raise InputError(f'a time of {ns} ns: sec = {sec} does not fit builtin_interfaces\' int32 sec; allowed: '
+                         f'{SEC_MIN} to {SEC_MAX} s (up to 2038-01-19T03:14:07Z)')
+    return sec, ns % NS_PER_S
 
 
 def duration_parts(seconds: float) -> tuple[int, int]:

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.config import GprConfig
-from ..core.messages import NS_PER_S
+from ..core.messages import NS_PER_S, SEC_MAX
 from .controller import (
     INVALID_GOAL,
     Clearance,
@@ -125,6 +125,10 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -
         under_way = bool(traj.time[0] <= late)
         traj = late_start(joints, traj, current, late, c.start_tolerance)
         start = stamp + round(late * NS_PER_S)
+    last = start + round((traj.duration + tol.goal_time) * NS_PER_S)   # the last stamp it may publish
+    if last // NS_PER_S > SEC_MAX:
+        raise GoalError(INVALID_GOAL, f'the goal would run until {last / NS_PER_S:.12g} s on the clock, beyond the '
+                        f'int32 sec of a message stamp; allowed: a goal ending by {SEC_MAX} s (2038-01-19T03:14:07Z)')
     try:
         return plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance,
                            under_way), start
