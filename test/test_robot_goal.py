@@ -199,3 +199,17 @@ def test_a_goal_that_would_run_past_the_int32_sec_of_a_stamp_is_refused():
     assert str(e.value) == ('the goal would run until 2147483648.5 s on the clock, beyond the int32 sec of a message '
                             'stamp; allowed: a goal ending by 2147483647 s (2038-01-19T03:14:07Z)')
     assert plan_goal(_goal(stamp_ns=stamp - NS), CONTROLLER, JOINTS.rest, stamp - NS)[1] == stamp - NS
+
+
+def test_a_clock_set_back_more_than_a_sample_period_aborts_the_goal_naming_the_jump():
+    from gpr_kinematics.robot.goal import clock_set_back
+
+    assert clock_set_back(NOW, NOW + 1, 0.01, 0.5) is None   # forward
+    assert clock_set_back(NOW, NOW - 10_000_000, 0.01, 0.5) is None   # jitter: one period back at most
+    assert clock_set_back(1001 * NS, 10 * NS, 0.01, 1.0) == (
+        'the clock was set back 991 s (from 1001 s to 10 s) at t = 1 s of the goal: its samples are stamped on that '
+        'clock; allowed: a clock that does not go back while a goal runs (send the goal again)')
+    assert clock_set_back(NOW, NOW - 10_000_001, 0.01, None) == (
+        'the clock was set back 0.010000001 s (from 1000 s to 999.989999999 s) while it waited for its header.stamp: '
+        'its samples are stamped on that clock; allowed: a clock that does not go back while a goal runs (send the '
+        'goal again)')

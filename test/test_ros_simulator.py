@@ -642,3 +642,61 @@ def test_under_a_stepped_simulated_clock_a_stream_silences_the_simulator_and_a_c
             assert all(v == last for _, v in own_after(n)[1:]), own_after(n)
     finally:
         proc.stop()
+
+
+def test_a_clock_set_back_during_a_goal_aborts_it_naming_the_jump_and_the_node_serves_on(ros_environment):
+    """use_sim_time, /clock from 1000 s in 10 ms steps, set back to 10 s one second into a 4 s goal (a simulation reset,
+    ``ros2 bag play --loop --clock``): the goal waited, silent, until the clock came back to 1001 s. Now it ends
+    aborted, naming the jump, and the next goal runs on the new clock."""
+    import threading
+
+    from builtin_interfaces.msg import Time
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import action_client_options
+    from rclpy.action import ActionClient
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+
+    ns = '/gpr_sim_clockback'
+    proc = start('robot_simulator_node', namespace=ns, rate=RATE, idle_rate=10.0, use_sim_time=True)
+    now = {'ns': 1000 * NS_PER_S}
+    stop = threading.Event()
+    try:
+        wait_for_log(proc, 'serving ')
+        with GprClient('gpr_test_sim_clockback', namespace=ns) as c:
+            clock = c.node.create_publisher(Clock, '/clock', 10)
+
+            def ticks() -> None:
+                while not stop.is_set():
+                    now['ns'] += 10_000_000
+                    t = now['ns']
+                    clock.publish(Clock(clock=Time(sec=t // NS_PER_S, nanosec=t % NS_PER_S)))
+                    time.sleep(0.01)
+
+            threading.Thread(target=ticks, daemon=True).start()
+            states = c.subscribe(JointState, 'joint_states')
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION, **action_client_options(1000))
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
+            k = JOINTS.names.index('arm1_elbow')
+            rest = float(JOINTS.rest[k])
+            handle = c.wait(cli.send_goal_async(_goal(['arm1_elbow'], [4.0], [[rest + 0.4]])), 20, 'goal')
+            assert handle.accepted
+            c.spin_for(1.0)
+            now['ns'] = 10 * NS_PER_S
+            res = c.wait(handle.get_result_async(), 10, 'result after the clock was set back')
+            from action_msgs.msg import GoalStatus
+            assert res.status == GoalStatus.STATUS_ABORTED
+            assert res.result.error_code == -1
+            assert re.fullmatch(r'the clock was set back \d+\.?\d* s \(from 10\d\d\.?\d* s to 1\d\.?\d* s\) at '
+                                r't = \d\.?\d* s of the goal: its samples are stamped on that clock; allowed: a clock '
+                                r'that does not go back while a goal runs \(send the goal again\)',
+                                res.result.error_string), res.result.error_string
+            back = float(res.result.error_string.split()[5])
+            assert 985.0 < back < 995.0, res.result.error_string
+            result, status = _run(c, cli, _goal(['arm1_elbow'], [0.5], [[rest + 0.3]]))
+            assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), result.error_string
+    finally:
+        stop.set()
+        proc.stop()

@@ -18,7 +18,9 @@ every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last po
 (``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
 that passes the checks preempts the running one (canceled, ``INVALID_GOAL``, as joint_trajectory_controller does;
 one whose cancel was accepted ends cancelled, ``SUCCESSFUL``) and starts from where the joints are; a refused
-one leaves the running goal as it was; a goal running when the node stops ends aborted, its client told. A
+one leaves the running goal as it was; a goal running when the node stops ends aborted, its client told, and one whose
+clock goes back more than a sample period (a simulation reset) ends aborted naming the jump
+(:func:`~gpr_kinematics.robot.goal.clock_set_back`; it waited, silent, for as long as the jump). A
 ``header.stamp`` of 0 starts at once, a later one then; one in the past as joint_trajectory_controller takes it
 (:func:`~gpr_kinematics.robot.controller.late_start`: the points keep their instants, a trajectory that ended before
 it arrived is ``OLD_HEADER_TIMESTAMP``).
@@ -66,7 +68,7 @@ from ..robot.controller import (
     servo,
     violation,
 )
-from ..robot.goal import Controller, Goal, check_point_count, plan_goal
+from ..robot.goal import Controller, Goal, check_point_count, clock_set_back, plan_goal
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
@@ -81,12 +83,14 @@ OWN_KEPT = 256
 
 @dataclass
 class _Run:
-    """A goal under way: its handle, motion, start [ns], next sample, and the future its execute callback awaits."""
+    """A goal under way: its handle, motion, start [ns], the future its execute callback awaits, the latest reading
+    of the clock [ns], next sample."""
 
     goal: ServerGoalHandle
     motion: Motion
     start_ns: int
     done: Future
+    clock_ns: int
     k: int = 0
     started: float | None = None
 
@@ -270,7 +274,7 @@ class RobotSimulatorNode(GprNode):
             self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
                       f'{len(old.motion)} samples')
         done = Future()
-        self.run = _Run(goal, motion, start, done)
+        self.run = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds)
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
                                f'{", ".join(motion.trajectory.joint_names)}, {motion.duration:.6g} s, '
                                f'{len(motion)} samples')
@@ -316,7 +320,14 @@ class RobotSimulatorNode(GprNode):
         if r.goal.is_cancel_requested:
             self._cancelled(r)
             return
-        if self.get_clock().now().nanoseconds < r.start_ns:
+        clock = self.get_clock().now().nanoseconds
+        back = clock_set_back(r.clock_ns, clock, self.period, None if r.started is None else
+                              float(r.motion.time[min(max(r.k - 1, 0), len(r.motion) - 1)]))
+        if back:   # it waited, silent, for as long as the jump
+            self._end('aborted', INVALID_GOAL, back)
+            return
+        r.clock_ns = max(r.clock_ns, clock)
+        if clock < r.start_ns:
             return
         now = self.pace_clock()
         if r.started is None:

@@ -137,3 +137,17 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -
             raise
         raise GoalError(exc.code, f'{exc} (times from the goal\'s arrival, {late:.6g} s after its header.stamp)'
                         ) from None
+
+
+def clock_set_back(last_ns: int, now_ns: int, period: float, at: float | None) -> str | None:
+    """The abort of a running goal whose clock went back more than a sample ``period`` [s] (a simulation reset, ``ros2
+    bag play --loop --clock``): from ``last_ns``, its latest reading, to ``now_ns``; ``at`` [s] the last sample sent
+    (None: still waiting for its ``header.stamp``). None for a clock that did not go back (it froze the goal for as
+    long as the jump). A tick or more back, as ``trajectory_node`` tells a reset from jitter."""
+    back = last_ns - now_ns
+    if back <= round(period * NS_PER_S):
+        return None
+    where = 'while it waited for its header.stamp' if at is None else f'at t = {at:.6g} s of the goal'
+    return (f'the clock was set back {back / NS_PER_S:.10g} s (from {last_ns / NS_PER_S:.12g} s to '
+            f'{now_ns / NS_PER_S:.12g} s) {where}: its samples are stamped on that clock; allowed: a clock that does '
+            'not go back while a goal runs (send the goal again)')
