@@ -22,10 +22,9 @@ from gpr_kinematics.robot.controller import (
     late_start,
     plan_motion,
     resolve_tolerances,
-    servo,
     trajectory_from_points,
-    violation,
 )
+from gpr_kinematics.robot.servo import servo, violation
 from gpr_kinematics.robot.timing import MAX_SAMPLES
 from gpr_kinematics.robot.trajectory import JointTrajectory, evaluate
 from robot_support import ROBOT

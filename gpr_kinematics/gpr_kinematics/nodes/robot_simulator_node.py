@@ -65,10 +65,9 @@ from ..robot.controller import (
     Motion,
     Tolerances,
     joint_state_values,
-    servo,
-    violation,
 )
 from ..robot.goal import Controller, Goal, check_point_count, clock_set_back, plan_goal
+from ..robot.servo import servo, violation
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance

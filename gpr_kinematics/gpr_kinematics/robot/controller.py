@@ -21,8 +21,8 @@
   (``INVALID_GOAL``: the robot simulator's is :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance
   of the whole interpolated motion, certified between samples);
 - :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
-  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults; :func:`servo` (the actuators,
-  first order) and :func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ...). SI units.
+  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults (the actuators and the check
+  of a tolerance at run time: :mod:`gpr_kinematics.robot.servo`). SI units.
 """
 from __future__ import annotations
 
@@ -427,23 +427,3 @@ def late_start(joints: ControllerJoints, traj: JointTrajectory, current: Array, 
                            np.vstack([p, traj.positions[after]]),
                            None if traj.velocities is None else np.vstack([v, traj.velocities[after]]),
                            None if traj.accelerations is None else np.vstack([a, traj.accelerations[after]]))
-
-
-def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
-    """The joints after ``dt`` [s] of a first-order response with time constant ``tau`` [s] to ``desired`` held over
-    the step: ``desired + (actual - desired) exp(-dt / tau)``; ``tau = 0``: ``desired`` exactly."""
-    return np.array(desired if tau <= 0.0 else desired + (actual - desired) * math.exp(-dt / tau), dtype=np.float64)
-
-
-def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,
-              position: Array, velocity: Array, what: str) -> str | None:
-    """The first joint of ``cols`` whose position or velocity error ``(N,)`` exceeds its tolerance ``(N,)``, named with
-    the tolerance and the error (``what``: path or goal), or None."""
-    for err, tol, kind, suffix in ((error_position, position, 'position', ''), (error_velocity, velocity, 'velocity',
-                                                                                '/s')):
-        bad = np.abs(err[cols]) > tol[cols]
-        if bad.any():
-            j = int(cols[int(np.argmax(bad))])
-            return (f'{joints.names[j]}: {kind} error {abs(err[j]):.6g} {joints.units[j]}{suffix} exceeds the {what} '
-                    f'tolerance {tol[j]:.6g} {joints.units[j]}{suffix}')
-    return None
