@@ -438,7 +438,9 @@ def test_a_stamp_in_the_past_continues_the_trajectory_under_way(velocities):
         new, old = evaluate(cut, rest[cols], s), evaluate(traj, rest[cols], s + late)
         for a, b in zip(new[:2], old[:2], strict=True):      # positions and velocities
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
-        motion = plan_motion(JOINTS, cut, rest, RATE, CFG, DEFAULTS, 1.0)   # and it is a valid goal from there
+        there = rest.copy()   # the robot where the trajectory is at the arrival: a valid goal from there
+        there[cols] = evaluate(traj, rest[cols], np.array([late]))[0][0]
+        motion = plan_motion(JOINTS, cut, there, RATE, CFG, DEFAULTS, 1.0, under_way=True)
         np.testing.assert_allclose(motion.positions[-1, cols], traj.positions[-1], rtol=0, atol=1e-15)
     # the state at the arrival farther from where the joints are than start_tolerance: refused, naming the joint
     with pytest.raises(GoalError, match=r'header.stamp lies 0.3 s in the past: at its arrival the trajectory puts '
@@ -475,3 +477,29 @@ def test_a_spline_that_overflows_is_an_invalid_goal(times):
     assert info.value.code == INVALID_GOAL
     ok = _points(['arm1_elbow'], list(times), [[a], [a - 0.001]], [[0.0], [0.0]], [[0.0], [0.0]])
     assert np.all(np.isfinite(_plan(ok).positions))
+
+
+def test_a_first_point_at_time_zero_is_reached_in_one_sample_within_the_velocity_limits():
+    """A first point at t = 0 within start_tolerance (1 rad, in its range) but 1 rad away: the joints jumped there in
+    one 10 ms sample (100 rad/s against 1.5 rad/s). Now the jump is within one sample at the velocity limit or
+    refused; a first point after 0 s is reached along the spline as before."""
+    k = JOINTS.names.index('arm1_shoulder')
+    rest = float(JOINTS.rest[k])
+    reach = 1.5 / RATE   # arm1_shoulder's velocity limit for one sample
+
+    def first(q0):
+        return JointTrajectory(('arm1_shoulder',), np.array([0.0, 2.0]), np.array([[q0], [rest + 1.2]]))
+
+    with pytest.raises(GoalError) as e:
+        _plan(first(rest + 1.0), start_tolerance=1.0)
+    assert e.value.code == INVALID_GOAL
+    assert str(e.value) == ('points[0] at time_from_start 0 makes arm1_shoulder jump 1 rad from where it is (0 rad) '
+                            'in one sample (0.01 s at rate 100 Hz): 100 rad/s; allowed: at most 0.015 rad (its '
+                            'velocity limit 1.5 rad/s for one sample), or a first point after 0 s, which the joints '
+                            'then reach from where they are')
+    m = _plan(first(rest + reach), start_tolerance=1.0)   # one sample at the limit: taken
+    assert m.positions[0, k] == rest + reach and np.array_equal(m.current, JOINTS.rest)
+    with pytest.raises(GoalError, match=r'jump 0.0151 rad .* 1.51 rad/s; allowed: at most 0.015 rad'):
+        _plan(first(rest + 0.0151), start_tolerance=1.0)
+    later = JointTrajectory(('arm1_shoulder',), np.array([1.0, 2.0]), np.array([[rest + 1.0], [rest + 1.2]]))
+    assert len(_plan(later, start_tolerance=1e-3)) == 201   # from where it is, along the spline: unchanged

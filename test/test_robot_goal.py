@@ -213,3 +213,23 @@ def test_a_clock_set_back_more_than_a_sample_period_aborts_the_goal_naming_the_j
         'the clock was set back 0.010000001 s (from 1000 s to 999.989999999 s) while it waited for its header.stamp: '
         'its samples are stamped on that clock; allowed: a clock that does not go back while a goal runs (send the '
         'goal again)')
+
+
+def test_a_late_goal_under_way_is_not_jumped_to_beyond_the_velocity_limits():
+    """Late by 0.3 s with start_tolerance 1 rad: the trajectory's state at the arrival lies 0.12 rad from where the
+    elbow is; the joints jumped there in one sample (12 rad/s against 2 rad/s). Now refused, naming the jump."""
+    loose = Controller(*[getattr(CONTROLLER, f) for f in ('joints', 'defaults', 'rate', 'config')], 1.0, False)
+    k = JOINTS.names.index('arm1_elbow')
+    goal = _goal(times=(0.0, 1.0), positions=[[float(JOINTS.rest[k])], [float(JOINTS.rest[k]) + 0.4]],
+                 stamp_ns=NOW - 300_000_000)
+    with pytest.raises(GoalError) as e:
+        plan_goal(goal, loose, JOINTS.rest, NOW)
+    assert e.value.code == INVALID_GOAL
+    assert str(e.value) == ('the trajectory at its arrival makes arm1_elbow jump 0.12 rad from where it is (2.5 rad) '
+                            'in one sample (0.01 s at rate 100 Hz): 12 rad/s; allowed: at most 0.02 rad (its velocity '
+                            'limit 2 rad/s for one sample), or a stamp of 0 (start at once) or one whose first point '
+                            "lies ahead (times from the goal's arrival, 0.3 s after its header.stamp)")
+    there = JOINTS.rest.copy()
+    there[k] += 0.12   # the robot where the trajectory is at the arrival: it goes on from there
+    motion, _ = plan_goal(goal, loose, there, NOW)
+    assert motion.positions[0, k] == pytest.approx(there[k], abs=1e-12)

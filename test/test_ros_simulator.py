@@ -700,3 +700,33 @@ def test_a_clock_set_back_during_a_goal_aborts_it_naming_the_jump_and_the_node_s
     finally:
         stop.set()
         proc.stop()
+
+
+def test_a_first_point_at_time_zero_beyond_one_sample_at_the_velocity_limit_is_refused(ros_environment):
+    """start_tolerance 1 (within its range): a first point at t = 0 1 rad away was jumped to in one 10 ms sample
+    (100 rad/s against 1.5 rad/s) and reported SUCCEEDED. Now INVALID_GOAL naming the jump; nothing moves."""
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import action_client_options
+    from rclpy.action import ActionClient
+    from sensor_msgs.msg import JointState
+
+    ns = '/gpr_sim_jump'
+    proc = start('robot_simulator_node', namespace=ns, rate=RATE, idle_rate=20.0, start_tolerance=1.0)
+    try:
+        wait_for_log(proc, 'serving ')
+        with GprClient('gpr_test_sim_jump', namespace=ns) as c:
+            states = c.subscribe(JointState, 'joint_states')
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION, **action_client_options(1000))
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            assert c.spin_until(lambda: len(states) >= 2, 10), proc.output()
+            result, status = _run(c, cli, _goal(['arm1_shoulder'], [0.0, 1.0], [[1.0], [1.2]]))
+            assert (status, result.error_code) == (GoalStatus.STATUS_ABORTED, -1)
+            assert result.error_string == (
+                'points[0] at time_from_start 0 makes arm1_shoulder jump 1 rad from where it is (0 rad) in one sample '
+                '(0.01 s at rate 100 Hz): 100 rad/s; allowed: at most 0.015 rad (its velocity limit 1.5 rad/s for '
+                'one sample), or a first point after 0 s, which the joints then reach from where they are')
+            assert _held(c, states, 'arm1_shoulder') == 0.0
+    finally:
+        proc.stop()

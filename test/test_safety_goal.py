@@ -316,3 +316,29 @@ def test_a_cell_in_another_frame_is_refused_by_the_goal_check():
     other = type(cell)(cell.obstacles, 'gpr_base', 'cell.yaml')
     with pytest.raises(ConfigError, match=r"cell\.yaml: frame = 'gpr_base'.*allowed: 'world'"):
         GoalClearance(ROBOT, other)
+
+
+def _at(shoulder):
+    """The rest state with arm1's shoulder at ``shoulder`` [rad] (0.6: the blade 20 mm inside :func:`_box_at`'s box)."""
+    q = JOINTS.rest.copy()
+    q[SHOULDER] = shoulder
+    return q
+
+
+def test_the_jump_to_a_first_point_at_time_zero_is_checked_against_the_cell():
+    """start_tolerance 1 rad, rate 1 Hz (one sample reaches 1.5 rad): a first point at t = 0 1 rad from rest, beyond
+    the box, was jumped to through it (the check began at the first point). Now the jump is part of the check."""
+    cell = _box_at(-0.02)
+    traj = JointTrajectory(('arm1_shoulder',), np.array([0.0, 2.0]), np.array([[1.0], [1.2]]))
+    check = GoalClearance(ROBOT, cell, 0.002)
+    assert check.report(plan_motion(JOINTS, traj, _at(1.0), 1.0, ROBOT.config, TOL, 1.0)).below_margin == ()
+    with pytest.raises(GoalError) as e:
+        plan_motion(JOINTS, traj, JOINTS.rest, 1.0, ROBOT.config, TOL, 1.0, check)
+    assert e.value.code == INVALID_GOAL
+    m = re.fullmatch(r'the jump from where the joints are to the first point at time_from_start 0 \(in one sample\) '
+                     r'brings arm1_blade and box within the margin: (-0\.0[\d]+) m \(-[\d.]+ mm\) apart \(negative: '
+                     r'penetration; cell test_cell\); allowed: every pair at least clearance_margin 0.002 m apart '
+                     r'over the jump too, or a first point after 0 s, which the joints then reach along the '
+                     r'interpolated motion that is checked', str(e.value))
+    assert m, str(e.value)
+    assert -0.0201 < float(m.group(1)) < 0.002   # the line passes 0.6 rad, the box 20 mm deep there

@@ -14,12 +14,12 @@
   and what is allowed: joint names unknown or repeated (``INVALID_JOINTS``); no points, positions of the wrong length,
   velocities or accelerations on some points only, times not finite or not strictly increasing, a position beyond the
   joint's limits, a point velocity or a segment's mean velocity ``|q_{i+1} - q_i| / (t_{i+1} - t_i)`` beyond the joint's
-  velocity limit (the move from the current state to a first point after ``t = 0`` included), a first point at
-  ``t = 0`` away from the current state, a spline that overflows (not finite), an interpolated sample beyond a
-  position limit or beyond a velocity limit by more than :data:`SPLINE_VELOCITY_SLACK`, the platform tilted beyond
-  ``tilt_limit`` at any sample (forward kinematics of the virtual-joint model), or what a ``clearance`` check refuses
-  (``INVALID_GOAL``: the robot simulator's is :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance
-  of the whole interpolated motion, certified between samples);
+  velocity limit (the move from the current state to a first point after ``t = 0`` included), a first point at ``t =
+  0`` beyond ``start_tolerance`` or one sample at the velocity limit from the current state, a spline that overflows,
+  an interpolated sample beyond a position limit or a velocity limit by more than :data:`SPLINE_VELOCITY_SLACK`, the
+  platform tilted beyond ``tilt_limit`` at any sample (virtual-joint model), or what a ``clearance`` check refuses
+  (``INVALID_GOAL``: the simulator's :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance of the
+  whole interpolated motion and the jump to a first point at ``t = 0``, certified between samples);
 - :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
   control_msgs' rules (0: the controller's default; -1: not checked) over the defaults (the actuators and the check
   of a tolerance at run time: :mod:`gpr_kinematics.robot.servo`). SI units.
@@ -255,7 +255,8 @@ def resolve_tolerances(joints: ControllerJoints, defaults: Tolerances, path: Seq
 class Motion:
     """A checked goal sampled at the controller's rate: sample times ``time (K,)`` [s from the start], every joint's
     desired ``positions`` and ``velocities`` ``(K, N)`` (the joints the goal does not name held), the goal's joints
-    ``goal (G,)`` (indices), its tolerances and its trajectory."""
+    ``goal (G,)`` (indices), its tolerances, its trajectory and every joint where it was at the goal's arrival
+    ``current (N,)`` (a first point at ``t = 0`` is reached from there in one sample)."""
 
     time: Array
     positions: Array
@@ -263,6 +264,7 @@ class Motion:
     goal: NDArray[np.int64]
     tolerances: Tolerances
     trajectory: JointTrajectory
+    current: Array
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -273,7 +275,7 @@ class Motion:
 
 
 #: A check of the cell's clearance: a checked goal's :class:`Motion` (its trajectory, the goal's joints, every joint at
-#: the start) -> a refusal (the message of an ``INVALID_GOAL``) or None.
+#: the start and where it was) -> a refusal (the message of an ``INVALID_GOAL``) or None.
 Clearance = Callable[[Motion], str | None]
 
 
@@ -339,6 +341,22 @@ def _refuse_off_start(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
                         f'{otherwise}')
 
 
+def _refuse_jump(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array, rate: float,
+                 what: str, otherwise: str) -> None:
+    """Refuse (``INVALID_GOAL``) a first point at ``t = 0`` that a joint cannot reach from ``start`` within its velocity
+    limit in the one sample (``1 / rate`` [s]) the controller takes to get there: ``|q_0 - q_start| rate > v_max``."""
+    jump = np.abs(traj.positions[0] - start)
+    reach = joints.velocity[cols] / rate
+    bad = jump > reach * (1.0 + VELOCITY_SLACK)
+    if bad.any():
+        k = int(np.argmax(bad))
+        u = joints.units[cols[k]]
+        raise GoalError(INVALID_GOAL, f'{what} makes {traj.joint_names[k]} jump {jump[k]:.6g} {u} from where it is '
+                        f'({start[k]:.9g} {u}) in one sample ({1.0 / rate:.6g} s at rate {rate:g} Hz): '
+                        f'{jump[k] * rate:.6g} {u}/s; allowed: at most {reach[k]:.6g} {u} (its velocity limit '
+                        f'{joints.velocity[cols[k]]:g} {u}/s for one sample), or {otherwise}')
+
+
 def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel: Array, time: Array) -> None:
     limit = joints.velocity[cols]
     bad = ~(np.abs(vel) <= limit * (1.0 + SPLINE_VELOCITY_SLACK))   # a velocity of NaN (an overflow) too
@@ -362,9 +380,12 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     current = np.asarray(current, dtype=float)
     start = current[cols]
     _refuse_beyond(joints, cols, traj.positions, traj.time, 'point')
-    if traj.time[0] == 0.0:
-        _refuse_off_start(joints, cols, traj, traj.positions[0], start, start_tolerance, 'points[0] at time_from_start '
-                          '0', 'a first point after 0 s, which the joints then reach from where they are')
+    if traj.time[0] == 0.0:   # reached in one sample: within start_tolerance, the velocity limits and the clearance
+        what, otherwise = (('the trajectory at its arrival', 'a stamp of 0 (start at once) or one whose first point '
+                            'lies ahead') if under_way else ('points[0] at time_from_start 0', 'a first point after '
+                                                             '0 s, which the joints then reach from where they are'))
+        _refuse_off_start(joints, cols, traj, traj.positions[0], start, start_tolerance, what, otherwise)
+        _refuse_jump(joints, cols, traj, start, rate, what, otherwise)
     _check_velocities(joints, cols, traj, start, under_way)
     count = grid_count(traj.duration, rate)
     if count > MAX_SAMPLES:
@@ -392,7 +413,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
         shown, limit = apart(float(fk.tilt[i]), config.tilt_limit)
         raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {shown} rad '
                         f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit {limit} rad')
-    motion = Motion(t, positions, velocities, cols, tolerances, traj)
+    motion = Motion(t, positions, velocities, cols, tolerances, traj, current)
     if clearance is not None:
         refusal = clearance(motion)
         if refusal:

@@ -9,19 +9,25 @@ A controller does not know which blade holds a wafer: ``wafer_arms`` names the a
 goal (their wafer discs are bodies; default none: the robot's links, blades, column and platform only), and wafers
 lying in stations are not known to it either (not checked). :class:`GoalClearance` is the ``clearance`` hook of
 :func:`~gpr_kinematics.robot.controller.plan_motion`: it answers a refusal naming the two bodies, the time and the
-distance, or None.
+distance, or None; the jump from where the joints are to a first point at ``t = 0`` (one sample) is checked as the
+joint-space line between the two states.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+from numpy.typing import NDArray
+
 from ..errors import ConfigError
 from ..robot.controller import Motion
 from ..robot.description import RobotDescription
+from ..robot.plan import joint_limits
+from ..robot.trajectory import JointTrajectory
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import TOLERANCE, ClearanceReport, check_numbers, clearance
+from .clearance import TOLERANCE, ClearanceReport, PairClearance, check_numbers, clearance
 from .distances import require_library
 from .joint_motion import TrajectoryMotion
 from .margin import MARGIN
@@ -58,10 +64,35 @@ class GoalClearance:
         moving = TrajectoryMotion.of(self.robot, motion.trajectory, motion.goal, motion.positions[0])
         return clearance(moving, self.bodies, self.pairs, self.margin, self.tolerance, decide=True)
 
+    def line(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> ClearanceReport:
+        """The certified clearance of every pair over the joint-space line from every joint at ``a`` to ``b``
+        ``(N,)`` (``s`` from 0 to 1 as time; ``a`` equal to ``b``: the state ``a`` alone)."""
+        names = joint_limits(self.robot)[0]
+        traj = JointTrajectory(names, np.array([0.0, 1.0]), np.vstack([a, b]), None, None)
+        moving = TrajectoryMotion.of(self.robot, traj, np.arange(len(names)), np.asarray(a, dtype=float))
+        return clearance(moving, self.bodies, self.pairs, self.margin, self.tolerance, decide=True)
+
     def __call__(self, motion: Motion) -> str | None:
-        """None when every pair stays at least the margin apart over the whole motion; else the refusal: the pair
-        below the margin first, when, and how close it comes."""
+        """None when every pair stays at least the margin apart over the whole motion, the jump from where the joints
+        are to a first point at ``t = 0`` included; else the refusal: the jump, or the pair below the margin first,
+        when, and how close it comes."""
+        first = motion.positions[0]
+        if motion.trajectory.time[0] == 0.0 and not np.array_equal(first, motion.current):
+            below = self.line(motion.current, first).below_margin
+            if below:
+                p, d = _closest(below)
+                return (f'the jump from where the joints are to the first point at time_from_start 0 (in one sample) '
+                        f'brings {p.bodies[0]} and {p.bodies[1]} within the margin: {d:.6g} m ({d * 1e3:.3f} mm) '
+                        f'apart (negative: penetration; cell {self.cell.source}); allowed: every pair at least '
+                        f'clearance_margin {self.margin:g} m apart over the jump too, or a first point after 0 s, '
+                        'which the joints then reach along the interpolated motion that is checked')
         return refusal(self.report(motion), self.cell.source)
+
+
+def _closest(below: tuple[PairClearance, ...]) -> tuple[PairClearance, float]:
+    """The closest of pairs below the margin and its distance: the one measured, else the certified bound [m]."""
+    p = min(below, key=lambda q: q.distance)
+    return p, p.measured if math.isfinite(p.measured) else p.distance
 
 
 def refusal(report: ClearanceReport, cell: str) -> str | None:
