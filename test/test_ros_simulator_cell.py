@@ -13,7 +13,7 @@ from gpr_kinematics.robot.controller import ControllerJoints
 from gpr_kinematics.robot.trajectory import JointTrajectory
 from robot_support import ROBOT
 from ros_support import start
-from test_ros_simulator import _goal, _run, session
+from test_ros_simulator import _goal, _held, _run, session
 
 pytestmark = pytest.mark.ros
 
@@ -99,3 +99,38 @@ def test_a_bad_cell_or_wafer_arm_stops_the_node_with_one_line(ros_environment, v
     proc = start('robot_simulator_node', namespace=NS, **values)
     status = proc.wait(timeout=60)
     assert_one_error_line(proc.output(), status, 2, words)
+
+
+def test_another_publishers_state_in_the_box_or_through_it_is_ignored_with_a_warning(sim_cell):
+    """joint_states of another publisher put arm1's shoulder at 1.2 rad (through the box) and then at 0.6 rad (the
+    blade 20 mm inside it): both were taken and held, and every goal after was refused '... -20.001 mm apart at
+    t = 0 s'. Now both are ignored with a warning, the simulator holds its state, and a goal runs from it."""
+    from action_msgs.msg import GoalStatus
+    from gpr_kinematics.nodes.qos import stream_qos
+    from sensor_msgs.msg import JointState
+
+    c, cli, states, proc = sim_cell
+    shoulder = JOINTS.names.index('arm1_shoulder')
+    pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(10))
+    try:
+        held = _held(c, states, 'arm1_shoulder')
+        for value, words in ((1.2, r'the joint-space line from the held state to it brings arm1_blade and box within '
+                                   r'clearance_margin 0\.002 m: -0\.0\d+ m \(-[\d.]+ mm\) apart'),
+                             (0.6, r'it has arm1_blade and box -0\.0200\d* m \(-20\.00\d mm\) apart, within '
+                                   r'clearance_margin 0\.002 m')):
+            c.spin_for(5.5)   # the warning is throttled to one in 5 s
+            for _ in range(5):
+                pub.publish(JointState(name=['arm1_shoulder'], position=[value]))
+                c.spin_for(0.05)
+            assert c.spin_until(lambda w=words: re.search('joint_states of another publisher ignored: ' + w,
+                                                          proc.output()), 10), proc.output()
+            assert _held(c, states, 'arm1_shoulder') == held
+        pub.publish(JointState(name=['arm1_shoulder'], position=[held - 0.05]))   # a clear move is taken
+        assert c.spin_until(lambda: len(states[-1].name) == len(JOINTS.names)
+                            and states[-1].position[shoulder] == held - 0.05, 10), proc.output()
+        result, status = _run(c, cli, _goal(['arm1_elbow'], [1.0], [[float(JOINTS.rest[shoulder + 1]) - 0.1]]))
+        assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+        result, status = _run(c, cli, _goal(['arm1_shoulder'], [1.0], [[held]]))
+        assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+    finally:
+        c.node.destroy_publisher(pub)

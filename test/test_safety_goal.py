@@ -342,3 +342,31 @@ def test_the_jump_to_a_first_point_at_time_zero_is_checked_against_the_cell():
                      r'interpolated motion that is checked', str(e.value))
     assert m, str(e.value)
     assert -0.0201 < float(m.group(1)) < 0.002   # the line passes 0.6 rad, the box 20 mm deep there
+
+
+def test_a_goal_from_a_current_state_within_the_margin_says_so():
+    """The robot held with its blade in the box (a foreign joint_states took it there): every goal, one moving the elbow
+    only, was refused '... -20.001 mm apart at t = 0 s' without a word that the current state is the problem."""
+    cell = _box_at(-0.02)
+    traj = JointTrajectory(('arm1_elbow',), np.array([1.0]), np.array([[JOINTS.rest[SHOULDER + 1] - 0.1]]))
+    with pytest.raises(GoalError) as e:
+        plan_motion(JOINTS, traj, _at(0.6), 100.0, ROBOT.config, TOL, 1e-3, GoalClearance(ROBOT, cell, 0.002))
+    assert str(e.value) == ("the robot's current state (where every goal starts, t = 0) has arm1_blade and box "
+                            '-0.020001 m (-20.001 mm) apart, within clearance_margin 0.002 m (negative: penetration; '
+                            'cell test_cell); allowed: a current state with every pair at least clearance_margin apart '
+                            '(every goal starts there; joint_states of another publisher outside the margin move it '
+                            'while no goal runs)')
+
+
+def test_another_publishers_state_is_judged_with_the_line_from_the_held_one():
+    """robot_simulator_node's rule for foreign joint_states with a cell: a state in the box, or one whose joint-space
+    line from the held state passes through it, is refused; a clear move is taken, and from a held state in the box a
+    clear state is the way out."""
+    check = GoalClearance(ROBOT, _box_at(-0.02), 0.002)
+    assert check.move(_at(0.0), _at(0.05)) is None
+    assert check.move(_at(0.0), _at(0.6)) == ('it has arm1_blade and box -0.020001 m (-20.001 mm) apart, within '
+                                              'clearance_margin 0.002 m (negative: penetration; cell test_cell)')
+    assert check.move(_at(0.0), _at(1.2)) == ('the joint-space line from the held state to it brings arm1_blade and '
+                                              'box within clearance_margin 0.002 m: -0.020001 m (-20.001 mm) apart '
+                                              '(negative: penetration; cell test_cell)')
+    assert check.move(_at(0.6), _at(1.2)) is None

@@ -30,7 +30,10 @@ goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.r
 ended; reliable, so a best-effort subscriber hears it too), and takes the joint values that other publishers send on
 ``joint_states`` (``trajectory_node`` streaming a program; a best-effort one with ``joint_states_reliability``) as
 its state, quietly while values it takes stream, so a goal starts where the robot is shown (values beyond the
-joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning). ``state_publisher_node``
+joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning; with ``cell_file``, a
+state within ``clearance_margin`` of the cell or of itself, or one whose joint-space line from the held state passes
+within, too: :meth:`~gpr_kinematics.safety.goal.GoalClearance.move`, the latest state checked at most every
+:data:`FOREIGN_CHECK` s, the one left pending at the next idle tick or goal). ``state_publisher_node``
 turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
 the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
 """
@@ -78,6 +81,10 @@ from .runtime import GprNode, deliver_results, one_line, run
 NODE_NAME = 'robot_simulator_node'
 #: How many of its latest states it remembers to tell its own messages heard back from another publisher's.
 OWN_KEPT = 256
+#: Shortest time [s, the node's clock] between two clearance checks of another publisher's states (with a cell): a
+#: stream at 100 Hz or more is taken at most this often (its latest state, by the line from the held one; about 15 ms
+#: a check), and the state still pending at the next idle tick or goal.
+FOREIGN_CHECK = 0.1
 
 
 @dataclass
@@ -143,6 +150,9 @@ class RobotSimulatorNode(GprNode):
         #: When [ns, the node's clock] it last took another publisher's values, and last published its own.
         self.last_foreign: int | None = None
         self.last_published: int | None = None
+        #: Another publisher's latest state, waiting for its clearance check (with a cell), and when one last ran [ns].
+        self.pending: Any = None
+        self.last_check: int | None = None
         qos = stream_qos(int(p['queue_depth']))
         self.pub = self.create_publisher(JointState, Topic.JOINT_STATES, qos)
         joint_states_subscription(self, self._on_joint_states, qos.depth, p['joint_states_reliability'])
@@ -195,16 +205,40 @@ class RobotSimulatorNode(GprNode):
                                       'allowed: finite positions', throttle_duration_sec=5.0)
         if not taken.size:   # none of this robot's joints (a gripper's, say): nothing to take, nothing to silence
             return
-        state = self.actual.copy()
+        state = (self.actual if self.pending is None else self.pending).copy()
         state[taken] = values
         wrong = self._outside(state)
         if wrong:
             self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}; allowed: values within '
                                       "the joints' limits", throttle_duration_sec=5.0)
             return
+        now = self.get_clock().now().nanoseconds
+        self.last_foreign = now   # quiet while values it takes stream (not others)
+        if self.clearance is None:
+            self.actual = state
+            self.velocity[:] = 0.0
+            return
+        self.pending = state
+        if not _within(now, self.last_check, round(FOREIGN_CHECK * NS_PER_S)):
+            self._settle()
+
+    def _settle(self) -> None:
+        """Take the pending state of another publisher if the cell allows it
+        (:meth:`~gpr_kinematics.safety.goal.GoalClearance.move`: outside ``clearance_margin``, and so is the
+        joint-space line from the held state), else ignore it with a warning: no publisher puts the robot in an
+        obstacle or through one."""
+        state, self.pending = self.pending, None
+        if state is None or self.clearance is None or self.run is not None:   # a goal moves the robot now
+            return
+        self.last_check = self.get_clock().now().nanoseconds
+        why = self.clearance.move(self.actual, state)
+        if why:
+            self.get_logger().warning(f'joint_states of another publisher ignored: {why}; allowed: states with every '
+                                      'pair at least clearance_margin apart, reached along a joint-space line that '
+                                      'keeps it', throttle_duration_sec=5.0)
+            return
         self.actual = state
-        self.velocity[taken] = 0.0
-        self.last_foreign = self.get_clock().now().nanoseconds   # quiet while values it takes stream (not others)
+        self.velocity[:] = 0.0
 
     def _outside(self, state: Any) -> str:
         """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
@@ -224,6 +258,7 @@ class RobotSimulatorNode(GprNode):
         # its own (half a period: the end of a goal); a whole period skipped every other tick, early by the timer's
         # jitter, and held the state at half the rate. A goal waiting for its header.stamp holds the state too (it
         # was silent until then, up to a day: clients took the robot for gone).
+        self._settle()   # the last state a stream left pending
         stamp = self.get_clock().now().nanoseconds
         waiting = self.run is None or stamp < self.run.start_ns
         if waiting and not _within(stamp, self.last_foreign, 2 * period) and \
@@ -235,6 +270,8 @@ class RobotSimulatorNode(GprNode):
     def _check(self, req: Any) -> tuple[Motion, int]:
         """The motion of a goal and its start [ns] (:func:`~gpr_kinematics.robot.goal.plan_goal`); :class:`GoalError`
         with the result code (module docstring)."""
+        if self.run is None:
+            self._settle()   # another publisher's latest state, before the goal starts from it
         points = req.trajectory.points
         check_point_count(len(points))   # before the points are read
         stamp = req.trajectory.header.stamp

@@ -10,7 +10,8 @@ goal (their wafer discs are bodies; default none: the robot's links, blades, col
 lying in stations are not known to it either (not checked). :class:`GoalClearance` is the ``clearance`` hook of
 :func:`~gpr_kinematics.robot.controller.plan_motion`: it answers a refusal naming the two bodies, the time and the
 distance, or None; the jump from where the joints are to a first point at ``t = 0`` (one sample) is checked as the
-joint-space line between the two states.
+joint-space line between the two states, and a current state already within the margin is named as such.
+:meth:`GoalClearance.move` judges another publisher's joint values for the simulator: the state and the line to it.
 """
 from __future__ import annotations
 
@@ -72,10 +73,24 @@ class GoalClearance:
         moving = TrajectoryMotion.of(self.robot, traj, np.arange(len(names)), np.asarray(a, dtype=float))
         return clearance(moving, self.bodies, self.pairs, self.margin, self.tolerance, decide=True)
 
+    def state(self, a: NDArray[np.float64], what: str) -> str | None:
+        """None when every pair of the state ``a`` ``(N,)`` is at least the margin apart; else ``what`` (the state,
+        named) has the closest pair below the margin, its distance, and the margin."""
+        below = self.line(a, a).below_margin
+        if not below:
+            return None
+        p, d = _closest(below)
+        return (f'{what} has {p.bodies[0]} and {p.bodies[1]} {d:.6g} m ({d * 1e3:.3f} mm) apart, within '
+                f'clearance_margin {self.margin:g} m (negative: penetration; cell {self.cell.source})')
+
     def __call__(self, motion: Motion) -> str | None:
         """None when every pair stays at least the margin apart over the whole motion, the jump from where the joints
-        are to a first point at ``t = 0`` included; else the refusal: the jump, or the pair below the margin first,
-        when, and how close it comes."""
+        are to a first point at ``t = 0`` included; else the refusal: the robot's current state already too close,
+        the jump, or the pair below the margin first, when, and how close it comes."""
+        here = self.state(motion.current, "the robot's current state (where every goal starts, t = 0)")
+        if here:
+            return (f'{here}; allowed: a current state with every pair at least clearance_margin apart (every goal '
+                    'starts there; joint_states of another publisher outside the margin move it while no goal runs)')
         first = motion.positions[0]
         if motion.trajectory.time[0] == 0.0 and not np.array_equal(first, motion.current):
             below = self.line(motion.current, first).below_margin
@@ -87,6 +102,22 @@ class GoalClearance:
                         f'clearance_margin {self.margin:g} m apart over the jump too, or a first point after 0 s, '
                         'which the joints then reach along the interpolated motion that is checked')
         return refusal(self.report(motion), self.cell.source)
+
+    def move(self, held: NDArray[np.float64], state: NDArray[np.float64]) -> str | None:
+        """Why another publisher's ``state`` ``(N,)`` may not replace the ``held`` one: it lies within the margin, or
+        the joint-space line from ``held`` to it passes within (from a ``held`` state itself within the margin, a
+        ``state`` outside it may be taken: the way out); None when neither. One clearance check when the line is
+        clear (about 15 ms), three at most."""
+        below = self.line(held, state).below_margin
+        if not below:
+            return None
+        bad = self.state(state, 'it')
+        if bad or self.state(held, 'held') is not None:
+            return bad
+        p, d = _closest(below)
+        return (f'the joint-space line from the held state to it brings {p.bodies[0]} and {p.bodies[1]} within '
+                f'clearance_margin {self.margin:g} m: {d:.6g} m ({d * 1e3:.3f} mm) apart (negative: penetration; '
+                f'cell {self.cell.source})')
 
 
 def _closest(below: tuple[PairClearance, ...]) -> tuple[PairClearance, float]:
