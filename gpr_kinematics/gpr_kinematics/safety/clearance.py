@@ -18,8 +18,9 @@ library's nearest points; that bound less ``eps`` is used where larger.
 **Branch and bound.** The motion is sampled at :data:`BASE_RATE` where it moves (not inside a hold, whose bounds are
 0) and at every waypoint's arrival and departure.
 For each pair, an interval whose bound lies below the pair's smallest measured distance ``U`` less its tolerance
-``max(TOLERANCE, RELATIVE U)`` is refined: its ends are measured exactly, then it is split at its midpoint (new
-instants, exact poses, shared by every pair), until no interval's bound does. The reported distance is the smallest
+``max(TOLERANCE, RELATIVE U)`` (or below the margin, for ``U`` at or above it) is refined: its ends are measured
+exactly, then it is split at its midpoint (new instants, exact poses, shared by every pair), until no interval's
+bound does. The reported distance is the smallest
 bound: never above the true minimum, and at most the tolerance and :data:`~.distances.LIBRARY_SLACK` below it
 (the measured distances keep it). The cheap bounds are vectorised over all pairs and intervals (numpy); the library
 (FCL, through python-fcl: exact primitives, GJK/EPA) is called only where they do not prove the pair's minimum.
@@ -324,7 +325,10 @@ class _Search:
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
             tol = np.maximum(self.tol, RELATIVE * (np.minimum(np.abs(upper), 1e3) - NEAR))
             short = self.store.t(items.i1) - self.store.t(items.i0) <= MIN_INTERVAL
-            target = np.full(upper.shape, self.margin) if self.decide else upper - tol
+            # measuring: to the tolerance, and a pair measured at or above the margin on to the margin (a bound
+            # within the tolerance below it had read as a collision: 1.999 mm for 2.049 measured)
+            target = np.full(upper.shape, self.margin) if self.decide else \
+                np.where(upper >= self.margin, np.maximum(upper - tol, self.margin), upper - tol)
             decided = (upper < self.margin) if self.decide else np.zeros(upper.shape, dtype=bool)
             done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p]
             np.minimum.at(floor, items.p[done], bound[done])
