@@ -117,8 +117,12 @@ def test_the_collision_table_says_which_time_is_which(tmp_path):
         least = next(p for p in d['pairs'] if p['bodies'] == c['bodies'] and p['distance'] == c['distance'])
         assert (int(step), station, f'{a} / {b}') == (c['step'], c['station'], ' / '.join(c['bodies']))
         assert (below, distance, at) == (f"{c['time']:.3f}", f"{c['distance'] * 1e3:.3f}", f"{least['time']:.3f}")
-    assert 'first below: the first instant found closer than the margin' in lines[k + 4]
-    assert 'least certified distance over the whole program; min at: the instant of its smallest' in lines[k + 5]
+    assert 'first below: the first instant measured closer than the margin, in that step at that station; -: ' \
+        'none, the bounds' in lines[k + 4]
+    assert "between samples could not show the pair the margin apart; min distance: the pair's least certified" \
+        in lines[k + 5]
+    assert 'the whole program; min at: the instant of its smallest measured distance)' in lines[k + 6]
+    assert lines[k + 7].startswith('  largest joint displacement') and lines[-1] == '  NOT safe'
     least = next(p for p in d['pairs'] if p['bodies'] == first['bodies'] and p['distance'] == first['distance'])
     # docs/robot.md quotes this case (to the last printed digit: a rounding's flip at the boundary is allowed)
     doc = ' '.join((Path(__file__).resolve().parents[1] / 'docs' / 'robot.md').read_text(encoding='utf-8').split())

@@ -121,11 +121,16 @@ def _print_safety(r: Any) -> None:
         print(f'    {"step":>5}  {"station":<16} {"first below [s]":>15}  {"bodies":<40} {"min distance [mm]":>17} '
               f'{"min at [s]":>10}')
         for c in r.collisions:
-            print(f'    {c.step:>5}  {c.station:<16} {c.time:>15.3f}  {" / ".join(c.bodies):<40} '
+            below = f'{c.time:>15.3f}' if c.measured_below else f'{"-":>15}'
+            print(f'    {c.step:>5}  {c.station:<16} {below}  {" / ".join(c.bodies):<40} '
                   f'{c.distance * 1e3:>17.3f} {_least_at(r, c):>10.3f}')
-        print('    (first below: the first instant found closer than the margin, in that step at that station; '
-              "min distance: the pair's\n     least certified distance over the whole program; min at: the instant of "
-              'its smallest measured distance)')
+        print('    (first below: the first instant measured closer than the margin, in that step at that station; -: '
+              'none, the bounds\n     between samples could not show the pair the margin apart; min distance: the '
+              "pair's least certified distance over\n     the whole program; min at: the instant of its smallest "
+              'measured distance)')
+        for c in r.collisions:
+            if not c.measured_below:
+                print(f'    {c.not_shown(r.margin)}')
     _print_budget(r.budget)
     if r.max_slip_evaluated == float('inf'):  # the blade pulls away faster than gravity and the vacuum hold
         print(f'  UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it faster than '
@@ -136,7 +141,11 @@ def _print_safety(r: Any) -> None:
     elif r.max_slip_ratio >= 1.0:
         print(f'  UNSAFE: the slip ratio is not bounded below 1 (its bound {r.max_slip_ratio:.3f}; evaluated at most '
               f'{r.max_slip_evaluated:.3f}, at {r.max_slip_at:.3f} s, {r.slip_label})')
-    print(f'  {"safe" if r.safe else "NOT safe"}')
+    shown = [c for c in r.collisions if not c.measured_below]
+    print(f'  {"safe" if r.safe else "NOT safe"}' + (f' ({len(shown)} pair(s) could not be shown the margin apart, '
+                                                      'none measured closer)' if shown == list(r.collisions) and
+                                                      shown and r.max_slip_ratio < 1.0 and not r.budget.beyond
+                                                      else ''))
 
 
 def _print_budget(b: Any) -> None:

@@ -23,7 +23,7 @@ from ..robot.timing import MAX_SAMPLES
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .budget import BudgetReport, judge_budget
 from .cell import Cell
-from .clearance import TOLERANCE, ClearanceReport, clearance
+from .clearance import TOLERANCE, ClearanceReport, PairClearance, clearance, slack_note
 from .margin import MARGIN, STREAM_RATE
 from .motion import PROVEN_MODELS, PlanMotion, grid_within, move_counts
 from .slip import slip_series
@@ -41,8 +41,10 @@ Windows = tuple[tuple[float, float], ...]
 
 @dataclass(frozen=True)
 class Collision:
-    """A pair below the margin: the bodies, the first instant found below it [s], the pair's smallest distance [m],
-    and the step, station and waypoint label of that instant."""
+    """A pair below the margin: the bodies, the first instant measured below it [s], the pair's smallest certified
+    distance [m], the step, station and waypoint label of that instant; ``measured_below`` False: nothing was
+    measured below the margin, only the bounds between samples could not show the pair the margin apart (``time``
+    then the instant of ``measured``, the smallest distance measured [m], less the library's slack)."""
 
     bodies: tuple[str, str]
     time: float
@@ -50,6 +52,14 @@ class Collision:
     step: int
     station: str
     label: str
+    measured_below: bool = True
+    measured: float = float('nan')
+
+    def not_shown(self, margin: float) -> str:
+        """A pair below the ``margin`` by its bounds only, in words (the goal check's refusal's)."""
+        return (f'{" / ".join(self.bodies)} could not be shown the margin apart: at least {self.distance * 1e3:.3f} mm '
+                f'by the bounds between samples, {self.measured * 1e3:.3f} mm measured at {self.time:.3f} s'
+                f'{slack_note(self.measured, margin)}')
 
 
 @dataclass(frozen=True)
@@ -217,8 +227,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     k = int(np.argmax(seen))
     moves = _moves(plan, times, ratio, bound)
     most = max(float(seen[k]), max((m.max_slip_ratio for m in moves), default=0.0))
-    collisions = tuple(sorted((_collision(plan, p.bodies, p.first_below if np.isfinite(p.first_below) else p.time,
-                                          p.distance) for p in report.below_margin), key=lambda c: c.time))
+    collisions = tuple(sorted((_collision(plan, p) for p in report.below_margin), key=lambda c: c.time))
     safe = not collisions and most < 1.0 and not budget.beyond
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
     return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
@@ -292,10 +301,15 @@ def _label_at(plan: ProgramPlan, t: float) -> str:
     return plan.labels[_waypoint_at(plan, t)]
 
 
-def _collision(plan: ProgramPlan, bodies: tuple[str, str], t: float, distance: float) -> Collision:
+def _collision(plan: ProgramPlan, p: PairClearance) -> Collision:
+    """The pair ``p`` below the margin, at its first instant measured below it, else (by its bounds only: a row of
+    "first below" the instant of its smallest distance had read as a collision found there) at that instant."""
+    found = bool(np.isfinite(p.first_below))
+    t = p.first_below if found else p.time
     w = _waypoint_at(plan, t)
     step = int(plan.waypoints.step[w])
-    return Collision(bodies, t, distance, step, str(plan.program.steps[step].station), plan.labels[w])
+    return Collision(p.bodies, t, p.distance, step, str(plan.program.steps[step].station), plan.labels[w], found,
+                     p.measured)
 
 
 def _moves(plan: ProgramPlan, times: Array, ratio: Array, bound: SlipBound) -> tuple[MoveSafety, ...]:

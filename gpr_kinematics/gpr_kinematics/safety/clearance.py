@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
-from .distances import Exact, Store, Table, key
+from .distances import LIBRARY_SLACK, Exact, Store, Table, key
 from .margin import MARGIN, MARGIN_RANGE
 from .motion import BodyMotion, Levers, grid_within, levers, moving_intervals
 
@@ -67,8 +67,9 @@ MAX_INSTANTS = 2_000_000
 @dataclass(frozen=True)
 class PairClearance:
     """The certified smallest distance of a pair over the motion [m] (negative: penetration), the instant of the
-    smallest distance measured [s], ``first_below`` the first instant found below the margin (NaN: none) and
-    ``measured`` the smallest distance the library measured (at ``time``; the true minimum lies between)."""
+    smallest distance measured [s], ``first_below`` the first instant measured below the margin (the library's
+    distance before the slack; NaN: none, a pair below the margin by its bounds only) and ``measured`` the smallest
+    distance the library measured less :data:`~.distances.LIBRARY_SLACK` (at ``time``)."""
 
     bodies: tuple[str, str]
     distance: float
@@ -94,6 +95,11 @@ class ClearanceReport:
     @property
     def below_margin(self) -> tuple[PairClearance, ...]:
         return tuple(p for p in self.pairs if p.distance < self.margin)
+
+
+def slack_note(measured: float, margin: float) -> str:
+    """Why a pair ``measured`` below the ``margin`` [m] was not measured below it: the slack, in words, or ''."""
+    return f" (the library's distance less its slack of {LIBRARY_SLACK:g} m)" if measured < margin else ''
 
 
 def _windows_mask(windows: Sequence[tuple[float, float]], t0: Array, t1: Array, inside: bool) -> NDArray[np.bool_]:
@@ -426,7 +432,7 @@ class _Search:
         for n in order[np.flatnonzero(np.r_[True, kp[order][1:] != kp[order][:-1]])] if keys.size else []:
             best[int(kp[n])] = (float(vals[n]), int(ki[n]))
         below: dict[int, float] = {}
-        low = vals < self.margin
+        low = vals + LIBRARY_SLACK < self.margin   # the slack is the certificate's, not a measurement below
         for pp, ii in zip(kp[low].tolist(), ki[low].tolist(), strict=True):
             below[pp] = min(below.get(pp, np.inf), float(t[ii]))
         for p in np.flatnonzero(present):

@@ -28,7 +28,7 @@ from ..robot.plan import joint_limits
 from ..robot.trajectory import JointTrajectory
 from .bodies import Body, cell_bodies, default_pairs, robot_body_set
 from .cell import Cell
-from .clearance import TOLERANCE, ClearanceReport, PairClearance, check_numbers, clearance
+from .clearance import TOLERANCE, ClearanceReport, PairClearance, check_numbers, clearance, slack_note
 from .distances import require_library
 from .joint_motion import TrajectoryMotion
 from .margin import MARGIN
@@ -131,11 +131,11 @@ def refusal(report: ClearanceReport, cell: str) -> str | None:
     has pairs below its margin, or None. It names the pair the library measured below the margin first, the instant
     of the smallest distance measured for it and that distance (where the search stopped: the pair's minimum is at
     most that); a pair whose bounds could not prove the margin within the search's budget, without a measurement
-    below it, is named with its certified lower bound."""
+    below it (``first_below`` NaN), is named with its certified lower bound."""
     below = report.below_margin
     if not below:
         return None
-    found = [p for p in below if p.measured < report.margin]
+    found = [p for p in below if math.isfinite(p.first_below)]
     others = f'; {len(below) - 1} more pair(s) below the margin' if len(below) > 1 else ''
     allowed = (f'; allowed: every pair at least clearance_margin {report.margin:g} m ({report.margin * 1e3:g} mm) '
                'apart over the whole motion')
@@ -147,4 +147,5 @@ def refusal(report: ClearanceReport, cell: str) -> str | None:
     p = min(below, key=lambda q: q.distance)
     return (f'{p.bodies[0]} and {p.bodies[1]} could not be shown the margin apart: at least {p.distance:.6g} m '
             f'({p.distance * 1e3:.3f} mm) by the bounds between samples, {p.measured:.6g} m measured at '
-            f't = {p.time:.6g} s (time_from_start; cell {cell}){others}{allowed}')
+            f't = {p.time:.6g} s{slack_note(p.measured, report.margin)} (time_from_start; cell {cell}){others}'
+            f'{allowed}')

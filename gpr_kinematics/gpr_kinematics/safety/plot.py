@@ -59,7 +59,9 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
         ax1.plot([at], [least], 'v', color='k', ms=7, label=f'least {least:.3f} mm at {at:.3f} s:\n{bodies}')
     if report.collisions:
         c = report.collisions[0]
-        ax1.plot([c.time], [report.margin * 1e3], 'x', color='r', ms=9, mew=2, label=f'first below the margin at '
+        what = ('first below the margin at' if c.measured_below else
+                'not shown the margin apart\n(bounds only), closest at')
+        ax1.plot([c.time], [report.margin * 1e3], 'x', color='r', ms=9, mew=2, label=f'{what} '
                  f'{c.time:.3f} s:\n{" / ".join(c.bodies)}\n(step {c.step}, {c.station})')
     ax1.set_ylabel('clearance [mm]')
     ax1.set_ylim(min(0.0, least - 1) if np.isfinite(least) else 0.0, top * 1.02)
