@@ -380,6 +380,27 @@ def test_a_bag_recorded_in_a_namespace_verifies_as_such(tmp_path: Path, src: Pat
     assert read_bag(two).namespace == '' and not verify_bag(two).passed
 
 
+@pytest.mark.parametrize('ns', ['/gpr', '/g'])
+def test_a_bag_recorded_in_a_namespace_that_begins_like_the_suite_s_names_verifies(tmp_path: Path, src: Path,
+                                                                                   ns: str) -> None:
+    """suite_topic kept a name already starting with namespace + '/': in /gpr every suite topic does, so
+    /gpr/platform_state (absent) was looked up instead of /gpr/gpr/platform_state (30 messages) and verify failed
+    'nothing to verify'. A suite topic in a namespace is always namespace + name (also in /g)."""
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC, LEGACY_JOINT_STATES_TOPIC, suite_topic
+
+    assert suite_topic(ns, STATE) == ns + '/gpr/platform_state' and suite_topic('', 'gpr/robot') == '/gpr/robot'
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    path = write_bag(tmp_path / 'ns', [(ns + t, s, raw) for t, s, raw in msgs], {ns + k: v for k, v in types.items()})
+    bag = read_bag(path)
+    assert bag.namespace == ns and bag.topic(STATE) is bag.topics[ns + STATE] and len(bag.topic(STATE)) == 30
+    assert bag.joint_states_topic() == JOINT_STATES_TOPIC and bag.topic(LEGACY_JOINT_STATES_TOPIC) is None
+    res = verify_bag(path)
+    assert res.passed, [f.line() for f in res.failures]
+    assert res.notes[-1] == f"the node suite's topics were recorded in the namespace {ns} (verified as such)"
+    assert [c.name for c in res.checks] == [c.name for c in verify_bag(src).checks]
+
+
 def test_the_namespace_is_where_the_platform_state_is_and_several_suites_fail_naming_them(tmp_path: Path,
                                                                                          src: Path) -> None:
     """The namespace was the one prefix of every topic named like a suite topic: the suite in /r1 beside an ordinary

@@ -69,9 +69,10 @@ KNOWN_TOPICS: dict[str, str] = {**GPR_TOPICS, LEGACY_JOINT_STATES_TOPIC: 'sensor
 
 def suite_topic(namespace: str, name: str) -> str:
     """``name`` (with or without the leading slash) as a suite recorded in ``namespace`` (``''``, ``/r1``) names it:
-    ``/r1/gpr/platform_pose`` for ``gpr/platform_pose``; a name already in the namespace is kept."""
+    always ``namespace + name`` (``/r1/gpr/platform_pose`` for ``gpr/platform_pose``, ``/gpr/gpr/platform_pose`` in
+    ``/gpr``); ``name`` is the suite's own name, never one already in the namespace."""
     absolute = name if name.startswith('/') else '/' + name
-    return namespace + absolute if namespace and not absolute.startswith(namespace + '/') else absolute
+    return namespace + absolute
 
 
 #: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.

@@ -67,7 +67,7 @@ class ReplayNode(GprNode):
         asked = [(valid_topic_name(self, t, 'topics'), t) for t in p['topics'] if t]
         choices = [(full, '/' + t.strip('/')) if not t.startswith('/') else (full,) for full, t in asked]
         bag = read_bag(p['bag'], topics=[n for c in choices for n in c] or None)
-        missing = [c[0] for c in choices if all(bag.topic(n) is None for n in c)]
+        missing = [c[0] for c in choices if all(n not in bag.topics for n in c)]
         if missing:
             raise BagError(f'topic(s) {", ".join(missing)} not in the bag {p["bag"]}; it has: '
                            + ', '.join(read_bag(p['bag']).topics))
