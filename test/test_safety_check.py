@@ -989,3 +989,57 @@ def test_samples_beyond_the_imperfection_budget_are_a_finding_verify_agrees_with
     d = json.loads(res.stdout)
     assert res.returncode == 0 and d['safe'] and d['budget']['beyond'] == [] and d['budget']['rate'] == 100.0
     assert d['budget']['max_displacement'] == budget.max_displacement and d['budget']['budget'] == 5e-4
+
+
+def _random_timings(seed: int, trials: int):
+    """Holds and moves of random timings (chk_held2's generator): whole samples, 1e-10 and 5e-13 off them, holds of
+    0 s; ``(rate, total, holds, moves)``."""
+    import random
+    rnd = random.Random(seed)
+    for _ in range(trials):
+        rate = rnd.choice([0.1, 1, 3, 7, 10, 30, 100, 1000])
+        pts = [0.0]
+        for i in range(2 * rnd.randint(1, 4) - 1):
+            move = i % 2 == 0
+            step = rnd.choice([rnd.uniform(0, 3), round(rnd.uniform(0, 3) * rate) / rate] + ([] if move else [0.0]))
+            v = pts[-1] + (max(step, 1e-3) if move else step)
+            if rnd.random() < 0.3:
+                v += rnd.choice([1e-10, -1e-10, 5e-13, -5e-13])
+            pts.append(max(v, pts[-1] + (1e-3 if move else 0)))
+        if len(pts) % 2:
+            pts.append(pts[-1] + rnd.choice([0.0, 1.0, 1.0 + 1e-10, 1.0 - 1e-10, 1 - 5e-13]))
+        holds = [(pts[i], pts[i + 1]) for i in range(0, len(pts), 2)]
+        moves = [(pts[i], pts[i + 1]) for i in range(1, len(pts) - 1, 2)]
+        if all(b - a >= 1e-3 for a, b in moves):
+            yield rate, pts[-1], holds, moves
+
+
+def test_the_budget_s_holds_and_moves_hold_exactly_the_stream_s_samples():
+    """_held estimated its count from floor and ceil of a * rate and b * rate, one correction each: where k / rate
+    rounds it counted 9 samples from 3.6666666666666665 s in a hold [3.666666666666667, 6.333333333433334] at 3 Hz
+    whose stream (grid_times) has 8 from 4.0 s, and 1 in the hold [0, 0.9999999999995] at 1 Hz whose stream has 2
+    (0 and the end); 600 of 30000 random timings were wrong. Now corrected until exact, against grid_times."""
+    from gpr_kinematics.robot.grid import grid_between, grid_count, grid_times
+    from gpr_kinematics.safety.budget import _grid, _held
+
+    assert _held(3.666666666666667, 6.333333333433334, 3.0, 10.0) == (4.0, 8)
+    assert _held(0.0, 0.9999999999995, 1.0, 0.9999999999995) == (0.0, 2)
+    assert _held(0.5, 0.9999999999995, 1.0, 0.9999999999995) == (0.9999999999995, 1)
+    assert _held(0.2, 0.3, 1.0, 5.0) == (0.2, 0) and _held(0.0, 1e-12, 10.0, 1e-12) == (0.0, 2)
+    assert _grid(0.0, 0.25, 10.0, 0.25).tolist() == [0.1, 0.2] and _grid(0.0, 1.0, 10.0, 0.25).tolist() == [
+        0.1, 0.2, 0.25] and grid_between(1.0, 10.0, 0.5, 0.5, False) == (6, 6, False)
+    checked = 0
+    for rate, total, holds, moves in _random_timings(2, 9000):
+        g = grid_times(total, rate)
+        for a, b in holds:
+            inside = g[(g >= a) & (g <= b)]
+            assert _held(a, b, rate, total) == ((float(inside[0]) if len(inside) else a), len(inside)), (a, b, rate)
+        for a, b in moves:
+            assert _grid(a, b, rate, total).tolist() == g[(g > a) & (g < b)].tolist(), (a, b, rate, total)
+        checked += 1
+    assert checked > 5000
+    # a hold longer than any stream, counted without its samples: the whole of it holds all of grid_times'
+    for total, rate in ((1e6, 5000.0), (1e6 + 1e-10, 3.0), (86400.3 - 5e-13, 7.0), (3e7, 0.1)):
+        assert _held(0.0, total, rate, total) == (0.0, grid_count(total, rate))
+    assert _held(1.0 / 3.0, 1e6, 3.0, 1e6) == (1.0 / 3.0, 3 * 10 ** 6)
+

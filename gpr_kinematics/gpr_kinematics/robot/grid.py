@@ -43,3 +43,31 @@ def grid_count(total: float, rate: float) -> int:
         return 2 ** 53
     n = int(math.floor(x))
     return n + 1 + int(total - n / rate > 1e-9 or (n == 0 and total > 0.0))
+
+
+def _first_k(x: float, rate: float, top: int, after: bool) -> int:
+    """The smallest ``k`` in ``0 .. top + 1`` whose ``k / rate`` (as :func:`grid_times` computes it) is ``> x``
+    (``after``) or ``>= x``; ``top + 1`` where none is. From the estimate ``ceil(x rate)``, corrected one step at a
+    time (``k / rate`` rises with ``k``: a step or two)."""
+    k = min(max(math.ceil(x * rate), 0), top + 1)
+    while k > 0 and ((k - 1) / rate > x if after else (k - 1) / rate >= x):
+        k -= 1
+    while k <= top and not (k / rate > x if after else k / rate >= x):
+        k += 1
+    return k
+
+
+def grid_between(total: float, rate: float, a: float, b: float, closed: bool) -> tuple[int, int, bool]:
+    """The samples of :func:`grid_times` ``(total, rate)`` in ``[a, b]`` (``closed``) or ``(a, b)`` [s], without making
+    them (a hold of 1e6 s): ``k / rate`` for ``k`` in ``range(lo, hi)``, and whether the end sample (``total``) is one.
+
+    >>> grid_between(6.6, 3.0, 3.666666666666667, 6.333333333433334, True)   # 4.0 .. 6.333 (11 / 3 < a)
+    (12, 20, False)
+    >>> grid_between(0.9999999999995, 1.0, 0.0, 0.9999999999995, True)      # 0.0 and the end
+    (0, 1, True)
+    """
+    n = int(math.floor(total * rate + 1e-9))
+    top = n if total - n / rate > 1e-9 or (n == 0 and total > 0.0) else n - 1   # sample n is total itself otherwise
+    lo, hi = _first_k(a, rate, top, not closed), _first_k(b, rate, top, closed)
+    end = a <= total <= b if closed else a < total < b
+    return lo, max(hi, lo), end

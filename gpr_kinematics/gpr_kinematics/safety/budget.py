@@ -12,13 +12,13 @@ judged at at most that many instants, shared out as the slip check's (:func:`~.m
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core import forward_batch
+from ..robot.grid import grid_between
 from ..robot.plan import ProgramPlan, plan_samples
 from ..robot.timing import MAX_SAMPLES, check_rate, sample_at
 from .margin import STREAM_RATE
@@ -54,27 +54,20 @@ class BudgetReport:
     beyond: tuple[BudgetFinding, ...]
 
 
-def _grid(a: float, b: float, rate: float) -> Array:
-    """The instants ``k / rate`` strictly inside ``(a, b)`` [s], as :func:`~gpr_kinematics.robot.grid.grid_times`
-    computes them."""
-    k = np.arange(max(math.floor(a * rate) - 1, 0), math.ceil(b * rate) + 2, dtype=float) / rate
-    return k[(k > a) & (k < b)]
+def _grid(a: float, b: float, rate: float, total: float) -> Array:
+    """The stream's samples strictly inside ``(a, b)`` [s], as :func:`~gpr_kinematics.robot.grid.grid_times`
+    ``(total, rate)`` makes them."""
+    lo, hi, end = grid_between(total, rate, a, b, closed=False)
+    k = np.arange(lo, hi, dtype=float) / rate
+    return np.append(k, total) if end else k
 
 
 def _held(a: float, b: float, rate: float, total: float) -> tuple[float, int]:
-    """The first of the stream's samples in the hold ``[a, b]`` [s] and how many fall in it
-    (:func:`~gpr_kinematics.robot.grid.grid_times`: ``k / rate``, the last one ``total``), counted without making them
-    (a hold of 1e6 s); ``(a, 0)`` where none does."""
-    n = math.floor(total * rate + 1e-9)
-    lo = max(math.ceil(a * rate) - 1, 0)
-    lo += 1 if lo / rate < a else 0
-    hi = min(math.floor(b * rate) + 1, n)
-    hi -= 1 if hi / rate > b else 0
-    count = max(hi - lo + 1, 0)
-    if b >= total and (total - n / rate > 1e-9 or (n == 0 and total > 0.0)):
-        count += 1                          # grid_times appends the end itself
-        return (lo / rate if count > 1 else total), count
-    return (lo / rate if count else a), count
+    """The first of the stream's samples in the hold ``[a, b]`` [s] and how many fall in it, exactly those of
+    :func:`~gpr_kinematics.robot.grid.grid_times` ``(total, rate)``, counted without making them (a hold of 1e6 s);
+    ``(a, 0)`` where none does."""
+    lo, hi, end = grid_between(total, rate, a, b, closed=True)
+    return (lo / rate if hi > lo else total if end else a), hi - lo + int(end)
 
 
 def budget_instants(plan: ProgramPlan, rate: float) -> tuple[Array, NDArray[np.int64]]:
@@ -91,7 +84,7 @@ def budget_instants(plan: ProgramPlan, rate: float) -> tuple[Array, NDArray[np.i
     weights = [np.array([h[1] for h in held if h[1]], dtype=np.int64)]
     for m in range(starts.shape[0]):
         if counts[m] >= rate * durations[m]:
-            inside = _grid(float(starts[m]), float(ends[m]), rate)
+            inside = _grid(float(starts[m]), float(ends[m]), rate, t.total)
         else:
             inside = grid_within(starts[m:m + 1], ends[m:m + 1], t.total, counts[m] / durations[m])
             inside = inside[(inside > starts[m]) & (inside < ends[m])]
