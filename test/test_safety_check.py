@@ -1043,3 +1043,36 @@ def test_the_budget_s_holds_and_moves_hold_exactly_the_stream_s_samples():
         assert _held(0.0, total, rate, total) == (0.0, grid_count(total, rate))
     assert _held(1.0 / 3.0, 1e6, 3.0, 1e6) == (1.0 / 3.0, 3 * 10 ** 6)
 
+
+@pytest.mark.parametrize('name', ['example_robot_program.yaml', 'example_cell_program.yaml'])
+def test_the_budget_s_instants_are_the_stream_s_samples_and_weigh_all_of_them(name):
+    """The instants judge_budget evaluates are samples of the stream at the rate (grid_times), their weights sum to
+    its sample count; moves beyond MAX_SAMPLES at the rate get at most MAX_SAMPLES instants (and one per hold)."""
+    import gpr_kinematics.safety.budget as budget
+    from gpr_kinematics.robot.grid import grid_times
+
+    plan = plan_program(load_robot(), load_program(config_path(f'programs/{name}')))
+    for rate in (0.1, 1.0, 7.0, 100.0, 5000.0):
+        times, w = budget.budget_instants(plan, rate)
+        g = grid_times(plan.timing.total, rate)
+        if len(g) > budget.MAX_SAMPLES:      # the cell program at 5000 Hz: 297911 samples, no such stream
+            assert len(times) <= budget.MAX_SAMPLES + 2 * len(plan.timing.arrive), rate
+            continue
+        assert int(w.sum()) == len(g) and np.isin(times, g).all() and len(np.unique(times)) == len(times), rate
+    holds = len(plan.timing.arrive)
+    moves = len(grid_times(plan.timing.total, 100.0)) - holds
+    old, budget.MAX_SAMPLES = budget.MAX_SAMPLES, 500
+    try:
+        times, w = budget.budget_instants(plan, 100.0)
+    finally:
+        budget.MAX_SAMPLES = old
+    assert moves > 2000 and len(times[w == 1]) <= 500 + holds and len(times) <= 500 + 2 * holds
+
+
+def test_program_check_refuses_a_rate_outside_its_range_in_one_line(tmp_path):
+    program = config_path('programs/example_robot_program.yaml')
+    for rate, shown in (('0', '0.0'), ('nan', 'nan'), ('5001', '5001.0')):
+        res = gpr('program', 'check', str(program), '--rate', rate, cwd=tmp_path)
+        assert res.returncode == 2 and res.stderr == (
+            f'gpr program check: error: rate = {shown} is invalid; allowed: 0.1 <= rate <= 5000 Hz (a sample every '
+            '0.2 ms to every 10 s)\n'), res.stderr
