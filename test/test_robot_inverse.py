@@ -340,6 +340,17 @@ def test_a_two_joint_arms_heading_of_the_other_branch_names_that_branch():
         f'station 0: arm arm1 has 2 joints and cannot choose the blade heading: at this position it is {made:.12g} '
         f'rad on branch {other}; {st.heading[0]:.12g} rad is the heading of branch {taught}: give branch {taught}, or '
         'leave the heading free')
+    # 1e-4 rad off the other branch's heading is neither branch's (to 1e-9 rad): no 'give branch' advice
+    off = Stations.of(st.position, st.tilt, st.azimuth, st.heading + 1e-4)
+    with pytest.raises(LimitError) as caught:
+        solve_stations(robot, off, 'arm1', branch=other)
+    text = str(caught.value)
+    head = (f'station 0: arm arm1 has 2 joints and cannot choose the blade heading: at this position it is '
+            f'{made:.12g} rad (branch {other}) or ')
+    tail = (f' rad (the other branch), not {st.heading[0] + 1e-4:.12g} rad; leave the heading free or give one of '
+            'these (to 1e-09 rad)')
+    assert text.startswith(head) and text.endswith(tail) and 'give branch' not in text, text
+    assert float(text[len(head):-len(tail)]) == pytest.approx(st.heading[0], abs=1e-9)
     ok = solve_stations(robot, st, 'arm1', branch=taught)
     np.testing.assert_allclose(ok.joints, [[-2.9, 2.8]], atol=1e-12, rtol=0)
 
