@@ -115,6 +115,25 @@ def test_a_refusal_of_the_batch_names_the_waypoint_it_is_about(tmp_path, monkeyp
         plan_program(ROBOT, p)
 
 
+def test_a_refusal_of_the_batch_no_waypoint_alone_makes_names_the_program_and_the_arm(tmp_path, monkeypatch):
+    """A batch refused though each waypoint alone is solved: the batch's message, with the program and the arm."""
+    import gpr_kinematics.robot.plan as plan
+    real = plan.solve_stations
+
+    def refusing(robot, stations, *args, **kwargs):
+        if len(stations.names) > 1:
+            raise LimitError('the batch is refused')
+        return real(robot, stations, *args, **kwargs)
+
+    monkeypatch.setattr(plan, 'solve_stations', refusing)
+    p = _program_file(tmp_path, [{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0},
+                                 {'name': 'b', 'position': [1.0, 0.6, 0.45], 'heading': 0.3}],
+                      [{'move': 'a'}, {'dwell': 1.0}, {'move': 'b'}])
+    with pytest.raises(LimitError) as caught:
+        plan_program(ROBOT, p)
+    assert str(caught.value) == f'{p.source}: arm {ROBOT.arms[0].name}: the batch is refused'
+
+
 def test_a_station_below_the_stroke_on_rods_that_are_not_parallel_is_named_with_its_step(tmp_path):
     """Rods that are not parallel: a station 1 cm below the stroke after two moves to a reachable one was said of
     steps[0] in the core's words (q1 = -0.00999381229 m (sample 2) is outside the stroke); the robot's refusal of
