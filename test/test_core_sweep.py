@@ -133,3 +133,20 @@ def test_gpr_sweep_names_a_typed_step_in_degrees_given_as_radians(capsys, argv, 
     assert main(['sweep', *argv]) == 2
     assert capsys.readouterr().err.strip().endswith(message)
     assert main(['sweep', '--tilt-step', '0.2', '--azimuth-step', '10', '--deg', '--json']) == 0
+
+
+@pytest.mark.parametrize('argv', [['--tilt-step', '0.03490658503988659'],
+                                  ['--max-tilt', '1', '--tilt-step', '1', '--deg']])
+def test_gpr_sweep_takes_a_tilt_step_equal_to_the_limit_or_to_max_tilt(capsys, argv):
+    """A tilt step equal to the tilt limit (2 deg, in radians) is within it, one equal to --max-tilt is one step each
+    way: 3 tilts (-max, 0, max) in each of the 36 azimuth rows."""
+    import json
+
+    from gpr_kinematics.cli.main import main
+
+    assert main(['sweep', *argv, '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    degrees = 1.0 if '--deg' in argv else 2.0
+    assert out['samples'] == 3 * 36 and out['max_tilt'] == pytest.approx(math.radians(degrees), rel=1e-15)
+    _, alpha, _ = sweep_grid(1.0, 1.0)
+    assert sorted(set(alpha.tolist())) == [-1.0, 0.0, 1.0]
