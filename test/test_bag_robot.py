@@ -876,6 +876,35 @@ def test_a_namespaced_suite_s_checks_name_its_topics_as_the_bag_has_them(robot_b
         'no gpr_interfaces/msg/PlatformState messages on /r1/gpr/platform_state: nothing to verify')
 
 
+def test_a_namespaced_suite_s_unusable_robot_and_geometry_and_its_robot_note_name_the_namespaced_topics(
+        tmp_path: Path) -> None:
+    """In /r1 the refusal of an unusable recorded robot or geometry and the note of a robot without states name
+    /r1/gpr/robot and /r1/gpr/geometry, the topics read."""
+    from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, typestore
+
+    ts, kind = typestore(), 'std_msgs/msg/String'
+
+    def text(data: str) -> bytes:
+        return bytes(ts.serialize_cdr(ts.types[kind](data=data), kind))
+
+    types = {'/r1' + k: v for k, v in GPR_TOPICS.items()}
+    msgs = sweep_messages(tilt_step=math.radians(1.0), azimuth_step=math.radians(120.0))
+    r1 = [('/r1' + t, s, raw) for t, s, raw in msgs]
+    robot = ('/r1' + ROBOT_TOPIC, msgs[0][1], text(robot_text(ROBOT)))
+    result = verify_bag(write_bag(tmp_path / 'sweep', [robot, *r1], types))
+    assert result.passed and result.notes[1] == (
+        f'robot {ROBOT.name} recorded on /r1/gpr/robot; no robot states (a platform stream, or a recording of fewer '
+        'topics): no wafer pose verified')
+    yaml_error = ("not valid YAML on line 2, column 1: did not find expected ',' or ']' (while parsing a flow "
+                  'sequence)')
+    for topic, check, what in ((ROBOT_TOPIC, 'topic.robot', 'robot description'),
+                               (GEOMETRY_TOPIC, 'topic.geometry', 'geometry')):
+        bad = [(t, s, text('name: [unclosed') if t == '/r1' + topic else raw) for t, s, raw in [robot, *r1]]
+        result = verify_bag(write_bag(tmp_path / check, bad, types))
+        (failure,) = next(c for c in result.checks if c.name == check).failures
+        assert failure.detail == f'not a usable {what}: /r1{topic} (recorded {what}): {yaml_error}'
+
+
 def _framed(robot_bag: Path, frame, prefix_line: str) -> list[tuple[str, int, bytes]]:
     """The robot bag with every frame through ``frame`` and its records' prefix line ``prefix_line``."""
     from bag_support import messages_of
