@@ -280,6 +280,28 @@ def test_a_command_whose_output_another_process_replaced_fails_and_takes_back_th
         files.write_text(samples, 's of A', 'CSV')
     assert (waypoints.read_text(), samples.read_text()) == ('w of B', 's of B')
     assert sorted(p.name for p in tmp_path.iterdir()) == ['s.csv', 'w.csv']
+    # removed rather than replaced: said so, and the command fails all the same (it took a deleted file for its own)
+    for failed in (False, True):
+        with pytest.raises(FileError) as caught, files.command_writes():
+            files.write_text(waypoints, 'w of A', 'CSV')
+            files.write_text(samples, 's of A', 'CSV')
+            waypoints.unlink()
+            if failed:
+                raise FileError('disk full')
+        assert str(caught.value) == f'{waypoints} was removed by another process while this command ran; ' + (
+            'left as it is (this command failed: disk full)' if failed else
+            "left as the other process left it, this command's other outputs taken back") + (
+            '; allowed: one command writing an output at a time')
+        assert not waypoints.exists() and samples.read_text() == 's of B'
+    waypoints.write_text('w of B')
+    with pytest.raises(FileError, match=rf"^{re.escape(str(samples))} was replaced and {re.escape(str(waypoints))} "
+                                        r'was removed by another process while this command ran; left as the other '
+                                        'process left it'), files.command_writes():
+        files.write_text(waypoints, 'w of A', 'CSV')
+        files.write_text(samples, 's of A', 'CSV')
+        waypoints.unlink()
+        _another_process_writes(samples, 's of C')
+    assert samples.read_text() == 's of C'
     with files.command_writes():   # the same file written twice by one command is no clash
         files.write_text(waypoints, '1', 'CSV')
         files.write_text(waypoints, '2', 'CSV')

@@ -126,7 +126,8 @@ class _Writes:
     folders: list[Path]
 
     def undo(self) -> list[Path]:
-        """Take back what still holds what the command wrote; the targets another process replaced since, left."""
+        """Take back what still holds what the command wrote; the targets another process replaced or removed since,
+        left."""
         left = []
         for w in reversed(self.files):
             with contextlib.suppress(OSError):
@@ -144,7 +145,7 @@ class _Writes:
         return left
 
     def replaced(self) -> list[Path]:
-        """The outputs another process replaced since the command wrote them (each target's last write)."""
+        """The outputs another process replaced or removed since the command wrote them (each target's last write)."""
         last = {w.target: w for w in self.files}
         return [t for t, w in last.items() if not w.ours()]
 
@@ -156,9 +157,13 @@ class _Writes:
 
 
 def _clash(paths: list[Path], what: str) -> FileError:
-    named = ', '.join(str(p) for p in paths)
-    return FileError(f'{named} {"was" if len(paths) == 1 else "were"} replaced by another process while this command '
-                     f'ran; {what}; allowed: one command writing an output at a time')
+    """Outputs another process replaced or removed (named which) while the command ran."""
+    gone = [p for p in paths if not os.path.lexists(p)]
+    said = ' and '.join(f'{", ".join(str(p) for p in group)} {"was" if len(group) == 1 else "were"} {verb}'
+                        for verb, group in (('replaced', [p for p in paths if p not in gone]), ('removed', gone))
+                        if group)
+    return FileError(f'{said} by another process while this command ran; {what}; allowed: one command writing an '
+                     'output at a time')
 
 
 _WRITES: contextvars.ContextVar[_Writes | None] = contextvars.ContextVar('gpr_command_writes', default=None)
@@ -175,7 +180,8 @@ def command_writes() -> Iterator[None]:
         yield
         clashed = writes.replaced()
         if clashed:   # another command's output: this one's are no pair with it
-            clash = _clash(clashed, "left as the other process wrote it, this command's other outputs taken back")
+            how = 'wrote' if all(os.path.lexists(p) for p in clashed) else 'left'
+            clash = _clash(clashed, f"left as the other process {how} it, this command's other outputs taken back")
             raise clash
     except Exception as error:
         left = writes.undo()
