@@ -115,6 +115,8 @@ def _chamber(**changes):
                              'walls, 0.36 x 0.26 m'),  # narrower than the chamber (0.4), wider than its inside
     ({'slit': [0.36, 0.04]}, 'slit = [0.36, 0.04] is invalid; allowed: narrower and lower than the chamber inside its '
                              'walls, 0.36 x 0.26 m'),  # as wide as the inside: passed, 0.4 - 2 * 0.02 rounding above
+    ({'size': [0.5, 0.4, 0.4], 'slit': [0.34, 0.36]}, 'slit = [0.34, 0.36] is invalid; allowed: narrower and lower '
+                                                      'than the chamber inside its walls, 0.36 x 0.36 m'),  # as high
     ({'slit_z': -0.125}, 'slit_z = -0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after '
                          'conversion'),  # the slit's lower edge 5 mm into the floor (20 mm)
     ({'slit_z': 0.125}, 'slit_z = 0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after conversion'),
@@ -128,10 +130,16 @@ def test_a_slit_beyond_the_chambers_inside_is_refused(changes, allowed):
 
 
 def test_a_slit_at_the_chambers_inside_is_accepted():
-    """The slit 1 mm narrower than the inside leaves the front wall 20.5 mm each side; at slit_z -0.11 (0.11) the
-    slit's edge lies on the floor (roof): the front wall below (above) it is the wall's 20 mm."""
+    """The slit 1 mm (1 um) narrower than the inside leaves the front wall 20.5 mm (20.0005 mm) each side, 1 um lower
+    20.0005 mm below and above; at slit_z -0.11 (0.11) the slit's edge lies on the floor (roof): the front wall below
+    (above) it is the wall's 20 mm."""
     parts = {o.name: o for o in _chamber(slit=[0.359, 0.04]).obstacles}
     assert parts['c/front_left'].size == pytest.approx((0.02, 0.0205, 0.04), abs=1e-15)
+    parts = {o.name: o for o in _chamber(slit=[0.359999, 0.04]).obstacles}   # 1 um narrower, 1 um lower
+    assert parts['c/front_left'].size == pytest.approx((0.02, 0.0200005, 0.04), abs=1e-15)
+    parts = {o.name: o for o in _chamber(size=[0.5, 0.4, 0.4], slit=[0.34, 0.359999]).obstacles}
+    assert parts['c/front_left'].size == pytest.approx((0.02, 0.03, 0.359999), abs=1e-15)
+    assert parts['c/front_bottom'].size == pytest.approx((0.02, 0.4, 0.0200005), abs=1e-15)
     for z, below, above in ((-0.11, 0.02, 0.24), (0.11, 0.24, 0.02)):
         parts = {o.name: o for o in _chamber(slit_z=z).obstacles}
         assert parts['c/front_bottom'].size == pytest.approx((0.02, 0.4, below), abs=1e-15)
