@@ -330,3 +330,29 @@ def test_a_tilted_station_with_one_rod_above_the_stroke_is_refused_per_call_and_
         with pytest.raises(LimitError) as refused:
             solve_stations(ROBOT, stations, 'arm1', 'right')
         assert str(refused.value) == message + more
+
+
+@pytest.mark.parametrize('tilt', [7.0, -7.0, 6.3])
+def test_a_station_request_s_tilt_beyond_a_turn_is_named_by_the_batch_path_without_ros(tilt):
+    """The station service's request checks, read without ROS (a request of the fields they read): a tilt beyond one
+    turn is no float-path station (the batch path names it) and the batch path refuses it in radians, with the
+    degrees hint; one within a turn is answered by the float path."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.nodes.station_request import one_station_request, request_stations
+    from gpr_kinematics.robot import load_robot
+
+    robot = load_robot()
+    arm = robot.arms[0]
+
+    def request(t):
+        return SimpleNamespace(position=SimpleNamespace(x=1.2, y=0.5, z=0.45), tilt=t, azimuth=0.0, heading=0.0,
+                               heading_free=False)
+
+    assert one_station_request(robot, request(tilt), arm, arm.branch, None) is None
+    with pytest.raises(InputError) as refused:
+        request_stations(robot, request(tilt), arm)
+    assert str(refused.value) == (f'tilt = {tilt:g} rad is beyond one turn; allowed: [-2pi, 2pi] rad (radians only '
+                                  f'here: {tilt:g} deg is {math.radians(tilt):.9g} rad)')
+    one = one_station_request(robot, request(0.01), arm, arm.branch, None)
+    assert one is not None and request_stations(robot, request(0.01), arm).tilt.tolist() == [0.01]

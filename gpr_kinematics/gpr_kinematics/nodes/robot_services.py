@@ -22,17 +22,12 @@ from typing import Any
 from ..core import ForwardResult
 from ..core.config import MODELS
 from ..errors import ConfigError, InputError, brief
-from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_number, within_turn
-from ..robot import Stations, robot_forward, solve_stations
-from ..robot.description import BRANCHES, Arm, RobotDescription
-from ..robot.fields import WORLD_BOUND, check_world_position
+from ..inputs.validation import finite_number
+from ..robot import robot_forward, solve_stations
+from ..robot.description import Arm, RobotDescription
 from ..robot.forward import forward_floats, joints_within_limits, naive_floats
-from ..robot.one_station import StationFloats, station_floats
-from ..robot.planar_arm import branch_sign
-from .conversions import floats_of, point_array, set_pose, set_vector
-
-#: The name the refusals of the station service give the requested station (``station request: out of reach``).
-REQUEST_NAME = 'request'
+from .conversions import floats_of, set_pose, set_vector
+from .station_request import one_station_request, request_stations
 
 
 class RobotModels:
@@ -117,42 +112,6 @@ def fill_robot_forward(robot: RobotDescription, request: Any, response: Any, pre
     return response
 
 
-def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Stations:
-    """The station of a StationInverseKinematics request, checked field by field."""
-    position = point_array(request.position, 'position')
-    check_world_position(position.tolist(), 'position', error=InputError)   # as a station file's and gpr robot ik's
-    free = bool(request.heading_free)
-    angles = {'tilt': within_turn(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
-              'heading': 0.0 if free else within_turn(request.heading, 'heading')}
-    if free and len(arm.joints) > 2:
-        raise InputError(f'heading_free: arm {arm.name} has {len(arm.joints)} joints and needs the blade heading; '
-                         'allowed: heading_free only for a 2-joint arm')
-    return Stations.of(position[None, :], angles['tilt'], angles['azimuth'], None if free else angles['heading'],
-                       names=(REQUEST_NAME,))
-
-
-def _one_station(robot: RobotDescription, request: Any, arm: Arm, branch: str, value: float | None
-                 ) -> StationFloats | None:
-    """The float path of one station where the request is within what it takes (every number finite and within
-    +-MAX_COORDINATE, the position within the world's bound, the tilt, azimuth, heading and held value within a turn, a
-    known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
-    p = request.position
-    numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
-    if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
-        return None
-    if any(beyond_turn(v) for v in (request.tilt, request.azimuth, request.heading)) or abs(numbers[-1]) > TURN:
-        return None  # the batch path names which
-    if max(abs(p.x), abs(p.y), abs(p.z)) > WORLD_BOUND:
-        return None  # beyond the world: the batch path refuses it (check_world_position)
-    if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
-        return None
-    free = bool(request.heading_free)
-    if free and len(arm.joints) > 2:
-        return None
-    return station_floats(robot, arm, (p.x, p.y, p.z), request.tilt, request.azimuth, request.heading, free,
-                          branch_sign(branch), value)
-
-
 def fill_station_inverse(robot: RobotDescription, request: Any, response: Any, prefix: str = '') -> Any:
     """A StationInverseKinematics response for ``request`` (module docstring): the one-station path in floats
     (:func:`~gpr_kinematics.robot.one_station.station_floats`), the batch path where it refuses (its message); the
@@ -161,7 +120,7 @@ def fill_station_inverse(robot: RobotDescription, request: Any, response: Any, p
     branch = request.branch or arm.branch
     use = request.use_redundancy_value
     value = float(request.redundancy_value) if use else None
-    one = _one_station(robot, request, arm, branch, value)
+    one = one_station_request(robot, request, arm, branch, value)
     if one is None:  # a refusal, named by the batch path (or its answer, where the float path declined)
         stations = request_stations(robot, request, arm)
         value = finite_number(request.redundancy_value, 'redundancy_value') if use else None
