@@ -134,3 +134,45 @@ def test_another_publishers_state_in_the_box_or_through_it_is_ignored_with_a_war
         assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
     finally:
         c.node.destroy_publisher(pub)
+
+
+@pytest.mark.parametrize('idle_rate', [10.0, 100.0, 1000.0])
+def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any_idle_rate(ros_environment,
+                                                                                            idle_rate):
+    """The idle tick settled a pending foreign state at every tick: a 1000 Hz stream cost 999 clearance checks a
+    second at idle_rate 1000 (15-50 ms each). The node's methods on a stub with a counting clearance: at most one
+    check per FOREIGN_CHECK (0.1 s) whatever the idle rate."""
+    import types
+
+    import gpr_kinematics.nodes.robot_simulator_node as sim
+
+    class Counting:
+        calls = 0
+
+        def move(self, held, state):
+            Counting.calls += 1
+            return ''
+
+    clock = types.SimpleNamespace(nanoseconds=0)
+    joints = ControllerJoints.of(ROBOT)
+    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(),
+                                 velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
+                                 last_foreign=None, last_published=None, clearance=Counting(),
+                                 p={'idle_rate': idle_rate}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
+                                 get_logger=lambda: types.SimpleNamespace(warning=print, info=print),
+                                 publish_state=lambda ns: None)
+    node._outside = lambda state: ''
+    node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)
+    on_states = types.MethodType(sim.RobotSimulatorNode._on_joint_states, node)
+    idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
+    events = sorted([(round(k * 1e6), 0) for k in range(1000)] + [(round(k * 1e9 / idle_rate), 1)
+                                                                   for k in range(int(idle_rate))])
+    for t, kind in events:   # one second: a foreign stream at 1000 Hz beside the idle timer
+        clock.nanoseconds = t
+        if kind == 0:
+            stamp = types.SimpleNamespace(sec=0, nanosec=t + 1)
+            on_states(types.SimpleNamespace(header=types.SimpleNamespace(stamp=stamp), name=['arm1_shoulder'],
+                                            position=[0.1 + t * 1e-12]))
+        else:
+            idle()
+    assert 9 <= Counting.calls <= 11, Counting.calls

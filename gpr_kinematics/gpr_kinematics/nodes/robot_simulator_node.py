@@ -258,8 +258,10 @@ class RobotSimulatorNode(GprNode):
         # its own (half a period: the end of a goal); a whole period skipped every other tick, early by the timer's
         # jitter, and held the state at half the rate. A goal waiting for its header.stamp holds the state too (it
         # was silent until then, up to a day: clients took the robot for gone).
-        self._settle()   # the last state a stream left pending
         stamp = self.get_clock().now().nanoseconds
+        if not _within(stamp, self.last_check, round(FOREIGN_CHECK * NS_PER_S)):
+            self._settle()   # the last state a stream left pending, at most every FOREIGN_CHECK s (any idle_rate)
+            stamp = self.get_clock().now().nanoseconds
         waiting = self.run is None or stamp < self.run.start_ns
         if waiting and not _within(stamp, self.last_foreign, 2 * period) and \
                 not _within(stamp, self.last_published, period // 2):
