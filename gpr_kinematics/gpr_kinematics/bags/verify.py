@@ -180,4 +180,5 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
                         unfinished=bag.unfinished, config=geo.config.to_dict(), notes=notes, geometry=geo.report,
                         robot=robot_summary(arms),
                         unchecked={suite_topic(bag.namespace, k): v for k, v in unchecked_fields(
-                            {bag.relative(k): t.msgtype for k, t in bag.topics.items() if len(t)}).items()})
+                            {bag.relative(k): t.msgtype for k, t in bag.topics.items()
+                             if len(t) and (not bag.namespace or k.startswith(bag.namespace + '/'))}).items()})
