@@ -306,3 +306,19 @@ def test_a_command_whose_output_another_process_replaced_fails_and_takes_back_th
         files.write_text(waypoints, '1', 'CSV')
         files.write_text(waypoints, '2', 'CSV')
     assert waypoints.read_text() == '2'
+
+
+def test_an_output_touched_while_the_command_runs_is_still_its_own(tmp_path):
+    """The identity compared the modification time: a ``touch`` (a sync or backup tool) of an output made the command
+    fail as if another process had replaced it, and took back its other outputs. The file is told by its inode,
+    held open while the command runs (no replacement can reuse the number), and closed when it ends."""
+    first, second = tmp_path / 'a.txt', tmp_path / 'b.txt'
+    second.write_text('old')
+    before = len(os.listdir('/proc/self/fd'))
+    with files.command_writes():
+        files.write_text(first, 'A', 'text')
+        files.write_text(second, 'B', 'text')
+        os.utime(first, ns=(0, 0))
+        assert len(os.listdir('/proc/self/fd')) == before + 2
+    assert (first.read_text(), second.read_text()) == ('A', 'B') and len(os.listdir('/proc/self/fd')) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['a.txt', 'b.txt']

@@ -95,20 +95,22 @@ def command_reads() -> Iterator[set[tuple[int, int]]]:
         _READS.reset(token)
 
 
-def _identity(info: os.stat_result) -> tuple[int, int, int, int]:
-    """What tells a file written from another one at the same path: device, inode, size and modification time (an
-    inode number freed by a replacement may be reused at once)."""
-    return info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns
+def _identity(info: os.stat_result) -> tuple[int, int]:
+    """What tells a file written from another one at the same path: its device and inode, exact while the command
+    holds the file open (:attr:`_Written.held`: a replacement cannot reuse the number then). Not its modification
+    time: a ``touch`` of an output is no replacement."""
+    return info.st_dev, info.st_ino
 
 
 @dataclass
 class _Written:
-    """One output written: its ``target``, a hard link to the content it replaced (``backup``; None: created) and
-    the :func:`_identity` of what the command wrote."""
+    """One output written: its ``target``, a hard link to the content it replaced (``backup``; None: created), the
+    :func:`_identity` of what the command wrote and a descriptor ``held`` open on it until the command ends."""
 
     target: Path
     backup: Path | None
-    identity: tuple[int, int, int, int]
+    identity: tuple[int, int]
+    held: int
 
     def ours(self) -> bool:
         """Whether the target still holds what the command wrote."""
@@ -155,6 +157,11 @@ class _Writes:
                 with contextlib.suppress(OSError):
                     w.backup.unlink()
 
+    def close(self) -> None:
+        for w in self.files:
+            with contextlib.suppress(OSError):
+                os.close(w.held)
+
 
 def _clash(paths: list[Path], what: str) -> FileError:
     """Outputs another process replaced or removed (named which) while the command ran."""
@@ -194,6 +201,7 @@ def command_writes() -> Iterator[None]:
     else:
         writes.keep()
     finally:
+        writes.close()
         _WRITES.reset(token)
 
 
@@ -222,15 +230,19 @@ def _replace(tmp: Path, target: Path) -> None:
             os.link(target, backup)
         except OSError:   # a file system without hard links: a copy
             shutil.copyfile(target, backup)
+    held = None
     try:
-        identity = _identity(os.lstat(tmp))
+        held = os.open(tmp, os.O_RDONLY | os.O_CLOEXEC)   # the inode stays this file's while the command runs
+        identity = _identity(os.fstat(held))
         os.replace(tmp, target)
     except BaseException:
+        if held is not None:
+            os.close(held)
         if backup is not None:
             with contextlib.suppress(OSError):
                 backup.unlink()
         raise
-    writes.files.append(_Written(target, backup, identity))
+    writes.files.append(_Written(target, backup, identity, held))
 
 
 def note_input(path: str | os.PathLike[str]) -> None:
