@@ -124,6 +124,13 @@ def test_summary_reports_the_largest_value_of_every_row_field():
                              'step within it (give --deg for degrees)'),
     (['--azimuth-step', '400', '--deg'], '--azimuth-step = 400 deg is outside [-360, 360] deg; allowed: an angle of at '
                                          'most one turn'),
+    # named as typed, not 'tilt_step = 0.0523598775598 rad is more than max_tilt = 0.0174532925199 rad'
+    (['--tilt-step', '3', '--max-tilt', '1', '--deg'],
+     '--tilt-step = 3 deg is more than --max-tilt = 1 deg; allowed: a step that divides --max-tilt a whole number '
+     '(>= 1) of times'),
+    (['--tilt-step', '0.03', '--max-tilt', '0.02'], '--tilt-step = 0.03 rad is more than --max-tilt = 0.02 rad; '
+                                                     'allowed: a step that divides --max-tilt a whole number (>= 1) '
+                                                     'of times'),
 ])
 def test_gpr_sweep_names_a_typed_step_in_degrees_given_as_radians(capsys, argv, message):
     """``gpr sweep --azimuth-step 10`` and ``--tilt-step 0.2`` (degrees meant) named the radians without the --deg

@@ -205,9 +205,16 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise InputError(f'--tilt-step = {shown} rad is more than the tilt limit {limit} rad '
                          f'({math.degrees(cfg.tilt_limit):g} deg); allowed: a step within it (give --deg for degrees)')
 
+    max_tilt, tilt_step = (given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
+                           given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP))
+    if tilt_step > max_tilt:   # named as typed (the core's message names its parameters in radians)
+        unit = 'deg' if args.deg else 'rad'
+        typed = [v if v is not None else (math.degrees(d) if args.deg else d) for v, d in
+                 ((args.tilt_step, sweep.DEFAULT_TILT_STEP), (args.max_tilt, sweep.DEFAULT_MAX_TILT))]
+        raise InputError(f'--tilt-step = {typed[0]:g} {unit} is more than --max-tilt = {typed[1]:g} {unit}; allowed: '
+                         'a step that divides --max-tilt a whole number (>= 1) of times')
     s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
-                          max_tilt=given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
-                          tilt_step=given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP),
+                          max_tilt=max_tilt, tilt_step=tilt_step,
                           azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
                           passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
     written = None if args.csv is None else str(_write_csv(args.csv, s))
