@@ -1076,3 +1076,25 @@ def test_program_check_refuses_a_rate_outside_its_range_in_one_line(tmp_path):
         assert res.returncode == 2 and res.stderr == (
             f'gpr program check: error: rate = {shown} is invalid; allowed: 0.1 <= rate <= 5000 Hz (a sample every '
             '0.2 ms to every 10 s)\n'), res.stderr
+
+
+def test_two_holds_joined_by_a_move_of_no_time_count_their_shared_sample_once(tmp_path):
+    """A station repeated in a row (or a pick with approach_height 0) joins two holds at one instant: both closed
+    intervals counted the stream's sample there, so a finding read 3 samples where the stream has 2 (at 2 Hz; 4 of
+    3 at 4 Hz, 7 of 6 at 10 Hz), and the weights no longer summed to the stream's count."""
+    import gpr_kinematics.safety.budget as budget
+    from gpr_kinematics.robot.grid import grid_times
+
+    program = tmp_path / 'p.yaml'
+    program.write_text('format: gpr_robot_program\nversion: 1\nunits: {length: mm, angle: deg}\n'
+                       'defaults: {arm: arm1, approach_height: 8, retract_height: 8, dwell: 0.5}\nstations:\n'
+                       '  - {name: home, position: [750, 850, 260], heading: 90}\n'
+                       '  - {name: chamber_a, position: [1200, 1000, 440], tilt: 1.2, azimuth: 30, heading: 45}\n'
+                       'steps:\n  - {move: home}\n  - {move: chamber_a, time: 2.0, dwell: 0}\n  - {move: chamber_a}\n'
+                       '  - {move: home, time: 2.0}\n')
+    plan = plan_program(load_robot(), load_program(program))
+    assert plan.timing.arrive[2] == plan.timing.depart[1] == 2.5   # the move of no time
+    for rate in (2.0, 4.0, 10.0, 3.0, 100.0):
+        times, w = budget.budget_instants(plan, rate)
+        g = grid_times(plan.timing.total, rate)
+        assert int(w.sum()) == len(g) and np.isin(times, g).all() and len(np.unique(times)) == len(times), rate

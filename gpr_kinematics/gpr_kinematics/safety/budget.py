@@ -62,11 +62,15 @@ def _grid(a: float, b: float, rate: float, total: float) -> Array:
     return np.append(k, total) if end else k
 
 
-def _held(a: float, b: float, rate: float, total: float) -> tuple[float, int]:
-    """The first of the stream's samples in the hold ``[a, b]`` [s] and how many fall in it, exactly those of
-    :func:`~gpr_kinematics.robot.grid.grid_times` ``(total, rate)``, counted without making them (a hold of 1e6 s);
-    ``(a, 0)`` where none does."""
+def _held(a: float, b: float, rate: float, total: float, after: bool = False) -> tuple[float, int]:
+    """The first of the stream's samples in the hold ``[a, b]`` [s] (``(a, b]`` ``after`` a hold that ended at
+    ``a``: a move of no time between them, whose sample at ``a`` is that hold's) and how many fall in it, exactly
+    those of :func:`~gpr_kinematics.robot.grid.grid_times` ``(total, rate)``, counted without making them (a hold of
+    1e6 s); ``(a, 0)`` where none does."""
     lo, hi, end = grid_between(total, rate, a, b, closed=True)
+    if after:
+        lo = max(lo, grid_between(total, rate, a, b, closed=False)[0])
+        hi, end = max(hi, lo), end and total > a
     return (lo / rate if hi > lo else total if end else a), hi - lo + int(end)
 
 
@@ -79,7 +83,9 @@ def budget_instants(plan: ProgramPlan, rate: float) -> tuple[Array, NDArray[np.i
     starts, ends = t.depart[:-1], t.arrive[1:]
     durations = np.maximum(ends - starts, 0.0)
     counts = move_counts(durations, rate, MAX_SAMPLES)
-    held = [_held(float(a), float(b), rate, t.total) for a, b in zip(t.arrive.tolist(), t.depart.tolist(), strict=True)]
+    after = np.r_[False, t.arrive[1:] <= t.depart[:-1]]   # two holds joined by a move of no time share a sample
+    held = [_held(float(a), float(b), rate, t.total, bool(f))
+            for a, b, f in zip(t.arrive.tolist(), t.depart.tolist(), after.tolist(), strict=True)]
     parts = [np.array([h[0] for h in held if h[1]])]
     weights = [np.array([h[1] for h in held if h[1]], dtype=np.int64)]
     for m in range(starts.shape[0]):
