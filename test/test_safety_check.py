@@ -1070,12 +1070,13 @@ def test_the_budget_s_instants_are_the_stream_s_samples_and_weigh_all_of_them(na
 
 
 def test_program_check_refuses_a_rate_outside_its_range_in_one_line(tmp_path):
+    """Named as typed ('rate = 5001.0' named the float it became) and before the program is planned."""
     program = config_path('programs/example_robot_program.yaml')
-    for rate, shown in (('0', '0.0'), ('nan', 'nan'), ('5001', '5001.0')):
+    for rate, shown in (('0', '0'), ('nan', 'nan'), ('5001', '5001'), ('-1', '-1')):
         res = gpr('program', 'check', str(program), '--rate', rate, cwd=tmp_path)
         assert res.returncode == 2 and res.stderr == (
-            f'gpr program check: error: rate = {shown} is invalid; allowed: 0.1 <= rate <= 5000 Hz (a sample every '
-            '0.2 ms to every 10 s)\n'), res.stderr
+            f'gpr program check: error: --rate = {shown} Hz is invalid; allowed: 0.1 <= rate <= 5000 Hz (a sample '
+            'every 0.2 ms to every 10 s)\n'), res.stderr
 
 
 def test_two_holds_joined_by_a_move_of_no_time_count_their_shared_sample_once(tmp_path):

@@ -200,6 +200,15 @@ def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
 
 
 
+def sample_rate(value: float) -> float:
+    """A typed ``--rate`` [Hz] within :data:`~gpr_kinematics.robot.timing.RATES`, else :class:`InputError` naming it
+    as typed (``--rate = 5001 Hz``, not the float it became), checked before any work."""
+    from ..robot.timing import RATES, RATES_ALLOWED
+    if not RATES[0] <= value <= RATES[1]:
+        raise InputError(f'--rate = {value:g} Hz is invalid; allowed: {RATES_ALLOWED}')
+    return value
+
+
 def direction(args: argparse.Namespace, value: float, option: str) -> float:
     """A direction or joint angle typed as ``option`` (``--azimuth``, ``--heading``, ``--redundancy``, a station's
     or a command's ``--tilt``) in radians

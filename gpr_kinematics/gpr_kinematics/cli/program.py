@@ -25,7 +25,7 @@ from ..errors import FileError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
 from ..safety.margin import MARGIN, STREAM_RATE
-from .options import named_file, number, png_plot, robot_of, robot_options, shipped
+from .options import named_file, number, png_plot, robot_of, robot_options, sample_rate, shipped
 from .output import JsonValue, emit_json
 from .progress import add_no_progress, progress_line
 
@@ -78,6 +78,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     if args.plot is not None:
         png_plot(args.plot)
     margin = MARGIN if args.margin is None else args.margin
+    sample_rate(args.rate)   # before the program is planned
     program, plan = _program(args)
     path = named_file(program, 'cell', args.cell)
     cell = None if path is None else load_cell(path)
@@ -173,7 +174,6 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..robot.export import check_table_path, sample_table, waypoint_table, write_table
     from ..robot.plan import sample_plan
-    from ..robot.timing import check_rate
     if args.waypoints is None and args.samples is None and args.trajectory is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json), or '
                          '--trajectory FILE.yaml')
@@ -181,7 +181,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
         if path is not None:  # refused before the program is planned
             check_table_path(path)
     at_rate = args.samples is not None or args.trajectory is not None
-    check_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
+    sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
     _, plan = _program(args, args.rate if at_rate else None)
     if args.trajectory is not None:   # before any file is written
@@ -324,6 +324,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
         raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
+    sample_rate(args.rate)
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
     tc = _ros_modules()

@@ -42,14 +42,15 @@ MAX_SAMPLES = 200_000
 #: The sample rates [Hz] a program is sampled at (a sample every 0.2 ms to every 10 s): the rates trajectory_node
 #: publishes at, too (its parameter ``rate``).
 RATES = (0.1, 5000.0)
+#: What :data:`RATES` allows, in words (the messages of a rate and a typed ``--rate``).
+RATES_ALLOWED = f'{RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample every 0.2 ms to every 10 s)'
 
 
 def check_rate(rate: object) -> float:
     """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
     value = plain_number(rate)
     if not RATES[0] <= value <= RATES[1]:
-        raise InputError(f'rate = {brief(rate)} is invalid; allowed: {RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a '
-                         'sample every 0.2 ms to every 10 s)')
+        raise InputError(f'rate = {brief(rate)} is invalid; allowed: {RATES_ALLOWED}')
     return value
 
 
