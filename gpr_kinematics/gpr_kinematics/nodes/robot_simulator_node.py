@@ -230,8 +230,9 @@ class RobotSimulatorNode(GprNode):
         state, self.pending = self.pending, None
         if state is None or self.clearance is None or self.run is not None:   # a goal moves the robot now
             return
-        self.last_check = self.get_clock().now().nanoseconds
         why = self.clearance.move(self.actual, state)
+        self.last_check = self.get_clock().now().nanoseconds   # from the check's end: one slower than FOREIGN_CHECK
+        # (a refused move is up to three checks, 0.13 s) made every queued message start another: 20 s stalled
         if why:
             self.get_logger().warning(f'joint_states of another publisher ignored: {why}; allowed: states with every '
                                       'pair at least clearance_margin apart, reached along a joint-space line that '
