@@ -161,7 +161,7 @@ def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any
     joints = ControllerJoints.of(ROBOT)
     node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(),
                                  velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
-                                 last_foreign=None, last_published=None, clearance=Counting(),
+                                 last_foreign=None, last_published=None, refusing=False, clearance=Counting(),
                                  p={'idle_rate': idle_rate}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
                                  get_logger=lambda: types.SimpleNamespace(warning=print, info=print),
                                  publish_state=lambda ns: None)
@@ -181,3 +181,37 @@ def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any
             idle()
     most = 1.0 / (sim.FOREIGN_CHECK + cost)   # a second of stream, a check then FOREIGN_CHECK of rest
     assert 0.9 * most <= Counting.calls <= most + 2, Counting.calls
+
+
+def test_a_stream_the_cell_refuses_leaves_the_held_state_published(ros_environment):
+    """Every message of another publisher silenced the node before its check: a stream whose every state the cell
+    refuses kept it quiet (1 joint_states in 2.9 s at idle_rate 10), nobody publishing the robot's held state, though
+    docs/ros.md says values it ignores do not silence it. The node's methods on a stub whose clearance refuses all."""
+    import types
+
+    import gpr_kinematics.nodes.robot_simulator_node as sim
+
+    clock = types.SimpleNamespace(nanoseconds=0)
+    published = []
+    joints = ControllerJoints.of(ROBOT)
+    refuse = types.SimpleNamespace(move=lambda held, state: 'arm2_blade and pm1/front_bottom -5 mm apart')
+    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(),
+                                 velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
+                                 last_foreign=None, last_published=None, refusing=False, clearance=refuse,
+                                 p={'idle_rate': 10.0}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
+                                 get_logger=lambda: types.SimpleNamespace(warning=lambda *a, **k: None),
+                                 publish_state=published.append)
+    node._outside = lambda state: ''
+    node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)
+    on_states = types.MethodType(sim.RobotSimulatorNode._on_joint_states, node)
+    idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
+    events = sorted([(k * 10_000_000, 0) for k in range(200)] + [(k * 100_000_000 + 5, 1) for k in range(20)])
+    for t, kind in events:   # two seconds of a refused stream at 100 Hz beside the idle timer at 10 Hz
+        clock.nanoseconds = t
+        if kind == 0:
+            on_states(types.SimpleNamespace(header=types.SimpleNamespace(stamp=types.SimpleNamespace(sec=0, nanosec=t)),
+                                            name=['arm1_shoulder'], position=[1.2]))
+        else:
+            idle()
+    assert len(published) >= 18 and node.actual[joints.names.index('arm1_shoulder')] == joints.rest[
+        joints.names.index('arm1_shoulder')], len(published)

@@ -149,6 +149,7 @@ class RobotSimulatorNode(GprNode):
         self.own: dict[int, tuple[float, ...]] = {}
         #: When [ns, the node's clock] it last took another publisher's values, and last published its own.
         self.last_foreign: int | None = None
+        self.refusing = False   # the cell refused the last foreign state checked: its stream does not silence the node
         self.last_published: int | None = None
         #: Another publisher's latest state, waiting for its clearance check (with a cell), and when one last ran [ns].
         self.pending: Any = None
@@ -213,7 +214,8 @@ class RobotSimulatorNode(GprNode):
                                       "the joints' limits", throttle_duration_sec=5.0)
             return
         now = self.get_clock().now().nanoseconds
-        self.last_foreign = now   # quiet while values it takes stream (not others)
+        if not self.refusing:   # quiet while values it takes stream (not others, nor a stream the cell refuses)
+            self.last_foreign = now
         if self.clearance is None:
             self.actual = state
             self.velocity[:] = 0.0
@@ -233,7 +235,9 @@ class RobotSimulatorNode(GprNode):
         why = self.clearance.move(self.actual, state)
         self.last_check = self.get_clock().now().nanoseconds   # from the check's end: one slower than FOREIGN_CHECK
         # (a refused move is up to three checks, 0.13 s) made every queued message start another: 20 s stalled
+        self.refusing = bool(why)
         if why:
+            self.last_foreign = None   # the held state is the robot's: published at idle_rate again
             self.get_logger().warning(f'joint_states of another publisher ignored: {why}; allowed: states with every '
                                       'pair at least clearance_margin apart, reached along a joint-space line that '
                                       'keeps it', throttle_duration_sec=5.0)
