@@ -674,7 +674,8 @@ def test_a_clock_set_back_during_a_goal_aborts_it_naming_the_jump_and_the_node_s
                     clock.publish(Clock(clock=Time(sec=t // NS_PER_S, nanosec=t % NS_PER_S)))
                     time.sleep(0.01)
 
-            threading.Thread(target=ticks, daemon=True).start()
+            ticker = threading.Thread(target=ticks, daemon=True)
+            ticker.start()
             states = c.subscribe(JointState, 'joint_states')
             cli = ActionClient(c.node, FollowJointTrajectory, ACTION, **action_client_options(1000))
             assert cli.wait_for_server(timeout_sec=20.0), proc.output()
@@ -697,6 +698,8 @@ def test_a_clock_set_back_during_a_goal_aborts_it_naming_the_jump_and_the_node_s
             assert 985.0 < back < 995.0, res.result.error_string
             result, status = _run(c, cli, _goal(['arm1_elbow'], [0.5], [[rest + 0.3]]))
             assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, 0), result.error_string
+            stop.set()
+            ticker.join(timeout=5.0)   # before the client's node (its /clock publisher) is destroyed
     finally:
         stop.set()
         proc.stop()
