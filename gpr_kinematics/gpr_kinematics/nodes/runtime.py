@@ -220,9 +220,11 @@ class GprNode(Node):
         return status
 
 
-#: On the way out, how long a goal ended there may take to reach its client [s], and the spinning after it ended.
-RESULT_WAIT = 2.0
-RESULT_GRACE = 0.2
+#: On the way out, how long a goal ended there may take to reach its client [s], and the spinning after it ended
+#: (a grace of 0.2 s: a test's client of a goal ended by SIGTERM missed its result once, in a loaded CI run; the
+#: grace is spent only when a goal was running at the stop).
+RESULT_WAIT = 3.0
+RESULT_GRACE = 0.5
 
 
 def deliver_results(executor: Executor, goals: Iterable[Any], seconds: float = RESULT_WAIT) -> None:
