@@ -412,6 +412,34 @@ def test_inverse_takes_exactly_max_iterations_steps_and_no_more(batch):
         solve(3)
 
 
+@pytest.mark.parametrize('batch', [False, True])
+def test_a_rod_not_parallel_to_the_others_slows_inverse_and_its_error_says_what_to_give(batch):
+    """One rod at 0.05 (allowed): the naive Jacobian ignores how it pushes the platform sideways, so the iteration
+    gains a digit or less per step. A pose forward kinematics reaches (rods 0.505, 0.507, 0.508 m) took more than the
+    default 12 steps and was refused without a cause; the error now names max_iterations, and with 40 the solve
+    returns the rods to 1e-12 m."""
+    cfg = CFG.replace(rod_directions=[[0.05, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    q = [0.505, 0.507, 0.508]
+    fk = forward(q, cfg)
+    h, t, g = float(fk.position[2]), fk.tilt, fk.tilt_azimuth
+
+    def solve(c):
+        if batch:
+            ib = inverse_batch([h], t, g, config=c)
+            return ib.q[0], int(ib.iterations[0])
+        ik = inverse(h, t, g, config=c)
+        return ik.q, ik.iterations
+
+    with pytest.raises(ConvergenceError, match=r'did not converge in 12 iterations.*: error \S+; rods that are not '
+                       r'parallel converge more slowly: give a larger max_iterations \(allowed: at most 100\)$'):
+        solve(cfg)
+    back, steps = solve(cfg.replace(max_iterations=40))
+    assert 12 < steps < 40
+    np.testing.assert_allclose(back, q, rtol=0, atol=1e-12)
+    with pytest.raises(ConvergenceError, match=r'in 3 iterations.*: error \S+$'):   # parallel rods: no hint
+        inverse_batch([0.5], math.radians(2.0), 0.0, config=CFG.replace(max_iterations=3))
+
+
 def test_a_batch_has_one_row_per_target():
     """``len`` and indexing of the batches count targets (rows), not the three rods."""
     h, t, g = _random_targets(5, seed=9)

@@ -8,8 +8,9 @@ inverse (:func:`gpr_kinematics.core.naive.naive_rods`), the iteration
     q <- q + N(h*, n*) - N(h(q), n(q)),   from q = N(h*, n*),
 
 where ``h(q), n(q)`` come from the virtual-joint forward kinematics, is Newton's method with the naive
-model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4), so each
-step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE`. One driver serves a batch (arrays) and
+model's Jacobian, which differs from the exact one only by the virtual-joint corrections (~1e-4) while the rods are
+parallel, so each step gains about four digits: 3-4 steps reach :data:`IK_TOLERANCE` (rods that are not parallel
+converge linearly: :func:`_not_converged`). One driver serves a batch (arrays) and
 runs on floats; :func:`inverse` takes the one-pose path (:func:`inverse_one`: each step solves the closure and the
 rigid fit only) with the same operations. The last forward solve of the loop is the reported ``achieved`` pose.
 
@@ -30,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError, LimitError, norm_text
 from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
-from .config import GprConfig, nominal_points, resolve_config
+from .config import ITERATIONS, GprConfig, nominal_points, resolve_config
 from .forward import (
     TILT_LIMIT_SLACK,
     ForwardBatch,
@@ -246,6 +247,16 @@ def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: 
     check_stroke(ops, q, config, what='q', detail=heights)
 
 
+def _not_converged(geo: MachineGeometry, most: int, where: str, err: float) -> ConvergenceError:
+    """The error of a solve still outside its tolerance after ``most`` steps. The naive Jacobian of the iteration
+    ignores how a rod that is not parallel to the others pushes the over-constrained platform sideways: there it
+    gains a digit or less per step (one rod at 0.05 rad: 15 steps), so the message names ``max_iterations``."""
+    slow = any(ux != 0.0 or uy != 0.0 for ux, uy in zip(geo.ux, geo.uy, strict=True))
+    hint = (f'; rods that are not parallel converge more slowly: give a larger max_iterations (allowed: at most '
+            f'{ITERATIONS[1]})' if slow else '')
+    return ConvergenceError(f'inverse kinematics did not converge in {most} iterations{where}: error {err:.3e}{hint}')
+
+
 def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: Sequence[Value], config: GprConfig,
            vjm: VirtualJointModel, stroke: bool = True) -> tuple[Result, Value]:
     """The Newton loop of inverse kinematics (module docstring): ``(achieved, iterations)``; ``stroke=False``
@@ -275,8 +286,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         if step == config.max_iterations:
             e = np.where(active, err, -1.0)
             where = '' if np.ndim(err) == 0 else f' for target {int(np.argmax(e))}'
-            raise ConvergenceError(f'inverse kinematics did not converge in {config.max_iterations} iterations'
-                                   f'{where}: error {float(np.max(e)):.3e}')
+            raise _not_converged(geo, config.max_iterations, where, float(np.max(e)))
         q_now = naive_rods(geo, h_now, n_now, tool)
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
@@ -398,7 +408,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
             break
         err = max(err_h, err_n)
         if iterations == most:
-            raise ConvergenceError(f'inverse kinematics did not converge in {most} iterations: error {err:.3e}')
+            raise _not_converged(geo, most, '', err)
         q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     if stroke:
