@@ -42,7 +42,7 @@ def test_replace_and_round_trip():
     ('stroke_max: 20', 'stroke_max', '<= 10'),
     ('tilt_limit: 0', 'tilt_limit', '1e-6 <= tilt_limit'),
     # below the least but above 0: named with the least (was '0 < tilt_limit', which it is)
-    ('tilt_limit: 5.0e-7', 'tilt_limit', 'radians, 1e-6 <= tilt_limit <= 0.2618 (15 deg)'),
+    ('tilt_limit: 5.0e-7', 'tilt_limit', 'radians, 1e-6 <= tilt_limit <= 0.261799387 (15 deg)'),
     ('imperfection_budget: 1.0', 'imperfection_budget', '<= 0.01'),
     ('imperfection_budget: 5.0e-10', 'imperfection_budget', 'metres, 1e-9 <= imperfection_budget <= 0.01'),
     ('model: elastic', 'model', 'radial or polar or offset'),
@@ -166,6 +166,15 @@ def test_the_ends_of_every_documented_range_are_taken_and_a_step_beyond_refused(
             load_config(overrides={key: value(beyond)})
 
 
+def test_the_tilt_limits_bound_is_stated_to_the_digits_it_holds():
+    """The largest tilt_limit is 15 deg, 0.26179938779... rad: the message said 0.2618, which it refused; it states
+    0.261799387 now, which is taken, and the next value up in its digits is refused."""
+    assert load_config(overrides={'tilt_limit': 0.261799387}).tilt_limit == 0.261799387
+    with pytest.raises(ConfigError, match=r'tilt_limit = 0.261799388 is invalid; allowed: radians, 1e-6 <= tilt_limit '
+                       r'<= 0.261799387 \(15 deg\)$'):
+        load_config(overrides={'tilt_limit': 0.261799388})
+
+
 def test_the_dataclass_defaults_are_the_embedded_file():
     """``GprConfig()`` (the nominal machine of the doctests, the URDF and ``from_mapping``) is the machine of the
     embedded config/gpr.yaml: 2 deg tilt limit, 0.508 m stroke, radius 0.093218 m, and every other value."""
@@ -177,7 +186,7 @@ def test_the_dataclass_defaults_are_the_embedded_file():
     # a tolerance of 1 m returned the naive pose without a word; the others were taken as given
     (dict(tolerance=1.0), r'GprConfig: tolerance = 1.0 is invalid; allowed: metres, 1e-16 <= tolerance <= 1e-6'),
     (dict(radius=-1.0), r'GprConfig: radius = -1.0 is invalid; allowed: metres, 1e-4 <= radius <= 10'),
-    (dict(tilt_limit=3.0), r'tilt_limit = 3.0 is invalid; allowed: radians, 1e-6 <= tilt_limit <= 0.2618'),
+    (dict(tilt_limit=3.0), r'tilt_limit = 3.0 is invalid; allowed: radians, 1e-6 <= tilt_limit <= 0.261799387 \(15 deg\)'),
     (dict(max_iterations=10 ** 6), r'max_iterations = 1000000 is invalid; allowed: an integer from 1 to 100'),
     (dict(imperfection_budget=-1.0), r'imperfection_budget = -1.0 is invalid'),
     (dict(model='polar', weighting='foo'), r"weighting = 'foo' is invalid; allowed: characteristic or unweighted"),

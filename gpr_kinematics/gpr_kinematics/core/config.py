@@ -127,7 +127,7 @@ FLOAT_RANGES: dict[str, tuple[float, float, str]] = {
     'radius': (1e-4, 10.0, 'metres, 1e-4 <= radius <= 10'),
     'stroke_min': (-10.0, 10.0, 'metres, -10 <= stroke_min < stroke_max'),
     'stroke_max': (-10.0, 10.0, 'metres, stroke_min < stroke_max <= 10'),
-    'tilt_limit': (1e-6, math.radians(15.0), 'radians, 1e-6 <= tilt_limit <= 0.2618 (15 deg)'),
+    'tilt_limit': (1e-6, math.radians(15.0), 'radians, 1e-6 <= tilt_limit <= 0.261799387 (15 deg)'),
     'imperfection_budget': (1e-9, 0.01, 'metres, 1e-9 <= imperfection_budget <= 0.01'),
     'characteristic_length': (LEAST_LENGTH, 100.0, f'metres, {LEAST_LENGTH:g} <= characteristic_length <= 100, or '
                               'null for the radius'),
