@@ -164,6 +164,15 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--parameter-error', 'A_i',
       *['0'] * 3, 'nan', *['0'] * 14],
      'error of parameter A_i: value 4 of 18 is nan, not a finite number; allowed: 18 finite values (shape (6, 3), SI)'),
+    # a point's error of 1e6 m passed as a result (z 9e3 m), and 0.05 with --mm left off as 50 mm
+    (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0.0349', '0', '0', '--parameter-error', 'joint_imperfections',
+      '0.05', *['0'] * 8],
+     '--parameter-error joint_imperfections: value 1 = 0.05 m is beyond 0.01 m; allowed: errors of at most 0.01 m, as '
+     "a tolerance table's (millimetres given as metres? give --mm)"),
+    (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--mm', '--parameter-error', 'A_i',
+      *['0'] * 17, '-10.5'],
+     "--parameter-error A_i: value 18 = -10.5 mm is beyond 0.01 m; allowed: errors of at most 0.01 m, as a tolerance "
+     "table's"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, message):
     code, out, err = run(capsys, *argv)

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..calibration.core_model import MODEL
+from ..calibration.tolerances import MAX_TOLERANCE
 from ..callbacks import StageProgress
 from ..errors import InputError, brief
 from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
@@ -260,7 +261,14 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
         if vals.size != size:
             raise InputError(f'--parameter-error {name} takes {size} values (shape '
                              f'{np.shape(nominal[name])}, m); got {vals.size}')
-        params[name] = metres(vals, args.mm).reshape(np.shape(nominal[name]))
+        si = metres(vals, args.mm)
+        big = np.flatnonzero(np.abs(si) > MAX_TOLERANCE['m'])
+        if big.size:   # a point's error of 1e6 m passed: nonsense printed as a result (0.05 with --mm left off)
+            hint = '' if args.mm else ' (millimetres given as metres? give --mm)'
+            raise InputError(f'--parameter-error {name}: value {big[0] + 1} = {vals[big[0]]:g} '
+                             f'{"mm" if args.mm else "m"} is beyond {MAX_TOLERANCE["m"]:g} m; allowed: errors of at '
+                             f'most {MAX_TOLERANCE["m"]:g} m, as a tolerance table\'s{hint}')
+        params[name] = si.reshape(np.shape(nominal[name]))
     return params
 
 
