@@ -186,7 +186,8 @@ def test_the_dataclass_defaults_are_the_embedded_file():
     # a tolerance of 1 m returned the naive pose without a word; the others were taken as given
     (dict(tolerance=1.0), r'GprConfig: tolerance = 1.0 is invalid; allowed: metres, 1e-16 <= tolerance <= 1e-6'),
     (dict(radius=-1.0), r'GprConfig: radius = -1.0 is invalid; allowed: metres, 1e-4 <= radius <= 10'),
-    (dict(tilt_limit=3.0), r'tilt_limit = 3.0 is invalid; allowed: radians, 1e-6 <= tilt_limit <= 0.261799387 \(15 deg\)'),
+    (dict(tilt_limit=3.0), r'tilt_limit = 3.0 is invalid; allowed: radians, 1e-6 <= tilt_limit <= 0.261799387 '
+                           r'\(15 deg\)'),
     (dict(max_iterations=10 ** 6), r'max_iterations = 1000000 is invalid; allowed: an integer from 1 to 100'),
     (dict(imperfection_budget=-1.0), r'imperfection_budget = -1.0 is invalid'),
     (dict(model='polar', weighting='foo'), r"weighting = 'foo' is invalid; allowed: characteristic or unweighted"),
