@@ -193,6 +193,10 @@ def test_registration_refusals(capsys, tmp_path, setting):
         status, _, err = run(capsys, 'calibrate', str(path), '--output', str(tmp_path / 'x.yaml'), *argv)
         assert status == 2 and err.count('\n') == 1, (argv, err)
         assert __import__('re').search(pattern, err), (argv, err)
+    status, _, err = run(capsys, 'calibrate', '--plan', '5', '--force', '--output', str(tmp_path / 'p.csv'))
+    assert status == 2 and err.count('\n') == 1 and not (tmp_path / 'p.csv').exists()   # accepted, did nothing
+    assert err.endswith('--force writes a fit that failed its gate, and --plan fits nothing; allowed: --force with a '
+                        'MEASUREMENTS file\n'), err
     pts = Measurements('p', Q, np.zeros((len(Q), 3)), None, None, None, tuple(range(len(Q))))
     with pytest.raises(InputError, match='do not move along the stroke'):
         initial_frames(core, Measurements('p', np.full((4, 3), 0.2), np.zeros((4, 3)), None, None, None,

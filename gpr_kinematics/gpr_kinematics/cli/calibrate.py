@@ -203,6 +203,20 @@ def _check_plot(args: argparse.Namespace) -> None:
     png_plot(args.plot)
 
 
+def _check_plan_options(args: argparse.Namespace) -> None:
+    """Refuse the options of a plan without ``--plan``, and those of a fit with it (each was accepted and did
+    nothing)."""
+    if args.robot is not None and args.plan is not None:
+        raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
+    if args.points and args.plan is None:   # the arms' files too
+        raise InputError('--points goes with --plan (a measurement file says itself whether it has orientations)')
+    if args.index is not None and args.plan is None:
+        raise InputError('--index goes with --plan (the observability index a plan maximises)')
+    if args.force and args.plan is not None:
+        raise InputError('--force writes a fit that failed its gate, and --plan fits nothing; allowed: --force with '
+                         'a MEASUREMENTS file')
+
+
 def _handler(args: argparse.Namespace) -> int:
     if bool(args.measurements) == (args.plan is not None):
         raise InputError('give a MEASUREMENTS file to calibrate from, or --plan N for a measurement plan '
@@ -223,12 +237,7 @@ def _handler(args: argparse.Namespace) -> int:
     if args.base is not None and args.frame == 'gpr_base':  # it was applied: 0.5 mm moved the rod offsets by 0.5 mm
         raise InputError('--base gives the pose of gpr_base in --frame, which is gpr_base itself (the default): the '
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
-    if args.robot is not None and args.plan is not None:
-        raise InputError('--plan is for the GPR; the arms are calibrated from measured files (--robot FILE CSV...)')
-    if args.points and args.plan is None:   # the arms' files too: it was accepted there, and did nothing
-        raise InputError('--points goes with --plan (a measurement file says itself whether it has orientations)')
-    if args.index is not None and args.plan is None:
-        raise InputError('--index goes with --plan (the observability index a plan maximises)')
+    _check_plan_options(args)
     _check_outputs(args)
     if args.robot is not None:
         from .calibrate_robot import calibrate_robot

@@ -68,9 +68,9 @@ def pose(values: list[float] | None, args: argparse.Namespace, flag: str,
     if len(values) not in sizes:
         shape = 'x y z roll pitch yaw' if sizes == (6,) else 'x y z [roll pitch yaw]'
         raise InputError(f'{flag} takes {" or ".join(map(str, sizes))} finite numbers ({shape}), got {len(values)}')
-    for name, v in zip(names, values, strict=False):   # a NaN was refused as 'takes 6 finite numbers, got 6'
-        if not math.isfinite(v):
-            raise InputError(f'{flag} {name} = {v:g} is not a finite number; allowed: finite numbers')
+    for name, value in zip(names, values, strict=False):   # a NaN was refused as 'takes 6 finite numbers, got 6'
+        if not math.isfinite(value):
+            raise InputError(f'{flag} {name} = {value:g} is not a finite number; allowed: finite numbers')
     if max(abs(v) for v in values) > MAX_COORDINATE:  # 1e308 overflowed into the measurements' check
         raise InputError(f'{flag} {brief(values)}: allowed: each value within +-{MAX_COORDINATE:g} (m or mm, rad or '
                          'deg)')
