@@ -251,6 +251,17 @@ def test_a_long_negative_number_is_decided_at_once(capsys):
     assert time.process_time() - start < 1.0
 
 
+@pytest.mark.parametrize('typed', ['1e400', '-' + '9' * 400])
+def test_digits_beyond_the_largest_float_are_named_as_typed(capsys, typed):
+    """A number typed beyond the largest float was refused as 'q1 = inf is not a finite number', which the user
+    never typed; it is named as typed now (the word inf still reads as inf, refused by name later)."""
+    status, _, err = run(capsys, 'fk', typed, '0.5', '0.5')
+    assert status == 2 and err.count('\n') == 1 and '(beyond the largest float, 1.8e308)' in err, err
+    assert ' inf ' not in err
+    status, _, err = run(capsys, 'fk', 'inf', '0.5', '0.5')
+    assert status == 2 and err.endswith('q1 = inf is not a finite number\n'), err
+
+
 def test_a_long_error_line_loses_only_what_is_over_the_limit():
     """errors.one_line: a line of LONG_LINE + 12 characters keeps LONG_LINE - len(mark) of them, its start and its
     last quarter; a line at the limit is kept whole."""

@@ -50,10 +50,13 @@ def number(text: str) -> float:
     other scripts). Named ``float`` for argparse's message (``invalid float value: '1_0'``), with a hint for a
     decimal comma."""
     try:
-        return decimal(text)
+        value = decimal(text)
     except ValueError:
         hint = number_hint(text) or NUMBER_ALLOWED
         raise NumberTextError(f'invalid float value: {brief(text)}{hint}') from None
+    if math.isinf(value) and 'inf' not in text.lower():   # digits beyond a float: named as typed, not as 'inf'
+        raise NumberTextError(f'invalid float value: {brief(text)} (beyond the largest float, 1.8e308)')
+    return value
 
 
 def whole(text: str) -> int:
@@ -77,7 +80,8 @@ def finite(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f'{brief(text)} is not a number{number_hint(text)}') from None
     if not np.isfinite(val):
-        raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number')
+        beyond = ' (beyond the largest float, 1.8e308)' if np.isinf(val) and 'inf' not in text.lower() else ''
+        raise argparse.ArgumentTypeError(f'{brief(text)} is not a finite number{beyond}')
     return val
 
 
