@@ -382,6 +382,35 @@ def test_program_export_trajectory(capsys, tmp_path):
     assert [p['positions'] for p in shifted] == [p['positions'] for p in traj['points']]
 
 
+def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys, tmp_path):
+    """At 5 Hz the cubic between the cell program's points overshoots rod_1's velocity limit by 1.05 % (the controller
+    allows 1 %): the file was written and robot_simulator_node refused it. It is refused before anything is written,
+    with the controller's words; at 10 Hz the trajectory is written and the controller's check takes it."""
+    import yaml
+    from gpr_kinematics.robot.controller import ControllerJoints, plan_motion, trajectory_from_points
+    from gpr_kinematics.robot.description import load_robot
+
+    cell = str(config_path('programs/example_cell_program.yaml'))
+    status, out, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--waypoints',
+                           str(tmp_path / 'w.csv'), '--rate', '5')
+    assert status == 2 and out == '' and err.count('\n') == 1 and list(tmp_path.iterdir()) == []
+    assert err.startswith('gpr program export: error: at --rate 5 Hz a controller refuses the trajectory: sample 753 '
+                          '(t = 7.53 s): rod_1 moves at 0.151568 m/s (the spline between the points overshoots)'), err
+    assert err.endswith('(a higher --rate gives it more points)\n')
+    status, _, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '10')
+    assert status == 0, err
+    doc = yaml.safe_load((tmp_path / 't.yaml').read_text())
+    robot = load_robot(config_path('robots/example_robot.yaml'))
+    joints = ControllerJoints.of(robot)
+    points = doc['points']
+    traj = trajectory_from_points(joints, doc['joint_names'],
+                                  [p['time_from_start']['sec'] + p['time_from_start']['nanosec'] * 1e-9 for p in points],
+                                  [p['positions'] for p in points], [p['velocities'] for p in points], [[]] * len(points))
+    current = joints.rest.copy()
+    current[joints.indices(traj.joint_names)] = traj.positions[0]
+    plan_motion(joints, traj, current, 100.0, robot.config, None, 0.0)   # taken
+
+
 def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):
     """`gpr --help` said programs were checked and exported (no send, no robot or calibration in its description),
     and --lead-in gave no unit."""

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..core.messages import FOLLOW_JOINT_TRAJECTORY, Topic
-from ..errors import FileError
+from ..errors import FileError, InputError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
 from ..safety.margin import MARGIN, STREAM_RATE
@@ -222,12 +222,33 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 
 
+#: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
+CONTROLLER_RATE = 100.0
+
+
+def _as_a_controller_takes_it(plan: Any, traj: Any, rate: float) -> None:
+    """Refuse a trajectory at ``--rate`` that ``robot_simulator_node`` would refuse
+    (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point, sampled at :data:`CONTROLLER_RATE`):
+    the cubic between points a few per second apart overshoots the program's velocities (the example cell program's
+    rod_1 by 1.05 % at 5 Hz, beyond the 1 % a controller allows), and such a file was written, or sent, and refused."""
+    from ..robot.controller import ControllerJoints, GoalError, plan_motion
+    joints = ControllerJoints.of(plan.robot)
+    current = joints.rest.copy()
+    current[joints.indices(traj.joint_names)] = traj.positions[0]
+    try:
+        plan_motion(joints, traj, current, CONTROLLER_RATE, plan.robot.config, None, 0.0)
+    except GoalError as exc:
+        raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
+                         'more points)') from None
+
+
 def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
     """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later."""
     if args.trajectory is None:
         return {}
     from ..robot.trajectory import program_trajectory, write_trajectory
     traj = program_trajectory(plan, args.rate).shifted(args.lead_in)
+    _as_a_controller_takes_it(plan, traj, args.rate)
     return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
             'trajectory_duration': traj.duration}
 
@@ -327,6 +348,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
     sample_rate(args.rate)
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
+    _as_a_controller_takes_it(plan, traj, args.rate)
     tc = _ros_modules()
     joint_states, action = _ros_names(args)
     with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:
