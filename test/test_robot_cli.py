@@ -387,7 +387,7 @@ def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys,
     allows 1 %): the file was written and robot_simulator_node refused it. It is refused before anything is written,
     with the controller's words; at 10 Hz the trajectory is written and the controller's check takes it."""
     import yaml
-    from gpr_kinematics.robot.controller import ControllerJoints, plan_motion, trajectory_from_points
+    from gpr_kinematics.robot.controller import ControllerJoints, Tolerances, plan_motion, trajectory_from_points
     from gpr_kinematics.robot.description import load_robot
 
     cell = str(config_path('programs/example_cell_program.yaml'))
@@ -403,12 +403,13 @@ def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys,
     robot = load_robot(config_path('robots/example_robot.yaml'))
     joints = ControllerJoints.of(robot)
     points = doc['points']
-    traj = trajectory_from_points(joints, doc['joint_names'],
-                                  [p['time_from_start']['sec'] + p['time_from_start']['nanosec'] * 1e-9 for p in points],
-                                  [p['positions'] for p in points], [p['velocities'] for p in points], [[]] * len(points))
+    times = [p['time_from_start']['sec'] + p['time_from_start']['nanosec'] * 1e-9 for p in points]
+    traj = trajectory_from_points(joints, doc['joint_names'], times, [p['positions'] for p in points],
+                                  [p['velocities'] for p in points], [[]] * len(points))
     current = joints.rest.copy()
     current[joints.indices(traj.joint_names)] = traj.positions[0]
-    plan_motion(joints, traj, current, 100.0, robot.config, None, 0.0)   # taken
+    plan_motion(joints, traj, current, 100.0, robot.config, Tolerances.uniform(len(joints.names), 0.0, 0.0, 0.0),
+                0.0)   # taken
 
 
 def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):

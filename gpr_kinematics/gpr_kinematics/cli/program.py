@@ -231,12 +231,13 @@ def _as_a_controller_takes_it(plan: Any, traj: Any, rate: float) -> None:
     (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point, sampled at :data:`CONTROLLER_RATE`):
     the cubic between points a few per second apart overshoots the program's velocities (the example cell program's
     rod_1 by 1.05 % at 5 Hz, beyond the 1 % a controller allows), and such a file was written, or sent, and refused."""
-    from ..robot.controller import ControllerJoints, GoalError, plan_motion
+    from ..robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
     joints = ControllerJoints.of(plan.robot)
     current = joints.rest.copy()
     current[joints.indices(traj.joint_names)] = traj.positions[0]
     try:
-        plan_motion(joints, traj, current, CONTROLLER_RATE, plan.robot.config, None, 0.0)
+        plan_motion(joints, traj, current, CONTROLLER_RATE, plan.robot.config,
+                    Tolerances.uniform(len(joints.names), 0.0, 0.0, 0.0), 0.0)   # tolerances are the run's
     except GoalError as exc:
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
