@@ -100,3 +100,16 @@ def test_colcon_builds_both_packages_in_a_standard_workspace(tmp_path):
     config = ROOT / 'gpr_kinematics' / 'config'
     for f in config.rglob('*.*'):
         assert (share / 'config' / f.relative_to(config)).is_file(), f"{f.relative_to(config)} is not installed"
+
+
+def test_the_interfaces_name_every_virtual_joint_model():
+    """ForwardKinematics, InverseKinematics, Compensate, AnalyzeMobility and PlatformState said their model was one of
+    radial, polar, offset; the services take compliant too (config.MODELS): every comment on a model names each."""
+    from gpr_kinematics.core.config import MODELS
+
+    files = sorted((ROOT / 'gpr_interfaces').glob('*/*.*'))
+    said = [(f.name, line) for f in files if f.suffix in ('.msg', '.srv', '.action')
+            for line in f.read_text().splitlines() if line.startswith('#') and 'Virtual-joint model' in line]
+    assert len(said) >= 5, said
+    for name, line in said:
+        assert all(m in line for m in MODELS), (name, line)
