@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.machine import parameter_range
-from ..errors import ConfigError
+from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
@@ -328,7 +328,8 @@ def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None,
     lo, hi = SIGMA_RANGE
     for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):
         if not lo <= value <= hi:
-            raise ConfigError(f'{source}: measurement_noise: {key} = {value:g} {unit} (SI); allowed: a standard '
+            shown = apart(value, hi if value > hi else lo)[0]   # 0.1000001 read 0.1, the bound
+            raise ConfigError(f'{source}: measurement_noise: {key} = {shown} {unit} (SI); allowed: a standard '
                               f'deviation from {lo:g} to {hi:g} {unit}')
     return sp, sa
 

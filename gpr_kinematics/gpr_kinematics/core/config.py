@@ -26,6 +26,7 @@ from ..errors import ConfigError, InputError, brief, kind_of
 from ..inputs.resources import config_path
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.validation import beyond_turn
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
 MODELS = ('radial', 'polar', 'offset', 'compliant')
@@ -246,7 +247,7 @@ def _azimuths(source: str, az: YamlValue) -> Triple:
     if not isinstance(az, (list, tuple)) or len(az) != 3:
         raise _fail(source, 'rod_azimuths', az, allowed)
     out = tuple(_as_float(source, 'rod_azimuths', a, allowed) for a in az)
-    if any(abs(a) > 2 * math.pi + 1e-12 for a in out):
+    if any(beyond_turn(a) for a in out):   # the one rule of a turn (1e-9 rad of slack, as files and typed angles)
         raise _fail(source, 'rod_azimuths', az, allowed)
     return (out[0], out[1], out[2])
 

@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ConfigError, brief
+from ..errors import ConfigError, apart, brief
 from . import safe_yaml
 from .safe_yaml import YamlValue
 from .units import ANGLE_UNITS
-from .validation import MAX_COORDINATE, beyond_turn, radians_hint
+from .validation import MAX_COORDINATE, TURN, beyond_turn, radians_hint
 
 
 def is_number(value: YamlValue) -> bool:
@@ -115,7 +115,9 @@ def orientation_angle(value: YamlValue, key: str, where: str, unit: str = 'rad',
             hint = f' (degrees? a file in degrees declares them: {declare})'
         else:
             hint = radians_hint(float(value))
-        raise ConfigError(f'{where}: {key} = {value:g} {unit} is beyond one turn; allowed: {most}{hint}')
+        shown = apart(abs(float(value)), 360.0 if unit == 'deg' else TURN)[0]   # 360.0000001 read 360
+        raise ConfigError(f'{where}: {key} = {"-" if value < 0 else ""}{shown} {unit} is beyond one turn; allowed: '
+                          f'{most}{hint}')
     return angle
 
 

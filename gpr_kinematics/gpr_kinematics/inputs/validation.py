@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError, brief
+from ..errors import InputError, apart, brief
 from .safe_yaml import DECIMAL
 
 #: Largest accepted deviation of a quaternion's norm from 1 (messages and commands carry unit quaternions).
@@ -186,7 +186,9 @@ def within_turn(value: Any, name: str) -> float:
     the files' (:func:`~gpr_kinematics.inputs.schema.orientation_angle`); else :class:`InputError` naming it."""
     v = finite_number(value, name)
     if beyond_turn(v):
-        raise InputError(f'{name} = {v:g} rad is beyond one turn; allowed: [-2pi, 2pi] rad{radians_hint(v)}')
+        shown = apart(abs(v), TURN)[0]
+        raise InputError(f'{name} = {"-" if v < 0 else ""}{shown} rad is beyond one turn; allowed: [-2pi, 2pi] rad'
+                         f'{radians_hint(v)}')
     return v
 
 

@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 from ..errors import InputError
-from ..inputs.validation import MAX_COORDINATE, TURN, beyond_turn, finite_vector, within_turn
+from ..inputs.validation import MAX_COORDINATE, beyond_turn, finite_vector, within_turn
 from ..robot import Stations
 from ..robot.description import BRANCHES, Arm, RobotDescription
 from ..robot.fields import WORLD_BOUND, check_world_position
@@ -42,7 +42,7 @@ def one_station_request(robot: RobotDescription, request: Any, arm: Arm, branch:
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
         return None
-    if any(beyond_turn(v) for v in (request.tilt, request.azimuth, request.heading)) or abs(numbers[-1]) > TURN:
+    if any(beyond_turn(v) for v in (request.tilt, request.azimuth, request.heading)) or beyond_turn(numbers[-1]):
         return None  # the batch path names which
     if max(abs(p.x), abs(p.y), abs(p.z)) > WORLD_BOUND:
         return None  # beyond the world: the batch path refuses it (check_world_position)

@@ -39,6 +39,7 @@ from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, nai
 from ..core.inverse import solvable_heights, tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
+from ..inputs.validation import TURN, TURN_SLACK
 from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import BRANCHES, Arm, RobotDescription
 from .fields import WORLD_BOUND
@@ -259,11 +260,13 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
             raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
                              'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
         value = per_station(redundancy_value, 'redundancy value', n)
-        beyond = np.abs(value) > 2.0 * np.pi  # the robot file's rule: a joint value is taken modulo a turn, and
-        if beyond.any():                     # one given beyond it is a slip (degrees), never a posture meant
+        beyond = np.abs(value) > TURN + TURN_SLACK  # the files' rule (beyond_turn): a joint value is taken modulo
+        if beyond.any():                            # a turn, one given beyond it is a slip (degrees), never meant
             i = int(np.argmax(beyond))
             joint = a.joints[a.redundancy.joint]
-            raise InputError(f'redundancy value = {value[i]:g} rad ({stations.label(i)}) is beyond one turn; allowed: '
+            shown = apart(abs(float(value[i])), TURN)[0]
+            raise InputError(f'redundancy value = {"-" if value[i] < 0 else ""}{shown} rad ({stations.label(i)}) is '
+                             'beyond one turn; allowed: '
                              f'radians within [-2pi, 2pi] (the held joint {joint.name} ranges over '
                              f'[{joint.lower:g}, {joint.upper:g}] rad); in degrees? give radians')
     if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
