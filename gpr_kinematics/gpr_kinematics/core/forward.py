@@ -33,7 +33,7 @@ from ..inputs.validation import float_array, rows_of, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
-from .naive import NaiveState, naive_state, tilt_matrix_of_normal
+from .naive import NaiveState, naive_state
 from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import PlatformPose, RigidFit, platform_pose, rigid_fit
 from .rotations import tilt_of_normal
@@ -402,46 +402,36 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
                frame: RigidFit, naive: NaiveState | None = None) -> ForwardResult:
     """The :class:`ForwardResult` of one solved pose in floats: :func:`~gpr_kinematics.core.platform_pose.platform_pose`
-    from the rigid fit ``frame`` on, with its operations, and :func:`assemble`, fused: the values go straight into
-    one array, and every vector field is a view of it (no array and no ``__init__`` per field)."""
-    sqrt, atan2 = math.sqrt, math.atan2
-    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', frame)
-    (x0, x1, x2), (y0, y1, y2) = closure.components[0], closure.components[1]
-    (X0, X1, X2), (Y0, Y1, Y2), (Z0, Z1, Z2) = P
-    dx, dy, dz = r00 * x0 + r01 * y0 + tx - X0, r10 * x0 + r11 * y0 + ty - Y0, r20 * x0 + r21 * y0 + tz - Z0
-    fit = sqrt(dx * dx + dy * dy + dz * dz)
-    dx, dy, dz = r00 * x1 + r01 * y1 + tx - X1, r10 * x1 + r11 * y1 + ty - Y1, r20 * x1 + r21 * y1 + tz - Z1
-    fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
-    dx, dy, dz = r00 * x2 + r01 * y2 + tx - X2, r10 * x2 + r11 * y2 + ty - Y2, r20 * x2 + r21 * y2 + tz - Z2
-    fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
-    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, r02, r12, r22))
-    T = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, r02, r12, r22))
-    (t00, t01, _), (t10, t11, _), (t20, t21, _) = T
-    w4 = 2.0 * sqrt(1.0 + r00 + r11 + r22)
-    qx, qy, qz, qw = (r21 - r12) / w4, (r02 - r20) / w4, (r10 - r01) / w4, 0.25 * w4
-    inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    z, _, nx, ny, nz = cast('tuple[float, ...]', kernel.naive(q[0], q[1], q[2]) if naive is None else naive)
-    (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, nx,
-                                                                                                        ny, nz))
-    cw = sqrt(0.5 * (1.0 + nz))  # the naive tilt's quaternion (a sin(t/2), 0, cos(t/2))
-    half, zero = 0.5 / cw, 0.0 * z
-    geo = kernel.geometry
-    px, py = geo.px, geo.py
-    jd0, jd1, jd2 = (sqrt((x0 - px[0]) * (x0 - px[0]) + (y0 - py[0]) * (y0 - py[0])),
-                     sqrt((x1 - px[1]) * (x1 - px[1]) + (y1 - py[1]) * (y1 - py[1])),
-                     sqrt((x2 - px[2]) * (x2 - px[2]) + (y2 - py[2]) * (y2 - py[2])))
-    a = np.array([*q, *L, tx, ty, tz, r00, r01, r02, r10, r11, r12, r20, r21, r22, qx * inv, qy * inv, qz * inv,
-                  qw * inv, zero, zero, z, n00, n01, n02, n10, n11, n12, n20, n21, n22, -n12 * half, n02 * half,
-                  0.0 * cw, cw, tx - zero, ty - zero, tz - z, jd0, jd1, jd2, *closure.X])
+    from the rigid fit ``frame`` on, with its operations, and :func:`assemble`, fused
+    (:meth:`~gpr_kinematics.core.single.OnePose.pose_values`): the values go straight into one array, and every vector
+    field is a view of it (no array and no ``__init__`` per field)."""
+    values, tilt, az, twist, fit, within = kernel.pose_values(q, P, L, closure, frame, naive)
+    a = np.array(values)
     out = ForwardResult.__new__(ForwardResult)
     out.__dict__.update(
         q=a[0:3], model=kernel.model.name, virtual_joints=a[44:], virtual_joint_names=kernel.names,
         side_lengths=a[3:6], position=a[6:9], rotation=a[9:18].reshape(3, 3), quaternion=a[18:22], tilt=tilt,
-        tilt_azimuth=az, twist=atan2(t01 * r00 + t11 * r10 + t21 * r20, t00 * r00 + t10 * r10 + t20 * r20),
-        nominal_position=a[22:25], nominal_rotation=a[25:34].reshape(3, 3), nominal_quaternion=a[34:38],
-        centre_shift=a[38:41], joint_displacement=a[41:44],
-        within_budget=max(max(jd0, jd1), jd2) <= kernel.config.imperfection_budget, iterations=closure.iterations,
-        residual=closure.residual, fit_residual=fit)
+        tilt_azimuth=az, twist=twist, nominal_position=a[22:25], nominal_rotation=a[25:34].reshape(3, 3),
+        nominal_quaternion=a[34:38], centre_shift=a[38:41], joint_displacement=a[41:44], within_budget=within,
+        iterations=closure.iterations, residual=closure.residual, fit_residual=fit)
+    return out
+
+
+def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
+            frame: RigidFit, naive: NaiveState | None = None) -> ForwardBatch:
+    """:func:`one_result` as the batch of one row (:meth:`ForwardBatch.of_one` of it, the same values): every float
+    field a view of one array ``(1, K)``."""
+    values, tilt, az, twist, fit, within = kernel.pose_values(q, P, L, closure, frame, naive)
+    n = len(values)
+    a = np.array([[*values, tilt, az, twist, closure.residual, fit]])
+    out = ForwardBatch.__new__(ForwardBatch)
+    out.__dict__.update(
+        q=a[:, 0:3], model=kernel.model.name, virtual_joints=a[:, 44:n], virtual_joint_names=kernel.names,
+        side_lengths=a[:, 3:6], position=a[:, 6:9], rotation=a[:, 9:18].reshape(1, 3, 3), quaternion=a[:, 18:22],
+        tilt=a[:, n], tilt_azimuth=a[:, n + 1], twist=a[:, n + 2], nominal_position=a[:, 22:25],
+        nominal_rotation=a[:, 25:34].reshape(1, 3, 3), nominal_quaternion=a[:, 34:38], centre_shift=a[:, 38:41],
+        joint_displacement=a[:, 41:44], within_budget=np.array([within]), iterations=np.array([closure.iterations]),
+        residual=a[:, n + 3], fit_residual=a[:, n + 4])
     return out
 
 

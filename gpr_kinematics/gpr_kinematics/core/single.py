@@ -21,14 +21,18 @@ the C library's (<= 1e-15 here, 1e-12 in the tests). Units: metres and radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import cast
 
 from .closure import newton_closure
 from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
 from .machine import Floats3, MachineGeometry
+from .naive import NaiveState, tilt_matrix_of_normal
 from .ops import SCALAR
-from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors, symmetric_solve3
+from .platform_pose import RigidFit
+from .rotations import tilt_of_normal
+from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
 Centres = tuple[list[float], list[float], list[float]]
@@ -43,7 +47,8 @@ class OnePose:
         names: the names of the virtual joints.
     """
 
-    __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base')
+    __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base',
+                 '_radial_constants')
 
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
@@ -52,6 +57,9 @@ class OnePose:
         self._directions = (list(cos), list(sin))
         self._rest_xy = tuple(r * c for r, c in zip(rho, cos, strict=True)) + tuple(
             r * s for r, s in zip(rho, sin, strict=True))
+        # what each radial closure unpacks: directions, start, tolerance and iterations (one tuple, one unpacking)
+        self._radial_constants = (*cos, *sin, *cast('Floats3', vjm.singular_floats), *self._rest_xy, config.tolerance,
+                                  config.max_iterations)
         self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
                                                                           geo.offsets))
         self._stiffness: Stiffness | None = None
@@ -105,13 +113,8 @@ class OnePose:
     def _radial(self, L0: float, L1: float, L2: float) -> Closure:
         """:func:`~gpr_kinematics.core.closure.newton_closure` of the ``radial`` model: ``X = (l1, l2, l3)``, the
         joints ``r_k = l_k (cos theta_k, sin theta_k)``, from ``l = rho``; stops at a side error <= tolerance."""
-        cfg, sqrt = self.config, math.sqrt
-        C, S = self._directions
-        c0, c1, c2 = C
-        s0, s1, s2 = S
-        l0, l1, l2 = cast('Floats3', self.model.singular_floats)
-        x0, x1, x2, y0, y1, y2 = self._rest_xy
-        tol, most = cfg.tolerance, cfg.max_iterations
+        sqrt = math.sqrt
+        c0, c1, c2, s0, s1, s2, l0, l1, l2, x0, x1, x2, y0, y1, y2, tol, most = self._radial_constants
         iterations = 0
         while True:
             e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
@@ -119,21 +122,68 @@ class OnePose:
             d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
             err = max(max(abs(d0 - L0), abs(d1 - L1)), abs(d2 - L2))
             if err <= tol:
+                C, S = self._directions
                 return Closure([l0, l1, l2], ([x0, x1, x2], [y0, y1, y2], C, S, None, None), [d0, d1, d2], iterations,
                                err)
             if iterations == most:
-                raise not_converged('virtual-joint closure (radial)', cfg, err, True)
+                raise not_converged('virtual-joint closure (radial)', self.config, err, True)
             # newton_terms with the radial partials d r_k / d l_k = (cos theta_k, sin theta_k), inline:
             # b (a): the derivative of edge i's residual by the coordinate of its end (start) joint
             b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
             b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
             b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
-            w0, w1, w2 = cast('Floats3', symmetric_solve3(b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1,
-                                                          b1 * a2, b2 * b2 + a2 * a2, f0 - L0 * L0, f1 - L1 * L1,
-                                                          f2 - L2 * L2))
+            # symmetric_solve3 of the normal equations, inline (its operations in its order)
+            g00, g01, g02, g11, g12 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2
+            g22 = b2 * b2 + a2 * a2
+            r0, r1, r2 = f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2
+            k00, k11, k22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
+            k01, k02, k12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
+            inv_det = 1.0 / (g00 * k00 + g01 * k01 + g02 * k02)
+            w0, w1, w2 = ((k00 * r0 + k01 * r1 + k02 * r2) * inv_det, (k01 * r0 + k11 * r1 + k12 * r2) * inv_det,
+                          (k02 * r0 + k12 * r1 + k22 * r2) * inv_det)
             l0, l1, l2 = l0 - (b2 * w2 + a0 * w0), l1 - (b0 * w0 + a1 * w1), l2 - (b1 * w1 + a2 * w2)
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
+
+    def pose_values(self, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: RigidFit,
+                    naive: NaiveState | None) -> tuple[list[float], float, float, float, float, bool]:
+        """The pose of one solved configuration (:func:`~gpr_kinematics.core.forward.one_result`'s values):
+        :func:`~gpr_kinematics.core.platform_pose.platform_pose` from the rigid fit ``frame`` on, with its operations,
+        and :func:`~gpr_kinematics.core.forward.assemble`, fused. Returns the vector fields' values in one list (``q``,
+        the side lengths, position, rotation, quaternion, the nominal position, rotation and quaternion, the centre
+        shift, the joint displacements, the virtual joints), the tilt, azimuth and twist [rad], the fit residual [m]
+        and whether the joints are within the imperfection budget. ``naive``: the naive state of ``q`` if known."""
+        sqrt = math.sqrt
+        r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', frame)
+        (x0, x1, x2), (y0, y1, y2) = closure.components[0], closure.components[1]
+        (X0, X1, X2), (Y0, Y1, Y2), (Z0, Z1, Z2) = P
+        dx, dy, dz = r00 * x0 + r01 * y0 + tx - X0, r10 * x0 + r11 * y0 + ty - Y0, r20 * x0 + r21 * y0 + tz - Z0
+        fit = sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz = r00 * x1 + r01 * y1 + tx - X1, r10 * x1 + r11 * y1 + ty - Y1, r20 * x1 + r21 * y1 + tz - Z1
+        fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
+        dx, dy, dz = r00 * x2 + r01 * y2 + tx - X2, r10 * x2 + r11 * y2 + ty - Y2, r20 * x2 + r21 * y2 + tz - Z2
+        fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
+        tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, r02, r12, r22))
+        T = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, r02, r12, r22))
+        (t00, t01, _), (t10, t11, _), (t20, t21, _) = T
+        w4 = 2.0 * sqrt(1.0 + r00 + r11 + r22)
+        qx, qy, qz, qw = (r21 - r12) / w4, (r02 - r20) / w4, (r10 - r01) / w4, 0.25 * w4
+        inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+        z, _, nx, ny, nz = cast('tuple[float, ...]', self.naive(q[0], q[1], q[2]) if naive is None else naive)
+        (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = cast('list[list[float]]', tilt_matrix_of_normal(
+            SCALAR, nx, ny, nz))
+        cw = sqrt(0.5 * (1.0 + nz))  # the naive tilt's quaternion (a sin(t/2), 0, cos(t/2))
+        half, zero = 0.5 / cw, 0.0 * z
+        geo = self.geometry
+        px, py = geo.px, geo.py
+        jd0, jd1, jd2 = (sqrt((x0 - px[0]) * (x0 - px[0]) + (y0 - py[0]) * (y0 - py[0])),
+                         sqrt((x1 - px[1]) * (x1 - px[1]) + (y1 - py[1]) * (y1 - py[1])),
+                         sqrt((x2 - px[2]) * (x2 - px[2]) + (y2 - py[2]) * (y2 - py[2])))
+        return ([*q, *L, tx, ty, tz, r00, r01, r02, r10, r11, r12, r20, r21, r22, qx * inv, qy * inv, qz * inv,
+                 qw * inv, zero, zero, z, n00, n01, n02, n10, n11, n12, n20, n21, n22, -n12 * half, n02 * half,
+                 0.0 * cw, cw, tx - zero, ty - zero, tz - z, jd0, jd1, jd2, *cast('list[float]', closure.X)], tilt, az,
+                math.atan2(t01 * r00 + t11 * r10 + t21 * r20, t00 * r00 + t10 * r10 + t20 * r20), fit,
+                max(max(jd0, jd1), jd2) <= self.config.imperfection_budget)
 
 
 def one_pose(config: GprConfig, model: str | None = None) -> OnePose:
