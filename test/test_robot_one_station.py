@@ -238,16 +238,20 @@ def test_one_station_arrays_are_rows_of_one_and_independent():
 
 
 def test_arm_constants_are_each_arms_own():
-    """The one-target solves' link vectors and zero offsets (kept per arm): each arm's, also after many arms."""
+    """The one-target solves' link vectors, zero offsets, limits, chain and wafer height (kept per arm): each arm's,
+    also after many arms."""
     from gpr_kinematics.robot.arm_chain import arm_floats, floats2, link_vectors
     robots = [ROBOT, _offset_robot()]
     robots += [make_robot(_with_offsets(robot_data())) for _ in range(140)]  # more arms (284) than are kept (256)
     for robot in robots + robots[:2]:  # the kept constants are dropped once on the way: the first ones come again
         for arm in robot.arms:
-            links, beta, offsets = arm_floats(arm)
+            kept = arm_floats(arm)
             d, b = link_vectors(arm)
-            assert links == floats2(d) and beta == b
-            assert offsets == tuple(j.zero_offset for j in arm.joints)
+            assert kept.links == floats2(d) and kept.beta == b
+            assert kept.offsets == tuple(j.zero_offset for j in arm.joints)
+            assert kept.limits == tuple((j.lower, j.upper, 0.5 * (j.lower + j.upper)) for j in arm.joints)
+            assert kept.chain.links == tuple((j.length, j.zero_offset) for j in arm.joints)
+            assert kept.wafer_height == arm.wafer_height and kept.chain.mount_yaw == arm.mount_yaw
     assert arm_floats(robots[1].arm('arm1')).offsets != arm_floats(ROBOT.arm('arm1')).offsets
 
 

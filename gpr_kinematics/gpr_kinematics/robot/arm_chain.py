@@ -187,10 +187,10 @@ def fixed_one(d: list[tuple[float, float]], beta: float, j: int, v: float, px: f
 def wrap_one(arm: Arm, theta: list[float]) -> tuple[list[float], list[float]]:
     """:func:`wrap_to_limits` of one posture in floats."""
     wrapped, violation = [], []
-    for t, joint in zip(theta, arm.joints, strict=True):
-        mid = 0.5 * (joint.lower + joint.upper)
-        t = mid + (t - mid + math.pi) % (2.0 * math.pi) - math.pi
-        beyond = max(joint.lower - t, t - joint.upper) - LIMIT_SLACK
+    pi, turn = math.pi, 2.0 * math.pi
+    for t, (lower, upper, mid) in zip(theta, arm_floats(arm).limits, strict=True):
+        t = mid + (t - mid + pi) % turn - pi
+        beyond = max(lower - t, t - upper) - LIMIT_SLACK
         wrapped.append(t)
         violation.append(beyond if beyond >= 0.0 else 0.0)
     return wrapped, violation
@@ -202,12 +202,30 @@ def floats2(d: list[Array]) -> list[tuple[float, float]]:
 
 
 class ArmFloats(NamedTuple):
-    """What a one-target solve needs of an arm, as floats: :func:`link_vectors` (``links``, ``beta``) and the joints'
-    ``zero_offset`` [m, rad]."""
+    """What a one-target solve needs of an arm, as floats: :func:`link_vectors` (``links``, ``beta``), the joints'
+    ``zero_offset`` and each joint's ``(lower, upper, middle)`` of its range [m, rad]."""
 
     links: list[tuple[float, float]]
     beta: float
     offsets: tuple[float, ...]
+    limits: tuple[tuple[float, float, float], ...]
+    chain: ArmChain
+    wafer_height: float
+
+
+class ArmChain(NamedTuple):
+    """The constants of an arm's chain on the platform (:func:`~gpr_kinematics.robot.forward.platform_to_blade_one`):
+    the mount's ``x``, ``y`` and the blade's height ``z`` (the mount, the links, the blade), the ``mount_yaw``, each
+    joint's ``(length, zero_offset)``, the blade's ``(x, y)`` and ``yaw`` and the ``wafer_centre`` [m, rad]."""
+
+    x: float
+    y: float
+    z: float
+    mount_yaw: float
+    links: tuple[tuple[float, float], ...]
+    blade: tuple[float, float]
+    blade_yaw: float
+    wafer_centre: tuple[float, float, float]
 
 
 #: :func:`arm_floats` per arm, keyed by ``id`` (the arm held with it, so the key is never reused while it is here).
@@ -221,7 +239,13 @@ def arm_floats(arm: Arm) -> ArmFloats:
     if held is not None and held[0] is arm:
         return held[1]
     d, beta = link_vectors(arm)
-    out = ArmFloats(floats2(d), beta, tuple(joint.zero_offset for joint in arm.joints))
+    m, b = arm.mount_position, arm.blade
+    chain = ArmChain(m[0], m[1], m[2] + sum(j.height for j in arm.joints) + b.position[2], arm.mount_yaw,
+                     tuple((j.length, j.zero_offset) for j in arm.joints), (b.position[0], b.position[1]), b.yaw,
+                     (b.wafer_centre[0], b.wafer_centre[1], b.wafer_centre[2]))
+    out = ArmFloats(floats2(d), beta, tuple(joint.zero_offset for joint in arm.joints),
+                    tuple((j.lower, j.upper, 0.5 * (j.lower + j.upper)) for j in arm.joints), chain,
+                    arm.wafer_height)
     if len(_ARM_FLOATS) >= 256:  # robots loaded and dropped in a long process: start again
         _ARM_FLOATS.clear()
     _ARM_FLOATS[id(arm)] = (arm, out)

@@ -34,7 +34,7 @@ from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_nor
 from ..core.single import one_pose
 from ..errors import InputError, LimitError, apart, brief
 from ..inputs.validation import bounded, rows_of
-from .arm_chain import LIMIT_SLACK
+from .arm_chain import LIMIT_SLACK, arm_floats
 from .description import Arm, RobotDescription
 from .stations import StationRecord, stations_from_poses
 from .transforms import PoseBatch, PoseRecord, pose_batch
@@ -261,18 +261,17 @@ def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Ve
     """:func:`platform_to_blade` of one posture in floats (joints plus their ``zero_offset``, the cumulative sum
     first, then the mount yaw, as the batch adds them): the blade's position and rotation and the wafer's position in
     ``gpr_platform`` (the wafer's rotation is the blade's)."""
-    x, y = arm.mount_position[0], arm.mount_position[1]
+    x, y, z, yaw, links, (bx, by), blade_yaw, wafer_centre = arm_floats(arm).chain
+    cos, sin = math.cos, math.sin
     turned, c, s, last = 0.0, 1.0, 0.0, 0.0
-    for k, joint in enumerate(arm.joints):
-        turned = joints[0] + joint.zero_offset if k == 0 else turned + (joints[k] + joint.zero_offset)
-        last = arm.mount_yaw + turned
-        c, s = math.cos(last), math.sin(last)
-        x, y = x + c * joint.length, y + s * joint.length
-    bx, by = arm.blade.position[0], arm.blade.position[1]
+    for k, (length, offset) in enumerate(links):
+        turned = joints[0] + offset if k == 0 else turned + (joints[k] + offset)
+        last = yaw + turned
+        c, s = cos(last), sin(last)
+        x, y = x + c * length, y + s * length
     x, y = x + c * bx - s * by, y + s * bx + c * by
-    z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
-    R = rot_z(last + arm.blade.yaw)
-    w = mat_vec(R, arm.blade.wafer_centre)
+    R = rot_z(last + blade_yaw)
+    w = mat_vec(R, wafer_centre)
     return (x, y, z), R, (x + w[0], y + w[1], z + w[2])
 
 

@@ -130,8 +130,9 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
     """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps); ``value``:
     a 4-joint arm's held joint at this value [rad] whatever its rule (the ``nearest`` rule's answer found by the
     caller), by default the rule's own."""
-    d, beta, offset = arm_floats(arm)
-    if len(arm.joints) == 2:
+    floats = arm_floats(arm)
+    d, beta, offset = floats.links, floats.beta, floats.offsets
+    if len(offset) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
         theta = [T1, T2 - T1]
     else:
