@@ -17,12 +17,12 @@ over random stations). SI units.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, cast
+from typing import NamedTuple, TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import STROKE_SLACK, ForwardBatch, ForwardResult
+from ..core import STROKE_SLACK, ForwardResult
 from ..core.config import GprConfig
 from ..core.floats import (
     FloatPose,
@@ -33,20 +33,22 @@ from ..core.floats import (
     mat_mul,
     mat_tmul,
     mat_tvec,
+    mat_vec,
     rot_z,
     tilt_matrix,
 )
-from ..core.forward import one_result, solve_parts
+from ..core.forward import one_result, one_row
 from ..core.inverse import inverse_parts, tilt_target_slack
 from ..core.naive import naive_rods
 from ..core.ops import SCALAR
-from ..core.platform_pose import rigid_fit
+from ..core.platform_pose import RigidFit, rigid_fit
 from ..core.rotations import tilt_of_normal, wrap_angle
-from ..core.single import OnePose, one_pose
+from ..core.single import Centres, OnePose, one_pose
+from ..core.virtual_joints import Closure
 from ..errors import ConvergenceError, LimitError
-from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, link_vectors
+from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, arm_floats, link_vectors
 from .description import Arm, RobotDescription
-from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
+from .forward import RobotForward, base_floats, platform_to_blade_one
 from .nearest import nearest_value
 from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
@@ -69,8 +71,12 @@ STRETCH_MARGIN = 1e-6
 
 def parallel_rods(config: GprConfig) -> bool:
     """The rods move along one direction (``rod_directions`` all equal): a common change of them translates the
-    platform without turning it. Else every step of the height solves the rods again."""
-    return all(tuple(d) == tuple(config.rod_directions[0]) for d in config.rod_directions)
+    platform without turning it. Else every step of the height solves the rods again. Kept with the config."""
+    parallel: bool | None = config.derived.get('parallel_rods')
+    if parallel is None:
+        parallel = config.derived['parallel_rods'] = all(tuple(d) == tuple(config.rod_directions[0])
+                                                         for d in config.rod_directions)
+    return parallel
 
 
 class OneStation(NamedTuple):
@@ -87,34 +93,34 @@ class OneStation(NamedTuple):
     angle_error: NDArray[np.float64]
 
 
-def _rows(R: NDArray[np.float64]) -> Mat3:
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    return (a, b, c), (d, e, f), (g, h, i)
-
-
 def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float
-                     ) -> tuple[list[float], ForwardResult]:
+                     ) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit]:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
-    ``_platform_height`` for one station): each step solves the closure and the platform's rigid fit only, the
-    forward kinematics of the answer is completed once. The iterates are not judged against the stroke (the answer
-    is, by :func:`_batch_decides`); a height the core does not solve is left to the batch."""
+    ``_platform_height`` for one station), and of their solve the joint centres, side lengths, closure and rigid fit
+    (:func:`~gpr_kinematics.core.forward.one_result` completes the pose): each step solves the closure and the rigid
+    fit only; on parallel rods the common change translates the fit along them, the closure unchanged (the side
+    lengths are; the batch solves the new rods again, to rounding the same). The iterates are not judged against the
+    stroke (the answer is, by :func:`_batch_decides`); a height the core does not solve is left to the batch."""
     cfg = kernel.config
     zero = (0.0, 0.0, 0.0)
     parallel = parallel_rods(cfg)
     q, P, L, closure, frame, _ = inverse_parts(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero,
                                                stroke=False)
     for _ in range(PLANE_ITERATIONS):
-        _, _, n0, _, _, n1, _, _, n2, t0, t1, t2 = cast('tuple[float, ...]', frame)
+        r00, r01, n0, r10, r11, n1, r20, r21, n2, t0, t1, t2 = cast('tuple[float, ...]', frame)
         e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
         normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
         if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
-            return q, one_result(kernel, q, P, L, closure, frame)
+            return q, P, L, closure, frame
         if normal_error > NORMAL_TOLERANCE or not parallel:  # rods that move together would turn the platform
             q, P, L, closure, frame, _ = inverse_parts(kernel, t2 + e / n2, tilt, az, zero, stroke=False)
         else:
             c = e / n2
             q = [q[0] + c, q[1] + c, q[2] + c]
-            P, L, closure, frame = solve_parts(kernel, q)
+            P = kernel.centres(q[0], q[1], q[2])
+            geo = kernel.geometry
+            ux, uy, uz = cast('Vec3', (geo.ux[0], geo.uy[0], geo.uz[0]))
+            frame = (r00, r01, n0, r10, r11, n1, r20, r21, n2, t0 + c * ux, t1 + c * uy, t2 + c * uz)
     raise ConvergenceError('station height did not converge')  # the batch path says by how much
 
 
@@ -191,12 +197,29 @@ class StationFloats(NamedTuple):
     naive_wafer_angle_error: float
 
 
-def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
-                   free: bool, sign: float, value: float | None) -> StationFloats | None:
-    """Rods and joints for the station at ``P`` [m, world] with the station plane's ``tilt_st`` and ``azimuth`` and the
-    blade ``heading`` [rad] (``free``: the heading is left to a 2-joint arm), the branch ``sign`` and the held value
-    of a 4-joint arm (module docstring); ``None`` where the batch path must answer (a limit, a fault, no
-    convergence: it raises or marks the station with its message). The inputs are checked by the caller."""
+class _Solved(NamedTuple):
+    """What :func:`station_floats` and :func:`solve_one` share of one station: the rods and joints, the solve of the
+    rods (:func:`_platform_height`; the caller completes the platform's pose), the poses, the naive model's rods,
+    joints and wafer, the errors, and the station's orientation ``R_st``."""
+
+    rods: list[float]
+    joints: list[float]
+    parts: tuple[OnePose, list[float], Centres, tuple[float, float, float], Closure, RigidFit]
+    platform: FloatPose
+    blade: FloatPose
+    wafer: FloatPose
+    on_platform: FloatPose
+    naive_rods: list[float]
+    naive_joints: list[float]
+    naive_wafer: FloatPose
+    position_error: float
+    angle_error: float
+    R_st: Mat3
+
+
+def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float, free: bool,
+           sign: float, value: float | None) -> _Solved | None:
+    """:func:`station_floats` but the platform's completed pose and the naive model's wafer errors."""
     kernel = one_pose(robot.config)
     cfg = kernel.config
     p_wb, R_wb = base_floats(robot)
@@ -207,66 +230,99 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
     if tilt - cfg.tilt_limit > tilt_target_slack(cfg) - EDGE_MARGIN:
         return None
-    zw = arm.wafer_height
+    zw = arm_floats(arm).wafer_height
     try:
-        q, gpr = _platform_height(kernel, tilt, az, p_b, n_b, zw)
+        q, P_q, L, closure, frame = _platform_height(kernel, tilt, az, p_b, n_b, zw)
     except (LimitError, ConvergenceError):
         return None
-    R = _rows(gpr.rotation)
-    t = gpr.position.tolist()
-    w = mat_tvec(R, (p_b[0] - t[0], p_b[1] - t[1], p_b[2] - t[2]))
-    target = _target(arm, w, R, R_b)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = cast('tuple[float, ...]', frame)
+    R = (r00, r01, r02), (r10, r11, r12), (r20, r21, r22)
+    target = _target(arm, mat_tvec(R, (p_b[0] - t0, p_b[1] - t1, p_b[2] - t2)), R, R_b)
     # The naive model's answer: platform at (0, 0, h) tilted about its centre.
     h = (n_b[0] * p_b[0] + n_b[1] * p_b[1] + n_b[2] * p_b[2] - zw) / n_b[2]
     R_n = tilt_matrix(tilt, az)
     naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
-    held, naive_held = _held_values(arm, [target, naive_target], sign, value)
+    red = arm.redundancy
+    held, naive_held = (value, value) if red is None or red.rule != 'nearest' else _held_values(
+        arm, [target, naive_target], sign, value)
     sol = solve_arm_one(arm, *target, sign, held)
     if _batch_decides(kernel, arm, q, sol, target[2], free):
         return None
-    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t[0], t[1], t[2]), R)
     naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
     if _near_stretch(naive_sol):
         return None
-    s = math.sin(tilt)
-    normal = [s * math.sin(az), -s * math.cos(az), math.cos(tilt)]
-    q_n = cast('list[float]', naive_rods(kernel.geometry, h, normal, (0.0, 0.0, 0.0)))
-    P_n = kernel.centres(q_n[0], q_n[1], q_n[2])  # the real platform under the naive rods: its pose only
-    r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', rigid_fit(
+    # the poses (one_on_platform's steps, the wafer turned as the blade)
+    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, sol.theta)
+    platform = compose_one(p_wb, R_wb, (t0, t1, t2), R)
+    blade = compose_one(*platform, blade_p, blade_R)
+    x, y, z = mat_vec(platform[1], wafer_p)
+    wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
+    # the real platform under the naive rods (tilt_matrix's third column is the naive normal): its pose only
+    q_n = cast('list[float]', naive_rods(kernel.geometry, h, [R_n[0][2], R_n[1][2], R_n[2][2]], (0.0, 0.0, 0.0)))
+    P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
+    f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = cast('tuple[float, ...]', rigid_fit(
         SCALAR, P_n, kernel.closure(*kernel.lengths(P_n)).components))
-    naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)))
+    naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
     naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
+    return _Solved(q, sol.theta, (kernel, q, P_q, L, closure, frame), platform, blade, wafer, (wafer_p, blade_R), q_n,
+                   naive_sol.theta, naive_wafer, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]),
+                   _angle(R_st, wafer[1], free), R_st)
+
+
+def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
+                   free: bool, sign: float, value: float | None) -> StationFloats | None:
+    """Rods and joints for the station at ``P`` [m, world] with the station plane's ``tilt_st`` and ``azimuth`` and the
+    blade ``heading`` [rad] (``free``: the heading is left to a 2-joint arm), the branch ``sign`` and the held value
+    of a 4-joint arm (module docstring); ``None`` where the batch path must answer (a limit, a fault, no
+    convergence: it raises or marks the station with its message). The inputs are checked by the caller."""
+    one = _solve(robot, arm, P, tilt_st, azimuth, heading, free, sign, value)
+    if one is None:
+        return None
+    naive_wafer = one.naive_wafer
     e = (naive_wafer[0][0] - P[0], naive_wafer[0][1] - P[1], naive_wafer[0][2] - P[2])
-    return StationFloats(q, sol.theta, gpr, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
-                         math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), e,
-                         _angle(R_st, naive_wafer[1], free))
+    return StationFloats(one.rods, one.joints, one_result(*one.parts), one.platform, one.blade, one.wafer,
+                         one.on_platform, one.naive_rods, one.naive_joints, naive_wafer, one.position_error,
+                         one.angle_error, e, _angle(one.R_st, naive_wafer[1], free))
 
 
 def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
               ) -> OneStation | None:
     """:func:`station_floats` of the one station of ``stations`` as rows of one (``None`` likewise): every array a
     view of one, made at once from the floats."""
-    one = station_floats(robot, arm, cast('Vec3', tuple(stations.position[0].tolist())), float(stations.tilt[0]),
-                         float(stations.azimuth[0]), float(stations.heading[0]), bool(stations.heading_free[0]), sign,
-                         value)
+    (x, y, z), = stations.position.tolist()
+    one = _solve(robot, arm, (x, y, z), stations.tilt.item(), stations.azimuth.item(), stations.heading.item(),
+                 bool(stations.heading_free[0]), sign, value)
     if one is None:
         return None
     n = len(one.joints)
-    poses = (one.platform, one.blade, one.wafer, one.on_platform, one.naive_wafer)
     flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error]
-    for p, (r0, r1, r2) in poses:
+    for p, (r0, r1, r2) in (one.platform, one.blade, one.wafer, one.on_platform, one.naive_wafer):
         flat += [*p, *r0, *r1, *r2]
     a = np.array(flat)
-    o = 8 + 2 * n  # the first pose's offset
-    batches = [PoseBatch(a[k:k + 3].reshape(1, 3), a[k + 3:k + 12].reshape(1, 3, 3)) for k in range(o, o + 60, 12)]
-    rods, joints = a[0:3].reshape(1, 3), a[3:3 + n].reshape(1, n)
-    fk = RobotForward(arm=arm.name, rods=rods, joints=joints, gpr=ForwardBatch.of_one(one.gpr), platform=batches[0],
-                      blade=batches[1], wafer=batches[2], robot=robot, wafer_on_platform=batches[3])
-    return OneStation(rods=rods, joints=joints, forward=fk, naive_rods=a[3 + n:6 + n].reshape(1, 3),
-                      naive_joints=a[6 + n:6 + 2 * n].reshape(1, n), naive_wafer=batches[4],
-                      position_error=a[6 + 2 * n:7 + 2 * n], angle_error=a[7 + 2 * n:8 + 2 * n])
+    o = 8 + 2 * n  # the poses: 5 rows of a position and a rotation
+    poses = a[o:].reshape(5, 12)
+    positions, rotations = poses[:, 0:3], poses[:, 3:12].reshape(5, 3, 3)
+    platform, blade, wafer, on_platform, naive_wafer = (PoseBatch(positions[k:k + 1], rotations[k:k + 1])
+                                                        for k in range(5))
+    rows = a[:o - 2].reshape(1, o - 2)
+    rods, joints = rows[:, 0:3], rows[:, 3:3 + n]
+    fk = _frozen(RobotForward, arm=arm.name, rods=rods, joints=joints, gpr=one_row(*one.parts),
+                 platform=platform, blade=blade, wafer=wafer, robot=robot, wafer_on_platform=on_platform)
+    return OneStation(rods, joints, fk, rows[:, 3 + n:6 + n], rows[:, 6 + n:6 + 2 * n], naive_wafer,
+                      a[o - 2:o - 1], a[o - 1:o])
+
+
+Frozen = TypeVar('Frozen')
+
+
+def _frozen(cls: type[Frozen], **fields: object) -> Frozen:
+    """An instance of the frozen dataclass ``cls`` with every field in ``fields`` (the caller's), without its
+    ``__init__``'s per-field ``object.__setattr__``; the instance stays frozen."""
+    out = cls.__new__(cls)
+    out.__dict__.update(fields)
+    return out
 
 
 def _angle(R_station: Mat3, R: Mat3, free: bool) -> float:
