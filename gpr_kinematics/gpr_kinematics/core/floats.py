@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 
+from .rotations import AZIMUTH_UNDEFINED_BELOW
+
 #: One vector [m], one rotation matrix (its rows) and one quaternion (x, y, z, w) as floats.
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -107,3 +109,23 @@ def angle_between(A: Mat3, B: Mat3) -> float:
     M = mat_tmul(A, B)
     s = 0.5 * math.sqrt((M[2][1] - M[1][2]) ** 2 + (M[0][2] - M[2][0]) ** 2 + (M[1][0] - M[0][1]) ** 2)
     return math.atan2(s, 0.5 * (M[0][0] + M[1][1] + M[2][2] - 1.0))
+
+
+def tilt_of_normal_one(nx: float, ny: float, nz: float) -> tuple[float, float]:
+    """:func:`~gpr_kinematics.core.rotations.tilt_of_normal` of one unit normal in floats (its operations: the same
+    numbers): the tilt (>= 0) and the tilt azimuth in (-pi, pi] [rad]."""
+    tilt = math.atan2(math.hypot(nx, ny), nz)
+    az = math.atan2(nx, -ny)
+    return tilt, 0.0 if tilt < AZIMUTH_UNDEFINED_BELOW else (math.pi if az <= -math.pi else az)
+
+
+def tilt_matrix_of_normal_one(nx: float, ny: float, nz: float) -> Mat3:
+    """:func:`~gpr_kinematics.core.naive.tilt_matrix_of_normal` of one unit normal in floats (its operations: the
+    same numbers): the pure tilt taking ``e3`` to ``n``."""
+    s = math.hypot(nx, ny)
+    flat = s < AZIMUTH_UNDEFINED_BELOW
+    inv = 1.0 / (1.0 if flat else s)
+    ax, ay = 1.0 if flat else -ny * inv, 0.0 if flat else nx * inv
+    v = 1.0 - nz
+    vxy = v * ax * ay
+    return (nz + v * ax * ax, vxy, s * ay), (vxy, nz + v * ay * ay, -s * ax), (-s * ay, s * ax, nz)

@@ -35,7 +35,7 @@ from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .naive import NaiveState, naive_state
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import PlatformPose, RigidFit, platform_pose, rigid_fit
+from .platform_pose import PlatformPose, RigidFit, platform_pose
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
@@ -389,7 +389,7 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
-        return P, L, closure, rigid_fit(SCALAR, P, closure.components)
+        return P, L, closure, kernel.fit(P, closure.components)
     except GprError:
         raise
     except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
@@ -417,22 +417,25 @@ def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[floa
     return out
 
 
-def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
-            frame: RigidFit, naive: NaiveState | None = None) -> ForwardBatch:
-    """:func:`one_result` as the batch of one row (:meth:`ForwardBatch.of_one` of it, the same values): every float
-    field a view of one array ``(1, K)``."""
-    values, tilt, az, twist, fit, within = kernel.pose_values(q, P, L, closure, frame, naive)
-    n = len(values)
-    a = np.array([[*values, tilt, az, twist, closure.residual, fit]])
+def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: RigidFit,
+            head: Sequence[float] = ()) -> tuple[ForwardBatch, Array]:
+    """:func:`one_result` as the batch of one row (:meth:`ForwardBatch.of_one` of it, the same values), every float
+    field a view of one array ``(1, K)``, and that array, which begins with the caller's values ``head`` (its own
+    results in the same array)."""
+    values, tilt, az, twist, fit, within = kernel.pose_values(q, P, L, closure, frame, None)
+    o = len(head)
+    n = o + len(values)
+    a = np.array([[*head, *values, tilt, az, twist, closure.residual, fit]])
     out = ForwardBatch.__new__(ForwardBatch)
     out.__dict__.update(
-        q=a[:, 0:3], model=kernel.model.name, virtual_joints=a[:, 44:n], virtual_joint_names=kernel.names,
-        side_lengths=a[:, 3:6], position=a[:, 6:9], rotation=a[:, 9:18].reshape(1, 3, 3), quaternion=a[:, 18:22],
-        tilt=a[:, n], tilt_azimuth=a[:, n + 1], twist=a[:, n + 2], nominal_position=a[:, 22:25],
-        nominal_rotation=a[:, 25:34].reshape(1, 3, 3), nominal_quaternion=a[:, 34:38], centre_shift=a[:, 38:41],
-        joint_displacement=a[:, 41:44], within_budget=np.array([within]), iterations=np.array([closure.iterations]),
-        residual=a[:, n + 3], fit_residual=a[:, n + 4])
-    return out
+        q=a[:, o:o + 3], model=kernel.model.name, virtual_joints=a[:, o + 44:n], virtual_joint_names=kernel.names,
+        side_lengths=a[:, o + 3:o + 6], position=a[:, o + 6:o + 9], rotation=a[:, o + 9:o + 18].reshape(1, 3, 3),
+        quaternion=a[:, o + 18:o + 22], tilt=a[:, n], tilt_azimuth=a[:, n + 1], twist=a[:, n + 2],
+        nominal_position=a[:, o + 22:o + 25], nominal_rotation=a[:, o + 25:o + 34].reshape(1, 3, 3),
+        nominal_quaternion=a[:, o + 34:o + 38], centre_shift=a[:, o + 38:o + 41],
+        joint_displacement=a[:, o + 41:o + 44], within_budget=np.array([within]),
+        iterations=np.array([closure.iterations]), residual=a[:, n + 3], fit_residual=a[:, n + 4])
+    return out, a
 
 
 def base_points(Q: Array, config: GprConfig) -> Array:

@@ -47,7 +47,7 @@ from .forward import (
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import RigidFit, rigid_fit
+from .platform_pose import RigidFit
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .virtual_joints import Closure, VirtualJointModel, make_model
@@ -369,7 +369,7 @@ def inverse_one(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[fl
 class InverseParts(NamedTuple):
     """One target solved by :func:`inverse_parts`: the rods ``q`` [m], and of the last step the joint centres ``P``,
     side lengths ``L`` [m], closure and rigid fit ``frame`` (:func:`~gpr_kinematics.core.forward.forward_parts`'s),
-    and the iterations taken."""
+    the iterations taken, and the rigid fit of the first step (of the naive model's rods for the target)."""
 
     q: list[float]
     P: Centres
@@ -377,6 +377,7 @@ class InverseParts(NamedTuple):
     closure: Closure
     frame: RigidFit
     iterations: int
+    first: RigidFit
 
 
 def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float], stroke: bool = True
@@ -399,7 +400,9 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
-        frame = rigid_fit(SCALAR, P, closure.components)
+        frame = kernel.fit(P, closure.components)
+        if iterations == 0:
+            first = frame
         fr = cast('tuple[float, ...]', frame)
         r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
         h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
@@ -415,4 +418,4 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
     if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
         check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
-    return InverseParts(q, P, L, closure, frame, iterations)
+    return InverseParts(q, P, L, closure, frame, iterations, first)

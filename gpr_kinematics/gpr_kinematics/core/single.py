@@ -27,12 +27,12 @@ from typing import cast
 from .closure import newton_closure
 from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
+from .floats import tilt_matrix_of_normal_one, tilt_of_normal_one
 from .machine import Floats3, MachineGeometry
-from .naive import NaiveState, tilt_matrix_of_normal
+from .naive import NaiveState
 from .ops import SCALAR
 from .platform_pose import RigidFit
-from .rotations import tilt_of_normal
-from .virtual_joints import Closure, VirtualJointModel, make_model, not_converged, side_errors
+from .virtual_joints import Closure, Components, VirtualJointModel, make_model, not_converged, side_errors
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
 Centres = tuple[list[float], list[float], list[float]]
@@ -145,6 +145,34 @@ class OnePose:
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
 
+    @staticmethod
+    def fit(P: Centres, comps: Components) -> RigidFit:
+        """:func:`~gpr_kinematics.core.platform_pose.rigid_fit` of one pose in floats, its operations in its order
+        (``ops.where`` a conditional, without the generic kernel's calls): the rigid transform of the platform joints
+        ``comps`` onto the joint centres ``P``, ``(r00, r01, .., r22, tx, ty, tz)``."""
+        sqrt = math.sqrt
+        (rx0, rx1, rx2), (ry0, ry1, ry2) = cast('tuple[Floats3, Floats3]', (comps[0], comps[1]))
+        (bx0, bx1, bx2), (by0, by1, by2), (bz0, bz1, bz2) = P
+        ux, uy, uz = bx1 - bx0, by1 - by0, bz1 - bz0
+        vx, vy, vz = bx2 - bx0, by2 - by0, bz2 - bz0
+        inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz)
+        e1x, e1y, e1z = ux * inv, uy * inv, uz * inv
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        inv = 1.0 / sqrt(cx * cx + cy * cy + cz * cz)
+        e3x, e3y, e3z = cx * inv, cy * inv, cz * inv
+        e2x, e2y, e2z = e3y * e1z - e3z * e1y, e3z * e1x - e3x * e1z, e3x * e1y - e3y * e1x
+        wx, wy = rx1 - rx0, ry1 - ry0
+        inv = 1.0 / sqrt(wx * wx + wy * wy)
+        fx, fy = wx * inv, wy * inv
+        sg = 1.0 if wx * (ry2 - ry0) - wy * (rx2 - rx0) >= 0.0 else -1.0
+        sfx, sfy = sg * fx, sg * fy
+        r00, r01, r02 = e1x * fx - e2x * sfy, e1x * fy + e2x * sfx, sg * e3x
+        r10, r11, r12 = e1y * fx - e2y * sfy, e1y * fy + e2y * sfx, sg * e3y
+        r20, r21, r22 = e1z * fx - e2z * sfy, e1z * fy + e2z * sfx, sg * e3z
+        rcx, rcy = (rx0 + rx1 + rx2) / 3.0, (ry0 + ry1 + ry2) / 3.0
+        return (r00, r01, r02, r10, r11, r12, r20, r21, r22, (bx0 + bx1 + bx2) / 3.0 - (r00 * rcx + r01 * rcy),
+                (by0 + by1 + by2) / 3.0 - (r10 * rcx + r11 * rcy), (bz0 + bz1 + bz2) / 3.0 - (r20 * rcx + r21 * rcy))
+
     def pose_values(self, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: RigidFit,
                     naive: NaiveState | None) -> tuple[list[float], float, float, float, float, bool]:
         """The pose of one solved configuration (:func:`~gpr_kinematics.core.forward.one_result`'s values):
@@ -163,15 +191,13 @@ class OnePose:
         fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
         dx, dy, dz = r00 * x2 + r01 * y2 + tx - X2, r10 * x2 + r11 * y2 + ty - Y2, r20 * x2 + r21 * y2 + tz - Z2
         fit = max(fit, sqrt(dx * dx + dy * dy + dz * dz))
-        tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, r02, r12, r22))
-        T = cast('list[list[float]]', tilt_matrix_of_normal(SCALAR, r02, r12, r22))
-        (t00, t01, _), (t10, t11, _), (t20, t21, _) = T
+        tilt, az = tilt_of_normal_one(r02, r12, r22)
+        (t00, t01, _), (t10, t11, _), (t20, t21, _) = tilt_matrix_of_normal_one(r02, r12, r22)
         w4 = 2.0 * sqrt(1.0 + r00 + r11 + r22)
         qx, qy, qz, qw = (r21 - r12) / w4, (r02 - r20) / w4, (r10 - r01) / w4, 0.25 * w4
         inv = 1.0 / sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
         z, _, nx, ny, nz = cast('tuple[float, ...]', self.naive(q[0], q[1], q[2]) if naive is None else naive)
-        (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = cast('list[list[float]]', tilt_matrix_of_normal(
-            SCALAR, nx, ny, nz))
+        (n00, n01, n02), (n10, n11, n12), (n20, n21, n22) = tilt_matrix_of_normal_one(nx, ny, nz)
         cw = sqrt(0.5 * (1.0 + nz))  # the naive tilt's quaternion (a sin(t/2), 0, cos(t/2))
         half, zero = 0.5 / cw, 0.0 * z
         geo = self.geometry
