@@ -50,6 +50,7 @@ from .one_station import (
     PLANE_ITERATIONS,
     PLANE_TOLERANCE,
     StationFloats,
+    frozen,
     parallel_rods,
     solve_one,
 )
@@ -272,7 +273,8 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
         one = solve_one(robot, stations, a, float(sign[0]), None if value is None else float(value[0]))
         if one is not None:
-            return StationSolution(stations, a.name, names, *one, feasible=np.ones(1, dtype=bool))
+            return frozen(StationSolution, stations=stations, arm=a.name, branch=names, **one._asdict(),
+                          feasible=np.ones(1, dtype=bool))
     base = base_pose(robot, n)
     R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
     p_b = base.inverse_apply(stations.position)

@@ -36,13 +36,13 @@ from ..core.floats import (
     mat_vec,
     rot_z,
     tilt_matrix,
+    tilt_of_normal_one,
 )
 from ..core.forward import one_result, one_row
 from ..core.inverse import inverse_parts, tilt_target_slack
 from ..core.naive import naive_rods
-from ..core.ops import SCALAR
-from ..core.platform_pose import RigidFit, rigid_fit
-from ..core.rotations import tilt_of_normal, wrap_angle
+from ..core.platform_pose import RigidFit
+from ..core.rotations import wrap_angle
 from ..core.single import Centres, OnePose, one_pose
 from ..core.virtual_joints import Closure
 from ..errors import ConvergenceError, LimitError
@@ -93,44 +93,67 @@ class OneStation(NamedTuple):
     angle_error: NDArray[np.float64]
 
 
-def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float
-                     ) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit]:
+class _Height(NamedTuple):
+    """:func:`_platform_height`'s answer: the rods ``q``, of their solve the joint centres ``P``, side lengths ``L``,
+    closure and rigid fit ``frame``, and the rigid fit ``first`` of the naive model's rods for the target at the
+    height ``h_first`` of the core's last solve (the naive model's answer is its translation on parallel rods)."""
+
+    q: list[float]
+    P: Centres
+    L: tuple[float, float, float]
+    closure: Closure
+    frame: RigidFit
+    first: RigidFit
+    h_first: float
+
+
+def _translated(kernel: OnePose, frame: RigidFit, c: float) -> RigidFit:
+    """The rigid fit ``frame`` of parallel rods all changed by ``c`` [m]: the platform moves by ``c`` along them, the
+    closure and the rotation unchanged (the side lengths are)."""
+    geo = kernel.geometry
+    ux, uy, uz = cast('Vec3', (geo.ux[0], geo.uy[0], geo.uz[0]))
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = frame
+    return r00, r01, r02, r10, r11, r12, r20, r21, r22, t0 + c * ux, t1 + c * uy, t2 + c * uz
+
+
+def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float) -> _Height:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
-    ``_platform_height`` for one station), and of their solve the joint centres, side lengths, closure and rigid fit
-    (:func:`~gpr_kinematics.core.forward.one_result` completes the pose): each step solves the closure and the rigid
-    fit only; on parallel rods the common change translates the fit along them, the closure unchanged (the side
-    lengths are; the batch solves the new rods again, to rounding the same). The iterates are not judged against the
-    stroke (the answer is, by :func:`_batch_decides`); a height the core does not solve is left to the batch."""
+    ``_platform_height`` for one station), and of their solve what :class:`_Height` holds
+    (:func:`~gpr_kinematics.core.forward.one_row` completes the pose): each step solves the closure and the rigid fit
+    only; on parallel rods the common change translates the fit along them (:func:`_translated`; the batch solves the
+    new rods again, to rounding the same). The iterates are not judged against the stroke (the answer is, by
+    :func:`_batch_decides`); a height the core does not solve is left to the batch."""
     cfg = kernel.config
     zero = (0.0, 0.0, 0.0)
     parallel = parallel_rods(cfg)
-    q, P, L, closure, frame, _ = inverse_parts(kernel, 0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, zero,
-                                               stroke=False)
+    h = 0.5 * (cfg.stroke_min + cfg.stroke_max)
+    q, P, L, closure, frame, _, first = inverse_parts(kernel, h, tilt, az, zero, stroke=False)
     for _ in range(PLANE_ITERATIONS):
-        r00, r01, n0, r10, r11, n1, r20, r21, n2, t0, t1, t2 = cast('tuple[float, ...]', frame)
+        fr = cast('tuple[float, ...]', frame)
+        n0, n1, n2, t0, t1, t2 = fr[2], fr[5], fr[8], fr[9], fr[10], fr[11]
         e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
         normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
         if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
-            return q, P, L, closure, frame
+            return _Height(q, P, L, closure, frame, first, h)
         if normal_error > NORMAL_TOLERANCE or not parallel:  # rods that move together would turn the platform
-            q, P, L, closure, frame, _ = inverse_parts(kernel, t2 + e / n2, tilt, az, zero, stroke=False)
+            h = t2 + e / n2
+            q, P, L, closure, frame, _, first = inverse_parts(kernel, h, tilt, az, zero, stroke=False)
         else:
             c = e / n2
             q = [q[0] + c, q[1] + c, q[2] + c]
-            P = kernel.centres(q[0], q[1], q[2])
-            geo = kernel.geometry
-            ux, uy, uz = cast('Vec3', (geo.ux[0], geo.uy[0], geo.uz[0]))
-            frame = (r00, r01, n0, r10, r11, n1, r20, r21, n2, t0 + c * ux, t1 + c * uy, t2 + c * uz)
+            P, frame = kernel.centres(q[0], q[1], q[2]), _translated(kernel, frame, c)
     raise ConvergenceError('station height did not converge')  # the batch path says by how much
 
 
 def _target(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3) -> tuple[float, float, float]:
     """The arm's target for the wafer at ``w`` in the platform frame and the station's orientation ``R_b``
     (gpr_base) on a platform turned by ``R_platform``: the wafer point and heading in the mount frame [m, rad]."""
-    M = mat_tmul(R_platform, R_b)
+    (a00, a01, _), (a10, a11, _), (a20, a21, _) = R_platform   # of M = R_platform^T R_b, the first column only
+    b00, b10, b20 = R_b[0][0], R_b[1][0], R_b[2][0]
     c, s = math.cos(-arm.mount_yaw), math.sin(-arm.mount_yaw)
     x, y = w[0] - arm.mount_position[0], w[1] - arm.mount_position[1]
-    return c * x - s * y, s * x + c * y, math.atan2(M[1][0], M[0][0]) - arm.mount_yaw
+    return (c * x - s * y, s * x + c * y,
+            math.atan2(a01 * b00 + a11 * b10 + a21 * b20, a00 * b00 + a10 * b10 + a20 * b20) - arm.mount_yaw)
 
 
 def _held_values(arm: Arm, targets: list[tuple[float, float, float]], sign: float, value: float | None
@@ -227,15 +250,16 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
     R_b = mat_tmul(R_wb, R_st)
     p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
-    tilt, az = cast('tuple[float, float]', tilt_of_normal(SCALAR, *n_b))
+    tilt, az = tilt_of_normal_one(*n_b)
     if tilt - cfg.tilt_limit > tilt_target_slack(cfg) - EDGE_MARGIN:
         return None
     zw = arm_floats(arm).wafer_height
     try:
-        q, P_q, L, closure, frame = _platform_height(kernel, tilt, az, p_b, n_b, zw)
+        height = _platform_height(kernel, tilt, az, p_b, n_b, zw)
     except (LimitError, ConvergenceError):
         return None
-    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = cast('tuple[float, ...]', frame)
+    q = height.q
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = cast('tuple[float, ...]', height.frame)
     R = (r00, r01, r02), (r10, r11, r12), (r20, r21, r22)
     target = _target(arm, mat_tvec(R, (p_b[0] - t0, p_b[1] - t1, p_b[2] - t2)), R, R_b)
     # The naive model's answer: platform at (0, 0, h) tilted about its centre.
@@ -259,16 +283,19 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
     wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
     # the real platform under the naive rods (tilt_matrix's third column is the naive normal): its pose only
     q_n = cast('list[float]', naive_rods(kernel.geometry, h, [R_n[0][2], R_n[1][2], R_n[2][2]], (0.0, 0.0, 0.0)))
-    P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
-    f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = cast('tuple[float, ...]', rigid_fit(
-        SCALAR, P_n, kernel.closure(*kernel.lengths(P_n)).components))
+    if parallel_rods(cfg):  # the naive rods change the core's first rods by a common amount: its fit translated
+        fit = _translated(kernel, height.first, (h - height.h_first) / cast('float', kernel.geometry.uz[0]))
+    else:
+        P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
+        fit = kernel.fit(P_n, kernel.closure(*kernel.lengths(P_n)).components)
+    f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = cast('tuple[float, ...]', fit)
     naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
     naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
-    return _Solved(q, sol.theta, (kernel, q, P_q, L, closure, frame), platform, blade, wafer, (wafer_p, blade_R), q_n,
-                   naive_sol.theta, naive_wafer, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]),
-                   _angle(R_st, wafer[1], free), R_st)
+    parts = (kernel, q, height.P, height.L, height.closure, height.frame)
+    return _Solved(q, sol.theta, parts, platform, blade, wafer, (wafer_p, blade_R), q_n, naive_sol.theta, naive_wafer,
+                   math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), R_st)
 
 
 def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
@@ -300,24 +327,23 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error]
     for p, (r0, r1, r2) in (one.platform, one.blade, one.wafer, one.on_platform, one.naive_wafer):
         flat += [*p, *r0, *r1, *r2]
-    a = np.array(flat)
+    gpr, a = one_row(*one.parts, head=flat)  # the station's values and the platform's pose in one array
     o = 8 + 2 * n  # the poses: 5 rows of a position and a rotation
-    poses = a[o:].reshape(5, 12)
+    poses = a[0, o:o + 60].reshape(5, 12)
     positions, rotations = poses[:, 0:3], poses[:, 3:12].reshape(5, 3, 3)
     platform, blade, wafer, on_platform, naive_wafer = (PoseBatch(positions[k:k + 1], rotations[k:k + 1])
                                                         for k in range(5))
-    rows = a[:o - 2].reshape(1, o - 2)
-    rods, joints = rows[:, 0:3], rows[:, 3:3 + n]
-    fk = _frozen(RobotForward, arm=arm.name, rods=rods, joints=joints, gpr=one_row(*one.parts),
-                 platform=platform, blade=blade, wafer=wafer, robot=robot, wafer_on_platform=on_platform)
-    return OneStation(rods, joints, fk, rows[:, 3 + n:6 + n], rows[:, 6 + n:6 + 2 * n], naive_wafer,
-                      a[o - 2:o - 1], a[o - 1:o])
+    rods, joints = a[:, 0:3], a[:, 3:3 + n]
+    fk = frozen(RobotForward, arm=arm.name, rods=rods, joints=joints, gpr=gpr, platform=platform, blade=blade,
+                wafer=wafer, robot=robot, wafer_on_platform=on_platform)
+    return OneStation(rods, joints, fk, a[:, 3 + n:6 + n], a[:, 6 + n:6 + 2 * n], naive_wafer, a[0, o - 2:o - 1],
+                      a[0, o - 1:o])
 
 
 Frozen = TypeVar('Frozen')
 
 
-def _frozen(cls: type[Frozen], **fields: object) -> Frozen:
+def frozen(cls: type[Frozen], **fields: object) -> Frozen:
     """An instance of the frozen dataclass ``cls`` with every field in ``fields`` (the caller's), without its
     ``__init__``'s per-field ``object.__setattr__``; the instance stays frozen."""
     out = cls.__new__(cls)
