@@ -390,7 +390,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     s = math.sin(t)
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
     _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
-    q_target = cast('list[float]', naive_rods(geo, h, n_target, tool))
+    q_target = kernel.naive_rods(h, n_target, tool)
     q = list(q_target)
     t0, t1, t2 = tool
     n0, n1, n2 = n_target
@@ -412,7 +412,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         err = max(err_h, err_n)
         if iterations == most:
             raise _not_converged(geo, most, '', err)
-        q_now = cast('list[float]', naive_rods(geo, h_now, [r02, r12, r22], tool))
+        q_now = kernel.naive_rods(h_now, (r02, r12, r22), tool)
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
     if stroke:
         _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)

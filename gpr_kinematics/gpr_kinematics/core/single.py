@@ -48,7 +48,7 @@ class OnePose:
     """
 
     __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base',
-                 '_radial_constants')
+                 '_radial_constants', '_naive_rods')
 
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
@@ -62,6 +62,7 @@ class OnePose:
                                   config.max_iterations)
         self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
                                                                           geo.offsets))
+        self._naive_rods = cast('tuple[Floats3, Floats3, Floats3, Floats3]', (geo.px, geo.py, geo.uz, geo.offsets))
         self._stiffness: Stiffness | None = None
         self._rest: Closure | None = None
         if vjm.name == 'compliant':
@@ -81,6 +82,16 @@ class OnePose:
         h2 = px * px + py * py
         a = 1.0 - h2
         return m00 * h0 + m01 * h1 + m02 * h2_, h2, -px, -py, math.sqrt(a if a >= 0.0 else 0.0)
+
+    def naive_rods(self, h: float, n: Sequence[float], tool: Sequence[float]) -> list[float]:
+        """:func:`~gpr_kinematics.core.naive.naive_rods` in floats (its operations): the naive model's rods for the
+        tool point ``tool`` at the height ``h`` and the platform normal ``n``."""
+        (px0, px1, px2), (py0, py1, py2), (u0, u1, u2), (o0, o1, o2) = self._naive_rods
+        n0, n1, n2 = n
+        t0, t1, t2 = tool
+        return [(h - n0 * (px0 - t0) - n1 * (py0 - t1) - n2 * t2) / u0 - o0,
+                (h - n0 * (px1 - t0) - n1 * (py1 - t1) - n2 * t2) / u1 - o1,
+                (h - n0 * (px2 - t0) - n1 * (py2 - t1) - n2 * t2) / u2 - o2]
 
     def centres(self, q0: float, q1: float, q2: float) -> Centres:
         """Joint centres ``P_k = B_k + (q_k + o_k) u_k`` (eq. (1); on parallel rods without offsets ``(B_k, q_k)``)."""

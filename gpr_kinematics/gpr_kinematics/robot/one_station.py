@@ -40,7 +40,6 @@ from ..core.floats import (
 )
 from ..core.forward import one_result, one_row
 from ..core.inverse import inverse_parts, tilt_target_slack
-from ..core.naive import naive_rods
 from ..core.platform_pose import RigidFit
 from ..core.rotations import wrap_angle
 from ..core.single import Centres, OnePose, one_pose
@@ -282,7 +281,7 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
     x, y, z = mat_vec(platform[1], wafer_p)
     wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
     # the real platform under the naive rods (tilt_matrix's third column is the naive normal): its pose only
-    q_n = cast('list[float]', naive_rods(kernel.geometry, h, [R_n[0][2], R_n[1][2], R_n[2][2]], (0.0, 0.0, 0.0)))
+    q_n = kernel.naive_rods(h, (R_n[0][2], R_n[1][2], R_n[2][2]), (0.0, 0.0, 0.0))
     if parallel_rods(cfg):  # the naive rods change the core's first rods by a common amount: its fit translated
         fit = _translated(kernel, height.first, (h - height.h_first) / cast('float', kernel.geometry.uz[0]))
     else:
