@@ -360,3 +360,18 @@ def test_a_station_request_s_tilt_beyond_a_turn_is_named_by_the_batch_path_witho
                                   f'here: {tilt:g} deg is {math.radians(tilt):.9g} rad)')
     one = one_station_request(robot, request(0.01), arm, arm.branch, None)
     assert one is not None and request_stations(robot, request(0.01), arm).tilt.tolist() == [0.01]
+
+
+def test_one_station_taken_by_a_list_of_one_index_equals_the_general_take():
+    """``take([i])`` (a caller's loop over stations, one per call) copies the rows as the index array does, and refuses
+    what it refuses with its message."""
+    st, _, _ = random_stations(ROBOT, 'arm1', 5, seed=3)
+    for i in (0, 3, 4, -1, -5):
+        one, general = st.take([i]), st.take(np.array([i]))
+        for name in ('position', 'tilt', 'azimuth', 'heading', 'heading_free'):
+            a, b = getattr(one, name), getattr(general, name)
+            assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b) and a.base is None
+        assert one.names == general.names
+    for bad in ([5], [-6], [True], [1.0]):
+        with pytest.raises(InputError, match=r'station index \[.*\]; allowed: integers from -5 to 4 \(5 stations\)'):
+            st.take(bad)

@@ -137,11 +137,15 @@ class Stations:
 
     def take(self, index: ArrayLike) -> Stations:
         """The stations at ``index`` (an integer array)."""
+        n = len(self)
+        if isinstance(index, list) and len(index) == 1 and type(index[0]) is int and -n <= index[0] < n:
+            i = index[0] % n   # one station (a caller's loop over them): its rows copied, no index array
+            return Stations(self.position[i:i + 1].copy(), self.tilt[i:i + 1].copy(), self.azimuth[i:i + 1].copy(),
+                            self.heading[i:i + 1].copy(), self.heading_free[i:i + 1].copy(), (self.names[i],))
         try:
             idx = np.atleast_1d(np.asarray(index))
         except (TypeError, ValueError):
             idx = np.array([np.nan])
-        n = len(self)
         if idx.ndim != 1 or (idx.size and (idx.dtype.kind not in 'iu' or idx.min() < -n or idx.max() >= n)):
             raise InputError(f'station index {brief(np.asarray(index, dtype=object).tolist())}; allowed: integers '
                              f'from {-n} to {n - 1} ({n} stations)')
