@@ -69,9 +69,10 @@ def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
 
 
 @pytest.mark.parametrize('kwargs, pattern', [
-    ({'tilt_step': 1e-12}, r'max_tilt / tilt_step = 3\.49066e\+10 tilt steps; allowed: a sweep of at most 200000'),
-    ({'tilt_step': 5e-324}, r'max_tilt / tilt_step = inf tilt steps'),
-    ({'azimuth_step': 1e-9}, r'azimuth_step = 1e-09 rad gives 6\.28319e\+09 azimuths'),
+    ({'tilt_step': 1e-7}, r'max_tilt / tilt_step = 349066 tilt steps; allowed: a sweep of at most 200000'),
+    # below the least steps (trajectory_node's parameters' too): 1e-12 and 5e-324 were counted as samples
+    ({'tilt_step': 5e-324}, r'tilt_step = 5e-324 rad; allowed: a step of at least 1e-07 rad'),
+    ({'azimuth_step': 1e-9}, r'azimuth_step = 1e-09 rad; allowed: a step of at least 0.0001 rad'),
     ({'passes': 1000}, r'the sweep would have 756000 samples \(21 tilts x 36 azimuths x 1000 passes\); allowed: at '
                        r'most 200000'),
 ])

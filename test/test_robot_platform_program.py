@@ -10,8 +10,8 @@ from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.robot.platform_program import parse_platform_program, sample_program
 
 
-@pytest.mark.parametrize('move_time, dwell', [(1e-12, 0.0), (0.5, 0.0), (0.5, 0.0105), (0.25 + 5e-10, 0.0),
-                                              (1e-12, 0.3)])
+@pytest.mark.parametrize('move_time, dwell', [(1e-3, 0.0), (0.5, 0.0), (0.5, 0.0105), (0.25 + 5e-10, 0.0),
+                                              (1e-3, 0.3)])
 def test_the_last_sample_is_the_last_station_at_the_programs_end(move_time, dwell):
     stations = [{'name': 'a', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': dwell},
                 {'name': 'b', 'height': 0.4, 'tilt': math.radians(1.0), 'azimuth': 0.5, 'dwell': 0.0,
@@ -24,6 +24,22 @@ def test_the_last_sample_is_the_last_station_at_the_programs_end(move_time, dwel
     assert s.tilt[-1] == pytest.approx(math.radians(1.0), abs=1e-15)
     n = math.floor(total * 100.0 + 1e-9)
     assert len(s) == n + 1 + (total - n / 100.0 > 1e-9 or n == 0)
+
+
+@pytest.mark.parametrize('move_time', [1e-6, 5000.0, 0.0, -1.0, float('nan')])
+def test_a_move_time_is_the_node_parameters_range(move_time):
+    """A file's (and a goal's) move_time took 1e-6 s and 5000 s, which trajectory_node's move_time parameter refused:
+    one range, MOVE_TIMES, for all."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.platform_program import MOVE_TIMES
+    from gpr_kinematics.ros.specs import TRAJECTORY
+
+    assert {p.name: p for p in TRAJECTORY}['move_time'].limits == MOVE_TIMES == (1e-3, 3600.0)
+    stations = [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}, {'height': 0.4, 'tilt': 0.0, 'azimuth': 0.0}]
+    with pytest.raises(ConfigError, match=r'^f: file: move_time = \S+ is invalid; allowed: seconds from 0.001 to '
+                                          r'3600$'):
+        parse_platform_program({'move_time': move_time, 'stations': stations}, 'f')
+    assert parse_platform_program({'move_time': 3600.0, 'stations': stations}, 'f').move_time == 3600.0
 
 
 @pytest.mark.parametrize('name', ['x' * 65, 'A\nB: station (9, 9, 9) m, FAKE', '', True, 'a b', 'A\n'])

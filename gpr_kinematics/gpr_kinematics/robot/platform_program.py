@@ -90,10 +90,19 @@ class ProgramSamples:
         return int(self.time.shape[0])
 
 
+#: A move's duration [s]: a program file's, a station's, a ``RunProgram`` goal's and ``trajectory_node``'s
+#: ``move_time`` parameter (a file took 1e-6 s and 5000 s, which the parameter refused).
+MOVE_TIMES = (1e-3, 3600.0)
+
+
 def move_time_of(value: Any, source: str, where: str) -> float:
-    """A ``move_time`` [s] of a program file, a station or a goal: a number > 0 of magnitude at most
-    :data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE` (:class:`ConfigError` naming ``source`` and ``where``)."""
-    return _number(source, where, 'move_time', value, 'seconds > 0', 0.0, lo_open=True)
+    """A ``move_time`` [s] of a program file, a station or a goal: a number within :data:`MOVE_TIMES`
+    (:class:`ConfigError` naming ``source`` and ``where``)."""
+    lo, hi = MOVE_TIMES
+    if not is_number(value) or not lo <= float(value) <= hi:
+        raise ConfigError(f'{source}: {where}: move_time = {brief(value)} is invalid; allowed: seconds from {lo:g} to '
+                          f'{hi:g}')
+    return float(value)
 
 
 def _number(source: str, where: str, key: str, value: Any, allowed: str, lo: float = -math.inf,

@@ -20,9 +20,10 @@ from typing import Any
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
 from ..core.messages import FRAME_PREFIX_RULE, FRAME_PREFIX_WORDS, Topic
-from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP
+from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, LEAST_STEPS
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
+from ..robot.platform_program import MOVE_TIMES
 from ..robot.timing import RATES
 from ..safety.margin import MARGIN, MARGIN_RANGE
 
@@ -240,17 +241,17 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
               constraint='within the stroke', read_only=True),
     ParamSpec('max_tilt', _D, DEFAULT_MAX_TILT, 'sweep: largest |alpha| [rad]', _F['tilt_limit'][:2],
               constraint='max_tilt <= tilt_limit', read_only=True),
-    ParamSpec('tilt_step', _D, DEFAULT_TILT_STEP, 'sweep: step of alpha [rad]', (1e-7, _F['tilt_limit'][1]),
-              read_only=True),
+    ParamSpec('tilt_step', _D, DEFAULT_TILT_STEP, 'sweep: step of alpha [rad]',
+              (LEAST_STEPS['tilt_step'], _F['tilt_limit'][1]), read_only=True),
     ParamSpec('azimuth_step', _D, DEFAULT_AZIMUTH_STEP, 'sweep: step of the azimuth gamma [rad]',
-              (1e-4, 2 * math.pi), read_only=True),
+              (LEAST_STEPS['azimuth_step'], 2 * math.pi), read_only=True),
     ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
     ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config, whose files a '
               'gpr/run_program goal may read (its program_file and the files it names: robot, geometry, stations); '
               'any other path is refused', constraint='existing folders, or [\'\'] for none', read_only=True),
-    ParamSpec('move_time', _D, 2.0, 'program: default duration of a move between stations [s]', (1e-3, 3600.0),
+    ParamSpec('move_time', _D, 2.0, 'program: default duration of a move between stations [s]', MOVE_TIMES,
               read_only=True),
     ParamSpec('loop', _B, False, 'start over after the last sample instead of exiting', read_only=True),
     ParamSpec('base_frame', _S, 'gpr_base', 'frame of the base (header.frame_id)', constraint='a tf frame name',
