@@ -160,6 +160,11 @@ def test_accuracy_on_the_euler_angles_gimbal_lock(name, lock, size):
     np.testing.assert_allclose(lin[:3], twist[:3], rtol=0, atol=1e-15)
     assert np.isnan(lin[3:]).all()
     assert 'are not defined there (NaN); read the rotation vector' in res.warnings[0]
+    # the exact deviations of the angles too (they printed -1.005 and +1.006 rad for a platform turned by 2 mrad)
+    assert np.isnan(res.exact[0, 3:]).all() and np.isfinite(res.exact[0, :3]).all()
+    np.testing.assert_allclose(res.exact[0, :3], res.exact_twist[0, :3], rtol=0, atol=1e-15)   # the position's own
+    off = accuracy_analysis(mech, near, ds).exact[0]   # off the lock: defined
+    assert np.isfinite(off).all()
 
 
 @pytest.mark.parametrize('name', ['gsp_d1d2d3d4a1a1.yaml', 'stewart_alwan.yaml', 'upu3.yaml', 'tripod_3rps.yaml'])

@@ -318,6 +318,9 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
     exact[:, angular] = wrap_angle(exact[:, angular])  # Euler angles wrap
+    lock = np.sin(euler_lock_distance(mech, arr)) < EULER_LOCK_UNDEFINED
+    exact[np.ix_(lock, angular)] = np.nan   # not defined there, as the linearised ones (the split of the first and
+    # third angle at the lock printed -1.005 and +1.006 rad for a platform turned by 2 mrad)
     # mechanisms whose errors also move the outcome components have their own
     lin_twist = mech.linearized_twist(arr, ds, dp) if hasattr(mech, 'linearized_twist') else _motion(mech, arr, rhs)
     dR = mech.rotation(exact_poses) @ np.swapaxes(mech.rotation(arr), -1, -2)
