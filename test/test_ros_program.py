@@ -80,7 +80,7 @@ def test_example_program_loads():
     ({'stations': [{'height': 0.3, 'tilt': 0.0}]}, ['station 0', 'azimuth']),
     ({'stations': [{'height': 0.3, 'tilt': float('nan'), 'azimuth': 0.0}]}, ['tilt', 'finite']),
     ({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'dwell': -1}]}, ['dwell', '>= 0']),
-    ({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'move_time': 0}]}, ['move_time', '> 0']),
+    ({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'move_time': 0}]}, ['move_time', 'seconds from 0.001 to 3600']),
     ({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0, 'speed': 1}]}, ['speed', 'allowed']),
     ({'stations': [{'height': 'high', 'tilt': 0.0, 'azimuth': 0.0}]}, ['height', 'high']),
     ({'stations': [], 'rate': 5}, ['rate']),
