@@ -234,7 +234,7 @@ def test_launch_files_use_the_shipped_files():
     for path in [*LAUNCH.glob('*.launch.xml'), *LAUNCH.glob('two_robots.launch.py'), common]:
         text = path.read_text()
         refs = re.findall(r"'(config|rviz|launch)', '(\w+\.(?:yaml|rviz|launch\.py))'|/(config|rviz|launch)/"
-                          r"(\w+\.(?:yaml|rviz|launch\.xml))", text)
+                          r"(\w+\.(?:yaml|rviz|launch\.xml|launch\.py))", text)
         assert refs, path.name
         for ref in refs:
             folder, name = (ref[0], ref[1]) if ref[0] else (ref[2], ref[3])
@@ -316,6 +316,54 @@ def test_a_parameter_of_another_kind_beyond_its_range_or_not_among_its_choices_i
 REQUIRED = {'kinematics_node', 'robot_simulator_node', 'state_publisher_node'}
 
 
+@pytest.mark.parametrize('name', [*NAMES, 'two_robots'])
+def test_every_launch_file_checks_its_arguments_before_any_node(name, monkeypatch):
+    """launch converts an argument when its action runs, after earlier nodes started, and an error then left them
+    running (ros2/launch#747): the check of every argument (launch_arguments.FILES, the arguments declared in both
+    variants) comes right after the declarations. Python: launch_common.checked; XML: an include of
+    check_arguments.launch.py naming the file."""
+    from gpr_kinematics.nodes.launch_arguments import CHECKED_FILE, FILES
+
+    entities = _load(name, monkeypatch)
+    kinds = [type(e).__name__ for e in entities]
+    declared = kinds.count('DeclareLaunchArgument')
+    assert kinds[:declared] == ['DeclareLaunchArgument'] * declared and kinds[declared] == 'OpaqueFunction'
+    check = entities[declared]
+    assert check.kwargs['function'].__name__ == '_check' and check.kwargs['args'] == [f'{name}.launch.py']
+    assert tuple(e.args[0] for e in entities[:declared]) == FILES[name]
+    root = ET.parse(LAUNCH / f'{name}.launch.xml').getroot()
+    children = list(root)
+    args = [c for c in children if c.tag == 'arg']
+    assert tuple(a.get('name') for a in args) == FILES[name] and children[:len(args)] == args
+    include = children[len(args)]
+    assert include.tag == 'include' and include.get('file') == ('$(find-pkg-share gpr_kinematics)/launch/'
+                                                               'check_arguments.launch.py')
+    assert [(a.get('name'), a.get('value')) for a in include.findall('arg')] == [(CHECKED_FILE,
+                                                                                 f'{name}.launch.xml')]
+
+
+def test_the_check_ends_the_launch_with_one_line(monkeypatch):
+    """A bad argument raises (ros2 launch: status 1, the message as the reason) before any node; the XML files'
+    check reads the file's name from the launch configuration their include sets."""
+    _load('check_arguments', monkeypatch)
+    from gpr_kinematics.nodes import launch_common
+
+    monkeypatch.setattr(launch_common, '_installed', lambda package: False)
+    context = types.SimpleNamespace(launch_configurations={'rate': 'abc', 'record': 'true', 'rviz': 'false'})
+    with pytest.raises(RuntimeError) as refused:
+        launch_common._check(context, 'offline_loop.launch.py')
+    assert str(refused.value) == ("invalid launch argument, no node started: rate:='abc' is not a number; allowed: "
+                                  "a number, 0.1 <= rate <= 5000.0 (trajectory_node's rate)")
+    context.launch_configurations.update(rate='50', rviz='true', checked_launch_file='replay.launch.xml')
+    with pytest.raises(RuntimeError, match=r"^invalid launch argument, no node started: rviz:='true' needs rviz2"):
+        launch_common._check(context, None)
+    context.launch_configurations['rviz'] = '0'
+    assert launch_common._check(context, None) is None
+    with pytest.raises(RuntimeError, match='checks the arguments of a launch file named by the launch argument '
+                                           'checked_launch_file'):
+        launch_common._check(types.SimpleNamespace(launch_configurations={}), None)
+
+
 @pytest.mark.parametrize('name', NAMES)
 def test_required_nodes_respawn_or_end_the_launch(name, monkeypatch):
     """Python: a required node respawns with the argument; every node's exit goes to launch_common's rule. XML: a
@@ -384,7 +432,8 @@ def test_two_robots_example(monkeypatch):
     assert all(set(p) <= set(loop) for p in passed)
     assert _text(includes[0].args[0].args[0]) == 'share/gpr_kinematics/launch/offline_loop.launch.py'
     root = ET.parse(LAUNCH / 'two_robots.launch.xml').getroot()
-    xml = [{a.get('name'): a.get('value') for a in inc.findall('arg')} for inc in root.iter('include')]
+    xml = [{a.get('name'): a.get('value') for a in inc.findall('arg')} for inc in root.iter('include')
+           if inc.get('file').endswith('/offline_loop.launch.xml')]
     assert [(p['namespace'], p['frame_prefix'], p['record']) for p in xml] == [('/r1', 'r1/', 'false'),
                                                                             ('/r2', 'r2/', 'false')]
     assert all(set(p) <= set(loop) for p in xml)

@@ -21,7 +21,7 @@ ARGUMENTS = (
 
 def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
-        *arguments(ARGUMENTS),
+        *arguments(ARGUMENTS, 'kinematics.launch.py'),
         node('kinematics_node', [{'robot_file': typed('robot'), 'config_file': typed('config_file'),
                                   'model': typed('model'), 'frame_prefix': typed('frame_prefix')}]),
     ])

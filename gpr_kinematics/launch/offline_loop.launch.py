@@ -44,7 +44,7 @@ def generate_launch_description() -> LaunchDescription:
     frames = {'frame_prefix': typed('frame_prefix')}
     cell = {'cell_file': typed('cell')}
     return LaunchDescription([
-        *arguments(ARGUMENTS),
+        *arguments(ARGUMENTS, 'offline_loop.launch.py'),
         node('kinematics_node', [geometry, frames]),
         node('robot_simulator_node', [geometry, cell]),
         node('state_publisher_node', [geometry, frames, cell]),

@@ -32,7 +32,7 @@ ARGUMENTS = (
 
 def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
-        *arguments(ARGUMENTS),
+        *arguments(ARGUMENTS, 'replay.launch.py'),
         node('state_publisher_node', [{'robot_file': typed('robot'), 'config_file': typed('config_file'),
                                        'model': typed('model'), 'frame_prefix': typed('frame_prefix')}],
              remappings=[('joint_states', LaunchConfiguration('joint_states'))]),

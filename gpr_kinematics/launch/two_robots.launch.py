@@ -5,7 +5,7 @@ namespace, its fixed frame r1/gpr_base or r2/gpr_base.
     ros2 launch gpr_kinematics two_robots.launch.py [mode:=idle] [robot:=my_robot.yaml] [rviz:=true]
     gpr program send gpr_kinematics/config/programs/example_robot_program.yaml --namespace /r1   # robot 1 moves
 """
-from gpr_kinematics.nodes.launch_common import COMMON, share_file
+from gpr_kinematics.nodes.launch_common import COMMON, checked, share_file
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription
 from launch.launch_description_sources import PythonLaunchDescriptionSource
@@ -28,6 +28,7 @@ PASSED = ('mode', 'program_file', 'robot', 'rviz', 'cell', 'use_sim_time', 'resp
 def generate_launch_description() -> LaunchDescription:
     entities = [DeclareLaunchArgument(name, default_value=default, description=text)
                 for name, default, text in ARGUMENTS]
+    entities.append(checked('two_robots.launch.py'))     # before any node (each loop checks its own too)
     for ns, prefix in ROBOTS:
         entities.append(IncludeLaunchDescription(
             PythonLaunchDescriptionSource(share_file('launch', 'offline_loop.launch.py')),

@@ -8,13 +8,17 @@ otherwise its end, and the failure (a non-zero exit status) of any other node, e
 the reason (which node, its exit status). ``launch`` itself would end a launch whose node emitted ``Shutdown`` with
 status 0; an error raised while handling the exit is what makes ``ros2 launch`` return 1, so that is how the reason
 is given.
+
+Every launch file checks its arguments right after declaring them (:func:`checked`, the rules of
+:mod:`~gpr_kinematics.nodes.launch_arguments`), before any node starts: ``launch`` converts an argument only when the
+action that uses it runs, after earlier nodes started, and an exception then left those nodes running
+(ros2/launch#747).
 """
 from __future__ import annotations
 
 from collections.abc import Iterable
 from typing import Any
 
-import yaml
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.launch_context import LaunchContext
@@ -25,6 +29,7 @@ from launch_ros.substitutions import FindPackageShare
 
 from ..errors import EXIT_BAD_INPUT
 from ..inputs.resources import PACKAGE
+from .launch_arguments import CHECKED_FILE, check_arguments, refusal, yaml_bool
 
 #: Nodes that run until the launch stops: restarted (``respawn``) or the end of the launch when they die.
 REQUIRED = ('kinematics_node', 'robot_simulator_node', 'state_publisher_node')
@@ -42,13 +47,46 @@ def share_file(folder: str, name: str) -> Any:
     return PathJoinSubstitution([FindPackageShare(PACKAGE), folder, name])
 
 
-def arguments(table: Iterable[tuple[str, str, str]]) -> list[Any]:
+def arguments(table: Iterable[tuple[str, str, str]], launch_file: str) -> list[Any]:
     """``params_file`` (the shipped config/gpr_params.yaml), one declared argument per (name, default, description)
-    of ``table``, then :data:`COMMON`."""
+    of ``table``, then :data:`COMMON`, then the check of their values (:func:`checked`) for ``launch_file``."""
     return [DeclareLaunchArgument('params_file', default_value=share_file('config', 'gpr_params.yaml'),
                                   description='ROS parameters file (ros__parameters form)'),
             *(DeclareLaunchArgument(name, default_value=default, description=text)
-              for name, default, text in (*table, *COMMON))]
+              for name, default, text in (*table, *COMMON)),
+            checked(launch_file)]
+
+
+def _installed(package: str) -> bool:
+    """Whether the ROS package ``package`` is on the ament index (as launch_ros looks a Node's package up)."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+
+    try:
+        get_package_prefix(package)
+    except PackageNotFoundError:
+        return False
+    return True
+
+
+def _check(context: LaunchContext, launch_file: str | None) -> None:
+    """End the launch (status 1) with one line naming every bad argument, before any node started."""
+    configurations = context.launch_configurations
+    if launch_file is None:
+        if CHECKED_FILE not in configurations:
+            raise RuntimeError(f'check_arguments.launch.py checks the arguments of a launch file named by the launch '
+                               f'argument {CHECKED_FILE} (the package\'s XML launch files include it); none given')
+        launch_file = configurations[CHECKED_FILE]
+    errors = check_arguments(launch_file, configurations, installed=_installed)
+    if errors:
+        raise RuntimeError(refusal(errors))
+
+
+def checked(launch_file: str | None = None) -> Any:
+    """The action that checks the arguments of ``launch_file`` (``offline_loop.launch.py``, ...; None: the one
+    named by the launch configuration :data:`~gpr_kinematics.nodes.launch_arguments.CHECKED_FILE`, as
+    launch/check_arguments.launch.py does for the XML files), to put after their declarations and before any
+    node."""
+    return OpaqueFunction(function=_check, args=[launch_file])
 
 
 def typed(name: str, value_type: type = str) -> Any:
@@ -60,11 +98,7 @@ def launch_bool(text: str) -> bool:
     """A launch argument read as ``launch`` reads a bool (``launch.utilities.type_utils.coerce_to_type``, which the
     Node's ``respawn`` goes through): ``1`` and ``0``, else YAML 1.1 (``true``, ``True``, ``yes``, ``on``, ...): the
     exit rule and the respawn agree (``respawn:=yes`` restarted the node and ended the launch)."""
-    value = {'1': 'true', '0': 'false'}.get(text, text)
-    try:
-        return yaml.safe_load(value) is True
-    except yaml.YAMLError:
-        return False
+    return yaml_bool(text) is True
 
 
 def _exited(context: LaunchContext, name: str, required: bool) -> None:
