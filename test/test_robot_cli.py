@@ -412,6 +412,44 @@ def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys,
                 0.0)   # taken
 
 
+def test_a_trajectory_whose_spline_leaves_the_checked_program_is_refused_in_its_cell_and_warned_without(capsys,
+                                                                                                        tmp_path):
+    """At 0.3 Hz the cell program's 19 points pass the controller's checks, but their spline put arm2's blade 0.685 m
+    into pm2's wall (the program checks safe, 6.09 mm): refused in the program's cell with the pair and the instant.
+    Without a cell, the example program at 0.1 Hz (4 points, 3.5 rad from the program, none of its stations) was
+    written without a word: written, with a warning."""
+    cell = str(config_path('programs/example_cell_program.yaml'))
+    status, out, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '0.3')
+    assert status == 2 and out == '' and list(tmp_path.iterdir()) == []
+    assert err.startswith("gpr program export: error: at --rate 0.3 Hz the spline between the trajectory's points "
+                          'leaves the checked program: arm2_blade and pm2/front_bottom come to -685.095 mm at t = '
+                          '38.000 s, within the margin of 2 mm in cell '), err
+    assert err.endswith('; allowed: a higher --rate (points closer together follow the program)\n')
+    status, out, err = run(capsys, 'program', 'export', PROGRAM, '--trajectory', str(tmp_path / 't.yaml'), '--rate',
+                           '0.1')
+    assert status == 0 and 'trajectory written to' in out
+    assert err == ("gpr program export: warning: at --rate 0.1 Hz the spline between the trajectory's points leaves "
+                   'the program by up to 3.47 rad (arm1_shoulder at t = 4.520 s); a higher --rate follows it more '
+                   'closely\n'), err
+    status, _, err = run(capsys, 'program', 'export', PROGRAM, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '5')
+    assert status == 0 and err == ''   # within 1e-3 of the program at 5 Hz
+
+
+def test_a_trajectory_longer_than_the_simulators_samples_is_exported(capsys, tmp_path):
+    """A 2,500 s program was refused for --trajectory at every --rate ('250001 samples at 100 Hz', the simulator's
+    count at its default rate, with the hint of a higher --rate that could not help): the trajectory is checked at
+    fewer samples per second there, and a day is its limit, as documented."""
+    program = tmp_path / 'long.yaml'
+    program.write_text('format: gpr_robot_program\nversion: 1\nunits: {length: mm, angle: deg}\n'
+                       f'robot: {config_path("robots/example_robot.yaml")}\nstations:\n'
+                       '  - {name: h, position: [750, 850, 260], heading: 90}\n'
+                       '  - {name: lp, position: [750, -100, 400], heading: -90}\n'
+                       'steps:\n  - {move: h}\n  - {move: lp, time: 2500}\n')
+    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
+                           '--rate', '50')
+    assert status == 0 and 'trajectory written to' in out, err
+
+
 def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):
     """`gpr --help` said programs were checked and exported (no send, no robot or calibration in its description),
     and --lead-in gave no unit."""
