@@ -57,3 +57,29 @@ def test_one_turn_and_its_slack_at_every_door():
     np.testing.assert_allclose(held.joints[:, 2], JUST_INSIDE - 2.0 * math.pi, atol=1e-15)
     with pytest.raises(InputError, match=r'redundancy value = 6.283185309 rad \(station 0\) is beyond one turn'):
         solve_stations(ROBOT, st, 'arm2', redundancy_value=JUST_BEYOND, check=False)
+
+
+def test_one_turn_in_a_robot_file_and_a_cell_file(tmp_path):
+    """A robot file's angles (a joint's limits, a held value) and a cell obstacle's tilt (360.00000005 deg) were
+    refused within the slack typed values and the azimuths take."""
+    import yaml
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.safety.cell import parse_cell
+
+    text = config_path('robots/example_robot.yaml').read_text()
+    robot = tmp_path / 'r.yaml'
+    old = 'name: arm1_wrist, length: 0.0, height: 0.02, lower: -3.05, upper: 3.05'
+    robot.write_text(text.replace(old, old.replace('upper: 3.05', f'upper: {JUST_INSIDE!r}')))
+    assert load_robot(robot).arm('arm1').joints[2].upper == JUST_INSIDE
+    robot.write_text(text.replace(old, old.replace('upper: 3.05', f'upper: {JUST_BEYOND!r}')))
+    with pytest.raises(ConfigError, match=r'upper = 6.28318530\d+ is invalid; allowed: radians within \[-2pi, 2pi\]'):
+        load_robot(robot)
+    box = {'name': 'b', 'box': [0.1, 0.1, 0.1], 'position': [1.0, 0.0, 0.5]}
+    for tilt, ok in ((360.00000005, True), (360.0000002, False)):
+        data = {'format': 'gpr_cell', 'version': 1, 'units': {'angle': 'deg'}, 'obstacles': [box | {'tilt': tilt}]}
+        if ok:
+            parse_cell(yaml.safe_load(yaml.safe_dump(data)), 'c')
+        else:
+            with pytest.raises(ConfigError, match='tilt'):
+                parse_cell(data, 'c')

@@ -438,6 +438,9 @@ def test_a_rod_not_parallel_to_the_others_slows_inverse_and_its_error_says_what_
     np.testing.assert_allclose(back, q, rtol=0, atol=1e-12)
     with pytest.raises(ConvergenceError, match=r'in 3 iterations.*: error \S+$'):   # parallel rods: no hint
         inverse_batch([0.5], math.radians(2.0), 0.0, config=CFG.replace(max_iterations=3))
+    inclined = CFG.replace(rod_directions=[[0.05, 0.0]] * 3, max_iterations=2)   # inclined alike: still parallel
+    with pytest.raises(ConvergenceError, match=r'in 2 iterations.*: error \S+$'):
+        inverse(0.3, 0.02, 0.5, config=inclined)
 
 
 def test_a_batch_has_one_row_per_target():

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 import zlib
 
 import numpy as np
@@ -197,3 +198,22 @@ def test_a_default_characteristic_length_out_of_range_is_refused_naming_where_it
     with pytest.raises(ConfigError, match=r'^upu: characteristic_length = 0; allowed'):   # 0 was the radius
         UPU3(characteristic_length=0, name='upu')
     assert UPU3(name='upu').characteristic_length == 0.17
+
+
+@pytest.mark.parametrize('value, shown', [(1e6, '1e+06'), (-0.01000001, '-0.01000001')])
+def test_a_parameter_error_beyond_a_centimetre_is_refused_by_the_api_too(value, shown):
+    """The bound of gpr accuracy --parameter-error (0.01 m, a tolerance table's) held on the command line only:
+    accuracy_analysis took 1e6 m and moved the GPR's platform by 333 km."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.mechanisms.accuracy import PARAMETER_ERROR_MOST, accuracy_analysis
+
+    mech = load_mechanism(config_path('mechanisms/gpr.yaml'))
+    p = np.zeros((3, 3))
+    p[1, 2] = value
+    words = (rf'joint_imperfections: value 6 of 9 is {re.escape(shown)} m, beyond 0.01 m; allowed: errors of at '
+             r'most 0.01 m')
+    with pytest.raises(InputError, match=words):
+        accuracy_analysis(mech, [0, 0, 0.5, 0.0349, 0, 0], None, {'joint_imperfections': p})
+    p[1, 2] = PARAMETER_ERROR_MOST
+    assert np.isfinite(accuracy_analysis(mech, [0, 0, 0.5, 0.0349, 0, 0], None,
+                                         {'joint_imperfections': p}).exact_twist).all()

@@ -37,7 +37,7 @@ import numpy as np
 from ..calibration.core_model import MODEL
 from ..calibration.tolerances import MAX_TOLERANCE
 from ..callbacks import StageProgress
-from ..errors import InputError, brief
+from ..errors import InputError, apart, brief
 from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.units import metres
@@ -265,7 +265,9 @@ def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np
         big = np.flatnonzero(np.abs(si) > MAX_TOLERANCE['m'])
         if big.size:   # a point's error of 1e6 m passed: nonsense printed as a result (0.05 with --mm left off)
             hint = '' if args.mm else ' (millimetres given as metres? give --mm)'
-            raise InputError(f'--parameter-error {name}: value {big[0] + 1} = {vals[big[0]]:g} '
+            typed = float(vals[big[0]])
+            shown = apart(abs(typed), MAX_TOLERANCE['m'] * (1000.0 if args.mm else 1.0))[0]   # 0.01000001 read 0.01
+            raise InputError(f'--parameter-error {name}: value {big[0] + 1} = {"-" if typed < 0 else ""}{shown} '
                              f'{"mm" if args.mm else "m"} is beyond {MAX_TOLERANCE["m"]:g} m; allowed: errors of at '
                              f'most {MAX_TOLERANCE["m"]:g} m, as a tolerance table\'s{hint}')
         params[name] = si.reshape(np.shape(nominal[name]))

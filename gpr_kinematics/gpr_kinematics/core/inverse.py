@@ -251,7 +251,7 @@ def _not_converged(geo: MachineGeometry, most: int, where: str, err: float) -> C
     """The error of a solve still outside its tolerance after ``most`` steps. The naive Jacobian of the iteration
     ignores how a rod that is not parallel to the others pushes the over-constrained platform sideways: there it
     gains a digit or less per step (one rod at 0.05 rad: 15 steps), so the message names ``max_iterations``."""
-    slow = any(ux != 0.0 or uy != 0.0 for ux, uy in zip(geo.ux, geo.uy, strict=True))
+    slow = len(set(zip(geo.ux, geo.uy, strict=True))) > 1   # inclined alike, the rods are still parallel
     hint = (f'; rods that are not parallel converge more slowly: give a larger max_iterations (allowed: at most '
             f'{ITERATIONS[1]})' if slow else '')
     return ConvergenceError(f'inverse kinematics did not converge in {most} iterations{where}: error {err:.3e}{hint}')

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..core.rotations import wrap_angle
-from ..errors import InputError, SingularityError, brief
+from ..errors import InputError, SingularityError, apart, brief
 from ..inputs.validation import MAX_COORDINATE, float_array
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, dexterity_index, euler_rate_matrix, rotation_vector
 
@@ -169,6 +169,11 @@ def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
     return np.array(arr)
 
 
+#: The largest error [m] of a geometric parameter (a point's displacement), a tolerance table's largest length too
+#: (:data:`gpr_kinematics.calibration.tolerances.MAX_TOLERANCE`).
+PARAMETER_ERROR_MOST = 0.01
+
+
 def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
     if errors is None or (isinstance(errors, Mapping) and not errors):
         return {}
@@ -194,6 +199,13 @@ def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict
             k = int(np.argmax(bad))
             raise InputError(f'{mech.name}: error of parameter {key}: value {k + 1} of {arr.size} is '
                              f'{arr.ravel()[k]}, not a finite number; {allowed}')
+        big = np.flatnonzero(np.abs(arr.ravel()) > PARAMETER_ERROR_MOST)
+        if big.size:   # 1e6 m moved the GPR's platform by 333 km, printed as a result
+            k = int(big[0])
+            shown, most = apart(abs(float(arr.ravel()[k])), PARAMETER_ERROR_MOST)
+            raise InputError(f'{mech.name}: error of parameter {key}: value {k + 1} of {arr.size} is '
+                             f'{"-" if arr.ravel()[k] < 0 else ""}{shown} m, beyond {most} m; allowed: errors of at '
+                             f'most {most} m (the linearisation means nothing beyond)')
         arr = arr.reshape(shape)
         undefined = ~np.isfinite(np.asarray(nominal[key], dtype=float))  # e.g. a GSP's A_j of a D1 constraint
         if np.any(arr[undefined] != 0.0):

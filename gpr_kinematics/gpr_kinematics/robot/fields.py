@@ -2,7 +2,6 @@
 angles, mappings, each refused with the file, the key, the value and what is allowed."""
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -10,7 +9,7 @@ from typing import Any
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import ConfigError, GprError, brief, kind_of
 from ..inputs.schema import is_huge_number, number_key, orientation_angle
-from ..inputs.validation import text_hint
+from ..inputs.validation import TURN, TURN_SLACK, text_hint
 
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
 NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
@@ -114,7 +113,8 @@ def _yaw(data: Mapping[str, Any], where: str) -> float:
 
 
 def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
-    return _number(data, key, where, -2 * math.pi, 2 * math.pi, 'radians within [-2pi, 2pi]', default, 'rad')
+    most = TURN + TURN_SLACK   # the one rule of a turn (beyond_turn): typed, in files and requests alike
+    return _number(data, key, where, -most, most, 'radians within [-2pi, 2pi]', default, 'rad')
 
 
 def check_names(rods: Sequence[str], joints: Sequence[str], arms: Sequence[str], source: str) -> None:

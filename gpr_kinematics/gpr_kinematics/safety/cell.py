@@ -24,7 +24,6 @@ key and the value, and at most :data:`MAX_OBSTACLES` obstacles are read.
 """
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -38,7 +37,7 @@ from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.units import to_si
-from ..inputs.validation import text_hint
+from ..inputs.validation import TURN, TURN_SLACK, text_hint
 from ..robot.fields import WORLD_BOUND
 from ..robot.station_files import DECLARE_DEG, units_of
 
@@ -122,7 +121,8 @@ def _rotation(data: Mapping[str, Any], where: str, angle: float, aunit: str) -> 
             raise ConfigError(f'{where}: rpy = {brief(rpy)} is invalid; allowed: a list of 3 numbers in {aunit}')
         r, p, y = (orientation_angle(v, f'rpy[{i}]', where, aunit, DECLARE_DEG) for i, v in enumerate(rpy))
         return np.asarray(rpy_matrix(r, p, y), dtype=np.float64)
-    t = _number(data.get('tilt', 0.0), where, 'tilt', -2 * math.pi, 2 * math.pi, aunit, angle)
+    most = TURN + TURN_SLACK   # the one rule of a turn, as the azimuth's (orientation_angle)
+    t = _number(data.get('tilt', 0.0), where, 'tilt', -most, most, aunit, angle)
     a, h = (orientation_angle(data.get(k, 0.0), k, where, aunit, DECLARE_DEG) for k in ('azimuth', 'heading'))
     return np.asarray(tilt_rotation(np.array([t]), np.array([a]))[0] @ rotation_z(np.array([h]))[0],
                       dtype=np.float64)
