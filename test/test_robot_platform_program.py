@@ -50,8 +50,13 @@ def test_station_names_follow_the_station_rule(name):
 
     with pytest.raises(ConfigError, match=r'station 0: name = .* is invalid.*allowed: 1 to 64 letters, digits, _ \. -'):
         parse_platform_program({'stations': [{'name': name, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}, 'p.yaml')
-    assert parse_platform_program({'stations': [{'name': 7, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}
-                                  ).stations[0].name == '7'
+    # a YAML number (007 read as 7, 1.5) is refused with the hint to quote it, as a cell obstacle's name
+    for number in (7, 1.5):
+        with pytest.raises(ConfigError, match=r'name = \S+ is invalid \(YAML read it as a number: quote the name to '
+                                              r'keep it as written\); allowed: '):
+            parse_platform_program({'stations': [{'name': number, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]})
+    assert parse_platform_program({'stations': [{'name': '007', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0}]}
+                                  ).stations[0].name == '007'
 
 
 def test_an_azimuth_beyond_a_turn_is_refused_as_degrees():

@@ -80,7 +80,11 @@ def test_an_empty_heading_is_free(tmp_path):
     # a name an exported table would give a spreadsheet as a formula (=-A1-B1)
     ('s.csv', 'name,x,y,z\n-A1-B1,1,0,0.4\n', r"line 2: name = '-A1-B1' is invalid; allowed: 1 to 64 letters, digits, "
                                               r'_ \. - \(not - first: a spreadsheet reads such a cell as a formula\)$'),
-    ('s.yaml', 'stations: [{name: -5, position: [1, 2, 0.4]}]\n', r"name = -5 is invalid; allowed: 1 to 64 letters"),
+    ('s.yaml', 'stations: [{name: -5, position: [1, 2, 0.4]}]\n', r"name = -5 is invalid \(YAML read it as a number: "
+                                                                  r"quote the name to keep it as written\); allowed: "
+                                                                  r"1 to 64 letters"),
+    # 007 named the station 7 (a CSV file's 007 stays 007): a number is refused with the hint to quote it
+    ('s.yaml', 'stations: [{name: 007, position: [1, 2, 0.4]}]\n', r"name = 7 is invalid \(YAML read it as a number"),
     ('s.yaml', 'stations: [{name: "a\\n", position: [1, 2, 3]}]\n', r"stations\[0\]: name = 'a\\n' is invalid"),
     ('s.csv', 'name,x,y,z\na,1,0,\n', r'line 2 \(a\): x, y and z are required'),
     ('s.csv', 'name,x,y,z\na,1,0,0.4\na,1,0,0.5\n', r"station name 'a' is used twice \(stations 0 and 1\)"),

@@ -264,9 +264,9 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
             continue
         check_keys(st, (kind, 'arm', 'branch', 'dwell', 'time'), where)
         station = st[kind]
-        if not isinstance(station, (str, int)) or str(station) not in names:
-            hint = text_hint(station) if isinstance(station, bool) else ''
-            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{hint}; allowed: {_known(names)}')
+        if not isinstance(station, str) or station not in names:   # move: 007 read as 7 too: quote it
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{text_hint(station)}; allowed: '
+                              f'{_known(names)}')
         time = None if st.get('time') is None else _seconds(st['time'], where, 'time', positive=True)
         if time is not None and all(s.kind == 'dwell' for s in out):  # it was dropped without a word
             raise ConfigError(f'{where}: time = {time:g} s on the first move: the program starts at its first '

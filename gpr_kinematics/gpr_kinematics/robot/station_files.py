@@ -156,12 +156,13 @@ def _position(xyz: tuple[float, float, float], where: str, unit: str) -> tuple[f
 
 
 def station_name(value: Any, where: str) -> str:
-    """A station's name: 1 to 64 letters, digits, ``_ . -``, not ``-`` first (a YAML number is read as its text, a
-    boolean refused with the hint to quote it); :class:`ConfigError` naming ``where`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (str, int)) or not _NAME.fullmatch(str(value)):
-        hint = text_hint(value) if isinstance(value, bool) else ''
-        raise ConfigError(f'{where}: name = {brief(value)} is invalid{hint}; allowed: {NAME_RULE}')
-    return str(value)
+    """A station's name: text of 1 to 64 letters, digits, ``_ . -``, not ``-`` first; a YAML boolean or number is
+    refused with the hint to quote it (``007`` read as 7 named the station ``7``, which a CSV file's ``007`` was not;
+    ``1.5`` was refused by the rule it meets), as a cell obstacle's name; :class:`ConfigError` naming ``where``
+    otherwise."""
+    if not isinstance(value, str) or not _NAME.fullmatch(value):
+        raise ConfigError(f'{where}: name = {brief(value)} is invalid{text_hint(value)}; allowed: {NAME_RULE}')
+    return value
 
 
 def _branch(value: Any, where: str) -> str | None:
