@@ -184,7 +184,11 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', 'example_stations.yaml'], r'a platform program: its accuracy budget needs --tolerances TABLE'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--robot', 'example_robot.yaml'],
          r'--robot goes with a robot program'),
-        (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '-1'], r'--samples = -1; allowed'),
+        # the whole range, not '>= 0' (1000001 is refused as well)
+        (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '-1'],
+         r'--samples = -1; allowed: an integer from 0 to 1000000$'),
+        (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--seed', '-1'],
+         r'--seed = -1; allowed: an integer from 0 to 2\*\*63 - 1$'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '2000000'],
          r'samples = 2000000; allowed: an integer from 0 to 1000000'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--calibration-plan', '0'],

@@ -97,10 +97,11 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
     if args.errors is not None or args.parameter_error:
         raise InputError('--errors and --parameter-error belong to the mechanism analysis; with --tolerances the '
                          'table gives the errors (rod_length, parameters, joint_clearance)')
-    if args.samples is not None and args.samples < 0:
-        raise InputError(f'--samples = {args.samples}; allowed: an integer >= 0')
-    if args.seed is not None and args.seed < 0:
-        raise InputError(f'--seed = {args.seed}; allowed: an integer >= 0')
+    from ..calibration.budget import MAX_SAMPLES
+    if args.samples is not None and not 0 <= args.samples <= MAX_SAMPLES:   # the whole range, as the budget's
+        raise InputError(f'--samples = {args.samples}; allowed: an integer from 0 to {MAX_SAMPLES}')
+    if args.seed is not None and not 0 <= args.seed <= 2 ** 63 - 1:
+        raise InputError(f'--seed = {args.seed}; allowed: an integer from 0 to 2**63 - 1')
     if args.calibration_plan is not None and args.calibration_plan < 1:
         raise InputError(f'--calibration-plan = {args.calibration_plan}; allowed: an integer >= 1 (configurations)')
     if args.plot is not None:

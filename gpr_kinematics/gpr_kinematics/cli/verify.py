@@ -47,8 +47,8 @@ def parse_tolerances(items: list[str] | None) -> Tolerances:
             v = number(value)
         except ValueError:
             v = math.nan
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(f'--tolerance {item[:60]!r}: the value must be a finite number >= 0 (SI units)')
+        if not math.isfinite(v):   # a negative one is named with its name's range below (Tolerances.replace)
+            raise InputError(f'--tolerance {item[:60]!r}: the value must be a finite number (SI units)')
         if name and name not in Tolerances.names():
             raise InputError(f'--tolerance {item[:60]!r}: unknown name {name[:40]!r}; allowed: a number, or '
                              f'NAME=VALUE with NAME one of {allowed}')
