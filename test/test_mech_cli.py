@@ -164,6 +164,9 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--parameter-error', 'A_i',
       *['0'] * 3, 'nan', *['0'] * 14],
      'error of parameter A_i: value 4 of 18 is nan, not a finite number; allowed: 18 finite values (shape (6, 3), SI)'),
+    # a number beyond the largest float named as typed, not as inf
+    (['accuracy', 'upu3.yaml', '--pose', '0', '0', '0.2', '0', '0', '0', '--errors', '1e400', '0', '0'],
+     "'1e400' is not a finite number (beyond the largest float, 1.8e308)"),
     # a point's error of 1e6 m passed as a result (z 9e3 m), and 0.05 with --mm left off as 50 mm
     (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0.0349', '0', '0', '--parameter-error', 'joint_imperfections',
       '0.05', *['0'] * 8],

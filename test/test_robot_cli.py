@@ -412,6 +412,15 @@ def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys,
                 0.0)   # taken
 
 
+def test_program_send_refuses_what_the_controller_would_before_it_looks_for_ros(capsys):
+    """gpr program send checks its trajectory as export does, before it needs ROS: the cell program at 5 Hz."""
+    cell = str(config_path('programs/example_cell_program.yaml'))
+    status, out, err = run(capsys, 'program', 'send', cell, '--rate', '5', '--timeout', '0.1')
+    assert status == 2 and out == '' and err.count('\n') == 1
+    assert err.startswith('gpr program send: error: at --rate 5 Hz a controller refuses the trajectory: sample '
+                          '753 '), err
+
+
 def test_a_trajectory_whose_spline_leaves_the_checked_program_is_refused_in_its_cell_and_warned_without(capsys,
                                                                                                         tmp_path):
     """At 0.3 Hz the cell program's 19 points pass the controller's checks, but their spline put arm2's blade 0.685 m

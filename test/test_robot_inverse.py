@@ -203,6 +203,8 @@ def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
                                          r'radians within \[-2pi, 2pi\] \(the held joint arm2_wrist ranges over '
                                          r'\[-2.5, 2.5\] rad\); in degrees\? give radians'):
         solve_stations(ROBOT, st, 'arm2', redundancy_value=np.where(np.arange(200) == 7, 30.0, 0.1), check=False)
+    with pytest.raises(InputError, match=r'redundancy value = -7 rad \(station 0\) is beyond one turn'):   # its sign
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=-7.0, check=False)
     turned = solve_stations(ROBOT, st.take([0]), 'arm2', redundancy_value=6.0, check=False)
     assert turned.joints[0, 2] == pytest.approx(6.0 - 2.0 * np.pi, abs=1e-15)
 

@@ -18,6 +18,7 @@ from robot_support import (
     ROBOT,
     TAUGHT_JOINTS,
     TAUGHT_RODS,
+    TILTED_RODS,
     make_robot,
     random_postures,
     random_stations,
@@ -59,6 +60,22 @@ def _offset_robot():
     return make_robot(_with_offsets(robot_data()))
 
 
+def _uneven_limits_robot():
+    """arm1's joints over [-3, 5] rad: the middle of a range (the representative of a wrapped joint) is 1 rad."""
+    data = robot_data()
+    for joint in data['arms'][0]['joints']:
+        joint['lower'], joint['upper'] = -3.0, 5.0
+    return make_robot(data)
+
+
+def _leaning_parallel_robot():
+    """Rods parallel to each other but leaning (0.03, -0.02): the height's change of the rods moves the platform along
+    them, the path that translates the fit instead of solving again."""
+    data = robot_data()
+    data['gpr'] = {'config': None, **TILTED_RODS, 'rod_directions': [[0.03, -0.02]] * 3}
+    return make_robot(data)
+
+
 CASES = {
     '3 joints': (ROBOT, 'arm1', 40),
     '4 joints, fixed_joint': (ROBOT, 'arm2', 40),
@@ -69,6 +86,11 @@ CASES = {
     'offsets, 4 joints, fixed_joint': (_offset_robot(), 'arm2', 30),
     'offsets, 4 joints, nearest': (_nearest_robot(offsets=True), 'arm2', 8),
     'rods not parallel, 3 joints': (tilted_rods_robot(), 'arm1', 30),
+    'uneven joint ranges, 3 joints': (_uneven_limits_robot(), 'arm1', 30),
+    'leaning parallel rods, 3 joints': (_leaning_parallel_robot(), 'arm1', 20),
+    'leaning parallel rods, 4 joints, fixed_joint': (_leaning_parallel_robot(), 'arm2', 20),
+    'beyond a tight budget, 3 joints': (make_robot(robot_data() | {'gpr': {'config': None,
+                                                                          'imperfection_budget': 1e-9}}), 'arm1', 10),
 }
 
 
@@ -81,9 +103,14 @@ def _assert_row(one, batch, i):
             np.testing.assert_allclose(getattr(getattr(one.forward, frame), part)[0],
                                        getattr(getattr(batch.forward, frame), part)[i], rtol=0, atol=ATOL,
                                        err_msg=f'{frame}.{part}')
-    for name in ('position', 'rotation', 'tilt', 'twist', 'centre_shift', 'virtual_joints', 'q'):
+    for part in ('position', 'rotation'):   # where the naive answer really puts the wafer
+        np.testing.assert_allclose(getattr(one.naive_wafer, part)[0], getattr(batch.naive_wafer, part)[i], rtol=0,
+                                   atol=ATOL, err_msg=f'naive_wafer.{part}')
+    for name in ('position', 'rotation', 'tilt', 'twist', 'centre_shift', 'virtual_joints', 'q', 'residual',
+                 'fit_residual'):
         np.testing.assert_allclose(getattr(one.forward.gpr, name)[0], getattr(batch.forward.gpr, name)[i], rtol=0,
                                    atol=ATOL, err_msg=f'gpr.{name}')
+    assert one.forward.gpr.within_budget[0] == batch.forward.gpr.within_budget[i]
     assert one.branch == (batch.branch[i],) and one.feasible.tolist() == [True]
     assert one.forward.gpr.iterations[0] == batch.forward.gpr.iterations[i]
 
@@ -360,6 +387,11 @@ def test_a_station_request_s_tilt_beyond_a_turn_is_named_by_the_batch_path_witho
                                   f'here: {tilt:g} deg is {math.radians(tilt):.9g} rad)')
     one = one_station_request(robot, request(0.01), arm, arm.branch, None)
     assert one is not None and request_stations(robot, request(0.01), arm).tilt.tolist() == [0.01]
+    held = robot.arm('arm2')   # a held joint's value beyond a turn (slack included) is no float-path station either
+    assert one_station_request(robot, request(0.01), held, held.branch, 0.1) is not None
+    for value in (7.0, -20.0, 2.0 * math.pi + 2e-9):
+        assert one_station_request(robot, request(0.01), held, held.branch, value) is None
+    assert one_station_request(robot, request(0.01), held, held.branch, 2.0 * math.pi + 5e-10) is not None
 
 
 def test_one_station_taken_by_a_list_of_one_index_equals_the_general_take():

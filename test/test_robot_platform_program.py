@@ -26,7 +26,7 @@ def test_the_last_sample_is_the_last_station_at_the_programs_end(move_time, dwel
     assert len(s) == n + 1 + (total - n / 100.0 > 1e-9 or n == 0)
 
 
-@pytest.mark.parametrize('move_time', [1e-6, 5000.0, 0.0, -1.0, float('nan')])
+@pytest.mark.parametrize('move_time', [1e-6, 5000.0, 0.0, -1.0, float('nan'), 'abc', [1], True])
 def test_a_move_time_is_the_node_parameters_range(move_time):
     """A file's (and a goal's) move_time took 1e-6 s and 5000 s, which trajectory_node's move_time parameter refused:
     one range, MOVE_TIMES, for all."""
