@@ -103,7 +103,7 @@ def test_human_readable_output(capsys):
     (['sweep', '--passes', 'x'], r"argument --passes: invalid int value: 'x'; allowed: a whole number of ASCII "
                                  r'digits \(e\.g\. 10\)$'),
     # a decimal comma where the command converts the values itself: a traceback (argparse's error escaped)
-    (['verify', 'BAG', '--tolerance', '0,5'], r"--tolerance '0,5': the value must be a finite number >= 0"),
+    (['verify', 'BAG', '--tolerance', '0,5'], r"--tolerance '0,5': the value must be a finite number \(SI units\)"),
     (['dexterity', 'GSP', '--vary', 'z', '0,1', '0.2', '5'], r'--vary takes NAME MIN MAX COUNT'),
     (['accuracy', 'GSP', '--pose', '0', '0', '0.3', '0', '0', '0', '--parameter-error', 'A_i', '0,5'],
      r"--parameter-error A_i: values must be numbers; got \['0,5'\]$"),
