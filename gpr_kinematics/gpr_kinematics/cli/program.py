@@ -27,6 +27,7 @@ from ..robot.plan import ProgramSummary, program_summary
 from ..safety.margin import MARGIN, STREAM_RATE
 from .options import named_file, number, png_plot, robot_of, robot_options, sample_rate, shipped
 from .output import JsonValue, emit_json
+from .program_trajectory import as_a_controller_takes_it
 from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
@@ -171,7 +172,6 @@ def _least_at(r: Any, c: Any) -> float:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ..errors import InputError
     from ..robot.export import check_table_path, sample_table, waypoint_table, write_table
     from ..robot.plan import sample_plan
     if args.waypoints is None and args.samples is None and args.trajectory is None:
@@ -211,7 +211,6 @@ def _cmd_export(args: argparse.Namespace) -> int:
 # -- the program as a joint trajectory: export --trajectory, send ------------------------------------------------
 def _check_trajectory_output(args: argparse.Namespace) -> None:
     """Refuse a bad ``--trajectory`` path or ``--lead-in`` before any work."""
-    from ..errors import InputError
     from ..inputs.files import check_output, check_suffix
     if args.trajectory is not None:
         check_suffix(args.trajectory, '--trajectory', ('.yaml', '.yml'))
@@ -222,80 +221,13 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 
 
-#: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
-CONTROLLER_RATE = 100.0
-
-
-def _as_a_controller_takes_it(plan: Any, traj: Any, rate: float, command: str) -> None:
-    """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
-    ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
-    sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: its limit
-    of samples is the node's, not the trajectory's), and, for a program in a cell, one whose spline comes within the
-    clearance margin (:func:`~gpr_kinematics.safety.check.trajectory_clearance`). The cubic between points a few per
-    second apart overshoots the program's velocities (the example cell program's rod_1 by 1.05 % at 5 Hz, beyond the
-    1 % a controller allows), and at 0.3 Hz put arm2's blade 0.685 m into a chamber's wall: such files were written,
-    or sent."""
-    from ..robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
-    from ..robot.timing import MAX_SAMPLES
-    joints = ControllerJoints.of(plan.robot)
-    current = joints.rest.copy()
-    current[joints.indices(traj.joint_names)] = traj.positions[0]
-    check_rate = min(CONTROLLER_RATE, (MAX_SAMPLES - 1) / max(traj.duration, 1e-9))
-    try:
-        motion = plan_motion(joints, traj, current, check_rate, plan.robot.config,
-                             Tolerances.uniform(len(joints.names), 0.0, 0.0, 0.0), 0.0)   # tolerances are the run's
-    except GoalError as exc:
-        raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
-                         'more points)') from None
-    if plan.program.cell is not None:
-        _keeps_the_cells_clearance(plan, traj, rate)
-    _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
-
-
-def _keeps_the_cells_clearance(plan: Any, traj: Any, rate: float) -> None:
-    """Refuse ``traj`` (the program at ``--rate``) whose spline comes within the clearance margin in the program's
-    cell (:func:`~gpr_kinematics.safety.check.trajectory_clearance`)."""
-    from ..safety.cell import load_cell
-    from ..safety.check import trajectory_clearance
-    report = trajectory_clearance(plan, load_cell(plan.program.cell), traj, MARGIN)
-    if report.below_margin:
-        p = min(report.below_margin, key=lambda c: c.distance)
-        raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
-                         f'program: {p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = '
-                         f'{p.time:.3f} s, within the margin of {MARGIN * 1000:g} mm in cell {plan.program.cell}; '
-                         'allowed: a higher --rate (points closer together follow the program)')
-
-
-#: How far [m or rad] the spline between a trajectory's points may leave the program before a warning says so
-#: (the simulator's default goal tolerance).
-DEVIATION_WARNED = 1e-3
-
-
-def _warn_deviation(plan: Any, motion: Any, names: Any, rate: float, command: str) -> None:
-    """Warn on stderr where the spline through the trajectory's points (``motion``, sampled as a controller samples
-    it) leaves the planned program by more than :data:`DEVIATION_WARNED` at those instants (the example robot program
-    at 0.1 Hz: by 3.5 rad, visiting none of its stations, and written without a word)."""
-    import numpy as np
-
-    from ..robot.plan import plan_samples
-    from ..robot.timing import sample_at
-    planned = plan_samples(plan, sample_at(plan.timing, motion.time)).positions
-    gap = np.abs(motion.positions - planned)
-    i, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
-    if gap[i, j] > DEVIATION_WARNED:
-        unit = 'm' if j < 3 else 'rad'
-        print(f'gpr program {command}: warning: at --rate {rate:g} Hz the spline between the trajectory\'s points '
-              f'leaves the program by up to {gap[i, j]:.3g} {unit} ({names[j]} at t = {motion.time[i]:.3f} s); a '
-              'higher --rate follows it more closely', file=sys.stderr)
-
-
 def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
     """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later."""
     if args.trajectory is None:
         return {}
     from ..robot.trajectory import program_trajectory, write_trajectory
     traj = program_trajectory(plan, args.rate)
-    _as_a_controller_takes_it(plan, traj, args.rate, 'export')   # in the program's time (its wafers' windows)
+    as_a_controller_takes_it(plan, traj, args.rate, 'export')   # in the program's time (its wafers' windows)
     traj = traj.shifted(args.lead_in)
     return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
             'trajectory_duration': traj.duration}
@@ -358,7 +290,7 @@ def _ros_names(args: argparse.Namespace) -> tuple[str, str]:
     from rclpy.validate_namespace import validate_namespace
     from rclpy.validate_topic_name import validate_topic_name
 
-    from ..errors import InputError, brief
+    from ..errors import brief
     ns = args.namespace if args.namespace.startswith('/') else '/' + args.namespace
     full: dict[str, str] = {}
     for option, name in (('--namespace', args.namespace), ('--joint-states', args.joint_states),
@@ -387,7 +319,6 @@ def _no_answer(what: str, given: str, name: str, timeout: float, option: str, ou
 
 
 def _cmd_send(args: argparse.Namespace) -> int:
-    from ..errors import InputError
     from ..robot.trajectory import lead_in, program_trajectory
     if not 0.0 < args.timeout <= 3600.0:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
@@ -396,7 +327,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
     sample_rate(args.rate)
     _, plan = _program(args, args.rate)
     traj = program_trajectory(plan, args.rate)
-    _as_a_controller_takes_it(plan, traj, args.rate, 'send')
+    as_a_controller_takes_it(plan, traj, args.rate, 'send')
     tc = _ros_modules()
     joint_states, action = _ros_names(args)
     with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:

@@ -1,0 +1,76 @@
+"""The trajectory ``gpr program export --trajectory`` writes and ``gpr program send`` sends, checked before either:
+as ``robot_simulator_node`` checks a goal, for the clearance of its spline in the program's cell, and against the
+program it stands for (a warning where its spline leaves it)."""
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from ..errors import InputError
+from ..safety.margin import MARGIN
+
+#: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
+CONTROLLER_RATE = 100.0
+
+
+def as_a_controller_takes_it(plan: Any, traj: Any, rate: float, command: str) -> None:
+    """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
+    ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
+    sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: its limit
+    of samples is the node's, not the trajectory's), and, for a program in a cell, one whose spline comes within the
+    clearance margin (:func:`~gpr_kinematics.safety.check.trajectory_clearance`). The cubic between points a few per
+    second apart overshoots the program's velocities (the example cell program's rod_1 by 1.05 % at 5 Hz, beyond the
+    1 % a controller allows), and at 0.3 Hz put arm2's blade 0.685 m into a chamber's wall: such files were written,
+    or sent."""
+    from ..robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
+    from ..robot.timing import MAX_SAMPLES
+    joints = ControllerJoints.of(plan.robot)
+    current = joints.rest.copy()
+    current[joints.indices(traj.joint_names)] = traj.positions[0]
+    check_rate = min(CONTROLLER_RATE, (MAX_SAMPLES - 1) / max(traj.duration, 1e-9))
+    try:
+        motion = plan_motion(joints, traj, current, check_rate, plan.robot.config,
+                             Tolerances.uniform(len(joints.names), 0.0, 0.0, 0.0), 0.0)   # tolerances are the run's
+    except GoalError as exc:
+        raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
+                         'more points)') from None
+    if plan.program.cell is not None:
+        _keeps_the_cells_clearance(plan, traj, rate)
+    _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
+
+
+def _keeps_the_cells_clearance(plan: Any, traj: Any, rate: float) -> None:
+    """Refuse ``traj`` (the program at ``--rate``) whose spline comes within the clearance margin in the program's
+    cell (:func:`~gpr_kinematics.safety.check.trajectory_clearance`)."""
+    from ..safety.cell import load_cell
+    from ..safety.check import trajectory_clearance
+    report = trajectory_clearance(plan, load_cell(plan.program.cell), traj, MARGIN)
+    if report.below_margin:
+        p = min(report.below_margin, key=lambda c: c.distance)
+        raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
+                         f'program: {p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = '
+                         f'{p.time:.3f} s, within the margin of {MARGIN * 1000:g} mm in cell {plan.program.cell}; '
+                         'allowed: a higher --rate (points closer together follow the program)')
+
+
+#: How far [m or rad] the spline between a trajectory's points may leave the program before a warning says so
+#: (the simulator's default goal tolerance).
+DEVIATION_WARNED = 1e-3
+
+
+def _warn_deviation(plan: Any, motion: Any, names: Any, rate: float, command: str) -> None:
+    """Warn on stderr where the spline through the trajectory's points (``motion``, sampled as a controller samples
+    it) leaves the planned program by more than :data:`DEVIATION_WARNED` at those instants (the example robot program
+    at 0.1 Hz: by 3.5 rad, visiting none of its stations, and written without a word)."""
+    import numpy as np
+
+    from ..robot.plan import plan_samples
+    from ..robot.timing import sample_at
+    planned = plan_samples(plan, sample_at(plan.timing, motion.time)).positions
+    gap = np.abs(motion.positions - planned)
+    i, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
+    if gap[i, j] > DEVIATION_WARNED:
+        unit = 'm' if j < 3 else 'rad'
+        print(f'gpr program {command}: warning: at --rate {rate:g} Hz the spline between the trajectory\'s points '
+              f'leaves the program by up to {gap[i, j]:.3g} {unit} ({names[j]} at t = {motion.time[i]:.3f} s); a '
+              'higher --rate follows it more closely', file=sys.stderr)
