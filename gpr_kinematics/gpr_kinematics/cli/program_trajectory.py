@@ -4,16 +4,23 @@ program it stands for (a warning where its spline leaves it)."""
 from __future__ import annotations
 
 import sys
-from typing import Any
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..safety.margin import MARGIN
+
+if TYPE_CHECKING:
+    from ..robot.controller import Motion
+    from ..robot.plan import ProgramPlan
+    from ..robot.trajectory import JointTrajectory
 
 #: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
 CONTROLLER_RATE = 100.0
 
 
-def as_a_controller_takes_it(plan: Any, traj: Any, rate: float, command: str) -> None:
+def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str) -> None:
     """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
     ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
     sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: its limit
@@ -35,21 +42,21 @@ def as_a_controller_takes_it(plan: Any, traj: Any, rate: float, command: str) ->
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
     if plan.program.cell is not None:
-        _keeps_the_cells_clearance(plan, traj, rate)
+        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate)
     _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
 
 
-def _keeps_the_cells_clearance(plan: Any, traj: Any, rate: float) -> None:
+def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float) -> None:
     """Refuse ``traj`` (the program at ``--rate``) whose spline comes within the clearance margin in the program's
-    cell (:func:`~gpr_kinematics.safety.check.trajectory_clearance`)."""
+    ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`)."""
     from ..safety.cell import load_cell
     from ..safety.check import trajectory_clearance
-    report = trajectory_clearance(plan, load_cell(plan.program.cell), traj, MARGIN)
+    report = trajectory_clearance(plan, load_cell(cell), traj, MARGIN)
     if report.below_margin:
         p = min(report.below_margin, key=lambda c: c.distance)
         raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
                          f'program: {p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = '
-                         f'{p.time:.3f} s, within the margin of {MARGIN * 1000:g} mm in cell {plan.program.cell}; '
+                         f'{p.time:.3f} s, within the margin of {MARGIN * 1000:g} mm in cell {cell}; '
                          'allowed: a higher --rate (points closer together follow the program)')
 
 
@@ -58,7 +65,7 @@ def _keeps_the_cells_clearance(plan: Any, traj: Any, rate: float) -> None:
 DEVIATION_WARNED = 1e-3
 
 
-def _warn_deviation(plan: Any, motion: Any, names: Any, rate: float, command: str) -> None:
+def _warn_deviation(plan: ProgramPlan, motion: Motion, names: Sequence[str], rate: float, command: str) -> None:
     """Warn on stderr where the spline through the trajectory's points (``motion``, sampled as a controller samples
     it) leaves the planned program by more than :data:`DEVIATION_WARNED` at those instants (the example robot program
     at 0.1 Hz: by 3.5 rad, visiting none of its stations, and written without a word)."""
@@ -68,7 +75,7 @@ def _warn_deviation(plan: Any, motion: Any, names: Any, rate: float, command: st
     from ..robot.timing import sample_at
     planned = plan_samples(plan, sample_at(plan.timing, motion.time)).positions
     gap = np.abs(motion.positions - planned)
-    i, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
+    i, j = (int(k) for k in np.unravel_index(int(np.argmax(gap)), gap.shape))
     if gap[i, j] > DEVIATION_WARNED:
         unit = 'm' if j < 3 else 'rad'
         print(f'gpr program {command}: warning: at --rate {rate:g} Hz the spline between the trajectory\'s points '
