@@ -278,12 +278,15 @@ def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Ve
 def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], position: Vec3, rotation: Mat3
                     ) -> tuple[FloatPose, FloatPose, FloatPose, FloatPose]:
     """The platform, blade and wafer in the world and the wafer on the platform for one posture on the platform pose
-    ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`)."""
+    ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`). The wafer turns as the blade:
+    its rotation is the blade's (:func:`~gpr_kinematics.core.floats.compose_one`'s product, made once)."""
     p_wb, R_wb = base_floats(robot)
     blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints)
     platform = compose_one(p_wb, R_wb, position, rotation)
-    return (platform, compose_one(*platform, blade_p, blade_R), compose_one(*platform, wafer_p, blade_R),
-            (wafer_p, blade_R))
+    blade = compose_one(*platform, blade_p, blade_R)
+    x, y, z = mat_vec(platform[1], wafer_p)
+    wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
+    return platform, blade, wafer, (wafer_p, blade_R)
 
 
 class ForwardFloats(NamedTuple):

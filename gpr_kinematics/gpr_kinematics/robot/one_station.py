@@ -33,7 +33,6 @@ from ..core.floats import (
     mat_mul,
     mat_tmul,
     mat_tvec,
-    mat_vec,
     rot_z,
     tilt_matrix,
     tilt_of_normal_one,
@@ -47,7 +46,7 @@ from ..core.virtual_joints import Closure
 from ..errors import ConvergenceError, LimitError
 from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, arm_floats, link_vectors
 from .description import Arm, RobotDescription
-from .forward import RobotForward, base_floats, platform_to_blade_one
+from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
 from .nearest import nearest_value
 from .planar_arm import OneArm, solve_arm_one
 from .stations import Stations
@@ -265,21 +264,14 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
     h = (n_b[0] * p_b[0] + n_b[1] * p_b[1] + n_b[2] * p_b[2] - zw) / n_b[2]
     R_n = tilt_matrix(tilt, az)
     naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
-    red = arm.redundancy
-    held, naive_held = (value, value) if red is None or red.rule != 'nearest' else _held_values(
-        arm, [target, naive_target], sign, value)
+    held, naive_held = _held_values(arm, [target, naive_target], sign, value)
     sol = solve_arm_one(arm, *target, sign, held)
     if _batch_decides(kernel, arm, q, sol, target[2], free):
         return None
     naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
     if _near_stretch(naive_sol):
         return None
-    # the poses (one_on_platform's steps, the wafer turned as the blade)
-    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, sol.theta)
-    platform = compose_one(p_wb, R_wb, (t0, t1, t2), R)
-    blade = compose_one(*platform, blade_p, blade_R)
-    x, y, z = mat_vec(platform[1], wafer_p)
-    wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
+    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t0, t1, t2), R)
     # the real platform under the naive rods (tilt_matrix's third column is the naive normal): its pose only
     q_n = kernel.naive_rods(h, (R_n[0][2], R_n[1][2], R_n[2][2]), (0.0, 0.0, 0.0))
     if parallel_rods(cfg):  # the naive rods change the core's first rods by a common amount: its fit translated
@@ -293,7 +285,7 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
     naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
     parts = (kernel, q, height.P, height.L, height.closure, height.frame)
-    return _Solved(q, sol.theta, parts, platform, blade, wafer, (wafer_p, blade_R), q_n, naive_sol.theta, naive_wafer,
+    return _Solved(q, sol.theta, parts, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
                    math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), R_st)
 
 
