@@ -40,6 +40,10 @@ def test_a_move_time_is_the_node_parameters_range(move_time):
                                           r'3600$'):
         parse_platform_program({'move_time': move_time, 'stations': stations}, 'f')
     assert parse_platform_program({'move_time': 3600.0, 'stations': stations}, 'f').move_time == 3600.0
+    program = parse_platform_program({'stations': stations}, 'f')   # and the Python API's default move time
+    with pytest.raises(ConfigError, match=r'^move_time = \S+ is invalid; allowed: seconds from 0.001 to 3600$'):
+        sample_program(program, 100.0, move_time)
+    assert len(sample_program(program, 100.0, 1e-3)) == 2 and len(sample_program(program, 1.0, 3600.0)) == 3601
 
 
 @pytest.mark.parametrize('name', ['x' * 65, 'A\nB: station (9, 9, 9) m, FAKE', '', True, 'a b', 'A\n'])

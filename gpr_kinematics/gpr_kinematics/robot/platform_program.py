@@ -182,8 +182,9 @@ def check_samples(program: PlatformProgram, rate: float, default_move_time: floa
     stations are solved (a dwell of 1e12 s included); :class:`ConfigError` otherwise."""
     if not 0.0 < plain_number(rate) < math.inf:
         raise ConfigError(f'rate = {brief(rate)} is invalid; allowed: a finite rate in Hz > 0')
-    if not 0.0 < plain_number(default_move_time) < math.inf:
-        raise ConfigError(f'move_time = {brief(default_move_time)} is invalid; allowed: seconds > 0')
+    lo, hi = MOVE_TIMES
+    if not lo <= plain_number(default_move_time) <= hi:   # the range of every other door (move_time_of)
+        raise ConfigError(f'move_time = {brief(default_move_time)} is invalid; allowed: seconds from {lo:g} to {hi:g}')
     T, S, idx = program_knots(program, default_move_time)
     total = float(T[-1])
     count = grid_count(total, rate)
