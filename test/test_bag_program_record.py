@@ -56,6 +56,18 @@ def test_a_program_with_straight_entries_and_wafers_survives_its_record() -> Non
     assert np.array_equal(ex.q, rs.gpr.q) and np.array_equal(ex.joints, rs.joints)
 
 
+@pytest.mark.parametrize('name', ['1e5', '2E-3', '.5', '007', 'yes', 'null', '2024-01-15', '1_000'])
+def test_a_station_named_like_a_number_survives_its_record(name: str) -> None:
+    """A station named ``1e5`` (YAML 1.2 reads a number, PyYAML's dumper left it plain) came back as 100000.0 and
+    was refused: ``gpr verify`` failed such a bag."""
+    stations = [{'name': name, 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0},
+                {'name': 'b', 'height': 0.4, 'tilt': 0.0, 'azimuth': 0.0}]
+    from gpr_kinematics.robot.platform_program import parse_platform_program
+    record = parse_record(record_text('platform_program', 0, 10, 50.0, False, 2.0,
+                                      program=parse_platform_program({'stations': stations})))
+    assert record.program is not None and record.program.stations[0].name == name
+
+
 def test_a_platform_program_and_a_sweep_recompute_exactly() -> None:
     program = load_platform_program(config_path('programs/example_stations.yaml'))
     record = parse_record(record_text('platform_program', 0, 10, 50.0, True, 0.4, program=program))

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from ..core import inverse_batch
@@ -138,8 +137,7 @@ def record_text(kind: str, first_sample: int, samples: int, rate: float, loop: b
         data['sweep'] = {k: (int(v) if k == 'passes' else float(v)) for k, v in sweep.items()}
     if program is not None:
         data['program'] = program_dict(program)
-    text: str = yaml.safe_dump(data, default_flow_style=None, sort_keys=False)
-    return text
+    return safe_yaml.dump(data, default_flow_style=None, sort_keys=False)
 
 
 def _integer(data: Mapping[str, Any], key: str, where: str) -> int:

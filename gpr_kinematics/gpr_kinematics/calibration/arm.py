@@ -31,11 +31,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..errors import InputError, apart
+from ..inputs import safe_yaml
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import LENGTH_BOUND, Arm, RobotDescription
 from ..robot.fields import LEAST
@@ -198,7 +198,7 @@ def calibrated_robot(robot: RobotDescription, arms: dict[str, Array]) -> RobotDe
 
 def write_robot(path: str | Path, robot: RobotDescription, comments: Sequence[str] = ()) -> Path:
     """Write ``robot`` as a robot description file (its GPR geometry inline), atomically."""
-    text = comment_lines(list(comments)) + yaml.safe_dump(robot.to_dict(), sort_keys=False, default_flow_style=None)
+    text = comment_lines(list(comments)) + safe_yaml.dump(robot.to_dict(), sort_keys=False, default_flow_style=None)
     return write_text(path, text, 'calibrated robot')
 
 

@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from ..core import base_points, forward_batch
@@ -25,6 +24,7 @@ from ..core.config import GprConfig
 from ..core.forward import stroke_words
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
 from ..errors import InputError, brief
+from ..inputs import safe_yaml
 from .files import comment_lines, write_text
 from .measurements import Measurements
 from .model import Parameter, ParameterSet, coordinate_of
@@ -251,7 +251,7 @@ def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) ->
     values = config.to_dict()
     if config.characteristic_length == config.radius:
         values['characteristic_length'] = None
-    body = yaml.safe_dump(values, sort_keys=False, default_flow_style=None)
+    body = safe_yaml.dump(values, sort_keys=False, default_flow_style=None)
     return comment_lines(comments) + body
 
 

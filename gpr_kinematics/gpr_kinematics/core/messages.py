@@ -21,11 +21,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
-from ..inputs.safe_yaml import YamlValue
+from ..inputs.safe_yaml import YamlValue, dump
 
 if TYPE_CHECKING:
     from .config import GprConfig
@@ -236,12 +235,12 @@ def stream_messages(types: MessageTypes, fk: ForwardResult, *, stamp_ns: int, fr
 def geometry_text(config: GprConfig) -> str:
     """``data`` of ``gpr/geometry`` (std_msgs/String, latched): the YAML of a ``GprConfig.to_dict()``, which
     ``GprConfig.from_mapping`` reads back equal; a recording names the geometry and model that produced it."""
-    text: str = yaml.safe_dump(config.to_dict(), default_flow_style=False, sort_keys=False)
+    text = dump(config.to_dict(), default_flow_style=False, sort_keys=False)
     return text
 
 
 def robot_text(robot: Described) -> str:
     """``data`` of ``gpr/robot`` (std_msgs/String, latched): the YAML of a ``RobotDescription.to_dict()`` (the
     robot description file format, its geometry inline), which ``parse_robot`` reads back equal."""
-    text: str = yaml.safe_dump(robot.to_dict(), default_flow_style=False, sort_keys=False)
+    text = dump(robot.to_dict(), default_flow_style=False, sort_keys=False)
     return text

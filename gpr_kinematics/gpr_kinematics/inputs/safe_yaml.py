@@ -44,8 +44,8 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 from ..errors import BRIEF_LENGTH, ConfigError, brief
 from .files import read_text
 
-__all__ = ['BRIEF_LENGTH', 'KIND_BYTES', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'YamlValue', 'brief', 'is_name',
-           'load_text', 'quoted_key', 'read_file']
+__all__ = ['BRIEF_LENGTH', 'KIND_BYTES', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'YamlValue', 'brief', 'dump',
+           'is_name', 'load_text', 'quoted_key', 'read_file']
 
 #: A value read from YAML before its file format has checked it: a dict, list, str, int, float, bool or None, nested
 #: in any way a user wrote. Honestly ``Any``: each format's checks (:mod:`gpr_kinematics.inputs.schema`) narrow it.
@@ -218,6 +218,21 @@ for _loader in (_BoundedLoader, _CLoader):
         _loader.add_constructor('tag:yaml.org,2002:float', _core_float)
         _loader.add_constructor('tag:yaml.org,2002:bool', _core_bool)
         _loader.add_constructor('tag:yaml.org,2002:timestamp', _as_text)
+
+
+class _Dumper(yaml.SafeDumper):
+    """PyYAML's safe dumper that quotes a text the package's loader would read as a number: YAML 1.2's floats
+    without a dot (``1e5``), which PyYAML's YAML 1.1 resolver leaves plain."""
+
+
+_Dumper.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_1_2, list('-+.0123456789'))
+
+
+def dump(data: YamlValue, **options: Any) -> str:
+    """``data`` as YAML text (``yaml.safe_dump``'s ``options``) that :func:`load_text` reads back as written: a
+    station named ``1e5`` is quoted."""
+    text: str = yaml.dump(data, Dumper=_Dumper, **options)
+    return text
 
 
 def is_name(key: YamlValue) -> bool:
