@@ -341,8 +341,9 @@ def test_tolerances_follow_control_msgs_rules():
     for entry, words in ((('arm1_elbow', -0.5, 0.0, 0.0), r'path_tolerance\[0\].position = -0.5'),
                          (('arm1_elbow', 0.0, math.nan, 0.0), 'velocity = nan'),
                          (('nope', 0.1, 0.0, 0.0), r"path_tolerance\[0\].name: unknown joint 'nope'")):
-        with pytest.raises(GoalError, match=words):
+        with pytest.raises(GoalError, match=words) as info:
             resolve_tolerances(JOINTS, DEFAULTS, [entry], [], 0.0)
+        assert info.value.code == INVALID_GOAL   # a bad tolerance, an unknown joint's too (it was INVALID_JOINTS)
     with pytest.raises(GoalError, match='goal_time_tolerance = -1.0 s'):
         resolve_tolerances(JOINTS, DEFAULTS, [], [], -1.0)
     with pytest.raises(GoalError, match='goal_tolerance has 11 entries; allowed: at most one per joint'):

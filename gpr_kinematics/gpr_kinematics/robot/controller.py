@@ -221,7 +221,10 @@ def _apply(joints: ControllerJoints, entries: Sequence[JointTolerance], position
     position, velocity = position.copy(), velocity.copy()
     seen: dict[int, int] = {}
     for i, (name, *values) in enumerate(entries):
-        k = int(joints.indices([name], f'{where}[{i}].name')[0])
+        if name not in joints.names:   # a bad tolerance, as docs/ros.md classes it (INVALID_JOINTS is joint_names')
+            raise GoalError(INVALID_GOAL, f'{where}[{i}].name: unknown joint {brief(name)}; allowed: '
+                            f'{", ".join(joints.names)}')
+        k = joints.names.index(name)
         if seen.setdefault(k, i) != i:   # which entry holds would be a guess
             raise GoalError(INVALID_GOAL, f'{where}[{i}] names joint {name!r} as {where}[{seen[k]}] does; allowed: '
                             'one entry per joint')
