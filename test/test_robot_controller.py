@@ -191,6 +191,22 @@ def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():
         _plan(JointTrajectory(('rod_1',), np.array([1.0]), np.array([[0.254]]), np.array([[0.2]])))
 
 
+def test_a_segment_at_the_limit_keeps_it_once_its_times_are_whole_nanoseconds():
+    """``gpr program export --trajectory --rate 7`` timed a segment exactly at arm1_shoulder's 1.5 rad/s over 1/7 s;
+    its message's whole nanoseconds made it 0.86 ns shorter, 6e-9 above the limit, and the simulator refused what the
+    command's check (of the unrounded times) passed: a segment is granted the message's 1 ns quantum."""
+    from gpr_kinematics.robot.controller import TIME_QUANTUM
+    v = JOINTS.velocity[3]                                              # arm1_shoulder
+    t = np.array([10.0, 11.0]) / 7.0
+    ns = np.round(t * 1e9) / 1e9                                         # as a message carries them
+    assert 0.8e-9 < np.diff(t)[0] - np.diff(ns)[0] < TIME_QUANTUM == 1e-9
+    start = JOINTS.rest[3]
+    for times in (t, ns):
+        _plan(_two_points(['arm1_shoulder'], [start], [start + v / 7.0], t=tuple(times)))
+    with pytest.raises(GoalError, match=r'points\[1\] needs arm1_shoulder at 1.5 rad/s on average'):  # 2 ns shorter
+        _plan(_two_points(['arm1_shoulder'], [start], [start + v / 7.0], t=(ns[0], ns[0] + np.diff(t)[0] - 2e-9)))
+
+
 @pytest.mark.parametrize('mean, refused', [(0.9, True), (0.66, False)])
 def test_a_spline_faster_than_the_limit_between_its_points_is_refused_at_its_sample(mean, refused):
     """Two points at rest 1 s apart on the elbow (2 rad/s), ``mean`` of its limit on average: the cubic's velocity

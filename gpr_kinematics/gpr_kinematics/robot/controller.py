@@ -54,6 +54,9 @@ ERROR_NAMES = {SUCCESSFUL: 'SUCCESSFUL', INVALID_GOAL: 'INVALID_GOAL', INVALID_J
                GOAL_TOLERANCE_VIOLATED: 'GOAL_TOLERANCE_VIOLATED'}
 #: Relative slack of the velocity limits (rounding of a trajectory timed exactly at a limit).
 VELOCITY_SLACK = 1e-9
+#: A message's time quantum [s]: a ``time_from_start`` is whole nanoseconds, so a segment timed exactly at a limit
+#: (``gpr program export --trajectory`` at 7 Hz: 1/7 s) arrives up to 1 ns shorter, its mean velocity 7e-9 above.
+TIME_QUANTUM = 1e-9
 #: Relative slack of the velocity limits at the samples of the interpolated motion: a spline through a program's
 #: S-curve samples overshoots their velocity between them (the example programs' cubic at 10 Hz by 0.21 % and 0.63 %,
 #: at 100 Hz by 0.002 % and 0.006 %), where one through points at rest overshoots its mean by half (cubic) or more.
@@ -302,8 +305,9 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
 
 def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
                       under_way: bool) -> None:
-    """Points' velocities and segments' means within the limits; ``under_way``: the first point is a sample of the
-    spline (:func:`late_start`'s state at the arrival), it and the first segment within the samples' slack."""
+    """Points' velocities and segments' means within the limits, a segment's duration given its
+    :data:`TIME_QUANTUM`; ``under_way``: the first point is a sample of the spline (:func:`late_start`'s state at the
+    arrival), it and the first segment within the samples' slack."""
     slack = np.full((traj.time.shape[0], 1), VELOCITY_SLACK)
     if under_way:
         slack[0] = SPLINE_VELOCITY_SLACK
@@ -320,8 +324,9 @@ def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
     if t[0] > 0.0:
         t, P = np.concatenate([[0.0], t]), np.vstack([start, P])
     if t.shape[0] > 1:
-        mean = np.abs(np.diff(P, axis=0)) / np.diff(t)[:, None]
-        bad = mean > (limits if traj.time[0] > 0.0 else limits[:-1])
+        step = np.abs(np.diff(P, axis=0))
+        mean = step / np.diff(t)[:, None]
+        bad = step > (limits if traj.time[0] > 0.0 else limits[:-1]) * (np.diff(t) + TIME_QUANTUM)[:, None]
         if bad.any():
             i, k = (int(v) for v in np.argwhere(bad)[0])
             into = i + (0 if traj.time[0] > 0.0 else 1)
