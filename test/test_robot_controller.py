@@ -21,9 +21,9 @@ from gpr_kinematics.robot.controller import (
     joint_state_values,
     late_start,
     plan_motion,
-    resolve_tolerances,
     trajectory_from_points,
 )
+from gpr_kinematics.robot.goal import resolve_tolerances
 from gpr_kinematics.robot.servo import servo, violation
 from gpr_kinematics.robot.timing import MAX_SAMPLES
 from gpr_kinematics.robot.trajectory import JointTrajectory, evaluate

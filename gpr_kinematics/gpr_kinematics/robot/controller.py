@@ -20,9 +20,8 @@
   platform tilted beyond ``tilt_limit`` at any sample (virtual-joint model), or what a ``clearance`` check refuses
   (``INVALID_GOAL``: the simulator's :class:`gpr_kinematics.safety.goal.GoalClearance`, the cell's clearance of the
   whole interpolated motion and the jump to a first point at ``t = 0``, certified between samples);
-- :class:`Tolerances` and :func:`resolve_tolerances`: the goal's ``path_tolerance`` / ``goal_tolerance`` with
-  control_msgs' rules (0: the controller's default; -1: not checked) over the defaults (the actuators and the check
-  of a tolerance at run time: :mod:`gpr_kinematics.robot.servo`). SI units.
+- :class:`Tolerances`: per joint, over the defaults (a goal's own: :func:`gpr_kinematics.robot.goal.resolve_tolerances`;
+  the actuators and the check of a tolerance at run time: :mod:`gpr_kinematics.robot.servo`). SI units.
 """
 from __future__ import annotations
 
@@ -54,8 +53,7 @@ ERROR_NAMES = {SUCCESSFUL: 'SUCCESSFUL', INVALID_GOAL: 'INVALID_GOAL', INVALID_J
                GOAL_TOLERANCE_VIOLATED: 'GOAL_TOLERANCE_VIOLATED'}
 #: Relative slack of the velocity limits (rounding of a trajectory timed exactly at a limit).
 VELOCITY_SLACK = 1e-9
-#: A message's time quantum [s]: a ``time_from_start`` is whole nanoseconds, so a segment timed exactly at a limit
-#: (``gpr program export --trajectory`` at 7 Hz: 1/7 s) arrives up to 1 ns shorter, its mean velocity 7e-9 above.
+#: A message's time quantum [s]: whole nanoseconds (a segment timed at a limit over 1/7 s arrives 0.86 ns shorter).
 TIME_QUANTUM = 1e-9
 #: Relative slack of the velocity limits at the samples of the interpolated motion: a spline through a program's
 #: S-curve samples overshoots their velocity between them (the example programs' cubic at 10 Hz by 0.21 % and 0.63 %,
@@ -215,48 +213,6 @@ class Tolerances:
         return cls(value(path), np.full(n, np.inf), value(goal), np.full(n, np.inf), float(goal_time))
 
 
-#: One entry of a goal's tolerance list: joint name, position, velocity, acceleration (control_msgs/JointTolerance).
-JointTolerance = tuple[str, float, float, float]
-
-
-def _apply(joints: ControllerJoints, entries: Sequence[JointTolerance], position: Array, velocity: Array,
-           where: str) -> tuple[Array, Array]:
-    position, velocity = position.copy(), velocity.copy()
-    seen: dict[int, int] = {}
-    for i, (name, *values) in enumerate(entries):
-        if name not in joints.names:   # a bad tolerance, as docs/ros.md classes it (INVALID_JOINTS is joint_names')
-            raise GoalError(INVALID_GOAL, f'{where}[{i}].name: unknown joint {brief(name)}; allowed: '
-                            f'{", ".join(joints.names)}')
-        k = joints.names.index(name)
-        if seen.setdefault(k, i) != i:   # which entry holds would be a guess
-            raise GoalError(INVALID_GOAL, f'{where}[{i}] names joint {name!r} as {where}[{seen[k]}] does; allowed: '
-                            'one entry per joint')
-        for target, what, v in ((position, 'position', values[0]), (velocity, 'velocity', values[1]),
-                                (None, 'acceleration', values[2])):
-            if not (math.isfinite(v) and (v >= 0.0 or v == -1.0)):
-                raise GoalError(INVALID_GOAL, f'{where}[{i}].{what} = {v!r}; allowed: 0 (the default), -1 (not '
-                                'checked) or a positive tolerance')
-            if target is not None and v != 0.0:
-                target[k] = np.inf if v == -1.0 else v
-    return position, velocity
-
-
-def resolve_tolerances(joints: ControllerJoints, defaults: Tolerances, path: Sequence[JointTolerance],
-                       goal: Sequence[JointTolerance], goal_time: float) -> Tolerances:
-    """A goal's tolerances over ``defaults`` (module docstring); ``goal_time`` 0: the default. Acceleration tolerances
-    are validated and not checked (the simulated joints' accelerations are not measured)."""
-    if not (math.isfinite(goal_time) and 0.0 <= goal_time <= MAX_DURATION):
-        raise GoalError(INVALID_GOAL, f'goal_time_tolerance = {goal_time!r} s; allowed: 0 (the default) or positive, '
-                        f'at most {MAX_DURATION:g} s')
-    for where, entries in (('path_tolerance', path), ('goal_tolerance', goal)):
-        if len(entries) > len(joints.names):
-            raise GoalError(INVALID_GOAL, f'{where} has {len(entries)} entries; allowed: at most one per joint '
-                            f'({len(joints.names)})')
-    path_p, path_v = _apply(joints, path, defaults.path_position, defaults.path_velocity, 'path_tolerance')
-    goal_p, goal_v = _apply(joints, goal, defaults.goal_position, defaults.goal_velocity, 'goal_tolerance')
-    return Tolerances(path_p, path_v, goal_p, goal_v, goal_time or defaults.goal_time)
-
-
 @dataclass(frozen=True)
 class Motion:
     """A checked goal sampled at the controller's rate: sample times ``time (K,)`` [s from the start], every joint's
@@ -305,9 +261,8 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
 
 def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
                       under_way: bool) -> None:
-    """Points' velocities and segments' means within the limits, a segment's duration given its
-    :data:`TIME_QUANTUM`; ``under_way``: the first point is a sample of the spline (:func:`late_start`'s state at the
-    arrival), it and the first segment within the samples' slack."""
+    """Points' velocities and segments' means (over a duration and :data:`TIME_QUANTUM`) within the limits;
+    ``under_way``: the first point is a spline's sample (:func:`late_start`), it and its segment within its slack."""
     slack = np.full((traj.time.shape[0], 1), VELOCITY_SLACK)
     if under_way:
         slack[0] = SPLINE_VELOCITY_SLACK

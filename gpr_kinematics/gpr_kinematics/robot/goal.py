@@ -14,22 +14,64 @@ from numpy.typing import NDArray
 
 from ..core.config import GprConfig
 from ..core.messages import NS_PER_S, SEC_MAX
+from ..errors import brief
 from .controller import (
     INVALID_GOAL,
     Clearance,
     ControllerJoints,
     GoalError,
-    JointTolerance,
     Motion,
     Tolerances,
     late_start,
     plan_motion,
-    resolve_tolerances,
     trajectory_from_points,
 )
 from .trajectory import MAX_DURATION, MAX_POINTS
 
 Array = NDArray[np.float64]
+
+
+#: One entry of a goal's tolerance list: joint name, position, velocity, acceleration (control_msgs/JointTolerance).
+JointTolerance = tuple[str, float, float, float]
+
+
+def _apply(joints: ControllerJoints, entries: Sequence[JointTolerance], position: Array, velocity: Array,
+           where: str) -> tuple[Array, Array]:
+    position, velocity = position.copy(), velocity.copy()
+    seen: dict[int, int] = {}
+    for i, (name, *values) in enumerate(entries):
+        if name not in joints.names:   # a bad tolerance, as docs/ros.md classes it (INVALID_JOINTS is joint_names')
+            raise GoalError(INVALID_GOAL, f'{where}[{i}].name: unknown joint {brief(name)}; allowed: '
+                            f'{", ".join(joints.names)}')
+        k = joints.names.index(name)
+        if seen.setdefault(k, i) != i:   # which entry holds would be a guess
+            raise GoalError(INVALID_GOAL, f'{where}[{i}] names joint {name!r} as {where}[{seen[k]}] does; allowed: '
+                            'one entry per joint')
+        for target, what, v in ((position, 'position', values[0]), (velocity, 'velocity', values[1]),
+                                (None, 'acceleration', values[2])):
+            if not (math.isfinite(v) and (v >= 0.0 or v == -1.0)):
+                raise GoalError(INVALID_GOAL, f'{where}[{i}].{what} = {v!r}; allowed: 0 (the default), -1 (not '
+                                'checked) or a positive tolerance')
+            if target is not None and v != 0.0:
+                target[k] = np.inf if v == -1.0 else v
+    return position, velocity
+
+
+def resolve_tolerances(joints: ControllerJoints, defaults: Tolerances, path: Sequence[JointTolerance],
+                       goal: Sequence[JointTolerance], goal_time: float) -> Tolerances:
+    """A goal's ``path_tolerance`` / ``goal_tolerance`` with control_msgs' rules (0: the controller's default; -1:
+    not checked) over ``defaults``; ``goal_time`` 0: the default. Acceleration tolerances
+    are validated and not checked (the simulated joints' accelerations are not measured)."""
+    if not (math.isfinite(goal_time) and 0.0 <= goal_time <= MAX_DURATION):
+        raise GoalError(INVALID_GOAL, f'goal_time_tolerance = {goal_time!r} s; allowed: 0 (the default) or positive, '
+                        f'at most {MAX_DURATION:g} s')
+    for where, entries in (('path_tolerance', path), ('goal_tolerance', goal)):
+        if len(entries) > len(joints.names):
+            raise GoalError(INVALID_GOAL, f'{where} has {len(entries)} entries; allowed: at most one per joint '
+                            f'({len(joints.names)})')
+    path_p, path_v = _apply(joints, path, defaults.path_position, defaults.path_velocity, 'path_tolerance')
+    goal_p, goal_v = _apply(joints, goal, defaults.goal_position, defaults.goal_velocity, 'goal_tolerance')
+    return Tolerances(path_p, path_v, goal_p, goal_v, goal_time or defaults.goal_time)
 
 
 
