@@ -423,16 +423,18 @@ def test_program_send_refuses_what_the_controller_would_before_it_looks_for_ros(
 
 def test_a_trajectory_whose_spline_leaves_the_checked_program_is_refused_in_its_cell_and_warned_without(capsys,
                                                                                                         tmp_path):
-    """At 0.3 Hz the cell program's 19 points pass the controller's checks, but their spline put arm2's blade 0.685 m
-    into pm2's wall (the program checks safe, 6.09 mm): refused in the program's cell with the pair and the instant.
+    """At 0.3 Hz the cell program's 19 points pass the controller's checks, but their spline put arm2's blade 8.7 mm
+    into pm2's wall (the program checks safe, 6.09 mm): refused in the program's cell with the pair, its least
+    distance and the instant (it quoted a bound of the search, -685 mm).
     Without a cell, the example program at 0.1 Hz (4 points, 3.5 rad from the program, none of its stations) was
     written without a word: written, with a warning."""
     cell = str(config_path('programs/example_cell_program.yaml'))
     status, out, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '0.3')
     assert status == 2 and out == '' and list(tmp_path.iterdir()) == []
     assert err.startswith("gpr program export: error: at --rate 0.3 Hz the spline between the trajectory's points "
-                          'leaves the checked program: arm2_blade and pm2/front_bottom come to -685.095 mm at t = '
-                          '38.000 s, within the margin of 2 mm in cell '), err
+                          'leaves the checked program: arm2_blade and pm2/front_bottom come to -8.670 mm at t = '
+                          '37.820 s, within the margin of 2 mm in cell '), err
+    assert '(the program itself keeps it)' in err
     assert err.endswith('; allowed: a higher --rate (points closer together follow the program)\n')
     status, out, err = run(capsys, 'program', 'export', PROGRAM, '--trajectory', str(tmp_path / 't.yaml'), '--rate',
                            '0.1')
@@ -444,10 +446,55 @@ def test_a_trajectory_whose_spline_leaves_the_checked_program_is_refused_in_its_
     assert status == 0 and err == ''   # within 1e-3 of the program at 5 Hz
 
 
+def _moved_cell_program(tmp_path):
+    """The example cell program with its chamber pm1 25 mm to the side, as a user might edit it: arm2's wafer hits
+    pm1's front (gpr program check: -5.049 mm at 26.607 s)."""
+    text = config_path('programs/example_cell_program.yaml').read_text()
+    old = 'position: [1450, 500, 720], tilt: 1.5, azimuth: 120, heading: 0, entry: 330'
+    assert old in text
+    text = text.replace(old, old.replace('500', '525')).replace('../robots/', f'{config_path("robots")}/')
+    program = tmp_path / 'moved.yaml'
+    program.write_text(text.replace('../cells/', f'{config_path("cells")}/'))
+    return program
+
+
+@pytest.mark.parametrize('rate', ['1000', '0.3'])
+def test_a_program_unsafe_in_its_cell_is_named_so_not_its_rate(capsys, tmp_path, rate):
+    """A program whose own motion collides was refused for --trajectory as 'the spline ... leaves the checked
+    program' at every rate, with the advice of a higher --rate and a bound of -582.560 mm: the program is named, with
+    the least distance gpr program check gives."""
+    program = _moved_cell_program(tmp_path)
+    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
+                           '--rate', rate)
+    assert status == 2 and out == '' and not (tmp_path / 't.yaml').exists()
+    assert err == ('gpr program export: error: the program itself is not safe in cell '
+                   f'{config_path("cells")}/example_cell.yaml: arm2_wafer and pm1/front_left come to -5.049 mm at '
+                   't = 26.607 s, within the margin of 2 mm (no --rate helps); allowed: a program gpr program check '
+                   'finds safe (it names every pair and move)\n'), err
+    status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert status == 1 and 'arm2_wafer / pm1/front_left' in out and '-5.049     26.607' in out
+
+
+def test_a_cell_program_exports_without_python_fcl_with_a_warning(capsys, tmp_path, monkeypatch):
+    """`program export` needs only numpy, scipy and PyYAML (README), but its new clearance check of a program in a
+    cell made it need python-fcl: without it the trajectory is written, with a warning that names what was not
+    checked and the extra that checks it."""
+    import sys
+    monkeypatch.setitem(sys.modules, 'fcl', None)
+    cell = str(config_path('programs/example_cell_program.yaml'))
+    status, out, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '10')
+    assert status == 0 and 'trajectory written to' in out and (tmp_path / 't.yaml').exists()
+    assert err == ('gpr program export: warning: the trajectory is not checked for the clearance of cell '
+                   f'{config_path("programs")}/../cells/example_cell.yaml: that needs the optional package '
+                   "'fcl' (pip install 'gpr_kinematics[safety]')\n"), err
+
+
 def test_a_trajectory_longer_than_the_simulators_samples_is_exported(capsys, tmp_path):
     """A 2,500 s program was refused for --trajectory at every --rate ('250001 samples at 100 Hz', the simulator's
     count at its default rate, with the hint of a higher --rate that could not help): the trajectory is checked at
-    fewer samples per second there, and a day is its limit, as documented."""
+    fewer samples per second there, and a day is its limit, as documented; a warning says robot_simulator_node at
+    its default rate refuses it (2,000 s at most; it had been written and sent without a word) and the rate it
+    needs."""
     program = tmp_path / 'long.yaml'
     program.write_text('format: gpr_robot_program\nversion: 1\nunits: {length: mm, angle: deg}\n'
                        f'robot: {config_path("robots/example_robot.yaml")}\nstations:\n'
@@ -457,6 +504,9 @@ def test_a_trajectory_longer_than_the_simulators_samples_is_exported(capsys, tmp
     status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
                            '--rate', '50')
     assert status == 0 and 'trajectory written to' in out, err
+    assert err == ('gpr program export: warning: the trajectory lasts 2500 s: robot_simulator_node samples a goal '
+                   'at its rate into at most 200000 samples and refuses it at its default rate of 100 Hz (at most '
+                   '1999.99 s); give the node a lower rate (at most 79.9996 Hz)\n'), err
 
 
 def test_help_names_every_program_subcommand_and_the_lead_in_unit(capsys):

@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from ..robot.controller import Motion
     from ..robot.plan import ProgramPlan
     from ..robot.trajectory import JointTrajectory
+    from ..safety.clearance import ClearanceReport, PairClearance
 
 #: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
 CONTROLLER_RATE = 100.0
@@ -23,17 +24,18 @@ CONTROLLER_RATE = 100.0
 def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str) -> None:
     """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
     ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
-    sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: its limit
-    of samples is the node's, not the trajectory's), and, for a program in a cell, one whose spline comes within the
+    sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: a warning
+    then says the node needs a lower ``rate``), and, for a program in a cell, one whose spline comes within the
     clearance margin (:func:`~gpr_kinematics.safety.check.trajectory_clearance`). The cubic between points a few per
     second apart overshoots the program's velocities (the example cell program's rod_1 by 1.05 % at 5 Hz, beyond the
-    1 % a controller allows), and at 0.3 Hz put arm2's blade 0.685 m into a chamber's wall: such files were written,
+    1 % a controller allows), and at 0.3 Hz put arm2's blade 8.7 mm into a chamber's wall: such files were written,
     or sent."""
     from ..robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
     from ..robot.timing import MAX_SAMPLES
     joints = ControllerJoints.of(plan.robot)
     current = joints.rest.copy()
     current[joints.indices(traj.joint_names)] = traj.positions[0]
+    longest = (MAX_SAMPLES - 1) / CONTROLLER_RATE
     check_rate = min(CONTROLLER_RATE, (MAX_SAMPLES - 1) / max(traj.duration, 1e-9))
     try:
         motion = plan_motion(joints, traj, current, check_rate, plan.robot.config,
@@ -42,22 +44,61 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
     if plan.program.cell is not None:
-        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate)
+        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate, command)
+    if traj.duration > longest:
+        print(f'gpr program {command}: warning: the trajectory lasts {traj.duration:.6g} s: robot_simulator_node '
+              f'samples a goal at its rate into at most {MAX_SAMPLES} samples and refuses it at its default rate of '
+              f'{CONTROLLER_RATE:g} Hz (at most {longest:.6g} s); give the node a lower rate '
+              f'(at most {(MAX_SAMPLES - 1) / traj.duration:.6g} Hz)', file=sys.stderr)
     _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
 
 
-def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float) -> None:
+def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float, command: str
+                               ) -> None:
     """Refuse ``traj`` (the program at ``--rate``) whose spline comes within the clearance margin in the program's
-    ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`)."""
+    ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), naming the program itself where it
+    does (:func:`~gpr_kinematics.safety.check.program_clearance`: no rate helps then). Without python-fcl, a warning
+    says the clearance is not checked (``program export`` needs only numpy, scipy and PyYAML)."""
     from ..safety.cell import load_cell
-    from ..safety.check import trajectory_clearance
-    report = trajectory_clearance(plan, load_cell(cell), traj, MARGIN)
-    if report.below_margin:
-        p = min(report.below_margin, key=lambda c: c.distance)
-        raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
-                         f'program: {p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = '
-                         f'{p.time:.3f} s, within the margin of {MARGIN * 1000:g} mm in cell {cell}; '
-                         'allowed: a higher --rate (points closer together follow the program)')
+    try:
+        import fcl  # noqa: F401
+
+        from ..safety.check import program_clearance, trajectory_clearance
+    except ModuleNotFoundError as exc:
+        if (exc.name or '').split('.')[0] != 'fcl':
+            raise
+        print(f'gpr program {command}: warning: the trajectory is not checked for the clearance of cell {cell}: '
+              "that needs the optional package 'fcl' (pip install 'gpr_kinematics[safety]')", file=sys.stderr)
+        return
+    loaded = load_cell(cell)
+    report = trajectory_clearance(plan, loaded, traj, MARGIN)
+    if not report.below_margin:
+        return
+    own = program_clearance(plan, loaded, MARGIN)
+    if own.below_margin:   # each pair below the margin to its least distance, as gpr program check quotes it
+        p = _least(program_clearance(plan, loaded, MARGIN, decide=False, only=_names(own)))
+        raise InputError(f'the program itself is not safe in cell {cell}: {_pair(p)}, within the margin of '
+                         f'{MARGIN * 1000:g} mm (no --rate helps); allowed: a program gpr program check finds safe '
+                         '(it names every pair and move)')
+    p = _least(trajectory_clearance(plan, loaded, traj, MARGIN, decide=False, only=_names(report)))
+    raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
+                     f'program: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm in cell {cell} (the program '
+                     'itself keeps it); allowed: a higher --rate (points closer together follow the program)')
+
+
+def _names(report: ClearanceReport) -> set[tuple[str, str]]:
+    """The pairs below the margin in ``report``, by their bodies' names."""
+    return {p.bodies for p in report.below_margin}
+
+
+def _least(report: ClearanceReport) -> PairClearance:
+    """The closest pair of ``report`` (searched to its minimum)."""
+    return min(report.pairs, key=lambda p: p.distance)
+
+
+def _pair(p: PairClearance) -> str:
+    """A pair in words: its bodies, their least distance and its instant."""
+    return f'{p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = {p.time:.3f} s'
 
 
 #: How far [m or rad] the spline between a trajectory's points may leave the program before a warning says so

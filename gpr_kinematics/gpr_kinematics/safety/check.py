@@ -11,6 +11,7 @@ to the arrival at the ``retract`` one.
 """
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -209,19 +210,38 @@ def program_bodies(plan: ProgramPlan, cell: Cell | None, wafers: WaferPlan | Non
 
 
 def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajectory, margin: float = MARGIN,
-                         tolerance: float = TOLERANCE) -> ClearanceReport:
+                         tolerance: float = TOLERANCE, decide: bool = True,
+                         only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
     """The certified clearance of the program's bodies (:func:`program_bodies`) over ``traj``, the program as a
     controller interpolates its points (:func:`~gpr_kinematics.robot.trajectory.program_trajectory`, times from the
     program's start): between points a few per second apart the spline leaves the checked motion (the example cell
-    program at 0.3 Hz put arm2's blade 0.685 m into a chamber's wall)."""
+    program at 0.3 Hz put arm2's blade 8.7 mm into a chamber's wall). ``decide``: as
+    :func:`~gpr_kinematics.safety.clearance.clearance`'s; ``only``: just these pairs of body names."""
     names = joint_limits(plan.robot)[0]
     columns = np.arange(len(names))
     if len(traj.joint_names) != len(names):
         raise InputError(f'the trajectory has {len(traj.joint_names)} joints; allowed: every joint of the robot '
                          f'({len(names)}), as program_trajectory makes it')
     moving = TrajectoryMotion.of(plan.robot, traj, columns, traj.positions[0])
-    bodies, pairs = program_bodies(plan, cell)
-    return clearance(moving, bodies, pairs, margin, tolerance, decide=True)
+    bodies, pairs = _pairs_of(*program_bodies(plan, cell), only)
+    return clearance(moving, bodies, pairs, margin, tolerance, decide=decide)
+
+
+def program_clearance(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, decide: bool = True,
+                      only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
+    """The clearance :func:`check_program` certifies (the program's bodies over the planned motion), each pair
+    searched only until its verdict is decided (``decide``, a pair below the margin then quoting bounds) or to its
+    minimum; ``only``: just these pairs of body names."""
+    bodies, pairs = _pairs_of(*program_bodies(plan, cell), only)
+    return clearance(PlanMotion(plan), bodies, pairs, margin, TOLERANCE, decide=decide)
+
+
+def _pairs_of(bodies: list[Body], pairs: list[tuple[int, int, Windows]], only: Collection[tuple[str, str]] | None
+              ) -> tuple[list[Body], list[tuple[int, int, Windows]]]:
+    """``bodies`` and those of ``pairs`` whose names are among ``only`` (all where None)."""
+    if only is None:
+        return bodies, pairs
+    return bodies, [(i, j, w) for i, j, w in pairs if (bodies[i].name, bodies[j].name) in only]
 
 
 def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE,
