@@ -391,11 +391,30 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
     _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
     q_target = kernel.naive_rods(h, n_target, tool)
-    q = list(q_target)
-    t0, t1, t2 = tool
-    n0, n1, n2 = n_target
     most = cfg.max_iterations
     tol_h, tol_n = cast('tuple[float, float]', tool_tolerances(cfg, tool))
+    q, P, L, closure, frame, iterations, first, err = (
+        kernel.radial_rods(q_target, h, n_target, tool, tol_h, tol_n) if kernel.model.name == 'radial' else
+        _steps(kernel, q_target, h, n_target, tool, tol_h, tol_n))
+    if err is not None:
+        raise _not_converged(geo, most, '', err)
+    r02, r12, r22 = frame[2], frame[5], frame[8]
+    if stroke:
+        _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
+    if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
+        check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
+    return InverseParts(q, P, L, closure, frame, iterations, first)
+
+
+def _steps(kernel: OnePose, q_target: list[float], h: float, n: Sequence[float], tool: Sequence[float], tol_h: float,
+           tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit, int, RigidFit,
+                                  float | None]:
+    """The steps of :func:`inverse_parts` from the rods ``q_target`` [m] on (the ``radial`` model's fused:
+    :meth:`~gpr_kinematics.core.single.OnePose.radial_rods`, which returns what this does)."""
+    q = list(q_target)
+    t0, t1, t2 = tool
+    n0, n1, n2 = n
+    most = kernel.config.max_iterations
     for iterations in range(most + 1):
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
@@ -409,13 +428,8 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         err_h, err_n = abs(h_now - h), max(max(abs(r02 - n0), abs(r12 - n1)), abs(r22 - n2))
         if err_h <= tol_h and err_n <= tol_n:
             break
-        err = max(err_h, err_n)
         if iterations == most:
-            raise _not_converged(geo, most, '', err)
+            return q, P, L, closure, frame, iterations, first, max(err_h, err_n)
         q_now = kernel.naive_rods(h_now, (r02, r12, r22), tool)
         q = [q[0] + q_target[0] - q_now[0], q[1] + q_target[1] - q_now[1], q[2] + q_target[2] - q_now[2]]
-    if stroke:
-        _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
-    if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
-        check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
-    return InverseParts(q, P, L, closure, frame, iterations, first)
+    return q, P, L, closure, frame, iterations, first, None

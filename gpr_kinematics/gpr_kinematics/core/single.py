@@ -156,6 +156,110 @@ class OnePose:
             iterations += 1
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
 
+    def radial_rods(self, q_target: list[float], h: float, n: Sequence[float], tool: Sequence[float], tol_h: float,
+                    tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit, int,
+                                           RigidFit, float | None]:
+        """The loop of :func:`~gpr_kinematics.core.inverse.inverse_parts` under the ``radial`` model, fused: each step
+        :meth:`centres`, :meth:`lengths`, :meth:`_radial`, :meth:`fit` and :meth:`naive_rods` with their operations
+        in their order (the same numbers), their objects built for the last step only. From the rods ``q_target``
+        [m] on, towards the tool point ``tool``'s height ``h`` [m] and normal ``n`` within ``tol_h``, ``tol_n``.
+        Returns the rods, of the last step the centres, side lengths, closure and fit and its index, the first step's
+        fit, and where the last step did not converge its error (else ``None``)."""
+        sqrt = math.sqrt
+        c0, c1, c2, s0, s1, s2, r0_, r1_, r2_, a0_, a1_, a2_, b0_, b1_, b2_, tol, most = self._radial_constants
+        (px0, px1, px2), (py0, py1, py2), (u0, u1, u2), (o0, o1, o2) = self._naive_rods
+        upright = self._base is None
+        if upright:
+            geo = self.geometry
+            X0, X1, X2 = cast('Floats3', geo.bx)
+            Y0, Y1, Y2 = cast('Floats3', geo.by)
+        else:
+            (bx0, bx1, bx2), (by0, by1, by2), (ux0, ux1, ux2), (uy0, uy1, uy2), (uz0, uz1, uz2), off = \
+                cast('tuple[Floats3, ...]', self._base)
+        t0, t1, t2 = tool
+        n0, n1, n2 = n
+        q0, q1, q2 = q_target
+        first: RigidFit | None = None
+        for step in range(self.config.max_iterations + 1):
+            if upright:
+                Z0, Z1, Z2 = q0, q1, q2
+            else:
+                w0, w1, w2 = q0 + off[0], q1 + off[1], q2 + off[2]
+                X0, X1, X2 = bx0 + w0 * ux0, bx1 + w1 * ux1, bx2 + w2 * ux2
+                Y0, Y1, Y2 = by0 + w0 * uy0, by1 + w1 * uy1, by2 + w2 * uy2
+                Z0, Z1, Z2 = w0 * uz0, w1 * uz1, w2 * uz2
+            ax, ay, az, bx, by, bz = X1 - X0, Y1 - Y0, Z1 - Z0, X2 - X1, Y2 - Y1, Z2 - Z1
+            cx, cy, cz = X0 - X2, Y0 - Y2, Z0 - Z2
+            L0, L1, L2 = (sqrt(ax * ax + ay * ay + az * az), sqrt(bx * bx + by * by + bz * bz),
+                          sqrt(cx * cx + cy * cy + cz * cz))
+            l0, l1, l2, x0, x1, x2, y0, y1, y2 = r0_, r1_, r2_, a0_, a1_, a2_, b0_, b1_, b2_
+            iterations = 0
+            while True:   # _radial
+                e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+                f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
+                d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
+                err, e = abs(d0 - L0), abs(d1 - L1)
+                err = e if e > err else err
+                e = abs(d2 - L2)
+                err = e if e > err else err
+                if err <= tol:
+                    break
+                if iterations == most:
+                    raise not_converged('virtual-joint closure (radial)', self.config, err, True)
+                b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
+                b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
+                b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
+                g00, g01, g02, g11, g12 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2
+                g22 = b2 * b2 + a2 * a2
+                h0, h1, h2 = f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2
+                k00, k11, k22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
+                k01, k02, k12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
+                inv_det = 1.0 / (g00 * k00 + g01 * k01 + g02 * k02)
+                v0, v1, v2 = ((k00 * h0 + k01 * h1 + k02 * h2) * inv_det, (k01 * h0 + k11 * h1 + k12 * h2) * inv_det,
+                              (k02 * h0 + k12 * h1 + k22 * h2) * inv_det)
+                l0, l1, l2 = l0 - (b2 * v2 + a0 * v0), l1 - (b0 * v0 + a1 * v1), l2 - (b1 * v1 + a2 * v2)
+                iterations += 1
+                x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
+            # fit, its operations (P the centres, the components x, y)
+            ux, uy, uz = X1 - X0, Y1 - Y0, Z1 - Z0
+            vx, vy, vz = X2 - X0, Y2 - Y0, Z2 - Z0
+            inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz)
+            e1x, e1y, e1z = ux * inv, uy * inv, uz * inv
+            cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            inv = 1.0 / sqrt(cx * cx + cy * cy + cz * cz)
+            e3x, e3y, e3z = cx * inv, cy * inv, cz * inv
+            e2x, e2y, e2z = e3y * e1z - e3z * e1y, e3z * e1x - e3x * e1z, e3x * e1y - e3y * e1x
+            wx, wy = x1 - x0, y1 - y0
+            inv = 1.0 / sqrt(wx * wx + wy * wy)
+            fx, fy = wx * inv, wy * inv
+            sg = 1.0 if wx * (y2 - y0) - wy * (x2 - x0) >= 0.0 else -1.0
+            sfx, sfy = sg * fx, sg * fy
+            r00, r01, r02 = e1x * fx - e2x * sfy, e1x * fy + e2x * sfx, sg * e3x
+            r10, r11, r12 = e1y * fx - e2y * sfy, e1y * fy + e2y * sfx, sg * e3y
+            r20, r21, r22 = e1z * fx - e2z * sfy, e1z * fy + e2z * sfx, sg * e3z
+            rcx, rcy = (x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0
+            tz = (Z0 + Z1 + Z2) / 3.0 - (r20 * rcx + r21 * rcy)
+            frame = (r00, r01, r02, r10, r11, r12, r20, r21, r22, (X0 + X1 + X2) / 3.0 - (r00 * rcx + r01 * rcy),
+                     (Y0 + Y1 + Y2) / 3.0 - (r10 * rcx + r11 * rcy), tz)
+            if first is None:
+                first = frame
+            h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
+            err_h, err_n = abs(h_now - h), abs(r02 - n0)
+            e = abs(r12 - n1)
+            err_n = e if e > err_n else err_n
+            e = abs(r22 - n2)
+            err_n = e if e > err_n else err_n
+            last = not (err_h <= tol_h and err_n <= tol_n)
+            if not last or step == self.config.max_iterations:
+                break
+            q0, q1, q2 = (q0 + q_target[0] - ((h_now - r02 * (px0 - t0) - r12 * (py0 - t1) - r22 * t2) / u0 - o0),
+                          q1 + q_target[1] - ((h_now - r02 * (px1 - t0) - r12 * (py1 - t1) - r22 * t2) / u1 - o1),
+                          q2 + q_target[2] - ((h_now - r02 * (px2 - t0) - r12 * (py2 - t1) - r22 * t2) / u2 - o2))
+        C, S = self._directions
+        closure = Closure([l0, l1, l2], ([x0, x1, x2], [y0, y1, y2], C, S, None, None), [d0, d1, d2], iterations, err)
+        return ([q0, q1, q2], ([X0, X1, X2], [Y0, Y1, Y2], [Z0, Z1, Z2]), (L0, L1, L2), closure, frame, step,
+                cast('RigidFit', first), (err_n if err_n > err_h else err_h) if last else None)
+
     @staticmethod
     def fit(P: Centres, comps: Components) -> RigidFit:
         """:func:`~gpr_kinematics.core.platform_pose.rigid_fit` of one pose in floats, its operations in its order
