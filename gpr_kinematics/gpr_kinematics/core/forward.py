@@ -423,19 +423,26 @@ def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float],
     field a view of one array ``(1, K)``, and that array, which begins with the caller's values ``head`` (its own
     results in the same array)."""
     values, tilt, az, twist, fit, within = kernel.pose_values(q, P, L, closure, frame, None)
-    o = len(head)
-    n = o + len(values)
-    a = np.array([[*head, *values, tilt, az, twist, closure.residual, fit]])
+    o, n = len(head), len(head) + len(values)
+    a = np.fromiter([*head, *values, tilt, az, twist, closure.residual, fit], float).reshape(1, -1)   # as np.array
+    index = _ROW_INDEX.get((o, n))
+    if index is None:   # built once per layout: an index made per call cost as much as its view
+        index = _ROW_INDEX[o, n] = tuple((slice(None), k) for k in (
+            slice(o, o + 3), slice(o + 44, n), slice(o + 3, o + 6), slice(o + 6, o + 9), slice(o + 9, o + 18),
+            slice(o + 18, o + 22), n, n + 1, n + 2, slice(o + 22, o + 25), slice(o + 25, o + 34),
+            slice(o + 34, o + 38), slice(o + 38, o + 41), slice(o + 41, o + 44), n + 3, n + 4))
+    q_, x, sides, p, r, quat, tilt_, az_, twist_, nominal_p, nominal_r, nominal_quat, shift, d, e, f = index
     out = ForwardBatch.__new__(ForwardBatch)
     out.__dict__.update(
-        q=a[:, o:o + 3], model=kernel.model.name, virtual_joints=a[:, o + 44:n], virtual_joint_names=kernel.names,
-        side_lengths=a[:, o + 3:o + 6], position=a[:, o + 6:o + 9], rotation=a[:, o + 9:o + 18].reshape(1, 3, 3),
-        quaternion=a[:, o + 18:o + 22], tilt=a[:, n], tilt_azimuth=a[:, n + 1], twist=a[:, n + 2],
-        nominal_position=a[:, o + 22:o + 25], nominal_rotation=a[:, o + 25:o + 34].reshape(1, 3, 3),
-        nominal_quaternion=a[:, o + 34:o + 38], centre_shift=a[:, o + 38:o + 41],
-        joint_displacement=a[:, o + 41:o + 44], within_budget=np.array([within]),
-        iterations=np.array([closure.iterations]), residual=a[:, n + 3], fit_residual=a[:, n + 4])
+        q=a[q_], model=kernel.model.name, virtual_joints=a[x], virtual_joint_names=kernel.names, side_lengths=a[sides],
+        position=a[p], rotation=a[r].reshape(1, 3, 3), quaternion=a[quat], tilt=a[tilt_], tilt_azimuth=a[az_],
+        twist=a[twist_], nominal_position=a[nominal_p], nominal_rotation=a[nominal_r].reshape(1, 3, 3),
+        nominal_quaternion=a[nominal_quat], centre_shift=a[shift], joint_displacement=a[d],
+        within_budget=np.array([within]), iterations=np.array([closure.iterations]), residual=a[e], fit_residual=a[f])
     return out, a
+
+
+_ROW_INDEX: dict[tuple[int, int], tuple[tuple[slice, slice | int], ...]] = {}   # one_row's per (o, n)
 
 
 def base_points(Q: Array, config: GprConfig) -> Array:
