@@ -188,14 +188,18 @@ class OnePose:
                 X0, X1, X2 = bx0 + w0 * ux0, bx1 + w1 * ux1, bx2 + w2 * ux2
                 Y0, Y1, Y2 = by0 + w0 * uy0, by1 + w1 * uy1, by2 + w2 * uy2
                 Z0, Z1, Z2 = w0 * uz0, w1 * uz1, w2 * uz2
-            ax, ay, az, bx, by, bz = X1 - X0, Y1 - Y0, Z1 - Z0, X2 - X1, Y2 - Y1, Z2 - Z1
+            ax, ay, az = X1 - X0, Y1 - Y0, Z1 - Z0   # at most three names an assignment: no tuple built
+            bx, by, bz = X2 - X1, Y2 - Y1, Z2 - Z1
             cx, cy, cz = X0 - X2, Y0 - Y2, Z0 - Z2
             L0, L1, L2 = (sqrt(ax * ax + ay * ay + az * az), sqrt(bx * bx + by * by + bz * bz),
                           sqrt(cx * cx + cy * cy + cz * cz))
-            l0, l1, l2, x0, x1, x2, y0, y1, y2 = r0_, r1_, r2_, a0_, a1_, a2_, b0_, b1_, b2_
+            l0, l1, l2 = r0_, r1_, r2_
+            x0, x1, x2 = a0_, a1_, a2_
+            y0, y1, y2 = b0_, b1_, b2_
             iterations = 0
             while True:   # _radial
-                e0x, e0y, e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
+                e0x, e0y, e1x = x1 - x0, y1 - y0, x2 - x1
+                e1y, e2x, e2y = y2 - y1, x0 - x2, y0 - y2
                 f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
                 d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
                 err, e = abs(d0 - L0), abs(d1 - L1)
@@ -209,8 +213,8 @@ class OnePose:
                 b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
                 b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
                 b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
-                g00, g01, g02, g11, g12 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0, b1 * b1 + a1 * a1, b1 * a2
-                g22 = b2 * b2 + a2 * a2
+                g00, g01, g02 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0
+                g11, g12, g22 = b1 * b1 + a1 * a1, b1 * a2, b2 * b2 + a2 * a2
                 h0, h1, h2 = f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2
                 k00, k11, k22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
                 k01, k02, k12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
@@ -219,7 +223,8 @@ class OnePose:
                               (k02 * h0 + k12 * h1 + k22 * h2) * inv_det)
                 l0, l1, l2 = l0 - (b2 * v2 + a0 * v0), l1 - (b0 * v0 + a1 * v1), l2 - (b1 * v1 + a2 * v2)
                 iterations += 1
-                x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
+                x0, x1, x2 = l0 * c0, l1 * c1, l2 * c2
+                y0, y1, y2 = l0 * s0, l1 * s1, l2 * s2
             # fit, its operations (P the centres, the components x, y)
             ux, uy, uz = X1 - X0, Y1 - Y0, Z1 - Z0
             vx, vy, vz = X2 - X0, Y2 - Y0, Z2 - Z0
