@@ -3,7 +3,15 @@ import math
 
 import numpy as np
 import pytest
-from gpr_kinematics.robot.arm_chain import chain_forward, link_vectors, two_link, wrap_to_limits
+from gpr_kinematics.robot.arm_chain import (
+    chain_forward,
+    fixed_one,
+    link_vectors,
+    reduce_one,
+    reduced_one,
+    two_link,
+    wrap_to_limits,
+)
 from gpr_kinematics.robot.planar_arm import branch_of, solve_arm
 from robot_support import ROBOT, make_robot, robot_data
 
@@ -125,3 +133,16 @@ def test_a_held_value_given_to_the_one_target_solve_holds_the_joint_under_either
     own = solve_arm_one(arm_near, *p, phi, 1.0)
     assert own.theta == solve_arm_one(arm_near, *p, phi, 1.0, chosen).theta
     assert abs(chosen) > 1e-3  # the rule chose a value of its own, not the fixed rule's 0
+
+
+@pytest.mark.parametrize('held', [-1, 0, 1, 2, 3])
+def test_a_chain_reduced_once_solves_as_fixed_one_to_the_last_bit(held):
+    """The one-station path's chain reduced once per arm (reduce_one, reduced_one) answers fixed_one's numbers for
+    every held joint (none, 0 to 3), in and out of reach, on both branches."""
+    rng = np.random.default_rng(held + 7)
+    links = [(float(x), float(y)) for x, y in rng.uniform(-0.3, 0.3, (3 if held < 0 else 4, 2))]
+    for _ in range(300):
+        beta, v, px, py, phi = (float(x) for x in rng.uniform(-3.5, 3.5, 5))
+        sign = float(rng.choice([-1.0, 1.0]))
+        assert reduced_one(reduce_one(links, beta, held, v), 0.3 * px, 0.3 * py, phi, sign) == \
+            fixed_one(links, beta, held, v, 0.3 * px, 0.3 * py, phi, sign)

@@ -163,7 +163,8 @@ def two_link_one(D1: tuple[float, float], D2: tuple[float, float], px: float, py
 def fixed_one(d: list[tuple[float, float]], beta: float, j: int, v: float, px: float, py: float, phi: float,
                sign: float) -> tuple[list[float], float, float, float]:
     """:func:`solve_fixed` (``j >= 0``) or :func:`solve3` (``j = -1``) of one target in floats: the joint values
-    (not wrapped) and the two-link sub-chain's reach and interval ``(r, r_min, r_max)``."""
+    (not wrapped) and the two-link sub-chain's reach and interval ``(r, r_min, r_max)``; :func:`reduced_one` of
+    :func:`reduce_one`'s chain, the same numbers (the ``nearest`` rule's search calls this per held value)."""
     c, b = [0.0, 0.0, 0.0], beta
     if j == 0:
         mx, my = turn(v, d[0][0], d[0][1])
@@ -179,6 +180,66 @@ def fixed_one(d: list[tuple[float, float]], beta: float, j: int, v: float, px: f
     wx, wy = turn(Theta3, d[2][0], d[2][1])
     T1, T2, r, lo, hi = two_link_one(d[0], d[1], px - wx, py - wy, sign)
     theta = [T1 - c[0], T2 - T1 - c[1], Theta3 - T2 - c[2]]
+    if j >= 0:
+        theta.insert(j, v)
+    return theta, r, lo, hi
+
+
+class Reduced(NamedTuple):
+    """A chain of :func:`fixed_one` with its held joint ``j`` (-1: none) at ``v`` folded in: the target's shift
+    ``(mx, my)``, the three links' offsets ``c``, the blade yaw ``b``, the wrist link ``wrist`` and the two-link
+    constants of the first two links (:func:`two_link_one`'s: lengths, reach interval, ``1 / (2 L1 L2)``, squares,
+    directions)."""
+
+    j: int
+    v: float
+    shift: tuple[float, float] | None
+    c: tuple[float, float, float]
+    b: float
+    wrist: tuple[float, float]
+    link: tuple[float, float, float, float, float, float, float, float, float]
+
+
+def reduce_one(d: list[tuple[float, float]], beta: float, j: int, v: float) -> Reduced:
+    """The :class:`Reduced` chain of the links ``d`` and blade yaw ``beta`` with joint ``j`` held at ``v``."""
+    c, b, shift = [0.0, 0.0, 0.0], beta, None
+    if j == 0:
+        shift, d, c[0] = turn(v, d[0][0], d[0][1]), d[1:], v
+    elif j > 0:
+        mx, my = turn(v, d[j][0], d[j][1])
+        d = d[:j - 1] + [(d[j - 1][0] + mx, d[j - 1][1] + my)] + d[j + 1:]
+        if j == 3:
+            b = beta + v
+        else:
+            c[j] = v
+    return Reduced(j, v, shift, (c[0], c[1], c[2]), b, d[2], link_constants(d[0], d[1]))
+
+
+def link_constants(D1: tuple[float, float], D2: tuple[float, float]
+                   ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """What :func:`two_link_one` computes of its links alone: ``L1, L2, r_min, r_max, 1 / (2 L1 L2), L1^2, L2^2`` and
+    the links' directions [m, rad] (its operations)."""
+    L1, L2 = math.hypot(D1[0], D1[1]), math.hypot(D2[0], D2[1])
+    return (L1, L2, abs(L1 - L2), L1 + L2, 1.0 / (2.0 * L1 * L2), L1 * L1, L2 * L2, math.atan2(D1[1], D1[0]),
+            math.atan2(D2[1], D2[0]))
+
+
+def reduced_one(chain: Reduced, px: float, py: float, phi: float, sign: float
+                ) -> tuple[list[float], float, float, float]:
+    """:func:`fixed_one` of a :class:`Reduced` chain, :func:`two_link_one` inline (their operations in their order)."""
+    j, v, shift, (c0, c1, c2), b, (dx, dy), (L1, L2, lo, hi, inv, L1sq, L2sq, a1, a2) = chain
+    if shift is not None:
+        px, py = px - shift[0], py - shift[1]
+    Theta3 = phi - b
+    cs, sn = math.cos(Theta3), math.sin(Theta3)
+    px, py = px - (cs * dx - sn * dy), py - (sn * dx + cs * dy)
+    r = math.hypot(px, py)
+    cos_g = min(max((r * r - L1sq - L2sq) * inv, -1.0), 1.0)
+    prod = (hi - r) * (hi + r) * (r - lo) * (r + lo)
+    g = math.atan2(sign * math.sqrt(prod if hi - r > STRETCH_SNAP and r - lo > STRETCH_SNAP else 0.0) * inv, cos_g)
+    A1 = math.atan2(py, px) - math.atan2(L2 * math.sin(g), L1 + L2 * math.cos(g))
+    T1, T2 = A1 - a1, A1 + g - a2
+    theta = [T1 - c0, T2 - T1 - c1, Theta3 - T2 - c2]
     if j >= 0:
         theta.insert(j, v)
     return theta, r, lo, hi
@@ -203,7 +264,8 @@ def floats2(d: list[Array]) -> list[tuple[float, float]]:
 
 class ArmFloats(NamedTuple):
     """What a one-target solve needs of an arm, as floats: :func:`link_vectors` (``links``, ``beta``), the joints'
-    ``zero_offset`` and each joint's ``(lower, upper, middle)`` of its range [m, rad]."""
+    ``zero_offset`` and each joint's ``(lower, upper, middle)`` of its range [m, rad], and a 3-joint arm's chain or
+    a ``fixed_joint`` arm's at its rule's value (``own``, :class:`Reduced`)."""
 
     links: list[tuple[float, float]]
     beta: float
@@ -211,6 +273,7 @@ class ArmFloats(NamedTuple):
     limits: tuple[tuple[float, float, float], ...]
     chain: ArmChain
     wafer_height: float
+    own: Reduced | None
 
 
 class ArmChain(NamedTuple):
@@ -243,9 +306,13 @@ def arm_floats(arm: Arm) -> ArmFloats:
     chain = ArmChain(m[0], m[1], m[2] + sum(j.height for j in arm.joints) + b.position[2], arm.mount_yaw,
                      tuple((j.length, j.zero_offset) for j in arm.joints), (b.position[0], b.position[1]), b.yaw,
                      (b.wafer_centre[0], b.wafer_centre[1], b.wafer_centre[2]))
-    out = ArmFloats(floats2(d), beta, tuple(joint.zero_offset for joint in arm.joints),
+    links, red, own = floats2(d), arm.redundancy, None
+    if len(links) == 3 or red is not None and red.rule == 'fixed_joint':   # the rule's own held value
+        own = reduce_one(links, beta, -1, 0.0) if red is None else reduce_one(
+            links, beta, red.joint, red.value + arm.joints[red.joint].zero_offset)
+    out = ArmFloats(links, beta, tuple(joint.zero_offset for joint in arm.joints),
                     tuple((j.lower, j.upper, 0.5 * (j.lower + j.upper)) for j in arm.joints), chain,
-                    arm.wafer_height)
+                    arm.wafer_height, own)
     if len(_ARM_FLOATS) >= 256:  # robots loaded and dropped in a long process: start again
         _ARM_FLOATS.clear()
     _ARM_FLOATS[id(arm)] = (arm, out)

@@ -28,6 +28,7 @@ to its left. Reachable when ``|L1 - L2| <= r <= L1 + L2``.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -35,16 +36,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .arm_chain import (
+    LIMIT_SLACK,
     REACH_SLACK,
     arm_floats,
     chain_forward,
     fixed_one,
     link_vectors,
+    reduced_one,
     solve3,
     solve_fixed,
     two_link,
     two_link_one,
-    wrap_one,
     wrap_to_limits,
 )
 from .description import Arm
@@ -135,6 +137,8 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
     if len(offset) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
         theta = [T1, T2 - T1]
+    elif floats.own is not None and (arm.redundancy is None or value is None):   # the rule's own chain, reduced once
+        theta, r, lo, hi = reduced_one(floats.own, px, py, phi, sign)
     else:
         j, v, red = -1, 0.0, arm.redundancy
         if red is not None:
@@ -149,7 +153,13 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
             v = v + offset[j]
         theta, r, lo, hi = fixed_one(d, beta, j, v, px, py, phi, sign)
     heading = sum(theta) + beta
-    wrapped, violation = wrap_one(arm, [t - o for t, o in zip(theta, offset, strict=True)])
+    wrapped, violation = [], []   # wrap_one of theta - offset, inline (its operations)
+    pi, turn = math.pi, 2.0 * math.pi
+    for t, o, (lower, upper, mid) in zip(theta, offset, floats.limits, strict=True):
+        t = mid + (t - o - mid + pi) % turn - pi
+        beyond = max(lower - t, t - upper) - LIMIT_SLACK
+        wrapped.append(t)
+        violation.append(beyond if beyond >= 0.0 else 0.0)
     return OneArm(wrapped, heading, hi + REACH_SLACK >= r >= lo - REACH_SLACK, r, lo, hi, violation)
 
 
