@@ -170,7 +170,7 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
         name = branch or arm.branch
         if name not in BRANCHES:
             raise InputError(f'branch = {brief(name)} is invalid; allowed: left or right')
-        return (name,) * n, np.full(n, branch_sign(name))
+        return (name,) * n, np.array([branch_sign(name)]) if n == 1 else np.full(n, branch_sign(name))
     if not isinstance(branch, Sequence | np.ndarray):
         raise InputError(f'branch = {brief(branch)} is invalid; allowed: left or right, one or one per station')
     names = tuple(branch)
@@ -251,7 +251,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     n = len(stations)
     cfg = robot.config
     names, sign = _signs(a, branch, n)
-    if len(a.joints) > 2 and stations.heading_free.any():
+    if len(a.joints) > 2 and (stations.heading_free.item() if n == 1 else stations.heading_free.any()):
         i = int(np.argmax(stations.heading_free))
         raise InputError(f'{stations.label(i)}: arm {a.name} has {len(a.joints)} joints and needs the blade heading; '
                          'only a 2-joint arm leaves it free')
@@ -273,8 +273,10 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
         one = solve_one(robot, stations, a, float(sign[0]), None if value is None else float(value[0]))
         if one is not None:
-            return frozen(StationSolution, stations=stations, arm=a.name, branch=names, **one._asdict(),
-                          feasible=np.ones(1, dtype=bool))
+            rods, joints, fk, naive_rods, naive_joints, naive_wafer, position_error, angle_error = one
+            return frozen(StationSolution, stations=stations, arm=a.name, branch=names, rods=rods, joints=joints,
+                          forward=fk, naive_rods=naive_rods, naive_joints=naive_joints, naive_wafer=naive_wafer,
+                          position_error=position_error, angle_error=angle_error, feasible=np.array([True]))
     base = base_pose(robot, n)
     R_b = np.swapaxes(base.rotation, 1, 2) @ stations.rotation
     p_b = base.inverse_apply(stations.position)

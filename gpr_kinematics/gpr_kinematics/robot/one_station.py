@@ -29,10 +29,10 @@ from ..core.floats import (
     Mat3,
     Vec3,
     angle_between,
-    compose_one,
     mat_mul,
     mat_tmul,
     mat_tvec,
+    mat_vec,
     rot_z,
     tilt_matrix,
     tilt_of_normal_one,
@@ -184,9 +184,8 @@ def _batch_decides(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: 
     lo, hi = cfg.stroke_min - STROKE_SLACK + EDGE_MARGIN, cfg.stroke_max + STROKE_SLACK - EDGE_MARGIN
     if not (lo < q[0] < hi and lo < q[1] < hi and lo < q[2] < hi) or not sol.reachable or _near_stretch(sol):
         return True
-    for t, joint in zip(sol.theta, arm.joints, strict=True):
-        mid = 0.5 * (joint.lower + joint.upper)
-        if not joint.lower - LIMIT_SLACK + EDGE_MARGIN < t < joint.upper + LIMIT_SLACK - EDGE_MARGIN or \
+    for t, (lower, upper, mid) in zip(sol.theta, arm_floats(arm).limits, strict=True):
+        if not lower - LIMIT_SLACK + EDGE_MARGIN < t < upper + LIMIT_SLACK - EDGE_MARGIN or \
                 abs(abs(t - mid) - math.pi) < EDGE_MARGIN:
             return True
     if len(arm.joints) != 2 or free:
@@ -280,9 +279,12 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
         P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
         fit = kernel.fit(P_n, kernel.closure(*kernel.lengths(P_n)).components)
     f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = cast('tuple[float, ...]', fit)
-    naive_platform = compose_one(p_wb, R_wb, (tx, ty, tz), ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
     _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
-    naive_wafer = compose_one(*naive_platform, naive_wafer_p, naive_blade_R)
+    # the naive platform (compose_one of the fit in gpr_base), and the wafer on it (compose_one again), inline
+    a0, a1, a2 = mat_vec(R_wb, (tx, ty, tz))
+    R_p = mat_mul(R_wb, ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
+    w0, w1, w2 = mat_vec(R_p, naive_wafer_p)
+    naive_wafer = ((p_wb[0] + a0 + w0, p_wb[1] + a1 + w1, p_wb[2] + a2 + w2), mat_mul(R_p, naive_blade_R))
     d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
     parts = (kernel, q, height.P, height.L, height.closure, height.frame)
     return _Solved(q, sol.theta, parts, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
@@ -315,20 +317,29 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
     if one is None:
         return None
     n = len(one.joints)
-    flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error]
-    for p, (r0, r1, r2) in (one.platform, one.blade, one.wafer, one.on_platform, one.naive_wafer):
-        flat += [*p, *r0, *r1, *r2]
+    (p0, R0), (p1, R1), (p2, R2), (p3, R3), (p4, R4) = (one.platform, one.blade, one.wafer, one.on_platform,
+                                                        one.naive_wafer)
+    flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error,
+            *p0, *R0[0], *R0[1], *R0[2], *p1, *R1[0], *R1[1], *R1[2], *p2, *R2[0], *R2[1], *R2[2],
+            *p3, *R3[0], *R3[1], *R3[2], *p4, *R4[0], *R4[1], *R4[2]]   # one list, as the poses' rows
     gpr, a = one_row(*one.parts, head=flat)  # the station's values and the platform's pose in one array
     o = 8 + 2 * n  # the poses: 5 rows of a position and a rotation
-    poses = a[0, o:o + 60].reshape(5, 12)
-    positions, rotations = poses[:, 0:3], poses[:, 3:12].reshape(5, 3, 3)
-    platform, blade, wafer, on_platform, naive_wafer = (PoseBatch(positions[k:k + 1], rotations[k:k + 1])
-                                                        for k in range(5))
+    poses = a[0, o:o + 60].reshape(5, 1, 12)
+    at, turned = poses[:, :, 0:3], poses[:, :, 3:12].reshape(5, 1, 3, 3)
+    platform, blade, wafer = _pose(at[0], turned[0]), _pose(at[1], turned[1]), _pose(at[2], turned[2])
+    on_platform, naive_wafer = _pose(at[3], turned[3]), _pose(at[4], turned[4])
     rods, joints = a[:, 0:3], a[:, 3:3 + n]
     fk = frozen(RobotForward, arm=arm.name, rods=rods, joints=joints, gpr=gpr, platform=platform, blade=blade,
                 wafer=wafer, robot=robot, wafer_on_platform=on_platform)
     return OneStation(rods, joints, fk, a[:, 3 + n:6 + n], a[:, 6 + n:6 + 2 * n], naive_wafer, a[0, o - 2:o - 1],
                       a[0, o - 1:o])
+
+
+def _pose(position: NDArray[np.float64], rotation: NDArray[np.float64]) -> PoseBatch:
+    """``PoseBatch(position, rotation)`` without its ``__init__``'s per-field ``object.__setattr__``."""
+    out = PoseBatch.__new__(PoseBatch)
+    out.__dict__.update(position=position, rotation=rotation)
+    return out
 
 
 Frozen = TypeVar('Frozen')

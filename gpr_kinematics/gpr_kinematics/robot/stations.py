@@ -139,9 +139,12 @@ class Stations:
         """The stations at ``index`` (an integer array)."""
         n = len(self)
         if isinstance(index, list) and len(index) == 1 and type(index[0]) is int and -n <= index[0] < n:
-            i = index[0] % n   # one station (a caller's loop over them): its rows copied, no index array
-            return Stations(self.position[i:i + 1].copy(), self.tilt[i:i + 1].copy(), self.azimuth[i:i + 1].copy(),
-                            self.heading[i:i + 1].copy(), self.heading_free[i:i + 1].copy(), (self.names[i],))
+            i = index[0] % n   # one station (a caller's loop over them): its rows copied, no index array, and
+            one = Stations.__new__(Stations)   # the rows of valid stations: no __init__ (a setattr per field)
+            one.__dict__.update(position=self.position[i:i + 1].copy(), tilt=self.tilt[i:i + 1].copy(),
+                                azimuth=self.azimuth[i:i + 1].copy(), heading=self.heading[i:i + 1].copy(),
+                                heading_free=self.heading_free[i:i + 1].copy(), names=(self.names[i],))
+            return one
         try:
             idx = np.atleast_1d(np.asarray(index))
         except (TypeError, ValueError):
