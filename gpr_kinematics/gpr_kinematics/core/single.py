@@ -180,7 +180,8 @@ class OnePose:
         n0, n1, n2 = n
         q0, q1, q2 = q_target
         first: RigidFit | None = None
-        for step in range(self.config.max_iterations + 1):
+        steps = self.config.max_iterations
+        for step in range(steps + 1):
             if upright:
                 Z0, Z1, Z2 = q0, q1, q2
             else:
@@ -193,6 +194,7 @@ class OnePose:
             cx, cy, cz = X0 - X2, Y0 - Y2, Z0 - Z2
             L0, L1, L2 = (sqrt(ax * ax + ay * ay + az * az), sqrt(bx * bx + by * by + bz * bz),
                           sqrt(cx * cx + cy * cy + cz * cz))
+            LL0, LL1, LL2 = L0 * L0, L1 * L1, L2 * L2   # each pass's, once
             l0, l1, l2 = r0_, r1_, r2_
             x0, x1, x2 = a0_, a1_, a2_
             y0, y1, y2 = b0_, b1_, b2_
@@ -215,7 +217,7 @@ class OnePose:
                 b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
                 g00, g01, g02 = b0 * b0 + a0 * a0, b0 * a1, b2 * a0
                 g11, g12, g22 = b1 * b1 + a1 * a1, b1 * a2, b2 * b2 + a2 * a2
-                h0, h1, h2 = f0 - L0 * L0, f1 - L1 * L1, f2 - L2 * L2
+                h0, h1, h2 = f0 - LL0, f1 - LL1, f2 - LL2
                 k00, k11, k22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
                 k01, k02, k12 = g12 * g02 - g01 * g22, g01 * g12 - g11 * g02, g01 * g02 - g00 * g12
                 inv_det = 1.0 / (g00 * k00 + g01 * k01 + g02 * k02)
@@ -255,7 +257,7 @@ class OnePose:
             e = abs(r22 - n2)
             err_n = e if e > err_n else err_n
             last = not (err_h <= tol_h and err_n <= tol_n)
-            if not last or step == self.config.max_iterations:
+            if not last or step == steps:
                 break
             q0, q1, q2 = (q0 + q_target[0] - ((h_now - r02 * (px0 - t0) - r12 * (py0 - t1) - r22 * t2) / u0 - o0),
                           q1 + q_target[1] - ((h_now - r02 * (px1 - t0) - r12 * (py1 - t1) - r22 * t2) / u1 - o1),

@@ -265,7 +265,8 @@ def floats2(d: list[Array]) -> list[tuple[float, float]]:
 class ArmFloats(NamedTuple):
     """What a one-target solve needs of an arm, as floats: :func:`link_vectors` (``links``, ``beta``), the joints'
     ``zero_offset`` and each joint's ``(lower, upper, middle)`` of its range [m, rad], and a 3-joint arm's chain or
-    a ``fixed_joint`` arm's at its rule's value (``own``, :class:`Reduced`)."""
+    a ``fixed_joint`` arm's at its rule's value (``own``, :class:`Reduced`); ``mount``: ``cos`` and ``sin`` of
+    ``-mount_yaw``, the mount's ``x``, ``y`` and ``mount_yaw``."""
 
     links: list[tuple[float, float]]
     beta: float
@@ -274,6 +275,7 @@ class ArmFloats(NamedTuple):
     chain: ArmChain
     wafer_height: float
     own: Reduced | None
+    mount: tuple[float, float, float, float, float]
 
 
 class ArmChain(NamedTuple):
@@ -312,7 +314,8 @@ def arm_floats(arm: Arm) -> ArmFloats:
             links, beta, red.joint, red.value + arm.joints[red.joint].zero_offset)
     out = ArmFloats(links, beta, tuple(joint.zero_offset for joint in arm.joints),
                     tuple((j.lower, j.upper, 0.5 * (j.lower + j.upper)) for j in arm.joints), chain,
-                    arm.wafer_height, own)
+                    arm.wafer_height, own, (math.cos(-arm.mount_yaw), math.sin(-arm.mount_yaw), m[0], m[1],
+                                            arm.mount_yaw))
     if len(_ARM_FLOATS) >= 256:  # robots loaded and dropped in a long process: start again
         _ARM_FLOATS.clear()
     _ARM_FLOATS[id(arm)] = (arm, out)

@@ -148,10 +148,10 @@ def _target(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3) -> tuple[float, floa
     (gpr_base) on a platform turned by ``R_platform``: the wafer point and heading in the mount frame [m, rad]."""
     (a00, a01, _), (a10, a11, _), (a20, a21, _) = R_platform   # of M = R_platform^T R_b, the first column only
     b00, b10, b20 = R_b[0][0], R_b[1][0], R_b[2][0]
-    c, s = math.cos(-arm.mount_yaw), math.sin(-arm.mount_yaw)
-    x, y = w[0] - arm.mount_position[0], w[1] - arm.mount_position[1]
+    c, s, mx, my, yaw = arm_floats(arm).mount   # cos and sin of -mount_yaw, the mount's x, y, mount_yaw
+    x, y = w[0] - mx, w[1] - my
     return (c * x - s * y, s * x + c * y,
-            math.atan2(a01 * b00 + a11 * b10 + a21 * b20, a00 * b00 + a10 * b10 + a20 * b20) - arm.mount_yaw)
+            math.atan2(a01 * b00 + a11 * b10 + a21 * b20, a00 * b00 + a10 * b10 + a20 * b20) - yaw)
 
 
 def _held_values(arm: Arm, targets: list[tuple[float, float, float]], sign: float, value: float | None
