@@ -262,6 +262,30 @@ def test_touching_bodies_do_not_abort_the_check(tmp_path):
     assert deep == pytest.approx(-9.7479743e-06 - 1e-6, abs=1e-12)
 
 
+def test_bodies_touching_along_a_face_but_apart_by_the_library_read_0_not_a_deep_bound():
+    """A reviewer's case: the cell program with ``approach_height: 0`` slides arm2's blade out flat under the placed
+    wafer (its top face on the wafer's bottom, 1.1e-15 m apart); the library read them 1.4e-15 m apart, its nearest
+    points' direction was noise and the bound along it -14.155 mm, reported as the pair's 'measured' distance. The
+    separating axes bound such a pair too: 0 on the face's normal, less the library's slack."""
+    from gpr_kinematics.safety.distances import LIBRARY_SLACK, Exact, Store
+
+    blade = Body('blade', 'box', (0.29000000000000004, 0.08, 0.003), None, np.array(
+        [[0.9997429937316683, -0.00014838263820486015, 0.022669902228161853],
+         [-0.00014838263820471167, 0.9999143312438894, 0.013088474153931738],
+         [-0.022669902228161856, -0.013088474153931738, 0.9996573249755576]]),
+        np.array([1.166946136472672, 0.5000173002303263, 0.7245306295114289]))
+    wafer = Body('wafer', 'cylinder', (0.15, 0.000775), None, np.array(
+        [[0.999742993731668, -0.00014838263820493315, 0.022669902228170228],
+         [-0.00014838263820493315, 0.9999143312438893, 0.013088474153936571],
+         [-0.022669902228170228, -0.013088474153936571, 0.9996573249755573]]), np.array([1.45, 0.5, 0.72]))
+    d, _, _ = _fcl_distance(blade, wafer)
+    assert 0.0 < d < 1e-12   # apart, by the library
+    exact = Exact([blade, wafer], Store(None, [blade, wafer]))
+    one = np.array([0])
+    exact.measure(one, one, one, one + 1)
+    assert exact.values(one, one)[0][0] == pytest.approx(-LIBRARY_SLACK, abs=1e-11)
+
+
 def test_contact_bound_is_minus_the_depth_of_overlapping_boxes():
     """Bodies in contact read contact_bound (the library's EPA is never asked): for two boxes the separating-axis
     test's axes give minus the penetration depth exactly; for axis-parallel boxes that is the least overlap over the

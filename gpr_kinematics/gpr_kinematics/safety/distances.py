@@ -375,9 +375,16 @@ class Exact:
         apart = out[:, 0] > 0.0
         if apart.any():   # FCL's distance is not exact (cylinders; boxes with nearly parallel faces): a lower bound
             sa, sb = self.store.poses(a[apart], i[apart]), self.store.poses(b[apart], i[apart])
-            low, on_a, on_b, err = certify(near[apart, 0], near[apart, 1],
-                                           (*sa, self.half[a[apart]], self.cylinder[a[apart]]),
-                                           (*sb, self.half[b[apart]], self.cylinder[b[apart]]))
+            A = (*sa, self.half[a[apart]], self.cylinder[a[apart]])
+            B = (*sb, self.half[b[apart]], self.cylinder[b[apart]])
+            low, on_a, on_b, err = certify(near[apart, 0], near[apart, 1], A, B)
+            # Apart by the library yet bounded below 0: its nearest points (nearly) coincide, bodies touching along a
+            # face (a blade flat under a wafer: 1.4e-15 m apart read -14 mm), and the bound along their direction is
+            # noise; the separating axes bound it too (0 on the face's normal): the better of the two lower bounds.
+            k = np.flatnonzero(low < 0.0)
+            if k.size:
+                axes = contact_bound((A[0][k], A[1][k], A[2][k], A[3][k]), (B[0][k], B[1][k], B[2][k], B[3][k]))
+                low[k] = np.maximum(low[k], axes)
             out[apart, 0], out[apart, 1:4], out[apart, 4] = low, on_a - on_b, err
         out[:, 0] -= LIBRARY_SLACK
         self.memo.put(keys, out)
