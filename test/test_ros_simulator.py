@@ -451,6 +451,34 @@ def test_path_and_goal_tolerances(lagging):
 
 
 
+
+def test_lagging_joints_converge_to_the_last_point_after_the_goal(lagging):
+    """With a lag and the goal tolerance not checked (-1) the goal succeeds at its last point's time with the joint
+    about v tau short; the joints froze there (0.071 rad short with tau 0.1 s), where joint_trajectory_controller
+    keeps commanding the last point: they converge to it while idle, their velocity published, and hold it exactly."""
+    from control_msgs.msg import JointTolerance
+    from sensor_msgs.msg import JointState
+
+    c, cli = lagging
+    states: list = []
+    c.node.create_subscription(JointState, '/gpr_sim_lag/joint_states', states.append, 100)
+    c.spin_for(0.5)
+    at = states[-1].position[list(states[-1].name).index('arm1_shoulder')]
+    target = at + 0.5 if at < 0.0 else at - 0.5
+    goal = _goal(['arm1_shoulder'], [0.5], [[target]],
+                 goal_tolerance=[JointTolerance(name='arm1_shoulder', position=-1.0, velocity=-1.0)])
+    result, _ = _run(c, cli, goal)
+    assert result.error_code == 0, result.error_string
+    k = list(states[-1].name).index('arm1_shoulder')
+    ended = next(i for i in range(len(states) - 1, -1, -1) if round(states[i].header.stamp.sec + 1e-9 *
+                                                                      states[i].header.stamp.nanosec, 6) > 0 and
+                 abs(states[i].position[k] - target) > 0.01)   # the goal's end: about v tau = 0.05 rad short
+    assert c.spin_until(lambda: states[-1].position[k] == target and states[-1].velocity[k] == 0.0, 10.0), \
+        [m.position[k] for m in states[-5:]]
+    idle = [m for m in states[ended + 1:] if m.position[k] != target]
+    assert idle and all(abs(m.velocity[k]) > 0.0 for m in idle), [m.position[k] for m in states[ended:]]
+
+
 def test_malformed_joint_states_are_ignored_with_a_warning(sim):
     """A JointState of two names and one position moved the first joint (its value misaligned or not), one naming a
     joint twice took the last value: each is ignored with a warning naming why."""

@@ -1,41 +1,29 @@
 """``robot_simulator_node``: the robot's stand-in controller, a ``control_msgs/action/FollowJointTrajectory`` server.
 
-It serves ``joint_trajectory_controller/follow_joint_trajectory`` (relative: in the node's namespace, as
-ros2_control's ``joint_trajectory_controller`` named ``joint_trajectory_controller`` would), so MoveIt, ``gpr program
-send`` or ``ros2 action send_goal`` drive it as they would drive the real robot's controller. A goal names any of the
-robot's joints (the rods ``rod_1 .. rod_3``, the arms' joints; the others hold where they are) and is checked before
-anything moves (:func:`gpr_kinematics.robot.controller.plan_motion`: names, the robot description's limits, times,
-the platform's tilt under the virtual-joint model; with ``cell_file``, the clearance of the whole interpolated motion
-against the process cell and between the robot's bodies, certified between samples as ``gpr program check``
-certifies a program: :class:`gpr_kinematics.safety.goal.GoalClearance`, ``clearance_margin``, ``wafer_arms``, a pair
-closer than the margin refused naming the two bodies, the time and the distance); a goal it refuses is aborted with
-the standard ``error_code`` and an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate``
-and published on ``joint_states`` (sensor_msgs/JointState, every joint, position and velocity; the header stamp of
-sample ``k`` is the start plus the sample's time ``t_k = k / rate``), with one feedback per sample (desired, actual,
-error of the goal's joints); the joints follow the samples exactly, or with the first-order lag
-``servo_time_constant`` (the clearance check is of the commanded motion). Path tolerances are checked at
-every sample (``PATH_TOLERANCE_VIOLATED``), the goal tolerance after the last point, within ``goal_time_tolerance``
-(``GOAL_TOLERANCE_VIOLATED``); cancel stops at the next sample (result ``SUCCESSFUL``, the state held); a new goal
-that passes the checks preempts the running one (canceled, ``INVALID_GOAL``, as joint_trajectory_controller does;
-one whose cancel was accepted ends cancelled, ``SUCCESSFUL``) and starts from where the joints are; a refused
-one leaves the running goal as it was; a goal running when the node stops ends aborted, its client told, and one whose
-clock goes back more than a sample period (a simulation reset) ends aborted naming the jump
-(:func:`~gpr_kinematics.robot.goal.clock_set_back`; it waited, silent, for as long as the jump). A
-``header.stamp`` of 0 starts at once, a later one then; one in the past as joint_trajectory_controller takes it
-(:func:`~gpr_kinematics.robot.controller.late_start`: the points keep their instants, a trajectory that ended before
-it arrived is ``OLD_HEADER_TIMESTAMP``).
+It serves ``joint_trajectory_controller/follow_joint_trajectory`` (in the node's namespace, as ros2_control's
+``joint_trajectory_controller`` would), so MoveIt, ``gpr program send`` or ``ros2 action send_goal`` drive it as the
+real robot's controller. A goal names any of the robot's joints (the rods ``rod_1 .. rod_3``, the arms' joints; the
+others hold) and is checked before anything moves (:func:`gpr_kinematics.robot.goal.plan_goal`: names, limits, times,
+the platform's tilt; with ``cell_file``, the clearance of the whole interpolated motion, certified between samples:
+:class:`gpr_kinematics.safety.goal.GoalClearance`); a goal it refuses is aborted with the standard ``error_code`` and
+an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate`` and published on ``joint_states``
+(every joint, position and velocity, stamped at the start plus ``t_k = k / rate``) with one feedback per sample;
+the joints follow the samples exactly, or with the first-order lag ``servo_time_constant``. Path tolerances are
+checked at every sample, the goal tolerance after the last point within ``goal_time_tolerance``; cancel stops at the
+next sample (``SUCCESSFUL``, the state held); a new goal that passes the checks preempts the running one (canceled,
+``INVALID_GOAL``, as joint_trajectory_controller does); a goal running when the node stops ends aborted, its client
+told, and one whose clock goes back more than a sample period ends aborted naming the jump
+(:func:`~gpr_kinematics.robot.goal.clock_set_back`). A ``header.stamp`` of 0 starts at once, a later one then, one
+in the past as joint_trajectory_controller takes it (:func:`~gpr_kinematics.robot.controller.late_start`).
 
-While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (the robot before the first
-goal: its rest state, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after a goal: where it
-ended; reliable, so a best-effort subscriber hears it too), and takes the joint values that other publishers send on
-``joint_states`` (``trajectory_node`` streaming a program; a best-effort one with ``joint_states_reliability``) as
-its state, quietly while values it takes stream, so a goal starts where the robot is shown (values beyond the
-joints' limits, or rods that tilt the platform beyond its limit, are ignored with a warning; with ``cell_file``, a
-state within ``clearance_margin`` of the cell or of itself, or one whose joint-space line from the held state passes
-within, too: :meth:`~gpr_kinematics.safety.goal.GoalClearance.move`, the latest state checked at most every
-:data:`FOREIGN_CHECK` s, the one left pending at the next idle tick or goal). ``state_publisher_node``
-turns ``joint_states`` into ``/tf``. Parameters: ``robot_file``, ``config_file`` and the geometry (read-only), and
-the table :data:`gpr_kinematics.ros.specs.SIMULATOR`.
+While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (its rest state before the
+first goal, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after one, where it ended, the lagging
+joints converging to its last point; reliable), and takes the joint values other publishers send on ``joint_states``
+as its state, quietly while they stream (``trajectory_node``; values beyond the limits, a tilt beyond the limit, with
+``cell_file`` a state or a line to it within ``clearance_margin``:
+:meth:`~gpr_kinematics.safety.goal.GoalClearance.move`, at most every :data:`FOREIGN_CHECK` s, are ignored with a
+warning). Parameters: ``robot_file``, ``config_file``, the geometry (read-only) and
+:data:`gpr_kinematics.ros.specs.SIMULATOR` (docs/ros.md).
 """
 from __future__ import annotations
 
@@ -137,6 +125,7 @@ class RobotSimulatorNode(GprNode):
             raise ConfigError(f'wafer_arms = {list(wafer_arms)} needs a cell_file (the carried wafers are checked '
                               "against the cell's bodies); allowed: [''] (none) without a cell_file")
         self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
+        self.command: Any = None   # a goal's last point the lagging joints converge to (servo_time_constant)
         self.period = 1.0 / float(p['rate'])
         self.controller = Controller(self.joints, Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'],
                                                                      p['goal_time']),
@@ -217,7 +206,7 @@ class RobotSimulatorNode(GprNode):
         if not self.refusing:   # quiet while values it takes stream (not others, nor a stream the cell refuses)
             self.last_foreign = now
         if self.clearance is None:
-            self.actual = state
+            self.actual, self.command = state, None
             self.velocity[:] = 0.0
             return
         self.pending = state
@@ -242,7 +231,7 @@ class RobotSimulatorNode(GprNode):
                                       'pair at least clearance_margin apart, reached along a joint-space line that '
                                       'keeps it', throttle_duration_sec=5.0)
             return
-        self.actual = state
+        self.actual, self.command = state, None
         self.velocity[:] = 0.0
 
     def _outside(self, state: Any) -> str:
@@ -270,8 +259,20 @@ class RobotSimulatorNode(GprNode):
         waiting = self.run is None or stamp < self.run.start_ns
         if waiting and not _within(stamp, self.last_foreign, 2 * period) and \
                 not _within(stamp, self.last_published, period // 2):
-            self.velocity[:] = 0.0
+            self._converge(stamp)
             self.publish_state(stamp)
+
+    def _converge(self, stamp: int) -> None:
+        """The joints, lagging (``servo_time_constant``), move on toward the last point of the goal that ended (as
+        joint_trajectory_controller keeps commanding it): they froze short of it (0.071 rad, goal_tolerance -1)."""
+        before, dt = self.actual, max(stamp - (self.last_published or stamp), 0) / NS_PER_S
+        if self.command is None or dt == 0.0:
+            self.velocity[:] = 0.0
+            return
+        self.actual = servo(before, self.command, dt, float(self.p['servo_time_constant']))
+        self.velocity = (self.actual - before) / dt
+        if np.max(np.abs(self.actual - self.command)) <= 1e-12:   # there, to the last picometre or picoradian
+            self.actual, self.command = self.command, None
 
     # -- goals ----------------------------------------------------------------------------------------------------
     def _check(self, req: Any) -> tuple[Motion, int]:
@@ -317,7 +318,7 @@ class RobotSimulatorNode(GprNode):
             self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
                       f'{len(old.motion)} samples')
         done = Future()
-        self.run = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds)
+        self.run, self.command = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds), None
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
                                f'{", ".join(motion.trajectory.joint_names)}, {motion.duration:.6g} s, '
                                f'{len(motion)} samples')
@@ -341,6 +342,8 @@ class RobotSimulatorNode(GprNode):
         self.velocity[:] = 0.0
         if r is None:
             return
+        lag = outcome == 'succeeded' and float(self.p['servo_time_constant']) > 0.0   # else held where they are
+        self.command = r.motion.positions[-1].copy() if lag else None
         if outcome == 'succeeded':   # rclpy: one severity per call site
             self.get_logger().info(f'goal {outcome} ({code}): {text}')
         else:
