@@ -209,7 +209,8 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
      r'^gpr robot fk: error: --joints: 2 values for arm arm1, which has 3 joints \(arm1_shoulder, arm1_elbow, '
      r'arm1_wrist\); allowed: one value per joint, shoulder first$'),
-    (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'q3 = 0.9 m is outside the stroke'),
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'gpr_rod3 = 0.9 m is outside the '
+                                                                                  r'stroke'),
     (['robot', 'teach'], r'give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 \[J3 J4\], or --table FILE'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', '/nonexistent.yaml'],
      r"robot description file '/nonexistent.yaml' not found \(a path with a folder is read as given"),

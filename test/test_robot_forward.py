@@ -120,7 +120,9 @@ def test_naive_error_at_a_tilt_is_micrometres():
      r'^arm1_elbow = 3 rad is beyond its upper limit 2.9 rad by 0.1 rad; allowed: \[-2.9, 2.9\] rad$'),
     ([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, -3.1]], LimitError,
      r'^arm1_wrist = -3.1 rad \(sample 1\) is beyond its lower limit -3.05 rad by 0.05 rad'),
-    ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'q3 = 0.6 m is outside the stroke'),
+    ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'^gpr_rod3 = 0.6 m is outside the stroke'),   # was q3
+    ([[0.3, 0.3, 0.3], [0.3, 0.6, 0.3]], [[0.0, 0.0, 0.0]] * 2, LimitError,
+     r'^gpr_rod2 = 0.6 m \(sample 1\) is outside the stroke'),
     ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^gpr_rod3 = nan is not a finite number$'),
     ([[0.3, 0.3, 0.3]], [[0.0, float('inf'), 0.0]], InputError, r'^arm1_elbow = inf is not a finite number$'),
     ([[0.3, 0.3, 0.3]], [[0.0, 0.0]], InputError, r'joints of arm1 must have 3 values per sample'),

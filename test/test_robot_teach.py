@@ -259,3 +259,25 @@ def test_a_joint_table_row_beyond_the_tilt_limit_is_named(tmp_path):
                                           r'limit'):
         read_joint_table(table, ROBOT, 'arm1')
     assert read_joint_table(table, ROBOT, 'arm1', check_limits=False)[0] == ('a', 'b')
+
+
+def test_refusals_name_the_robots_own_rods():
+    """A robot whose rods are named lift_a .. lift_c: robot_forward and teach said q1, reteach gpr_rod1 (a name this
+    robot does not have), where its NaN, robot ik and the joint tables said lift_a (docs/robot.md: the names of the
+    refusals)."""
+    data = robot_data()
+    data['rods']['names'] = ['lift_a', 'lift_b', 'lift_c']
+    robot = make_robot(data)
+    for call in (lambda: robot_forward(robot, [[0.6, 0.25, 0.25]], [[0.0, 1.0, -0.5]], 'arm1'),
+                 lambda: teach(robot, [[0.6, 0.25, 0.25]], [[0.0, 1.0, -0.5]], 'arm1'),
+                 lambda: reteach(robot, [[0.25, 0.25, 0.25], [0.25, 0.6, 0.25]], [[0.0, 1.0, -0.5]] * 2, 'arm1')):
+        with pytest.raises(LimitError, match=r'^lift_[ab] = 0.6 m( \(sample 1\))? is outside the stroke \[0, 0.508\] m'):
+            call()
+
+
+def test_old_rods_tilting_far_beyond_the_limit_are_named_not_their_station():
+    """Old rods of 0.05, 0, 0 m (20.95 deg of tilt) were refused as a station plane tilted beyond the limit, with the
+    hint of degrees given as radians the user had not typed: the old rods are named, as without --naive."""
+    with pytest.raises(LimitError, match=r'^old rods: q = \[0.05, 0.0, 0.0\] m tilts the platform by about 0.3657 rad '
+                                         r'\(20.95 deg\), beyond the tilt limit'):
+        reteach(ROBOT, [[0.05, 0.0, 0.0]], [[0.0, 1.0, -0.5]], 'arm1')

@@ -180,10 +180,9 @@ def millimetres_within(value: float, config: GprConfig) -> bool:
 
 
 def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False,
-                 detail: Callable[[int], str] | None = None) -> None:
-    """Refuse rod lengths outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`), naming rod and sample;
-    ``typed``: rods a user gave (not computed ones), where a value that would lie within as millimetres says so;
-    ``detail(i)``: more words about the refused sample ``i`` (what asked for its rods)."""
+                 detail: Callable[[int], str] | None = None, names: Sequence[str] | None = None) -> None:
+    """Refuse rods outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`) naming rod (``what`` and number, or
+    ``names``) and sample; ``typed``: a user's (a value within as millimetres says so); ``detail(i)``: of sample i."""
     lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
     if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
         return
@@ -195,7 +194,8 @@ def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q
         value, config) else ''
     more = '' if detail is None else detail(int(i))
     shown, ends = stroke_words(value, config.stroke_min, config.stroke_max)
-    raise LimitError(f'{what}{k + 1} = {shown} m{where} is outside the stroke {ends} m{hint}{more}')
+    raise LimitError(f'{names[k] if names else f"{what}{k + 1}"} = {shown} m{where} is outside the stroke {ends} m'
+                     f'{hint}{more}')
 
 
 def stroke_words(value: float, lo: float, hi: float) -> tuple[str, str]:

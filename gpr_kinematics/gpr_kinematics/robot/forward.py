@@ -29,7 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
 from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat_vec, rot_z, tilt_matrix
-from ..core.ops import SCALAR
+from ..core.forward import STROKE_SLACK, check_stroke
+from ..core.ops import ARRAY, SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
 from ..core.single import one_pose
 from ..errors import InputError, LimitError, apart, brief
@@ -229,6 +230,7 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
     if Q.shape[0] != J.shape[0]:
         raise InputError(f'rods and joints must have the same number of samples, got {Q.shape[0]} and {J.shape[0]}')
     if check_limits:
+        check_rods(robot, Q)
         check_joint_limits(a, J)
     else:  # joints are periodic, but beyond the package's bound a float angle modulo 2 pi has no digits left
         bounded(J, f'joints of {a.name} [rad]')
@@ -236,6 +238,14 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         return _robot_forward_one(robot, a, Q, J, check_limits)
     gpr = forward_batch(Q, robot.config, check_limits=check_limits)
     return forward_on_platform(robot, a, Q, J, gpr)
+
+
+def check_rods(robot: RobotDescription, Q: Array) -> None:
+    """Refuse rods ``(N, 3)`` [m] outside the stroke naming the robot's rods (the core named them ``q1``)."""
+    cfg = robot.config
+    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
+    if not (all(lo <= v <= hi for v in Q[0].tolist()) if Q.shape[0] == 1 else bool(((lo <= Q) & (hi >= Q)).all())):
+        check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], cfg, typed=True, names=robot.rods.names)
 
 
 def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, gpr: ForwardBatch) -> RobotForward:

@@ -163,7 +163,7 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     """
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
-    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, what='gpr_rod', typed=True)
+    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, typed=True, names=robot.rods.names)
     theta = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
     beyond = (theta < a.lower - OLD_JOINT_SLACK) | (theta > a.upper + OLD_JOINT_SLACK)
     if beyond.any():   # the first such value, by row then joint
@@ -179,8 +179,20 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     value = None
     if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
         value = old.joints[:, a.redundancy.joint]
-    solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
+    try:
+        solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
+    except LimitError:   # old rods tilting the platform far beyond its limit are named, not their station's tilt
+        _old_tilt(robot, Q)   # (with the hint of degrees given as radians, which the user typed in metres)
+        raise
     return Retaught(old=old, intended=intended, solution=solution)
+
+
+def _old_tilt(robot: RobotDescription, Q: Array) -> None:
+    """Refuse old rods ``(N, 3)`` [m] that tilt the platform beyond its limit, as :func:`robot_forward` does."""
+    try:
+        forward_batch(Q, robot.config)
+    except LimitError as exc:
+        raise LimitError(f'old rods: {exc}') from None
 
 
 def _row_where(table: CsvTable, r: int) -> str:
