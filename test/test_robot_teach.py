@@ -271,7 +271,8 @@ def test_refusals_name_the_robots_own_rods():
     for call in (lambda: robot_forward(robot, [[0.6, 0.25, 0.25]], [[0.0, 1.0, -0.5]], 'arm1'),
                  lambda: teach(robot, [[0.6, 0.25, 0.25]], [[0.0, 1.0, -0.5]], 'arm1'),
                  lambda: reteach(robot, [[0.25, 0.25, 0.25], [0.25, 0.6, 0.25]], [[0.0, 1.0, -0.5]] * 2, 'arm1')):
-        with pytest.raises(LimitError, match=r'^lift_[ab] = 0.6 m( \(sample 1\))? is outside the stroke \[0, 0.508\] m'):
+        with pytest.raises(LimitError, match=r'^lift_[ab] = 0.6 m( \(sample 1\))? is outside the stroke \[0, '
+                                             r'0.508\] m'):
             call()
 
 
