@@ -670,6 +670,54 @@ def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):
     assert status == 0 and g['passed'] and g['value'] == pytest.approx(0.891, abs=5e-4) and g['limit'] < 0.7
 
 
+def test_one_kind_of_sigma_declared_is_checked(capsys, tmp_path):
+    """A sigma_position column (0.003: 3 um written in mm, in a file in metres) and no sigma_angle column, or only
+    --sigma-position 0.003 given: the gate's sigmas check was skipped (it ran only with both kinds declared), the fit
+    passed reporting "no noise declared" and wrote a geometry worse than the nominal one. The declared kind is
+    checked now (exit 1, nothing written but with --force), the report names the kind declared and the one
+    assumed, and a declared kind's residuals beyond 1e4 in reduced chi-square are refused (exit 2) as with both;
+    the declared kind at its true 3 um passes."""
+    lines = Path(SHIPPED).read_text(encoding='utf-8').splitlines()
+    data = [ln for ln in lines if not ln.startswith('#')]
+    header = data[0].split(',')
+    jp, ja = header.index('sigma_position'), header.index('sigma_angle')
+
+    def rows(value: str | None, keep_position: bool = True) -> str:
+        out = []
+        for i, ln in enumerate(data):
+            v = ln.split(',')
+            if i and value is not None:
+                v[jp] = value
+            out.append(','.join(c for j, c in enumerate(v) if j != ja and (keep_position or j != jp)))
+        return '# units: m rad\n' + '\n'.join(out) + '\n'
+
+    bare = write(tmp_path, 'bare.csv', rows(None, keep_position=False))
+    cases = {'column': (write(tmp_path, 'mm.csv', rows('0.003')),),
+             'option': (bare, '--sigma-position', '0.003')}
+    for name, argv in cases.items():
+        out_yaml = tmp_path / f'{name}.yaml'
+        status, out, err = run(capsys, 'calibrate', *argv, '--output', str(out_yaml), '--json')
+        d = json.loads(out)
+        checks = {g['name']: g for g in d['gate']['checks']}
+        assert status == 1 and not out_yaml.exists(), (name, err)
+        assert d['noise_declared'] == ['position'] and not d['absolute_sigma']
+        assert not checks['sigmas']['passed'] and checks['sigmas']['value'] < 1e-3 < 0.6 < checks['sigmas']['limit']
+        assert 'The position residuals are far smaller than the standard deviations given' in err, err
+        status, out, err = run(capsys, 'calibrate', *argv, '--output', str(out_yaml))
+        assert status == 1 and "reduced chi-square 0.4499 (the positions' sigmas declared" in out, out
+        assert "the angles' assumed" in out and 'no noise declared' not in out, out
+        status, out, err = run(capsys, 'calibrate', *argv, '--output', str(out_yaml), '--force')
+        assert status == 1 and out_yaml.exists() and "written anyway (--force)" in err, err
+    status, out, err = run(capsys, 'calibrate', write(tmp_path, 'tiny.csv', rows('1e-8')), '--output',
+                           str(tmp_path / 'tiny.yaml'))
+    assert status == 2 and 'the best fit leaves position residuals 262 times the standard deviations' in err, err
+    status, out, err = run(capsys, 'calibrate', write(tmp_path, 'um.csv', rows('3e-6')), '--output',
+                           str(tmp_path / 'um.yaml'), '--json')
+    d = json.loads(out)
+    assert status == 0 and d['noise_declared'] == ['position'], err
+    assert {g['name']: g for g in d['gate']['checks']}['sigmas']['passed']
+
+
 def test_one_outlier_fails_the_gate(capsys, tmp_path):
     """One row's z 20 um off (6.6 standard deviations of 3 um, studentized) among the shipped file's 40 passed the
     gate: reduced chi-square 1.11 below 1.32, cross-validation 1.00, rod1_offset moved by 0.85 standard errors.

@@ -20,6 +20,8 @@ table's ``measurement_noise``) weight position against angle, ``C`` is the sandw
 assumed sigmas is assumed too: one factor for both kinds misstated the standard errors by -20 to +31 %), and the
 gate judges the residuals against them as the noise they cannot much exceed (its
 ``chi_square`` check) and finds outliers by the residuals' own robust scale (:func:`~.quality.outlier_check`).
+One kind declared alone (a ``sigma_position`` column without ``sigma_angle``, ``--sigma-position`` alone) is judged
+as declared (the gate's ``sigmas`` check, its outliers in its sigmas, :data:`MAX_CHI2`), the other as assumed.
 Beside them: the leave-one-out cross-validation, the worst-case bias the held parameters can cause, and the gate
 (:mod:`.quality`).
 """
@@ -43,6 +45,7 @@ from .plausibility import measured_errors, plausible_start
 from .quality import (
     CHI2_QUANTILE,
     CV_GATE,
+    KINDS,
     Gate,
     GateCheck,
     chi2_limit,
@@ -109,6 +112,38 @@ def weights(meas: Measurements, sigma_position: float, sigma_angle: float,
     sa = meas.sigma_angle if meas.sigma_angle is not None else np.full(n, float(sigma_angle))
     w = np.column_stack([np.repeat(1.0 / sp[:, None], 3, 1), np.repeat(1.0 / sa[:, None], 3, 1)])
     return w, position and (meas.sigma_angle is not None or declared[1])
+
+
+def known_kinds(meas: Measurements, declared: tuple[bool, bool] = (False, False)) -> tuple[str, ...]:
+    """The kinds (``position``, ``angle``: :data:`~.quality.KINDS`) whose sigmas are the measurement noise: the
+    file's column, or ``declared`` (``--sigma-position``, ``--sigma-angle``)."""
+    kinds = ['position'] if meas.sigma_position is not None or declared[0] else []
+    if meas.quaternion is not None and (meas.sigma_angle is not None or declared[1]):
+        kinds.append('angle')
+    return tuple(kinds)
+
+
+def _refuse_far(meas: Measurements, params: ParameterSet, mask: NDArray[np.bool_], residual: Array, dof: int,
+                kinds: tuple[str, ...], absolute: bool) -> None:
+    """Refuse a fit whose residuals of a kind with declared sigmas (all: ``absolute``) exceed them beyond
+    :data:`MAX_CHI2` in reduced chi-square: ``sum r^2 / dof`` over all residuals, or over a declared kind's its
+    share of the ``dof`` (``dof`` times its share of the residuals) where the other kind's noise is assumed."""
+    k = residual.shape[1]
+    if absolute:
+        found = [('', float(np.sum(residual ** 2)) / dof)]
+    else:
+        found = [(f'{kind} ', float(np.sum(residual[:, part] ** 2)) / (dof * 3 / k))
+                 for kind, part in KINDS[k] if kind in kinds]
+    for kind, chi2_red in found:
+        if not chi2_red > MAX_CHI2:
+            continue
+        fixed_names = [p.name for j, p in enumerate(params) if not mask[j]]
+        shown = ', '.join(fixed_names[:4]) + (', ...' if len(fixed_names) > 4 else '')
+        fixed = (f', or parameters held that are off nominal ({len(fixed_names)} held by --free or a tolerance of 0: '
+                 f'{shown})?' if fixed_names else '')
+        raise InputError(f'{meas.source}: the best fit leaves {kind}residuals {math.sqrt(chi2_red):.3g} times the '
+                         f'standard deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most '
+                         f'{MAX_CHI2:g}): {NOT_THIS_MACHINE}, or sigma columns far too small{fixed}')
 
 
 def least_rows(n_free: int, per_row: int) -> int:
@@ -333,14 +368,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
                          f'{NOT_THIS_MACHINE}') from None
     theta = best.theta
     chi2_red = best.cost / dof
-    if absolute and chi2_red > MAX_CHI2:
-        fixed_names = [p.name for j, p in enumerate(params) if not mask[j]]
-        shown = ', '.join(fixed_names[:4]) + (', ...' if len(fixed_names) > 4 else '')
-        fixed = (f', or parameters held that are off nominal ({len(fixed_names)} held by --free or a tolerance of 0: '
-                 f'{shown})?' if fixed_names else '')
-        raise InputError(f'{meas.source}: the best fit leaves residuals {math.sqrt(chi2_red):.3g} times the standard '
-                         f'deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most {MAX_CHI2:g}): '
-                         f'{NOT_THIS_MACHINE}, or sigma columns far too small{fixed}')
+    known = known_kinds(meas, declared)
+    _refuse_far(meas, params, mask, best.residual, dof, known, absolute)
     cov = np.zeros((0, 0))
     se = np.full(len(params), np.nan)
     other = np.flatnonzero(~np.isin(np.arange(len(params)), fit)).astype(np.int64)
@@ -371,8 +400,10 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     at = tuple(params[int(j)].name for j in np.flatnonzero(best.at_bound))
     names = meas.row_names
     noise = None if absolute else assumed_noise(meas, best.residual, w, declared)
-    more = ((sigma_check(h, best.residual), outlier_check(h, best.residual, names)) if absolute
-            else (outlier_check(h, best.residual, names, robust=True),))
+    # the sigmas check of each kind whose sigmas are given (a sigma_position in mm with no sigma_angle passed), the
+    # outliers of the others in units of their own robust scale
+    more = (sigma_check(h, best.residual, known) if known else None,
+            outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]]))
     weak = weak_at_estimate(params, fit, se, scale)
     gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
@@ -390,7 +421,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
                              chi2_reduced=chi2_red, absolute_sigma=absolute, iterations=best.iterations, rows=n,
                              source=meas.source, convergence=Convergence(best.status, best.step_se, at, outcomes),
                              cross_validation=cv, bias=bias, gate=gate, lines=meas.lines, files=meas.files,
-                             warnings=warnings)
+                             warnings=warnings, declared=known)
 
 
 __all__ = ['DEFAULT_SIGMA_ANGLE', 'DEFAULT_SIGMA_POSITION', 'CalibrationResult', 'Identifiability', 'ResidualStats',

@@ -281,28 +281,32 @@ def spread(h: Array | None, residual: Array) -> str:
     return ', '.join(f'{kind}s {scale[part][0]:.3g}' for kind, part in KINDS[residual.shape[1]])
 
 
-def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust: bool = False) -> GateCheck | None:
+def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust: bool | Sequence[bool] = False
+                  ) -> GateCheck | None:
     """The gate's ``outliers`` check (module docstring): the largest studentized residual ``|r| / sqrt(1 - h)``
     against the point the largest of the fit's ``N k`` normal residuals exceeds with probability ``1 -
     CHI2_QUANTILE`` (Bonferroni); ``None`` without a hat diagonal. ``names``: the rows' names
-    (:attr:`~.measurements.Measurements.row_names`). ``robust`` (no declared noise): in units of the residuals' own
-    robust scale per kind (:func:`robust_scale`), not of the sigmas."""
+    (:attr:`~.measurements.Measurements.row_names`). ``robust`` (no declared noise; or per kind, positions and
+    angles, where one kind's is declared): in units of the residuals' own robust scale per kind
+    (:func:`robust_scale`), not of the sigmas."""
     if h is None:
         return None
     n, k = residual.shape
     z = studentized(h, residual)
     scale = robust_scale(z, h)
-    if robust:
-        z = z / scale[None, :]
+    per_kind = [bool(robust)] * len(KINDS[k]) if isinstance(robust, bool) else [bool(b) for b in robust]
+    by_scale = np.repeat(per_kind[:len(KINDS[k])], 3)
+    z = np.where(by_scale[None, :], z / scale[None, :], z)
     i, j = np.unravel_index(int(np.argmax(z)), z.shape)
+    scaled = bool(by_scale[j])
     limit = float(norm_distribution.isf((1.0 - CHI2_QUANTILE) / 2.0 / (n * k)))
     value = float(z[i, j])
     what = ('x', 'y', 'z', 'rx', 'ry', 'rz')[j]
     name = names[int(i)]
     units = ('robust standard deviations of its kind (1.4826 times the median studentized residual: no noise '
-             'declared)' if robust else 'standard deviations (studentized)')
+             'declared)' if scaled else 'standard deviations (studentized)')
     kind = KINDS[k][j // 3][0]
-    cause = ('a mismeasured row (remove it)' if robust else
+    cause = ('a mismeasured row (remove it)' if scaled else
              'a mismeasured row (remove it), or its standard deviation larger than given'
              if value > limit * scale[j] or scale[j] <= 1.0 else
              f'not this row alone: the {kind}s\' robust scale is {scale[j]:.3g} sigma, this one '
@@ -313,17 +317,18 @@ def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust
                      f'{1 / (1 - CHI2_QUANTILE):.0f} fits): {cause}.')
 
 
-def sigma_check(h: Array | None, residual: Array) -> GateCheck | None:
+def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = None) -> GateCheck | None:
     """The gate's ``sigmas`` check (module docstring) of a fit with hat diagonal ``h (N, k)`` (:func:`hat_diagonal`)
-    and weighted residual blocks ``residual (N, k)``: the kind whose reduced chi-square is furthest below its
-    ``1 - CHI2_QUANTILE`` point; ``None`` when no kind has a degree of freedom or there is no hat diagonal."""
+    and weighted residual blocks ``residual (N, k)``: of the ``kinds`` whose sigmas are given (all by default), the
+    one whose reduced chi-square is furthest below its ``1 - CHI2_QUANTILE`` point; ``None`` when none has a degree
+    of freedom or there is no hat diagonal."""
     n, k = residual.shape
     if h is None:
         return None
     found: tuple[float, str, float, float] | None = None
     for kind, part in KINDS[k]:
         dof = float(np.sum(1.0 - h[:, part]))
-        if dof < 1.0:
+        if dof < 1.0 or (kinds is not None and kind not in kinds):
             continue
         red = float(np.sum(residual[:, part] ** 2)) / dof
         low = float(chi2_distribution.ppf(1.0 - CHI2_QUANTILE, dof) / dof)

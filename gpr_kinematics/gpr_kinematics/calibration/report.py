@@ -91,11 +91,22 @@ def format_calibration(res: CalibrationResult) -> str:
         lines.append('  every free parameter is identified')
     if ident.identified:
         lines.append(f'  condition number of the fitted parameters {ident.condition_number:.4g}')
-    sig = 'sigmas from the file or --sigma-position/--sigma-angle: the noise' if res.absolute_sigma else \
-        ('no noise declared: the sigmas used are the assumed noise, standard errors scaled by each kind\'s own '
-         'reduced chi-square (positions, angles)')
-    lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({sig})')
+    lines.append(f'reduced chi-square {res.chi2_reduced:.4g} ({_noise(res)})')
     return '\n'.join(lines + _checks(res) + [f'warning: {w}' for w in res.warnings])
+
+
+def _noise(res: CalibrationResult) -> str:
+    """Which sigmas are the noise (the file's or the options') and which are assumed, in words."""
+    if res.absolute_sigma:
+        return 'sigmas from the file or --sigma-position/--sigma-angle: the noise'
+    if not res.declared:
+        return ('no noise declared: the sigmas used are the assumed noise, standard errors scaled by each kind\'s own '
+                'reduced chi-square (positions, angles)')
+    kind = res.declared[0]
+    other = 'angle' if kind == 'position' else 'position'
+    return (f'the {kind}s\' sigmas declared (the file\'s sigma_{kind} or --sigma-{kind}): their noise, checked by the '
+            f'gate\'s sigmas check; the {other}s\' assumed: their standard errors scaled by the {other}s\' own reduced '
+            'chi-square')
 
 
 def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float) -> str:

@@ -123,6 +123,9 @@ class CalibrationResult:
     files: tuple[str, ...] = ()
     #: What the fit found that the gate does not judge (a parameter moved far beyond its a-priori uncertainty).
     warnings: tuple[str, ...] = ()
+    #: The kinds (``position``, ``angle``) whose sigmas are the measurement noise (the file's or the options'); the
+    #: others' are assumed (all given: :attr:`absolute_sigma`).
+    declared: tuple[str, ...] = ()
 
     @property
     def values(self) -> Array:
@@ -175,7 +178,8 @@ class CalibrationResult:
                                   'ratio': _finite(cv.ratio), 'alone': list(cv.alone),
                                   'alone_files': list(cv.alone_files)}},
                 'identifiability': self.identifiability.as_dict(), 'chi2_reduced': self.chi2_reduced,
-                'absolute_sigma': self.absolute_sigma, 'iterations': self.iterations,
+                'absolute_sigma': self.absolute_sigma, 'noise_declared': list(self.declared),
+                'iterations': self.iterations,
                 'convergence': self.convergence.as_dict(), 'gate': self.gate.as_dict(),
                 'fitted': [self.parameters[j].name for j in self.fitted],
                 'correlation': self.correlation.tolist(), 'warnings': list(self.warnings)}
