@@ -669,3 +669,30 @@ def test_a_parameter_the_poses_see_worse_at_the_estimate_is_named(core_case):
     (warning,) = [w for w in res.warnings if 'worse at the estimate' in w]
     assert re.search(r'standard error over a-priori standard deviation: joint1_y \d+(\.\d+)?\): their values are '
                      r'noise; leave them out of --free', warning), warning
+
+
+def test_outliers_without_declared_noise_fail_right_fits_at_the_stated_rate():
+    """Without declared noise the outliers check measured the studentized residuals in their kind's robust scale (the
+    MAD's, estimated from the same residuals) against the normal's Bonferroni point (4.6 for 40 poses): 8 of 1000
+    right fits failed it (these seeds), against the 1 in 1000 stated. The point is Student's t's with the MAD scale's
+    degrees of freedom (0.368 of its kind's: 5.3); those fits pass, and a row 20 um off (5.61 robust standard
+    deviations against 5.31) is still an outlier."""
+    import dataclasses
+
+    from gpr_kinematics.calibration import demo
+
+    cfg = load_config()
+    model = CoreModel(cfg)
+    Q = plan_measurements(model, cfg, 40, sigma_position=SP, sigma_angle=SA).q
+    truth = model.parameters.coordinates(demo.true_values(model))
+    for seed in (180, 236, 426, 454, 597, 840, 902, 908):
+        meas = synthetic_measurements(model, truth, Q, SP, SA, seed=seed, with_sigmas=False)
+        check = {c.name: c for c in identify(model, meas).gate.checks}['outliers']
+        assert check.passed and 5.25 < check.limit < 5.4 and check.value > 4.6, (seed, check)
+    meas = synthetic_measurements(model, truth, Q, SP, SA, seed=180, with_sigmas=False)
+    position = meas.position.copy()
+    position[7, 2] += 20e-6
+    gate = identify(model, dataclasses.replace(meas, position=position)).gate
+    check = {c.name: c for c in gate.checks}['outliers']
+    assert not gate.passed and not check.passed
+    assert check.detail.startswith('Line 8 is an outlier: its z residual is 5.61 robust standard deviations'), check
