@@ -246,3 +246,27 @@ def test_a_calibrated_file_is_the_budgets_nominal(capsys, tmp_path):
     q = json.loads(out)['stations'][0]['q']
     np.testing.assert_allclose(q, inverse_batch(0.3, math.hypot(0.02, 0.01), math.atan2(0.01, 0.02), cfg,
                                                 'compliant').q[0], rtol=0, atol=1e-15)
+
+
+def test_a_worst_case_of_zero_is_compared_in_absolute_numbers(capsys, tmp_path):
+    """The zero offsets alone at zero tilt move the platform horizontally to second order only: its linearised worst
+    case is 0, the samples' largest error 0.01 um. gpr accuracy printed numpy's RuntimeWarning (divide by zero) and
+    warned it 'exceeds the linearised worst case 0 um by inf %'. Against a worst case of 0 the difference is judged
+    absolutely (beyond 0.1 um: budget.NONLINEAR_FLOOR), no numpy warning escapes, and a warned difference (1 mm
+    offsets: 4.17 um) is stated in micrometres."""
+    import warnings
+
+    argv = ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0', '0', '0', '--samples', '1000']
+    for tolerance, warned in (('5.0e-5', ''), ('1.0e-3', '4.17 um')):
+        table = tmp_path / f'{tolerance}.yaml'
+        table.write_text(f'parameters:\n  rod_offsets: {{tolerance: {tolerance}}}\n')
+        with warnings.catch_warnings():
+            warnings.simplefilter('error')
+            status, out, err = run(capsys, *argv, '--tolerances', str(table))
+        assert status == 0 and 'inf %' not in out and 'RuntimeWarning' not in err, (out, err)
+        beyond = [ln for ln in out.splitlines() if 'exceeds the linearised worst case' in ln]
+        if not warned:
+            assert not beyond, beyond
+            continue
+        assert len(beyond) == 2 and all(f"bounds {warned} exceeds the linearised worst case 0 um by {warned} (more "
+                                        'than 0.1 um): the model is not linear' in ln for ln in beyond), beyond
