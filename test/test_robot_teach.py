@@ -282,3 +282,21 @@ def test_old_rods_tilting_far_beyond_the_limit_are_named_not_their_station():
     with pytest.raises(LimitError, match=r'^old rods: q = \[0.05, 0.0, 0.0\] m tilts the platform by about 0.3657 rad '
                                          r'\(20.95 deg\), beyond the tilt limit'):
         reteach(ROBOT, [[0.05, 0.0, 0.0]], [[0.0, 1.0, -0.5]], 'arm1')
+
+
+def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):
+    """A table whose header names arm2's joints, read for the default arm1: 'header column 4 'arm2_shoulder' is
+    invalid; allowed: ... arm1_wrist ...' and nothing more; it names the arm to give now."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    table = tmp_path / 't2.csv'
+    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder [deg],arm2_elbow,arm2_wrist,arm2_hand\n'
+                     '0.3,0.301,0.302,1,-1.8,0.2,0.8\n')
+    with pytest.raises(ConfigError, match=r"header column 4 'arm2_shoulder \[deg\]' is invalid; .* \(the header "
+                                          r"names arm arm2's joints: give that arm, --arm arm2\)$"):
+        read_joint_table(table, ROBOT)
+    assert read_joint_table(table, ROBOT, 'arm2')[1].shape == (1, 3)
+    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,elbow\n0.3,0.3,0.3,1\n')   # no arm's: as before
+    with pytest.raises(ConfigError, match=r"header column 4 'elbow' is invalid; allowed: [^(]*$"):
+        read_joint_table(table, ROBOT)

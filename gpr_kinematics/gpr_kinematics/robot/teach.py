@@ -238,6 +238,28 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
                           f'{abs(value - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad{hint}')
 
 
+def _read_table(path: str | Path, robot: RobotDescription, a: Arm) -> CsvTable:
+    """The joint table of arm ``a`` at ``path``, its header's columns checked; a header naming another arm's joints
+    says which arm to give."""
+    kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
+    text = read_text(path, 'joint table', MAX_BYTES)
+    try:
+        return read_csv_table(text, str(path), kinds, robot.rods.names + a.joint_names)
+    except ConfigError as exc:
+        other = _other_arm(robot, a, text)
+        if other is None:
+            raise
+        raise ConfigError(f"{exc} (the header names arm {other}'s joints: give that arm, --arm {other})") from None
+
+
+def _other_arm(robot: RobotDescription, a: Arm, text: str) -> str | None:
+    """The robot's other arm whose joints the header of a joint table ``text`` names (its first line that is not a
+    comment; a column's unit in brackets left out), or None."""
+    header = next((line for line in text.splitlines() if line.strip() and not line.lstrip().startswith('#')), '')
+    columns = {c.split('[')[0].strip() for c in header.split(',')}
+    return next((b.name for b in robot.arms if b is not a and columns & set(b.joint_names)), None)
+
+
 def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None = None,
                      check_limits: bool = True) -> tuple[tuple[str, ...], Array, Array]:
     """Joints from a CSV file: a header naming the rods and the arm's joints (units in brackets: ``[m]``/``[mm]``
@@ -248,9 +270,7 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
     of :func:`reteach`), a joint beyond its limits, with a hint when the value read as degrees would lie within them
     (a column without a unit is in radians)."""
     a = robot.arm(arm)
-    kinds = {'name': 'text', **{r: 'length' for r in robot.rods.names}, **{j: 'angle' for j in a.joint_names}}
-    table = read_csv_table(read_text(path, 'joint table', MAX_BYTES), str(path), kinds,
-                           robot.rods.names + a.joint_names)
+    table = _read_table(path, robot, a)
     rods = np.empty((len(table), 3))
     joints = np.empty((len(table), len(a.joints)))
     names: list[str] = []
