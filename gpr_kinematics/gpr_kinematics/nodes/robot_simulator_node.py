@@ -353,9 +353,10 @@ class RobotSimulatorNode(GprNode):
     def _cancelled(self, r: _Run) -> None:
         """End ``r``, whose cancel was accepted, as cancelled (at the next tick, or when a newer goal preempts it
         first: it ended aborted as 'preempted' although its client's cancel had been accepted)."""
-        t = r.motion.time[min(max(r.k - 1, 0), len(r.motion) - 1)]   # the last sample sent (r.k: the next)
-        self._end('canceled', SUCCESSFUL, f'cancelled at t = {t:.6g} s of {r.motion.duration:.6g} s; the joints '
-                  'hold where they are')
+        m = r.motion
+        t = m.late + m.time[min(max(r.k - 1, 0), len(m) - 1)]   # the last sample sent (r.k: the next), goal's time
+        self._end('canceled', SUCCESSFUL, 'cancelled before its start; nothing moved' if r.started is None else
+                  f'cancelled at t = {t:.6g} s of {m.late + m.duration:.6g} s; the joints hold where they are')
 
     def _tick(self) -> None:
         """Publish every sample due by now (at most :meth:`~.runtime.GprNode.catch_up`), checking the tolerances."""
@@ -403,13 +404,13 @@ class RobotSimulatorNode(GprNode):
         if not settling:
             broken = violation(self.joints, m.goal, err, err_v, tol.path_position, tol.path_velocity, 'path')
             if broken:
-                self._end('aborted', PATH_TOLERANCE_VIOLATED, f'at t = {t:.6g} s: {broken}')
+                self._end('aborted', PATH_TOLERANCE_VIOLATED, f'at t = {m.late + t:.6g} s: {broken}')
                 return False
         if r.k >= K:
             final = m.positions[-1] - self.actual
             off = violation(self.joints, m.goal, final, -self.velocity, tol.goal_position, tol.goal_velocity, 'goal')
             if off is None:
-                self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {t:.6g} s ({K} samples)')
+                self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {m.late + t:.6g} s ({K} samples)')
                 return False
             if t > m.duration + tol.goal_time + 1e-9:
                 self._end('aborted', GOAL_TOLERANCE_VIOLATED, f'{tol.goal_time:g} s after the last point: {off}')
@@ -421,7 +422,7 @@ class RobotSimulatorNode(GprNode):
         stamp = r.start_ns + round(t * NS_PER_S)
         fb = FollowJointTrajectory.Feedback(joint_names=list(r.motion.trajectory.joint_names))
         fb.header.stamp.sec, fb.header.stamp.nanosec = time_parts(stamp)
-        at = _duration(t)
+        at = _duration(r.motion.late + t)   # from the goal's header.stamp, where its points' times count from
         fb.desired = JointTrajectoryPoint(positions=desired[g].tolist(), velocities=desired_v[g].tolist(),
                                           time_from_start=at)
         fb.actual = JointTrajectoryPoint(positions=self.actual[g].tolist(), velocities=self.velocity[g].tolist(),

@@ -218,7 +218,8 @@ class Motion:
     """A checked goal sampled at the controller's rate: sample times ``time (K,)`` [s from the start], every joint's
     desired ``positions`` and ``velocities`` ``(K, N)`` (the joints the goal does not name held), the goal's joints
     ``goal (G,)`` (indices), its tolerances, its trajectory and every joint where it was at the goal's arrival
-    ``current (N,)`` (a first point at ``t = 0`` is reached from there in one sample)."""
+    ``current (N,)`` (a first point at ``t = 0`` is reached from there in one sample); ``late`` [s]: the goal's own
+    time at the motion's start (a ``header.stamp`` in the past: its feedback and result count from the stamp)."""
 
     time: Array
     positions: Array
@@ -227,6 +228,7 @@ class Motion:
     tolerances: Tolerances
     trajectory: JointTrajectory
     current: Array
+    late: float = 0.0
 
     def __len__(self) -> int:
         return int(self.time.shape[0])

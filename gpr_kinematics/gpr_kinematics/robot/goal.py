@@ -5,6 +5,7 @@ joint_trajectory_controller applies them (docs/ros.md, "The robot simulator"). T
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -172,8 +173,8 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -
         raise GoalError(INVALID_GOAL, f'the goal would run until {last / NS_PER_S:.12g} s on the clock, beyond the '
                         f'int32 sec of a message stamp; allowed: a goal ending by {SEC_MAX} s (2038-01-19T03:14:07Z)')
     try:
-        return plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance,
-                           under_way), start
+        motion = plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance, under_way)
+        return dataclasses.replace(motion, late=late), start
     except GoalError as exc:
         if not late:
             raise
