@@ -64,6 +64,30 @@ def test_malformed_ros_args_exit_2_one_line(exe, case, tmp_path):
     assert '[rcl]' not in out          # rcl's own "Failed to parse global arguments" line is not shown
 
 
+def _params_file(path: Path, body: str) -> Path:
+    path.write_text('kinematics_node:\n  ros__parameters:\n' + body)
+    return path
+
+
+def test_a_params_file_beyond_the_bounds_is_refused_before_rcl_reads_it(tmp_path):
+    """A list of 80,000 values (320 kB): rcl's parser took 5 to 20 s over it (quadratic), deaf to SIGTERM; the
+    package's bounded reader refuses it at once, naming the file and the limit (every node: one start-up path)."""
+    big = _params_file(tmp_path / 'long.yaml', '    kappa: [' + ','.join(['1.0'] * 80_000) + ']\n')
+    began = time.monotonic()
+    status, out = _run('state_publisher_node', '--ros-args', '--params-file', str(big), timeout=30)
+    assert_one_error_line(out, status, 2, r"cannot start: params file '.*long\.yaml': line 3: more than 20000 YAML "
+                          r'values; allowed: at most 20000')
+    assert time.monotonic() - began < 10
+
+
+def test_a_params_file_with_a_key_twice_is_refused_naming_both_lines(tmp_path):
+    """``radius: 0.09`` then ``radius: 0.1``: rcl kept the last without a word; every package YAML refuses it."""
+    twice = _params_file(tmp_path / 'twice.yaml', '    radius: 0.09\n    radius: 0.1\n')
+    status, out = _run('kinematics_node', '--ros-args', '--params-file', str(twice), timeout=30)
+    assert_one_error_line(out, status, 2, r"cannot start: params file '.*twice\.yaml': line 4: duplicate key "
+                          r"'radius' \(first on line 3\)")
+
+
 @pytest.mark.parametrize('exe', list(NODES))
 def test_parameter_of_the_wrong_type_exit_2_one_line(exe):
     spec = next(s for s in node_specs(exe) if s.kind in ('double', 'integer') and s.name != 'rate')

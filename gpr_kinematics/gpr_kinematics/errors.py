@@ -52,6 +52,9 @@ class FileError(ConfigError, InputError):
 
 #: Longest text of a value quoted in an error message [characters].
 BRIEF_LENGTH = 60
+#: Longest path quoted whole in an error message (``brief(path, PATH_LENGTH)``) [characters]: a real path fits, a
+#: name beyond the file system's (255 bytes) is cut.
+PATH_LENGTH = 120
 
 
 class _Repr(reprlib.Repr):

@@ -45,7 +45,7 @@ from ..errors import BRIEF_LENGTH, ConfigError, brief
 from .files import read_text
 
 __all__ = ['BRIEF_LENGTH', 'KIND_BYTES', 'MAX_BYTES', 'MAX_DEPTH', 'MAX_NODES', 'YamlValue', 'brief', 'dump',
-           'is_name', 'load_text', 'quoted_key', 'read_file']
+           'is_name', 'load_documents', 'load_text', 'quoted_key', 'read_file']
 
 #: A value read from YAML before its file format has checked it: a dict, list, str, int, float, bool or None, nested
 #: in any way a user wrote. Honestly ``Any``: each format's checks (:mod:`gpr_kinematics.inputs.schema`) narrow it.
@@ -63,14 +63,16 @@ MAX_NODES = 200_000
 #: robot description, a tolerance table is a few kB (1 MiB holds a hundred times that); a mechanism with closure
 #: equations some 10 kB; programs and station files go up to :data:`MAX_BYTES` (10,000 stations are about 1 MB).
 KIND_BYTES: dict[str, int] = {'config': 1 << 20, 'robot': 1 << 20, 'tolerance table': 1 << 20, 'mechanism': 4 << 20}
+#: What a refusal of too many values advises by default.
+STATIONS_HINT = 'large station lists belong in CSV station files'
 
 
 class _Bounds:
     """The bounds of one document, checked per event or node: no alias, at most ``max_nodes`` values, nesting at
     most :data:`MAX_DEPTH` deep, each refusal naming the line."""
 
-    def __init__(self, source: str, max_nodes: int) -> None:
-        self.source, self.max_nodes = source, max_nodes
+    def __init__(self, source: str, max_nodes: int, hint: str = STATIONS_HINT) -> None:
+        self.source, self.max_nodes, self.hint = source, max_nodes, hint
         self.depth = self.nodes = 0
 
     def node(self, line: int) -> None:
@@ -78,7 +80,7 @@ class _Bounds:
         self.nodes += 1
         if self.nodes > self.max_nodes:
             raise ConfigError(f'{self.source}: line {line}: more than {self.max_nodes} YAML values; allowed: at '
-                              f'most {self.max_nodes} (large station lists belong in CSV station files)')
+                              f'most {self.max_nodes} ({self.hint})')
         if self.depth + 1 > MAX_DEPTH:
             raise ConfigError(f'{self.source}: line {line}: nested deeper than {MAX_DEPTH} levels; '
                               f'allowed: at most {MAX_DEPTH}')
@@ -134,10 +136,10 @@ class _UniqueKeys:
 class _BoundedLoader(_UniqueKeys, yaml.SafeLoader):
     """The pure-Python loader (where PyYAML has no libyaml): the bounds are checked while composing the nodes."""
 
-    def __init__(self, stream: str, source: str, max_nodes: int) -> None:
+    def __init__(self, stream: str, source: str, max_nodes: int, hint: str = STATIONS_HINT) -> None:
         super().__init__(stream)
         self._source = source
-        self._bounds = _Bounds(source, max_nodes)
+        self._bounds = _Bounds(source, max_nodes, hint)
 
     def compose_node(self, parent: Node | None, index: Any) -> Node | None:
         event: Any = yaml.SafeLoader.peek_event(self)
@@ -281,9 +283,26 @@ def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None
     ...
     gpr_kinematics.errors.ConfigError: g.yaml: line 3: duplicate key 'radius' (first on line 1); allowed: ...
     """
+    return _load(text, source, MAX_NODES if max_nodes is None else max_nodes, max_chars)[0]
+
+
+def load_documents(text: str, source: str, max_nodes: int, max_chars: int, hint: str) -> list[YamlValue]:
+    """Every document of the YAML stream ``text`` (``---`` between them; none in an empty text), under the bounds of
+    :func:`load_text` counted over the whole stream: at most ``max_nodes`` values, ``max_chars`` characters;
+    ``hint`` is what a refusal of too many values advises. A ROS params file may hold several documents (rcl
+    merges them).
+
+    >>> load_documents('a: 1\\n---\\na: 2', 'p.yaml', 10, 100, 'fewer')
+    [{'a': 1}, {'a': 2}]
+    """
+    return _load(text, source, max_nodes, max_chars, hint, every=True)
+
+
+def _load(text: str, source: str, limit: int, max_chars: int, hint: str = STATIONS_HINT, every: bool = False
+          ) -> list[YamlValue]:
+    """The documents of ``text`` (``every``), or its single one (a list of one), under the bounds."""
     if len(text) > max_chars:
         raise ConfigError(f'{source}: {len(text)} characters of YAML; allowed: at most {max_chars}')
-    limit = MAX_NODES if max_nodes is None else max_nodes
     bad = _NON_PRINTABLE.search(text)
     if bad:  # PyYAML's own words, whichever parser runs
         raise ConfigError(f'{source}: not valid YAML (unacceptable character #x{ord(bad.group()):04x}: special '
@@ -291,11 +310,16 @@ def load_text(text: str, source: str = 'YAML text', max_nodes: int | None = None
     loader: Any = None
     try:
         if _CLoader is not None:
-            _prescan(text, _Bounds(source, limit))
+            _prescan(text, _Bounds(source, limit, hint))
             loader = _CLoader(text, source)
         else:
-            loader = _BoundedLoader(text, source, limit)  # the reader checks the characters here already
-        return loader.get_single_data()
+            loader = _BoundedLoader(text, source, limit, hint)  # the reader checks the characters here already
+        if not every:
+            return [loader.get_single_data()]
+        out = []
+        while loader.check_data():
+            out.append(loader.get_data())
+        return out
     except yaml.YAMLError as exc:
         raise ConfigError(f'{source}: not valid YAML{_where(exc)}') from None
     except RecursionError:  # flow collections recurse in the Python parser, before compose_node can count

@@ -5,8 +5,9 @@
 - 0: the node finished its work or was stopped by SIGINT/SIGTERM;
 - 1 (:data:`EXIT_FAILED`): it stopped while running (e.g. the recorder's disk is full): one line
   ``stopped: ...``;
-- 2 (:data:`EXIT_BAD_CONFIG`): it cannot start (malformed ``--ros-args`` or params file, a bad parameter value,
-  an unreadable program or bag, an invalid topic name): one line ``cannot start: ...``, never a traceback.
+- 2 (:data:`EXIT_BAD_CONFIG`): it cannot start (malformed ``--ros-args`` or params file, a params file beyond the
+  bounds of :mod:`.params_files`, a bad parameter value, an unreadable program or bag, an invalid topic name): one
+  line ``cannot start: ...``, never a traceback.
 
 Signals: rclpy's own SIGINT/SIGTERM handlers are not installed (``SignalHandlerOptions.NO``); SIGINT and SIGTERM
 only set a flag (:class:`StopFlag`) that the spin loop checks, so a signal never interrupts the construction of
@@ -42,6 +43,7 @@ from rclpy.signals import SignalHandlerOptions
 from ..errors import EXIT_BAD_INPUT, GprError
 from ..inputs.validation import decimal_number
 from .params import unknown_overrides
+from .params_files import check_params_files
 
 EXIT_OK = 0
 #: Exit status of a node that stopped on an error while running.
@@ -322,6 +324,23 @@ def finish_callbacks(executor: Executor) -> None:
         pool.shutdown(wait=True)
 
 
+def _init(args: Sequence[str] | None, logger: Any) -> bool:
+    """rclpy initialised with ``args`` (None: ``sys.argv``), its params files first read under the package's bounds
+    (:mod:`.params_files`: rcl's parser is quadratic and deaf to signals); False after the one ``cannot start`` line."""
+    try:
+        check_params_files(sys.argv if args is None else args)
+    except GprError as exc:
+        logger.error(f'cannot start: {one_line(exc)}')
+        return False
+    try:
+        with _stderr_held():
+            rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as exc:
+        logger.error(f'cannot start: malformed ROS arguments: {one_line(exc)}')
+        return False
+    return True
+
+
 def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
     """Init rclpy (signals: :class:`StopFlag`), build the node, spin it, leave; return the exit status. The node is
     destroyed before rclpy shuts down, also one whose start was refused half-way (its handles had been left to the
@@ -333,11 +352,7 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
     logger = rclpy.logging.get_logger(name or str(getattr(node_class, 'NODE_NAME', 'gpr_node')))
     stop = StopFlag()
     _STOP[:] = [stop]
-    try:
-        with _stderr_held():
-            rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
-    except RCLError as exc:
-        logger.error(f'cannot start: malformed ROS arguments: {one_line(exc)}')
+    if not _init(args, logger):
         return EXIT_BAD_CONFIG
     node: GprNode | None = None
     executor: Executor | None = None
