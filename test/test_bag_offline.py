@@ -534,6 +534,36 @@ def test_writer_refuses_existing_unwritable_and_unknown(tmp_path: Path) -> None:
     assert not (tmp_path / 'new').exists()
 
 
+LONG = 'x' * 300    # beyond a file name's 255 bytes: Path.exists raised ENAMETOOLONG (an OSError, not a BagError)
+NAME_TOO_LONG = 'name too long; allowed: a path whose names have at most 255 bytes each, 4096 in all'
+
+
+def _long_storage_name(tmp_path: Path) -> Path:
+    """A copy of the reference bag whose metadata.yaml lists a storage file of 300 characters (no digests)."""
+    bag = tmp_path / 'long_name'
+    shutil.copytree(REFERENCE, bag)
+    meta = bag / 'metadata.yaml'
+    text = ''.join(line for line in meta.read_text().splitlines(keepends=True) if 'sha256' not in line)
+    meta.write_text(text.replace('reference_sweep_0.mcap', f'{LONG}.mcap'))
+    return bag
+
+
+def test_a_name_too_long_is_refused_naming_the_path_cut(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A bag path, a storage file listed in metadata.yaml, a recorder output: each too long for the file system is a
+    BagError naming the path cut and what is allowed, and gpr verify calls it unreadable (exit 2)."""
+    for path, what in ((tmp_path / LONG, ''), (_long_storage_name(tmp_path) / f'{LONG}.mcap', 'storage file ')):
+        with pytest.raises(BagError) as info:
+            read_bag(path.parent if what else path)
+        assert str(info.value).endswith(f'... ({len(str(path))} characters): {what}{NAME_TOO_LONG}')
+        assert str(path) not in str(info.value)
+    status, out, err = run_cli('verify', LONG, capsys=capsys)
+    assert (status, out) == (2, '') and err == f"gpr verify: error: unreadable: '{LONG[:119]}... (300 characters): " \
+                                               f'{NAME_TOO_LONG}\n'
+    for output in (tmp_path / LONG, tmp_path / LONG / 'bag'):
+        with pytest.raises(BagError, match=f'^output .*\\.\\.\\. \\({len(str(output))} characters\\): {NAME_TOO_LONG}'):
+            SegmentedBagWriter(output, {STATE: GPR_TOPICS[STATE]}).open()
+
+
 _KILL_WRITER = r'''
 import sys, time
 sys.path.insert(0, sys.argv[3])

@@ -162,6 +162,20 @@ def test_replay_empty_topic_list_means_all_topics(value):
     assert f'replaying {ref.message_count} messages of {len(ref.topics)} topic(s)' in out
 
 
+NAME_TOO_LONG = r'name too long; allowed: a path whose names have at most 255 bytes each, 4096 in all$'
+
+
+@pytest.mark.parametrize('exe,parameter', [('replay_node', 'bag'), ('recorder_node', 'output')])
+def test_a_bag_path_too_long_exit_2_one_line_naming_it_cut(exe, parameter, tmp_path):
+    """A name of 300 characters: ``Path.exists`` raised ENAMETOOLONG, ``cannot start: internal error: OSError``
+    (status 1) with the path whole."""
+    long = str(tmp_path / ('x' * 300))
+    status, out = _run(exe, '--ros-args', '-p', f'{parameter}:={long}', '-p', 'storage:=sqlite3'
+                       if exe == 'recorder_node' else 'rate:=1.0')
+    line = assert_one_error_line(out, status, 2, rf'cannot start: .*\.\.\. \({len(long)} characters\): {NAME_TOO_LONG}')
+    assert long not in line
+
+
 def _corrupt_copy(tmp_path: Path, how: str) -> Path:
     bag = tmp_path / 'bag'
     shutil.copytree(REFERENCE, bag)
@@ -176,10 +190,14 @@ def _corrupt_copy(tmp_path: Path, how: str) -> Path:
         os.mkfifo(mcap)
     elif how == 'metadata-not-yaml':
         (bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: [\n')
+    elif how == 'storage-name-too-long':   # a storage file of 300 characters listed (no digests to match)
+        meta = bag / 'metadata.yaml'
+        lines = [line for line in meta.read_text().splitlines(keepends=True) if 'sha256' not in line]
+        meta.write_text(''.join(lines).replace(mcap.name, 'x' * 300 + '.mcap'))
     return bag
 
 
-@pytest.mark.parametrize('how', ['truncated', 'garbage', 'fifo-file', 'metadata-not-yaml'])
+@pytest.mark.parametrize('how', ['truncated', 'garbage', 'fifo-file', 'metadata-not-yaml', 'storage-name-too-long'])
 def test_replay_corrupt_bag_exit_2_one_line(how, tmp_path):
     bag = _corrupt_copy(tmp_path, how)
     status, out = _run('replay_node', '--ros-args', '-p', f'bag:={bag}', timeout=60)

@@ -7,17 +7,47 @@ reader forever or feed it without end; :func:`open_regular` refuses it *without*
 """
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import stat
 from pathlib import Path
 from typing import BinaryIO
 
+from ..errors import PATH_LENGTH, brief
 from ..inputs.files import kind_of, note_read
 from .errors import BagError
 
 #: Bytes read at a time when hashing a file.
 BLOCK = 1 << 20
+#: What a path too long for the file system is allowed (Linux's ``NAME_MAX`` and ``PATH_MAX``).
+NAME_RULE = 'allowed: a path whose names have at most 255 bytes each, 4096 in all'
+
+
+def shown(path: str | os.PathLike[str]) -> str:
+    """``path`` as a message names it: whole up to :data:`~gpr_kinematics.errors.PATH_LENGTH` characters, else cut
+    (:func:`~gpr_kinematics.errors.brief`)."""
+    text = os.fspath(path)
+    return text if len(text) <= PATH_LENGTH else brief(text, PATH_LENGTH)
+
+
+def path_error(path: str | os.PathLike[str], exc: OSError, what: str = '') -> str:
+    """The message of an ``OSError`` met looking ``path`` up: ``name too long`` with :data:`NAME_RULE`
+    (``ENAMETOOLONG``), else ``cannot be read`` and the system's reason; ``what`` names the kind of file."""
+    if exc.errno == errno.ENAMETOOLONG:
+        return f'{shown(path)}: {what + " " if what else ""}name too long; {NAME_RULE}'
+    return f'{shown(path)}: {what + " " if what else ""}cannot be read: {exc.strerror or exc}'
+
+
+def status_of(path: Path, what: str = '') -> os.stat_result | None:
+    """``os.stat`` of ``path`` (links followed); None where nothing is there (missing, or a part of it is no
+    folder); :class:`BagError` (:func:`path_error`) for another error, a name too long (``Path.exists`` raised it)."""
+    try:
+        return os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        raise BagError(path_error(path, exc, what)) from None
 
 
 def require_regular(path: Path, what: str) -> int:

@@ -27,7 +27,7 @@ import yaml
 from ..errors import ConfigError, brief, kind_of
 from ..inputs import safe_yaml
 from .errors import BagError
-from .fileio import read_bounded, require_regular
+from .fileio import read_bounded, require_regular, status_of
 
 BAG_VERSION: Final[Literal[9]] = 9
 STORAGES = ('mcap', 'sqlite3')
@@ -156,7 +156,7 @@ def read_metadata(folder: Path) -> Metadata:
             the wrong type (named, with what is allowed).
     """
     path = folder / 'metadata.yaml'
-    if not path.exists():
+    if status_of(path) is None:
         raise BagError(f'{folder}: no metadata.yaml: not a rosbag2 bag folder (or a recording whose first '
                        f'segment was never closed)')
     require_regular(path, 'metadata.yaml')

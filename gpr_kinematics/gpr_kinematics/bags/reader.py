@@ -21,6 +21,7 @@ import functools
 import itertools
 import os
 import sqlite3
+import stat
 import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +32,7 @@ from numpy.typing import NDArray
 from ..errors import brief
 from .cdr import Columns, decode_columns
 from .errors import BagError
-from .fileio import check_sqlite_pages, read_head, require_regular, sha256_file
+from .fileio import check_sqlite_pages, read_head, require_regular, sha256_file, shown, status_of
 from .mcap_file import MAX_MESSAGES, read_mcap
 from .metadata import INT_END, Metadata, read_metadata
 from .typestore import (
@@ -184,13 +185,14 @@ class Layout:
 def locate(path: str | Path) -> Layout:
     """Find and validate the parts of the bag at ``path`` (a folder with ``metadata.yaml``, or one file)."""
     path = Path(path)
-    if not path.exists():
-        raise BagError(f'{path}: does not exist')
-    if not path.is_dir():
+    info = status_of(path)
+    if info is None:
+        raise BagError(f'{shown(path)}: does not exist')
+    if not stat.S_ISDIR(info.st_mode):
         storage = SUFFIXES.get(path.suffix)
         if storage is None:
-            raise BagError(f'{path}: not a bag: expected a rosbag2 folder (with metadata.yaml), a .mcap or a .db3 '
-                           f'file')
+            raise BagError(f'{shown(path)}: not a bag: expected a rosbag2 folder (with metadata.yaml), a .mcap or a '
+                           '.db3 file')
         require_regular(path, 'storage file')
         return Layout(path, storage, (path,), None, (), ())
     meta = read_metadata(path)
@@ -207,8 +209,8 @@ def locate(path: str | Path) -> Layout:
             raise BagError(f'{path}: metadata.yaml lists {rel!r}; allowed: {meta.storage} file names ending in '
                            f'{suffix}')
         f = path / name
-        if not f.exists():
-            raise BagError(f'{f}: listed in metadata.yaml but missing')
+        if status_of(f, 'storage file') is None:
+            raise BagError(f'{shown(f)}: listed in metadata.yaml but missing')
         require_regular(f, 'storage file')
         files.append(f)
     listed = {f.name for f in files}

@@ -39,6 +39,7 @@ from ..errors import FileError, brief
 from ..inputs.files import writable_folder
 from ..inputs.validation import plain_number
 from .errors import BagError
+from .fileio import path_error, shown
 from .metadata import BAG_VERSION, INT_END, file_lines, render_metadata
 from .reader import OPEN_SEGMENT_DIR
 from .storage_writers import ROS_DISTRO, McapStorage, Sqlite3Storage, StorageWriter, offered_qos
@@ -79,13 +80,21 @@ class _ClosedFile:
 def check_output_path(path: Path) -> None:
     """Raise :class:`BagError` if ``path`` exists or cannot be created (nearest existing ancestor not a
     writable folder)."""
-    if path.exists() or path.is_symlink():
-        raise BagError(f'output {path} exists already; allowed: a path that does not exist yet (the recorder '
+    try:
+        os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        pass   # nothing there: the folder is checked below
+    except OSError as exc:   # a name too long (Path.exists raised it), a folder that cannot be searched
+        raise BagError(f'output {path_error(path, exc)}') from None
+    else:
+        raise BagError(f'output {shown(path)} exists already; allowed: a path that does not exist yet (the recorder '
                        f'never overwrites a bag)')
     try:
         writable_folder(path, 'output')
     except FileError as exc:
         raise BagError(str(exc)) from None
+    except OSError as exc:
+        raise BagError(f'output {path_error(path, exc)}') from None
 
 
 def _fsync_path(path: Path, directory: bool = False) -> None:
