@@ -1,4 +1,5 @@
 """The gpr command line (core subcommands): JSON keys, units, and one-line errors with status 2."""
+import argparse
 import errno
 import io
 import json
@@ -312,3 +313,37 @@ def test_a_write_that_fails_on_a_named_file_names_that_file(capsys, monkeypatch)
     assert main(['fk', '0.1', '0.1', '0.1']) == 2
     assert capsys.readouterr().err == ("gpr fk: error: cannot write 'out.csv': No space left on device; allowed: an "
                                        'output with room for it\n')
+
+
+@pytest.mark.parametrize('err,name,words', [
+    (errno.EACCES, 'secret.yaml', "cannot read 'secret.yaml': Permission denied; allowed: a file or folder this "
+     'user can read'),
+    (errno.EACCES, 'out.csv', "cannot write 'out.csv': Permission denied; allowed: an output with room for it"),
+    (errno.EACCES, 'rep/verify.json', "cannot write 'rep/verify.json': Permission denied; allowed: an output with "
+     'room for it'),                                       # in the --report folder: a write
+    (errno.ENOSPC, 'elsewhere.db3', "cannot write 'elsewhere.db3': No space left on device; allowed: an output "
+     'with room for it'),                                  # a write's error
+])
+def test_an_os_error_no_handler_named_is_a_read_unless_it_is_a_write(err, name, words):
+    """main's last resort tells a read from a write: the error's kind, or the file one of the command's outputs."""
+    from gpr_kinematics.cli.main import os_error
+
+    args = argparse.Namespace(csv='out.csv', report='rep', output=None, config='secret.yaml')
+    assert os_error(OSError(err, os.strerror(err), name), args) == words
+
+
+def test_a_name_too_long_met_reading_is_named_a_read_cut(capsys, monkeypatch):
+    """An OSError of a read no handler named (bags.reader.locate's Path.exists raised ENAMETOOLONG): it was
+    "cannot write" the 300 characters whole."""
+    from gpr_kinematics.core import config
+
+    def stray(path, *args, **kwargs):
+        if len(str(path)) > 255:
+            raise OSError(errno.ENAMETOOLONG, 'File name too long', str(path))
+        return read_yaml(path, *args, **kwargs)
+
+    read_yaml = config.read_yaml
+    monkeypatch.setattr(config, 'read_yaml', stray)
+    assert main(['sweep', '--config', 'x' * 300]) == 2
+    assert capsys.readouterr().err == (f"gpr sweep: error: cannot read '{'x' * 119}... (300 characters): File name too "
+                                       'long; allowed: a path whose names have at most 255 bytes each, 4096 in all\n')

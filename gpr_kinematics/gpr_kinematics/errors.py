@@ -55,6 +55,8 @@ BRIEF_LENGTH = 60
 #: Longest path quoted whole in an error message (``brief(path, PATH_LENGTH)``) [characters]: a real path fits, a
 #: name beyond the file system's (255 bytes) is cut.
 PATH_LENGTH = 120
+#: What a path too long for the file system (``ENAMETOOLONG``) is allowed: Linux's ``NAME_MAX`` and ``PATH_MAX``.
+NAME_RULE = 'allowed: a path whose names have at most 255 bytes each, 4096 in all'
 
 
 class _Repr(reprlib.Repr):

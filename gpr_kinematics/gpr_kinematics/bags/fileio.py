@@ -14,14 +14,12 @@ import stat
 from pathlib import Path
 from typing import BinaryIO
 
-from ..errors import PATH_LENGTH, brief
+from ..errors import NAME_RULE, PATH_LENGTH, brief
 from ..inputs.files import kind_of, note_read
 from .errors import BagError
 
 #: Bytes read at a time when hashing a file.
 BLOCK = 1 << 20
-#: What a path too long for the file system is allowed (Linux's ``NAME_MAX`` and ``PATH_MAX``).
-NAME_RULE = 'allowed: a path whose names have at most 255 bytes each, 4096 in all'
 
 
 def shown(path: str | os.PathLike[str]) -> str:
@@ -32,7 +30,8 @@ def shown(path: str | os.PathLike[str]) -> str:
 
 
 def path_error(path: str | os.PathLike[str], exc: OSError, what: str = '') -> str:
-    """The message of an ``OSError`` met looking ``path`` up: ``name too long`` with :data:`NAME_RULE`
+    """The message of an ``OSError`` met looking ``path`` up: ``name too long`` with
+    :data:`~gpr_kinematics.errors.NAME_RULE`
     (``ENAMETOOLONG``), else ``cannot be read`` and the system's reason; ``what`` names the kind of file."""
     if exc.errno == errno.ENAMETOOLONG:
         return f'{shown(path)}: {what + " " if what else ""}name too long; {NAME_RULE}'

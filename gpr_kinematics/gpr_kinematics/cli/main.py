@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import os
 import re
@@ -22,10 +23,10 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn, TypeAlias
 
-from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, GprError, brief, one_line
+from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, NAME_RULE, PATH_LENGTH, GprError, brief, one_line
 from ..inputs.files import command_reads, command_writes
 from ..inputs.safe_yaml import UNSIGNED_DECIMAL
-from .output import description, distinct_outputs
+from .output import OUTPUT_OPTIONS, description, distinct_outputs
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -174,11 +175,42 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return 0
     except OSError as exc:  # the standard output on a full disk or a failing device (files are the handlers' to name)
-        where = f" '{exc.filename}'" if exc.filename else ' the standard output'
         with contextlib.suppress(OSError):
-            sys.stderr.write(f'{command}: error: cannot write{where}: {exc.strerror or exc}; allowed: an output '
-                             'with room for it\n')
+            sys.stderr.write(f'{command}: error: {os_error(exc, args)}\n')
         return EXIT_USAGE
+
+
+#: The errors of a write only: a full disk or quota, a file too large, a read-only file system.
+WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
+
+
+def os_error(exc: OSError, args: argparse.Namespace) -> str:
+    """The one line of an ``OSError`` no handler named: without a file, the standard output could not be written;
+    with one, a write where the error is a write's (:data:`WRITE_ERRORS`) or the file is one of the command's outputs
+    (:data:`~gpr_kinematics.cli.output.OUTPUT_OPTIONS`, or in one), else a read (a bag of 300 characters was
+    "cannot write" whole); the path cut to :data:`~gpr_kinematics.errors.PATH_LENGTH`."""
+    reason = exc.strerror or str(exc)
+    if not exc.filename:
+        return f'cannot write the standard output: {reason}; allowed: an output with room for it'
+    name = os.fsdecode(exc.filename)
+    shown = brief(name, PATH_LENGTH)
+    if exc.errno in WRITE_ERRORS or _is_output(name, args):
+        return f'cannot write {shown}: {reason}; allowed: an output with room for it'
+    rule = NAME_RULE if exc.errno == errno.ENAMETOOLONG else 'allowed: a file or folder this user can read'
+    return f'cannot read {shown}: {reason}; {rule}'
+
+
+def _is_output(name: str, args: argparse.Namespace) -> bool:
+    """Whether ``name`` is an output the command was given, or lies in one (a report folder's files)."""
+    path = os.path.abspath(name)
+    for key in OUTPUT_OPTIONS:
+        value = getattr(args, key, None)
+        for out in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(out, (str, os.PathLike)) and os.fspath(out):
+                out = os.path.abspath(os.fspath(out))
+                if path == out or path.startswith(out.rstrip(os.sep) + os.sep):
+                    return True
+    return False
 
 
 if __name__ == '__main__':
