@@ -564,6 +564,29 @@ def test_a_name_too_long_is_refused_naming_the_path_cut(tmp_path: Path, capsys: 
             SegmentedBagWriter(output, {STATE: GPR_TOPICS[STATE]}).open()
 
 
+@pytest.mark.parametrize('listed', ['../reference_sweep/reference_sweep_0.mcap', '/tmp/reference_sweep_0.mcap',
+                                    '..\\reference_sweep_0.mcap', 'reference_sweep/reference_sweep_0.mcap'])
+def test_a_storage_file_listed_outside_the_bag_folder_is_refused_by_name(tmp_path: Path, listed: str,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """``../base/base_0.db3`` in both lists was read as the ``base_0.db3`` inside the bag and failed as "listed in files
+    but not in relative_file_paths" (it was in both); ``<bag folder>/<name>``, as the first rosbag2 versions wrote,
+    reads the name."""
+    bag = tmp_path / 'copy'
+    shutil.copytree(REFERENCE, bag)
+    meta = bag / 'metadata.yaml'
+    meta.write_text(meta.read_text().replace('- reference_sweep_0.mcap', f"- '{listed}'")
+                    .replace('path: reference_sweep_0.mcap', f"path: '{listed}'"))
+    if not listed.startswith('reference_sweep/'):
+        with pytest.raises(BagError, match=f'^{re.escape(str(meta))}: relative_file_paths lists '
+                                           f"{re.escape(repr(listed))}, a storage file outside the bag folder; "
+                                           'allowed: a file in the bag folder, by its name'):
+            read_bag(bag)
+        status, _, err = run_cli('verify', str(bag), capsys=capsys)
+        assert status == 2 and 'unreadable' in err and 'outside the bag folder' in err
+    else:
+        assert read_bag(bag).files == ['reference_sweep_0.mcap']
+
+
 _KILL_WRITER = r'''
 import sys, time
 sys.path.insert(0, sys.argv[3])

@@ -24,7 +24,7 @@ from typing import Any, Final, Literal
 
 import yaml
 
-from ..errors import ConfigError, brief, kind_of
+from ..errors import PATH_LENGTH, ConfigError, brief, kind_of
 from ..inputs import safe_yaml
 from .errors import BagError
 from .fileio import read_bounded, require_regular, status_of
@@ -148,6 +148,12 @@ def digest_line(value: str) -> bytes:
     return f"{_INDENT}{METADATA_DIGEST_KEY}: '{value}'\n".encode()
 
 
+def _outside(rel: str) -> bool:
+    """Whether a listed storage file lies outside the bag folder: an absolute path or one with ``..``."""
+    parts = rel.replace('\\', '/').split('/')
+    return rel.startswith(('/', '\\')) or '..' in parts or (len(parts) > 1 and parts[0].endswith(':'))
+
+
 def read_metadata(folder: Path) -> Metadata:
     """Read and validate ``folder/metadata.yaml``.
 
@@ -186,6 +192,11 @@ def read_metadata(folder: Path) -> Metadata:
     if times > 1:  # a file listed 1000 times was read 1000 times (4 GB): each segment is listed once
         raise BagError(f'{path}: relative_file_paths lists {brief(name)} {times} times; allowed: each segment file '
                        'once')
+    outside = next((p for p in paths if _outside(p)), None)
+    if outside is not None:  # ../other/x.db3 was read as the x.db3 inside the bag, the failure blamed on the lists
+        raise BagError(f'{path}: relative_file_paths lists {brief(outside, PATH_LENGTH)}, a storage file outside the '
+                       'bag folder; allowed: a file in the bag folder, by its name (the first rosbag2 versions wrote '
+                       '<bag folder>/<name>)')
     files = tuple(FileEntry(f.text('path'), f.integer('starting_time', 'nanoseconds_since_epoch'),
                             f.integer('duration', 'nanoseconds'), f.integer('message_count'))
                   for f in top.items('files'))
