@@ -35,7 +35,7 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
-from ..bags.typestore import KNOWN_TOPICS
+from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
@@ -100,6 +100,13 @@ class ReplayNode(GprNode):
         self._served, self._warned_behind = 0.0, False
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
+        legacy = [pub.topic_name for n, pub in self.pubs.items() if bag.relative(n) == LEGACY_JOINT_STATES_TOPIC]
+        if legacy and bag.joint_states_topic() == LEGACY_JOINT_STATES_TOPIC:   # a recorder's defaults miss them
+            self.get_logger().warning(
+                f'the bag carries its joint states on {legacy[0]}, where the node suite published them before they '
+                f'moved to joint_states: a recorder with its default topics and a state publisher read joint_states '
+                f'(remap: -r {legacy[0].lstrip("/")}:={JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: '
+                f'joint_states:=gpr/joint_states)')
 
     def published_name(self, bag: Any, name: str) -> str:
         """Where the bag's topic ``name`` is published: a topic of the node suite (recorded at the root or in the
