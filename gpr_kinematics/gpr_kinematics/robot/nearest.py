@@ -56,8 +56,9 @@ NEAREST_PROBE = 1e-6
 NEAREST_SCAN = (0.01, 0.05, 0.25, 0.5)
 #: A minimum is found when its bracket is this narrow [rad] (or the slope vanishes there) ...
 NEAREST_TOLERANCE = 1e-14
-#: ... or after a Newton step this small [rad]: the error left is of the order of its square.
-NEAREST_LAST_STEP = 1e-7
+#: ... or after a Newton step this small [rad] and this fraction of the one before (converging quadratically: the
+#: error left is of the order of its square; beside a reach's edge it converges linearly: 1e-7 there left 1e-8 rad).
+NEAREST_LAST_STEP, NEAREST_SUPERLINEAR = 1e-7, 0.01
 #: At most this many points are evaluated in floats (one target's Newton steps), more with numpy.
 NEAREST_FLOATS = 4
 #: Newton steps at most (it converges quadratically: some 5 are taken).
@@ -68,8 +69,7 @@ NEAREST_WRAP_SIDE = 1e-12
 
 
 class Evaluation(NamedTuple):
-    """Postures at held values: the ``cost`` (``inf`` where infeasible), its ``slope`` ``dC/dv`` and ``curvature``
-    ``d2C/dv2``."""
+    """Postures at held values: ``cost`` (``inf``: infeasible), its ``slope`` dC/dv and ``curvature`` d2C/dv2."""
 
     cost: Array
     slope: Array
@@ -421,13 +421,13 @@ def _det3(t: list[Array | float], x: list[Array], y: list[Array]) -> Array:
 def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: Array, rows: Index, a: Array,
              b: Array, ga: Array, gb: Array) -> Array:
     """The zero of the slope in each bracket ``[a, b]`` (slopes ``ga < 0 < gb``): Newton's method on the slope from
-    the zero of the line through the ends' slopes, a step that leaves the bracket replaced by bisection, the bracket
-    kept."""
+    the secant's zero, a step leaving the bracket replaced by bisection, the bracket kept."""
     a, b = a.copy(), b.copy()
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         x = a - ga * (b - a) / (gb - ga)
     x = np.where((x > a) & (x < b), x, 0.5 * (a + b))
     active = np.arange(a.size)
+    before = np.full(a.size, np.inf)   # each search's step before
     for _ in range(NEAREST_STEPS):
         t = x[active]
         ev = _evaluate(arm, d, beta, p, phi, sign, rows[active], t, curvature=True)
@@ -440,9 +440,10 @@ def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: 
         step = t - dt
         inside = (step >= A) & (step <= B)
         nxt = np.where(inside, step, 0.5 * (A + B))
-        last = inside & (np.abs(dt) <= NEAREST_LAST_STEP)  # converging quadratically: this step is the last
+        last = inside & (np.abs(dt) <= NEAREST_LAST_STEP) & (np.abs(dt) <= NEAREST_SUPERLINEAR * before[active])
         done = ~(left | right) | last | (B - A <= NEAREST_TOLERANCE)
         x[active] = np.where(done & ~last, t, nxt)
+        before[active] = np.where(inside, np.abs(dt), np.inf)   # a bisection is no Newton step
         active = active[~done]
         if not active.size:
             break
