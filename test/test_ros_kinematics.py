@@ -397,3 +397,24 @@ def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment
 
     with pytest.raises(InputError, match=r"executor = 'x'; allowed: 'single' or 'events'"):
         GprClient('gpr_test_bad_executor', executor='x')
+
+
+@pytest.mark.parametrize('call, words', [
+    (lambda c: c.forward_kinematics([0.5, 0.5]), r'^q must be 3 numbers, got 2; allowed: 3 values in SI units$'),
+    (lambda c: c.forward_kinematics([0.5, 0.5, 0.5, 0.3]), r'^q must be 3 numbers, got 4'),
+    (lambda c: c.analyze_mobility([0.5] * 3, dq=[1e-4, -1e-4]), r'^dq must be 3 numbers'),
+    (lambda c: c.robot_forward_kinematics([0.3] * 2, [0.0, 0.0, 0.0]), r'^rods must be 3 numbers, got 2'),
+    (lambda c: c.inverse_kinematics(0.45, 0.01, 1e300), r'azimuth = 1e\+300 rad; allowed: .* \|azimuth\| <= 1e\+06'),
+    (lambda c: c.inverse_kinematics(0.45, 2.0 * math.pi + 0.01, 0.0), r'allowed: \|tilt\| < pi'),
+    (lambda c: c.inverse_kinematics(0.45, float('nan'), 0.0), r'^height, tilt, azimuth = \[0.45, nan, 0.0\]'),
+    (lambda c: c.compensate([0.0, 0.0], [0.0, 0.0, 0.0, 1.0]), r'^position must be 3 numbers'),
+    (lambda c: c.station_inverse_kinematics([1.0, 0.5], tilt=0.0), r'^position must be 3 numbers, got 2'),
+])
+def test_the_client_refuses_what_its_requests_cannot_carry(client, call, words):
+    """GprClient sent a q of 2 values with the memory past its end as q3 (6.9e-310), cut one of 4 silently, and an
+    azimuth of 1e300 as a valid quaternion (answered success): refused before anything is sent, naming the value
+    (a NaN the node refuses naming its field, but where the client computes with it: the target's quaternion)."""
+    from gpr_kinematics.errors import InputError
+
+    with pytest.raises(InputError, match=words):
+        call(client)

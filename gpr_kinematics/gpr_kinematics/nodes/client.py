@@ -16,11 +16,13 @@ Example (in the ROS environment, with ``kinematics_node`` running)::
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any
 
+import numpy as np
 import rclpy
 from rclpy.action import ActionClient
 from rclpy.executors import Executor, SingleThreadedExecutor
@@ -40,8 +42,21 @@ from gpr_interfaces.srv import (
 from ..core.messages import Service
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError, InputError, brief
+from ..inputs.validation import MAX_COORDINATE, float_array
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
+
+
+def _floats(values: Any, name: str, size: int | None = None, finite: bool = False) -> list[float]:
+    """``values`` as floats, ``size`` of them where given (a request's fixed-size array of another length was sent
+    with the memory past its end, rclpy without ROS_PYTHON_CHECK_FIELDS, or cut silently), ``finite`` where the
+    client computes with them (NaN and infinity are the node's to refuse, naming the field, otherwise)."""
+    a = float_array(values, name, 'numbers').reshape(-1)
+    if size is not None and a.shape != (size,):
+        raise InputError(f'{name} must be {size} numbers, got {a.shape[0]}; allowed: {size} values in SI units')
+    if finite and not np.isfinite(a).all():
+        raise InputError(f'{name} = {a.tolist()} is not finite; allowed: finite values in SI units')
+    return [float(v) for v in a]
 
 
 class ServiceTimeoutError(GprError, TimeoutError):
@@ -105,11 +120,15 @@ class GprClient:
 
     def forward_kinematics(self, q: Vector, model: str = '') -> Any:
         """``gpr/forward_kinematics``: rod lengths ``q`` [m] -> ForwardKinematics.Response."""
-        req = ForwardKinematics.Request(q=[float(v) for v in q], model=model)
+        req = ForwardKinematics.Request(q=_floats(q, 'q', 3), model=model)
         return self.call(ForwardKinematics, Service.FORWARD_KINEMATICS, req)
 
     def inverse_kinematics(self, height: float, tilt: float, azimuth: float, model: str = '') -> Any:
         """``gpr/inverse_kinematics``: platform height [m], tilt and tilt azimuth [rad] -> the response."""
+        height, tilt, azimuth = _floats((height, tilt, azimuth), 'height, tilt, azimuth', 3, finite=True)
+        if not abs(tilt) < math.pi or not abs(azimuth) <= MAX_COORDINATE:   # a quaternion would fold them
+            raise InputError(f'tilt = {tilt:g} rad, azimuth = {azimuth:g} rad; allowed: |tilt| < pi (the node '
+                             f'judges its tilt limit) and |azimuth| <= {MAX_COORDINATE:g} rad')
         quat = quaternion_from_matrix(tilt_rotation(tilt, azimuth))
         req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=model)
         return self.call(InverseKinematics, Service.INVERSE_KINEMATICS, req)
@@ -117,19 +136,20 @@ class GprClient:
     def compensate(self, position: Vector, quaternion: Vector, tool_offset: Vector = (0.0, 0.0, 0.0),
                    model: str = '') -> Any:
         """``gpr/compensate``: naive command pose and tool offset (platform frame) [m] -> the response."""
-        req = Compensate.Request(command=pose_msg(position, quaternion), model=model)
-        req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = (float(v) for v in tool_offset)
+        req = Compensate.Request(command=pose_msg(_floats(position, 'position', 3), _floats(quaternion, 'quaternion',
+                                                                                             4)), model=model)
+        req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = _floats(tool_offset, 'tool_offset', 3)
         return self.call(Compensate, Service.COMPENSATE, req)
 
     def analyze_mobility(self, q: Vector, dq: Vector = (0.0, 0.0, 0.0), model: str = '') -> Any:
         """``gpr/analyze_mobility``: ranks, singular values and bounds at ``q``, ``|dX|`` for ``dq`` [m]."""
-        req = AnalyzeMobility.Request(q=[float(v) for v in q], dq=[float(v) for v in dq], model=model)
+        req = AnalyzeMobility.Request(q=_floats(q, 'q', 3), dq=_floats(dq, 'dq', 3), model=model)
         return self.call(AnalyzeMobility, Service.ANALYZE_MOBILITY, req)
 
     def robot_forward_kinematics(self, rods: Vector, joints: Vector, arm: str = '', model: str = '') -> Any:
         """``gpr/robot_forward_kinematics``: rod lengths [m] and the arm's joints [rad] -> the response (wafer,
         blade, platform in the world, exact and naive)."""
-        req = RobotForwardKinematics.Request(rods=[float(v) for v in rods], joints=[float(v) for v in joints],
+        req = RobotForwardKinematics.Request(rods=_floats(rods, 'rods', 3), joints=_floats(joints, 'joints'),
                                              arm=arm, model=model)
         return self.call(RobotForwardKinematics, Service.ROBOT_FORWARD_KINEMATICS, req)
 
@@ -139,12 +159,14 @@ class GprClient:
         """``gpr/station_inverse_kinematics``: a station (wafer position in the world [m], the station plane's
         tilt and azimuth, the blade heading [rad]; ``heading=None`` leaves it free for a 2-joint arm) -> the
         response (rods, the arm's joints, the wafer reached, the naive model's wafer error)."""
-        req = StationInverseKinematics.Request(tilt=float(tilt), azimuth=float(azimuth),
-                                               heading=0.0 if heading is None else float(heading),
+        tilt, azimuth = _floats((tilt, azimuth), 'tilt, azimuth', 2)
+        req = StationInverseKinematics.Request(tilt=tilt, azimuth=azimuth,
+                                               heading=0.0 if heading is None else _floats([heading], 'heading')[0],
                                                heading_free=heading is None, arm=arm, branch=branch, model=model,
                                                use_redundancy_value=redundancy_value is not None,
-                                               redundancy_value=float(redundancy_value or 0.0))
-        req.position.x, req.position.y, req.position.z = (float(v) for v in position)
+                                               redundancy_value=_floats([redundancy_value or 0.0],
+                                                                        'redundancy_value')[0])
+        req.position.x, req.position.y, req.position.z = _floats(position, 'position', 3)
         return self.call(StationInverseKinematics, Service.STATION_INVERSE_KINEMATICS, req)
 
     # -- topics --------------------------------------------------------------------------------------------------
