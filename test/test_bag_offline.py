@@ -739,3 +739,28 @@ def test_a_negative_log_time_in_an_sqlite3_bag_is_named(tmp_path: Path, messages
         read_bag(db)
     assert str(e.value) == (f'{db}: topic {STATE} has a log time of -5 ns; allowed: 0 to 2^63 - 1 ns (a rosbag2 time '
                             'stamp)')
+
+
+def test_a_compliant_bags_report_plots_its_recorded_virtual_joints(tmp_path: Path) -> None:
+    """docs/bags.md: the virtual joints of the model a bag was recorded with are plotted from its messages; a compliant
+    bag's dr and dt were in no figure (only the polar and offset models computed from its q)."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.bags.report import report_figures
+    from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
+    from gpr_kinematics.core.config import load_config
+
+    bag = tmp_path / 'comp'
+    write_messages(bag, sweep_messages(config=load_config(overrides={'model': 'compliant'})))
+    result = verify_bag(bag)
+    figures = dict(report_figures(result))
+    try:
+        fig = figures['compliant_virtual_joints.png']
+        lines = [ln for ln in fig.axes[0].lines if ln.get_label() in ('dr1', 'dt3')]
+        assert [ln.get_label() for ln in lines] == ['dr1', 'dt3']
+        X = result.series.virtual_joints
+        np.testing.assert_array_equal(lines[0].get_ydata(), X[:, 0] * 1e3)
+        np.testing.assert_array_equal(lines[1].get_ydata(), X[:, 5] * 1e3)
+        assert 'radial_virtual_joints.png' not in figures
+    finally:
+        for fig in figures.values():
+            plt.close(fig)

@@ -183,6 +183,10 @@ def report_figures(result: VerifyResult) -> list[tuple[str, Figure]]:
         figures.append((f'fig{figs[1]}_{model}_angular_virtual_joints.png',
                         _figure(f'Fig. {int(figs[1])}: {model} model, angular virtual joints ({source}), bag {bag}',
                                 x, np.degrees(X[:, 3:]), anames, f'{anames[0][:-1]} [deg]', cr)))
+    if s.model == 'compliant' and s.virtual_joints.shape[1] == 6:   # the physical model's: radial, tangential
+        figures.append(('compliant_virtual_joints.png',
+                        _figure(f'compliant model: dr1..3 (radial), dt1..3 (tangential) (recorded), bag {bag}', x,
+                                s.virtual_joints * 1e3, ['dr1', 'dr2', 'dr3', 'dt1', 'dt2', 'dt3'], 'dr, dt [mm]', cr)))
     if s.model == 'radial' and s.virtual_joints.shape[1] == 3:
         figures.append(('radial_virtual_joints.png',
                         _figure(f"radial model (authors' earlier [11]): l1, l2, l3 (recorded), bag {bag}", x,
