@@ -297,6 +297,12 @@ def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):
                                           r"names arm arm2's joints: give that arm, --arm arm2\)$"):
         read_joint_table(table, ROBOT)
     assert read_joint_table(table, ROBOT, 'arm2')[1].shape == (1, 3)
+    for header in ('"gpr_rod1","gpr_rod2","gpr_rod3","arm2_shoulder","arm2_elbow","arm2_wrist","arm2_hand"',   # quoted
+                   'gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder [rad],arm2_elbow [rad],arm2_wrist [rad],arm2_hand [rad]'):
+        for comment in ('', '# taught on the old tool\n'):
+            table.write_text(f'{comment}{header}\n0.3,0.301,0.302,1,-1.8,0.2,0.8\n')
+            with pytest.raises(ConfigError, match=r"--arm arm2\)$"):
+                read_joint_table(table, ROBOT)
     table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,elbow\n0.3,0.3,0.3,1\n')   # no arm's: as before
     with pytest.raises(ConfigError, match=r"header column 4 'elbow' is invalid; allowed: [^(]*$"):
         read_joint_table(table, ROBOT)

@@ -11,6 +11,7 @@
 """
 from __future__ import annotations
 
+import csv
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -256,7 +257,7 @@ def _other_arm(robot: RobotDescription, a: Arm, text: str) -> str | None:
     """The robot's other arm whose joints the header of a joint table ``text`` names (its first line that is not a
     comment; a column's unit in brackets left out), or None."""
     header = next((line for line in text.splitlines() if line.strip() and not line.lstrip().startswith('#')), '')
-    columns = {c.split('[')[0].strip() for c in header.split(',')}
+    columns = {c.split('[')[0].strip() for c in next(csv.reader([header]), [])}   # quoted names too
     return next((b.name for b in robot.arms if b is not a and columns & set(b.joint_names)), None)
 
 
