@@ -394,12 +394,13 @@ def test_a_target_within_the_height_margin_is_not_the_one_named():
         inverse_batch([hi - 0.005, hi + 0.05], math.radians(1.5), 0.7)
 
 
+@pytest.mark.parametrize('model', ['radial', 'polar', 'offset', 'compliant'])
 @pytest.mark.parametrize('batch', [False, True])
-def test_inverse_takes_exactly_max_iterations_steps_and_no_more(batch):
+def test_inverse_takes_exactly_max_iterations_steps_and_no_more(batch, model):
     """The paper's target (0.5 m, 2 deg about x) takes 4 Newton steps (the doctest of core/inverse.py): with
     max_iterations = 4 it is solved to IK_TOLERANCE, with 3 it is refused (not returned half solved)."""
-    def solve(most):
-        cfg = CFG.replace(max_iterations=most)
+    def solve(most):   # every model (the one-pose path's fused radial steps and the others' steps alike)
+        cfg = CFG.replace(max_iterations=most, model=model)
         if batch:
             ib = inverse_batch([0.5], math.radians(2.0), 0.0, config=cfg)
             return int(ib.iterations[0]), float(ib.achieved.position[0, 2]), float(ib.achieved.tilt[0])

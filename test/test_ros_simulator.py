@@ -463,10 +463,19 @@ def test_path_and_goal_tolerances(lagging):
         g.goal_time_tolerance.nanosec = int(goal_time * 1e9)
         return g
 
+    from sensor_msgs.msg import JointState
+
+    states: list = []
+    c.node.create_subscription(JointState, '/gpr_sim_lag/joint_states', states.append, 100)
     result, _ = _run(c, cli, goal(rest + 1.0, 0.01, 1e-4, 0.5))
     assert result.error_code == -4, result.error_string
     assert re.search(r'arm1_shoulder: position error 0\.01\d* rad exceeds the path tolerance 0\.01 rad',
                      result.error_string), result.error_string
+    n = len(states)   # an aborted goal holds the lagging joints where they are (a succeeded one's converge on)
+    c.spin_for(0.6)
+    k = list(states[-1].name).index('arm1_shoulder')
+    held = [m for m in states[n:] if not any(m.velocity)]
+    assert len(held) >= 3 and len({m.position[k] for m in held[1:]}) == 1, [m.position[k] for m in states[n:]]
     result, _ = _run(c, cli, goal(rest, 0.1, 1e-4, 0.5))      # back (from where the aborted goal stopped)
     assert result.error_code == 0, result.error_string
     result, _ = _run(c, cli, goal(rest + 1.0, 0.1, 1e-9, 0.02))
@@ -501,6 +510,7 @@ def test_lagging_joints_converge_to_the_last_point_after_the_goal(lagging):
         [m.position[k] for m in states[-5:]]
     idle = [m for m in states[ended + 1:] if m.position[k] != target]
     assert idle and all(abs(m.velocity[k]) > 0.0 for m in idle), [m.position[k] for m in states[ended:]]
+    assert any(0.0 < abs(m.position[k] - target) < 1e-6 for m in idle)   # on to within 1e-12, not snapped sooner
 
 
 def test_malformed_joint_states_are_ignored_with_a_warning(sim):
