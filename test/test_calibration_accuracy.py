@@ -253,11 +253,12 @@ def test_a_worst_case_of_zero_is_compared_in_absolute_numbers(capsys, tmp_path):
     case is 0, the samples' largest error 0.01 um. gpr accuracy printed numpy's RuntimeWarning (divide by zero) and
     warned it 'exceeds the linearised worst case 0 um by inf %'. Against a worst case of 0 the difference is judged
     absolutely (beyond 0.1 um: budget.NONLINEAR_FLOOR), no numpy warning escapes, and a warned difference (1 mm
-    offsets: 4.17 um) is stated in micrometres."""
+    offsets: 4.17 um) is stated in micrometres. So is the linearised RSS of 0 against the samples' RMS: 0.0038 um
+    was warned 'differ by 100 % (more than 10 %)', and is not; 1.528 um is, in micrometres."""
     import warnings
 
     argv = ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0', '0', '0', '--samples', '1000']
-    for tolerance, warned in (('5.0e-5', ''), ('1.0e-3', '4.17 um')):
+    for tolerance, warned, rms in (('5.0e-5', '', ''), ('1.0e-3', '4.17 um', '1.528 um')):
         table = tmp_path / f'{tolerance}.yaml'
         table.write_text(f'parameters:\n  rod_offsets: {{tolerance: {tolerance}}}\n')
         with warnings.catch_warnings():
@@ -266,7 +267,10 @@ def test_a_worst_case_of_zero_is_compared_in_absolute_numbers(capsys, tmp_path):
         assert status == 0 and 'inf %' not in out and 'RuntimeWarning' not in err, (out, err)
         beyond = [ln for ln in out.splitlines() if 'exceeds the linearised worst case' in ln]
         if not warned:
-            assert not beyond, beyond
+            assert 'warning' not in out + err, (out, err)
             continue
+        differ = [ln for ln in out.splitlines() if 'differ by' in ln]
+        assert len(differ) == 2 and all(f'the linearised RSS 0 um and the Monte Carlo RMS {rms} differ by {rms} (more '
+                                        'than 0.1 um)' in ln for ln in differ), differ
         assert len(beyond) == 2 and all(f"bounds {warned} exceeds the linearised worst case 0 um by {warned} (more "
                                         'than 0.1 um): the model is not linear' in ln for ln in beyond), beyond

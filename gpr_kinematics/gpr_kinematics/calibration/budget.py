@@ -71,9 +71,9 @@ AGREEMENT = 0.10
 #: A Monte Carlo error above the linearised worst case by more than this fraction of it (its rounding and the
 #: 0.002 % of the directions' polygon) is named in a warning.
 BEYOND_WORST = 1e-6
-#: Against a linearised worst case (a Monte Carlo RMS) of 0 (at most :data:`SHARE_FLOOR`) an error beyond this [m or
-#: rad] is warned about, in its absolute difference: the samples' second-order 0.01 um of horizontal error under the
-#: zero offsets alone at zero tilt was warned "by inf %" of the worst case 0 (numpy's divide by zero printed).
+#: Against a linearised worst case, RSS or Monte Carlo RMS of 0 (at most :data:`SHARE_FLOOR`) a difference beyond
+#: this [m or rad] is warned about, in its absolute value: the samples' second-order 0.01 um of horizontal error under
+#: the zero offsets alone at zero tilt was warned "by inf %" of the worst case 0, "by 100 %" of the RSS 0.
 NONLINEAR_FLOOR = 1e-7
 #: The most poses of a budget (samples x stations: each keeps its 9 error components for the percentiles, 72 bytes;
 #: evaluated in chunks of :data:`~.monte_carlo.CHUNK_POSES`).
@@ -424,12 +424,12 @@ def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, 
     worst case's bounds (``top_inside``, the largest) exceeds the linearised worst case by more than
     :data:`BEYOND_WORST` of it (the worst case then bounds the linearised error only; a normal draw beyond its 3
     sigma lies beyond what the worst case covers, whatever the model); each where either number is above
-    :data:`SHARE_FLOOR` times 1000; against a worst case (an RMS) of 0, each where the other number exceeds
-    :data:`NONLINEAR_FLOOR` (stated in the absolute difference)."""
+    :data:`SHARE_FLOOR` times 1000; against a worst case, an RSS or an RMS of 0, each where the other number differs
+    by more than :data:`NONLINEAR_FLOOR` (stated in the absolute difference)."""
     disagree, beyond = [], []
     for name, (_, unit) in QUANTITIES.items():
         a, b, w, top = rss[name], mc_rms[name], worst[name], top_inside[name]
-        off = np.where(b <= SHARE_FLOOR, a - b > NONLINEAR_FLOOR,
+        off = np.where(np.minimum(a, b) <= SHARE_FLOOR, np.abs(a - b) > NONLINEAR_FLOOR,
                        (np.abs(a - b) > AGREEMENT * b) & (np.maximum(a, b) > 1e3 * SHARE_FLOOR))
         over = np.where(w <= SHARE_FLOOR, top - w > NONLINEAR_FLOOR,
                         (top > w * (1.0 + BEYOND_WORST)) & (np.maximum(w, top) > 1e3 * SHARE_FLOOR))
@@ -437,7 +437,7 @@ def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, 
         disagree += [f'station {labels[i]}, {at}the linearised RSS {a[i] * 1e6:.4g} {u} and the Monte Carlo RMS '
                      f'{b[i] * 1e6:.4g} {u} differ by '
                      + (f'{100 * abs(a[i] - b[i]) / b[i]:.0f} % (more than {100 * AGREEMENT:g} %)'
-                        if b[i] > SHARE_FLOOR else
+                        if min(a[i], b[i]) > SHARE_FLOOR else
                         f'{abs(a[i] - b[i]) * 1e6:.4g} {u} (more than {NONLINEAR_FLOOR * 1e6:g} {u})')
                      + ': the model is not linear over these tolerances; the Monte Carlo is exact'
                      for i in np.flatnonzero(off)]
