@@ -718,6 +718,31 @@ def test_one_kind_of_sigma_declared_is_checked(capsys, tmp_path):
     assert {g['name']: g for g in d['gate']['checks']}['sigmas']['passed']
 
 
+def test_sigma_angle_declared_alone_is_checked(capsys, tmp_path):
+    """--sigma-angle alone, of a file without sigma columns, declares the angles' noise as --sigma-position alone
+    declares the positions': 0.002 (100 times the true 20 urad) fails the gate's sigmas check of the angles (exit
+    1, nothing written), the report says the angles' sigmas declared and the positions' assumed, the JSON's
+    noise_declared ['angle']; the true 2e-5 passes it."""
+    lines = [ln for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines() if not ln.startswith('#')]
+    header = lines[0].split(',')
+    drop = {header.index('sigma_position'), header.index('sigma_angle')}
+    bare = write(tmp_path, 'bare.csv', '# units: m rad\n' + '\n'.join(
+        ','.join(c for j, c in enumerate(ln.split(',')) if j not in drop) for ln in lines) + '\n')
+    out_yaml = tmp_path / 'angle.yaml'
+    status, out, err = run(capsys, 'calibrate', bare, '--sigma-angle', '0.002', '--output', str(out_yaml), '--json')
+    d = json.loads(out)
+    checks = {g['name']: g for g in d['gate']['checks']}
+    assert status == 1 and not out_yaml.exists() and d['noise_declared'] == ['angle'] and not d['absolute_sigma']
+    assert not checks['sigmas']['passed'] and checks['sigmas']['value'] < 0.01 < 0.6 < checks['sigmas']['limit']
+    assert 'The angle residuals are far smaller than the standard deviations given' in err, err
+    status, out, err = run(capsys, 'calibrate', bare, '--sigma-angle', '0.002', '--output', str(out_yaml))
+    assert status == 1 and "the angles' sigmas declared" in out and "the positions' assumed" in out, out
+    status, out, err = run(capsys, 'calibrate', bare, '--sigma-angle', '2e-5', '--output', str(out_yaml), '--json')
+    d = json.loads(out)
+    assert status == 0 and d['noise_declared'] == ['angle'], err
+    assert {g['name']: g for g in d['gate']['checks']}['sigmas']['passed']
+
+
 def test_one_outlier_fails_the_gate(capsys, tmp_path):
     """One row's z 20 um off (6.6 standard deviations of 3 um, studentized) among the shipped file's 40 passed the
     gate: reduced chi-square 1.11 below 1.32, cross-validation 1.00, rod1_offset moved by 0.85 standard errors.
