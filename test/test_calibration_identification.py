@@ -696,3 +696,43 @@ def test_outliers_without_declared_noise_fail_right_fits_at_the_stated_rate():
     check = {c.name: c for c in gate.checks}['outliers']
     assert not gate.passed and not check.passed
     assert check.detail.startswith('Line 8 is an outlier: its z residual is 5.61 robust standard deviations'), check
+
+
+@pytest.fixture(scope='module')
+def bare_40(planned_40):
+    """The demonstration's machine at the 40 planned poses, tracker noise 3 um and 20 urad, no sigma columns."""
+    from gpr_kinematics.calibration import demo
+
+    m, Q = planned_40
+    return m, synthetic_measurements(m, m.parameters.coordinates(demo.true_values(m)), Q, SP, SA, seed=180,
+                                     with_sigmas=False)
+
+
+def test_one_kind_declared_has_its_outliers_judged_in_its_sigmas(bare_40):
+    """--sigma-position alone (2 um declared, 3 um true: the robust scale of the positions about 1.5) and a row 14 um
+    off in z: 7 declared standard deviations, an outlier at the declared threshold (the normal's, 4.6), though 4.7
+    robust ones are below Student's t's point (5.3); the angles, assumed, in their robust scale. Judged in the robust
+    scale both, the row passed."""
+    import dataclasses
+
+    m, meas = bare_40
+    position = meas.position.copy()
+    position[7, 2] += 14e-6
+    result = identify(m, dataclasses.replace(meas, position=position), sigma_position=2e-6, declared=(True, False))
+    check = {c.name: c for c in result.gate.checks}['outliers']
+    assert result.declared == ('position',) and not check.passed and 4.5 < check.limit < 4.7 < 6 < check.value
+    assert check.detail.startswith('Line 8 is an outlier: its z residual is') and \
+        'standard deviations (studentized)' in check.detail, check
+
+
+def test_an_assumed_kind_is_neither_refused_nor_sigma_checked(bare_40):
+    """Positions declared at their true 3 um, angles assumed (not declared) 200 times too small (0.1 urad: reduced
+    chi-square 4e4) or 50 times too large (1 mrad: 4e-4): the 1e4 refusal and the gate's sigmas check judge the
+    declared kind only; the assumed one's chi-square is the gate's chi-square check's, against the noise assumed."""
+    m, meas = bare_40
+    small = identify(m, meas, sigma_position=SP, sigma_angle=1e-7, declared=(True, False))   # not refused
+    gate = {c.name: c for c in small.gate.checks}
+    assert small.declared == ('position',) and not gate['chi_square'].passed and gate['chi_square'].value > 1e3
+    large = identify(m, meas, sigma_position=SP, sigma_angle=1e-3, declared=(True, False))
+    gate = {c.name: c for c in large.gate.checks}
+    assert large.declared == ('position',) and gate['sigmas'].passed and 0.6 < gate['sigmas'].value < 1.5, gate
