@@ -35,7 +35,7 @@ from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .naive import NaiveState, naive_state
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import PlatformPose, RigidFit, platform_pose
+from .platform_pose import FitFloats, PlatformPose, platform_pose
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
@@ -354,7 +354,7 @@ class ForwardParts(NamedTuple):
     P: Centres
     L: tuple[float, float, float]
     closure: Closure
-    frame: RigidFit
+    frame: FitFloats
     naive: NaiveState | None
 
 
@@ -381,7 +381,7 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
     return ForwardParts(kernel, q3, P, L, closure, frame, naive)
 
 
-def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, float, float], Closure, RigidFit]:
+def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, float, float], Closure, FitFloats]:
     """The joint centres, side lengths, closure and rigid fit of the rods ``q`` (three floats) [m], no limit checked:
     the solve of :func:`forward_parts`. A singular Newton step (rods far outside the limits) raises
     :class:`~gpr_kinematics.errors.ConvergenceError`."""
@@ -400,7 +400,7 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
 
 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
-               frame: RigidFit, naive: NaiveState | None = None) -> ForwardResult:
+               frame: FitFloats, naive: NaiveState | None = None) -> ForwardResult:
     """The :class:`ForwardResult` of one solved pose in floats: :func:`~gpr_kinematics.core.platform_pose.platform_pose`
     from the rigid fit ``frame`` on, with its operations, and :func:`assemble`, fused
     (:meth:`~gpr_kinematics.core.single.OnePose.pose_values`): the values go straight into one array, and every vector
@@ -417,7 +417,7 @@ def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[floa
     return out
 
 
-def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: RigidFit,
+def one_row(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: FitFloats,
             head: Sequence[float] = ()) -> tuple[ForwardBatch, Array]:
     """:func:`one_result` as the batch of one row (:meth:`ForwardBatch.of_one` of it, the same values), every float
     field a view of one array ``(1, K)``, and that array, which begins with the caller's values ``head`` (its own

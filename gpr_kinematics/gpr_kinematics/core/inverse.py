@@ -47,7 +47,7 @@ from .forward import (
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
-from .platform_pose import RigidFit
+from .platform_pose import FitFloats
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .virtual_joints import Closure, VirtualJointModel, make_model
@@ -375,9 +375,9 @@ class InverseParts(NamedTuple):
     P: Centres
     L: tuple[float, float, float]
     closure: Closure
-    frame: RigidFit
+    frame: FitFloats
     iterations: int
-    first: RigidFit
+    first: FitFloats
 
 
 def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[float], stroke: bool = True
@@ -407,7 +407,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
 
 
 def _steps(kernel: OnePose, q_target: list[float], h: float, n: Sequence[float], tool: Sequence[float], tol_h: float,
-           tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit, int, RigidFit,
+           tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, FitFloats, int, FitFloats,
                                   float | None]:
     """The steps of :func:`inverse_parts` from the rods ``q_target`` [m] on (the ``radial`` model's fused:
     :meth:`~gpr_kinematics.core.single.OnePose.radial_rods`, which returns what this does)."""
@@ -422,8 +422,7 @@ def _steps(kernel: OnePose, q_target: list[float], h: float, n: Sequence[float],
         frame = kernel.fit(P, closure.components)
         if iterations == 0:
             first = frame
-        fr = cast('tuple[float, ...]', frame)
-        r02, r12, r20, r21, r22, tz = fr[2], fr[5], fr[6], fr[7], fr[8], fr[11]
+        r02, r12, r20, r21, r22, tz = frame[2], frame[5], frame[6], frame[7], frame[8], frame[11]
         h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
         err_h, err_n = abs(h_now - h), max(max(abs(r02 - n0), abs(r12 - n1)), abs(r22 - n2))
         if err_h <= tol_h and err_n <= tol_n:

@@ -43,6 +43,8 @@ class PlatformPose(NamedTuple):
 
 #: The rigid transform of :func:`rigid_fit`: the rows of ``Rot`` (9 entries, row by row) and ``t`` (3) [m].
 RigidFit = tuple[Value, Value, Value, Value, Value, Value, Value, Value, Value, Value, Value, Value]
+#: A rigid fit of one pose (:meth:`~gpr_kinematics.core.single.OnePose.fit`): floats.
+FitFloats = tuple[float, float, float, float, float, float, float, float, float, float, float, float]
 
 
 def rigid_fit(ops: Ops, P: tuple[Sequence[Value], Sequence[Value], Sequence[Value]], comps: Components) -> RigidFit:

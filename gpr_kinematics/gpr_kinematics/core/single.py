@@ -31,7 +31,7 @@ from .floats import tilt_matrix_of_normal_one, tilt_of_normal_one
 from .machine import Floats3, MachineGeometry
 from .naive import NaiveState
 from .ops import SCALAR
-from .platform_pose import RigidFit
+from .platform_pose import FitFloats
 from .virtual_joints import Closure, Components, VirtualJointModel, make_model, not_converged, side_errors
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
@@ -44,11 +44,11 @@ class OnePose:
     Attributes:
         config, geometry, model: the configuration, its :class:`~gpr_kinematics.core.machine.MachineGeometry` and
             its :class:`~gpr_kinematics.core.virtual_joints.VirtualJointModel`.
-        names: the names of the virtual joints.
+        names: the names of the virtual joints. rod_direction: the first rod's direction ``u_1`` (floats).
     """
 
     __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base',
-                 '_radial_constants', '_naive_rods')
+                 '_radial_constants', '_naive_rods', 'rod_direction')
 
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
@@ -62,6 +62,7 @@ class OnePose:
                                   config.max_iterations)
         self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
                                                                           geo.offsets))
+        self.rod_direction = cast('Floats3', (geo.ux[0], geo.uy[0], geo.uz[0]))
         self._naive_rods = cast('tuple[Floats3, Floats3, Floats3, Floats3]', (geo.px, geo.py, geo.uz, geo.offsets))
         self._stiffness: Stiffness | None = None
         self._rest: Closure | None = None
@@ -157,8 +158,8 @@ class OnePose:
             x0, x1, x2, y0, y1, y2 = l0 * c0, l1 * c1, l2 * c2, l0 * s0, l1 * s1, l2 * s2
 
     def radial_rods(self, q_target: list[float], h: float, n: Sequence[float], tool: Sequence[float], tol_h: float,
-                    tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, RigidFit, int,
-                                           RigidFit, float | None]:
+                    tol_n: float) -> tuple[list[float], Centres, tuple[float, float, float], Closure, FitFloats, int,
+                                           FitFloats, float | None]:
         """The loop of :func:`~gpr_kinematics.core.inverse.inverse_parts` under the ``radial`` model, fused: each step
         :meth:`centres`, :meth:`lengths`, :meth:`_radial`, :meth:`fit` and :meth:`naive_rods` with their operations
         in their order (the same numbers), their objects built for the last step only. From the rods ``q_target``
@@ -179,7 +180,7 @@ class OnePose:
         t0, t1, t2 = tool
         n0, n1, n2 = n
         q0, q1, q2 = q_target
-        first: RigidFit | None = None
+        first: FitFloats | None = None
         steps = self.config.max_iterations
         for step in range(steps + 1):
             if upright:
@@ -265,10 +266,10 @@ class OnePose:
         C, S = self._directions
         closure = Closure([l0, l1, l2], ([x0, x1, x2], [y0, y1, y2], C, S, None, None), [d0, d1, d2], iterations, err)
         return ([q0, q1, q2], ([X0, X1, X2], [Y0, Y1, Y2], [Z0, Z1, Z2]), (L0, L1, L2), closure, frame, step,
-                cast('RigidFit', first), (err_n if err_n > err_h else err_h) if last else None)
+                cast('FitFloats', first), (err_n if err_n > err_h else err_h) if last else None)
 
     @staticmethod
-    def fit(P: Centres, comps: Components) -> RigidFit:
+    def fit(P: Centres, comps: Components) -> FitFloats:
         """:func:`~gpr_kinematics.core.platform_pose.rigid_fit` of one pose in floats, its operations in its order
         (``ops.where`` a conditional, without the generic kernel's calls): the rigid transform of the platform joints
         ``comps`` onto the joint centres ``P``, ``(r00, r01, .., r22, tx, ty, tz)``."""
@@ -295,7 +296,7 @@ class OnePose:
         return (r00, r01, r02, r10, r11, r12, r20, r21, r22, (bx0 + bx1 + bx2) / 3.0 - (r00 * rcx + r01 * rcy),
                 (by0 + by1 + by2) / 3.0 - (r10 * rcx + r11 * rcy), (bz0 + bz1 + bz2) / 3.0 - (r20 * rcx + r21 * rcy))
 
-    def pose_values(self, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: RigidFit,
+    def pose_values(self, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure, frame: FitFloats,
                     naive: NaiveState | None) -> tuple[list[float], float, float, float, float, bool]:
         """The pose of one solved configuration (:func:`~gpr_kinematics.core.forward.one_result`'s values):
         :func:`~gpr_kinematics.core.platform_pose.platform_pose` from the rigid fit ``frame`` on, with its operations,
@@ -304,7 +305,7 @@ class OnePose:
         shift, the joint displacements, the virtual joints), the tilt, azimuth and twist [rad], the fit residual [m]
         and whether the joints are within the imperfection budget. ``naive``: the naive state of ``q`` if known."""
         sqrt = math.sqrt
-        r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = cast('tuple[float, ...]', frame)
+        r00, r01, r02, r10, r11, r12, r20, r21, r22, tx, ty, tz = frame
         (x0, x1, x2), (y0, y1, y2) = closure.components[0], closure.components[1]
         (X0, X1, X2), (Y0, Y1, Y2), (Z0, Z1, Z2) = P
         dx, dy, dz = r00 * x0 + r01 * y0 + tx - X0, r10 * x0 + r11 * y0 + ty - Y0, r20 * x0 + r21 * y0 + tz - Z0

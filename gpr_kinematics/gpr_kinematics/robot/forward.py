@@ -35,7 +35,7 @@ from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_nor
 from ..core.single import one_pose
 from ..errors import InputError, LimitError, apart, brief
 from ..inputs.validation import bounded, rows_of
-from .arm_chain import LIMIT_SLACK, arm_floats
+from .arm_chain import LIMIT_SLACK, ArmFloats, arm_floats
 from .description import Arm, RobotDescription
 from .stations import StationRecord, stations_from_poses
 from .transforms import PoseBatch, PoseRecord, pose_batch
@@ -267,11 +267,11 @@ def _base(position: Vec3, rpy: Vec3) -> tuple[Vec3, Mat3]:
     return position, ((a, b, c), (d, e, f), (g, h, i))
 
 
-def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Vec3]:
+def platform_to_blade_one(arm: Arm, joints: list[float], floats: ArmFloats | None = None) -> tuple[Vec3, Mat3, Vec3]:
     """:func:`platform_to_blade` of one posture in floats (joints plus their ``zero_offset``, the cumulative sum
     first, then the mount yaw, as the batch adds them): the blade's position and rotation and the wafer's position in
-    ``gpr_platform`` (the wafer's rotation is the blade's)."""
-    x, y, z, yaw, links, (bx, by), blade_yaw, wafer_centre = arm_floats(arm).chain
+    ``gpr_platform`` (the wafer's rotation is the blade's); ``floats``: :func:`arm_floats` of ``arm`` if known."""
+    x, y, z, yaw, links, (bx, by), blade_yaw, wafer_centre = (arm_floats(arm) if floats is None else floats).chain
     cos, sin = math.cos, math.sin
     turned, c, s, last = 0.0, 1.0, 0.0, 0.0
     for k, (length, offset) in enumerate(links):
@@ -285,13 +285,14 @@ def platform_to_blade_one(arm: Arm, joints: list[float]) -> tuple[Vec3, Mat3, Ve
     return (x, y, z), R, (x + w[0], y + w[1], z + w[2])
 
 
-def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], position: Vec3, rotation: Mat3
-                    ) -> tuple[FloatPose, FloatPose, FloatPose, FloatPose]:
+def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], position: Vec3, rotation: Mat3,
+                    floats: ArmFloats | None = None) -> tuple[FloatPose, FloatPose, FloatPose, FloatPose]:
     """The platform, blade and wafer in the world and the wafer on the platform for one posture on the platform pose
     ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`). The wafer turns as the blade:
-    its rotation is the blade's (:func:`~gpr_kinematics.core.floats.compose_one`'s product, made once)."""
+    its rotation is the blade's (:func:`~gpr_kinematics.core.floats.compose_one`'s product, made once); ``floats``:
+    :func:`arm_floats` of ``arm`` if known."""
     p_wb, R_wb = base_floats(robot)
-    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints)
+    blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints, floats)
     platform = compose_one(p_wb, R_wb, position, rotation)
     blade = compose_one(*platform, blade_p, blade_R)
     x, y, z = mat_vec(platform[1], wafer_p)

@@ -17,7 +17,7 @@ over random stations). SI units.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, TypeVar, cast
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,21 +30,19 @@ from ..core.floats import (
     Vec3,
     angle_between,
     mat_mul,
-    mat_tmul,
     mat_tvec,
     mat_vec,
-    rot_z,
     tilt_matrix,
     tilt_of_normal_one,
 )
 from ..core.forward import one_result, one_row
 from ..core.inverse import inverse_parts, tilt_target_slack
-from ..core.platform_pose import RigidFit
+from ..core.platform_pose import FitFloats
 from ..core.rotations import wrap_angle
 from ..core.single import Centres, OnePose, one_pose
 from ..core.virtual_joints import Closure
 from ..errors import ConvergenceError, LimitError
-from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, arm_floats, link_vectors
+from .arm_chain import LIMIT_SLACK, STRETCH_SNAP, ArmFloats, arm_floats, link_vectors
 from .description import Arm, RobotDescription
 from .forward import RobotForward, base_floats, one_on_platform, platform_to_blade_one
 from .nearest import nearest_value
@@ -91,48 +89,39 @@ class OneStation(NamedTuple):
     angle_error: NDArray[np.float64]
 
 
-class _Height(NamedTuple):
-    """:func:`_platform_height`'s answer: the rods ``q``, of their solve the joint centres ``P``, side lengths ``L``,
-    closure and rigid fit ``frame``, and the rigid fit ``first`` of the naive model's rods for the target at the
-    height ``h_first`` of the core's last solve (the naive model's answer is its translation on parallel rods)."""
-
-    q: list[float]
-    P: Centres
-    L: tuple[float, float, float]
-    closure: Closure
-    frame: RigidFit
-    first: RigidFit
-    h_first: float
+#: :func:`_platform_height`'s answer: the rods ``q``, of their solve the joint centres ``P``, side lengths ``L``,
+#: closure and rigid fit ``frame``, and the rigid fit ``first`` of the naive model's rods for the target at the
+#: height ``h_first`` of the core's last solve (the naive model's answer is its translation on parallel rods).
+_Height = tuple[list[float], Centres, tuple[float, float, float], Closure, FitFloats, FitFloats, float]
 
 
-def _translated(kernel: OnePose, frame: RigidFit, c: float) -> RigidFit:
+def _translated(kernel: OnePose, frame: FitFloats, c: float) -> FitFloats:
     """The rigid fit ``frame`` of parallel rods all changed by ``c`` [m]: the platform moves by ``c`` along them, the
     closure and the rotation unchanged (the side lengths are)."""
-    geo = kernel.geometry
-    ux, uy, uz = cast('Vec3', (geo.ux[0], geo.uy[0], geo.uz[0]))
+    ux, uy, uz = kernel.rod_direction
     r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = frame
     return r00, r01, r02, r10, r11, r12, r20, r21, r22, t0 + c * ux, t1 + c * uy, t2 + c * uz
 
 
-def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float) -> _Height:
+def _platform_height(kernel: OnePose, parallel: bool, tilt: float, az: float, p_b: Vec3, n_b: Vec3, zw: float
+                     ) -> _Height:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (the batch's
     ``_platform_height`` for one station), and of their solve what :class:`_Height` holds
     (:func:`~gpr_kinematics.core.forward.one_row` completes the pose): each step solves the closure and the rigid fit
     only; on parallel rods the common change translates the fit along them (:func:`_translated`; the batch solves the
     new rods again, to rounding the same). The iterates are not judged against the stroke (the answer is, by
-    :func:`_batch_decides`); a height the core does not solve is left to the batch."""
+    :func:`_batch_decides`); a height the core does not solve is left to the batch. ``parallel``:
+    :func:`parallel_rods` of the kernel's config."""
     cfg = kernel.config
     zero = (0.0, 0.0, 0.0)
-    parallel = parallel_rods(cfg)
     h = 0.5 * (cfg.stroke_min + cfg.stroke_max)
     q, P, L, closure, frame, _, first = inverse_parts(kernel, h, tilt, az, zero, stroke=False)
     for _ in range(PLANE_ITERATIONS):
-        fr = cast('tuple[float, ...]', frame)
-        n0, n1, n2, t0, t1, t2 = fr[2], fr[5], fr[8], fr[9], fr[10], fr[11]
+        n0, n1, n2, t0, t1, t2 = frame[2], frame[5], frame[8], frame[9], frame[10], frame[11]
         e = n0 * (p_b[0] - t0) + n1 * (p_b[1] - t1) + n2 * (p_b[2] - t2) - zw
         normal_error = max(max(abs(n0 - n_b[0]), abs(n1 - n_b[1])), abs(n2 - n_b[2]))
         if abs(e) <= PLANE_TOLERANCE and normal_error <= NORMAL_TOLERANCE:
-            return _Height(q, P, L, closure, frame, first, h)
+            return q, P, L, closure, frame, first, h
         if normal_error > NORMAL_TOLERANCE or not parallel:  # rods that move together would turn the platform
             h = t2 + e / n2
             q, P, L, closure, frame, _, first = inverse_parts(kernel, h, tilt, az, zero, stroke=False)
@@ -143,12 +132,14 @@ def _platform_height(kernel: OnePose, tilt: float, az: float, p_b: Vec3, n_b: Ve
     raise ConvergenceError('station height did not converge')  # the batch path says by how much
 
 
-def _target(arm: Arm, w: Vec3, R_platform: Mat3, R_b: Mat3) -> tuple[float, float, float]:
+def _target(mount: tuple[float, float, float, float, float], w: Vec3, R_platform: Mat3, R_b: Mat3
+            ) -> tuple[float, float, float]:
     """The arm's target for the wafer at ``w`` in the platform frame and the station's orientation ``R_b``
-    (gpr_base) on a platform turned by ``R_platform``: the wafer point and heading in the mount frame [m, rad]."""
+    (gpr_base) on a platform turned by ``R_platform``: the wafer point and heading in the mount frame [m, rad];
+    ``mount``: :attr:`~.arm_chain.ArmFloats.mount` of the arm."""
     (a00, a01, _), (a10, a11, _), (a20, a21, _) = R_platform   # of M = R_platform^T R_b, the first column only
     b00, b10, b20 = R_b[0][0], R_b[1][0], R_b[2][0]
-    c, s, mx, my, yaw = arm_floats(arm).mount   # cos and sin of -mount_yaw, the mount's x, y, mount_yaw
+    c, s, mx, my, yaw = mount   # cos and sin of -mount_yaw, the mount's x, y, mount_yaw
     x, y = w[0] - mx, w[1] - my
     return (c * x - s * y, s * x + c * y,
             math.atan2(a01 * b00 + a11 * b10 + a21 * b20, a00 * b00 + a10 * b10 + a20 * b20) - yaw)
@@ -175,20 +166,21 @@ def _near_stretch(sol: OneArm) -> bool:
     return 0.5 * STRETCH_SNAP < d < STRETCH_MARGIN
 
 
-def _batch_decides(kernel: OnePose, arm: Arm, q: list[float], sol: OneArm, phi: float, free: bool) -> bool:
+def _batch_decides(cfg: GprConfig, floats: ArmFloats, joints: int, q: list[float], sol: OneArm, phi: float,
+                   free: bool) -> bool:
     """The batch's fault mask for one station (a rod outside the stroke, out of reach, a joint beyond its limits, a
     2-joint arm's heading that misses the station's), each threshold moved :data:`EDGE_MARGIN` towards the inside,
     and a joint at the wrap of its representative or the arm near its stretch or fold (:func:`_near_stretch`): a
-    station the batch answers (module docstring)."""
-    cfg = kernel.config
+    station the batch answers (module docstring). ``floats``: :func:`~.arm_chain.arm_floats` of the arm of ``joints``
+    joints."""
     lo, hi = cfg.stroke_min - STROKE_SLACK + EDGE_MARGIN, cfg.stroke_max + STROKE_SLACK - EDGE_MARGIN
     if not (lo < q[0] < hi and lo < q[1] < hi and lo < q[2] < hi) or not sol.reachable or _near_stretch(sol):
         return True
-    for t, (lower, upper, mid) in zip(sol.theta, arm_floats(arm).limits, strict=True):
+    for t, (lower, upper, mid) in zip(sol.theta, floats.limits, strict=True):
         if not lower - LIMIT_SLACK + EDGE_MARGIN < t < upper + LIMIT_SLACK - EDGE_MARGIN or \
                 abs(abs(t - mid) - math.pi) < EDGE_MARGIN:
             return True
-    if len(arm.joints) != 2 or free:
+    if joints != 2 or free:
         return False
     return abs(wrap_angle(sol.heading - phi)) > HEADING_TOLERANCE - EDGE_MARGIN
 
@@ -217,78 +209,92 @@ class StationFloats(NamedTuple):
     naive_wafer_angle_error: float
 
 
-class _Solved(NamedTuple):
-    """What :func:`station_floats` and :func:`solve_one` share of one station: the rods and joints, the solve of the
-    rods (:func:`_platform_height`; the caller completes the platform's pose), the poses, the naive model's rods,
-    joints and wafer, the errors, and the station's orientation ``R_st``."""
-
-    rods: list[float]
-    joints: list[float]
-    parts: tuple[OnePose, list[float], Centres, tuple[float, float, float], Closure, RigidFit]
-    platform: FloatPose
-    blade: FloatPose
-    wafer: FloatPose
-    on_platform: FloatPose
-    naive_rods: list[float]
-    naive_joints: list[float]
-    naive_wafer: FloatPose
-    position_error: float
-    angle_error: float
-    R_st: Mat3
+#: What :func:`station_floats` and :func:`solve_one` share of one station (:func:`_solve`'s plain tuple): the rods and
+#: joints, the solve of the rods (:func:`_platform_height`; the caller completes the platform's pose), the platform,
+#: blade, wafer and on-platform poses, the naive model's rods, joints and wafer, the position and angle errors, and the
+#: station's orientation ``R_st``.
+_Solved = tuple[list[float], list[float],
+                tuple[OnePose, list[float], Centres, tuple[float, float, float], Closure, FitFloats],
+                FloatPose, FloatPose, FloatPose, FloatPose, list[float], list[float], FloatPose, float, float, Mat3]
 
 
 def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float, free: bool,
            sign: float, value: float | None) -> _Solved | None:
-    """:func:`station_floats` but the platform's completed pose and the naive model's wafer errors."""
+    """:func:`station_floats` but the platform's completed pose and the naive model's wafer errors, as a plain tuple in
+    :class:`_Solved`'s order (no class built per call)."""
     kernel = one_pose(robot.config)
     cfg = kernel.config
-    p_wb, R_wb = base_floats(robot)
-    R_st = mat_mul(tilt_matrix(tilt_st, azimuth), rot_z(0.0 if free else heading))
-    R_b = mat_tmul(R_wb, R_st)
-    p_b = mat_tvec(R_wb, (P[0] - p_wb[0], P[1] - p_wb[1], P[2] - p_wb[2]))
+    floats = arm_floats(arm)
+    base = p_wb, R_wb = base_floats(robot)
+    R_st, R_b, p_b = _station_frame(base, P, tilt_st, azimuth, 0.0 if free else heading)
     n_b = (R_b[0][2], R_b[1][2], R_b[2][2])
     tilt, az = tilt_of_normal_one(*n_b)
     if tilt - cfg.tilt_limit > tilt_target_slack(cfg) - EDGE_MARGIN:
         return None
-    zw = arm_floats(arm).wafer_height
+    zw = floats.wafer_height
+    parallel = parallel_rods(cfg)
     try:
-        height = _platform_height(kernel, tilt, az, p_b, n_b, zw)
+        q, P_, L, closure, frame, first, h_first = _platform_height(kernel, parallel, tilt, az, p_b, n_b, zw)
     except (LimitError, ConvergenceError):
         return None
-    q = height.q
-    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = cast('tuple[float, ...]', height.frame)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = frame
     R = (r00, r01, r02), (r10, r11, r12), (r20, r21, r22)
-    target = _target(arm, mat_tvec(R, (p_b[0] - t0, p_b[1] - t1, p_b[2] - t2)), R, R_b)
+    mount = floats.mount
+    target = _target(mount, mat_tvec(R, (p_b[0] - t0, p_b[1] - t1, p_b[2] - t2)), R, R_b)
     # The naive model's answer: platform at (0, 0, h) tilted about its centre.
     h = (n_b[0] * p_b[0] + n_b[1] * p_b[1] + n_b[2] * p_b[2] - zw) / n_b[2]
     R_n = tilt_matrix(tilt, az)
-    naive_target = _target(arm, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
+    naive_target = _target(mount, mat_tvec(R_n, (p_b[0], p_b[1], p_b[2] - h)), R_n, R_b)
     held, naive_held = _held_values(arm, [target, naive_target], sign, value)
-    sol = solve_arm_one(arm, *target, sign, held)
-    if _batch_decides(kernel, arm, q, sol, target[2], free):
+    sol = solve_arm_one(arm, *target, sign, held, floats)
+    if _batch_decides(cfg, floats, len(arm.joints), q, sol, target[2], free):
         return None
-    naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held)
+    naive_sol = solve_arm_one(arm, *naive_target, sign, naive_held, floats)
     if _near_stretch(naive_sol):
         return None
-    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t0, t1, t2), R)
+    platform, blade, wafer, on_platform = one_on_platform(robot, arm, sol.theta, (t0, t1, t2), R, floats)
     # the real platform under the naive rods (tilt_matrix's third column is the naive normal): its pose only
     q_n = kernel.naive_rods(h, (R_n[0][2], R_n[1][2], R_n[2][2]), (0.0, 0.0, 0.0))
-    if parallel_rods(cfg):  # the naive rods change the core's first rods by a common amount: its fit translated
-        fit = _translated(kernel, height.first, (h - height.h_first) / cast('float', kernel.geometry.uz[0]))
+    if parallel:  # the naive rods change the core's first rods by a common amount: its fit translated
+        fit = _translated(kernel, first, (h - h_first) / kernel.rod_direction[2])
     else:
         P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
         fit = kernel.fit(P_n, kernel.closure(*kernel.lengths(P_n)).components)
-    f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = cast('tuple[float, ...]', fit)
-    _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta)
+    f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = fit
+    _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta, floats)
     # the naive platform (compose_one of the fit in gpr_base), and the wafer on it (compose_one again), inline
     a0, a1, a2 = mat_vec(R_wb, (tx, ty, tz))
     R_p = mat_mul(R_wb, ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
     w0, w1, w2 = mat_vec(R_p, naive_wafer_p)
     naive_wafer = ((p_wb[0] + a0 + w0, p_wb[1] + a1 + w1, p_wb[2] + a2 + w2), mat_mul(R_p, naive_blade_R))
-    d = (wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2])
-    parts = (kernel, q, height.P, height.L, height.closure, height.frame)
-    return _Solved(q, sol.theta, parts, platform, blade, wafer, on_platform, q_n, naive_sol.theta, naive_wafer,
-                   math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), _angle(R_st, wafer[1], free), R_st)
+    d0, d1, d2 = wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2]
+    return (q, sol.theta, (kernel, q, P_, L, closure, frame), platform, blade, wafer, on_platform, q_n,
+            naive_sol.theta, naive_wafer, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), _angle(R_st, wafer[1], free), R_st)
+
+
+def _station_frame(base: tuple[Vec3, Mat3], P: Vec3, tilt: float, azimuth: float, heading: float
+                   ) -> tuple[Mat3, Mat3, Vec3]:
+    """The station's orientation ``R_st = tilt_matrix(tilt, azimuth) rot_z(heading)`` (world), and the station in
+    ``gpr_base`` (``base``: its pose in the world): ``R_b = R_wb^T R_st``, ``p_b = R_wb^T (P - p_wb)``; the operations
+    of :func:`~gpr_kinematics.core.floats.tilt_matrix`, ``rot_z``, ``mat_mul``, ``mat_tmul`` and ``mat_tvec`` in
+    their order, inline (the same numbers)."""
+    (b0, b1, b2), ((w00, w01, w02), (w10, w11, w12), (w20, w21, w22)) = base
+    s, c = math.sin(tilt), math.cos(tilt)
+    ax, ay = math.cos(azimuth), math.sin(azimuth)
+    v = 1.0 - c
+    a00, a01, a02, a10, a11 = c + v * ax * ax, v * ax * ay, s * ay, v * ax * ay, c + v * ay * ay
+    a12, a20, a21, a22 = -s * ax, -s * ay, s * ax, c
+    zc, zs = math.cos(heading), math.sin(heading)
+    nzs = -zs
+    R_st = ((a00 * zc + a01 * zs + a02 * 0.0, a00 * nzs + a01 * zc + a02 * 0.0, a00 * 0.0 + a01 * 0.0 + a02 * 1.0),
+            (a10 * zc + a11 * zs + a12 * 0.0, a10 * nzs + a11 * zc + a12 * 0.0, a10 * 0.0 + a11 * 0.0 + a12 * 1.0),
+            (a20 * zc + a21 * zs + a22 * 0.0, a20 * nzs + a21 * zc + a22 * 0.0, a20 * 0.0 + a21 * 0.0 + a22 * 1.0))
+    (s00, s01, s02), (s10, s11, s12), (s20, s21, s22) = R_st
+    R_b = ((w00 * s00 + w10 * s10 + w20 * s20, w00 * s01 + w10 * s11 + w20 * s21, w00 * s02 + w10 * s12 + w20 * s22),
+           (w01 * s00 + w11 * s10 + w21 * s20, w01 * s01 + w11 * s11 + w21 * s21, w01 * s02 + w11 * s12 + w21 * s22),
+           (w02 * s00 + w12 * s10 + w22 * s20, w02 * s01 + w12 * s11 + w22 * s21, w02 * s02 + w12 * s12 + w22 * s22))
+    x, y, z = P[0] - b0, P[1] - b1, P[2] - b2
+    return R_st, R_b, (w00 * x + w10 * y + w20 * z, w01 * x + w11 * y + w21 * z, w02 * x + w12 * y + w22 * z)
 
 
 def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: float, heading: float,
@@ -300,11 +306,11 @@ def station_floats(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, a
     one = _solve(robot, arm, P, tilt_st, azimuth, heading, free, sign, value)
     if one is None:
         return None
-    naive_wafer = one.naive_wafer
+    rods, joints, parts, platform, blade, wafer, on_platform, naive_rods, naive_joints, naive_wafer, position_error, \
+        angle_error, R_st = one
     e = (naive_wafer[0][0] - P[0], naive_wafer[0][1] - P[1], naive_wafer[0][2] - P[2])
-    return StationFloats(one.rods, one.joints, one_result(*one.parts), one.platform, one.blade, one.wafer,
-                         one.on_platform, one.naive_rods, one.naive_joints, naive_wafer, one.position_error,
-                         one.angle_error, e, _angle(one.R_st, naive_wafer[1], free))
+    return StationFloats(rods, joints, one_result(*parts), platform, blade, wafer, on_platform, naive_rods,
+                         naive_joints, naive_wafer, position_error, angle_error, e, _angle(R_st, naive_wafer[1], free))
 
 
 def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float, value: float | None
@@ -316,23 +322,22 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
                  bool(stations.heading_free[0]), sign, value)
     if one is None:
         return None
-    n = len(one.joints)
-    (p0, R0), (p1, R1), (p2, R2), (p3, R3), (p4, R4) = (one.platform, one.blade, one.wafer, one.on_platform,
-                                                        one.naive_wafer)
-    flat = [*one.rods, *one.joints, *one.naive_rods, *one.naive_joints, one.position_error, one.angle_error,
+    rods, joints, parts, (p0, R0), (p1, R1), (p2, R2), (p3, R3), naive_rods, naive_joints, (p4, R4), position_error, \
+        angle_error, _ = one
+    n = len(joints)
+    flat = [*rods, *joints, *naive_rods, *naive_joints, position_error, angle_error,
             *p0, *R0[0], *R0[1], *R0[2], *p1, *R1[0], *R1[1], *R1[2], *p2, *R2[0], *R2[1], *R2[2],
             *p3, *R3[0], *R3[1], *R3[2], *p4, *R4[0], *R4[1], *R4[2]]   # one list, as the poses' rows
-    gpr, a = one_row(*one.parts, head=flat)  # the station's values and the platform's pose in one array
+    gpr, a = one_row(*parts, head=flat)  # the station's values and the platform's pose in one array
     o = 8 + 2 * n  # the poses: 5 rows of a position and a rotation
     poses = a[0, o:o + 60].reshape(5, 1, 12)
     at, turned = poses[:, :, 0:3], poses[:, :, 3:12].reshape(5, 1, 3, 3)
     platform, blade, wafer = _pose(at[0], turned[0]), _pose(at[1], turned[1]), _pose(at[2], turned[2])
-    on_platform, naive_wafer = _pose(at[3], turned[3]), _pose(at[4], turned[4])
-    rods, joints = a[:, 0:3], a[:, 3:3 + n]
-    fk = frozen(RobotForward, arm=arm.name, rods=rods, joints=joints, gpr=gpr, platform=platform, blade=blade,
-                wafer=wafer, robot=robot, wafer_on_platform=on_platform)
-    return OneStation(rods, joints, fk, a[:, 3 + n:6 + n], a[:, 6 + n:6 + 2 * n], naive_wafer, a[0, o - 2:o - 1],
-                      a[0, o - 1:o])
+    rods_, joints_ = a[:, 0:3], a[:, 3:3 + n]
+    fk = frozen(RobotForward, arm=arm.name, rods=rods_, joints=joints_, gpr=gpr, platform=platform, blade=blade,
+                wafer=wafer, robot=robot, wafer_on_platform=_pose(at[3], turned[3]))
+    return OneStation(rods_, joints_, fk, a[:, 3 + n:6 + n], a[:, 6 + n:6 + 2 * n], _pose(at[4], turned[4]),
+                      a[0, o - 2:o - 1], a[0, o - 1:o])
 
 
 def _pose(position: NDArray[np.float64], rotation: NDArray[np.float64]) -> PoseBatch:

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from .arm_chain import (
     LIMIT_SLACK,
     REACH_SLACK,
+    ArmFloats,
     arm_floats,
     chain_forward,
     fixed_one,
@@ -128,11 +129,13 @@ class OneArm(NamedTuple):
     violation: list[float]
 
 
-def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None) -> OneArm:
+def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value: float | None = None,
+                  floats: ArmFloats | None = None) -> OneArm:
     """:func:`solve_arm` of one target ``(px, py)`` [m], heading ``phi`` [rad] in floats (the same steps); ``value``:
     a 4-joint arm's held joint at this value [rad] whatever its rule (the ``nearest`` rule's answer found by the
-    caller), by default the rule's own."""
-    floats = arm_floats(arm)
+    caller), by default the rule's own; ``floats``: :func:`~.arm_chain.arm_floats` of ``arm`` if the caller has it."""
+    if floats is None:
+        floats = arm_floats(arm)
     d, beta, offset = floats.links, floats.beta, floats.offsets
     if len(offset) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
