@@ -232,3 +232,17 @@ def test_the_budget_flag_of_one_pose_sees_each_joint():
         assert alone.size, k
         for i in alone[:3]:
             assert not forward(rods[i], TIGHT_BUDGET).within_budget and not batch.within_budget[i]
+
+
+@pytest.mark.parametrize('name', CONFIGS)
+def test_the_one_pose_height_range_is_the_generic_one_to_the_last_bit(name):
+    """OnePose.height_range (inverse_parts' check of the height before the solve) takes _height_range's operations."""
+    from gpr_kinematics.core.inverse import _height_range
+    config = CONFIGS[name]
+    kernel = one_pose(config)
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        t, g = rng.uniform(0.0, 1.2 * config.tilt_limit), rng.uniform(-math.pi, math.pi)
+        n = [math.sin(t) * math.sin(g), -math.sin(t) * math.cos(g), math.cos(t)]
+        tool = [float(v) for v in rng.normal(0.0, 0.2, 3)] if rng.uniform() < 0.5 else [0.0, 0.0, 0.0]
+        assert kernel.height_range(n, tool) == _height_range(SCALAR, kernel.geometry, n, tool, config)

@@ -389,7 +389,9 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         _check_tilt_targets(SCALAR, t, cfg)
     s = math.sin(t)
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
-    _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
+    lo, hi = kernel.height_range(n_target, tool)
+    if not (h >= lo - HEIGHT_MARGIN and h <= hi + HEIGHT_MARGIN):   # _check_height's decision, in floats
+        _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
     q_target = kernel.naive_rods(h, n_target, tool)
     most = cfg.max_iterations
     tol_h, tol_n = cast('tuple[float, float]', tool_tolerances(cfg, tool))

@@ -48,7 +48,8 @@ class OnePose:
     """
 
     __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base',
-                 '_radial_constants', '_naive_rods', 'rod_direction')
+                 '_radial_constants', '_naive_rods', 'rod_direction',
+                 '_strokes')
 
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
@@ -62,6 +63,8 @@ class OnePose:
                                   config.max_iterations)
         self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
                                                                           geo.offsets))
+        self._strokes = tuple((s + o) * u for s in (config.stroke_min, config.stroke_max)   # _height_range's
+                              for o, u in zip(cast('Floats3', geo.offsets), cast('Floats3', geo.uz), strict=True))
         self.rod_direction = cast('Floats3', (geo.ux[0], geo.uy[0], geo.uz[0]))
         self._naive_rods = cast('tuple[Floats3, Floats3, Floats3, Floats3]', (geo.px, geo.py, geo.uz, geo.offsets))
         self._stiffness: Stiffness | None = None
@@ -93,6 +96,25 @@ class OnePose:
         return [(h - n0 * (px0 - t0) - n1 * (py0 - t1) - n2 * t2) / u0 - o0,
                 (h - n0 * (px1 - t0) - n1 * (py1 - t1) - n2 * t2) / u1 - o1,
                 (h - n0 * (px2 - t0) - n1 * (py2 - t1) - n2 * t2) / u2 - o2]
+
+    def height_range(self, n: Sequence[float], tool: Sequence[float]) -> tuple[float, float]:
+        """:func:`~gpr_kinematics.core.inverse._height_range` in floats (its operations, its ``max`` a comparison): the
+        tool point's heights [m] keeping the naive model's rods within the stroke for the platform normal ``n``."""
+        (px0, px1, px2), (py0, py1, py2) = self._naive_rods[0], self._naive_rods[1]
+        a0, a1, a2, b0, b1, b2 = self._strokes
+        n0, n1, n2 = n
+        t0, t1, t2 = tool
+        c0 = n0 * (px0 - t0) + n1 * (py0 - t1) + n2 * t2
+        c1 = n0 * (px1 - t0) + n1 * (py1 - t1) + n2 * t2
+        c2 = n0 * (px2 - t0) + n1 * (py2 - t1) + n2 * t2
+        lo, v = a0 + c0, a1 + c1
+        lo = v if v > lo else lo
+        v = a2 + c2
+        lo = v if v > lo else lo
+        hi, v = -(b0 + c0), -(b1 + c1)
+        hi = v if v > hi else hi
+        v = -(b2 + c2)
+        return lo, -(v if v > hi else hi)
 
     def centres(self, q0: float, q1: float, q2: float) -> Centres:
         """Joint centres ``P_k = B_k + (q_k + o_k) u_k`` (eq. (1); on parallel rods without offsets ``(B_k, q_k)``)."""
@@ -168,6 +190,7 @@ class OnePose:
         fit, and where the last step did not converge its error (else ``None``)."""
         sqrt = math.sqrt
         c0, c1, c2, s0, s1, s2, r0_, r1_, r2_, a0_, a1_, a2_, b0_, b1_, b2_, tol, most = self._radial_constants
+        ntol = -tol
         (px0, px1, px2), (py0, py1, py2), (u0, u1, u2), (o0, o1, o2) = self._naive_rods
         upright = self._base is None
         if upright:
@@ -205,14 +228,18 @@ class OnePose:
                 e1y, e2x, e2y = y2 - y1, x0 - x2, y0 - y2
                 f0, f1, f2 = e0x * e0x + e0y * e0y, e1x * e1x + e1y * e1y, e2x * e2x + e2y * e2y
                 d0, d1, d2 = sqrt(f0), sqrt(f1), sqrt(f2)
-                err, e = abs(d0 - L0), abs(d1 - L1)
-                err = e if e > err else err
-                e = abs(d2 - L2)
-                err = e if e > err else err
-                if err <= tol:
-                    break
-                if iterations == most:
-                    raise not_converged('virtual-joint closure (radial)', self.config, err, True)
+                m0, m1, m2 = d0 - L0, d1 - L1, d2 - L2
+                # a side beyond the tolerance: the error (their largest) is too (no abs and max per pass); else, or
+                # where they are NaN, the error as _radial takes it
+                if not (m0 > tol or m0 < ntol or m1 > tol or m1 < ntol or m2 > tol or m2 < ntol) or iterations == most:
+                    err, e = abs(m0), abs(m1)
+                    err = e if e > err else err
+                    e = abs(m2)
+                    err = e if e > err else err
+                    if err <= tol:
+                        break
+                    if iterations == most:
+                        raise not_converged('virtual-joint closure (radial)', self.config, err, True)
                 b0, a0 = 2.0 * (e0x * c1 + e0y * s1), -2.0 * (e0x * c0 + e0y * s0)
                 b1, a1 = 2.0 * (e1x * c2 + e1y * s2), -2.0 * (e1x * c1 + e1y * s1)
                 b2, a2 = 2.0 * (e2x * c0 + e2y * s0), -2.0 * (e2x * c2 + e2y * s2)
@@ -252,14 +279,17 @@ class OnePose:
             if first is None:
                 first = frame
             h_now = tz + r20 * t0 + r21 * t1 + r22 * t2
-            err_h, err_n = abs(h_now - h), abs(r02 - n0)
-            e = abs(r12 - n1)
-            err_n = e if e > err_n else err_n
-            e = abs(r22 - n2)
-            err_n = e if e > err_n else err_n
-            last = not (err_h <= tol_h and err_n <= tol_n)
-            if not last or step == steps:
-                break
+            m0, m1, m2, m3 = h_now - h, r02 - n0, r12 - n1, r22 - n2
+            if not (m0 > tol_h or m0 < -tol_h or m1 > tol_n or m1 < -tol_n or m2 > tol_n or m2 < -tol_n or m3 > tol_n
+                    or m3 < -tol_n) or step == steps:   # converged or the last step, else surely not (as above)
+                err_h, err_n = abs(m0), abs(m1)
+                e = abs(m2)
+                err_n = e if e > err_n else err_n
+                e = abs(m3)
+                err_n = e if e > err_n else err_n
+                last = not (err_h <= tol_h and err_n <= tol_n)
+                if not last or step == steps:
+                    break
             q0, q1, q2 = (q0 + q_target[0] - ((h_now - r02 * (px0 - t0) - r12 * (py0 - t1) - r22 * t2) / u0 - o0),
                           q1 + q_target[1] - ((h_now - r02 * (px1 - t0) - r12 * (py1 - t1) - r22 * t2) / u1 - o1),
                           q2 + q_target[2] - ((h_now - r02 * (px2 - t0) - r12 * (py2 - t1) - r22 * t2) / u2 - o2))

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
-from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat_vec, rot_z, tilt_matrix
+from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat_mul, mat_vec, rot_z, tilt_matrix
 from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.ops import ARRAY, SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
@@ -289,15 +289,18 @@ def one_on_platform(robot: RobotDescription, arm: Arm, joints: list[float], posi
                     floats: ArmFloats | None = None) -> tuple[FloatPose, FloatPose, FloatPose, FloatPose]:
     """The platform, blade and wafer in the world and the wafer on the platform for one posture on the platform pose
     ``(position, rotation)`` in ``gpr_base`` (floats; :func:`forward_on_platform`). The wafer turns as the blade:
-    its rotation is the blade's (:func:`~gpr_kinematics.core.floats.compose_one`'s product, made once); ``floats``:
-    :func:`arm_floats` of ``arm`` if known."""
-    p_wb, R_wb = base_floats(robot)
+    its rotation is the blade's (:func:`~gpr_kinematics.core.floats.compose_one` twice, inline, its product made
+    once); ``floats``: :func:`arm_floats` of ``arm`` if known."""
+    (b0, b1, b2), R_wb = base_floats(robot)
     blade_p, blade_R, wafer_p = platform_to_blade_one(arm, joints, floats)
-    platform = compose_one(p_wb, R_wb, position, rotation)
-    blade = compose_one(*platform, blade_p, blade_R)
-    x, y, z = mat_vec(platform[1], wafer_p)
-    wafer = (platform[0][0] + x, platform[0][1] + y, platform[0][2] + z), blade[1]
-    return platform, blade, wafer, (wafer_p, blade_R)
+    x, y, z = mat_vec(R_wb, position)
+    p0, p1, p2 = b0 + x, b1 + y, b2 + z
+    R = mat_mul(R_wb, rotation)
+    x, y, z = mat_vec(R, blade_p)
+    R_blade = mat_mul(R, blade_R)
+    u, v, w = mat_vec(R, wafer_p)
+    blade = (p0 + x, p1 + y, p2 + z), R_blade
+    return ((p0, p1, p2), R), blade, ((p0 + u, p1 + v, p2 + w), R_blade), (wafer_p, blade_R)
 
 
 class ForwardFloats(NamedTuple):

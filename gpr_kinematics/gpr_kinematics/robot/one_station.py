@@ -28,7 +28,6 @@ from ..core.floats import (
     FloatPose,
     Mat3,
     Vec3,
-    angle_between,
     mat_mul,
     mat_tvec,
     mat_vec,
@@ -365,4 +364,13 @@ def _angle(R_station: Mat3, R: Mat3, free: bool) -> float:
         n, m = (R[0][2], R[1][2], R[2][2]), (R_station[0][2], R_station[1][2], R_station[2][2])
         cx, cy, cz = n[1] * m[2] - n[2] * m[1], n[2] * m[0] - n[0] * m[2], n[0] * m[1] - n[1] * m[0]
         return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), n[0] * m[0] + n[1] * m[1] + n[2] * m[2])
-    return angle_between(R_station, R)
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = R_station   # angle_between, inline: M = R_station^T R
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = R
+    m00, m01 = a00 * b00 + a10 * b10 + a20 * b20, a00 * b01 + a10 * b11 + a20 * b21
+    m02 = a00 * b02 + a10 * b12 + a20 * b22
+    m10, m11 = a01 * b00 + a11 * b10 + a21 * b20, a01 * b01 + a11 * b11 + a21 * b21
+    m12 = a01 * b02 + a11 * b12 + a21 * b22
+    m20, m21 = a02 * b00 + a12 * b10 + a22 * b20, a02 * b01 + a12 * b11 + a22 * b21
+    m22 = a02 * b02 + a12 * b12 + a22 * b22
+    s = 0.5 * math.sqrt((m21 - m12) ** 2 + (m02 - m20) ** 2 + (m10 - m01) ** 2)
+    return math.atan2(s, 0.5 * (m00 + m11 + m22 - 1.0))
