@@ -30,7 +30,6 @@ from ..core.floats import (
     Vec3,
     mat_mul,
     mat_tvec,
-    mat_vec,
     tilt_matrix,
     tilt_of_normal_one,
 )
@@ -260,12 +259,17 @@ def _solve(robot: RobotDescription, arm: Arm, P: Vec3, tilt_st: float, azimuth: 
         P_n = kernel.centres(q_n[0], q_n[1], q_n[2])
         fit = kernel.fit(P_n, kernel.closure(*kernel.lengths(P_n)).components)
     f00, f01, f02, f10, f11, f12, f20, f21, f22, tx, ty, tz = fit
-    _, naive_blade_R, naive_wafer_p = platform_to_blade_one(arm, naive_sol.theta, floats)
-    # the naive platform (compose_one of the fit in gpr_base), and the wafer on it (compose_one again), inline
-    a0, a1, a2 = mat_vec(R_wb, (tx, ty, tz))
-    R_p = mat_mul(R_wb, ((f00, f01, f02), (f10, f11, f12), (f20, f21, f22)))
-    w0, w1, w2 = mat_vec(R_p, naive_wafer_p)
-    naive_wafer = ((p_wb[0] + a0 + w0, p_wb[1] + a1 + w1, p_wb[2] + a2 + w2), mat_mul(R_p, naive_blade_R))
+    _, naive_blade_R, (x, y, z) = platform_to_blade_one(arm, naive_sol.theta, floats)
+    # the naive platform (compose_one of the fit in gpr_base), and the wafer on it (compose_one again), inline: the
+    # operations of mat_vec and mat_mul in their order
+    (w00, w01, w02), (w10, w11, w12), (w20, w21, w22) = R_wb
+    a0, a1, a2 = w00 * tx + w01 * ty + w02 * tz, w10 * tx + w11 * ty + w12 * tz, w20 * tx + w21 * ty + w22 * tz
+    R_p = ((w00 * f00 + w01 * f10 + w02 * f20, w00 * f01 + w01 * f11 + w02 * f21, w00 * f02 + w01 * f12 + w02 * f22),
+           (w10 * f00 + w11 * f10 + w12 * f20, w10 * f01 + w11 * f11 + w12 * f21, w10 * f02 + w11 * f12 + w12 * f22),
+           (w20 * f00 + w21 * f10 + w22 * f20, w20 * f01 + w21 * f11 + w22 * f21, w20 * f02 + w21 * f12 + w22 * f22))
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = R_p
+    naive_wafer = ((p_wb[0] + a0 + (m00 * x + m01 * y + m02 * z), p_wb[1] + a1 + (m10 * x + m11 * y + m12 * z),
+                    p_wb[2] + a2 + (m20 * x + m21 * y + m22 * z)), mat_mul(R_p, naive_blade_R))
     d0, d1, d2 = wafer[0][0] - P[0], wafer[0][1] - P[1], wafer[0][2] - P[2]
     return (q, sol.theta, (kernel, q, P_, L, closure, frame), platform, blade, wafer, on_platform, q_n,
             naive_sol.theta, naive_wafer, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), _angle(R_st, wafer[1], free), R_st)
@@ -325,12 +329,11 @@ def solve_one(robot: RobotDescription, stations: Stations, arm: Arm, sign: float
         angle_error, _ = one
     n = len(joints)
     flat = [*rods, *joints, *naive_rods, *naive_joints, position_error, angle_error,
-            *p0, *R0[0], *R0[1], *R0[2], *p1, *R1[0], *R1[1], *R1[2], *p2, *R2[0], *R2[1], *R2[2],
-            *p3, *R3[0], *R3[1], *R3[2], *p4, *R4[0], *R4[1], *R4[2]]   # one list, as the poses' rows
+            *p0, *p1, *p2, *p3, *p4, *R0[0], *R0[1], *R0[2], *R1[0], *R1[1], *R1[2], *R2[0], *R2[1], *R2[2],
+            *R3[0], *R3[1], *R3[2], *R4[0], *R4[1], *R4[2]]   # one list: the poses' positions, then their rotations
     gpr, a = one_row(*parts, head=flat)  # the station's values and the platform's pose in one array
-    o = 8 + 2 * n  # the poses: 5 rows of a position and a rotation
-    poses = a[0, o:o + 60].reshape(5, 1, 12)
-    at, turned = poses[:, :, 0:3], poses[:, :, 3:12].reshape(5, 1, 3, 3)
+    o = 8 + 2 * n  # the poses: 5 positions, then 5 rotations
+    at, turned = a[0, o:o + 15].reshape(5, 1, 3), a[0, o + 15:o + 60].reshape(5, 1, 3, 3)
     platform, blade, wafer = _pose(at[0], turned[0]), _pose(at[1], turned[1]), _pose(at[2], turned[2])
     rods_, joints_ = a[:, 0:3], a[:, 3:3 + n]
     fk = frozen(RobotForward, arm=arm.name, rods=rods_, joints=joints_, gpr=gpr, platform=platform, blade=blade,
