@@ -796,3 +796,28 @@ def test_a_first_point_at_time_zero_beyond_one_sample_at_the_velocity_limit_is_r
             assert _held(c, states, 'arm1_shoulder') == 0.0
     finally:
         proc.stop()
+
+
+def test_lagging_joints_a_next_goal_leaves_out_go_on_to_their_point(lagging):
+    """A reviewer's case with the real CLI: a goal on arm1_shoulder succeeds with the joint lagging, the next goal
+    names arm1_elbow only; the shoulder froze 0.262 rad short of its point for good (the new goal held it where it
+    was). The joints a goal leaves out are commanded where the last goal left them, as joint_trajectory_controller
+    keeps them: the shoulder reaches its point, exactly, and so does the elbow."""
+    from control_msgs.msg import JointTolerance
+    from sensor_msgs.msg import JointState
+
+    c, cli = lagging
+    states: list = []
+    c.node.create_subscription(JointState, '/gpr_sim_lag/joint_states', states.append, 100)
+    c.spin_for(0.5)
+    names = list(states[-1].name)
+    s, e = names.index('arm1_shoulder'), names.index('arm1_elbow')
+    shoulder, elbow = states[-1].position[s], states[-1].position[e]
+    targets = (shoulder + 0.4 if shoulder < 0.0 else shoulder - 0.4, elbow + 0.3 if elbow < 0.0 else elbow - 0.3)
+    free = [JointTolerance(name=n, position=-1.0, velocity=-1.0) for n in ('arm1_shoulder', 'arm1_elbow')]
+    for joint, target in zip(('arm1_shoulder', 'arm1_elbow'), targets, strict=True):
+        result, _ = _run(c, cli, _goal([joint], [0.3], [[target]], goal_tolerance=free[:1] if joint == 'arm1_shoulder'
+                                       else free[1:]))
+        assert result.error_code == 0, result.error_string
+    assert c.spin_until(lambda: states[-1].position[s] == targets[0] and states[-1].position[e] == targets[1], 10.0), \
+        (states[-1].position[s] - targets[0], states[-1].position[e] - targets[1])

@@ -263,8 +263,7 @@ class RobotSimulatorNode(GprNode):
             self.publish_state(stamp)
 
     def _converge(self, stamp: int) -> None:
-        """The joints, lagging (``servo_time_constant``), move on toward the last point of the goal that ended (as
-        joint_trajectory_controller keeps commanding it): they froze short of it (0.071 rad, goal_tolerance -1)."""
+        """Lagging joints move on toward the ended goal's last point, commanded still (as in a real controller)."""
         before, dt = self.actual, max(stamp - (self.last_published or stamp), 0) / NS_PER_S
         if self.command is None or dt == 0.0:
             self.velocity[:] = 0.0
@@ -317,6 +316,9 @@ class RobotSimulatorNode(GprNode):
             old = self.run
             self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
                       f'{len(old.motion)} samples')
+        if self.command is not None:   # lagging joints the goal leaves out go on toward their command (they froze)
+            others = np.setdiff1d(np.arange(len(self.joints.names)), motion.goal)
+            motion.positions[:, others] = self.command[others]
         done = Future()
         self.run, self.command = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds), None
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
