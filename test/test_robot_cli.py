@@ -617,3 +617,29 @@ def test_teach_names_a_wrong_joint_count_as_fk_does(capsys):
         assert status == 2 and err == (f'gpr robot {command}: error: --joints: 2 values for arm arm1, which has 3 '
                                        'joints (arm1_shoulder, arm1_elbow, arm1_wrist); allowed: one value per joint, '
                                        'shoulder first\n'), err
+
+
+@pytest.mark.parametrize('sig, status, word', [('SIGTERM', 143, 'terminated'), ('SIGINT', 130, 'interrupted')])
+def test_a_command_killed_takes_its_outputs_back(tmp_path, sig, status, word):
+    """SIGTERM (a kill, `timeout`) left a 17 MB hidden .tmp file and the outputs written before it, where Ctrl-C took
+    them back: both end the same way now, one line on stderr, nothing left in the folder."""
+    import signal
+    import time
+
+    import gpr_kinematics
+
+    env = {'PYTHONPATH': str(Path(gpr_kinematics.__file__).parents[1]), 'PATH': '/usr/bin:/bin'}
+    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics', 'program', 'export', str(PROGRAM), '--samples',
+                             's.json', '--waypoints', 'w.csv', '--rate', '5000'], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + 60.0
+        while not any(tmp_path.iterdir()) and proc.poll() is None and time.monotonic() < end:
+            time.sleep(0.01)   # writing its outputs now
+        assert proc.poll() is None, proc.communicate()
+        proc.send_signal(getattr(signal, sig))
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == status and err == f'gpr program export: {word}\n', (proc.returncode, err)
+    assert list(tmp_path.iterdir()) == []
