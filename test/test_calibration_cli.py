@@ -842,3 +842,20 @@ def test_a_calibrated_machine_beyond_its_imperfection_budget_is_warned(capsys, t
     assert status == 0 and len(warned) == 1 and warned[0].startswith(
         f'the calibrated machine displaces its joints by up to {1e3 * worst:.4g} mm at the measured poses, beyond its '
         'imperfection_budget of 0.05 mm'), (warned, err)
+
+
+@pytest.mark.parametrize('option', [['--sigma-position', '0.1'], ['--sigma-angle', '0.002']])
+def test_a_sigma_option_for_a_file_with_that_column_is_refused(tmp_path, capsys, option):
+    """--sigma-position 0.1 with a file of sigma columns exited 0 with the same fit (the column wins per row): the
+    option did nothing, and said nothing."""
+    from gpr_kinematics.cli.main import main
+    from gpr_kinematics.inputs.resources import config_path
+
+    out = tmp_path / 'g.yaml'
+    status = main(['calibrate', str(config_path('calibration/synthetic_measurements.csv')), '--output', str(out),
+                   '--no-progress', *option])
+    err = capsys.readouterr().err
+    column = option[0].lstrip('-').replace('-', '_')
+    assert status == 2 and not out.exists() and err.count('\n') == 1
+    assert f'have their own {column} column, which the fit takes; allowed: {option[0]} for a file without that ' \
+        'column' in err, err

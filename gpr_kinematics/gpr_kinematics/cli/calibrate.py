@@ -42,6 +42,7 @@ from .calibrate_options import (
     gate_outcome,
     pose,
     priors,
+    refuse_unused_sigmas,
     sigmas,
     table_of,
     with_given_poses,
@@ -74,6 +75,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     line = progress_line(args.no_progress)   # 70,000 rows took 2 min of CPU time
     try:
         meas = read_measurements(args.measurements[0], line)
+        refuse_unused_sigmas(args, meas, args.measurements[0])
         check_limits(meas, cfg)
         core = CoreModel(cfg, args.model)
         model = measuring_model(core, meas, args.frame, pose(args.base, args, '--base', (6,)),

@@ -6,7 +6,7 @@ import argparse
 import math
 import sys
 from collections.abc import Callable
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -56,6 +56,16 @@ def declared(args: argparse.Namespace) -> tuple[bool, bool]:
     rows without sigma columns (the whole gate applies), not a noise assumed (the gate's chi-square against it and
     outliers by the residuals' robust scale)."""
     return args.sigma_position is not None, args.sigma_angle is not None
+
+
+def refuse_unused_sigmas(args: argparse.Namespace, meas: Any, source: str) -> None:
+    """Refuse ``--sigma-position`` / ``--sigma-angle`` for measurements ``meas`` whose file has that sigma column
+    (every row its own sigma, which the fit takes): the option did nothing, exit 0 and the same fit."""
+    for flag, column in (('--sigma-position', 'sigma_position'), ('--sigma-angle', 'sigma_angle')):
+        if getattr(args, column) is not None and getattr(meas, column) is not None:
+            raise InputError(f'{flag} {getattr(args, column):g}: the rows of {source} have their own {column} column, '
+                             f'which the fit takes; allowed: {flag} for a file without that column (leave it out, or '
+                             'the column)')
 
 
 def pose(values: list[float] | None, args: argparse.Namespace, flag: str,

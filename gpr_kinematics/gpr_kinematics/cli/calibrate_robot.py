@@ -18,6 +18,7 @@ from .calibrate_options import (
     fixed_frame,
     gate_outcome,
     pose,
+    refuse_unused_sigmas,
     sigmas,
     table_of,
     with_given_poses,
@@ -137,6 +138,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     shown = progress_line(args.no_progress)
     for arm, model in models.items():
         inner = inners[arm]
+        refuse_unused_sigmas(args, inner.meas.points, f'arm {arm}\'s measurements')
 
         def told(stage: str, share: float, arm: str = arm) -> None:
             shown(f'arm {arm}: {stage}', share)
