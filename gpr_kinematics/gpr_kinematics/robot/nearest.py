@@ -427,7 +427,7 @@ def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: 
         x = a - ga * (b - a) / (gb - ga)
     x = np.where((x > a) & (x < b), x, 0.5 * (a + b))
     active = np.arange(a.size)
-    before = np.full(a.size, np.inf)   # each search's step before
+    before = np.zeros(a.size)   # each search's Newton step before (0: none, the start or a bisection)
     for _ in range(NEAREST_STEPS):
         t = x[active]
         ev = _evaluate(arm, d, beta, p, phi, sign, rows[active], t, curvature=True)
@@ -443,7 +443,7 @@ def _minimum(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sign: 
         last = inside & (np.abs(dt) <= NEAREST_LAST_STEP) & (np.abs(dt) <= NEAREST_SUPERLINEAR * before[active])
         done = ~(left | right) | last | (B - A <= NEAREST_TOLERANCE)
         x[active] = np.where(done & ~last, t, nxt)
-        before[active] = np.where(inside, np.abs(dt), np.inf)   # a bisection is no Newton step
+        before[active] = np.where(inside, np.abs(dt), 0.0)   # after a bisection a step can't show its convergence
         active = active[~done]
         if not active.size:
             break
