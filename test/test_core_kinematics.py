@@ -524,3 +524,14 @@ def test_a_batch_of_one_result_is_that_result():
         np.testing.assert_array_equal(getattr(back, name), getattr(one, name), err_msg=name)
     for name in ('tilt', 'tilt_azimuth', 'twist', 'residual', 'fit_residual', 'iterations', 'within_budget'):
         assert getattr(back, name) == getattr(one, name), name
+
+
+def test_the_one_pose_inverses_closure_is_bounded_by_max_iterations():
+    """The one-pose inverse kinematics' fused radial steps run the closure's Newton loop inline: its own bound of
+    max_iterations (a mutation audit: without it the loop was bounded by nothing, a closure that never converges a
+    hung process) refuses naming the closure, as the batch does."""
+    for call in (lambda cfg: inverse(0.3, math.radians(0.5), 0.4, config=cfg),
+                 lambda cfg: inverse_batch([0.3], math.radians(0.5), 0.4, config=cfg)):
+        with pytest.raises(ConvergenceError, match=r'^virtual-joint closure \(radial\) did not converge in 1 '
+                                                   r'iterations( for sample 0)?: side-length error'):
+            call(CFG.replace(max_iterations=1, model='radial'))
