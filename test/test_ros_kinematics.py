@@ -403,6 +403,12 @@ def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment
     (lambda c: c.forward_kinematics([0.5, 0.5]), r'^q must be 3 numbers, got 2; allowed: 3 values in SI units$'),
     (lambda c: c.forward_kinematics([0.5, 0.5, 0.5, 0.3]), r'^q must be 3 numbers, got 4'),
     (lambda c: c.analyze_mobility([0.5] * 3, dq=[1e-4, -1e-4]), r'^dq must be 3 numbers'),
+    (lambda c: c.analyze_mobility([0.5, 0.5]), r'^q must be 3 numbers, got 2'),
+    (lambda c: c.inverse_kinematics(0.45, 2.0 * math.pi - 0.01, 0.0), r'allowed: \|tilt\| < pi'),   # 0.01 folded
+    (lambda c: c.compensate([0.0, 0.0, 0.4], [0.0, 0.0, 1.0]), r'^quaternion must be 4 numbers, got 3'),
+    (lambda c: c.compensate([0.0, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0], [0.0, 0.0]), r'^tool_offset must be 3 numbers'),
+    (lambda c: c.station_inverse_kinematics([1.0, 0.5, 0.4], tilt='0.1'), r'^tilt, azimuth must be numbers'),
+    (lambda c: c.robot_forward_kinematics([0.3] * 3, 'abc'), r'^joints must be numbers'),
     (lambda c: c.robot_forward_kinematics([0.3] * 2, [0.0, 0.0, 0.0]), r'^rods must be 3 numbers, got 2'),
     (lambda c: c.inverse_kinematics(0.45, 0.01, 1e300), r'azimuth = 1e\+300 rad; allowed: .* \|azimuth\| <= 1e\+06'),
     (lambda c: c.inverse_kinematics(0.45, 2.0 * math.pi + 0.01, 0.0), r'allowed: \|tilt\| < pi'),
