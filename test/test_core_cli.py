@@ -145,6 +145,8 @@ def test_human_readable_output(capsys):
     (['sweep', '--tilt-step', '1e-12'], r'tilt_step = 1e-12 rad; allowed: a step of at least 1e-07 rad'),
     (['sweep', '--tilt-step', '1e-7'], r'allowed: a sweep of at most 200000 samples'),
     (['sweep', '--csv', ''], 'CSV output path is empty'),
+    (['sweep', '--csv', 'victim.yaml'], r"^gpr sweep: error: --csv 'victim.yaml' has another suffix; allowed: a .csv "
+                                        r'file$'),   # it overwrote a YAML file with the sweep's rows
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, pattern):
     from gpr_kinematics.inputs.resources import config_path

@@ -118,6 +118,8 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=0.2', '--set', 'l1=0.3'], '--set l1 is given twice'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=0x10'], "l1 must be a positive finite length in m; got '0x10'"),
+    (['shell_arm.yaml', '--delta', '0.1', '--boxes', 'victim.csv'],   # it overwrote a measurement CSV with a zip
+     "--boxes 'victim.csv' has another suffix; allowed: a .npz file (or a name without a suffix, written as given)"),
 ])
 def test_bad_input_exits_2_with_one_line(argv, match, capsys):
     code, out, err = _run(capsys, *argv)

@@ -185,9 +185,10 @@ def _write_csv(path: str, s: SweepResult) -> Path:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..core import sweep
-    from ..inputs.files import check_output
-    if args.csv is not None:
-        check_output(args.csv, 'CSV')  # before the work, not after it
+    from ..inputs.files import check_output, check_suffix
+    if args.csv is not None:   # a .csv (it overwrote a YAML file), before the work, not after it
+        check_output(args.csv, 'CSV')
+        check_suffix(args.csv, '--csv', ('.csv',))
     cfg = _config(args)
 
     def given(value: float | None, convert: Callable[[argparse.Namespace, float], float], default: float) -> float:

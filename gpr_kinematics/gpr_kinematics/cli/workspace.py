@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from ..inputs.files import atomic_output, check_output, output_folder
+from ..inputs.files import atomic_output, check_output, check_suffix, output_folder
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
@@ -131,8 +131,10 @@ def _check_args(args: argparse.Namespace) -> float:
     check_max_seconds(args.max_seconds, '--max-seconds')
     if not 1 <= args.parts <= 100_000:
         raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
-    if args.boxes is not None:  # an empty name is refused, not ignored
+    if args.boxes is not None:  # an empty name is refused, not ignored; a .npz (it overwrote a measurement CSV)
         check_output(args.boxes, '--boxes')
+        if Path(args.boxes).suffix:   # a name without one is written as given
+            check_suffix(args.boxes, '--boxes', ('.npz',), ' (or a name without a suffix, written as given)')
     if args.plot is not None:
         output_directory(args.plot)
         _matplotlib()
