@@ -199,7 +199,8 @@ def test_console_script_runs_without_traceback():
     ok = subprocess.run(cmd + ['fk', '0.3', '0.3', '0.3', '--json'], capture_output=True, text=True, timeout=60)
     assert ok.returncode == 0 and json.loads(ok.stdout)['tilt'] == 0.0
     bad = subprocess.run(cmd + ['fk', '0.3', 'inf', '0.3'], capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and bad.stderr == 'gpr fk: error: q2 = inf is not a finite number\n'
+    assert bad.returncode == 2 and bad.stderr == ('gpr fk: error: q2 = inf is not a finite number; allowed: finite '
+                                                  'values in SI units\n')
 
 
 def test_a_closed_stderr_or_stdout_changes_nothing_but_what_is_seen():
@@ -263,7 +264,7 @@ def test_digits_beyond_the_largest_float_are_named_as_typed(capsys, typed):
     assert status == 2 and err.count('\n') == 1 and '(beyond the largest float, 1.8e308)' in err, err
     assert ' inf ' not in err
     status, _, err = run(capsys, 'fk', 'inf', '0.5', '0.5')
-    assert status == 2 and err.endswith('q1 = inf is not a finite number\n'), err
+    assert status == 2 and err.endswith('q1 = inf is not a finite number; allowed: finite values in SI units\n'), err
 
 
 def test_a_long_error_line_loses_only_what_is_over_the_limit():

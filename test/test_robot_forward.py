@@ -126,8 +126,10 @@ def test_naive_error_at_a_tilt_is_micrometres():
     ([[250.0, 251.0, 252.0]], [[0.0, 0.0, 0.0]], LimitError,   # typed rods: the hint of millimetres
      r'^gpr_rod1 = 250 m is outside the stroke \[0, 0.508\] m; 250 mm would be within it: millimetres given as '
      r'metres\?$'),
-    ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^gpr_rod3 = nan is not a finite number$'),
-    ([[0.3, 0.3, 0.3]], [[0.0, float('inf'), 0.0]], InputError, r'^arm1_elbow = inf is not a finite number$'),
+    ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^gpr_rod3 = nan is not a finite number; allowed: '
+     r'finite values in SI units$'),   # it named no rule
+    ([[0.3, 0.3, 0.3]], [[0.0, float('inf'), 0.0]], InputError, r'^arm1_elbow = inf is not a finite number; '
+     r'allowed: finite values in SI units$'),
     ([[0.3, 0.3, 0.3]], [[0.0, 0.0]], InputError, r'joints of arm1 must have 3 values per sample'),
     ([[0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], InputError,
      r'rods and joints must have the same number of samples, got 1 and 2'),

@@ -6,7 +6,7 @@ import argparse
 import math
 import sys
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from ..calibration.frames import Transform
+    from ..calibration.measurements import Measurements
     from ..calibration.model import PoseModel
     from ..calibration.tolerances import ToleranceTable
     from ..robot.urdf import RobotUrdf
@@ -58,7 +59,7 @@ def declared(args: argparse.Namespace) -> tuple[bool, bool]:
     return args.sigma_position is not None, args.sigma_angle is not None
 
 
-def refuse_unused_sigmas(args: argparse.Namespace, meas: Any, source: str) -> None:
+def refuse_unused_sigmas(args: argparse.Namespace, meas: Measurements, source: str) -> None:
     """Refuse ``--sigma-position`` / ``--sigma-angle`` for measurements ``meas`` whose file has that sigma column
     (every row its own sigma, which the fit takes): the option did nothing, exit 0 and the same fit."""
     for flag, column in (('--sigma-position', 'sigma_position'), ('--sigma-angle', 'sigma_angle')):

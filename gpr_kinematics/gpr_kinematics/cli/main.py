@@ -22,12 +22,16 @@ import re
 import signal
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn, TypeAlias
+from types import FrameType
+from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, NAME_RULE, PATH_LENGTH, GprError, brief, one_line
 from ..inputs.files import command_reads, command_writes
 from ..inputs.safe_yaml import UNSIGNED_DECIMAL
 from .output import OUTPUT_OPTIONS, description, distinct_outputs
+
+if TYPE_CHECKING:
+    from signal import _HANDLER  # typeshed's: a handler, SIG_DFL or SIG_IGN, or None
 
 #: Subcommand -> module that registers it (imported only when that subcommand runs, or for ``--help``).
 COMMANDS: dict[str, str] = {
@@ -191,11 +195,11 @@ class _Terminated(KeyboardInterrupt):
     and the outputs written before it)."""
 
 
-def _on_sigterm(signum: int, frame: object) -> None:
+def _on_sigterm(signum: int, frame: FrameType | None) -> None:
     raise _Terminated
 
 
-def _catch_sigterm() -> Any:
+def _catch_sigterm() -> _HANDLER | None:
     """Make SIGTERM raise :class:`_Terminated` while a command runs; the handler it replaces (None: not the main
     thread, where no handler can be set)."""
     try:

@@ -27,6 +27,8 @@ MAX_COORDINATE = 1e6
 TURN = 2.0 * math.pi
 #: How far a file's orientation angle may pass :data:`TURN` [rad]: a turn written to more digits than a double keeps.
 TURN_SLACK = 1e-9
+#: What a number that is NaN or infinite should have been.
+FINITE = 'finite values in SI units'
 
 
 #: A decimal number as text: YAML 1.2's forms (:data:`~gpr_kinematics.inputs.safe_yaml.DECIMAL`), one way to read each
@@ -259,7 +261,7 @@ def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = No
         # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
         label = names[j] if names else f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
         where = f' (sample {i})' if a.shape[0] > 1 else ''
-        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number')
+        raise InputError(f'{label} = {a[i, j]}{where} is not a finite number; allowed: {FINITE}')
     return a
 
 
@@ -271,7 +273,7 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number')
+        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number; allowed: {FINITE}')
     return a
 
 
