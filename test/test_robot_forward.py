@@ -118,6 +118,8 @@ def test_naive_error_at_a_tilt_is_micrometres():
 @pytest.mark.parametrize('rods, joints, error, pattern', [
     ([[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], LimitError,
      r'^arm1_elbow = 3 rad is beyond its upper limit 2.9 rad by 0.1 rad; allowed: \[-2.9, 2.9\] rad$'),
+    ([[0.3, 0.3, 0.3]], [[0.0, 57.2957795, 0.0]], LimitError,   # degrees typed: the hint a joint table's row gets
+     r'rad; allowed: \[-2.9, 2.9\] rad; 57.2957795 deg would be within them: degrees given as radians\?$'),
     ([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, -3.1]], LimitError,
      r'^arm1_wrist = -3.1 rad \(sample 1\) is beyond its lower limit -3.05 rad by 0.05 rad'),
     ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'^gpr_rod3 = 0.6 m is outside the stroke'),   # was q3

@@ -53,8 +53,11 @@ def check_joint_limits(arm: Arm, J: Array) -> None:
         side, limit = ('lower', j.lower) if J[i, k] < lower[k] else ('upper', j.upper)
         where = f' (sample {i})' if J.shape[0] > 1 else ''
         shown, end = apart(float(J[i, k]), limit, 9)
+        value = float(J[i, k])   # beyond a turn, yet within the limits in degrees: the hint a joint table gives
+        hint = (f'; {value:.9g} deg would be within them: degrees given as radians?'
+                if abs(value) > 2.0 * math.pi and j.lower <= math.radians(value) <= j.upper else '')
         raise LimitError(f'{j.name} = {shown} rad{where} is beyond its {side} limit {end} rad by '
-                         f'{abs(J[i, k] - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad')
+                         f'{abs(J[i, k] - limit):.3g} rad; allowed: [{j.lower:g}, {j.upper:g}] rad{hint}')
 
 
 def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
