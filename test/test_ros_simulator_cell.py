@@ -159,7 +159,7 @@ def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any
 
     clock = types.SimpleNamespace(nanoseconds=0)
     joints = ControllerJoints.of(ROBOT)
-    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(),
+    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(), command=None,
                                  velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
                                  last_foreign=None, last_published=None, refusing=False, clearance=Counting(),
                                  p={'idle_rate': idle_rate}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
@@ -167,6 +167,7 @@ def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any
                                  publish_state=lambda ns: None)
     node._outside = lambda state: ''
     node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)
+    node._converge = types.MethodType(sim.RobotSimulatorNode._converge, node)
     on_states = types.MethodType(sim.RobotSimulatorNode._on_joint_states, node)
     idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
     events = sorted([(round(k * 1e6), 0) for k in range(1000)] + [(round(k * 1e9 / idle_rate), 1)
@@ -195,7 +196,7 @@ def test_a_stream_the_cell_refuses_leaves_the_held_state_published(ros_environme
     published = []
     joints = ControllerJoints.of(ROBOT)
     refuse = types.SimpleNamespace(move=lambda held, state: 'arm2_blade and pm1/front_bottom -5 mm apart')
-    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(),
+    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(), command=None,
                                  velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
                                  last_foreign=None, last_published=None, refusing=False, clearance=refuse,
                                  p={'idle_rate': 10.0}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
@@ -203,6 +204,7 @@ def test_a_stream_the_cell_refuses_leaves_the_held_state_published(ros_environme
                                  publish_state=published.append)
     node._outside = lambda state: ''
     node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)
+    node._converge = types.MethodType(sim.RobotSimulatorNode._converge, node)
     on_states = types.MethodType(sim.RobotSimulatorNode._on_joint_states, node)
     idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
     events = sorted([(k * 10_000_000, 0) for k in range(200)] + [(k * 100_000_000 + 5, 1) for k in range(20)])
