@@ -23,7 +23,8 @@ def test_file_error_is_both_a_config_and_an_input_error():
 
 
 def test_read_text_refuses_what_is_not_a_regular_file(tmp_path):
-    with pytest.raises(FileError, match=r"cannot read config file '.*missing\.yaml': No such file"):
+    with pytest.raises(FileError, match=r"cannot read config file '.*missing\.yaml': No such file or directory; "
+                                        r"allowed: an existing file this user can read$"):   # it named no rule
         files.read_text(tmp_path / 'missing.yaml', 'config')
     with pytest.raises(FileError, match=r'is not a regular file \(a directory\)'):
         files.read_text(tmp_path, 'config')

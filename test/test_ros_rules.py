@@ -44,7 +44,8 @@ def test_a_goal_file_name_too_long_is_refused_naming_the_rule():
     """A name too long for the file system (a component of 300 characters, a path of 5,000) was an OSError of the
     look-up: the goal ended as 'internal error: OSError: [Errno 36] File name too long: ...' quoting the whole path."""
     robot, files = load_robot(None), GoalFiles.of([''])
-    with pytest.raises(FileError, match=r"^cannot read program file '.*/config/programs/x{300}': File name too long$"):
+    with pytest.raises(FileError, match=r"^cannot read program file '.*/config/programs/x{300}': File name too long; "
+                                        r'allowed: a path whose names have at most 255 bytes each, 4096 in all$'):
         goal_program(_goal('x' * 300), robot, files)
     with pytest.raises(ConfigError, match=f'^goal: program_file has 5000 bytes \\(UTF-8\\); allowed: a path of at '
                                           f'most {MAX_PATH}$'):

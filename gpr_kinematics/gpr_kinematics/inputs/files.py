@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import os
 import shutil
 import stat
@@ -47,7 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from ..errors import FileError, brief
+from ..errors import NAME_RULE, FileError, brief
 
 #: Largest text file read when a caller names no limit [bytes] (configuration and mechanism files are a few kB).
 MAX_TEXT_BYTES = 16 * 1024 * 1024
@@ -295,8 +296,9 @@ def read_text(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_TEXT
     real = rule.resolve(name, what) if rule is not None else name
     try:
         fd = os.open(real, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
-    except OSError as exc:
-        raise FileError(f'cannot read {what} file {name!r}: {exc.strerror or exc}') from None
+    except OSError as exc:   # it named no rule
+        allowed = NAME_RULE if exc.errno == errno.ENAMETOOLONG else 'allowed: an existing file this user can read'
+        raise FileError(f'cannot read {what} file {name!r}: {exc.strerror or exc}; {allowed}') from None
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
