@@ -385,11 +385,13 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
     """
     target = check_output(path, what)
     tmp = target.with_name(f'.{target.name}.{os.getpid()}.tmp')
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
-    except OSError as exc:
-        raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
-    try:
+    not_made = False
+    try:   # from the creation on: a signal right after it (SIGTERM, Ctrl-C) left the file
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+        except OSError:
+            not_made = True
+            raise
         with (os.fdopen(fd, 'wb') if binary else os.fdopen(fd, 'w', encoding='utf-8', newline='')) as fh:
             yield fh
         check_output(target, what)  # the target may have been replaced by something else meanwhile
@@ -397,8 +399,9 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
     except OSError as exc:
         raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        if not not_made:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
 
 
 def write_text(path: str | os.PathLike[str], text: str, what: str) -> Path:
