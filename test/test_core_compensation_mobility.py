@@ -152,6 +152,33 @@ def test_mobility_equals_the_separate_decompositions(model):
         assert m.rank_augmented == np.linalg.matrix_rank(np.hstack([m.dphi_dp, m.dphi_dx])) == 12
 
 
+@pytest.mark.parametrize('columns', [3, 6])
+def test_pseudo_inverse_of_the_closure_rows_is_numpys(columns):
+    """The closure's rows (3 x M, full row rank) are inverted by the normal equations in floats where they are well
+    conditioned: numpy's pinv to 1e-12 at the threshold's worst conditions; beyond it, and where the rank is lost,
+    the SVD route itself (the same bits)."""
+    from gpr_kinematics.core.mobility import PINV_NORMAL_CONDITION, _pinv, _pinv_rows
+    rng = np.random.default_rng(5)
+    # trace(G)^3 / det(G) of G's eigenvalues s^2: 812, 7338, 76 and 6406 (cond(G) 800) within; 10612, 8e6, inf not
+    cases = {(1.0, 1.0, 0.1): True, (1.0, 0.11, 0.11): True, (3.0, 2.0, 1.0): True, (1.0, 1.0, 0.0354): True,
+             (1.0, 0.1, 0.1): False, (1.0, 1.0, 1e-3): False, (1.0, 1.0, 0.0): False}
+    for singular, within in cases.items():
+        for _ in range(20):
+            u = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+            v = np.linalg.qr(rng.normal(size=(columns, columns)))[0][:3]
+            A = (u * singular) @ v * rng.uniform(0.01, 100.0)
+            G = A @ A.T
+            normal = np.linalg.det(G) * PINV_NORMAL_CONDITION >= np.trace(G) ** 3
+            assert normal == within
+            ref = np.linalg.pinv(A)
+            got = _pinv_rows(A)
+            if normal:
+                np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+            else:
+                assert got.tobytes() == _pinv(A).tobytes()
+                np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+
+
 @pytest.mark.parametrize('model', MODELS)
 def test_sensitivity_satisfies_linearised_constraints_and_bounds(model):
     m = analyze_mobility(naive_inverse(0.3, math.radians(1.3), 0.4), model=model)

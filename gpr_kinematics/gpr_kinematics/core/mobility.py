@@ -254,7 +254,8 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     built once for the solve and the rank.
 
     The structure saves three of five decompositions: only the last three rows of ``dPhi/dX`` are non-zero, so
-    ``(dPhi/dX)^+ = [0 | B^+]`` with ``B`` those rows and ``dX/dP = -B^+ dPhi_{9..11}/dP`` (in the solver's metric);
+    ``(dPhi/dX)^+ = [0 | B^+]`` with ``B`` those rows and ``dX/dP = -B^+ dPhi_{9..11}/dP`` (in the solver's metric;
+    ``B^+ = B^T (B B^T)^-1`` with a 3 x 3 inverse in floats, :func:`_pinv_rows`);
     the eigen-decomposition of ``dX/dP^T dX/dP`` is the singular value decomposition of ``dX/dP``
     (``d = sigma^2``, ``V`` its right singular vectors; the nine eigenvalues beyond its rank ``M <= 6`` are 0); the
     two ranks come from one batched SVD (``[dPhi/dP 0]`` has the singular values of ``dPhi/dP``) with
@@ -272,7 +273,7 @@ def analyze_mobility(q: ArrayLike, config: GprConfig | None = None, model: str |
     dphi_dx[9:] = -np.array(_closure_jacobian(vjm, X))
     B = dphi_dx[9:]
     s = _scale(vjm, cfg)
-    dx_dp = -(_pinv(B / s) / s[:, None]) @ dphi_dp[9:]
+    dx_dp = -(_pinv_rows(B / s) / s[:, None]) @ dphi_dp[9:]
     _, sv, vt = np.linalg.svd(dx_dp)
     evals = np.zeros(12)
     evals[12 - sv.size:] = sv[::-1] ** 2
@@ -306,6 +307,27 @@ def _scale(vjm: VirtualJointModel, config: GprConfig) -> Array:
         s = config.derived[key] = coordinate_scale(vjm, config)
         s.flags.writeable = False
     return s
+
+
+#: :func:`_pinv_rows` takes the normal equations where ``trace(G)^3 / det(G)`` (``G = A A^T``; a bound on the
+#: condition number of ``G``) is at most this: ``A^+`` then has a relative error below ``1e-12``; else the SVD.
+PINV_NORMAL_CONDITION = 1e4
+
+
+def _pinv_rows(A: Array) -> Array:
+    """The pseudo-inverse ``A^+ = A^T (A A^T)^-1`` (M x 3) of a 3 x M matrix ``A`` of full row rank (the closure's
+    Jacobian, scaled), the 3 x 3 inverse in floats (its adjugate); :func:`_pinv` where ``A A^T`` is not well
+    conditioned (:data:`PINV_NORMAL_CONDITION`). Equal to ``numpy.linalg.pinv`` to rounding (a test: 1e-12)."""
+    (g00, g01, g02), (_, g11, g12), (_, _, g22) = (A @ A.T).tolist()
+    k00, k11, k22 = g11 * g22 - g12 * g12, g00 * g22 - g02 * g02, g00 * g11 - g01 * g01
+    k01, k02, k12 = g02 * g12 - g01 * g22, g01 * g12 - g02 * g11, g01 * g02 - g00 * g12
+    det = g00 * k00 + g01 * k01 + g02 * k02
+    trace = g00 + g11 + g22
+    if not det * PINV_NORMAL_CONDITION >= trace * trace * trace:   # also NaN
+        return _pinv(A)
+    inv = 1.0 / det
+    G_inv = np.array([[k00, k01, k02], [k01, k11, k12], [k02, k12, k22]]) * inv
+    return np.asarray(A.T @ G_inv, dtype=np.float64)
 
 
 def _pinv(A: Array) -> Array:
