@@ -216,6 +216,41 @@ def test_separating_axis_bound_never_above_the_library():
     assert np.median(lb[apart] / exact[apart]) > 0.95
 
 
+@pytest.mark.parametrize('depth', [1e-6, 1e-4, 5e-4, 9.99e-4])
+def test_boxes_overlapping_by_less_than_a_millimetre_read_minus_their_depth(depth):
+    """Two boxes (half-edges 50, 40, 30 mm) ``depth`` into each other, less than 1 mm: face to face, and a corner of
+    one turned 0.4 rad about z into the other's +x face. The separating-axis bound is minus the depth (the library's
+    signed distance, its EPA, gives the same), never 0 (touching, as if clear of the margin by the depth), and so is
+    the bound of bodies in contact (contact_bound) and the measured distance of the pair, less the library's slack.
+    No test had bodies this close: a bound clamped to 0 above -1 mm passed them all."""
+    fcl = pytest.importorskip('fcl')
+    from gpr_kinematics.safety.bodies import Body
+    from gpr_kinematics.safety.distances import LIBRARY_SLACK, Exact, Store, contact_bound
+    from scipy.spatial.transform import Rotation
+
+    h = np.array([0.05, 0.04, 0.03])
+    turn = Rotation.from_euler('z', 0.4).as_matrix()
+    lowest_x = np.min((SIGNS * h) @ turn.T, axis=0)[0]   # the turned box's corner nearest -x, from its centre
+    cases = [(np.eye(3), np.array([2 * h[0] - depth, 0.01, -0.005])),     # face into face
+             (turn, np.array([h[0] - depth - lowest_x, 0.0, 0.0]))]       # a corner into the +x face
+    req = fcl.DistanceRequest(enable_signed_distance=True)
+    for R, c in cases:
+        signed = fcl.distance(fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(np.eye(3), np.zeros(3))),
+                              fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(R, c)), req, fcl.DistanceResult())
+        assert signed == pytest.approx(-depth, abs=1e-12)
+        lb = box_lower_bound(np.eye(3)[None], np.zeros((1, 3)), h[None], R[None], c[None], h[None])[0]
+        assert lb == pytest.approx(-depth, abs=1e-12)
+        no = np.array([False])
+        touch = contact_bound((np.eye(3)[None], np.zeros((1, 3)), h[None], no), (R[None], c[None], h[None], no))[0]
+        assert touch == pytest.approx(-depth, abs=1e-12)
+        bodies = [Body('a', 'box', tuple(2 * h), None, np.eye(3), np.zeros(3)),
+                  Body('b', 'box', tuple(2 * h), None, R, c)]
+        exact = Exact(bodies, Store(None, bodies))
+        one = np.array([0])
+        exact.measure(one, one, one, one + 1)
+        assert exact.values(one, one)[0][0] == pytest.approx(-depth - LIBRARY_SLACK, abs=1e-12)
+
+
 @pytest.mark.parametrize('name', list(PLANS))
 def test_timing_keeps_every_joint_within_its_velocity_limit(name):
     """The profile's speed never exceeds its cruise speed, and the joints' finite-difference speeds (1 kHz, the
