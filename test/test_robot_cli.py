@@ -479,6 +479,45 @@ def test_a_program_unsafe_in_its_cell_is_named_so_not_its_rate(capsys, tmp_path,
     assert status == 1 and re.search(r'arm2_wafer / pm1/front_left +-5\.049 +(1[5-9]|2[0-6])\.\d{3}', out), out
 
 
+def test_the_refusal_quotes_the_closest_of_several_pairs_below_the_margin():
+    """What a refusal of --trajectory in a cell quotes (program_trajectory._least): of several pairs below the 2 mm
+    margin, the closest, at its least distance. Four fixed 100 mm cubes, a clear of d by 283 mm, of b by 1.5 mm
+    along x and of c by 0.5 mm along y, b and c corner to corner hypot(1.5, 0.5) = 1.581 mm apart (less the library's
+    1 um slack, the certificate's). The closest pair is the third checked: the first below the margin in that order,
+    a and b, is 1 mm farther. The report lists the pairs closest first; the refusals only ever had one pair below
+    the margin."""
+    pytest.importorskip('fcl')
+    from gpr_kinematics.cli.program_trajectory import _least, _pair
+    from gpr_kinematics.robot.controller import ControllerJoints
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.robot.trajectory import JointTrajectory
+    from gpr_kinematics.safety.bodies import Body
+    from gpr_kinematics.safety.clearance import clearance
+    from gpr_kinematics.safety.joint_motion import TrajectoryMotion
+    from gpr_kinematics.safety.margin import MARGIN
+
+    robot = load_robot(config_path('robots/example_robot.yaml'))
+    joints = ControllerJoints.of(robot)
+    turn = JointTrajectory(('arm1_shoulder',), np.array([0.0, 2.0]), np.array([[0.0], [1.2]]))
+    motion = TrajectoryMotion.of(robot, turn, np.array([joints.names.index('arm1_shoulder')]), joints.rest)
+
+    def cube(name, x, y):
+        return Body(name, 'box', (0.1, 0.1, 0.1), None, np.eye(3), np.array([x, y, 3.0]))
+
+    bodies = [cube('a', 5.0, 5.0), cube('b', 5.1015, 5.0), cube('c', 5.0, 5.1005), cube('d', 5.3, 5.3)]
+    report = clearance(motion, bodies, [(0, 1, ()), (0, 3, ()), (0, 2, ()), (1, 2, ())], MARGIN)
+    slack = 1e-6
+    least = _least(report)
+    assert least.bodies == ('a', 'c') and least.distance == pytest.approx(0.0005 - slack, abs=1e-12)
+    assert _pair(least) == 'a and c come to 0.499 mm at t = 0.000 s'
+    truth = {('a', 'c'): 0.0005, ('a', 'b'): 0.0015, ('b', 'c'): math.hypot(0.0015, 0.0005),
+             ('a', 'd'): math.hypot(0.2, 0.2)}
+    assert [p.bodies for p in report.pairs] == list(truth)   # closest first
+    for p in report.pairs:
+        assert p.distance == pytest.approx(truth[p.bodies] - slack, abs=1e-9), p
+    assert [p.bodies for p in report.below_margin] == [('a', 'c'), ('a', 'b'), ('b', 'c')]
+
+
 def test_a_cell_program_exports_without_python_fcl_with_a_warning(capsys, tmp_path, monkeypatch):
     """`program export` needs only numpy, scipy and PyYAML (README), but its new clearance check of a program in a
     cell made it need python-fcl: without it the trajectory is written, with a warning that names what was not
