@@ -143,6 +143,29 @@ def test_gpr_sweep_names_a_typed_step_in_degrees_given_as_radians(capsys, argv, 
     assert main(['sweep', '--tilt-step', '0.2', '--azimuth-step', '10', '--deg', '--json']) == 0
 
 
+@pytest.mark.parametrize('argv, message', [
+    # 'max_tilt = 0.008726646259971648 rad must be a whole number (>= 1) of tilt steps (0.003490658503988659 rad)'
+    (['--max-tilt', '0.5', '--deg'], '--max-tilt = 0.5 deg is not a whole number (>= 1) of --tilt-step = 0.2 deg'),
+    (['--max-tilt', '1', '--tilt-step', '0.3', '--deg'],
+     '--max-tilt = 1 deg is not a whole number (>= 1) of --tilt-step = 0.3 deg'),
+    (['--tilt-step', '0.3', '--deg'], '--max-tilt = 2 deg is not a whole number (>= 1) of --tilt-step = 0.3 deg'),
+    (['--max-tilt', '0.03', '--tilt-step', '0.007'],
+     '--max-tilt = 0.03 rad is not a whole number (>= 1) of --tilt-step = 0.007 rad'),
+    (['--max-tilt', '0.03'], '--max-tilt = 0.03 rad is not a whole number (>= 1) of --tilt-step = 0.00349065850398866 '
+                             'rad'),   # the default, 0.2 deg, in the unit of the others
+])
+def test_gpr_sweep_names_a_tilt_that_is_no_whole_number_of_steps_in_the_unit_typed(capsys, argv, message):
+    """``gpr sweep --max-tilt 0.5 --deg`` was refused in the core's words, max_tilt and the step in radians: the
+    options as typed, in the unit typed (degrees with --deg), one line, exit 2."""
+    from gpr_kinematics.cli.main import main
+
+    assert main(['sweep', *argv]) == 2
+    out, err = capsys.readouterr()
+    assert out == '' and err.count('\n') == 1 and 'Traceback' not in err
+    assert err == (f'gpr sweep: error: {message}; allowed: a --tilt-step that divides --max-tilt a whole number of '
+                   'times (every pass then crosses alpha = 0)\n'), err
+
+
 @pytest.mark.parametrize('argv', [['--tilt-step', '0.03490658503988659'],
                                   ['--max-tilt', '1', '--tilt-step', '1', '--deg']])
 def test_gpr_sweep_takes_a_tilt_step_equal_to_the_limit_or_to_max_tilt(capsys, argv):

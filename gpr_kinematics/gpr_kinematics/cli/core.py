@@ -208,16 +208,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     max_tilt, tilt_step = (given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
                            given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP))
-    if tilt_step > max_tilt:   # named as typed (the core's message names its parameters in radians)
-        unit = 'deg' if args.deg else 'rad'
-        typed = [v if v is not None else (math.degrees(d) if args.deg else d) for v, d in
-                 ((args.tilt_step, sweep.DEFAULT_TILT_STEP), (args.max_tilt, sweep.DEFAULT_MAX_TILT))]
+    # named as typed, in the unit typed (the core's messages name its parameters in radians)
+    unit = 'deg' if args.deg else 'rad'
+    typed = [v if v is not None else (math.degrees(d) if args.deg else d) for v, d in
+             ((args.tilt_step, sweep.DEFAULT_TILT_STEP), (args.max_tilt, sweep.DEFAULT_MAX_TILT))]
+    if tilt_step > max_tilt:
         raise InputError(f'--tilt-step = {typed[0]:g} {unit} is more than --max-tilt = {typed[1]:g} {unit}; allowed: '
                          'a step that divides --max-tilt a whole number (>= 1) of times')
-    s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
-                          max_tilt=max_tilt, tilt_step=tilt_step,
-                          azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
-                          passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
+    try:
+        s = sweep.paper_sweep(height=given(args.height, _length, sweep.DEFAULT_HEIGHT),
+                              max_tilt=max_tilt, tilt_step=tilt_step,
+                              azimuth_step=given(args.azimuth_step, _angle, sweep.DEFAULT_AZIMUTH_STEP),
+                              passes=args.passes, config=cfg, model=args.model, serpentine=not args.paper_order)
+    except sweep.TiltStepsError:   # --max-tilt 0.5 --deg was named as 0.00872664625997 rad of 0.00349065850399 rad
+        raise InputError(f'--max-tilt = {typed[1]:.15g} {unit} is not a whole number (>= 1) of --tilt-step = '
+                         f'{typed[0]:.15g} {unit}; allowed: a --tilt-step that divides --max-tilt a whole number of '
+                         'times (every pass then crosses alpha = 0)') from None
     written = None if args.csv is None else str(_write_csv(args.csv, s))
     summary = s.summary
     if args.json:

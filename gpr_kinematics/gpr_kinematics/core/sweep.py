@@ -40,6 +40,10 @@ MAX_SAMPLES = 200_000
 LEAST_STEPS = {'tilt_step': 1e-7, 'azimuth_step': 1e-4}
 
 
+class TiltStepsError(InputError):
+    """``max_tilt`` is not a whole number (>= 1) of ``tilt_step``: a caller names them as its user typed them."""
+
+
 @dataclass(frozen=True)
 class SweepResult:
     """Samples of the sweep: ``gamma`` (azimuth), ``alpha`` (signed tilt) [rad], ``pass_index``, ``q (N, 3)``
@@ -143,8 +147,9 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
                          'that divides max_tilt a whole number (>= 1) of times')
     n_half = round(half)
     if abs(half - n_half) > 1e-9 * max(1.0, half) or n_half < 1:
-        raise InputError(f'max_tilt = {max_tilt!r} rad must be a whole number (>= 1) of tilt steps '
-                         f'({tilt_step!r} rad) so that every pass crosses alpha = 0')
+        raise TiltStepsError(f'max_tilt = {max_tilt!r} rad is not a whole number (>= 1) of tilt steps '
+                             f'({tilt_step!r} rad); allowed: a tilt_step that divides max_tilt a whole number of '
+                             'times (every pass then crosses alpha = 0)')
     if azimuth_step > 2 * math.pi:
         raise InputError(f'azimuth_step = {azimuth_step!r} rad ({math.degrees(azimuth_step):.6g} deg) is more than a '
                          'turn; allowed: at most 2 pi rad (360 deg)')
@@ -171,7 +176,8 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
     """Inverse and forward kinematics of every sample of the paper's sweep, in one batch call.
 
     Raises:
-        InputError: non-positive steps, ``max_tilt`` not a whole number of steps, more than :data:`MAX_SAMPLES`.
+        InputError: non-positive steps, ``max_tilt`` not a whole number of steps (:class:`TiltStepsError`), more
+            than :data:`MAX_SAMPLES`.
         LimitError: ``max_tilt`` beyond the tilt limit, or a height that leaves the stroke.
     """
     cfg = resolve_config(config)
