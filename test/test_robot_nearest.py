@@ -266,6 +266,68 @@ def test_no_posture_within_the_limits_is_named_as_such_not_as_out_of_reach():
         solve_stations(robot, far, 'arm2', branch='left')
 
 
+def test_a_station_in_reach_only_beyond_a_limit_is_refused_alike_by_both_rules():
+    """The example robot's arm2 with its elbow's upper limit narrowed to -1 rad, at the station of the posture
+    (0.3, -0.4, 0, 0.4) rad: in reach, but no posture of the self-motion bends the elbow enough. fixed_joint (the
+    wrist held at 0) refuses it naming arm2_elbow = -0.4 rad, 0.6 rad beyond its upper limit; nearest named the same
+    joint and limit but 'by 0.604 rad at the least' (arm2_shoulder = 0.2999 rad), more than the fixed_joint posture,
+    one of its self-motion's, shows: its 3,601 held values miss the edge of the reach at 0.3 rad, where the elbow's
+    sub-chain is stretched (the wrist at 0) and the excess least. Both refuse with the same words in a batch and one
+    station per call, and both mark it infeasible with check=False (beside a station within the limits, solved)."""
+    import re
+
+    from gpr_kinematics.errors import LimitError
+    from gpr_kinematics.robot import robot_forward, solve_stations
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    J = np.array([[0.3, -0.4, 0.0, 0.4], [0.3, -1.5, 0.0, 0.4]])
+    rods = np.array([[0.2, 0.2, 0.2]] * 2)
+    fk = robot_forward(make_robot(robot_data()), rods, J, 'arm2')
+    both = stations_from_poses(fk.wafer.position, fk.wafer.rotation)
+    robots = {}
+    for rule in ('fixed_joint', 'nearest'):
+        data = robot_data()
+        data['arms'][1]['joints'][1]['upper'] = -1.0
+        if rule == 'nearest':
+            data['arms'][1]['redundancy'] = {'rule': 'nearest'}   # as benchmarks/bench_robot.py: the shoulder held
+        robots[rule] = make_robot(data)
+    said = {}
+    for rule, robot in robots.items():
+        for stations in (both.take([0]), both):
+            with pytest.raises(LimitError) as err:
+                solve_stations(robot, stations, 'arm2', branch='left')
+            said.setdefault(rule, str(err.value).removesuffix(' (and 1 more station)'))
+            assert str(err.value).removesuffix(' (and 1 more station)') == said[rule]
+        batch = solve_stations(robot, both, 'arm2', branch='left', check=False)
+        assert batch.feasible.tolist() == [False, True]
+        assert batch.position_error[1] < 1e-9
+    assert said['fixed_joint'] == 'station 0: arm2_elbow = -0.4 rad is beyond its upper limit -1 rad by 0.6 rad ' \
+                                  '(branch left)'
+    m = re.fullmatch(r'station 0: no posture of arm arm2 within its joint limits reaches the station: it is in reach '
+                     r'for its held joint arm2_shoulder within \[(-[\d.]+), ([\d.]+)\] rad, where arm2_elbow stays '
+                     r'beyond its upper limit -1 rad, by ([\d.]+) rad at the least \(arm2_shoulder = ([\d.]+) rad; '
+                     r'branch left\)', said['nearest'])
+    assert m, said['nearest']
+    lo, hi, by, at = (float(g) for g in m.groups())
+    assert (by, at, hi) == (0.6, 0.3, 0.3) and -0.12 < lo < -0.11
+    # independently: the elbow over the self-motion (200,001 held shoulders up to 0.3 rad, where the elbow's
+    # sub-chain, 0.24 + 0.06 m, is stretched; none beyond reaches): never less than 0.6 rad beyond -1, 0.6 at 0.3
+    arm = robots['nearest'].arm('arm2')
+    _, p, phi = chain_forward(arm, J[:1])
+    d, beta = link_vectors(arm)
+
+    def elbow(v):
+        chain, tl = solve_fixed(d, beta, 0, v, np.repeat(p, v.size, axis=0), np.repeat(phi, v.size),
+                                np.asarray(branch_sign('left')))
+        return chain[tl.reachable, 1], tl.reachable
+
+    assert not elbow(np.linspace(0.3 + 1e-6, 0.4, 1001))[1].any()
+    theta, reachable = elbow(np.linspace(-0.2, 0.3, 200_001))
+    assert reachable[-1] and -0.12 < np.linspace(-0.2, 0.3, 200_001)[np.argmax(reachable)] < -0.11
+    excess = theta + 1.0
+    assert excess.min() == pytest.approx(0.6, abs=1e-9) and excess[-1] == pytest.approx(0.6, abs=1e-9)
+
+
 def test_a_run_of_three_points_is_merged_around_its_middle():
     """A run of three evaluated points gets its 7 points on both sides of the middle one, in order, and none on the
     middle itself where the run is equally spaced (it was evaluated twice, a pair of no width)."""

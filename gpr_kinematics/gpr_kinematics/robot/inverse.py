@@ -40,7 +40,6 @@ from ..core.inverse import solvable_heights, tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from ..inputs.validation import TURN, TURN_SLACK
-from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import BRANCHES, Arm, RobotDescription
 from .fields import WORLD_BOUND
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
@@ -55,6 +54,7 @@ from .one_station import (
     solve_one,
 )
 from .planar_arm import ArmSolution, branch_sign, solve_arm
+from .self_motion import self_motion_fault
 from .stations import Stations, per_station
 from .transforms import PoseBatch
 
@@ -387,7 +387,8 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
     hint = '; the other branch stays within the limits' if fits else ''
     if a.redundancy is not None and a.redundancy.rule == 'nearest' and (
             not sol.reachable[i] or np.max(sol.violation[i]) > 0.0):   # no posture of the self-motion fits
-        return _self_motion_fault(a, targets, i, f'branch {result.branch[i]}{hint}')
+        return self_motion_fault(a, targets.p[i], float(targets.phi[i]), float(targets.sign[i]),
+                                 f'branch {result.branch[i]}{hint}')
     if not sol.reachable[i]:
         far = sol.reach[i] > sol.reach_max[i]
         excess = sol.reach[i] - sol.reach_max[i] if far else sol.reach_min[i] - sol.reach[i]
@@ -416,34 +417,6 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
             f'{_wrap(sol.heading[i] - offset):.12g} rad (branch {result.branch[i]}) or '
             f'{_wrap(other.heading[0] - offset):.12g} rad (the other branch), not {_wrap(given):.12g} rad; leave the '
             f'heading free or give one of these (to {HEADING_TOLERANCE:g} rad)')
-
-
-def _self_motion_fault(a: Arm, targets: _Targets, i: int, branch: str) -> str:
-    """Why no posture of a ``nearest`` arm reaches station ``i`` (the rule then answers the middle of the held
-    joint's range, whose partial chain the reach message described): out of reach at every held value, or beyond a
-    joint limit wherever in reach, by the least violation over 3,601 held values."""
-    assert a.redundancy is not None
-    k, o = a.redundancy.joint, a.zero_offset
-    held = a.joints[k]
-    d, beta = link_vectors(a)
-    v = np.linspace(held.lower, held.upper, 3601)
-    chain, tl = solve_fixed(d, beta, k, v + o[k], np.broadcast_to(targets.p[i], (v.size, 2)),
-                            np.full(v.size, targets.phi[i]), float(targets.sign[i]))
-    theta, violation = wrap_to_limits(chain - o, a.lower, a.upper)
-    if not tl.reachable.any():
-        miss = float(np.min(np.maximum(tl.r - tl.r_max, tl.r_min - tl.r)))
-        return (f'out of reach of arm {a.name}: at no value of its held joint {held.name} within [{held.lower:g}, '
-                f'{held.upper:g}] rad does it reach the station, the closest misses by {miss * 1e3:.4g} mm ({branch})')
-    worst = np.where(tl.reachable, np.max(violation, axis=1), np.inf)
-    b = int(np.argmin(worst))
-    m = int(np.argmax(violation[b]))
-    j, value = a.joints[m], float(theta[b, m])
-    side, limit = ('upper', j.upper) if value > j.upper else ('lower', j.lower)
-    span = v[tl.reachable]
-    return (f'no posture of arm {a.name} within its joint limits reaches the station: it is in reach for its held '
-            f'joint {held.name} within [{span.min():.4g}, {span.max():.4g}] rad, where {j.name} stays beyond its '
-            f'{side} limit {limit:g} rad, by {abs(value - limit):.3g} rad at the least ({held.name} = {v[b]:.4g} '
-            f'rad; {branch})')
 
 
 def _wrap(angle: float) -> float:
