@@ -64,7 +64,7 @@ def test_a_few_points_in_floats_equal_the_numpy_evaluation(joint, monkeypatch):
 def test_the_reach_edges_stretch_or_fold_the_two_link_sub_chain(joint):
     arm, d, beta, p, phi, sign = _case(joint)
     k = arm.redundancy.joint
-    edges = nearest._reach_edges(arm, d, beta, p, phi)
+    edges = nearest.reach_edges(arm, d, beta, p, phi)
     rows, cols = np.nonzero(np.isfinite(edges))
     assert rows.size > len(p) // 2
     v = edges[rows, cols] + arm.zero_offset[k]
@@ -150,7 +150,7 @@ def test_a_minimum_within_a_grid_step_of_the_reach_edge_is_found():
     _, p, phi = chain_forward(arm, J)
     sign = np.array([branch_sign(b) for b in branch_of(arm, J)])
     d, beta = link_vectors(arm)
-    edges = nearest._reach_edges(arm, d, beta, p, phi)[0]
+    edges = nearest.reach_edges(arm, d, beta, p, phi)[0]
     assert edges[0] == pytest.approx(0.7591016, abs=1e-7)
     v = nearest.nearest_value(arm, d, beta, p, phi, sign)
     assert edges[0] - 0.3125 < 0.625 < v[0] < edges[0]
@@ -365,7 +365,7 @@ def test_at_the_reach_edges_floats_and_numpy_agree_on_feasibility(joint, monkeyp
     (the rule's answer often lies exactly there)."""
     arm, d, beta, p, phi, sign = _case(joint)
     k = arm.redundancy.joint
-    edges = nearest._reach_edges(arm, d, beta, p, phi)
+    edges = nearest.reach_edges(arm, d, beta, p, phi)
     rows, cols = np.nonzero(np.isfinite(edges))
     x = edges[rows, cols]
     monkeypatch.setattr(nearest, 'NEAREST_FLOATS', 0)

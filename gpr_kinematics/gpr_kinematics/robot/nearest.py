@@ -84,10 +84,10 @@ def nearest_value(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, s
     joint = arm.joints[red.joint]
     lo, hi = joint.lower, joint.upper
     n = p.shape[0]
-    reach = _reach_edges(arm, d, beta, p, phi)
+    reach = reach_edges(arm, d, beta, p, phi)
     wraps = _wrap_edges(arm, d, beta, p, phi)
     wraps = np.concatenate([wraps - NEAREST_WRAP_SIDE, wraps, wraps + NEAREST_WRAP_SIDE], axis=1)
-    edges = np.concatenate([reach, _limit_edges(arm, d, beta, p, phi), wraps], axis=1)
+    edges = np.concatenate([reach, limit_edges(arm, d, beta, p, phi), wraps], axis=1)
     edges = lo + np.mod(edges - lo, 2.0 * math.pi)  # every representative within the range (which may exceed 2 pi)
     edges = np.concatenate([edges, edges + 2.0 * math.pi, edges + 4.0 * math.pi], axis=1)
     singular = np.tile(np.arange(edges.shape[1] // 3) < reach.shape[1], 3)  # the reach's edges: infinite slopes
@@ -207,7 +207,7 @@ def _split_dips(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array, sig
     b[i[right]], gb[i[right]] = x[right], g[right]
 
 
-def _reach_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
+def reach_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
     """Held values ``(N, 4)`` where the two-link sub-chain is stretched or folded (module docstring; NaN where an
     edge does not exist)."""
     red = arm.redundancy
@@ -238,7 +238,7 @@ def _reach_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) ->
     return np.stack(out, axis=1) - arm.joints[j].zero_offset
 
 
-def _limit_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
+def limit_edges(arm: Arm, d: list[Array], beta: float, p: Array, phi: Array) -> Array:
     """Held values ``(N, 12)`` of the postures with another joint at one of its limits, on either branch (module
     docstring; NaN where out of reach)."""
     red = arm.redundancy

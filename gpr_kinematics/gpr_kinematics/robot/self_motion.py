@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from .arm_chain import link_vectors, solve_fixed, wrap_to_limits
 from .description import Arm
-from .nearest import _limit_edges, _reach_edges
+from .nearest import limit_edges, reach_edges
 
 Array = NDArray[np.float64]
 
@@ -27,7 +27,7 @@ def held_values(arm: Arm, d: list[Array], beta: float, p: Array, phi: float) -> 
     held = arm.joints[arm.redundancy.joint]
     lo, hi = held.lower, held.upper
     pp, ff = p[None], np.array([phi])
-    edges = np.concatenate([_reach_edges(arm, d, beta, pp, ff), _limit_edges(arm, d, beta, pp, ff)], axis=1).ravel()
+    edges = np.concatenate([reach_edges(arm, d, beta, pp, ff), limit_edges(arm, d, beta, pp, ff)], axis=1).ravel()
     edges = lo + np.mod(edges[np.isfinite(edges)] - lo, 2.0 * math.pi)  # representatives from lo (a range over a turn:
     edges = np.concatenate([edges, edges + 2.0 * math.pi, edges + 4.0 * math.pi])   # the next turns too)
     return np.unique(np.concatenate([np.linspace(lo, hi, FAULT_SAMPLES), edges[(edges >= lo) & (edges <= hi)]]))
