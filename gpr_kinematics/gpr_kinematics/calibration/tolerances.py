@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +39,6 @@ from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
-from ..inputs.validation import MAX_COORDINATE
 from ..mechanisms.accuracy import PARAMETER_ERROR_MOST
 from .measurements import SIGMA_RANGE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
@@ -149,6 +148,8 @@ class ToleranceTable:
         joint_clearance: radius of each joint's play [m] (zeros: none).
         sigma_position, sigma_angle: tracker standard deviations [m], [rad], or ``None``.
         units: the declared ``(length, angle)`` units; source: file name for messages.
+        refused: entry -> its value as written where that is no number (NaN, text, beyond 1e6): refused at
+            :meth:`bind`, naming the bound of the parameter's unit.
     """
 
     entries: dict[str, tuple[str, tuple[float, ...], str]]
@@ -158,6 +159,7 @@ class ToleranceTable:
     sigma_angle: float | None
     units: tuple[str, str] = ('m', 'rad')
     source: str = 'tolerances'
+    refused: Mapping[str, str] = field(default_factory=dict)
 
     def bind(self, params: ParameterSet) -> list[Tolerance | None]:
         """Per parameter of ``params`` its :class:`Tolerance` in SI (``None``: exact). A parameter's own name
@@ -188,10 +190,14 @@ class ToleranceTable:
         where = f'{self.source}: parameters: {key}'
         limit = MAX_TOLERANCE[p.unit]
         nominal = float(p.value(p.nominal))
+        if key in self.refused:   # the bound of its unit, as a number beyond it is refused (below)
+            allowed = (_most(limit, p.unit) if kind == 'tolerance' else _stiffness() if p.transform
+                       else _within(limit, p.unit))
+            raise ConfigError(f'{where}: {kind} = {self.refused[key]}; allowed: {allowed}')
         if kind == 'tolerance':
             t = to_si(vals[0], f)
             if t > limit:
-                raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: at most {limit:g} {p.unit}')
+                raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: {_most(limit, p.unit)}')
             if t == 0:
                 return None
             lo, hi, low, high = nominal - t, nominal + t, -t, t
@@ -204,8 +210,7 @@ class ToleranceTable:
             reach = max(abs(low), abs(high))
             if not p.transform and reach > limit * (1.0 + BOUND_SLACK):  # it bypassed the tolerance's bound
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} reaches {reach:.9g} {p.unit} from '
-                                  f'the nominal {nominal:.6g} {p.unit}; allowed: values within {limit:g} {p.unit} of '
-                                  "the nominal (a key's range applies to each of its parameters)")
+                                  f'the nominal {nominal:.6g} {p.unit}; allowed: {_within(limit, p.unit)}')
         self._within_geometry(p, where, kind, to_si(vals[0], f) if kind == 'tolerance' else None, lo, hi)
         if dist == 'log-uniform' and lo <= 0:
             raise ConfigError(f'{where}: a log-uniform range must be positive; got [{lo:.6g}, {hi:.6g}]')
@@ -215,7 +220,7 @@ class ToleranceTable:
                                   'normal has no bound')
             if not KAPPA_RANGE[0] <= lo < hi <= KAPPA_RANGE[1]:
                 raise ConfigError(f'{where}: [{lo:.6g}, {hi:.6g}] leaves the range of a stiffness ratio; allowed: '
-                                  f'{KAPPA_RANGE[0]:g} to {KAPPA_RANGE[1]:g}')
+                                  f'{_stiffness()}')
         return Tolerance(low, high, dist, nominal, p.transform)
 
 
@@ -277,22 +282,40 @@ def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
                      for t, given, s in zip(bound, listed, params.scale, strict=True)])
 
 
-def _finite(value: Any, where: str) -> float:
+def _most(limit: float, unit: str) -> str:
+    """What a tolerance of ``unit`` may be (:data:`MAX_TOLERANCE`), as every refusal of one names it."""
+    return f'at most {limit:g} {unit}'
+
+
+def _within(limit: float, unit: str) -> str:
+    """What a range's ends of ``unit`` may be."""
+    return f"values within {limit:g} {unit} of the nominal (a key's range applies to each of its parameters)"
+
+
+def _stiffness() -> str:
+    """What a stiffness ratio's range may be."""
+    return f'{KAPPA_RANGE[0]:g} to {KAPPA_RANGE[1]:g}'
+
+
+def _finite(value: Any, where: str, allowed: str) -> float:
+    """``value`` as a float, refused naming ``allowed`` (its quantity's bound) unless a number."""
     if not is_number(value):  # the package's one rule: no bool or text, finite, |x| <= 1e6 (a 401-digit integer too)
-        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number of magnitude at most '
-                          f'{MAX_COORDINATE:g}')
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: {allowed}')
     return float(value)
 
 
-def _number(value: Any, where: str, positive: bool = False) -> float:
-    v = _finite(value, where)
+def _number(value: Any, where: str, allowed: str, positive: bool = False) -> float:
+    v = _finite(value, where, allowed)
     if v < 0 or (positive and v == 0):
         bound = '> 0' if positive else '>= 0'
         raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: a finite number {bound}')
     return v
 
 
-def _entry(where: str, spec: Any) -> tuple[str, tuple[float, ...], str]:
+def _entry(where: str, spec: Any, allowed: str | None = None) -> tuple[str, tuple[float, ...], str, str | None]:
+    """An entry as ``(kind, values, distribution, refused)``: a value that is no number is refused naming
+    ``allowed``, or, where the bound is the parameter's (``None``: its unit is known at ``bind``), kept as
+    ``refused`` (as written) with NaN values."""
     if not isinstance(spec, Mapping):
         raise ConfigError(f'{where}: expected a mapping such as {{tolerance: 2.0e-5}} or {{range: [0.5, 2.0]}}')
     check_keys(spec, ('tolerance', 'range', 'distribution'), where)
@@ -304,16 +327,20 @@ def _entry(where: str, spec: Any) -> tuple[str, tuple[float, ...], str]:
     if 'tolerance' in spec:
         if dist == 'log-uniform':
             raise ConfigError(f'{where}: log-uniform needs a range; allowed with a tolerance: uniform, normal')
-        return 'tolerance', (_number(spec['tolerance'], f'{where}: tolerance'),), dist
+        if allowed is None and not is_number(spec['tolerance']):
+            return 'tolerance', (math.nan,), dist, safe_yaml.brief(spec['tolerance'])
+        return 'tolerance', (_number(spec['tolerance'], f'{where}: tolerance', allowed or ''),), dist, None
     rng = spec['range']
     if not isinstance(rng, list) or len(rng) != 2:
         raise ConfigError(f'{where}: range = {safe_yaml.brief(rng)}; allowed: [low, high]')
-    lo, hi = (_finite(v, f'{where}: range') for v in rng)
-    if not lo < hi:
-        raise ConfigError(f'{where}: range [{lo:g}, {hi:g}]; allowed: low < high')
     if dist == 'normal':
         raise ConfigError(f'{where}: a range takes uniform or log-uniform; normal needs a tolerance')
-    return 'range', (lo, hi), dist
+    if allowed is None and not all(is_number(v) for v in rng):
+        return 'range', (math.nan, math.nan), dist, safe_yaml.brief(rng)
+    lo, hi = (_finite(v, f'{where}: range', allowed or '') for v in rng)
+    if not lo < hi:
+        raise ConfigError(f'{where}: range [{lo:g}, {hi:g}]; allowed: low < high')
+    return 'range', (lo, hi), dist, None
 
 
 def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None, float | None]:
@@ -324,14 +351,17 @@ def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None,
     if not isinstance(noise, Mapping):
         raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
     check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
-    sp = to_si(_number(noise.get('position'), f'{source}: measurement_noise: position', positive=True), lf)
-    sa = to_si(_number(noise.get('angle'), f'{source}: measurement_noise: angle', positive=True), af)
     lo, hi = SIGMA_RANGE
+    allowed = f'a standard deviation from {lo:g} to {hi:g} {{}}'
+    sp = to_si(_number(noise.get('position'), f'{source}: measurement_noise: position', allowed.format('m'),
+                       positive=True), lf)
+    sa = to_si(_number(noise.get('angle'), f'{source}: measurement_noise: angle', allowed.format('rad'),
+                       positive=True), af)
     for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):
         if not lo <= value <= hi:
             shown = apart(value, hi if value > hi else lo)[0]   # 0.1000001 read 0.1, the bound
-            raise ConfigError(f'{source}: measurement_noise: {key} = {shown} {unit} (SI); allowed: a standard '
-                              f'deviation from {lo:g} to {hi:g} {unit}')
+            raise ConfigError(f'{source}: measurement_noise: {key} = {shown} {unit} (SI); allowed: '
+                              f'{allowed.format(unit)}')
     return sp, sa
 
 
@@ -353,26 +383,29 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
     params = {} if data.get('parameters') is None else data['parameters']
     if not isinstance(params, Mapping):
         raise ConfigError(f'{source}: parameters: expected a mapping of parameter names to tolerances')
-    entries = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v) for k, v in params.items()}
+    parsed = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v) for k, v in params.items()}
+    entries = {k: e[:3] for k, e in parsed.items()}
+    refused = {k: e[3] for k, e in parsed.items() if e[3] is not None}
     rod = None
+    most = _most(MAX_TOLERANCE['m'], 'm')
     if data.get('rod_length') is not None:
-        kind, vals, dist = _entry(f'{source}: rod_length', data['rod_length'])
+        kind, vals, dist, _ = _entry(f'{source}: rod_length', data['rod_length'], most)
         if kind != 'tolerance':
             raise ConfigError(f'{source}: rod_length: give a tolerance (a half-width), not a range')
         t = to_si(vals[0], lf)
         if t > MAX_TOLERANCE['m']:
-            raise ConfigError(f'{source}: rod_length: tolerance {t:g} m; allowed: at most {MAX_TOLERANCE["m"]:g} m')
+            raise ConfigError(f'{source}: rod_length: tolerance {t:g} m; allowed: {most}')
         rod = Tolerance(-t, t, dist) if t > 0 else None
     clear = data.get('joint_clearance', 0.0)
     clear_list = clear if isinstance(clear, list) else [clear] * 3
     if len(clear_list) != 3:
         raise ConfigError(f'{source}: joint_clearance: one value or a list of 3 (one per joint), in {length}')
-    clearance = tuple(to_si(_number(c, f'{source}: joint_clearance'), lf) for c in clear_list)
+    clearance = tuple(to_si(_number(c, f'{source}: joint_clearance', most), lf) for c in clear_list)
     if max(clearance) > MAX_TOLERANCE['m']:
-        raise ConfigError(f'{source}: joint_clearance: at most {MAX_TOLERANCE["m"]:g} m')
+        raise ConfigError(f'{source}: joint_clearance: {most}')
     sp, sa = _noise(data.get('measurement_noise'), source, lf, _ANGLE[angle])
     return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
-                          sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
+                          sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source, refused=refused)
 
 
 def load_tolerances(path: str | Path) -> ToleranceTable:
