@@ -195,15 +195,17 @@ def test_records_naming_different_frame_prefixes_name_none() -> None:
     assert recorded_prefix([record('')]) == '' and recorded_prefix([]) is None
 
 
-@pytest.mark.parametrize('value, shown', [("'r1 /'", "'r1 /'"), ('5', '5'), ('/r1/', "'/r1/'"),
-                                          ('x' * 101, "'" + 'x' * 59 + '... (101 characters)'),
+@pytest.mark.parametrize('value, shown', [("'r1 /'", "'r1 /'"), ('5', '5'), ('/r1/', "'/r1/'"), ('r1//', "'r1//'"),
+                                          ('x' * 100, "'" + 'x' * 59 + '... (100 characters)'),
                                           ('x' * 300, "'" + 'x' * 59 + '... (300 characters)')],
-                         ids=['a space', 'a number', 'a leading slash', '101 characters', '300 characters'])
+                         ids=['a space', 'a number', 'a leading slash', 'two slashes', '100 characters',
+                              '300 characters'])
 def test_a_bad_frame_prefix_is_refused_naming_it(value: str, shown: str) -> None:
     """A recorded frame_prefix: what trajectory_node takes as its parameter (one rule, core.messages'), no other."""
     with pytest.raises(ConfigError) as e:
         parse_record(_SWEEP_RECORD + f'frame_prefix: {value}\n')
-    assert str(e.value) == (f"/gpr/program: frame_prefix = {shown}; allowed: empty, or letters, digits, _ and /, not "
-                            "starting with /, at most 100 characters (trajectory_node's frame_prefix)")
-    assert parse_record(_SWEEP_RECORD + f"frame_prefix: {'x' * 100}\n").frame_prefix == 'x' * 100
+    assert str(e.value) == (f"/gpr/program: frame_prefix = {shown}; allowed: empty, or letters, digits, _ and single / "
+                            'between parts, not starting with /, at most 99 characters (a prefixed frame is a tf frame '
+                            "name of at most 100), e.g. r1/ (trajectory_node's frame_prefix)")
+    assert parse_record(_SWEEP_RECORD + f"frame_prefix: {'x' * 99}\n").frame_prefix == 'x' * 99
     assert parse_record(_SWEEP_RECORD + 'frame_prefix: r1/arm_2\n').frame_prefix == 'r1/arm_2'

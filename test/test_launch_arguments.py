@@ -84,6 +84,11 @@ def test_a_bool_is_read_as_launch_coerces_it(text, value):
     ('replay.launch.py', {'model': 'polr'},
      "model:='polr' is not among the choices; allowed: radial, polar, offset, compliant, ''"),
     ('kinematics.launch.xml', {'frame_prefix': '/r1/'}, "frame_prefix:='/r1/' is not a frame prefix; allowed: empty"),
+    ('offline_loop.launch.py', {'frame_prefix': 'r1//'},   # r1//gpr_base breaks the frame-name rule
+     "frame_prefix:='r1//' is not a frame prefix; allowed: empty, or letters, digits, _ and single / between parts, "
+     'not starting with /, at most 80 characters (gpr_platform_nominal: a prefixed frame is a tf frame name of at '
+     'most 100), e.g. r1/'),
+    ('replay.launch.xml', {'frame_prefix': 'r' * 81}, 'is not a frame prefix; allowed: empty, or letters'),
     ('kinematics.launch.py', {'params_file': '/nonexistent/typo.yaml'},
      "params_file:='/nonexistent/typo.yaml' does not exist; allowed: an existing ROS parameters file"),
     ('replay.launch.xml', {'params_file': str(ROOT)}, 'is not a file; allowed: an existing ROS parameters file'),

@@ -446,7 +446,9 @@ def test_two_robots_example(monkeypatch):
 
 
 @pytest.mark.parametrize('prefix, ok', [('', True), ('r1/', True), ('cell_2/r1/', True), ('r1', True),
-                                        ('/r1/', False), ('r 1/', False), ('r1/' * 40, False), ('r1/\n', False)])
+                                        ('/r1/', False), ('r 1/', False), ('r1/' * 40, False), ('r1/\n', False),
+                                        ('r1//', False), ('r1//x/', False), ('x' * 80, True), ('x' * 79 + '/', True),
+                                        ('x' * 81, False), ('x' * 99 + '/', False)])
 def test_frame_prefix_rule(prefix, ok):
     """What frame_prefix accepts (state_publisher_node and trajectory_node refuse to start otherwise)."""
     from gpr_kinematics.errors import ConfigError
@@ -457,6 +459,29 @@ def test_frame_prefix_rule(prefix, ok):
     else:
         with pytest.raises(ConfigError, match='parameter frame_prefix = .* is invalid; allowed: empty, or letters'):
             check_frame_prefix(prefix)
+
+
+def test_a_prefixed_frame_obeys_the_frame_name_rule():
+    """A prefix makes every frame it goes before a tf frame name (check_frame_names' rule): single slashes, at most
+    100 characters with the longest frame (r1// and 100 characters passed: r1//gpr_base, 108 characters)."""
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.ros.specs import check_frame_names, check_frame_prefix
+
+    for prefix, frames in (('x' * 91 + '/', ('b', 'gpr_base')), ('r1/', ('f' * 97,)), ('x' * 99, ('b',))):
+        assert check_frame_prefix(prefix, frames) == prefix
+        check_frame_names({f'frame{k}': prefix + f for k, f in enumerate(frames)}, ('frame0',))
+    with pytest.raises(ConfigError) as e:
+        check_frame_prefix('x' * 92 + '/', ('b', 'gpr_base'))
+    assert str(e.value) == ("parameter frame_prefix = '" + 'x' * 59 + "... (93 characters) is invalid; allowed: empty, "
+                            'or letters, digits, _ and single / between parts, not starting with /, at most 92 '
+                            'characters (gpr_base: a prefixed frame is a tf frame name of at most 100), e.g. r1/')
+    with pytest.raises(ConfigError, match=r"frame_prefix = 'r1//' is invalid; allowed: empty, or letters, digits, _ "
+                                          r'and single / between parts, not starting with /, at most 80 '
+                                          r'characters \(gpr_platform_nominal: '):
+        check_frame_prefix('r1//')
+    for bad in ('r1//', 'x' * 92 + '/'):    # what it refuses, the frame-name rule refuses prefixed
+        with pytest.raises(ConfigError, match='is invalid; allowed: a tf frame name'):
+            check_frame_names({'base_frame': bad + 'gpr_base'}, ('base_frame',))
 
 
 @pytest.mark.parametrize('frames, words', [

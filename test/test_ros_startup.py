@@ -88,6 +88,17 @@ def test_a_params_file_with_a_key_twice_is_refused_naming_both_lines(tmp_path):
                           r"'radius' \(first on line 3\)")
 
 
+@pytest.mark.parametrize('exe, prefix, longest', [('state_publisher_node', 'r1//', 'gpr_platform_nominal'),
+                                                  ('trajectory_node', 'x' * 92 + '/', 'gpr_base')])
+def test_a_prefix_whose_frames_break_the_frame_name_rule_is_refused(exe, prefix, longest):
+    """r1// (r1//gpr_base) and 93 characters before gpr_base (101) started and named frames tf2 and the frame
+    parameters refuse: the node's check counts the frames it names (the state publisher its URDF's links)."""
+    status, out = _run(exe, '--ros-args', '-p', f'frame_prefix:={prefix}', timeout=30)
+    assert_one_error_line(out, status, 2, r'cannot start: parameter frame_prefix = .* is invalid; allowed: empty, or '
+                          r'letters, digits, _ and single / between parts, not starting with /, at most '
+                          rf'{100 - len(longest)} characters \({longest}: ')
+
+
 @pytest.mark.parametrize('exe', list(NODES))
 def test_parameter_of_the_wrong_type_exit_2_one_line(exe):
     spec = next(s for s in node_specs(exe) if s.kind in ('double', 'integer') and s.name != 'rate')

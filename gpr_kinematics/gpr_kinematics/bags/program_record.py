@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from ..core import inverse_batch
 from ..core.config import GprConfig
-from ..core.messages import FRAME_PREFIX_RULE, FRAME_PREFIX_WORDS
+from ..core.messages import frame_prefix_refusal
 from ..core.sweep import paper_sweep
 from ..errors import ConfigError, GprError
 from ..inputs import safe_yaml
@@ -165,10 +165,11 @@ def _frame_prefix(data: Mapping[str, Any], where: str) -> str | None:
     if 'frame_prefix' not in data:
         return None
     value = data['frame_prefix']
-    if not isinstance(value, str) or not FRAME_PREFIX_RULE.fullmatch(value):   # the node's own rule
-        raise ConfigError(f"{where}: frame_prefix = {safe_yaml.brief(value)}; allowed: {FRAME_PREFIX_WORDS}, at most "
-                          "100 characters (trajectory_node's frame_prefix)")
-    return value
+    allowed = frame_prefix_refusal(value, ())   # the node's own rule; its frames unknown
+    if allowed is not None:
+        raise ConfigError(f"{where}: frame_prefix = {safe_yaml.brief(value)}; allowed: {allowed} (trajectory_node's "
+                          'frame_prefix)')
+    return str(value)
 
 
 def _positive(data: Mapping[str, Any], key: str, where: str) -> float:

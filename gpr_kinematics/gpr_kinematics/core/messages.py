@@ -30,10 +30,39 @@ if TYPE_CHECKING:
     from .config import GprConfig
     from .forward import ForwardResult
 
+#: A tf frame name, as a node's frame parameters and every frame it names (prefixed) must be: letters, digits, _ - and
+#: ., parts joined by single slashes, not starting with one (tf2 refuses a leading slash), at most
+#: :data:`FRAME_NAME_MOST` characters.
+FRAME_NAME_RULE = re.compile(r'[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*')
+FRAME_NAME_MOST = 100
 #: What a node's ``frame_prefix`` may be (the parameter, and the prefix ``trajectory_node`` records with each stream):
-#: empty, or letters, digits, ``_`` and ``/``, not starting with ``/``, at most 100 characters.
-FRAME_PREFIX_RULE = re.compile(r'([A-Za-z0-9_][A-Za-z0-9_/]{0,99})?')
-FRAME_PREFIX_WORDS = 'empty, or letters, digits, _ and /, not starting with /'
+#: empty, or letters, digits and ``_`` in parts each followed by a single ``/`` (the last may end without one), so
+#: that a prefixed frame is a tf frame name (:func:`frame_prefix_refusal`: ``r1//gpr_base`` was not).
+FRAME_PREFIX_RULE = re.compile(r'(?:[A-Za-z0-9_]+/)*[A-Za-z0-9_]*')
+FRAME_PREFIX_WORDS = 'empty, or letters, digits, _ and single / between parts, not starting with /'
+#: The frames the nodes name by default, prefixed: a prefix is checked against them where a node's own are unknown
+#: (a launch file's argument).
+DEFAULT_FRAMES = ('world', 'gpr_base', 'gpr_platform', 'gpr_platform_nominal')
+
+
+def is_frame_name(value: object) -> bool:
+    """Whether ``value`` is a tf frame name (:data:`FRAME_NAME_RULE`, at most :data:`FRAME_NAME_MOST` characters)."""
+    return isinstance(value, str) and len(value) <= FRAME_NAME_MOST and FRAME_NAME_RULE.fullmatch(value) is not None
+
+
+def frame_prefix_refusal(prefix: object, frames: Sequence[str] | None = None) -> str | None:
+    """What ``prefix`` may be if ``prefix + f`` is not a tf frame name (:func:`is_frame_name`) for each frame name
+    ``f`` of ``frames`` (:data:`DEFAULT_FRAMES` by default; none known: at least one character's), else ``None``:
+    the one rule of every node's, launch file's and bag record's frame prefix."""
+    names = DEFAULT_FRAMES if frames is None else frames
+    longest = max(names, key=len, default='')
+    most = FRAME_NAME_MOST - max(len(longest), 1)
+    if isinstance(prefix, str) and len(prefix) <= most and FRAME_PREFIX_RULE.fullmatch(prefix):
+        return None
+    before = f'{longest}: ' if longest else ''
+    return (f'{FRAME_PREFIX_WORDS}, at most {most} characters ({before}a prefixed frame is a tf frame name of at most '
+            f'{FRAME_NAME_MOST}), e.g. r1/')
+
 
 #: A ROS message or one of its field values, of a class generated from a ``.msg`` file (rclpy's, or the ``rosbags``
 #: typestore's): its type is made at run time, so this module, which takes either, cannot name it.

@@ -23,8 +23,9 @@ from collections.abc import Callable, Mapping
 
 import yaml
 
+from ..core.messages import frame_prefix_refusal
 from ..errors import brief
-from ..ros.specs import FRAME_PREFIX, ParamSpec, check_frame_prefix, node_specs
+from ..ros.specs import ParamSpec, node_specs
 
 #: The arguments each launch file declares (in its order), Python and XML variants alike.
 FILES: dict[str, tuple[str, ...]] = {
@@ -116,11 +117,8 @@ def _params_file(_name: str, text: str, _launch_file: str) -> tuple[str, str] | 
 
 
 def _frame_prefix(_name: str, text: str, _launch_file: str) -> tuple[str, str] | None:
-    try:
-        check_frame_prefix(text)
-    except ValueError:
-        return 'is not a frame prefix', f'{FRAME_PREFIX.constraint} (at most 100 characters), e.g. r1/'
-    return None
+    allowed = frame_prefix_refusal(text)   # the nodes' check_frame_prefix's rule, with the default frames
+    return None if allowed is None else ('is not a frame prefix', allowed)
 
 
 Rule = Callable[[str, str, str], 'tuple[str, str] | None']

@@ -84,9 +84,10 @@ class StatePublisherNode(GprNode):
         params = ConfigParameters(self, read_only=True, robot=declare_robot(self))
         self.cfg, robot = params.config, params.robot
         p = declare_parameters(self, STATE_PUBLISHER)
-        prefix = check_frame_prefix(p['frame_prefix'])
         check_frame_names(p, ('base_frame', 'platform_frame', 'nominal_frame'))
-        self.model: RobotUrdf = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'], prefix)
+        model = robot_urdf(robot, p['base_frame'], p['platform_frame'], p['nominal_frame'])
+        prefix = check_frame_prefix(p['frame_prefix'], [link.name for link in model.links])   # every frame it names
+        self.model: RobotUrdf = model.prefixed(prefix)
         self.base, self.platform, self.nominal = (prefix + p[k] for k in ('base_frame', 'platform_frame',
                                                                             'nominal_frame'))
         joints = self.joints = ControllerJoints.of(robot)

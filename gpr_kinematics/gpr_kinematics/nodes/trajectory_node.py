@@ -65,7 +65,7 @@ from visualization_msgs.msg import MarkerArray
 from gpr_interfaces.action import RunProgram
 from gpr_interfaces.msg import PlatformState, RobotState
 
-from ..core.messages import NS_PER_S, Service, Topic, geometry_text, robot_text, stream_messages
+from ..core.messages import DEFAULT_FRAMES, NS_PER_S, Service, Topic, geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program
@@ -140,8 +140,8 @@ class TrajectoryNode(GprNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         p = self.p = declare_parameters(self, TRAJECTORY)
-        self.prefix = check_frame_prefix(p['frame_prefix'])
         check_frame_names(p, ('base_frame',))
+        self.prefix = check_frame_prefix(p['frame_prefix'], (p['base_frame'], DEFAULT_FRAMES[0]))   # and 'world'
         self.base_frame = self.prefix + p['base_frame']
         program = None
         if p['mode'] == 'program':

@@ -12,14 +12,13 @@ Units are SI (metres, radians, seconds, hertz), as in the core (REP 103).
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
-from ..core.messages import FRAME_PREFIX_RULE, FRAME_PREFIX_WORDS, Topic
+from ..core.messages import FRAME_PREFIX_WORDS, Topic, frame_prefix_refusal, is_frame_name
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, LEAST_STEPS
 from ..errors import ConfigError, brief
 from ..robot.markers import MARKERS_EVERY
@@ -200,18 +199,13 @@ JOINT_STATES_RELIABILITY = ParamSpec('joint_states_reliability', 'string', 'reli
                                      choices=('reliable', 'best_effort'), read_only=True)
 
 
-#: A tf frame name: letters, digits, _ - and ., parts joined by single slashes, not starting with one (tf2 refuses a
-#: leading slash), at most 100 characters.
-_FRAME = re.compile(r'[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*')
-
-
 def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
     """:class:`ConfigError` naming the first parameter of ``names`` in ``p`` that is not a tf frame name, or the
     second of two that name one frame (``base_frame:=/gpr_base`` started and published a frame tf2 refuses)."""
     seen: dict[str, str] = {}
     for name in names:
         value = p[name]
-        if not (isinstance(value, str) and len(value) <= 100 and _FRAME.fullmatch(value)):
+        if not is_frame_name(value):
             raise ConfigError(f'parameter {name} = {value!r} is invalid; allowed: a tf frame name (letters, digits, '
                               '_ - . and single / between parts, not at the start or the end; at most 100 characters)')
         if value in seen:
@@ -220,11 +214,12 @@ def check_frame_names(p: dict[str, Any], names: tuple[str, ...]) -> None:
         seen[value] = name
 
 
-def check_frame_prefix(prefix: str) -> str:
-    """``prefix`` when it is a valid frame prefix (:data:`FRAME_PREFIX`), else :class:`ConfigError` naming it."""
-    if not FRAME_PREFIX_RULE.fullmatch(prefix):
-        raise ConfigError(f'parameter frame_prefix = {prefix!r} is invalid; allowed: {FRAME_PREFIX.constraint} (at '
-                          'most 100 characters), e.g. r1/')
+def check_frame_prefix(prefix: str, frames: Iterable[str] | None = None) -> str:
+    """``prefix`` when each of ``frames`` (the node's frame names; by default the suite's) prefixed is a tf frame name
+    (:func:`~..core.messages.frame_prefix_refusal`), else :class:`ConfigError` naming it and what is allowed."""
+    allowed = frame_prefix_refusal(prefix, None if frames is None else tuple(frames))
+    if allowed is not None:
+        raise ConfigError(f'parameter frame_prefix = {brief(prefix)} is invalid; allowed: {allowed}')
     return prefix
 
 
