@@ -306,3 +306,64 @@ def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):
     table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,elbow\n0.3,0.3,0.3,1\n')   # no arm's: as before
     with pytest.raises(ConfigError, match=r"header column 4 'elbow' is invalid; allowed: [^(]*$"):
         read_joint_table(table, ROBOT)
+
+
+@pytest.fixture
+def stroke_checks(monkeypatch):
+    """The rods the core's check_stroke sees, by the names it is given, wherever the robot's paths and forward
+    kinematics call it; and the ``stroke`` argument the robot's paths pass to forward kinematics."""
+    import importlib
+
+    core_forward, robot_forward_module, teach_module = (importlib.import_module(f'gpr_kinematics.{name}') for name in
+                                                        ('core.forward', 'robot.forward', 'robot.teach'))
+    real = core_forward.check_stroke
+    seen: dict[str, list] = {'checked': [], 'stroke': []}
+
+    def check(ops, q, config, *args, **kwargs):
+        seen['checked'].append((kwargs.get('names'), np.atleast_2d(np.stack([np.asarray(v) for v in q], -1)).shape[0]))
+        return real(ops, q, config, *args, **kwargs)
+
+    for module in (core_forward, robot_forward_module, teach_module):
+        monkeypatch.setattr(module, 'check_stroke', check, raising=False)
+    for module in (robot_forward_module, teach_module):
+        for name in ('forward', 'forward_batch'):
+            fn = getattr(module, name, None)
+            if fn is not None:
+                def spy(*args, _fn=fn, **kwargs):
+                    seen['stroke'].append(kwargs.get('stroke', True))
+                    return _fn(*args, **kwargs)
+                monkeypatch.setattr(module, name, spy)
+    return seen
+
+
+@pytest.mark.parametrize('rows', [1, 3])
+def test_robot_forward_checks_each_rod_once_by_the_cores_check(stroke_checks, rows):
+    """robot_forward checked the rods (its check_rods) and forward kinematics checked them again (the core's own, as
+    q1 .. q3): now the core's check once, with the robot's names, and forward kinematics skips the stroke."""
+    robot_forward(ROBOT, [[0.3, 0.3, 0.3]] * rows, [[0.0, 1.0, 0.1]] * rows, 'arm1')
+    assert stroke_checks == {'checked': [(ROBOT.rods.names, rows)], 'stroke': [False]}
+
+
+def test_a_joint_tables_rows_are_checked_once_each_by_the_cores_check(stroke_checks, tmp_path):
+    """read_joint_table checked each row's rods in a copy of the stroke rule (_check_row), then forward kinematics
+    checked them all again: now the core's check per row, with the robot's names, and the solve skips the stroke."""
+    from gpr_kinematics.robot.teach import read_joint_table
+
+    read_joint_table(_joint_table(tmp_path, 'p1', 'p2'), ROBOT, 'arm1')
+    assert stroke_checks == {'checked': [(ROBOT.rods.names, 1)] * 2, 'stroke': [False]}
+
+
+def test_reteach_checks_the_old_rods_once(stroke_checks):
+    reteach(ROBOT, [[0.3, 0.3, 0.3]] * 2, [[0.0, 1.0, 0.1]] * 2, 'arm1')
+    assert stroke_checks['checked'] == [(ROBOT.rods.names, 2)]
+
+
+def test_the_one_configuration_path_of_the_nodes_names_the_robots_rods():
+    """forward_floats (the robot forward kinematics service's path) left the stroke to the core, which named the rods
+    q1 .. q3 where robot_forward names the robot's: 'gpr_rod3 = 0.6 m is outside the stroke'."""
+    from gpr_kinematics.robot.forward import forward_floats
+
+    with pytest.raises(LimitError, match=r'^gpr_rod3 = 0.6 m is outside the stroke \[0, 0.508\] m$'):
+        forward_floats(ROBOT, ROBOT.arm('arm1'), [0.3, 0.3, 0.6], [0.0, 1.0, 0.1])
+    with pytest.raises(LimitError, match=r'^gpr_rod1 = 250 m is outside the stroke .* millimetres given as metres\?$'):
+        forward_floats(ROBOT, ROBOT.arm('arm1'), [250.0, 0.3, 0.3], [0.0, 1.0, 0.1])

@@ -34,9 +34,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..callbacks import StageProgress
 from ..core.config import GprConfig
-from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.inverse import check_tool
 from ..core.ops import ARRAY
+from ..core.stroke import STROKE_SLACK, check_stroke
 from ..errors import InputError, LimitError, brief
 from ..inputs.validation import float_array, plain_number, random_seed, rotation_matrices
 from .core_model import TILT_MARGIN, platform_tilts
@@ -268,7 +268,7 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
 
 def _check_stations(model: PoseModel, rods: Array, labels: tuple[str, ...]) -> None:
     """Refuse stations a model of the machine (one with a ``config``, :class:`~.core_model.CoreModel`) cannot take,
-    with the core's rules: a rod outside the stroke (:func:`~gpr_kinematics.core.forward.check_stroke`), rods that
+    with the core's rules: a rod outside the stroke (:func:`~gpr_kinematics.core.stroke.check_stroke`), rods that
     tilt the platform beyond its tilt limit by more than :data:`~.core_model.TILT_MARGIN` (the rule of measured
     configurations, :func:`~.core_model.check_limits`): the budget of a pose the machine never takes is no number
     of it."""

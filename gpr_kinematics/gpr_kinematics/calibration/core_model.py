@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
-from ..core.forward import stroke_words
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from ..core.stroke import stroke_words
 from ..errors import InputError, brief
 from ..inputs import safe_yaml
 from .files import comment_lines, write_text

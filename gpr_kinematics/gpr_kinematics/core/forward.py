@@ -21,7 +21,7 @@ row to rounding (~1e-16).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any, Generic, NamedTuple, Self, TypeVar, cast
 
@@ -38,6 +38,7 @@ from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import FitFloats, PlatformPose, platform_pose
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
+from .stroke import STROKE_SLACK, check_stroke, q_rows
 from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -47,8 +48,6 @@ B = TypeVar('B')
 
 #: Margin [rad] by which a solved tilt may exceed ``tilt_limit`` (rounding of targets at the limit).
 TILT_LIMIT_SLACK = 1e-9
-#: Margin [m] by which a rod length may leave the stroke (rounding).
-STROKE_SLACK = 1e-12
 
 
 @dataclass(frozen=True)
@@ -167,46 +166,6 @@ def side_lengths(ops: Ops, P: tuple[list[Value], list[Value], list[Value]]) -> l
     return out
 
 
-def _rows(q: Sequence[Value]) -> Array:
-    """Rod lengths as an array ``(N, 3)`` for messages (from floats or columns)."""
-    return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
-
-
-def millimetres_within(value: float, config: GprConfig) -> bool:
-    """A rod length ``value`` [m] outside the stroke that would lie within it read as millimetres (250 for 0.25 m; not
-    0.6 m for a stroke of 0.508 m): the rule of the hints that a length was typed in mm."""
-    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
-    return value > 10.0 * hi and lo <= value / 1000.0 <= hi
-
-
-def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False,
-                 detail: Callable[[int], str] | None = None, names: Sequence[str] | None = None) -> None:
-    """Refuse rods outside ``[stroke_min, stroke_max]`` (+- :data:`STROKE_SLACK`) naming rod (``what`` and number, or
-    ``names``) and sample; ``typed``: a user's (a value within as millimetres says so); ``detail(i)``: of sample i."""
-    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
-    if not ops.any((q[0] < lo) | (q[0] > hi) | (q[1] < lo) | (q[1] > hi) | (q[2] < lo) | (q[2] > hi)):
-        return
-    rods = _rows(q)
-    i, k = np.argwhere((rods < lo) | (rods > hi))[0]
-    where = f' (sample {i})' if rods.shape[0] > 1 else ''
-    value = float(rods[i, k])
-    hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if typed and millimetres_within(
-        value, config) else ''
-    more = '' if detail is None else detail(int(i))
-    shown, ends = stroke_words(value, config.stroke_min, config.stroke_max)
-    raise LimitError(f'{names[k] if names else f"{what}{k + 1}"} = {shown} m{where} is outside the stroke {ends} m'
-                     f'{hint}{more}')
-
-
-def stroke_words(value: float, lo: float, hi: float) -> tuple[str, str]:
-    """A rod length outside the stroke ``[lo, hi]`` [m] and the stroke, as a refusal prints them: the value and the
-    end it passed told apart (:func:`~gpr_kinematics.errors.apart`; "0.508 m is outside [0, 0.508] m" had
-    contradicted itself)."""
-    low = value < lo
-    shown, end = apart(value, lo if low else hi, 9)
-    return shown, f'[{end}, {hi:g}]' if low else f'[{lo:g}, {end}]'
-
-
 def beyond_tilt(tilt: float, limit: float) -> str:
     """``'<tilt> rad (<deg> deg) is beyond the tilt limit <limit> rad (<deg> deg)'``, told apart in both units."""
     (shown, end), (deg, deg_end) = apart(tilt, limit, 9), apart(math.degrees(tilt), math.degrees(limit))
@@ -224,10 +183,10 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
         i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
         limit = f'the tilt limit {config.tilt_limit:.4g} rad ({math.degrees(config.tilt_limit):.4g} deg)'
         if float(np.atleast_1d(h2)[i]) >= 1.0:  # the rods' differences exceed what any platform tilt makes
-            raise NoPoseError(f'q = {_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
+            raise NoPoseError(f'q = {q_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
                              f'more than the joints\' spread can make at any tilt); allowed: rods within {limit}')
         t = float(np.atleast_1d(n_tilt)[i])
-        raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by about {t:.4g} rad '
+        raise LimitError(f'q = {q_rows(q)[i].tolist()} m tilts the platform by about {t:.4g} rad '
                          f'({math.degrees(t):.4g} deg), beyond {limit}')
     return naive
 
@@ -243,7 +202,7 @@ def _refuse_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
     shown, limit = apart(math.degrees(float(t[i])), math.degrees(config.tilt_limit))
-    raise LimitError(f'q = {_rows(q)[i].tolist()} m tilts the platform by {shown} deg, beyond the tilt limit {limit} '
+    raise LimitError(f'q = {q_rows(q)[i].tolist()} m tilts the platform by {shown} deg, beyond the tilt limit {limit} '
                      'deg')
 
 
@@ -276,11 +235,12 @@ def assemble(ops: Ops, result: type[Result], q: Sequence[Value], vjm: VirtualJoi
 
 
 def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConfig, vjm: VirtualJointModel,
-             check_limits: bool, geometry: MachineGeometry | None = None) -> Result:
+             check_limits: bool, geometry: MachineGeometry | None = None, stroke: bool = True) -> Result:
     geo = MachineGeometry.of(config) if geometry is None else geometry
     naive = None
     if check_limits:
-        check_stroke(ops, q, config, typed=True)
+        if stroke:
+            check_stroke(ops, q, config, typed=True)
         naive = _check_naive_tilt(ops, geo, q, config)
     L, closure, pose = solve_pose(ops, geo, vjm, q, config, naive)
     if check_limits:
@@ -290,7 +250,8 @@ def _forward(ops: Ops, result: type[Result], q: Sequence[Value], config: GprConf
 
 def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
                   check_limits: bool = True, parameters: ArrayLike | None = None,
-                  names: Sequence[str] | None = None, displacement: ArrayLike | None = None) -> ForwardBatch:
+                  names: Sequence[str] | None = None, displacement: ArrayLike | None = None,
+                  stroke: bool = True) -> ForwardBatch:
     """Forward kinematics of rod lengths ``Q (N, 3)`` [m], vectorised over ``N``.
 
     ``parameters (N, P)``: one machine per sample, the geometry parameters ``names`` (default all of
@@ -303,6 +264,7 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
 
     ``displacement (N, 3, 3)``: the joint centre ``P_k`` of sample ``i`` moved by ``displacement[i, k]`` in
     ``gpr_base`` [m] (the play of a spherical joint; :meth:`~gpr_kinematics.core.machine.MachineGeometry.displaced`).
+    ``stroke=False``: the limits but the stroke, which the caller checked naming its rods (the robot's paths).
 
     Raises:
         InputError: wrong shape, NaN or infinity; unknown model; a parameter row outside the geometry's ranges.
@@ -329,12 +291,12 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
             raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
                              f'shape {d.shape}')
         geo = (geo or MachineGeometry.of(cfg)).displaced(d)
-    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo)
+    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)
     return out
 
 
 def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = None,
-            check_limits: bool = True) -> ForwardResult:
+            check_limits: bool = True, stroke: bool = True) -> ForwardResult:
     """Forward kinematics of one configuration ``q = (q1, q2, q3)`` [m]; see :func:`forward_batch`.
 
     The one-pose path (:mod:`gpr_kinematics.core.single`): float arithmetic with the constants of the geometry and
@@ -342,7 +304,7 @@ def forward(q: ArrayLike, config: GprConfig | None = None, model: str | None = N
     built from one array. Equal to the batch row to rounding (~1e-16). With ``check_limits=False`` rods far outside
     the stroke may have no closure: :class:`~gpr_kinematics.errors.ConvergenceError`, as in the batch.
     """
-    return one_result(*forward_parts(q, resolve_config(config), model, check_limits))
+    return one_result(*forward_parts(q, resolve_config(config), model, check_limits, stroke))
 
 
 class ForwardParts(NamedTuple):
@@ -358,7 +320,8 @@ class ForwardParts(NamedTuple):
     naive: NaiveState | None
 
 
-def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, check_limits: bool = True) -> ForwardParts:
+def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, check_limits: bool = True,
+                  stroke: bool = True) -> ForwardParts:
     """:func:`forward` up to its result: the limits checked (the stroke, the naive tilt, then the tilt of the fit),
     the closure solved and the platform fitted, in floats. :func:`forward` builds its result from it; the mobility
     analysis takes the virtual joints and the joint centres."""
@@ -367,9 +330,10 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
     q0, q1, q2 = q3
     naive = None
     if check_limits:
-        lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
-        if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
-            check_stroke(SCALAR, q3, config, typed=True)
+        if stroke:   # the caller's own check (its rods' names) otherwise
+            lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
+            if not (lo <= q0 <= hi and lo <= q1 <= hi and lo <= q2 <= hi):
+                check_stroke(SCALAR, q3, config, typed=True)
         naive = kernel.naive(q0, q1, q2)
         h2, rest = naive[1], 1.0 - naive[1]
         if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > \

@@ -39,7 +39,6 @@ from .forward import (
     Result,
     assemble,
     beyond_tilt,
-    check_stroke,
     check_tilt,
     one_result,
     solve_pose,
@@ -50,6 +49,7 @@ from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import FitFloats
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
+from .stroke import check_stroke
 from .virtual_joints import Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -234,11 +234,11 @@ def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Ar
 
 def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
                          tool: Sequence[Value], config: GprConfig) -> None:
-    """:func:`~gpr_kinematics.core.forward.check_stroke` of the solved rods ``q``; a refusal names the target's
+    """:func:`~gpr_kinematics.core.stroke.check_stroke` of the solved rods ``q``; a refusal names the target's
     height and the heights allowed at its tilt too (within :data:`HEIGHT_MARGIN` of them a target is solved, so the
     rods decide: ``--height 0.5 --mm`` said only that q3 is outside the stroke). The range is the naive model's
     (:func:`_height_range`), which the virtual joints move by about a millimetre at most: 'about'."""
-    def heights(i: int) -> str:   # of the sample check_stroke refuses
+    def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
         lo, hi = _height_range(ops, geo, n, tool, config)
         hh, tt, lv, hv = (float(np.atleast_1d(v)[i]) for v in (h, t, lo, hi))
         return (f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: about '

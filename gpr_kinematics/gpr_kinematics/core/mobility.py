@@ -56,9 +56,10 @@ from ..errors import InputError, LimitError, brief
 from ..inputs.validation import bounded, finite_vector, float_array, rows_of
 from . import forward
 from .config import GprConfig, resolve_config
-from .forward import forward_parts, stroke_words
+from .forward import forward_parts
 from .machine import MachineGeometry
 from .ops import SCALAR
+from .stroke import stroke_words
 from .virtual_joints import EDGES, VirtualJointModel, coordinate_scale, joint_components
 
 Array = NDArray[np.float64]

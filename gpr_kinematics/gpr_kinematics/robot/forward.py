@@ -29,10 +29,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core import ForwardBatch, ForwardResult, forward, forward_batch, naive_forward
 from ..core.floats import FloatPose, Mat3, Vec3, angle_between, compose_one, mat_mul, mat_vec, rot_z, tilt_matrix
-from ..core.forward import STROKE_SLACK, check_stroke
 from ..core.ops import ARRAY, SCALAR
 from ..core.rotations import rotation_angle, rotation_z, rpy_matrix, tilt_of_normal
 from ..core.single import one_pose
+from ..core.stroke import check_stroke
 from ..errors import InputError, LimitError, apart, brief
 from ..inputs.validation import bounded, rows_of
 from .arm_chain import LIMIT_SLACK, ArmFloats, arm_floats
@@ -239,16 +239,19 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         bounded(J, f'joints of {a.name} [rad]')
     if Q.shape[0] == 1:
         return _robot_forward_one(robot, a, Q, J, check_limits)
-    gpr = forward_batch(Q, robot.config, check_limits=check_limits)
+    gpr = forward_batch(Q, robot.config, check_limits=check_limits, stroke=False)   # the stroke: checked above
     return forward_on_platform(robot, a, Q, J, gpr)
 
 
 def check_rods(robot: RobotDescription, Q: Array) -> None:
-    """Refuse rods ``(N, 3)`` [m] outside the stroke naming the robot's rods (the core named them ``q1``)."""
-    cfg = robot.config
-    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
-    if not (all(lo <= v <= hi for v in Q[0].tolist()) if Q.shape[0] == 1 else bool(((lo <= Q) & (hi >= Q)).all())):
-        check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], cfg, typed=True, names=robot.rods.names)
+    """Refuse rods ``(N, 3)`` [m] outside the stroke naming the robot's rods: the core's one check
+    (:func:`~gpr_kinematics.core.stroke.check_stroke`; its own named them ``q1``), after which the robot's paths call
+    forward kinematics with ``stroke=False`` (no rod checked twice)."""
+    if Q.shape[0] == 1:   # floats: one configuration's comparisons cost less than the columns'
+        q0, q1, q2 = Q[0].tolist()
+        check_stroke(SCALAR, [q0, q1, q2], robot.config, typed=True, names=robot.rods.names)
+    else:
+        check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, typed=True, names=robot.rods.names)
 
 
 def forward_on_platform(robot: RobotDescription, arm: Arm, Q: Array, J: Array, gpr: ForwardBatch) -> RobotForward:
@@ -319,10 +322,13 @@ class ForwardFloats(NamedTuple):
 
 
 def forward_floats(robot: RobotDescription, arm: Arm, rods: list[float], joints: list[float],
-                   check_limits: bool = True) -> ForwardFloats:
+                   check_limits: bool = True, stroke: bool = True) -> ForwardFloats:
     """:func:`robot_forward` of one configuration (finite rods [m], the arm's finite joints [rad] within their limits:
-    the caller checks them) in floats: the GPR's one-pose path, the chain in floats."""
-    gpr = forward(rods, robot.config, check_limits=check_limits)
+    the caller checks them) in floats: the GPR's one-pose path, the chain in floats. With ``check_limits`` the rods
+    are refused outside the stroke by the robot's names (``stroke=False``: the caller checked them so)."""
+    if check_limits and stroke:
+        check_stroke(SCALAR, rods, robot.config, typed=True, names=robot.rods.names)
+    gpr = forward(rods, robot.config, check_limits=check_limits, stroke=False)
     (r0, r1, r2), (t0, t1, t2) = gpr.rotation.tolist(), gpr.position.tolist()
     return ForwardFloats(gpr, *one_on_platform(robot, arm, joints, (t0, t1, t2), ((r0[0], r0[1], r0[2]),
                                                                                     (r1[0], r1[1], r1[2]),
@@ -372,7 +378,7 @@ def joints_within_limits(arm: Arm, joints: list[float]) -> bool:
 
 def _robot_forward_one(robot: RobotDescription, arm: Arm, Q: Array, J: Array, check_limits: bool) -> RobotForward:
     """:func:`robot_forward` of one configuration (:func:`forward_floats`) as rows of one."""
-    one = forward_floats(robot, arm, Q[0].tolist(), J[0].tolist(), check_limits)
+    one = forward_floats(robot, arm, Q[0].tolist(), J[0].tolist(), check_limits, stroke=False)   # checked
     return RobotForward(arm=arm.name, rods=Q, joints=J, gpr=ForwardBatch.of_one(one.gpr),
                         platform=pose_batch(*one.platform), blade=pose_batch(*one.blade), wafer=pose_batch(*one.wafer),
                         robot=robot, wafer_on_platform=pose_batch(*one.on_platform))

@@ -20,15 +20,16 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.forward import STROKE_SLACK, check_stroke, forward, forward_batch, millimetres_within, stroke_words
-from ..core.ops import ARRAY
+from ..core.forward import forward, forward_batch
+from ..core.ops import SCALAR
+from ..core.stroke import check_stroke, millimetres_within
 from ..errors import ConfigError, InputError, LimitError, apart, brief
 from ..inputs.files import read_text
 from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
-from .forward import RobotForward, robot_forward
+from .forward import RobotForward, check_rods, robot_forward
 from .inverse import StationSolution, solve_stations
 from .planar_arm import branch_of
 from .station_files import CsvTable, read_csv_table, station_name
@@ -164,7 +165,7 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     """
     a = robot.arm(arm)
     Q = rows_of(rods, 'rods', 3, robot.rods.names)
-    check_stroke(ARRAY, [Q[:, 0], Q[:, 1], Q[:, 2]], robot.config, typed=True, names=robot.rods.names)
+    check_rods(robot, Q)   # once: robot_forward below checks no limit, _old_tilt the tilt alone
     theta = rows_of(joints, f'joints of {a.name}', len(a.joints), a.joint_names)
     beyond = (theta < a.lower - OLD_JOINT_SLACK) | (theta > a.upper + OLD_JOINT_SLACK)
     if beyond.any():   # the first such value, by row then joint
@@ -191,7 +192,7 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
 def _old_tilt(robot: RobotDescription, Q: Array) -> None:
     """Refuse old rods ``(N, 3)`` [m] that tilt the platform beyond its limit, as :func:`robot_forward` does."""
     try:
-        forward_batch(Q, robot.config)
+        forward_batch(Q, robot.config, stroke=False)   # reteach checked the stroke
     except LimitError as exc:
         raise LimitError(f'old rods: {exc}') from None
 
@@ -208,15 +209,16 @@ def _check_row(table: CsvTable, r: int, robot: RobotDescription, a: Arm, rods: A
     and the row's name, before the batch would name it by a 0-based sample alone."""
     cfg = robot.config
     where = _row_where(table, r)
-    lo, hi = cfg.stroke_min - STROKE_SLACK, cfg.stroke_max + STROKE_SLACK
-    for k, rod in enumerate(robot.rods.names):
-        if not lo <= rods[k] <= hi:
-            hint = ''
-            if table.columns[rod][2] == 'm' and millimetres_within(float(rods[k]), cfg):  # as degrees below
-                hint = (f'; in millimetres it would be within: give the column its unit, "{rod} [mm]", or a '
-                        '"# units: mm" line before the header')
-            shown, ends = stroke_words(float(rods[k]), cfg.stroke_min, cfg.stroke_max)
-            raise ConfigError(f'{where}: {rod} = {shown} m is outside the stroke {ends} m{hint}')
+
+    def unit_hint(_i: int, k: int) -> str:   # of the rod the core's check refuses, as degrees below
+        rod = robot.rods.names[k]
+        return (f'; in millimetres it would be within: give the column its unit, "{rod} [mm]", or a "# units: mm" '
+                'line before the header' if table.columns[rod][2] == 'm' and millimetres_within(float(rods[k]), cfg)
+                else '')
+    try:   # the core's check of the stroke, the robot's rod names, once (read_joint_table's solve skips it)
+        check_stroke(SCALAR, rods.tolist(), cfg, detail=unit_hint, names=robot.rods.names)
+    except LimitError as exc:
+        raise ConfigError(f'{where}: {exc}') from None
     if not check_limits:   # the old joints of reteach: within a turn of their limits
         for k, j in enumerate(a.joints):
             why = _beyond_a_turn(a, joints[k], k)
@@ -293,11 +295,11 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
         raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
     try:   # the tilt limit, as forward kinematics refuses the rods (it named no row; reteach's old rods: unchecked)
         if check_limits:
-            forward_batch(rods, robot.config)
+            forward_batch(rods, robot.config, stroke=False)   # the rows' stroke: checked above
     except LimitError:
         for r in range(len(table)):   # the first refused row, named (only when one is)
             try:
-                forward(rods[r], robot.config)
+                forward(rods[r], robot.config, stroke=False)
             except LimitError as exc:
                 raise ConfigError(f'{_row_where(table, r)}: {exc}') from None
         raise
