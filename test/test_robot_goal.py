@@ -233,3 +233,29 @@ def test_a_late_goal_under_way_is_not_jumped_to_beyond_the_velocity_limits():
     there[k] += 0.12   # the robot where the trajectory is at the arrival: it goes on from there
     motion, _ = plan_goal(goal, loose, there, NOW)
     assert motion.positions[0, k] == pytest.approx(there[k], abs=1e-12)
+
+
+def test_the_joints_a_goal_leaves_out_are_held_at_their_command_and_the_motion_is_read_only():
+    """Lagging joints (``servo_time_constant``) a goal leaves out go on toward the last goal's end, ``held``: the
+    motion is built with it (the simulator wrote it into the built, frozen motion); the goal's own joint starts from
+    where it is, whatever ``held`` says of it."""
+    k = JOINTS.names.index('arm1_elbow')
+    held = JOINTS.rest.copy()
+    held[:3] += 0.01   # the rods, level
+    held[JOINTS.names.index('arm2_shoulder')] += 0.1
+    held[k] += 1.0   # the goal's joint: not held
+    current = JOINTS.rest + (held - JOINTS.rest) / 2   # half way there
+    current[k] = JOINTS.rest[k]
+    motion, _ = plan_goal(_goal(), CONTROLLER, current, NOW, held)
+    others = np.setdiff1d(np.arange(len(JOINTS.names)), [k])
+    assert np.array_equal(motion.positions[:, others], np.broadcast_to(held[others], (len(motion), others.size)))
+    assert not motion.velocities[:, others].any()
+    assert motion.positions[0, k] == current[k] and motion.positions[-1, k] == JOINTS.rest[k] + 0.2
+    assert np.array_equal(motion.current, current)
+    unheld, _ = plan_goal(_goal(), CONTROLLER, current, NOW)   # none held: where they are
+    assert np.array_equal(unheld.positions[:, others], np.broadcast_to(current[others], (len(motion), others.size)))
+    for name in ('time', 'positions', 'velocities', 'goal', 'current'):
+        with pytest.raises(ValueError, match='read-only'):
+            getattr(motion, name)[0] = 0
+    current[0] = 0.3
+    assert motion.current[0] != 0.3   # a copy: the caller's state stays its own (and writable)

@@ -290,7 +290,8 @@ class RobotSimulatorNode(GprNode):
                     [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
                     [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
                     _seconds(req.goal_time_tolerance), stamp.sec * NS_PER_S + stamp.nanosec)
-        return plan_goal(goal, self.controller, self.actual, self.get_clock().now().nanoseconds)
+        # lagging joints the goal leaves out go on toward their command (they froze where it found them)
+        return plan_goal(goal, self.controller, self.actual, self.get_clock().now().nanoseconds, self.command)
 
     async def _execute(self, goal: ServerGoalHandle) -> Any:
         result = FollowJointTrajectory.Result()
@@ -316,9 +317,6 @@ class RobotSimulatorNode(GprNode):
             old = self.run
             self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
                       f'{len(old.motion)} samples')
-        if self.command is not None:   # lagging joints the goal leaves out go on toward their command (they froze)
-            others = np.setdiff1d(np.arange(len(self.joints.names)), motion.goal)
-            motion.positions[:, others] = self.command[others]
         done = Future()
         self.run, self.command = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds), None
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '

@@ -219,7 +219,8 @@ class Motion:
     desired ``positions`` and ``velocities`` ``(K, N)`` (the joints the goal does not name held), the goal's joints
     ``goal (G,)`` (indices), its tolerances, its trajectory and every joint where it was at the goal's arrival
     ``current (N,)`` (a first point at ``t = 0`` is reached from there in one sample); ``late`` [s]: the goal's own
-    time at the motion's start (a ``header.stamp`` in the past: its feedback and result count from the stamp)."""
+    time at the motion's start (a ``header.stamp`` in the past: its feedback and result count from the stamp). Its
+    arrays are read-only: a motion is built once, checked, then executed as checked."""
 
     time: Array
     positions: Array
@@ -229,6 +230,10 @@ class Motion:
     trajectory: JointTrajectory
     current: Array
     late: float = 0.0
+
+    def __post_init__(self) -> None:
+        for a in (self.time, self.positions, self.velocities, self.goal, self.current):
+            a.flags.writeable = False
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -337,12 +342,14 @@ def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel:
 
 def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,
                 tolerances: Tolerances, start_tolerance: float, clearance: Clearance | None = None,
-                under_way: bool = False) -> Motion:
+                under_way: bool = False, held: Array | None = None) -> Motion:
     """Check ``traj`` from the ``current`` positions of every joint ``(N,)`` and sample it at ``rate`` [Hz]: samples at
     ``t_k = k / rate`` and the last point's time (module docstring; :class:`GoalError` with the code). ``under_way``:
-    ``traj`` goes on from a trajectory's state at a late arrival (:func:`late_start`), its first point a sample."""
+    ``traj`` goes on from a trajectory's state at a late arrival (:func:`late_start`), its first point a sample.
+    ``held`` ``(N,)``: where the joints ``traj`` leaves out are commanded (lagging joints: the last goal's end;
+    None: ``current``)."""
     cols = joints.indices(traj.joint_names)
-    current = np.asarray(current, dtype=float)
+    current = np.array(current, dtype=float)   # a copy: the motion's arrays are read-only
     start = current[cols]
     _refuse_beyond(joints, cols, traj.positions, traj.time, 'point')
     if traj.time[0] == 0.0:   # reached in one sample: within start_tolerance, the velocity limits and the clearance
@@ -363,7 +370,7 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     pos, vel, _ = moving.evaluate(t)
     _refuse_beyond(joints, cols, pos, t, 'sample')
     _refuse_fast_samples(joints, cols, vel, t)
-    positions = np.repeat(current[None, :], t.shape[0], axis=0)
+    positions = np.repeat((current if held is None else np.asarray(held, dtype=float))[None, :], t.shape[0], axis=0)
     positions[:, cols] = pos
     velocities = np.zeros_like(positions)
     velocities[:, cols] = vel

@@ -131,9 +131,11 @@ def _check_fields(goal: Goal) -> None:
                         'controller commands positions)')
 
 
-def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -> tuple[Motion, int]:
-    """The motion of ``goal`` from the joints at ``current`` and its start [ns] on the clock that reads ``now_ns``:
-    the fields checked, the trajectory built (:func:`~.controller.trajectory_from_points`), a stamp at most
+def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int, held: Array | None = None
+              ) -> tuple[Motion, int]:
+    """The motion of ``goal`` from the joints at ``current`` and its start [ns] on the clock that reads ``now_ns``,
+    the joints it leaves out held at ``held`` (lagging joints' command; None: ``current``): the fields checked, the
+    trajectory built (:func:`~.controller.trajectory_from_points`), a stamp at most
     :data:`~.trajectory.MAX_DURATION` ahead, a stamp in the past taken as joint_trajectory_controller takes it (from
     the next sample on the stamp's grid, :func:`~.controller.late_start`), then planned and checked
     (:func:`~.controller.plan_motion`). :class:`~.controller.GoalError` with the result code on a refusal."""
@@ -173,7 +175,8 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int) -
         raise GoalError(INVALID_GOAL, f'the goal would run until {last / NS_PER_S:.12g} s on the clock, beyond the '
                         f'int32 sec of a message stamp; allowed: a goal ending by {SEC_MAX} s (2038-01-19T03:14:07Z)')
     try:
-        motion = plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance, under_way)
+        motion = plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance, under_way,
+                             held)
         return dataclasses.replace(motion, late=late), start
     except GoalError as exc:
         if not late:
