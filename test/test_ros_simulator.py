@@ -821,3 +821,48 @@ def test_lagging_joints_a_next_goal_leaves_out_go_on_to_their_point(lagging):
         assert result.error_code == 0, result.error_string
     assert c.spin_until(lambda: states[-1].position[s] == targets[0] and states[-1].position[e] == targets[1], 10.0), \
         (states[-1].position[s] - targets[0], states[-1].position[e] - targets[1])
+
+
+@pytest.mark.parametrize('name, position, taken', [
+    (['arm1_elbow'], [0.1], True),   # a state it takes: the robot is where that publisher says, and stays there
+    (['arm1_elbow'], [100.0], False),   # beyond the limit: ignored
+    (['arm1_elbow', 'arm1_wrist'], [0.1], False),   # malformed: ignored
+    (['gripper_finger'], [0.1], False),   # none of its joints: nothing taken
+])
+def test_another_publishers_state_ends_the_lagging_joints_command_only_when_taken(ros_environment, name, position,
+                                                                                   taken):
+    """Without a cell file a state of another publisher becomes the robot's state (docs/ros.md, Idle): the lagging
+    joints' command goes with it, else the idle ticks dragged them on toward the last goal's point, away from the
+    state taken; a message it ignores or takes nothing from leaves the command, the joints converging on to it. The
+    node's methods on a stub (no DDS): a foreign message, then 5 s of idle ticks at 10 Hz (``tau`` 0.05 s)."""
+    import types
+
+    import gpr_kinematics.nodes.robot_simulator_node as sim
+
+    clock = types.SimpleNamespace(nanoseconds=0)
+    joints = ControllerJoints.of(ROBOT)
+    s, e = joints.names.index('arm1_shoulder'), joints.names.index('arm1_elbow')
+    command = joints.rest.copy()
+    command[s] += 0.3   # where the last goal left arm1_shoulder, lagging at rest
+    node = types.SimpleNamespace(run=None, own={}, joints=joints, actual=joints.rest.copy(), command=command.copy(),
+                                 velocity=np.zeros(len(joints.names)), pending=None, last_check=None, cfg=ROBOT.config,
+                                 last_foreign=None, last_published=0, refusing=False, clearance=None,
+                                 p={'idle_rate': 10.0, 'servo_time_constant': 0.05},
+                                 get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
+                                 get_logger=lambda: types.SimpleNamespace(warning=lambda *a, **k: None))
+    node.publish_state = lambda ns: setattr(node, 'last_published', clock.nanoseconds)
+    for method in ('_outside', '_settle', '_converge'):
+        setattr(node, method, types.MethodType(getattr(sim.RobotSimulatorNode, method), node))
+    on_states = types.MethodType(sim.RobotSimulatorNode._on_joint_states, node)
+    idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
+    clock.nanoseconds = 50_000_000
+    on_states(types.SimpleNamespace(header=types.SimpleNamespace(stamp=types.SimpleNamespace(sec=0, nanosec=1)),
+                                    name=name, position=position))
+    for k in range(1, 51):
+        clock.nanoseconds = k * 100_000_000
+        idle()
+    if taken:
+        assert node.command is None and node.actual[s] == joints.rest[s] and node.actual[e] == 0.1, node.actual[s]
+    else:
+        assert node.command is None and node.actual[s] == command[s] and node.actual[e] == joints.rest[e], \
+            node.actual[s] - command[s]   # converged, then snapped to it exactly
