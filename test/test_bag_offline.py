@@ -22,7 +22,14 @@ from gpr_kinematics.bags.cdr import decode_columns
 from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.synthetic import sweep_messages, write_messages
-from gpr_kinematics.bags.typestore import GEOMETRY_TOPIC, GPR_TOPICS, PLATFORM_STREAM_TOPICS, definition, typestore
+from gpr_kinematics.bags.typestore import (
+    GEOMETRY_TOPIC,
+    GPR_TOPICS,
+    PLATFORM_STREAM_TOPICS,
+    definition,
+    legacy_joint_states,
+    typestore,
+)
 from gpr_kinematics.bags.verify import verify_bag
 from gpr_kinematics.bags.writer import SegmentedBagWriter
 from gpr_kinematics.cli import main as cli
@@ -67,6 +74,7 @@ def test_reference_bag_verifies_against_the_current_core(capsys: pytest.CaptureF
     assert {k: len(t) for k, t in bag.topics.items()} == {**stream, GEOMETRY_TOPIC: 1, ROBOT_TOPIC: 1,
                                                           ROBOT_STATE_TOPIC: 0, WAFER_POSE_TOPIC: 0}
     assert set(bag.topics) == set(old.values()) - {PROGRAM_TOPIC}   # recorded before the node published gpr/program
+    assert legacy_joint_states(bag.topics, bag.namespace) == LEGACY_JOINT_STATES_TOPIC   # the replay warns
     assert 'topic.joint_states' in {c.name for c in verify_bag(REFERENCE).checks if not c.skipped}
     assert 'note: verified against the geometry recorded on /gpr/geometry' in out
     assert 'robot example_dual_arm recorded on /gpr/robot; no robot states' in out
@@ -114,6 +122,23 @@ def test_with_both_joint_states_topics_the_current_one_is_verified(tmp_path: Pat
     assert result.failures[0].value == pytest.approx(1e-6, rel=1e-6)
     assert "/gpr/joint_states recorded beside /joint_states: the legacy topic of older recordings, not verified" in \
         " ".join(result.notes)
+    assert legacy_joint_states(read_bag(both).topics, '') is None   # the replay's warning: not for this bag
+
+
+@pytest.mark.parametrize('topics, namespace, legacy', [
+    ({'/gpr/joint_states', '/gpr/platform_state'}, '', '/gpr/joint_states'),   # recorded before the move
+    ({'/gpr/joint_states', '/joint_states'}, '', None),   # both: the joint states are on /joint_states
+    ({'/joint_states'}, '', None),
+    ({'/gpr/platform_state'}, '', None),
+    ({'/r1/gpr/joint_states'}, '/r1', '/r1/gpr/joint_states'),
+    ({'/r1/gpr/joint_states', '/r1/joint_states'}, '/r1', None),
+    ({'/r1/gpr/joint_states', '/joint_states'}, '/r1', '/r1/gpr/joint_states'),   # a root one is not the suite's
+])
+def test_the_replays_legacy_joint_states_warning_is_for_a_bag_without_joint_states(topics, namespace, legacy):
+    """replay_node warns that a recorder's default topics miss the joint states of a bag that carries them on the
+    legacy /gpr/joint_states only (``typestore.legacy_joint_states``): a bag with /joint_states beside it has them
+    there (a mutation audit: a warning for every bag with the legacy topic passed every test)."""
+    assert legacy_joint_states(topics, namespace) == legacy
 
 
 def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

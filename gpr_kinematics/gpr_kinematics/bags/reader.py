@@ -40,6 +40,7 @@ from .typestore import (
     KNOWN_TOPICS,
     LEGACY_JOINT_STATES_TOPIC,
     PLATFORM_STATE_TOPIC,
+    legacy_joint_states,
     normalize_type,
     suite_topic,
 )
@@ -166,7 +167,7 @@ class Bag:
 
     def joint_states_topic(self) -> str:
         """The suite's joint states: ``/joint_states``, ``/gpr/joint_states`` in bags recorded before it moved."""
-        legacy = self.topic(JOINT_STATES_TOPIC) is None and self.topic(LEGACY_JOINT_STATES_TOPIC) is not None
+        legacy = legacy_joint_states(self.topics, self.namespace) is not None
         return LEGACY_JOINT_STATES_TOPIC if legacy else JOINT_STATES_TOPIC
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import os
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +74,14 @@ def suite_topic(namespace: str, name: str) -> str:
     ``/gpr``); ``name`` is the suite's own name, never one already in the namespace."""
     absolute = name if name.startswith('/') else '/' + name
     return namespace + absolute
+
+
+def legacy_joint_states(topics: Collection[str], namespace: str) -> str | None:
+    """``/gpr/joint_states`` as a bag of ``topics`` recorded in ``namespace`` names it, when the bag's joint states
+    are there only (recorded before they moved to ``/joint_states``, which a recorder's default topics and a state
+    publisher read); None when it has no such topic or ``/joint_states`` beside it (the joint states are there)."""
+    legacy = suite_topic(namespace, LEGACY_JOINT_STATES_TOPIC)
+    return legacy if legacy in topics and suite_topic(namespace, JOINT_STATES_TOPIC) not in topics else None
 
 
 #: The topics of every sample of a platform stream (a sweep, a platform program), in publishing order.

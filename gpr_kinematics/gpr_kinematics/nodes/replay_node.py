@@ -15,7 +15,9 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 
 The node suite's topics (``gpr/platform_state``, ``joint_states``, ...: ``bags.typestore.KNOWN_TOPICS``) are
 published in the node's namespace, whatever namespace they were recorded in (``-r __ns:=/r1``, the launch file's
-``namespace``: where the state publisher and RViz of that namespace read them); other topics as recorded.
+``namespace``: where the state publisher and RViz of that namespace read them); other topics as recorded. A bag
+whose joint states are on the legacy ``gpr/joint_states`` only is warned about, with the remap
+(:func:`~gpr_kinematics.bags.typestore.legacy_joint_states`).
 
 Latched topics (:func:`~gpr_kinematics.nodes.qos.is_latched`, e.g. ``gpr/geometry``) are published transient
 local, so a subscriber that starts during the replay still gets them, every one of them in the bag (several
@@ -35,7 +37,7 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
-from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC
+from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, legacy_joint_states
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
@@ -100,12 +102,13 @@ class ReplayNode(GprNode):
         self._served, self._warned_behind = 0.0, False
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
-        legacy = [pub.topic_name for n, pub in self.pubs.items() if bag.relative(n) == LEGACY_JOINT_STATES_TOPIC]
-        if legacy and bag.joint_states_topic() == LEGACY_JOINT_STATES_TOPIC:   # a recorder's defaults miss them
+        legacy = legacy_joint_states(bag.topics, bag.namespace)
+        if legacy is not None:   # a recorder's defaults miss them (a bag with joint_states too: they are there)
+            name = self.pubs[legacy].topic_name
             self.get_logger().warning(
-                f'the bag carries its joint states on {legacy[0]}, where the node suite published them before they '
+                f'the bag carries its joint states on {name}, where the node suite published them before they '
                 f'moved to joint_states: a recorder with its default topics and a state publisher read joint_states '
-                f'(remap: -r {legacy[0].lstrip("/")}:={JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: '
+                f'(remap: -r {name.lstrip("/")}:={JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: '
                 f'joint_states:=gpr/joint_states)')
 
     def published_name(self, bag: Any, name: str) -> str:
