@@ -121,11 +121,30 @@ def test_malformed_tables_refused(data, pattern):
 ])
 def test_a_nan_names_its_units_bound(entry, pattern):
     # one rule per quantity: a value that is no number names the bound a number beyond it meets (the parameter's
-    # unit, known at bind); it named 'a finite number of magnitude at most 1e+06', a number then refused at 0.01 m
+    # unit); it named 'a finite number of magnitude at most 1e+06', a number then refused at 0.01 m
     ps = CoreModel(load_config()).parameters
-    table = parse_tolerances({'parameters': entry}, 't.yaml')
     with pytest.raises(ConfigError, match=pattern):
-        table.bind(ps)
+        parse_tolerances({'parameters': entry}, 't.yaml').bind(ps)
+
+
+@pytest.mark.parametrize('data, pattern', [
+    # a whole key's NaN hidden by its parameters' own entries (bind never reads it) passed as valid
+    ({'parameters': {'rod_offsets': {'tolerance': float('nan')}, 'rod1_offset': {'tolerance': 5e-5},
+                     'rod2_offset': {'tolerance': 5e-5}, 'rod3_offset': {'tolerance': 5e-5}}},
+     r'rod_offsets: tolerance = nan; allowed: at most 0\.01 m$'),
+    ({'parameters': {'kappa': {'range': ['abc', 2.0], 'distribution': 'log-uniform'}}},
+     r"kappa: range = \['abc', 2\.0\]; allowed: 1e-06 to 1e\+06$"),
+    ({'parameters': {'kappa': {'tolerance': float('nan')}}}, r'kappa: tolerance = nan; allowed: at most 1e\+06$'),
+    ({'parameters': {'base_rz': {'tolerance': float('nan')}}}, r'base_rz: tolerance = nan; allowed: at most 0\.1 rad$'),
+    ({'parameters': {'radius': {'tolerance': '5um'}}},
+     r"radius: tolerance = '5um'; allowed: at most 0\.01 m for a length, 0\.1 rad for an angle"),
+    ({'rod_length': {'range': [float('nan'), 1.0]}}, r'rod_length: range = \[nan, 1\.0\]; allowed: a tolerance'),
+])
+def test_a_value_that_is_no_number_is_refused_when_the_table_is_read(data, pattern):
+    # also where no model binds the table (gpr calibrate --robot reads only its measurement_noise) or an entry is
+    # hidden by others: refused at bind only, both had passed
+    with pytest.raises(ConfigError, match=pattern):
+        parse_tolerances(data, 't.yaml')
 
 
 def test_binding_refusals(tmp_path):

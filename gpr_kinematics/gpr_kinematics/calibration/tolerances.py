@@ -27,19 +27,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.machine import parameter_range
+from ..core.machine import PARAMETERS, parameter_range
 from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..mechanisms.accuracy import PARAMETER_ERROR_MOST
+from .frames import AXES
 from .measurements import SIGMA_RANGE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
 
@@ -148,8 +149,6 @@ class ToleranceTable:
         joint_clearance: radius of each joint's play [m] (zeros: none).
         sigma_position, sigma_angle: tracker standard deviations [m], [rad], or ``None``.
         units: the declared ``(length, angle)`` units; source: file name for messages.
-        refused: entry -> its value as written where that is no number (NaN, text, beyond 1e6): refused at
-            :meth:`bind`, naming the bound of the parameter's unit.
     """
 
     entries: dict[str, tuple[str, tuple[float, ...], str]]
@@ -159,7 +158,6 @@ class ToleranceTable:
     sigma_angle: float | None
     units: tuple[str, str] = ('m', 'rad')
     source: str = 'tolerances'
-    refused: Mapping[str, str] = field(default_factory=dict)
 
     def bind(self, params: ParameterSet) -> list[Tolerance | None]:
         """Per parameter of ``params`` its :class:`Tolerance` in SI (``None``: exact). A parameter's own name
@@ -190,10 +188,6 @@ class ToleranceTable:
         where = f'{self.source}: parameters: {key}'
         limit = MAX_TOLERANCE[p.unit]
         nominal = float(p.value(p.nominal))
-        if key in self.refused:   # the bound of its unit, as a number beyond it is refused (below)
-            allowed = (_most(limit, p.unit) if kind == 'tolerance' else _stiffness() if p.transform
-                       else _within(limit, p.unit))
-            raise ConfigError(f'{where}: {kind} = {self.refused[key]}; allowed: {allowed}')
         if kind == 'tolerance':
             t = to_si(vals[0], f)
             if t > limit:
@@ -284,7 +278,24 @@ def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
 
 def _most(limit: float, unit: str) -> str:
     """What a tolerance of ``unit`` may be (:data:`MAX_TOLERANCE`), as every refusal of one names it."""
-    return f'at most {limit:g} {unit}'
+    return f'at most {limit:g}' + ('' if unit == '1' else f' {unit}')
+
+
+def _allowed(key: str) -> tuple[str, str]:
+    """What a tolerance and a range's ends of the ``parameters`` entry ``key`` may be, as :meth:`ToleranceTable.bind`
+    refuses a number beyond them: by the unit of the geometry parameter or frame coordinate of that name or key,
+    known before the model (both units' bounds for a key of none: it is refused as unknown at ``bind``)."""
+    unit = next((gp.unit for gp in PARAMETERS if key in (gp.name, gp.key)), None)
+    frame, _, axis = key.partition('_')
+    if unit is None and frame in ('base', 'target') and axis in AXES:
+        unit = 'm' if axis in AXES[:3] else 'rad'
+    if unit == '1':
+        return _most(MAX_TOLERANCE['1'], '1'), _stiffness()
+    if unit is not None:
+        return _most(MAX_TOLERANCE[unit], unit), _within(MAX_TOLERANCE[unit], unit)
+    m, r = MAX_TOLERANCE['m'], MAX_TOLERANCE['rad']
+    return (f'at most {m:g} m for a length, {r:g} rad for an angle (the parameter\'s unit)',
+            f'values within {m:g} m (a length) or {r:g} rad (an angle) of the nominal')
 
 
 def _within(limit: float, unit: str) -> str:
@@ -312,10 +323,9 @@ def _number(value: Any, where: str, allowed: str, positive: bool = False) -> flo
     return v
 
 
-def _entry(where: str, spec: Any, allowed: str | None = None) -> tuple[str, tuple[float, ...], str, str | None]:
-    """An entry as ``(kind, values, distribution, refused)``: a value that is no number is refused naming
-    ``allowed``, or, where the bound is the parameter's (``None``: its unit is known at ``bind``), kept as
-    ``refused`` (as written) with NaN values."""
+def _entry(where: str, spec: Any, allowed: tuple[str, str]) -> tuple[str, tuple[float, ...], str]:
+    """An entry as ``(kind, values, distribution)``; a value that is no number (NaN, text, beyond 1e6) is refused
+    naming ``allowed`` (for a tolerance, for a range's ends): the bound a number beyond it meets."""
     if not isinstance(spec, Mapping):
         raise ConfigError(f'{where}: expected a mapping such as {{tolerance: 2.0e-5}} or {{range: [0.5, 2.0]}}')
     check_keys(spec, ('tolerance', 'range', 'distribution'), where)
@@ -327,20 +337,18 @@ def _entry(where: str, spec: Any, allowed: str | None = None) -> tuple[str, tupl
     if 'tolerance' in spec:
         if dist == 'log-uniform':
             raise ConfigError(f'{where}: log-uniform needs a range; allowed with a tolerance: uniform, normal')
-        if allowed is None and not is_number(spec['tolerance']):
-            return 'tolerance', (math.nan,), dist, safe_yaml.brief(spec['tolerance'])
-        return 'tolerance', (_number(spec['tolerance'], f'{where}: tolerance', allowed or ''),), dist, None
+        return 'tolerance', (_number(spec['tolerance'], f'{where}: tolerance', allowed[0]),), dist
     rng = spec['range']
     if not isinstance(rng, list) or len(rng) != 2:
         raise ConfigError(f'{where}: range = {safe_yaml.brief(rng)}; allowed: [low, high]')
     if dist == 'normal':
         raise ConfigError(f'{where}: a range takes uniform or log-uniform; normal needs a tolerance')
-    if allowed is None and not all(is_number(v) for v in rng):
-        return 'range', (math.nan, math.nan), dist, safe_yaml.brief(rng)
-    lo, hi = (_finite(v, f'{where}: range', allowed or '') for v in rng)
+    if not all(is_number(v) for v in rng):
+        raise ConfigError(f'{where}: range = {safe_yaml.brief(rng)}; allowed: {allowed[1]}')
+    lo, hi = float(rng[0]), float(rng[1])
     if not lo < hi:
         raise ConfigError(f'{where}: range [{lo:g}, {hi:g}]; allowed: low < high')
-    return 'range', (lo, hi), dist, None
+    return 'range', (lo, hi), dist
 
 
 def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None, float | None]:
@@ -383,13 +391,12 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
     params = {} if data.get('parameters') is None else data['parameters']
     if not isinstance(params, Mapping):
         raise ConfigError(f'{source}: parameters: expected a mapping of parameter names to tolerances')
-    parsed = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v) for k, v in params.items()}
-    entries = {k: e[:3] for k, e in parsed.items()}
-    refused = {k: e[3] for k, e in parsed.items() if e[3] is not None}
+    entries = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v, _allowed(str(k))) for k, v in params.items()}
     rod = None
     most = _most(MAX_TOLERANCE['m'], 'm')
     if data.get('rod_length') is not None:
-        kind, vals, dist, _ = _entry(f'{source}: rod_length', data['rod_length'], most)
+        kind, vals, dist = _entry(f'{source}: rod_length', data['rod_length'],
+                                  (most, f'a tolerance (a half-width) {most}, not a range'))
         if kind != 'tolerance':
             raise ConfigError(f'{source}: rod_length: give a tolerance (a half-width), not a range')
         t = to_si(vals[0], lf)
@@ -405,7 +412,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         raise ConfigError(f'{source}: joint_clearance: {most}')
     sp, sa = _noise(data.get('measurement_noise'), source, lf, _ANGLE[angle])
     return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
-                          sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source, refused=refused)
+                          sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
 
 
 def load_tolerances(path: str | Path) -> ToleranceTable:
