@@ -99,6 +99,21 @@ def test_a_prefix_whose_frames_break_the_frame_name_rule_is_refused(exe, prefix,
                           rf'{100 - len(longest)} characters \({longest}: ')
 
 
+@pytest.mark.parametrize('exe', ['kinematics_node', 'trajectory_node'])
+def test_a_prefix_too_long_for_the_robots_world_frame_is_refused(exe, tmp_path):
+    """Both nodes name ``prefix + the robot's world frame`` (a service's world_frame, a stream's header): with a world
+    frame of 64 characters a prefix of 37 made frames of 101 (92 and 79 characters made 156 and 144) and both started;
+    the prefix is counted against the robot's world frame too."""
+    source = Path(__file__).resolve().parents[1] / 'gpr_kinematics' / 'config' / 'robots' / 'example_robot.yaml'
+    world = 'w' * 64
+    robot = tmp_path / 'robot.yaml'
+    robot.write_text(source.read_text().replace('\n  frame: world', f'\n  frame: {world}', 1))
+    status, out = _run(exe, '--ros-args', '-p', f'robot_file:={robot}', '-p', 'frame_prefix:=' + 'p' * 36 + '/',
+                       timeout=30)
+    assert_one_error_line(out, status, 2, r'cannot start: parameter frame_prefix = .* is invalid; allowed: .*at most '
+                          rf'36 characters \({world}: ')
+
+
 @pytest.mark.parametrize('exe', list(NODES))
 def test_parameter_of_the_wrong_type_exit_2_one_line(exe):
     spec = next(s for s in node_specs(exe) if s.kind in ('double', 'integer') and s.name != 'rate')

@@ -39,7 +39,7 @@ from gpr_interfaces.srv import (
 )
 
 from ..core.config import GprConfig, measured_points
-from ..core.messages import Service
+from ..core.messages import DEFAULT_FRAMES, Service
 from ..errors import GprError, InputError
 from ..ros.specs import KINEMATICS, check_frame_prefix
 from .conversions import first_non_finite
@@ -108,7 +108,7 @@ class KinematicsNode(GprNode):
         self.params = ConfigParameters(self, robot=declare_robot(self))
         p = declare_parameters(self, KINEMATICS)
         self.max_queue_time = float(p['max_queue_time'])
-        self.frame_prefix = check_frame_prefix(p['frame_prefix'])
+        self.frame_prefix = check_frame_prefix(p['frame_prefix'], (*DEFAULT_FRAMES, self.params.robot.world_frame))
         self._executor: QueueTimedExecutor | None = None
         self.robot_models = RobotModels()
         qos = service_qos()  # keep all: no request is dropped by a full queue (nodes/qos.py)

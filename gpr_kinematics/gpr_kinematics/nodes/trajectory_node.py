@@ -141,8 +141,6 @@ class TrajectoryNode(GprNode):
         super().__init__(**kwargs)
         p = self.p = declare_parameters(self, TRAJECTORY)
         check_frame_names(p, ('base_frame',))
-        self.prefix = check_frame_prefix(p['frame_prefix'], (p['base_frame'], DEFAULT_FRAMES[0]))   # and 'world'
-        self.base_frame = self.prefix + p['base_frame']
         program = None
         if p['mode'] == 'program':
             if not p['program_file']:
@@ -153,6 +151,9 @@ class TrajectoryNode(GprNode):
         params = ConfigParameters(self, read_only=True,
                                   robot=declare_robot(self, robot_program.robot if robot_program else None))
         self.cfg, self.robot = params.config, params.robot
+        frames = (p['base_frame'], DEFAULT_FRAMES[0], self.robot.world_frame)   # and 'world'
+        self.prefix = check_frame_prefix(p['frame_prefix'], frames)
+        self.base_frame = self.prefix + p['base_frame']
         if robot_program is not None:
             program_robot(robot_program, self.robot)
         qos = stream_qos(int(p['queue_depth']))
