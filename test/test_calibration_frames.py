@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 from calibration_support import equivalent_truth, imperfect, off_radius
-from gpr_kinematics.calibration.core_model import CoreModel
+from gpr_kinematics.calibration.core_model import CoreModel, fitted_covariance
 from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model, registration
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements, write_measurements
@@ -99,6 +99,27 @@ def test_tracker_frame_gives_the_geometry_and_the_transform(setting):
     fk = forward_batch(Qc, core.config_for(est), check_limits=False)
     fk_ref = forward_batch(Qc, core.config_for(ref.estimate), check_limits=False)
     assert np.abs(fk.position - fk_ref.position).max() < 10e-6
+
+
+def test_the_calibrated_files_covariance_is_the_geometrys_with_what_the_datum_derives(setting):
+    """The covariance a calibrated file carries from a registration: the fitted geometry parameters' (the frames'
+    left out) and those the datum derives from them, with the standard errors the registration reports."""
+    cfg, core, Q, true_model, inner, theta = setting
+    tracker = synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5, seed=1, source='tracker.csv')
+    model = measuring_model(core, tracker, 'tracker')
+    res = identify(model, tracker, frame='tracker')
+    cov = fitted_covariance(model, res)
+    names = model.parameters.names
+    fitted = [names[j] for j in res.fitted if not names[j].startswith(('base_', 'target_'))]
+    reg = registration(model, res.estimate, res.standard_error, res.fitted, res.covariance, 'tracker')
+    derived = [n for n, (_, s, _) in reg.derived.items() if np.isfinite(s)]
+    assert cov is not None and set(cov.names) == set(fitted) | set(derived) and derived
+    assert [n for n in core.parameters.names if n in cov.names] == list(cov.names)   # the geometry's order
+    at = [cov.names.index(n) for n in fitted]
+    np.testing.assert_allclose(cov.matrix[np.ix_(at, at)], res.covariance[:len(fitted), :len(fitted)], rtol=1e-12)
+    for n in derived:
+        assert math.isclose(math.sqrt(cov.matrix[cov.names.index(n), cov.names.index(n)]), reg.derived[n][1],
+                            rel_tol=1e-6), n
 
 
 def test_a_precise_tracker_gives_the_transform_to_10_um_and_20_urad(setting):

@@ -21,13 +21,15 @@ from numpy.typing import NDArray
 
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
+from ..core.geometry_covariance import KEY, GeometryCovariance
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
 from ..core.stroke import stroke_words
 from ..errors import InputError, brief
 from ..inputs import safe_yaml
 from .files import comment_lines, write_text
 from .measurements import Measurements
-from .model import Parameter, ParameterSet, coordinate_of
+from .model import Parameter, ParameterSet, PoseModel, coordinate_of
+from .results import CalibrationResult
 
 Array = NDArray[np.float64]
 
@@ -245,16 +247,43 @@ def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
             'the written file if this machine is right',)
 
 
-def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = ()) -> str:
+def fitted_covariance(model: PoseModel, res: CalibrationResult) -> GeometryCovariance | None:
+    """The covariance of the geometry parameters the fit ``res`` of ``model`` (a :class:`CoreModel`, or one in a
+    measuring frame) determined, in their coordinates (SI, a ``kappaK`` as its anisotropy): ``M C M^T`` with ``M``
+    the linear map from the fitted coordinates to the geometry's (``inner_theta``: a datum's dependent parameters
+    follow the fitted ones), the frames' own parameters left out. ``None`` without a finite one."""
+    C = np.asarray(res.covariance, dtype=float)
+    if res.fitted.size == 0 or C.shape != (res.fitted.size,) * 2 or not np.all(np.isfinite(C)):
+        return None
+    inner_theta = getattr(model, 'inner_theta', None)
+    inner: PoseModel = getattr(model, 'inner', model)
+    theta = np.asarray(res.estimate, dtype=float)
+    rows = np.repeat(theta[None], res.fitted.size + 1, axis=0)
+    rows[np.arange(1, res.fitted.size + 1), res.fitted] += 1.0      # unit steps of a linear map: exact
+    geometry = inner_theta(rows) if callable(inner_theta) else rows
+    M = (geometry[1:] - geometry[0]).T                               # (P_inner, F)
+    keep = np.flatnonzero(np.any(M != 0.0, axis=1))
+    if keep.size == 0:
+        return None
+    out = M[keep] @ C @ M[keep].T
+    return GeometryCovariance(tuple(inner.parameters[int(j)].name for j in keep), 0.5 * (out + out.T))
+
+
+def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = (),
+                           covariance: GeometryCovariance | None = None) -> str:
     """YAML text of every key of ``config`` (the schema of ``config/gpr.yaml``), floats at full precision;
-    ``characteristic_length`` is written ``null`` when it follows the radius. ``comments`` head the file."""
+    ``characteristic_length`` is written ``null`` when it follows the radius; ``covariance`` the block of the fitted
+    parameters' covariance (:mod:`gpr_kinematics.core.geometry_covariance`). ``comments`` head the file."""
     values = config.to_dict()
     if config.characteristic_length == config.radius:
         values['characteristic_length'] = None
+    if covariance is not None:
+        values[KEY] = covariance.as_block()
     body = safe_yaml.dump(values, sort_keys=False, default_flow_style=None)
     return comment_lines(comments) + body
 
 
-def write_calibrated_config(path: str | Path, config: GprConfig, comments: tuple[str, ...] = ()) -> Path:
+def write_calibrated_config(path: str | Path, config: GprConfig, comments: tuple[str, ...] = (),
+                            covariance: GeometryCovariance | None = None) -> Path:
     """Write :func:`calibrated_config_text` to ``path`` atomically (a file every command takes with ``--config``)."""
-    return write_text(path, calibrated_config_text(config, comments), 'calibrated geometry')
+    return write_text(path, calibrated_config_text(config, comments, covariance), 'calibrated geometry')

@@ -57,11 +57,18 @@ _FRAME = re.compile(r'[A-Za-z0-9_]{1,64}')
 if TYPE_CHECKING:
     from ..calibration.identifiability import Combination
     from ..calibration.model import PoseModel
+    from ..core.geometry_covariance import GeometryCovariance
     from .main import Subparsers
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from ..calibration.core_model import CoreModel, beyond_budget, check_limits, write_calibrated_config
+    from ..calibration.core_model import (
+        CoreModel,
+        beyond_budget,
+        check_limits,
+        fitted_covariance,
+        write_calibrated_config,
+    )
     from ..calibration.frames import FramedModel, measuring_model, registration
     from ..calibration.identification import identify
     from ..calibration.measurements import read_measurements
@@ -103,6 +110,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         from ..calibration.residual_plot import residual_plot
         plotted['plot_file'] = str(plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args))))
     path = None
+    cov = fitted_covariance(model, res)
     if write:
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
         comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements[0]} ({res.rows} rows, '
@@ -113,8 +121,9 @@ def _calibrate(args: argparse.Namespace) -> int:
                     f'{res.after.rms_position:.3e} m, {res.after.rms_angle:.3e} rad; gate '
                     f'{"passed" if res.gate.passed else "FAILED (written with --force)"}',
                     *(f'registration: {line}' for line in (reg.lines() if reg else [])),
+                    *(_covariance_words(cov) if cov else ()),
                     'SI units; use with any command: --config THIS_FILE')
-        path = write_calibrated_config(args.output, calibrated, comments)
+        path = write_calibrated_config(args.output, calibrated, comments, cov)
     if args.json:
         emit_json(res.as_dict() | {'model': calibrated.model, 'output': str(path) if path else None,
                                    'registration': reg.as_dict() if reg else None} | plotted)
@@ -127,6 +136,12 @@ def _calibrate(args: argparse.Namespace) -> int:
         if plotted:
             print(f'plot written to {plotted["plot_file"]}')
     return 0 if res.gate.passed else EXIT_GATE
+
+
+def _covariance_words(cov: GeometryCovariance) -> tuple[str, ...]:
+    """The comment that says what the file's covariance block is."""
+    return (f'covariance: of the {len(cov.names)} fitted parameters (SI; kappaK as its anisotropy (kappa - 1) / '
+            '(kappa + 1)), for the arms\' standard errors: gpr calibrate --robot ROBOT --config THIS_FILE',)
 
 
 def _held_where(combinations: Sequence[Combination]) -> str:

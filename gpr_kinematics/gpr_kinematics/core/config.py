@@ -27,6 +27,7 @@ from ..inputs.resources import config_path
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
 from ..inputs.validation import beyond_turn
+from .geometry_covariance import split_covariance
 
 #: The virtual-joint models (one definition; the CLI, the nodes and the tests take it from here).
 MODELS = ('radial', 'polar', 'offset', 'compliant')
@@ -357,12 +358,15 @@ def load_config(path: str | Path | None = None,
     names where the overrides came from in messages (a robot description's ``gpr`` section names itself).
 
     Raises:
-        ConfigError: unreadable file, invalid YAML, unknown key or a value outside its range.
+        ConfigError: unreadable file, invalid YAML, unknown key or a value outside its range, a malformed
+            ``covariance`` block (:mod:`.geometry_covariance`).
     """
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
     if path is not None:  # the name as given: an empty one is refused, not read as '.'
-        cfg = _build(cfg, _read_yaml(path, empty=False), str(path))
+        # a calibrated file's covariance of its fitted parameters: checked here, read by load_covariance
+        data, _ = split_covariance(_read_yaml(path, empty=False), str(path))
+        cfg = _build(cfg, data, str(path))
     if overrides:
         cfg = _build(cfg, overrides, overrides_source)
     return cfg

@@ -1,0 +1,135 @@
+"""The covariance of a calibrated geometry's fitted parameters: the ``covariance`` block of a geometry file.
+
+``gpr calibrate`` writes it; ``gpr calibrate --robot`` adds it to the arms' standard errors (docs/calibration.md)::
+
+    covariance:
+      names: [rod1_x, rod1_y, ...]    # the fitted geometry parameters (core.machine.PARAMETER_NAMES)
+      matrix: [[...], ...]            # their covariance, SI: m^2, rad^2, m rad; kappaK as its anisotropy
+                                      # (kappa - 1) / (kappa + 1), dimensionless
+
+Checked on load (:func:`parse_covariance`): known, distinct names; one row of as many numbers per name; every entry
+finite and at most :data:`MAX_ENTRY` in magnitude; symmetric within :data:`ROUNDING` of its largest entry; positive
+semi-definite within rounding (every eigenvalue of its correlation matrix at least ``-ROUNDING``).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError, brief, kind_of
+from ..inputs.safe_yaml import YamlValue
+from ..inputs.schema import check_keys, is_number, read_yaml
+
+#: The key of the block in a geometry file.
+KEY = 'covariance'
+#: Largest magnitude of an entry (m^2, rad^2): a standard error of 1 m or 1 rad is no calibration.
+MAX_ENTRY = 1.0
+#: Relative rounding allowed in the symmetry and the eigenvalues of the correlation matrix.
+ROUNDING = 1e-9
+_ALLOWED = ('a mapping of names (the fitted geometry parameters, e.g. rod1_x, kappa2) and matrix (their covariance, '
+            'one row of numbers per name, SI)')
+
+
+@dataclass(frozen=True, eq=False)
+class GeometryCovariance:
+    """Covariance ``matrix (n, n)`` of the geometry parameters ``names`` (coordinates of
+    :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy)."""
+
+    names: tuple[str, ...]
+    matrix: NDArray[np.float64]
+
+    def as_block(self) -> dict[str, YamlValue]:
+        """The file's block (floats at full precision)."""
+        return {'names': list(self.names), 'matrix': [[float(v) for v in row] for row in self.matrix]}
+
+
+#: The geometry parameters' names, in the order of :data:`gpr_kinematics.core.machine.PARAMETER_NAMES` (which a test
+#: compares: the machine imports the config, which imports this module).
+NAMES = tuple(f'{stem}{k}{end}' for k in (1, 2, 3)
+              for stem, end in (('rod', '_x'), ('rod', '_y'), ('rod', '_offset'), ('rod', '_ux'), ('rod', '_uy'),
+                                ('joint', '_x'), ('joint', '_y'), ('kappa', '')))
+
+
+def _names(value: YamlValue, where: str) -> tuple[str, ...]:
+    known = NAMES
+    allowed = f'allowed: a list of distinct geometry parameter names ({", ".join(known)})'
+    if not isinstance(value, list) or not value or len(value) > len(known):
+        raise ConfigError(f'{where}: names = {brief(value)} is invalid; {allowed}')
+    bad = [n for n in value if not isinstance(n, str) or n not in known]
+    if bad:
+        raise ConfigError(f'{where}: names: unknown parameter {brief(bad[0])}; {allowed}')
+    twice = sorted({n for n in value if value.count(n) > 1})
+    if twice:
+        raise ConfigError(f'{where}: names: {", ".join(map(str, twice))} named twice; {allowed}')
+    return tuple(str(n) for n in value)
+
+
+def _matrix(value: YamlValue, n: int, where: str) -> NDArray[np.float64]:
+    allowed = (f'allowed: {n} rows (one per name) of {n} finite numbers each, of magnitude at most {MAX_ENTRY:g} '
+               '(m^2, rad^2)')
+    if not isinstance(value, list) or len(value) != n:
+        raise ConfigError(f'{where}: matrix = {brief(value)} is invalid ({n} names); {allowed}')
+    for i, row in enumerate(value):
+        if not isinstance(row, list) or len(row) != n:
+            raise ConfigError(f'{where}: matrix row {i + 1} = {brief(row)} is invalid; {allowed}')
+        for k, v in enumerate(row):
+            if not is_number(v) or abs(float(v)) > MAX_ENTRY:
+                raise ConfigError(f'{where}: matrix row {i + 1}, column {k + 1} = {brief(v)} is invalid; {allowed}')
+    return np.array(value, dtype=float)
+
+
+def _check(C: NDArray[np.float64], names: tuple[str, ...], where: str) -> None:
+    """Symmetric and positive semi-definite within :data:`ROUNDING`."""
+    asym = np.abs(C - C.T)
+    i, k = np.unravel_index(int(np.argmax(asym)), C.shape)
+    if asym[i, k] > ROUNDING * float(np.max(np.abs(C))):
+        raise ConfigError(f'{where}: matrix is not symmetric: ({names[i]}, {names[k]}) = {float(C[i, k])!r} but '
+                          f'({names[k]}, {names[i]}) = {float(C[k, i])!r}; allowed: a symmetric matrix (within '
+                          f'{ROUNDING:g} times its largest entry)')
+    d = np.diag(C)
+    j = int(np.argmin(d))
+    if d[j] < 0.0:
+        raise ConfigError(f'{where}: matrix: the variance of {names[j]} is {float(d[j])!r}; allowed: a covariance, '
+                          'every variance >= 0')
+    s = np.sqrt(np.where(d > 0.0, d, 1.0))
+    least = float(np.min(np.linalg.eigvalsh(0.5 * (C + C.T) / np.outer(s, s))))
+    if least < -ROUNDING:
+        raise ConfigError(f'{where}: matrix is not positive semi-definite (its correlation matrix has the eigenvalue '
+                          f'{least:.3g}); allowed: a covariance, every eigenvalue of its correlation >= -{ROUNDING:g}')
+
+
+def parse_covariance(block: YamlValue, source: str) -> GeometryCovariance:
+    """The ``covariance`` block of the geometry file ``source``, checked (module docstring); else
+    :class:`ConfigError` naming what is wrong and what is allowed."""
+    where = f'{source}: {KEY}'
+    if not isinstance(block, Mapping):
+        raise ConfigError(f'{where} = {brief(block)} ({kind_of(block)}) is invalid; allowed: {_ALLOWED}')
+    check_keys(block, ('names', 'matrix'), where)
+    for key in ('names', 'matrix'):
+        if key not in block:
+            raise ConfigError(f'{where}: missing key {key}; allowed: {_ALLOWED}')
+    names = _names(block['names'], where)
+    C = _matrix(block['matrix'], len(names), where)
+    _check(C, names, where)
+    return GeometryCovariance(names, C)
+
+
+def split_covariance(data: Mapping[str, YamlValue], source: str
+                     ) -> tuple[Mapping[str, YamlValue], GeometryCovariance | None]:
+    """A geometry file's mapping without its ``covariance`` block, and the block checked (``None`` without one)."""
+    if KEY not in data:
+        return data, None
+    rest = {k: v for k, v in data.items() if k != KEY}
+    return rest, parse_covariance(data[KEY], source)
+
+
+def load_covariance(path: str | Path) -> GeometryCovariance | None:
+    """The checked ``covariance`` block of the geometry file ``path``; ``None`` for a file without one."""
+    data = read_yaml(path)
+    if not isinstance(data, Mapping):
+        return None
+    return split_covariance(data, str(path))[1]
