@@ -116,18 +116,26 @@ class ArmModel:
         return self._platform[1], self._platform[2]
 
     def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
-        S, N = Q.shape[0], Q.shape[1]
+        N = Q.shape[1]
         if self.meas.joints.shape[0] != N or not np.all(Q[:1] == Q):
             raise InputError(f'{type(self).__name__} poses: the rods must be those of its {self.meas.joints.shape[0]} '
                              'measured rows')
         p0, R0 = self.platform(Q[0])
+        return self.on_platform(theta, p0, R0)
+
+    def on_platform(self, theta: Array, position: Array, rotation: Array) -> tuple[Array, Array]:
+        """The measured points ``(S, N, 3)`` and blade rotations ``(S, N, 3, 3)`` in ``gpr_base`` at coordinates
+        ``theta (S, P)`` on the platform poses ``position (N, 3)``, ``rotation (N, 3, 3)`` (or one set per row of
+        ``theta``: ``(S, N, 3)``, ``(S, N, 3, 3)``): ``p = p0 + R0 x``."""
+        S, N = theta.shape[0], self.meas.joints.shape[0]
+        p0, R0 = np.broadcast_to(position, (S, N, 3)), np.broadcast_to(rotation, (S, N, 3, 3))
         values = self._parameters.values(theta)
         pos, rot = np.empty((S, N, 3)), np.empty((S, N, 3, 3))
         for s in range(S):
             blade, wafer = platform_to_blade(arm_with(self.arm, values[s]), self.meas.joints)
             point = np.where(self.meas.on_blade[:, None], blade.apply(self.meas.blade), wafer.position)
-            pos[s] = p0 + np.einsum('nij,nj->ni', R0, point)
-            rot[s] = R0 @ blade.rotation
+            pos[s] = p0[s] + np.einsum('nij,nj->ni', R0[s], point)
+            rot[s] = R0[s] @ blade.rotation
         return pos, rot
 
 

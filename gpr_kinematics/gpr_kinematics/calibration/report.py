@@ -16,7 +16,7 @@ from .quality import CV_GATE
 from .results import CalibrationResult, ResidualStats
 
 
-def _micro(value: float, unit: str) -> str:
+def micro(value: float, unit: str) -> str:
     """``value`` in micro-units with its unit (``um``, ``urad``), or as is for a dimensionless value."""
     if unit == 'm':
         return f'{value * 1e6:+.3f} um'
@@ -38,7 +38,7 @@ def _bias(res: CalibrationResult, j: int, unit: str) -> str:
     b = res.value_bias[j]
     if res.status[j] != 'fitted' or not math.isfinite(b) or not res.bias.source[j]:
         return ''
-    return f'  bias <= {_micro(b, unit).lstrip("+")} ({res.bias.source[j]})'
+    return f'  bias <= {micro(b, unit).lstrip("+")} ({res.bias.source[j]})'
 
 
 def _checks(res: CalibrationResult) -> list[str]:
@@ -74,9 +74,9 @@ def format_calibration(res: CalibrationResult) -> str:
     nominal, values, se_v = res.parameters.values(res.parameters.nominal), res.values, res.value_standard_error
     for j, p in enumerate(res.parameters):
         se = se_v[j]
-        se_txt = _micro(se, p.unit).lstrip('+') if math.isfinite(se) else '-'
+        se_txt = micro(se, p.unit).lstrip('+') if math.isfinite(se) else '-'
         lines.append(f'  {p.name:<14} {nominal[j]:>18.12g} {values[j]:>19.12g} '
-                     f'{_micro(values[j] - nominal[j], p.unit):>16} {se_txt:>15}  {res.status[j]} [{p.unit}]'
+                     f'{micro(values[j] - nominal[j], p.unit):>16} {se_txt:>15}  {res.status[j]} [{p.unit}]'
                      f'{_bias(res, j, p.unit)}')
     lines.append(f'  {"residuals":<10}{"RMS position":>13}{"worst position":>24}{"RMS angle":>15}'
                  f'{"worst angle":>25}')
@@ -132,7 +132,7 @@ def format_plan(plan: MeasurementPlan, sigma_position: float, sigma_angle: float
             pred.append(f'{p.name} {c:.3g} in anisotropy ({p.name[:5]} {lo:.3g} .. {hi:.3g} about '
                         f'{float(p.value(plan.at[j])):.4g})')
         else:
-            pred.append(f'{p.name} {_micro(s, p.unit).lstrip("+")}')
+            pred.append(f'{p.name} {micro(s, p.unit).lstrip("+")}')
     lines.append(f'predicted standard errors (sigma_position {sigma_position * 1e6:g} um, sigma_angle '
                  f'{sigma_angle * 1e6:g} urad): {", ".join(pred) or "none"}')
     lines += [f'  {c.describe()}' for c in ident.combinations]

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from ..calibration.frames import Registration
     from ..calibration.model import PoseModel
     from ..calibration.results import CalibrationResult
+    from ..core.geometry_covariance import GeometryCovariance
     from ..robot.description import RobotDescription
 
 
@@ -89,11 +90,26 @@ def _models(args: argparse.Namespace,
     return models, inners
 
 
-#: What the arms' standard errors leave out (a GPR calibrated from its own noisy poses put a shoulder's zero offset
-#: 4 standard errors off in 3 runs of 4, the heading it gives the platform a few urad off).
+#: What the arms' standard errors leave out without a GPR covariance (a GPR calibrated from its own noisy poses put a
+#: shoulder's zero offset 4 standard errors off in 3 runs of 4, the heading it gives the platform a few urad off).
 GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, else the robot's) as exact: its own "
                  "calibration's uncertainty (the platform's heading, a few urad) adds to the zero offsets and the "
-                 'mount, beyond them')
+                 'mount, beyond them; a --config file gpr calibrate wrote with its covariance block adds it to them')
+
+
+def covariance_note(path: str, names: tuple[str, ...]) -> str:
+    """The ``note:`` when the arms' standard errors include the GPR's covariance from the file ``path``."""
+    return (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its {len(names)} "
+            f'fitted parameters in {path}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
+
+
+def _without(res: CalibrationResult, plain: np.ndarray) -> str:
+    """``gpr covariance: ...``: the standard errors without the GPR's covariance, beside the report's (with it)."""
+    from ..calibration.report import micro
+    parts = [f'{res.parameters[int(j)].name} {micro(float(plain[j]), res.parameters[int(j)].unit).lstrip("+")}'
+             for j in res.fitted]
+    return ("gpr covariance: every standard error above includes the GPR's calibration covariance; without it: "
+            + ', '.join(parts))
 
 
 def _write(args: argparse.Namespace, robot: RobotDescription, results: list[tuple[str, CalibrationResult]],
@@ -115,11 +131,22 @@ def _as_dict(reg: Registration | None) -> dict[str, object] | None:
     return None if reg is None else reg.as_dict()
 
 
+def _gpr_dict(args: argparse.Namespace, cov: GeometryCovariance | None,
+              plain: dict[str, float]) -> dict[str, object] | None:
+    """The JSON's ``gpr_covariance`` of an arm: the file, the GPR's parameters and the standard errors without them
+    (``null``: the standard errors take the GPR as exact)."""
+    if cov is None:
+        return None
+    return {'file': str(args.config), 'parameters': list(cov.names), 'standard_error_without': plain}
+
+
 def calibrate_robot(args: argparse.Namespace) -> int:
     """Identify every arm with measurement files (module docstring); status 0, or 1 when a fit fails its gate."""
+    from ..calibration.arm_gpr import gpr_gain, with_gpr_covariance
     from ..calibration.frames import FramedModel, registration
-    from ..calibration.identification import identify
+    from ..calibration.identification import identify, weights
     from ..calibration.report import format_calibration
+    from ..core.geometry_covariance import load_covariance
     from ..robot.description import load_robot
     from ..robot.urdf import robot_urdf
     _check(args)
@@ -131,9 +158,11 @@ def calibrate_robot(args: argparse.Namespace) -> int:
                          f'base frame); allowed: --frame {urdf.root} for measurements in it, gpr_base, or a tracker\'s '
                          'frame under a name of its own (it would be fitted: world would read as a tracker here)')
     models, inners = _models(args, robot)
+    gpr_cov = load_covariance(args.config) if args.config is not None else None
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)
     results, texts, values = [], [], {}
+    without: dict[str, dict[str, float]] = {}
     regs: dict[str, Registration | None] = {}
     shown = progress_line(args.no_progress)
     for arm, model in models.items():
@@ -149,6 +178,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
                                                  declared=declared(args), progress=told))
         finally:
             shown.close()
+        plain = res.standard_error
+        if gpr_cov is not None:   # the GPR's calibration uncertainty in the arm's (calibration.arm_gpr)
+            w = weights(inner.meas.points, sp, sa, declared(args))[0]
+            res = with_gpr_covariance(res, gpr_gain(model, inner, res, gpr_cov, w), gpr_cov)
         reg: Registration | None = None
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
@@ -159,7 +192,9 @@ def calibrate_robot(args: argparse.Namespace) -> int:
             values[arm] = res.values
         results.append((arm, res))
         regs[arm] = reg
+        without[arm] = {res.parameters[int(j)].name: float(plain[j]) for j in res.fitted}
         texts.append(f'== arm {arm}\n{format_calibration(res)}'
+                     + (f'\n{_without(res, plain)}' if gpr_cov is not None else '')
                      + ''.join(f'\nregistration: {line}' for line in (reg.lines() if reg else [])))
     passed = all(r.gate.passed for _, r in results)
     message = ' '.join(f'arm {a}: {r.gate.message()}' for a, r in results if not r.gate.passed)
@@ -172,13 +207,15 @@ def calibrate_robot(args: argparse.Namespace) -> int:
             residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}')
             for a, r in results]))
     path = _write(args, robot, results, values, regs) if write else None
+    note = GEOMETRY_NOTE if gpr_cov is None else covariance_note(args.config, gpr_cov.names)
     if args.json:
-        emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a])}
+        emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a]),
+                                                                'gpr_covariance': _gpr_dict(args, gpr_cov, without[a])}
                                                  for a, r in results],
-                   'output': str(path) if path else None, 'note': GEOMETRY_NOTE} | plotted)
+                   'output': str(path) if path else None, 'note': note} | plotted)
     else:
         print('\n'.join(texts))
-        print(f'note: {GEOMETRY_NOTE}')
+        print(f'note: {note}')
         if path:
             print(f'calibrated robot written to {path} (use it with --robot {path})')
         if plotted:
