@@ -141,6 +141,40 @@ def test_the_replays_legacy_joint_states_warning_is_for_a_bag_without_joint_stat
     assert legacy_joint_states(topics, namespace) == legacy
 
 
+@pytest.mark.parametrize('topics, namespace, legacy', [
+    (['/r1/joint_states', '/r1/gpr/joint_states'], '/r1', None),   # both: the suite's in /r1
+    (['/r1/gpr/joint_states', '/r1/joint_states'], '/r1', None),   # in either order
+    (['/r1/gpr/joint_states'], '/r1', '/r1/gpr/joint_states'),   # alone: /r1's legacy topic
+    (['/r1/gpr/joint_states', '/r1/gpr/platform_pose'], '/r1', '/r1/gpr/joint_states'),
+    (['/r1/gpr/gpr/joint_states', '/r1/gpr/joint_states'], '/r1/gpr', None),   # both in /r1/gpr
+    (['/gpr/joint_states', '/gpr/gpr/platform_pose'], '/gpr', None),   # /gpr's joint_states, not the root's legacy
+    (['/gpr/joint_states', '/joint_states'], '', None),
+    (['/gpr/joint_states'], '', '/gpr/joint_states'),
+    (['/r1/gpr/joint_states', '/joint_states'], '', None),   # a root topic: no shared namespace
+    (['/r1/gpr/platform_pose', '/r1/arm_controller/joint_states'], '', None),
+])
+def test_a_bag_without_a_platform_state_is_in_the_namespace_its_legacy_joint_states_are_in(
+        tmp_path: Path, messages: list, topics: list[str], namespace: str, legacy: str | None) -> None:
+    """Without a gpr/platform_state the bag's namespace is the one every suite topic is in, ``X/gpr/joint_states``
+    read as X's legacy joint states (``typestore.topics_namespace``, as ``legacy_joint_states`` reads it): a bag
+    recorded in /r1 with /r1/joint_states and /r1/gpr/joint_states was in /r1 or /r1/gpr, so in neither (''), and
+    its replay published nothing in the replay's namespace."""
+    from bag_support import write_bag
+    from gpr_kinematics.bags.typestore import JOINT_STATES_TOPIC, LEGACY_JOINT_STATES_TOPIC, topics_namespace
+
+    raw = {t: r for t, _, r in messages}
+    like = {t: '/joint_states' if t.endswith('/joint_states') else '/gpr/platform_pose' for t in topics}
+    timed = [(t, 1_700_000_000_000_000_000 + i, raw[like[t]]) for i, t in enumerate(topics)]
+    bag = read_bag(write_bag(tmp_path / 'bag', timed, {t: GPR_TOPICS[like[t]] for t in topics}))
+    assert topics_namespace(topics) == bag.namespace == namespace
+    assert legacy_joint_states(bag.topics, bag.namespace) == legacy
+    if namespace:   # the suite's names as the replay publishes them in its own namespace
+        assert {bag.relative(t) for t in topics} == {t[len(namespace):] for t in topics}
+        assert bag.joint_states_topic() == (LEGACY_JOINT_STATES_TOPIC if legacy else JOINT_STATES_TOPIC)
+        assert bag.topic(bag.joint_states_topic()) is bag.topics[namespace + bag.joint_states_topic()]
+        assert bag.outside() == []
+
+
 def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     status, out, _ = run_cli('verify', str(REFERENCE), '--json', '--report', str(tmp_path / 'rep'), capsys=capsys)
     assert status == 0

@@ -528,9 +528,10 @@ def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path
 
     bag = tmp_path / 'ns'
     joints, chatter = f'{recorded_in}/joint_states', '/chatter'
-    # at the root the legacy topic beside joint_states, which has the joint states: no warning (in /r1, without a
-    # gpr/platform_state, /r1/gpr/joint_states would leave the bag's namespace ambiguous: /r1 or /r1/gpr)
-    states = [joints] if recorded_in else [joints, '/gpr/joint_states']
+    # the legacy topic beside joint_states, which has the joint states: no warning; in /r1, without a
+    # gpr/platform_state, /r1/gpr/joint_states left the bag's namespace undecided (/r1 or /r1/gpr: '') and the
+    # replay published /r1/joint_states as recorded, nothing in /r2
+    states = [joints, f'{recorded_in}/gpr/joint_states']
     types = {**dict.fromkeys(states, 'sensor_msgs/msg/JointState'), chatter: 'std_msgs/msg/String'}
     with SegmentedBagWriter(bag, types, fsync=False) as w:
         for name in states:
@@ -543,8 +544,9 @@ def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path
             wait_for_log(replay, r'started: publishing')
             assert c.spin_until(lambda: there and kept, 20), replay.output()
             assert list(there[0].position) == [0.3] and kept[0].data == 'hi'
+            assert c.spin_until(lambda: '/r2/gpr/joint_states' in dict(c.node.get_topic_names_and_types()), 10)
             names = dict(c.node.get_topic_names_and_types())
-            assert '/joint_states' not in names and '/r1/joint_states' not in names
+            assert not {'/joint_states', '/r1/joint_states', '/gpr/joint_states', '/r1/gpr/joint_states'} & set(names)
         assert 'carries its joint states on' not in replay.output(), replay.output()
     finally:
         replay.stop()

@@ -43,6 +43,7 @@ from .typestore import (
     legacy_joint_states,
     normalize_type,
     suite_topic,
+    topics_namespace,
 )
 
 #: Folder inside a bag where the recorder keeps the segment it is writing (not part of the bag until closed).
@@ -131,14 +132,12 @@ class Bag:
     @functools.cached_property
     def namespace(self) -> str:
         """The namespace the node suite's topics were recorded in: where its ``gpr/platform_state`` is (one suite;
-        ``''`` with several, :attr:`suites`); without one, the one prefix of every suite topic when none is at the
-        root (:data:`.typestore.KNOWN_TOPICS`; by that rule ``/r1/arm_controller/joint_states`` was a suite's)."""
+        ``''`` with several, :attr:`suites`); without one, the one namespace of every suite topic
+        (:func:`.typestore.topics_namespace`: ``/r1/gpr/joint_states`` is ``/r1``'s legacy topic; ``''`` for a
+        suite topic at the root, or ``/r1/gpr/platform_pose`` beside ``/r1/arm_controller/joint_states``)."""
         if self.suites:
             return self.suites[0] if len(self.suites) == 1 else ''
-        if any(n in KNOWN_TOPICS for n in self.topics):
-            return ''
-        found = {n[:-len(k)] for n in self.topics for k in KNOWN_TOPICS if n.endswith(k) and len(n) > len(k)}
-        return found.pop() if len(found) == 1 else ''
+        return topics_namespace(self.topics)
 
     def outside(self) -> list[str]:
         """Topics named like a suite topic (:data:`.typestore.KNOWN_TOPICS`) but not in the bag's :attr:`namespace`:

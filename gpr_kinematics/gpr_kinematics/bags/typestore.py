@@ -76,10 +76,30 @@ def suite_topic(namespace: str, name: str) -> str:
     return namespace + absolute
 
 
+def suite_namespaces(name: str) -> list[str]:
+    """The namespaces a topic named like a suite topic (:data:`KNOWN_TOPICS`) may be recorded in, the legacy reading
+    first: ``name`` without each suite name it ends with, the longest first (``/r1/gpr/joint_states``: ``/r1``'s
+    legacy ``gpr/joint_states``, then ``/r1/gpr``'s ``joint_states``); none for another topic."""
+    return [name[:-len(k)] for k in sorted(KNOWN_TOPICS, key=len, reverse=True) if name.endswith(k)]
+
+
+def topics_namespace(topics: Collection[str]) -> str:
+    """The namespace every suite topic among ``topics`` is in (:func:`suite_namespaces`), the legacy reading where
+    two are (a lone ``/r1/gpr/joint_states``: ``/r1``, as :func:`legacy_joint_states` reads it); ``''`` when none
+    is shared (``/r1/gpr/platform_pose`` beside ``/r1/arm_controller/joint_states``) or there is no suite topic."""
+    common: list[str] | None = None
+    for name in topics:
+        found = suite_namespaces(name)
+        if found:
+            common = found if common is None else [ns for ns in common if ns in found]
+    return common[0] if common else ''
+
+
 def legacy_joint_states(topics: Collection[str], namespace: str) -> str | None:
     """``/gpr/joint_states`` as a bag of ``topics`` recorded in ``namespace`` names it, when the bag's joint states
     are there only (recorded before they moved to ``/joint_states``, which a recorder's default topics and a state
-    publisher read); None when it has no such topic or ``/joint_states`` beside it (the joint states are there)."""
+    publisher read); None when it has no such topic or ``/joint_states`` beside it (the joint states are there).
+    :func:`topics_namespace` takes the topic as its namespace's legacy one too."""
     legacy = suite_topic(namespace, LEGACY_JOINT_STATES_TOPIC)
     return legacy if legacy in topics and suite_topic(namespace, JOINT_STATES_TOPIC) not in topics else None
 
