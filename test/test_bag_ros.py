@@ -365,6 +365,56 @@ def test_a_recorder_behind_its_stream_takes_it_all_at_a_stop(tmp_path: Path) -> 
     assert verify_bag(again).passed
 
 
+@pytest.mark.parametrize('drain_timeout, kept', [(5.0, 5), (20.0, 10), (0.0, 0)])
+def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                             drain_timeout: float, kept: int) -> None:
+    """The drain at a stop ended at 5 s, fixed: a recorder more than 5 s behind lost the rest, its log saying only
+    written/received of what it took. ``drain_timeout`` bounds it: the node's own on_exit on a stand-in node and
+    executor, 10 messages waiting, each taking 1 s of a stand-in clock to write (DDS cannot be made 5 s behind on
+    demand): 5 s keeps 5 and warns, 20 s all 10 (then three empty spins end it), 0 none, without a warning."""
+    import types
+
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    from gpr_kinematics.nodes import recorder_node
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+
+    clock = types.SimpleNamespace(now=0.0)
+    monkeypatch.setattr(recorder_node, 'time', types.SimpleNamespace(monotonic=lambda: clock.now,
+                                                                    time_ns=lambda: int(1.7e18 + clock.now * 1e9)))
+    lines: list[tuple[str, str]] = []
+    logger = types.SimpleNamespace(info=lambda m: lines.append(('info', m)),
+                                   warning=lambda m: lines.append(('warning', m)))
+    writer = SegmentedBagWriter(tmp_path / 'bag', {'/chatter': 'std_msgs/msg/String'}, flush_interval=0,
+                                fsync=False)
+    writer.open()
+    node = types.SimpleNamespace(writer=writer, received={'/chatter': 0}, p={'drain_timeout': drain_timeout},
+                                 get_logger=lambda: logger)
+    node._write_failed = lambda exc: recorder_node.RecorderNode._write_failed(node, exc)
+    take = recorder_node.RecorderNode._callback(node, '/chatter')
+    for i in range(3):   # taken before the stop
+        take(serialize_message(String(data=f'before {i}')))
+    waiting = [serialize_message(String(data=f'm{i}')) for i in range(10)]
+
+    def spin_once(timeout_sec: float) -> None:
+        assert timeout_sec == 0.0
+        if waiting:
+            take(waiting.pop(0))
+            clock.now += 1.0
+        else:
+            clock.now += 1e-4
+
+    assert recorder_node.RecorderNode.on_exit(node, types.SimpleNamespace(spin_once=spin_once), 0) == 0
+    assert read_bag(tmp_path / 'bag').message_count == 3 + kept and len(waiting) == 10 - kept
+    warned = [m for kind, m in lines if kind == 'warning']
+    if kept == 5:
+        assert warned == ['the drain ended at drain_timeout = 5 s with messages still coming (5 taken after the '
+                          'stop): the rest is not recorded; a longer drain_timeout waits for it']
+    else:
+        assert warned == []
+    assert f'(written/received per topic: /chatter {kept + 3}/{kept + 3}; ' in lines[-1][1]
+
+
 @pytest.mark.slow
 def test_replay_topic_filter(tmp_path: Path) -> None:
     record_to_the_end(recorder(tmp_path / 'states', flush_interval=0.5), len(DEFAULT_TOPICS), lambda: start(

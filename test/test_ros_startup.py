@@ -172,6 +172,15 @@ def test_bad_topic_names_exit_2_one_line(exe, value, words, tmp_path):
     assert not (tmp_path / 'bag').exists()
 
 
+@pytest.mark.parametrize('value', ['-1.0', '3601.0', '.nan'])
+def test_a_recorder_drain_timeout_out_of_its_range_exit_2_one_line(value, tmp_path):
+    """The drain at a stop was 5 s, fixed; ``drain_timeout`` bounds it from 0 to an hour, named when refused."""
+    status, out = _run('recorder_node', '--ros-args', '-p', f'output:={tmp_path / "bag"}', '-p',
+                       f'drain_timeout:={value}', timeout=30)
+    assert_one_error_line(out, status, 2, 'cannot start', r'drain_timeout out of range Min: 0\.0, Max: 3600\.0')
+    assert not (tmp_path / 'bag').exists()
+
+
 def test_recorder_empty_topic_list_exit_2(tmp_path):
     status, out = _run('recorder_node', '--ros-args', '-p', f'output:={tmp_path / "bag"}', '-p', 'topics:=[]')
     assert_one_error_line(out, status, 2, 'cannot start: topics is empty')

@@ -13,15 +13,17 @@ ROS 2 Jazzy standard types and of ``gpr_interfaces``). Parameters (all read-only
 - ``flush_interval`` [s] (default 1): a message is in a closed, readable segment at most this long after it
   was received (see the writer); ``max_bag_size`` [bytes] and ``max_bag_duration`` [s]: extra splits (0 = off);
   ``compression``: ``none`` or ``zstd`` (MCAP chunk compression); ``fsync`` (default true);
-- ``queue_depth``: subscription history depth (default 10000).
+- ``queue_depth``: subscription history depth (default 10000);
+- ``drain_timeout`` [s] (default 5): the longest drain at a stop (below).
 
 Latched topics (``gpr/geometry``, ``robot_description``, ``/tf_static``, and any topic whose publishers all offer
 transient-local durability when the recorder starts) are subscribed with a transient-local, reliable QoS, so
 the sample a publisher sent before the recorder started is recorded too.
 
-SIGINT and SIGTERM: the node stops taking new work, drains what DDS already delivered, closes the bag, logs
-the counts per topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more
-than ``flush_interval`` before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
+SIGINT and SIGTERM: the node stops taking new work, drains what DDS already delivered (at most ``drain_timeout``
+seconds, 0: none; a warning when that ended it with messages still coming), closes the bag, logs the counts per
+topic and exits 0. SIGKILL: the closed segments stay a valid bag (everything received more than ``flush_interval``
+before the kill). It refuses to start (one ``cannot start:`` line, exit status 2, no
 folder left behind) when the output exists or is not writable, a topic name is empty or invalid, a topic's
 type is unknown or not the one the graph shows it published as at the start (discovery usually finds running
 publishers a second later: then a warning, once), or a parameter is invalid. An error while recording (a full
@@ -53,10 +55,10 @@ from .runtime import EXIT_OK, GprNode, StoppedAtStartError, one_line, run, stop_
 NODE_NAME = 'recorder_node'
 #: What writing a segment raises when the disk is full or a file size limit is reached.
 WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterError, BagError)
-#: Longest drain after a stop request [s], and the spins in a row that take no message, without waiting, which end it
-#: earlier: what DDS already delivered is written, what a live stream sends after the stop is not waited for (a
-#: quiet time of 0.2 s never came beside the simulator's idle joint_states: 5 s more were recorded after every stop).
-DRAIN_LIMIT, DRAIN_EMPTY_SPINS = 5.0, 3
+#: The spins in a row that take no message, without waiting, which end the drain after a stop request before its
+#: ``drain_timeout``: what DDS already delivered is written, what a live stream sends after the stop is not waited for
+#: (a quiet time of 0.2 s never came beside the simulator's idle joint_states: 5 s more were recorded after every stop).
+DRAIN_EMPTY_SPINS = 3
 
 
 def default_output() -> Path:
@@ -193,8 +195,8 @@ class RecorderNode(GprNode):
 
     def on_exit(self, executor: Executor, status: int) -> int:
         """Drain what DDS already delivered (the timers cancelled, until :data:`DRAIN_EMPTY_SPINS` spins in a row that
-        do not wait take no message, at most :data:`DRAIN_LIMIT` s), close the bag and log the counts per topic. After
-        an error (status 1) the bag keeps the segments closed before it."""
+        do not wait take no message, at most ``drain_timeout`` s: a warning when that ends it), close the bag and log
+        the counts per topic. After an error (status 1) the bag keeps the segments closed before it."""
         if status != EXIT_OK:
             kept = self.writer.closed_message_count
             self.writer.abort(remove=kept == 0)
@@ -205,11 +207,17 @@ class RecorderNode(GprNode):
         for timer in (getattr(self, 'timer', None), getattr(self, 'type_timer', None)):
             if timer is not None:   # a due timer took the spins: a recorder behind stopped with messages waiting
                 timer.cancel()
-        end, empty = time.monotonic() + DRAIN_LIMIT, 0
+        limit = float(self.p['drain_timeout'])
+        end, empty, start = time.monotonic() + limit, 0, sum(self.received.values())
         while empty < DRAIN_EMPTY_SPINS and time.monotonic() < end:
             taken = sum(self.received.values())
             executor.spin_once(timeout_sec=0.0)
             empty = empty + 1 if sum(self.received.values()) == taken else 0
+        if empty < DRAIN_EMPTY_SPINS and limit > 0:   # a recorder behind its stream lost the rest without a word
+            after = sum(self.received.values()) - start
+            self.get_logger().warning(f'the drain ended at drain_timeout = {limit:g} s with messages still coming '
+                                      f'({after} taken after the stop): the rest is not recorded; a longer '
+                                      'drain_timeout waits for it')
         self.writer.close()
         counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
         self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '

@@ -305,6 +305,8 @@ def _recorder_table() -> tuple[ParamSpec, ...]:
                   read_only=True),
         ParamSpec('discovery_timeout', _D, 5.0, 'wait this long [s] for the type of a topic given without one',
                   (0.0, 3600.0), read_only=True),
+        ParamSpec('drain_timeout', _D, 5.0, 'at a stop, write what DDS delivered for at most this long [s] (less once '
+                  'three spins in a row take no message; 0 = none)', (0.0, 3600.0), read_only=True),
     )
 
 
