@@ -225,13 +225,9 @@ def _build(cfg: GprConfig) -> MachineGeometry:
 
 
 def slope_gain(config: GprConfig) -> float:
-    """The largest change of the slope of the plane through the joint centres per change of the rods,
-    ``max |d slope| / ||dq||`` [1/m]: the largest singular value of the slope rows of the inverse of the rows
-    ``(1, x_k, y_k)``, the largest over the platform joints ``p_k`` and the joint centres ``P_k = B_k + (q_k + o_k)
-    u_k`` seen from above at the 8 corners of the stroke (the base points ``B_k`` on upright rods); ``sqrt(2/3) / R``
-    for the drawing's triangle of circumradius ``R``, more for a calibrated machine whose rods stand inside it or
-    lean inwards (a triangle shrinking with the rods: 1.1 % at 0.5 m for leans of 3 mrad; the gain changes with each
-    rod's length to first order in its lean, so its largest is at a corner to within the lean's square)."""
+    """``max |d slope| / ||dq||`` [1/m] of the plane through the joint centres: the largest singular value of the slope
+    rows of the inverse of the rows ``(1, x_k, y_k)`` of the platform joints and of the centres ``B_k + (q_k + o_k)
+    u_k`` at the stroke's 8 corners (leaning rods: first order in the lean); ``sqrt(2/3) / R`` on the drawing."""
     geo = MachineGeometry.of(config)
     if geo.upright:
         triangles = [(np.asarray(geo.bx, dtype=float), np.asarray(geo.by, dtype=float))]
