@@ -79,14 +79,22 @@ GOOD = {'names': ['rod1_x', 'rod1_offset'], 'matrix': [[1e-12, 2e-13], [2e-13, 4
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 0]]}", 'matrix = [[1e-12, 0]] is invalid (2 names); allowed: 2 rows'),
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 0], [0]]}", 'matrix row 2 = [0] is invalid'),
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, .nan], [0, 1e-12]]}", 'matrix row 1, column 2 = nan is invalid'),
-    ("{names: [rod1_x], matrix: [[2.0]]}", 'matrix row 1, column 1 = 2.0 is invalid; allowed: 1 rows (one per name) '
-                                          'of 1 finite numbers each, of magnitude at most 1'),
+    ("{names: [rod1_x], matrix: [[2.0e+6]]}", 'matrix row 1, column 1 = 2000000.0 is invalid; allowed: 1 rows (one '
+                                             'per name) of 1 finite numbers each, of magnitude at most 1e+06'),
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 1e-13], [3e-13, 1e-12]]}", 'matrix is not symmetric: (rod1_x, '
                                                                             'rod1_y) = 1e-13 but (rod1_y, rod1_x) = '
                                                                             '3e-13; allowed: a symmetric matrix'),
     ("{names: [rod1_x], matrix: [[-1e-12]]}", 'the variance of rod1_x is -1e-12'),
-    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 2e-12], [2e-12, 1e-12]]}", 'matrix is not positive semi-definite (its '
-                                                                           'correlation matrix has the eigenvalue -1)'),
+    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 2e-12], [2e-12, 1e-12]]}", 'the covariance of rod1_x and rod1_y is '
+                                                                           '2e-12, beyond the square root'),
+    ("{names: [rod1_x, rod1_y, rod2_x], matrix: [[1e-12, 9e-13, -9e-13], [9e-13, 1e-12, 9e-13], [-9e-13, 9e-13, "
+     "1e-12]]}", 'matrix is not positive semi-definite (its correlation matrix has the eigenvalue -0.8)'),
+    # a variance of 0 with a covariance (its correlation read in SI units had passed, and --robot printed NaN)
+    ("{names: [rod1_offset, rod2_offset], matrix: [[0.0, 1.637e-09], [1.637e-09, 2.734e-09]]}",
+     'the covariance of rod1_offset and rod2_offset is 1.637e-09, beyond the square root of their variances 0.0'),
+    # asymmetric among small variances beside a large one (the check was relative to the largest entry)
+    ("{names: [rod2_offset, rod3_offset, kappa1], matrix: [[3e-13, 1.8e-13, 0], [-1.8e-13, 3e-13, 0], [0, 0, 7.8e-4]]}",
+     'matrix is not symmetric: (rod2_offset, rod3_offset) = 1.8e-13 but (rod3_offset, rod2_offset) = -1.8e-13'),
 ])
 def test_a_malformed_block_is_refused_in_one_line(capsys, tmp_path, block, words):
     path = tmp_path / 'bad.yaml'
@@ -115,3 +123,20 @@ def test_a_block_within_rounding_is_taken(tmp_path):
     good = tmp_path / 'good.yaml'
     good.write_text('covariance: ' + json.dumps(GOOD) + '\n')
     assert load_covariance(good).names == ('rod1_x', 'rod1_offset')
+
+
+def test_a_fit_forced_through_its_gate_writes_a_file_that_loads(capsys, tmp_path):
+    """A poor fit written with --force (the sigmas 100x the noise, a tiny threshold: kappa1's anisotropy of variance
+    5.2) wrote a block every loader then refused (entries at most 1): they are bounded by 1e6 now, and a block the
+    loader would refuse is not written."""
+    src = config_path('calibration/synthetic_measurements.csv').read_text().splitlines()
+    rows = [line if line.startswith('#') else ','.join(line.split(',')[:10]) for line in src]
+    meas = tmp_path / 'nosig.csv'
+    meas.write_text('\n'.join(rows) + '\n')
+    out = tmp_path / 'thr.yaml'
+    run(capsys, 'calibrate', str(meas), '--sigma-position', '3e-4', '--sigma-angle', '3e-4', '--threshold', '1e-6',
+        '--force', '--output', str(out), '--no-progress')
+    cov = load_covariance(out)
+    assert cov is not None and float(np.max(np.diag(cov.matrix))) > 1.0
+    status, _, err = run(capsys, 'fk', '0.3', '0.3', '0.3', '--config', str(out))
+    assert status == 0, err

@@ -21,10 +21,10 @@ from numpy.typing import NDArray
 
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
-from ..core.geometry_covariance import KEY, GeometryCovariance
+from ..core.geometry_covariance import KEY, GeometryCovariance, parse_covariance
 from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
 from ..core.stroke import stroke_words
-from ..errors import InputError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs import safe_yaml
 from .files import comment_lines, write_text
 from .measurements import Measurements
@@ -251,7 +251,8 @@ def fitted_covariance(model: PoseModel, res: CalibrationResult) -> GeometryCovar
     """The covariance of the geometry parameters the fit ``res`` of ``model`` (a :class:`CoreModel`, or one in a
     measuring frame) determined, in their coordinates (SI, a ``kappaK`` as its anisotropy): ``M C M^T`` with ``M``
     the linear map from the fitted coordinates to the geometry's (``inner_theta``: a datum's dependent parameters
-    follow the fitted ones), the frames' own parameters left out. ``None`` without a finite one."""
+    follow the fitted ones), the frames' own parameters left out. ``None`` without a finite one, or one the file's
+    loader would refuse."""
     C = np.asarray(res.covariance, dtype=float)
     if res.fitted.size == 0 or C.shape != (res.fitted.size,) * 2 or not np.all(np.isfinite(C)):
         return None
@@ -266,7 +267,11 @@ def fitted_covariance(model: PoseModel, res: CalibrationResult) -> GeometryCovar
     if keep.size == 0:
         return None
     out = M[keep] @ C @ M[keep].T
-    return GeometryCovariance(tuple(inner.parameters[int(j)].name for j in keep), 0.5 * (out + out.T))
+    cov = GeometryCovariance(tuple(inner.parameters[int(j)].name for j in keep), 0.5 * (out + out.T))
+    try:   # only a block every loader takes is written (a fit forced through its gate may be that poor)
+        return parse_covariance(cov.as_block(), 'the fit')
+    except ConfigError:
+        return None
 
 
 def calibrated_config_text(config: GprConfig, comments: tuple[str, ...] = (),

@@ -8,8 +8,9 @@
                                       # (kappa - 1) / (kappa + 1), dimensionless
 
 Checked on load (:func:`parse_covariance`): known, distinct names; one row of as many numbers per name; every entry
-finite and at most :data:`MAX_ENTRY` in magnitude; symmetric within :data:`ROUNDING` of its largest entry; positive
-semi-definite within rounding (every eigenvalue of its correlation matrix at least ``-ROUNDING``).
+finite and at most :data:`MAX_ENTRY` in magnitude; symmetric within :data:`ROUNDING` of ``sqrt(C_ii C_kk)`` entry by
+entry; a variance of 0 without covariances; positive semi-definite within rounding (every eigenvalue of its
+correlation matrix at least ``-ROUNDING``).
 """
 from __future__ import annotations
 
@@ -26,8 +27,9 @@ from ..inputs.schema import check_keys, is_number, read_yaml
 
 #: The key of the block in a geometry file.
 KEY = 'covariance'
-#: Largest magnitude of an entry (m^2, rad^2): a standard error of 1 m or 1 rad is no calibration.
-MAX_ENTRY = 1.0
+#: Largest magnitude of an entry (m^2, rad^2, m rad, or none for a kappa's anisotropy): the package's bound of a
+#: number (a fit written with ``--force`` may be that poor: its file loads).
+MAX_ENTRY = 1e6
 #: Relative rounding allowed in the symmetry and the eigenvalues of the correlation matrix.
 ROUNDING = 1e-9
 _ALLOWED = ('a mapping of names (the fitted geometry parameters, e.g. rod1_x, kappa2) and matrix (their covariance, '
@@ -70,7 +72,7 @@ def _names(value: YamlValue, where: str) -> tuple[str, ...]:
 
 def _matrix(value: YamlValue, n: int, where: str) -> NDArray[np.float64]:
     allowed = (f'allowed: {n} rows (one per name) of {n} finite numbers each, of magnitude at most {MAX_ENTRY:g} '
-               '(m^2, rad^2)')
+               "(SI: m^2, rad^2, m rad; a kappa's anisotropy none)")
     if not isinstance(value, list) or len(value) != n:
         raise ConfigError(f'{where}: matrix = {brief(value)} is invalid ({n} names); {allowed}')
     for i, row in enumerate(value):
@@ -83,18 +85,25 @@ def _matrix(value: YamlValue, n: int, where: str) -> NDArray[np.float64]:
 
 
 def _check(C: NDArray[np.float64], names: tuple[str, ...], where: str) -> None:
-    """Symmetric and positive semi-definite within :data:`ROUNDING`."""
-    asym = np.abs(C - C.T)
-    i, k = np.unravel_index(int(np.argmax(asym)), C.shape)
-    if asym[i, k] > ROUNDING * float(np.max(np.abs(C))):
-        raise ConfigError(f'{where}: matrix is not symmetric: ({names[i]}, {names[k]}) = {float(C[i, k])!r} but '
-                          f'({names[k]}, {names[i]}) = {float(C[k, i])!r}; allowed: a symmetric matrix (within '
-                          f'{ROUNDING:g} times its largest entry)')
+    """Symmetric and positive semi-definite within :data:`ROUNDING` (module docstring)."""
     d = np.diag(C)
     j = int(np.argmin(d))
     if d[j] < 0.0:
         raise ConfigError(f'{where}: matrix: the variance of {names[j]} is {float(d[j])!r}; allowed: a covariance, '
                           'every variance >= 0')
+    scale = np.sqrt(np.outer(d, d))   # each entry's own scale: the variances' sizes differ by many orders
+    asym = np.abs(C - C.T) - ROUNDING * scale
+    i, k = np.unravel_index(int(np.argmax(asym)), C.shape)
+    if asym[i, k] > 0.0:
+        raise ConfigError(f'{where}: matrix is not symmetric: ({names[i]}, {names[k]}) = {float(C[i, k])!r} but '
+                          f'({names[k]}, {names[i]}) = {float(C[k, i])!r}; allowed: a symmetric matrix (within '
+                          f'{ROUNDING:g} times the square root of the two variances)')
+    loose = np.abs(C) > np.sqrt(np.outer(d, d)) * (1.0 + ROUNDING)   # |correlation| > 1: a zero variance's too
+    if loose.any():
+        i, k = np.argwhere(loose)[0]
+        raise ConfigError(f'{where}: matrix: the covariance of {names[i]} and {names[k]} is {float(C[i, k])!r}, '
+                          f'beyond the square root of their variances {float(d[i])!r} and {float(d[k])!r}; allowed: '
+                          'a covariance, every correlation within [-1, 1] (a variance of 0 has no covariance)')
     s = np.sqrt(np.where(d > 0.0, d, 1.0))
     least = float(np.min(np.linalg.eigvalsh(0.5 * (C + C.T) / np.outer(s, s))))
     if least < -ROUNDING:
