@@ -110,8 +110,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         from ..calibration.residual_plot import residual_plot
         plotted['plot_file'] = str(plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args))))
     path = None
-    cov = fitted_covariance(model, res)
     if write:
+        cov = fitted_covariance(model, res)
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
         comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements[0]} ({res.rows} rows, '
                     f'measured in {args.frame}), {stamp}',

@@ -98,7 +98,7 @@ def _check(C: NDArray[np.float64], names: tuple[str, ...], where: str) -> None:
         raise ConfigError(f'{where}: matrix is not symmetric: ({names[i]}, {names[k]}) = {float(C[i, k])!r} but '
                           f'({names[k]}, {names[i]}) = {float(C[k, i])!r}; allowed: a symmetric matrix (within '
                           f'{ROUNDING:g} times the square root of the two variances)')
-    loose = np.abs(C) > np.sqrt(np.outer(d, d)) * (1.0 + ROUNDING)   # |correlation| > 1: a zero variance's too
+    loose = np.abs(C) > scale * (1.0 + ROUNDING)   # |correlation| > 1: a zero variance's too
     if loose.any():
         i, k = np.argwhere(loose)[0]
         raise ConfigError(f'{where}: matrix: the covariance of {names[i]} and {names[k]} is {float(C[i, k])!r}, '
