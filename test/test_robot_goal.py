@@ -2,10 +2,15 @@
 ``robot_simulator_node`` applies before it moves, each against a number computed here."""
 from __future__ import annotations
 
+import dataclasses
+import math
+import re
+
 import numpy as np
 import pytest
 from gpr_kinematics.robot.controller import INVALID_GOAL, OLD_HEADER_TIMESTAMP, ControllerJoints, GoalError, Tolerances
 from gpr_kinematics.robot.goal import Controller, Goal, check_point_count, plan_goal
+from gpr_kinematics.robot.servo import servo
 from gpr_kinematics.robot.trajectory import MAX_DURATION, MAX_POINTS
 from robot_support import ROBOT
 
@@ -259,3 +264,75 @@ def test_the_joints_a_goal_leaves_out_are_held_at_their_command_and_the_motion_i
             getattr(motion, name)[0] = 0
     current[0] = 0.3
     assert motion.current[0] != 0.3   # a copy: the caller's state stays its own (and writable)
+
+
+LAGGING = dataclasses.replace(CONTROLLER, servo_time_constant=0.5)
+
+
+def test_a_lagging_goal_is_planned_from_where_its_wait_leaves_the_joints():
+    """With a lag (``servo_time_constant`` 0.5 s) the joints converge to the last command while a goal waits for its
+    stamp (2 s): the motion starts where that leaves them, ``held + (current - held) exp(-2 / 0.5)``, the goal's own
+    joint too; every sample then as the simulator steps it (``servo`` with the samples' spacing, the first without a
+    step), and the wait's states lie on the line from the arrival to the first sample, never past it."""
+    k, s = JOINTS.names.index('arm1_elbow'), JOINTS.names.index('arm1_shoulder')
+    held = JOINTS.rest.copy()
+    held[s] += 0.3
+    held[k] += 0.1
+    current = JOINTS.rest.copy()
+    motion, start = plan_goal(_goal(stamp_ns=NOW + 2 * NS), LAGGING, current, NOW, held)
+    lag = motion.lag
+    assert start == NOW + 2 * NS and lag is not None and lag.wait == 2.0 and lag.tau == 0.5
+    begin = held + (current - held) * math.exp(-4.0)
+    np.testing.assert_allclose(motion.current, begin, rtol=0, atol=1e-15)
+    assert np.array_equal(lag.samples[0], motion.current) and np.array_equal(lag.arrival, current)
+    assert motion.positions[0, k] == motion.current[k] and motion.positions[5, s] == held[s]
+    x = lag.samples[0]
+    for i in range(1, len(motion)):
+        x = servo(x, motion.positions[i], float(motion.time[i] - motion.time[i - 1]), 0.5)
+        assert np.array_equal(lag.samples[i], x)
+    assert abs(lag.samples[-1, k] - (JOINTS.rest[k] + 0.2)) > 1e-3   # still lagging at the last sample
+    for t, f in ((0.0, 0.0), (1.0, 1.0 - math.exp(-2.0)), (2.0, 1.0 - math.exp(-4.0)), (9.0, 1.0 - math.exp(-4.0))):
+        np.testing.assert_allclose(lag.waited(t), current + f * (held - current), rtol=0, atol=1e-15)
+    path = lag.path(motion.positions[-1])
+    assert path.shape == (len(motion) + 2, len(JOINTS.names)) and np.array_equal(path[0], current)
+    assert np.array_equal(path[-1], motion.positions[-1])
+    at_once, _ = plan_goal(_goal(), LAGGING, current, NOW, held)   # no wait: from where they are, exactly
+    assert np.array_equal(at_once.current, current) and at_once.lag.path(current).shape[0] == len(at_once) + 1
+    for name in ('arrival', 'command', 'samples'):
+        with pytest.raises(ValueError, match='read-only'):
+            getattr(lag, name)[0] = 0
+
+
+def test_the_lag_moves_on_the_lines_between_its_samples():
+    """Under a command held over a step the first-order response ``d + (x - d) exp(-t / tau)`` stays on the line from
+    the sample before to the sample after (one factor for every joint): 200 random steps, the response at 7 instants
+    within each, its distance from the segment below 1e-15 m and its place along it in [0, 1]."""
+    rng = np.random.default_rng(7)
+    x = rng.normal(size=9)
+    for _ in range(200):
+        d, dt, tau = rng.normal(size=9), rng.uniform(1e-3, 0.1), rng.uniform(1e-3, 2.0)
+        after = servo(x, d, dt, tau)
+        for t in np.linspace(0.0, dt, 7):
+            y = d + (x - d) * math.exp(-t / tau)
+            step = after - x
+            f = float(np.dot(y - x, step) / np.dot(step, step))
+            assert -1e-12 <= f <= 1.0 + 1e-12
+            assert np.linalg.norm(x + f * step - y) < 1e-12 * max(1.0, float(np.linalg.norm(x)))
+        x = after
+
+
+def test_a_tilt_refusal_names_the_lagging_rods_it_holds_at_their_command():
+    """Rods 2 and 3 commanded 20 mm down by the last goal and lagging at rest, a goal raising rod 1 by 20 mm: the
+    platform would tilt beyond its limit with them at their command, where the refusal quotes them; it says where
+    they are now, lagging."""
+    held = JOINTS.rest.copy()
+    held[1:3] -= 0.02
+    rod = float(JOINTS.rest[0])
+    goal = _goal(joint_names=['rod_1'], times=[1.0], positions=[[rod + 0.02]], velocities=[[]],
+                 accelerations=[[]])
+    with pytest.raises(GoalError) as e:
+        plan_goal(goal, LAGGING, JOINTS.rest, NOW, held)
+    assert re.fullmatch(rf'sample \d+ \(t = [\d.]+ s\): the platform would tilt [\d.e-]+ rad \(rods [\d.]+, '
+                        rf'{rod - 0.02:.9g}, {rod - 0.02:.9g} m; the rods it leaves out at their command, lagging now '
+                        rf'at rod_2 {rod:.9g} m, rod_3 {rod:.9g} m\); allowed: at most tilt_limit [\d.e-]+ rad',
+                        str(e.value)), str(e.value)

@@ -866,3 +866,56 @@ def test_another_publishers_state_ends_the_lagging_joints_command_only_when_take
     else:
         assert node.command is None and node.actual[s] == command[s] and node.actual[e] == joints.rest[e], \
             node.actual[s] - command[s]   # converged, then snapped to it exactly
+
+
+def test_a_goal_waiting_for_its_stamp_moves_the_lagging_joints_as_its_check_did(ros_environment):
+    """The node's methods on a stub (no DDS): arm1's shoulder lagging at rest, commanded 0.3 rad on by the last goal,
+    a goal on the elbow accepted with a stamp 2 s ahead (``tau`` 0.5 s). Its idle ticks at 10 Hz took the shoulder
+    nowhere (the command dropped at the acceptance) and, the goal cancelled before its start, it stayed 0.3 rad short
+    for good. Now the waiting joints move on the line the goal's check followed (:meth:`Lag.waited`: equal to it at
+    every tick, never past the motion's first sample), and once the goal is cancelled the last command stands: the
+    shoulder converges to it exactly."""
+    import types
+
+    import gpr_kinematics.nodes.robot_simulator_node as sim
+    from gpr_kinematics.robot.controller import Tolerances
+    from gpr_kinematics.robot.goal import Controller, Goal, plan_goal
+
+    ns = 1_000_000_000
+    clock = types.SimpleNamespace(nanoseconds=10 * ns)
+    s, e = JOINTS.names.index('arm1_shoulder'), JOINTS.names.index('arm1_elbow')
+    command = JOINTS.rest.copy()
+    command[s] += 0.3
+    controller = Controller(JOINTS, Tolerances.uniform(len(JOINTS.names), 0.0, 1e-3, 0.5), 100.0, ROBOT.config, 1e-3,
+                            False, None, 0.5)
+    goal = Goal(['arm1_elbow'], [1.0], [[JOINTS.rest[e] - 0.1]], [[]], [[]], False, False, False, [], [], 0.0,
+                12 * ns)
+    motion, start = plan_goal(goal, controller, JOINTS.rest, clock.nanoseconds, command)
+    done: list = []
+    run = types.SimpleNamespace(motion=motion, start_ns=start, started=None, k=0, goal=None,
+                                done=types.SimpleNamespace(set_result=done.append))
+    node = types.SimpleNamespace(run=run, own={}, joints=JOINTS, actual=JOINTS.rest.copy(), command=command.copy(),
+                                 velocity=np.zeros(len(JOINTS.names)), pending=None, last_check=None, cfg=ROBOT.config,
+                                 last_foreign=None, last_published=clock.nanoseconds, refusing=False, clearance=None,
+                                 p={'idle_rate': 10.0, 'servo_time_constant': 0.5},
+                                 motion_timer=types.SimpleNamespace(cancel=lambda: None),
+                                 get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
+                                 get_logger=lambda: types.SimpleNamespace(warning=lambda *a, **k: None,
+                                                                          info=lambda *a, **k: None))
+    node.publish_state = lambda stamp: setattr(node, 'last_published', clock.nanoseconds)
+    for method in ('_settle', '_converge', '_end', '_cancelled'):
+        setattr(node, method, types.MethodType(getattr(sim.RobotSimulatorNode, method), node))
+    idle = types.MethodType(sim.RobotSimulatorNode._idle, node)
+    for k in range(1, 20):   # 1.9 s of the 2 s wait
+        clock.nanoseconds = 10 * ns + k * ns // 10
+        idle()
+        np.testing.assert_allclose(node.actual, motion.lag.waited(k / 10), rtol=0, atol=1e-15)
+    assert 0.0 < command[s] - node.actual[s] < 0.3 * math.exp(-3.8) * 1.001
+    assert abs(command[s] - node.actual[s]) > abs(command[s] - motion.current[s])   # short of the first sample
+    node._cancelled(run)
+    assert done[0][0] == 'canceled' and np.array_equal(node.command, command)
+    node.run = None
+    for k in range(20, 250):
+        clock.nanoseconds = 10 * ns + k * ns // 10
+        idle()
+    assert node.command is None and np.array_equal(node.actual, command)

@@ -217,3 +217,26 @@ def test_a_stream_the_cell_refuses_leaves_the_held_state_published(ros_environme
             idle()
     assert len(published) >= 18 and node.actual[joints.names.index('arm1_shoulder')] == joints.rest[
         joints.names.index('arm1_shoulder')], len(published)
+
+
+def test_a_lagging_simulator_checks_the_path_its_joints_take(ros_environment, tmp_path):
+    """``servo_time_constant`` 1 s and a box the goal's samples clear (the platform lifted over it) but the lagging
+    joints do not, cutting the corner where the shoulder turns in while the rods are still low (test_safety_goal.py):
+    the node refuses the goal naming the lag, where its check had followed the samples and let the blade in."""
+    from test_safety_goal import corner_case
+
+    size, centre, yaw, names, times, positions = corner_case()
+    cell = tmp_path / 'cell.yaml'
+    cell.write_text('format: gpr_cell\nversion: 1\nframe: world\nobstacles:\n'
+                    f'  - {{name: box, box: {list(size)!r}, position: {[float(v) for v in centre]!r}, '
+                    f'rpy: [0.0, 0.0, {float(yaw)!r}]}}\n')
+    proc = start('robot_simulator_node', namespace='/gpr_sim_cell_lag', cell_file=str(cell), servo_time_constant=1.0)
+    for c, cli, _states, _proc in session(proc, r'goals checked against cell', 'gpr_test_simulator_cell_lag',
+                                          '/gpr_sim_cell_lag'):
+        result, _ = _run(c, cli, _goal(names, times, positions))
+        assert result.error_code == -1 and re.fullmatch(
+            r"arm1_blade and box would come within the margin: -[\d.e+-]+ m \(-[\d.]+ mm\) apart at t = [\d.]+ s \(s "
+            r"from the goal's arrival, the joints lagging 1 s \(servo_time_constant\) behind its samples, settling to "
+            r'its last point by 5 tau after it; negative: penetration; found by the clearance check over the whole '
+            r'motion, cell .*cell\.yaml\); allowed: every pair at least clearance_margin 0.002 m \(2 mm\) apart over '
+            r'the whole motion', result.error_string), result.error_string

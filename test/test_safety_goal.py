@@ -4,6 +4,7 @@ would drive the blade into an obstacle (between its points, named, at the right 
 acceptance of a safe goal in the example cell."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -14,6 +15,7 @@ from gpr_kinematics.core.machine import MachineGeometry
 from gpr_kinematics.errors import ConfigError, InputError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.controller import INVALID_GOAL, ControllerJoints, GoalError, Tolerances, plan_motion
+from gpr_kinematics.robot.goal import Controller, Goal, plan_goal
 from gpr_kinematics.robot.plan import plan_program
 from gpr_kinematics.robot.program import load_program
 from gpr_kinematics.robot.spline import TRAVEL_SLACK
@@ -370,3 +372,86 @@ def test_another_publishers_state_is_judged_with_the_line_from_the_held_one():
                                               'box within clearance_margin 0.002 m: -0.020001 m (-20.001 mm) apart '
                                               '(negative: penetration; cell test_cell)')
     assert check.move(_at(0.6), _at(1.2)) is None
+
+
+def _lag_goal(names, times, positions, stamp_ns=0):
+    return Goal(list(names), list(times), [list(p) for p in positions], [[] for _ in times], [[] for _ in times],
+                False, False, False, [], [], 0.0, stamp_ns)
+
+
+def _lagging(cell, tau, margin=0.002):
+    return Controller(JOINTS, TOL, 100.0, ROBOT.config, 1e-3, False, GoalClearance(ROBOT, cell, margin), tau)
+
+
+LAG_REFUSAL = (r'arm1_blade and box would come within the margin: (-?[\d.e+-]+) m \(-?[\d.]+ mm\) apart at t = '
+               r"([\d.]+) s \(s from the goal's arrival, the joints lagging ([\d.]+) s \(servo_time_constant\) behind "
+               r'its samples, settling to its last point by 5 tau after it; negative: penetration; found by the '
+               r'clearance check over the whole motion, cell test_cell\); allowed: every pair at least '
+               r'clearance_margin 0.002 m \(2 mm\) apart over the whole motion')
+
+
+def _on_path(motion, t):
+    """Every joint where the lagging ``motion``'s path passes at ``t`` [s from the arrival] (its lines, no wait)."""
+    lag = motion.lag
+    path = lag.path(motion.positions[-1])
+    times = np.concatenate([motion.time, [motion.time[-1] + 5 * lag.tau]])
+    return np.array([np.interp(t, times, path[:, j]) for j in range(path.shape[1])])
+
+
+def test_a_lagging_joint_a_goal_leaves_out_is_checked_on_its_way_to_its_command():
+    """A reviewer's case: arm1's shoulder commanded to 1.2 rad by the last goal and still lagging at 0, a next goal
+    moving the elbow only. Its check saw the shoulder at its command, past the box, while it turned through it (the
+    blade 20 mm inside at 0.6 rad): accepted without the lag's path, refused with it, naming the blade, the box and
+    a distance the library gives at the instant named on the path."""
+    cell = _box_at(-0.02)
+    elbow = JOINTS.names.index('arm1_elbow')
+    goal = _lag_goal(['arm1_elbow'], [1.0], [[JOINTS.rest[elbow] - 0.05]])
+    held = _at(1.2)
+    motion, _ = plan_goal(goal, dataclasses.replace(_lagging(cell, 0.5), servo_time_constant=0.0), _at(0.0), 0,
+                          held)   # no lag: the shoulder taken at its command
+    assert motion.lag is None and motion.positions[0, SHOULDER] == 1.2
+    with pytest.raises(GoalError) as e:
+        plan_goal(goal, _lagging(cell, 0.5), _at(0.0), 0, held)
+    m = re.fullmatch(LAG_REFUSAL, str(e.value))
+    assert m and e.value.code == INVALID_GOAL and m.group(3) == '0.5', str(e.value)
+    d, t = float(m.group(1)), float(m.group(2))
+    motion = dataclasses.replace(_lagging(cell, 0.5), clearance=None)
+    lagging, _ = plan_goal(goal, motion, _at(0.0), 0, held)
+    q = _on_path(lagging, t)
+    assert 0.3 < q[SHOULDER] < 0.9 and -0.0201 < d < 0.002
+    assert GoalClearance(ROBOT, cell, 0.002).line(q, q).below_margin[0].measured == pytest.approx(d, abs=2e-6)
+
+
+def corner_case():
+    """The box of :func:`test_the_lag_cutting_a_corner_into_a_box_is_refused` (size, centre, yaw) and its goal (joints,
+    times, positions): the platform lifted 65 mm, arm1's shoulder turned 1.2 rad over the box, the platform lowered."""
+    axis, reach, angle, z = _blade_reach()
+    yaw = angle - 0.25
+    centre = axis + (reach - 0.03) * np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    centre[2] = z
+    rods, h = JOINTS.rest[:3], 0.065
+    t1 = h / 0.14
+    return ((0.05, 0.1, 0.09), centre, yaw, ['rod_1', 'rod_2', 'rod_3', 'arm1_shoulder'],
+            [t1, t1 + 0.85, 2 * t1 + 0.85], [[*(rods + h), 0.0], [*(rods + h), 1.2], [*rods, 1.2]])
+
+
+def test_the_lag_cutting_a_corner_into_a_box_is_refused():
+    """A goal lifts the platform 65 mm, turns arm1's shoulder 1.2 rad over a box 90 mm tall standing in the blade's
+    sweep, and lowers it: the samples clear the box (accepted without a lag and with 0.2 s), but lagging 1 s the
+    rods are still low when the shoulder turns in over the box, and the blade enters it: refused, with a distance
+    the library gives on the lagging path at the instant named."""
+    size, centre, yaw, names, times, positions = corner_case()
+    cell = _cell(size, centre, rpy=(0.0, 0.0, yaw))
+    goal = _lag_goal(names, times, positions)
+    for tau in (0.0, 0.2):
+        assert len(plan_goal(goal, _lagging(cell, tau), JOINTS.rest, 0)[0]) == 179   # 1.78 s at 100 Hz
+    with pytest.raises(GoalError) as e:
+        plan_goal(goal, _lagging(cell, 1.0), JOINTS.rest, 0)
+    m = re.fullmatch(LAG_REFUSAL, str(e.value))
+    assert m, str(e.value)
+    d, t = float(m.group(1)), float(m.group(2))
+    lagging, _ = plan_goal(goal, dataclasses.replace(_lagging(cell, 1.0), clearance=None), JOINTS.rest, 0)
+    q = _on_path(lagging, t)
+    assert d < 0.0
+    assert GoalClearance(ROBOT, cell, 0.002).line(q, q).below_margin[0].measured == pytest.approx(d, abs=2e-6)
+    assert q[0] - JOINTS.rest[0] < 0.05 and q[SHOULDER] > 0.05   # the rods still low, the shoulder turning in

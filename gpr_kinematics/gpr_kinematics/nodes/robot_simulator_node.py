@@ -3,14 +3,15 @@
 It serves ``joint_trajectory_controller/follow_joint_trajectory`` (in the node's namespace, as ros2_control's
 ``joint_trajectory_controller`` would), so MoveIt, ``gpr program send`` or ``ros2 action send_goal`` drive it as the
 real robot's controller. A goal names any of the robot's joints (the rods ``rod_1 .. rod_3``, the arms' joints; the
-others hold) and is checked before anything moves (:func:`gpr_kinematics.robot.goal.plan_goal`: names, limits, times,
-the platform's tilt; with ``cell_file``, the clearance of the whole interpolated motion, certified between samples:
-:class:`gpr_kinematics.safety.goal.GoalClearance`); a goal it refuses is aborted with the standard ``error_code`` and
-an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate`` and published on ``joint_states``
-(every joint, position and velocity, stamped at the start plus ``t_k = k / rate``) with one feedback per sample;
-the joints follow the samples exactly, or with the first-order lag ``servo_time_constant``. Path tolerances are
-checked at every sample, the goal tolerance after the last point within ``goal_time_tolerance``; cancel stops at the
-next sample (``SUCCESSFUL``, the state held); a new goal that passes the checks preempts the running one (canceled,
+others hold) and is checked before anything moves (:func:`gpr_kinematics.robot.goal.plan_goal`: names, limits,
+times, the platform's tilt; with ``cell_file``, the clearance of the whole interpolated motion, certified between
+samples: :class:`gpr_kinematics.safety.goal.GoalClearance`); a goal it refuses is aborted with the standard
+``error_code`` and an ``error_string`` naming what was wrong. A goal it accepts is sampled at ``rate`` and published
+on ``joint_states`` (every joint, position and velocity, stamped at the start plus ``t_k = k / rate``) with one
+feedback per sample; the joints follow the samples exactly, or with the first-order lag ``servo_time_constant``
+(checked along the path it takes, :class:`~gpr_kinematics.robot.servo.Lag`). Path tolerances are checked at every
+sample, the goal tolerance after the last point within ``goal_time_tolerance``; cancel stops at the next sample
+(``SUCCESSFUL``, the state held); a new goal that passes the checks preempts the running one (canceled,
 ``INVALID_GOAL``, as joint_trajectory_controller does); a goal running when the node stops ends aborted, its client
 told, and one whose clock goes back more than a sample period ends aborted naming the jump
 (:func:`~gpr_kinematics.robot.goal.clock_set_back`). A ``header.stamp`` of 0 starts at once, a later one then, one
@@ -77,8 +78,7 @@ FOREIGN_CHECK = 0.1
 
 @dataclass
 class _Run:
-    """A goal under way: its handle, motion, start [ns], the future its execute callback awaits, the latest reading
-    of the clock [ns], next sample."""
+    """A goal under way: handle, motion, start [ns], the future its execution awaits, latest clock [ns], next sample."""
 
     goal: ServerGoalHandle
     motion: Motion
@@ -127,10 +127,10 @@ class RobotSimulatorNode(GprNode):
         self.actual, self.velocity = self.joints.rest.copy(), np.zeros(n)
         self.command: Any = None   # a goal's last point the lagging joints converge to (servo_time_constant)
         self.period = 1.0 / float(p['rate'])
-        self.controller = Controller(self.joints, Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'],
-                                                                     p['goal_time']),
-                                     float(p['rate']), self.cfg, float(p['start_tolerance']),
-                                     bool(p['allow_nonzero_velocity_at_trajectory_end']), self.clearance)
+        tol = Tolerances.uniform(n, p['path_tolerance'], p['goal_tolerance'], p['goal_time'])
+        self.controller = Controller(self.joints, tol, float(p['rate']), self.cfg, float(p['start_tolerance']),
+                                     bool(p['allow_nonzero_velocity_at_trajectory_end']), self.clearance,
+                                     float(p['servo_time_constant']))
         self.run: _Run | None = None
         #: The states it published lately, stamp [ns] -> positions: its own messages heard back are not another
         #: publisher's (told by content: under a stepped simulated clock a stream's samples share or precede the stamp
@@ -263,12 +263,14 @@ class RobotSimulatorNode(GprNode):
             self.publish_state(stamp)
 
     def _converge(self, stamp: int) -> None:
-        """Lagging joints move on toward the ended goal's last point, commanded still (as in a real controller)."""
-        before, dt = self.actual, max(stamp - (self.last_published or stamp), 0) / NS_PER_S
+        """Lagging joints move on toward the ended goal's last point, commanded still (as in a real controller); while a
+        goal waits for its start, on the line its checks followed (:meth:`~..robot.servo.Lag.waited`)."""
+        before, dt, r = self.actual, max(stamp - (self.last_published or stamp), 0) / NS_PER_S, self.run
         if self.command is None or dt == 0.0:
             self.velocity[:] = 0.0
             return
-        self.actual = servo(before, self.command, dt, float(self.p['servo_time_constant']))
+        self.actual = lag.waited(lag.wait - (r.start_ns - stamp) / NS_PER_S) if r and (lag := r.motion.lag) else \
+            servo(before, self.command, dt, float(self.p['servo_time_constant']))
         self.velocity = (self.actual - before) / dt
         if np.max(np.abs(self.actual - self.command)) <= 1e-12:   # there, to the last picometre or picoradian
             self.actual, self.command = self.command, None
@@ -318,7 +320,7 @@ class RobotSimulatorNode(GprNode):
             self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
                       f'{len(old.motion)} samples')
         done = Future()
-        self.run, self.command = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds), None
+        self.run = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds)   # the command: at its start
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
                                f'{", ".join(motion.trajectory.joint_names)}, {motion.duration:.6g} s, '
                                f'{len(motion)} samples')
@@ -342,8 +344,8 @@ class RobotSimulatorNode(GprNode):
         self.velocity[:] = 0.0
         if r is None:
             return
-        lag = outcome == 'succeeded' and float(self.p['servo_time_constant']) > 0.0   # else held where they are
-        self.command = r.motion.positions[-1].copy() if lag else None
+        if r.started is not None:   # else the last goal's command stands (the joints converge on); lagging: on to
+            self.command = r.motion.positions[-1].copy() if outcome == 'succeeded' and r.motion.lag else None  # its end
         if outcome == 'succeeded':   # rclpy: one severity per call site
             self.get_logger().info(f'goal {outcome} ({code}): {text}')
         else:
@@ -378,7 +380,7 @@ class RobotSimulatorNode(GprNode):
             return
         now = self.pace_clock()
         if r.started is None:
-            r.started = now
+            r.started, self.command = now, None
         due = int((now - r.started) / self.period) + 1
         for _ in range(max(1, min(due - r.k, self.catch_up()))):
             if self.run is not r or not self._step(r):
@@ -395,7 +397,7 @@ class RobotSimulatorNode(GprNode):
         dt = 0.0 if r.k == 0 else (self.period if settling else float(m.time[r.k] - m.time[r.k - 1]))
         tau = float(self.p['servo_time_constant'])
         before = self.actual
-        self.actual = servo(before, desired, dt, tau)
+        self.actual = servo(before, desired, dt, tau) if m.lag is None or settling else m.lag.samples[r.k].copy()
         self.velocity = desired_v.copy() if tau <= 0.0 else (self.actual - before) / dt if dt > 0 else 0 * before
         self.publish_state(r.start_ns + round(t * NS_PER_S))
         self._feedback(r, t, desired, desired_v)

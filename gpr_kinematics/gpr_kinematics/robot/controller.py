@@ -40,6 +40,7 @@ from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_count, grid_times
 from .plan import joint_limits, position_limits
+from .servo import Lag
 from .timing import MAX_SAMPLES
 from .trajectory import MAX_DURATION, MAX_JOINTS, MAX_POINTS, JointTrajectory, evaluate, spline
 
@@ -220,7 +221,8 @@ class Motion:
     ``goal (G,)`` (indices), its tolerances, its trajectory and every joint where it was at the goal's arrival
     ``current (N,)`` (a first point at ``t = 0`` is reached from there in one sample); ``late`` [s]: the goal's own
     time at the motion's start (a ``header.stamp`` in the past: its feedback and result count from the stamp). Its
-    arrays are read-only: a motion is built once, checked, then executed as checked."""
+    arrays are read-only: a motion is built once, checked, then executed as checked. ``lag``: where the joints are at
+    each sample under the simulator's first-order lag (:class:`~.servo.Lag`; None: at ``positions``)."""
 
     time: Array
     positions: Array
@@ -230,6 +232,7 @@ class Motion:
     trajectory: JointTrajectory
     current: Array
     late: float = 0.0
+    lag: Lag | None = None
 
     def __post_init__(self) -> None:
         for a in (self.time, self.positions, self.velocities, self.goal, self.current):
@@ -374,7 +377,21 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     positions[:, cols] = pos
     velocities = np.zeros_like(positions)
     velocities[:, cols] = vel
-    rods = positions[:, :3]
+    lagging = [f'{joints.names[k]} {float(current[k]):.9g} m' for k in range(3)
+               if held is not None and k not in cols and held[k] != current[k]]   # quoted at the command, not there
+    refuse_tilt(positions[:, :3], t, config, f'; the rods it leaves out at their command, lagging now at '
+                f'{", ".join(lagging)}' if lagging else '')
+    motion = Motion(t, positions, velocities, cols, tolerances, traj, current)
+    if clearance is not None:
+        refusal = clearance(motion)
+        if refusal:
+            raise GoalError(INVALID_GOAL, refusal)
+    return motion
+
+
+def refuse_tilt(rods: Array, time: Array, config: GprConfig, note: str = '', what: str = 'sample') -> None:
+    """:class:`GoalError` (``INVALID_GOAL``) for the first of the samples ``rods (K, 3)`` [m] at ``time (K,)`` [s]
+    with no platform pose or a tilt beyond ``tilt_limit`` (forward kinematics' rule), ``note`` after its rods."""
     try:
         fk = forward_batch(rods, config, check_limits=False)
     except GprError as exc:
@@ -383,14 +400,9 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     if tilted.any():
         i = int(np.argmax(tilted))
         shown, limit = apart(float(fk.tilt[i]), config.tilt_limit)
-        raise GoalError(INVALID_GOAL, f'sample {i} (t = {t[i]:.6g} s): the platform would tilt {shown} rad '
-                        f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m); allowed: at most tilt_limit {limit} rad')
-    motion = Motion(t, positions, velocities, cols, tolerances, traj, current)
-    if clearance is not None:
-        refusal = clearance(motion)
-        if refusal:
-            raise GoalError(INVALID_GOAL, refusal)
-    return motion
+        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): the platform would tilt {shown} rad '
+                        f'(rods {", ".join(f"{q:.9g}" for q in rods[i])} m{note}); allowed: at most tilt_limit '
+                        f'{limit} rad')
 
 
 def late_start(joints: ControllerJoints, traj: JointTrajectory, current: Array, late: float,

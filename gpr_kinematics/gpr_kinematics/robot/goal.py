@@ -25,8 +25,10 @@ from .controller import (
     Tolerances,
     late_start,
     plan_motion,
+    refuse_tilt,
     trajectory_from_points,
 )
+from .servo import Lag, servo
 from .trajectory import MAX_DURATION, MAX_POINTS
 
 Array = NDArray[np.float64]
@@ -100,8 +102,8 @@ class Goal:
 @dataclass(frozen=True)
 class Controller:
     """The simulated controller's setting: its joints, default tolerances, sampling ``rate`` [Hz], the machine,
-    the ``start_tolerance`` [rad or m], whether a trajectory may end moving, and the cell's clearance check
-    (None: no cell)."""
+    the ``start_tolerance`` [rad or m], whether a trajectory may end moving, the cell's clearance check
+    (None: no cell) and the joints' first-order lag [s] (0: they follow the samples exactly)."""
 
     joints: ControllerJoints
     defaults: Tolerances
@@ -110,6 +112,7 @@ class Controller:
     start_tolerance: float
     allow_nonzero_velocity_at_end: bool
     clearance: Clearance | None = None
+    servo_time_constant: float = 0.0
 
 
 def check_point_count(count: int) -> None:
@@ -138,7 +141,10 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int, h
     trajectory built (:func:`~.controller.trajectory_from_points`), a stamp at most
     :data:`~.trajectory.MAX_DURATION` ahead, a stamp in the past taken as joint_trajectory_controller takes it (from
     the next sample on the stamp's grid, :func:`~.controller.late_start`), then planned and checked
-    (:func:`~.controller.plan_motion`). :class:`~.controller.GoalError` with the result code on a refusal."""
+    (:func:`~.controller.plan_motion`). With the controller's lag the joints converge to ``held`` while the goal
+    waits for its start, the motion is planned from where that leaves them, and the tilt and the cell's clearance
+    are checked along the path the lag takes (:class:`~.servo.Lag`: ``motion.lag``). :class:`~.controller.GoalError`
+    with the result code on a refusal."""
     _check_fields(goal)
     c = controller
     joints = c.joints
@@ -174,10 +180,25 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int, h
     if last // NS_PER_S > SEC_MAX:
         raise GoalError(INVALID_GOAL, f'the goal would run until {last / NS_PER_S:.12g} s on the clock, beyond the '
                         f'int32 sec of a message stamp; allowed: a goal ending by {SEC_MAX} s (2038-01-19T03:14:07Z)')
+    tau = c.servo_time_constant
+    wait = max(start - now_ns, 0) / NS_PER_S if tau > 0.0 and held is not None else 0.0
     try:
-        motion = plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance, under_way,
-                             held)
-        return dataclasses.replace(motion, late=late), start
+        if not tau > 0.0:
+            motion = plan_motion(joints, traj, current, c.rate, c.config, tol, c.start_tolerance, c.clearance,
+                                 under_way, held)
+            return dataclasses.replace(motion, late=late), start
+        # lagging: the joints converge to the last command while the goal waits, the goal planned from there, then
+        # its checks along the path the lag takes (the tilt, the cell's clearance: GoalClearance follows motion.lag)
+        begin = servo(current, held, wait, tau) if wait > 0.0 and held is not None else current
+        motion = plan_motion(joints, traj, begin, c.rate, c.config, tol, c.start_tolerance, None, under_way, held)
+        lag = Lag.of(tau, current, held, wait, motion.time, motion.positions)
+        refuse_tilt(lag.samples[:, :3], motion.time, c.config, f'; lagging {tau:g} s (servo_time_constant) behind '
+                    'the samples', 'the joints at sample')
+        motion = dataclasses.replace(motion, late=late, lag=lag)
+        refusal = c.clearance(motion) if c.clearance is not None else None
+        if refusal:
+            raise GoalError(INVALID_GOAL, refusal)
+        return motion, start
     except GoalError as exc:
         if not late:
             raise

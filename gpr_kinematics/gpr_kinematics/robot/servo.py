@@ -1,8 +1,15 @@
-"""The simulated controller at run time (no ROS import): :func:`servo`, the actuators' first-order response, and
-:func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ``GOAL_TOLERANCE_VIOLATED``). SI units."""
+"""The simulated controller at run time (no ROS import): :func:`servo`, the actuators' first-order response,
+:class:`Lag`, a goal's motion under it (planned and checked before it runs, then played as planned), and
+:func:`violation`, the check of a tolerance (``PATH_TOLERANCE_VIOLATED``, ``GOAL_TOLERANCE_VIOLATED``). SI units.
+
+Under a first-order response to a command held over a step the joints move on the straight joint-space line from
+where they are towards it (``desired + (actual - desired) exp(-t / tau)``: one scalar factor for every joint), so
+the path a lagging robot takes between two samples is the line between them: the polyline :meth:`Lag.path` is that
+path exactly, whatever the sample times."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,6 +25,50 @@ def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
     """The joints after ``dt`` [s] of a first-order response with time constant ``tau`` [s] to ``desired`` held over
     the step: ``desired + (actual - desired) exp(-dt / tau)``; ``tau = 0``: ``desired`` exactly."""
     return np.array(desired if tau <= 0.0 else desired + (actual - desired) * math.exp(-dt / tau), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Lag:
+    """A goal's motion under the lag ``tau`` [s] (module docstring): every joint ``(N,)`` at the goal's ``arrival``,
+    converging to ``command`` (the last goal's end; the arrival where none) while it ``wait`` s for its start, then at
+    each sample ``samples (K, N)`` (row 0: after the wait) as :func:`servo` takes them towards the motion's
+    positions. Its arrays are read-only."""
+
+    tau: float
+    arrival: Array
+    command: Array
+    wait: float
+    samples: Array
+
+    def __post_init__(self) -> None:
+        for a in (self.arrival, self.command, self.samples):
+            a.flags.writeable = False
+
+    @classmethod
+    def of(cls, tau: float, arrival: Array, command: Array | None, wait: float, time: Array, positions: Array) -> Lag:
+        """The lag of a motion sampled at ``time (K,)`` [s] with every joint's desired ``positions (K, N)``: a step
+        ``dt = t_k - t_(k-1)`` per sample, none at the first (as the simulator steps)."""
+        arrival = np.array(arrival, dtype=np.float64)
+        command = arrival.copy() if command is None else np.array(command, dtype=np.float64)
+        x = servo(arrival, command, wait, tau) if wait > 0.0 else arrival.copy()
+        samples = np.empty_like(positions)
+        samples[0] = x
+        for k in range(1, positions.shape[0]):
+            x = servo(x, positions[k], float(time[k] - time[k - 1]), tau)
+            samples[k] = x
+        return cls(tau, arrival, command, wait, samples)
+
+    def waited(self, elapsed: float) -> Array:
+        """Every joint ``elapsed`` [s] into the wait (clamped to it): on the line from the arrival to the command,
+        never past the first sample."""
+        t = min(max(elapsed, 0.0), self.wait)
+        return self.arrival.copy() if t == 0.0 else servo(self.arrival, self.command, t, self.tau)
+
+    def path(self, end: Array) -> Array:
+        """The joints' whole path ``(M, N)``, the lines between its rows: the arrival (with a wait), every sample,
+        and ``end`` (the last point, which they settle to on the line from the last sample)."""
+        rows = [self.arrival[None, :]] if self.wait > 0.0 else []
+        return np.vstack([*rows, self.samples, np.asarray(end, dtype=np.float64)[None, :]])
 
 
 def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,

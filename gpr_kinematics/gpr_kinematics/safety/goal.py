@@ -33,6 +33,10 @@ from .distances import require_library
 from .joint_motion import TrajectoryMotion
 from .margin import MARGIN
 
+#: The time constants a lagging motion's settling to its last point is drawn over in a refusal's times (its path,
+#: the line from the last sample to the last point, is the same whatever the time).
+LAG_SETTLE = 5.0
+
 
 @dataclass(frozen=True)
 class GoalClearance:
@@ -68,9 +72,14 @@ class GoalClearance:
     def line(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> ClearanceReport:
         """The certified clearance of every pair over the joint-space line from every joint at ``a`` to ``b``
         ``(N,)`` (``s`` from 0 to 1 as time; ``a`` equal to ``b``: the state ``a`` alone)."""
+        return self.polyline(np.vstack([a, b]), np.array([0.0, 1.0]))
+
+    def polyline(self, points: NDArray[np.float64], times: NDArray[np.float64]) -> ClearanceReport:
+        """The certified clearance of every pair over the joint-space lines between consecutive ``points (M, N)``
+        of every joint, passed at ``times (M,)`` [s] (increasing, the first 0)."""
         names = joint_limits(self.robot)[0]
-        traj = JointTrajectory(names, np.array([0.0, 1.0]), np.vstack([a, b]), None, None)
-        moving = TrajectoryMotion.of(self.robot, traj, np.arange(len(names)), np.asarray(a, dtype=float))
+        traj = JointTrajectory(names, np.asarray(times, dtype=float), np.asarray(points, dtype=float), None, None)
+        moving = TrajectoryMotion.of(self.robot, traj, np.arange(len(names)), traj.positions[0])
         return clearance(moving, self.bodies, self.pairs, self.margin, self.tolerance, decide=True)
 
     def state(self, a: NDArray[np.float64], what: str) -> str | None:
@@ -86,11 +95,20 @@ class GoalClearance:
     def __call__(self, motion: Motion) -> str | None:
         """None when every pair stays at least the margin apart over the whole motion, the jump from where the joints
         are to a first point at ``t = 0`` included; else the refusal: the robot's current state already too close,
-        the jump, or the pair below the margin first, when, and how close it comes."""
-        here = self.state(motion.current, "the robot's current state (where every goal starts, t = 0)")
+        the jump, or the pair below the margin first, when, and how close it comes. A lagging motion
+        (``motion.lag``) is checked along the path the joints take (:meth:`~gpr_kinematics.robot.servo.Lag.path`)."""
+        lag = motion.lag
+        here = self.state(motion.current if lag is None else lag.arrival,
+                          "the robot's current state (where every goal starts, t = 0)")
         if here:
             return (f'{here}; allowed: a current state with every pair at least clearance_margin apart (every goal '
                     'starts there; joint_states of another publisher outside the margin move it while no goal runs)')
+        if lag is not None:   # the joints' path: the wait's line, the lines between samples, the settling to the end
+            end = motion.time[-1] + LAG_SETTLE * lag.tau
+            times = np.concatenate([[0.0] if lag.wait > 0.0 else [], lag.wait + motion.time, [lag.wait + end]])
+            return refusal(self.polyline(lag.path(motion.positions[-1]), times), self.cell.source,
+                           f"s from the goal's arrival, the joints lagging {lag.tau:g} s (servo_time_constant) "
+                           f'behind its samples, settling to its last point by {LAG_SETTLE:g} tau after it')
         first = motion.positions[0]
         if motion.trajectory.time[0] == 0.0 and not np.array_equal(first, motion.current):
             below = self.line(motion.current, first).below_margin
@@ -126,7 +144,7 @@ def _closest(below: tuple[PairClearance, ...]) -> tuple[PairClearance, float]:
     return p, p.measured if math.isfinite(p.measured) else p.distance
 
 
-def refusal(report: ClearanceReport, cell: str) -> str | None:
+def refusal(report: ClearanceReport, cell: str, clock: str = 'time_from_start') -> str | None:
     """The refusal of a goal whose ``report`` (:func:`~gpr_kinematics.safety.clearance.clearance` deciding the margin)
     has pairs below its margin, or None. It names the pair the library measured below the margin first, the instant
     of the smallest distance measured for it and that distance (where the search stopped: the pair's minimum is at
@@ -142,10 +160,10 @@ def refusal(report: ClearanceReport, cell: str) -> str | None:
     if found:
         p = min(found, key=lambda q: q.first_below)
         return (f'{p.bodies[0]} and {p.bodies[1]} would come within the margin: {p.measured:.6g} m '
-                f'({p.measured * 1e3:.3f} mm) apart at t = {p.time:.6g} s (time_from_start; negative: penetration; '
+                f'({p.measured * 1e3:.3f} mm) apart at t = {p.time:.6g} s ({clock}; negative: penetration; '
                 f'found by the clearance check over the whole motion, cell {cell}){others}{allowed}')
     p = min(below, key=lambda q: q.distance)
     return (f'{p.bodies[0]} and {p.bodies[1]} could not be shown the margin apart: at least {p.distance:.6g} m '
             f'({p.distance * 1e3:.3f} mm) by the bounds between samples, {p.measured:.6g} m measured at '
-            f't = {p.time:.6g} s{slack_note(p.measured, report.margin)} (time_from_start; cell {cell}){others}'
+            f't = {p.time:.6g} s{slack_note(p.measured, report.margin)} ({clock}; cell {cell}){others}'
             f'{allowed}')
