@@ -18,6 +18,9 @@ from gpr_kinematics.calibration.identification import identify, weights
 from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.core.config import load_config
+from gpr_kinematics.errors import ConfigError
+from gpr_kinematics.inputs import safe_yaml
+from gpr_kinematics.inputs.schema import read_yaml
 from gpr_kinematics.robot.description import load_robot
 from test_calibration_arm import SIGMA, measured, rows, run, write
 
@@ -210,3 +213,49 @@ def test_a_tracker_frame_with_the_gprs_covariance(files, capsys, tmp_path):
     without = arm['gpr_covariance']['standard_error_without']
     assert all(se[n] >= without[n] * (1 - 1e-9) for n in without) and any(se[n] > 1.01 * without[n] for n in without)
     assert arm['registration']['base'] is not None
+
+
+def _fitted(out: str) -> dict[str, float]:
+    (arm,) = json.loads(out)['arms']
+    return {p['name']: p['standard_error'] for p in arm['parameters'] if p['status'] == 'fitted'}
+
+
+def test_the_robots_gpr_section_brings_the_covariance_and_the_calibrated_robot_keeps_it(files, capsys, tmp_path):
+    """A reviewer's chain: a robot whose ``gpr`` section names the calibrated geometry file had its arms calibrated
+    with the GPR taken as exact (only ``--config`` brought the block), and the calibrated robot written carried the
+    geometry inline without it. Now the section brings the file's block (the standard errors of ``--config``, to
+    1e-12), the calibrated robot carries it inline (the same matrix, and from it the same standard errors again), a
+    section setting a geometry key on top of the file leaves it out (its values are no longer the file's), and a
+    malformed inline block is refused naming the section."""
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    data = read_yaml(robot_file)
+    data['gpr'] = {'config': with_block}
+    robot_yaml = tmp_path / 'robot.yaml'
+    robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
+    out1 = tmp_path / 'calibrated.yaml'
+    status, out, err = run(capsys, 'calibrate', '--robot', str(robot_yaml), arm_csv, '--output', str(out1), '--json')
+    assert status == 0, err
+    d = json.loads(out)
+    assert d['arms'][0]['gpr_covariance']['file'] == with_block and f'parameters in {with_block},' in d['note']
+    status, given, err = run(capsys, 'calibrate', '--robot', robot_file, arm_csv, '--config', with_block, '--output',
+                             str(tmp_path / 'given.yaml'), '--json')
+    assert status == 0, err
+    assert _fitted(out) == pytest.approx(_fitted(given), rel=1e-12)
+    written = load_robot(out1).gpr_covariance
+    assert written is not None and written.names == cov.names and np.array_equal(written.matrix, cov.matrix)
+    assert written.source == f'{out1}: gpr'
+    status, again, err = run(capsys, 'calibrate', '--robot', str(out1), arm_csv, '--output', str(tmp_path / 'r2.yaml'),
+                             '--json')
+    assert status == 0, err
+    assert _fitted(again) == pytest.approx(_fitted(out), rel=1e-6)   # from the calibrated arms: the same fit
+    for section, kept in (({'config': with_block, 'rod_offsets': [0.0, 0.0, 0.0]}, False),
+                          ({'config': with_block, 'model': 'radial', 'tilt_limit': 0.03}, True),
+                          ({'config': plain_file}, False)):
+        data['gpr'] = section
+        robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
+        assert (load_robot(robot_yaml).gpr_covariance is not None) == kept, section
+    data['gpr'] = {'config': None, 'covariance': {'names': ['rod1_x'], 'matrix': [[-1.0]]}}
+    robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
+    with pytest.raises(ConfigError, match=re.escape(f'{robot_yaml}: gpr: covariance: matrix: the variance of rod1_x '
+                                                    'is -1.0; allowed: a covariance, every variance >= 0')):
+        load_robot(robot_yaml)

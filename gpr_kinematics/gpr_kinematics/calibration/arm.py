@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import forward_batch
+from ..core.geometry_covariance import KEY
 from ..errors import InputError, apart
 from ..inputs import safe_yaml
 from ..robot.arm_chain import LIMIT_SLACK
@@ -205,8 +206,12 @@ def calibrated_robot(robot: RobotDescription, arms: dict[str, Array]) -> RobotDe
 
 
 def write_robot(path: str | Path, robot: RobotDescription, comments: Sequence[str] = ()) -> Path:
-    """Write ``robot`` as a robot description file (its GPR geometry inline), atomically."""
-    text = comment_lines(list(comments)) + safe_yaml.dump(robot.to_dict(), sort_keys=False, default_flow_style=None)
+    """Write ``robot`` as a robot description file (its GPR geometry inline, with the covariance of its calibrated
+    parameters where it has one: :mod:`~gpr_kinematics.robot.gpr_section`), atomically."""
+    data = robot.to_dict()
+    if robot.gpr_covariance is not None:
+        data['gpr'][KEY] = robot.gpr_covariance.as_block()
+    text = comment_lines(list(comments)) + safe_yaml.dump(data, sort_keys=False, default_flow_style=None)
     return write_text(path, text, 'calibrated robot')
 
 

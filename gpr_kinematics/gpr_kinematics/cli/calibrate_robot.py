@@ -4,6 +4,7 @@ description for ``--robot``. Part of :mod:`gpr_kinematics.cli.calibrate`."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
@@ -94,7 +95,8 @@ def _models(args: argparse.Namespace,
 #: shoulder's zero offset 4 standard errors off in 3 runs of 4, the heading it gives the platform a few urad off).
 GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, else the robot's) as exact: its own "
                  "calibration's uncertainty (the platform's heading, a few urad) adds to the zero offsets and the "
-                 'mount, beyond them; a --config file gpr calibrate wrote with its covariance block adds it to them')
+                 'mount, beyond them; a geometry file gpr calibrate wrote with its covariance block (--config, or '
+                 "the robot's gpr section naming it) adds it to them")
 
 
 def covariance_note(path: str, names: tuple[str, ...]) -> str:
@@ -131,13 +133,12 @@ def _as_dict(reg: Registration | None) -> dict[str, object] | None:
     return None if reg is None else reg.as_dict()
 
 
-def _gpr_dict(args: argparse.Namespace, cov: GeometryCovariance | None,
-              plain: dict[str, float]) -> dict[str, object] | None:
+def _gpr_dict(cov: GeometryCovariance | None, plain: dict[str, float]) -> dict[str, object] | None:
     """The JSON's ``gpr_covariance`` of an arm: the file, the GPR's parameters and the standard errors without them
     (``null``: the standard errors take the GPR as exact)."""
     if cov is None:
         return None
-    return {'file': str(args.config), 'parameters': list(cov.names), 'standard_error_without': plain}
+    return {'file': cov.source, 'parameters': list(cov.names), 'standard_error_without': plain}
 
 
 def calibrate_robot(args: argparse.Namespace) -> int:
@@ -158,7 +159,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
                          f'base frame); allowed: --frame {urdf.root} for measurements in it, gpr_base, or a tracker\'s '
                          'frame under a name of its own (it would be fitted: world would read as a tracker here)')
     models, inners = _models(args, robot)
-    gpr_cov = load_covariance(args.config) if args.config is not None else None
+    # the GPR's calibration covariance: --config's block, else the robot's gpr section's (robot.gpr_section); the
+    # calibrated robot written carries it
+    gpr_cov = load_covariance(args.config) if args.config is not None else robot.gpr_covariance
+    robot = dataclasses.replace(robot, gpr_covariance=gpr_cov)
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)
     results, texts, values = [], [], {}
@@ -207,10 +211,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
             residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}')
             for a, r in results]))
     path = _write(args, robot, results, values, regs) if write else None
-    note = GEOMETRY_NOTE if gpr_cov is None else covariance_note(args.config, gpr_cov.names)
+    note = GEOMETRY_NOTE if gpr_cov is None else covariance_note(gpr_cov.source, gpr_cov.names)
     if args.json:
         emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a]),
-                                                                'gpr_covariance': _gpr_dict(args, gpr_cov, without[a])}
+                                                                'gpr_covariance': _gpr_dict(gpr_cov, without[a])}
                                                  for a, r in results],
                    'output': str(path) if path else None, 'note': note} | plotted)
     else:

@@ -39,10 +39,11 @@ _ALLOWED = ('a mapping of names (the fitted geometry parameters, e.g. rod1_x, ka
 @dataclass(frozen=True, eq=False)
 class GeometryCovariance:
     """Covariance ``matrix (n, n)`` of the geometry parameters ``names`` (coordinates of
-    :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy)."""
+    :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy), read from ``source``."""
 
     names: tuple[str, ...]
     matrix: NDArray[np.float64]
+    source: str = ''
 
     def as_block(self) -> dict[str, YamlValue]:
         """The file's block (floats at full precision)."""
@@ -124,7 +125,7 @@ def parse_covariance(block: YamlValue, source: str) -> GeometryCovariance:
     names = _names(block['names'], where)
     C = _matrix(block['matrix'], len(names), where)
     _check(C, names, where)
-    return GeometryCovariance(names, C)
+    return GeometryCovariance(names, C, source)
 
 
 def split_covariance(data: Mapping[str, YamlValue], source: str

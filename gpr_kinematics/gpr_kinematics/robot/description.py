@@ -35,7 +35,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.config import GprConfig, load_config
+from ..core.geometry_covariance import GeometryCovariance
 from ..core.rotations import rpy_matrix
 from ..errors import ConfigError, brief, kind_of
 from ..inputs.resources import config_path
@@ -65,6 +66,7 @@ from .fields import (
     check_names,
 )
 from .fields import NAME_RULE as _NAME_RULE
+from .gpr_section import load_gpr_section
 
 Array = NDArray[np.float64]
 
@@ -199,6 +201,8 @@ class RobotDescription:
     #: The GPR's collision bodies and the wafer's disc (robot.collision).
     bodies: GprBodies = GprBodies()
     wafer: WaferShape = WaferShape()
+    #: The covariance of the GPR's calibrated parameters (its ``gpr`` section's: :mod:`.gpr_section`; None: exact).
+    gpr_covariance: GeometryCovariance | None = field(default=None, compare=False, repr=False)
 
     @property
     def base_rotation(self) -> Array:
@@ -368,29 +372,14 @@ def _arm(raw: Any, where: str) -> Arm:
     return arm
 
 
-def _gpr(raw: Any, source: str, base_dir: Path) -> GprConfig:
-    where = f'{source}: gpr'
-    data = _mapping(raw if raw is not None else {}, where, 'config (a geometry file) and geometry keys')
-    path = data.get('config')
-    if path is not None and not isinstance(path, str):
-        raise ConfigError(f'{where}: config = {brief(path)} is invalid; allowed: a path to a geometry YAML file or '
-                          'null')
-    overrides = {k: v for k, v in data.items() if k != 'config'}
-    file = None if path is None else (base_dir / path if not Path(path).is_absolute() else Path(path))
-    try:  # the section's keys named by the section ('rt.yaml: gpr: unknown key(s) modle', not 'gpr: overrides:')
-        return load_config(file, overrides or None, where)
-    except ConfigError as exc:
-        message = str(exc)
-        raise ConfigError(message if message.startswith(where) else f'{where}: {message}') from None
-
-
 def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
                 geometry: GprConfig | None = None) -> RobotDescription:
     """Validate a robot mapping (as loaded from YAML). ``geometry`` replaces the file's ``gpr`` section."""
     data = _mapping(data, source, 'a robot description: name, gpr, base, rods, arms')
     check_keys(data, ('name', 'gpr', 'base', 'rods', 'arms', 'collision', 'wafer'), source)
     name = _name(data, 'name', source, default='robot')
-    config = geometry if geometry is not None else _gpr(data.get('gpr'), source, Path(base_dir))
+    config, cov = (geometry, None) if geometry is not None else load_gpr_section(data.get('gpr'), source,
+                                                                                 Path(base_dir))
     base = _mapping(data.get('base', {}), f'{source}: base', 'frame, position, rpy of gpr_base in the world')
     check_keys(base, ('frame', 'position', 'rpy'), f'{source}: base')
     rods_data = _mapping(data.get('rods', {}), f'{source}: rods', 'names, velocity, acceleration')
@@ -419,7 +408,7 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
         base_position=_xyz(base, 'position', f'{source}: base', WORLD_BOUND, default=(0.0, 0.0, 0.0)),
         base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),
-        wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'))
+        wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'), gpr_covariance=cov)
 
 
 def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig | None = None,

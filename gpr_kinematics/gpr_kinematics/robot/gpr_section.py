@@ -1,0 +1,46 @@
+"""A robot description's ``gpr`` section: the GPR's geometry (a geometry file, keys of that file inline on top of it)
+and the covariance of its calibrated parameters where it has one (docs/calibration.md, "The arms")::
+
+    gpr: {config: cell/gpr.yaml, model: radial}   # a file gpr calibrate wrote: its covariance block comes along
+    gpr: {config: null, rod_offsets: [...], ..., covariance: {names: [...], matrix: [...]}}   # inline, as gpr
+                                                  # calibrate --robot writes a calibrated robot
+
+A file's covariance describes that file's values: a section setting one of the keys they are made of
+(:data:`GEOMETRY_KEYS`) on top of it leaves the covariance out (the arms' standard errors then take the GPR as
+exact); an inline ``covariance`` describes the section's geometry as written.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..core.config import GprConfig, load_config
+from ..core.geometry_covariance import KEY, GeometryCovariance, load_covariance, parse_covariance
+from ..errors import ConfigError, brief
+from .fields import _mapping
+
+#: The geometry keys the calibrated parameters (rod axes, offsets, directions, platform joints, kappas) are made of.
+GEOMETRY_KEYS = frozenset({'radius', 'rod_azimuths', 'rod_positions', 'rod_offsets', 'rod_directions',
+                           'platform_joints', 'kappa'})
+
+
+def load_gpr_section(raw: Any, source: str, base_dir: Path) -> tuple[GprConfig, GeometryCovariance | None]:
+    """The geometry of the ``gpr`` section ``raw`` of the description ``source`` (a file named relative to
+    ``base_dir``) and the covariance that goes with it (module docstring), or :class:`ConfigError` naming the
+    section's key."""
+    where = f'{source}: gpr'
+    data = _mapping(raw if raw is not None else {}, where, 'config (a geometry file), geometry keys and covariance')
+    path = data.get('config')
+    if path is not None and not isinstance(path, str):
+        raise ConfigError(f'{where}: config = {brief(path)} is invalid; allowed: a path to a geometry YAML file or '
+                          'null')
+    overrides = {k: v for k, v in data.items() if k not in ('config', KEY)}
+    file = None if path is None else (base_dir / path if not Path(path).is_absolute() else Path(path))
+    try:  # the section's keys named by the section ('rt.yaml: gpr: unknown key(s) modle', not 'gpr: overrides:')
+        config = load_config(file, overrides or None, where)
+        if KEY in data:
+            return config, parse_covariance(data[KEY], where)
+        return config, None if file is None or GEOMETRY_KEYS & overrides.keys() else load_covariance(file)
+    except ConfigError as exc:
+        message = str(exc)
+        raise ConfigError(message if message.startswith(where) else f'{where}: {message}') from None
