@@ -11,17 +11,26 @@ import numpy as np
 import pytest
 from gpr_kinematics.calibration import demo
 from gpr_kinematics.calibration.arm import ArmModel, arm_parameters
-from gpr_kinematics.calibration.arm_gpr import gpr_gain, with_gpr_covariance
+from gpr_kinematics.calibration.arm_gpr import (
+    ResidualShare,
+    gain,
+    gpr_gain,
+    weighted_jacobians,
+    weighted_residuals,
+    with_gpr_covariance,
+)
 from gpr_kinematics.calibration.core_model import CoreModel, fitted_covariance, write_calibrated_config
 from gpr_kinematics.calibration.frames import Transform, measuring_model
 from gpr_kinematics.calibration.identification import identify, weights
 from gpr_kinematics.calibration.measurements import Measurements
+from gpr_kinematics.calibration.quality import CHI2_QUANTILE
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.inputs import safe_yaml
 from gpr_kinematics.inputs.schema import read_yaml
 from gpr_kinematics.robot.description import load_robot
+from scipy.stats import chi2 as chi2_distribution
 from test_calibration_arm import SIGMA, measured, rows, run, write
 
 #: GPR calibrations of the Monte Carlo, from the first 15 rows of the shipped file's configurations at 5 um / 20 urad.
@@ -41,11 +50,16 @@ def arm_truth(robot):
 
 
 def propagated(robot, meas, gpr_cov):
-    """The arm's fit with ``robot``'s GPR and the fit with the GPR's covariance added."""
+    """The arm's fit with ``robot``'s GPR and the fit with the GPR's covariance added (its gate judged with it)."""
     model = ArmModel(robot, meas)
     res = identify(model, meas.points)
-    K = gpr_gain(model, model, res, gpr_cov, weights(meas.points, SIGMA, 1e-5)[0])
-    return res, with_gpr_covariance(res, K, gpr_cov)
+    w = weights(meas.points, SIGMA, 1e-5)[0]
+    A, B = weighted_jacobians(model, model, res, gpr_cov, w)
+    K = gpr_gain(model, model, res, gpr_cov, w)
+    assert np.array_equal(K, gain(A, B))
+    share = ResidualShare.of(A, B, gpr_cov)
+    gate = share.gate(res, weighted_residuals(model, model, res, w), meas.points.row_names)
+    return res, with_gpr_covariance(res, K, gpr_cov, gate), share
 
 
 @pytest.fixture(scope='module')
@@ -60,15 +74,21 @@ def monte_carlo():
     Q, J = rows(robot_true, robot_true.arm('arm1'), 80, 1)
     on_blade = np.arange(80) % 2 == 1
     fixed = measured(robot_true, 'arm1', truth, Q, J, on_blade, 2)
-    out = {k: {'est': [], 'plain': [], 'total': [], 'added': []} for k in ('fixed', 'fresh')}
+    out = {k: {'est': [], 'plain': [], 'total': [], 'added': [], 'passed': [], 'judged': [], 'chi2': [], 'mean': [],
+               'var': []} for k in ('fixed', 'fresh')}
     for r in range(RUNS):
         gpr = identify(core, synthetic_measurements(core, true, Qg, 5e-6, 2e-5, seed=100 + r))
         cov = fitted_covariance(core, gpr)
         robot = load_robot(geometry=core.config_for(gpr.estimate))
         for kind, meas in (('fixed', fixed), ('fresh', measured(robot_true, 'arm1', truth, Q, J, on_blade, 1000 + r))):
-            plain, total = propagated(robot, meas, cov)
+            plain, total, share = propagated(robot, meas, cov)
             assert np.array_equal(plain.estimate, total.estimate)
             o = out[kind]
+            o['passed'].append(plain.gate.passed)
+            o['judged'].append(total.gate.passed)
+            o['chi2'].append(plain.chi2_reduced)
+            o['mean'].append(share.c * share.nu / share.dof)            # E chi2_red = tr C / dof
+            o['var'].append(2.0 * share.c ** 2 * share.nu / share.dof ** 2)   # Var: 2 tr C^2 / dof^2
             o['est'].append(plain.values)
             o['plain'].append(plain.standard_error)
             o['total'].append(total.standard_error)
@@ -105,6 +125,44 @@ def test_the_truth_within_three_propagated_standard_errors_where_the_plain_ones_
         assert np.all(z[missed, k] < 3.0), kind
         assert np.all(z[:, k] < 3.0) and np.mean(z < 3.0) > 0.99, kind
         assert np.mean(z_plain < 3.0) < 0.96, kind
+
+
+def test_the_gate_takes_the_gprs_error_in_the_residuals(monte_carlo):
+    """The arms fitted to their noise failed their gate in 53 of 100 runs with a GPR calibrated from 15 poses (52 on
+    the chi-square: the GPR's error is in the residuals too). Judged with it (``ResidualShare``: the chi-square
+    against Satterthwaite's ``c chi^2_nu``, outliers studentized by the residuals' own variances) none fails; the
+    reduced chi-square's mean and scatter over the runs are those the share predicts (``tr C / dof``, ``2 tr C^2 /
+    dof^2``): 1.33 for 1.32, where an exact GPR's chi-square would be 1."""
+    for kind in ('fixed', 'fresh'):
+        o = monte_carlo[2][kind]
+        assert o['passed'].sum() < 70 and o['judged'].all(), (kind, o['passed'].sum(), o['judged'].sum())
+    o = monte_carlo[2]['fresh']
+    assert o['chi2'].mean() == pytest.approx(o['mean'].mean(), rel=0.05) and o['mean'].mean() > 1.2
+    assert o['chi2'].std(ddof=1) == pytest.approx(np.sqrt(o['var'].mean() + o['mean'].var()), rel=0.3)
+
+
+def test_the_gate_with_the_gprs_error_still_finds_a_bad_row_and_a_wrong_model(files):
+    """Judged with the GPR's error, a row 100 um off is still an outlier (named, studentized with the GPR's share),
+    and points moved by up to 50 um row by row (another machine's) still fail the chi-square, naming the GPR's share."""
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    robot = load_robot(geometry=cfg)
+    p = meas.points
+    moved = p.position.copy()
+    moved[7, 2] += 1e-4
+    bad = type(meas)(Measurements(p.source, p.q, moved, None, p.sigma_position, None, p.lines), meas.arm,
+                     meas.joints, meas.blade, meas.on_blade)
+    _, total, _ = propagated(robot, bad, cov)
+    check = next(c for c in total.gate.checks if c.name == 'outliers')
+    assert not check.passed and f'Line {p.lines[7]} is an outlier' in check.detail
+    assert "standard deviations (studentized with the GPR's share)" in check.detail
+    off = p.position + 5e-5 * np.sin(np.arange(p.q.shape[0]))[:, None]
+    shifted = type(meas)(Measurements(p.source, p.q, off, None, p.sigma_position, None, p.lines), meas.arm,
+                         meas.joints, meas.blade, meas.on_blade)
+    _, total, share = propagated(robot, shifted, cov)
+    check = next(c for c in total.gate.checks if c.name == 'chi_square')
+    assert not check.passed and check.limit == pytest.approx(
+        share.c * chi2_distribution.ppf(CHI2_QUANTILE, share.nu) / share.dof, rel=1e-12)
+    assert "with the GPR's calibration covariance in the residuals" in check.detail
 
 
 def test_known_base_frame_rotates_the_gpr_jacobian():
@@ -166,7 +224,7 @@ def test_the_report_says_which_standard_errors_include_the_gprs_covariance(files
     g = arm['gpr_covariance']
     assert g['file'] == with_block and g['parameters'] == list(cov.names)
     se = {p['name']: p['standard_error'] for p in arm['parameters'] if p['status'] == 'fitted'}
-    plain, total = propagated(load_robot(geometry=cfg), meas, cov)
+    plain, total, _ = propagated(load_robot(geometry=cfg), meas, cov)
     for j in plain.fitted:
         name = plain.parameters[int(j)].name
         assert g['standard_error_without'][name] == pytest.approx(plain.standard_error[j], rel=1e-9)

@@ -143,7 +143,7 @@ def _gpr_dict(cov: GeometryCovariance | None, plain: dict[str, float]) -> dict[s
 
 def calibrate_robot(args: argparse.Namespace) -> int:
     """Identify every arm with measurement files (module docstring); status 0, or 1 when a fit fails its gate."""
-    from ..calibration.arm_gpr import gpr_gain, with_gpr_covariance
+    from ..calibration.arm_gpr import ResidualShare, gain, weighted_jacobians, weighted_residuals, with_gpr_covariance
     from ..calibration.frames import FramedModel, registration
     from ..calibration.identification import identify, weights
     from ..calibration.report import format_calibration
@@ -185,7 +185,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
         plain = res.standard_error
         if gpr_cov is not None:   # the GPR's calibration uncertainty in the arm's (calibration.arm_gpr)
             w = weights(inner.meas.points, sp, sa, declared(args))[0]
-            res = with_gpr_covariance(res, gpr_gain(model, inner, res, gpr_cov, w), gpr_cov)
+            A, B = weighted_jacobians(model, inner, res, gpr_cov, w)   # and its gate with the GPR's error
+            gate = ResidualShare.of(A, B, gpr_cov).gate(res, weighted_residuals(model, inner, res, w),
+                                                        inner.meas.points.row_names)
+            res = with_gpr_covariance(res, gain(A, B), gpr_cov, gate)
         reg: Registration | None = None
         if isinstance(model, FramedModel):
             values[arm] = inner.parameters.values(model.inner_theta(res.estimate[None])[0])
