@@ -301,17 +301,33 @@ def test_the_robots_gpr_section_brings_the_covariance_and_the_calibrated_robot_k
     assert _fitted(out) == pytest.approx(_fitted(given), rel=1e-12)
     written = load_robot(out1).gpr_covariance
     assert written is not None and written.names == cov.names and np.array_equal(written.matrix, cov.matrix)
-    assert written.source == f'{out1}: gpr'
+    assert written.source == str(out1) and written.section == 'gpr'
     status, again, err = run(capsys, 'calibrate', '--robot', str(out1), arm_csv, '--output', str(tmp_path / 'r2.yaml'),
                              '--json')
     assert status == 0, err
     assert _fitted(again) == pytest.approx(_fitted(out), rel=1e-6)   # from the calibrated arms: the same fit
+    d = json.loads(again)   # the file, and the section apart (a reviewer's 'out1.yaml: gpr' was no file to open)
+    assert {k: d['arms'][0]['gpr_covariance'][k] for k in ('file', 'section')} == {'file': str(out1), 'section': 'gpr'}
+    assert f"parameters in {out1}'s gpr section, propagated" in d['note']
     for section, kept in (({'config': with_block, 'rod_offsets': [0.0, 0.0, 0.0]}, False),
                           ({'config': with_block, 'model': 'radial', 'tilt_limit': 0.03}, True),
                           ({'config': plain_file}, False)):
         data['gpr'] = section
         robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
         assert (load_robot(robot_yaml).gpr_covariance is not None) == kept, section
+    data['gpr'] = {'config': with_block, 'kappa': read_yaml(with_block)['kappa']}   # its own value: the block left out
+    robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
+    status, out, err = run(capsys, 'calibrate', '--robot', str(robot_yaml), arm_csv, '--output', str(out1), '--json')
+    assert status == 0, err
+    assert json.loads(out)['note'].endswith(f'; the covariance block of {with_block} is left out: the robot\'s gpr '
+                                            'section sets kappa on top of that file (the block describes its values)')
+    for section, words in (({'config': None, 'covarianse': {}}, 'unknown key(s) covarianse; allowed keys: '
+                            'characteristic_length, config, covariance, '),
+                           ({'config': ''}, "config = '' is invalid; allowed: a path to a geometry YAML file or null")):
+        data['gpr'] = section
+        robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
+        with pytest.raises(ConfigError, match=re.escape(f'{robot_yaml}: gpr: {words}')):
+            load_robot(robot_yaml)
     data['gpr'] = {'config': None, 'covariance': {'names': ['rod1_x'], 'matrix': [[-1.0]]}}
     robot_yaml.write_text(safe_yaml.dump(data, sort_keys=False))
     with pytest.raises(ConfigError, match=re.escape(f'{robot_yaml}: gpr: covariance: matrix: the variance of rod1_x '

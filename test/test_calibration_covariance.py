@@ -10,8 +10,9 @@ import pytest
 from gpr_kinematics.calibration.core_model import calibrated_config_text
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core.config import load_config
-from gpr_kinematics.core.geometry_covariance import NAMES, GeometryCovariance, load_covariance
+from gpr_kinematics.core.geometry_covariance import NAMES, GeometryCovariance, load_covariance, parse_covariance
 from gpr_kinematics.core.machine import PARAMETER_NAMES
+from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.inputs.resources import config_path
 
 SHIPPED = str(config_path('calibration/synthetic_measurements.csv'))
@@ -123,6 +124,15 @@ def test_a_block_within_rounding_is_taken(tmp_path):
     good = tmp_path / 'good.yaml'
     good.write_text('covariance: ' + json.dumps(GOOD) + '\n')
     assert load_covariance(good).names == ('rod1_x', 'rod1_offset')
+
+
+def test_tiny_variances_are_taken():
+    """A reviewer's block with a variance of 1e-160 (the product of two such underflowed to 0 and the diagonal entry
+    read as a covariance beyond its variances); a correlation beyond 1 between two of them is still refused."""
+    C = np.array([[1e-160, 0.0], [0.0, 1e-12]])
+    assert np.array_equal(parse_covariance({'names': ['rod1_x', 'rod1_y'], 'matrix': C.tolist()}, 'x.yaml').matrix, C)
+    with pytest.raises(ConfigError, match='the covariance of rod1_x and rod1_y is 2e-160, beyond the square root'):
+        parse_covariance({'names': ['rod1_x', 'rod1_y'], 'matrix': [[1e-160, 2e-160], [2e-160, 1e-160]]}, 'x.yaml')
 
 
 def test_a_fit_forced_through_its_gate_writes_a_file_that_loads(capsys, tmp_path):

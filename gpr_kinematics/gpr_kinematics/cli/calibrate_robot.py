@@ -99,10 +99,11 @@ GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, e
                  "the robot's gpr section naming it) adds it to them")
 
 
-def covariance_note(path: str, names: tuple[str, ...]) -> str:
-    """The ``note:`` when the arms' standard errors include the GPR's covariance from the file ``path``."""
-    return (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its {len(names)} "
-            f'fitted parameters in {path}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
+def covariance_note(cov: GeometryCovariance) -> str:
+    """The ``note:`` when the arms' standard errors include the GPR's covariance ``cov``."""
+    return (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its "
+            f'{len(cov.names)} fitted parameters in {cov.origin}, propagated to first order (K Sigma_g K^T, '
+            'docs/calibration.md)')
 
 
 def _without(res: CalibrationResult, plain: np.ndarray) -> str:
@@ -138,7 +139,8 @@ def _gpr_dict(cov: GeometryCovariance | None, plain: dict[str, float]) -> dict[s
     (``null``: the standard errors take the GPR as exact)."""
     if cov is None:
         return None
-    return {'file': cov.source, 'parameters': list(cov.names), 'standard_error_without': plain}
+    return {'file': cov.source, 'section': cov.section or None, 'parameters': list(cov.names),
+            'standard_error_without': plain}
 
 
 def calibrate_robot(args: argparse.Namespace) -> int:
@@ -149,6 +151,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     from ..calibration.report import format_calibration
     from ..core.geometry_covariance import load_covariance
     from ..robot.description import load_robot
+    from ..robot.gpr_section import GprSection
     from ..robot.urdf import robot_urdf
     _check(args)
     robot = load_robot(args.robot, geometry=args.config, model=args.model)
@@ -162,7 +165,8 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     # the GPR's calibration covariance: --config's block, else the robot's gpr section's (robot.gpr_section); the
     # calibrated robot written carries it
     gpr_cov = load_covariance(args.config) if args.config is not None else robot.gpr_covariance
-    robot = dataclasses.replace(robot, gpr_covariance=gpr_cov)
+    left = robot.gpr.left if args.config is None else ''
+    robot = dataclasses.replace(robot, gpr=GprSection(gpr_cov))
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)
     results, texts, values = [], [], {}
@@ -214,7 +218,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
             residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}')
             for a, r in results]))
     path = _write(args, robot, results, values, regs) if write else None
-    note = GEOMETRY_NOTE if gpr_cov is None else covariance_note(gpr_cov.source, gpr_cov.names)
+    note = covariance_note(gpr_cov) if gpr_cov is not None else f'{GEOMETRY_NOTE}; {left}' if left else GEOMETRY_NOTE
     if args.json:
         emit_json({'robot': robot.name, 'arms': [r.as_dict() | {'arm': a, 'registration': _as_dict(regs[a]),
                                                                 'gpr_covariance': _gpr_dict(gpr_cov, without[a])}

@@ -39,11 +39,18 @@ _ALLOWED = ('a mapping of names (the fitted geometry parameters, e.g. rod1_x, ka
 @dataclass(frozen=True, eq=False)
 class GeometryCovariance:
     """Covariance ``matrix (n, n)`` of the geometry parameters ``names`` (coordinates of
-    :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy), read from ``source``."""
+    :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy), read from the file ``source``
+    (in its ``section``, a robot description's ``gpr``; ``''``: a geometry file's own block)."""
 
     names: tuple[str, ...]
     matrix: NDArray[np.float64]
     source: str = ''
+    section: str = ''
+
+    @property
+    def origin(self) -> str:
+        """Where it was read, in words: the file, or the file's section."""
+        return f"{self.source}'s {self.section} section" if self.section else self.source
 
     def as_block(self) -> dict[str, YamlValue]:
         """The file's block (floats at full precision)."""
@@ -92,7 +99,9 @@ def _check(C: NDArray[np.float64], names: tuple[str, ...], where: str) -> None:
     if d[j] < 0.0:
         raise ConfigError(f'{where}: matrix: the variance of {names[j]} is {float(d[j])!r}; allowed: a covariance, '
                           'every variance >= 0')
-    scale = np.sqrt(np.outer(d, d))   # each entry's own scale: the variances' sizes differ by many orders
+    root = np.sqrt(d)
+    scale = np.outer(root, root)   # each entry's own scale: the variances' sizes differ by many orders (the roots'
+    # product: the product of two variances of 1e-160 underflowed to 0 and refused a valid block)
     asym = np.abs(C - C.T) - ROUNDING * scale
     i, k = np.unravel_index(int(np.argmax(asym)), C.shape)
     if asym[i, k] > 0.0:

@@ -66,7 +66,7 @@ from .fields import (
     check_names,
 )
 from .fields import NAME_RULE as _NAME_RULE
-from .gpr_section import load_gpr_section
+from .gpr_section import GprSection, load_gpr_section
 
 Array = NDArray[np.float64]
 
@@ -201,8 +201,13 @@ class RobotDescription:
     #: The GPR's collision bodies and the wafer's disc (robot.collision).
     bodies: GprBodies = GprBodies()
     wafer: WaferShape = WaferShape()
-    #: The covariance of the GPR's calibrated parameters (its ``gpr`` section's: :mod:`.gpr_section`; None: exact).
-    gpr_covariance: GeometryCovariance | None = field(default=None, compare=False, repr=False)
+    #: Its ``gpr`` section as read (:mod:`.gpr_section`: the covariance of the GPR's calibrated parameters).
+    gpr: GprSection = field(default=GprSection(), compare=False, repr=False)
+
+    @property
+    def gpr_covariance(self) -> GeometryCovariance | None:
+        """The covariance of the GPR's calibrated parameters (None: the GPR taken as exact)."""
+        return self.gpr.covariance
 
     @property
     def base_rotation(self) -> Array:
@@ -378,8 +383,8 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
     data = _mapping(data, source, 'a robot description: name, gpr, base, rods, arms')
     check_keys(data, ('name', 'gpr', 'base', 'rods', 'arms', 'collision', 'wafer'), source)
     name = _name(data, 'name', source, default='robot')
-    config, cov = (geometry, None) if geometry is not None else load_gpr_section(data.get('gpr'), source,
-                                                                                 Path(base_dir))
+    config, section = (geometry, GprSection()) if geometry is not None else \
+        load_gpr_section(data.get('gpr'), source, Path(base_dir))
     base = _mapping(data.get('base', {}), f'{source}: base', 'frame, position, rpy of gpr_base in the world')
     check_keys(base, ('frame', 'position', 'rpy'), f'{source}: base')
     rods_data = _mapping(data.get('rods', {}), f'{source}: rods', 'names, velocity, acceleration')
@@ -408,7 +413,7 @@ def parse_robot(data: Any, source: str = 'robot', base_dir: str | Path = '.',
         base_position=_xyz(base, 'position', f'{source}: base', WORLD_BOUND, default=(0.0, 0.0, 0.0)),
         base_rpy=_rpy(base, f'{source}: base'),
         rods=rods, arms=arms, source=source, bodies=parse_gpr_bodies(data.get('collision'), f'{source}: collision'),
-        wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'), gpr_covariance=cov)
+        wafer=parse_wafer(data.get('wafer'), f'{source}: wafer'), gpr=section)
 
 
 def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig | None = None,
