@@ -293,11 +293,22 @@ def test_a_lagging_goal_is_planned_from_where_its_wait_leaves_the_joints():
     assert abs(lag.samples[-1, k] - (JOINTS.rest[k] + 0.2)) > 1e-3   # still lagging at the last sample
     for t, f in ((0.0, 0.0), (1.0, 1.0 - math.exp(-2.0)), (2.0, 1.0 - math.exp(-4.0)), (9.0, 1.0 - math.exp(-4.0))):
         np.testing.assert_allclose(lag.waited(t), current + f * (held - current), rtol=0, atol=1e-15)
-    path = lag.path(motion.positions[-1])
-    assert path.shape == (len(motion) + 2, len(JOINTS.names)) and np.array_equal(path[0], current)
-    assert np.array_equal(path[-1], motion.positions[-1])
+    end = motion.positions[-1]
+    path, times = lag.path(motion.time, end)   # corners and the instants they are passed, from the arrival
+    assert np.all(np.diff(times) > 0) and np.array_equal(path[0], current) and np.array_equal(path[-1], end)
+    waits = np.flatnonzero(times < 2.0)
+    assert waits.size == 24 and times[waits[-1] + 1] == 2.0   # the arrival, 23 corners tau ln 2 / 4 apart, the samples
+    for j in waits:   # on the wait's line where the response is at that instant
+        np.testing.assert_allclose(path[j], current + (1.0 - math.exp(-times[j] / 0.5)) * (held - current), rtol=0,
+                                   atol=1e-15)
+    assert np.array_equal(path[waits.size:waits.size + len(motion)], lag.samples)
+    last = 2.0 + motion.duration
+    for j in range(waits.size + len(motion), path.shape[0] - 1):   # the settling line likewise
+        f = 1.0 - math.exp(-(times[j] - last) / 0.5)
+        np.testing.assert_allclose(path[j], lag.samples[-1] + f * (end - lag.samples[-1]), rtol=0, atol=1e-15)
+    assert 1.0 - math.exp(-(times[-2] - last) / 0.5) > 1.0 - 2.0 ** -19   # the last corner before the end
     at_once, _ = plan_goal(_goal(), LAGGING, current, NOW, held)   # no wait: from where they are, exactly
-    assert np.array_equal(at_once.current, current) and at_once.lag.path(current).shape[0] == len(at_once) + 1
+    assert np.array_equal(at_once.current, current) and at_once.lag.path(at_once.time, end)[1][0] == 0.0
     for name in ('arrival', 'command', 'samples'):
         with pytest.raises(ValueError, match='read-only'):
             getattr(lag, name)[0] = 0
@@ -330,9 +341,10 @@ def test_a_tilt_refusal_names_the_lagging_rods_it_holds_at_their_command():
     rod = float(JOINTS.rest[0])
     goal = _goal(joint_names=['rod_1'], times=[1.0], positions=[[rod + 0.02]], velocities=[[]],
                  accelerations=[[]])
-    with pytest.raises(GoalError) as e:
-        plan_goal(goal, LAGGING, JOINTS.rest, NOW, held)
-    assert re.fullmatch(rf'sample \d+ \(t = [\d.]+ s\): the platform would tilt [\d.e-]+ rad \(rods [\d.]+, '
-                        rf'{rod - 0.02:.9g}, {rod - 0.02:.9g} m; the rods it leaves out at their command, lagging now '
-                        rf'at rod_2 {rod:.9g} m, rod_3 {rod:.9g} m\); allowed: at most tilt_limit [\d.e-]+ rad',
-                        str(e.value)), str(e.value)
+    for stamp in (0, NOW + 2 * NS):   # at once, or 2 s ahead (a reviewer's: quoted where the wait takes them)
+        with pytest.raises(GoalError) as e:
+            plan_goal(dataclasses.replace(goal, stamp_ns=stamp), LAGGING, JOINTS.rest, NOW, held)
+        assert re.fullmatch(rf'sample \d+ \(t = [\d.]+ s\): the platform would tilt [\d.e-]+ rad \(rods [\d.]+, '
+                            rf'{rod - 0.02:.9g}, {rod - 0.02:.9g} m; the rods it leaves out at their command, lagging '
+                            rf'now at rod_2 {rod:.9g} m, rod_3 {rod:.9g} m\); allowed: at most tilt_limit [\d.e-]+ rad',
+                            str(e.value)), str(e.value)

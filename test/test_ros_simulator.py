@@ -914,6 +914,8 @@ def test_a_goal_waiting_for_its_stamp_moves_the_lagging_joints_as_its_check_did(
     assert abs(command[s] - node.actual[s]) > abs(command[s] - motion.current[s])   # short of the first sample
     node._cancelled(run)
     assert done[0][0] == 'canceled' and np.array_equal(node.command, command)
+    assert done[0][2] == "cancelled before its start; lagging joints go on to the last goal's end"   # not 'nothing
+    # moved' (a reviewer's)
     node.run = None
     for k in range(20, 250):
         clock.nanoseconds = 10 * ns + k * ns // 10

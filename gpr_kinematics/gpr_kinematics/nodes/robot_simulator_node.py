@@ -355,9 +355,9 @@ class RobotSimulatorNode(GprNode):
     def _cancelled(self, r: _Run) -> None:
         """End ``r``, whose cancel was accepted, as cancelled (at the next tick, or when a newer goal preempts it
         first: it ended aborted as 'preempted' although its client's cancel had been accepted)."""
-        m = r.motion
+        m, before = r.motion, 'nothing moved' if self.command is None else "lagging joints go on to the last goal's end"
         t = m.late + m.time[min(max(r.k - 1, 0), len(m) - 1)]   # the last sample sent (r.k: the next), goal's time
-        self._end('canceled', SUCCESSFUL, 'cancelled before its start; nothing moved' if r.started is None else
+        self._end('canceled', SUCCESSFUL, f'cancelled before its start; {before}' if r.started is None else
                   f'cancelled at t = {t:.6g} s of {m.late + m.duration:.6g} s; the joints hold where they are')
 
     def _tick(self) -> None:

@@ -345,12 +345,12 @@ def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel:
 
 def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,
                 tolerances: Tolerances, start_tolerance: float, clearance: Clearance | None = None,
-                under_way: bool = False, held: Array | None = None) -> Motion:
+                under_way: bool = False, held: Array | None = None, arrival: Array | None = None) -> Motion:
     """Check ``traj`` from the ``current`` positions of every joint ``(N,)`` and sample it at ``rate`` [Hz]: samples at
     ``t_k = k / rate`` and the last point's time (module docstring; :class:`GoalError` with the code). ``under_way``:
     ``traj`` goes on from a trajectory's state at a late arrival (:func:`late_start`), its first point a sample.
     ``held`` ``(N,)``: where the joints ``traj`` leaves out are commanded (lagging joints: the last goal's end;
-    None: ``current``)."""
+    None: ``current``); ``arrival``: where they are now, when a lag moves them to ``current`` by the start."""
     cols = joints.indices(traj.joint_names)
     current = np.array(current, dtype=float)   # a copy: the motion's arrays are read-only
     start = current[cols]
@@ -377,8 +377,9 @@ def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array,
     positions[:, cols] = pos
     velocities = np.zeros_like(positions)
     velocities[:, cols] = vel
-    lagging = [f'{joints.names[k]} {float(current[k]):.9g} m' for k in range(3)
-               if held is not None and k not in cols and held[k] != current[k]]   # quoted at the command, not there
+    now = current if arrival is None else arrival
+    lagging = [f'{joints.names[k]} {float(now[k]):.9g} m' for k in range(3)
+               if held is not None and k not in cols and held[k] != now[k]]   # quoted at the command, not there
     refuse_tilt(positions[:, :3], t, config, f'; the rods it leaves out at their command, lagging now at '
                 f'{", ".join(lagging)}' if lagging else '')
     motion = Motion(t, positions, velocities, cols, tolerances, traj, current)

@@ -190,7 +190,8 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int, h
         # lagging: the joints converge to the last command while the goal waits, the goal planned from there, then
         # its checks along the path the lag takes (the tilt, the cell's clearance: GoalClearance follows motion.lag)
         begin = servo(current, held, wait, tau) if wait > 0.0 and held is not None else current
-        motion = plan_motion(joints, traj, begin, c.rate, c.config, tol, c.start_tolerance, None, under_way, held)
+        motion = plan_motion(joints, traj, begin, c.rate, c.config, tol, c.start_tolerance, None, under_way, held,
+                             current)
         lag = Lag.of(tau, current, held, wait, motion.time, motion.positions)
         refuse_tilt(lag.samples[:, :3], motion.time, c.config, f'; lagging {tau:g} s (servo_time_constant) behind '
                     'the samples', 'the joints at sample')

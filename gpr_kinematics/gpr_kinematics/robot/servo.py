@@ -27,6 +27,11 @@ def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
     return np.array(desired if tau <= 0.0 else desired + (actual - desired) * math.exp(-dt / tau), dtype=np.float64)
 
 
+#: Corners of :meth:`Lag.path` on the wait's line and on the settling line, a fourth of a halving apart: the last
+#: within 2^-20 of the line's end.
+LINE_CORNERS = 80
+
+
 @dataclass(frozen=True)
 class Lag:
     """A goal's motion under the lag ``tau`` [s] (module docstring): every joint ``(N,)`` at the goal's ``arrival``,
@@ -64,11 +69,25 @@ class Lag:
         t = min(max(elapsed, 0.0), self.wait)
         return self.arrival.copy() if t == 0.0 else servo(self.arrival, self.command, t, self.tau)
 
-    def path(self, end: Array) -> Array:
-        """The joints' whole path ``(M, N)``, the lines between its rows: the arrival (with a wait), every sample,
-        and ``end`` (the last point, which they settle to on the line from the last sample)."""
-        rows = [self.arrival[None, :]] if self.wait > 0.0 else []
-        return np.vstack([*rows, self.samples, np.asarray(end, dtype=np.float64)[None, :]])
+    def path(self, time: Array, end: Array) -> tuple[Array, Array]:
+        """The joints' whole path: its corners ``(M, N)``, the lines between them, and the instants they pass them
+        ``(M,)`` [s from the goal's arrival]: on the wait's line from the arrival, then every sample (at the wait
+        plus its ``time (K,)``), then the line from the last sample to ``end`` (the last point, which they settle
+        to). On the two lines a corner at every ``tau ln 2 / 4`` (the response goes a fourth of the way left in
+        halves), their instants exact (a refusal on a line names when the joints are there, not a share of its
+        length), at least a nanosecond apart (a message's quantum; a ``tau`` below it)."""
+        step = self.tau * math.log(2.0) / 4.0
+        t = step * np.arange(1, 1 + LINE_CORNERS)
+        shown = np.maximum(t, 1e-9 * np.arange(1, 1 + LINE_CORNERS))
+        waits = np.flatnonzero(shown < self.wait) if self.wait > 0.0 else np.zeros(0, dtype=np.int64)
+        last = float(time[-1]) + self.wait
+        corners = [self.arrival[None, :]] if self.wait > 0.0 else []
+        corners += [servo(self.arrival, self.command, float(t[j]), self.tau)[None, :] for j in waits]
+        corners += [self.samples, *(servo(self.samples[-1], end, float(x), self.tau)[None, :] for x in t),
+                    np.asarray(end, dtype=np.float64)[None, :]]
+        times = np.concatenate([[0.0] if self.wait > 0.0 else [], shown[waits],
+                                self.wait + np.asarray(time, dtype=float), last + shown, [last + shown[-1] + shown[0]]])
+        return np.vstack(corners), times
 
 
 def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,

@@ -33,10 +33,6 @@ from .distances import require_library
 from .joint_motion import TrajectoryMotion
 from .margin import MARGIN
 
-#: The time constants a lagging motion's settling to its last point is drawn over in a refusal's times (its path,
-#: the line from the last sample to the last point, is the same whatever the time).
-LAG_SETTLE = 5.0
-
 
 @dataclass(frozen=True)
 class GoalClearance:
@@ -104,11 +100,9 @@ class GoalClearance:
             return (f'{here}; allowed: a current state with every pair at least clearance_margin apart (every goal '
                     'starts there; joint_states of another publisher outside the margin move it while no goal runs)')
         if lag is not None:   # the joints' path: the wait's line, the lines between samples, the settling to the end
-            end = motion.time[-1] + LAG_SETTLE * lag.tau
-            times = np.concatenate([[0.0] if lag.wait > 0.0 else [], lag.wait + motion.time, [lag.wait + end]])
-            return refusal(self.polyline(lag.path(motion.positions[-1]), times), self.cell.source,
+            return refusal(self.polyline(*lag.path(motion.time, motion.positions[-1])), self.cell.source,
                            f"s from the goal's arrival, the joints lagging {lag.tau:g} s (servo_time_constant) "
-                           f'behind its samples, settling to its last point by {LAG_SETTLE:g} tau after it')
+                           'behind its samples')
         first = motion.positions[0]
         if motion.trajectory.time[0] == 0.0 and not np.array_equal(first, motion.current):
             below = self.line(motion.current, first).below_margin
