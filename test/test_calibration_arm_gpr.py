@@ -19,6 +19,7 @@ from gpr_kinematics.calibration.arm_gpr import (
     weighted_residuals,
     with_gpr_covariance,
 )
+from gpr_kinematics.calibration.chi2_mixture import quantile
 from gpr_kinematics.calibration.core_model import CoreModel, fitted_covariance, write_calibrated_config
 from gpr_kinematics.calibration.frames import Transform, measuring_model
 from gpr_kinematics.calibration.identification import identify, weights
@@ -26,6 +27,7 @@ from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.quality import CHI2_QUANTILE
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.core.config import load_config
+from gpr_kinematics.core.geometry_covariance import GeometryCovariance
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.inputs import safe_yaml
 from gpr_kinematics.inputs.schema import read_yaml
@@ -87,8 +89,8 @@ def monte_carlo():
             o['passed'].append(plain.gate.passed)
             o['judged'].append(total.gate.passed)
             o['chi2'].append(plain.chi2_reduced)
-            o['mean'].append(share.c * share.nu / share.dof)            # E chi2_red = tr C / dof
-            o['var'].append(2.0 * share.c ** 2 * share.nu / share.dof ** 2)   # Var: 2 tr C^2 / dof^2
+            o['mean'].append(share.mean)            # E chi2_red = tr C / dof
+            o['var'].append(share.spread ** 2)      # Var: 2 tr C^2 / dof^2
             o['est'].append(plain.values)
             o['plain'].append(plain.standard_error)
             o['total'].append(total.standard_error)
@@ -160,9 +162,49 @@ def test_the_gate_with_the_gprs_error_still_finds_a_bad_row_and_a_wrong_model(fi
                          meas.joints, meas.blade, meas.on_blade)
     _, total, share = propagated(robot, shifted, cov)
     check = next(c for c in total.gate.checks if c.name == 'chi_square')
-    assert not check.passed and check.limit == pytest.approx(
-        share.c * chi2_distribution.ppf(CHI2_QUANTILE, share.nu) / share.dof, rel=1e-12)
+    assert not check.passed and check.limit == share.point(CHI2_QUANTILE)
     assert "with the GPR's calibration covariance in the residuals" in check.detail
+
+
+@pytest.mark.parametrize('dof', [10, 50, 229, 1000])
+def test_the_chi_square_points_of_one_chi_square_are_scipys(dof):
+    """Imhof's inversion for a plain chi-square: scipy's points to 1e-7."""
+    for p in (CHI2_QUANTILE, 1.0 - CHI2_QUANTILE):
+        assert quantile(p, np.array([1.0]), np.array([dof])) == pytest.approx(chi2_distribution.ppf(p, dof), rel=1e-7)
+
+
+def test_the_points_of_a_mixture_hold_their_rates():
+    """The reviewer's case (eigenvalues 1 + (25, 18, 6, 2, 0.5, 0.1) beyond 223 ones, a fit of 229 degrees of
+    freedom): Satterthwaite's point let 0.48 % of honest fits fail where 0.1 % should; Imhof's points are exceeded
+    at 0.1 % above and below in 4 million draws (within 0.007 %, four standard deviations); a small mixture (3 + 2)
+    gets the three-moment approximation above (0.11 %) and no lower point."""
+    rng = np.random.default_rng(5)
+    mu = np.array([25.0, 18.0, 6.0, 2.0, 0.5, 0.1])
+    lam, h = np.concatenate([[1.0], 1.0 + mu]), np.concatenate([[223.0], np.ones(6)])
+    draws = rng.chisquare(223, 4_000_000) + (rng.chisquare(1, (4_000_000, 6)) * (1.0 + mu)).sum(axis=1)
+    assert abs(np.mean(draws > quantile(CHI2_QUANTILE, lam, h)) - 1e-3) < 7e-5
+    assert abs(np.mean(draws < quantile(1.0 - CHI2_QUANTILE, lam, h)) - 1e-3) < 7e-5
+    small = rng.chisquare(3, 4_000_000) + 5.0 * rng.chisquare(2, 4_000_000)
+    lam, h = np.array([1.0, 5.0]), np.array([3.0, 2.0])
+    assert 0.0009 < np.mean(small > quantile(CHI2_QUANTILE, lam, h)) < 0.0013
+    assert quantile(1.0 - CHI2_QUANTILE, lam, h) is None
+
+
+def test_a_covariance_block_in_other_units_fails_the_gate(files):
+    """A reviewer's: the block in mm^2 (every entry 1e6 times) made the chi-square's limit 1e6 and another machine's
+    points passed. Its residuals now lie far below what the block says: the gate fails on ``gpr_covariance``, naming
+    the units; the block as written passes it, and a passed check says nothing."""
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    robot = load_robot(geometry=cfg)
+    big = GeometryCovariance(cov.names, cov.matrix * 1e6, cov.source)
+    _, total, share = propagated(robot, meas, big)
+    check = next(c for c in total.gate.checks if c.name == 'gpr_covariance')
+    assert not total.gate.passed and not check.passed and check.limit == share.point(1.0 - CHI2_QUANTILE)
+    assert check.detail.startswith("The residuals are far smaller than the GPR's covariance block says: reduced "
+                                   'chi-square') and 'a block in other units than SI (mm^2 for m^2?)' in check.detail
+    _, total, _ = propagated(robot, meas, cov)
+    assert total.gate.passed and all(c.detail == '' for c in total.gate.checks)
+    assert [c.name for c in total.gate.checks].count('gpr_covariance') == 1
 
 
 def test_known_base_frame_rotates_the_gpr_jacobian():

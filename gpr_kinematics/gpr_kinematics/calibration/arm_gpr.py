@@ -9,30 +9,32 @@ parameter's step: the core has no analytic derivative by its geometry).
 
 The error is in the residuals too: the weighted residuals ``r = P (e + B dg)`` (``A``, ``B`` the weighted ``J_a``,
 ``J_g``; ``P = I - A A^+`` the projection on the residuals' space; ``e`` unit noise) have the covariance
-``C = P (I + B Sigma_g B^T) P``, so ``|r|^2`` is a sum of ``lambda_i chi^2_1`` over the eigenvalues of ``C``, not the
-``chi^2`` of ``tr P`` degrees of freedom the gate takes for an exact GPR. :class:`ResidualShare` judges the
-chi-square against the :data:`~.quality.CHI2_QUANTILE` point of that sum by Satterthwaite's approximation, ``c
-chi^2_nu`` with ``c = tr C^2 / tr C`` and ``nu = (tr C)^2 / tr C^2`` (the mean and variance matched; Satterthwaite,
-"An approximate distribution of estimates of variance components", 1946), and the outliers studentized by
+``C = P (I + B Sigma_g B^T) P = P + G G^T`` (``G = P B Sigma_g^(1/2)``), so ``|r|^2 = chi^2_(dof - r) + sum_k (1 + mu_k)
+chi^2_1`` over the eigenvalues ``mu_k`` of ``G^T G``, not the ``chi^2`` of ``dof = tr P`` degrees of freedom the gate
+takes for an exact GPR. :class:`ResidualShare` judges the chi-square against that sum's
+:data:`~.quality.CHI2_QUANTILE` point (exact: :mod:`.chi2_mixture`, Imhof's method), checks it is not below its
+``1 - CHI2_QUANTILE`` point (``gpr_covariance``: a block in other units), and studentizes the outliers by
 ``sqrt(C_ii)``. Measured on 100 GPRs calibrated from 15 noisy poses: a gate taking the GPR as exact failed 53 arms
 fitted to their noise, this one none (``test_calibration_arm_gpr.py``).
 """
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_distribution
 
 from ..core.geometry_covariance import GeometryCovariance
 from .arm import ArmModel
+from .chi2_mixture import quantile
 from .core_model import CoreModel
 from .model import ParameterSet, PoseModel, pose_jacobian
 from .plausibility import measured_errors
-from .quality import CHI2_QUANTILE, Gate, outlier_check
+from .quality import CHI2_QUANTILE, Gate, GateCheck, outlier_check, spread
 from .results import CalibrationResult
 
 Array = NDArray[np.float64]
@@ -98,12 +100,12 @@ def weighted_jacobians(model: PoseModel, arm: ArmModel, res: CalibrationResult, 
 @dataclass(frozen=True)
 class ResidualShare:
     """The weighted residuals' covariance ``C = P + G G^T`` with the GPR's error (module docstring), as the gate needs
-    it: Satterthwaite's ``c`` and ``nu``, the fit's degrees of freedom ``tr P = 3N - F`` and every residual's variance
-    ``diag C`` ``(N, 3)`` (in units of its sigma squared)."""
+    it: the fit's degrees of freedom ``tr P = 3N - F``, the eigenvalues ``excess`` of ``G^T G`` above 0 (``C`` has
+    ``1 + excess_k`` where it differs from ``P``'s ones) and every residual's variance ``diag C`` ``(N, 3)`` (in units
+    of its sigma squared)."""
 
-    c: float
-    nu: float
     dof: int
+    excess: Array
     variance: Array
 
     @classmethod
@@ -113,35 +115,71 @@ class ResidualShare:
         PB = B - Qa @ (Qa.T @ B)                         # P B, without the (3N, 3N) projection
         lam, V = np.linalg.eigh(0.5 * (cov.matrix + cov.matrix.T))
         G = PB @ (V * np.sqrt(np.clip(lam, 0.0, None)))   # C = P + G G^T (Sigma_g = V lam V^T, PSD within rounding)
-        g = G.T @ G
-        dof = A.shape[0] - A.shape[1]
-        trace = dof + float(np.trace(g))
-        square = dof + 2.0 * float(np.trace(g)) + float(np.sum(g * g))   # tr C^2: P G = G
+        mu = np.linalg.eigvalsh(G.T @ G)
         variance = 1.0 - np.sum(Qa * Qa, axis=1) + np.sum(G * G, axis=1)
-        return cls(square / trace, trace * trace / square, dof, variance.reshape(-1, 3))
+        dof = A.shape[0] - A.shape[1]
+        excess = mu[mu > 1e-12 * max(float(mu.max(initial=0.0)), 1.0)][-dof:] if dof > 0 else mu[:0]
+        return cls(dof, excess, variance.reshape(-1, 3))
+
+    @property
+    def mean(self) -> float:
+        """The reduced chi-square's expectation ``tr C / dof``."""
+        return 1.0 + float(np.sum(self.excess)) / self.dof
+
+    @property
+    def spread(self) -> float:
+        """The reduced chi-square's standard deviation ``sqrt(2 tr C^2) / dof``."""
+        return math.sqrt(2.0 * (self.dof + float(np.sum(2.0 * self.excess + self.excess ** 2)))) / self.dof
+
+    def point(self, p: float) -> float | None:
+        """The reduced chi-square's ``p`` point: ``|r|^2 = chi^2_(dof - r) + sum_k (1 + excess_k) chi^2_1``
+        (:func:`~.chi2_mixture.quantile`, exact by Imhof's method; None for a lower point of a small fit)."""
+        lam = np.concatenate([[1.0], 1.0 + self.excess])
+        h = np.concatenate([[self.dof - self.excess.size], np.ones(self.excess.size)])
+        x = quantile(p, lam[h > 0], h[h > 0])
+        return None if x is None else x / self.dof
 
     def gate(self, res: CalibrationResult, residual: Array, names: Sequence[str]) -> Gate:
         """The gate of ``res`` with the GPR's error in its weighted ``residual (N, 3)`` blocks (rows ``names``): the
-        chi-square against ``c chi^2_nu``'s :data:`~.quality.CHI2_QUANTILE` point, and with declared noise the
-        outliers studentized by ``sqrt(diag C)`` (without, by their robust scale as the fit judged them)."""
-        limit = self.c * float(chi2_distribution.ppf(CHI2_QUANTILE, self.nu)) / self.dof
-        point = f'the {100 * CHI2_QUANTILE:g} % point for {self.dof} degrees of freedom'
-        text = (f"the gate {limit:.4g} ({point} with the GPR's calibration covariance in the residuals, "
-                f"{self.c * self.nu / self.dof - 1.0:.3g} of the noise's share: calibration.arm_gpr)")
+        chi-square against its :data:`~.quality.CHI2_QUANTILE` point, a ``gpr_covariance`` check that it is not
+        below its ``1 - CHI2_QUANTILE`` point (a block in other units, mm^2 for m^2, let every fit pass), and with
+        declared noise the outliers studentized by ``sqrt(diag C)`` (without, by their robust scale as the fit
+        judged them)."""
+        h = 1.0 - self.variance
         checks = []
         for check in res.gate.checks:
             if check.name == 'chi_square':
-                old = f'the gate {check.limit:.4g} ({point})'
-                passed = check.value <= limit
-                detail = '' if passed else check.detail.replace(old, text) if old in check.detail else \
-                    f'The model does not explain the measurements: reduced chi-square {check.value:.4g} above {text}.'
-                check = dataclasses.replace(check, passed=passed, limit=limit, detail=detail)
-            elif check.name == 'outliers' and res.absolute_sigma:
-                judged = outlier_check(1.0 - self.variance, residual, names)
-                check = check if judged is None else dataclasses.replace(
-                    judged, detail=judged.detail.replace('(studentized)', "(studentized with the GPR's share)"))
+                checks += self._chi_square(check, spread(h, residual))
+                continue
+            if check.name == 'outliers' and res.absolute_sigma:
+                judged = outlier_check(h, residual, names)
+                if judged is not None:
+                    check = dataclasses.replace(judged, detail='' if judged.passed else judged.detail.replace(
+                        '(studentized)', "(studentized with the GPR's share)"))
             checks.append(check)
         return Gate(tuple(checks))
+
+    def _chi_square(self, check: GateCheck, scale: str) -> list[GateCheck]:
+        """The fit's chi-square ``check`` judged with the GPR's share (its words: the limit, the residuals' robust
+        ``scale``), and the ``gpr_covariance`` check below it."""
+        limit, low = self.point(CHI2_QUANTILE), self.point(1.0 - CHI2_QUANTILE)
+        assert limit is not None   # an upper point always is
+        value, point = check.value, f'the {100 * CHI2_QUANTILE:g} % point for {self.dof} degrees of freedom'
+        share = (f"with the GPR's calibration covariance in the residuals, {self.mean - 1.0:.3g} of the noise's "
+                 'share: calibration.arm_gpr')
+        old, text = f'the gate {check.limit:.4g} ({point})', f'the gate {limit:.4g} ({point} {share})'
+        detail = re.sub(r'\(robust scale: [^)]*\)', f'(robust scale: {scale} sigma)', check.detail.replace(old, text))
+        if old not in check.detail:
+            detail = f'The model does not explain the measurements: reduced chi-square {value:.4g} above {text}.'
+        out = [dataclasses.replace(check, passed=value <= limit, limit=limit, detail='' if value <= limit else detail)]
+        if low is not None:
+            out.append(GateCheck('gpr_covariance', value >= low, value, low, '' if value >= low else
+                                 f"The residuals are far smaller than the GPR's covariance block says: reduced "
+                                 f'chi-square {value:.4g} below {low:.4g} (the {100 * (1 - CHI2_QUANTILE):g} % point '
+                                 f'for {self.dof} degrees of freedom {share}): a block in other units than SI (mm^2 '
+                                 "for m^2?), or another GPR's; allowed: the covariance gpr calibrate wrote with the "
+                                 'geometry.', at_least=True))
+        return out
 
 
 def weighted_residuals(model: PoseModel, arm: ArmModel, res: CalibrationResult, w: Array) -> Array:
