@@ -9,16 +9,24 @@ path exactly, whatever the sample times."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from .controller import ControllerJoints
-
 Array = NDArray[np.float64]
+
+
+class NamedJoints(Protocol):
+    """The joints' names and units (:class:`~.controller.ControllerJoints`, which imports this module)."""
+
+    @property
+    def names(self) -> Sequence[str]: ...
+
+    @property
+    def units(self) -> Sequence[str]: ...
 
 
 def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
@@ -90,7 +98,7 @@ class Lag:
         return np.vstack(corners), times
 
 
-def violation(joints: ControllerJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,
+def violation(joints: NamedJoints, cols: NDArray[np.int64], error_position: Array, error_velocity: Array,
               position: Array, velocity: Array, what: str) -> str | None:
     """The first joint of ``cols`` whose position or velocity error ``(N,)`` exceeds its tolerance ``(N,)``, named with
     the tolerance and the error (``what``: path or goal), or None."""
