@@ -198,6 +198,29 @@ def test_the_points_of_a_mixture_hold_their_rates():
         assert abs(np.mean(draws < quantile(1.0 - CHI2_QUANTILE, lam, h)) / 1e-3 - 1.0) < within
 
 
+def test_the_share_is_the_dense_covariances_spectrum(files):
+    """``C = P (I + B Sigma_g B^T) P`` built densely: its nonzero eigenvalues are ``dof - r`` ones and ``1 + mu_k``
+    (to 1e-6), its diagonal the residuals' variances, and the gate's point at 99.9 % is exceeded by 0.1 % (within
+    10 %) of a million draws of ``sum lambda_i chi^2_1`` over those eigenvalues."""
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    model = ArmModel(load_robot(geometry=cfg), meas)
+    res = identify(model, meas.points)
+    A, B = weighted_jacobians(model, model, res, cov, weights(meas.points, SIGMA, 1e-5)[0])
+    share = ResidualShare.of(A, B, cov)
+    P = np.eye(A.shape[0]) - A @ np.linalg.pinv(A)
+    C = P @ (np.eye(A.shape[0]) + B @ cov.matrix @ B.T) @ P
+    lam = np.sort(np.linalg.eigvalsh(0.5 * (C + C.T)))
+    lam = lam[lam > 1e-6]
+    expected = np.sort(np.concatenate([np.ones(share.dof - share.excess.size), 1.0 + share.excess]))
+    assert lam.size == share.dof and share.excess.size > 0
+    np.testing.assert_allclose(lam, expected, rtol=1e-6, atol=1e-9)   # Sigma_g clipped PSD: 4e-7 relative
+    np.testing.assert_allclose(share.variance.ravel(), np.diag(C), rtol=1e-6, atol=1e-12)
+    rng = np.random.default_rng(11)
+    big = lam[lam > 1.0 + 1e-6]
+    draws = rng.chisquare(lam.size - big.size, 1_000_000) + (rng.chisquare(1, (1_000_000, big.size)) * big).sum(axis=1)
+    assert abs(np.mean(draws > share.point(CHI2_QUANTILE) * share.dof) / 1e-3 - 1.0) < 0.1
+
+
 def test_a_covariance_block_in_other_units_fails_the_gate(files):
     """A reviewer's: the block in mm^2 (every entry 1e6 times) made the chi-square's limit 1e6 and another machine's
     points passed. Its residuals now lie far below what the block says: the gate fails on ``gpr_covariance``, naming
@@ -356,6 +379,9 @@ def test_the_robots_gpr_section_brings_the_covariance_and_the_calibrated_robot_k
                              str(tmp_path / 'given.yaml'), '--json')
     assert status == 0, err
     assert _fitted(out) == pytest.approx(_fitted(given), rel=1e-12)
+    assert 'gpr_covariance' in [c['name'] for c in json.loads(given)['arms'][0]['gate']['checks']]   # judged with it
+    kept = load_robot(tmp_path / 'given.yaml').gpr_covariance   # --config's block kept in the calibrated robot
+    assert kept is not None and kept.names == cov.names and np.array_equal(kept.matrix, cov.matrix)
     written = load_robot(out1).gpr_covariance
     assert written is not None and written.names == cov.names and np.array_equal(written.matrix, cov.matrix)
     assert written.source == str(out1) and written.section == 'gpr'

@@ -312,6 +312,23 @@ def test_a_lagging_goal_is_planned_from_where_its_wait_leaves_the_joints():
     for name in ('arrival', 'command', 'samples'):
         with pytest.raises(ValueError, match='read-only'):
             getattr(lag, name)[0] = 0
+    assert np.array_equal(lag.waited(-1.0), current)   # before the arrival: there, not extrapolated back
+    late, _ = plan_goal(_goal(stamp_ns=NOW - NS // 2), LAGGING, current, NOW, held)   # a stamp 0.5 s in the past
+    assert late.late == pytest.approx(0.5) and late.lag is not None and late.lag.wait == 0.0
+
+
+def test_the_joints_lagging_into_a_tilt_are_refused():
+    """Rod 1 30 mm above the others at the arrival, commanded level by the last goal, a goal on the elbow: the
+    samples (the rods at their command) are level, the joints converging there are not at first: refused naming
+    the lagging joints' sample."""
+    current = JOINTS.rest.copy()
+    current[0] += 0.03
+    with pytest.raises(GoalError) as e:
+        plan_goal(_goal(), LAGGING, current, NOW, JOINTS.rest)
+    assert re.fullmatch(r'the joints at sample 0 \(t = 0 s\): the platform would tilt [\d.]+ rad \(rods 0\.284, '
+                        r'0\.254, 0\.254 m; lagging 0\.5 s \(servo_time_constant\) behind the samples\); allowed: at '
+                        r'most tilt_limit [\d.e-]+ rad', str(e.value)), str(e.value)
+    assert plan_goal(_goal(), CONTROLLER, current, NOW, JOINTS.rest)[0].lag is None   # no lag: the samples level
 
 
 def test_the_lag_moves_on_the_lines_between_its_samples():
@@ -339,11 +356,13 @@ def test_a_tilt_refusal_names_the_lagging_rods_it_holds_at_their_command():
     held = JOINTS.rest.copy()
     held[1:3] -= 0.02
     rod = float(JOINTS.rest[0])
+    current = JOINTS.rest.copy()
+    current[0] += 0.001   # rod 1 lagging too, but the goal commands it: not named
     goal = _goal(joint_names=['rod_1'], times=[1.0], positions=[[rod + 0.02]], velocities=[[]],
                  accelerations=[[]])
     for stamp in (0, NOW + 2 * NS):   # at once, or 2 s ahead (a reviewer's: quoted where the wait takes them)
         with pytest.raises(GoalError) as e:
-            plan_goal(dataclasses.replace(goal, stamp_ns=stamp), LAGGING, JOINTS.rest, NOW, held)
+            plan_goal(dataclasses.replace(goal, stamp_ns=stamp), LAGGING, current, NOW, held)
         assert re.fullmatch(rf'sample \d+ \(t = [\d.]+ s\): the platform would tilt [\d.e-]+ rad \(rods [\d.]+, '
                             rf'{rod - 0.02:.9g}, {rod - 0.02:.9g} m; the rods it leaves out at their command, lagging '
                             rf'now at rod_2 {rod:.9g} m, rod_3 {rod:.9g} m\); allowed: at most tilt_limit [\d.e-]+ rad',

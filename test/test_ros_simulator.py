@@ -912,6 +912,16 @@ def test_a_goal_waiting_for_its_stamp_moves_the_lagging_joints_as_its_check_did(
         np.testing.assert_allclose(node.actual, motion.lag.waited(k / 10), rtol=0, atol=1e-15)
     assert 0.0 < command[s] - node.actual[s] < 0.3 * math.exp(-3.8) * 1.001
     assert abs(command[s] - node.actual[s]) > abs(command[s] - motion.current[s])   # short of the first sample
+    started = types.SimpleNamespace(**vars(run))   # the same goal had it started: the run commands the joints
+    started.goal = types.SimpleNamespace(is_cancel_requested=False, publish_feedback=lambda fb: None)
+    started.clock_ns, started.done = clock.nanoseconds, types.SimpleNamespace(set_result=lambda r: None)
+    twin = types.SimpleNamespace(**(vars(node) | {'period': 0.01, 'catch_up': lambda: 1, 'command': command.copy(),
+                                                  'pace_clock': lambda: clock.nanoseconds / ns, 'run': started}))
+    for method in ('_step', '_feedback', '_end', '_tick'):
+        setattr(twin, method, types.MethodType(getattr(sim.RobotSimulatorNode, method), twin))
+    clock.nanoseconds = start
+    twin._tick()
+    assert twin.command is None and started.started is not None and np.array_equal(twin.actual, motion.lag.samples[0])
     node._cancelled(run)
     assert done[0][0] == 'canceled' and np.array_equal(node.command, command)
     assert done[0][2] == "cancelled before its start; lagging joints go on to the last goal's end"   # not 'nothing

@@ -18,7 +18,7 @@ from gpr_kinematics.robot.controller import INVALID_GOAL, ControllerJoints, Goal
 from gpr_kinematics.robot.goal import Controller, Goal, plan_goal
 from gpr_kinematics.robot.plan import plan_program
 from gpr_kinematics.robot.program import load_program
-from gpr_kinematics.robot.spline import TRAVEL_SLACK
+from gpr_kinematics.robot.spline import TRAVEL_SLACK, Spline
 from gpr_kinematics.robot.trajectory import JointTrajectory, program_trajectory, spline
 from gpr_kinematics.safety.bodies import robot_body_set
 from gpr_kinematics.safety.cell import load_cell, parse_cell
@@ -70,6 +70,14 @@ def test_spline_travel_is_the_exact_variation(degree):
     split = sp.travel(t0, mid) + sp.travel(mid, t1) - travel
     assert np.all(np.abs(split) <= 2.0 * slack.max(axis=0) + 1e-9 * travel + 1e-15)
     assert not np.any(sp.travel(np.array([traj.duration]), np.array([traj.duration + 5.0])))
+
+
+def test_a_segment_with_only_a_square_term_is_not_taken_for_a_line():
+    """A cubic segment from 0 at rest to 1 at 2 /s over 1 s is ``t^2``: its travel is 1 (a linear spline's short cut,
+    which skips the turning points' search, must not take it: read as a line it travelled 0)."""
+    sp = Spline.of(np.array([0.0, 1.0]), np.array([[0.0], [1.0]]), np.array([[0.0], [2.0]]), np.zeros((2, 1)), 3)
+    assert sp.coefficients[0, 2, 0] == 1.0 and not sp.coefficients[0, 3:].any()
+    assert 1.0 <= sp.travel(np.array([0.0]), np.array([1.0]))[0, 0] <= 1.0 + 1e-7
 
 
 def _corners(body, frames):
@@ -428,6 +436,10 @@ def test_a_lagging_joint_a_goal_leaves_out_is_checked_on_its_way_to_its_command(
     d, t = float(m.group(1)), float(m.group(2))
     truth = _at(1.2 * (1.0 - math.exp(-t / 0.5)))
     assert t < 1.0 and d < 0.002
+    with pytest.raises(GoalError) as e:   # already in the box at the arrival: said so (its wait would leave it)
+        plan_goal(dataclasses.replace(goal, stamp_ns=10 * 10 ** 9), _lagging(cell, 0.5), _at(0.6), 0, held)
+    assert str(e.value).startswith("the robot's current state (where every goal starts, t = 0) has arm1_blade and box "
+                                   '-0.020001 m'), str(e.value)
     assert GoalClearance(ROBOT, cell, 0.002).line(truth, truth).below_margin[0].measured == pytest.approx(d, abs=2e-3)
 
 
