@@ -91,7 +91,7 @@ def monte_carlo():
             o['judged'].append(total.gate.passed)
             o['chi2'].append(plain.chi2_reduced)
             o['mean'].append(share.mean)            # E chi2_red = tr C / dof
-            o['var'].append(share.spread ** 2)      # Var: 2 tr C^2 / dof^2
+            o['var'].append(2.0 * (share.dof + np.sum((1.0 + share.excess) ** 2 - 1.0)) / share.dof ** 2)   # 2 tr C^2
             o['est'].append(plain.values)
             o['plain'].append(plain.standard_error)
             o['total'].append(total.standard_error)

@@ -20,7 +20,6 @@ GPR as exact failed 53 arms fitted to their noise, this one none (``test_calibra
 from __future__ import annotations
 
 import dataclasses
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -125,11 +124,6 @@ class ResidualShare:
     def mean(self) -> float:
         """The reduced chi-square's expectation ``tr C / dof``."""
         return 1.0 + float(np.sum(self.excess)) / self.dof
-
-    @property
-    def spread(self) -> float:
-        """The reduced chi-square's standard deviation ``sqrt(2 tr C^2) / dof``."""
-        return math.sqrt(2.0 * (self.dof + float(np.sum(2.0 * self.excess + self.excess ** 2)))) / self.dof
 
     def point(self, p: float) -> float:
         """The reduced chi-square's ``p`` point: ``|r|^2 = chi^2_(dof - r) + sum_k (1 + excess_k) chi^2_1``

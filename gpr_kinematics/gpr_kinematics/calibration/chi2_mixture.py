@@ -9,9 +9,8 @@ quadratic forms in normal variables", 1999). With the cumulant generating functi
 
 Its points are bracketed away from the mean (where ``w`` and ``u`` vanish together). Measured
 (``test_calibration_arm_gpr.py``): at its 0.1 % points a plain chi-square's tail is 0.097 % (1 degree of freedom)
-to 0.1000 % (229), a mixture's 0.094-0.102 % in 4 million draws; Imhof's exact inversion, tried first, needed
-minutes and failed where one weight was a million times the others (a covariance block in other units). A first
-version matched only the mean and the variance (Satterthwaite): its point was exceeded by 0.48 % of honest fits.
+to 0.1000 % (229), a mixture's 0.094-0.102 % in 4 million draws (the methods tried before it: docs/calibration.md,
+"The arms").
 """
 from __future__ import annotations
 

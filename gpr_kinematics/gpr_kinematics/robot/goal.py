@@ -28,7 +28,7 @@ from .controller import (
     refuse_tilt,
     trajectory_from_points,
 )
-from .servo import Lag, servo
+from .servo import Lag, after_wait
 from .trajectory import MAX_DURATION, MAX_POINTS
 
 Array = NDArray[np.float64]
@@ -189,7 +189,7 @@ def plan_goal(goal: Goal, controller: Controller, current: Array, now_ns: int, h
             return dataclasses.replace(motion, late=late), start
         # lagging: the joints converge to the last command while the goal waits, the goal planned from there, then
         # its checks along the path the lag takes (the tilt, the cell's clearance: GoalClearance follows motion.lag)
-        begin = servo(current, held, wait, tau) if wait > 0.0 and held is not None else current
+        begin = after_wait(current, held, wait, tau) if held is not None else current
         motion = plan_motion(joints, traj, begin, c.rate, c.config, tol, c.start_tolerance, None, under_way, held,
                              current)
         lag = Lag.of(tau, current, held, wait, motion.time, motion.positions)

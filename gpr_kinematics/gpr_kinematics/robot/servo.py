@@ -35,6 +35,12 @@ def servo(actual: Array, desired: Array, dt: float, tau: float) -> Array:
     return np.array(desired if tau <= 0.0 else desired + (actual - desired) * math.exp(-dt / tau), dtype=np.float64)
 
 
+def after_wait(arrival: Array, command: Array, wait: float, tau: float) -> Array:
+    """Every joint ``wait`` [s] after the ``arrival`` (its state then), converging to ``command``: :func:`servo`
+    over the wait, the arrival itself (a copy) for none."""
+    return servo(arrival, command, wait, tau) if wait > 0.0 else np.array(arrival, dtype=np.float64)
+
+
 #: Corners of :meth:`Lag.path` on the wait's line and on the settling line, a fourth of a halving apart: the last
 #: within 2^-20 of the line's end.
 LINE_CORNERS = 80
@@ -63,7 +69,7 @@ class Lag:
         ``dt = t_k - t_(k-1)`` per sample, none at the first (as the simulator steps)."""
         arrival = np.array(arrival, dtype=np.float64)
         command = arrival.copy() if command is None else np.array(command, dtype=np.float64)
-        x = servo(arrival, command, wait, tau) if wait > 0.0 else arrival.copy()
+        x = after_wait(arrival, command, wait, tau)
         samples = np.empty_like(positions)
         samples[0] = x
         for k in range(1, positions.shape[0]):
@@ -74,8 +80,7 @@ class Lag:
     def waited(self, elapsed: float) -> Array:
         """Every joint ``elapsed`` [s] into the wait (clamped to it): on the line from the arrival to the command,
         never past the first sample."""
-        t = min(max(elapsed, 0.0), self.wait)
-        return self.arrival.copy() if t == 0.0 else servo(self.arrival, self.command, t, self.tau)
+        return after_wait(self.arrival, self.command, min(max(elapsed, 0.0), self.wait), self.tau)
 
     def path(self, time: Array, end: Array) -> tuple[Array, Array]:
         """The joints' whole path: its corners ``(M, N)``, the lines between them, and the instants they pass them
