@@ -10,8 +10,7 @@ import pytest
 from gpr_kinematics.calibration.core_model import calibrated_config_text
 from gpr_kinematics.cli.main import main
 from gpr_kinematics.core.config import load_config
-from gpr_kinematics.core.geometry_covariance import NAMES, GeometryCovariance, load_covariance, parse_covariance
-from gpr_kinematics.core.machine import PARAMETER_NAMES
+from gpr_kinematics.core.geometry_covariance import GeometryCovariance, load_covariance, parse_covariance
 from gpr_kinematics.errors import ConfigError
 from gpr_kinematics.inputs.resources import config_path
 
@@ -105,10 +104,6 @@ def test_a_malformed_block_is_refused_in_one_line(capsys, tmp_path, block, words
     assert f'{path}: covariance' in err and words in err and 'allowed' in err, err
     with pytest.raises(ValueError, match='covariance'):
         load_covariance(path)
-
-
-def test_the_names_are_the_geometry_parameters():
-    assert NAMES == PARAMETER_NAMES
 
 
 def test_a_block_within_rounding_is_taken(tmp_path):

@@ -21,7 +21,7 @@ from gpr_kinematics.calibration.model import (
 )
 from gpr_kinematics.core import naive_inverse
 from gpr_kinematics.core.config import load_config
-from gpr_kinematics.core.machine import PARAMETER_NAMES
+from gpr_kinematics.core.parameters import PARAMETER_NAMES
 from gpr_kinematics.core.rotations import rotation_vector
 from gpr_kinematics.errors import InputError
 from scipy.spatial.transform import Rotation

@@ -1,14 +1,16 @@
 """Imperfect geometry: per-rod base points, zero offsets and directions, per-joint platform positions; the
 validation of every value, the kinematics on an imperfect machine, the naive model, mobility, the parameter
 vector."""
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 from gpr_kinematics.core import forward, forward_batch, inverse, inverse_batch, naive_forward, naive_inverse
 from gpr_kinematics.core.config import MODELS, GprConfig, load_config
-from gpr_kinematics.core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from gpr_kinematics.core.machine import config_with_parameters, parameter_vector
 from gpr_kinematics.core.mobility import analyze_mobility
+from gpr_kinematics.core.parameters import PARAMETER_KEYS, PARAMETER_NAMES, PARAMETERS
 from gpr_kinematics.core.sweep import paper_sweep
 from gpr_kinematics.core.virtual_joints import make_model
 from gpr_kinematics.errors import ConfigError, InputError
@@ -189,6 +191,24 @@ def test_parameter_vector_round_trip_and_errors():
         config_with_parameters(cfg, [1.0], ['rod1_x', 'rod1_y'])
     with pytest.raises(ConfigError, match=r'rod_offsets = .* is invalid; allowed: .* -0.1 <= o_k <= 0.1'):
         config_with_parameters(cfg, [0.5], ['rod1_offset'])
+
+
+#: A change of every key of a geometry file: the parameters move with the keys of PARAMETER_KEYS and no others.
+CHANGED = {'radius': 0.1, 'rod_azimuths': (0.01, 2.1, 4.2), 'stroke_min': 0.01, 'stroke_max': 0.5,
+           'tilt_limit': 0.03, 'imperfection_budget': 1e-3, 'model': 'compliant', 'characteristic_length': 0.1,
+           'weighting': 'unweighted', 'max_iterations': 20, 'tolerance': 1e-13,
+           'rod_positions': ((0.0935, 0.0), (-0.0466, 0.0807), (-0.0466, -0.0807)), 'rod_offsets': (1e-3, 0.0, 0.0),
+           'rod_directions': ((1e-3, 0.0), (0.0, 0.0), (0.0, 0.0)),
+           'platform_joints': ((0.0935, 0.0), (-0.0466, 0.0807), (-0.0466, -0.0807)), 'kappa': (500.0, 1e3, 1e3)}
+
+
+def test_the_keys_the_parameters_are_made_of():
+    """PARAMETER_KEYS (a robot's gpr section setting one leaves its file's covariance out) are exactly the keys whose
+    change moves the parameter vector; every key of the config is tried, so a new one must be placed."""
+    assert set(CHANGED) == {f.name for f in dataclasses.fields(GprConfig)}
+    base = parameter_vector(GprConfig())
+    moved = {k for k, v in CHANGED.items() if not np.array_equal(parameter_vector(GprConfig().replace(**{k: v})), base)}
+    assert moved == PARAMETER_KEYS
 
 
 @pytest.mark.parametrize('model', MODELS)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from gpr_kinematics.core import forward_batch, naive_inverse
 from gpr_kinematics.core.config import MODELS, load_config
-from gpr_kinematics.core.machine import PARAMETER_NAMES, MachineGeometry, config_with_parameters, parameter_vector
+from gpr_kinematics.core.machine import MachineGeometry, config_with_parameters, parameter_vector
+from gpr_kinematics.core.parameters import PARAMETER_NAMES
 from gpr_kinematics.errors import InputError, LimitError
 
 CFG = load_config()

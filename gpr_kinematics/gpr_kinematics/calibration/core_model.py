@@ -2,13 +2,13 @@
 :func:`gpr_kinematics.core.forward_batch` with the geometry parameters of each row, and the calibrated
 geometry file.
 
-The parameters are the 24 scalars of the geometry file, :data:`gpr_kinematics.core.machine.PARAMETERS`: per rod its base
-point ``rodK_x``, ``rodK_y`` [m], zero offset ``rodK_offset`` [m] and direction ``rodK_ux``, ``rodK_uy`` [rad],
-per joint its place on the platform ``jointK_x``, ``jointK_y`` [m] and stiffness ratio ``kappaK``, identified as
-its anisotropy ``(kappa - 1) / (kappa + 1)`` (:class:`~.model.Parameter`). Every parameter row of a call is one
-machine of the core's per-row batch (``forward_batch(..., parameters=...)``): the ``2 P`` perturbed machines of a
-Jacobian and the samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d`` of its centre
-``P_k`` in ``gpr_base``) goes to the core as well (``forward_batch(..., displacement=...)``).
+The parameters are the 24 scalars of the geometry file, :data:`gpr_kinematics.core.parameters.PARAMETERS`: per rod its
+base point ``rodK_x``, ``rodK_y`` [m], zero offset ``rodK_offset`` [m] and direction ``rodK_ux``, ``rodK_uy`` [rad], per
+joint its place on the platform ``jointK_x``, ``jointK_y`` [m] and stiffness ratio ``kappaK``, identified as its
+anisotropy ``(kappa - 1) / (kappa + 1)`` (:class:`~.model.Parameter`). Every parameter row of a call is one machine of
+the core's per-row batch (``forward_batch(..., parameters=...)``): the ``2 P`` perturbed machines of a Jacobian and the
+samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d`` of its centre ``P_k`` in
+``gpr_base``) goes to the core as well (``forward_batch(..., displacement=...)``).
 """
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 from ..core import base_points, forward_batch
 from ..core.config import GprConfig
 from ..core.geometry_covariance import KEY, GeometryCovariance, parse_covariance
-from ..core.machine import PARAMETER_NAMES, PARAMETERS, config_with_parameters, parameter_vector
+from ..core.machine import config_with_parameters, parameter_vector
+from ..core.parameters import PARAMETER_NAMES, PARAMETERS
 from ..core.stroke import stroke_words
 from ..errors import ConfigError, InputError, brief
 from ..inputs import safe_yaml
@@ -47,7 +48,7 @@ SCALES: dict[str, float] = {'rod_positions': 1e-4, 'rod_offsets': 1e-4, 'rod_dir
 MODEL = 'compliant'
 
 def geometry_parameters(config: GprConfig, scales: Mapping[str, float] | None = None) -> ParameterSet:
-    """The parameters of :data:`~gpr_kinematics.core.machine.PARAMETERS` at ``config``'s values; ``scales`` overrides
+    """The parameters of :data:`~gpr_kinematics.core.parameters.PARAMETERS` at ``config``'s values; ``scales`` overrides
     the scale of a configuration key (:data:`SCALES`) or of one parameter by its name."""
     scales = dict(scales or {})
     unknown = sorted(set(scales) - set(SCALES) - set(PARAMETER_NAMES))

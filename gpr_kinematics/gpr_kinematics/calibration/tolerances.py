@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.machine import PARAMETERS, parameter_range
+from ..core.machine import parameter_range
+from ..core.parameters import PARAMETERS
 from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number

@@ -255,7 +255,7 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     """Forward kinematics of rod lengths ``Q (N, 3)`` [m], vectorised over ``N``.
 
     ``parameters (N, P)``: one machine per sample, the geometry parameters ``names`` (default all of
-    :data:`~gpr_kinematics.core.machine.PARAMETER_NAMES`, ``P = 24``) of sample ``i`` in row ``i`` [SI], the rest of
+    :data:`~gpr_kinematics.core.parameters.PARAMETER_NAMES`, ``P = 24``) of sample ``i`` in row ``i`` [SI], the rest of
     ``config`` shared (:meth:`~gpr_kinematics.core.machine.MachineGeometry.per_row`): the same kernels, one call for
     many machines (the perturbed machines of a Jacobian, the samples of a Monte Carlo budget). Row ``i`` gives
     what ``forward_batch(Q[i:i+1], config_with_parameters(config, parameters[i], names))`` gives (to rounding).

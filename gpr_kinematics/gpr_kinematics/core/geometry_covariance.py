@@ -3,7 +3,7 @@
 ``gpr calibrate`` writes it; ``gpr calibrate --robot`` adds it to the arms' standard errors (docs/calibration.md)::
 
     covariance:
-      names: [rod1_x, rod1_y, ...]    # the fitted geometry parameters (core.machine.PARAMETER_NAMES)
+      names: [rod1_x, rod1_y, ...]    # the fitted geometry parameters (core.parameters.PARAMETER_NAMES)
       matrix: [[...], ...]            # their covariance, SI: m^2, rad^2, m rad; kappaK as its anisotropy
                                       # (kappa - 1) / (kappa + 1), dimensionless
 
@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from ..errors import ConfigError, brief, kind_of
 from ..inputs.safe_yaml import YamlValue
 from ..inputs.schema import check_keys, is_number, read_yaml
+from .parameters import PARAMETER_NAMES
 
 #: The key of the block in a geometry file.
 KEY = 'covariance'
@@ -57,15 +58,8 @@ class GeometryCovariance:
         return {'names': list(self.names), 'matrix': [[float(v) for v in row] for row in self.matrix]}
 
 
-#: The geometry parameters' names, in the order of :data:`gpr_kinematics.core.machine.PARAMETER_NAMES` (which a test
-#: compares: the machine imports the config, which imports this module).
-NAMES = tuple(f'{stem}{k}{end}' for k in (1, 2, 3)
-              for stem, end in (('rod', '_x'), ('rod', '_y'), ('rod', '_offset'), ('rod', '_ux'), ('rod', '_uy'),
-                                ('joint', '_x'), ('joint', '_y'), ('kappa', '')))
-
-
 def _names(value: YamlValue, where: str) -> tuple[str, ...]:
-    known = NAMES
+    known = PARAMETER_NAMES
     allowed = f'allowed: a list of distinct geometry parameter names ({", ".join(known)})'
     if not isinstance(value, list) or not value or len(value) > len(known):
         raise ConfigError(f'{where}: names = {brief(value)} is invalid; {allowed}')

@@ -12,8 +12,9 @@ joint centres defines the frame's xy-plane). The nominal machine has ``B_k = p_k
 sin theta_k)``, ``u_k = e3`` and ``o_k = 0``.
 
 The geometry as a vector of named scalars (for calibration: a config from a parameter vector and back) is
-:data:`PARAMETERS`, :func:`parameter_vector` and :func:`config_with_parameters`; forward kinematics
-(:func:`gpr_kinematics.core.forward_batch`) is a pure function of the rod lengths and that config.
+:data:`~gpr_kinematics.core.parameters.PARAMETERS`, :func:`parameter_vector` and :func:`config_with_parameters`;
+forward kinematics (:func:`gpr_kinematics.core.forward_batch`) is a pure function of the rod lengths and that
+config.
 
 **One machine per row.** :meth:`MachineGeometry.per_row` builds the geometry of ``N`` machines at once (``N``
 parameter vectors, checked like a geometry file, row by row): every constant is then an array ``(N,)`` instead
@@ -48,6 +49,7 @@ from .config import (
     nominal_points,
 )
 from .ops import Value
+from .parameters import PARAMETER_NAMES, PARAMETERS, GeometryParameter
 
 Array = NDArray[np.float64]
 Floats3 = tuple[float, float, float]
@@ -118,7 +120,7 @@ class MachineGeometry:
     @staticmethod
     def per_row(config: GprConfig, values: ArrayLike, names: Sequence[str] | None = None) -> MachineGeometry:
         """``N`` machines: ``config``'s geometry with the parameters ``names`` (default all of
-        :data:`PARAMETER_NAMES`) set to the rows of ``values (N, len(names))`` [SI].
+        :data:`~gpr_kinematics.core.parameters.PARAMETER_NAMES`) set to the rows of ``values (N, len(names))`` [SI].
 
         Each row is checked like a geometry file (the ranges of the keys, the triangles' cross checks);
         :class:`~gpr_kinematics.errors.InputError` names the row, the parameter and what is allowed. A parameter
@@ -334,41 +336,6 @@ def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Va
                            f'are {sb[i, e]:.6g} m apart; allowed: within {MAX_SIDE_MISMATCH:.0%} of each other')
 
 
-@dataclass(frozen=True)
-class GeometryParameter:
-    """One scalar of the geometry file: its name in the parameter vector, the config key and position in it,
-    the unit (``m``, ``rad`` for the small rod tilts, ``1`` for a ratio) and what it is."""
-
-    name: str
-    key: str
-    rod: int
-    component: int
-    unit: str
-    description: str
-
-
-def _parameters() -> tuple[GeometryParameter, ...]:
-    out = []
-    for k in range(3):
-        n = k + 1
-        out += [GeometryParameter(f'rod{n}_x', 'rod_positions', k, 0, 'm', f'x of the base point B_{n} of rod {n}'),
-                GeometryParameter(f'rod{n}_y', 'rod_positions', k, 1, 'm', f'y of the base point B_{n} of rod {n}'),
-                GeometryParameter(f'rod{n}_offset', 'rod_offsets', k, 0, 'm', f'zero offset o_{n} of rod {n}'),
-                GeometryParameter(f'rod{n}_ux', 'rod_directions', k, 0, 'rad',
-                                  f'x component of the direction u_{n} of rod {n} (its tilt towards +x)'),
-                GeometryParameter(f'rod{n}_uy', 'rod_directions', k, 1, 'rad',
-                                  f'y component of the direction u_{n} of rod {n} (its tilt towards +y)'),
-                GeometryParameter(f'joint{n}_x', 'platform_joints', k, 0, 'm', f'x of the platform joint p_{n}'),
-                GeometryParameter(f'joint{n}_y', 'platform_joints', k, 1, 'm', f'y of the platform joint p_{n}'),
-                GeometryParameter(f'kappa{n}', 'kappa', k, 0, '1',
-                                  f'k_t / k_r of joint {n} (the compliant model only)')]
-    return tuple(out)
-
-
-#: The geometry as a parameter vector (24 scalars): per rod its base point, zero offset and direction, per joint
-#: its platform position and stiffness ratio. Every other config value (stroke, limits, model) is not a parameter.
-PARAMETERS: tuple[GeometryParameter, ...] = _parameters()
-PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in PARAMETERS)
 #: Lowest and highest value of each parameter (the ranges of its key in a geometry file).
 _RANGES = (np.array([_TRIPLE_RANGES[p.key][1] for p in PARAMETERS]),
            np.array([_TRIPLE_RANGES[p.key][2] for p in PARAMETERS]))
@@ -412,8 +379,9 @@ def _indices(names: Sequence[str] | None) -> list[GeometryParameter]:
 
 
 def parameter_vector(config: GprConfig, names: Sequence[str] | None = None) -> Array:
-    """The values of the geometry parameters ``names`` (default: all of :data:`PARAMETER_NAMES`) of ``config``
-    [SI]. ``parameter_vector(GprConfig())`` is the nominal machine's.
+    """The values of the geometry parameters ``names`` (default: all of
+    :data:`~gpr_kinematics.core.parameters.PARAMETER_NAMES`) of ``config`` [SI]. ``parameter_vector(GprConfig())``
+    is the nominal machine's.
 
     >>> v = parameter_vector(GprConfig(), ['rod1_x', 'rod2_offset', 'kappa3'])
     >>> v.tolist()

@@ -6,8 +6,8 @@ and the covariance of its calibrated parameters where it has one (docs/calibrati
                                                   # calibrate --robot writes a calibrated robot
 
 A file's covariance describes that file's values: a section setting one of the keys they are made of
-(:data:`GEOMETRY_KEYS`) on top of it leaves the covariance out (the arms' standard errors then take the GPR as
-exact); an inline ``covariance`` describes the section's geometry as written.
+(:data:`~gpr_kinematics.core.parameters.PARAMETER_KEYS`) on top of it leaves the covariance out (the arms' standard
+errors then take the GPR as exact); an inline ``covariance`` describes the section's geometry as written.
 """
 from __future__ import annotations
 
@@ -18,13 +18,10 @@ from typing import Any
 
 from ..core.config import GprConfig, load_config
 from ..core.geometry_covariance import KEY, GeometryCovariance, load_covariance, parse_covariance
+from ..core.parameters import PARAMETER_KEYS
 from ..errors import ConfigError, brief
 from ..inputs.schema import check_keys
 from .fields import _mapping
-
-#: The geometry keys the calibrated parameters (rod axes, offsets, directions, platform joints, kappas) are made of.
-GEOMETRY_KEYS = frozenset({'radius', 'rod_azimuths', 'rod_positions', 'rod_offsets', 'rod_directions',
-                           'platform_joints', 'kappa'})
 
 
 @dataclass(frozen=True)
@@ -55,7 +52,7 @@ def load_gpr_section(raw: Any, source: str, base_dir: Path) -> tuple[GprConfig, 
             return config, GprSection(dataclasses.replace(parse_covariance(data[KEY], where), source=source,
                                                           section='gpr'))
         cov = None if file is None else load_covariance(file)
-        keys = sorted(GEOMETRY_KEYS & overrides.keys())
+        keys = sorted(PARAMETER_KEYS & overrides.keys())
         if cov is not None and keys:
             return config, GprSection(None, f'the covariance block of {file} is left out: the robot\'s gpr section '
                                             f'sets {", ".join(keys)} on top of that file (the block describes its '
