@@ -443,6 +443,26 @@ def test_a_lagging_joint_a_goal_leaves_out_is_checked_on_its_way_to_its_command(
     assert GoalClearance(ROBOT, cell, 0.002).line(truth, truth).below_margin[0].measured == pytest.approx(d, abs=2e-3)
 
 
+def test_a_lagging_path_within_the_librarys_slack_of_the_margin_is_named_with_its_bound_and_the_lags_clock():
+    """arm1's shoulder lagging from 0 to its command 1.2 rad (a goal moving arm2 only) sweeps the blade's corner past
+    a box 0.4 um beyond its circle at margin 0: nothing is measured below the margin, but the library's 1 um slack
+    keeps the bound from proving it, so the refusal names the certified bound, the distance measured and its instant
+    in the lag's clock (the corner passes the box when the shoulder is at half its command, t = 0.5 ln 2 s)."""
+    arm2 = JOINTS.names.index('arm2_shoulder')
+    goal = _lag_goal(['arm2_shoulder'], [1.0], [[JOINTS.rest[arm2] + 0.05]])
+    with pytest.raises(GoalError) as e:
+        plan_goal(goal, _lagging(_box_at(4e-7), 0.5, 0.0), _at(0.0), 0, _at(1.2))
+    m = re.fullmatch(r'arm1_blade and box could not be shown the margin apart: at least (-[\d.e+-]+) m \(-[\d.]+ mm\) '
+                     r'by the bounds between samples, (-?[\d.e+-]+) m measured at t = ([\d.]+) s \(the library\'s '
+                     r"distance less its slack of 1e-06 m\) \(s from the goal's arrival, the joints lagging 0.5 s "
+                     r'\(servo_time_constant\) behind its samples; cell test_cell\); allowed: every pair at least '
+                     r'clearance_margin 0 m \(0 mm\) apart over the whole motion', str(e.value))
+    assert m and e.value.code == INVALID_GOAL, str(e.value)
+    bound, measured, t = (float(v) for v in m.groups())
+    assert bound < measured < 0.0 and 4e-7 - 1e-8 < measured + 1e-6 < 2e-6   # the library's, 0.4 um at best
+    assert abs(t - 0.5 * math.log(2.0)) < 0.01
+
+
 def corner_case():
     """The box of :func:`test_the_lag_cutting_a_corner_into_a_box_is_refused` (size, centre, yaw) and its goal (joints,
     times, positions): the platform lifted 65 mm, arm1's shoulder turned 1.2 rad over the box, the platform lowered."""
