@@ -269,6 +269,36 @@ def test_a_bad_workspace_section_is_refused_by_every_command_reading_the_file(ca
     assert run(capsys, 'dexterity', str(path))[0] == 0
 
 
+@pytest.mark.parametrize('overrides', [{'model': 'compliant', 'kappa': 2.0}, {'rod_offsets': [0.001, 0.0, 0.0]}])
+def test_the_gpr_analyses_take_overrides_its_workspace_model_does_not(capsys, tmp_path, overrides):
+    """A GPR file's overrides the workspace model refuses (another virtual-joint model, a calibrated machine's
+    geometry) were refused by ``gpr mechanism``, ``dexterity`` and ``accuracy`` too, as the shipped file has a
+    ``workspace:`` section they check: they use them now (another centre shift or rod than the nominal radial
+    GPR's), while ``gpr workspace`` refuses them and a malformed box is still refused by every command."""
+    data = yaml.safe_load(config_path('mechanisms/gpr.yaml').read_text())
+    data['overrides'] = overrides
+    path = tmp_path / 'over.yaml'
+    path.write_text(yaml.safe_dump(data))
+    pose = ['--pose', '0', '0', '0.3', '0.01', '0', '0']
+    shift = []
+    for file in (config_path('mechanisms/gpr.yaml'), path):
+        code, out, err = run(capsys, 'mechanism', str(file), *pose, '--json')
+        assert code == 0, err
+        got = json.loads(out)
+        shift.append([got['pose']['x'], *(j['value'] for j in got['joints'])])
+    assert 2.3e-6 < shift[0][0] < 2.4e-6   # the nominal radial model's shift, 2.33 um
+    assert np.max(np.abs(np.subtract(shift[1], shift[0]))) > 1e-6   # compliant: another shift; offset: another rod
+    for argv in (['dexterity', str(path)], ['accuracy', str(path), *pose, '--errors', '1e-5', '0', '-1e-5']):
+        code, _, err = run(capsys, *argv)
+        assert code == 0, (argv, err)
+    code, _, err = run(capsys, 'workspace', str(path), '--delta', '0.01')
+    assert code == 2 and err.count('\n') == 1 and 'over.yaml' in err and 'allowed' in err, err
+    data['workspace']['box']['z'] = 'x'
+    path.write_text(yaml.safe_dump(data))
+    code, _, err = run(capsys, 'mechanism', str(path), *pose)
+    assert code == 2 and 'workspace.box.z' in err, err
+
+
 def test_the_library_names_a_parameter_error_that_is_not_numbers():
     """accuracy_analysis took a parameter error of strings to a ValueError traceback (numpy's conversion)."""
     from gpr_kinematics.errors import InputError

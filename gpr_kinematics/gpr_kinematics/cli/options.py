@@ -152,13 +152,13 @@ def rod_lengths(p: argparse.ArgumentParser) -> None:
 
 def mechanism_of(path: str) -> Mechanism:
     """The mechanism of a file, its ``workspace:`` section checked as ``gpr workspace`` checks it, whether the
-    command uses it or not (``gpr dexterity`` took a box of ``"x"``)."""
+    command uses it or not (``gpr dexterity`` took a box of ``"x"``; :func:`~..workspace.builders.check_section`)."""
     from ..mechanisms import mechanism_from_dict, read_mechanism_file
-    from ..workspace.builders import BUILDERS, model_from_mapping
+    from ..workspace.builders import BUILDERS, check_section
     data, p = read_mechanism_file(path)
     mech = mechanism_from_dict(data, str(p))
     if isinstance(data, dict) and data.get('workspace') is not None and data.get('type') in BUILDERS:
-        model_from_mapping(data, str(p))
+        check_section(data, str(p))
     return mech
 
 

@@ -96,6 +96,12 @@ def _shell_arm(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: 
     return ShellArmModel(number_key(data, 'l1', src), number_key(data, 'l2', src), floor)
 
 
+#: The GPR overrides its workspace model does not take (another virtual-joint model, its stiffness, an imperfect
+#: machine's geometry): ``gpr workspace`` refuses them; where a command uses the mechanism and only checks its
+#: ``workspace:`` section (:func:`check_section`), they are left out of that check.
+GPR_UNMODELLED = ('model', 'kappa', 'rod_positions', 'platform_joints', 'rod_offsets', 'rod_directions')
+
+
 def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
     """GPR parameters from the mechanisms interface (``type: gpr``, optional ``overrides`` of GprConfig)."""
     vj = ws.get('virtual_joint_model', 'radial')
@@ -133,6 +139,16 @@ BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
     'gpr': (_gpr, ('virtual_joint_model', 'max_tilt')),
     'shell_arm': (_shell_arm, ()),
 }
+
+
+def check_section(data: Mapping[str, Any], source: str) -> None:
+    """The ``workspace:`` section of the mechanism file ``data`` checked as ``gpr workspace`` checks it, for a command
+    that analyses the mechanism and does not use the section (a malformed box refused all the same): a GPR's overrides
+    of :data:`GPR_UNMODELLED` are the command's to use, not the section's to refuse, and are left out."""
+    overrides = data.get('overrides')
+    if data.get('type') == 'gpr' and isinstance(overrides, Mapping):
+        data = {**data, 'overrides': {k: v for k, v in overrides.items() if k not in GPR_UNMODELLED}}
+    model_from_mapping(data, source)
 
 
 def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[str, Any] | None = None,
