@@ -299,6 +299,28 @@ def test_the_gpr_analyses_take_overrides_its_workspace_model_does_not(capsys, tm
     assert code == 2 and 'workspace.box.z' in err, err
 
 
+def test_a_joint_error_beyond_a_tolerance_tables_is_refused_with_the_units_hint(capsys):
+    """``gpr accuracy gpr.yaml --errors 0.1 0 -0.1`` (the docs' example without ``--mm``) printed an "exact" tilt of
+    0.89 rad, 0.3 m one of 1.1 rad with a rod off its stroke: joint errors are bounded as a tolerance table's
+    (0.01 m, 0.1 rad; the library too), the refusal hinting at the unit; at the bound they are taken."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+    pose = ['--pose', '0', '0', '0.3', '0.01', '0', '0']
+    code, out, err = run(capsys, 'accuracy', 'gpr.yaml', *pose, '--errors', '0.1', '0', '-0.1')
+    assert code == 2 and out == '' and err.count('\n') == 1, err
+    assert ('joint error of q1 = 0.1 m is beyond 0.01 m; allowed: errors of at most 0.01 m (0.1 rad for angular '
+            "joints), as a tolerance table's (the linearisation means nothing beyond) (millimetres given as metres? "
+            'give --mm)') in err, err
+    assert run(capsys, 'accuracy', 'gpr.yaml', *pose, '--errors', '0.01', '0', '-0.01')[0] == 0
+    gsp = ['accuracy', 'gsp_d1d2d3d4a1a1.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--errors', '0', '0', '0', '0']
+    code, _, err = run(capsys, *gsp, '0.2', '0')
+    assert code == 2 and 'joint error of theta4 = 0.2 rad is beyond 0.1 rad' in err and 'give --deg)' in err, err
+    assert run(capsys, *gsp, '5', '0', '--deg')[0] == 0
+    mech = load_mechanism(config_path('mechanisms/gpr.yaml'))
+    with pytest.raises(InputError, match=r'error of q2 = -0\.0100001 m \(pose 2\) is beyond 0\.01 m; .*beyond\)$'):
+        accuracy_analysis(mech, [[0, 0, 0.3, 0, 0, 0]] * 2, [[0, 0, 0], [0, -0.0100001, 0]])
+
+
 def test_the_library_names_a_parameter_error_that_is_not_numbers():
     """accuracy_analysis took a parameter error of strings to a ValueError traceback (numpy's conversion)."""
     from gpr_kinematics.errors import InputError

@@ -40,7 +40,7 @@ from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
-from ..mechanisms.accuracy import PARAMETER_ERROR_MOST
+from ..mechanisms.accuracy import JOINT_ANGLE_ERROR_MOST, PARAMETER_ERROR_MOST
 from .frames import AXES
 from .measurements import SIGMA_RANGE
 from .model import KAPPA_RANGE, Parameter, ParameterSet, coordinate_of
@@ -49,7 +49,7 @@ Array = NDArray[np.float64]
 
 DISTRIBUTIONS = ('uniform', 'normal', 'log-uniform')
 #: Largest tolerance (half-width or range) accepted per unit, SI.
-MAX_TOLERANCE = {'m': PARAMETER_ERROR_MOST, 'rad': 0.1, '1': 1e6}
+MAX_TOLERANCE = {'m': PARAMETER_ERROR_MOST, 'rad': JOINT_ANGLE_ERROR_MOST, '1': 1e6}
 #: Relative slack of those bounds for a range's ends, whose deviations from the nominal are differences of rounded
 #: numbers: ``rod2_x: {range: [-56.609, -36.609]}`` (mm, the nominal -46.609 mm plus 10 mm) reaches 0.01 m and 1e-17.
 BOUND_SLACK = 1e-9

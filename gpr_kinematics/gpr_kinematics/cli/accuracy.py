@@ -227,7 +227,9 @@ def budget_command(args: argparse.Namespace) -> int:
 
 
 def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
-    """``--errors`` in SI (``--mm``/``--deg`` converted), else the file's leg deformations, else zeros."""
+    """``--errors`` in SI (``--mm``/``--deg`` converted), else the file's leg deformations, else zeros; bounded as
+    :func:`~..mechanisms.accuracy.check_joint_errors` bounds them, a unit's hint added."""
+    from ..mechanisms.accuracy import check_joint_errors
     if args.errors is None:
         deformations = getattr(mech, 'leg_deformations', None)
         return np.zeros(mech.n_joints) if deformations is None else np.asarray(deformations, dtype=float)
@@ -240,7 +242,9 @@ def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
         errors[~ang] = metres(errors[~ang], True)
     if args.deg:
         errors[ang] = np.radians(errors[ang])
-    return errors
+    hints = ('' if args.mm else ' (millimetres given as metres? give --mm)',
+             '' if args.deg else ' (degrees given as radians? give --deg)')
+    return np.asarray(check_joint_errors(mech, errors, 1, hints)[0], dtype=np.float64)
 
 
 def _parameter_errors(args: argparse.Namespace, mech: Mechanism) -> dict[str, np.ndarray]:

@@ -38,7 +38,15 @@ import numpy as np
 from ..core.rotations import wrap_angle
 from ..errors import InputError, SingularityError, apart, brief
 from ..inputs.validation import MAX_COORDINATE, float_array
-from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, dexterity_index, euler_rate_matrix, rotation_vector
+from .base import (
+    ANGULAR_JOINTS,
+    SINGULAR_TOLERANCE,
+    Mechanism,
+    as_poses,
+    dexterity_index,
+    euler_rate_matrix,
+    rotation_vector,
+)
 
 #: Distance [rad] of the second Euler angle from its gimbal lock (Z-X-Z: theta = 0 or pi; roll-pitch-yaw: B = +-pi/2)
 #: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
@@ -155,7 +163,10 @@ def euler_lock_warnings(mech: Mechanism, poses: Any) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
+def check_joint_errors(mech: Mechanism, errors: Any, n_poses: int, hints: tuple[str, str] = ('', '')) -> np.ndarray:
+    """The joint errors ``(n_poses, n_joints)`` [m, rad for angular joints] of ``errors`` (one row for every pose, or
+    one per pose; None: zeros), checked finite and within :data:`PARAMETER_ERROR_MOST` (m) and
+    :data:`JOINT_ANGLE_ERROR_MOST` (rad); ``hints`` end the refusal of a linear, an angular error (a unit's)."""
     if errors is None:
         return np.zeros((n_poses, mech.n_joints))
     arr = float_array(errors, f'{mech.name}: joint errors', f'{mech.n_joints} numbers per pose (m, or rad for angular '
@@ -166,12 +177,25 @@ def _joint_errors(mech: Mechanism, errors: Any, n_poses: int) -> np.ndarray:
         got = f'shape {np.shape(errors)}' if arr.shape != (n_poses, mech.n_joints) else f'{brief(errors)}'
         raise InputError(f'{mech.name}: joint errors must be {mech.n_joints} finite values (m, or rad for '
                          f'angular joints) for {", ".join(mech.joint_names)} per pose; got {got}')
+    angular = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
+    most = np.where(angular, JOINT_ANGLE_ERROR_MOST, PARAMETER_ERROR_MOST)
+    big = np.argwhere(np.abs(arr) > most)
+    if big.size:   # 0.3 m of a GPR's rod printed a tilt of 1.1 rad as its "exact" deviation, the rod off its stroke
+        i, j = (int(v) for v in big[0])
+        unit, hint = ('rad', hints[1]) if angular[j] else ('m', hints[0])
+        shown, bound = apart(abs(float(arr[i, j])), float(most[j]))
+        raise InputError(f'{mech.name}: joint error of {mech.joint_names[j]} = {"-" if arr[i, j] < 0 else ""}{shown} '
+                         f'{unit}{f" (pose {i + 1})" if n_poses > 1 else ""} is beyond {bound} {unit}; allowed: '
+                         f'errors of at most {PARAMETER_ERROR_MOST:g} m ({JOINT_ANGLE_ERROR_MOST:g} rad for angular '
+                         f'joints), as a tolerance table\'s (the linearisation means nothing beyond){hint}')
     return np.array(arr)
 
 
 #: The largest error [m] of a geometric parameter (a point's displacement), a tolerance table's largest length too
 #: (:data:`gpr_kinematics.calibration.tolerances.MAX_TOLERANCE`).
 PARAMETER_ERROR_MOST = 0.01
+#: The largest error [rad] of an angular joint, a tolerance table's largest angle too.
+JOINT_ANGLE_ERROR_MOST = 0.1
 
 
 def _parameter_errors(mech: Mechanism, errors: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
@@ -221,7 +245,7 @@ def _closure_errors(mech: Mechanism, poses: Any, joint_errors: Any, parameter_er
     """The completed poses ``(N, 6)`` and eq. (7)'s right side (:func:`_right_side`), the poses checked regular."""
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
-    rhs = _right_side(mech, arr, _joint_errors(mech, joint_errors, arr.shape[0]),
+    rhs = _right_side(mech, arr, check_joint_errors(mech, joint_errors, arr.shape[0]),
                       _parameter_errors(mech, parameter_errors))
     _check_regular(mech, arr)
     return arr, rhs
@@ -310,7 +334,7 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     """
     arr, _ = as_poses(poses)
     arr = mech.complete_pose(arr)
-    ds = _joint_errors(mech, joint_errors, arr.shape[0])
+    ds = check_joint_errors(mech, joint_errors, arr.shape[0])
     dp = _parameter_errors(mech, parameter_errors)
     cond = _check_regular(mech, arr)
     q = mech.inverse_kinematics(arr)
