@@ -564,6 +564,34 @@ def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Pat
         replay.stop()
 
 
+def test_a_replay_in_a_namespace_names_the_remap_that_moves_its_legacy_joint_states() -> None:
+    """In /r9 the warning suggested ``-r r9/gpr/joint_states:=joint_states``, which matches nothing (a rule is taken
+    in the node's namespace), and with the right rule given it still warned, naming /r9/joint_states as the legacy
+    topic: the rule is the namespace's own, and once the states are remapped to joint_states nothing is said."""
+    from gpr_kinematics.nodes.client import GprClient
+    from sensor_msgs.msg import JointState
+
+    replay = start('replay_node', namespace='/r9', bag=REFERENCE, wait_for_subscribers=1, wait_timeout=60.0)
+    try:
+        wait_for_log(replay, r'replaying \d+ messages', timeout=30)
+        assert 'the bag carries its joint states on /r9/gpr/joint_states, where the node suite published them ' \
+            'before' in replay.output() and '(remap: -r gpr/joint_states:=joint_states; ' in replay.output(), \
+            replay.output()
+    finally:
+        replay.stop()
+    states = read_bag(REFERENCE).topic('/gpr/joint_states')
+    assert states is not None
+    replay = start('replay_node', '-r', 'gpr/joint_states:=joint_states', namespace='/r9', bag=REFERENCE, rate=20.0,
+                   wait_for_subscribers=1, wait_topic='joint_states', wait_timeout=60.0)
+    try:
+        with GprClient('gpr_test_legacy_remap') as c:
+            got = c.subscribe(JointState, '/r9/joint_states')
+            assert c.spin_until(lambda: len(got) >= len(states), 60), (len(got), len(states))
+        assert replay.wait(30) == 0 and 'the bag carries its joint states' not in replay.output(), replay.output()
+    finally:
+        replay.stop()
+
+
 @pytest.mark.parametrize('recorded_in', ['', '/r1'])
 def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path, recorded_in: str) -> None:
     """replay.launch.py's namespace (``-r __ns:=/r2``) is where its state publisher and RViz read: the suite's topics

@@ -37,7 +37,7 @@ from rclpy.executors import Executor
 
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
-from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, legacy_joint_states
+from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC, legacy_joint_states
 from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
@@ -103,13 +103,14 @@ class ReplayNode(GprNode):
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
         legacy = legacy_joint_states(bag.topics, bag.namespace)
-        if legacy is not None:   # a recorder's defaults miss them (a bag with joint_states too: they are there)
-            name = self.pubs[legacy].topic_name
-            self.get_logger().warning(
-                f'the bag carries its joint states on {name}, where the node suite published them before they '
-                f'moved to joint_states: a recorder with its default topics and a state publisher read joint_states '
-                f'(remap: -r {name.lstrip("/")}:={JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: '
-                f'joint_states:=gpr/joint_states)')
+        # a recorder's defaults miss them (a bag with joint_states too: they are there), unless remapped there
+        joint_states = self.resolve_topic_name(JOINT_STATES_TOPIC.lstrip('/'))
+        if legacy is not None and self.pubs[legacy].topic_name != joint_states:
+            self.get_logger().warning(   # the rule relative to the node's namespace, as it resolves the bag's topic
+                f'the bag carries its joint states on {self.pubs[legacy].topic_name}, where the node suite published '
+                f'them before they moved to joint_states: a recorder with its default topics and a state publisher '
+                f'read joint_states (remap: -r {LEGACY_JOINT_STATES_TOPIC.lstrip("/")}:='
+                f'{JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: joint_states:=gpr/joint_states)')
 
     def published_name(self, bag: Any, name: str) -> str:
         """Where the bag's topic ``name`` is published: a topic of the node suite (recorded at the root or in the
