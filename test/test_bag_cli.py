@@ -97,7 +97,10 @@ def test_metadata_fields_of_the_wrong_type(tmp_path: Path, capsys: pytest.Captur
     for field, value, words in (('message_count', 'many', "message_count = 'many' is invalid; allowed: an integer"),
                                 ('message_count', True, 'message_count = True is invalid; allowed: an integer'),
                                 ('relative_file_paths', 'x.mcap', 'allowed: a list of file names'),
-                                ('storage_identifier', 'rosbag1', 'allowed: mcap or sqlite3')):
+                                ('storage_identifier', 'rosbag1', 'allowed: mcap or sqlite3'),
+                                ('ros_distro', [1, 2], 'ros_distro = [1, 2] is invalid; allowed: a string'),
+                                ('ros_distro', 'rolling\x00', "ros_distro = 'rolling\\x00' is invalid; allowed: a ROS "
+                                 'distribution name (lowercase letters, digits, _;')):
         bag = tmp_path / f'{field}_{type(value).__name__}'
         shutil.copytree(REFERENCE, bag)
         info = yaml.safe_load((bag / 'metadata.yaml').read_text())

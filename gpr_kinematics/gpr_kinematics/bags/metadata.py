@@ -43,6 +43,8 @@ MAX_METADATA_BYTES = 16 << 20
 MAX_METADATA_NODES = MAX_METADATA_BYTES // 12
 _DIGEST_LINE = re.compile(rb'^[ \t]*' + METADATA_DIGEST_KEY.encode() + rb':[^\n]*(\n|\Z)', re.MULTILINE)
 _PLACEHOLDER = '0' * 64
+#: A ``ros_distro`` (``jazzy``), or none: older rosbag2 versions wrote no such field.
+_DISTRO = re.compile(r'[a-z0-9_]{0,64}')
 _INDENT = ' ' * 4  # rosbag2_bagfile_information > custom_data > key, as PyYAML indents
 
 
@@ -206,6 +208,10 @@ def read_metadata(folder: Path) -> Metadata:
         topics.append(TopicEntry(meta.text('name'), meta.text('type'), meta.text('serialization_format'),
                                  meta.text('type_description_hash', ''), t.integer('message_count'),
                                  meta.data.get('offered_qos_profiles')))
+    distro = top.text('ros_distro', '')
+    if not _DISTRO.fullmatch(distro):   # a list or a NUL in it passed a verification
+        raise top._fail('ros_distro', distro, 'a ROS distribution name (lowercase letters, digits, _; rosbag2 writes '
+                        'the one it was built for), or none')
     custom = top.get('custom_data', {}) or {}
     if not isinstance(custom, Mapping) or not all(isinstance(k, str) and isinstance(v, str)
                                                   for k, v in custom.items()):
