@@ -9,8 +9,8 @@ Examples::
 
 ``--delta`` is the accuracy in metres (``--mm``: millimetres); angle edges count as ``angle_scale`` times the
 angle (the mechanism's characteristic length), see docs/workspace.md. A progress bar appears on stderr after
-2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted``, as does the
-time limit (``--max-seconds``, default 600 s).
+2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted``, exiting with
+status 130 (143), as does the time limit (``--max-seconds``, default 600 s), exiting 0.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import math
+import signal
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -32,6 +33,7 @@ from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.levels import PARTS
+from ..workspace.progress import StopFlag
 from ..workspace.scheduler import MAX_WORKERS
 from .options import number, whole
 from .output import JsonValue, description, emit_json, json_object
@@ -185,9 +187,11 @@ def run(args: argparse.Namespace) -> int:
         why = '' if result.stopped == 'interrupted' else f' ({result.stopped})'
         sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
+    # stopped by a signal: what was proved is kept, and the status says so (a time or box limit is a result: 0)
+    status = 128 + (StopFlag.caught or signal.SIGINT) if result.stopped == 'interrupted' else 0
     if args.json:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
-        return 0
+        return status
     print(f'{name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
           f'({result.outside_boxes} outside), method {result.method}, delta {delta:g} m')
     print(f'inner volume {result.inner_volume:.6g} {report.volume_units}, outer volume '
@@ -198,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
               'extend beyond it')
     for note in notes:
         print(note)
-    return 0
+    return status
 
 
 def output_directory(path: str | Path) -> Path:

@@ -9,7 +9,7 @@ import threading
 import time
 from collections.abc import Callable
 from types import FrameType
-from typing import Any, TextIO
+from typing import Any, ClassVar, TextIO
 
 
 class Progress:
@@ -113,9 +113,13 @@ class StopFlag:
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
+    #: The signal the last flag of this process caught (None: none since a flag was made): ``gpr workspace`` saves
+    #: what was proved and exits with its status all the same (130, 143), as a script reads an interruption.
+    caught: ClassVar[int | None] = None
 
     def __init__(self) -> None:
         self.raised = False
+        StopFlag.caught = None
         self._old: dict[int, Any] = {}
         if threading.current_thread() is threading.main_thread():
             for sig in self.SIGNALS:
@@ -124,6 +128,7 @@ class StopFlag:
 
     def _handler(self, signum: int, frame: FrameType | None) -> None:
         self.raised = True
+        StopFlag.caught = signum
 
     def restore(self) -> None:
         for sig, old in self._old.items():
