@@ -9,6 +9,7 @@ import pytest
 from gpr_kinematics.cli import main as cli
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.workspace import contains_points
+from gpr_kinematics.workspace.boxes import reached_faces
 from gpr_kinematics.workspace.loader import load_workspace_model
 
 
@@ -356,8 +357,8 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     fig = projection_figure(result, 0, 2, 'upu3', model.box)
     ax = fig.axes[0]
     assert ax.get_title().splitlines() == ['upu3: projection on x-z', 'inner (blue) and boundary (orange), delta = '
-                                           '0.02 m', 'the boxes reach the initial box (the frame): the workspace may '
-                                           'extend beyond it']
+                                           '0.02 m', 'the boxes reach the frame (z): the workspace may extend beyond '
+                                           'it']
     assert (ax.get_xlabel(), ax.get_ylabel()) == ('x [m]', 'z [m]') and ax.get_ylim() == tuple(model.box[2])
     boundary, inner = ax.collections
     assert len(inner.get_paths()) == len(np.unique(result.inner[:, [0, 2]].reshape(-1, 4), axis=0))
@@ -369,6 +370,19 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     assert fig.axes[0].get_title().splitlines()[-1] == (f'stopped early ({stopped.stopped}): unexamined boxes drawn '
                                                          'as boundary')
     plt.close(fig)
+    # the GPR's boxes reach the stroke's ends only: its tilt plane was titled as reaching a frame they stop well
+    # inside (about +-0.11 of +-0.3 rad)
+    gpr = load_workspace_model(config_path('mechanisms/gpr.yaml'))
+    result = approximate(gpr, 0.004, progress=False)
+    assert reached_faces(gpr.box, result.inner, result.boundary) == (0,) and result.variables[0] == 'z'
+    assert np.max(np.abs(result.boundary[:, 1:, :])) < 0.2
+    titles = []
+    for i, j in ((0, 1), (1, 2)):
+        fig = projection_figure(result, i, j, 'gpr', gpr.box)
+        titles.append(fig.axes[0].get_title().splitlines()[-1])
+        plt.close(fig)
+    assert titles == ['the boxes reach the frame (z): the workspace may extend beyond it',
+                      'the boxes reach the initial box in z (not drawn here): the workspace may extend beyond it']
 
 
 def test_a_delta_as_large_as_the_box_is_warned_about(capsys):

@@ -32,6 +32,7 @@ from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
+from ..workspace.boxes import reached_faces
 from ..workspace.levels import PARTS
 from ..workspace.progress import StopFlag
 from ..workspace.scheduler import MAX_WORKERS
@@ -198,8 +199,9 @@ def run(args: argparse.Namespace) -> int:
           f'{result.outer_volume:.6g} {report.volume_units}, {result.seconds:.2f} s'
           + (' (interrupted)' if result.interrupted else ''))
     if result.touches_initial_box:
-        print('note: the approximation reaches the faces of the initial box (workspace.box); the workspace may '
-              'extend beyond it')
+        faces = ', '.join(result.variables[k] for k in reached_faces(report.box, result.inner, result.boundary))
+        print(f'note: the approximation reaches the faces of the initial box (workspace.box) in {faces}; the '
+              'workspace may extend beyond it')
     for note in notes:
         print(note)
     return status
@@ -234,8 +236,8 @@ def _unique_rects(boxes: np.ndarray, i: int, j: int) -> np.ndarray:
 
 def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: np.ndarray | None = None) -> Figure:
     """The projection of the inner (dark) and outer (light) approximations on the plane of variables ``i``, ``j``
-    (a matplotlib Figure), framed by ``box``; the title says when the boxes reach the box's faces (the workspace
-    may extend beyond the frame) and when the run stopped early (the unexamined boxes drawn as boundary)."""
+    (a matplotlib Figure), framed by ``box``; the title says when the boxes reach the box's faces and which (the
+    workspace may extend beyond them) and when the run stopped early (the unexamined boxes drawn as boundary)."""
     _matplotlib()
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
@@ -253,8 +255,15 @@ def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: n
     ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
     ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
     notes = []
-    if result.touches_initial_box:
-        notes.append('the boxes reach the initial box (the frame): the workspace may extend beyond it')
+    if result.touches_initial_box:   # which faces: a frame the boxes stop well inside was said to be reached
+        faces = reached_faces(box, result.inner, result.boundary) if box is not None else (i, j)
+        drawn = [result.variables[k] for k in faces if k in (i, j)]
+        others = [result.variables[k] for k in faces if k not in (i, j)]
+        if drawn:
+            notes.append(f'the boxes reach the frame ({", ".join(drawn)}): the workspace may extend beyond it')
+        elif others:
+            notes.append(f'the boxes reach the initial box in {", ".join(others)} (not drawn here): the workspace '
+                         'may extend beyond it')
     if result.interrupted:
         notes.append(f'stopped early ({result.stopped or "interrupted"}): unexamined boxes drawn as boundary')
     ax.set_title('\n'.join([f'{name}: projection on {result.variables[i]}-{result.variables[j]}',

@@ -38,8 +38,16 @@ def bisect(boxes: np.ndarray, scale: np.ndarray) -> np.ndarray:
 
 def touches(box: np.ndarray, *arrays: np.ndarray) -> bool:
     """True when some of the (n, d, 2) boxes reach a face of the initial ``box`` (d, 2)."""
-    return any(bool(a.shape[0]) and bool(np.any(a[:, :, 0] <= box[:, 0]) or np.any(a[:, :, 1] >= box[:, 1]))
-               for a in arrays)
+    return bool(reached_faces(box, *arrays))
+
+
+def reached_faces(box: np.ndarray, *arrays: np.ndarray) -> tuple[int, ...]:
+    """The variables (indices) at whose faces of the initial ``box`` (d, 2) some of the (n, d, 2) boxes lie."""
+    hit = np.zeros(box.shape[0], dtype=bool)
+    for a in arrays:
+        if a.shape[0]:
+            hit |= np.any(a[:, :, 0] <= box[:, 0], axis=0) | np.any(a[:, :, 1] >= box[:, 1], axis=0)
+    return tuple(int(k) for k in np.flatnonzero(hit))
 
 
 #: At most this many (box, cell) registrations of :func:`contains_points`' bucket grid (coarser cells beyond: many
