@@ -229,6 +229,12 @@ def test_a_cell_in_another_frame_than_the_robots_world_is_refused(tmp_path):
     assert load_cell(config_path('cells/example_cell.yaml')).in_frame('world').frame == 'world'
     with pytest.raises(ConfigError, match=r"frame = 'world', but the robot description places the robot in 'map'"):
         load_cell(config_path('cells/example_cell.yaml')).in_frame('map')
+    # a file without frame is in world, the default, and said so (the refusal quoted a value the file has not)
+    lines = [line for line in text.splitlines() if not line.startswith('frame:')]
+    (tmp_path / 'none.yaml').write_text('\n'.join(lines) + '\n')
+    assert load_cell(tmp_path / 'none.yaml').in_frame('world').frame == 'world'
+    with pytest.raises(ConfigError, match=r"frame = 'world' \(the default: the file names no frame\), but the robot "):
+        load_cell(tmp_path / 'none.yaml').in_frame('fab')
 
 
 def test_program_export_does_not_replace_the_cell_its_program_names(tmp_path):

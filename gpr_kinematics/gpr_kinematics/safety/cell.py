@@ -66,11 +66,13 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class Cell:
-    """A validated cell: its obstacles in the frame ``frame``, and the file it came from."""
+    """A validated cell: its obstacles in the frame ``frame`` (``stated``: named by the file; else ``world``, the
+    default), and the file it came from."""
 
     obstacles: tuple[Obstacle, ...]
     frame: str
     source: str
+    stated: bool = True
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -81,8 +83,9 @@ class Cell:
         checks place the robot); a :class:`~gpr_kinematics.errors.ConfigError` naming both frames otherwise (the
         obstacles are not transformed: a cell in another frame would be checked off by that frame's offset)."""
         if self.frame != world:
-            raise ConfigError(f'{self.source}: frame = {self.frame!r}, but the robot description places the robot in '
-                              f'{world!r}; allowed: {world!r} (the obstacles in the robot\'s world frame)')
+            given = '' if self.stated else ' (the default: the file names no frame)'
+            raise ConfigError(f'{self.source}: frame = {self.frame!r}{given}, but the robot description places the '
+                              f'robot in {world!r}; allowed: {world!r} (the obstacles in the robot\'s world frame)')
         return self
 
 
@@ -229,7 +232,7 @@ def parse_cell(data: Any, source: str = 'cell') -> Cell:
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise ConfigError(f'{source}: obstacles: name {brief(twice[0])} is used twice; allowed: unique names')
-    return Cell(tuple(out), frame, source)
+    return Cell(tuple(out), frame, source, 'frame' in data)
 
 
 def load_cell(path: str | Path) -> Cell:
