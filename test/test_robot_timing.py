@@ -129,6 +129,11 @@ def test_too_many_samples_are_refused():
     with pytest.raises(InputError, match=r'the program lasts 1e\+06 s: at 5000 Hz that is 5000000001 samples; '
                                          r'allowed: at most 200000; lower the rate'):
         sample(t, 5000.0)
+    long = parameterise(np.zeros((2, 3)), V_LIM, A_LIM, np.array([np.nan, np.nan]), np.array([0.0, 3e6]), NAMES,
+                        ('a', 'b'))
+    with pytest.raises(InputError, match=r'at 0\.1 Hz that is 300001 samples; allowed: at most 200000; 0\.1 Hz is the '
+                                         r'lowest rate: split the program into shorter ones$'):   # not "lower the rate"
+        sample(long, 0.1)
 
 
 # The cell program's straight entry into pm1 (arm2's shoulder, elbow and hand): G1, G2, G3 = the bounds of

@@ -32,6 +32,7 @@ from .timing import (
     evaluate,
     least_total,
     locate,
+    lower_rate,
     parameterise,
     sample,
     sample_at,
@@ -89,7 +90,7 @@ def check_sample_count(program: RobotProgram, rate: float, least: float | None =
     least = shortest_duration(program) if least is None else least
     if grid_count(least, check_rate(rate)) > MAX_SAMPLES:
         raise InputError(f'{program.source}: the program lasts at least {least:.6g} s ({what}): at {rate:g} Hz more '
-                         f'than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}; lower the rate')
+                         f'than {MAX_SAMPLES} samples; allowed: at most {MAX_SAMPLES}{lower_rate(rate)}')
 
 
 def joint_limits(robot: RobotDescription) -> tuple[tuple[str, ...], Array, Array, list[slice]]:

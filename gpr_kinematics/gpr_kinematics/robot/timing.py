@@ -46,6 +46,13 @@ RATES = (0.1, 5000.0)
 RATES_ALLOWED = f'{RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample every 0.2 ms to every 10 s)'
 
 
+def lower_rate(rate: float) -> str:
+    """The end of a refusal of too many samples at ``rate`` [Hz]: lower it, or, at the lowest of :data:`RATES`,
+    split the program (it said "lower the rate" at 0.1 Hz)."""
+    return ('; lower the rate' if rate > RATES[0] else f'; {RATES[0]:g} Hz is the lowest rate: split the program into '
+            'shorter ones')
+
+
 def check_rate(rate: object) -> float:
     """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
     value = plain_number(rate)
@@ -407,7 +414,7 @@ def sample_count(total: float, rate: float) -> int:
     count = grid_count(total, rate)
     if count > MAX_SAMPLES:
         raise InputError(f'the program lasts {total:.6g} s: at {rate:g} Hz that is {count} samples; allowed: at most '
-                         f'{MAX_SAMPLES}; lower the rate')
+                         f'{MAX_SAMPLES}{lower_rate(rate)}')
     return count
 
 
