@@ -226,8 +226,9 @@ def bad_inputs(tmp_path):
                                  r"length\), or no brackets for the file's units$"),
         (['calibrate', SHIPPED], r'--output FILE is required'),
         (['calibrate', SHIPPED, '--output', str(tmp_path)], r'exists and is not a regular file'),
-        (['calibrate', SHIPPED, '--plan', '8'], r'give a MEASUREMENTS file to calibrate from, or --plan N'),
-        (['calibrate'], r'give a MEASUREMENTS file'),
+        (['calibrate', SHIPPED, '--plan', '8'], r'give a MEASUREMENTS file to calibrate from, or --plan N for a '
+                                                r'measurement plan \(not both\)$'),
+        (['calibrate'], r'give a MEASUREMENTS file .* \(neither was given\)$'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'radius'], r"unknown parameter 'radius'; allowed: "
                                                                             r'rod1_x'),
         (['calibrate', write(tmp_path, 'one.csv', '\n'.join([header, rows[0]])), '--output', 'x.yaml'],

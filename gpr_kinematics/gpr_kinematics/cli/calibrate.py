@@ -237,7 +237,7 @@ def _check_plan_options(args: argparse.Namespace) -> None:
 def _handler(args: argparse.Namespace) -> int:
     if bool(args.measurements) == (args.plan is not None):
         raise InputError('give a MEASUREMENTS file to calibrate from, or --plan N for a measurement plan '
-                         '(not both)')
+                         + ('(not both)' if args.measurements else '(neither was given)'))
     if not (math.isfinite(args.threshold) and args.threshold > 0):
         raise InputError(f'--threshold = {args.threshold!r}; allowed: a finite number > 0')
     from ..calibration.measurements import SIGMA_RANGE
