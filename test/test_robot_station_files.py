@@ -56,6 +56,8 @@ def test_an_empty_heading_is_free(tmp_path):
 
 @pytest.mark.parametrize('name, text, pattern', [
     ('s.csv', '', r's.csv: empty; a header row \(name, x, y, z, ...\)'),
+    # a header alone passed as no stations: a program importing it then missed each station it names
+    ('s.csv', 'name,x,y,z\n', r's.csv: no rows after the header \(line 1\); one row per entry is required'),
     ('s.csv', 'name,x,y\na,1,2\n', r'the header lacks the column\(s\) z; required: name, x, y, z'),
     ('s.csv', 'name,x,y,z,colour\n', r"header column 5 'colour' is invalid; allowed: name, branch, x, y, z"),
     ('s.csv', 'name,x [cm],y,z\n', r'column x: unit \[cm\] is invalid; allowed: m or mm'),

@@ -191,6 +191,10 @@ def test_a_joint_table_needs_every_rod_and_joint_column(tmp_path):
         table.write_text(','.join([*ROBOT.rods.names, *a.joint_names]) + f'\n{row}\n')
         with pytest.raises(ConfigError, match=r'j.csv: line 2: every rod and joint needs a value$'):
             read_joint_table(table, ROBOT, 'arm1')
+    table.write_text('# units: m rad\n' + ','.join([*ROBOT.rods.names, *a.joint_names]) + '\n')
+    with pytest.raises(ConfigError, match=r'j.csv: no rows after the header \(line 2\); one row per entry is '
+                                          r'required$'):
+        read_joint_table(table, ROBOT, 'arm1')
 
 
 def test_reteach_keeps_the_held_joint_of_a_fixed_joint_arm():

@@ -316,6 +316,8 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
     if missing:
         raise ConfigError(f'{where}: the header lacks the column(s) {", ".join(missing)}; required: '
                           + ', '.join(required))
+    if len(numbered) == 1:   # a header alone passed as no stations, a program then missing every one it names
+        raise ConfigError(f'{where}: no rows after the header (line {numbered[0][0]}); one row per entry is required')
     for n, row in numbered[1:]:
         if len(row) != len(header):
             raise ConfigError(f'{where}: line {n}: {len(row)} fields, the header has {len(header)}')

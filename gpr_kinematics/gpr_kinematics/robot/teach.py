@@ -291,8 +291,6 @@ def read_joint_table(path: str | Path, robot: RobotDescription, arm: str | None 
         if np.isnan(rods[r]).any() or np.isnan(joints[r]).any():
             raise ConfigError(f'{table.row_where(r)}: every rod and joint needs a value')
         _check_row(table, r, robot, a, rods[r], joints[r], check_limits)
-    if len(table) == 0:
-        raise ConfigError(f'{path}: no rows; one row of rods and joints per station is required')
     try:   # the tilt limit, as forward kinematics refuses the rods (it named no row; reteach's old rods: unchecked)
         if check_limits:
             forward_batch(rods, robot.config, stroke=False)   # the rows' stroke: checked above
