@@ -141,7 +141,7 @@ def test_human_readable_output(capsys):
      r'tool_offset = \(300, 0, 100\) m is beyond the reach of a tool point'),
     (['mobility', '0.5', '0.5', '0.5', '--dq', '1e308', '0', '0', '--json'],
      r'q1 \+ dq1 = 1e\+308 m is outside the stroke'),
-    (['sweep', '--height', '-1e308'], r'height = -1e\+308 m \(target 0\) puts a rod outside the stroke'),
+    (['sweep', '--height', '-1e308'], r'height = -1e\+308 m puts a rod outside the stroke'),
     (['sweep', '--tilt-step', '1e-12'], r'tilt_step = 1e-12 rad; allowed: a step of at least 1e-07 rad'),
     (['sweep', '--tilt-step', '1e-7'], r'allowed: a sweep of at most 200000 samples'),
     (['sweep', '--csv', ''], 'CSV output path is empty'),

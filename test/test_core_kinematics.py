@@ -273,6 +273,17 @@ def test_heights_the_stroke_cannot_reach_are_named_with_the_heights_it_can():
     assert inverse(hi - 0.001, math.radians(1.5), 0.7).q.max() <= CFG.stroke_max
     with pytest.raises(LimitError, match=r'\(target 1\) puts a rod outside the stroke'):
         inverse_batch([0.3, 2.0], 0.0, 0.0)
+    # a height typed in mm is told so, as a rod is (the rule: beyond 10 times the top, within as mm); one height for
+    # every target (a sweep's) names no "target 0": the tilt tells which
+    with pytest.raises(LimitError, match=r'0\.508 m; as millimetres it would be within them: millimetres given as '
+                                         r'metres\?$'):
+        inverse(450.0, 0.0, 0.0)
+    for h in (0.6, 600.0):
+        with pytest.raises(LimitError, match=r'allowed heights: 0 \.\. 0\.508 m$'):
+            inverse(h, 0.0, 0.0)
+    with pytest.raises(LimitError, match=r'^height = 0\.6 m puts a rod outside the stroke \[0, 0\.508\] m at the '
+                                         r'tilt 0 rad'):
+        inverse_batch([0.6, 0.6], 0.0, 0.0)
     # Within the margin past them (the virtual joints' millimetre) the solve runs and the rods decide: the refusal
     # names the height and the heights allowed too (0.5 mm, with --mm meant 0.5 m, said only 'q3 = -0.0023 m ...')
     for one in (True, False):

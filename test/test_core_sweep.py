@@ -88,7 +88,7 @@ def test_hostile_heights_and_tilts_are_named_before_the_solve():
         paper_sweep(max_tilt=1e300)
     with warnings.catch_warnings():
         warnings.simplefilter('error')   # no overflow on the way to the message
-        with pytest.raises(LimitError, match=r'height = -1e\+308 m \(target 0\) puts a rod outside the stroke '
+        with pytest.raises(LimitError, match=r'height = -1e\+308 m puts a rod outside the stroke '
                                              r'\[0, 0\.508\] m at the tilt -0\.0349066 rad; allowed heights: '
                                              r'0\.00281741 \.\. 0\.505183 m'):
             paper_sweep(height=-1e308)

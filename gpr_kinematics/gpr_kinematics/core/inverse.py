@@ -212,14 +212,17 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequenc
     i = int(np.argmax(bad))
     hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
     hv = float(np.atleast_1d(hi)[i])
-    where = f' (target {i})' if bad.size > 1 else ''
+    heights = np.atleast_1d(h)   # a sweep's one height named no "target 0"; the tilt tells the target apart
+    where = f' (target {i})' if bad.size > 1 and heights.size > 1 and np.ptp(heights) != 0 else ''
     at = f'at the tilt {ti:.6g} rad' + (' with this tool point' if any(np.any(np.asarray(v) != 0) for v in tool)
                                          else '')
     stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
     if lo_ > hv:
         raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
+    mm = '; as millimetres it would be within them: millimetres given as metres?' if hi_ > 10.0 * hv and \
+        lo_ <= hi_ / 1000.0 <= hv else ''   # the rule of the rods' hint (core.stroke.millimetres_within)
     raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
-                     f'{lo_:.6g} .. {hv:.6g} m')
+                     f'{lo_:.6g} .. {hv:.6g} m{mm}')
 
 
 def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Array, Array]:
