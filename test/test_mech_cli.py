@@ -143,6 +143,10 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '0.2', '3', '--vary2', 'x', '-0.1', '0.1', '20000'],
      'dexterity on a 3 x 20000 grid: 60000 poses; allowed: at most 50000 per map'),
     (['dexterity', 'upu3.yaml', '--vary', 'z', '-1e308', '1e308', '3'], 'need MIN < MAX, both finite'),
+    (['dexterity', 'upu3.yaml', '--vary2', 'z', '0.17', '0.26', '10'],   # it said "got z twice"; z was given once
+     '--vary2 z: the first varied variable is z too (the default without --vary)'),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '0.17', '0.26', '3', '--vary2', 'z', '0.17', '0.26', '3'],
+     'the two varied pose variables must differ; got z twice'),
     (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '1e308', '3'], 'both finite and of magnitude at most 1e+06'),
     (['dexterity', 'upu3.yaml', '--plot', 'out.unknownext'], "unknown type .unknownext; allowed: .png, .pdf, .svg"),
     (['mechanism', 'upu3.yaml', '--pose', '1e200', '0', '0.2', '0', '0', '0'], '--pose: x = 1e+200 m; allowed'),

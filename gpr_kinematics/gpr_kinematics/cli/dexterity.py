@@ -59,6 +59,9 @@ def _dexterity(args: argparse.Namespace) -> int:
     var, vals = _vary(args, mech, base, args.vary, default_var)
     if args.vary2 is not None:
         var2, vals2 = _vary(args, mech, base, args.vary2, default_var)
+        if var2 == var and args.vary is None:   # "got z twice", z given once: the first is the default's
+            raise InputError(f'--vary2 {var2}: the first varied variable is {var} too (the default without --vary); '
+                             f'allowed: --vary NAME MIN MAX COUNT with another variable than --vary2\'s')
         dmap = dexterity_grid(mech, base, var, vals, var2, vals2)
     else:
         dmap = dexterity_sweep(mech, base, var, vals)
