@@ -143,6 +143,9 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
     (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '0.2', '3', '--vary2', 'x', '-0.1', '0.1', '20000'],
      'dexterity on a 3 x 20000 grid: 60000 poses; allowed: at most 50000 per map'),
     (['dexterity', 'upu3.yaml', '--vary', 'z', '-1e308', '1e308', '3'], 'need MIN < MAX, both finite'),
+    (['dexterity', 'gpr.yaml', '--pose', '0', '0', '5', '0', '0', '0'],   # the widened stroke, quoted as the GPR's
+     "the map reaches beyond even the domain it computes in (the limits widened, the poses beyond them computed there "
+     "and marked; the numbers below are the domain's): height = 5 m puts a rod outside the stroke [-0.508, 1.016] m"),
     (['dexterity', 'upu3.yaml', '--vary2', 'z', '0.17', '0.26', '10'],   # it said "got z twice"; z was given once
      '--vary2 z: the first varied variable is z too (the default without --vary)'),
     (['dexterity', 'upu3.yaml', '--vary', 'z', '0.17', '0.26', '3', '--vary2', 'z', '0.17', '0.26', '3'],

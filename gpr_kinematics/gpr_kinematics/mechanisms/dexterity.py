@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import InputError, brief
+from ..errors import InputError, LimitError, brief
 from ..inputs.validation import bounded, count_of
 from .base import SINGULAR_TOLERANCE, Mechanism, as_poses, condition_number, dexterity_index
 
@@ -110,7 +110,12 @@ def evaluate(mech: Mechanism, poses: Any
             full[ok], dex[ok], cond[ok], sing[ok], within[ok] = evaluate(mech, arr[ok])
         return full, dex, cond, sing, within
     calc = mech.unlimited()   # computes beyond the limits, which mark the poses (within)
-    full = calc.complete_pose(arr)
+    try:
+        full = calc.complete_pose(arr)
+    except LimitError as exc:   # it quoted the domain's stroke, [-0.508, 1.016] m, as the machine's
+        raise LimitError(f'{mech.name}: the map reaches beyond even the domain it computes in (the limits widened, '
+                         f'the poses beyond them computed there and marked; the numbers below are the domain\'s): '
+                         f'{exc}') from None
     with np.errstate(divide='ignore', invalid='ignore'):
         # named: a singular configuration of the mechanism itself (the GPR's rigid one, a GSP's undefined rows)
         Jh, singularity = calc.jacobian_and_singularity(full)
