@@ -114,7 +114,10 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=-2'], 'positive'),
-    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=[&a [1, 1], &b [*a, *a], [*b, *b]]'], 'no aliases'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=[&a [1, 1], &b [*a, *a], [*b, *b]]'],
+     'is not valid YAML: line 1: YAML aliases (*name) are not accepted'),
+    (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1={a: [1,'],   # the reason, not "(no aliases)"
+     "--set l1: value '{a: [1,' is not valid YAML: not valid YAML on line 2, column 1: did not find expected node"),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=' + '[' * 5000], 'at most 2000'),
     (['shell_arm.yaml', '--delta', '0.1', '--method', 'sivia'], 'invalid choice'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=0.2', '--set', 'l1=0.3'], '--set l1 is given twice'),

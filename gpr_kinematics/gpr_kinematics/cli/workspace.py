@@ -101,8 +101,9 @@ def _overrides(items: list[str]) -> dict[str, YamlValue]:
             raise InputError(f'--set {key.strip()[:40]} is given twice; allowed: each key once')
         try:  # the package's one YAML reader: no aliases (a value cannot expand), bounded depth and size
             out[key.strip()] = load_text(value, f'--set {key[:40]}')
-        except ConfigError:
-            raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML (no aliases)') from None
+        except ConfigError as exc:   # the reader's reason (it said "(no aliases)" of any error)
+            reason = str(exc).removeprefix(f'--set {key[:40]}: ')
+            raise InputError(f'--set {key[:40]}: value {value[:60]!r} is not valid YAML: {reason}') from None
     return out
 
 

@@ -85,8 +85,10 @@ def _remote_client(client_class: Any, address: str) -> Any:
     thread.join(CONNECT_TIMEOUT + 1.0)
     if 'client' in box:
         return box['client']
-    reason = box.get('error', 'no answer (is it a Dask scheduler?)')
-    raise InputError(f'cannot connect to the Dask scheduler at {address} within {CONNECT_TIMEOUT:g} s: {reason}')
+    if 'error' in box:   # it failed at once: "within 10 s" was no reason
+        raise InputError(f'cannot connect to the Dask scheduler at {address}: {box["error"]}')
+    raise InputError(f'cannot connect to the Dask scheduler at {address} within {CONNECT_TIMEOUT:g} s: no answer (is '
+                     'it a Dask scheduler?)')
 
 
 class Executor:
