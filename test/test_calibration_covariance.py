@@ -77,10 +77,11 @@ GOOD = {'names': ['rod1_x', 'rod1_offset'], 'matrix': [[1e-12, 2e-13], [2e-13, 4
     ("{names: [rod1_x, rod1_x], matrix: [[1, 0], [0, 1]]}", 'names: rod1_x named twice'),
     ("{names: [], matrix: []}", 'names = [] is invalid'),
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 0]]}", 'matrix = [[1e-12, 0]] is invalid (2 names); allowed: 2 rows'),
-    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 0], [0]]}", 'matrix row 2 = [0] is invalid'),
-    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, .nan], [0, 1e-12]]}", 'matrix row 1, column 2 = nan is invalid'),
-    ("{names: [rod1_x], matrix: [[2.0e+6]]}", 'matrix row 1, column 1 = 2000000.0 is invalid; allowed: 1 rows (one '
-                                             'per name) of 1 finite numbers each, of magnitude at most 1e+06'),
+    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 0], [0]]}", 'matrix[1] (rod1_y) = [0] is invalid'),
+    ("{names: [rod1_x, rod1_y], matrix: [[1e-12, .nan], [0, 1e-12]]}",
+     'matrix[0][1] (rod1_x, rod1_y) = nan is invalid'),
+    ("{names: [rod1_x], matrix: [[2.0e+6]]}", 'matrix[0][0] (rod1_x, rod1_x) = 2000000.0 is invalid; allowed: 1 rows '
+                                             '(one per name) of 1 finite numbers each, of magnitude at most 1e+06'),
     ("{names: [rod1_x, rod1_y], matrix: [[1e-12, 1e-13], [3e-13, 1e-12]]}", 'matrix is not symmetric: (rod1_x, '
                                                                             'rod1_y) = 1e-13 but (rod1_y, rod1_x) = '
                                                                             '3e-13; allowed: a symmetric matrix'),

@@ -72,17 +72,20 @@ def _names(value: YamlValue, where: str) -> tuple[str, ...]:
     return tuple(str(n) for n in value)
 
 
-def _matrix(value: YamlValue, n: int, where: str) -> NDArray[np.float64]:
+def _matrix(value: YamlValue, names: tuple[str, ...], where: str) -> NDArray[np.float64]:
+    """The matrix of ``names``, a row and an entry named by index from 0 (as ``stations[0]``) and parameter."""
+    n = len(names)
     allowed = (f'allowed: {n} rows (one per name) of {n} finite numbers each, of magnitude at most {MAX_ENTRY:g} '
                "(SI: m^2, rad^2, m rad; a kappa's anisotropy none)")
     if not isinstance(value, list) or len(value) != n:
         raise ConfigError(f'{where}: matrix = {brief(value)} is invalid ({n} names); {allowed}')
     for i, row in enumerate(value):
         if not isinstance(row, list) or len(row) != n:
-            raise ConfigError(f'{where}: matrix row {i + 1} = {brief(row)} is invalid; {allowed}')
+            raise ConfigError(f'{where}: matrix[{i}] ({names[i]}) = {brief(row)} is invalid; {allowed}')
         for k, v in enumerate(row):
             if not is_number(v) or abs(float(v)) > MAX_ENTRY:
-                raise ConfigError(f'{where}: matrix row {i + 1}, column {k + 1} = {brief(v)} is invalid; {allowed}')
+                raise ConfigError(f'{where}: matrix[{i}][{k}] ({names[i]}, {names[k]}) = {brief(v)} is invalid; '
+                                  f'{allowed}')
     return np.array(value, dtype=float)
 
 
@@ -126,7 +129,7 @@ def parse_covariance(block: YamlValue, source: str) -> GeometryCovariance:
         if key not in block:
             raise ConfigError(f'{where}: missing key {key}; allowed: {_ALLOWED}')
     names = _names(block['names'], where)
-    C = _matrix(block['matrix'], len(names), where)
+    C = _matrix(block['matrix'], names, where)
     _check(C, names, where)
     return GeometryCovariance(names, C, source)
 
