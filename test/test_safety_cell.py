@@ -82,6 +82,8 @@ def test_markers_one_per_obstacle_at_its_pose():
     ({'name': 'a', 'position': [0, 0, 0]}, r'shape = none is invalid; allowed: exactly one of box, cylinder'),
     ({'name': 'a', 'cylinder': {'radius': 0.1, 'length': 1e9}, 'position': [0, 0, 0]},
      r'obstacles\[0\] \(a\): length = 1000000000\.0 is invalid'),
+    ({'name': 'a', 'cylinder': {'radius': 0.1}, 'position': [0, 0, 0]},   # it said "length = None is invalid"
+     r'obstacles\[0\] \(a\): length is missing; allowed: a finite number in m, 0\.001 to 50 m after conversion$'),
     ({'name': 'a b', 'box': [1, 1, 1], 'position': [0, 0, 0]}, r"name = 'a b' is invalid"),
     # isalnum took any script's letters: a Cyrillic 'а' beside the Latin 'a' named two obstacles alike
     ({'name': '\u0430', 'box': [1, 1, 1], 'position': [0, 0, 0]}, r"name = '\u0430' is invalid; allowed: 1 to 64 "

@@ -92,8 +92,9 @@ class Cell:
 def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, scale: float = 1.0) -> float:
     if not is_number(value) or not lo <= to_si(float(value), scale) <= hi:
         si = 'm' if unit in ('m', 'mm') else 'rad' if unit in ('rad', 'deg') else unit
-        raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: a finite number in {unit}, '
-                          f'{lo:g} to {hi:g} {si} after conversion')
+        given = f'{key} is missing' if value is None else f'{key} = {brief(value)} is invalid'   # not "length = None"
+        raise ConfigError(f'{where}: {given}; allowed: a finite number in {unit}, {lo:g} to {hi:g} {si} after '
+                          'conversion')
     return to_si(float(value), scale)
 
 
