@@ -97,9 +97,8 @@ def test_markers_one_per_obstacle_at_its_pose():
     # a wall of 0.2 mm passed, though a size below 1 mm is refused everywhere else (docs/cell.md)
     ({'name': 'c', 'chamber': {'size': [0.5, 0.5, 0.25], 'wall': 0.0002}, 'position': [0, 0, 0]},
      r'chamber: wall = 0\.0002 is invalid; allowed: .*0\.001 to 0\.125 m'),
-], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'name', 'cyrillic-name', 'number-name', 'position',
-        'two-orientations',
-        'slit', 'thin-wall'])
+], ids=['nan', 'negative', 'unknown-shape', 'no-shape', 'huge', 'no-length', 'name', 'cyrillic-name', 'number-name',
+        'position', 'two-orientations', 'slit', 'thin-wall'])
 def test_bad_obstacles_named(obstacle, pattern):
     with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\]') as err:
         parse_cell(cell(obstacle), 'my_cell.yaml')
