@@ -145,6 +145,9 @@ BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0,
     ({'variables': {f'v{i}': [0, 1] for i in range(17)}}, '1 to 16'),
     ({'units': {'q': 'deg'}}, 'a unit must be m or rad'),
     ({'solve_for': ['x']}, 'solve_for must name 1 distinct passive'),
+    # no passive variable: it said "name the 1 the proof solves for in solve_for", where none could be named
+    ({'outputs': ['q', 'x']}, r'1 equations and 0 passive variables \[\]: an equation needs a passive variable of '
+                              r'its own to solve for; allowed: at most as many equations as passive variables'),
     ({'periodic': ['q'], 'equations': ['x = a*sin(q) + q']}, 'used by a constraint itself'),
     ({'parameters': {'a': True}}, 'a must be a finite number'),
     ({'parameters': {'a': 1.0}, 'a': '2'}, 'a must be a finite number'),

@@ -65,6 +65,10 @@ def _solve_for(name: str, equalities: int, passive: list[str], solve_for: Sequen
     """The passive variables the existence proof solves for: as many as equalities, distinct (default: all the
     passive ones, when their count matches)."""
     if solve_for is None:
+        if equalities > len(passive):   # none to name: "name the 1 the proof solves for" could not be followed
+            raise ConfigError(f'{name}: {equalities} equations and {len(passive)} passive variables {passive}: an '
+                              'equation needs a passive variable of its own to solve for; allowed: at most as many '
+                              'equations as passive variables (the variables that are not outputs)')
         if equalities != len(passive):
             raise ConfigError(f'{name}: {equalities} equations and {len(passive)} passive variables '
                               f'{passive}: name the {equalities} the proof solves for in solve_for')
