@@ -56,6 +56,9 @@ def test_an_empty_heading_is_free(tmp_path):
 
 @pytest.mark.parametrize('name, text, pattern', [
     ('s.csv', '', r's.csv: empty; a header row \(name, x, y, z, ...\)'),
+    # a height beyond a float's bound named the generic magnitude, the range one just inside it
+    ('s.yaml', 'units: {length: mm}\nstations: [{name: a, position: [1000, 0, 400], entry: 1.0e+7}]\n',
+     r'entry = 10000000\.0 is invalid; allowed: a finite number in mm \(0 to 2000 mm, 2 m\)'),
     # a header alone passed as no stations: a program importing it then missed each station it names
     ('s.csv', 'name,x,y,z\n', r's.csv: no rows after the header \(line 1\); one row per entry is required'),
     ('s.csv', 'name,x,y\na,1,2\n', r'the header lacks the column\(s\) z; required: name, x, y, z'),

@@ -176,7 +176,7 @@ def _branch(value: Any, where: str) -> str | None:
 def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = MAX_APPROACH) -> float | None:
     if value is None or value == '':
         return None
-    h = to_si(_number(value, where, key, unit), scale)
+    h = to_si(_number(value, where, key, unit, f'0 to {most / scale:g} {unit}, {most:g} m'), scale)   # as below
     if not 0.0 <= h <= most:
         raise ConfigError(f'{where}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {most / scale:g} {unit} '
                           f'({most:g} m)')
