@@ -233,7 +233,7 @@ def test_the_corners_are_where_the_jerk_changes():
 def test_a_rate_or_margin_given_as_a_0d_array_is_its_number():
     """rate=np.array(100.) and margin=np.array(0.002) were refused as out of range ('rate = array(100.) is
     invalid'): a 0-d array of a number counts as that number (plain_number), and one out of range is still named."""
-    from gpr_kinematics.robot.timing import check_rate
+    from gpr_kinematics.robot.grid import check_rate
     from gpr_kinematics.safety.clearance import check_numbers
 
     assert check_rate(np.array(100.0)) == 100.0 and check_rate(np.array(100)) == 100.0

@@ -205,9 +205,9 @@ def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
 
 
 def sample_rate(value: float) -> float:
-    """A typed ``--rate`` [Hz] within :data:`~gpr_kinematics.robot.timing.RATES`, else :class:`InputError` naming it
+    """A typed ``--rate`` [Hz] within :data:`~gpr_kinematics.robot.grid.RATES`, else :class:`InputError` naming it
     as typed (``--rate = 5001 Hz``, not the float it became), checked before any work."""
-    from ..robot.timing import RATES, RATES_ALLOWED
+    from ..robot.grid import RATES, RATES_ALLOWED
     if not RATES[0] <= value <= RATES[1]:   # 5000.0001 read 5000, the bound
         shown = apart(value, RATES[1] if value > RATES[1] else RATES[0])[0] if math.isfinite(value) else f'{value:g}'
         raise InputError(f'--rate = {shown} Hz is invalid; allowed: {RATES_ALLOWED}')

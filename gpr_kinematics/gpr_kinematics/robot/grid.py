@@ -9,6 +9,30 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import InputError, brief
+from ..inputs.validation import plain_number
+
+#: The sample rates [Hz] a program is sampled at (a sample every 0.2 ms to every 10 s): the rates trajectory_node
+#: publishes at, too (its parameter ``rate``).
+RATES = (0.1, 5000.0)
+#: What :data:`RATES` allows, in words (the messages of a rate and a typed ``--rate``).
+RATES_ALLOWED = f'{RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample every 0.2 ms to every 10 s)'
+
+
+def lower_rate(rate: float) -> str:
+    """The end of a refusal of too many samples at ``rate`` [Hz]: lower it, or, at the lowest of :data:`RATES`,
+    split the program (it said "lower the rate" at 0.1 Hz)."""
+    return ('; lower the rate' if rate > RATES[0] else f'; {RATES[0]:g} Hz is the lowest rate: split the program into '
+            'shorter ones')
+
+
+def check_rate(rate: object) -> float:
+    """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
+    value = plain_number(rate)
+    if not RATES[0] <= value <= RATES[1]:
+        raise InputError(f'rate = {brief(rate)} is invalid; allowed: {RATES_ALLOWED}')
+    return value
+
 
 def grid_times(total: float, rate: float) -> NDArray[np.float64]:
     """The instants of a motion of ``total`` [s] sampled at ``rate`` [Hz]: ``t_k = k / rate`` for ``k = 0 ..

@@ -20,7 +20,7 @@ from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.validation import column_of, count_of
 from .description import RobotDescription
 from .forward import check_robot, robot_forward
-from .grid import grid_count
+from .grid import check_rate, grid_count, lower_rate
 from .inverse import StationSolution, solve_stations
 from .paths import GRID, line_gains, line_positions
 from .program import RobotProgram, Waypoints, expand
@@ -28,11 +28,9 @@ from .timing import (
     MAX_SAMPLES,
     Samples,
     Timing,
-    check_rate,
     evaluate,
     least_total,
     locate,
-    lower_rate,
     parameterise,
     sample,
     sample_at,

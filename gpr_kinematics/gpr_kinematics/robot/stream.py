@@ -110,7 +110,7 @@ def robot_stream(robot: RobotDescription, program: RobotProgram, rate: float) ->
 
     Raises:
         ConfigError, LimitError: the program does not fit the robot (a waypoint out of reach, a move too fast for
-            the limits), naming the step; InputError: a rate outside :data:`~gpr_kinematics.robot.timing.RATES` or too
+            the limits), naming the step; InputError: a rate outside :data:`~gpr_kinematics.robot.grid.RATES` or too
             many samples.
     """
     plan = plan_program(robot, program, rate)

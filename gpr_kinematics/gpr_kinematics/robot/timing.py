@@ -28,9 +28,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError, LimitError, brief
-from ..inputs.validation import plain_number
-from .grid import grid_count, grid_times
+from ..errors import InputError, LimitError
+from .grid import check_rate, grid_count, grid_times, lower_rate
 
 Array = NDArray[np.float64]
 
@@ -39,28 +38,6 @@ STILL = 1e-15
 #: Most samples a program may be sampled into: a sample costs about 1.8 kB until its table is written (its forward
 #: kinematics and a row of Python numbers), 0.36 GB at the limit (5,000,000 asked for 9 GB).
 MAX_SAMPLES = 200_000
-#: The sample rates [Hz] a program is sampled at (a sample every 0.2 ms to every 10 s): the rates trajectory_node
-#: publishes at, too (its parameter ``rate``).
-RATES = (0.1, 5000.0)
-#: What :data:`RATES` allows, in words (the messages of a rate and a typed ``--rate``).
-RATES_ALLOWED = f'{RATES[0]:g} <= rate <= {RATES[1]:g} Hz (a sample every 0.2 ms to every 10 s)'
-
-
-def lower_rate(rate: float) -> str:
-    """The end of a refusal of too many samples at ``rate`` [Hz]: lower it, or, at the lowest of :data:`RATES`,
-    split the program (it said "lower the rate" at 0.1 Hz)."""
-    return ('; lower the rate' if rate > RATES[0] else f'; {RATES[0]:g} Hz is the lowest rate: split the program into '
-            'shorter ones')
-
-
-def check_rate(rate: object) -> float:
-    """``rate`` [Hz] as a float within :data:`RATES`; :class:`InputError` naming it and the range otherwise."""
-    value = plain_number(rate)
-    if not RATES[0] <= value <= RATES[1]:
-        raise InputError(f'rate = {brief(rate)} is invalid; allowed: {RATES_ALLOWED}')
-    return value
-
-
 @dataclass(frozen=True)
 class Profiles:
     """The unit S-curves of ``M`` moves: cruise speed ``v`` [1/s] and peak acceleration ``a`` [1/s^2] reached, jerk
@@ -409,7 +386,7 @@ def locate(timing: Timing, t: Array) -> tuple[NDArray[np.int64], NDArray[np.bool
 
 def sample_count(total: float, rate: float) -> int:
     """The count of :func:`sample_times` (:func:`~.grid.grid_count`) for a program of ``total`` [s] at ``rate``
-    [Hz]; :class:`InputError` beyond :data:`MAX_SAMPLES` (or a rate outside :data:`RATES`)."""
+    [Hz]; :class:`InputError` beyond :data:`MAX_SAMPLES` (or a rate outside :data:`~.grid.RATES`)."""
     rate = check_rate(rate)
     count = grid_count(total, rate)
     if count > MAX_SAMPLES:

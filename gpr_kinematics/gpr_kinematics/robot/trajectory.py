@@ -36,9 +36,10 @@ from numpy.typing import NDArray
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
 from ..errors import InputError
 from ..inputs.files import check_suffix, write_text
+from .grid import check_rate
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities, position_limits
 from .spline import Spline
-from .timing import MAX_SAMPLES, check_rate, parameterise, sample, sample_times, velocities
+from .timing import MAX_SAMPLES, parameterise, sample, sample_times, velocities
 
 Array = NDArray[np.float64]
 

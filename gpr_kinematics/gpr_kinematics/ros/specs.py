@@ -21,9 +21,9 @@ from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS,
 from ..core.messages import FRAME_PREFIX_WORDS, Topic, frame_prefix_refusal, is_frame_name
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_HEIGHT, DEFAULT_MAX_TILT, DEFAULT_TILT_STEP, LEAST_STEPS
 from ..errors import ConfigError, brief
+from ..robot.grid import RATES
 from ..robot.markers import MARKERS_EVERY
 from ..robot.platform_program import MOVE_TIMES
-from ..robot.timing import RATES
 from ..safety.margin import MARGIN, MARGIN_RANGE
 
 #: Parameter kinds and the Python type of their values (``int`` is accepted where a double is declared).

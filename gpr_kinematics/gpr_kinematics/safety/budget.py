@@ -18,9 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import forward_batch
-from ..robot.grid import grid_between
+from ..robot.grid import check_rate, grid_between
 from ..robot.plan import ProgramPlan, plan_samples
-from ..robot.timing import MAX_SAMPLES, check_rate, sample_at
+from ..robot.timing import MAX_SAMPLES, sample_at
 from .margin import STREAM_RATE
 from .motion import grid_within, move_counts
 

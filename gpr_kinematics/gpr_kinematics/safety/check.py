@@ -254,7 +254,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
 
     Raises:
         InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None, a rate outside
-            :data:`~gpr_kinematics.robot.timing.RATES`.
+            :data:`~gpr_kinematics.robot.grid.RATES`.
     """
     if not isinstance(plan, ProgramPlan):
         raise InputError(f'plan = {brief(plan)}; allowed: a ProgramPlan (plan_program)')
