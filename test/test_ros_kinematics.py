@@ -415,6 +415,20 @@ def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment
     (lambda c: c.inverse_kinematics(0.45, float('nan'), 0.0), r'^height, tilt, azimuth = \[0.45, nan, 0.0\]'),
     (lambda c: c.compensate([0.0, 0.0], [0.0, 0.0, 0.0, 1.0]), r'^position must be 3 numbers'),
     (lambda c: c.station_inverse_kinematics([1.0, 0.5], tilt=0.0), r'^position must be 3 numbers, got 2'),
+    # a string field of another type aborted the process in rclpy's C conversion (SIGABRT, no exception)
+    (lambda c: c.station_inverse_kinematics([1.0, 0.5, 0.4], arm=1), r"^arm = 1 is invalid; allowed: a string"),
+    (lambda c: c.robot_forward_kinematics([0.3] * 3, [0.0] * 3, arm=['arm1']), r'^arm = \[.arm1.\] is invalid'),
+    (lambda c: c.forward_kinematics([0.5] * 3, model=b'radial'), r"^model = b'radial' is invalid; allowed: a string"),
+    (lambda c: c.compensate([0.0, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0], model='radial\x00x'), r'without NUL'),
+    (lambda c: c.send_program(program_file=5), r'^program_file = 5 is invalid'),
+    (lambda c: c.send_program(move_time='abc'), r'^move_time must be numbers'),
+    # a station's int aborted it too; a misspelt key was dropped (the dwell sent as 0)
+    (lambda c: c.send_program(stations=[{'name': 'a', 'height': 0.4, 'tilt': 0.01, 'azimuth': 0, 'dwel': 0.5}]),
+     r'^stations\[0\]: unknown key\(s\) dwel; allowed keys: azimuth, dwell, height, move_time, name, tilt'),
+    (lambda c: c.send_program(stations=[{'name': 'a', 'height': 0.4}]), r'^stations\[0\]: missing tilt, azimuth'),
+    (lambda c: c.send_program(stations=[{'name': 7, 'height': 0.4, 'tilt': 0, 'azimuth': 0}]),
+     r'^stations\[0\].name = 7 is invalid'),
+    (lambda c: c.send_program(stations=[[0.4, 0.0, 0.0]]), r'^stations\[0\] = \[0.4, 0.0, 0.0\] is invalid'),
 ])
 def test_the_client_refuses_what_its_requests_cannot_carry(client, call, words):
     """GprClient sent a q of 2 values with the memory past its end as q3 (6.9e-310), cut one of 4 silently, and an

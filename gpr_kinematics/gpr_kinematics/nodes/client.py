@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from types import TracebackType
 from typing import Any
 
@@ -43,6 +43,7 @@ from ..core.messages import Service
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError, InputError, brief
 from ..inputs.validation import MAX_COORDINATE, float_array
+from ..robot.platform_program import STATION_KEYS
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
 
@@ -57,6 +58,35 @@ def _floats(values: Any, name: str, size: int | None = None, finite: bool = Fals
     if finite and not np.isfinite(a).all():
         raise InputError(f'{name} = {a.tolist()} is not finite; allowed: finite values in SI units')
     return [float(v) for v in a]
+
+
+def _text(value: Any, name: str) -> str:
+    """A request's string field: ``value``, None as empty (the node's default); another type aborted the whole
+    process in rclpy's conversion to C (an assertion, no exception), a NUL cut the string there."""
+    if value is None:
+        return ''
+    if not isinstance(value, str) or '\x00' in value:
+        raise InputError(f'{name} = {brief(value)} is invalid; allowed: a string without NUL (empty or None: the '
+                         "node's default)")
+    return value
+
+
+def _station(st: Any, i: int) -> ProgramStation:
+    """A ``gpr/run_program`` goal's station from a mapping with the keys of the program format (a misspelt
+    ``dwel`` was dropped, the dwell sent as 0; an int aborted the process as a string field's wrong type did)."""
+    where = f'stations[{i}]'
+    if not isinstance(st, Mapping):
+        raise InputError(f'{where} = {brief(st)} is invalid; allowed: a mapping with height, tilt, azimuth (and name, '
+                         'dwell, move_time)')
+    unknown = sorted(str(k) for k in st if k not in STATION_KEYS)
+    missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
+    if unknown or missing:
+        what = f'unknown key(s) {", ".join(unknown)}' if unknown else f'missing {", ".join(missing)}'
+        raise InputError(f'{where}: {what}; allowed keys: {", ".join(sorted(STATION_KEYS))} (height, tilt, azimuth '
+                         'required; SI units)')
+    values = {k: _floats([st[k]], f'{where}.{k}', 1)[0] for k in ('height', 'tilt', 'azimuth', 'dwell', 'move_time')
+              if st.get(k) is not None}
+    return ProgramStation(name=_text(st.get('name'), f'{where}.name'), **values)
 
 
 class ServiceTimeoutError(GprError, TimeoutError):
@@ -120,7 +150,7 @@ class GprClient:
 
     def forward_kinematics(self, q: Vector, model: str = '') -> Any:
         """``gpr/forward_kinematics``: rod lengths ``q`` [m] -> ForwardKinematics.Response."""
-        req = ForwardKinematics.Request(q=_floats(q, 'q', 3), model=model)
+        req = ForwardKinematics.Request(q=_floats(q, 'q', 3), model=_text(model, 'model'))
         return self.call(ForwardKinematics, Service.FORWARD_KINEMATICS, req)
 
     def inverse_kinematics(self, height: float, tilt: float, azimuth: float, model: str = '') -> Any:
@@ -130,27 +160,28 @@ class GprClient:
             raise InputError(f'tilt = {tilt:g} rad, azimuth = {azimuth:g} rad; allowed: |tilt| < pi (the node '
                              f'judges its tilt limit) and |azimuth| <= {MAX_COORDINATE:g} rad')
         quat = quaternion_from_matrix(tilt_rotation(tilt, azimuth))
-        req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=model)
+        req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=_text(model, 'model'))
         return self.call(InverseKinematics, Service.INVERSE_KINEMATICS, req)
 
     def compensate(self, position: Vector, quaternion: Vector, tool_offset: Vector = (0.0, 0.0, 0.0),
                    model: str = '') -> Any:
         """``gpr/compensate``: naive command pose and tool offset (platform frame) [m] -> the response."""
         req = Compensate.Request(command=pose_msg(_floats(position, 'position', 3), _floats(quaternion, 'quaternion',
-                                                                                             4)), model=model)
+                                                                                             4)),
+                               model=_text(model, 'model'))
         req.tool_offset.x, req.tool_offset.y, req.tool_offset.z = _floats(tool_offset, 'tool_offset', 3)
         return self.call(Compensate, Service.COMPENSATE, req)
 
     def analyze_mobility(self, q: Vector, dq: Vector = (0.0, 0.0, 0.0), model: str = '') -> Any:
         """``gpr/analyze_mobility``: ranks, singular values and bounds at ``q``, ``|dX|`` for ``dq`` [m]."""
-        req = AnalyzeMobility.Request(q=_floats(q, 'q', 3), dq=_floats(dq, 'dq', 3), model=model)
+        req = AnalyzeMobility.Request(q=_floats(q, 'q', 3), dq=_floats(dq, 'dq', 3), model=_text(model, 'model'))
         return self.call(AnalyzeMobility, Service.ANALYZE_MOBILITY, req)
 
     def robot_forward_kinematics(self, rods: Vector, joints: Vector, arm: str = '', model: str = '') -> Any:
         """``gpr/robot_forward_kinematics``: rod lengths [m] and the arm's joints [rad] -> the response (wafer,
         blade, platform in the world, exact and naive)."""
         req = RobotForwardKinematics.Request(rods=_floats(rods, 'rods', 3), joints=_floats(joints, 'joints'),
-                                             arm=arm, model=model)
+                                             arm=_text(arm, 'arm'), model=_text(model, 'model'))
         return self.call(RobotForwardKinematics, Service.ROBOT_FORWARD_KINEMATICS, req)
 
     def station_inverse_kinematics(self, position: Vector, tilt: float = 0.0, azimuth: float = 0.0,
@@ -162,7 +193,8 @@ class GprClient:
         tilt, azimuth = _floats((tilt, azimuth), 'tilt, azimuth', 2)
         req = StationInverseKinematics.Request(tilt=tilt, azimuth=azimuth,
                                                heading=0.0 if heading is None else _floats([heading], 'heading')[0],
-                                               heading_free=heading is None, arm=arm, branch=branch, model=model,
+                                               heading_free=heading is None, arm=_text(arm, 'arm'),
+                                               branch=_text(branch, 'branch'), model=_text(model, 'model'),
                                                use_redundancy_value=redundancy_value is not None,
                                                redundancy_value=_floats([redundancy_value or 0.0],
                                                                         'redundancy_value')[0])
@@ -205,6 +237,9 @@ class GprClient:
                      feedback: Callable[[Any], None] | None = None, timeout: float = 20.0) -> Any:
         """Send a ``gpr/run_program`` goal (a program file or inline stations given as mappings with the keys
         of the program format) and return its goal handle once the node answered (``accepted`` tells)."""
+        goal = RunProgram.Goal(program_file=_text(program_file, 'program_file'),   # refused before any wait
+                               move_time=_floats([move_time], 'move_time', 1)[0],
+                               stations=[_station(st, i) for i, st in enumerate(stations)])
         key = (RunProgram, Service.RUN_PROGRAM)
         if key not in self._clients:
             cli = ActionClient(self.node, RunProgram, Service.RUN_PROGRAM, **action_client_options(10000))
@@ -212,8 +247,6 @@ class GprClient:
                 cli.destroy()
                 raise ServiceTimeoutError(f'action gpr/run_program not available after {timeout} s')
             self._clients[key] = cli
-        goal = RunProgram.Goal(program_file=program_file, move_time=float(move_time),
-                               stations=[ProgramStation(**st) for st in stations])
         callback = (lambda msg: feedback(msg.feedback)) if feedback is not None else None
         return self.wait(self._clients[key].send_goal_async(goal, feedback_callback=callback), timeout,
                          'gpr/run_program goal')

@@ -47,7 +47,8 @@ from .timing import MAX_SAMPLES
 
 #: The ``format:`` of a platform program (optional: a file without ``format`` is a platform program).
 FORMAT = 'gpr_platform_program'
-_STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
+#: The keys of a platform program's station (a file's, and a goal's from `GprClient`).
+STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
 #: Most stations of a platform program (a file's or a goal's), counted before any is read.
 MAX_STATIONS = 10_000
 
@@ -134,7 +135,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
         where = f'station {i}'
         if not isinstance(st, Mapping):
             raise ConfigError(f'{source}: {where} must be a mapping with height, tilt, azimuth, dwell')
-        check_keys(st, _STATION_KEYS, f'{source}: {where}')
+        check_keys(st, STATION_KEYS, f'{source}: {where}')
         missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
         if missing:
             raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
