@@ -184,6 +184,12 @@ def test_inverse_batch_with_one_tool_point_per_target_equals_single_calls():
     np.testing.assert_allclose(two.q[1], inverse(0.3, 0.01, 0.5, tool=tools[1]).q, rtol=0, atol=1e-14)
     with pytest.raises(InputError, match='height, tilt, azimuth and tool must have the same length'):
         inverse_batch(h[:3], t[:3], g[:3], tool=tools[:2])
+    # an empty one beside one value stretched that value to no target: an empty answer, not a refusal
+    for args, tool, got in ((([0.5], [], [0.0]), None, '1, 0, 1, 1'), (([0.5], 0.01, 0.0), np.zeros((0, 3)),
+                                                                      '1, 1, 1, 0')):
+        with pytest.raises(InputError, match=f'must have the same length .*, got {got}$'):
+            inverse_batch(*args, tool=tool) if tool is not None else inverse_batch(*args)
+    assert inverse_batch([], [], []).q.shape == (0, 3) == inverse_batch([], [], [], tool=np.zeros((0, 3))).q.shape
 
 
 def test_inverse_at_the_singular_configuration():

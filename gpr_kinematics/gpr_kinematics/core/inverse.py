@@ -334,7 +334,10 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
         _refuse_azimuth(float(cols[2][i]), f' (target {i})')
     tools = rows_of(tool, 'tool', 3)
     check_tool(tools)
-    try:
+    lengths = [c.shape[0] for c in cols]
+    try:   # an empty one beside ones of one value broadcast to no target at all (silently): refused as a mismatch
+        if (0 in lengths or tools.shape[0] == 0) and max(lengths) > 0:
+            raise ValueError
         h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
     except ValueError:
         raise InputError('height, tilt, azimuth and tool must have the same length (one value or tool row per '
