@@ -1,6 +1,7 @@
 """One machine per row: forward_batch with per-row geometry parameters (MachineGeometry.per_row) gives, row by
 row, what one config per call gives; rows shared by blocks of samples; every row checked like a geometry file."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -84,6 +85,12 @@ def test_rows_are_checked_like_a_geometry_file():
     with pytest.raises(InputError, match=r'row 1: the triangle of rod_positions has an angle of .* deg; allowed: '
                                          r'every angle >= 5 deg'):
         MachineGeometry.per_row(CFG, bad)
+    bad = P.copy()   # every point at one place: no angle to refuse (a NaN closure and numpy's warnings followed)
+    bad[1, [PARAMETER_NAMES.index(f'{s}{k}_{c}') for s in ('rod', 'joint') for k in (1, 2, 3) for c in 'xy']] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        with pytest.raises(InputError, match=r'row 1: the triangle of rod_positions has an angle of 0 deg; allowed'):
+            forward_batch(np.full((3, 3), 0.3), CFG, parameters=bad)
     with pytest.raises(InputError, match=r'per-row geometry needs values of shape \(N, 2\)'):
         MachineGeometry.per_row(CFG, [[0.0, 0.0, 0.0]], ['rod1_x', 'rod1_y'])
     with pytest.raises(InputError, match=r'3 parameter rows for 4 rod-length rows'):

@@ -320,6 +320,8 @@ def _check_rows(V: Array, params: Sequence[GeometryParameter], col: dict[str, Va
     for key, stem in (('rod_positions', 'rod{}'), ('platform_joints', 'joint{}')):
         tri[key] = _triangles([np.broadcast_to(col[stem.format(k) + '_x'], (n,)) for k in (1, 2, 3)],
                               [np.broadcast_to(col[stem.format(k) + '_y'], (n,)) for k in (1, 2, 3)])
+        # points at one place have no angle (arctan2(0, -0) read pi and passed): an angle of 0, as the config says
+        tri[key] = (tri[key][0], tri[key][1], np.where(np.min(tri[key][1], axis=-1) > 0.0, tri[key][2], 0.0))
         flat = np.flatnonzero(tri[key][2] < MIN_TRIANGLE_ANGLE)
         if flat.size:
             raise fail(int(flat[0]), f'the triangle of {key} has an angle of '
