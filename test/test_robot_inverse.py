@@ -648,6 +648,15 @@ def test_stations_and_their_options_that_are_not_are_named():
         with pytest.raises(error, match=words):
             call()
     assert len(st.take([])) == 0 and st.take([-1]).names == st.names
+    # a robot forward's record(-1) read an empty slice ("station index 0 ... (0 stations)"), record(5) an IndexError
+    fk = solve_stations(ROBOT, st).forward
+    np.testing.assert_array_equal(fk.record(-1).rods, fk.record(0).rods)
+    for i in (5, -2, '0', 1.0, True):
+        with pytest.raises(InputError, match=rf'^configuration index {re.escape(repr(i))}; allowed: an integer from -1 '
+                                             r'to 0 \(1 configurations\)$'):
+            fk.record(i)
+    with pytest.raises(InputError, match=r'^station index 3; allowed: an integer from -1 to 0 \(1 stations\)$'):
+        st.record(3)
     with pytest.raises(InputError, match=r'station index 5; allowed: an integer from -1 to 0 \(1 stations\)'):
         st.record(5)
     assert st.record(-1).heading == pytest.approx(0.3)

@@ -37,7 +37,7 @@ from ..errors import InputError, LimitError, apart, brief
 from ..inputs.validation import bounded, rows_of
 from .arm_chain import LIMIT_SLACK, ArmFloats, arm_floats
 from .description import Arm, RobotDescription
-from .stations import StationRecord, stations_from_poses
+from .stations import StationRecord, batch_index, stations_from_poses
 from .transforms import PoseBatch, PoseRecord, pose_batch
 
 Array = NDArray[np.float64]
@@ -189,6 +189,7 @@ class RobotForward:
     def record(self, i: int, station: StationRecord | None = None) -> RobotForwardRecord:
         """Configuration ``i`` as a :class:`RobotForwardRecord`; ``station`` defaults to the wafer's pose as a station
         (:func:`~gpr_kinematics.robot.stations.stations_from_poses`)."""
+        i = batch_index(i, self.rods.shape[0], 'configuration')   # -1 read an empty slice, 5 an IndexError
         arm = self.robot.arm(self.arm)
         wafer = self.wafer.position[i:i + 1], self.wafer.rotation[i:i + 1]
         g = self.gpr

@@ -64,6 +64,14 @@ def station_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
     return label
 
 
+def batch_index(i: object, n: int, what: str) -> int:
+    """Index ``i`` of a batch of ``n`` (``what``: stations, configurations), from ``-n`` to ``n - 1`` as Python's
+    (the record's), else :class:`InputError` naming it."""
+    if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -n <= i < n:
+        raise InputError(f'{what} index {brief(i)}; allowed: an integer from {-n} to {n - 1} ({n} {what}s)')
+    return int(i) % n
+
+
 @dataclass(frozen=True)
 class StationRecord:
     """One station (module docstring) as the command line gives it: ``position`` [m, world], ``tilt``, ``azimuth``
@@ -125,9 +133,7 @@ class Stations:
 
     def record(self, i: int) -> StationRecord:
         """Station ``i`` as a :class:`StationRecord` (its own copy of the position)."""
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -len(self) <= i < len(self):
-            raise InputError(f'station index {brief(i)}; allowed: an integer from {-len(self)} to {len(self) - 1} '
-                             f'({len(self)} stations)')
+        i = batch_index(i, len(self), 'station')
         return StationRecord(np.array(self.position[i]), float(self.tilt[i]), float(self.azimuth[i]),
                              None if self.heading_free[i] else float(self.heading[i]))
 
