@@ -137,6 +137,11 @@ def test_what_a_python_caller_passes_is_checked_where_numpy_raised_or_guessed():
     _refused(lambda: forward_batch(masked[None]), 'a masked array with masked values')
     _refused(lambda: forward(masked), 'a masked array with masked values')
     assert forward(np.ma.array([0.5, 0.503, 0.498])).tilt == forward([0.5, 0.503, 0.498]).tilt
+    for call in (lambda: forward(masked), lambda: forward_batch(np.ones((2, 3), bool))):   # an array's repr spans lines
+        with pytest.raises(InputError) as err:
+            call()
+        assert '\n' not in str(err.value) and '[ True,  True,  True], [ True' in str(err.value) or 'masked' in \
+            str(err.value), str(err.value)
 
 
 def test_a_zero_dimensional_array_counts_as_one_value():

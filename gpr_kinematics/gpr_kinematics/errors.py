@@ -78,6 +78,10 @@ class _Repr(reprlib.Repr):
 _REPR = _Repr()
 
 
+#: A line break and the indentation around it, in a repr.
+_LINES = re.compile(r'\s*\n\s*')
+
+
 def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
     """``repr(value)`` cut to about ``limit`` characters, for messages about values a user supplied, which may be
     arbitrarily large: a string is quoted up to ``limit`` characters with its whole length named; a container is
@@ -89,7 +93,8 @@ def brief(value: Any, limit: int = BRIEF_LENGTH) -> str:
     ('[1, 2]', '[0, 1, 2, 3, 4, 5, 6, 7, ...]', '<an integer of about 5001 digits>')
     """
     # A string is in memory already: its repr costs as much as it does, and gives the whole length.
-    text = repr(value) if isinstance(value, (str, bytes)) else _REPR.repr(value)
+    text = repr(value) if isinstance(value, (str, bytes)) else _LINES.sub(' ', _REPR.repr(value))   # one line: an
+    # array's repr spans several (a message is one line)
     if len(text) <= limit:
         return text
     size = f'{len(value)} bytes' if isinstance(value, bytes) else \
