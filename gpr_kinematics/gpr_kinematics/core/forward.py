@@ -183,10 +183,11 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
         i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
         limit = f'the tilt limit {config.tilt_limit:.4g} rad ({math.degrees(config.tilt_limit):.4g} deg)'
         if float(np.atleast_1d(h2)[i]) >= 1.0:  # the rods' differences exceed what any platform tilt makes
-            raise NoPoseError(f'q = {q_rows(q)[i].tolist()} m imply no platform orientation (their differences are '
-                             f'more than the joints\' spread can make at any tilt); allowed: rods within {limit}')
+            raise NoPoseError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} imply no platform orientation (their '
+                              f'differences are more than the joints\' spread can make at any tilt); allowed: rods '
+                              f'within {limit}')
         t = float(np.atleast_1d(n_tilt)[i])
-        raise LimitError(f'q = {q_rows(q)[i].tolist()} m tilts the platform by about {t:.4g} rad '
+        raise LimitError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} tilts the platform by about {t:.4g} rad '
                          f'({math.degrees(t):.4g} deg), beyond {limit}')
     return naive
 
@@ -202,8 +203,13 @@ def _refuse_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
     shown, limit = apart(math.degrees(float(t[i])), math.degrees(config.tilt_limit))
-    raise LimitError(f'q = {q_rows(q)[i].tolist()} m tilts the platform by {shown} deg, beyond the tilt limit {limit} '
-                     'deg')
+    raise LimitError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} tilts the platform by {shown} deg, beyond the '
+                     f'tilt limit {limit} deg')
+
+
+def _sample(q: Sequence[Value], i: int) -> str:
+    """`` (sample i)`` where the rods ``q`` are a batch of more than one, as the stroke's refusal names it."""
+    return f' (sample {i})' if q_rows(q).shape[0] > 1 else ''
 
 
 def solve_pose(ops: Ops, geo: MachineGeometry, vjm: VirtualJointModel, q: Sequence[Value],
