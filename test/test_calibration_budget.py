@@ -197,6 +197,8 @@ def test_refusals():
         accuracy_budget(m, Q, table, labels=['a', 'b'])
     with pytest.raises(InputError, match=r'theta must be 24 finite parameter values'):
         accuracy_budget(m, Q, table, theta=[0.1, 0.2])
+    with pytest.raises(InputError, match=r'theta\[3\] = nan is not a finite number'):   # it said "got shape (24,)"
+        accuracy_budget(m, Q, table, theta=[0.0] * 3 + [math.nan] + [0.0] * 20)
     with pytest.raises(InputError, match=r'indices must be distinct integers from 0 to 23'):
         accuracy_budget(m, Q, table, calibrated=([0, 0], np.eye(2)))
     with pytest.raises(InputError, match=r'not positive semi-definite'):

@@ -118,6 +118,7 @@ def test_what_a_python_caller_passes_is_checked_where_numpy_raised_or_guessed():
     m = analyze_mobility([0.5, 0.503, 0.498])
     _refused(lambda: m.dx_bounds('abc'), r'dP must be 12 numbers')
     _refused(lambda: m.dx_bounds(['0.0001'] + ['0'] * 11), r'dP must be 12 numbers')
+    _refused(lambda: m.dx_bounds([0.0] * 11 + [math.nan]), r'dP\[11\] = nan is not a finite number')   # not "shape"
     alwan, pose = load_mechanism('stewart_alwan.yaml'), [0, 0, 0.9, 0.05, 0.05, 0.05]
     _refused(lambda: accuracy_analysis(alwan, pose, joint_errors='abc'), 'joint errors must be 6 numbers per pose')
     _refused(lambda: accuracy_analysis(alwan, pose, parameter_errors=[1, 2]),

@@ -38,7 +38,7 @@ from ..core.inverse import check_tool
 from ..core.ops import ARRAY
 from ..core.stroke import STROKE_SLACK, check_stroke
 from ..errors import InputError, LimitError, brief
-from ..inputs.validation import float_array, plain_number, random_seed, rotation_matrices
+from ..inputs.validation import finite_vector, float_array, plain_number, random_seed, rotation_matrices
 from .core_model import TILT_MARGIN, platform_tilts
 from .model import (
     PoseModel,
@@ -348,8 +348,9 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     params = model.parameters
     P = len(params)
     th = params.nominal if theta is None else float_array(theta, 'theta', f'{P} finite parameter values')
-    if th.shape != (P,) or not np.all(np.isfinite(th)):
+    if th.shape != (P,):
         raise InputError(f'theta must be {P} finite parameter values, got shape {th.shape}')
+    th = finite_vector(th, 'theta', P)   # a NaN named, not the shape that was right
     tols = table.bind(params)
     cal = None if calibrated is None else _check_calibrated(calibrated, P)
     if isinstance(keep_samples, (bool, np.bool_)) or not isinstance(keep_samples, (int, np.integer)) or \

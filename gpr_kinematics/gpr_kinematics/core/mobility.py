@@ -127,8 +127,9 @@ class MobilityResult:
             LimitError: ``q + dq`` outside the stroke.
         """
         dp = float_array(dP, 'dP', '12 numbers (dq1..dq3, dP1, dP2, dP3) [m]')
-        if dp.shape != (12,) or not np.all(np.isfinite(dp)):
+        if dp.shape != (12,):
             raise InputError(f'dP must be 12 finite numbers (dq1..dq3, dP1, dP2, dP3), got shape {dp.shape}')
+        dp = finite_vector(dp, 'dP', 12)   # a NaN named, not the shape that was right
         lo, hi = self.stroke
         moved = self.q + dp[:3]  # the rods first: what a --dq gives (it read as the dP vector the user never typed)
         out = (moved < lo) | (moved > hi)
