@@ -195,7 +195,7 @@ def test_refusals():
         accuracy_budget(m, Q, table, percentiles=(50, 101))
     with pytest.raises(InputError, match=r'2 labels for 1 stations'):
         accuracy_budget(m, Q, table, labels=['a', 'b'])
-    with pytest.raises(InputError, match=r'theta must be 24 finite parameter values'):
+    with pytest.raises(InputError, match=r'theta must be 24 numbers, got shape \(2,\)'):
         accuracy_budget(m, Q, table, theta=[0.1, 0.2])
     with pytest.raises(InputError, match=r'theta\[3\] = nan is not a finite number'):   # it said "got shape (24,)"
         accuracy_budget(m, Q, table, theta=[0.0] * 3 + [math.nan] + [0.0] * 20)

@@ -348,8 +348,6 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     params = model.parameters
     P = len(params)
     th = params.nominal if theta is None else float_array(theta, 'theta', f'{P} finite parameter values')
-    if th.shape != (P,):
-        raise InputError(f'theta must be {P} finite parameter values, got shape {th.shape}')
     th = finite_vector(th, 'theta', P)   # a NaN named, not the shape that was right
     tols = table.bind(params)
     cal = None if calibrated is None else _check_calibrated(calibrated, P)
