@@ -153,3 +153,52 @@ def test_bad_names_and_progress_exit_2_with_one_line_before_any_node(ros_environ
     assert res.returncode == 2 and res.stdout == '', res.stderr
     assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
     assert words in res.stderr, res.stderr
+
+
+def test_a_robot_reporting_joints_outside_their_limits_exits_1(ros_environment):
+    """The robot's state is not the command's input: joint states with a rod at 600 m (a driver in mm) exited 2, as
+    a bad option does; now 1 with one line, as a goal the robot refuses (docs/robot.md, "send")."""
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import stream_qos
+    from sensor_msgs.msg import JointState
+
+    joints = ControllerJoints.of(ROBOT)
+    position = [float(v) for v in joints.rest]
+    position[0] = 600.0
+    state = JointState(name=list(joints.names), position=position)
+    with GprClient('gpr_test_send_outside', namespace='/gpr_outside') as c:
+        pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
+        timer = c.node.create_timer(0.05, lambda: pub.publish(state))
+        proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
+                                 '--namespace', 'gpr_outside', '--timeout', '8'],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
+        assert c.spin_until(lambda: proc.poll() is not None, 120)
+        out, err = proc.communicate()
+        c.node.destroy_timer(timer)
+    assert proc.returncode == 1 and out == '' and err.count('\n') == 1, (out, err)
+    assert err.startswith(f'gpr program send: the robot reports {joints.names[0]} = 600 m, ') and \
+        'outside its limits [0, 0.508] m; allowed: a robot within its limits' in err, err
+
+
+def test_a_lagging_robot_prints_the_end_once_then_by_progress(ros_environment, tmp_path):
+    """With a lag the simulator's feedback goes on while the joints settle after the last point: `--progress 100`
+    printed a line per 10 ms sample from the end on (about 50); now the first feedback's and the end's, and the
+    lagging robot succeeds within a goal_time of several time constants."""
+    program = tmp_path / 'short.yaml'
+    program.write_text(f'format: gpr_robot_program\nversion: 1\nrobot: {config_path("robots/example_robot.yaml")}\n'
+                       'units: {length: mm, angle: deg}\ndefaults: {arm: arm1}\nstations:\n'
+                       '  - {name: home, position: [750, 850, 260], heading: 90}\n'
+                       '  - {name: near, position: [750, 800, 280], heading: 90}\n'
+                       'steps:\n  - {move: home}\n  - {move: near}\n')
+    sim = start('robot_simulator_node', namespace='/gpr_lagsend', rate=SIM_RATE, servo_time_constant=0.1,
+                goal_time=3.0)
+    try:
+        wait_for_log(sim, r'serving /gpr_lagsend/')
+        res = _send(str(program), '--namespace', '/gpr_lagsend', '--progress', '100')
+    finally:
+        sim.stop()
+    lines = [line for line in res.stdout.splitlines() if line.startswith('  t = ')]
+    assert res.returncode == 0 and '\nsucceeded (error_code 0 SUCCESSFUL): ' in res.stdout, \
+        res.stdout + res.stderr + sim.output()
+    assert len(lines) == 2 and lines[0].startswith('  t =    0.000 s of ') and lines[1].split()[2] == \
+        lines[1].split()[5], lines   # the first feedback's and the last point's

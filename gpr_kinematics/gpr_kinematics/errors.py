@@ -31,6 +31,10 @@ class LimitError(InputError):
     """A request lies outside the machine's limits (stroke, tilt, joint ranges)."""
 
 
+class RobotStateError(LimitError):
+    """The robot reports a state a command cannot start from (joints outside their limits): not the user's input."""
+
+
 class NoPoseError(LimitError):
     """Rod lengths whose differences no tilt of the platform makes: beyond every limit, with no pose to show."""
 

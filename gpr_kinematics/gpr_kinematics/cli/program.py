@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..core.messages import FOLLOW_JOINT_TRAJECTORY, Topic
-from ..errors import FileError, InputError
+from ..errors import FileError, InputError, RobotStateError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
 from ..safety.margin import MARGIN, STREAM_RATE
@@ -337,18 +337,23 @@ def _cmd_send(args: argparse.Namespace) -> int:
                              joint_states, args.timeout, '--joint-states', 'cannot tell where the robot is'),
                   file=sys.stderr)
             return 1
-        goal, start = lead_in(plan, traj, current, args.rate)
+        try:
+            goal, start = lead_in(plan, traj, current, args.rate)
+        except RobotStateError as exc:   # the robot's state, not the command's input: as a refused goal, status 1
+            print(f'gpr program send: {exc}', file=sys.stderr)
+            return 1
         if not args.json:
             print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '
                   f'({start:.3f} s from where the robot is to the program\'s start) to {action}', flush=True)
-        clock = {'next': 0.0}
+        clock = {'next': 0.0, 'end': False}
 
-        def progress(fb: Any) -> None:
+        def progress(fb: Any) -> None:   # the end once, then every --progress s (a lag settles sample by sample)
             t = fb.desired.time_from_start.sec + fb.desired.time_from_start.nanosec * 1e-9
-            if not args.json and (t >= clock['next'] or t >= goal.duration):
+            end = t >= goal.duration and not clock['end']
+            if not args.json and (t >= clock['next'] or end):
                 error = max((abs(e) for e in fb.error.positions), default=0.0)
                 print(f'  t = {t:8.3f} s of {goal.duration:.3f} s, largest error {error:.3g}', flush=True)
-                clock['next'] = t + args.progress
+                clock['next'], clock['end'] = t + args.progress, clock['end'] or t >= goal.duration
         try:
             outcome = tc.follow_trajectory(client, goal, action, args.timeout, progress)
         except tc.NoServerError:

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
-from ..errors import InputError
+from ..errors import InputError, RobotStateError
 from ..inputs.files import check_suffix, write_text
 from .grid import check_rate
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities, position_limits
@@ -144,9 +144,9 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
     if outside.size:   # a lead-in from there would leave the limits (or last for ever: 1e300 m)
         j = int(outside[0])
         unit = 'm' if j < 3 else 'rad'
-        raise InputError(f'the robot reports {names[j]} = {current[j]:.9g} {unit}, {over[j]:.3g} {unit} outside its '
-                         f'limits [{lower[j]:.9g}, {upper[j]:.9g}] {unit}; allowed: a robot within its limits (to '
-                         f'{REPORTED_SLACK:g} {unit}; are these joint states of this robot?)')
+        raise RobotStateError(f'the robot reports {names[j]} = {current[j]:.9g} {unit}, {over[j]:.3g} {unit} outside '
+                              f'its limits [{lower[j]:.9g}, {upper[j]:.9g}] {unit}; allowed: a robot within its limits '
+                              f'(to {REPORTED_SLACK:g} {unit}; are these joint states of this robot?)')
     ends = np.vstack([current, traj.positions[0]])
     shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
                             ('the current state', 'the first point')).total
