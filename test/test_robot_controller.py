@@ -177,6 +177,16 @@ def test_beyond_a_joint_limit_is_an_invalid_goal_naming_it():
     assert m.positions[-1, 3] == -3.05 - 5e-13
     with pytest.raises(GoalError, match=r'arm1_shoulder = -3.050000000002 rad is beyond its lower limit -3.05 rad'):
         _plan(_two_points(['arm1_shoulder'], [-3.0], [-3.05 - 2e-12], t=(3.0, 4.0)))
+    # a driver's millimetres or degrees are told so (as the files are), a value a hair beyond is not
+    with pytest.raises(GoalError, match=r'rod_1 = 254 m is beyond its upper limit 0.508 m by 253 m; allowed: '
+                                        r'\[0, 0.508\] m \(millimetres given as metres\?\)$'):
+        _plan(_two_points(['rod_1'], [0.3], [254.0]))
+    with pytest.raises(GoalError, match=r'arm1_shoulder = 90 rad is beyond its upper limit 3.05 rad by 87 rad; '
+                                        r'allowed: \[-3.05, 3.05\] rad \(radians only here: 90 deg is 1.57079633 '
+                                        r'rad\)$'):
+        _plan(_two_points(['arm1_shoulder'], [0.0], [90.0]))
+    with pytest.raises(GoalError, match=r'rod_1 = 0.6 m is beyond .*\[0, 0.508\] m$'):
+        _plan(_two_points(['rod_1'], [0.3], [0.6]))
 
 
 def test_too_fast_a_move_names_the_joint_and_its_mean_velocity():

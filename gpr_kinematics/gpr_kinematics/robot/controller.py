@@ -36,6 +36,7 @@ from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, forward_batch, inverse
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import GprError, InputError, apart, brief
+from ..inputs.validation import radians_hint
 from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_count, grid_times
@@ -264,9 +265,15 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
         side, limit = ('lower', float(joints.lower[j])) if v < joints.lower[j] else ('upper', float(joints.upper[j]))
         # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
         shown, end = apart(v, limit, 12)
+        lo, hi = float(joints.lower[j]), float(joints.upper[j])
+        # a driver's mm or degrees (the files' hint): far beyond as given, within once converted
+        far, scaled = (abs(v) > 10.0 * max(abs(lo), abs(hi)), v / 1000.0) if u == 'm' else \
+            (abs(v) > 2.0 * math.pi, math.radians(v))
+        hint = '' if not (far and lo <= scaled <= hi) else (' (millimetres given as metres?)' if u == 'm' else
+                                                             radians_hint(v))
         raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {shown} {u} is '
                         f'beyond its {side} limit {end} {u} by {abs(v - limit):.3g} {u}; allowed: '
-                        f'[{float(joints.lower[j]):.12g}, {float(joints.upper[j]):.12g}] {u}')
+                        f'[{lo:.12g}, {hi:.12g}] {u}{hint}')
 
 
 def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
