@@ -190,6 +190,10 @@ def test_inverse_batch_with_one_tool_point_per_target_equals_single_calls():
         with pytest.raises(InputError, match=f'must have the same length .*, got {got}$'):
             inverse_batch(*args, tool=tool) if tool is not None else inverse_batch(*args)
     assert inverse_batch([], [], []).q.shape == (0, 3) == inverse_batch([], [], [], tool=np.zeros((0, 3))).q.shape
+    assert inverse_batch(0.5, [], []).q.shape == (0, 3)   # a scalar stretches over an empty batch, as over any
+    with pytest.raises(InputError, match=r'must broadcast together .*, got shapes \(1,\), \(0,\), \(1,\)'):
+        naive_inverse([0.5], [], [0.0])   # the naive model's twin of the rule
+    assert naive_inverse(0.5, [], []).shape == (0, 3)
 
 
 def test_inverse_at_the_singular_configuration():

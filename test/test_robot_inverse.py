@@ -648,6 +648,8 @@ def test_stations_and_their_options_that_are_not_are_named():
         with pytest.raises(error, match=words):
             call()
     assert len(st.take([])) == 0 and st.take([-1]).names == st.names
+    empty = solve_stations(ROBOT, Stations.of(np.zeros((0, 3))))   # no station: no answer, not a refusal
+    assert empty.rods.shape == (0, 3) and len(empty.feasible) == 0
     # a robot forward's record(-1) read an empty slice ("station index 0 ... (0 stations)"), record(5) an IndexError
     fk = solve_stations(ROBOT, st).forward
     np.testing.assert_array_equal(fk.record(-1).rods, fk.record(0).rods)

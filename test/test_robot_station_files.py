@@ -61,6 +61,7 @@ def test_an_empty_heading_is_free(tmp_path):
      r'entry = 10000000\.0 is invalid; allowed: a finite number in mm \(0 to 2000 mm, 2 m\)'),
     # a header alone passed as no stations: a program importing it then missed each station it names
     ('s.csv', 'name,x,y,z\n', r's.csv: no rows after the header \(line 1\); one row per entry is required'),
+    ('s.yaml', 'stations: []\n', r's.yaml: stations = \[\] has no station; allowed: a list of one or more stations'),
     ('s.csv', 'name,x,y\na,1,2\n', r'the header lacks the column\(s\) z; required: name, x, y, z'),
     ('s.csv', 'name,x,y,z,colour\n', r"header column 5 'colour' is invalid; allowed: name, branch, x, y, z"),
     ('s.csv', 'name,x [cm],y,z\n', r'column x: unit \[cm\] is invalid; allowed: m or mm'),

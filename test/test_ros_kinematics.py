@@ -426,6 +426,8 @@ def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment
     (lambda c: c.send_program(stations=[{'name': 'a', 'height': 0.4, 'tilt': 0.01, 'azimuth': 0, 'dwel': 0.5}]),
      r'^stations\[0\]: unknown key\(s\) dwel; allowed keys: azimuth, dwell, height, move_time, name, tilt'),
     (lambda c: c.send_program(stations=[{'name': 'a', 'height': 0.4}]), r'^stations\[0\]: missing tilt, azimuth'),
+    (lambda c: c.send_program(stations=[{'height': None, 'tilt': 0.0, 'azimuth': 0.0}]),   # sent as 0.0 m
+     r'^stations\[0\]: missing height'),
     (lambda c: c.send_program(stations=[{'name': 7, 'height': 0.4, 'tilt': 0, 'azimuth': 0}]),
      r'^stations\[0\].name = 7 is invalid'),
     (lambda c: c.send_program(stations=[[0.4, 0.0, 0.0]]), r'^stations\[0\] = \[0.4, 0.0, 0.0\] is invalid'),

@@ -424,3 +424,29 @@ def test_the_3upu_study_volumes_of_the_docs_need_its_box(capsys, box, volumes):
     m = re.search(r'inner volume (\S+) m\*m\*m, outer volume (\S+) m\*m\*m', out)
     assert m is not None, out
     assert (round(float(m[1]) * 1000, 2), round(float(m[2]) * 1000, 2)) == volumes
+
+
+@pytest.mark.parametrize('stopped, caught, status', [
+    ('box limit (100 boxes, shared among the parts); interrupted', None, 130),   # the parts' reasons joined
+    ('box limit (100 boxes, shared among the parts); interrupted', 15, 143),
+    ('interrupted', None, 130),
+    ('time limit (1 s)', None, 0),
+    ('box limit (100 boxes)', None, 0),
+])
+def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, monkeypatch, stopped, caught, status):
+    """A signal exited 0 where the run's parts had stopped for several reasons ('...; interrupted'): 130 or 143 with
+    the proved boxes written, as alone; a limit's stop exits 0."""
+    import dataclasses
+
+    from gpr_kinematics.cli import workspace as ws
+    from gpr_kinematics.workspace.progress import StopFlag
+    real = ws.approximate
+
+    def stopped_run(*args, **kwargs):
+        result = real(*args, **kwargs)
+        monkeypatch.setattr(StopFlag, 'caught', caught)   # as a flag's handler sets it (restored after the test)
+        return dataclasses.replace(result, interrupted=True, stopped=stopped)
+
+    monkeypatch.setattr(ws, 'approximate', stopped_run)
+    code, out, _ = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
+    assert code == status and json.loads(out)['stopped'] == stopped

@@ -190,7 +190,8 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
     # stopped by a signal: what was proved is kept, and the status says so (a time or box limit is a result: 0)
-    status = 128 + (StopFlag.caught or signal.SIGINT) if result.stopped == 'interrupted' else 0
+    signalled = StopFlag.caught is not None or 'interrupted' in result.stopped.split('; ')   # parts' reasons joined
+    status = 128 + (StopFlag.caught or signal.SIGINT) if signalled else 0
     if args.json:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
         return status

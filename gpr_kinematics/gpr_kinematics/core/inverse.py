@@ -30,7 +30,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, InputError, LimitError, norm_text
-from ..inputs.validation import MAX_COORDINATE, column_of, rows_of, single_number, three_floats
+from ..inputs.validation import (
+    MAX_COORDINATE,
+    column_of,
+    empty_beside_one,
+    rows_of,
+    single_number,
+    three_floats,
+)
 from .config import ITERATIONS, GprConfig, nominal_points, resolve_config
 from .forward import (
     TILT_LIMIT_SLACK,
@@ -334,10 +341,8 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
         _refuse_azimuth(float(cols[2][i]), f' (target {i})')
     tools = rows_of(tool, 'tool', 3)
     check_tool(tools)
-    lengths = [c.shape[0] for c in cols]
     try:   # an empty one beside ones of one value broadcast to no target at all (silently): refused as a mismatch
-        if (0 in lengths or tools.shape[0] == 0) and max(lengths) > 0:
-            raise ValueError
+        empty_beside_one((height, tilt, azimuth, tools[:, 0] if np.ndim(tool) == 2 else None))   # tool rows
         h, t, g, _ = (np.ascontiguousarray(c) for c in np.broadcast_arrays(*cols, tools[:, 0]))
     except ValueError:
         raise InputError('height, tilt, azimuth and tool must have the same length (one value or tool row per '

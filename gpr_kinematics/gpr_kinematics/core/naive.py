@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError, LimitError
-from ..inputs.validation import bounded, rows_of
+from ..inputs.validation import bounded, empty_beside_one, rows_of
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .ops import ARRAY, Ops, Value
@@ -95,6 +95,7 @@ def _naive_targets(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike) -> li
     """``height`` [m], ``tilt``, ``azimuth`` [rad] as finite float arrays broadcast together."""
     values = [bounded(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
     try:
+        empty_beside_one((height, tilt, azimuth))
         return list(np.broadcast_arrays(*values))
     except ValueError:
         raise InputError('height, tilt and azimuth must broadcast together (one value or one per target), got shapes '

@@ -305,6 +305,15 @@ def single_number(value: Any, name: str) -> float:
     return float(column_of(value, name)[0])
 
 
+def empty_beside_one(values: Sequence[Any]) -> None:
+    """ValueError where one of the batch arguments ``values`` is an empty array and another a non-empty one: numpy
+    stretches a length-1 array over no target at all (``inverse_batch([0.5], [], [0.0])`` answered nothing); a
+    scalar (or None) stretches over an empty batch as over any."""
+    lengths = [len(v) for v in values if v is not None and np.ndim(v) > 0]
+    if 0 in lengths and max(lengths) > 0:
+        raise ValueError('an empty argument beside a non-empty one')
+
+
 def bounded(values: Any, name: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """``values`` as a float array (of ``shape``), finite and within +-:data:`MAX_COORDINATE`; else
     :class:`InputError` naming ``name``."""

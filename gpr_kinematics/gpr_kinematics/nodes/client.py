@@ -79,7 +79,7 @@ def _station(st: Any, i: int) -> ProgramStation:
         raise InputError(f'{where} = {brief(st)} is invalid; allowed: a mapping with height, tilt, azimuth (and name, '
                          'dwell, move_time)')
     unknown = sorted(str(k) for k in st if k not in STATION_KEYS)
-    missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
+    missing = [k for k in ('height', 'tilt', 'azimuth') if st.get(k) is None]   # None was sent as 0.0
     if unknown or missing:
         what = f'unknown key(s) {", ".join(unknown)}' if unknown else f'missing {", ".join(missing)}'
         raise InputError(f'{where}: {what}; allowed keys: {", ".join(sorted(STATION_KEYS))} (height, tilt, azimuth '

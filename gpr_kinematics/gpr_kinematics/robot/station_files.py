@@ -386,6 +386,9 @@ def read_station_rows(path: Path) -> StationRows:
         return stations_from_csv(read_text(path, 'station', MAX_BYTES), str(path))
     if suffix in ('.yaml', '.yml'):
         from ..inputs.schema import read_yaml
-        return stations_from_yaml(read_yaml(path, 'station'), str(path))
+        rows = stations_from_yaml(read_yaml(path, 'station'), str(path))
+        if not rows.names:   # a file of no station, as a CSV of a header alone (a program's inline list may be empty)
+            raise ConfigError(f'{path}: stations = [] has no station; allowed: a list of one or more stations')
+        return rows
     what = 'a folder' if path.is_dir() else f'of unknown type {suffix or "(no suffix)"}'
     raise ConfigError(f'station file {str(path)!r} is {what}; allowed: a .csv, .yaml or .yml file')
