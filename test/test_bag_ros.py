@@ -543,6 +543,11 @@ def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Pat
     bad = start('replay_node', bag=REFERENCE, wait_for_subscribers=1, wait_topic='no_such_topic')
     assert bad.wait(30) == 2 and "wait_topic = 'no_such_topic' (/no_such_topic) is not published by this replay; " \
         'allowed: one of ' in bad.output(), bad.output()
+    # replay.launch without joint_states:= on a bag of the legacy topic: the refusal names the launch argument
+    bad = start('replay_node', bag=REFERENCE, wait_for_subscribers=1, wait_topic='joint_states')
+    assert bad.wait(30) == 2 and "wait_topic = 'joint_states' (/joint_states) is not published by this replay; " \
+        'allowed: one of ' in bad.output() and '(the bag carries its joint states on /gpr/joint_states: ' \
+        'replay.launch joint_states:=gpr/joint_states)' in bad.output(), bad.output()
     states = read_bag(REFERENCE).topic('/gpr/joint_states')
     assert states is not None
     replay = start('replay_node', bag=REFERENCE, rate=20.0, wait_for_subscribers=1, wait_topic='gpr/joint_states',

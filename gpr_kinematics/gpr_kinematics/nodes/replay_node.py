@@ -96,8 +96,12 @@ class ReplayNode(GprNode):
             topic = valid_topic_name(self, p['wait_topic'], 'wait_topic')
             self.waited = [pub for pub in self.pubs.values() if pub.topic_name == topic]
             if not self.waited:
+                legacy = legacy_joint_states(bag.topics, bag.namespace)   # replay.launch's joint_states:= left out
+                hint = '' if legacy is None or topic != self.resolve_topic_name(JOINT_STATES_TOPIC.lstrip('/')) else (
+                    f' (the bag carries its joint states on {self.pubs[legacy].topic_name}: replay.launch '
+                    'joint_states:=gpr/joint_states)')
                 raise BagError(f'wait_topic = {p["wait_topic"]!r} ({topic}) is not published by this replay; allowed: '
-                               'one of ' + ', '.join(sorted(pub.topic_name for pub in self.pubs.values())))
+                               'one of ' + ', '.join(sorted(pub.topic_name for pub in self.pubs.values())) + hint)
         self._names = {id(pub): n for n, pub in self.pubs.items()}
         self._served, self._warned_behind = 0.0, False
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
