@@ -47,6 +47,10 @@ MALFORMED = {
     'non-ros-params-file': (['--params-file', '{nonros}'], r'cannot start: .*ros__parameters.*gpr_params\.yaml'),
     'broken-params-file': (['--params-file', '{broken}'], r'cannot start: .*params file'),
     'missing-params-file': (['--params-file', '{missing}'], r'cannot start: .*params file'),
+    # rclpy takes no integer for a double: the docs' "characteristic_length 0 (= radius)" typed as 0
+    'integer-for-double': (['-p', 'characteristic_length:=0'], r"cannot start: .*'0' of type 'INTEGER', expecting type "
+                                                               r"'DOUBLE'.*; allowed: a floating-point value \(write "
+                                                               r'0\.0\)'),
 }
 
 

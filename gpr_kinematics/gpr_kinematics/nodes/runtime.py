@@ -67,6 +67,8 @@ from rclpy._rclpy_pybind11 import RCLError  # noqa: E402 - grouped with its expl
 
 #: What a bad command line, parameter or input file raises while a node is built.
 START_ERRORS: tuple[type[BaseException], ...] = (GprError, ParameterException, NameValidationException, RCLError)
+#: rclpy's refusal of an integer given to a double parameter, and the integer.
+_INTEGER_FOR_DOUBLE = re.compile(r"to '(-?\d+)' of type 'INTEGER', expecting type 'DOUBLE'")
 
 
 class StopFlag:
@@ -364,8 +366,10 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
         except StoppedAtStartError as exc:
             logger.info(f'stopped before it started: {one_line(exc)}')
             return EXIT_OK
-        except START_ERRORS as exc:
-            logger.error(f'cannot start: {one_line(exc)}')
+        except START_ERRORS as exc:   # rclpy takes no integer for a double: '-p rate:=200' (a double: 200.0)
+            whole = _INTEGER_FOR_DOUBLE.search(str(exc))
+            hint = f'; allowed: a floating-point value (write {whole.group(1)}.0)' if whole else ''
+            logger.error(f'cannot start: {one_line(exc)}{hint}')
             refused = EXIT_BAD_CONFIG
             return refused
         except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
