@@ -139,3 +139,20 @@ def test_rviz_true_needs_rviz2(launch_file):
 def test_an_unknown_launch_file_is_refused(launch_file):
     with pytest.raises(ValueError, match=r'is not checked; allowed: kinematics\.launch\.py/\.xml, offline_loop'):
         check_arguments(launch_file, {})
+
+
+def test_a_misspelt_argument_is_warned_about_with_the_one_meant():
+    """``launch`` ignores an argument the file does not declare: ``rat:=400`` ran offline_loop at the default rate
+    without a word. One close to a declared one is warned about, naming it; one far from all (an including launch
+    file's own, which reach the included file's configurations too) says nothing; the checked file's name neither."""
+    from gpr_kinematics.nodes.launch_arguments import misspelt_arguments
+
+    given = {'rat': '400', 'recrod': 'true', 'rate': '100', 'my_parents_argument': 'x', 'checked_launch_file': 'x'}
+    assert misspelt_arguments('offline_loop.launch.py', given) == [
+        "launch argument rat:='400' is not an argument of offline_loop (did you mean rate?): ignored, as launch "
+        'ignores an undeclared argument',
+        "launch argument recrod:='true' is not an argument of offline_loop (did you mean record?): ignored, as launch "
+        'ignores an undeclared argument']
+    assert misspelt_arguments('kinematics.launch.xml', {'robto': 'x'})[0].startswith(
+        "launch argument robto:='x' is not an argument of kinematics (did you mean robot?)")
+    assert misspelt_arguments('replay.launch.py', {'rate': '2.0', 'bag': 'b'}) == []

@@ -17,6 +17,7 @@ prefix. The other arguments (paths, names) go to the nodes as text, which check 
 """
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from collections.abc import Callable, Mapping
@@ -161,6 +162,21 @@ def check_arguments(launch_file: str, values: Mapping[str, str],
         if bad is not None:
             errors.append(f'{arg}:={brief(text)} {bad[0]}; allowed: {bad[1]}')
     return errors
+
+
+def misspelt_arguments(launch_file: str, values: Mapping[str, str]) -> list[str]:
+    """One warning per given argument ``launch_file`` does not declare that is close to one it does (``rat:=400``
+    for ``rate``: ``launch`` ignores an undeclared argument, and the node ran at its default); an argument far from
+    every declared one says nothing (an including launch file's own configurations reach the included one's)."""
+    name, _ = launch_file_name(launch_file)
+    declared = FILES[name]
+    out = []
+    for given in sorted(k for k in values if k not in declared and k != CHECKED_FILE):
+        close = difflib.get_close_matches(given, declared, n=1, cutoff=0.75)
+        if close:
+            out.append(f'launch argument {given}:={brief(values[given])} is not an argument of {name} (did you mean '
+                       f'{close[0]}?): ignored, as launch ignores an undeclared argument')
+    return out
 
 
 def refusal(errors: list[str]) -> str:

@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+import launch.logging
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.launch_context import LaunchContext
@@ -29,7 +30,7 @@ from launch_ros.substitutions import FindPackageShare
 
 from ..errors import EXIT_BAD_INPUT
 from ..inputs.resources import PACKAGE
-from .launch_arguments import CHECKED_FILE, check_arguments, refusal, yaml_bool
+from .launch_arguments import CHECKED_FILE, check_arguments, misspelt_arguments, refusal, yaml_bool
 
 #: Nodes that run until the launch stops: restarted (``respawn``) or the end of the launch when they die.
 REQUIRED = ('kinematics_node', 'robot_simulator_node', 'state_publisher_node')
@@ -76,6 +77,8 @@ def _check(context: LaunchContext, launch_file: str | None) -> None:
             raise RuntimeError(f'check_arguments.launch.py checks the arguments of a launch file named by the launch '
                                f'argument {CHECKED_FILE} (the package\'s XML launch files include it); none given')
         launch_file = configurations[CHECKED_FILE]
+    for warning in misspelt_arguments(launch_file, configurations):   # rat:=400 ran at the default rate
+        launch.logging.get_logger('launch').warning(warning)
     errors = check_arguments(launch_file, configurations, installed=_installed)
     if errors:
         raise RuntimeError(refusal(errors))
