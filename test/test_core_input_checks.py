@@ -28,6 +28,9 @@ QUAT = (0.0, 0.0, 0.0, 1.0)
     (lambda: compensate((0.0, math.nan, 0.4), QUAT),
      'position = [0.0, nan, 0.4] contains NaN or infinity: position[1] = nan is not a finite number'),
     (lambda: compensate((0.0, 0.0, 0.4), QUAT, (0.0, 0.0, math.inf)), 'tool_offset[2] = inf is not a finite number'),
+    # one value given: no index (it read "height[0] = nan"); one of many: its index
+    (lambda: inverse_batch(math.nan, 0.0, 0.0), 'height = nan is not a finite number'),
+    (lambda: inverse_batch([0.3, math.nan], 0.0, 0.0), 'height[1] = nan is not a finite number'),
 ])
 def test_a_value_of_the_wrong_shape_or_not_finite_is_refused_by_name(call, message):
     with pytest.raises(InputError) as err:

@@ -273,7 +273,8 @@ def column_of(values: Any, name: str) -> NDArray[np.float64]:
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(f'{name}[{i}] = {a[i]} is not a finite number; allowed: {FINITE}')
+        where = f'{name}[{i}]' if np.ndim(values) else name   # one value given: no index ("height[0] = nan")
+        raise InputError(f'{where} = {a[i]} is not a finite number; allowed: {FINITE}')
     return a
 
 
