@@ -59,7 +59,8 @@ def test_geometry_by_reference_inline_and_overridden(tmp_path):
     r = load_robot(tmp_path / 'robot.yaml', geometry=tmp_path / 'geo.yaml', model='offset')
     assert (r.config.radius, r.config.model) == (0.1, 'offset')
     assert r.config.tilt_limit == load_config().tilt_limit  # --config replaces the whole gpr section
-    with pytest.raises(ConfigError, match="--model: .*model = 'wobbly' is invalid; allowed: radial or polar or offset"):
+    with pytest.raises(ConfigError, match="^model = 'wobbly' is invalid; allowed: radial or polar or offset or "
+                                          r"compliant \(the model overriding the geometry's: model, or --model\)$"):
         load_robot(model='wobbly')
 
 

@@ -438,7 +438,8 @@ def load_robot(path: str | Path | None = None, geometry: str | Path | GprConfig 
     if model is not None:
         try:
             robot = dataclasses.replace(robot, config=robot.config.replace(model=model))
-        except ConfigError as exc:
-            raise ConfigError(f'--model: {exc}') from None
+        except ConfigError as exc:   # the API's argument and the CLI's --model (it named --model and replace())
+            raise ConfigError(f"{str(exc).removeprefix('replace(): ')} (the model overriding the geometry's: model, "
+                              'or --model)') from None
     return robot
 
