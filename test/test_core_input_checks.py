@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from gpr_kinematics.core import inverse_batch
+from gpr_kinematics.core import inverse_batch, naive_forward
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.mechanisms import load_mechanism
 from gpr_kinematics.robot import load_robot, robot_forward, stations_from_poses
@@ -28,6 +28,11 @@ QUAT = (0.0, 0.0, 0.0, 1.0)
     (lambda: compensate((0.0, math.nan, 0.4), QUAT),
      'position = [0.0, nan, 0.4] contains NaN or infinity: position[1] = nan is not a finite number'),
     (lambda: compensate((0.0, 0.0, 0.4), QUAT, (0.0, 0.0, math.inf)), 'tool_offset[2] = inf is not a finite number'),
+    # the naive model's refusal as forward kinematics says it, with the millimetres' hint (it had neither)
+    (lambda: naive_forward([500.0, 503.0, 498.0]), "q = [500.0, 503.0, 498.0] m imply no platform orientation (their "
+                                                    "differences are more than the joints' spread can make at any "
+                                                    'tilt); allowed: rods whose differences a tilt makes; millimetres '
+                                                    'given as metres?'),
     # one value given: no index (it read "height[0] = nan"); one of many: its index
     (lambda: inverse_batch(math.nan, 0.0, 0.0), 'height = nan is not a finite number'),
     (lambda: inverse_batch([0.3, math.nan], 0.0, 0.0), 'height[1] = nan is not a finite number'),

@@ -25,12 +25,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InputError, LimitError
+from ..errors import InputError, NoPoseError
 from ..inputs.validation import bounded, empty_beside_one, rows_of
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
 from .ops import ARRAY, Ops, Value
 from .rotations import AZIMUTH_UNDEFINED_BELOW, tilt_normal, tilt_of_normal, tilt_rotation
+from .stroke import millimetres_within
 
 Array = NDArray[np.float64]
 
@@ -84,7 +85,10 @@ def naive_forward(q: ArrayLike, config: GprConfig | None = None) -> tuple[Array,
     z, h2, nx, ny, nz = naive_state(ARRAY, geo, [Q[:, 0], Q[:, 1], Q[:, 2]])
     if np.any(h2 >= 1.0):
         i = int(np.argmax(h2))
-        raise LimitError(f'q = {Q[i].tolist()} m implies no platform orientation')
+        cfg = resolve_config(config)   # as forward kinematics says it, with the millimetres' hint of the rods
+        mm = '; millimetres given as metres?' if all(millimetres_within(float(v), cfg) for v in Q[i]) else ''
+        raise NoPoseError(f'q = {Q[i].tolist()} m imply no platform orientation (their differences are more than the '
+                          f'joints\' spread can make at any tilt); allowed: rods whose differences a tilt makes{mm}')
     tilt, az = tilt_of_normal(ARRAY, nx, ny, nz)
     pos = np.zeros((Q.shape[0], 3))
     pos[:, 2] = z
