@@ -582,6 +582,7 @@ def test_arguments_of_the_bag_api_of_the_wrong_kind_are_named(tmp_path: Path) ->
     assert len(read_bag(tmp_path / 'b', topics=['/gpr/program']).topics['/gpr/program']) == 1
     for kwargs, words in ((dict(bag=5), r'bag = 5; allowed: a bag folder or file path'),
                           (dict(bag=None), 'bag = None'),
+                          (dict(bag=''), r"path = ''; allowed: a bag folder or a .mcap or .db3 file"),   # read '.'
                           (dict(config={}), r'config = \{\}; allowed: a GprConfig'),
                           (dict(robot={}), r'robot = \{\}; allowed: a RobotDescription'),
                           (dict(tolerances={}), r'tolerances = \{\}; allowed: Tolerances or None')):

@@ -409,7 +409,7 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
                                or not topics or not all(isinstance(t, str) and t for t in topics)):
         raise BagError(f'topics = {brief(topics)}; allowed: None (every topic) or a list of one or more topic names '
                        "(['/gpr/platform_state'], not a single name)")
-    if not isinstance(path, (str, os.PathLike)):
+    if not isinstance(path, (str, os.PathLike)) or not os.fspath(path):   # '' read the current folder
         raise BagError(f'path = {brief(path)}; allowed: a bag folder or a .mcap or .db3 file')
     layout = locate(path)
     wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
