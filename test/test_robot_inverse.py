@@ -626,11 +626,14 @@ def test_stations_from_poses_takes_lists_and_offset_checks_its_distances():
 def test_stations_and_their_options_that_are_not_are_named():
     """None, a float branch, an array as the arm, index 5 of one station, a heading_free per two stations: bare
     TypeErrors, ValueErrors and IndexErrors before."""
+    from gpr_kinematics.core.config import load_config
     from gpr_kinematics.errors import ConfigError
 
     st = Stations.of([[1.15, 0.5, 0.4]], heading=0.3)
     for call, error, words in (
             (lambda: solve_stations(ROBOT, None), InputError, r'stations = None; allowed: Stations'),
+            (lambda: solve_stations(None, st), InputError, r'robot = None; allowed: a RobotDescription \(load_robot\)'),
+            (lambda: load_config(3), ConfigError, r'geometry file path = 3; allowed: a file path \(str or Path\)'),
             (lambda: solve_stations(ROBOT, st, branch=0.5), InputError, r'branch = 0.5 is invalid; allowed: left or'),
             (lambda: solve_stations(ROBOT, st, arm=np.zeros((0, 3))), ConfigError, r'no arm .*; allowed: arm1, arm2'),
             (lambda: st.take([5]), InputError, r'station index \[5\]; allowed: integers from -1 to 0 \(1 stations\)'),

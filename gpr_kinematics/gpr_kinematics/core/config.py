@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -363,6 +364,9 @@ def load_config(path: str | Path | None = None,
     """
     default_path = config_path('gpr.yaml')
     cfg = _build(GprConfig(), _read_yaml(default_path), str(default_path))
+    if path is not None and not isinstance(path, (str, os.PathLike)):   # 3 raised a bare TypeError
+        raise ConfigError(f'geometry file path = {brief(path)}; allowed: a file path (str or Path) or None (the '
+                          "package's gpr.yaml)")
     if path is not None:  # the name as given: an empty one is refused, not read as '.'
         # a calibrated file's covariance of its fitted parameters: checked here, read by load_covariance
         data, _ = split_covariance(_read_yaml(path, empty=False), str(path))

@@ -247,6 +247,8 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
     if not isinstance(stations, Stations):
         raise InputError(f'stations = {brief(stations)}; allowed: Stations (Stations.of, stations_from_poses, a '
                          'station file)')
+    if not isinstance(robot, RobotDescription):   # None raised a bare AttributeError
+        raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot)')
     a = robot.arm(arm)
     n = len(stations)
     cfg = robot.config
