@@ -187,7 +187,8 @@ class SegmentedBagWriter:
         try:
             self.path.mkdir(parents=True)
         except OSError as exc:
-            raise BagError(f'output {self.path} cannot be created: {exc.strerror or exc}') from None
+            raise BagError(f'output {self.path} cannot be created: {exc.strerror or exc}; allowed: a new folder in a '
+                           'writable place (missing parents are created)') from None
         self._opened = True
         try:
             self._open_segment()

@@ -144,7 +144,8 @@ class TrajectoryNode(GprNode):
         program = None
         if p['mode'] == 'program':
             if not p['program_file']:
-                raise ConfigError('mode program needs the parameter program_file (path of an offline program YAML)')
+                raise ConfigError('mode program needs the parameter program_file; allowed: the path of an offline '
+                                  'program YAML file (-p program_file:=FILE), or another mode')
             program = load_any_program(p['program_file'])
         self.goal_files = GoalFiles.of(p['program_folders'])
         robot_program = program if isinstance(program, RobotProgram) else None
