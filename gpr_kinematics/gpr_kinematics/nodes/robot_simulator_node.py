@@ -199,8 +199,7 @@ class RobotSimulatorNode(GprNode):
         state[taken] = values
         wrong = self._outside(state)
         if wrong:
-            self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}; allowed: values within '
-                                      "the joints' limits", throttle_duration_sec=5.0)
+            self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}', throttle_duration_sec=5.0)
             return
         now = self.get_clock().now().nanoseconds
         if not self.refusing:   # quiet while values it takes stream (not others, nor a stream the cell refuses)
@@ -239,11 +238,11 @@ class RobotSimulatorNode(GprNode):
         j = self.joints   # a streamed sample may lie LIMIT_SLACK beyond a limit, as the planner allows
         for k in np.flatnonzero((state < j.lower - LIMIT_SLACK) | (state > j.upper + LIMIT_SLACK)):
             return (f'{j.names[k]} = {state[k]:.9g} {j.units[k]} is outside [{j.lower[k]:.9g}, {j.upper[k]:.9g}] '
-                    f'{j.units[k]}')
+                    f"{j.units[k]}; allowed: values within the joints' limits")   # the tilt's has its own
         try:
             forward(state[:3], self.cfg)
         except GprError as exc:
-            return one_line(exc)
+            return one_line(exc) + ('' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit')
         return ''
 
     def _idle(self) -> None:
