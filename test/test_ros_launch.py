@@ -7,6 +7,7 @@ prefix, and the shipped config/gpr_params.yaml is the one the parameter specs ge
 from __future__ import annotations
 
 import importlib.util
+import logging
 import re
 import sys
 import types
@@ -342,7 +343,7 @@ def test_every_launch_file_checks_its_arguments_before_any_node(name, monkeypatc
                                                                                  f'{name}.launch.xml')]
 
 
-def test_the_check_ends_the_launch_with_one_line(monkeypatch):
+def test_the_check_ends_the_launch_with_one_line(monkeypatch, caplog):
     """A bad argument raises (ros2 launch: status 1, the message as the reason) before any node; the XML files'
     check reads the file's name from the launch configuration their include sets."""
     _load('check_arguments', monkeypatch)
@@ -359,6 +360,13 @@ def test_the_check_ends_the_launch_with_one_line(monkeypatch):
         launch_common._check(context, None)
     context.launch_configurations['rviz'] = '0'
     assert launch_common._check(context, None) is None
+    # a misspelt argument, which launch ignores, warned about on launch's logger (rat:=400 ran at the default rate)
+    context.launch_configurations.update(rat='400')
+    with caplog.at_level(logging.WARNING, logger='launch'):
+        assert launch_common._check(context, 'offline_loop.launch.py') is None
+    assert [r.getMessage() for r in caplog.records if r.name == 'launch'] == [
+        "launch argument rat:='400' is not an argument of offline_loop (did you mean rate?): ignored, as launch "
+        'ignores an undeclared argument']
     with pytest.raises(RuntimeError, match='checks the arguments of a launch file named by the launch argument '
                                            'checked_launch_file'):
         launch_common._check(types.SimpleNamespace(launch_configurations={}), None)

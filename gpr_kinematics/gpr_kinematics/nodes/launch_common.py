@@ -16,10 +16,10 @@ action that uses it runs, after earlier nodes started, and an exception then lef
 """
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable
 from typing import Any
 
-import launch.logging
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.launch_context import LaunchContext
@@ -78,7 +78,7 @@ def _check(context: LaunchContext, launch_file: str | None) -> None:
                                f'argument {CHECKED_FILE} (the package\'s XML launch files include it); none given')
         launch_file = configurations[CHECKED_FILE]
     for warning in misspelt_arguments(launch_file, configurations):   # rat:=400 ran at the default rate
-        launch.logging.get_logger('launch').warning(warning)
+        logging.getLogger('launch').warning(warning)   # launch.logging's logger (its handlers print it)
     errors = check_arguments(launch_file, configurations, installed=_installed)
     if errors:
         raise RuntimeError(refusal(errors))
