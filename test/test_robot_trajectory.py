@@ -267,7 +267,7 @@ def test_sample_plan_times_are_checked_and_counted_before_work():
     np.testing.assert_array_equal(got.samples.time, [0.0, 0.5])
     np.testing.assert_array_equal(got.wafer.position, sample_plan(plan, times=np.array([0.0, 0.5])).wafer.position)
     for times, words in ((np.array([np.nan]), r'times\[0\] = nan is not a finite number'),
-                         (float('nan'), r'times\[0\] = nan is not a finite number'),
+                         (float('nan'), r'times = nan is not a finite number'),   # one value: no index
                          (np.arange(10 ** 7) * 1e-6, r'10000000 times; allowed: at most 200000 samples'),
                          ('abc', r'times must be a number or an array of numbers')):
         with pytest.raises(InputError, match=words):
