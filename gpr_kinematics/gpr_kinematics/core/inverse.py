@@ -56,7 +56,7 @@ from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import FitFloats
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
-from .stroke import check_stroke
+from .stroke import check_stroke, within_as_millimetres
 from .virtual_joints import Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -226,8 +226,8 @@ def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequenc
     stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
     if lo_ > hv:
         raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
-    mm = '; as millimetres it would be within them: millimetres given as metres?' if hi_ > 10.0 * hv and \
-        lo_ <= hi_ / 1000.0 <= hv else ''   # the rule of the rods' hint (core.stroke.millimetres_within)
+    mm = '; as millimetres it would be within them: millimetres given as metres?' if within_as_millimetres(
+        hi_, lo_, hv) else ''
     raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
                      f'{lo_:.6g} .. {hv:.6g} m{mm}')
 

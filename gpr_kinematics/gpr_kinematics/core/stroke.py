@@ -24,11 +24,16 @@ def q_rows(q: Sequence[Value]) -> NDArray[np.float64]:
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
 
 
+def within_as_millimetres(value: float, lo: float, hi: float) -> bool:
+    """A length ``value`` [m] far outside ``[lo, hi]`` (ten times its largest end) that would lie within it read as
+    millimetres (250 for 0.25 m; not 0.6 m for a stroke of 0.508 m): the rule of every hint that a length was typed
+    in mm (a rod, a platform height, a goal's joint)."""
+    return abs(value) > 10.0 * max(abs(lo), abs(hi)) and lo <= value / 1000.0 <= hi
+
+
 def millimetres_within(value: float, config: GprConfig) -> bool:
-    """A rod length ``value`` [m] outside the stroke that would lie within it read as millimetres (250 for 0.25 m; not
-    0.6 m for a stroke of 0.508 m): the rule of the hints that a length was typed in mm."""
-    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
-    return value > 10.0 * hi and lo <= value / 1000.0 <= hi
+    """:func:`within_as_millimetres` of a rod length ``value`` [m] and the stroke."""
+    return within_as_millimetres(value, config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK)
 
 
 def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q', typed: bool = False,

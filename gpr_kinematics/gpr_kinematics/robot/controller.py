@@ -35,8 +35,9 @@ from numpy.typing import NDArray
 from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, forward_batch, inverse
 from ..core.config import GprConfig
 from ..core.messages import ROD_JOINT_NAMES
+from ..core.stroke import within_as_millimetres
 from ..errors import GprError, InputError, apart, brief
-from ..inputs.validation import radians_hint
+from ..inputs.validation import beyond_turn, radians_hint
 from .arm_chain import LIMIT_SLACK
 from .description import RobotDescription
 from .grid import grid_count, grid_times
@@ -266,11 +267,9 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
         # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
         shown, end = apart(v, limit, 12)
         lo, hi = float(joints.lower[j]), float(joints.upper[j])
-        # a driver's mm or degrees (the files' hint): far beyond as given, within once converted
-        far, scaled = (abs(v) > 10.0 * max(abs(lo), abs(hi)), v / 1000.0) if u == 'm' else \
-            (abs(v) > 2.0 * math.pi, math.radians(v))
-        hint = '' if not (far and lo <= scaled <= hi) else (' (millimetres given as metres?)' if u == 'm' else
-                                                             radians_hint(v))
+        # a driver's mm or degrees (the files' hints): far beyond as given, within once converted
+        hint = (' (millimetres given as metres?)' if within_as_millimetres(v, lo, hi) else '') if u == 'm' else \
+            (radians_hint(v) if beyond_turn(v) and lo <= math.radians(v) <= hi else '')
         raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {shown} {u} is '
                         f'beyond its {side} limit {end} {u} by {abs(v - limit):.3g} {u}; allowed: '
                         f'[{lo:.12g}, {hi:.12g}] {u}{hint}')
