@@ -43,7 +43,7 @@ from ..core.messages import Service
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError, InputError, brief
 from ..inputs.validation import MAX_COORDINATE, float_array
-from ..robot.platform_program import STATION_KEYS
+from ..robot.platform_program import REQUIRED_STATION_KEYS, STATION_KEYS
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
 
@@ -79,7 +79,7 @@ def _station(st: Any, i: int) -> ProgramStation:
         raise InputError(f'{where} = {brief(st)} is invalid; allowed: a mapping with height, tilt, azimuth (and name, '
                          'dwell, move_time)')
     unknown = sorted(str(k) for k in st if k not in STATION_KEYS)
-    missing = [k for k in ('height', 'tilt', 'azimuth') if st.get(k) is None]   # None was sent as 0.0
+    missing = [k for k in REQUIRED_STATION_KEYS if st.get(k) is None]   # None was sent as 0.0
     if unknown or missing:
         what = f'unknown key(s) {", ".join(unknown)}' if unknown else f'missing {", ".join(missing)}'
         raise InputError(f'{where}: {what}; allowed keys: {", ".join(sorted(STATION_KEYS))} (height, tilt, azimuth '

@@ -49,6 +49,8 @@ from .timing import MAX_SAMPLES
 FORMAT = 'gpr_platform_program'
 #: The keys of a platform program's station (a file's, and a goal's from `GprClient`).
 STATION_KEYS = {'name', 'height', 'tilt', 'azimuth', 'dwell', 'move_time'}
+#: Those a station must give (metres, radians).
+REQUIRED_STATION_KEYS = ('height', 'tilt', 'azimuth')
 #: Most stations of a platform program (a file's or a goal's), counted before any is read.
 MAX_STATIONS = 10_000
 
@@ -136,7 +138,7 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
         if not isinstance(st, Mapping):
             raise ConfigError(f'{source}: {where} must be a mapping with height, tilt, azimuth, dwell')
         check_keys(st, STATION_KEYS, f'{source}: {where}')
-        missing = [k for k in ('height', 'tilt', 'azimuth') if k not in st]
+        missing = [k for k in REQUIRED_STATION_KEYS if k not in st]
         if missing:
             raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
         name = station_name(st['name'], f'{source}: {where}') if 'name' in st else f'station_{i}'
