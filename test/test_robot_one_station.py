@@ -3,6 +3,7 @@ path equals the batch to 1e-12 on random stations of every arm kind (3 joints, 4
 nearest, 2 joints with the heading given or free), on a moved and rolled base, with calibrated joint zero offsets,
 and refuses what the batch refuses with the batch's messages."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -314,14 +315,20 @@ def test_one_station_near_the_stretch_equals_the_batch(distance):
 
 def test_a_joint_at_its_limits_slack_is_decided_by_the_batch_alone_or_not():
     """arm2_elbow 1e-12 rad beyond its upper limit: the float path accepted (2.9000000000009996), a batch refused
-    (2.9000000000010004); within EDGE_MARGIN of a threshold the batch decides, so both refuse, naming the value
-    apart from the limit."""
+    (2.9000000000010004); within EDGE_MARGIN of a threshold the batch decides, so both decide alike, a refusal naming
+    the value apart from the limit. The batch's last bit is numpy's vectorised sine and cosine, which differ by the
+    machine (2.9000000000010004 on one with AVX-512, 2.9000000000009996, within the slack, on one with AVX2 only)."""
     st = Stations.of([[0.8474779812968567, 0.747119952604119, 0.5543797425305929]], tilt=0.01765745657897933,
                      azimuth=1.8128326828767127, heading=1.2285782404307057)
+    decided = []
     for stations in (st, st.take([0, 0])):
-        with pytest.raises(LimitError, match=r'arm2_elbow = 2\.900000000001 rad is beyond its upper limit 2\.9 rad '
-                                             r'by 1\.00\de-12 rad'):
-            solve_stations(ROBOT, stations, 'arm2', 'right')
+        try:
+            decided.append(repr(float(solve_stations(ROBOT, stations, 'arm2', 'right').joints[0, 1])))
+        except LimitError as exc:
+            assert re.search(r'arm2_elbow = 2\.900000000001 rad is beyond its upper limit 2\.9 rad by 1\.00\de-12 rad',
+                             str(exc)), exc
+            decided.append('refused')
+    assert decided[0] == decided[1] and decided[0] in ('refused', '2.9000000000009996'), decided
 
 
 def test_a_joint_at_the_wrap_of_a_range_wider_than_a_turn_is_the_batchs():
