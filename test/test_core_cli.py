@@ -142,7 +142,17 @@ def test_human_readable_output(capsys):
     (['mobility', '0.5', '0.5', '0.5', '--dq', '1e308', '0', '0', '--json'],
      r'q1 \+ dq1 = 1e\+308 m is outside the stroke'),
     (['sweep', '--height', '-1e308'], r'height = -1e\+308 m puts a rod outside the stroke'),
-    (['sweep', '--tilt-step', '1e-12'], r'tilt_step = 1e-12 rad; allowed: a step of at least 1e-07 rad'),
+    (['sweep', '--tilt-step', '1e-12'], r'^gpr sweep: error: --tilt-step = 1e-12 rad; allowed: a step of at least '
+                                        r'1e-07 rad$'),
+    (['sweep', '--azimuth-step', '0.001', '--deg'], r'--azimuth-step = 0\.001 deg; allowed: a step of at least '
+                                                    r'0\.00572958 deg$'),   # named as typed, in the unit typed
+    # a value 1000 times too large typed in mm (--mm) is no millimetres given as metres: no such hint
+    (['fk', '300000', '300', '300', '--mm'], r'^gpr fk: error: q1 = 300 m is outside the stroke \[0, 0\.508\] m$'),
+    (['ik', '--height', '500000', '--tilt', '0', '--azimuth', '0', '--mm'],
+     r'at the tilt 0 rad; allowed heights: 0 \.\. 0\.508 m$'),
+    (['fk', '300', '0.3', '0.3'], r'q1 = 300 m is outside the stroke \[0, 0\.508\] m; 300 mm would be within it: '
+                                  r'millimetres given as metres\?$'),
+    (['sweep', '--passes', '1001'], r'^gpr sweep: error: --passes = 1001; allowed: an integer from 1 to 1000$'),
     (['sweep', '--tilt-step', '1e-7'], r'allowed: a sweep of at most 200000 samples'),
     (['sweep', '--csv', ''], 'CSV output path is empty'),
     (['sweep', '--csv', 'victim.yaml'], r"^gpr sweep: error: --csv 'victim.yaml' has another suffix; allowed: a .csv "

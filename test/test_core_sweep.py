@@ -69,7 +69,8 @@ def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
 
 
 @pytest.mark.parametrize('kwargs, pattern', [
-    ({'tilt_step': 1e-7}, r'max_tilt / tilt_step = 349066 tilt steps; allowed: a sweep of at most 200000'),
+    ({'tilt_step': 1e-7}, r'the sweep would have 349066 tilt steps from level to its largest tilt; allowed: a '
+                         r'sweep of at most 200000'),
     # below the least steps (trajectory_node's parameters' too): 1e-12 and 5e-324 were counted as samples
     ({'tilt_step': 5e-324}, r'tilt_step = 5e-324 rad; allowed: a step of at least 1e-07 rad'),
     ({'azimuth_step': 1e-9}, r'azimuth_step = 1e-09 rad; allowed: a step of at least 0.0001 rad'),

@@ -183,6 +183,28 @@ def _write_csv(path: str, s: SweepResult) -> Path:
     return Path(path)
 
 
+def _check_sweep_options(args: argparse.Namespace, cfg: GprConfig) -> None:
+    """``gpr sweep``'s steps and passes against the core's bounds, named as typed and in the unit typed."""
+    from ..core import sweep
+    unit = 'deg' if args.deg else 'rad'
+    for option, value in (('--max-tilt', args.max_tilt), ('--tilt-step', args.tilt_step),
+                          ('--azimuth-step', args.azimuth_step)):   # named as typed, not as the radians they become
+        if value is not None and not value > 0.0:
+            raise InputError(f'{option} = {value:g} {unit}; allowed: a positive angle')
+        least = sweep.LEAST_STEPS.get(option[2:].replace('-', '_'), 0.0)
+        if value is not None and _angle(args, value) < least:   # the core's bound, named as typed
+            shown = f'{math.degrees(least):g} deg' if args.deg else f'{least:g} rad'
+            raise InputError(f'{option} = {value:g} {unit}; allowed: a step of at least {shown}')
+    if not 1 <= args.passes <= sweep.MAX_PASSES:
+        raise InputError(f'--passes = {args.passes}; allowed: an integer from 1 to {sweep.MAX_PASSES}')
+    if args.azimuth_step is not None:   # beyond a turn: degrees typed as radians, as a typed direction
+        direction(args, args.azimuth_step, '--azimuth-step')
+    if args.tilt_step is not None and not args.deg and args.tilt_step > cfg.tilt_limit:   # 0.2 meant 0.2 deg
+        shown, limit = apart(args.tilt_step, cfg.tilt_limit)
+        raise InputError(f'--tilt-step = {shown} rad is more than the tilt limit {limit} rad '
+                         f'({math.degrees(cfg.tilt_limit):g} deg); allowed: a step within it (give --deg for degrees)')
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..core import sweep
     from ..inputs.files import check_output, check_suffix
@@ -195,17 +217,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         # Defaults are SI already: --mm/--deg convert only what the user typed.
         return default if value is None else convert(args, value)
 
-    for option, value in (('--max-tilt', args.max_tilt), ('--tilt-step', args.tilt_step),
-                          ('--azimuth-step', args.azimuth_step)):   # named as typed, not as the radians they become
-        if value is not None and not value > 0.0:
-            raise InputError(f'{option} = {value:g} {"deg" if args.deg else "rad"}; allowed: a positive angle')
-    if args.azimuth_step is not None:   # beyond a turn: degrees typed as radians, as a typed direction
-        direction(args, args.azimuth_step, '--azimuth-step')
-    if args.tilt_step is not None and not args.deg and args.tilt_step > cfg.tilt_limit:   # 0.2 meant 0.2 deg
-        shown, limit = apart(args.tilt_step, cfg.tilt_limit)
-        raise InputError(f'--tilt-step = {shown} rad is more than the tilt limit {limit} rad '
-                         f'({math.degrees(cfg.tilt_limit):g} deg); allowed: a step within it (give --deg for degrees)')
-
+    _check_sweep_options(args, cfg)
     max_tilt, tilt_step = (given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
                            given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP))
     # named as typed, in the unit typed (the core's messages name its parameters in radians)

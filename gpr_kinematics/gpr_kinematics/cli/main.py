@@ -159,10 +159,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = command_path(parser, args)
     previous = _catch_sigterm()
     try:
+        from ..core.stroke import typed_in_millimetres
         from .options import resolve_shipped
         resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
         distinct_outputs(args)
-        with command_reads(), command_writes():  # no output may be a file the command read; all outputs or none
+        # no output may be a file the command read; all outputs or none; under --mm no "millimetres given as metres?"
+        with command_reads(), command_writes(), typed_in_millimetres(bool(getattr(args, 'mm', False))):
             status = int(args.handler(args))
         sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
         return status

@@ -6,7 +6,9 @@ length here, so that one rule and one message serve them all. Lengths in metres.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,6 +19,20 @@ from .ops import Ops, Value
 
 #: Margin [m] by which a rod length may leave the stroke (rounding).
 STROKE_SLACK = 1e-12
+#: True while the lengths checked were given in millimetres (``gpr ... --mm``): no hint then says "millimetres given
+#: as metres?" of a value 1000 times too large (:func:`typed_in_millimetres`).
+_TYPED_IN_MILLIMETRES: ContextVar[bool] = ContextVar('typed_in_millimetres', default=False)
+
+
+@contextmanager
+def typed_in_millimetres(on: bool) -> Iterator[None]:
+    """Within it (``on``), :func:`within_as_millimetres` holds of no value: the lengths were typed in millimetres,
+    and a value 1000 times too large cannot be millimetres typed as metres."""
+    token = _TYPED_IN_MILLIMETRES.set(on)
+    try:
+        yield
+    finally:
+        _TYPED_IN_MILLIMETRES.reset(token)
 
 
 def q_rows(q: Sequence[Value]) -> NDArray[np.float64]:
@@ -27,8 +43,8 @@ def q_rows(q: Sequence[Value]) -> NDArray[np.float64]:
 def within_as_millimetres(value: float, lo: float, hi: float) -> bool:
     """A length ``value`` [m] far outside ``[lo, hi]`` (ten times its largest end) that would lie within it read as
     millimetres (250 for 0.25 m; not 0.6 m for a stroke of 0.508 m): the rule of every hint that a length was typed
-    in mm (a rod, a platform height, a goal's joint)."""
-    return abs(value) > 10.0 * max(abs(lo), abs(hi)) and lo <= value / 1000.0 <= hi
+    in mm (a rod, a platform height, a goal's joint); never within :func:`typed_in_millimetres`."""
+    return not _TYPED_IN_MILLIMETRES.get() and abs(value) > 10.0 * max(abs(lo), abs(hi)) and lo <= value / 1000.0 <= hi
 
 
 def millimetres_within(value: float, config: GprConfig) -> bool:

@@ -38,6 +38,8 @@ MAX_SAMPLES = 200_000
 #: The least steps [rad] of alpha and of the azimuth (``gpr sweep``, :func:`sweep_grid` and ``trajectory_node``'s
 #: parameters alike: the command line took 5e-8 rad, which the node refused).
 LEAST_STEPS = {'tilt_step': 1e-7, 'azimuth_step': 1e-4}
+#: Most passes of one sweep.
+MAX_PASSES = 1000
 
 
 class TiltStepsError(InputError):
@@ -136,12 +138,12 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
             raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
         if value < LEAST_STEPS.get(name, 0.0):
             raise InputError(f'{name} = {value!r} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
-    if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= 1000:
-        raise InputError(f'passes = {brief(passes)} must be an integer from 1 to 1000')
+    if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= MAX_PASSES:
+        raise InputError(f'passes = {brief(passes)} must be an integer from 1 to {MAX_PASSES}')
     half = max_tilt / tilt_step
     if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
-        raise InputError(f'max_tilt / tilt_step = {half:.6g} tilt steps; allowed: a sweep of at most {MAX_SAMPLES} '
-                         'samples (a larger tilt_step)')
+        raise InputError(f'the sweep would have {half:.6g} tilt steps from level to its largest tilt; allowed: a '
+                         f'sweep of at most {MAX_SAMPLES} samples (a larger tilt step)')
     if tilt_step > max_tilt:   # not 'max_tilt must be a whole number of steps': the step is what is wrong
         raise InputError(f'tilt_step = {tilt_step!r} rad is more than max_tilt = {max_tilt!r} rad; allowed: a step '
                          'that divides max_tilt a whole number (>= 1) of times')

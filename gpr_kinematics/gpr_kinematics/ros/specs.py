@@ -16,6 +16,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ..core import sweep as _sweep
 from ..core.config import FLOAT_RANGES as _F
 from ..core.config import ITERATIONS, LEAST_LENGTH, MODELS, ROD_GAP, WEIGHTINGS, GprConfig, allowed_values, load_config
 from ..core.messages import FRAME_PREFIX_WORDS, Topic, frame_prefix_refusal, is_frame_name
@@ -240,7 +241,7 @@ TRAJECTORY: tuple[ParamSpec, ...] = (
               (LEAST_STEPS['tilt_step'], _F['tilt_limit'][1]), read_only=True),
     ParamSpec('azimuth_step', _D, DEFAULT_AZIMUTH_STEP, 'sweep: step of the azimuth gamma [rad]',
               (LEAST_STEPS['azimuth_step'], 2 * math.pi), read_only=True),
-    ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, 1000), read_only=True),
+    ParamSpec('passes', _I, 1, 'sweep: number of passes over the grid', (1, _sweep.MAX_PASSES), read_only=True),
     ParamSpec('program_file', _S, '', 'program: path of the offline program YAML', constraint='required in mode '
               'program', read_only=True),
     ParamSpec('program_folders', _SA, [''], 'folders, besides the package\'s config, whose files a '
