@@ -110,6 +110,13 @@ def test_malformed_content_refused_with_line_and_column(content, pattern):
         parse_measurements(content, 'f.csv')
 
 
+def test_bytes_are_refused_naming_what_to_give():
+    """The bytes of a file raised a bare TypeError at the split into lines."""
+    with pytest.raises(InputError, match=r"^f\.csv: the text given is a bytes; allowed: a str \(bytes: decode them "
+                                         r"first, e\.g\. data\.decode\('utf-8'\)\)$"):
+        parse_measurements(text(ROW).encode(), 'f.csv')   # type: ignore[arg-type]
+
+
 def test_an_empty_unit_in_brackets_is_refused():
     """``q1 []`` read as metres, under ``# units: mm`` too (q1 = 300 m, refused as outside the stroke, or 0.3 read as
     0.3 m where 0.3 mm was meant); now refused naming the column and the units allowed, also for an angle column.

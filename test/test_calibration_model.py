@@ -107,6 +107,19 @@ def test_evaluate_checks_shapes_and_values():
         evaluate(m, bad, [[0.3, 0.3, 0.3]])
 
 
+def test_a_configuration_given_for_its_model_is_named():
+    """A GprConfig where its CoreModel belongs raised a bare AttributeError (no ``parameters``) in ``evaluate``
+    and ``accuracy_budget``."""
+    from gpr_kinematics.calibration.budget import accuracy_budget
+    cfg = load_config()
+    message = (r'^model is a GprConfig; allowed: a pose model such as gpr_kinematics\.calibration\.core_model\.'
+               r'CoreModel\(config\) \(a GprConfig goes in there\)$')
+    with pytest.raises(InputError, match=message):
+        evaluate(cfg, CoreModel(cfg).parameters.nominal, [[0.3, 0.3, 0.3]])
+    with pytest.raises(InputError, match=message):
+        accuracy_budget(cfg, [[0.3, 0.3, 0.3]], None)   # type: ignore[arg-type]
+
+
 def core_to_reference(values):
     """The reference model's parameters (test/calibration_reference.py) of a core machine (values in the order of
     PARAMETER_NAMES, equal kappas): its rod directions are (t_x, t_y, 1) normalised, the core's (u_x, u_y, u_z)."""

@@ -47,6 +47,7 @@ from .model import (
     evaluate,
     pose_error,
     pose_jacobian,
+    pose_model,
     rod_jacobian,
 )
 from .monte_carlo import Calibrated, drawn_from, monte_carlo
@@ -345,7 +346,7 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     N = Qa.shape[0]
     tool_v, R, pct, labels_t = _check_options(N, samples, tool, frame_rotation, percentiles, labels)
     seed = random_seed(seed)
-    params = model.parameters
+    params = pose_model(model).parameters
     P = len(params)
     th = params.nominal if theta is None else float_array(theta, 'theta', f'{P} finite parameter values')
     th = finite_vector(th, 'theta', P)   # a NaN named, not the shape that was right

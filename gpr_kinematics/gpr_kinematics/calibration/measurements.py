@@ -328,6 +328,9 @@ def _check_row_count(lines: list[str], source: str) -> None:
 def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: StageProgress | None = None
                 ) -> _Table:
     """The header, the rows and the declared units of a measurement file's text."""
+    if not isinstance(text, str):   # bytes raised a bare TypeError at the split
+        raise InputError(f'{source}: the text given is a {type(text).__name__}; allowed: a str (bytes: decode '
+                         "them first, e.g. data.decode('utf-8'))")
     table = _Table(spec)
     lines = text.split('\n')
     _check_row_count(lines, source)

@@ -262,6 +262,14 @@ class PoseModel(Protocol):
         ...
 
 
+def pose_model(model: object) -> PoseModel:
+    """``model`` if it has the members of a :class:`PoseModel`, else :class:`InputError` naming what it is."""
+    if not isinstance(model, PoseModel):   # a GprConfig given for its CoreModel raised a bare AttributeError
+        raise InputError(f'model is a {type(model).__name__}; allowed: a pose model such as '
+                         'gpr_kinematics.calibration.core_model.CoreModel(config) (a GprConfig goes in there)')
+    return model
+
+
 def as_configurations(Q: ArrayLike, name: str = 'rod lengths') -> Array:
     """Rod lengths as a finite ``(N, 3)`` array, ``N >= 1`` (a single ``(3,)`` becomes one row), with the core's
     checks and messages (``q2 = nan (sample 3) is not a finite number``)."""
@@ -282,7 +290,7 @@ def evaluate(model: PoseModel, theta: ArrayLike, Q: ArrayLike,
     th = np.asarray(theta, dtype=float)
     single = th.ndim == 1
     th = np.atleast_2d(th)
-    P = len(model.parameters)
+    P = len(pose_model(model).parameters)
     if th.ndim != 2 or th.shape[1] != P:
         raise InputError(f'theta must have {P} values per row (one per parameter), got shape {np.shape(theta)}')
     S = th.shape[0]
