@@ -309,7 +309,7 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
         seen.update(client=(client.name, client.namespace), topic=topic, names=tuple(names))
         return seen.get('current')
 
-    def follow(client, goal, action, timeout, progress):
+    def follow(client, goal, action, timeout, progress, found):
         seen['action'] = action
         raise _NoServerError(action)
 
@@ -326,7 +326,7 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
     assert joints.startswith('rod_1, rod_2, rod_3, ')
     seen['current'] = rest
     status, out, err = run(capsys, *argv)
-    assert (status, seen['action']) == (1, action) and out.endswith(f' to {action}\n')
+    assert (status, seen['action'], out) == (1, action, '')   # not 'sending ...' before a server was found
     assert err == (f'gpr program send: no FollowJointTrajectory server on {action} within 0.5 s (change the name with '
                    f'{where[1]}, the wait with --timeout)\n')
     # the JSON result names the action as resolved, as the text line does (it gave the name as typed)
@@ -335,6 +335,12 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
     monkeypatch.setattr(fake, 'follow_trajectory', staticmethod(lambda *a: outcome), raising=False)
     status, out, err = run(capsys, *argv, '--json')
     assert (status, json.loads(out)['action']) == (0, action)
+    # the goal's line once the server is found (follow_trajectory's ``found``), then the result
+    monkeypatch.setattr(fake, 'follow_trajectory', staticmethod(lambda *a: (a[-1](), outcome)[1]), raising=False)
+    status, out, err = run(capsys, *argv)
+    lines = out.splitlines()
+    assert status == 0 and len(lines) == 2 and lines[0].startswith('sending ') and lines[0].endswith(f' to {action}')
+    assert lines[1] == 'succeeded (error_code 0 SUCCESSFUL)'
 
 
 def test_console_script_without_traceback(tmp_path):

@@ -375,6 +375,26 @@ def test_joint_states_beyond_the_limits_are_ignored_with_a_warning(sim):
     assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
 
 
+def test_a_foreign_state_is_named_by_its_joints(ros_environment):
+    """The warning of a foreign state that tilts the platform named the core's ``q``, not the joints it came as.
+    The node's method on a stub (no DDS)."""
+    import types
+
+    import gpr_kinematics.nodes.robot_simulator_node as sim
+    joints = ControllerJoints.of(ROBOT)
+    node = types.SimpleNamespace(joints=joints, cfg=ROBOT.config)
+    outside = types.MethodType(sim.RobotSimulatorNode._outside, node)
+    state = joints.rest.copy()
+    assert outside(state) == ''
+    state[1] += 0.05   # rod_2 50 mm above the others: about 21 deg
+    words = outside(state)
+    assert re.fullmatch(r'rod_1, rod_2, rod_3: q = \[.*\] m tilts the platform by about \S+ rad \(\S+ deg\), beyond '
+                        r'the tilt limit 0\.03491 rad \(2 deg\); allowed: rods within the tilt limit', words), words
+    state = joints.rest.copy()
+    state[joints.names.index('arm1_elbow')] = 50.0
+    assert outside(state).startswith('arm1_elbow = 50 rad is outside [')
+
+
 def test_a_refused_goal_does_not_preempt_the_running_one(sim):
     """As joint_trajectory_controller: a goal is checked before it preempts; one refused leaves the motion as it
     was (it stopped the running goal before)."""

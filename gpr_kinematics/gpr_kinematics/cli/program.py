@@ -342,9 +342,10 @@ def _cmd_send(args: argparse.Namespace) -> int:
         except RobotStateError as exc:   # the robot's state, not the command's input: as a refused goal, status 1
             print(f'gpr program send: {exc}', file=sys.stderr)
             return 1
-        if not args.json:
-            print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '
-                  f'({start:.3f} s from where the robot is to the program\'s start) to {action}', flush=True)
+        def found() -> None:   # said once the server is found, not before "no FollowJointTrajectory server"
+            if not args.json:
+                print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '
+                      f'({start:.3f} s from where the robot is to the program\'s start) to {action}', flush=True)
         clock = {'next': 0.0, 'end': False}
 
         def progress(fb: Any) -> None:   # the end once, then every --progress s (a lag settles sample by sample)
@@ -355,7 +356,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
                 print(f'  t = {t:8.3f} s of {goal.duration:.3f} s, largest error {error:.3g}', flush=True)
                 clock['next'], clock['end'] = t + args.progress, clock['end'] or t >= goal.duration
         try:
-            outcome = tc.follow_trajectory(client, goal, action, args.timeout, progress)
+            outcome = tc.follow_trajectory(client, goal, action, args.timeout, progress, found)
         except tc.NoServerError:
             print(_no_answer('no FollowJointTrajectory server', args.action, action, args.timeout, '--action'),
                   file=sys.stderr)

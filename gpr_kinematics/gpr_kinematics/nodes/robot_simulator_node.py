@@ -241,8 +241,9 @@ class RobotSimulatorNode(GprNode):
                     f"{j.units[k]}; allowed: values within the joints' limits")   # the tilt's has its own
         try:
             forward(state[:3], self.cfg)
-        except GprError as exc:
-            return one_line(exc) + ('' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit')
+        except GprError as exc:   # the core names the rods q: said which joints they are
+            return (f'{", ".join(j.names[:3])}: {one_line(exc)}'
+                    + ('' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'))
         return ''
 
     def _idle(self) -> None:

@@ -86,9 +86,11 @@ class FollowOutcome:
 
 
 def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, timeout: float,
-                      progress: Callable[[Any], None] | None = None) -> FollowOutcome:
+                      progress: Callable[[Any], None] | None = None,
+                      found: Callable[[], None] | None = None) -> FollowOutcome:
     """Send ``traj`` to the FollowJointTrajectory server ``action`` (waiting at most ``timeout`` s for it) and wait
-    for the result (the trajectory's duration plus ``timeout``); ``progress`` gets every feedback message.
+    for the result (the trajectory's duration plus ``timeout``); ``progress`` gets every feedback message, ``found``
+    is called once the server is found, before the goal is sent.
 
     Raises:
         NoServerError: no server answered on ``action`` (named in full) within ``timeout``.
@@ -105,6 +107,8 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
         if client.spin_until(lambda: bool(client.node.get_publishers_info_by_topic(feedback_topic)), timeout):
             client.spin_for(SETTLE)
         count = [0]
+        if found is not None:
+            found()
 
         def on_feedback(msg: Any) -> None:
             count[0] += 1
