@@ -27,7 +27,7 @@ from ..robot.plan import ProgramSummary, program_summary
 from ..safety.margin import MARGIN, STREAM_RATE
 from .options import named_file, number, png_plot, robot_of, robot_options, sample_rate, shipped
 from .output import JsonValue, emit_json
-from .program_trajectory import as_a_controller_takes_it
+from .program_trajectory import as_a_controller_takes_it, lead_in_keeps_clearance
 from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
@@ -339,9 +339,11 @@ def _cmd_send(args: argparse.Namespace) -> int:
             return 1
         try:
             goal, start = lead_in(plan, traj, current, args.rate)
+            lead_in_keeps_clearance(plan, goal, start)
         except RobotStateError as exc:   # the robot's state, not the command's input: as a refused goal, status 1
             print(f'gpr program send: {exc}', file=sys.stderr)
             return 1
+
         def found() -> None:   # said once the server is found, not before "no FollowJointTrajectory server"
             if not args.json:
                 print(f'sending {len(goal)} points over {len(goal.joint_names)} joints, {goal.duration:.3f} s '

@@ -59,17 +59,10 @@ def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTraject
     ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), naming the program itself where it
     does (:func:`~gpr_kinematics.safety.check.program_clearance`: no rate helps then). Without python-fcl, a warning
     says the clearance is not checked (``program export`` needs only numpy, scipy and PyYAML)."""
-    from ..safety.cell import load_cell
-    try:
-        import fcl  # noqa: F401
-
-        from ..safety.check import program_clearance, trajectory_clearance
-    except ModuleNotFoundError as exc:
-        if (exc.name or '').split('.')[0] != 'fcl':
-            raise
-        print(f'gpr program {command}: warning: the trajectory is not checked for the clearance of cell {cell}: '
-              "that needs the optional package 'fcl' (pip install 'gpr_kinematics[safety]')", file=sys.stderr)
+    if not _has_fcl(cell, command, 'the trajectory'):
         return
+    from ..safety.cell import load_cell
+    from ..safety.check import program_clearance, trajectory_clearance
     loaded = load_cell(cell)
     report = trajectory_clearance(plan, loaded, traj, MARGIN)
     if not report.below_margin:
@@ -84,6 +77,49 @@ def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTraject
     raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
                      f'program: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm in cell {cell} (the program '
                      'itself keeps it); allowed: a higher --rate (points closer together follow the program)')
+
+
+def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: float) -> None:
+    """Refuse (:class:`~gpr_kinematics.errors.RobotStateError`: the robot's state, status 1) a ``goal`` whose move
+    from where the robot is to the program's start (its first ``start`` s, :func:`~gpr_kinematics.robot.trajectory.
+    lead_in`) comes within the clearance margin in the program's cell
+    (:func:`~gpr_kinematics.safety.check.lead_in_clearance`); nothing without a cell or a move, a warning without
+    python-fcl."""
+    import numpy as np
+
+    from ..errors import RobotStateError
+    from ..robot.trajectory import JointTrajectory
+    cell = plan.program.cell
+    if cell is None or start <= 0.0 or not _has_fcl(cell, 'send', 'the move to the program\'s start'):
+        return
+    from ..safety.cell import load_cell
+    from ..safety.check import lead_in_clearance
+    n = int(np.searchsorted(goal.time, start, side='right'))   # the move's points and the program's first
+    lead = JointTrajectory(goal.joint_names, goal.time[:n], goal.positions[:n],
+                           None if goal.velocities is None else goal.velocities[:n],
+                           None if goal.accelerations is None else goal.accelerations[:n])
+    loaded = load_cell(cell)
+    report = lead_in_clearance(plan, loaded, lead, MARGIN)
+    if report.below_margin:
+        names = _names(report)
+        p = _least(lead_in_clearance(plan, loaded, lead, MARGIN, decide=False, only=names))
+        raise RobotStateError(f'the move from where the robot is to the program\'s start ({start:.3f} s, added by '
+                              f'send) is not safe in cell {cell}: {_pair(p)} of the move, within the margin of '
+                              f'{MARGIN * 1000:g} mm; allowed: a robot whose joint-space line to the program\'s first '
+                              'point keeps the margin (move it clear first, or start the program where it is)')
+
+
+def _has_fcl(cell: Path, command: str, what: str) -> bool:
+    """Whether python-fcl imports; a warning on stderr that ``what`` is not checked in ``cell`` when not."""
+    try:
+        import fcl  # noqa: F401
+    except ModuleNotFoundError as exc:
+        if (exc.name or '').split('.')[0] != 'fcl':
+            raise
+        print(f'gpr program {command}: warning: {what} is not checked for the clearance of cell {cell}: '
+              "that needs the optional package 'fcl' (pip install 'gpr_kinematics[safety]')", file=sys.stderr)
+        return False
+    return True
 
 
 def _names(report: ClearanceReport) -> set[tuple[str, str]]:

@@ -227,6 +227,37 @@ def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajec
     return clearance(moving, bodies, pairs, margin, tolerance, decide=decide)
 
 
+def at_the_start(wafers: WaferPlan) -> WaferPlan:
+    """``wafers`` as they are at the program's start, for all time: an arm carrying one then carries it throughout,
+    a wafer lying in a station then lies there throughout, a blade in contact with a station's wafer then is
+    throughout; the rest never (the bodies of the move to the program's first point, :func:`lead_in_clearance`)."""
+    always, never = ((0.0, np.inf),), ((np.inf, np.inf),)
+
+    def now(windows: Windows) -> bool:
+        return any(lo <= 0.0 <= hi for lo, hi in windows)
+
+    return WaferPlan({arm: always if now(w) else () for arm, w in wafers.carried.items()},
+                     tuple((name, station, always if now(w) else never) for name, station, w in wafers.stations),
+                     {k: always for k, w in wafers.contact.items() if now(w)})
+
+
+def lead_in_clearance(plan: ProgramPlan, cell: Cell | None, lead: JointTrajectory, margin: float = MARGIN,
+                      tolerance: float = TOLERANCE, decide: bool = True,
+                      only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
+    """The certified clearance over ``lead``, the move of every joint from where the robot is to the program's first
+    point (:func:`~gpr_kinematics.robot.trajectory.lead_in`, times from the move's start) as a controller interpolates
+    its points, the wafers as they are at the program's start (:func:`at_the_start`): ``gpr program send`` adds the
+    move, which no program check sees (a program checked safe drove arm2's blade 45 mm into a chamber's wall);
+    ``decide``, ``only``: as :func:`trajectory_clearance`'s."""
+    names = joint_limits(plan.robot)[0]
+    if len(lead.joint_names) != len(names):
+        raise InputError(f'the move has {len(lead.joint_names)} joints; allowed: every joint of the robot '
+                         f'({len(names)}), as lead_in makes it')
+    moving = TrajectoryMotion.of(plan.robot, lead, np.arange(len(names)), lead.positions[0])
+    bodies, pairs = _pairs_of(*program_bodies(plan, cell, at_the_start(wafer_plan(plan))), only)
+    return clearance(moving, bodies, pairs, margin, tolerance, decide=decide)
+
+
 def program_clearance(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, decide: bool = True,
                       only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
     """The clearance :func:`check_program` certifies (the program's bodies over the planned motion), each pair
