@@ -197,16 +197,24 @@ def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
         solve_stations(ROBOT, st, 'arm2', redundancy_value=float('nan'))
     with pytest.raises(InputError, match=r'redundancy value must be one number or 200 numbers'):
         solve_stations(ROBOT, st, 'arm2', redundancy_value=[0.1, 0.2])
-    # beyond a turn (degrees given as radians) is refused, as in the robot file; within a turn a value beyond the
-    # joint's range is a posture modulo 2 pi (6 rad held is -0.283 rad)
+    # beyond a turn (degrees given as radians) is refused, as in the robot file; so is a value outside the joint's
+    # limits as given (6 rad was held at -0.283 rad, modulo a turn, without a word), as the robot file's value is
     with pytest.raises(InputError, match=r'redundancy value = 30 rad \(station 7\) is beyond one turn; allowed: '
                                          r'radians within \[-2pi, 2pi\] \(the held joint arm2_wrist ranges over '
                                          r'\[-2.5, 2.5\] rad\); in degrees\? give radians'):
         solve_stations(ROBOT, st, 'arm2', redundancy_value=np.where(np.arange(200) == 7, 30.0, 0.1), check=False)
     with pytest.raises(InputError, match=r'redundancy value = -7 rad \(station 0\) is beyond one turn'):   # its sign
         solve_stations(ROBOT, st, 'arm2', redundancy_value=-7.0, check=False)
-    turned = solve_stations(ROBOT, st.take([0]), 'arm2', redundancy_value=6.0, check=False)
-    assert turned.joints[0, 2] == pytest.approx(6.0 - 2.0 * np.pi, abs=1e-15)
+    for one in (st.take([0]), st.take([0, 0])):   # one station per call and a batch alike
+        with pytest.raises(InputError, match=r'^redundancy value = 6 rad \(station 0\) is outside the limits of '
+                                             r'arm2_wrist, \[-2\.5, 2\.5\] rad; allowed: a value within them; 6 rad is '
+                                             r'-0\.283185 rad modulo a turn$'):
+            solve_stations(ROBOT, one, 'arm2', redundancy_value=6.0, check=False)
+    with pytest.raises(InputError, match=r'^redundancy value = -2\.6 rad \(station 3\) is outside the limits of '
+                                         r'arm2_wrist, \[-2\.5, 2\.5\] rad; allowed: a value within them$'):
+        solve_stations(ROBOT, st, 'arm2', redundancy_value=np.where(np.arange(200) == 3, -2.6, 0.1), check=False)
+    edge = solve_stations(ROBOT, st.take([0]), 'arm2', redundancy_value=2.5 + 1e-12, check=False)   # the slack
+    assert edge.joints[0, 2] == 2.5 + 1e-12
 
 
 def _nearest_robot(joint='arm2_shoulder'):

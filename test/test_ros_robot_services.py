@@ -146,6 +146,8 @@ BAD = [
      ['tilt = 6283.21 rad is beyond one turn; allowed: [-2pi, 2pi] rad']),
     ('ik', dict(position=(1.3, 0.6, 0.60), heading=0.3, arm='arm2', branch='left', redundancy_value=30.0),
      ['redundancy value = 30 rad', 'beyond one turn']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), heading=0.3, arm='arm2', redundancy_value=5.0),   # held at -1.28 rad
+     ['redundancy value = 5 rad', 'outside the limits of arm2_wrist, [-2.5, 2.5] rad', '-1.28319 rad modulo a turn']),
 ]
 
 

@@ -9,6 +9,7 @@ from typing import Any
 from ..errors import InputError
 from ..inputs.validation import MAX_COORDINATE, beyond_turn, finite_vector, within_turn
 from ..robot import Stations
+from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import BRANCHES, Arm, RobotDescription
 from ..robot.fields import WORLD_BOUND, check_world_position
 from ..robot.one_station import StationFloats, station_floats
@@ -37,7 +38,7 @@ def one_station_request(robot: RobotDescription, request: Any, arm: Arm, branch:
                         ) -> StationFloats | None:
     """The float path of one station where the request is within what it takes (every number finite and within
     +-MAX_COORDINATE, the position within the world's bound, the tilt, azimuth, heading and held value within a turn, a
-    known branch, a held value only for a ``fixed_joint`` arm), else ``None``."""
+    known branch, a held value only for a ``fixed_joint`` arm and within its joint's limits), else ``None``."""
     p = request.position
     numbers = (p.x, p.y, p.z, request.tilt, request.azimuth, request.heading, 0.0 if value is None else value)
     if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in numbers) or branch not in BRANCHES:
@@ -46,8 +47,12 @@ def one_station_request(robot: RobotDescription, request: Any, arm: Arm, branch:
         return None  # the batch path names which
     if max(abs(p.x), abs(p.y), abs(p.z)) > WORLD_BOUND:
         return None  # beyond the world: the batch path refuses it (check_world_position)
-    if value is not None and (arm.redundancy is None or arm.redundancy.rule != 'fixed_joint'):
-        return None
+    if value is not None:   # a held value for a fixed_joint arm within its joint's limits as given, else the batch's
+        if arm.redundancy is None or arm.redundancy.rule != 'fixed_joint':
+            return None
+        held = arm.joints[arm.redundancy.joint]
+        if not held.lower - LIMIT_SLACK <= value <= held.upper + LIMIT_SLACK:
+            return None
     free = bool(request.heading_free)
     if free and len(arm.joints) > 2:
         return None

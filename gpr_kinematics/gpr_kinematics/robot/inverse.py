@@ -40,6 +40,7 @@ from ..core.inverse import solvable_heights, tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from ..inputs.validation import TURN, TURN_SLACK
+from .arm_chain import LIMIT_SLACK
 from .description import BRANCHES, Arm, RobotDescription
 from .fields import WORLD_BOUND
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
@@ -228,6 +229,35 @@ def _heading_in(R_platform: Array, R_b: Array) -> Array:
     return np.arctan2(M[:, 1, 0], M[:, 0, 0])
 
 
+def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Array:
+    """The held joint's values ``(N,)`` [rad] given per station or once, each within the joint's limits as given
+    (the robot file's ``value``'s rule and forward kinematics'; 5 rad on a joint of [-2.5, 2.5] rad was held at
+    -1.28 rad, modulo a turn, without a word), one beyond a turn named as such (degrees given as radians)."""
+    if a.redundancy is None or a.redundancy.rule != 'fixed_joint':
+        raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
+                         'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
+    value = per_station(redundancy_value, 'redundancy value', len(stations))
+    joint = a.joints[a.redundancy.joint]
+    limits = f'the held joint {joint.name} ranges over [{joint.lower:g}, {joint.upper:g}] rad'
+    beyond = np.abs(value) > TURN + TURN_SLACK   # the files' rule (beyond_turn): a slip (degrees), never meant
+    if beyond.any():
+        i = int(np.argmax(beyond))
+        shown = apart(abs(float(value[i])), TURN)[0]
+        raise InputError(f'redundancy value = {"-" if value[i] < 0 else ""}{shown} rad ({stations.label(i)}) is '
+                         f'beyond one turn; allowed: radians within [-2pi, 2pi] ({limits}); in degrees? give radians')
+    outside = (value < joint.lower - LIMIT_SLACK) | (value > joint.upper + LIMIT_SLACK)
+    if outside.any():
+        i = int(np.argmax(outside))
+        v = float(value[i])
+        shown, end = apart(v, joint.lower if v < joint.lower else joint.upper)
+        mid = 0.5 * (joint.lower + joint.upper)
+        turned = math.remainder(v - mid, 2.0 * math.pi) + mid
+        hint = f'; {v:g} rad is {turned:.6g} rad modulo a turn' if joint.lower <= turned <= joint.upper else ''
+        raise InputError(f'redundancy value = {shown} rad ({stations.label(i)}) is outside the limits of '
+                         f'{joint.name}, [{joint.lower:g}, {joint.upper:g}] rad; allowed: a value within them{hint}')
+    return value
+
+
 def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None = None,
                    branch: str | Sequence[str] | None = None, redundancy_value: ArrayLike | None = None,
                    check: bool = True) -> StationSolution:
@@ -257,21 +287,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         i = int(np.argmax(stations.heading_free))
         raise InputError(f'{stations.label(i)}: arm {a.name} has {len(a.joints)} joints and needs the blade heading; '
                          'only a 2-joint arm leaves it free')
-    value = None
-    if redundancy_value is not None:
-        if a.redundancy is None or a.redundancy.rule != 'fixed_joint':
-            raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
-                             'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
-        value = per_station(redundancy_value, 'redundancy value', n)
-        beyond = np.abs(value) > TURN + TURN_SLACK  # the files' rule (beyond_turn): a joint value is taken modulo
-        if beyond.any():                            # a turn, one given beyond it is a slip (degrees), never meant
-            i = int(np.argmax(beyond))
-            joint = a.joints[a.redundancy.joint]
-            shown = apart(abs(float(value[i])), TURN)[0]
-            raise InputError(f'redundancy value = {"-" if value[i] < 0 else ""}{shown} rad ({stations.label(i)}) is '
-                             'beyond one turn; allowed: '
-                             f'radians within [-2pi, 2pi] (the held joint {joint.name} ranges over '
-                             f'[{joint.lower:g}, {joint.upper:g}] rad); in degrees? give radians')
+    value = None if redundancy_value is None else _held_values(a, redundancy_value, stations)
     if n == 1:  # one station per call: the float path, the batch below where it refuses (the messages' one source)
         one = solve_one(robot, stations, a, float(sign[0]), None if value is None else float(value[0]))
         if one is not None:
