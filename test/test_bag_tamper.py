@@ -334,7 +334,7 @@ def test_robot_states_are_due_only_in_a_robot_program(tmp_path: Path) -> None:
     bag = _robot_then_platform(tmp_path)
     result = verify_bag(bag)
     assert result.passed, [f.line() for f in result.failures]
-    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (332, 286)
+    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (352, 286)   # and 66 samples of 6.5 s at 10 Hz
     last = verify_bag(tampered(bag, tmp_path / 'last', _tail_removed(ROBOT_STATE, 285)))
     assert _failed(last) == dict.fromkeys(ROBOT_STATE_CHECKS, {285})
     empty = verify_bag(tampered(bag, tmp_path / 'empty', _tail_removed(ROBOT_STATE, 0)))

@@ -74,3 +74,51 @@ def test_an_azimuth_beyond_a_turn_is_refused_as_degrees():
                                           r'rad\)$'):
         program(90)
     assert program(6.2).stations[0].azimuth == 6.2 and program(-2 * math.pi).stations[0].azimuth == -2 * math.pi
+
+
+def test_the_rods_peak_speed_and_acceleration_of_a_move_match_dense_finite_differences():
+    """rod_demand's first-order peaks (1.5 and 6 times the rods' change over T and T^2) against the rods of the
+    program sampled at 10 kHz, differenced: within 1e-3 (the tilt's second-order part of a rod)."""
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.platform_program import load_platform_program, rod_demand
+
+    from gpr_kinematics import inverse_batch, load_config
+
+    cfg = load_config()
+    program = load_platform_program(config_path('programs/example_stations.yaml'))
+    st = program.stations
+    at = inverse_batch([s.height for s in st], [s.tilt for s in st], [s.azimuth for s in st], cfg).q
+    speed, accel = rod_demand(program, at, 2.0)
+    assert speed.shape == accel.shape == (3,)
+    s = sample_program(program, 10_000.0)
+    q = inverse_batch(s.height, s.tilt, s.azimuth, cfg).q
+    moving = s.station < 0
+    v = np.abs(np.diff(q, axis=0)) * 1e4
+    a = np.abs(np.diff(q, 2, axis=0)) * 1e8
+    for k in range(3):   # each move's samples: those moving toward station k + 1
+        on = np.flatnonzero(moving & (s.target == k + 1))
+        assert np.max(v[on[:-1]]) == pytest.approx(speed[k], rel=1e-3)
+        assert np.max(a[on[1:-1] - 1]) == pytest.approx(accel[k], rel=1e-3)
+    assert speed[0] < 0.15 and accel[0] < 0.6   # the example keeps the example robot's limits
+
+
+@pytest.mark.parametrize('move_time, warned', [(2.0, False), (1.0, True)])
+def test_a_move_beyond_the_rods_limits_streams_with_a_warning(move_time, warned):
+    """A platform program is timed by its move times: at 1 s the example's first move needs the rods at about
+    0.229 m/s and 0.914 m/s^2, beyond the example robot's 0.15 m/s and 0.6 m/s^2 (it streamed without a word)."""
+    import yaml
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.ros.streams import trajectory_of
+
+    data = yaml.safe_load(config_path('programs/example_stations.yaml').read_text())
+    program = parse_platform_program({**data, 'move_time': move_time}, 'example')
+    traj = trajectory_of(program, load_robot(), 100.0, 2.0)
+    if not warned:
+        assert traj.warning == '' and 'warning' not in traj.description
+        return
+    assert traj.warning == (
+        'the move to station 1 (station_a) needs the rods at about 0.229 m/s and 0.914 m/s^2, beyond their limits '
+        '0.15 m/s and 0.6 m/s^2 (rods.velocity, rods.acceleration): a robot cannot follow it as timed (a platform '
+        'program is timed by its move_time only; a longer move_time, or a robot program, timed within the limits)')
+    assert traj.description.endswith(f'; warning: {traj.warning}')

@@ -71,7 +71,7 @@ def test_single_station_and_final_instant():
 def test_example_program_loads():
     p = load_platform_program(config_path('programs/example_stations.yaml'))
     assert [st.name for st in p.stations] == ['load', 'station_a', 'station_b', 'unload']
-    assert p.stations[2].move_time == 1.5 and p.move_time == 1.0
+    assert p.stations[2].move_time == 1.5 and p.move_time == 2.0
 
 
 @pytest.mark.parametrize('data,words', [

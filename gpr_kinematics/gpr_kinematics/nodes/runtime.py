@@ -254,6 +254,15 @@ def wait_acknowledged(publishers: Iterable[Publisher], seconds: float) -> None:
             pub.wait_for_all_acked(Duration(seconds=seconds))
 
 
+def tell(logger: Any, text: str, warning: bool) -> None:
+    """Log ``text`` at the warning severity if ``warning``, else at info: each severity from its own line, since rclpy
+    ties a call's line to the severity it first logged at (and raises at another one)."""
+    if warning:
+        logger.warning(text)
+    else:
+        logger.info(text)
+
+
 def one_line(exc: BaseException) -> str:
     """The text of an error on one line, without rcl's source locations, at most :data:`MAX_MESSAGE` characters."""
     text = str(exc) or type(exc).__name__

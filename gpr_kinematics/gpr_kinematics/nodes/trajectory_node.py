@@ -90,6 +90,7 @@ from .runtime import (
     finish_callbacks,
     one_line,
     run,
+    tell,
     wait_acknowledged,
 )
 
@@ -199,8 +200,8 @@ class TrajectoryNode(GprNode):
         else:
             self.get_logger().info(f'idle: serving gpr/run_program at {p["rate"]} Hz (model {self.cfg.model})')
             return
-        self.get_logger().info(f'precomputed {len(traj)} samples in {time.perf_counter() - t0:.3f} s '
-                               f'({traj.description}, model {self.cfg.model})')
+        tell(self.get_logger(), f'precomputed {len(traj)} samples in {time.perf_counter() - t0:.3f} s '
+             f'({traj.description}, model {self.cfg.model})', bool(traj.warning))   # a move beyond the rods' limits
         self.start(traj)
 
     # -- streams -------------------------------------------------------------------------------------------------
@@ -407,7 +408,7 @@ class TrajectoryNode(GprNode):
                                 cancelled=True)
         if self._closing:
             return self._refuse(goal, result, 'the node is shutting down')
-        self.get_logger().info(f'gpr/run_program: {traj.description}')
+        tell(self.get_logger(), f'gpr/run_program: {traj.description}', bool(traj.warning))
         done = GoalEnd()
         with self._lock:
             self.start(traj, goal, done)

@@ -178,6 +178,17 @@ def program_knots(program: PlatformProgram, default_move_time: float) -> tuple[n
     return np.asarray(times), np.asarray(states, dtype=float), np.asarray(index)
 
 
+def rod_demand(program: PlatformProgram, rods: np.ndarray, default_move_time: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The peak speed [m/s] and acceleration [m/s^2] of the rods on each move of ``program`` (``(S - 1,)``) from
+    the rods ``rods (S, 3)`` [m] at its stations: the smooth step's rate peaks at ``1.5 / T`` and its acceleration at
+    ``6 / T^2`` of the change over a move of ``T`` s (``s' = 6u(1 - u)``, ``s'' = 6 - 12u``), the rods changing
+    along the move as the step, to first order (the tilt's second-order part of a rod is below 1e-3 of it at 2 deg)."""
+    change = np.max(np.abs(np.diff(np.asarray(rods, dtype=float), axis=0)), axis=1) if len(rods) > 1 else np.zeros(0)
+    T = np.array([st.move_time or program.move_time or default_move_time for st in program.stations[1:]])
+    return 1.5 * change / T, 6.0 * change / (T * T)
+
+
 def check_samples(program: PlatformProgram, rate: float, default_move_time: float = 2.0
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The program's knots (:func:`program_knots`) once its sample count at ``rate`` [Hz] is within

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..bags.program_record import PLATFORM_PROGRAM, ROBOT_PROGRAM, SWEEP, record_text
 from ..core import ForwardBatch, inverse_batch
@@ -32,7 +33,7 @@ from ..core.sweep import paper_sweep
 from ..errors import ConfigError, GprError
 from ..inputs.files import confined_reads
 from ..inputs.resources import config_dir
-from ..robot.description import RobotDescription, load_robot
+from ..robot.description import RobotDescription, Rods, load_robot
 from ..robot.markers import marker_points
 from ..robot.plan import check_sample_count
 from ..robot.platform_program import (
@@ -41,10 +42,13 @@ from ..robot.platform_program import (
     check_samples,
     move_time_of,
     parse_platform_program,
+    rod_demand,
     sample_program,
 )
 from ..robot.program import RobotProgram, load_any_program
 from ..robot.stream import RobotStream, robot_stream
+
+Array = NDArray[np.float64]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,6 +73,8 @@ class Trajectory:
     spec: Any = None
     #: The station (waypoint) each sample moves to or is at (a program's; empty for a sweep).
     target: list[int] = dataclasses.field(default_factory=list)
+    #: What a robot could not follow (a platform program's move beyond the rods' limits), in words; '' if nothing.
+    warning: str = ''
 
     def __len__(self) -> int:
         return len(self.fk)
@@ -97,7 +103,7 @@ def sweep_trajectory(cfg: GprConfig, height: float, max_tilt: float, tilt_step: 
                       [-1] * n, (), desc, stream_markers(cfg, sw.forward), kind=SWEEP, spec=spec)
 
 
-def first_failure(solve: Callable[[int, int], None], n: int) -> tuple[int, GprError]:
+def first_failure(solve: Callable[[int, int], object], n: int) -> tuple[int, GprError]:
     """The first index ``i`` of ``n`` items whose ``solve(i, i + 1)`` fails, found by bisection on batches
     (``solve(a, b)`` solves items ``a`` to ``b`` at once and raises :class:`GprError` if one of them fails; it failed
     for all ``n``): ``log2 n`` batch calls instead of ``n`` single ones."""
@@ -117,19 +123,21 @@ def first_failure(solve: Callable[[int, int], None], n: int) -> tuple[int, GprEr
     raise AssertionError('first_failure: no item fails alone')  # pragma: no cover - solve is per item
 
 
-def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_time: float) -> Trajectory:
+def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_time: float,
+                       rods: Rods | None = None) -> Trajectory:
     """The stream of a platform program; :class:`ConfigError` names the first station out of reach. The sample count
     is checked first, then the stations are solved in one batch (a failing station is found by bisection), then
-    the samples."""
+    the samples. With the robot's ``rods``, a move faster than their limits is a warning (``Trajectory.warning``,
+    :func:`~gpr_kinematics.robot.platform_program.rod_demand`): a platform program is timed by its move times only."""
     check_samples(prog, rate, move_time)  # before any station is solved (100,000 stations took 91 s, then this)
     st = prog.stations
 
-    def solve(a: int, b: int) -> None:
-        inverse_batch([s.height for s in st[a:b]], [s.tilt for s in st[a:b]], [s.azimuth for s in st[a:b]], cfg,
-                      cfg.model)
+    def solve(a: int, b: int) -> Array:
+        return inverse_batch([s.height for s in st[a:b]], [s.tilt for s in st[a:b]], [s.azimuth for s in st[a:b]],
+                             cfg, cfg.model).q
 
     try:
-        solve(0, len(st))
+        at_stations = solve(0, len(st))
     except GprError:
         i, exc = first_failure(solve, len(st))
         raise ConfigError(f'{prog.source}: station {i} ({st[i].name}): {exc}') from None
@@ -137,10 +145,27 @@ def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_
     ik = inverse_batch(samples.height, samples.tilt, samples.azimuth, cfg, cfg.model)
     desc = (f'program {prog.source}: {len(prog.stations)} stations, {samples.time[-1]:.6g} s, '
             f'{len(samples)} samples')
+    warning = '' if rods is None else _beyond_rod_limits(prog, at_stations, move_time, rods)
     return Trajectory(ik.achieved, samples.tilt.tolist(), samples.azimuth.tolist(),
-                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations), desc,
+                      [int(s) for s in samples.station], tuple(st.name for st in prog.stations),
+                      desc + (f'; warning: {warning}' if warning else ''),
                       stream_markers(cfg, ik.achieved), kind=PLATFORM_PROGRAM, spec=prog,
-                      target=[int(s) for s in samples.target])
+                      target=[int(s) for s in samples.target], warning=warning)
+
+
+def _beyond_rod_limits(prog: PlatformProgram, at_stations: Array, move_time: float, rods: Rods) -> str:
+    """The move of ``prog`` whose rods exceed ``rods``' velocity or acceleration limits the most, in words ('' if
+    none does)."""
+    speed, accel = rod_demand(prog, at_stations, move_time)
+    usage = np.maximum(speed / rods.velocity, accel / rods.acceleration)
+    if not usage.size or usage.max() <= 1.0:
+        return ''
+    k = int(np.argmax(usage))
+    st = prog.stations
+    return (f'the move to station {k + 1} ({st[k + 1].name}) needs the rods at about {speed[k]:.3g} m/s and '
+            f'{accel[k]:.3g} m/s^2, beyond their limits {rods.velocity:g} m/s and {rods.acceleration:g} m/s^2 '
+            f'(rods.velocity, rods.acceleration): a robot cannot follow it as timed (a platform program is timed by '
+            f'its move_time only; a longer move_time, or a robot program, timed within the limits)')
 
 
 def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -> Trajectory:
@@ -293,4 +318,4 @@ def trajectory_of(prog: PlatformProgram | RobotProgram, robot: RobotDescription,
     """The stream of a program of either kind (``move_time`` [s]: a platform program's default move duration)."""
     if isinstance(prog, RobotProgram):
         return robot_trajectory(robot, prog, rate)
-    return program_trajectory(robot.config, prog, rate, move_time)
+    return program_trajectory(robot.config, prog, rate, move_time, robot.rods)
