@@ -234,6 +234,16 @@ def test_unknown_model_and_limits_of_inverse():
     assert str(err.value) == ("unknown virtual-joint model 'rigid'; allowed: radial, polar, offset, compliant, or None "
                               "or '' for the configuration's model (offset)")
     assert forward([0.3, 0.301, 0.3], GprConfig(model='offset'), model='').model == 'offset'
+    # the tilt in radians (as the tilt_limit parameter) and degrees: it said degrees only
+    with pytest.raises(LimitError) as err:
+        forward([0.1, 0.105, 0.1])
+    assert str(err.value) == ('q = [0.1, 0.105, 0.1] m tilts the platform by 0.0357432436 rad (2.04794 deg), beyond '
+                              'the tilt limit 0.034906585 rad (2 deg)')
+    # a name of 700 characters was quoted whole: a service's message, cut at 600, lost what is allowed
+    with pytest.raises(InputError) as err:
+        forward([0.3, 0.3, 0.3], model='x' * 700)
+    assert str(err.value) == (f"unknown virtual-joint model '{'x' * 59}... (700 characters); allowed: radial, polar, "
+                              "offset, compliant, or None or '' for the configuration's model (radial)")
     with pytest.raises(LimitError, match=r'tilt = .* \(3 deg\) is beyond the tilt limit .* \(2 deg\)'):
         inverse(0.3, math.radians(3.0), 0.0)
     with pytest.raises(LimitError, match='outside the stroke'):

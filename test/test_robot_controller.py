@@ -299,7 +299,7 @@ def test_a_first_point_at_time_zero_must_be_where_the_robot_is():
     at_rest = JOINTS.rest[JOINTS.names.index('arm1_elbow')]
     assert len(_plan(JointTrajectory(('arm1_elbow',), np.array([0.0, 1.0]), np.array([[at_rest], [2.0]])))) == 101
     with pytest.raises(GoalError, match=r'points\[0\] at time_from_start 0 puts arm1_elbow 0.5 rad from where it is '
-                                        r'\(2.5 rad\)'):
+                                        r'\(2.5 rad\); allowed: at most 0\.001 rad \(start_tolerance\)'):   # its unit
         _plan(JointTrajectory(('arm1_elbow',), np.array([0.0, 1.0]), np.array([[2.0], [2.0]])))
 
 

@@ -348,9 +348,9 @@ def test_a_joint_at_the_wrap_of_a_range_wider_than_a_turn_is_the_batchs():
 
 
 @pytest.mark.parametrize('rod, z, azimuth, value, by', [
-    (1, 0.7009, 4.7124, '0.508280448', '0.2804'),
-    (2, 0.679, 1.309, '0.508300486', '0.3005'),
-    (3, 0.679, 1.8326, '0.50830048', '0.3005'),
+    (1, 0.7009, 4.7124, '0.508280448', '0.0002804 m (0.2804'),
+    (2, 0.679, 1.309, '0.508300486', '0.0003005 m (0.3005'),
+    (3, 0.679, 1.8326, '0.50830048', '0.0003005 m (0.3005'),
 ])
 def test_a_tilted_station_with_one_rod_above_the_stroke_is_refused_per_call_and_in_batch(rod, z, azimuth, value, by):
     """Stations tilted 1.9 deg whose one rod ``rod`` alone ends ~0.3 mm above the stroke's 0.508 m (the other two
@@ -358,7 +358,7 @@ def test_a_tilted_station_with_one_rod_above_the_stroke_is_refused_per_call_and_
     paths mark it infeasible under check=False and refuse it with one message."""
     st = Stations.of([[1.1, 0.5, z]], math.radians(1.9), azimuth, 0.0)
     assert solve_one(ROBOT, st, ROBOT.arm('arm1'), branch_sign('right'), None) is None
-    message = (f'station 0: gpr_rod{rod} = {value} m is above the stroke [0, 0.508] m by {by} mm: the station is too '
+    message = (f'station 0: gpr_rod{rod} = {value} m is above the stroke [0, 0.508] m by {by} mm): the station is too '
                f'high for arm arm1')
     for stations, more in ((st, ''), (st.take([0, 0]), ' (and 1 more station)')):
         sol = solve_stations(ROBOT, stations, 'arm1', 'right', check=False)
@@ -394,11 +394,11 @@ def test_a_station_request_s_tilt_beyond_a_turn_is_named_by_the_batch_path_witho
                                   f'here: {tilt:g} deg is {math.radians(tilt):.9g} rad)')
     one = one_station_request(robot, request(0.01), arm, arm.branch, None)
     assert one is not None and request_stations(robot, request(0.01), arm).tilt.tolist() == [0.01]
-    held = robot.arm('arm2')   # a held joint's value beyond a turn (slack included) is no float-path station either
+    held = robot.arm('arm2')   # a held joint's value beyond a turn or its limits is no float-path station either
     assert one_station_request(robot, request(0.01), held, held.branch, 0.1) is not None
-    for value in (7.0, -20.0, 2.0 * math.pi + 2e-9):
+    assert one_station_request(robot, request(0.01), held, held.branch, -2.4) is not None
+    for value in (7.0, -20.0, 2.0 * math.pi + 2e-9, 2.0 * math.pi + 5e-10, 2.6, -2.5 - 2e-12):
         assert one_station_request(robot, request(0.01), held, held.branch, value) is None
-    assert one_station_request(robot, request(0.01), held, held.branch, 2.0 * math.pi + 5e-10) is not None
 
 
 def test_one_station_taken_by_a_list_of_one_index_equals_the_general_take():

@@ -166,10 +166,16 @@ def side_lengths(ops: Ops, P: tuple[list[Value], list[Value], list[Value]]) -> l
     return out
 
 
-def beyond_tilt(tilt: float, limit: float) -> str:
-    """``'<tilt> rad (<deg> deg) is beyond the tilt limit <limit> rad (<deg> deg)'``, told apart in both units."""
+def tilt_words(tilt: float, limit: float) -> tuple[str, str]:
+    """``'<tilt> rad (<deg> deg)'`` and ``'<limit> rad (<deg> deg)'``, told apart in both units."""
     (shown, end), (deg, deg_end) = apart(tilt, limit, 9), apart(math.degrees(tilt), math.degrees(limit))
-    return f'{shown} rad ({deg} deg) is beyond the tilt limit {end} rad ({deg_end} deg)'
+    return f'{shown} rad ({deg} deg)', f'{end} rad ({deg_end} deg)'
+
+
+def beyond_tilt(tilt: float, limit: float) -> str:
+    """``'<tilt> rad (<deg> deg) is beyond the tilt limit <limit> rad (<deg> deg)'`` (:func:`tilt_words`)."""
+    shown, end = tilt_words(tilt, limit)
+    return f'{shown} is beyond the tilt limit {end}'
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
@@ -202,9 +208,9 @@ def check_tilt(ops: Ops, q: Sequence[Value], tilt: Value, config: GprConfig) -> 
 def _refuse_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
     t = np.atleast_1d(tilt)
     i = int(np.argmax(t))
-    shown, limit = apart(math.degrees(float(t[i])), math.degrees(config.tilt_limit))
-    raise LimitError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} tilts the platform by {shown} deg, beyond the '
-                     f'tilt limit {limit} deg')
+    shown, limit = tilt_words(float(t[i]), config.tilt_limit)   # radians as the tilt_limit parameter, and degrees
+    raise LimitError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} tilts the platform by {shown}, beyond the tilt '
+                     f'limit {limit}')
 
 
 def _sample(q: Sequence[Value], i: int) -> str:

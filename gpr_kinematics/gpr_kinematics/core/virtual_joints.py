@@ -47,7 +47,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, brief
 from .config import MODELS, GprConfig
 from .machine import MachineGeometry, Values3
 from .ops import ARRAY, SCALAR, Count, Mask, Ops, Value
@@ -161,8 +161,8 @@ def make_model(config: GprConfig, model: str | None = None,
     ``geometry`` (one machine per row, :meth:`MachineGeometry.per_row`) when it is given."""
     name = config.model if model in (None, '') else model
     if name not in MODELS:
-        raise InputError(f"unknown virtual-joint model {name!r}; allowed: {', '.join(MODELS)}, or None or '' for the "
-                         f"configuration's model ({config.model})")
+        raise InputError(f"unknown virtual-joint model {brief(name)}; allowed: {', '.join(MODELS)}, or None or '' for "
+                         f"the configuration's model ({config.model})")
     if geometry is not None:
         angles = [np.arctan2(s, c) for s, c in zip(geometry.sin, geometry.cos, strict=True)]
         return VirtualJointModel(str(name), geometry.rho, (angles[0], angles[1], angles[2]), geometry.cos,

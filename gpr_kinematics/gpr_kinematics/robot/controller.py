@@ -316,7 +316,7 @@ def _refuse_off_start(joints: ControllerJoints, cols: NDArray[np.int64], traj: J
     if off[k] > start_tolerance:
         unit = joints.units[cols[k]]
         raise GoalError(INVALID_GOAL, f'{what} puts {traj.joint_names[k]} {off[k]:.6g} {unit} from where it is '
-                        f'({start[k]:.9g} {unit}); allowed: at most {start_tolerance:g} (start_tolerance), or '
+                        f'({start[k]:.9g} {unit}); allowed: at most {start_tolerance:g} {unit} (start_tolerance), or '
                         f'{otherwise}')
 
 

@@ -397,8 +397,9 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
         k = int(np.argmax(stroke[i]))
         above = q[i, k] > cfg.stroke_max
         limit = cfg.stroke_max if above else cfg.stroke_min
+        by = abs(q[i, k] - limit)   # in metres, and in mm for the small ones
         return (f'{robot.rods.names[k]} = {q[i, k]:.9g} m is {"above" if above else "below"} the stroke '
-                f'[{cfg.stroke_min:g}, {cfg.stroke_max:g}] m by {abs(q[i, k] - limit) * 1e3:.4g} mm: the station '
+                f'[{cfg.stroke_min:g}, {cfg.stroke_max:g}] m by {by:.4g} m ({by * 1e3:.4g} mm): the station '
                 f'is too {"high" if above else "low"} for arm {a.name}')
     other = targets.other_branch(a, i)
     fits = bool(other.reachable[0] and np.max(other.violation[0]) <= 0.0)
