@@ -219,3 +219,22 @@ def test_plain_number_reads_what_a_range_check_names():
     for value in (True, np.bool_(False), np.array(True), np.array('1.0'), [1.0], None, '2.0', 1j):
         assert math.isnan(plain_number(value)), value
     assert plain_number(10 ** 400) == math.inf and plain_number(-10 ** 400) == -math.inf
+
+
+@pytest.mark.parametrize('kwargs, message', [
+    ({'check_limits': 'False'}, r"^check_limits = 'False'; allowed: True or False$"),   # true: the checks stayed on
+    ({'check_limits': None}, r'^check_limits = None; allowed: True or False$'),          # false: the checks went off
+    ({'check_limits': 0}, r'^check_limits = 0; allowed: True or False$'),
+    ({'stroke': 'no'}, r"^stroke = 'no'; allowed: True or False$"),
+])
+def test_the_checks_switches_are_truth_values(kwargs, message):
+    for call in (lambda: forward([0.1, 0.2, 0.15], **kwargs), lambda: forward_batch([[0.1, 0.2, 0.15]], **kwargs)):
+        with pytest.raises(InputError, match=message):
+            call()
+    assert forward([0.3, 0.3, 0.3], check_limits=np.bool_(False)).tilt == 0.0   # numpy's truth values are taken
+
+
+def test_a_wrong_count_of_machines_is_named_before_their_rows():
+    """Three machines for two rod rows, each row of one parameter left at 0: it named row 0's joint triangle."""
+    with pytest.raises(InputError, match=r'^3 parameter rows for 2 rod-length rows; allowed: one machine per sample'):
+        forward_batch(np.full((2, 3), 0.1), parameters=np.zeros((3, 1)), names=['rod1_x'])

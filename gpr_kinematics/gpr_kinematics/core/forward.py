@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConvergenceError, GprError, InputError, LimitError, NoPoseError, apart, brief
-from ..inputs.validation import float_array, rows_of, three_floats
+from ..inputs.validation import float_array, rows_of, switch, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
@@ -213,6 +213,15 @@ def _refuse_tilt(q: Sequence[Value], tilt: Value, config: GprConfig) -> None:
                      f'limit {limit}')
 
 
+def _rows(parameters: ArrayLike) -> int:
+    """The rows of a two-dimensional ``parameters``, else 0 (its shape is refused by the per-row geometry)."""
+    try:
+        shape = np.shape(parameters)
+    except ValueError:   # ragged
+        return 0
+    return shape[0] if len(shape) == 2 else 0
+
+
 def _sample(q: Sequence[Value], i: int) -> str:
     """`` (sample i)`` where the rods ``q`` are a batch of more than one, as the stroke's refusal names it."""
     return f' (sample {i})' if q_rows(q).shape[0] > 1 else ''
@@ -285,15 +294,17 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     """
     cfg = resolve_config(config)
     A = rows_of(Q, 'q', 3)
+    check_limits, stroke = switch(check_limits, 'check_limits'), switch(stroke, 'stroke')
     cols = [np.ascontiguousarray(A[:, k]) for k in range(3)]
     geo = None
     if parameters is None and names is not None:
         raise InputError(f'names = {brief(names)} without parameters; allowed: names with their parameters, or neither')
     if parameters is not None:
-        geo = MachineGeometry.per_row(cfg, parameters, names)
-        if A.shape[0] % geo.rows:
-            raise InputError(f'{geo.rows} parameter rows for {A.shape[0]} rod-length rows; allowed: one machine per '
+        rows = _rows(parameters)   # counted before the rows' geometry is checked: the count is what is wrong then
+        if rows and A.shape[0] % rows:
+            raise InputError(f'{rows} parameter rows for {A.shape[0]} rod-length rows; allowed: one machine per '
                              'sample, or per block of samples (a number of rows that divides the samples)')
+        geo = MachineGeometry.per_row(cfg, parameters, names)
         if geo.rows != A.shape[0]:
             geo = geo.repeat(A.shape[0] // geo.rows)
     vjm = make_model(cfg, model, geo)
@@ -337,6 +348,7 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
     """:func:`forward` up to its result: the limits checked (the stroke, the naive tilt, then the tilt of the fit),
     the closure solved and the platform fitted, in floats. :func:`forward` builds its result from it; the mobility
     analysis takes the virtual joints and the joint centres."""
+    check_limits, stroke = switch(check_limits, 'check_limits'), switch(stroke, 'stroke')
     kernel = one_pose(config, model)
     q3 = three_floats(q, 'q')
     q0, q1, q2 = q3

@@ -79,6 +79,18 @@ def decimal_number(text: str) -> float | None:
     return float(text)
 
 
+def switch(value: Any, name: str) -> bool:
+    """``value`` where it is a truth value (Python's or numpy's), else :class:`InputError` naming it: the string
+    ``'False'`` is true, and 0 or None turned a check off without a word.
+
+    >>> switch(np.bool_(True), 'check_limits')
+    True
+    """
+    if value is True or value is False or isinstance(value, np.bool_):
+        return bool(value)
+    raise InputError(f'{name} = {brief(value)}; allowed: True or False')
+
+
 def text_hint(value: Any) -> str:
     """For a name that a YAML file gave as something else than text: how to keep it as written (else '').
 
