@@ -288,6 +288,21 @@ def test_old_rods_tilting_far_beyond_the_limit_are_named_not_their_station():
         reteach(ROBOT, [[0.05, 0.0, 0.0]], [[0.0, 1.0, -0.5]], 'arm1')
 
 
+def test_a_naive_tables_old_rods_are_named_by_file_row_and_station(tmp_path, capsys):
+    """gpr robot teach --table --naive named the row's old rods by '(sample 1)', counted from 0, without the file
+    or the station: now the file, the row from 1 and the station, as the table without --naive names them."""
+    from gpr_kinematics.cli.main import main
+    table = tmp_path / 't.csv'
+    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+                     's0,0.25,0.25,0.25,0,1,0\ns1,0.10,0.16,0.10,0,2.0,0\n')
+    assert main(['robot', 'teach', '--table', str(table), '--naive']) == 2
+    err = capsys.readouterr().err
+    assert err == (f"gpr robot teach: error: {table}: old rods of row 2 (station 's1'): q = [0.1, 0.16, 0.1] m tilts "
+                   'the platform by about 0.4435 rad (25.41 deg), beyond the tilt limit 0.03491 rad (2 deg)\n')
+    with pytest.raises(LimitError, match=r"^old rods of row 2 \(station 'b'\): q = \[0\.1, 0\.16, 0\.1\] m tilts"):
+        reteach(ROBOT, [[0.25] * 3, [0.1, 0.16, 0.1]], [[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]], 'arm1', names=['a', 'b'])
+
+
 def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):
     """A table whose header names arm2's joints, read for the default arm1: 'header column 4 'arm2_shoulder' is
     invalid; allowed: ... arm1_wrist ...' and nothing more; it names the arm to give now."""

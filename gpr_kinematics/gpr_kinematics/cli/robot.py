@@ -115,7 +115,13 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         from ..errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
     if args.naive:
-        report = TeachReport(robot.name, True, reteach(robot, rods, joints, args.arm, names).records())
+        from ..errors import LimitError
+        try:
+            report = TeachReport(robot.name, True, reteach(robot, rods, joints, args.arm, names).records())
+        except LimitError as exc:   # a table's row: named by its file too, as without --naive
+            if args.table is None:
+                raise
+            raise LimitError(f'{args.table}: {exc}') from None
     else:
         report = TeachReport(robot.name, False, teach(robot, rods, joints, args.arm, names).records())
     if args.json:

@@ -184,17 +184,25 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     try:
         solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
     except LimitError:   # old rods tilting the platform far beyond its limit are named, not their station's tilt
-        _old_tilt(robot, Q)   # (with the hint of degrees given as radians, which the user typed in metres)
+        _old_tilt(robot, Q, names)   # (with the hint of degrees given as radians, which the user typed in metres)
         raise
     return Retaught(old=old, intended=intended, solution=solution)
 
 
-def _old_tilt(robot: RobotDescription, Q: Array) -> None:
-    """Refuse old rods ``(N, 3)`` [m] that tilt the platform beyond its limit, as :func:`robot_forward` does."""
+def _old_tilt(robot: RobotDescription, Q: Array, names: Sequence[str] | None) -> None:
+    """Refuse old rods ``(N, 3)`` [m] that tilt the platform beyond its limit, as :func:`robot_forward` does, naming
+    the first such row from 1 and its station (it said ``(sample 1)`` of row 2)."""
     try:
         forward_batch(Q, robot.config, stroke=False)   # reteach checked the stroke
-    except LimitError as exc:
-        raise LimitError(f'old rods: {exc}') from None
+    except LimitError:
+        for i in range(Q.shape[0]):
+            try:
+                forward(Q[i], robot.config, stroke=False)
+            except LimitError as exc:
+                name = f' (station {brief(names[i])})' if names is not None else ''
+                row = f' of row {i + 1}{name}' if Q.shape[0] > 1 or names is not None else ''
+                raise LimitError(f'old rods{row}: {exc}') from None
+        raise
 
 
 def _row_where(table: CsvTable, r: int) -> str:
