@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -318,6 +319,22 @@ def _no_answer(what: str, given: str, name: str, timeout: float, option: str, ou
             f'name with {where}, the wait with --timeout)')
 
 
+def _where_the_robot_is(tc: Any, client: Any, names: Sequence[str], joint_states: str, args: argparse.Namespace
+                        ) -> Any:
+    """The robot's positions of ``names`` from ``joint_states``, or None with the line that says why on stderr: no
+    joint states came, or they came without some of the joints (another robot's: it said none came)."""
+    try:
+        current = tc.current_positions(client, names, joint_states, args.timeout)
+    except tc.MissingJointsError as exc:
+        print(f'gpr program send: joint states on {joint_states} came {exc}: is the program\'s robot the one there? '
+              '(change the topic with --joint-states and --namespace)', file=sys.stderr)
+        return None
+    if current is None:
+        print(_no_answer(f'no joint states with the joints {", ".join(names)}', args.joint_states, joint_states,
+                         args.timeout, '--joint-states', 'cannot tell where the robot is'), file=sys.stderr)
+    return current
+
+
 def _cmd_send(args: argparse.Namespace) -> int:
     from ..robot.trajectory import lead_in, program_trajectory
     if not 0.0 < args.timeout <= 3600.0:
@@ -331,11 +348,8 @@ def _cmd_send(args: argparse.Namespace) -> int:
     tc = _ros_modules()
     joint_states, action = _ros_names(args)
     with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:
-        current = tc.current_positions(client, traj.joint_names, joint_states, args.timeout)
+        current = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
         if current is None:
-            print(_no_answer(f'no joint states with the joints {", ".join(traj.joint_names)}', args.joint_states,
-                             joint_states, args.timeout, '--joint-states', 'cannot tell where the robot is'),
-                  file=sys.stderr)
             return 1
         try:
             goal, start = lead_in(plan, traj, current, args.rate)

@@ -50,9 +50,19 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
     return JointTrajectoryMsg(joint_names=list(traj.joint_names), points=points)
 
 
+class MissingJointsError(ServiceTimeoutError):
+    """Joint states came within the wait, but without some of the joints asked for: ``missing``, and ``heard`` (the
+    joints they did carry)."""
+
+    def __init__(self, missing: Sequence[str], heard: Sequence[str]) -> None:
+        super().__init__(f'without {", ".join(missing)} (they carry {", ".join(heard)})')
+        self.missing, self.heard = tuple(missing), tuple(heard)
+
+
 def current_positions(client: GprClient, names: Sequence[str], topic: str, timeout: float) -> np.ndarray | None:
     """The latest positions of ``names`` from ``joint_states`` messages on ``topic`` (several messages may share
-    them), waiting at most ``timeout`` s for every one; None if some joint never came."""
+    them), waiting at most ``timeout`` s for every one; None if no message came, :class:`MissingJointsError` if
+    messages came without some of ``names`` (another robot's: it said no joint states came)."""
     latest: dict[str, float] = {}
 
     def take(msg: JointState) -> None:
@@ -63,6 +73,8 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
     sub = client.node.create_subscription(JointState, topic, take, stream_qos(100))
     try:
         if not client.spin_until(lambda: all(n in latest for n in names), timeout):
+            if latest:
+                raise MissingJointsError([n for n in names if n not in latest], sorted(latest))
             return None
         return np.array([latest[n] for n in names])
     finally:
