@@ -151,3 +151,12 @@ def test_forward_of_something_else_than_a_robot_is_named():
     """robot_forward(None, ...) raised AttributeError ('NoneType' object has no attribute 'arm')."""
     with pytest.raises(InputError, match=r'^robot = None; allowed: a RobotDescription \(load_robot or parse_robot\)$'):
         robot_forward(None, [0.3, 0.3, 0.3], [0.0, 0.0, 0.0])
+
+
+def test_rods_tilting_beyond_the_limit_are_named_by_the_robot():
+    """The core names rods ``q``; the robot's forward kinematics (one configuration and a batch) named them so too,
+    where the stroke's refusal names the robot's rods: now its rods' names come first."""
+    for rods in ([[0.25, 0.265, 0.25]], [[0.25, 0.25, 0.25], [0.25, 0.265, 0.25]]):
+        with pytest.raises(LimitError, match=r'^gpr_rod1, gpr_rod2, gpr_rod3: q = \[0\.25, 0\.265, 0\.25\] m '
+                                             r'(\(sample 1\) )?tilts the platform by about 0\.1075 rad'):
+            robot_forward(ROBOT, rods, [[0.0, 1.0, -0.5]] * len(rods), 'arm1')

@@ -240,8 +240,17 @@ def robot_forward(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, a
         bounded(J, f'joints of {a.name} [rad]')
     if Q.shape[0] == 1:
         return _robot_forward_one(robot, a, Q, J, check_limits)
-    gpr = forward_batch(Q, robot.config, check_limits=check_limits, stroke=False)   # the stroke: checked above
+    try:
+        gpr = forward_batch(Q, robot.config, check_limits=check_limits, stroke=False)   # the stroke: checked above
+    except LimitError as exc:
+        raise rods_named(robot, exc) from None
     return forward_on_platform(robot, a, Q, J, gpr)
+
+
+def rods_named(robot: RobotDescription, exc: LimitError) -> LimitError:
+    """The core's refusal ``exc`` of rods (a tilt beyond the limit, no pose), which names them ``q``, with the robot's
+    names of its rods in front (the stroke's own names them so)."""
+    return type(exc)(f'{", ".join(robot.rods.names)}: {exc}')
 
 
 def check_rods(robot: RobotDescription, Q: Array) -> None:
@@ -329,7 +338,10 @@ def forward_floats(robot: RobotDescription, arm: Arm, rods: list[float], joints:
     are refused outside the stroke by the robot's names (``stroke=False``: the caller checked them so)."""
     if check_limits and stroke:
         check_stroke(SCALAR, rods, robot.config, typed=True, names=robot.rods.names)
-    gpr = forward(rods, robot.config, check_limits=check_limits, stroke=False)
+    try:
+        gpr = forward(rods, robot.config, check_limits=check_limits, stroke=False)
+    except LimitError as exc:
+        raise rods_named(robot, exc) from None
     (r0, r1, r2), (t0, t1, t2) = gpr.rotation.tolist(), gpr.position.tolist()
     return ForwardFloats(gpr, *one_on_platform(robot, arm, joints, (t0, t1, t2), ((r0[0], r0[1], r0[2]),
                                                                                     (r1[0], r1[1], r1[2]),
