@@ -135,7 +135,8 @@ BAD = [
     # beyond the world's bound, as a station file and gpr robot ik refuse it (the service solved it: a robot based
     # 99.8 m out reaches a station 100.56 m out)
     ('ik', dict(position=(130.0, 60.0, 45.0)), ['position = (130, 60, 45) m; allowed: each coordinate within +-100 m '
-                                                'of the world origin']),
+                                                'of the world origin; as millimetres it would be 0.13 m: millimetres '
+                                                'given as metres? (the service takes metres)']),
     ('ik', dict(position=(1.3, 0.6, 0.45), azimuth=math.nan), ['azimuth', 'finite']),
     # degrees sent as radians: taken modulo a turn as another station (azimuth 90 -> 2.035 rad), success: true
     ('ik', dict(position=(1.2, 1.0, 0.455), tilt=0.02, azimuth=90.0, heading=0.8),

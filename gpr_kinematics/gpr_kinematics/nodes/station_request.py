@@ -23,7 +23,8 @@ def request_stations(robot: RobotDescription, request: Any, arm: Arm) -> Station
     """The station of a StationInverseKinematics request, checked field by field."""
     p = request.position
     position = finite_vector((p.x, p.y, p.z), 'position', 3)
-    check_world_position(position.tolist(), 'position', error=InputError)   # as a station file's and gpr robot ik's
+    check_world_position(position.tolist(), 'position', '; as millimetres it would be {mm} m: millimetres given as '
+                         'metres? (the service takes metres)', InputError)   # as a station file's and gpr robot ik's
     free = bool(request.heading_free)
     angles = {'tilt': within_turn(request.tilt, 'tilt'), 'azimuth': within_turn(request.azimuth, 'azimuth'),
               'heading': 0.0 if free else within_turn(request.heading, 'heading')}
