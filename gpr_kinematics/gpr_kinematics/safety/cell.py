@@ -93,8 +93,10 @@ def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, s
     if not is_number(value) or not lo <= to_si(float(value), scale) <= hi:
         si = 'm' if unit in ('m', 'mm') else 'rad' if unit in ('rad', 'deg') else unit
         given = f'{key} is missing' if value is None else f'{key} = {brief(value)} is invalid'   # not "length = None"
+        metres = unit == 'mm' and is_number(value) and lo <= float(value) <= hi   # metres written in a mm file
+        hint = f' ({value:g} mm is {to_si(float(value), scale):g} m: metres in a file of mm?)' if metres else ''
         raise ConfigError(f'{where}: {given}; allowed: a finite number in {unit}, {lo:g} to {hi:g} {si} after '
-                          'conversion')
+                          f'conversion{hint}')
     return to_si(float(value), scale)
 
 
