@@ -109,9 +109,9 @@ def test_metres_in_a_file_of_millimetres_are_named_so():
     """A box of 0.4 x 0.05 x 0.3 in a cell declaring mm: refused as below 1 mm, now with the metres it meant."""
     data = cell({'name': 'b', 'box': [0.4, 0.05, 0.3], 'position': [1250, 1050, 500]})
     data['units'] = {'length': 'mm'}
-    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\] \(b\): box\[0\] = 0\.4 is invalid; allowed: a '
-                                          r'finite number in mm, 0\.001 to 50 m after conversion \(0\.4 mm is 0\.0004 '
-                                          r'm: metres in a file of mm\?\)$'):
+    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\] \(b\): box\[0\] = 0\.4 is invalid; allowed: '
+                                          r'a finite number in mm, 0\.001 to 50 m after conversion \(0\.4 mm is '
+                                          r'0\.0004 m: metres in a file of mm\?\)$'):
         parse_cell(data, 'my_cell.yaml')
     data['obstacles'][0]['box'] = [0.0001, 0.05, 0.3]   # below the bound as metres too: no such hint
     with pytest.raises(ConfigError, match=r'box\[0\] = 0\.0001 is invalid; allowed: .* after conversion$'):
