@@ -102,6 +102,9 @@ def test_write_read_round_trip_is_exact(tmp_path):
     (text(ROW, ROW), r'f\.csv line 3 repeats line 2 exactly'),
     (text(ROW + ',0.1'), r'line 2: 11 values, but the header names 10 columns'),
     ('# only comments\n\n', r'f\.csv: no header row'),
+    ('', r'^f\.csv: the file is empty; the first line that is not a comment must name the columns'),
+    ('q1,q2,q3,x,y,z,\n0.3,0.3,0.3,0,0,0.3,\n', r'^f\.csv line 1: a header column without a name \(a comma too many, '
+                                              r'at the end of the line\?\)'),   # it said "header column ''
     (text(), r'f\.csv: no data rows after the header'),
     (text(ROW, header='q1,q2,"q3'), r'line 1: (not a CSV row|missing column)'),
 ])

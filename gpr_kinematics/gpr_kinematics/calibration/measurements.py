@@ -352,7 +352,8 @@ def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: 
             raise InputError(f'{where}: not a CSV row ({exc})') from None
         table.row(fields, lineno, where)
     if table.cols is None:
-        raise InputError(f'{source}: no header row; the first line that is not a comment must name the columns '
+        empty = 'the file is empty' if not text.strip() else 'no header row'
+        raise InputError(f'{source}: {empty}; the first line that is not a comment must name the columns '
                          f'({",".join(spec.required)})')
     if not table.rows:
         raise InputError(f'{source}: no data rows after the header')

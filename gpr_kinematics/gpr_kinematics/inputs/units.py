@@ -135,6 +135,9 @@ def separator_hint(cell: str) -> str:
 def column(cell: str, where: str) -> tuple[str, str | None]:
     """A header cell's column name and its unit in brackets (``None`` without one)."""
     m = _CELL.match(cell)
+    if m is None and not cell.strip():   # 'header column '' is not a name ...' for a trailing comma
+        raise FileError(f'{where}: a header column without a name (a comma too many, at the end of the line?); '
+                        'allowed: a name with an optional unit in brackets in every column, e.g. "x [mm]"')
     if m is None:
         raise FileError(f'{where}: header column {brief(cell, 40)} is not a name with an optional unit in brackets, '
                          f'e.g. "x [mm]"{separator_hint(cell)}')
