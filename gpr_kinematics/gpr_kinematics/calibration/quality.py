@@ -377,10 +377,12 @@ def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = 
 
 
 def worst_rows(residual: Array, names: Sequence[str], count: int = 3) -> str:
-    """The ``count`` rows of largest weighted residual, as ``line 8 (3.1 sigma)`` (``names``: the rows')."""
+    """The ``count`` rows of largest weighted residual, as ``line 8 (3.1 sigma), ... (each row's RMS over its 6
+    coordinates)`` (``names``: the rows'): not a residual's own size, which the outlier check quotes studentized."""
     norm = np.sqrt(np.mean(residual ** 2, axis=1))
     order = np.argsort(-norm)[:count]
-    return ', '.join(f'{names[i]} ({norm[i]:.2g} sigma)' for i in order)
+    return (', '.join(f'{names[i]} ({norm[i]:.2g} sigma)' for i in order)
+            + f' (each row\'s RMS over its {residual.shape[1]} coordinates)')
 
 
 #: A fitted parameter further from its nominal value than this many a-priori standard deviations is named in a
