@@ -173,7 +173,12 @@ def bad_inputs(tmp_path):
         v = [float(x) for x in r.split(',')]
         mm_rows.append(','.join(repr(x * 1000) if i < 6 else repr(x) for i, x in enumerate(v[:10])))
     jitter = [','.join(repr(float(x) * (1 + 1e-14 * (-1) ** i)) for i, x in enumerate(r.split(','))) for r in rows]
+    probe = [','.join(repr(float(x) + (0.05 if i == 5 else 0.0)) for i, x in enumerate(r.split(','))) for r in rows]
     return [
+        # a probe 50 mm above the platform's origin, measured as gpr_platform: the target's options named too
+        (['calibrate', write(tmp_path, 'probe.csv', '\n'.join([header] + probe)), '--output', 'x.yaml'],
+         r'from the nominal model\'s .*; or a target \(a probe, a reflector\) away from the origin of gpr_platform: '
+         r'give its place with --target X Y Z \[m\], or --fit-target$'),
         # options of a plan with a measurement file, an arm's files included: accepted, they did nothing
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--index', 'smallest'], r'--index goes with --plan'),
         (['calibrate', '--robot', 'example_robot.yaml', SHIPPED, '--output', 'x.yaml', '--points'],

@@ -24,7 +24,10 @@ PLAUSIBLE_ANGLE = 0.05
 
 class ImplausiblePoseError(InputError):
     """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
-    :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which)."""
+    :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which).
+    ``units``: the lengths' units explain it (the message says which), not a frame or a target."""
+
+    units = False
 
 
 def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
@@ -63,8 +66,10 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
                f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
                'offset of a degree moves its wafer some centimetres): correct the nominal model first')
         unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
-        raise ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
+        exc = ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
+        exc.units = mm or metres
+        raise exc
 
 
 def _units_explain(meas: Measurements, errors: Array, i: int, factor: float,

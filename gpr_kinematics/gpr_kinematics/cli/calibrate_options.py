@@ -120,6 +120,11 @@ def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
     except ImplausiblePoseError as exc:
         flags = ' and '.join(f for f in ('--base', '--target') if getattr(args, f[2:], None) is not None)
         units = [u for u, on in (('--mm for millimetres', not args.mm), ('--deg for degrees', not args.deg)) if on]
+        gpr = getattr(args, 'robot', None) is None and hasattr(args, 'fit_target')   # not an arm's: its wafer centre
+        if gpr and not flags and not args.fit_target and not exc.units:   # the GPR's target: a probe off the origin?
+            raise ImplausiblePoseError(f'{exc}; or a target (a probe, a reflector) away from the origin of '
+                                       'gpr_platform: give its place with --target X Y Z [m], or --fit-target'
+                                       ) from None
         if not flags or not units:
             raise
         raise ImplausiblePoseError(f'{exc}; or {flags} in other units than m and rad ({", ".join(units)})?') from None
