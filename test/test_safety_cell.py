@@ -105,6 +105,14 @@ def test_bad_obstacles_named(obstacle, pattern):
     assert __import__('re').search(pattern, str(err.value)), str(err.value)
 
 
+def test_obstacles_without_a_value_are_named_in_yamls_words():
+    """'obstacles:' with nothing after it said 'obstacles = None is invalid' (Python's word for YAML's null)."""
+    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles has no value \(YAML null\); allowed: a list of '
+                                          r'obstacles \(\[\] for none\)$'):
+        parse_cell({'format': 'gpr_cell', 'version': 1, 'obstacles': None}, 'my_cell.yaml')
+    assert parse_cell(cell(), 'my_cell.yaml').obstacles == ()
+
+
 def test_metres_in_a_file_of_millimetres_are_named_so():
     """A box of 0.4 x 0.05 x 0.3 in a cell declaring mm: refused as below 1 mm, now with the metres it meant."""
     data = cell({'name': 'b', 'box': [0.4, 0.05, 0.3], 'position': [1250, 1050, 500]})

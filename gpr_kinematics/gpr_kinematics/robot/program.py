@@ -57,6 +57,7 @@ from .station_files import (
     MAX_STATIONS,
     StationRows,
     StationTable,
+    height_refusal,
     read_station_rows,
     stations_from_yaml,
     units_of,
@@ -170,9 +171,7 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     for key in ('approach_height', 'retract_height'):
         value = defaults.get(key, 0.01 / length)
         if not is_number(value) or not 0 <= to_si(value, length) <= MAX_APPROACH:
-            unit = 'mm' if length != 1.0 else 'm'
-            raise ConfigError(f'{dw}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to '
-                              f'{MAX_APPROACH / length:g} {unit} ({MAX_APPROACH:g} m)')
+            raise height_refusal(dw, key, value, 'mm' if length != 1.0 else 'm', MAX_APPROACH)
         heights.append(to_si(float(value), length))
     robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.stroke import within_as_millimetres
 from ..errors import ConfigError, brief, kind_of
 from ..inputs import units
 from ..inputs.files import read_text
@@ -173,13 +174,24 @@ def _branch(value: Any, where: str) -> str | None:
     return str(value)
 
 
+def height_refusal(where: str, key: str, value: Any, unit: str, most: float) -> ConfigError:
+    """The refusal of a height or an entry ``value`` (as given, in ``unit``) beyond ``[0, most]`` [m]: the bound in the
+    unit (and in metres where that is mm), with the millimetres' hint where the value in mm would lie within it."""
+    scale = units.MM if unit == 'mm' else 1.0
+    si = f' ({most:g} m)' if unit != 'm' else ''
+    shown = value.strip() if isinstance(value, str) else brief(value)   # a CSV's cell as written, unquoted
+    number = float(shown) if isinstance(value, str) else float(value) if is_number(value) else math.nan
+    mm = unit == 'm' and within_as_millimetres(number, 0.0, most)
+    hint = f'; {number:g} mm would be within it: millimetres given as metres?' if mm else ''
+    return ConfigError(f'{where}: {key} = {shown} {unit} is invalid; allowed: 0 to {most / scale:g} {unit}{si}{hint}')
+
+
 def _height(value: Any, where: str, key: str, scale: float, unit: str, most: float = MAX_APPROACH) -> float | None:
     if value is None or value == '':
         return None
     h = to_si(_number(value, where, key, unit, f'0 to {most / scale:g} {unit}, {most:g} m'), scale)   # as below
     if not 0.0 <= h <= most:
-        raise ConfigError(f'{where}: {key} = {brief(value)} {unit} is invalid; allowed: 0 to {most / scale:g} {unit} '
-                          f'({most:g} m)')
+        raise height_refusal(where, key, value, unit, most)
     return h
 
 
@@ -369,8 +381,7 @@ def stations_from_csv(text: str, where: str) -> StationRows:
             value = table.number(r, key, None, w)
             if value is not None and not 0.0 <= value <= most:
                 unit = table.columns[key][2]
-                raise ConfigError(f'{w}: {key} = {brief(table.text(r, key))} {unit} is invalid; allowed: 0 to '
-                                  f'{most / (units.MM if unit == "mm" else 1.0):g} {unit} ({most:g} m)')
+                raise height_refusal(w, key, table.text(r, key), unit, most)   # a number: table.number read it
             target.append(value)
     return rows
 

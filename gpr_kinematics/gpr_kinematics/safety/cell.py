@@ -222,6 +222,8 @@ def parse_cell(data: Any, source: str = 'cell') -> Cell:
         raise ConfigError(f'{source}: frame = {brief(frame)} is invalid; allowed: a frame name')
     length, angle = units_of(data, source)
     raw = data.get('obstacles', [])
+    if raw is None:   # 'obstacles:' with nothing after it: YAML's null, not Python's None
+        raise ConfigError(f'{source}: obstacles has no value (YAML null); allowed: a list of obstacles ([] for none)')
     if not isinstance(raw, list):
         raise ConfigError(f'{source}: obstacles = {brief(raw)} is invalid; allowed: a list of obstacles')
     if len(raw) > MAX_OBSTACLES:
