@@ -258,7 +258,8 @@ class PoseModel(Protocol):
 
     def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
         """``theta (S, P)``, ``Q (S, N, 3)`` [m], ``displacement (S, N, 3, 3)`` [m] or ``None`` ->
-        positions ``(S, N, 3)`` [m] and rotations ``(S, N, 3, 3)``."""
+        positions ``(S, N, 3)`` [m] and rotations ``(S, N, 3, 3)``. The engines' inner call: it takes arrays of
+        these shapes as given; :func:`evaluate` is the checked door (shapes, finite values, the model's answer)."""
         ...
 
 
