@@ -114,25 +114,32 @@ def test_no_server_exits_1_with_one_line(ros_environment):
                           '--namespace, the wait with --timeout)\n')
 
 
-def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(ros_environment):
-    """Joint states of another robot (only the rods here) came, and send said no joint states came at all."""
+def _send_beside(name: str, positions: dict[str, float]) -> tuple[int, str, str]:
+    """``gpr program send`` in the namespace ``/name`` while a publisher there streams ``positions`` as
+    ``joint_states`` at 20 Hz: its status, stdout and stderr."""
     from gpr_kinematics.nodes.client import GprClient
     from gpr_kinematics.nodes.qos import stream_qos
     from sensor_msgs.msg import JointState
 
-    joints = ControllerJoints.of(ROBOT)
-    state = JointState(name=['rod_1', 'rod_2', 'rod_3', 'gripper'], position=[0.25, 0.25, 0.25, 0.0])
-    with GprClient('gpr_test_other_robot', namespace='/gpr_other') as c:
+    state = JointState(name=list(positions), position=[float(v) for v in positions.values()])
+    with GprClient(f'gpr_test_{name}', namespace=f'/{name}') as c:
         pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
         timer = c.node.create_timer(0.05, lambda: pub.publish(state))
         proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
-                                 '--namespace', 'gpr_other', '--timeout', '8'],   # (discovery: up to ~3 s)
+                                 '--namespace', name, '--timeout', '8'],   # (discovery: up to ~3 s)
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
         assert c.spin_until(lambda: proc.poll() is not None, 120)
         out, err = proc.communicate()
         c.node.destroy_timer(timer)
+    return proc.returncode, out, err
+
+
+def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(ros_environment):
+    """Joint states of another robot (only the rods here) came, and send said no joint states came at all."""
+    joints = ControllerJoints.of(ROBOT)
+    status, out, err = _send_beside('gpr_other', {'rod_1': 0.25, 'rod_2': 0.25, 'rod_3': 0.25, 'gripper': 0.0})
     missing = ', '.join(n for n in joints.names if not n.startswith('rod_'))
-    assert (proc.returncode, out) == (1, '')
+    assert (status, out) == (1, '')
     assert err == (f'gpr program send: joint states on /gpr_other/joint_states came without {missing} (they carry '
                    "gripper, rod_1, rod_2, rod_3): is the program's robot the one there? (change the topic with "
                    '--joint-states and --namespace)\n')
@@ -141,22 +148,9 @@ def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(r
 def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):
     """Joint states come but no FollowJointTrajectory server answers: one line naming the action as resolved in the
     namespace (it said 'on joint_trajectory_controller/follow_joint_trajectory'), the wait and the options."""
-    from gpr_kinematics.nodes.client import GprClient
-    from gpr_kinematics.nodes.qos import stream_qos
-    from sensor_msgs.msg import JointState
-
     joints = ControllerJoints.of(ROBOT)
-    state = JointState(name=list(joints.names), position=[float(v) for v in joints.rest])
-    with GprClient('gpr_test_no_server', namespace='/gpr_noserver') as c:
-        pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
-        timer = c.node.create_timer(0.05, lambda: pub.publish(state))
-        proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
-                                 '--namespace', 'gpr_noserver', '--timeout', '8'],   # (discovery: up to ~3 s)
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
-        assert c.spin_until(lambda: proc.poll() is not None, 120)
-        _, err = proc.communicate()
-        c.node.destroy_timer(timer)
-    assert proc.returncode == 1
+    status, _, err = _send_beside('gpr_noserver', dict(zip(joints.names, joints.rest, strict=True)))
+    assert status == 1
     assert err == ('gpr program send: no FollowJointTrajectory server on '
                    '/gpr_noserver/joint_trajectory_controller/follow_joint_trajectory within 8 s (change the name with '
                    '--action and --namespace, the wait with --timeout)\n')
