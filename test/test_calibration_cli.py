@@ -179,6 +179,8 @@ def bad_inputs(tmp_path):
         (['calibrate', write(tmp_path, 'probe.csv', '\n'.join([header] + probe)), '--output', 'x.yaml'],
          r'from the nominal model\'s .*; or a target \(a probe, a reflector\) away from the origin of gpr_platform: '
          r'give its place with --target X Y Z \[m\], or --fit-target$'),
+        (['calibrate', write(tmp_path, 'probe.csv', '\n'.join([header] + probe)), '--output', 'x.yaml', '--mm'],
+         r'give its place with --target X Y Z \[mm\], or --fit-target$'),   # --target in --mm's unit
         # options of a plan with a measurement file, an arm's files included: accepted, they did nothing
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--index', 'smallest'], r'--index goes with --plan'),
         (['calibrate', '--robot', 'example_robot.yaml', SHIPPED, '--output', 'x.yaml', '--points'],

@@ -118,6 +118,9 @@ def test_a_configuration_given_for_its_model_is_named():
         evaluate(cfg, CoreModel(cfg).parameters.nominal, [[0.3, 0.3, 0.3]])
     with pytest.raises(InputError, match=message):
         accuracy_budget(cfg, [[0.3, 0.3, 0.3]], None)   # type: ignore[arg-type]
+    for jacobian in (pose_jacobian, model_mod.rod_jacobian):   # pose_jacobian's sibling checked, it was not
+        with pytest.raises(InputError, match=message):
+            jacobian(cfg, CoreModel(cfg).parameters.nominal, [[0.3, 0.3, 0.3]])
 
 
 def core_to_reference(values):

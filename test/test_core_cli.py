@@ -360,3 +360,17 @@ def test_a_name_too_long_met_reading_is_named_a_read_cut(capsys, monkeypatch):
     assert main(['sweep', '--config', 'x' * 300]) == 2
     assert capsys.readouterr().err == (f"gpr sweep: error: cannot read '{'x' * 119}... (300 characters): File name too "
                                        'long; allowed: a path whose names have at most 255 bytes each, 4096 in all\n')
+
+
+def test_a_files_millimetres_hint_stays_under_a_mm_that_converts_only_options(capsys, tmp_path):
+    """gpr accuracy's --mm converts --tool only: a platform program's height of 300 (mm meant) keeps its hint under
+    it (every command with --mm dropped it); gpr ik's --mm converts every length it takes: no hint there."""
+    from gpr_kinematics.inputs.resources import config_path
+    program = tmp_path / 'p.yaml'
+    program.write_text(config_path('programs/example_stations.yaml').read_text().replace('height: 0.30', 'height: 300'))
+    status, _, err = run(capsys, 'accuracy', str(program), '--tolerances', 'tolerances_example.yaml', '--tool', '0',
+                         '0', '10', '--mm')
+    assert status == 2 and err.rstrip().endswith('as millimetres it would be within them: millimetres given as '
+                                                 'metres?'), err
+    status, _, err = run(capsys, 'ik', '--height', '300000', '--tilt', '0', '--azimuth', '0', '--mm')
+    assert status == 2 and 'millimetres given as metres' not in err, err

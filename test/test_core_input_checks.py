@@ -234,6 +234,17 @@ def test_the_checks_switches_are_truth_values(kwargs, message):
     assert forward([0.3, 0.3, 0.3], check_limits=np.bool_(False)).tilt == 0.0   # numpy's truth values are taken
 
 
+@pytest.mark.parametrize('value', [None, 0, 'no'])
+def test_inverse_kinematics_stroke_switch_is_a_truth_value(value):
+    """inverse_batch(stroke=0 or None) answered rods beyond the stroke (0.5088 m at 0.5072 m, tilt 0.01)."""
+    from gpr_kinematics.errors import LimitError
+    with pytest.raises(LimitError, match='stroke'):
+        inverse_batch([0.5072], [0.01], [0.0])
+    with pytest.raises(InputError, match=rf'^stroke = {value!r}; allowed: True or False$'):
+        inverse_batch([0.5072], [0.01], [0.0], stroke=value)
+    assert inverse_batch([0.5072], [0.01], [0.0], stroke=False).q.max() > 0.508   # False answers it, as documented
+
+
 def test_a_wrong_count_of_machines_is_named_before_their_rows():
     """Three machines for two rod rows, each row of one parameter left at 0: it named row 0's joint triangle."""
     with pytest.raises(InputError, match=r'^3 parameter rows for 2 rod-length rows; allowed: one machine per sample'):

@@ -163,6 +163,10 @@ def test_default_heights_are_bounded_at_a_tenth_of_a_metre_in_metres_and_in_mm(t
                 _program(tmp_path, _minimal(defaults={key: value}, **changes))
             assert str(info.value) == (f'{tmp_path / "p.yaml"}: defaults: {key} = {value:g} {unit} is invalid; '
                                        f'allowed: 0 to {"100 mm (0.1 m)" if unit == "mm" else "0.1 m"}')
+    # text, not a number: quoted, no hint (the float of 'abc' crashed the refusal once)
+    for text in ('abc', '8'):
+        with pytest.raises(ConfigError, match=rf"defaults: {key} = '{text}' m is invalid; allowed: 0 to 0\.1 m$"):
+            _program(tmp_path, _minimal(defaults={key: text}))
     # 8 in metres: 8 mm was meant (it said "0 to 0.1 m (0.1 m)" and no more)
     with pytest.raises(ConfigError, match=rf'defaults: {key} = 8 m is invalid; allowed: 0 to 0\.1 m; 8 mm would be '
                                           r'within it: millimetres given as metres\?$'):

@@ -301,6 +301,12 @@ def test_a_naive_tables_old_rods_are_named_by_file_row_and_station(tmp_path, cap
                    'the platform by about 0.4435 rad (25.41 deg), beyond the tilt limit 0.03491 rad (2 deg)\n')
     with pytest.raises(LimitError, match=r"^old rods of row 2 \(station 'b'\): q = \[0\.1, 0\.16, 0\.1\] m tilts"):
         reteach(ROBOT, [[0.25] * 3, [0.1, 0.16, 0.1]], [[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]], 'arm1', names=['a', 'b'])
+    # rods with no pose at all (the naive wafer's, computed on first use): named by their row too
+    with pytest.raises(LimitError, match=r"^old rods of row 2 \(station 'b'\): q = \[0\.1, 0\.3, 0\.3\] m imply no "):
+        reteach(ROBOT, [[0.25] * 3, [0.1, 0.3, 0.3]], [[0.0, 1.0, 0.0]] * 2, 'arm1', names=['a', 'b'])
+    # rods typed on the command line: no table, no row to name
+    assert main(['robot', 'teach', '--rods', '0.28', '0.3', '0.3', '--joints', '0.1', '0.2', '0.1', '--naive']) == 2
+    assert capsys.readouterr().err.startswith('gpr robot teach: error: old rods: q = [0.28, 0.3, 0.3] m tilts')
 
 
 def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):

@@ -342,7 +342,7 @@ def pose_jacobian(model: PoseModel, theta: ArrayLike, Q: ArrayLike, columns: Arr
 
     All ``2 C`` perturbed parameter rows go to the model in one call (one batch of ``2 C x N`` poses).
     """
-    params = model.parameters
+    params = pose_model(model).parameters
     th = finite_vector(theta, 'theta', len(params))     # None was an IndexError deep in the steps
     cols = np.arange(len(params)) if columns is None else np.asarray(columns)
     if cols.dtype == bool:

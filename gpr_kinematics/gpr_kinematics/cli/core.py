@@ -46,6 +46,7 @@ def _common(p: argparse.ArgumentParser, lengths: bool = True, angles: bool = Fal
     p.add_argument('--config', metavar='FILE', help='YAML file overriding the package config (config/gpr.yaml)')
     if lengths:
         p.add_argument('--mm', action='store_true', help='input lengths are in millimetres (output stays SI)')
+        p.set_defaults(mm_converts_all=True)   # every length the command is given: no mm hint under --mm (main)
     if angles:
         p.add_argument('--deg', action='store_true', help='input angles are in degrees (output stays SI)')
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')

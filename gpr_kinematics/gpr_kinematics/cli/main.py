@@ -163,8 +163,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .options import resolve_shipped
         resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
         distinct_outputs(args)
-        # no output may be a file the command read; all outputs or none; under --mm no "millimetres given as metres?"
-        with command_reads(), command_writes(), typed_in_millimetres(bool(getattr(args, 'mm', False))):
+        # no output may be a file the command read; all outputs or none; no "millimetres given as metres?" under a --mm
+        # that converts every length the command takes (a file's of gpr accuracy keeps its hint under --mm)
+        mm = bool(getattr(args, 'mm', False)) and bool(getattr(args, 'mm_converts_all', False))
+        with command_reads(), command_writes(), typed_in_millimetres(mm):
             status = int(args.handler(args))
         sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
         return status

@@ -244,8 +244,9 @@ def robot_options(p: argparse.ArgumentParser) -> None:
 
 
 def unit_options(p: argparse.ArgumentParser) -> None:
-    """``--mm`` and ``--deg``."""
+    """``--mm`` and ``--deg`` (``--mm`` converting every length typed: no mm hint under it, ``cli.main``)."""
     p.add_argument('--mm', action='store_true', help='input lengths are in millimetres (output stays SI)')
+    p.set_defaults(mm_converts_all=True)
     p.add_argument('--deg', action='store_true', help='input angles are in degrees (output stays SI)')
 
 

@@ -110,7 +110,8 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         names, rods, joints = read_joint_table(args.table, robot, args.arm, check_limits=not args.naive)
     elif args.rods and args.joints:
         _check_joint_count(args.joints, robot.arm(args.arm))
-        names, rods, joints = ('0',), np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
+        # no names: one configuration typed, no table's row to name (its station is '0')
+        names, rods, joints = None, np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
     else:
         from ..errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')

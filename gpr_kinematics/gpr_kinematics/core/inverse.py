@@ -36,6 +36,7 @@ from ..inputs.validation import (
     empty_beside_one,
     rows_of,
     single_number,
+    switch,
     three_floats,
 )
 from .config import ITERATIONS, GprConfig, nominal_points, resolve_config
@@ -334,6 +335,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
     """
     cfg = resolve_config(config)
     vjm = make_model(cfg, model)
+    stroke = switch(stroke, 'stroke')   # None or 0 turned the stroke's check off without a word
     cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
     big = np.abs(cols[2]) > MAX_COORDINATE
     if big.any():

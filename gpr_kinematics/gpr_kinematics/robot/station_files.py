@@ -174,13 +174,14 @@ def _branch(value: Any, where: str) -> str | None:
     return str(value)
 
 
-def height_refusal(where: str, key: str, value: Any, unit: str, most: float) -> ConfigError:
-    """The refusal of a height or an entry ``value`` (as given, in ``unit``) beyond ``[0, most]`` [m]: the bound in the
-    unit (and in metres where that is mm), with the millimetres' hint where the value in mm would lie within it."""
+def height_refusal(where: str, key: str, value: Any, unit: str, most: float, cell: bool = False) -> ConfigError:
+    """The refusal of a height or an entry ``value`` (as given, in ``unit``; ``cell``: a CSV's number as written) not
+    within ``[0, most]`` [m]: the bound in the unit (and in metres where that is mm), with the millimetres' hint where
+    the value in mm would lie within it."""
     scale = units.MM if unit == 'mm' else 1.0
     si = f' ({most:g} m)' if unit != 'm' else ''
-    shown = value.strip() if isinstance(value, str) else brief(value)   # a CSV's cell as written, unquoted
-    number = float(shown) if isinstance(value, str) else float(value) if is_number(value) else math.nan
+    shown = str(value).strip() if cell else brief(value)   # a CSV's cell unquoted; YAML's '8' quoted: text, not 8
+    number = float(shown) if cell else float(value) if is_number(value) else math.nan
     mm = unit == 'm' and within_as_millimetres(number, 0.0, most)
     hint = f'; {number:g} mm would be within it: millimetres given as metres?' if mm else ''
     return ConfigError(f'{where}: {key} = {shown} {unit} is invalid; allowed: 0 to {most / scale:g} {unit}{si}{hint}')
@@ -381,7 +382,7 @@ def stations_from_csv(text: str, where: str) -> StationRows:
             value = table.number(r, key, None, w)
             if value is not None and not 0.0 <= value <= most:
                 unit = table.columns[key][2]
-                raise height_refusal(w, key, table.text(r, key), unit, most)   # a number: table.number read it
+                raise height_refusal(w, key, table.text(r, key), unit, most, cell=True)   # table.number read it
             target.append(value)
     return rows
 

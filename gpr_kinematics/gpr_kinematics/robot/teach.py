@@ -173,8 +173,12 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
         row_of = f' (row {i + 1})' if theta.shape[0] > 1 else ''
         raise InputError(f'old joints{row_of}: {_beyond_a_turn(a, float(theta[i, k]), k)}; in degrees? give them in '
                          'radians (or --deg to gpr robot teach)')
-    old = robot_forward(robot, Q, theta, a.name, check_limits=False)
-    intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
+    try:   # the naive wafer is computed on first use
+        old = robot_forward(robot, Q, theta, a.name, check_limits=False)
+        intended = stations_from_poses(old.naive_wafer.position, old.naive_wafer.rotation, names)
+    except LimitError:   # rods with no platform pose (the naive model's): named by their row, as beyond the tilt
+        _old_tilt(robot, Q, names)
+        raise
     if len(a.joints) == 2:  # the heading of a 2-joint arm is an outcome
         intended = Stations(intended.position, intended.tilt, intended.azimuth, np.zeros(len(intended)),
                             np.ones(len(intended), dtype=bool), intended.names)
