@@ -229,16 +229,17 @@ def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajec
 
 def at_the_start(wafers: WaferPlan) -> WaferPlan:
     """``wafers`` as they are at the program's start, for all time: an arm carrying one then carries it throughout,
-    a wafer lying in a station then lies there throughout, a blade in contact with a station's wafer then is
-    throughout; the rest never (the bodies of the move to the program's first point, :func:`lead_in_clearance`)."""
+    a wafer lying in a station then lies there throughout; the rest never (the bodies of the move to the program's
+    first point, :func:`lead_in_clearance`). No contact is intended on that move: a blade in contact with a station's
+    wafer at the start would have the pair left out of the whole move (it could sweep through the wafer), so such a
+    start is judged by the margin, conservatively."""
     always, never = ((0.0, np.inf),), ((np.inf, np.inf),)
 
     def now(windows: Windows) -> bool:
         return any(lo <= 0.0 <= hi for lo, hi in windows)
 
     return WaferPlan({arm: always if now(w) else () for arm, w in wafers.carried.items()},
-                     tuple((name, station, always if now(w) else never) for name, station, w in wafers.stations),
-                     {k: always for k, w in wafers.contact.items() if now(w)})
+                     tuple((name, station, always if now(w) else never) for name, station, w in wafers.stations), {})
 
 
 def lead_in_clearance(plan: ProgramPlan, cell: Cell | None, lead: JointTrajectory, margin: float = MARGIN,
