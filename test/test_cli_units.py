@@ -90,10 +90,14 @@ def test_the_millimetres_hint_only_where_the_rods_are_in_metres(capsys, tmp_path
 
 @pytest.mark.parametrize('argv, message', [(['--tilt-step', '-1', '--deg'], '--tilt-step = -1 deg'),
                                            (['--azimuth-step', '0'], '--azimuth-step = 0 rad'),
-                                           (['--max-tilt', '-2', '--deg'], '--max-tilt = -2 deg')])
+                                           (['--max-tilt', '-2', '--deg'], '--max-tilt = -2 deg'),
+                                           # inf was "more than --max-tilt" or "not a finite number" by the option
+                                           (['--tilt-step', 'inf', '--deg'], '--tilt-step = inf deg'),
+                                           (['--azimuth-step', 'inf'], '--azimuth-step = inf rad'),
+                                           (['--tilt-step', 'nan'], '--tilt-step = nan rad')])
 def test_a_sweeps_angle_refusal_names_the_option_as_typed(capsys, argv, message):
     assert main(['sweep', *argv]) == 2
-    assert capsys.readouterr().err == f'gpr sweep: error: {message}; allowed: a positive angle\n'
+    assert capsys.readouterr().err == f'gpr sweep: error: {message}; allowed: a positive finite angle\n'
 
 
 def test_no_millimetres_hint_below_the_stroke(capsys, tmp_path):

@@ -206,6 +206,11 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'ik', '--position', '1.3', '0.6', '0.45', '--heading', '0.3', '--arm', 'arm2', '--redundancy', '30'],
      r'^gpr robot ik: error: --redundancy = 30 rad is outside \[-2pi, 2pi\] rad; allowed: an angle in radians '
      r'\(give --deg for degrees\)$'),
+    # beyond the held joint's limits, named as typed in the unit typed (it said "redundancy value = 5.23599 rad
+    # (station 0)" of --redundancy 300 --deg)
+    (['robot', 'ik', '--position', '1.3', '0.6', '0.6', '--heading', '17', '--deg', '--arm', 'arm2', '--redundancy',
+      '300'], r'^gpr robot ik: error: --redundancy = 300 deg is outside the limits of arm2_wrist, \[-143\.239, '
+              r'143\.239\] deg; allowed: a value within them; 300 deg is -60 deg modulo a turn$'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
      r'^gpr robot fk: error: --joints: 2 values for arm arm1, which has 3 joints \(arm1_shoulder, arm1_elbow, '
      r'arm1_wrist\); allowed: one value per joint, shoulder first$'),

@@ -118,7 +118,23 @@ def test_a_move_beyond_the_rods_limits_streams_with_a_warning(move_time, warned)
         assert traj.warning == '' and 'warning' not in traj.description
         return
     assert traj.warning == (
-        'the move to station 1 (station_a) needs the rods at about 0.229 m/s and 0.914 m/s^2, beyond their limits '
-        '0.15 m/s and 0.6 m/s^2 (rods.velocity, rods.acceleration): a robot cannot follow it as timed (a platform '
-        'program is timed by its move_time only; a longer move_time, or a robot program, timed within the limits)')
+        '2 moves need the rods beyond their limits 0.15 m/s or 0.6 m/s^2 (rods.velocity, rods.acceleration): to '
+        'station 1 (station_a) about 0.229 m/s and 0.914 m/s^2; to station 3 (unload) about 0.152 m/s and 0.607 '
+        'm/s^2; a robot cannot follow them as timed (a platform program is timed by its move_time only; a longer '
+        'move_time, or a robot program, timed within the limits)')   # every such move: it named the worst alone
     assert traj.description.endswith(f'; warning: {traj.warning}')
+
+
+def test_a_move_at_the_rods_limits_is_within_them():
+    """0.30 -> 0.40 m in 1 s needs 0.15000000000000002 m/s and 0.6000000000000001 m/s^2 by rounding: it was warned as
+    beyond the limits 0.15 and 0.6 it meets."""
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.ros.streams import trajectory_of
+
+    at = parse_platform_program({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0},
+                                              {'height': 0.4, 'tilt': 0.0, 'azimuth': 0.0, 'move_time': 1.0}]}, 'at')
+    assert trajectory_of(at, load_robot(), 100.0, 2.0).warning == ''
+    over = parse_platform_program({'stations': [{'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0},
+                                                {'height': 0.4001, 'tilt': 0.0, 'azimuth': 0.0, 'move_time': 1.0}]},
+                                  'over')
+    assert trajectory_of(over, load_robot(), 100.0, 2.0).warning.startswith('a move needs the rods beyond')

@@ -114,14 +114,14 @@ def test_no_server_exits_1_with_one_line(ros_environment):
                           '--namespace, the wait with --timeout)\n')
 
 
-def _send_beside(name: str, positions: dict[str, float]) -> tuple[int, str, str]:
-    """``gpr program send`` in the namespace ``/name`` while a publisher there streams ``positions`` as
-    ``joint_states`` at 20 Hz: its status, stdout and stderr."""
+def _send_beside(name: str, names: list[str], positions: list[float]) -> tuple[int, str, str]:
+    """``gpr program send`` in the namespace ``/name`` while a publisher there streams ``joint_states`` of
+    ``names`` at ``positions`` at 20 Hz: its status, stdout and stderr."""
     from gpr_kinematics.nodes.client import GprClient
     from gpr_kinematics.nodes.qos import stream_qos
     from sensor_msgs.msg import JointState
 
-    state = JointState(name=list(positions), position=[float(v) for v in positions.values()])
+    state = JointState(name=names, position=[float(v) for v in positions])
     with GprClient(f'gpr_test_{name}', namespace=f'/{name}') as c:
         pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
         timer = c.node.create_timer(0.05, lambda: pub.publish(state))
@@ -137,19 +137,26 @@ def _send_beside(name: str, positions: dict[str, float]) -> tuple[int, str, str]
 def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(ros_environment):
     """Joint states of another robot (only the rods here) came, and send said no joint states came at all."""
     joints = ControllerJoints.of(ROBOT)
-    status, out, err = _send_beside('gpr_other', {'rod_1': 0.25, 'rod_2': 0.25, 'rod_3': 0.25, 'gripper': 0.0})
+    status, out, err = _send_beside('gpr_other', ['rod_1', 'rod_2', 'rod_3', 'gripper'], [0.25, 0.25, 0.25, 0.0])
     missing = ', '.join(n for n in joints.names if not n.startswith('rod_'))
     assert (status, out) == (1, '')
     assert err == (f'gpr program send: joint states on /gpr_other/joint_states came without {missing} (they carry '
                    "gripper, rod_1, rod_2, rod_3): is the program's robot the one there? (change the topic with "
                    '--joint-states and --namespace)\n')
+    # a message naming rod_1 twice is malformed (the simulator ignores it): send took its last value and planned
+    # from there; now it is ignored whole, and said so
+    status, out, err = _send_beside('gpr_twice', [*joints.names, 'rod_1'], [*joints.rest, 0.3])
+    assert (status, out) == (1, '')
+    assert err == (f'gpr program send: joint states on /gpr_twice/joint_states came without {", ".join(joints.names)}'
+                   "; malformed messages ignored, the last as it names rod_1 twice: is the program's robot the one "
+                   'there? (change the topic with --joint-states and --namespace)\n')
 
 
 def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):
     """Joint states come but no FollowJointTrajectory server answers: one line naming the action as resolved in the
     namespace (it said 'on joint_trajectory_controller/follow_joint_trajectory'), the wait and the options."""
     joints = ControllerJoints.of(ROBOT)
-    status, _, err = _send_beside('gpr_noserver', dict(zip(joints.names, joints.rest, strict=True)))
+    status, _, err = _send_beside('gpr_noserver', list(joints.names), list(joints.rest))
     assert status == 1
     assert err == ('gpr program send: no FollowJointTrajectory server on '
                    '/gpr_noserver/joint_trajectory_controller/follow_joint_trajectory within 8 s (change the name with '

@@ -190,8 +190,8 @@ def _check_sweep_options(args: argparse.Namespace, cfg: GprConfig) -> None:
     unit = 'deg' if args.deg else 'rad'
     for option, value in (('--max-tilt', args.max_tilt), ('--tilt-step', args.tilt_step),
                           ('--azimuth-step', args.azimuth_step)):   # named as typed, not as the radians they become
-        if value is not None and not value > 0.0:
-            raise InputError(f'{option} = {value:g} {unit}; allowed: a positive angle')
+        if value is not None and not 0.0 < value < math.inf:   # inf and nan named alike, as typed
+            raise InputError(f'{option} = {value:g} {unit}; allowed: a positive finite angle')
         least = sweep.LEAST_STEPS.get(option[2:].replace('-', '_'), 0.0)
         if value is not None and _angle(args, value) < least:   # the core's bound, named as typed
             shown = f'{math.degrees(least):g} deg' if args.deg else f'{least:g} rad'

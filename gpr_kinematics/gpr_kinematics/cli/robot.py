@@ -79,6 +79,14 @@ def _cmd_ik(args: argparse.Namespace) -> int:
         from ..errors import InputError
         raise InputError(f'--heading is missing: arm {arm.name} has {len(arm.joints)} joints and needs the blade '
                          'heading; allowed: --heading H [rad, or deg with --deg] (free only for a 2-joint arm)')
+    red = arm.redundancy
+    if value is not None and red is not None and red.rule == 'fixed_joint':   # named as typed, in the unit typed
+        from ..errors import InputError
+        from ..robot.arm_chain import LIMIT_SLACK
+        from ..robot.inverse import held_refusal
+        held = arm.joints[red.joint]
+        if not held.lower - LIMIT_SLACK <= value <= held.upper + LIMIT_SLACK:
+            raise InputError(held_refusal(held, value, '--redundancy = {}', args.deg))
     sol = solve_stations(robot, stations, args.arm, args.branch, redundancy_value=value)
     if args.json:
         emit_json(sol.record(0))

@@ -51,30 +51,52 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
 
 
 class MissingJointsError(ServiceTimeoutError):
-    """Joint states came within the wait, but without some of the joints asked for: ``missing``, and ``heard`` (the
-    joints they did carry)."""
+    """Joint states came within the wait, but without some of the joints asked for: ``missing``, ``heard`` (the
+    joints the messages taken carried) and ``ignored`` (why the last malformed message was ignored, or '')."""
 
-    def __init__(self, missing: Sequence[str], heard: Sequence[str]) -> None:
-        super().__init__(f'without {", ".join(missing)} (they carry {", ".join(heard)})')
-        self.missing, self.heard = tuple(missing), tuple(heard)
+    def __init__(self, missing: Sequence[str], heard: Sequence[str], ignored: str = '') -> None:
+        carry = f' (they carry {", ".join(heard)})' if heard else ''
+        why = f'; malformed messages ignored, the last as it {ignored}' if ignored else ''
+        super().__init__(f'without {", ".join(missing)}{carry}{why}')
+        self.missing, self.heard, self.ignored = tuple(missing), tuple(heard), ignored
+
+
+def _malformed(msg: JointState) -> str:
+    """Why a ``joint_states`` message cannot say where joints are, as the simulator and the state publisher ignore
+    one ('' if it can): names and positions of different counts, a name given twice, a value not finite."""
+    names, positions = list(msg.name), list(msg.position)
+    if len(names) != len(positions):
+        return f'has {len(names)} names and {len(positions)} positions'
+    seen: set[str] = set()
+    for n, v in zip(names, positions, strict=True):
+        if n in seen:
+            return f'names {n} twice'
+        seen.add(n)
+        if not math.isfinite(v):
+            return f'has {n} = {v}'
+    return ''
 
 
 def current_positions(client: GprClient, names: Sequence[str], topic: str, timeout: float) -> np.ndarray | None:
     """The latest positions of ``names`` from ``joint_states`` messages on ``topic`` (several messages may share
-    them), waiting at most ``timeout`` s for every one; None if no message came, :class:`MissingJointsError` if
-    messages came without some of ``names`` (another robot's: it said no joint states came)."""
+    them; a malformed one is ignored whole, :func:`_malformed`), waiting at most ``timeout`` s for every one; None
+    if no message came, :class:`MissingJointsError` if messages came without some of ``names`` (another robot's, or
+    malformed: it said no joint states came, and took a joint named twice)."""
     latest: dict[str, float] = {}
+    ignored = ['']
 
     def take(msg: JointState) -> None:
-        for n, v in zip(msg.name, msg.position, strict=False):
-            if math.isfinite(v):
-                latest[n] = float(v)
+        why = _malformed(msg)
+        if why:
+            ignored[0] = why
+            return
+        latest.update((n, float(v)) for n, v in zip(msg.name, msg.position, strict=True))
 
     sub = client.node.create_subscription(JointState, topic, take, stream_qos(100))
     try:
         if not client.spin_until(lambda: all(n in latest for n in names), timeout):
-            if latest:
-                raise MissingJointsError([n for n in names if n not in latest], sorted(latest))
+            if latest or ignored[0]:
+                raise MissingJointsError([n for n in names if n not in latest], sorted(latest), ignored[0])
             return None
         return np.array([latest[n] for n in names])
     finally:

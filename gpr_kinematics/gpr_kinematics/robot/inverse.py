@@ -41,7 +41,7 @@ from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_ro
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from ..inputs.validation import TURN, TURN_SLACK
 from .arm_chain import LIMIT_SLACK
-from .description import BRANCHES, Arm, RobotDescription
+from .description import BRANCHES, Arm, ArmJoint, RobotDescription
 from .fields import WORLD_BOUND
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import (
@@ -248,14 +248,21 @@ def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Arr
     outside = (value < joint.lower - LIMIT_SLACK) | (value > joint.upper + LIMIT_SLACK)
     if outside.any():
         i = int(np.argmax(outside))
-        v = float(value[i])
-        shown, end = apart(v, joint.lower if v < joint.lower else joint.upper)
-        mid = 0.5 * (joint.lower + joint.upper)
-        turned = math.remainder(v - mid, 2.0 * math.pi) + mid
-        hint = f'; {v:g} rad is {turned:.6g} rad modulo a turn' if joint.lower <= turned <= joint.upper else ''
-        raise InputError(f'redundancy value = {shown} rad ({stations.label(i)}) is outside the limits of '
-                         f'{joint.name}, [{joint.lower:g}, {joint.upper:g}] rad; allowed: a value within them{hint}')
+        raise InputError(held_refusal(joint, float(value[i]), f'redundancy value = {{}} ({stations.label(i)})'))
     return value
+
+
+def held_refusal(joint: ArmJoint, value: float, label: str, deg: bool = False) -> str:
+    """The refusal of a held ``value`` [rad] outside ``joint``'s limits (``label`` with ``{}`` where the value goes;
+    ``deg``: in degrees, as typed), with the value modulo a turn where that lies within them."""
+    unit, f = ('deg', math.degrees) if deg else ('rad', float)
+    shown, end = apart(f(value), f(joint.lower if value < joint.lower else joint.upper))
+    mid = 0.5 * (joint.lower + joint.upper)
+    turned = math.remainder(value - mid, 2.0 * math.pi) + mid
+    hint = (f'; {f(value):g} {unit} is {f(turned):.6g} {unit} modulo a turn' if joint.lower <= turned <= joint.upper
+            else '')
+    return (f'{label.format(f"{shown} {unit}")} is outside the limits of {joint.name}, [{f(joint.lower):g}, '
+            f'{f(joint.upper):g}] {unit}; allowed: a value within them{hint}')
 
 
 def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None = None,

@@ -49,6 +49,9 @@ from ..robot.program import RobotProgram, load_any_program
 from ..robot.stream import RobotStream, robot_stream
 
 Array = NDArray[np.float64]
+#: The relative rounding by which a move's need may exceed a limit and be at it (0.4 - 0.3 in 1 s: 0.15000000000000002
+#: m/s for a limit of 0.15).
+LIMIT_ROUNDING = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,18 +157,22 @@ def program_trajectory(cfg: GprConfig, prog: PlatformProgram, rate: float, move_
 
 
 def _beyond_rod_limits(prog: PlatformProgram, at_stations: Array, move_time: float, rods: Rods) -> str:
-    """The move of ``prog`` whose rods exceed ``rods``' velocity or acceleration limits the most, in words ('' if
-    none does)."""
+    """The moves of ``prog`` whose rods exceed ``rods``' velocity or acceleration limits (beyond rounding: a move at
+    a limit is within it), each with what it needs, in words; '' if none does."""
     speed, accel = rod_demand(prog, at_stations, move_time)
-    usage = np.maximum(speed / rods.velocity, accel / rods.acceleration)
-    if not usage.size or usage.max() <= 1.0:
+    over = np.flatnonzero((speed > rods.velocity * (1.0 + LIMIT_ROUNDING))
+                          | (accel > rods.acceleration * (1.0 + LIMIT_ROUNDING)))
+    if not over.size:
         return ''
-    k = int(np.argmax(usage))
     st = prog.stations
-    return (f'the move to station {k + 1} ({st[k + 1].name}) needs the rods at about {speed[k]:.3g} m/s and '
-            f'{accel[k]:.3g} m/s^2, beyond their limits {rods.velocity:g} m/s and {rods.acceleration:g} m/s^2 '
-            f'(rods.velocity, rods.acceleration): a robot cannot follow it as timed (a platform program is timed by '
-            f'its move_time only; a longer move_time, or a robot program, timed within the limits)')
+    moves = [f'to station {k + 1} ({st[k + 1].name}) about {speed[k]:.3g} m/s and {accel[k]:.3g} m/s^2'
+             for k in over[:3].tolist()]
+    more = f' and {over.size - 3} more' if over.size > 3 else ''
+    return (f'{"a move needs" if over.size == 1 else f"{over.size} moves need"} the rods beyond their limits '
+            f'{rods.velocity:g} m/s or {rods.acceleration:g} m/s^2 (rods.velocity, rods.acceleration): '
+            f'{"; ".join(moves)}{more}; a robot cannot follow {"it" if over.size == 1 else "them"} as timed (a '
+            'platform program is timed by its move_time only; a longer move_time, or a robot program, timed within '
+            'the limits)')
 
 
 def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -> Trajectory:
