@@ -147,7 +147,8 @@ def test_human_readable_output(capsys):
     (['sweep', '--azimuth-step', '0.001', '--deg'], r'--azimuth-step = 0\.001 deg; allowed: a step of at least '
                                                     r'0\.00572958 deg$'),   # named as typed, in the unit typed
     # a value 1000 times too large typed in mm (--mm) is no millimetres given as metres: no such hint
-    (['fk', '300000', '300', '300', '--mm'], r'^gpr fk: error: q1 = 300 m is outside the stroke \[0, 0\.508\] m$'),
+    (['fk', '300000', '300', '300', '--mm'], r'^gpr fk: error: q1 = 300 m is outside the stroke \[0, 0\.508\] m '
+                                             r'\(300000 mm as typed; the stroke is \[0, 508\] mm\)$'),   # as typed
     (['ik', '--height', '500000', '--tilt', '0', '--azimuth', '0', '--mm'],
      r'at the tilt 0 rad; allowed heights: 0 \.\. 0\.508 m$'),
     (['fk', '300', '0.3', '0.3'], r'q1 = 300 m is outside the stroke \[0, 0\.508\] m; 300 mm would be within it: '
