@@ -413,11 +413,11 @@ def test_quintic_goal_from_rest_is_checked_along_the_path():
 
 
 def test_joint_states_give_the_finite_values_of_known_joints():
-    k, v, left = joint_state_values(JOINTS, ['other', 'rod_2', 'arm1_elbow', 'rod_1', 'arm1_wrist'],
+    k, v, left = joint_state_values(JOINTS.names, ['other', 'rod_2', 'arm1_elbow', 'rod_1', 'arm1_wrist'],
                                     [9.0, 0.31, 0.5, math.nan, math.inf])
     assert k.tolist() == [1, JOINTS.names.index('arm1_elbow')] and v.tolist() == [0.31, 0.5]
     assert left == ['rod_1', 'arm1_wrist']   # named for the callers' warning (they were dropped without a word)
-    k, v, left = joint_state_values(JOINTS, ['rod_1', 'rod_2'], [])   # velocities only: no position taken
+    k, v, left = joint_state_values(JOINTS.names, ['rod_1', 'rod_2'], [])   # velocities only: no position taken
     assert k.size == 0 and v.size == 0 and left == []
 
 
@@ -430,13 +430,13 @@ def test_malformed_joint_states_are_refused(names, positions, words):
     """A JointState of three names and two positions moved rod_1 and rod_2 (the first values taken, misaligned or
     not); rod_1 named twice took the last of its values."""
     with pytest.raises(InputError, match=words):
-        joint_state_values(JOINTS, names, positions)
+        joint_state_values(JOINTS.names, names, positions)
 
 
 def test_a_joint_named_twice_is_found_in_one_pass():
     names = ['rod_1'] + [f'j{i}' for i in range(200_000)] * 2 + ['rod_1']   # other names may repeat: not ours
     with pytest.raises(InputError, match="'rod_1' named twice"):
-        joint_state_values(JOINTS, names, [0.0] * len(names))
+        joint_state_values(JOINTS.names, names, [0.0] * len(names))
 
 
 def _late_case(velocities: bool) -> tuple[JointTrajectory, np.ndarray]:

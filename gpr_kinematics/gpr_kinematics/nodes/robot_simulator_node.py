@@ -185,7 +185,7 @@ class RobotSimulatorNode(GprNode):
         if self.run is not None or self.own.get(stamp) == tuple(msg.position):   # running, or its own message
             return
         try:
-            taken, values, left = joint_state_values(self.joints, msg.name, msg.position)
+            taken, values, left = joint_state_values(self.joints.names, msg.name, msg.position)
         except GprError as exc:
             self.get_logger().warning(f'joint_states of another publisher ignored: {one_line(exc)}',
                                       throttle_duration_sec=5.0)

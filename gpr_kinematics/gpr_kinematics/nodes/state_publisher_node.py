@@ -172,7 +172,7 @@ class StatePublisherNode(GprNode):
         malformed message (not one position per name, a joint named twice) is ignored with a warning, as
         robot_state_publisher ignores it."""
         try:
-            taken, values, left = joint_state_values(self.joints, joints.name, joints.position)
+            taken, values, left = joint_state_values(self.joints.names, joints.name, joints.position)
         except GprError as exc:
             self.get_logger().warning(f'joint_states: {one_line(exc)}; message ignored', throttle_duration_sec=5.0)
             return

@@ -8,7 +8,6 @@ feedback and returns the outcome (:class:`FollowOutcome`: the goal status and th
 """
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -24,7 +23,8 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.messages import duration_parts
-from ..robot.controller import ERROR_NAMES
+from ..errors import GprError
+from ..robot.controller import ERROR_NAMES, joint_state_values
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
 from .qos import action_client_options, stream_qos
@@ -52,45 +52,34 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
 
 class MissingJointsError(ServiceTimeoutError):
     """Joint states came within the wait, but without some of the joints asked for: ``missing``, ``heard`` (the
-    joints the messages taken carried) and ``ignored`` (why the last malformed message was ignored, or '')."""
+    joints the messages taken carried) and ``ignored`` (what the last message left out, or '')."""
 
     def __init__(self, missing: Sequence[str], heard: Sequence[str], ignored: str = '') -> None:
         carry = f' (they carry {", ".join(heard)})' if heard else ''
-        why = f'; malformed messages ignored, the last as it {ignored}' if ignored else ''
+        why = f' (left out of the last message that left one out: {ignored})' if ignored else ''
         super().__init__(f'without {", ".join(missing)}{carry}{why}')
         self.missing, self.heard, self.ignored = tuple(missing), tuple(heard), ignored
 
 
-def _malformed(msg: JointState) -> str:
-    """Why a ``joint_states`` message cannot say where joints are, as the simulator and the state publisher ignore
-    one ('' if it can): names and positions of different counts, a name given twice, a value not finite."""
-    names, positions = list(msg.name), list(msg.position)
-    if len(names) != len(positions):
-        return f'has {len(names)} names and {len(positions)} positions'
-    seen: set[str] = set()
-    for n, v in zip(names, positions, strict=True):
-        if n in seen:
-            return f'names {n} twice'
-        seen.add(n)
-        if not math.isfinite(v):
-            return f'has {n} = {v}'
-    return ''
-
-
 def current_positions(client: GprClient, names: Sequence[str], topic: str, timeout: float) -> np.ndarray | None:
     """The latest positions of ``names`` from ``joint_states`` messages on ``topic`` (several messages may share
-    them; a malformed one is ignored whole, :func:`_malformed`), waiting at most ``timeout`` s for every one; None
-    if no message came, :class:`MissingJointsError` if messages came without some of ``names`` (another robot's, or
-    malformed: it said no joint states came, and took a joint named twice)."""
+    them), read as the simulator and the state publisher read them
+    (:func:`~gpr_kinematics.robot.controller.joint_state_values`: a malformed message ignored, a value not finite left
+    out), waiting at most ``timeout`` s for every one; None if no message came, :class:`MissingJointsError` if
+    messages came without some of ``names`` (another robot's, or malformed: it said no joint states came, and took a
+    joint named twice)."""
     latest: dict[str, float] = {}
     ignored = ['']
 
     def take(msg: JointState) -> None:
-        why = _malformed(msg)
-        if why:
-            ignored[0] = why
+        try:
+            taken, values, left = joint_state_values(names, msg.name, msg.position)
+        except GprError as exc:
+            ignored[0] = f'the whole message, {exc}'
             return
-        latest.update((n, float(v)) for n, v in zip(msg.name, msg.position, strict=True))
+        if left:
+            ignored[0] = f'{", ".join(left)} not finite'
+        latest.update((names[k], v) for k, v in zip(taken.tolist(), values.tolist(), strict=True))
 
     sub = client.node.create_subscription(JointState, topic, take, stream_qos(100))
     try:

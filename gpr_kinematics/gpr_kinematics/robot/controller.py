@@ -112,20 +112,21 @@ class ControllerJoints:
         return np.array(out, dtype=np.int64)
 
 
-def joint_state_values(joints: ControllerJoints, names: Sequence[str], positions: Sequence[float]
+def joint_state_values(known: Sequence[str], names: Sequence[str], positions: Sequence[float]
                        ) -> tuple[NDArray[np.int64], Array, list[str]]:
-    """The positions a ``sensor_msgs/JointState`` carries for the joints among ``joints``: their indices and finite
-    values (other names are left out; no positions at all: none), and the names of the joints among ``joints`` whose
+    """The positions a ``sensor_msgs/JointState`` carries for the joints ``known`` (a controller's names, a
+    trajectory's): their indices in ``known`` and finite values (other names are left out; no positions at all:
+    none), and the names of the joints among ``known`` whose
     value is not finite (left out too: the caller warns; they were dropped without a word). :class:`InputError` for a
-    message whose ``position`` is not one per ``name`` or that names one of ``joints`` twice (which value holds would
+    message whose ``position`` is not one per ``name`` or that names one of ``known`` twice (which value holds would
     be a guess; the first values of a longer ``name`` were taken), as ``robot_state_publisher`` ignores it. Memory:
-    one entry per joint of ``joints``, whatever the message's size."""
+    one entry per joint of ``known``, whatever the message's size."""
     if not len(positions):
         return np.zeros(0, dtype=np.int64), np.zeros(0), []
     if len(positions) != len(names):
         raise InputError(f'{len(names)} names and {len(positions)} positions; allowed: one position per '
                          'name, or none')
-    index = {n: k for k, n in enumerate(joints.names)}
+    index = {n: k for k, n in enumerate(known)}
     taken: dict[int, float] = {}
     for n, v in zip(names, positions, strict=True):
         k = index.get(n)
@@ -135,7 +136,7 @@ def joint_state_values(joints: ControllerJoints, names: Sequence[str], positions
             raise InputError(f'joint {brief(n)} named twice; allowed: each joint once')
         taken[k] = float(v)
     finite = [(k, v) for k, v in taken.items() if math.isfinite(v)]
-    left = [joints.names[k] for k, v in taken.items() if not math.isfinite(v)]
+    left = [known[k] for k, v in taken.items() if not math.isfinite(v)]
     return np.array([k for k, _ in finite], dtype=np.int64), np.array([v for _, v in finite], dtype=float), left
 
 
