@@ -211,19 +211,21 @@ def program_bodies(plan: ProgramPlan, cell: Cell | None, wafers: WaferPlan | Non
 
 def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajectory, margin: float = MARGIN,
                          tolerance: float = TOLERANCE, decide: bool = True,
-                         only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
+                         only: Collection[tuple[str, str]] | None = None, wafers: WaferPlan | None = None
+                         ) -> ClearanceReport:
     """The certified clearance of the program's bodies (:func:`program_bodies`) over ``traj``, the program as a
     controller interpolates its points (:func:`~gpr_kinematics.robot.trajectory.program_trajectory`, times from the
     program's start): between points a few per second apart the spline leaves the checked motion (the example cell
     program at 0.3 Hz put arm2's blade 8.7 mm into a chamber's wall). ``decide``: as
-    :func:`~gpr_kinematics.safety.clearance.clearance`'s; ``only``: just these pairs of body names."""
+    :func:`~gpr_kinematics.safety.clearance.clearance`'s; ``only``: just these pairs of body names; ``wafers``: where
+    the wafers are (default the program's, :func:`wafer_plan`)."""
     names = joint_limits(plan.robot)[0]
     columns = np.arange(len(names))
     if len(traj.joint_names) != len(names):
         raise InputError(f'the trajectory has {len(traj.joint_names)} joints; allowed: every joint of the robot '
-                         f'({len(names)}), as program_trajectory makes it')
+                         f'({len(names)}), as program_trajectory and lead_in make it')
     moving = TrajectoryMotion.of(plan.robot, traj, columns, traj.positions[0])
-    bodies, pairs = _pairs_of(*program_bodies(plan, cell), only)
+    bodies, pairs = _pairs_of(*program_bodies(plan, cell, wafers), only)
     return clearance(moving, bodies, pairs, margin, tolerance, decide=decide)
 
 
@@ -247,16 +249,10 @@ def lead_in_clearance(plan: ProgramPlan, cell: Cell | None, lead: JointTrajector
                       only: Collection[tuple[str, str]] | None = None) -> ClearanceReport:
     """The certified clearance over ``lead``, the move of every joint from where the robot is to the program's first
     point (:func:`~gpr_kinematics.robot.trajectory.lead_in`, times from the move's start) as a controller interpolates
-    its points, the wafers as they are at the program's start (:func:`at_the_start`): ``gpr program send`` adds the
-    move, which no program check sees (a program checked safe drove arm2's blade 45 mm into a chamber's wall);
-    ``decide``, ``only``: as :func:`trajectory_clearance`'s."""
-    names = joint_limits(plan.robot)[0]
-    if len(lead.joint_names) != len(names):
-        raise InputError(f'the move has {len(lead.joint_names)} joints; allowed: every joint of the robot '
-                         f'({len(names)}), as lead_in makes it')
-    moving = TrajectoryMotion.of(plan.robot, lead, np.arange(len(names)), lead.positions[0])
-    bodies, pairs = _pairs_of(*program_bodies(plan, cell, at_the_start(wafer_plan(plan))), only)
-    return clearance(moving, bodies, pairs, margin, tolerance, decide=decide)
+    its points: :func:`trajectory_clearance` with the wafers as they are at the program's start (:func:`at_the_start`).
+    ``gpr program send`` adds the move, which no program check sees (a program checked safe drove arm2's blade 45 mm
+    into a chamber's wall)."""
+    return trajectory_clearance(plan, cell, lead, margin, tolerance, decide, only, at_the_start(wafer_plan(plan)))
 
 
 def program_clearance(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, decide: bool = True,
