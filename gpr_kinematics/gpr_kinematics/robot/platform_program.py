@@ -159,15 +159,22 @@ def load_platform_program(path: str | Path) -> PlatformProgram:
     return parse_platform_program(read_yaml(path, 'program'), str(path))
 
 
+def move_times(program: PlatformProgram, default_move_time: float) -> list[float]:
+    """The duration [s] of each move, into stations 1 .. S - 1: the station's ``move_time``, else the file's, else
+    ``default_move_time`` (the node's)."""
+    return [st.move_time or program.move_time or default_move_time for st in program.stations[1:]]
+
+
 def program_knots(program: PlatformProgram, default_move_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Knot times ``(K,)`` [s], knot states ``(K, 3)`` = (height, v_x, v_y) and the station index of each
     knot. Consecutive knots alternate dwell (equal states) and move segments."""
     times, states, index = [], [], []
     t = 0.0
+    moves = [0.0, *move_times(program, default_move_time)]
     for i, st in enumerate(program.stations):
         state = (st.height, st.tilt * math.cos(st.azimuth), st.tilt * math.sin(st.azimuth))
         if i > 0:
-            t += st.move_time or program.move_time or default_move_time
+            t += moves[i]
         times.append(t)
         states.append(state)
         index.append(i)
@@ -185,7 +192,7 @@ def rod_demand(program: PlatformProgram, rods: np.ndarray, default_move_time: fl
     ``6 / T^2`` of the change over a move of ``T`` s (``s' = 6u(1 - u)``, ``s'' = 6 - 12u``), the rods changing
     along the move as the step, to first order (the tilt's second-order part of a rod is below 1e-3 of it at 2 deg)."""
     change = np.max(np.abs(np.diff(np.asarray(rods, dtype=float), axis=0)), axis=1) if len(rods) > 1 else np.zeros(0)
-    T = np.array([st.move_time or program.move_time or default_move_time for st in program.stations[1:]])
+    T = np.array(move_times(program, default_move_time))
     return 1.5 * change / T, 6.0 * change / (T * T)
 
 
