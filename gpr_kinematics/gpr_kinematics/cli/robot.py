@@ -82,11 +82,10 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     red = arm.redundancy
     if value is not None and red is not None and red.rule == 'fixed_joint':   # named as typed, in the unit typed
         from ..errors import InputError
-        from ..robot.arm_chain import LIMIT_SLACK
         from ..robot.inverse import held_refusal
-        held = arm.joints[red.joint]
-        if not held.lower - LIMIT_SLACK <= value <= held.upper + LIMIT_SLACK:
-            raise InputError(held_refusal(held, value, '--redundancy = {}', args.deg))
+        refusal = held_refusal(arm.joints[red.joint], value, '--redundancy = {}', args.deg)
+        if refusal:
+            raise InputError(refusal)
     sol = solve_stations(robot, stations, args.arm, args.branch, redundancy_value=value)
     if args.json:
         emit_json(sol.record(0))

@@ -9,9 +9,9 @@ from typing import Any
 from ..errors import InputError
 from ..inputs.validation import MAX_COORDINATE, beyond_turn, finite_vector, within_turn
 from ..robot import Stations
-from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import BRANCHES, Arm, RobotDescription
 from ..robot.fields import WORLD_BOUND, check_world_position
+from ..robot.inverse import held_refusal
 from ..robot.one_station import StationFloats, station_floats
 from ..robot.planar_arm import branch_sign
 
@@ -51,8 +51,7 @@ def one_station_request(robot: RobotDescription, request: Any, arm: Arm, branch:
     if value is not None:   # a held value for a fixed_joint arm within its joint's limits as given, else the batch's
         if arm.redundancy is None or arm.redundancy.rule != 'fixed_joint':
             return None
-        held = arm.joints[arm.redundancy.joint]
-        if not held.lower - LIMIT_SLACK <= value <= held.upper + LIMIT_SLACK:
+        if held_refusal(arm.joints[arm.redundancy.joint], value, '{}'):
             return None
     free = bool(request.heading_free)
     if free and len(arm.joints) > 2:

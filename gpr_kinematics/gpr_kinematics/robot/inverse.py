@@ -230,9 +230,8 @@ def _heading_in(R_platform: Array, R_b: Array) -> Array:
 
 
 def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Array:
-    """The held joint's values ``(N,)`` [rad] given per station or once, each within the joint's limits as given
-    (the robot file's ``value``'s rule and forward kinematics'; 5 rad on a joint of [-2.5, 2.5] rad was held at
-    -1.28 rad, modulo a turn, without a word), one beyond a turn named as such (degrees given as radians)."""
+    """The held joint's values ``(N,)`` [rad], per station or once, each within the joint's limits as given (the
+    robot file's rule: 5 rad on [-2.5, 2.5] rad was held at -1.28 rad without a word), one beyond a turn named so."""
     if a.redundancy is None or a.redundancy.rule != 'fixed_joint':
         raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
                          'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
@@ -245,7 +244,7 @@ def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Arr
         shown = apart(abs(float(value[i])), TURN)[0]
         raise InputError(f'redundancy value = {"-" if value[i] < 0 else ""}{shown} rad ({stations.label(i)}) is '
                          f'beyond one turn; allowed: radians within [-2pi, 2pi] ({limits}); in degrees? give radians')
-    outside = (value < joint.lower - LIMIT_SLACK) | (value > joint.upper + LIMIT_SLACK)
+    outside = (value < joint.lower - LIMIT_SLACK) | (value > joint.upper + LIMIT_SLACK)   # held_refusal's, batched
     if outside.any():
         i = int(np.argmax(outside))
         raise InputError(held_refusal(joint, float(value[i]), f'redundancy value = {{}} ({stations.label(i)})'))
@@ -253,8 +252,10 @@ def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Arr
 
 
 def held_refusal(joint: ArmJoint, value: float, label: str, deg: bool = False) -> str:
-    """The refusal of a held ``value`` [rad] outside ``joint``'s limits (``label`` with ``{}`` where the value goes;
-    ``deg``: in degrees, as typed), with the value modulo a turn where that lies within them."""
+    """The refusal of a held ``value`` [rad] outside ``joint``'s limits ('' within, to LIMIT_SLACK): ``label`` with
+    ``{}`` where the value goes, ``deg``: as typed in degrees; the value modulo a turn where that lies within."""
+    if joint.lower - LIMIT_SLACK <= value <= joint.upper + LIMIT_SLACK:
+        return ''
     unit, f = ('deg', math.degrees) if deg else ('rad', float)
     shown, end = apart(f(value), f(joint.lower if value < joint.lower else joint.upper))
     mid = 0.5 * (joint.lower + joint.upper)
