@@ -64,11 +64,12 @@ def check_stroke(ops: Ops, q: Sequence[Value], config: GprConfig, what: str = 'q
     i, k = np.argwhere((rods < lo) | (rods > hi))[0]
     where = f' (sample {i})' if rods.shape[0] > 1 else ''
     value = float(rods[i, k])
-    hint = f'; {value:.9g} mm would be within it: millimetres given as metres?' if typed and millimetres_within(
-        value, config) else ''
+    hint = ''
     if typed and _TYPED_IN_MILLIMETRES.get():   # named as typed too: 300000 mm was told "q1 = 300 m" alone
         hint = (f' ({value * 1000.0:.9g} mm as typed; the stroke is [{config.stroke_min * 1000.0:g}, '
                 f'{config.stroke_max * 1000.0:g}] mm)')
+    elif typed and millimetres_within(value, config):
+        hint = f'; {value:.9g} mm would be within it: millimetres given as metres?'
     more = '' if detail is None else detail(int(i), int(k))
     shown, ends = stroke_words(value, config.stroke_min, config.stroke_max)
     raise LimitError(f'{names[k] if names else f"{what}{k + 1}"} = {shown} m{where} is outside the stroke {ends} m'
