@@ -675,7 +675,9 @@ def test_teach_names_a_wrong_joint_count_as_fk_does(capsys):
 @pytest.mark.parametrize('sig, status, word', [('SIGTERM', 143, 'terminated'), ('SIGINT', 130, 'interrupted')])
 def test_a_command_killed_takes_its_outputs_back(tmp_path, sig, status, word):
     """SIGTERM (a kill, `timeout`) left a 17 MB hidden .tmp file and the outputs written before it, where Ctrl-C took
-    them back: both end the same way now, one line on stderr, nothing left in the folder."""
+    them back: both end the same way now, one line on stderr, nothing left in the folder. A signal that lands once the
+    outputs are being kept comes after the command's end: both outputs whole, status 0 (it left them and exited 143
+    once under load)."""
     import signal
     import time
 
@@ -694,5 +696,44 @@ def test_a_command_killed_takes_its_outputs_back(tmp_path, sig, status, word):
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
-    assert proc.returncode == status and err == f'gpr program export: {word}\n', (proc.returncode, err)
-    assert list(tmp_path.iterdir()) == []
+    if proc.returncode == 0:   # the signal came after the outputs' commit
+        assert err == '' and sorted(p.name for p in tmp_path.iterdir()) == ['s.json', 'w.csv'], err
+        assert json.loads((tmp_path / 's.json').read_text())['rows']
+    else:
+        assert proc.returncode == status and err == f'gpr program export: {word}\n', (proc.returncode, err)
+        assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize('sig, status, word', [('SIGTERM', 143, 'terminated'), ('SIGINT', 130, 'interrupted')])
+def test_a_signal_between_outputs_or_after_their_commit(tmp_path, monkeypatch, capsys, sig, status, word):
+    """The two sides of the commit, in-process, each certain: a signal after the first output's write takes it back
+    (status 128 + the signal), one while the outputs are kept is too late and leaves both whole (status 0)."""
+    import os
+    import signal
+
+    from gpr_kinematics.inputs import files
+
+    signum = getattr(signal, sig)
+    before = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]
+    replace, keep = files._replace, files._Writes.keep
+
+    def replace_then_signal(tmp, target):
+        replace(tmp, target)
+        os.kill(os.getpid(), signum)
+
+    def signal_then_keep(self):
+        os.kill(os.getpid(), signum)
+        keep(self)
+
+    args = ('program', 'export', PROGRAM, '--samples', str(tmp_path / 's.json'), '--waypoints',
+            str(tmp_path / 'w.csv'), '--rate', '50')
+    with monkeypatch.context() as m:
+        m.setattr(files, '_replace', replace_then_signal)
+        got, _, err = run(capsys, *args)
+    assert (got, err, list(tmp_path.iterdir())) == (status, f'gpr program export: {word}\n', [])
+    with monkeypatch.context() as m:
+        m.setattr(files._Writes, 'keep', signal_then_keep)
+        got, _, err = run(capsys, *args)
+    assert (got, err, sorted(p.name for p in tmp_path.iterdir())) == (0, '', ['s.json', 'w.csv'])
+    assert json.loads((tmp_path / 's.json').read_text())['rows']
+    assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == before   # the handlers given back

@@ -9,6 +9,7 @@ import os
 import resource
 import shutil
 import signal
+import tempfile
 import time
 from pathlib import Path
 
@@ -149,6 +150,32 @@ def test_a_node_without_stderr_starts_serves_and_refuses_as_with_one():
         assert node.alive()
     finally:
         assert node.stop() == 0
+
+
+def test_a_node_process_takes_its_log_folder_with_it(tmp_path):
+    """Every NodeProcess without a log folder made one in /tmp and left it (329 after a day's test runs): the folder
+    is its own now, read while it lives and removed with it; ``echo`` makes none, a given folder is kept."""
+    import gc
+
+    from gpr_kinematics.ros.process import NodeProcess
+
+    bad = NodeProcess('kinematics_node', ['-p', 'radius:=21.0'])
+    assert bad.wait(timeout=60) == 2
+    folder = bad.log_dir
+    assert folder is not None and folder.parent == Path(tempfile.gettempdir()) and 'radius' in bad.output()
+    del bad
+    gc.collect()
+    assert not folder.exists()
+    given = NodeProcess('kinematics_node', ['-p', 'radius:=21.0'], log_dir=tmp_path / 'logs')
+    assert given.wait(timeout=60) == 2
+    del given
+    gc.collect()
+    assert 'radius' in (tmp_path / 'logs' / 'kinematics_node.err').read_text()
+    echo = NodeProcess('kinematics_node', ['-p', 'radius:=21.0'], echo=True)
+    try:
+        assert echo.log_dir is None and echo.output() == ''
+    finally:
+        echo.stop()
 
 
 @pytest.mark.parametrize('exe', list(NODES))

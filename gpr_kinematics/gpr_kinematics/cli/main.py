@@ -157,7 +157,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     command = command_path(parser, args)
-    previous = _catch_sigterm()
+    stop = _Stop()
+    previous = _catch_stops(stop)
     try:
         from ..core.stroke import typed_in_millimetres
         from .options import resolve_shipped
@@ -168,6 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         mm = bool(getattr(args, 'mm', False)) and bool(getattr(args, 'mm_converts_all', False))
         with command_reads(), command_writes(), typed_in_millimetres(mm):
             status = int(args.handler(args))
+            stop.done = True   # from here on the outputs are kept: a signal now comes after the command's end
         sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
         return status
     except GprError as exc:
@@ -190,8 +192,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             sys.stderr.write(f'{command}: error: {os_error(exc, args)}\n')
         return EXIT_USAGE
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 class _Terminated(KeyboardInterrupt):
@@ -199,17 +201,31 @@ class _Terminated(KeyboardInterrupt):
     and the outputs written before it)."""
 
 
-def _on_sigterm(signum: int, frame: FrameType | None) -> None:
-    raise _Terminated
+class _Stop:
+    """SIGINT's and SIGTERM's handler while a command runs: KeyboardInterrupt and :class:`_Terminated` until the
+    command's work is ``done``, nothing after it (its outputs are being kept: a kill there left them and exited 143,
+    "terminated" beside whole outputs; now a command ends either stopped with nothing written or done with all)."""
+
+    def __init__(self) -> None:
+        self.done = False
+
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
+        if not self.done:
+            raise _Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
 
-def _catch_sigterm() -> _HANDLER | None:
-    """Make SIGTERM raise :class:`_Terminated` while a command runs; the handler it replaces (None: not the main
-    thread, where no handler can be set)."""
-    try:
-        return signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:
-        return None
+def _catch_stops(handler: _Stop) -> dict[int, _HANDLER]:
+    """Make SIGINT and SIGTERM call ``handler`` while a command runs; the handlers it replaces (none where no handler
+    can be set: not the main thread; a signal the process was started ignoring stays ignored)."""
+    previous: dict[int, _HANDLER] = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) is signal.SIG_IGN:
+            continue
+        try:
+            previous[signum] = signal.signal(signum, handler)
+        except ValueError:
+            break
+    return previous
 
 
 #: The errors of a write only: a full disk or quota, a file too large, a read-only file system.

@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal as signals
 import subprocess
 import tempfile
 import time
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -37,8 +39,9 @@ class NodeProcess:
         ros_args: arguments after ``--ros-args`` (``-p name:=value``, ``-r __ns:=/x``, ``--params-file f``).
         env: environment of the process (default ``os.environ``; it must hold the ROS environment, see
             :mod:`gpr_kinematics.ros.env`).
-        log_dir: folder of ``<exe>.out``/``<exe>.err`` (default: a new temporary folder); ``echo=True`` passes
-            the output through to this process's stdout/stderr instead.
+        log_dir: folder of ``<exe>.out``/``<exe>.err`` (default: a new temporary folder, removed with this object:
+            every test's node left one in ``/tmp``); ``echo=True`` passes the output through to this process's
+            stdout/stderr instead (and makes no folder unless given one).
         preexec: called in the child before the executable starts (e.g. to set a resource limit).
     """
 
@@ -49,16 +52,20 @@ class NodeProcess:
         self.env = dict(os.environ if env is None else env)
         self.path = ros_env.find_executable(PACKAGE, exe, self.env)
         self.args = [str(self.path), *(['--ros-args', *ros_args] if ros_args else [])]
-        self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix=f'gpr_{exe}_'))
-        self.log_dir.mkdir(parents=True, exist_ok=True)
-        self.out_path = self.log_dir / f'{exe}.out'
-        self.err_path = self.log_dir / f'{exe}.err'
+        if log_dir is None and not echo:   # a folder of this object's: removed with it
+            log_dir = tempfile.mkdtemp(prefix=f'gpr_{exe}_')
+            weakref.finalize(self, shutil.rmtree, log_dir, ignore_errors=True)
+        self.log_dir = None if log_dir is None else Path(log_dir)
+        self.out_path: Path | None = None
+        self.err_path: Path | None = None
         self._files: list[IO[bytes]] = []
-        if echo:
-            out, err = None, None
-        else:
-            self._files = [open(self.out_path, 'wb'), open(self.err_path, 'wb')]  # noqa: SIM115 - closed in _close
-            out, err = self._files
+        out = err = None
+        if self.log_dir is not None:
+            self.log_dir.mkdir(parents=True, exist_ok=True)
+            self.out_path, self.err_path = self.log_dir / f'{exe}.out', self.log_dir / f'{exe}.err'
+            if not echo:
+                self._files = [open(self.out_path, 'wb'), open(self.err_path, 'wb')]  # noqa: SIM115 - see _close
+                out, err = self._files
         self.proc = subprocess.Popen(self.args, stdout=out, stderr=err, stdin=subprocess.DEVNULL, env=self.env,
                                      preexec_fn=preexec)
 
@@ -75,7 +82,7 @@ class NodeProcess:
         for f in self._files:
             if not f.closed:
                 f.flush()
-        return ''.join(p.read_text(errors='replace') for p in (self.out_path, self.err_path) if p.exists())
+        return ''.join(p.read_text(errors='replace') for p in (self.out_path, self.err_path) if p and p.exists())
 
     def tail(self, n: int = 5) -> str:
         """The last ``n`` lines of :meth:`output`."""
