@@ -490,6 +490,51 @@ def test_a_program_unsafe_in_its_cell_is_named_so_not_its_rate(capsys, tmp_path,
     assert status == 1 and re.search(r'arm2_wafer / pm1/front_left +-5\.049 +(1[5-9]|2[0-6])\.\d{3}', out), out
 
 
+def _variant(tmp_path, robot_edit=None, gpr_line='', cell=True):
+    """The example cell program (or, ``cell=False``, the example robot program) on a copy of the example robot with
+    ``robot_edit`` (old, new) applied and ``gpr_line`` (``key: value``) added to its ``gpr`` section."""
+    robot = config_path('robots/example_robot.yaml').read_text()
+    if robot_edit is not None:
+        assert robot.count(robot_edit[0]) == 2
+        robot = robot.replace(*robot_edit)
+    robot = robot.replace('  model: radial ', f'  {gpr_line}\n  model: radial ' if gpr_line else '  model: radial ')
+    (tmp_path / 'robot.yaml').write_text(robot)
+    name = 'example_cell_program' if cell else 'example_robot_program'
+    text = config_path(f'programs/{name}.yaml').read_text()
+    text = text.replace('../robots/example_robot.yaml', str(tmp_path / 'robot.yaml'))
+    program = tmp_path / 'program.yaml'
+    program.write_text(text.replace('../cells/', f'{config_path("cells")}/'))
+    return program
+
+
+def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(capsys, tmp_path):
+    """The example cell program on blades of friction 0.1 (0.3 shipped): gpr program check finds it NOT safe (the
+    wafer slips, ratio 2.259 = 3 x 0.753), yet --trajectory wrote it and send sent it (5,960 points) without a word:
+    refused now as a collision was, naming the slip where check does."""
+    program = _variant(tmp_path, ('friction: 0.3', 'friction: 0.1'))
+    status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert status == 1 and ('  UNSAFE: the wafer slips on the blade (ratio 2.259 >= 1) at 54.683 s, steps[14] (place '
+                            'load_port_1, approach)') in out.splitlines(), out
+    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'))
+    assert (status, out) == (2, '') and not (tmp_path / 't.yaml').exists()
+    assert err == ('gpr program export: error: the program itself is not safe: the wafer slips on the blade (ratio '
+                   '2.259 >= 1) at 54.683 s, steps[14] (place load_port_1, approach) (no --rate helps); allowed: a '
+                   'program gpr program check finds safe (it names every pair and move)\n'), err
+
+
+def test_a_program_beyond_the_imperfection_budget_is_not_written_as_a_trajectory(capsys, tmp_path):
+    """The example robot program (no cell: the robot against itself) under an imperfection budget of 30 um: check
+    finds 17 samples beyond it at 10 Hz (test_safety_check), --trajectory wrote it; now refused naming them."""
+    program = _variant(tmp_path, gpr_line='imperfection_budget: 3.0e-5', cell=False)
+    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
+                           '--rate', '10')
+    assert (status, out) == (2, '') and not (tmp_path / 't.yaml').exists(), out
+    assert err == ('gpr program export: error: the program itself is not safe: 17 sample(s) at 10 Hz beyond the '
+                   'imperfection budget of 30 um (the largest joint displacement 30.673 um at 16.500 s, steps[5] '
+                   '(place chamber_a, at)) (no --rate helps); allowed: a program gpr program check finds safe (it '
+                   'names every pair and move)\n'), err
+
+
 def test_the_refusal_quotes_the_closest_of_several_pairs_below_the_margin():
     """What a refusal of --trajectory in a cell quotes (program_trajectory._least): of several pairs below the 2 mm
     margin, the closest, at its least distance. Four fixed 100 mm cubes, a clear of d by 283 mm, of b by 1.5 mm
@@ -538,8 +583,8 @@ def test_a_cell_program_exports_without_python_fcl_with_a_warning(capsys, tmp_pa
     cell = str(config_path('programs/example_cell_program.yaml'))
     status, out, err = run(capsys, 'program', 'export', cell, '--trajectory', str(tmp_path / 't.yaml'), '--rate', '10')
     assert status == 0 and 'trajectory written to' in out and (tmp_path / 't.yaml').exists()
-    assert err == ('gpr program export: warning: the trajectory is not checked for the clearance of cell '
-                   f'{config_path("programs")}/../cells/example_cell.yaml: that needs the optional package '
+    assert err == ('gpr program export: warning: the program and its trajectory are not checked for clearance in '
+                   f'cell {config_path("programs")}/../cells/example_cell.yaml: that needs the optional package '
                    "'fcl' (pip install 'gpr_kinematics[safety]')\n"), err
 
 

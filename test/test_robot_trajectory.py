@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import yaml
-from gpr_kinematics.errors import InputError
+from gpr_kinematics.errors import InputError, RobotStateError
 from gpr_kinematics.robot.export import sample_table
 from gpr_kinematics.robot.plan import plan_program, sample_plan
 from gpr_kinematics.robot.program import load_program
@@ -152,7 +152,7 @@ def test_lead_in_from_the_current_state():
     plan = _plan()
     rate = 50.0
     traj = program_trajectory(plan, rate)
-    current = traj.positions[0] + np.array([0.01, -0.02, 0.0, 0.5, -0.3, 0.2, 0, 0, 0, 0.1])
+    current = traj.positions[0] + np.array([0.01, 0.0105, 0.0095, 0.5, -0.3, 0.2, 0, 0, 0, 0.1])
     out, T = lead_in(plan, traj, current, rate)
     n = round(T * rate)
     assert T > 0 and math.isclose(n / rate, T)
@@ -179,11 +179,27 @@ def test_lead_in_from_the_current_state():
         bad[k] = value
         with pytest.raises(InputError, match=rf'the robot reports {traj.joint_names[k]} = .* outside its limits'):
             lead_in(plan, traj, bad, rate)
-    # at a limit as the planner leaves it (1e-13 beyond), or an encoder's overshoot: a state to start from
-    for over in (1e-13, 1e-4):
+    # at a limit as the planner leaves it (1e-13 beyond), or an encoder's overshoot: a state to start from, taken as
+    # the limit (a goal from 1e-10 beyond it was built, and a controller refuses a point beyond a limit)
+    for over in (1e-13, 1e-10, 1e-4):
         at = traj.positions[0].copy()
-        at[0] = plan.robot.config.stroke_max + over
-        assert lead_in(plan, traj, at, rate)[1] > 0.0
+        at[:3] = plan.robot.config.stroke_max   # the platform up, level
+        at[0] += over
+        goal, T = lead_in(plan, traj, at, rate)
+        assert T > 0.0 and goal.positions[0, 0] == plan.robot.config.stroke_max
+    # rods no platform takes (beyond the tilt limit, or of no pose at all): a goal was built from them, refused by the
+    # controller for something else; the robot's state is named (status 1 in send)
+    for rods, what in (([0.25, 0.254, 0.262], 'q = [0.25, 0.254, 0.262] m tilts the platform by about 0.07576 rad '
+                        '(4.341 deg), beyond the tilt limit 0.03491 rad (2 deg); allowed: rods within the tilt limit'),
+                       ([0.1, 0.4, 0.3], 'q = [0.1, 0.4, 0.3] m imply no platform orientation (their differences are '
+                        "more than the joints' spread can make at any tilt); allowed: rods within the tilt limit "
+                        '0.03491 rad (2 deg)')):
+        bad = traj.positions[0].copy()
+        bad[:3] = rods
+        with pytest.raises(RobotStateError) as info:
+            lead_in(plan, traj, bad, rate)
+        assert str(info.value) == (f'the robot reports rod_1, rod_2, rod_3: {what} (are these joint states of this '
+                                   'robot?)')
 
 
 def test_a_lead_in_that_takes_the_trajectory_past_a_day_is_refused(tmp_path):

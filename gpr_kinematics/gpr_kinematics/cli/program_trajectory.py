@@ -3,6 +3,7 @@ as ``robot_simulator_node`` checks a goal, for the clearance of its spline in th
 program it stands for (a warning where its spline leaves it)."""
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,8 +44,8 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     except GoalError as exc:
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
-    if plan.program.cell is not None:
-        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate, command)
+    if the_program_is_safe(plan, rate, command) and plan.program.cell is not None:
+        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate)
     if traj.duration > longest:
         print(f'gpr program {command}: warning: the trajectory lasts {traj.duration:.6g} s: robot_simulator_node '
               f'samples a goal at its rate into at most {MAX_SAMPLES} samples and refuses it at its default rate of '
@@ -53,26 +54,50 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
 
 
-def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float, command: str
-                               ) -> None:
-    """Refuse ``traj`` (the program at ``--rate``) whose spline comes within the clearance margin in the program's
-    ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), naming the program itself where it
-    does (:func:`~gpr_kinematics.safety.check.program_clearance`: no rate helps then). Without python-fcl, a warning
-    says the clearance is not checked (``program export`` needs only numpy, scipy and PyYAML)."""
-    if not _has_fcl(cell, command, 'the trajectory'):
-        return
+def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
+    """Refuse a program ``gpr program check`` finds not safe (:func:`~gpr_kinematics.safety.check.check_program`:
+    the clearance in its cell or against itself, the wafers' slip, the imperfection budget at ``rate``), naming the
+    first reason: a program whose wafer slipped (ratio 2.26 at a friction of 0.1) had its trajectory written and
+    sent. Without python-fcl the clearance is left out with a warning; whether it was checked."""
     from ..safety.cell import load_cell
-    from ..safety.check import program_clearance, trajectory_clearance
+    from ..safety.check import check_program
+    cell = plan.program.cell
+    where = f'in cell {cell}' if cell is not None else 'against itself (no cell)'
+    fcl = _has_fcl(where, command, 'the program and its trajectory')
+    loaded = None if cell is None else load_cell(cell)
+    report, clear, _ = check_program(plan, loaded, MARGIN, rate=rate, with_clearance=fcl)
+    if report.safe:
+        return fcl
+    if report.collisions:
+        from ..safety.check import program_clearance
+        p = _least(program_clearance(plan, loaded, MARGIN, decide=False, only=_names(clear)))
+        why = f' {where}: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm'
+    elif report.max_slip_ratio >= 1.0:
+        ratio = report.max_slip_evaluated
+        how = ('lifts off the blade (ratio inf)' if ratio == math.inf
+               else f'slips on the blade (ratio {ratio:.3f} >= 1)' if ratio >= 1.0
+               else f'may slip on the blade (its ratio bounded by {report.max_slip_ratio:.3f}, not below 1)')
+        why = f': the wafer {how} at {report.max_slip_at:.3f} s, {report.slip_label}'
+    else:
+        b = report.budget
+        assert b is not None
+        why = (f': {sum(f.samples for f in b.beyond)} sample(s) at {b.rate:g} Hz beyond the imperfection budget of '
+               f'{b.budget * 1e6:g} um (the largest joint displacement {b.max_displacement * 1e6:.3f} um at '
+               f'{b.max_at:.3f} s, {b.max_label})')
+    raise InputError(f'the program itself is not safe{why} (no --rate helps); '
+                     'allowed: a program gpr program check finds safe (it names every pair and move)')
+
+
+def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float) -> None:
+    """Refuse ``traj`` (the program at ``--rate``, which :func:`the_program_is_safe` passed) whose spline comes within
+    the clearance margin in the program's ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`):
+    a higher rate helps (python-fcl needed: ``program export`` alone needs only numpy, scipy and PyYAML)."""
+    from ..safety.cell import load_cell
+    from ..safety.check import trajectory_clearance
     loaded = load_cell(cell)
     report = trajectory_clearance(plan, loaded, traj, MARGIN)
     if not report.below_margin:
         return
-    own = program_clearance(plan, loaded, MARGIN)
-    if own.below_margin:   # each pair below the margin to its least distance, as gpr program check quotes it
-        p = _least(program_clearance(plan, loaded, MARGIN, decide=False, only=_names(own)))
-        raise InputError(f'the program itself is not safe in cell {cell}: {_pair(p)}, within the margin of '
-                         f'{MARGIN * 1000:g} mm (no --rate helps); allowed: a program gpr program check finds safe '
-                         '(it names every pair and move)')
     p = _least(trajectory_clearance(plan, loaded, traj, MARGIN, decide=False, only=_names(report)))
     raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
                      f'program: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm in cell {cell} (the program '
@@ -90,7 +115,7 @@ def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: flo
     from ..errors import RobotStateError
     from ..robot.trajectory import JointTrajectory
     cell = plan.program.cell
-    if cell is None or start <= 0.0 or not _has_fcl(cell, 'send', 'the move to the program\'s start'):
+    if cell is None or start <= 0.0 or not _has_fcl(f'in cell {cell}', 'send', 'the move to the program\'s start'):
         return
     from ..safety.cell import load_cell
     from ..safety.check import lead_in_clearance
@@ -109,14 +134,16 @@ def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: flo
                               'point keeps the margin (move it clear first, or start the program where it is)')
 
 
-def _has_fcl(cell: Path, command: str, what: str) -> bool:
-    """Whether python-fcl imports; a warning on stderr that ``what`` is not checked in ``cell`` when not."""
+def _has_fcl(where: str, command: str, what: str) -> bool:
+    """Whether python-fcl imports; a warning on stderr that ``what`` is not checked for clearance ``where`` (``in
+    cell ...``, ``against itself``) when not."""
     try:
         import fcl  # noqa: F401
     except ModuleNotFoundError as exc:
         if (exc.name or '').split('.')[0] != 'fcl':
             raise
-        print(f'gpr program {command}: warning: {what} is not checked for the clearance of cell {cell}: '
+        print(f'gpr program {command}: warning: {what} {"are" if " and " in what else "is"} not checked for clearance '
+              f'{where}: '
               "that needs the optional package 'fcl' (pip install 'gpr_kinematics[safety]')", file=sys.stderr)
         return False
     return True

@@ -11,6 +11,7 @@ to the arrival at the ``retract`` one.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -273,12 +274,13 @@ def _pairs_of(bodies: list[Body], pairs: list[tuple[int, int, Windows]], only: C
 
 
 def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, tolerance: float = TOLERANCE,
-                  progress: StageProgress | None = None, rate: float = STREAM_RATE
+                  progress: StageProgress | None = None, rate: float = STREAM_RATE, with_clearance: bool = True
                   ) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
     slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
     clearance after each round of its search; the slip before and after). ``rate`` [Hz]: the stream whose samples
-    the imperfection budget is judged at.
+    the imperfection budget is judged at. ``with_clearance=False``: the slip and the budget only (no python-fcl
+    needed; no pair, a minimum clearance of ``inf``).
 
     Raises:
         InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None, a rate outside
@@ -292,9 +294,12 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     budget = judge_budget(plan, rate)
     wafers = wafer_plan(plan)
     robot = plan.robot
-    bodies, pairs = program_bodies(plan, cell, wafers)
-    report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance,
-                       progress=lambda share: tell('clearance', share))
+    if with_clearance:
+        bodies, pairs = program_bodies(plan, cell, wafers)
+        report = clearance(PlanMotion(plan), bodies, pairs, margin, tolerance,
+                           progress=lambda share: tell('clearance', share))
+    else:
+        report = ClearanceReport((), math.inf, margin, tolerance, 0, 0)
     tell('slip', 0.0)
     times = _slip_times(plan)
     ratio, bound = _slip(plan, times, wafers.carried)
