@@ -212,6 +212,24 @@ def test_reteach_keeps_the_held_joint_of_a_fixed_joint_arm():
     np.testing.assert_allclose(rt.solution.joints, old, atol=1e-3)   # the naive error is micrometres
 
 
+def test_reteach_refuses_a_held_joint_beyond_its_limits_naming_the_row(tmp_path, capsys):
+    """Old joints may lie beyond their limits, but arm2's held wrist (fixed_joint) keeps its old value in the new
+    posture: 2.6 rad of [-2.5, 2.5] was refused as 'redundancy value = 2.6 rad (station s1)', a value the user never
+    gave, without the file or the row; now named as the table's other rows are."""
+    from gpr_kinematics.cli.main import main
+    table = tmp_path / 'old.csv'
+    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder,arm2_elbow,arm2_wrist,arm2_hand\n'
+                     's0,0.25,0.251,0.252,0,1,0.3,-0.5\ns1,0.25,0.251,0.252,0,1,2.6,-0.5\n')
+    assert main(['robot', 'teach', '--table', str(table), '--naive', '--arm', 'arm2']) == 2
+    assert capsys.readouterr().err == (
+        f"gpr robot teach: error: {table}: old joints of row 2 (station 's1'): the held joint arm2_wrist = 2.6 rad is "
+        'outside the limits of arm2_wrist, [-2.5, 2.5] rad; allowed: a value within them (re-teach keeps the held '
+        "joint's old value)\n")
+    with pytest.raises(LimitError, match=r'^old joints: the held joint arm2_wrist = -2\.6 rad is outside the limits'):
+        reteach(ROBOT, [[0.25] * 3], [[0.0, 1.0, -2.6, 0.1]], 'arm2')
+    reteach(ROBOT, [[0.25] * 3], [[0.0, 1.0, 2.5, 0.1]], 'arm2')   # at its limit: held there
+
+
 def test_teach_refuses_joints_beyond_limits():
     with pytest.raises(LimitError, match=r'arm1_elbow = 3 rad is beyond its upper limit 2.9 rad'):
         teach(ROBOT, [[0.3, 0.3, 0.3]], [[0.0, 3.0, 0.0]], 'arm1')

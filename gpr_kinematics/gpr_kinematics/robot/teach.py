@@ -30,7 +30,7 @@ from ..inputs.validation import rows_of
 from .arm_chain import LIMIT_SLACK
 from .description import Arm, RobotDescription
 from .forward import RobotForward, check_rods, robot_forward
-from .inverse import StationSolution, solve_stations
+from .inverse import StationSolution, held_refusal, solve_stations
 from .planar_arm import branch_of
 from .station_files import CsvTable, read_csv_table, station_name
 from .stations import StationRecord, Stations, stations_from_poses
@@ -160,7 +160,8 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
 
     Raises:
         LimitError: an old rod outside the stroke (the old tool's rods were executed: they lie within it; a tilt
-            or an arm joint just beyond its limit is accepted), or an intended station the real robot cannot reach.
+            or an arm joint just beyond its limit is accepted, not a held joint's, which the new posture keeps), or
+            an intended station the real robot cannot reach.
         InputError: an old joint more than a turn beyond its limits (:data:`OLD_JOINT_SLACK`: degrees, not radians).
     """
     a = robot.arm(arm)
@@ -185,12 +186,27 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     value = None
     if a.redundancy is not None and a.redundancy.rule == 'fixed_joint':
         value = old.joints[:, a.redundancy.joint]
+        _held_within(a, value, names)
     try:
         solution = solve_stations(robot, intended, a.name, branch=branch_of(a, old.joints), redundancy_value=value)
     except LimitError:   # old rods tilting the platform far beyond its limit are named, not their station's tilt
         _old_tilt(robot, Q, names)   # (with the hint of degrees given as radians, which the user typed in metres)
         raise
     return Retaught(old=old, intended=intended, solution=solution)
+
+
+def _held_within(a: Arm, value: Array, names: Sequence[str] | None) -> None:
+    """Refuse an old held joint's value ``(N,)`` [rad] beyond its limits (re-teach holds it: the new posture keeps
+    it), naming the row from 1 and its station as :func:`_old_tilt` does (it was named a ``redundancy value``, which
+    the user had not given)."""
+    assert a.redundancy is not None
+    joint = a.joints[a.redundancy.joint]
+    for i, v in enumerate(value.tolist()):
+        name = f' (station {brief(names[i])})' if names is not None else ''
+        row = f' of row {i + 1}{name}' if value.shape[0] > 1 or names is not None else ''
+        refusal = held_refusal(joint, v, f'old joints{row}: the held joint {joint.name} = {{}}')
+        if refusal:
+            raise LimitError(f'{refusal} (re-teach keeps the held joint\'s old value)')
 
 
 def _old_tilt(robot: RobotDescription, Q: Array, names: Sequence[str] | None) -> None:
