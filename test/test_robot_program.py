@@ -124,7 +124,7 @@ def test_platform_programs_are_named_and_refused():
     ({'defaults': {'speed': 1}}, r'defaults: unknown key\(s\) speed'),
     ({'defaults': [1]}, r'defaults must be a mapping'),
     ({'import': ['absent.csv']}, r"cannot read station file .*absent.csv"),
-    ({'import': 7}, r'import must be a list of at most 64 station file paths'),
+    ({'import': 7}, r'import = 7; allowed: a station file path \(\.csv, \.yaml\) or a list of at most 64 of them'),
     # a misspelt wafer station: named, and the stations listed
     ({'wafers': ['bb']}, r"wafers = \['bb'\] names no station 'bb'; allowed: a list of station names \(the stations "
                          r'that hold a wafer at the start\): a, b$'),

@@ -212,7 +212,8 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
     if isinstance(raw, str):
         raw = [raw]
     if not isinstance(raw, list) or len(raw) > MAX_IMPORTS or not all(isinstance(p, str) for p in raw):
-        raise ConfigError(f'{source}: import must be a list of at most {MAX_IMPORTS} station file paths (.csv, .yaml)')
+        raise ConfigError(f'{source}: import = {brief(raw)}; allowed: a station file path (.csv, .yaml) or a list of '
+                          f'at most {MAX_IMPORTS} of them')
     origin = {name: 'its stations' for name in rows.names}  # where each name came from, for a name given twice
     for p in raw:
         path = Path(p) if Path(p).is_absolute() else base / p
