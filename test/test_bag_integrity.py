@@ -23,6 +23,7 @@ from bag_support import (
     small_sweep,
     write_bag,
 )
+from gpr_kinematics.bags.errors import BagError
 from gpr_kinematics.bags.metadata import METADATA_DIGEST_KEY, digest_line
 from gpr_kinematics.bags.reader import read_bag
 from gpr_kinematics.bags.results import format_table
@@ -494,6 +495,30 @@ def test_an_sqlite_database_profile_edited_against_metadata_fails(tmp_path: Path
     assert verify_bag(old).passed
 
 
+def test_an_sqlite_topic_listed_twice_is_named(tmp_path: Path, src: Path) -> None:
+    """A second row of /gpr/platform_state in the topics table, typed std_msgs/msg/String, half the state's messages
+    moved to it (re-signed): the bag failed as 'message 0 of type std_msgs/msg/String cannot be decoded', not saying
+    where the fault is; the table's two rows are named now."""
+    import sqlite3
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    (db,) = bag.glob('*.db3')
+    with sqlite3.connect(db) as conn:
+        (tid,) = conn.execute("SELECT id FROM topics WHERE name = '/gpr/platform_state'").fetchone()
+        conn.execute("INSERT INTO topics (id, name, type, serialization_format, offered_qos_profiles, "
+                     "type_description_hash) SELECT 99, name, 'std_msgs/msg/String', serialization_format, "
+                     "offered_qos_profiles, type_description_hash FROM topics WHERE id = ?", (tid,))
+        conn.execute('UPDATE messages SET topic_id = 99 WHERE id % 2 = 0 AND topic_id = ?', (tid,))
+    conn.close()
+    with pytest.raises(BagError) as info:   # the reader's own refusal (no re-signing: it reads no such table)
+        read_bag(bag)
+    assert str(info.value) == (f"{db}: topic '/gpr/platform_state' is listed twice in the topics table (ids {tid} and "
+                               '99, types gpr_interfaces/msg/PlatformState and std_msgs/msg/String); allowed: one row '
+                               'per topic')
+
+
 def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None:
     """13,000 segments (3.6 hours at the default flush_interval of 1 s) made 3.6 MB of metadata.yaml that the reader
     refused ('more than 200000 YAML values': the package's YAML bound, not the metadata's 16 MiB): the recorder kept
@@ -545,7 +570,6 @@ def test_the_writer_refuses_a_bad_log_time_and_keeps_the_bag(tmp_path: Path, sto
     """A log time of -5 or 2**64 raised struct.error and broke the open segment (every later write and the close
     failed: no metadata.yaml, the good messages lost); 2**63 was written and crashed the reader (OverflowError). Now a
     BagError before anything is written, and the bag goes on."""
-    from gpr_kinematics.bags.errors import BagError
     from gpr_kinematics.bags.writer import SegmentedBagWriter
 
     with SegmentedBagWriter(tmp_path / 'b', {'/gpr/program': 'std_msgs/msg/String'}, storage=storage,

@@ -365,6 +365,10 @@ def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int,
             raise BagError(f'{path}: corrupt topics table (row {tid!r})')
         if fmt != 'cdr':
             raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
+        if name in types:   # rosbag2 writes one row per topic: a second (another type) read its messages as that
+            first = next(i for i, n in names.items() if n == name)
+            raise BagError(f'{path}: topic {name!r} is listed twice in the topics table (ids {first} and {tid}, types '
+                           f'{types[name]} and {normalize_type(msgtype)}); allowed: one row per topic')
         if profiles.strip() not in ('', '[]'):
             qos[name] = profiles
         formats[name] = fmt
