@@ -186,7 +186,10 @@ def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
     np.testing.assert_array_equal(sol.joints[:, 2], 0.0)
     values = np.linspace(-0.4, 0.4, 200)
     sol = solve_stations(ROBOT, st, 'arm2', redundancy_value=values, check=False)
-    np.testing.assert_allclose(sol.joints[:, 2], values, atol=1e-15)
+    np.testing.assert_array_equal(sol.joints[:, 2], values)   # exactly (0.2 came back as 0.20000000000000018)
+    for i in (0, 57, 199):   # one station per call too
+        assert solve_stations(ROBOT, st.take([i]), 'arm2', redundancy_value=values[i], check=False).joints[0, 2] == \
+            values[i]
     ok = sol.feasible
     assert ok.sum() > 100
     fk = robot_forward(ROBOT, sol.rods[ok], sol.joints[ok], 'arm2')

@@ -53,6 +53,10 @@ from .arm_chain import (
 from .description import Arm
 from .nearest import nearest_value
 
+#: A held joint's solved value within this of the value it was held at [rad] is that value (the zero offset and the
+#: wrap into its range round it: 0.2 came back as 0.20000000000000018); farther, another representative of it.
+HELD_ROUNDING = 1e-12
+
 Array = NDArray[np.float64]
 
 
@@ -112,6 +116,9 @@ def solve_arm(arm: Arm, p: Array, phi: Array | None, sign: Array, value: Array |
         theta, tl = solve_fixed(d, beta, red.joint, v + offset[red.joint], p, phi, sign)
     heading = np.sum(theta, axis=1) + beta
     theta, violation = wrap_to_limits(theta - offset, lower, upper)
+    if n == 4:   # the held joint at its value as given, where the offset and the wrap only rounded it (0.2 read
+        j = red.joint   # 0.20000000000000018); a range beyond a turn may give another representative: kept
+        theta[:, j] = np.where(np.abs(theta[:, j] - v) <= HELD_ROUNDING, v, theta[:, j])
     return ArmSolution(theta=theta, heading=heading, reachable=tl.reachable, reach=tl.r, reach_min=tl.r_min,
                        reach_max=tl.r_max, violation=violation)
 
@@ -137,11 +144,14 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
     if floats is None:
         floats = arm_floats(arm)
     d, beta, offset = floats.links, floats.beta, floats.offsets
+    given = math.nan   # a 4-joint arm's held value [rad] as given: kept where the wrap below only rounds it
     if len(offset) == 2:
         T1, T2, r, lo, hi = two_link_one(d[0], d[1], px, py, sign)
         theta = [T1, T2 - T1]
     elif floats.own is not None and (arm.redundancy is None or value is None):   # the rule's own chain, reduced once
         theta, r, lo, hi = reduced_one(floats.own, px, py, phi, sign)
+        if arm.redundancy is not None:   # fixed_joint's
+            given = arm.redundancy.value
     else:
         j, v, red = -1, 0.0, arm.redundancy
         if red is not None:
@@ -153,13 +163,16 @@ def solve_arm_one(arm: Arm, px: float, py: float, phi: float, sign: float, value
             else:
                 v = float(nearest_value(arm, link_vectors(arm)[0], beta, np.array([[px, py]]), np.array([phi]),
                                         np.array([sign]))[0])
-            v = v + offset[j]
+            given, v = v, v + offset[j]
         theta, r, lo, hi = fixed_one(d, beta, j, v, px, py, phi, sign)
     heading = sum(theta) + beta
     wrapped, violation = [], []   # wrap_one of theta - offset, inline (its operations)
     pi, turn = math.pi, 2.0 * math.pi
-    for t, o, (lower, upper, mid) in zip(theta, offset, floats.limits, strict=True):
+    held = arm.redundancy.joint if len(offset) == 4 and arm.redundancy is not None else -1
+    for k, (t, o, (lower, upper, mid)) in enumerate(zip(theta, offset, floats.limits, strict=True)):
         t = mid + (t - o - mid + pi) % turn - pi
+        if k == held and abs(t - given) <= HELD_ROUNDING:   # as solve_arm
+            t = given
         beyond = max(lower - t, t - upper) - LIMIT_SLACK
         wrapped.append(t)
         violation.append(beyond if beyond >= 0.0 else 0.0)

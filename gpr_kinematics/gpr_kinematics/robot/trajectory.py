@@ -33,8 +33,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.forward import forward
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
-from ..errors import InputError, RobotStateError
+from ..errors import InputError, LimitError, RobotStateError
 from ..inputs.files import check_suffix, write_text
 from .grid import check_rate
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities, position_limits
@@ -123,14 +124,16 @@ def program_trajectory(plan: ProgramPlan, rate: float) -> JointTrajectory:
 
 
 #: How far beyond a joint's limits a robot may report itself for :func:`lead_in` [m or rad] (an encoder's overshoot
-#: at a limit; 50 m or 1e300 are not a state of this robot).
+#: at a limit, taken as the limit: a goal starting beyond it is refused; 50 m or 1e300 are not a state of this robot).
 REPORTED_SLACK = 1e-3
 
 
 def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: float) -> tuple[JointTrajectory, float]:
     """``traj`` (of :func:`program_trajectory`) preceded by the move from ``current`` (the robot's positions of
     ``traj.joint_names``) to its first point, timed within the joints' velocity and acceleration limits and rounded up
-    to whole sample periods; the trajectory and the move's duration [s] (0 when the robot is at the first point)."""
+    to whole sample periods; the trajectory and the move's duration [s] (0 when the robot is at the first point).
+    :class:`~gpr_kinematics.errors.RobotStateError` where the robot reports joints beyond their limits by more than
+    :data:`REPORTED_SLACK` or rods that tilt the platform beyond its limit."""
     rate = check_rate(rate)
     current = np.asarray(current, dtype=float)
     if current.shape != (len(traj.joint_names),) or not np.all(np.isfinite(current)):
@@ -147,6 +150,13 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
         raise RobotStateError(f'the robot reports {names[j]} = {current[j]:.9g} {unit}, {over[j]:.3g} {unit} outside '
                               f'its limits [{lower[j]:.9g}, {upper[j]:.9g}] {unit}; allowed: a robot within its limits '
                               f'(to {REPORTED_SLACK:g} {unit}; are these joint states of this robot?)')
+    current = np.clip(current, lower, upper)   # an encoder's overshoot: the goal starts within the limits
+    try:   # rods no platform takes (tilted beyond the limit): no move starts there (the simulator ignores them)
+        forward(current[:3], plan.robot.config, stroke=False)
+    except LimitError as exc:
+        allowed = '' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'
+        raise RobotStateError(f'the robot reports {", ".join(names[:3])}: {exc}{allowed} (are these joint states of '
+                              'this robot?)') from None
     ends = np.vstack([current, traj.positions[0]])
     shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
                             ('the current state', 'the first point')).total
