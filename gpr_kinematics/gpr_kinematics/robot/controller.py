@@ -338,6 +338,8 @@ def _refuse_jump(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointT
 
 
 def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel: Array, time: Array) -> None:
+    """Only a cubic or quintic overshoots (points without velocities are joined by lines, their means checked
+    before): the hint names what helps a goal whose points carry velocities, not to give them."""
     limit = joints.velocity[cols]
     bad = ~(np.abs(vel) <= limit * (1.0 + SPLINE_VELOCITY_SLACK))   # a velocity of NaN (an overflow) too
     if bad.any():
@@ -347,7 +349,7 @@ def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel:
                         f'{vel[i, k]:.6g} {unit} (the spline between the points overshoots); allowed: at most '
                         f'{limit[k] * (1.0 + SPLINE_VELOCITY_SLACK):.6g} {unit} in size (the limit {limit[k]:g} and '
                         f'{SPLINE_VELOCITY_SLACK:.0%} for a spline through a timed motion\'s samples; give the points '
-                        'velocities or more points)')
+                        'other velocities, later times or more points)')
 
 
 def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,
