@@ -69,6 +69,24 @@ from rclpy._rclpy_pybind11 import RCLError  # noqa: E402 - grouped with its expl
 START_ERRORS: tuple[type[BaseException], ...] = (GprError, ParameterException, NameValidationException, RCLError)
 #: rclpy's refusal of an integer given to a double parameter, and the integer.
 _INTEGER_FOR_DOUBLE = re.compile(r"to '(-?\d+)' of type 'INTEGER', expecting type 'DOUBLE'")
+#: rclpy's refusal of a value that is no list (or a list of integers) given to an array parameter, and the value.
+_ONE_FOR_ARRAY = re.compile(r"to '([^']*)' of type '\w+', expecting type '(DOUBLE|STRING)_ARRAY'")
+
+
+def type_hint(error: str) -> str:
+    """The 'allowed:' rclpy's refusal of a parameter's type leaves out (``''`` for another error): a double written
+    as an integer; a list for an array parameter (every double array is per rod: 3 values)."""
+    whole = _INTEGER_FOR_DOUBLE.search(error)
+    if whole:
+        return f'; allowed: a floating-point value (write {whole.group(1)}.0)'
+    one = _ONE_FOR_ARRAY.search(error)
+    if one is None:
+        return ''
+    if one.group(2) == 'STRING':
+        return f"; allowed: a list of texts, e.g. ['{one.group(1)}']"
+    given = re.findall(r'[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?', one.group(1))
+    values = [float(v) for v in given] * (3 if len(given) == 1 else 1) if len(given) in (1, 3) else [0.0] * 3
+    return f'; allowed: a list of 3 numbers, e.g. [{", ".join(repr(v) for v in values)}]'
 
 
 class StopFlag:
@@ -376,9 +394,7 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             logger.info(f'stopped before it started: {one_line(exc)}')
             return EXIT_OK
         except START_ERRORS as exc:   # rclpy takes no integer for a double: '-p rate:=200' (a double: 200.0)
-            whole = _INTEGER_FOR_DOUBLE.search(str(exc))
-            hint = f'; allowed: a floating-point value (write {whole.group(1)}.0)' if whole else ''
-            logger.error(f'cannot start: {one_line(exc)}{hint}')
+            logger.error(f'cannot start: {one_line(exc)}{type_hint(str(exc))}')
             refused = EXIT_BAD_CONFIG
             return refused
         except Exception as exc:  # noqa: BLE001 - one line, no traceback, even for a bug
