@@ -238,8 +238,8 @@ def test_a_spline_faster_than_the_limit_between_its_points_is_refused_at_its_sam
     assert info.value.code == INVALID_GOAL
     assert str(info.value) == (f'sample {k} (t = {first:.6g} s): arm1_elbow moves at {v:.6g} rad/s (the spline '
                                'between the points overshoots); allowed: at most 2.02 rad/s in size (the limit 2 and '
-                               "1% for a spline through a timed motion's samples; give the points velocities or more "
-                               'points)')
+                               "1% for a spline through a timed motion's samples; give the points other velocities, "
+                               'later times or more points)')   # it had velocities (0): 'give them' was no help
 
 
 @pytest.mark.parametrize('program, rate, overshoot', [('example_robot_program.yaml', 10.0, 1.0021458),

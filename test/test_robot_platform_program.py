@@ -138,3 +138,30 @@ def test_a_move_at_the_rods_limits_is_within_them():
                                                 {'height': 0.4001, 'tilt': 0.0, 'azimuth': 0.0, 'move_time': 1.0}]},
                                   'over')
     assert trajectory_of(over, load_robot(), 100.0, 2.0).warning.startswith('a move needs the rods beyond')
+
+
+def test_a_station_name_given_twice_is_refused_naming_both_stations():
+    """Robot programs refused a repeated station name, platform programs (a file's, a goal's stations) took it and
+    their feedback named two stations alike: refused, naming the name and both stations."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.ros.streams import GoalFiles, goal_program
+
+    stations = [{'name': 'a', 'height': 0.3, 'tilt': 0.0, 'azimuth': 0.0},
+                {'name': 'b', 'height': 0.31, 'tilt': 0.0, 'azimuth': 0.0},
+                {'name': 'a', 'height': 0.32, 'tilt': 0.0, 'azimuth': 0.0}]
+    with pytest.raises(ConfigError, match=r"^p\.yaml: station name 'a' is given twice, as station 0 and as station 2; "
+                                          r'allowed: each station name once$'):
+        parse_platform_program({'stations': stations}, 'p.yaml')
+    # a default name (station_i) is a name as well
+    with pytest.raises(ConfigError, match=r"station name 'station_1' is given twice, as station 0 and as station 1"):
+        parse_platform_program({'stations': [dict(stations[0], name='station_1'),
+                                              {k: v for k, v in stations[1].items() if k != 'name'}]})
+    goal = SimpleNamespace(program_file='', move_time=0.0, stations=[
+        SimpleNamespace(name=n, height=h, tilt=0.0, azimuth=0.0, dwell=0.0, move_time=0.0)
+        for n, h in (('a', 0.3), ('a', 0.31))])
+    with pytest.raises(ConfigError, match=r"^goal stations: station name 'a' is given twice, as station 0 and as "
+                                          r'station 1; allowed: each station name once$'):
+        goal_program(goal, load_robot(None), GoalFiles.of(['']))
+    assert [s.name for s in parse_platform_program({'stations': stations[:2]}).stations] == ['a', 'b']

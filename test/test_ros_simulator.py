@@ -376,14 +376,15 @@ def test_joint_states_beyond_the_limits_are_ignored_with_a_warning(sim):
 
 
 def test_a_foreign_state_is_named_by_its_joints(ros_environment):
-    """The warning of a foreign state that tilts the platform named the core's ``q``, not the joints it came as.
-    The node's method on a stub (no DDS)."""
-    import types
+    """The warning of a foreign state that tilts the platform named the core's ``q``, not the joints it came as; one
+    just beyond a limit read '2.9 rad is outside [-2.9, 2.9] rad': told apart, and by how much, as a goal's (no DDS)."""
+    from gpr_kinematics.nodes.foreign_states import outside as refusal
 
-    import gpr_kinematics.nodes.robot_simulator_node as sim
     joints = ControllerJoints.of(ROBOT)
-    node = types.SimpleNamespace(joints=joints, cfg=ROBOT.config)
-    outside = types.MethodType(sim.RobotSimulatorNode._outside, node)
+
+    def outside(state):
+        return refusal(joints, ROBOT.config, state)
+
     state = joints.rest.copy()
     assert outside(state) == ''
     state[1] += 0.05   # rod_2 50 mm above the others: about 21 deg
@@ -392,7 +393,41 @@ def test_a_foreign_state_is_named_by_its_joints(ros_environment):
                         r'the tilt limit 0\.03491 rad \(2 deg\); allowed: rods within the tilt limit', words), words
     state = joints.rest.copy()
     state[joints.names.index('arm1_elbow')] = 50.0
-    assert outside(state).startswith('arm1_elbow = 50 rad is outside [')
+    assert outside(state) == ("arm1_elbow = 50 rad is beyond its upper limit 2.9 rad by 47.1 rad; allowed: values "
+                              "within the joints' limits ([-2.9, 2.9] rad)")
+    state[joints.names.index('arm1_elbow')] = 2.9000000001
+    assert outside(state).startswith('arm1_elbow = 2.9000000001 rad is beyond its upper limit 2.9 rad by 1e-10 rad; ')
+
+
+def test_each_different_refusal_of_a_foreign_state_is_logged_a_repeated_one_at_most_every_5_s(sim):
+    """One throttle of 5 s for every warning left a different refusal within 5 s of another unlogged (five bad
+    states 1.5 s apart: the first and the last logged): each refusal (its kind and joint) has its own."""
+    from sensor_msgs.msg import JointState
+
+    c, _, _, proc = sim
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+    cases = ((['arm2_wrist'], [3.0], r'arm2_wrist = 3 rad is beyond its upper limit 2\.5 rad'),
+             (['arm2_wrist'], [-3.0], r'arm2_wrist = -3 rad is beyond its lower limit -2\.5 rad'),
+             (['arm2_shoulder'], [4.0], r'arm2_shoulder = 4 rad is beyond its upper limit 3\.05 rad'),
+             (['arm2_elbow', 'arm2_elbow'], [0.0, 0.0], r"joint 'arm2_elbow' named twice"))
+    t0 = time.monotonic()
+    for names, values, warning in cases:
+        end = time.monotonic() + 3.0
+        while not re.search(warning, proc.output()) and time.monotonic() < end:   # until the subscription matched
+            msg = JointState(name=names, position=values)
+            msg.header.stamp = c.node.get_clock().now().to_msg()
+            pub.publish(msg)
+            c.spin_for(0.2)
+        assert re.search(warning, proc.output()), (warning, proc.output()[-2000:])
+    assert time.monotonic() - t0 < 5.0   # all four within one throttle period
+    seen = len(re.findall(cases[0][2], proc.output()))
+    for _ in range(5):   # the first again, at once and 1 s on: within its 5 s, not logged again
+        msg = JointState(name=cases[0][0], position=[2.95])
+        msg.header.stamp = c.node.get_clock().now().to_msg()
+        pub.publish(msg)
+        c.spin_for(0.2)
+    assert len(re.findall(r'arm2_wrist = \S+ rad is beyond its upper limit', proc.output())) == seen
+    c.node.destroy_publisher(pub)
 
 
 def test_a_refused_goal_does_not_preempt_the_running_one(sim):
@@ -869,7 +904,7 @@ def test_another_publishers_state_ends_the_lagging_joints_command_only_when_take
                                  last_foreign=None, last_published=0, refusing=False, clearance=None,
                                  p={'idle_rate': 10.0, 'servo_time_constant': 0.05},
                                  get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
-                                 get_logger=lambda: types.SimpleNamespace(warning=lambda *a, **k: None))
+                                 refusals=types.SimpleNamespace(warn=lambda text: True))
     node.publish_state = lambda ns: setattr(node, 'last_published', clock.nanoseconds)
     for method in ('_outside', '_settle', '_converge'):
         setattr(node, method, types.MethodType(getattr(sim.RobotSimulatorNode, method), node))

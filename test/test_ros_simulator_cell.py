@@ -164,7 +164,7 @@ def test_another_publishers_stream_is_checked_at_most_every_foreign_check_at_any
                                  last_foreign=None, last_published=None, refusing=False, clearance=Counting(),
                                  p={'idle_rate': idle_rate}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
                                  get_logger=lambda: types.SimpleNamespace(warning=print, info=print),
-                                 publish_state=lambda ns: None)
+                                 refusals=types.SimpleNamespace(warn=print), publish_state=lambda ns: None)
     node._outside = lambda state: ''
     node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)
     node._converge = types.MethodType(sim.RobotSimulatorNode._converge, node)
@@ -200,7 +200,7 @@ def test_a_stream_the_cell_refuses_leaves_the_held_state_published(ros_environme
                                  velocity=np.zeros(len(joints.names)), pending=None, last_check=None,
                                  last_foreign=None, last_published=None, refusing=False, clearance=refuse,
                                  p={'idle_rate': 10.0}, get_clock=lambda: types.SimpleNamespace(now=lambda: clock),
-                                 get_logger=lambda: types.SimpleNamespace(warning=lambda *a, **k: None),
+                                 refusals=types.SimpleNamespace(warn=lambda text: True),
                                  publish_state=published.append)
     node._outside = lambda state: ''
     node._settle = types.MethodType(sim.RobotSimulatorNode._settle, node)

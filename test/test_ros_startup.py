@@ -39,7 +39,9 @@ def _files(tmp_path: Path) -> dict[str, Path]:
     nonros.write_text('radius: 0.1\nstroke_max: 0.6\n')            # a geometry file, not a ROS params file
     broken = tmp_path / 'broken.yaml'
     broken.write_text('kinematics_node: {ros__parameters: [\n')
-    return {'nonros': nonros, 'broken': broken, 'missing': tmp_path / 'missing.yaml'}
+    one = tmp_path / 'one_kappa.yaml'
+    one.write_text('kinematics_node:\n  ros__parameters:\n    kappa: 1000.0\n')   # the geometry file's form
+    return {'nonros': nonros, 'broken': broken, 'missing': tmp_path / 'missing.yaml', 'one': one}
 
 
 MALFORMED = {
@@ -52,12 +54,27 @@ MALFORMED = {
     'integer-for-double': (['-p', 'characteristic_length:=0'], r"cannot start: .*'0' of type 'INTEGER', expecting type "
                                                                r"'DOUBLE'.*; allowed: a floating-point value \(write "
                                                                r'0\.0\)'),
+    # nor one number for an array (a geometry file's kappa: 1000.0): said so without 'allowed:' before
+    'number-for-array': (['-p', 'kappa:=1000.0'], r"cannot start: .*'1000\.0' of type 'DOUBLE', expecting type "
+                                                  r"'DOUBLE_ARRAY': kappa; allowed: a list of 3 numbers, e.g. "
+                                                  r'\[1000\.0, 1000\.0, 1000\.0\]$'),
+    'number-for-array-file': (['--params-file', '{one}'], r"expecting type 'DOUBLE_ARRAY': kappa; allowed: a list "
+                                                          r'of 3 numbers, e\.g\. \[1000\.0, 1000\.0, 1000\.0\]$'),
+    'integer-for-array': (['-p', 'rod_offsets:=0'], r"expecting type 'DOUBLE_ARRAY': rod_offsets; allowed: a list of "
+                                                    r'3 numbers, e\.g\. \[0\.0, 0\.0, 0\.0\]$'),
+    'integers-for-array': (['-p', 'rod_azimuths:=[0, 2, 4]'], r"'INTEGER_ARRAY', expecting type 'DOUBLE_ARRAY': "
+                                                              r'rod_azimuths; allowed: a list of 3 numbers, e\.g\. '
+                                                              r'\[0\.0, 2\.0, 4\.0\]$'),
+    'text-for-list': (['-p', 'topics:=/joint_states'], r"expecting type 'STRING_ARRAY': topics; allowed: a list of "
+                                                       r"texts, e\.g\. \['/joint_states'\]$"),
 }
 
 
 # Every executable with two of the cases, one executable with all of them: the start-up path (runtime.run) is one.
 MALFORMED_CASES = [(exe, case) for exe in NODES for case in ('param-without-value', 'non-ros-params-file')] + \
-    [('kinematics_node', case) for case in MALFORMED if case not in ('param-without-value', 'non-ros-params-file')]
+    [('kinematics_node', case) for case in MALFORMED if case not in ('param-without-value', 'non-ros-params-file',
+                                                                      'text-for-list')] + \
+    [('recorder_node', 'text-for-list')]
 
 
 @pytest.mark.parametrize('exe,case', MALFORMED_CASES)

@@ -153,11 +153,23 @@ _TRIPLE_RANGES: dict[str, tuple[int, float, float, str]] = {
 }
 
 
+#: A ROS parameter's rule where it differs from the file's: an array parameter takes no single number (rclpy refuses
+#: a DOUBLE for a DOUBLE_ARRAY before any check of the package).
+_PARAMETER_RULES = {'kappa': 'a list of 3 (one value k for all: [k, k, k]), 1e-6 <= kappa <= 1e6 (k_t / k_r)'}
+
+
 def allowed_values(key: str) -> str:
-    """What the per-rod or per-joint ``key`` allows, in words (``''`` for another key): the rule its check names, and
-    the ``additional_constraints`` of its ROS parameter."""
+    """What the ROS parameter of the per-rod or per-joint ``key`` allows, in words (``''`` for another key): its
+    ``additional_constraints``, the rule its check names (:func:`parameter_rules`)."""
     rule = _TRIPLE_RANGES.get(key)
-    return rule[3] if rule is not None else ''
+    return _PARAMETER_RULES.get(key, rule[3]) if rule is not None else ''
+
+
+def parameter_rules(message: str) -> str:
+    """A configuration's refusal with each file rule a ROS parameter words otherwise in the parameter's words."""
+    for key, rule in _PARAMETER_RULES.items():
+        message = message.replace(_TRIPLE_RANGES[key][3], rule)
+    return message
 
 
 #: The smallest interior angle of the rod and joint triangles [rad] (a flatter triangle is degenerate).

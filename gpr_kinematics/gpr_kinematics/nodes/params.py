@@ -23,7 +23,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..core.config import MODELS, GprConfig, load_config
+from ..core.config import MODELS, GprConfig, load_config, parameter_rules
 from ..errors import ConfigError, GprError
 from ..robot.description import RobotDescription, load_robot
 from ..ros.specs import CONFIG_FILE, ROBOT_FILE, ParamSpec, config_mapping, config_specs
@@ -98,7 +98,7 @@ def parameter_words(message: str) -> str:
     """A configuration's refusal in the parameters' terms: a characteristic length follows the radius at 0 (a
     parameter cannot be null) and an empty ``model`` is the geometry's
     (:func:`~gpr_kinematics.ros.specs.config_mapping`), which the configuration's own words leave out."""
-    message = message.replace(', or null for the radius', ', or 0 for the radius')
+    message = parameter_rules(message.replace(', or null for the radius', ', or 0 for the radius'))
     if 'model = ' in message and message.endswith('allowed: ' + ' or '.join(MODELS)):
         message += " or '' (the geometry's model)"
     return message

@@ -43,10 +43,8 @@ from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from ..core.forward import forward
 from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, Topic, duration_parts, time_parts
 from ..errors import ConfigError, GprError
-from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
     INVALID_GOAL,
@@ -63,6 +61,7 @@ from ..robot.servo import servo, violation
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
+from .foreign_states import RefusalLog, outside
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
 from .runtime import GprNode, deliver_results, one_line, run
@@ -139,6 +138,7 @@ class RobotSimulatorNode(GprNode):
         #: When [ns, the node's clock] it last took another publisher's values, and last published its own.
         self.last_foreign: int | None = None
         self.refusing = False   # the cell refused the last foreign state checked: its stream does not silence the node
+        self.refusals = RefusalLog(self.get_logger())   # its warnings, throttled per refusal
         self.last_published: int | None = None
         #: Another publisher's latest state, waiting for its clearance check (with a cell), and when one last ran [ns].
         self.pending: Any = None
@@ -187,19 +187,18 @@ class RobotSimulatorNode(GprNode):
         try:
             taken, values, left = joint_state_values(self.joints.names, msg.name, msg.position)
         except GprError as exc:
-            self.get_logger().warning(f'joint_states of another publisher ignored: {one_line(exc)}',
-                                      throttle_duration_sec=5.0)
+            self.refusals.warn(f'joint_states of another publisher ignored: {one_line(exc)}')
             return
         if left:
-            self.get_logger().warning(f'joint_states of another publisher: {", ".join(left)} not finite, left out; '
-                                      'allowed: finite positions', throttle_duration_sec=5.0)
+            self.refusals.warn(f'joint_states of another publisher: {", ".join(left)} not finite, left out; '
+                               'allowed: finite positions')
         if not taken.size:   # none of this robot's joints (a gripper's, say): nothing to take, nothing to silence
             return
         state = (self.actual if self.pending is None else self.pending).copy()
         state[taken] = values
         wrong = self._outside(state)
         if wrong:
-            self.get_logger().warning(f'joint_states of another publisher ignored: {wrong}', throttle_duration_sec=5.0)
+            self.refusals.warn(f'joint_states of another publisher ignored: {wrong}')
             return
         now = self.get_clock().now().nanoseconds
         if not self.refusing:   # quiet while values it takes stream (not others, nor a stream the cell refuses)
@@ -226,25 +225,15 @@ class RobotSimulatorNode(GprNode):
         self.refusing = bool(why)
         if why:
             self.last_foreign = None   # the held state is the robot's: published at idle_rate again
-            self.get_logger().warning(f'joint_states of another publisher ignored: {why}; allowed: states with every '
-                                      'pair at least clearance_margin apart, reached along a joint-space line that '
-                                      'keeps it', throttle_duration_sec=5.0)
+            self.refusals.warn(f'joint_states of another publisher ignored: {why}; allowed: states with every pair at '
+                               'least clearance_margin apart, reached along a joint-space line that keeps it')
             return
         self.actual, self.command = state, None
         self.velocity[:] = 0.0
 
     def _outside(self, state: Any) -> str:
-        """What of a state leaves the joints' limits or tilts the platform beyond its limit ('' if nothing)."""
-        j = self.joints   # a streamed sample may lie LIMIT_SLACK beyond a limit, as the planner allows
-        for k in np.flatnonzero((state < j.lower - LIMIT_SLACK) | (state > j.upper + LIMIT_SLACK)):
-            return (f'{j.names[k]} = {state[k]:.9g} {j.units[k]} is outside [{j.lower[k]:.9g}, {j.upper[k]:.9g}] '
-                    f"{j.units[k]}; allowed: values within the joints' limits")   # the tilt's has its own
-        try:
-            forward(state[:3], self.cfg)
-        except GprError as exc:   # the core names the rods q: said which joints they are
-            return (f'{", ".join(j.names[:3])}: {one_line(exc)}'
-                    + ('' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'))
-        return ''
+        """:func:`~gpr_kinematics.nodes.foreign_states.outside` with the node's joints and geometry."""
+        return outside(self.joints, self.cfg, state)
 
     def _idle(self) -> None:
         period = round(NS_PER_S / float(self.p['idle_rate']))

@@ -264,16 +264,20 @@ def _refuse_beyond(joints: ControllerJoints, cols: NDArray[np.int64], values: Ar
         if not math.isfinite(v):   # the spline overflowed (a point's acceleration of 1e308: inf - inf)
             raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {v} {u}: the spline '
                             'between the points overflows; allowed: velocities and accelerations that keep it finite')
-        side, limit = ('lower', float(joints.lower[j])) if v < joints.lower[j] else ('upper', float(joints.upper[j]))
-        # by how much: 3.0500000001 rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad'
-        shown, end = apart(v, limit, 12)
         lo, hi = float(joints.lower[j]), float(joints.upper[j])
         # a driver's mm or degrees (the files' hints): far beyond as given, within once converted
         hint = (' (millimetres given as metres?)' if within_as_millimetres(v, lo, hi) else '') if u == 'm' else \
             (radians_hint(v) if beyond_turn(v) and lo <= math.radians(v) <= hi else '')
-        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {joints.names[j]} = {shown} {u} is '
-                        f'beyond its {side} limit {end} {u} by {abs(v - limit):.3g} {u}; allowed: '
-                        f'[{lo:.12g}, {hi:.12g}] {u}{hint}')
+        raise GoalError(INVALID_GOAL, f'{what} {i} (t = {time[i]:.6g} s): {beyond_words(joints.names[j], v, lo, hi, u)}'
+                        f'; allowed: [{lo:.12g}, {hi:.12g}] {u}{hint}')
+
+
+def beyond_words(name: str, value: float, lower: float, upper: float, unit: str) -> str:
+    """'name = value unit is beyond its upper limit ... by ...', value and limit told apart (:func:`apart`: 3.0500000001
+    rad read '3.05 rad is beyond its limits; allowed: [-3.05, 3.05] rad')."""
+    side, limit = ('lower', lower) if value < lower else ('upper', upper)
+    shown, end = apart(value, limit, 12)
+    return f'{name} = {shown} {unit} is beyond its {side} limit {end} {unit} by {abs(value - limit):.3g} {unit}'
 
 
 def _check_velocities(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointTrajectory, start: Array,
@@ -338,6 +342,8 @@ def _refuse_jump(joints: ControllerJoints, cols: NDArray[np.int64], traj: JointT
 
 
 def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel: Array, time: Array) -> None:
+    """Only a cubic or quintic overshoots (points without velocities are joined by lines, their means checked
+    before): the hint names what helps a goal whose points carry velocities, not to give them."""
     limit = joints.velocity[cols]
     bad = ~(np.abs(vel) <= limit * (1.0 + SPLINE_VELOCITY_SLACK))   # a velocity of NaN (an overflow) too
     if bad.any():
@@ -347,7 +353,7 @@ def _refuse_fast_samples(joints: ControllerJoints, cols: NDArray[np.int64], vel:
                         f'{vel[i, k]:.6g} {unit} (the spline between the points overshoots); allowed: at most '
                         f'{limit[k] * (1.0 + SPLINE_VELOCITY_SLACK):.6g} {unit} in size (the limit {limit[k]:g} and '
                         f'{SPLINE_VELOCITY_SLACK:.0%} for a spline through a timed motion\'s samples; give the points '
-                        'velocities or more points)')
+                        'other velocities, later times or more points)')
 
 
 def plan_motion(joints: ControllerJoints, traj: JointTrajectory, current: Array, rate: float, config: GprConfig,

@@ -7,7 +7,7 @@ One of the two program formats; :func:`gpr_kinematics.robot.program.load_any_pro
     version: 1                # optional
     move_time: 2.0            # optional default duration of each move [s]
     stations:
-      - name: load            # optional: 1 to 64 letters, digits, _ . - (not - first)
+      - name: load            # optional: 1 to 64 letters, digits, _ . - (not - first), each once
         height: 0.30          # z of the platform centre in gpr_base [m]
         tilt: 0.0             # tilt angle [rad]; negative = about azimuth + pi
         azimuth: 0.0          # direction of the tilt axis [rad], within one turn ([-2pi, 2pi])
@@ -132,7 +132,8 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
         raise ConfigError(f'{source}: "stations" must be a non-empty list of stations')
     if len(raw) > MAX_STATIONS:
         raise ConfigError(f'{source}: {len(raw)} stations; allowed: at most {MAX_STATIONS}')
-    stations = []
+    stations: list[PlatformStation] = []
+    first: dict[str, int] = {}   # each name's station, for a name given twice (robot programs refuse it too)
     for i, st in enumerate(raw):
         where = f'station {i}'
         if not isinstance(st, Mapping):
@@ -142,6 +143,10 @@ def parse_platform_program(data: Any, source: str = 'program') -> PlatformProgra
         if missing:
             raise ConfigError(f'{source}: {where}: missing {", ".join(missing)} (metres, radians)')
         name = station_name(st['name'], f'{source}: {where}') if 'name' in st else f'station_{i}'
+        if name in first:
+            raise ConfigError(f'{source}: station name {brief(name)} is given twice, as station {first[name]} and as '
+                              f'station {i}; allowed: each station name once')
+        first[name] = i
         where = f'station {i} ({name})'
         mt = st.get('move_time')
         stations.append(PlatformStation(
