@@ -62,6 +62,14 @@ def test_calibrate_shipped_file_json_and_config(capsys, tmp_path):
     assert len(tilts) == demo.ROWS and math.degrees(max(tilts)) == pytest.approx(1.92152, abs=1e-5)
 
 
+def test_free_repeated_adds_up(capsys, tmp_path):
+    """``--free kappa --free rod_offsets`` frees the six parameters of both (only the last option's three were)."""
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'a.yaml'), '--free', 'kappa',
+                           '--free', 'rod_offsets', '--json')
+    fitted = [p['name'] for p in json.loads(out)['parameters'] if p['status'] == 'fitted']
+    assert fitted == ['rod1_offset', 'kappa1', 'rod2_offset', 'kappa2', 'rod3_offset', 'kappa3'], err
+
+
 def test_calibrate_text_matches_json(capsys, tmp_path):
     """With only the offsets and kappa free, the rods' places and tilts of the machine that made the file are left
     unexplained: the fit fails its chi-square gate (status 1; --force writes the file); the text and the JSON carry
@@ -248,6 +256,11 @@ def bad_inputs(tmp_path):
         (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'measurements file .*none\.csv\' not found'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod_offsets'],
          r"--free names 'rod_offsets' twice; allowed: each parameter once"),
+        # --free repeated adds up (the last one alone was kept): a name in two of them is still given twice
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'kappa', '--free', 'rod_offsets', 'kappa'],
+         r"--free names 'kappa' twice; allowed: each parameter once"),
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'kappa', '--free', 'kappa1'],
+         r'--free names kappa1 twice, on its own and in kappa; allowed: each parameter once'),
         # a key and one of its parameters: accepted, while a name given twice was refused
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod1_offset'],
          r'--free names rod1_offset twice, on its own and in rod_offsets; allowed: each parameter once'),

@@ -284,10 +284,10 @@ def register(sub: Subparsers) -> None:
                         'also when the gate fails)')
     p.add_argument('--force', action='store_true', help='write the calibrated file even when the fit fails its gate '
                                                         '(the status is still 1)')
-    p.add_argument('--free', nargs='+', metavar='NAME',
-                   help='parameters to identify: names (rod2_offset, rod1_ux, joint3_y, kappa1, arm1_elbow_length, '
-                        '...) or whole keys (rod_positions, rod_offsets, rod_directions, platform_joints, kappa; '
-                        'length, zero_offset, wafer_centre); default: all')
+    p.add_argument('--free', nargs='+', action='extend', metavar='NAME',
+                   help='parameters to identify (repeatable, the names add up): names (rod2_offset, rod1_ux, '
+                        'joint3_y, kappa1, arm1_elbow_length, ...) or whole keys (rod_positions, rod_offsets, '
+                        'rod_directions, platform_joints, kappa; length, zero_offset, wafer_centre); default: all')
     p.add_argument('--frame', default='gpr_base', metavar='NAME',
                    help='the fixed frame the measurements are in (default gpr_base; not one that moves with the '
                         'machine, gpr_platform ...); another (tracker): the pose of gpr_base in it is identified with '
