@@ -280,7 +280,13 @@ def bad_inputs(tmp_path):
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tr\u0430cker'],   # a Cyrillic a passed isalnum
          r"--frame 'tr\u0430cker'; allowed: a frame name of 1 to 64 ASCII letters, digits and _"),
         (['calibrate', '--plan', '8', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
-        (['calibrate', '--plan', '8', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
+        (['calibrate', '--plan', '8', '--sigma-position', '1e300'],
+         r'--sigma-position = 1e\+300 m; allowed: a standard deviation from 1e-09 to 0\.1 m\n$'),
+        # as typed, the bounds in both units: it said '--sigma-angle = 0.3490658503988659 (SI); ... (m, rad)'
+        (['calibrate', '--plan', '8', '--sigma-angle', '20', '--deg'], r'--sigma-angle = 20 deg \(0\.349066 rad\); '
+         r'allowed: a standard deviation from 1e-09 to 0\.1 rad \(5\.73e-08 to 5\.73 deg\)\n$'),
+        (['calibrate', '--plan', '8', '--sigma-position', '300', '--mm'], r'--sigma-position = 300 mm \(0\.3 m\); '
+         r'allowed: a standard deviation from 1e-09 to 0\.1 m \(1e-06 to 100 mm\)\n$'),
     ]
 
 
