@@ -664,6 +664,18 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
     assert status == 0 and not json.loads(out)['absolute_sigma'], err
 
 
+def test_a_sigma_option_overstated_is_named_by_the_gate(capsys, tmp_path):
+    """``--sigma-position 3 --mm`` for a file without sigma columns whose noise is 3 um: the sigmas check fails and
+    names the option (it blamed 'a sigma column in other units than the file's', a column the file does not have)."""
+    data = [ln for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines() if not ln.startswith('#')]
+    path = write(tmp_path, 'ns.csv', '\n'.join(','.join(r.split(',')[:10]) for r in data))
+    status, _, err = run(capsys, 'calibrate', path, '--output', str(tmp_path / 'x.yaml'), '--sigma-position', '3',
+                         '--mm')
+    assert status == 1 and ('the fit weights the positions too little: --sigma-position in other units than meant '
+                            '(with or without --mm?), or the noise overstated; give the measurement noise.') in err, err
+    assert 'sigma column' not in err
+
+
 def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):
     """sigma_position 0.003 (3 mm: the um value written in mm) in a file in metres passed the gate with a reduced
     chi-square of 0.44, the positions weighted 1e6 times too little and the zero offsets 14 um off the machine; the
