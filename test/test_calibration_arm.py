@@ -235,6 +235,14 @@ def test_arm_refusals(arm_case, capsys, tmp_path):
         assert re.search(pattern, err), (argv, err)
     with pytest.raises(Exception, match='joint columns'):
         read_arm_measurements(both, robot)
+    # an empty file: the header's joint columns named too, as for a header without them (only q1,q2,q3,x,y,z were)
+    empty = tmp_path / 'e.csv'
+    empty.write_text('')
+    wanted = '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in robot.arms)
+    status, _, err = run(capsys, 'calibrate', '--robot', robot.source, str(empty), '--output', 'x.yaml')
+    assert status == 2 and err == (f'gpr calibrate: error: {empty}: the file is empty; the first line that is not a '
+                                   'comment must name the columns (q1,q2,q3,x,y,z); the joint columns must be those '
+                                   f'of one arm of {robot.name} ({wanted})\n'), err
 
 
 def test_rows_of_merged_files_named_by_file_and_line(arm_case, capsys, tmp_path):
