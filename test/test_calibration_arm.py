@@ -235,6 +235,23 @@ def test_arm_refusals(arm_case, capsys, tmp_path):
         assert re.search(pattern, err), (argv, err)
     with pytest.raises(Exception, match='joint columns'):
         read_arm_measurements(both, robot)
+    # joints in radians under a '# units: m deg' line: the refusal names that line's angle unit among the causes
+    wdeg = tmp_path / 'wdeg.csv'
+    wdeg.write_text('# units: m deg\n' + '\n'.join(text) + '\n')
+    status, _, err = run(capsys, 'calibrate', '--robot', robot.source, str(wdeg), '--output', 'x.yaml')
+    assert status == 2 and err.count('\n') == 1, err
+    assert re.fullmatch(r"gpr calibrate: error: .*wdeg\.csv line 3: the measured point is [\d.]+ m from the nominal "
+                        r"model's \(allowed: 0\.01 m\): not a measurement of this machine in gpr_base in SI units "
+                        r"\(another frame than gpr_base.*: correct the nominal model first\); or its '# units:' line's "
+                        r"angle unit \(deg\) not the joints'\n", err), err
+    # an empty file: the header's joint columns named too, as for a header without them (only q1,q2,q3,x,y,z were)
+    empty = tmp_path / 'e.csv'
+    empty.write_text('')
+    wanted = '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in robot.arms)
+    status, _, err = run(capsys, 'calibrate', '--robot', robot.source, str(empty), '--output', 'x.yaml')
+    assert status == 2 and err == (f'gpr calibrate: error: {empty}: the file is empty; the first line that is not a '
+                                   'comment must name the columns (q1,q2,q3,x,y,z); the joint columns must be those '
+                                   f'of one arm of {robot.name} ({wanted})\n'), err
 
 
 def test_rows_of_merged_files_named_by_file_and_line(arm_case, capsys, tmp_path):

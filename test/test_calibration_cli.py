@@ -62,6 +62,14 @@ def test_calibrate_shipped_file_json_and_config(capsys, tmp_path):
     assert len(tilts) == demo.ROWS and math.degrees(max(tilts)) == pytest.approx(1.92152, abs=1e-5)
 
 
+def test_free_repeated_adds_up(capsys, tmp_path):
+    """``--free kappa --free rod_offsets`` frees the six parameters of both (only the last option's three were)."""
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'a.yaml'), '--free', 'kappa',
+                           '--free', 'rod_offsets', '--json')
+    fitted = [p['name'] for p in json.loads(out)['parameters'] if p['status'] == 'fitted']
+    assert fitted == ['rod1_offset', 'kappa1', 'rod2_offset', 'kappa2', 'rod3_offset', 'kappa3'], err
+
+
 def test_calibrate_text_matches_json(capsys, tmp_path):
     """With only the offsets and kappa free, the rods' places and tilts of the machine that made the file are left
     unexplained: the fit fails its chi-square gate (status 1; --force writes the file); the text and the JSON carry
@@ -248,6 +256,11 @@ def bad_inputs(tmp_path):
         (['calibrate', str(tmp_path / 'none.csv'), '--output', 'x.yaml'], r'measurements file .*none\.csv\' not found'),
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod_offsets'],
          r"--free names 'rod_offsets' twice; allowed: each parameter once"),
+        # --free repeated adds up (the last one alone was kept): a name in two of them is still given twice
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'kappa', '--free', 'rod_offsets', 'kappa'],
+         r"--free names 'kappa' twice; allowed: each parameter once"),
+        (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'kappa', '--free', 'kappa1'],
+         r'--free names kappa1 twice, on its own and in kappa; allowed: each parameter once'),
         # a key and one of its parameters: accepted, while a name given twice was refused
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--free', 'rod_offsets', 'rod1_offset'],
          r'--free names rod1_offset twice, on its own and in rod_offsets; allowed: each parameter once'),
@@ -267,7 +280,13 @@ def bad_inputs(tmp_path):
         (['calibrate', SHIPPED, '--output', 'x.yaml', '--frame', 'tr\u0430cker'],   # a Cyrillic a passed isalnum
          r"--frame 'tr\u0430cker'; allowed: a frame name of 1 to 64 ASCII letters, digits and _"),
         (['calibrate', '--plan', '8', '--tolerances', SHIPPED], r'not valid YAML|expected a mapping'),
-        (['calibrate', '--plan', '8', '--sigma-position', '1e300'], r'--sigma-position = 1e\+300 \(SI\); allowed'),
+        (['calibrate', '--plan', '8', '--sigma-position', '1e300'],
+         r'--sigma-position = 1e\+300 m; allowed: a standard deviation from 1e-09 to 0\.1 m\n$'),
+        # as typed, the bounds in both units: it said '--sigma-angle = 0.3490658503988659 (SI); ... (m, rad)'
+        (['calibrate', '--plan', '8', '--sigma-angle', '20', '--deg'], r'--sigma-angle = 20 deg \(0\.349066 rad\); '
+         r'allowed: a standard deviation from 1e-09 to 0\.1 rad \(5\.73e-08 to 5\.73 deg\)\n$'),
+        (['calibrate', '--plan', '8', '--sigma-position', '300', '--mm'], r'--sigma-position = 300 mm \(0\.3 m\); '
+         r'allowed: a standard deviation from 1e-09 to 0\.1 m \(1e-06 to 100 mm\)\n$'),
     ]
 
 
@@ -643,6 +662,18 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
     status, out, err = run(capsys, 'calibrate', str(tmp_path / 'clean.csv'), '--output', str(tmp_path / 'w.yaml'),
                            '--json')
     assert status == 0 and not json.loads(out)['absolute_sigma'], err
+
+
+def test_a_sigma_option_overstated_is_named_by_the_gate(capsys, tmp_path):
+    """``--sigma-position 3 --mm`` for a file without sigma columns whose noise is 3 um: the sigmas check fails and
+    names the option (it blamed 'a sigma column in other units than the file's', a column the file does not have)."""
+    data = [ln for ln in Path(SHIPPED).read_text(encoding='utf-8').splitlines() if not ln.startswith('#')]
+    path = write(tmp_path, 'ns.csv', '\n'.join(','.join(r.split(',')[:10]) for r in data))
+    status, _, err = run(capsys, 'calibrate', path, '--output', str(tmp_path / 'x.yaml'), '--sigma-position', '3',
+                         '--mm')
+    assert status == 1 and ('the fit weights the positions too little: --sigma-position in other units than meant '
+                            '(with or without --mm?), or the noise overstated; give the measurement noise.') in err, err
+    assert 'sigma column' not in err
 
 
 def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):

@@ -298,6 +298,13 @@ def test_the_sigmas_check_is_the_chi_squares_lower_point():
     assert low == pytest.approx(0.38627, abs=1e-5) and check.limit == pytest.approx(low, rel=1e-12) and not check.passed
     assert check.value == pytest.approx(0.04, rel=1e-12)
     assert sigma_check(h, np.full((10, 3), math.sqrt(low) * (1.0 + 1e-12))).passed
+    # sigmas of --sigma-angle, not a column: the hint names the option (it blamed 'a sigma column in other units')
+    angles = sigma_check(np.zeros((10, 6)), np.hstack([np.ones((10, 3)), np.full((10, 3), 0.2)]), options=['angle'])
+    assert angles.detail == (
+        'The angle residuals are far smaller than the standard deviations given: their reduced chi-square 0.04 is '
+        'below 0.386 (the 0.1 % point for 30 degrees of freedom), and the fit weights the angles too little: '
+        '--sigma-angle in other units than meant (with or without --deg?), or the noise overstated; give the '
+        'measurement noise.')
 
 
 def test_sigmas_declared_a_third_above_the_noise_fail_the_sigmas_check():

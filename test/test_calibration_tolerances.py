@@ -91,16 +91,24 @@ def test_moments_match_samples(tol):
     ({'measurement_noise': {'position': float('nan'), 'angle': 1e-5}},
      r'measurement_noise: position = nan; allowed: a standard deviation from 1e-09 to 0.1 m$'),
     ({'joint_clearance': [1e-6, 1e-6]}, r'joint_clearance: one value or a list of 3'),
-    ({'joint_clearance': 0.5}, r'joint_clearance: at most 0\.01 m'),
+    ({'joint_clearance': 0.5}, r'joint_clearance: 0\.5 m; allowed: at most 0\.01 m$'),
+    # a table in mm or deg: the value named as the file gives it and the bound in both units (it said 0.05 m)
+    ({'units': {'length': 'mm'}, 'joint_clearance': [0, 50, 1]},
+     r'^t\.yaml: joint_clearance: 50 mm \(0\.05 m\); allowed: at most 0\.01 m \(10 mm\)$'),
+    ({'units': {'length': 'mm'}, 'rod_length': {'tolerance': 50}},
+     r'^t\.yaml: rod_length: tolerance 50 mm \(0\.05 m\); allowed: at most 0\.01 m \(10 mm\)$'),
+    ({'units': {'length': 'mm'}, 'measurement_noise': {'position': 300, 'angle': 1e-5}},
+     r'^t\.yaml: measurement_noise: position = 300 mm \(0\.3 m\); allowed: a standard deviation from 1e-09 to 0\.1 m '
+     r'\(1e-06 to 100 mm\)$'),
     ({'measurement_noise': {'position': 0, 'angle': 1e-5}}, r'measurement_noise: position = 0; allowed: a finite '
                                                              r'number > 0'),
     ({'measurement_noise': {'position': 1e-6}}, r'measurement_noise: angle = None'),
     # the sigmas a measurement file's rows may have: 1e6 m passed gpr accuracy, and gpr calibrate named no file
-    ({'measurement_noise': {'position': 1e6, 'angle': 1e-5}}, r't.yaml: measurement_noise: position = 1e\+06 m \(SI\); '
+    ({'measurement_noise': {'position': 1e6, 'angle': 1e-5}}, r't.yaml: measurement_noise: position = 1e\+06 m; '
                                                               r'allowed: a standard deviation from 1e-09 to 0.1 m$'),
     ({'units': {'angle': 'deg'}, 'measurement_noise': {'position': 1e-6, 'angle': 1e-300}},
-     r't.yaml: measurement_noise: angle = 1.74533e-302 rad \(SI\); allowed: a standard deviation from 1e-09 to 0.1 '
-     r'rad$'),
+     r't.yaml: measurement_noise: angle = 1e-300 deg \(1\.74533e-302 rad\); allowed: a standard deviation from 1e-09 '
+     r'to 0\.1 rad \(5\.73e-08 to 5\.73 deg\)$'),
 ])
 def test_malformed_tables_refused(data, pattern):
     with pytest.raises(ConfigError, match=pattern):
@@ -153,8 +161,17 @@ def test_binding_refusals(tmp_path):
                                           r'rod1_y.*whole keys: rod_positions, rod_offsets, rod_directions, '
                                           r'platform_joints, kappa'):
         parse_tolerances({'parameters': {'radius': {'tolerance': 1e-5}}}, 't.yaml').bind(ps)
-    with pytest.raises(ConfigError, match=r'parameters: rod_offsets: tolerance 0\.5 m; allowed: at most 0\.01 m'):
+    with pytest.raises(ConfigError, match=r'parameters: rod_offsets: tolerance 0\.5 m; allowed: at most 0\.01 m$'):
         parse_tolerances({'parameters': {'rod_offsets': {'tolerance': 0.5}}}, 't.yaml').bind(ps)
+    # in the file's mm or deg: named so, the bound in both (it said 'tolerance 0.05 m; allowed: at most 0.01 m')
+    with pytest.raises(ConfigError, match=r'^t\.yaml: parameters: rod_offsets: tolerance 50 mm \(0\.05 m\); allowed: '
+                                          r'at most 0\.01 m \(10 mm\)$'):
+        parse_tolerances({'units': {'length': 'mm'}, 'parameters': {'rod_offsets': {'tolerance': 50}}},
+                         't.yaml').bind(ps)
+    with pytest.raises(ConfigError, match=r'^t\.yaml: parameters: rod_directions: tolerance 10 deg \(0\.174533 rad\); '
+                                          r'allowed: at most 0\.1 rad \(5\.73 deg\)$'):
+        parse_tolerances({'units': {'angle': 'deg'}, 'parameters': {'rod_directions': {'tolerance': 10}}},
+                         't.yaml').bind(ps)
     with pytest.raises(ConfigError, match=r'a log-uniform range must be positive'):
         parse_tolerances({'parameters': {'rod1_ux': {'range': [-1e-3, 1e-3], 'distribution': 'log-uniform'}}},
                          't.yaml').bind(ps)
@@ -211,7 +228,7 @@ def test_a_range_at_the_bound_written_in_mm_is_not_refused_for_its_rounding():
     for lo, hi, pattern in ((mm, mm + 10.00001, r'reaches 0\.01000001 m from the nominal -0\.046609 m; allowed: '
                                                 r'values within 0\.01 m'),
                             (mm - 10.00001, mm + 10.00001, r'range \[-0\.056609, -0\.036609\] m is 0\.02000002 m '
-                                                          r'wide; allowed: at most 0\.02 m')):
+                                                          r'wide; allowed: at most 0\.02 m \(20 mm\)$')):
         with pytest.raises(ConfigError, match=pattern):
             parse_tolerances({'units': {'length': 'mm'}, 'parameters': {'rod2_x': {'range': [lo, hi]}}},
                              't.yaml').bind(ps)

@@ -111,6 +111,11 @@ def test_accuracy_gpr_with_imperfections(capsys):
     # Second order: errors of ~0.1 mm over a 93 mm joint circle leave ~0.1 um between the two.
     assert max(abs(v) for v in res['difference'].values()) < 5e-7
     assert max(abs(v) for v in res['linearized'].values()) > 1e-5
+    # --errors repeated adds up (the last option's values alone were kept: 'takes 3 values; got 2')
+    code, out, err = run(capsys, 'accuracy', 'gpr.yaml', '--pose', '0', '0', '300', '0.01', '0', '0', '--errors',
+                         '0.1', '--errors', '0', '-0.1', '--mm', '--json')
+    assert code == 0, err
+    np.testing.assert_allclose(json.loads(out)['results'][0]['joint_errors'], [1e-4, 0, -1e-4])
 
 
 def test_dexterity_plot_and_json(capsys, tmp_path):

@@ -144,9 +144,14 @@ def _arm_of(robot: RobotDescription, cols: Sequence[str], source: str) -> Arm:
     """The one arm all of whose joints, and only those, name columns."""
     present = [a for a in robot.arms if any(j.name.lower() in cols for j in a.joints)]
     if len(present) != 1 or not all(j.name.lower() in cols for j in present[0].joints):
-        wanted = '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in robot.arms)
-        raise InputError(f'{source}: the joint columns must be those of one arm of {robot.name} ({wanted})')
+        raise InputError(f'{source}: {_joint_columns(robot)}')
     return present[0]
+
+
+def _joint_columns(robot: RobotDescription) -> str:
+    """The joint columns a file of one arm of ``robot`` must have, as its refusals name them."""
+    wanted = '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in robot.arms)
+    return f'the joint columns must be those of one arm of {robot.name} ({wanted})'
 
 
 def read_arm_measurements(path: str | Path, robot: RobotDescription) -> ArmMeasurements:
@@ -154,7 +159,8 @@ def read_arm_measurements(path: str | Path, robot: RobotDescription) -> ArmMeasu
     units, rods within the stroke and the tilt limit, joints within their limits."""
     joints = tuple(j.name.lower() for a in robot.arms for j in a.joints)
     lengths = frozenset(REQUIRED_COLUMNS + ('sigma_position',) + BLADE_COLUMNS)
-    spec = Columns(REQUIRED_COLUMNS, (BLADE_COLUMNS,), joints + ('sigma_position',), lengths, frozenset(joints))
+    spec = Columns(REQUIRED_COLUMNS, (BLADE_COLUMNS,), joints + ('sigma_position',), lengths, frozenset(joints),
+                   also=f'; {_joint_columns(robot)}')   # an empty file named only the GPR's
     source = str(path)
     table = read_table(read_text(path, 'measurement', MAX_FILE_BYTES), source, spec)
     col = table.columns

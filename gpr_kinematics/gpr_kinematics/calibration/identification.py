@@ -402,7 +402,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     noise = None if absolute else assumed_noise(meas, best.residual, w, declared)
     # the sigmas check of each kind whose sigmas are given (a sigma_position in mm with no sigma_angle passed), the
     # outliers of the others in units of their own robust scale
-    more = (sigma_check(h, best.residual, known) if known else None,
+    options = [kind for kind in known if getattr(meas, f'sigma_{kind}') is None]   # the options', not a column's
+    more = (sigma_check(h, best.residual, known, options) if known else None,
             outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]]))
     weak = weak_at_estimate(params, fit, se, scale)
     gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)

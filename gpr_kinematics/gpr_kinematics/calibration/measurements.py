@@ -175,8 +175,8 @@ def row_name(line: int, file: str | None = None) -> str:
 @dataclass(frozen=True)
 class Columns:
     """The columns a CSV file of measurements may have: ``required`` ones, ``groups`` of which each comes whole or
-    not at all, ``optional`` single ones, which of them are lengths and angles (for the units), and ``needs``: a
-    column that comes only with a group."""
+    not at all, ``optional`` single ones, which of them are lengths and angles (for the units), ``needs``: a
+    column that comes only with a group, and ``also``: what a header names besides ``required`` (an arm's joints)."""
 
     required: tuple[str, ...]
     groups: tuple[tuple[str, ...], ...] = ()
@@ -184,6 +184,7 @@ class Columns:
     lengths: frozenset[str] = frozenset()
     angles: frozenset[str] = frozenset()
     needs: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    also: str = ''
 
     @property
     def allowed(self) -> tuple[str, ...]:
@@ -354,7 +355,7 @@ def _read_table(text: str, source: str, spec: Columns = POSE_COLUMNS, progress: 
     if table.cols is None:
         empty = 'the file is empty' if not text.strip() else 'no header row'
         raise InputError(f'{source}: {empty}; the first line that is not a comment must name the columns '
-                         f'({",".join(spec.required)})')
+                         f'({",".join(spec.required)}){spec.also}')
     if not table.rows:
         raise InputError(f'{source}: no data rows after the header')
     if progress is not None:   # the end of the stage

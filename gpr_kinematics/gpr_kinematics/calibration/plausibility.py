@@ -25,9 +25,11 @@ PLAUSIBLE_ANGLE = 0.05
 class ImplausiblePoseError(InputError):
     """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
     :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which).
-    ``units``: the lengths' units explain it (the message says which), not a frame or a target."""
+    ``units``: the lengths' units explain it (the message says which), not a frame or a target; ``angle``: the
+    file's angle unit (deg only where its ``# units:`` line declares it)."""
 
     units = False
+    angle = 'rad'
 
 
 def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
@@ -68,7 +70,7 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
         unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
         exc = ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
-        exc.units = mm or metres
+        exc.units, exc.angle = mm or metres, meas.units[1]
         raise exc
 
 

@@ -348,11 +348,13 @@ def outlier_check(h: Array | None, residual: Array, names: Sequence[str], robust
                      f'{1 / (1 - CHI2_QUANTILE):.0f} fits): {cause}.')
 
 
-def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = None) -> GateCheck | None:
+def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = None,
+                options: Sequence[str] = ()) -> GateCheck | None:
     """The gate's ``sigmas`` check (module docstring) of a fit with hat diagonal ``h (N, k)`` (:func:`hat_diagonal`)
     and weighted residual blocks ``residual (N, k)``: of the ``kinds`` whose sigmas are given (all by default), the
     one whose reduced chi-square is furthest below its ``1 - CHI2_QUANTILE`` point; ``None`` when none has a degree
-    of freedom or there is no hat diagonal."""
+    of freedom or there is no hat diagonal. The hint names ``--sigma-position``/``--sigma-angle`` for the
+    ``options`` kinds (their sigmas the option's, not a column's)."""
     n, k = residual.shape
     if h is None:
         return None
@@ -368,12 +370,14 @@ def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = 
     if found is None:
         return None
     red, kind, dof, low = found
+    unit = '--mm' if kind == 'position' else '--deg'
+    cause = (f'--sigma-{kind} in other units than meant (with or without {unit}?)' if kind in options else
+             'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?)')
     return GateCheck('sigmas', red >= low, red, low,
                      f'The {kind} residuals are far smaller than the standard deviations given: their reduced '
                      f'chi-square {red:.3g} is below {low:.3g} (the {100 * (1 - CHI2_QUANTILE):g} % point for '
-                     f'{dof:.4g} degrees of freedom), and the fit weights the {kind}s too little: a sigma column in '
-                     'other units than the file\'s (mm or deg in a file in m and rad?), or the noise overstated; give '
-                     'the measurement noise.', at_least=True)
+                     f'{dof:.4g} degrees of freedom), and the fit weights the {kind}s too little: {cause}, or the '
+                     'noise overstated; give the measurement noise.', at_least=True)
 
 
 def worst_rows(residual: Array, names: Sequence[str], count: int = 3) -> str:

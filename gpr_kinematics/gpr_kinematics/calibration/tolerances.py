@@ -39,7 +39,7 @@ from ..core.parameters import PARAMETERS
 from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
-from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
+from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, as_typed, both_units, to_si
 from ..mechanisms.accuracy import JOINT_ANGLE_ERROR_MOST, PARAMETER_ERROR_MOST
 from .frames import AXES
 from .measurements import SIGMA_RANGE
@@ -188,11 +188,13 @@ class ToleranceTable:
         f = {'m': _LENGTH[self.units[0]], 'rad': _ANGLE[self.units[1]], '1': 1.0}[p.unit]
         where = f'{self.source}: parameters: {key}'
         limit = MAX_TOLERANCE[p.unit]
+        own = {'m': self.units[0], 'rad': self.units[1]}.get(p.unit, p.unit)   # the file's unit: named as well
         nominal = float(p.value(p.nominal))
         if kind == 'tolerance':
             t = to_si(vals[0], f)
             if t > limit:
-                raise ConfigError(f'{where}: tolerance {t:.6g} {p.unit}; allowed: {_most(limit, p.unit)}')
+                raise ConfigError(f'{where}: tolerance {as_typed(vals[0], t, p.unit, own)}; allowed: '
+                                  f'{_most(limit, p.unit, own)}')
             if t == 0:
                 return None
             lo, hi, low, high = nominal - t, nominal + t, -t, t
@@ -200,7 +202,7 @@ class ToleranceTable:
             lo, hi = to_si(vals[0], f), to_si(vals[1], f)
             if hi - lo > 2 * limit * (1.0 + BOUND_SLACK):
                 raise ConfigError(f'{where}: range [{lo:.6g}, {hi:.6g}] {p.unit} is {hi - lo:.9g} {p.unit} wide; '
-                                  f'allowed: at most {2 * limit:g} {p.unit}')
+                                  f'allowed: {_most(2 * limit, p.unit, own)}')
             low, high = lo - nominal, hi - nominal
             reach = max(abs(low), abs(high))
             if not p.transform and reach > limit * (1.0 + BOUND_SLACK):  # it bypassed the tolerance's bound
@@ -277,9 +279,10 @@ def prior_of(table: ToleranceTable, params: ParameterSet) -> Array:
                      for t, given, s in zip(bound, listed, params.scale, strict=True)])
 
 
-def _most(limit: float, unit: str) -> str:
-    """What a tolerance of ``unit`` may be (:data:`MAX_TOLERANCE`), as every refusal of one names it."""
-    return f'at most {limit:g}' + ('' if unit == '1' else f' {unit}')
+def _most(limit: float, unit: str, own: str = '') -> str:
+    """What a tolerance of ``unit`` may be (:data:`MAX_TOLERANCE`), as every refusal of one names it; also in the
+    file's unit ``own`` when another (``at most 0.01 m (10 mm)``)."""
+    return f'at most {limit:g}' if unit == '1' else f'at most {both_units(limit, None, unit, own or unit)}'
 
 
 def _allowed(key: str) -> tuple[str, str]:
@@ -352,7 +355,7 @@ def _entry(where: str, spec: Any, allowed: tuple[str, str]) -> tuple[str, tuple[
     return 'range', (lo, hi), dist
 
 
-def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None, float | None]:
+def _noise(noise: Any, source: str, length: str, angle: str) -> tuple[float | None, float | None]:
     """The table's ``measurement_noise`` (SI): the sigmas a measurement file's rows may have
     (:data:`~.measurements.SIGMA_RANGE`; 1e6 m passed gpr accuracy's plan, and gpr calibrate named no file)."""
     if noise is None:
@@ -361,17 +364,17 @@ def _noise(noise: Any, source: str, lf: float, af: float) -> tuple[float | None,
         raise ConfigError(f'{source}: measurement_noise: expected {{position: sigma, angle: sigma}}')
     check_keys(noise, ('position', 'angle'), f'{source}: measurement_noise')
     lo, hi = SIGMA_RANGE
-    allowed = f'a standard deviation from {lo:g} to {hi:g} {{}}'
-    sp = to_si(_number(noise.get('position'), f'{source}: measurement_noise: position', allowed.format('m'),
-                       positive=True), lf)
-    sa = to_si(_number(noise.get('angle'), f'{source}: measurement_noise: angle', allowed.format('rad'),
-                       positive=True), af)
-    for key, value, unit in (('position', sp, 'm'), ('angle', sa, 'rad')):
+    si = []
+    for key, unit, own in (('position', 'm', length), ('angle', 'rad', angle)):
+        allowed = f'a standard deviation from {both_units(lo, hi, unit, own)}'
+        typed = _number(noise.get(key), f'{source}: measurement_noise: {key}', allowed, positive=True)
+        value = to_si(typed, {**_LENGTH, **_ANGLE}[own])
         if not lo <= value <= hi:
-            shown = apart(value, hi if value > hi else lo)[0]   # 0.1000001 read 0.1, the bound
-            raise ConfigError(f'{source}: measurement_noise: {key} = {shown} {unit} (SI); allowed: '
-                              f'{allowed.format(unit)}')
-    return sp, sa
+            shown = as_typed(typed, value, unit, own) if own != unit else \
+                f'{apart(value, hi if value > hi else lo)[0]} {unit}'   # 0.1000001 read 0.1, the bound
+            raise ConfigError(f'{source}: measurement_noise: {key} = {shown}; allowed: {allowed}')
+        si.append(value)
+    return si[0], si[1]
 
 
 def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
@@ -394,7 +397,7 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
         raise ConfigError(f'{source}: parameters: expected a mapping of parameter names to tolerances')
     entries = {str(k): _entry(f'{source}: parameters: {str(k)[:60]}', v, _allowed(str(k))) for k, v in params.items()}
     rod = None
-    most = _most(MAX_TOLERANCE['m'], 'm')
+    most = _most(MAX_TOLERANCE['m'], 'm', length)
     if data.get('rod_length') is not None:
         kind, vals, dist = _entry(f'{source}: rod_length', data['rod_length'],
                                   (most, f'a tolerance (a half-width) {most}, not a range'))
@@ -402,16 +405,19 @@ def parse_tolerances(data: Any, source: str = 'tolerances') -> ToleranceTable:
             raise ConfigError(f'{source}: rod_length: give a tolerance (a half-width), not a range')
         t = to_si(vals[0], lf)
         if t > MAX_TOLERANCE['m']:
-            raise ConfigError(f'{source}: rod_length: tolerance {t:g} m; allowed: {most}')
+            raise ConfigError(f'{source}: rod_length: tolerance {as_typed(vals[0], t, "m", length)}; allowed: {most}')
         rod = Tolerance(-t, t, dist) if t > 0 else None
     clear = data.get('joint_clearance', 0.0)
     clear_list = clear if isinstance(clear, list) else [clear] * 3
     if len(clear_list) != 3:
         raise ConfigError(f'{source}: joint_clearance: one value or a list of 3 (one per joint), in {length}')
-    clearance = tuple(to_si(_number(c, f'{source}: joint_clearance', most), lf) for c in clear_list)
+    typed = [_number(c, f'{source}: joint_clearance', most) for c in clear_list]
+    clearance = tuple(to_si(c, lf) for c in typed)
     if max(clearance) > MAX_TOLERANCE['m']:
-        raise ConfigError(f'{source}: joint_clearance: {most}')
-    sp, sa = _noise(data.get('measurement_noise'), source, lf, _ANGLE[angle])
+        k = clearance.index(max(clearance))
+        raise ConfigError(f'{source}: joint_clearance: {as_typed(typed[k], clearance[k], "m", length)}; allowed: '
+                          f'{most}')
+    sp, sa = _noise(data.get('measurement_noise'), source, length, angle)
     return ToleranceTable(entries=entries, rod_length=rod, joint_clearance=clearance,  # type: ignore[arg-type]
                           sigma_position=sp, sigma_angle=sa, units=(length, angle), source=source)
 

@@ -352,8 +352,8 @@ def register(subparsers: Subparsers) -> None:
                               epilog=CONVENTIONS, formatter_class=argparse.RawDescriptionHelpFormatter)
     mechanism_options(p, False, 'mechanism YAML (config/mechanisms/*.yaml); with --tolerances also a platform or '
                       'robot program')
-    p.add_argument('--errors', nargs='+', type=finite, metavar='E',
-                   help='one error per joint in file order (m, rad for angular joints)')
+    p.add_argument('--errors', nargs='+', action='extend', type=finite, metavar='E',
+                   help='one error per joint in file order (m, rad for angular joints; repeatable, the values add up)')
     p.add_argument('--parameter-error', nargs='+', action='append', metavar='NAME V',
                    help='geometric error: parameter name and its values, e.g. A_i (18 values, m) for a '
                    'Stewart platform, joint_imperfections (9 values, m) for the GPR; repeatable')

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 from ..core.config import MODELS
 from ..errors import InputError
 from ..inputs.resources import MEASUREMENTS, ROBOTS, TOLERANCES
+from ..inputs.units import as_typed, both_units
 from .calibrate_options import (
     EXIT_GATE,
     config,
@@ -242,9 +243,12 @@ def _handler(args: argparse.Namespace) -> int:
         raise InputError(f'--threshold = {args.threshold!r}; allowed: a finite number > 0')
     from ..calibration.measurements import SIGMA_RANGE
     lo, hi = SIGMA_RANGE
-    for flag, value in zip(('--sigma-position', '--sigma-angle'), sigmas(args), strict=True):
-        if not lo <= value <= hi:
-            raise InputError(f'{flag} = {value!r} (SI); allowed: a standard deviation from {lo:g} to {hi:g} (m, rad)')
+    sp, sa = sigmas(args)
+    for flag, typed, si, unit, own in (('--sigma-position', args.sigma_position, sp, 'm', 'mm' if args.mm else 'm'),
+                                       ('--sigma-angle', args.sigma_angle, sa, 'rad', 'deg' if args.deg else 'rad')):
+        if not lo <= si <= hi:   # named as typed (20 deg), the bounds in both units: it said '0.349... (SI)'
+            raise InputError(f'{flag} = {as_typed(typed, si, unit, own)}; allowed: a standard deviation from '
+                             f'{both_units(lo, hi, unit, own)}')
     if not _FRAME.fullmatch(args.frame):   # isalnum took any script's letters and digits
         raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of 1 to 64 ASCII letters, digits and _')
     if args.robot is None:
@@ -284,10 +288,10 @@ def register(sub: Subparsers) -> None:
                         'also when the gate fails)')
     p.add_argument('--force', action='store_true', help='write the calibrated file even when the fit fails its gate '
                                                         '(the status is still 1)')
-    p.add_argument('--free', nargs='+', metavar='NAME',
-                   help='parameters to identify: names (rod2_offset, rod1_ux, joint3_y, kappa1, arm1_elbow_length, '
-                        '...) or whole keys (rod_positions, rod_offsets, rod_directions, platform_joints, kappa; '
-                        'length, zero_offset, wafer_centre); default: all')
+    p.add_argument('--free', nargs='+', action='extend', metavar='NAME',
+                   help='parameters to identify (repeatable, the names add up): names (rod2_offset, rod1_ux, '
+                        'joint3_y, kappa1, arm1_elbow_length, ...) or whole keys (rod_positions, rod_offsets, '
+                        'rod_directions, platform_joints, kappa; length, zero_offset, wafer_centre); default: all')
     p.add_argument('--frame', default='gpr_base', metavar='NAME',
                    help='the fixed frame the measurements are in (default gpr_base; not one that moves with the '
                         'machine, gpr_platform ...); another (tracker): the pose of gpr_base in it is identified with '

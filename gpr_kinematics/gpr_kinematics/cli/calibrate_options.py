@@ -118,6 +118,9 @@ def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
     try:
         return run()
     except ImplausiblePoseError as exc:
+        if getattr(args, 'robot', None) is not None and exc.angle != 'rad' and not exc.units:   # an arm's joints
+            said = f"{exc}; or its '# units:' line's angle unit ({exc.angle}) not the joints'"
+            exc = ImplausiblePoseError(said)   # its frame hint below, if any, comes after it
         flags = ' and '.join(f for f in ('--base', '--target') if getattr(args, f[2:], None) is not None)
         units = [u for u, on in (('--mm for millimetres', not args.mm), ('--deg for degrees', not args.deg)) if on]
         gpr = getattr(args, 'robot', None) is None and hasattr(args, 'fit_target')   # not an arm's: its wafer centre
@@ -127,7 +130,7 @@ def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
                                        f'gpr_platform: give its place with --target X Y Z [{unit}], or --fit-target'
                                        ) from None
         if not flags or not units:
-            raise
+            raise exc from None
         raise ImplausiblePoseError(f'{exc}; or {flags} in other units than m and rad ({", ".join(units)})?') from None
 
 

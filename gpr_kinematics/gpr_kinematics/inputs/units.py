@@ -163,3 +163,19 @@ def scale(kind: str, unit: str | None, defaults: FileUnits, where: str, name: st
         raise FileError(f'{where}: column {name}: unit [{unit[:20]}] is invalid; allowed: '
                          + ' or '.join(units) + f' ({"an" if kind[0] in "aeiou" else "a"} {kind})')
     return units[unit], unit
+
+
+def as_typed(typed: float, si: float, unit: str, own: str) -> str:
+    """A value as typed (its shortest decimal) in ``own`` (mm, deg), SI beside it: ``20 deg (0.349066 rad)``;
+    ``0.5 rad`` when ``own`` is the SI ``unit``."""
+    shown = repr(float(typed)).removesuffix('.0')
+    return f'{shown} {unit}' if own == unit else f'{shown} {own} ({si:.6g} {unit})'
+
+
+def both_units(lo: float, hi: float | None, unit: str, own: str) -> str:
+    """A bound (``hi`` None) or a range ``lo`` to ``hi`` in the SI ``unit``, and in ``own`` when another:
+    ``0.01 m (10 mm)``, ``1e-09 to 0.1 rad (5.73e-08 to 5.73 deg)``."""
+    def text(u: str, k: float, fmt: str) -> str:
+        return (f'{lo / k:{fmt}}' if hi is None else f'{lo / k:{fmt}} to {hi / k:{fmt}}') + f' {u}'
+    f = {**LENGTH_UNITS, **ANGLE_UNITS}.get(own, 1.0)
+    return text(unit, 1.0, 'g') + ('' if own == unit else f' ({text(own, f, ".3g")})')
