@@ -9,7 +9,7 @@ Reading is done in three steps, each with its own errors:
 2. **validate**: the metadata's fields and types (:mod:`.metadata`), every storage file a regular file (a FIFO
    is refused without being opened for reading, so nothing blocks);
 3. **decode**: each file with a bounded reader, :func:`.mcap_file.read_mcap` (every length and CRC checked) or
-   :func:`read_sqlite` (``PRAGMA quick_check`` first), computing each file's SHA-256 on the way.
+   :func:`.sqlite_file.read_sqlite` (``PRAGMA quick_check`` first), computing each file's SHA-256 on the way.
 
 Every failure is a :class:`~gpr_kinematics.bags.errors.BagError` whose one-line message names the file and
 what is wrong; ``gpr verify`` reports it as "unreadable" with exit status 2. Only what a corrupt file raises is
@@ -20,9 +20,7 @@ from __future__ import annotations
 import functools
 import itertools
 import os
-import sqlite3
 import stat
-import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,9 +30,10 @@ from numpy.typing import NDArray
 from ..errors import brief
 from .cdr import Columns, decode_columns
 from .errors import BagError
-from .fileio import check_sqlite_pages, read_head, require_regular, sha256_file, shown, status_of
-from .mcap_file import MAX_MESSAGES, read_mcap
+from .fileio import require_regular, shown, status_of
+from .mcap_file import read_mcap
 from .metadata import INT_END, Metadata, read_metadata
+from .sqlite_file import read_sqlite
 from .typestore import (
     JOINT_STATES_TOPIC,
     KNOWN_TOPICS,
@@ -283,123 +282,11 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
     return _Contents(info, times, data, m.inflated, m.messages)
 
 
-def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -> _Contents:
-    """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
-    those names is refused, so every row read is stored in the file). The bag's files before it held ``messages``
-    messages; its rows are counted before any is read (:data:`~.mcap_file.MAX_MESSAGES` bounds all) and only those
-    of ``topics`` (all if None) are kept."""
-    head, size = read_head(path, 'SQLite3 file', 100)
-    if head[:16] != b'SQLite format 3\x00':
-        raise BagError(f'{path}: not an SQLite3 database')
-    check_sqlite_pages(path, head, size)   # before the digest: 50 GB of zeros after it were hashed for minutes
-    sha = sha256_file(path, 'SQLite3 file')
-    uri = f'file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1'
-    try:
-        con = sqlite3.connect(uri, uri=True)
-        con.text_factory = bytes  # text of a corrupt file need not be UTF-8: decoded and checked below
-        try:
-            row = con.execute('PRAGMA quick_check').fetchone()
-            if row is None or row[0] != b'ok':
-                answer = row[0].decode('utf-8', errors='replace') if row else 'no answer'
-                raise BagError(f'{path}: corrupt SQLite3 database (quick_check: {answer})')
-            _stored_tables(con, path)
-            columns = {r[1] for r in con.execute('PRAGMA table_info(topics)')}
-            hashes = 'type_description_hash' if b'type_description_hash' in columns else "''"
-            profiles = 'offered_qos_profiles' if b'offered_qos_profiles' in columns else "''"
-            rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes}, {profiles} '
-                               'FROM topics').fetchall()
-            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-            definitions = con.execute('SELECT topic_type, encoding, encoded_message_definition FROM '
-                                      'message_definitions').fetchall() if b'message_definitions' in tables else []
-            names, types, digests, formats, qos = _topics_table(rows, path)
-            total = messages + con.execute('SELECT count(*) FROM messages').fetchone()[0]
-            if total > MAX_MESSAGES:
-                before = f" (this file's and the {messages} of the bag's files before it)" if messages else ''
-                raise BagError(f'{path}: {total} messages in all{before}; allowed: at most {MAX_MESSAGES} per bag')
-            counts = dict.fromkeys(types, 0)
-            keep = [n for n in types if topics is None or n in topics]
-            times: dict[str, list[int]] = {n: [] for n in keep}
-            data: dict[str, list[bytes]] = {n: [] for n in keep}
-            first = last = None
-            for tid, stamp, blob in con.execute('SELECT topic_id, timestamp, data FROM messages ORDER BY id'):
-                name = names.get(tid) if isinstance(tid, int) else None
-                if name is None or not isinstance(stamp, int) or not isinstance(blob, bytes):
-                    raise BagError(f'{path}: corrupt messages table (topic id {tid!r}, timestamp '
-                                   f'{type(stamp).__name__}, data {type(blob).__name__})')
-                counts[name] += 1
-                first = stamp if first is None or stamp < first else first
-                last = stamp if last is None or stamp > last else last
-                if name in times:
-                    times[name].append(stamp)
-                    data[name].append(blob)
-        finally:
-            con.close()
-    except sqlite3.Error as exc:
-        raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
-    except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
-        raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
-    defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
-    schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
-    info = StorageFile(path.name, size, sha, counts, types, digests, first, last, schemas=schemas, formats=formats,
-                       qos=qos)
-    return _Contents(info, times, data, messages=total)
-
-
-def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int, str], dict[str, str], dict[str, str],
-                                                                    dict[str, str], dict[str, str]]:
-    """The ``topics`` table's rows (id, name, type, serialization format, type hash, offered profiles) as the topic
-    names by id and, by name, the types, type hashes, formats and the offered profiles where one is stored (the
-    package's writer before 2026-12-03 stored ``[]``: none)."""
-    names: dict[int, str] = {}
-    types: dict[str, str] = {}
-    digests: dict[str, str] = {}
-    formats: dict[str, str] = {}
-    qos: dict[str, str] = {}
-    for tid, *texts in rows:
-        try:
-            name, msgtype, fmt, digest, profiles = (v.decode('utf-8') if isinstance(v, bytes) else v for v in texts)
-        except UnicodeDecodeError:
-            raise BagError(f'{path}: corrupt topics table (row {tid!r}: text that is not UTF-8)') from None
-        if not (isinstance(tid, int) and isinstance(name, str) and isinstance(msgtype, str) and isinstance(fmt, str)
-                and isinstance(digest, str) and isinstance(profiles, str)):
-            raise BagError(f'{path}: corrupt topics table (row {tid!r})')
-        if fmt != 'cdr':
-            raise BagError(f'{path}: topic {name!r} has serialization format {fmt!r}; allowed: cdr')
-        if name in types:   # rosbag2 writes one row per topic: a second (another type) read its messages as that
-            first = next(i for i, n in names.items() if n == name)
-            raise BagError(f'{path}: topic {name!r} is listed twice in the topics table (ids {first} and {tid}, types '
-                           f'{types[name]} and {normalize_type(msgtype)}); allowed: one row per topic')
-        if profiles.strip() not in ('', '[]'):
-            qos[name] = profiles
-        formats[name] = fmt
-        names[tid] = name
-        types[name] = normalize_type(msgtype)
-        digests[name] = digest
-    return names, types, digests, formats, qos
-
-
-def _stored_tables(con: sqlite3.Connection, path: Path) -> None:
-    """:class:`BagError` if ``topics``, ``messages`` or ``message_definitions`` is not a stored table or has a
-    column that is not stored: a view computes its rows (an endless recursive one never ends), a virtual table its
-    module's, and a generated column its expression at every read (a 20 kB file of four rows whose ``data`` was
-    ``zeroblob(500000000)`` took 2.5 GB, another 1 s of CPU per row), so only stored values are read."""
-    allowed = "allowed: rosbag2's stored tables topics, messages and message_definitions"
-    for name, kind, sql in con.execute("SELECT name, type, sql FROM sqlite_master WHERE name IN ('topics', "
-                                       "'messages', 'message_definitions') ORDER BY name"):
-        if kind != b'table':
-            raise BagError(f'{path}: {_text(name)} is a {_text(kind)}, not a table; {allowed}')
-        if isinstance(sql, bytes) and sql.lstrip().upper().startswith(b'CREATE VIRTUAL'):
-            raise BagError(f'{path}: {_text(name)} is a virtual table; {allowed}')
-        # table_xinfo's hidden: 0 a stored column, 1 a virtual table's hidden one, 2 and 3 generated ones
-        computed = [_text(r[1]) for r in con.execute(f"PRAGMA table_xinfo('{_text(name)}')") if r[6] != 0]
-        if computed:
-            raise BagError(f'{path}: column {computed[0]} of {_text(name)} is generated (computed when read), not '
-                           f'stored; {allowed}')
-
-
-def _text(value: object) -> str:
-    """A text cell of a corrupt-proof SQLite3 read (bytes that are not UTF-8 kept as replacement characters)."""
-    return value.decode('utf-8', errors='replace') if isinstance(value, bytes) else str(value)
+def _read_sqlite_file(path: Path, topics: set[str] | None, messages: int = 0) -> _Contents:
+    q = read_sqlite(path, topics, messages)
+    info = StorageFile(path.name, q.size, q.sha256, q.counts, q.types, q.digests, q.start, q.end, schemas=q.schemas,
+                       formats=q.formats, qos=q.qos)
+    return _Contents(info, q.times, q.data, messages=q.messages)
 
 
 def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
@@ -422,7 +309,7 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
         try:
             inflated, messages = (contents[-1].inflated, contents[-1].messages) if contents else (0, 0)
             contents.append(_read_mcap_file(f, wanted, inflated, messages)
-                            if layout.storage == 'mcap' else read_sqlite(f, wanted, messages))
+                            if layout.storage == 'mcap' else _read_sqlite_file(f, wanted, messages))
         except MemoryError:  # a failed allocation (a bag beyond the machine's memory), not a corrupt file
             raise BagError(f'{f}: not enough memory to read its messages (a bag is read into memory); allowed: a '
                            "bag whose messages fit in this process's memory") from None
