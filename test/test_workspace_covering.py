@@ -330,6 +330,15 @@ def test_options_that_are_not_numbers_are_named():
             approximate(model, **kwargs)
 
 
+@pytest.mark.parametrize('model', ['upu3.yaml', None])
+def test_a_model_that_is_no_model_is_named(model):
+    """approximate('upu3.yaml', 0.01) raised AttributeError ('str' object has no attribute 'variables')."""
+    with pytest.raises(InputError) as err:
+        approximate(model, 0.01)
+    assert str(err.value) == (f'model = {model!r}; allowed: a WorkspaceModel (or an equation model), as '
+                              'load_workspace_model(path) returns it')
+
+
 def _ball(n: int) -> dict:
     """The unit ball of ``n`` variables, all of them outputs, as an equation model's YAML mapping."""
     names = [f'x{i}' for i in range(n)]
