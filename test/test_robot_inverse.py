@@ -530,6 +530,16 @@ def test_refusal_counts_the_other_failing_stations_and_names_them():
     assert sol.feasible.tolist() == [True, False, False]
 
 
+@pytest.mark.parametrize('check', ['no', '', 0, None, 1])
+def test_check_is_a_truth_value(check):
+    """check='no' checked and check='' or 0 did not: the truthiness of any value; the switch of forward_batch now."""
+    st = Stations.of([[1.1, 0.5, 0.45], [3.0, 0.5, 0.45]], 0.0, 0.0, 0.0)
+    with pytest.raises(InputError) as err:
+        solve_stations(ROBOT, st, 'arm1', check=check)
+    assert str(err.value) == f'check = {check!r}; allowed: True or False'
+    assert solve_stations(ROBOT, st, 'arm1', check=np.bool_(False)).feasible.tolist() == [True, False]
+
+
 @pytest.mark.parametrize('kwargs, pattern', [
     ({'branch': 'up'}, "branch = 'up' is invalid; allowed: left or right"),
     ({'branch': ['left']}, r'branch must be one value or one per station \(2\), got 1'),
