@@ -44,6 +44,19 @@ def test_a_value_of_the_wrong_shape_or_not_finite_is_refused_by_name(call, messa
 
 
 @pytest.mark.parametrize('call, message', [
+    (lambda: forward([0.5, 0.5]), 'q must be 3 values, got shape (2,)'),
+    (lambda: forward([[0.5, 0.5]]), 'q must be 3 values, got shape (1, 2)'),
+    (lambda: inverse(0.5, 0.0, 0.0, tool=(0.0, 0.1)), 'tool must be 3 values, got shape (2,)'),
+])
+def test_one_configuration_of_the_wrong_length_is_told_3_values(call, message):
+    """forward([0.5, 0.5]) said 'q must have 3 values per sample (shape (N, 3))', the batch's words, though forward
+    takes one configuration and (2, 3) was refused as 'q must be 3 values'."""
+    with pytest.raises(InputError) as err:
+        call()
+    assert str(err.value) == message
+
+
+@pytest.mark.parametrize('call, message', [
     (lambda: inverse_batch('0.5', 0.0, 0.0), "height must be a number or an array of numbers, got '0.5'"),
     (lambda: inverse_batch([0.5, '0.4'], 0.0, 0.0), 'height must be a number or an array of numbers'),
     (lambda: inverse('0.5', 0.0, 0.0), "height must be a number or an array of numbers, got '0.5'"),

@@ -68,6 +68,22 @@ def test_sweep_rejects_bad_parameters(kwargs, exc, pattern):
         paper_sweep(**kwargs)
 
 
+@pytest.mark.parametrize('kwargs, message', [
+    ({'height': True}, 'height = True must be a finite number of metres'),   # 1 m
+    ({'azimuth_step': True}, 'azimuth_step = True must be a positive finite angle in radians'),   # 1 rad
+    ({'tilt_step': True}, 'tilt_step = True must be a positive finite angle in radians'),
+    ({'max_tilt': True}, 'max_tilt = True must be a positive finite angle in radians'),   # named beyond the limit
+    ({'max_tilt': False}, 'max_tilt = False must be a positive finite angle in radians'),
+    ({'passes': True}, 'passes = True must be an integer from 1 to 1000'),
+    ({'serpentine': 'no'}, "serpentine = 'no'; allowed: True or False"),   # alternated the passes
+    ({'serpentine': None}, 'serpentine = None; allowed: True or False'),   # the paper's order
+])
+def test_a_truth_value_for_a_number_or_anything_else_for_a_switch_is_refused(kwargs, message):
+    with pytest.raises(InputError) as err:
+        paper_sweep(**kwargs)
+    assert str(err.value) == message
+
+
 @pytest.mark.parametrize('kwargs, pattern', [
     ({'tilt_step': 1e-7}, r'the sweep would have 349066 tilt steps from level to its largest tilt; allowed: a '
                          r'sweep of at most 200000'),

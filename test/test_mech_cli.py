@@ -55,6 +55,21 @@ def test_mechanism_text_and_help(capsys):
     assert code == 0 and 'with --tolerances also a platform or robot program' in ' '.join(helptext.split())
 
 
+def test_mechanism_text_prints_zero_without_a_minus_sign(capsys):
+    """gpr mechanism gpr.yaml --pose 0 0 0.5 0 0 0 printed tilt_x = -0 and Jacobian entries -0.000000 (-2e-17); the
+    other values as before, and --json keeps the numbers as computed (-0.0 too)."""
+    pose = ('--pose', '0', '0', '0.5', '0', '0', '0')
+    code, out, err = run(capsys, 'mechanism', 'gpr.yaml', *pose)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].endswith(', z = 0.5, tilt_x = 0, tilt_y = 0, twist = 0')
+    assert lines[5] == '  ' + ' '.join(f'{v:11.6f}' for v in (0.0, 0.0, 1.0, 0.0, -0.093218, 0.0))
+    assert not re.search(r'-0(?:\.0+)?(?![.0-9e])', out)   # no zero with a minus sign
+    code, out, _ = run(capsys, 'mechanism', 'gpr.yaml', *pose, '--json')
+    data = json.loads(out)
+    assert code == 0 and math.copysign(1.0, data['pose']['tilt_x']) == -1.0 and data['inverse_jacobian'][0][0] < 0
+
+
 def test_tripod_and_upu_json(capsys):
     code, out, _ = run(capsys, 'mechanism', 'tripod_3rps.yaml', '--pose', '0', '0', '0.1', '0.1', '0.2', '0',
                        '--json')

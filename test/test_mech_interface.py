@@ -93,6 +93,17 @@ def test_poses_that_are_not_numbers_are_named(poses):
         mech.inverse_kinematics(poses)
 
 
+@pytest.mark.parametrize('path', [None, 3])
+def test_a_path_that_is_no_path_is_refused_as_load_config_refuses_it(path):
+    """load_mechanism(None) and (3) raised a bare TypeError from os.fspath."""
+    from gpr_kinematics.errors import ConfigError
+
+    with pytest.raises(ConfigError) as err:
+        load_mechanism(path)
+    assert str(err.value) == (f'mechanism file path = {path}; allowed: a file path (str or Path) of a mechanism YAML '
+                              'file, or the name of a packaged one such as upu3.yaml')
+
+
 def test_conditioning_where_a_leg_has_zero_length_is_singular_not_an_error():
     """The 3-RPS tripod at z = 0 has legs of zero length: its Jacobian is NaN there (LAPACK raised)."""
     tripod = load_mechanism(config_path('mechanisms/tripod_3rps.yaml'))

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 from gpr_kinematics.core.rotations import rotation_angle
-from gpr_kinematics.errors import InputError, LimitError
+from gpr_kinematics.errors import InputError, LimitError, brief
 from gpr_kinematics.robot.arm_chain import link_vectors
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
@@ -533,6 +533,16 @@ def test_refusal_counts_the_other_failing_stations_and_names_them():
     assert sol.feasible.tolist() == [True, False, False]
 
 
+@pytest.mark.parametrize('check', ['no', '', 0, None, 1])
+def test_check_is_a_truth_value(check):
+    """check='no' checked and check='' or 0 did not: the truthiness of any value; the switch of forward_batch now."""
+    st = Stations.of([[1.1, 0.5, 0.45], [3.0, 0.5, 0.45]], 0.0, 0.0, 0.0)
+    with pytest.raises(InputError) as err:
+        solve_stations(ROBOT, st, 'arm1', check=check)
+    assert str(err.value) == f'check = {check!r}; allowed: True or False'
+    assert solve_stations(ROBOT, st, 'arm1', check=np.bool_(False)).feasible.tolist() == [True, False]
+
+
 @pytest.mark.parametrize('kwargs, pattern', [
     ({'branch': 'up'}, "branch = 'up' is invalid; allowed: left or right"),
     ({'branch': ['left']}, r'branch must be one value or one per station \(2\), got 1'),
@@ -585,6 +595,23 @@ def test_station_names_follow_one_rule(names, pattern):
     with pytest.raises(InputError, match=re.escape(pattern)):
         Stations.of(P, names=names)
     assert stations_from_poses(P, np.stack([np.eye(3)] * 3), names=('a', 'b', 'c')).names == ('a', 'b', 'c')
+
+
+@pytest.mark.parametrize('name', [None, 5, '', '-x', 'a b', 'a' * 100])
+def test_station_names_follow_the_station_files_rule(name):
+    """Stations.of(P, names=[None]) named a station 'None'; 5, '', '-x', 'a b' and 100 characters were taken too."""
+    from gpr_kinematics.robot.stations import stations_from_poses
+
+    rule = '1 to 64 letters, digits, _ . - (not - first: a spreadsheet reads such a cell as a formula)'
+    message = f'names[1] = {brief(name)} is invalid; allowed: {rule}'
+    P = [[1.1, 0.5, 0.45]] * 2
+    with pytest.raises(InputError) as err:
+        Stations.of(P, names=['ok', name])
+    assert str(err.value) == message
+    with pytest.raises(InputError) as err:
+        stations_from_poses(P, np.stack([np.eye(3)] * 2), names=['ok', name])
+    assert str(err.value) == message
+    assert Stations.of(P, names=np.array(['a' * 64, 'pm1.slot-2'])).names == ('a' * 64, 'pm1.slot-2')
 
 
 def test_stations_of_a_position_alone_are_level_with_the_heading_free():

@@ -245,6 +245,17 @@ def test_contains_points_matches_brute_force():
     assert brute[5000:].all() and 0 < brute[:5000].sum() < 5000
 
 
+@pytest.mark.parametrize('points, shown', [('abc', "'abc' (not numbers)"), ([[0.1, 0.2]], 'of shape (1, 2)'),
+                                           ([['0.1', '0.2', '0.3']], "[['0.1', '0.2', '0.3']] (not numbers)")])
+def test_contains_points_names_points_that_are_no_numbers_as_a_bad_shape(points, shown):
+    """contains_points(boxes, 'abc') raised numpy's ValueError (could not convert string to float)."""
+    boxes = np.zeros((4, 3, 2))
+    with pytest.raises(InputError) as err:
+        contains_points(boxes, points)
+    assert str(err.value) == (f'boxes of shape (4, 3, 2) and points {shown}; allowed: boxes (n, d, 2) and points '
+                              '(N, d) of the same d')
+
+
 def test_contains_points_of_large_overlapping_boxes_stays_bounded(monkeypatch):
     """3,000 boxes each over most of the hull: the first grid (29 cells a side) would register each box in about
     20,000 cells (60 million registrations, about 2 GB of index arrays); the grid is made coarser until it holds at
@@ -328,6 +339,15 @@ def test_options_that_are_not_numbers_are_named():
                           ({'delta': 0.1, 'box': [[0, 10 ** 400]] * 3}, r'initial box must be numbers')):
         with pytest.raises(InputError, match=words):
             approximate(model, **kwargs)
+
+
+@pytest.mark.parametrize('model', ['upu3.yaml', None])
+def test_a_model_that_is_no_model_is_named(model):
+    """approximate('upu3.yaml', 0.01) raised AttributeError ('str' object has no attribute 'variables')."""
+    with pytest.raises(InputError) as err:
+        approximate(model, 0.01)
+    assert str(err.value) == (f'model = {model!r}; allowed: a WorkspaceModel (or an equation model), as '
+                              'load_workspace_model(path) returns it')
 
 
 def _ball(n: int) -> dict:

@@ -227,6 +227,14 @@ def test_bad_mechanism_descriptions_raise_config_errors(data, match):
         model_from_mapping(data, 'test')
 
 
+def test_a_path_that_is_no_path_is_refused_by_name():
+    """load_workspace_model(5) raised a bare TypeError from os.fspath: the mechanisms' loader's refusal."""
+    with pytest.raises(ConfigError) as err:
+        load_workspace_model(5)
+    assert str(err.value) == ('mechanism file path = 5; allowed: a file path (str or Path) of a mechanism YAML file, '
+                              'or the name of a packaged one such as upu3.yaml')
+
+
 def test_overrides_replace_parameters():
     model = model_from_mapping({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2}, 'test', {'l1': 0.4})
     assert model.l1 == 0.4

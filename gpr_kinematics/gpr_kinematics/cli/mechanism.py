@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 from ..mechanisms.pose_analysis import analyse_pose
 from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose
-from .output import emit_json
+from .output import emit_json, number_text
 
 if TYPE_CHECKING:
     from .main import Subparsers
@@ -36,15 +36,16 @@ def _mechanism(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(res, file=str(args.file))
         return 0
-    print(f'{mech.name} ({mech.kind}), pose ' + ', '.join(f'{k} = {v:.9g}' for k, v in res.pose.items()))
+    print(f'{mech.name} ({mech.kind}), pose '
+          + ', '.join(f'{k} = {number_text(v, ".9g")}' for k, v in res.pose.items()))   # tilt_x = -0 read so
     for j in res.joints:
-        print(f'  {j.name:>8} [{j.type}] = {j.value:.9g} {j.unit}')
+        print(f'  {j.name:>8} [{j.type}] = {number_text(j.value, ".9g")} {j.unit}')
     print('inverse Jacobian (columns v_x v_y v_z w_x w_y w_z, w in the base frame):')
     for row in res.inverse_jacobian:
-        print('  ' + ' '.join(f'{v:11.6f}' for v in row))
+        print('  ' + ' '.join(number_text(v, '11.6f') for v in row))
     print(f'homogenized inverse Jacobian (characteristic length {mech.characteristic_length:g} m):')
     for row in res.homogenized_inverse_jacobian:
-        print('  ' + ' '.join(f'{v:11.6f}' for v in row))
+        print('  ' + ' '.join(number_text(v, '11.6f') for v in row))
     cond = float('inf') if res.condition_number is None else res.condition_number
     print(f'condition number {cond:.6g}, dexterity {res.dexterity:.6g}, '
           f'singular: {"yes" if res.singular else "no"}' + (f' ({res.singularity})' if res.singularity else ''))

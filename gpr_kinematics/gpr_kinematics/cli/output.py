@@ -25,6 +25,18 @@ JsonValue: TypeAlias = 'None | bool | int | float | str | list[JsonValue] | dict
 JsonObject: TypeAlias = 'dict[str, JsonValue]'
 #: The options (argparse ``dest``) that name a file or folder a subcommand writes.
 OUTPUT_OPTIONS = ('output', 'csv', 'boxes', 'plot', 'waypoints', 'samples', 'report', 'trajectory')
+#: A number's text that reads zero with a minus sign: ``-0`` (``-0.0``), ``-0.000000`` (``-2e-17``).
+_NEGATIVE_ZERO = re.compile(r' *-0*\.?0*(?:e[-+]0+)?')
+
+
+def number_text(value: float, spec: str) -> str:
+    """``format(value, spec)``, zero without a minus sign (``tilt_x = -0`` read as a tilt).
+
+    >>> number_text(-0.0, '.9g'), number_text(-2e-17, '8.3f'), number_text(-0.5, '.9g')
+    ('0', '   0.000', '-0.5')
+    """
+    text = format(value, spec)
+    return format(0.0, spec) if _NEGATIVE_ZERO.fullmatch(text) else text
 
 
 def description(doc: str | None) -> str:

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError, LimitError, brief
+from ..inputs.validation import switch
 from . import ForwardBatch, inverse_batch, resolve_config
 from .config import GprConfig
 from .forward import beyond_tilt
@@ -134,12 +135,13 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     :data:`MAX_SAMPLES` samples in all, counted before any array is made.
     """
     for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
         if value < LEAST_STEPS.get(name, 0.0):
             raise InputError(f'{name} = {value!r} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
     if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= MAX_PASSES:
         raise InputError(f'passes = {brief(passes)} must be an integer from 1 to {MAX_PASSES}')
+    serpentine = switch(serpentine, 'serpentine')   # 'no' alternated the passes
     half = max_tilt / tilt_step
     if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
         raise InputError(f'the sweep would have {half:.6g} tilt steps from level to its largest tilt; allowed: a '
@@ -179,13 +181,14 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
 
     Raises:
         InputError: non-positive steps, ``max_tilt`` not a whole number of steps (:class:`TiltStepsError`), more
-            than :data:`MAX_SAMPLES`.
+            than :data:`MAX_SAMPLES`; a truth value for a number, or anything else for ``serpentine``.
         LimitError: ``max_tilt`` beyond the tilt limit, or a height that leaves the stroke.
     """
     cfg = resolve_config(config)
-    if not (isinstance(height, (int, float)) and math.isfinite(height)):
+    if isinstance(height, bool) or not (isinstance(height, (int, float)) and math.isfinite(height)):   # True: 1 m
         raise InputError(f'height = {height!r} must be a finite number of metres')
-    if isinstance(max_tilt, (int, float)) and max_tilt - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting
+    if not isinstance(max_tilt, bool) and isinstance(max_tilt, (int, float)) and \
+            max_tilt - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting (True: sweep_grid names it)
         raise LimitError(f'max_tilt = {beyond_tilt(float(max_tilt), cfg.tilt_limit)}')
     gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
     ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)

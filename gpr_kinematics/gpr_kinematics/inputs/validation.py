@@ -303,10 +303,10 @@ def three_floats(values: Any, name: str) -> list[float]:
             out = []
         if out and all(math.isfinite(v) for v in out):
             return out
-    Q = rows_of(values, name, 3)
-    if Q.shape[0] != 1:
-        raise InputError(f'{name} must be 3 values, got shape {np.shape(values)}')
-    return [float(v) for v in Q[0]]
+    a = float_array(values, name)
+    if a.shape not in ((3,), (1, 3)):   # [0.5, 0.5] was told 'must have 3 values per sample (shape (N, 3))'
+        raise InputError(f'{name} must be 3 values, got shape {a.shape}')
+    return [float(v) for v in rows_of(a, name, 3)[0]]
 
 
 def single_number(value: Any, name: str) -> float:

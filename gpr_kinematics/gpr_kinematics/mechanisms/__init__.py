@@ -22,7 +22,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, key_value, kind_of
+from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import read_yaml
 from .base import Mechanism
 
@@ -62,6 +62,9 @@ def read_mechanism_file(path: str | Path) -> tuple[Any, Path]:
     (:func:`~gpr_kinematics.inputs.resources.packaged_file`, the command line's rule for every shipped kind).
     """
     from ..inputs.resources import MECHANISMS, packaged_file
+    if not isinstance(path, (str, os.PathLike)):   # None or 3 raised a bare TypeError
+        raise ConfigError(f'mechanism file path = {brief(path)}; allowed: a file path (str or Path) of a mechanism '
+                          'YAML file, or the name of a packaged one such as upu3.yaml')
     name = os.fspath(path)
     if name == '':
         raise ConfigError('mechanism file path is empty; allowed: a mechanism YAML file, or the name of a packaged '

@@ -39,7 +39,7 @@ from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, nai
 from ..core.inverse import solvable_heights, tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
-from ..inputs.validation import TURN, TURN_SLACK
+from ..inputs.validation import TURN, TURN_SLACK, switch
 from .arm_chain import LIMIT_SLACK
 from .description import BRANCHES, Arm, ArmJoint, RobotDescription
 from .fields import WORLD_BOUND
@@ -279,7 +279,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
             marking the stations within every limit).
 
     Raises:
-        InputError: malformed stations or branch; a missing heading for a 3- or 4-joint arm.
+        InputError: malformed stations or branch; a missing heading for a 3- or 4-joint arm; ``check`` no bool.
         LimitError: tilt, stroke, reach, joint limits, 2-joint heading (module docstring).
     """
     if not isinstance(stations, Stations):
@@ -287,6 +287,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
                          'station file)')
     if not isinstance(robot, RobotDescription):   # None raised a bare AttributeError
         raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot)')
+    check = switch(check, 'check')   # 'no' checked, '' and 0 did not
     a = robot.arm(arm)
     n = len(stations)
     cfg = robot.config
@@ -435,16 +436,12 @@ def _fault_message(robot: RobotDescription, a: Arm, result: StationSolution, sol
     # so the mount frame's heading is the station's plus one angle (a base's yaw, the mount's, the platform's twist).
     given = float(result.stations.heading[i])
     offset = float(targets.phi[i]) - given
-    if abs(_wrap(other.heading[0] - targets.phi[i])) <= HEADING_TOLERANCE:   # the other branch's, as the check takes it
+    mine, theirs = wrap_angle(sol.heading[i] - offset), wrap_angle(other.heading[0] - offset)
+    if abs(wrap_angle(other.heading[0] - targets.phi[i])) <= HEADING_TOLERANCE:   # the other branch's, as checked
         side = 'right' if result.branch[i] == 'left' else 'left'
         return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
-                f'{_wrap(sol.heading[i] - offset):.12g} rad on branch {result.branch[i]}; {_wrap(given):.12g} rad is '
+                f'{mine:.12g} rad on branch {result.branch[i]}; {wrap_angle(given):.12g} rad is '
                 f'the heading of branch {side}: give branch {side}, or leave the heading free')
     return (f'arm {a.name} has 2 joints and cannot choose the blade heading: at this position it is '
-            f'{_wrap(sol.heading[i] - offset):.12g} rad (branch {result.branch[i]}) or '
-            f'{_wrap(other.heading[0] - offset):.12g} rad (the other branch), not {_wrap(given):.12g} rad; leave the '
-            f'heading free or give one of these (to {HEADING_TOLERANCE:g} rad)')
-
-
-def _wrap(angle: float) -> float:
-    return float(wrap_angle(angle))
+            f'{mine:.12g} rad (branch {result.branch[i]}) or {theirs:.12g} rad (the other branch), not '
+            f'{wrap_angle(given):.12g} rad; leave the heading free or give one of these (to {HEADING_TOLERANCE:g} rad)')

@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,7 +43,7 @@ from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
 from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
 from .description import BRANCHES
 from .fields import WORLD_BOUND, check_world_position
-from .stations import Stations
+from .stations import Stations, name_refusal
 
 #: Most stations in a program (a station file is read up to the YAML files' bound, :data:`MAX_BYTES`).
 MAX_STATIONS = 100_000
@@ -56,11 +55,6 @@ _LENGTH_FIELDS = ('x', 'y', 'z', 'approach_height', 'retract_height', 'entry')
 _ANGLE_FIELDS = ('tilt', 'azimuth', 'heading')
 _STATION_KEYS = ('name', 'position', 'tilt', 'azimuth', 'heading', 'branch', 'approach_height', 'retract_height',
                  'entry')
-#: A station's name; not starting with ``-``: the exported tables' cells are read by spreadsheets, which take
-#: ``-A1-B1`` for a formula.
-_NAME = re.compile(r'[A-Za-z0-9_.][A-Za-z0-9_.\-]{0,63}')
-#: What :data:`_NAME` allows, in words.
-NAME_RULE = '1 to 64 letters, digits, _ . - (not - first: a spreadsheet reads such a cell as a formula)'
 #: How a station file (or a program, or a cell) in YAML, and one in CSV, declares its angles in degrees.
 DECLARE_DEG = 'units: {angle: deg}'
 _DECLARE_CSV = '"{key} [deg]" in the header or a "# units: deg" line before it'
@@ -160,10 +154,11 @@ def station_name(value: Any, where: str) -> str:
     """A station's name: text of 1 to 64 letters, digits, ``_ . -``, not ``-`` first; a YAML boolean or number is
     refused with the hint to quote it (``007`` read as 7 named the station ``7``, which a CSV file's ``007`` was not;
     ``1.5`` was refused by the rule it meets), as a cell obstacle's name; :class:`ConfigError` naming ``where``
-    otherwise."""
-    if not isinstance(value, str) or not _NAME.fullmatch(value):
-        raise ConfigError(f'{where}: name = {brief(value)} is invalid{text_hint(value)}; allowed: {NAME_RULE}')
-    return value
+    otherwise (the rule of :func:`~.stations.name_refusal`, which ``Stations.of`` applies too)."""
+    refusal = name_refusal(value, f'{where}: name', text_hint(value))
+    if refusal:
+        raise ConfigError(refusal)
+    return str(value)
 
 
 def _branch(value: Any, where: str) -> str | None:

@@ -12,9 +12,11 @@ choose the heading: its stations may leave it *free* (``heading_free``).
 """
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,6 +33,11 @@ from ..inputs.validation import (
 )
 
 Array = NDArray[np.float64]
+#: A station's name; not starting with ``-``: the exported tables' cells are read by spreadsheets, which take
+#: ``-A1-B1`` for a formula.
+_NAME = re.compile(r'[A-Za-z0-9_.][A-Za-z0-9_.\-]{0,63}')
+#: What :data:`_NAME` allows, in words.
+NAME_RULE = '1 to 64 letters, digits, _ . - (not - first: a spreadsheet reads such a cell as a formula)'
 
 
 def per_station(values: ArrayLike, name: str, n: int) -> Array:
@@ -51,17 +58,30 @@ def per_station(values: ArrayLike, name: str, n: int) -> Array:
     return a
 
 
+def name_refusal(value: Any, label: str, hint: str = '') -> str:
+    """The refusal of a station name ``value`` ('' for a valid one: text of 1 to 64 letters, digits, ``_ . -``, not
+    ``-`` first), ``label`` naming it and ``hint`` after "is invalid": the station files' rule and the API's."""
+    if isinstance(value, str) and _NAME.fullmatch(value):
+        return ''
+    return f'{label} = {brief(value)} is invalid{hint}; allowed: {NAME_RULE}'
+
+
 def station_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
-    """The names of ``n`` stations: a list (or tuple, array) of ``n`` names, each taken as its text; ``None`` names
-    them by index. Else InputError (a text is no list of names: ``'abc'`` made stations a, b and c)."""
+    """The names of ``n`` stations: a list (or tuple, array) of ``n`` names, each as :func:`name_refusal` allows;
+    ``None`` names them by index. Else InputError (a text is no list of names: ``'abc'`` made stations a, b and c;
+    None was named 'None')."""
     if names is None:
         return tuple(str(i) for i in range(n))
-    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray):
+    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray) or \
+            (isinstance(names, np.ndarray) and names.ndim == 0):   # a 0-d array has no len()
         raise InputError(f'names must be a list of station names, got {brief(names)}')
-    label = tuple(str(v) for v in names)
-    if len(label) != n:
-        raise InputError(f'names must name the {n} stations, got {len(label)} names')
-    return label
+    if len(names) != n:
+        raise InputError(f'names must name the {n} stations, got {len(names)} names')
+    for i, name in enumerate(names):
+        refusal = name_refusal(name, f'names[{i}]')
+        if refusal:
+            raise InputError(refusal)
+    return tuple(str(v) for v in names)   # numpy's str_ as str
 
 
 def batch_index(i: object, n: int, what: str) -> int:

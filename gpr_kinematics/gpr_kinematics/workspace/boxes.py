@@ -7,8 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, InputError
+from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import number_key
+from ..inputs.validation import float_array
 
 
 def box_volume(boxes: np.ndarray) -> float:
@@ -66,11 +67,12 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
     points are tested in runs of at most :data:`MAX_PAIRS` candidate pairs (one point and its cell's boxes at
     least).
     """
-    points = np.atleast_2d(np.asarray(points, dtype=float))
-    boxes = np.asarray(boxes, dtype=float)
-    if boxes.ndim != 3 or boxes.shape[2] != 2 or points.ndim != 2 or points.shape[1] != boxes.shape[1]:
-        raise InputError(f'boxes of shape {boxes.shape} and points of shape {points.shape}; allowed: boxes (n, d, 2) '
-                         'and points (N, d) of the same d')   # numpy's ValueError or IndexError before
+    B, P = _numbers(boxes), _numbers(points)
+    P = None if P is None else np.atleast_2d(P)
+    if B is None or P is None or B.ndim != 3 or B.shape[2] != 2 or P.ndim != 2 or P.shape[1] != B.shape[1]:
+        raise InputError(f'boxes {_shown(boxes, B)} and points {_shown(points, P)}; allowed: boxes (n, d, 2) and '
+                         'points (N, d) of the same d')   # numpy's ValueError or IndexError before ('abc' too)
+    boxes, points = B, P
     npts = points.shape[0]
     out = np.zeros(npts, dtype=bool)
     n = boxes.shape[0]
@@ -122,6 +124,19 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
         out[pid[inside]] = True
         s0 = s1
     return out
+
+
+def _numbers(values: Any) -> np.ndarray | None:
+    """``values`` as a float array, or None where they are no numbers (text, truth values, a ragged list)."""
+    try:
+        return float_array(values, 'values')
+    except InputError:
+        return None
+
+
+def _shown(values: Any, array: np.ndarray | None) -> str:
+    """How a refusal of :func:`contains_points` names an argument: its shape, or the value that is no numbers."""
+    return f'of shape {array.shape}' if array is not None else f'{brief(values)} (not numbers)'
 
 
 def number(value: Any, key: str, source: str, positive: bool = False, unit: str = 'm') -> float:

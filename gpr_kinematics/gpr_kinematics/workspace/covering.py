@@ -34,7 +34,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from .base import (
     WorkspaceModel,
     WorkspaceResult,
@@ -180,6 +180,9 @@ def approximate(
         :class:`WorkspaceResult`. Ctrl-C (SIGINT) during the run stops it cleanly between chunks: the
         result is returned with ``interrupted=True`` and the unexamined boxes counted as boundary.
     """
+    if not isinstance(model, WorkspaceModel) and not hasattr(model, 'covering_task'):   # 'upu3.yaml': AttributeError
+        raise InputError(f'model = {brief(model)}; allowed: a WorkspaceModel (or an equation model), as '
+                         'load_workspace_model(path) returns it')
     _check_run_options(method, chunk_size, parts)
     max_boxes = check_max_boxes(max_boxes, model)
     max_seconds = check_max_seconds(max_seconds)
