@@ -160,6 +160,31 @@ def test_a_box_on_the_wafers_path_is_a_collision_at_the_right_time(tmp_path):
     assert row and {row[3], row[4]} == {'arm2_wafer', 'box'}, res.stdout
 
 
+def test_an_arm_link_inside_the_gprs_column_is_a_collision(tmp_path):
+    """Only the wafers were checked against the GPR's column and platform: arm1 taking its wafer down to 190 mm put
+    the rods at 6 mm and its first link 29 mm into the column, and the program read safe. The overlap by hand, from
+    the example robot's numbers: the column's top at 0.12 m, the link's bottom at q + 0.08 (mount) + 0.035 / 2
+    (half its height) - 0.025 / 2 (half its thickness)."""
+    from gpr_kinematics.robot.inverse import solve_stations
+    from gpr_kinematics.robot.stations import Stations
+    program = tmp_path / 'low.yaml'
+    program.write_text('format: gpr_robot_program\nversion: 1\nunits: {length: mm, angle: deg}\n'
+                       f'robot: {config_path("robots/example_robot.yaml")}\ndefaults: {{arm: arm1, dwell: 0.5}}\n'
+                       'stations:\n  - {name: home, position: [750, 850, 260], heading: 90}\n'
+                       '  - {name: low, position: [750, 850, 190], heading: 90}\n'
+                       'steps:\n  - {move: home}\n  - {move: low}\n  - {move: home}\n')
+    res = gpr('program', 'check', str(program), '--json', cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    d = json.loads(res.stdout)
+    (first,) = [c for c in d['collisions'] if set(c['bodies']) == {'gpr_base', 'arm1_link1'}]
+    q = solve_stations(ROBOT, Stations.of([[0.75, 0.85, 0.19]], heading=math.pi / 2), 'arm1').rods[0]
+    assert np.ptp(q) < 1e-12 and q[0] == pytest.approx(0.006, abs=1e-4)   # level, 6 mm up
+    overlap = 0.12 - (q[0] + 0.08 + 0.035 / 2 - 0.025 / 2)
+    assert first['station'] == 'low' and first['measured'] == pytest.approx(-overlap - 1e-6, abs=1e-9)
+    assert first['distance'] <= first['measured']
+    assert d['min_clearance'] <= -overlap
+
+
 @pytest.mark.parametrize('gap_mm', [3.0, 7.5])
 def test_a_box_a_known_distance_from_the_wafers_path(tmp_path, gap_mm):
     """A plate parallel to pm1's plane over the wafer's straight entry, ``gap`` above the carried wafer's top face:

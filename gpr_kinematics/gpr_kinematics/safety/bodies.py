@@ -87,17 +87,17 @@ def on_gpr(body: Body) -> bool:
 
 
 def default_pairs(bodies: Sequence[Body]) -> list[tuple[int, int]]:
-    """Pairs checked: every robot body against every fixed body; each arm's bodies against the other arm's; each
-    wafer against the GPR's column and platform (docs/cell.md, "Bodies and pairs")."""
+    """Pairs checked: every robot body against every fixed body; each arm's bodies against the other arm's and
+    against the GPR's column and platform (docs/cell.md, "Bodies and pairs"; its wafer alone was: a link 29 mm into
+    the column at a low stroke read safe)."""
     pairs = []
     for i, a in enumerate(bodies):
         for j in range(i + 1, len(bodies)):
             b = bodies[j]
             if a.frame is None and b.frame is None:
                 continue
-            wafer_gpr = (on_gpr(a) and (b.frame or '').endswith('_wafer')) or \
-                (on_gpr(b) and (a.frame or '').endswith('_wafer'))
-            if a.frame is None or b.frame is None or (a.arm and b.arm and a.arm != b.arm) or wafer_gpr:
+            arm_gpr = (on_gpr(a) and bool(b.arm)) or (on_gpr(b) and bool(a.arm))
+            if a.frame is None or b.frame is None or (a.arm and b.arm and a.arm != b.arm) or arm_gpr:
                 pairs.append((i, j))
     return pairs
 

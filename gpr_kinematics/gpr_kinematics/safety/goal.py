@@ -4,7 +4,7 @@ itself, certified between samples as ``gpr program check`` certifies a program (
 simulator").
 
 Bodies and pairs are ``gpr program check``'s (:func:`~gpr_kinematics.safety.bodies.default_pairs`): every robot body
-against every obstacle, each arm's bodies against the other arm's, each wafer against the column and the platform.
+against every obstacle, each arm's bodies against the other arm's and against the column and the platform.
 A controller does not know which blade holds a wafer: ``wafer_arms`` names the arms that carry one throughout every
 goal (their wafer discs are bodies; default none: the robot's links, blades, column and platform only), and wafers
 lying in stations are not known to it either (not checked). :class:`GoalClearance` is the ``clearance`` hook of
