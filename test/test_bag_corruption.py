@@ -226,22 +226,22 @@ def test_bytes_appended_to_a_database_are_refused_before_it_is_hashed(tmp_path: 
     refused before the file is hashed."""
     import os
 
-    from gpr_kinematics.bags import reader
+    from gpr_kinematics.bags import reader, sqlite_file
     from gpr_kinematics.errors import GprError
 
     bag = copy_bag(bags['sqlite3'], tmp_path / 'padded')
     db = bag / next(f for f in _files(bag) if f.endswith('.db3'))
     size = db.stat().st_size
     os.truncate(db, 50 << 30)
-    hashed = reader.sha256_file
+    hashed = sqlite_file.sha256_file
 
     def never(path: Path, what: str) -> str:
         raise AssertionError(f'{path} hashed before its size was checked')
 
-    monkeypatch.setattr(reader, 'sha256_file', never)
+    monkeypatch.setattr(sqlite_file, 'sha256_file', never)
     with pytest.raises(GprError, match=rf'{50 << 30} bytes where its header declares \d+ pages of \d+ bytes '
                                        rf'\({size} bytes\): bytes appended or cut'):
         reader.read_bag(bag)
-    monkeypatch.setattr(reader, 'sha256_file', hashed)
+    monkeypatch.setattr(sqlite_file, 'sha256_file', hashed)
     os.truncate(db, size)
     assert reader.read_bag(bag).files

@@ -284,7 +284,7 @@ def bad_inputs(tmp_path):
          r'--sigma-position = 1e\+300 m; allowed: a standard deviation from 1e-09 to 0\.1 m\n$'),
         # as typed, the bounds in both units: it said '--sigma-angle = 0.3490658503988659 (SI); ... (m, rad)'
         (['calibrate', '--plan', '8', '--sigma-angle', '20', '--deg'], r'--sigma-angle = 20 deg \(0\.349066 rad\); '
-         r'allowed: a standard deviation from 1e-09 to 0\.1 rad \(5\.73e-08 to 5\.73 deg\)\n$'),
+         r'allowed: a standard deviation from 1e-09 to 0\.1 rad \(5\.73e-08 to 5\.729 deg\)\n$'),
         (['calibrate', '--plan', '8', '--sigma-position', '300', '--mm'], r'--sigma-position = 300 mm \(0\.3 m\); '
          r'allowed: a standard deviation from 1e-09 to 0\.1 m \(1e-06 to 100 mm\)\n$'),
     ]

@@ -108,7 +108,7 @@ def test_moments_match_samples(tol):
                                                               r'allowed: a standard deviation from 1e-09 to 0.1 m$'),
     ({'units': {'angle': 'deg'}, 'measurement_noise': {'position': 1e-6, 'angle': 1e-300}},
      r't.yaml: measurement_noise: angle = 1e-300 deg \(1\.74533e-302 rad\); allowed: a standard deviation from 1e-09 '
-     r'to 0\.1 rad \(5\.73e-08 to 5\.73 deg\)$'),
+     r'to 0\.1 rad \(5\.73e-08 to 5\.729 deg\)$'),
 ])
 def test_malformed_tables_refused(data, pattern):
     with pytest.raises(ConfigError, match=pattern):
@@ -169,7 +169,7 @@ def test_binding_refusals(tmp_path):
         parse_tolerances({'units': {'length': 'mm'}, 'parameters': {'rod_offsets': {'tolerance': 50}}},
                          't.yaml').bind(ps)
     with pytest.raises(ConfigError, match=r'^t\.yaml: parameters: rod_directions: tolerance 10 deg \(0\.174533 rad\); '
-                                          r'allowed: at most 0\.1 rad \(5\.73 deg\)$'):
+                                          r'allowed: at most 0\.1 rad \(5\.729 deg\)$'):
         parse_tolerances({'units': {'angle': 'deg'}, 'parameters': {'rod_directions': {'tolerance': 10}}},
                          't.yaml').bind(ps)
     with pytest.raises(ConfigError, match=r'a log-uniform range must be positive'):

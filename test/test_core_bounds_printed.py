@@ -32,7 +32,7 @@ def test_a_refused_value_is_printed_apart_from_its_bound():
         sample_rate(5000.0001)
     with pytest.raises(InputError, match=r'^--rate = nan Hz is invalid'):
         sample_rate(math.nan)
-    with pytest.raises(ConfigError, match=r't.yaml: measurement_noise: position = 0.1000001 m \(SI\); allowed: a '
+    with pytest.raises(ConfigError, match=r't.yaml: measurement_noise: position = 0.1000001 m; allowed: a '
                                           r'standard deviation from 1e-09 to 0.1 m$'):
         parse_tolerances({'measurement_noise': {'position': 0.1000001, 'angle': 1e-5}}, 't.yaml')
 

@@ -375,3 +375,20 @@ def test_a_files_millimetres_hint_stays_under_a_mm_that_converts_only_options(ca
                                                  'metres?'), err
     status, _, err = run(capsys, 'ik', '--height', '300000', '--tilt', '0', '--azimuth', '0', '--mm')
     assert status == 2 and 'millimetres given as metres' not in err, err
+
+
+@pytest.mark.parametrize('argv, named', [
+    (('ik', '--height', '0.5', '--tilt', '0', '--azimuth', '0', '--tool', '0', '0', '0.1', '--to', '0.3', '0', '0.1'),
+     'gpr ik: error: --tool given 2 times (--tool, --to)'),
+    (('ik', '--height', '0.5', '--height=0.4', '--tilt', '0', '--azimuth', '0'),
+     'gpr ik: error: --height given 2 times (--height, --height)'),
+    (('robot', 'ik', '--position', '1.3', '0.6', '0.6', '--heading', '0.3', '--heading', '0.2'),
+     'gpr robot ik: error: --heading given 2 times (--heading, --heading)'),
+])
+def test_an_option_that_takes_values_given_twice_is_refused(capsys, argv, named):
+    """argparse kept the last of a repeated option without a word (a second --tool replaced the first, an
+    abbreviation too): refused now, naming both as typed; options that add up and flags may repeat."""
+    status, out, err = run(capsys, *argv)
+    assert (status, out) == (2, '') and err == f'{named}: the last would replace the others; allowed: each option ' \
+                                               'that takes values once\n', err
+    assert run_json(capsys, 'ik', '--height', '0.5', '--tilt', '0', '--azimuth', '0', '--json')['q'] == [0.5] * 3

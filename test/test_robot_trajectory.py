@@ -198,8 +198,21 @@ def test_lead_in_from_the_current_state():
         bad[:3] = rods
         with pytest.raises(RobotStateError) as info:
             lead_in(plan, traj, bad, rate)
-        assert str(info.value) == (f'the robot reports rod_1, rod_2, rod_3: {what} (are these joint states of this '
-                                   'robot?)')
+        assert str(info.value) == (f'the robot reports rod_1, rod_2, rod_3: {what} (to 0.001 rad beyond: taken as at '
+                                   'the limit; are these joint states of this robot?)')
+    # a station on the tilt limit, a rod 10 um off (an encoder's overshoot): its differences drawn in to the limit,
+    # a goal the controller takes (10 um more had been refused by 1e-9 rad)
+    from gpr_kinematics.core import forward, inverse
+    cfg = plan.robot.config
+    on = np.array(inverse(0.4, cfg.tilt_limit, 0.3, config=cfg).q)
+    for k, off in ((0, -1e-5), (1, 1e-5), (2, -1e-5)):
+        at = traj.positions[0].copy()
+        at[:3] = on
+        at[k] += off
+        assert forward(at[:3], cfg, check_limits=False).tilt > cfg.tilt_limit + 1e-9
+        goal, T = lead_in(plan, traj, at, rate)
+        assert forward(goal.positions[0, :3], cfg).tilt <= cfg.tilt_limit + 1e-9
+        assert np.max(np.abs(goal.positions[0, :3] - at[:3])) < 2e-5
 
 
 def test_a_lead_in_that_takes_the_trajectory_past_a_day_is_refused(tmp_path):

@@ -56,15 +56,17 @@ MALFORMED = {
                                                                r'0\.0\)'),
     # nor one number for an array (a geometry file's kappa: 1000.0): said so without 'allowed:' before
     'number-for-array': (['-p', 'kappa:=1000.0'], r"cannot start: .*'1000\.0' of type 'DOUBLE', expecting type "
-                                                  r"'DOUBLE_ARRAY': kappa; allowed: a list of 3 numbers, e.g. "
-                                                  r'\[1000\.0, 1000\.0, 1000\.0\]$'),
+                                                  r"'DOUBLE_ARRAY': kappa; allowed: a list of 3 numbers, one per "
+                                                  r'rod \(\[1000\.0, 1000\.0, 1000\.0\] for 1000\.0 at each\)$'),
     'number-for-array-file': (['--params-file', '{one}'], r"expecting type 'DOUBLE_ARRAY': kappa; allowed: a list "
-                                                          r'of 3 numbers, e\.g\. \[1000\.0, 1000\.0, 1000\.0\]$'),
+                                                          r'of 3 numbers, one per rod \(\[1000\.0, 1000\.0, 1000\.0\] '
+                                                          r'for 1000\.0 at each\)$'),
     'integer-for-array': (['-p', 'rod_offsets:=0'], r"expecting type 'DOUBLE_ARRAY': rod_offsets; allowed: a list of "
-                                                    r'3 numbers, e\.g\. \[0\.0, 0\.0, 0\.0\]$'),
+                                                    r'3 numbers, one per rod \(\[0\.0, 0\.0, 0\.0\] for 0\.0 at '
+                                                    r'each\)$'),
     'integers-for-array': (['-p', 'rod_azimuths:=[0, 2, 4]'], r"'INTEGER_ARRAY', expecting type 'DOUBLE_ARRAY': "
-                                                              r'rod_azimuths; allowed: a list of 3 numbers, e\.g\. '
-                                                              r'\[0\.0, 2\.0, 4\.0\]$'),
+                                                              r'rod_azimuths; allowed: a list of 3 numbers, one per '
+                                                              r'rod \(\[0\.0, 2\.0, 4\.0\]: floating-point\)$'),
     'text-for-list': (['-p', 'topics:=/joint_states'], r"expecting type 'STRING_ARRAY': topics; allowed: a list of "
                                                        r"texts, e\.g\. \['/joint_states'\]$"),
 }

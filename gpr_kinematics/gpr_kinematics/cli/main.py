@@ -151,9 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(first if first in COMMANDS else None)
     try:
         args, extra = parser.parse_known_args(args_in)
-        if extra:  # argparse names the top parser (gpr: error: ...) for an option the command does not take
-            chosen = command_parser(parser, args)
-            chosen.error(f'unrecognized arguments: {" ".join(extra)}; allowed: the options of {chosen.prog} --help')
+        _check_arguments(command_parser(parser, args), extra, args_in)
     except SystemExit as exc:  # usage errors (status 2, one line) and --help (status 0)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     command = command_path(parser, args)
@@ -167,9 +165,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         # no output may be a file the command read; all outputs or none; no "millimetres given as metres?" under a --mm
         # that converts every length the command takes (a file's of gpr accuracy keeps its hint under --mm)
         mm = bool(getattr(args, 'mm', False)) and bool(getattr(args, 'mm_converts_all', False))
-        with command_reads(), command_writes(), typed_in_millimetres(mm):
-            status = int(args.handler(args))
-            stop.done = True   # from here on the outputs are kept: a signal now comes after the command's end
+        kept = False
+        try:
+            with command_reads(), command_writes(), typed_in_millimetres(mm):
+                status = int(args.handler(args))
+                stop.committing = True   # the outputs are being kept: a signal now waits for the end of it
+            kept = True
+        finally:
+            stop.committed(kept)
         sys.stdout.flush()   # here, not at the interpreter's exit: a failed write is then reported below
         return status
     except GprError as exc:
@@ -183,7 +186,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     except KeyboardInterrupt as exc:   # Ctrl-C, or SIGTERM (_Terminated): the outputs taken back on the way out
         killed = isinstance(exc, _Terminated)
-        sys.stderr.write(f'{command}: {"terminated" if killed else "interrupted"}\n')
+        after = ' after it had finished' if stop.kept else ''   # its outputs whole, as the work left them
+        sys.stderr.write(f'{command}: {"terminated" if killed else "interrupted"}{after}\n')
         return 128 + signal.SIGTERM if killed else 130
     except BrokenPipeError:
         return 0
@@ -196,22 +200,67 @@ def main(argv: Sequence[str] | None = None) -> int:
             signal.signal(signum, handler)
 
 
+def _check_arguments(chosen: argparse.ArgumentParser, extra: Sequence[str], argv: Sequence[str]) -> None:
+    """Usage errors argparse lets through (status 2): arguments the command does not take (argparse named the top
+    parser, ``gpr: error: ...``), an option that takes values given twice (:func:`repeated_option`)."""
+    if extra:
+        chosen.error(f'unrecognized arguments: {" ".join(extra)}; allowed: the options of {chosen.prog} --help')
+    twice = repeated_option(chosen, argv)
+    if twice:
+        chosen.error(f'{twice}; allowed: each option that takes values once')
+
+
+def repeated_option(parser: argparse.ArgumentParser, argv: Sequence[str]) -> str:
+    """An option of ``parser`` that stores values given twice in ``argv``, in words (``''`` for none): argparse keeps
+    the last without a word (``--tool 0 0 0.1 ... --tool 0.3 0 0.1``); options that add up (``append``,
+    ``extend``) and flags may repeat. Abbreviations count as their option, as argparse reads them."""
+    seen: dict[argparse.Action, list[str]] = {}
+    longs = [o for o in parser._option_string_actions if o.startswith('--')]
+    for token in argv:
+        if token == '--':
+            break
+        typed = token.split('=', 1)[0]
+        if not typed.startswith('-') or parser._negative_number_matcher.match(token):
+            continue
+        action = parser._option_string_actions.get(typed)
+        if action is None and typed.startswith('--') and parser.allow_abbrev:
+            found = [o for o in longs if o.startswith(typed)]
+            action = parser._option_string_actions[found[0]] if len(found) == 1 else None
+        if isinstance(action, argparse._StoreAction):
+            seen.setdefault(action, []).append(typed)
+    for action, given in seen.items():
+        if len(given) > 1:
+            return (f'{action.option_strings[-1]} given {len(given)} times ({", ".join(given)}): the last would '
+                    'replace the others')
+    return ''
+
+
 class _Terminated(KeyboardInterrupt):
     """SIGTERM during a command: it ends as Ctrl-C does, its outputs taken back (a kill left a 17 MB ``.tmp`` file
     and the outputs written before it)."""
 
 
 class _Stop:
-    """SIGINT's and SIGTERM's handler while a command runs: KeyboardInterrupt and :class:`_Terminated` until the
-    command's work is ``done``, nothing after it (its outputs are being kept: a kill there left them and exited 143,
-    "terminated" beside whole outputs; now a command ends either stopped with nothing written or done with all)."""
+    """SIGINT's and SIGTERM's handler while a command runs: KeyboardInterrupt and :class:`_Terminated`, except while
+    the outputs are being kept (``committing``), when the signal waits for the end of it (:meth:`committed`): a kill
+    there had left some outputs kept and others not, or whole outputs beside "terminated" as if taken back."""
 
     def __init__(self) -> None:
-        self.done = False
+        self.committing = False
+        self.kept = False
+        self.deferred: int | None = None
 
     def __call__(self, signum: int, frame: FrameType | None) -> None:
-        if not self.done:
-            raise _Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+        if self.committing:
+            self.deferred = signum
+            return
+        raise _Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+
+    def committed(self, kept: bool) -> None:
+        """The outputs' commit is over (``kept``: they are kept); a signal that came during it is raised now."""
+        self.committing, self.kept = False, kept
+        if self.deferred is not None:
+            self(self.deferred, None)
 
 
 def _catch_stops(handler: _Stop) -> dict[int, _HANDLER]:

@@ -173,9 +173,21 @@ def as_typed(typed: float, si: float, unit: str, own: str) -> str:
 
 
 def both_units(lo: float, hi: float | None, unit: str, own: str) -> str:
-    """A bound (``hi`` None) or a range ``lo`` to ``hi`` in the SI ``unit``, and in ``own`` when another:
-    ``0.01 m (10 mm)``, ``1e-09 to 0.1 rad (5.73e-08 to 5.73 deg)``."""
-    def text(u: str, k: float, fmt: str) -> str:
-        return (f'{lo / k:{fmt}}' if hi is None else f'{lo / k:{fmt}} to {hi / k:{fmt}}') + f' {u}'
+    """An upper bound (``hi`` None) or a range ``lo`` to ``hi`` in the SI ``unit``, and in ``own`` when another,
+    to 4 digits rounded inwards (every value shown is allowed: 5.73 deg was shown for 0.1 rad and refused):
+    ``0.01 m (10 mm)``, ``1e-09 to 0.1 rad (5.73e-08 to 5.729 deg)``."""
     f = {**LENGTH_UNITS, **ANGLE_UNITS}.get(own, 1.0)
-    return text(unit, 1.0, 'g') + ('' if own == unit else f' ({text(own, f, ".3g")})')
+    si = f'{lo:g}' if hi is None else f'{lo:g} to {hi:g}'
+    if own == unit:
+        return f'{si} {unit}'
+    shown = _inwards(lo / f, False) if hi is None else f'{_inwards(lo / f, True)} to {_inwards(hi / f, False)}'
+    return f'{si} {unit} ({shown} {own})'
+
+
+def _inwards(x: float, up: bool) -> str:
+    """``x`` to 4 significant digits, rounded up (``up``: a lower bound) or down (an upper bound)."""
+    text = f'{x:.4g}'
+    if x != 0.0 and math.isfinite(x) and (float(text) < x if up else float(text) > x):
+        step = 10.0 ** (math.floor(math.log10(abs(x))) - 3)
+        text = f'{float(text) + (step if up else -step):.4g}'
+    return text

@@ -84,9 +84,12 @@ def type_hint(error: str) -> str:
         return ''
     if one.group(2) == 'STRING':
         return f"; allowed: a list of texts, e.g. ['{one.group(1)}']"
-    given = re.findall(r'[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?', one.group(1))
-    values = [float(v) for v in given] * (3 if len(given) == 1 else 1) if len(given) in (1, 3) else [0.0] * 3
-    return f'; allowed: a list of 3 numbers, e.g. [{", ".join(repr(v) for v in values)}]'
+    given = [float(v) for v in re.findall(r'[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?', one.group(1))]
+    if len(given) == 1:   # the form, not a value the node takes: its range is checked after (kappa:=0)
+        v = repr(given[0])
+        return f'; allowed: a list of 3 numbers, one per rod ([{v}, {v}, {v}] for {v} at each)'
+    written = f' ([{", ".join(repr(v) for v in given)}]: floating-point)' if len(given) == 3 else ''
+    return f'; allowed: a list of 3 numbers, one per rod{written}'
 
 
 class StopFlag:

@@ -28,6 +28,7 @@ rod_3`` of the robot model and ``joint_states`` (:data:`~gpr_kinematics.core.mes
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -35,7 +36,7 @@ from numpy.typing import NDArray
 
 from ..core.forward import forward
 from ..core.messages import ROD_JOINT_NAMES, duration_parts
-from ..errors import InputError, LimitError, RobotStateError
+from ..errors import GprError, InputError, LimitError, RobotStateError
 from ..inputs.files import check_suffix, write_text
 from .grid import check_rate
 from .plan import ProgramPlan, joint_limits, plan_samples, plan_velocities, position_limits
@@ -151,12 +152,7 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
                               f'its limits [{lower[j]:.9g}, {upper[j]:.9g}] {unit}; allowed: a robot within its limits '
                               f'(to {REPORTED_SLACK:g} {unit}; are these joint states of this robot?)')
     current = np.clip(current, lower, upper)   # an encoder's overshoot: the goal starts within the limits
-    try:   # rods no platform takes (tilted beyond the limit): no move starts there (the simulator ignores them)
-        forward(current[:3], plan.robot.config, stroke=False)
-    except LimitError as exc:
-        allowed = '' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'
-        raise RobotStateError(f'the robot reports {", ".join(names[:3])}: {exc}{allowed} (are these joint states of '
-                              'this robot?)') from None
+    current[:3] = _within_the_tilt(plan, current[:3], names)
     ends = np.vstack([current, traj.positions[0]])
     shortest = parameterise(ends, velocity, acceleration, np.full(2, np.nan), np.zeros(2), names,
                             ('the current state', 'the first point')).total
@@ -180,6 +176,30 @@ def lead_in(plan: ProgramPlan, traj: JointTrajectory, current: Array, rate: floa
                           np.vstack([move.positions[:t.shape[0]], traj.positions]),
                           np.vstack([velocities(timing, t), vel]))
     return out, periods / rate
+
+
+def _within_the_tilt(plan: ProgramPlan, rods: Array, names: Sequence[str]) -> Array:
+    """Reported rods ``(3,)`` [m] whose platform tilts at most :data:`REPORTED_SLACK` rad beyond the tilt limit (an
+    encoder's overshoot at a station on the limit), their differences drawn in to the limit: a goal starts there;
+    :class:`~gpr_kinematics.errors.RobotStateError` for rods farther beyond, or of no platform pose."""
+    cfg = plan.robot.config
+    limit = cfg.tilt_limit
+    for _ in range(3):   # the tilt goes with the rods' differences, to first order: a step or two
+        try:
+            tilt = float(forward(rods, cfg, check_limits=False, stroke=False).tilt)
+        except GprError:
+            break   # no pose at all: named by the check below
+        if not limit < tilt <= limit + REPORTED_SLACK:
+            break
+        mean = float(np.mean(rods))
+        rods = mean + (rods - mean) * (limit / tilt)
+    try:   # rods no platform takes (tilted beyond the limit): no move starts there (the simulator ignores them)
+        forward(rods, cfg, stroke=False)
+    except LimitError as exc:
+        allowed = '' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'
+        raise RobotStateError(f'the robot reports {", ".join(names[:3])}: {exc}{allowed} (to {REPORTED_SLACK:g} rad '
+                              'beyond: taken as at the limit; are these joint states of this robot?)') from None
+    return rods
 
 
 def _duration(t: float) -> str:
