@@ -522,6 +522,42 @@ def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(caps
                    'program gpr program check finds safe (it names every pair and move)\n'), err
 
 
+def test_a_trajectory_whose_spline_makes_the_wafer_slip_is_refused_at_its_rate(capsys, tmp_path):
+    """Blades of friction 0.2285: the example cell program's slip ratio is 0.989 (safe), but at 10 Hz the cubic
+    between the trajectory's points overshoots its accelerations and the wafer slips (1.005 at 54.70 s; the trial
+    found it by second differences of the wafer along the spline), written without a word: refused now at 10 Hz,
+    written at 20 Hz. Independently: the wafer's positions along the 10 Hz spline at 10 kHz, their second
+    differences, the slip ratio of docs/cell.md."""
+    from gpr_kinematics.robot.description import load_robot
+    from gpr_kinematics.robot.plan import plan_program
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.robot.trajectory import evaluate, program_trajectory
+    program = _variant(tmp_path, ('friction: 0.3', 'friction: 0.2285'))
+    status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert status == 0 and '  safe' in out.splitlines(), out
+    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
+                           '--rate', '10')
+    assert (status, out) == (2, '') and not (tmp_path / 't.yaml').exists()
+    assert err == ("gpr program export: error: at --rate 10 Hz the spline between the trajectory's points makes the "
+                   'wafer slip on the blade (ratio 1.005 >= 1 at t = 54.700 s, steps[14] (place load_port_1, '
+                   'approach); the program itself stays below 1); allowed: a higher --rate (points closer together '
+                   'follow the program)\n'), err
+    status, out, _ = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
+                         '--rate', '20')
+    assert status == 0 and (tmp_path / 't.yaml').exists()
+    plan = plan_program(load_robot(str(tmp_path / 'robot.yaml')), load_program(program), 10.0)
+    traj = program_trajectory(plan, 10.0)
+    t = np.arange(54.6, 54.8, 1e-4)
+    q = evaluate(traj, traj.positions[0], t)[0]
+    fk = robot_forward(plan.robot, q[:, :3], q[:, 6:], 'arm2', check_limits=False)
+    a = (fk.wafer.position[2:] - 2 * fk.wafer.position[1:-1] + fk.wafer.position[:-2]) / 1e-8
+    f = a + np.array([0.0, 0.0, 9.80665])
+    n = fk.wafer.rotation[1:-1, :, 2]
+    fn = np.einsum('ij,ij->i', f, n)
+    ratio = np.linalg.norm(f - fn[:, None] * n, axis=1) / (0.2285 * fn)
+    assert ratio.max() == pytest.approx(1.005, abs=1e-3)
+
+
 def test_a_program_beyond_the_imperfection_budget_is_not_written_as_a_trajectory(capsys, tmp_path):
     """The example robot program (no cell: the robot against itself) under an imperfection budget of 30 um: check
     finds 17 samples beyond it at 10 Hz (test_safety_check), --trajectory wrote it; now refused naming them."""

@@ -127,6 +127,19 @@ def test_metres_in_a_file_of_millimetres_are_named_so():
 
 
 
+def test_millimetres_in_a_file_of_metres_are_named_so():
+    """A cell in mm without its units line: position 1200 was refused as beyond 100 m with no word of units (the
+    slits of a file of mm and the stations had a hint); within the bound as millimetres, the hint names the line."""
+    data = cell({'name': 'lid', 'box': [20, 20, 20], 'position': [1200, 1000, 470.3875]})
+    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles\[0\] \(lid\): position\[0\] = 1200 is invalid; '
+                                          r'allowed: a finite number in m, -100 to 100 m after conversion \(1200 m: '
+                                          r'millimetres\? declare them, units: \{length: mm\}\)$'):
+        parse_cell(data, 'my_cell.yaml')
+    data['obstacles'][0]['position'] = [1e6, 0, 0]   # beyond the bound as millimetres too: no such hint
+    with pytest.raises(ConfigError, match=r'position\[0\] = 1000000\.0 is invalid; allowed: .* after conversion$'):
+        parse_cell(data, 'my_cell.yaml')
+
+
 def _chamber(**changes):
     return parse_cell(cell({'name': 'c', 'position': [0, 0, 0], 'chamber': {
         'size': [0.5, 0.4, 0.3], 'wall': 0.02, 'slit': [0.34, 0.04]} | changes}), 'my_cell.yaml')

@@ -788,7 +788,10 @@ def test_a_program_of_one_instant_is_checked_at_it():
     """A program of one waypoint and no dwell lasts 0 s: its motion had one base instant and no interval between
     two, so no pair was measured and gpr program check read 'minimum inf mm', safe, with arm1's blade 73.389 mm
     into the load port's pedestal (the same waypoint held for a second: NOT safe). That instant is an interval of no
-    length: both programs read the same pair at the same distance, and a free pose its clearance (60.826 mm)."""
+    length: both programs read the same pair at the same distance, and a free pose its clearance: 41 mm of arm1's
+    first link above the column since links are checked against it (by hand: the rods at 76 mm for the wafer at
+    260 mm, the link's bottom 85 mm above them, the column's top at 120 mm; less the library's 1 um), 60.826 mm to
+    the cell."""
     from gpr_kinematics.safety.cell import load_cell
     from gpr_kinematics.safety.check import check_program
 
@@ -804,7 +807,9 @@ def test_a_program_of_one_instant_is_checked_at_it():
     assert a.pairs[0]['bodies'] == b.pairs[0]['bodies'] == ['arm1_blade', 'load_port_1_pedestal']
     assert a.min_clearance == pytest.approx(-73.389e-3, abs=1e-6) and a.min_clearance == b.min_clearance
     ok = check_program(_cell_program(wafers=[], defaults=arm1, stations=free, steps=[{'move': 'a'}]), cell)[0]
-    assert ok.safe and ok.min_clearance == pytest.approx(60.826e-3, abs=1e-6)
+    assert ok.safe and ok.pairs[0]['bodies'] == ['gpr_base', 'arm1_link1']
+    assert ok.min_clearance == pytest.approx(0.076 + 0.085 - 0.12 - 1e-6, abs=1e-9)
+    assert min(p['distance'] for p in ok.pairs if p['bodies'][0] != 'gpr_base') == pytest.approx(60.826e-3, abs=1e-6)
 
 
 def test_a_bad_plot_is_refused_before_the_check(tmp_path, capsys, monkeypatch):

@@ -95,6 +95,9 @@ def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, s
         given = f'{key} is missing' if value is None else f'{key} = {brief(value)} is invalid'   # not "length = None"
         metres = unit == 'mm' and is_number(value) and lo <= float(value) <= hi   # metres written in a mm file
         hint = f' ({value:g} mm is {to_si(float(value), scale):g} m: metres in a file of mm?)' if metres else ''
+        if unit == 'm' and is_number(value) and abs(float(value)) >= 1.0 and lo <= float(value) / 1000.0 <= hi:
+            # millimetres in a file of metres (a value of a metre or more, too large, within as millimetres)
+            hint = f' ({value:g} m: millimetres? declare them, units: {{length: mm}})'
         raise ConfigError(f'{where}: {given}; allowed: a finite number in {unit}, {lo:g} to {hi:g} {si} after '
                           f'conversion{hint}')
     return to_si(float(value), scale)

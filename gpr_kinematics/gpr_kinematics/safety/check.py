@@ -313,7 +313,7 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     safe = not collisions and most < 1.0 and not budget.beyond
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
     return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
-                         float(every[k]), _label_at(plan, float(every[k])), bound.closed, moves,
+                         float(every[k]), label_at(plan, float(every[k])), bound.closed, moves,
                          None if cell is None else cell.source, report.evaluations, report.instants,
                          robot.config.model, robot.config.model in PROVEN_MODELS, budget),
             report, (times, ratio))
@@ -379,7 +379,7 @@ def _waypoint_at(plan: ProgramPlan, t: float) -> int:
     return min(int(np.searchsorted(plan.timing.depart, t - 1e-12)), len(plan.timing.arrive) - 1)
 
 
-def _label_at(plan: ProgramPlan, t: float) -> str:
+def label_at(plan: ProgramPlan, t: float) -> str:
     return plan.labels[_waypoint_at(plan, t)]
 
 

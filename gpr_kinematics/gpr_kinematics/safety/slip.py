@@ -20,6 +20,7 @@ between the samples by :mod:`~gpr_kinematics.safety.slip_bound`.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,8 @@ from numpy.typing import NDArray
 from ..core.config import GprConfig
 from ..robot.forward import robot_forward
 from ..robot.plan import ProgramPlan, joint_limits, move_rows, plan_samples
-from ..robot.timing import evaluate, locate, sample_at
+from ..robot.timing import MAX_SAMPLES, evaluate, locate, sample_at
+from ..robot.trajectory import JointTrajectory, spline
 
 Array = NDArray[np.float64]
 
@@ -44,6 +46,10 @@ LEAST_CHANGE = 1e-30
 #: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
 #: 1e-6 m is allowed; 3.7e-7 m of position error then) is tightened to it here.
 CLOSURE_TOLERANCE = GprConfig.tolerance
+#: Rate [Hz] at which :func:`trajectory_slip` samples a trajectory's spline (two inside each segment at least), and
+#: how far [s] on each side of a point, where a cubic's acceleration jumps.
+TRAJECTORY_SLIP_RATE, CORNER = 200.0, 1e-9
+Windows = tuple[tuple[float, float], ...]
 
 
 def closure_exact(plan: ProgramPlan) -> ProgramPlan:
@@ -124,12 +130,66 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
     return SlipSeries(times, ratio, acc)
 
 
+def trajectory_slip(plan: ProgramPlan, traj: JointTrajectory, carried: dict[str, Windows]) -> tuple[float, float]:
+    """The largest slip ratio and its instant [s] of the wafers ``carried`` (each arm's windows, the program's time)
+    along the spline a controller follows through ``traj`` (the program's trajectory at a rate; its points carry
+    velocities), sampled at :data:`TRAJECTORY_SLIP_RATE` (two inside each segment at least) and on both sides of
+    every point, where a segment's linear acceleration peaks: the cubic's acceleration leaves the program's between
+    points (at 10 Hz a program of 0.989 read 1.005). Sampled, not bounded between the samples. The wafer's
+    acceleration ``a = J q'' + q'^T H q'`` by central differences of the exact forward kinematics along ``q''`` and
+    ``q'`` (steps of :data:`STEP` in the joints); (0, 0) with nothing carried."""
+    plan = closure_exact(plan)
+    robot, spline_of = plan.robot, spline(traj, traj.positions[0])
+    rate = max(TRAJECTORY_SLIP_RATE, 2.0 / float(np.min(np.diff(traj.time), initial=np.inf)))
+    knots = traj.time
+    _, _, _, slices = joint_limits(robot)
+    best, at = 0.0, 0.0
+    for arm, windows in carried.items():
+        cols = np.r_[0:3, slices[robot.arm_names.index(arm)]]
+        for t0, t1 in windows:
+            n = min(int(math.ceil((t1 - t0) * rate)) + 1, MAX_SAMPLES)
+            inside = knots[(knots > t0) & (knots < t1)]
+            t = np.unique(np.concatenate([np.linspace(t0, t1, n), inside - CORNER, inside + CORNER]))
+            q, v, acc = (x[:, cols] for x in spline_of.evaluate(t))
+            ratio = _ratio_at(plan, arm, q, _acceleration(plan, arm, q, v, acc))
+            k = int(np.argmax(ratio))
+            if ratio[k] > best:
+                best, at = float(ratio[k]), float(t[k])
+    return best, at
+
+
+def _acceleration(plan: ProgramPlan, arm: str, q: Array, v: Array, acc: Array) -> Array:
+    """The wafer's acceleration ``(K, 3)`` [m/s^2] at joints ``q`` (rods and the arm's), velocities ``v`` and
+    accelerations ``acc``: ``J acc + v^T H v`` by central differences along ``acc`` and ``v``."""
+    def wafer(x: Array) -> Array:
+        return robot_forward(plan.robot, x[:, :3], x[:, 3:], arm, check_limits=False).wafer.position
+    out = np.zeros((q.shape[0], 3))
+    for d, second in ((acc, False), (v, True)):
+        size = np.max(np.abs(d), axis=1)
+        moving = size > 0.0
+        if not moving.any():
+            continue
+        h = STEP / size[moving]
+        step = d[moving] * h[:, None]
+        ahead, back = wafer(q[moving] + step), wafer(q[moving] - step)
+        if second:
+            out[moving] += (ahead - 2.0 * wafer(q[moving]) + back) / h[:, None] ** 2
+        else:
+            out[moving] += (ahead - back) / (2.0 * h[:, None])
+    return out
+
+
 def _ratio(plan: ProgramPlan, arm: str, t: Array, acc: Array) -> Array:
     robot = plan.robot
     rows = plan_samples(plan, sample_at(plan.timing, t)).positions
     _, _, _, slices = joint_limits(robot)
-    cols = slices[robot.arm_names.index(arm)]
-    R = robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.rotation
+    return _ratio_at(plan, arm, rows[:, np.r_[0:3, slices[robot.arm_names.index(arm)]]], acc)
+
+
+def _ratio_at(plan: ProgramPlan, arm: str, q: Array, acc: Array) -> Array:
+    """The slip ratio at the rods and ``arm``'s joints ``q (K, 3 + n)`` for the wafer's acceleration ``acc``."""
+    robot = plan.robot
+    R = robot_forward(robot, q[:, :3], q[:, 3:], arm, check_limits=False).wafer.rotation
     a = robot.arm(arm)
     f = acc + np.array([0.0, 0.0, GRAVITY])          # per unit mass: a - g
     n = R[:, :, 2]
