@@ -270,16 +270,16 @@ def test_the_messages_of_a_bag_are_bounded_in_number_over_its_files(tmp_path: Pa
     """A 25 kB MCAP chunk of 6.6 million empty messages (within the bytes' bound) took 2.15 GB and 23 s to read: a
     bag's messages are bounded in number, every topic's (one topic asked for reads them all), over its files; an
     SQLite3 file's rows are counted before any is read."""
-    from gpr_kinematics.bags import reader
+    from gpr_kinematics.bags import sqlite_file
 
     bag = write_bag(tmp_path / 'b', messages, _types(messages), storage=storage, max_bag_size=20_000)
     files = sorted(bag.glob('*.mcap' if storage == 'mcap' else '*.db3'))
     assert len(files) >= 3
     n, topic = len(messages), messages[0][0]
-    for module in (mcap_file, reader):
+    for module in (mcap_file, sqlite_file):
         monkeypatch.setattr(module, 'MAX_MESSAGES', n)
     assert sum(len(t.raw) for t in read_bag(bag).topics.values()) == n
-    for module in (mcap_file, reader):
+    for module in (mcap_file, sqlite_file):
         monkeypatch.setattr(module, 'MAX_MESSAGES', n - 1)
     said = f'more than {n - 1}' if storage == 'mcap' else str(n)   # MCAP stops at the message beyond, SQLite3 before
     for topics in (None, [topic]):

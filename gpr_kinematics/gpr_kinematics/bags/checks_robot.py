@@ -41,8 +41,9 @@ from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import RobotDescription, parse_robot
 from ..robot.transforms import PoseBatch
 from .cdr import Columns
-from .checks_topics import cut_detail, extra, match, missing, unordered, without_messages
+from .checks_topics import match
 from .columns import matrix, quaternion_angle, stamp_ns, vec
+from .ends import cut_detail, extra, missing, unordered, without_messages
 from .reader import Bag, TopicData
 from .results import Check, bag_check, bool_check, skipped, value_check
 from .tolerances import Tolerances

@@ -26,19 +26,7 @@
   MarkerArray removed passed as "no markers in the bag"): the samples a recorded ``markers_every`` marks between
   the first and the last state fail ``markers_sequence``; a bag without the topic skips the markers.
 
-The ends of a recording: a companion message of a state is not counted as missing (:func:`missing`) before the
-companion topic's first message, since the recorder subscribes to each topic on its own and discovery matches each
-topic on its own (a recorder started while the node streams may miss any number of a topic's first samples; before
-it subscribed to the state topic last, those of the joint states and the markers were lost in a test run), and at
-the recording's last sample after the topic's last message: the node publishes every message of a sample in one
-tick and a cut (SIGKILL) stops every topic at once, so a recording cut in the middle of a sample lacks that
-sample's only. Every other state after a topic's last message is missing, its tail removed (500 poses deleted from
-the end and the metadata recounted passed before): the failures name the topic, the samples and how many
-(:func:`cut_detail`). A topic recorded without a message: every state but the first and the last. Companion
-messages without a PlatformState of the same stamp are ``*_extra`` failures: inside the states' span, and after the
-last state all but those of one stamp (a cut in the middle of a sample may have lost its state only: the states'
-tail removed and the metadata recounted passed before); before the first state they are a late subscriber's. A
-companion topic's header stamps that go back in log-time order are a ``*_order`` failure (:func:`unordered`).
+The ends of a recording (which companion messages an honest recording may lack there): :mod:`.ends`.
 
 A controller's joint states: ``joint_states`` is the robot's topic, and the robot's controller publishes on it too
 (``robot_simulator_node`` holding the robot before, between and after streams, and moving it for its goals, as
@@ -62,6 +50,7 @@ from ..core.rotations import matrix_from_quaternion
 from ..robot.markers import ADD, MARKERS, marked, marker_points
 from .cdr import COUNT, Columns
 from .columns import field_matrix, matrix, stamp_ns, vec
+from .ends import cut_detail, extra, lagging, missing, unordered, without_messages
 from .reader import Bag, TopicData
 from .results import Check, Failure, Series, bool_check, skipped, value_check
 from .typestore import (
@@ -89,84 +78,6 @@ def match(companion_stamps: NDArray[np.int64], companion_frames: NDArray[np.obje
                                                     dtype=bool)
     out[hit] = cand[hit]
     return out
-
-
-def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64], end: int | None = None) -> NDArray[np.float64]:
-    """Initial error per PlatformState (per RobotState for the wafer poses): inf (missing), 0 where the companion
-    message may be missing from an honest recording (module docstring, *the ends*): before the companion topic's
-    first message, and at the recording's last sample (``end``: its stamp, default the last of ``stamps``) after its
-    last message; a topic without a message: the first and the last."""
-    e = np.full(len(stamps), np.inf)
-    if len(stamps) == 0:
-        return e
-    end = int(stamps.max()) if end is None else end
-    if len(companion):
-        e[(stamps < companion.min()) | ((stamps == end) & (stamps > companion.max()))] = 0.0
-    else:
-        e[(stamps == stamps.min()) | (stamps == end)] = 0.0
-    return e
-
-
-def cut_detail(stamps: NDArray[np.int64], companion: NDArray[np.int64], samples: NDArray[np.int64],
-               e: NDArray[np.float64], where: str = '') -> str:
-    """How many of the missing (``e`` inf) are after the companion topic's last message, from which sample to which
-    (empty when none): a tail removed, not a recording cut in the middle of its last sample (``where``: how the
-    message names them, default by the topic's last message)."""
-    gone = np.isinf(e) & (stamps > companion.max() if len(companion) else np.ones(len(stamps), dtype=bool))
-    if not np.any(gone):
-        return ''
-    where = where or ("missing after the topic's last message" if len(companion) else
-                      'missing of a topic without a message')
-    return (f'; {int(np.count_nonzero(gone))} {where} (samples {int(samples[gone].min())} to '
-            f"{int(samples[gone].max())}; a recording cut in the middle of a sample lacks only the last sample's)")
-
-
-def without_messages(check: str, topic: str, stamps: NDArray[np.int64], samples: NDArray[np.int64], tol: float,
-                     unit: str, detail: str, end: int | None = None) -> Check:
-    """``check`` of a companion topic recorded (listed) without a message: every state missing but at the ends
-    (:func:`missing`; such a topic has no columns to match)."""
-    e = missing(stamps, np.zeros(0, np.int64), end)
-    return value_check(check, topic, e, tol, unit, samples, detail + cut_detail(stamps, np.zeros(0, np.int64),
-                                                                                 samples, e))
-
-
-def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
-          matched: int) -> Check | None:
-    """A failed ``<check>_extra`` if the companion topic has messages without a PlatformState of their stamp: inside
-    the states' span, or after the last state beyond those of its first stamp there (a recording cut in the middle
-    of a sample may hold that sample's companions without its state; more is the states' tail removed). Those before
-    the first state are a late subscriber's to the state topic (module docstring, *the ends*)."""
-    if not len(stamps):
-        return None
-    inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max())))
-    after = companion[companion > stamps.max()]
-    beyond = int(np.count_nonzero(after > after.min())) if after.size else 0
-    if inside <= matched and not beyond:
-        return None
-    n = float(inside - matched + beyond)
-    why = 'messages without a PlatformState of the same stamp'
-    if beyond:
-        why += (f"; {beyond} of them after the last PlatformState's next sample (a recording cut in the middle of a "
-                "sample holds at most that sample's)")
-    return Check(f'{check}_extra', topic, inside + after.size, n, 0.0, 'messages', 1,
-                 [Failure(f'{check}_extra', topic, None, n, 0.0, why)])
-
-
-def unordered(check: str, topic: str, companion: NDArray[np.int64],
-              numbers: NDArray[np.int64] | None = None) -> Check | None:
-    """A failed ``<check>_order`` if the companion topic's header stamps, in the recorder's log-time order, go back:
-    the node publishes a topic's samples in order and the recorder receives and logs them so (the PlatformState
-    topic's own order is ``stream.stamps``); log times edited out of step with the stamps passed before.
-    ``numbers``: each stamp's message number in the topic, when ``companion`` is a part of it (the stream's)."""
-    back = np.flatnonzero(np.diff(companion) < 0)
-    if not back.size:
-        return None
-    k = int(back[0]) + 1
-    number = k if numbers is None else int(numbers[k])
-    return Check(f'{check}_order', topic, len(companion), float(back.size), 0.0, 'messages', 1, [
-        Failure(f'{check}_order', topic, None, float(back.size), 0.0,
-                f'header stamps that go back in log-time order (the first: message {number} of the topic, stamped '
-                f'{int(companion[k])} ns, logged after one stamped {int(companion[k - 1])} ns)')])
 
 
 def _topic(bag: Bag, name: str) -> TopicData | None:
@@ -426,7 +337,7 @@ def _marker_checks(bag: Bag, c: Columns, samples: NDArray[np.int64], cfg: GprCon
     expected = marker_points(cfg, matrix(c['q'], 3)[rows], vec(c, 'nominal_pose.position')[rows],
                              matrix_from_quaternion(vec(c, 'nominal_pose.orientation', 'xyzw')[rows]))
     err = _marker_errors(mc, idx[rows], rows, c, expected)
-    gaps = _marker_gaps(samples, rows, every)
+    gaps = _marker_gaps(samples, rows, every) & ~lagging(stamps, int(stamps[rows].max()) if rows.size else 0)
     cut = cut_detail(stamps, stamps[rows], samples, np.where(gaps, np.inf, 0.0), 'of them after the last MarkerArray')
     out = [value_check('topic.markers', name, err, tol, 'm', samples[rows],
                        'inf = structure, stamp, frame or pose differ; else the largest point error'),

@@ -29,8 +29,9 @@ from ..errors import GprError
 from .cdr import Columns
 from .checks_program import owners
 from .checks_robot import in_world
-from .checks_topics import extra, match
+from .checks_topics import match
 from .columns import quaternion_angle, stamp_ns, vec
+from .ends import extra
 from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix, sample_index
 from .reader import Bag
 from .results import Check, skipped, value_check

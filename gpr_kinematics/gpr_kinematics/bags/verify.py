@@ -49,6 +49,7 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
+from .ends import cut_recording
 from .errors import BagError
 from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix
 from .reader import Bag, read_bag
@@ -119,7 +120,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
     t_read = time.perf_counter() - t0
     tol = Tolerances() if tolerances is None else tolerances
     # Recorded numbers may be anything (a corrupt q of 1e290): what overflows is a failed check, not a warning.
-    with np.errstate(all='ignore'):
+    # a recorder killed while it wrote (a segment left unfinished): the ends' rule of a cut recording (.ends)
+    with np.errstate(all='ignore'), cut_recording(bool(bag.unfinished)):
         checks = bag_checks(bag, allow_missing_checksums)
         known = typestore().fielddefs
         for topic in bag.topics.values():
