@@ -131,6 +131,15 @@ def test_bad_input_exits_2_with_one_line(argv, match, capsys):
     assert match in err and err.count('\n') == 1 and 'Traceback' not in err
 
 
+def test_a_mechanism_type_without_a_workspace_model_is_named_so(capsys):
+    """``stewart_alwan.yaml`` was refused as of an "unknown mechanism type 'stewart_6sps'": the type is known."""
+    code, out, err = _run(capsys, 'stewart_alwan.yaml', '--delta', '0.1')
+    assert code == 2 and err.count('\n') == 1
+    assert err.endswith("stewart_alwan.yaml: mechanism type 'stewart_6sps' has no workspace model; allowed: the types "
+                        'with a workspace model: tripod_3rps, rrr3_planar, dextar, upu3, gpr, shell_arm, equations, '
+                        'joint_working_area\n')
+
+
 @pytest.mark.parametrize('text, match', [
     ('type: hexapod\n', 'unknown mechanism type'),
     ('type: dextar\nla: 0.2\n', 'missing key lb'),

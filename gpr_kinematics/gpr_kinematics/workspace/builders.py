@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 
 from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_key
-from ..mechanisms import mechanism_from_dict
+from ..mechanisms import MECHANISM_TYPES, mechanism_from_dict
 from ..mechanisms.base import Mechanism
 from ..mechanisms.gpr import GprMechanism
 from ..mechanisms.tripod import Tripod3RPS
@@ -167,7 +167,9 @@ def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[
     kind = data.get('type')
     if not isinstance(kind, str) or kind not in builders:
         what = f'unknown mechanism type {str(kind)[:40]!r}' if 'type' in data else 'no mechanism type (a key type)'
-        raise ConfigError(f'{source}: {what}; workspace models exist for {", ".join(builders)}')
+        if isinstance(kind, str) and kind in MECHANISM_TYPES:   # it was called unknown ('stewart_6sps')
+            what = f'mechanism type {kind!r} has no workspace model'
+        raise ConfigError(f'{source}: {what}; allowed: the types with a workspace model: {", ".join(builders)}')
     builder, extra = builders[kind]
     ws = data.get('workspace') or {}
     if not isinstance(ws, Mapping):
