@@ -13,7 +13,6 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeVar
 
-
 from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_key
 from ..mechanisms import MECHANISM_TYPES, mechanism_from_dict
