@@ -418,3 +418,15 @@ def test_the_default_heights_come_from_length_limits_or_the_mechanism_s_size(cap
     assert code == 0, err
     values = json.loads(out)['values']
     assert values[-1] == pytest.approx(top, rel=1e-12) and len(values) == 51
+
+
+def test_dexterity_json_writes_an_infinite_condition_number_as_null(capsys):
+    """The 3-UPU at z = 0 (coplanar limbs) has an infinite condition number: ``"condition_number": [-1.0, -1.0,
+    -1.0]`` where ``gpr mechanism --json`` writes null; a grid's rows too."""
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '3', '--json')
+    assert code == 0, err
+    assert json.loads(out)['condition_number'] == [None, None, None]
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '2', '--vary2', 'z', '0',
+                         '0.2', '2', '--json')
+    data = json.loads(out)['condition_number']
+    assert code == 0 and [row[0] for row in data] == [None, None] and all(c > 1 for c in (data[0][1], data[1][1]))
