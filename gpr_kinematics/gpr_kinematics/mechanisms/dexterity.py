@@ -45,10 +45,11 @@ class DexterityMap:
     def record(self, kind: str) -> DexterityRecord:
         """The map as ``gpr dexterity --json`` prints it (:class:`DexterityRecord`); ``kind`` is the mechanism's
         type."""
+        cond = self.condition_number.astype(object)
+        cond[~np.isfinite(self.condition_number)] = None
         return DexterityRecord(
             mechanism=self.mechanism, variable=self.variable, values=self.values, dexterity=self.dexterity,
-            within_limits=self.within_limits, singular=self.singular,
-            condition_number=np.where(np.isfinite(self.condition_number), self.condition_number.astype(object), None),
+            within_limits=self.within_limits, singular=self.singular, condition_number=cond,
             variable2=self.variable2, values2=self.values2, type=kind)
 
 
