@@ -286,11 +286,16 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     # options of another method or scheduler ran without a word
     (['--grid-nodes', '5'], '--grid-nodes belongs to --method grid; allowed with --method covering: no --grid-nodes'),
     (['--scheduler', 'none', '--parts', '5'], '--parts cuts a run for the workers of a Dask scheduler'),
-    (['--delta', '1e-300'], 'too small'),
 ])
 def test_bad_run_options_exit_2(argv, match, capsys):
     code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', *argv)
     assert code == 2 and match in err and err.count('\n') == 1, err
+
+
+def test_a_delta_too_small_for_the_box_exits_2(capsys):
+    """Given after ``--delta 0.1`` in the table above, it met the refusal of an option given twice instead."""
+    code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '1e-300')
+    assert code == 2 and 'too small' in err and err.count('\n') == 1, err
 
 
 def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
