@@ -464,3 +464,57 @@ def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, mo
     monkeypatch.setattr(ws, 'approximate', stopped_run)
     code, out, _ = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
     assert code == status and json.loads(out)['stopped'] == stopped
+
+
+def _children(pid):
+    """The processes whose parent is ``pid`` (Linux's /proc)."""
+    found = []
+    for entry in os.listdir('/proc'):
+        try:
+            with open(f'/proc/{entry}/stat') as f:
+                if entry.isdigit() and int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                    found.append(int(entry))
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.isdir('/proc'), reason='reads /proc')
+def test_ctrl_c_to_the_process_group_as_the_local_cluster_starts_stops_cleanly(tmp_path):
+    """A terminal's Ctrl-C goes to the whole process group: sent as the local cluster started (its first child
+    process seen), the run ended in a long traceback, "RuntimeError: Nanny failed to start.", exit 1, no output.
+    Now: exit 130, one line on stderr, the result so far printed, marked interrupted, no process left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    pytest.importorskip('distributed')
+    cmd = [sys.executable, '-m', 'gpr_kinematics', 'workspace', 'tripod_3rps.yaml', '--delta', '0.3', '--mm',
+           '--workers', '2', '--max-boxes', '3000000', '--no-progress', '--json']
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                            start_new_session=True)   # a group of its own, as a terminal's job
+    try:
+        due = time.monotonic() + 60
+        while not _children(proc.pid) and proc.poll() is None and time.monotonic() < due:
+            time.sleep(0.02)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130 and 'Traceback' not in err, err
+    assert err.count('\n') == 1 and err.startswith('gpr workspace: interrupted'), err
+    assert json.loads(out)['interrupted'] is True
+    due = time.monotonic() + 30   # the cluster's processes (forkserver, resource tracker) follow it
+    while any(_pgid(p) == proc.pid for p in os.listdir('/proc') if p.isdigit()) and time.monotonic() < due:
+        time.sleep(0.2)
+    assert not [p for p in os.listdir('/proc') if p.isdigit() and _pgid(p) == proc.pid]
+
+
+def _pgid(pid):
+    try:
+        return os.getpgid(int(pid))
+    except OSError:
+        return None
