@@ -407,3 +407,26 @@ def test_accuracy_refuses_where_mechanism_calls_the_pose_singular(capsys):
     assert code == 0 and data['singular'] is True and 1e-10 < data['dexterity'] < 1e-9, data['dexterity']
     code, _, err = run(capsys, 'accuracy', 'gsp_d3_6.yaml', '--pose', *pose, '--errors', *['1e-10'] * 6)
     assert code == 2 and err.count('\n') == 1 and 'is singular (inverse condition number' in err, err
+
+
+@pytest.mark.parametrize('name, top', [('gsp_d1d2d3d4a1a1.yaml', 0.30085623643361625), ('stewart_alwan.yaml', 2.4),
+                                       ('upu3.yaml', 0.267975)])
+def test_the_default_heights_come_from_length_limits_or_the_mechanism_s_size(capsys, name, top):
+    """The GSP's default z ran to 6.28319 m (twice its A1 joints' pi rad), the Stewart platform's to 1.6 m, short of
+    the paper's trajectory at 1.80-1.98 m: twice the largest length limit, else the largest distance of two points."""
+    code, out, err = run(capsys, 'dexterity', name, '--json')
+    assert code == 0, err
+    values = json.loads(out)['values']
+    assert values[-1] == pytest.approx(top, rel=1e-12) and len(values) == 51
+
+
+def test_dexterity_json_writes_an_infinite_condition_number_as_null(capsys):
+    """The 3-UPU at z = 0 (coplanar limbs) has an infinite condition number: ``"condition_number": [-1.0, -1.0,
+    -1.0]`` where ``gpr mechanism --json`` writes null; a grid's rows too."""
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '3', '--json')
+    assert code == 0, err
+    assert json.loads(out)['condition_number'] == [None, None, None]
+    code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '2', '--vary2', 'z', '0',
+                         '0.2', '2', '--json')
+    data = json.loads(out)['condition_number']
+    assert code == 0 and [row[0] for row in data] == [None, None] and all(c > 1 for c in (data[0][1], data[1][1]))

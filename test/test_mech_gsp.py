@@ -373,6 +373,26 @@ def test_dexterity_of_small_wide_zero_and_ill_conditioned_matrices():
     assert dexterity_index(np.zeros((1, 2, 3))).tolist() == [0.0]
     assert dexterity_index(np.zeros((1, 3, 3))).tolist() == [0.0] and condition_number(np.zeros((1, 3, 3)))[0] == np.inf
 
+    # an exactly zero row of a square matrix: sigma_min is 0, rounding left 1e-17 of it (cond 6.2e16 reported)
+    zero_row = np.array([[[0.8, -0.5, 0.3], [0.0, 0.0, 0.0], [0.1, 0.9, -0.2]]])
+    assert dexterity_index(zero_row).tolist() == [0.0] and condition_number(zero_row)[0] == np.inf
+    assert dexterity_index(np.swapaxes(zero_row, -1, -2)).tolist() == [0.0]   # a zero column
+    assert dexterity_index(np.array([[[1.0, 0.0], [0.0, 0.0], [0.0, 2.0]]])).tolist() == [0.5]   # tall: rank 2
+
+
+def test_crossing_d4_lines_give_a_zero_row_an_infinite_condition_number_and_a_named_singularity():
+    """``gsp_d1d2d3d4a1a1.yaml`` at the zero pose: the D4 lines cross (d4 = 0) and the D4 row is all zeros, but the
+    condition number was 6.156e16 and the singularity none."""
+    from gpr_kinematics.mechanisms.pose_analysis import analyse_pose
+    mech = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    res = analyse_pose(mech, [0.0] * 6)
+    assert res.joints[3].value == 0.0 and not np.any(res.inverse_jacobian[3])
+    assert res.condition_number is None and res.dexterity == 0.0 and res.singular
+    assert res.singularity == 'd4 (D4): the lines K and L cross (d = 0): its row is zero, the rate of d = |f| / g is ' \
+        'not defined'
+    J, named = mech.jacobian_and_singularity(np.zeros((1, 6)))   # a dexterity map's: the same
+    assert named.tolist() == [res.singularity] and mech.dexterity(np.zeros((1, 6))).tolist() == [0.0]
+
 
 def test_a_constraint_given_twice_is_refused_naming_the_file(tmp_path):
     """Two identical D1 constraints loaded and every pose came out 'singular: yes' without a reason; refused at load,

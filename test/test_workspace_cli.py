@@ -131,6 +131,15 @@ def test_bad_input_exits_2_with_one_line(argv, match, capsys):
     assert match in err and err.count('\n') == 1 and 'Traceback' not in err
 
 
+def test_a_mechanism_type_without_a_workspace_model_is_named_so(capsys):
+    """``stewart_alwan.yaml`` was refused as of an "unknown mechanism type 'stewart_6sps'": the type is known."""
+    code, out, err = _run(capsys, 'stewart_alwan.yaml', '--delta', '0.1')
+    assert code == 2 and err.count('\n') == 1
+    assert err.endswith("stewart_alwan.yaml: mechanism type 'stewart_6sps' has no workspace model; allowed: the types "
+                        'with a workspace model: tripod_3rps, rrr3_planar, dextar, upu3, gpr, shell_arm, equations, '
+                        'joint_working_area\n')
+
+
 @pytest.mark.parametrize('text, match', [
     ('type: hexapod\n', 'unknown mechanism type'),
     ('type: dextar\nla: 0.2\n', 'missing key lb'),
@@ -277,11 +286,16 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     # options of another method or scheduler ran without a word
     (['--grid-nodes', '5'], '--grid-nodes belongs to --method grid; allowed with --method covering: no --grid-nodes'),
     (['--scheduler', 'none', '--parts', '5'], '--parts cuts a run for the workers of a Dask scheduler'),
-    (['--delta', '1e-300'], 'too small'),
 ])
 def test_bad_run_options_exit_2(argv, match, capsys):
     code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', *argv)
     assert code == 2 and match in err and err.count('\n') == 1, err
+
+
+def test_a_delta_too_small_for_the_box_exits_2(capsys):
+    """Given after ``--delta 0.1`` in the table above, it met the refusal of an option given twice instead."""
+    code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '1e-300')
+    assert code == 2 and 'too small' in err and err.count('\n') == 1, err
 
 
 def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
@@ -450,3 +464,57 @@ def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, mo
     monkeypatch.setattr(ws, 'approximate', stopped_run)
     code, out, _ = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
     assert code == status and json.loads(out)['stopped'] == stopped
+
+
+def _children(pid):
+    """The processes whose parent is ``pid`` (Linux's /proc)."""
+    found = []
+    for entry in os.listdir('/proc'):
+        try:
+            with open(f'/proc/{entry}/stat') as f:
+                if entry.isdigit() and int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                    found.append(int(entry))
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.isdir('/proc'), reason='reads /proc')
+def test_ctrl_c_to_the_process_group_as_the_local_cluster_starts_stops_cleanly(tmp_path):
+    """A terminal's Ctrl-C goes to the whole process group: sent as the local cluster started (its first child
+    process seen), the run ended in a long traceback, "RuntimeError: Nanny failed to start.", exit 1, no output.
+    Now: exit 130, one line on stderr, the result so far printed, marked interrupted, no process left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    pytest.importorskip('distributed')
+    cmd = [sys.executable, '-m', 'gpr_kinematics', 'workspace', 'tripod_3rps.yaml', '--delta', '0.3', '--mm',
+           '--workers', '2', '--max-boxes', '3000000', '--no-progress', '--json']
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                            start_new_session=True)   # a group of its own, as a terminal's job
+    try:
+        due = time.monotonic() + 60
+        while not _children(proc.pid) and proc.poll() is None and time.monotonic() < due:
+            time.sleep(0.02)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130 and 'Traceback' not in err, err
+    assert err.count('\n') == 1 and err.startswith('gpr workspace: interrupted'), err
+    assert json.loads(out)['interrupted'] is True
+    due = time.monotonic() + 30   # the cluster's processes (forkserver, resource tracker) follow it
+    while any(_pgid(p) == proc.pid for p in os.listdir('/proc') if p.isdigit()) and time.monotonic() < due:
+        time.sleep(0.2)
+    assert not [p for p in os.listdir('/proc') if p.isdigit() and _pgid(p) == proc.pid]
+
+
+def _pgid(pid):
+    try:
+        return os.getpgid(int(pid))
+    except OSError:
+        return None

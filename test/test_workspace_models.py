@@ -218,6 +218,10 @@ def test_upu3_matches_the_mechanism_limb_lengths():
      r'rod_azimuths \[0.0, 2.0943951, 4.1887902\] rad, their gaps \[-2.39\d*e-09, -2.39\d*e-09\] rad off 120 deg; '
      r'allowed: three azimuths 120 deg apart to 1e-09 rad'),
     ({'type': 'gpr', 'overrides': {'rod_offsets': [1e-4, 0.0, 0.0]}}, 'rod_offsets in overrides.*nominal machine'),
+    # overrides the model does not use were accepted and ignored (same boxes): refused as rod_offsets was
+    ({'type': 'gpr', 'overrides': {'kappa': 100}}, 'kappa in overrides.*nominal machine'),
+    ({'type': 'gpr', 'overrides': {'tilt_limit': 0.1, 'max_iterations': 20}}, 'tilt_limit, max_iterations in over'),
+    ({'type': 'gpr', 'overrides': {'characteristic_length': 0.2}}, 'characteristic_length in overrides'),
     ({'type': 'tripod_3rps', 'base_radius': 0.05, 'platform_radius': 0.05, 'leg_min': 0.07, 'leg_max': 0.13,
       'workspace': {'box': {'psi': [-2.0, 2.0]}}}, r'reaches 2 rad; allowed: at most pi/2'),
     ([1, 2], 'mapping'),
@@ -225,6 +229,17 @@ def test_upu3_matches_the_mechanism_limb_lengths():
 def test_bad_mechanism_descriptions_raise_config_errors(data, match):
     with pytest.raises(ConfigError, match=match):
         model_from_mapping(data, 'test')
+
+
+def test_gpr_overrides_the_model_does_not_use_are_refused_with_the_keys_allowed():
+    """``overrides={kappa: 100}`` gave the boxes of no overrides; the model's own keys are still taken."""
+    with pytest.raises(ConfigError) as err:
+        model_from_mapping({'type': 'gpr', 'overrides': {'kappa': 100}}, 'gpr.yaml')
+    assert str(err.value) == ('gpr.yaml (gpr): kappa in overrides: the GPR workspace model is of the nominal machine '
+                              '(radius, rod azimuths, stroke, budget) and does not use them; allowed: those keys only '
+                              '(radius, rod_azimuths, stroke_min, stroke_max, imperfection_budget; model: radial)')
+    model = model_from_mapping({'type': 'gpr', 'overrides': {'imperfection_budget': 0.001, 'model': 'radial'}}, 't')
+    assert model.budget == 0.001
 
 
 def test_a_path_that_is_no_path_is_refused_by_name():

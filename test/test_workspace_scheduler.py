@@ -174,3 +174,50 @@ def test_a_local_clusters_workers_keep_their_error_logs_to_themselves(capfd):
         with pytest.raises(ValueError, match='a task that fails'):
             client.submit(fails).result()
     assert 'Failed to communicate with scheduler' not in capfd.readouterr().err
+
+
+def test_a_local_clusters_worker_processes_ignore_sigint():
+    """A terminal's Ctrl-C reaches the whole process group: the workers, spawned with Python's SIGINT handler, died
+    as the cluster started ("Nanny failed to start", exit 1) or printed 65 lines of KeyboardInterrupt tracebacks
+    during a run. They are forked now by a server started with SIGINT ignored: a SIGINT to one does nothing (exit 0;
+    it raised KeyboardInterrupt, exit 1), and this process keeps its own handler."""
+    import signal
+
+    from distributed.utils import get_mp_context
+    before = signal.getsignal(signal.SIGINT)
+    sched.start_workers_ignoring_sigint()
+    assert signal.getsignal(signal.SIGINT) is before
+    child = get_mp_context().Process(target=signal.raise_signal, args=(signal.SIGINT,))
+    child.start()
+    child.join(60)
+    assert child.exitcode == 0
+
+
+def test_a_signal_while_the_local_cluster_starts_stops_the_run_cleanly(monkeypatch):
+    """SIGTERM to the process group as the cluster started killed its workers too: the start's RuntimeError "Nanny
+    failed to start." ended the command in a traceback. A start that fails once a signal was caught is the run's
+    stop: nothing run on the cluster, the boxes kept, marked interrupted; without a signal the error is raised."""
+    import signal
+
+    import distributed
+    from gpr_kinematics.workspace.progress import StopFlag
+
+    class FailingCluster:
+        kill = True
+
+        def __init__(self, **kwargs):
+            if FailingCluster.kill:
+                signal.raise_signal(signal.SIGTERM)   # the group's signal, caught by the run's StopFlag
+            raise RuntimeError('Nanny failed to start.')
+
+    monkeypatch.setattr(distributed, 'LocalCluster', FailingCluster)
+    monkeypatch.setattr(sched, 'start_workers_ignoring_sigint', lambda: None)
+    monkeypatch.setattr(StopFlag, 'caught', None)
+    model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
+    with Executor('local', 2) as ex:
+        res = approximate(model, 0.0005, chunk_size=1024, parts=8, scheduler=ex)
+    assert res.interrupted and res.stopped == 'interrupted' and StopFlag.caught == signal.SIGTERM
+    assert not res.extra['cluster_used'] and res.boundary_boxes > 0
+    FailingCluster.kill = False
+    with Executor('local', 2) as ex, pytest.raises(RuntimeError, match='Nanny failed to start'):
+        ex.run(lambda m, c: c, None, [1, 2], (), [None, None], lambda: False, lambda i, r: None)

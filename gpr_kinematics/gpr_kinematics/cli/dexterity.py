@@ -84,19 +84,29 @@ def _dexterity(args: argparse.Namespace) -> int:
     return 0
 
 
+def _span(mech: Mechanism) -> float:
+    """The mechanism's size: the largest distance between two of its points (base and platform, m); 4 times its
+    characteristic length where it has none."""
+    names = [k for k in ('A_i', 'A_j', 'B_i', 'B_j', 'base_points', 'platform_points') if hasattr(mech, k)]
+    pts = np.concatenate([np.empty((0, 3)), *(np.reshape(getattr(mech, k), (-1, 3)) for k in names)])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) < 2:
+        return 4.0 * mech.characteristic_length
+    return float(np.max(np.linalg.norm(pts[:, None] - pts[None], axis=-1)))
+
+
 def _default_range(mech: Mechanism, base: np.ndarray, var: str) -> tuple[float, float]:
-    """The range of ``var`` (default z) over which ``base`` stays within the joint limits, by a scan."""
+    """The range of ``var`` (default z) over which ``base`` stays within the joint limits, by a scan from 0 to twice
+    the largest finite length limit (an angle's, pi rad, swept a 0.3 m GSP to 6.28 m), else to :func:`_span`."""
     if var not in mech.pose_variables:
         raise InputError(f'{mech.name}: cannot vary {brief(var)}; its pose variables are '
                          + ', '.join(mech.pose_variables) + ' (use --vary NAME MIN MAX COUNT)')
     sweep = getattr(mech, 'default_sweep', None)
     if sweep is not None and sweep[0] == var:
         return float(sweep[1]), float(sweep[2])
-    lim = np.asarray(mech.joint_limits, dtype=float)
+    lim = np.asarray(mech.joint_limits, dtype=float)[np.array(mech.joint_types) == 'prismatic']
     finite = lim[np.isfinite(lim)]
-    top = 4.0 * mech.characteristic_length
-    if finite.size and np.max(finite) > 0:
-        top = 2.0 * float(np.max(finite))
+    top = 2.0 * float(np.max(finite)) if finite.size and np.max(finite) > 0 else _span(mech)
     grid = np.linspace(0.0, top, 801)
     poses = np.repeat(base[None, :], grid.size, axis=0)
     poses[:, mech.pose_names.index(var)] = grid

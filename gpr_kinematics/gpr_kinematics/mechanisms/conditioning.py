@@ -70,6 +70,19 @@ def _svd_dexterity(J: np.ndarray) -> np.ndarray:
         return np.where(sv[..., 0] > 0, sv[..., -1] / sv[..., 0], 0.0)
 
 
+def zero_line(jac: np.ndarray) -> np.ndarray:
+    """True where a row (``m <= n``) or a column (``n <= m``) of an ``m x n`` matrix is exactly zero: its least
+    singular value is exactly 0 (rounding left 1e-17 of it for a GSP's D4 row: cond 6.2e16, not singular)."""
+    J = np.asarray(jac, dtype=float)
+    m, n = J.shape[-2:]
+    out = np.zeros(J.shape[:-2], dtype=bool)
+    if m <= n:
+        out |= np.any(np.all(J == 0, axis=-1), axis=-1)
+    if n <= m:
+        out |= np.any(np.all(J == 0, axis=-2), axis=-1)
+    return out
+
+
 def dexterity_index(jac: np.ndarray) -> np.ndarray:
     """Dexterity = inverse condition number ``sigma_min / sigma_max`` in ``[0, 1]`` (0 at a singularity, and where
     ``J`` is not finite).
@@ -78,7 +91,8 @@ def dexterity_index(jac: np.ndarray) -> np.ndarray:
     (``sigma^2``; about twice as fast as an SVD on small matrices). The Gram matrix squares the condition
     number, so its estimate carries a relative error of about ``eps cond^2``: wherever ``cond`` exceeds
     :data:`GRAM_CONDITION_LIMIT` (or the Gram estimate is not positive) the value is recomputed by an SVD,
-    so the result is accurate to ~1e-8 relative everywhere and singularities are resolved to ``eps``.
+    so the result is accurate to ~1e-8 relative everywhere and singularities are resolved to ``eps``; a matrix with
+    an exactly zero row or column (:func:`zero_line`) has dexterity 0.
     """
     J = np.asarray(jac, dtype=float)
     broken = ~np.all(np.isfinite(J), axis=(-2, -1)) if J.ndim >= 2 else np.zeros((), dtype=bool)
@@ -87,8 +101,10 @@ def dexterity_index(jac: np.ndarray) -> np.ndarray:
         if not np.all(broken):
             out[~broken] = dexterity_index(J[~broken])
         return out
-    if J.shape[-2] < J.shape[-1] or J.ndim < 2:
+    if J.ndim < 2:
         return _svd_dexterity(J)
+    if J.shape[-2] < J.shape[-1]:
+        return np.where(zero_line(J), 0.0, _svd_dexterity(J))
     lam = np.linalg.eigvalsh(np.swapaxes(J, -1, -2) @ J)
     with np.errstate(divide='ignore', invalid='ignore'):
         dex = np.sqrt(np.maximum(lam[..., 0], 0.0) / lam[..., -1])
@@ -96,7 +112,7 @@ def dexterity_index(jac: np.ndarray) -> np.ndarray:
     if np.any(redo):
         dex = np.where(np.isfinite(dex), dex, 0.0)
         dex[redo] = _svd_dexterity(J[redo])
-    return dex
+    return np.where(zero_line(J), 0.0, dex)
 
 
 def condition_number(jac: np.ndarray) -> np.ndarray:

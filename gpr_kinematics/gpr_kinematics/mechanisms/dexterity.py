@@ -45,18 +45,19 @@ class DexterityMap:
     def record(self, kind: str) -> DexterityRecord:
         """The map as ``gpr dexterity --json`` prints it (:class:`DexterityRecord`); ``kind`` is the mechanism's
         type."""
+        cond = self.condition_number.astype(object)
+        cond[~np.isfinite(self.condition_number)] = None
         return DexterityRecord(
             mechanism=self.mechanism, variable=self.variable, values=self.values, dexterity=self.dexterity,
-            within_limits=self.within_limits, singular=self.singular,
-            condition_number=np.where(np.isfinite(self.condition_number), self.condition_number, -1.0),
+            within_limits=self.within_limits, singular=self.singular, condition_number=cond,
             variable2=self.variable2, values2=self.values2, type=kind)
 
 
 @dataclass(frozen=True)
 class DexterityRecord:
     """A :class:`DexterityMap` without its poses: the ``values`` of ``variable`` (and ``values2`` of ``variable2``
-    on a grid, else ``None``), the ``dexterity``, ``within_limits``, ``singular`` and ``condition_number`` (-1 where
-    infinite) at each, and the mechanism's name and ``type``."""
+    on a grid, else ``None``), the ``dexterity``, ``within_limits``, ``singular`` and ``condition_number`` (``None``
+    where infinite: JSON's null, as ``gpr mechanism``'s; it was -1) at each, and the mechanism's name and ``type``."""
 
     mechanism: str
     variable: str

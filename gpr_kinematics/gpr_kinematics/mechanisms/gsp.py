@@ -70,6 +70,8 @@ UNDEFINED_ROW = {
           'and so d\'s rate, is not',
     'A1': 'the lines K and L are parallel (theta = 0 or pi)',
 }
+#: A row that is exactly zero (D4 of crossing lines, ``f = 0``: d = |f| / g has a corner there), named so too.
+ZERO_ROW = 'the lines K and L cross (d = 0): its row is zero, the rate of d = |f| / g is not defined'
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -410,12 +412,14 @@ class GeneralizedStewartPlatform(Mechanism):
             return self.inverse_jacobian_rt(arr[:, :3], euler_rotation(arr[:, 3:], self.euler_convention))
 
     def _undefined_rows(self, J: np.ndarray) -> np.ndarray:
-        """``(N,)`` strings naming the rows of inverse Jacobians ``J`` (N, 6, 6) that are not finite."""
+        """``(N,)`` strings naming the rows of inverse Jacobians ``J`` (N, 6, 6) that are not finite or all zero."""
         bad = ~np.all(np.isfinite(J), axis=-1)
+        zero = np.all(J == 0, axis=-1)
         out = np.full(J.shape[0], '', dtype=object)
-        for i in np.flatnonzero(np.any(bad, axis=1)):
-            out[i] = '; '.join(f'{self.joint_names[k]} ({self.types[k]}): {UNDEFINED_ROW[str(self.types[k])]}'
-                               for k in np.flatnonzero(bad[i]))
+        for i in np.flatnonzero(np.any(bad | zero, axis=1)):
+            out[i] = '; '.join(f'{self.joint_names[k]} ({self.types[k]}): '
+                               + (UNDEFINED_ROW[str(self.types[k])] if bad[i, k] else ZERO_ROW)
+                               for k in np.flatnonzero(bad[i] | zero[i]))
         return out
 
     def describe(self) -> list[dict[str, Any]]:

@@ -13,11 +13,9 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeVar
 
-import numpy as np
-
 from ..errors import ConfigError, InputError, brief
 from ..inputs.schema import check_keys, number_key
-from ..mechanisms import mechanism_from_dict
+from ..mechanisms import MECHANISM_TYPES, mechanism_from_dict
 from ..mechanisms.base import Mechanism
 from ..mechanisms.gpr import GprMechanism
 from ..mechanisms.tripod import Tripod3RPS
@@ -96,10 +94,11 @@ def _shell_arm(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: 
     return ShellArmModel(number_key(data, 'l1', src), number_key(data, 'l2', src), floor)
 
 
-#: The GPR overrides its workspace model does not take (another virtual-joint model, its stiffness, an imperfect
-#: machine's geometry): ``gpr workspace`` refuses them; where a command uses the mechanism and only checks its
-#: ``workspace:`` section (:func:`check_section`), they are left out of that check.
-GPR_UNMODELLED = ('model', 'kappa', 'rod_positions', 'platform_joints', 'rod_offsets', 'rod_directions')
+#: The GPR overrides its workspace model uses, with ``model`` (``radial`` only): ``gpr workspace`` refuses every other
+#: (its stiffness, solver settings, tilt limit, an imperfect machine's geometry: accepted and ignored before); where a
+#: command uses the mechanism and only checks its ``workspace:`` section (:func:`check_section`), the others are
+#: left out.
+GPR_NOMINAL = ('radius', 'rod_azimuths', 'stroke_min', 'stroke_max', 'imperfection_budget')
 
 
 def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float | None) -> WorkspaceModel:
@@ -112,12 +111,11 @@ def _gpr(data: Mapping[str, Any], ws: Mapping[str, Any], src: str, scale: float 
     if cfg.model != 'radial':  # the enclosure is radial's: another model's boxes would be called certified
         raise ConfigError(f'{src}: overrides model {cfg.model!r} has no certified enclosure; allowed: radial (the '
                           'workspace model is the radial model\'s)')
-    imperfect = [k for k, v in (('rod_positions', cfg.rod_positions), ('platform_joints', cfg.platform_joints))
-                 if v is not None]
-    imperfect += [k for k in ('rod_offsets', 'rod_directions') if any(np.ravel(getattr(cfg, k)))]
-    if imperfect:
-        raise ConfigError(f'{src}: {", ".join(imperfect)} in overrides: the GPR workspace model is of the nominal '
-                          'machine (radius, rod azimuths, stroke, budget); allowed: those keys only')
+    unused = [str(k) for k in data.get('overrides') or {} if k not in (*GPR_NOMINAL, 'model')]
+    if unused:
+        raise ConfigError(f'{src}: {", ".join(unused)} in overrides: the GPR workspace model is of the nominal '
+                          'machine (radius, rod azimuths, stroke, budget) and does not use them; allowed: those keys '
+                          'only (radius, rod_azimuths, stroke_min, stroke_max, imperfection_budget; model: radial)')
     return GprModel(
         cfg.radius,
         tuple(float(a) for a in cfg.rod_azimuths),
@@ -144,10 +142,10 @@ BUILDERS: dict[str, tuple[Builder, tuple[str, ...]]] = {
 def check_section(data: Mapping[str, Any], source: str) -> None:
     """The ``workspace:`` section of the mechanism file ``data`` checked as ``gpr workspace`` checks it, for a command
     that analyses the mechanism and does not use the section (a malformed box refused all the same): a GPR's overrides
-    of :data:`GPR_UNMODELLED` are the command's to use, not the section's to refuse, and are left out."""
+    other than :data:`GPR_NOMINAL` are the command's to use, not the section's to refuse, and are left out."""
     overrides = data.get('overrides')
     if data.get('type') == 'gpr' and isinstance(overrides, Mapping):
-        data = {**data, 'overrides': {k: v for k, v in overrides.items() if k not in GPR_UNMODELLED}}
+        data = {**data, 'overrides': {k: v for k, v in overrides.items() if k in GPR_NOMINAL}}
     model_from_mapping(data, source)
 
 
@@ -168,7 +166,9 @@ def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[
     kind = data.get('type')
     if not isinstance(kind, str) or kind not in builders:
         what = f'unknown mechanism type {str(kind)[:40]!r}' if 'type' in data else 'no mechanism type (a key type)'
-        raise ConfigError(f'{source}: {what}; workspace models exist for {", ".join(builders)}')
+        if isinstance(kind, str) and kind in MECHANISM_TYPES:   # it was called unknown ('stewart_6sps')
+            what = f'mechanism type {kind!r} has no workspace model'
+        raise ConfigError(f'{source}: {what}; allowed: the types with a workspace model: {", ".join(builders)}')
     builder, extra = builders[kind]
     ws = data.get('workspace') or {}
     if not isinstance(ws, Mapping):

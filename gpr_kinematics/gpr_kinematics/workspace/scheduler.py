@@ -9,7 +9,8 @@ exactly the same boxes in the same order (on workers with the same numpy and lib
 
 * ``'none'``: every chunk in this process, one after the other;
 * ``'local'``: a ``distributed.LocalCluster`` with one single-threaded worker process per core (or
-  ``workers``), started the first time a level has more than one chunk (small runs never start it);
+  ``workers``), started the first time a level has more than one chunk (small runs never start it); its workers
+  ignore SIGINT (:func:`start_workers_ignoring_sigint`);
 * ``'tcp://HOST:PORT'`` (or ``tls://``): an existing Dask scheduler; its workers need this package
   installed (same version). It is connected to when the :class:`Executor` is made, before any work: an address
   where nothing listens is an error at once (a TCP connection is tried first, so a refused one does not wait for
@@ -23,6 +24,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import signal
 import socket
 import threading
 import time
@@ -91,6 +93,35 @@ def _remote_client(client_class: Any, address: str) -> Any:
                      'it a Dask scheduler?)')
 
 
+def start_workers_ignoring_sigint() -> None:
+    """Have a local cluster's worker processes forked by a server started with SIGINT ignored: they inherit that (the
+    server re-installs what it was started with in each child), so a terminal's Ctrl-C, sent to the whole process
+    group, neither kills a worker as it starts ("Nanny failed to start") nor prints its KeyboardInterrupt traceback
+    (65 lines at a Ctrl-C during a run); the cluster's close stops them. This process blocks SIGINT meanwhile, so a
+    Ctrl-C then reaches its own handler when the server is started (Linux keeps a blocked signal, ignored or not)."""
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    import dask
+    from distributed.utils import get_mp_context
+    if 'forkserver' not in multiprocessing.get_all_start_methods():
+        return
+    dask.config.set({'distributed.worker.multiprocessing-method': 'forkserver'})
+    get_mp_context()   # the server's preload (distributed and its packages), set before it starts
+    if threading.current_thread() is not threading.main_thread():   # signal.signal: the main thread's only
+        forkserver.ensure_running()
+        return
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            forkserver.ensure_running()
+        finally:
+            signal.signal(signal.SIGINT, old)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 class Executor:
     """Runs the chunks of one level and returns their results in chunk order."""
 
@@ -130,7 +161,18 @@ class Executor:
                 results[i] = step(model, chunk, *args)
                 done(i, results[i])
             return
-        client = self._connect()
+        client = self._connect(stop)
+        if client is None or stop():   # a signal while a local cluster started: nothing run, the run stops
+            return
+        try:
+            self._run_on(client, step, model, chunks, args, results, stop, done, tick)
+        except Exception:
+            if not stop():   # SIGTERM to the process group killed the workers too: "Stream is closed" from a scatter
+                raise
+
+    def _run_on(self, client: Any, step: StepFunction, model: Any, chunks: Sequence[Any], args: tuple[Any, ...],
+                results: list[Any], stop: Callable[[], bool], done: Callable[[int, Any], None],
+                tick: Callable[[], None] | None) -> None:
         if self._model_key is not model:
             self._model_future = client.scatter(model, broadcast=True, hash=False)
             self._model_key = model
@@ -157,7 +199,9 @@ class Executor:
         self._model_key = self._model_future = None
 
     # --------------------------------------------------------------------------------------- the cluster
-    def _connect(self) -> Any:
+    def _connect(self, stop: Callable[[], bool] | None = None) -> Any:
+        """The client, made at the first call; ``None`` when ``stop()`` became true while a local cluster failed to
+        start (SIGTERM to the process group killed its workers: "Nanny failed to start" ended in a traceback)."""
         if self._client is not None:
             return self._client
         try:
@@ -167,24 +211,34 @@ class Executor:
                 f"--scheduler {self.scheduler} needs dask.distributed (pip install '.[cluster]': dask, distributed); "
                 'use --scheduler none for one process'
             ) from None
-        self.used_cluster = True
         if self.scheduler == 'local':
-            n = self.workers or os.cpu_count() or 1
-            self._cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                # None served it on 8787 all the same: a second run printed distributed's "Port 8787 is already in
-                # use" warning with its source line; a free port of this host only
-                dashboard_address='127.0.0.1:0',
-                # a worker's heartbeat in flight when the cluster closes logs an ERROR with its traceback (a SIGTERM
-                # seen to print one to the user); a task's error still reaches the client as its exception
-                silence_logs=logging.CRITICAL,
-            )
-            self._client = Client(self._cluster)
+            try:
+                start_workers_ignoring_sigint()
+                self._start_local(LocalCluster, Client)
+            except BaseException:
+                if stop is None or not stop():
+                    raise
+                self.close()
+                return None
         else:
             self._client = _remote_client(Client, self.scheduler)
+        self.used_cluster = True
         return self._client
+
+    def _start_local(self, cluster_class: Any, client_class: Any) -> None:
+        n = self.workers or os.cpu_count() or 1
+        self._cluster = cluster_class(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            # None served it on 8787 all the same: a second run printed distributed's "Port 8787 is already in
+            # use" warning with its source line; a free port of this host only
+            dashboard_address='127.0.0.1:0',
+            # a worker's heartbeat in flight when the cluster closes logs an ERROR with its traceback (a SIGTERM
+            # seen to print one to the user); a task's error still reaches the client as its exception
+            silence_logs=logging.CRITICAL,
+        )
+        self._client = client_class(self._cluster)
 
     def describe(self) -> dict[str, Any]:
         """What ran the chunks: ``scheduler`` as asked, and the workers when a cluster was used."""
