@@ -123,6 +123,21 @@ def test_a_storage_identifier_that_does_not_match_the_files_is_named(tmp_path: P
                     'allowed: the identifier of its files (sqlite3 files end in .db3)')
 
 
+@pytest.mark.parametrize('option, value, allowed', [('--tilt-step-deg', '0', '5.72958e-06 to 15'),
+                                                     ('--azimuth-step-deg', 'nan', '0.00572958 to 360')])
+def test_the_offline_loop_names_a_sweep_step_in_degrees_before_any_node(capsys, tmp_path, monkeypatch, option, value,
+                                                                       allowed):
+    """--tilt-step-deg 0 was refused by the trajectory node in radians ('Parameter tilt_step out of range Min: 1e-07,
+    Max: 0.2617993877991494') once its nodes had started: the option as typed, its range in degrees, no node."""
+    from gpr_kinematics.ros import offline_loop
+
+    started = []
+    monkeypatch.setattr(offline_loop, 'NodeProcess', lambda *a, **k: started.append(a))   # would start a node
+    status = offline_loop.main(['--output', str(tmp_path / 'bag'), option, value])
+    err = capsys.readouterr().err
+    assert status == 2 and not started and err == f'offline loop: {option} = {value} deg; allowed: {allowed} deg\n'
+
+
 def test_the_offline_loop_refuses_zstd_on_sqlite3_before_any_node(capsys, tmp_path, monkeypatch):
     """`python -m gpr_kinematics.ros.offline_loop --storage sqlite3 --compression zstd`: the recorder refused the
     pair at once, and the loop streamed the whole sweep with nothing recording before it said so (about 10 s). Now

@@ -780,3 +780,23 @@ def test_every_publisher_of_a_latched_topic_is_kept(tmp_path: Path) -> None:
         node.destroy_node()
     finally:
         rclpy.shutdown(context=ctx)
+
+
+def test_a_replay_says_what_it_does_not_read_and_where_it_published(tmp_path: Path) -> None:
+    """A replay in /r2 logged its counts under the topics as recorded (/gpr/platform_state, its messages went to
+    /r2/gpr/platform_state), and a bag's unfinished segment went unmentioned where gpr verify notes it: both said."""
+    import shutil
+    bag = tmp_path / 'bag'
+    shutil.copytree(REFERENCE, bag)
+    (bag / '.recording' / 'bag_9').mkdir(parents=True)
+    (bag / '.recording' / 'bag_9' / 'bag_9.mcap').write_bytes(b'\x89MCAP0\r\n')
+    replay = start('replay_node', namespace='/r2', bag=bag, rate=50.0, topics='[/gpr/platform_state]')
+    try:
+        wait_for_log(replay, r'finished: published', timeout=120)
+    finally:
+        replay.stop()
+    out = replay.output()
+    n = len(read_bag(REFERENCE).topics['/gpr/platform_state'])
+    assert f'finished: published /r2/gpr/platform_state {n}' in out, out
+    assert ('unfinished segment(s) (a recording still running, or a recorder killed): .recording/bag_9/bag_9.mcap: '
+            'not replayed') in out, out

@@ -138,6 +138,12 @@ class Bag:
             return self.suites[0] if len(self.suites) == 1 else ''
         return topics_namespace(self.topics)
 
+    def unread(self) -> list[str]:
+        """What of the folder is not read, in words: the unfinished segments, the storage files not listed."""
+        return ([f'unfinished segment(s) (a recording still running, or a recorder killed): '
+                 f'{", ".join(self.unfinished)}'] if self.unfinished else []) + (
+            [f'storage file(s) that metadata.yaml does not list: {", ".join(self.unlisted)}'] if self.unlisted else [])
+
     def outside(self) -> list[str]:
         """Topics named like a suite topic (:data:`.typestore.KNOWN_TOPICS`) but not in the bag's :attr:`namespace`:
         not verified (another suite's, or another node's such as ``/r1/arm_controller/joint_states``)."""

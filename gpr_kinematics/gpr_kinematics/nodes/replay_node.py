@@ -106,6 +106,8 @@ class ReplayNode(GprNode):
         self._served, self._warned_behind = 0.0, False
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
+        for line in bag.unread():   # what gpr verify notes and does not read: here not replayed
+            self.get_logger().warning(f'{line}: not replayed')
         legacy = legacy_joint_states(bag.topics, bag.namespace)
         # a recorder's defaults miss them (a bag with joint_states too: they are there), unless remapped there
         joint_states = self.resolve_topic_name(JOINT_STATES_TOPIC.lstrip('/'))
@@ -196,7 +198,8 @@ class ReplayNode(GprNode):
     def on_exit(self, executor: Executor, status: int) -> int:
         """Wait for the reliable subscribers' acknowledgements (at most 5 s per topic) and log the counts."""
         wait_acknowledged(self.pubs.values(), 5.0)
-        self.get_logger().info('finished: published ' + ', '.join(f'{t} {n}' for t, n in self.published.items()))
+        self.get_logger().info('finished: published ' + ', '.join(f'{self.pubs[t].topic_name} {n}'   # where it went
+                                                                  for t, n in self.published.items()))
         return status
 
 

@@ -28,8 +28,9 @@ from ..bags.report import write_report
 from ..bags.verify import format_table, verify_bag
 from ..bags.writer import check_format
 from ..core.sweep import DEFAULT_AZIMUTH_STEP, DEFAULT_TILT_STEP
-from ..errors import GprError
+from ..errors import GprError, InputError
 from .process import NodeProcess
+from .specs import node_specs
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,11 +49,23 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_steps(args: argparse.Namespace) -> None:
+    """Refuse a sweep step the trajectory node refuses, in the degrees typed (its message named the radians)."""
+    steps = {spec.name: spec.limits for spec in node_specs('trajectory_node')}
+    for option, name, value in (('--tilt-step-deg', 'tilt_step', args.tilt_step_deg),
+                                ('--azimuth-step-deg', 'azimuth_step', args.azimuth_step_deg)):
+        lo, hi = steps[name] or (0.0, math.inf)
+        if not lo <= math.radians(value) <= hi:
+            raise InputError(f'{option} = {value:g} deg; allowed: {math.degrees(lo):.6g} to {math.degrees(hi):.6g} '
+                             'deg')
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:   # before any node: the recorder refused zstd on sqlite3 at once, the sweep ran on without it
         check_format(args.storage, args.compression)
-    except BagError as exc:
+        _check_steps(args)
+    except (BagError, InputError) as exc:
         print(f'offline loop: {exc}', file=sys.stderr)
         return 2
     stamp = datetime.now().strftime('%Y_%m_%d-%H_%M_%S')
