@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import shutil
 from pathlib import Path
 from typing import Any
 
@@ -209,40 +208,47 @@ def test_a_companion_topic_without_its_tail_fails(sweep: Path, tmp_path: Path, t
 
 @pytest.fixture(scope='module')
 def slow_sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The small sweep at 20 Hz: 30 samples over 1.45 s, the last 0.5 s (CUT_LAG) holding 11 of them."""
+    """The small sweep at 20 Hz: 30 samples over 1.45 s, the last 0.2 s (CUT_LAG) holding 5 of them."""
     msgs = small_sweep(period_ns=50_000_000)
     return write_bag(tmp_path_factory.mktemp('tamper') / 'slow', msgs, {t: GPR_TOPICS[t] for t in
                                                                          dict.fromkeys(m[0] for m in msgs)})
 
 
+def _open_segment(bag: Path) -> None:
+    """A recorder's unfinished segment, as a SIGKILL leaves it."""
+    (bag / '.recording' / 'cut_9').mkdir(parents=True)
+    (bag / '.recording' / 'cut_9' / 'cut_9.mcap').write_bytes(b'\x89MCAP0\r\n')
+
+
 @pytest.mark.parametrize('topic', SWEEP_COMPANIONS)
-def test_a_recording_cut_while_a_segment_was_open_may_lack_its_last_half_second(slow_sweep: Path, tmp_path: Path,
-                                                                                 topic: str) -> None:
+def test_a_recording_cut_while_a_segment_was_open_may_lack_its_last_companions(slow_sweep: Path, tmp_path: Path,
+                                                                               topic: str) -> None:
     """A recorder killed at 400 Hz left bags that failed verify: at a segment's close the companion topics lagged the
     states by 12-70 ms, their rest in the unfinished segment (not read). With one noted (.recording), a companion
-    topic may lack the states of the last 0.5 s after its last message; beyond, and without one, they fail."""
+    topic may lack the states of the last 0.2 s after its last message; beyond, and without one, they fail."""
     from gpr_kinematics.bags.ends import CUT_LAG
-    assert CUT_LAG == 500_000_000   # 10 samples before the last at 20 Hz
-    bag = tampered(slow_sweep, tmp_path / 'cut', _tail_removed(topic, 22))
-    assert _failed(verify_bag(bag)) == {SWEEP_COMPANIONS[topic]: set(range(22, 29))}   # finished: a tail removed
-    (bag / '.recording' / 'cut_9').mkdir(parents=True)
-    (bag / '.recording' / 'cut_9' / 'cut_9.mcap').write_bytes(b'\x89MCAP0\r\n')
+    assert CUT_LAG == 200_000_000   # 4 samples before the last at 20 Hz
+    bag = tampered(slow_sweep, tmp_path / 'cut', _tail_removed(topic, 25))
+    assert _failed(verify_bag(bag)) == {SWEEP_COMPANIONS[topic]: set(range(25, 29))}   # finished: a tail removed
+    _open_segment(bag)
     result = verify_bag(bag)
     assert result.passed and result.unfinished == ['.recording/cut_9/cut_9.mcap'], [f.line() for f in result.failures]
-    deeper = tampered(slow_sweep, tmp_path / 'deeper', _tail_removed(topic, 15))
-    shutil.copytree(bag / '.recording', deeper / '.recording')
-    assert _failed(verify_bag(deeper)) == {SWEEP_COMPANIONS[topic]: set(range(15, 19))}   # before the last 0.5 s
+    deeper = tampered(slow_sweep, tmp_path / 'deeper', _tail_removed(topic, 20))
+    _open_segment(deeper)
+    assert _failed(verify_bag(deeper)) == {SWEEP_COMPANIONS[topic]: set(range(20, 25))}   # before the last 0.2 s
 
 
-def test_a_cut_recordings_companions_may_run_ahead_of_its_states(slow_sweep: Path, tmp_path: Path) -> None:
-    """The other way round at the close (a killed recorder's companions ahead of the states by a few samples): the
-    companions after the last state within 0.5 s of it pass where the bag notes an unfinished segment."""
+def test_a_cut_recordings_companions_beyond_its_last_state_still_fail(slow_sweep: Path, tmp_path: Path) -> None:
+    """Companions after the last state have no state to be checked against: a cut recording gets no more of them
+    than a finished one (the states' last 5 removed, every joint position of theirs set to 1000 rad, passed with an
+    8-byte '.recording' file in review); a symbolic link named .recording is no open segment."""
     bag = tampered(slow_sweep, tmp_path / 'cut', _tail_removed(STATE, 25))
-    assert not verify_bag(bag).passed
-    (bag / '.recording' / 'cut_9').mkdir(parents=True)
-    (bag / '.recording' / 'cut_9' / 'cut_9.mcap').write_bytes(b'\x89MCAP0\r\n')
-    result = verify_bag(bag)
-    assert result.passed, [f.line() for f in result.failures]
+    _open_segment(bag)
+    assert {f.check for f in verify_bag(bag).failures} == {f'{c.replace("_sequence", "")}_extra'
+                                                            for c in SWEEP_COMPANIONS.values()}
+    linked = tampered(slow_sweep, tmp_path / 'linked', _tail_removed('/joint_states', 25))
+    (linked / '.recording').symlink_to(tmp_path)
+    assert _failed(verify_bag(linked)) == {'topic.joint_states': set(range(25, 29))}
 
 @pytest.mark.parametrize('removed', [1, 2, 5, 29])
 def test_the_states_without_their_tail_fail_by_the_companions_after_them(sweep: Path, tmp_path: Path,

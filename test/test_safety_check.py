@@ -1129,3 +1129,24 @@ def test_two_holds_joined_by_a_move_of_no_time_count_their_shared_sample_once(tm
         times, w = budget.budget_instants(plan, rate)
         g = grid_times(plan.timing.total, rate)
         assert int(w.sum()) == len(g) and np.isin(times, g).all() and len(np.unique(times)) == len(times), rate
+
+
+def test_the_splines_slip_samples_each_segment_not_at_the_shortest_segments_rate(monkeypatch):
+    """trajectory_slip sampled every carry at twice the rate of the trajectory's shortest segment: at --rate
+    10.003025834 Hz the example cell program's last segment is 3 ns long, and each carry took the 200,000 samples'
+    cap (7 s for the example, hours for a long program). Now each segment's thirds, the knots' sides and 200 Hz:
+    about as many instants as at 10 Hz (its spline, through other points, near the program's 0.753)."""
+    from gpr_kinematics.robot.trajectory import program_trajectory
+    from gpr_kinematics.safety import slip
+
+    seen = []
+    ratio_at = slip._ratio_at
+    monkeypatch.setattr(slip, '_ratio_at', lambda plan, arm, q, acc: seen.append(q.shape[0]) or ratio_at(plan, arm,
+                                                                                                          q, acc))
+    carried = wafer_plan(PLAN).carried
+    slip.trajectory_slip(PLAN, program_trajectory(PLAN, 10.0), carried)
+    at_ten, seen[:] = sum(seen), []
+    odd = program_trajectory(PLAN, 10.003025834)
+    assert np.min(np.diff(odd.time)) < 1e-8   # the 3 ns segment
+    ratio, _ = slip.trajectory_slip(PLAN, odd, carried)
+    assert sum(seen) < 1.1 * at_ten and ratio == pytest.approx(0.753, abs=0.02)

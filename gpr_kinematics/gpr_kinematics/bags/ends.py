@@ -18,8 +18,9 @@ companion topic's header stamps that go back in log-time order are a ``*_order``
 A recording cut by a SIGKILL of a recorder that closes segments (:func:`cut_recording`: the bag notes an unfinished
 segment): the recorder takes each topic on its own, so at a segment's close the companion topics lag the states by
 the delivery's delay (12-70 ms at 400 Hz on a loaded machine), and the unfinished segment that held the rest is not
-read. Then a companion may be missing, or a state, for the samples within :data:`CUT_LAG` of the bag's last one
-(an intact bag killed so failed ``gpr verify``); a tail cut from a finished bag is still missing.
+read. Then a companion may be missing for the samples within :data:`CUT_LAG` of the bag's last one (an intact bag
+killed so failed ``gpr verify``); a tail cut from a finished bag is still missing. Companions after the last state
+are not let through for it: no state checks them (a tampered tail passed so in review).
 """
 from __future__ import annotations
 
@@ -33,8 +34,8 @@ from numpy.typing import NDArray
 from .results import Check, Failure, value_check
 
 #: How far before the bag's last sample [ns of stamps] a cut recording (:func:`cut_recording`) may lack companion
-#: messages, or states whose companions it holds.
-CUT_LAG = 500_000_000
+#: messages (about three times the 70 ms measured; not companions beyond the last state: nothing checks those).
+CUT_LAG = 200_000_000
 _CUT: contextvars.ContextVar[bool] = contextvars.ContextVar('gpr_cut_recording', default=False)
 
 
@@ -109,8 +110,7 @@ def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[
         return None
     inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max())))
     after = companion[companion > stamps.max()]
-    lag = CUT_LAG if _CUT.get() else 0   # a cut recording's last states may be in its unfinished segment
-    beyond = int(np.count_nonzero((after > after.min()) & (after > stamps.max() + lag))) if after.size else 0
+    beyond = int(np.count_nonzero(after > after.min())) if after.size else 0
     if inside <= matched and not beyond:
         return None
     n = float(inside - matched + beyond)

@@ -52,7 +52,7 @@ from .coverage import unchecked_fields
 from .ends import cut_recording
 from .errors import BagError
 from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix
-from .reader import Bag, read_bag
+from .reader import OPEN_SEGMENT_DIR, Bag, read_bag
 from .recorded_geometry import choose
 from .results import Check, Failure, VerifyResult, format_table
 from .tolerances import Tolerances
@@ -121,7 +121,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
     tol = Tolerances() if tolerances is None else tolerances
     # Recorded numbers may be anything (a corrupt q of 1e290): what overflows is a failed check, not a warning.
     # a recorder killed while it wrote (a segment left unfinished): the ends' rule of a cut recording (.ends)
-    with np.errstate(all='ignore'), cut_recording(bool(bag.unfinished)):
+    cut = any(not u.startswith(f'{OPEN_SEGMENT_DIR} (') for u in bag.unfinished)   # a segment's file, not a note
+    with np.errstate(all='ignore'), cut_recording(cut):
         checks = bag_checks(bag, allow_missing_checksums)
         known = typestore().fielddefs
         for topic in bag.topics.values():

@@ -46,8 +46,8 @@ LEAST_CHANGE = 1e-30
 #: differences over ``STEP`` amplify the closure's error by ``4 / STEP^2``, so a robot's looser ``tolerance`` (up to
 #: 1e-6 m is allowed; 3.7e-7 m of position error then) is tightened to it here.
 CLOSURE_TOLERANCE = GprConfig.tolerance
-#: Rate [Hz] at which :func:`trajectory_slip` samples a trajectory's spline (two inside each segment at least), and
-#: how far [s] on each side of a point, where a cubic's acceleration jumps.
+#: Rate [Hz] at which :func:`trajectory_slip` samples a trajectory's spline (and each segment at its thirds), and how
+#: far [s] on each side of a point, where a cubic's acceleration jumps.
 TRAJECTORY_SLIP_RATE, CORNER = 200.0, 1e-9
 Windows = tuple[tuple[float, float], ...]
 
@@ -133,23 +133,24 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
 def trajectory_slip(plan: ProgramPlan, traj: JointTrajectory, carried: dict[str, Windows]) -> tuple[float, float]:
     """The largest slip ratio and its instant [s] of the wafers ``carried`` (each arm's windows, the program's time)
     along the spline a controller follows through ``traj`` (the program's trajectory at a rate; its points carry
-    velocities), sampled at :data:`TRAJECTORY_SLIP_RATE` (two inside each segment at least) and on both sides of
-    every point, where a segment's linear acceleration peaks: the cubic's acceleration leaves the program's between
+    velocities), sampled at :data:`TRAJECTORY_SLIP_RATE`, at the thirds of each segment and on both sides of every
+    point, where a segment's linear acceleration peaks: the cubic's acceleration leaves the program's between
     points (at 10 Hz a program of 0.989 read 1.005). Sampled, not bounded between the samples. The wafer's
     acceleration ``a = J q'' + q'^T H q'`` by central differences of the exact forward kinematics along ``q''`` and
     ``q'`` (steps of :data:`STEP` in the joints); (0, 0) with nothing carried."""
     plan = closure_exact(plan)
     robot, spline_of = plan.robot, spline(traj, traj.positions[0])
-    rate = max(TRAJECTORY_SLIP_RATE, 2.0 / float(np.min(np.diff(traj.time), initial=np.inf)))
     knots = traj.time
     _, _, _, slices = joint_limits(robot)
     best, at = 0.0, 0.0
     for arm, windows in carried.items():
         cols = np.r_[0:3, slices[robot.arm_names.index(arm)]]
         for t0, t1 in windows:
-            n = min(int(math.ceil((t1 - t0) * rate)) + 1, MAX_SAMPLES)
+            n = min(int(math.ceil((t1 - t0) * TRAJECTORY_SLIP_RATE)) + 1, MAX_SAMPLES)
             inside = knots[(knots > t0) & (knots < t1)]
-            t = np.unique(np.concatenate([np.linspace(t0, t1, n), inside - CORNER, inside + CORNER]))
+            edges = np.concatenate([[t0], inside, [t1]])   # each segment's thirds: its own, not the shortest's rate
+            thirds = (edges[:-1, None] + np.diff(edges)[:, None] * np.array([1.0, 2.0]) / 3.0).ravel()
+            t = np.unique(np.concatenate([np.linspace(t0, t1, n), thirds, inside - CORNER, inside + CORNER]))
             q, v, acc = (x[:, cols] for x in spline_of.evaluate(t))
             ratio = _ratio_at(plan, arm, q, _acceleration(plan, arm, q, v, acc))
             k = int(np.argmax(ratio))
