@@ -34,6 +34,7 @@ from .fileio import require_regular, shown, status_of
 from .mcap_file import read_mcap
 from .metadata import INT_END, Metadata, read_metadata
 from .sqlite_file import read_sqlite
+from .storage_file import Contents, StorageFile
 from .typestore import (
     JOINT_STATES_TOPIC,
     KNOWN_TOPICS,
@@ -77,36 +78,6 @@ class TopicData:
             except BagError as exc:   # which topic: several carry one type (three PoseStamped topics)
                 raise BagError(f'{self.name}: {exc}') from None
         return self._columns
-
-
-@dataclass(frozen=True)
-class StorageFile:
-    """One storage file as read: its SHA-256, messages per topic, log-time span, and the CRCs it carried."""
-
-    name: str
-    size: int
-    sha256: str
-    counts: dict[str, int]
-    types: dict[str, str]
-    digests: dict[str, str]
-    start: int | None
-    end: int | None
-    chunks: int = 0
-    chunks_with_crc: int = 0
-    data_crc: bool = False
-    summary_crc: bool = False
-    #: Per topic, the message definition the file embeds: (encoding, text) (MCAP schemas; SQLite3's
-    #: ``message_definitions`` table where it has one).
-    schemas: dict[str, tuple[str, str]] = field(default_factory=dict)
-    #: Per topic, the serialization format of its messages as the file says (MCAP: the channel's message encoding).
-    formats: dict[str, str] = field(default_factory=dict)
-    #: Per topic, the ``offered_qos_profiles`` YAML the file stores (MCAP: the channel's metadata; SQLite3: the
-    #: ``topics`` table's column, where it holds a profile).
-    qos: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def message_count(self) -> int:
-        return sum(self.counts.values())
 
 
 @dataclass
@@ -247,20 +218,7 @@ def _unfinished(path: Path) -> list[str]:
     return sorted(out)[:MAX_UNFINISHED]
 
 
-@dataclass
-class _Contents:
-    """Messages of one storage file by topic (file order), and what the file says about itself."""
-
-    file: StorageFile
-    times: dict[str, list[int]]
-    data: dict[str, list[bytes]]
-    #: The uncompressed bytes of MCAP chunks, this file's and the bag's files' before it.
-    inflated: int = 0
-    #: The messages, this file's and the bag's files' before it (:data:`~.mcap_file.MAX_MESSAGES` bounds them).
-    messages: int = 0
-
-
-def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, messages: int = 0) -> _Contents:
+def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, messages: int = 0) -> Contents:
     m = read_mcap(path, topics, inflated, messages)
     if m.profile != 'ros2':
         raise BagError(f'{path}: MCAP profile {m.profile!r}; allowed: ros2 (rosbag2)')
@@ -285,14 +243,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
                        m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
-    return _Contents(info, times, data, m.inflated, m.messages)
-
-
-def _read_sqlite_file(path: Path, topics: set[str] | None, messages: int = 0) -> _Contents:
-    q = read_sqlite(path, topics, messages)
-    info = StorageFile(path.name, q.size, q.sha256, q.counts, q.types, q.digests, q.start, q.end, schemas=q.schemas,
-                       formats=q.formats, qos=q.qos)
-    return _Contents(info, q.times, q.data, messages=q.messages)
+    return Contents(info, times, data, m.inflated, m.messages)
 
 
 def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
@@ -310,12 +261,12 @@ def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
         raise BagError(f'path = {brief(path)}; allowed: a bag folder or a .mcap or .db3 file')
     layout = locate(path)
     wanted = {t if t.startswith('/') else '/' + t for t in topics} if topics else None
-    contents: list[_Contents] = []
+    contents: list[Contents] = []
     for f in layout.files:
         try:
             inflated, messages = (contents[-1].inflated, contents[-1].messages) if contents else (0, 0)
             contents.append(_read_mcap_file(f, wanted, inflated, messages)
-                            if layout.storage == 'mcap' else _read_sqlite_file(f, wanted, messages))
+                            if layout.storage == 'mcap' else read_sqlite(f, wanted, messages))
         except MemoryError:  # a failed allocation (a bag beyond the machine's memory), not a corrupt file
             raise BagError(f'{f}: not enough memory to read its messages (a bag is read into memory); allowed: a '
                            "bag whose messages fit in this process's memory") from None

@@ -9,37 +9,16 @@ from __future__ import annotations
 
 import sqlite3
 import urllib.parse
-from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import BagError
 from .fileio import check_sqlite_pages, read_head, sha256_file
 from .mcap_file import MAX_MESSAGES
+from .storage_file import Contents, StorageFile
 from .typestore import normalize_type
 
 
-@dataclass(frozen=True)
-class SqliteFile:
-    """What one SQLite3 file holds: its size [bytes] and SHA-256; per topic its message count, type, type hash,
-    embedded definition (encoding, text), serialization format and stored profiles; the log-time span [ns]; the
-    kept topics' log times and CDR bytes in file order; the messages of the bag's files up to this one's."""
-
-    size: int
-    sha256: str
-    counts: dict[str, int]
-    types: dict[str, str]
-    digests: dict[str, str]
-    start: int | None
-    end: int | None
-    schemas: dict[str, tuple[str, str]]
-    formats: dict[str, str]
-    qos: dict[str, str]
-    times: dict[str, list[int]]
-    data: dict[str, list[bytes]]
-    messages: int
-
-
-def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -> SqliteFile:
+def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -> Contents:
     """Read a rosbag2 SQLite3 storage file (schema versions 2-4: ``topics`` and ``messages`` tables; a view of
     those names is refused, so every row read is stored in the file). The bag's files before it held ``messages``
     messages; its rows are counted before any is read (:data:`~.mcap_file.MAX_MESSAGES` bounds all) and only those
@@ -96,7 +75,9 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
         raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
     defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
     schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
-    return SqliteFile(size, sha, counts, types, digests, first, last, schemas, formats, qos, times, data, total)
+    info = StorageFile(path.name, size, sha, counts, types, digests, first, last, schemas=schemas, formats=formats,
+                       qos=qos)
+    return Contents(info, times, data, messages=total)
 
 
 def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int, str], dict[str, str], dict[str, str],
