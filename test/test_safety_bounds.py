@@ -333,8 +333,8 @@ def test_a_bound_that_is_not_a_number_bounds_nothing():
 def test_a_pairs_motion_bound_holds_what_both_bodies_travel():
     """The clearance search's bound ``mu`` of a pair (its arm and platform bounds of both bodies, the certificate's
     ``d(t) >= d(t0) - mu``) is at least what the two travel together: on 120 random intervals of the example cell
-    program, for every pair not both carried by the platform (each wafer against the column: the column still, the
-    wafer moved by the rods alone on the vertical moves), the largest travel of a corner of each body (41 instants
+    program, for every pair not both carried by the platform (each arm's bodies against the column: the column still,
+    the bodies moved by the rods alone on the vertical moves), the largest travel of a corner of each body (41 instants
     inside) summed stays within it."""
     plan = PLANS['example_cell_program']
     motion = PlanMotion(plan)
@@ -351,7 +351,7 @@ def test_a_pairs_motion_bound_holds_what_both_bodies_travel():
             travel[:, k] = np.max(np.linalg.norm(pts - pts[:, :1], axis=3), axis=(1, 2))
     pairs = np.flatnonzero(~search.rigid)
     assert {(bodies[int(search.pa[p])].name, bodies[int(search.pb[p])].name) for p in pairs} == {
-        ('gpr_base', 'arm1_wafer'), ('gpr_base', 'arm2_wafer')}
+        ('gpr_base', b.name) for b in bodies if b.arm}   # links, blades and wafers (the wafers' alone before)
     p, k = np.repeat(pairs, K), np.tile(np.arange(K), pairs.size)
     i0, i1 = search.store.add(t0)[k], search.store.add(t1)[k]
     items = _Items(p, i0, i1, np.zeros(p.size, dtype=np.int64))
