@@ -1141,8 +1141,8 @@ def test_the_splines_slip_samples_each_segment_not_at_the_shortest_segments_rate
 
     seen = []
     ratio_at = slip._ratio_at
-    monkeypatch.setattr(slip, '_ratio_at', lambda plan, arm, q, acc: seen.append(q.shape[0]) or ratio_at(plan, arm,
-                                                                                                          q, acc))
+    monkeypatch.setattr(slip, '_ratio_at', lambda plan, arm, R, acc: seen.append(R.shape[0]) or ratio_at(plan, arm,
+                                                                                                          R, acc))
     carried = wafer_plan(PLAN).carried
     slip.trajectory_slip(PLAN, program_trajectory(PLAN, 10.0), carried)
     at_ten, seen[:] = sum(seen), []

@@ -23,7 +23,7 @@ from ..errors import InputError, brief
 from ..robot.plan import ProgramPlan, joint_limits
 from ..robot.timing import MAX_SAMPLES
 from ..robot.trajectory import JointTrajectory
-from .bodies import Body, cell_bodies, default_pairs, robot_body_set
+from .bodies import Body, Windows, cell_bodies, default_pairs, robot_body_set
 from .budget import BudgetReport, judge_budget
 from .cell import Cell
 from .clearance import TOLERANCE, ClearanceReport, PairClearance, clearance, slack_note
@@ -40,7 +40,6 @@ SLIP_RATE = 200.0
 #: trapezoid) the acceleration jumps there, and the corner itself takes one side only. At least 4 spacings of the
 #: doubles at the corner (:func:`corner_sides`): beyond 1.7e7 s they are 3.7e-9 s apart and 1 ns was none.
 CORNER_SIDE = 1e-9
-Windows = tuple[tuple[float, float], ...]
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ from ..robot.forward import robot_forward
 from ..robot.plan import ProgramPlan, joint_limits, move_rows, plan_samples
 from ..robot.timing import MAX_SAMPLES, evaluate, locate, sample_at
 from ..robot.trajectory import JointTrajectory, spline
+from .bodies import Windows
 
 Array = NDArray[np.float64]
 
@@ -49,7 +50,6 @@ CLOSURE_TOLERANCE = GprConfig.tolerance
 #: Rate [Hz] at which :func:`trajectory_slip` samples a trajectory's spline (and each segment at its thirds), and how
 #: far [s] on each side of a point, where a cubic's acceleration jumps.
 TRAJECTORY_SLIP_RATE, CORNER = 200.0, 1e-9
-Windows = tuple[tuple[float, float], ...]
 
 
 def closure_exact(plan: ProgramPlan) -> ProgramPlan:
@@ -152,16 +152,17 @@ def trajectory_slip(plan: ProgramPlan, traj: JointTrajectory, carried: dict[str,
             thirds = (edges[:-1, None] + np.diff(edges)[:, None] * np.array([1.0, 2.0]) / 3.0).ravel()
             t = np.unique(np.concatenate([np.linspace(t0, t1, n), thirds, inside - CORNER, inside + CORNER]))
             q, v, acc = (x[:, cols] for x in spline_of.evaluate(t))
-            ratio = _ratio_at(plan, arm, q, _acceleration(plan, arm, q, v, acc))
+            wafer = robot_forward(robot, q[:, :3], q[:, 3:], arm, check_limits=False).wafer   # once: both use it
+            ratio = _ratio_at(plan, arm, wafer.rotation, _acceleration(plan, arm, q, v, acc, wafer.position))
             k = int(np.argmax(ratio))
             if ratio[k] > best:
                 best, at = float(ratio[k]), float(t[k])
     return best, at
 
 
-def _acceleration(plan: ProgramPlan, arm: str, q: Array, v: Array, acc: Array) -> Array:
-    """The wafer's acceleration ``(K, 3)`` [m/s^2] at joints ``q`` (rods and the arm's), velocities ``v`` and
-    accelerations ``acc``: ``J acc + v^T H v`` by central differences along ``acc`` and ``v``."""
+def _acceleration(plan: ProgramPlan, arm: str, q: Array, v: Array, acc: Array, p: Array) -> Array:
+    """The wafer's acceleration ``(K, 3)`` [m/s^2] at joints ``q`` (rods and the arm's; ``p`` its position there),
+    velocities ``v`` and accelerations ``acc``: ``J acc + v^T H v`` by central differences along ``acc`` and ``v``."""
     def wafer(x: Array) -> Array:
         return robot_forward(plan.robot, x[:, :3], x[:, 3:], arm, check_limits=False).wafer.position
     out = np.zeros((q.shape[0], 3))
@@ -174,7 +175,7 @@ def _acceleration(plan: ProgramPlan, arm: str, q: Array, v: Array, acc: Array) -
         step = d[moving] * h[:, None]
         ahead, back = wafer(q[moving] + step), wafer(q[moving] - step)
         if second:
-            out[moving] += (ahead - 2.0 * wafer(q[moving]) + back) / h[:, None] ** 2
+            out[moving] += (ahead - 2.0 * p[moving] + back) / h[:, None] ** 2
         else:
             out[moving] += (ahead - back) / (2.0 * h[:, None])
     return out
@@ -184,13 +185,14 @@ def _ratio(plan: ProgramPlan, arm: str, t: Array, acc: Array) -> Array:
     robot = plan.robot
     rows = plan_samples(plan, sample_at(plan.timing, t)).positions
     _, _, _, slices = joint_limits(robot)
-    return _ratio_at(plan, arm, rows[:, np.r_[0:3, slices[robot.arm_names.index(arm)]]], acc)
+    cols = slices[robot.arm_names.index(arm)]
+    R = robot_forward(robot, rows[:, :3], rows[:, cols], arm, check_limits=False).wafer.rotation
+    return _ratio_at(plan, arm, R, acc)
 
 
-def _ratio_at(plan: ProgramPlan, arm: str, q: Array, acc: Array) -> Array:
-    """The slip ratio at the rods and ``arm``'s joints ``q (K, 3 + n)`` for the wafer's acceleration ``acc``."""
+def _ratio_at(plan: ProgramPlan, arm: str, R: Array, acc: Array) -> Array:
+    """The slip ratio of ``arm``'s wafer of orientation ``R (K, 3, 3)`` for its acceleration ``acc``."""
     robot = plan.robot
-    R = robot_forward(robot, q[:, :3], q[:, 3:], arm, check_limits=False).wafer.rotation
     a = robot.arm(arm)
     f = acc + np.array([0.0, 0.0, GRAVITY])          # per unit mass: a - g
     n = R[:, :, 2]
