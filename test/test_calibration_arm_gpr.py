@@ -298,8 +298,8 @@ def test_the_report_says_which_standard_errors_include_the_gprs_covariance(files
     assert status == 0, err
     d = json.loads(out)
     assert d['note'] == (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its "
-                         f'{len(cov.names)} fitted parameters in {with_block}, propagated to first order '
-                         '(K Sigma_g K^T, docs/calibration.md)')
+                         f"{len(cov.names)} calibrated parameters (fitted, or derived from them by a registration's "
+                         f'datum) in {with_block}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
     (arm,) = d['arms']
     g = arm['gpr_covariance']
     assert g['file'] == with_block and g['parameters'] == list(cov.names)

@@ -102,8 +102,8 @@ GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, e
 def covariance_note(cov: GeometryCovariance) -> str:
     """The ``note:`` when the arms' standard errors include the GPR's covariance ``cov``."""
     return (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its "
-            f'{len(cov.names)} fitted parameters in {cov.origin}, propagated to first order (K Sigma_g K^T, '
-            'docs/calibration.md)')
+            f"{len(cov.names)} calibrated parameters (fitted, or derived from them by a registration's datum) in "
+            f'{cov.origin}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
 
 
 def _without(res: CalibrationResult, plain: np.ndarray) -> str:
