@@ -44,7 +44,7 @@ setup(
     python_requires='>=3.10',
     entry_points={
         'console_scripts': [
-            'gpr = gpr_kinematics.cli.main:main',
+            'gpr = gpr_kinematics.cli.entry:main',
             'kinematics_node = gpr_kinematics.nodes.kinematics_node:main',
             'trajectory_node = gpr_kinematics.nodes.trajectory_node:main',
             'recorder_node = gpr_kinematics.nodes.recorder_node:main',

@@ -225,6 +225,64 @@ def test_a_closed_stderr_or_stdout_changes_nothing_but_what_is_seen():
             assert res.returncode == status, (fd, argv, res.returncode)
 
 
+def test_an_ascii_locale_writes_what_it_cannot_encode_as_escapes(tmp_path):
+    """Under an ASCII locale (PYTHONIOENCODING=ascii as an ASCII LC_ALL gives it) ``gpr sweep``, ``gpr mobility``
+    and their --help ended in a UnicodeEncodeError traceback on the section sign of the paper's reference, as did an
+    output path with an umlaut echoed; now the sign is written as a backslash escape, the rest as before."""
+    env = dict(os.environ, PYTHONIOENCODING='ascii')
+    cmd = [sys.executable, '-m', 'gpr_kinematics']
+    for argv in (['mobility', '0.5', '0.5', '0.5'], ['mobility', '--help'], ['sweep', '--help']):
+        res = subprocess.run(cmd + argv, env=env, capture_output=True, text=True, timeout=60)
+        assert res.returncode == 0 and 'Traceback' not in res.stderr, (argv, res.stderr)
+        assert '\\xa7' in res.stdout, argv        # the section sign, escaped
+    out = tmp_path / 'w\u00fc.csv'
+    res = subprocess.run(cmd + ['program', 'export', 'example_robot_program.yaml', '--waypoints', str(out)], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and 'Traceback' not in res.stderr, res.stderr
+    assert out.exists() and 'w\\xfc.csv' in res.stdout
+
+
+def test_out_of_memory_is_one_line_and_status_2(capsys, monkeypatch):
+    """numpy's MemoryError (a 20,000-row calibration under a 650 MB limit) was a traceback; now one line naming
+    it, status 2."""
+    import gpr_kinematics.core
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError('Unable to allocate 7.45 GiB for an array with shape (1000000000,) and data type float64')
+    monkeypatch.setattr(gpr_kinematics.core, 'forward', exhausted)
+    status, out, err = run(capsys, 'fk', '0.3', '0.3', '0.3')
+    assert status == 2 and out == ''
+    assert err == ('gpr fk: error: out of memory: Unable to allocate 7.45 GiB for an array with shape (1000000000,) '
+                   'and data type float64; allowed: inputs this machine has the memory for (fewer rows or samples, '
+                   'coarser settings)\n')
+
+
+def test_ctrl_c_while_the_command_line_loads_is_interrupted_not_a_traceback(capsys, monkeypatch):
+    """Ctrl-C in the first tenths of a second (numpy and the command's modules loading, before its own handler)
+    printed a KeyboardInterrupt traceback through the imports; now ``gpr: interrupted``, status 130, from the console
+    script's import of the command line and from the parser's import of a command's module."""
+    import importlib.abc
+
+    import gpr_kinematics.cli.main as cli_main
+    from gpr_kinematics.cli import entry
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli_main, 'build_parser', interrupted)
+    assert main(['fk', '0.3', '0.3', '0.3']) == 130
+    assert capsys.readouterr() == ('', 'gpr: interrupted\n')
+
+    class Interrupting(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path, target=None):
+            if name == 'gpr_kinematics.cli.main':
+                raise KeyboardInterrupt
+            return None
+    monkeypatch.delitem(sys.modules, 'gpr_kinematics.cli.main')
+    monkeypatch.setattr(sys, 'meta_path', [Interrupting(), *sys.meta_path])
+    assert entry.main() == 130
+    assert capsys.readouterr() == ('', 'gpr: interrupted\n')
+
+
 def test_outputs_that_are_not_regular_files_are_refused_before_the_work(capsys, tmp_path):
     """``--csv PATH`` replaced whatever was at PATH through a rename, device nodes included (as root)."""
     link = tmp_path / 'null.csv'

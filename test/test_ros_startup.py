@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import resource
 import shutil
 import signal
@@ -14,6 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
+from gpr_kinematics.ros.process import NodeProcess
 from gpr_kinematics.ros.specs import NODES, node_specs
 from ros_support import assert_one_error_line, start, wait_for_log
 
@@ -86,6 +88,37 @@ def test_malformed_ros_args_exit_2_one_line(exe, case, tmp_path):
     status, out = _run(exe, '--ros-args', *[a.format(**files) for a in args])
     assert_one_error_line(out, status, 2, words)
     assert '[rcl]' not in out          # rcl's own "Failed to parse global arguments" line is not shown
+
+
+#: rclpy's logging without a folder for its files: HOME unset, no ROS_LOG_DIR or ROS_HOME.
+NO_LOG_FOLDER = r'ROS logging cannot start \(failed to initialize logging: .*\): .*allowed: ROS_LOG_DIR'
+
+
+@pytest.mark.parametrize('exe', ['kinematics_node', 'recorder_node'])
+def test_a_node_without_a_log_folder_names_it_not_its_arguments(exe):
+    """HOME unset (a service started by an init system): the nodes said "malformed ROS arguments" where none were
+    given, with no way out; now the log folder and ROS_LOG_DIR."""
+    env = {k: v for k, v in os.environ.items() if k not in ('HOME', 'ROS_LOG_DIR', 'ROS_HOME')}
+    proc = NodeProcess(exe, NEEDS.get(exe, []), env=env)
+    try:
+        status = proc.wait(timeout=60)
+    finally:
+        proc.stop()
+    line = assert_one_error_line(proc.output(), status, 2, 'cannot start: ' + NO_LOG_FOLDER)
+    assert 'malformed' not in line
+
+
+def test_send_without_a_log_folder_is_one_line_not_a_traceback():
+    """``gpr program send`` with HOME unset ended in an RCLError traceback behind rcutils' "error state is being
+    overwritten" block; now one line, status 2."""
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k not in ('HOME', 'ROS_LOG_DIR', 'ROS_HOME')}
+    proc = subprocess.run([sys.executable, '-m', 'gpr_kinematics', 'program', 'send', 'example_robot_program.yaml',
+                           '--timeout', '1'], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count('\n') == 1 and 'Traceback' not in proc.stderr, proc.stderr
+    assert re.match(r'gpr program send: error: cannot start a ROS client: ' + NO_LOG_FOLDER, proc.stderr), proc.stderr
 
 
 def _params_file(path: Path, body: str) -> Path:

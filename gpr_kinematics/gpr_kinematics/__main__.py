@@ -1,6 +1,6 @@
-"""``python -m gpr_kinematics``: the ``gpr`` command line (:func:`gpr_kinematics.cli.main.main`)."""
+"""``python -m gpr_kinematics``: the ``gpr`` command line (:func:`gpr_kinematics.cli.entry.main`)."""
 import sys
 
-from .cli.main import main
+from .cli.entry import main
 
 sys.exit(main())

@@ -13,6 +13,8 @@ from typing import Any
 
 #: Exit status of the ``gpr`` command and of the nodes for input they cannot use (one line on stderr).
 EXIT_BAD_INPUT = 2
+#: Exit status of a command stopped by Ctrl-C (128 + SIGINT).
+EXIT_INTERRUPTED = 130
 
 
 class GprError(Exception):

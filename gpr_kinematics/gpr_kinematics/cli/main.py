@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from types import FrameType
 from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
-from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, NAME_RULE, PATH_LENGTH, GprError, brief, one_line
+from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, EXIT_INTERRUPTED, NAME_RULE, PATH_LENGTH, GprError, brief, one_line
 from ..inputs.files import command_reads, command_writes
 from ..inputs.safe_yaml import UNSIGNED_DECIMAL
 from .output import OUTPUT_OPTIONS, description, distinct_outputs
@@ -143,9 +143,29 @@ def command_path(parser: argparse.ArgumentParser, args: argparse.Namespace) -> s
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gpr`` console script; returns the exit status."""
+    _usable_streams()
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:   # Ctrl-C before the command's own handler (while it imports its modules: seconds)
+        sys.stderr.write('gpr: interrupted\n')
+        return EXIT_INTERRUPTED
+
+
+def _usable_streams() -> None:
+    """Standard streams every command can write: one closed at the start (``2>&-``) takes what goes there to
+    ``os.devnull``; one in an encoding other than UTF-8 (an ASCII locale) writes what it cannot encode as a backslash
+    escape (``\\xa7``): the section sign of ``gpr sweep``'s paper reference, or a path's umlaut, was a traceback."""
     for name in ('stdout', 'stderr'):
-        if getattr(sys, name) is None:  # started with the stream closed (``2>&-``): what goes there is dropped
+        stream = getattr(sys, name)
+        if stream is None:  # started with the stream closed (``2>&-``): what goes there is dropped
             setattr(sys, name, open(os.devnull, 'w', encoding='utf-8'))  # noqa: SIM115 - for the process' life
+        elif (getattr(stream, 'encoding', None) or 'utf-8').lower().replace('-', '') != 'utf8':
+            with contextlib.suppress(AttributeError, ValueError):   # not a text stream of the io module
+                stream.reconfigure(errors='backslashreplace')
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    """:func:`main` once its streams are usable."""
     args_in = list(sys.argv[1:] if argv is None else argv)
     first = next((a for a in args_in if not a.startswith('-')), None)
     parser = build_parser(first if first in COMMANDS else None)
@@ -178,6 +198,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GprError as exc:
         sys.stderr.write(f'{command}: error: {one_line(str(exc))}\n')
         return EXIT_USAGE
+    except MemoryError as exc:   # numpy's allocation of an input's arrays (a 20,000-row calibration under 650 MB)
+        sys.stderr.write(f'{command}: error: out of memory: {one_line(str(exc)) or "an allocation failed"}; allowed: '
+                         'inputs this machine has the memory for (fewer rows or samples, coarser settings)\n')
+        return EXIT_USAGE
     except ModuleNotFoundError as exc:  # an optional package imported by the handler itself
         error = missing_dependency(exc)
         if error is None:
@@ -188,7 +212,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         killed = isinstance(exc, _Terminated)
         after = ' after it had finished' if stop.kept else ''   # its outputs whole, as the work left them
         sys.stderr.write(f'{command}: {"terminated" if killed else "interrupted"}{after}\n')
-        return 128 + signal.SIGTERM if killed else 130
+        return 128 + signal.SIGTERM if killed else EXIT_INTERRUPTED
     except BrokenPipeError:
         return 0
     except OSError as exc:  # the standard output on a full disk or a failing device (files are the handlers' to name)

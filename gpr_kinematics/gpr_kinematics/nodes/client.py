@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.action import ActionClient
 from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.task import Future
@@ -46,6 +47,7 @@ from ..inputs.validation import MAX_COORDINATE, float_array
 from ..robot.platform_program import REQUIRED_STATION_KEYS, STATION_KEYS
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
+from .runtime import init_refusal, stderr_held
 
 
 def _floats(values: Any, name: str, size: int | None = None, finite: bool = False) -> list[float]:
@@ -110,7 +112,11 @@ class GprClient:
         if executor not in ('single', 'events'):   # before rclpy.init: a context and node refused here were never shut
             raise InputError(f"executor = {brief(executor)}; allowed: 'single' or 'events'")
         self.context = rclpy.Context()
-        rclpy.init(args=None if args is None else list(args), context=self.context)
+        try:
+            with stderr_held():   # rcutils' "error state is being overwritten" block before a refusal
+                rclpy.init(args=None if args is None else list(args), context=self.context)
+        except RCLError as exc:   # a traceback of gpr program send where HOME was unset
+            raise GprError(f'cannot start a ROS client: {init_refusal(exc)}') from None
         self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
         self.executor: Executor
         if executor == 'events':

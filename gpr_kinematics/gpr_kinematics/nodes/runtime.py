@@ -297,7 +297,7 @@ def one_line(exc: BaseException) -> str:
 
 
 @contextlib.contextmanager
-def _stderr_held() -> Iterator[None]:
+def stderr_held() -> Iterator[None]:
     """Hold back what C code writes to stderr (rcl's own log line before an RCLError) until the block ends; it
     is written out only when the block succeeds, so a failed init leaves one ``cannot start`` line. Without a stderr
     (a node started with ``2>&-``) there is nothing to hold."""
@@ -365,12 +365,23 @@ def _init(args: Sequence[str] | None, logger: Any) -> bool:
         logger.error(f'cannot start: {one_line(exc)}')
         return False
     try:
-        with _stderr_held():
+        with stderr_held():
             rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
     except RCLError as exc:
-        logger.error(f'cannot start: malformed ROS arguments: {one_line(exc)}')
+        logger.error(f'cannot start: {init_refusal(exc)}')
         return False
     return True
+
+
+def init_refusal(exc: RCLError) -> str:
+    """Why ``rclpy.init`` refused: its logging without a log folder it can write (``HOME`` unset: it read "malformed
+    ROS arguments" where none were given), else the arguments."""
+    text = one_line(exc)
+    if 'initialize logging' not in text:
+        return f'malformed ROS arguments: {text}'
+    text = re.sub(r': (\d+)$', lambda m: f': {os.strerror(int(m.group(1)))}', text)
+    return (f'ROS logging cannot start ({text}): its files go to $ROS_LOG_DIR, else $ROS_HOME/log, else ~/.ros/log '
+            '(of $HOME), a folder it must create and write; allowed: ROS_LOG_DIR (or ROS_HOME, or HOME) writable')
 
 
 def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str | None = None) -> int:
