@@ -35,6 +35,7 @@ looser, and is not closed).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -281,11 +282,13 @@ def _ends(plan: ProgramPlan, t0: Array, t1: Array, m: NDArray[np.int64], arms: A
     return np.maximum(bound[:K], bound[K:]), np.maximum(floor[:K], floor[K:])
 
 
-def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array) -> SlipBound:
+def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array,
+               progress: Callable[[float], None] | None = None) -> SlipBound:
     """The bound on every interval between consecutive ``times`` (the slip check's instants, sorted; ``ratio`` there,
     NaN where no wafer is carried) that lies in a joint-space move with the wafer on one arm throughout (module
     docstring); ``carrying`` the arm at each instant ('' none). The forward kinematics to
-    :data:`~gpr_kinematics.safety.slip.CLOSURE_TOLERANCE`."""
+    :data:`~gpr_kinematics.safety.slip.CLOSURE_TOLERANCE`. ``progress``: the share done after the intervals' first
+    bounds (a half) and after each round of refinement (the share of their time settled)."""
     plan = closure_exact(plan)
     timing = plan.timing
     empty = np.zeros(0)
@@ -301,8 +304,10 @@ def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array) -
     np.maximum.at(best, m_i[on], ratio[on])
     a, b, mv, arm = t0[keep], t1[keep], m[keep], carrying[:-1][keep]
     bound, floor = _ends(plan, a, b, mv, arm)
+    tell = progress if progress is not None else (lambda share: None)
+    tell(0.5)
     out, mids = [], []
-    added, closed = 0, True
+    added, closed, settled, total = 0, True, 0.0, float(np.sum(b - a))
     while a.size:
         loose = ~((bound <= best[mv] + SLIP_TOLERANCE) | (bound <= floor + 0.5 * SLIP_TOLERANCE))
         short = loose & (b - a < SHORTEST)
@@ -315,6 +320,8 @@ def slip_bound(plan: ProgramPlan, times: Array, ratio: Array, carrying: Array) -
             loose[:] = False
             loose[idx[np.argsort(best[mv[idx]] - bound[idx], kind='stable')[:room]]] = True
         out.append((a[~loose], b[~loose], mv[~loose], bound[~loose], floor[~loose]))
+        settled += float(np.sum(b[~loose] - a[~loose]))
+        tell(0.5 + 0.5 * min(settled / total, 1.0) if total > 0.0 else 1.0)   # the share of the time settled
         c = 0.5 * (a[loose] + b[loose])
         a, b = np.concatenate([a[loose], c]), np.concatenate([c, b[loose]])
         mv, arm = np.tile(mv[loose], 2), np.tile(arm[loose], 2)
