@@ -334,8 +334,10 @@ def _slip(plan: ProgramPlan, times: Array, carried: dict[str, tuple[tuple[float,
         own = slip_series(plan, times, carrying).ratio
         progress((k + 0.5) / len(arms))
         ratio = np.fmax(ratio, np.where(np.isnan(own), 0.0, own))
-        bounds.append(slip_bound(plan, times, own, carrying,
-                                 lambda share, k=k: progress((k + 0.5 + 0.5 * share) / len(arms))))
+
+        def bound_share(share: float, k: int = k) -> None:
+            progress((k + 0.5 + 0.5 * share) / len(arms))
+        bounds.append(slip_bound(plan, times, own, carrying, bound_share))
     if not bounds:
         bounds.append(slip_bound(plan, times, np.full(times.shape, np.nan), np.full(times.shape, '', dtype=object)))
     def join(field: str) -> Array:
