@@ -33,13 +33,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..callbacks import StageProgress
-from ..core.config import GprConfig
 from ..core.inverse import check_tool
-from ..core.ops import ARRAY
-from ..core.stroke import STROKE_SLACK, check_stroke
-from ..errors import InputError, LimitError, brief
+from ..errors import InputError, brief
 from ..inputs.validation import finite_vector, float_array, plain_number, random_seed, rotation_matrices
-from .core_model import TILT_MARGIN, platform_tilts
+from .budget_inputs import check_calibrated, check_sources, check_stations
 from .model import (
     PoseModel,
     as_configurations,
@@ -271,53 +268,6 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
     return np.array(np.broadcast_to(tool_v, (N, 3))), R, pct, labels_t
 
 
-def _check_stations(model: PoseModel, rods: Array, labels: tuple[str, ...]) -> None:
-    """Refuse stations a model of the machine (one with a ``config``, :class:`~.core_model.CoreModel`) cannot take,
-    with the core's rules: a rod outside the stroke (:func:`~gpr_kinematics.core.stroke.check_stroke`), rods that
-    tilt the platform beyond its tilt limit by more than :data:`~.core_model.TILT_MARGIN` (the rule of measured
-    configurations, :func:`~.core_model.check_limits`): the budget of a pose the machine never takes is no number
-    of it."""
-    config = getattr(model, 'config', None)
-    if not isinstance(config, GprConfig):   # a model without a machine's limits
-        return
-    lo, hi = config.stroke_min - STROKE_SLACK, config.stroke_max + STROKE_SLACK
-    for i in np.flatnonzero(~np.all((rods >= lo) & (rods <= hi), axis=1))[:1]:   # the first station outside, by name
-        try:
-            check_stroke(ARRAY, [rods[i:i + 1, 0], rods[i:i + 1, 1], rods[i:i + 1, 2]], config, what='q', typed=True)
-        except LimitError as exc:
-            raise LimitError(f'station {labels[i]}: {exc}') from None
-    tilt = platform_tilts(rods, config)
-    bad = np.flatnonzero(~(tilt <= TILT_MARGIN * config.tilt_limit))
-    if bad.size:
-        i, limit = int(bad[0]), config.tilt_limit
-        raise LimitError(f'station {labels[i]}: q = {rods[i].tolist()} m tilt the platform by {tilt[i]:.4g} rad '
-                         f'({np.degrees(tilt[i]):.4g} deg), beyond the tilt limit {limit:.4g} rad '
-                         f'({np.degrees(limit):.4g} deg); allowed: at most {100 * (TILT_MARGIN - 1):.0f} % beyond it, '
-                         f'{TILT_MARGIN * limit:.4g} rad')
-
-
-def _check_calibrated(calibrated: Any, P: int) -> Calibrated:
-    """``(indices, covariance)`` of calibrated parameters, checked: distinct indices below ``P``, a finite,
-    symmetric, positive semi-definite covariance of matching size."""
-    if isinstance(calibrated, (str, bytes)) or not isinstance(calibrated, Sequence) or len(calibrated) != 2:
-        raise InputError(f'calibrated = {brief(calibrated)}; allowed: a pair (indices, covariance) of the calibrated '
-                         'parameters (e.g. CalibrationResult.fitted and .covariance)')
-    try:
-        idx = np.asarray(calibrated[0]).ravel()
-    except (TypeError, ValueError):   # a ragged list
-        idx = np.array([], dtype=float)
-    cov = float_array(calibrated[1], 'calibrated covariance', 'a finite symmetric matrix')
-    if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
-        raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
-    if cov.shape != (idx.size, idx.size) or not np.all(np.isfinite(cov)) or \
-            np.max(np.abs(cov - cov.T), initial=0.0) > 1e-9 * np.max(np.abs(cov), initial=0.0):
-        raise InputError(f'calibrated covariance must be a finite symmetric ({idx.size}, {idx.size}) matrix, '
-                         f'got shape {cov.shape}')
-    if idx.size and np.linalg.eigvalsh(cov)[0] < -1e-9 * max(float(np.max(np.diag(cov))), 1e-300):
-        raise InputError('calibrated covariance is not positive semi-definite')
-    return idx.astype(np.int64), cov
-
-
 def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool: ArrayLike = (0.0, 0.0, 0.0),
                     samples: int = 10_000, seed: int = 0, theta: ArrayLike | None = None,
                     calibrated: tuple[ArrayLike, ArrayLike] | None = None, labels: Sequence[str] | None = None,
@@ -342,8 +292,9 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
 
     Raises:
         InputError: bad shapes or values, too many samples or stations, joint play for a model without it, no error
-            source at all (:func:`_check_sources`: every error would be 0).
-        LimitError: a station outside the machine's limits, for a model with a ``config`` (:func:`_check_stations`).
+            source at all (:func:`~.budget_inputs.check_sources`: every error would be 0).
+        LimitError: a station outside the machine's limits, for a model with a ``config``
+            (:func:`~.budget_inputs.check_stations`).
         ConfigError: the table names a parameter the model does not have.
     """
     Qa = as_configurations(Q, 'stations')
@@ -355,16 +306,16 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     th = params.nominal if theta is None else float_array(theta, 'theta', f'{P} finite parameter values')
     th = finite_vector(th, 'theta', P)   # a NaN named, not the shape that was right
     tols = table.bind(params)
-    cal = None if calibrated is None else _check_calibrated(calibrated, P)
+    cal = None if calibrated is None else check_calibrated(calibrated, P)
     if isinstance(keep_samples, (bool, np.bool_)) or not isinstance(keep_samples, (int, np.integer)) or \
             keep_samples < 0:
         raise InputError(f'keep_samples = {brief(keep_samples)}; allowed: an integer >= 0 (the samples of that many '
                          'first stations are kept)')
-    _check_stations(model, Qa, labels_t)
+    check_stations(model, Qa, labels_t)
     if max(table.joint_clearance) > 0 and not model.supports_displacement:
         raise InputError(f'{table.source}: joint_clearance needs a model with per-joint geometry; '
                          f'{type(model).__name__} cannot displace its joints (set joint_clearance: 0)')
-    _check_sources(table, tols, cal)
+    check_sources(table, tols, cal)
     pos0, rot0 = evaluate(model, th, Qa)
     # Linearised where the tolerances are: each tolerated parameter at its mean (a kappa range's centre, not the
     # file's kappa), the difference to the prediction's parameters taken exactly ('systematic').
@@ -408,29 +359,16 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                   kept=kept)
 
 
-def _check_sources(table: ToleranceTable, tols: list[Tolerance | None], cal: Calibrated | None) -> None:
-    """Refuse a budget without any error source: a table without a parameter tolerance above 0 for the model, a
-    rod-length error or joint play (``parameters: {}``: meaningful for ``gpr calibrate``, its measurement noise
-    alone), and no calibration's covariance; its budget is 0 everywhere, which a machine never is."""
-    if any(t is not None for t in tols) or table.rod_length is not None or max(table.joint_clearance) > 0 or (
-            cal is not None and cal[0].size):
-        return
-    what = 'parameters: {}' if not table.entries else 'no tolerance above 0 in parameters'
-    raise InputError(f'{table.source}: no error source for the accuracy budget ({what}, no rod_length, no '
-                     'joint_clearance): every error would be 0; allowed: a table with at least one of a parameter\'s '
-                     'tolerance > 0 or range (e.g. parameters: {rod_offsets: {tolerance: 5.0e-5}}), rod_length, '
-                     'joint_clearance, or a calibration (--calibration-plan N)')
-
-
 def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array], worst: dict[str, Array],
               top_inside: dict[str, Array], samples: int) -> tuple[str, ...]:
     """A warning for each station and quantity whose linearised RSS and Monte Carlo RMS differ by more than
     :data:`AGREEMENT` of the Monte Carlo's and by more than :data:`SCATTERS` times its scatter over ``samples``,
-    then for each where the error of a sample whose every draw lies within the worst case's bounds (``top_inside``, the largest) exceeds the linearised worst case by more than
-    :data:`BEYOND_WORST` of it (the worst case then bounds the linearised error only; a normal draw beyond its 3
-    sigma lies beyond what the worst case covers, whatever the model); each where either number is above
-    :data:`SHARE_FLOOR` times 1000; against a worst case, an RSS or an RMS of 0, each where the other number differs
-    by more than :data:`NONLINEAR_FLOOR` (stated in the absolute difference)."""
+    then for each where the error of a sample whose every draw lies within the worst case's bounds (``top_inside``,
+    the largest) exceeds the linearised worst case by more than :data:`BEYOND_WORST` of it (the worst case then
+    bounds the linearised error only; a normal draw beyond its 3 sigma lies beyond what the worst case covers,
+    whatever the model); each where either number is above :data:`SHARE_FLOOR` times 1000; against a worst case, an
+    RSS or an RMS of 0, each where the other number differs by more than :data:`NONLINEAR_FLOOR` (stated in the
+    absolute difference)."""
     disagree, beyond = [], []
     scatter = SCATTERS / math.sqrt(2.0 * samples)
     for name, (_, unit) in QUANTITIES.items():
