@@ -12,6 +12,7 @@ one host different values), else ``10 + pid % 90``; discovery stays on localhost
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -23,6 +24,11 @@ ROOT = Path(__file__).resolve().parents[1]
 # gpr_kinematics/ (no __init__.py) would shadow the installed Python package as an empty namespace package.
 sys.path[:] = [p for p in sys.path if Path(p or os.curdir).resolve() != ROOT]
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # ros_support, for the test modules
+# A suite started in the background (`make test &` from a script) inherits SIGINT ignored, and every command and node
+# it starts would too: the tests of Ctrl-C then failed (a command ran to its end, a node did not stop). Python's
+# own handler back, as in a terminal; a started process then gets SIGINT's default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_configure(config: pytest.Config) -> None:

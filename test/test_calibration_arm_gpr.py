@@ -99,6 +99,7 @@ def monte_carlo():
     return ps, truth, {k: {n: np.array(v) for n, v in o.items()} for k, o in out.items()}
 
 
+@pytest.mark.slow   # 100 GPR and 200 arm calibrations (40-110 s); the stock run fits both in the others
 def test_the_propagated_covariance_is_the_scatter_of_arms_fitted_with_gpr_calibrations(monte_carlo):
     """With the arm's points fixed, its estimate scatters over the GPR's calibrations as ``K Sigma_g K^T`` says
     (within 20 % where the GPR's share is at least the noise's: the shoulder's zero offset, the mount, the wafer's
@@ -116,6 +117,7 @@ def test_the_propagated_covariance_is_the_scatter_of_arms_fitted_with_gpr_calibr
     assert plain[ps.index('arm1_shoulder_zero_offset')] > 1.5          # the plain ones: too small
 
 
+@pytest.mark.slow   # 100 GPR and 200 arm calibrations (40-110 s); the stock run fits both in the others
 def test_the_truth_within_three_propagated_standard_errors_where_the_plain_ones_missed(monte_carlo):
     ps, truth, mc = monte_carlo
     for kind in ('fixed', 'fresh'):
@@ -130,6 +132,7 @@ def test_the_truth_within_three_propagated_standard_errors_where_the_plain_ones_
         assert np.mean(z_plain < 3.0) < 0.96, kind
 
 
+@pytest.mark.slow   # 100 GPR and 200 arm calibrations (40-110 s); the stock run fits both in the others
 def test_the_gate_takes_the_gprs_error_in_the_residuals(monte_carlo):
     """The arms fitted to their noise failed their gate in 53 of 100 runs with a GPR calibrated from 15 poses (52 on
     the chi-square: the GPR's error is in the residuals too). Judged with it (``ResidualShare``: the chi-square
