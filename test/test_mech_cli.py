@@ -397,6 +397,34 @@ def test_the_dexterity_plot_marks_the_least_and_the_singular_poses_in_si_units(c
     plt.close(fig)
 
 
+def test_a_dexterity_map_of_rounding_differences_is_one_colour_without_an_offset_over_its_title():
+    """The GPR's map over +-1 mrad of tilt (0.7071067 to 0.7071073) wrote the colour bar's offset '1e-7+7.071e-1'
+    over the title and hid the singular pose under the least's marker; a map whose columns differ by 1e-11 was
+    drawn in the scale's two ends. The bar's ticks are plain numbers now, the singular pose drawn over the least
+    and the colours span at least COLOUR_SPREAD of the largest value."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.mechanisms.dexterity import COLOUR_SPREAD, dexterity_figure, dexterity_grid
+    gpr = load_mechanism('gpr.yaml')
+    dmap = dexterity_grid(gpr, [0, 0, 0.3, 0, 0, 0], 'tilt_x', np.linspace(-0.001, 0.001, 5), 'tilt_y',
+                          np.linspace(-0.001, 0.001, 5))
+    fig = dexterity_figure(dmap)
+    fig.canvas.draw()
+    ax, bar = fig.axes
+    assert bar.yaxis.get_offset_text().get_text() == ''
+    singular = next(line for line in ax.lines if line.get_label() == 'singular')
+    least = next(line for line in ax.lines if line.get_label().startswith('least'))
+    assert singular.get_zorder() > least.get_zorder() and list(singular.get_xdata()) == [0.0]
+    plt.close(fig)
+    dmap = dexterity_grid(gpr, [0, 0, 0.3, 0, 0, 0], 'tilt_x', np.linspace(-0.001, 0.001, 3), 'z',
+                          np.array([0.2, 0.2000000001]))
+    fig = dexterity_figure(dmap)
+    lo, hi = fig.axes[0].collections[0].get_clim()
+    top, bottom = float(np.nanmax(dmap.dexterity)), float(np.nanmin(dmap.dexterity))
+    assert top - bottom < 0.5 * COLOUR_SPREAD * top   # 2.4e-7 of 0.707 over the tilt, 1e-11 over z
+    assert hi - lo == pytest.approx(COLOUR_SPREAD * top, rel=1e-6) and lo < bottom < top < hi
+    plt.close(fig)
+
+
 def test_accuracy_refuses_where_mechanism_calls_the_pose_singular(capsys):
     """One threshold and one dexterity (mechanisms.conditioning): at a dexterity of 2e-10, which `gpr mechanism` and
     docs/mechanisms.md call singular (below 1e-9), `gpr accuracy` had its own 1e-10 and linearised, printing a

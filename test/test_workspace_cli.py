@@ -373,10 +373,10 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     assert result.touches_initial_box and not result.interrupted
     fig = projection_figure(result, 0, 2, 'upu3', model.box)
     ax = fig.axes[0]
-    assert ax.get_title().splitlines() == ['upu3: projection on x-z', 'inner (blue) and boundary (orange), delta = '
-                                           '0.02 m', 'the boxes reach the frame (z): the workspace may extend beyond '
-                                           'it']
+    assert ax.get_title() == _title('upu3: projection on x-z', 'inner (blue) and boundary (orange), delta = 0.02 m',
+                                    'the boxes reach the frame (z): the workspace may extend beyond it')
     assert (ax.get_xlabel(), ax.get_ylabel()) == ('x [m]', 'z [m]') and ax.get_ylim() == tuple(model.box[2])
+    assert ax.get_aspect() == 1.0   # a plane of lengths at its true shape (the dome had been 1.8x as tall)
     boundary, inner = ax.collections
     assert len(inner.get_paths()) == len(np.unique(result.inner[:, [0, 2]].reshape(-1, 4), axis=0))
     assert len(boundary.get_paths()) == len(np.unique(result.boundary[:, [0, 2]].reshape(-1, 4), axis=0))
@@ -384,8 +384,8 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     stopped = approximate(model, 0.02, progress=False, max_boxes=50)
     assert stopped.interrupted
     fig = projection_figure(stopped, 0, 2, 'upu3', model.box)
-    assert fig.axes[0].get_title().splitlines()[-1] == (f'stopped early ({stopped.stopped}): unexamined boxes drawn '
-                                                         'as boundary')
+    assert fig.axes[0].get_title().endswith('\n' + _title(f'stopped early ({stopped.stopped}): unexamined boxes '
+                                                          'drawn as boundary'))
     plt.close(fig)
     # the GPR's boxes reach the stroke's ends only: its tilt plane was titled as reaching a frame they stop well
     # inside (about +-0.11 of +-0.3 rad)
@@ -396,10 +396,22 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     titles = []
     for i, j in ((0, 1), (1, 2)):
         fig = projection_figure(result, i, j, 'gpr', gpr.box)
-        titles.append(fig.axes[0].get_title().splitlines()[-1])
+        titles.append(fig.axes[0].get_title())
         plt.close(fig)
-    assert titles == ['the boxes reach the frame (z): the workspace may extend beyond it',
-                      'the boxes reach the initial box in z (not drawn here): the workspace may extend beyond it']
+    assert [t.endswith('\n' + _title(note)) for t, note in zip(titles, [
+        'the boxes reach the frame (z): the workspace may extend beyond it',
+        'the boxes reach the initial box in z (not drawn here): the workspace may extend beyond it'], strict=True)] \
+        == [True, True], titles
+
+
+def _title(*lines):
+    """A projection's title of ``lines``, each wrapped at TITLE_WIDTH characters (the tripod's third line, of 93, had
+    been cut at the figure's edge)."""
+    import textwrap
+
+    from gpr_kinematics.cli.workspace import TITLE_WIDTH
+    assert TITLE_WIDTH <= 90
+    return '\n'.join(textwrap.fill(line, TITLE_WIDTH) for line in lines)
 
 
 def test_a_delta_as_large_as_the_box_is_warned_about(capsys):

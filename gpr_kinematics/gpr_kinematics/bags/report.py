@@ -33,6 +33,8 @@ if TYPE_CHECKING:
 
 ZOOM = 12
 ZOOM_CROSSINGS = 3
+#: A stream of at most this many samples is drawn with a marker at each.
+MARKED_SAMPLES = 50
 
 
 def _plt() -> Any:
@@ -80,8 +82,8 @@ def _figure(title: str, sample: NDArray[np.int64], curves: NDArray[np.float64], 
     import matplotlib.pyplot as plt
 
     fig, (ax, az) = plt.subplots(2, 1, figsize=(10, 6.5), constrained_layout=True)
-    for k, lab in enumerate(labels):
-        ax.plot(sample, curves[:, k], lw=0.8, label=lab)
+    for k, lab in enumerate(labels):   # a few samples marked (one sample's line drew nothing)
+        ax.plot(sample, curves[:, k], lw=0.8, label=lab, marker='.' if len(sample) <= MARKED_SAMPLES else None)
     ax.set_title(title)
     ax.set_xlabel('sample')
     ax.set_ylabel(ylabel)
@@ -205,6 +207,6 @@ def report_figures(result: VerifyResult) -> list[tuple[str, Figure]]:
     ax.set_ylabel('centre shift vs naive model [um]')
     ax.set_title(f'centre shift against tilt ({s.model} model), bag {bag}')
     ax.grid(alpha=0.3)
-    ax.legend(loc='upper left')
+    ax.legend(loc='upper left', bbox_to_anchor=(1.005, 1.0), fontsize=8)   # beside: it hid the largest's circle
     figures.append(('centre_shift_vs_tilt.png', fig))
     return figures

@@ -126,6 +126,9 @@ def plot_residuals(path: str | Path, plots: ResidualPlot | Sequence[ResidualPlot
 #: The colours of the budget's lines: the worst case, the RSS, then the percentiles in turn.
 _LINE_STYLES = {'worst': ('tab:red', '-'), 'RSS': ('k', '--')}
 _PERCENTILE_COLOURS = ('tab:green', 'tab:orange', 'tab:purple', 'tab:brown', 'tab:pink')
+#: A budget panel's height in its tallest bar's: the legend in the room above the bars (placed 'best', it sat on
+#: them across the p50, RSS and p95 lines).
+LEGEND_ROOM = 2.0
 
 
 def _budget_panel(ax: Axes, p: Panel) -> None:
@@ -141,7 +144,8 @@ def _budget_panel(ax: Axes, p: Panel) -> None:
     ax.set_xlabel(f'{p.quantity.replace("_", " ")} error [{unit}]', fontsize=8)
     ax.tick_params(labelsize=7)
     ax.grid(True, lw=0.3)
-    ax.legend(loc='best', fontsize=6, framealpha=0.85)
+    ax.set_ylim(0.0, LEGEND_ROOM * max(float(np.max(p.counts, initial=0.0)), 1.0))   # the legend above the bars
+    ax.legend(loc='upper right', fontsize=6, framealpha=0.85)
 
 
 def budget_figure(data: BudgetPlot) -> Figure:

@@ -20,6 +20,7 @@ import importlib.util
 import math
 import signal
 import sys
+import textwrap
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
@@ -87,6 +88,8 @@ def register(subparsers: Subparsers) -> None:
 
 #: Longest --set value (characters).
 MAX_SET = 2000
+#: Characters of a projection's title line before it wraps (at fontsize 8 a 5.5 in figure holds about 90).
+TITLE_WIDTH = 80
 
 
 def _overrides(items: list[str]) -> dict[str, YamlValue]:
@@ -256,6 +259,8 @@ def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: n
         ax.autoscale()
     ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
     ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
+    if result.units[i] == result.units[j] == 'm':   # a plane of lengths at its true shape (a dome was 1.8x as tall)
+        ax.set_aspect('equal', adjustable='box')
     notes = []
     if result.touches_initial_box:   # which faces: a frame the boxes stop well inside was said to be reached
         faces = reached_faces(box, result.inner, result.boundary) if box is not None else (i, j)
@@ -268,8 +273,9 @@ def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: n
                          'may extend beyond it')
     if result.interrupted:
         notes.append(f'stopped early ({result.stopped or "interrupted"}): unexamined boxes drawn as boundary')
-    ax.set_title('\n'.join([f'{name}: projection on {result.variables[i]}-{result.variables[j]}',
-                            f'inner (blue) and boundary (orange), delta = {result.delta:g} m', *notes]), fontsize=8)
+    lines = [f'{name}: projection on {result.variables[i]}-{result.variables[j]}',
+             f'inner (blue) and boundary (orange), delta = {result.delta:g} m', *notes]
+    ax.set_title('\n'.join(textwrap.fill(line, TITLE_WIDTH) for line in lines), fontsize=8)   # none cut at the edge
     fig.tight_layout()
     return fig
 

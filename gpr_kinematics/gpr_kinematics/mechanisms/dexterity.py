@@ -168,6 +168,9 @@ def dexterity_grid(mech: Mechanism, base_pose: Any, variable: str, values: Any, 
 
 #: Plot file types (by extension) :func:`plot_dexterity` writes.
 PLOT_FORMATS = ('png', 'pdf', 'svg')
+#: A map's colours span at least this fraction of its largest dexterity: differences of rounding (1e-11 between
+#: two columns) were drawn as the scale's two ends.
+COLOUR_SPREAD = 1e-6
 
 
 def check_plot_path(path: str | Path) -> Path:
@@ -200,6 +203,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import ScalarFormatter
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=100)
     least = _least(dmap)
@@ -223,16 +227,21 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
     else:
         data = np.where(dmap.within_limits, dmap.dexterity, np.nan)
         v2 = np.asarray(dmap.values2)
-        im = ax.pcolormesh(v2, dmap.values, data, shading='auto')
-        fig.colorbar(im, ax=ax, label='dexterity within the limits\n(white: outside them)')
-        if dmap.singular.any():
-            rows, cols = np.nonzero(dmap.singular)
-            ax.plot(v2[cols], dmap.values[rows], 'x', color='r', ms=6, mew=1.5, label='singular')
+        lo, hi = (float(np.nanmin(data)), float(np.nanmax(data))) if np.isfinite(data).any() else (0.0, 1.0)
+        spread = max(hi - lo, COLOUR_SPREAD * max(abs(hi), 1e-300))   # rounding's differences one colour, not two
+        im = ax.pcolormesh(v2, dmap.values, data, shading='auto', vmin=0.5 * (lo + hi - spread),
+                           vmax=0.5 * (lo + hi + spread))
+        bar = fig.colorbar(im, ax=ax, label='dexterity within the limits\n(white: outside them)')
+        bar.formatter = ScalarFormatter(useOffset=False)   # its offset ('1e-7+7.071e-1') was written over the title
+        bar.update_ticks()
         if least is not None:
             d, (i, j) = least
             ax.plot([v2[j]], [dmap.values[i]], 'v', color='r', mec='w', ms=9,
                     label=f'least within limits {d:.4f} at {dmap.variable2} = {v2[j]:.6g} {unit2}, '
                           f'{dmap.variable} = {dmap.values[i]:.6g} {unit}')
+        if dmap.singular.any():   # over the least's marker, which hid a singular pose there
+            rows, cols = np.nonzero(dmap.singular)
+            ax.plot(v2[cols], dmap.values[rows], 'x', color='k', ms=7, mew=1.5, label='singular', zorder=4)
         if ax.lines:
             ax.legend(loc='upper center', bbox_to_anchor=(0.5, -0.14), fontsize=8)
         ax.set_xlabel(_axis(dmap.variable2, unit2))
