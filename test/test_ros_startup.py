@@ -108,6 +108,18 @@ def test_a_node_without_a_log_folder_names_it_not_its_arguments(exe):
     assert 'malformed' not in line
 
 
+def test_a_domain_id_that_is_no_number_is_named_not_the_arguments():
+    """ROS_DOMAIN_ID=abc read "malformed ROS arguments" where none were given; now the variable and what it takes."""
+    proc = NodeProcess('kinematics_node', [], env=dict(os.environ, ROS_DOMAIN_ID='abc'))
+    try:
+        status = proc.wait(timeout=60)
+    finally:
+        proc.stop()
+    line = assert_one_error_line(proc.output(), status, 2, r'cannot start: ROS_DOMAIN_ID is not an integral number; '
+                                 r'allowed: ROS_DOMAIN_ID unset or an integer from 0 to 232$')
+    assert 'malformed' not in line
+
+
 def test_send_without_a_log_folder_is_one_line_not_a_traceback():
     """``gpr program send`` with HOME unset ended in an RCLError traceback behind rcutils' "error state is being
     overwritten" block; now one line, status 2."""

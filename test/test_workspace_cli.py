@@ -397,6 +397,10 @@ def test_the_projection_says_when_the_boxes_reach_the_frame_or_the_run_stopped_e
     for i, j in ((0, 1), (1, 2)):
         fig = projection_figure(result, i, j, 'gpr', gpr.box)
         titles.append(fig.axes[0].get_title())
+        fig.canvas.draw()   # the wrapped title inside the figure (the tripod's third line was cut at its edge)
+        bb = fig.axes[0].title.get_window_extent()
+        assert bb.x0 >= 0.0 and bb.x1 <= fig.bbox.x1 and bb.y1 <= fig.bbox.y1, (bb, fig.bbox)
+        assert max(len(line) for line in titles[-1].splitlines()) <= 80, titles[-1]   # 89 here, 93 the tripod's
         plt.close(fig)
     assert [t.endswith('\n' + _title(note)) for t, note in zip(titles, [
         'the boxes reach the frame (z): the workspace may extend beyond it',

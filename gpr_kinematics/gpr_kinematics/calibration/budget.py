@@ -66,9 +66,9 @@ SHARE_FLOOR = 1e-12
 #: The linearised RSS and the Monte Carlo RMS of a quantity should agree within this fraction (a warning names
 #: every station and quantity where they do not).
 AGREEMENT = 0.10
-#: A Monte Carlo RMS of ``n`` samples scatters by about ``1 / sqrt(2 n)`` of itself (a normal quantity's): RSS and
-#: RMS must differ by more than this many of those as well before a warning calls the model not linear (one sample
-#: read "differ by 52 %"; the default 10,000 samples scatter by 0.7 %, below :data:`AGREEMENT`).
+#: A Monte Carlo RMS of ``n`` samples scatters by about ``1 / sqrt(2 n)`` of the true RMS, the RSS where the model is
+#: linear (a normal quantity's): RSS and RMS must differ by more than this many of those as well before a warning
+#: calls the model not linear (one sample read "differ by 52 %"; the default 10,000 samples scatter by 0.7 %).
 SCATTERS = 3.0
 #: A Monte Carlo error above the linearised worst case by more than this fraction of it (its rounding and the
 #: 0.002 % of the directions' polygon) is named in a warning.
@@ -95,8 +95,8 @@ class Budget:
             of ``|v|``; mc_rms, mc_max: per quantity ``(N,)``, the RMS and the largest ``|v|`` of the samples.
         mean, std: linearised mean and standard deviation of each component of ``v`` ``(N, 9)``;
             mc_mean, mc_std: the same from the samples.
-        warnings: where the linearised RSS and the Monte Carlo RMS differ by more than :data:`AGREEMENT`, and where
-            a sample's error exceeds the linearised worst case.
+        warnings: where the linearised RSS and the Monte Carlo RMS differ by more than :data:`AGREEMENT` and the
+            samples' scatter (:data:`SCATTERS`), and where a sample's error exceeds the linearised worst case.
         kept: per quantity the Monte Carlo's ``|v|`` ``(samples, K)`` of the first ``K`` stations (``keep_samples``
             of :func:`accuracy_budget`; empty without): the samples ``mc`` summarises, for a plot.
     """
@@ -362,25 +362,27 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
 def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array], worst: dict[str, Array],
               top_inside: dict[str, Array], samples: int) -> tuple[str, ...]:
     """A warning for each station and quantity whose linearised RSS and Monte Carlo RMS differ by more than
-    :data:`AGREEMENT` of the Monte Carlo's and by more than :data:`SCATTERS` times its scatter over ``samples``,
-    then for each where the error of a sample whose every draw lies within the worst case's bounds (``top_inside``,
-    the largest) exceeds the linearised worst case by more than :data:`BEYOND_WORST` of it (the worst case then
-    bounds the linearised error only; a normal draw beyond its 3 sigma lies beyond what the worst case covers,
-    whatever the model); each where either number is above :data:`SHARE_FLOOR` times 1000; against a worst case, an
-    RSS or an RMS of 0, each where the other number differs by more than :data:`NONLINEAR_FLOOR` (stated in the
-    absolute difference)."""
+    :data:`AGREEMENT` of the Monte Carlo's and by more than :data:`SCATTERS` times its scatter over ``samples`` about
+    the RSS, then for each where the error of a sample whose every draw lies within the worst case's bounds
+    (``top_inside``, the largest) exceeds the linearised worst case by more than :data:`BEYOND_WORST` of it (the
+    worst case then bounds the linearised error only; a normal draw beyond its 3 sigma lies beyond what the worst
+    case covers, whatever the model); each where either number is above :data:`SHARE_FLOOR` times 1000; against a
+    worst case, an RSS or an RMS of 0, each where the other number differs by more than :data:`NONLINEAR_FLOOR`
+    (stated in the absolute difference)."""
     disagree, beyond = [], []
     scatter = SCATTERS / math.sqrt(2.0 * samples)
     for name, (_, unit) in QUANTITIES.items():
         a, b, w, top = rss[name], mc_rms[name], worst[name], top_inside[name]
         off = np.where(np.minimum(a, b) <= SHARE_FLOOR, np.abs(a - b) > NONLINEAR_FLOOR,
-                       (np.abs(a - b) > max(AGREEMENT, scatter) * b) & (np.maximum(a, b) > 1e3 * SHARE_FLOOR))
+                       (np.abs(a - b) > np.maximum(AGREEMENT * b, scatter * a))   # the RMS scatters about the RSS
+                       & (np.maximum(a, b) > 1e3 * SHARE_FLOOR))
         over = np.where(w <= SHARE_FLOOR, top - w > NONLINEAR_FLOOR,
                         (top > w * (1.0 + BEYOND_WORST)) & (np.maximum(w, top) > 1e3 * SHARE_FLOOR))
         u, at = 'um' if unit == 'm' else 'urad', f'{name.replace("_", " ")}: '
         disagree += [f'station {labels[i]}, {at}the linearised RSS {a[i] * 1e6:.4g} {u} and the Monte Carlo RMS '
                      f'{b[i] * 1e6:.4g} {u} differ by '
-                     + (f'{100 * abs(a[i] - b[i]) / b[i]:.0f} % (more than {100 * max(AGREEMENT, scatter):.3g} %)'
+                     + (f'{100 * abs(a[i] - b[i]) / b[i]:.0f} % (more than '
+                           f'{100 * max(AGREEMENT, scatter * a[i] / b[i]):.3g} %)'
                         if min(a[i], b[i]) > SHARE_FLOOR else
                         f'{abs(a[i] - b[i]) * 1e6:.4g} {u} (more than {NONLINEAR_FLOOR * 1e6:g} {u})')
                      + ': the model is not linear over these tolerances; the Monte Carlo is exact'

@@ -14,6 +14,7 @@ extra) is missing exits with status 2 and one line naming the package to install
 from __future__ import annotations
 
 import argparse
+import codecs
 import contextlib
 import errno
 import importlib
@@ -146,9 +147,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     _usable_streams()
     try:
         return _main(argv)
-    except KeyboardInterrupt:   # Ctrl-C before the command's own handler (while it imports its modules: seconds)
-        sys.stderr.write('gpr: interrupted\n')
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:   # Ctrl-C before the command's own handler (its modules load: seconds), or a
+        killed = isinstance(exc, _Terminated)   # signal while an error is being told
+        sys.stderr.write(f'gpr: {"terminated" if killed else "interrupted"}\n')
+        return 128 + signal.SIGTERM if killed else EXIT_INTERRUPTED
 
 
 def _usable_streams() -> None:
@@ -159,9 +161,18 @@ def _usable_streams() -> None:
         stream = getattr(sys, name)
         if stream is None:  # started with the stream closed (``2>&-``): what goes there is dropped
             setattr(sys, name, open(os.devnull, 'w', encoding='utf-8'))  # noqa: SIM115 - for the process' life
-        elif (getattr(stream, 'encoding', None) or 'utf-8').lower().replace('-', '') != 'utf8':
-            with contextlib.suppress(AttributeError, ValueError):   # not a text stream of the io module
+        elif _encoding(stream) != 'utf-8':
+            with contextlib.suppress(AttributeError, ValueError, TypeError):   # not a text stream of the io module
                 stream.reconfigure(errors='backslashreplace')
+
+
+def _encoding(stream: object) -> str:
+    """The codec name of ``stream``'s encoding (``utf_8`` and ``UTF8`` are ``utf-8``; unknown: itself)."""
+    name = str(getattr(stream, 'encoding', None) or 'utf-8')
+    try:
+        return codecs.lookup(name).name
+    except LookupError:
+        return name
 
 
 def _main(argv: Sequence[str] | None) -> int:

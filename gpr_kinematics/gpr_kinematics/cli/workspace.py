@@ -90,6 +90,9 @@ def register(subparsers: Subparsers) -> None:
 MAX_SET = 2000
 #: Characters of a projection's title line before it wraps (at fontsize 8 a 5.5 in figure holds about 90).
 TITLE_WIDTH = 80
+#: A plane of two lengths is drawn with equal axes where its sides' ratio is at most this (a 2 m by 0.03 m frame
+#: would be 7 pixels tall).
+EQUAL_AXES = 4.0
 
 
 def _overrides(items: list[str]) -> dict[str, YamlValue]:
@@ -259,8 +262,9 @@ def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: n
         ax.autoscale()
     ax.set_xlabel(f'{result.variables[i]} [{result.units[i]}]')
     ax.set_ylabel(f'{result.variables[j]} [{result.units[j]}]')
-    if result.units[i] == result.units[j] == 'm':   # a plane of lengths at its true shape (a dome was 1.8x as tall)
-        ax.set_aspect('equal', adjustable='box')
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    if result.units[i] == result.units[j] == 'm' and max(x1 - x0, y1 - y0) <= EQUAL_AXES * min(x1 - x0, y1 - y0):
+        ax.set_aspect('equal', adjustable='box')   # a plane of lengths at its true shape (a dome was 1.8x as tall)
     notes = []
     if result.touches_initial_box:   # which faces: a frame the boxes stop well inside was said to be reached
         faces = reached_faces(box, result.inner, result.boundary) if box is not None else (i, j)

@@ -203,7 +203,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import ScalarFormatter
+    from matplotlib.ticker import FormatStrFormatter
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=100)
     least = _least(dmap)
@@ -232,7 +232,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
         im = ax.pcolormesh(v2, dmap.values, data, shading='auto', vmin=0.5 * (lo + hi - spread),
                            vmax=0.5 * (lo + hi + spread))
         bar = fig.colorbar(im, ax=ax, label='dexterity within the limits\n(white: outside them)')
-        bar.formatter = ScalarFormatter(useOffset=False)   # its offset ('1e-7+7.071e-1') was written over the title
+        bar.formatter = FormatStrFormatter('%.8g')   # no offset or multiplier ('1e-7+7.071e-1') over the title
         bar.update_ticks()
         if least is not None:
             d, (i, j) = least
@@ -241,7 +241,7 @@ def dexterity_figure(dmap: DexterityMap) -> Figure:
                           f'{dmap.variable} = {dmap.values[i]:.6g} {unit}')
         if dmap.singular.any():   # over the least's marker, which hid a singular pose there
             rows, cols = np.nonzero(dmap.singular)
-            ax.plot(v2[cols], dmap.values[rows], 'x', color='k', ms=7, mew=1.5, label='singular', zorder=4)
+            ax.plot(v2[cols], dmap.values[rows], 'X', mfc='w', mec='k', ms=8, mew=1.0, label='singular', zorder=4)
         if ax.lines:
             ax.legend(loc='upper center', bbox_to_anchor=(0.5, -0.14), fontsize=8)
         ax.set_xlabel(_axis(dmap.variable2, unit2))

@@ -47,7 +47,8 @@ from ..inputs.validation import MAX_COORDINATE, float_array
 from ..robot.platform_program import REQUIRED_STATION_KEYS, STATION_KEYS
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
-from .runtime import init_refusal, stderr_held
+from .runtime import init_refusal
+from .stderr_hold import stderr_held
 
 
 def _floats(values: Any, name: str, size: int | None = None, finite: bool = False) -> list[float]:
@@ -116,6 +117,7 @@ class GprClient:
             with stderr_held():   # rcutils' "error state is being overwritten" block before a refusal
                 rclpy.init(args=None if args is None else list(args), context=self.context)
         except RCLError as exc:   # a traceback of gpr program send where HOME was unset
+            self.context.try_shutdown()   # made before its logging refused
             raise GprError(f'cannot start a ROS client: {init_refusal(exc)}') from None
         self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
         self.executor: Executor

@@ -23,10 +23,9 @@ import os
 import re
 import signal
 import sys
-import tempfile
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterable, Iterator, Sequence
+from collections.abc import Callable, Coroutine, Iterable, Sequence
 from typing import Any
 
 import rclpy
@@ -44,6 +43,7 @@ from ..errors import EXIT_BAD_INPUT, GprError
 from ..inputs.validation import decimal_number
 from .params import unknown_overrides
 from .params_files import check_params_files
+from .stderr_hold import stderr_held
 
 EXIT_OK = 0
 #: Exit status of a node that stopped on an error while running.
@@ -296,32 +296,6 @@ def one_line(exc: BaseException) -> str:
     return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE] + ' ...'
 
 
-@contextlib.contextmanager
-def stderr_held() -> Iterator[None]:
-    """Hold back what C code writes to stderr (rcl's own log line before an RCLError) until the block ends; it
-    is written out only when the block succeeds, so a failed init leaves one ``cannot start`` line. Without a stderr
-    (a node started with ``2>&-``) there is nothing to hold."""
-    try:
-        saved = os.dup(2)
-    except OSError:
-        yield
-        return
-    with tempfile.TemporaryFile() as held:
-        os.dup2(held.fileno(), 2)
-        ok = False
-        try:
-            yield
-            ok = True
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            if ok:
-                held.seek(0)
-                data = held.read()
-                if data:
-                    os.write(2, data)
-
-
 #: How long [s] a process whose start was refused may take to shut rclpy down before it leaves regardless.
 REFUSED_EXIT_WAIT = 10.0
 
@@ -369,14 +343,17 @@ def _init(args: Sequence[str] | None, logger: Any) -> bool:
             rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
     except RCLError as exc:
         logger.error(f'cannot start: {init_refusal(exc)}')
+        rclpy.try_shutdown()   # a context rcl made before its logging refused
         return False
     return True
 
 
 def init_refusal(exc: RCLError) -> str:
     """Why ``rclpy.init`` refused: its logging without a log folder it can write (``HOME`` unset: it read "malformed
-    ROS arguments" where none were given), else the arguments."""
+    ROS arguments" where none were given), a ``ROS_DOMAIN_ID`` that is no number, else the arguments."""
     text = one_line(exc)
+    if 'ROS_DOMAIN_ID' in text:
+        return f'{text}; allowed: ROS_DOMAIN_ID unset or an integer from 0 to 232'
     if 'initialize logging' not in text:
         return f'malformed ROS arguments: {text}'
     text = re.sub(r': (\d+)$', lambda m: f': {os.strerror(int(m.group(1)))}', text)

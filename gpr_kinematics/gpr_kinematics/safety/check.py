@@ -277,7 +277,8 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
                   ) -> tuple[SafetyReport, ClearanceReport, tuple[Array, Array]]:
     """The safety verdict of a checked program in ``cell`` (module docstring); also the clearance report and the
     slip ratio against time (for the plot). ``progress``: told the share of each stage done as it goes (the
-    clearance after each round of its search; the slip before and after). ``rate`` [Hz]: the stream whose samples
+    clearance after each round of its search; the slip after each carrying arm's ratios and each round of its
+    bound). ``rate`` [Hz]: the stream whose samples
     the imperfection budget is judged at. ``with_clearance=False``: the slip and the budget only (no python-fcl
     needed; no pair, a minimum clearance of ``inf``).
 
