@@ -97,6 +97,10 @@ _DELETE = object()
                                       r'\[-2pi, 2pi\] rad \(radians only here'),
     (('arms', 1, 'blade', 'yaw'), -180, r'arms\[1\] \(arm2\): blade: yaw = -180 rad is beyond one turn; allowed: '
                                         r'\[-2pi, 2pi\] rad \(radians only here: -180 deg is -3.14159265 rad\)$'),
+    # a joint limit in degrees was refused without the hint the mount's yaw and the base's rpy give
+    (('arms', 0, 'joints', 1, 'lower'), -155, r'joints\[1\] \(arm1_elbow\): lower = -155.0 is invalid; allowed: '
+                                              r'radians within \[-2pi, 2pi\] \(radians only here: -155 deg is '
+                                              r'-2.70526034 rad\)$'),
     (('rods', 'velocity'), 0, r'rods: velocity = 0.0 is invalid; allowed: m/s, 1e-06 <= velocity <= 10$'),
     # beyond every number's bound the message named that bound, not the key's range
     (('arms', 0, 'joints', 0, 'velocity'), 1e300, r'velocity = 1e\+300 is invalid; allowed: rad/s, 1e-06 <= velocity '

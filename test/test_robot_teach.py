@@ -50,6 +50,26 @@ def test_reteach_puts_the_wafer_where_the_old_tool_meant(arm):
         np.testing.assert_allclose(rt.solution.joints[:, 2], J[:, 2], atol=0)
 
 
+def test_reteach_keeps_a_joint_whose_range_exceeds_a_turn_near_its_old_value():
+    """A shoulder of [-3.6, 3.6] rad at 200 deg (3.49 rad, within its limits) was re-taught at -160 deg, the
+    representative nearest the range's middle: a turn the other way round for a correction of micrometres. The
+    new joint lies near the old one now (within the correction), the wafer where the old tool meant it."""
+    data = robot_data()
+    data['arms'][0]['joints'][0].update(lower=-3.6, upper=3.6)
+    robot = make_robot(data)
+    Q = np.array([[0.2, 0.201, 0.199]] * 3)
+    J = np.radians([[200.0, -60.0, 20.0], [-200.0, 60.0, 20.0], [100.0, 60.0, 20.0]])
+    rt = reteach(robot, Q, J, 'arm1')
+    assert np.max(np.abs(rt.solution.joints - J)) < 1e-3, rt.solution.joints
+    assert np.array_equal(rt.solution.forward.joints, rt.solution.joints)
+    new_fk = robot_forward(robot, rt.solution.rods, rt.solution.joints, 'arm1')
+    old_fk = robot_forward(robot, Q, J, 'arm1', check_limits=False)
+    assert np.max(np.linalg.norm(new_fk.wafer.position - old_fk.naive_wafer.position, axis=1)) < 1e-9
+    # the inverse kinematics alone takes the representatives nearest the middle: a turn away from the old ones
+    plain = solve_stations(robot, rt.intended, 'arm1', branch=branch_of(robot.arm('arm1'), J))
+    assert np.allclose(plain.joints[:2, 0] - rt.solution.joints[:2, 0], [-2.0 * np.pi, 2.0 * np.pi])
+
+
 def test_reteach_refuses_names_that_are_no_list():
     """reteach(names='ab') named two stations a and b; names=5 raised TypeError."""
     Q, J = random_postures(ROBOT, 'arm1', 2, seed=24)

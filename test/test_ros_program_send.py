@@ -141,14 +141,15 @@ def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(r
     missing = ', '.join(n for n in joints.names if not n.startswith('rod_'))
     assert (status, out) == (1, '')
     assert err == (f'gpr program send: joint states on /gpr_other/joint_states came without {missing} (they carry '
-                   "rod_1, rod_2, rod_3): is the program's robot the one there? (change the topic with "
-                   '--joint-states and --namespace)\n')
+                   "gripper, rod_1, rod_2, rod_3): is the program's robot the one there? (change the topic with "
+                   '--joint-states and --namespace)\n')   # every joint they carry: it listed the program's alone
     # a message naming rod_1 twice is malformed (the simulator ignores it): send took its last value and planned
     # from there; now it reads joint states as the simulator does (controller.joint_state_values), and says so
     status, out, err = _send_beside('gpr_twice', [*joints.names, 'rod_1'], [*joints.rest, 0.3])
     assert (status, out) == (1, '')
     assert err == (f'gpr program send: joint states on /gpr_twice/joint_states came without {", ".join(joints.names)}'
-                   " (left out of the last message that left one out: the whole message, joint 'rod_1' named twice; "
+                   f' (they carry {", ".join(sorted(joints.names))}) (left out of the last message that left one '
+                   "out: the whole message, joint 'rod_1' named twice; "
                    "allowed: each joint once): is the program's robot the one there? (change the topic with "
                    '--joint-states and --namespace)\n')
 

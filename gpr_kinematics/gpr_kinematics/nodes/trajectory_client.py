@@ -50,12 +50,19 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
     return JointTrajectoryMsg(joint_names=list(traj.joint_names), points=points)
 
 
+#: Most joint names a :class:`MissingJointsError` lists of those the messages carried.
+CARRIED_SHOWN = 16
+
+
 class MissingJointsError(ServiceTimeoutError):
     """Joint states came within the wait, but without some of the joints asked for: ``missing``, ``heard`` (the
-    joints the messages taken carried) and ``ignored`` (what the last message left out, or '')."""
+    joints the messages carried, at most :data:`CARRIED_SHOWN` of them named in the text) and ``ignored`` (what the
+    last message left out, or '')."""
 
     def __init__(self, missing: Sequence[str], heard: Sequence[str], ignored: str = '') -> None:
-        carry = f' (they carry {", ".join(heard)})' if heard else ''
+        shown = ', '.join(heard[:CARRIED_SHOWN]) + (f' and {len(heard) - CARRIED_SHOWN} more'
+                                                    if len(heard) > CARRIED_SHOWN else '')
+        carry = f' (they carry {shown})' if heard else ''
         why = f' (left out of the last message that left one out: {ignored})' if ignored else ''
         super().__init__(f'without {", ".join(missing)}{carry}{why}')
         self.missing, self.heard, self.ignored = tuple(missing), tuple(heard), ignored
@@ -69,9 +76,12 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
     messages came without some of ``names`` (another robot's, or malformed: it said no joint states came, and took a
     joint named twice)."""
     latest: dict[str, float] = {}
-    ignored = ['']
+    carried: set[str] = set()   # every name the messages carried (only the program's were listed: 'they carry
+    ignored = ['']              # rod_1, rod_2, rod_3' of a robot whose arms had other names)
 
     def take(msg: JointState) -> None:
+        if len(carried) < 10 * CARRIED_SHOWN:
+            carried.update(str(n) for n in list(msg.name)[:10 * CARRIED_SHOWN])
         try:
             taken, values, left = joint_state_values(names, msg.name, msg.position)
         except GprError as exc:
@@ -85,7 +95,7 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
     try:
         if not client.spin_until(lambda: all(n in latest for n in names), timeout):
             if latest or ignored[0]:
-                raise MissingJointsError([n for n in names if n not in latest], sorted(latest), ignored[0])
+                raise MissingJointsError([n for n in names if n not in latest], sorted(carried), ignored[0])
             return None
         return np.array([latest[n] for n in names])
     finally:

@@ -9,7 +9,7 @@ from typing import Any
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import ConfigError, GprError, brief, kind_of
 from ..inputs.schema import is_huge_number, number_key, orientation_angle
-from ..inputs.validation import TURN, TURN_SLACK, text_hint
+from ..inputs.validation import TURN, TURN_SLACK, radians_hint, text_hint
 
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
 NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
@@ -114,7 +114,13 @@ def _yaw(data: Mapping[str, Any], where: str) -> float:
 
 def _angle(data: Mapping[str, Any], key: str, where: str, default: float | None = None) -> float:
     most = TURN + TURN_SLACK   # the one rule of a turn (beyond_turn): typed, in files and requests alike
-    return _number(data, key, where, -most, most, 'radians within [-2pi, 2pi]', default, 'rad')
+    try:
+        return _number(data, key, where, -most, most, 'radians within [-2pi, 2pi]', default, 'rad')
+    except ConfigError as exc:   # a joint limit in degrees, named so as the mount's yaw and the base's rpy are
+        raw = data.get(key)
+        if isinstance(raw, (int, float)) and not isinstance(raw, bool) and most < abs(raw) <= 720.0:
+            raise ConfigError(f'{exc}{radians_hint(float(raw))}') from None
+        raise
 
 
 def check_names(rods: Sequence[str], joints: Sequence[str], arms: Sequence[str], source: str) -> None:

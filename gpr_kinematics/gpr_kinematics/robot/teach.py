@@ -14,7 +14,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +27,7 @@ from ..errors import ConfigError, InputError, LimitError, apart, brief
 from ..inputs.files import read_text
 from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.validation import rows_of
-from .arm_chain import LIMIT_SLACK
+from .arm_chain import LIMIT_SLACK, representative
 from .description import Arm, RobotDescription
 from .forward import RobotForward, check_rods, robot_forward
 from .inverse import StationSolution, held_refusal, solve_stations
@@ -192,7 +192,23 @@ def reteach(robot: RobotDescription, rods: ArrayLike, joints: ArrayLike, arm: st
     except LimitError:   # old rods tilting the platform far beyond its limit are named, not their station's tilt
         _old_tilt(robot, Q, names)   # (with the hint of degrees given as radians, which the user typed in metres)
         raise
-    return Retaught(old=old, intended=intended, solution=solution)
+    return Retaught(old=old, intended=intended, solution=_near_the_old(a, solution, old.joints))
+
+
+def _near_the_old(a: Arm, solution: StationSolution, old: Array) -> StationSolution:
+    """``solution`` with each joint whose range exceeds a turn at the value nearest its ``old`` one [rad] where that
+    lies within its limits, a whole number of turns from the inverse kinematics' (which takes the one nearest the
+    range's middle): a shoulder of [-3.6, 3.6] rad at 200 deg was re-taught at -160 deg, a turn the other way round
+    for a correction of 165 um (its cables, its path)."""
+    wide = [k for k, j in enumerate(a.joints) if j.upper - j.lower > 2.0 * math.pi]
+    if not wide:
+        return solution
+    joints = solution.joints.copy()
+    for k in wide:
+        near = representative(joints[:, k], old[:, k])
+        within = (near >= a.joints[k].lower - LIMIT_SLACK) & (near <= a.joints[k].upper + LIMIT_SLACK)
+        joints[:, k] = np.where(within, near, joints[:, k])
+    return replace(solution, joints=joints, forward=replace(solution.forward, joints=joints))
 
 
 def _held_within(a: Arm, value: Array, names: Sequence[str] | None) -> None:
