@@ -246,3 +246,24 @@ def test_the_one_pose_height_range_is_the_generic_one_to_the_last_bit(name):
         n = [math.sin(t) * math.sin(g), -math.sin(t) * math.cos(g), math.cos(t)]
         tool = [float(v) for v in rng.normal(0.0, 0.2, 3)] if rng.uniform() < 0.5 else [0.0, 0.0, 0.0]
         assert kernel.height_range(n, tool) == _height_range(SCALAR, kernel.geometry, n, tool, config)
+
+
+@pytest.mark.parametrize('q, model', [([0.0, 0.5, 0.0], 'polar'), ([0.0, -1.0, -0.5], 'polar'),
+                                      ([0.0, -0.6, 0.6], 'offset')])
+def test_rods_whose_closure_turns_the_platform_over_are_refused_alike_on_both_paths(q, model):
+    """Far outside the limits (``check_limits=False``) the polar and offset closures can turn the platform over (its
+    rotation's trace -1): the one-pose path raised ZeroDivisionError or a math domain error from its quaternion, the
+    batch returned a NaN quaternion as a pose. Both refuse it now with one message (the batch of one without a
+    sample's index, as its stroke refusal)."""
+    from gpr_kinematics.errors import ConvergenceError
+    with pytest.raises(ConvergenceError) as one:
+        forward(q, model=model, check_limits=False)
+    with pytest.raises(ConvergenceError) as batch:
+        forward_batch([q], model=model, check_limits=False)
+    assert str(one.value) == str(batch.value)
+    assert re.fullmatch(rf'virtual-joint closure \({model}\) did not converge for q = \[.*\] m: it turned the platform '
+                        r"over \(its rotation's trace -1 <= -1: no pose; the limits were not checked; the stroke is "
+                        r'\[0, 0.508\] m\)', str(one.value)), str(one.value)
+    with pytest.raises(ConvergenceError, match=r' m \(sample 1\): it turned the platform over'), \
+            np.errstate(all='ignore'):
+        forward_batch([[0.3, 0.3, 0.3], q], model=model, check_limits=False)

@@ -743,6 +743,27 @@ def test_a_station_position_beyond_the_world_bound_is_refused_with_the_hint_its_
     assert status == 2 and err.endswith('of the world origin (millimetres? give --mm)\n')
 
 
+def test_a_program_given_another_robot_than_its_own_is_refused_naming_both(capsys, tmp_path):
+    """``--robot`` of another robot (robot 2's description for robot 1's program) was refused only as its stations
+    out of reach (2550 mm too far), naming neither; now both, as trajectory_node does; a calibration (the same name,
+    arms and joints) is taken."""
+    import yaml
+    data = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())
+    data['gpr'] = {'config': str(config_path('gpr.yaml'))}
+    data['name'] = 'example_dual_arm_r2'
+    other = tmp_path / 'r2.yaml'
+    other.write_text(yaml.safe_dump(data))
+    status, out, err = run(capsys, 'program', 'check', PROGRAM, '--robot', str(other))
+    assert (status, out) == (2, '')
+    assert re.fullmatch(r'gpr program check: error: .*example_robot_program.yaml is a program for robot '
+                        r'example_dual_arm \(.*example_robot.yaml; arms arm1: .*\); --robot is robot '
+                        r'example_dual_arm_r2 \(.*r2.yaml; arms .*\): give --robot that robot\'s description or its '
+                        r'calibration, or leave it out\n', err), err
+    data['name'] = 'example_dual_arm'
+    other.write_text(yaml.safe_dump(data))
+    assert run(capsys, 'program', 'check', PROGRAM, '--robot', str(other))[0] == 0
+
+
 def test_teach_names_a_wrong_joint_count_as_fk_does(capsys):
     """--joints 0 1 for a 3-joint arm: teach answered in array shapes ('must have 3 values per sample (shape (N, 3)),
     got shape (1, 2)'), fk named the option, the arm and its joints; both now as fk."""

@@ -114,15 +114,20 @@ def test_no_server_exits_1_with_one_line(ros_environment):
                           '--namespace, the wait with --timeout)\n')
 
 
-def _send_beside(name: str, names: list[str], positions: list[float]) -> tuple[int, str, str]:
+def _send_beside(name: str, names: list[str], positions: list[float], description: str | None = None
+                 ) -> tuple[int, str, str]:
     """``gpr program send`` in the namespace ``/name`` while a publisher there streams ``joint_states`` of
-    ``names`` at ``positions`` at 20 Hz: its status, stdout and stderr."""
+    ``names`` at ``positions`` at 20 Hz (and, given, latches ``description`` on ``robot_description``): its status,
+    stdout and stderr."""
     from gpr_kinematics.nodes.client import GprClient
-    from gpr_kinematics.nodes.qos import stream_qos
+    from gpr_kinematics.nodes.qos import latched_qos, stream_qos
     from sensor_msgs.msg import JointState
+    from std_msgs.msg import String
 
     state = JointState(name=names, position=[float(v) for v in positions])
     with GprClient(f'gpr_test_{name}', namespace=f'/{name}') as c:
+        if description is not None:
+            c.node.create_publisher(String, 'robot_description', latched_qos(1)).publish(String(data=description))
         pub = c.node.create_publisher(JointState, 'joint_states', stream_qos(100))
         timer = c.node.create_timer(0.05, lambda: pub.publish(state))
         proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
@@ -152,6 +157,18 @@ def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(r
                    "out: the whole message, joint 'rod_1' named twice; "
                    "allowed: each joint once): is the program's robot the one there? (change the topic with "
                    '--joint-states and --namespace)\n')
+
+
+def test_a_program_for_another_robot_than_the_one_there_is_not_sent(ros_environment):
+    """Robot 2's program (its base 3 m away) ran on robot 1 without a word: their joints are named alike. The robot
+    there is read from its robot_description (the state publisher's URDF) and another robot's refused, status 1."""
+    joints = ControllerJoints.of(ROBOT)
+    urdf = '<?xml version="1.0"?>\n<robot name="example_dual_arm_r2">\n  <link name="world"/>\n</robot>\n'
+    status, out, err = _send_beside('gpr_r2', list(joints.names), list(joints.rest), urdf)
+    assert (status, out) == (1, '')
+    assert err == ('gpr program send: /gpr_r2/robot_description describes robot example_dual_arm_r2, and the program '
+                   "is for robot example_dual_arm: is the program's robot the one there? (another robot with "
+                   "--namespace, or that robot's program)\n")
 
 
 def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):

@@ -78,8 +78,7 @@ def test_a_calibrated_robot_runs_its_robots_programs_and_another_robot_does_not(
     command line's ``--robot`` takes it. The node now refuses another structure only: a renamed arm or joint."""
     import yaml
     from gpr_kinematics.inputs.resources import config_path
-    from gpr_kinematics.robot.program import load_program
-    from gpr_kinematics.ros.streams import program_robot
+    from gpr_kinematics.robot.program import load_program, program_robot
 
     program = load_program(config_path('programs/example_robot_program.yaml'))
     data = yaml.safe_load(config_path('robots/example_robot.yaml').read_text())

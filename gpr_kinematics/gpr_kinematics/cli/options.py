@@ -234,10 +234,13 @@ def direction(args: argparse.Namespace, value: float, option: str) -> float:
     return math.radians(v) if deg else v
 
 
-def robot_options(p: argparse.ArgumentParser) -> None:
-    """``--robot``, ``--config``, ``--model`` and ``--json``."""
+def robot_options(p: argparse.ArgumentParser, program: bool = False) -> None:
+    """``--robot``, ``--config``, ``--model`` and ``--json``; ``program``: of a program's command, whose robot is the
+    program's own by default (the help said the packaged example's)."""
     p.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
-                   help='robot description (default: the packaged example_robot.yaml)')
+                   help="robot description (default: the program's robot: file, else the packaged example_robot.yaml; "
+                        "another robot than the program's is refused, its calibration taken)" if program else
+                   'robot description (default: the packaged example_robot.yaml)')
     p.add_argument('--config', metavar='FILE', help="GPR geometry file replacing the description's gpr section")
     p.add_argument('--model', choices=MODELS, help='virtual-joint model (default: from the geometry)')
     p.add_argument('--json', action='store_true', help='print one JSON object on stdout')

@@ -41,7 +41,7 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
     program names is an input too, read or not: no output may replace it."""
     from ..inputs.files import note_input
     from ..robot.plan import check_sample_count, plan_program
-    from ..robot.program import load_program
+    from ..robot.program import GIVEN_ROBOT, load_program, program_robot
     program = load_program(args.program)
     robot = named_file(program, 'robot', args.robot)
     if program.cell is not None:
@@ -52,7 +52,10 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
                             f'folder) {what}; allowed: an existing cell file, or no cell key')
     if rate is not None:
         check_sample_count(program, rate)
-    return program, plan_program(robot_of(args, robot), program, rate)
+    described = robot_of(args, robot)
+    if args.robot is not None:   # another robot than the program's: named, not its stations out of reach
+        program_robot(program, described, GIVEN_ROBOT)
+    return program, plan_program(described, program, rate)
 
 
 
@@ -349,7 +352,9 @@ def _cmd_send(args: argparse.Namespace) -> int:
     joint_states, action = _ros_names(args)
     with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:
         current = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
-        if current is None:
+        other = None if current is None else tc.other_robot_there(client, plan.robot.name)
+        if current is None or other is not None:
+            sys.stderr.write(f'gpr program send: {other}\n' if other else '')   # another robot there, status 1
             return 1
         try:
             goal, start = lead_in(plan, traj, current, args.rate)
@@ -404,7 +409,7 @@ def _send_parser(psub: Any) -> None:
     p.add_argument('--timeout', type=number, default=10.0,
                    help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
     p.add_argument('--progress', type=number, default=1.0, help='seconds between progress lines (default 1)')
-    robot_options(p)
+    robot_options(p, program=True)
     p.set_defaults(handler=_cmd_send)
 
 
@@ -426,7 +431,7 @@ def register(sub: Any) -> None:
                    f'imperfection budget is judged at [Hz] (trajectory_node\'s rate; default {STREAM_RATE:g}; 0.1 to '
                    '5000)')
     add_no_progress(p)
-    robot_options(p)
+    robot_options(p, program=True)
     p.set_defaults(handler=_cmd_check)
     p = psub.add_parser('export', help='the joint table per waypoint and per sample, as CSV or JSON; the joint '
                         'trajectory as YAML')
@@ -439,6 +444,6 @@ def register(sub: Any) -> None:
                    'much after the start [s] (a controller moves there from where the robot is; 0 to 3600); '
                    'default 0')
     p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
-    robot_options(p)
+    robot_options(p, program=True)
     p.set_defaults(handler=_cmd_export)
     _send_parser(psub)

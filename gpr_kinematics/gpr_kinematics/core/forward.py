@@ -20,6 +20,7 @@ row to rounding (~1e-16).
 """
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
@@ -39,7 +40,7 @@ from .platform_pose import FitFloats, PlatformPose, platform_pose
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .stroke import STROKE_SLACK, check_stroke, q_rows
-from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model
+from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model, turned_over
 
 Array = NDArray[np.float64]
 S = TypeVar('S')
@@ -314,7 +315,13 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
             raise InputError(f'joint displacements must have shape ({A.shape[0]}, 3, 3), one (3, 3) per sample; got '
                              f'shape {d.shape}')
         geo = (geo or MachineGeometry.of(cfg)).displaced(d)
-    out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)
+    with np.errstate(divide='ignore', invalid='ignore') if not check_limits else contextlib.nullcontext():
+        out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)   # (refused)
+    if not check_limits:   # far outside the limits the closure may turn the platform over: NaN passed as a pose
+        over = np.flatnonzero(~(1.0 + np.trace(out.rotation, axis1=1, axis2=2) > 0.0))
+        if over.size:
+            i = int(over[0])
+            raise turned_over(vjm.name, cfg, A[i].tolist(), float(np.trace(out.rotation[i])), i if len(A) > 1 else None)
     return out
 
 
@@ -377,7 +384,10 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
-        return P, L, closure, kernel.fit(P, closure.components)
+        frame = kernel.fit(P, closure.components)
+        if not 1.0 + frame[0] + frame[4] + frame[8] > 0.0:   # its pose's quaternion divided by zero (or NaN)
+            raise turned_over(kernel.model.name, kernel.config, list(q), frame[0] + frame[4] + frame[8])
+        return P, L, closure, frame
     except GprError:
         raise
     except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step

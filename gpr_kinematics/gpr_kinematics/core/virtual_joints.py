@@ -278,3 +278,11 @@ def not_converged(what: str, config: GprConfig, err: Value, active: Mask) -> Con
                             f'side-length error {float(np.max(e)):.3e} m > tolerance {config.tolerance:.1e} m')
 
 
+def turned_over(model: str, config: GprConfig, q: list[float], trace: float, sample: int | None = None
+                ) -> ConvergenceError:
+    """The refusal of rods whose closure turned the platform over (a rotation's trace ``<= -1``: no quaternion, no
+    tilt; rods far outside the limits, ``check_limits=False``), one path's as the other's."""
+    where = '' if sample is None else f' (sample {sample})'
+    return ConvergenceError(f'virtual-joint closure ({model}) did not converge for q = {q} m{where}: it turned the '
+                            f'platform over (its rotation\'s trace {trace:.6g} <= -1: no pose; the limits were not '
+                            f'checked; the stroke is [{config.stroke_min:g}, {config.stroke_max:g}] m)')

@@ -1,17 +1,20 @@
 """The client side of ``control_msgs/action/FollowJointTrajectory``: where the robot is, and a trajectory sent to a
 controller (``robot_simulator_node``, ros2_control's ``joint_trajectory_controller``, any server of the action).
 
-:func:`current_positions` waits for ``joint_states`` messages that together carry every joint of a trajectory;
+:func:`current_positions` waits for ``joint_states`` messages that together carry every joint of a trajectory
+(:func:`other_robot_there` reads the robot's name on ``robot_description``);
 :func:`follow_trajectory` sends a :class:`~gpr_kinematics.robot.trajectory.JointTrajectory` as a goal, reports its
 feedback and returns the outcome (:class:`FollowOutcome`: the goal status and the result's ``error_code`` and
 ``error_string``); an interrupt (Ctrl-C) cancels the goal before it leaves. ``gpr program send`` runs on these.
 """
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
+from xml.sax.saxutils import unescape
 
 import numpy as np
 from action_msgs.msg import GoalStatus
@@ -27,7 +30,7 @@ from ..errors import GprError
 from ..robot.controller import ERROR_NAMES, joint_state_values
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
-from .qos import action_client_options, stream_qos
+from .qos import action_client_options, latched_qos, stream_qos
 
 #: Time [s] for a subscription to match a publisher the graph already shows.
 SETTLE = 0.3
@@ -100,6 +103,35 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
         return np.array([latest[n] for n in names])
     finally:
         client.node.destroy_subscription(sub)
+
+
+#: How long [s] ``gpr program send`` waits for the robot's ``robot_description`` once its joint states came (a
+#: simulator without a state publisher describes none: the wait is spent, and nothing is compared).
+DESCRIPTION_WAIT = 1.5
+
+
+def other_robot_there(client: GprClient, robot: str, timeout: float = DESCRIPTION_WAIT) -> str | None:
+    """Why a program for ``robot`` (its name) is not for the robot there, or None: the name of the URDF on
+    ``robot_description`` (latched, the state publisher's, in the client's namespace) where it is another (a
+    program of robot 2 ran on robot 1 without a word: their joints are named alike); None also where none came."""
+    from std_msgs.msg import String
+    got: list[Any] = []
+    sub = client.node.create_subscription(String, 'robot_description', got.append, latched_qos(1))
+    try:
+        client.spin_until(lambda: bool(got), timeout)
+    finally:
+        client.node.destroy_subscription(sub)
+    found = re.search(r'<robot\s+name=(["\'])(.*?)\1', str(got[-1].data)[:URDF_HEAD]) if got else None
+    there = None if found is None else unescape(found.group(2), {'&quot;': '"', '&apos;': "'"})
+    if there is None or there == robot:
+        return None
+    topic = client.node.resolve_topic_name('robot_description')
+    return (f'{topic} describes robot {there}, and the program is for robot {robot}: is the program\'s robot the one '
+            'there? (another robot with --namespace, or that robot\'s program)')
+
+
+#: Characters of a URDF read for its robot's name (its ``<robot name=...>`` opens it).
+URDF_HEAD = 4096
 
 
 class NoServerError(ServiceTimeoutError):

@@ -68,13 +68,12 @@ from gpr_interfaces.msg import PlatformState, RobotState
 from ..core.messages import DEFAULT_FRAMES, NS_PER_S, Service, Topic, geometry_text, robot_text, stream_messages
 from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
-from ..robot.program import RobotProgram, load_any_program
+from ..robot.program import RobotProgram, load_any_program, program_robot
 from ..ros.specs import TRAJECTORY, check_frame_names, check_frame_prefix
 from ..ros.streams import (
     GoalFiles,
     Trajectory,
     goal_program,
-    program_robot,
     record_of,
     sweep_trajectory,
     trajectory_of,

@@ -49,7 +49,7 @@ from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.units import to_si
 from ..inputs.validation import MAX_COORDINATE, text_hint
-from .description import Arm, RobotDescription
+from .description import Arm, RobotDescription, load_robot
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
 from .station_files import (
@@ -391,3 +391,30 @@ def _check_entry(arm: Arm, where: str, station: str) -> None:
                'chooses its posture by the rule nearest, not with a held joint (fixed_joint)')
         raise ConfigError(f'{where}: station {station} has a straight entry, but arm {arm.name} {why}; allowed: a '
                           '3-joint arm, or a 4-joint arm under fixed_joint')
+
+
+def robot_structure(robot: RobotDescription) -> tuple[object, ...]:
+    """What a program is written against: the robot's name, its rods' names, its arms and their joints' names. Its
+    dimensions are not: a calibrated description (``gpr calibrate --robot``) keeps these and moves those."""
+    return robot.name, robot.rods.names, tuple((a.name, a.joint_names) for a in robot.arms)
+
+
+#: How :func:`program_robot` names the robot a program is run on, and what it asks for, per caller.
+NODE_ROBOT = ('this node runs robot', "start trajectory_node with robot_file:= that robot's description or its "
+              'calibration')
+GIVEN_ROBOT = ('--robot is robot', "give --robot that robot's description or its calibration, or leave it out")
+
+
+def program_robot(prog: RobotProgram, robot: RobotDescription, who: tuple[str, str] = NODE_ROBOT) -> None:
+    """:class:`ConfigError` when a robot program names a robot other than ``robot`` (the node's, or ``--robot``'s):
+    another name, rods or arms (:func:`robot_structure`). ``robot`` may be that robot's calibration (it was refused,
+    and the message sent the user back to the uncalibrated arms); ``--robot`` of another robot was refused only as
+    its stations out of reach (2550 mm too far), without naming either."""
+    if prog.robot is None:
+        return
+    other = load_robot(prog.robot, geometry=robot.config)
+    if robot_structure(other) != robot_structure(robot):
+        def arms(r: RobotDescription) -> str:
+            return '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in r.arms)
+        raise ConfigError(f'{prog.source} is a program for robot {other.name} ({prog.robot}; arms {arms(other)}); '
+                          f'{who[0]} {robot.name} ({robot.source}; arms {arms(robot)}): {who[1]}')

@@ -33,7 +33,7 @@ from ..core.sweep import paper_sweep
 from ..errors import ConfigError, GprError
 from ..inputs.files import confined_reads
 from ..inputs.resources import config_dir
-from ..robot.description import RobotDescription, Rods, load_robot
+from ..robot.description import RobotDescription, Rods
 from ..robot.markers import marker_points
 from ..robot.plan import check_sample_count
 from ..robot.platform_program import (
@@ -45,7 +45,7 @@ from ..robot.platform_program import (
     rod_demand,
     sample_program,
 )
-from ..robot.program import RobotProgram, load_any_program
+from ..robot.program import RobotProgram, load_any_program, program_robot
 from ..robot.stream import RobotStream, robot_stream
 
 Array = NDArray[np.float64]
@@ -187,27 +187,6 @@ def robot_trajectory(robot: RobotDescription, prog: RobotProgram, rate: float) -
     return Trajectory(gpr, gpr.tilt.tolist(), gpr.tilt_azimuth.tolist(), rs.waypoint.tolist(), rs.waypoint_names,
                       desc, stream_markers(robot.config, gpr), rs, kind=ROBOT_PROGRAM, spec=prog,
                       target=rs.target.tolist())
-
-
-def robot_structure(robot: RobotDescription) -> tuple[object, ...]:
-    """What a program is written against: the robot's name, its rods' names, its arms and their joints' names. Its
-    dimensions are not: a calibrated description (``gpr calibrate --robot``) keeps these and moves those."""
-    return robot.name, robot.rods.names, tuple((a.name, a.joint_names) for a in robot.arms)
-
-
-def program_robot(prog: RobotProgram, robot: RobotDescription) -> None:
-    """:class:`ConfigError` when a robot program names a robot other than ``robot`` (the node's): another name,
-    rods or arms (:func:`robot_structure`). The node's description may be that robot's calibration, as the command
-    line's ``--robot`` may (it was refused, and the message sent the user back to the uncalibrated arms)."""
-    if prog.robot is None:
-        return
-    other = load_robot(prog.robot, geometry=robot.config)
-    if robot_structure(other) != robot_structure(robot):
-        def arms(r: RobotDescription) -> str:
-            return '; '.join(f'{a.name}: {", ".join(a.joint_names)}' for a in r.arms)
-        raise ConfigError(f'{prog.source} is a program for robot {other.name} ({prog.robot}; arms {arms(other)}); '
-                          f'this node runs robot {robot.name} ({robot.source}; arms {arms(robot)}): start '
-                          f'trajectory_node with robot_file:= that robot\'s description or its calibration')
 
 
 #: Longest ``program_file`` of a goal (Linux's ``PATH_MAX``, 4096 bytes; a longer one was looked up and quoted
