@@ -325,8 +325,16 @@ def test_azimuth_beyond_its_bound_is_refused():
     a, b = inverse(0.5, 0.02, 0.7), inverse(0.5, 0.02, 0.7 + 2 * math.pi * 1000)
     assert np.allclose(a.q, b.q, atol=1e-12)
     for g in (1e300, -1e7, 1e6 + 1):
-        with pytest.raises(InputError, match=r'azimuth = .* rad; allowed: finite values within \+-1e\+06 rad'):
+        with pytest.raises(InputError, match=r'azimuth = .* rad; allowed: finite values within \+-(1e\+06|1000000) '
+                                             r'rad'):
             inverse(0.5, 0.02, g)
+    # the value and its bound printed apart ('1e+06 rad; allowed: ... within +-1e+06 rad'), one text on both paths
+    with pytest.raises(InputError) as one:
+        inverse(0.3, 0.01, 1000000.0000000001)
+    with pytest.raises(InputError) as batch:
+        inverse_batch([0.3], [0.01], [1000000.0000000001])
+    assert str(one.value) == str(batch.value) and str(one.value).startswith(
+        'azimuth = 1000000.0000000001 rad; allowed: finite values within +-1000000 rad')
     with pytest.raises(InputError, match=r'azimuth = 1e\+300 rad \(target 1\); allowed: finite values within'):
         inverse_batch([0.5, 0.5], 0.02, [0.0, 1e300])
 

@@ -91,9 +91,11 @@ def test_radial_symmetry_tilt_about_x_gives_l2_equal_l3():
 def test_non_convergence_is_an_error_not_an_answer():
     cfg = CFG.replace(max_iterations=1)
     vjm = make_model(cfg, 'polar')
-    L = np.array([[0.1615, 0.1616, 0.1614]])
+    L = np.array([[0.1615, 0.1616, 0.1614]] * 2)
     with pytest.raises(ConvergenceError, match=r'did not converge in 1 iterations for sample 0'):
         solve_virtual_joints(L, vjm, cfg)
+    with pytest.raises(ConvergenceError, match=r'did not converge in 1 iterations: '):   # a batch of one: as one pose
+        solve_virtual_joints(L[:1], vjm, cfg)
     with pytest.raises(ConvergenceError, match='did not converge'):
         forward([0.5, 0.503, 0.498], config=cfg)
 

@@ -29,7 +29,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import ConvergenceError, InputError, LimitError, norm_text
+from ..errors import ConvergenceError, InputError, LimitError, apart, norm_text
 from ..inputs.validation import (
     MAX_COORDINATE,
     column_of,
@@ -308,8 +308,9 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
 
 
 def _refuse_azimuth(value: float, where: str) -> None:
-    raise InputError(f'azimuth = {value:g} rad{where}; allowed: finite values within +-{MAX_COORDINATE:g} rad (an '
-                     'angle is periodic, but beyond that a float keeps no digits modulo 2 pi)')
+    shown, bound = apart(abs(value), MAX_COORDINATE) if math.isfinite(value) else (str(abs(value)), 'a million')
+    raise InputError(f'azimuth = {"-" if value < 0 else ""}{shown} rad{where}; allowed: finite values within +-{bound} '
+                     'rad (an angle is periodic, but beyond that a float keeps no digits modulo 2 pi)')
 
 
 def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config: GprConfig | None = None,
@@ -338,9 +339,9 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
     stroke = switch(stroke, 'stroke')   # None or 0 turned the stroke's check off without a word
     cols = [column_of(v, n) for v, n in ((height, 'height'), (tilt, 'tilt'), (azimuth, 'azimuth'))]
     big = np.abs(cols[2]) > MAX_COORDINATE
-    if big.any():
+    if big.any():   # the target named where there are several (as the tool's check names it)
         i = int(np.argmax(big))
-        _refuse_azimuth(float(cols[2][i]), f' (target {i})')
+        _refuse_azimuth(float(cols[2][i]), f' (target {i})' if big.size > 1 else '')
     tools = rows_of(tool, 'tool', 3)
     check_tool(tools)
     try:   # an empty one beside ones of one value broadcast to no target at all (silently): refused as a mismatch

@@ -273,7 +273,7 @@ def not_converged(what: str, config: GprConfig, err: Value, active: Mask) -> Con
     """The error of a Newton loop that used up ``max_iterations``: the worst sample's error [m]
     (``err``, ``active``: a float and a bool for one pose, arrays for a batch, which name the sample)."""
     e = np.where(active, err, -1.0)
-    where = '' if np.ndim(err) == 0 else f' for sample {int(np.argmax(e))}'
+    where = '' if np.size(err) == 1 else f' for sample {int(np.argmax(e))}'   # a batch of one as one pose
     return ConvergenceError(f'{what} did not converge in {config.max_iterations} iterations{where}: '
                             f'side-length error {float(np.max(e)):.3e} m > tolerance {config.tolerance:.1e} m')
 
