@@ -229,7 +229,12 @@ def test_another_robot_given_fails_the_wafer_poses(robot_bag: Path) -> None:
     result = verify_bag(robot_bag, robot=other, robot_source='--robot longer.yaml')
     check = next(c for c in result.checks if c.name == 'robot.wafer_position')
     assert check.failed > 0 and 1e-4 < check.worst <= 1e-3 + 1e-12
-    assert 'robot description: --robot longer.yaml (given)' in result.notes
+    assert 'robot description: --robot longer.yaml (given)' in result.notes   # the same robot's name: no word
+    # another robot's file (robot 2's for robot 1's bag) failed the same way without saying the robot differed
+    renamed = dataclasses.replace(other, name='example_dual_arm_r2')
+    result = verify_bag(robot_bag, robot=renamed, robot_source='--robot r2.yaml')
+    assert ('robot description: --robot r2.yaml (given): robot example_dual_arm_r2, but the bag recorded robot '
+            'example_dual_arm on /gpr/robot') in result.notes, result.notes
 
 
 @pytest.mark.parametrize('text,detail', [

@@ -98,7 +98,7 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
     states = _topic(bag, ROBOT_STATE_TOPIC) is not None
     if given is not None:
         return RobotChoice(given, 'given', skipped('topic.robot', ROBOT_TOPIC, '', f'{given_source} given'),
-                           [f'robot description: {given_source} (given)'])
+                           [f'robot description: {given_source} (given){_other_than_recorded(t, given, config)}'])
     if t is None:
         if states:
             return RobotChoice(None, '', bag_check('topic.robot', ROBOT_TOPIC, [(ROBOT_TOPIC, 1.0, 0.0, (
@@ -121,6 +121,20 @@ def choose_robot(bag: Bag, given: RobotDescription | None, given_source: str, co
             f'robot {robot.name} recorded on {t.name}; no robot states (a platform stream, or a recording of '
             'fewer topics): no wafer pose verified')
     return RobotChoice(robot, 'recorded', bag_check('topic.robot', ROBOT_TOPIC, [], len(t), ''), [note])
+
+
+def _other_than_recorded(t: TopicData | None, given: RobotDescription, config: GprConfig) -> str:
+    """Words for a ``--robot`` other than the robot the bag recorded (by name; '' where it is that robot, or none
+    readable was recorded): verified against robot 2's file, a recording of robot 1 failed at its wafer poses without
+    saying the robot differed."""
+    if t is None or t.msgtype != GPR_TOPICS[ROBOT_TOPIC]:
+        return ''
+    try:
+        recorded = _parse(str(t.columns()['data'][0]), config, False, t.name)
+    except (GprError, IndexError):
+        return ''
+    return '' if recorded.name == given.name else (f': robot {given.name}, but the bag recorded robot {recorded.name} '
+                                                   f'on {t.name}')
 
 
 @dataclass(frozen=True)
