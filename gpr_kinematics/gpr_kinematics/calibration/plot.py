@@ -133,7 +133,9 @@ LEGEND_ROOM = 2.0
 
 def _budget_panel(ax: Axes, p: Panel) -> None:
     unit = 'um' if p.unit == 'm' else 'urad'
-    ax.stairs(p.counts, p.edges * 1e6, fill=True, color='tab:blue', alpha=0.45, label=f'{len(p.samples)} samples')
+    n = len(p.samples)
+    ax.stairs(p.counts, p.edges * 1e6, fill=True, color='tab:blue', alpha=0.45,
+              label=f'{n} sample{"s" if n != 1 else ""}')
     k = 0
     for name, value in p.lines:
         colour, style = _LINE_STYLES.get(name, (_PERCENTILE_COLOURS[k % len(_PERCENTILE_COLOURS)], ':'))
@@ -169,8 +171,10 @@ def budget_figure(data: BudgetPlot) -> Figure:
     shown = len(data.stations)
     which = f'the first {shown} of {data.total} stations' if data.total > shown else \
         f'{shown} station{"s" if shown > 1 else ""}'
-    fig.suptitle(textwrap.fill(f'accuracy budget, {which}: Monte Carlo of {data.samples} samples (seed {data.seed}) '
-                               f'against the linearised worst case and RSS, errors in the axes of {data.frame}',
+    plural = 's' if data.samples != 1 else ''
+    fig.suptitle(textwrap.fill(f'accuracy budget, {which}: Monte Carlo of {data.samples} sample{plural} (seed '
+                               f'{data.seed}) against the linearised worst case and RSS, errors in the axes of '
+                               f'{data.frame}',
                                40 * cols), fontsize=9)
     return fig
 
