@@ -377,7 +377,8 @@ def test_the_robots_gpr_section_brings_the_covariance_and_the_calibrated_robot_k
     status, out, err = run(capsys, 'calibrate', '--robot', str(robot_yaml), arm_csv, '--output', str(out1), '--json')
     assert status == 0, err
     d = json.loads(out)
-    assert d['arms'][0]['gpr_covariance']['file'] == with_block and f'parameters in {with_block},' in d['note']
+    assert d['arms'][0]['gpr_covariance']['file'] == with_block
+    assert f"registration's datum) in {with_block}," in d['note']
     status, given, err = run(capsys, 'calibrate', '--robot', robot_file, arm_csv, '--config', with_block, '--output',
                              str(tmp_path / 'given.yaml'), '--json')
     assert status == 0, err
@@ -394,7 +395,7 @@ def test_the_robots_gpr_section_brings_the_covariance_and_the_calibrated_robot_k
     assert _fitted(again) == pytest.approx(_fitted(out), rel=1e-6)   # from the calibrated arms: the same fit
     d = json.loads(again)   # the file, and the section apart (a reviewer's 'out1.yaml: gpr' was no file to open)
     assert {k: d['arms'][0]['gpr_covariance'][k] for k in ('file', 'section')} == {'file': str(out1), 'section': 'gpr'}
-    assert f"parameters in {out1}'s gpr section, propagated" in d['note']
+    assert f"registration's datum) in {out1}'s gpr section, propagated" in d['note']
     for section, kept in (({'config': with_block, 'rod_offsets': [0.0, 0.0, 0.0]}, False),
                           ({'config': with_block, 'model': 'radial', 'tilt_limit': 0.03}, True),
                           ({'config': plain_file}, False)):

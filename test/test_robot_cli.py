@@ -319,6 +319,7 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
         raise _NoServerError(action)
 
     fake = type('tc', (), {'GprClient': _Client, 'current_positions': staticmethod(positions),
+                           'other_robot_there': staticmethod(lambda client, robot: None),   # no description there
                            'follow_trajectory': staticmethod(follow), 'NoServerError': _NoServerError,
                            'ServiceTimeoutError': TimeoutError})
     monkeypatch.setattr(cli_program, '_ros_modules', lambda: fake)

@@ -53,8 +53,8 @@ def _program(args: argparse.Namespace, rate: float | None = None) -> tuple[Any, 
     if rate is not None:
         check_sample_count(program, rate)
     described = robot_of(args, robot)
-    if args.robot is not None:   # another robot than the program's: named, not its stations out of reach
-        program_robot(program, described, GIVEN_ROBOT)
+    if args.robot is not None and program.robot is not None and os.path.isfile(program.robot):   # another robot:
+        program_robot(program, described, GIVEN_ROBOT)   # named, not as its stations out of reach
     return program, plan_program(described, program, rate)
 
 
