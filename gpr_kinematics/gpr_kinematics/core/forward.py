@@ -318,10 +318,11 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
     with np.errstate(divide='ignore', invalid='ignore') if not check_limits else contextlib.nullcontext():
         out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)   # (refused)
     if not check_limits:   # far outside the limits the closure may turn the platform over: NaN passed as a pose
-        over = np.flatnonzero(~(1.0 + np.trace(out.rotation, axis1=1, axis2=2) > 0.0))
+        trace = np.trace(out.rotation, axis1=1, axis2=2)
+        over = np.flatnonzero(~(1.0 + trace > 0.0))
         if over.size:
             i = int(over[0])
-            raise turned_over(vjm.name, cfg, A[i].tolist(), float(np.trace(out.rotation[i])), i if len(A) > 1 else None)
+            raise turned_over(vjm.name, cfg, A[i].tolist(), float(trace[i]), i if len(A) > 1 else None)
     return out
 
 
@@ -385,8 +386,9 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
         L = kernel.lengths(P)
         closure = kernel.closure(*L)
         frame = kernel.fit(P, closure.components)
-        if not 1.0 + frame[0] + frame[4] + frame[8] > 0.0:   # its pose's quaternion divided by zero (or NaN)
-            raise turned_over(kernel.model.name, kernel.config, list(q), frame[0] + frame[4] + frame[8])
+        trace = frame[0] + frame[4] + frame[8]
+        if not 1.0 + trace > 0.0:   # its pose's quaternion divided by zero (or NaN)
+            raise turned_over(kernel.model.name, kernel.config, list(q), trace)
         return P, L, closure, frame
     except GprError:
         raise

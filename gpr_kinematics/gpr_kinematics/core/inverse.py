@@ -308,7 +308,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
 
 
 def _refuse_azimuth(value: float, where: str) -> None:
-    shown, bound = apart(abs(value), MAX_COORDINATE) if math.isfinite(value) else (str(abs(value)), 'a million')
+    shown, bound = apart(abs(value), MAX_COORDINATE)   # finite: both callers checked it
     raise InputError(f'azimuth = {"-" if value < 0 else ""}{shown} rad{where}; allowed: finite values within +-{bound} '
                      'rad (an angle is periodic, but beyond that a float keeps no digits modulo 2 pi)')
 

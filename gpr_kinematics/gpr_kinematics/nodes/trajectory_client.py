@@ -108,6 +108,8 @@ def current_positions(client: GprClient, names: Sequence[str], topic: str, timeo
 #: How long [s] ``gpr program send`` waits for the robot's ``robot_description`` once its joint states came (a
 #: simulator without a state publisher describes none: the wait is spent, and nothing is compared).
 DESCRIPTION_WAIT = 1.5
+#: Characters of a URDF read for its robot's name (its ``<robot name=...>`` opens it).
+URDF_HEAD = 4096
 
 
 def other_robot_there(client: GprClient, robot: str, timeout: float = DESCRIPTION_WAIT) -> str | None:
@@ -129,9 +131,6 @@ def other_robot_there(client: GprClient, robot: str, timeout: float = DESCRIPTIO
     return (f'{topic} describes robot {there}, and the program is for robot {robot}: is the program\'s robot the one '
             'there? (another robot with --namespace, or that robot\'s program)')
 
-
-#: Characters of a URDF read for its robot's name (its ``<robot name=...>`` opens it).
-URDF_HEAD = 4096
 
 
 class NoServerError(ServiceTimeoutError):

@@ -319,8 +319,8 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
             report, (times, ratio))
 
 
-def _slip(plan: ProgramPlan, times: Array, carried: dict[str, tuple[tuple[float, float], ...]],
-          progress: Callable[[float], None]) -> tuple[Array, SlipBound]:
+def _slip(plan: ProgramPlan, times: Array, carried: dict[str, Windows], progress: Callable[[float], None]
+          ) -> tuple[Array, SlipBound]:
     """The slip ratio at ``times`` (0 where no wafer is carried) and its bound between them, each arm's wafer on its
     own and the larger ratio where two arms carry at once (one array of the carrying arm had kept the later arm's:
     the other wafer's slip went unchecked). ``progress``: the share done after each arm's ratios (half of its
