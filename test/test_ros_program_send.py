@@ -169,6 +169,10 @@ def test_a_program_for_another_robot_than_the_one_there_is_not_sent(ros_environm
     assert err == ('gpr program send: /gpr_r2/robot_description describes robot example_dual_arm_r2, and the program '
                    "is for robot example_dual_arm: is the program's robot the one there? (another robot with "
                    "--namespace, or that robot's program)\n")
+    # a URDF's name from the graph is quoted cut, not whole (a name of 3,000 characters)
+    urdf = '<robot name="' + 'x' * 3000 + '"/>'
+    status, _, err = _send_beside('gpr_r2', list(joints.names), list(joints.rest), urdf)
+    assert status == 1 and err.count('\n') == 1 and len(err) < 400 and '(3000 characters)' in err, err
 
 
 def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):

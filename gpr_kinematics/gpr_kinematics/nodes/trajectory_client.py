@@ -26,7 +26,7 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..core.messages import duration_parts
-from ..errors import GprError
+from ..errors import GprError, brief
 from ..robot.controller import ERROR_NAMES, joint_state_values
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
@@ -128,7 +128,8 @@ def other_robot_there(client: GprClient, robot: str, timeout: float = DESCRIPTIO
     if there is None or there == robot:
         return None
     topic = client.node.resolve_topic_name('robot_description')
-    return (f'{topic} describes robot {there}, and the program is for robot {robot}: is the program\'s robot the one '
+    shown = there if len(there) <= 64 else brief(there)   # a robot's name has at most 64 characters; a message more
+    return (f'{topic} describes robot {shown}, and the program is for robot {robot}: is the program\'s robot the one '
             'there? (another robot with --namespace, or that robot\'s program)')
 
 
