@@ -193,6 +193,38 @@ def test_a_local_clusters_worker_processes_ignore_sigint():
     assert child.exitcode == 0
 
 
+@pytest.mark.parametrize('at', [1, 2])
+def test_a_ctrl_c_as_the_clusters_first_processes_start_is_not_lost(at):
+    """A Ctrl-C right after the resource tracker (``at`` 1) or the fork server (2) was spawned was lost: SIGINT was
+    ignored process-wide while the server started, and the tracker's start unblocked it in this thread meanwhile (the
+    command went on to its box limit, exit 0, in a CI run). It now reaches this process's handler."""
+    import subprocess
+    import sys
+    pytest.importorskip('distributed')
+    script = f"""
+import os, signal, multiprocessing.util as util
+from gpr_kinematics.workspace.scheduler import start_workers_ignoring_sigint
+spawn, spawned = util.spawnv_passfds, []
+def spawn_then_ctrl_c(*args):
+    pid = spawn(*args)
+    spawned.append(pid)
+    if len(spawned) == {at}:
+        os.kill(os.getpid(), signal.SIGINT)
+    return pid
+util.spawnv_passfds = spawn_then_ctrl_c
+try:
+    start_workers_ignoring_sigint()
+    import time
+    time.sleep(0.5)
+except KeyboardInterrupt:
+    print('interrupted', len(spawned))
+else:
+    print('lost', len(spawned))
+"""
+    done = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ['interrupted', str(at)], done.stdout + done.stderr
+
+
 def test_a_signal_while_the_local_cluster_starts_stops_the_run_cleanly(monkeypatch):
     """SIGTERM to the process group as the cluster started killed its workers too: the start's RuntimeError "Nanny
     failed to start." ended the command in a traceback. A start that fails once a signal was caught is the run's

@@ -94,13 +94,16 @@ def _remote_client(client_class: Any, address: str) -> Any:
 
 
 def start_workers_ignoring_sigint() -> None:
-    """Have a local cluster's worker processes forked by a server started with SIGINT ignored: they inherit that (the
-    server re-installs what it was started with in each child), so a terminal's Ctrl-C, sent to the whole process
-    group, neither kills a worker as it starts ("Nanny failed to start") nor prints its KeyboardInterrupt traceback
-    (65 lines at a Ctrl-C during a run); the cluster's close stops them. This process blocks SIGINT meanwhile, so a
-    Ctrl-C then reaches its own handler when the server is started (Linux keeps a blocked signal, ignored or not)."""
+    """Have a local cluster's worker processes forked by a server started with SIGINT blocked: they inherit the mask
+    (the server ignores SIGINT itself once started), so a terminal's Ctrl-C, sent to the whole process group, neither
+    kills a worker as it starts ("Nanny failed to start") nor prints its KeyboardInterrupt traceback (65 lines at a
+    Ctrl-C during a run); the cluster's close stops them. Only this thread blocks SIGINT, and only meanwhile: a Ctrl-C
+    then reaches this process's handler, through another thread at once or here when the mask is given back. (It was
+    ignored process-wide meanwhile: a Ctrl-C that another thread took, or that came once the resource tracker's start
+    had unblocked it, was lost, and the run went on to its limits.) The resource tracker is started first, as its start
+    gives SIGINT back to this thread."""
     import multiprocessing
-    from multiprocessing import forkserver
+    from multiprocessing import forkserver, resource_tracker
 
     import dask
     from distributed.utils import get_mp_context
@@ -108,16 +111,13 @@ def start_workers_ignoring_sigint() -> None:
         return
     dask.config.set({'distributed.worker.multiprocessing-method': 'forkserver'})
     get_mp_context()   # the server's preload (distributed and its packages), set before it starts
-    if threading.current_thread() is not threading.main_thread():   # signal.signal: the main thread's only
+    if threading.current_thread() is not threading.main_thread():   # the signal mask: the main thread's only
         forkserver.ensure_running()
         return
+    resource_tracker.ensure_running()   # blocks SIGINT for its child, then unblocks it in this thread
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            forkserver.ensure_running()
-        finally:
-            signal.signal(signal.SIGINT, old)
+        forkserver.ensure_running()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
