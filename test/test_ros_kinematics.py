@@ -151,8 +151,8 @@ NAN, INF = float('nan'), float('inf')
 
 #: (id, service, request fields (a target/command as (height, tilt, azimuth) plus quaternion edits), words)
 BAD_REQUESTS = [
-    ('fk-nan', 'fk', {'q': [0.5, NAN, 0.5]}, ['q[1]', 'finite']),
-    ('fk-inf', 'fk', {'q': [INF, 0.5, 0.5]}, ['q[0]', 'finite']),
+    ('fk-nan', 'fk', {'q': [0.5, NAN, 0.5]}, ['q2 = nan', 'finite']),
+    ('fk-inf', 'fk', {'q': [INF, 0.5, 0.5]}, ['q1 = inf', 'finite']),
     ('fk-above-stroke', 'fk', {'q': [0.5, 0.5, 0.6]}, ['stroke']),
     ('fk-below-stroke', 'fk', {'q': [-0.01, 0.0, 0.0]}, ['stroke']),
     ('fk-unknown-model', 'fk', {'q': [0.5, 0.5, 0.5], 'model': 'banana'}, ['banana', 'radial']),
@@ -166,7 +166,7 @@ BAD_REQUESTS = [
     ('comp-non-unit-quaternion', 'comp', {'command': (0.4, 0.0, 0.0), 'command.orientation.x': 0.5},
      ['command.orientation', 'unit quaternion']),
     ('comp-inf-tool', 'comp', {'command': (0.4, 0.0, 0.0), 'tool_offset.y': INF}, ['tool_offset', 'finite']),
-    ('mob-nan', 'mob', {'q': [0.5, 0.5, NAN]}, ['q[2]', 'finite']),
+    ('mob-nan', 'mob', {'q': [0.5, 0.5, NAN]}, ['q3 = nan', 'finite']),
     ('mob-unknown-model', 'mob', {'q': [0.5, 0.5, 0.5], 'model': 'unknown'}, ['unknown']),
 ]
 

@@ -214,9 +214,15 @@ def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(f'{name} = {a.tolist()} contains NaN or infinity: {name}[{i}] = {a[i]} is not a finite '
-                         'number; allowed: finite values in SI units')
+        raise InputError(f'{name} = {a.tolist()} contains NaN or infinity: {element(name, i)} = {a[i]} is not a '
+                         'finite number; allowed: finite values in SI units')
     return a
+
+
+def element(name: str, j: int) -> str:
+    """How a message names value ``j`` of ``name``: ``q2`` for rod 2 (numbered 1..3, like the paper's ``q1..q3``),
+    else ``name[j]``."""
+    return f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
 
 
 def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:
@@ -270,8 +276,7 @@ def rows_of(values: Any, name: str, width: int, names: Sequence[str] | None = No
     bad = ~np.isfinite(a)
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        # Rods are numbered 1..3 in messages, like the paper's q1, q2, q3.
-        label = names[j] if names else f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+        label = names[j] if names else element(name, int(j))
         where = f' (sample {i})' if a.shape[0] > 1 else ''
         raise InputError(f'{label} = {a[i, j]}{where} is not a finite number; allowed: {FINITE}')
     return a
