@@ -42,7 +42,14 @@ class NoPoseError(LimitError):
 
 
 class ConvergenceError(GprError, ArithmeticError):
-    """An iterative solver did not reach its tolerance within its iteration bound."""
+    """An iterative solver did not reach its tolerance within its iteration bound.
+
+    Attributes: ``sample``, the batch's sample that did not (None: one pose, or not known); ``error``, its last error
+    (NaN: a step that was not finite), or None."""
+
+    def __init__(self, message: str, sample: int | None = None, error: float | None = None) -> None:
+        super().__init__(message)
+        self.sample, self.error = sample, error
 
 
 class SingularityError(GprError, ArithmeticError):

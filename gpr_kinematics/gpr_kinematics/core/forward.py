@@ -40,7 +40,7 @@ from .platform_pose import FitFloats, PlatformPose, platform_pose
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
 from .stroke import STROKE_SLACK, check_stroke, q_rows
-from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model, turned_over
+from .virtual_joints import EDGES, Closure, VirtualJointModel, make_model, singular, singular_step, turned_over
 
 Array = NDArray[np.float64]
 S = TypeVar('S')
@@ -316,12 +316,16 @@ def forward_batch(Q: ArrayLike, config: GprConfig | None = None, model: str | No
                              f'shape {d.shape}')
         geo = (geo or MachineGeometry.of(cfg)).displaced(d)
     with np.errstate(divide='ignore', invalid='ignore') if not check_limits else contextlib.nullcontext():
-        out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)   # (refused)
+        try:
+            out: ForwardBatch = _forward(ARRAY, ForwardBatch, cols, cfg, vjm, check_limits, geo, stroke)  # (refused)
+        except ConvergenceError as exc:   # a singular step (NaN) named as the one-pose path names it
+            if exc.sample is None or not singular(exc):
+                raise
+            raise singular_step(vjm.name, cfg, A[exc.sample].tolist(), exc.sample if len(A) > 1 else None) from None
     if not check_limits:   # far outside the limits the closure may turn the platform over: NaN passed as a pose
         trace = np.trace(out.rotation, axis1=1, axis2=2)
         over = np.flatnonzero(~(1.0 + trace > 0.0))
-        if over.size:
-            i = int(over[0])
+        for i in map(int, over[:1]):   # the first such sample
             raise turned_over(vjm.name, cfg, A[i].tolist(), float(trace[i]), i if len(A) > 1 else None)
     return out
 
@@ -379,8 +383,7 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
 
 def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, float, float], Closure, FitFloats]:
     """The joint centres, side lengths, closure and rigid fit of the rods ``q`` (three floats) [m], no limit checked:
-    the solve of :func:`forward_parts`. A singular Newton step (rods far outside the limits) raises
-    :class:`~gpr_kinematics.errors.ConvergenceError`."""
+    the solve of :func:`forward_parts` (a singular Newton step far outside the limits: ``ConvergenceError``)."""
     try:
         P = kernel.centres(q[0], q[1], q[2])
         L = kernel.lengths(P)
@@ -390,13 +393,10 @@ def solve_parts(kernel: OnePose, q: list[float]) -> tuple[Centres, tuple[float, 
         if not 1.0 + trace > 0.0:   # its pose's quaternion divided by zero (or NaN)
             raise turned_over(kernel.model.name, kernel.config, list(q), trace)
         return P, L, closure, frame
-    except GprError:
-        raise
     except (ArithmeticError, ValueError) as exc:  # far outside the limits (check_limits=False): a singular step
-        config = kernel.config
-        raise ConvergenceError(f'virtual-joint closure ({kernel.model.name}) did not converge for q = {list(q)} m: '
-                               f'{exc} in a Newton step (the limits were not checked; the stroke is '
-                               f'[{config.stroke_min:g}, {config.stroke_max:g}] m)') from None
+        if isinstance(exc, GprError) and not singular(exc):
+            raise
+        raise singular_step(kernel.model.name, kernel.config, list(q)) from None
 
 
 def one_result(kernel: OnePose, q: Sequence[float], P: Centres, L: Sequence[float], closure: Closure,
