@@ -1,6 +1,7 @@
 """The one-pose path of forward and inverse kinematics (core/single.py): the same numbers as the drivers on floats
 to the last bit, the batch rows to 1e-12, the same refusals, over random, singular and limit poses, every model, on
 the nominal and an imperfect machine."""
+import contextlib
 import dataclasses
 import math
 import re
@@ -113,6 +114,25 @@ def test_rods_far_outside_the_stroke_unchecked_end_in_the_packages_error_as_in_t
     with pytest.raises(ConvergenceError, match=r'did not converge for q = \[-1769\.0.*a Newton step was singular'):
         forward([-1769.0291745130303, 1303.4307942578168, -0.008524297508037591], model='radial',
                 check_limits=False)
+
+
+@pytest.mark.parametrize('q', [[1e308] * 3, [0.5, 0.5, -2e6], [1e7, 0.5, 0.5]])
+def test_rods_beyond_any_joint_value_unchecked_are_refused_not_solved_to_infinity(q):
+    """Rods of 1e308 m with the limits unchecked gave a position of z = inf and a fit residual of inf (the robot's
+    wafer NaN): the bound of every joint value (1e6) holds for the rods too, one pose, a batch and the robot alike."""
+    from gpr_kinematics.robot import load_robot, robot_forward
+    k = int(np.argmax(np.abs(q)))
+    words = (rf'^q{k + 1} = {re.escape(f"{q[k]:g}")} m%s is beyond the bound of any joint value; allowed: '
+             r'\|q\| <= 1e\+06 m')
+    for model in MODELS:
+        with pytest.raises(InputError, match=words % ''):
+            forward(q, model=model, check_limits=False)
+        with pytest.raises(InputError, match=words % re.escape(' (sample 1)')):
+            forward_batch([[0.5, 0.5, 0.5], q], model=model, check_limits=False)
+    with pytest.raises(InputError, match=words % ''):
+        robot_forward(load_robot(), [q], [[0.0, 1.0, 0.0]], 'arm1', check_limits=False)
+    with contextlib.suppress(ConvergenceError):   # at the bound: solved, or refused by the closure, not the bound
+        forward([0.5, 0.5, 1e6], check_limits=False)
 
 
 @pytest.mark.parametrize('geometry', CONFIGS)

@@ -297,8 +297,8 @@ def test_a_joint_table_row_beyond_the_tilt_limit_is_named(tmp_path):
     table.write_text(','.join(['name', *ROBOT.rods.names, *a.joint_names]) + '\na,0.25,0.251,0.252,0,1,-0.5\n'
                      'b,0.25,0.28,0.252,0,1,-0.4\n')
     with pytest.raises(ConfigError, match=r"t\.csv: line 3 \(row 2, station 'b'\): q = \[0\.25, 0\.28, 0\.252\] m "
-                                          r'tilts the platform by about 0\.2093 rad \(11\.99 deg\), beyond the tilt '
-                                          r'limit'):
+                                          r'tilts the platform by about 0\.2093 rad \(11\.99 deg\) in the naive model, '
+                                          r'beyond the tilt limit'):
         read_joint_table(table, ROBOT, 'arm1')
     assert read_joint_table(table, ROBOT, 'arm1', check_limits=False)[0] == ('a', 'b')
 
@@ -322,7 +322,7 @@ def test_old_rods_tilting_far_beyond_the_limit_are_named_not_their_station():
     """Old rods of 0.05, 0, 0 m (20.95 deg of tilt) were refused as a station plane tilted beyond the limit, with the
     hint of degrees given as radians the user had not typed: the old rods are named, as without --naive."""
     with pytest.raises(LimitError, match=r'^old rods: q = \[0.05, 0.0, 0.0\] m tilts the platform by about 0.3657 rad '
-                                         r'\(20.95 deg\), beyond the tilt limit'):
+                                         r'\(20.95 deg\) in the naive model, beyond the tilt limit'):
         reteach(ROBOT, [[0.05, 0.0, 0.0]], [[0.0, 1.0, -0.5]], 'arm1')
 
 
@@ -336,7 +336,8 @@ def test_a_naive_tables_old_rods_are_named_by_file_row_and_station(tmp_path, cap
     assert main(['robot', 'teach', '--table', str(table), '--naive']) == 2
     err = capsys.readouterr().err
     assert err == (f"gpr robot teach: error: {table}: old rods of row 2 (station 's1'): q = [0.1, 0.16, 0.1] m tilts "
-                   'the platform by about 0.4435 rad (25.41 deg), beyond the tilt limit 0.03491 rad (2 deg)\n')
+                   'the platform by about 0.4435 rad (25.41 deg) in the naive model, beyond the tilt limit 0.03491 rad '
+                   '(2 deg)\n')
     with pytest.raises(LimitError, match=r"^old rods of row 2 \(station 'b'\): q = \[0\.1, 0\.16, 0\.1\] m tilts"):
         reteach(ROBOT, [[0.25] * 3, [0.1, 0.16, 0.1]], [[0.0, 1.0, 0.0], [0.0, 2.0, 0.0]], 'arm1', names=['a', 'b'])
     # rods with no pose at all (the naive wafer's, computed on first use): named by their row too

@@ -190,7 +190,8 @@ def test_lead_in_from_the_current_state():
     # rods no platform takes (beyond the tilt limit, or of no pose at all): a goal was built from them, refused by the
     # controller for something else; the robot's state is named (status 1 in send)
     for rods, what in (([0.25, 0.254, 0.262], 'q = [0.25, 0.254, 0.262] m tilts the platform by about 0.07576 rad '
-                        '(4.341 deg), beyond the tilt limit 0.03491 rad (2 deg); allowed: rods within the tilt limit'),
+                        '(4.341 deg) in the naive model, beyond the tilt limit 0.03491 rad (2 deg); allowed: rods '
+                        'within the tilt limit'),
                        ([0.1, 0.4, 0.3], 'q = [0.1, 0.4, 0.3] m imply no platform orientation (their differences are '
                         "more than the joints' spread can make at any tilt); allowed: rods within the tilt limit "
                         '0.03491 rad (2 deg)')):

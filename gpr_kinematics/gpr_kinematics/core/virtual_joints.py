@@ -40,7 +40,6 @@ joints move tangentially: its ``X`` is the one of minimum elastic cost among all
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -279,27 +278,3 @@ def not_converged(what: str, config: GprConfig, err: Value, active: Mask) -> Con
     return ConvergenceError(f'{what} did not converge in {config.max_iterations} iterations{where}: '
                             f'side-length error {float(np.max(e)):.3e} m > tolerance {config.tolerance:.1e} m',
                             i if isinstance(err, np.ndarray) else None, float(np.max(e)))
-
-
-def singular(exc: BaseException) -> bool:
-    """Whether ``exc`` is a :func:`not_converged` whose last step was not finite (its error NaN)."""
-    return isinstance(exc, ConvergenceError) and exc.error is not None and math.isnan(exc.error)
-
-
-def singular_step(model: str, config: GprConfig, q: list[float], sample: int | None = None) -> ConvergenceError:
-    """The refusal of rods whose closure took a step that was not finite (a singular Newton step: rods far outside
-    the limits, ``check_limits=False``), one path's as the other's."""
-    where = '' if sample is None else f' (sample {sample})'
-    return ConvergenceError(f'virtual-joint closure ({model}) did not converge for q = {q} m{where}: a Newton step '
-                            f'was singular (no finite step; the limits were not checked; the stroke is '
-                            f'[{config.stroke_min:g}, {config.stroke_max:g}] m)', sample, math.nan)
-
-
-def turned_over(model: str, config: GprConfig, q: list[float], trace: float, sample: int | None = None
-                ) -> ConvergenceError:
-    """The refusal of rods whose closure turned the platform over (a rotation's trace ``<= -1``: no quaternion, no
-    tilt; rods far outside the limits, ``check_limits=False``), one path's as the other's."""
-    where = '' if sample is None else f' (sample {sample})'
-    return ConvergenceError(f'virtual-joint closure ({model}) did not converge for q = {q} m{where}: it turned the '
-                            f'platform over (its rotation\'s trace {trace:.6g} <= -1: no pose; the limits were not '
-                            f'checked; the stroke is [{config.stroke_min:g}, {config.stroke_max:g}] m)')
