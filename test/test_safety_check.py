@@ -304,6 +304,18 @@ def test_check_refuses_a_tolerance_that_would_run_for_minutes_and_other_bad_numb
 
     with pytest.raises(InputError, match=words):
         check_program(PLAN, load_cell(CELL), **kwargs)
+    with pytest.raises(InputError, match=words):   # without the clearance too: its report echoed '0.002' and -1
+        check_program(PLAN, None, with_clearance=False, **kwargs)
+
+
+@pytest.mark.parametrize('switch', ['no', 0, None, 'False'])
+def test_the_clearance_switch_is_a_truth_value(switch):
+    """``with_clearance='no'`` ran the clearance (any text is true): refused, as ``check_limits='no'`` is."""
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.safety.check import check_program
+
+    with pytest.raises(InputError, match=r'^with_clearance = .*; allowed: True or False$'):
+        check_program(PLAN, None, with_clearance=switch)
 
 
 def _cell_program(**changes):

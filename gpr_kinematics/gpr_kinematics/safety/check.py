@@ -20,13 +20,14 @@ from numpy.typing import NDArray
 
 from ..callbacks import StageProgress, reporter
 from ..errors import InputError, brief
+from ..inputs.validation import switch
 from ..robot.plan import ProgramPlan, joint_limits
 from ..robot.timing import MAX_SAMPLES
 from ..robot.trajectory import JointTrajectory
 from .bodies import Body, Windows, cell_bodies, default_pairs, robot_body_set
 from .budget import BudgetReport, judge_budget
 from .cell import Cell
-from .clearance import TOLERANCE, ClearanceReport, PairClearance, clearance, slack_note
+from .clearance import BASE_RATE, TOLERANCE, ClearanceReport, PairClearance, check_numbers, clearance, slack_note
 from .joint_motion import TrajectoryMotion
 from .margin import MARGIN, STREAM_RATE
 from .motion import PROVEN_MODELS, PlanMotion, grid_within, move_counts
@@ -284,12 +285,15 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
 
     Raises:
         InputError: a plan that is no ProgramPlan, a cell that is neither a Cell nor None, a rate outside
-            :data:`~gpr_kinematics.robot.grid.RATES`.
+            :data:`~gpr_kinematics.robot.grid.RATES`, a margin or tolerance outside their ranges (with the clearance
+            or without), a switch that is no truth value.
     """
     if not isinstance(plan, ProgramPlan):
         raise InputError(f'plan = {brief(plan)}; allowed: a ProgramPlan (plan_program)')
     if cell is not None and not isinstance(cell, Cell):
         raise InputError(f'cell = {brief(cell)}; allowed: a Cell (load_cell or parse_cell) or None (no cell)')
+    check_numbers(margin, tolerance, BASE_RATE)   # reported without the clearance too ('0.002' was echoed as text)
+    with_clearance = switch(with_clearance, 'with_clearance')   # 'no' ran the clearance
     tell = reporter(progress)
     budget = judge_budget(plan, rate)
     wafers = wafer_plan(plan)
