@@ -323,3 +323,34 @@ def test_an_output_touched_while_the_command_runs_is_still_its_own(tmp_path):
         assert len(os.listdir('/proc/self/fd')) == before + 2
     assert (first.read_text(), second.read_text()) == ('A', 'B') and len(os.listdir('/proc/self/fd')) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ['a.txt', 'b.txt']
+
+
+def _loaders():
+    """Every public loader of a user's file, as a function of its path alone."""
+    from gpr_kinematics.calibration.arm import read_arm_measurements
+    from gpr_kinematics.calibration.measurements import read_measurements
+    from gpr_kinematics.calibration.tolerances import load_tolerances
+    from gpr_kinematics.core.geometry_covariance import load_covariance
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.platform_program import load_platform_program
+    from gpr_kinematics.robot.program import load_any_program, load_program
+    from gpr_kinematics.robot.station_files import load_stations
+    from gpr_kinematics.robot.teach import read_joint_table
+    from gpr_kinematics.safety.cell import load_cell
+    robot = load_robot()
+    return {'program': load_program, 'any program': load_any_program, 'platform program': load_platform_program,
+            'stations': load_stations, 'joint table': lambda p: read_joint_table(p, robot), 'cell': load_cell,
+            'tolerances': load_tolerances, 'measurements': read_measurements,
+            'arm measurements': lambda p: read_arm_measurements(p, robot), 'covariance': load_covariance}
+
+
+@pytest.mark.parametrize('path', [5, None, b'/tmp/x', ''])
+def test_every_loader_refuses_a_path_that_is_no_path_naming_it(path):
+    """Ten loaders raised a bare TypeError for 5, None or bytes (os.fspath's), and load_stations('') called the
+    empty path the folder '.': each names the path and what is allowed, as load_config does."""
+    for name, load in _loaders().items():
+        with pytest.raises(FileError) as got:
+            load(path)
+        words = str(got.value)
+        assert ('path is empty; allowed: the path of a file' in words if path == '' else
+                f'path = {brief(path)}; allowed: a file path (str or Path)' in words), (name, words)

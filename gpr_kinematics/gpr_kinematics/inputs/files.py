@@ -271,8 +271,11 @@ def kind_of(mode: int) -> str:
     return 'not a regular file'
 
 
-def _name(path: str | os.PathLike[str], what: str, role: str = 'file') -> str:
-    name = os.fspath(path)
+def path_name(path: str | os.PathLike[str], what: str, role: str = 'file') -> str:
+    """The name of a file path as given (``str`` or ``Path``, not empty, no NUL); else :class:`FileError`."""
+    name = os.fspath(path) if isinstance(path, (str, os.PathLike)) else None
+    if not isinstance(name, str):   # 5, None, bytes: a bare TypeError of os.fspath or of the NUL test
+        raise FileError(f'{what} {role} path = {brief(path)}; allowed: a file path (str or Path)')
     if name == '':
         raise FileError(f'{what} {role} path is empty; allowed: the path of a file')
     if '\0' in name:
@@ -291,7 +294,7 @@ def read_text(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_TEXT
     Raises:
         FileError: missing or unreadable, not a regular file, larger than ``max_bytes``, not UTF-8.
     """
-    name = _name(path, what)
+    name = path_name(path, what)
     rule = _CONFINED.get()
     real = rule.resolve(name, what) if rule is not None else name
     try:
@@ -337,7 +340,7 @@ def check_output(path: str | os.PathLike[str], what: str) -> Path:
     Raises:
         FileError: naming the path, what is wrong and what is allowed.
     """
-    name = _name(path, what, 'output')
+    name = path_name(path, what, 'output')
     target = Path(name)
     allowed = 'allowed: a new file or a regular file to replace, in an existing, writable folder'
     try:
@@ -418,7 +421,7 @@ def write_text(path: str | os.PathLike[str], text: str, what: str) -> Path:
 def writable_folder(path: str | os.PathLike[str], what: str) -> Path:
     """The nearest existing ancestor of a path to be created (a bag or report folder), which must be a writable
     folder; :class:`FileError` otherwise."""
-    out = Path(_name(path, what))
+    out = Path(path_name(path, what))
     parent = out.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent

@@ -36,7 +36,7 @@ import numpy as np
 from ..core.stroke import within_as_millimetres
 from ..errors import ConfigError, brief, kind_of
 from ..inputs import units
-from ..inputs.files import read_text
+from ..inputs.files import path_name, read_text
 from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
@@ -384,7 +384,8 @@ def stations_from_csv(text: str, where: str) -> StationRows:
 
 def load_stations(path: str | Path) -> StationTable:
     """Read a station file: ``.csv`` (header with units) or ``.yaml``/``.yml`` (``units`` and ``stations``)."""
-    return read_station_rows(Path(path)).table(str(path))
+    name = path_name(path, 'station')   # '' was read as the folder '.', 5 a bare TypeError
+    return read_station_rows(Path(name)).table(name)
 
 
 def read_station_rows(path: Path) -> StationRows:
