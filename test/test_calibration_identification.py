@@ -381,6 +381,15 @@ def test_refusals():
         identify(m, meas, sigma_position=-1.0)
     with pytest.raises(InputError, match=r"unknown parameter 'radius'"):
         identify(m, meas, free=['radius'])
+    # the arguments' kinds: bare AttributeErrors, and a name read letter by letter ("unknown parameter 'r'")
+    with pytest.raises(InputError, match=r"^meas = 'meas\.csv'; allowed: Measurements \(read_measurements\)$"):
+        identify(m, 'meas.csv')
+    with pytest.raises(InputError, match=r'^model is a str; allowed: a pose model'):
+        identify('model', meas)
+    with pytest.raises(InputError, match=r"^free = 'rod1_offset'; allowed: a list of parameter names or keys"):
+        identify(m, meas, free='rod1_offset')
+    status = identify(m, meas, free=('rod1_offset',)).status   # a tuple is a list of names
+    assert [m.parameters.names[i] for i, s in enumerate(status) if s != 'fixed'] == ['rod1_offset']
 
 
 def test_a_measurement_twice_is_refused_not_counted_twice():

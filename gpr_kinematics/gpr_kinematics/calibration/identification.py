@@ -36,11 +36,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..callbacks import StageProgress, reporter
 from ..core.config import MAX_SIDE_MISMATCH
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, brief
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
-from .model import ParameterSet, PoseModel, prior_scale
+from .model import ParameterSet, PoseModel, pose_model, prior_scale
 from .plausibility import measured_errors, plausible_start
 from .quality import (
     CHI2_QUANTILE,
@@ -331,6 +331,9 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
             (:func:`~.repeats.check_repeats`), a pose implausibly far from the nominal model, a bad sigma, an
             unknown parameter name, a fit that leaves the model's domain or explains nothing.
     """
+    model = pose_model(model)   # a text or a config raised a bare AttributeError
+    if not isinstance(meas, Measurements):
+        raise InputError(f'meas = {brief(meas)}; allowed: Measurements (read_measurements)')
     params = model.parameters
     mask = free_of(params, free, prior)   # a tolerance of 0 fixes its parameter
     n_free = int(mask.sum())

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.rotations import rotation_vector
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..inputs.stacked import Stacked
 from ..inputs.validation import finite_vector, rows_of
 
@@ -223,6 +223,8 @@ class ParameterSet:
         parameter of the key); ``None`` selects all. An unknown name raises :class:`InputError`."""
         if names is None:
             return np.ones(len(self), dtype=bool)
+        if isinstance(names, str) or not isinstance(names, Iterable):   # 'rod1_offset' was read letter by letter
+            raise InputError(f'free = {brief(names)}; allowed: a list of parameter names or keys, or None (all)')
         mask = np.zeros(len(self), dtype=bool)
         for name in names:
             hit = np.array([p.name == name or p.key == name for p in self.parameters], dtype=bool)
