@@ -56,6 +56,21 @@ def test_times_and_samples_meet_the_limits():
     assert set(s.arm) == {'arm1', 'arm2'}
 
 
+
+def test_a_plan_is_sampled_at_a_rate_or_at_times_and_outside_it_rests_at_its_ends():
+    """A rate beside times was ignored whatever it was ('junk'); neither or both is refused. A time outside the plan
+    is the robot at rest at that end (documented now), at the time given."""
+    from gpr_kinematics.errors import InputError
+    for kwargs, words in (({}, 'neither'), ({'rate': 'junk', 'times': [1.0]}, 'both'),
+                          ({'rate': 10.0, 'times': [1.0]}, 'both')):
+        with pytest.raises(InputError, match=rf'^sample_plan got {words} a rate and times; allowed: one$'):
+            sample_plan(PLAN, **kwargs)
+    end = PLAN.timing.total
+    s = sample_plan(PLAN, times=[-5.0, 0.0, end, end + 1000.0]).samples
+    np.testing.assert_array_equal(s.time, [-5.0, 0.0, end, end + 1000.0])
+    np.testing.assert_array_equal(s.positions[0], s.positions[1])
+    np.testing.assert_array_equal(s.positions[3], s.positions[2])
+
 def _program_file(tmp_path, stations, steps):
     data = {'format': 'gpr_robot_program', 'stations': stations, 'steps': steps}
     f = tmp_path / 'p.yaml'

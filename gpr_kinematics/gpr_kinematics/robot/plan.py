@@ -12,6 +12,7 @@ plan at a rate, with the wafer pose of the arm in use at every sample (forward k
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -412,13 +413,14 @@ def sample_times_of(times: ArrayLike) -> Array:
 
 
 def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | None = None) -> PlanSamples:
-    """Sample ``plan`` at ``rate`` [Hz] (or at ``times`` [s]); forward kinematics of every sample (limits
-    checked)."""
+    """Sample ``plan`` at ``rate`` [Hz] or at ``times`` [s] (one of them); forward kinematics of every sample (limits
+    checked). A time before the start or after the end is the robot at rest there: the start's or the end's
+    posture, at the time given."""
     robot = plan.robot
+    if (rate is None) == (times is None):   # a rate beside times was ignored, whatever it was
+        raise InputError(f'sample_plan got {"neither" if rate is None else "both"} a rate and times; allowed: one')
     if times is None:
-        if rate is None:
-            raise InputError('sample_plan needs a rate or times')
-        s = plan_samples(plan, sample(plan.timing, rate))
+        s = plan_samples(plan, sample(plan.timing, cast(float, rate)))   # not None: refused above
     else:
         s = plan_samples(plan, sample_at(plan.timing, sample_times_of(times)))
     _, _, _, slices = joint_limits(robot)
