@@ -354,3 +354,21 @@ def test_every_loader_refuses_a_path_that_is_no_path_naming_it(path):
         words = str(got.value)
         assert ('path is empty; allowed: the path of a file' in words if path == '' else
                 f'path = {brief(path)}; allowed: a file path (str or Path)' in words), (name, words)
+
+
+def test_numpy_scalars_are_named_by_their_numbers():
+    """numpy 2 writes np.float64(7.0): messages named 'azimuth_step = np.float64(7.0) rad' and 'radius =
+    np.float64(-1.0)' where the docs say numpy scalars count as their numbers."""
+    import numpy as np
+    from gpr_kinematics.core.config import GprConfig
+    from gpr_kinematics.core.sweep import paper_sweep
+
+    assert [brief(v) for v in (np.float64(7.0), np.int64(3), np.bool_(True), [np.float32(1.5)])] == \
+        ['7.0', '3', 'True', '[1.5]']
+    assert brief(np.array([1.0, 2.0])) == 'array([1., 2.])'   # an array stays one
+    for call, words in ((lambda: paper_sweep(azimuth_step=np.float64(7.0)), 'azimuth_step = 7.0 rad'),
+                        (lambda: paper_sweep(passes=np.int64(0)), 'passes = 0 must be'),
+                        (lambda: GprConfig(radius=np.float64(-1.0)), 'radius = -1.0 is invalid')):
+        with pytest.raises((InputError, ConfigError)) as got:
+            call()
+        assert words in str(got.value) and 'np.' not in str(got.value), str(got.value)

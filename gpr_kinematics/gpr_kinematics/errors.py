@@ -82,6 +82,13 @@ class _Repr(reprlib.Repr):
         self.maxlevel = 3
         self.maxstring = self.maxother = self.maxlong = 2 * BRIEF_LENGTH
 
+    def repr1(self, x: Any, level: int) -> str:
+        """A numpy scalar as its number (numpy 2 writes ``np.float64(7.0)``; messages say 7.0, as numpy 1 did)."""
+        if type(x).__module__ == 'numpy' and getattr(x, 'shape', None) == () and hasattr(x, 'item') and \
+                type(x).__name__ != 'ndarray':
+            x = x.item()
+        return super().repr1(x, level)
+
     def repr_int(self, x: int, level: int) -> str:
         if x.bit_length() > 4 * BRIEF_LENGTH:
             return f'<an integer of about {int(x.bit_length() * 0.30103) + 1} digits>'

@@ -298,7 +298,7 @@ def _triangle(points: tuple[Point2, ...]) -> tuple[float, list[float], float]:
 
 def _validate(cfg: GprConfig) -> None:
     if not cfg.stroke_min < cfg.stroke_max:
-        raise ConfigError(f'stroke_min = {cfg.stroke_min!r} must be below stroke_max = {cfg.stroke_max!r}')
+        raise ConfigError(f'stroke_min = {brief(cfg.stroke_min)} must be below stroke_max = {brief(cfg.stroke_max)}')
     a = [math.remainder(x, 2 * math.pi) for x in cfg.rod_azimuths]
     gaps = [abs(math.remainder(a[i] - a[j], 2 * math.pi)) for i, j in ((0, 1), (1, 2), (2, 0))]
     if min(gaps) < ROD_GAP:

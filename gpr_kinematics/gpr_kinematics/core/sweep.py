@@ -136,9 +136,9 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     """
     for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
         if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise InputError(f'{name} = {value!r} must be a positive finite angle in radians')
+            raise InputError(f'{name} = {brief(value)} must be a positive finite angle in radians')
         if value < LEAST_STEPS.get(name, 0.0):
-            raise InputError(f'{name} = {value!r} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
+            raise InputError(f'{name} = {brief(value)} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
     if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= MAX_PASSES:
         raise InputError(f'passes = {brief(passes)} must be an integer from 1 to {MAX_PASSES}')
     serpentine = switch(serpentine, 'serpentine')   # 'no' alternated the passes
@@ -147,16 +147,16 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
         raise InputError(f'the sweep would have {half:.6g} tilt steps from level to its largest tilt; allowed: a '
                          f'sweep of at most {MAX_SAMPLES} samples (a larger tilt step)')
     if tilt_step > max_tilt:   # not 'max_tilt must be a whole number of steps': the step is what is wrong
-        raise InputError(f'tilt_step = {tilt_step!r} rad is more than max_tilt = {max_tilt!r} rad; allowed: a step '
-                         'that divides max_tilt a whole number (>= 1) of times')
+        raise InputError(f'tilt_step = {brief(tilt_step)} rad is more than max_tilt = {brief(max_tilt)} rad; allowed: '
+                         'a step that divides max_tilt a whole number (>= 1) of times')
     n_half = round(half)
     if abs(half - n_half) > 1e-9 * max(1.0, half) or n_half < 1:
-        raise TiltStepsError(f'max_tilt = {max_tilt!r} rad is not a whole number (>= 1) of tilt steps '
-                             f'({tilt_step!r} rad); allowed: a tilt_step that divides max_tilt a whole number of '
+        raise TiltStepsError(f'max_tilt = {brief(max_tilt)} rad is not a whole number (>= 1) of tilt steps '
+                             f'({brief(tilt_step)} rad); allowed: a tilt_step that divides max_tilt a whole number of '
                              'times (every pass then crosses alpha = 0)')
     if azimuth_step > 2 * math.pi:
-        raise InputError(f'azimuth_step = {azimuth_step!r} rad ({math.degrees(azimuth_step):.6g} deg) is more than a '
-                         'turn; allowed: at most 2 pi rad (360 deg)')
+        raise InputError(f'azimuth_step = {brief(azimuth_step)} rad ({math.degrees(azimuth_step):.6g} deg) is more '
+                         'than a turn; allowed: at most 2 pi rad (360 deg)')
     turns = 2 * math.pi / azimuth_step   # at most 62,832 (LEAST_STEPS)
     n_gamma = max(1, math.ceil(turns - 1e-9))
     samples = (2 * n_half + 1) * n_gamma * passes
@@ -186,7 +186,7 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
     """
     cfg = resolve_config(config)
     if isinstance(height, bool) or not (isinstance(height, (int, float)) and math.isfinite(height)):   # True: 1 m
-        raise InputError(f'height = {height!r} must be a finite number of metres')
+        raise InputError(f'height = {brief(height)} must be a finite number of metres')
     if not isinstance(max_tilt, bool) and isinstance(max_tilt, (int, float)) and \
             max_tilt - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting (True: sweep_grid names it)
         raise LimitError(f'max_tilt = {beyond_tilt(float(max_tilt), cfg.tilt_limit)}')

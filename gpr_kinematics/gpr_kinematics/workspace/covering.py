@@ -242,9 +242,9 @@ def _check_run_options(method: str, chunk_size: int | None, parts: int) -> None:
     if method not in METHODS:
         raise InputError(f'unknown workspace method {method!r}; allowed: {", ".join(METHODS)}')
     if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
-        raise InputError(f'chunk_size must be a positive integer, got {chunk_size!r}')
+        raise InputError(f'chunk_size must be a positive integer, got {brief(chunk_size)}')
     if not (isinstance(parts, int) and 1 <= parts <= 100_000):
-        raise InputError(f'parts must be an integer from 1 to 100000, got {parts!r}')
+        raise InputError(f'parts must be an integer from 1 to 100000, got {brief(parts)}')
 
 
 class SubCoveringStoppedError(Exception):

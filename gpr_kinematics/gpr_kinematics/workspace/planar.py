@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 from ..mechanisms.upu3 import AZIMUTH_GAP, azimuth_gaps
 from .base import WorkspaceModel, check_parameters
 from .interval import Interval, T
@@ -63,10 +63,10 @@ class Rrr3PlanarModel(WorkspaceModel):
         if min(base_radius, platform_radius, crank, coupler) <= 0:
             raise ConfigError('rrr3_planar needs positive base_radius, platform_radius, crank, coupler')
         if not theta_min < theta_max < theta_min + 2 * math.pi:
-            raise ConfigError(f'rrr3_planar: theta_min = {theta_min!r}, theta_max = {theta_max!r} rad; allowed: '
-                              'theta_min < theta_max < theta_min + 2 pi (rad)')
+            raise ConfigError(f'rrr3_planar: theta_min = {brief(theta_min)}, theta_max = {brief(theta_max)} rad; '
+                              'allowed: theta_min < theta_max < theta_min + 2 pi (rad)')
         if branch not in (1, -1):
-            raise ConfigError(f'rrr3_planar branch must be 1 or -1, got {branch!r}')
+            raise ConfigError(f'rrr3_planar branch must be 1 or -1, got {brief(branch)}')
         self.R, self.r, self.l1, self.l2 = (
             float(base_radius),
             float(platform_radius),

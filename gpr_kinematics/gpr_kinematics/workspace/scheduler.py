@@ -31,7 +31,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, brief
 
 SCHEDULERS = ('local', 'none')
 _ADDRESS = re.compile(r'(tcp|tls)://[A-Za-z0-9_.\-\[\]:]+:[0-9]{1,5}')
@@ -51,7 +51,7 @@ def check_scheduler(scheduler: str, workers: int | None = None) -> None:
             'address tcp://HOST:PORT'
         )
     if workers is not None and not (isinstance(workers, int) and 1 <= workers <= MAX_WORKERS):
-        raise InputError(f'workers must be an integer from 1 to {MAX_WORKERS}, got {workers!r}')
+        raise InputError(f'workers must be an integer from 1 to {MAX_WORKERS}, got {brief(workers)}')
     if workers is not None and scheduler != 'local':
         raise InputError('workers applies to --scheduler local only (an existing cluster has its own workers)')
 
