@@ -1166,3 +1166,21 @@ def test_the_splines_slip_samples_each_segment_not_at_the_shortest_segments_rate
     assert np.min(np.diff(odd.time)) < 1e-8   # the 3 ns segment
     ratio, _ = slip.trajectory_slip(PLAN, odd, carried)
     assert sum(seen) < 1.1 * at_ten and ratio == pytest.approx(0.753, abs=0.02)
+
+
+def test_a_place_without_a_pick_carries_its_wafer_from_the_start():
+    """Without ``wafers`` a place has one to place (docs/cell.md), but that wafer went unchecked on its way there: no
+    body until the place and a slip ratio of 0 (a box 1 mm into its path and a slipping wafer passed as safe). It is
+    on the blade from the start, and from an arm's last place on for a place after it."""
+    from gpr_kinematics.inputs.safe_yaml import read_file
+    from gpr_kinematics.safety.check import check_program, wafer_plan
+
+    steps = list(read_file(PROGRAM)['steps'])
+    plan = _cell_program(wafers=None, steps=steps[3:6] + steps[7:10])   # places at pm1, then pm2: no pick
+    way, timing = plan.waypoints, plan.timing
+    at = [i for i, phase in enumerate(way.phase) if phase == 'at']
+    carried = wafer_plan(plan).carried['arm2']
+    assert carried == ((0.0, float(timing.arrive[at[0]])),
+                       (float(timing.arrive[at[0] + 1]), float(timing.arrive[at[1]])))
+    moves = check_program(plan, None, with_clearance=False)[0].moves
+    assert max(m.max_slip_ratio for m in moves if m.end <= carried[0][1]) > 0.01   # was 0: no wafer

@@ -155,6 +155,7 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     present: dict[str, tuple[float, str]] = {name: (0.0, 'start') for name in program.wafers or ()}
     stations: list[tuple[str, str, Windows]] = []
     carrying: dict[str, float] = {}
+    emptied: dict[str, float] = {}   # when each arm's blade left the wafer it placed last
     carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
     contact: dict[tuple[str, str], list[tuple[float, float]]] = {}
     for i, phase in enumerate(way.phase):
@@ -174,6 +175,9 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
         else:
             if arm in carrying:
                 carried[arm].append((carrying.pop(arm), t))
+            elif program.wafers is None:   # without the key a place has one to place: on the blade since the start,
+                carried[arm].append((emptied.get(arm, 0.0), t))   # or since the arm's last place (it went unchecked)
+            emptied[arm] = float(timing.arrive[retract])
             present[station] = (t, f'steps[{int(way.step[i])}]')
     for arm, t0 in carrying.items():
         carried[arm].append((t0, end))
