@@ -49,11 +49,12 @@ def test_a_chambers_defaults_are_applied_in_si():
             assert a.name == b.name and a.size == b.size and np.array_equal(a.position, b.position), (mm, a.name)
 
 
-def test_a_cells_angle_refusal_names_radians_after_conversion():
+def test_a_cells_angle_refusal_names_its_range_in_the_files_degrees():
+    """A tilt of 400 in a cell in degrees was allowed '-6.28319 to 6.28319 rad after conversion', where its azimuth
+    and rpy say '[-360, 360] deg': the range in the file's degrees."""
     data = _chamber({'angle': 'deg'}, [0.5, 0.5, 0.25])
     data['obstacles'][0]['tilt'] = 400
-    with pytest.raises(ConfigError, match=r'tilt = 400 is invalid; allowed: a finite number in deg, -6\.28319 to '
-                                          r'6\.28319 rad after conversion'):
+    with pytest.raises(ConfigError, match=r'tilt = 400 is invalid; allowed: a finite number in deg, -360 to 360 deg$'):
         parse_cell(data)
 
 

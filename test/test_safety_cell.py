@@ -111,6 +111,10 @@ def test_obstacles_without_a_value_are_named_in_yamls_words():
                                           r'obstacles \(\[\] for none\)$'):
         parse_cell({'format': 'gpr_cell', 'version': 1, 'obstacles': None}, 'my_cell.yaml')
     assert parse_cell(cell(), 'my_cell.yaml').obstacles == ()
+    # no obstacles key at all (a lost or misspelt list) was an empty cell: a program checked safe against nothing
+    with pytest.raises(ConfigError, match=r'^my_cell\.yaml: obstacles is missing; allowed: a list of obstacles '
+                                          r'\(\[\] for none\)$'):
+        parse_cell({'format': 'gpr_cell', 'version': 1}, 'my_cell.yaml')
 
 
 def test_metres_in_a_file_of_millimetres_are_named_so():
@@ -141,8 +145,10 @@ def test_millimetres_in_a_file_of_metres_are_named_so():
 
 
 def _chamber(**changes):
-    return parse_cell(cell({'name': 'c', 'position': [0, 0, 0], 'chamber': {
-        'size': [0.5, 0.4, 0.3], 'wall': 0.02, 'slit': [0.34, 0.04]} | changes}), 'my_cell.yaml')
+    """A cell of one chamber, its keys changed (a key given None left out)."""
+    chamber = {'size': [0.5, 0.4, 0.3], 'wall': 0.02, 'slit': [0.34, 0.04]} | changes
+    return parse_cell(cell({'name': 'c', 'position': [0, 0, 0],
+                            'chamber': {k: v for k, v in chamber.items() if v is not None}}), 'my_cell.yaml')
 
 
 @pytest.mark.parametrize('changes, allowed', [
@@ -155,6 +161,8 @@ def _chamber(**changes):
     ({'slit_z': -0.125}, 'slit_z = -0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after '
                          'conversion'),  # the slit's lower edge 5 mm into the floor (20 mm)
     ({'slit_z': 0.125}, 'slit_z = 0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after conversion'),
+    ({'size': [0.5, 0.3, 0.3], 'slit': None}, 'slit = (the default 340 x 40 mm) is invalid; allowed: narrower and '
+                                              'lower than the chamber inside its walls, 0.26 x 0.26 m'),  # 'None'
 ])
 def test_a_slit_beyond_the_chambers_inside_is_refused(changes, allowed):
     """A chamber 0.4 m wide and 0.3 m high with 20 mm walls: its slit (40 mm high) within the inside, 0.36 m wide

@@ -98,8 +98,8 @@ def _number(value: Any, where: str, key: str, lo: float, hi: float, unit: str, s
         if unit == 'm' and is_number(value) and abs(float(value)) >= 1.0 and lo <= float(value) / 1000.0 <= hi:
             # millimetres in a file of metres (a value of a metre or more, too large, within as millimetres)
             hint = f' ({value:g} m: millimetres? declare them, units: {{length: mm}})'
-        raise ConfigError(f'{where}: {given}; allowed: a finite number in {unit}, {lo:g} to {hi:g} {si} after '
-                          f'conversion{hint}')
+        ends = f'{lo / scale:g} to {hi / scale:g} deg' if unit == 'deg' else f'{lo:g} to {hi:g} {si} after conversion'
+        raise ConfigError(f'{where}: {given}; allowed: a finite number in {unit}, {ends}{hint}')   # a tilt in deg
     return to_si(float(value), scale)
 
 
@@ -148,9 +148,9 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
     wall = _default(raw, 'wall', 0.02, w, _LEAST, min(dx, dy, dz) / 2, lunit, length)
     sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, 1e-3, _SIZE, lunit, length)
     if sw >= dy - 2 * wall - _EVEN or sh >= dz - 2 * wall - _EVEN:
-        raise ConfigError(f'{w}: slit = {brief(raw.get("slit"))} is invalid; allowed: narrower and lower than the '
-                          f'chamber inside its walls, {(dy - 2 * wall) / length:.6g} x {(dz - 2 * wall) / length:.6g} '
-                          f'{lunit}')
+        given = brief(raw['slit']) if 'slit' in raw else f'(the default {sw * 1000:g} x {sh * 1000:g} mm)'
+        raise ConfigError(f'{w}: slit = {given} is invalid; allowed: narrower and lower than the chamber inside its '
+                          f'walls, {(dy - 2 * wall) / length:.6g} x {(dz - 2 * wall) / length:.6g} {lunit}')
     front = _default(raw, 'front', dx / 2, w, wall, dx - wall, lunit, length)
     sz = _default(raw, 'slit_z', 0.0, w, -dz / 2 + wall + sh / 2, dz / 2 - wall - sh / 2, lunit, length)
     cx, cz = dx / 2 - front, 0.0   # the box centre in the station frame (x into the chamber)
@@ -224,7 +224,9 @@ def parse_cell(data: Any, source: str = 'cell') -> Cell:
     if not isinstance(frame, str) or not frame:
         raise ConfigError(f'{source}: frame = {brief(frame)} is invalid; allowed: a frame name')
     length, angle = units_of(data, source)
-    raw = data.get('obstacles', [])
+    if 'obstacles' not in data:   # a lost or misspelt list read as an empty cell: a program certified against nothing
+        raise ConfigError(f'{source}: obstacles is missing; allowed: a list of obstacles ([] for none)')
+    raw = data['obstacles']
     if raw is None:   # 'obstacles:' with nothing after it: YAML's null, not Python's None
         raise ConfigError(f'{source}: obstacles has no value (YAML null); allowed: a list of obstacles ([] for none)')
     if not isinstance(raw, list):
