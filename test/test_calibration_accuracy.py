@@ -246,6 +246,16 @@ def test_a_calibrated_file_is_the_budgets_nominal(capsys, tmp_path):
     q = json.loads(out)['stations'][0]['q']
     np.testing.assert_allclose(q, inverse_batch(0.3, math.hypot(0.02, 0.01), math.atan2(0.01, 0.02), cfg,
                                                 'compliant').q[0], rtol=0, atol=1e-15)
+    # the geometry is named (a budget before and one after a calibration could not be told apart), in the text too
+    assert json.loads(out)['config'] == str(path)
+    status, out, err = run(capsys, 'accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0.02', '0.01', '0',
+                           '--tolerances', TABLE, '--config', str(path), '--samples', '0')
+    assert status == 0 and f'; geometry {path}; tolerances ' in out.splitlines()[0], out
+    # the calibrated file given as the mechanism: told where it goes
+    status, out, err = run(capsys, 'accuracy', str(path), '--pose', '0', '0', '0.3', '0.02', '0.01', '0',
+                           '--tolerances', TABLE)
+    assert status == 2 and err.rstrip().endswith('(a GPR geometry file: give it as --config FILE, with the mechanism '
+                                                 'gpr.yaml)'), err
 
 
 def test_a_worst_case_of_zero_is_compared_in_absolute_numbers(capsys, tmp_path):

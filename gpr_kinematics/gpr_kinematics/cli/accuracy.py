@@ -214,12 +214,14 @@ def budget_command(args: argparse.Namespace) -> int:
     model = args.model or MODEL
     plan = f', after a calibration from {args.calibration_plan} planned configurations' if args.calibration_plan \
         else ''
+    config = None if args.config is None else str(args.config)   # a calibrated geometry: budgets told apart
     if args.json:
-        emit_json({'file': str(path), 'tolerances': str(args.tolerances), 'model': model,
+        emit_json({'file': str(path), 'config': config, 'tolerances': str(args.tolerances), 'model': model,
                    'calibration_plan': args.calibration_plan, 'description': what} | budget.as_dict() | plotted)
         return 0
     from ..calibration.report import format_budget
-    print(f'{what}; tolerances {args.tolerances}, model {model}{plan}')
+    geometry = '' if config is None else f'; geometry {config}'
+    print(f'{what}{geometry}; tolerances {args.tolerances}, model {model}{plan}')
     print(format_budget(budget))
     if plotted:
         print(f'plot written to {plotted["plot_file"]}')

@@ -38,6 +38,10 @@ MECHANISM_TYPES: dict[str, tuple[str, str]] = {
 }
 
 
+#: Keys only a GPR geometry file has (``--config``), told apart from a mechanism file.
+GPR_GEOMETRY_KEYS = ('radius', 'rod_azimuths', 'stroke_min', 'stroke_max', 'tilt_limit')
+
+
 def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mechanism:
     """Build a mechanism from a parsed YAML mapping; ``source`` names it in error messages."""
     if not isinstance(data, Mapping):
@@ -45,8 +49,10 @@ def mechanism_from_dict(data: Mapping[str, Any], source: str = '<dict>') -> Mech
                           f'{kind_of(data)}')
     mtype = data.get('type')
     if not isinstance(mtype, str) or mtype not in MECHANISM_TYPES:
+        geometry = mtype is None and any(key in data for key in GPR_GEOMETRY_KEYS)   # a calibrated gpr.yaml
+        hint = ' (a GPR geometry file: give it as --config FILE, with the mechanism gpr.yaml)' if geometry else ''
         raise ConfigError(f'{source}: type = {key_value(data, "type")} is not a mechanism type; allowed: '
-                          + ', '.join(MECHANISM_TYPES))
+                          + ', '.join(MECHANISM_TYPES) + hint)
     module, func = MECHANISM_TYPES[mtype]
     loader = getattr(importlib.import_module(module, __name__), func)
     mechanism: Mechanism = loader(data, source)
