@@ -450,3 +450,19 @@ def test_an_option_that_takes_values_given_twice_is_refused(capsys, argv, named)
     assert (status, out) == (2, '') and err == f'{named}: the last would replace the others; allowed: each option ' \
                                                'that takes values once\n', err
     assert run_json(capsys, 'ik', '--height', '0.5', '--tilt', '0', '--azimuth', '0', '--json')['q'] == [0.5] * 3
+
+
+def test_compensate_describes_its_own_height_and_tool(capsys):
+    """compensate shared ik's help: '--height: height of the platform point', '--tool: ... whose height is
+    prescribed', where its --height is the commanded origin's (a tool at z 0.1 m reaches 0.5 m for --height 0.4)."""
+    helps = {}
+    for command in ('ik', 'compensate'):
+        assert main([command, '--help']) == 0
+        helps[command] = ' '.join(capsys.readouterr().out.split())
+    assert 'commanded height of the platform origin' in helps['compensate']
+    assert 'whose height is prescribed' not in helps['compensate']
+    assert 'height of the platform point' in helps['ik'] and 'whose height is prescribed' in helps['ik']
+    assert main(['compensate', '--height', '0.4', '--tilt', '0', '--azimuth', '0', '--tool', '0', '0', '0.1',
+                 '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['tool_achieved'][2] == pytest.approx(0.5, abs=1e-12)

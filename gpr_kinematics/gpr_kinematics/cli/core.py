@@ -81,13 +81,19 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_target(p: argparse.ArgumentParser) -> None:
-    p.add_argument('--height', type=number, required=True, help='height of the platform point [m, or mm with --mm]')
+def _add_target(p: argparse.ArgumentParser, command: bool = False) -> None:
+    """The target of ``ik``, or (``command``) the naively commanded pose of ``compensate``, whose --height is the
+    platform origin's and whose tool point keeps the height that command gives it (as ``compensate`` does)."""
+    p.add_argument('--height', type=number, required=True,
+                   help='commanded height of the platform origin (the naive model\'s pose) [m, or mm with --mm]'
+                   if command else 'height of the platform point [m, or mm with --mm]')
     p.add_argument('--tilt', type=number, required=True, help='tilt angle [rad, or deg with --deg]; signed')
     p.add_argument('--azimuth', type=number, required=True,
                    help='azimuth of the tilt axis in gpr_base [rad, or deg with --deg]')
     p.add_argument('--tool', type=number, nargs=3, metavar=('X', 'Y', 'Z'), default=(0.0, 0.0, 0.0),
-                   help='platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
+                   help='tool point (in gpr_platform) that reaches the height the commanded pose gives it [m, or mm]; '
+                   'default origin' if command else
+                   'platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
 
 
 def _cmd_ik(args: argparse.Namespace) -> int:
@@ -274,7 +280,7 @@ def register(sub: Subparsers) -> None:
     p = sub.add_parser('compensate', help='compensation of a naively commanded pose for offline programming',
                        description='Rod commands, pose reached, tool shift and arm correction for a platform '
                                    'pose commanded with the naive model (rotation about the centre).')
-    _add_target(p)
+    _add_target(p, command=True)
     p.add_argument('--heading', type=number, default=0.0,
                    help='commanded rotation about the platform normal [rad, or deg]; the GPR cannot realise '
                         'it, the arm correction takes it up')
