@@ -466,3 +466,18 @@ def test_compensate_describes_its_own_height_and_tool(capsys):
                  '--json']) == 0
     out = json.loads(capsys.readouterr().out)
     assert out['tool_achieved'][2] == pytest.approx(0.5, abs=1e-12)
+
+
+@pytest.mark.parametrize('argv', [['workspace', 'tripod_3rps.yaml', '--delta', '4', '--mm', '--boxes', 'b.npz',
+                                   '--no-progress'],
+                                  ['workspace', 'tripod_3rps.yaml', '--delta', '4', '--mm', '--boxes', 'b.npz',
+                                   '--no-progress', '--json']])
+def test_a_reader_that_leaves_early_leaves_the_commands_outputs(tmp_path, argv):
+    """``gpr workspace ... --boxes b.npz | true``: the summary's BrokenPipeError took back the boxes already written,
+    with status 0. The rest of the output goes nowhere, the outputs are kept, status 0, nothing on stderr."""
+    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics', *argv], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()   # the reader gone before the first line
+    err = proc.stderr.read()
+    assert proc.wait(120) == 0 and err == '', err
+    assert (tmp_path / 'b.npz').stat().st_size > 1000

@@ -279,8 +279,8 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     (['--scheduler', 'cluster'], 'allowed: none, local or a Dask scheduler address'),
     (['--scheduler', 'tcp://127.0.0.1:8786\n'], 'allowed: none, local or a Dask scheduler address'),  # $ before \n
     (['--max-boxes', '1_0'], "argument --max-boxes: invalid int value: '1_0'"),   # int() read 10
-    (['--scheduler', 'none', '--workers', '2'], 'workers applies to --scheduler local only'),
-    (['--workers', '0'], 'workers must be an integer from 1 to 256'),
+    (['--scheduler', 'none', '--workers', '2'], '--workers applies to --scheduler local only'),
+    (['--workers', '0'], '--workers must be an integer from 1 to 256'),
     (['--max-boxes', '0'], '--max-boxes = 0; allowed: a whole number of boxes, at least 1'),
     (['--parts', '0'], '--parts must be from 1'),
     # options of another method or scheduler ran without a word
@@ -534,3 +534,15 @@ def _pgid(pid):
         return os.getpgid(int(pid))
     except OSError:
         return None
+
+
+def test_a_grid_that_finds_no_feasible_node_says_the_workspace_may_lie_between(capsys):
+    """The shipped 3-UPU under --method grid (3 nodes an edge: none of the initial box's 27 is feasible) printed
+    '0 inner and 0 boundary boxes ... volume 0', status 0, no word; 4 nodes give 0.0144 m^3 inner."""
+    code, out, err = _run(capsys, 'upu3.yaml', '--delta', '0.01', '--method', 'grid', '--no-progress')
+    assert code == 0 and out.startswith('upu3: 0 inner and 0 boundary boxes (1 outside)'), out
+    assert err == ('gpr workspace: warning: no feasible point among the grid nodes of its boxes: the workspace may '
+                   'lie between them (method grid, not certified; --grid-nodes, or --method covering)\n')
+    code, out, err = _run(capsys, 'upu3.yaml', '--delta', '0.01', '--method', 'grid', '--grid-nodes', '4',
+                          '--no-progress')
+    assert code == 0 and 'inner volume 0.0144' in out and err == '', out + err

@@ -67,7 +67,7 @@ def test_a_time_limit_inside_the_parts_keeps_a_valid_result():
     ('tcp://host:8786; rm -rf', None, 'not allowed'),
     ('local', 0, 'workers must be an integer from 1 to 256'),
     ('local', 1000, 'workers must be an integer from 1 to 256'),
-    ('none', 2, 'workers applies to --scheduler local only'),
+    ('none', 2, 'workers applies to scheduler local only'),
 ])
 def test_bad_schedulers_are_refused(scheduler, workers, match):
     with pytest.raises(InputError, match=match):

@@ -24,7 +24,7 @@ import signal
 import sys
 from collections.abc import Sequence
 from types import FrameType
-from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO, TypeAlias, cast
 
 from ..errors import BRIEF_LENGTH, EXIT_BAD_INPUT, EXIT_INTERRUPTED, NAME_RULE, PATH_LENGTH, GprError, brief, one_line
 from ..inputs.files import command_reads, command_writes
@@ -164,6 +164,39 @@ def _usable_streams() -> None:
         elif _encoding(stream) != 'utf-8':
             with contextlib.suppress(AttributeError, ValueError, TypeError):   # not a text stream of the io module
                 stream.reconfigure(errors='backslashreplace')
+    if not isinstance(sys.stdout, _ReaderMayLeave):
+        sys.stdout = cast(TextIO, _ReaderMayLeave(sys.stdout))
+
+
+class _ReaderMayLeave:
+    """The standard output of a command whose reader may leave (``| head``, ``| true``): a write that finds the pipe
+    closed sends the rest to ``os.devnull``, so the command ends its work and keeps every output it wrote (a
+    BrokenPipeError in the summary took back the --boxes and --plot files already written, with status 0)."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            self._gone()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except BrokenPipeError:
+            self._gone()
+
+    def _gone(self) -> None:
+        with contextlib.suppress(OSError, ValueError):   # what is left, and the interpreter's flush at its exit
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self.stream.fileno())
+            os.close(null)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
 
 
 def _encoding(stream: object) -> str:

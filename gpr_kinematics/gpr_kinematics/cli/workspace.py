@@ -36,7 +36,7 @@ from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_sec
 from ..workspace.boxes import reached_faces
 from ..workspace.levels import PARTS
 from ..workspace.progress import StopFlag
-from ..workspace.scheduler import MAX_WORKERS
+from ..workspace.scheduler import MAX_WORKERS, check_scheduler
 from .options import number, whole
 from .output import JsonValue, description, emit_json, json_object
 
@@ -134,6 +134,7 @@ def _check_args(args: argparse.Namespace) -> float:
     if args.parts is not None and args.scheduler == 'none':
         raise InputError('--parts cuts a run for the workers of a Dask scheduler; allowed with --scheduler none: no '
                          '--parts')
+    check_scheduler(args.scheduler, args.workers, ('--workers', '--scheduler'))   # named as options ('workers must')
     args.grid_nodes = 3 if args.grid_nodes is None else args.grid_nodes
     args.parts = PARTS if args.parts is None else args.parts
     if args.grid_nodes < 2:
@@ -191,6 +192,11 @@ def run(args: argparse.Namespace) -> int:
         plots = plot_projections(result, args.plot, name, report.box)
         written['plots'] = [str(p) for p in plots]
         notes.append(f'{len(plots)} projections written to {args.plot}')
+    if args.method != 'covering' and result.inner_boxes + result.boundary_boxes == 0 and not result.interrupted:
+        nodes, more = ('the grid nodes of its boxes', '--grid-nodes') if args.method == 'grid' else \
+            ("the cells' corners", 'a smaller --delta')   # the shipped 3-UPU's was "0 inner, 0 boundary", no word
+        sys.stderr.write(f'gpr workspace: warning: no feasible point among {nodes}: the workspace may lie between '
+                         f'them (method {args.method}, not certified; {more}, or --method covering)\n')
     if result.interrupted:
         why = '' if result.stopped == 'interrupted' else f' ({result.stopped})'
         sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '

@@ -16,8 +16,9 @@ class Progress:
     """One-line progress display on stderr, shown only once a run has lasted ``after`` seconds.
 
     It shows the share of the initial box's volume already decided (inner, outside or boundary), the
-    bisection level and the largest pending box diameter against ``delta`` (the "delta level"), the boxes
-    processed so far, and the inner and boundary volumes (in the output variables' units).
+    bisection level and the pending boxes' diameter against ``delta`` (the "delta level") of the part that reported
+    last (each part of a cut run its own), the boxes processed so far, and the inner and boundary volumes (in the
+    output variables' units).
 
     On a terminal the bar is redrawn in place at every update; into a file or a pipe (a CI log) a plain line
     (without the bar's ``\\r`` redraws) is written at most every ``every`` seconds, and once when the whole

@@ -43,17 +43,20 @@ MAX_WORKERS = 256
 StepFunction = Callable[..., Any]
 
 
-def check_scheduler(scheduler: str, workers: int | None = None) -> None:
-    """Refuse a scheduler that is neither ``none``, ``local`` nor a ``tcp://HOST:PORT`` address."""
+def check_scheduler(scheduler: str, workers: int | None = None, names: tuple[str, str] = ('workers', 'scheduler')
+                    ) -> None:
+    """Refuse a scheduler that is neither ``none``, ``local`` nor a ``tcp://HOST:PORT`` address, and ``workers``
+    outside ``[1, MAX_WORKERS]`` or beside another scheduler than ``local``; ``names``: the two as the caller's user
+    gives them (``--workers``, ``--scheduler``)."""
     if not isinstance(scheduler, str) or not (scheduler in SCHEDULERS or _ADDRESS.fullmatch(scheduler)):
         raise InputError(
             f'scheduler {str(scheduler)[:80]!r} is not allowed; allowed: none, local or a Dask scheduler '
             'address tcp://HOST:PORT'
         )
     if workers is not None and not (isinstance(workers, int) and 1 <= workers <= MAX_WORKERS):
-        raise InputError(f'workers must be an integer from 1 to {MAX_WORKERS}, got {brief(workers)}')
+        raise InputError(f'{names[0]} must be an integer from 1 to {MAX_WORKERS}, got {brief(workers)}')
     if workers is not None and scheduler != 'local':
-        raise InputError('workers applies to --scheduler local only (an existing cluster has its own workers)')
+        raise InputError(f'{names[0]} applies to {names[1]} local only (an existing cluster has its own workers)')
 
 
 def check_reachable(address: str) -> None:
