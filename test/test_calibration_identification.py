@@ -386,8 +386,9 @@ def test_refusals():
         identify(m, 'meas.csv')
     with pytest.raises(InputError, match=r'^model is a str; allowed: a pose model'):
         identify('model', meas)
-    with pytest.raises(InputError, match=r"^free = 'rod1_offset'; allowed: a list of parameter names or keys"):
-        identify(m, meas, free='rod1_offset')
+    for free in ('rod1_offset', b'rod1_offset'):
+        with pytest.raises(InputError, match=r"^free = b?'rod1_offset'; allowed: a list of parameter names or keys"):
+            identify(m, meas, free=free)
     status = identify(m, meas, free=('rod1_offset',)).status   # a tuple is a list of names
     assert [m.parameters.names[i] for i, s in enumerate(status) if s != 'fixed'] == ['rod1_offset']
 

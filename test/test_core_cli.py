@@ -481,3 +481,14 @@ def test_a_reader_that_leaves_early_leaves_the_commands_outputs(tmp_path, argv):
     err = proc.stderr.read()
     assert proc.wait(120) == 0 and err == '', err
     assert (tmp_path / 'b.npz').stat().st_size > 1000
+
+
+def test_a_warning_into_a_pipe_whose_reader_left_leaves_the_outputs(tmp_path):
+    """``gpr workspace upu3.yaml --method grid ... --boxes b.npz 2>&1 | true``: the grid's warning on stderr met the
+    closed pipe after the boxes were written and took them back, status 0. Both streams go nowhere then."""
+    argv = ['workspace', 'upu3.yaml', '--delta', '0.02', '--method', 'grid', '--no-progress', '--boxes', 'b.npz']
+    proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics', *argv], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT)
+    proc.stdout.close()
+    assert proc.wait(120) == 0
+    assert (tmp_path / 'b.npz').stat().st_size > 100

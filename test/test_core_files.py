@@ -372,3 +372,10 @@ def test_numpy_scalars_are_named_by_their_numbers():
         with pytest.raises((InputError, ConfigError)) as got:
             call()
         assert words in str(got.value) and 'np.' not in str(got.value), str(got.value)
+    # and a numpy scalar of a right value is taken, not refused in words that print its number ("passes = 2 must be
+    # an integer from 1 to 1000")
+    from gpr_kinematics.core.sweep import sweep_grid
+    for a, b in zip(sweep_grid(passes=np.int64(2), tilt_step=np.float32(0.0078125), max_tilt=np.float32(0.03125)),
+                    sweep_grid(passes=2, tilt_step=0.0078125, max_tilt=0.03125), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert paper_sweep(height=np.float32(0.5)).height == 0.5

@@ -61,9 +61,9 @@ def test_a_plan_is_sampled_at_a_rate_or_at_times_and_outside_it_rests_at_its_end
     """A rate beside times was ignored whatever it was ('junk'); neither or both is refused. A time outside the plan
     is the robot at rest at that end (documented now), at the time given."""
     from gpr_kinematics.errors import InputError
-    for kwargs, words in (({}, 'neither'), ({'rate': 'junk', 'times': [1.0]}, 'both'),
-                          ({'rate': 10.0, 'times': [1.0]}, 'both')):
-        with pytest.raises(InputError, match=rf'^sample_plan got {words} a rate and times; allowed: one$'):
+    for kwargs, words in (({}, 'neither a rate nor'), ({'rate': 'junk', 'times': [1.0]}, 'both a rate and'),
+                          ({'rate': 10.0, 'times': [1.0]}, 'both a rate and')):
+        with pytest.raises(InputError, match=rf'^sample_plan got {words} times; allowed: one of them$'):
             sample_plan(PLAN, **kwargs)
     end = PLAN.timing.total
     s = sample_plan(PLAN, times=[-5.0, 0.0, end, end + 1000.0]).samples

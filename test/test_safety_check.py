@@ -1180,7 +1180,13 @@ def test_a_place_without_a_pick_carries_its_wafer_from_the_start():
     way, timing = plan.waypoints, plan.timing
     at = [i for i, phase in enumerate(way.phase) if phase == 'at']
     carried = wafer_plan(plan).carried['arm2']
-    assert carried == ((0.0, float(timing.arrive[at[0]])),
-                       (float(timing.arrive[at[0] + 1]), float(timing.arrive[at[1]])))
+    assert carried == ((0.0, float(timing.arrive[at[0]])),   # the second from the arm's next waypoint after the
+                       (float(timing.arrive[at[0] + 2]), float(timing.arrive[at[1]])))   # first place's retract
     moves = check_program(plan, None, with_clearance=False)[0].moves
     assert max(m.max_slip_ratio for m in moves if m.end <= carried[0][1]) > 0.01   # was 0: no wafer
+    # with a retract of 2.6 mm the second wafer, put on the blade at the retract, lay 0.8 mm under it beside the
+    # wafer just placed: 'UNSAFE ... arm2_wafer / wafer@pm1' where the program with its picks is safe
+    from gpr_kinematics.safety.cell import load_cell
+    defaults = dict(read_file(PROGRAM)['defaults']) | {'retract_height': 2.6}
+    low = _cell_program(wafers=None, steps=steps[3:6] + steps[7:10], defaults=defaults)
+    assert check_program(low, load_cell(CELL))[0].safe

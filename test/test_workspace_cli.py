@@ -279,8 +279,9 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
     (['--scheduler', 'cluster'], 'allowed: none, local or a Dask scheduler address'),
     (['--scheduler', 'tcp://127.0.0.1:8786\n'], 'allowed: none, local or a Dask scheduler address'),  # $ before \n
     (['--max-boxes', '1_0'], "argument --max-boxes: invalid int value: '1_0'"),   # int() read 10
-    (['--scheduler', 'none', '--workers', '2'], '--workers applies to --scheduler local only'),
-    (['--workers', '0'], '--workers must be an integer from 1 to 256'),
+    (['--scheduler', 'none', '--workers', '2'], '--workers = 2 with --scheduler none; allowed: --workers with '
+                                                '--scheduler local only'),
+    (['--workers', '0'], '--workers = 0; allowed: an integer from 1 to 256'),
     (['--max-boxes', '0'], '--max-boxes = 0; allowed: a whole number of boxes, at least 1'),
     (['--parts', '0'], '--parts must be from 1'),
     # options of another method or scheduler ran without a word

@@ -65,13 +65,23 @@ def test_a_time_limit_inside_the_parts_keeps_a_valid_result():
     ('tcp://host', None, 'not allowed'),
     ('http://host:8786', None, 'not allowed'),
     ('tcp://host:8786; rm -rf', None, 'not allowed'),
-    ('local', 0, 'workers must be an integer from 1 to 256'),
-    ('local', 1000, 'workers must be an integer from 1 to 256'),
-    ('none', 2, 'workers applies to scheduler local only'),
+    ('local', 0, 'workers = 0; allowed: an integer from 1 to 256'),
+    ('local', 1000, 'workers = 1000; allowed: an integer from 1 to 256'),
+    ('none', 2, 'workers = 2 with scheduler none; allowed: workers with scheduler local only'),
 ])
 def test_bad_schedulers_are_refused(scheduler, workers, match):
     with pytest.raises(InputError, match=match):
         Executor(scheduler, workers)
+
+
+def test_a_numpy_integer_counts_as_its_number_of_workers():
+    """np.int64(2) was refused as 'workers must be an integer from 1 to 256, got 2' (its message printed the number
+    since numpy scalars are written as numbers): taken, a Python int for Dask."""
+    from gpr_kinematics.workspace.scheduler import check_scheduler
+    check_scheduler('local', np.int64(2))
+    for bad in (np.int64(0), np.bool_(True), 2.0):
+        with pytest.raises(InputError, match=r'^workers = .*; allowed: an integer from 1 to 256$'):
+            check_scheduler('local', bad)
 
 
 def test_an_unreachable_scheduler_is_refused_before_any_work(monkeypatch):

@@ -223,7 +223,7 @@ class ParameterSet:
         parameter of the key); ``None`` selects all. An unknown name raises :class:`InputError`."""
         if names is None:
             return np.ones(len(self), dtype=bool)
-        if isinstance(names, str) or not isinstance(names, Iterable):   # 'rod1_offset' was read letter by letter
+        if isinstance(names, (str, bytes)) or not isinstance(names, Iterable):   # 'rod1_offset' read letter by letter
             raise InputError(f'free = {brief(names)}; allowed: a list of parameter names or keys, or None (all)')
         mask = np.zeros(len(self), dtype=bool)
         for name in names:

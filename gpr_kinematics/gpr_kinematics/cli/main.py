@@ -164,14 +164,17 @@ def _usable_streams() -> None:
         elif _encoding(stream) != 'utf-8':
             with contextlib.suppress(AttributeError, ValueError, TypeError):   # not a text stream of the io module
                 stream.reconfigure(errors='backslashreplace')
-    if not isinstance(sys.stdout, _ReaderMayLeave):
+    if not isinstance(sys.stdout, _ReaderMayLeave):   # stderr too: a warning into `2>&1 | true` took them back
         sys.stdout = cast(TextIO, _ReaderMayLeave(sys.stdout))
+    if not isinstance(sys.stderr, _ReaderMayLeave):
+        sys.stderr = cast(TextIO, _ReaderMayLeave(sys.stderr))
 
 
 class _ReaderMayLeave:
-    """The standard output of a command whose reader may leave (``| head``, ``| true``): a write that finds the pipe
-    closed sends the rest to ``os.devnull``, so the command ends its work and keeps every output it wrote (a
-    BrokenPipeError in the summary took back the --boxes and --plot files already written, with status 0)."""
+    """A standard stream of a command whose reader may leave (``| head``, ``| true``, ``2>&1 | true``): a write that
+    finds the pipe closed sends the rest to ``os.devnull``, so the command ends its work and keeps every output it
+    wrote (a BrokenPipeError in the summary or a warning took back the --boxes and --plot files already written,
+    with status 0)."""
 
     def __init__(self, stream: TextIO) -> None:
         self.stream = stream
@@ -195,7 +198,7 @@ class _ReaderMayLeave:
             os.dup2(null, self.stream.fileno())
             os.close(null)
 
-    def __getattr__(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> Forwarded:   # the stream's own (fileno, isatty, encoding, buffer, ...)
         return getattr(self.stream, name)
 
 

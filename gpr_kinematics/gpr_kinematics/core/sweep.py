@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError, LimitError, brief
-from ..inputs.validation import switch
+from ..inputs.validation import plain_number, switch
 from . import ForwardBatch, inverse_batch, resolve_config
 from .config import GprConfig
 from .forward import beyond_tilt
@@ -135,12 +135,15 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     :data:`MAX_SAMPLES` samples in all, counted before any array is made.
     """
     for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
-        if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        if not (math.isfinite(plain_number(value)) and plain_number(value) > 0):   # numpy scalars as their numbers
             raise InputError(f'{name} = {brief(value)} must be a positive finite angle in radians')
-        if value < LEAST_STEPS.get(name, 0.0):
+        if plain_number(value) < LEAST_STEPS.get(name, 0.0):
             raise InputError(f'{name} = {brief(value)} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
-    if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= MAX_PASSES:
+    max_tilt, tilt_step, azimuth_step = (plain_number(v) for v in (max_tilt, tilt_step, azimuth_step))
+    if isinstance(passes, (bool, np.bool_)) or not isinstance(passes, (int, np.integer)) or \
+            not 1 <= passes <= MAX_PASSES:   # np.int64(2) was refused as 'passes = 2 must be an integer'
         raise InputError(f'passes = {brief(passes)} must be an integer from 1 to {MAX_PASSES}')
+    passes = int(passes)
     serpentine = switch(serpentine, 'serpentine')   # 'no' alternated the passes
     half = max_tilt / tilt_step
     if not half <= MAX_SAMPLES:  # counted before anything is allocated (an inf or huge count included)
@@ -185,11 +188,10 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
         LimitError: ``max_tilt`` beyond the tilt limit, or a height that leaves the stroke.
     """
     cfg = resolve_config(config)
-    if isinstance(height, bool) or not (isinstance(height, (int, float)) and math.isfinite(height)):   # True: 1 m
+    if not math.isfinite(plain_number(height)):   # True (1 m) and text refused, numpy scalars as their numbers
         raise InputError(f'height = {brief(height)} must be a finite number of metres')
-    if not isinstance(max_tilt, bool) and isinstance(max_tilt, (int, float)) and \
-            max_tilt - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting (True: sweep_grid names it)
-        raise LimitError(f'max_tilt = {beyond_tilt(float(max_tilt), cfg.tilt_limit)}')
+    if plain_number(max_tilt) - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting (NaN: sweep_grid names it)
+        raise LimitError(f'max_tilt = {beyond_tilt(plain_number(max_tilt), cfg.tilt_limit)}')
     gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
     ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)
     return SweepResult(gamma=gamma, alpha=alpha, pass_index=pass_index, height=float(height), q=ik.q,

@@ -10,7 +10,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, apart
 from ..inputs.validation import MAX_COORDINATE
 from .config import GprConfig
 from .ops import Ops, Value
@@ -30,8 +30,10 @@ def check_bound(ops: Ops, q: Rods, what: str = 'q') -> Rods:
     rods = q_rows(q)
     i, k = np.argwhere(np.abs(rods) > big)[0]
     where = f' (sample {i})' if rods.shape[0] > 1 else ''
-    raise InputError(f'{what}{k + 1} = {rods[i, k]:g} m{where} is beyond the bound of any joint value; allowed: '
-                     f'|{what}| <= {big:g} m (check_limits=False skips the stroke and the tilt limit, not this bound)')
+    shown, bound = apart(abs(float(rods[i, k])), big)   # 1000000.1 was written 1e+06, as its bound
+    sign = '-' if rods[i, k] < 0 else ''
+    raise InputError(f'{what}{k + 1} = {sign}{shown} m{where} is beyond the bound of any joint value; allowed: '
+                     f'|{what}| <= {bound} m (check_limits=False skips the stroke and the tilt limit, not this bound)')
 
 
 def turned_over(model: str, config: GprConfig, q: list[float], trace: float, sample: int | None = None

@@ -418,7 +418,8 @@ def sample_plan(plan: ProgramPlan, rate: float | None = None, times: Array | Non
     posture, at the time given."""
     robot = plan.robot
     if (rate is None) == (times is None):   # a rate beside times was ignored, whatever it was
-        raise InputError(f'sample_plan got {"neither" if rate is None else "both"} a rate and times; allowed: one')
+        given = 'neither a rate nor' if rate is None else 'both a rate and'
+        raise InputError(f'sample_plan got {given} times; allowed: one of them')
     if times is None:
         s = plan_samples(plan, sample(plan.timing, cast(float, rate)))   # not None: refused above
     else:

@@ -5,7 +5,9 @@ of a stream of the program (:mod:`.budget`: what ``gpr verify`` judges of its re
 Wafers: a station listed in the program's ``wafers`` holds one from the start (a program that declares none has
 its picks find a wafer there, which is not modelled before the pick); a pick takes the station's wafer
 onto the arm's blade when the blade reaches it (arrival at the ``at`` waypoint), a place leaves it in the station
-(the same instant of its ``at``). A wafer in a station is a fixed disc at the station pose. The blade touches the
+(the same instant of its ``at``); a place with an empty blade in a program without ``wafers`` carries its wafer from
+the start, or from the arm's next waypoint after its last place. A wafer in a station is a fixed disc at the station
+pose. The blade touches the
 wafer it picks or places, on purpose: that pair is not checked from the departure from the ``approach`` waypoint
 to the arrival at the ``retract`` one.
 """
@@ -155,7 +157,7 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     present: dict[str, tuple[float, str]] = {name: (0.0, 'start') for name in program.wafers or ()}
     stations: list[tuple[str, str, Windows]] = []
     carrying: dict[str, float] = {}
-    emptied: dict[str, float] = {}   # when each arm's blade left the wafer it placed last
+    emptied: dict[str, float] = {}   # when each arm's blade had left the station of its last place
     carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
     contact: dict[tuple[str, str], list[tuple[float, float]]] = {}
     for i, phase in enumerate(way.phase):
@@ -177,7 +179,10 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
                 carried[arm].append((carrying.pop(arm), t))
             elif program.wafers is None:   # without the key a place has one to place: on the blade since the start,
                 carried[arm].append((emptied.get(arm, 0.0), t))   # or since the arm's last place (it went unchecked)
-            emptied[arm] = float(timing.arrive[retract])
+            # from the arm's next waypoint on: not while the emptied blade backs out past the wafer it left (a wafer
+            # put there at the retract lay 0.8 mm under the blade, beside the one just placed: a false collision)
+            after = next((k for k in range(retract + 1, len(way.arm)) if way.arm[k] == arm), None)
+            emptied[arm] = end if after is None else float(timing.arrive[after])
             present[station] = (t, f'steps[{int(way.step[i])}]')
     for arm, t0 in carrying.items():
         carried[arm].append((t0, end))

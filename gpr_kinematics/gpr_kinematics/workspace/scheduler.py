@@ -31,6 +31,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
 from ..errors import InputError, brief
 
 SCHEDULERS = ('local', 'none')
@@ -53,10 +55,12 @@ def check_scheduler(scheduler: str, workers: int | None = None, names: tuple[str
             f'scheduler {str(scheduler)[:80]!r} is not allowed; allowed: none, local or a Dask scheduler '
             'address tcp://HOST:PORT'
         )
-    if workers is not None and not (isinstance(workers, int) and 1 <= workers <= MAX_WORKERS):
-        raise InputError(f'{names[0]} must be an integer from 1 to {MAX_WORKERS}, got {brief(workers)}')
+    if workers is not None and (isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer))
+                                or not 1 <= workers <= MAX_WORKERS):   # np.int64(2) too
+        raise InputError(f'{names[0]} = {brief(workers)}; allowed: an integer from 1 to {MAX_WORKERS}')
     if workers is not None and scheduler != 'local':
-        raise InputError(f'{names[0]} applies to {names[1]} local only (an existing cluster has its own workers)')
+        raise InputError(f'{names[0]} = {brief(workers)} with {names[1]} {scheduler}; allowed: {names[0]} with '
+                         f'{names[1]} local only (an existing cluster has its own workers)')
 
 
 def check_reachable(address: str) -> None:
@@ -229,7 +233,7 @@ class Executor:
         return self._client
 
     def _start_local(self, cluster_class: Any, client_class: Any) -> None:
-        n = self.workers or os.cpu_count() or 1
+        n = int(self.workers or os.cpu_count() or 1)   # np.int64 given: a Python int for Dask
         self._cluster = cluster_class(
             n_workers=n,
             threads_per_worker=1,
