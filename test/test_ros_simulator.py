@@ -353,6 +353,36 @@ def test_joint_states_it_ignores_do_not_silence_the_simulator(sim):
     c.node.destroy_publisher(pub)
 
 
+def test_a_goal_while_another_node_streams_the_robot_is_refused(sim):
+    """A goal sent while trajectory_node streamed a program was accepted: both moved the robot (``joint_states``
+    interleaved two robots, /tf flickered) and the stream undid the goal after its SUCCEEDED. Refused while another
+    publisher's states stream (INVALID_GOAL, naming the stream), taken once it has ended."""
+    from action_msgs.msg import GoalStatus
+    from sensor_msgs.msg import JointState
+
+    c, cli, states, _ = sim
+    held = states[-1]
+    pub = c.node.create_publisher(JointState, 'joint_states', 10)
+
+    def stream():
+        msg = JointState(name=list(held.name), position=list(held.position))
+        msg.header.stamp = c.node.get_clock().now().to_msg()
+        pub.publish(msg)
+
+    timer = c.node.create_timer(0.02, stream)   # 50 Hz, while the goal is sent and answered
+    c.spin_for(0.5)
+    goal = _goal(['arm1_shoulder'], [0.5], [[_held(c, states, 'arm1_shoulder') + 0.05]])
+    result, status = _run(c, cli, goal)
+    c.node.destroy_timer(timer)
+    c.node.destroy_publisher(pub)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == -1, result.error_string
+    assert result.error_string == ("another node streams this robot's joint_states (a program or sweep of "
+                                   'trajectory_node, say); allowed: a goal once that stream has ended')
+    c.spin_for(0.5)
+    result, status = _run(c, cli, goal)
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+
+
 def test_joint_states_beyond_the_limits_are_ignored_with_a_warning(sim):
     """Another publisher cannot put the simulator where no goal can start: values beyond a joint's limits, or rods
     that tilt the platform beyond its limit, are ignored (with a warning); a good goal runs afterwards."""

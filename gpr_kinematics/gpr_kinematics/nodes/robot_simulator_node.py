@@ -270,6 +270,10 @@ class RobotSimulatorNode(GprNode):
         with the result code (module docstring)."""
         if self.run is None:
             self._settle()   # another publisher's latest state, before the goal starts from it
+            now, period = self.get_clock().now().nanoseconds, round(NS_PER_S / float(self.p['idle_rate']))
+            if _within(now, self.last_foreign, 2 * period):   # both moved the robot: /tf flickered, the goal undone
+                raise GoalError(INVALID_GOAL, "another node streams this robot's joint_states (a program or sweep of "
+                                'trajectory_node, say); allowed: a goal once that stream has ended')
         points = req.trajectory.points
         check_point_count(len(points))   # before the points are read
         stamp = req.trajectory.header.stamp
