@@ -571,6 +571,43 @@ def test_path_and_goal_tolerances(lagging):
 
 
 
+def test_a_settling_goal_is_named_by_its_time_after_the_last_point(lagging):
+    """With a lag, samples go on after the last point while the joints settle: a goal preempted then was 'preempted
+    by a newer goal after 58 of its 51 samples', and a goal tolerance missed was told at its goal_time_tolerance
+    with the error of one sample later. Both name the time after the last point now."""
+    from action_msgs.msg import GoalStatus
+    from control_msgs.msg import JointTolerance
+    from sensor_msgs.msg import JointState
+
+    c, cli = lagging
+    states: list = []
+    c.node.create_subscription(JointState, '/gpr_sim_lag/joint_states', states.append, 100)
+    assert c.spin_until(lambda: len(states) >= 3, 10)
+    c.spin_for(0.6)   # where earlier tests left it, settled
+    here = states[-1].position[list(states[-1].name).index('arm1_shoulder')]
+    there = here - 0.3 if here > JOINTS.rest[JOINTS.names.index('arm1_shoulder')] else here + 0.3
+
+    def goal(target, tol, goal_time):
+        g = _goal(['arm1_shoulder'], [0.3], [[target]], path_tolerance=[JointTolerance(name='arm1_shoulder',
+                                                                                       position=-1.0)],
+                  goal_tolerance=[JointTolerance(name='arm1_shoulder', position=tol)])
+        g.goal_time_tolerance.nanosec = int(goal_time * 1e9)
+        return g
+
+    result, _ = _run(c, cli, goal(there, 1e-9, 0.05))
+    assert result.error_code == -5, result.error_string
+    after = float(result.error_string.split(' s after', 1)[0])
+    assert re.match(r'^\S+ s after the last point \(goal_time_tolerance 0\.05 s\): arm1_shoulder: position error',
+                    result.error_string) and 0.05 < after < 0.05 + 0.05, result.error_string
+    first = c.wait(cli.send_goal_async(goal(here, 1e-9, 0.6)), 20, 'goal')
+    c.spin_for(0.55)   # its last point at 0.3 s, settling until 0.9 s: preempted in between
+    result, status = _run(c, cli, goal(here, 0.1, 0.6))
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.error_string
+    res = c.wait(first.get_result_async(), 20, 'result')
+    assert re.match(r'^preempted by a newer goal (\S+) s after its last point$', res.result.error_string), \
+        res.result.error_string
+
+
 def test_lagging_joints_converge_to_the_last_point_after_the_goal(lagging):
     """With a lag and the goal tolerance not checked (-1) the goal succeeds at its last point's time with the joint
     about v tau short; the joints froze there (0.071 rad short with tau 0.1 s), where joint_trajectory_controller

@@ -309,9 +309,10 @@ class RobotSimulatorNode(GprNode):
         if self.run is not None and self.run.goal.is_cancel_requested:   # its cancel came first: it ends cancelled
             self._cancelled(self.run)
         elif self.run is not None:    # preempted by a valid goal, as joint_trajectory_controller does
-            old = self.run
-            self._end('preempted', INVALID_GOAL, f'preempted by a newer goal after {old.k} of its '
-                      f'{len(old.motion)} samples')
+            old, n = self.run, len(self.run.motion)   # past its samples while lagging joints settle ('58 of its 51')
+            when = f'after {old.k} of its {n} samples' if old.k <= n else \
+                f'{(old.k - n) * self.period:.6g} s after its last point'
+            self._end('preempted', INVALID_GOAL, f'preempted by a newer goal {when}')
         done = Future()
         self.run = _Run(goal, motion, start, done, self.get_clock().now().nanoseconds)   # the command: at its start
         self.get_logger().info(f'goal accepted: {len(motion.trajectory)} points over '
@@ -349,7 +350,8 @@ class RobotSimulatorNode(GprNode):
         """End ``r``, whose cancel was accepted, as cancelled (at the next tick, or when a newer goal preempts it
         first: it ended aborted as 'preempted' although its client's cancel had been accepted)."""
         m, before = r.motion, 'nothing moved' if self.command is None else "lagging joints go on to the last goal's end"
-        t = m.late + m.time[min(max(r.k - 1, 0), len(m) - 1)]   # the last sample sent (r.k: the next), goal's time
+        k = max(r.k - 1, 0)   # the last sample sent (r.k: the next), goal's time; lagging joints settle after the last
+        t = m.late + (m.time[k] if k < len(m) else m.time[-1] + (k - len(m) + 1) * self.period)
         self._end('canceled', SUCCESSFUL, f'cancelled before its start; {before}' if r.started is None else
                   f'cancelled at t = {t:.6g} s of {m.late + m.duration:.6g} s; the joints hold where they are')
 
@@ -408,7 +410,8 @@ class RobotSimulatorNode(GprNode):
                 self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {m.late + t:.6g} s ({K} samples)')
                 return False
             if t > m.duration + tol.goal_time + 1e-9:
-                self._end('aborted', GOAL_TOLERANCE_VIOLATED, f'{tol.goal_time:g} s after the last point: {off}')
+                self._end('aborted', GOAL_TOLERANCE_VIOLATED, f'{t - m.duration:.6g} s after the last point '
+                          f'(goal_time_tolerance {tol.goal_time:g} s): {off}')   # the error's instant: one sample later
                 return False
         return True
 
