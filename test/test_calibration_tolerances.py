@@ -86,7 +86,8 @@ def test_moments_match_samples(tol):
     ({'rod_length': {'range': [0, 1e-6]}}, r'rod_length: give a tolerance'),
     ({'rod_length': {'tolerance': 1.0}}, r'rod_length: tolerance 1 m; allowed: at most 0\.01 m'),
     # a NaN names its quantity's bound, as a number beyond it is refused (it named 'magnitude at most 1e+06')
-    ({'rod_length': {'tolerance': float('nan')}}, r'rod_length: tolerance = nan; allowed: at most 0\.01 m$'),
+    ({'rod_length': {'tolerance': float('nan')}},
+     r'rod_length: tolerance = nan; allowed: at most 0\.01 m$'),
     ({'joint_clearance': [0, float('inf'), 0]}, r'joint_clearance = inf; allowed: at most 0\.01 m$'),
     ({'measurement_noise': {'position': float('nan'), 'angle': 1e-5}},
      r'measurement_noise: position = nan; allowed: a standard deviation from 1e-09 to 0.1 m$'),
@@ -116,11 +117,15 @@ def test_malformed_tables_refused(data, pattern):
 
 
 @pytest.mark.parametrize('entry, pattern', [
-    ({'rod_offsets': {'tolerance': float('nan')}}, r'rod_offsets: tolerance = nan; allowed: at most 0\.01 m$'),
+    ({'rod_offsets': {'tolerance': float('nan')}},
+     r'rod_offsets: tolerance = nan; allowed: at most 0\.01 m$'),
     ({'rod_offsets': {'tolerance': 0.5}}, r'rod_offsets: tolerance 0\.5 m; allowed: at most 0\.01 m$'),
     ({'rod1_ux': {'tolerance': 1e300}}, r'rod1_ux: tolerance = 1e\+300; allowed: at most 0\.1 rad$'),
     ({'rod1_ux': {'tolerance': 0.5}}, r'rod1_ux: tolerance 0\.5 rad; allowed: at most 0\.1 rad$'),
-    ({'rod2_offset': {'tolerance': '5um'}}, r"rod2_offset: tolerance = '5um'; allowed: at most 0\.01 m$"),
+    ({'rod2_offset': {'tolerance': '5um'}},
+     r"rod2_offset: tolerance = '5um' \(no number\); allowed: at most 0\.01 m$"),
+    ({'rod2_offset': {'tolerance': '3.0e-5'}},   # it said 'allowed: at most 0.01 m' of 3e-5 in quotes
+     r"tolerance = '3\.0e-5' \(YAML read it as text: write the number without quotes\); allowed: at most 0\.01 m$"),
     ({'rod1_x': {'range': [0.1, float('nan')]}}, r'rod1_x: range = \[0\.1, nan\]; allowed: values within 0\.01 m '
                                                  r"of the nominal \(a key's range"),
     ({'rod1_x': {'range': [0.1, 0.105]}}, r'rod1_x: range .* reaches .*; allowed: values within 0\.01 m of the '
@@ -145,7 +150,7 @@ def test_a_nan_names_its_units_bound(entry, pattern):
     ({'parameters': {'kappa': {'tolerance': float('nan')}}}, r'kappa: tolerance = nan; allowed: at most 1e\+06$'),
     ({'parameters': {'base_rz': {'tolerance': float('nan')}}}, r'base_rz: tolerance = nan; allowed: at most 0\.1 rad$'),
     ({'parameters': {'radius': {'tolerance': '5um'}}},
-     r"radius: tolerance = '5um'; allowed: at most 0\.01 m for a length, 0\.1 rad for an angle"),
+     r"radius: tolerance = '5um' \(no number\); allowed: at most 0\.01 m for a length, 0\.1 rad for an angle"),
     ({'rod_length': {'range': [float('nan'), 1.0]}}, r'rod_length: range = \[nan, 1\.0\]; allowed: a tolerance'),
 ])
 def test_a_value_that_is_no_number_is_refused_when_the_table_is_read(data, pattern):

@@ -83,6 +83,12 @@ def test_units_and_imports(tmp_path):
                                               r'names over the program and its imports'):
             _program(tmp_path, _minimal(stations=[{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0}],
                                         **{'import': imports}, steps=[{'move': 'a'}]))
+    # an empty entry (or '.') was read as the program's folder: "station file '...' is a folder"
+    for entry in ('', '.', ' '):
+        with pytest.raises(ConfigError, match=r"p\.yaml: import entry '\.?\s?' names no file; allowed: a station "
+                                              r'file path'):
+            _program(tmp_path, _minimal(stations=[{'name': 'a', 'position': [1.2, 0.5, 0.45], 'heading': 0.0}],
+                                        **{'import': [entry]}, steps=[{'move': 'a'}]))
 
 
 def test_platform_programs_are_named_and_refused():

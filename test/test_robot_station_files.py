@@ -161,6 +161,9 @@ def test_hostile_files(tmp_path):
     (tmp_path / 'folder').mkdir()  # a folder named without a suffix read 'unknown type (none)'
     with pytest.raises(ConfigError, match=r"station file '.*folder' is a folder; allowed: a .csv, .yaml or .yml file"):
         load_stations(tmp_path / 'folder')
+    # a name too long for the file system, without a suffix: a bare OSError (File name too long) of is_dir
+    with pytest.raises(ConfigError, match=r"^station file 'x{50,}.* is of unknown type \(no suffix\)"):
+        load_stations('x' * 300)
     fifo = tmp_path / 'fifo.csv'
     os.mkfifo(fifo)
     with pytest.raises(ConfigError, match=r'is not a regular file'):  # must not block on the FIFO

@@ -40,6 +40,7 @@ from ..errors import ConfigError, apart
 from ..inputs import safe_yaml
 from ..inputs.schema import check_keys, is_number
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, as_typed, both_units, to_si
+from ..inputs.validation import decimal_number
 from ..mechanisms.accuracy import JOINT_ANGLE_ERROR_MOST, PARAMETER_ERROR_MOST
 from .frames import AXES
 from .measurements import SIGMA_RANGE
@@ -315,7 +316,10 @@ def _stiffness() -> str:
 def _finite(value: Any, where: str, allowed: str) -> float:
     """``value`` as a float, refused naming ``allowed`` (its quantity's bound) unless a number."""
     if not is_number(value):  # the package's one rule: no bool or text, finite, |x| <= 1e6 (a 401-digit integer too)
-        raise ConfigError(f'{where} = {safe_yaml.brief(value)}; allowed: {allowed}')
+        text = isinstance(value, str) and decimal_number(value) is not None   # '3.0e-5' was told 'at most 0.01 m'
+        kind = ' (YAML read it as text: write the number without quotes)' if text else \
+            '' if isinstance(value, (int, float)) and not isinstance(value, bool) else ' (no number)'
+        raise ConfigError(f'{where} = {safe_yaml.brief(value)}{kind}; allowed: {allowed}')
     return float(value)
 
 

@@ -216,6 +216,9 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
                           f'at most {MAX_IMPORTS} of them')
     origin = {name: 'its stations' for name in rows.names}  # where each name came from, for a name given twice
     for p in raw:
+        if p.strip() in ('', '.'):   # it was read as the program's folder: "station file 'programs' is a folder"
+            raise ConfigError(f'{source}: import entry {brief(p)} names no file; allowed: a station file path (.csv, '
+                              '.yaml) relative to the program')
         path = Path(p) if Path(p).is_absolute() else base / p
         new, here = read_station_rows(path), f'import {brief(p)}'
         for name in new.names:

@@ -398,5 +398,9 @@ def read_station_rows(path: Path) -> StationRows:
         if not rows.names:   # a file of no station, as a CSV of a header alone (a program's inline list may be empty)
             raise ConfigError(f'{path}: stations = [] has no station; allowed: a list of one or more stations')
         return rows
-    what = 'a folder' if path.is_dir() else f'of unknown type {suffix or "(no suffix)"}'
-    raise ConfigError(f'station file {str(path)!r} is {what}; allowed: a .csv, .yaml or .yml file')
+    try:
+        folder = path.is_dir()
+    except OSError:   # a name too long for the file system: a bare OSError (ENAMETOOLONG) of the API's call
+        folder = False
+    what = 'a folder' if folder else f'of unknown type {suffix or "(no suffix)"}'
+    raise ConfigError(f'station file {brief(str(path))} is {what}; allowed: a .csv, .yaml or .yml file')
