@@ -694,6 +694,12 @@ def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(
     dangling.symlink_to(tmp_path / 'nowhere.yaml')   # a link to nothing is as missing as no file
     status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
     assert status == 2 and f"{program}: cell file '{tmp_path / 'programs/../cells/example_cell.yaml'}'" in err
+    dangling.unlink()
+    dangling.symlink_to(dangling)   # a loop was called missing: "does not exist"
+    status, out, err = run(capsys, 'program', 'check', str(program), '--robot', str(robot))
+    assert status == 2 and 'folder) cannot be read (Too many levels of symbolic links); allowed' in err, err
+    dangling.unlink()
+    dangling.symlink_to(tmp_path / 'nowhere.yaml')
     # export does not read the cell, and passed a program whose cell was missing or a folder
     status, out, err = run(capsys, 'program', 'export', str(program), '--robot', str(robot), '--waypoints',
                            str(tmp_path / 'w.csv'))

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import re
@@ -189,8 +190,13 @@ def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | No
     path: Path | None = getattr(program, key)
     if given is not None or path is None or os.path.exists(path):   # a dangling link does not exist either
         return given if given is not None else path
-    raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) does '
-                    f'not exist; allowed: an existing file, or --{key} FILE')
+    try:
+        os.stat(path)
+        why = 'does not exist'
+    except OSError as exc:   # a symbolic link loop or a name too long was called missing
+        why = 'does not exist' if exc.errno == errno.ENOENT else f'cannot be read ({os.strerror(exc.errno or 0)})'
+    raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) '
+                    f'{why}; allowed: an existing file, or --{key} FILE')
 
 
 def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
