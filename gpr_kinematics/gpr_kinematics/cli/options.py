@@ -188,11 +188,11 @@ def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | No
     :class:`FileError` naming the program when that file does not exist (a refusal that named the file alone left
     the reader to guess who named it and relative to what)."""
     path: Path | None = getattr(program, key)
-    if given is not None or path is None or os.path.exists(path):   # a dangling link does not exist either
+    if given is not None or path is None:
         return given if given is not None else path
     try:
-        os.stat(path)
-        why = 'does not exist'
+        os.stat(path)   # a dangling link does not exist either
+        return path
     except OSError as exc:   # a symbolic link loop or a name too long was called missing
         why = 'does not exist' if exc.errno == errno.ENOENT else f'cannot be read ({os.strerror(exc.errno or 0)})'
     raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) '

@@ -135,9 +135,10 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
     :data:`MAX_SAMPLES` samples in all, counted before any array is made.
     """
     for name, value in (('max_tilt', max_tilt), ('tilt_step', tilt_step), ('azimuth_step', azimuth_step)):
-        if not (math.isfinite(plain_number(value)) and plain_number(value) > 0):   # numpy scalars as their numbers
+        v = plain_number(value)   # numpy scalars as their numbers; a truth value or text NaN
+        if not (math.isfinite(v) and v > 0):
             raise InputError(f'{name} = {brief(value)} must be a positive finite angle in radians')
-        if plain_number(value) < LEAST_STEPS.get(name, 0.0):
+        if v < LEAST_STEPS.get(name, 0.0):
             raise InputError(f'{name} = {brief(value)} rad; allowed: a step of at least {LEAST_STEPS[name]:g} rad')
     max_tilt, tilt_step, azimuth_step = (plain_number(v) for v in (max_tilt, tilt_step, azimuth_step))
     if isinstance(passes, (bool, np.bool_)) or not isinstance(passes, (int, np.integer)) or \
