@@ -230,10 +230,19 @@ def test_the_last_line_off_a_terminal_is_written_where_the_sum_stops_an_ulp_shor
     ({'delta': 0.0}, 'positive'), ({'delta': -1.0}, 'positive'), ({'delta': float('nan')}, 'positive'),
     ({'delta': 1e-20}, 'too small'), ({'delta': 0.1, 'method': 'sivia'}, 'unknown workspace method'),
     ({'delta': 0.1, 'box': [[0, 1]]}, 'shape'), ({'delta': 0.1, 'box': [[0, 1], [0, 1], [2, 1]]}, 'lower < upper'),
+    ({'delta': 0.1, 'parts': True}, 'parts must be an integer'), ({'delta': 0.1, 'parts': 2.0}, 'parts must be'),
+    ({'delta': 0.1, 'chunk_size': np.True_}, 'chunk_size must be'), ({'delta': 0.1, 'chunk_size': 0}, 'chunk_size'),
 ])
 def test_bad_arguments_raise_input_errors(kwargs, match):
     with pytest.raises(InputError, match=match):
         approximate(ShellArmModel(), **kwargs)
+
+
+def test_numpy_counts_are_taken_as_the_same_python_ints():
+    # printed as numbers in the refusals, so taken: a numpy int from a config array ran as its Python int does
+    a = approximate(ShellArmModel(), 0.05, chunk_size=np.int64(64), parts=np.int32(2))
+    b = approximate(ShellArmModel(), 0.05, chunk_size=64, parts=2)
+    assert np.array_equal(a.inner, b.inner) and np.array_equal(a.boundary, b.boundary) and a.inner.size > 0
 
 
 def test_contains_points_matches_brute_force():

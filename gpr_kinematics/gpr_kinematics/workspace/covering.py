@@ -183,7 +183,7 @@ def approximate(
     if not isinstance(model, WorkspaceModel) and not hasattr(model, 'covering_task'):   # 'upu3.yaml': AttributeError
         raise InputError(f'model = {brief(model)}; allowed: a WorkspaceModel (or an equation model), as '
                          'load_workspace_model(path) returns it')
-    _check_run_options(method, chunk_size, parts)
+    chunk_size, parts = _check_run_options(method, chunk_size, parts)
     max_boxes = check_max_boxes(max_boxes, model)
     max_seconds = check_max_seconds(max_seconds)
     t0 = time.perf_counter()  # the run's time and time limit include the coverings a model builds on
@@ -236,15 +236,21 @@ def approximate(
             executor.close()
 
 
-def _check_run_options(method: str, chunk_size: int | None, parts: int) -> None:
-    """InputError naming the first option of :func:`approximate` out of its range, and the range (``max_boxes``:
+def _check_run_options(method: str, chunk_size: int | None, parts: int) -> tuple[int | None, int]:
+    """``chunk_size`` and ``parts`` as Python ints (numpy's too; a bool is no count), else InputError naming the
+    first option of :func:`approximate` out of its range, and the range (``max_boxes``:
     :func:`~.base.check_max_boxes`)."""
     if method not in METHODS:
         raise InputError(f'unknown workspace method {method!r}; allowed: {", ".join(METHODS)}')
-    if chunk_size is not None and not (isinstance(chunk_size, int) and chunk_size >= 1):
+    if chunk_size is not None and not (_is_count(chunk_size) and chunk_size >= 1):
         raise InputError(f'chunk_size must be a positive integer, got {brief(chunk_size)}')
-    if not (isinstance(parts, int) and 1 <= parts <= 100_000):
+    if not (_is_count(parts) and 1 <= parts <= 100_000):
         raise InputError(f'parts must be an integer from 1 to 100000, got {brief(parts)}')
+    return (None if chunk_size is None else int(chunk_size)), int(parts)
+
+
+def _is_count(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 class SubCoveringStoppedError(Exception):
