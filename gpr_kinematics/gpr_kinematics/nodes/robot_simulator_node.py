@@ -98,6 +98,11 @@ def _within(now: int, then: int | None, span: int) -> bool:
     return then is not None and 0 <= now - then <= span
 
 
+def _streaming(now: int, last_foreign: int | None, idle_rate: Any) -> bool:
+    """Another publisher streams the robot's states: its last one at most two idle periods before ``now`` [ns]."""
+    return _within(now, last_foreign, 2 * round(NS_PER_S / float(idle_rate)))
+
+
 def _seconds(d: Any) -> float:
     return float(d.sec) + float(d.nanosec) / NS_PER_S
 
@@ -246,7 +251,7 @@ class RobotSimulatorNode(GprNode):
             self._settle()   # the last state a stream left pending, at most every FOREIGN_CHECK s (any idle_rate)
             stamp = self.get_clock().now().nanoseconds
         waiting = self.run is None or stamp < self.run.start_ns
-        if waiting and not _within(stamp, self.last_foreign, 2 * period) and \
+        if waiting and not _streaming(stamp, self.last_foreign, self.p['idle_rate']) and \
                 not _within(stamp, self.last_published, period // 2):
             self._converge(stamp)
             self.publish_state(stamp)
@@ -270,8 +275,8 @@ class RobotSimulatorNode(GprNode):
         with the result code (module docstring)."""
         if self.run is None:
             self._settle()   # another publisher's latest state, before the goal starts from it
-            now, period = self.get_clock().now().nanoseconds, round(NS_PER_S / float(self.p['idle_rate']))
-            if _within(now, self.last_foreign, 2 * period):   # both moved the robot: /tf flickered, the goal undone
+            # both would move the robot: /tf flickered, the goal undone
+            if _streaming(self.get_clock().now().nanoseconds, self.last_foreign, self.p['idle_rate']):
                 raise GoalError(INVALID_GOAL, "another node streams this robot's joint_states (a program or sweep of "
                                 'trajectory_node, say); allowed: a goal once that stream has ended')
         points = req.trajectory.points
