@@ -275,8 +275,7 @@ class RobotSimulatorNode(GprNode):
         with the result code (module docstring)."""
         if self.run is None:
             self._settle()   # another publisher's latest state, before the goal starts from it
-            # both would move the robot: /tf flickered, the goal undone
-            if _streaming(self.get_clock().now().nanoseconds, self.last_foreign, self.p['idle_rate']):
+            if _streaming(self.get_clock().now().nanoseconds, self.last_foreign, self.p['idle_rate']):   # /tf flickered
                 raise GoalError(INVALID_GOAL, "another node streams this robot's joint_states (a program or sweep of "
                                 'trajectory_node, say); allowed: a goal once that stream has ended')
         points = req.trajectory.points
