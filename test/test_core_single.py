@@ -258,8 +258,8 @@ def test_the_budget_flag_of_one_pose_sees_each_joint():
 
 @pytest.mark.parametrize('name', CONFIGS)
 def test_the_one_pose_height_range_is_the_generic_one_to_the_last_bit(name):
-    """OnePose.height_range (inverse_parts' check of the height before the solve) takes _height_range's operations."""
-    from gpr_kinematics.core.inverse import _height_range
+    """OnePose.height_range (inverse_parts' check of the height before the solve) takes height_range's operations."""
+    from gpr_kinematics.core.heights import height_range
     config = CONFIGS[name]
     kernel = one_pose(config)
     rng = np.random.default_rng(3)
@@ -267,7 +267,7 @@ def test_the_one_pose_height_range_is_the_generic_one_to_the_last_bit(name):
         t, g = rng.uniform(0.0, 1.2 * config.tilt_limit), rng.uniform(-math.pi, math.pi)
         n = [math.sin(t) * math.sin(g), -math.sin(t) * math.cos(g), math.cos(t)]
         tool = [float(v) for v in rng.normal(0.0, 0.2, 3)] if rng.uniform() < 0.5 else [0.0, 0.0, 0.0]
-        assert kernel.height_range(n, tool) == _height_range(SCALAR, kernel.geometry, n, tool, config)
+        assert kernel.height_range(n, tool) == height_range(SCALAR, kernel.geometry, n, tool, config)
 
 
 @pytest.mark.parametrize('q, model', [([0.0, 0.5, 0.0], 'polar'), ([0.0, -1.0, -0.5], 'polar'),

@@ -51,13 +51,13 @@ from .forward import (
     one_result,
     solve_pose,
 )
+from .heights import HEIGHT_MARGIN, RodsAt, check_height, check_solved_stroke
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import FitFloats
 from .rotations import tilt_of_normal
 from .single import Centres, OnePose, one_pose
-from .stroke import check_stroke, within_as_millimetres
 from .virtual_joints import Closure, VirtualJointModel, make_model
 
 Array = NDArray[np.float64]
@@ -74,10 +74,6 @@ TARGET_TOLERANCES = 4.0
 #: height of a point much farther away carries rounding errors of the order of :data:`IK_TOLERANCE` (at 300 m
 #: Newton's method can no longer meet it).
 TOOL_REACH = 10.0
-#: How far beyond the heights that keep the naive model's rods within the stroke a target may lie and still be
-#: solved [m]: the virtual joints move the rods by at most ~1.3 mm against the naive model (at a tilt of 15 deg,
-#: the largest tilt limit); the stroke itself is checked exactly after the solve.
-HEIGHT_MARGIN = 0.01
 
 
 @dataclass(frozen=True)
@@ -193,71 +189,6 @@ def check_tool_point(tool: Sequence[float], name: str = 'tool') -> None:
         check_tool(tool, name)
 
 
-def _height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
-                  ) -> tuple[Value, Value]:
-    """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
-    normals ``n``: rod ``k`` of :func:`~gpr_kinematics.core.naive.naive_rods` is within ``[stroke_min, stroke_max]``
-    for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
-    lo: Value = 0.0
-    hi: Value = 0.0
-    for k in range(3):
-        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
-        lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
-        hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
-        lo = lo_k if k == 0 else ops.maximum(lo, lo_k)
-        hi = hi_k if k == 0 else -ops.maximum(-hi, -hi_k)
-    return lo, hi
-
-
-def _check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence[Value], tool: Sequence[Value],
-                  config: GprConfig) -> None:
-    """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
-    the solve, naming the heights allowed at that tilt; a height of 1e308 m never reaches the arithmetic."""
-    lo, hi = _height_range(ops, geo, n, tool, config)
-    if not ops.any(ops.not_((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN))):
-        return
-    bad = np.atleast_1d(np.logical_not((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
-    i = int(np.argmax(bad))
-    hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
-    hv = float(np.atleast_1d(hi)[i])
-    heights = np.atleast_1d(h)   # a sweep's one height named no "target 0"; the tilt tells the target apart
-    where = f' (target {i})' if bad.size > 1 and heights.size > 1 and np.ptp(heights) != 0 else ''
-    at = f'at the tilt {ti:.6g} rad' + (' with this tool point' if any(np.any(np.asarray(v) != 0) for v in tool)
-                                         else '')
-    stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
-    if lo_ > hv:
-        raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
-    mm = '; as millimetres it would be within them: millimetres given as metres?' if within_as_millimetres(
-        hi_, lo_, hv) else ''
-    raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
-                     f'{lo_:.6g} .. {hv:.6g} m{mm}')
-
-
-def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Array, Array]:
-    """The platform origin's heights ``(lo, hi)`` [m] at which :func:`inverse_batch` solves the tilts ``tilt`` about
-    ``azimuth`` [rad]: those keeping the naive model's rods within the stroke, widened by :data:`HEIGHT_MARGIN`
-    (beyond, it refuses before the solve; the answered rods decide within)."""
-    s = np.sin(tilt)
-    n = [s * np.sin(azimuth), -s * np.cos(azimuth), np.cos(tilt)]
-    lo, hi = _height_range(ARRAY, MachineGeometry.of(config), n, (0.0, 0.0, 0.0), config)
-    return np.asarray(lo - HEIGHT_MARGIN), np.asarray(hi + HEIGHT_MARGIN)
-
-
-def _check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
-                         tool: Sequence[Value], config: GprConfig) -> None:
-    """:func:`~gpr_kinematics.core.stroke.check_stroke` of the solved rods ``q``; a refusal names the target's
-    height and the heights allowed at its tilt too (within :data:`HEIGHT_MARGIN` of them a target is solved, so the
-    rods decide: ``--height 0.5 --mm`` said only that q3 is outside the stroke). The range is the naive model's
-    (:func:`_height_range`), which the virtual joints move by about a millimetre at most: 'about'."""
-    def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
-        lo, hi = _height_range(ops, geo, n, tool, config)
-        hh, tt, lv, hv = (float(np.atleast_1d(v)[i]) for v in (h, t, lo, hi))
-        return (f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: about '
-                f'{lv:.6g} .. {hv:.6g} m')
-
-    check_stroke(ops, q, config, what='q', detail=heights)
-
-
 def _not_converged(geo: MachineGeometry, most: int, where: str, err: float) -> ConvergenceError:
     """The error of a solve still outside its tolerance after ``most`` steps. The naive Jacobian of the iteration
     ignores how a rod that is not parallel to the others pushes the over-constrained platform sideways: there it
@@ -276,7 +207,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
     geo = MachineGeometry.of(config)
     s = ops.sin(t)
     n_target = [s * ops.sin(g), -s * ops.cos(g), ops.cos(t)]
-    _check_height(ops, geo, h, t, n_target, tool, config)
+    check_height(ops, geo, h, t, n_target, tool, config, _rods_at(config, vjm.name, t, g, tool))
     q_target = naive_rods(geo, h, n_target, tool)
     q = list(q_target)
     iterations: Any = 0 * (h == h)  # integer zeros: one, or one per target
@@ -302,7 +233,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
     if stroke:
-        _check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
+        check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
     check_tilt(ops, q, pose.tilt, config)   # a target within the slack may be answered a few ulps beyond it
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
@@ -325,7 +256,7 @@ def inverse_batch(height: ArrayLike, tilt: ArrayLike, azimuth: ArrayLike, config
             (one point for every target) or ``(N, 3)`` (one point per target, e.g. per station).
         stroke: refuse an answer whose rods leave the stroke; ``False`` answers it (the iterates of a caller that
             judges its converged rods itself: station inverse kinematics on rods that are not parallel). A height
-            beyond :func:`solvable_heights` is refused either way.
+            beyond :func:`~.heights.solvable_heights` is refused either way.
 
     Raises:
         InputError: NaN, infinity, an azimuth beyond +-:data:`~gpr_kinematics.inputs.validation.MAX_COORDINATE`
@@ -405,7 +336,7 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
     n_target = [s * math.sin(g), -s * math.cos(g), math.cos(t)]
     lo, hi = kernel.height_range(n_target, tool)
     if not (h >= lo - HEIGHT_MARGIN and h <= hi + HEIGHT_MARGIN):   # _check_height's decision, in floats
-        _check_height(SCALAR, geo, h, t, n_target, tool, cfg)
+        check_height(SCALAR, geo, h, t, n_target, tool, cfg, _rods_at(cfg, kernel.model.name, t, g, tool))
     q_target = kernel.naive_rods(h, n_target, tool)
     most = cfg.max_iterations
     tol_h, tol_n = cast('tuple[float, float]', tool_tolerances(cfg, tool))
@@ -416,10 +347,19 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         raise _not_converged(geo, most, '', err)
     r02, r12, r22 = frame[2], frame[5], frame[8]
     if stroke:
-        _check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
+        check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
     if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
         check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
     return InverseParts(q, P, L, closure, frame, iterations, first)
+
+
+def _rods_at(config: GprConfig, model: str, t: Value, g: Value, tool: Sequence[Value]) -> RodsAt:
+    """The solved rods of target ``i`` at another height (stroke unchecked), for a refusal's allowed heights."""
+    def rods(i: int, h: float) -> Sequence[float]:
+        ti, gi = (float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in (t, g))
+        tool_i = [float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in tool]
+        return inverse_parts(one_pose(config, model), h, ti, gi, tool_i, stroke=False).q
+    return rods
 
 
 def _steps(kernel: OnePose, q_target: list[float], h: float, n: Sequence[float], tool: Sequence[float], tol_h: float,

@@ -63,7 +63,7 @@ class OnePose:
                                   config.max_iterations)
         self._base = None if geo.upright else cast('tuple[Floats3, ...]', (geo.bx, geo.by, geo.ux, geo.uy, geo.uz,
                                                                           geo.offsets))
-        self._strokes = tuple((s + o) * u for s in (config.stroke_min, config.stroke_max)   # _height_range's
+        self._strokes = tuple((s + o) * u for s in (config.stroke_min, config.stroke_max)   # height_range's
                               for o, u in zip(cast('Floats3', geo.offsets), cast('Floats3', geo.uz), strict=True))
         self.rod_direction = cast('Floats3', (geo.ux[0], geo.uy[0], geo.uz[0]))
         self._naive_rods = cast('tuple[Floats3, Floats3, Floats3, Floats3]', (geo.px, geo.py, geo.uz, geo.offsets))
@@ -98,7 +98,7 @@ class OnePose:
                 (h - n0 * (px2 - t0) - n1 * (py2 - t1) - n2 * t2) / u2 - o2]
 
     def height_range(self, n: Sequence[float], tool: Sequence[float]) -> tuple[float, float]:
-        """:func:`~gpr_kinematics.core.inverse._height_range` in floats (its operations, its ``max`` a comparison): the
+        """:func:`~gpr_kinematics.core.heights.height_range` in floats (its operations, its ``max`` a comparison): the
         tool point's heights [m] keeping the naive model's rods within the stroke for the platform normal ``n``."""
         (px0, px1, px2), (py0, py1, py2) = self._naive_rods[0], self._naive_rods[1]
         a0, a1, a2, b0, b1, b2 = self._strokes

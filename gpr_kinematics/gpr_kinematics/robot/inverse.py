@@ -36,7 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core import STROKE_SLACK, ForwardBatch, forward_batch, inverse_batch, naive_inverse
-from ..core.inverse import solvable_heights, tilt_target_slack
+from ..core.heights import solvable_heights
+from ..core.inverse import tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from ..inputs.validation import TURN, TURN_SLACK, switch
@@ -188,7 +189,7 @@ def _platform_height(robot: RobotDescription, tilt: Array, az: Array, p_b: Array
                      zw: float) -> tuple[Array, ForwardBatch]:
     """Rods putting the platform plane at the wafer height through ``p_b`` with normal ``n_b`` (step 2). The
     iterates are not judged against the stroke, the answer is (:func:`_fault_mask`). A height the core does not
-    solve (:func:`~gpr_kinematics.core.inverse.solvable_heights`: 1 cm beyond the stroke) is solved at the nearest
+    solve (:func:`~gpr_kinematics.core.heights.solvable_heights`: 1 cm beyond the stroke) is solved at the nearest
     one and the rest moved along the rods as if parallel: a station beyond the stroke, its rods to ~1e-3 of the rest."""
     cfg = robot.config
     ik = inverse_batch(0.5 * (cfg.stroke_min + cfg.stroke_max), tilt, az, cfg, stroke=False)

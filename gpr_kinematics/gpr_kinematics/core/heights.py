@@ -1,0 +1,147 @@
+"""The heights a target of inverse kinematics may have: the stroke seen from the platform.
+
+Rod ``k`` of the naive model (:func:`~gpr_kinematics.core.naive.naive_rods`) is
+``N_k(h, n) = (h - c_k) / u_kz - o_k`` with ``c_k = n' . (p_k - tool)``, so the stroke ``[s_min, s_max]`` holds it
+for heights ``h`` within ``(s + o_k) u_kz + c_k``. The virtual joints shift the solved rods by ``d_k = q_k -
+N_k(h, n)`` (micrometres at the shipped 2 deg limit, up to about 1.3 mm at a tilt of 15 deg); a shift that the
+height hardly changes, so the solved rods stay within the stroke for ``h`` within ``(s + o_k - d_k) u_kz + c_k``
+(:func:`solved_height_range`). A target beyond the naive range by more than :data:`HEIGHT_MARGIN` is refused before
+the solve (:func:`check_height`), a solved one by its rods (:func:`check_solved_stroke`); both name the heights
+allowed at the target's tilt, those of the solved rods, shown rounded inward so that either end is solved.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConvergenceError, LimitError
+from .config import GprConfig
+from .machine import MachineGeometry
+from .naive import naive_rods
+from .ops import ARRAY, Ops, Value
+from .stroke import check_stroke, within_as_millimetres
+
+Array = NDArray[np.float64]
+#: The solved rods of one sample ``i`` of a check, at the height ``h`` [m] of its tool point (stroke unchecked).
+RodsAt = Callable[[int, float], Sequence[float]]
+
+#: How far beyond the heights that keep the naive model's rods within the stroke a target may lie and still be
+#: solved [m]: the virtual joints move the rods by at most ~1.3 mm against the naive model (at a tilt of 15 deg,
+#: the largest tilt limit); the stroke itself is checked exactly after the solve.
+HEIGHT_MARGIN = 0.01
+
+
+def height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
+                 ) -> tuple[Value, Value]:
+    """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
+    normals ``n``: rod ``k`` of :func:`~gpr_kinematics.core.naive.naive_rods` is within ``[stroke_min, stroke_max]``
+    for ``h`` within ``(stroke + o_k) u_kz + n' . (p_k - tool)``."""
+    lo: Value = 0.0
+    hi: Value = 0.0
+    for k in range(3):
+        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
+        hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
+        lo = lo_k if k == 0 else ops.maximum(lo, lo_k)
+        hi = hi_k if k == 0 else -ops.maximum(-hi, -hi_k)
+    return lo, hi
+
+
+def solved_height_range(geo: MachineGeometry, q: Sequence[float], h: float, n: Sequence[float],
+                        tool: Sequence[float], config: GprConfig) -> tuple[float, float]:
+    """The tool point's heights [m] keeping rods within the stroke at the normal ``n`` [-], from the rods ``q`` [m]
+    solved at the height ``h``: :func:`height_range` with each rod's virtual-joint shift ``d_k = q_k - N_k(h, n)``
+    (module docstring; first order in the change of ``d_k`` with the height)."""
+    naive = naive_rods(geo, h, n, tool)
+    lo, hi = -math.inf, math.inf
+    for k in range(3):
+        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        d = float(q[k]) - float(naive[k])
+        lo = max(lo, float((config.stroke_min + geo.offsets[k] - d) * geo.uz[k] + c))
+        hi = min(hi, float((config.stroke_max + geo.offsets[k] - d) * geo.uz[k] + c))
+    return lo, hi
+
+
+def shown_inward(lo: float, hi: float) -> str:
+    """``'lo .. hi'`` to six digits, rounded into the range (so either end, typed, lies within it)."""
+    return f'{_rounded(lo, up=True)} .. {_rounded(hi, up=False)}'
+
+
+def _rounded(x: float, up: bool) -> str:
+    shown = f'{x:.6g}'
+    if (float(shown) < x) if up else (float(shown) > x):   # one step of the sixth digit further in
+        step = 10.0 ** (math.floor(math.log10(abs(x))) - 5)
+        shown = f'{x + step if up else x - step:.6g}'
+    return shown
+
+
+def check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence[Value], tool: Sequence[Value],
+                 config: GprConfig, rods_at: RodsAt) -> None:
+    """Refuse targets whose height needs rods outside the stroke (by more than :data:`HEIGHT_MARGIN`) before
+    the solve, naming the heights allowed at that tilt (those of the rods ``rods_at`` solves at the nearest end of
+    the naive range); a height of 1e308 m never reaches the arithmetic."""
+    lo, hi = height_range(ops, geo, n, tool, config)
+    if not ops.any(ops.not_((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN))):
+        return
+    bad = np.atleast_1d(np.logical_not((h >= lo - HEIGHT_MARGIN) & (h <= hi + HEIGHT_MARGIN)))
+    i = int(np.argmax(bad))
+    hi_, lo_, ti = (float(np.atleast_1d(v)[i]) for v in (h, lo, t))
+    hv = float(np.atleast_1d(hi)[i])
+    heights = np.atleast_1d(h)   # a sweep's one height named no "target 0"; the tilt tells the target apart
+    where = f' (target {i})' if bad.size > 1 and heights.size > 1 and np.ptp(heights) != 0 else ''
+    at = f'at the tilt {ti:.6g} rad' + (' with this tool point' if any(np.any(np.asarray(v) != 0) for v in tool)
+                                         else '')
+    stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
+    if lo_ > hv:
+        raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
+    mm = '; as millimetres it would be within them: millimetres given as metres?' if within_as_millimetres(
+        hi_, lo_, hv) else ''
+    raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
+                     f'{_allowed(geo, i, min(max(hi_, lo_), hv), n, tool, config, rods_at)}{mm}')
+
+
+def _allowed(geo: MachineGeometry, i: int, h: float, n: Sequence[Value], tool: Sequence[Value], config: GprConfig,
+             rods_at: RodsAt) -> str:
+    """The heights allowed at sample ``i``'s tilt, from its rods solved at the height ``h`` [m] within the naive
+    range (the naive range, as 'about', where that solve fails)."""
+    ni, tool_i = ([_at(v, i) for v in w] for w in (n, tool))
+    try:
+        lo, hi = solved_height_range(geo, rods_at(i, h), h, ni, tool_i, config)
+    except (ConvergenceError, LimitError):   # not seen within the naive range: the naive range, as about
+        lo_n, hi_n = height_range(ARRAY, geo, ni, tool_i, config)
+        return f'about {float(lo_n):.6g} .. {float(hi_n):.6g} m'
+    return f'{shown_inward(lo, hi)} m' if lo <= hi else 'none'
+
+
+def _at(value: Value, i: int) -> float:
+    """Sample ``i`` of a value that is one float for every sample or one per sample."""
+    return float(value) if np.ndim(value) == 0 else float(np.asarray(value)[i])
+
+
+def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Array, Array]:
+    """The platform origin's heights ``(lo, hi)`` [m] at which :func:`~gpr_kinematics.core.inverse.inverse_batch`
+    solves the tilts ``tilt`` about ``azimuth`` [rad]: those keeping the naive model's rods within the stroke,
+    widened by :data:`HEIGHT_MARGIN` (beyond, it refuses before the solve; the answered rods decide within)."""
+    s = np.sin(tilt)
+    n = [s * np.sin(azimuth), -s * np.cos(azimuth), np.cos(tilt)]
+    lo, hi = height_range(ARRAY, MachineGeometry.of(config), n, (0.0, 0.0, 0.0), config)
+    return np.asarray(lo - HEIGHT_MARGIN), np.asarray(hi + HEIGHT_MARGIN)
+
+
+def check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
+                        tool: Sequence[Value], config: GprConfig) -> None:
+    """:func:`~gpr_kinematics.core.stroke.check_stroke` of the solved rods ``q``; a refusal names the target's
+    height and the heights allowed at its tilt too, from its solved rods (:func:`solved_height_range`: the naive
+    model's range named heights whose rods the virtual joints put micrometres outside)."""
+    def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
+        hh, tt = _at(h, i), _at(t, i)
+        qi, ni, tool_i = ([_at(v, i) for v in w] for w in (q, n, tool))
+        lo, hi = solved_height_range(geo, qi, hh, ni, tool_i, config)
+        allowed = f'{shown_inward(lo, hi)} m' if lo <= hi else 'none'
+        return f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: {allowed}'
+
+    check_stroke(ops, q, config, what='q', detail=heights)
