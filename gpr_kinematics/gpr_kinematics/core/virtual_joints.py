@@ -18,7 +18,9 @@ compliant   dr1..3 dt1..3          p_k + dr_k e_r + dt_k e_t                    
 
 *At rest* (the start of every solve) the joints sit at their places ``p_k``; on the nominal machine that is
 the singular configuration ``q1 = q2 = q3``. (The paper's §V-B formula for ``r_3`` has ``dphi_2`` where
-``dphi_3`` is meant.) The closure equations (the paper's eq. (6) in the form of §V-B) are
+``dphi_3`` is meant, and its §V-A ``dF/dX`` swaps ``l1`` and ``l3`` in the third equation's column and reverses its
+``phi`` signs: the Jacobians here are ``F``'s own, checked against finite differences.) The closure equations (the
+paper's eq. (6) in the form of §V-B) are
 
     F_i(X) = |r_{i%3+1}(X) - r_i(X)|^2 - L_{i,i%3+1}^2 = 0,   i = 1, 2, 3,
 
