@@ -197,6 +197,36 @@ def test_the_crossing_ratio_is_the_rotation_over_its_bound(sweep: Path) -> None:
     assert 0.98 < result.crossing_ratio < 1.0
 
 
+
+def test_a_program_reaches_the_singular_configuration_once_per_dwell_and_crosses_it_once(tmp_path: Path) -> None:
+    """The example stations' program (load at tilt 0, station_a at 1.5 deg about 45 deg, station_b at 1 deg about
+    -135 deg, unload at tilt 0) reaches the singular configuration three times: the load's and the unload's dwells at
+    tilt 0 (21 samples each, which counted 42 crossings) and the move from station_a to station_b, whose commanded
+    tilt stays positive while the azimuth turns by pi (not counted before). Found here from the commanded tilt
+    vectors: a run of zeros once, a reversal once."""
+    from gpr_kinematics.bags.synthetic import platform_program_messages
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot.platform_program import load_platform_program
+
+    msgs = platform_program_messages(load_platform_program(config_path('programs/example_stations.yaml')), rate=100.0)
+    bag = write_bag(tmp_path / 'stations', msgs, _types(msgs))
+    result = verify_bag(bag)
+    c = read_bag(bag).topics[STATE].columns()
+    tilt, az = np.asarray(c['commanded_tilt'], float), np.asarray(c['commanded_azimuth'], float)
+    zero = tilt == 0
+    runs = np.flatnonzero(zero & ~np.r_[False, zero[:-1]])
+    turn = np.abs(np.angle(np.exp(1j * (az[1:] - az[:-1]))))   # the azimuth's turn between samples, in [0, pi]
+    flips = 1 + np.flatnonzero(~zero[1:] & ~zero[:-1] & (np.abs(turn - np.pi) < 1e-9))
+    assert runs.size == 2 and flips.size == 1 and np.count_nonzero(zero) == 42
+    assert result.passed and result.crossings == 3
+    q = np.stack(c['q'])
+    quat = np.stack([np.asarray(c[f'pose.orientation.{k}'], float) for k in 'xyzw'], axis=1)
+    ratio = quaternion_angle(quat[:-1], quat[1:]) / (
+        1.01 * math.sqrt(2 / 3) / 0.093218 * np.linalg.norm(np.diff(q, axis=0), axis=1) + 1e-12)
+    at = np.sort(np.r_[runs, flips])
+    assert result.crossing_ratio >= ratio[at[at >= 1] - 1].max() * (1 - 1e-9)   # the rotation's ratio, at least
+
+
 # -- topic.* ------------------------------------------------------------------------------------------------------
 
 def _marker(k: int, change: Any) -> Any:

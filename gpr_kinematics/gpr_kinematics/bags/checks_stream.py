@@ -31,18 +31,31 @@ from .tolerances import Tolerances
 
 #: ``q1 = q2 = q3`` within this spread [m] is the singular configuration.
 SINGULAR_SPREAD = 1e-12
+#: Consecutive commanded tilt vectors at an angle within this [rad] of pi reverse: a move through the singular
+#: configuration (the node turns the azimuth by pi there, in floats).
+REVERSAL = 1e-9
 
 
-def singular_crossings(commanded_tilt: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Indices of samples at or across the singular configuration: commanded tilt exactly 0, a change of sign
-    of the commanded tilt, or ``q1 = q2 = q3`` (spread <= :data:`SINGULAR_SPREAD`)."""
+def singular_crossings(commanded_tilt: NDArray[np.float64], q: NDArray[np.float64],
+                       commanded_azimuth: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices of the samples where the stream reaches or crosses the singular configuration, once per passage: the
+    first sample of each run at it (commanded tilt exactly 0, or ``q1 = q2 = q3`` within :data:`SINGULAR_SPREAD`),
+    and a sample whose commanded tilt vector ``tilt (cos azimuth, sin azimuth)`` reverses the previous one's (a tilt
+    that changes sign, or an azimuth turned by pi: a program's move through it). A dwell of 21 samples at tilt 0 is
+    one passage (it counted 21), the step between a sweep's rows (turned by less than pi) none."""
     t = np.asarray(commanded_tilt, dtype=float)
-    at = t == 0.0
-    sign = np.sign(t)
-    across = np.zeros_like(at)
-    across[1:] = (sign[1:] * sign[:-1]) < 0
     spread = np.ptp(q, axis=1) <= SINGULAR_SPREAD if len(q) else np.zeros(0, dtype=bool)
-    return np.flatnonzero(at | across | spread)
+    at = (t == 0.0) | spread
+    first = at.copy()
+    first[1:] &= ~at[:-1]
+    across = np.zeros_like(at)
+    if t.size > 1:
+        g = np.asarray(commanded_azimuth, dtype=float)
+        v = t[:, None] * np.column_stack([np.cos(g), np.sin(g)])
+        dot = np.sum(v[1:] * v[:-1], axis=1)
+        cross = v[:-1, 0] * v[1:, 1] - v[:-1, 1] * v[1:, 0]
+        across[1:] = (dot < 0) & (np.abs(cross) <= REVERSAL * np.abs(dot)) & ~at[1:] & ~at[:-1]
+    return np.flatnonzero(first | across)
 
 
 @dataclass

@@ -144,7 +144,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             checks.append(_no_states(bag.namespace))
         else:
             samples = np.asarray(c['sample'], dtype=np.int64)
-            cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q)
+            cross = singular_crossings(np.asarray(c['commanded_tilt'], dtype=float), q,
+                                       np.asarray(c['commanded_azimuth'], dtype=float))
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, slope_gain(geo.config), tol)
             recorded = read_records(bag)
