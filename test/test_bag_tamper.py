@@ -804,7 +804,9 @@ def test_a_controllers_joint_states_around_the_stream_pass(tmp_path: Path, veloc
     assert _failed(result) == fails, [f.line() for f in result.failures]
     if fails:
         extras = next(c for c in result.checks if c.name == 'topic.joint_states_extra')
-        assert (extras.checked, extras.worst) == (31 + 5, 1 + 4)   # one inside; after the last state all but one
+        # one inside, and the whole sweep recorded (its records' first and last samples): all 5 after the last
+        # state and the 2 before the first (the old rule let all but one after it and all before it pass)
+        assert (extras.checked, extras.worst) == (31 + 5 + 2, 1 + 5 + 2)
         assert result.failures[1].detail == (
             f'header stamps that go back in log-time order (the first: message 5 of the topic, stamped '
             f'{start + 2 * period} ns, logged after one stamped {start + period * 5 // 2} ns)')
@@ -832,3 +834,48 @@ def test_a_controllers_joint_state_at_a_samples_stamp_claims_nothing_beside_the_
     instead = msgs[:k] + [held] + msgs[k + 1:]
     result = verify_bag(write_bag(tmp_path / 'instead', instead, _types(instead)))
     assert {c for c, samples in _failed(result).items() if 10 in samples} == {'topic.joint_states'}
+
+
+def _shifted(topic: str, raw: bytes, shift: int, change: Any) -> bytes:
+    """The message ``raw`` of ``topic`` stamped ``shift`` ns later, then ``change``d."""
+    def edit(m: Any) -> Any:
+        t = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec + shift
+        stamp = dataclasses.replace(m.header.stamp, sec=t // 10**9, nanosec=t % 10**9)
+        return change(dataclasses.replace(m, header=dataclasses.replace(m.header, stamp=stamp)))
+    return edited(GPR_TOPICS[topic], raw, edit)
+
+
+@pytest.mark.parametrize('shift', [1_000_000, 3600 * 10**9, -1_000_000, -3600 * 10**9])
+def test_companions_beyond_a_whole_streams_states_fail(tmp_path: Path, shift: int) -> None:
+    """The sweep recorded whole (its record's first and last samples): a platform pose 5 cm off at z = 0.9 m and rods
+    of [0.9, 0, 0.3] m (beyond the stroke), stamped a sample or an hour after the last state (before the first),
+    passed: after the last state one stamp was let through as a cut sample's, before the first any as a late
+    subscriber's. No sample follows or precedes a whole stream's states: both fail as extra."""
+    msgs = small_sweep()
+    end = max if shift > 0 else min   # the stream's last (first) message of a topic
+    pose, joints = (end((m for m in msgs if m[0] == t), key=lambda m: m[1])
+                    for t in ('/gpr/platform_pose', '/joint_states'))
+    off = ('/gpr/platform_pose', pose[1] + shift, _shifted(pose[0], pose[2], shift, lambda m: dataclasses.replace(
+        m, pose=dataclasses.replace(m.pose, position=dataclasses.replace(m.pose.position, x=m.pose.position.x + 0.05,
+                                                                          z=0.9)))))
+    rods = ('/joint_states', joints[1] + shift, _shifted(joints[0], joints[2], shift,
+                                                          lambda m: dataclasses.replace(m, position=np.array(
+                                                              [0.9, 0.0, 0.3]))))
+    out = msgs + [off, rods] if shift > 0 else [msgs[0], off, rods] + msgs[1:]   # the geometry stays first
+    result = verify_bag(write_bag(tmp_path / 'ends', out, _types(out)))
+    failed = _failed(result)
+    assert set(failed) == {'topic.platform_pose_extra', 'topic.joint_states_extra'}, [f.line() for f in
+                                                                                     result.failures]
+    side = 'after the last PlatformState' if shift > 0 else 'before the first PlatformState'
+    assert all(side in f.detail for f in result.failures)
+
+
+def test_companions_before_a_late_recorders_first_state_still_pass(tmp_path: Path) -> None:
+    """A recorder that subscribed to the states after the companion topics lacks the first samples' states: their
+    companions (before its first state) are a late subscriber's, not extra (the stream's first sample is not
+    recorded)."""
+    msgs = small_sweep()
+    states = [k for k, m in enumerate(msgs) if m[0] == '/gpr/platform_state']
+    drop = set(states[:3])
+    out = [m for k, m in enumerate(msgs) if k not in drop]
+    assert verify_bag(write_bag(tmp_path / 'late', out, _types(out))).passed

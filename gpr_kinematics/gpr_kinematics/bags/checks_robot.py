@@ -368,7 +368,7 @@ def _wafer_pose_checks(bag: Bag, rc: Columns, samples: NDArray[np.int64], tol: f
     e[ok] = np.max(np.abs(stored[idx[ok]] - wafer[ok]), axis=1)
     out = [value_check('topic.wafer_pose', name, e, tol, 'm|rad', samples,
                        why + cut_detail(stamps, pstamps, samples, e))]
-    return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum())),
+    return out + [x for x in [extra('topic.wafer_pose', name, pstamps, stamps, int(ok.sum()), of_states=False),
                                unordered('topic.wafer_pose', name, pstamps)] if x]
 
 

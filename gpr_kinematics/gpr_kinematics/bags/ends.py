@@ -12,7 +12,9 @@ the end and the metadata recounted passed before): the failures name the topic, 
 (:func:`cut_detail`). A topic recorded without a message: every state but the first and the last. Companion
 messages without a PlatformState of the same stamp are ``*_extra`` failures: inside the states' span, and after the
 last state all but those of one stamp (a cut in the middle of a sample may have lost its state only: the states'
-tail removed and the metadata recounted passed before); before the first state they are a late subscriber's. A
+tail removed and the metadata recounted passed before); before the first state they are a late subscriber's. Where
+the recorded states begin with the first sample the node's records describe, or end with their last (a stream that
+does not loop: :func:`whole_stream`), no sample precedes or follows them and every companion there is extra. A
 companion topic's header stamps that go back in log-time order are a ``*_order`` failure (:func:`unordered`).
 
 A recording cut by a SIGKILL of a recorder that closes segments (:func:`cut_recording`: the bag notes an unfinished
@@ -37,6 +39,9 @@ from .results import Check, Failure, value_check
 #: messages (about three times the 70 ms measured; not companions beyond the last state: nothing checks those).
 CUT_LAG = 200_000_000
 _CUT: contextvars.ContextVar[bool] = contextvars.ContextVar('gpr_cut_recording', default=False)
+#: Whether the recorded states begin with the first sample of the node's records and end with the last (a stream that
+#: does not loop): then no sample precedes or follows them, and no companion either (:func:`whole_stream`).
+_WHOLE: contextvars.ContextVar[tuple[bool, bool]] = contextvars.ContextVar('gpr_whole_stream', default=(False, False))
 
 
 @contextlib.contextmanager
@@ -48,6 +53,28 @@ def cut_recording(cut: bool) -> Iterator[None]:
         yield
     finally:
         _CUT.reset(token)
+
+
+@contextlib.contextmanager
+def whole_stream(head: bool, tail: bool) -> Iterator[None]:
+    """Within the block, the recorded states hold the first sample of every stream the records describe (``head``)
+    and the last (``tail``): companion messages before the first state or after the last are then no late
+    subscriber's nor a cut sample's, but extra (:func:`extra`)."""
+    token = _WHOLE.set((head, tail))
+    try:
+        yield
+    finally:
+        _WHOLE.reset(token)
+
+
+def stream_ends(first_samples: list[tuple[int, int, bool]], samples: NDArray[np.int64]) -> tuple[bool, bool]:
+    """``(head, tail)`` of :func:`whole_stream` for the records' ``(first_sample, samples, loop)`` and the recorded
+    states' sample counters: the first state is the first record's first sample, the last state the last record's
+    last; neither where a stream loops (its counters start over) or no record was read."""
+    if not first_samples or not len(samples) or any(loop for _, _, loop in first_samples):
+        return False, False
+    first, last = min(f for f, _, _ in first_samples), max(f + n - 1 for f, n, _ in first_samples)
+    return int(samples.min()) == first, int(samples.max()) == last
 
 
 def missing(stamps: NDArray[np.int64], companion: NDArray[np.int64], end: int | None = None) -> NDArray[np.float64]:
@@ -101,24 +128,36 @@ def without_messages(check: str, topic: str, stamps: NDArray[np.int64], samples:
 
 
 def extra(check: str, topic: str, companion: NDArray[np.int64], stamps: NDArray[np.int64],
-          matched: int) -> Check | None:
+          matched: int, of_states: bool = True) -> Check | None:
     """A failed ``<check>_extra`` if the companion topic has messages without a PlatformState of their stamp: inside
     the states' span, or after the last state beyond those of its first stamp there (a recording cut in the middle
     of a sample may hold that sample's companions without its state; more is the states' tail removed). Those before
-    the first state are a late subscriber's to the state topic (module docstring, *the ends*)."""
+    the first state are a late subscriber's to the state topic (module docstring, *the ends*). Where the states hold
+    the streams' first or last sample (:func:`whole_stream`) no sample precedes or follows them: every companion
+    before or after them is extra (a pose 5 cm off and rods beyond the stroke after the last one passed);
+    ``of_states`` False: ``stamps`` are another topic's (the RobotStates of the wafer poses), whose ends that rule
+    does not know."""
     if not len(stamps):
         return None
+    head, tail = _WHOLE.get() if of_states else (False, False)
     inside = int(np.count_nonzero((companion >= stamps.min()) & (companion <= stamps.max())))
     after = companion[companion > stamps.max()]
-    beyond = int(np.count_nonzero(after > after.min())) if after.size else 0
-    if inside <= matched and not beyond:
+    before = int(np.count_nonzero(companion < stamps.min())) if head else 0
+    beyond = after.size if tail else int(np.count_nonzero(after > after.min())) if after.size else 0
+    if inside <= matched and not beyond and not before:
         return None
-    n = float(inside - matched + beyond)
+    n = float(inside - matched + beyond + before)
     why = 'messages without a PlatformState of the same stamp'
-    if beyond:
+    if beyond and tail:
+        why += (f"; {beyond} of them after the last PlatformState, the last sample of the recorded streams (nothing "
+                "follows it)")
+    elif beyond:
         why += (f"; {beyond} of them after the last PlatformState's next sample (a recording cut in the middle of a "
                 "sample holds at most that sample's)")
-    return Check(f'{check}_extra', topic, inside + after.size, n, 0.0, 'messages', 1,
+    if before:
+        why += (f'; {before} of them before the first PlatformState, the first sample of the recorded streams '
+                '(nothing precedes it)')
+    return Check(f'{check}_extra', topic, inside + after.size + before, n, 0.0, 'messages', 1,
                  [Failure(f'{check}_extra', topic, None, n, 0.0, why)])
 
 

@@ -49,7 +49,7 @@ from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
 from .columns import matrix
 from .coverage import unchecked_fields
-from .ends import cut_recording
+from .ends import cut_recording, stream_ends, whole_stream
 from .errors import BagError
 from .program_record import ROBOT_PROGRAM, Recomputed, recorded_prefix
 from .reader import OPEN_SEGMENT_DIR, Bag, read_bag
@@ -149,20 +149,22 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
             state = state_checks(c, samples, st.name, geo.config, tol, cross)
             stream = stream_checks(c, samples, st.name, state.series, slope_gain(geo.config), tol)
             recorded = read_records(bag)
-            due = robot_program_states(recorded[0], samples)
-            robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol, due, recorded_prefix(recorded[0]))
-            # the rods alone in joint_states without robot states: only where they are not recorded at all (a sweep's
-            # listed empty says it has none) and no record says the stream is not a robot program's
-            fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
-                not recorded[0] or any(r.kind == ROBOT_PROGRAM for r in recorded[0]))
-            robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
-            checks += state.checks + stream.checks + topic_checks(
-                bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
-                marker_cadence(recorded[0], samples), robot_joints, due) + robot_part
-            streams = Recomputed(recorded[0], geo.config, arms.robot)   # each record's stream planned once
-            checks += joint_state_checks(bag, c, samples, streams, robot_rows, robot_joints, due, tol)
-            checks += wafer_pose_checks(bag, c, samples, streams, tol)
-            checks += program_checks(bag, c, samples, streams, robot_rows, tol, recorded)
+            ends = stream_ends([(r.first_sample, r.samples, r.loop) for r in recorded[0]], samples)
+            with whole_stream(*ends):   # no companion before or after a whole stream's states (.ends)
+                due = robot_program_states(recorded[0], samples)
+                robot_part, robot_rows = robot_checks(bag, c, samples, arms, tol, due, recorded_prefix(recorded[0]))
+                # the rods alone in joint_states without robot states: only where they are not recorded at all (a
+                # sweep's listed empty says it has none) and no record says the stream is not a robot program's
+                fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
+                    not recorded[0] or any(r.kind == ROBOT_PROGRAM for r in recorded[0]))
+                robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
+                checks += state.checks + stream.checks + topic_checks(
+                    bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
+                    marker_cadence(recorded[0], samples), robot_joints, due) + robot_part
+                streams = Recomputed(recorded[0], geo.config, arms.robot)   # each record's stream planned once
+                checks += joint_state_checks(bag, c, samples, streams, robot_rows, robot_joints, due, tol)
+                checks += wafer_pose_checks(bag, c, samples, streams, tol)
+                checks += program_checks(bag, c, samples, streams, robot_rows, tol, recorded)
             series, crossings, ratio = state.series, stream.crossings, stream.crossing_ratio
     _as_recorded(bag.namespace, checks)
     notes = list(geo.notes) + arms.notes
