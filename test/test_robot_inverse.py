@@ -544,7 +544,7 @@ def test_check_is_a_truth_value(check):
 
 
 @pytest.mark.parametrize('kwargs, pattern', [
-    ({'branch': 'up'}, "branch = 'up' is invalid; allowed: left or right"),
+    ({'branch': 'up'}, "branch = 'up' is invalid; allowed: left, right, or empty or None"),
     ({'branch': ['left']}, r'branch must be one value or one per station \(2\), got 1'),
     ({'arm': 'arm3'}, "no arm 'arm3'; allowed: arm1, arm2"),
 ])

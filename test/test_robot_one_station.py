@@ -286,7 +286,7 @@ def test_arm_constants_are_each_arms_own():
 def test_a_branch_that_is_neither_left_nor_right_is_refused_for_any_number_of_stations():
     st, _, _ = random_stations(ROBOT, 'arm1', 3, seed=1)
     for stations in (st, st.take([0]), st.take([])):
-        with pytest.raises(InputError, match="branch = 'up' is invalid; allowed: left or right"):
+        with pytest.raises(InputError, match="branch = 'up' is invalid; allowed: left, right, or empty or None"):
             solve_stations(ROBOT, stations, 'arm1', branch='up')
 
 

@@ -47,6 +47,29 @@ def test_a_request_model_is_kept_per_robot_description():
     assert models.get(one_arm, 'polar').arm_names == ('arm1',)
 
 
+def test_a_refused_joint_count_and_branch_say_what_is_allowed_as_the_cli_and_the_programs_do():
+    """The joint count had no "allowed:" (the CLI's `allowed: one value per joint, shoulder first`), a branch said
+    `allowed: left or right`, though empty (the arm's own) is allowed too. No node: the functions the node calls."""
+    from types import SimpleNamespace
+
+    from gpr_kinematics.errors import InputError
+    from gpr_kinematics.nodes.robot_services import fill_robot_forward, fill_station_inverse
+
+    fk = SimpleNamespace(arm='arm1', rods=[0.3, 0.3, 0.3], joints=[0.0, 1.0], model='')
+    with pytest.raises(InputError) as info:
+        fill_robot_forward(ROBOT, fk, SimpleNamespace())
+    assert str(info.value) == ('joints: 2 values given; arm arm1 has 3 joints (arm1_shoulder, arm1_elbow, arm1_wrist) '
+                               '[rad]; allowed: one value per joint, shoulder first')
+    for arm, own in (('arm1', 'right'), ('arm2', ROBOT.arm('arm2').branch)):
+        ik = SimpleNamespace(arm=arm, branch='middle', position=SimpleNamespace(x=1.25, y=0.5, z=0.35), tilt=0.0,
+                             azimuth=0.0, heading=0.0, heading_free=False, use_redundancy_value=False,
+                             redundancy_value=0.0, model='')
+        with pytest.raises(InputError) as info:
+            fill_station_inverse(ROBOT, ik, SimpleNamespace())
+        assert str(info.value) == (f"branch = 'middle' is invalid; allowed: left, right or empty (the arm's own, {own} "
+                                   f'for arm {arm})')
+
+
 @pytest.mark.parametrize('arm,rods,joints', [
     ('arm1', (0.25, 0.251, 0.252), (0.0, 1.0, -0.5)),
     ('arm2', (0.30, 0.2985, 0.3012), (0.4, -1.1, 0.3, 0.9)),
@@ -119,7 +142,9 @@ def test_model_of_a_request(client):
 
 
 BAD = [
-    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0)), ['joints', '2 values given', 'arm1 has 3 joints']),
+    ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0)),
+     ['joints: 2 values given; arm arm1 has 3 joints (arm1_shoulder, arm1_elbow, arm1_wrist) [rad]; allowed: one '
+      'value per joint, shoulder first']),
     ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 1.0, 0.0), arm='arm9'), ["arm = 'arm9'", 'arm1, arm2']),
     ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, math.nan, 0.0)), ['arm1_elbow', 'not a finite number']),
     ('fk', dict(rods=(0.3, 0.3, 0.3), joints=(0.0, 3.0, 0.0)), ['arm1_elbow', 'upper limit']),
@@ -129,7 +154,8 @@ BAD = [
     ('ik', dict(position=(1.3, 0.6, 0.45), tilt=math.radians(3.0)), ['station request', 'beyond the tilt limit']),
     ('ik', dict(position=(1.3, 0.6, 1.2)), ['station request', 'above the stroke', 'too high']),
     ('ik', dict(position=(1.3, 0.6, 0.45), heading=None), ['heading_free', '3 joints']),
-    ('ik', dict(position=(1.3, 0.6, 0.45), branch='up'), ["branch = 'up'", 'left or right']),
+    ('ik', dict(position=(1.3, 0.6, 0.45), branch='up'),
+     ["branch = 'up' is invalid; allowed: left, right or empty (the arm's own, right for arm arm1)"]),
     ('ik', dict(position=(1.3, 0.6, 0.45), redundancy_value=0.1), ['redundancy value', 'arm arm1 has 3 joints']),
     ('ik', dict(position=(1.3, math.inf, 0.45)), ['position', 'finite']),
     # beyond the world's bound, as a station file and gpr robot ik refuse it (the service solved it: a robot based

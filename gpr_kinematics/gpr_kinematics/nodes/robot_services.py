@@ -24,7 +24,7 @@ from ..core.config import MODELS
 from ..errors import ConfigError, InputError, brief
 from ..inputs.validation import finite_number
 from ..robot import robot_forward, solve_stations
-from ..robot.description import Arm, RobotDescription
+from ..robot.description import BRANCHES, Arm, RobotDescription
 from ..robot.forward import forward_floats, joints_within_limits, naive_floats
 from .conversions import floats_of, set_pose, set_vector
 from .station_request import one_station_request, request_stations
@@ -69,12 +69,21 @@ def _joints(values: Any, arm: Arm, field: str) -> list[float]:
     n = len(arm.joints)
     if len(values) != n:
         raise InputError(f'{field}: {len(values)} values given; arm {arm.name} has {n} joints '
-                         f'({", ".join(arm.joint_names)}) [rad]')
+                         f'({", ".join(arm.joint_names)}) [rad]; allowed: one value per joint, shoulder first')
     out = [float(v) for v in values]
     for name, v in zip(arm.joint_names, out, strict=True):
         if not math.isfinite(v):
             raise InputError(f'{field}: {name} = {v} is not a finite number; allowed: radians within its limits')
     return out
+
+
+def _branch(name: str, arm: Arm) -> str:
+    """The request's branch (empty: the arm's own); InputError for another name (the core's said "left or right",
+    not that empty is allowed too)."""
+    if name and name not in BRANCHES:
+        raise InputError(f"branch = {brief(name)} is invalid; allowed: left, right or empty (the arm's own, "
+                         f'{arm.branch} for arm {arm.name})')
+    return name or arm.branch
 
 
 def _platform_fields(response: Any, gpr: ForwardResult) -> None:
@@ -117,7 +126,7 @@ def fill_station_inverse(robot: RobotDescription, request: Any, response: Any, p
     (:func:`~gpr_kinematics.robot.one_station.station_floats`), the batch path where it refuses (its message); the
     world frame named with the node's frame ``prefix``."""
     arm = _arm(robot, request.arm)
-    branch = request.branch or arm.branch
+    branch = _branch(request.branch, arm)
     use = request.use_redundancy_value
     value = float(request.redundancy_value) if use else None
     one = one_station_request(robot, request, arm, branch, value)

@@ -171,7 +171,8 @@ def _signs(arm: Arm, branch: str | Sequence[str] | None, n: int) -> tuple[tuple[
     if branch is None or isinstance(branch, str):
         name = branch or arm.branch
         if name not in BRANCHES:
-            raise InputError(f'branch = {brief(name)} is invalid; allowed: left or right')
+            raise InputError(f"branch = {brief(name)} is invalid; allowed: left, right, or empty or None (the arm's "
+                             f'own, {arm.branch} for arm {arm.name})')
         return (name,) * n, np.array([branch_sign(name)]) if n == 1 else np.full(n, branch_sign(name))
     if not isinstance(branch, Sequence | np.ndarray):
         raise InputError(f'branch = {brief(branch)} is invalid; allowed: left or right, one or one per station')

@@ -21,14 +21,17 @@ File format (``config/programs/example_robot_program.yaml`` is a commented examp
 
 Each step becomes waypoints (wafer poses): ``move S`` -> ``S`` (held for the dwell too); ``pick S`` -> ``S``
 lowered by the approach height along the station normal (the blade under the wafer), ``S`` (dwell: the wafer is
-taken), ``S`` raised by the retract height; ``place S`` -> raised, at (dwell), lowered. The dwell of a move, pick
+taken), ``S`` raised by the retract height; ``place S`` -> ``S`` raised by the approach height (the wafer above
+its place), ``S`` (dwell: the wafer is set down), ``S`` lowered by the retract height (the blade under it): each
+step's first waypoint is offset by the approach height, its last by the retract height. The dwell of a move, pick
 or place is the step's own ``dwell``, else the program's default. A station with a straight ``entry`` ``e`` adds a
 waypoint (phase ``entry``) ``e`` back along the wafer's heading before the first and one (phase ``exit``) after the
 last: the moves out of ``entry`` and into ``exit`` keep the wafer on that straight line with its orientation fixed
 (:mod:`gpr_kinematics.robot.paths`). ``time`` is the duration of the move into the
 step's first waypoint (default: as fast as the limits allow); the moves between a step's own waypoints are as fast
 as the limits allow. A step's arm defaults to the program's, then the robot's first; its branch to the station's,
-then the program's, then the arm's own (a station has a branch, no arm).
+then the program's, then the arm's own (a station has a branch, no arm). The defaults' arm and branch are checked
+whether a step takes them or not.
 
 The platform programs of ``trajectory_node`` (``format: gpr_platform_program``, or no ``format`` key: stations with
 ``height``, ``tilt``, ``azimuth`` of the platform, :mod:`gpr_kinematics.robot.platform_program`) are the other
@@ -45,11 +48,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, brief, key_value, kind_of
+from ..errors import ConfigError, FileError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.units import to_si
 from ..inputs.validation import MAX_COORDINATE, text_hint
-from .description import Arm, RobotDescription, load_robot
+from .description import BRANCHES, Arm, RobotDescription, load_robot
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
 from .station_files import (
@@ -75,6 +78,9 @@ MAX_STEPS = 2_000
 MAX_IMPORTS = 64
 _KEYS = ('format', 'version', 'robot', 'cell', 'wafers', 'units', 'defaults', 'stations', 'import', 'steps')
 _DEFAULT_KEYS = ('arm', 'branch', 'approach_height', 'retract_height', 'dwell')
+#: What an empty branch (or none) of the program's defaults and of a step stands for, in their refusals.
+DEFAULT_BRANCH = "the arm's own"
+STEP_BRANCH = "the station's, else the defaults', else the arm's own"
 
 
 @dataclass(frozen=True)
@@ -176,7 +182,7 @@ def parse_program(data: Any, source: str = 'program', base_dir: str | Path = '.'
     robot, cell = (_path(data, key, base, source) for key in ('robot', 'cell'))
     return RobotProgram(
         stations=table, steps=_steps(data.get('steps'), table, source), arm=_optional_text(defaults, 'arm', dw),
-        branch=_optional_text(defaults, 'branch', dw), approach_height=heights[0], retract_height=heights[1],
+        branch=_branch(defaults, dw, DEFAULT_BRANCH), approach_height=heights[0], retract_height=heights[1],
         dwell=_seconds(defaults.get('dwell', 0.0), dw, 'dwell'),
         robot=robot, source=source, cell=cell,
         wafers=_wafers(data['wafers'], table, source) if 'wafers' in data else None)
@@ -219,8 +225,12 @@ def _imports(raw: Any, rows: StationRows, base: Path, source: str) -> StationRow
         if p.strip() in ('', '.'):   # it was read as the program's folder: "station file 'programs' is a folder"
             raise ConfigError(f'{source}: import entry {brief(p)} names no file; allowed: a station file path (.csv, '
                               '.yaml) relative to the program')
-        path = Path(p) if Path(p).is_absolute() else base / p
-        new, here = read_station_rows(path), f'import {brief(p)}'
+        path, here = Path(p) if Path(p).is_absolute() else base / p, f'import {brief(p)}'
+        try:
+            new = read_station_rows(path)
+        except FileError as e:   # "cannot read station file 'imp/st_typo.csv'" named neither program nor key
+            relative = '' if Path(p).is_absolute() else ' (named by the program, relative to its folder)'
+            raise FileError(f'{source}: {here}{relative}: {e}') from None
         for name in new.names:
             if name in origin:
                 where = f'in {here}' if origin[name] == here else f'in {origin[name]} and in {here}'
@@ -238,6 +248,15 @@ def _optional_text(data: Mapping[str, Any], key: str, where: str) -> str | None:
     value = data.get(key)
     if value is not None and not isinstance(value, str):
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid{text_hint(value)}; allowed: a name')
+    return value
+
+
+def _branch(data: Mapping[str, Any], where: str, empty: str) -> str | None:
+    """The ``branch`` of ``data`` (the defaults or a step): left, right, or empty or none (``empty`` says what it
+    stands for), checked with the file, not when a step takes it."""
+    value = data.get('branch')
+    if value is not None and (not isinstance(value, str) or (value and value not in BRANCHES)):
+        raise ConfigError(f'{where}: branch = {brief(value)} is invalid; allowed: left, right or empty ({empty})')
     return value
 
 
@@ -275,7 +294,7 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
             raise ConfigError(f'{where}: time = {time:g} s on the first move: the program starts at its first '
                               'waypoint, so no move leads into it; allowed: a time on a later step (a dwell holds '
                               'the robot where it is)')
-        out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _optional_text(st, 'branch', where),
+        out.append(Step(kind, str(station), _optional_text(st, 'arm', where), _branch(st, where, STEP_BRANCH),
                         _seconds(st['dwell'], where, 'dwell') if 'dwell' in st else None, time))
     if all(s.kind == 'dwell' for s in out):
         raise ConfigError(f'{source}: the steps only dwell; at least one move, pick or place is required')
@@ -321,6 +340,9 @@ class Waypoints:
 
 def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
     """Waypoints of ``program`` for ``robot`` (module docstring); unknown arms and branches are refused."""
+    if program.arm and program.arm not in robot.arm_names:   # blamed on steps[0], and unchecked when unused
+        raise ConfigError(f'{program.source}: defaults: arm = {brief(program.arm)} is invalid; allowed: '
+                          f'{", ".join(robot.arm_names)}')
     table = program.stations
     index = table.index()
     st = table.stations
@@ -349,9 +371,10 @@ def expand(program: RobotProgram, robot: RobotDescription) -> Waypoints:
         except ConfigError:
             raise ConfigError(f'{where}: arm = {brief(arm)} is invalid; allowed: {", ".join(robot.arm_names)}'
                               ) from None
-        branch = step.branch or table.branch[i] or program.branch or a.branch
-        if branch not in ('left', 'right'):
-            raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left or right')
+        branch = step.branch or table.branch[i] or program.branch or a.branch   # each checked when read, but in code
+        if branch not in BRANCHES:
+            raise ConfigError(f'{where}: branch = {brief(branch)} is invalid; allowed: left, right or empty '
+                              f'({STEP_BRANCH})')
         own_approach, own_retract = table.approach_height[i], table.retract_height[i]
         approach = own_approach if own_approach is not None else program.approach_height
         retract = own_retract if own_retract is not None else program.retract_height

@@ -332,6 +332,12 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
     return CsvTable(where, cols, [row for _, row in numbered[1:]], [n for n, _ in numbered[1:]])
 
 
+def _unit_example(kinds: dict[str, str]) -> str:
+    """A header cell of the first column with a unit, e.g. ``"x [mm]"`` (a station file), ``"gpr_rod1 [mm]"``."""
+    key, kind = next(((k, v) for k, v in kinds.items() if v in ('length', 'angle')), ('x', 'length'))
+    return f'"{key} [{"mm" if kind == "length" else "deg"}]"'
+
+
 def _header_columns(header: list[str], where: str, kinds: dict[str, str], defaults: units.FileUnits
                     ) -> dict[str, tuple[int, float, str]]:
     """Column name -> (index, factor to SI, unit) of a header row (:mod:`gpr_kinematics.inputs.units`)."""
@@ -341,9 +347,10 @@ def _header_columns(header: list[str], where: str, kinds: dict[str, str], defaul
             key, unit = units.column(cell, where)
         except ConfigError:
             key, unit = '', None
-        if key not in kinds:
+        if key not in kinds:   # the example one of the table's own columns (a teach table has no x)
             raise ConfigError(f'{where}: header column {i + 1} {brief(cell)} is invalid; allowed: {", ".join(kinds)}, '
-                              f'each with an optional unit in brackets, e.g. "x [mm]"{units.separator_hint(cell)}')
+                              f'each with an optional unit in brackets, e.g. {_unit_example(kinds)}'
+                              f'{units.separator_hint(cell)}')
         if key in cols:
             raise ConfigError(f'{where}: column {key} appears twice in the header')
         factor, name = units.scale(kinds[key], unit, defaults, where, key)
